@@ -1,0 +1,393 @@
+"""Shared ask/tell machinery for black-box optimisers over the box [-1, 1]^d.
+
+Every optimiser here *maximises* a fitness over the normalised box; callers map the box onto
+physical parameter ranges themselves. This module holds what all of them share: the evaluation
+budget, best-so-far bookkeeping and history, the result record and the batched driver loop
+(:func:`maximise` / :func:`minimise`).
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Literal, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+SeedLike = int | np.random.SeedSequence | None
+Objective = Callable[[FloatArray], ArrayLike]
+Sense = Literal["maximise", "minimise"]
+
+LOWER = -1.0
+UPPER = 1.0
+
+
+def check_int(name: str, value: object, *, minimum: int) -> None:
+    """Raise ValueError unless ``value`` is an integer (not a bool) ``>= minimum``."""
+    # bool is an int subclass; True as a swarm size is always a bug, never an intent.
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+
+
+def store_plain(instance: object, ints: tuple[str, ...], floats: tuple[str, ...] = ()) -> None:
+    """Replace validated numpy scalars on a frozen dataclass by Python int / float.
+
+    numpy scalars are accepted as settings (sweeps often come from numpy arrays), but stored
+    plain so every ``to_dict()`` is JSON-ready and reprs stay readable.
+    """
+    for names, kind in ((ints, int), (floats, float)):
+        for name in names:
+            value = getattr(instance, name)
+            if value is not None:
+                object.__setattr__(instance, name, kind(value))
+
+
+def check_real(name: str, value: object, *, low: float, high: float, low_inclusive: bool) -> None:
+    """Raise ValueError unless ``value`` is a finite real number in the stated interval."""
+    ok = (
+        not isinstance(value, bool)
+        and isinstance(value, int | float | np.integer | np.floating)
+        and math.isfinite(value)
+        and (value >= low if low_inclusive else value > low)
+        and value <= high
+    )
+    if not ok:
+        opening = "[" if low_inclusive else "("
+        closing = "]" if math.isfinite(high) else ")"
+        raise ValueError(
+            f"{name} must be a finite number in {opening}{low}, {high}{closing}, got {value!r}"
+        )
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Evaluation budget: a number of ask/tell rounds and/or a number of evaluations.
+
+    One evaluation is one point (particle, sample) evaluated. When both limits are set, whichever
+    is reached first ends the run. The last batch is truncated so ``max_evaluations`` is never
+    exceeded.
+    """
+
+    iterations: int | None = None
+    max_evaluations: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.iterations is None and self.max_evaluations is None:
+            raise ValueError(
+                "no budget given: set iterations and/or max_evaluations to a positive integer"
+            )
+        if self.iterations is not None:
+            check_int("iterations", self.iterations, minimum=1)
+        if self.max_evaluations is not None:
+            check_int("max_evaluations", self.max_evaluations, minimum=1)
+
+    def describe(self) -> str:
+        """The limits that are set, e.g. ``"iterations = 500, max_evaluations = 20000"``."""
+        limits = (("iterations", self.iterations), ("max_evaluations", self.max_evaluations))
+        return ", ".join(f"{name} = {value}" for name, value in limits if value is not None)
+
+    def batch_size(self, full: int, iterations_done: int, evaluations_done: int) -> int:
+        """Size of the next batch (0 when the budget is exhausted)."""
+        if self.iterations is not None and iterations_done >= self.iterations:
+            return 0
+        if self.max_evaluations is not None:
+            return max(0, min(full, self.max_evaluations - evaluations_done))
+        return full
+
+    def horizon(self, full: int) -> int:
+        """Number of ask/tell rounds the budget allows with batches of ``full`` points."""
+        rounds = []
+        if self.iterations is not None:
+            rounds.append(self.iterations)
+        if self.max_evaluations is not None:
+            rounds.append(-(-self.max_evaluations // full))  # ceil: last batch may be partial
+        return min(rounds)
+
+
+@dataclass(frozen=True)
+class Progress:
+    """Progress report passed to the driver callback after every iteration."""
+
+    iteration: int
+    evaluations: int
+    best_fitness: float
+
+
+@dataclass(frozen=True, eq=False)
+class OptimisationResult:
+    """Outcome of one optimisation run.
+
+    Attributes
+    ----------
+    best_position : ndarray of shape (dim,) or None
+        Best point found, in the normalised box [-1, 1]^d; None if every evaluation was NaN
+        (or the worst possible value).
+    best_fitness : float
+        Objective value at ``best_position`` in the caller's sense (a minimum for
+        :func:`minimise`).
+    evaluations : int
+        Number of points evaluated.
+    iterations : int
+        Number of ask/tell rounds (objective calls).
+    history : ndarray of shape (iterations, 2)
+        Columns: cumulative evaluations, best-so-far objective value after that round.
+    config : dict
+        The optimiser configuration, including its ``citation``.
+    sense : {"maximise", "minimise"}
+        Whether the objective was maximised or minimised.
+    """
+
+    best_position: FloatArray | None
+    best_fitness: float
+    evaluations: int
+    iterations: int
+    history: FloatArray
+    config: dict[str, Any]
+    sense: Sense = "maximise"
+
+    def __post_init__(self) -> None:
+        # The dataclass is frozen; make the arrays read-only too so the record cannot drift.
+        for array in (self.best_position, self.history):
+            if array is not None:
+                array.setflags(write=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python (JSON-ready) representation."""
+        return {
+            "sense": self.sense,
+            "best_position": None if self.best_position is None else self.best_position.tolist(),
+            "best_fitness": self.best_fitness,
+            "evaluations": self.evaluations,
+            "iterations": self.iterations,
+            "history": self.history.tolist(),
+            "config": dict(self.config),
+        }
+
+
+class OptimiserConfig(Protocol):
+    """What the driver needs from an optimiser configuration."""
+
+    @property
+    def budget(self) -> Budget: ...
+
+    @property
+    def citation(self) -> str: ...
+
+    def to_dict(self) -> dict[str, Any]: ...
+
+    def build(self, dim: int, seed: SeedLike = None) -> AskTellOptimiser: ...
+
+
+class AskTellOptimiser(ABC):
+    """Base class for batched ask/tell maximisers over [-1, 1]^dim.
+
+    Subclasses implement :meth:`_propose` (the next batch) and :meth:`_observe` (learn from its
+    fitness); budget, best-so-far tracking and history live here.
+
+    Parameters
+    ----------
+    dim : int
+        Dimension of the search box.
+    batch_size : int
+        Points per full ask/tell round.
+    config : OptimiserConfig
+        Configuration; its budget bounds the run and its ``to_dict()`` goes into results.
+    seed : int, SeedSequence or None
+        Seed for ``numpy.random.default_rng``; equal seeds give identical runs.
+    """
+
+    def __init__(self, dim: int, batch_size: int, config: OptimiserConfig, seed: SeedLike) -> None:
+        check_int("dim", dim, minimum=1)
+        self._dim = int(dim)
+        self._full_batch = int(batch_size)
+        self._config = config
+        self._budget = config.budget
+        self._rng = np.random.default_rng(seed)
+        self._evaluations = 0
+        self._iterations = 0
+        self._best_fitness = -math.inf
+        self._best_position: FloatArray | None = None
+        self._history: list[tuple[int, float]] = []
+        self._pending: FloatArray | None = None
+
+    @abstractmethod
+    def _propose(self, n: int) -> FloatArray:
+        """Return the next ``n`` points, shape (n, dim), inside the box."""
+
+    @abstractmethod
+    def _observe(self, X: FloatArray, fitness: FloatArray) -> None:
+        """Update internal state from a told batch; NaN has already been mapped to -inf."""
+
+    def ask(self) -> FloatArray:
+        """Next batch of points to evaluate, shape (n, dim), inside [-1, 1]^dim.
+
+        ``n`` is the full batch size except possibly on the last round, which is truncated so
+        the evaluation budget is never exceeded.
+        """
+        if self._pending is not None:
+            raise RuntimeError("ask() called again before tell(); tell the pending batch first")
+        n = self._budget.batch_size(self._full_batch, self._iterations, self._evaluations)
+        if n == 0:
+            raise RuntimeError(
+                f"budget exhausted after {self._evaluations} evaluations; check `done` first"
+            )
+        self._pending = self._propose(n)
+        return self._pending.copy()
+
+    def tell(self, X: ArrayLike, fitness: ArrayLike) -> None:
+        """Report the fitness (to be maximised) of the batch returned by the last :meth:`ask`.
+
+        Parameters
+        ----------
+        X : array_like of shape (n, dim)
+            The batch exactly as returned by :meth:`ask`.
+        fitness : array_like of shape (n,)
+            Fitness values; NaN counts as the worst possible value (-inf).
+        """
+        if self._pending is None:
+            raise RuntimeError("tell() called without a preceding ask()")
+        X = np.asarray(X, dtype=float)
+        # PSO state is keyed to the asked rows, so a reordered or edited batch would corrupt it.
+        if X.shape != self._pending.shape or not np.array_equal(X, self._pending):
+            raise ValueError(
+                f"tell() must receive the batch returned by the last ask() unchanged "
+                f"(shape {self._pending.shape}), got shape {X.shape} or modified values"
+            )
+        f = np.asarray(fitness, dtype=float)
+        if f.shape != (X.shape[0],):
+            raise ValueError(f"fitness must have shape ({X.shape[0]},), got {f.shape}")
+        f = np.where(np.isnan(f), -np.inf, f)
+
+        self._observe(self._pending, f)
+        i = int(np.argmax(f))
+        # Strict '>' keeps -inf (and NaN mapped to it) from ever becoming the best point.
+        if f[i] > self._best_fitness:
+            self._best_fitness = float(f[i])
+            self._best_position = self._pending[i].copy()
+        self._evaluations += X.shape[0]
+        self._iterations += 1
+        self._history.append((self._evaluations, self._best_fitness))
+        self._pending = None
+
+    @property
+    def dim(self) -> int:
+        """Dimension of the search box."""
+        return self._dim
+
+    @property
+    def config(self) -> OptimiserConfig:
+        """The configuration this optimiser was built from."""
+        return self._config
+
+    @property
+    def best_position(self) -> FloatArray | None:
+        """Best point told so far (a copy), or None before any fitness above -inf."""
+        return None if self._best_position is None else self._best_position.copy()
+
+    @property
+    def best_fitness(self) -> float:
+        """Best fitness told so far (-inf before any)."""
+        return self._best_fitness
+
+    @property
+    def evaluations(self) -> int:
+        """Number of points told so far."""
+        return self._evaluations
+
+    @property
+    def iterations(self) -> int:
+        """Number of completed ask/tell rounds."""
+        return self._iterations
+
+    @property
+    def history(self) -> list[tuple[int, float]]:
+        """(evaluations, best fitness so far) after every tell."""
+        return list(self._history)
+
+    @property
+    def done(self) -> bool:
+        """True once the budget is exhausted (a further :meth:`ask` would raise)."""
+        return self._budget.batch_size(self._full_batch, self._iterations, self._evaluations) == 0
+
+    def result(self, sense: Sense = "maximise") -> OptimisationResult:
+        """Snapshot of the run so far; ``sense="minimise"`` undoes the driver's negation."""
+        sign = 1.0 if sense == "maximise" else -1.0
+        history = np.array(self._history, dtype=float).reshape(-1, 2)
+        history[:, 1] *= sign
+        return OptimisationResult(
+            best_position=self.best_position,
+            best_fitness=sign * self._best_fitness,
+            evaluations=self._evaluations,
+            iterations=self._iterations,
+            history=history,
+            config=self._config.to_dict(),
+            sense=sense,
+        )
+
+
+def maximise(
+    objective: Objective,
+    dim: int,
+    config: OptimiserConfig,
+    seed: SeedLike = None,
+    callback: Callable[[Progress], None] | None = None,
+) -> OptimisationResult:
+    """Maximise a batched objective over [-1, 1]^dim until the budget is spent.
+
+    Parameters
+    ----------
+    objective : callable
+        ``objective(X) -> values`` with X of shape (n, dim) and values of shape (n,); called once
+        per iteration with the whole batch. NaN values count as the worst possible.
+    dim : int
+        Dimension of the search box.
+    config : PSOConfig or RandomSearchConfig
+        Optimiser configuration (any object providing ``build``, ``budget`` and ``to_dict``).
+    seed : int, SeedSequence or None
+        Random seed; equal seeds give identical runs.
+    callback : callable, optional
+        Called with a :class:`Progress` after every iteration.
+    """
+    return _run(objective, config.build(dim, seed), callback, "maximise")
+
+
+def minimise(
+    objective: Objective,
+    dim: int,
+    config: OptimiserConfig,
+    seed: SeedLike = None,
+    callback: Callable[[Progress], None] | None = None,
+) -> OptimisationResult:
+    """Minimise a batched objective; same arguments as :func:`maximise`.
+
+    The optimiser maximises the negated objective, but the result, history and progress
+    reports are in the objective's own units (smaller is better).
+    """
+    return _run(objective, config.build(dim, seed), callback, "minimise")
+
+
+def _run(
+    objective: Objective,
+    optimiser: AskTellOptimiser,
+    callback: Callable[[Progress], None] | None,
+    sense: Sense,
+) -> OptimisationResult:
+    sign = 1.0 if sense == "maximise" else -1.0
+    while not optimiser.done:
+        X = optimiser.ask()
+        # A copy, so an objective that scribbles on its input cannot break tell()'s check.
+        values = np.asarray(objective(X.copy()), dtype=float)
+        optimiser.tell(X, sign * values)
+        if callback is not None:
+            callback(
+                Progress(
+                    iteration=optimiser.iterations,
+                    evaluations=optimiser.evaluations,
+                    best_fitness=sign * optimiser.best_fitness,
+                )
+            )
+    return optimiser.result(sense)

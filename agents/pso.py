@@ -1,0 +1,292 @@
+"""Global-best particle swarm optimisation over the normalised box [-1, 1]^d.
+
+Velocity and position update (per particle i and dimension j, r1, r2 ~ U(0, 1) fresh each time)::
+
+    v <- w v + c1 r1 (pbest - x) + c2 r2 (gbest - x),   |v_j| <= velocity_clamp * 2
+    x <- x + v,                                          then clip or reflect into the box
+
+Two standard parameter sets are offered:
+
+``"constriction"``
+    Clerc & Kennedy (2002) constriction coefficients written in inertia-weight form: with
+    phi = c1 + c2 = 4.1, chi = 2 / |2 - phi - sqrt(phi^2 - 4 phi)| = 0.72984, so w = 0.7298 and
+    c1 = c2 = chi * 2.05 = 1.49618 (the equivalence is Eberhart & Shi, 2000).
+``"linear-decreasing"``
+    Shi & Eberhart inertia weight (introduced in their 1998 paper) decreased linearly from 0.9
+    to 0.4 over the run with c1 = c2 = 2.0, the schedule of Shi & Eberhart (1999).
+
+References
+----------
+J. Kennedy, R. Eberhart, "Particle swarm optimization", Proc. ICNN 1995, pp. 1942-1948.
+Y. Shi, R. Eberhart, "A modified particle swarm optimizer", Proc. IEEE ICEC 1998, pp. 69-73.
+Y. Shi, R. Eberhart, "Empirical study of particle swarm optimization", Proc. CEC 1999,
+pp. 1945-1950.
+R. Eberhart, Y. Shi, "Comparing inertia weights and constriction factors in particle swarm
+optimization", Proc. CEC 2000, pp. 84-88.
+M. Clerc, J. Kennedy, "The particle swarm - explosion, stability, and convergence in a
+multidimensional complex space", IEEE Trans. Evol. Comput. 6(1), 2002, pp. 58-73.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Literal, get_args
+
+import numpy as np
+
+from agents.optimiser import (
+    LOWER,
+    UPPER,
+    AskTellOptimiser,
+    Budget,
+    FloatArray,
+    SeedLike,
+    check_int,
+    check_real,
+    maximise,
+    minimise,
+    store_plain,
+)
+
+__all__ = ["PSO", "Boundary", "Inertia", "PSOConfig", "maximise", "minimise"]
+
+Inertia = Literal["constriction", "linear-decreasing"]
+Boundary = Literal["clip", "reflect"]
+
+# Clerc & Kennedy (2002), inertia-weight form (see module docstring for the derivation).
+CONSTRICTION_W = 0.7298
+CONSTRICTION_C = 1.49618
+# Shi & Eberhart (1998, 1999) linearly decreasing inertia weight.
+LINEAR_W_START = 0.9
+LINEAR_W_END = 0.4
+LINEAR_C = 2.0
+
+_BOX_WIDTH = UPPER - LOWER
+
+_CITATIONS: dict[str, str] = {
+    "constriction": (
+        "global-best PSO (Kennedy & Eberhart 1995) with Clerc & Kennedy (2002) constriction "
+        "coefficients in inertia-weight form (chi = 0.72984 for phi = 4.1; IEEE Trans. Evol. "
+        "Comput. 6(1):58-73)"
+    ),
+    "linear-decreasing": (
+        "global-best PSO (Kennedy & Eberhart 1995) with linearly decreasing inertia weight "
+        "(Shi & Eberhart 1998, Proc. IEEE ICEC pp. 69-73; 0.9 -> 0.4 schedule of Shi & "
+        "Eberhart 1999, Proc. CEC pp. 1945-1950)"
+    ),
+}
+
+
+@dataclass(frozen=True)
+class PSOConfig:
+    """Configuration of :class:`PSO`.
+
+    Parameters
+    ----------
+    swarm_size : int
+        Number of particles (>= 2).
+    inertia : {"constriction", "linear-decreasing"}
+        Parameter set; see the module docstring.
+    cognitive, social : float or None
+        Override c1 / c2 (>= 0); None uses the value of the chosen parameter set.
+    velocity_clamp : float
+        Maximum |v| per dimension as a fraction of the box width 2, in (0, 1].
+    boundary : {"clip", "reflect"}
+        "clip" puts a particle that leaves the box on the wall and zeroes that velocity
+        component; "reflect" mirrors the position back inside and reverses the component.
+    iterations : int or None
+        Maximum number of swarm evaluations (the initial swarm counts as the first).
+    max_evaluations : int or None
+        Maximum number of particle evaluations; the last iteration is truncated to fit.
+    """
+
+    swarm_size: int = 40
+    inertia: Inertia = "constriction"
+    cognitive: float | None = None
+    social: float | None = None
+    velocity_clamp: float = 0.5
+    boundary: Boundary = "clip"
+    iterations: int | None = None
+    max_evaluations: int | None = None
+
+    def __post_init__(self) -> None:
+        check_int("swarm_size", self.swarm_size, minimum=2)
+        if self.inertia not in get_args(Inertia):
+            raise ValueError(f"inertia must be one of {get_args(Inertia)}, got {self.inertia!r}")
+        if self.boundary not in get_args(Boundary):
+            raise ValueError(
+                f"boundary must be one of {get_args(Boundary)} (wrap-around is not supported), "
+                f"got {self.boundary!r}"
+            )
+        for name in ("cognitive", "social"):
+            value = getattr(self, name)
+            if value is not None:
+                check_real(name, value, low=0.0, high=math.inf, low_inclusive=True)
+        check_real("velocity_clamp", self.velocity_clamp, low=0.0, high=1.0, low_inclusive=False)
+        Budget(self.iterations, self.max_evaluations)  # validates the budget fields
+        store_plain(
+            self,
+            ints=("swarm_size", "iterations", "max_evaluations"),
+            floats=("cognitive", "social", "velocity_clamp"),
+        )
+
+    @property
+    def c1(self) -> float:
+        """Cognitive acceleration coefficient in use."""
+        return self.cognitive if self.cognitive is not None else self._default_c
+
+    @property
+    def c2(self) -> float:
+        """Social acceleration coefficient in use."""
+        return self.social if self.social is not None else self._default_c
+
+    @property
+    def _default_c(self) -> float:
+        return CONSTRICTION_C if self.inertia == "constriction" else LINEAR_C
+
+    @property
+    def budget(self) -> Budget:
+        """The evaluation budget."""
+        return Budget(self.iterations, self.max_evaluations)
+
+    @property
+    def citation(self) -> str:
+        """The variant, its source and the constants actually used."""
+        if self.inertia == "constriction":
+            weight = f"w = {CONSTRICTION_W}"
+        else:
+            weight = f"w = {LINEAR_W_START} -> {LINEAR_W_END} linearly"
+        overridden = [name for name in ("cognitive", "social") if getattr(self, name) is not None]
+        note = f" ({' and '.join(overridden)} overridden)" if overridden else ""
+        return f"{_CITATIONS[self.inertia]}: {weight}, c1 = {self.c1}, c2 = {self.c2}{note}"
+
+    def inertia_schedule(self, iterations: int) -> FloatArray:
+        """Inertia weight of each velocity update in a run of ``iterations`` iterations.
+
+        A run of ``n`` iterations has ``n - 1`` velocity updates (the first iteration evaluates
+        the initial swarm).
+        """
+        n_updates = max(iterations - 1, 0)
+        if self.inertia == "constriction":
+            return np.full(n_updates, CONSTRICTION_W)
+        return np.linspace(LINEAR_W_START, LINEAR_W_END, n_updates)
+
+    def describe(self) -> str:
+        """One-line human-readable summary, including the citation."""
+        return (
+            f"PSO, {self.swarm_size} particles, velocity clamp {self.velocity_clamp} x box width, "
+            f"boundary {self.boundary}, {self.budget.describe()}; {self.citation}"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready record of every setting, the constants in use and the citation."""
+        return {
+            "algorithm": "pso",
+            "swarm_size": self.swarm_size,
+            "inertia": self.inertia,
+            "inertia_weight": (
+                CONSTRICTION_W if self.inertia == "constriction" else [LINEAR_W_START, LINEAR_W_END]
+            ),
+            "cognitive": self.c1,
+            "social": self.c2,
+            "velocity_clamp": self.velocity_clamp,
+            "boundary": self.boundary,
+            "iterations": self.iterations,
+            "max_evaluations": self.max_evaluations,
+            "citation": self.citation,
+        }
+
+    def build(self, dim: int, seed: SeedLike = None) -> PSO:
+        """A fresh :class:`PSO` for this configuration."""
+        return PSO(dim, self, seed)
+
+
+class PSO(AskTellOptimiser):
+    """Global-best particle swarm maximiser with an ask/tell interface.
+
+    Parameters
+    ----------
+    dim : int
+        Dimension of the search box [-1, 1]^dim.
+    config : PSOConfig
+        Swarm parameters and budget.
+    seed : int, SeedSequence or None
+        Seed for ``numpy.random.default_rng``; equal seeds give identical runs.
+
+    Notes
+    -----
+    Initial positions are uniform in the box and initial velocities uniform in +-vmax. All
+    per-iteration work is vectorised over the swarm.
+    """
+
+    def __init__(self, dim: int, config: PSOConfig, seed: SeedLike = None) -> None:
+        if not isinstance(config, PSOConfig):
+            raise TypeError(f"config must be a PSOConfig, got {type(config).__name__}")
+        super().__init__(dim, config.swarm_size, config, seed)
+        n, d = config.swarm_size, self.dim
+        self._vmax = config.velocity_clamp * _BOX_WIDTH
+        self._c1, self._c2 = config.c1, config.c2
+        self._boundary = config.boundary
+        self._schedule = config.inertia_schedule(config.budget.horizon(n))
+        self._schedule.setflags(write=False)
+        self._x = self._rng.uniform(LOWER, UPPER, (n, d))
+        self._v = self._rng.uniform(-self._vmax, self._vmax, (n, d))
+        self._pbest_x = self._x.copy()
+        self._pbest_f = np.full(n, -np.inf)
+        self._gbest = 0
+        self._candidate_x = self._x
+        self._candidate_v = self._v
+
+    @property
+    def inertia_schedule(self) -> FloatArray:
+        """Inertia weight of every velocity update this run will make (read-only)."""
+        return self._schedule
+
+    @property
+    def velocities(self) -> FloatArray:
+        """Current particle velocities, shape (swarm_size, dim) [box units per iteration]."""
+        return self._v.copy()
+
+    def _propose(self, n: int) -> FloatArray:
+        if self.iterations == 0:
+            self._candidate_x, self._candidate_v = self._x, self._v
+            return self._x[:n]
+        w = self._schedule[self.iterations - 1]
+        # Draw for the whole swarm even on a truncated last iteration: the random stream, and
+        # hence every earlier iteration, stays independent of the budget.
+        r1, r2 = self._rng.random((2, *self._x.shape))
+        v = (
+            w * self._v
+            + self._c1 * r1 * (self._pbest_x - self._x)
+            + self._c2 * r2 * (self._pbest_x[self._gbest] - self._x)
+        )
+        np.clip(v, -self._vmax, self._vmax, out=v)
+        self._candidate_x, self._candidate_v = self._confine(self._x + v, v)
+        return self._candidate_x[:n]
+
+    def _confine(self, x: FloatArray, v: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Bring positions that left the box back inside, adjusting their velocities."""
+        low, high = x < LOWER, x > UPPER
+        # Landing exactly on a wall (e.g. -1 + vmax = 1 with the full-width clamp) also counts
+        # as a hit, so a particle resting on a wall never keeps an outward velocity.
+        hit = (x <= LOWER) | (x >= UPPER)
+        if self._boundary == "clip":
+            v[hit] = 0.0
+        else:
+            # One mirror suffices: |v| <= box width, so x + v is at most one width outside.
+            x = np.where(high, 2.0 * UPPER - x, np.where(low, 2.0 * LOWER - x, x))
+            v[hit] *= -1.0
+        # For "reflect" this only guards against round-off at the walls.
+        np.clip(x, LOWER, UPPER, out=x)
+        return x, v
+
+    def _observe(self, X: FloatArray, fitness: FloatArray) -> None:
+        n = fitness.shape[0]
+        # Only evaluated particles move: on a truncated final batch the rest keep their state.
+        self._x[:n] = self._candidate_x[:n]
+        self._v[:n] = self._candidate_v[:n]
+        improved = fitness > self._pbest_f[:n]
+        self._pbest_x[:n][improved] = X[improved]
+        self._pbest_f[:n][improved] = fitness[improved]
+        self._gbest = int(np.argmax(self._pbest_f))

@@ -1,0 +1,100 @@
+"""Uniform random search over [-1, 1]^d: the baseline every optimiser should beat."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from agents.optimiser import (
+    LOWER,
+    UPPER,
+    AskTellOptimiser,
+    Budget,
+    FloatArray,
+    SeedLike,
+    check_int,
+    store_plain,
+)
+
+__all__ = ["RandomSearch", "RandomSearchConfig"]
+
+
+@dataclass(frozen=True)
+class RandomSearchConfig:
+    """Configuration of :class:`RandomSearch`.
+
+    Parameters
+    ----------
+    batch_size : int
+        Points per ask (>= 1); 40 matches the default PSO swarm so per-iteration costs compare.
+    iterations : int or None
+        Maximum number of batches.
+    max_evaluations : int or None
+        Maximum number of points evaluated; the last batch is truncated to fit.
+    """
+
+    batch_size: int = 40
+    iterations: int | None = None
+    max_evaluations: int | None = None
+
+    def __post_init__(self) -> None:
+        check_int("batch_size", self.batch_size, minimum=1)
+        Budget(self.iterations, self.max_evaluations)  # validates the budget fields
+        store_plain(self, ints=("batch_size", "iterations", "max_evaluations"))
+
+    @property
+    def budget(self) -> Budget:
+        """The evaluation budget."""
+        return Budget(self.iterations, self.max_evaluations)
+
+    @property
+    def citation(self) -> str:
+        """What the baseline is."""
+        return "uniform random search over [-1, 1]^d (i.i.d. samples, no adaptation; baseline)"
+
+    def describe(self) -> str:
+        """One-line human-readable summary, including the citation."""
+        return (
+            f"random search, batches of {self.batch_size}, {self.budget.describe()}; "
+            f"{self.citation}"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready record of every setting and the citation."""
+        return {
+            "algorithm": "random-search",
+            "batch_size": self.batch_size,
+            "iterations": self.iterations,
+            "max_evaluations": self.max_evaluations,
+            "citation": self.citation,
+        }
+
+    def build(self, dim: int, seed: SeedLike = None) -> RandomSearch:
+        """A fresh :class:`RandomSearch` for this configuration."""
+        return RandomSearch(dim, self, seed)
+
+
+class RandomSearch(AskTellOptimiser):
+    """Random-search maximiser with the same ask/tell interface as :class:`agents.pso.PSO`.
+
+    Parameters
+    ----------
+    dim : int
+        Dimension of the search box [-1, 1]^dim.
+    config : RandomSearchConfig
+        Batch size and budget.
+    seed : int, SeedSequence or None
+        Seed for ``numpy.random.default_rng``; equal seeds give identical runs.
+    """
+
+    def __init__(self, dim: int, config: RandomSearchConfig, seed: SeedLike = None) -> None:
+        if not isinstance(config, RandomSearchConfig):
+            raise TypeError(f"config must be a RandomSearchConfig, got {type(config).__name__}")
+        super().__init__(dim, config.batch_size, config, seed)
+
+    def _propose(self, n: int) -> FloatArray:
+        return self._rng.uniform(LOWER, UPPER, (n, self.dim))
+
+    def _observe(self, X: FloatArray, fitness: FloatArray) -> None:
+        # Nothing to learn: the base class already tracks the best point and the history.
+        pass

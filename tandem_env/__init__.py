@@ -1,0 +1,12 @@
+"""tandem_env: the tandem flapping-wing model of Faisal & Filippone (2016) and its Gymnasium envs."""
+
+from .physics import *  # noqa: F403
+from .physics import __all__ as _physics_all
+
+__all__ = list(_physics_all)
+__version__ = "0.1.0"
+
+# Register the Gymnasium ids (TandemWing/LevelFlight-v0, TandemWing/Accelerate-v0).
+from .envs.registration import register_envs as _register_envs  # noqa: E402
+
+_register_envs()

@@ -1,0 +1,48 @@
+"""The physics: a pure, batched quasi-steady model of tandem flapping wings (no Gymnasium here)."""
+
+from .insect import DRAGONFLY, PLANFORMS, Dragonfly, Wing
+from .model import METRIC_NAMES, MeasuredWing, Result, evaluate, evaluate_measured
+from .options import ModelOptions
+from .stroke import (
+    LOWER,
+    N_PARAMETERS,
+    PARAMETER_NAMES,
+    PARAMETER_UNITS,
+    TABLE_4,
+    UPPER,
+    Stroke,
+    WingStroke,
+    normalised_to_physical,
+    physical_to_normalised,
+    strokes_to_dicts,
+    validate_physical,
+)
+
+__all__ = [
+    "DRAGONFLY",
+    "LOWER",
+    "METRIC_NAMES",
+    "N_PARAMETERS",
+    "PARAMETER_NAMES",
+    "PARAMETER_UNITS",
+    "PLANFORMS",
+    "TABLE_4",
+    "UPPER",
+    "Dragonfly",
+    "MeasuredWing",
+    "ModelOptions",
+    "Result",
+    "Stroke",
+    "Wing",
+    "WingStroke",
+    "evaluate",
+    "evaluate_measured",
+    "normalised_to_physical",
+    "physical_to_normalised",
+    "strokes_to_dicts",
+    "validate_physical",
+]
+
+from .history import StrokeHistory, WingHistory, stroke_history
+
+__all__ += ["StrokeHistory", "WingHistory", "stroke_history"]

@@ -1,0 +1,418 @@
+"""One wing-beat cycle of a batch of tandem strokes (Eqs. 16-19), compiled and parallel.
+
+For each stroke, the fore-wing is solved first (its momentum inflow per annulus), then the
+hind-wing in the fore-wing's slipstream (MODEL.md §5). The final pass over each wing integrates
+the element forces over the span, rotates them to earth axes (Eq. 16) and forms the cycle means
+of force (Eq. 17) and power (Eqs. 18-19, as MODEL.md §6 decides).
+
+Quadrature: the cycle is sampled on the motion-following grid of ``kinematics``; smooth
+integrands use the periodic trapezoid rule (spectrally accurate), and the positive parts and
+absolute values (thrust, drag, |P|) integrate the trigonometric interpolant exactly between its
+located zero crossings, so the kinks do not cost accuracy (MODEL.md §7).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from .blade import (
+    C_AU,
+    C_AV,
+    C_DSPIN,
+    C_ECXE,
+    C_ECY,
+    C_ECZ,
+    C_ECZE,
+    C_ENXE,
+    C_ENY,
+    C_ENZ,
+    C_ENZE,
+    C_KIN,
+    C_SPIN,
+    C_WEIGHT,
+    N_COEF,
+    acute_angle,
+    element_force,
+    element_moment,
+    fill_frame_coefficients,
+    relative_velocity,
+)
+from .induction import solve_annulus
+from .kinematics import fill_angle_history
+
+# Blade-element node table columns.
+N_R = 0  # radius r [m]
+N_CHORD = 1  # chord c(r) [m]
+N_WIDTH = 2  # quadrature weight dr [m]
+N_M11 = 3  # ¼πρb_t² [kg/m]
+N_M22 = 4  # ¼πρc² [kg/m]
+N_IA = 5  # (1/128)πρ(c² + b_t²)² [kg·m]
+N_DAMP = 6  # (1/16)πρc⁴ [kg·m]
+N_COLUMNS = 7
+
+# Wing constant vector.
+K_CT = 0
+K_CD0 = 1
+K_CD90 = 2
+K_CR = 3
+K_MU1 = 4
+K_MU2 = 5
+K_I_SPAN = 6  # ∫ m'(r)·r² dr [kg·m²]: flapping inertia of the pitch axis line
+K_I_PITCH = 7  # ∫ m'(r)·c²/12 dr [kg·m²]: thin-plate inertia about the mid-chord
+N_CONSTANTS = 8
+
+# Per-wing outputs (single wing of a pair; multiply by N_w for the pair).
+W_FZ = 0  # cycle-mean vertical force [N]
+W_FX = 1  # cycle-mean horizontal force, + forward [N]
+W_THRUST = 2  # cycle mean of the forward part of F_x(t) [N]
+W_DRAG = 3  # cycle mean of the rearward part of F_x(t) (≥ 0) [N]
+W_P_AERO = 4  # mean |P_aero| [W]
+W_P_INER = 5  # mean |P_iner| [W]
+W_P_ELASTIC = 6  # mean of the positive part of P_aero + P_iner [W]
+W_AOA = 7  # area-weighted cycle-mean acute angle of attack [rad]
+W_CONVERGED = 8  # 1 if every annulus's inflow converged
+W_EVALS = 9  # largest number of force sweeps an annulus needed
+W_FY = 10  # cycle-mean lateral force [N] (cancels between left and right wings)
+W_FNORMAL = 11  # cycle-mean force along the stroke-plane normal [N]
+W_INFLOW = 12  # area-weighted mean induced velocity [m/s]
+N_WING_OUT = 13
+
+MODE_NONE = 0
+MODE_ISOLATED = 1
+MODE_COUPLED = 2
+
+
+def fourier_tables(n_time: int) -> tuple[np.ndarray, np.ndarray]:
+    """cos(m·s_k), sin(m·s_k) for m = 1 … (n − 1)//2 and s_k = 2πk/n: (M, n) each."""
+    m = np.arange(1, (n_time - 1) // 2 + 1)[:, None]
+    s = 2.0 * np.pi * np.arange(n_time)[None, :] / n_time
+    return np.ascontiguousarray(np.cos(m * s)), np.ascontiguousarray(np.sin(m * s))
+
+
+@njit(cache=True)
+def _trig_eval(a0, a, b, s):
+    """Trigonometric interpolant p(s), its derivative and its antiderivative P(s) (P(0) = 0 + …)."""
+    c1 = np.cos(s)
+    s1 = np.sin(s)
+    cm = 1.0
+    sm = 0.0
+    value = a0
+    slope = 0.0
+    integral = a0 * s
+    for j in range(a.shape[0]):
+        m = j + 1
+        cm, sm = cm * c1 - sm * s1, sm * c1 + cm * s1  # cos(ms), sin(ms) by rotation
+        value += a[j] * cm + b[j] * sm
+        slope += m * (b[j] * cm - a[j] * sm)
+        integral += (a[j] * sm - b[j] * cm) / m
+    return value, slope, integral
+
+
+@njit(cache=True)
+def mean_positive_part(g, cos_table, sin_table):
+    """Cycle mean of max(g, 0) for n periodic samples g at s_k = 2πk/n, to spectral accuracy.
+
+    The trapezoid rule is spectrally accurate for smooth periodic g but only second order for
+    its positive part, whose kinks sit between samples (MODEL.md §7). So we integrate the
+    trigonometric interpolant p of the samples exactly: its zero crossings are located by
+    safeguarded Newton inside each interval where the samples change sign, and the positive
+    arcs are summed with p's antiderivative.
+    """
+    n = g.shape[0]
+    n_modes = cos_table.shape[0]
+    a0 = 0.0
+    for k in range(n):
+        a0 += g[k]
+    a0 /= n
+    a = np.zeros(n_modes)
+    b = np.zeros(n_modes)
+    for j in range(n_modes):
+        sa = 0.0
+        sb = 0.0
+        for k in range(n):
+            sa += g[k] * cos_table[j, k]
+            sb += g[k] * sin_table[j, k]
+        a[j] = 2.0 * sa / n
+        b[j] = 2.0 * sb / n
+    h = 2.0 * np.pi / n
+    roots = np.empty(n)
+    antiderivative = np.empty(n)
+    after_positive = np.empty(n, dtype=np.bool_)
+    n_roots = 0
+    for k in range(n):
+        g0 = g[k]
+        g1 = g[(k + 1) % n]
+        if (g0 > 0.0) == (g1 > 0.0):
+            continue
+        lo = k * h
+        hi = lo + h
+        # linear guess, then Newton on the interpolant kept inside [lo, hi]
+        x = lo + h * g0 / (g0 - g1)
+        big_p = 0.0
+        for _ in range(6):
+            p, dp, big_p = _trig_eval(a0, a, b, x)
+            if (p > 0.0) == (g0 > 0.0):
+                lo = x
+            else:
+                hi = x
+            x_new = x - p / dp if dp != 0.0 else 0.5 * (lo + hi)
+            if not lo <= x_new <= hi:
+                x_new = 0.5 * (lo + hi)
+            if abs(x_new - x) < 1e-11:
+                break
+            x = x_new
+        roots[n_roots] = x
+        antiderivative[n_roots] = big_p
+        after_positive[n_roots] = g1 > 0.0
+        n_roots += 1
+    if n_roots == 0:
+        return max(a0, 0.0) if g[0] > 0.0 else 0.0
+    total = 0.0
+    two_pi = 2.0 * np.pi
+    for i in range(n_roots):
+        if after_positive[i]:
+            j = (i + 1) % n_roots
+            # P(s + 2π) = P(s) + 2π·a0 closes the arc that wraps past s = 2π
+            wrap = two_pi * a0 if j <= i else 0.0
+            total += antiderivative[j] + wrap - antiderivative[i]
+    return max(total, 0.0) / two_pi
+
+
+@njit(cache=True)
+def wing_cycle(
+    coef,
+    nodes,
+    consts,
+    rho,
+    frequency,
+    sweep_amplitude,
+    v_tangential,
+    v_normal,
+    v_external,
+    solve_inflow,
+    tolerance,
+    max_evaluations,
+    out_inflow,
+    out,
+    histories,
+    cos_table,
+    sin_table,
+):
+    """Solve the inflow of one wing and integrate its cycle (writes ``out`` and ``out_inflow``).
+
+    ``v_external``: (n_r,) inflow imposed from upstream [m/s] (the fore-wing's slipstream on the
+    hind-wing, already scaled by C_hf). ``histories``: (n_time, 5) scratch receiving F_x, F_z,
+    F_y, P_aero, P_iner per sample (one wing) [N, W].
+    """
+    n_time = coef.shape[0]
+    n_r = nodes.shape[0]
+    ct = consts[K_CT]
+    cd0 = consts[K_CD0]
+    cd90 = consts[K_CD90]
+    cr = consts[K_CR]
+    mu1 = consts[K_MU1]
+    mu2 = consts[K_MU2]
+    converged = True
+    max_evals = 0
+    aoa = 0.0
+    area = 0.0
+    f_normal = 0.0
+    inflow_mean = 0.0
+    v_nodes = np.empty(n_r)
+    for j in range(n_r):
+        v_upstream = v_normal + v_external[j]
+        v_induced = 0.0
+        if solve_inflow:
+            v_induced, evals, ok = solve_annulus(
+                coef,
+                nodes[j, N_R],
+                nodes[j, N_CHORD],
+                nodes[j, N_M11],
+                nodes[j, N_M22],
+                rho,
+                ct,
+                cd0,
+                cd90,
+                cr,
+                v_tangential,
+                v_upstream,
+                sweep_amplitude,
+                tolerance,
+                max_evaluations,
+            )
+            converged = converged and ok
+            max_evals = max(max_evals, evals)
+        out_inflow[j] = v_induced
+        v_nodes[j] = v_upstream + v_induced
+        area += nodes[j, N_CHORD] * nodes[j, N_WIDTH]
+        inflow_mean += nodes[j, N_CHORD] * nodes[j, N_WIDTH] * v_induced
+    # Final pass, time outermost so that each sample's span integral accumulates in registers.
+    for k in range(n_time):
+        spin = coef[k, C_SPIN]
+        dspin = coef[k, C_DSPIN]
+        span_fc = 0.0  # span integrals of the chordwise and chord-normal force [N]
+        span_fn = 0.0
+        p_aero = 0.0
+        aoa_k = 0.0
+        for j in range(n_r):
+            r = nodes[j, N_R]
+            chord = nodes[j, N_CHORD]
+            width = nodes[j, N_WIDTH]
+            m11 = nodes[j, N_M11]
+            m22 = nodes[j, N_M22]
+            u, v, du, dv = relative_velocity(coef, k, r, v_tangential, v_nodes[j])
+            fc, fn = element_force(u, v, du, dv, spin, chord, m11, m22, rho, ct, cd0, cd90, cr)
+            moment = element_moment(
+                u,
+                v,
+                spin,
+                dspin,
+                m11,
+                m22,
+                nodes[j, N_IA],
+                nodes[j, N_DAMP],
+                frequency,
+                mu1,
+                mu2,
+            )
+            span_fc += width * fc
+            span_fn += width * fn
+            # power delivered to the air: −(force on wing)·(flapping velocity r·ė_s) − M·Ω
+            p_aero -= width * (r * (fc * coef[k, C_AU] + fn * coef[k, C_AV]) + moment * spin)
+            aoa_k += chord * width * acute_angle(u, v)
+        histories[k, 0] = span_fc * coef[k, C_ECXE] + span_fn * coef[k, C_ENXE]
+        histories[k, 1] = span_fc * coef[k, C_ECZE] + span_fn * coef[k, C_ENZE]
+        histories[k, 2] = span_fc * coef[k, C_ECY] + span_fn * coef[k, C_ENY]
+        histories[k, 3] = p_aero
+        # d/dt of the wing's kinetic energy: flapping of the pitch axis plus rotation about it
+        histories[k, 4] = consts[K_I_SPAN] * coef[k, C_KIN] + consts[K_I_PITCH] * spin * dspin
+        f_normal += (span_fc * coef[k, C_ECZ] + span_fn * coef[k, C_ENZ]) * coef[k, C_WEIGHT]
+        aoa += aoa_k * coef[k, C_WEIGHT]
+    g = np.empty(n_time)
+    fx = 0.0
+    fz = 0.0
+    fy = 0.0
+    for k in range(n_time):
+        w = coef[k, C_WEIGHT]
+        fx += histories[k, 0] * w
+        fz += histories[k, 1] * w
+        fy += histories[k, 2] * w
+    out[W_FX] = fx / n_time
+    out[W_FZ] = fz / n_time
+    out[W_FY] = fy / n_time
+    # T = mean F_x⁺, D = mean F_x⁻ = T − mean F_x; mean|P| = 2·mean P⁺ − mean P
+    for k in range(n_time):
+        g[k] = histories[k, 0] * coef[k, C_WEIGHT]
+    out[W_THRUST] = mean_positive_part(g, cos_table, sin_table)
+    out[W_DRAG] = max(out[W_THRUST] - out[W_FX], 0.0)
+    mean_aero = 0.0
+    mean_iner = 0.0
+    for k in range(n_time):
+        g[k] = histories[k, 3] * coef[k, C_WEIGHT]
+        mean_aero += g[k]
+    mean_aero /= n_time
+    out[W_P_AERO] = max(2.0 * mean_positive_part(g, cos_table, sin_table) - mean_aero, 0.0)
+    for k in range(n_time):
+        g[k] = histories[k, 4] * coef[k, C_WEIGHT]
+        mean_iner += g[k]
+    mean_iner /= n_time
+    out[W_P_INER] = max(2.0 * mean_positive_part(g, cos_table, sin_table) - mean_iner, 0.0)
+    for k in range(n_time):
+        g[k] = (histories[k, 3] + histories[k, 4]) * coef[k, C_WEIGHT]
+    out[W_P_ELASTIC] = mean_positive_part(g, cos_table, sin_table)
+    out[W_AOA] = aoa / (area * n_time) if area > 0.0 else 0.0
+    out[W_CONVERGED] = 1.0 if converged else 0.0
+    out[W_EVALS] = max_evals
+    out[W_FNORMAL] = f_normal / n_time
+    out[W_INFLOW] = inflow_mean / area if area > 0.0 else 0.0
+
+
+@njit(parallel=True, cache=True)
+def fill_angle_batch(params, n_time, angles, weight):
+    """Angle histories of a (B, 14) batch of one wing's parameters (Hz, rad, -)."""
+    for b in prange(params.shape[0]):
+        fill_angle_history(params[b], n_time, angles[b], weight[b])
+
+
+@njit(parallel=True, cache=True)
+def tandem_cycle(
+    angles_fore,
+    weight_fore,
+    angles_hind,
+    weight_hind,
+    frequency,
+    beta,
+    sweep_amplitude,
+    speed,
+    nodes_fore,
+    consts_fore,
+    nodes_hind,
+    consts_hind,
+    rho,
+    mode,
+    interference,
+    spin_total,
+    tolerance,
+    max_evaluations,
+    out,
+    out_inflow,
+    out_history,
+    cos_table,
+    sin_table,
+):
+    """Cycle means of a batch of tandem strokes.
+
+    ``angles_*``: (B, n_time, 9); ``weight_*``: (B, n_time); ``frequency``, ``beta``,
+    ``sweep_amplitude``: (B, 2) per wing [Hz, rad, rad]; ``speed``: (B,) [m/s].
+    Writes ``out`` (B, 2, N_WING_OUT) and ``out_inflow`` (B, 2, n_r) [m/s]; if ``out_history``
+    has B rows, also the per-sample F_x, F_z, F_y, P_aero, P_iner of each wing (B, 2, n_time, 5).
+    """
+    batch = angles_fore.shape[0]
+    n_time = angles_fore.shape[1]
+    n_r = nodes_fore.shape[0]
+    keep_history = out_history.shape[0] == batch
+    for b in prange(batch):
+        coef = np.empty((n_time, N_COEF))
+        hist = np.empty((n_time, 5))
+        zero = np.zeros(n_r)
+        v_ext = np.zeros(n_r)
+        solve = mode != MODE_NONE
+        for wing in range(2):
+            if wing == 0:
+                fill_frame_coefficients(
+                    angles_fore[b], weight_fore[b], beta[b, 0], spin_total, 1, coef
+                )
+            else:
+                fill_frame_coefficients(
+                    angles_hind[b], weight_hind[b], beta[b, 1], spin_total, 1, coef
+                )
+            v_t = speed[b] * np.cos(beta[b, wing])
+            v_n = speed[b] * np.sin(beta[b, wing])
+            if wing == 1 and mode == MODE_COUPLED:
+                for j in range(n_r):
+                    v_ext[j] = interference * out_inflow[b, 0, j]
+                external = v_ext
+            else:
+                external = zero
+            wing_cycle(
+                coef,
+                nodes_fore if wing == 0 else nodes_hind,
+                consts_fore if wing == 0 else consts_hind,
+                rho,
+                frequency[b, wing],
+                sweep_amplitude[b, wing],
+                v_t,
+                v_n,
+                external,
+                solve,
+                tolerance,
+                max_evaluations,
+                out_inflow[b, wing],
+                out[b, wing],
+                hist,
+                cos_table,
+                sin_table,
+            )
+            if keep_history:
+                out_history[b, wing] = hist

@@ -1,0 +1,221 @@
+"""Time histories of one stroke over its wing-beat cycle (for the kinematics figures, Figs. 9-13).
+
+The histories come from the same compiled cycle as :func:`~tandem_env.physics.model.evaluate`
+(the inflow is solved the same way), sampled on a uniform time grid so that curves can be
+plotted and compared directly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import blade, cycle
+from .insect import DRAGONFLY, Dragonfly
+from .kinematics import fill_angles, wing_params_radians
+from .model import DEFAULT_OPTIONS, Result, _performance, _run_kernel, wing_tables
+from .options import ModelOptions
+from .stroke import N_PER_WING, validate_physical
+
+
+@dataclass(frozen=True)
+class WingHistory:
+    """One wing pair over one of its own cycles; arrays are (n,) unless stated."""
+
+    cycle_fraction: np.ndarray
+    """t/T [-], uniform over [0, 1)."""
+    time: np.ndarray
+    """t [s]."""
+    sweep: np.ndarray
+    """φ [deg]."""
+    elevation: np.ndarray
+    """θ [deg]."""
+    pitch: np.ndarray
+    """η [deg]."""
+    tip_path: np.ndarray
+    """(n, 3) wing-tip position relative to the wing base, earth axes (X forward, Y right, Z up),
+    normalised by the wing length [-]."""
+    angle_of_attack: np.ndarray
+    """Area-weighted acute angle of attack over the span [deg]."""
+    relative_speed: np.ndarray
+    """Speed of the element at r/R = 0.75 relative to the air [m/s] (interpolated)."""
+    vertical_force: np.ndarray
+    """Vertical aerodynamic force of the pair (N_w wings) [N]."""
+    horizontal_force: np.ndarray
+    """Horizontal aerodynamic force of the pair, + forward [N]."""
+    lateral_force: np.ndarray
+    """Lateral force of one (right) wing [N]; cancels between the two wings of a pair."""
+    aero_power: np.ndarray
+    """Aerodynamic power of the pair [W] (signed)."""
+    inertial_power: np.ndarray
+    """Inertial power of the pair [W] (signed)."""
+    inflow: np.ndarray
+    """(n_blade,) induced velocity of each annulus [m/s] (own inflow plus the upstream share)."""
+
+
+@dataclass(frozen=True)
+class StrokeHistory:
+    fore: WingHistory
+    hind: WingHistory
+    result: Result
+    """The cycle means of the same evaluation (B = 1)."""
+
+
+def _tip_path(angles: np.ndarray, beta: float, side: int = 1) -> np.ndarray:
+    phi, theta = angles[:, 0], angles[:, 3]
+    span = np.stack(
+        [np.cos(theta) * np.sin(phi), np.cos(theta) * np.cos(phi), np.sin(theta)], axis=1
+    )
+    x_e = np.cos(beta) * span[:, 0] + np.sin(beta) * span[:, 2]
+    z_e = -np.sin(beta) * span[:, 0] + np.cos(beta) * span[:, 2]
+    return np.stack([x_e, side * span[:, 1], z_e], axis=1)
+
+
+def stroke_history(
+    stroke: np.ndarray,
+    speed: float = 0.0,
+    available_power: float | None = None,
+    *,
+    insect: Dragonfly = DRAGONFLY,
+    options: ModelOptions = DEFAULT_OPTIONS,
+    n_samples: int = 200,
+    side: int = 1,
+) -> StrokeHistory:
+    """Time histories of one physical stroke (28,) at flight speed ``speed`` [m/s].
+
+    ``n_samples`` uniform samples per cycle (the cycle means in ``result`` use them too, so
+    they agree with :func:`evaluate` to the quadrature accuracy). ``side = -1`` evaluates the
+    mirror image (the left wings), for the symmetry checks.
+    """
+    physical = validate_physical(stroke)
+    if physical.shape[0] != 1:
+        raise ValueError(f"stroke_history takes one stroke of shape (28,); got {np.shape(stroke)}")
+    if not isinstance(n_samples, int) or n_samples < 8:
+        raise ValueError(f"n_samples = {n_samples!r}; allowed: an integer >= 8")
+    if side not in (1, -1):
+        raise ValueError(f"side = {side!r}; allowed: 1 (right wings) or -1 (left wings)")
+    angles, weights, frequency, beta, sweep = (
+        [],
+        [],
+        np.empty((1, 2)),
+        np.empty((1, 2)),
+        np.empty((1, 2)),
+    )
+    fractions = []
+    for w in range(2):
+        wing_physical = physical[:, w * N_PER_WING : (w + 1) * N_PER_WING]
+        params = wing_params_radians(wing_physical)
+        s = np.arange(n_samples) / n_samples
+        uniform = np.empty((n_samples, 9))
+        fill_angles(params[0], 2.0 * np.pi * s, uniform)
+        angles.append(uniform[None])
+        weights.append(np.ones((1, n_samples)))
+        fractions.append(s)
+        frequency[0, w] = params[0, 0]
+        beta[0, w] = params[0, 13]
+        sweep[0, w] = params[0, 1]
+    v = np.array([float(speed)])
+    if not (np.isfinite(v[0]) and 0.0 <= v[0] <= 20.0):
+        raise ValueError(f"speed = {speed!r} m/s; allowed: 0 to 20 m/s")
+    p_avail = np.array(
+        [insect.max_power_per_mass if available_power is None else float(available_power)]
+    )
+    out, inflow, hist = _run_kernel(
+        angles, weights, frequency, beta, sweep, v, insect, options, keep_history=True
+    )
+    if side == -1:
+        out_m, _, hist_m = _mirror_run(angles, weights, frequency, beta, v, inflow, insect, options)
+        out, hist = out_m, hist_m
+    result = _performance(out, v, p_avail, insect, options)
+    n_w = insect.wings_per_pair
+    wings = []
+    for w, wing in enumerate((insect.fore, insect.hind)):
+        a = angles[w][0]
+        upstream = (
+            options.interference * inflow[0, 0]
+            if (w == 1 and options.induction == "coupled")
+            else 0.0
+        )
+        total_inflow = inflow[0, w] + upstream
+        aoa, rel_speed = _flow_angles(
+            a, weights[w][0], beta[0, w], v[0], total_inflow, wing, insect, options, side
+        )
+        wings.append(
+            WingHistory(
+                cycle_fraction=fractions[w],
+                time=fractions[w] / frequency[0, w],
+                sweep=np.rad2deg(a[:, 0]),
+                elevation=np.rad2deg(a[:, 3]),
+                pitch=np.rad2deg(a[:, 6]),
+                tip_path=_tip_path(a, beta[0, w], side),
+                angle_of_attack=aoa,
+                relative_speed=rel_speed,
+                vertical_force=n_w * hist[0, w, :, 1],
+                horizontal_force=n_w * hist[0, w, :, 0],
+                lateral_force=hist[0, w, :, 2],
+                aero_power=n_w * hist[0, w, :, 3],
+                inertial_power=n_w * hist[0, w, :, 4],
+                inflow=total_inflow,
+            )
+        )
+    return StrokeHistory(fore=wings[0], hind=wings[1], result=result)
+
+
+def _mirror_run(angles, weights, frequency, beta, speed, inflow, insect, options):
+    """The same cycle for the mirror-image (left) wings, with the right wings' inflow imposed."""
+    n_time = weights[0].shape[1]
+    out = np.empty((1, 2, cycle.N_WING_OUT))
+    hist = np.empty((1, 2, n_time, 5))
+    coef = np.empty((n_time, blade.N_COEF))
+    scratch = np.empty((n_time, 5))
+    for w, wing in enumerate((insect.fore, insect.hind)):
+        nodes, consts = wing_tables(wing, options.n_blade, insect.air_density)
+        blade.fill_frame_coefficients(
+            angles[w][0], weights[w][0], beta[0, w], options.spin == "total", -1, coef
+        )
+        upstream = (
+            options.interference * inflow[0, 0]
+            if (w == 1 and options.induction == "coupled")
+            else 0.0
+        )
+        v_ext = inflow[0, w] + upstream
+        cycle.wing_cycle(
+            coef,
+            nodes,
+            consts,
+            insect.air_density,
+            frequency[0, w],
+            0.0,
+            speed[0] * np.cos(beta[0, w]),
+            speed[0] * np.sin(beta[0, w]),
+            np.ascontiguousarray(v_ext),
+            False,
+            options.tolerance,
+            options.max_evaluations,
+            np.empty(options.n_blade),
+            out[0, w],
+            scratch,
+            *cycle.fourier_tables(n_time),
+        )
+        hist[0, w] = scratch
+    return out, None, hist
+
+
+def _flow_angles(angles, weights, beta, speed, inflow, wing, insect, options, side):
+    """Area-weighted angle of attack [deg] and relative speed at r/R = 0.75 [m/s] over time."""
+    n_time = angles.shape[0]
+    coef = np.empty((n_time, blade.N_COEF))
+    blade.fill_frame_coefficients(angles, weights, beta, options.spin == "total", side, coef)
+    nodes, _ = wing_tables(wing, options.n_blade, insect.air_density)
+    r = nodes[:, cycle.N_R][None, :]
+    vt = speed * np.cos(beta)
+    vn = speed * np.sin(beta) + inflow[None, :]
+    u = r * coef[:, [blade.C_AU]] + vt * coef[:, [blade.C_ECX]] + vn * coef[:, [blade.C_ECZ]]
+    v = r * coef[:, [blade.C_AV]] + vt * coef[:, [blade.C_ENX]] + vn * coef[:, [blade.C_ENZ]]
+    area = nodes[:, cycle.N_CHORD] * nodes[:, cycle.N_WIDTH]
+    aoa = np.rad2deg(np.arctan2(np.abs(v), np.abs(u)) @ area / area.sum())
+    speed_nodes = np.hypot(u, v)
+    r_hat = nodes[:, cycle.N_R] / wing.length
+    rel = np.array([np.interp(0.75, r_hat, row) for row in speed_nodes])
+    return aoa, rel

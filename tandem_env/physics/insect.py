@@ -1,0 +1,251 @@
+"""The dragonfly and its wings: frozen, validated dataclasses with units.
+
+Defaults are the paper's specimen (Faisal & Filippone 2016, Tables 1 and 3), Wakeling (1997)
+*Sympetrum sanguineum* male "SSan2"; values the paper does not give follow MODEL.md §1.
+Planforms are the tear-drop of Eq. 1 and the real dragonfly wing of Eq. 2 / Table 2.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Literal
+
+import numpy as np
+
+Planform = Literal["tear-drop", "real"]
+PLANFORMS: tuple[str, ...] = ("tear-drop", "real")
+
+#: Table 2 quintic coefficients (a..f, ascending powers of r/R) of the real wing's edges,
+#: both axes normalised by the wing length R. Rows are a, b, c, d, e, f (the text garbles the
+#: row labels, MODEL.md §2).
+REAL_WING_EDGES: dict[str, tuple[tuple[float, ...], tuple[float, ...]]] = {
+    "fore": (
+        (0.0154, 0.4146, -0.4984, -2.6774, 6.7850, -4.0250),
+        (-0.0273, -1.0711, 3.1849, -5.5107, 5.2309, -1.8304),
+    ),
+    "hind": (
+        (0.0321, -0.0206, 0.9173, -4.0000, 6.8385, -3.7509),
+        (-0.0144, -2.6763, 7.6848, -8.9040, 4.5981, -0.7086),
+    ),
+}
+
+
+def _check_positive(
+    owner: str, name: str, value: float, unit: str, allow_zero: bool = False
+) -> None:
+    ok = math.isfinite(value) and (value >= 0.0 if allow_zero else value > 0.0)
+    if not ok:
+        bound = ">= 0" if allow_zero else "> 0"
+        raise ValueError(
+            f"{owner}.{name} = {value!r} {unit} is not physical: it must be finite and {bound}"
+        )
+
+
+def helmbold_lift_slope(aspect_ratio: float, section_slope: float = 2.0 * math.pi) -> float:
+    """Lift-curve slope C_Lα [1/rad] of a wing of aspect ratio AR (Helmbold's equation).
+
+    C_Lα = π·AR / (1 + sqrt((π·AR/a₀)² + 1)), the "extended lifting line" form the paper
+    adapts from Taha et al. (MODEL.md §1), with a₀ = 2π the section lift slope.
+    """
+    return (
+        math.pi
+        * aspect_ratio
+        / (1.0 + math.sqrt((math.pi * aspect_ratio / section_slope) ** 2 + 1.0))
+    )
+
+
+@dataclass(frozen=True)
+class Wing:
+    """One wing of a pair (the left and right wings are mirror images).
+
+    Coefficients follow the paper's Table 3; C_t is computed from the aspect ratio (MODEL.md §1).
+    """
+
+    mean_chord: float
+    """Mean chord c̄ [m] (paper Table 1)."""
+    length: float
+    """Wing length R, root to tip [m] (paper Table 1)."""
+    drag_coefficient_0: float
+    """C_d(0), drag coefficient at zero angle of attack [-] (Table 3)."""
+    drag_coefficient_90: float
+    """C_d(π/2), drag coefficient at 90° angle of attack [-] (Table 3)."""
+    rotational_coefficient: float = math.pi
+    """C_r, rotational-circulation coefficient [-] (Table 3; π, MODEL.md §1)."""
+    mass: float = 0.0
+    """Mass of one wing m_w [kg] (Wakeling 1997)."""
+    thickness: float = 3.5e-6
+    """Wing thickness b_t [m] (from mass, area and cuticle density, MODEL.md §1)."""
+    planform: Planform = "tear-drop"
+    """Chord distribution: ``"tear-drop"`` (Eq. 1) or ``"real"`` (Eq. 2, Table 2)."""
+    real_edges: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+    """(upper, lower) quintic coefficients of Eq. 2 [-], ascending powers of r/R; required for
+    the real planform."""
+    damping_linear: float = 0.2
+    """μ₁, linear rotational-damping coefficient [-] (Berman & Wang 2007)."""
+    damping_quadratic: float = 0.2
+    """μ₂, quadratic rotational-damping coefficient [-] (Berman & Wang 2007)."""
+
+    def __post_init__(self) -> None:
+        owner = "Wing"
+        _check_positive(owner, "mean_chord", self.mean_chord, "m")
+        _check_positive(owner, "length", self.length, "m")
+        _check_positive(owner, "drag_coefficient_0", self.drag_coefficient_0, "", allow_zero=True)
+        _check_positive(owner, "drag_coefficient_90", self.drag_coefficient_90, "", allow_zero=True)
+        _check_positive(owner, "rotational_coefficient", self.rotational_coefficient, "", True)
+        _check_positive(owner, "mass", self.mass, "kg", allow_zero=True)
+        _check_positive(owner, "thickness", self.thickness, "m", allow_zero=True)
+        _check_positive(owner, "damping_linear", self.damping_linear, "", allow_zero=True)
+        _check_positive(owner, "damping_quadratic", self.damping_quadratic, "", allow_zero=True)
+        if self.planform not in PLANFORMS:
+            raise ValueError(f"Wing.planform = {self.planform!r}; allowed: {PLANFORMS}")
+        if self.mean_chord >= self.length:
+            raise ValueError(
+                f"Wing.mean_chord = {self.mean_chord} m is not below Wing.length = {self.length} m; "
+                "a blade-element wing must be longer than it is wide"
+            )
+        if self.planform == "real":
+            if self.real_edges is None or len(self.real_edges) != 2:
+                raise ValueError(
+                    "Wing.real_edges must give (upper, lower) coefficients for planform='real'"
+                )
+            probe = np.linspace(0.0, 1.0, 201)
+            width = self._real_width(probe)
+            if not np.all(np.isfinite(width)) or np.any(width[1:-1] <= 0.0):
+                raise ValueError(
+                    "Wing.real_edges give a chord <= 0 inside the span (upper edge below lower edge); "
+                    "the planform must have a positive chord on 0 < r/R < 1"
+                )
+
+    # --- derived geometry -------------------------------------------------------------------
+    @property
+    def aspect_ratio(self) -> float:
+        """Single-wing aspect ratio AR = R / c̄ [-]."""
+        return self.length / self.mean_chord
+
+    @property
+    def translational_coefficient(self) -> float:
+        """C_t = C_Lα / 2 [-], so that C_L(α) = C_t·sin 2α (MODEL.md §1)."""
+        return 0.5 * helmbold_lift_slope(self.aspect_ratio)
+
+    def _real_width(self, r_hat: np.ndarray) -> np.ndarray:
+        assert self.real_edges is not None
+        upper, lower = (np.asarray(c, dtype=float) for c in self.real_edges)
+        return np.polynomial.polynomial.polyval(r_hat, upper - lower)
+
+    def chord(self, r_hat: np.ndarray | float) -> np.ndarray:
+        """Local chord c(r) [m] at normalised radius r/R (Eq. 1 or Eq. 2)."""
+        r_hat = np.asarray(r_hat, dtype=float)
+        if self.planform == "tear-drop":
+            return 4.0 * self.mean_chord / math.pi * np.sqrt(np.clip(1.0 - r_hat**2, 0.0, None))
+        return self.length * self._real_width(r_hat)
+
+    @property
+    def area(self) -> float:
+        """Planform area of one wing [m²] (exact for the tear-drop, Gauss-Legendre otherwise)."""
+        if self.planform == "tear-drop":
+            return self.mean_chord * self.length
+        x, w = np.polynomial.legendre.leggauss(8)
+        return float(self.length * np.sum(0.5 * w * self.chord(0.5 * (x + 1.0))))
+
+    def with_planform(self, planform: Planform, edges: tuple | None = None) -> Wing:
+        """Same wing with another planform (keeps c̄ and R, so area and span are equal)."""
+        return replace(
+            self, planform=planform, real_edges=edges if edges is not None else self.real_edges
+        )
+
+
+def _default_fore() -> Wing:
+    return Wing(
+        mean_chord=5.88e-3,
+        length=27.85e-3,
+        drag_coefficient_0=0.12,
+        drag_coefficient_90=2.71,
+        mass=0.75e-6,
+        thickness=3.5e-6,
+        real_edges=REAL_WING_EDGES["fore"],
+    )
+
+
+def _default_hind() -> Wing:
+    return Wing(
+        mean_chord=7.68e-3,
+        length=26.90e-3,
+        drag_coefficient_0=0.14,
+        drag_coefficient_90=2.85,
+        mass=0.85e-6,
+        thickness=3.5e-6,
+        real_edges=REAL_WING_EDGES["hind"],
+    )
+
+
+@dataclass(frozen=True)
+class Dragonfly:
+    """The insect: body, the fore- and hind-wing pairs, and the air (MODEL.md §1).
+
+    ``Dragonfly()`` is the paper's specimen; ``Dragonfly.with_planform("real")`` gives both
+    wings the real dragonfly planform of Eq. 2 with the same area and span.
+    """
+
+    fore: Wing = field(default_factory=_default_fore)
+    """Fore-wing (one of a left/right pair)."""
+    hind: Wing = field(default_factory=_default_hind)
+    """Hind-wing (one of a left/right pair)."""
+    body_mass: float = 121.9e-6
+    """Total mass m [kg] (paper §II.D)."""
+    wings_per_pair: int = 2
+    """N_w, wings per pair [-]: left and right, lateral forces cancel, the others double."""
+    gravity: float = 9.81
+    """Gravitational acceleration g [m/s²]."""
+    air_density: float = 1.225
+    """Air density ρ [kg/m³]."""
+    body_drag_area: float = 12.5e-6
+    """Body parasite drag area (C_D·S)_body [m²], used by ``thrust_split="body"`` only:
+    a thorax about 4 mm across (frontal area π·(2 mm)² ≈ 12.6 mm²) with C_D ≈ 1 (MODEL.md §7)."""
+    flight_muscle_ratio: float = 0.6
+    """Flight-muscle mass over body mass [-] (Marden 2000; paper §II.F)."""
+    muscle_specific_power: float = 150.0
+    """Available muscle power per muscle mass [W/kg] (Wakeling & Ellington 1997)."""
+
+    def __post_init__(self) -> None:
+        owner = "Dragonfly"
+        if not isinstance(self.fore, Wing) or not isinstance(self.hind, Wing):
+            raise ValueError("Dragonfly.fore and Dragonfly.hind must be Wing instances")
+        _check_positive(owner, "body_mass", self.body_mass, "kg")
+        _check_positive(owner, "gravity", self.gravity, "m/s²")
+        _check_positive(owner, "air_density", self.air_density, "kg/m³")
+        _check_positive(owner, "body_drag_area", self.body_drag_area, "m²", allow_zero=True)
+        _check_positive(owner, "muscle_specific_power", self.muscle_specific_power, "W/kg")
+        if not (0.0 < self.flight_muscle_ratio <= 1.0):
+            raise ValueError(
+                f"Dragonfly.flight_muscle_ratio = {self.flight_muscle_ratio!r}; allowed: 0 < ratio <= 1"
+            )
+        if not isinstance(self.wings_per_pair, int) or self.wings_per_pair not in (1, 2):
+            raise ValueError(f"Dragonfly.wings_per_pair = {self.wings_per_pair!r}; allowed: 1 or 2")
+
+    @property
+    def weight(self) -> float:
+        """W = m·g [N]."""
+        return self.body_mass * self.gravity
+
+    @property
+    def max_power_per_mass(self) -> float:
+        """Available power per body mass [W/kg]: muscle ratio × muscle power (90 W/kg, §II.F)."""
+        return self.flight_muscle_ratio * self.muscle_specific_power
+
+    def with_planform(self, planform: Planform) -> Dragonfly:
+        """Both wings with the given planform (same c̄, R: equal area and span)."""
+        if planform not in PLANFORMS:
+            raise ValueError(f"planform = {planform!r}; allowed: {PLANFORMS}")
+        return replace(
+            self, fore=self.fore.with_planform(planform), hind=self.hind.with_planform(planform)
+        )
+
+    @property
+    def planform(self) -> str:
+        """The wings' planform if both share one, else ``"mixed"``."""
+        return self.fore.planform if self.fore.planform == self.hind.planform else "mixed"
+
+
+DRAGONFLY = Dragonfly()
+"""The paper's specimen with tear-drop wings (the default insect)."""

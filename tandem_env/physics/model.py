@@ -1,0 +1,482 @@
+"""The batched entry point: strokes (B, 28) and a flight condition -> performance (B,).
+
+``evaluate`` is the one function every layer above (environments, PSO, sweeps) calls. It runs
+the whole batch in one compiled, parallel call (no Python loop over strokes) and returns a
+:class:`Result` of (B,) arrays whose metric names are the ones the environments put in ``info``.
+Flight performance follows Eqs. 17 and 22-27 as MODEL.md §7 decides.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from functools import lru_cache
+
+import numpy as np
+
+from . import cycle
+from .insect import DRAGONFLY, Dragonfly, Wing
+from .kinematics import measured_angle_history, wing_params_radians
+from .options import ModelOptions
+from .stroke import N_PER_WING, validate_physical
+
+DEFAULT_OPTIONS = ModelOptions()
+
+#: The metrics every evaluation reports, in the order environments list them in ``info``.
+METRIC_NAMES: tuple[str, ...] = (
+    "lift_to_weight",
+    "thrust",
+    "drag",
+    "power",
+    "power_per_mass",
+    "efficiency",
+    "excess_vertical",
+    "excess_horizontal",
+    "excess_total",
+    "mean_angle_of_attack",
+)
+
+
+@lru_cache(maxsize=64)
+def wing_tables(wing: Wing, n_blade: int, air_density: float) -> tuple[np.ndarray, np.ndarray]:
+    """Blade-element node table and constants of a wing (see ``cycle`` column constants).
+
+    Nodes are Gauss-Legendre in x ∈ [0, 1] with r/R = sin(πy/2), y = 3x² − 2x³. The span
+    integrands are not smooth in r: the induced velocity grows like sqrt(r) from the root and,
+    on the tear-drop, falls like (1 − r/R)^¼ to the tip, where the chord itself goes like
+    sqrt(1 − r/R). The map makes r ~ x² at the root and 1 − r/R ~ (1 − x)⁴ at the tip, which
+    turns all of these into smooth functions of x, so Gauss-Legendre converges fast.
+    """
+    x, w = np.polynomial.legendre.leggauss(n_blade)
+    x = 0.5 * (x + 1.0)
+    w = 0.5 * w
+    y = x * x * (3.0 - 2.0 * x)
+    r_hat = np.sin(0.5 * np.pi * y)
+    width = wing.length * 0.5 * np.pi * np.cos(0.5 * np.pi * y) * 6.0 * x * (1.0 - x) * w
+    chord = wing.chord(r_hat)
+    rho = air_density
+    b_t = wing.thickness
+    nodes = np.empty((n_blade, cycle.N_COLUMNS))
+    nodes[:, cycle.N_R] = r_hat * wing.length
+    nodes[:, cycle.N_CHORD] = chord
+    nodes[:, cycle.N_WIDTH] = width
+    nodes[:, cycle.N_M11] = 0.25 * np.pi * rho * b_t**2
+    nodes[:, cycle.N_M22] = 0.25 * np.pi * rho * chord**2
+    nodes[:, cycle.N_IA] = np.pi * rho * (chord**2 + b_t**2) ** 2 / 128.0
+    nodes[:, cycle.N_DAMP] = np.pi * rho * chord**4 / 16.0
+    mass_per_span = wing.mass * chord / (wing.mean_chord * wing.length)
+    consts = np.empty(cycle.N_CONSTANTS)
+    consts[cycle.K_CT] = wing.translational_coefficient
+    consts[cycle.K_CD0] = wing.drag_coefficient_0
+    consts[cycle.K_CD90] = wing.drag_coefficient_90
+    consts[cycle.K_CR] = wing.rotational_coefficient
+    consts[cycle.K_MU1] = wing.damping_linear
+    consts[cycle.K_MU2] = wing.damping_quadratic
+    consts[cycle.K_I_SPAN] = np.sum(mass_per_span * (r_hat * wing.length) ** 2 * width)
+    consts[cycle.K_I_PITCH] = np.sum(mass_per_span * chord**2 / 12.0 * width)
+    nodes.setflags(write=False)
+    consts.setflags(write=False)
+    return nodes, consts
+
+
+@dataclass(frozen=True)
+class Result:
+    """Performance of a batch of strokes; every field is a (B,) array.
+
+    Forces in newtons, power in watts, angles in degrees. "fore_"/"hind_" fields are one wing
+    pair's contribution (N_w wings).
+    """
+
+    lift_to_weight: np.ndarray
+    """L/W = N_w·(F̄_z,fore + F̄_z,hind)/(m·g) (Eq. 17) [-]."""
+    thrust: np.ndarray
+    """T [N] per ``thrust_split`` (MODEL.md §7)."""
+    drag: np.ndarray
+    """D [N] per ``thrust_split``."""
+    power: np.ndarray
+    """P = P_fore + P_hind (Eq. 19) [W]."""
+    power_per_mass: np.ndarray
+    """P/m [W/kg]."""
+    efficiency: np.ndarray
+    """η_level = T·V/P (Eq. 22) [-]; 0 where P = 0 or T ≤ 0; never clipped above 1."""
+    excess_vertical: np.ndarray
+    """F̄_v = (L − W)/W (Eqs. 23, 25) [-]."""
+    excess_horizontal: np.ndarray
+    """F̄_h = (T − D)/W (Eqs. 24, 26) [-]."""
+    excess_total: np.ndarray
+    """F̄_a = sqrt(F̄_v² + F̄_h²) of this stroke (Eq. 27) [-]."""
+    mean_angle_of_attack: np.ndarray
+    """Cycle- and area-weighted mean acute angle of attack, averaged over both wings [deg]."""
+    lift_violation: np.ndarray
+    """max(0, |L/W − 1| − tol) [-]: level flight's L = W."""
+    thrust_violation: np.ndarray
+    """max(0, |T − D|/W − tol) [-]: level flight's T = D."""
+    power_violation: np.ndarray
+    """max(0, P/m − available power) [W/kg]."""
+    vertical_deficit: np.ndarray
+    """max(0, −F̄_v) [-]: accelerating flight needs L ≥ W."""
+    horizontal_deficit: np.ndarray
+    """max(0, −F̄_h) [-]: accelerating flight needs T ≥ D."""
+    level_feasible: np.ndarray
+    """L = W and T = D within tolerance and P/m within the available power (bool)."""
+    accelerate_feasible: np.ndarray
+    """F̄_v ≥ 0, F̄_h ≥ 0 and P/m within the available power (bool)."""
+    efficiency_above_one: np.ndarray
+    """Flag: η > 1 (possible with ``thrust_split="sign"``; never clipped, MODEL.md §8) (bool)."""
+    induction_converged: np.ndarray
+    """Every annulus's inflow solve met its tolerance (bool)."""
+    induction_evaluations: np.ndarray
+    """Most force sweeps any annulus needed [-]."""
+    fore_lift_to_weight: np.ndarray
+    hind_lift_to_weight: np.ndarray
+    fore_horizontal_force: np.ndarray
+    """Net mean horizontal force of the fore pair, + forward [N]."""
+    hind_horizontal_force: np.ndarray
+    fore_power: np.ndarray
+    """Power of the fore pair [W]."""
+    hind_power: np.ndarray
+    fore_aero_power: np.ndarray
+    """N_w·mean|P_aero| of the fore pair [W]."""
+    hind_aero_power: np.ndarray
+    fore_inertial_power: np.ndarray
+    """N_w·mean|P_iner| of the fore pair [W]."""
+    hind_inertial_power: np.ndarray
+    fore_mean_angle_of_attack: np.ndarray
+    """[deg]."""
+    hind_mean_angle_of_attack: np.ndarray
+    fore_inflow: np.ndarray
+    """Area-weighted mean induced velocity of the fore-wing [m/s]."""
+    hind_inflow: np.ndarray
+    """Area-weighted mean own induced velocity of the hind-wing [m/s]."""
+    speed: np.ndarray
+    """Flight speed V [m/s]."""
+    available_power: np.ndarray
+    """Available power per mass [W/kg]."""
+
+    def __len__(self) -> int:
+        return int(self.lift_to_weight.shape[0])
+
+    def metrics(self) -> dict[str, np.ndarray]:
+        """The ten headline metrics (:data:`METRIC_NAMES`) as a dict of (B,) arrays."""
+        return {name: getattr(self, name) for name in METRIC_NAMES}
+
+    def as_dict(self) -> dict[str, np.ndarray]:
+        """Every field as a dict of (B,) arrays."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    def row(self, index: int) -> dict[str, float | bool]:
+        """Plain Python values of one stroke (for ``info`` dicts and JSON records)."""
+        out: dict[str, float | bool] = {}
+        for name, arr in self.as_dict().items():
+            value = arr[index]
+            out[name] = bool(value) if arr.dtype == bool else float(value)
+        return out
+
+
+def _broadcast_condition(
+    value: float | np.ndarray | None,
+    batch: int,
+    name: str,
+    unit: str,
+    low: float,
+    high: float,
+    default: float,
+) -> np.ndarray:
+    if value is None:
+        value = default
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 0:
+        arr = np.full(batch, float(arr))
+    if arr.shape != (batch,):
+        raise ValueError(f"{name} must be a scalar or have shape ({batch},); got shape {arr.shape}")
+    bad = ~np.isfinite(arr) | (arr < low) | (arr > high)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ValueError(
+            f"{name}[{i}] = {float(arr[i])} {unit}; allowed: finite, {low:g} to {high:g} {unit}"
+        )
+    return arr
+
+
+def _run_kernel(
+    angles,
+    weights,
+    frequency,
+    beta,
+    sweep,
+    speed,
+    insect: Dragonfly,
+    options: ModelOptions,
+    keep_history: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    nodes_f, consts_f = wing_tables(insect.fore, options.n_blade, insect.air_density)
+    nodes_h, consts_h = wing_tables(insect.hind, options.n_blade, insect.air_density)
+    batch, n_time = weights[0].shape
+    out = np.empty((batch, 2, cycle.N_WING_OUT))
+    inflow = np.empty((batch, 2, options.n_blade))
+    mode = {"none": cycle.MODE_NONE, "isolated": cycle.MODE_ISOLATED, "coupled": cycle.MODE_COUPLED}
+    history = np.empty((batch if keep_history else 0, 2, n_time, 5))
+    cycle.tandem_cycle(
+        angles[0],
+        weights[0],
+        angles[1],
+        weights[1],
+        frequency,
+        beta,
+        sweep,
+        speed,
+        nodes_f,
+        consts_f,
+        nodes_h,
+        consts_h,
+        insect.air_density,
+        mode[options.induction],
+        options.interference,
+        options.spin == "total",
+        options.tolerance,
+        options.max_evaluations,
+        out,
+        inflow,
+        history,
+        *cycle.fourier_tables(n_time),
+    )
+    return out, inflow, history
+
+
+def _performance(
+    out: np.ndarray,
+    speed: np.ndarray,
+    available_power: np.ndarray,
+    insect: Dragonfly,
+    options: ModelOptions,
+) -> Result:
+    n_w = insect.wings_per_pair
+    weight = insect.weight
+    fz = out[:, :, cycle.W_FZ] * n_w
+    fx = out[:, :, cycle.W_FX] * n_w
+    lift = fz.sum(axis=1)
+    if options.thrust_split == "sign":
+        thrust = n_w * out[:, :, cycle.W_THRUST].sum(axis=1)
+        drag = n_w * out[:, :, cycle.W_DRAG].sum(axis=1)
+    else:
+        thrust = fx.sum(axis=1)
+        drag = 0.5 * insect.air_density * speed**2 * insect.body_drag_area
+    aero = n_w * out[:, :, cycle.W_P_AERO]
+    inertial = n_w * out[:, :, cycle.W_P_INER]
+    if options.power == "absolute":
+        wing_power = aero + inertial
+    else:
+        wing_power = n_w * out[:, :, cycle.W_P_ELASTIC]
+    power = wing_power.sum(axis=1)
+    power_per_mass = power / insect.body_mass
+    with np.errstate(divide="ignore", invalid="ignore"):
+        efficiency = np.where(power > 0.0, np.maximum(thrust, 0.0) * speed / power, 0.0)
+    lift_to_weight = lift / weight
+    excess_vertical = lift_to_weight - 1.0
+    excess_horizontal = (thrust - drag) / weight
+    aoa = np.rad2deg(out[:, :, cycle.W_AOA])
+    tol = options.constraint_tolerance
+    lift_violation = np.maximum(0.0, np.abs(lift_to_weight - 1.0) - tol)
+    thrust_violation = np.maximum(0.0, np.abs(excess_horizontal) - tol)
+    power_violation = np.maximum(0.0, power_per_mass - available_power)
+    vertical_deficit = np.maximum(0.0, -excess_vertical)
+    horizontal_deficit = np.maximum(0.0, -excess_horizontal)
+    return Result(
+        lift_to_weight=lift_to_weight,
+        thrust=thrust,
+        drag=drag,
+        power=power,
+        power_per_mass=power_per_mass,
+        efficiency=efficiency,
+        excess_vertical=excess_vertical,
+        excess_horizontal=excess_horizontal,
+        excess_total=np.hypot(excess_vertical, excess_horizontal),
+        mean_angle_of_attack=aoa.mean(axis=1),
+        lift_violation=lift_violation,
+        thrust_violation=thrust_violation,
+        power_violation=power_violation,
+        vertical_deficit=vertical_deficit,
+        horizontal_deficit=horizontal_deficit,
+        level_feasible=(lift_violation == 0.0)
+        & (thrust_violation == 0.0)
+        & (power_violation == 0.0),
+        accelerate_feasible=(vertical_deficit == 0.0)
+        & (horizontal_deficit == 0.0)
+        & (power_violation == 0.0),
+        efficiency_above_one=efficiency > 1.0,
+        induction_converged=np.all(out[:, :, cycle.W_CONVERGED] > 0.5, axis=1),
+        induction_evaluations=out[:, :, cycle.W_EVALS].max(axis=1),
+        fore_lift_to_weight=fz[:, 0] / weight,
+        hind_lift_to_weight=fz[:, 1] / weight,
+        fore_horizontal_force=fx[:, 0],
+        hind_horizontal_force=fx[:, 1],
+        fore_power=wing_power[:, 0],
+        hind_power=wing_power[:, 1],
+        fore_aero_power=aero[:, 0],
+        hind_aero_power=aero[:, 1],
+        fore_inertial_power=inertial[:, 0],
+        hind_inertial_power=inertial[:, 1],
+        fore_mean_angle_of_attack=aoa[:, 0],
+        hind_mean_angle_of_attack=aoa[:, 1],
+        fore_inflow=out[:, 0, cycle.W_INFLOW],
+        hind_inflow=out[:, 1, cycle.W_INFLOW],
+        speed=speed,
+        available_power=available_power,
+    )
+
+
+def _parametric_inputs(physical: np.ndarray, n_time: int):
+    batch = physical.shape[0]
+    angles, weights, frequency, beta, sweep = (
+        [],
+        [],
+        np.empty((batch, 2)),
+        np.empty((batch, 2)),
+        np.empty((batch, 2)),
+    )
+    for w in range(2):
+        params = np.ascontiguousarray(
+            wing_params_radians(physical[:, w * N_PER_WING : (w + 1) * N_PER_WING])
+        )
+        a = np.empty((batch, n_time, 9))
+        wt = np.empty((batch, n_time))
+        cycle.fill_angle_batch(params, n_time, a, wt)
+        angles.append(a)
+        weights.append(wt)
+        frequency[:, w] = params[:, 0]
+        beta[:, w] = params[:, 13]
+        sweep[:, w] = params[:, 1]
+    return angles, weights, frequency, beta, sweep
+
+
+def evaluate(
+    strokes: np.ndarray,
+    speed: float | np.ndarray = 0.0,
+    available_power: float | np.ndarray | None = None,
+    *,
+    insect: Dragonfly = DRAGONFLY,
+    options: ModelOptions = DEFAULT_OPTIONS,
+) -> Result:
+    """Evaluate one wing-beat cycle of each stroke in a batch.
+
+    Parameters
+    ----------
+    strokes : (B, 28) or (28,) array
+        Physical strokes in Table 4 units (Hz, deg, -), fore-wing first; see ``stroke``.
+    speed : float or (B,) array
+        Flight speed V [m/s], 0 to 20.
+    available_power : float or (B,) array, optional
+        Available power per body mass [W/kg], the cap of the power constraint in both flight
+        modes; default the insect's maximum (60 % muscle × 150 W/kg = 90 W/kg).
+    insect : Dragonfly
+        The insect (wings, planform, masses, air); default the paper's specimen.
+    options : ModelOptions
+        Resolution, inflow model and conventions.
+
+    Returns
+    -------
+    Result
+        (B,) arrays (a single stroke gives B = 1).
+
+    Raises
+    ------
+    ValueError
+        For strokes outside Table 4, non-finite values, wrong shapes, or a bad condition.
+    """
+    if not isinstance(insect, Dragonfly):
+        raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
+    if not isinstance(options, ModelOptions):
+        raise ValueError(f"options must be a ModelOptions; got {type(options).__name__}")
+    physical = validate_physical(strokes)
+    batch = physical.shape[0]
+    v = _broadcast_condition(speed, batch, "speed", "m/s", 0.0, 20.0, 0.0)
+    p_avail = _broadcast_condition(
+        available_power, batch, "available_power", "W/kg", 0.0, 1e4, insect.max_power_per_mass
+    )
+    angles, weights, frequency, beta, sweep = _parametric_inputs(physical, options.n_time)
+    out, _, _ = _run_kernel(angles, weights, frequency, beta, sweep, v, insect, options)
+    return _performance(out, v, p_avail, insect, options)
+
+
+@dataclass(frozen=True)
+class MeasuredWing:
+    """One wing's measured kinematics over one cycle (e.g. digitised from high-speed film).
+
+    Angles use the model's convention (see ``blade``): φ sweep in the stroke plane (+ forward),
+    θ elevation out of it (+ up), η pitch about the span (0 = chord normal to the stroke plane).
+    """
+
+    sweep: np.ndarray
+    """φ(t) [rad], (n,) samples uniform over one cycle, t = 0 … (n − 1)/n·T."""
+    elevation: np.ndarray
+    """θ(t) [rad], same sampling."""
+    pitch: np.ndarray
+    """η(t) [rad], same sampling."""
+    frequency: float
+    """Wing-beat frequency f [Hz]."""
+    stroke_plane_angle: float
+    """β [rad], from the flight path (add the climb angle when climbing)."""
+
+    def __post_init__(self) -> None:
+        arrays = [np.asarray(a, dtype=float) for a in (self.sweep, self.elevation, self.pitch)]
+        n = arrays[0].shape
+        for name, a in zip(("sweep", "elevation", "pitch"), arrays, strict=True):
+            if a.ndim != 1 or a.shape != n or a.shape[0] < 8:
+                raise ValueError(
+                    f"MeasuredWing.{name} must be a 1-D array of >= 8 samples, the same length as "
+                    f"sweep; got shape {a.shape}"
+                )
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"MeasuredWing.{name} has non-finite samples")
+        if not (np.isfinite(self.frequency) and 0.0 < self.frequency <= 1000.0):
+            raise ValueError(
+                f"MeasuredWing.frequency = {self.frequency!r} Hz; allowed: 0 < f <= 1000 Hz"
+            )
+        if not (np.isfinite(self.stroke_plane_angle) and abs(self.stroke_plane_angle) <= np.pi / 2):
+            raise ValueError(
+                f"MeasuredWing.stroke_plane_angle = {self.stroke_plane_angle!r} rad; allowed: -π/2 to π/2"
+            )
+
+    @property
+    def sweep_amplitude(self) -> float:
+        """Half the peak-to-peak sweep [rad] (sets the swept sector of the inflow model)."""
+        phi = np.asarray(self.sweep, dtype=float)
+        return 0.5 * float(phi.max() - phi.min())
+
+
+def evaluate_measured(
+    fore: MeasuredWing,
+    hind: MeasuredWing,
+    speed: float = 0.0,
+    available_power: float | None = None,
+    *,
+    insect: Dragonfly = DRAGONFLY,
+    options: ModelOptions = DEFAULT_OPTIONS,
+) -> Result:
+    """Forces and power of measured kinematics (B = 1), by the same compiled model.
+
+    Derivatives are spectral (the series are periodic), and the cycle is sampled as given
+    (``options.n_time`` is not used); both wings must have the same number of samples.
+    """
+    if fore.sweep.shape != hind.sweep.shape:
+        raise ValueError(
+            f"fore and hind series must have the same length; got {fore.sweep.shape} and {hind.sweep.shape}"
+        )
+    angles, weights = [], []
+    for wing in (fore, hind):
+        a = measured_angle_history(
+            np.asarray(wing.sweep, float),
+            np.asarray(wing.elevation, float),
+            np.asarray(wing.pitch, float),
+            wing.frequency,
+        )
+        angles.append(a[None])
+        weights.append(np.ones((1, a.shape[0])))
+    frequency = np.array([[fore.frequency, hind.frequency]])
+    beta = np.array([[fore.stroke_plane_angle, hind.stroke_plane_angle]])
+    sweep = np.array([[fore.sweep_amplitude, hind.sweep_amplitude]])
+    v = _broadcast_condition(speed, 1, "speed", "m/s", 0.0, 20.0, 0.0)
+    p_avail = _broadcast_condition(
+        available_power, 1, "available_power", "W/kg", 0.0, 1e4, insect.max_power_per_mass
+    )
+    out, _, _ = _run_kernel(angles, weights, frequency, beta, sweep, v, insect, options)
+    return _performance(out, v, p_avail, insect, options)

@@ -1,0 +1,304 @@
+"""The 28 stroke parameters: the paper's Table 4 as data, named <-> vector, and the normalised map.
+
+A physical stroke vector has 28 entries, 14 per wing, fore-wing first, each wing in the order
+``f, φ_m, θ_m, η_m, φ_0, θ_0, η_0, Φ_φ, Φ_θ, Φ_η, K, N, C_η, β_m`` and in Table 4's units:
+frequency in hertz, angles in degrees, K, N and C_η dimensionless.
+
+The normalised vector a ∈ [-1, 1]^28 maps each continuous parameter linearly onto its Table 4
+range; the discrete N is 1 where its coordinate is < 0 and 2 otherwise. Every environment and
+optimiser uses exactly this map (``normalised_to_physical``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import NamedTuple
+
+import numpy as np
+
+
+class Parameter(NamedTuple):
+    """One row of Table 4 for one wing."""
+
+    name: str
+    """Identifier used in named strokes (``fore_`` / ``hind_`` prefixed in 28-vectors)."""
+    symbol: str
+    """The paper's symbol."""
+    unit: str
+    """Unit of the physical value."""
+    fore: tuple[float, float]
+    """(low, high) bounds for the fore-wing."""
+    hind: tuple[float, float]
+    """(low, high) bounds for the hind-wing."""
+    description: str
+
+
+#: Table 4 of the paper, in the order of the stroke vector (per wing).
+TABLE_4: tuple[Parameter, ...] = (
+    Parameter("frequency", "f", "Hz", (30.0, 45.0), (30.0, 45.0), "wing-beat frequency (Eqs. 3-5)"),
+    Parameter(
+        "sweep_amplitude", "φ_m", "deg", (30.0, 60.0), (30.0, 60.0), "weaving amplitude (Eq. 3)"
+    ),
+    Parameter(
+        "elevation_amplitude", "θ_m", "deg", (1.0, 20.0), (1.0, 20.0), "flapping amplitude (Eq. 4)"
+    ),
+    Parameter(
+        "pitch_amplitude", "η_m", "deg", (1.0, 90.0), (1.0, 90.0), "pitching amplitude (Eq. 5)"
+    ),
+    Parameter(
+        "sweep_offset", "φ_0", "deg", (-30.0, 30.0), (-30.0, 30.0), "mean weaving angle (Eq. 3)"
+    ),
+    Parameter(
+        "elevation_offset", "θ_0", "deg", (5.0, 30.0), (-30.0, 5.0), "mean flapping angle (Eq. 4)"
+    ),
+    Parameter(
+        "pitch_offset", "η_0", "deg", (-90.0, 90.0), (-90.0, 90.0), "mean pitch angle (Eq. 5)"
+    ),
+    Parameter(
+        "sweep_phase", "Φ_φ", "deg", (-180.0, 180.0), (-180.0, 180.0), "weaving phase (Eq. 3)"
+    ),
+    Parameter(
+        "elevation_phase", "Φ_θ", "deg", (-180.0, 180.0), (-180.0, 180.0), "flapping phase (Eq. 4)"
+    ),
+    Parameter(
+        "pitch_phase", "Φ_η", "deg", (-180.0, 180.0), (-180.0, 180.0), "pitching phase (Eq. 5)"
+    ),
+    Parameter(
+        "sweep_shape",
+        "K",
+        "-",
+        (0.01, 1.0),
+        (0.01, 1.0),
+        "weaving waveform, sine -> triangle (Eq. 3)",
+    ),
+    Parameter(
+        "elevation_harmonic",
+        "N",
+        "-",
+        (1.0, 2.0),
+        (1.0, 2.0),
+        "flapping cycles per beat, 1 or 2 (Eq. 4)",
+    ),
+    Parameter(
+        "pitch_shape",
+        "C_η",
+        "-",
+        (0.01, 5.0),
+        (0.01, 5.0),
+        "pitching waveform, sine -> square (Eq. 5)",
+    ),
+    Parameter(
+        "stroke_plane_angle", "β_m", "deg", (5.0, 30.0), (5.0, 30.0), "stroke-plane inclination"
+    ),
+)
+
+WING_NAMES: tuple[str, str] = ("fore", "hind")
+N_PER_WING = len(TABLE_4)
+N_PARAMETERS = 2 * N_PER_WING
+#: Index of N (the discrete parameter) within one wing's 14 parameters.
+HARMONIC_INDEX = 11
+#: Names of the 28 entries, e.g. ``"fore_frequency"``.
+PARAMETER_NAMES: tuple[str, ...] = tuple(f"{w}_{p.name}" for w in WING_NAMES for p in TABLE_4)
+PARAMETER_UNITS: tuple[str, ...] = tuple(p.unit for _ in WING_NAMES for p in TABLE_4)
+LOWER = np.array([getattr(p, w)[0] for w in WING_NAMES for p in TABLE_4])
+"""Lower Table 4 bounds of the 28 physical parameters (Hz, deg, -)."""
+UPPER = np.array([getattr(p, w)[1] for w in WING_NAMES for p in TABLE_4])
+"""Upper Table 4 bounds of the 28 physical parameters (Hz, deg, -)."""
+DISCRETE = np.zeros(N_PARAMETERS, dtype=bool)
+DISCRETE[[HARMONIC_INDEX, N_PER_WING + HARMONIC_INDEX]] = True
+#: Entries given in degrees (converted to radians inside the model).
+ANGULAR = np.array([u == "deg" for u in PARAMETER_UNITS])
+
+
+def _as_batch(x: np.ndarray | list | tuple, what: str) -> tuple[np.ndarray, bool]:
+    arr = np.asarray(x, dtype=float)
+    single = arr.ndim == 1
+    if single:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != N_PARAMETERS:
+        raise ValueError(
+            f"{what} must have shape (28,) or (B, 28) (14 parameters per wing, fore first); "
+            f"got shape {np.shape(x)}"
+        )
+    return arr, single
+
+
+def _first_bad(mask: np.ndarray) -> tuple[int, int]:
+    row, col = np.argwhere(mask)[0]
+    return int(row), int(col)
+
+
+def validate_physical(strokes: np.ndarray | list | tuple, atol: float = 1e-9) -> np.ndarray:
+    """Check a (B, 28) or (28,) physical stroke array against Table 4 and return it as (B, 28).
+
+    Raises
+    ------
+    ValueError
+        Naming the first offending parameter, its value and the allowed range: non-finite
+        values, values outside Table 4 (beyond ``atol``), N other than 1 or 2, wrong shapes.
+    """
+    arr, _ = _as_batch(strokes, "strokes")
+    if arr.shape[0] == 0:
+        raise ValueError("strokes is empty: need at least one stroke (B >= 1)")
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        row, col = _first_bad(bad)
+        raise ValueError(
+            f"stroke {row}: {PARAMETER_NAMES[col]} = {float(arr[row, col])} is not finite; "
+            f"allowed range {LOWER[col]:g} to {UPPER[col]:g} {PARAMETER_UNITS[col]}"
+        )
+    outside = (arr < LOWER - atol) | (arr > UPPER + atol)
+    if outside.any():
+        row, col = _first_bad(outside)
+        raise ValueError(
+            f"stroke {row}: {PARAMETER_NAMES[col]} = {arr[row, col]:g} {PARAMETER_UNITS[col]} is "
+            f"outside Table 4: allowed {LOWER[col]:g} to {UPPER[col]:g} {PARAMETER_UNITS[col]}"
+        )
+    harmonic = arr[:, DISCRETE]
+    not_integer = (harmonic != 1.0) & (harmonic != 2.0)
+    if not_integer.any():
+        row, k = _first_bad(not_integer)
+        col = int(np.flatnonzero(DISCRETE)[k])
+        raise ValueError(
+            f"stroke {row}: {PARAMETER_NAMES[col]} = {float(arr[row, col]):g} must be exactly 1 or 2"
+        )
+    return arr
+
+
+def normalised_to_physical(action: np.ndarray | list | tuple) -> np.ndarray:
+    """Map normalised strokes a ∈ [-1, 1]^28 to physical strokes (Table 4 units).
+
+    Continuous parameters: x = low + (a + 1)/2·(high − low). Discrete N: 1 where a < 0, else 2.
+    Accepts (28,) or (B, 28); returns the same shape. Raises ``ValueError`` for non-finite
+    values or values outside [-1, 1] (clip first if that is what you want).
+    """
+    arr, single = _as_batch(action, "normalised strokes")
+    if not np.all(np.isfinite(arr)):
+        row, col = _first_bad(~np.isfinite(arr))
+        raise ValueError(
+            f"normalised stroke {row}: {PARAMETER_NAMES[col]} = {float(arr[row, col])} is not finite"
+        )
+    outside = np.abs(arr) > 1.0 + 1e-9
+    if outside.any():
+        row, col = _first_bad(outside)
+        raise ValueError(
+            f"normalised stroke {row}: {PARAMETER_NAMES[col]} = {arr[row, col]:g} is outside [-1, 1]"
+        )
+    arr = np.clip(arr, -1.0, 1.0)
+    physical = LOWER + 0.5 * (arr + 1.0) * (UPPER - LOWER)
+    physical[:, DISCRETE] = np.where(arr[:, DISCRETE] < 0.0, 1.0, 2.0)
+    return physical[0] if single else physical
+
+
+def physical_to_normalised(strokes: np.ndarray | list | tuple) -> np.ndarray:
+    """Inverse of :func:`normalised_to_physical` for valid physical strokes.
+
+    N = 1 maps to −0.5 and N = 2 to +0.5 (the middle of each half), so that
+    ``normalised_to_physical(physical_to_normalised(x)) == x``.
+    """
+    single = np.asarray(strokes).ndim == 1
+    arr = validate_physical(strokes)
+    action = 2.0 * (arr - LOWER) / (UPPER - LOWER) - 1.0
+    action[:, DISCRETE] = np.where(arr[:, DISCRETE] < 1.5, -0.5, 0.5)
+    return action[0] if single else action
+
+
+@dataclass(frozen=True)
+class WingStroke:
+    """The 14 stroke parameters of one wing (Eqs. 3-5), in Table 4's units."""
+
+    frequency: float
+    """f [Hz]."""
+    sweep_amplitude: float
+    """φ_m, weaving amplitude [deg]."""
+    elevation_amplitude: float
+    """θ_m, flapping amplitude [deg]."""
+    pitch_amplitude: float
+    """η_m, pitching amplitude [deg]."""
+    sweep_offset: float
+    """φ_0 [deg]."""
+    elevation_offset: float
+    """θ_0 [deg]."""
+    pitch_offset: float
+    """η_0 [deg]."""
+    sweep_phase: float
+    """Φ_φ [deg]."""
+    elevation_phase: float
+    """Φ_θ [deg]."""
+    pitch_phase: float
+    """Φ_η [deg]."""
+    sweep_shape: float
+    """K [-], 0.01 (sinusoid) to 1 (triangle wave)."""
+    elevation_harmonic: int
+    """N [-], 1 or 2 flapping cycles per beat."""
+    pitch_shape: float
+    """C_η [-], 0.01 (sinusoid) to 5 (near square wave)."""
+    stroke_plane_angle: float
+    """β_m, stroke-plane inclination to the flight path [deg]."""
+
+    def to_vector(self) -> np.ndarray:
+        return np.array([float(getattr(self, f.name)) for f in fields(self)])
+
+
+@dataclass(frozen=True)
+class Stroke:
+    """A named physical stroke of both wings. Validated against Table 4 at construction."""
+
+    fore: WingStroke
+    hind: WingStroke
+
+    def __post_init__(self) -> None:
+        validate_physical(self.to_vector())
+
+    def to_vector(self) -> np.ndarray:
+        """The (28,) physical vector, fore-wing first."""
+        return np.concatenate([self.fore.to_vector(), self.hind.to_vector()])
+
+    @classmethod
+    def from_vector(cls, vector: np.ndarray | list | tuple) -> Stroke:
+        arr = validate_physical(vector)
+        if arr.shape[0] != 1:
+            raise ValueError(
+                f"Stroke.from_vector takes one stroke of shape (28,); got {np.shape(vector)}"
+            )
+        values = arr[0]
+
+        def wing(chunk: np.ndarray) -> WingStroke:
+            kwargs = {p.name: float(v) for p, v in zip(TABLE_4, chunk, strict=True)}
+            kwargs["elevation_harmonic"] = int(kwargs["elevation_harmonic"])
+            return WingStroke(**kwargs)
+
+        return cls(fore=wing(values[:N_PER_WING]), hind=wing(values[N_PER_WING:]))
+
+    def to_normalised(self) -> np.ndarray:
+        return physical_to_normalised(self.to_vector())
+
+    @classmethod
+    def from_normalised(cls, action: np.ndarray | list | tuple) -> Stroke:
+        return cls.from_vector(normalised_to_physical(action))
+
+    def to_dict(self) -> dict[str, float]:
+        """Flat ``{"fore_frequency": ..., ...}`` mapping (units in :data:`PARAMETER_UNITS`)."""
+        return strokes_to_dicts(self.to_vector()[None, :])[0]
+
+
+def strokes_to_dicts(strokes: np.ndarray) -> list[dict[str, float]]:
+    """Named physical parameters for each row of a (B, 28) physical array."""
+    arr, _ = _as_batch(strokes, "strokes")
+    out = []
+    for row in arr:
+        d = {name: float(v) for name, v in zip(PARAMETER_NAMES, row, strict=True)}
+        for name in (PARAMETER_NAMES[HARMONIC_INDEX], PARAMETER_NAMES[N_PER_WING + HARMONIC_INDEX]):
+            d[name] = int(d[name])
+        out.append(d)
+    return out
+
+
+def table_4_markdown() -> str:
+    """Table 4 as a Markdown table (for docs and reports)."""
+    lines = ["| parameter | symbol | unit | fore-wing | hind-wing |", "|---|---|---|---|---|"]
+    for p in TABLE_4:
+        lines.append(
+            f"| {p.name} | {p.symbol} | {p.unit} | {p.fore[0]:g} to {p.fore[1]:g} | {p.hind[0]:g} to {p.hind[1]:g} |"
+        )
+    return "\n".join(lines)

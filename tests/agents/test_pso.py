@@ -1,0 +1,402 @@
+"""Tests for agents.pso: convergence, box constraints, budget, determinism and configuration."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from agents import (
+    PSO,
+    OptimisationResult,
+    Progress,
+    PSOConfig,
+    RandomSearchConfig,
+    maximise,
+    minimise,
+)
+from agents.optimiser import FloatArray
+
+DIM = 28
+X_STAR = 0.3  # optimum of the test functions, in every coordinate of the box
+
+
+def neg_sphere(X: FloatArray) -> FloatArray:
+    """Maximised at X_STAR with value 0."""
+    return -np.sum((X - X_STAR) ** 2, axis=1)
+
+
+def rastrigin(X: FloatArray) -> FloatArray:
+    """Rastrigin with the box mapped onto a width of 2 x 5.12 and the minimum (0) at X_STAR."""
+    z = 5.12 * (X - X_STAR)
+    return 10.0 * X.shape[1] + np.sum(z**2 - 10.0 * np.cos(2.0 * np.pi * z), axis=1)
+
+
+def run_ask_tell(opt: PSO, objective) -> list[FloatArray]:
+    """Drive ``opt`` to the end of its budget, returning every asked batch."""
+    batches = []
+    while not opt.done:
+        X = opt.ask()
+        batches.append(X)
+        opt.tell(X, objective(X))
+    return batches
+
+
+# --- convergence -------------------------------------------------------------------------------
+# Measured with 40 particles x 500 iterations (20 000 evaluations) in 28-D over seeds 0-199:
+#   sphere, constriction: worst best-fitness -1.6e-8 (clip), -9.7e-9 (reflect); seed 0 ~ -1e-11.
+#   sphere, linear-decreasing + clip (seeds 0-19): worst -3.9e-4, seed 0 -1.0e-4.
+#   Rastrigin, constriction + clip: best value median 60, worst 116 (seeds 0/1/2: 41/86/50).
+#   Random search, same budget: Rastrigin best value median 328, best-of-200 267 (seeds 0/1/2:
+#   338/339/318); PSO / random search per seed: median 0.19, worst 0.42.
+#   Sphere best-fitness for random search: median -4.0, best-of-200 -2.5.
+
+
+@pytest.mark.parametrize("boundary", ["clip", "reflect"])
+def test_sphere_reaches_optimum(boundary: str) -> None:
+    config = PSOConfig(swarm_size=40, iterations=500, boundary=boundary)
+    result = maximise(neg_sphere, DIM, config, seed=0)
+    assert result.best_fitness > -1e-6  # measured worst over 200 seeds: -1.6e-8
+    assert result.best_position is not None
+    np.testing.assert_allclose(result.best_position, X_STAR, atol=1e-3)
+    assert result.evaluations == 40 * 500
+    assert result.history.shape == (500, 2)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_rastrigin_clearly_beats_random_search(seed: int) -> None:
+    pso = minimise(rastrigin, DIM, PSOConfig(iterations=500), seed=seed)
+    rs = minimise(rastrigin, DIM, RandomSearchConfig(max_evaluations=20_000), seed=seed)
+    assert pso.evaluations == rs.evaluations == 20_000
+    # Gets into the low-lying region (random points score ~ 28 x 10 + 28 x 5.12^2 / 3 ~ 525,
+    # the global minimum is 0), though not necessarily to the global minimum itself.
+    assert pso.best_fitness < 150.0  # measured worst over 200 seeds: 116
+    # Measured PSO / random-search ratio at equal seed: worst 0.42 over 200 seeds.
+    assert pso.best_fitness < 0.5 * rs.best_fitness
+
+
+def test_linear_decreasing_also_converges_on_sphere() -> None:
+    result = maximise(neg_sphere, DIM, PSOConfig(iterations=500, inertia="linear-decreasing"), 0)
+    # Slower to refine than the constriction set (measured worst over 20 seeds: -3.9e-4).
+    assert result.best_fitness > -5e-3
+
+
+# --- box, velocity and boundary handling --------------------------------------------------------
+
+
+@pytest.mark.parametrize("boundary", ["clip", "reflect"])
+def test_never_leaves_the_box(boundary: str) -> None:
+    # Maximising sum(x) drives the whole swarm into the corner (1, ..., 1), so the walls are
+    # hit constantly; the wide clamp lets particles overshoot by up to a full box width.
+    config = PSOConfig(iterations=200, velocity_clamp=1.0, boundary=boundary)
+    opt = PSO(5, config, seed=3)
+    batches = run_ask_tell(opt, lambda X: X.sum(axis=1))
+    stacked = np.concatenate(batches)
+    assert stacked.min() >= -1.0
+    assert stacked.max() <= 1.0
+    assert np.isclose(stacked.max(), 1.0)  # the walls were actually reached
+
+
+@pytest.mark.parametrize("boundary", ["clip", "reflect"])
+def test_boundary_rule_matches_definition(boundary: str) -> None:
+    # With c1 = c2 = 0 the update is deterministic, v <- w v, so each step can be predicted.
+    config = PSOConfig(
+        iterations=30, cognitive=0.0, social=0.0, velocity_clamp=1.0, boundary=boundary
+    )
+    opt = PSO(4, config, seed=11)
+    X = opt.ask()
+    opt.tell(X, np.zeros(len(X)))
+    walls_hit = 0
+    while not opt.done:
+        v_before = opt.velocities
+        raw_x = X + 0.7298 * v_before
+        raw_v = 0.7298 * v_before
+        hit = np.abs(raw_x) >= 1.0  # landing exactly on a wall counts as hitting it
+        walls_hit += int(hit.sum())
+        if boundary == "clip":
+            expected_x = np.clip(raw_x, -1.0, 1.0)
+            expected_v = np.where(hit, 0.0, raw_v)
+        else:
+            expected_x = np.where(
+                raw_x > 1.0, 2.0 - raw_x, np.where(raw_x < -1.0, -2.0 - raw_x, raw_x)
+            )
+            expected_v = np.where(hit, -raw_v, raw_v)
+        X = opt.ask()
+        opt.tell(X, np.zeros(len(X)))
+        np.testing.assert_allclose(X, expected_x, atol=1e-12)
+        np.testing.assert_allclose(opt.velocities, expected_v, atol=1e-12)
+    assert walls_hit > 0
+
+
+@pytest.mark.parametrize("boundary", ["clip", "reflect"])
+def test_velocity_clamp_respected(boundary: str) -> None:
+    clamp = 0.1
+    vmax = clamp * 2.0  # clamp is a fraction of the box width 2
+    opt = PSO(DIM, PSOConfig(iterations=100, velocity_clamp=clamp, boundary=boundary), seed=5)
+    assert np.abs(opt.velocities).max() <= vmax  # initial velocities too
+    previous = None
+    while not opt.done:
+        X = opt.ask()
+        opt.tell(X, neg_sphere(X))
+        assert np.abs(opt.velocities).max() <= vmax
+        if previous is not None:
+            # Clipping or mirroring at a wall can only shorten a step.
+            assert np.abs(X - previous).max() <= vmax + 1e-12
+        previous = X
+
+
+def test_clip_zeroes_velocity_on_the_wall() -> None:
+    opt = PSO(5, PSOConfig(iterations=100, velocity_clamp=1.0, boundary="clip"), seed=2)
+    on_wall_seen = 0
+    while not opt.done:
+        X = opt.ask()
+        opt.tell(X, X.sum(axis=1))
+        on_wall = np.abs(X) == 1.0
+        on_wall_seen += int(on_wall.sum())
+        assert np.all(opt.velocities[on_wall] == 0.0)
+    assert on_wall_seen > 0
+
+
+# --- inertia ----------------------------------------------------------------------------------
+
+
+def test_linear_decreasing_inertia_goes_from_0_9_to_0_4() -> None:
+    config = PSOConfig(iterations=51, inertia="linear-decreasing", cognitive=0.0, social=0.0)
+    opt = PSO(6, config, seed=4)
+    schedule = opt.inertia_schedule
+    assert len(schedule) == 50  # the first of the 51 iterations evaluates the initial swarm
+    assert schedule[0] == pytest.approx(0.9)
+    assert schedule[-1] == pytest.approx(0.4)
+    np.testing.assert_allclose(np.diff(schedule), -0.5 / 49)
+
+    # With c1 = c2 = 0 each velocity update is v <- w v: read w back from the swarm itself.
+    X = opt.ask()
+    opt.tell(X, np.zeros(len(X)))
+    used = []
+    while not opt.done:
+        before = opt.velocities
+        X = opt.ask()
+        opt.tell(X, np.zeros(len(X)))
+        after = opt.velocities
+        moving = (before != 0.0) & (after != 0.0)  # components not stopped by a wall
+        ratios = after[moving] / before[moving]
+        np.testing.assert_allclose(ratios, ratios[0], rtol=1e-12)
+        used.append(ratios[0])
+    np.testing.assert_allclose(used, schedule, rtol=1e-12)
+
+
+def test_linear_schedule_follows_evaluation_budget() -> None:
+    # 100 evaluations with 40 particles = 3 iterations (40 + 40 + 20), hence 2 updates.
+    opt = PSO(3, PSOConfig(max_evaluations=100, inertia="linear-decreasing"), seed=0)
+    np.testing.assert_allclose(opt.inertia_schedule, [0.9, 0.4])
+
+
+def test_constriction_constants() -> None:
+    phi = 4.1  # c1 + c2 in Clerc & Kennedy's formulation
+    chi = 2.0 / abs(2.0 - phi - math.sqrt(phi**2 - 4.0 * phi))
+    config = PSOConfig(iterations=10)
+    assert config.c1 == config.c2 == pytest.approx(chi * phi / 2.0, abs=1e-5)
+    opt = PSO(3, config, seed=0)
+    np.testing.assert_allclose(opt.inertia_schedule, chi, atol=1e-4)
+    linear = PSOConfig(iterations=10, inertia="linear-decreasing")
+    assert linear.c1 == linear.c2 == 2.0
+
+
+# --- budget and ask/tell protocol --------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("swarm_size", "iterations", "max_evaluations", "expected_sizes"),
+    [
+        (40, None, 100, [40, 40, 20]),
+        (40, 3, None, [40, 40, 40]),
+        (40, 3, 1000, [40, 40, 40]),
+        (7, 5, 30, [7, 7, 7, 7, 2]),
+        (10, None, 10, [10]),
+    ],
+)
+def test_budget_never_exceeded(
+    swarm_size: int, iterations: int | None, max_evaluations: int | None, expected_sizes: list[int]
+) -> None:
+    config = PSOConfig(
+        swarm_size=swarm_size, iterations=iterations, max_evaluations=max_evaluations
+    )
+    opt = PSO(4, config, seed=0)
+    sizes = [len(X) for X in run_ask_tell(opt, neg_sphere)]
+    assert sizes == expected_sizes
+    assert opt.evaluations == sum(expected_sizes)
+    assert [e for e, _ in opt.history] == list(np.cumsum(expected_sizes))
+    assert opt.done
+    with pytest.raises(RuntimeError, match="budget exhausted"):
+        opt.ask()
+
+    calls: list[int] = []
+
+    def objective(X: FloatArray) -> FloatArray:
+        calls.append(len(X))
+        return neg_sphere(X)
+
+    result = maximise(objective, 4, config, seed=0)
+    assert calls == expected_sizes  # one batched call per iteration, whole swarm at once
+    assert result.evaluations == sum(expected_sizes)
+
+
+def test_ask_tell_protocol_errors() -> None:
+    opt = PSO(3, PSOConfig(iterations=5), seed=0)
+    with pytest.raises(RuntimeError, match="without a preceding ask"):
+        opt.tell(np.zeros((40, 3)), np.zeros(40))
+    X = opt.ask()
+    with pytest.raises(RuntimeError, match="before tell"):
+        opt.ask()
+    with pytest.raises(ValueError, match="unchanged"):
+        opt.tell(X[::-1], np.zeros(40))
+    with pytest.raises(ValueError, match=r"fitness must have shape \(40,\)"):
+        opt.tell(X, np.zeros((40, 1)))
+    opt.tell(X, np.zeros(40))  # a failed tell leaves the batch pending
+    assert opt.evaluations == 40
+
+
+def test_asked_batch_is_a_copy() -> None:
+    opt = PSO(3, PSOConfig(iterations=5), seed=0)
+    X = opt.ask()
+    X[:] = 5.0  # the caller scribbling on its array must not move the swarm
+    with pytest.raises(ValueError, match="unchanged"):
+        opt.tell(X, np.zeros(40))
+
+
+# --- determinism -------------------------------------------------------------------------------
+
+
+def test_same_seed_same_run_different_seed_different_run() -> None:
+    config = PSOConfig(iterations=50)
+    a = maximise(neg_sphere, 8, config, seed=123)
+    b = maximise(neg_sphere, 8, config, seed=123)
+    c = maximise(neg_sphere, 8, config, seed=124)
+    np.testing.assert_array_equal(a.history, b.history)
+    np.testing.assert_array_equal(a.best_position, b.best_position)
+    assert not np.array_equal(a.history[:, 1], c.history[:, 1])
+
+    asked_a = run_ask_tell(PSO(8, config, seed=7), neg_sphere)
+    asked_b = run_ask_tell(PSO(8, config, seed=7), neg_sphere)
+    for Xa, Xb in zip(asked_a, asked_b, strict=True):
+        np.testing.assert_array_equal(Xa, Xb)
+
+
+# --- NaN fitness -------------------------------------------------------------------------------
+
+
+def test_nan_fitness_is_never_best() -> None:
+    def objective(X: FloatArray) -> FloatArray:
+        # NaN on the half of the box that contains the true optimum.
+        return np.where(X[:, 0] > 0.0, np.nan, neg_sphere(X))
+
+    result = maximise(objective, 5, PSOConfig(iterations=100), seed=0)
+    assert np.isfinite(result.best_fitness)
+    assert result.best_position is not None
+    assert result.best_position[0] <= 0.0
+    assert np.all(np.isfinite(result.history[:, 1]))
+    # The constrained optimum is x0 = 0, others at X_STAR: value -X_STAR^2 = -0.09.
+    assert result.best_fitness == pytest.approx(-(X_STAR**2), abs=1e-3)
+
+
+def test_all_nan_fitness() -> None:
+    opt = PSO(3, PSOConfig(iterations=5), seed=0)
+    batches = run_ask_tell(opt, lambda X: np.full(len(X), np.nan))
+    assert len(batches) == 5
+    assert opt.best_fitness == -math.inf
+    assert opt.best_position is None
+    assert all(best == -math.inf for _, best in opt.history)
+    for X in batches:
+        assert np.all(np.abs(X) <= 1.0)
+
+
+# --- results, callback, minimise ---------------------------------------------------------------
+
+
+def test_result_record_and_callback() -> None:
+    seen: list[Progress] = []
+    config = PSOConfig(iterations=20)
+    result = minimise(lambda X: -neg_sphere(X), 4, config, seed=1, callback=seen.append)
+    assert isinstance(result, OptimisationResult)
+    assert result.sense == "minimise"
+    assert result.best_fitness >= 0.0  # reported in the objective's own units
+    assert [p.iteration for p in seen] == list(range(1, 21))
+    assert [p.evaluations for p in seen] == list(range(40, 801, 40))
+    best = [p.best_fitness for p in seen]
+    assert best == sorted(best, reverse=True)  # best-so-far of a minimisation never rises
+    np.testing.assert_array_equal(result.history[:, 1], best)
+    assert seen[-1].best_fitness == result.best_fitness
+
+    record = result.to_dict()
+    json.dumps(record)  # plain JSON types only
+    assert record["config"]["citation"] == config.citation
+    assert record["config"]["algorithm"] == "pso"
+    with pytest.raises(ValueError, match="read-only"):
+        result.history[0, 0] = 0.0
+
+
+def test_citation_names_variant_and_constants() -> None:
+    constriction = PSOConfig(iterations=1)
+    assert "Clerc & Kennedy (2002)" in constriction.citation
+    assert "w = 0.7298" in constriction.citation
+    assert "c1 = 1.49618" in constriction.citation
+    linear = PSOConfig(iterations=1, inertia="linear-decreasing")
+    assert "Shi & Eberhart" in linear.citation
+    assert "0.9 -> 0.4" in linear.citation
+    assert "c1 = 2.0" in linear.citation
+    overridden = PSOConfig(iterations=1, social=1.0)
+    assert "c2 = 1.0" in overridden.citation
+    assert "social overridden" in overridden.citation
+    for config in (constriction, linear, overridden):
+        assert config.citation in config.describe()
+        assert config.to_dict()["citation"] == config.citation
+
+
+# --- configuration validation ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"swarm_size": 1}, "swarm_size must be an integer >= 2"),
+        ({"swarm_size": True}, "swarm_size must be an integer >= 2"),
+        ({"swarm_size": 10.0}, "swarm_size must be an integer"),
+        (
+            {"inertia": "adaptive"},
+            r"inertia must be one of \('constriction', 'linear-decreasing'\)",
+        ),
+        ({"boundary": "wrap"}, "wrap-around is not supported"),
+        ({"velocity_clamp": 0.0}, r"velocity_clamp must be a finite number in \(0.0, 1.0\]"),
+        ({"velocity_clamp": 1.5}, r"velocity_clamp must be a finite number in \(0.0, 1.0\]"),
+        ({"velocity_clamp": math.nan}, "velocity_clamp must be a finite number"),
+        ({"cognitive": -0.1}, r"cognitive must be a finite number in \[0.0, inf\)"),
+        ({"social": math.inf}, "social must be a finite number"),
+        ({"iterations": 0}, "iterations must be an integer >= 1"),
+        ({"max_evaluations": 2.5}, "max_evaluations must be an integer >= 1"),
+    ],
+)
+def test_bad_config_raises_helpful_error(kwargs: dict[str, object], message: str) -> None:
+    kwargs = {"iterations": 10, **kwargs}
+    with pytest.raises(ValueError, match=message):
+        PSOConfig(**kwargs)  # type: ignore[arg-type]
+
+
+def test_missing_budget_and_bad_dim_raise() -> None:
+    with pytest.raises(ValueError, match="no budget given: set iterations and/or max_evaluations"):
+        PSOConfig()
+    with pytest.raises(ValueError, match="dim must be an integer >= 1"):
+        PSO(0, PSOConfig(iterations=1))
+    with pytest.raises(TypeError, match="PSOConfig"):
+        PSO(3, RandomSearchConfig(iterations=1))  # type: ignore[arg-type]
+
+
+def test_numpy_scalar_settings_are_stored_plain() -> None:
+    config = PSOConfig(
+        swarm_size=np.int64(10), iterations=np.int32(5), velocity_clamp=np.float32(0.25)
+    )
+    assert type(config.swarm_size) is int
+    assert type(config.iterations) is int
+    assert type(config.velocity_clamp) is float
+    json.dumps(config.to_dict())
