@@ -14,7 +14,7 @@ import numpy as np
 from . import blade, cycle
 from .insect import DRAGONFLY, Dragonfly
 from .kinematics import fill_angles, wing_params_radians
-from .model import DEFAULT_OPTIONS, Result, _performance, _run_kernel, wing_tables
+from .model import DEFAULT_OPTIONS, Result, _run_kernel, evaluate, wing_tables
 from .options import ModelOptions
 from .stroke import N_PER_WING, validate_physical
 
@@ -59,7 +59,7 @@ class StrokeHistory:
     fore: WingHistory
     hind: WingHistory
     result: Result
-    """The cycle means of the same evaluation (B = 1)."""
+    """The cycle means of :func:`evaluate` for this stroke (B = 1)."""
 
 
 def _tip_path(angles: np.ndarray, beta: float, side: int = 1) -> np.ndarray:
@@ -84,8 +84,8 @@ def stroke_history(
 ) -> StrokeHistory:
     """Time histories of one physical stroke (28,) at flight speed ``speed`` [m/s].
 
-    ``n_samples`` uniform samples per cycle (the cycle means in ``result`` use them too, so
-    they agree with :func:`evaluate` to the quadrature accuracy). ``side = -1`` evaluates the
+    The histories have ``n_samples`` uniform samples per cycle; ``result`` is exactly
+    :func:`evaluate` of the stroke (on its motion-following grid). ``side = -1`` evaluates the
     mirror image (the left wings), for the symmetry checks.
     """
     physical = validate_physical(stroke)
@@ -125,9 +125,9 @@ def stroke_history(
         angles, weights, frequency, beta, sweep, v, insect, options, keep_history=True
     )
     if side == -1:
-        out_m, _, hist_m = _mirror_run(angles, weights, frequency, beta, v, inflow, insect, options)
-        out, hist = out_m, hist_m
-    result = _performance(out, v, p_avail, insect, options)
+        _, hist = _mirror_run(angles, weights, frequency, beta, v, inflow, insect, options)
+    del out
+    result = evaluate(physical, v, p_avail, insect=insect, options=options)
     n_w = insect.wings_per_pair
     wings = []
     for w, wing in enumerate((insect.fore, insect.hind)):
@@ -199,7 +199,7 @@ def _mirror_run(angles, weights, frequency, beta, speed, inflow, insect, options
             *cycle.fourier_tables(n_time),
         )
         hist[0, w] = scratch
-    return out, None, hist
+    return out, hist
 
 
 def _flow_angles(angles, weights, beta, speed, inflow, wing, insect, options, side):
