@@ -1,5 +1,15 @@
 """The physics: a pure, batched quasi-steady model of tandem flapping wings (no Gymnasium here)."""
 
+import os as _os
+
+import numba as _numba
+
+# numba's default OpenMP layer spins its threads: on a shared or oversubscribed CPU (CI, several
+# training processes) one small evaluation then costs tens of milliseconds instead of one. The
+# work-queue layer does not spin. A user's NUMBA_THREADING_LAYER still wins.
+if "NUMBA_THREADING_LAYER" not in _os.environ:
+    _numba.config.THREADING_LAYER = "workqueue"
+
 from .insect import DRAGONFLY, PLANFORMS, Dragonfly, Wing
 from .model import METRIC_NAMES, MeasuredWing, Result, evaluate, evaluate_measured
 from .options import ModelOptions

@@ -335,6 +335,74 @@ def fill_angle_batch(params, n_time, angles, weight):
         fill_angle_history(params[b], n_time, angles[b], weight[b])
 
 
+@njit(cache=True)
+def tandem_stroke(
+    b,
+    angles_fore,
+    weight_fore,
+    angles_hind,
+    weight_hind,
+    frequency,
+    beta,
+    sweep_amplitude,
+    speed,
+    nodes_fore,
+    consts_fore,
+    nodes_hind,
+    consts_hind,
+    rho,
+    mode,
+    interference,
+    spin_total,
+    tolerance,
+    max_evaluations,
+    out,
+    out_inflow,
+    out_history,
+    cos_table,
+    sin_table,
+):
+    """Cycle means of stroke ``b`` of a batch: the fore-wing first, then the hind-wing in its
+    slipstream (see :func:`tandem_cycle` for the arguments)."""
+    n_time = angles_fore.shape[1]
+    n_r = nodes_fore.shape[0]
+    coef = np.empty((n_time, N_COEF))
+    hist = np.empty((n_time, 5))
+    v_ext = np.zeros(n_r)
+    solve = mode != MODE_NONE
+    for wing in range(2):
+        if wing == 0:
+            fill_frame_coefficients(angles_fore[b], weight_fore[b], beta[b, 0], spin_total, 1, coef)
+        else:
+            fill_frame_coefficients(angles_hind[b], weight_hind[b], beta[b, 1], spin_total, 1, coef)
+            if mode == MODE_COUPLED:
+                for j in range(n_r):
+                    v_ext[j] = interference * out_inflow[b, 0, j]
+        v_t = speed[b] * np.cos(beta[b, wing])
+        v_n = speed[b] * np.sin(beta[b, wing])
+        wing_cycle(
+            coef,
+            nodes_fore if wing == 0 else nodes_hind,
+            consts_fore if wing == 0 else consts_hind,
+            rho,
+            frequency[b, wing],
+            sweep_amplitude[b, wing],
+            v_t,
+            v_n,
+            v_ext,
+            solve,
+            tolerance,
+            max_evaluations,
+            out_inflow[b, wing],
+            out[b, wing],
+            hist,
+            cos_table,
+            sin_table,
+        )
+        if out_history.shape[0] > b:
+            out_history[b, wing] = hist
+
+
 @njit(parallel=True, cache=True)
 def tandem_cycle(
     angles_fore,
@@ -361,58 +429,93 @@ def tandem_cycle(
     cos_table,
     sin_table,
 ):
-    """Cycle means of a batch of tandem strokes.
+    """Cycle means of a batch of tandem strokes, in parallel over the batch.
 
     ``angles_*``: (B, n_time, 9); ``weight_*``: (B, n_time); ``frequency``, ``beta``,
     ``sweep_amplitude``: (B, 2) per wing [Hz, rad, rad]; ``speed``: (B,) [m/s].
     Writes ``out`` (B, 2, N_WING_OUT) and ``out_inflow`` (B, 2, n_r) [m/s]; if ``out_history``
     has B rows, also the per-sample F_x, F_z, F_y, P_aero, P_iner of each wing (B, 2, n_time, 5).
     """
-    batch = angles_fore.shape[0]
-    n_time = angles_fore.shape[1]
-    n_r = nodes_fore.shape[0]
-    keep_history = out_history.shape[0] == batch
-    for b in prange(batch):
-        coef = np.empty((n_time, N_COEF))
-        hist = np.empty((n_time, 5))
-        zero = np.zeros(n_r)
-        v_ext = np.zeros(n_r)
-        solve = mode != MODE_NONE
-        for wing in range(2):
-            if wing == 0:
-                fill_frame_coefficients(
-                    angles_fore[b], weight_fore[b], beta[b, 0], spin_total, 1, coef
-                )
-            else:
-                fill_frame_coefficients(
-                    angles_hind[b], weight_hind[b], beta[b, 1], spin_total, 1, coef
-                )
-            v_t = speed[b] * np.cos(beta[b, wing])
-            v_n = speed[b] * np.sin(beta[b, wing])
-            if wing == 1 and mode == MODE_COUPLED:
-                for j in range(n_r):
-                    v_ext[j] = interference * out_inflow[b, 0, j]
-                external = v_ext
-            else:
-                external = zero
-            wing_cycle(
-                coef,
-                nodes_fore if wing == 0 else nodes_hind,
-                consts_fore if wing == 0 else consts_hind,
-                rho,
-                frequency[b, wing],
-                sweep_amplitude[b, wing],
-                v_t,
-                v_n,
-                external,
-                solve,
-                tolerance,
-                max_evaluations,
-                out_inflow[b, wing],
-                out[b, wing],
-                hist,
-                cos_table,
-                sin_table,
-            )
-            if keep_history:
-                out_history[b, wing] = hist
+    for b in prange(angles_fore.shape[0]):
+        tandem_stroke(
+            b,
+            angles_fore,
+            weight_fore,
+            angles_hind,
+            weight_hind,
+            frequency,
+            beta,
+            sweep_amplitude,
+            speed,
+            nodes_fore,
+            consts_fore,
+            nodes_hind,
+            consts_hind,
+            rho,
+            mode,
+            interference,
+            spin_total,
+            tolerance,
+            max_evaluations,
+            out,
+            out_inflow,
+            out_history,
+            cos_table,
+            sin_table,
+        )
+
+
+@njit(cache=True)
+def tandem_cycle_serial(
+    angles_fore,
+    weight_fore,
+    angles_hind,
+    weight_hind,
+    frequency,
+    beta,
+    sweep_amplitude,
+    speed,
+    nodes_fore,
+    consts_fore,
+    nodes_hind,
+    consts_hind,
+    rho,
+    mode,
+    interference,
+    spin_total,
+    tolerance,
+    max_evaluations,
+    out,
+    out_inflow,
+    out_history,
+    cos_table,
+    sin_table,
+):
+    """:func:`tandem_cycle` on one thread, for batches too small to pay for a thread launch."""
+    for b in range(angles_fore.shape[0]):
+        tandem_stroke(
+            b,
+            angles_fore,
+            weight_fore,
+            angles_hind,
+            weight_hind,
+            frequency,
+            beta,
+            sweep_amplitude,
+            speed,
+            nodes_fore,
+            consts_fore,
+            nodes_hind,
+            consts_hind,
+            rho,
+            mode,
+            interference,
+            spin_total,
+            tolerance,
+            max_evaluations,
+            out,
+            out_inflow,
+            out_history,
+            cos_table,
+            sin_table,
+        )

@@ -121,6 +121,8 @@ def stroke_history(
     p_avail = np.array(
         [insect.max_power_per_mass if available_power is None else float(available_power)]
     )
+    if not (np.isfinite(p_avail[0]) and p_avail[0] > 0.0):
+        raise ValueError(f"available_power = {available_power!r} W/kg; allowed: finite and > 0")
     out, inflow, hist = _run_kernel(
         angles, weights, frequency, beta, sweep, v, insect, options, keep_history=True
     )

@@ -15,11 +15,14 @@ import numpy as np
 
 from . import cycle
 from .insect import DRAGONFLY, Dragonfly, Wing
-from .kinematics import measured_angle_history, wing_params_radians
+from .kinematics import fill_angle_history, measured_angle_history, wing_params_radians
 from .options import ModelOptions
 from .stroke import N_PER_WING, validate_physical
 
 DEFAULT_OPTIONS = ModelOptions()
+
+#: Batches smaller than this run on one thread: a parallel launch costs more than it saves.
+SERIAL_BELOW = 4
 
 #: The metrics every evaluation reports, in the order environments list them in ``info``.
 METRIC_NAMES: tuple[str, ...] = (
@@ -151,6 +154,10 @@ class Result:
     """Flight speed V [m/s]."""
     available_power: np.ndarray
     """Available power per mass [W/kg]."""
+    options: ModelOptions = DEFAULT_OPTIONS
+    """The options this result was computed with (thrust split, power convention, …)."""
+    planform: str = "tear-drop"
+    """The insect's planform (``"tear-drop"``, ``"real"`` or ``"mixed"``)."""
 
     def __len__(self) -> int:
         return int(self.lift_to_weight.shape[0])
@@ -160,16 +167,24 @@ class Result:
         return {name: getattr(self, name) for name in METRIC_NAMES}
 
     def as_dict(self) -> dict[str, np.ndarray]:
-        """Every field as a dict of (B,) arrays."""
-        return {f.name: getattr(self, f.name) for f in fields(self)}
+        """Every (B,) array field as a dict (the metadata ``options``, ``planform`` excluded)."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name not in _METADATA}
 
-    def row(self, index: int) -> dict[str, float | bool]:
+    def row(self, index: int) -> dict[str, float | int | bool]:
         """Plain Python values of one stroke (for ``info`` dicts and JSON records)."""
-        out: dict[str, float | bool] = {}
+        out: dict[str, float | int | bool] = {}
         for name, arr in self.as_dict().items():
             value = arr[index]
-            out[name] = bool(value) if arr.dtype == bool else float(value)
+            if arr.dtype == bool:
+                out[name] = bool(value)
+            elif np.issubdtype(arr.dtype, np.integer):
+                out[name] = int(value)
+            else:
+                out[name] = float(value)
         return out
+
+
+_METADATA = ("options", "planform")
 
 
 def _broadcast_condition(
@@ -215,7 +230,8 @@ def _run_kernel(
     inflow = np.empty((batch, 2, options.n_blade))
     mode = {"none": cycle.MODE_NONE, "isolated": cycle.MODE_ISOLATED, "coupled": cycle.MODE_COUPLED}
     history = np.empty((batch if keep_history else 0, 2, n_time, 5))
-    cycle.tandem_cycle(
+    kernel = cycle.tandem_cycle if batch >= SERIAL_BELOW else cycle.tandem_cycle_serial
+    kernel(
         angles[0],
         weights[0],
         angles[1],
@@ -304,7 +320,7 @@ def _performance(
         & (power_violation == 0.0),
         efficiency_above_one=efficiency > 1.0,
         induction_converged=np.all(out[:, :, cycle.W_CONVERGED] > 0.5, axis=1),
-        induction_evaluations=out[:, :, cycle.W_EVALS].max(axis=1),
+        induction_evaluations=out[:, :, cycle.W_EVALS].max(axis=1).astype(np.int64),
         fore_lift_to_weight=fz[:, 0] / weight,
         hind_lift_to_weight=fz[:, 1] / weight,
         fore_horizontal_force=fx[:, 0],
@@ -321,6 +337,8 @@ def _performance(
         hind_inflow=out[:, 1, cycle.W_INFLOW],
         speed=speed,
         available_power=available_power,
+        options=options,
+        planform=insect.planform,
     )
 
 
@@ -339,7 +357,11 @@ def _parametric_inputs(physical: np.ndarray, n_time: int):
         )
         a = np.empty((batch, n_time, 9))
         wt = np.empty((batch, n_time))
-        cycle.fill_angle_batch(params, n_time, a, wt)
+        if batch >= SERIAL_BELOW:
+            cycle.fill_angle_batch(params, n_time, a, wt)
+        else:
+            for b in range(batch):
+                fill_angle_history(params[b], n_time, a[b], wt[b])
         angles.append(a)
         weights.append(wt)
         frequency[:, w] = params[:, 0]
@@ -390,7 +412,7 @@ def evaluate(
     batch = physical.shape[0]
     v = _broadcast_condition(speed, batch, "speed", "m/s", 0.0, 20.0, 0.0)
     p_avail = _broadcast_condition(
-        available_power, batch, "available_power", "W/kg", 0.0, 1e4, insect.max_power_per_mass
+        available_power, batch, "available_power", "W/kg", 1e-3, 1e4, insect.max_power_per_mass
     )
     angles, weights, frequency, beta, sweep = _parametric_inputs(physical, options.n_time)
     out, _, _ = _run_kernel(angles, weights, frequency, beta, sweep, v, insect, options)
@@ -476,7 +498,7 @@ def evaluate_measured(
     sweep = np.array([[fore.sweep_amplitude, hind.sweep_amplitude]])
     v = _broadcast_condition(speed, 1, "speed", "m/s", 0.0, 20.0, 0.0)
     p_avail = _broadcast_condition(
-        available_power, 1, "available_power", "W/kg", 0.0, 1e4, insect.max_power_per_mass
+        available_power, 1, "available_power", "W/kg", 1e-3, 1e4, insect.max_power_per_mass
     )
     out, _, _ = _run_kernel(angles, weights, frequency, beta, sweep, v, insect, options)
     return _performance(out, v, p_avail, insect, options)

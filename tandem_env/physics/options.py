@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import asdict, dataclass
 from typing import Any, Literal, get_args
 
@@ -10,6 +11,14 @@ Induction = Literal["coupled", "isolated", "none"]
 PowerConvention = Literal["absolute", "elastic"]
 ThrustSplit = Literal["sign", "body"]
 Spin = Literal["pitch", "total"]
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
+def _is_real(value: Any) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def _check_choice(name: str, value: Any, kind: Any) -> None:
@@ -58,11 +67,11 @@ class ModelOptions:
     """Tolerance of the level-flight equalities L = W and T = D, as a fraction of W [-]."""
 
     def __post_init__(self) -> None:
-        if not isinstance(self.n_time, int) or not 8 <= self.n_time <= 8192:
+        if not _is_int(self.n_time) or not 8 <= self.n_time <= 8192:
             raise ValueError(
                 f"ModelOptions.n_time = {self.n_time!r}; allowed: an integer 8 to 8192"
             )
-        if not isinstance(self.n_blade, int) or not 2 <= self.n_blade <= 512:
+        if not _is_int(self.n_blade) or not 2 <= self.n_blade <= 512:
             raise ValueError(
                 f"ModelOptions.n_blade = {self.n_blade!r}; allowed: an integer 2 to 512"
             )
@@ -70,17 +79,15 @@ class ModelOptions:
         _check_choice("power", self.power, PowerConvention)
         _check_choice("thrust_split", self.thrust_split, ThrustSplit)
         _check_choice("spin", self.spin, Spin)
-        if not (math.isfinite(self.interference) and 0.0 <= self.interference <= 2.0):
+        if not (_is_real(self.interference) and 0.0 <= self.interference <= 2.0):
             raise ValueError(f"ModelOptions.interference = {self.interference!r}; allowed: 0 to 2")
-        if not (math.isfinite(self.tolerance) and 1e-12 <= self.tolerance <= 1e-1):
+        if not (_is_real(self.tolerance) and 1e-12 <= self.tolerance <= 1e-1):
             raise ValueError(f"ModelOptions.tolerance = {self.tolerance!r}; allowed: 1e-12 to 0.1")
-        if not isinstance(self.max_evaluations, int) or not 2 <= self.max_evaluations <= 1000:
+        if not _is_int(self.max_evaluations) or not 2 <= self.max_evaluations <= 1000:
             raise ValueError(
                 f"ModelOptions.max_evaluations = {self.max_evaluations!r}; allowed: an integer 2 to 1000"
             )
-        if not (
-            math.isfinite(self.constraint_tolerance) and 0.0 <= self.constraint_tolerance < 1.0
-        ):
+        if not (_is_real(self.constraint_tolerance) and 0.0 <= self.constraint_tolerance < 1.0):
             raise ValueError(
                 f"ModelOptions.constraint_tolerance = {self.constraint_tolerance!r}; allowed: 0 <= tol < 1"
             )

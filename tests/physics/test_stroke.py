@@ -95,3 +95,19 @@ def test_model_options_validated() -> None:
         te.ModelOptions(n_time=3)
     with pytest.raises(ValueError, match="thrust_split"):
         te.ModelOptions(thrust_split="component")
+    with pytest.raises(ValueError, match="interference = 'high'; allowed: 0 to 2"):
+        te.ModelOptions(interference="high")
+    with pytest.raises(ValueError, match="n_blade"):
+        te.ModelOptions(n_blade=True)
+    assert te.ModelOptions(n_time=np.int64(64)).n_time == 64
+
+
+def test_result_records_its_options_and_integer_sweep_counts() -> None:
+    options = te.ModelOptions(thrust_split="body")
+    result = te.evaluate(te.normalised_to_physical(np.zeros((2, 28))), 1.0, options=options)
+    assert result.options.thrust_split == "body"
+    assert result.planform == "tear-drop"
+    assert "options" not in result.as_dict()
+    row = result.row(0)
+    assert isinstance(row["induction_evaluations"], int)
+    assert isinstance(row["level_feasible"], bool)

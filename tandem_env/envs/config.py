@@ -1,0 +1,440 @@
+"""Configuration of the flight environments: frozen, validated dataclasses built from ``gym.make`` kwargs.
+
+Every option an environment takes is a field of one of these classes, so that what an env does
+is fully described by ``env.config`` (and reproducible from it). ``gym.make(id, **kwargs)`` passes
+flat keyword arguments; :meth:`FlightConfig.from_kwargs` maps them onto the dataclasses and
+rejects anything it does not know, naming what is allowed.
+
+Units follow the physics: speeds in m/s, powers per body mass in W/kg, forces as fractions of
+the weight W (dimensionless).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields, replace
+from typing import Any, ClassVar, Literal, get_args
+
+import numpy as np
+
+from ..physics import PLANFORMS, Dragonfly, ModelOptions
+
+Objective = Literal["vertical", "horizontal", "resultant"]
+OBJECTIVES: tuple[str, ...] = get_args(Objective)
+
+#: Flight speeds the model accepts [m/s] (``evaluate``'s own limits).
+MODEL_SPEED_LIMITS: tuple[float, float] = (0.0, 20.0)
+#: Available powers per body mass an env accepts [W/kg]; the dragonfly's maximum is 90 W/kg.
+MODEL_POWER_LIMITS: tuple[float, float] = (1.0, 1000.0)
+
+#: ``gym.make`` kwargs that become fields of :class:`~tandem_env.physics.ModelOptions`, mapped to
+#: the field's name there (``power_convention`` avoids a clash with Accelerate's ``power``).
+MODEL_OPTION_KWARGS: dict[str, str] = {
+    "n_time": "n_time",
+    "n_blade": "n_blade",
+    "induction": "induction",
+    "interference": "interference",
+    "power_convention": "power",
+    "thrust_split": "thrust_split",
+    "spin": "spin",
+    "tolerance": "tolerance",
+    "max_evaluations": "max_evaluations",
+    "constraint_tolerance": "constraint_tolerance",
+}
+#: Model options that must be real numbers (checked here, because ``ModelOptions`` would raise
+#: a bare ``TypeError`` from ``math.isfinite`` on a string).
+_REAL_MODEL_OPTIONS = ("interference", "tolerance", "constraint_tolerance")
+
+
+def _is_real(value: Any) -> bool:
+    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
+        value, bool | np.bool_
+    )
+
+
+def check_real(owner: str, name: str, value: Any, unit: str, low: float, high: float) -> float:
+    """``value`` as a float if it is a finite real number in [low, high]; else a ValueError."""
+    if not _is_real(value) or not math.isfinite(value) or not low <= value <= high:
+        unit = f" {unit}" if unit else ""
+        raise ValueError(
+            f"{owner}.{name} = {value!r}{unit}; allowed: a finite number from {low:g} to "
+            f"{high:g}{unit}"
+        )
+    return float(value)
+
+
+def check_interval(
+    owner: str, name: str, value: Any, unit: str, limits: tuple[float, float]
+) -> tuple[float, float]:
+    """``value`` as a ``(low, high)`` float pair with limits[0] <= low < high <= limits[1]."""
+    allowed = (
+        f"allowed: a pair (low, high) of finite numbers with {limits[0]:g} <= low < high <= "
+        f"{limits[1]:g} {unit}"
+    )
+    if isinstance(value, str | bytes) or not hasattr(value, "__len__") or len(value) != 2:
+        raise ValueError(f"{owner}.{name} = {value!r}; {allowed}")
+    low, high = value
+    if not (_is_real(low) and _is_real(high)):
+        raise ValueError(f"{owner}.{name} = {value!r}; {allowed}")
+    low, high = float(low), float(high)
+    if not (math.isfinite(low) and math.isfinite(high) and limits[0] <= low < high <= limits[1]):
+        raise ValueError(f"{owner}.{name} = {value!r} {unit}; {allowed}")
+    return low, high
+
+
+def _within(owner: str, name: str, value: float, envelope_name: str, envelope, unit: str) -> None:
+    if not envelope[0] <= value <= envelope[1]:
+        raise ValueError(
+            f"{owner}.{name} = {value:g} {unit} is outside {owner}.{envelope_name} = "
+            f"({envelope[0]:g}, {envelope[1]:g}) {unit}, the range the observation is normalised "
+            f"over; allowed: a value inside it, or widen {envelope_name}"
+        )
+
+
+@dataclass(frozen=True)
+class PenaltyConfig:
+    """How constraint violations lower the reward.
+
+    ``reward = objective − penalty`` with
+    ``penalty = weight · violation + offset · [stroke infeasible]``, where ``violation`` is the
+    sum of the task's normalised constraint violations (see the env docstrings): every term is
+    zero when its constraint holds, so a feasible stroke is rewarded with exactly its objective.
+
+    The default is a linear ("exact", L1) penalty: it is continuous at the feasibility boundary
+    (no cliff for gradient-based RL), still ranks infeasible strokes by how far they are from
+    feasible (PSO and RL can climb towards the feasible set), and, once ``weight`` exceeds the
+    sensitivity of the objective to the constraints (the Lagrange multipliers, of order 1 here),
+    the constrained optimum is the maximum of the reward.
+    """
+
+    weight: float = 10.0
+    """Reward lost per unit of normalised violation [reward units per unit violation]. 10 is
+    well above the Lagrange multipliers of both tasks (dη/d(L/W) and dF̄/d(P/P_avail) are
+    of order 0.1-4), so trading a constraint for objective never pays."""
+    offset: float = 0.0
+    """Constant subtracted from every infeasible stroke [reward units]. 0 keeps the reward
+    continuous; a positive value makes every feasible stroke beat every nearly-feasible one
+    (a step that PSO tolerates and RL may not)."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(
+            self, "weight", check_real("PenaltyConfig", "weight", self.weight, "", 0.0, 1e6)
+        )
+        object.__setattr__(
+            self, "offset", check_real("PenaltyConfig", "offset", self.offset, "", 0.0, 1e6)
+        )
+        if self.weight == 0.0 and self.offset == 0.0:
+            raise ValueError(
+                "PenaltyConfig.weight and PenaltyConfig.offset are both 0, so infeasible strokes "
+                "would not be penalised; allowed: weight > 0 or offset > 0"
+            )
+
+    def penalty(self, violation: np.ndarray, feasible: np.ndarray) -> np.ndarray:
+        """Penalty (B,) [reward units] of normalised violations (B,) and feasibility flags (B,)."""
+        # Exactly 0.0 for feasible strokes (violation == 0 there), so reward == objective.
+        return np.where(feasible, 0.0, self.weight * violation + self.offset)
+
+
+def _default_options() -> ModelOptions:
+    return ModelOptions()
+
+
+@dataclass(frozen=True, kw_only=True)
+class FlightConfig:
+    """Options every flight environment shares (the model, the penalty, the action handling)."""
+
+    insect: Dragonfly = field(default_factory=Dragonfly)
+    """The insect (wings, planform, masses, air); default the paper's specimen, tear-drop wings."""
+    options: ModelOptions = field(default_factory=_default_options)
+    """Model resolution, inflow coupling and conventions (``thrust_split`` among them)."""
+    penalty: PenaltyConfig = field(default_factory=PenaltyConfig)
+    """How constraint violations lower the reward."""
+    clip_actions: bool = False
+    """Clip actions into [-1, 1] before mapping them to strokes; if False an action outside
+    [-1, 1] raises ``ValueError``. Non-finite actions raise either way."""
+
+    #: The task's name in messages.
+    name: ClassVar[str] = "FlightConfig"
+    #: Which ``info`` / reset-option key holds the observed condition.
+    condition_key: ClassVar[str] = ""
+
+    def __post_init__(self) -> None:
+        owner = type(self).__name__
+        if not isinstance(self.insect, Dragonfly):
+            raise ValueError(
+                f"{owner}.insect = {self.insect!r}; allowed: a tandem_env.Dragonfly instance"
+            )
+        if not isinstance(self.options, ModelOptions):
+            raise ValueError(
+                f"{owner}.options = {self.options!r}; allowed: a tandem_env.ModelOptions instance"
+            )
+        if not isinstance(self.penalty, PenaltyConfig):
+            raise ValueError(
+                f"{owner}.penalty = {self.penalty!r}; allowed: a tandem_env.envs.PenaltyConfig"
+            )
+        if not isinstance(self.clip_actions, bool | np.bool_):
+            raise ValueError(
+                f"{owner}.clip_actions = {self.clip_actions!r}; allowed: True or False"
+            )
+        object.__setattr__(self, "clip_actions", bool(self.clip_actions))
+
+    # --- the observed flight condition ------------------------------------------------------
+    @property
+    def envelope(self) -> tuple[float, float]:
+        """The range the observed condition is normalised over, to [-1, 1]."""
+        raise NotImplementedError
+
+    @property
+    def condition_range(self) -> tuple[float, float] | None:
+        """The range the condition is sampled from at reset, or None for a fixed condition."""
+        raise NotImplementedError
+
+    @property
+    def fixed_condition(self) -> float | None:
+        """The fixed condition, or None when it is sampled."""
+        raise NotImplementedError
+
+    @property
+    def thrust_split(self) -> str:
+        """The thrust/drag reading used (MODEL.md §7)."""
+        return self.options.thrust_split
+
+    @property
+    def planform(self) -> str:
+        """The wings' planform."""
+        return self.insect.planform
+
+    # --- construction from flat keyword arguments ----------------------------------------------
+    @classmethod
+    def allowed_kwargs(cls) -> tuple[str, ...]:
+        """Every keyword ``from_kwargs`` (and so ``gym.make``) accepts for this task."""
+        own = tuple(f.name for f in fields(cls))
+        return (*own, "planform", *MODEL_OPTION_KWARGS, "penalty_weight", "penalty_offset")
+
+    @classmethod
+    def from_kwargs(cls, **kwargs: Any) -> FlightConfig:
+        """Build the config from flat keyword arguments (the ``gym.make`` kwargs).
+
+        Besides the dataclass fields this accepts ``planform`` ("tear-drop" | "real"), applied
+        to ``insect``; the :class:`~tandem_env.physics.ModelOptions` fields (``n_time``,
+        ``n_blade``, ``induction``, ``interference``, ``power_convention`` (its ``power``),
+        ``thrust_split``, ``spin``, ``tolerance``, ``max_evaluations``,
+        ``constraint_tolerance``), applied over ``options``; and ``penalty_weight`` /
+        ``penalty_offset``, applied over ``penalty``.
+        """
+        unknown = sorted(set(kwargs) - set(cls.allowed_kwargs()))
+        if unknown:
+            raise ValueError(
+                f"{cls.name}: unknown argument(s) {', '.join(map(repr, unknown))}; allowed: "
+                f"{', '.join(sorted(cls.allowed_kwargs()))}"
+            )
+        kwargs = dict(kwargs)
+        insect = kwargs.pop("insect", None)
+        insect = Dragonfly() if insect is None else insect
+        if not isinstance(insect, Dragonfly):
+            raise ValueError(f"{cls.name}: insect = {insect!r}; allowed: a tandem_env.Dragonfly")
+        if "planform" in kwargs:
+            planform = kwargs.pop("planform")
+            if planform not in PLANFORMS:
+                raise ValueError(
+                    f"{cls.name}: planform = {planform!r}; allowed: "
+                    f"{', '.join(map(repr, PLANFORMS))}"
+                )
+            insect = insect.with_planform(planform)
+
+        options = kwargs.pop("options", None)
+        options = ModelOptions() if options is None else options
+        if not isinstance(options, ModelOptions):
+            raise ValueError(
+                f"{cls.name}: options = {options!r}; allowed: a tandem_env.ModelOptions"
+            )
+        overrides = {
+            MODEL_OPTION_KWARGS[k]: kwargs.pop(k) for k in MODEL_OPTION_KWARGS if k in kwargs
+        }
+        for name in _REAL_MODEL_OPTIONS:
+            if name in overrides and not _is_real(overrides[name]):
+                raise ValueError(
+                    f"{cls.name}: {name} = {overrides[name]!r}; allowed: a finite number"
+                )
+        if overrides:
+            options = replace(options, **overrides)  # ModelOptions validates and names the rule
+
+        penalty = kwargs.pop("penalty", None)
+        penalty = PenaltyConfig() if penalty is None else penalty
+        if isinstance(penalty, Mapping):
+            extra = sorted(set(penalty) - {f.name for f in fields(PenaltyConfig)})
+            if extra:
+                raise ValueError(
+                    f"{cls.name}: penalty has unknown key(s) {extra}; allowed: weight, offset"
+                )
+            penalty = PenaltyConfig(**penalty)
+        if not isinstance(penalty, PenaltyConfig):
+            raise ValueError(
+                f"{cls.name}: penalty = {penalty!r}; allowed: a PenaltyConfig or a dict of its "
+                "fields (weight, offset)"
+            )
+        penalty_overrides = {
+            key: kwargs.pop(f"penalty_{key}")
+            for key in ("weight", "offset")
+            if f"penalty_{key}" in kwargs
+        }
+        if penalty_overrides:
+            penalty = replace(penalty, **penalty_overrides)
+        return cls(insect=insect, options=options, penalty=penalty, **kwargs)
+
+    def describe(self) -> str:
+        """One line naming the condition, for titles and reprs."""
+        raise NotImplementedError
+
+
+@dataclass(frozen=True, kw_only=True)
+class LevelFlightConfig(FlightConfig):
+    """Level flight at speed V: maximise η = T·V/P with L = W, T = D and P/m <= the insect's maximum.
+
+    Give ``speed`` for a fixed speed or ``speed_range`` to sample V uniformly at every reset
+    (not both); with neither, V = 1.5 m/s. The observation is V normalised from
+    ``speed_envelope`` to [-1, 1].
+    """
+
+    speed: float | None = None
+    """Fixed flight speed V [m/s]; default 1.5 m/s (the paper's best-efficiency speed) unless
+    ``speed_range`` is given."""
+    speed_range: tuple[float, float] | None = None
+    """(low, high) [m/s]: V is drawn uniformly from it at each reset (from the env's seeded
+    ``np_random``), so one policy can learn the whole envelope."""
+    speed_envelope: tuple[float, float] = (0.25, 2.0)
+    """(low, high) [m/s] mapped linearly to the observation's [-1, 1]; every speed used must lie
+    inside it. Default the paper's range, 0.25 to 2.0 m/s."""
+
+    name: ClassVar[str] = "LevelFlight"
+    condition_key: ClassVar[str] = "speed"
+    DEFAULT_SPEED: ClassVar[float] = 1.5
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        owner = type(self).__name__
+        envelope = check_interval(
+            owner, "speed_envelope", self.speed_envelope, "m/s", MODEL_SPEED_LIMITS
+        )
+        object.__setattr__(self, "speed_envelope", envelope)
+        if self.speed is not None and self.speed_range is not None:
+            raise ValueError(
+                f"{owner}: speed = {self.speed!r} and speed_range = {self.speed_range!r} are both "
+                "given; allowed: a fixed speed or a sampled speed_range, not both"
+            )
+        if self.speed_range is not None:
+            low, high = check_interval(
+                owner, "speed_range", self.speed_range, "m/s", MODEL_SPEED_LIMITS
+            )
+            _within(owner, "speed_range low", low, "speed_envelope", envelope, "m/s")
+            _within(owner, "speed_range high", high, "speed_envelope", envelope, "m/s")
+            object.__setattr__(self, "speed_range", (low, high))
+        else:
+            speed = self.DEFAULT_SPEED if self.speed is None else self.speed
+            speed = check_real(owner, "speed", speed, "m/s", *MODEL_SPEED_LIMITS)
+            _within(owner, "speed", speed, "speed_envelope", envelope, "m/s")
+            object.__setattr__(self, "speed", speed)
+
+    @property
+    def envelope(self) -> tuple[float, float]:
+        return self.speed_envelope
+
+    @property
+    def condition_range(self) -> tuple[float, float] | None:
+        return self.speed_range
+
+    @property
+    def fixed_condition(self) -> float | None:
+        return self.speed
+
+    @property
+    def available_power(self) -> float:
+        """The power cap of level flight [W/kg]: the insect's maximum (90 W/kg, MODEL.md §7)."""
+        return self.insect.max_power_per_mass
+
+    def describe(self) -> str:
+        if self.speed_range is not None:
+            return f"V ~ U({self.speed_range[0]:g}, {self.speed_range[1]:g}) m/s"
+        return f"V = {self.speed:g} m/s"
+
+
+@dataclass(frozen=True, kw_only=True)
+class AccelerateConfig(FlightConfig):
+    """Accelerating flight: maximise a specific excess force with F_v >= 0, F_h >= 0 and P/m <= P_avail.
+
+    Give ``power`` for a fixed available power or ``power_range`` to sample it uniformly at every
+    reset (not both); with neither, 90 W/kg. The observation is the available power normalised
+    from ``power_envelope`` to [-1, 1]. The flight speed ``speed`` is fixed (default 0: take-off
+    or escape from hover).
+    """
+
+    objective: Objective = "vertical"
+    """Which specific excess force is maximised: ``"vertical"`` F̄_v = (L − W)/W,
+    ``"horizontal"`` F̄_h = (T − D)/W or ``"resultant"`` F̄_a = sqrt(F̄_v² + F̄_h²) [-]
+    (MODEL.md §7: the paper's attainable F̄_a combines the first two)."""
+    power: float | None = None
+    """Fixed available power per body mass [W/kg]; default 90 W/kg (the insect's maximum)
+    unless ``power_range`` is given."""
+    power_range: tuple[float, float] | None = None
+    """(low, high) [W/kg]: the available power is drawn uniformly from it at each reset."""
+    power_envelope: tuple[float, float] = (50.0, 90.0)
+    """(low, high) [W/kg] mapped linearly to the observation's [-1, 1]; every available power
+    used must lie inside it. Default the paper's sweep, 50 to 90 W/kg (30-60 % muscle)."""
+    speed: float = 0.0
+    """Flight speed V [m/s], fixed for every episode (not observed); 0 to 20 m/s."""
+
+    name: ClassVar[str] = "Accelerate"
+    condition_key: ClassVar[str] = "available_power"
+    DEFAULT_POWER: ClassVar[float] = 90.0
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        owner = type(self).__name__
+        if self.objective not in OBJECTIVES:
+            raise ValueError(
+                f"{owner}.objective = {self.objective!r}; allowed: {', '.join(map(repr, OBJECTIVES))}"
+            )
+        envelope = check_interval(
+            owner, "power_envelope", self.power_envelope, "W/kg", MODEL_POWER_LIMITS
+        )
+        object.__setattr__(self, "power_envelope", envelope)
+        object.__setattr__(
+            self, "speed", check_real(owner, "speed", self.speed, "m/s", *MODEL_SPEED_LIMITS)
+        )
+        if self.power is not None and self.power_range is not None:
+            raise ValueError(
+                f"{owner}: power = {self.power!r} and power_range = {self.power_range!r} are both "
+                "given; allowed: a fixed power or a sampled power_range, not both"
+            )
+        if self.power_range is not None:
+            low, high = check_interval(
+                owner, "power_range", self.power_range, "W/kg", MODEL_POWER_LIMITS
+            )
+            _within(owner, "power_range low", low, "power_envelope", envelope, "W/kg")
+            _within(owner, "power_range high", high, "power_envelope", envelope, "W/kg")
+            object.__setattr__(self, "power_range", (low, high))
+        else:
+            power = self.DEFAULT_POWER if self.power is None else self.power
+            power = check_real(owner, "power", power, "W/kg", *MODEL_POWER_LIMITS)
+            _within(owner, "power", power, "power_envelope", envelope, "W/kg")
+            object.__setattr__(self, "power", power)
+
+    @property
+    def envelope(self) -> tuple[float, float]:
+        return self.power_envelope
+
+    @property
+    def condition_range(self) -> tuple[float, float] | None:
+        return self.power_range
+
+    @property
+    def fixed_condition(self) -> float | None:
+        return self.power
+
+    def describe(self) -> str:
+        if self.power_range is not None:
+            power = f"P_avail ~ U({self.power_range[0]:g}, {self.power_range[1]:g}) W/kg"
+        else:
+            power = f"P_avail = {self.power:g} W/kg"
+        return f"{power}, V = {self.speed:g} m/s, objective {self.objective}"

@@ -1,0 +1,36 @@
+"""The Gymnasium ids of the flight environments, registered when ``tandem_env`` is imported.
+
+Entry points are strings, so registering imports neither the env classes' dependencies
+(matplotlib) nor Stable-Baselines3.
+"""
+
+from __future__ import annotations
+
+LEVEL_FLIGHT_ID = "TandemWing/LevelFlight-v0"
+"""Level flight: maximise η with L = W, T = D and P/m <= 90 W/kg."""
+ACCELERATE_ID = "TandemWing/Accelerate-v0"
+"""Accelerating flight: maximise a specific excess force with F_v, F_h >= 0 and P/m <= P_avail."""
+ENV_IDS: tuple[str, ...] = (LEVEL_FLIGHT_ID, ACCELERATE_ID)
+
+_ENTRY_POINTS: dict[str, tuple[str, str]] = {
+    LEVEL_FLIGHT_ID: (
+        "tandem_env.envs.flight:LevelFlightEnv",
+        "tandem_env.envs.vector:LevelFlightVectorEnv",
+    ),
+    ACCELERATE_ID: (
+        "tandem_env.envs.flight:AccelerateEnv",
+        "tandem_env.envs.vector:AccelerateVectorEnv",
+    ),
+}
+
+
+def register_envs() -> None:
+    """Register both ids (idempotent: a reload does not re-register or warn)."""
+    from gymnasium.envs.registration import register, registry
+
+    for env_id, (entry_point, vector_entry_point) in _ENTRY_POINTS.items():
+        if env_id in registry:
+            continue
+        # No max_episode_steps: every episode terminates after its one step by itself, and a
+        # TimeLimit would also flag it as truncated.
+        register(id=env_id, entry_point=entry_point, vector_entry_point=vector_entry_point)

@@ -1,0 +1,184 @@
+"""The stroke picture: wing-tip paths (side view) and the φ/θ/η histories of the last stroke.
+
+``rgb_array`` frames are drawn on a private Agg canvas (no pyplot, so no global backend switch
+and no interference with the user's figures); ``human`` mode shows the same drawing in a pyplot
+window that is updated in place. Matplotlib is imported only when something is rendered.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from ..physics import Dragonfly, ModelOptions, stroke_history
+
+if TYPE_CHECKING:
+    from ..physics import StrokeHistory
+
+#: Frame size [px] of ``rgb_array`` renders (width, height) and its resolution [dpi].
+FRAME_SIZE: tuple[int, int] = (720, 400)
+FRAME_DPI = 80
+#: Uniform samples per cycle of the plotted histories (plotting only; metrics come from evaluate).
+HISTORY_SAMPLES = 120
+
+_WING_STYLE = {"fore": {"color": "tab:blue"}, "hind": {"color": "tab:red"}}
+_NON_INTERACTIVE = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
+
+
+@dataclass(frozen=True)
+class Frame:
+    """What one picture shows."""
+
+    title: str
+    """Task and condition, e.g. "LevelFlight-v0  V = 1.5 m/s"."""
+    subtitle: str
+    """Reward and headline metrics, or why there is no stroke yet."""
+    history: StrokeHistory | None
+    """Histories of the stroke, or None before the first step (axes drawn empty)."""
+
+
+def history_of(
+    physical: np.ndarray,
+    speed: float,
+    available_power: float,
+    insect: Dragonfly,
+    options: ModelOptions,
+) -> StrokeHistory:
+    """Histories of one physical stroke (28,), by the same model the env evaluates."""
+    return stroke_history(
+        physical, speed, available_power, insect=insect, options=options, n_samples=HISTORY_SAMPLES
+    )
+
+
+def draw(figure: Figure, frame: Frame) -> None:
+    """Draw ``frame`` onto an empty ``figure``: side view left, angle histories right."""
+    figure.clear()
+    grid = figure.add_gridspec(
+        3,
+        2,
+        width_ratios=(1.0, 1.25),
+        left=0.07,
+        right=0.98,
+        top=0.84,
+        bottom=0.11,
+        wspace=0.22,
+        hspace=0.12,
+    )
+    side = figure.add_subplot(grid[:, 0])
+    angle_axes = [figure.add_subplot(grid[i, 1]) for i in range(3)]
+    figure.suptitle(f"{frame.title}\n{frame.subtitle}", fontsize=10)
+
+    side.set_title("wing-tip paths, side view", fontsize=9)
+    side.set_xlabel("X forward [R]", fontsize=8)
+    side.set_ylabel("Z up [R]", fontsize=8)
+    side.set_xlim(-1.15, 1.15)
+    side.set_ylim(-1.15, 1.15)
+    side.set_aspect("equal")
+    side.axhline(0.0, color="0.85", lw=0.8, zorder=0)
+    side.axvline(0.0, color="0.85", lw=0.8, zorder=0)
+    side.plot([0.0], [0.0], "k+", ms=8)
+    side.annotate(
+        "", xy=(1.05, -1.0), xytext=(0.55, -1.0), arrowprops={"arrowstyle": "->", "color": "0.4"}
+    )
+    side.text(0.55, -0.93, "flight", fontsize=7, color="0.4")
+
+    labels = (("sweep", "φ [deg]"), ("elevation", "θ [deg]"), ("pitch", "η [deg]"))
+    for axis, (_, label) in zip(angle_axes, labels, strict=True):
+        axis.set_ylabel(label, fontsize=8)
+        axis.set_xlim(0.0, 1.0)
+        axis.tick_params(labelsize=7)
+        axis.grid(True, color="0.9")
+    for axis in angle_axes[:-1]:
+        axis.tick_params(labelbottom=False)
+    angle_axes[-1].set_xlabel("t / T [-] (each wing over its own cycle)", fontsize=8)
+    side.tick_params(labelsize=7)
+
+    if frame.history is None:
+        side.text(
+            0.0,
+            0.35,
+            "no stroke yet\n(call step)",
+            ha="center",
+            va="center",
+            fontsize=10,
+            color="0.5",
+        )
+        return
+    for name in ("fore", "hind"):
+        wing = getattr(frame.history, name)
+        style = _WING_STYLE[name]
+        tip = wing.tip_path
+        side.plot(tip[:, 0], tip[:, 2], lw=1.6, label=f"{name}-wing", **style)
+        side.plot(tip[0, 0], tip[0, 2], "o", ms=4, **style)
+        for axis, (field_name, _) in zip(angle_axes, labels, strict=True):
+            axis.plot(wing.cycle_fraction, getattr(wing, field_name), lw=1.4, **style)
+    side.legend(loc="upper left", fontsize=7, frameon=False)
+
+
+def to_rgb_array(frame: Frame) -> np.ndarray:
+    """The frame as an (H, W, 3) uint8 image, drawn off-screen with Agg."""
+    width, height = FRAME_SIZE
+    figure = Figure(figsize=(width / FRAME_DPI, height / FRAME_DPI), dpi=FRAME_DPI)
+    canvas = FigureCanvasAgg(figure)
+    draw(figure, frame)
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
+
+
+def _interactive_backend() -> bool:
+    import matplotlib
+
+    return matplotlib.get_backend().lower() not in _NON_INTERACTIVE
+
+
+class HumanWindow:
+    """A pyplot window redrawn in place at every step (``render_mode="human"``).
+
+    With a non-interactive backend (Agg on a headless machine) the figure is still drawn, but
+    nothing is shown and nothing waits, so that headless runs and CI do not warn or block.
+    """
+
+    def __init__(self, fps: float) -> None:
+        self.fps = fps
+        self._figure: Any = None
+
+    def show(self, frame: Frame) -> None:
+        import matplotlib.pyplot as plt
+
+        if self._figure is None or not plt.fignum_exists(self._figure.number):
+            width, height = FRAME_SIZE
+            self._figure = plt.figure(
+                figsize=(width / FRAME_DPI, height / FRAME_DPI), dpi=FRAME_DPI
+            )
+        draw(self._figure, frame)
+        if _interactive_backend():
+            self._figure.canvas.draw_idle()
+            plt.pause(1.0 / self.fps)  # shows the window and lets the GUI draw it
+        else:
+            self._figure.canvas.draw()
+
+    def close(self) -> None:
+        if self._figure is not None:
+            import matplotlib.pyplot as plt
+
+            plt.close(self._figure)
+            self._figure = None
+
+
+def metrics_line(reward: float, info: dict[str, Any], objective_label: str) -> str:
+    """The subtitle: "reward … | objective … | L/W … | F̄_h … | P/m … | feasible"."""
+    parts = [
+        f"reward {reward:.4g}",
+        f"{objective_label} {info['objective']:.4g}",
+        f"L/W {info['lift_to_weight']:.3f}",
+        f"F̄_h {info['excess_horizontal']:+.3f}",
+        f"P/m {info['power_per_mass']:.1f} W/kg",
+        "feasible"
+        if info["feasible"]
+        else f"infeasible (violation {info['constraint_violation']:.3g})",
+    ]
+    return " | ".join(parts)

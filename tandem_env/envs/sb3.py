@@ -1,0 +1,156 @@
+"""Stable-Baselines3 ``VecEnv`` adapter over the native vector env (one model call per step).
+
+SB3 does not use Gymnasium vector envs; its own :class:`~stable_baselines3.common.vec_env.DummyVecEnv`
+would step n single envs in a Python loop, n model calls per step. :class:`TandemVecEnv` gives
+SB3 exactly what ``DummyVecEnv`` over n single envs gives (observations, float32 rewards,
+dones, per-env info dicts with ``"terminal_observation"`` and ``"TimeLimit.truncated"``,
+``reset_infos``, seeds ``seed + i`` applied at the next reset), with SB3's same-step
+auto-reset, but evaluates the n strokes in one batched call.
+
+This module imports Stable-Baselines3; ``import tandem_env`` does not import it.
+
+Example::
+
+    from stable_baselines3 import PPO
+    from tandem_env.envs.sb3 import make_sb3_vec_env
+
+    venv = make_sb3_vec_env("TandemWing/LevelFlight-v0", n_envs=64, seed=0, speed_range=(0.25, 2.0))
+    model = PPO("MlpPolicy", venv, n_steps=16, batch_size=256).learn(50_000)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from stable_baselines3.common.vec_env import VecEnv, VecMonitor
+from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
+
+from .task import rows
+from .vector import FlightVectorEnv
+
+
+class TandemVecEnv(VecEnv):
+    """SB3 ``VecEnv`` over a native :class:`~tandem_env.envs.vector.FlightVectorEnv`.
+
+    Every SB3 step evaluates all n strokes in one model call, ends every episode
+    (``dones`` all True: each episode is one wing-beat) and resets every sub-env at once, as
+    ``DummyVecEnv`` does. ``get_attr`` / ``env_method`` act on the shared native env (the
+    sub-envs have no separate objects) and return its value once per requested index.
+    """
+
+    def __init__(self, vector_env: FlightVectorEnv) -> None:
+        if not isinstance(vector_env, FlightVectorEnv):
+            raise ValueError(
+                f"vector_env = {vector_env!r}; allowed: a tandem_env native vector env, e.g. "
+                'gym.make_vec(id, num_envs=n, vectorization_mode="vector_entry_point")'
+            )
+        self.vector_env = vector_env
+        super().__init__(
+            vector_env.num_envs, vector_env.single_observation_space, vector_env.single_action_space
+        )
+        # What DummyVecEnv reports: the single env's metadata.
+        self.metadata = {
+            key: value for key, value in vector_env.metadata.items() if key != "autoreset_mode"
+        }
+        self._observations = np.zeros((self.num_envs, 1), dtype=np.float32)
+        self._actions: np.ndarray | None = None
+
+    @property
+    def config(self) -> Any:
+        """The env config (``LevelFlightConfig`` or ``AccelerateConfig``)."""
+        return self.vector_env.config
+
+    def reset(self) -> np.ndarray:
+        everyone = np.arange(self.num_envs)
+        options = [opts if opts else None for opts in self._options]
+        columns = self.vector_env._reset_envs(everyone, list(self._seeds), options)
+        self.reset_infos = rows(columns, self.num_envs)
+        self._observations = self.vector_env._observations.copy()
+        # Seeds and options are used once, as in DummyVecEnv.
+        self._reset_seeds()
+        self._reset_options()
+        return self._observations.copy()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = np.asarray(actions)
+
+    def step_wait(self) -> VecEnvStepReturn:
+        if self._actions is None:
+            raise RuntimeError("step_async(actions) must come before step_wait()")
+        n = self.num_envs
+        actions, self._actions = self._actions, None
+        if actions.shape[:1] != (n,):
+            raise ValueError(f"actions must have shape ({n}, 28); got shape {actions.shape}")
+        everyone = np.arange(n)
+        batch, final = self.vector_env._step_envs(everyone, actions)
+        infos = rows(batch.info_columns(), n)
+        for info, observation in zip(infos, final, strict=True):
+            info["TimeLimit.truncated"] = False
+            info["terminal_observation"] = observation.copy()
+        self.reset_infos = rows(self.vector_env._reset_envs(everyone, [None] * n, None), n)
+        self._observations = self.vector_env._observations.copy()
+        return (
+            self._observations.copy(),
+            batch.reward.astype(np.float32),
+            np.ones(n, dtype=np.bool_),
+            infos,
+        )
+
+    def close(self) -> None:
+        self.vector_env.close()
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        if self.render_mode != "rgb_array":
+            return [None] * self.num_envs
+        frames = self.vector_env.render()
+        return list(frames) if frames is not None else [None] * self.num_envs
+
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        value = getattr(self.vector_env, attr_name)
+        return [value for _ in self._get_indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        setattr(self.vector_env, attr_name, value)
+
+    def env_method(
+        self,
+        method_name: str,
+        *method_args: Any,
+        indices: VecEnvIndices = None,
+        **method_kwargs: Any,
+    ) -> list[Any]:
+        result = getattr(self.vector_env, method_name)(*method_args, **method_kwargs)
+        return [result for _ in self._get_indices(indices)]
+
+    def env_is_wrapped(
+        self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None
+    ) -> list[bool]:
+        # No sub-env is a wrapped gym.Env (wrap the whole VecEnv, e.g. VecMonitor, instead).
+        return [False for _ in self._get_indices(indices)]
+
+
+def make_sb3_vec_env(
+    env_id: str,
+    n_envs: int = 1,
+    seed: int | None = None,
+    *,
+    monitor: bool = False,
+    **kwargs: Any,
+) -> VecEnv:
+    """An SB3 ``VecEnv`` of ``n_envs`` envs of ``env_id`` stepped by one model call per step.
+
+    Like SB3's ``make_vec_env``: the envs are seeded ``seed + i`` at the first reset (a random
+    base seed if None) and the action space with ``seed``. ``monitor=True`` wraps the result in
+    ``VecMonitor`` (episode returns for SB3's logger). ``kwargs`` are the env's options.
+    """
+    vector_env = gym.make_vec(
+        env_id, num_envs=n_envs, vectorization_mode="vector_entry_point", **kwargs
+    )
+    venv = TandemVecEnv(vector_env)
+    venv.seed(seed)
+    if seed is not None:
+        venv.action_space.seed(seed)
+    return VecMonitor(venv) if monitor else venv

@@ -1,0 +1,297 @@
+"""The native vector env: n flight envs stepped by ONE batched model call.
+
+``gym.make_vec(id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)`` builds it.
+It reproduces :class:`gymnasium.vector.SyncVectorEnv` over n single envs exactly (same
+observations, rewards, terminations, truncations and infos for the same seeds, env i seeded
+with ``seed + i``) in each :class:`~gymnasium.vector.AutoresetMode`, while evaluating all
+stepped envs in one :func:`tandem_env.evaluate` call instead of n.
+
+Autoreset (default ``NEXT_STEP``, Gymnasium's default): every episode is one step, so after a
+step that terminates, the *next* ``step`` resets those envs instead of evaluating them: it
+ignores their actions and returns their new observation, reward 0, ``terminated=False`` and
+the reset info. With all envs in step, evaluating steps and resetting steps alternate. Use
+``autoreset_mode="SameStep"`` to reset in the same step (every step evaluates; the final
+observation and info are in ``info["final_obs"]`` / ``info["final_info"]``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium.error import ResetNeeded
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from .config import AccelerateConfig, FlightConfig, LevelFlightConfig
+from .flight import (
+    RENDER_FPS,
+    RENDER_MODES,
+    LastStep,
+    action_space,
+    build_config,
+    check_render_mode,
+    frame_for,
+    observation_space,
+)
+from .task import StepBatch, add_columns, make_task
+
+
+class FlightVectorEnv(VectorEnv):
+    """Shared base of the native vector envs; see the module docstring for the semantics.
+
+    Args:
+        num_envs: Number of sub-envs n (>= 1).
+        render_mode: None, "rgb_array" (``render()`` returns one frame per sub-env) or "human"
+            (a window showing sub-env 0, redrawn at each step).
+        autoreset_mode: ``AutoresetMode`` or its value ("NextStep", "SameStep", "Disabled").
+        config: A ready config; otherwise the keyword options, as for the single env.
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {
+        "render_modes": list(RENDER_MODES),
+        "render_fps": RENDER_FPS,
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
+    config_class: ClassVar[type[FlightConfig]] = FlightConfig
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        render_mode: str | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        *,
+        config: FlightConfig | None = None,
+        **kwargs: Any,
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
+            raise ValueError(f"num_envs = {num_envs!r}; allowed: an integer >= 1")
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError as error:
+            allowed = ", ".join(repr(m.value) for m in AutoresetMode)
+            raise ValueError(f"autoreset_mode = {autoreset_mode!r}; allowed: {allowed}") from error
+        self.num_envs = int(num_envs)
+        self.render_mode = check_render_mode(render_mode)
+        self.autoreset_mode = mode
+        self.metadata = {**type(self).metadata, "autoreset_mode": mode}
+        self.config = build_config(self.config_class, config, kwargs)
+        self.task = make_task(self.config)
+        self.single_action_space = action_space()
+        self.single_observation_space = observation_space()
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+
+        n = self.num_envs
+        self._rngs: list[np.random.Generator | None] = [None] * n
+        self._rng_seeds: list[int | None] = [None] * n
+        self._values = np.full(n, np.nan)
+        self._observations = np.zeros((n, 1), dtype=np.float32)
+        self._autoreset = np.zeros(n, dtype=np.bool_)
+        self._started = np.zeros(n, dtype=np.bool_)
+        self._last: list[LastStep | None] = [None] * n
+        self._window: Any = None
+
+    # --- per-env random generators (one per sub-env, as SyncVectorEnv's envs have) -------------
+    def _rng(self, i: int) -> np.random.Generator:
+        if self._rngs[i] is None:
+            self._rngs[i], self._rng_seeds[i] = seeding.np_random()
+        return self._rngs[i]  # type: ignore[return-value]
+
+    @property
+    def np_random(self) -> tuple[np.random.Generator, ...]:  # type: ignore[override]
+        """Each sub-env's generator (created with a random seed if never seeded)."""
+        return tuple(self._rng(i) for i in range(self.num_envs))
+
+    @property
+    def np_random_seed(self) -> tuple[int | None, ...]:  # type: ignore[override]
+        """Each sub-env's seed."""
+        for i in range(self.num_envs):
+            self._rng(i)
+        return tuple(self._rng_seeds)
+
+    @property
+    def conditions(self) -> np.ndarray:
+        """(n,) current condition of each sub-env (speed [m/s] or available power [W/kg])."""
+        return self._values.copy()
+
+    # --- primitives shared with the SB3 adapter -------------------------------------------------
+    def _reset_envs(
+        self,
+        index: np.ndarray,
+        seeds: Sequence[int | None],
+        options: Mapping[str, Any] | Sequence[Mapping[str, Any] | None] | None,
+    ) -> dict[str, Any]:
+        """Start new episodes in sub-envs ``index``; returns their reset info columns."""
+        index = np.asarray(index, dtype=np.intp)
+        for i, seed in zip(index, seeds, strict=True):
+            if seed is not None:
+                self._rngs[i], self._rng_seeds[i] = seeding.np_random(seed)
+        if options is None or isinstance(options, Mapping):
+            per_env = [options] * index.size
+        else:
+            per_env = list(options)
+        values = self.task.draw_conditions(index.size, lambda k: self._rng(int(index[k])), per_env)
+        self._values[index] = values
+        self._observations[index] = self.task.observe(values)
+        self._started[index] = True
+        for i in index:
+            self._last[i] = None
+        return self.task.reset_columns(values)
+
+    def _step_envs(self, index: np.ndarray, actions: Any) -> tuple[StepBatch, np.ndarray]:
+        """Evaluate the strokes of sub-envs ``index`` in one model call; (batch, observations)."""
+        index = np.asarray(index, dtype=np.intp)
+        if not self._started[index].all():
+            raise ResetNeeded("call reset() before step()")
+        values = self._values[index]
+        batch = self.task.step(actions, values)
+        for k, i in enumerate(index):
+            self._last[i] = LastStep(batch, k)
+        return batch, self.task.observe(values)
+
+    # --- Gymnasium VectorEnv API ------------------------------------------------------------------
+    def reset(
+        self,
+        *,
+        seed: int | Sequence[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        n = self.num_envs
+        if seed is None:
+            seeds: list[int | None] = [None] * n
+        elif isinstance(seed, int | np.integer) and not isinstance(seed, bool):
+            seeds = [int(seed) + i for i in range(n)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != n:
+                raise ValueError(
+                    f"If seeds are passed as a list the length must match num_envs={n} but got "
+                    f"length={len(seeds)}."
+                )
+        options = dict(options) if options is not None else None
+        if options is not None and "reset_mask" in options:
+            mask = options.pop("reset_mask")
+            if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (n,):
+                raise ValueError(
+                    f"options['reset_mask'] must be a numpy bool array of shape ({n},); got {mask!r}"
+                )
+            if not mask.any():
+                raise ValueError("options['reset_mask'] must contain at least one True value")
+            index = np.flatnonzero(mask)
+        else:
+            index = np.arange(n)
+        columns = self._reset_envs(index, [seeds[i] for i in index], options)
+        self._autoreset[index] = False
+        if self.render_mode == "human":
+            self.render()
+        return self._observations.copy(), add_columns({}, columns, index, n)
+
+    def step(
+        self, actions: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        n = self.num_envs
+        actions = np.asarray(actions)
+        if actions.shape != self.action_space.shape:
+            raise ValueError(
+                f"actions must have shape {self.action_space.shape} (num_envs, 28); got "
+                f"shape {actions.shape}"
+            )
+        rewards = np.zeros(n, dtype=np.float64)
+        terminations = np.zeros(n, dtype=np.bool_)
+        truncations = np.zeros(n, dtype=np.bool_)
+        infos: dict[str, Any] = {}
+
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP:
+            resetting = np.flatnonzero(self._autoreset)
+            stepping = np.flatnonzero(~self._autoreset)
+            if stepping.size:
+                batch, _ = self._step_envs(stepping, actions[stepping])
+                rewards[stepping] = batch.reward
+                terminations[stepping] = True
+                add_columns(infos, batch.info_columns(), stepping, n)
+            if resetting.size:
+                columns = self._reset_envs(resetting, [None] * resetting.size, None)
+                add_columns(infos, columns, resetting, n)
+            observations = self._observations.copy()
+        elif self.autoreset_mode == AutoresetMode.SAME_STEP:
+            everyone = np.arange(n)
+            batch, final = self._step_envs(everyone, actions)
+            rewards[:] = batch.reward
+            terminations[:] = True
+            final_obs = np.empty(n, dtype=object)
+            final_obs[:] = list(final)
+            infos["final_obs"], infos["_final_obs"] = final_obs, np.ones(n, dtype=np.bool_)
+            infos["final_info"] = add_columns({}, batch.info_columns(), everyone, n)
+            infos["_final_info"] = np.ones(n, dtype=np.bool_)
+            add_columns(infos, self._reset_envs(everyone, [None] * n, None), everyone, n)
+            # The stroke just evaluated stays the picture until the next step.
+            for k in range(n):
+                self._last[k] = LastStep(batch, k)
+            observations = self._observations.copy()
+        else:
+            if self._autoreset.any():
+                raise RuntimeError(
+                    f"sub-envs {np.flatnonzero(self._autoreset).tolist()} have terminated; with "
+                    "autoreset_mode=Disabled reset them first, e.g. "
+                    "reset(options={'reset_mask': mask})"
+                )
+            batch, _ = self._step_envs(np.arange(n), actions)
+            rewards[:] = batch.reward
+            terminations[:] = True
+            add_columns(infos, batch.info_columns(), np.arange(n), n)
+            observations = self._observations.copy()
+
+        self._autoreset = terminations | truncations
+        if self.render_mode == "human":
+            self.render()
+        return observations, rewards, terminations, truncations, infos
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """rgb_array: one frame per sub-env (costly for large n); human: sub-env 0 in a window."""
+        if self.render_mode is None:
+            return None
+        from .render import HumanWindow, to_rgb_array
+
+        title = self.spec.id if self.spec is not None else type(self).__name__
+
+        def frame(i: int) -> Any:
+            value = None if not self._started[i] else float(self._values[i])
+            return frame_for(self.task, f"{title} [env {i}]", value, self._last[i])
+
+        if self.render_mode == "rgb_array":
+            return tuple(to_rgb_array(frame(i)) for i in range(self.num_envs))
+        if self._window is None:
+            self._window = HumanWindow(self.metadata["render_fps"])
+        self._window.show(frame(0))
+        return None
+
+    def close_extras(self, **kwargs: Any) -> None:
+        if self._window is not None:
+            self._window.close()
+            self._window = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_window"] = None
+        return state
+
+    def __repr__(self) -> str:
+        name = self.spec.id if self.spec is not None else type(self).__name__
+        return f"{type(self).__name__}({name}, num_envs={self.num_envs})"
+
+
+class LevelFlightVectorEnv(FlightVectorEnv):
+    """n :class:`~tandem_env.envs.flight.LevelFlightEnv` in one batched model call."""
+
+    config_class = LevelFlightConfig
+    config: LevelFlightConfig
+
+
+class AccelerateVectorEnv(FlightVectorEnv):
+    """n :class:`~tandem_env.envs.flight.AccelerateEnv` in one batched model call."""
+
+    config_class = AccelerateConfig
+    config: AccelerateConfig
