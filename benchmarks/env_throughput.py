@@ -1,0 +1,100 @@
+"""Env throughput: the single env, the native vector env and the SB3 adapter against the raw model.
+
+Run ``python benchmarks/env_throughput.py`` (about 30 s). Every episode is one wing-beat cycle,
+so the number that matters is *strokes evaluated per second*; stepping n = 1024 envs should
+cost about one batched ``evaluate`` call at B = 1024, i.e. the vector env and the SB3 adapter
+should run at a large fraction of the raw model rate, and the single env at the B = 1 rate.
+
+With Gymnasium's default next-step autoreset, every other vector step only resets the envs
+(no model call), so the native env is timed in both autoreset modes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Callable
+
+import gymnasium as gym
+import numpy as np
+
+import tandem_env as te
+
+ENV_ID = "TandemWing/LevelFlight-v0"
+
+
+def rate(run: Callable[[], int], seconds: float) -> float:
+    """Strokes per second of ``run`` (which returns the strokes it evaluated), over ``seconds``."""
+    run()  # warm-up: numba compilation or cache load, first-call allocations
+    strokes, start = 0, time.perf_counter()
+    while (elapsed := time.perf_counter() - start) < seconds:
+        strokes += run()
+    return strokes / elapsed
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--num-envs", type=int, default=1024, help="vector width n (default 1024)")
+    parser.add_argument("--seconds", type=float, default=4.0, help="time per measurement [s]")
+    args = parser.parse_args()
+    n, seconds = args.num_envs, args.seconds
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1.0, 1.0, (n, 28)).astype(np.float32)
+    physical = te.normalised_to_physical(actions.astype(np.float64))
+
+    rows: list[tuple[str, float]] = []
+
+    def raw(batch: int) -> Callable[[], int]:
+        def run() -> int:
+            te.evaluate(physical[:batch], 1.5)
+            return batch
+
+        return run
+
+    rows.append(("evaluate, B = 1", rate(raw(1), seconds)))
+    rows.append((f"evaluate, B = {n}", rate(raw(n), seconds)))
+
+    env = gym.make(ENV_ID)
+    env.reset(seed=0)
+
+    def single() -> int:
+        env.reset()
+        env.step(actions[0])
+        return 1
+
+    rows.append(("single env (gym.make), reset + step", rate(single, seconds)))
+
+    for mode, label in (("NextStep", "next-step autoreset"), ("SameStep", "same-step autoreset")):
+        envs = gym.make_vec(
+            ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", autoreset_mode=mode
+        )
+        envs.reset(seed=0)
+
+        def vector(envs: gym.vector.VectorEnv = envs) -> int:
+            # Count the strokes actually evaluated (terminated envs), not the reset steps.
+            return int(envs.step(actions)[2].sum())
+
+        rows.append((f"native vector env, n = {n}, {label}", rate(vector, seconds)))
+        envs.close()
+
+    from tandem_env.envs.sb3 import make_sb3_vec_env
+
+    venv = make_sb3_vec_env(ENV_ID, n_envs=n, seed=0)
+    venv.reset()
+
+    def sb3() -> int:
+        venv.step(actions)
+        return n
+
+    rows.append((f"SB3 adapter (TandemVecEnv), n = {n}", rate(sb3, seconds)))
+    venv.close()
+
+    reference = rows[1][1]
+    width = max(len(name) for name, _ in rows)
+    print(f"{'':{width}}  strokes/s   vs evaluate(B={n})")
+    for name, value in rows:
+        print(f"{name:{width}}  {value:9.0f}   {value / reference:6.1%}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,139 @@
+"""Bad actions and bad options fail loudly, with messages that say what is allowed."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import tandem_env as te
+from tandem_env.envs import AccelerateConfig, LevelFlightConfig, PenaltyConfig
+
+LEVEL = "TandemWing/LevelFlight-v0"
+ACCELERATE = "TandemWing/Accelerate-v0"
+
+
+@pytest.fixture
+def env() -> gym.Env:
+    env = gym.make(LEVEL)
+    env.reset(seed=0)
+    return env
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+@pytest.mark.parametrize("clip", [False, True])
+def test_non_finite_actions_raise(bad: float, clip: bool) -> None:
+    env = gym.make(LEVEL, clip_actions=clip)
+    env.reset()
+    action = np.zeros(28, dtype=np.float32)
+    action[5] = bad
+    with pytest.raises(ValueError, match=r"fore_elevation_offset = .* is not finite"):
+        env.step(action)
+
+
+def test_out_of_range_actions_raise_unless_clipped() -> None:
+    action = np.zeros(28)
+    action[0], action[27] = 1.5, -3.0
+    env = gym.make(LEVEL)
+    env.reset()
+    with pytest.raises(
+        ValueError, match=r"outside the action space; allowed: \[-1, 1\].*clip_actions=True"
+    ):
+        env.step(action)
+    clipping = gym.make(LEVEL, clip_actions=True)
+    clipping.reset()
+    _, _, _, _, info = clipping.step(action)
+    clipped = np.clip(action, -1.0, 1.0)
+    assert info["stroke"] == te.strokes_to_dicts(te.normalised_to_physical(clipped)[None])[0]
+    assert (
+        info["stroke"]["fore_frequency"] == 45.0
+        and info["stroke"]["hind_stroke_plane_angle"] == 5.0
+    )
+
+
+@pytest.mark.parametrize("action", [np.zeros(27), np.zeros((1, 28)), "fast", [[0.0] * 28] * 2])
+def test_wrong_action_shapes_raise(env: gym.Env, action) -> None:
+    with pytest.raises(ValueError, match="28"):
+        env.step(action)
+
+
+@pytest.mark.parametrize(
+    ("env_id", "kwargs", "message"),
+    [
+        (LEVEL, {"planform": "square"}, "planform = 'square'; allowed: 'tear-drop', 'real'"),
+        (LEVEL, {"speed": -1}, r"speed = -1 m/s; allowed: a finite number from 0 to 20 m/s"),
+        (LEVEL, {"speed": 3.0}, r"outside LevelFlightConfig.speed_envelope = \(0.25, 2\)"),
+        (LEVEL, {"speed": "fast"}, "speed = 'fast'"),
+        (LEVEL, {"speed": 1.0, "speed_range": (0.5, 1.5)}, "not both"),
+        (LEVEL, {"speed_range": (1.5, 0.5)}, "low < high"),
+        (LEVEL, {"speed_range": (0.1, 1.0)}, "speed_envelope"),
+        (LEVEL, {"speed_envelope": (0.0, 30.0)}, "high <= 20"),
+        (LEVEL, {"objective": "vertical"}, "unknown argument.*'objective'; allowed: .*speed_range"),
+        (
+            LEVEL,
+            {"induction": "magic"},
+            "induction = 'magic'; allowed: 'coupled', 'isolated', 'none'",
+        ),
+        (LEVEL, {"thrust_split": "force"}, "thrust_split = 'force'; allowed: 'sign', 'body'"),
+        (LEVEL, {"power_convention": "net"}, "allowed: 'absolute', 'elastic'"),
+        (LEVEL, {"n_time": 4}, "n_time = 4; allowed: an integer 8 to 8192"),
+        (LEVEL, {"interference": "high"}, "interference = 'high'; allowed: a finite number"),
+        (LEVEL, {"insect": "dragonfly"}, "allowed: a tandem_env.Dragonfly"),
+        (LEVEL, {"options": {"n_time": 8}}, "allowed: a tandem_env.ModelOptions"),
+        (
+            LEVEL,
+            {"penalty_weight": -1.0},
+            "PenaltyConfig.weight = -1.0; allowed: a finite number from 0",
+        ),
+        (LEVEL, {"penalty_weight": 0.0}, "weight > 0 or offset > 0"),
+        (LEVEL, {"penalty": {"scale": 2.0}}, "allowed: weight, offset"),
+        (LEVEL, {"clip_actions": "yes"}, "clip_actions = 'yes'; allowed: True or False"),
+        (
+            ACCELERATE,
+            {"objective": "sideways"},
+            "objective = 'sideways'; allowed: 'vertical', 'horizontal', 'resultant'",
+        ),
+        (ACCELERATE, {"power": 95.0}, "power_envelope"),
+        (ACCELERATE, {"power": 0.0}, "allowed: a finite number from 1 to 1000 W/kg"),
+        (ACCELERATE, {"speed": -0.5}, "speed = -0.5 m/s"),
+        (ACCELERATE, {"speed_range": (0.5, 1.0)}, "unknown argument.*'speed_range'"),
+    ],
+)
+def test_invalid_options_fail_at_make_time(env_id: str, kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        gym.make(env_id, **kwargs)
+
+
+def test_unknown_render_mode_fails_at_make_time() -> None:
+    # Gymnasium warns about the unknown mode before the env rejects it.
+    with (
+        pytest.warns(UserWarning, match="not in the possible render_modes"),
+        pytest.raises(
+            ValueError, match="render_mode = 'ansi'; allowed: None, 'human', 'rgb_array'"
+        ),
+    ):
+        gym.make(LEVEL, render_mode="ansi")
+
+
+def test_invalid_vector_options_fail_at_make_time() -> None:
+    with pytest.raises(ValueError, match="objective = 'sideways'"):
+        gym.make_vec(
+            ACCELERATE, num_envs=2, vectorization_mode="vector_entry_point", objective="sideways"
+        )
+    with pytest.raises(ValueError, match="num_envs = 0; allowed: an integer >= 1"):
+        gym.make_vec(LEVEL, num_envs=0, vectorization_mode="vector_entry_point")
+    with pytest.raises(ValueError, match="autoreset_mode = 'Sometimes'; allowed: 'NextStep'"):
+        gym.make_vec(
+            LEVEL, num_envs=2, vectorization_mode="vector_entry_point", autoreset_mode="Sometimes"
+        )
+
+
+def test_configs_are_frozen_and_normalised() -> None:
+    cfg = LevelFlightConfig(speed_range=[0.5, 1])
+    assert cfg.speed_range == (0.5, 1.0) and cfg.speed is None
+    assert LevelFlightConfig().speed == 1.5
+    assert AccelerateConfig().power == 90.0 and AccelerateConfig().speed == 0.0
+    with pytest.raises(AttributeError):
+        cfg.speed = 1.0  # type: ignore[misc]
+    assert hash(cfg) == hash(LevelFlightConfig(speed_range=(0.5, 1.0)))
+    assert PenaltyConfig() == PenaltyConfig(weight=10.0, offset=0.0)

@@ -1,0 +1,165 @@
+"""The native vector env equals SyncVectorEnv over n single envs, in one model call per step."""
+
+from __future__ import annotations
+
+import pickle
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode, SyncVectorEnv
+
+from tandem_env.envs import task as task_module
+from tandem_env.envs.vector import AccelerateVectorEnv, LevelFlightVectorEnv
+
+LEVEL = "TandemWing/LevelFlight-v0"
+ACCELERATE = "TandemWing/Accelerate-v0"
+CASES: list[tuple[str, dict[str, Any]]] = [
+    (LEVEL, {"speed_range": (0.25, 2.0)}),
+    (LEVEL, {"speed": 1.0, "thrust_split": "body"}),
+    (ACCELERATE, {"objective": "resultant", "power_range": (50.0, 90.0)}),
+]
+
+
+def make_pair(
+    env_id: str, n: int, mode: AutoresetMode, **kwargs: Any
+) -> tuple[gym.vector.VectorEnv, SyncVectorEnv]:
+    native = gym.make_vec(
+        env_id, num_envs=n, vectorization_mode="vector_entry_point", autoreset_mode=mode, **kwargs
+    )
+    sync = gym.make_vec(
+        env_id,
+        num_envs=n,
+        vectorization_mode="sync",
+        vector_kwargs={"autoreset_mode": mode},
+        **kwargs,
+    )
+    return native, sync
+
+
+def actions_for(n: int, step: int) -> np.ndarray:
+    return np.random.default_rng(step).uniform(-1.0, 1.0, (n, 28)).astype(np.float32)
+
+
+def test_make_vec_uses_the_native_env_by_default() -> None:
+    envs = gym.make_vec(LEVEL, num_envs=3)
+    assert isinstance(envs, LevelFlightVectorEnv)
+    assert envs.metadata["autoreset_mode"] is AutoresetMode.NEXT_STEP
+    assert envs.single_action_space == gym.spaces.Box(-1.0, 1.0, (28,), np.float32)
+    assert envs.action_space.shape == (3, 28) and envs.observation_space.shape == (3, 1)
+    assert isinstance(gym.make_vec(ACCELERATE, num_envs=2), AccelerateVectorEnv)
+
+
+@pytest.mark.parametrize(("env_id", "kwargs"), CASES)
+def test_next_step_autoreset_matches_sync_vector_env(env_id: str, kwargs: dict, same) -> None:
+    n = 5
+    native, sync = make_pair(env_id, n, AutoresetMode.NEXT_STEP, **kwargs)
+    same(native.reset(seed=123), sync.reset(seed=123))
+    for step in range(6):
+        actions = actions_for(n, step)
+        if step % 2 == 1:
+            # Every env terminated last step, so this step resets them: actions are ignored,
+            # even invalid ones, exactly as SyncVectorEnv ignores them.
+            actions[:, 0] = np.nan
+        out_native, out_sync = native.step(actions), sync.step(actions)
+        same(out_native, out_sync)
+        assert out_native[2].all() == (step % 2 == 0)
+    same(native.reset(), sync.reset())
+    same(native.step(actions_for(n, 9)), sync.step(actions_for(n, 9)))
+
+
+@pytest.mark.parametrize(("env_id", "kwargs"), CASES)
+def test_same_step_autoreset_matches_sync_vector_env(env_id: str, kwargs: dict, same) -> None:
+    n = 4
+    native, sync = make_pair(env_id, n, AutoresetMode.SAME_STEP, **kwargs)
+    assert native.metadata["autoreset_mode"] is AutoresetMode.SAME_STEP
+    same(native.reset(seed=[3, 11, 5, 6]), sync.reset(seed=[3, 11, 5, 6]))
+    for step in range(4):
+        out_native, out_sync = native.step(actions_for(n, step)), sync.step(actions_for(n, step))
+        same(out_native, out_sync)
+        assert "final_info" in out_native[4] and out_native[2].all()
+
+
+def test_partial_reset_mask_and_mixed_infos_match_sync_vector_env(same) -> None:
+    n = 4
+    native, sync = make_pair(LEVEL, n, AutoresetMode.NEXT_STEP, speed_range=(0.25, 2.0))
+    same(native.reset(seed=0), sync.reset(seed=0))
+    same(native.step(actions_for(n, 0)), sync.step(actions_for(n, 0)))
+    mask = np.array([True, False, True, False])
+    same(
+        native.reset(options={"reset_mask": mask.copy()}),
+        sync.reset(options={"reset_mask": mask.copy()}),
+    )
+    # Envs 0 and 2 step while 1 and 3 autoreset: one info dict mixing both, with masks.
+    out = native.step(actions_for(n, 1))
+    same(out, sync.step(actions_for(n, 1)))
+    np.testing.assert_array_equal(out[4]["_efficiency"], mask)
+    np.testing.assert_array_equal(out[4]["_speed"], np.ones(n, dtype=bool))
+    same(native.step(actions_for(n, 2)), sync.step(actions_for(n, 2)))
+
+
+def test_disabled_autoreset_matches_sync_vector_env(same) -> None:
+    n = 3
+    native, sync = make_pair(ACCELERATE, n, AutoresetMode.DISABLED, power_range=(50.0, 90.0))
+    same(native.reset(seed=9), sync.reset(seed=9))
+    same(native.step(actions_for(n, 0)), sync.step(actions_for(n, 0)))
+    with pytest.raises(RuntimeError, match="reset_mask"):
+        native.step(actions_for(n, 1))
+    mask = np.ones(n, dtype=bool)
+    same(
+        native.reset(options={"reset_mask": mask}), sync.reset(options={"reset_mask": mask.copy()})
+    )
+    same(native.step(actions_for(n, 1)), sync.step(actions_for(n, 1)))
+
+
+def test_reset_options_apply_to_every_env(same) -> None:
+    native, sync = make_pair(LEVEL, 3, AutoresetMode.NEXT_STEP, speed_range=(0.25, 2.0))
+    out = native.reset(seed=1, options={"speed": 0.5})
+    same(out, sync.reset(seed=1, options={"speed": 0.5}))
+    np.testing.assert_array_equal(out[1]["speed"], [0.5, 0.5, 0.5])
+
+
+def test_per_env_generators_match_sync_vector_env() -> None:
+    native, sync = make_pair(LEVEL, 3, AutoresetMode.NEXT_STEP, speed_range=(0.25, 2.0))
+    native.reset(seed=4)
+    sync.reset(seed=4)
+    assert native.np_random_seed == sync.np_random_seed == (4, 5, 6)
+    states = [g.bit_generator.state for g in native.np_random]
+    assert states == [g.bit_generator.state for g in sync.np_random]
+
+
+def test_stepping_n_envs_is_one_batched_model_call(monkeypatch: pytest.MonkeyPatch) -> None:
+    calls: list[int] = []
+    evaluate = task_module.evaluate
+
+    def counting(strokes, *args, **kwargs):
+        calls.append(len(strokes))
+        return evaluate(strokes, *args, **kwargs)
+
+    monkeypatch.setattr(task_module, "evaluate", counting)
+    envs = gym.make_vec(LEVEL, num_envs=64, vectorization_mode="vector_entry_point")
+    envs.reset(seed=0)
+    envs.step(envs.action_space.sample())
+    assert calls == [64]
+    envs.step(envs.action_space.sample())  # the autoreset step evaluates nothing
+    assert calls == [64]
+
+
+def test_vector_env_pickles_and_renders(same) -> None:
+    envs = gym.make_vec(
+        LEVEL,
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        render_mode="rgb_array",
+        speed_range=(0.25, 2.0),
+    )
+    before = envs.render()
+    assert len(before) == 2 and all(f.dtype == np.uint8 and f.ndim == 3 for f in before)
+    envs.reset(seed=2)
+    copy = pickle.loads(pickle.dumps(envs))
+    actions = actions_for(2, 0)
+    same(copy.step(actions), envs.step(actions))
+    frames = envs.render()
+    assert len(frames) == 2 and frames[0].shape == before[0].shape
+    envs.close()
