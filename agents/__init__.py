@@ -1,21 +1,73 @@
-"""Optimisers over the normalised box [-1, 1]^d and result-record I/O."""
+"""Optimisers over the normalised box [-1, 1]^d, the harness that runs them on the tasks, and
+result-record I/O.
+
+The optimisers (``PSO``, ``RandomSearch``, ``maximise``) import only numpy. The harness names
+(``run``, ``Record``, ``register_method``, ...) are imported on first use, because they
+import Gymnasium and the model.
+"""
+
+from importlib import import_module
+from typing import Any
 
 from agents.optimiser import OptimisationResult, Progress, maximise, minimise
 from agents.pso import PSO, PSOConfig
 from agents.random_search import RandomSearch, RandomSearchConfig
 from agents.records import package_versions, read_json, write_csv_atomic, write_json_atomic
 
+# name -> module, for the lazily imported harness API.
+_LAZY = {
+    "run": "agents.harness",
+    "prepare": "agents.harness",
+    "execute": "agents.harness",
+    "RunPlan": "agents.harness",
+    "Record": "agents.run_record",
+    "load_records": "agents.run_record",
+    "Method": "agents.methods",
+    "SearchContext": "agents.methods",
+    "SearchOutcome": "agents.methods",
+    "available_methods": "agents.methods",
+    "get_method": "agents.methods",
+    "register_method": "agents.methods",
+    "Condition": "agents.tasks",
+    "TaskSpec": "agents.tasks",
+    "get_task": "agents.tasks",
+    "register_task": "agents.tasks",
+}
+
 __all__ = [
     "PSO",
+    "Condition",
+    "Method",
     "OptimisationResult",
     "PSOConfig",
     "Progress",
     "RandomSearch",
     "RandomSearchConfig",
+    "Record",
+    "RunPlan",
+    "SearchContext",
+    "SearchOutcome",
+    "TaskSpec",
+    "available_methods",
+    "execute",
+    "get_method",
+    "get_task",
+    "load_records",
     "maximise",
     "minimise",
     "package_versions",
+    "prepare",
     "read_json",
+    "register_method",
+    "register_task",
+    "run",
     "write_csv_atomic",
     "write_json_atomic",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'agents' has no attribute {name!r}")
+    return getattr(import_module(module), name)

@@ -1,0 +1,251 @@
+"""Evaluating batches of normalised actions through a task's native vector env.
+
+The harness never calls the model directly while searching: every batch of candidate strokes
+(a PSO swarm, a random-search batch) is one ``step`` of the task's batched vector env, so a
+particle's fitness is exactly the reward an RL agent would be given for that action (the
+penalised objective), and one stroke evaluated is one env step is one unit of budget.
+
+The vector envs are made with ``gym.make_vec(id, num_envs=n,
+vectorization_mode="vector_entry_point", autoreset_mode="Disabled", **env_kwargs)``: every
+step evaluates all n actions in one batched model call, and each batch is preceded by an
+explicit ``reset`` with the condition as reset option (episodes are one step long). A vector env
+is made per distinct batch size (a truncated last batch gets its own), and kept for reuse.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from agents.tasks import Condition, TaskSpec
+
+__all__ = [
+    "BudgetExceededError",
+    "EvaluatedBatch",
+    "Reevaluation",
+    "VectorEnvEvaluator",
+    "reevaluate",
+]
+
+#: Called after every batch with (iteration, evaluations, best reward so far).
+BatchCallback = Callable[[int, int, float], None]
+
+
+class BudgetExceededError(RuntimeError):
+    """A method asked for more evaluations than its budget."""
+
+
+@dataclass(frozen=True)
+class EvaluatedBatch:
+    """What one vector-env step returned for a batch, as (n,) arrays."""
+
+    rewards: np.ndarray
+    """Rewards (the penalised objective) [reward units]."""
+    objective: np.ndarray
+    """The task's raw objective (``info["objective"]``; the reward if the env has none)."""
+    feasible: np.ndarray
+    """``info["feasible"]`` (all True if the env has none)."""
+
+
+class VectorEnvEvaluator:
+    """Budgeted, batched fitness through the task's native vector env.
+
+    Parameters
+    ----------
+    task : TaskSpec
+        The task (env id, how the condition is set).
+    condition : Condition
+        The condition every episode is reset with.
+    env_kwargs : mapping
+        Constructor keywords of the env, including the condition keyword.
+    seed : int
+        Seeds the vector envs at their first reset (sub-env i gets ``seed + i``).
+    budget : int
+        Maximum number of actions evaluated; asking for more raises BudgetExceededError.
+    on_batch : callable, optional
+        Called after every batch with (iteration, evaluations, best reward so far).
+
+    Calling the evaluator with actions (n, dim) returns their rewards (n,) and updates the
+    evaluation count, the best action and the history of (evaluations, best reward so far).
+    """
+
+    def __init__(
+        self,
+        task: TaskSpec,
+        condition: Condition,
+        env_kwargs: Mapping[str, Any],
+        seed: int,
+        budget: int,
+        on_batch: BatchCallback | None = None,
+    ) -> None:
+        self.task = task
+        self.condition = condition
+        self.env_kwargs = dict(env_kwargs)
+        self.seed = int(seed)
+        self.budget = int(budget)
+        self._on_batch = on_batch
+        self._envs: dict[int, gym.vector.VectorEnv] = {}
+        self._evaluations = 0
+        self._iterations = 0
+        self._best_reward = -np.inf
+        self._best_action: np.ndarray | None = None
+        self._history: list[tuple[int, float]] = []
+        self.step_time = 0.0
+        """Wall time spent in the vector envs' reset and step [s] (for overhead accounting)."""
+
+    # --- the vector envs ---------------------------------------------------------------------
+    def _env(self, n: int) -> gym.vector.VectorEnv:
+        env = self._envs.get(n)
+        if env is None:
+            env = gym.make_vec(
+                self.task.env_id,
+                num_envs=n,
+                vectorization_mode="vector_entry_point",
+                autoreset_mode="Disabled",
+                **self.env_kwargs,
+            )
+            # The seed only matters for sampled conditions (none here), but a seeded first
+            # reset keeps every generator the env owns reproducible too.
+            env.reset(seed=self.seed, options={self.task.reset_option: self.condition.value})
+            self._envs[n] = env
+        return env
+
+    def close(self) -> None:
+        """Close every vector env made so far."""
+        for env in self._envs.values():
+            env.close()
+        self._envs.clear()
+
+    def __enter__(self) -> VectorEnvEvaluator:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # --- evaluation ----------------------------------------------------------------------------
+    def evaluate_batch(self, actions: np.ndarray) -> EvaluatedBatch:
+        """Evaluate a batch (n, dim) in one vector-env step; rewards, objectives, feasibility."""
+        actions = np.asarray(actions, dtype=np.float64)
+        if actions.ndim != 2 or actions.shape[0] < 1:
+            raise ValueError(f"actions must have shape (n, dim) with n >= 1; got {actions.shape}")
+        n = actions.shape[0]
+        if self._evaluations + n > self.budget:
+            raise BudgetExceededError(
+                f"{n} more evaluations would exceed the budget of {self.budget} "
+                f"({self._evaluations} used)"
+            )
+        start = time.perf_counter()
+        env = self._env(n)
+        env.reset(options={self.task.reset_option: self.condition.value})
+        _, rewards, _, _, infos = env.step(actions)
+        self.step_time += time.perf_counter() - start
+        self._check_condition(infos, n)
+
+        rewards = np.asarray(rewards, dtype=np.float64).copy()
+        objective = np.asarray(infos.get("objective", rewards), dtype=np.float64)
+        feasible = np.asarray(infos.get("feasible", np.ones(n, dtype=bool)), dtype=bool)
+        self._evaluations += n
+        self._iterations += 1
+        clean = np.where(np.isnan(rewards), -np.inf, rewards)
+        i = int(np.argmax(clean))
+        # Strict '>' as in the optimisers: the first of equal rewards stays the best.
+        if clean[i] > self._best_reward:
+            self._best_reward = float(clean[i])
+            self._best_action = actions[i].copy()
+        self._history.append((self._evaluations, self._best_reward))
+        if self._on_batch is not None:
+            self._on_batch(self._iterations, self._evaluations, self._best_reward)
+        return EvaluatedBatch(rewards=rewards, objective=objective, feasible=feasible)
+
+    def __call__(self, actions: np.ndarray) -> np.ndarray:
+        """Rewards (n,) of a batch of actions (n, dim): the fitness a method maximises."""
+        return self.evaluate_batch(actions).rewards
+
+    def _check_condition(self, infos: Mapping[str, Any], n: int) -> None:
+        # A wrong condition would silently optimise the wrong problem; the env reports the one
+        # it used, so compare.
+        seen = infos.get(self.condition.name)
+        if seen is None:
+            return
+        seen = np.asarray(seen, dtype=np.float64)
+        if seen.shape == (n,) and not np.all(seen == self.condition.value):
+            raise RuntimeError(
+                f"the env evaluated {self.condition.name} = {np.unique(seen)} but the harness "
+                f"asked for {self.condition.describe()}"
+            )
+
+    # --- what was found ----------------------------------------------------------------------
+    @property
+    def evaluations(self) -> int:
+        """Actions evaluated so far."""
+        return self._evaluations
+
+    @property
+    def iterations(self) -> int:
+        """Batches (vector-env steps) so far."""
+        return self._iterations
+
+    @property
+    def best_reward(self) -> float:
+        """Best reward so far (-inf before any)."""
+        return self._best_reward
+
+    @property
+    def best_action(self) -> np.ndarray | None:
+        """Action of the best reward so far (a copy), or None."""
+        return None if self._best_action is None else self._best_action.copy()
+
+    @property
+    def history(self) -> list[tuple[int, float]]:
+        """(evaluations, best reward so far) after every batch."""
+        return list(self._history)
+
+
+@dataclass(frozen=True)
+class Reevaluation:
+    """One fresh single-env step of a stroke: what the record reports."""
+
+    reward: float
+    info: dict[str, Any]
+    env_config: dict[str, Any] | None
+    """The env's configuration as a plain dict (insect, model options, penalty, ...), if any."""
+
+
+def reevaluate(
+    task: TaskSpec,
+    condition: Condition,
+    env_kwargs: Mapping[str, Any],
+    seed: int,
+    action: np.ndarray,
+) -> Reevaluation:
+    """Evaluate ``action`` once more in a freshly made single env of the task.
+
+    The single env and the vector env share one batched core, so this gives the same reward
+    as during the search; doing it in a fresh env makes the record independent of any state
+    the search left behind.
+    """
+    env = gym.make(task.env_id, disable_env_checker=True, **env_kwargs)
+    try:
+        env.reset(seed=seed, options={task.reset_option: condition.value})
+        _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
+        return Reevaluation(float(reward), dict(info), env_config_dict(env))
+    finally:
+        env.close()
+
+
+def env_config_dict(env: gym.Env) -> dict[str, Any] | None:
+    """The env's ``config`` dataclass as a plain dict, or None if it has none."""
+    config = getattr(env.unwrapped, "config", None)
+    if config is None or not dataclasses.is_dataclass(config):
+        return None
+    out = dataclasses.asdict(config)
+    describe = getattr(config, "describe", None)
+    if callable(describe):
+        out["description"] = describe()
+    return out

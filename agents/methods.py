@@ -1,0 +1,310 @@
+"""Search methods the harness can run, and the registry that names them.
+
+A method is anything with a ``name`` and a ``search(context) -> SearchOutcome``. The harness
+gives it a :class:`SearchContext` (the task, the condition, the budget, the seed, a batched
+fitness through the task's vector env) and records what it returns. Two kinds fit:
+
+* black-box optimisers (PSO, random search) call ``context.evaluate(actions)`` once per
+  iteration with the whole batch; the evaluator counts the budget and keeps the history;
+* learners (PPO, SAC, a trained policy) build their own envs from ``context.env_id`` and
+  ``context.env_kwargs``, report their own evaluations (env steps) and history, and return the
+  stroke they would play (``context.report`` drives the progress bar).
+
+Extension point
+---------------
+``register_method(name, factory)`` with ``factory(argument, config) -> Method``: ``argument``
+is the text after a colon in the method spec (``"policy:runs/ppo"`` -> ``"runs/ppo"``, None
+without one) and ``config`` the method's settings. Names listed in :data:`PROVIDERS` are
+registered lazily by importing their provider module the first time they are asked for: the
+training package registers ``"ppo"``, ``"sac"`` and ``"policy"`` from ``train.methods``, so
+``agents`` never imports ``train`` (or Stable-Baselines3) unless such a method is used.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from agents.evaluator import EvaluatedBatch, VectorEnvEvaluator
+from agents.optimiser import OptimiserConfig
+from agents.pso import PSOConfig
+from agents.random_search import RandomSearchConfig
+from agents.tasks import Condition, TaskSpec
+
+__all__ = [
+    "PROVIDERS",
+    "AskTellMethod",
+    "Method",
+    "MethodFactory",
+    "SearchContext",
+    "SearchOutcome",
+    "available_methods",
+    "get_method",
+    "register_method",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class SearchContext:
+    """What a method is given for one seed.
+
+    Attributes
+    ----------
+    task : TaskSpec
+        The task (env id, condition keyword, objectives).
+    condition : Condition
+        The fixed condition of every episode (e.g. speed = 1.5 m/s).
+    env_id : str
+        Gymnasium id of the task's env.
+    env_kwargs : mapping
+        Constructor keywords that make the env of this run (they include the condition).
+    budget : int
+        Maximum number of model evaluations (= env steps = strokes evaluated).
+    seed : int
+        The run's seed; equal seeds must give identical runs.
+    dim : int
+        Dimension of the action box [-1, 1]^dim.
+    evaluator : VectorEnvEvaluator
+        The batched fitness; use :meth:`evaluate`.
+    """
+
+    task: TaskSpec
+    condition: Condition
+    env_id: str
+    env_kwargs: Mapping[str, Any]
+    budget: int
+    seed: int
+    dim: int
+    evaluator: VectorEnvEvaluator
+    _reporter: Callable[[int, int, float], None] | None = field(default=None, repr=False)
+
+    def evaluate(self, actions: np.ndarray) -> np.ndarray:
+        """Rewards (n,) of actions (n, dim) in [-1, 1], in one vector-env step (n budget units)."""
+        return self.evaluator(actions)
+
+    def evaluate_batch(self, actions: np.ndarray) -> EvaluatedBatch:
+        """As :meth:`evaluate`, also returning the raw objective and feasibility."""
+        return self.evaluator.evaluate_batch(actions)
+
+    @property
+    def remaining(self) -> int:
+        """Budget not yet spent through :meth:`evaluate`."""
+        return self.budget - self.evaluator.evaluations
+
+    def report(self, iteration: int, evaluations: int, best_reward: float) -> None:
+        """Progress of a method that runs its own envs (e.g. RL training)."""
+        if self._reporter is not None:
+            self._reporter(iteration, evaluations, best_reward)
+
+
+@dataclass(frozen=True, eq=False)
+class SearchOutcome:
+    """What a method found.
+
+    Attributes
+    ----------
+    best_action : ndarray (dim,)
+        The normalised stroke to record (it is re-evaluated by the harness).
+    best_reward : float
+        Its reward as the method saw it [reward units].
+    evaluations : int
+        Model evaluations (env steps) used, <= the budget.
+    history : tuple of (int, float)
+        (evaluations, best reward so far) pairs, evaluations increasing.
+    config : dict
+        The method's configuration as used (JSON-ready), including a ``citation``.
+    """
+
+    best_action: np.ndarray
+    best_reward: float
+    evaluations: int
+    history: tuple[tuple[int, float], ...]
+    config: dict[str, Any]
+
+    def __post_init__(self) -> None:
+        action = np.array(self.best_action, dtype=np.float64)
+        if action.ndim != 1:
+            raise ValueError(f"best_action must be 1-D; got shape {action.shape}")
+        action.setflags(write=False)
+        object.__setattr__(self, "best_action", action)
+        history = tuple((int(e), float(b)) for e, b in self.history)
+        object.__setattr__(self, "history", history)
+
+
+@runtime_checkable
+class Method(Protocol):
+    """A search method the harness can run (see the module docstring)."""
+
+    @property
+    def name(self) -> str:
+        """The method spec it was made from, e.g. ``"pso"`` or ``"policy:runs/ppo"``."""
+        ...
+
+    def search(self, context: SearchContext) -> SearchOutcome:
+        """Search within ``context.budget`` evaluations; deterministic for ``context.seed``."""
+        ...
+
+
+MethodFactory = Callable[[str | None, Mapping[str, Any]], Method]
+"""``factory(argument, config) -> Method``; should validate ``config`` and raise ValueError."""
+
+
+# --- ask/tell optimisers ---------------------------------------------------------------------
+@dataclass(frozen=True)
+class AskTellMethod:
+    """An ask/tell optimiser from :mod:`agents` run on the vector-env fitness.
+
+    ``make_config(budget)`` returns the optimiser's configuration with ``max_evaluations =
+    budget``; it is called once at construction with budget 1 so bad settings fail early.
+    """
+
+    name: str
+    make_config: Callable[[int], OptimiserConfig]
+
+    def __post_init__(self) -> None:
+        self.make_config(1)
+
+    def config(self, budget: int) -> OptimiserConfig:
+        """The optimiser configuration for ``budget`` evaluations."""
+        return self.make_config(budget)
+
+    def search(self, context: SearchContext) -> SearchOutcome:
+        optimiser = self.make_config(context.budget).build(context.dim, context.seed)
+        while not optimiser.done:
+            X = optimiser.ask()
+            optimiser.tell(X, context.evaluate(X))
+        result = optimiser.result()
+        if result.best_position is None:
+            raise RuntimeError(f"{self.name}: every evaluation returned NaN or -inf")
+        return SearchOutcome(
+            best_action=result.best_position,
+            best_reward=result.best_fitness,
+            evaluations=result.evaluations,
+            history=tuple(map(tuple, result.history.tolist())),
+            config=dict(result.config),
+        )
+
+
+_BUDGET_KEYS = ("iterations", "max_evaluations")
+
+
+def _settings(name: str, config: Mapping[str, Any], allowed: tuple[str, ...]) -> dict[str, Any]:
+    config = dict(config)
+    budget_keys = sorted(set(config) & set(_BUDGET_KEYS))
+    if budget_keys:
+        raise ValueError(
+            f"method {name!r}: {budget_keys} cannot be set here; the harness budget (model "
+            "evaluations) is the only budget"
+        )
+    unknown = sorted(set(config) - set(allowed))
+    if unknown:
+        raise ValueError(
+            f"method {name!r}: unknown setting(s) {unknown}; allowed: {', '.join(allowed)}"
+        )
+    return config
+
+
+_PSO_SETTINGS = ("swarm_size", "inertia", "cognitive", "social", "velocity_clamp", "boundary")
+
+
+def _pso(argument: str | None, config: Mapping[str, Any]) -> Method:
+    _no_argument("pso", argument)
+    settings = _settings("pso", config, _PSO_SETTINGS)
+    return AskTellMethod("pso", lambda budget: PSOConfig(**settings, max_evaluations=budget))
+
+
+def _random(argument: str | None, config: Mapping[str, Any]) -> Method:
+    _no_argument("random", argument)
+    settings = _settings("random", config, ("batch_size", "swarm_size"))
+    # swarm_size is accepted as an alias so one CLI flag sets the batch of both baselines.
+    if "swarm_size" in settings:
+        if "batch_size" in settings and settings["batch_size"] != settings["swarm_size"]:
+            raise ValueError("method 'random': give batch_size or its alias swarm_size, not both")
+        settings["batch_size"] = settings.pop("swarm_size")
+    return AskTellMethod(
+        "random", lambda budget: RandomSearchConfig(**settings, max_evaluations=budget)
+    )
+
+
+def _no_argument(name: str, argument: str | None) -> None:
+    if argument is not None:
+        raise ValueError(f"method {name!r} takes no ':' argument; got {name}:{argument}")
+
+
+# --- the registry ------------------------------------------------------------------------------
+_REGISTRY: dict[str, MethodFactory] = {"pso": _pso, "random": _random}
+
+#: Method names registered on first use by importing a provider module (which must call
+#: :func:`register_method` for them). The RL methods live with the training code.
+PROVIDERS: dict[str, str] = {
+    "ppo": "train.methods",
+    "sac": "train.methods",
+    "policy": "train.methods",
+}
+
+
+def register_method(name: str, factory: MethodFactory, *, replace: bool = False) -> None:
+    """Register ``factory`` under ``name`` (a method spec is ``name`` or ``name:argument``)."""
+    if not isinstance(name, str) or not name or ":" in name or name != name.strip():
+        raise ValueError(f"method name {name!r}; allowed: a non-empty name without ':' or spaces")
+    if not callable(factory):
+        raise ValueError(f"factory for {name!r} is not callable: {factory!r}")
+    if name in _REGISTRY and not replace and _REGISTRY[name] is not factory:
+        raise ValueError(f"method {name!r} is already registered; pass replace=True to replace it")
+    _REGISTRY[name] = factory
+
+
+def available_methods() -> tuple[str, ...]:
+    """Registered method names plus those a provider module would register on first use."""
+    return tuple(dict.fromkeys([*_REGISTRY, *PROVIDERS]))
+
+
+def _factory(name: str) -> MethodFactory:
+    if name in _REGISTRY:
+        return _REGISTRY[name]
+    if name not in PROVIDERS:
+        raise ValueError(
+            f"unknown method {name!r}; allowed: {', '.join(available_methods())} "
+            "('policy' as policy:RUN_DIR)"
+        )
+    module = PROVIDERS[name]
+    try:
+        importlib.import_module(module)
+    except ModuleNotFoundError as error:
+        # Only a missing provider is "not implemented"; a provider that fails while importing
+        # its own dependencies is a real error and propagates from the import below.
+        parts = module.split(".")
+        if error.name not in {".".join(parts[: i + 1]) for i in range(len(parts))}:
+            raise
+        raise NotImplementedError(
+            f"method {name!r} is provided by train/ (module {module}), which is not available "
+            f"yet: {error}"
+        ) from error
+    if name not in _REGISTRY:
+        raise NotImplementedError(
+            f"method {name!r} is provided by train/ (module {module}), but importing it did "
+            f"not register {name!r} (it should call agents.methods.register_method)"
+        )
+    return _REGISTRY[name]
+
+
+def get_method(spec: str | Method, config: Mapping[str, Any] | None = None) -> Method:
+    """The method for a spec such as ``"pso"``, ``"random"`` or ``"policy:runs/ppo"``.
+
+    Raises ValueError for an unknown name or bad settings, NotImplementedError when the name
+    belongs to a provider (``train``) that is not there.
+    """
+    if not isinstance(spec, str):
+        if isinstance(spec, Method):
+            if config:
+                raise ValueError("method_config is only used with a method name, not an object")
+            return spec
+        raise ValueError(f"method = {spec!r}; allowed: a method name or a Method object")
+    name, sep, argument = spec.partition(":")
+    if sep and not argument:
+        raise ValueError(f"method {spec!r}: empty argument after ':'")
+    return _factory(name)(argument if sep else None, dict(config or {}))

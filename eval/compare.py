@@ -1,0 +1,314 @@
+"""``python -m eval compare``: tables and convergence plots across harness records.
+
+Records are grouped by task, objective and condition (one plot panel each) and, within a
+group, by method and budget (one table row and one curve each). The table gives the median
+and inter-quartile range of the re-evaluated objective over seeds, the feasible share and the
+median evaluations and wall time; the plot the median best-so-far reward against evaluations
+with the inter-quartile band over seeds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import tempfile
+from collections import defaultdict
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.records import write_csv_atomic
+from agents.run_record import Record, load_records
+
+__all__ = [
+    "Row",
+    "compare",
+    "convergence_curve",
+    "markdown_table",
+    "plot_convergence",
+    "table_rows",
+]
+
+NAME = "compare"
+HELP = "compare records: median/IQR table (CSV, Markdown) and convergence plot (PNG)"
+DESCRIPTION = """\
+Compare harness records (the JSON files written by `optimize`) found recursively in the given
+directories. Writes into --out:
+  comparison.csv, comparison.md  per task/objective/condition and method: seeds, median and
+                                 IQR (25th-75th percentile) of the re-evaluated objective,
+                                 best, median reward, feasible share, median evaluations and
+                                 median wall time [s];
+  convergence.png                best-so-far reward against evaluations, median over seeds
+                                 with the IQR band, one panel per task/objective/condition."""
+EPILOG = """\
+example:
+  python -m eval compare results/issue4 --out results/issue4/compare"""
+
+TABLE_CSV = "comparison.csv"
+TABLE_MD = "comparison.md"
+PLOT_PNG = "convergence.png"
+
+
+@dataclass(frozen=True)
+class Row:
+    """One method (at one budget) on one task/objective/condition, over its seeds."""
+
+    task: str
+    objective_name: str
+    condition: str
+    condition_value: float
+    condition_unit: str
+    method: str
+    budget: int
+    seeds: int
+    objective_median: float
+    objective_q25: float
+    objective_q75: float
+    objective_best: float
+    reward_median: float
+    feasible_share: float
+    evaluations_median: float
+    wall_time_median_s: float
+
+    @property
+    def objective_iqr(self) -> float:
+        return self.objective_q75 - self.objective_q25
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "task": self.task,
+            "objective_name": self.objective_name,
+            "condition": self.condition,
+            "condition_value": self.condition_value,
+            "condition_unit": self.condition_unit,
+            "method": self.method,
+            "budget": self.budget,
+            "seeds": self.seeds,
+            "objective_median": self.objective_median,
+            "objective_q25": self.objective_q25,
+            "objective_q75": self.objective_q75,
+            "objective_iqr": self.objective_iqr,
+            "objective_best": self.objective_best,
+            "reward_median": self.reward_median,
+            "feasible_share": self.feasible_share,
+            "evaluations_median": self.evaluations_median,
+            "wall_time_median_s": self.wall_time_median_s,
+        }
+
+
+PanelKey = tuple[str, str, str, float, str]
+"""(task, objective_name, condition name, value, unit)."""
+
+
+def panel_key(record: Record) -> PanelKey:
+    c = record.condition
+    return (record.task, record.objective_name, c.name, c.value, c.unit)
+
+
+def series_key(record: Record) -> tuple[str, int]:
+    return (record.method, record.budget)
+
+
+def group(records: Sequence[Record]) -> dict[PanelKey, dict[tuple[str, int], list[Record]]]:
+    """Records by panel, then by (method, budget); duplicate seeds keep the first seen."""
+    out: dict[PanelKey, dict[tuple[str, int], list[Record]]] = defaultdict(
+        lambda: defaultdict(list)
+    )
+    for record in records:
+        runs = out[panel_key(record)][series_key(record)]
+        if any(r.seed == record.seed for r in runs):
+            print(
+                f"compare: duplicate record {record.filename()} ignored (same method, budget, "
+                "condition and seed seen before)",
+                file=sys.stderr,
+            )
+            continue
+        runs.append(record)
+    return {
+        key: {k: sorted(v, key=lambda r: r.seed) for k, v in sorted(series.items())}
+        for key, series in sorted(out.items())
+    }
+
+
+def table_rows(records: Sequence[Record]) -> list[Row]:
+    """One :class:`Row` per task/objective/condition and method/budget."""
+    rows = []
+    for key, series in group(records).items():
+        task, objective_name, condition, value, unit = key
+        for (method, budget), runs in series.items():
+            objective = np.array([r.objective for r in runs])
+            q25, median, q75 = np.percentile(objective, [25, 50, 75])
+            rows.append(
+                Row(
+                    task=task,
+                    objective_name=objective_name,
+                    condition=condition,
+                    condition_value=value,
+                    condition_unit=unit,
+                    method=method,
+                    budget=budget,
+                    seeds=len(runs),
+                    objective_median=float(median),
+                    objective_q25=float(q25),
+                    objective_q75=float(q75),
+                    objective_best=float(objective.max()),
+                    reward_median=float(np.median([r.reward for r in runs])),
+                    feasible_share=float(np.mean([r.feasible for r in runs])),
+                    evaluations_median=float(np.median([r.evaluations for r in runs])),
+                    wall_time_median_s=float(np.median([r.wall_time for r in runs])),
+                )
+            )
+    return rows
+
+
+def _fmt(value: float, digits: int = 4) -> str:
+    return "n/a" if not math.isfinite(value) else f"{value:.{digits}g}"
+
+
+def markdown_table(rows: Sequence[Row]) -> str:
+    """The rows as a Markdown table (objective values to 4 significant digits)."""
+    header = (
+        "| task | objective | condition | method | budget | seeds | median | IQR (25-75 %) "
+        "| best | median reward | feasible | median evaluations | median wall time [s] |"
+    )
+    lines = [header, "|" + "---|" * header.count(" | ") + "---|"]
+    for r in rows:
+        lines.append(
+            f"| {r.task} | {r.objective_name} | {r.condition} = {r.condition_value:g} "
+            f"{r.condition_unit} | {r.method} | {r.budget} | {r.seeds} | "
+            f"{_fmt(r.objective_median)} | {_fmt(r.objective_q25)}-{_fmt(r.objective_q75)} "
+            f"({_fmt(r.objective_iqr, 3)}) | {_fmt(r.objective_best)} | "
+            f"{_fmt(r.reward_median)} | {r.feasible_share:.0%} | {r.evaluations_median:g} | "
+            f"{r.wall_time_median_s:.3g} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def convergence_curve(
+    runs: Sequence[Record],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(evaluations, q25, median, q75) of the best-so-far reward over the runs' seeds.
+
+    Histories may sit on different evaluation grids (other batch sizes); each is read as the
+    step function it is (the best so far holds until the next report) on the union of grids.
+    Before a run's first report its value is missing, and quantiles use the runs reporting.
+    """
+    grid = np.unique(np.concatenate([np.array([e for e, _ in r.history], float) for r in runs]))
+    values = np.full((len(runs), grid.size), np.nan)
+    for k, r in enumerate(runs):
+        evals = np.array([e for e, _ in r.history], float)
+        best = np.array([b for _, b in r.history], float)
+        idx = np.searchsorted(evals, grid, side="right") - 1
+        have = idx >= 0
+        values[k, have] = best[idx[have]]
+    values[~np.isfinite(values)] = np.nan
+    with np.errstate(all="ignore"):
+        q25, median, q75 = np.nanpercentile(values, [25, 50, 75], axis=0)
+    return grid, q25, median, q75
+
+
+def plot_convergence(records: Sequence[Record], path: Path) -> None:
+    """Write the convergence PNG: one panel per task/objective/condition."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    panels = group(records)
+    n = len(panels)
+    cols = min(n, 3)
+    rows = math.ceil(n / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 3.9 * rows), squeeze=False)
+    for ax, (key, series) in zip(axes.flat, panels.items(), strict=False):
+        task, objective_name, condition, value, unit = key
+        budgets = {budget for _, budget in series}
+        finals = []
+        for (method, budget), runs in series.items():
+            x, q25, median, q75 = convergence_curve(runs)
+            label = f"{method} ({len(runs)} seeds)"
+            if len(budgets) > 1:
+                label = f"{method}, budget {budget} ({len(runs)} seeds)"
+            (line,) = ax.plot(x, median, drawstyle="steps-post", label=label)
+            ax.fill_between(x, q25, q75, step="post", alpha=0.25, color=line.get_color())
+            finals.extend(v for v in (q25[-1], median[-1], q75[-1]) if np.isfinite(v))
+            tail = median[x >= 0.1 * x[-1]]
+            finals.extend(v for v in tail[:1] if np.isfinite(v))
+        _focus(ax, finals)
+        ax.set_title(f"{task}, {objective_name}, {condition} = {value:g} {unit}", fontsize=10)
+        ax.set_xlabel("model evaluations")
+        ax.set_ylabel("best reward so far (penalised objective)")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8, loc="best")
+    for ax in list(axes.flat)[n:]:
+        ax.set_visible(False)
+    fig.suptitle("Best-so-far reward: median over seeds, band = inter-quartile range", fontsize=11)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # Render to a temporary name and rename, so a killed run never leaves half a PNG.
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    try:
+        fig.savefig(tmp, dpi=120)
+        tmp.replace(path)
+    finally:
+        plt.close(fig)
+        tmp.unlink(missing_ok=True)
+
+
+def _focus(ax: Any, values: list[float]) -> None:
+    # Early best-so-far rewards of infeasible strokes are tens of units below the feasible
+    # objectives at the end; show the range from a tenth of the run on, so the end is readable.
+    if not values:
+        return
+    low, high = min(values), max(values)
+    pad = 0.08 * (high - low) if high > low else 0.05 * max(abs(high), 1e-3)
+    ax.set_ylim(low - pad, high + pad)
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to a temporary file beside ``path`` and rename it over ``path``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(text)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def compare(directories: Sequence[str | Path], out: str | Path) -> list[Row]:
+    """Load the records under ``directories`` and write table and plot into ``out``."""
+    records = load_records(directories)
+    if not records:
+        raise ValueError(
+            f"no harness records found in {', '.join(map(str, directories))} (JSON files "
+            "written by `python -m eval optimize`)"
+        )
+    out = Path(out)
+    rows = table_rows(records)
+    write_csv_atomic(out / TABLE_CSV, [r.to_dict() for r in rows])
+    write_text_atomic(out / TABLE_MD, markdown_table(rows))
+    plot_convergence(records, out / PLOT_PNG)
+    return rows
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("dirs", nargs="+", metavar="DIR", help="directories (or files) of records")
+    parser.add_argument("--out", required=True, metavar="DIR2", help="directory for the outputs")
+
+
+def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    try:
+        rows = compare(args.dirs, args.out)
+    except ValueError as error:
+        parser.error(str(error))
+    sys.stdout.write(markdown_table(rows))
+    print(f"wrote {Path(args.out) / TABLE_CSV}, {TABLE_MD} and {PLOT_PNG}", file=sys.stderr)
+    return 0

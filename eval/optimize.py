@@ -1,0 +1,168 @@
+"""``python -m eval optimize``: run one method on one condition for several seeds.
+
+Writes one JSON record per seed into ``--out`` (atomically, as each seed finishes) and
+rewrites ``summary.csv`` there over every record in the directory.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from agents.harness import execute, prepare
+from agents.methods import available_methods
+from agents.tasks import ACCELERATE, LEVEL
+
+NAME = "optimize"
+HELP = "run a method (pso, random, ...) on one flight condition for several seeds"
+DESCRIPTION = """\
+Run one search method on one flight condition for a list of seeds. Every iteration's batch
+of strokes is evaluated through the task's batched vector env (fitness = the env's reward,
+the penalised objective); the best stroke of each seed is re-evaluated and written as a JSON
+record into --out, one file per seed, plus summary.csv over every record in --out.
+
+Tasks and conditions:
+  level       --speed V   flight speed [m/s] (0.25-2.0); maximise efficiency η = T·V/P
+              subject to L = W, T = D (±2 % of W) and P/m <= 90 W/kg.
+  accelerate  --power P   available power per body mass [W/kg] (50-90); maximise the
+              --objective (vertical F̄_v, horizontal F̄_h or resultant F̄_a) subject to
+              F̄_v >= 0, F̄_h >= 0 and P/m <= P.
+
+The budget counts model evaluations (= env steps = strokes evaluated)."""
+EPILOG = """\
+examples:
+  python -m eval optimize --task level --speed 1.5 --method pso --budget 12000 \\
+      --seeds 0 1 2 3 4 --out results/issue4
+  python -m eval optimize --task accelerate --power 70 --objective horizontal \\
+      --method random --budget 4000 --seeds 0 --out results/acc --quiet
+  python -m eval optimize --task level --speed 1.0 --method pso --budget 8000 --seeds 0 \\
+      --out results/x --env-kwargs thrust_split=body --method-config velocity_clamp=0.2"""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--task", required=True, choices=(LEVEL.name, ACCELERATE.name), help="the flight task"
+    )
+    condition = parser.add_mutually_exclusive_group(required=True)
+    condition.add_argument(
+        "--speed", type=float, metavar="V", help="level flight: flight speed [m/s]"
+    )
+    condition.add_argument(
+        "--power",
+        type=float,
+        metavar="P",
+        help="accelerating flight: available power per body mass [W/kg]",
+    )
+    parser.add_argument(
+        "--objective",
+        choices=tuple(ACCELERATE.objectives),
+        help="accelerating flight only: the excess force maximised (default vertical)",
+    )
+    parser.add_argument(
+        "--method",
+        required=True,
+        metavar="METHOD",
+        help=(
+            f"search method: {', '.join(available_methods())} (policy as policy:RUN_DIR; "
+            "ppo, sac and policy come from train/)"
+        ),
+    )
+    parser.add_argument(
+        "--budget", required=True, type=int, metavar="N", help="model evaluations per seed"
+    )
+    parser.add_argument(
+        "--seeds", required=True, type=int, nargs="+", metavar="SEED", help="one run per seed"
+    )
+    parser.add_argument("--out", required=True, metavar="DIR", help="directory for the records")
+    parser.add_argument(
+        "--swarm-size",
+        type=int,
+        metavar="N",
+        help="strokes per iteration: PSO particles / random-search batch (default 40)",
+    )
+    parser.add_argument(
+        "--method-config",
+        nargs="+",
+        default=[],
+        metavar="KEY=VALUE",
+        help=(
+            "method settings, e.g. velocity_clamp=0.2 boundary=reflect "
+            "inertia=linear-decreasing (values parsed as JSON, else text)"
+        ),
+    )
+    parser.add_argument(
+        "--env-kwargs",
+        nargs="+",
+        default=[],
+        metavar="KEY=VALUE",
+        help=(
+            "env options, e.g. thrust_split=body penalty_weight=20 planform=real n_time=256 "
+            "(values parsed as JSON, else text)"
+        ),
+    )
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def parse_pairs(pairs: list[str], option: str) -> dict[str, Any]:
+    """``["a=1", "b=x"]`` -> ``{"a": 1, "b": "x"}``; values are JSON if they parse, else text."""
+    out: dict[str, Any] = {}
+    for pair in pairs:
+        key, sep, text = pair.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise ValueError(f"{option}: {pair!r} is not KEY=VALUE")
+        if key in out:
+            raise ValueError(f"{option}: {key!r} given twice")
+        try:
+            value = json.loads(text)
+        except json.JSONDecodeError:
+            value = text
+        out[key] = value
+    return out
+
+
+def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    task = LEVEL if args.task == LEVEL.name else ACCELERATE
+    if task is LEVEL and args.speed is None:
+        parser.error("--task level takes --speed V [m/s], not --power")
+    if task is ACCELERATE and args.power is None:
+        parser.error("--task accelerate takes --power P [W/kg], not --speed")
+    if task is LEVEL and args.objective is not None:
+        parser.error("--objective is for --task accelerate; level flight maximises efficiency")
+    condition = args.speed if task is LEVEL else args.power
+    try:
+        env_kwargs = parse_pairs(args.env_kwargs, "--env-kwargs")
+        method_config = parse_pairs(args.method_config, "--method-config")
+        if args.swarm_size is not None:
+            if "swarm_size" in method_config:
+                raise ValueError("give --swarm-size or --method-config swarm_size=N, not both")
+            method_config["swarm_size"] = args.swarm_size
+        plan = prepare(
+            args.method,
+            task,
+            condition,
+            args.budget,
+            args.seeds,
+            objective=args.objective,
+            env_kwargs=env_kwargs,
+            method_config=method_config,
+            progress=not args.quiet,
+            out_dir=args.out,
+        )
+    except (ValueError, NotImplementedError) as error:
+        parser.error(str(error))
+    if not args.quiet:
+        print(f"optimize: {plan.describe()} -> {plan.out_dir}", file=sys.stderr)
+    records = execute(plan)
+    for record in records:
+        metrics = record.metrics
+        power = metrics.get("power_per_mass")
+        print(
+            f"{record.method} seed {record.seed}: {record.objective_name} = "
+            f"{record.objective:.5g}, reward = {record.reward:.5g}, feasible = {record.feasible}"
+            + (f", P/m = {power:.4g} W/kg" if power is not None else "")
+            + f", {record.evaluations} evaluations, {record.wall_time:.1f} s"
+        )
+    return 0

@@ -1,0 +1,175 @@
+"""``python -m eval optimize`` and ``compare`` end to end with tiny budgets."""
+
+from __future__ import annotations
+
+import csv
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents.run_record import Record, load_records
+from eval import compare as compare_module
+from eval.__main__ import SUBCOMMANDS, build_parser, main
+
+ROOT = Path(__file__).resolve().parents[2]
+TINY = ["--budget", "12", "--swarm-size", "4", "--quiet"]
+
+
+def optimize(out: Path, *extra: str) -> int:
+    return main(["optimize", "--task", "level", "--speed", "1.5", "--out", str(out), *TINY, *extra])
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("results")
+    assert optimize(out, "--method", "pso", "--seeds", "0", "1", "2") == 0
+    assert optimize(out, "--method", "random", "--seeds", "0", "1") == 0
+    return out
+
+
+def test_optimize_writes_one_record_per_seed_and_a_summary(results: Path) -> None:
+    names = sorted(p.name for p in results.iterdir())
+    assert names == [
+        *(f"pso_level_efficiency_speed1.5_seed{s}.json" for s in range(3)),
+        *(f"random_level_efficiency_speed1.5_seed{s}.json" for s in range(2)),
+        "summary.csv",
+    ]  # and no temporary files
+    records = load_records([results])
+    assert [(r.method, r.seed) for r in records] == [
+        ("pso", 0), ("pso", 1), ("pso", 2), ("random", 0), ("random", 1)
+    ]  # fmt: skip
+    assert all(r.budget == 12 and r.evaluations == 12 for r in records)
+    assert records[0].config["method"]["swarm_size"] == 4
+    assert records[3].config["method"]["batch_size"] == 4
+    with open(results / "summary.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == 5  # the summary covers every record in the directory
+    assert {row["method"] for row in rows} == {"pso", "random"}
+    assert float(rows[0]["objective"]) == records[0].objective
+
+
+def test_optimize_is_deterministic(results: Path, tmp_path: Path) -> None:
+    assert optimize(tmp_path, "--method", "pso", "--seeds", "1") == 0
+    (again,) = load_records([tmp_path / "pso_level_efficiency_speed1.5_seed1.json"])
+    first = Record.load(results / "pso_level_efficiency_speed1.5_seed1.json")
+    assert again.history == first.history
+    assert again.normalised_stroke == first.normalised_stroke
+    assert again.metrics == first.metrics
+
+
+def test_optimize_passes_env_kwargs_and_method_config(tmp_path: Path) -> None:
+    argv = [
+        "optimize", "--task", "accelerate", "--power", "70", "--objective", "horizontal",
+        "--method", "pso", "--budget", "8", "--seeds", "5", "--out", str(tmp_path), "--quiet",
+        "--env-kwargs", "thrust_split=body", "penalty_weight=20",
+        "--method-config", "swarm_size=4", "boundary=reflect", "velocity_clamp=0.25",
+    ]  # fmt: skip
+    assert main(argv) == 0
+    (record,) = load_records([tmp_path])
+    assert record.task == "accelerate" and record.objective_name == "excess_horizontal"
+    assert record.condition.to_dict() == {"name": "available_power", "value": 70.0, "unit": "W/kg"}
+    assert record.config["env_kwargs"] == {
+        "thrust_split": "body", "penalty_weight": 20, "objective": "horizontal", "power": 70.0
+    }  # fmt: skip
+    assert record.config["env"]["options"]["thrust_split"] == "body"
+    assert record.config["env"]["penalty"]["weight"] == 20.0
+    assert record.config["method"]["boundary"] == "reflect"
+    assert record.config["method"]["velocity_clamp"] == 0.25
+    assert record.objective == record.metrics["excess_horizontal"]
+    assert (tmp_path / "pso_accelerate_excess_horizontal_available_power70_seed5.json").exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--task", "level", "--power", "50"], "--task level takes --speed V [m/s]"),
+        (["--task", "accelerate", "--speed", "1"], "--task accelerate takes --power P [W/kg]"),
+        (["--task", "level", "--speed", "1", "--objective", "vertical"], "--objective is for"),
+        (["--task", "level", "--speed", "9"], "allowed"),
+        (["--task", "level", "--speed", "1", "--method", "cma"], "unknown method 'cma'"),
+        (["--task", "level", "--speed", "1", "--budget", "0"], "budget = 0"),
+        (["--task", "level", "--speed", "1", "--env-kwargs", "x"], "not KEY=VALUE"),
+        (["--task", "level", "--speed", "1", "--env-kwargs", "nope=1"], "unknown argument"),
+        (["--task", "level", "--speed", "1", "--method-config", "inertia=x"], "inertia must be"),
+        (["--task", "hover", "--speed", "1"], "invalid choice: 'hover'"),
+    ],
+)
+def test_optimize_rejects_bad_input(
+    argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    base = {"--method": "pso", "--budget": "4", "--seeds": "0", "--out": str(tmp_path)}
+    for flag, value in base.items():
+        if flag not in argv:
+            argv = [*argv, flag, value]
+    with pytest.raises(SystemExit) as exit_info:
+        main(["optimize", *argv])
+    assert exit_info.value.code == 2
+    assert message in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())  # nothing written for a rejected run
+
+
+def test_compare_writes_table_and_plot(results: Path, tmp_path: Path) -> None:
+    out = tmp_path / "cmp"
+    assert main(["compare", str(results), "--out", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == [
+        "comparison.csv",
+        "comparison.md",
+        "convergence.png",
+    ]
+    with open(out / "comparison.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [(r["method"], r["seeds"]) for r in rows] == [("pso", "3"), ("random", "2")]
+    pso = [r for r in load_records([results]) if r.method == "pso"]
+    objective = [r.objective for r in pso]
+    assert float(rows[0]["objective_median"]) == pytest.approx(np.median(objective))
+    q25, q75 = np.percentile(objective, [25, 75])
+    assert float(rows[0]["objective_iqr"]) == pytest.approx(q75 - q25)
+    assert float(rows[0]["feasible_share"]) == pytest.approx(np.mean([r.feasible for r in pso]))
+    assert float(rows[0]["evaluations_median"]) == 12
+    markdown = (out / "comparison.md").read_text()
+    assert markdown.startswith("| task | objective | condition | method |")
+    assert "| level | efficiency | speed = 1.5 m/s | pso | 12 | 3 |" in markdown
+    assert (out / "convergence.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_convergence_curve_on_mixed_grids(results: Path) -> None:
+    a = Record.load(results / "pso_level_efficiency_speed1.5_seed0.json")
+    b = Record.load(results / "pso_level_efficiency_speed1.5_seed1.json")
+    b = Record.from_dict({**b.to_dict(), "history": [[6, -3.0], [12, -1.0]]})
+    x, q25, median, q75 = compare_module.convergence_curve([a, b])
+    assert x.tolist() == [4, 6, 8, 12]
+    assert median[0] == a.history[0][1]  # only run a reports at 4 evaluations
+    assert median[-1] == pytest.approx(np.median([a.history[-1][1], -1.0]))
+    assert np.all(q25 <= median) and np.all(median <= q75)
+
+
+def test_compare_without_records_says_so(tmp_path: Path, capsys) -> None:
+    with pytest.raises(SystemExit):
+        main(["compare", str(tmp_path), "--out", str(tmp_path / "x")])
+    assert "no harness records found" in capsys.readouterr().err
+
+
+def test_subcommands_are_registered_modules() -> None:
+    assert SUBCOMMANDS[:2] == ("eval.optimize", "eval.compare")
+    parser = build_parser()
+    help_text = parser.format_help()
+    assert "optimize" in help_text and "compare" in help_text
+
+
+def test_module_entry_point_help() -> None:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run(
+        [sys.executable, "-m", "eval", "optimize", "--help"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env=env,
+        timeout=120,
+        check=True,
+    )
+    assert "--task {level,accelerate}" in done.stdout
+    assert "--swarm-size N" in done.stdout and "examples:" in done.stdout
