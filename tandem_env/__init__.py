@@ -7,6 +7,6 @@ __all__ = list(_physics_all)
 __version__ = "0.1.0"
 
 # Register the Gymnasium ids (TandemWing/LevelFlight-v0, TandemWing/Accelerate-v0).
-from .envs.registration import register_envs as _register_envs  # noqa: E402
+from .envs.registration import register_envs as _register_envs
 
 _register_envs()
