@@ -21,7 +21,8 @@ from .stroke import N_PER_WING, validate_physical
 
 DEFAULT_OPTIONS = ModelOptions()
 
-#: Batches smaller than this run on one thread: a parallel launch costs more than it saves.
+#: Batches smaller than this run stroke by stroke on the calling thread: a parallel launch costs
+#: more than it saves.
 SERIAL_BELOW = 4
 
 #: The metrics every evaluation reports, in the order environments list them in ``info``.
@@ -230,31 +231,17 @@ def _run_kernel(
     inflow = np.empty((batch, 2, options.n_blade))
     mode = {"none": cycle.MODE_NONE, "isolated": cycle.MODE_ISOLATED, "coupled": cycle.MODE_COUPLED}
     history = np.empty((batch if keep_history else 0, 2, n_time, 5))
-    kernel = cycle.tandem_cycle if batch >= SERIAL_BELOW else cycle.tandem_cycle_serial
-    kernel(
-        angles[0],
-        weights[0],
-        angles[1],
-        weights[1],
-        frequency,
-        beta,
-        sweep,
-        speed,
-        nodes_f,
-        consts_f,
-        nodes_h,
-        consts_h,
-        insect.air_density,
-        mode[options.induction],
-        options.interference,
-        options.spin == "total",
-        options.tolerance,
-        options.max_evaluations,
-        out,
-        inflow,
-        history,
-        *cycle.fourier_tables(n_time),
-    )
+    args = (
+        angles[0], weights[0], angles[1], weights[1], frequency, beta, sweep, speed,
+        nodes_f, consts_f, nodes_h, consts_h, insect.air_density, mode[options.induction],
+        options.interference, options.spin == "total", options.tolerance,
+        options.max_evaluations, out, inflow, history, *cycle.fourier_tables(n_time),
+    )  # fmt: skip
+    if batch >= SERIAL_BELOW:
+        cycle.tandem_cycle(*args)
+    else:
+        for b in range(batch):
+            cycle.tandem_stroke(b, *args)
     return out, inflow, history
 
 
