@@ -1,0 +1,178 @@
+"""``python -m train`` writes the zoo-style run folder; ``python -m train.envelope`` its CSV."""
+
+from __future__ import annotations
+
+import csv
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from tandem_env.envs.registration import LEVEL_FLIGHT_ID
+from train.__main__ import main
+from train.config import TrainConfig
+from train.layout import RunLayout
+from train.run import train
+from train.vec import MONITOR_KEYWORDS
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def test_cli_writes_the_run_folder(tmp_path: Path) -> None:
+    command = [
+        sys.executable,
+        "-m",
+        "train",
+        "--algo",
+        "sac",
+        "--env",
+        LEVEL_FLIGHT_ID,
+        "--timesteps",
+        "256",
+        "--seed",
+        "0",
+        "--n-envs",
+        "16",
+        "--env-kwargs",
+        "speed_range=(0.25, 2.0)",
+        "thrust_split:sign",
+        "--hyperparams",
+        "learning_starts=64",
+        "gradient_steps=2",
+        "--eval-freq",
+        "128",
+        "--save-freq",
+        "128",
+        "--log-dir",
+        str(tmp_path),
+        "--no-progress",
+    ]
+    done = subprocess.run(command, cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    run_dir = tmp_path / "sac" / "TandemWing-LevelFlight-v0_1"
+    layout = RunLayout(run_dir, LEVEL_FLIGHT_ID)
+    for path in (
+        layout.final_model,
+        layout.best_model,
+        layout.evaluations,
+        layout.config_file,
+        layout.args_file,
+        layout.result_file,
+    ):
+        assert path.is_file(), path
+    checkpoint = layout.checkpoints()[-1]
+    assert checkpoint.step == 256
+    assert checkpoint.complete(replay_buffer=True, vecnormalize=False)
+    assert list((run_dir / "tb").glob("SAC_1/events.out.tfevents.*"))
+
+    config = yaml.safe_load(layout.config_file.read_text())
+    assert config["n_envs"] == 16 and config["learning_starts"] == 64
+    assert isinstance(config["policy_kwargs"], str)  # as the zoo stores it
+    args = yaml.safe_load(layout.args_file.read_text())
+    assert args["env_kwargs"] == {"speed_range": [0.25, 2.0], "thrust_split": "sign"}
+    assert args["seed"] == 0 and args["algo"] == "sac"
+
+    [monitor] = layout.monitor_files()
+    with monitor.open() as stream:
+        stream.readline()  # the JSON header line
+        rows = list(csv.DictReader(stream))
+    assert len(rows) == 256
+    assert set(MONITOR_KEYWORDS) <= set(rows[0])
+    speeds = np.array([float(r["speed"]) for r in rows])
+    assert 0.25 <= speeds.min() < speeds.max() <= 2.0  # sampled over the range
+
+    with np.load(layout.evaluations) as evaluations:
+        # One episode per evaluation condition: the sweep speeds inside the range.
+        assert evaluations["results"].shape[1] == 8
+    assert "run folder:" in done.stdout
+
+    # A second run goes to the next folder, as in the zoo.
+    assert (
+        main(
+            [
+                *command[3:],
+                "--timesteps",
+                "32",
+                "--eval-freq",
+                "0",
+                "--save-freq",
+                "0",
+                "--no-tensorboard",
+                "--verbose",
+                "0",
+            ]
+        )
+        == 0
+    )
+    assert (
+        tmp_path / "sac" / "TandemWing-LevelFlight-v0_2" / "TandemWing-LevelFlight-v0.zip"
+    ).is_file()
+
+
+def test_normalised_run_saves_its_statistics(tmp_path: Path) -> None:
+    result = train(
+        TrainConfig(
+            algo="ppo",
+            env_id=LEVEL_FLIGHT_ID,
+            n_timesteps=256,
+            n_envs=16,
+            hyperparams={
+                "n_steps": 4,
+                "batch_size": 64,
+                "normalize": "dict(norm_obs=True, norm_reward=False)",
+            },
+            env_kwargs={"speed_range": (0.5, 1.5)},
+            log_folder=tmp_path,
+            eval_freq=64,
+            save_freq=128,
+            progress_bar=False,
+            tensorboard=False,
+            verbose=0,
+        )
+    )
+    layout = RunLayout(result.run_dir, LEVEL_FLIGHT_ID)  # type: ignore[arg-type]
+    assert layout.vecnormalize.is_file()
+    assert layout.checkpoints()[-1].complete(replay_buffer=False, vecnormalize=True)
+    # Range 0.5-1.5 m/s holds the sweep speeds 0.5, 0.75, ..., 1.5.
+    assert [row["speed"] for row in result.final_evaluation] == [0.5, 0.75, 1.0, 1.25, 1.5]
+
+
+def test_cli_rejects_bad_arguments(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(
+            [
+                "--algo",
+                "ppo",
+                "--env",
+                LEVEL_FLIGHT_ID,
+                "--env-kwargs",
+                "speed=9",
+                "-f",
+                str(tmp_path),
+                "--no-progress",
+            ]
+        )
+    assert "speed" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["--algo", "ppo", "--env", LEVEL_FLIGHT_ID, "--resume", "-f", str(tmp_path)])
+    assert "no run of ppo" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(
+            [
+                "--algo",
+                "ppo",
+                "--env",
+                LEVEL_FLIGHT_ID,
+                "--hyperparams",
+                "bogus=1",
+                "-n",
+                "64",
+                "-f",
+                str(tmp_path),
+                "--no-progress",
+            ]
+        )
+    assert "bogus" in capsys.readouterr().err

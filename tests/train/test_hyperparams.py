@@ -1,0 +1,95 @@
+"""The zoo-format hyperparameter files and the key=value parsing of the CLI."""
+
+from __future__ import annotations
+
+import pytest
+import yaml
+
+from tandem_env.envs.registration import ENV_IDS
+from train.config import (
+    ALGOS,
+    HYPERPARAMS_DIR,
+    TrainConfig,
+    eval_policy_kwargs,
+    load_entry,
+    parse_pairs,
+    parse_value,
+    resolve_hyperparams,
+)
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_yml_has_default_and_both_env_ids(algo: str) -> None:
+    with (HYPERPARAMS_DIR / f"{algo}.yml").open() as stream:
+        entries = yaml.safe_load(stream)  # what rl_zoo3 uses
+    assert "default" in entries
+    for env_id in ENV_IDS:
+        assert env_id in entries
+    for name, entry in entries.items():
+        # The zoo's own keys, as the zoo spells them.
+        for key in ("n_envs", "n_timesteps", "policy", "policy_kwargs"):
+            assert key in entry, f"{algo}.yml {name}: {key} missing"
+        assert isinstance(entry["policy_kwargs"], str)
+        hp = resolve_hyperparams(entry)
+        assert hp.n_envs >= 1 and hp.n_timesteps >= 1
+        assert hp.policy == "MlpPolicy"
+
+
+@pytest.mark.filterwarnings("ignore:You have specified a mini-batch size")
+@pytest.mark.parametrize("algo", ALGOS)
+def test_entries_build_models(algo: str) -> None:
+    from tandem_env.envs.sb3 import make_sb3_vec_env
+    from train.run import build_model
+
+    for env_id in ENV_IDS:
+        hp = resolve_hyperparams(load_entry(algo, env_id), n_envs=2)
+        venv = make_sb3_vec_env(env_id, n_envs=2, seed=0)
+        model = build_model(algo, hp, venv, seed=0, tensorboard_log=None, verbose=0, device="cpu")
+        assert model.n_envs == 2
+        venv.close()
+
+
+def test_parse_values_like_the_zoo() -> None:
+    pairs = parse_pairs(
+        ["speed=1.5", "speed_range:(0.25, 2.0)", "thrust_split=body", "clip_actions=True"],
+        "--env-kwargs",
+    )
+    assert pairs == {
+        "speed": 1.5,
+        "speed_range": (0.25, 2.0),
+        "thrust_split": "body",
+        "clip_actions": True,
+    }
+    assert parse_value("1e5") == 100000.0
+    assert parse_value("lin_1e-3") == "lin_1e-3"
+    assert parse_value("dict(net_arch=[64])") == "dict(net_arch=[64])"
+    with pytest.raises(ValueError, match="key=value"):
+        parse_pairs(["speed"], "--env-kwargs")
+    with pytest.raises(ValueError, match="twice"):
+        parse_pairs(["a=1", "a=2"], "--hyperparams")
+
+
+def test_policy_kwargs_strings_are_restricted() -> None:
+    kwargs = eval_policy_kwargs("dict(net_arch=[64, 64], activation_fn=nn.ReLU)")
+    assert kwargs["net_arch"] == [64, 64]
+    with pytest.raises(ValueError, match="allowed names"):
+        eval_policy_kwargs("dict(x=__import__('os'))")
+
+
+def test_schedules_and_overrides() -> None:
+    entry = load_entry("ppo", ENV_IDS[0])
+    hp = resolve_hyperparams(entry, {"learning_rate": "lin_1e-3"}, n_envs=8, n_timesteps=64)
+    assert hp.n_envs == 8 and hp.n_timesteps == 64
+    schedule = hp.model_kwargs["learning_rate"]
+    assert schedule(1.0) == pytest.approx(1e-3) and schedule(0.0) == pytest.approx(0.0)
+    with pytest.raises(ValueError, match="does not implement"):
+        resolve_hyperparams(entry, {"frame_stack": 4})
+
+
+def test_train_config_validates() -> None:
+    with pytest.raises(ValueError, match="allowed: ppo, sac"):
+        TrainConfig(algo="dqn", env_id=ENV_IDS[0])  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="n_timesteps"):
+        TrainConfig(algo="ppo", env_id=ENV_IDS[0], n_timesteps=0)
+    with pytest.raises(ValueError, match="not both"):
+        TrainConfig(algo="ppo", env_id=ENV_IDS[0], resume=True, run_dir="logs/x")

@@ -1,0 +1,151 @@
+"""SB3 models as harness methods: ``policy:RUN_DIR``, ``ppo`` / ``sac``, and the envelope CSV."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents.harness import run
+from tandem_env.envs.registration import LEVEL_FLIGHT_ID
+from train.config import TrainConfig
+from train.envelope import evaluate_envelope
+from train.policies import TrainedPolicy, policy_stroke
+from train.run import train
+
+
+@pytest.fixture(scope="module")
+def envelope_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("logs")
+    result = train(
+        TrainConfig(
+            algo="ppo",
+            env_id=LEVEL_FLIGHT_ID,
+            n_timesteps=512,
+            n_envs=32,
+            seed=0,
+            env_kwargs={"speed_range": (0.25, 2.0)},
+            hyperparams={"n_steps": 4, "batch_size": 64},
+            log_folder=folder,
+            eval_freq=256,
+            save_freq=0,
+            progress_bar=False,
+            tensorboard=False,
+            verbose=0,
+        )
+    )
+    assert result.run_dir is not None
+    return result.run_dir
+
+
+def test_policy_method_records_its_stroke_with_one_evaluation(
+    envelope_run: Path, tmp_path: Path
+) -> None:
+    [record] = run(
+        f"policy:{envelope_run}",
+        "level",
+        1.0,
+        budget=5,
+        seeds=[0],
+        progress=False,
+        out_dir=tmp_path,
+    )
+    assert record.evaluations == 1 and record.budget == 5
+    expected = policy_stroke(envelope_run, 1.0)
+    np.testing.assert_array_equal(record.normalised_stroke, expected)
+    assert record.reward == record.search_reward  # re-evaluated exactly
+    assert record.config["method"]["model"] == "best"
+    assert record.metrics["speed"] == 1.0
+    assert list(tmp_path.glob("*.json"))
+
+
+def test_policy_strokes_depend_on_the_condition(envelope_run: Path) -> None:
+    policy = TrainedPolicy.load(envelope_run, "final")
+    strokes = policy.strokes([0.25, 2.0])
+    assert strokes.shape == (2, 28) and np.all(np.abs(strokes) <= 1.0)
+    assert not np.array_equal(strokes[0], strokes[1])
+    assert policy.training_conditions == (0.25, 2.0)
+
+
+def test_policy_method_rejects_bad_runs(tmp_path: Path, envelope_run: Path) -> None:
+    with pytest.raises(ValueError, match="not a folder"):
+        run(f"policy:{tmp_path / 'missing'}", "level", 1.0, budget=1, seeds=[0], progress=False)
+    with pytest.raises(ValueError, match="not a training run"):
+        run(f"policy:{tmp_path}", "level", 1.0, budget=1, seeds=[0], progress=False)
+    with pytest.raises(ValueError, match="trained on"):
+        run(f"policy:{envelope_run}", "accelerate", 60.0, budget=1, seeds=[0], progress=False)
+    with pytest.raises(ValueError, match="allowed: best, final"):
+        run(
+            f"policy:{envelope_run}",
+            "level",
+            1.0,
+            budget=1,
+            seeds=[0],
+            method_config={"model": "newest"},
+            progress=False,
+        )
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_training_methods_stay_within_budget(algo: str) -> None:
+    settings = {
+        "n_envs": 16,
+        **({"n_steps": 4, "batch_size": 64} if algo == "ppo" else {"learning_starts": 64}),
+    }
+    [record] = run(
+        algo, "level", 1.5, budget=300, seeds=[0], method_config=settings, progress=False
+    )
+    # Training gets budget - 1 = 299 steps, rounded down to whole iterations (PPO 64, SAC 16),
+    # then one evaluation of the final deterministic policy.
+    assert record.evaluations == (257 if algo == "ppo" else 289)
+    assert record.reward == record.search_reward
+    config = record.config["method"]
+    assert config["training_timesteps"] == record.evaluations - 1
+    assert record.reward >= config["final_policy"]["reward"]  # the best stroke seen wins
+    assert record.history[-1][0] == record.evaluations
+
+
+def test_training_methods_reject_a_budget_below_one_iteration() -> None:
+    with pytest.raises(ValueError, match="below one PPO iteration"):
+        run(
+            "ppo", "level", 1.5, budget=100, seeds=[0], method_config={"n_envs": 64}, progress=False
+        )
+    with pytest.raises(ValueError, match="n_timesteps cannot be set"):
+        run(
+            "sac",
+            "level",
+            1.5,
+            budget=100,
+            seeds=[0],
+            method_config={"n_timesteps": 5},
+            progress=False,
+        )
+
+
+def test_envelope_csv(envelope_run: Path, tmp_path: Path) -> None:
+    rows = evaluate_envelope(envelope_run, tmp_path, conditions=[0.5, 1.5])
+    assert [row["condition_value"] for row in rows] == [0.5, 1.5]
+    with (tmp_path / "envelope.csv").open() as stream:
+        table = list(csv.DictReader(stream))
+    assert [float(r["condition_value"]) for r in table] == [0.5, 1.5]
+    assert {"efficiency", "feasible", "evaluations"} <= set(table[0])
+    assert all(r["evaluations"] == "1" for r in table)
+    assert len(list((tmp_path / "records").glob("*.json"))) == 2
+
+
+def test_training_method_with_log_dir_writes_a_reusable_run(tmp_path: Path) -> None:
+    settings = {"n_envs": 16, "n_steps": 4, "batch_size": 64, "log_dir": str(tmp_path)}
+    [record] = run(
+        "ppo", "level", 1.5, budget=300, seeds=[4], method_config=settings, progress=False
+    )
+    assert record.evaluations == 257
+    assert record.reward == record.search_reward
+    run_dir = Path(record.config["method"]["run_dir"])
+    assert run_dir == tmp_path / "ppo" / "TandemWing-LevelFlight-v0_1"
+    assert (run_dir / "TandemWing-LevelFlight-v0.zip").is_file()
+    assert not list(run_dir.glob("rl_model_*"))  # no checkpoints: nothing outside the budget
+    final = record.config["method"]["final_policy"]
+    [again] = run(f"policy:{run_dir}", "level", 1.5, budget=1, seeds=[0], progress=False)
+    assert again.reward == final["reward"]  # the saved final model plays the same stroke

@@ -1,0 +1,12 @@
+"""Training of Stable-Baselines3 agents (PPO, SAC) on the tandem-wing envs (docs/training.md).
+
+``python -m train --algo sac --env TandemWing/LevelFlight-v0`` trains with the zoo-format
+hyperparameters in ``train/hyperparams/``; :func:`train.run.train` is the same from Python.
+Stable-Baselines3 and torch are imported only by the submodules that need them.
+"""
+
+from __future__ import annotations
+
+from train.config import ALGOS, HYPERPARAMS_DIR, Algo, Hyperparams, TrainConfig
+
+__all__ = ["ALGOS", "HYPERPARAMS_DIR", "Algo", "Hyperparams", "TrainConfig"]

@@ -1,0 +1,414 @@
+"""Training configuration: zoo-format hyperparameter files, ``key=value`` parsing, the run config.
+
+The hyperparameter files (``train/hyperparams/<algo>.yml``) follow rl-baselines3-zoo: one entry
+per env id plus a ``default`` entry, each a flat mapping of the model's constructor arguments
+and the zoo's own keys (``n_envs``, ``n_timesteps``, ``policy``, ``policy_kwargs`` as a Python
+string, ``normalize``, ``env_kwargs``). :func:`resolve_hyperparams` turns one entry (plus the
+overrides of the command line) into a :class:`Hyperparams` whose ``model_kwargs`` go straight
+to the SB3 constructor, exactly as the zoo preprocesses them.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Literal, get_args
+
+import yaml
+
+Algo = Literal["ppo", "sac"]
+ALGOS: tuple[str, ...] = get_args(Algo)
+
+HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
+
+#: Keys of a zoo entry that are not model constructor arguments.
+ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "policy_kwargs", "normalize", "env_kwargs")
+#: Zoo keys this trainer does not implement; refused rather than silently ignored.
+UNSUPPORTED_ZOO_KEYS = (
+    "env_wrapper",
+    "vec_env_wrapper",
+    "callback",
+    "frame_stack",
+    "monitor_kwargs",
+    "replay_buffer_class",
+    "replay_buffer_kwargs",
+    "noise_type",
+    "noise_std",
+)
+#: Constructor arguments the zoo turns from "lin_<x>" strings into linear schedules.
+SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
+
+# Names a ``policy_kwargs`` string may use (the zoo evaluates it with torch in scope).
+_POLICY_KWARGS_NAMES = ("dict", "list", "tuple", "nn", "th", "torch")
+
+
+# --- parsing ---------------------------------------------------------------------------------
+def parse_value(text: str) -> Any:
+    """A command-line value: a Python literal if it is one (``0.1``, ``(0.25, 2.0)``,
+    ``"dict(a=1)"``, ``True``), else YAML (``yes``), else the text itself (``coupled``).
+
+    The zoo evaluates ``key:value`` with ``eval``; literals cover every value our envs and
+    models take without executing code.
+    """
+    try:
+        return ast.literal_eval(text)
+    except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
+        pass
+    try:
+        value = yaml.safe_load(text)
+    except yaml.YAMLError:
+        return text
+    return text if value is None and text.strip() not in ("", "null", "~", "None") else value
+
+
+def parse_pairs(items: Iterable[str] | None, option: str) -> dict[str, Any]:
+    """``["key=value", "other:value"]`` -> dict; both the zoo's ``:`` and ``=`` are accepted."""
+    out: dict[str, Any] = {}
+    for item in items or ():
+        positions = [i for i in (item.find("="), item.find(":")) if i > 0]
+        if not positions:
+            raise ValueError(
+                f"{option} {item!r}: expected key=value (or the zoo's key:value), e.g. "
+                f"{option} speed=1.5 speed_range=(0.25,2.0)"
+            )
+        cut = min(positions)
+        key, text = item[:cut].strip(), item[cut + 1 :]
+        if not key.isidentifier():
+            raise ValueError(f"{option} {item!r}: {key!r} is not a valid keyword name")
+        if key in out:
+            raise ValueError(f"{option}: {key!r} is given twice")
+        out[key] = parse_value(text)
+    return out
+
+
+def eval_policy_kwargs(text: str) -> dict[str, Any]:
+    """The zoo's ``policy_kwargs`` string, e.g. ``"dict(net_arch=[64, 64], log_std_init=-1)"``.
+
+    Evaluated with no builtins and only ``dict``, ``list``, ``tuple`` and torch (``nn``,
+    ``th``, ``torch``) in scope, so activation functions can be named as in the zoo.
+    """
+    import torch
+
+    names = {
+        "dict": dict,
+        "list": list,
+        "tuple": tuple,
+        "nn": torch.nn,
+        "th": torch,
+        "torch": torch,
+    }
+    try:
+        code = compile(text, "<policy_kwargs>", "eval")
+    except SyntaxError as error:
+        raise ValueError(f"policy_kwargs = {text!r} is not a Python expression: {error}") from error
+    bad = sorted(set(code.co_names) - set(_POLICY_KWARGS_NAMES) - _attribute_names(text))
+    if bad:
+        raise ValueError(
+            f"policy_kwargs = {text!r} uses {bad}; allowed names: "
+            f"{', '.join(_POLICY_KWARGS_NAMES)} (e.g. nn.ReLU)"
+        )
+    value = eval(code, {"__builtins__": {}}, names)  # restricted namespace: see above
+    if not isinstance(value, dict):
+        raise ValueError(f"policy_kwargs = {text!r} gives {type(value).__name__}; allowed: a dict")
+    return value
+
+
+def _attribute_names(text: str) -> set[str]:
+    # co_names lists attribute names too (nn.ReLU -> "ReLU"); they are looked up on torch.nn.
+    return {
+        node.attr
+        for node in ast.walk(ast.parse(text, mode="eval"))
+        if isinstance(node, ast.Attribute)
+    }
+
+
+# --- hyperparameter files ----------------------------------------------------------------------
+def hyperparams_path(algo: str, path: str | Path | None = None) -> Path:
+    """The zoo file of ``algo``: ``path`` if given, else ``train/hyperparams/<algo>.yml``."""
+    check_algo(algo)
+    return Path(path) if path is not None else HYPERPARAMS_DIR / f"{algo}.yml"
+
+
+def load_hyperparams_file(path: str | Path) -> dict[str, dict[str, Any]]:
+    """Every entry of a zoo hyperparameter file (env id -> settings)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"hyperparameter file {path} does not exist; allowed: a zoo-format .yml")
+    with path.open() as stream:
+        data = yaml.safe_load(stream)
+    if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
+        raise ValueError(f"{path}: expected a mapping of env id -> mapping of hyperparameters")
+    return data
+
+
+def load_entry(algo: str, env_id: str, path: str | Path | None = None) -> dict[str, Any]:
+    """The entry for ``env_id`` (else ``default``) of ``algo``'s hyperparameter file, as the zoo."""
+    file = hyperparams_path(algo, path)
+    entries = load_hyperparams_file(file)
+    if env_id in entries:
+        return dict(entries[env_id])
+    if "default" in entries:
+        return dict(entries["default"])
+    raise ValueError(
+        f"{file}: no entry for {env_id!r} and no 'default'; entries: {sorted(entries)}"
+    )
+
+
+@dataclass(frozen=True)
+class Hyperparams:
+    """One zoo entry after preprocessing (what the model and the envs are built from)."""
+
+    n_envs: int
+    n_timesteps: int
+    policy: str
+    policy_kwargs: Mapping[str, Any]
+    """Evaluated ``policy_kwargs`` (the constructor's)."""
+    normalize: Mapping[str, Any] | None
+    """``VecNormalize`` keyword arguments, or None for no normalisation."""
+    env_kwargs: Mapping[str, Any]
+    """Env options from the file (the command line's ``--env-kwargs`` override them)."""
+    model_kwargs: Mapping[str, Any]
+    """Every other constructor argument, schedules already built."""
+    saved: Mapping[str, Any] = field(default_factory=dict)
+    """The entry as given (after overrides), sorted: what ``config.yml`` stores."""
+
+
+def resolve_hyperparams(
+    entry: Mapping[str, Any],
+    overrides: Mapping[str, Any] | None = None,
+    *,
+    n_envs: int | None = None,
+    n_timesteps: int | None = None,
+) -> Hyperparams:
+    """Preprocess a zoo entry as ``rl_zoo3.exp_manager`` does (schedules, policy_kwargs, normalize)."""
+    raw = {**entry, **(overrides or {})}
+    if n_envs is not None:
+        raw["n_envs"] = n_envs
+    if n_timesteps is not None:
+        raw["n_timesteps"] = n_timesteps
+    unsupported = sorted(set(raw) & set(UNSUPPORTED_ZOO_KEYS))
+    if unsupported:
+        raise ValueError(
+            f"hyperparameters {unsupported} are zoo features this trainer does not implement; "
+            "allowed: model constructor arguments and " + ", ".join(ZOO_KEYS)
+        )
+    saved = {key: raw[key] for key in sorted(raw)}
+    params = dict(raw)
+    count = _positive_int("n_envs", params.pop("n_envs", 1))
+    if "n_timesteps" not in params:
+        raise ValueError("hyperparameters have no n_timesteps; allowed: an integer >= 1")
+    timesteps = _positive_int("n_timesteps", params.pop("n_timesteps"))
+    policy = params.pop("policy", "MlpPolicy")
+    if not isinstance(policy, str):
+        raise ValueError(f"policy = {policy!r}; allowed: a policy name such as 'MlpPolicy'")
+    policy_kwargs = params.pop("policy_kwargs", None) or {}
+    if isinstance(policy_kwargs, str):
+        policy_kwargs = eval_policy_kwargs(policy_kwargs)
+    if not isinstance(policy_kwargs, dict):
+        raise ValueError(
+            f"policy_kwargs = {policy_kwargs!r}; allowed: a dict or a 'dict(...)' string"
+        )
+    normalize = _normalize_kwargs(params.pop("normalize", False), params.get("gamma"))
+    env_kwargs = params.pop("env_kwargs", None) or {}
+    if not isinstance(env_kwargs, dict):
+        raise ValueError(f"env_kwargs = {env_kwargs!r}; allowed: a mapping of env options")
+    for key in SCHEDULE_KEYS:
+        if key in params:
+            params[key] = _schedule(key, params[key])
+    if isinstance(params.get("train_freq"), list):
+        params["train_freq"] = tuple(params["train_freq"])
+    return Hyperparams(
+        n_envs=count,
+        n_timesteps=timesteps,
+        policy=policy,
+        policy_kwargs=MappingProxyType(policy_kwargs),
+        normalize=None if normalize is None else MappingProxyType(normalize),
+        env_kwargs=MappingProxyType(dict(env_kwargs)),
+        model_kwargs=MappingProxyType(params),
+        saved=MappingProxyType(saved),
+    )
+
+
+def _positive_int(name: str, value: Any) -> int:
+    # YAML reads 1e5 as a float (the zoo writes !!float 1e5); accept integral floats.
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ValueError(f"{name} = {value!r}; allowed: an integer >= 1")
+    if int(value) != value or value < 1:
+        raise ValueError(f"{name} = {value!r}; allowed: an integer >= 1")
+    return int(value)
+
+
+def _normalize_kwargs(value: Any, gamma: Any) -> dict[str, Any] | None:
+    if value is False or value is None:
+        return None
+    if value is True:
+        kwargs: dict[str, Any] = {}
+    elif isinstance(value, str):
+        kwargs = eval_policy_kwargs(value)
+    elif isinstance(value, dict):
+        kwargs = dict(value)
+    else:
+        raise ValueError(
+            f"normalize = {value!r}; allowed: false, true, or VecNormalize kwargs as a dict or "
+            "a 'dict(norm_obs=..., norm_reward=...)' string"
+        )
+    # As the zoo: the reward normaliser discounts with the algorithm's gamma.
+    if gamma is not None:
+        kwargs.setdefault("gamma", gamma)
+    return kwargs
+
+
+def _schedule(key: str, value: Any) -> Any:
+    from stable_baselines3.common.utils import LinearSchedule
+
+    if isinstance(value, str):
+        kind, _, number = value.partition("_")
+        try:
+            initial = float(number)
+        except ValueError:
+            initial = math.nan
+        if kind != "lin" or not math.isfinite(initial):
+            raise ValueError(f"{key} = {value!r}; allowed: a number or 'lin_<initial value>'")
+        # The zoo's linear schedule: from `initial` at the start to 0 at the end.
+        return LinearSchedule(initial, 0.0, 1.0)
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"{key} = {value!r}; allowed: a number or 'lin_<initial value>'")
+    return float(value)
+
+
+def check_algo(algo: str) -> str:
+    if algo not in ALGOS:
+        raise ValueError(f"algo = {algo!r}; allowed: {', '.join(ALGOS)}")
+    return algo
+
+
+# --- the run configuration ---------------------------------------------------------------------
+@dataclass(frozen=True, kw_only=True)
+class TrainConfig:
+    """Everything one training run is made from (the command line, as data).
+
+    ``n_envs``, ``n_timesteps`` None take the hyperparameter file's values; ``hyperparams``
+    and ``env_kwargs`` override the file's entry key by key.
+    """
+
+    algo: Algo
+    env_id: str
+    n_timesteps: int | None = None
+    seed: int = 0
+    n_envs: int | None = None
+    env_kwargs: Mapping[str, Any] = field(default_factory=dict)
+    hyperparams: Mapping[str, Any] = field(default_factory=dict)
+    hyperparams_file: Path | None = None
+    """A zoo-format .yml to use instead of ``train/hyperparams/<algo>.yml``."""
+    log_folder: Path = Path("logs")
+    """Runs go to ``log_folder/<algo>/<env>_<n>/`` (the zoo's ``-f``)."""
+    run_dir: Path | None = None
+    """Use this run folder instead of a new one; an existing checkpoint there is resumed."""
+    resume: bool = False
+    """Resume the latest run of this algo and env in ``log_folder`` from its last checkpoint."""
+    eval_freq: int = 10_000
+    """Env steps between deterministic evaluations (EvalCallback); <= 0 disables them."""
+    save_freq: int = 20_000
+    """Env steps between checkpoints; <= 0 disables them (and so resuming)."""
+    progress_bar: bool = True
+    tensorboard: bool = True
+    verbose: int = 1
+    torch_threads: int = 1
+    """Torch intra-op threads. 1 by default: on 2 cores, torch's second thread fights the
+    model's numba threads and small-MLP updates get up to 10x slower (docs/training.md)."""
+    device: str = "cpu"
+    log_interval: int | None = None
+    """SB3's log_interval; None picks one that dumps every few thousand steps (SAC counts it
+    in episodes, and every env step ends n_envs of them)."""
+
+    def __post_init__(self) -> None:
+        check_algo(self.algo)
+        if not isinstance(self.env_id, str) or not self.env_id:
+            raise ValueError(f"env_id = {self.env_id!r}; allowed: a registered Gymnasium id")
+        for name in ("n_timesteps", "n_envs"):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, _positive_int(name, value))
+        for name, low in (("seed", 0), ("verbose", 0), ("torch_threads", 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ValueError(f"{name} = {value!r}; allowed: an integer >= {low}")
+        for name in ("eval_freq", "save_freq"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise ValueError(f"{name} = {value!r}; allowed: an integer (<= 0 disables)")
+        if self.log_interval is not None and (
+            isinstance(self.log_interval, bool)
+            or not isinstance(self.log_interval, int)
+            or self.log_interval < 1
+        ):
+            raise ValueError(
+                f"log_interval = {self.log_interval!r}; allowed: None or an integer >= 1"
+            )
+        for name in ("env_kwargs", "hyperparams"):
+            value = getattr(self, name)
+            if not isinstance(value, Mapping):
+                raise ValueError(f"{name} = {value!r}; allowed: a mapping of keyword -> value")
+            object.__setattr__(self, name, MappingProxyType(dict(value)))
+        object.__setattr__(self, "log_folder", Path(self.log_folder))
+        for name in ("run_dir", "hyperparams_file"):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, Path(value))
+        if self.resume and self.run_dir is not None:
+            raise ValueError(
+                "give resume=True (the latest run in log_folder) or run_dir (that run), not both"
+            )
+        if self.device not in ("cpu", "cuda", "auto"):
+            raise ValueError(f"device = {self.device!r}; allowed: 'cpu', 'cuda', 'auto'")
+
+    def hyperparameters(self) -> Hyperparams:
+        """The resolved hyperparameters of this run."""
+        entry = load_entry(self.algo, self.env_id, self.hyperparams_file)
+        return resolve_hyperparams(
+            entry, self.hyperparams, n_envs=self.n_envs, n_timesteps=self.n_timesteps
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-YAML form (``args.yml``)."""
+        return {
+            "algo": self.algo,
+            "env": self.env_id,
+            "n_timesteps": self.n_timesteps,
+            "seed": self.seed,
+            "n_envs": self.n_envs,
+            "env_kwargs": _plain(dict(self.env_kwargs)),
+            "hyperparams": _plain(dict(self.hyperparams)),
+            "conf_file": None if self.hyperparams_file is None else str(self.hyperparams_file),
+            "log_folder": str(self.log_folder),
+            "run_dir": None if self.run_dir is None else str(self.run_dir),
+            "resume": self.resume,
+            "eval_freq": self.eval_freq,
+            "save_freq": self.save_freq,
+            "progress": self.progress_bar,
+            "tensorboard": self.tensorboard,
+            "verbose": self.verbose,
+            "torch_threads": self.torch_threads,
+            "device": self.device,
+            "log_interval": self.log_interval,
+        }
+
+
+def _plain(value: Any) -> Any:
+    """YAML-safe form: tuples become lists (``yaml.safe_dump`` refuses tuples)."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if hasattr(value, "item") and callable(value.item):  # numpy scalars
+        return value.item()
+    return value
+
+
+def plain(value: Any) -> Any:
+    """Public alias of the YAML-safe conversion (used for config.yml / args.yml)."""
+    return _plain(value)

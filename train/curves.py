@@ -1,0 +1,153 @@
+"""``python -m train.curves``: reward curves of one or more runs (one line per run / seed).
+
+Left: the mean reward of the strokes the training env evaluated (from the Monitor CSVs, in
+bins of env steps). Right: the objective (η or F̄) of the best *feasible* stroke seen so far
+and, as markers, the deterministic policy's reward at each evaluation (evaluations.npz)::
+
+    python -m train.curves --runs logs/ppo/TandemWing-LevelFlight-v0_{1,2,3} \\
+        --out docs/figures/ppo_level_v15.png --title "PPO, level flight, V = 1.5 m/s"
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from train.layout import RunLayout
+
+
+@dataclass(frozen=True)
+class Curves:
+    """What one run's files say, as arrays over env steps."""
+
+    label: str
+    steps: np.ndarray
+    """(n,) env step of each training stroke (1-based)."""
+    reward: np.ndarray
+    """(n,) reward of each training stroke."""
+    best_feasible: np.ndarray
+    """(n,) objective of the best feasible stroke so far (NaN before the first)."""
+    eval_steps: np.ndarray
+    eval_reward: np.ndarray
+    """Mean deterministic-policy reward over the evaluation conditions."""
+    wall_time: float | None
+
+
+def read_run(run_dir: str | Path) -> Curves:
+    """Monitor CSVs (every segment, in order) and evaluations.npz of a run folder."""
+    run_dir = Path(run_dir)
+    args = sorted(run_dir.glob("*/args.yml"))
+    if not args:
+        raise ValueError(f"{run_dir} is not a training run folder (no <env>/args.yml)")
+    layout = RunLayout(run_dir, args[0].parent.name)
+    rewards: list[float] = []
+    objective: list[float] = []
+    feasible: list[bool] = []
+    for path in sorted(layout.monitor_files(), key=lambda p: int(p.name.split(".")[0])):
+        with path.open() as stream:
+            stream.readline()  # JSON header
+            for row in csv.DictReader(stream):
+                rewards.append(float(row["r"]))
+                objective.append(float(row["objective"]))
+                feasible.append(row["feasible"] == "True")
+    reward = np.asarray(rewards)
+    feasible_objective = np.where(np.asarray(feasible, dtype=bool), np.asarray(objective), -np.inf)
+    best = np.maximum.accumulate(feasible_objective) if len(reward) else np.zeros(0)
+    best = np.where(np.isfinite(best), best, np.nan)
+    eval_steps = np.zeros(0)
+    eval_reward = np.zeros(0)
+    if layout.evaluations.is_file():
+        with np.load(layout.evaluations) as data:
+            eval_steps = data["timesteps"]
+            eval_reward = data["results"].mean(axis=1)
+    wall = None
+    if layout.result_file.is_file():
+        wall = json.loads(layout.result_file.read_text()).get("wall_time_s")
+    return Curves(
+        run_dir.name, np.arange(1, len(reward) + 1), reward, best, eval_steps, eval_reward, wall
+    )
+
+
+def binned_mean(steps: np.ndarray, values: np.ndarray, bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """Mean of ``values`` in ``bins`` equal bins of ``steps`` (bin centres, means)."""
+    edges = np.linspace(0, steps[-1], bins + 1)
+    index = np.clip(np.searchsorted(edges, steps, side="left") - 1, 0, bins - 1)
+    sums = np.bincount(index, values, minlength=bins)
+    counts = np.bincount(index, minlength=bins)
+    keep = counts > 0
+    return 0.5 * (edges[:-1] + edges[1:])[keep], sums[keep] / counts[keep]
+
+
+def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60) -> Path:
+    """Write the two-panel figure (small PNG) for ``runs``."""
+    import matplotlib
+    import matplotlib.ticker
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    curves = [read_run(r) for r in runs]
+    fig, (left, right) = plt.subplots(1, 2, figsize=(8.0, 3.0), dpi=90)
+    for k, c in enumerate(curves):
+        color = f"C{k}"
+        label = c.label + ("" if c.wall_time is None else f" ({c.wall_time:.0f} s)")
+        if len(c.steps):
+            x, y = binned_mean(c.steps, c.reward, bins)
+            left.plot(x, y, color=color, lw=1.2, label=label)
+            right.plot(
+                c.steps[:: max(1, len(c.steps) // 400)],
+                c.best_feasible[:: max(1, len(c.steps) // 400)],
+                color=color,
+                lw=1.2,
+            )
+        if len(c.eval_steps):
+            right.plot(c.eval_steps, c.eval_reward, ".", color=color, ms=3)
+    left.set_yscale("symlog", linthresh=1.0)
+    # symlog's default ticks leave this range unlabelled; name the decades.
+    left.set_yticks([-100, -30, -10, -3, -1, 0, 0.5])
+    left.yaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+    left.set_xlabel("env steps (strokes evaluated)")
+    left.set_ylabel("mean training reward")
+    left.grid(alpha=0.3)
+    left.legend(fontsize=7)
+    right.set_xlabel("env steps")
+    if any(len(c.eval_steps) for c in curves):
+        right.set_ylabel("best feasible objective (line)\ndeterministic reward (dots)", fontsize=8)
+        right.set_ylim(-0.5, None)  # deterministic rewards far below 0 are off the chart
+    else:
+        right.set_ylabel("best feasible objective seen", fontsize=8)
+    right.grid(alpha=0.3)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out)
+    plt.close(fig)
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m train.curves", description=__doc__.split("\n")[0]
+    )
+    parser.add_argument("--runs", nargs="+", required=True, help="run folders")
+    parser.add_argument("--out", required=True, help="PNG to write")
+    parser.add_argument("--title", default="reward curves")
+    args = parser.parse_args(argv)
+    try:
+        path = plot(args.runs, args.out, args.title)
+    except ValueError as error:
+        parser.error(str(error))
+    print(f"wrote {path} ({path.stat().st_size / 1024:.0f} kB)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,155 @@
+"""``python -m train.envelope``: one trained policy evaluated at every sweep condition.
+
+A policy trained over the whole envelope (``speed_range=(0.25, 2.0)`` for level flight,
+``power_range=(50, 90)`` for accelerating flight) is asked, through the harness method
+``policy:RUN_DIR``, for its deterministic stroke at each sweep condition; each stroke is
+re-evaluated and recorded exactly like a PSO result (one record per condition), and a CSV
+gathers them::
+
+    python -m train --algo sac --env TandemWing/LevelFlight-v0 \\
+        --env-kwargs "speed_range=(0.25, 2.0)" -n 300000
+    python -m train.envelope --run logs/sac/TandemWing-LevelFlight-v0_1 --out results/envelope-sac
+
+writes ``results/envelope-sac/envelope.csv`` (condition, objective, efficiency, feasible,
+evaluations spent, ...) and the records in ``results/envelope-sac/records/``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from train.vec import SWEEP_POWERS, SWEEP_SPEEDS
+
+#: Columns of envelope.csv.
+COLUMNS: tuple[str, ...] = (
+    "condition",
+    "condition_value",
+    "condition_unit",
+    "objective_name",
+    "objective",
+    "reward",
+    "feasible",
+    "efficiency",
+    "lift_to_weight",
+    "power_per_mass",
+    "excess_vertical",
+    "excess_horizontal",
+    "constraint_violation",
+    "evaluations",
+    "training_timesteps",
+    "model",
+    "run_dir",
+)
+
+
+def task_of(env_id: str) -> str:
+    """The harness task name of a training env id."""
+    from agents.tasks import available_tasks, get_task
+
+    for name in available_tasks():
+        if get_task(name).env_id == env_id:
+            return name
+    raise ValueError(f"no harness task runs {env_id}; allowed: TandemWing/LevelFlight-v0, ...")
+
+
+def sweep_conditions(task: str) -> tuple[float, ...]:
+    return SWEEP_SPEEDS if task == "level" else SWEEP_POWERS
+
+
+def evaluate_envelope(
+    run_dir: str | os.PathLike[str],
+    out_dir: str | os.PathLike[str],
+    *,
+    conditions: Sequence[float] | None = None,
+    which: str = "best",
+    progress: bool = False,
+) -> list[dict[str, Any]]:
+    """Record the run's policy at each condition (default the sweep); write envelope.csv."""
+    from agents.harness import run
+    from train.policies import CONDITION_KWARGS, TrainedPolicy
+
+    policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
+    task = task_of(policy.env_id)
+    # The harness sets the condition itself; every other training option is kept.
+    env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in CONDITION_KWARGS}
+    values = tuple(conditions) if conditions is not None else sweep_conditions(task)
+    out = Path(out_dir)
+    rows = []
+    for value in values:
+        record = run(
+            f"policy:{run_dir}",
+            task,
+            float(value),
+            budget=1,
+            seeds=[0],
+            env_kwargs=env_kwargs,
+            method_config={"model": which},
+            progress=progress,
+            out_dir=out / "records",
+        )[0]
+        metrics = record.metrics
+        rows.append(
+            {
+                "condition": record.condition.name,
+                "condition_value": record.condition.value,
+                "condition_unit": record.condition.unit,
+                "objective_name": record.objective_name,
+                "objective": record.objective,
+                "reward": record.reward,
+                "feasible": record.feasible,
+                **{k: metrics.get(k) for k in COLUMNS if k in metrics},
+                "evaluations": record.evaluations,
+                "training_timesteps": policy.num_timesteps,
+                "model": policy.model_path.name,
+                "run_dir": str(run_dir),
+            }
+        )
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "envelope.csv"
+    tmp = path.with_name(f".{path.name}.tmp")
+    with tmp.open("w", newline="") as stream:
+        writer = csv.DictWriter(stream, fieldnames=COLUMNS, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+    os.replace(tmp, path)
+    return rows
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m train.envelope",
+        description="Evaluate one trained policy at every sweep condition through the harness.",
+    )
+    parser.add_argument("--run", required=True, help="run folder written by python -m train")
+    parser.add_argument("--out", required=True, help="output folder (envelope.csv, records/)")
+    parser.add_argument(
+        "--conditions",
+        type=float,
+        nargs="+",
+        default=None,
+        help="conditions to evaluate (default: speeds 0.25..2.0 step 0.25, or powers 50..90 step 10)",
+    )
+    parser.add_argument("--model", choices=("best", "final"), default="best")
+    args = parser.parse_args(argv)
+    try:
+        rows = evaluate_envelope(args.run, args.out, conditions=args.conditions, which=args.model)
+    except ValueError as error:
+        parser.error(str(error))
+    for row in rows:
+        print(
+            f"{row['condition']} = {row['condition_value']:g} {row['condition_unit']}: "
+            f"{row['objective_name']} = {row['objective']:.4g}, feasible {row['feasible']}, "
+            f"{row['evaluations']} evaluation(s)"
+        )
+    print(f"wrote {Path(args.out) / 'envelope.csv'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

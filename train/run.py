@@ -1,0 +1,553 @@
+"""One training run: build the envs and the model from a :class:`~train.config.TrainConfig`,
+learn with evaluation, checkpoints, Monitor and TensorBoard logs, and resume a killed run.
+
+:func:`train` is what ``python -m train`` calls; :func:`learn_in_memory` is the lean variant
+the harness's ``ppo`` / ``sac`` methods use (no files, a budget of env steps).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import time
+import warnings
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import yaml
+from stable_baselines3 import PPO, SAC
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.vec_env import VecEnv, VecNormalize, sync_envs_normalization
+
+from train.callbacks import PhysicsLogger, ResumableEvalCallback, SaveVecNormalize
+from train.config import Hyperparams, TrainConfig, load_entry, plain, resolve_hyperparams
+from train.layout import Checkpoint, RunLayout
+from train.vec import StrokeRecorder, make_evaluation_env, make_training_env
+
+ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
+
+#: Checkpoints kept in a run folder (older ones are deleted: a SAC replay buffer is ~40 MB).
+KEEP_CHECKPOINTS = 2
+#: Env steps between SAC's log dumps when no log_interval is given.
+SAC_LOG_EVERY = 2_048
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    """What a run ended with."""
+
+    algo: str
+    env_id: str
+    run_dir: Path | None
+    num_timesteps: int
+    wall_time: float
+    """Wall-clock time of this training segment [s]."""
+    resumed_from: int | None
+    """Checkpoint step this segment resumed from, or None for a fresh run."""
+    best_reward: float
+    """Best raw reward of any stroke the training env evaluated in this segment."""
+    best_action: np.ndarray | None
+    best_info: dict[str, Any] | None
+    final_evaluation: list[dict[str, Any]] = field(default_factory=list)
+    """The final policy's deterministic stroke at each evaluation condition (metrics)."""
+    history: tuple[tuple[int, float], ...] = ()
+    """(env steps of this segment, best reward so far) after every vector step."""
+
+
+# --- building blocks -----------------------------------------------------------------------
+@contextlib.contextmanager
+def torch_threads(count: int) -> Iterator[None]:
+    """Run with ``count`` torch threads, restoring the previous number afterwards."""
+    previous = torch.get_num_threads()
+    torch.set_num_threads(count)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)
+
+
+def step_granularity(algo: str, hp: Hyperparams) -> int:
+    """Env steps one learn iteration takes (``learn`` never stops inside one)."""
+    if algo == "ppo":
+        return int(hp.model_kwargs.get("n_steps", 2048)) * hp.n_envs
+    train_freq = hp.model_kwargs.get("train_freq", 1)
+    steps = train_freq[0] if isinstance(train_freq, tuple) else train_freq
+    if isinstance(train_freq, tuple) and train_freq[1] != "step":
+        # Every episode is one step, so "episode" frequencies count the same vector steps.
+        steps = train_freq[0]
+    return int(steps) * hp.n_envs
+
+
+def default_log_interval(algo: str, n_envs: int) -> int:
+    """PPO: every rollout. SAC counts episodes, and every vector step ends n_envs of them, so
+    its default (4) would dump n_envs/4 times per step; dump every ~SAC_LOG_EVERY steps instead."""
+    if algo == "ppo":
+        return 1
+    return n_envs * max(1, round(SAC_LOG_EVERY / n_envs))
+
+
+def build_model(
+    algo: str,
+    hp: Hyperparams,
+    venv: VecEnv,
+    *,
+    seed: int,
+    tensorboard_log: Path | None,
+    verbose: int,
+    device: str,
+) -> BaseAlgorithm:
+    """A new SB3 model of ``algo`` on ``venv`` with the resolved hyperparameters."""
+    cls = ALGORITHMS[algo]
+    try:
+        return cls(
+            hp.policy,
+            venv,
+            seed=seed,
+            tensorboard_log=None if tensorboard_log is None else str(tensorboard_log),
+            policy_kwargs=dict(hp.policy_kwargs),
+            verbose=verbose,
+            device=device,
+            **dict(hp.model_kwargs),
+        )
+    except TypeError as error:
+        raise ValueError(f"{algo.upper()} rejected a hyperparameter: {error}") from error
+
+
+def evaluate_deterministic(model: BaseAlgorithm, eval_env: VecEnv) -> list[dict[str, Any]]:
+    """The deterministic stroke at each evaluation condition, with its metrics (one step)."""
+    observations = eval_env.reset()
+    actions, _ = model.predict(observations, deterministic=True)
+    _, rewards, _, infos = eval_env.step(actions)
+    rows = []
+    for reward, info, action in zip(rewards, infos, actions, strict=True):
+        row = {
+            k: v
+            for k, v in info.items()
+            if k not in ("terminal_observation", "episode", "stroke", "TimeLimit.truncated")
+        }
+        row["reward"] = float(reward)
+        row["action"] = [float(a) for a in action]
+        rows.append(row)
+    return rows
+
+
+class RunCheckpoint(BaseCallback):
+    """Checkpoints every ``save_freq`` env steps, keeping the newest ``keep``.
+
+    Unlike SB3's CheckpointCallback (which saves inside ``on_step``, before an off-policy
+    algorithm stores that step's transitions, so a resumed SAC would miss one vector step of
+    its replay buffer), this saves at the end of a rollout: the buffer holds every transition
+    up to the checkpoint's step. Files are named as CheckpointCallback names them.
+    """
+
+    def __init__(self, layout: RunLayout, save_freq: int, keep: int, verbose: int = 0) -> None:
+        super().__init__(verbose)
+        self.layout = layout
+        self.save_freq = save_freq
+        self.keep = keep
+        self._next = save_freq
+
+    def _init_callback(self) -> None:
+        self._next = (self.model.num_timesteps // self.save_freq + 1) * self.save_freq
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        step = self.model.num_timesteps
+        if step >= self._next:
+            checkpoint = save_checkpoint(self.model, self.layout)
+            prune_checkpoints(self.layout, self.keep)
+            self._next = (step // self.save_freq + 1) * self.save_freq
+            if self.verbose >= 2:
+                print(f"Saved checkpoint {checkpoint.model}")
+
+
+def prune_checkpoints(layout: RunLayout, keep: int) -> None:
+    for checkpoint in layout.checkpoints()[:-keep]:
+        for path in checkpoint.paths():
+            path.unlink(missing_ok=True)
+
+
+def save_checkpoint(model: BaseAlgorithm, layout: RunLayout) -> Checkpoint:
+    """Checkpoint at the model's current step. Each file is written under a temporary name and
+    renamed, companions first and the model last, so a model file means a complete checkpoint
+    even if the process is killed while saving."""
+    checkpoint = layout.checkpoint(model.num_timesteps)
+    if getattr(model, "replay_buffer", None) is not None:
+        _save_atomic(checkpoint.replay_buffer, model.save_replay_buffer)  # type: ignore[attr-defined]
+    normalizer = model.get_vec_normalize_env()
+    if normalizer is not None:
+        _save_atomic(checkpoint.vecnormalize, lambda p: normalizer.save(str(p)))
+    _save_atomic(checkpoint.model, model.save)
+    return checkpoint
+
+
+def _save_atomic(path: Path, save: Callable[[Path], Any]) -> None:
+    tmp = path.with_name(f"{path.stem}.tmp{path.suffix}")
+    save(tmp)
+    os.replace(tmp, path)
+
+
+# --- files ---------------------------------------------------------------------------------
+def write_yaml(path: Path, data: Mapping[str, Any]) -> None:
+    try:
+        text = yaml.safe_dump(plain(dict(data)), sort_keys=True)
+    except yaml.representer.RepresenterError as error:
+        raise ValueError(
+            f"cannot write {path.name}: {error.args[-1]!r} is not a YAML value; allowed in "
+            "env_kwargs / hyperparams of a run with files: numbers, strings, booleans, lists"
+        ) from error
+    path.parent.mkdir(parents=True, exist_ok=True)
+    _atomic_write(path, text)
+
+
+def read_yaml(path: Path) -> dict[str, Any]:
+    with path.open() as stream:
+        # The zoo writes OrderedDicts with python tags; ours are plain, but read both.
+        data = yaml.load(stream, Loader=yaml.UnsafeLoader)
+    return dict(data or {})
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def _json_ready(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {str(k): _json_ready(v) for k, v in value.items()}
+    if isinstance(value, list | tuple | np.ndarray):
+        return [_json_ready(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+# --- the run ---------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Plan:
+    config: TrainConfig
+    hp: Hyperparams
+    env_kwargs: dict[str, Any]
+    layout: RunLayout
+    checkpoint: Checkpoint | None
+
+
+def plan_run(config: TrainConfig) -> _Plan:
+    """Where the run goes and what it resumes from; validates everything before any work."""
+    if config.resume:
+        layout = RunLayout.latest(config.log_folder, config.algo, config.env_id)
+    elif config.run_dir is not None:
+        layout = RunLayout(config.run_dir, config.env_id)
+    else:
+        layout = None
+
+    saved = None
+    if layout is not None and layout.args_file.is_file():
+        saved = read_yaml(layout.args_file)
+        config = _merge_saved(config, saved, layout)
+    checkpoint = None
+    if layout is not None:
+        checkpoint = _latest_usable_checkpoint(config, layout)
+        if checkpoint is None and config.resume:
+            raise ValueError(
+                f"{layout.run_dir} has no complete checkpoint to resume from (save_freq <= 0, "
+                "or killed before the first); allowed: start a new run"
+            )
+
+    if checkpoint is not None and layout is not None and layout.config_file.is_file():
+        # A resumed run keeps the hyperparameters it started with, whatever the yml says now.
+        entry = read_yaml(layout.config_file)
+        hp = resolve_hyperparams(entry, n_timesteps=config.n_timesteps)
+    else:
+        hp = config.hyperparameters()
+    env_kwargs = {**hp.env_kwargs, **config.env_kwargs}
+    _check_env(config.env_id, env_kwargs)
+    if layout is None:
+        layout = RunLayout.new(config.log_folder, config.algo, config.env_id)
+    layout.run_dir.mkdir(parents=True, exist_ok=True)
+    return _Plan(config, hp, env_kwargs, layout, checkpoint)
+
+
+def _merge_saved(config: TrainConfig, saved: Mapping[str, Any], layout: RunLayout) -> TrainConfig:
+    """The config of a run being continued: its saved settings, this command's target steps."""
+    for key, mine in (("algo", config.algo), ("env", config.env_id)):
+        if saved.get(key) != mine:
+            raise ValueError(
+                f"{layout.run_dir} is a run of {key} = {saved.get(key)!r}, not {mine!r}; "
+                "allowed: the same algo and env, or a new run"
+            )
+    for key, mine in (("env_kwargs", config.env_kwargs), ("hyperparams", config.hyperparams)):
+        if mine and plain(dict(mine)) != saved.get(key):
+            raise ValueError(
+                f"{layout.run_dir} was started with {key} = {saved.get(key)!r}; this command "
+                f"gives {plain(dict(mine))!r}. A resumed run keeps its settings; allowed: the "
+                "same values or none, or a new run"
+            )
+    return replace(
+        config,
+        seed=int(saved.get("seed", config.seed)),
+        n_envs=saved.get("n_envs"),
+        n_timesteps=config.n_timesteps or saved.get("n_timesteps"),
+        env_kwargs=saved.get("env_kwargs") or {},
+        hyperparams=saved.get("hyperparams") or {},
+        hyperparams_file=saved.get("conf_file"),
+        eval_freq=int(saved.get("eval_freq", config.eval_freq)),
+        save_freq=int(saved.get("save_freq", config.save_freq)),
+        resume=False,
+        run_dir=layout.run_dir,
+    )
+
+
+def _latest_usable_checkpoint(config: TrainConfig, layout: RunLayout) -> Checkpoint | None:
+    needs_buffer = config.algo == "sac"
+    normalize = None
+    if layout.config_file.is_file():
+        normalize = read_yaml(layout.config_file).get("normalize")
+    for checkpoint in reversed(layout.checkpoints()):
+        if checkpoint.complete(replay_buffer=needs_buffer, vecnormalize=bool(normalize)):
+            return checkpoint
+        warnings.warn(
+            f"skipping incomplete checkpoint {checkpoint.model.name} (killed while saving?)",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+    return None
+
+
+def _check_env(env_id: str, env_kwargs: Mapping[str, Any]) -> None:
+    import gymnasium as gym
+
+    import tandem_env  # noqa: F401 - registers the ids
+
+    if env_id not in gym.envs.registry:
+        raise ValueError(f"env {env_id!r} is not registered; allowed: TandemWing/... ids")
+    try:
+        gym.make(env_id, disable_env_checker=True, **env_kwargs).close()
+    except TypeError as error:
+        raise ValueError(f"{env_id}: {error}") from error
+
+
+def train(config: TrainConfig) -> TrainResult:
+    """Run (or resume) one training run with files; see :mod:`train.layout` for the folder."""
+    plan = plan_run(config)
+    config, hp, layout = plan.config, plan.hp, plan.layout
+    if plan.checkpoint is None:
+        write_yaml(layout.config_file, hp.saved)
+        write_yaml(layout.args_file, config.to_dict())
+        if layout.evaluations.exists():
+            layout.evaluations.unlink()  # a fresh start in an old folder: no stale curve
+
+    with torch_threads(config.torch_threads):
+        venv, recorder = make_training_env(
+            config.env_id,
+            hp.n_envs,
+            config.seed,
+            plan.env_kwargs,
+            monitor_file=layout.next_monitor_file(),
+            normalize=None,
+        )
+        if hp.normalize is not None:
+            if plan.checkpoint is not None:
+                venv = VecNormalize.load(str(plan.checkpoint.vecnormalize), venv)
+                venv.training = True
+            else:
+                venv = VecNormalize(venv, **dict(hp.normalize))
+        eval_env = make_evaluation_env(
+            config.env_id, plan.env_kwargs, config.seed + 10_000, normalize=hp.normalize
+        )
+        tensorboard = layout.tensorboard if config.tensorboard else None
+        if plan.checkpoint is None:
+            model = build_model(
+                config.algo,
+                hp,
+                venv,
+                seed=config.seed,
+                tensorboard_log=tensorboard,
+                verbose=config.verbose,
+                device=config.device,
+            )
+        else:
+            model = ALGORITHMS[config.algo].load(
+                plan.checkpoint.model,
+                env=venv,
+                device=config.device,
+                tensorboard_log=None if tensorboard is None else str(tensorboard),
+                verbose=config.verbose,
+            )
+            if config.algo == "sac":
+                model.load_replay_buffer(plan.checkpoint.replay_buffer)  # type: ignore[attr-defined]
+            # A resumed segment is reproducible given its checkpoint (RNG states are not saved).
+            model.set_random_seed(config.seed + model.num_timesteps)
+
+        start_step = model.num_timesteps
+        remaining = hp.n_timesteps - start_step
+        callbacks: list[BaseCallback] = [PhysicsLogger(recorder)]
+        if config.save_freq > 0:
+            callbacks.append(
+                RunCheckpoint(layout, config.save_freq, KEEP_CHECKPOINTS, verbose=config.verbose)
+            )
+        if config.eval_freq > 0:
+            callbacks.append(
+                ResumableEvalCallback(
+                    eval_env,
+                    n_eval_episodes=eval_env.num_envs,
+                    eval_freq=max(config.eval_freq // hp.n_envs, 1),
+                    best_model_save_path=str(layout.run_dir),
+                    log_path=str(layout.run_dir),
+                    deterministic=True,
+                    verbose=config.verbose,
+                    callback_on_new_best=(
+                        None
+                        if hp.normalize is None
+                        else SaveVecNormalize(layout.run_dir / "best_model_vecnormalize.pkl")
+                    ),
+                    resume_from_step=None if plan.checkpoint is None else start_step,
+                )
+            )
+        started = time.perf_counter()
+        if remaining > 0:
+            model.learn(
+                remaining,
+                callback=CallbackList(callbacks),
+                log_interval=config.log_interval or default_log_interval(config.algo, hp.n_envs),
+                tb_log_name=config.algo.upper(),
+                reset_num_timesteps=plan.checkpoint is None,
+                progress_bar=config.progress_bar,
+            )
+        elif config.verbose:
+            print(f"{layout.run_dir}: already at {start_step} >= {hp.n_timesteps} steps")
+        wall_time = time.perf_counter() - started
+
+        model.save(layout.final_model)
+        if hp.normalize is not None:
+            normalizer = model.get_vec_normalize_env()
+            assert normalizer is not None
+            normalizer.save(str(layout.vecnormalize))
+            sync_envs_normalization(venv, eval_env)
+        if config.save_freq > 0:
+            save_checkpoint(model, layout)
+            prune_checkpoints(layout, KEEP_CHECKPOINTS)
+        final = evaluate_deterministic(model, eval_env)
+        venv.close()
+        eval_env.close()
+
+    result = TrainResult(
+        algo=config.algo,
+        env_id=config.env_id,
+        run_dir=layout.run_dir,
+        num_timesteps=int(model.num_timesteps),
+        wall_time=wall_time,
+        resumed_from=None if plan.checkpoint is None else plan.checkpoint.step,
+        best_reward=recorder.best_reward,
+        best_action=recorder.best_action,
+        best_info=recorder.best_info,
+        final_evaluation=final,
+        history=tuple(recorder.history),
+    )
+    _write_result(layout, result, hp)
+    return result
+
+
+def _write_result(layout: RunLayout, result: TrainResult, hp: Hyperparams) -> None:
+    previous: dict[str, Any] = {}
+    if result.resumed_from is not None and layout.result_file.is_file():
+        previous = json.loads(layout.result_file.read_text())
+    segments = list(previous.get("segments", []))
+    segments.append(
+        {
+            "resumed_from": result.resumed_from,
+            "end_step": result.num_timesteps,
+            "wall_time_s": result.wall_time,
+            "best_reward": result.best_reward,
+            "best_action": result.best_action,
+            "best_info": result.best_info,
+        }
+    )
+    best = max(segments, key=lambda s: -math.inf if s["best_reward"] is None else s["best_reward"])
+    data = {
+        "algo": result.algo,
+        "env_id": result.env_id,
+        "num_timesteps": result.num_timesteps,
+        "n_envs": hp.n_envs,
+        "wall_time_s": sum(float(s["wall_time_s"]) for s in segments),
+        "best_seen": {k: best[k] for k in ("best_reward", "best_action", "best_info")},
+        "final_evaluation": result.final_evaluation,
+        "segments": segments,
+    }
+    _atomic_write(layout.result_file, json.dumps(_json_ready(data), indent=1))
+
+
+# --- the harness's lean variant ----------------------------------------------------------------
+def budget_steps(
+    algo: str,
+    entry: Mapping[str, Any],
+    overrides: Mapping[str, Any] | None,
+    n_envs: int | None,
+    budget: int,
+) -> int:
+    """The env steps a budget allows: rounded down to whole learn iterations (PPO:
+    n_steps·n_envs, SAC: train_freq·n_envs), because SB3 never stops inside one and the
+    budget is a hard limit."""
+    hp = resolve_hyperparams(entry, overrides, n_envs=n_envs, n_timesteps=1)
+    unit = step_granularity(algo, hp)
+    steps = (budget // unit) * unit
+    if steps < 1:
+        raise ValueError(
+            f"budget {budget} is below one {algo.upper()} iteration ({unit} env steps with "
+            f"n_envs = {hp.n_envs}); allowed: a budget >= {unit}, or a smaller n_envs"
+        )
+    return steps
+
+
+def learn_in_memory(
+    algo: str,
+    env_id: str,
+    env_kwargs: Mapping[str, Any],
+    budget: int,
+    seed: int,
+    *,
+    overrides: Mapping[str, Any] | None = None,
+    n_envs: int | None = None,
+    hyperparams_file: str | Path | None = None,
+    on_step: Callable[[StrokeRecorder], None] | None = None,
+    threads: int = 1,
+) -> tuple[BaseAlgorithm, StrokeRecorder, Hyperparams]:
+    """Train ``algo`` for at most ``budget`` env steps (see :func:`budget_steps`), no files;
+    returns (model, recorder, hp)."""
+    entry = load_entry(algo, env_id, hyperparams_file)
+    steps = budget_steps(algo, entry, overrides, n_envs, budget)
+    hp = resolve_hyperparams(entry, overrides, n_envs=n_envs, n_timesteps=steps)
+    env_kwargs = {**hp.env_kwargs, **env_kwargs}
+    with torch_threads(threads):
+        venv, recorder = make_training_env(
+            env_id,
+            hp.n_envs,
+            seed,
+            env_kwargs,
+            monitor_file=None,
+            normalize=hp.normalize,
+            on_step=on_step,
+        )
+        model = build_model(
+            algo, hp, venv, seed=seed, tensorboard_log=None, verbose=0, device="cpu"
+        )
+        model.learn(
+            steps,
+            log_interval=default_log_interval(algo, hp.n_envs),
+            progress_bar=False,
+        )
+    if recorder.evaluations > budget:  # cannot happen with the rounding above; never record it
+        raise RuntimeError(f"{algo} used {recorder.evaluations} env steps > budget {budget}")
+    return model, recorder, hp

@@ -1,0 +1,190 @@
+"""The vector envs a run trains and evaluates on, and the two wrappers that make them useful here.
+
+Training stack (bottom up): the batched SB3 adapter (one model call per step) ->
+:class:`StrokeRecorder` (raw rewards: the best stroke seen and the evaluation count) ->
+``VecMonitor`` (episode CSV with the physical metrics) -> ``VecNormalize`` if the
+hyperparameters ask for it.
+
+Evaluation stack: the adapter over one sub-env per evaluation condition ->
+:class:`ConditionGrid` (every reset starts sub-env i at condition i, so each deterministic
+evaluation scores the same conditions and ``best_model.zip`` is chosen on a fixed, not a
+resampled, set) -> ``VecMonitor`` -> ``VecNormalize(training=False, norm_reward=False)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecMonitor, VecNormalize
+from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
+
+from tandem_env.envs.sb3 import TandemVecEnv, make_sb3_vec_env
+
+#: ``info`` entries written to the Monitor CSV next to each episode's reward and length.
+MONITOR_KEYWORDS: tuple[str, ...] = (
+    "objective",
+    "efficiency",
+    "lift_to_weight",
+    "power_per_mass",
+    "feasible",
+    "speed",
+    "available_power",
+)
+
+#: The sweep conditions of each env's condition (m/s for speed, W/kg for power).
+SWEEP_SPEEDS: tuple[float, ...] = (0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0)
+SWEEP_POWERS: tuple[float, ...] = (50.0, 60.0, 70.0, 80.0, 90.0)
+
+
+class StrokeRecorder(VecEnvWrapper):
+    """Keeps the best stroke any sub-env was given (by raw reward) and counts evaluations.
+
+    Sits directly on the adapter, so it sees the exact actions evaluated (after SB3's clipping
+    or rescaling) and the env's own rewards (before any normalisation).
+    """
+
+    def __init__(self, venv: VecEnv, on_step: Callable[[StrokeRecorder], None] | None = None):
+        super().__init__(venv)
+        # VecMonitor writes the env id into the Monitor header when the stack has a spec.
+        self.spec = getattr(getattr(venv, "vector_env", None), "spec", None)
+        self.evaluations = 0
+        self.steps = 0
+        self.best_reward = -np.inf
+        self.best_action: np.ndarray | None = None
+        self.best_info: dict[str, Any] | None = None
+        self.history: list[tuple[int, float]] = []
+        """(evaluations, best reward so far) after every vector step."""
+        self._actions: np.ndarray | None = None
+        self._on_step = on_step
+
+    def reset(self) -> np.ndarray:
+        return self.venv.reset()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = np.array(actions, copy=True)
+        self.venv.step_async(actions)
+
+    def step_wait(self) -> VecEnvStepReturn:
+        observations, rewards, dones, infos = self.venv.step_wait()
+        exact = _exact_rewards(rewards, infos)
+        clean = np.where(np.isnan(exact), -np.inf, exact)
+        i = int(np.argmax(clean))
+        # Strict '>' as the harness's evaluator: the first of equal rewards stays the best.
+        if clean[i] > self.best_reward and self._actions is not None:
+            self.best_reward = float(clean[i])
+            self.best_action = self._actions[i].copy()
+            self.best_info = {k: v for k, v in infos[i].items() if k != "terminal_observation"}
+        self.evaluations += len(rewards)
+        self.steps += 1
+        self.history.append((self.evaluations, self.best_reward))
+        if self._on_step is not None:
+            self._on_step(self)
+        return observations, rewards, dones, infos
+
+
+def _exact_rewards(rewards: np.ndarray, infos: Sequence[Mapping[str, Any]]) -> np.ndarray:
+    """The rewards in float64: SB3 gets float32, but a record compares the stroke's reward with
+    its float64 re-evaluation, which is objective - penalty exactly as the task computes it."""
+    if infos and all("objective" in info and "penalty" in info for info in infos):
+        return np.array([info["objective"] - info["penalty"] for info in infos], dtype=np.float64)
+    return np.asarray(rewards, dtype=np.float64)
+
+
+class ConditionGrid(VecEnvWrapper):
+    """Resets sub-env i at ``conditions[i]`` (via the env's reset option) at every reset."""
+
+    def __init__(self, venv: VecEnv, option_key: str, conditions: Sequence[float]):
+        if len(conditions) != venv.num_envs:
+            raise ValueError(
+                f"{len(conditions)} conditions for {venv.num_envs} sub-envs; allowed: one each"
+            )
+        super().__init__(venv)
+        self.option_key = option_key
+        self.conditions = tuple(float(c) for c in conditions)
+
+    def reset(self) -> np.ndarray:
+        self.venv.set_options([{self.option_key: c} for c in self.conditions])
+        return self.venv.reset()
+
+    def step_wait(self) -> VecEnvStepReturn:
+        return self.venv.step_wait()
+
+
+def adapter(venv: VecEnv) -> TandemVecEnv:
+    """The batched adapter at the bottom of a wrapper stack."""
+    inner: Any = venv
+    while isinstance(inner, VecEnvWrapper):
+        inner = inner.venv
+    if not isinstance(inner, TandemVecEnv):
+        raise ValueError(f"{venv!r} is not a stack over tandem_env's TandemVecEnv")
+    return inner
+
+
+def option_key(venv: VecEnv) -> str:
+    """The reset option that sets the condition (``"speed"`` or ``"power"``)."""
+    return adapter(venv).vector_env.task.option_key
+
+
+def condition_range(venv: VecEnv) -> tuple[float, float] | None:
+    """The range the training env samples its condition from, or None if it is fixed."""
+    return adapter(venv).config.condition_range
+
+
+def evaluation_conditions(env_id: str, env_kwargs: Mapping[str, Any]) -> tuple[float, ...]:
+    """The conditions a deterministic evaluation scores: the fixed one, or the sweep points in
+    the sampled range (its ends and midpoint if the range holds fewer than two of them)."""
+    probe = make_sb3_vec_env(env_id, n_envs=1, seed=0, **env_kwargs)
+    try:
+        config = adapter(probe).config
+        sampled = config.condition_range
+        if sampled is None:
+            return (float(config.fixed_condition),)
+        sweep = SWEEP_SPEEDS if option_key(probe) == "speed" else SWEEP_POWERS
+    finally:
+        probe.close()
+    low, high = sampled
+    inside = tuple(c for c in sweep if low - 1e-9 <= c <= high + 1e-9)
+    return inside if len(inside) >= 2 else (low, 0.5 * (low + high), high)
+
+
+def make_training_env(
+    env_id: str,
+    n_envs: int,
+    seed: int,
+    env_kwargs: Mapping[str, Any],
+    *,
+    monitor_file: Path | None,
+    normalize: Mapping[str, Any] | None,
+    on_step: Callable[[StrokeRecorder], None] | None = None,
+) -> tuple[VecEnv, StrokeRecorder]:
+    """The training stack (see the module docstring) and its recorder."""
+    recorder = StrokeRecorder(
+        make_sb3_vec_env(env_id, n_envs=n_envs, seed=seed, **env_kwargs), on_step
+    )
+    venv: VecEnv = VecMonitor(
+        recorder,
+        filename=None if monitor_file is None else str(monitor_file),
+        info_keywords=MONITOR_KEYWORDS,
+    )
+    if normalize is not None:
+        venv = VecNormalize(venv, **normalize)
+    return venv, recorder
+
+
+def make_evaluation_env(
+    env_id: str,
+    env_kwargs: Mapping[str, Any],
+    seed: int,
+    *,
+    normalize: Mapping[str, Any] | None,
+) -> VecEnv:
+    """The evaluation stack: one sub-env per evaluation condition, reset at it every time."""
+    conditions = evaluation_conditions(env_id, env_kwargs)
+    base = make_sb3_vec_env(env_id, n_envs=len(conditions), seed=seed, **env_kwargs)
+    venv: VecEnv = VecMonitor(ConditionGrid(base, option_key(base), conditions))
+    if normalize is not None:
+        venv = VecNormalize(venv, **{**normalize, "training": False, "norm_reward": False})
+    return venv
