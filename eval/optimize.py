@@ -7,11 +7,10 @@ rewrites ``summary.csv`` there over every record in the directory.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-from typing import Any
 
 from agents.harness import execute, prepare
+from agents.keyvalue import parse_pairs
 from agents.methods import available_methods
 from agents.tasks import ACCELERATE, LEVEL
 
@@ -89,7 +88,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="KEY=VALUE",
         help=(
             "method settings, e.g. velocity_clamp=0.2 boundary=reflect "
-            "inertia=linear-decreasing (values parsed as JSON, else text)"
+            "inertia=linear-decreasing (values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)"
         ),
     )
     parser.add_argument(
@@ -99,28 +98,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="KEY=VALUE",
         help=(
             "env options, e.g. thrust_split=body penalty_weight=20 planform=real n_time=256 "
-            "(values parsed as JSON, else text)"
+            "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)"
         ),
     )
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
-
-
-def parse_pairs(pairs: list[str], option: str) -> dict[str, Any]:
-    """``["a=1", "b=x"]`` -> ``{"a": 1, "b": "x"}``; values are JSON if they parse, else text."""
-    out: dict[str, Any] = {}
-    for pair in pairs:
-        key, sep, text = pair.partition("=")
-        key = key.strip()
-        if not sep or not key:
-            raise ValueError(f"{option}: {pair!r} is not KEY=VALUE")
-        if key in out:
-            raise ValueError(f"{option}: {key!r} given twice")
-        try:
-            value = json.loads(text)
-        except json.JSONDecodeError:
-            value = text
-        out[key] = value
-    return out
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

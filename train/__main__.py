@@ -14,7 +14,8 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from train.config import ALGOS, TrainConfig, parse_pairs
+from agents.keyvalue import parse_pairs
+from train.config import ALGOS, TrainConfig
 
 EPILOG = """\
 Values of --env-kwargs / --hyperparams are Python literals or YAML scalars: speed=1.5,

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import ast
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -47,44 +47,6 @@ _POLICY_KWARGS_NAMES = ("dict", "list", "tuple", "nn", "th", "torch")
 
 
 # --- parsing ---------------------------------------------------------------------------------
-def parse_value(text: str) -> Any:
-    """A command-line value: a Python literal if it is one (``0.1``, ``(0.25, 2.0)``,
-    ``"dict(a=1)"``, ``True``), else YAML (``yes``), else the text itself (``coupled``).
-
-    The zoo evaluates ``key:value`` with ``eval``; literals cover every value our envs and
-    models take without executing code.
-    """
-    try:
-        return ast.literal_eval(text)
-    except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
-        pass
-    try:
-        value = yaml.safe_load(text)
-    except yaml.YAMLError:
-        return text
-    return text if value is None and text.strip() not in ("", "null", "~", "None") else value
-
-
-def parse_pairs(items: Iterable[str] | None, option: str) -> dict[str, Any]:
-    """``["key=value", "other:value"]`` -> dict; both the zoo's ``:`` and ``=`` are accepted."""
-    out: dict[str, Any] = {}
-    for item in items or ():
-        positions = [i for i in (item.find("="), item.find(":")) if i > 0]
-        if not positions:
-            raise ValueError(
-                f"{option} {item!r}: expected key=value (or the zoo's key:value), e.g. "
-                f"{option} speed=1.5 speed_range=(0.25,2.0)"
-            )
-        cut = min(positions)
-        key, text = item[:cut].strip(), item[cut + 1 :]
-        if not key.isidentifier():
-            raise ValueError(f"{option} {item!r}: {key!r} is not a valid keyword name")
-        if key in out:
-            raise ValueError(f"{option}: {key!r} is given twice")
-        out[key] = parse_value(text)
-    return out
-
-
 def eval_policy_kwargs(text: str) -> dict[str, Any]:
     """The zoo's ``policy_kwargs`` string, e.g. ``"dict(net_arch=[64, 64], log_std_init=-1)"``.
 

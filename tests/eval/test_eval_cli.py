@@ -92,7 +92,7 @@ def test_optimize_passes_env_kwargs_and_method_config(tmp_path: Path) -> None:
         (["--task", "level", "--speed", "9"], "allowed"),
         (["--task", "level", "--speed", "1", "--method", "cma"], "unknown method 'cma'"),
         (["--task", "level", "--speed", "1", "--budget", "0"], "budget = 0"),
-        (["--task", "level", "--speed", "1", "--env-kwargs", "x"], "not KEY=VALUE"),
+        (["--task", "level", "--speed", "1", "--env-kwargs", "x"], "expected key=value"),
         (["--task", "level", "--speed", "1", "--env-kwargs", "nope=1"], "unknown argument"),
         (["--task", "level", "--speed", "1", "--method-config", "inertia=x"], "inertia must be"),
         (["--task", "hover", "--speed", "1"], "invalid choice: 'hover'"),
@@ -173,3 +173,13 @@ def test_module_entry_point_help() -> None:
     )
     assert "--task {level,accelerate}" in done.stdout
     assert "--swarm-size N" in done.stdout and "examples:" in done.stdout
+
+
+def test_eval_and_train_parse_key_values_the_same_way() -> None:
+    """One parser for every command: a tuple is a tuple in `python -m eval` as in `python -m train`."""
+    from agents.keyvalue import parse_pairs
+
+    parsed = parse_pairs(
+        ["speed_range=(0.25, 2.0)", "thrust_split=body", "penalty_weight=20"], "--env-kwargs"
+    )
+    assert parsed == {"speed_range": (0.25, 2.0), "thrust_split": "body", "penalty_weight": 20}

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 import yaml
 
+from agents.keyvalue import parse_pairs, parse_value
 from tandem_env.envs.registration import ENV_IDS
 from train.config import (
     ALGOS,
@@ -12,8 +13,6 @@ from train.config import (
     TrainConfig,
     eval_policy_kwargs,
     load_entry,
-    parse_pairs,
-    parse_value,
     resolve_hyperparams,
 )
 

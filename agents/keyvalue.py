@@ -1,0 +1,47 @@
+"""``key=value`` command-line options, parsed one way for every command (``eval``, ``train``)."""
+
+from __future__ import annotations
+
+import ast
+from collections.abc import Iterable
+from typing import Any
+
+import yaml
+
+
+def parse_value(text: str) -> Any:
+    """A command-line value: a Python literal if it is one (``0.1``, ``(0.25, 2.0)``,
+    ``"dict(a=1)"``, ``True``), else YAML (``yes``), else the text itself (``coupled``).
+
+    The zoo evaluates ``key:value`` with ``eval``; literals cover every value our envs and
+    models take without executing code.
+    """
+    try:
+        return ast.literal_eval(text)
+    except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
+        pass
+    try:
+        value = yaml.safe_load(text)
+    except yaml.YAMLError:
+        return text
+    return text if value is None and text.strip() not in ("", "null", "~", "None") else value
+
+
+def parse_pairs(items: Iterable[str] | None, option: str) -> dict[str, Any]:
+    """``["key=value", "other:value"]`` -> dict; both the zoo's ``:`` and ``=`` are accepted."""
+    out: dict[str, Any] = {}
+    for item in items or ():
+        positions = [i for i in (item.find("="), item.find(":")) if i > 0]
+        if not positions:
+            raise ValueError(
+                f"{option} {item!r}: expected key=value (or the zoo's key:value), e.g. "
+                f"{option} speed=1.5 speed_range=(0.25,2.0)"
+            )
+        cut = min(positions)
+        key, text = item[:cut].strip(), item[cut + 1 :]
+        if not key.isidentifier():
+            raise ValueError(f"{option} {item!r}: {key!r} is not a valid keyword name")
+        if key in out:
+            raise ValueError(f"{option}: {key!r} is given twice")
+        out[key] = parse_value(text)
+    return out
