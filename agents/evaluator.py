@@ -95,6 +95,8 @@ class VectorEnvEvaluator:
         self._iterations = 0
         self._best_reward = -np.inf
         self._best_action: np.ndarray | None = None
+        self._best_feasible_reward = -np.inf
+        self._best_feasible_action: np.ndarray | None = None
         self._history: list[tuple[int, float]] = []
         self.step_time = 0.0
         """Wall time spent in the vector envs' reset and step [s] (for overhead accounting)."""
@@ -158,6 +160,13 @@ class VectorEnvEvaluator:
         if clean[i] > self._best_reward:
             self._best_reward = float(clean[i])
             self._best_action = actions[i].copy()
+        # A penalised reward can rank a marginally infeasible stroke above every feasible one;
+        # the best feasible stroke is kept too, so the harness can return a stroke that flies.
+        feasible_rewards = np.where(feasible, clean, -np.inf)
+        j = int(np.argmax(feasible_rewards))
+        if feasible_rewards[j] > self._best_feasible_reward:
+            self._best_feasible_reward = float(feasible_rewards[j])
+            self._best_feasible_action = actions[j].copy()
         self._history.append((self._evaluations, self._best_reward))
         if self._on_batch is not None:
             self._on_batch(self._iterations, self._evaluations, self._best_reward)
@@ -200,6 +209,13 @@ class VectorEnvEvaluator:
     def best_action(self) -> np.ndarray | None:
         """Action of the best reward so far (a copy), or None."""
         return None if self._best_action is None else self._best_action.copy()
+
+    @property
+    def best_feasible(self) -> tuple[np.ndarray, float] | None:
+        """(action, reward) of the best feasible stroke so far (a copy), or None if none was."""
+        if self._best_feasible_action is None:
+            return None
+        return self._best_feasible_action.copy(), self._best_feasible_reward
 
     @property
     def history(self) -> list[tuple[int, float]]:

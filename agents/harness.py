@@ -36,10 +36,17 @@ import numpy as np
 
 import tandem_env
 from agents.evaluator import VectorEnvEvaluator, reevaluate
-from agents.methods import Method, SearchContext, get_method
+from agents.methods import Method, SearchContext, SearchOutcome, get_method
 from agents.progress import ProgressBar
 from agents.records import package_versions, to_jsonable
-from agents.run_record import Record, load_records, write_summary
+from agents.run_record import (
+    SELECTION_BEST_FEASIBLE,
+    SELECTION_BEST_REWARD,
+    SELECTION_METHOD,
+    Record,
+    load_records,
+    write_summary,
+)
 from agents.tasks import Condition, TaskSpec, get_task
 
 __all__ = ["SUMMARY_NAME", "RunPlan", "execute", "prepare", "run", "run_seed"]
@@ -229,6 +236,22 @@ def run(
     )
 
 
+def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator) -> tuple[np.ndarray, float, str]:
+    """The stroke a record reports: the best feasible stroke the search evaluated, if any.
+
+    A feasible stroke's reward is exactly its objective, so among feasible strokes the best
+    reward is the best objective; a penalised reward can still rank a marginally infeasible
+    stroke above all of them, which would report a stroke that does not fly.
+    """
+    if evaluator.evaluations == 0:  # the method evaluated through its own envs (e.g. SB3)
+        return outcome.best_action, outcome.best_reward, SELECTION_METHOD
+    best_feasible = evaluator.best_feasible
+    if best_feasible is None:
+        return outcome.best_action, outcome.best_reward, SELECTION_BEST_REWARD
+    action, reward = best_feasible
+    return action, reward, SELECTION_BEST_FEASIBLE
+
+
 def run_seed(plan: RunPlan, seed: int) -> Record:
     """Search with one seed, re-evaluate the best stroke and build its record."""
     start = time.perf_counter()
@@ -262,19 +285,20 @@ def run_seed(plan: RunPlan, seed: int) -> Record:
             f"the action space has dimension {plan.dim}"
         )
 
-    again = reevaluate(plan.task, plan.condition, plan.env_kwargs, seed, outcome.best_action)
+    action, search_reward, selection = _select(outcome, evaluator)
+    again = reevaluate(plan.task, plan.condition, plan.env_kwargs, seed, action)
     wall_time = time.perf_counter() - start
-    if not _same(again.reward, outcome.best_reward):
+    if not _same(again.reward, search_reward):
         warnings.warn(
             f"{plan.method_spec} seed {seed}: re-evaluated reward {again.reward!r} differs from "
-            f"the search's {outcome.best_reward!r}",
+            f"the search's {search_reward!r}",
             RuntimeWarning,
             stacklevel=2,
         )
     info = dict(again.info)
     stroke = info.pop("stroke", None)
     if stroke is None:
-        stroke = {f"a{j}": float(v) for j, v in enumerate(outcome.best_action)}
+        stroke = {f"a{j}": float(v) for j, v in enumerate(action)}
     return Record(
         method=plan.method_spec,
         task=plan.task.name,
@@ -286,10 +310,11 @@ def run_seed(plan: RunPlan, seed: int) -> Record:
         evaluations=outcome.evaluations,
         objective=float(info.get("objective", again.reward)),
         reward=again.reward,
-        search_reward=outcome.best_reward,
+        search_reward=search_reward,
+        selection=selection,
         feasible=bool(info.get("feasible", True)),
         stroke=_plain(stroke),
-        normalised_stroke=tuple(outcome.best_action.tolist()),
+        normalised_stroke=tuple(action.tolist()),
         metrics=_plain(info),
         history=outcome.history,
         wall_time=wall_time,

@@ -31,6 +31,7 @@ __all__ = [
     "to_jsonable",
     "write_csv_atomic",
     "write_json_atomic",
+    "write_text_atomic",
 ]
 
 # Record key -> distribution name on the package index.
@@ -82,7 +83,7 @@ def write_json_atomic(path: str | os.PathLike[str], obj: Any, *, indent: int | N
     Raises TypeError for values :func:`to_jsonable` cannot convert, before touching the disk.
     """
     text = json.dumps(to_jsonable(obj), indent=indent, sort_keys=False) + "\n"
-    _write_text_atomic(Path(path), text)
+    write_text_atomic(Path(path), text)
 
 
 def read_json(path: str | os.PathLike[str]) -> Any:
@@ -107,7 +108,7 @@ def write_csv_atomic(path: str | os.PathLike[str], rows: Sequence[Mapping[str, A
         writer.writeheader()
         for row in rows:
             writer.writerow({key: _csv_cell(value) for key, value in row.items()})
-    _write_text_atomic(Path(path), buffer.getvalue())
+    write_text_atomic(Path(path), buffer.getvalue())
 
 
 def _csv_cell(value: Any) -> Any:
@@ -135,7 +136,9 @@ def package_versions() -> dict[str, str]:
     return versions
 
 
-def _write_text_atomic(path: Path, text: str) -> None:
+def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` atomically: a temp file beside it, fsync, rename."""
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import MISSING, dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +29,12 @@ __all__ = [
 ]
 
 #: Identifies record files (and their version) among other JSON files.
-SCHEMA = "tandem_env.harness-record/1"
+SCHEMA = "tandem_env.harness-record/2"
+"""Record format; /2 added ``selection`` (records report the best feasible stroke seen)."""
+#: The record's ``selection``: which of the strokes a search evaluated it reports.
+SELECTION_BEST_FEASIBLE = "best feasible stroke seen"
+SELECTION_BEST_REWARD = "best reward seen (no feasible stroke)"
+SELECTION_METHOD = "the method's stroke"
 
 #: Metrics copied into the CSV summary when a record has them.
 SUMMARY_METRICS: tuple[str, ...] = (
@@ -77,7 +82,7 @@ class Record:
     reward: float
     """The penalised objective of the best stroke, re-evaluated (= objective when feasible)."""
     search_reward: float
-    """The best reward as seen during the search (equals ``reward``: the model is
+    """The reported stroke's reward as seen during the search (equals ``reward``: the model is
     deterministic and bit-identical at any batch size)."""
     feasible: bool
     """Every constraint of the task met at the re-evaluation."""
@@ -96,6 +101,10 @@ class Record:
     configuration: insect, model options incl. ``thrust_split``, penalty)."""
     versions: dict[str, str]
     """Package versions (numpy, gymnasium, torch, ..., python, tandem_env)."""
+    selection: str = SELECTION_BEST_FEASIBLE
+    """Which stroke is reported: ``"best feasible stroke seen"`` (the highest objective among
+    the feasible strokes the search evaluated), ``"best reward seen (no feasible stroke)"``, or
+    ``"the method's stroke"`` (methods that evaluate through their own envs, e.g. SB3)."""
     schema: str = SCHEMA
     """Record format identifier."""
 
@@ -134,10 +143,11 @@ class Record:
                 f"not a harness record (schema {data.get('schema')!r}, want {SCHEMA!r})"
             )
         names = {f.name for f in fields(cls)}
-        missing = sorted(names - set(data))
+        required = {f.name for f in fields(cls) if f.default is MISSING}
+        missing = sorted(required - set(data))
         if missing:
             raise ValueError(f"record is missing field(s) {missing}")
-        kwargs = {name: data[name] for name in names}
+        kwargs = {name: data[name] for name in names if name in data}
         kwargs["condition"] = Condition(**kwargs["condition"])
         return cls(**kwargs)
 

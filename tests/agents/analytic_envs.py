@@ -22,7 +22,9 @@ from gymnasium.vector.utils import batch_space
 from agents.tasks import TaskSpec, register_task
 
 DIM = 28
-FUNCTIONS = ("sphere", "rastrigin")
+FUNCTIONS = ("sphere", "rastrigin", "constrained")
+"""``constrained`` is the sphere with the constraint x_0 <= 0, which its optimum violates; its
+reward is not penalised, so the best reward is always infeasible."""
 #: Every batch of actions stepped (single env: shape (1, 28)), for box checks.
 ACTION_LOG: list[np.ndarray] = []
 
@@ -34,10 +36,17 @@ def optimum(shift: float) -> np.ndarray:
 def value(function: str, actions: np.ndarray, shift: float, scale: float) -> np.ndarray:
     """Rewards (B,) of actions (B, 28): maximum 0 at :func:`optimum`."""
     d = actions - optimum(shift)
-    if function == "sphere":
+    if function in ("sphere", "constrained"):
         return -np.sum(d**2, axis=1)
     z = scale * d
     return -(10.0 * DIM + np.sum(z**2 - 10.0 * np.cos(2.0 * np.pi * z), axis=1))
+
+
+def feasible(function: str, actions: np.ndarray) -> np.ndarray:
+    """Feasibility flags (B,) of actions (B, 28)."""
+    if function == "constrained":
+        return actions[:, 0] <= 0.0
+    return np.ones(actions.shape[0], dtype=bool)
 
 
 def _check(actions: np.ndarray) -> None:
@@ -72,7 +81,7 @@ class AnalyticEnv(gym.Env):
         reward = float(value(self.function, actions, self._shift, self.scale)[0])
         info = {
             "objective": reward,
-            "feasible": True,
+            "feasible": bool(feasible(self.function, actions)[0]),
             "shift": self._shift,
             "distance": float(np.linalg.norm(actions[0] - optimum(self._shift))),
         }
@@ -118,7 +127,7 @@ class AnalyticVectorEnv(VectorEnv):
         n = self.num_envs
         infos = {
             "objective": rewards.copy(),
-            "feasible": np.ones(n, dtype=bool),
+            "feasible": feasible(self.single.function, actions),
             "shift": np.full(n, self._shift),
         }
         self._shift = None  # one-step episodes: the next step needs a reset, as with Disabled
@@ -127,7 +136,7 @@ class AnalyticVectorEnv(VectorEnv):
 
 
 def register_analytic() -> dict[str, TaskSpec]:
-    """Register the gym ids and harness tasks ``sphere`` and ``rastrigin`` (idempotent)."""
+    """Register the gym ids and harness tasks of :data:`FUNCTIONS` (idempotent)."""
     specs = {}
     for function in FUNCTIONS:
         env_id = f"HarnessTest/{function.capitalize()}-v0"

@@ -102,6 +102,19 @@ def test_same_seed_same_history_different_seed_different() -> None:
     assert a.history != c.history
 
 
+def test_record_reports_the_best_feasible_stroke_not_a_better_infeasible_one() -> None:
+    """The constrained sphere's optimum (x_0 = 0.3) is infeasible and its reward unpenalised:
+    the search's best reward is infeasible, the record must report the best feasible stroke."""
+    record = run_analytic("pso", "constrained", 4_000, 0)
+    assert record.feasible
+    assert record.selection == "best feasible stroke seen"
+    assert record.normalised_stroke[0] <= 0.0
+    assert record.reward == record.search_reward
+    assert record.history[-1][1] > record.reward  # the best reward seen was infeasible
+    free = run_analytic("pso", "sphere", 4_000, 0)
+    assert free.selection == "best feasible stroke seen" and free.reward == free.history[-1][1]
+
+
 def test_history_is_best_so_far_per_iteration() -> None:
     record = run_analytic("random", "sphere", 1_000, 0, method_config={"swarm_size": 30})
     evaluations = [e for e, _ in record.history]

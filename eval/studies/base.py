@@ -1,0 +1,136 @@
+"""What every study shares: the plan (preset + methods), job construction and output writing.
+
+A study module defines ``NAME``, ``TITLE``, ``jobs(plan) -> list[Job]`` and
+``analyse(plan, records, out_dir) -> StudyOutput``. Jobs of different studies that mean the
+same optimisation (e.g. the tear-drop speed sweep reused by the wing-shape study, or the
+kinematics study's strokes at 1.25 m/s and 60 W/kg) are the same :class:`Job` and run once.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from agents.records import write_csv_atomic, write_json_atomic
+from agents.run_record import Record
+from eval.studies.claims import Claim
+from eval.studies.presets import Preset
+from eval.studies.runner import RECORDS_DIR, Job, Task
+from eval.studies.tables import summary_rows, tidy_rows
+
+#: Methods whose settings include the swarm/batch size (others take no settings from a study).
+_BATCHED = {"pso": "swarm_size", "random": "batch_size"}
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A preset and the methods to run at every condition (PSO by default)."""
+
+    preset: Preset
+    methods: tuple[str, ...] = ("pso",)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.preset, Preset):
+            raise ValueError(f"Plan.preset = {self.preset!r}; allowed: a Preset")
+        ok = (
+            isinstance(self.methods, tuple)
+            and self.methods
+            and all(isinstance(m, str) and m.strip() == m and m for m in self.methods)
+            and len(set(self.methods)) == len(self.methods)
+        )
+        if not ok:
+            raise ValueError(
+                f"Plan.methods = {self.methods!r}; allowed: distinct method specs such as "
+                "('pso',), ('pso', 'random') or ('pso', 'policy:runs/ppo')"
+            )
+
+    def method_config(self, method: str) -> tuple[tuple[str, Any], ...]:
+        name = method.partition(":")[0]
+        key = _BATCHED.get(name)
+        return ((key, self.preset.swarm_size),) if key else ()
+
+    def jobs(
+        self,
+        task: Task,
+        conditions: Sequence[float],
+        *,
+        objective: str | None = None,
+        planform: str = "tear-drop",
+        budget: int | None = None,
+        seeds: Sequence[int] | None = None,
+    ) -> list[Job]:
+        """Every method × condition × seed of one series (preset budget and seeds by default)."""
+        kwargs: dict[str, Any] = dict(self.preset.env_kwargs)
+        kwargs["planform"] = planform
+        if objective is not None:
+            kwargs["objective"] = objective
+        return [
+            Job(
+                method=method,
+                task=task,
+                condition=float(c),
+                budget=self.preset.budget(task) if budget is None else budget,
+                seed=seed,
+                env_kwargs=tuple(kwargs.items()),
+                method_config=self.method_config(method),
+                preset=self.preset.name,
+            )
+            for method in self.methods
+            for c in conditions
+            for seed in (self.preset.seeds if seeds is None else seeds)
+        ]
+
+
+@dataclass(frozen=True)
+class StudyOutput:
+    """What a study wrote and what it claims."""
+
+    name: str
+    title: str
+    rows: list[dict[str, Any]]
+    figures: list[tuple[str, Path]]
+    """(caption, path) of each figure."""
+    claims: list[Claim]
+    files: list[Path] = field(default_factory=list)
+    """CSV and JSON files written (records index, tidy CSV, summary CSV)."""
+
+
+def write_tables(
+    name: str,
+    records: Mapping[Job, Record],
+    out_dir: Path,
+    quantities: Sequence[str],
+) -> tuple[list[dict[str, Any]], list[Path]]:
+    """Write ``DIR/<name>/records.json`` (index), ``<name>.csv`` (tidy) and ``<name>_summary.csv``."""
+    study_dir = out_dir / name
+    rows = tidy_rows(records)
+    index = [
+        {
+            "key": job.key,
+            "file": f"../{RECORDS_DIR}/{job.key}.json",
+            "label": job.label(),
+            "job": job.to_dict(),
+        }
+        for job in sorted(records, key=lambda j: j.label())
+    ]
+    paths = [
+        study_dir / "records.json",
+        study_dir / f"{name}.csv",
+        study_dir / f"{name}_summary.csv",
+    ]
+    write_json_atomic(paths[0], index)
+    write_csv_atomic(paths[1], rows)
+    write_csv_atomic(paths[2], summary_rows(rows, quantities))
+    return rows, paths
+
+
+def series_label(method: str, planform: str | None = None, objective: str | None = None) -> str:
+    """Legend label of a series, e.g. ``pso`` or ``pso, real wing``."""
+    parts = [method]
+    if objective:
+        parts.append(objective)
+    if planform and planform != "tear-drop":
+        parts.append(f"{planform} wing")
+    return ", ".join(parts)

@@ -1,0 +1,162 @@
+"""The paper's claims (MODEL.md §9) as checkable rows, and the rules that decide agreement.
+
+Agreement rules (stated in every report):
+
+* ``number``: our median over seeds lies within ±20 % of the paper's number.
+* ``range``: our median lies inside the paper's range widened by 20 % of its ends.
+* ``trend``: Spearman's ρ between the condition and the per-condition medians is ≥ 0.5 in the
+  claimed direction (ρ ≤ −0.5 for "falls"); the monotonic fraction (steps in the claimed
+  direction / steps) is reported beside it.
+* ``follows``: Spearman's ρ between two quantities' per-condition medians is ≥ 0.5.
+* ``location``: the condition of the extremum of the per-condition medians is within one
+  sweep step (±0.25 m/s) of the paper's.
+* ``angle``: our median phase lies within ±15° of the paper's.
+* ``phase``: "in phase" means a median |ΔΦ| < 15°, "out of phase" ≥ 15°.
+* ``compare``: the claimed order holds between the medians at every condition compared.
+
+"best" is the same statistic computed from the best seed of each condition (the seed with
+the best objective), i.e. what a "take the best of N runs" protocol, like the paper's, gives.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from scipy.stats import spearmanr
+
+from eval.studies.tables import Spread
+
+Verdict = Literal["agrees", "differs", "not run", "no data"]
+Rule = Literal["number", "range", "trend", "follows", "location", "angle", "phase", "compare"]
+
+RELATIVE_TOLERANCE = 0.20
+TREND_RHO = 0.5
+LOCATION_TOLERANCE = 0.25  # m/s, one step of the paper's sweep
+ANGLE_TOLERANCE = 15.0  # deg
+IN_PHASE = 15.0  # deg
+
+RULES: dict[str, str] = {
+    "number": "median within ±20 % of the paper",
+    "range": "median inside the paper's range widened by 20 %",
+    "trend": "Spearman ρ(condition, medians) ≥ 0.5 in the claimed direction",
+    "follows": "Spearman ρ between the two quantities' medians ≥ 0.5",
+    "location": "extremum of the medians within ±0.25 m/s of the paper's",
+    "angle": "median within ±15° of the paper's",
+    "phase": "in phase: median |ΔΦ| < 15°; out of phase: ≥ 15°",
+    "compare": "the claimed order holds between medians at every condition",
+}
+
+
+@dataclass(frozen=True)
+class Claim:
+    """One row of the report's paper-vs-ours table."""
+
+    id: str
+    """Stable identifier, e.g. ``"S7"`` (tests look rows up by it)."""
+    study: str
+    figure: str
+    """The paper's figure, e.g. ``"Fig. 6"``."""
+    statement: str
+    paper: str
+    """The paper's number or statement."""
+    rule: Rule
+    median: float = math.nan
+    """Our statistic from the seeds' medians (a value, ρ, a location, a fraction)."""
+    q25: float = math.nan
+    q75: float = math.nan
+    best: float = math.nan
+    """The same statistic from each condition's best seed."""
+    unit: str = ""
+    verdict: Verdict = "no data"
+    detail: str = ""
+    """Extra numbers behind the verdict (e.g. the monotonic fraction, n feasible)."""
+    note: str = ""
+    """Why a difference is understood, when it is."""
+
+    def ours(self) -> str:
+        if math.isnan(self.median):
+            return "–"
+        text = f"{_fmt(self.median)}"
+        if not (math.isnan(self.q25) or math.isnan(self.q75)):
+            text += f" [{_fmt(self.q25)}, {_fmt(self.q75)}]"
+        return f"{text} {self.unit}".strip()
+
+    def best_text(self) -> str:
+        return "–" if math.isnan(self.best) else f"{_fmt(self.best)} {self.unit}".strip()
+
+
+def _fmt(value: float) -> str:
+    return f"{value:.3g}"
+
+
+def verdict(ok: bool | None) -> Verdict:
+    return "no data" if ok is None else ("agrees" if ok else "differs")
+
+
+# --- rule helpers: each returns (statistic from medians, statistic from best seeds, ok) ------
+def number(s: Spread, paper: float) -> bool | None:
+    if math.isnan(s.median):
+        return None
+    return abs(s.median - paper) <= RELATIVE_TOLERANCE * abs(paper)
+
+
+def in_range(value: float, low: float, high: float) -> bool | None:
+    if math.isnan(value):
+        return None
+    return (1.0 - RELATIVE_TOLERANCE) * low <= value <= (1.0 + RELATIVE_TOLERANCE) * high
+
+
+def _finite(conditions: Sequence[float], values: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    x, y = np.asarray(conditions, float), np.asarray(values, float)
+    keep = np.isfinite(y)
+    return x[keep], y[keep]
+
+
+def rho(x: Sequence[float], y: Sequence[float]) -> float:
+    """Spearman's ρ of finite pairs (NaN with fewer than 3 pairs or a constant series)."""
+    xa, ya = _finite(x, y)
+    keep = np.isfinite(xa)
+    xa, ya = xa[keep], ya[keep]
+    if xa.size < 3 or np.ptp(ya) == 0.0 or np.ptp(xa) == 0.0:
+        return math.nan
+    return float(spearmanr(xa, ya).statistic)
+
+
+def monotonic_fraction(x: Sequence[float], y: Sequence[float], direction: int) -> float:
+    """Share of consecutive steps (in x order) that move in ``direction`` (+1 rise, −1 fall)."""
+    xa, ya = _finite(x, y)
+    order = np.argsort(xa)
+    steps = np.diff(ya[order])
+    return math.nan if steps.size == 0 else float(np.mean(np.sign(steps) == direction))
+
+
+def trend(series: Mapping[float, Spread], direction: int) -> tuple[float, float, bool | None, str]:
+    """ρ of the medians, ρ of the best seeds, agreement, detail text."""
+    x = list(series)
+    medians = [s.median for s in series.values()]
+    bests = [s.best for s in series.values()]
+    r, r_best = rho(x, medians), rho(x, bests)
+    frac = monotonic_fraction(x, medians, direction)
+    ok = None if math.isnan(r) else direction * r >= TREND_RHO
+    return r, r_best, ok, f"monotonic fraction {frac:.2f}" if not math.isnan(frac) else ""
+
+
+def location(
+    series: Mapping[float, Spread], paper: float, kind: Literal["min", "max"]
+) -> tuple[float, float, bool | None]:
+    """Condition of the extremum of the medians and of the best seeds; within one step?"""
+
+    def where(values: list[float]) -> float:
+        xa, ya = _finite(list(series), values)
+        if ya.size == 0:
+            return math.nan
+        return float(xa[np.argmin(ya) if kind == "min" else np.argmax(ya)])
+
+    at = where([s.median for s in series.values()])
+    at_best = where([s.best for s in series.values()])
+    ok = None if math.isnan(at) else abs(at - paper) <= LOCATION_TOLERANCE + 1e-9
+    return at, at_best, ok

@@ -1,0 +1,247 @@
+"""Accelerating-flight power sweep (paper Figs. 7-8).
+
+At each available power (50-90 W/kg, V = 0) two optimisations per seed (MODEL.md §7): one
+maximises F̄_v (with F̄_h ≥ 0), one F̄_h (with F̄_v ≥ 0). The attainable specific excess force
+(Eq. 27) combines them: per seed F̄_a = sqrt(F̄_v² + F̄_h²) of that seed's two optimisations,
+and for the best seeds sqrt(max F̄_v² + max F̄_h²), the paper's reading.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.run_record import Record
+from eval import figures
+from eval.studies import claims as C
+from eval.studies.base import Plan, StudyOutput, series_label, write_tables
+from eval.studies.runner import Job
+from eval.studies.tables import Spread, by_condition, select
+
+NAME = "power"
+TITLE = "Accelerating flight: power sweep (Figs. 7-8)"
+QUANTITIES = (
+    "objective_value",
+    "excess_vertical",
+    "excess_horizontal",
+    "power_per_mass",
+    "frequency",
+    "pitch_amplitude",
+    "phase_difference",
+)
+#: The paper's numbers (Figs. 7, 8): {power [W/kg]: value [-]}.
+PAPER_VERTICAL = {50.0: 2.7, 90.0: 4.4}
+PAPER_HORIZONTAL = {50.0: 2.4, 90.0: 3.5}
+PAPER_ATTAINABLE = {50.0: 3.6, 90.0: 5.6}
+PAPER_RATIO = (10.0, 20.0)  # % by which F̄_v exceeds F̄_h
+
+
+def jobs(plan: Plan) -> list[Job]:
+    return series_jobs(plan, plan.preset.powers, "tear-drop")
+
+
+def series_jobs(plan: Plan, powers: tuple[float, ...], planform: str) -> list[Job]:
+    return [
+        job
+        for objective in ("vertical", "horizontal")
+        for job in plan.jobs("accelerate", powers, objective=objective, planform=planform)
+    ]
+
+
+def excess(
+    rows: list[dict[str, Any]], method: str, planform: str, axis: str
+) -> dict[float, Spread]:
+    """F̄_v (axis "vertical") or F̄_h ("horizontal") of its own optimisation, per power."""
+    return by_condition(
+        rows,
+        f"excess_{axis}",
+        method=method,
+        task="accelerate",
+        objective=axis,
+        planform=planform,
+    )
+
+
+def attainable(rows: list[dict[str, Any]], method: str, planform: str) -> dict[float, Spread]:
+    """F̄_a per power: per seed from that seed's vertical and horizontal optima (both feasible)."""
+    out: dict[float, Spread] = {}
+    vertical = excess(rows, method, planform, "vertical")
+    horizontal = excess(rows, method, planform, "horizontal")
+    for power in sorted(set(vertical) & set(horizontal)):
+        pick = dict(method=method, task="accelerate", planform=planform, condition=power)
+        v = {r["seed"]: r for r in select(rows, objective="vertical", **pick) if r["feasible"]}
+        h = {r["seed"]: r for r in select(rows, objective="horizontal", **pick) if r["feasible"]}
+        seeds = sorted(set(v) & set(h))
+        values = [math.hypot(v[s]["excess_vertical"], h[s]["excess_horizontal"]) for s in seeds]
+        n = len(select(rows, objective="vertical", **pick))
+        best = math.hypot(vertical[power].best, horizontal[power].best)
+        if values:
+            q25, med, q75 = np.percentile(values, [25.0, 50.0, 75.0])
+            out[power] = Spread(
+                tuple(values),
+                tuple(seeds),
+                float(med),
+                float(q25),
+                float(q75),
+                best,
+                None,
+                n,
+                len(values),
+            )
+        else:
+            out[power] = Spread((), (), math.nan, math.nan, math.nan, best, None, n, 0)
+    return out
+
+
+def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
+    rows, files = write_tables(NAME, records, out_dir, QUANTITIES)
+    study_dir = out_dir / NAME
+    xlabel = "available power P/m [W/kg]"
+    fv = [
+        figures.Series(f"F̄_v, {series_label(m)}", excess(rows, m, "tear-drop", "vertical"))
+        for m in plan.methods
+    ]
+    fh = [
+        figures.Series(f"F̄_h, {series_label(m)}", excess(rows, m, "tear-drop", "horizontal"))
+        for m in plan.methods
+    ]
+    fa = [figures.Series(series_label(m), attainable(rows, m, "tear-drop")) for m in plan.methods]
+    figs = [
+        (
+            "Fig. 7: vertical and horizontal specific excess forces against available power",
+            figures.sweep_figure(
+                [
+                    figures.Panel(
+                        "specific excess force F̄ [-]",
+                        [s for pair in zip(fv, fh, strict=True) for s in pair],
+                        paper=[
+                            *((p, v, "paper F̄_v") for p, v in PAPER_VERTICAL.items()),
+                            *((p, v, "paper F̄_h") for p, v in PAPER_HORIZONTAL.items()),
+                        ],
+                    )
+                ],
+                xlabel,
+                "Fig. 7: F̄_v (max F̄_v s.t. F̄_h ≥ 0) and F̄_h (max F̄_h s.t. F̄_v ≥ 0), V = 0",
+                study_dir / "fig7_excess_forces.png",
+            ),
+        ),
+        (
+            "Fig. 8: attainable specific excess force against available power",
+            figures.sweep_figure(
+                [figures.Panel("attainable F̄_a [g]", fa, paper=list(PAPER_ATTAINABLE.items()))],
+                xlabel,
+                "Fig. 8: F̄_a = sqrt(F̄_v² + F̄_h²) (Eq. 27), V = 0",
+                study_dir / "fig8_attainable.png",
+            ),
+        ),
+    ]
+    found = [c for i, m in enumerate(plan.methods) for c in _claims(rows, m, i)]
+    return StudyOutput(NAME, TITLE, rows, figs, found, files)
+
+
+def _cid(base: str, index: int, method: str) -> str:
+    return base if index == 0 else f"{base}/{method}"
+
+
+def _number_claims(
+    cid: str,
+    index: int,
+    method: str,
+    label: str,
+    figure: str,
+    series: Mapping[float, Spread],
+    paper: Mapping[float, float],
+) -> list[C.Claim]:
+    out = []
+    for k, (power, value) in enumerate(paper.items()):
+        s = series.get(power)
+        base = dict(
+            id=_cid(f"{cid}{'ab'[k]}", index, method),
+            study=NAME,
+            figure=figure,
+            statement=f"{label} at {power:g} W/kg",
+            paper=f"≈ {value:g}",
+            rule="number",
+        )
+        if s is None:
+            out.append(
+                C.Claim(**base, verdict="no data", detail=f"{power:g} W/kg not in this preset")
+            )
+            continue
+        out.append(
+            C.Claim(
+                **base,
+                median=s.median,
+                q25=s.q25,
+                q75=s.q75,
+                best=s.best,
+                verdict=C.verdict(C.number(s, value)),
+                detail=f"{s.n_feasible}/{s.n} seeds feasible",
+            )
+        )
+    return out
+
+
+def _claims(rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim]:
+    vertical = excess(rows, method, "tear-drop", "vertical")
+    horizontal = excess(rows, method, "tear-drop", "horizontal")
+    out = [
+        *_number_claims("P1", index, method, "F̄_v", "Fig. 7", vertical, PAPER_VERTICAL),
+        *_number_claims("P2", index, method, "F̄_h", "Fig. 7", horizontal, PAPER_HORIZONTAL),
+    ]
+    common = sorted(set(vertical) & set(horizontal))
+    ratios = [100.0 * (vertical[p].median / horizontal[p].median - 1.0) for p in common]
+    best_ratios = [100.0 * (vertical[p].best / horizontal[p].best - 1.0) for p in common]
+    ratios = [r for r in ratios if math.isfinite(r)]
+    best_ratios = [r for r in best_ratios if math.isfinite(r)]
+    if ratios:
+        q25, med, q75 = np.percentile(ratios, [25.0, 50.0, 75.0])
+        out.append(
+            C.Claim(
+                id=_cid("P3", index, method),
+                study=NAME,
+                figure="Fig. 7",
+                statement="F̄_v exceeds F̄_h by 10-20 % (median over powers; IQR over powers)",
+                paper="10-20 %",
+                rule="range",
+                median=float(med),
+                q25=float(q25),
+                q75=float(q75),
+                best=float(np.median(best_ratios)) if best_ratios else math.nan,
+                unit="%",
+                verdict=C.verdict(C.in_range(float(med), *PAPER_RATIO)),
+                note="with the same total force |F|, F̄_v = |F|/W − 1 but F̄_h = "
+                "sqrt((|F|/W)² − 1) (see Understood differences)",
+            )
+        )
+    for cid, label, series in (("P4", "F̄_v", vertical), ("P5", "F̄_h", horizontal)):
+        r, r_best, ok, detail = C.trend(series, +1)
+        out.append(
+            C.Claim(
+                id=_cid(cid, index, method),
+                study=NAME,
+                figure="Fig. 7",
+                statement=f"{label} increases with available power",
+                paper="increases",
+                rule="trend",
+                median=r,
+                best=r_best,
+                unit="(ρ)",
+                verdict=C.verdict(ok),
+                detail=detail,
+            )
+        )
+    out += _number_claims(
+        "P6",
+        index,
+        method,
+        "attainable F̄_a [g]",
+        "Fig. 8",
+        attainable(rows, method, "tear-drop"),
+        PAPER_ATTAINABLE,
+    )
+    return out

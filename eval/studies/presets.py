@@ -1,0 +1,229 @@
+"""Study presets: which conditions, seeds and budgets a study run uses (frozen, validated).
+
+``quick`` finishes in a few minutes on a 2-core machine; ``paper`` is the full study of the
+paper's figures. Budgets come from the measured convergence study (``python -m eval study
+convergence --preset paper``, 8 seeds × 60 000 evaluations, see docs/reproduction.md): the
+paper preset takes the smallest checkpoint at which the median best-so-far over seeds reaches
+90 % of the 60 000-evaluation median (level flight at 1.5 m/s: 30 000, 93 %; accelerating at
+60 W/kg: 12 000, 92 %). Level-flight η never quite flattens (thrust_split="sign" makes it
+unbounded, MODEL.md §7), so more budget keeps buying a little more η. ``quick`` takes what fits
+in a few minutes (58 % and 79 % of those medians). ``tiny`` exists for the tests only (it is
+not offered on the command line).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Literal, get_args
+
+AccelerateObjective = Literal["vertical", "horizontal"]
+
+#: Level-flight speeds of the paper's sweep (Figs. 4-6, 15) [m/s].
+PAPER_SPEEDS: tuple[float, ...] = (0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0)
+#: Available powers of the paper's sweep (Figs. 7-8, 16) [W/kg]: 30-60 % flight muscle.
+PAPER_POWERS: tuple[float, ...] = (50.0, 60.0, 70.0, 80.0, 90.0)
+#: Available powers the Accelerate env accepts without widening its observation envelope [W/kg].
+POWER_LIMITS: tuple[float, float] = (50.0, 90.0)
+#: Flight speeds the level-flight env accepts without widening its envelope [m/s].
+SPEED_LIMITS: tuple[float, float] = (0.25, 2.0)
+
+
+def _fail(name: str, value: Any, allowed: str) -> None:
+    raise ValueError(f"Preset.{name} = {value!r}; allowed: {allowed}")
+
+
+def _check_values(name: str, values: Any, limits: tuple[float, float], unit: str) -> None:
+    ok = (
+        isinstance(values, tuple)
+        and len(values) > 0
+        and all(
+            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+            for v in values
+        )
+        and len(set(values)) == len(values)
+        and list(values) == sorted(values)
+    )
+    if not ok or not all(limits[0] <= v <= limits[1] for v in values):
+        _fail(
+            name,
+            values,
+            f"a non-empty, increasing tuple of distinct numbers from {limits[0]:g} to "
+            f"{limits[1]:g} {unit}",
+        )
+
+
+@dataclass(frozen=True)
+class ConvergenceSpec:
+    """The budget study: PSO at one level and one accelerating condition, long runs, many seeds.
+
+    PSO with constriction coefficients has a constant inertia weight and draws its random
+    numbers for the whole swarm even on a truncated last batch, so a run with budget B is the
+    first B evaluations of any longer run with the same seed: one long run per seed gives the
+    best-so-far at every smaller budget (checked in tests/eval/test_studies.py).
+    """
+
+    budget: int
+    """Model evaluations per run [-]."""
+    seeds: tuple[int, ...]
+    """Independent PSO runs per condition."""
+    speed: float = 1.5
+    """Level-flight condition [m/s] (the paper's best-efficiency speed)."""
+    power: float = 60.0
+    """Accelerating condition [W/kg], objective ``vertical``."""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.budget, bool) or not isinstance(self.budget, int) or self.budget < 2:
+            raise ValueError(f"ConvergenceSpec.budget = {self.budget!r}; allowed: an integer >= 2")
+        if not self.seeds or len(set(self.seeds)) != len(self.seeds):
+            raise ValueError(
+                f"ConvergenceSpec.seeds = {self.seeds!r}; allowed: distinct integers >= 0"
+            )
+        _check_values("convergence speed", (self.speed,), SPEED_LIMITS, "m/s")
+        _check_values("convergence power", (self.power,), POWER_LIMITS, "W/kg")
+
+
+@dataclass(frozen=True)
+class Preset:
+    """Everything that decides which optimisations a study runs (not how many workers)."""
+
+    name: str
+    """Preset name; part of every job's configuration hash."""
+    description: str
+    """One line for ``--help`` and the report."""
+    seeds: tuple[int, ...]
+    """Independent optimisations per condition; statistics are over these seeds."""
+    level_budget: int
+    """Model evaluations per level-flight optimisation [-]."""
+    accelerate_budget: int
+    """Model evaluations per accelerating-flight optimisation [-]."""
+    speeds: tuple[float, ...]
+    """Speed sweep (Figs. 4-6) [m/s]."""
+    powers: tuple[float, ...]
+    """Power sweep (Figs. 7-8) [W/kg]; each power runs a vertical and a horizontal optimisation."""
+    shape_speeds: tuple[float, ...]
+    """Speeds of the wing-shape study (Fig. 15) [m/s]; the tear-drop side reuses the sweep."""
+    shape_powers: tuple[float, ...]
+    """Powers of the wing-shape study (Fig. 16) [W/kg]."""
+    convergence: ConvergenceSpec
+    """The budget study behind ``level_budget`` and ``accelerate_budget``."""
+    kinematics_speed: float = 1.25
+    """Level condition of Figs. 9, 11, 12, 13 [m/s] (the paper's choice)."""
+    kinematics_power: float = 60.0
+    """Accelerating condition of Figs. 10-12 [W/kg] (the paper's choice)."""
+    kinematics_objective: AccelerateObjective = "vertical"
+    """Which accelerating optimisation's stroke Figs. 10-12 show (the paper does not say)."""
+    phase_speed: float = 2.0
+    """Speed of the paper's largest fore/hind phase difference (hind leads by ~30°) [m/s]."""
+    swarm_size: int = 40
+    """PSO particles (the harness default); also the random-search batch."""
+    env_kwargs: tuple[tuple[str, Any], ...] = field(default=())
+    """Extra env keywords for every job, e.g. ``(("n_time", 32),)`` in the test preset; model
+    options stay at their defaults (``thrust_split="sign"``) unless given here."""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name.isidentifier():
+            _fail("name", self.name, "an identifier such as 'quick'")
+        seeds_ok = (
+            isinstance(self.seeds, tuple)
+            and len(self.seeds) > 0
+            and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in self.seeds)
+            and len(set(self.seeds)) == len(self.seeds)
+        )
+        if not seeds_ok:
+            _fail("seeds", self.seeds, "a non-empty tuple of distinct integers >= 0")
+        if isinstance(self.swarm_size, bool) or not isinstance(self.swarm_size, int):
+            _fail("swarm_size", self.swarm_size, "an integer >= 2")
+        if self.swarm_size < 2:
+            _fail("swarm_size", self.swarm_size, "an integer >= 2")
+        for name in ("level_budget", "accelerate_budget"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < self.swarm_size:
+                _fail(name, value, f"an integer >= swarm_size ({self.swarm_size}) evaluations")
+        _check_values("speeds", self.speeds, SPEED_LIMITS, "m/s")
+        _check_values("shape_speeds", self.shape_speeds, SPEED_LIMITS, "m/s")
+        _check_values("powers", self.powers, POWER_LIMITS, "W/kg")
+        _check_values("shape_powers", self.shape_powers, POWER_LIMITS, "W/kg")
+        _check_values(
+            "kinematics_speed/phase_speed",
+            tuple(sorted({self.kinematics_speed, self.phase_speed})),
+            SPEED_LIMITS,
+            "m/s",
+        )
+        _check_values("kinematics_power", (self.kinematics_power,), POWER_LIMITS, "W/kg")
+        if self.kinematics_objective not in get_args(AccelerateObjective):
+            _fail("kinematics_objective", self.kinematics_objective, "'vertical' or 'horizontal'")
+        if not isinstance(self.convergence, ConvergenceSpec):
+            _fail("convergence", self.convergence, "a ConvergenceSpec")
+        keys = [k for k, _ in self.env_kwargs]
+        if len(set(keys)) != len(keys) or any(k in {"speed", "power", "objective"} for k in keys):
+            _fail(
+                "env_kwargs",
+                self.env_kwargs,
+                "distinct (name, value) pairs; the condition and objective are set per job",
+            )
+
+    def budget(self, task: str) -> int:
+        """Evaluations per optimisation of ``task`` ("level" or "accelerate")."""
+        return self.level_budget if task == "level" else self.accelerate_budget
+
+
+QUICK = Preset(
+    name="quick",
+    description=(
+        "about 2 min on 2 cores: 3 seeds, 8 000 (level) / 4 000 (accelerating) evaluations "
+        "per optimisation, 5 speeds, 3 powers, both planforms at 3 speeds and 2 powers"
+    ),
+    seeds=(0, 1, 2),
+    level_budget=8_000,
+    accelerate_budget=4_000,
+    speeds=(0.5, 1.0, 1.25, 1.5, 2.0),
+    powers=(50.0, 60.0, 90.0),
+    shape_speeds=(1.0, 1.5, 2.0),
+    shape_powers=(50.0, 90.0),
+    convergence=ConvergenceSpec(budget=24_000, seeds=(0, 1, 2, 3)),
+)
+
+PAPER = Preset(
+    name="paper",
+    description=(
+        "about 40 min on 2 cores: 8 seeds, 30 000 (level) / 12 000 (accelerating) evaluations "
+        "per optimisation, all 8 speeds and 5 powers, both planforms everywhere"
+    ),
+    seeds=(0, 1, 2, 3, 4, 5, 6, 7),
+    level_budget=30_000,
+    accelerate_budget=12_000,
+    speeds=PAPER_SPEEDS,
+    powers=PAPER_POWERS,
+    shape_speeds=PAPER_SPEEDS,
+    shape_powers=PAPER_POWERS,
+    convergence=ConvergenceSpec(budget=60_000, seeds=(0, 1, 2, 3, 4, 5, 6, 7)),
+)
+
+#: The presets offered on the command line.
+PRESETS: dict[str, Preset] = {p.name: p for p in (QUICK, PAPER)}
+
+#: For the tests only: seconds, not minutes (coarse model resolution, 8 particles, 2 seeds).
+TINY = Preset(
+    name="tiny",
+    description="test preset: 2 seeds, 16 evaluations, coarse model",
+    seeds=(0, 1),
+    level_budget=16,
+    accelerate_budget=16,
+    speeds=(1.25, 2.0),
+    powers=(50.0, 90.0),
+    shape_speeds=(2.0,),
+    shape_powers=(90.0,),
+    convergence=ConvergenceSpec(budget=32, seeds=(0, 1), speed=2.0, power=90.0),
+    kinematics_power=90.0,
+    swarm_size=8,
+    env_kwargs=(("n_blade", 6), ("n_time", 32)),
+)
+
+
+def get_preset(name: str) -> Preset:
+    """The named command-line preset."""
+    try:
+        return PRESETS[name]
+    except KeyError:
+        raise ValueError(f"unknown preset {name!r}; allowed: {', '.join(PRESETS)}") from None

@@ -1,0 +1,201 @@
+"""Records -> tidy rows (one per optimisation) -> per-condition statistics over seeds.
+
+Statistics use the feasible seeds only (an infeasible level stroke's efficiency means
+nothing); every row says how many seeds there were and how many were feasible. "best" is the
+value at the seed with the best objective, not the largest value of each quantity, so every
+"best" column describes one and the same stroke.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from agents.run_record import Record
+from eval.studies.runner import Job
+
+#: Columns that identify a series (one line in a figure).
+SERIES_KEYS: tuple[str, ...] = ("method", "task", "objective", "planform")
+
+#: Tidy-row quantities with units (the CSV header carries the names; units are documented here
+#: and in the figure labels).
+QUANTITIES: dict[str, str] = {
+    "objective_value": "the task's objective: η [-] or F̄ [-]",
+    "efficiency": "η = T·V/P [-]",
+    "efficiency_pct": "η [%]",
+    "thrust_ratio": "T/W [-]",
+    "lift_to_weight": "L/W [-]",
+    "power_per_mass": "P/m [W/kg]",
+    "excess_vertical": "F̄_v [-]",
+    "excess_horizontal": "F̄_h [-]",
+    "excess_total": "F̄_a of this stroke [-]",
+    "mean_angle_of_attack": "mean angle of attack, both wings [deg]",
+    "stroke_plane_angle": "β_m, mean of fore and hind [deg]",
+    "frequency": "f, mean of fore and hind [Hz]",
+    "sweep_amplitude": "φ_m, mean of fore and hind [deg]",
+    "pitch_amplitude": "η_m, mean of fore and hind [deg]",
+    "phase_difference": "Φ_φ,hind − Φ_φ,fore wrapped to (−180, 180]; > 0: hind leads [deg]",
+    "phase_difference_abs": "|phase_difference| [deg]",
+}
+
+
+def wrap_degrees(angle: float) -> float:
+    """``angle`` wrapped to (−180, 180] [deg]."""
+    wrapped = (angle + 180.0) % 360.0 - 180.0
+    return 180.0 if wrapped == -180.0 else wrapped
+
+
+def weight_of(record: Record) -> float:
+    """W = m·g of the record's insect [N]."""
+    insect = record.config["env"]["insect"]
+    return float(insect["body_mass"]) * float(insect["gravity"])
+
+
+def record_row(job: Job, record: Record) -> dict[str, Any]:
+    """The tidy row of one optimisation: identity, feasibility, metrics, stroke summary."""
+    m, s = record.metrics, record.stroke
+    mean = lambda name: 0.5 * (float(s[f"fore_{name}"]) + float(s[f"hind_{name}"]))  # noqa: E731
+    row: dict[str, Any] = {
+        "method": job.method,
+        "task": job.task,
+        "objective": job.env("objective", "efficiency"),
+        "planform": job.env("planform", "tear-drop"),
+        "condition": record.condition.value,
+        "condition_name": record.condition.name,
+        "condition_unit": record.condition.unit,
+        "seed": record.seed,
+        "budget": record.budget,
+        "evaluations": record.evaluations,
+        "feasible": bool(record.feasible),
+        "objective_value": float(record.objective),
+        "reward": float(record.reward),
+        "efficiency": float(m["efficiency"]),
+        "efficiency_pct": 100.0 * float(m["efficiency"]),
+        "thrust_ratio": float(m["thrust"]) / weight_of(record),
+        "lift_to_weight": float(m["lift_to_weight"]),
+        "power_per_mass": float(m["power_per_mass"]),
+        "excess_vertical": float(m["excess_vertical"]),
+        "excess_horizontal": float(m["excess_horizontal"]),
+        "excess_total": float(m["excess_total"]),
+        "mean_angle_of_attack": float(m["mean_angle_of_attack"]),
+        "stroke_plane_angle": mean("stroke_plane_angle"),
+        "frequency": mean("frequency"),
+        "sweep_amplitude": mean("sweep_amplitude"),
+        "pitch_amplitude": mean("pitch_amplitude"),
+        "phase_difference": wrap_degrees(
+            float(s["hind_sweep_phase"]) - float(s["fore_sweep_phase"])
+        ),
+        "phase_difference_abs": abs(
+            wrap_degrees(float(s["hind_sweep_phase"]) - float(s["fore_sweep_phase"]))
+        ),
+        "induction_converged": bool(m.get("induction_converged", True)),
+        "wall_time_s": float(record.wall_time),
+        "key": job.key,
+    }
+    for wing in ("fore", "hind"):
+        for name in ("frequency", "sweep_amplitude", "pitch_amplitude", "stroke_plane_angle"):
+            row[f"{wing}_{name}"] = float(s[f"{wing}_{name}"])
+    return row
+
+
+def tidy_rows(records: Mapping[Job, Record]) -> list[dict[str, Any]]:
+    """One row per record, sorted by series, condition and seed."""
+    rows = [record_row(job, record) for job, record in records.items()]
+    rows.sort(key=lambda r: (*(str(r[k]) for k in SERIES_KEYS), r["condition"], r["seed"]))
+    return rows
+
+
+@dataclass(frozen=True)
+class Spread:
+    """One quantity at one condition of one series, over seeds."""
+
+    values: tuple[float, ...]
+    """Values of the feasible seeds, in seed order."""
+    seeds: tuple[int, ...]
+    median: float
+    q25: float
+    q75: float
+    best: float
+    """Value at the feasible seed with the best objective (NaN if none is feasible)."""
+    best_seed: int | None
+    n: int
+    """Seeds run."""
+    n_feasible: int
+
+    def describe(self, fmt: str = ".3g", scale: float = 1.0) -> str:
+        """``median [q25, q75]`` (NaN-safe), values multiplied by ``scale``."""
+        if math.isnan(self.median):
+            return "no feasible seed"
+        m, lo, hi = (scale * v for v in (self.median, self.q25, self.q75))
+        return f"{m:{fmt}} [{lo:{fmt}}, {hi:{fmt}}]"
+
+
+def spread(rows: Sequence[Mapping[str, Any]], quantity: str) -> Spread:
+    """Median, IQR and best of ``quantity`` over the feasible rows (one per seed)."""
+    feasible = [r for r in rows if r["feasible"]]
+    values = np.array([float(r[quantity]) for r in feasible])
+    if values.size == 0:
+        nan = math.nan
+        return Spread((), (), nan, nan, nan, nan, None, len(rows), 0)
+    q25, median, q75 = np.percentile(values, [25.0, 50.0, 75.0])
+    top = max(feasible, key=lambda r: (float(r["objective_value"]), -int(r["seed"])))
+    return Spread(
+        values=tuple(float(v) for v in values),
+        seeds=tuple(int(r["seed"]) for r in feasible),
+        median=float(median),
+        q25=float(q25),
+        q75=float(q75),
+        best=float(top[quantity]),
+        best_seed=int(top["seed"]),
+        n=len(rows),
+        n_feasible=len(feasible),
+    )
+
+
+def select(rows: Iterable[Mapping[str, Any]], **where: Any) -> list[Mapping[str, Any]]:
+    """Rows whose columns equal every ``where`` value."""
+    return [r for r in rows if all(r[k] == v for k, v in where.items())]
+
+
+def by_condition(
+    rows: Iterable[Mapping[str, Any]], quantity: str, **where: Any
+) -> dict[float, Spread]:
+    """{condition: Spread} of one series (``where`` picks it), conditions ascending."""
+    chosen = select(rows, **where)
+    conditions = sorted({float(r["condition"]) for r in chosen})
+    return {c: spread(select(chosen, condition=c), quantity) for c in conditions}
+
+
+def summary_rows(
+    rows: Sequence[Mapping[str, Any]], quantities: Sequence[str]
+) -> list[dict[str, Any]]:
+    """Per series, condition and quantity: n, n_feasible, median, q25, q75, best, best_seed."""
+    groups: dict[tuple, list[Mapping[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault((*(r[k] for k in SERIES_KEYS), float(r["condition"])), []).append(r)
+    out = []
+    for key, members in sorted(
+        groups.items(), key=lambda kv: (*tuple(map(str, kv[0][:-1])), kv[0][-1])
+    ):
+        for quantity in quantities:
+            s = spread(members, quantity)
+            out.append(
+                {
+                    **dict(zip(SERIES_KEYS, key[:-1], strict=True)),
+                    "condition": key[-1],
+                    "quantity": quantity,
+                    "meaning": QUANTITIES.get(quantity, ""),
+                    "n": s.n,
+                    "n_feasible": s.n_feasible,
+                    "median": s.median,
+                    "q25": s.q25,
+                    "q75": s.q75,
+                    "best": s.best,
+                    "best_seed": s.best_seed,
+                }
+            )
+    return out

@@ -1,0 +1,205 @@
+"""Wing shape: tear-drop against the real dragonfly planform (paper Figs. 14-16).
+
+Both planforms have the same area and span (MODEL.md §2); each is optimised separately, level
+flight at each speed (Fig. 15: efficiency) and accelerating flight at each power (Fig. 16: the
+attainable F̄_a from a vertical and a horizontal optimisation). The tear-drop jobs are the
+speed and power sweeps' own, so they run once.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.run_record import Record
+from eval import figures
+from eval.studies import claims as C
+from eval.studies.base import Plan, StudyOutput, series_label, write_tables
+from eval.studies.power import attainable, series_jobs
+from eval.studies.runner import Job
+from eval.studies.speed import PAPER_BEST_SPEED
+from eval.studies.tables import Spread, by_condition
+from tandem_env import Dragonfly
+
+NAME = "wing-shape"
+TITLE = "Wing shape: tear-drop vs real planform (Figs. 14-16)"
+PLANFORMS = ("tear-drop", "real")
+QUANTITIES = (
+    "objective_value",
+    "efficiency_pct",
+    "excess_vertical",
+    "excess_horizontal",
+    "power_per_mass",
+)
+PAPER_GAIN_AT_2 = 12.0  # % efficiency gain of the real wing at 2 m/s (Fig. 15)
+
+
+def jobs(plan: Plan) -> list[Job]:
+    p = plan.preset
+    out: list[Job] = []
+    for planform in PLANFORMS:
+        out += plan.jobs("level", p.shape_speeds, planform=planform)
+        out += series_jobs(plan, p.shape_powers, planform)
+    return out
+
+
+def planform_outlines(n: int = 200) -> list[tuple[str, np.ndarray, np.ndarray, np.ndarray]]:
+    """(label, r [mm], leading edge [mm], trailing edge [mm]) of both wings, both planforms.
+
+    The tear-drop is drawn symmetric about its pitch axis (mid-chord); the real wing's edges
+    are Table 2's polynomials, both axes scaled by R (MODEL.md §2).
+    """
+    out = []
+    r_hat = np.linspace(0.0, 1.0, n)
+    for planform in PLANFORMS:
+        insect = Dragonfly().with_planform(planform)
+        for wing_name, wing in (("fore", insect.fore), ("hind", insect.hind)):
+            r = 1e3 * wing.length * r_hat
+            if planform == "real":
+                upper, lower = (np.asarray(c, float) for c in wing.real_edges)
+                lead = 1e3 * wing.length * np.polynomial.polynomial.polyval(r_hat, upper)
+                trail = 1e3 * wing.length * np.polynomial.polynomial.polyval(r_hat, lower)
+            else:
+                half = 0.5e3 * wing.chord(r_hat)
+                lead, trail = half, -half
+            out.append((f"{wing_name}, {planform}", r, lead, trail))
+    return out
+
+
+def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
+    rows, files = write_tables(NAME, records, out_dir, QUANTITIES)
+    study_dir = out_dir / NAME
+    eff = [
+        figures.Series(
+            series_label(m, planform),
+            by_condition(rows, "efficiency_pct", method=m, task="level", planform=planform),
+        )
+        for m in plan.methods
+        for planform in PLANFORMS
+    ]
+    acc = [
+        figures.Series(series_label(m, planform), attainable(rows, m, planform))
+        for m in plan.methods
+        for planform in PLANFORMS
+    ]
+    figs = [
+        (
+            "Fig. 14: tear-drop and real wing planforms",
+            figures.planform_figure(planform_outlines(), study_dir / "fig14_planforms.png"),
+        ),
+        (
+            "Fig. 15: level-flight efficiency with the two wing shapes",
+            figures.sweep_figure(
+                [figures.Panel("efficiency η [%]", eff)],
+                "flight speed V [m/s]",
+                "Fig. 15: efficiency, tear-drop vs real wing",
+                study_dir / "fig15_efficiency_shapes.png",
+            ),
+        ),
+        (
+            "Fig. 16: attainable acceleration with the two wing shapes",
+            figures.sweep_figure(
+                [figures.Panel("attainable F̄_a [g]", acc)],
+                "available power P/m [W/kg]",
+                "Fig. 16: attainable F̄_a, tear-drop vs real wing",
+                study_dir / "fig16_attainable_shapes.png",
+            ),
+        ),
+    ]
+    found = [c for i, m in enumerate(plan.methods) for c in _claims(rows, m, i)]
+    return StudyOutput(NAME, TITLE, rows, figs, found, files)
+
+
+def _cid(base: str, index: int, method: str) -> str:
+    return base if index == 0 else f"{base}/{method}"
+
+
+def _share_better(real: Mapping[float, Spread], tear: Mapping[float, Spread], stat: str) -> float:
+    """Share of the common conditions where the real wing's statistic beats the tear-drop's."""
+    common = [c for c in real if c in tear]
+    pairs = [(getattr(real[c], stat), getattr(tear[c], stat)) for c in common]
+    pairs = [(a, b) for a, b in pairs if math.isfinite(a) and math.isfinite(b)]
+    return math.nan if not pairs else float(np.mean([a > b for a, b in pairs]))
+
+
+def _claims(rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim]:
+    eff = {
+        pf: by_condition(rows, "efficiency_pct", method=method, task="level", planform=pf)
+        for pf in PLANFORMS
+    }
+    acc = {pf: attainable(rows, method, pf) for pf in PLANFORMS}
+    out = []
+    share = _share_better(eff["real"], eff["tear-drop"], "median")
+    out.append(
+        C.Claim(
+            id=_cid("W1", index, method),
+            study=NAME,
+            figure="Fig. 15",
+            statement="the real wing is more efficient than the tear-drop at every speed "
+            "(share of speeds)",
+            paper="every speed",
+            rule="compare",
+            median=share,
+            best=_share_better(eff["real"], eff["tear-drop"], "best"),
+            verdict=C.verdict(None if math.isnan(share) else share == 1.0),
+        )
+    )
+    real2, tear2 = eff["real"].get(2.0), eff["tear-drop"].get(2.0)
+    if real2 is not None and tear2 is not None:
+        gain = 100.0 * (real2.median / tear2.median - 1.0)
+        gain_best = 100.0 * (real2.best / tear2.best - 1.0)
+        ok = (
+            None
+            if math.isnan(gain)
+            else abs(gain - PAPER_GAIN_AT_2) <= C.RELATIVE_TOLERANCE * PAPER_GAIN_AT_2
+        )
+        out.append(
+            C.Claim(
+                id=_cid("W2", index, method),
+                study=NAME,
+                figure="Fig. 15",
+                statement="efficiency gain of the real wing at 2 m/s (relative)",
+                paper="≈ 12 %",
+                rule="number",
+                median=gain,
+                best=gain_best,
+                unit="%",
+                verdict=C.verdict(ok),
+                detail=f"η real {real2.describe()} %, tear-drop {tear2.describe()} %",
+            )
+        )
+    for k, pf in enumerate(PLANFORMS):
+        at, at_best, ok = C.location(eff[pf], PAPER_BEST_SPEED, "max")
+        out.append(
+            C.Claim(
+                id=_cid(f"W3{'ab'[k]}", index, method),
+                study=NAME,
+                figure="Fig. 15",
+                statement=f"{pf} wing: efficiency peaks at 1.5 m/s",
+                paper="1.5 m/s",
+                rule="location",
+                median=at,
+                best=at_best,
+                unit="m/s",
+                verdict=C.verdict(ok),
+            )
+        )
+    share = _share_better(acc["real"], acc["tear-drop"], "median")
+    out.append(
+        C.Claim(
+            id=_cid("W4", index, method),
+            study=NAME,
+            figure="Fig. 16",
+            statement="the real wing attains slightly more F̄_a at every power (share of powers)",
+            paper="every power",
+            rule="compare",
+            median=share,
+            best=_share_better(acc["real"], acc["tear-drop"], "best"),
+            verdict=C.verdict(None if math.isnan(share) else share == 1.0),
+        )
+    )
+    return out

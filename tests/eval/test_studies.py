@@ -1,0 +1,266 @@
+"""The reproduction studies on a tiny preset: outputs, resume, configuration changes, report numbers."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import re
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents.harness import run
+from eval.studies import STUDIES, claims, runner
+from eval.studies.base import Plan
+from eval.studies.presets import PRESETS, TINY, ConvergenceSpec, Preset
+from eval.studies.suite import run_studies
+from eval.studies.tables import Spread
+
+# A slightly larger budget than TINY's so that some optimisations are feasible and the report
+# has numbers to check (still well under a second per study).
+SMALL = replace(TINY, level_budget=48, accelerate_budget=48)
+
+
+@pytest.fixture(scope="module")
+def study_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("study")
+    run_studies(["all", "convergence"], Plan(SMALL), out, workers=1, progress=False)
+    return out
+
+
+def _count_calls(monkeypatch: pytest.MonkeyPatch) -> list[runner.Job]:
+    calls: list[runner.Job] = []
+    original = runner._harness_run
+
+    def counting(job: runner.Job):
+        calls.append(job)
+        return original(job)
+
+    monkeypatch.setattr(runner, "_harness_run", counting)
+    return calls
+
+
+def _read_csv(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="", encoding="utf-8") as handle:
+        return list(csv.DictReader(handle))
+
+
+def _report_rows(path: Path) -> dict[str, dict[str, str]]:
+    """The paper-vs-ours table of report.md, by claim id."""
+    lines = path.read_text(encoding="utf-8").splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("| id | figure |"))
+    header = [h.strip() for h in lines[start].strip("|").split("|")]
+    rows = {}
+    for line in lines[start + 2 :]:
+        if not line.startswith("|"):
+            break
+        cells = [c.strip() for c in re.split(r"(?<!\\)\|", line.strip().strip("|"))]
+        rows[cells[0]] = dict(zip(header, cells, strict=True))
+    return rows
+
+
+def test_every_study_writes_records_csv_figures_and_report(study_dir: Path) -> None:
+    for name in STUDIES:
+        folder = study_dir / name
+        index = json.loads((folder / "records.json").read_text())
+        assert index, name
+        for entry in index:
+            assert (folder / entry["file"]).resolve().is_file()
+        rows = _read_csv(folder / f"{name}.csv")
+        assert len(rows) == len(index)
+        assert _read_csv(folder / f"{name}_summary.csv")
+        pngs = sorted(folder.glob("*.png"))
+        assert pngs and all(p.stat().st_size > 5_000 for p in pngs), name
+    report = (study_dir / "report.md").read_text()
+    table = _report_rows(study_dir / "report.md")
+    for cid in ("S1", "S7", "S8", "P1a", "P1b", "P3", "P6b", "K1", "K2", "K3", "K4", "W1", "W4"):
+        assert cid in table, cid
+    # Every figure is linked from the report with a path relative to it.
+    for png in study_dir.glob("*/fig*.png"):
+        assert f"]({png.relative_to(study_dir).as_posix()})" in report
+
+
+def test_report_numbers_are_the_records_numbers(study_dir: Path) -> None:
+    # Independently of the study code: read the record files and recompute the statistics.
+    records = [json.loads(p.read_text()) for p in (study_dir / "records").glob("*.json")]
+    table = _report_rows(study_dir / "report.md")
+
+    def values(task: str, objective: str, condition: float, metric: str) -> list[float]:
+        return [
+            r["metrics"][metric]
+            for r in records
+            if r["task"] == task
+            and r["study_job"]["env_kwargs"].get("objective", "efficiency") == objective
+            and r["study_job"]["env_kwargs"]["planform"] == "tear-drop"
+            and r["study_job"]["budget"] == SMALL.budget(task)
+            and r["condition"]["value"] == condition
+            and r["feasible"]
+        ]
+
+    checked = 0
+    for cid, objective, metric in (
+        ("P1b", "vertical", "excess_vertical"),
+        ("P2b", "horizontal", "excess_horizontal"),
+    ):
+        v = values("accelerate", objective, 90.0, metric)
+        cell = table[cid]["ours: median [IQR]"]
+        if not v:
+            assert cell == "–"
+            continue
+        numbers = [float(x) for x in re.findall(r"-?\d+\.?\d*(?:e-?\d+)?", cell)]
+        q25, med, q75 = np.percentile(v, [25, 50, 75])
+        assert numbers[:3] == pytest.approx([med, q25, q75], rel=5e-3, abs=1e-3)
+        checked += 1
+    assert checked >= 1, "the tiny preset found no feasible accelerating stroke to check"
+
+    # The tidy CSV is the records' numbers too.
+    by_key = {r["study_key"]: r for r in records}
+    for row in _read_csv(study_dir / "power" / "power.csv"):
+        record = by_key[row["key"]]
+        assert float(row["excess_vertical"]) == pytest.approx(record["metrics"]["excess_vertical"])
+        assert float(row["objective_value"]) == pytest.approx(record["objective"])
+        assert (row["feasible"] == "True") == record["feasible"]
+        assert int(row["seed"]) == record["seed"]
+
+
+def test_resume_skips_finished_jobs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    calls = _count_calls(monkeypatch)
+    plan = Plan(TINY)
+    first = run_studies(["power"], plan, tmp_path, workers=1, progress=False)
+    n = len(calls)
+    assert n == first.run.total == first.run.ran > 0
+    again = run_studies(["power"], plan, tmp_path, workers=1, progress=False)
+    assert len(calls) == n and again.run.reused == again.run.total
+    # A run killed part-way: one record missing -> exactly that job runs again.
+    victim = next((tmp_path / "records").glob("*.json"))
+    victim.unlink()
+    third = run_studies(["power"], plan, tmp_path, workers=1, progress=False)
+    assert len(calls) == n + 1 and third.run.ran == 1
+    # Another study sharing jobs reuses them: kinematics' accelerating stroke at 90 W/kg.
+    before = len(calls)
+    run_studies(["kinematics"], plan, tmp_path, workers=1, progress=False)
+    kin = {j.key for j in STUDIES["kinematics"].jobs(plan)}
+    pow_ = {j.key for j in STUDIES["power"].jobs(plan)}
+    assert len(calls) - before == len(kin - pow_)
+
+
+def test_changed_configuration_is_not_mixed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    calls = _count_calls(monkeypatch)
+    run_studies(["speed"], Plan(TINY), tmp_path, workers=1, progress=False)
+    old = len(calls)
+    changed = replace(TINY, level_budget=24)
+    run_studies(["speed"], Plan(changed), tmp_path, workers=1, progress=False)
+    assert len(calls) == 2 * old  # nothing reused
+    rows = _read_csv(tmp_path / "speed" / "speed.csv")
+    assert len(rows) == len(TINY.speeds) * len(TINY.seeds)
+    assert {r["budget"] for r in rows} == {"24"}
+    # Model options are part of the configuration too.
+    other = replace(TINY, env_kwargs=(("n_blade", 6), ("n_time", 40)))
+    run_studies(["speed"], Plan(other), tmp_path, workers=1, progress=False)
+    assert len(calls) == 3 * old
+    # The old records are still there, but only the current ones are read.
+    assert len(list((tmp_path / "records").glob("*.json"))) == 3 * old
+
+
+def test_pool_gives_the_serial_numbers(tmp_path: Path) -> None:
+    plan = Plan(TINY)
+    run_studies(["speed"], plan, tmp_path / "serial", workers=1, progress=False)
+    run_studies(["speed"], plan, tmp_path / "pool", workers=2, progress=False)
+    serial = _read_csv(tmp_path / "serial" / "speed" / "speed.csv")
+    pooled = _read_csv(tmp_path / "pool" / "speed" / "speed.csv")
+    drop = {"wall_time_s"}
+    assert [{k: v for k, v in r.items() if k not in drop} for r in serial] == [
+        {k: v for k, v in r.items() if k not in drop} for r in pooled
+    ]
+    report = (tmp_path / "pool" / "report.md").read_text()
+    assert report == (tmp_path / "serial" / "report.md").read_text()
+
+
+def test_other_methods_run_beside_pso(tmp_path: Path) -> None:
+    result = run_studies(
+        ["speed"], Plan(TINY, ("pso", "random")), tmp_path, workers=1, progress=False
+    )
+    rows = result.outputs[0].rows
+    assert {r["method"] for r in rows} == {"pso", "random"}
+    ids = {c.id for c in result.outputs[0].claims}
+    assert {"S7", "S7/random"} <= ids
+
+
+def test_cli_study(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture
+) -> None:
+    from eval.__main__ import main
+
+    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    code = main(
+        ["study", "power", "--preset", "tiny", "--out", str(tmp_path), "--workers", "1", "--quiet"]
+    )
+    assert code == 0
+    assert "report:" in capsys.readouterr().out
+    assert (tmp_path / "report.md").is_file()
+    assert (tmp_path / "power" / "fig8_attainable.png").is_file()
+
+
+def test_pso_budget_prefix_property() -> None:
+    """A budget-B PSO run is the first B evaluations of a longer run (the convergence study's basis)."""
+    kwargs = dict(env_kwargs=dict(TINY.env_kwargs), method_config={"swarm_size": 8}, progress=False)
+    (short,) = run("pso", "level", 1.5, 24, [3], **kwargs)
+    (long,) = run("pso", "level", 1.5, 48, [3], **kwargs)
+    assert long.history[: len(short.history)] == short.history
+
+
+def test_presets_are_validated() -> None:
+    with pytest.raises(ValueError, match="speeds"):
+        replace(TINY, speeds=(3.0,))
+    with pytest.raises(ValueError, match="powers"):
+        replace(TINY, powers=(40.0, 90.0))
+    with pytest.raises(ValueError, match="seeds"):
+        replace(TINY, seeds=(0, 0))
+    with pytest.raises(ValueError, match="level_budget"):
+        replace(TINY, level_budget=4)
+    with pytest.raises(ValueError, match="env_kwargs"):
+        replace(TINY, env_kwargs=(("speed", 1.0),))
+    with pytest.raises(ValueError, match="budget"):
+        ConvergenceSpec(budget=1, seeds=(0,))
+    with pytest.raises(ValueError, match="methods"):
+        Plan(TINY, ())
+    assert all(isinstance(p, Preset) for p in PRESETS.values())
+    # The presets cover the kinematics conditions and the 2 m/s phase claim.
+    for preset in PRESETS.values():
+        assert preset.kinematics_speed in preset.speeds and preset.phase_speed in preset.speeds
+        assert preset.kinematics_power in preset.powers
+        assert {50.0, 90.0} <= set(preset.powers)
+
+
+def _spread(values: list[float]) -> Spread:
+    q25, med, q75 = np.percentile(values, [25, 50, 75])
+    return Spread(
+        tuple(values),
+        tuple(range(len(values))),
+        med,
+        q25,
+        q75,
+        max(values),
+        0,
+        len(values),
+        len(values),
+    )
+
+
+def test_agreement_rules() -> None:
+    assert claims.number(_spread([12.0, 13.0, 14.0]), 12.7)
+    assert not claims.number(_spread([30.0, 31.0]), 12.7)
+    rising = {v: _spread([v, v + 0.1]) for v in (0.5, 1.0, 1.5, 2.0)}
+    r, _, ok, detail = claims.trend(rising, +1)
+    assert r == pytest.approx(1.0) and ok and "1.00" in detail
+    assert claims.trend(rising, -1)[2] is False
+    valley = {v: _spread([abs(v - 1.5) + 1]) for v in (0.5, 1.0, 1.5, 2.0)}
+    assert claims.location(valley, 1.5, "min")[2]
+    assert claims.location(valley, 1.5, "max")[0] == 0.5
+    assert claims.in_range(21.0, 10.0, 20.0) and not claims.in_range(30.0, 10.0, 20.0)
+    assert math.isnan(claims.rho([1.0, 2.0], [1.0, 2.0]))
