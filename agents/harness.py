@@ -243,7 +243,9 @@ def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator) -> tuple[np.n
     reward is the best objective; a penalised reward can still rank a marginally infeasible
     stroke above all of them, which would report a stroke that does not fly.
     """
-    if evaluator.evaluations == 0:  # the method evaluated through its own envs (e.g. SB3)
+    if evaluator.evaluations < outcome.evaluations:
+        # the method evaluated (some) strokes through its own envs (SB3): it chooses, by the
+        # same rule (train/policies.py)
         return outcome.best_action, outcome.best_reward, SELECTION_METHOD
     best_feasible = evaluator.best_feasible
     if best_feasible is None:

@@ -40,7 +40,7 @@ class PhysicsLogger(BaseCallback):
             if values:
                 self.logger.record_mean(f"physics/{name}", float(np.mean(values)))
         if self.recorder.best_info is not None:
-            self.logger.record("physics/best_reward", self.recorder.best_reward)
+            self.logger.record("physics/best_reward", self.recorder.max_reward)
             self.logger.record("physics/best_feasible", float(self.recorder.best_info["feasible"]))
             self.logger.record(
                 "physics/best_objective", float(self.recorder.best_info["objective"])

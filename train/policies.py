@@ -13,9 +13,9 @@ Two kinds of method, registered with the harness by :mod:`train.methods` (the pr
     ``train/hyperparams/<algo>.yml``. The budget counts env steps (one env step = one stroke =
     one model evaluation): training gets ``budget - 1`` of them, rounded down to whole learn
     iterations, and the last evaluation is the final deterministic policy's stroke. The
-    result is the **best stroke seen**: the highest-reward stroke among everything training
-    evaluated and that final deterministic stroke (the rule PSO's best-so-far follows too, so
-    records compare like for like). The final policy's own metrics are in the record's method
+    result is the **best stroke seen** among everything training evaluated and that final
+    deterministic stroke: feasible strokes first, then the highest reward (the harness's rule
+    for PSO and random search too, so records compare like for like). The final policy's own metrics are in the record's method
     config under ``final_policy``.
 
 Functions for use outside the harness: :func:`policy_stroke` (a run's deterministic stroke at
@@ -308,7 +308,12 @@ class TrainingMethod:
             training = self._learn_with_files(context)
         evaluations = training.steps + 1
         final_reward = training.final_reward
-        if training.best_action is None or final_reward > training.best_reward:
+        # feasible strokes first, then the higher reward (the harness's rule, docs/harness.md)
+        final_key = (training.final_feasible, final_reward)
+        if training.best_action is None or final_key > (
+            training.best_feasible,
+            training.best_reward,
+        ):
             best_action, best_reward = training.final_action, final_reward
             chosen = "final policy"
         else:
@@ -341,7 +346,7 @@ class TrainingMethod:
 
     def _learn(self, context: SearchContext) -> _Training:
         def report(recorder: StrokeRecorder) -> None:
-            context.report(recorder.steps, recorder.evaluations, recorder.best_reward)
+            context.report(recorder.steps, recorder.evaluations, recorder.max_reward)
 
         model, recorder, hp = learn_in_memory(
             self.algo,
@@ -366,6 +371,7 @@ class TrainingMethod:
         return _Training(
             best_action=recorder.best_action,
             best_reward=recorder.best_reward,
+            best_feasible=recorder.best_feasible,
             history=list(recorder.history),
             steps=recorder.evaluations,
             hyperparams=hp.saved,
@@ -407,6 +413,7 @@ class TrainingMethod:
         return _Training(
             best_action=result.best_action,
             best_reward=result.best_reward,
+            best_feasible=bool((result.best_info or {}).get("feasible", False)),
             history=list(result.history),
             steps=result.num_timesteps,
             hyperparams=saved,
@@ -425,8 +432,9 @@ class _Training:
     """What one training pass hands back to :meth:`TrainingMethod.search`."""
 
     best_action: np.ndarray | None
-    """Best-reward stroke the training env evaluated (None if none)."""
+    """Best stroke the training env evaluated, feasible ones first (None if none)."""
     best_reward: float
+    best_feasible: bool
     history: list[tuple[int, float]]
     steps: int
     """Env steps trained (each one stroke evaluated)."""

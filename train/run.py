@@ -460,6 +460,13 @@ def train(config: TrainConfig) -> TrainResult:
     return result
 
 
+def _best_seen_key(segment: Mapping[str, Any]) -> tuple[bool, float]:
+    """Feasible strokes first, then the higher reward (the harness's rule, docs/harness.md)."""
+    reward = segment["best_reward"]
+    feasible = bool((segment.get("best_info") or {}).get("feasible", False))
+    return feasible, -math.inf if reward is None else reward
+
+
 def _write_result(layout: RunLayout, result: TrainResult, hp: Hyperparams) -> None:
     previous: dict[str, Any] = {}
     if result.resumed_from is not None and layout.result_file.is_file():
@@ -475,7 +482,7 @@ def _write_result(layout: RunLayout, result: TrainResult, hp: Hyperparams) -> No
             "best_info": result.best_info,
         }
     )
-    best = max(segments, key=lambda s: -math.inf if s["best_reward"] is None else s["best_reward"])
+    best = max(segments, key=_best_seen_key)
     data = {
         "algo": result.algo,
         "env_id": result.env_id,

@@ -40,8 +40,11 @@ SWEEP_POWERS: tuple[float, ...] = (50.0, 60.0, 70.0, 80.0, 90.0)
 
 
 class StrokeRecorder(VecEnvWrapper):
-    """Keeps the best stroke any sub-env was given (by raw reward) and counts evaluations.
+    """Keeps the best stroke any sub-env was given and counts evaluations.
 
+    "Best" prefers feasible strokes, then the higher raw reward: a penalised reward can rank a
+    marginally infeasible stroke above every feasible one (the harness's rule, docs/harness.md).
+    ``history`` records the best reward so far, feasible or not, so that it never decreases.
     Sits directly on the adapter, so it sees the exact actions evaluated (after SB3's clipping
     or rescaling) and the env's own rewards (before any normalisation).
     """
@@ -53,8 +56,10 @@ class StrokeRecorder(VecEnvWrapper):
         self.evaluations = 0
         self.steps = 0
         self.best_reward = -np.inf
+        self.best_feasible = False
         self.best_action: np.ndarray | None = None
         self.best_info: dict[str, Any] | None = None
+        self.max_reward = -np.inf
         self.history: list[tuple[int, float]] = []
         """(evaluations, best reward so far) after every vector step."""
         self._actions: np.ndarray | None = None
@@ -71,15 +76,22 @@ class StrokeRecorder(VecEnvWrapper):
         observations, rewards, dones, infos = self.venv.step_wait()
         exact = _exact_rewards(rewards, infos)
         clean = np.where(np.isnan(exact), -np.inf, exact)
-        i = int(np.argmax(clean))
+        feasible = np.array([bool(info.get("feasible", True)) for info in infos], dtype=bool)
+        candidates = np.flatnonzero(feasible) if feasible.any() else np.arange(len(clean))
+        i = int(candidates[np.argmax(clean[candidates])])
         # Strict '>' as the harness's evaluator: the first of equal rewards stays the best.
-        if clean[i] > self.best_reward and self._actions is not None:
+        better = (feasible[i] and not self.best_feasible) or (
+            feasible[i] == self.best_feasible and clean[i] > self.best_reward
+        )
+        if better and self._actions is not None:
             self.best_reward = float(clean[i])
+            self.best_feasible = bool(feasible[i])
             self.best_action = self._actions[i].copy()
             self.best_info = {k: v for k, v in infos[i].items() if k != "terminal_observation"}
+        self.max_reward = max(self.max_reward, float(clean.max()))
         self.evaluations += len(rewards)
         self.steps += 1
-        self.history.append((self.evaluations, self.best_reward))
+        self.history.append((self.evaluations, self.max_reward))
         if self._on_step is not None:
             self._on_step(self)
         return observations, rewards, dones, infos
