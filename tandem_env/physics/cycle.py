@@ -22,11 +22,9 @@ from .blade import (
     C_DSPIN,
     C_ECXE,
     C_ECY,
-    C_ECZ,
     C_ECZE,
     C_ENXE,
     C_ENY,
-    C_ENZ,
     C_ENZE,
     C_KIN,
     C_SPIN,
@@ -73,10 +71,8 @@ W_P_ELASTIC = 6  # mean of the positive part of P_aero + P_iner [W]
 W_AOA = 7  # area-weighted cycle-mean acute angle of attack [rad]
 W_CONVERGED = 8  # 1 if every annulus's inflow converged
 W_EVALS = 9  # largest number of force sweeps an annulus needed
-W_FY = 10  # cycle-mean lateral force [N] (cancels between left and right wings)
-W_FNORMAL = 11  # cycle-mean force along the stroke-plane normal [N]
-W_INFLOW = 12  # area-weighted mean induced velocity [m/s]
-N_WING_OUT = 13
+W_INFLOW = 10  # area-weighted mean induced velocity [m/s]
+N_WING_OUT = 11
 
 MODE_NONE = 0
 MODE_ISOLATED = 1
@@ -217,7 +213,6 @@ def wing_cycle(
     max_evals = 0
     aoa = 0.0
     area = 0.0
-    f_normal = 0.0
     inflow_mean = 0.0
     v_nodes = np.empty(n_r)
     for j in range(n_r):
@@ -287,20 +282,16 @@ def wing_cycle(
         histories[k, 3] = p_aero
         # d/dt of the wing's kinetic energy: flapping of the pitch axis plus rotation about it
         histories[k, 4] = consts[K_I_SPAN] * coef[k, C_KIN] + consts[K_I_PITCH] * spin * dspin
-        f_normal += (span_fc * coef[k, C_ECZ] + span_fn * coef[k, C_ENZ]) * coef[k, C_WEIGHT]
         aoa += aoa_k * coef[k, C_WEIGHT]
     g = np.empty(n_time)
     fx = 0.0
     fz = 0.0
-    fy = 0.0
     for k in range(n_time):
         w = coef[k, C_WEIGHT]
         fx += histories[k, 0] * w
         fz += histories[k, 1] * w
-        fy += histories[k, 2] * w
     out[W_FX] = fx / n_time
     out[W_FZ] = fz / n_time
-    out[W_FY] = fy / n_time
     # T = mean F_x⁺, D = mean F_x⁻ = T − mean F_x; mean|P| = 2·mean P⁺ − mean P
     for k in range(n_time):
         g[k] = histories[k, 0] * coef[k, C_WEIGHT]
@@ -324,7 +315,6 @@ def wing_cycle(
     out[W_AOA] = aoa / (area * n_time) if area > 0.0 else 0.0
     out[W_CONVERGED] = 1.0 if converged else 0.0
     out[W_EVALS] = max_evals
-    out[W_FNORMAL] = f_normal / n_time
     out[W_INFLOW] = inflow_mean / area if area > 0.0 else 0.0
 
 
