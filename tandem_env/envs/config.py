@@ -92,6 +92,36 @@ def _within(owner: str, name: str, value: float, envelope_name: str, envelope, u
         )
 
 
+def normalise_condition(
+    config: Any, name: str, unit: str, limits: tuple[float, float], default: float
+) -> None:
+    """Validate and store a flight condition's fields on a frozen config.
+
+    ``{name}_envelope`` is the range the observation is normalised over; the condition is either
+    a fixed ``{name}`` (``default`` when None) or a ``{name}_range`` sampled at each reset, both
+    inside the envelope.
+    """
+    owner = type(config).__name__
+    envelope_name, range_name = f"{name}_envelope", f"{name}_range"
+    envelope = check_interval(owner, envelope_name, getattr(config, envelope_name), unit, limits)
+    object.__setattr__(config, envelope_name, envelope)
+    fixed, sampled = getattr(config, name), getattr(config, range_name)
+    if fixed is not None and sampled is not None:
+        raise ValueError(
+            f"{owner}: {name} = {fixed!r} and {range_name} = {sampled!r} are both given; "
+            f"allowed: a fixed {name} or a sampled {range_name}, not both"
+        )
+    if sampled is not None:
+        low, high = check_interval(owner, range_name, sampled, unit, limits)
+        _within(owner, f"{range_name} low", low, envelope_name, envelope, unit)
+        _within(owner, f"{range_name} high", high, envelope_name, envelope, unit)
+        object.__setattr__(config, range_name, (low, high))
+    else:
+        value = check_real(owner, name, default if fixed is None else fixed, unit, *limits)
+        _within(owner, name, value, envelope_name, envelope, unit)
+        object.__setattr__(config, name, value)
+
+
 @dataclass(frozen=True)
 class PenaltyConfig:
     """How constraint violations lower the reward.
@@ -313,28 +343,7 @@ class LevelFlightConfig(FlightConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        owner = type(self).__name__
-        envelope = check_interval(
-            owner, "speed_envelope", self.speed_envelope, "m/s", MODEL_SPEED_LIMITS
-        )
-        object.__setattr__(self, "speed_envelope", envelope)
-        if self.speed is not None and self.speed_range is not None:
-            raise ValueError(
-                f"{owner}: speed = {self.speed!r} and speed_range = {self.speed_range!r} are both "
-                "given; allowed: a fixed speed or a sampled speed_range, not both"
-            )
-        if self.speed_range is not None:
-            low, high = check_interval(
-                owner, "speed_range", self.speed_range, "m/s", MODEL_SPEED_LIMITS
-            )
-            _within(owner, "speed_range low", low, "speed_envelope", envelope, "m/s")
-            _within(owner, "speed_range high", high, "speed_envelope", envelope, "m/s")
-            object.__setattr__(self, "speed_range", (low, high))
-        else:
-            speed = self.DEFAULT_SPEED if self.speed is None else self.speed
-            speed = check_real(owner, "speed", speed, "m/s", *MODEL_SPEED_LIMITS)
-            _within(owner, "speed", speed, "speed_envelope", envelope, "m/s")
-            object.__setattr__(self, "speed", speed)
+        normalise_condition(self, "speed", "m/s", MODEL_SPEED_LIMITS, self.DEFAULT_SPEED)
 
     @property
     def envelope(self) -> tuple[float, float]:
@@ -395,30 +404,10 @@ class AccelerateConfig(FlightConfig):
             raise ValueError(
                 f"{owner}.objective = {self.objective!r}; allowed: {', '.join(map(repr, OBJECTIVES))}"
             )
-        envelope = check_interval(
-            owner, "power_envelope", self.power_envelope, "W/kg", MODEL_POWER_LIMITS
-        )
-        object.__setattr__(self, "power_envelope", envelope)
         object.__setattr__(
             self, "speed", check_real(owner, "speed", self.speed, "m/s", *MODEL_SPEED_LIMITS)
         )
-        if self.power is not None and self.power_range is not None:
-            raise ValueError(
-                f"{owner}: power = {self.power!r} and power_range = {self.power_range!r} are both "
-                "given; allowed: a fixed power or a sampled power_range, not both"
-            )
-        if self.power_range is not None:
-            low, high = check_interval(
-                owner, "power_range", self.power_range, "W/kg", MODEL_POWER_LIMITS
-            )
-            _within(owner, "power_range low", low, "power_envelope", envelope, "W/kg")
-            _within(owner, "power_range high", high, "power_envelope", envelope, "W/kg")
-            object.__setattr__(self, "power_range", (low, high))
-        else:
-            power = self.DEFAULT_POWER if self.power is None else self.power
-            power = check_real(owner, "power", power, "W/kg", *MODEL_POWER_LIMITS)
-            _within(owner, "power", power, "power_envelope", envelope, "W/kg")
-            object.__setattr__(self, "power", power)
+        normalise_condition(self, "power", "W/kg", MODEL_POWER_LIMITS, self.DEFAULT_POWER)
 
     @property
     def envelope(self) -> tuple[float, float]:
