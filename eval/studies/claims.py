@@ -93,6 +93,11 @@ def _fmt(value: float) -> str:
     return f"{value:.3g}"
 
 
+def claim_id(base: str, method_index: int, method: str) -> str:
+    """A claim's id: ``base`` for the first method of a study, ``base/method`` for the others."""
+    return base if method_index == 0 else f"{base}/{method}"
+
+
 def verdict(ok: bool | None) -> Verdict:
     return "no data" if ok is None else ("agrees" if ok else "differs")
 

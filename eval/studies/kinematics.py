@@ -184,10 +184,6 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
     return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
-def _cid(base: str, index: int, method: str) -> str:
-    return base if index == 0 else f"{base}/{method}"
-
-
 def _claims(plan: Plan, rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim]:
     p = plan.preset
     level = dict(method=method, task="level", planform="tear-drop")
@@ -208,7 +204,7 @@ def _claims(plan: Plan, rows: list[dict[str, Any]], method: str, index: int) -> 
 
     return [
         C.Claim(
-            id=_cid("K1", index, method),
+            id=C.claim_id("K1", index, method),
             study=NAME,
             figure="Fig. 11a",
             statement=f"level flight ({p.kinematics_speed:g} m/s): fore- and hind-wing flap out of phase (|ΔΦ|)",
@@ -220,7 +216,7 @@ def _claims(plan: Plan, rows: list[dict[str, Any]], method: str, index: int) -> 
             **stats(lv_abs),
         ),
         C.Claim(
-            id=_cid("K2", index, method),
+            id=C.claim_id("K2", index, method),
             study=NAME,
             figure="Fig. 11",
             statement=f"at {p.phase_speed:g} m/s the hind-wing leads by about 30° (ΔΦ)",
@@ -236,7 +232,7 @@ def _claims(plan: Plan, rows: list[dict[str, Any]], method: str, index: int) -> 
             **stats(lead),
         ),
         C.Claim(
-            id=_cid("K3", index, method),
+            id=C.claim_id("K3", index, method),
             study=NAME,
             figure="Fig. 11b",
             statement=f"accelerating flight ({p.kinematics_power:g} W/kg): the wings flap in phase (|ΔΦ|)",
@@ -248,7 +244,7 @@ def _claims(plan: Plan, rows: list[dict[str, Any]], method: str, index: int) -> 
             **stats(ac_abs),
         ),
         C.Claim(
-            id=_cid("K4", index, method),
+            id=C.claim_id("K4", index, method),
             study=NAME,
             figure="Fig. 12c",
             statement="pitch amplitude η_m is larger in accelerating than in level flight "

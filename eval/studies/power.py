@@ -143,10 +143,6 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
     return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
-def _cid(base: str, index: int, method: str) -> str:
-    return base if index == 0 else f"{base}/{method}"
-
-
 def _number_claims(
     cid: str,
     index: int,
@@ -160,7 +156,7 @@ def _number_claims(
     for k, (power, value) in enumerate(paper.items()):
         s = series.get(power)
         base = dict(
-            id=_cid(f"{cid}{'ab'[k]}", index, method),
+            id=C.claim_id(f"{cid}{'ab'[k]}", index, method),
             study=NAME,
             figure=figure,
             statement=f"{label} at {power:g} W/kg",
@@ -202,7 +198,7 @@ def _claims(rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim
         q25, med, q75 = np.percentile(ratios, [25.0, 50.0, 75.0])
         out.append(
             C.Claim(
-                id=_cid("P3", index, method),
+                id=C.claim_id("P3", index, method),
                 study=NAME,
                 figure="Fig. 7",
                 statement="F̄_v exceeds F̄_h by 10-20 % (median over powers; IQR over powers)",
@@ -222,7 +218,7 @@ def _claims(rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim
         r, r_best, ok, detail = C.trend(series, +1)
         out.append(
             C.Claim(
-                id=_cid(cid, index, method),
+                id=C.claim_id(cid, index, method),
                 study=NAME,
                 figure="Fig. 7",
                 statement=f"{label} increases with available power",

@@ -108,10 +108,6 @@ def _thrust_split(records: Mapping[Job, Record]) -> str:
     return ", ".join(sorted(splits))
 
 
-def claims_id(base: str, method_index: int, method: str) -> str:
-    return base if method_index == 0 else f"{base}/{method}"
-
-
 def _claims(rows: list[dict], method: str, index: int) -> list[C.Claim]:
     where = {"method": method, "task": "level", "planform": "tear-drop"}
     get = lambda q: by_condition(rows, q, **where)  # noqa: E731
@@ -125,7 +121,7 @@ def _claims(rows: list[dict], method: str, index: int) -> list[C.Claim]:
         r, r_best, ok, detail = C.trend(get(quantity), direction)
         out.append(
             C.Claim(
-                id=claims_id(cid, index, method),
+                id=C.claim_id(cid, index, method),
                 study=NAME,
                 figure="Fig. 4",
                 statement=statement,
@@ -142,7 +138,7 @@ def _claims(rows: list[dict], method: str, index: int) -> list[C.Claim]:
     at, at_best, ok = C.location(get("power_per_mass"), PAPER_BEST_SPEED, "min")
     out.append(
         C.Claim(
-            id=claims_id("S4", index, method),
+            id=C.claim_id("S4", index, method),
             study=NAME,
             figure="Fig. 5",
             statement="power P/m is lowest at V = 1.5 m/s",
@@ -166,7 +162,7 @@ def _claims(rows: list[dict], method: str, index: int) -> list[C.Claim]:
         r_best = C.rho([power[v].best for v in common], [other[v].best for v in common])
         out.append(
             C.Claim(
-                id=claims_id(cid, index, method),
+                id=C.claim_id(cid, index, method),
                 study=NAME,
                 figure="Fig. 5",
                 statement=statement,
@@ -187,7 +183,7 @@ def _claims(rows: list[dict], method: str, index: int) -> list[C.Claim]:
         best = max(x.best for x in finite.values())
         out.append(
             C.Claim(
-                id=claims_id("S7", index, method),
+                id=C.claim_id("S7", index, method),
                 study=NAME,
                 figure="Fig. 6",
                 statement="peak level-flight efficiency (≈ 13 % flight-muscle efficiency)",
@@ -206,7 +202,7 @@ def _claims(rows: list[dict], method: str, index: int) -> list[C.Claim]:
     else:
         out.append(
             C.Claim(
-                id=claims_id("S7", index, method),
+                id=C.claim_id("S7", index, method),
                 study=NAME,
                 figure="Fig. 6",
                 statement="peak level-flight efficiency",
@@ -218,7 +214,7 @@ def _claims(rows: list[dict], method: str, index: int) -> list[C.Claim]:
     at, at_best, ok = C.location(eff, PAPER_BEST_SPEED, "max")
     out.append(
         C.Claim(
-            id=claims_id("S8", index, method),
+            id=C.claim_id("S8", index, method),
             study=NAME,
             figure="Fig. 6",
             statement="efficiency peaks at V = 1.5 m/s",

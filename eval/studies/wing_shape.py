@@ -114,10 +114,6 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
     return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
-def _cid(base: str, index: int, method: str) -> str:
-    return base if index == 0 else f"{base}/{method}"
-
-
 def _share_better(real: Mapping[float, Spread], tear: Mapping[float, Spread], stat: str) -> float:
     """Share of the common conditions where the real wing's statistic beats the tear-drop's."""
     common = [c for c in real if c in tear]
@@ -136,7 +132,7 @@ def _claims(rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim
     share = _share_better(eff["real"], eff["tear-drop"], "median")
     out.append(
         C.Claim(
-            id=_cid("W1", index, method),
+            id=C.claim_id("W1", index, method),
             study=NAME,
             figure="Fig. 15",
             statement="the real wing is more efficient than the tear-drop at every speed "
@@ -159,7 +155,7 @@ def _claims(rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim
         )
         out.append(
             C.Claim(
-                id=_cid("W2", index, method),
+                id=C.claim_id("W2", index, method),
                 study=NAME,
                 figure="Fig. 15",
                 statement="efficiency gain of the real wing at 2 m/s (relative)",
@@ -176,7 +172,7 @@ def _claims(rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim
         at, at_best, ok = C.location(eff[pf], PAPER_BEST_SPEED, "max")
         out.append(
             C.Claim(
-                id=_cid(f"W3{'ab'[k]}", index, method),
+                id=C.claim_id(f"W3{'ab'[k]}", index, method),
                 study=NAME,
                 figure="Fig. 15",
                 statement=f"{pf} wing: efficiency peaks at 1.5 m/s",
@@ -191,7 +187,7 @@ def _claims(rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim
     share = _share_better(acc["real"], acc["tear-drop"], "median")
     out.append(
         C.Claim(
-            id=_cid("W4", index, method),
+            id=C.claim_id("W4", index, method),
             study=NAME,
             figure="Fig. 16",
             statement="the real wing attains slightly more F̄_a at every power (share of powers)",
