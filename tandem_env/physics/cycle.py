@@ -13,6 +13,8 @@ located zero crossings, so the kinks do not cost accuracy (MODEL.md §7).
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from numba import njit, prange
 
@@ -79,11 +81,18 @@ MODE_ISOLATED = 1
 MODE_COUPLED = 2
 
 
+@lru_cache(maxsize=16)
 def fourier_tables(n_time: int) -> tuple[np.ndarray, np.ndarray]:
-    """cos(m·s_k), sin(m·s_k) for m = 1 … (n − 1)//2 and s_k = 2πk/n: (M, n) each."""
+    """cos(m·s_k), sin(m·s_k) for m = 1 … (n − 1)//2 and s_k = 2πk/n: (M, n) each, read-only.
+
+    Cached: every evaluation at a resolution uses the same tables.
+    """
     m = np.arange(1, (n_time - 1) // 2 + 1)[:, None]
     s = 2.0 * np.pi * np.arange(n_time)[None, :] / n_time
-    return np.ascontiguousarray(np.cos(m * s)), np.ascontiguousarray(np.sin(m * s))
+    tables = np.ascontiguousarray(np.cos(m * s)), np.ascontiguousarray(np.sin(m * s))
+    for table in tables:
+        table.setflags(write=False)
+    return tables
 
 
 @njit(cache=True)
