@@ -213,8 +213,8 @@ def _flow_angles(angles, weights, beta, speed, inflow, wing, insect, options, si
     r = nodes[:, cycle.N_R][None, :]
     vt = speed * np.cos(beta)
     vn = speed * np.sin(beta) + inflow[None, :]
-    u = r * coef[:, [blade.C_AU]] + vt * coef[:, [blade.C_ECX]] + vn * coef[:, [blade.C_ECZ]]
-    v = r * coef[:, [blade.C_AV]] + vt * coef[:, [blade.C_ENX]] + vn * coef[:, [blade.C_ENZ]]
+    # the kernel's own formula, broadcast over (sample, annulus) through an index column
+    u, v, _, _ = blade.relative_velocity.py_func(coef, np.arange(n_time)[:, None], r, vt, vn)
     area = nodes[:, cycle.N_CHORD] * nodes[:, cycle.N_WIDTH]
     aoa = np.rad2deg(np.arctan2(np.abs(v), np.abs(u)) @ area / area.sum())
     speed_nodes = np.hypot(u, v)
