@@ -74,18 +74,27 @@ def main() -> None:
         "kinematics (angles, analytic rates)": lambda: model._parametric_inputs(
             strokes, options.n_time
         ),
-        "cycle without inflow (frames, forces, power, means)": lambda: model._run_kernel(
+        "cycle without inflow (frames, forces, power, means)": lambda: model.run_kernel(
             angles,
             weights,
             frequency,
             beta,
             sweep,
             speeds,
+            np.zeros_like(speeds),
             te.DRAGONFLY,
             te.ModelOptions(induction="none"),
         ),
-        "cycle with coupled inflow": lambda: model._run_kernel(
-            angles, weights, frequency, beta, sweep, speeds, te.DRAGONFLY, options
+        "cycle with coupled inflow": lambda: model.run_kernel(
+            angles,
+            weights,
+            frequency,
+            beta,
+            sweep,
+            speeds,
+            np.zeros_like(speeds),
+            te.DRAGONFLY,
+            options,
         ),
         "whole evaluate()": lambda: te.evaluate(strokes, speeds),
     }

@@ -344,7 +344,7 @@ def tandem_stroke(
     frequency,
     beta,
     sweep_amplitude,
-    speed,
+    freestream,
     nodes_fore,
     consts_fore,
     nodes_hind,
@@ -377,8 +377,8 @@ def tandem_stroke(
             if mode == MODE_COUPLED:
                 for j in range(n_r):
                     v_ext[j] = interference * out_inflow[b, 0, j]
-        v_t = speed[b] * np.cos(beta[b, wing])
-        v_n = speed[b] * np.sin(beta[b, wing])
+        v_t = freestream[b, wing, 0]
+        v_n = freestream[b, wing, 1]
         wing_cycle(
             coef,
             nodes_fore if wing == 0 else nodes_hind,
@@ -411,7 +411,7 @@ def tandem_cycle(
     frequency,
     beta,
     sweep_amplitude,
-    speed,
+    freestream,
     nodes_fore,
     consts_fore,
     nodes_hind,
@@ -431,7 +431,9 @@ def tandem_cycle(
     """Cycle means of a batch of tandem strokes, in parallel over the batch.
 
     ``angles_*``: (B, n_time, 9); ``weight_*``: (B, n_time); ``frequency``, ``beta``,
-    ``sweep_amplitude``: (B, 2) per wing [Hz, rad, rad]; ``speed``: (B,) [m/s].
+    ``sweep_amplitude``: (B, 2) per wing [Hz, rad, rad]; ``freestream``: (B, 2, 2), per wing the
+    body's velocity along x_s and z_s of its stroke plane, (V_t, V_n) [m/s]
+    (``model.freestream_components``).
     Writes ``out`` (B, 2, N_WING_OUT) and ``out_inflow`` (B, 2, n_r) [m/s]; if ``out_history``
     has B rows, also the per-sample F_x, F_z, F_y, P_aero, P_iner of each wing (B, 2, n_time, 5).
     """
@@ -445,7 +447,7 @@ def tandem_cycle(
             frequency,
             beta,
             sweep_amplitude,
-            speed,
+            freestream,
             nodes_fore,
             consts_fore,
             nodes_hind,

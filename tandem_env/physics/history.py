@@ -14,7 +14,15 @@ import numpy as np
 from . import blade, cycle
 from .insect import DRAGONFLY, Dragonfly
 from .kinematics import fill_angles, wing_params_radians
-from .model import DEFAULT_OPTIONS, Result, _run_kernel, evaluate, wing_tables
+from .model import (
+    DEFAULT_OPTIONS,
+    Result,
+    _flight_path,
+    evaluate,
+    freestream_components,
+    run_kernel,
+    wing_tables,
+)
 from .options import ModelOptions
 from .stroke import N_PER_WING, validate_physical
 
@@ -77,12 +85,14 @@ def stroke_history(
     speed: float = 0.0,
     available_power: float | None = None,
     *,
+    flight_path_angle: float = 0.0,
     insect: Dragonfly = DRAGONFLY,
     options: ModelOptions = DEFAULT_OPTIONS,
     n_samples: int = 200,
     side: int = 1,
 ) -> StrokeHistory:
-    """Time histories of one physical stroke (28,) at flight speed ``speed`` [m/s].
+    """Time histories of one physical stroke (28,) at flight speed ``speed`` [m/s] along a path
+    inclined by ``flight_path_angle`` γ [rad, + climbing]; forces in earth axes.
 
     The histories have ``n_samples`` uniform samples per cycle; ``result`` is exactly
     :func:`evaluate` of the stroke (on its motion-following grid). ``side = -1`` evaluates the
@@ -123,13 +133,15 @@ def stroke_history(
     )
     if not (np.isfinite(p_avail[0]) and p_avail[0] > 0.0):
         raise ValueError(f"available_power = {available_power!r} W/kg; allowed: finite and > 0")
-    out, inflow, hist = _run_kernel(
-        angles, weights, frequency, beta, sweep, v, insect, options, keep_history=True
+    gamma = _flight_path(flight_path_angle, 1)
+    freestream = freestream_components(v, beta, gamma)
+    out, inflow, hist = run_kernel(
+        angles, weights, frequency, beta, sweep, v, gamma, insect, options, keep_history=True
     )
     if side == -1:
-        _, hist = _mirror_run(angles, weights, frequency, beta, v, inflow, insect, options)
+        _, hist = _mirror_run(angles, weights, frequency, beta, freestream, inflow, insect, options)
     del out
-    result = evaluate(physical, v, p_avail, insect=insect, options=options)
+    result = evaluate(physical, v, p_avail, flight_path_angle=gamma, insect=insect, options=options)
     n_w = insect.wings_per_pair
     wings = []
     for w, wing in enumerate((insect.fore, insect.hind)):
@@ -141,7 +153,15 @@ def stroke_history(
         )
         total_inflow = inflow[0, w] + upstream
         aoa, rel_speed = _flow_angles(
-            a, weights[w][0], beta[0, w], v[0], total_inflow, wing, insect, options, side
+            a,
+            weights[w][0],
+            beta[0, w],
+            freestream[0, w],
+            total_inflow,
+            wing,
+            insect,
+            options,
+            side,
         )
         wings.append(
             WingHistory(
@@ -164,7 +184,7 @@ def stroke_history(
     return StrokeHistory(fore=wings[0], hind=wings[1], result=result)
 
 
-def _mirror_run(angles, weights, frequency, beta, speed, inflow, insect, options):
+def _mirror_run(angles, weights, frequency, beta, freestream, inflow, insect, options):
     """The same cycle for the mirror-image (left) wings, with the right wings' inflow imposed."""
     n_time = weights[0].shape[1]
     out = np.empty((1, 2, cycle.N_WING_OUT))
@@ -189,8 +209,8 @@ def _mirror_run(angles, weights, frequency, beta, speed, inflow, insect, options
             insect.air_density,
             frequency[0, w],
             0.0,
-            speed[0] * np.cos(beta[0, w]),
-            speed[0] * np.sin(beta[0, w]),
+            freestream[0, w, 0],
+            freestream[0, w, 1],
             np.ascontiguousarray(v_ext),
             False,
             options.tolerance,
@@ -204,15 +224,16 @@ def _mirror_run(angles, weights, frequency, beta, speed, inflow, insect, options
     return out, hist
 
 
-def _flow_angles(angles, weights, beta, speed, inflow, wing, insect, options, side):
-    """Area-weighted angle of attack [deg] and relative speed at r/R = 0.75 [m/s] over time."""
+def _flow_angles(angles, weights, beta, freestream, inflow, wing, insect, options, side):
+    """Area-weighted angle of attack [deg] and relative speed at r/R = 0.75 [m/s] over time;
+    ``freestream`` is the wing's (V_t, V_n) [m/s]."""
     n_time = angles.shape[0]
     coef = np.empty((n_time, blade.N_COEF))
     blade.fill_frame_coefficients(angles, weights, beta, options.spin == "total", side, coef)
     nodes, _ = wing_tables(wing, options.n_blade, insect.air_density)
     r = nodes[:, cycle.N_R][None, :]
-    vt = speed * np.cos(beta)
-    vn = speed * np.sin(beta) + inflow[None, :]
+    vt = freestream[0]
+    vn = freestream[1] + inflow[None, :]
     # the kernel's own formula, broadcast over (sample, annulus) through an index column
     u, v, _, _ = blade.relative_velocity.py_func(coef, np.arange(n_time)[:, None], r, vt, vn)
     area = nodes[:, cycle.N_CHORD] * nodes[:, cycle.N_WIDTH]

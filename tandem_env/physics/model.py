@@ -91,11 +91,12 @@ class Result:
     """
 
     lift_to_weight: np.ndarray
-    """L/W = N_w·(F̄_z,fore + F̄_z,hind)/(m·g) (Eq. 17) [-]."""
+    """L/W = N_w·(F̄_z,fore + F̄_z,hind)/(m·g) (Eq. 17) [-]: the vertical (earth-axis) force;
+    with ``thrust_split="body"`` less the body drag's vertical part D_b·sin γ."""
     thrust: np.ndarray
-    """T [N] per ``thrust_split`` (MODEL.md §7)."""
+    """T [N], horizontal (earth axes), per ``thrust_split`` (MODEL.md §7)."""
     drag: np.ndarray
-    """D [N] per ``thrust_split``."""
+    """D [N], horizontal (earth axes), per ``thrust_split``."""
     power: np.ndarray
     """P = P_fore + P_hind (Eq. 19) [W]."""
     power_per_mass: np.ndarray
@@ -152,7 +153,9 @@ class Result:
     hind_inflow: np.ndarray
     """Area-weighted mean own induced velocity of the hind-wing [m/s]."""
     speed: np.ndarray
-    """Flight speed V [m/s]."""
+    """Flight speed V [m/s], along the flight path."""
+    flight_path_angle: np.ndarray
+    """Flight-path angle γ [rad], + climbing."""
     available_power: np.ndarray
     """Available power per mass [W/kg]."""
     options: ModelOptions = DEFAULT_OPTIONS
@@ -213,17 +216,62 @@ def _broadcast_condition(
     return arr
 
 
-def _run_kernel(
+#: Largest |flight-path angle| [rad]: the body moves forward (V ≥ 0), climbing or descending.
+MAX_FLIGHT_PATH_ANGLE = 0.5 * np.pi
+
+
+def _flight_path(value: float | np.ndarray, batch: int) -> np.ndarray:
+    """The flight-path angle γ as a validated (B,) array [rad]."""
+    return _broadcast_condition(
+        value,
+        batch,
+        "flight_path_angle",
+        "rad",
+        -MAX_FLIGHT_PATH_ANGLE,
+        MAX_FLIGHT_PATH_ANGLE,
+        0.0,
+    )
+
+
+def freestream_components(
+    speed: np.ndarray, beta: np.ndarray, flight_path_angle: np.ndarray
+) -> np.ndarray:
+    """The body's velocity in each wing's stroke-plane axes, (V_t, V_n) [m/s], shape (B, 2, 2).
+
+    The body moves at ``speed`` V [m/s] along its flight path, inclined by the flight-path angle
+    γ [rad] (+ climbing) to the horizontal; ``beta`` (B, 2) is each wing's stroke-plane angle β
+    [rad] from the horizontal (earth axes, docs/model.md "Conventions"). With
+    x_s = (cos β, 0, −sin β) and z_s = (sin β, 0, cos β) in earth axes and the velocity
+    V·(cos γ, 0, sin γ): V_t = V·cos(β + γ), V_n = V·sin(β + γ). Only β + γ, the stroke plane's
+    angle to the path, enters the flow; β alone sets the projection of the forces onto earth axes.
+    """
+    angle = beta + flight_path_angle[:, None]
+    out = np.empty((beta.shape[0], 2, 2))
+    out[:, :, 0] = speed[:, None] * np.cos(angle)
+    out[:, :, 1] = speed[:, None] * np.sin(angle)
+    return out
+
+
+def run_kernel(
     angles,
     weights,
     frequency,
     beta,
     sweep,
     speed,
+    flight_path_angle,
     insect: Dragonfly,
     options: ModelOptions,
     keep_history: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Run the compiled cycle on prepared angle histories (the step below :func:`evaluate`).
+
+    ``angles``/``weights``: per wing, (B, n_time, 9) angle histories and (B, n_time) quadrature
+    weights; ``frequency``, ``beta``, ``sweep``: (B, 2) [Hz, rad, rad]; ``speed`` (B,) [m/s];
+    ``flight_path_angle`` (B,) [rad]. Returns the per-wing cycle means (B, 2, N_WING_OUT), the
+    inflow per annulus (B, 2, n_blade) [m/s] and, with ``keep_history``, the per-sample earth-axis
+    F_x, F_z, F_y [N] and P_aero, P_iner [W] of one wing (B, 2, n_time, 5).
+    """
     nodes_f, consts_f = wing_tables(insect.fore, options.n_blade, insect.air_density)
     nodes_h, consts_h = wing_tables(insect.hind, options.n_blade, insect.air_density)
     batch, n_time = weights[0].shape
@@ -232,8 +280,8 @@ def _run_kernel(
     mode = {"none": cycle.MODE_NONE, "isolated": cycle.MODE_ISOLATED, "coupled": cycle.MODE_COUPLED}
     history = np.empty((batch if keep_history else 0, 2, n_time, 5))
     args = (
-        angles[0], weights[0], angles[1], weights[1], frequency, beta, sweep, speed,
-        nodes_f, consts_f, nodes_h, consts_h, insect.air_density, mode[options.induction],
+        angles[0], weights[0], angles[1], weights[1], frequency, beta, sweep,
+        freestream_components(speed, beta, flight_path_angle), nodes_f, consts_f, nodes_h, consts_h, insect.air_density, mode[options.induction],
         options.interference, options.spin == "total", options.tolerance,
         options.max_evaluations, out, inflow, history, *cycle.fourier_tables(n_time),
     )  # fmt: skip
@@ -248,6 +296,7 @@ def _run_kernel(
 def _performance(
     out: np.ndarray,
     speed: np.ndarray,
+    flight_path_angle: np.ndarray,
     available_power: np.ndarray,
     insect: Dragonfly,
     options: ModelOptions,
@@ -262,7 +311,11 @@ def _performance(
         drag = n_w * out[:, :, cycle.W_DRAG].sum(axis=1)
     else:
         thrust = fx.sum(axis=1)
-        drag = 0.5 * insect.air_density * speed**2 * insect.body_drag_area
+        # The body's parasite drag acts against its velocity, along the flight path: its
+        # horizontal part is D and its vertical part counts against the lift.
+        body_drag = 0.5 * insect.air_density * speed**2 * insect.body_drag_area
+        drag = body_drag * np.cos(flight_path_angle)
+        lift = lift - body_drag * np.sin(flight_path_angle)
     aero = n_w * out[:, :, cycle.W_P_AERO]
     inertial = n_w * out[:, :, cycle.W_P_INER]
     if options.power == "absolute":
@@ -323,6 +376,7 @@ def _performance(
         fore_inflow=out[:, 0, cycle.W_INFLOW],
         hind_inflow=out[:, 1, cycle.W_INFLOW],
         speed=speed,
+        flight_path_angle=flight_path_angle,
         available_power=available_power,
         options=options,
         planform=insect.planform,
@@ -362,6 +416,7 @@ def evaluate(
     speed: float | np.ndarray = 0.0,
     available_power: float | np.ndarray | None = None,
     *,
+    flight_path_angle: float | np.ndarray = 0.0,
     insect: Dragonfly = DRAGONFLY,
     options: ModelOptions = DEFAULT_OPTIONS,
 ) -> Result:
@@ -372,10 +427,15 @@ def evaluate(
     strokes : (B, 28) or (28,) array
         Physical strokes in Table 4 units (Hz, deg, -), fore-wing first; see ``stroke``.
     speed : float or (B,) array
-        Flight speed V [m/s], 0 to 20.
+        Flight speed V [m/s], 0 to 20, along the flight path.
     available_power : float or (B,) array, optional
         Available power per body mass [W/kg], the cap of the power constraint in both flight
         modes; default the insect's maximum (60 % muscle × 150 W/kg = 90 W/kg).
+    flight_path_angle : float or (B,) array
+        Flight-path angle γ [rad], + climbing, −π/2 to π/2: the free stream comes from the
+        direction of the body's velocity V·(cos γ, sin γ). The stroke-plane angle stays measured
+        from the horizontal and every force is reported in earth axes (L vertical, T and D
+        horizontal). The default 0 is level flight.
     insect : Dragonfly
         The insect (wings, planform, masses, air); default the paper's specimen.
     options : ModelOptions
@@ -401,9 +461,10 @@ def evaluate(
     p_avail = _broadcast_condition(
         available_power, batch, "available_power", "W/kg", 1e-3, 1e4, insect.max_power_per_mass
     )
+    gamma = _flight_path(flight_path_angle, batch)
     angles, weights, frequency, beta, sweep = _parametric_inputs(physical, options.n_time)
-    out, _, _ = _run_kernel(angles, weights, frequency, beta, sweep, v, insect, options)
-    return _performance(out, v, p_avail, insect, options)
+    out, _, _ = run_kernel(angles, weights, frequency, beta, sweep, v, gamma, insect, options)
+    return _performance(out, v, gamma, p_avail, insect, options)
 
 
 @dataclass(frozen=True)
@@ -423,7 +484,7 @@ class MeasuredWing:
     frequency: float
     """Wing-beat frequency f [Hz]."""
     stroke_plane_angle: float
-    """β [rad], from the flight path (add the climb angle when climbing)."""
+    """β [rad], from the horizontal (give the climb as ``flight_path_angle``)."""
 
     def __post_init__(self) -> None:
         arrays = [np.asarray(a, dtype=float) for a in (self.sweep, self.elevation, self.pitch)]
@@ -458,6 +519,7 @@ def evaluate_measured(
     speed: float = 0.0,
     available_power: float | None = None,
     *,
+    flight_path_angle: float = 0.0,
     insect: Dragonfly = DRAGONFLY,
     options: ModelOptions = DEFAULT_OPTIONS,
 ) -> Result:
@@ -465,6 +527,8 @@ def evaluate_measured(
 
     Derivatives are spectral (the series are periodic), and the cycle is sampled as given
     (``options.n_time`` is not used); both wings must have the same number of samples.
+    ``speed`` [m/s] and ``flight_path_angle`` γ [rad, + climbing] as in :func:`evaluate`: forces
+    come out in earth axes.
     """
     if fore.sweep.shape != hind.sweep.shape:
         raise ValueError(
@@ -487,5 +551,6 @@ def evaluate_measured(
     p_avail = _broadcast_condition(
         available_power, 1, "available_power", "W/kg", 1e-3, 1e4, insect.max_power_per_mass
     )
-    out, _, _ = _run_kernel(angles, weights, frequency, beta, sweep, v, insect, options)
-    return _performance(out, v, p_avail, insect, options)
+    gamma = _flight_path(flight_path_angle, 1)
+    out, _, _ = run_kernel(angles, weights, frequency, beta, sweep, v, gamma, insect, options)
+    return _performance(out, v, gamma, p_avail, insect, options)
