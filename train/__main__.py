@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from agents.keyvalue import parse_pairs
 from train.config import ALGOS, TrainConfig
@@ -34,7 +35,7 @@ one and the run says so.
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="python -m train",
+        prog="tandem-train" if Path(sys.argv[0]).name == "tandem-train" else "python -m train",
         description="Train PPO or SAC (Stable-Baselines3) on a TandemWing env through the batched vector env.",
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,

@@ -130,7 +130,9 @@ def evaluate_envelope(
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m train.envelope",
+        prog="tandem-envelope"
+        if Path(sys.argv[0]).name == "tandem-envelope"
+        else "python -m train.envelope",
         description="Evaluate one trained policy at every sweep condition through the harness.",
     )
     parser.add_argument("--run", required=True, help="run folder written by python -m train")
