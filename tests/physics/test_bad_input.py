@@ -167,3 +167,44 @@ def test_numpy_integers_where_an_int_is_expected() -> None:
     assert type(insect.wings_per_pair) is int
     history = te.stroke_history(STROKE, 1.0, n_samples=np.int64(16))
     assert history.fore.time.shape == (16,)
+
+
+# --- the harness's condition -----------------------------------------------------------------
+@pytest.mark.parametrize("condition", ["1.5", True, None, 1.5 + 0j])
+def test_harness_condition_that_is_not_a_number(condition) -> None:
+    from agents.tasks import get_task
+
+    with pytest.raises(
+        ValueError, match=r"^level: condition speed = .*; allowed: a number \[m/s\]"
+    ):
+        get_task("level").condition(condition)
+
+
+def test_harness_condition_accepts_numpy_numbers() -> None:
+    from agents.tasks import get_task
+
+    for value in (np.int64(1), np.float32(1.5), 1):
+        assert type(get_task("level").condition(value).value) is float
+
+
+def test_training_settings_accept_numpy_integers() -> None:
+    from train.config import TrainConfig
+    from train.policies import TrainingMethod
+
+    config = TrainConfig(
+        algo="ppo",
+        env_id=LEVEL,
+        n_timesteps=np.int64(100),
+        n_envs=np.int32(4),
+        seed=np.int64(3),
+        eval_freq=np.int64(0),
+        save_freq=np.int16(64),
+        log_interval=np.int64(2),
+    )
+    assert (config.n_timesteps, config.n_envs, config.seed, config.save_freq) == (100, 4, 3, 64)
+    assert all(type(v) is int for v in (config.seed, config.eval_freq, config.log_interval))
+    assert TrainingMethod("ppo", n_envs=np.int64(8)).n_envs == 8
+    with pytest.raises(ValueError, match=r"^seed = True; allowed: an integer >= 0"):
+        TrainConfig(algo="ppo", env_id=LEVEL, seed=True)
+    with pytest.raises(ValueError, match=r"^n_timesteps = '100'; allowed: an integer >= 1"):
+        TrainConfig(algo="ppo", env_id=LEVEL, n_timesteps="100")
