@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import blade, cycle
+from .checks import is_integer
 from .insect import DRAGONFLY, Dragonfly
 from .kinematics import fill_angles, wing_params_radians
 from .model import (
@@ -101,8 +102,9 @@ def stroke_history(
     physical = validate_physical(stroke)
     if physical.shape[0] != 1:
         raise ValueError(f"stroke_history takes one stroke of shape (28,); got {np.shape(stroke)}")
-    if not isinstance(n_samples, int) or n_samples < 8:
+    if not is_integer(n_samples) or n_samples < 8:
         raise ValueError(f"n_samples = {n_samples!r}; allowed: an integer >= 8")
+    n_samples = int(n_samples)
     if side not in (1, -1):
         raise ValueError(f"side = {side!r}; allowed: 1 (right wings) or -1 (left wings)")
     angles, weights, frequency, beta, sweep = (
