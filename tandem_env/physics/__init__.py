@@ -11,7 +11,17 @@ if "NUMBA_THREADING_LAYER" not in _os.environ:
     _numba.config.THREADING_LAYER = "workqueue"
 
 from .insect import DRAGONFLY, PLANFORMS, Dragonfly, Wing
-from .model import METRIC_NAMES, MeasuredWing, Result, evaluate, evaluate_measured
+from .model import (
+    AVAILABLE_POWER_LIMITS,
+    MAX_FLIGHT_PATH_ANGLE,
+    METRIC_NAMES,
+    SPEED_LIMITS,
+    MeasuredWing,
+    Result,
+    evaluate,
+    evaluate_measured,
+    validate_conditions,
+)
 from .options import ModelOptions
 from .stroke import (
     LOWER,
@@ -29,13 +39,16 @@ from .stroke import (
 )
 
 __all__ = [
+    "AVAILABLE_POWER_LIMITS",
     "DRAGONFLY",
     "LOWER",
+    "MAX_FLIGHT_PATH_ANGLE",
     "METRIC_NAMES",
     "N_PARAMETERS",
     "PARAMETER_NAMES",
     "PARAMETER_UNITS",
     "PLANFORMS",
+    "SPEED_LIMITS",
     "TABLE_4",
     "UPPER",
     "Dragonfly",
@@ -50,6 +63,7 @@ __all__ = [
     "normalised_to_physical",
     "physical_to_normalised",
     "strokes_to_dicts",
+    "validate_conditions",
     "validate_physical",
 ]
 

@@ -18,10 +18,10 @@ from .kinematics import fill_angles, wing_params_radians
 from .model import (
     DEFAULT_OPTIONS,
     Result,
-    _flight_path,
     evaluate,
     freestream_components,
     run_kernel,
+    validate_conditions,
     wing_tables,
 )
 from .options import ModelOptions
@@ -107,6 +107,7 @@ def stroke_history(
     n_samples = int(n_samples)
     if side not in (1, -1):
         raise ValueError(f"side = {side!r}; allowed: 1 (right wings) or -1 (left wings)")
+    v, p_avail, gamma = validate_conditions(speed, available_power, flight_path_angle, 1, insect)
     angles, weights, frequency, beta, sweep = (
         [],
         [],
@@ -127,15 +128,6 @@ def stroke_history(
         frequency[0, w] = params[0, 0]
         beta[0, w] = params[0, 13]
         sweep[0, w] = params[0, 1]
-    v = np.array([float(speed)])
-    if not (np.isfinite(v[0]) and 0.0 <= v[0] <= 20.0):
-        raise ValueError(f"speed = {speed!r} m/s; allowed: 0 to 20 m/s")
-    p_avail = np.array(
-        [insect.max_power_per_mass if available_power is None else float(available_power)]
-    )
-    if not (np.isfinite(p_avail[0]) and p_avail[0] > 0.0):
-        raise ValueError(f"available_power = {available_power!r} W/kg; allowed: finite and > 0")
-    gamma = _flight_path(flight_path_angle, 1)
     freestream = freestream_components(v, beta, gamma)
     out, inflow, hist = run_kernel(
         angles, weights, frequency, beta, sweep, v, gamma, insect, options, keep_history=True
