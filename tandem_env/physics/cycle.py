@@ -251,7 +251,7 @@ def wing_cycle(
         else:
             normal_force_sweep(
                 frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
-                False, samples,
+                samples,
             )  # fmt: skip
         out_inflow[j] = v_induced
         area += chord * width

@@ -9,17 +9,18 @@ momentum relation on the swept sector dA = N_w·2φ_m·r·dr:
 wing, h(v) = F̄_n(v) − m(v) = 0 with m(v) = 4ρφ_m·r·v·sqrt(V_t² + (V_n' + v)²), and v_i = 0
 where F̄_n(0) ≤ 0.
 
-A plain damped fixed point diverges near the root (MODEL.md §5). Each force sweep over the
-cycle (:func:`normal_force_sweep`) returns F̄_n and its exact slope dF̄_n/dv, accumulated in the
-same time loop, so each annulus is solved by safeguarded Newton on the force alone: the momentum
-side m(v) is known exactly, so only F̄_n is modelled (by its tangent, plus the curvature read
-from the last two slopes) and the model is solved exactly against m(v) (cheap scalar Newton, no
-force sweep). A bracket [lo, hi] with h(lo) > 0 ≥ h(hi) is kept throughout; a step that leaves
-it, or a sweep that fails to halve |h|, is replaced by bisection. The solve starts at v = 0 (the
-sweep that decides v_i = 0 where F̄_n(0) ≤ 0) and typically needs 3 force sweeps where it has
-to solve. The sweep also keeps each sample's element force and relative velocity, and the
-solver always ends on a swept point, so the cycle integrals reuse the last sweep instead of
-recomputing the forces (``cycle.wing_cycle``).
+A plain damped fixed point diverges near the root (MODEL.md §5). Each annulus is solved by
+safeguarded Newton on the force alone. A force sweep over the cycle (:func:`normal_force_sweep`)
+gives F̄_n(v) and keeps every sample's element force and relative velocity; from those,
+:func:`normal_force_slope` gives the exact slope dF̄_n/dv without recomputing a force. The
+momentum side m(v) is known exactly, so each step solves a model of F̄_n exactly against m(v)
+(cheap scalar Newton, no force sweep): the tangent, bent by the curvature of the last two
+slopes, until the root is bracketed; then the cubic Hermite interpolant on the bracket
+[lo, hi], h(lo) > 0 ≥ h(hi), whose root always lies inside it. A bracketed step that does not
+shrink fast enough is replaced by bisection. The solve starts with the sweep at v = 0 (which
+decides v_i = 0 where F̄_n(0) ≤ 0) and typically needs 3 sweeps where it has to solve. It
+always ends on a swept point, so the cycle integrals reuse that sweep's element forces instead
+of recomputing them (``cycle.wing_cycle``).
 """
 
 from __future__ import annotations
@@ -72,13 +73,13 @@ def normal_force_rate(u, v, a, b, c, d, spin, chord, m11, m22, rho, ct, cd0, cd9
 
 @njit(cache=True)
 def normal_force_sweep(
-    coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, slope, samples
+    coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, samples
 ):
-    """One sweep over the cycle: F̄_n [N/m] and, if ``slope``, dF̄_n/dv_n [N·s/m²] (else 0).
+    """One force sweep over the cycle at normal inflow ``v_normal``: F̄_n [N/m].
 
-    Leaves each sample's (F_c, F_n, u, v) in ``samples`` (N_SAMPLE, n_time). The element loops
-    hold no running sum, so the compiler vectorises them (with ``coef`` in Fortran order, each
-    column contiguous); the means are then summed in sample order.
+    Leaves each sample's (F_c, F_n, u, v) in ``samples`` (N_SAMPLE, n_time). The element loop
+    holds no running sum, so the compiler vectorises it (with ``coef`` in Fortran order, each
+    column contiguous); the mean is then summed in sample order.
     """
     n = coef.shape[0]
     for k in range(n):
@@ -95,14 +96,13 @@ def normal_force_sweep(
         total += (samples[S_FC, k] * coef[k, C_ECZ] + samples[S_FN, k] * coef[k, C_ENZ]) * coef[
             k, C_WEIGHT
         ]
-    if not slope:
-        return total / n, 0.0
-    return total / n, normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples)
+    return total / n
 
 
 @njit(cache=True)
 def normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples):
-    """dF̄_n/dv_n [N·s/m²] at the inflow of the sweep that left ``samples``."""
+    """dF̄_n/dv_n [N·s/m²] at the inflow of the sweep that left ``samples`` (from its stored
+    relative velocities: no element force is recomputed)."""
     n = coef.shape[0]
     for k in range(n):
         samples[S_RATE, k] = coef[k, C_WEIGHT] * normal_force_rate(
@@ -119,10 +119,9 @@ def normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples):
 def mean_normal_force(coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal):
     """Cycle-mean aerodynamic force per unit span along the stroke-plane normal [N/m]."""
     samples = np.empty((N_SAMPLE, coef.shape[0]))
-    force, _ = normal_force_sweep(
-        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, False, samples
+    return normal_force_sweep(
+        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, samples
     )
-    return force
 
 
 @njit(cache=True)
@@ -220,9 +219,7 @@ def solve_annulus_samples(
     vt = v_tangential
     vn0 = v_normal0
     k_area = 4.0 * rho * sweep_amplitude * r
-    f0, _ = normal_force_sweep(
-        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0, False, samples
-    )
+    f0 = normal_force_sweep(coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0, samples)
     if f0 <= 0.0 or k_area <= 0.0:
         return 0.0, 1, True
     s0 = normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples)
@@ -262,20 +259,20 @@ def solve_annulus_samples(
             step_before = step_last
             step_last = abs(v_new - v)
             v = v_new
-        fv, sv = normal_force_sweep(
-            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0 + v, True, samples
+        fv = normal_force_sweep(
+            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0 + v, samples
         )
         evaluations += 1
         hv = fv - _momentum(v, k_area, vt, vn0)[0]
-        if abs(hv) <= f_tol:
+        if abs(hv) <= f_tol or (hi - v if hv > 0.0 else v - lo) <= x_tol:
             return v, evaluations, True
+        # the slope only where the next step needs it: not at the sweep that converges
+        sv = normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples)
         if hv > 0.0:
             curvature = (sv - s_lo) / (v - lo)
             lo, f_lo, s_lo = v, fv, sv
         else:
             hi, f_hi, s_hi = v, fv, sv
-        if hi - lo <= x_tol:
-            return v, evaluations, True
     return v, evaluations, False
 
 

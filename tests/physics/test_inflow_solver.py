@@ -45,7 +45,11 @@ def test_slope_of_the_mean_normal_force_matches_finite_differences() -> None:
         coef, _ = fore_wing_frames(stroke)
         for annulus in annuli():
             for v_t, v_n in ((0.0, 0.0), (0.8, 0.3), (1.9, 1.4)):
-                _, slope = induction.normal_force_sweep(coef, *annulus, v_t, v_n, True, samples)
+                induction.normal_force_sweep(coef, *annulus, v_t, v_n, samples)
+                _, chord, m11, m22, rho, ct, cd0, cd90, _ = annulus
+                slope = induction.normal_force_slope(
+                    coef, chord, m11, m22, rho, ct, cd0, cd90, samples
+                )
                 # a step small against the element's speeds (they vanish at the root in hover)
                 flapping = annulus[0] * np.abs(coef[:, [blade.C_AU, blade.C_AV]]).max()
                 step = 1e-4 * max(flapping, v_t, v_n)
