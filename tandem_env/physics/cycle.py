@@ -1,9 +1,10 @@
 """One wing-beat cycle of a batch of tandem strokes (Eqs. 16-19), compiled and parallel.
 
 For each stroke, the fore-wing is solved first (its momentum inflow per annulus), then the
-hind-wing in the fore-wing's slipstream (MODEL.md §5). The final pass over each wing integrates
-the element forces over the span, rotates them to earth axes (Eq. 16) and forms the cycle means
-of force (Eq. 17) and power (Eqs. 18-19, as MODEL.md §6 decides).
+hind-wing in the fore-wing's slipstream (MODEL.md §5). Annulus by annulus, the element forces
+at the solved inflow (the inflow solver's last force sweep, reused rather than recomputed) are
+integrated over the span per sample; the span integrals are then rotated to earth axes (Eq. 16)
+and averaged over the cycle into force (Eq. 17) and power (Eqs. 18-19, as MODEL.md §6 decides).
 
 Quadrature: the cycle is sampled on the motion-following grid of ``kinematics``; smooth
 integrands use the periodic trapezoid rule (spectrally accurate), and the positive parts and
