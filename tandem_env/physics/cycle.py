@@ -1,9 +1,10 @@
 """One wing-beat cycle of a batch of tandem strokes (Eqs. 16-19), compiled and parallel.
 
 For each stroke, the fore-wing is solved first (its momentum inflow per annulus), then the
-hind-wing in the fore-wing's slipstream (docs/model.md §5). The final pass over each wing integrates
-the element forces over the span, rotates them to earth axes (Eq. 16) and forms the cycle means
-of force (Eq. 17) and power (Eqs. 18-19, as docs/model.md §6 decides).
+hind-wing in the fore-wing's slipstream (docs/model.md §5). Annulus by annulus, the element forces
+at the solved inflow (the inflow solver's last force sweep, reused rather than recomputed) are
+integrated over the span per sample; the span integrals are then rotated to earth axes (Eq. 16)
+and averaged over the cycle into force (Eq. 17) and power (Eqs. 18-19, as docs/model.md §6 decides).
 
 Quadrature: the cycle is sampled on the motion-following grid of ``kinematics``; smooth
 integrands use the periodic trapezoid rule (spectrally accurate), and the positive parts and
@@ -33,12 +34,10 @@ from .blade import (
     C_WEIGHT,
     N_COEF,
     acute_angle,
-    element_force,
     element_moment,
     fill_frame_coefficients,
-    relative_velocity,
 )
-from .induction import solve_annulus
+from .induction import N_SAMPLE, S_FC, S_FN, S_U, S_V, normal_force_sweep, solve_annulus_samples
 from .kinematics import fill_angle_history
 
 # Blade-element node table columns.
@@ -220,106 +219,101 @@ def wing_cycle(
     mu2 = consts[K_MU2]
     converged = True
     max_evals = 0
-    aoa = 0.0
     area = 0.0
     inflow_mean = 0.0
-    v_nodes = np.empty(n_r)
+    # Per sample: span integrals of the chordwise and chord-normal force [N], P_aero [W] and
+    # the chord-weighted acute angle of attack, summed annulus by annulus.
+    span = np.zeros((4, n_time))
+    samples = np.empty((N_SAMPLE, n_time))
+    # the frame coefficients in Fortran order (each column contiguous), so that the loops over
+    # samples here and in the inflow solve vectorise
+    coef_by_column = np.empty((N_COEF, n_time))
+    for k in range(n_time):
+        for c in range(N_COEF):
+            coef_by_column[c, k] = coef[k, c]
+    frame = coef_by_column.T
     for j in range(n_r):
+        r = nodes[j, N_R]
+        chord = nodes[j, N_CHORD]
+        width = nodes[j, N_WIDTH]
+        m11 = nodes[j, N_M11]
+        m22 = nodes[j, N_M22]
         v_upstream = v_normal + v_external[j]
         v_induced = 0.0
+        # Either way ``samples`` ends up holding the element forces at the annulus's final
+        # inflow: the solver ends on a swept point, so its last sweep is reused, not redone.
         if solve_inflow:
-            v_induced, evals, ok = solve_annulus(
-                coef,
-                nodes[j, N_R],
-                nodes[j, N_CHORD],
-                nodes[j, N_M11],
-                nodes[j, N_M22],
-                rho,
-                ct,
-                cd0,
-                cd90,
-                cr,
-                v_tangential,
-                v_upstream,
-                sweep_amplitude,
-                tolerance,
-                max_evaluations,
-            )
+            v_induced, evals, ok = solve_annulus_samples(
+                frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
+                sweep_amplitude, tolerance, max_evaluations, samples,
+            )  # fmt: skip
             converged = converged and ok
             max_evals = max(max_evals, evals)
+        else:
+            normal_force_sweep(
+                frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
+                samples,
+            )  # fmt: skip
         out_inflow[j] = v_induced
-        v_nodes[j] = v_upstream + v_induced
-        area += nodes[j, N_CHORD] * nodes[j, N_WIDTH]
-        inflow_mean += nodes[j, N_CHORD] * nodes[j, N_WIDTH] * v_induced
-    # Final pass, time outermost so that each sample's span integral accumulates in registers.
-    for k in range(n_time):
-        spin = coef[k, C_SPIN]
-        dspin = coef[k, C_DSPIN]
-        span_fc = 0.0  # span integrals of the chordwise and chord-normal force [N]
-        span_fn = 0.0
-        p_aero = 0.0
-        aoa_k = 0.0
-        for j in range(n_r):
-            r = nodes[j, N_R]
-            chord = nodes[j, N_CHORD]
-            width = nodes[j, N_WIDTH]
-            m11 = nodes[j, N_M11]
-            m22 = nodes[j, N_M22]
-            u, v, du, dv = relative_velocity(coef, k, r, v_tangential, v_nodes[j])
-            fc, fn = element_force(u, v, du, dv, spin, chord, m11, m22, rho, ct, cd0, cd90, cr)
+        area += chord * width
+        inflow_mean += chord * width * v_induced
+        for k in range(n_time):
+            spin = frame[k, C_SPIN]
+            fc = samples[S_FC, k]
+            fn = samples[S_FN, k]
+            u = samples[S_U, k]
+            v = samples[S_V, k]
             moment = element_moment(
-                u,
-                v,
-                spin,
-                dspin,
-                m11,
-                m22,
-                nodes[j, N_IA],
-                nodes[j, N_DAMP],
-                frequency,
-                mu1,
-                mu2,
-            )
-            span_fc += width * fc
-            span_fn += width * fn
+                u, v, spin, frame[k, C_DSPIN], m11, m22, nodes[j, N_IA], nodes[j, N_DAMP],
+                frequency, mu1, mu2,
+            )  # fmt: skip
+            span[0, k] += width * fc
+            span[1, k] += width * fn
             # power delivered to the air: −(force on wing)·(flapping velocity r·ė_s) − M·Ω
-            p_aero -= width * (r * (fc * coef[k, C_AU] + fn * coef[k, C_AV]) + moment * spin)
-            aoa_k += chord * width * acute_angle(u, v)
-        histories[k, 0] = span_fc * coef[k, C_ECXE] + span_fn * coef[k, C_ENXE]
-        histories[k, 1] = span_fc * coef[k, C_ECZE] + span_fn * coef[k, C_ENZE]
-        histories[k, 2] = span_fc * coef[k, C_ECY] + span_fn * coef[k, C_ENY]
-        histories[k, 3] = p_aero
+            span[2, k] -= width * (r * (fc * frame[k, C_AU] + fn * frame[k, C_AV]) + moment * spin)
+            span[3, k] += chord * width * acute_angle(u, v)
+    aoa = 0.0
+    for k in range(n_time):
+        span_fc = span[0, k]
+        span_fn = span[1, k]
+        histories[k, 0] = span_fc * frame[k, C_ECXE] + span_fn * frame[k, C_ENXE]
+        histories[k, 1] = span_fc * frame[k, C_ECZE] + span_fn * frame[k, C_ENZE]
+        histories[k, 2] = span_fc * frame[k, C_ECY] + span_fn * frame[k, C_ENY]
+        histories[k, 3] = span[2, k]
         # d/dt of the wing's kinetic energy: flapping of the pitch axis plus rotation about it
-        histories[k, 4] = consts[K_I_SPAN] * coef[k, C_KIN] + consts[K_I_PITCH] * spin * dspin
-        aoa += aoa_k * coef[k, C_WEIGHT]
+        histories[k, 4] = (
+            consts[K_I_SPAN] * frame[k, C_KIN]
+            + consts[K_I_PITCH] * frame[k, C_SPIN] * frame[k, C_DSPIN]
+        )
+        aoa += span[3, k] * frame[k, C_WEIGHT]
     g = np.empty(n_time)
     fx = 0.0
     fz = 0.0
     for k in range(n_time):
-        w = coef[k, C_WEIGHT]
+        w = frame[k, C_WEIGHT]
         fx += histories[k, 0] * w
         fz += histories[k, 1] * w
     out[W_FX] = fx / n_time
     out[W_FZ] = fz / n_time
     # T = mean F_x⁺, D = mean F_x⁻ = T − mean F_x; mean|P| = 2·mean P⁺ − mean P
     for k in range(n_time):
-        g[k] = histories[k, 0] * coef[k, C_WEIGHT]
+        g[k] = histories[k, 0] * frame[k, C_WEIGHT]
     out[W_THRUST] = mean_positive_part(g, cos_table, sin_table)
     out[W_DRAG] = max(out[W_THRUST] - out[W_FX], 0.0)
     mean_aero = 0.0
     mean_iner = 0.0
     for k in range(n_time):
-        g[k] = histories[k, 3] * coef[k, C_WEIGHT]
+        g[k] = histories[k, 3] * frame[k, C_WEIGHT]
         mean_aero += g[k]
     mean_aero /= n_time
     out[W_P_AERO] = max(2.0 * mean_positive_part(g, cos_table, sin_table) - mean_aero, 0.0)
     for k in range(n_time):
-        g[k] = histories[k, 4] * coef[k, C_WEIGHT]
+        g[k] = histories[k, 4] * frame[k, C_WEIGHT]
         mean_iner += g[k]
     mean_iner /= n_time
     out[W_P_INER] = max(2.0 * mean_positive_part(g, cos_table, sin_table) - mean_iner, 0.0)
     for k in range(n_time):
-        g[k] = (histories[k, 3] + histories[k, 4]) * coef[k, C_WEIGHT]
+        g[k] = (histories[k, 3] + histories[k, 4]) * frame[k, C_WEIGHT]
     out[W_P_ELASTIC] = mean_positive_part(g, cos_table, sin_table)
     out[W_AOA] = aoa / (area * n_time) if area > 0.0 else 0.0
     out[W_CONVERGED] = 1.0 if converged else 0.0

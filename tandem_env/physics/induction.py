@@ -6,14 +6,21 @@ momentum relation on the swept sector dA = N_w·2φ_m·r·dr:
     N_w·F̄_n(r, v_i)·dr = 2ρ·dA·v_i·sqrt(V_t² + (V_n' + v_i)²)
 
 (V_n' = V_n for the fore-wing and V_n + C_hf·v_i,fore for the hind-wing). Per unit span and
-wing, h(v) = F̄_n(v) − 4ρφ_m·r·v·sqrt(V_t² + (V_n' + v)²) = 0, with v_i = 0 where F̄_n(0) ≤ 0.
+wing, h(v) = F̄_n(v) − m(v) = 0 with m(v) = 4ρφ_m·r·v·sqrt(V_t² + (V_n' + v)²), and v_i = 0
+where F̄_n(0) ≤ 0.
 
-A plain damped fixed point diverges near the root (docs/model.md §5), so each annulus is solved by
-a bracketed secant on the force alone: the momentum side m(v) is known exactly, so we model only
-F̄_n(v) (nearly linear in v) by the secant through its last two evaluations and solve
-F_model(v) = m(v) exactly (cheap scalar Newton), falling back to bisection whenever the step
-leaves the bracket. It starts from the hover estimate m(v) = F̄_n(0) and typically needs 3-4
-force evaluations (each a sweep over the cycle) to reach the tolerance.
+A plain damped fixed point diverges near the root (docs/model.md §5). Each annulus is solved by
+safeguarded Newton on the force alone. A force sweep over the cycle (:func:`normal_force_sweep`)
+gives F̄_n(v) and keeps every sample's element force and relative velocity; from those,
+:func:`normal_force_slope` gives the exact slope dF̄_n/dv without recomputing a force. The
+momentum side m(v) is known exactly, so each step solves a model of F̄_n exactly against m(v)
+(cheap scalar Newton, no force sweep): the tangent, bent by the curvature of the last two
+slopes, until the root is bracketed; then the cubic Hermite interpolant on the bracket
+[lo, hi], h(lo) > 0 ≥ h(hi), whose root always lies inside it. A bracketed step that does not
+shrink fast enough is replaced by bisection. The solve starts with the sweep at v = 0 (which
+decides v_i = 0 where F̄_n(0) ≤ 0) and typically needs 3 sweeps where it has to solve. It
+always ends on a swept point, so the cycle integrals reuse that sweep's element forces instead
+of recomputing them (``cycle.wing_cycle``).
 """
 
 from __future__ import annotations
@@ -21,21 +28,100 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .blade import C_ECZ, C_ENZ, C_SPIN, C_WEIGHT, element_force, relative_velocity
+from .blade import C_DECZ, C_DENZ, C_ECZ, C_ENZ, C_SPIN, C_WEIGHT, element_force, relative_velocity
+
+#: Rows of the per-sample record a force sweep leaves, (N_SAMPLE, n_time): element force
+#: (F_c, F_n) [N/m] and relative velocity (u, v) [m/s] at the swept inflow, and scratch for the
+#: slope of each sample's normal force.
+S_FC = 0
+S_FN = 1
+S_U = 2
+S_V = 3
+S_RATE = 4
+N_SAMPLE = 5
 
 
 @njit(cache=True)
-def mean_normal_force(coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal):
-    """Cycle-mean aerodynamic force per unit span along the stroke-plane normal [N/m]."""
+def normal_force_rate(u, v, a, b, c, d, spin, chord, m11, m22, rho, ct, cd0, cd90):
+    """d/dv_n of the element's force along the stroke-plane normal, F_c·a + F_n·b [N·s/m²].
+
+    The derivative of :func:`blade.element_force` (Eqs. 11-14) along the direction in which a
+    change of the normal inflow v_n moves the element's state: (u, v, u̇, v̇) change at the rates
+    (a, b, c, d) = (e_c·z_s, e_n·z_s, ė_c·z_s, ė_n·z_s). With U = (u, v), n = (a, b),
+    p = U·n and q = U⊥·n (U⊥ = (−v, u), whose rate n⊥ is normal to n), the circulatory term
+    ρΓ·q changes only through Γ and the viscous term −D·p through D and p (rate |n|²); the
+    rotational circulation and the added mass are linear in the state. This must follow
+    ``element_force`` term by term (tests/physics/test_inflow_solver.py checks it against finite
+    differences of the sweep); a wrong slope would only slow the solve, never change its result.
+    """
+    rate = (m22 - m11) * a * b * spin - m11 * a * c - m22 * b * d
+    speed2 = u * u + v * v
+    if speed2 > 0.0:
+        inv = 1.0 / np.sqrt(speed2)
+        along = u * a + v * b  # p
+        across = u * b - v * a  # q
+        dspeed = along * inv  # d|U|/dv_n
+        uv = u * v * inv
+        # Γ_t = −C_t·c·uv/|U|, D = ½ρc·(C_d0·u² + C_d90·v²)/|U|
+        duv = (a * v + u * b - uv * dspeed) * inv
+        k = 0.5 * rho * chord
+        drag = k * (cd0 * u * u + cd90 * v * v) * inv
+        ddrag = (2.0 * k * (cd0 * u * a + cd90 * v * b) - drag * dspeed) * inv
+        rate -= rho * ct * chord * duv * across + ddrag * along + drag * (a * a + b * b)
+    return rate
+
+
+@njit(cache=True)
+def normal_force_sweep(
+    coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, samples
+):
+    """One force sweep over the cycle at normal inflow ``v_normal``: F̄_n [N/m].
+
+    Leaves each sample's (F_c, F_n, u, v) in ``samples`` (N_SAMPLE, n_time). The element loop
+    holds no running sum, so the compiler vectorises it (with ``coef`` in Fortran order, each
+    column contiguous); the mean is then summed in sample order.
+    """
     n = coef.shape[0]
-    total = 0.0
     for k in range(n):
         u, v, du, dv = relative_velocity(coef, k, r, v_tangential, v_normal)
         fc, fn = element_force(
             u, v, du, dv, coef[k, C_SPIN], chord, m11, m22, rho, ct, cd0, cd90, cr
         )
-        total += (fc * coef[k, C_ECZ] + fn * coef[k, C_ENZ]) * coef[k, C_WEIGHT]
+        samples[S_FC, k] = fc
+        samples[S_FN, k] = fn
+        samples[S_U, k] = u
+        samples[S_V, k] = v
+    total = 0.0
+    for k in range(n):
+        total += (samples[S_FC, k] * coef[k, C_ECZ] + samples[S_FN, k] * coef[k, C_ENZ]) * coef[
+            k, C_WEIGHT
+        ]
     return total / n
+
+
+@njit(cache=True)
+def normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples):
+    """dF̄_n/dv_n [N·s/m²] at the inflow of the sweep that left ``samples`` (from its stored
+    relative velocities: no element force is recomputed)."""
+    n = coef.shape[0]
+    for k in range(n):
+        samples[S_RATE, k] = coef[k, C_WEIGHT] * normal_force_rate(
+            samples[S_U, k], samples[S_V, k], coef[k, C_ECZ], coef[k, C_ENZ], coef[k, C_DECZ],
+            coef[k, C_DENZ], coef[k, C_SPIN], chord, m11, m22, rho, ct, cd0, cd90,
+        )  # fmt: skip
+    rate = 0.0
+    for k in range(n):
+        rate += samples[S_RATE, k]
+    return rate / n
+
+
+@njit(cache=True)
+def mean_normal_force(coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal):
+    """Cycle-mean aerodynamic force per unit span along the stroke-plane normal [N/m]."""
+    samples = np.empty((N_SAMPLE, coef.shape[0]))
+    return normal_force_sweep(
+        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, samples
+    )
 
 
 @njit(cache=True)
@@ -49,19 +135,28 @@ def _momentum(v, k_area, v_tangential, v_normal0):
 
 
 @njit(cache=True)
-def _solve_model(f1, slope, x1, k_area, vt, vn0, lo, hi):
-    """Root of F1 + slope·(v − x1) − m(v) in [lo, hi] by safeguarded Newton (no force calls)."""
+def _model_residual(v, x0, c0, c1, c2, c3, k_area, vt, vn0):
+    """Force model c0 + c1·d + c2·d² + c3·d³ (d = v − x0) minus m(v), and its derivative."""
+    d = v - x0
+    m, dm = _momentum(v, k_area, vt, vn0)
+    return c0 + d * (c1 + d * (c2 + d * c3)) - m, c1 + d * (2.0 * c2 + 3.0 * d * c3) - dm
+
+
+@njit(cache=True)
+def _solve_model(x0, c0, c1, c2, c3, k_area, vt, vn0, lo, hi):
+    """Root of the force model minus m(v) in [lo, hi] by safeguarded Newton (no force sweeps).
+
+    The residual must be positive at lo and non-positive at hi.
+    """
     v = 0.5 * (lo + hi)
     a = lo
     b = hi
     for _ in range(60):
-        m, dm = _momentum(v, k_area, vt, vn0)
-        q = f1 + slope * (v - x1) - m
+        q, dq = _model_residual(v, x0, c0, c1, c2, c3, k_area, vt, vn0)
         if q > 0.0:
             a = v
         else:
             b = v
-        dq = slope - dm
         step_ok = dq != 0.0
         if step_ok:
             v_new = v - q / dq
@@ -72,6 +167,113 @@ def _solve_model(f1, slope, x1, k_area, vt, vn0, lo, hi):
             return v_new
         v = v_new
     return v
+
+
+@njit(cache=True)
+def _search_upwards(x0, c0, c1, c2, c3, k_area, vt, vn0, lo, start):
+    """Root of the model minus m(v) above lo, bracketed by doubling from ``start``; −1 if the
+    model has no sign change there."""
+    if _model_residual(lo, x0, c0, c1, c2, c3, k_area, vt, vn0)[0] <= 0.0:
+        return -1.0
+    a = lo
+    b = max(start, 2.0 * lo, 1e-6)
+    for _ in range(64):
+        if _model_residual(b, x0, c0, c1, c2, c3, k_area, vt, vn0)[0] <= 0.0:
+            return _solve_model(x0, c0, c1, c2, c3, k_area, vt, vn0, a, b)
+        a = b
+        b *= 2.0
+    return -1.0
+
+
+@njit(cache=True)
+def solve_annulus_samples(
+    coef,
+    r,
+    chord,
+    m11,
+    m22,
+    rho,
+    ct,
+    cd0,
+    cd90,
+    cr,
+    v_tangential,
+    v_normal0,
+    sweep_amplitude,
+    tolerance,
+    max_iterations,
+    samples,
+):
+    """Induced velocity v_i [m/s] of one annulus; returns (v_i, force sweeps, converged).
+
+    Converged means |h(v_i)| ≤ tolerance·F̄_n(0) or the bracket is narrower than
+    tolerance·v_hover (v_hover: the inflow at which m alone absorbs F̄_n(0)). ``samples``
+    (N_SAMPLE, n_time) is left holding the sweep at exactly the returned v_i.
+
+    Each step solves a model of F̄_n exactly against m(v): once the root is bracketed, the
+    cubic Hermite interpolant of F̄_n and its slope at the bracket ends (which reproduces the
+    sign change of h, so its root lies inside the bracket); before that, the tangent at the
+    last point bent by the curvature of the last two slopes. A bracketed step longer than half
+    the step before last is replaced by bisection (the safeguard of Numerical Recipes' rtsafe).
+    """
+    vt = v_tangential
+    vn0 = v_normal0
+    k_area = 4.0 * rho * sweep_amplitude * r
+    f0 = normal_force_sweep(coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0, samples)
+    if f0 <= 0.0 or k_area <= 0.0:
+        return 0.0, 1, True
+    s0 = normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples)
+    v_hover = _search_upwards(0.0, f0, 0.0, 0.0, 0.0, k_area, vt, vn0, 0.0, 1.0)
+    f_tol = tolerance * f0
+    x_tol = tolerance * max(v_hover, 1e-9)
+    # bracket h(lo) > 0 >= h(hi), with F̄_n and its slope at both ends; hi unknown at first
+    lo, f_lo, s_lo = 0.0, f0, s0
+    hi, f_hi, s_hi = np.inf, 0.0, 0.0
+    curvature = 0.0  # of F̄_n, from the last two slopes while there is no hi
+    step_last = np.inf  # lengths of the last step and of the one before
+    step_before = np.inf
+    evaluations = 1
+    v = 0.0
+    while evaluations < max_iterations:
+        if hi == np.inf:
+            v = _search_upwards(lo, f_lo, s_lo, 0.5 * curvature, 0.0, k_area, vt, vn0, lo, v_hover)
+            if evaluations == 1 and s_lo > 0.0:
+                # a force that rises with inflow (α > 45° moving towards 45°) must bend down
+                # again beyond the root: its tangent may overshoot far, so trust it only up to
+                # a few hover estimates
+                v = min(v, 4.0 * v_hover) if v > lo else 4.0 * v_hover
+            if not v > lo:
+                v = 2.0 * max(lo, v_hover)  # no sign change in the model: extend the search
+        else:
+            w = hi - lo
+            secant = (f_hi - f_lo) / w
+            c2 = (3.0 * secant - 2.0 * s_lo - s_hi) / w
+            c3 = (s_lo + s_hi - 2.0 * secant) / (w * w)
+            v_model = _solve_model(lo, f_lo, s_lo, c2, c3, k_area, vt, vn0, lo, hi)
+            # steps that stop shrinking (each under half the one before last) mean the model
+            # is poor here: bisect instead
+            if lo < v_model < hi and abs(v_model - v) <= 0.5 * step_before:
+                v_new = v_model
+            else:
+                v_new = 0.5 * (lo + hi)
+            step_before = step_last
+            step_last = abs(v_new - v)
+            v = v_new
+        fv = normal_force_sweep(
+            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0 + v, samples
+        )
+        evaluations += 1
+        hv = fv - _momentum(v, k_area, vt, vn0)[0]
+        if abs(hv) <= f_tol or (hi - v if hv > 0.0 else v - lo) <= x_tol:
+            return v, evaluations, True
+        # the slope only where the next step needs it: not at the sweep that converges
+        sv = normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples)
+        if hv > 0.0:
+            curvature = (sv - s_lo) / (v - lo)
+            lo, f_lo, s_lo = v, fv, sv
+        else:
+            hi, f_hi, s_hi = v, fv, sv
+    return v, evaluations, False
 
 
 @njit(cache=True)
@@ -92,65 +294,12 @@ def solve_annulus(
     tolerance,
     max_iterations,
 ):
-    """Induced velocity v_i [m/s] of one annulus; returns (v_i, force evaluations, converged).
+    """Induced velocity v_i [m/s] of one annulus; returns (v_i, force sweeps, converged).
 
-    Converged means |h(v_i)| ≤ tolerance·F̄_n(0) or the bracket is narrower than
-    tolerance·v_hover.
+    :func:`solve_annulus_samples` without keeping the samples.
     """
-    k_area = 4.0 * rho * sweep_amplitude * r
-    f0 = mean_normal_force(
-        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0
-    )
-    if f0 <= 0.0 or k_area <= 0.0:
-        return 0.0, 1, True
-    # hover estimate: the momentum side alone absorbs F̄_n(0)
-    hi = 1.0
-    while _momentum(hi, k_area, v_tangential, v_normal0)[0] < f0:
-        hi *= 2.0
-    v_hover = _solve_model(f0, 0.0, 0.0, k_area, v_tangential, v_normal0, 0.0, hi)
-    f_tol = tolerance * f0
-    x_tol = tolerance * max(v_hover, 1e-9)
-    lo = 0.0
-    x1, f1 = 0.0, f0
-    x2 = v_hover
-    evaluations = 1
-    f2 = 0.0
-    # establish the bracket [lo, hi]: h(lo) > 0 >= h(hi)
-    while True:
-        f2 = mean_normal_force(
-            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0 + x2
-        )
-        evaluations += 1
-        h2 = f2 - _momentum(x2, k_area, v_tangential, v_normal0)[0]
-        if abs(h2) <= f_tol:
-            return x2, evaluations, True
-        if h2 < 0.0:
-            hi = x2
-            break
-        lo = x2
-        x1, f1 = x2, f2
-        x2 = 2.0 * x2
-        if evaluations >= max_iterations:
-            return x2, evaluations, False
-    width_before = hi - lo
-    while evaluations < max_iterations:
-        slope = (f2 - f1) / (x2 - x1)
-        v = _solve_model(f1, slope, x1, k_area, v_tangential, v_normal0, lo, hi)
-        if hi - lo > 0.5 * width_before:
-            # the secant model keeps landing on one side (regula-falsi stagnation): bisect
-            v = 0.5 * (lo + hi)
-            width_before = hi - lo
-        fv = mean_normal_force(
-            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0 + v
-        )
-        evaluations += 1
-        hv = fv - _momentum(v, k_area, v_tangential, v_normal0)[0]
-        if hv > 0.0:
-            lo = v
-        else:
-            hi = v
-        if abs(hv) <= f_tol or hi - lo <= x_tol:
-            return v, evaluations, True
-        x1, f1 = x2, f2
-        x2, f2 = v, fv
-    return 0.5 * (lo + hi), evaluations, False
+    samples = np.empty((N_SAMPLE, coef.shape[0]))
+    return solve_annulus_samples(
+        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0,
+        sweep_amplitude, tolerance, max_iterations, samples,
+    )  # fmt: skip

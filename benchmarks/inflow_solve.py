@@ -1,0 +1,146 @@
+"""Cost of the coupled inflow solve: evaluations per second and force sweeps per annulus.
+
+    python benchmarks/inflow_solve.py [--rounds 7] [--seed 0]
+
+Prints evaluations per second for each inflow model at batch 1, 64 and 1024, and the target
+ratio coupled / none at batch 1024. Everything runs in one process and the cases are timed in
+interleaved rounds (every case once per round), so a load that comes and goes on a shared
+machine hits all of them alike; each case reports the best and the median round, and the
+ratios are the medians of the per-round ratios, of wall time and of CPU time (all threads;
+steadier than wall time when other processes compete for the cores). Then it counts force sweeps per annulus by calling the
+solver directly (``induction.solve_annulus``) on the fore-wing annuli of random Table 4
+strokes: the mean over annuli that need a solve (F̄_n(0) > 0) is the solver's own cost.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+from functools import partial
+
+import numba
+import numpy as np
+
+import tandem_env as te
+from tandem_env.physics import blade, induction, model
+from tandem_env.physics.kinematics import fill_angle_history, wing_params_radians
+
+INDUCTION = ("coupled", "isolated", "none")
+BATCHES = (1, 64, 1024)
+
+
+def timed(call, min_seconds: float) -> tuple[float, float]:
+    """Wall and CPU (all threads) seconds per call, over back-to-back calls lasting
+    ``min_seconds``."""
+    calls = 0
+    cpu = time.process_time()
+    start = time.perf_counter()
+    while True:
+        call()
+        calls += 1
+        elapsed = time.perf_counter() - start
+        if elapsed >= min_seconds:
+            return elapsed / calls, (time.process_time() - cpu) / calls
+
+
+def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> None:
+    cases = [(induction, batch) for batch in BATCHES for induction in INDUCTION]
+    calls = {
+        case: partial(
+            te.evaluate,
+            strokes[: case[1]],
+            speeds[: case[1]],
+            options=te.ModelOptions(induction=case[0]),
+        )
+        for case in cases
+    }
+    for call in calls.values():
+        call()  # compile or load the cache
+    wall = {case: [] for case in cases}
+    cpu = {case: [] for case in cases}
+    for _ in range(rounds):
+        for case in cases:
+            seconds, cpu_seconds = timed(calls[case], 0.3)
+            wall[case].append(seconds)
+            cpu[case].append(cpu_seconds)
+    print(
+        f"{'batch':>6} {'induction':>10} {'evals/s best':>13} {'evals/s median':>15} "
+        f"{'CPU ms/call best':>17}"
+    )
+    for case in cases:
+        t = np.array(wall[case])
+        print(
+            f"{case[1]:>6} {case[0]:>10} {case[1] / t.min():>13.0f} "
+            f"{case[1] / np.median(t):>15.0f} {1e3 * min(cpu[case]):>17.2f}"
+        )
+    print()
+    print("coupled / none (time per call; per-round ratios: median and range):")
+    for batch in BATCHES:
+        coupled, none = ("coupled", batch), ("none", batch)
+        ratio = np.array(wall[coupled]) / np.array(wall[none])
+        cpu_ratio = np.array(cpu[coupled]) / np.array(cpu[none])
+        print(
+            f"  batch {batch:>4}: wall {np.median(ratio):.3f} ({ratio.min():.3f}-{ratio.max():.3f}), "
+            f"best/best {min(wall[coupled]) / min(wall[none]):.3f}; "
+            f"CPU {np.median(cpu_ratio):.3f} ({cpu_ratio.min():.3f}-{cpu_ratio.max():.3f})"
+        )
+
+
+def sweeps_per_annulus(strokes: np.ndarray, speed: float) -> tuple[np.ndarray, np.ndarray]:
+    """Force sweeps of every fore-wing annulus of ``strokes`` (own inflow), and F̄_n(0) > 0."""
+    options = te.ModelOptions()
+    insect = te.DRAGONFLY
+    nodes, consts = model.wing_tables(insect.fore, options.n_blade, insect.air_density)
+    rho = insect.air_density
+    counts, solved = [], []
+    for stroke in strokes:
+        params = wing_params_radians(stroke[:14])
+        angles = np.empty((options.n_time, 9))
+        weight = np.empty(options.n_time)
+        fill_angle_history(params, options.n_time, angles, weight)
+        coef = np.empty((options.n_time, blade.N_COEF))
+        blade.fill_frame_coefficients(angles, weight, params[13], False, 1, coef)
+        v_t, v_n = speed * np.cos(params[13]), speed * np.sin(params[13])
+        for r, chord, _, m11, m22, *_ in nodes:
+            args = (coef, r, chord, m11, m22, rho, *consts[:4], v_t)
+            _, evals, _ = induction.solve_annulus(
+                *args, v_n, params[1], options.tolerance, options.max_evaluations
+            )
+            counts.append(evals)
+            solved.append(induction.mean_normal_force(*args, v_n) > 0.0)
+    return np.array(counts), np.array(solved)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=7, help="interleaved timing rounds")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+
+    rng = np.random.default_rng(args.seed)
+    strokes = te.normalised_to_physical(rng.uniform(-1, 1, (1024, 28)))
+    speeds = rng.uniform(0.25, 2.0, 1024)
+    options = te.ModelOptions()
+    print(
+        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"numba {numba.__version__} with {numba.get_num_threads()} threads; "
+        f"n_time = {options.n_time}, n_blade = {options.n_blade}, tolerance {options.tolerance:g}"
+    )
+    print()
+    print("force sweeps per fore-wing annulus (own inflow, 200 random strokes):")
+    for speed in (0.0, 1.0, 2.0):
+        counts, solved = sweeps_per_annulus(strokes[:200], speed)
+        hist = np.bincount(counts[solved])
+        print(
+            f"  V = {speed:.0f} m/s: {solved.mean():.0%} of annuli solved, mean "
+            f"{counts[solved].mean():.2f} sweeps (max {counts.max()}), "
+            f"histogram {dict((int(k), int(n)) for k, n in enumerate(hist) if n)}"
+        )
+    print()
+    throughput(strokes, speeds, args.rounds)
+
+
+if __name__ == "__main__":
+    main()
