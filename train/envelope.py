@@ -97,7 +97,7 @@ def evaluate_envelope(
                 env_kwargs=env_kwargs,
                 method_config={"model": which},
                 progress=progress,
-                out_dir=out / "records",
+                out_dir=out,
             )[0]
         metrics = record.metrics
         rows.append(

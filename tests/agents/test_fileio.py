@@ -1,4 +1,4 @@
-"""Tests for agents.records: atomic JSON/CSV writes and package versions."""
+"""Tests for agents.fileio (atomic JSON/CSV writes) and agents.records.package_versions."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ import pytest
 
 from agents import (
     PSOConfig,
+    fileio,
     maximise,
     package_versions,
     read_json,
@@ -83,7 +84,7 @@ def test_failed_write_keeps_old_file_and_cleans_up(
         raise OSError(f"simulated {failing} failure")
 
     # A crash after the data is (partly) on disk but before the rename.
-    monkeypatch.setattr(records.os, failing, crash)
+    monkeypatch.setattr(fileio.os, failing, crash)
     with pytest.raises(OSError, match="simulated"):
         write_json_atomic(path, {"version": 2, "payload": list(range(10_000))})
     monkeypatch.undo()
