@@ -22,7 +22,7 @@ import io
 import json
 import os
 import tempfile
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -38,13 +38,15 @@ __all__ = [
 ]
 
 
-def to_jsonable(obj: Any) -> Any:
+def to_jsonable(obj: Any, default: Callable[[Any], Any] | None = None) -> Any:
     """Convert ``obj`` to plain JSON types (dict, list, str, int, float, bool, None).
 
     numpy scalars become Python scalars, arrays become nested lists, tuples become lists,
     :class:`~pathlib.Path` becomes str, dataclass instances (e.g. a ``Dragonfly`` in env
-    keywords) become dicts of their fields and objects with a ``to_dict()`` method are converted
-    through it. Anything else raises TypeError.
+    keywords) become dicts of their fields, objects with a ``to_dict()`` method are converted
+    through it and mapping keys become strings as JSON writes them. Anything else goes to
+    ``default`` (as in :func:`json.dumps`: e.g. ``repr``, or ``lambda v: v`` to keep it for a
+    YAML writer to judge); without one it raises TypeError.
     """
     if obj is None or isinstance(obj, str | bool | int | float):
         return obj
@@ -55,14 +57,19 @@ def to_jsonable(obj: Any) -> Any:
     if isinstance(obj, Path):
         return str(obj)
     if isinstance(obj, Mapping):
-        return {_json_key(key): to_jsonable(value) for key, value in obj.items()}
+        return {_json_key(key): to_jsonable(value, default) for key, value in obj.items()}
     if isinstance(obj, list | tuple):
-        return [to_jsonable(item) for item in obj]
-    to_dict = getattr(obj, "to_dict", None)
-    if callable(to_dict):
-        return to_jsonable(to_dict())
-    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return {f.name: to_jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+        return [to_jsonable(item, default) for item in obj]
+    if not isinstance(obj, type):  # a class's to_dict is not the object's
+        to_dict = getattr(obj, "to_dict", None)
+        if callable(to_dict):
+            return to_jsonable(to_dict(), default)
+        if dataclasses.is_dataclass(obj):
+            return {
+                f.name: to_jsonable(getattr(obj, f.name), default) for f in dataclasses.fields(obj)
+            }
+    if default is not None:
+        return default(obj)
     raise TypeError(f"cannot convert {type(obj).__name__} to JSON: {obj!r}")
 
 

@@ -421,4 +421,4 @@ def load_records(out_dir: str | os.PathLike[str], jobs: Iterable[Job]) -> dict[J
 def have_records(out_dir: str | os.PathLike[str], jobs: Iterable[Job]) -> bool:
     """Whether every job has a stored record with its current configuration."""
     store = RecordStore(out_dir)
-    return all(store.path(job.key).exists() and store.load(job) is not None for job in jobs)
+    return all(store.load(job) is not None for job in jobs)
