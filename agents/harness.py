@@ -116,8 +116,10 @@ def prepare(
 ) -> RunPlan:
     """Validate a run and return its plan; raises ValueError saying what is wrong and allowed.
 
-    Parameters are those of :func:`run`. Building the env once here lets it reject bad
-    keywords and out-of-range conditions before any evaluation.
+    Parameters are those of :func:`run`, plus ``preset``: the study preset the runs belong to,
+    part of each seed's :class:`Job` and so of its record's key (empty outside the studies).
+    Building the env once here lets it reject bad keywords and out-of-range conditions before
+    any evaluation.
     """
     spec = get_task(task)
     cond = spec.condition(condition)
