@@ -88,7 +88,7 @@ class SchedulerUnreachable(ConnectionError):
 def parse_scheduler(text: str) -> str:
     """Validate a ``--scheduler`` value; returns it normalised (``HOST:PORT`` -> ``tcp://...``).
 
-    Raises ValueError naming the value and what is allowed (the argparse ``type``).
+    Raises ValueError naming the value and what is allowed.
     """
     text = text.strip()
     if text.startswith("local:"):
