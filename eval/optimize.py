@@ -58,6 +58,10 @@ examples:
       --seeds 0 1 2 3 4 5 6 7 --out results/v15 --scheduler local:2"""
 
 
+#: What an interrupted run says (optimize and study).
+INTERRUPTED = "the finished records are stored; the same command resumes from them"
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--task", required=True, choices=(LEVEL.name, ACCELERATE.name), help="the flight task"
@@ -173,6 +177,9 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except (SchedulerUnreachable, JobsFailed) as error:
         print(f"{parser.prog}: error: {error}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
+        return 130
     finally:
         if store.directory.exists():  # over what is stored, also after a failure
             store.write_summary()

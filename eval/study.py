@@ -8,7 +8,7 @@ import sys
 import textwrap
 
 from agents.records import RecordStore
-from eval.optimize import add_scheduler_argument
+from eval.optimize import INTERRUPTED, add_scheduler_argument
 from eval.studies import STUDIES
 from eval.studies.base import Plan
 from eval.studies.presets import PRESETS, get_preset
@@ -104,6 +104,9 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except (SchedulerUnreachable, JobsFailed) as error:
         print(f"{parser.prog}: error: {error}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
+        return 130
     run = result.run
     print(
         f"{run.total} optimisations: {run.ran} run, {run.reused} reused from {args.out} "
