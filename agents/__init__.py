@@ -9,10 +9,10 @@ import Gymnasium and the model.
 from importlib import import_module
 from typing import Any
 
+from agents.fileio import read_json, to_jsonable, write_csv_atomic, write_json_atomic
 from agents.optimiser import OptimisationResult, Progress, maximise, minimise
 from agents.pso import PSO, PSOConfig
 from agents.random_search import RandomSearch, RandomSearchConfig
-from agents.records import package_versions, read_json, write_csv_atomic, write_json_atomic
 
 # name -> module, for the lazily imported harness API.
 _LAZY = {
@@ -20,8 +20,11 @@ _LAZY = {
     "prepare": "agents.harness",
     "execute": "agents.harness",
     "RunPlan": "agents.harness",
-    "Record": "agents.run_record",
-    "load_records": "agents.run_record",
+    "Job": "agents.records",
+    "Record": "agents.records",
+    "RecordStore": "agents.records",
+    "load_records": "agents.records",
+    "package_versions": "agents.records",
     "Method": "agents.methods",
     "SearchContext": "agents.methods",
     "SearchOutcome": "agents.methods",
@@ -37,6 +40,7 @@ _LAZY = {
 __all__ = [
     "PSO",
     "Condition",
+    "Job",
     "Method",
     "OptimisationResult",
     "PSOConfig",
@@ -44,6 +48,7 @@ __all__ = [
     "RandomSearch",
     "RandomSearchConfig",
     "Record",
+    "RecordStore",
     "RunPlan",
     "SearchContext",
     "SearchOutcome",
@@ -61,6 +66,7 @@ __all__ = [
     "register_method",
     "register_task",
     "run",
+    "to_jsonable",
     "write_csv_atomic",
     "write_json_atomic",
 ]

@@ -10,23 +10,26 @@ For each seed the method searches the task's normalised action box [-1, 1]^28 wi
 budget of model evaluations, evaluating every batch through the task's native vector env (one
 batched model call per iteration; fitness = the env's reward, the penalised objective an RL
 agent sees). The best stroke is then re-evaluated in a fresh single env and a
-:class:`~agents.run_record.Record` is built from that re-evaluation. With ``out_dir`` each
-record is written atomically as it completes (a killed run keeps the finished seeds and leaves
-no partial file), and ``summary.csv`` there is rewritten over every record in the directory.
+:class:`~agents.records.Record` is built from that re-evaluation; it carries its
+:class:`~agents.records.Job` (the run's configuration) and the job's key. With ``out_dir`` each
+record is written into that directory's :class:`~agents.records.RecordStore` as it completes
+(``records/<key>.json``, atomically: a killed run keeps the finished seeds and leaves no partial
+file), and ``summary.csv`` there is rewritten over every record in the store.
 
 :func:`prepare` validates everything (task, condition, env kwargs, method, budget, seeds)
 before any work and returns a :class:`RunPlan`; :func:`execute` runs it; :func:`run` does both.
+:func:`run_job` runs one :class:`~agents.records.Job` (what the resumable, distributed runner
+``eval.studies.runner`` sends to its workers).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import time
 import warnings
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -36,23 +39,21 @@ import numpy as np
 
 import tandem_env
 from agents.evaluator import VectorEnvEvaluator, reevaluate
+from agents.fileio import to_jsonable
 from agents.methods import Method, SearchContext, SearchOutcome, get_method
-from agents.progress import ProgressBar
-from agents.records import package_versions, to_jsonable
-from agents.run_record import (
+from agents.progress import ProgressBar, Reporter
+from agents.records import (
     SELECTION_BEST_FEASIBLE,
     SELECTION_BEST_REWARD,
     SELECTION_METHOD,
+    Job,
     Record,
-    load_records,
-    write_summary,
+    RecordStore,
+    package_versions,
 )
 from agents.tasks import Condition, TaskSpec, get_task
 
-__all__ = ["SUMMARY_NAME", "RunPlan", "execute", "prepare", "run", "run_seed"]
-
-#: File name of the CSV summary written next to the records.
-SUMMARY_NAME = "summary.csv"
+__all__ = ["RunPlan", "execute", "prepare", "run", "run_job", "run_seed"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,8 +72,25 @@ class RunPlan:
     objective_name: str
     dim: int
     """Dimension of the action box."""
+    method_config: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+    """Method settings as given (part of each seed's :class:`Job`)."""
+    preset: str = ""
+    """Study preset the runs belong to (part of each seed's :class:`Job`); empty outside studies."""
     progress: bool = True
     out_dir: Path | None = None
+
+    def job(self, seed: int) -> Job:
+        """The configuration of one seed's run: what its record is stored under."""
+        return Job(
+            method=self.method_spec,
+            task=self.task.name,
+            condition=self.condition.value,
+            budget=self.budget,
+            seed=seed,
+            env_kwargs={k: v for k, v in self.env_kwargs.items() if k != self.task.condition_kwarg},
+            method_config=self.method_config,
+            preset=self.preset,
+        )
 
     def describe(self) -> str:
         return (
@@ -92,13 +110,16 @@ def prepare(
     objective: str | None = None,
     env_kwargs: Mapping[str, Any] | None = None,
     method_config: Mapping[str, Any] | None = None,
+    preset: str = "",
     progress: bool = True,
     out_dir: str | os.PathLike[str] | None = None,
 ) -> RunPlan:
     """Validate a run and return its plan; raises ValueError saying what is wrong and allowed.
 
-    Parameters are those of :func:`run`. Building the env once here lets it reject bad
-    keywords and out-of-range conditions before any evaluation.
+    Parameters are those of :func:`run`, plus ``preset``: the study preset the runs belong to,
+    part of each seed's :class:`Job` and so of its record's key (empty outside the studies).
+    Building the env once here lets it reject bad keywords and out-of-range conditions before
+    any evaluation.
     """
     spec = get_task(task)
     cond = spec.condition(condition)
@@ -153,6 +174,7 @@ def prepare(
         raise ValueError(f"seeds {seed_list} repeat; allowed: distinct integers >= 0")
 
     method_obj = get_method(method, method_config)
+    store = None if out_dir is None else RecordStore(out_dir)  # rejects a file as out_dir
     return RunPlan(
         method=method_obj,
         method_spec=method if isinstance(method, str) else method_obj.name,
@@ -163,22 +185,51 @@ def prepare(
         env_kwargs=MappingProxyType(kwargs),
         objective_name=objective_name,
         dim=dim,
+        method_config=MappingProxyType(dict(method_config or {})),
+        preset=preset,
         progress=bool(progress),
-        out_dir=None if out_dir is None else Path(out_dir),
+        out_dir=None if store is None else store.directory,
     )
 
 
 def execute(plan: RunPlan) -> list[Record]:
-    """Run every seed of ``plan``; write records (and the summary) when it has an out_dir."""
+    """Run every seed of ``plan``; store records (and the summary) when it has an out_dir.
+
+    Every seed runs, also one whose record is stored already (its record is replaced by the
+    rerun's, which has the same numbers); resuming is the runner's job
+    (:func:`eval.studies.runner.run_jobs`, ``python -m eval optimize``).
+    """
+    store = None if plan.out_dir is None else RecordStore(plan.out_dir)
     records = []
     for seed in plan.seeds:
         record = run_seed(plan, seed)
         records.append(record)
-        if plan.out_dir is not None:
-            record.save(plan.out_dir)
-            # Over the whole directory, so one summary covers every method run into it.
-            write_summary(plan.out_dir / SUMMARY_NAME, load_records([plan.out_dir]))
+        if store is not None:
+            store.save(record)
+            # Over the whole store, so one summary covers every method run into it.
+            store.write_summary()
     return records
+
+
+def run_job(job: Job, reporter: Reporter | None = None) -> Record:
+    """Run one :class:`Job` (no progress bar; ``reporter`` gets the search's progress).
+
+    Raises ValueError as :func:`prepare` does for a job it rejects.
+    """
+    plan = prepare(
+        job.method,
+        job.task,
+        job.condition,
+        job.budget,
+        [job.seed],
+        env_kwargs=dict(job.env_kwargs),
+        method_config=dict(job.method_config),
+        preset=job.preset,
+        progress=False,
+    )
+    if plan.job(job.seed) != job:
+        raise ValueError(f"job {job} does not round-trip through prepare: {plan.job(job.seed)}")
+    return run_seed(plan, job.seed, reporter)
 
 
 def run(
@@ -218,7 +269,8 @@ def run(
     progress : bool
         Show a progress bar per seed on stderr.
     out_dir : path, optional
-        Write each record there (atomically) and ``summary.csv`` over the directory.
+        Store each record there (``records/<key>.json``, atomically) and write ``summary.csv``
+        over the store. ValueError if it is a file.
     """
     return execute(
         prepare(
@@ -254,14 +306,21 @@ def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator) -> tuple[np.n
     return action, reward, SELECTION_BEST_FEASIBLE
 
 
-def run_seed(plan: RunPlan, seed: int) -> Record:
-    """Search with one seed, re-evaluate the best stroke and build its record."""
+def run_seed(plan: RunPlan, seed: int, reporter: Reporter | None = None) -> Record:
+    """Search with one seed, re-evaluate the best stroke and build its record.
+
+    The search's progress goes to ``reporter`` when given, else to a progress bar of its own
+    (if ``plan.progress``).
+    """
     start = time.perf_counter()
+    job = plan.job(seed)
     label = f"{plan.method_spec} {plan.task.name} {plan.condition.name}={plan.condition.value:g} seed {seed}"
+    bar = ProgressBar(plan.budget, label, plan.progress and reporter is None)
+    report = bar.update if reporter is None else reporter
     with (
-        ProgressBar(plan.budget, label, plan.progress) as bar,
+        bar,
         VectorEnvEvaluator(
-            plan.task, plan.condition, plan.env_kwargs, seed, plan.budget, bar.update
+            plan.task, plan.condition, plan.env_kwargs, seed, plan.budget, report
         ) as evaluator,
     ):
         context = SearchContext(
@@ -273,7 +332,7 @@ def run_seed(plan: RunPlan, seed: int) -> Record:
             seed=seed,
             dim=plan.dim,
             evaluator=evaluator,
-            _reporter=bar.update,
+            _reporter=report,
         )
         outcome = plan.method.search(context)
     if not evaluator.evaluations <= outcome.evaluations <= plan.budget:
@@ -315,15 +374,15 @@ def run_seed(plan: RunPlan, seed: int) -> Record:
         search_reward=search_reward,
         selection=selection,
         feasible=bool(info.get("feasible", True)),
-        stroke=_plain(stroke),
+        stroke=to_jsonable(stroke),
         normalised_stroke=tuple(action.tolist()),
-        metrics=_plain(info),
+        metrics=to_jsonable(info),
         history=outcome.history,
         wall_time=wall_time,
         config={
-            "method": _plain(outcome.config),
-            "env_kwargs": _plain(dict(plan.env_kwargs)),
-            "env": _plain(again.env_config),
+            "method": to_jsonable(outcome.config),
+            "env_kwargs": to_jsonable(dict(plan.env_kwargs)),
+            "env": to_jsonable(again.env_config),
             "evaluation": {
                 "vectorization_mode": "vector_entry_point",
                 "autoreset_mode": "Disabled",
@@ -331,6 +390,8 @@ def run_seed(plan: RunPlan, seed: int) -> Record:
             },
         },
         versions={**package_versions(), "tandem_env": tandem_env.__version__},
+        key=job.key,
+        job=job.to_dict(),
     )
 
 
@@ -338,14 +399,3 @@ def _same(a: float, b: float) -> bool:
     if math.isnan(a) or math.isnan(b):
         return math.isnan(a) and math.isnan(b)
     return a == b or math.isclose(a, b, rel_tol=1e-12, abs_tol=1e-12)
-
-
-def _plain(obj: Any) -> Any:
-    """JSON-ready form; dataclasses (e.g. a Dragonfly in env_kwargs) become dicts."""
-    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return _plain(dataclasses.asdict(obj))
-    if isinstance(obj, Mapping):
-        return {str(k): _plain(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_plain(v) for v in obj]
-    return to_jsonable(obj)

@@ -1,12 +1,22 @@
-"""Progress of a long search on stderr: iterations, evaluations, best so far, time left (tqdm)."""
+"""Progress of long work on stderr (tqdm): one bar class for a search and for a set of jobs.
+
+A search reports ``(iteration, evaluations, best)`` after every iteration (:data:`Reporter`);
+the job runner (``eval.studies.runner``) moves one bar over the evaluations of all its jobs
+as they run (serially) or finish (on a Dask cluster), with the jobs done in its status. The
+bar's rate and time left are in evaluations either way.
+"""
 
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 
 from tqdm.auto import tqdm
 
-__all__ = ["ProgressBar"]
+__all__ = ["ProgressBar", "Reporter"]
+
+#: A search's progress callback: (iteration, evaluations so far, best reward so far).
+Reporter = Callable[[int, int, float], None]
 
 
 class ProgressBar:
@@ -28,6 +38,7 @@ class ProgressBar:
                 total=total,
                 desc=description,
                 unit="eval",
+                unit_scale=True,
                 file=sys.stderr,
                 dynamic_ncols=True,
                 mininterval=0.5,
@@ -37,13 +48,17 @@ class ProgressBar:
             else None
         )
 
-    def update(self, iteration: int, evaluations: int, best: float) -> None:
-        """Move the bar to ``evaluations`` and show the iteration and best reward so far."""
+    def move_to(self, evaluations: int, status: str | None = None) -> None:
+        """Move the bar to ``evaluations`` (absolute, so irregular reports still work)."""
         if self._bar is None:
             return
-        # Absolute position, so methods that report irregularly (RL training) still work.
         self._bar.update(evaluations - self._bar.n)
-        self._bar.set_postfix_str(f"iter {iteration}, best {best:.5g}", refresh=False)
+        if status is not None:
+            self._bar.set_postfix_str(status, refresh=False)
+
+    def update(self, iteration: int, evaluations: int, best: float) -> None:
+        """A search's report (:data:`Reporter`): evaluations, iteration and best reward so far."""
+        self.move_to(evaluations, f"iter {iteration}, best {best:.5g}")
 
     def close(self) -> None:
         if self._bar is not None:

@@ -11,9 +11,7 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
-import tempfile
 from collections import defaultdict
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -22,8 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.records import write_csv_atomic
-from agents.run_record import Record, load_records
+from agents.fileio import atomic_path, write_csv_atomic, write_text_atomic
+from agents.records import Record, load_records
 
 __all__ = [
     "Row",
@@ -37,8 +35,9 @@ __all__ = [
 NAME = "compare"
 HELP = "compare records: median/IQR table (CSV, Markdown) and convergence plot (PNG)"
 DESCRIPTION = """\
-Compare harness records (the JSON files written by `optimize`) found recursively in the given
-directories. Writes into --out (default: the first DIR's compare/ sub-folder):
+Compare harness records (the records/<key>.json files of `optimize` and `study`) found
+recursively in the given directories. Writes into --out (default: the first DIR's compare/
+sub-folder):
   comparison.csv, comparison.md  per task/objective/condition and method: seeds, median and
                                  IQR (25th-75th percentile) of the re-evaluated objective
                                  over all seeds, best, median over the feasible seeds, median
@@ -134,8 +133,8 @@ def group(records: Sequence[Record]) -> dict[PanelKey, dict[tuple[str, int], lis
         runs = out[panel_key(record)][series_key(record)]
         if any(r.seed == record.seed for r in runs):
             print(
-                f"compare: duplicate record {record.filename()} ignored (same method, budget, "
-                "condition and seed seen before)",
+                f"compare: duplicate record {record.label()} (key {record.key or '-'}) ignored "
+                "(same method, budget, condition and seed seen before)",
                 file=sys.stderr,
             )
             continue
@@ -273,15 +272,11 @@ def plot_convergence(records: Sequence[Record], path: Path) -> None:
         ax.set_visible(False)
     fig.suptitle("Best-so-far reward: median over seeds, band = inter-quartile range", fontsize=11)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    # Render to a temporary name and rename, so a killed run never leaves half a PNG.
-    tmp = path.with_name(f".{path.name}.tmp.png")
     try:
-        fig.savefig(tmp, dpi=120)
-        tmp.replace(path)
+        with atomic_path(path) as tmp:  # a killed run never leaves half a PNG
+            fig.savefig(tmp, dpi=120)
     finally:
         plt.close(fig)
-        tmp.unlink(missing_ok=True)
 
 
 def _focus(ax: Any, values: list[float]) -> None:
@@ -292,20 +287,6 @@ def _focus(ax: Any, values: list[float]) -> None:
     low, high = min(values), max(values)
     pad = 0.08 * (high - low) if high > low else 0.05 * max(abs(high), 1e-3)
     ax.set_ylim(low - pad, high + pad)
-
-
-def write_text_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to a temporary file beside ``path`` and rename it over ``path``."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def compare(directories: Sequence[str | Path], out: str | Path) -> list[Row]:

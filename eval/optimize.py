@@ -1,7 +1,9 @@
 """``python -m eval optimize``: run one method on one condition for several seeds.
 
-Writes one JSON record per seed into ``--out`` (atomically, as each seed finishes) and
-rewrites ``summary.csv`` there over every record in the directory.
+Each seed is one job of the resumable runner (:func:`eval.studies.runner.run_jobs`): its
+record is stored in ``--out`` as ``records/<key>.json`` (atomically, as the seed finishes; a
+seed already stored with the same configuration is not run again), on this machine or on a
+Dask cluster (``--scheduler``), and ``summary.csv`` there is rewritten over every record.
 """
 
 from __future__ import annotations
@@ -9,18 +11,30 @@ from __future__ import annotations
 import argparse
 import sys
 
-from agents.harness import execute, prepare
+from agents.harness import prepare
 from agents.keyvalue import parse_pairs
 from agents.methods import available_methods
+from agents.records import RecordStore
 from agents.tasks import ACCELERATE, LEVEL
+from eval.studies.runner import (
+    JobsFailed,
+    SchedulerUnreachable,
+    load_records,
+    parse_scheduler,
+    run_jobs,
+)
 
 NAME = "optimize"
 HELP = "run a method (pso, random, ...) on one flight condition for several seeds"
 DESCRIPTION = """\
 Run one search method on one flight condition for a list of seeds. Every iteration's batch
 of strokes is evaluated through the task's batched vector env (fitness = the env's reward,
-the penalised objective); the best stroke of each seed is re-evaluated and written as a JSON
-record into --out, one file per seed, plus summary.csv over every record in --out.
+the penalised objective); the best stroke of each seed is re-evaluated and stored as a JSON
+record in --out, DIR/records/<key>.json with <key> the hash of the run's configuration (method,
+task, condition, budget, seed, env and method settings, package version), plus
+DIR/summary.csv over every record in DIR. A seed whose record is already there with the same
+configuration is not run again (a killed run resumes); another budget or setting is another
+record, beside it.
 
 Tasks and conditions:
   level       --speed V   flight speed [m/s] (0.25-2.0); maximise efficiency η = T·V/P
@@ -29,7 +43,9 @@ Tasks and conditions:
               --objective (vertical F̄_v, horizontal F̄_h or resultant F̄_a) subject to
               F̄_v >= 0, F̄_h >= 0 and P/m <= P.
 
-The budget counts model evaluations (= env steps = strokes evaluated)."""
+The budget counts model evaluations (= env steps = strokes evaluated). The seeds run here,
+one after another (default), or on Dask: --scheduler local:N starts N worker processes here,
+--scheduler tcp://HOST:PORT uses a running Dask scheduler (docs/scaling.md)."""
 EPILOG = """\
 examples:
   python -m eval optimize --task level --speed 1.5 --method pso --budget 12000 \\
@@ -37,7 +53,13 @@ examples:
   python -m eval optimize --task accelerate --power 70 --objective horizontal \\
       --method random --budget 4000 --seeds 0 --out results/acc --quiet
   python -m eval optimize --task level --speed 1.0 --method pso --budget 8000 --seeds 0 \\
-      --out results/x --env-kwargs thrust_split=body --method-config velocity_clamp=0.2"""
+      --out results/x --env-kwargs thrust_split=body --method-config velocity_clamp=0.2
+  python -m eval optimize --task level --speed 1.5 --method pso --budget 30000 \\
+      --seeds 0 1 2 3 4 5 6 7 --out results/v15 --scheduler local:2"""
+
+
+#: What an interrupted run says (optimize and study).
+INTERRUPTED = "the finished records are stored; the same command resumes from them"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -101,7 +123,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)"
         ),
     )
-    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_scheduler_argument(parser)
+    parser.add_argument("--quiet", action="store_true", help="no progress display")
+
+
+def add_scheduler_argument(parser: argparse.ArgumentParser) -> None:
+    """``--scheduler`` (shared with ``study``)."""
+    parser.add_argument(
+        "--scheduler",
+        metavar="WHERE",
+        help="run the optimisations on Dask: local:N (N worker processes started here, one "
+        "numba thread each) or the address of a running scheduler, e.g. tcp://HOST:8786 "
+        "(docs/scaling.md); default: one after another in this process",
+    )
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
@@ -114,6 +148,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         parser.error("--objective is for --task accelerate; level flight maximises efficiency")
     condition = args.speed if task is LEVEL else args.power
     try:
+        store = RecordStore(args.out)
+        scheduler = None if args.scheduler is None else parse_scheduler(args.scheduler)
         env_kwargs = parse_pairs(args.env_kwargs, "--env-kwargs")
         method_config = parse_pairs(args.method_config, "--method-config")
         if args.swarm_size is not None:
@@ -129,15 +165,25 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             objective=args.objective,
             env_kwargs=env_kwargs,
             method_config=method_config,
-            progress=not args.quiet,
-            out_dir=args.out,
+            progress=False,
         )
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     if not args.quiet:
-        print(f"optimize: {plan.describe()} -> {plan.out_dir}", file=sys.stderr)
-    records = execute(plan)
-    for record in records:
+        print(f"optimize: {plan.describe()} -> {store.directory}", file=sys.stderr)
+    jobs = [plan.job(seed) for seed in plan.seeds]
+    try:
+        summary = run_jobs(jobs, store.directory, scheduler=scheduler, progress=not args.quiet)
+    except (SchedulerUnreachable, JobsFailed) as error:
+        print(f"{parser.prog}: error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
+        return 130
+    finally:
+        if store.directory.exists():  # over what is stored, also after a failure
+            store.write_summary()
+    for record in load_records(store.directory, jobs).values():
         metrics = record.metrics
         power = metrics.get("power_per_mass")
         print(
@@ -146,4 +192,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             + (f", P/m = {power:.4g} W/kg" if power is not None else "")
             + f", {record.evaluations} evaluations, {record.wall_time:.1f} s"
         )
+    print(
+        f"{summary.total} seeds: {summary.ran} run, {summary.reused} reused from {store.directory}",
+        file=sys.stderr,
+    )
     return 0

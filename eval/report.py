@@ -10,7 +10,7 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
-from agents.records import write_text_atomic
+from agents.fileio import write_text_atomic
 from eval.studies.base import Plan, StudyOutput
 from eval.studies.claims import RULES, Claim
 

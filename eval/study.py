@@ -7,9 +7,12 @@ import os
 import sys
 import textwrap
 
+from agents.records import RecordStore
+from eval.optimize import INTERRUPTED, add_scheduler_argument
 from eval.studies import STUDIES
 from eval.studies.base import Plan
 from eval.studies.presets import PRESETS, get_preset
+from eval.studies.runner import JobsFailed, SchedulerUnreachable, executor_spec
 from eval.studies.suite import run_studies
 
 NAME = "study"
@@ -40,13 +43,19 @@ Presets:
     + """
 
 A killed run resumes: finished optimisations are recognised by their configuration hash and
-not run again; a changed configuration never reuses old records."""
+not run again; a changed configuration never reuses old records.
+
+The optimisations run here, one after another (default), or on Dask: --scheduler local:N
+starts N worker processes here, --scheduler tcp://HOST:PORT uses a running Dask scheduler
+and its workers, e.g. on a SLURM/PBS cluster (docs/scaling.md). The numbers and the report
+are the same either way."""
 )
 EPILOG = """\
 examples:
   python -m eval study all                       # quick preset into results/study
   python -m eval study all --preset paper --out results/study-paper
-  python -m eval study speed --method pso --method random --out results/study"""
+  python -m eval study speed --method pso --method random --out results/study
+  python -m eval study all --preset paper --scheduler tcp://10.0.0.5:8786"""
 
 DEFAULT_OUT = os.path.join("results", "study")
 
@@ -69,31 +78,39 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="harness method: pso (default), random, policy:RUN_DIR, ...; repeat to run several "
         "side by side",
     )
+    add_scheduler_argument(parser)
     parser.add_argument(
         "--workers",
         type=int,
         default=1,
-        help="parallel processes (one numba thread each); 1 (default) runs in this process "
-        "with numba's threads, which measured as fast as a 2-process pool on 2 cores",
+        metavar="N",
+        help="N > 1 is short for --scheduler local:N; 1 (default) runs in this process",
     )
     parser.add_argument("--quiet", action="store_true", help="no progress display")
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    if args.workers < 1:
-        parser.error(f"--workers {args.workers}: allowed: an integer >= 1")
     methods = tuple(dict.fromkeys(args.method or ["pso"]))
     try:
+        scheduler = executor_spec(args.scheduler, args.workers)
+        RecordStore(args.out)  # rejects a file
         plan = Plan(get_preset(args.preset), methods)
     except ValueError as error:
         parser.error(str(error))
-    result = run_studies(
-        [args.study], plan, args.out, workers=args.workers, progress=not args.quiet
-    )
+    try:
+        result = run_studies(
+            [args.study], plan, args.out, scheduler=scheduler, progress=not args.quiet
+        )
+    except (SchedulerUnreachable, JobsFailed) as error:
+        print(f"{parser.prog}: error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
+        return 130
     run = result.run
     print(
-        f"{run.total} optimisations: {run.ran} run, {run.reused} reused from {args.out}; "
-        f"{result.wall_time:.1f} s",
+        f"{run.total} optimisations: {run.ran} run, {run.reused} reused from {args.out} "
+        f"({run.executor}); {result.wall_time:.1f} s",
         file=sys.stderr,
     )
     for output in result.outputs:

@@ -20,6 +20,7 @@ from typing import Any, Literal, get_args
 
 import yaml
 
+from agents.fileio import to_jsonable
 from tandem_env.envs.registration import check_env_id
 from tandem_env.physics.checks import is_integer, is_real
 
@@ -369,12 +370,12 @@ class TrainConfig:
 
 
 def plain(value: Any) -> Any:
-    """YAML-safe form (config.yml, args.yml): string keys, tuples as lists (``yaml.safe_dump``
-    refuses tuples), numpy scalars as Python numbers."""
-    if isinstance(value, Mapping):
-        return {str(k): plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [plain(v) for v in value]
-    if hasattr(value, "item") and callable(value.item):  # numpy scalars
-        return value.item()
+    """YAML-safe form (config.yml, args.yml): the project's JSON conversion
+    (:func:`agents.fileio.to_jsonable`: string keys, tuples as lists, which ``yaml.safe_dump``
+    needs, numpy scalars as Python numbers); anything it cannot convert is kept, for
+    ``yaml.safe_dump`` to accept or refuse."""
+    return to_jsonable(value, default=_as_is)
+
+
+def _as_is(value: Any) -> Any:
     return value

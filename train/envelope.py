@@ -17,7 +17,6 @@ evaluations spent, ...) and the records in ``results/envelope-sac/records/``.
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import sys
 import warnings
@@ -25,6 +24,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from agents.fileio import write_csv_atomic
 from train.vec import SWEEP_POWERS, SWEEP_SPEEDS
 
 #: Columns of envelope.csv.
@@ -97,7 +97,7 @@ def evaluate_envelope(
                 env_kwargs=env_kwargs,
                 method_config={"model": which},
                 progress=progress,
-                out_dir=out / "records",
+                out_dir=out,
             )[0]
         metrics = record.metrics
         rows.append(
@@ -117,14 +117,7 @@ def evaluate_envelope(
                 "run_dir": str(run_dir),
             }
         )
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / "envelope.csv"
-    tmp = path.with_name(f".{path.name}.tmp")
-    with tmp.open("w", newline="") as stream:
-        writer = csv.DictWriter(stream, fieldnames=COLUMNS, extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows(rows)
-    os.replace(tmp, path)
+    write_csv_atomic(out / "envelope.csv", [{c: row.get(c) for c in COLUMNS} for row in rows])
     return rows
 
 

@@ -38,6 +38,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from tqdm.auto import tqdm
 
+from agents.fileio import to_jsonable
 from agents.methods import Method, SearchContext, SearchOutcome
 from tandem_env.envs.sb3 import make_sb3_vec_env
 from tandem_env.physics.checks import is_integer
@@ -335,7 +336,7 @@ class TrainingMethod:
             history=tuple(history),
             config={
                 "method": self.algo,
-                "hyperparams": _jsonable(dict(training.hyperparams)),
+                "hyperparams": to_jsonable(dict(training.hyperparams), default=repr),
                 "n_envs": training.n_envs,
                 "training_timesteps": training.steps,
                 "budget_unused": unused,
@@ -475,16 +476,6 @@ class _Training:
     final_objective: float
     final_feasible: bool
     run_dir: str | None = None
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, Mapping):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, str | int | float | bool) or value is None:
-        return value
-    return repr(value)
 
 
 def train_and_propose(

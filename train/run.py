@@ -10,7 +10,6 @@ from __future__ import annotations
 import contextlib
 import json
 import math
-import os
 import time
 import warnings
 from collections.abc import Callable, Iterator, Mapping
@@ -26,6 +25,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize, sync_envs_normalization
 
+from agents.fileio import atomic_path, write_json_atomic, write_text_atomic
 from tandem_env.envs.registration import check_env_id
 from train.callbacks import PhysicsLogger, ResumableEvalCallback, SaveVecNormalize
 from train.config import Hyperparams, TrainConfig, load_entry, plain, resolve_hyperparams
@@ -192,9 +192,8 @@ def save_checkpoint(model: BaseAlgorithm, layout: RunLayout) -> Checkpoint:
 
 
 def _save_atomic(path: Path, save: Callable[[Path], Any]) -> None:
-    tmp = path.with_name(f"{path.stem}.tmp{path.suffix}")
-    save(tmp)
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        save(tmp)
 
 
 # --- files ---------------------------------------------------------------------------------
@@ -206,8 +205,7 @@ def write_yaml(path: Path, data: Mapping[str, Any]) -> None:
             f"cannot write {path.name}: {error.args[-1]!r} is not a YAML value; allowed in "
             "env_kwargs / hyperparams of a run with files: numbers, strings, booleans, lists"
         ) from error
-    path.parent.mkdir(parents=True, exist_ok=True)
-    _atomic_write(path, text)
+    write_text_atomic(path, text)
 
 
 def read_yaml(path: Path) -> dict[str, Any]:
@@ -215,24 +213,6 @@ def read_yaml(path: Path) -> dict[str, Any]:
         # The zoo writes OrderedDicts with python tags; ours are plain, but read both.
         data = yaml.load(stream, Loader=yaml.UnsafeLoader)
     return dict(data or {})
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
-
-
-def _json_ready(value: Any) -> Any:
-    if isinstance(value, Mapping):
-        return {str(k): _json_ready(v) for k, v in value.items()}
-    if isinstance(value, list | tuple | np.ndarray):
-        return [_json_ready(v) for v in value]
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 # --- the run ---------------------------------------------------------------------------------
@@ -573,7 +553,7 @@ def _write_result(layout: RunLayout, result: TrainResult, hp: Hyperparams) -> No
         "final_evaluation": result.final_evaluation,
         "segments": segments,
     }
-    _atomic_write(layout.result_file, json.dumps(_json_ready(data), indent=1))
+    write_json_atomic(layout.result_file, data, indent=1)
 
 
 # --- the harness's lean variant ----------------------------------------------------------------

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from agents.records import write_csv_atomic, write_json_atomic
-from agents.run_record import Record
+from agents.fileio import write_csv_atomic, write_json_atomic
+from agents.records import Record
 from eval.studies.claims import Claim
 from eval.studies.presets import Preset
 from eval.studies.runner import RECORDS_DIR, Job, Task

@@ -1,47 +1,105 @@
-"""Measure the study runner's two modes on the same jobs (docs/reproduction.md cites the result).
+"""Measure a study preset serially and on Dask, and the speed-up its job lengths allow.
 
-    python -m eval.studies.bench_workers [--jobs 8] [--budget 4000]
+    python -m eval.studies.bench_workers [--preset quick] [--scheduler local:2] [--repeat 1]
 
-``--workers 1``: one process, numba's default threads (2 on a 2-core machine);
-``--workers 2``: a spawn pool of two processes with one numba thread each.
+Runs every optimisation of ``study all`` for the preset into fresh temporary directories,
+serially (this process, numba's default threads) and on ``--scheduler`` (default ``local:2``:
+two worker processes, one numba thread each), alternating ``--repeat`` times, and prints the
+wall time of each run. From the serial run's records (their ``wall_time``, one job each) it
+then prints the job-length distribution and the speed-up W workers can give at best: the jobs
+are started largest budget first (as the runner does) and each goes to the worker free first,
+so the run takes as long as the busiest worker (its makespan), not total / W. The same bound
+is printed for every preset, its job lengths estimated from the measured seconds per
+evaluation of each task. The numbers are in docs/scaling.md.
 """
 
 from __future__ import annotations
 
 import argparse
+import heapq
 import shutil
 import tempfile
 import time
-from dataclasses import replace
+from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
+
+from eval.studies import PAPER_STUDIES
 from eval.studies.base import Plan
-from eval.studies.presets import QUICK
-from eval.studies.runner import run_jobs
+from eval.studies.presets import PRESETS, get_preset
+from eval.studies.runner import load_records, parse_scheduler, run_jobs
+
+WORKERS: tuple[int, ...] = (1, 2, 4, 8, 16, 32, 64, 128)
 
 
-def main() -> None:
+def makespan(durations: Sequence[float], workers: int) -> float:
+    """Wall time of ``durations`` [s] on ``workers`` when each job, in the given order, goes
+    to the worker that is free first (list scheduling; no start-up or transfer costs)."""
+    free = [0.0] * workers
+    for duration in durations:
+        heapq.heappush(free, heapq.heappop(free) + duration)
+    return max(free)
+
+
+def _speedups(name: str, durations: Sequence[float]) -> None:
+    total = sum(durations)
+    cells = []
+    for workers in WORKERS:
+        best = total / makespan(durations, workers)
+        cells.append(f"{workers}: {best:.1f}x ({best / workers:.0%})")
+    print(f"{name}, {len(durations)} jobs, {total:.0f} s serial; at most " + ", ".join(cells))
+
+
+def main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--jobs", type=int, default=8, help="level-flight optimisations (even)")
-    parser.add_argument("--budget", type=int, default=4000, help="evaluations per optimisation")
-    args = parser.parse_args()
-    seeds = tuple(range(max(1, args.jobs // 2)))
-    preset = replace(QUICK, name="bench", seeds=seeds, level_budget=args.budget)
-    jobs = Plan(preset).jobs("level", [1.0, 1.5])
+    parser.add_argument("--preset", choices=tuple(PRESETS), default="quick")
+    parser.add_argument("--scheduler", default="local:2", type=parse_scheduler)
+    parser.add_argument("--repeat", type=int, default=1, help="runs of each mode (alternating)")
+    args = parser.parse_args(argv)
+    plan = Plan(get_preset(args.preset))
+    jobs = list({j.key: j for s in PAPER_STUDIES.values() for j in s.jobs(plan)}.values())
+    evaluations = sum(j.budget for j in jobs)
+    print(f"preset {args.preset}: {len(jobs)} optimisations, {evaluations} evaluations")
     root = Path(tempfile.mkdtemp(prefix="bench_workers_"))
+    serial_dir = None
     try:
-        for workers in (1, 2, 1, 2):  # twice each: the machine may be shared
-            out = root / f"w{workers}"
-            shutil.rmtree(out, ignore_errors=True)
-            start = time.perf_counter()
-            summary = run_jobs(jobs, out, workers=workers, progress=False)
-            seconds = time.perf_counter() - start
-            rate = summary.ran * args.budget / seconds
+        for attempt in range(args.repeat):
+            for scheduler in (None, args.scheduler):
+                out = root / f"{scheduler or 'serial'}-{attempt}".replace(":", "_").replace("/", "")
+                start = time.perf_counter()
+                run_jobs(jobs, out, scheduler=scheduler, progress=False)
+                seconds = time.perf_counter() - start
+                print(
+                    f"{scheduler or 'serial'}: {seconds:.1f} s = {evaluations / seconds:.0f} "
+                    "evaluations/s",
+                    flush=True,
+                )
+                serial_dir = serial_dir or out
+        assert serial_dir is not None
+        ordered = sorted(jobs, key=lambda j: -j.budget)  # the runner's order
+        times = load_records(serial_dir, ordered)
+        durations = [times[j].wall_time for j in ordered]
+        for task in sorted({j.task for j in jobs}):
+            own = [times[j].wall_time for j in jobs if j.task == task]
+            budget = {j.budget for j in jobs if j.task == task}
+            q = np.percentile(own, [0, 25, 50, 75, 100])
             print(
-                f"workers={workers}: {summary.ran} x {args.budget} evaluations in {seconds:.1f} s "
-                f"= {rate:.0f} evaluations/s",
-                flush=True,
+                f"{task} ({len(own)} jobs, budget {sorted(budget)}): job length [s] min "
+                f"{q[0]:.2f}, quartiles {q[1]:.2f} / {q[2]:.2f} / {q[3]:.2f}, max {q[4]:.2f}"
             )
+        per_eval = {
+            task: float(np.median([times[j].wall_time / j.budget for j in jobs if j.task == task]))
+            for task in {j.task for j in jobs}
+        }
+        print(f"measured: {durations and sum(durations):.1f} s of jobs (serial)")
+        _speedups(f"{args.preset} (measured)", durations)
+        for name, preset in PRESETS.items():
+            others = sorted(
+                {j.key: j for s in PAPER_STUDIES.values() for j in s.jobs(Plan(preset))}.values(),
+                key=lambda j: -j.budget,
+            )
+            _speedups(f"{name} (estimated)", [per_eval[j.task] * j.budget for j in others])
     finally:
         shutil.rmtree(root, ignore_errors=True)
 

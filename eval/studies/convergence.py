@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.records import write_csv_atomic
-from agents.run_record import Record
+from agents.fileio import write_csv_atomic
+from agents.records import Record
 from eval import figures
 from eval.studies.base import Plan, StudyOutput, write_tables
 from eval.studies.presets import PRESETS

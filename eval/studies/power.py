@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.run_record import Record
+from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import Plan, StudyOutput, series_label, write_tables

@@ -1,207 +1,139 @@
-"""Run a set of harness jobs once each, in parallel, resumably.
+"""Run a set of harness jobs once each, resumably, in this process or on a Dask cluster.
 
-A :class:`Job` is one harness run: one method, task, condition, budget and seed, with its env
-keywords and method settings. Its :attr:`Job.key` hashes all of that plus the preset name and
-the package version, and its record is stored as ``DIR/records/<key>.json`` (the harness
-record with the job added, written atomically). So
+A :class:`~agents.records.Job` is one harness run: one method, task, condition, budget and
+seed, with its env keywords, method settings and preset. Its key hashes all of that plus the
+package version, and its record is kept in the output directory's
+:class:`~agents.records.RecordStore` as ``DIR/records/<key>.json``. So
 
-* a killed run resumes: a job whose record file exists (and names the same job) is not run
+* a killed run resumes: a job whose record is stored (and names the same job) is not run
   again;
 * a changed configuration (budget, seeds, env keywords, model options, preset, package version)
   gives new keys, so old records are never mixed in: analyses load exactly the records of the
   jobs they ask for, and stale files in the directory are ignored;
 * the same command gives the same numbers: every job is seeded and runs alone, so neither the
-  order nor the number of workers changes a result.
+  order, the executor nor the number of workers changes a result.
 
-Jobs run in this process, one after another, with numba's default threads (``workers=1``,
-the default), or in a ``spawn`` process pool whose workers use one numba thread each (so the
-cores are not oversubscribed). On the 2-core machine the two are within 10 % of each other, the
-serial mode slightly ahead (2 730 against 2 550-2 680 evaluations/s on 8 × 12 000-evaluation
-optimisations, ``python -m eval.studies.bench_workers``), so serial is the default; the pool is
-for machines with more cores than numba's threads use well at the PSO's batch of 40 strokes.
+Where the jobs run (``scheduler``, ``--scheduler`` on the command line):
+
+``None``
+    in this process, one after another, with numba's default threads (the default: it needs
+    no cluster, and on 2 cores it is as fast as two one-thread processes);
+``"local:N"``
+    a Dask ``LocalCluster`` started here with N worker processes of one thread each, each
+    with ``NUMBA_NUM_THREADS=1``; closed at the end;
+``"tcp://HOST:PORT"`` (or ``"HOST:PORT"``)
+    a running Dask scheduler and its workers (``dask scheduler``, ``dask worker``,
+    dask-jobqueue on SLURM/PBS; docs/scaling.md). Every worker needs this project importable
+    (the same environment on every node).
+
+Either way this process writes each record as its job finishes (workers need no shared
+filesystem), one progress bar counts the evaluations of the finished jobs, a worker that dies
+has its jobs rerun by Dask, and a job that raises is reported with its key and traceback
+after the other jobs have finished (:class:`JobsFailed`).
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
+import contextlib
+import contextvars
 import math
-import multiprocessing
 import os
+import re
+import socket
 import sys
 import time
-from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import asdict, dataclass, field
+import traceback
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
-from tqdm.auto import tqdm
+from agents.progress import ProgressBar, Reporter
+from agents.records import RECORDS_DIR, Job, Record, RecordStore
 
-import tandem_env
-from agents.records import read_json, write_json_atomic
-from agents.run_record import SCHEMA, Record
+if TYPE_CHECKING:
+    from distributed import Client
+
+__all__ = [
+    "RECORDS_DIR",
+    "Job",
+    "JobFailure",
+    "JobsFailed",
+    "RunSummary",
+    "SchedulerUnreachable",
+    "dask_client",
+    "executor_spec",
+    "have_records",
+    "load_records",
+    "parse_scheduler",
+    "run_jobs",
+]
 
 Task = Literal["level", "accelerate"]
-RECORDS_DIR = "records"
+
+#: Seconds to wait for a Dask scheduler to answer before giving up [s].
+CONNECT_TIMEOUT = 10.0
+#: Prefix of the Dask task keys (``harness-<job key>``; the dashboard groups tasks by it).
+TASK_PREFIX = "harness"
+_ALLOWED = (
+    "local:N (N >= 1 worker processes started here) or the address of a running Dask "
+    "scheduler, e.g. tcp://HOST:8786"
+)
 
 
-@dataclass(frozen=True)
-class Job:
-    """One harness run (one seed) and everything that decides its result."""
+class SchedulerUnreachable(ConnectionError):
+    """No Dask scheduler answers at the address given."""
 
-    method: str
-    """Harness method spec, e.g. ``"pso"``, ``"random"``, ``"policy:runs/ppo"``."""
-    task: Task
-    condition: float
-    """Flight speed [m/s] (level) or available power [W/kg] (accelerate)."""
-    budget: int
-    """Model evaluations."""
-    seed: int
-    env_kwargs: tuple[tuple[str, Any], ...] = ()
-    """Env keywords besides the condition, sorted by name (objective, planform, options)."""
-    method_config: tuple[tuple[str, Any], ...] = ()
-    """Method settings, sorted by name (e.g. ``swarm_size``)."""
-    preset: str = ""
-    """The preset the job belongs to (part of the key, so presets never share records)."""
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "condition", float(self.condition))
-        object.__setattr__(self, "env_kwargs", tuple(sorted(self.env_kwargs)))
-        object.__setattr__(self, "method_config", tuple(sorted(self.method_config)))
+def parse_scheduler(text: str) -> str:
+    """Validate a ``--scheduler`` value; returns it normalised (``HOST:PORT`` -> ``tcp://...``).
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON form (tuples become lists); what the key hashes, besides the version."""
-        out = asdict(self)
-        out["env_kwargs"] = {k: v for k, v in self.env_kwargs}
-        out["method_config"] = {k: v for k, v in self.method_config}
-        return out
+    Raises ValueError naming the value and what is allowed.
+    """
+    text = text.strip()
+    if text.startswith("local:"):
+        count = text.partition(":")[2]
+        if not count.isdigit() or int(count) < 1:
+            raise ValueError(
+                f"--scheduler {text!r}: local:N needs a whole number N >= 1 of worker processes; "
+                f"allowed: {_ALLOWED}"
+            )
+        return f"local:{int(count)}"
+    match = re.fullmatch(r"(?:([a-z][a-z0-9+.-]*)://)?(\[[0-9a-fA-F:]+\]|[^\s/:]+):(\d+)", text)
+    if match is None:
+        raise ValueError(f"--scheduler {text!r}; allowed: {_ALLOWED}")
+    scheme, host, port = match.groups()
+    return f"{scheme or 'tcp'}://{host}:{port}"
 
-    @property
-    def key(self) -> str:
-        """Configuration hash: the job, the preset, the tandem_env version and record format."""
-        payload = {**self.to_dict(), "tandem_env": tandem_env.__version__, "record": SCHEMA}
-        text = json.dumps(payload, sort_keys=True, default=str)
-        return hashlib.sha256(text.encode()).hexdigest()[:20]
 
-    def env(self, name: str, default: Any = None) -> Any:
-        """One env keyword (``objective``, ``planform``, ...) or ``default``."""
-        return dict(self.env_kwargs).get(name, default)
+def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
+    """The executor from ``scheduler`` and the shorthand ``workers=N`` (N > 1 means ``local:N``).
 
-    def label(self) -> str:
-        """Short human label, e.g. ``pso level V=1.5 seed 0``."""
-        unit = "V=" if self.task == "level" else "P="
-        extra = [str(v) for k, v in self.env_kwargs if k in ("objective", "planform")]
-        return " ".join(
-            [self.method, self.task, *extra, f"{unit}{self.condition:g}", f"seed {self.seed}"]
+    ``workers=1`` (the default) leaves ``scheduler`` as given (None: serially, here).
+    """
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers = {workers!r}; allowed: an integer >= 1 (N > 1 means local:N)")
+    if workers == 1:
+        return None if scheduler is None else parse_scheduler(scheduler)
+    if scheduler is not None:
+        raise ValueError(
+            f"workers = {workers} and scheduler = {scheduler!r}; give one (workers N is local:N)"
         )
+    return f"local:{workers}"
 
 
 @dataclass(frozen=True)
-class JobOutcome:
-    """What a finished job reports back to the progress display."""
+class JobFailure:
+    """A job that raised: its key, label and the error's traceback."""
 
     key: str
-    objective: float
-    feasible: bool
-    wall_time: float
+    label: str
+    error: str
+    """``Type: message`` of the exception."""
+    traceback: str
 
-
-def record_path(out_dir: Path, job: Job) -> Path:
-    return out_dir / RECORDS_DIR / f"{job.key}.json"
-
-
-def load_record(out_dir: Path, job: Job) -> Record | None:
-    """The stored record of ``job``, or None if it has not run with this configuration."""
-    path = record_path(out_dir, job)
-    if not path.exists():
-        return None
-    try:
-        data = read_json(path)
-        # Guards against a truncated hash colliding or a hand-edited file: the stored job must
-        # be this job exactly.
-        if data.get("study_job") != json.loads(json.dumps(job.to_dict(), default=str)):
-            return None
-        return Record.from_dict(data)
-    except (OSError, ValueError, TypeError):
-        return None
-
-
-def _harness_run(job: Job) -> Record:
-    """One harness call (module level so tests can count calls)."""
-    from agents.harness import run
-
-    (record,) = run(
-        job.method,
-        job.task,
-        job.condition,
-        job.budget,
-        [job.seed],
-        env_kwargs=dict(job.env_kwargs),
-        method_config=dict(job.method_config),
-        progress=False,
-    )
-    return record
-
-
-def run_job(job: Job, out_dir: str) -> JobOutcome:
-    """Run one job through the harness and store its record atomically."""
-    record = _harness_run(job)
-    data = record.to_dict()
-    data["study_job"] = job.to_dict()
-    data["study_key"] = job.key
-    write_json_atomic(record_path(Path(out_dir), job), data)
-    return JobOutcome(job.key, record.objective, record.feasible, record.wall_time)
-
-
-def _init_worker() -> None:
-    # One numba thread per process: with as many processes as cores, extra threads only
-    # oversubscribe the cores (and numba's threading at batch 40 costs more than it gains).
-    import numba
-
-    numba.set_num_threads(1)
-
-
-@dataclass
-class _Display:
-    """Progress over jobs: evaluations done, conditions done, best so far, time left."""
-
-    jobs: Sequence[Job]
-    enabled: bool
-    done: int = 0
-    best: dict[str, float] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        total = sum(j.budget for j in self.jobs)
-        self.bar = (
-            tqdm(
-                total=total,
-                unit="eval",
-                unit_scale=True,
-                desc=f"{len(self.jobs)} optimisations",
-                file=sys.stderr,
-                dynamic_ncols=True,
-                mininterval=1.0,
-            )
-            if self.enabled
-            else None
-        )
-
-    def finished(self, job: Job, outcome: JobOutcome) -> None:
-        self.done += 1
-        series = " ".join([job.task, *(str(v) for k, v in job.env_kwargs if k == "objective")])
-        if outcome.feasible and outcome.objective > self.best.get(series, -math.inf):
-            self.best[series] = outcome.objective
-        if self.bar is not None:
-            bests = ", ".join(f"{k} {v:.3g}" for k, v in sorted(self.best.items()))
-            self.bar.set_postfix_str(
-                f"{self.done}/{len(self.jobs)} done; best feasible: {bests or '-'}", refresh=False
-            )
-            self.bar.update(job.budget)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
+    def describe(self) -> str:
+        return f"{self.label} (key {self.key}): {self.error}\n{self.traceback}".rstrip()
 
 
 @dataclass(frozen=True)
@@ -213,67 +145,274 @@ class RunSummary:
     reused: int
     """Jobs whose records already existed (resumed)."""
     ran: int
-    """Jobs run now."""
+    """Jobs run now (including failed ones)."""
     wall_time: float
     """Seconds spent [s]."""
+    executor: str = "serial"
+    """Where the jobs ran: ``serial``, ``local:N`` or the scheduler's address."""
+    failures: tuple[JobFailure, ...] = field(default=())
+    """Jobs that raised."""
+
+
+class JobsFailed(RuntimeError):
+    """Some jobs raised; the others finished and their records are stored."""
+
+    def __init__(self, summary: RunSummary) -> None:
+        self.summary = summary
+        failures = summary.failures
+        lines = [
+            f"{len(failures)} of {summary.ran} optimisations failed (the others finished and "
+            "their records are stored; rerun the same command to retry the failed ones):"
+        ]
+        lines += [f"--- {f.describe()}" for f in failures]
+        super().__init__("\n".join(lines))
+
+
+# The serial executor's live progress: what the job running now reports to (module level, so
+# tests can wrap _harness_run(job) and still see progress).
+_REPORTER: contextvars.ContextVar[Reporter | None] = contextvars.ContextVar(
+    "harness_reporter", default=None
+)
+
+
+def _harness_run(job: Job) -> Record:
+    """One harness call (module level so tests can count calls and workers can import it)."""
+    from agents.harness import run_job
+
+    return run_job(job, _REPORTER.get())
+
+
+def _on_worker(job: Job) -> Record:
+    """What a Dask worker runs: the harness call, with one numba thread per job.
+
+    numba's thread count is per calling thread; a worker runs as many jobs at once as it has
+    threads, so one numba thread each keeps a node's cores from being oversubscribed. A worker
+    started with ``NUMBA_NUM_THREADS`` set keeps numba's default (that many) instead.
+    """
+    if "NUMBA_NUM_THREADS" not in os.environ:
+        import numba
+
+        numba.set_num_threads(1)
+    return _harness_run(job)
+
+
+Outcome = Record | JobFailure
+
+
+def _failure(job: Job, error: BaseException, tb: Any) -> JobFailure:
+    return JobFailure(
+        key=job.key,
+        label=job.label(),
+        error=f"{type(error).__name__}: {error}",
+        traceback="".join(traceback.format_exception(type(error), error, tb)),
+    )
+
+
+def _run_serially(todo: Sequence[Job], display: _Display) -> Iterator[tuple[Job, Outcome]]:
+    for job in todo:
+        token = _REPORTER.set(display.reporter(job))
+        try:
+            outcome: Outcome = _harness_run(job)
+        except Exception as error:
+            outcome = _failure(job, error, error.__traceback__)
+        finally:
+            _REPORTER.reset(token)
+        yield job, outcome
+
+
+def _run_on_dask(client: Client, todo: Sequence[Job]) -> Iterator[tuple[Job, Outcome]]:
+    from distributed import as_completed
+
+    futures = {
+        client.submit(
+            _on_worker, job, key=f"{TASK_PREFIX}-{job.key}", priority=job.budget, retries=0
+        ): job
+        for job in todo
+    }
+    for future in as_completed(futures):
+        job = futures[future]
+        if future.status == "finished":
+            outcome: Outcome = future.result()
+        elif future.status == "error":
+            outcome = _failure(job, future.exception(), future.traceback())
+        else:  # cancelled: the scheduler went away or gave up on the task
+            outcome = JobFailure(
+                job.key, job.label(), f"task {future.status} by the Dask scheduler", ""
+            )
+        future.release()
+        yield job, outcome
+
+
+def _probe(address: str) -> None:
+    # Fails fast (connection refused) where the Dask client would retry until its timeout.
+    match = re.fullmatch(r"tcp://(\[[0-9a-fA-F:]+\]|[^\s/:]+):(\d+)", address)
+    if match is None:
+        return
+    host, port = match.group(1).strip("[]"), int(match.group(2))
+    try:
+        with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT):
+            pass
+    except OSError as error:
+        raise SchedulerUnreachable(
+            f"no Dask scheduler answers at {address} ({error.strerror or error}); start one "
+            "with `dask scheduler` and workers with `dask worker ADDRESS` (docs/scaling.md), "
+            "or run here with --scheduler local:N"
+        ) from None
+
+
+@contextlib.contextmanager
+def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
+    """A client of ``scheduler`` (``local:N`` or an address), closed (with its cluster) at exit.
+
+    Raises :class:`SchedulerUnreachable` naming the address if no scheduler answers within
+    :data:`CONNECT_TIMEOUT` seconds.
+    """
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    spec = parse_scheduler(scheduler)
+    with contextlib.ExitStack() as stack:
+        if spec.startswith("local:"):
+            cluster = stack.enter_context(
+                LocalCluster(
+                    n_workers=int(spec.partition(":")[2]),
+                    threads_per_worker=1,
+                    processes=True,
+                    host="127.0.0.1",
+                    dashboard_address="127.0.0.1:0",  # a free port (the dashboard needs bokeh)
+                    # One numba thread per worker process (a job per core, see _on_worker).
+                    env={"NUMBA_NUM_THREADS": "1"},
+                    silence_logs=logging.ERROR,
+                )
+            )
+            client = stack.enter_context(Client(cluster))
+        else:
+            _probe(spec)
+            try:
+                client = stack.enter_context(Client(spec, timeout=CONNECT_TIMEOUT))
+            except OSError as error:
+                raise SchedulerUnreachable(
+                    f"cannot connect to the Dask scheduler at {spec}: {error}"
+                ) from None
+        if not quiet:
+            workers = len(client.scheduler_info().get("workers", {}))
+            where = f"Dask scheduler {client.scheduler.address}, {workers} workers"
+            if workers == 0:
+                where += " (jobs wait until workers connect)"
+            if dashboard_link := _dashboard(client):
+                where += f", dashboard {dashboard_link}"
+            print(where, file=sys.stderr)
+        yield client
+
+
+def _dashboard(client: Client) -> str | None:
+    try:
+        return client.dashboard_link if client.scheduler_info().get("services") else None
+    except Exception:  # no dashboard service (bokeh missing)
+        return None
+
+
+@dataclass
+class _Display:
+    """One progress bar over the evaluations of all jobs: finished jobs, best so far, ETA."""
+
+    jobs: Sequence[Job]
+    enabled: bool
+    done: int = 0
+    evaluations: int = 0
+    best: dict[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        total = sum(j.budget for j in self.jobs)
+        n = len(self.jobs)
+        self.bar = ProgressBar(total, f"{n} optimisation{'s' * (n != 1)}", self.enabled)
+
+    def reporter(self, job: Job) -> Reporter:
+        """Live progress of a job running in this process."""
+        return lambda iteration, evaluations, best: self.bar.move_to(
+            self.evaluations + min(evaluations, job.budget)
+        )
+
+    def finished(self, job: Job, outcome: Outcome) -> None:
+        self.done += 1
+        self.evaluations += job.budget
+        if isinstance(outcome, Record) and outcome.feasible:
+            series = " ".join([job.task, *(str(v) for k, v in job.env_kwargs if k == "objective")])
+            if outcome.objective > self.best.get(series, -math.inf):
+                self.best[series] = outcome.objective
+        bests = ", ".join(f"{k} {v:.3g}" for k, v in sorted(self.best.items()))
+        self.bar.move_to(
+            self.evaluations, f"{self.done}/{len(self.jobs)} jobs; best feasible: {bests or '-'}"
+        )
+
+    def close(self) -> None:
+        self.bar.close()
 
 
 def run_jobs(
     jobs: Iterable[Job],
     out_dir: str | os.PathLike[str],
     *,
-    workers: int = 1,
+    scheduler: str | None = None,
     progress: bool = True,
-    runner: Callable[[Job, str], JobOutcome] = run_job,
 ) -> RunSummary:
     """Run every job that has no stored record yet; duplicates run once.
 
-    ``workers > 1`` uses a spawn process pool with one numba thread per worker; ``workers ==
-    1`` runs in this process. Jobs are started largest budget first so the pool stays busy to
-    the end.
+    ``scheduler`` chooses where (module docstring): None runs them here, one after another;
+    ``"local:N"`` or a scheduler address runs them on Dask. Jobs start largest budget first,
+    so the workers stay busy to the end. Each record is stored as its job finishes. Raises
+    :class:`JobsFailed` (after every other job has finished) if any job raised,
+    :class:`SchedulerUnreachable` if the scheduler does not answer, ValueError for a bad
+    ``scheduler`` or an ``out_dir`` that is a file.
     """
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ValueError(f"workers = {workers!r}; allowed: an integer >= 1")
+    executor = "serial" if scheduler is None else parse_scheduler(scheduler)
     start = time.perf_counter()
-    out = Path(out_dir)
+    store = RecordStore(out_dir)
     unique = list({job.key: job for job in jobs}.values())
-    todo = [job for job in unique if load_record(out, job) is None]
+    todo = [job for job in unique if store.load(job) is None]
     todo.sort(key=lambda j: -j.budget)
-    display = _Display(todo, progress and bool(todo))
-    try:
-        if workers == 1 or len(todo) <= 1:
-            for job in todo:
-                display.finished(job, runner(job, str(out)))
-        else:
-            context = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(
-                max_workers=min(workers, len(todo)), mp_context=context, initializer=_init_worker
-            ) as pool:
-                pending = {pool.submit(runner, job, str(out)): job for job in todo}
-                while pending:
-                    finished, _ = wait(pending, return_when=FIRST_COMPLETED)
-                    for future in finished:
-                        job = pending.pop(future)
-                        display.finished(job, future.result())
-    finally:
-        display.close()
-    return RunSummary(
+    failures: list[JobFailure] = []
+    with contextlib.ExitStack() as stack:
+        client = None
+        if todo and scheduler is not None:
+            client = stack.enter_context(dask_client(executor, quiet=not progress))
+        display = _Display(todo, progress and bool(todo))
+        stack.callback(display.close)
+        outcomes = _run_serially(todo, display) if client is None else _run_on_dask(client, todo)
+        for job, outcome in outcomes:
+            if isinstance(outcome, JobFailure):
+                failures.append(outcome)
+            elif outcome.key != job.key:
+                failures.append(
+                    JobFailure(job.key, job.label(), f"record has key {outcome.key!r}", "")
+                )
+            else:
+                store.save(outcome)
+            display.finished(job, outcome)
+    summary = RunSummary(
         total=len(unique),
         reused=len(unique) - len(todo),
         ran=len(todo),
         wall_time=time.perf_counter() - start,
+        executor=executor,
+        failures=tuple(sorted(failures, key=lambda f: f.key)),
     )
+    if failures:
+        raise JobsFailed(summary)
+    return summary
 
 
 def load_records(out_dir: str | os.PathLike[str], jobs: Iterable[Job]) -> dict[Job, Record]:
     """The records of ``jobs`` (all must have run); raises naming the first missing one."""
-    out = Path(out_dir)
+    store = RecordStore(out_dir)
     found: dict[Job, Record] = {}
     for job in jobs:
-        record = load_record(out, job)
+        record = store.load(job)
         if record is None:
             raise FileNotFoundError(
-                f"no record for {job.label()} (key {job.key}) in {out / RECORDS_DIR}; run the study"
+                f"no record for {job.label()} (key {job.key}) in "
+                f"{Path(out_dir) / RECORDS_DIR}; run the study"
             )
         found[job] = record
     return found
@@ -281,5 +420,5 @@ def load_records(out_dir: str | os.PathLike[str], jobs: Iterable[Job]) -> dict[J
 
 def have_records(out_dir: str | os.PathLike[str], jobs: Iterable[Job]) -> bool:
     """Whether every job has a stored record with its current configuration."""
-    out = Path(out_dir)
-    return all(load_record(out, job) is not None for job in jobs)
+    store = RecordStore(out_dir)
+    return all(store.load(job) is not None for job in jobs)

@@ -10,7 +10,7 @@ import math
 from collections.abc import Mapping
 from pathlib import Path
 
-from agents.run_record import Record
+from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import Plan, StudyOutput, series_label, write_tables

@@ -8,11 +8,17 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from agents.records import write_json_atomic
+from agents.fileio import write_json_atomic
 from eval import report
 from eval.studies import PAPER_STUDIES, STUDIES
 from eval.studies.base import Plan, StudyOutput
-from eval.studies.runner import RunSummary, have_records, load_records, run_jobs
+from eval.studies.runner import (
+    RunSummary,
+    executor_spec,
+    have_records,
+    load_records,
+    run_jobs,
+)
 
 
 @dataclass(frozen=True)
@@ -43,21 +49,26 @@ def run_studies(
     plan: Plan,
     out_dir: str | os.PathLike[str],
     *,
+    scheduler: str | None = None,
     workers: int = 1,
     progress: bool = True,
 ) -> SuiteResult:
     """Run the studies ``names`` (or ``["all"]``) into ``out_dir``.
 
-    All their jobs go into one pool (shared optimisations run once); finished jobs from an
-    earlier, killed or partial run with the same configuration are reused. The report covers
-    every paper study whose records are all present, so running ``speed`` and then ``power``
-    into one directory gives one report with both.
+    All their jobs go into one run (shared optimisations run once) on ``scheduler`` (None:
+    serially here; ``"local:N"``; a Dask scheduler's address; see
+    :func:`eval.studies.runner.run_jobs`); ``workers=N > 1`` is short for
+    ``scheduler="local:N"``. Finished jobs from an earlier, killed or partial run with the same
+    configuration are reused. The report covers every paper study whose records are all
+    present, so running ``speed`` and then ``power`` into one directory gives one report with
+    both.
     """
     start = time.perf_counter()
     out = Path(out_dir)
+    scheduler = executor_spec(scheduler, workers)
     studies = [STUDIES[n] for n in expand(names)]
     jobs = [job for study in studies for job in study.jobs(plan)]
-    summary = run_jobs(jobs, out, workers=workers, progress=progress)
+    summary = run_jobs(jobs, out, scheduler=scheduler, progress=progress)
     outputs = [study.analyse(plan, load_records(out, study.jobs(plan)), out) for study in studies]
 
     done = {o.name: o for o in outputs}
@@ -85,7 +96,7 @@ def run_studies(
                     "jobs": summary.total,
                     "ran": summary.ran,
                     "reused": summary.reused,
-                    "workers": workers,
+                    "executor": summary.executor,
                     "wall_time_s": round(wall, 1),
                 },
             },

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.run_record import Record
+from agents.records import Record
 from eval.studies.runner import Job
 
 #: Columns that identify a series (one line in a figure).

@@ -37,7 +37,7 @@ from agents.methods import (
     register_method,
 )
 from agents.pso import PSOConfig
-from agents.run_record import SCHEMA, Record, load_records
+from agents.records import SCHEMA, Job, Record, load_records
 from agents.tasks import LEVEL, get_task
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -196,7 +196,7 @@ def test_lazy_provider_registers_on_first_use(
         record = run_analytic("fake:5", "sphere", 20, 0)
         assert record.method == "fake:5"
         assert [e for e, _ in record.history] == [5, 10, 15, 20]
-        assert record.filename() == "fake-5_sphere_objective_shift0.3_seed0.json"
+        assert record.job["method"] == "fake:5" and Job(**record.job).key == record.key
     finally:
         from agents import methods
 
@@ -318,18 +318,15 @@ def test_level_reevaluation_equals_direct_model_call(level_records) -> None:
 
 def test_level_json_round_trip_and_files(level_records) -> None:
     out, records = level_records
-    names = sorted(p.name for p in out.iterdir())
-    # Atomic writes leave no temporary files behind.
-    assert names == [
-        "pso_level_efficiency_speed1.5_seed0.json",
-        "pso_level_efficiency_speed1.5_seed1.json",
-        "summary.csv",
-    ]
+    assert sorted(p.name for p in out.iterdir()) == ["records", "summary.csv"]
+    # One file per seed, named by the configuration's key; no temporary files left behind.
+    names = sorted(p.name for p in (out / "records").iterdir())
+    assert names == sorted(f"{r.key}.json" for r in records)
     for record in records:
-        data = json.loads((out / record.filename()).read_text())
+        data = json.loads((out / "records" / f"{record.key}.json").read_text())
         assert data["schema"] == SCHEMA
         assert Record.from_dict(data) == record
-    assert load_records([out]) == records
+    assert sorted(load_records([out]), key=lambda r: r.seed) == records
     summary = (out / "summary.csv").read_text().splitlines()
     assert summary[0].startswith("method,task,objective_name,condition,condition_value")
     assert len(summary) == 3

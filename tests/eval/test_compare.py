@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from agents.run_record import Record
+from agents.records import Record, RecordStore
 from agents.tasks import Condition
 from eval import compare as compare_module
 from eval.__main__ import build_parser, main
@@ -35,6 +35,7 @@ def _record(method: str, seed: int, objective: float, feasible: bool) -> Record:
         wall_time=1.0,
         config={},
         versions={},
+        key=f"{method}-{seed}",
     )
 
 
@@ -42,9 +43,9 @@ def _record(method: str, seed: int, objective: float, feasible: bool) -> Record:
 def records(tmp_path: Path) -> Path:
     folder = tmp_path / "records"
     for seed, objective in enumerate((0.30, 0.20, 0.40)):
-        _record("pso", seed, objective, feasible=seed != 1).save(folder)
+        RecordStore(folder).save(_record("pso", seed, objective, feasible=seed != 1))
     for seed, objective in enumerate((0.50, 0.60)):
-        _record("random", seed, objective, feasible=False).save(folder)
+        RecordStore(folder).save(_record("random", seed, objective, feasible=False))
     return folder
 
 

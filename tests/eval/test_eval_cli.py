@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.run_record import Record, load_records
+from agents.records import Record, load_records
 from eval import compare as compare_module
 from eval.__main__ import SUBCOMMANDS, build_parser, main
 
@@ -31,14 +31,19 @@ def results(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+def _stored(out: Path, method: str, seed: int) -> Path:
+    """The store's file of a record, found by its configuration."""
+    (record,) = [r for r in load_records([out]) if (r.method, r.seed) == (method, seed)]
+    return out / "records" / f"{record.key}.json"
+
+
 def test_optimize_writes_one_record_per_seed_and_a_summary(results: Path) -> None:
-    names = sorted(p.name for p in results.iterdir())
-    assert names == [
-        *(f"pso_level_efficiency_speed1.5_seed{s}.json" for s in range(3)),
-        *(f"random_level_efficiency_speed1.5_seed{s}.json" for s in range(2)),
-        "summary.csv",
-    ]  # and no temporary files
-    records = load_records([results])
+    assert sorted(p.name for p in results.iterdir()) == ["records", "summary.csv"]
+    records = sorted(load_records([results]), key=lambda r: (r.method, r.seed))
+    # One file per seed, named by its key, and no temporary files.
+    assert sorted(p.name for p in (results / "records").iterdir()) == sorted(
+        f"{r.key}.json" for r in records
+    )
     assert [(r.method, r.seed) for r in records] == [
         ("pso", 0), ("pso", 1), ("pso", 2), ("random", 0), ("random", 1)
     ]  # fmt: skip
@@ -54,8 +59,9 @@ def test_optimize_writes_one_record_per_seed_and_a_summary(results: Path) -> Non
 
 def test_optimize_is_deterministic(results: Path, tmp_path: Path) -> None:
     assert optimize(tmp_path, "--method", "pso", "--seeds", "1") == 0
-    (again,) = load_records([tmp_path / "pso_level_efficiency_speed1.5_seed1.json"])
-    first = Record.load(results / "pso_level_efficiency_speed1.5_seed1.json")
+    (again,) = load_records([tmp_path])
+    first = Record.load(_stored(results, "pso", 1))
+    assert again.key == first.key  # the same configuration
     assert again.history == first.history
     assert again.normalised_stroke == first.normalised_stroke
     assert again.metrics == first.metrics
@@ -80,7 +86,10 @@ def test_optimize_passes_env_kwargs_and_method_config(tmp_path: Path) -> None:
     assert record.config["method"]["boundary"] == "reflect"
     assert record.config["method"]["velocity_clamp"] == 0.25
     assert record.objective == record.metrics["excess_horizontal"]
-    assert (tmp_path / "pso_accelerate_excess_horizontal_available_power70_seed5.json").exists()
+    assert (tmp_path / "records" / f"{record.key}.json").exists()
+    assert record.job["env_kwargs"] == {
+        "thrust_split": "body", "penalty_weight": 20, "objective": "horizontal"
+    }  # fmt: skip
 
 
 @pytest.mark.parametrize(
@@ -140,8 +149,8 @@ def test_compare_writes_table_and_plot(results: Path, tmp_path: Path) -> None:
 
 
 def test_convergence_curve_on_mixed_grids(results: Path) -> None:
-    a = Record.load(results / "pso_level_efficiency_speed1.5_seed0.json")
-    b = Record.load(results / "pso_level_efficiency_speed1.5_seed1.json")
+    a = Record.load(_stored(results, "pso", 0))
+    b = Record.load(_stored(results, "pso", 1))
     b = Record.from_dict({**b.to_dict(), "history": [[6, -3.0], [12, -1.0]]})
     x, q25, median, q75 = compare_module.convergence_curve([a, b])
     assert x.tolist() == [4, 6, 8, 12]

@@ -93,9 +93,9 @@ def test_report_numbers_are_the_records_numbers(study_dir: Path) -> None:
             r["metrics"][metric]
             for r in records
             if r["task"] == task
-            and r["study_job"]["env_kwargs"].get("objective", "efficiency") == objective
-            and r["study_job"]["env_kwargs"]["planform"] == "tear-drop"
-            and r["study_job"]["budget"] == SMALL.budget(task)
+            and r["job"]["env_kwargs"].get("objective", "efficiency") == objective
+            and r["job"]["env_kwargs"]["planform"] == "tear-drop"
+            and r["job"]["budget"] == SMALL.budget(task)
             and r["condition"]["value"] == condition
             and r["feasible"]
         ]
@@ -117,7 +117,7 @@ def test_report_numbers_are_the_records_numbers(study_dir: Path) -> None:
     assert checked >= 1, "the tiny preset found no feasible accelerating stroke to check"
 
     # The tidy CSV is the records' numbers too.
-    by_key = {r["study_key"]: r for r in records}
+    by_key = {r["key"]: r for r in records}
     for row in _read_csv(study_dir / "power" / "power.csv"):
         record = by_key[row["key"]]
         assert float(row["excess_vertical"]) == pytest.approx(record["metrics"]["excess_vertical"])

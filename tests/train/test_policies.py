@@ -58,7 +58,7 @@ def test_policy_method_records_its_stroke_with_one_evaluation(
     assert record.reward == record.search_reward  # re-evaluated exactly
     assert record.config["method"]["model"] == "best"
     assert record.metrics["speed"] == 1.0
-    assert list(tmp_path.glob("*.json"))
+    assert list(tmp_path.glob("records/*.json"))
 
 
 def test_policy_strokes_depend_on_the_condition(envelope_run: Path) -> None:

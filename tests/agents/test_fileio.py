@@ -1,4 +1,4 @@
-"""Tests for agents.records: atomic JSON/CSV writes and package versions."""
+"""Tests for agents.fileio (atomic JSON/CSV writes) and agents.records.package_versions."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ import pytest
 
 from agents import (
     PSOConfig,
+    fileio,
     maximise,
     package_versions,
     read_json,
@@ -83,7 +84,7 @@ def test_failed_write_keeps_old_file_and_cleans_up(
         raise OSError(f"simulated {failing} failure")
 
     # A crash after the data is (partly) on disk but before the rename.
-    monkeypatch.setattr(records.os, failing, crash)
+    monkeypatch.setattr(fileio.os, failing, crash)
     with pytest.raises(OSError, match="simulated"):
         write_json_atomic(path, {"version": 2, "payload": list(range(10_000))})
     monkeypatch.undo()
@@ -148,3 +149,41 @@ def test_package_versions(monkeypatch: pytest.MonkeyPatch) -> None:
 
     monkeypatch.setattr(records.metadata, "version", without_numba)
     assert package_versions()["numba"] == "not installed"
+
+
+def test_one_converter_for_dataclasses_keys_and_unknown_values() -> None:
+    from dataclasses import dataclass
+
+    from agents import to_jsonable
+
+    @dataclass(frozen=True)
+    class Wing:
+        length: float
+        pitch: tuple[float, float]
+
+    obj = {"wing": Wing(0.04, (1.0, 2.0)), True: None, 2: np.float32(0.5)}
+    assert to_jsonable(obj) == {
+        "wing": {"length": 0.04, "pitch": [1.0, 2.0]},
+        "true": None,
+        "2": 0.5,
+    }
+    assert to_jsonable(obj) == json.loads(json.dumps(to_jsonable(obj)))  # as written to a file
+    with pytest.raises(TypeError, match="cannot convert object"):
+        to_jsonable({"x": object()})
+    assert to_jsonable({"cls": int, "x": [object]}, default=repr) == {
+        "cls": "<class 'int'>",
+        "x": ["<class 'object'>"],
+    }
+
+
+def test_atomic_path_for_writers_that_need_a_path(tmp_path: Path) -> None:
+    target = tmp_path / "figures" / "fig.png"
+    with fileio.atomic_path(target) as tmp:
+        assert tmp.parent == target.parent and tmp.suffix == ".png" and tmp != target
+        tmp.write_bytes(b"png")
+    assert target.read_bytes() == b"png"
+    with pytest.raises(RuntimeError), fileio.atomic_path(target) as tmp:
+        tmp.write_bytes(b"half")
+        raise RuntimeError("killed while rendering")
+    assert target.read_bytes() == b"png"
+    assert sorted(os.listdir(target.parent)) == ["fig.png"]

@@ -1,0 +1,177 @@
+"""File I/O the project shares: one JSON converter and one atomic writer.
+
+:func:`to_jsonable` is the one conversion of Python/numpy values to plain JSON types.
+:func:`atomic_path` is the one atomic write: it hands out a temporary file in the target's
+directory and, when the block succeeds, fsyncs it and renames it over the target with
+:func:`os.replace`, so a reader (or a crash) only ever sees the old file or the complete new
+one. :func:`write_text_atomic`, :func:`write_json_atomic` and :func:`write_csv_atomic` are built
+on it, and a writer that needs a path (a matplotlib figure) uses it directly. Serialisation
+happens before any file is touched.
+
+JSON is written with Python's defaults for non-finite floats (``NaN``, ``Infinity``,
+``-Infinity``): not strict RFC 8259, but it round-trips through :func:`read_json`, and an
+optimiser's ``-inf`` best fitness is information worth keeping.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import dataclasses
+import io
+import json
+import os
+import tempfile
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "atomic_path",
+    "read_json",
+    "to_jsonable",
+    "write_csv_atomic",
+    "write_json_atomic",
+    "write_text_atomic",
+]
+
+
+def to_jsonable(obj: Any, default: Callable[[Any], Any] | None = None) -> Any:
+    """Convert ``obj`` to plain JSON types (dict, list, str, int, float, bool, None).
+
+    numpy scalars become Python scalars, arrays become nested lists, tuples become lists,
+    :class:`~pathlib.Path` becomes str, dataclass instances (e.g. a ``Dragonfly`` in env
+    keywords) become dicts of their fields, objects with a ``to_dict()`` method are converted
+    through it and mapping keys become strings as JSON writes them. Anything else goes to
+    ``default`` (as in :func:`json.dumps`: e.g. ``repr``, or ``lambda v: v`` to keep it for a
+    YAML writer to judge); without one it raises TypeError.
+    """
+    if obj is None or isinstance(obj, str | bool | int | float):
+        return obj
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    if isinstance(obj, Mapping):
+        return {_json_key(key): to_jsonable(value, default) for key, value in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [to_jsonable(item, default) for item in obj]
+    if not isinstance(obj, type):  # a class's to_dict is not the object's
+        to_dict = getattr(obj, "to_dict", None)
+        if callable(to_dict):
+            return to_jsonable(to_dict(), default)
+        if dataclasses.is_dataclass(obj):
+            return {
+                f.name: to_jsonable(getattr(obj, f.name), default) for f in dataclasses.fields(obj)
+            }
+    if default is not None:
+        return default(obj)
+    raise TypeError(f"cannot convert {type(obj).__name__} to JSON: {obj!r}")
+
+
+def _json_key(key: Any) -> str:
+    # As json.dumps writes it (3 -> "3", True -> "true"), so a converted object equals its
+    # round trip through a file.
+    key = key.item() if isinstance(key, np.generic) else key
+    if isinstance(key, str):
+        return key
+    if key is None or isinstance(key, bool | int | float):
+        return json.dumps(key)
+    raise TypeError(f"JSON object keys must be str, int, float, bool or None, got {key!r}")
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; on success it replaces ``path`` atomically.
+
+    The temporary name keeps ``path``'s suffix (so ``savefig`` infers the format), the parent
+    directories are created, the file is fsynced before the rename and the directory after it.
+    If the block raises, the temporary file is removed and ``path`` is untouched. The new file
+    keeps an existing file's mode, else gets an ordinary 0644 (not mkstemp's private 0600).
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp_name = tempfile.mkstemp(
+        prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=path.parent
+    )
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        yield tmp
+        os.chmod(tmp, path.stat().st_mode & 0o7777 if path.exists() else 0o644)
+        with open(tmp, "ab") as handle:
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    _fsync_directory(path.parent)
+
+
+def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` atomically (:func:`atomic_path`)."""
+    with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8", newline="") as handle:
+        # newline="" so the CSV writer's line endings are written as given on every platform.
+        handle.write(text)
+
+
+def write_json_atomic(path: str | os.PathLike[str], obj: Any, *, indent: int | None = 2) -> None:
+    """Write ``obj`` as JSON to ``path`` atomically (parent directories are created).
+
+    Raises TypeError for values :func:`to_jsonable` cannot convert, before touching the disk.
+    """
+    text = json.dumps(to_jsonable(obj), indent=indent, sort_keys=False) + "\n"
+    write_text_atomic(Path(path), text)
+
+
+def read_json(path: str | os.PathLike[str]) -> Any:
+    """Read a JSON file written by :func:`write_json_atomic`."""
+    with open(path, encoding="utf-8") as handle:
+        return json.load(handle)
+
+
+def write_csv_atomic(path: str | os.PathLike[str], rows: Sequence[Mapping[str, Any]]) -> None:
+    """Write ``rows`` as CSV to ``path`` atomically.
+
+    Columns are the union of the rows' keys in order of first appearance; a missing key or a
+    None value is an empty cell. numpy scalars are written as plain numbers and list-, dict- or
+    array-valued cells as JSON text.
+    """
+    columns: dict[str, None] = {}  # an ordered set
+    for row in rows:
+        columns.update(dict.fromkeys(row))
+    buffer = io.StringIO()
+    if columns:
+        writer = csv.DictWriter(buffer, fieldnames=list(columns), lineterminator="\n")
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({key: _csv_cell(value) for key, value in row.items()})
+    write_text_atomic(Path(path), buffer.getvalue())
+
+
+def _csv_cell(value: Any) -> Any:
+    value = to_jsonable(value)
+    if value is None:
+        return ""
+    if isinstance(value, list | dict):
+        return json.dumps(value)
+    return value
+
+
+def _fsync_directory(directory: Path) -> None:
+    # Makes the rename itself durable on POSIX; directories cannot be opened this way on
+    # Windows, where the rename is as durable as the platform makes it.
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)

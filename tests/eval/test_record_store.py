@@ -1,0 +1,186 @@
+"""One keyed, atomic record store for the harness, `optimize` and the studies; the serial runner's
+resume, failures and progress."""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import pytest
+
+from agents import harness
+from agents.records import (
+    READABLE_SCHEMAS,
+    SCHEMA,
+    Job,
+    Record,
+    RecordStore,
+    RecordWarning,
+    load_records,
+)
+from eval.__main__ import main
+from eval.studies import runner
+from eval.studies.base import Plan
+from eval.studies.presets import PRESETS, TINY
+from eval.studies.runner import JobsFailed, run_jobs
+
+SMALL = {"env_kwargs": {"n_blade": 6, "n_time": 32}, "method_config": {"swarm_size": 8}}
+
+
+def _job(budget: int = 16, seed: int = 0, **changes) -> Job:
+    fields = {
+        "method": "pso",
+        "task": "level",
+        "condition": 2.0,
+        "budget": budget,
+        "seed": seed,
+        **SMALL,
+        **changes,
+    }
+    return Job(**fields)
+
+
+def _count_calls(monkeypatch: pytest.MonkeyPatch) -> list[Job]:
+    calls: list[Job] = []
+    original = runner._harness_run
+
+    def counting(job: Job) -> Record:
+        calls.append(job)
+        return original(job)
+
+    monkeypatch.setattr(runner, "_harness_run", counting)
+    return calls
+
+
+def test_job_key_is_the_configuration() -> None:
+    job = _job()
+    same = Job("pso", "level", 2, 16, 0, env_kwargs=[("n_time", 32), ("n_blade", 6)],
+               method_config={"swarm_size": 8})  # fmt: skip
+    assert same == job and same.key == job.key  # order and int/float do not matter
+    others = [_job(budget=32), _job(seed=1), _job(preset="tiny"), _job(method="random"),
+              _job(env_kwargs={**SMALL["env_kwargs"], "thrust_split": "body"})]  # fmt: skip
+    assert len({j.key for j in [job, *others]}) == 1 + len(others)
+    assert Job(**job.to_dict()) == job  # what a record stores is enough to rebuild the job
+
+
+def test_harness_and_runner_share_one_store(tmp_path: Path, monkeypatch) -> None:
+    calls = _count_calls(monkeypatch)
+    (first,) = harness.run("pso", "level", 2.0, 16, [0], out_dir=tmp_path, progress=False, **SMALL)
+    assert first.key == _job().key and first.job == _job().to_dict()
+    assert (tmp_path / "records" / f"{first.key}.json").is_file()
+    # The runner finds the harness's record by its configuration and does not run it again.
+    summary = run_jobs([_job()], tmp_path, progress=False)
+    assert (summary.ran, summary.reused, calls) == (0, 1, [])
+    # Another budget is another record, beside the first (the old file names lost one).
+    (second,) = harness.run("pso", "level", 2.0, 24, [0], out_dir=tmp_path, progress=False, **SMALL)
+    assert second.key != first.key
+    assert sorted(r.budget for r in load_records([tmp_path])) == [16, 24]
+    rows = (tmp_path / "summary.csv").read_text().splitlines()
+    assert len(rows) == 3 and rows[0].endswith(",key")
+
+
+def test_corrupt_record_is_reported_and_recomputed(tmp_path: Path, monkeypatch) -> None:
+    job = _job()
+    run_jobs([job], tmp_path, progress=False)
+    path = RecordStore(tmp_path).path(job.key)
+    good = Record.load(path)
+    path.write_text('{"schema": "tandem_env.harness-rec')  # a half-written file, by hand
+    calls = _count_calls(monkeypatch)
+    with pytest.warns(RecordWarning, match=f"{path}: corrupt record .* runs again"):
+        summary = run_jobs([job], tmp_path, progress=False)
+    assert summary.ran == 1 and calls == [job]
+    again = Record.load(path)
+    assert again.normalised_stroke == good.normalised_stroke
+
+
+def test_record_of_another_configuration_is_not_replaced_silently(tmp_path: Path) -> None:
+    a, b = _job(seed=0), _job(seed=1)
+    run_jobs([a], tmp_path, progress=False)
+    store = RecordStore(tmp_path)
+    store.path(b.key).write_bytes(store.path(a.key).read_bytes())  # a's record under b's key
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        run_jobs([b], tmp_path, progress=False)
+    messages = [str(w.message) for w in caught if issubclass(w.category, RecordWarning)]
+    assert any("not pso level V=2 seed 1" in m for m in messages)  # found on loading
+    assert any("replacing" in m and "seed 0" in m for m in messages)  # said on writing
+    assert store.load(b).seed == 1 and store.load(a).seed == 0
+
+
+def test_out_that_is_a_file_is_rejected(tmp_path: Path, capsys) -> None:
+    target = tmp_path / "results.json"
+    target.write_text("{}")
+    for command in (
+        ["optimize", "--task", "level", "--speed", "2", "--method", "pso", "--budget", "8",
+         "--seeds", "0", "--out", str(target)],
+        ["study", "speed", "--out", str(target)],
+    ):  # fmt: skip
+        with pytest.raises(SystemExit) as info:
+            main(command)
+        assert info.value.code == 2
+        assert f"{target} is a file; allowed: a directory" in capsys.readouterr().err
+    assert target.read_text() == "{}"
+    with pytest.raises(ValueError, match="is a file"):
+        harness.run("pso", "level", 2.0, 8, [0], out_dir=target, progress=False)
+
+
+def test_optimize_resumes_and_adds_seeds(tmp_path: Path, monkeypatch, capsys) -> None:
+    calls = _count_calls(monkeypatch)
+    argv = ["optimize", "--task", "level", "--speed", "2", "--method", "pso", "--budget", "16",
+            "--swarm-size", "8", "--out", str(tmp_path), "--env-kwargs", "n_blade=6", "n_time=32",
+            "--quiet", "--seeds"]  # fmt: skip
+    assert main([*argv, "0", "1"]) == 0
+    assert [j.seed for j in calls] == [0, 1]
+    assert main([*argv, "0", "1", "2"]) == 0  # a killed run, or more seeds: only the new one
+    assert [j.seed for j in calls] == [0, 1, 2]
+    out = capsys.readouterr()
+    assert "3 seeds: 1 run, 2 reused" in out.err
+    assert out.out.count("pso seed 2:") == 1 and out.out.count("pso seed 0:") == 2
+
+
+def test_failing_job_is_reported_by_key_and_the_others_finish(
+    tmp_path: Path, monkeypatch, capsys
+) -> None:
+    jobs = Plan(TINY).jobs("level", TINY.speeds)
+    victim = jobs[1]
+    original = runner._harness_run
+
+    def sometimes_failing(job: Job) -> Record:
+        if job == victim:
+            raise RuntimeError("induction diverged (test)")
+        return original(job)
+
+    monkeypatch.setattr(runner, "_harness_run", sometimes_failing)
+    with pytest.raises(JobsFailed) as info:
+        run_jobs(jobs, tmp_path, progress=False)
+    assert [f.key for f in info.value.summary.failures] == [victim.key]
+    assert "RuntimeError: induction diverged (test)" in str(info.value)
+    assert "Traceback (most recent call last)" in str(info.value)
+    stored = {p.stem for p in (tmp_path / "records").glob("*.json")}
+    assert stored == {j.key for j in jobs} - {victim.key}
+    # The command line says the same and exits with status 1.
+    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    code = main(["study", "speed", "--preset", "tiny", "--out", str(tmp_path), "--quiet"])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert f"key {victim.key}" in err and "induction diverged" in err
+    assert not (tmp_path / "report.md").exists()
+
+
+def test_one_progress_bar_over_the_jobs(tmp_path: Path, capsys) -> None:
+    run_jobs([_job(seed=0), _job(seed=1)], tmp_path, progress=True)
+    err = capsys.readouterr().err
+    assert "2 optimisations" in err and "2/2 jobs" in err and "32.0/32.0" in err
+
+
+def test_older_records_are_still_read(tmp_path: Path) -> None:
+    (record,) = harness.run("pso", "level", 2.0, 16, [0], progress=False, **SMALL)
+    old = record.to_dict()
+    del old["key"], old["job"]
+    old["schema"] = READABLE_SCHEMAS[0]
+    (tmp_path / "pso_level_efficiency_speed2_seed0.json").write_text(json.dumps(old))
+    (loaded,) = load_records([tmp_path])
+    assert loaded.schema == SCHEMA and loaded.key == "" and loaded.objective == record.objective
+    with pytest.raises(ValueError, match="has no key"):
+        RecordStore(tmp_path / "new").save(loaded)
