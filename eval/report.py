@@ -1,4 +1,4 @@
-"""The reproduction report: every claim of the paper (MODEL.md §9) beside ours, plus figures.
+"""The reproduction report: every claim of the paper (docs/model.md §9) beside ours, plus figures.
 
 The report holds no timestamps or timings, so the same command gives the same file; run
 times are in ``manifest.json``.
@@ -18,7 +18,7 @@ UNDERSTOOD = {
     "thrust_split": (
         '**Thrust and drag (`thrust_split="sign"`, the default).** The paper does not define T '
         "and D precisely. With the literal reading (T and D are the cycle means of the forward "
-        "and rearward parts of each wing's horizontal force, MODEL.md §7) the level-flight "
+        "and rearward parts of each wing's horizontal force, docs/model.md §7) the level-flight "
         "constraint T = D fixes only the net force, and T measures the fore-aft swing of the "
         "wing force: an optimiser raises η = TV/P by raising that swing. Optimised η is "
         "therefore well above the paper's 12.7 % (the reference implementation finds 18-45 % "
@@ -27,8 +27,8 @@ UNDERSTOOD = {
         "claims are the meaningful comparison."
     ),
     "spread": (
-        "**Seed-to-seed spread.** The 28-parameter search has many separate basins (MODEL.md "
-        "§7): PSO runs from different seeds settle in different ones, so medians over seeds "
+        "**Seed-to-seed spread.** The 28-parameter search has many separate basins (docs/model.md "
+        "§9): PSO runs from different seeds settle in different ones, so medians over seeds "
         "are noisy, and per-condition medians can break a trend the best seeds follow. The "
         "paper reports one optimum per condition; its numbers compare most directly with our "
         "*best* column."
@@ -37,7 +37,7 @@ UNDERSTOOD = {
         "**What is optimised.** Level flight maximises η only; power, frequency and φ_m at the "
         "η-optimum are by-products, so the paper's power minimum at 1.5 m/s (Fig. 5) need not "
         "appear. Accelerating flight maximises F̄_v and F̄_h in two separate optimisations "
-        "(maximising F̄_a of one stroke is degenerate, MODEL.md §7)."
+        "(maximising F̄_a of one stroke is degenerate, docs/model.md §7)."
     ),
     "excess": (
         "**F̄_h above F̄_v.** Both accelerating optima spend the power on about the same total "

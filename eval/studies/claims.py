@@ -1,4 +1,4 @@
-"""The paper's claims (MODEL.md §9) as checkable rows, and the rules that decide agreement.
+"""The paper's claims (docs/model.md §9) as checkable rows, and the rules that decide agreement.
 
 Agreement rules (stated in every report):
 

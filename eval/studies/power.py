@@ -1,6 +1,6 @@
 """Accelerating-flight power sweep (paper Figs. 7-8).
 
-At each available power (50-90 W/kg, V = 0) two optimisations per seed (MODEL.md §7): one
+At each available power (50-90 W/kg, V = 0) two optimisations per seed (docs/model.md §7): one
 maximises F̄_v (with F̄_h ≥ 0), one F̄_h (with F̄_v ≥ 0). The attainable specific excess force
 (Eq. 27) combines them: per seed F̄_a = sqrt(F̄_v² + F̄_h²) of that seed's two optimisations,
 and for the best seeds sqrt(max F̄_v² + max F̄_h²), the paper's reading.

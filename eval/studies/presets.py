@@ -6,7 +6,7 @@ convergence --preset paper``, 8 seeds × 60 000 evaluations, see docs/reproducti
 paper preset takes the smallest checkpoint at which the median best-so-far over seeds reaches
 90 % of the 60 000-evaluation median (level flight at 1.5 m/s: 30 000, 93 %; accelerating at
 60 W/kg: 12 000, 92 %). Level-flight η never quite flattens (thrust_split="sign" makes it
-unbounded, MODEL.md §7), so more budget keeps buying a little more η. ``quick`` takes what fits
+unbounded, docs/model.md §7), so more budget keeps buying a little more η. ``quick`` takes what fits
 in a few minutes (58 % and 79 % of those medians). ``tiny`` exists for the tests only (it is
 not offered on the command line).
 """

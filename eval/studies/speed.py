@@ -34,7 +34,7 @@ PAPER_PEAK_EFFICIENCY = 12.7  # % at 1.5 m/s (Fig. 6)
 PAPER_BEST_SPEED = 1.5  # m/s: minimum power and maximum efficiency (Figs. 5, 6)
 
 SIGN_NOTE = (
-    "thrust_split='sign' (MODEL.md §7): T is the cycle mean of the forward part of the wing "
+    "thrust_split='sign' (docs/model.md §7): T is the cycle mean of the forward part of the wing "
     "force, a gross quantity not bounded by energy, so optimised η exceeds the paper's; the "
     "reference implementation finds 18-45 % at 1.5 m/s."
 )

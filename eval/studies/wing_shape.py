@@ -1,6 +1,6 @@
 """Wing shape: tear-drop against the real dragonfly planform (paper Figs. 14-16).
 
-Both planforms have the same area and span (MODEL.md §2); each is optimised separately, level
+Both planforms have the same area and span (docs/model.md §2); each is optimised separately, level
 flight at each speed (Fig. 15: efficiency) and accelerating flight at each power (Fig. 16: the
 attainable F̄_a from a vertical and a horizontal optimisation). The tear-drop jobs are the
 speed and power sweeps' own, so they run once.
@@ -51,7 +51,7 @@ def planform_outlines(n: int = 200) -> list[tuple[str, np.ndarray, np.ndarray, n
     """(label, r [mm], leading edge [mm], trailing edge [mm]) of both wings, both planforms.
 
     The tear-drop is drawn symmetric about its pitch axis (mid-chord); the real wing's edges
-    are Table 2's polynomials, both axes scaled by R (MODEL.md §2).
+    are Table 2's polynomials, both axes scaled by R (docs/model.md §2).
     """
     out = []
     r_hat = np.linspace(0.0, 1.0, n)

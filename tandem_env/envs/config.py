@@ -227,7 +227,7 @@ class FlightConfig:
 
     @property
     def thrust_split(self) -> str:
-        """The thrust/drag reading used (MODEL.md §7)."""
+        """The thrust/drag reading used (docs/model.md §7)."""
         return self.options.thrust_split
 
     @property
@@ -359,7 +359,7 @@ class LevelFlightConfig(FlightConfig):
 
     @property
     def available_power(self) -> float:
-        """The power cap of level flight [W/kg]: the insect's maximum (90 W/kg, MODEL.md §7)."""
+        """Power cap of level flight [W/kg]: the insect's maximum (90 W/kg, docs/model.md §7)."""
         return self.insect.max_power_per_mass
 
     def describe(self) -> str:
@@ -381,7 +381,7 @@ class AccelerateConfig(FlightConfig):
     objective: Objective = "vertical"
     """Which specific excess force is maximised: ``"vertical"`` F̄_v = (L − W)/W,
     ``"horizontal"`` F̄_h = (T − D)/W or ``"resultant"`` F̄_a = sqrt(F̄_v² + F̄_h²) [-]
-    (MODEL.md §7: the paper's attainable F̄_a combines the first two)."""
+    (docs/model.md §7: the paper's attainable F̄_a combines the first two)."""
     power: float | None = None
     """Fixed available power per body mass [W/kg]; default 90 W/kg (the insect's maximum)
     unless ``power_range`` is given."""

@@ -195,7 +195,7 @@ class LevelFlightEnv(FlightEnv):
     The quasi-steady tandem flapping-wing model of Faisal & Filippone (2016, AIAA J.) evaluates
     one wing-beat cycle of a stroke (both wing pairs, with the fore-wing's slipstream on the
     hind-wing) at flight speed V. The task is the paper's level-flight optimisation
-    (MODEL.md §7): maximise the propulsive efficiency η = T·V/P subject to L = W, T = D and
+    (docs/model.md §7): maximise the propulsive efficiency η = T·V/P subject to L = W, T = D and
     P/m <= 90 W/kg. Each episode is one cycle (a contextual bandit): observe V, choose a stroke.
 
     ## Action Space
@@ -264,7 +264,7 @@ class AccelerateEnv(FlightEnv):
 
     The same quasi-steady tandem-wing model as :class:`LevelFlightEnv` (one wing-beat cycle per
     episode) at a fixed flight speed (default 0: take-off or escape from hover). The task is
-    the paper's accelerating-flight optimisation (MODEL.md §7): maximise a specific excess
+    the paper's accelerating-flight optimisation (docs/model.md §7): maximise a specific excess
     force subject to F_v >= 0, F_h >= 0 and P/m <= the available power. The observation is the
     available power, so one policy can cover the paper's 50-90 W/kg sweep.
 

@@ -5,14 +5,14 @@ Frames (our convention, pinned by tests/physics/test_invariants.py). The stroke-
 the upper side, and x_s = y_s × z_s pointing forward and down the stroke plane. The stroke plane
 is tilted forward by β from the horizontal, so that in earth axes (X forward, Y right, Z up)
 x_s = (cos β, 0, −sin β) and z_s = (sin β, 0, cos β): a tilted stroke plane leans its mean force
-forward (thrust), and the free stream has the normal component V_n = V·sin β ≥ 0 (MODEL.md §5).
+forward (thrust), and the free stream has the normal component V_n = V·sin β ≥ 0 (docs/model.md §5).
 
 The wing frame is R = R_z(−φ)·R_x(θ)·R_y(η) applied to the base frame e_s = y_s (span),
 e_c = z_s (chord), e_n = e_s × e_c = x_s (chord normal): φ sweeps the span forward, θ lifts the
 tip out of the stroke plane, η pitches about the span. At η = 0 the chord is normal to the stroke
 plane (90° angle of attack in a pure sweep); η = ±90° lays it in the plane. This is the
 paper's Eq. 6 order (β, θ, φ, η), written with rotations whose signs we derive rather than copy
-(MODEL.md: the paper's R_η and R_β differ in sign pattern). The angular velocity is
+(docs/model.md §4: the paper's R_η and R_β differ in sign pattern). The angular velocity is
 ω = −φ̇·z_s + θ̇·R_z(−φ)x_s + η̇·e_s, and every frame vector moves as ė = ω × e, so all
 velocities and accelerations below are exact and analytic.
 
@@ -23,7 +23,7 @@ element's velocity relative to the air and (u̇, v̇) the rates of those compone
     Γ  = −C_t·c·u·v/|U| + ½·C_r·Ω·c²               (Eq. 14; −½C_t|U|c·sin 2α with sin 2α = 2uv/|U|²)
     F_C = ρΓ·(−v, u)                                  (Eq. 11)
     F_AM = (m₂₂·v·Ω − m₁₁·u̇, −m₁₁·u·Ω − m₂₂·v̇)        (Eq. 12 with Berman & Wang's sign on m₂₂·a_v;
-                                                       the paper's + sign is a typo, MODEL.md §4)
+                                                       the paper's + is a typo, docs/model.md §4)
     F_V = −½ρc·C_D(α)·|U|·(u, v), C_D = C_d(0)cos²α + C_d(π/2)sin²α          (Eq. 13)
     M   = (m₁₁ − m₂₂)·u·v − I_a·Ω̇ − (1/16)πρc⁴(μ₁f + μ₂|Ω|)·Ω               (about the mid-chord)
 
@@ -167,7 +167,7 @@ def element_force(u, v, du, dv, spin, chord, m11, m22, rho, ct, cd0, cd90, cr):
     """Aerodynamic force per unit span (F_c, F_n) [N/m] on one blade element (Eqs. 11-14).
 
     Circulatory + added mass + viscous; the wing's own inertia is not an aerodynamic force
-    (MODEL.md §4).
+    (docs/model.md §4).
     """
     speed2 = u * u + v * v
     gamma = 0.5 * cr * spin * chord * chord
@@ -189,7 +189,7 @@ def element_moment(u, v, spin, dspin, m11, m22, inertia_a, damping, frequency, m
     """Aerodynamic pitching moment per unit span about the mid-chord axis [N·m/m].
 
     Munk moment, added inertia and rotational damping (Berman & Wang 2007); the circulatory
-    and viscous forces act at the pitch axis (MODEL.md §4).
+    and viscous forces act at the pitch axis (docs/model.md §4).
     """
     return (
         (m11 - m22) * u * v

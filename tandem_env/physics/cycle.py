@@ -1,14 +1,14 @@
 """One wing-beat cycle of a batch of tandem strokes (Eqs. 16-19), compiled and parallel.
 
 For each stroke, the fore-wing is solved first (its momentum inflow per annulus), then the
-hind-wing in the fore-wing's slipstream (MODEL.md §5). The final pass over each wing integrates
+hind-wing in the fore-wing's slipstream (docs/model.md §5). The final pass over each wing integrates
 the element forces over the span, rotates them to earth axes (Eq. 16) and forms the cycle means
-of force (Eq. 17) and power (Eqs. 18-19, as MODEL.md §6 decides).
+of force (Eq. 17) and power (Eqs. 18-19, as docs/model.md §6 decides).
 
 Quadrature: the cycle is sampled on the motion-following grid of ``kinematics``; smooth
 integrands use the periodic trapezoid rule (spectrally accurate), and the positive parts and
 absolute values (thrust, drag, |P|) integrate the trigonometric interpolant exactly between its
-located zero crossings, so the kinks do not cost accuracy (MODEL.md §7).
+located zero crossings, so the kinks do not cost accuracy (docs/model.md §11).
 """
 
 from __future__ import annotations
@@ -119,7 +119,7 @@ def mean_positive_part(g, cos_table, sin_table):
     """Cycle mean of max(g, 0) for n periodic samples g at s_k = 2πk/n, to spectral accuracy.
 
     The trapezoid rule is spectrally accurate for smooth periodic g but only second order for
-    its positive part, whose kinks sit between samples (MODEL.md §7). So we integrate the
+    its positive part, whose kinks sit between samples (docs/model.md §11). So we integrate the
     trigonometric interpolant p of the samples exactly: its zero crossings are located by
     safeguarded Newton inside each interval where the samples change sign, and the positive
     arcs are summed with p's antiderivative.

@@ -1,4 +1,4 @@
-"""Momentum inflow through each wing pair's swept sector (Eqs. 20-21 as MODEL.md §5 decides).
+"""Momentum inflow through each wing pair's swept sector (Eqs. 20-21 as docs/model.md §5 decides).
 
 Per annulus at radius r, the cycle-mean force along the stroke-plane normal balances Glauert's
 momentum relation on the swept sector dA = N_w·2φ_m·r·dr:
@@ -8,7 +8,7 @@ momentum relation on the swept sector dA = N_w·2φ_m·r·dr:
 (V_n' = V_n for the fore-wing and V_n + C_hf·v_i,fore for the hind-wing). Per unit span and
 wing, h(v) = F̄_n(v) − 4ρφ_m·r·v·sqrt(V_t² + (V_n' + v)²) = 0, with v_i = 0 where F̄_n(0) ≤ 0.
 
-A plain damped fixed point diverges near the root (MODEL.md §5), so each annulus is solved by
+A plain damped fixed point diverges near the root (docs/model.md §5), so each annulus is solved by
 a bracketed secant on the force alone: the momentum side m(v) is known exactly, so we model only
 F̄_n(v) (nearly linear in v) by the secant through its last two evaluations and solve
 F_model(v) = m(v) exactly (cheap scalar Newton), falling back to bisection whenever the step

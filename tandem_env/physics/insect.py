@@ -1,7 +1,7 @@
 """The dragonfly and its wings: frozen, validated dataclasses with units.
 
 Defaults are the paper's specimen (Faisal & Filippone 2016, Tables 1 and 3), Wakeling (1997)
-*Sympetrum sanguineum* male "SSan2"; values the paper does not give follow MODEL.md §1.
+*Sympetrum sanguineum* male "SSan2"; values the paper does not give follow docs/model.md §1.
 Planforms are the tear-drop of Eq. 1 and the real dragonfly wing of Eq. 2 / Table 2.
 """
 
@@ -20,7 +20,7 @@ PLANFORMS: tuple[str, ...] = ("tear-drop", "real")
 
 #: Table 2 quintic coefficients (a..f, ascending powers of r/R) of the real wing's edges,
 #: both axes normalised by the wing length R. Rows are a, b, c, d, e, f (the text garbles the
-#: row labels, MODEL.md §2).
+#: row labels, docs/model.md §2).
 REAL_WING_EDGES: dict[str, tuple[tuple[float, ...], tuple[float, ...]]] = {
     "fore": (
         (0.0154, 0.4146, -0.4984, -2.6774, 6.7850, -4.0250),
@@ -48,7 +48,7 @@ def helmbold_lift_slope(aspect_ratio: float, section_slope: float = 2.0 * math.p
     """Lift-curve slope C_Lα [1/rad] of a wing of aspect ratio AR (Helmbold's equation).
 
     C_Lα = π·AR / (1 + sqrt((π·AR/a₀)² + 1)), the "extended lifting line" form the paper
-    adapts from Taha et al. (MODEL.md §1), with a₀ = 2π the section lift slope.
+    adapts from Taha et al. (docs/model.md §1), with a₀ = 2π the section lift slope.
     """
     return (
         math.pi
@@ -61,7 +61,7 @@ def helmbold_lift_slope(aspect_ratio: float, section_slope: float = 2.0 * math.p
 class Wing:
     """One wing of a pair (the left and right wings are mirror images).
 
-    Coefficients follow the paper's Table 3; C_t is computed from the aspect ratio (MODEL.md §1).
+    Coefficients follow the paper's Table 3; C_t comes from the aspect ratio (docs/model.md §1).
     """
 
     mean_chord: float
@@ -73,11 +73,11 @@ class Wing:
     drag_coefficient_90: float
     """C_d(π/2), drag coefficient at 90° angle of attack [-] (Table 3)."""
     rotational_coefficient: float = math.pi
-    """C_r, rotational-circulation coefficient [-] (Table 3; π, MODEL.md §1)."""
+    """C_r, rotational-circulation coefficient [-] (Table 3; π, docs/model.md §1)."""
     mass: float = 0.0
     """Mass of one wing m_w [kg] (Wakeling 1997)."""
     thickness: float = 3.5e-6
-    """Wing thickness b_t [m] (from mass, area and cuticle density, MODEL.md §1)."""
+    """Wing thickness b_t [m] (from mass, area and cuticle density, docs/model.md §1)."""
     planform: Planform = "tear-drop"
     """Chord distribution: ``"tear-drop"`` (Eq. 1) or ``"real"`` (Eq. 2, Table 2)."""
     real_edges: tuple[tuple[float, ...], tuple[float, ...]] | None = None
@@ -131,7 +131,7 @@ class Wing:
 
     @property
     def translational_coefficient(self) -> float:
-        """C_t = C_Lα / 2 [-], so that C_L(α) = C_t·sin 2α (MODEL.md §1), or the paper model's
+        """C_t = C_Lα / 2 [-], so that C_L(α) = C_t·sin 2α (docs/model.md §1), or the paper model's
         override (``PaperCoefficients(translational=…)``)."""
         model = self.coefficients
         if isinstance(model, PaperCoefficients) and model.translational is not None:
@@ -211,7 +211,7 @@ def _default_hind() -> Wing:
 
 @dataclass(frozen=True)
 class Dragonfly:
-    """The insect: body, the fore- and hind-wing pairs, and the air (MODEL.md §1).
+    """The insect: body, the fore- and hind-wing pairs, and the air (docs/model.md §1).
 
     ``Dragonfly()`` is the paper's specimen; ``Dragonfly.with_planform("real")`` gives both
     wings the real dragonfly planform of Eq. 2 with the same area and span.
@@ -231,7 +231,7 @@ class Dragonfly:
     """Air density ρ [kg/m³]."""
     body_drag_area: float = 12.5e-6
     """Body parasite drag area (C_D·S)_body [m²], used by ``thrust_split="body"`` only:
-    a thorax about 4 mm across (frontal area π·(2 mm)² ≈ 12.6 mm²) with C_D ≈ 1 (MODEL.md §7)."""
+    a thorax 4 mm across (frontal area π·(2 mm)² ≈ 12.6 mm²) with C_D ≈ 1 (docs/model.md §1)."""
     flight_muscle_ratio: float = 0.6
     """Flight-muscle mass over body mass [-] (Marden 2000; paper §II.F)."""
     muscle_specific_power: float = 150.0

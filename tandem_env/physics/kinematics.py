@@ -4,7 +4,7 @@ All angles are in radians and derivatives are with respect to physical time [rad
 The functions are numba-compiled for scalars and also work elementwise on numpy arrays
 through ``.py_func``; :func:`angle_histories` is the vectorised entry point.
 
-Time grid (MODEL.md §3). The cycle phase τ = 2πft is not sampled uniformly: with K → 1 the
+Time grid (docs/model.md §3). The cycle phase τ = 2πft is not sampled uniformly: with K → 1 the
 weaving angle becomes a triangle wave whose acceleration is a narrow spike at the reversals, and
 uniform samples would need thousands of points to integrate it. We sample a smooth periodic
 change of variable, τ(s) = s − (λ/2)·sin 2(s − s_r), uniformly in s; its density
@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit
 
 MAX_SWEEP_SHAPE = 1.0 - 1e-4
-"""Cap on K: at K = 1 exactly φ̈ is infinite at the reversals (MODEL.md §3)."""
+"""Cap on K: at K = 1 exactly φ̈ is infinite at the reversals (docs/model.md §3)."""
 
 #: Columns of an angle history: φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈.
 ANGLE_COLUMNS = ("phi", "dphi", "ddphi", "theta", "dtheta", "ddtheta", "eta", "deta", "ddeta")

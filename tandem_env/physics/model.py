@@ -3,7 +3,7 @@
 ``evaluate`` is the one function every layer above (environments, PSO, sweeps) calls. It runs
 the whole batch in one compiled, parallel call (no Python loop over strokes) and returns a
 :class:`Result` of (B,) arrays whose metric names are the ones the environments put in ``info``.
-Flight performance follows Eqs. 17 and 22-27 as MODEL.md §7 decides.
+Flight performance follows Eqs. 17 and 22-27 as docs/model.md §7 decides.
 """
 
 from __future__ import annotations
@@ -108,7 +108,7 @@ class Result:
     """L/W = N_w·(F̄_z,fore + F̄_z,hind)/(m·g) (Eq. 17) [-]: the vertical (earth-axis) force;
     with ``thrust_split="body"`` less the body drag's vertical part D_b·sin γ."""
     thrust: np.ndarray
-    """T [N], horizontal (earth axes), per ``thrust_split`` (MODEL.md §7)."""
+    """T [N], horizontal (earth axes), per ``thrust_split`` (docs/model.md §7)."""
     drag: np.ndarray
     """D [N], horizontal (earth axes), per ``thrust_split``."""
     power: np.ndarray
@@ -140,7 +140,7 @@ class Result:
     accelerate_feasible: np.ndarray
     """F̄_v ≥ 0, F̄_h ≥ 0 and P/m within the available power (bool)."""
     efficiency_above_one: np.ndarray
-    """Flag: η > 1 (possible with ``thrust_split="sign"``; never clipped, MODEL.md §8) (bool)."""
+    """η > 1 (possible with ``thrust_split="sign"``; never clipped, docs/model.md §7) (bool)."""
     induction_converged: np.ndarray
     """Every annulus's inflow solve met its tolerance (bool)."""
     induction_evaluations: np.ndarray

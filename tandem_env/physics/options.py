@@ -31,7 +31,7 @@ def _check_choice(name: str, value: Any, kind: Any) -> None:
 
 @dataclass(frozen=True)
 class ModelOptions:
-    """How the model is evaluated. Defaults are the paper's model with MODEL.md's decisions.
+    """How the model is evaluated. Defaults are the paper's model with docs/model.md's decisions.
 
     The default resolution is justified by the convergence study in
     ``tests/physics/test_convergence.py`` (mean forces and power within 0.5 % of a 4× refined
@@ -39,11 +39,11 @@ class ModelOptions:
     """
 
     n_time: int = 128
-    """Samples per wing-beat cycle [-] on the motion-following grid (MODEL.md §3)."""
+    """Samples per wing-beat cycle [-] on the motion-following grid (docs/model.md §3)."""
     n_blade: int = 24
     """Blade elements (annuli) per wing [-], Gauss-Legendre in a smoothing map of r/R."""
     induction: Induction = "coupled"
-    """Momentum inflow (MODEL.md §5): ``"coupled"`` each pair's own inflow plus the fore-wing's
+    """Momentum inflow (docs/model.md §5): ``"coupled"`` each pair's own inflow plus the fore-wing's
     slipstream on the hind-wing (the paper's tandem model); ``"isolated"`` each pair's own
     inflow only (coupling off: the paper's single-wing baseline); ``"none"`` no induced
     velocity at all."""
@@ -53,12 +53,12 @@ class ModelOptions:
     """``"absolute"``: P = N_w·(mean|P_aero| + mean|P_iner|) per wing (Eqs. 18-19, the paper);
     ``"elastic"``: mean of the positive part of the total (Berman & Wang's elastic storage)."""
     thrust_split: ThrustSplit = "sign"
-    """Reading of T and D (MODEL.md §7): ``"sign"`` T and D are the cycle means of the forward and
+    """T/D reading (docs/model.md §7): ``"sign"`` T and D are the cycle means of the forward and
     rearward parts of each wing's horizontal force (the paper's literal reading, gross
     efficiency); ``"body"`` T is the net horizontal wing force and D the body's parasite drag."""
     spin: Spin = "pitch"
     """Rotation rate Ω in the circulation and added mass: ``"pitch"`` η̇ (the paper, Berman &
-    Wang) or ``"total"`` the section's true spin about the span η̇ − φ̇·sin θ (MODEL.md §4)."""
+    Wang) or ``"total"`` the section's true spin about the span η̇ − φ̇·sin θ (docs/model.md §4)."""
     tolerance: float = 1e-4
     """Relative tolerance of the per-annulus inflow solve [-]."""
     max_evaluations: int = 30

@@ -1,7 +1,7 @@
-"""Resolution convergence: the defaults against a 4× refined run (MODEL.md §8).
+"""Resolution convergence: the defaults against a 4× refined run (docs/model.md §11).
 
 Errors are relative, against an absolute floor for quantities near zero (0.1·W for forces,
-0.1 for L/W; MODEL.md §7). ``python benchmarks/convergence.py`` prints the full study that
+0.1 for L/W; docs/model.md §11). ``python benchmarks/convergence.py`` prints the full study that
 chose the defaults.
 """
 
@@ -50,7 +50,7 @@ def test_defaults_within_half_a_percent_of_refined_in_forward_flight(speed: floa
 
 def test_defaults_in_hover() -> None:
     """At V = 0 the induced velocity has a square-root singularity where an annulus's mean
-    normal force changes sign along the span (v_i = 0 beyond it, MODEL.md §5), so span
+    normal force changes sign along the span (v_i = 0 beyond it, docs/model.md §5), so span
     convergence is algebraic there: a few strokes in a hundred keep errors of 0.5-2 % in L/W.
     Time quadrature is spectral and all other quantities meet 0.5 % on every stroke."""
     errors = relative_errors(0.0)

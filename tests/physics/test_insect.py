@@ -1,4 +1,4 @@
-"""The insect and its planforms (MODEL.md §1-2)."""
+"""The insect and its planforms (docs/model.md §1-§2)."""
 
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ def test_second_moment_of_area() -> None:
     insect = Dragonfly()
     assert second_moment(insect.fore) == pytest.approx(0.5, abs=1e-3)
     for wing in (insect.fore, insect.hind):
-        # MODEL.md quotes two decimals: 0.539 (hind) and 0.571 (fore) here
+        # docs/model.md §2 quotes 0.539 (hind) and 0.571 (fore); checked to two decimals
         assert 0.54 <= round(second_moment(wing.with_planform("real")), 2) <= 0.57
 
 

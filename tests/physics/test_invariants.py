@@ -1,4 +1,4 @@
-"""The invariants of MODEL.md §8: they pin the model's conventions to physics."""
+"""The invariants of docs/model.md §8: they pin the model's conventions to physics."""
 
 from __future__ import annotations
 
