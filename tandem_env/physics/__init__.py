@@ -10,8 +10,16 @@ import numba as _numba
 if "NUMBA_THREADING_LAYER" not in _os.environ:
     _numba.config.THREADING_LAYER = "workqueue"
 
+from .coefficients import (
+    COEFFICIENT_MODELS,
+    PaperCoefficients,
+    SinusoidalFit,
+    TabulatedCoefficients,
+    coefficient_model,
+)
 from .insect import DRAGONFLY, PLANFORMS, Dragonfly, Wing
-from .model import METRIC_NAMES, MeasuredWing, Result, evaluate, evaluate_measured
+from .measured import MeasuredWing, evaluate_measured
+from .model import METRIC_NAMES, Result, evaluate
 from .options import ModelOptions
 from .stroke import (
     LOWER,
@@ -29,6 +37,7 @@ from .stroke import (
 )
 
 __all__ = [
+    "COEFFICIENT_MODELS",
     "DRAGONFLY",
     "LOWER",
     "METRIC_NAMES",
@@ -41,10 +50,14 @@ __all__ = [
     "Dragonfly",
     "MeasuredWing",
     "ModelOptions",
+    "PaperCoefficients",
     "Result",
+    "SinusoidalFit",
     "Stroke",
+    "TabulatedCoefficients",
     "Wing",
     "WingStroke",
+    "coefficient_model",
     "evaluate",
     "evaluate_measured",
     "normalised_to_physical",
@@ -53,6 +66,6 @@ __all__ = [
     "validate_physical",
 ]
 
-from .history import StrokeHistory, WingHistory, stroke_history
+from .history import StrokeHistory, WingHistory, measured_history, stroke_history
 
-__all__ += ["StrokeHistory", "WingHistory", "stroke_history"]
+__all__ += ["StrokeHistory", "WingHistory", "measured_history", "stroke_history"]

@@ -62,7 +62,7 @@ class PaperCoefficients:
     """
 
     translational: float | None = None
-    """C_t override [-]; ``None``: C_t = C_Lα/2 from the aspect ratio (Helmbold, MODEL.md §1)."""
+    """C_t override [-]; ``None``: C_t = C_Lα/2 from the aspect ratio (Helmbold, docs/model.md §1)."""
 
     name: ClassVar[str] = "paper"
 
@@ -79,6 +79,10 @@ class PaperCoefficients:
     def table(self) -> np.ndarray:
         """The kernel table ``[PAPER]`` (C_t, C_d(0), C_d(π/2) travel in the wing's constants)."""
         return np.array([PAPER])
+
+
+PAPER_COEFFICIENTS = PaperCoefficients()
+"""The default model: the paper's, C_t from the aspect ratio."""
 
 
 @dataclass(frozen=True)
@@ -114,7 +118,9 @@ class SinusoidalFit:
     def __post_init__(self) -> None:
         for f in fields(self):
             if f.name != "source":
-                object.__setattr__(self, f.name, _real("SinusoidalFit", f.name, getattr(self, f.name)))
+                object.__setattr__(
+                    self, f.name, _real("SinusoidalFit", f.name, getattr(self, f.name))
+                )
         lead = np.linspace(0.0, 90.0, 181)
         if np.any(self.drag(lead) < 0.0):
             raise ValueError(

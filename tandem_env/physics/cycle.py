@@ -185,6 +185,43 @@ def mean_positive_part(g, cos_table, sin_table):
 
 
 @njit(cache=True)
+def cycle_means(histories, weight, out, cos_table, sin_table):
+    """Cycle means of one wing's per-sample F_x, F_z, F_y, P_aero, P_iner (``histories``,
+    (n_time, 5) [N, W]) with quadrature weights ``weight`` (n_time,): writes W_FX, W_FZ,
+    W_THRUST, W_DRAG, W_P_AERO, W_P_INER and W_P_ELASTIC of ``out``."""
+    n_time = histories.shape[0]
+    g = np.empty(n_time)
+    fx = 0.0
+    fz = 0.0
+    for k in range(n_time):
+        w = weight[k]
+        fx += histories[k, 0] * w
+        fz += histories[k, 1] * w
+    out[W_FX] = fx / n_time
+    out[W_FZ] = fz / n_time
+    # T = mean F_x⁺, D = mean F_x⁻ = T − mean F_x; mean|P| = 2·mean P⁺ − mean P
+    for k in range(n_time):
+        g[k] = histories[k, 0] * weight[k]
+    out[W_THRUST] = mean_positive_part(g, cos_table, sin_table)
+    out[W_DRAG] = max(out[W_THRUST] - out[W_FX], 0.0)
+    mean_aero = 0.0
+    mean_iner = 0.0
+    for k in range(n_time):
+        g[k] = histories[k, 3] * weight[k]
+        mean_aero += g[k]
+    mean_aero /= n_time
+    out[W_P_AERO] = max(2.0 * mean_positive_part(g, cos_table, sin_table) - mean_aero, 0.0)
+    for k in range(n_time):
+        g[k] = histories[k, 4] * weight[k]
+        mean_iner += g[k]
+    mean_iner /= n_time
+    out[W_P_INER] = max(2.0 * mean_positive_part(g, cos_table, sin_table) - mean_iner, 0.0)
+    for k in range(n_time):
+        g[k] = (histories[k, 3] + histories[k, 4]) * weight[k]
+    out[W_P_ELASTIC] = mean_positive_part(g, cos_table, sin_table)
+
+
+@njit(cache=True)
 def wing_cycle(
     coef,
     nodes,
@@ -203,12 +240,14 @@ def wing_cycle(
     histories,
     cos_table,
     sin_table,
+    table=None,
 ):
     """Solve the inflow of one wing and integrate its cycle (writes ``out`` and ``out_inflow``).
 
     ``v_external``: (n_r,) inflow imposed from upstream [m/s] (the fore-wing's slipstream on the
     hind-wing, already scaled by C_hf). ``histories``: (n_time, 5) scratch receiving F_x, F_z,
-    F_y, P_aero, P_iner per sample (one wing) [N, W].
+    F_y, P_aero, P_iner per sample (one wing) [N, W]. ``table``: the wing's force-coefficient
+    model (``coefficients``), ``None`` for the paper's (then compiled exactly as without models).
     """
     n_time = coef.shape[0]
     n_r = nodes.shape[0]
@@ -244,6 +283,7 @@ def wing_cycle(
                 sweep_amplitude,
                 tolerance,
                 max_evaluations,
+                table,
             )
             converged = converged and ok
             max_evals = max(max_evals, evals)
@@ -266,7 +306,9 @@ def wing_cycle(
             m11 = nodes[j, N_M11]
             m22 = nodes[j, N_M22]
             u, v, du, dv = relative_velocity(coef, k, r, v_tangential, v_nodes[j])
-            fc, fn = element_force(u, v, du, dv, spin, chord, m11, m22, rho, ct, cd0, cd90, cr)
+            fc, fn = element_force(
+                u, v, du, dv, spin, chord, m11, m22, rho, ct, cd0, cd90, cr, table
+            )
             moment = element_moment(
                 u,
                 v,
@@ -292,35 +334,7 @@ def wing_cycle(
         # d/dt of the wing's kinetic energy: flapping of the pitch axis plus rotation about it
         histories[k, 4] = consts[K_I_SPAN] * coef[k, C_KIN] + consts[K_I_PITCH] * spin * dspin
         aoa += aoa_k * coef[k, C_WEIGHT]
-    g = np.empty(n_time)
-    fx = 0.0
-    fz = 0.0
-    for k in range(n_time):
-        w = coef[k, C_WEIGHT]
-        fx += histories[k, 0] * w
-        fz += histories[k, 1] * w
-    out[W_FX] = fx / n_time
-    out[W_FZ] = fz / n_time
-    # T = mean F_x⁺, D = mean F_x⁻ = T − mean F_x; mean|P| = 2·mean P⁺ − mean P
-    for k in range(n_time):
-        g[k] = histories[k, 0] * coef[k, C_WEIGHT]
-    out[W_THRUST] = mean_positive_part(g, cos_table, sin_table)
-    out[W_DRAG] = max(out[W_THRUST] - out[W_FX], 0.0)
-    mean_aero = 0.0
-    mean_iner = 0.0
-    for k in range(n_time):
-        g[k] = histories[k, 3] * coef[k, C_WEIGHT]
-        mean_aero += g[k]
-    mean_aero /= n_time
-    out[W_P_AERO] = max(2.0 * mean_positive_part(g, cos_table, sin_table) - mean_aero, 0.0)
-    for k in range(n_time):
-        g[k] = histories[k, 4] * coef[k, C_WEIGHT]
-        mean_iner += g[k]
-    mean_iner /= n_time
-    out[W_P_INER] = max(2.0 * mean_positive_part(g, cos_table, sin_table) - mean_iner, 0.0)
-    for k in range(n_time):
-        g[k] = (histories[k, 3] + histories[k, 4]) * coef[k, C_WEIGHT]
-    out[W_P_ELASTIC] = mean_positive_part(g, cos_table, sin_table)
+    cycle_means(histories, coef[:, C_WEIGHT], out, cos_table, sin_table)
     out[W_AOA] = aoa / (area * n_time) if area > 0.0 else 0.0
     out[W_CONVERGED] = 1.0 if converged else 0.0
     out[W_EVALS] = max_evals
@@ -360,6 +374,8 @@ def tandem_stroke(
     out_history,
     cos_table,
     sin_table,
+    table_fore,
+    table_hind,
 ):
     """Cycle means of stroke ``b`` of a batch: the fore-wing first, then the hind-wing in its
     slipstream (see :func:`tandem_cycle` for the arguments)."""
@@ -397,6 +413,7 @@ def tandem_stroke(
             hist,
             cos_table,
             sin_table,
+            table_fore if wing == 0 else table_hind,
         )
         if out_history.shape[0] > b:
             out_history[b, wing] = hist
@@ -427,6 +444,8 @@ def tandem_cycle(
     out_history,
     cos_table,
     sin_table,
+    table_fore,
+    table_hind,
 ):
     """Cycle means of a batch of tandem strokes, in parallel over the batch.
 
@@ -436,6 +455,8 @@ def tandem_cycle(
     (``model.freestream_components``).
     Writes ``out`` (B, 2, N_WING_OUT) and ``out_inflow`` (B, 2, n_r) [m/s]; if ``out_history``
     has B rows, also the per-sample F_x, F_z, F_y, P_aero, P_iner of each wing (B, 2, n_time, 5).
+    ``table_fore``, ``table_hind``: the wings' force-coefficient models (``coefficients``), both
+    ``None`` for the paper's: numba compiles that signature without the models' code.
     """
     for b in prange(angles_fore.shape[0]):
         tandem_stroke(
@@ -463,4 +484,6 @@ def tandem_cycle(
             out_history,
             cos_table,
             sin_table,
+            table_fore,
+            table_hind,
         )

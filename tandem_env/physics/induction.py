@@ -25,14 +25,17 @@ from .blade import C_ECZ, C_ENZ, C_SPIN, C_WEIGHT, element_force, relative_veloc
 
 
 @njit(cache=True)
-def mean_normal_force(coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal):
-    """Cycle-mean aerodynamic force per unit span along the stroke-plane normal [N/m]."""
+def mean_normal_force(
+    coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, table=None
+):
+    """Cycle-mean aerodynamic force per unit span along the stroke-plane normal [N/m];
+    ``table``: the force-coefficient model (``blade.element_force``)."""
     n = coef.shape[0]
     total = 0.0
     for k in range(n):
         u, v, du, dv = relative_velocity(coef, k, r, v_tangential, v_normal)
         fc, fn = element_force(
-            u, v, du, dv, coef[k, C_SPIN], chord, m11, m22, rho, ct, cd0, cd90, cr
+            u, v, du, dv, coef[k, C_SPIN], chord, m11, m22, rho, ct, cd0, cd90, cr, table
         )
         total += (fc * coef[k, C_ECZ] + fn * coef[k, C_ENZ]) * coef[k, C_WEIGHT]
     return total / n
@@ -91,15 +94,18 @@ def solve_annulus(
     sweep_amplitude,
     tolerance,
     max_iterations,
+    table=None,
 ):
     """Induced velocity v_i [m/s] of one annulus; returns (v_i, force evaluations, converged).
+
+    ``table``: the wing's force-coefficient model (``blade.element_force``).
 
     Converged means |h(v_i)| ≤ tolerance·F̄_n(0) or the bracket is narrower than
     tolerance·v_hover.
     """
     k_area = 4.0 * rho * sweep_amplitude * r
     f0 = mean_normal_force(
-        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0
+        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0, table
     )
     if f0 <= 0.0 or k_area <= 0.0:
         return 0.0, 1, True
@@ -118,7 +124,7 @@ def solve_annulus(
     # establish the bracket [lo, hi]: h(lo) > 0 >= h(hi)
     while True:
         f2 = mean_normal_force(
-            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0 + x2
+            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0 + x2, table
         )
         evaluations += 1
         h2 = f2 - _momentum(x2, k_area, v_tangential, v_normal0)[0]
@@ -141,7 +147,7 @@ def solve_annulus(
             v = 0.5 * (lo + hi)
             width_before = hi - lo
         fv = mean_normal_force(
-            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0 + v
+            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0 + v, table
         )
         evaluations += 1
         hv = fv - _momentum(v, k_area, v_tangential, v_normal0)[0]

@@ -13,7 +13,13 @@ from typing import Literal
 
 import numpy as np
 
-from .coefficients import CoefficientModel, PaperCoefficients, SinusoidalFit, coefficient_model
+from .coefficients import (
+    PAPER_COEFFICIENTS,
+    CoefficientModel,
+    PaperCoefficients,
+    SinusoidalFit,
+    coefficient_model,
+)
 
 Planform = Literal["tear-drop", "real"]
 PLANFORMS: tuple[str, ...] = ("tear-drop", "real")
@@ -87,7 +93,7 @@ class Wing:
     """μ₁, linear rotational-damping coefficient [-] (Berman & Wang 2007)."""
     damping_quadratic: float = 0.2
     """μ₂, quadratic rotational-damping coefficient [-] (Berman & Wang 2007)."""
-    coefficients: CoefficientModel = PaperCoefficients()
+    coefficients: CoefficientModel = PAPER_COEFFICIENTS
     """Force-coefficient model C_L(α), C_D(α) (``coefficients``): the paper's by default; a name
     (``"dickinson1999"``) or a mapping ``{"model": …}`` is converted on construction."""
 

@@ -257,9 +257,7 @@ class MeasuredWing:
                     "[(mean, [(amplitude, phase), …]), …], one per station; got "
                     f"{pitch!r}"
                 )
-            pitch_series = [
-                _fourier_series(f"pitch[{i}]", p, unit) for i, p in enumerate(pitch)
-            ]
+            pitch_series = [_fourier_series(f"pitch[{i}]", p, unit) for i, p in enumerate(pitch)]
         series = {
             "sweep": _fourier_series("sweep", sweep, unit),
             "elevation": _fourier_series("elevation", elevation, unit),
@@ -281,9 +279,12 @@ class MeasuredWing:
                         "at most 2π rad; these look like degrees: pass degrees=True"
                     )
         to_rad = np.deg2rad if degrees else np.asarray
-        sampled = {name: to_rad(fourier_samples(*s, n_samples)) for name, s in series.items()}
+        sampled = {
+            name: to_rad(fourier_samples(*s, n_samples, degrees=degrees))
+            for name, s in series.items()
+        }
         pitch_samples = np.stack(
-            [to_rad(fourier_samples(*p, n_samples)) for p in pitch_series], axis=1
+            [to_rad(fourier_samples(*p, n_samples, degrees=degrees)) for p in pitch_series], axis=1
         )
         beta = _real("stroke_plane_angle", stroke_plane_angle)
         return cls(
@@ -472,12 +473,18 @@ def _fourier_series(name: str, value: Any, unit: str) -> tuple[float, list[tuple
     return mean, pairs
 
 
-def fourier_samples(mean: float, harmonics: Sequence[tuple[float, float]], n: int) -> np.ndarray:
-    """X_i = mean + Σ_k a_k·cos(2πk·i/n + ψ_k), i = 0 … n − 1 (t = i/(n·f)), in the series' unit."""
+def fourier_samples(
+    mean: float, harmonics: Sequence[tuple[float, float]], n: int, *, degrees: bool = False
+) -> np.ndarray:
+    """X_i = mean + Σ_k a_k·cos(2πk·i/n + ψ_k), i = 0 … n − 1 (t = i/(n·f)).
+
+    The samples are in the unit of ``mean`` and the amplitudes; the phases ψ_k are in degrees
+    if ``degrees``, else radians.
+    """
     phase = 2.0 * np.pi * np.arange(n) / n
     out = np.full(n, float(mean))
     for k, (amplitude, offset) in enumerate(harmonics, start=1):
-        out += amplitude * np.cos(k * phase + offset)
+        out += amplitude * np.cos(k * phase + (math.radians(offset) if degrees else offset))
     return out
 
 
@@ -495,9 +502,7 @@ def _check_inputs(fore: Any, hind: Any, insect: Any, options: Any) -> None:
     if not isinstance(insect, Dragonfly):
         raise ValueError(f"evaluate_measured: insect = {insect!r:.80}; allowed: a Dragonfly")
     if not isinstance(options, ModelOptions):
-        raise ValueError(
-            f"evaluate_measured: options = {options!r:.80}; allowed: a ModelOptions"
-        )
+        raise ValueError(f"evaluate_measured: options = {options!r:.80}; allowed: a ModelOptions")
     if fore.n_samples != hind.n_samples:
         raise ValueError(
             f"evaluate_measured: fore has {fore.n_samples} samples per cycle and hind "

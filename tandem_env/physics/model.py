@@ -14,6 +14,7 @@ from functools import lru_cache
 import numpy as np
 
 from . import cycle
+from .coefficients import PaperCoefficients
 from .insect import DRAGONFLY, Dragonfly, Wing
 from .kinematics import fill_angle_history, wing_params_radians
 from .options import ModelOptions
@@ -77,8 +78,6 @@ def wing_tables(wing: Wing, n_blade: int, air_density: float) -> tuple[np.ndarra
     consts[cycle.K_MU2] = wing.damping_quadratic
     consts[cycle.K_I_SPAN] = np.sum(span_inertia)
     consts[cycle.K_I_PITCH] = np.sum(pitch_inertia)
-    # the force-coefficient model's table follows the fixed constants (``coefficients``)
-    consts = np.concatenate([consts, wing.coefficients.table()])
     nodes.setflags(write=False)
     consts.setflags(write=False)
     return nodes, consts
@@ -88,7 +87,7 @@ def node_inertia(wing: Wing, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     """Each blade element's share of the wing's inertia, (n_blade,) each [kg·m²].
 
     m'(r)·r²·dr (flapping of the pitch axis line) and m'(r)·c²/12·dr (thin-plate rotation about
-    it), with mass per span m' = m_w·c/(c̄R) (MODEL.md §6); their sums are the wing's constants.
+    it), with mass per span m' = m_w·c/(c̄R) (docs/model.md §6); their sums are the wing's constants.
     """
     chord = nodes[:, cycle.N_CHORD]
     width = nodes[:, cycle.N_WIDTH]
@@ -266,6 +265,14 @@ def freestream_components(
     return out
 
 
+def coefficient_tables(insect: Dragonfly) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The wings' force-coefficient tables for the kernel (``coefficients``): ``(None, None)``
+    when both use the paper's model, which keeps the default path's compiled code as it was."""
+    if all(isinstance(w.coefficients, PaperCoefficients) for w in (insect.fore, insect.hind)):
+        return None, None
+    return insect.fore.coefficients.table(), insect.hind.coefficients.table()
+
+
 def run_kernel(
     angles,
     weights,
@@ -304,6 +311,7 @@ def run_kernel(
         freestream_components(speed, beta, flight_path_angle), nodes_f, consts_f, nodes_h, consts_h, insect.air_density, mode[options.induction],
         options.interference, options.spin == "total", options.tolerance,
         options.max_evaluations, out, inflow, history, *cycle.fourier_tables(n_time),
+        *coefficient_tables(insect),
     )  # fmt: skip
     if batch >= SERIAL_BELOW:
         cycle.tandem_cycle(*args)
@@ -485,3 +493,13 @@ def evaluate(
     angles, weights, frequency, beta, sweep = _parametric_inputs(physical, options.n_time)
     out, _, _ = run_kernel(angles, weights, frequency, beta, sweep, v, gamma, insect, options)
     return _performance(out, v, gamma, p_avail, insect, options)
+
+
+def __getattr__(name: str):
+    """``MeasuredWing`` and ``evaluate_measured`` live in ``measured`` (which builds on this
+    module); they are still reachable here for code that imported them from ``model``."""
+    if name in ("MeasuredWing", "evaluate_measured"):
+        from . import measured
+
+        return getattr(measured, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
