@@ -26,7 +26,7 @@ Models (frozen, validated, hashable so that a ``Wing`` can carry one):
 Each model writes a flat float table (``model.table()``), appended to the wing's constants
 (``model.wing_tables``) and read by :func:`force_coefficients` inside the kernel. Layout:
 ``[PAPER]``; ``[FIT, a, b, c, d, e, f, g, h]`` (phases in radians); ``[TABLE, m, α₁…α_m [rad],
-C_L₁…C_L_m, C_D₁…C_D_m]`` over 0…π.
+C_L₁…C_L_m, C_D₁…C_D_m]`` over 0…π, or ``LEADING_EDGE_TABLE`` and the same over 0…π/2.
 """
 
 from __future__ import annotations
@@ -42,7 +42,8 @@ from numba import njit
 # Model codes: the first entry of a model's kernel table.
 PAPER = 0.0
 FIT = 1.0
-TABLE = 2.0
+TABLE = 2.0  # over 0-180°
+LEADING_EDGE_TABLE = 3.0  # over 0-90° from the leading edge, folded like FIT
 
 
 def _real(owner: str, name: str, value: Any) -> float:
@@ -183,7 +184,7 @@ def _float_tuple(owner: str, name: str, value: Any) -> tuple[float, ...]:
         )
     if not np.all(np.isfinite(arr)):
         i = int(np.flatnonzero(~np.isfinite(arr))[0])
-        raise ValueError(f"{owner}.{name}[{i}] = {arr[i]!r}; allowed: finite numbers")
+        raise ValueError(f"{owner}.{name}[{i}] = {arr[i]}; allowed: finite numbers")
     return tuple(float(x) for x in arr)
 
 
@@ -191,9 +192,10 @@ def _float_tuple(owner: str, name: str, value: Any) -> tuple[float, ...]:
 class TabulatedCoefficients:
     """Tabulated C_L(α), C_D(α), linearly interpolated in α (in the compiled kernel).
 
-    ``alpha`` [deg] increases from 0 to 180 (the full range, −e_c edge leading beyond 90°), or
-    from 0 to 90 (from the leading edge; extended by C_L(180° − α) = −C_L(α),
-    C_D(180° − α) = C_D(α)). Lists and arrays are accepted and stored as tuples.
+    ``alpha`` [deg] increases from 0 to 180 (the full range, the −e_c edge leading beyond 90°),
+    or from 0 to 90: then α is measured from whichever edge leads, as in :class:`SinusoidalFit`
+    (C_L(α) = −C_L(180° − α), C_D(α) = C_D(180° − α) beyond 90°; a C_L(90°) ≠ 0 changes sign
+    there). Lists and arrays are accepted and stored as tuples.
     """
 
     alpha: tuple[float, ...]
@@ -225,11 +227,7 @@ class TabulatedCoefficients:
                 f"({a[i]} then {a[i + 1]} deg); allowed: increasing angles"
             )
         if a[0] != 0.0 or a[-1] not in (90.0, 180.0):
-            hint = (
-                " (these look like radians: give degrees)"
-                if a[-1] in (math.pi / 2, math.pi) or a[-1] < 4.0
-                else ""
-            )
+            hint = " (these look like radians: give degrees)" if a[-1] < 4.0 else ""
             raise ValueError(
                 f"{owner}.alpha runs from {a[0]} to {a[-1]} deg; allowed: from 0 to 90 or from "
                 f"0 to 180 deg{hint}"
@@ -240,21 +238,33 @@ class TabulatedCoefficients:
         object.__setattr__(self, "lift", lift)
         object.__setattr__(self, "drag", drag)
 
-    def full_range(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(α [deg], C_L, C_D) over 0-180° (a 0-90° table mirrored as documented)."""
-        a, cl, cd = (np.asarray(x) for x in (self.alpha, self.lift, self.drag))
-        if a[-1] == 180.0:
-            return a, cl, cd
-        return (
-            np.concatenate([a, 180.0 - a[-2::-1]]),
-            np.concatenate([cl, -cl[-2::-1]]),
-            np.concatenate([cd, cd[-2::-1]]),
-        )
+    @property
+    def from_leading_edge(self) -> bool:
+        """True for a 0-90° table (α from the leading edge, folded beyond 90°)."""
+        return self.alpha[-1] == 90.0
+
+    def _lookup(self, alpha_deg: np.ndarray | float, values: tuple[float, ...], odd: bool):
+        alpha = np.asarray(alpha_deg, dtype=float)
+        if not self.from_leading_edge:
+            return np.interp(alpha, self.alpha, values)
+        lead = np.where(alpha <= 90.0, alpha, 180.0 - alpha)
+        sign = np.where(alpha <= 90.0, 1.0, -1.0) if odd else 1.0
+        return sign * np.interp(lead, self.alpha, values)
+
+    def lift_at(self, alpha_deg: np.ndarray | float) -> np.ndarray:
+        """C_L at α [deg], 0-180° (reference values for plots and checks)."""
+        return self._lookup(alpha_deg, self.lift, odd=True)
+
+    def drag_at(self, alpha_deg: np.ndarray | float) -> np.ndarray:
+        """C_D at α [deg], 0-180°."""
+        return self._lookup(alpha_deg, self.drag, odd=False)
 
     def table(self) -> np.ndarray:
-        """``[TABLE, m, α [rad], C_L, C_D]`` over 0…π."""
-        a, cl, cd = self.full_range()
-        return np.concatenate([[TABLE, float(a.shape[0])], np.deg2rad(a), cl, cd])
+        """``[TABLE or LEADING_EDGE_TABLE, m, α [rad], C_L, C_D]``."""
+        code = LEADING_EDGE_TABLE if self.from_leading_edge else TABLE
+        return np.concatenate(
+            [[code, float(len(self.alpha))], np.deg2rad(self.alpha), self.lift, self.drag]
+        )
 
 
 CoefficientModel = Union[PaperCoefficients, SinusoidalFit, TabulatedCoefficients]  # noqa: UP007
@@ -314,8 +324,12 @@ def force_coefficients(u, v, table):
         if alpha > half_pi:
             cl = -cl
         return cl, cd
+    sign = 1.0
+    if table[0] == LEADING_EDGE_TABLE and alpha > 0.5 * np.pi:
+        alpha = np.pi - alpha
+        sign = -1.0
     m = int(table[1])
     angles = table[2 : 2 + m]
     cl = np.interp(alpha, angles, table[2 + m : 2 + 2 * m])
     cd = np.interp(alpha, angles, table[2 + 2 * m : 2 + 3 * m])
-    return cl, cd
+    return sign * cl, cd

@@ -161,8 +161,7 @@ class Wing:
             return lift, drag
         if isinstance(model, SinusoidalFit):
             return model.lift(alpha), model.drag(alpha)
-        a, cl, cd = model.full_range()
-        return np.interp(alpha, a, cl), np.interp(alpha, a, cd)
+        return model.lift_at(alpha), model.drag_at(alpha)
 
     def _real_width(self, r_hat: np.ndarray) -> np.ndarray:
         assert self.real_edges is not None

@@ -491,18 +491,26 @@ def fourier_samples(
 # --- evaluation --------------------------------------------------------------------------------
 
 
+def _describe(value: Any) -> str:
+    """A short, one-line description of a wrong argument for an error message."""
+    if isinstance(value, np.ndarray):
+        return f"an array of shape {value.shape}"
+    text = " ".join(repr(value).split())
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 def _check_inputs(fore: Any, hind: Any, insect: Any, options: Any) -> None:
     for name, value in (("fore", fore), ("hind", hind)):
         if not isinstance(value, MeasuredWing):
             raise ValueError(
-                f"evaluate_measured: {name} = {value!r:.80}; allowed: a MeasuredWing (e.g. "
+                f"evaluate_measured: {name} = {_describe(value)}; allowed: a MeasuredWing (e.g. "
                 "MeasuredWing(sweep, elevation, pitch, frequency, stroke_plane_angle) or "
                 "MeasuredWing.from_fourier(...))"
             )
     if not isinstance(insect, Dragonfly):
-        raise ValueError(f"evaluate_measured: insect = {insect!r:.80}; allowed: a Dragonfly")
+        raise ValueError(f"evaluate_measured: insect = {_describe(insect)}; allowed: a Dragonfly")
     if not isinstance(options, ModelOptions):
-        raise ValueError(f"evaluate_measured: options = {options!r:.80}; allowed: a ModelOptions")
+        raise ValueError(f"evaluate_measured: options = {_describe(options)}; allowed: a ModelOptions")
     if fore.n_samples != hind.n_samples:
         raise ValueError(
             f"evaluate_measured: fore has {fore.n_samples} samples per cycle and hind "
