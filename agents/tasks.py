@@ -16,6 +16,7 @@ from types import MappingProxyType
 from typing import Any
 
 from tandem_env.envs.registration import ACCELERATE_ID, LEVEL_FLIGHT_ID
+from tandem_env.physics.checks import is_real
 
 __all__ = [
     "ACCELERATE",
@@ -117,15 +118,12 @@ class TaskSpec:
 
     def condition(self, value: float) -> Condition:
         """The recorded condition for ``value`` [condition_unit] (range checks are the env's)."""
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            # numpy scalars are real numbers too; anything else (str, None) is a caller bug
-            try:
-                value = float(value)  # type: ignore[arg-type]
-            except (TypeError, ValueError) as error:
-                raise ValueError(
-                    f"{self.name}: condition {self.condition_name} = {value!r}; allowed: a "
-                    f"number [{self.condition_unit}]"
-                ) from error
+        # NumPy numbers are real numbers too; strings (also "1.5") and booleans are not.
+        if not is_real(value):
+            raise ValueError(
+                f"{self.name}: condition {self.condition_name} = {value!r}; allowed: a "
+                f"number [{self.condition_unit}]"
+            )
         return Condition(self.condition_name, float(value), self.condition_unit)
 
     def objective_choice(self, env_kwargs: Mapping[str, Any]) -> str:

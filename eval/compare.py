@@ -38,16 +38,24 @@ NAME = "compare"
 HELP = "compare records: median/IQR table (CSV, Markdown) and convergence plot (PNG)"
 DESCRIPTION = """\
 Compare harness records (the JSON files written by `optimize`) found recursively in the given
-directories. Writes into --out:
+directories. Writes into --out (default: the first DIR's compare/ sub-folder):
   comparison.csv, comparison.md  per task/objective/condition and method: seeds, median and
-                                 IQR (25th-75th percentile) of the re-evaluated objective,
-                                 best, median reward, feasible share, median evaluations and
-                                 median wall time [s];
+                                 IQR (25th-75th percentile) of the re-evaluated objective
+                                 over all seeds, best, median over the feasible seeds, median
+                                 reward, feasible share, median evaluations and median wall
+                                 time [s]. Where no seed is feasible the objective columns
+                                 are left out (nan in the CSV, "n/a (none feasible)" in the
+                                 table): the objective of a stroke that does not fly is not
+                                 a result;
   convergence.png                best-so-far reward against evaluations, median over seeds
                                  with the IQR band, one panel per task/objective/condition."""
 EPILOG = """\
 example:
-  python -m eval compare results/issue4 --out results/issue4/compare"""
+  python -m eval compare results/v1.5                 # writes results/v1.5/compare/
+  python -m eval compare results/a results/b --out results/ab"""
+
+#: Sub-folder of the first DIR that receives the outputs when --out is not given.
+DEFAULT_OUT = "compare"
 
 TABLE_CSV = "comparison.csv"
 TABLE_MD = "comparison.md"
@@ -70,6 +78,8 @@ class Row:
     objective_q25: float
     objective_q75: float
     objective_best: float
+    objective_median_feasible: float
+    """Median objective over the feasible seeds (NaN if none)."""
     reward_median: float
     feasible_share: float
     evaluations_median: float
@@ -94,6 +104,7 @@ class Row:
             "objective_q75": self.objective_q75,
             "objective_iqr": self.objective_iqr,
             "objective_best": self.objective_best,
+            "objective_median_feasible": self.objective_median_feasible,
             "reward_median": self.reward_median,
             "feasible_share": self.feasible_share,
             "evaluations_median": self.evaluations_median,
@@ -142,7 +153,13 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
         task, objective_name, condition, value, unit = key
         for (method, budget), runs in series.items():
             objective = np.array([r.objective for r in runs])
-            q25, median, q75 = np.percentile(objective, [25, 50, 75])
+            feasible = np.array([r.feasible for r in runs], dtype=bool)
+            if feasible.any():
+                q25, median, q75 = np.percentile(objective, [25, 50, 75])
+                best = float(objective.max())
+                median_feasible = float(np.median(objective[feasible]))
+            else:  # the objective of strokes that do not fly is not a result: leave it out
+                q25 = median = q75 = best = median_feasible = math.nan
             rows.append(
                 Row(
                     task=task,
@@ -156,9 +173,10 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
                     objective_median=float(median),
                     objective_q25=float(q25),
                     objective_q75=float(q75),
-                    objective_best=float(objective.max()),
+                    objective_best=best,
+                    objective_median_feasible=median_feasible,
                     reward_median=float(np.median([r.reward for r in runs])),
-                    feasible_share=float(np.mean([r.feasible for r in runs])),
+                    feasible_share=float(np.mean(feasible)),
                     evaluations_median=float(np.median([r.evaluations for r in runs])),
                     wall_time_median_s=float(np.median([r.wall_time for r in runs])),
                 )
@@ -174,15 +192,22 @@ def markdown_table(rows: Sequence[Row]) -> str:
     """The rows as a Markdown table (objective values to 4 significant digits)."""
     header = (
         "| task | objective | condition | method | budget | seeds | median | IQR (25-75 %) "
-        "| best | median reward | feasible | median evaluations | median wall time [s] |"
+        "| best | median of feasible | median reward | feasible | median evaluations "
+        "| median wall time [s] |"
     )
     lines = [header, "|" + "---|" * header.count(" | ") + "---|"]
     for r in rows:
+        if r.feasible_share > 0:
+            objective = (
+                f"{_fmt(r.objective_median)} | {_fmt(r.objective_q25)}-"
+                f"{_fmt(r.objective_q75)} ({_fmt(r.objective_iqr, 3)}) | "
+                f"{_fmt(r.objective_best)} | {_fmt(r.objective_median_feasible)}"
+            )
+        else:
+            objective = "n/a (none feasible) | n/a | n/a | n/a"
         lines.append(
             f"| {r.task} | {r.objective_name} | {r.condition} = {r.condition_value:g} "
-            f"{r.condition_unit} | {r.method} | {r.budget} | {r.seeds} | "
-            f"{_fmt(r.objective_median)} | {_fmt(r.objective_q25)}-{_fmt(r.objective_q75)} "
-            f"({_fmt(r.objective_iqr, 3)}) | {_fmt(r.objective_best)} | "
+            f"{r.condition_unit} | {r.method} | {r.budget} | {r.seeds} | {objective} | "
             f"{_fmt(r.reward_median)} | {r.feasible_share:.0%} | {r.evaluations_median:g} | "
             f"{r.wall_time_median_s:.3g} |"
         )
@@ -299,16 +324,28 @@ def compare(directories: Sequence[str | Path], out: str | Path) -> list[Row]:
     return rows
 
 
+def default_out(directories: Sequence[str | Path]) -> Path:
+    """Where the outputs go without --out: ``<first DIR>/compare`` (beside a record file)."""
+    first = Path(directories[0])
+    return (first.parent if first.is_file() else first) / DEFAULT_OUT
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("dirs", nargs="+", metavar="DIR", help="directories (or files) of records")
-    parser.add_argument("--out", required=True, metavar="DIR2", help="directory for the outputs")
+    parser.add_argument(
+        "--out",
+        default=None,
+        metavar="OUT",
+        help=f"directory for the outputs (default: the first DIR's {DEFAULT_OUT}/ sub-folder)",
+    )
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    out = Path(args.out) if args.out is not None else default_out(args.dirs)
     try:
-        rows = compare(args.dirs, args.out)
+        rows = compare(args.dirs, out)
     except ValueError as error:
         parser.error(str(error))
     sys.stdout.write(markdown_table(rows))
-    print(f"wrote {Path(args.out) / TABLE_CSV}, {TABLE_MD} and {PLOT_PNG}", file=sys.stderr)
+    print(f"wrote {out / TABLE_CSV}, {TABLE_MD} and {PLOT_PNG}", file=sys.stderr)
     return 0

@@ -2,12 +2,15 @@
 
 Every sweep figure shows the spread over seeds the same way: the median over feasible seeds as
 a line, the inter-quartile range as a band, each feasible seed as a small dot and the best seed
-(best objective) as a star. The paper's numbers, where it states them, are black crosses.
+(best objective) as a star. What the paper states in its text is drawn the same way in every
+figure: its numbers are black crosses, a condition it names (e.g. "peaks at 1.5 m/s") is a
+black dotted vertical line, and a trend it states only in words is quoted in the panel's lower
+corner ("paper: ...").
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -42,6 +45,10 @@ class Panel:
     paper: Sequence[tuple[float, float] | tuple[float, float, str]] = field(default=())
     """(condition, value) or (condition, value, label) points the paper states."""
     title: str = ""
+    paper_at: Sequence[tuple[float, str]] = field(default=())
+    """(condition, label): conditions the paper names, e.g. (1.5, "paper: peak")."""
+    paper_note: str = ""
+    """A trend the paper states in words only, e.g. "paper: falls with V"."""
 
 
 def draw_series(ax: plt.Axes, series: Series, color: str, offset: float = 0.0) -> None:
@@ -75,14 +82,7 @@ def sweep_figure(
     for ax, panel in zip(axes, panels, strict=True):
         for i, s in enumerate(panel.series):
             draw_series(ax, s, COLORS[i % len(COLORS)], offset=0.0)
-        if panel.paper:
-            px, py = [p[0] for p in panel.paper], [p[1] for p in panel.paper]
-            ax.plot(px, py, "kx", ms=8, mew=2, label="paper")
-            for point in panel.paper:
-                if len(point) == 3:
-                    ax.annotate(
-                        point[2], point[:2], xytext=(6, 2), textcoords="offset points", fontsize=7
-                    )
+        draw_paper(ax, panel)
         ax.set_ylabel(panel.ylabel)
         if panel.title:
             ax.set_title(panel.title, fontsize=9)
@@ -91,6 +91,34 @@ def sweep_figure(
     axes[0].legend(fontsize=7, loc="best")
     fig.suptitle(title, fontsize=10)
     return save(fig, path)
+
+
+def draw_paper(ax: plt.Axes, panel: Panel) -> None:
+    """What the paper states for this panel: crosses, dotted lines and a quoted trend."""
+    if panel.paper:
+        px, py = [p[0] for p in panel.paper], [p[1] for p in panel.paper]
+        ax.plot(px, py, "kx", ms=8, mew=2, label="paper")
+        for point in panel.paper:
+            if len(point) == 3:
+                ax.annotate(
+                    point[2], point[:2], xytext=(6, 2), textcoords="offset points", fontsize=7
+                )
+    for k, (condition, label) in enumerate(panel.paper_at):
+        ax.axvline(condition, color="k", ls=":", lw=1.2, label=label if k == 0 else None)
+        if k:
+            ax.annotate(label, (condition, 0.97), xycoords=("data", "axes fraction"), fontsize=7)
+    if panel.paper_note:
+        ax.text(
+            0.98,
+            0.04,
+            panel.paper_note,
+            transform=ax.transAxes,
+            ha="right",
+            va="bottom",
+            fontsize=7,
+            style="italic",
+            bbox={"boxstyle": "round", "fc": "white", "ec": "0.6", "alpha": 0.8},
+        )
 
 
 def save(fig: plt.Figure, path: Path) -> Path:
@@ -144,6 +172,10 @@ def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
                 )
         ax.plot(0, 0, "k+", ms=10)
         ax.set_title(f"{wing}-wing", fontsize=9)
+        if wing == "hind":
+            # What the markers mean (the paper's Figs. 9-10 have no markers to compare).
+            ax.plot([], [], "o", color="k", ms=5, label="best seed at t = 0 (arrow: direction)")
+            ax.plot([], [], "k+", ms=10, label="wing base")
         ax.set_xlabel("x/R (forward) [-]")
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(alpha=0.3)
@@ -160,11 +192,16 @@ def cycle_figure(
     title: str,
     path: Path,
     extra: tuple[str, Mapping[str, Sequence[float]], str] | None = None,
+    extra_median: Callable[[Sequence[float]], float] = np.median,
+    extra_median_label: str = "median",
+    extra_paper: Mapping[str, float] | None = None,
 ) -> Path:
     """One panel per flight mode: ``quantity`` of fore (solid) and hind (dashed) over t/T.
 
     ``extra`` adds a last panel (label, {group: values}, ylabel) of per-seed values as dots with
-    the median as a bar, e.g. the phase differences (Fig. 11c) or pitch amplitudes (Fig. 12c).
+    ``extra_median`` of each group as a bar (a circular median for phases), e.g. the phase
+    differences (Fig. 11c) or pitch amplitudes (Fig. 12c); ``extra_paper`` {group: value} draws
+    the paper's stated values as black crosses.
     """
     n = len(rows) + (extra is not None)
     fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 3.4))
@@ -188,7 +225,12 @@ def cycle_figure(
             v = np.asarray(values, float)
             ax.plot(np.full(v.size, i) + np.linspace(-0.1, 0.1, v.size), v, "o", alpha=0.6)
             if v.size:
-                ax.plot([i - 0.25, i + 0.25], [np.median(v)] * 2, "k-", lw=2)
+                ax.plot([i - 0.25, i + 0.25], [extra_median(v)] * 2, "k-", lw=2)
+        ax.plot([], [], "k-", lw=2, label=extra_median_label)
+        for k, (group, value) in enumerate((extra_paper or {}).items()):
+            i = list(groups).index(group)
+            ax.plot(i + 0.3, value, "kx", ms=8, mew=2, label="paper" if k == 0 else None)
+        ax.legend(fontsize=7, loc="best")
         ax.axhline(0.0, color="grey", lw=0.8)
         ax.set_xlim(-0.5, len(groups) - 0.5)
         ax.set_xticks(range(len(groups)), list(groups), fontsize=7)

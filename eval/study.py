@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import textwrap
 
 from eval.studies import STUDIES
 from eval.studies.base import Plan
@@ -30,7 +31,12 @@ Studies:
 
 Presets:
 """
-    + "\n".join(f"  {p.name:<12} {p.description}" for p in PRESETS.values())
+    + "\n".join(
+        textwrap.fill(
+            p.description, 92, initial_indent=f"  {p.name:<12} ", subsequent_indent=" " * 15
+        )
+        for p in PRESETS.values()
+    )
     + """
 
 A killed run resumes: finished optimisations are recognised by their configuration hash and

@@ -13,9 +13,11 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from agents.keyvalue import parse_pairs
 from train.config import ALGOS, TrainConfig
+from train.layout import RunComplete
 
 EPILOG = """\
 Values of --env-kwargs / --hyperparams are Python literals or YAML scalars: speed=1.5,
@@ -24,13 +26,16 @@ Values of --env-kwargs / --hyperparams are Python literals or YAML scalars: spee
 
 A run writes logs/<algo>/<env>_<n>/ (the zoo's layout; see docs/training.md). A killed run
 continues from its last checkpoint with --resume (the latest run of that algo and env) or
---run-dir DIR (that run); the step count continues and -n may raise the target.
+--run-dir DIR (that run); the step count continues and -n may raise the target. Only runs
+written by python -m train are continued: a folder of rl_zoo3 (same layout) is left untouched.
+Training stops at whole iterations (PPO: n_steps x n_envs env steps), so -n is rounded up to
+one and the run says so.
 """
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="python -m train",
+        prog="tandem-train" if Path(sys.argv[0]).name == "tandem-train" else "python -m train",
         description="Train PPO or SAC (Stable-Baselines3) on a TandemWing env through the batched vector env.",
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -161,13 +166,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         from train.run import train
 
         result = train(config)
+    except RunComplete as done:
+        print(done)
+        return 0
     except ValueError as error:
         parser.error(str(error))
     best = result.best_info or {}
     print(f"run folder: {result.run_dir}")
+    since = "" if result.resumed_from is None else f" since step {result.resumed_from}"
     print(
-        f"{result.num_timesteps} steps in {result.wall_time:.1f} s; best stroke seen: reward "
-        f"{result.best_reward:.4g}, objective {best.get('objective', float('nan')):.4g}, "
+        f"{result.num_timesteps} steps in {result.wall_time:.1f} s; best stroke seen{since}: "
+        f"reward {result.best_reward:.4g}, objective {best.get('objective', float('nan')):.4g}, "
         f"feasible {best.get('feasible')}"
     )
     for row in result.final_evaluation:

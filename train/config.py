@@ -20,6 +20,9 @@ from typing import Any, Literal, get_args
 
 import yaml
 
+from tandem_env.envs.registration import check_env_id
+from tandem_env.physics.checks import is_integer, is_real
+
 Algo = Literal["ppo", "sac"]
 ALGOS: tuple[str, ...] = get_args(Algo)
 
@@ -197,7 +200,7 @@ def resolve_hyperparams(
 
 def _positive_int(name: str, value: Any) -> int:
     # YAML reads 1e5 as a float (the zoo writes !!float 1e5); accept integral floats.
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+    if not is_real(value) or not math.isfinite(value):
         raise ValueError(f"{name} = {value!r}; allowed: an integer >= 1")
     if int(value) != value or value < 1:
         raise ValueError(f"{name} = {value!r}; allowed: an integer >= 1")
@@ -237,7 +240,7 @@ def _schedule(key: str, value: Any) -> Any:
             raise ValueError(f"{key} = {value!r}; allowed: a number or 'lin_<initial value>'")
         # The zoo's linear schedule: from `initial` at the start to 0 at the end.
         return LinearSchedule(initial, 0.0, 1.0)
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if not is_real(value):
         raise ValueError(f"{key} = {value!r}; allowed: a number or 'lin_<initial value>'")
     return float(value)
 
@@ -289,28 +292,27 @@ class TrainConfig:
 
     def __post_init__(self) -> None:
         check_algo(self.algo)
-        if not isinstance(self.env_id, str) or not self.env_id:
-            raise ValueError(f"env_id = {self.env_id!r}; allowed: a registered Gymnasium id")
+        check_env_id(self.env_id, "env")
         for name in ("n_timesteps", "n_envs"):
             value = getattr(self, name)
             if value is not None:
                 object.__setattr__(self, name, _positive_int(name, value))
         for name, low in (("seed", 0), ("verbose", 0), ("torch_threads", 1)):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            if not is_integer(value) or value < low:
                 raise ValueError(f"{name} = {value!r}; allowed: an integer >= {low}")
+            object.__setattr__(self, name, int(value))
         for name in ("eval_freq", "save_freq"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int):
+            if not is_integer(value):
                 raise ValueError(f"{name} = {value!r}; allowed: an integer (<= 0 disables)")
-        if self.log_interval is not None and (
-            isinstance(self.log_interval, bool)
-            or not isinstance(self.log_interval, int)
-            or self.log_interval < 1
-        ):
-            raise ValueError(
-                f"log_interval = {self.log_interval!r}; allowed: None or an integer >= 1"
-            )
+            object.__setattr__(self, name, int(value))
+        if self.log_interval is not None:
+            if not is_integer(self.log_interval) or self.log_interval < 1:
+                raise ValueError(
+                    f"log_interval = {self.log_interval!r}; allowed: None or an integer >= 1"
+                )
+            object.__setattr__(self, "log_interval", int(self.log_interval))
         for name in ("env_kwargs", "hyperparams"):
             value = getattr(self, name)
             if not isinstance(value, Mapping):
@@ -336,8 +338,11 @@ class TrainConfig:
         )
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain-YAML form (``args.yml``)."""
+        """Plain-YAML form (``args.yml``), marked as written by this project (``made_by``)."""
+        from train.layout import MADE_BY
+
         return {
+            "made_by": MADE_BY,
             "algo": self.algo,
             "env": self.env_id,
             "n_timesteps": self.n_timesteps,

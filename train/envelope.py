@@ -20,6 +20,7 @@ import argparse
 import csv
 import os
 import sys
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -41,6 +42,7 @@ COLUMNS: tuple[str, ...] = (
     "excess_vertical",
     "excess_horizontal",
     "constraint_violation",
+    "trained_at",
     "evaluations",
     "training_timesteps",
     "model",
@@ -55,7 +57,8 @@ def task_of(env_id: str) -> str:
     for name in available_tasks():
         if get_task(name).env_id == env_id:
             return name
-    raise ValueError(f"no harness task runs {env_id}; allowed: TandemWing/LevelFlight-v0, ...")
+    allowed = ", ".join(get_task(name).env_id for name in available_tasks())
+    raise ValueError(f"no harness task runs {env_id}; allowed: {allowed}")
 
 
 def sweep_conditions(task: str) -> tuple[float, ...]:
@@ -72,7 +75,7 @@ def evaluate_envelope(
 ) -> list[dict[str, Any]]:
     """Record the run's policy at each condition (default the sweep); write envelope.csv."""
     from agents.harness import run
-    from train.policies import CONDITION_KWARGS, TrainedPolicy
+    from train.policies import CONDITION_KWARGS, TrainedPolicy, TrainingMismatchWarning
 
     policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
     task = task_of(policy.env_id)
@@ -82,17 +85,20 @@ def evaluate_envelope(
     out = Path(out_dir)
     rows = []
     for value in values:
-        record = run(
-            f"policy:{run_dir}",
-            task,
-            float(value),
-            budget=1,
-            seeds=[0],
-            env_kwargs=env_kwargs,
-            method_config={"model": which},
-            progress=progress,
-            out_dir=out / "records",
-        )[0]
+        with warnings.catch_warnings():
+            # Said once, for every condition, by the trained_at column (and main's note).
+            warnings.simplefilter("ignore", TrainingMismatchWarning)
+            record = run(
+                f"policy:{run_dir}",
+                task,
+                float(value),
+                budget=1,
+                seeds=[0],
+                env_kwargs=env_kwargs,
+                method_config={"model": which},
+                progress=progress,
+                out_dir=out / "records",
+            )[0]
         metrics = record.metrics
         rows.append(
             {
@@ -104,6 +110,7 @@ def evaluate_envelope(
                 "reward": record.reward,
                 "feasible": record.feasible,
                 **{k: metrics.get(k) for k in COLUMNS if k in metrics},
+                "trained_at": policy.trained_at(float(value)),
                 "evaluations": record.evaluations,
                 "training_timesteps": policy.num_timesteps,
                 "model": policy.model_path.name,
@@ -123,7 +130,9 @@ def evaluate_envelope(
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m train.envelope",
+        prog="tandem-envelope"
+        if Path(sys.argv[0]).name == "tandem-envelope"
+        else "python -m train.envelope",
         description="Evaluate one trained policy at every sweep condition through the harness.",
     )
     parser.add_argument("--run", required=True, help="run folder written by python -m train")
@@ -146,6 +155,20 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"{row['condition']} = {row['condition_value']:g} {row['condition_unit']}: "
             f"{row['objective_name']} = {row['objective']:.4g}, feasible {row['feasible']}, "
             f"{row['evaluations']} evaluation(s)"
+            + ("" if row["trained_at"] else " (outside training)")
+        )
+    outside = [row for row in rows if not row["trained_at"]]
+    if outside:
+        from train.policies import TrainedPolicy
+
+        seen = TrainedPolicy.load(args.run, args.model).training_conditions
+        unit = outside[0]["condition_unit"]
+        trained = f"({seen[0]:g}, {seen[1]:g})" if isinstance(seen, tuple) else f"{seen:g}"
+        print(
+            f"note: the policy was trained at {outside[0]['condition']} = {trained} {unit}; "
+            f"{len(outside)} of {len(rows)} conditions lie outside that, where its strokes are "
+            "extrapolations (a policy for the whole envelope is trained with speed_range or "
+            "power_range, docs/training.md)"
         )
     print(f"wrote {Path(args.out) / 'envelope.csv'}")
     return 0

@@ -25,6 +25,7 @@ a condition) and :func:`train_and_propose` (train within a budget, return the ch
 from __future__ import annotations
 
 import math
+import sys
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -35,9 +36,11 @@ from typing import Any, Literal, get_args
 import numpy as np
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
+from tqdm.auto import tqdm
 
 from agents.methods import Method, SearchContext, SearchOutcome
 from tandem_env.envs.sb3 import make_sb3_vec_env
+from tandem_env.physics.checks import is_integer
 from train.config import ALGOS, check_algo
 from train.layout import RunLayout
 from train.run import ALGORITHMS, learn_in_memory, read_yaml
@@ -48,6 +51,7 @@ __all__ = [
     "PolicyMethod",
     "TrainedPolicy",
     "TrainingMethod",
+    "TrainingMismatchWarning",
     "WhichModel",
     "policy_factory",
     "policy_stroke",
@@ -74,6 +78,10 @@ CITATIONS: dict[str, str] = {
 
 # Settings of the training methods that are not hyperparameter overrides.
 _TRAINING_SETTINGS = ("n_envs", "conf_file", "torch_threads", "log_dir")
+
+
+class TrainingMismatchWarning(RuntimeWarning):
+    """A policy is asked at a condition, or with env options, it was not trained with."""
 
 
 # --- a trained run ---------------------------------------------------------------------------
@@ -172,6 +180,14 @@ class TrainedPolicy:
                 return float(self.env_kwargs[key])
         return None
 
+    def trained_at(self, value: float) -> bool:
+        """Whether ``value`` is a condition the policy saw in training (inside its sampled
+        range, or its fixed condition); True when the training condition is unknown."""
+        seen = self.training_conditions
+        if isinstance(seen, tuple):
+            return seen[0] - 1e-9 <= value <= seen[1] + 1e-9
+        return seen is None or math.isclose(seen, value)
+
     @property
     def num_timesteps(self) -> int:
         return int(self.model.num_timesteps)
@@ -229,19 +245,14 @@ def _warn_on_differences(policy: TrainedPolicy, context: SearchContext) -> None:
     if _plain(trained) != _plain(asked):
         warnings.warn(
             f"{policy.run_dir} was trained with env options {trained}, evaluated with {asked}",
-            RuntimeWarning,
+            TrainingMismatchWarning,
             stacklevel=3,
         )
-    seen = policy.training_conditions
-    value = context.condition.value
-    if isinstance(seen, tuple):
-        outside = not seen[0] - 1e-9 <= value <= seen[1] + 1e-9
-    else:
-        outside = seen is not None and not math.isclose(seen, value)
-    if outside:
+    if not policy.trained_at(context.condition.value):
         warnings.warn(
-            f"{policy.run_dir} was trained at {seen}, asked at {context.condition.describe()}",
-            RuntimeWarning,
+            f"{policy.run_dir} was trained at {policy.training_conditions}, asked at "
+            f"{context.condition.describe()}",
+            TrainingMismatchWarning,
             stacklevel=3,
         )
 
@@ -282,10 +293,11 @@ class TrainingMethod:
             value = getattr(self, name)
             if value is None and name == "n_envs":
                 continue
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            if not is_integer(value) or value < low:
                 raise ValueError(
                     f"method {self.algo!r}: {name} = {value!r}; allowed: an integer >= {low}"
                 )
+            object.__setattr__(self, name, int(value))
         for name in ("conf_file", "log_dir"):
             value = getattr(self, name)
             if value is not None and not isinstance(value, str | Path):
@@ -302,6 +314,7 @@ class TrainingMethod:
                 "plus one evaluation of the final deterministic policy)"
             )
 
+        unused = self._announce_budget(context)
         if self.log_dir is None:
             training = self._learn(context)
         else:
@@ -320,6 +333,9 @@ class TrainingMethod:
             best_action = np.asarray(training.best_action, dtype=np.float64)
             best_reward, chosen = training.best_reward, "seen during training"
         history = [*training.history, (evaluations, best_reward)]
+        # Where the progress bar ends: every evaluation spent, training's and the final one's
+        # (the harness's evaluator counted only the final one, and reported 1).
+        context.report(len(history), evaluations, max(reward for _, reward in history))
         return SearchOutcome(
             best_action=best_action,
             best_reward=best_reward,
@@ -330,6 +346,7 @@ class TrainingMethod:
                 "hyperparams": _jsonable(dict(training.hyperparams)),
                 "n_envs": training.n_envs,
                 "training_timesteps": training.steps,
+                "budget_unused": unused,
                 "result": "best stroke seen (training strokes and the final deterministic one)",
                 "chosen": chosen,
                 "final_policy": {
@@ -343,6 +360,27 @@ class TrainingMethod:
                 "citation": CITATIONS[self.algo],
             },
         )
+
+    def _announce_budget(self, context: SearchContext) -> int:
+        """Say (stderr, one line) when training cannot use the whole budget; returns the
+        evaluations left unused. SB3 learns in whole iterations, so the training steps are
+        ``budget - 1`` rounded down to one (:func:`~train.run.budget_steps`)."""
+        from train.config import load_entry, resolve_hyperparams
+        from train.run import budget_steps, step_granularity
+
+        entry = load_entry(self.algo, context.env_id, self.conf_file)
+        steps = budget_steps(self.algo, entry, self.overrides, self.n_envs, context.budget - 1)
+        unused = context.budget - (steps + 1)
+        if unused > 0:
+            hp = resolve_hyperparams(entry, self.overrides, n_envs=self.n_envs, n_timesteps=1)
+            unit = step_granularity(self.algo, hp)
+            tqdm.write(
+                f"{self.algo}: budget {context.budget} -> {steps} training steps (whole "
+                f"{self.algo.upper()} iterations of {unit} env steps, n_envs {hp.n_envs}) + 1 "
+                f"final evaluation; {unused} evaluations stay unused",
+                file=sys.stderr,
+            )
+        return unused
 
     def _learn(self, context: SearchContext) -> _Training:
         def report(recorder: StrokeRecorder) -> None:

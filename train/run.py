@@ -26,9 +26,10 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize, sync_envs_normalization
 
+from tandem_env.envs.registration import check_env_id
 from train.callbacks import PhysicsLogger, ResumableEvalCallback, SaveVecNormalize
 from train.config import Hyperparams, TrainConfig, load_entry, plain, resolve_hyperparams
-from train.layout import Checkpoint, RunLayout
+from train.layout import Checkpoint, RunComplete, RunLayout
 from train.vec import StrokeRecorder, make_evaluation_env, make_training_env
 
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
@@ -242,6 +243,16 @@ class _Plan:
     env_kwargs: dict[str, Any]
     layout: RunLayout
     checkpoint: Checkpoint | None
+    target: int
+    """Env steps the run ends at: n_timesteps rounded up to whole learn iterations."""
+    unit: int
+    """Env steps of one learn iteration (see :func:`step_granularity`)."""
+
+
+def whole_iterations(n_timesteps: int, unit: int) -> int:
+    """``n_timesteps`` rounded up to a multiple of ``unit``: where SB3's ``learn`` stops (it
+    never stops inside an iteration), so progress bars and targets say what will happen."""
+    return -(-n_timesteps // unit) * unit
 
 
 def plan_run(config: TrainConfig) -> _Plan:
@@ -250,6 +261,12 @@ def plan_run(config: TrainConfig) -> _Plan:
         layout = RunLayout.latest(config.log_folder, config.algo, config.env_id)
     elif config.run_dir is not None:
         layout = RunLayout(config.run_dir, config.env_id)
+        reason = layout.foreign()
+        if reason is not None:
+            raise ValueError(
+                f"--run-dir: {reason}; it is left untouched. Allowed: a run folder of "
+                "python -m train (to continue it), or an absent or empty folder (a new run)"
+            )
     else:
         layout = None
 
@@ -272,12 +289,25 @@ def plan_run(config: TrainConfig) -> _Plan:
         hp = resolve_hyperparams(entry, n_timesteps=config.n_timesteps)
     else:
         hp = config.hyperparameters()
+    unit = step_granularity(config.algo, hp)
+    target = whole_iterations(hp.n_timesteps, unit)
+    if checkpoint is not None and checkpoint.step >= target:
+        raise RunComplete(layout.run_dir, checkpoint.step, target)  # type: ignore[union-attr]
+    if checkpoint is None and layout is not None:
+        finished = [p.name for p in (layout.final_model, layout.result_file) if p.is_file()]
+        if finished:
+            raise ValueError(
+                f"{layout.run_dir} holds a finished run ({', '.join(finished)}) and no "
+                "checkpoint to continue from (it ran with save_freq <= 0); a new run there "
+                "would overwrite it, so it is left untouched. Allowed: a new run (no --run-dir) "
+                "or another folder"
+            )
     env_kwargs = {**hp.env_kwargs, **config.env_kwargs}
     _check_env(config.env_id, env_kwargs)
     if layout is None:
         layout = RunLayout.new(config.log_folder, config.algo, config.env_id)
     layout.run_dir.mkdir(parents=True, exist_ok=True)
-    return _Plan(config, hp, env_kwargs, layout, checkpoint)
+    return _Plan(config, hp, env_kwargs, layout, checkpoint, target, unit)
 
 
 def _merge_saved(config: TrainConfig, saved: Mapping[str, Any], layout: RunLayout) -> TrainConfig:
@@ -331,8 +361,7 @@ def _check_env(env_id: str, env_kwargs: Mapping[str, Any]) -> None:
 
     import tandem_env  # noqa: F401 - registers the ids
 
-    if env_id not in gym.envs.registry:
-        raise ValueError(f"env {env_id!r} is not registered; allowed: TandemWing/... ids")
+    check_env_id(env_id, "env")
     try:
         gym.make(env_id, disable_env_checker=True, **env_kwargs).close()
     except TypeError as error:
@@ -343,6 +372,8 @@ def train(config: TrainConfig) -> TrainResult:
     """Run (or resume) one training run with files; see :mod:`train.layout` for the folder."""
     plan = plan_run(config)
     config, hp, layout = plan.config, plan.hp, plan.layout
+    if config.verbose:
+        _say_plan(plan)
     if plan.checkpoint is None:
         write_yaml(layout.config_file, hp.saved)
         write_yaml(layout.args_file, config.to_dict())
@@ -392,7 +423,7 @@ def train(config: TrainConfig) -> TrainResult:
             model.set_random_seed(config.seed + model.num_timesteps)
 
         start_step = model.num_timesteps
-        remaining = hp.n_timesteps - start_step
+        remaining = plan.target - start_step
         callbacks: list[BaseCallback] = [PhysicsLogger(recorder)]
         if config.save_freq > 0:
             callbacks.append(
@@ -417,17 +448,14 @@ def train(config: TrainConfig) -> TrainResult:
                 )
             )
         started = time.perf_counter()
-        if remaining > 0:
-            model.learn(
-                remaining,
-                callback=CallbackList(callbacks),
-                log_interval=config.log_interval or default_log_interval(config.algo, hp.n_envs),
-                tb_log_name=config.algo.upper(),
-                reset_num_timesteps=plan.checkpoint is None,
-                progress_bar=config.progress_bar,
-            )
-        elif config.verbose:
-            print(f"{layout.run_dir}: already at {start_step} >= {hp.n_timesteps} steps")
+        model.learn(
+            remaining,
+            callback=CallbackList(callbacks),
+            log_interval=config.log_interval or default_log_interval(config.algo, hp.n_envs),
+            tb_log_name=config.algo.upper(),
+            reset_num_timesteps=plan.checkpoint is None,
+            progress_bar=config.progress_bar,
+        )
         wall_time = time.perf_counter() - started
 
         model.save(layout.final_model)
@@ -458,6 +486,28 @@ def train(config: TrainConfig) -> TrainResult:
     )
     _write_result(layout, result, hp)
     return result
+
+
+def _say_plan(plan: _Plan) -> None:
+    """What this command is about to do, before any work (stdout, ``verbose >= 1``)."""
+    hp, layout = plan.hp, plan.layout
+    if plan.target != hp.n_timesteps:
+        what = (
+            f"n_steps {hp.model_kwargs.get('n_steps', 2048)} x n_envs {hp.n_envs}"
+            if plan.config.algo == "ppo"
+            else f"train_freq x n_envs {hp.n_envs}"
+        )
+        print(
+            f"n_timesteps {hp.n_timesteps} is not a whole number of {plan.config.algo.upper()} "
+            f"iterations ({plan.unit} env steps = {what}); training runs to {plan.target}"
+        )
+    if plan.checkpoint is not None:
+        print(
+            f"resuming {layout.run_dir} from checkpoint {plan.checkpoint.model.name} "
+            f"(step {plan.checkpoint.step} of {plan.target})"
+        )
+    elif layout.args_file.is_file():
+        print(f"{layout.run_dir} has no complete checkpoint: starting it again from step 0")
 
 
 def _best_seen_key(segment: Mapping[str, Any]) -> tuple[bool, float]:

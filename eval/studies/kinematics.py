@@ -9,7 +9,8 @@ base (Figs. 9-10), φ and η of both wings over the cycle with the fore/hind pha
 
 Phase difference: φ(t) = φ_m/asin K · asin[K sin(2πft + Φ_φ)] + φ_0 is odd about its
 zero crossing, so its fundamental has phase Φ_φ exactly; ΔΦ = Φ_φ,hind − Φ_φ,fore wrapped to
-(−180°, 180°], positive when the hind-wing leads.
+(−180°, 180°], positive when the hind-wing leads. Its statistics over seeds are circular
+(``tables.circular_median``): seeds at +136° and −170° have the median 163°, not −17°.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import Plan, StudyOutput, write_tables
 from eval.studies.runner import Job
-from eval.studies.tables import select, spread
+from eval.studies.tables import circular_median, select, spread
 from tandem_env import PARAMETER_NAMES, stroke_history
 from tandem_env.envs.config import AccelerateConfig, LevelFlightConfig
 
@@ -41,6 +42,7 @@ QUANTITIES = (
     "stroke_plane_angle",
 )
 PAPER_PHASE_LEAD = 30.0  # deg: hind-wing leads at 2 m/s (Fig. 11)
+PAPER_IN_PHASE = 0.0  # deg: "the wings flap in-phase" in accelerating flight (Fig. 11b)
 HISTORY_SAMPLES = 120
 
 
@@ -156,6 +158,12 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
                     phase_groups,
                     "phase difference ΔΦ [deg]",
                 ),
+                extra_median=circular_median,
+                extra_median_label="circular median",
+                extra_paper={
+                    f"level {p.phase_speed:g} m/s": PAPER_PHASE_LEAD,
+                    f"accel. {p.kinematics_power:g} W/kg": PAPER_IN_PHASE,
+                },
             ),
         ),
         (

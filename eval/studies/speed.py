@@ -61,9 +61,22 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
             "Fig. 4: thrust ratio, mean angle of attack and stroke-plane angle in level flight",
             figures.sweep_figure(
                 [
-                    figures.Panel("thrust ratio T/W [-]", series("thrust_ratio")),
-                    figures.Panel("mean angle of attack [deg]", series("mean_angle_of_attack")),
-                    figures.Panel("stroke-plane angle β [deg]", series("stroke_plane_angle")),
+                    # The paper states these trends in words only, no numbers.
+                    figures.Panel(
+                        "thrust ratio T/W [-]",
+                        series("thrust_ratio"),
+                        paper_note="paper: falls with V",
+                    ),
+                    figures.Panel(
+                        "mean angle of attack [deg]",
+                        series("mean_angle_of_attack"),
+                        paper_note="paper: falls with V",
+                    ),
+                    figures.Panel(
+                        "stroke-plane angle β [deg]",
+                        series("stroke_plane_angle"),
+                        paper_note="paper: rises with V",
+                    ),
                 ],
                 xlabel,
                 "Fig. 4: level flight, optimised at each speed",
@@ -74,9 +87,21 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
             "Fig. 5: power per mass, frequency and weaving amplitude in level flight",
             figures.sweep_figure(
                 [
-                    figures.Panel("power P/m [W/kg]", series("power_per_mass")),
-                    figures.Panel("frequency f [Hz]", series("frequency")),
-                    figures.Panel("weaving amplitude φ_m [deg]", series("sweep_amplitude")),
+                    figures.Panel(
+                        "power P/m [W/kg]",
+                        series("power_per_mass"),
+                        paper_at=[(PAPER_BEST_SPEED, "paper: minimum power")],
+                    ),
+                    figures.Panel(
+                        "frequency f [Hz]",
+                        series("frequency"),
+                        paper_note="paper: follows the power",
+                    ),
+                    figures.Panel(
+                        "weaving amplitude φ_m [deg]",
+                        series("sweep_amplitude"),
+                        paper_note="paper: follows the power",
+                    ),
                 ],
                 xlabel,
                 "Fig. 5: level flight, optimised at each speed",

@@ -43,10 +43,55 @@ QUANTITIES: dict[str, str] = {
 }
 
 
+#: Quantities that are angles on a circle: their statistics are circular (see
+#: :func:`circular_median`); +170° and −170° are 20° apart, not 340°.
+CIRCULAR: frozenset[str] = frozenset({"phase_difference"})
+
+
 def wrap_degrees(angle: float) -> float:
     """``angle`` wrapped to (−180, 180] [deg]."""
     wrapped = (angle + 180.0) % 360.0 - 180.0
     return 180.0 if wrapped == -180.0 else wrapped
+
+
+def _wrap(angles: np.ndarray) -> np.ndarray:
+    wrapped = (np.asarray(angles, float) + 180.0) % 360.0 - 180.0
+    return np.where(wrapped == -180.0, 180.0, wrapped)
+
+
+def circular_median(angles: Sequence[float]) -> float:
+    """The circular median of angles [deg], in (−180, 180] (NaN for none).
+
+    The direction that minimises the summed angular distance to the angles (Fisher 1993,
+    §2.3.2), looked for among the angles and the midpoints of neighbours on the circle; where
+    several tie (an even count), their circular mean, i.e. the middle of the arc between the
+    two central angles. For angles within a half circle this is the ordinary median; for
+    +136° and −170° it is 163°, where a linear median gives −17°.
+    """
+    values = _wrap(np.asarray(angles, float))
+    if values.size == 0:
+        return math.nan
+    ordered = np.sort(values)
+    gaps = _wrap(np.roll(ordered, -1) - ordered)
+    candidates = np.concatenate(
+        [ordered, _wrap(ordered + 0.5 * np.where(gaps < 0, gaps + 360.0, gaps))]
+    )
+    cost = np.abs(_wrap(values[None, :] - candidates[:, None])).sum(axis=1)
+    tied = candidates[cost <= cost.min() + 1e-9]
+    radians = np.deg2rad(tied)
+    sin, cos = float(np.sin(radians).mean()), float(np.cos(radians).mean())
+    if math.hypot(sin, cos) < 1e-9:  # spread evenly round the circle: no direction stands out
+        return float(tied[0])
+    return wrap_degrees(math.degrees(math.atan2(sin, cos)))
+
+
+def circular_quartiles(angles: Sequence[float], median: float) -> tuple[float, float]:
+    """25th and 75th percentiles of the angles [deg] about their circular ``median``: the
+    quartiles of the wrapped deviations, added to it (so q25 <= median <= q75, possibly
+    beyond ±180°)."""
+    deviations = _wrap(np.asarray(angles, float) - median)
+    q25, q75 = np.percentile(deviations, [25.0, 75.0])
+    return median + float(q25), median + float(q75)
 
 
 def weight_of(record: Record) -> float:
@@ -135,13 +180,18 @@ class Spread:
 
 
 def spread(rows: Sequence[Mapping[str, Any]], quantity: str) -> Spread:
-    """Median, IQR and best of ``quantity`` over the feasible rows (one per seed)."""
+    """Median, IQR and best of ``quantity`` over the feasible rows (one per seed); circular
+    statistics for the angles of :data:`CIRCULAR`."""
     feasible = [r for r in rows if r["feasible"]]
     values = np.array([float(r[quantity]) for r in feasible])
     if values.size == 0:
         nan = math.nan
         return Spread((), (), nan, nan, nan, nan, None, len(rows), 0)
-    q25, median, q75 = np.percentile(values, [25.0, 50.0, 75.0])
+    if quantity in CIRCULAR:
+        median = circular_median(values)
+        q25, q75 = circular_quartiles(values, median)
+    else:
+        q25, median, q75 = np.percentile(values, [25.0, 50.0, 75.0])
     top = max(feasible, key=lambda r: (float(r["objective_value"]), -int(r["seed"])))
     return Spread(
         values=tuple(float(v) for v in values),

@@ -12,7 +12,7 @@ from typing import Any
 
 from .config import AccelerateConfig, FlightConfig, LevelFlightConfig, PenaltyConfig
 from .flight import AccelerateEnv, FlightEnv, LevelFlightEnv
-from .registration import ACCELERATE_ID, ENV_IDS, LEVEL_FLIGHT_ID, register_envs
+from .registration import ACCELERATE_ID, ENV_IDS, LEVEL_FLIGHT_ID, check_env_id, register_envs
 from .vector import AccelerateVectorEnv, FlightVectorEnv, LevelFlightVectorEnv
 
 __all__ = [
@@ -30,6 +30,7 @@ __all__ = [
     "LevelFlightVectorEnv",
     "PenaltyConfig",
     "TandemVecEnv",
+    "check_env_id",
     "make_sb3_vec_env",
     "register_envs",
 ]

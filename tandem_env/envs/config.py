@@ -19,6 +19,7 @@ from typing import Any, ClassVar, Literal, get_args
 import numpy as np
 
 from ..physics import PLANFORMS, Dragonfly, ModelOptions
+from ..physics.checks import is_real as _is_real
 
 Objective = Literal["vertical", "horizontal", "resultant"]
 OBJECTIVES: tuple[str, ...] = get_args(Objective)
@@ -45,12 +46,6 @@ MODEL_OPTION_KWARGS: dict[str, str] = {
 #: Model options that must be real numbers (checked here, because ``ModelOptions`` would raise
 #: a bare ``TypeError`` from ``math.isfinite`` on a string).
 _REAL_MODEL_OPTIONS = ("interference", "tolerance", "constraint_tolerance")
-
-
-def _is_real(value: Any) -> bool:
-    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
-        value, bool | np.bool_
-    )
 
 
 def check_real(owner: str, name: str, value: Any, unit: str, low: float, high: float) -> float:
@@ -83,15 +78,6 @@ def check_interval(
     return low, high
 
 
-def _within(owner: str, name: str, value: float, envelope_name: str, envelope, unit: str) -> None:
-    if not envelope[0] <= value <= envelope[1]:
-        raise ValueError(
-            f"{owner}.{name} = {value:g} {unit} is outside {owner}.{envelope_name} = "
-            f"({envelope[0]:g}, {envelope[1]:g}) {unit}, the range the observation is normalised "
-            f"over; allowed: a value inside it, or widen {envelope_name}"
-        )
-
-
 def normalise_condition(
     config: Any, name: str, unit: str, limits: tuple[float, float], default: float
 ) -> None:
@@ -99,7 +85,8 @@ def normalise_condition(
 
     ``{name}_envelope`` is the range the observation is normalised over; the condition is either
     a fixed ``{name}`` (``default`` when None) or a ``{name}_range`` sampled at each reset, both
-    inside the envelope.
+    inside the envelope. A bad condition gets one message whatever is wrong with it (not a
+    number, outside the model's limits, outside the envelope): what is allowed is the envelope.
     """
     owner = type(config).__name__
     envelope_name, range_name = f"{name}_envelope", f"{name}_range"
@@ -111,15 +98,30 @@ def normalise_condition(
             f"{owner}: {name} = {fixed!r} and {range_name} = {sampled!r} are both given; "
             f"allowed: a fixed {name} or a sampled {range_name}, not both"
         )
+    inside = (
+        f"inside {owner}.{envelope_name} = ({envelope[0]:g}, {envelope[1]:g}) {unit}, the range "
+        f"the observation is normalised over (for other values widen {envelope_name}, within "
+        f"{limits[0]:g} to {limits[1]:g} {unit})"
+    )
     if sampled is not None:
-        low, high = check_interval(owner, range_name, sampled, unit, limits)
-        _within(owner, f"{range_name} low", low, envelope_name, envelope, unit)
-        _within(owner, f"{range_name} high", high, envelope_name, envelope, unit)
-        object.__setattr__(config, range_name, (low, high))
+        allowed = f"allowed: a pair (low, high) of finite numbers, low < high, {inside}"
+        if isinstance(sampled, str | bytes) or not hasattr(sampled, "__len__") or len(sampled) != 2:
+            raise ValueError(f"{owner}.{range_name} = {sampled!r}; {allowed}")
+        low, high = sampled
+        if not (
+            _is_real(low)
+            and _is_real(high)
+            and envelope[0] <= low < high <= envelope[1]  # NaN fails every comparison
+        ):
+            raise ValueError(f"{owner}.{range_name} = {sampled!r} {unit}; {allowed}")
+        object.__setattr__(config, range_name, (float(low), float(high)))
     else:
-        value = check_real(owner, name, default if fixed is None else fixed, unit, *limits)
-        _within(owner, name, value, envelope_name, envelope, unit)
-        object.__setattr__(config, name, value)
+        value = default if fixed is None else fixed
+        if not (_is_real(value) and envelope[0] <= value <= envelope[1]):
+            raise ValueError(
+                f"{owner}.{name} = {value!r} {unit}; allowed: a finite number {inside}"
+            )
+        object.__setattr__(config, name, float(value))
 
 
 @dataclass(frozen=True)

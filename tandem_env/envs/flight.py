@@ -16,6 +16,7 @@ import numpy as np
 from gymnasium import spaces
 
 from ..physics import N_PARAMETERS
+from ..physics.checks import real_array
 from .config import AccelerateConfig, FlightConfig, LevelFlightConfig
 from .task import FlightTask, StepBatch, make_task, row
 
@@ -136,10 +137,9 @@ class FlightEnv(gym.Env[np.ndarray, np.ndarray]):
         if self._condition is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         values = np.array([self._condition])
-        try:
-            actions = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError) as error:
-            raise ValueError(f"action must be {N_PARAMETERS} numbers; got {action!r}") from error
+        actions = real_array(
+            action, "action", f"{N_PARAMETERS} real numbers in [-1, 1] (a normalised stroke)"
+        )
         if actions.shape != (N_PARAMETERS,):
             raise ValueError(
                 f"action must have shape ({N_PARAMETERS},) (normalised stroke, fore-wing first); "

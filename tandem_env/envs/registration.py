@@ -24,6 +24,15 @@ _ENTRY_POINTS: dict[str, tuple[str, str]] = {
 }
 
 
+def check_env_id(env_id: object, name: str = "env_id") -> str:
+    """``env_id`` if it is one of :data:`ENV_IDS`; else a ValueError listing them."""
+    if not isinstance(env_id, str) or env_id not in ENV_IDS:
+        raise ValueError(
+            f"{name} = {env_id!r} is not a tandem-wing env; allowed: {', '.join(ENV_IDS)}"
+        )
+    return env_id
+
+
 def register_envs() -> None:
     """Register both ids (idempotent: a reload does not re-register or warn)."""
     from gymnasium.envs.registration import register, registry

@@ -28,6 +28,7 @@ import numpy as np
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
 
+from .registration import check_env_id
 from .task import rows
 from .vector import FlightVectorEnv
 
@@ -146,6 +147,7 @@ def make_sb3_vec_env(
     base seed if None) and the action space with ``seed``. ``monitor=True`` wraps the result in
     ``VecMonitor`` (episode returns for SB3's logger). ``kwargs`` are the env's options.
     """
+    check_env_id(env_id)
     vector_env = gym.make_vec(
         env_id, num_envs=n_envs, vectorization_mode="vector_entry_point", **kwargs
     )

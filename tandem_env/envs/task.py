@@ -25,6 +25,7 @@ from ..physics import (
     evaluate,
     normalised_to_physical,
 )
+from ..physics.checks import is_real, real_array
 from .config import AccelerateConfig, FlightConfig, LevelFlightConfig
 
 Columns = dict[str, Any]
@@ -141,10 +142,7 @@ class FlightTask:
             )
         value = options[self.option_key]
         low, high = self._low, self._high
-        ok = isinstance(value, int | float | np.integer | np.floating) and not isinstance(
-            value, bool | np.bool_
-        )
-        if not ok or not np.isfinite(value) or not low <= value <= high:
+        if not is_real(value) or not np.isfinite(value) or not low <= value <= high:
             raise ValueError(
                 f"{self.config.name}: reset option {self.option_key} = {value!r}; allowed: a "
                 f"number in the observation envelope {low:g} to {high:g}"
@@ -168,12 +166,9 @@ class FlightTask:
     # --- strokes ---------------------------------------------------------------------------------
     def strokes(self, actions: Any, count: int) -> np.ndarray:
         """Validated (count, 28) physical strokes from normalised actions (count, 28)."""
-        try:
-            arr = np.asarray(actions, dtype=np.float64)
-        except (TypeError, ValueError) as error:
-            raise ValueError(
-                f"actions must be numbers of shape ({count}, {N_PARAMETERS}); got {actions!r}"
-            ) from error
+        arr = real_array(
+            actions, "actions", f"real numbers in [-1, 1] of shape ({count}, {N_PARAMETERS})"
+        )
         if arr.shape != (count, N_PARAMETERS):
             raise ValueError(
                 f"actions must have shape ({count}, {N_PARAMETERS}) here (one action of 28 "

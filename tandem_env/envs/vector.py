@@ -25,6 +25,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from ..physics.checks import real_array
 from .config import AccelerateConfig, FlightConfig, LevelFlightConfig
 from .flight import (
     RENDER_FPS,
@@ -193,7 +194,9 @@ class FlightVectorEnv(VectorEnv):
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         n = self.num_envs
-        actions = np.asarray(actions)
+        actions = real_array(
+            actions, "actions", f"real numbers of shape {self.action_space.shape} (num_envs, 28)"
+        )
         if actions.shape != self.action_space.shape:
             raise ValueError(
                 f"actions must have shape {self.action_space.shape} (num_envs, 28); got "

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import blade, cycle
+from .checks import is_integer
 from .insect import DRAGONFLY, Dragonfly
 from .kinematics import fill_angles, wing_params_radians
 from .measured import (
@@ -98,7 +99,7 @@ def _tip_path(angles: np.ndarray, beta: float, side: int = 1) -> np.ndarray:
 
 
 def _check_side(n_samples: int, side: int) -> None:
-    if not isinstance(n_samples, int) or n_samples < 8:
+    if not is_integer(n_samples) or n_samples < 8:
         raise ValueError(f"n_samples = {n_samples!r}; allowed: an integer >= 8")
     if side not in (1, -1):
         raise ValueError(f"side = {side!r}; allowed: 1 (right wings) or -1 (left wings)")
@@ -126,6 +127,7 @@ def stroke_history(
     if physical.shape[0] != 1:
         raise ValueError(f"stroke_history takes one stroke of shape (28,); got {np.shape(stroke)}")
     _check_side(n_samples, side)
+    n_samples = int(n_samples)
     angles, weights, frequency, beta, sweep = (
         [],
         [],

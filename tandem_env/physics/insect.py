@@ -13,6 +13,7 @@ from typing import Literal
 
 import numpy as np
 
+from .checks import is_integer, is_real
 from .coefficients import (
     PAPER_COEFFICIENTS,
     CoefficientModel,
@@ -42,7 +43,7 @@ REAL_WING_EDGES: dict[str, tuple[tuple[float, ...], tuple[float, ...]]] = {
 def _check_positive(
     owner: str, name: str, value: float, unit: str, allow_zero: bool = False
 ) -> None:
-    ok = math.isfinite(value) and (value >= 0.0 if allow_zero else value > 0.0)
+    ok = is_real(value) and math.isfinite(value) and (value >= 0.0 if allow_zero else value > 0.0)
     if not ok:
         bound = ">= 0" if allow_zero else "> 0"
         raise ValueError(
@@ -251,12 +252,13 @@ class Dragonfly:
         _check_positive(owner, "air_density", self.air_density, "kg/m³")
         _check_positive(owner, "body_drag_area", self.body_drag_area, "m²", allow_zero=True)
         _check_positive(owner, "muscle_specific_power", self.muscle_specific_power, "W/kg")
-        if not (0.0 < self.flight_muscle_ratio <= 1.0):
+        if not (is_real(self.flight_muscle_ratio) and 0.0 < self.flight_muscle_ratio <= 1.0):
             raise ValueError(
                 f"Dragonfly.flight_muscle_ratio = {self.flight_muscle_ratio!r}; allowed: 0 < ratio <= 1"
             )
-        if not isinstance(self.wings_per_pair, int) or self.wings_per_pair not in (1, 2):
+        if not is_integer(self.wings_per_pair) or self.wings_per_pair not in (1, 2):
             raise ValueError(f"Dragonfly.wings_per_pair = {self.wings_per_pair!r}; allowed: 1 or 2")
+        object.__setattr__(self, "wings_per_pair", int(self.wings_per_pair))
 
     @property
     def weight(self) -> float:

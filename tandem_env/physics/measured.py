@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from . import cycle
+from .checks import is_real, real_array
 from .insect import DRAGONFLY, Dragonfly, Wing
 from .kinematics import spectral_derivatives
 from .model import (
@@ -72,20 +73,12 @@ def wrap_angle(angle: float) -> float:
 
 
 def _series(name: str, value: Any, ndim: tuple[int, ...] = (1,)) -> np.ndarray:
-    """A float array from an array or a (nested) list, with errors that name the field."""
-    if value is None or isinstance(value, (str, bytes, dict)):
-        raise ValueError(
-            f"MeasuredWing.{name} = {value!r}; allowed: an array (or list) of angles [rad]"
-        )
-    try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(
-            f"MeasuredWing.{name} cannot be read as numbers ({exc}); allowed: an array (or list) "
-            "of angles [rad]"
-        ) from None
+    """A read-only float array from an array or a (nested) list; errors name the field."""
+    shapes = " or ".join({1: "(n,)", 2: "(n, k)"}[d] for d in ndim)
+    arr = np.array(
+        real_array(value, f"MeasuredWing.{name}", f"an array or list of numbers, shape {shapes}")
+    )
     if arr.ndim not in ndim:
-        shapes = " or ".join({1: "(n,)", 2: "(n, k)"}[d] for d in ndim)
         raise ValueError(f"MeasuredWing.{name} has shape {arr.shape}; allowed: {shapes}")
     bad = ~np.isfinite(arr)
     if bad.any():
@@ -93,14 +86,14 @@ def _series(name: str, value: Any, ndim: tuple[int, ...] = (1,)) -> np.ndarray:
         where = index[0] if len(index) == 1 else index
         raise ValueError(
             f"MeasuredWing.{name} has non-finite samples (first at {where}: {arr[index]}); "
-            "allowed: finite angles [rad] (fill gaps in the measurement first)"
+            "allowed: finite values (fill gaps in the measurement first)"
         )
     arr.setflags(write=False)
     return arr
 
 
 def _real(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+    if not is_real(value):
         raise ValueError(f"MeasuredWing.{name} = {value!r}; allowed: a finite number")
     return float(value)
 
@@ -143,7 +136,7 @@ class MeasuredWing:
             if arr.shape[0] != n:
                 raise ValueError(
                     f"MeasuredWing.{name} has {arr.shape[0]} samples but sweep has {n}; allowed: "
-                    "the same number (the same time samples over one cycle)"
+                    "the same length (the same time samples over one cycle)"
                 )
         stations = self._stations(pitch)
         frequency = _real("frequency", self.frequency)
@@ -510,7 +503,9 @@ def _check_inputs(fore: Any, hind: Any, insect: Any, options: Any) -> None:
     if not isinstance(insect, Dragonfly):
         raise ValueError(f"evaluate_measured: insect = {_describe(insect)}; allowed: a Dragonfly")
     if not isinstance(options, ModelOptions):
-        raise ValueError(f"evaluate_measured: options = {_describe(options)}; allowed: a ModelOptions")
+        raise ValueError(
+            f"evaluate_measured: options = {_describe(options)}; allowed: a ModelOptions"
+        )
     if fore.n_samples != hind.n_samples:
         raise ValueError(
             f"evaluate_measured: fore has {fore.n_samples} samples per cycle and hind "

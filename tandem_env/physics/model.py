@@ -14,6 +14,7 @@ from functools import lru_cache
 import numpy as np
 
 from . import cycle
+from .checks import real_array
 from .coefficients import PaperCoefficients
 from .insect import DRAGONFLY, Dragonfly, Wing
 from .kinematics import fill_angle_history, wing_params_radians
@@ -213,19 +214,24 @@ def _broadcast_condition(
     high: float,
     default: float,
 ) -> np.ndarray:
+    """A flight condition as a (batch,) float array: a real scalar, or one value per stroke,
+    each finite and within [low, high]; ``default`` when None."""
     if value is None:
         value = default
-    arr = np.asarray(value, dtype=float)
+    allowed = (
+        f"a real number or a ({batch},) array of them (one per stroke), finite, "
+        f"{low:g} to {high:g} {unit}"
+    )
+    arr = real_array(value, name, allowed)
     if arr.ndim == 0:
         arr = np.full(batch, float(arr))
     if arr.shape != (batch,):
-        raise ValueError(f"{name} must be a scalar or have shape ({batch},); got shape {arr.shape}")
+        raise ValueError(f"{name} has shape {arr.shape}; allowed: {allowed}")
     bad = ~np.isfinite(arr) | (arr < low) | (arr > high)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        raise ValueError(
-            f"{name}[{i}] = {float(arr[i])} {unit}; allowed: finite, {low:g} to {high:g} {unit}"
-        )
+        where = name if np.ndim(value) == 0 else f"{name}[{i}]"
+        raise ValueError(f"{where} = {float(arr[i]):g} {unit}; allowed: {allowed}")
     return arr
 
 

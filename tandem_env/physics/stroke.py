@@ -16,6 +16,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .checks import is_real, real_array
+
 
 class Parameter(NamedTuple):
     """One row of Table 4 for one wing."""
@@ -110,22 +112,37 @@ DISCRETE[[HARMONIC_INDEX, N_PER_WING + HARMONIC_INDEX]] = True
 ANGULAR = np.array([u == "deg" for u in PARAMETER_UNITS])
 
 
+#: What a stroke argument may be, for messages.
+_STROKE_SHAPES = (
+    "real numbers of shape (28,) or (B, 28) with B >= 1 (14 parameters per wing, fore first)"
+)
+
+
 def _as_batch(x: np.ndarray | list | tuple, what: str) -> tuple[np.ndarray, bool]:
-    arr = np.asarray(x, dtype=float)
+    """``x`` as a (B, 28) float array with B >= 1, and whether it was one stroke (28,).
+
+    One message per failure, the same from every entry point (evaluate, validate_physical,
+    normalised_to_physical, ...): non-numbers, ragged lists, wrong shapes, an empty batch.
+    """
+    arr = real_array(x, what, _STROKE_SHAPES)
+    shape = arr.shape
+    if arr.size == 0:
+        raise ValueError(f"{what} is empty (shape {shape}); allowed: {_STROKE_SHAPES}")
     single = arr.ndim == 1
     if single:
         arr = arr[None, :]
     if arr.ndim != 2 or arr.shape[1] != N_PARAMETERS:
-        raise ValueError(
-            f"{what} must have shape (28,) or (B, 28) (14 parameters per wing, fore first); "
-            f"got shape {np.shape(x)}"
-        )
+        raise ValueError(f"{what} has shape {shape}; allowed: {_STROKE_SHAPES}")
     return arr, single
 
 
 def _first_bad(mask: np.ndarray) -> tuple[int, int]:
     row, col = np.argwhere(mask)[0]
     return int(row), int(col)
+
+
+#: Largest tolerance :func:`validate_physical` takes [Table 4 units]: a tenth of the smallest bound.
+ATOL_MAX = 1e-3
 
 
 def validate_physical(strokes: np.ndarray | list | tuple, atol: float = 1e-9) -> np.ndarray:
@@ -137,9 +154,12 @@ def validate_physical(strokes: np.ndarray | list | tuple, atol: float = 1e-9) ->
         Naming the first offending parameter, its value and the allowed range: non-finite
         values, values outside Table 4 (beyond ``atol``), N other than 1 or 2, wrong shapes.
     """
+    if not is_real(atol) or not 0.0 <= atol <= ATOL_MAX:
+        raise ValueError(
+            f"atol = {atol!r}; allowed: a number from 0 to {ATOL_MAX:g} (a rounding tolerance "
+            "in Table 4 units; the smallest Table 4 bound is 0.01)"
+        )
     arr, _ = _as_batch(strokes, "strokes")
-    if arr.shape[0] == 0:
-        raise ValueError("strokes is empty: need at least one stroke (B >= 1)")
     bad = ~np.isfinite(arr)
     if bad.any():
         row, col = _first_bad(bad)
@@ -172,17 +192,19 @@ def normalised_to_physical(action: np.ndarray | list | tuple) -> np.ndarray:
     Accepts (28,) or (B, 28); returns the same shape. Raises ``ValueError`` for non-finite
     values or values outside [-1, 1] (clip first if that is what you want).
     """
-    arr, single = _as_batch(action, "normalised strokes")
+    arr, single = _as_batch(action, "action")
     if not np.all(np.isfinite(arr)):
         row, col = _first_bad(~np.isfinite(arr))
         raise ValueError(
-            f"normalised stroke {row}: {PARAMETER_NAMES[col]} = {float(arr[row, col])} is not finite"
+            f"action {row}: {PARAMETER_NAMES[col]} = {float(arr[row, col])} is not finite; "
+            "allowed: finite numbers in [-1, 1]"
         )
     outside = np.abs(arr) > 1.0 + 1e-9
     if outside.any():
         row, col = _first_bad(outside)
         raise ValueError(
-            f"normalised stroke {row}: {PARAMETER_NAMES[col]} = {arr[row, col]:g} is outside [-1, 1]"
+            f"action {row}: {PARAMETER_NAMES[col]} = {arr[row, col]:g} is outside [-1, 1]; "
+            "allowed: numbers in [-1, 1] (clip first if that is what you want)"
         )
     arr = np.clip(arr, -1.0, 1.0)
     physical = LOWER + 0.5 * (arr + 1.0) * (UPPER - LOWER)
@@ -196,8 +218,8 @@ def physical_to_normalised(strokes: np.ndarray | list | tuple) -> np.ndarray:
     N = 1 maps to −0.5 and N = 2 to +0.5 (the middle of each half), so that
     ``normalised_to_physical(physical_to_normalised(x)) == x``.
     """
-    single = np.asarray(strokes).ndim == 1
     arr = validate_physical(strokes)
+    single = np.ndim(strokes) == 1
     action = 2.0 * (arr - LOWER) / (UPPER - LOWER) - 1.0
     action[:, DISCRETE] = np.where(arr[:, DISCRETE] < 1.5, -0.5, 0.5)
     return action[0] if single else action

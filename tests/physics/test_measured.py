@@ -12,7 +12,6 @@ import tandem_env as te
 from tandem_env import (
     MeasuredWing,
     ModelOptions,
-    evaluate,
     evaluate_measured,
     measured_history,
     stroke_history,
@@ -224,7 +223,9 @@ def test_measured_history_of_a_sampled_stroke_is_the_stroke_history() -> None:
         m, r = getattr(measured, name), getattr(reference, name)
         scale = np.abs(r.vertical_force).max()
         np.testing.assert_allclose(m.vertical_force, r.vertical_force, atol=1e-6 * scale)
-        np.testing.assert_allclose(m.aero_power, r.aero_power, atol=1e-6 * np.abs(r.aero_power).max())
+        np.testing.assert_allclose(
+            m.aero_power, r.aero_power, atol=1e-6 * np.abs(r.aero_power).max()
+        )
         # α = atan(|v|/|u|) amplifies velocity errors where |U| is small (stroke reversal)
         np.testing.assert_allclose(m.angle_of_attack, r.angle_of_attack, atol=1e-4)
 

@@ -214,7 +214,10 @@ def test_each_wing_has_its_own_model() -> None:
 @pytest.mark.parametrize(
     "spec, message",
     [
-        ("dickinson", r"coefficients.model = 'dickinson' is not a known.*allowed: paper, dickinson1999"),
+        (
+            "dickinson",
+            r"coefficients.model = 'dickinson' is not a known.*allowed: paper, dickinson1999",
+        ),
         ({"model": "table", "alpha": [0, 90]}, r"model 'table'.*drag"),
         (42, r"coefficients = 42; allowed: a model object"),
         ({"model": "dickinson1999", "lift_offset": 0.3}, r"takes no parameters"),

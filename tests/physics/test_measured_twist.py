@@ -144,7 +144,9 @@ def test_twisting_in_still_air_spins_each_element_at_its_own_rate() -> None:
         w = getattr(history, name)
         n_w = insect.wings_per_pair
         # the spectral derivatives of a pure sine are exact to rounding
-        np.testing.assert_allclose(w.aero_power, n_w * aero, rtol=1e-9, atol=1e-12 * abs(aero).max())
+        np.testing.assert_allclose(
+            w.aero_power, n_w * aero, rtol=1e-9, atol=1e-12 * abs(aero).max()
+        )
         np.testing.assert_allclose(
             w.inertial_power, n_w * inertial, rtol=1e-9, atol=1e-12 * abs(inertial).max()
         )
@@ -166,7 +168,9 @@ def test_twisted_left_wings_mirror_the_right() -> None:
 def test_twist_changes_the_forces() -> None:
     """Washout (the tip turned further) lowers the outer angle of attack and the lift."""
     base = evaluate_measured(twisted([54.0] * 3), twisted([54.0] * 3, 155.0), 1.5)
-    washout = evaluate_measured(twisted([44.0, 54.0, 64.0]), twisted([44.0, 54.0, 64.0], 155.0), 1.5)
+    washout = evaluate_measured(
+        twisted([44.0, 54.0, 64.0]), twisted([44.0, 54.0, 64.0], 155.0), 1.5
+    )
     assert washout.mean_angle_of_attack[0] < base.mean_angle_of_attack[0]
     assert washout.lift_to_weight[0] < base.lift_to_weight[0]
 

@@ -82,7 +82,9 @@ def test_bad_shapes_and_normalised_values() -> None:
         te.normalised_to_physical(np.full(28, np.inf))
     with pytest.raises(ValueError, match="speed"):
         te.evaluate(te.normalised_to_physical(np.zeros(28)), speed=-1.0)
-    with pytest.raises(ValueError, match="speed must be a scalar or have shape"):
+    with pytest.raises(
+        ValueError, match=r"speed has shape \(3,\); allowed: a real number or a \(2,\) array"
+    ):
         te.evaluate(te.normalised_to_physical(np.zeros((2, 28))), speed=np.ones(3))
 
 

@@ -1,0 +1,111 @@
+"""Checks of numeric input shared by the model's entry points and the environments.
+
+Python and NumPy convert too readily: ``np.asarray(["30"], dtype=float)`` is 30.0, ``True``
+is 1.0 and a complex number loses its imaginary part with a warning. Every public entry point
+takes its numbers through these checks instead, so a string, a boolean, a complex number or a
+ragged list is refused with a message naming the argument, the value and what is allowed.
+NumPy integers and floats are real numbers here, like Python's.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Any
+
+import numpy as np
+
+__all__ = ["finite_real", "is_integer", "is_real", "real_array"]
+
+
+def is_real(value: Any) -> bool:
+    """A real number (Python or NumPy int or float); not a bool, a string or a complex."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
+
+
+def is_integer(value: Any) -> bool:
+    """An integer (Python or NumPy); not a bool."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_)
+
+
+def _describe(value: Any) -> str:
+    if isinstance(value, str | bytes | np.str_ | np.bytes_):
+        return "a string"
+    if isinstance(value, bool | np.bool_):
+        return "a boolean"
+    if isinstance(value, complex | np.complexfloating):
+        return "a complex number"
+    if isinstance(value, list | tuple | np.ndarray):
+        return "a sequence where a number belongs (a ragged list?)"
+    if value is None:
+        return "not a number"
+    return f"a {type(value).__name__}, not a real number"
+
+
+def _at(name: str, index: tuple[int, ...]) -> str:
+    return f"{name}[{', '.join(map(str, index))}]" if index else name
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else f"{text[:57]}..."
+
+
+def real_array(value: Any, name: str, allowed: str) -> np.ndarray:
+    """``value`` as a float64 array, or a ``ValueError`` naming ``name`` and ``allowed``.
+
+    Accepted: Python and NumPy ints and floats, and (nested, rectangular) sequences and arrays
+    of them. Refused: strings (also numeric ones such as ``"1.5"``), booleans, complex numbers,
+    ``None``, other objects and ragged sequences. The first offending element is named with its
+    index. Shape and range are the caller's to check.
+    """
+    if isinstance(value, str | bytes):
+        raise ValueError(f"{name} = {_short(value)} is a string; allowed: {allowed}")
+    try:
+        arr = np.asarray(value)
+    except ValueError as error:  # NumPy >= 1.24 refuses ragged nesting
+        raise ValueError(
+            f"{name} is a ragged sequence (its rows have different lengths); allowed: {allowed}"
+        ) from error
+    kind = arr.dtype.kind
+    if kind in "iuf":
+        return arr.astype(np.float64, copy=False)
+    if not isinstance(value, np.ndarray):
+        # NumPy turned a mixed list such as [1.5, "2"] into strings; look at what was given.
+        arr, kind = np.asarray(value, dtype=object), "O"
+    if kind == "O":
+        flat = arr.reshape(-1)
+        for k, element in enumerate(flat):
+            if not is_real(element):
+                index = np.unravel_index(k, arr.shape) if arr.ndim else ()
+                index = tuple(int(i) for i in index)
+                raise ValueError(
+                    f"{_at(name, index)} = {_short(element)} is {_describe(element)}; "
+                    f"allowed: {allowed}"
+                )
+        return arr.astype(np.float64)
+    # A homogeneous array of something other than real numbers: name its first element.
+    index = (0,) * arr.ndim if arr.size else ()
+    element = arr[index] if arr.size else arr
+    what = {
+        "b": "a boolean",
+        "c": "a complex number",
+        "U": "a string",
+        "S": "a string",
+    }.get(kind, f"of dtype {arr.dtype}, not a real number")
+    if arr.ndim and arr.size:
+        detail = f"{_at(name, index)} = {_short(element.item())} is {what}"
+    else:
+        detail = f"{name} = {_short(value)} is {what}"
+    raise ValueError(f"{detail}; allowed: {allowed}")
+
+
+def finite_real(value: Any, name: str, low: float, high: float, unit: str = "") -> float:
+    """A scalar real number in [low, high] as a float, or a ``ValueError`` naming it."""
+    unit = f" {unit}" if unit else ""
+    if not is_real(value) or not math.isfinite(value) or not low <= value <= high:
+        raise ValueError(
+            f"{name} = {_short(value)}{unit}; allowed: a finite number from {low:g} to "
+            f"{high:g}{unit}"
+        )
+    return float(value)

@@ -1,0 +1,44 @@
+"""The console scripts of pyproject.toml run the same commands as ``python -m``."""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from pathlib import Path
+
+import pytest
+
+tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
+
+ROOT = Path(__file__).resolve().parents[2]
+SCRIPTS = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
+
+
+def test_every_script_names_a_function() -> None:
+    assert {"tandem-study", "tandem-optimize", "tandem-train"} <= set(SCRIPTS)
+    for target in SCRIPTS.values():
+        module, _, name = target.partition(":")
+        assert callable(getattr(importlib.import_module(module), name)), target
+
+
+@pytest.mark.parametrize(
+    ("script", "usage"),
+    [
+        ("tandem-study", "usage: python -m eval study"),
+        ("tandem-optimize", "usage: python -m eval optimize"),
+        ("tandem-compare", "usage: python -m eval compare"),
+        ("tandem-eval", "usage: python -m eval"),
+        ("tandem-train", "usage: tandem-train"),
+        ("tandem-envelope", "usage: tandem-envelope"),
+    ],
+)
+def test_scripts_show_their_command(
+    script: str, usage: str, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    module, _, name = SCRIPTS[script].partition(":")
+    function = getattr(importlib.import_module(module), name)
+    monkeypatch.setattr(sys, "argv", [f"/venv/bin/{script}", "-h"])
+    with pytest.raises(SystemExit) as exit_:
+        function()
+    assert exit_.value.code == 0
+    assert capsys.readouterr().out.startswith(usage)
