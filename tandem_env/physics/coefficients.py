@@ -329,7 +329,18 @@ def force_coefficients(u, v, table):
         alpha = np.pi - alpha
         sign = -1.0
     m = int(table[1])
-    angles = table[2 : 2 + m]
-    cl = np.interp(alpha, angles, table[2 + m : 2 + 2 * m])
-    cd = np.interp(alpha, angles, table[2 + 2 * m : 2 + 3 * m])
+    # the segment [α_i, α_i+1] holding α, by bisection (the table's angles start at index 2)
+    lo = 0
+    hi = m - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if table[2 + mid] <= alpha:
+            lo = mid
+        else:
+            hi = mid
+    a0 = table[2 + lo]
+    t = (alpha - a0) / (table[2 + hi] - a0)
+    t = min(max(t, 0.0), 1.0)
+    cl = table[2 + m + lo] + t * (table[2 + m + hi] - table[2 + m + lo])
+    cd = table[2 + 2 * m + lo] + t * (table[2 + 2 * m + hi] - table[2 + 2 * m + lo])
     return sign * cl, cd

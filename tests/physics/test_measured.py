@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
+import re
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -336,3 +340,14 @@ def test_non_uniform_or_partial_time_samples_are_rejected() -> None:
         MeasuredWing.from_samples(t, a, a, a, 0.0, frequency=30.0)
     with pytest.raises(ValueError, match=r"pitch has 31 samples but time has 32"):
         MeasuredWing.from_samples(t, a, a, a[:-1], 0.0, frequency=f)
+
+
+def test_the_worked_example_in_the_docs_runs_and_prints_what_the_docs_say() -> None:
+    text = (Path(__file__).resolve().parents[2] / "docs" / "measured.md").read_text()
+    code = re.search(r"```python\n(.*?)```", text, re.DOTALL).group(1)
+    printed = re.search(r"prints `([^`]*)`", text).group(1)
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), warnings.catch_warnings():
+        warnings.simplefilter("error")
+        exec(compile(code, "docs/measured.md", "exec"), {})
+    assert out.getvalue().strip() == printed
