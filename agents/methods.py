@@ -16,7 +16,7 @@ Extension point
 is the text after a colon in the method spec (``"policy:runs/ppo"`` -> ``"runs/ppo"``, None
 without one) and ``config`` the method's settings. Names listed in :data:`PROVIDERS` are
 registered lazily by importing their provider module the first time they are asked for: the
-training package registers ``"ppo"``, ``"sac"`` and ``"policy"`` from ``train.methods``, so
+training package registers ``"ppo"``, ``"sac"`` and ``"policy"`` from ``train.policies``, so
 ``agents`` never imports ``train`` (or Stable-Baselines3) unless such a method is used.
 """
 
@@ -241,9 +241,9 @@ _REGISTRY: dict[str, MethodFactory] = {"pso": _pso, "random": _random}
 #: Method names registered on first use by importing a provider module (which must call
 #: :func:`register_method` for them). The RL methods live with the training code.
 PROVIDERS: dict[str, str] = {
-    "ppo": "train.methods",
-    "sac": "train.methods",
-    "policy": "train.methods",
+    "ppo": "train.policies",
+    "sac": "train.policies",
+    "policy": "train.policies",
 }
 
 

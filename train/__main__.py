@@ -13,10 +13,12 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from dataclasses import MISSING, fields
 from pathlib import Path
+from typing import Any
 
 from agents.keyvalue import parse_pairs
-from train.config import ALGOS, TrainConfig
+from train.config import ALGOS, DEVICES, TrainConfig
 from train.layout import RunComplete
 
 EPILOG = """\
@@ -33,6 +35,55 @@ one and the run says so.
 """
 
 
+Option = tuple[str, tuple[str, ...], dict[str, Any]]
+
+
+def _option(field: str, *flags: str, **settings: Any) -> Option:
+    """One option: the :class:`TrainConfig` field it sets, its flags, its argparse settings."""
+    return field, flags, settings
+
+
+#: The command line, in ``-h`` order. Each option's default is its field's in
+#: :class:`TrainConfig` (a help text shows it as ``%(default)s``).
+OPTIONS: tuple[Option, ...] = (
+    _option("algo", "--algo", required=True, choices=ALGOS, help="RL algorithm"),
+    _option("env_id", "--env", required=True, metavar="ENV",
+            help="env id, e.g. TandemWing/LevelFlight-v0"),
+    _option("n_timesteps", "-n", "--n-timesteps", "--timesteps", type=int,
+            help="total env steps (strokes evaluated); default the yml's n_timesteps"),
+    _option("seed", "--seed", type=int, help="seed of the model and envs (default %(default)s)"),
+    _option("n_envs", "--n-envs", type=int, help="parallel envs; default the yml's"),
+    _option("env_kwargs", "--env-kwargs", nargs="+", metavar="KEY=VALUE", help="env options"),
+    _option("hyperparams", "-params", "--hyperparams", nargs="+", metavar="KEY=VALUE",
+            help="override hyperparameters of the yml entry"),
+    _option("hyperparams_file", "-conf", "--conf-file", metavar="CONF_FILE",
+            help="zoo-format hyperparameter file (default train/hyperparams/<algo>.yml)"),
+    _option("log_folder", "-f", "--log-folder", "--log-dir",
+            help="log folder; runs go to <folder>/<algo>/<env>_<n>/ (default %(default)s)"),
+    _option("resume", "--resume", action="store_true",
+            help="continue the latest run of this algo and env from its last checkpoint"),
+    _option("run_dir", "--run-dir",
+            help="use this run folder; a checkpoint there is resumed automatically"),
+    _option("eval_freq", "--eval-freq", type=int,
+            help="env steps between deterministic evaluations (<= 0: none; default %(default)s)"),
+    _option("save_freq", "--save-freq", type=int,
+            help="env steps between checkpoints (<= 0: none, no resume; default %(default)s)"),
+    _option("log_interval", "--log-interval", type=int, help="SB3 log_interval"),
+    _option("progress_bar", "--no-progress", action="store_false", help="hide the progress bar"),
+    _option("progress_bar", "-P", "--progress", action="store_true",
+            help="show a progress bar (default)"),
+    _option("tensorboard", "--no-tensorboard", action="store_false",
+            help="do not write TensorBoard logs (default: <run>/tb/)"),
+    _option("verbose", "--verbose", type=int, help="0 quiet, 1 info (default), 2 debug"),
+    _option("torch_threads", "--torch-threads", type=int,
+            help="torch threads (default %(default)s: faster on 2 cores, see docs/training.md)"),
+    _option("device", "--device", choices=DEVICES),
+)  # fmt: skip
+
+#: Options that exclude each other: the latest run, or a given one.
+EXCLUSIVE = ("resume", "run_dir")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="tandem-train" if Path(sys.argv[0]).name == "tandem-train" else "python -m train",
@@ -40,122 +91,21 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--algo", required=True, choices=ALGOS, help="RL algorithm")
-    parser.add_argument("--env", required=True, help="env id, e.g. TandemWing/LevelFlight-v0")
-    parser.add_argument(
-        "-n",
-        "--n-timesteps",
-        "--timesteps",
-        dest="n_timesteps",
-        type=int,
-        default=None,
-        help="total env steps (strokes evaluated); default the yml's n_timesteps",
-    )
-    parser.add_argument(
-        "--seed", type=int, default=0, help="seed of the model and envs (default 0)"
-    )
-    parser.add_argument("--n-envs", type=int, default=None, help="parallel envs; default the yml's")
-    parser.add_argument(
-        "--env-kwargs", nargs="+", metavar="KEY=VALUE", default=None, help="env options"
-    )
-    parser.add_argument(
-        "-params",
-        "--hyperparams",
-        nargs="+",
-        metavar="KEY=VALUE",
-        default=None,
-        help="override hyperparameters of the yml entry",
-    )
-    parser.add_argument(
-        "-conf",
-        "--conf-file",
-        default=None,
-        help="zoo-format hyperparameter file (default train/hyperparams/<algo>.yml)",
-    )
-    parser.add_argument(
-        "-f",
-        "--log-folder",
-        "--log-dir",
-        dest="log_folder",
-        default="logs",
-        help="log folder; runs go to <folder>/<algo>/<env>_<n>/ (default logs)",
-    )
-    where = parser.add_mutually_exclusive_group()
-    where.add_argument(
-        "--resume",
-        action="store_true",
-        help="continue the latest run of this algo and env from its last checkpoint",
-    )
-    where.add_argument(
-        "--run-dir",
-        default=None,
-        help="use this run folder; a checkpoint there is resumed automatically",
-    )
-    parser.add_argument(
-        "--eval-freq",
-        type=int,
-        default=10_000,
-        help="env steps between deterministic evaluations (<= 0: none; default 10000)",
-    )
-    parser.add_argument(
-        "--save-freq",
-        type=int,
-        default=20_000,
-        help="env steps between checkpoints (<= 0: none, no resume; default 20000)",
-    )
-    parser.add_argument("--log-interval", type=int, default=None, help="SB3 log_interval")
-    parser.add_argument(
-        "--no-progress", dest="progress", action="store_false", help="hide the progress bar"
-    )
-    parser.add_argument(
-        "-P",
-        "--progress",
-        dest="progress",
-        action="store_true",
-        default=True,
-        help="show a progress bar (default)",
-    )
-    parser.add_argument(
-        "--no-tensorboard",
-        dest="tensorboard",
-        action="store_false",
-        help="do not write TensorBoard logs (default: <run>/tb/)",
-    )
-    parser.add_argument("--verbose", type=int, default=1, help="0 quiet, 1 info (default), 2 debug")
-    parser.add_argument(
-        "--torch-threads",
-        type=int,
-        default=1,
-        help="torch threads (default 1: faster on 2 cores, see docs/training.md)",
-    )
-    parser.add_argument("--device", default="cpu", choices=("cpu", "cuda", "auto"))
+    defaults = {f.name: f.default for f in fields(TrainConfig) if f.default is not MISSING}
+    exclusive = parser.add_mutually_exclusive_group()
+    for name, flags, settings in OPTIONS:
+        group = exclusive if name in EXCLUSIVE else parser
+        group.add_argument(*flags, dest=name, default=defaults.get(name), **settings)
     return parser
 
 
 def config_from_args(args: argparse.Namespace) -> TrainConfig:
     import tandem_env  # noqa: F401 - registers the ids before the config checks the env
 
-    return TrainConfig(
-        algo=args.algo,
-        env_id=args.env,
-        n_timesteps=args.n_timesteps,
-        seed=args.seed,
-        n_envs=args.n_envs,
-        env_kwargs=parse_pairs(args.env_kwargs, "--env-kwargs"),
-        hyperparams=parse_pairs(args.hyperparams, "--hyperparams"),
-        hyperparams_file=args.conf_file,
-        log_folder=args.log_folder,
-        run_dir=args.run_dir,
-        resume=args.resume,
-        eval_freq=args.eval_freq,
-        save_freq=args.save_freq,
-        progress_bar=args.progress,
-        tensorboard=args.tensorboard,
-        verbose=args.verbose,
-        torch_threads=args.torch_threads,
-        device=args.device,
-        log_interval=args.log_interval,
-    )
+    values = {name: getattr(args, name) for name, _, _ in OPTIONS}
+    for name in ("env_kwargs", "hyperparams"):
+        values[name] = parse_pairs(values[name], f"--{name.replace('_', '-')}")
+    return TrainConfig(**values)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

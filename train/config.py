@@ -25,6 +25,8 @@ from tandem_env.physics.checks import is_integer, is_real
 
 Algo = Literal["ppo", "sac"]
 ALGOS: tuple[str, ...] = get_args(Algo)
+Device = Literal["cpu", "cuda", "auto"]
+DEVICES: tuple[str, ...] = get_args(Device)
 
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 
@@ -285,7 +287,8 @@ class TrainConfig:
     torch_threads: int = 1
     """Torch intra-op threads. 1 by default: on 2 cores, torch's second thread fights the
     model's numba threads and small-MLP updates get up to 10x slower (docs/training.md)."""
-    device: str = "cpu"
+    device: Device = "cpu"
+    """Torch device of the model: ``"cpu"``, ``"cuda"`` or ``"auto"``."""
     log_interval: int | None = None
     """SB3's log_interval; None picks one that dumps every few thousand steps (SAC counts it
     in episodes, and every env step ends n_envs of them)."""
@@ -327,8 +330,8 @@ class TrainConfig:
             raise ValueError(
                 "give resume=True (the latest run in log_folder) or run_dir (that run), not both"
             )
-        if self.device not in ("cpu", "cuda", "auto"):
-            raise ValueError(f"device = {self.device!r}; allowed: 'cpu', 'cuda', 'auto'")
+        if self.device not in DEVICES:
+            raise ValueError(f"device = {self.device!r}; allowed: {', '.join(map(repr, DEVICES))}")
 
     def hyperparameters(self) -> Hyperparams:
         """The resolved hyperparameters of this run."""
@@ -348,8 +351,8 @@ class TrainConfig:
             "n_timesteps": self.n_timesteps,
             "seed": self.seed,
             "n_envs": self.n_envs,
-            "env_kwargs": _plain(dict(self.env_kwargs)),
-            "hyperparams": _plain(dict(self.hyperparams)),
+            "env_kwargs": plain(dict(self.env_kwargs)),
+            "hyperparams": plain(dict(self.hyperparams)),
             "conf_file": None if self.hyperparams_file is None else str(self.hyperparams_file),
             "log_folder": str(self.log_folder),
             "run_dir": None if self.run_dir is None else str(self.run_dir),
@@ -365,17 +368,13 @@ class TrainConfig:
         }
 
 
-def _plain(value: Any) -> Any:
-    """YAML-safe form: tuples become lists (``yaml.safe_dump`` refuses tuples)."""
+def plain(value: Any) -> Any:
+    """YAML-safe form (config.yml, args.yml): string keys, tuples as lists (``yaml.safe_dump``
+    refuses tuples), numpy scalars as Python numbers."""
     if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
+        return {str(k): plain(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
-        return [_plain(v) for v in value]
+        return [plain(v) for v in value]
     if hasattr(value, "item") and callable(value.item):  # numpy scalars
         return value.item()
     return value
-
-
-def plain(value: Any) -> Any:
-    """Public alias of the YAML-safe conversion (used for config.yml / args.yml)."""
-    return _plain(value)

@@ -1,7 +1,7 @@
 """Stable-Baselines3 models as harness methods: a trained policy, and training within a budget.
 
-Two kinds of method, registered with the harness by :mod:`train.methods` (the provider
-:mod:`agents.methods` imports on first use, so ``agents`` imports SB3 only when asked):
+Two kinds of method, registered with the harness when this module is imported (it is the
+provider :mod:`agents.methods` imports on first use, so ``agents`` imports SB3 only when asked):
 
 ``policy:RUN_DIR``
     A policy trained by ``python -m train``. Asked deterministically for its stroke at the
@@ -41,7 +41,7 @@ from tqdm.auto import tqdm
 from agents.methods import Method, SearchContext, SearchOutcome
 from tandem_env.envs.sb3 import make_sb3_vec_env
 from tandem_env.physics.checks import is_integer
-from train.config import ALGOS, check_algo
+from train.config import ALGOS, check_algo, plain
 from train.layout import RunLayout
 from train.run import ALGORITHMS, learn_in_memory, read_yaml
 from train.vec import ConditionGrid, StrokeRecorder, option_key
@@ -242,7 +242,7 @@ class PolicyMethod:
 def _warn_on_differences(policy: TrainedPolicy, context: SearchContext) -> None:
     trained = {k: v for k, v in policy.env_kwargs.items() if k not in CONDITION_KWARGS}
     asked = {k: v for k, v in context.env_kwargs.items() if k not in CONDITION_KWARGS}
-    if _plain(trained) != _plain(asked):
+    if plain(trained) != plain(asked):
         warnings.warn(
             f"{policy.run_dir} was trained with env options {trained}, evaluated with {asked}",
             TrainingMismatchWarning,
@@ -255,14 +255,6 @@ def _warn_on_differences(policy: TrainedPolicy, context: SearchContext) -> None:
             TrainingMismatchWarning,
             stacklevel=3,
         )
-
-
-def _plain(value: Any) -> Any:
-    if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_plain(v) for v in value]
-    return value
 
 
 @dataclass(frozen=True)
@@ -549,3 +541,7 @@ def register() -> None:
     for algo in ALGOS:
         register_method(algo, training_factory(algo), replace=True)
     register_method("policy", policy_factory, replace=True)
+
+
+# Importing this module registers the methods: agents.methods.PROVIDERS names it.
+register()

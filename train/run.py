@@ -381,95 +381,21 @@ def train(config: TrainConfig) -> TrainResult:
             layout.evaluations.unlink()  # a fresh start in an old folder: no stale curve
 
     with torch_threads(config.torch_threads):
-        venv, recorder = make_training_env(
-            config.env_id,
-            hp.n_envs,
-            config.seed,
-            plan.env_kwargs,
-            monitor_file=layout.next_monitor_file(),
-            normalize=None,
-        )
-        if hp.normalize is not None:
-            if plan.checkpoint is not None:
-                venv = VecNormalize.load(str(plan.checkpoint.vecnormalize), venv)
-                venv.training = True
-            else:
-                venv = VecNormalize(venv, **dict(hp.normalize))
-        eval_env = make_evaluation_env(
-            config.env_id, plan.env_kwargs, config.seed + 10_000, normalize=hp.normalize
-        )
-        tensorboard = layout.tensorboard if config.tensorboard else None
-        if plan.checkpoint is None:
-            model = build_model(
-                config.algo,
-                hp,
-                venv,
-                seed=config.seed,
-                tensorboard_log=tensorboard,
-                verbose=config.verbose,
-                device=config.device,
-            )
-        else:
-            model = ALGORITHMS[config.algo].load(
-                plan.checkpoint.model,
-                env=venv,
-                device=config.device,
-                tensorboard_log=None if tensorboard is None else str(tensorboard),
-                verbose=config.verbose,
-            )
-            if config.algo == "sac":
-                model.load_replay_buffer(plan.checkpoint.replay_buffer)  # type: ignore[attr-defined]
-            # A resumed segment is reproducible given its checkpoint (RNG states are not saved).
-            model.set_random_seed(config.seed + model.num_timesteps)
-
+        venv, recorder, eval_env = _run_envs(plan)
+        model = _run_model(plan, venv)
         start_step = model.num_timesteps
-        remaining = plan.target - start_step
-        callbacks: list[BaseCallback] = [PhysicsLogger(recorder)]
-        if config.save_freq > 0:
-            callbacks.append(
-                RunCheckpoint(layout, config.save_freq, KEEP_CHECKPOINTS, verbose=config.verbose)
-            )
-        if config.eval_freq > 0:
-            callbacks.append(
-                ResumableEvalCallback(
-                    eval_env,
-                    n_eval_episodes=eval_env.num_envs,
-                    eval_freq=max(config.eval_freq // hp.n_envs, 1),
-                    best_model_save_path=str(layout.run_dir),
-                    log_path=str(layout.run_dir),
-                    deterministic=True,
-                    verbose=config.verbose,
-                    callback_on_new_best=(
-                        None
-                        if hp.normalize is None
-                        else SaveVecNormalize(layout.run_dir / "best_model_vecnormalize.pkl")
-                    ),
-                    resume_from_step=None if plan.checkpoint is None else start_step,
-                )
-            )
+        callbacks = CallbackList(_run_callbacks(plan, recorder, eval_env, start_step))
         started = time.perf_counter()
         model.learn(
-            remaining,
-            callback=CallbackList(callbacks),
+            plan.target - start_step,
+            callback=callbacks,
             log_interval=config.log_interval or default_log_interval(config.algo, hp.n_envs),
             tb_log_name=config.algo.upper(),
             reset_num_timesteps=plan.checkpoint is None,
             progress_bar=config.progress_bar,
         )
         wall_time = time.perf_counter() - started
-
-        model.save(layout.final_model)
-        if hp.normalize is not None:
-            normalizer = model.get_vec_normalize_env()
-            assert normalizer is not None
-            normalizer.save(str(layout.vecnormalize))
-            sync_envs_normalization(venv, eval_env)
-        if config.save_freq > 0:
-            save_checkpoint(model, layout)
-            prune_checkpoints(layout, KEEP_CHECKPOINTS)
-        final = evaluate_deterministic(model, eval_env)
-        venv.close()
-        eval_env.close()
+        final = _save_and_evaluate(plan, model, venv, eval_env)
 
     result = TrainResult(
         algo=config.algo,
@@ -486,6 +412,110 @@ def train(config: TrainConfig) -> TrainResult:
     )
     _write_result(layout, result, hp)
     return result
+
+
+def _run_envs(plan: _Plan) -> tuple[VecEnv, StrokeRecorder, VecEnv]:
+    """The training env (Monitor file, normalisation resumed from the checkpoint or new) with
+    its stroke recorder, and the evaluation env."""
+    config, hp = plan.config, plan.hp
+    venv, recorder = make_training_env(
+        config.env_id,
+        hp.n_envs,
+        config.seed,
+        plan.env_kwargs,
+        monitor_file=plan.layout.next_monitor_file(),
+        normalize=None,
+    )
+    if hp.normalize is not None:
+        if plan.checkpoint is not None:
+            venv = VecNormalize.load(str(plan.checkpoint.vecnormalize), venv)
+            venv.training = True
+        else:
+            venv = VecNormalize(venv, **dict(hp.normalize))
+    eval_env = make_evaluation_env(
+        config.env_id, plan.env_kwargs, config.seed + 10_000, normalize=hp.normalize
+    )
+    return venv, recorder, eval_env
+
+
+def _run_model(plan: _Plan, venv: VecEnv) -> BaseAlgorithm:
+    """A new model, or the checkpoint's (with SAC's replay buffer) for a resumed run."""
+    config = plan.config
+    tensorboard = plan.layout.tensorboard if config.tensorboard else None
+    if plan.checkpoint is None:
+        return build_model(
+            config.algo,
+            plan.hp,
+            venv,
+            seed=config.seed,
+            tensorboard_log=tensorboard,
+            verbose=config.verbose,
+            device=config.device,
+        )
+    model = ALGORITHMS[config.algo].load(
+        plan.checkpoint.model,
+        env=venv,
+        device=config.device,
+        tensorboard_log=None if tensorboard is None else str(tensorboard),
+        verbose=config.verbose,
+    )
+    if config.algo == "sac":
+        model.load_replay_buffer(plan.checkpoint.replay_buffer)  # type: ignore[attr-defined]
+    # A resumed segment is reproducible given its checkpoint (RNG states are not saved).
+    model.set_random_seed(config.seed + model.num_timesteps)
+    return model
+
+
+def _run_callbacks(
+    plan: _Plan, recorder: StrokeRecorder, eval_env: VecEnv, start_step: int
+) -> list[BaseCallback]:
+    """Physics logging, checkpoints every ``save_freq`` and evaluations every ``eval_freq``."""
+    config, hp, layout = plan.config, plan.hp, plan.layout
+    callbacks: list[BaseCallback] = [PhysicsLogger(recorder)]
+    if config.save_freq > 0:
+        callbacks.append(
+            RunCheckpoint(layout, config.save_freq, KEEP_CHECKPOINTS, verbose=config.verbose)
+        )
+    if config.eval_freq > 0:
+        callbacks.append(
+            ResumableEvalCallback(
+                eval_env,
+                n_eval_episodes=eval_env.num_envs,
+                eval_freq=max(config.eval_freq // hp.n_envs, 1),
+                best_model_save_path=str(layout.run_dir),
+                log_path=str(layout.run_dir),
+                deterministic=True,
+                verbose=config.verbose,
+                callback_on_new_best=(
+                    None
+                    if hp.normalize is None
+                    else SaveVecNormalize(layout.run_dir / "best_model_vecnormalize.pkl")
+                ),
+                resume_from_step=None if plan.checkpoint is None else start_step,
+            )
+        )
+    return callbacks
+
+
+def _save_and_evaluate(
+    plan: _Plan, model: BaseAlgorithm, venv: VecEnv, eval_env: VecEnv
+) -> list[dict[str, Any]]:
+    """Save the final model (normalisation statistics, a last checkpoint), then evaluate its
+    deterministic policy at every evaluation condition; closes both envs."""
+    config, layout = plan.config, plan.layout
+    model.save(layout.final_model)
+    if plan.hp.normalize is not None:
+        normalizer = model.get_vec_normalize_env()
+        assert normalizer is not None
+        normalizer.save(str(layout.vecnormalize))
+        sync_envs_normalization(venv, eval_env)
+    if config.save_freq > 0:
+        save_checkpoint(model, layout)
+        prune_checkpoints(layout, KEEP_CHECKPOINTS)
+    final = evaluate_deterministic(model, eval_env)
+    venv.close()
+    eval_env.close()
+    return final
 
 
 def _say_plan(plan: _Plan) -> None:

@@ -21,9 +21,9 @@ the best objective), i.e. what a "take the best of N runs" protocol, like the pa
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from scipy.stats import spearmanr
@@ -102,11 +102,39 @@ def verdict(ok: bool | None) -> Verdict:
     return "no data" if ok is None else ("agrees" if ok else "differs")
 
 
+def judge(value: float, test: Callable[[float], Any]) -> bool | None:
+    """``test(value)`` as the agreement, None (no data) for a NaN value."""
+    return None if math.isnan(value) else bool(test(value))
+
+
+def spread_fields(s: Spread) -> dict[str, float]:
+    """A spread's median, quartiles and best seed as :class:`Claim` fields."""
+    return {"median": s.median, "q25": s.q25, "q75": s.q75, "best": s.best}
+
+
+def seeds_feasible(s: Spread) -> str:
+    """How many of the seeds were feasible, e.g. ``"3/5 seeds feasible"``."""
+    return f"{s.n_feasible}/{s.n} seeds feasible"
+
+
 # --- rule helpers: each returns (statistic from medians, statistic from best seeds, ok) ------
+def close(value: float, paper: float) -> bool | None:
+    """Within ±20 % of the paper's number (None for NaN)."""
+    return judge(value, lambda v: abs(v - paper) <= RELATIVE_TOLERANCE * abs(paper))
+
+
 def number(s: Spread, paper: float) -> bool | None:
-    if math.isnan(s.median):
-        return None
-    return abs(s.median - paper) <= RELATIVE_TOLERANCE * abs(paper)
+    return close(s.median, paper)
+
+
+def phase(value: float, in_phase: bool) -> bool | None:
+    """In phase: |ΔΦ| < 15°; out of phase: |ΔΦ| ≥ 15° [deg] (None for NaN)."""
+    return judge(value, lambda v: (v < IN_PHASE) == in_phase)
+
+
+def angle(value: float, paper: float) -> bool | None:
+    """Within ±15° of the paper's angle [deg] (None for NaN)."""
+    return judge(value, lambda v: abs(v - paper) <= ANGLE_TOLERANCE)
 
 
 def in_range(value: float, low: float, high: float) -> bool | None:
@@ -165,3 +193,71 @@ def location(
     at_best = where([s.best for s in series.values()])
     ok = None if math.isnan(at) else abs(at - paper) <= LOCATION_TOLERANCE + 1e-9
     return at, at_best, ok
+
+
+# --- claim builders: a row's rule, statistics and agreement as ClaimBuilder.claim's arguments --
+@dataclass(frozen=True)
+class ClaimBuilder:
+    """Builds one study's claims for one method: the id gets the method's suffix
+    (:func:`claim_id`) and the verdict comes from the rule's agreement ``ok`` (None: no data)."""
+
+    study: str
+    method: str
+    index: int
+    """The method's place in the study's methods (0: ids without a suffix)."""
+
+    def claim(
+        self,
+        cid: str,
+        figure: str,
+        statement: str,
+        paper: str,
+        *,
+        rule: Rule,
+        ok: bool | None = None,
+        **fields: Any,
+    ) -> Claim:
+        """One row; ``fields`` are the other :class:`Claim` fields. The ``*_row`` functions
+        below give a rule's arguments, e.g. ``claim(..., **trend_row(series, +1))``."""
+        return Claim(
+            id=claim_id(cid, self.index, self.method),
+            study=self.study,
+            figure=figure,
+            statement=statement,
+            paper=paper,
+            rule=rule,
+            verdict=verdict(ok),
+            **fields,
+        )
+
+
+def trend_row(series: Mapping[float, Spread], direction: int, **fields: Any) -> dict[str, Any]:
+    """``trend``: ρ between the condition and the medians (and the best seeds)."""
+    r, r_best, ok, detail = trend(series, direction)
+    return dict(rule="trend", ok=ok, median=r, best=r_best, unit="(ρ)", detail=detail, **fields)
+
+
+def location_row(
+    series: Mapping[float, Spread], paper: float, kind: Literal["min", "max"], **fields: Any
+) -> dict[str, Any]:
+    """``location``: the speed [m/s] of the extremum of the medians (and the best seeds)."""
+    at, at_best, ok = location(series, paper, kind)
+    return dict(rule="location", ok=ok, median=at, best=at_best, unit="m/s", **fields)
+
+
+def spread_row(rule: Rule, s: Spread, ok: bool | None, **fields: Any) -> dict[str, Any]:
+    """A row of one spread over seeds: its median, quartiles and best seed, and how many seeds
+    were feasible as the detail (``fields`` override any of these)."""
+    return {"rule": rule, "ok": ok, **spread_fields(s), "detail": seeds_feasible(s), **fields}
+
+
+def number_row(s: Spread, paper: float, **fields: Any) -> dict[str, Any]:
+    """``number``: the spread's median against the paper's number (see :func:`spread_row`)."""
+    return spread_row("number", s, number(s, paper), **fields)
+
+
+def compare_row(
+    median: float, best: float, holds: Callable[[float], Any], **fields: Any
+) -> dict[str, Any]:
+    """``compare``: the claimed order ``holds(median)`` between medians."""
+    return dict(rule="compare", ok=judge(median, holds), median=median, best=best, **fields)

@@ -204,65 +204,48 @@ def _claims(plan: Plan, rows: list[dict[str, Any]], method: str, index: int) -> 
     lv_pitch = spread(select(rows, condition=p.kinematics_speed, **level), "pitch_amplitude")
     ac_pitch = spread(select(rows, condition=p.kinematics_power, **accel), "pitch_amplitude")
 
-    def ok(value: float, test) -> bool | None:
-        return None if np.isnan(value) else bool(test(value))
-
-    def stats(s) -> dict[str, float]:
-        return {"median": s.median, "q25": s.q25, "q75": s.q75, "best": s.best}
-
+    make = C.ClaimBuilder(NAME, method, index)
+    level_at, accel_at = f"{p.kinematics_speed:g} m/s", f"{p.kinematics_power:g} W/kg"
+    pitch = "pitch amplitude η_m is larger in accelerating than in level flight"
+    noisy = (
+        "Φ_φ of each wing is a free parameter over ±180°; with a wide seed spread the median "
+        "phase is noisy."
+    )
     return [
-        C.Claim(
-            id=C.claim_id("K1", index, method),
-            study=NAME,
-            figure="Fig. 11a",
-            statement=f"level flight ({p.kinematics_speed:g} m/s): fore- and hind-wing flap out of phase (|ΔΦ|)",
-            paper="out of phase",
-            rule="phase",
-            unit="deg",
-            verdict=C.verdict(ok(lv_abs.median, lambda v: v >= C.IN_PHASE)),
-            detail=f"{lv_abs.n_feasible}/{lv_abs.n} seeds feasible",
-            **stats(lv_abs),
+        make.claim(
+            "K1",
+            "Fig. 11a",
+            f"level flight ({level_at}): fore- and hind-wing flap out of phase (|ΔΦ|)",
+            "out of phase",
+            **C.spread_row("phase", lv_abs, C.phase(lv_abs.median, in_phase=False), unit="deg"),
         ),
-        C.Claim(
-            id=C.claim_id("K2", index, method),
-            study=NAME,
-            figure="Fig. 11",
-            statement=f"at {p.phase_speed:g} m/s the hind-wing leads by about 30° (ΔΦ)",
-            paper="+30°",
-            rule="angle",
-            unit="deg",
-            verdict=C.verdict(
-                ok(lead.median, lambda v: abs(v - PAPER_PHASE_LEAD) <= C.ANGLE_TOLERANCE)
+        make.claim(
+            "K2",
+            "Fig. 11",
+            f"at {p.phase_speed:g} m/s the hind-wing leads by about 30° (ΔΦ)",
+            "+30°",
+            **C.spread_row(
+                "angle", lead, C.angle(lead.median, PAPER_PHASE_LEAD), unit="deg", note=noisy
             ),
-            detail=f"{lead.n_feasible}/{lead.n} seeds feasible",
-            note="Φ_φ of each wing is a free parameter over ±180°; with a wide seed spread the "
-            "median phase is noisy.",
-            **stats(lead),
         ),
-        C.Claim(
-            id=C.claim_id("K3", index, method),
-            study=NAME,
-            figure="Fig. 11b",
-            statement=f"accelerating flight ({p.kinematics_power:g} W/kg): the wings flap in phase (|ΔΦ|)",
-            paper="in phase",
-            rule="phase",
-            unit="deg",
-            verdict=C.verdict(ok(ac_abs.median, lambda v: v < C.IN_PHASE)),
-            detail=f"{ac_abs.n_feasible}/{ac_abs.n} seeds feasible",
-            **stats(ac_abs),
+        make.claim(
+            "K3",
+            "Fig. 11b",
+            f"accelerating flight ({accel_at}): the wings flap in phase (|ΔΦ|)",
+            "in phase",
+            **C.spread_row("phase", ac_abs, C.phase(ac_abs.median, in_phase=True), unit="deg"),
         ),
-        C.Claim(
-            id=C.claim_id("K4", index, method),
-            study=NAME,
-            figure="Fig. 12c",
-            statement="pitch amplitude η_m is larger in accelerating than in level flight "
-            "(ours: accelerating − level)",
-            paper="η_m,acc > η_m,level",
-            rule="compare",
-            median=ac_pitch.median - lv_pitch.median,
-            best=ac_pitch.best - lv_pitch.best,
-            unit="deg",
-            verdict=C.verdict(ok(ac_pitch.median - lv_pitch.median, lambda v: v > 0)),
-            detail=f"η_m level {lv_pitch.describe()}°, accelerating {ac_pitch.describe()}°",
+        make.claim(
+            "K4",
+            "Fig. 12c",
+            f"{pitch} (ours: accelerating − level)",
+            "η_m,acc > η_m,level",
+            **C.compare_row(
+                ac_pitch.median - lv_pitch.median,
+                ac_pitch.best - lv_pitch.best,
+                lambda v: v > 0,
+                unit="deg",
+                detail=f"η_m level {lv_pitch.describe()}°, accelerating {ac_pitch.describe()}°",
+            ),
         ),
     ]

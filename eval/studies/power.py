@@ -144,100 +144,75 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
 
 
 def _number_claims(
+    make: C.ClaimBuilder,
     cid: str,
-    index: int,
-    method: str,
     label: str,
     figure: str,
     series: Mapping[float, Spread],
     paper: Mapping[float, float],
 ) -> list[C.Claim]:
+    """``number`` claims ``cid`` a, b, …: ``label`` at each of the paper's powers."""
     out = []
     for k, (power, value) in enumerate(paper.items()):
+        head = (f"{cid}{'ab'[k]}", figure, f"{label} at {power:g} W/kg", f"≈ {value:g}")
         s = series.get(power)
-        base = dict(
-            id=C.claim_id(f"{cid}{'ab'[k]}", index, method),
-            study=NAME,
-            figure=figure,
-            statement=f"{label} at {power:g} W/kg",
-            paper=f"≈ {value:g}",
-            rule="number",
-        )
         if s is None:
-            out.append(
-                C.Claim(**base, verdict="no data", detail=f"{power:g} W/kg not in this preset")
-            )
-            continue
-        out.append(
-            C.Claim(
-                **base,
-                median=s.median,
-                q25=s.q25,
-                q75=s.q75,
-                best=s.best,
-                verdict=C.verdict(C.number(s, value)),
-                detail=f"{s.n_feasible}/{s.n} seeds feasible",
-            )
-        )
+            detail = f"{power:g} W/kg not in this preset"
+            out.append(make.claim(*head, rule="number", detail=detail))
+        else:
+            out.append(make.claim(*head, **C.number_row(s, value)))
     return out
 
 
 def _claims(rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim]:
+    make = C.ClaimBuilder(NAME, method, index)
     vertical = excess(rows, method, "tear-drop", "vertical")
     horizontal = excess(rows, method, "tear-drop", "horizontal")
-    out = [
-        *_number_claims("P1", index, method, "F̄_v", "Fig. 7", vertical, PAPER_VERTICAL),
-        *_number_claims("P2", index, method, "F̄_h", "Fig. 7", horizontal, PAPER_HORIZONTAL),
+    fa = attainable(rows, method, "tear-drop")
+    return [
+        *_number_claims(make, "P1", "F̄_v", "Fig. 7", vertical, PAPER_VERTICAL),
+        *_number_claims(make, "P2", "F̄_h", "Fig. 7", horizontal, PAPER_HORIZONTAL),
+        *_ratio_claim(make, vertical, horizontal),
+        *(
+            make.claim(
+                cid,
+                "Fig. 7",
+                f"{label} increases with available power",
+                "increases",
+                **C.trend_row(series, +1),
+            )
+            for cid, label, series in (("P4", "F̄_v", vertical), ("P5", "F̄_h", horizontal))
+        ),
+        *_number_claims(make, "P6", "attainable F̄_a [g]", "Fig. 8", fa, PAPER_ATTAINABLE),
     ]
+
+
+def _ratio_claim(
+    make: C.ClaimBuilder, vertical: Mapping[float, Spread], horizontal: Mapping[float, Spread]
+) -> list[C.Claim]:
+    """By how much F̄_v exceeds F̄_h [%] over the powers (none when no power has both)."""
     common = sorted(set(vertical) & set(horizontal))
     ratios = [100.0 * (vertical[p].median / horizontal[p].median - 1.0) for p in common]
     best_ratios = [100.0 * (vertical[p].best / horizontal[p].best - 1.0) for p in common]
     ratios = [r for r in ratios if math.isfinite(r)]
     best_ratios = [r for r in best_ratios if math.isfinite(r)]
-    if ratios:
-        q25, med, q75 = np.percentile(ratios, [25.0, 50.0, 75.0])
-        out.append(
-            C.Claim(
-                id=C.claim_id("P3", index, method),
-                study=NAME,
-                figure="Fig. 7",
-                statement="F̄_v exceeds F̄_h by 10-20 % (median over powers; IQR over powers)",
-                paper="10-20 %",
-                rule="range",
-                median=float(med),
-                q25=float(q25),
-                q75=float(q75),
-                best=float(np.median(best_ratios)) if best_ratios else math.nan,
-                unit="%",
-                verdict=C.verdict(C.in_range(float(med), *PAPER_RATIO)),
-                note="with the same total force |F|, F̄_v = |F|/W − 1 but F̄_h = "
-                "sqrt((|F|/W)² − 1) (see Understood differences)",
-            )
+    if not ratios:
+        return []
+    q25, med, q75 = np.percentile(ratios, [25.0, 50.0, 75.0])
+    return [
+        make.claim(
+            "P3",
+            "Fig. 7",
+            "F̄_v exceeds F̄_h by 10-20 % (median over powers; IQR over powers)",
+            "10-20 %",
+            rule="range",
+            ok=C.in_range(float(med), *PAPER_RATIO),
+            median=float(med),
+            q25=float(q25),
+            q75=float(q75),
+            best=float(np.median(best_ratios)) if best_ratios else math.nan,
+            unit="%",
+            note="with the same total force |F|, F̄_v = |F|/W − 1 but F̄_h = "
+            "sqrt((|F|/W)² − 1) (see Understood differences)",
         )
-    for cid, label, series in (("P4", "F̄_v", vertical), ("P5", "F̄_h", horizontal)):
-        r, r_best, ok, detail = C.trend(series, +1)
-        out.append(
-            C.Claim(
-                id=C.claim_id(cid, index, method),
-                study=NAME,
-                figure="Fig. 7",
-                statement=f"{label} increases with available power",
-                paper="increases",
-                rule="trend",
-                median=r,
-                best=r_best,
-                unit="(ρ)",
-                verdict=C.verdict(ok),
-                detail=detail,
-            )
-        )
-    out += _number_claims(
-        "P6",
-        index,
-        method,
-        "attainable F̄_a [g]",
-        "Fig. 8",
-        attainable(rows, method, "tear-drop"),
-        PAPER_ATTAINABLE,
-    )
-    return out
+    ]

@@ -15,7 +15,7 @@ from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import Plan, StudyOutput, series_label, write_tables
 from eval.studies.runner import Job
-from eval.studies.tables import by_condition
+from eval.studies.tables import Spread, by_condition
 
 NAME = "speed"
 TITLE = "Level flight: speed sweep (Figs. 4-6)"
@@ -134,121 +134,94 @@ def _thrust_split(records: Mapping[Job, Record]) -> str:
 
 
 def _claims(rows: list[dict], method: str, index: int) -> list[C.Claim]:
-    where = {"method": method, "task": "level", "planform": "tear-drop"}
-    get = lambda q: by_condition(rows, q, **where)  # noqa: E731
-    out: list[C.Claim] = []
-
-    for cid, quantity, direction, statement, _unit in (
-        ("S1", "stroke_plane_angle", +1, "stroke-plane angle rises with V", ""),
-        ("S2", "mean_angle_of_attack", -1, "mean angle of attack falls with V", ""),
-        ("S3", "thrust_ratio", -1, "thrust ratio T/W falls with V", ""),
-    ):
-        r, r_best, ok, detail = C.trend(get(quantity), direction)
-        out.append(
-            C.Claim(
-                id=C.claim_id(cid, index, method),
-                study=NAME,
-                figure="Fig. 4",
-                statement=statement,
-                paper="rises" if direction > 0 else "falls",
-                rule="trend",
-                median=r,
-                best=r_best,
-                unit="(ρ)",
-                verdict=C.verdict(ok),
-                detail=detail,
-            )
+    get = lambda q: by_condition(rows, q, method=method, task="level", planform="tear-drop")  # noqa: E731
+    make = C.ClaimBuilder(NAME, method, index)
+    power, eff = get("power_per_mass"), get("efficiency_pct")
+    trends = [
+        make.claim(
+            cid,
+            "Fig. 4",
+            statement,
+            "rises" if sign > 0 else "falls",
+            **C.trend_row(get(quantity), sign),
         )
-
-    at, at_best, ok = C.location(get("power_per_mass"), PAPER_BEST_SPEED, "min")
-    out.append(
-        C.Claim(
-            id=C.claim_id("S4", index, method),
-            study=NAME,
-            figure="Fig. 5",
-            statement="power P/m is lowest at V = 1.5 m/s",
-            paper="1.5 m/s",
-            rule="location",
-            median=at,
-            best=at_best,
-            unit="m/s",
-            verdict=C.verdict(ok),
-            note="η, not P, is maximised: P/m at the η-optimum need not be the minimum power.",
+        for cid, quantity, sign, statement in (
+            ("S1", "stroke_plane_angle", +1, "stroke-plane angle rises with V"),
+            ("S2", "mean_angle_of_attack", -1, "mean angle of attack falls with V"),
+            ("S3", "thrust_ratio", -1, "thrust ratio T/W falls with V"),
         )
+    ]
+    not_minimised = "η, not P, is maximised: P/m at the η-optimum need not be the minimum power."
+    return [
+        *trends,
+        make.claim(
+            "S4",
+            "Fig. 5",
+            "power P/m is lowest at V = 1.5 m/s",
+            "1.5 m/s",
+            **C.location_row(power, PAPER_BEST_SPEED, "min", note=not_minimised),
+        ),
+        _follows(make, "S5", "frequency f", power, get("frequency")),
+        _follows(make, "S6", "weaving amplitude φ_m", power, get("sweep_amplitude")),
+        _peak_efficiency(make, eff),
+        make.claim(
+            "S8",
+            "Fig. 6",
+            "efficiency peaks at V = 1.5 m/s",
+            "1.5 m/s",
+            **C.location_row(eff, PAPER_BEST_SPEED, "max"),
+        ),
+    ]
+
+
+def _follows(
+    make: C.ClaimBuilder,
+    cid: str,
+    label: str,
+    power: Mapping[float, Spread],
+    other: Mapping[float, Spread],
+) -> C.Claim:
+    """``follows``: ρ between the power's and ``other``'s medians (and best seeds) over speeds."""
+    common = [v for v in power if v in other]
+    r = C.rho([power[v].median for v in common], [other[v].median for v in common])
+    r_best = C.rho([power[v].best for v in common], [other[v].best for v in common])
+    ok = C.judge(r, lambda v: v >= C.TREND_RHO)
+    statement = f"{label} follows the power trend"
+    return make.claim(
+        cid,
+        "Fig. 5",
+        statement,
+        "follows P",
+        rule="follows",
+        ok=ok,
+        median=r,
+        best=r_best,
+        unit="(ρ)",
     )
-    power = get("power_per_mass")
-    for cid, quantity, statement in (
-        ("S5", "frequency", "frequency f follows the power trend"),
-        ("S6", "sweep_amplitude", "weaving amplitude φ_m follows the power trend"),
-    ):
-        other = get(quantity)
-        common = [v for v in power if v in other]
-        r = C.rho([power[v].median for v in common], [other[v].median for v in common])
-        r_best = C.rho([power[v].best for v in common], [other[v].best for v in common])
-        out.append(
-            C.Claim(
-                id=C.claim_id(cid, index, method),
-                study=NAME,
-                figure="Fig. 5",
-                statement=statement,
-                paper="follows P",
-                rule="follows",
-                median=r,
-                best=r_best,
-                unit="(ρ)",
-                verdict=C.verdict(None if math.isnan(r) else r >= C.TREND_RHO),
-            )
-        )
 
-    eff = get("efficiency_pct")
+
+def _peak_efficiency(make: C.ClaimBuilder, eff: Mapping[float, Spread]) -> C.Claim:
+    """The highest median η over speeds against the paper's 12.7 % (Fig. 6)."""
+    paper = f"{PAPER_PEAK_EFFICIENCY} %"
     finite = {v: s for v, s in eff.items() if not math.isnan(s.median)}
-    if finite:
-        peak_speed = max(finite, key=lambda v: finite[v].median)
-        s = finite[peak_speed]
-        best = max(x.best for x in finite.values())
-        out.append(
-            C.Claim(
-                id=C.claim_id("S7", index, method),
-                study=NAME,
-                figure="Fig. 6",
-                statement="peak level-flight efficiency (≈ 13 % flight-muscle efficiency)",
-                paper=f"{PAPER_PEAK_EFFICIENCY} %",
-                rule="number",
-                median=s.median,
-                q25=s.q25,
-                q75=s.q75,
-                best=best,
-                unit="%",
-                verdict=C.verdict(C.number(s, PAPER_PEAK_EFFICIENCY)),
-                detail=f"at V = {peak_speed:g} m/s, {s.n_feasible}/{s.n} seeds feasible",
-                note=SIGN_NOTE,
-            )
+    if not finite:
+        statement = "peak level-flight efficiency"
+        return make.claim(
+            "S7", "Fig. 6", statement, paper, rule="number", detail="no feasible seed"
         )
-    else:
-        out.append(
-            C.Claim(
-                id=C.claim_id("S7", index, method),
-                study=NAME,
-                figure="Fig. 6",
-                statement="peak level-flight efficiency",
-                paper=f"{PAPER_PEAK_EFFICIENCY} %",
-                rule="number",
-                detail="no feasible seed",
-            )
-        )
-    at, at_best, ok = C.location(eff, PAPER_BEST_SPEED, "max")
-    out.append(
-        C.Claim(
-            id=C.claim_id("S8", index, method),
-            study=NAME,
-            figure="Fig. 6",
-            statement="efficiency peaks at V = 1.5 m/s",
-            paper="1.5 m/s",
-            rule="location",
-            median=at,
-            best=at_best,
-            unit="m/s",
-            verdict=C.verdict(ok),
-        )
+    peak_speed = max(finite, key=lambda v: finite[v].median)
+    s = finite[peak_speed]
+    return make.claim(
+        "S7",
+        "Fig. 6",
+        "peak level-flight efficiency (≈ 13 % flight-muscle efficiency)",
+        paper,
+        **C.number_row(
+            s,
+            PAPER_PEAK_EFFICIENCY,
+            best=max(x.best for x in finite.values()),
+            unit="%",
+            detail=f"at V = {peak_speed:g} m/s, {C.seeds_feasible(s)}",
+            note=SIGN_NOTE,
+        ),
     )
-    return out

@@ -148,79 +148,62 @@ def _share_better(real: Mapping[float, Spread], tear: Mapping[float, Spread], st
 
 
 def _claims(rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim]:
+    make = C.ClaimBuilder(NAME, method, index)
     eff = {
         pf: by_condition(rows, "efficiency_pct", method=method, task="level", planform=pf)
         for pf in PLANFORMS
     }
     acc = {pf: attainable(rows, method, pf) for pf in PLANFORMS}
-    out = []
-    share = _share_better(eff["real"], eff["tear-drop"], "median")
-    out.append(
-        C.Claim(
-            id=C.claim_id("W1", index, method),
-            study=NAME,
-            figure="Fig. 15",
-            statement="the real wing is more efficient than the tear-drop at every speed "
-            "(share of speeds)",
-            paper="every speed",
-            rule="compare",
-            median=share,
-            best=_share_better(eff["real"], eff["tear-drop"], "best"),
-            verdict=C.verdict(None if math.isnan(share) else share == 1.0),
-        )
+    every_speed = "the real wing is more efficient than the tear-drop at every speed"
+    every_power = "the real wing attains slightly more F̄_a at every power"
+    return [
+        make.claim(
+            "W1", "Fig. 15", f"{every_speed} (share of speeds)", "every speed", **_real_wins(eff)
+        ),
+        *_gain_at_2(make, eff),
+        *(
+            make.claim(
+                f"W3{'ab'[k]}",
+                "Fig. 15",
+                f"{pf} wing: efficiency peaks at 1.5 m/s",
+                "1.5 m/s",
+                **C.location_row(eff[pf], PAPER_BEST_SPEED, "max"),
+            )
+            for k, pf in enumerate(PLANFORMS)
+        ),
+        make.claim(
+            "W4", "Fig. 16", f"{every_power} (share of powers)", "every power", **_real_wins(acc)
+        ),
+    ]
+
+
+def _real_wins(by_planform: Mapping[str, Mapping[float, Spread]]) -> dict[str, Any]:
+    """``compare``: the share of conditions where the real wing beats the tear-drop is 1."""
+    real, tear = by_planform["real"], by_planform["tear-drop"]
+    return C.compare_row(
+        _share_better(real, tear, "median"),
+        _share_better(real, tear, "best"),
+        lambda share: share == 1.0,
     )
+
+
+def _gain_at_2(make: C.ClaimBuilder, eff: Mapping[str, Mapping[float, Spread]]) -> list[C.Claim]:
+    """The real wing's relative efficiency gain at 2 m/s [%] (none without both wings there)."""
     real2, tear2 = eff["real"].get(2.0), eff["tear-drop"].get(2.0)
-    if real2 is not None and tear2 is not None:
-        gain = 100.0 * (real2.median / tear2.median - 1.0)
-        gain_best = 100.0 * (real2.best / tear2.best - 1.0)
-        ok = (
-            None
-            if math.isnan(gain)
-            else abs(gain - PAPER_GAIN_AT_2) <= C.RELATIVE_TOLERANCE * PAPER_GAIN_AT_2
+    if real2 is None or tear2 is None:
+        return []
+    gain = 100.0 * (real2.median / tear2.median - 1.0)
+    return [
+        make.claim(
+            "W2",
+            "Fig. 15",
+            "efficiency gain of the real wing at 2 m/s (relative)",
+            "≈ 12 %",
+            rule="number",
+            ok=C.close(gain, PAPER_GAIN_AT_2),
+            median=gain,
+            best=100.0 * (real2.best / tear2.best - 1.0),
+            unit="%",
+            detail=f"η real {real2.describe()} %, tear-drop {tear2.describe()} %",
         )
-        out.append(
-            C.Claim(
-                id=C.claim_id("W2", index, method),
-                study=NAME,
-                figure="Fig. 15",
-                statement="efficiency gain of the real wing at 2 m/s (relative)",
-                paper="≈ 12 %",
-                rule="number",
-                median=gain,
-                best=gain_best,
-                unit="%",
-                verdict=C.verdict(ok),
-                detail=f"η real {real2.describe()} %, tear-drop {tear2.describe()} %",
-            )
-        )
-    for k, pf in enumerate(PLANFORMS):
-        at, at_best, ok = C.location(eff[pf], PAPER_BEST_SPEED, "max")
-        out.append(
-            C.Claim(
-                id=C.claim_id(f"W3{'ab'[k]}", index, method),
-                study=NAME,
-                figure="Fig. 15",
-                statement=f"{pf} wing: efficiency peaks at 1.5 m/s",
-                paper="1.5 m/s",
-                rule="location",
-                median=at,
-                best=at_best,
-                unit="m/s",
-                verdict=C.verdict(ok),
-            )
-        )
-    share = _share_better(acc["real"], acc["tear-drop"], "median")
-    out.append(
-        C.Claim(
-            id=C.claim_id("W4", index, method),
-            study=NAME,
-            figure="Fig. 16",
-            statement="the real wing attains slightly more F̄_a at every power (share of powers)",
-            paper="every power",
-            rule="compare",
-            median=share,
-            best=_share_better(acc["real"], acc["tear-drop"], "best"),
-            verdict=C.verdict(None if math.isnan(share) else share == 1.0),
-        )
-    )
-    return out
+    ]

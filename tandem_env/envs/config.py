@@ -18,16 +18,16 @@ from typing import Any, ClassVar, Literal, get_args
 
 import numpy as np
 
-from ..physics import PLANFORMS, Dragonfly, ModelOptions
+from ..physics import AVAILABLE_POWER_LIMITS, PLANFORMS, SPEED_LIMITS, Dragonfly, ModelOptions
 from ..physics.checks import is_real as _is_real
 
 Objective = Literal["vertical", "horizontal", "resultant"]
 OBJECTIVES: tuple[str, ...] = get_args(Objective)
 
-#: Flight speeds the model accepts [m/s] (``evaluate``'s own limits).
-MODEL_SPEED_LIMITS: tuple[float, float] = (0.0, 20.0)
-#: Available powers per body mass an env accepts [W/kg]; the dragonfly's maximum is 90 W/kg.
-MODEL_POWER_LIMITS: tuple[float, float] = (1.0, 1000.0)
+#: Flight speeds an env accepts [m/s]: the model's own limits.
+MODEL_SPEED_LIMITS: tuple[float, float] = SPEED_LIMITS
+#: Available powers per body mass an env accepts [W/kg]: the model's own limits.
+MODEL_POWER_LIMITS: tuple[float, float] = AVAILABLE_POWER_LIMITS
 
 #: ``gym.make`` kwargs that become fields of :class:`~tandem_env.physics.ModelOptions`, mapped to
 #: the field's name there (``power_convention`` avoids a clash with Accelerate's ``power``).
@@ -393,7 +393,8 @@ class AccelerateConfig(FlightConfig):
     """(low, high) [W/kg] mapped linearly to the observation's [-1, 1]; every available power
     used must lie inside it. Default the paper's sweep, 50 to 90 W/kg (30-60 % muscle)."""
     speed: float = 0.0
-    """Flight speed V [m/s], fixed for every episode (not observed); 0 to 20 m/s."""
+    """Flight speed V [m/s], fixed for every episode (not observed); within the model's
+    ``SPEED_LIMITS`` (0 to 20 m/s)."""
 
     name: ClassVar[str] = "Accelerate"
     condition_key: ClassVar[str] = "available_power"

@@ -67,9 +67,9 @@ class TandemVecEnv(VecEnv):
     def reset(self) -> np.ndarray:
         everyone = np.arange(self.num_envs)
         options = [opts if opts else None for opts in self._options]
-        columns = self.vector_env._reset_envs(everyone, list(self._seeds), options)
+        columns = self.vector_env.reset_envs(everyone, list(self._seeds), options)
         self.reset_infos = rows(columns, self.num_envs)
-        self._observations = self.vector_env._observations.copy()
+        self._observations = self.vector_env.observations
         # Seeds and options are used once, as in DummyVecEnv.
         self._reset_seeds()
         self._reset_options()
@@ -86,13 +86,13 @@ class TandemVecEnv(VecEnv):
         if actions.shape[:1] != (n,):
             raise ValueError(f"actions must have shape ({n}, 28); got shape {actions.shape}")
         everyone = np.arange(n)
-        batch, final = self.vector_env._step_envs(everyone, actions)
+        batch, final = self.vector_env.step_envs(everyone, actions)
         infos = rows(batch.info_columns(), n)
         for info, observation in zip(infos, final, strict=True):
             info["TimeLimit.truncated"] = False
             info["terminal_observation"] = observation.copy()
-        self.reset_infos = rows(self.vector_env._reset_envs(everyone, [None] * n, None), n)
-        self._observations = self.vector_env._observations.copy()
+        self.reset_infos = rows(self.vector_env.reset_envs(everyone, [None] * n, None), n)
+        self._observations = self.vector_env.observations
         return (
             self._observations.copy(),
             batch.reward.astype(np.float32),

@@ -118,14 +118,21 @@ class FlightVectorEnv(VectorEnv):
         """(n,) current condition of each sub-env (speed [m/s] or available power [W/kg])."""
         return self._values.copy()
 
-    # --- primitives shared with the SB3 adapter -------------------------------------------------
-    def _reset_envs(
+    @property
+    def observations(self) -> np.ndarray:
+        """(n, 1) current observation of each sub-env (a copy)."""
+        return self._observations.copy()
+
+    # --- primitives shared with the SB3 adapter (no autoreset bookkeeping, no rendering) ------
+    def reset_envs(
         self,
         index: np.ndarray,
         seeds: Sequence[int | None],
         options: Mapping[str, Any] | Sequence[Mapping[str, Any] | None] | None,
     ) -> dict[str, Any]:
-        """Start new episodes in sub-envs ``index``; returns their reset info columns."""
+        """Start new episodes in sub-envs ``index`` (each seeded with its entry of ``seeds``
+        unless None; ``options`` one mapping for all or one per env); returns their reset info
+        columns. ``reset`` and the SB3 adapter both start episodes through it."""
         index = np.asarray(index, dtype=np.intp)
         for i, seed in zip(index, seeds, strict=True):
             if seed is not None:
@@ -142,8 +149,10 @@ class FlightVectorEnv(VectorEnv):
             self._last[i] = None
         return self.task.reset_columns(values)
 
-    def _step_envs(self, index: np.ndarray, actions: Any) -> tuple[StepBatch, np.ndarray]:
-        """Evaluate the strokes of sub-envs ``index`` in one model call; (batch, observations)."""
+    def step_envs(self, index: np.ndarray, actions: Any) -> tuple[StepBatch, np.ndarray]:
+        """Evaluate the strokes (actions) of sub-envs ``index`` in one model call; returns the
+        batch and the observations the episodes ended on. ``step`` and the SB3 adapter both step
+        through it."""
         index = np.asarray(index, dtype=np.intp)
         if not self._started[index].all():
             raise ResetNeeded("call reset() before step()")
@@ -184,7 +193,7 @@ class FlightVectorEnv(VectorEnv):
             index = np.flatnonzero(mask)
         else:
             index = np.arange(n)
-        columns = self._reset_envs(index, [seeds[i] for i in index], options)
+        columns = self.reset_envs(index, [seeds[i] for i in index], options)
         self._autoreset[index] = False
         if self.render_mode == "human":
             self.render()
@@ -211,17 +220,17 @@ class FlightVectorEnv(VectorEnv):
             resetting = np.flatnonzero(self._autoreset)
             stepping = np.flatnonzero(~self._autoreset)
             if stepping.size:
-                batch, _ = self._step_envs(stepping, actions[stepping])
+                batch, _ = self.step_envs(stepping, actions[stepping])
                 rewards[stepping] = batch.reward
                 terminations[stepping] = True
                 add_columns(infos, batch.info_columns(), stepping, n)
             if resetting.size:
-                columns = self._reset_envs(resetting, [None] * resetting.size, None)
+                columns = self.reset_envs(resetting, [None] * resetting.size, None)
                 add_columns(infos, columns, resetting, n)
             observations = self._observations.copy()
         elif self.autoreset_mode == AutoresetMode.SAME_STEP:
             everyone = np.arange(n)
-            batch, final = self._step_envs(everyone, actions)
+            batch, final = self.step_envs(everyone, actions)
             rewards[:] = batch.reward
             terminations[:] = True
             final_obs = np.empty(n, dtype=object)
@@ -229,7 +238,7 @@ class FlightVectorEnv(VectorEnv):
             infos["final_obs"], infos["_final_obs"] = final_obs, np.ones(n, dtype=np.bool_)
             infos["final_info"] = add_columns({}, batch.info_columns(), everyone, n)
             infos["_final_info"] = np.ones(n, dtype=np.bool_)
-            add_columns(infos, self._reset_envs(everyone, [None] * n, None), everyone, n)
+            add_columns(infos, self.reset_envs(everyone, [None] * n, None), everyone, n)
             # The stroke just evaluated stays the picture until the next step.
             for k in range(n):
                 self._last[k] = LastStep(batch, k)
@@ -241,7 +250,7 @@ class FlightVectorEnv(VectorEnv):
                     "autoreset_mode=Disabled reset them first, e.g. "
                     "reset(options={'reset_mask': mask})"
                 )
-            batch, _ = self._step_envs(np.arange(n), actions)
+            batch, _ = self.step_envs(np.arange(n), actions)
             rewards[:] = batch.reward
             terminations[:] = True
             add_columns(infos, batch.info_columns(), np.arange(n), n)

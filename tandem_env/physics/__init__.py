@@ -19,7 +19,15 @@ from .coefficients import (
 )
 from .insect import DRAGONFLY, PLANFORMS, Dragonfly, Wing
 from .measured import MeasuredWing, evaluate_measured
-from .model import METRIC_NAMES, Result, evaluate
+from .model import (
+    AVAILABLE_POWER_LIMITS,
+    MAX_FLIGHT_PATH_ANGLE,
+    METRIC_NAMES,
+    SPEED_LIMITS,
+    Result,
+    evaluate,
+    validate_conditions,
+)
 from .options import ModelOptions
 from .stroke import (
     LOWER,
@@ -37,14 +45,17 @@ from .stroke import (
 )
 
 __all__ = [
+    "AVAILABLE_POWER_LIMITS",
     "COEFFICIENT_MODELS",
     "DRAGONFLY",
     "LOWER",
+    "MAX_FLIGHT_PATH_ANGLE",
     "METRIC_NAMES",
     "N_PARAMETERS",
     "PARAMETER_NAMES",
     "PARAMETER_UNITS",
     "PLANFORMS",
+    "SPEED_LIMITS",
     "TABLE_4",
     "UPPER",
     "Dragonfly",
@@ -63,6 +74,7 @@ __all__ = [
     "normalised_to_physical",
     "physical_to_normalised",
     "strokes_to_dicts",
+    "validate_conditions",
     "validate_physical",
 ]
 

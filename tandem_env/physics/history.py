@@ -26,10 +26,10 @@ from .measured import (
 from .model import (
     DEFAULT_OPTIONS,
     Result,
-    _flight_path,
     coefficient_tables,
     evaluate,
     freestream_components,
+    validate_conditions,
     wing_tables,
 )
 from .options import ModelOptions
@@ -128,6 +128,7 @@ def stroke_history(
         raise ValueError(f"stroke_history takes one stroke of shape (28,); got {np.shape(stroke)}")
     _check_side(n_samples, side)
     n_samples = int(n_samples)
+    v, p_avail, gamma = validate_conditions(speed, available_power, flight_path_angle, 1, insect)
     angles, weights, frequency, beta, sweep = (
         [],
         [],
@@ -146,15 +147,6 @@ def stroke_history(
         frequency[0, w] = params[0, 0]
         beta[0, w] = params[0, 13]
         sweep[0, w] = params[0, 1]
-    v = np.array([float(speed)])
-    if not (np.isfinite(v[0]) and 0.0 <= v[0] <= 20.0):
-        raise ValueError(f"speed = {speed!r} m/s; allowed: 0 to 20 m/s")
-    p_avail = np.array(
-        [insect.max_power_per_mass if available_power is None else float(available_power)]
-    )
-    if not (np.isfinite(p_avail[0]) and p_avail[0] > 0.0):
-        raise ValueError(f"available_power = {available_power!r} W/kg; allowed: finite and > 0")
-    gamma = _flight_path(flight_path_angle, 1)
     result = evaluate(physical, v, p_avail, flight_path_angle=gamma, insect=insect, options=options)
     return _histories(
         angles, weights, frequency, beta, sweep, v, gamma, result, insect, options, side

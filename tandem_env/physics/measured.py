@@ -43,11 +43,10 @@ from .kinematics import spectral_derivatives
 from .model import (
     DEFAULT_OPTIONS,
     Result,
-    _broadcast_condition,
-    _flight_path,
     _performance,
     node_inertia,
     run_kernel,
+    validate_conditions,
     wing_tables,
 )
 from .options import ModelOptions
@@ -672,11 +671,7 @@ def evaluate_measured(
         If a wing's pitch runs against its sweep rate (likely the opposite η sign convention).
     """
     _check_inputs(fore, hind, insect, options)
-    v = _broadcast_condition(speed, 1, "speed", "m/s", 0.0, 20.0, 0.0)
-    p_avail = _broadcast_condition(
-        available_power, 1, "available_power", "W/kg", 1e-3, 1e4, insect.max_power_per_mass
-    )
-    gamma = _flight_path(flight_path_angle, 1)
+    v, p_avail, gamma = validate_conditions(speed, available_power, flight_path_angle, 1, insect)
     angles, weights, frequency, beta, sweep = measured_inputs(fore, hind, insect, options)
     out, _, _ = run_measured(angles, weights, frequency, beta, sweep, v, gamma, insect, options)
     return _performance(out, v, gamma, p_avail, insect, options)

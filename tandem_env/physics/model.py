@@ -204,6 +204,50 @@ class Result:
 
 _METADATA = ("options", "planform")
 
+# --- the flight condition's limits (the one home: envs, history and studies use these) --------
+#: Flight speeds V the model accepts [m/s]: forward flight (V >= 0), up to ten times the
+#: paper's fastest (2 m/s).
+SPEED_LIMITS: tuple[float, float] = (0.0, 20.0)
+#: Available powers per body mass the model accepts [W/kg]: more than a factor of ten either
+#: side of the paper's 50-90 W/kg (30-60 % flight muscle at 150 W/kg), and a power given in W
+#: instead of W/kg is refused (the specimen's 90 W/kg is 0.011 W).
+AVAILABLE_POWER_LIMITS: tuple[float, float] = (1.0, 1000.0)
+#: Largest |flight-path angle| [rad]: the body moves forward (V ≥ 0), climbing or descending.
+MAX_FLIGHT_PATH_ANGLE = 0.5 * np.pi
+
+
+def validate_conditions(
+    speed: float | np.ndarray | None,
+    available_power: float | np.ndarray | None,
+    flight_path_angle: float | np.ndarray | None,
+    batch: int,
+    insect: Dragonfly,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The flight condition as validated (batch,) arrays: speed V [m/s] within
+    :data:`SPEED_LIMITS` (default 0), available power [W/kg] within
+    :data:`AVAILABLE_POWER_LIMITS` (default the insect's maximum) and flight-path angle γ [rad]
+    within ±:data:`MAX_FLIGHT_PATH_ANGLE` (default 0). Each is a real scalar or one value per
+    stroke; a bad one raises ValueError naming it, its value and what is allowed."""
+    speed = _broadcast_condition(speed, batch, "speed", "m/s", *SPEED_LIMITS, 0.0)
+    power = _broadcast_condition(
+        available_power,
+        batch,
+        "available_power",
+        "W/kg",
+        *AVAILABLE_POWER_LIMITS,
+        insect.max_power_per_mass,
+    )
+    gamma = _broadcast_condition(
+        flight_path_angle,
+        batch,
+        "flight_path_angle",
+        "rad",
+        -MAX_FLIGHT_PATH_ANGLE,
+        MAX_FLIGHT_PATH_ANGLE,
+        0.0,
+    )
+    return speed, power, gamma
+
 
 def _broadcast_condition(
     value: float | np.ndarray | None,
@@ -233,23 +277,6 @@ def _broadcast_condition(
         where = name if np.ndim(value) == 0 else f"{name}[{i}]"
         raise ValueError(f"{where} = {float(arr[i]):g} {unit}; allowed: {allowed}")
     return arr
-
-
-#: Largest |flight-path angle| [rad]: the body moves forward (V ≥ 0), climbing or descending.
-MAX_FLIGHT_PATH_ANGLE = 0.5 * np.pi
-
-
-def _flight_path(value: float | np.ndarray, batch: int) -> np.ndarray:
-    """The flight-path angle γ as a validated (B,) array [rad]."""
-    return _broadcast_condition(
-        value,
-        batch,
-        "flight_path_angle",
-        "rad",
-        -MAX_FLIGHT_PATH_ANGLE,
-        MAX_FLIGHT_PATH_ANGLE,
-        0.0,
-    )
 
 
 def freestream_components(
@@ -461,10 +488,11 @@ def evaluate(
     strokes : (B, 28) or (28,) array
         Physical strokes in Table 4 units (Hz, deg, -), fore-wing first; see ``stroke``.
     speed : float or (B,) array
-        Flight speed V [m/s], 0 to 20, along the flight path.
+        Flight speed V [m/s], 0 to 20 (:data:`SPEED_LIMITS`), along the flight path.
     available_power : float or (B,) array, optional
-        Available power per body mass [W/kg], the cap of the power constraint in both flight
-        modes; default the insect's maximum (60 % muscle × 150 W/kg = 90 W/kg).
+        Available power per body mass [W/kg], 1 to 1000 (:data:`AVAILABLE_POWER_LIMITS`), the
+        cap of the power constraint in both flight modes; default the insect's maximum (60 %
+        muscle × 150 W/kg = 90 W/kg).
     flight_path_angle : float or (B,) array
         Flight-path angle γ [rad], + climbing, −π/2 to π/2: the free stream comes from the
         direction of the body's velocity V·(cos γ, sin γ). The stroke-plane angle stays measured
@@ -491,11 +519,9 @@ def evaluate(
         raise ValueError(f"options must be a ModelOptions; got {type(options).__name__}")
     physical = validate_physical(strokes)
     batch = physical.shape[0]
-    v = _broadcast_condition(speed, batch, "speed", "m/s", 0.0, 20.0, 0.0)
-    p_avail = _broadcast_condition(
-        available_power, batch, "available_power", "W/kg", 1e-3, 1e4, insect.max_power_per_mass
+    v, p_avail, gamma = validate_conditions(
+        speed, available_power, flight_path_angle, batch, insect
     )
-    gamma = _flight_path(flight_path_angle, batch)
     angles, weights, frequency, beta, sweep = _parametric_inputs(physical, options.n_time)
     out, _, _ = run_kernel(angles, weights, frequency, beta, sweep, v, gamma, insect, options)
     return _performance(out, v, gamma, p_avail, insect, options)

@@ -172,7 +172,7 @@ def test_ppo_sac_policy_come_from_train_or_say_so() -> None:
 def test_lazy_provider_registers_on_first_use(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    # A provider module, like train.methods, registers its method when imported.
+    # A provider module, like train.policies, registers its method when imported.
     (tmp_path / "fake_provider_for_tests.py").write_text(
         textwrap.dedent(
             """

@@ -57,6 +57,26 @@ def test_wrong_action_shapes_raise(env: gym.Env, action) -> None:
         env.step(action)
 
 
+def test_env_limits_are_the_models() -> None:
+    # The widest envelopes an env accepts are the model's own limits, no narrower, no wider.
+    LevelFlightConfig(speed_envelope=te.SPEED_LIMITS, speed=te.SPEED_LIMITS[1])
+    for power in te.AVAILABLE_POWER_LIMITS:
+        env = gym.make(
+            ACCELERATE,
+            power_envelope=te.AVAILABLE_POWER_LIMITS,
+            power=power,
+            speed=te.SPEED_LIMITS[1],
+        )
+        env.reset(seed=0)
+        env.step(np.zeros(28, dtype=np.float32))  # the model takes every condition the env does
+    with pytest.raises(ValueError, match="high <= 20"):
+        LevelFlightConfig(speed_envelope=(0.25, 20.5))
+    with pytest.raises(ValueError, match="1 <= low < high <= 1000"):
+        AccelerateConfig(power_envelope=(0.5, 90.0))
+    with pytest.raises(ValueError, match="allowed: a finite number from 0 to 20 m/s"):
+        AccelerateConfig(speed=20.5)
+
+
 @pytest.mark.parametrize(
     ("env_id", "kwargs", "message"),
     [

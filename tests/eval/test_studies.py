@@ -264,3 +264,23 @@ def test_agreement_rules() -> None:
     assert claims.location(valley, 1.5, "max")[0] == 0.5
     assert claims.in_range(21.0, 10.0, 20.0) and not claims.in_range(30.0, 10.0, 20.0)
     assert math.isnan(claims.rho([1.0, 2.0], [1.0, 2.0]))
+
+
+def test_phase_angle_and_compare_rules() -> None:
+    assert claims.phase(14.9, in_phase=True) and not claims.phase(15.0, in_phase=True)
+    assert claims.phase(15.0, in_phase=False) and not claims.phase(3.0, in_phase=False)
+    assert claims.angle(44.0, 30.0) and not claims.angle(46.0, 30.0)
+    assert claims.close(-9.0, -10.0) and not claims.close(-7.0, -10.0)
+    assert claims.phase(math.nan, in_phase=True) is None and claims.close(math.nan, 1.0) is None
+    make = claims.ClaimBuilder("speed", "random", 1)
+    row = make.claim(
+        "S9", "Fig. 0", "x", "every speed", **claims.compare_row(0.5, 1.0, lambda v: v == 1)
+    )
+    assert (row.id, row.study, row.rule, row.verdict) == (
+        "S9/random",
+        "speed",
+        "compare",
+        "differs",
+    )
+    none = make.claim("S9", "Fig. 0", "x", "1.5 m/s", rule="location")
+    assert none.verdict == "no data" and math.isnan(none.median)

@@ -129,6 +129,26 @@ def test_numpy_numbers_are_conditions(speed) -> None:
     assert result.speed.dtype == np.float64
 
 
+@pytest.mark.parametrize(
+    ("name", "bad", "allowed"),
+    [
+        ("speed", 20.5, "0 to 20 m/s"),
+        ("speed", -0.1, "0 to 20 m/s"),
+        ("available_power", 0.011, "1 to 1000 W/kg"),  # 90 W/kg given in W
+        ("available_power", 1001.0, "1 to 1000 W/kg"),
+        ("flight_path_angle", 1.6, "-1.5708 to 1.5708 rad"),
+    ],
+)
+def test_conditions_outside_the_model_limits(name: str, bad: float, allowed: str) -> None:
+    # evaluate and stroke_history share one set of limits (tandem_env.SPEED_LIMITS, ...).
+    kwargs = {"speed": 1.0, name: bad}
+    message = f"^{name} = {bad:g} .*{re.escape(allowed)}$"
+    with pytest.raises(ValueError, match=message):
+        te.evaluate(STROKE, **kwargs)
+    with pytest.raises(ValueError, match=message):
+        te.stroke_history(STROKE, **kwargs, n_samples=16)
+
+
 # --- environments ----------------------------------------------------------------------------
 @pytest.mark.parametrize("speed", ["1.5", True, 1.5 + 0j, [1.5]])
 def test_env_speed_that_is_not_a_number(speed) -> None:
