@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from types import ModuleType
 
 #: Modules providing the subcommands, in the order ``--help`` lists them.
-SUBCOMMANDS: tuple[str, ...] = ("eval.optimize", "eval.compare", "eval.study")
+SUBCOMMANDS: tuple[str, ...] = ("eval.optimize", "eval.compare", "eval.study", "eval.measured")
 
 
 def _load(names: Sequence[str]) -> list[ModuleType]:

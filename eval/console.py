@@ -1,5 +1,6 @@
 """Console scripts (``[project.scripts]`` in pyproject.toml): ``tandem-study``,
-``tandem-optimize`` and ``tandem-compare`` are ``python -m eval study|optimize|compare``."""
+``tandem-optimize``, ``tandem-compare`` and ``tandem-measured`` are
+``python -m eval study|optimize|compare|measured``."""
 
 from __future__ import annotations
 
@@ -21,3 +22,8 @@ def optimize() -> int:
 def compare() -> int:
     """``tandem-compare ARGS`` = ``python -m eval compare ARGS``."""
     return main(["compare", *sys.argv[1:]])
+
+
+def measured() -> int:
+    """``tandem-measured ARGS`` = ``python -m eval measured ARGS``."""
+    return main(["measured", *sys.argv[1:]])

@@ -10,16 +10,22 @@ import numba as _numba
 if "NUMBA_THREADING_LAYER" not in _os.environ:
     _numba.config.THREADING_LAYER = "workqueue"
 
+from .coefficients import (
+    COEFFICIENT_MODELS,
+    PaperCoefficients,
+    SinusoidalFit,
+    TabulatedCoefficients,
+    coefficient_model,
+)
 from .insect import DRAGONFLY, PLANFORMS, Dragonfly, Wing
+from .measured import MeasuredWing, evaluate_measured
 from .model import (
     AVAILABLE_POWER_LIMITS,
     MAX_FLIGHT_PATH_ANGLE,
     METRIC_NAMES,
     SPEED_LIMITS,
-    MeasuredWing,
     Result,
     evaluate,
-    evaluate_measured,
     validate_conditions,
 )
 from .options import ModelOptions
@@ -40,6 +46,7 @@ from .stroke import (
 
 __all__ = [
     "AVAILABLE_POWER_LIMITS",
+    "COEFFICIENT_MODELS",
     "DRAGONFLY",
     "LOWER",
     "MAX_FLIGHT_PATH_ANGLE",
@@ -54,10 +61,14 @@ __all__ = [
     "Dragonfly",
     "MeasuredWing",
     "ModelOptions",
+    "PaperCoefficients",
     "Result",
+    "SinusoidalFit",
     "Stroke",
+    "TabulatedCoefficients",
     "Wing",
     "WingStroke",
+    "coefficient_model",
     "evaluate",
     "evaluate_measured",
     "normalised_to_physical",
@@ -67,6 +78,6 @@ __all__ = [
     "validate_physical",
 ]
 
-from .history import StrokeHistory, WingHistory, stroke_history
+from .history import StrokeHistory, WingHistory, measured_history, stroke_history
 
-__all__ += ["StrokeHistory", "WingHistory", "stroke_history"]
+__all__ += ["StrokeHistory", "WingHistory", "measured_history", "stroke_history"]

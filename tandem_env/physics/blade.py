@@ -36,6 +36,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .coefficients import PAPER, force_coefficients
+
 # Columns of the per-sample frame coefficients (one row per time sample).
 C_AU = 0  # ė_s·e_c            [1/s]   chordwise flapping velocity per unit radius
 C_AV = 1  # ė_s·e_n            [1/s]
@@ -163,11 +165,14 @@ def relative_velocity(coef, k, r, v_tangential, v_normal):
 
 
 @njit(cache=True)
-def element_force(u, v, du, dv, spin, chord, m11, m22, rho, ct, cd0, cd90, cr):
+def element_force(u, v, du, dv, spin, chord, m11, m22, rho, ct, cd0, cd90, cr, table=None):
     """Aerodynamic force per unit span (F_c, F_n) [N/m] on one blade element (Eqs. 11-14).
 
     Circulatory + added mass + viscous; the wing's own inertia is not an aerodynamic force
-    (docs/model.md §4).
+    (docs/model.md §4.9). ``table``: the wing's force-coefficient model (``coefficients``;
+    omitted or ``[PAPER]``: the paper's C_t·sin 2α and C_d(0)cos²α + C_d(π/2)sin²α from ``ct``,
+    ``cd0``, ``cd90``); any other model replaces them by its C_L(α), C_D(α):
+    Γ_t = −½·c·|U|·C_L·sign(v), F_V = −½ρc·C_D·|U|·(u, v).
     """
     speed2 = u * u + v * v
     gamma = 0.5 * cr * spin * chord * chord
@@ -175,8 +180,17 @@ def element_force(u, v, du, dv, spin, chord, m11, m22, rho, ct, cd0, cd90, cr):
     fn = -m11 * u * spin - m22 * dv
     if speed2 > 0.0:
         speed = np.sqrt(speed2)
-        gamma -= ct * chord * u * v / speed
-        drag = 0.5 * rho * chord * (cd0 * u * u + cd90 * v * v) / speed
+        paper = True
+        if table is not None:
+            paper = table[0] == PAPER
+        if paper:
+            gamma -= ct * chord * u * v / speed
+            drag = 0.5 * rho * chord * (cd0 * u * u + cd90 * v * v) / speed
+        else:
+            lift_coefficient, drag_coefficient = force_coefficients(u, v, table)
+            side = 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0)
+            gamma -= 0.5 * chord * speed * lift_coefficient * side
+            drag = 0.5 * rho * chord * drag_coefficient * speed
         fc -= drag * u
         fn -= drag * v
     fc -= rho * gamma * v

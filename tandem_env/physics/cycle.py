@@ -184,6 +184,43 @@ def mean_positive_part(g, cos_table, sin_table):
 
 
 @njit(cache=True)
+def cycle_means(histories, weight, out, cos_table, sin_table):
+    """Cycle means of one wing's per-sample F_x, F_z, F_y, P_aero, P_iner (``histories``,
+    (n_time, 5) [N, W]) with quadrature weights ``weight`` (n_time,): writes W_FX, W_FZ,
+    W_THRUST, W_DRAG, W_P_AERO, W_P_INER and W_P_ELASTIC of ``out``."""
+    n_time = histories.shape[0]
+    g = np.empty(n_time)
+    fx = 0.0
+    fz = 0.0
+    for k in range(n_time):
+        w = weight[k]
+        fx += histories[k, 0] * w
+        fz += histories[k, 1] * w
+    out[W_FX] = fx / n_time
+    out[W_FZ] = fz / n_time
+    # T = mean F_x⁺, D = mean F_x⁻ = T − mean F_x; mean|P| = 2·mean P⁺ − mean P
+    for k in range(n_time):
+        g[k] = histories[k, 0] * weight[k]
+    out[W_THRUST] = mean_positive_part(g, cos_table, sin_table)
+    out[W_DRAG] = max(out[W_THRUST] - out[W_FX], 0.0)
+    mean_aero = 0.0
+    mean_iner = 0.0
+    for k in range(n_time):
+        g[k] = histories[k, 3] * weight[k]
+        mean_aero += g[k]
+    mean_aero /= n_time
+    out[W_P_AERO] = max(2.0 * mean_positive_part(g, cos_table, sin_table) - mean_aero, 0.0)
+    for k in range(n_time):
+        g[k] = histories[k, 4] * weight[k]
+        mean_iner += g[k]
+    mean_iner /= n_time
+    out[W_P_INER] = max(2.0 * mean_positive_part(g, cos_table, sin_table) - mean_iner, 0.0)
+    for k in range(n_time):
+        g[k] = (histories[k, 3] + histories[k, 4]) * weight[k]
+    out[W_P_ELASTIC] = mean_positive_part(g, cos_table, sin_table)
+
+
+@njit(cache=True)
 def wing_cycle(
     coef,
     nodes,
@@ -202,12 +239,14 @@ def wing_cycle(
     histories,
     cos_table,
     sin_table,
+    table=None,
 ):
     """Solve the inflow of one wing and integrate its cycle (writes ``out`` and ``out_inflow``).
 
     ``v_external``: (n_r,) inflow imposed from upstream [m/s] (the fore-wing's slipstream on the
     hind-wing, already scaled by C_hf). ``histories``: (n_time, 5) scratch receiving F_x, F_z,
-    F_y, P_aero, P_iner per sample (one wing) [N, W].
+    F_y, P_aero, P_iner per sample (one wing) [N, W]. ``table``: the wing's force-coefficient
+    model (``coefficients``), ``None`` for the paper's (then compiled exactly as without models).
     """
     n_time = coef.shape[0]
     n_r = nodes.shape[0]
@@ -245,14 +284,14 @@ def wing_cycle(
         if solve_inflow:
             v_induced, evals, ok = solve_annulus_samples(
                 frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
-                sweep_amplitude, tolerance, max_evaluations, samples,
+                sweep_amplitude, tolerance, max_evaluations, samples, table,
             )  # fmt: skip
             converged = converged and ok
             max_evals = max(max_evals, evals)
         else:
             normal_force_sweep(
                 frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
-                samples,
+                samples, table,
             )  # fmt: skip
         out_inflow[j] = v_induced
         area += chord * width
@@ -286,35 +325,7 @@ def wing_cycle(
             + consts[K_I_PITCH] * frame[k, C_SPIN] * frame[k, C_DSPIN]
         )
         aoa += span[3, k] * frame[k, C_WEIGHT]
-    g = np.empty(n_time)
-    fx = 0.0
-    fz = 0.0
-    for k in range(n_time):
-        w = frame[k, C_WEIGHT]
-        fx += histories[k, 0] * w
-        fz += histories[k, 1] * w
-    out[W_FX] = fx / n_time
-    out[W_FZ] = fz / n_time
-    # T = mean F_x⁺, D = mean F_x⁻ = T − mean F_x; mean|P| = 2·mean P⁺ − mean P
-    for k in range(n_time):
-        g[k] = histories[k, 0] * frame[k, C_WEIGHT]
-    out[W_THRUST] = mean_positive_part(g, cos_table, sin_table)
-    out[W_DRAG] = max(out[W_THRUST] - out[W_FX], 0.0)
-    mean_aero = 0.0
-    mean_iner = 0.0
-    for k in range(n_time):
-        g[k] = histories[k, 3] * frame[k, C_WEIGHT]
-        mean_aero += g[k]
-    mean_aero /= n_time
-    out[W_P_AERO] = max(2.0 * mean_positive_part(g, cos_table, sin_table) - mean_aero, 0.0)
-    for k in range(n_time):
-        g[k] = histories[k, 4] * frame[k, C_WEIGHT]
-        mean_iner += g[k]
-    mean_iner /= n_time
-    out[W_P_INER] = max(2.0 * mean_positive_part(g, cos_table, sin_table) - mean_iner, 0.0)
-    for k in range(n_time):
-        g[k] = (histories[k, 3] + histories[k, 4]) * frame[k, C_WEIGHT]
-    out[W_P_ELASTIC] = mean_positive_part(g, cos_table, sin_table)
+    cycle_means(histories, coef_by_column[C_WEIGHT], out, cos_table, sin_table)
     out[W_AOA] = aoa / (area * n_time) if area > 0.0 else 0.0
     out[W_CONVERGED] = 1.0 if converged else 0.0
     out[W_EVALS] = max_evals
@@ -354,6 +365,8 @@ def tandem_stroke(
     out_history,
     cos_table,
     sin_table,
+    table_fore,
+    table_hind,
 ):
     """Cycle means of stroke ``b`` of a batch: the fore-wing first, then the hind-wing in its
     slipstream (see :func:`tandem_cycle` for the arguments)."""
@@ -391,6 +404,7 @@ def tandem_stroke(
             hist,
             cos_table,
             sin_table,
+            table_fore if wing == 0 else table_hind,
         )
         if out_history.shape[0] > b:
             out_history[b, wing] = hist
@@ -421,6 +435,8 @@ def tandem_cycle(
     out_history,
     cos_table,
     sin_table,
+    table_fore,
+    table_hind,
 ):
     """Cycle means of a batch of tandem strokes, in parallel over the batch.
 
@@ -430,6 +446,8 @@ def tandem_cycle(
     (``model.freestream_components``).
     Writes ``out`` (B, 2, N_WING_OUT) and ``out_inflow`` (B, 2, n_r) [m/s]; if ``out_history``
     has B rows, also the per-sample F_x, F_z, F_y, P_aero, P_iner of each wing (B, 2, n_time, 5).
+    ``table_fore``, ``table_hind``: the wings' force-coefficient models (``coefficients``), both
+    ``None`` for the paper's: numba compiles that signature without the models' code.
     """
     for b in prange(angles_fore.shape[0]):
         tandem_stroke(
@@ -457,4 +475,6 @@ def tandem_cycle(
             out_history,
             cos_table,
             sin_table,
+            table_fore,
+            table_hind,
         )

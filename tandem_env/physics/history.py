@@ -2,7 +2,8 @@
 
 The histories come from the same compiled cycle as :func:`~tandem_env.physics.model.evaluate`
 (the inflow is solved the same way), sampled on a uniform time grid so that curves can be
-plotted and compared directly.
+plotted and compared directly: :func:`stroke_history` for a 28-parameter stroke,
+:func:`measured_history` for a pair of :class:`~tandem_env.physics.measured.MeasuredWing`.
 """
 
 from __future__ import annotations
@@ -15,12 +16,19 @@ from . import blade, cycle
 from .checks import is_integer
 from .insect import DRAGONFLY, Dragonfly
 from .kinematics import fill_angles, wing_params_radians
+from .measured import (
+    MeasuredWing,
+    element_tables,
+    evaluate_measured,
+    measured_inputs,
+    run_measured,
+)
 from .model import (
     DEFAULT_OPTIONS,
     Result,
+    coefficient_tables,
     evaluate,
     freestream_components,
-    run_kernel,
     validate_conditions,
     wing_tables,
 )
@@ -41,7 +49,7 @@ class WingHistory:
     elevation: np.ndarray
     """θ [deg]."""
     pitch: np.ndarray
-    """η [deg]."""
+    """η [deg] (of a twisted measured wing: at r/R = 0.75)."""
     tip_path: np.ndarray
     """(n, 3) wing-tip position relative to the wing base, earth axes (X forward, Y right, Z up),
     normalised by the wing length [-]."""
@@ -62,13 +70,22 @@ class WingHistory:
     inflow: np.ndarray
     """(n_blade,) induced velocity of each annulus [m/s] (own inflow plus the upstream share)."""
 
+    def thrust_and_drag(self) -> tuple[float, float]:
+        """Cycle means of the forward and rearward parts of the pair's horizontal force [N]
+        (``thrust_split="sign"``, docs/model.md §7.3), by the kernel's quadrature
+        (``cycle.mean_positive_part``) on these samples. For measured input they are the
+        evaluation's own samples, so fore plus hind is the result's T and D."""
+        g = np.ascontiguousarray(self.horizontal_force, dtype=float)
+        thrust = float(cycle.mean_positive_part(g, *cycle.fourier_tables(g.shape[0])))
+        return thrust, max(thrust - float(g.mean()), 0.0)
+
 
 @dataclass(frozen=True)
 class StrokeHistory:
     fore: WingHistory
     hind: WingHistory
     result: Result
-    """The cycle means of :func:`evaluate` for this stroke (B = 1)."""
+    """The cycle means of :func:`evaluate` (or :func:`evaluate_measured`) for this stroke (B = 1)."""
 
 
 def _tip_path(angles: np.ndarray, beta: float, side: int = 1) -> np.ndarray:
@@ -79,6 +96,13 @@ def _tip_path(angles: np.ndarray, beta: float, side: int = 1) -> np.ndarray:
     x_e = np.cos(beta) * span[:, 0] + np.sin(beta) * span[:, 2]
     z_e = -np.sin(beta) * span[:, 0] + np.cos(beta) * span[:, 2]
     return np.stack([x_e, side * span[:, 1], z_e], axis=1)
+
+
+def _check_side(n_samples: int, side: int) -> None:
+    if not is_integer(n_samples) or n_samples < 8:
+        raise ValueError(f"n_samples = {n_samples!r}; allowed: an integer >= 8")
+    if side not in (1, -1):
+        raise ValueError(f"side = {side!r}; allowed: 1 (right wings) or -1 (left wings)")
 
 
 def stroke_history(
@@ -102,11 +126,8 @@ def stroke_history(
     physical = validate_physical(stroke)
     if physical.shape[0] != 1:
         raise ValueError(f"stroke_history takes one stroke of shape (28,); got {np.shape(stroke)}")
-    if not is_integer(n_samples) or n_samples < 8:
-        raise ValueError(f"n_samples = {n_samples!r}; allowed: an integer >= 8")
+    _check_side(n_samples, side)
     n_samples = int(n_samples)
-    if side not in (1, -1):
-        raise ValueError(f"side = {side!r}; allowed: 1 (right wings) or -1 (left wings)")
     v, p_avail, gamma = validate_conditions(speed, available_power, flight_path_angle, 1, insect)
     angles, weights, frequency, beta, sweep = (
         [],
@@ -115,7 +136,6 @@ def stroke_history(
         np.empty((1, 2)),
         np.empty((1, 2)),
     )
-    fractions = []
     for w in range(2):
         wing_physical = physical[:, w * N_PER_WING : (w + 1) * N_PER_WING]
         params = wing_params_radians(wing_physical)
@@ -124,34 +144,85 @@ def stroke_history(
         fill_angles(params[0], 2.0 * np.pi * s, uniform)
         angles.append(uniform[None])
         weights.append(np.ones((1, n_samples)))
-        fractions.append(s)
         frequency[0, w] = params[0, 0]
         beta[0, w] = params[0, 13]
         sweep[0, w] = params[0, 1]
+    result = evaluate(physical, v, p_avail, flight_path_angle=gamma, insect=insect, options=options)
+    return _histories(
+        angles, weights, frequency, beta, sweep, v, gamma, result, insect, options, side
+    )
+
+
+def measured_history(
+    fore: MeasuredWing,
+    hind: MeasuredWing,
+    speed: float = 0.0,
+    available_power: float | None = None,
+    *,
+    flight_path_angle: float = 0.0,
+    insect: Dragonfly = DRAGONFLY,
+    options: ModelOptions = DEFAULT_OPTIONS,
+    side: int = 1,
+) -> StrokeHistory:
+    """Time histories of measured kinematics over one cycle, on their own samples.
+
+    The same :class:`StrokeHistory` as :func:`stroke_history` (forces, power, angle of attack
+    and inflow per wing pair; earth axes), ``result`` exactly :func:`evaluate_measured` of the
+    pair. Each wing's history has its samples t = i/(n·f); ``pitch`` of a twisted wing is
+    reported at r/R = 0.75. ``side = -1`` evaluates the mirror image (the left wings).
+    """
+    result = evaluate_measured(
+        fore,
+        hind,
+        speed,
+        available_power,
+        flight_path_angle=flight_path_angle,
+        insect=insect,
+        options=options,
+    )
+    _check_side(fore.n_samples, side)
+    angles, weights, frequency, beta, sweep = measured_inputs(fore, hind, insect, options)
+    pitch = [np.rad2deg(wing.pitch_at(0.75)) for wing in (fore, hind)]
+    return _histories(
+        angles, weights, frequency, beta, sweep, result.speed, result.flight_path_angle, result,
+        insect, options, side, pitch,
+    )  # fmt: skip
+
+
+def _histories(
+    angles: list[np.ndarray],
+    weights: list[np.ndarray],
+    frequency: np.ndarray,
+    beta: np.ndarray,
+    sweep: np.ndarray,
+    v: np.ndarray,
+    gamma: np.ndarray,
+    result: Result,
+    insect: Dragonfly,
+    options: ModelOptions,
+    side: int,
+    pitch: list[np.ndarray] | None = None,
+) -> StrokeHistory:
+    """The histories of both wing pairs from their angles on a uniform grid (B = 1); ``angles``
+    per wing (1, n, 9), or (n_blade, n, 9) per blade element of a twisted wing."""
     freestream = freestream_components(v, beta, gamma)
-    out, inflow, hist = run_kernel(
+    _, inflow, hist = run_measured(
         angles, weights, frequency, beta, sweep, v, gamma, insect, options, keep_history=True
     )
     if side == -1:
-        _, hist = _mirror_run(angles, weights, frequency, beta, freestream, inflow, insect, options)
-    del out
-    result = evaluate(physical, v, p_avail, flight_path_angle=gamma, insect=insect, options=options)
+        hist = _mirror_run(angles, weights, frequency, beta, freestream, inflow, insect, options)
     n_w = insect.wings_per_pair
     wings = []
     for w, wing in enumerate((insect.fore, insect.hind)):
         a = angles[w][0]
-        upstream = (
-            options.interference * inflow[0, 0]
-            if (w == 1 and options.induction == "coupled")
-            else 0.0
-        )
-        total_inflow = inflow[0, w] + upstream
+        n_samples = a.shape[0]
+        fraction = np.arange(n_samples) / n_samples
         aoa, rel_speed = _flow_angles(
-            a,
+            angles[w],
             weights[w][0],
             beta[0, w],
             freestream[0, w],
-            total_inflow,
+            _total_inflow(inflow, w, options),
             wing,
             insect,
             options,
@@ -159,11 +230,11 @@ def stroke_history(
         )
         wings.append(
             WingHistory(
-                cycle_fraction=fractions[w],
-                time=fractions[w] / frequency[0, w],
+                cycle_fraction=fraction,
+                time=fraction / frequency[0, w],
                 sweep=np.rad2deg(a[:, 0]),
                 elevation=np.rad2deg(a[:, 3]),
-                pitch=np.rad2deg(a[:, 6]),
+                pitch=np.rad2deg(a[:, 6]) if pitch is None else pitch[w],
                 tip_path=_tip_path(a, beta[0, w], side),
                 angle_of_attack=aoa,
                 relative_speed=rel_speed,
@@ -172,64 +243,90 @@ def stroke_history(
                 lateral_force=hist[0, w, :, 2],
                 aero_power=n_w * hist[0, w, :, 3],
                 inertial_power=n_w * hist[0, w, :, 4],
-                inflow=total_inflow,
+                inflow=_total_inflow(inflow, w, options),
             )
         )
     return StrokeHistory(fore=wings[0], hind=wings[1], result=result)
 
 
+def _total_inflow(inflow: np.ndarray, w: int, options: ModelOptions) -> np.ndarray:
+    """A wing's own induced velocity per annulus plus the upstream share [m/s]."""
+    if w == 1 and options.induction == "coupled":
+        return inflow[0, w] + options.interference * inflow[0, 0]
+    return inflow[0, w] + 0.0
+
+
+def _element_frames(angles, weights, beta, spin_total, side):
+    """Frame coefficients of a wing (one table) or of each blade element (a list of tables)."""
+    n_time = angles.shape[1]
+    out = []
+    for a in angles:
+        coef = np.empty((n_time, blade.N_COEF))
+        blade.fill_frame_coefficients(a, weights, beta, spin_total, side, coef)
+        out.append(coef)
+    return out
+
+
 def _mirror_run(angles, weights, frequency, beta, freestream, inflow, insect, options):
-    """The same cycle for the mirror-image (left) wings, with the right wings' inflow imposed."""
+    """Per-sample histories of the mirror-image (left) wings, with the right wings' inflow
+    imposed, (1, 2, n, 5)."""
     n_time = weights[0].shape[1]
-    out = np.empty((1, 2, cycle.N_WING_OUT))
-    hist = np.empty((1, 2, n_time, 5))
-    coef = np.empty((n_time, blade.N_COEF))
+    hist = np.zeros((1, 2, n_time, 5))
+    out = np.empty(cycle.N_WING_OUT)
     scratch = np.empty((n_time, 5))
     for w, wing in enumerate((insect.fore, insect.hind)):
-        nodes, consts = wing_tables(wing, options.n_blade, insect.air_density)
-        blade.fill_frame_coefficients(
-            angles[w][0], weights[w][0], beta[0, w], options.spin == "total", -1, coef
-        )
-        upstream = (
-            options.interference * inflow[0, 0]
-            if (w == 1 and options.induction == "coupled")
-            else 0.0
-        )
-        v_ext = inflow[0, w] + upstream
-        cycle.wing_cycle(
-            coef,
-            nodes,
-            consts,
-            insect.air_density,
-            frequency[0, w],
-            0.0,
-            freestream[0, w, 0],
-            freestream[0, w, 1],
-            np.ascontiguousarray(v_ext),
-            False,
-            options.tolerance,
-            options.max_evaluations,
-            np.empty(options.n_blade),
-            out[0, w],
-            scratch,
-            *cycle.fourier_tables(n_time),
-        )
-        hist[0, w] = scratch
-    return out, hist
+        v_ext = _total_inflow(inflow, w, options)
+        frames = _element_frames(angles[w], weights[w][0], beta[0, w], options.spin == "total", -1)
+        if len(frames) == 1:
+            tables = [wing_tables(wing, options.n_blade, insect.air_density)]
+            parts = [(frames[0], tables[0], v_ext)]
+        else:
+            tables = element_tables(wing, options.n_blade, insect.air_density)
+            parts = [(frames[j], tables[j], v_ext[j : j + 1]) for j in range(len(frames))]
+        for coef, (nodes, consts), v_part in parts:
+            cycle.wing_cycle(
+                coef,
+                nodes,
+                consts,
+                insect.air_density,
+                frequency[0, w],
+                0.0,
+                freestream[0, w, 0],
+                freestream[0, w, 1],
+                np.ascontiguousarray(v_part),
+                False,
+                options.tolerance,
+                options.max_evaluations,
+                np.empty(nodes.shape[0]),
+                out,
+                scratch,
+                *cycle.fourier_tables(n_time),
+                coefficient_tables(insect)[w],
+            )
+            hist[0, w] += scratch
+    return hist
 
 
 def _flow_angles(angles, weights, beta, freestream, inflow, wing, insect, options, side):
     """Area-weighted angle of attack [deg] and relative speed at r/R = 0.75 [m/s] over time;
-    ``freestream`` is the wing's (V_t, V_n) [m/s]."""
-    n_time = angles.shape[0]
-    coef = np.empty((n_time, blade.N_COEF))
-    blade.fill_frame_coefficients(angles, weights, beta, options.spin == "total", side, coef)
+    ``angles`` (1, n, 9) or (n_blade, n, 9) per element; ``freestream`` the wing's (V_t, V_n)
+    [m/s]."""
+    n_time = angles.shape[1]
+    frames = _element_frames(angles, weights, beta, options.spin == "total", side)
     nodes, _ = wing_tables(wing, options.n_blade, insect.air_density)
     r = nodes[:, cycle.N_R][None, :]
     vt = freestream[0]
     vn = freestream[1] + inflow[None, :]
     # the kernel's own formula, broadcast over (sample, annulus) through an index column
-    u, v, _, _ = blade.relative_velocity.py_func(coef, np.arange(n_time)[:, None], r, vt, vn)
+    index = np.arange(n_time)[:, None]
+    if len(frames) == 1:
+        u, v, _, _ = blade.relative_velocity.py_func(frames[0], index, r, vt, vn)
+    else:
+        u = np.empty((n_time, len(frames)))
+        v = np.empty((n_time, len(frames)))
+        for j, coef in enumerate(frames):
+            uj, vj, _, _ = blade.relative_velocity.py_func(coef, index, r[:, j], vt, vn[:, j])
+            u[:, j], v[:, j] = uj[:, 0], vj[:, 0]
     area = nodes[:, cycle.N_CHORD] * nodes[:, cycle.N_WIDTH]
     aoa = np.rad2deg(np.arctan2(np.abs(v), np.abs(u)) @ area / area.sum())
     speed_nodes = np.hypot(u, v)

@@ -12,7 +12,9 @@ where F̄_n(0) ≤ 0.
 A plain damped fixed point diverges near the root (docs/model.md §5). Each annulus is solved by
 safeguarded Newton on the force alone. A force sweep over the cycle (:func:`normal_force_sweep`)
 gives F̄_n(v) and keeps every sample's element force and relative velocity; from those,
-:func:`normal_force_slope` gives the exact slope dF̄_n/dv without recomputing a force. The
+:func:`normal_force_slope` gives the exact slope dF̄_n/dv without recomputing a force (for a
+force-coefficient model other than the paper's, ``coefficients``, from the model's C_L, C_D and
+their exact α-rates, :func:`normal_force_rate_model`). The
 momentum side m(v) is known exactly, so each step solves a model of F̄_n exactly against m(v)
 (cheap scalar Newton, no force sweep): the tangent, bent by the curvature of the last two
 slopes, until the root is bracketed; then the cubic Hermite interpolant on the bracket
@@ -29,6 +31,7 @@ import numpy as np
 from numba import njit
 
 from .blade import C_DECZ, C_DENZ, C_ECZ, C_ENZ, C_SPIN, C_WEIGHT, element_force, relative_velocity
+from .coefficients import PAPER, coefficients_and_rates
 
 #: Rows of the per-sample record a force sweep leaves, (N_SAMPLE, n_time): element force
 #: (F_c, F_n) [N/m] and relative velocity (u, v) [m/s] at the swept inflow, and scratch for the
@@ -39,6 +42,13 @@ S_U = 2
 S_V = 3
 S_RATE = 4
 N_SAMPLE = 5
+
+
+@njit(cache=True)
+def _added_mass_rate(a, b, c, d, spin, m11, m22):
+    """The part of :func:`normal_force_rate` linear in the state: the added mass (the rotational
+    circulation ρΓ_r·(−v, u) is normal to n and contributes nothing) [N·s/m²]."""
+    return (m22 - m11) * a * b * spin - m11 * a * c - m22 * b * d
 
 
 @njit(cache=True)
@@ -54,7 +64,7 @@ def normal_force_rate(u, v, a, b, c, d, spin, chord, m11, m22, rho, ct, cd0, cd9
     ``element_force`` term by term (tests/physics/test_inflow_solver.py checks it against finite
     differences of the sweep); a wrong slope would only slow the solve, never change its result.
     """
-    rate = (m22 - m11) * a * b * spin - m11 * a * c - m22 * b * d
+    rate = _added_mass_rate(a, b, c, d, spin, m11, m22)
     speed2 = u * u + v * v
     if speed2 > 0.0:
         inv = 1.0 / np.sqrt(speed2)
@@ -72,20 +82,54 @@ def normal_force_rate(u, v, a, b, c, d, spin, chord, m11, m22, rho, ct, cd0, cd9
 
 
 @njit(cache=True)
+def normal_force_rate_model(u, v, a, b, c, d, spin, chord, m11, m22, rho, table):
+    """:func:`normal_force_rate` for a force-coefficient model (``coefficients``) [N·s/m²].
+
+    The same derivative of ``blade.element_force``'s non-paper branch along (a, b), with the
+    model's C_L(α), C_D(α) and their exact rates (``coefficients.coefficients_and_rates``):
+    with p = U·n, q = U⊥·n, the viscous term −D·p, D = ½ρc·C_D·|U|, and the circulatory term
+    ρΓ_t·q, Γ_t = −½c·|U|·C_L·sign(v), change through |U| (rate p/|U|) and α = atan2(|v|, u)
+    (rate sign(v)·q/|U|²). At v = 0, where sign(v) jumps, the rate is the one towards +n.
+    The added mass is as for the paper.
+    """
+    rate = _added_mass_rate(a, b, c, d, spin, m11, m22)
+    speed2 = u * u + v * v
+    if speed2 > 0.0:
+        speed = np.sqrt(speed2)
+        cl, cd, dcl, dcd = coefficients_and_rates(np.arctan2(abs(v), u), table)
+        if v > 0.0:
+            side = 1.0
+        elif v < 0.0:
+            side = -1.0
+        else:
+            side = 1.0 if b >= 0.0 else -1.0
+        along = u * a + v * b  # p
+        across = u * b - v * a  # q
+        dalpha = side * across / speed2
+        k = 0.5 * rho * chord
+        drag = k * cd * speed
+        ddrag = k * (cd * along / speed + speed * dcd * dalpha)
+        dgamma = -0.5 * chord * side * (cl * along / speed + speed * dcl * dalpha)
+        rate += rho * dgamma * across - ddrag * along - drag * (a * a + b * b)
+    return rate
+
+
+@njit(cache=True)
 def normal_force_sweep(
-    coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, samples
+    coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, samples, table=None
 ):
     """One force sweep over the cycle at normal inflow ``v_normal``: F̄_n [N/m].
 
-    Leaves each sample's (F_c, F_n, u, v) in ``samples`` (N_SAMPLE, n_time). The element loop
-    holds no running sum, so the compiler vectorises it (with ``coef`` in Fortran order, each
+    Leaves each sample's (F_c, F_n, u, v) in ``samples`` (N_SAMPLE, n_time). ``table``: the
+    wing's force-coefficient model (``blade.element_force``; ``None``: the paper's). The element
+    loop holds no running sum, so the compiler vectorises it (with ``coef`` in Fortran order, each
     column contiguous); the mean is then summed in sample order.
     """
     n = coef.shape[0]
     for k in range(n):
         u, v, du, dv = relative_velocity(coef, k, r, v_tangential, v_normal)
         fc, fn = element_force(
-            u, v, du, dv, coef[k, C_SPIN], chord, m11, m22, rho, ct, cd0, cd90, cr
+            u, v, du, dv, coef[k, C_SPIN], chord, m11, m22, rho, ct, cd0, cd90, cr, table
         )
         samples[S_FC, k] = fc
         samples[S_FN, k] = fn
@@ -100,15 +144,28 @@ def normal_force_sweep(
 
 
 @njit(cache=True)
-def normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples):
+def normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples, table=None):
     """dF̄_n/dv_n [N·s/m²] at the inflow of the sweep that left ``samples`` (from its stored
-    relative velocities: no element force is recomputed)."""
+    relative velocities: no element force is recomputed; ``table``: the wing's force-coefficient
+    model, ``None`` or the paper's: :func:`normal_force_rate`, any other:
+    :func:`normal_force_rate_model`)."""
     n = coef.shape[0]
-    for k in range(n):
-        samples[S_RATE, k] = coef[k, C_WEIGHT] * normal_force_rate(
-            samples[S_U, k], samples[S_V, k], coef[k, C_ECZ], coef[k, C_ENZ], coef[k, C_DECZ],
-            coef[k, C_DENZ], coef[k, C_SPIN], chord, m11, m22, rho, ct, cd0, cd90,
-        )  # fmt: skip
+    paper = True
+    if table is not None:
+        paper = table[0] == PAPER
+    if paper:
+        for k in range(n):
+            samples[S_RATE, k] = coef[k, C_WEIGHT] * normal_force_rate(
+                samples[S_U, k], samples[S_V, k], coef[k, C_ECZ], coef[k, C_ENZ],
+                coef[k, C_DECZ], coef[k, C_DENZ], coef[k, C_SPIN], chord, m11, m22, rho, ct,
+                cd0, cd90,
+            )  # fmt: skip
+    else:
+        for k in range(n):
+            samples[S_RATE, k] = coef[k, C_WEIGHT] * normal_force_rate_model(
+                samples[S_U, k], samples[S_V, k], coef[k, C_ECZ], coef[k, C_ENZ],
+                coef[k, C_DECZ], coef[k, C_DENZ], coef[k, C_SPIN], chord, m11, m22, rho, table,
+            )  # fmt: skip
     rate = 0.0
     for k in range(n):
         rate += samples[S_RATE, k]
@@ -116,11 +173,14 @@ def normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples):
 
 
 @njit(cache=True)
-def mean_normal_force(coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal):
-    """Cycle-mean aerodynamic force per unit span along the stroke-plane normal [N/m]."""
+def mean_normal_force(
+    coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, table=None
+):
+    """Cycle-mean aerodynamic force per unit span along the stroke-plane normal [N/m];
+    ``table``: the force-coefficient model (``blade.element_force``)."""
     samples = np.empty((N_SAMPLE, coef.shape[0]))
     return normal_force_sweep(
-        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, samples
+        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, samples, table
     )
 
 
@@ -203,10 +263,12 @@ def solve_annulus_samples(
     tolerance,
     max_iterations,
     samples,
+    table=None,
 ):
     """Induced velocity v_i [m/s] of one annulus; returns (v_i, force sweeps, converged).
 
-    Converged means |h(v_i)| ≤ tolerance·F̄_n(0) or the bracket is narrower than
+    ``table``: the wing's force-coefficient model (``blade.element_force``; ``None``: the
+    paper's). Converged means |h(v_i)| ≤ tolerance·F̄_n(0) or the bracket is narrower than
     tolerance·v_hover (v_hover: the inflow at which m alone absorbs F̄_n(0)). ``samples``
     (N_SAMPLE, n_time) is left holding the sweep at exactly the returned v_i.
 
@@ -219,10 +281,12 @@ def solve_annulus_samples(
     vt = v_tangential
     vn0 = v_normal0
     k_area = 4.0 * rho * sweep_amplitude * r
-    f0 = normal_force_sweep(coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0, samples)
+    f0 = normal_force_sweep(
+        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0, samples, table
+    )
     if f0 <= 0.0 or k_area <= 0.0:
         return 0.0, 1, True
-    s0 = normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples)
+    s0 = normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples, table)
     v_hover = _search_upwards(0.0, f0, 0.0, 0.0, 0.0, k_area, vt, vn0, 0.0, 1.0)
     f_tol = tolerance * f0
     x_tol = tolerance * max(v_hover, 1e-9)
@@ -260,14 +324,14 @@ def solve_annulus_samples(
             step_last = abs(v_new - v)
             v = v_new
         fv = normal_force_sweep(
-            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0 + v, samples
+            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0 + v, samples, table
         )
         evaluations += 1
         hv = fv - _momentum(v, k_area, vt, vn0)[0]
         if abs(hv) <= f_tol or (hi - v if hv > 0.0 else v - lo) <= x_tol:
             return v, evaluations, True
         # the slope only where the next step needs it: not at the sweep that converges
-        sv = normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples)
+        sv = normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples, table)
         if hv > 0.0:
             curvature = (sv - s_lo) / (v - lo)
             lo, f_lo, s_lo = v, fv, sv
@@ -293,6 +357,7 @@ def solve_annulus(
     sweep_amplitude,
     tolerance,
     max_iterations,
+    table=None,
 ):
     """Induced velocity v_i [m/s] of one annulus; returns (v_i, force sweeps, converged).
 
@@ -301,5 +366,5 @@ def solve_annulus(
     samples = np.empty((N_SAMPLE, coef.shape[0]))
     return solve_annulus_samples(
         coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0,
-        sweep_amplitude, tolerance, max_iterations, samples,
+        sweep_amplitude, tolerance, max_iterations, samples, table,
     )  # fmt: skip

@@ -14,6 +14,13 @@ from typing import Literal
 import numpy as np
 
 from .checks import is_integer, is_real
+from .coefficients import (
+    PAPER_COEFFICIENTS,
+    CoefficientModel,
+    PaperCoefficients,
+    SinusoidalFit,
+    coefficient_model,
+)
 
 Planform = Literal["tear-drop", "real"]
 PLANFORMS: tuple[str, ...] = ("tear-drop", "real")
@@ -87,9 +94,13 @@ class Wing:
     """μ₁, linear rotational-damping coefficient [-] (Berman & Wang 2007)."""
     damping_quadratic: float = 0.2
     """μ₂, quadratic rotational-damping coefficient [-] (Berman & Wang 2007)."""
+    coefficients: CoefficientModel = PAPER_COEFFICIENTS
+    """Force-coefficient model C_L(α), C_D(α) (``coefficients``): the paper's by default; a name
+    (``"dickinson1999"``) or a mapping ``{"model": …}`` is converted on construction."""
 
     def __post_init__(self) -> None:
         owner = "Wing"
+        object.__setattr__(self, "coefficients", coefficient_model(self.coefficients))
         _check_positive(owner, "mean_chord", self.mean_chord, "m")
         _check_positive(owner, "length", self.length, "m")
         _check_positive(owner, "drag_coefficient_0", self.drag_coefficient_0, "", allow_zero=True)
@@ -127,8 +138,31 @@ class Wing:
 
     @property
     def translational_coefficient(self) -> float:
-        """C_t = C_Lα / 2 [-], so that C_L(α) = C_t·sin 2α (docs/model.md §1)."""
+        """C_t = C_Lα / 2 [-], so that C_L(α) = C_t·sin 2α (docs/model.md §1), or the paper model's
+        override (``PaperCoefficients(translational=…)``)."""
+        model = self.coefficients
+        if isinstance(model, PaperCoefficients) and model.translational is not None:
+            return model.translational
         return 0.5 * helmbold_lift_slope(self.aspect_ratio)
+
+    def force_coefficients(self, alpha_deg: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """(C_L, C_D) of this wing's model at α [deg], 0-180 (``coefficients`` conventions).
+
+        For plots and reports; the compiled kernel evaluates the same model itself.
+        """
+        alpha = np.asarray(alpha_deg, dtype=float)
+        model = self.coefficients
+        if isinstance(model, PaperCoefficients):
+            rad = np.deg2rad(alpha)
+            lift = self.translational_coefficient * np.sin(2.0 * rad)
+            drag = (
+                self.drag_coefficient_0 * np.cos(rad) ** 2
+                + self.drag_coefficient_90 * np.sin(rad) ** 2
+            )
+            return lift, drag
+        if isinstance(model, SinusoidalFit):
+            return model.lift(alpha), model.drag(alpha)
+        return model.lift_at(alpha), model.drag_at(alpha)
 
     def _real_width(self, r_hat: np.ndarray) -> np.ndarray:
         assert self.real_edges is not None
@@ -242,6 +276,16 @@ class Dragonfly:
             raise ValueError(f"planform = {planform!r}; allowed: {PLANFORMS}")
         return replace(
             self, fore=self.fore.with_planform(planform), hind=self.hind.with_planform(planform)
+        )
+
+    def with_coefficients(
+        self, fore: CoefficientModel | str | None = None, hind: CoefficientModel | str | None = None
+    ) -> Dragonfly:
+        """The same insect with other force-coefficient models (``None`` keeps a wing's model)."""
+        return replace(
+            self,
+            fore=self.fore if fore is None else replace(self.fore, coefficients=fore),
+            hind=self.hind if hind is None else replace(self.hind, coefficients=hind),
         )
 
     @property

@@ -176,6 +176,30 @@ def angle_histories(
     return angles, weight, tau / (2.0 * np.pi)
 
 
+def spectral_derivatives(series: np.ndarray, frequency: float) -> np.ndarray:
+    """A periodic series and its first two time derivatives, by spectral differentiation.
+
+    ``series``: (n,) or (n, k) samples [rad] uniform over exactly one cycle (the first at t = 0,
+    the last at t = (n − 1)/n·T; the cycle is closed implicitly), k series in columns;
+    ``frequency`` f [Hz]. Returns (n, 3) or (n, 3, k): value, rate [rad/s], acceleration [rad/s²].
+    The Nyquist mode of an even n has no well-defined derivative and is dropped from them.
+    """
+    n = series.shape[0]
+    wavenumber = np.fft.rfftfreq(n, d=1.0 / n)  # harmonics of the beat
+    if series.ndim == 2:
+        wavenumber = wavenumber[:, None]
+    omega = 2.0 * np.pi * frequency
+    spectrum = np.fft.rfft(series, axis=0)
+    if n % 2 == 0:
+        spectrum_d = spectrum.copy()
+        spectrum_d[-1] = 0.0
+    else:
+        spectrum_d = spectrum
+    first = np.fft.irfft(1j * wavenumber * omega * spectrum_d, n=n, axis=0)
+    second = np.fft.irfft(-((wavenumber * omega) ** 2) * spectrum_d, n=n, axis=0)
+    return np.stack([series, first, second], axis=1)
+
+
 def measured_angle_history(
     phi: np.ndarray, theta: np.ndarray, eta: np.ndarray, frequency: float
 ) -> np.ndarray:
@@ -193,20 +217,7 @@ def measured_angle_history(
     -------
     (n, 9) array of φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈ [rad, rad/s, rad/s²].
     """
-    n = phi.shape[0]
-    wavenumber = np.fft.rfftfreq(n, d=1.0 / n)  # harmonics of the beat
-    omega = 2.0 * np.pi * frequency
-    out = np.empty((n, 9))
+    out = np.empty((phi.shape[0], 9))
     for j, series in enumerate((phi, theta, eta)):
-        spectrum = np.fft.rfft(series)
-        if n % 2 == 0:
-            spectrum_d = spectrum.copy()
-            spectrum_d[-1] = 0.0  # the Nyquist mode has no well-defined derivative
-        else:
-            spectrum_d = spectrum
-        first = np.fft.irfft(1j * wavenumber * omega * spectrum_d, n=n)
-        second = np.fft.irfft(-((wavenumber * omega) ** 2) * spectrum_d, n=n)
-        out[:, 3 * j] = series
-        out[:, 3 * j + 1] = first
-        out[:, 3 * j + 2] = second
+        out[:, 3 * j : 3 * j + 3] = spectral_derivatives(series, frequency)
     return out

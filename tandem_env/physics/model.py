@@ -15,8 +15,9 @@ import numpy as np
 
 from . import cycle
 from .checks import real_array
+from .coefficients import PaperCoefficients
 from .insect import DRAGONFLY, Dragonfly, Wing
-from .kinematics import fill_angle_history, measured_angle_history, wing_params_radians
+from .kinematics import fill_angle_history, wing_params_radians
 from .options import ModelOptions
 from .stroke import N_PER_WING, validate_physical
 
@@ -68,7 +69,7 @@ def wing_tables(wing: Wing, n_blade: int, air_density: float) -> tuple[np.ndarra
     nodes[:, cycle.N_M22] = 0.25 * np.pi * rho * chord**2
     nodes[:, cycle.N_IA] = np.pi * rho * (chord**2 + b_t**2) ** 2 / 128.0
     nodes[:, cycle.N_DAMP] = np.pi * rho * chord**4 / 16.0
-    mass_per_span = wing.mass * chord / (wing.mean_chord * wing.length)
+    span_inertia, pitch_inertia = node_inertia(wing, nodes)
     consts = np.empty(cycle.N_CONSTANTS)
     consts[cycle.K_CT] = wing.translational_coefficient
     consts[cycle.K_CD0] = wing.drag_coefficient_0
@@ -76,11 +77,23 @@ def wing_tables(wing: Wing, n_blade: int, air_density: float) -> tuple[np.ndarra
     consts[cycle.K_CR] = wing.rotational_coefficient
     consts[cycle.K_MU1] = wing.damping_linear
     consts[cycle.K_MU2] = wing.damping_quadratic
-    consts[cycle.K_I_SPAN] = np.sum(mass_per_span * (r_hat * wing.length) ** 2 * width)
-    consts[cycle.K_I_PITCH] = np.sum(mass_per_span * chord**2 / 12.0 * width)
+    consts[cycle.K_I_SPAN] = np.sum(span_inertia)
+    consts[cycle.K_I_PITCH] = np.sum(pitch_inertia)
     nodes.setflags(write=False)
     consts.setflags(write=False)
     return nodes, consts
+
+
+def node_inertia(wing: Wing, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each blade element's share of the wing's inertia, (n_blade,) each [kg·m²].
+
+    m'(r)·r²·dr (flapping of the pitch axis line) and m'(r)·c²/12·dr (thin-plate rotation about
+    it), with mass per span m' = m_w·c/(c̄R) (docs/model.md §6); their sums are the wing's constants.
+    """
+    chord = nodes[:, cycle.N_CHORD]
+    width = nodes[:, cycle.N_WIDTH]
+    mass_per_span = wing.mass * chord / (wing.mean_chord * wing.length)
+    return mass_per_span * nodes[:, cycle.N_R] ** 2 * width, mass_per_span * chord**2 / 12.0 * width
 
 
 @dataclass(frozen=True)
@@ -285,6 +298,14 @@ def freestream_components(
     return out
 
 
+def coefficient_tables(insect: Dragonfly) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The wings' force-coefficient tables for the kernel (``coefficients``): ``(None, None)``
+    when both use the paper's model, which keeps the default path's compiled code as it was."""
+    if all(isinstance(w.coefficients, PaperCoefficients) for w in (insect.fore, insect.hind)):
+        return None, None
+    return insect.fore.coefficients.table(), insect.hind.coefficients.table()
+
+
 def run_kernel(
     angles,
     weights,
@@ -296,6 +317,7 @@ def run_kernel(
     insect: Dragonfly,
     options: ModelOptions,
     keep_history: bool = False,
+    tables: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Run the compiled cycle on prepared angle histories (the step below :func:`evaluate`).
 
@@ -303,13 +325,18 @@ def run_kernel(
     weights; ``frequency``, ``beta``, ``sweep``: (B, 2) [Hz, rad, rad]; ``speed`` (B,) [m/s];
     ``flight_path_angle`` (B,) [rad]. Returns the per-wing cycle means (B, 2, N_WING_OUT), the
     inflow per annulus (B, 2, n_blade) [m/s] and, with ``keep_history``, the per-sample earth-axis
-    F_x, F_z, F_y [N] and P_aero, P_iner [W] of one wing (B, 2, n_time, 5).
+    F_x, F_z, F_y [N] and P_aero, P_iner [W] of one wing (B, 2, n_time, 5). ``tables``
+    replaces the insect's (nodes, constants) of the fore- and hind-wing (:func:`wing_tables`),
+    e.g. by single blade elements.
     """
-    nodes_f, consts_f = wing_tables(insect.fore, options.n_blade, insect.air_density)
-    nodes_h, consts_h = wing_tables(insect.hind, options.n_blade, insect.air_density)
+    if tables is None:
+        nodes_f, consts_f = wing_tables(insect.fore, options.n_blade, insect.air_density)
+        nodes_h, consts_h = wing_tables(insect.hind, options.n_blade, insect.air_density)
+    else:
+        nodes_f, consts_f, nodes_h, consts_h = tables
     batch, n_time = weights[0].shape
     out = np.empty((batch, 2, cycle.N_WING_OUT))
-    inflow = np.empty((batch, 2, options.n_blade))
+    inflow = np.empty((batch, 2, nodes_f.shape[0]))
     mode = {"none": cycle.MODE_NONE, "isolated": cycle.MODE_ISOLATED, "coupled": cycle.MODE_COUPLED}
     history = np.empty((batch if keep_history else 0, 2, n_time, 5))
     args = (
@@ -317,6 +344,7 @@ def run_kernel(
         freestream_components(speed, beta, flight_path_angle), nodes_f, consts_f, nodes_h, consts_h, insect.air_density, mode[options.induction],
         options.interference, options.spin == "total", options.tolerance,
         options.max_evaluations, out, inflow, history, *cycle.fourier_tables(n_time),
+        *coefficient_tables(insect),
     )  # fmt: skip
     if batch >= SERIAL_BELOW:
         cycle.tandem_cycle(*args)
@@ -499,86 +527,11 @@ def evaluate(
     return _performance(out, v, gamma, p_avail, insect, options)
 
 
-@dataclass(frozen=True)
-class MeasuredWing:
-    """One wing's measured kinematics over one cycle (e.g. digitised from high-speed film).
+def __getattr__(name: str):
+    """``MeasuredWing`` and ``evaluate_measured`` live in ``measured`` (which builds on this
+    module); they are still reachable here for code that imported them from ``model``."""
+    if name in ("MeasuredWing", "evaluate_measured"):
+        from . import measured
 
-    Angles use the model's convention (see ``blade``): φ sweep in the stroke plane (+ forward),
-    θ elevation out of it (+ up), η pitch about the span (0 = chord normal to the stroke plane).
-    """
-
-    sweep: np.ndarray
-    """φ(t) [rad], (n,) samples uniform over one cycle, t = 0 … (n − 1)/n·T."""
-    elevation: np.ndarray
-    """θ(t) [rad], same sampling."""
-    pitch: np.ndarray
-    """η(t) [rad], same sampling."""
-    frequency: float
-    """Wing-beat frequency f [Hz]."""
-    stroke_plane_angle: float
-    """β [rad], from the horizontal (give the climb as ``flight_path_angle``)."""
-
-    def __post_init__(self) -> None:
-        arrays = [np.asarray(a, dtype=float) for a in (self.sweep, self.elevation, self.pitch)]
-        n = arrays[0].shape
-        for name, a in zip(("sweep", "elevation", "pitch"), arrays, strict=True):
-            if a.ndim != 1 or a.shape != n or a.shape[0] < 8:
-                raise ValueError(
-                    f"MeasuredWing.{name} must be a 1-D array of >= 8 samples, the same length as "
-                    f"sweep; got shape {a.shape}"
-                )
-            if not np.all(np.isfinite(a)):
-                raise ValueError(f"MeasuredWing.{name} has non-finite samples")
-        if not (np.isfinite(self.frequency) and 0.0 < self.frequency <= 1000.0):
-            raise ValueError(
-                f"MeasuredWing.frequency = {self.frequency!r} Hz; allowed: 0 < f <= 1000 Hz"
-            )
-        if not (np.isfinite(self.stroke_plane_angle) and abs(self.stroke_plane_angle) <= np.pi / 2):
-            raise ValueError(
-                f"MeasuredWing.stroke_plane_angle = {self.stroke_plane_angle!r} rad; allowed: -π/2 to π/2"
-            )
-
-    @property
-    def sweep_amplitude(self) -> float:
-        """Half the peak-to-peak sweep [rad] (sets the swept sector of the inflow model)."""
-        phi = np.asarray(self.sweep, dtype=float)
-        return 0.5 * float(phi.max() - phi.min())
-
-
-def evaluate_measured(
-    fore: MeasuredWing,
-    hind: MeasuredWing,
-    speed: float = 0.0,
-    available_power: float | None = None,
-    *,
-    flight_path_angle: float = 0.0,
-    insect: Dragonfly = DRAGONFLY,
-    options: ModelOptions = DEFAULT_OPTIONS,
-) -> Result:
-    """Forces and power of measured kinematics (B = 1), by the same compiled model.
-
-    Derivatives are spectral (the series are periodic), and the cycle is sampled as given
-    (``options.n_time`` is not used); both wings must have the same number of samples.
-    ``speed`` [m/s] and ``flight_path_angle`` γ [rad, + climbing] as in :func:`evaluate`: forces
-    come out in earth axes.
-    """
-    if fore.sweep.shape != hind.sweep.shape:
-        raise ValueError(
-            f"fore and hind series must have the same length; got {fore.sweep.shape} and {hind.sweep.shape}"
-        )
-    angles, weights = [], []
-    for wing in (fore, hind):
-        a = measured_angle_history(
-            np.asarray(wing.sweep, float),
-            np.asarray(wing.elevation, float),
-            np.asarray(wing.pitch, float),
-            wing.frequency,
-        )
-        angles.append(a[None])
-        weights.append(np.ones((1, a.shape[0])))
-    frequency = np.array([[fore.frequency, hind.frequency]])
-    beta = np.array([[fore.stroke_plane_angle, hind.stroke_plane_angle]])
-    sweep = np.array([[fore.sweep_amplitude, hind.sweep_amplitude]])
-    v, p_avail, gamma = validate_conditions(speed, available_power, flight_path_angle, 1, insect)
-    out, _, _ = run_kernel(angles, weights, frequency, beta, sweep, v, gamma, insect, options)
-    return _performance(out, v, gamma, p_avail, insect, options)
+        return getattr(measured, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

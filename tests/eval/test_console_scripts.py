@@ -27,6 +27,7 @@ def test_every_script_names_a_function() -> None:
         ("tandem-study", "usage: python -m eval study"),
         ("tandem-optimize", "usage: python -m eval optimize"),
         ("tandem-compare", "usage: python -m eval compare"),
+        ("tandem-measured", "usage: python -m eval measured"),
         ("tandem-eval", "usage: python -m eval"),
         ("tandem-train", "usage: tandem-train"),
         ("tandem-envelope", "usage: tandem-envelope"),

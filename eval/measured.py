@@ -1,0 +1,478 @@
+"""``python -m eval measured KINEMATICS.yaml``: a filmed insect's kinematics in, forces out.
+
+The YAML file gives the insect (geometry, masses, planform, force coefficients), both wing pairs'
+kinematics (Fourier series or sampled CSV columns) and the flight condition; the command prints
+L/W, thrust, drag, power and P/m per wing pair and in total, and writes a JSON record (inputs,
+cycle means, per-sample histories) and a figure of the force and power histories. The format is
+documented in docs/measured.md; ``examples/`` has complete files.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, fields, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from tandem_env.physics import (
+    DRAGONFLY,
+    Dragonfly,
+    MeasuredWing,
+    ModelOptions,
+    Result,
+    StrokeHistory,
+    Wing,
+    measured_history,
+)
+from tandem_env.physics.measured import FOURIER_SAMPLES
+
+NAME = "measured"
+HELP = "forces and power of measured wing kinematics (YAML: insect, kinematics, flight)"
+DESCRIPTION = """\
+Evaluate measured wing kinematics with the tandem-wing model. KINEMATICS.yaml gives
+  insect:      optional; fields of the insect and of each wing (SI units), e.g. body_mass,
+               fore: {length, mean_chord, mass, planform, coefficients}, hind: {...};
+  flight:      speed [m/s], flight_path_angle [deg, + climbing], available_power [W/kg];
+  options:     optional ModelOptions fields (n_blade, induction, ...);
+  kinematics:  degrees (default true), n_samples (Fourier sampling, default 256), and for
+               each of fore and hind: frequency [Hz], stroke_plane_angle (from the horizontal),
+               then either Fourier series sweep/elevation/pitch: {mean: .., harmonics:
+               [[amplitude, phase], ...]} (X = mean + sum a_k cos(2 pi k f t + phase_k)), or
+               csv: FILE with columns: {time: .., sweep: .., elevation: .., pitch: ..};
+               span-wise pitch: pitch_stations: [r/R, ...] with one pitch per station.
+Angle conventions (sweep + forward, elevation + up, pitch 0 = chord normal to the stroke
+plane, + leading edge forward) are in docs/measured.md. Writes into --out:
+  NAME.json   inputs, cycle means (earth axes), per-wing histories over the cycle;
+  NAME.png    vertical and horizontal force and power of each wing pair over the cycle."""
+EPILOG = """\
+example:
+  python -m eval measured examples/forward_flight.yaml --out results/measured"""
+
+DEFAULT_OUT = Path("results") / "measured"
+ANGLES = ("sweep", "elevation", "pitch")
+
+
+class SpecError(ValueError):
+    """A bad field in a kinematics file; the message names the field and what is allowed."""
+
+
+@dataclass(frozen=True)
+class MeasuredCase:
+    """One measured flight: both wing pairs, the insect and the flight condition."""
+
+    name: str
+    description: str
+    fore: MeasuredWing
+    hind: MeasuredWing
+    speed: float
+    """V [m/s]."""
+    flight_path_angle: float
+    """γ [rad], + climbing."""
+    available_power: float | None
+    """[W/kg]; None: the insect's."""
+    insect: Dragonfly
+    options: ModelOptions
+
+
+def _mapping(value: Any, where: str) -> dict[str, Any]:
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise SpecError(f"{where} = {value!r}; allowed: a mapping of fields")
+    return dict(value)
+
+
+def _take(spec: dict[str, Any], allowed: tuple[str, ...], where: str) -> None:
+    unknown = sorted(set(spec) - set(allowed))
+    if unknown:
+        raise SpecError(f"{where}.{unknown[0]}: unknown field; allowed: {', '.join(allowed)}")
+
+
+def _number(value: Any, where: str, unit: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise SpecError(f"{where} = {value!r}; allowed: a finite number [{unit}]")
+    return float(value)
+
+
+def _wing(base: Wing, spec: Any, where: str) -> Wing:
+    spec = _mapping(spec, where)
+    allowed = tuple(f.name for f in fields(Wing))
+    _take(spec, allowed, where)
+    if "real_edges" in spec:
+        spec["real_edges"] = tuple(tuple(edge) for edge in spec["real_edges"])
+    try:
+        return replace(base, **spec)
+    except (TypeError, ValueError) as exc:
+        raise SpecError(f"{where}: {exc}") from None
+
+
+def _insect(spec: Any) -> Dragonfly:
+    spec = _mapping(spec, "insect")
+    allowed = tuple(f.name for f in fields(Dragonfly))
+    _take(spec, allowed, "insect")
+    fore = _wing(DRAGONFLY.fore, spec.pop("fore", None), "insect.fore")
+    hind = _wing(DRAGONFLY.hind, spec.pop("hind", None), "insect.hind")
+    try:
+        return replace(DRAGONFLY, fore=fore, hind=hind, **spec)
+    except (TypeError, ValueError) as exc:
+        raise SpecError(f"insect: {exc}") from None
+
+
+def _options(spec: Any) -> ModelOptions:
+    spec = _mapping(spec, "options")
+    _take(spec, tuple(f.name for f in fields(ModelOptions)), "options")
+    try:
+        return ModelOptions(**spec)
+    except (TypeError, ValueError) as exc:
+        raise SpecError(f"options: {exc}") from None
+
+
+def _series(value: Any, where: str) -> tuple[float, list[tuple[float, float]]]:
+    """A Fourier series as {mean, harmonics} or [mean, [[a, phase], ...]]."""
+    if isinstance(value, Mapping):
+        series = dict(value)
+        _take(series, ("mean", "harmonics"), where)
+        mean, harmonics = series.get("mean", 0.0), series.get("harmonics", [])
+    elif isinstance(value, (list, tuple)) and len(value) == 2:
+        mean, harmonics = value
+    else:
+        raise SpecError(
+            f"{where} = {value!r}; allowed: {{mean: M, harmonics: [[amplitude, phase], ...]}}"
+        )
+    mean = _number(mean, f"{where}.mean", "deg or rad")
+    if not isinstance(harmonics, (list, tuple)):
+        raise SpecError(f"{where}.harmonics = {harmonics!r}; allowed: [[amplitude, phase], ...]")
+    pairs = []
+    for k, pair in enumerate(harmonics, start=1):
+        if not isinstance(pair, (list, tuple)) or len(pair) != 2:
+            raise SpecError(
+                f"{where}.harmonics[{k - 1}] = {pair!r}; allowed: [amplitude, phase] of harmonic {k}"
+            )
+        pairs.append(
+            (
+                _number(pair[0], f"{where}.harmonics[{k - 1}][0]", "amplitude"),
+                _number(pair[1], f"{where}.harmonics[{k - 1}][1]", "phase"),
+            )
+        )
+    return mean, pairs
+
+
+def _read_csv(path: Path, where: str) -> dict[str, np.ndarray]:
+    if not path.is_file():
+        raise SpecError(f"{where}.csv = {str(path)!r}: no such file")
+    with open(path, newline="", encoding="utf-8") as handle:
+        rows = [row for row in csv.reader(handle) if row and not row[0].lstrip().startswith("#")]
+    if len(rows) < 2:
+        raise SpecError(f"{where}.csv {str(path)!r}: needs a header row and samples")
+    header = [h.strip() for h in rows[0]]
+    data: dict[str, list[float]] = {h: [] for h in header}
+    for line, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header):
+            raise SpecError(
+                f"{where}.csv {str(path)!r} row {line} has {len(row)} values and the header "
+                f"{len(header)}; allowed: one value per column"
+            )
+        for h, cell in zip(header, row, strict=True):
+            try:
+                data[h].append(float(cell))
+            except ValueError:
+                raise SpecError(
+                    f"{where}.csv {str(path)!r} row {line}, column {h!r}: {cell!r} is not a number"
+                ) from None
+    return {h: np.asarray(v) for h, v in data.items()}
+
+
+def _column(data: dict[str, np.ndarray], name: Any, where: str) -> np.ndarray:
+    if not isinstance(name, str) or name not in data:
+        raise SpecError(f"{where} = {name!r}: not a column; allowed: one of {sorted(data)}")
+    return data[name]
+
+
+def _measured_wing(
+    spec: Any, where: str, degrees: bool, n_samples: int, folder: Path
+) -> MeasuredWing:
+    spec = _mapping(spec, where)
+    fourier = ("frequency", "stroke_plane_angle", "pitch_stations", *ANGLES)
+    sampled = ("frequency", "stroke_plane_angle", "pitch_stations", "csv", "columns")
+    is_csv = "csv" in spec
+    _take(spec, sampled if is_csv else fourier, where)
+    for key in ("frequency", "stroke_plane_angle"):
+        if key not in spec:
+            raise SpecError(f"{where}.{key}: missing; allowed: a number")
+    frequency = _number(spec["frequency"], f"{where}.frequency", "Hz")
+    beta = _number(spec["stroke_plane_angle"], f"{where}.stroke_plane_angle", "deg")
+    stations = spec.get("pitch_stations")
+    try:
+        if not is_csv:
+            missing = [a for a in ANGLES if a not in spec]
+            if missing:
+                raise SpecError(
+                    f"{where}.{missing[0]}: missing; allowed: a Fourier series, or give csv: "
+                    "and columns: instead"
+                )
+            if stations is None:
+                pitch = _series(spec["pitch"], f"{where}.pitch")
+            else:
+                if not isinstance(spec["pitch"], (list, tuple)):
+                    raise SpecError(
+                        f"{where}.pitch: with pitch_stations, a list of series, one per station"
+                    )
+                pitch = [_series(p, f"{where}.pitch[{i}]") for i, p in enumerate(spec["pitch"])]
+            return MeasuredWing.from_fourier(
+                frequency,
+                _series(spec["sweep"], f"{where}.sweep"),
+                _series(spec["elevation"], f"{where}.elevation"),
+                pitch,
+                beta,
+                n_samples=n_samples,
+                degrees=degrees,
+                pitch_stations=stations,
+            )
+        data = _read_csv(folder / str(spec["csv"]), where)
+        columns = _mapping(spec.get("columns"), f"{where}.columns")
+        _take(columns, ("time", *ANGLES), f"{where}.columns")
+        angles = {}
+        for angle in ANGLES:
+            name = columns.get(angle, angle)
+            where_col = f"{where}.columns.{angle}"
+            if isinstance(name, list):
+                angles[angle] = np.stack([_column(data, n, where_col) for n in name], axis=1)
+            else:
+                angles[angle] = _column(data, name, where_col)
+        if "time" in columns or "time" in data:
+            time = _column(data, columns.get("time", "time"), f"{where}.columns.time")
+            return MeasuredWing.from_samples(
+                time, *(angles[a] for a in ANGLES), beta, frequency=frequency,
+                degrees=degrees, pitch_stations=stations,
+            )  # fmt: skip
+        to_rad = np.deg2rad if degrees else np.asarray
+        return MeasuredWing(
+            *(to_rad(angles[a]) for a in ANGLES),
+            frequency=frequency,
+            stroke_plane_angle=math.radians(beta) if degrees else beta,
+            pitch_stations=stations,
+        )
+    except SpecError:
+        raise
+    except ValueError as exc:
+        raise SpecError(f"{where}: {exc}") from None
+
+
+def load_case(path: str | Path) -> MeasuredCase:
+    """Read a kinematics file (format: this module's DESCRIPTION and docs/measured.md)."""
+    path = Path(path)
+    if not path.is_file():
+        raise SpecError(f"{str(path)!r}: no such file")
+    try:
+        spec = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except yaml.YAMLError as exc:
+        raise SpecError(f"{str(path)!r} is not valid YAML: {exc}") from None
+    spec = _mapping(spec, str(path))
+    _take(spec, ("description", "insect", "flight", "options", "kinematics"), "file")
+    flight = _mapping(spec.get("flight"), "flight")
+    _take(flight, ("speed", "flight_path_angle", "available_power"), "flight")
+    kinematics = _mapping(spec.get("kinematics"), "kinematics")
+    _take(kinematics, ("degrees", "n_samples", "fore", "hind"), "kinematics")
+    degrees = kinematics.get("degrees", True)
+    if not isinstance(degrees, bool):
+        raise SpecError(f"kinematics.degrees = {degrees!r}; allowed: true or false")
+    n_samples = kinematics.get("n_samples", FOURIER_SAMPLES)
+    wings = [
+        _measured_wing(kinematics.get(w), f"kinematics.{w}", degrees, n_samples, path.parent)
+        for w in ("fore", "hind")
+    ]
+    gamma = _number(flight.get("flight_path_angle", 0.0), "flight.flight_path_angle", "deg")
+    power = flight.get("available_power")
+    return MeasuredCase(
+        name=path.stem,
+        description=str(spec.get("description", "")),
+        fore=wings[0],
+        hind=wings[1],
+        speed=_number(flight.get("speed", 0.0), "flight.speed", "m/s"),
+        flight_path_angle=math.radians(gamma) if degrees else gamma,
+        available_power=None if power is None else _number(power, "flight.available_power", "W/kg"),
+        insect=_insect(spec.get("insect")),
+        options=_options(spec.get("options")),
+    )
+
+
+def run_case(case: MeasuredCase) -> StrokeHistory:
+    """The histories and cycle means (``.result``) of a case."""
+    try:
+        return measured_history(
+            case.fore,
+            case.hind,
+            case.speed,
+            case.available_power,
+            flight_path_angle=case.flight_path_angle,
+            insect=case.insect,
+            options=case.options,
+        )
+    except ValueError as exc:
+        raise SpecError(str(exc)) from None
+
+
+def summary(history: StrokeHistory, insect: Dragonfly) -> dict[str, dict[str, float]]:
+    """L/W, T, D [N], P [W], P/m [W/kg] per wing pair and in total (earth axes)."""
+    r: Result = history.result
+    out = {}
+    for name in ("fore", "hind"):
+        wing = getattr(history, name)
+        thrust, drag = wing.thrust_and_drag()
+        out[name] = {
+            "lift_to_weight": float(getattr(r, f"{name}_lift_to_weight")[0]),
+            "thrust": thrust,
+            "drag": drag,
+            "power": float(getattr(r, f"{name}_power")[0]),
+            "power_per_mass": float(getattr(r, f"{name}_power")[0]) / insect.body_mass,
+        }
+    out["total"] = {
+        key: float(getattr(r, key)[0])
+        for key in ("lift_to_weight", "thrust", "drag", "power", "power_per_mass")
+    }
+    return out
+
+
+def format_summary(case: MeasuredCase, history: StrokeHistory) -> str:
+    r = history.result
+    rows = summary(history, case.insect)
+    lines = [
+        f"{case.name}: {case.description}".rstrip(": "),
+        f"V = {case.speed:g} m/s, flight path {math.degrees(case.flight_path_angle):+.1f}° "
+        f"(forces in earth axes: L vertical, T and D horizontal), "
+        f"stroke planes {math.degrees(case.fore.stroke_plane_angle):.1f}° / "
+        f"{math.degrees(case.hind.stroke_plane_angle):.1f}° from the horizontal",
+        f"{'':10} {'L/W':>7} {'T [mN]':>8} {'D [mN]':>8} {'P [mW]':>8} {'P/m [W/kg]':>11}",
+    ]
+    for name, label in (("fore", "fore pair"), ("hind", "hind pair"), ("total", "total")):
+        row = rows[name]
+        lines.append(
+            f"{label:10} {row['lift_to_weight']:7.3f} {1e3 * row['thrust']:8.3f} "
+            f"{1e3 * row['drag']:8.3f} {1e3 * row['power']:8.3f} {row['power_per_mass']:11.1f}"
+        )
+    notes = []
+    if case.options.thrust_split == "body":
+        notes.append(
+            "total T is the net horizontal wing force and D the body drag (thrust_split=body)"
+        )
+    if not r.induction_converged[0]:
+        notes.append("WARNING: the inflow solve did not converge on every annulus")
+    notes.append(f"mean angle of attack {r.mean_angle_of_attack[0]:.1f}°")
+    return "\n".join([*lines, *notes])
+
+
+def record(case: MeasuredCase, history: StrokeHistory, source: Path) -> dict[str, Any]:
+    """The JSON record: inputs, cycle means, per-wing summary and histories."""
+
+    def wing_history(w: Any) -> dict[str, list[float]]:
+        keys = (
+            "cycle_fraction", "time", "sweep", "elevation", "pitch", "angle_of_attack",
+            "vertical_force", "horizontal_force", "aero_power", "inertial_power",
+        )  # fmt: skip
+        return {k: np.asarray(getattr(w, k)).tolist() for k in keys}
+
+    return {
+        "source": str(source),
+        "description": case.description,
+        "flight": {
+            "speed_m_s": case.speed,
+            "flight_path_angle_deg": math.degrees(case.flight_path_angle),
+            "available_power_W_kg": float(history.result.available_power[0]),
+        },
+        "stroke_plane_angle_deg": {
+            "fore": math.degrees(case.fore.stroke_plane_angle),
+            "hind": math.degrees(case.hind.stroke_plane_angle),
+        },
+        "frequency_Hz": {"fore": case.fore.frequency, "hind": case.hind.frequency},
+        "options": case.options.to_dict(),
+        "insect": {
+            "body_mass_kg": case.insect.body_mass,
+            "planform": case.insect.planform,
+            "coefficients": {
+                "fore": type(case.insect.fore.coefficients).__name__,
+                "hind": type(case.insect.hind.coefficients).__name__,
+            },
+        },
+        "axes": "earth: lift vertical, thrust/drag/horizontal force horizontal (+ forward)",
+        "units": "N, W, W/kg, deg; histories per wing pair (N_w wings)",
+        "summary": summary(history, case.insect),
+        "result": history.result.row(0),
+        "histories": {"fore": wing_history(history.fore), "hind": wing_history(history.hind)},
+    }
+
+
+def plot(case: MeasuredCase, history: StrokeHistory, path: Path) -> Path:
+    """Vertical and horizontal force and power of each wing pair over its cycle."""
+    from eval.figures import plt, save
+
+    fig, axes = plt.subplots(3, 1, figsize=(6.4, 7.2), sharex=True)
+    weight = case.insect.weight
+    for name, color in (("fore", "tab:blue"), ("hind", "tab:orange")):
+        w = getattr(history, name)
+        x = w.cycle_fraction
+        axes[0].plot(x, 1e3 * w.vertical_force, color=color, label=f"{name} pair")
+        axes[1].plot(x, 1e3 * w.horizontal_force, color=color, label=f"{name} pair")
+        axes[2].plot(x, 1e3 * (w.aero_power + w.inertial_power), color=color, label=f"{name} pair")
+    if case.fore.frequency == case.hind.frequency and case.fore.n_samples == case.hind.n_samples:
+        x = history.fore.cycle_fraction
+        for ax, key in zip(axes, ("vertical_force", "horizontal_force"), strict=False):
+            total = getattr(history.fore, key) + getattr(history.hind, key)
+            ax.plot(x, 1e3 * total, color="k", lw=1.0, label="both pairs")
+    axes[0].axhline(1e3 * weight, color="0.4", lw=0.8, ls="--", label="weight")
+    for ax, label in zip(
+        axes,
+        ("vertical force [mN]", "horizontal force [mN], + forward", "power [mW]"),
+        strict=True,
+    ):
+        ax.axhline(0.0, color="0.7", lw=0.6)
+        ax.set_ylabel(label, fontsize=8)
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("t/T (each wing pair over its own cycle)")
+    axes[0].legend(fontsize=7, loc="best")
+    r = history.result
+    fig.suptitle(
+        f"{case.name}: V = {case.speed:g} m/s, γ = {math.degrees(case.flight_path_angle):+.0f}°, "
+        f"L/W = {r.lift_to_weight[0]:.2f}, P/m = {r.power_per_mass[0]:.0f} W/kg",
+        fontsize=9,
+    )
+    return save(fig, path)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("kinematics", metavar="KINEMATICS.yaml", help="the kinematics file")
+    parser.add_argument(
+        "--out",
+        default=str(DEFAULT_OUT),
+        help=f"folder for NAME.json and NAME.png (default {DEFAULT_OUT})",
+    )
+
+
+def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    source = Path(args.kinematics)
+    try:
+        case = load_case(source)
+        history = run_case(case)
+    except SpecError as exc:
+        parser.error(f"{source}: {exc}")
+    print(format_summary(case, history))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    json_path = out / f"{case.name}.json"
+    png_path = out / f"{case.name}.png"
+    for path in (json_path, png_path):
+        if path.exists():
+            print(f"replacing {path}", file=sys.stderr)
+    tmp = json_path.with_name(f".{json_path.name}.tmp")
+    tmp.write_text(json.dumps(record(case, history, source), indent=1) + "\n", encoding="utf-8")
+    tmp.replace(json_path)
+    plot(case, history, png_path)
+    print(f"wrote {json_path} and {png_path}", file=sys.stderr)
+    return 0
