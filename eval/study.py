@@ -26,7 +26,7 @@ Studies:
   kinematics   tip paths, φ, η, phase, angle of attack of the optimised strokes (Figs. 9-13)
   wing-shape   tear-drop vs real planform (Figs. 14-16)
   all          the four above (one pool; shared optimisations run once)
-  convergence  the PSO budget study the presets' budgets come from
+  convergence  the budget study (PSO and CMA-ES) the presets' methods and budgets come from
 
 Presets:
 """
@@ -40,7 +40,7 @@ EPILOG = """\
 examples:
   python -m eval study all                       # quick preset into results/study
   python -m eval study all --preset paper --out results/study-paper
-  python -m eval study speed --method pso --method random --out results/study"""
+  python -m eval study speed --method cmaes --method pso --out results/study"""
 
 DEFAULT_OUT = os.path.join("results", "study")
 
@@ -60,8 +60,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--method",
         action="append",
         metavar="SPEC",
-        help="harness method: pso (default), random, policy:RUN_DIR, ...; repeat to run several "
-        "side by side",
+        help="harness method: cmaes, pso, random, policy:RUN_DIR, ...; repeat to run several "
+        "side by side (default: the preset's method)",
     )
     parser.add_argument(
         "--workers",
@@ -76,7 +76,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     if args.workers < 1:
         parser.error(f"--workers {args.workers}: allowed: an integer >= 1")
-    methods = tuple(dict.fromkeys(args.method or ["pso"]))
+    methods = tuple(dict.fromkeys(args.method)) if args.method else None
     try:
         plan = Plan(get_preset(args.preset), methods)
     except ValueError as error:

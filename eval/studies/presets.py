@@ -55,22 +55,28 @@ def _check_values(name: str, values: Any, limits: tuple[float, float], unit: str
 
 @dataclass(frozen=True)
 class ConvergenceSpec:
-    """The budget study: PSO at one level and one accelerating condition, long runs, many seeds.
+    """The budget study: each method at one level and one accelerating condition, long runs.
 
-    PSO with constriction coefficients has a constant inertia weight and draws its random
-    numbers for the whole swarm even on a truncated last batch, so a run with budget B is the
-    first B evaluations of any longer run with the same seed: one long run per seed gives the
-    best-so-far at every smaller budget (checked in tests/eval/test_studies.py).
+    Every method compared here has the prefix property: a run with budget B is the first B
+    evaluations of any longer run with the same seed. PSO with constriction coefficients has a
+    constant inertia weight and draws its random numbers for the whole swarm even on a
+    truncated last batch; CMA-ES draws whole populations too and its restart rules look only
+    at what was evaluated, never at the budget (agents/cmaes_search.py). So one long run per
+    seed gives the best-so-far at every smaller budget (checked in tests/eval/test_studies.py
+    and tests/agents/test_cmaes.py).
     """
 
     budget: int
     """Model evaluations per run [-]."""
     seeds: tuple[int, ...]
-    """Independent PSO runs per condition."""
+    """Independent runs per method and condition."""
     speed: float = 1.5
     """Level-flight condition [m/s] (the paper's best-efficiency speed)."""
     power: float = 60.0
     """Accelerating condition [W/kg], objective ``vertical``."""
+    methods: tuple[str, ...] = ("pso", "cmaes")
+    """Harness methods compared side by side (with their default settings; PSO with the
+    preset's swarm), besides any the study is run with (``--method``)."""
 
     def __post_init__(self) -> None:
         if isinstance(self.budget, bool) or not isinstance(self.budget, int) or self.budget < 2:
@@ -78,6 +84,16 @@ class ConvergenceSpec:
         if not self.seeds or len(set(self.seeds)) != len(self.seeds):
             raise ValueError(
                 f"ConvergenceSpec.seeds = {self.seeds!r}; allowed: distinct integers >= 0"
+            )
+        if (
+            not isinstance(self.methods, tuple)
+            or not self.methods
+            or len(set(self.methods)) != len(self.methods)
+            or not all(isinstance(m, str) and m for m in self.methods)
+        ):
+            raise ValueError(
+                f"ConvergenceSpec.methods = {self.methods!r}; allowed: distinct method names "
+                "such as ('pso', 'cmaes')"
             )
         _check_values("convergence speed", (self.speed,), SPEED_LIMITS, "m/s")
         _check_values("convergence power", (self.power,), POWER_LIMITS, "W/kg")
@@ -115,6 +131,8 @@ class Preset:
     """Which accelerating optimisation's stroke Figs. 10-12 show (the paper does not say)."""
     phase_speed: float = 2.0
     """Speed of the paper's largest fore/hind phase difference (hind leads by ~30°) [m/s]."""
+    method: str = "cmaes"
+    """The studies' default method (``--method`` overrides), chosen by the convergence study."""
     swarm_size: int = 40
     """PSO particles (the harness default); also the random-search batch."""
     env_kwargs: tuple[tuple[str, Any], ...] = field(default=())
@@ -153,6 +171,12 @@ class Preset:
         _check_values("kinematics_power", (self.kinematics_power,), POWER_LIMITS, "W/kg")
         if self.kinematics_objective not in get_args(AccelerateObjective):
             _fail("kinematics_objective", self.kinematics_objective, "'vertical' or 'horizontal'")
+        if (
+            not isinstance(self.method, str)
+            or not self.method
+            or self.method != self.method.strip()
+        ):
+            _fail("method", self.method, "a harness method name such as 'cmaes' or 'pso'")
         if not isinstance(self.convergence, ConvergenceSpec):
             _fail("convergence", self.convergence, "a ConvergenceSpec")
         keys = [k for k, _ in self.env_kwargs]
