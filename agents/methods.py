@@ -229,7 +229,7 @@ def _pso(argument: str | None, config: Mapping[str, Any]) -> Method:
     return AskTellMethod("pso", lambda budget: PSOConfig(**settings, max_evaluations=budget))
 
 
-_CMAES_SETTINGS = ("popsize", "sigma0", "restarts", "patience", "tolerance")
+_CMAES_SETTINGS = ("popsize", "sigma0", "restarts", "patience", "tolerance", "resampling")
 
 
 def _cmaes(argument: str | None, config: Mapping[str, Any]) -> Method:

@@ -76,6 +76,7 @@ def drive(optimiser: CMAES, objective) -> list[FloatArray]:
         ({"restarts": "foo"}, r"restarts must be one of \('none', 'ipop', 'bipop'\), got 'foo'"),
         ({"patience": 0}, r"patience must be an integer >= 1, got 0"),
         ({"tolerance": -0.1}, r"tolerance must be a finite number in \[0.0, inf\), got -0.1"),
+        ({"resampling": -1}, r"resampling must be an integer >= 0, got -1"),
         ({"foo": 1}, r"unknown setting\(s\) \['foo'\]; allowed: popsize, sigma0, restarts"),
         ({"discrete": ((1, 2),)}, r"unknown setting\(s\) \['discrete'\]"),
         ({"max_evaluations": 10}, r"cannot be set here; the harness budget"),
@@ -105,21 +106,29 @@ def test_bad_discrete_coordinates(discrete: object, message: str) -> None:
 
 
 def test_budget_smaller_than_one_population_is_an_error() -> None:
-    with pytest.raises(ValueError, match=r"budget of 12 evaluations is smaller than one CMA-ES"):
-        CMAESConfig(max_evaluations=12).build(DIM)  # default population 13 at d = 28
-    CMAESConfig(max_evaluations=13).build(DIM)
+    with pytest.raises(ValueError, match=r"budget of 25 evaluations is smaller than one CMA-ES"):
+        CMAESConfig(max_evaluations=25).build(DIM)  # default population 26 at d = 28
+    CMAESConfig(max_evaluations=26).build(DIM)
     # ... and the harness says so before any evaluation
     with pytest.raises(ValueError, match=r"smaller than one CMA-ES population \(20 points\)"):
         harness.prepare("cmaes", "sphere", SHIFT, 19, [0], method_config={"popsize": 20})
-    with pytest.raises(ValueError, match=r"budget of 12 evaluations"):
-        harness.prepare("cmaes", "level", 1.5, 12, [0])
+    with pytest.raises(ValueError, match=r"budget of 25 evaluations"):
+        harness.prepare("cmaes", "level", 1.5, 25, [0])
 
 
 def test_defaults_and_record_carry_every_setting() -> None:
-    assert default_popsize(28) == 13
+    assert default_popsize(28) == 26
     config = CMAESConfig(max_evaluations=500)
     record = config.to_dict()
-    for name in ("popsize", "sigma0", "restarts", "patience", "tolerance", "discrete"):
+    for name in (
+        "popsize",
+        "sigma0",
+        "restarts",
+        "patience",
+        "tolerance",
+        "resampling",
+        "discrete",
+    ):
         assert name in record
     assert record["algorithm"] == "cmaes" and record["max_evaluations"] == 500
     assert "Hansen" in record["citation"] and "cmaes package" in record["citation"]
@@ -193,17 +202,26 @@ def test_discrete_coordinates_reach_their_best_level() -> None:
 
 
 # --- batching, budget, prefix ---------------------------------------------------------------------
-def test_population_is_the_packages_own_draw() -> None:
-    optimiser = CMAESConfig(discrete=((11, 2), (25, 2)), max_evaluations=10**6).build(DIM, 3)
-    for _ in range(20):
+@pytest.mark.parametrize(("resampling", "sigma0"), [(100, 0.5), (100, 2.0), (3, 1.0), (0, 0.5)])
+def test_population_is_the_packages_own_draw(resampling: int, sigma0: float) -> None:
+    # The optimum sits near a corner, so many candidates leave the box: resampled, then clipped.
+    config = CMAESConfig(
+        discrete=((11, 2), (25, 2)), sigma0=sigma0, resampling=resampling, max_evaluations=10**6
+    )
+    optimiser = config.build(DIM, 3)
+    for _ in range(25):
+        es = copy.deepcopy(optimiser._es)  # the copy loses the package's generator: restore it
+        es._cma._rng.set_state(optimiser._es._cma._rng.get_state())
         X = optimiser.ask()
-        optimiser.tell(X, sphere(X))
-    es = copy.deepcopy(optimiser._es)  # the package drops its generator when copied: restore it
-    es._cma._rng.set_state(optimiser._es._cma._rng.get_state())
-    X = optimiser.ask()
-    expected = np.array([es.ask()[0] for _ in range(es.population_size)])
-    np.testing.assert_allclose(X, expected, rtol=0, atol=1e-14)
-    np.testing.assert_array_equal(X[:, [11, 25]], expected[:, [11, 25]])
+        expected = np.array([es.ask()[0] for _ in range(es.population_size)])
+        np.testing.assert_allclose(X, expected, rtol=0, atol=1e-14)
+        np.testing.assert_array_equal(X[:, [11, 25]], expected[:, [11, 25]])
+        # ... and the stream goes on where the package's would
+        ours, theirs = optimiser._es._cma._rng.get_state(), es._cma._rng.get_state()
+        assert ours[2] == theirs[2] and np.array_equal(ours[1], theirs[1])
+        optimiser.tell(X, -np.sum((X - 0.95) ** 2, axis=1))
+    if resampling < 100:
+        assert np.any(X == 1.0)  # some were clipped onto the wall
 
 
 def test_fast_margin_statistics_equal_scipy_stats() -> None:
@@ -216,7 +234,7 @@ def test_fast_margin_statistics_equal_scipy_stats() -> None:
     np.testing.assert_array_equal(_chi2_ppf(q=q), stats.chi2.ppf(q=q, df=1))
 
 
-@pytest.mark.parametrize("budget", [13, 14, 100, 1000, 1001])
+@pytest.mark.parametrize("budget", [26, 27, 100, 1000, 1001])
 def test_budget_accounting_is_exact(budget: int) -> None:
     optimiser = CMAESConfig(max_evaluations=budget, restarts="ipop", patience=3).build(DIM, 0)
     batches = drive(optimiser, sphere)
@@ -237,7 +255,7 @@ def test_a_budget_b_run_is_the_first_b_evaluations_of_a_longer_run() -> None:
     long = drive(
         CMAESConfig(max_evaluations=3000, restarts="bipop", patience=5).build(DIM, 7), rastrigin
     )
-    for budget in (13, 500, 1234, 2999):
+    for budget in (26, 500, 1234, 2999):
         short = drive(
             CMAESConfig(max_evaluations=budget, restarts="bipop", patience=5).build(DIM, 7),
             rastrigin,
@@ -260,7 +278,7 @@ def test_flat_objective_restarts_with_doubling_population() -> None:
     optimiser = CMAESConfig(max_evaluations=2000, restarts="ipop", patience=4).build(DIM, 0)
     drive(optimiser, lambda X: np.zeros(len(X)))
     runs = optimiser.runs
-    assert [r.popsize for r in runs[:4]] == [13, 26, 52, 104]
+    assert [r.popsize for r in runs[:4]] == [26, 52, 104, 208]
     assert [r.regime for r in runs[:3]] == ["first", "large", "large"]
     assert all(r.stop in ("stagnation", "should_stop") for r in runs[:-1])
     assert runs[-1].stop == "budget"
@@ -274,12 +292,12 @@ def test_bipop_interlaces_small_and_large_runs() -> None:
     regimes = [r.regime for r in runs]
     assert regimes[:2] == ["first", "large"] and "small" in regimes
     large = [r for r in runs if r.regime == "large"]
-    assert [r.popsize for r in large] == [13 * 2**k for k in range(1, len(large) + 1)]
+    assert [r.popsize for r in large] == [26 * 2**k for k in range(1, len(large) + 1)]
     assert all(r.sigma0 == 0.5 for r in large)
-    biggest = 13
+    biggest = 26
     for r in runs:
-        if r.regime == "small":  # λ = ⌊13 · (2^k)^(U²)⌋, σ0 = 0.5 · 10^(-2U')
-            assert 13 <= r.popsize <= biggest and 0.005 < r.sigma0 <= 0.5
+        if r.regime == "small":  # λ = ⌊26 · (2^k)^(U²)⌋, σ0 = 0.5 · 10^(-2U')
+            assert 26 <= r.popsize <= biggest and 0.005 < r.sigma0 <= 0.5
         biggest = max(biggest, r.popsize)
     # the regime that has used fewer evaluations runs next (the first run counts as small)
     used = {"small": 0, "large": 0}
@@ -296,9 +314,9 @@ def test_no_restarts_means_one_run() -> None:
 
 def test_rastrigin_converged_runs_restart_and_the_restarts_help() -> None:
     # Measured, 28-D Rastrigin, 20 000 evaluations, seeds 0-4: one run (restarts="none")
-    # -29.8 / -27.9 / -32.8 / -55.7 / -57.7, converged after 4 000-7 000 evaluations;
-    # BIPOP -20.9 / -26.9 / -29.8 / -24.9 / -23.9 with 3-4 runs. The first run is the same in
-    # both, so BIPOP can only gain on it.
+    # -28.9 / -21.9 / -25.9 / -40.8 / -22.9; BIPOP -13.0 / -15.1 / -12.9 / -18.1 / -12.0, its
+    # first run stagnating after 8 600-10 900 evaluations. The first run is the same in both,
+    # so BIPOP can only gain on it.
     config = CMAESConfig(max_evaluations=20_000)
     one = [maximise(rastrigin, DIM, replace(config, restarts="none"), seed=s) for s in range(3)]
     bipop = [maximise(rastrigin, DIM, config, seed=s) for s in range(3)]
@@ -322,12 +340,14 @@ def test_sphere_reaches_the_optimum_through_the_harness() -> None:
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_beats_random_search_on_rastrigin_at_a_fixed_budget(seed: int) -> None:
+    # Measured, 20 000 evaluations, seeds 0-4: CMA-ES loss 12.0-18.1, random search 275-361
+    # (ratio <= 0.06).
     cma = minimise(lambda X: -rastrigin(X), DIM, CMAESConfig(max_evaluations=20_000), seed=seed)
     rs = minimise(
         lambda X: -rastrigin(X), DIM, RandomSearchConfig(max_evaluations=20_000), seed=seed
     )
     assert cma.evaluations == rs.evaluations == 20_000
-    assert cma.best_fitness < 0.25 * rs.best_fitness
+    assert cma.best_fitness < 0.15 * rs.best_fitness
 
 
 def test_box_is_respected_with_a_wide_step_size() -> None:
