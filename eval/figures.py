@@ -258,7 +258,7 @@ def convergence_figure(
     (seeds, n))], [(preset name, budget)]).
 
     Per method a median line, an IQR band and each seed thin; vertical lines mark the presets'
-    budgets. The y-axis starts at the worst seed after 1 000 evaluations: the first batches'
+    budgets. The y-axis starts at the worst seed after 5 % of the run: the first batches'
     penalised rewards would squash the rest.
     """
     fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 3.8))
@@ -274,7 +274,7 @@ def convergence_figure(
                 lo, med, hi = np.nanpercentile(shown, [25, 50, 75], axis=0)
             ax.fill_between(evaluations, lo, hi, color=color, alpha=0.2, linewidth=0)
             ax.plot(evaluations, med, "-", color=color, lw=2, label=f"{method}: median (IQR)")
-            later = shown[:, evaluations >= min(1000, evaluations[-1])]
+            later = shown[:, evaluations >= 0.05 * evaluations[-1]]
             if np.isfinite(later).any():
                 lows.append(np.nanmin(later))
                 highs.append(np.nanmax(later))
