@@ -175,6 +175,11 @@ def prepare(
 
     method_obj = get_method(method, method_config)
     store = None if out_dir is None else RecordStore(out_dir)  # rejects a file as out_dir
+    # Optional hook: a method that can tell before searching that it cannot run this budget on
+    # this box (a budget smaller than one CMA-ES population) says so here, not mid-run.
+    check = getattr(method_obj, "check", None)
+    if callable(check):
+        check(int(budget), dim, spec)
     return RunPlan(
         method=method_obj,
         method_spec=method if isinstance(method, str) else method_obj.name,

@@ -4,7 +4,7 @@ A method is anything with a ``name`` and a ``search(context) -> SearchOutcome``.
 gives it a :class:`SearchContext` (the task, the condition, the budget, the seed, a batched
 fitness through the task's vector env) and records what it returns. Two kinds fit:
 
-* black-box optimisers (PSO, random search) call ``context.evaluate(actions)`` once per
+* black-box optimisers (PSO, CMA-ES, random search) call ``context.evaluate(actions)`` once per
   iteration with the whole batch; the evaluator counts the budget and keeps the history;
 * learners (PPO, SAC, a trained policy) build their own envs from ``context.env_id`` and
   ``context.env_kwargs``, report their own evaluations (env steps) and history, and return the
@@ -24,11 +24,12 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from agents.cmaes_search import CMAESConfig
 from agents.evaluator import EvaluatedBatch, VectorEnvEvaluator
 from agents.optimiser import OptimiserConfig
 from agents.pso import PSOConfig
@@ -160,20 +161,31 @@ class AskTellMethod:
 
     ``make_config(budget)`` returns the optimiser's configuration with ``max_evaluations =
     budget``; it is called once at construction with budget 1 so bad settings fail early.
+    ``adapt(config, task)``, if given, completes it from the task (CMA-ES takes the task's
+    discrete action coordinates).
     """
 
     name: str
     make_config: Callable[[int], OptimiserConfig]
+    adapt: Callable[[OptimiserConfig, TaskSpec], OptimiserConfig] | None = None
 
     def __post_init__(self) -> None:
         self.make_config(1)
 
-    def config(self, budget: int) -> OptimiserConfig:
-        """The optimiser configuration for ``budget`` evaluations."""
-        return self.make_config(budget)
+    def config(self, budget: int, task: TaskSpec | None = None) -> OptimiserConfig:
+        """The optimiser configuration for ``budget`` evaluations (on ``task``, if given)."""
+        config = self.make_config(budget)
+        if self.adapt is not None and task is not None:
+            config = self.adapt(config, task)
+        return config
+
+    def check(self, budget: int, dim: int, task: TaskSpec) -> None:
+        """Raise ValueError if the optimiser cannot run this budget on this box (e.g. a budget
+        smaller than one CMA-ES population); the harness calls it before any evaluation."""
+        self.config(budget, task).build(dim, 0)
 
     def search(self, context: SearchContext) -> SearchOutcome:
-        optimiser = self.make_config(context.budget).build(context.dim, context.seed)
+        optimiser = self.config(context.budget, context.task).build(context.dim, context.seed)
         while not optimiser.done:
             X = optimiser.ask()
             optimiser.tell(X, context.evaluate(X))
@@ -217,6 +229,24 @@ def _pso(argument: str | None, config: Mapping[str, Any]) -> Method:
     return AskTellMethod("pso", lambda budget: PSOConfig(**settings, max_evaluations=budget))
 
 
+_CMAES_SETTINGS = ("popsize", "sigma0", "restarts", "patience", "tolerance", "resampling")
+
+
+def _cmaes(argument: str | None, config: Mapping[str, Any]) -> Method:
+    _no_argument("cmaes", argument)
+    settings = _settings("cmaes", config, (*_CMAES_SETTINGS, "swarm_size"))
+    # swarm_size is accepted as an alias so one CLI flag (--swarm-size) sets every batch size.
+    if "swarm_size" in settings:
+        if "popsize" in settings and settings["popsize"] != settings["swarm_size"]:
+            raise ValueError("method 'cmaes': give popsize or its alias swarm_size, not both")
+        settings["popsize"] = settings.pop("swarm_size")
+    return AskTellMethod(
+        "cmaes",
+        lambda budget: CMAESConfig(**settings, max_evaluations=budget),
+        adapt=lambda config, task: replace(config, discrete=task.discrete_actions),
+    )
+
+
 def _random(argument: str | None, config: Mapping[str, Any]) -> Method:
     _no_argument("random", argument)
     settings = _settings("random", config, ("batch_size", "swarm_size"))
@@ -236,7 +266,7 @@ def _no_argument(name: str, argument: str | None) -> None:
 
 
 # --- the registry ------------------------------------------------------------------------------
-_REGISTRY: dict[str, MethodFactory] = {"pso": _pso, "random": _random}
+_REGISTRY: dict[str, MethodFactory] = {"pso": _pso, "random": _random, "cmaes": _cmaes}
 
 #: Method names registered on first use by importing a provider module (which must call
 #: :func:`register_method` for them). The RL methods live with the training code.

@@ -214,6 +214,10 @@ class AskTellOptimiser(ABC):
         self._history: list[tuple[int, float]] = []
         self._pending: FloatArray | None = None
 
+    def _batch(self) -> int:
+        """Points in the next full round (constant here; CMA-ES changes it on a restart)."""
+        return self._full_batch
+
     @abstractmethod
     def _propose(self, n: int) -> FloatArray:
         """Return the next ``n`` points, shape (n, dim), inside the box."""
@@ -230,7 +234,7 @@ class AskTellOptimiser(ABC):
         """
         if self._pending is not None:
             raise RuntimeError("ask() called again before tell(); tell the pending batch first")
-        n = self._budget.batch_size(self._full_batch, self._iterations, self._evaluations)
+        n = self._budget.batch_size(self._batch(), self._iterations, self._evaluations)
         if n == 0:
             raise RuntimeError(
                 f"budget exhausted after {self._evaluations} evaluations; check `done` first"
@@ -311,7 +315,7 @@ class AskTellOptimiser(ABC):
     @property
     def done(self) -> bool:
         """True once the budget is exhausted (a further :meth:`ask` would raise)."""
-        return self._budget.batch_size(self._full_batch, self._iterations, self._evaluations) == 0
+        return self._budget.batch_size(self._batch(), self._iterations, self._evaluations) == 0
 
     def result(self, sense: Sense = "maximise") -> OptimisationResult:
         """Snapshot of the run so far; ``sense="minimise"`` undoes the driver's negation."""

@@ -15,8 +15,11 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any
 
+import numpy as np
+
 from tandem_env.envs.registration import ACCELERATE_ID, LEVEL_FLIGHT_ID
 from tandem_env.physics.checks import is_real
+from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
 
 __all__ = [
     "ACCELERATE",
@@ -93,6 +96,11 @@ class TaskSpec:
     description: str = ""
     forbidden_kwargs: tuple[str, ...] = field(default=())
     """Env kwargs the harness refuses (they would fight the condition it sets)."""
+    discrete_actions: tuple[tuple[int, int], ...] = field(default=())
+    """(index, levels) of each discrete action coordinate: it takes ``levels`` values, value i
+    on the i-th of ``levels`` equal bins of [-1, 1]. Methods that know discrete variables
+    (CMA-ES) search those coordinates on the bin centres; the others search them as continuous
+    and the env's map decides."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not _NAME.match(self.name):
@@ -149,6 +157,12 @@ class TaskSpec:
         return f"{self.name}-{self.objective_choice(env_kwargs)}"
 
 
+#: The harmonic N of each wing, 1 or 2 (``normalised_to_physical``: N = 1 where a < 0, else 2,
+#: i.e. two equal bins of [-1, 1]); the stroke's only discrete parameters.
+STROKE_DISCRETE: tuple[tuple[int, int], ...] = tuple(
+    (int(i), int(UPPER[i] - LOWER[i]) + 1) for i in np.flatnonzero(DISCRETE)
+)
+
 LEVEL = TaskSpec(
     name="level",
     env_id=LEVEL_FLIGHT_ID,
@@ -161,6 +175,7 @@ LEVEL = TaskSpec(
     objective_unit="-",
     description="level flight at speed V [m/s]: maximise η = T·V/P with L = W, T = D, P/m <= 90 W/kg",
     forbidden_kwargs=("speed_range",),
+    discrete_actions=STROKE_DISCRETE,
 )
 
 ACCELERATE = TaskSpec(
@@ -183,6 +198,7 @@ ACCELERATE = TaskSpec(
         "F̄_v, F̄_h >= 0 and P/m <= P"
     ),
     forbidden_kwargs=("power_range",),
+    discrete_actions=STROKE_DISCRETE,
 )
 
 _TASKS: dict[str, TaskSpec] = {LEVEL.name: LEVEL, ACCELERATE.name: ACCELERATE}

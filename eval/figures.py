@@ -291,33 +291,42 @@ def planform_figure(
 
 # --- convergence -------------------------------------------------------------------------------
 def convergence_figure(
-    curves: Sequence[tuple[str, np.ndarray, np.ndarray, Sequence[tuple[str, int]]]], path: Path
+    panels: Sequence[
+        tuple[str, Sequence[tuple[str, np.ndarray, np.ndarray]], Sequence[tuple[str, int]]]
+    ],
+    path: Path,
 ) -> Path:
-    """Best-so-far over evaluations: per condition (label, evaluations (n,), values (seeds, n),
-    [(preset name, budget)]).
+    """Best-so-far over evaluations: per condition (label, [(method, evaluations (n,), values
+    (seeds, n))], [(preset name, budget)]).
 
-    Median line, IQR band and each seed thin; vertical lines mark the presets' budgets. The
-    y-axis starts at the worst seed after 1 000 evaluations: the first batches' penalised
-    rewards would squash the rest.
+    Per method a median line, an IQR band and each seed thin; vertical lines mark the presets'
+    budgets. The y-axis starts at the worst seed after 5 % of the run: the first batches'
+    penalised rewards would squash the rest.
     """
-    fig, axes = plt.subplots(1, len(curves), figsize=(4.2 * len(curves), 3.6))
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 3.8))
     axes = np.atleast_1d(axes)
-    for ax, (label, evaluations, values, budgets) in zip(axes, curves, strict=True):
-        shown = np.where(np.isfinite(values), values, np.nan)
-        for row in shown:
-            ax.plot(evaluations, row, "-", color="tab:blue", lw=0.6, alpha=0.35)
-        with np.errstate(all="ignore"):
-            lo, med, hi = np.nanpercentile(shown, [25, 50, 75], axis=0)
-        ax.fill_between(evaluations, lo, hi, color="tab:blue", alpha=0.2, linewidth=0)
-        ax.plot(evaluations, med, "-", color="tab:blue", lw=2, label="median (IQR band)")
+    for ax, (label, methods, budgets) in zip(axes, panels, strict=True):
+        lows, highs = [], []
+        for i, (method, evaluations, values) in enumerate(methods):
+            color = COLORS[i % len(COLORS)]
+            shown = np.where(np.isfinite(values), values, np.nan)
+            for row in shown:
+                ax.plot(evaluations, row, "-", color=color, lw=0.5, alpha=0.3)
+            with np.errstate(all="ignore"):
+                lo, med, hi = np.nanpercentile(shown, [25, 50, 75], axis=0)
+            ax.fill_between(evaluations, lo, hi, color=color, alpha=0.2, linewidth=0)
+            ax.plot(evaluations, med, "-", color=color, lw=2, label=f"{method}: median (IQR)")
+            later = shown[:, evaluations >= 0.05 * evaluations[-1]]
+            if np.isfinite(later).any():
+                lows.append(np.nanmin(later))
+                highs.append(np.nanmax(later))
         for name, budget in budgets:
             ax.axvline(budget, color="grey", ls=":", lw=1)
             ax.annotate(
                 name, (budget, 0.02), xycoords=("data", "axes fraction"), fontsize=7, rotation=90
             )
-        later = shown[:, evaluations >= min(1000, evaluations[-1])]
-        if np.isfinite(later).any():
-            low, high = np.nanmin(later), np.nanmax(later)
+        if lows:
+            low, high = min(lows), max(highs)
             pad = 0.05 * max(high - low, 1e-9)
             ax.set_ylim(low - pad, high + pad)
         ax.set_title(label, fontsize=9)
@@ -325,5 +334,5 @@ def convergence_figure(
         ax.set_ylabel("best reward so far [-]")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="lower right")
-    fig.suptitle("PSO budget study: best-so-far over seeds (dotted: preset budgets)", fontsize=10)
+    fig.suptitle("Budget study: best-so-far over seeds (dotted: preset budgets)", fontsize=10)
     return save(fig, path)

@@ -28,7 +28,7 @@ UNDERSTOOD = {
     ),
     "spread": (
         "**Seed-to-seed spread.** The 28-parameter search has many separate basins (docs/model.md "
-        "§9): PSO runs from different seeds settle in different ones, so medians over seeds "
+        "§9): runs from different seeds settle in different ones, so medians over seeds "
         "are noisy, and per-condition medians can break a trend the best seeds follow. The "
         "paper reports one optimum per condition; its numbers compare most directly with our "
         "*best* column."
@@ -93,7 +93,8 @@ def _settings(plan: Plan) -> list[str]:
         f"- preset `{p.name}`: {p.description}",
         f"- methods: {', '.join(f'`{m}`' for m in plan.methods)}; seeds {list(p.seeds)}; "
         f"budgets {p.level_budget} (level) and {p.accelerate_budget} (accelerating) model "
-        f"evaluations per optimisation; PSO swarm {p.swarm_size}",
+        f"evaluations per optimisation"
+        + (f"; PSO swarm {p.swarm_size}" if "pso" in plan.methods else ""),
         f"- speeds {list(p.speeds)} m/s, powers {list(p.powers)} W/kg; wing shape at "
         f"{list(p.shape_speeds)} m/s and {list(p.shape_powers)} W/kg; kinematics at "
         f"{p.kinematics_speed:g} m/s and {p.kinematics_power:g} W/kg ({p.kinematics_objective})",

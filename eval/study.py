@@ -30,7 +30,7 @@ Studies:
   kinematics   tip paths, φ, η, phase, angle of attack of the optimised strokes (Figs. 9-13)
   wing-shape   tear-drop vs real planform (Figs. 14-16)
   all          the four above (one pool; shared optimisations run once)
-  convergence  the PSO budget study the presets' budgets come from
+  convergence  the budget study (PSO and CMA-ES) the presets' methods and budgets come from
 
 Presets:
 """
@@ -54,8 +54,8 @@ EPILOG = """\
 examples:
   python -m eval study all                       # quick preset into results/study
   python -m eval study all --preset paper --out results/study-paper
-  python -m eval study speed --method pso --method random --out results/study
-  python -m eval study all --preset paper --scheduler tcp://10.0.0.5:8786"""
+  python -m eval study speed --method cmaes --method pso --out results/study
+  python -m eval study all --preset paper --scheduler tcp://scheduler-host:8786"""
 
 DEFAULT_OUT = os.path.join("results", "study")
 
@@ -75,8 +75,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--method",
         action="append",
         metavar="SPEC",
-        help="harness method: pso (default), random, policy:RUN_DIR, ...; repeat to run several "
-        "side by side",
+        help="harness method: cmaes, pso, random, policy:RUN_DIR, ...; repeat to run several "
+        "side by side (default: the preset's method)",
     )
     add_scheduler_argument(parser)
     parser.add_argument(
@@ -90,7 +90,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    methods = tuple(dict.fromkeys(args.method or ["pso"]))
+    methods = tuple(dict.fromkeys(args.method)) if args.method else None
     try:
         scheduler = executor_spec(args.scheduler, args.workers)
         RecordStore(args.out)  # rejects a file

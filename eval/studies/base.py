@@ -26,14 +26,16 @@ _BATCHED = {"pso": "swarm_size", "random": "batch_size"}
 
 @dataclass(frozen=True)
 class Plan:
-    """A preset and the methods to run at every condition (PSO by default)."""
+    """A preset and the methods to run at every condition (the preset's method by default)."""
 
     preset: Preset
-    methods: tuple[str, ...] = ("pso",)
+    methods: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.preset, Preset):
             raise ValueError(f"Plan.preset = {self.preset!r}; allowed: a Preset")
+        if self.methods is None:
+            object.__setattr__(self, "methods", (self.preset.method,))
         ok = (
             isinstance(self.methods, tuple)
             and self.methods

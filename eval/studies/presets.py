@@ -1,15 +1,16 @@
-"""Study presets: which conditions, seeds and budgets a study run uses (frozen, validated).
+"""Study presets: which conditions, seeds, method and budgets a study run uses (frozen, validated).
 
 ``quick`` finishes in a few minutes on a 2-core machine; ``paper`` is the full study of the
-paper's figures. Budgets come from the measured convergence study (``python -m eval study
-convergence --preset paper``, 8 seeds × 60 000 evaluations, see docs/reproduction.md): the
-paper preset takes the smallest checkpoint at which the median best-so-far over seeds reaches
-90 % of the 60 000-evaluation median (level flight at 1.5 m/s: 30 000, 93 %; accelerating at
-60 W/kg: 12 000, 92 %). Level-flight η never quite flattens (thrust_split="sign" makes it
-unbounded, docs/model.md §7), so more budget keeps buying a little more η. ``quick`` takes what fits
-in a few minutes (58 % and 79 % of those medians). ``tiny`` exists for the tests only (it is
-not offered on the command line).
-"""
+paper's figures. Method and budgets come from the measured convergence study (``python -m eval
+study convergence --preset paper``: PSO and CMA-ES, 8 seeds × 60 000 evaluations, see
+docs/reproduction.md). CMA-ES beats PSO at every budget from 2 000 evaluations on, in median
+and spread, in both tasks, so both presets use it. ``paper`` takes for level flight at 1.5
+m/s the smallest checkpoint at which the CMA-ES median reaches 90 % of its 60 000-evaluation
+median (16 000, 95 %: the first CMA-ES runs have settled, 16 000-40 000 give 0.444-0.451), and
+for accelerating flight at 60 W/kg 12 000 (97 %; spread 9.1 % against 13.5 % at 8 000, the
+90 % checkpoint), and fits in 30 min on 2 cores. ``quick`` takes
+what fits in about two minutes (8 000 and 4 000: 74 % and 79 % of those medians). ``tiny``
+exists for the tests only (it is not offered on the command line)."""
 
 from __future__ import annotations
 
@@ -55,22 +56,28 @@ def _check_values(name: str, values: Any, limits: tuple[float, float], unit: str
 
 @dataclass(frozen=True)
 class ConvergenceSpec:
-    """The budget study: PSO at one level and one accelerating condition, long runs, many seeds.
+    """The budget study: each method at one level and one accelerating condition, long runs.
 
-    PSO with constriction coefficients has a constant inertia weight and draws its random
-    numbers for the whole swarm even on a truncated last batch, so a run with budget B is the
-    first B evaluations of any longer run with the same seed: one long run per seed gives the
-    best-so-far at every smaller budget (checked in tests/eval/test_studies.py).
+    Every method compared here has the prefix property: a run with budget B is the first B
+    evaluations of any longer run with the same seed. PSO with constriction coefficients has a
+    constant inertia weight and draws its random numbers for the whole swarm even on a
+    truncated last batch; CMA-ES draws whole populations too and its restart rules look only
+    at what was evaluated, never at the budget (agents/cmaes_search.py). So one long run per
+    seed gives the best-so-far at every smaller budget (checked in tests/eval/test_studies.py
+    and tests/agents/test_cmaes.py).
     """
 
     budget: int
     """Model evaluations per run [-]."""
     seeds: tuple[int, ...]
-    """Independent PSO runs per condition."""
+    """Independent runs per method and condition."""
     speed: float = 1.5
     """Level-flight condition [m/s] (the paper's best-efficiency speed)."""
     power: float = 60.0
     """Accelerating condition [W/kg], objective ``vertical``."""
+    methods: tuple[str, ...] = ("pso", "cmaes")
+    """Harness methods compared side by side (with their default settings; PSO with the
+    preset's swarm), besides any the study is run with (``--method``)."""
 
     def __post_init__(self) -> None:
         if isinstance(self.budget, bool) or not isinstance(self.budget, int) or self.budget < 2:
@@ -78,6 +85,16 @@ class ConvergenceSpec:
         if not self.seeds or len(set(self.seeds)) != len(self.seeds):
             raise ValueError(
                 f"ConvergenceSpec.seeds = {self.seeds!r}; allowed: distinct integers >= 0"
+            )
+        if (
+            not isinstance(self.methods, tuple)
+            or not self.methods
+            or len(set(self.methods)) != len(self.methods)
+            or not all(isinstance(m, str) and m for m in self.methods)
+        ):
+            raise ValueError(
+                f"ConvergenceSpec.methods = {self.methods!r}; allowed: distinct method names "
+                "such as ('pso', 'cmaes')"
             )
         _check_values("convergence speed", (self.speed,), SPEED_LIMITS, "m/s")
         _check_values("convergence power", (self.power,), POWER_LIMITS, "W/kg")
@@ -115,6 +132,8 @@ class Preset:
     """Which accelerating optimisation's stroke Figs. 10-12 show (the paper does not say)."""
     phase_speed: float = 2.0
     """Speed of the paper's largest fore/hind phase difference (hind leads by ~30°) [m/s]."""
+    method: str = "cmaes"
+    """The studies' default method (``--method`` overrides), chosen by the convergence study."""
     swarm_size: int = 40
     """PSO particles (the harness default); also the random-search batch."""
     env_kwargs: tuple[tuple[str, Any], ...] = field(default=())
@@ -153,6 +172,12 @@ class Preset:
         _check_values("kinematics_power", (self.kinematics_power,), POWER_LIMITS, "W/kg")
         if self.kinematics_objective not in get_args(AccelerateObjective):
             _fail("kinematics_objective", self.kinematics_objective, "'vertical' or 'horizontal'")
+        if (
+            not isinstance(self.method, str)
+            or not self.method
+            or self.method != self.method.strip()
+        ):
+            _fail("method", self.method, "a harness method name such as 'cmaes' or 'pso'")
         if not isinstance(self.convergence, ConvergenceSpec):
             _fail("convergence", self.convergence, "a ConvergenceSpec")
         keys = [k for k, _ in self.env_kwargs]
@@ -171,12 +196,12 @@ class Preset:
 QUICK = Preset(
     name="quick",
     description=(
-        "3 seeds, 8 000 (level) / 4 000 (accelerating) evaluations per optimisation, 5 "
-        "speeds, 3 powers, both planforms at 3 speeds and 2 powers; measured wall time with "
-        "PSO, serially on 2 cores: 1 min 28 s idle, 2 min 8 s shared with other jobs "
-        "(docs/reproduction.md)"
+        "CMA-ES, 3 seeds, 8 000 (level) / 4 000 (accelerating) evaluations per optimisation, "
+        "5 speeds, 3 powers, both planforms at 3 speeds and 2 powers; measured wall times "
+        "in docs/reproduction.md"
     ),
     seeds=(0, 1, 2),
+    method="cmaes",
     level_budget=8_000,
     accelerate_budget=4_000,
     speeds=(0.5, 1.0, 1.25, 1.5, 2.0),
@@ -189,12 +214,13 @@ QUICK = Preset(
 PAPER = Preset(
     name="paper",
     description=(
-        "8 seeds, 30 000 (level) / 12 000 (accelerating) evaluations per optimisation, all 8 "
-        "speeds and 5 powers, both planforms everywhere; measured wall time with PSO and "
-        "serially on 2 cores: 28 min 24 s (docs/reproduction.md)"
+        "CMA-ES, 8 seeds, 16 000 (level) / 12 000 (accelerating) evaluations per optimisation, "
+        "all 8 speeds and 5 powers, both planforms everywhere; measured wall times in "
+        "docs/reproduction.md"
     ),
     seeds=(0, 1, 2, 3, 4, 5, 6, 7),
-    level_budget=30_000,
+    method="cmaes",
+    level_budget=16_000,
     accelerate_budget=12_000,
     speeds=PAPER_SPEEDS,
     powers=PAPER_POWERS,
@@ -219,6 +245,7 @@ TINY = Preset(
     shape_powers=(90.0,),
     convergence=ConvergenceSpec(budget=32, seeds=(0, 1), speed=2.0, power=90.0),
     kinematics_power=90.0,
+    method="pso",  # its budgets are below one CMA-ES population (26)
     swarm_size=8,
     env_kwargs=(("n_blade", 6), ("n_time", 32)),
 )

@@ -214,6 +214,55 @@ def test_pso_budget_prefix_property() -> None:
     assert long.history[: len(short.history)] == short.history
 
 
+def test_cmaes_budget_prefix_property() -> None:
+    """The same for CMA-ES, its default restarts and a truncated last population included."""
+    kwargs = dict(env_kwargs=dict(TINY.env_kwargs), progress=False)
+    (long,) = run("cmaes", "level", 1.5, 120, [3], **kwargs)
+    for budget in (26, 40, 79):
+        (short,) = run("cmaes", "level", 1.5, budget, [3], **kwargs)
+        assert long.history[: len(short.history) - 1] == short.history[:-1]
+        # the truncated last population is the first evaluations of the longer run's population
+        e, best = short.history[-1]
+        assert e == budget
+        assert best <= next(b for f, b in long.history if f >= budget)
+
+
+def test_convergence_study_compares_pso_and_cmaes(study_dir: Path) -> None:
+    rows = _read_csv(study_dir / "convergence" / "convergence_checkpoints.csv")
+    spec = SMALL.convergence
+    assert {(r["method"], r["condition"].split(",")[0]) for r in rows} == {
+        (m, t) for m in ("pso", "cmaes") for t in ("level", "accelerating")
+    }
+    records = [json.loads(p.read_text()) for p in (study_dir / "records").glob("*.json")]
+    for row in rows:
+        task = "level" if row["condition"].startswith("level") else "accelerate"
+        budget = int(row["budget"])
+        # independently of the study code: the best-so-far of each seed at the checkpoint
+        values = [
+            max(b for e, b in r["history"] if e <= budget)
+            for r in records
+            if r["job"]["budget"] == spec.budget
+            and r["method"] == row["method"]
+            and r["task"] == task
+        ]
+        assert len(values) == len(spec.seeds) == int(row["seeds"])
+        median = float(np.median(values))
+        assert float(row["median"]) == pytest.approx(median)
+        assert float(row["min"]) == min(values) and float(row["max"]) == max(values)
+        if median > 0:
+            assert float(row["spread"]) == pytest.approx((max(values) - min(values)) / median)
+    table = (study_dir / "convergence" / "convergence_checkpoints.md").read_text()
+    assert table.count("\n") == len(rows) + 2 and "| cmaes |" in table
+
+
+def test_studies_default_to_the_presets_method() -> None:
+    assert Plan(TINY).methods == (TINY.method,)
+    assert {p.method for p in PRESETS.values()} <= {"pso", "cmaes"}
+    assert Plan(TINY, ("pso",)).methods == ("pso",)
+    with pytest.raises(ValueError, match="method"):
+        replace(TINY, method="")
+
+
 def test_presets_are_validated() -> None:
     with pytest.raises(ValueError, match="speeds"):
         replace(TINY, speeds=(3.0,))
@@ -227,6 +276,8 @@ def test_presets_are_validated() -> None:
         replace(TINY, env_kwargs=(("speed", 1.0),))
     with pytest.raises(ValueError, match="budget"):
         ConvergenceSpec(budget=1, seeds=(0,))
+    with pytest.raises(ValueError, match="methods"):
+        ConvergenceSpec(budget=100, seeds=(0,), methods=("pso", "pso"))
     with pytest.raises(ValueError, match="methods"):
         Plan(TINY, ())
     assert all(isinstance(p, Preset) for p in PRESETS.values())

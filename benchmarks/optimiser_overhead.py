@@ -1,0 +1,148 @@
+"""How much of an optimisation run is the optimiser itself? (target: < 5 %).
+
+Runs a harness method (``pso``, ``cmaes``, ``random``) on a flight task exactly as
+``agents.harness`` does (ask, one vector-env step of the whole batch, tell) and times separately
+
+* the model call (``tandem_env.evaluate`` inside the env),
+* the vector-env step (reset with the condition + step: the model call plus the env's own
+  work, building rewards and infos),
+* ask + tell (the optimiser's arithmetic) and the remaining loop/bookkeeping.
+
+The optimiser's overhead is everything but the env step, as a share of the run time; both are
+measured in the same process and run, so the ratio holds on a loaded machine too. Usage::
+
+    python benchmarks/optimiser_overhead.py [--method cmaes] [--method-config popsize=20]
+        [--task level] [--evaluations 12000] [--repeats 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from agents.evaluator import VectorEnvEvaluator
+from agents.keyvalue import parse_pairs
+from agents.methods import AskTellMethod, get_method
+from agents.tasks import get_task
+
+TARGET = 0.05
+CONDITIONS = {"level": ({"speed": 1.5}, 1.5), "accelerate": ({"power": 60.0}, 60.0)}
+
+
+@dataclass
+class Timing:
+    total: float = 0.0
+    env_step: float = 0.0
+    model: float = 0.0
+    ask_tell: float = 0.0
+    evaluations: int = 0
+    iterations: int = 0
+
+    @property
+    def overhead(self) -> float:
+        """Share of the run spent outside the vector-env step."""
+        return (self.total - self.env_step) / self.total
+
+
+def time_run(
+    method: str, settings: dict[str, Any], task_name: str, evaluations: int, seed: int
+) -> Timing:
+    task_module = importlib.import_module("tandem_env.envs.task")
+    real = task_module.evaluate
+    timing = Timing()
+
+    def timed_evaluate(*args, **kwargs):
+        start = time.perf_counter()
+        try:
+            return real(*args, **kwargs)
+        finally:
+            timing.model += time.perf_counter() - start
+
+    task_module.evaluate = timed_evaluate
+    try:
+        task = get_task(task_name)
+        env_kwargs, value = CONDITIONS[task_name]
+        search = get_method(method, settings)
+        if not isinstance(search, AskTellMethod):
+            raise SystemExit(f"{method} is not an ask/tell optimiser")
+        optimiser = search.config(evaluations, task).build(28, seed)
+        start = time.perf_counter()
+        with VectorEnvEvaluator(
+            task, task.condition(value), env_kwargs, seed, evaluations
+        ) as evaluator:
+            while not optimiser.done:
+                t0 = time.perf_counter()
+                X = optimiser.ask()
+                t1 = time.perf_counter()
+                rewards = evaluator(X)
+                t2 = time.perf_counter()
+                optimiser.tell(X, rewards)
+                timing.ask_tell += (t1 - t0) + (time.perf_counter() - t2)
+            timing.total = time.perf_counter() - start
+            timing.env_step = evaluator.step_time
+            timing.evaluations = evaluator.evaluations
+            timing.iterations = evaluator.iterations
+    finally:
+        task_module.evaluate = real
+    return timing
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--method", default="pso", help="pso (default), cmaes or random")
+    parser.add_argument(
+        "--method-config", nargs="+", default=[], metavar="KEY=VALUE", help="method settings"
+    )
+    parser.add_argument("--task", choices=tuple(CONDITIONS), default="level")
+    parser.add_argument("--evaluations", type=int, default=12_000, help="budget per run")
+    parser.add_argument("--repeats", type=int, default=3, help="runs (seeds 0..repeats-1)")
+    args = parser.parse_args(argv)
+    settings = parse_pairs(args.method_config, "--method-config")
+
+    time_run(args.method, settings, args.task, 200, 0)  # warm-up: numba cache, env construction
+    timings = [
+        time_run(args.method, settings, args.task, args.evaluations, seed)
+        for seed in range(args.repeats)
+    ]
+    env_kwargs, _ = CONDITIONS[args.task]
+    print(
+        f"{args.method} {settings or ''} on {args.task} {env_kwargs}: {args.evaluations} "
+        f"evaluations per run, {args.repeats} runs"
+    )
+    print(
+        f"{'run':>4} {'batches':>8} {'total [s]':>10} {'model [s]':>10} {'env step [s]':>13} "
+        f"{'ask+tell [s]':>13} {'evals/s':>9} {'overhead':>9}"
+    )
+    for k, t in enumerate(timings):
+        print(
+            f"{k:>4} {t.iterations:>8} {t.total:>10.3f} {t.model:>10.3f} {t.env_step:>13.3f} "
+            f"{t.ask_tell:>13.4f} {t.evaluations / t.total:>9.0f} {t.overhead:>8.2%}"
+        )
+    total = sum(t.total for t in timings)
+    env_step = sum(t.env_step for t in timings)
+    model = sum(t.model for t in timings)
+    ask_tell = sum(t.ask_tell for t in timings)
+    overhead = (total - env_step) / total
+    print(
+        f"all  vector-env step {env_step:.3f} s ({env_step / total:.1%} of the run; of which "
+        f"the model call {model:.3f} s, the env's own work {env_step - model:.3f} s)"
+    )
+    print(
+        f"all  optimiser overhead (everything but the env step) {total - env_step:.3f} s = "
+        f"{overhead:.2%} of {total:.3f} s (ask+tell {ask_tell:.3f} s = "
+        f"{ask_tell / total:.2%}); target < {TARGET:.0%}: "
+        f"{'met' if overhead < TARGET else 'NOT met'}"
+    )
+    per_eval = np.array([t.ask_tell / t.evaluations for t in timings])
+    print(f"     ask+tell per evaluated point: {per_eval.mean() * 1e6:.1f} µs")
+    return 0 if overhead < TARGET else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
