@@ -67,7 +67,7 @@ EPILOG = """\
 examples:
   python -m train --algo ppo --env TandemWing/SpeedChange-v0 -f logs --seed 0
   python -m train --algo sac --env TandemWing/SpeedChange-v0 -f logs --seed 0
-  python -m eval speed-change --optima-budget 6000 --episodes 32 \\
+  python -m eval speed-change --optima-budget 4000 --episodes 32 \\
       --ppo logs/ppo/TandemWing-SpeedChange-v0_1 --sac logs/sac/TandemWing-SpeedChange-v0_1 \\
       --out results/speed-change --figure docs/figures/speed_change_episode.png"""
 
@@ -165,7 +165,7 @@ def steady_optima(
     *,
     speeds: Sequence[float] = STEADY_GRID,
     method: str | None = None,
-    budget: int = 6000,
+    budget: int = 4000,
     seed: int = 0,
     cache_dir: str | os.PathLike[str] | None = None,
     progress: bool = True,
@@ -418,8 +418,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--optima-budget",
         type=int,
-        default=6000,
-        help="model evaluations per level-flight optimum (6000)",
+        default=4000,
+        help="model evaluations per level-flight optimum (4000)",
+    )
+    parser.add_argument(
+        "--grid",
+        type=float,
+        nargs="+",
+        default=list(STEADY_GRID),
+        metavar="V",
+        help="speeds [m/s] of the level-flight optima (default 0.25 to 2.0 in steps of 0.25)",
     )
     parser.add_argument("--ppo", metavar="RUN_DIR", help="a python -m train PPO run folder")
     parser.add_argument("--sac", metavar="RUN_DIR", help="a python -m train SAC run folder")
@@ -454,6 +462,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             1,
             steady_optima(
                 config,  # type: ignore[arg-type]
+                speeds=args.grid,
                 method=args.optimiser,
                 budget=args.optima_budget,
                 cache_dir=args.out / "optima",
