@@ -65,16 +65,27 @@ cycle); and PPO / SAC runs of `python -m train` given by --ppo / --sac. Writes i
 --figure draws speed, altitude and power against time of one episode for every policy."""
 EPILOG = """\
 examples:
+  python -m train --algo ppo --env TandemWing/SpeedChange-v0 -f logs --seed 0 -n 100000
   python -m train --algo ppo --env TandemWing/SpeedChange-v0 -f logs --seed 0
   python -m train --algo sac --env TandemWing/SpeedChange-v0 -f logs --seed 0
-  python -m eval speed-change --optima-budget 4000 --episodes 32 \\
-      --ppo logs/ppo/TandemWing-SpeedChange-v0_1 --sac logs/sac/TandemWing-SpeedChange-v0_1 \\
-      --out results/speed-change --figure docs/figures/speed_change_episode.png"""
+  python -m eval speed-change --episodes 32 --out results/speed-change \\
+      --ppo logs/ppo/TandemWing-SpeedChange-v0_1 logs/ppo/TandemWing-SpeedChange-v0_2 \\
+      --sac logs/sac/TandemWing-SpeedChange-v0_1 \\
+      --figure docs/figures/speed_change_episode.png --figure-episode 5"""
 
 #: Speeds [m/s] of the level-flight optima the steady schedule chooses from: the envelope in
 #: steps of 0.25 m/s (the training sweep's grid).
 STEADY_GRID: tuple[float, ...] = tuple(
     float(v) for v in np.arange(LEVEL_FLIGHT_ENVELOPE[0], LEVEL_FLIGHT_ENVELOPE[1] + 1e-9, 0.25)
+)
+#: The reward's parts, summed per episode: the ``info["reward_<term>"]`` terms and the penalty.
+REWARD_PARTS: tuple[str, ...] = (
+    "progress",
+    "speed",
+    "altitude",
+    "energy",
+    "termination",
+    "penalty",
 )
 #: Relative speed error counted as "at the target" [-].
 TARGET_WITHIN = 0.05
@@ -132,7 +143,8 @@ class SB3Policy:
 
     @classmethod
     def load(cls, run_dir: str | os.PathLike[str], name: str, which: str = "final") -> SB3Policy:
-        """The model of a ``python -m train`` run folder (``which``: "final" or "best")."""
+        """The model of a ``python -m train`` run folder (``which``: "final" or "best"), named
+        ``"<name> (<steps>k steps)"``."""
         from train.policies import TrainedPolicy
 
         policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
@@ -145,7 +157,8 @@ class SB3Policy:
                 f"{run_dir} normalised its observations (VecNormalize); allowed here: runs with "
                 "normalize: false, as in train/hyperparams"
             )
-        return cls(policy.model, name)
+        steps = int(policy.model.num_timesteps)
+        return cls(policy.model, f"{name} ({steps / 1000:.0f}k steps)")
 
     def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
         actions, _ = self.model.predict(observations, deterministic=True)
@@ -165,7 +178,7 @@ def steady_optima(
     *,
     speeds: Sequence[float] = STEADY_GRID,
     method: str | None = None,
-    budget: int = 4000,
+    budget: int = 12000,
     seed: int = 0,
     cache_dir: str | os.PathLike[str] | None = None,
     progress: bool = True,
@@ -237,6 +250,8 @@ class EpisodeLog:
     reward: np.ndarray
     """(K,) [-]."""
     terminated: bool
+    terms: Mapping[str, float] = field(default_factory=dict)
+    """Each reward term summed over the episode (``progress``, ..., ``penalty``) [-]."""
 
 
 def run_episodes(
@@ -255,6 +270,7 @@ def run_episodes(
         per_cycle: dict[str, list[list[float]]] = {
             key: [[] for _ in range(n)] for key in ("power_per_mass", "energy", "reward")
         }
+        parts = {key: np.zeros(n) for key in REWARD_PARTS}
         targets = np.asarray(info["target_speed"], dtype=np.float64)
         running = np.ones(n, dtype=bool)
         terminated = np.zeros(n, dtype=bool)
@@ -267,6 +283,9 @@ def run_episodes(
                 per_cycle["power_per_mass"][i].append(float(info["power_per_mass"][i]))
                 per_cycle["energy"][i].append(float(info["energy"][i]))
                 per_cycle["reward"][i].append(float(rewards[i]))
+                for key in REWARD_PARTS:
+                    name = key if key == "penalty" else f"reward_{key}"
+                    parts[key][i] += (-1.0 if key == "penalty" else 1.0) * float(info[name][i])
             terminated |= running & term
             running &= ~(term | trunc)
     finally:
@@ -279,6 +298,7 @@ def run_episodes(
             **{key: np.asarray(states[key][i]) for key in columns},
             **{key: np.asarray(per_cycle[key][i]) for key in per_cycle},
             terminated=bool(terminated[i]),
+            terms={key: float(parts[key][i]) for key in REWARD_PARTS},
         )
         for i in range(n)
     ]
@@ -307,6 +327,7 @@ def episode_metrics(log: EpisodeLog) -> dict[str, Any]:
         "mean_abs_altitude_mm": 1e3 * float(np.mean(np.abs(log.altitude[1:]))),
         "final_abs_altitude_mm": 1e3 * abs(float(log.altitude[-1])),
         "mean_power_W_kg": float(np.mean(log.power_per_mass)),
+        **{f"return_{key}": float(value) for key, value in log.terms.items()},
     }
 
 
@@ -339,6 +360,11 @@ def summary_rows(episodes: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
                 "mean_abs_altitude_mean_mm": float(values("mean_abs_altitude_mm").mean()),
                 "flight_time_mean_s": float(values("flight_time_s").mean()),
                 "mean_power_W_kg": float(values("mean_power_W_kg").mean()),
+                **{
+                    f"return_{key}_mean": float(values(f"return_{key}").mean())
+                    for key in REWARD_PARTS
+                    if f"return_{key}" in rows[0]
+                },
             }
         )
     return out
@@ -359,6 +385,15 @@ def markdown_table(rows: Sequence[Mapping[str, Any]]) -> str:
             f"| {r['energy_per_metre_mean_mJ_m']:.2f} | {r['mean_abs_altitude_mean_mm']:.1f} "
             f"| {r['mean_power_W_kg']:.1f} |"
         )
+    if all(f"return_{key}_mean" in r for r in rows for key in REWARD_PARTS):
+        lines += [
+            "",
+            "| policy | " + " | ".join(REWARD_PARTS) + " |",
+            "|---|" + "---|" * len(REWARD_PARTS),
+        ]
+        for r in rows:
+            parts = " | ".join(f"{r[f'return_{key}_mean']:+.2f}" for key in REWARD_PARTS)
+            lines.append(f"| {r['policy']} | {parts} |")
     return "\n".join(lines) + "\n"
 
 
@@ -383,6 +418,7 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
         axes[1].plot(log.time, 1e3 * log.altitude, lw=1.5, color=line.get_color())
         axes[2].step(log.time[1:], log.power_per_mass, where="pre", lw=1.2, color=line.get_color())
         if log.terminated:
+            axes[0].plot(log.time[-1], log.forward_speed[-1], "x", color=line.get_color())
             axes[1].plot(log.time[-1], 1e3 * log.altitude[-1], "x", color=line.get_color())
     axes[2].axhline(90.0, color="0.3", ls=":", lw=1.0, label="power cap 90 W/kg")
     axes[0].set_ylabel("forward speed u [m/s]")
@@ -395,7 +431,7 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
         axis.grid(True, color="0.92")
     figure.suptitle(
         f"SpeedChange-v0, seed {first.seed}: u0 = {first.forward_speed[0]:.2f} m/s -> "
-        f"u* = {first.target_speed:.2f} m/s (x: left the band)",
+        f"u* = {first.target_speed:.2f} m/s (x: ended early)",
         fontsize=10,
     )
     figure.tight_layout()
@@ -418,8 +454,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--optima-budget",
         type=int,
-        default=4000,
-        help="model evaluations per level-flight optimum (4000)",
+        default=12000,
+        help="model evaluations per level-flight optimum (12000)",
     )
     parser.add_argument(
         "--grid",
@@ -429,8 +465,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="V",
         help="speeds [m/s] of the level-flight optima (default 0.25 to 2.0 in steps of 0.25)",
     )
-    parser.add_argument("--ppo", metavar="RUN_DIR", help="a python -m train PPO run folder")
-    parser.add_argument("--sac", metavar="RUN_DIR", help="a python -m train SAC run folder")
+    parser.add_argument(
+        "--ppo", nargs="+", default=[], metavar="RUN_DIR", help="python -m train PPO run folders"
+    )
+    parser.add_argument(
+        "--sac", nargs="+", default=[], metavar="RUN_DIR", help="python -m train SAC run folders"
+    )
     parser.add_argument(
         "--model", choices=("final", "best"), default="final", help="which saved model (final)"
     )
@@ -455,8 +495,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     try:
         policies: list[Any] = [RandomPolicy(seed=0)]
         for name in ("ppo", "sac"):
-            if getattr(args, name):
-                policies.append(SB3Policy.load(getattr(args, name), name, args.model))
+            for run_dir in getattr(args, name):
+                policies.append(SB3Policy.load(run_dir, name, args.model))
         config = SpeedChangeConfig.from_kwargs()
         policies.insert(
             1,

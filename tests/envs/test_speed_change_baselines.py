@@ -67,6 +67,7 @@ def test_episodes_use_the_seeds_and_log_the_first_episode_of_each() -> None:
         assert log.target_speed == again.target_speed
         assert 1 <= log.reward.size <= 6 and log.time.size == log.reward.size + 1
         assert log.reward.size == 6 or log.terminated  # ended early only by leaving a band
+        assert sum(log.terms.values()) == pytest.approx(log.reward.sum(), rel=1e-12)
 
 
 def test_episode_metrics() -> None:
