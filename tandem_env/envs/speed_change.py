@@ -104,11 +104,13 @@ class SpeedChangeEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Rewards
 
-    ``reward = objective − penalty``, ``objective`` the sum of the weighted costs (after the
-    cycle, :class:`~tandem_env.envs.speed_change_config.SpeedChangeReward`):
-    −w_speed·|u − u*|·Δt [1/m] − w_altitude·|h|·Δt [1/(m·s)] − w_energy·P·Δt [1/J]
-    − w_termination·(cycles not flown) on termination; ``penalty`` the power cap of level flight,
-    ``penalty_weight``·max(0, P/m − 90)/90 per cycle (exactly 0 within the cap).
+    ``reward = objective − penalty``, ``objective`` the sum of the weighted terms
+    (:class:`~tandem_env.envs.speed_change_config.SpeedChangeReward`; u, h before and u', h'
+    after the cycle): progress w_progress·(|u − u*| − |u' − u*|) [1/(m/s)], speed error
+    −w_speed·|u' − u*|·Δt [1/m], altitude error −w_altitude·|h'|·Δt [1/(m·s)], energy
+    −w_energy·P·Δt [1/J], and −w_termination·(cycles not flown) on termination; ``penalty`` the
+    power cap of level flight, ``penalty_weight``·max(0, P/m − 90)/90 per cycle (exactly 0
+    within the cap).
 
     ## Starting State
 
