@@ -4,10 +4,10 @@ Baselines (each a :class:`Policy`, given the batch of observations and episode s
 
 * ``random``: uniform random strokes, a new one every cycle;
 * ``steady``: the level-flight optimum at the grid speed nearest the episode's target, played
-  every cycle. The optima come from the harness (:func:`steady_optima`: ``agents.harness.run``
-  on the ``level`` task with the SpeedChange env's insect and model options, so with its
+  every cycle. The optima come from the harness (:func:`steady_optima`: harness jobs on the
+  ``level`` task with the SpeedChange env's insect and model options, so with its
   ``thrust_split="body"`` a level-feasible stroke is one whose net force of the dynamics is
-  within ±2 % of W) and are cached under ``--out``;
+  within ±2 % of W), stored by configuration under ``--out`` and reused;
 * ``ppo``, ``sac``: models trained by ``python -m train --algo ppo|sac --env
   TandemWing/SpeedChange-v0`` (deterministic actions).
 
@@ -19,7 +19,6 @@ batched model call per cycle for all episodes.
 from __future__ import annotations
 
 import argparse
-import hashlib
 import math
 import os
 import sys
@@ -32,7 +31,7 @@ import gymnasium as gym
 import numpy as np
 
 import tandem_env  # noqa: F401  (registers the ids)
-from agents.records import write_csv_atomic
+from agents.fileio import write_csv_atomic
 from tandem_env.envs.registration import SPEED_CHANGE_ID
 from tandem_env.envs.speed_change_config import LEVEL_FLIGHT_ENVELOPE, SpeedChangeConfig
 from tandem_env.envs.speed_change_task import Flight
@@ -60,8 +59,8 @@ cycle); and PPO / SAC runs of `python -m train` given by --ppo / --sac. Writes i
   episodes.csv             one row per policy and episode (return, time to reach the target
                            within 5 %, energy per metre, mean |altitude error|, ...);
   summary.csv, summary.md  one row per policy: means over the episodes;
-  optima/                  the harness records of the level-flight optima (a cache: reused
-                           when method, budget, seed and model options match).
+  optima/                  the record store of the level-flight optima (records/<key>.json,
+                           reused when method, budget, seed and model options match).
 --figure draws speed, altitude and power against time of one episode for every policy."""
 EPILOG = """\
 examples:
@@ -173,6 +172,30 @@ def default_optimiser() -> str:
     return "cmaes" if "cmaes" in available_methods() else "pso"
 
 
+def level_kwargs(config: SpeedChangeConfig) -> dict[str, Any]:
+    """The level-flight env keywords that give the SpeedChange env's insect and model options:
+    only what differs from the defaults (``{"thrust_split": "body"}`` by default), so records
+    stay readable and their configuration keys stable."""
+    from tandem_env import Dragonfly, ModelOptions
+    from tandem_env.envs.config import MODEL_OPTION_KWARGS
+
+    kwargs: dict[str, Any] = {}
+    insect = config.insect
+    if insect != Dragonfly():
+        planform = (
+            Dragonfly().with_planform(insect.planform) if insect.planform != "mixed" else None
+        )
+        if insect == planform:
+            kwargs["planform"] = insect.planform
+        else:
+            kwargs["insect"] = insect
+    default = ModelOptions()
+    for kwarg, name in MODEL_OPTION_KWARGS.items():
+        if getattr(config.options, name) != getattr(default, name):
+            kwargs[kwarg] = getattr(config.options, name)
+    return kwargs
+
+
 def steady_optima(
     config: SpeedChangeConfig,
     *,
@@ -181,42 +204,32 @@ def steady_optima(
     budget: int = 12000,
     seed: int = 0,
     cache_dir: str | os.PathLike[str] | None = None,
+    scheduler: str | None = None,
     progress: bool = True,
 ) -> SteadyPolicy:
     """Level-flight optima at ``speeds`` [m/s] for the env's insect and model options.
 
-    Each is one harness run (``budget`` model evaluations, ``seed``) on the ``level`` task;
-    with ``cache_dir`` its record is written to a folder named by method, budget and a hash of
-    the insect and options, and an existing record for the same speed and seed is reused.
+    Each is one harness job (``budget`` model evaluations, ``seed``) on the ``level`` task, run
+    by the studies' runner (:func:`eval.studies.runner.run_jobs`: serially, or on Dask with
+    ``scheduler``) into the record store ``cache_dir`` (a temporary one if None), where a
+    stored record of the same configuration is reused.
     """
-    from agents.harness import run
-    from agents.run_record import load_records
+    import tempfile
+
+    from agents.records import Job, RecordStore
+    from eval.studies.runner import run_jobs
 
     method = default_optimiser() if method is None else method
-    env_kwargs = {"insect": config.insect, "options": config.options}
-    folder = None
-    cached: dict[float, Any] = {}
-    if cache_dir is not None:
-        key = hashlib.sha1(f"{config.insect!r}{config.options!r}".encode()).hexdigest()[:10]
-        folder = Path(cache_dir) / f"{method}-b{budget}-{key}"
-        if folder.is_dir():
-            for record in load_records([folder]):
-                if record.seed == seed and record.budget == budget and record.method == method:
-                    cached[round(record.condition.value, 9)] = record
+    kwargs = level_kwargs(config)
+    jobs = [Job(method, "level", float(v), budget, seed, env_kwargs=kwargs) for v in speeds]
+    with tempfile.TemporaryDirectory() as scratch:
+        store = RecordStore(scratch if cache_dir is None else cache_dir)
+        run_jobs(jobs, store.directory, scheduler=scheduler, progress=progress)
+        records = [store.load(job) for job in jobs]
     actions = []
-    for speed in speeds:
-        record = cached.get(round(float(speed), 9))
-        if record is None:
-            (record,) = run(
-                method,
-                "level",
-                float(speed),
-                budget,
-                [seed],
-                env_kwargs=env_kwargs,
-                progress=progress,
-                out_dir=folder,
-            )
+    for speed, record in zip(speeds, records, strict=True):
+        if record is None:  # run_jobs raises when a job fails; a missing record is a bug
+            raise RuntimeError(f"no level-flight record at {speed:g} m/s after running it")
         if not record.feasible:
             print(
                 f"steady: the {method} optimum at {speed:g} m/s is not level-feasible "
@@ -484,6 +497,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=0,
         help="which evaluation episode the figure shows (index, default 0)",
     )
+    parser.add_argument(
+        "--scheduler",
+        default=None,
+        help='where the optima run: none (here, serially; default), "local:N" or a Dask '
+        "scheduler address (as for python -m eval study)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
@@ -506,6 +525,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                 method=args.optimiser,
                 budget=args.optima_budget,
                 cache_dir=args.out / "optima",
+                scheduler=args.scheduler,
                 progress=not args.quiet,
             ),
         )

@@ -16,14 +16,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..physics import ModelOptions
-from .config import (
-    MODEL_SPEED_LIMITS,
-    FlightConfig,
-    LevelFlightConfig,
-    _within,
-    check_interval,
-    check_real,
-)
+from .config import MODEL_SPEED_LIMITS, FlightConfig, LevelFlightConfig, check_interval, check_real
 
 
 def _level_flight_envelope() -> tuple[float, float]:
@@ -108,6 +101,16 @@ class SpeedChangeReward:
         )
 
 
+def _inside(
+    owner: str, name: str, value: float, envelope_name: str, envelope: tuple[float, float]
+) -> None:
+    if not envelope[0] <= value <= envelope[1]:
+        raise ValueError(
+            f"{owner}.{name} = {value:g} m/s; allowed: a speed inside {owner}.{envelope_name} = "
+            f"({envelope[0]:g}, {envelope[1]:g}) m/s (for other speeds widen {envelope_name})"
+        )
+
+
 def _speed_option(owner: str, config: Any, name: str, envelope: tuple[float, float]) -> None:
     """A fixed ``{name}`` or a sampled ``{name}_range`` inside the envelope (default: all of it)."""
     fixed, sampled = getattr(config, name), getattr(config, f"{name}_range")
@@ -118,13 +121,13 @@ def _speed_option(owner: str, config: Any, name: str, envelope: tuple[float, flo
         )
     if fixed is not None:
         value = check_real(owner, name, fixed, "m/s", *MODEL_SPEED_LIMITS)
-        _within(owner, name, value, "speed_envelope", envelope, "m/s")
+        _inside(owner, name, value, "speed_envelope", envelope)
         object.__setattr__(config, name, value)
         return
     low, high = envelope if sampled is None else sampled
     low, high = check_interval(owner, f"{name}_range", (low, high), "m/s", MODEL_SPEED_LIMITS)
-    _within(owner, f"{name}_range low", low, "speed_envelope", envelope, "m/s")
-    _within(owner, f"{name}_range high", high, "speed_envelope", envelope, "m/s")
+    _inside(owner, f"{name}_range low", low, "speed_envelope", envelope)
+    _inside(owner, f"{name}_range high", high, "speed_envelope", envelope)
     object.__setattr__(config, f"{name}_range", (low, high))
 
 
@@ -196,8 +199,8 @@ class SpeedChangeConfig(FlightConfig):
         band = check_interval(
             owner, "forward_speed_band", self.forward_speed_band, "m/s", MODEL_SPEED_LIMITS
         )
-        _within(owner, "speed_envelope low", envelope[0], "forward_speed_band", band, "m/s")
-        _within(owner, "speed_envelope high", envelope[1], "forward_speed_band", band, "m/s")
+        _inside(owner, "speed_envelope low", envelope[0], "forward_speed_band", band)
+        _inside(owner, "speed_envelope high", envelope[1], "forward_speed_band", band)
         object.__setattr__(self, "forward_speed_band", band)
         object.__setattr__(
             self,

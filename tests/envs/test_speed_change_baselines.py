@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import agents.harness
+from agents.records import load_records
 from eval import episodes as module
 from eval.__main__ import main
 from eval.episodes import (
@@ -30,17 +31,20 @@ def test_steady_optima_come_from_the_harness_and_are_cached(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     config = SpeedChangeConfig()
+    assert module.level_kwargs(config) == {"thrust_split": "body"}
     policy = steady_optima(
         config, speeds=(0.5, 1.5), method="pso", budget=40, cache_dir=tmp_path, progress=False
     )
     assert policy.actions.shape == (2, 28) and np.all(np.abs(policy.actions) <= 1.0)
-    (folder,) = tmp_path.iterdir()
-    assert folder.name.startswith("pso-b40-") and len(list(folder.glob("*.json"))) == 2
+    records = load_records([tmp_path])
+    assert sorted(r.condition.value for r in records) == [0.5, 1.5]
+    assert all(r.task == "level" and r.budget == 40 for r in records)
+    assert all(r.config["env"]["options"]["thrust_split"] == "body" for r in records)
 
     def no_search(*args, **kwargs):
-        raise AssertionError("the cached optimum was searched again")
+        raise AssertionError("the stored optimum was searched again")
 
-    monkeypatch.setattr(agents.harness, "run", no_search)
+    monkeypatch.setattr(agents.harness, "run_job", no_search)
     again = steady_optima(
         config, speeds=(1.5, 0.5), method="pso", budget=40, cache_dir=tmp_path, progress=False
     )
