@@ -50,7 +50,7 @@ def cycle_time(physical: np.ndarray) -> np.ndarray:
 
 
 def body_drag(speed: np.ndarray, insect: Dragonfly) -> np.ndarray:
-    """Body parasite drag D_b = ½·ρ·V²·(C_D·S)_body [N] at speed V [m/s] (MODEL.md §7)."""
+    """Body parasite drag D_b = ½·ρ·V²·(C_D·S)_body [N] at speed V [m/s] (docs/model.md §1.5)."""
     return 0.5 * insect.air_density * speed**2 * insect.body_drag_area
 
 
