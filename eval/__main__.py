@@ -18,7 +18,13 @@ from collections.abc import Sequence
 from types import ModuleType
 
 #: Modules providing the subcommands, in the order ``--help`` lists them.
-SUBCOMMANDS: tuple[str, ...] = ("eval.optimize", "eval.compare", "eval.study", "eval.measured")
+SUBCOMMANDS: tuple[str, ...] = (
+    "eval.optimize",
+    "eval.compare",
+    "eval.study",
+    "eval.measured",
+    "eval.episodes",
+)
 
 
 def _load(names: Sequence[str]) -> list[ModuleType]:

@@ -6,7 +6,8 @@ from .physics import __all__ as _physics_all
 __all__ = list(_physics_all)
 __version__ = "0.1.0"
 
-# Register the Gymnasium ids (TandemWing/LevelFlight-v0, TandemWing/Accelerate-v0).
+# Register the Gymnasium ids (TandemWing/LevelFlight-v0, TandemWing/Accelerate-v0,
+# TandemWing/SpeedChange-v0).
 from .envs.registration import register_envs as _register_envs
 
 _register_envs()

@@ -36,10 +36,11 @@ from .vector import FlightVectorEnv
 class TandemVecEnv(VecEnv):
     """SB3 ``VecEnv`` over a native :class:`~tandem_env.envs.vector.FlightVectorEnv`.
 
-    Every SB3 step evaluates all n strokes in one model call, ends every episode
-    (``dones`` all True: each episode is one wing-beat) and resets every sub-env at once, as
-    ``DummyVecEnv`` does. ``get_attr`` / ``env_method`` act on the shared native env (the
-    sub-envs have no separate objects) and return its value once per requested index.
+    Every SB3 step evaluates all n strokes in one model call and resets the sub-envs whose
+    episode ended, as ``DummyVecEnv`` does: all of them for the one-cycle envs (``dones`` all
+    True), those that terminated or truncated for ``TandemWing/SpeedChange-v0``.
+    ``get_attr`` / ``env_method`` act on the shared native env (the sub-envs have no separate
+    objects) and return its value once per requested index.
     """
 
     def __init__(self, vector_env: FlightVectorEnv) -> None:
@@ -56,12 +57,14 @@ class TandemVecEnv(VecEnv):
         self.metadata = {
             key: value for key, value in vector_env.metadata.items() if key != "autoreset_mode"
         }
-        self._observations = np.zeros((self.num_envs, 1), dtype=np.float32)
+        self._observations = np.zeros(
+            (self.num_envs, *vector_env.single_observation_space.shape), dtype=np.float32
+        )
         self._actions: np.ndarray | None = None
 
     @property
     def config(self) -> Any:
-        """The env config (``LevelFlightConfig`` or ``AccelerateConfig``)."""
+        """The env config (``LevelFlightConfig``, ``AccelerateConfig`` or ``SpeedChangeConfig``)."""
         return self.vector_env.config
 
     def reset(self) -> np.ndarray:
@@ -87,18 +90,24 @@ class TandemVecEnv(VecEnv):
             raise ValueError(f"actions must have shape ({n}, 28); got shape {actions.shape}")
         everyone = np.arange(n)
         batch, final = self.vector_env.step_envs(everyone, actions)
+        # One-cycle envs end every episode at every step; SpeedChange reports its own ends.
+        terminated = np.asarray(getattr(batch, "terminated", np.ones(n, dtype=np.bool_)))
+        truncated = np.asarray(getattr(batch, "truncated", np.zeros(n, dtype=np.bool_)))
+        dones = terminated | truncated
         infos = rows(batch.info_columns(), n)
-        for info, observation in zip(infos, final, strict=True):
-            info["TimeLimit.truncated"] = False
-            info["terminal_observation"] = observation.copy()
-        self.reset_infos = rows(self.vector_env.reset_envs(everyone, [None] * n, None), n)
+        # What DummyVecEnv adds: the truncation flag at every step, the last observation at
+        # an episode's end.
+        for i, info in enumerate(infos):
+            info["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+        ended = np.flatnonzero(dones)
+        for i in ended:
+            infos[i]["terminal_observation"] = final[i].copy()
+        if ended.size:
+            columns = self.vector_env.reset_envs(ended, [None] * ended.size, None)
+            for i, info in zip(ended, rows(columns, ended.size), strict=True):
+                self.reset_infos[i] = info
         self._observations = self.vector_env.observations
-        return (
-            self._observations.copy(),
-            batch.reward.astype(np.float32),
-            np.ones(n, dtype=np.bool_),
-            infos,
-        )
+        return self._observations.copy(), batch.reward.astype(np.float32), dones, infos
 
     def close(self) -> None:
         self.vector_env.close()

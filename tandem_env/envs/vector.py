@@ -79,7 +79,7 @@ class FlightVectorEnv(VectorEnv):
         self.autoreset_mode = mode
         self.metadata = {**type(self).metadata, "autoreset_mode": mode}
         self.config = build_config(self.config_class, config, kwargs)
-        self.task = make_task(self.config)
+        self.task = self._make_task()
         self.single_action_space = action_space()
         self.single_observation_space = observation_space()
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -94,6 +94,10 @@ class FlightVectorEnv(VectorEnv):
         self._started = np.zeros(n, dtype=np.bool_)
         self._last: list[LastStep | None] = [None] * n
         self._window: Any = None
+
+    def _make_task(self) -> Any:
+        """The batched core behind the sub-envs (the multi-cycle env builds its own)."""
+        return make_task(self.config)
 
     # --- per-env random generators (one per sub-env, as SyncVectorEnv's envs have) -------------
     def _rng(self, i: int) -> np.random.Generator:

@@ -18,6 +18,8 @@ CASES: list[tuple[str, dict[str, Any]]] = [
     ("TandemWing/Accelerate-v0", {"objective": "vertical"}),
     ("TandemWing/Accelerate-v0", {"objective": "horizontal", "power": 60.0}),
     ("TandemWing/Accelerate-v0", {"objective": "resultant", "power_range": (50.0, 90.0)}),
+    ("TandemWing/SpeedChange-v0", {}),
+    ("TandemWing/SpeedChange-v0", {"target_speed": 1.5, "start_speed_range": (0.5, 1.0)}),
 ]
 IDS = [f"{env_id.split('/')[1]}-{kw}" for env_id, kw in CASES]
 

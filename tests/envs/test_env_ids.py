@@ -9,7 +9,7 @@ from gymnasium.vector import AutoresetMode
 
 from tandem_env.envs import ENV_IDS, check_env_id, make_sb3_vec_env
 
-VALID = r"allowed: TandemWing/LevelFlight-v0, TandemWing/Accelerate-v0$"
+VALID = r"allowed: TandemWing/LevelFlight-v0, TandemWing/Accelerate-v0, TandemWing/SpeedChange-v0$"
 
 
 @pytest.mark.parametrize("bad", ["TandemWing/Levelflight-v0", "CartPole-v1", "", None, 3])
@@ -33,8 +33,12 @@ def test_train_and_envelope_list_the_ids(capsys: pytest.CaptureFixture[str]) -> 
     with pytest.raises(
         ValueError, match="allowed: TandemWing/LevelFlight-v0, TandemWing/Accelerate-v0"
     ):
-        task_of("Foo-v0")
-    assert ENV_IDS == ("TandemWing/LevelFlight-v0", "TandemWing/Accelerate-v0")
+        task_of("Foo-v0")  # the harness's (one-cycle) tasks
+    assert ENV_IDS == (
+        "TandemWing/LevelFlight-v0",
+        "TandemWing/Accelerate-v0",
+        "TandemWing/SpeedChange-v0",
+    )
 
 
 @pytest.mark.parametrize("mode", list(AutoresetMode))

@@ -1,0 +1,550 @@
+"""``python -m eval speed-change``: policies flown through whole ``TandemWing/SpeedChange-v0`` episodes.
+
+Baselines (each a :class:`Policy`, given the batch of observations and episode states):
+
+* ``random``: uniform random strokes, a new one every cycle;
+* ``steady``: the level-flight optimum at the grid speed nearest the episode's target, played
+  every cycle. The optima come from the harness (:func:`steady_optima`: harness jobs on the
+  ``level`` task with the SpeedChange env's insect and model options, so with its
+  ``thrust_split="body"`` a level-feasible stroke is one whose net force of the dynamics is
+  within ±2 % of W), stored by configuration under ``--out`` and reused;
+* ``ppo``, ``sac``: models trained by ``python -m train --algo ppo|sac --env
+  TandemWing/SpeedChange-v0`` (deterministic actions).
+
+Every policy flies the same episodes: the native vector env reset with the fixed evaluation
+seeds (sub-env i with seed ``first_seed + i``, hence the same start and target speeds), one
+batched model call per cycle for all episodes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import gymnasium as gym
+import numpy as np
+
+import tandem_env  # noqa: F401  (registers the ids)
+from agents.fileio import write_csv_atomic
+from tandem_env.envs.registration import SPEED_CHANGE_ID
+from tandem_env.envs.speed_change_config import LEVEL_FLIGHT_ENVELOPE, SpeedChangeConfig
+from tandem_env.envs.speed_change_task import Flight
+
+__all__ = [
+    "EpisodeLog",
+    "Policy",
+    "RandomPolicy",
+    "SB3Policy",
+    "SteadyPolicy",
+    "episode_metrics",
+    "run_episodes",
+    "steady_optima",
+    "summary_rows",
+]
+
+NAME = "speed-change"
+HELP = "fly random, steady-optimum, PPO and SAC policies through SpeedChange-v0 episodes"
+DESCRIPTION = """\
+Fly every policy through the same TandemWing/SpeedChange-v0 episodes (fixed evaluation seeds:
+sub-env i is reset with seed FIRST_SEED + i, so every policy gets the same start and target
+speeds) and compare them. Policies: random strokes; the steady-optimum schedule (the
+level-flight optimum at the grid speed nearest the target, from the harness, played every
+cycle); and PPO / SAC runs of `python -m train` given by --ppo / --sac. Writes into --out:
+  episodes.csv             one row per policy and episode (return, time to reach the target
+                           within 5 %, energy per metre, mean |altitude error|, ...);
+  summary.csv, summary.md  one row per policy: means over the episodes;
+  optima/                  the record store of the level-flight optima (records/<key>.json,
+                           reused when method, budget, seed and model options match).
+--figure draws speed, altitude and power against time of one episode for every policy."""
+EPILOG = """\
+examples:
+  python -m train --algo ppo --env TandemWing/SpeedChange-v0 -f logs --seed 0 -n 100000
+  python -m train --algo ppo --env TandemWing/SpeedChange-v0 -f logs --seed 0
+  python -m train --algo sac --env TandemWing/SpeedChange-v0 -f logs --seed 0
+  python -m eval speed-change --episodes 32 --out results/speed-change \\
+      --ppo logs/ppo/TandemWing-SpeedChange-v0_1 logs/ppo/TandemWing-SpeedChange-v0_2 \\
+      --sac logs/sac/TandemWing-SpeedChange-v0_1 \\
+      --figure docs/figures/speed_change_episode.png --figure-episode 5"""
+
+#: Speeds [m/s] of the level-flight optima the steady schedule chooses from: the envelope in
+#: steps of 0.25 m/s (the training sweep's grid).
+STEADY_GRID: tuple[float, ...] = tuple(
+    float(v) for v in np.arange(LEVEL_FLIGHT_ENVELOPE[0], LEVEL_FLIGHT_ENVELOPE[1] + 1e-9, 0.25)
+)
+#: The reward's parts, summed per episode: the ``info["reward_<term>"]`` terms and the penalty.
+REWARD_PARTS: tuple[str, ...] = (
+    "progress",
+    "speed",
+    "altitude",
+    "energy",
+    "termination",
+    "penalty",
+)
+#: Relative speed error counted as "at the target" [-].
+TARGET_WITHIN = 0.05
+FIRST_SEED = 1000
+"""Default first evaluation seed (training runs use small seeds)."""
+
+
+# --- policies ----------------------------------------------------------------------------------
+class Policy(Protocol):
+    """Chooses the next stroke of B episodes from their observations and states."""
+
+    name: str
+
+    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
+        """(B, 28) normalised strokes in [-1, 1]."""
+        ...
+
+
+@dataclass
+class RandomPolicy:
+    """Uniform random strokes, a fresh one each cycle, from a seeded generator."""
+
+    seed: int = 0
+    name: str = "random"
+    _rng: np.random.Generator = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self._rng = np.random.default_rng(self.seed)
+
+    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
+        return self._rng.uniform(-1.0, 1.0, (observations.shape[0], 28))
+
+
+@dataclass(frozen=True)
+class SteadyPolicy:
+    """The level-flight optimum at the grid speed nearest each episode's target, every cycle."""
+
+    speeds: np.ndarray
+    """(G,) grid speeds [m/s]."""
+    actions: np.ndarray
+    """(G, 28) normalised level-flight optimum at each grid speed."""
+    name: str = "steady"
+
+    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
+        nearest = np.argmin(np.abs(flight.target_speed[:, None] - self.speeds[None, :]), axis=1)
+        return self.actions[nearest]
+
+
+@dataclass(frozen=True)
+class SB3Policy:
+    """A Stable-Baselines3 model's deterministic action (clipped to the action box)."""
+
+    model: Any
+    name: str
+
+    @classmethod
+    def load(cls, run_dir: str | os.PathLike[str], name: str, which: str = "final") -> SB3Policy:
+        """The model of a ``python -m train`` run folder (``which``: "final" or "best"), named
+        ``"<name> (<steps>k steps)"``."""
+        from train.policies import TrainedPolicy
+
+        policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
+        if policy.env_id != SPEED_CHANGE_ID:
+            raise ValueError(
+                f"{run_dir} was trained on {policy.env_id}; allowed: a run on {SPEED_CHANGE_ID}"
+            )
+        if policy.normalizer_path is not None:
+            raise ValueError(
+                f"{run_dir} normalised its observations (VecNormalize); allowed here: runs with "
+                "normalize: false, as in train/hyperparams"
+            )
+        steps = int(policy.model.num_timesteps)
+        return cls(policy.model, f"{name} ({steps / 1000:.0f}k steps)")
+
+    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
+        actions, _ = self.model.predict(observations, deterministic=True)
+        return np.clip(actions, -1.0, 1.0)
+
+
+# --- the level-flight optima, through the harness ---------------------------------------------
+def default_optimiser() -> str:
+    """The harness's best optimiser available: "cmaes" if registered, else "pso"."""
+    from agents.methods import available_methods
+
+    return "cmaes" if "cmaes" in available_methods() else "pso"
+
+
+def level_kwargs(config: SpeedChangeConfig) -> dict[str, Any]:
+    """The level-flight env keywords that give the SpeedChange env's insect and model options:
+    only what differs from the defaults (``{"thrust_split": "body"}`` by default), so records
+    stay readable and their configuration keys stable."""
+    from tandem_env import Dragonfly, ModelOptions
+    from tandem_env.envs.config import MODEL_OPTION_KWARGS
+
+    kwargs: dict[str, Any] = {}
+    insect = config.insect
+    if insect != Dragonfly():
+        planform = (
+            Dragonfly().with_planform(insect.planform) if insect.planform != "mixed" else None
+        )
+        if insect == planform:
+            kwargs["planform"] = insect.planform
+        else:
+            kwargs["insect"] = insect
+    default = ModelOptions()
+    for kwarg, name in MODEL_OPTION_KWARGS.items():
+        if getattr(config.options, name) != getattr(default, name):
+            kwargs[kwarg] = getattr(config.options, name)
+    return kwargs
+
+
+def steady_optima(
+    config: SpeedChangeConfig,
+    *,
+    speeds: Sequence[float] = STEADY_GRID,
+    method: str | None = None,
+    budget: int = 12000,
+    seed: int = 0,
+    cache_dir: str | os.PathLike[str] | None = None,
+    scheduler: str | None = None,
+    progress: bool = True,
+) -> SteadyPolicy:
+    """Level-flight optima at ``speeds`` [m/s] for the env's insect and model options.
+
+    Each is one harness job (``budget`` model evaluations, ``seed``) on the ``level`` task, run
+    by the studies' runner (:func:`eval.studies.runner.run_jobs`: serially, or on Dask with
+    ``scheduler``) into the record store ``cache_dir`` (a temporary one if None), where a
+    stored record of the same configuration is reused.
+    """
+    import tempfile
+
+    from agents.records import Job, RecordStore
+    from eval.studies.runner import run_jobs
+
+    method = default_optimiser() if method is None else method
+    kwargs = level_kwargs(config)
+    jobs = [Job(method, "level", float(v), budget, seed, env_kwargs=kwargs) for v in speeds]
+    with tempfile.TemporaryDirectory() as scratch:
+        store = RecordStore(scratch if cache_dir is None else cache_dir)
+        run_jobs(jobs, store.directory, scheduler=scheduler, progress=progress)
+        records = [store.load(job) for job in jobs]
+    actions = []
+    for speed, record in zip(speeds, records, strict=True):
+        if record is None:  # run_jobs raises when a job fails; a missing record is a bug
+            raise RuntimeError(f"no level-flight record at {speed:g} m/s after running it")
+        if not record.feasible:
+            print(
+                f"steady: the {method} optimum at {speed:g} m/s is not level-feasible "
+                f"(budget {budget}); it is used anyway",
+                file=sys.stderr,
+            )
+        actions.append(np.asarray(record.normalised_stroke, dtype=np.float64))
+    return SteadyPolicy(np.asarray(speeds, dtype=np.float64), np.stack(actions))
+
+
+# --- episodes ----------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class EpisodeLog:
+    """One episode: the state after each cycle (the start state first) and what each cost."""
+
+    policy: str
+    seed: int
+    target_speed: float
+    time: np.ndarray
+    """(K + 1,) [s], 0 first."""
+    forward_speed: np.ndarray
+    """(K + 1,) u [m/s]."""
+    altitude: np.ndarray
+    """(K + 1,) h [m]."""
+    distance: np.ndarray
+    """(K + 1,) [m]."""
+    power_per_mass: np.ndarray
+    """(K,) P/m of each cycle [W/kg]."""
+    energy: np.ndarray
+    """(K,) [J]."""
+    reward: np.ndarray
+    """(K,) [-]."""
+    terminated: bool
+    terms: Mapping[str, float] = field(default_factory=dict)
+    """Each reward term summed over the episode (``progress``, ..., ``penalty``) [-]."""
+
+
+def run_episodes(
+    policy: Policy, seeds: Sequence[int], env_kwargs: Mapping[str, Any] | None = None
+) -> list[EpisodeLog]:
+    """Fly one episode per seed with ``policy``: the native vector env, sub-env i reset with
+    ``seeds[i]``, one batched model call per cycle; each sub-env's first episode is logged."""
+    n = len(seeds)
+    envs = gym.make_vec(
+        SPEED_CHANGE_ID, num_envs=n, vectorization_mode="vector_entry_point", **(env_kwargs or {})
+    )
+    try:
+        observations, info = envs.reset(seed=[int(s) for s in seeds])
+        columns = ("time", "forward_speed", "altitude", "distance")
+        states = {key: [[float(info[key][i])] for i in range(n)] for key in columns}
+        per_cycle: dict[str, list[list[float]]] = {
+            key: [[] for _ in range(n)] for key in ("power_per_mass", "energy", "reward")
+        }
+        parts = {key: np.zeros(n) for key in REWARD_PARTS}
+        targets = np.asarray(info["target_speed"], dtype=np.float64)
+        running = np.ones(n, dtype=bool)
+        terminated = np.zeros(n, dtype=bool)
+        while running.any():
+            actions = policy.act(observations, envs.unwrapped.flight)
+            observations, rewards, term, trunc, info = envs.step(actions.astype(np.float32))
+            for i in np.flatnonzero(running):
+                for key in columns:
+                    states[key][i].append(float(info[key][i]))
+                per_cycle["power_per_mass"][i].append(float(info["power_per_mass"][i]))
+                per_cycle["energy"][i].append(float(info["energy"][i]))
+                per_cycle["reward"][i].append(float(rewards[i]))
+                for key in REWARD_PARTS:
+                    name = key if key == "penalty" else f"reward_{key}"
+                    parts[key][i] += (-1.0 if key == "penalty" else 1.0) * float(info[name][i])
+            terminated |= running & term
+            running &= ~(term | trunc)
+    finally:
+        envs.close()
+    return [
+        EpisodeLog(
+            policy=policy.name,
+            seed=int(seeds[i]),
+            target_speed=float(targets[i]),
+            **{key: np.asarray(states[key][i]) for key in columns},
+            **{key: np.asarray(per_cycle[key][i]) for key in per_cycle},
+            terminated=bool(terminated[i]),
+            terms={key: float(parts[key][i]) for key in REWARD_PARTS},
+        )
+        for i in range(n)
+    ]
+
+
+def episode_metrics(log: EpisodeLog) -> dict[str, Any]:
+    """The comparison's numbers of one episode (units in the keys)."""
+    error = np.abs(log.forward_speed - log.target_speed)
+    within = np.flatnonzero(error <= TARGET_WITHIN * log.target_speed)
+    distance = float(log.distance[-1])
+    energy = float(log.energy.sum())
+    return {
+        "policy": log.policy,
+        "seed": log.seed,
+        "start_speed_m_s": float(log.forward_speed[0]),
+        "target_speed_m_s": log.target_speed,
+        "return": float(log.reward.sum()),
+        "cycles": int(log.reward.size),
+        "flight_time_s": float(log.time[-1]),
+        "terminated": log.terminated,
+        "time_to_target_s": float(log.time[within[0]]) if within.size else math.nan,
+        "final_speed_error_m_s": float(error[-1]),
+        "energy_J": energy,
+        "distance_m": distance,
+        "energy_per_metre_mJ_m": 1e3 * energy / distance if distance > 0 else math.nan,
+        "mean_abs_altitude_mm": 1e3 * float(np.mean(np.abs(log.altitude[1:]))),
+        "final_abs_altitude_mm": 1e3 * abs(float(log.altitude[-1])),
+        "mean_power_W_kg": float(np.mean(log.power_per_mass)),
+        **{f"return_{key}": float(value) for key, value in log.terms.items()},
+    }
+
+
+def summary_rows(episodes: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """One row per policy: means (and the return's standard deviation) over its episodes."""
+    out = []
+    for policy in dict.fromkeys(e["policy"] for e in episodes):
+        rows = [e for e in episodes if e["policy"] == policy]
+
+        def values(key: str, rows: list[Mapping[str, Any]] = rows) -> np.ndarray:
+            return np.array([r[key] for r in rows], dtype=np.float64)
+
+        reached = values("time_to_target_s")
+        reached = reached[np.isfinite(reached)]
+        per_metre = values("energy_per_metre_mJ_m")
+        per_metre = per_metre[np.isfinite(per_metre)]
+        out.append(
+            {
+                "policy": policy,
+                "episodes": len(rows),
+                "return_mean": float(values("return").mean()),
+                "return_std": float(values("return").std()),
+                "terminated_share": float(values("terminated").mean()),
+                "reached_share": reached.size / len(rows),
+                "time_to_target_median_s": float(np.median(reached)) if reached.size else math.nan,
+                "final_speed_error_mean_m_s": float(values("final_speed_error_m_s").mean()),
+                "energy_per_metre_mean_mJ_m": float(per_metre.mean())
+                if per_metre.size
+                else math.nan,
+                "mean_abs_altitude_mean_mm": float(values("mean_abs_altitude_mm").mean()),
+                "flight_time_mean_s": float(values("flight_time_s").mean()),
+                "mean_power_W_kg": float(values("mean_power_W_kg").mean()),
+                **{
+                    f"return_{key}_mean": float(values(f"return_{key}").mean())
+                    for key in REWARD_PARTS
+                    if f"return_{key}" in rows[0]
+                },
+            }
+        )
+    return out
+
+
+def markdown_table(rows: Sequence[Mapping[str, Any]]) -> str:
+    """The docs table of :func:`summary_rows`."""
+    lines = [
+        "| policy | mean return (± std) | ended early | reached u* ± 5 % | median time to reach [s] "
+        "| final \\|u − u*\\| [m/s] | energy per metre [mJ/m] | mean \\|h\\| [mm] | mean P/m [W/kg] |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['policy']} | {r['return_mean']:.2f} (± {r['return_std']:.2f}) "
+            f"| {r['terminated_share']:.0%} | {r['reached_share']:.0%} "
+            f"| {r['time_to_target_median_s']:.3f} | {r['final_speed_error_mean_m_s']:.3f} "
+            f"| {r['energy_per_metre_mean_mJ_m']:.2f} | {r['mean_abs_altitude_mean_mm']:.1f} "
+            f"| {r['mean_power_W_kg']:.1f} |"
+        )
+    if all(f"return_{key}_mean" in r for r in rows for key in REWARD_PARTS):
+        lines += [
+            "",
+            "| policy | " + " | ".join(REWARD_PARTS) + " |",
+            "|---|" + "---|" * len(REWARD_PARTS),
+        ]
+        for r in rows:
+            parts = " | ".join(f"{r[f'return_{key}_mean']:+.2f}" for key in REWARD_PARTS)
+            lines.append(f"| {r['policy']} | {parts} |")
+    return "\n".join(lines) + "\n"
+
+
+def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> None:
+    """Speed, altitude and power against time of one episode for each policy (PNG)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(7.5, 6.5), dpi=110)
+    FigureCanvasAgg(figure)
+    axes = figure.subplots(3, 1, sharex=True)
+    first = logs[0]
+    axes[0].axhline(first.target_speed, color="0.3", ls="--", lw=1.0, label="target u*")
+    axes[0].axhspan(
+        (1 - TARGET_WITHIN) * first.target_speed,
+        (1 + TARGET_WITHIN) * first.target_speed,
+        color="0.9",
+        zorder=0,
+    )
+    for log in logs:
+        (line,) = axes[0].plot(log.time, log.forward_speed, lw=1.5, label=log.policy)
+        axes[1].plot(log.time, 1e3 * log.altitude, lw=1.5, color=line.get_color())
+        axes[2].step(log.time[1:], log.power_per_mass, where="pre", lw=1.2, color=line.get_color())
+        if log.terminated:
+            axes[0].plot(log.time[-1], log.forward_speed[-1], "x", color=line.get_color())
+            axes[1].plot(log.time[-1], 1e3 * log.altitude[-1], "x", color=line.get_color())
+    axes[2].axhline(90.0, color="0.3", ls=":", lw=1.0, label="power cap 90 W/kg")
+    axes[0].set_ylabel("forward speed u [m/s]")
+    axes[1].set_ylabel("altitude error h [mm]")
+    axes[2].set_ylabel("P/m [W/kg]")
+    axes[2].set_xlabel("time [s]")
+    axes[0].legend(fontsize=8, ncol=3, loc="best")
+    axes[2].legend(fontsize=8, loc="upper right")
+    for axis in axes:
+        axis.grid(True, color="0.92")
+    figure.suptitle(
+        f"SpeedChange-v0, seed {first.seed}: u0 = {first.forward_speed[0]:.2f} m/s -> "
+        f"u* = {first.target_speed:.2f} m/s (x: ended early)",
+        fontsize=10,
+    )
+    figure.tight_layout()
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path)
+
+
+# --- the command -------------------------------------------------------------------------------
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--episodes", type=int, default=32, help="evaluation episodes (32)")
+    parser.add_argument(
+        "--first-seed", type=int, default=FIRST_SEED, help=f"first evaluation seed ({FIRST_SEED})"
+    )
+    parser.add_argument(
+        "--optimiser",
+        default=None,
+        help='harness method for the level-flight optima (default "cmaes" if registered, '
+        'else "pso")',
+    )
+    parser.add_argument(
+        "--optima-budget",
+        type=int,
+        default=12000,
+        help="model evaluations per level-flight optimum (12000)",
+    )
+    parser.add_argument(
+        "--grid",
+        type=float,
+        nargs="+",
+        default=list(STEADY_GRID),
+        metavar="V",
+        help="speeds [m/s] of the level-flight optima (default 0.25 to 2.0 in steps of 0.25)",
+    )
+    parser.add_argument(
+        "--ppo", nargs="+", default=[], metavar="RUN_DIR", help="python -m train PPO run folders"
+    )
+    parser.add_argument(
+        "--sac", nargs="+", default=[], metavar="RUN_DIR", help="python -m train SAC run folders"
+    )
+    parser.add_argument(
+        "--model", choices=("final", "best"), default="final", help="which saved model (final)"
+    )
+    parser.add_argument(
+        "--out", type=Path, default=Path("results/speed-change"), help="output folder"
+    )
+    parser.add_argument("--figure", type=Path, help="PNG of one episode for every policy")
+    parser.add_argument(
+        "--figure-episode",
+        type=int,
+        default=0,
+        help="which evaluation episode the figure shows (index, default 0)",
+    )
+    parser.add_argument(
+        "--scheduler",
+        default=None,
+        help='where the optima run: none (here, serially; default), "local:N" or a Dask '
+        "scheduler address (as for python -m eval study)",
+    )
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    if args.episodes < 1:
+        parser.error(f"--episodes {args.episodes}; allowed: >= 1")
+    if not 0 <= args.figure_episode < args.episodes:
+        parser.error(f"--figure-episode {args.figure_episode}; allowed: 0 to {args.episodes - 1}")
+    try:
+        policies: list[Any] = [RandomPolicy(seed=0)]
+        for name in ("ppo", "sac"):
+            for run_dir in getattr(args, name):
+                policies.append(SB3Policy.load(run_dir, name, args.model))
+        config = SpeedChangeConfig.from_kwargs()
+        policies.insert(
+            1,
+            steady_optima(
+                config,  # type: ignore[arg-type]
+                speeds=args.grid,
+                method=args.optimiser,
+                budget=args.optima_budget,
+                cache_dir=args.out / "optima",
+                scheduler=args.scheduler,
+                progress=not args.quiet,
+            ),
+        )
+    except ValueError as error:
+        parser.error(str(error))
+    seeds = list(range(args.first_seed, args.first_seed + args.episodes))
+    episodes, shown = [], []
+    for policy in policies:
+        logs = run_episodes(policy, seeds)
+        episodes.extend(episode_metrics(log) for log in logs)
+        shown.append(logs[args.figure_episode])
+    rows = summary_rows(episodes)
+    args.out.mkdir(parents=True, exist_ok=True)
+    write_csv_atomic(args.out / "episodes.csv", episodes)
+    write_csv_atomic(args.out / "summary.csv", rows)
+    table = markdown_table(rows)
+    (args.out / "summary.md").write_text(table)
+    print(table)
+    if args.figure is not None:
+        plot_episode(shown, args.figure)
+        print(f"figure: {args.figure}", file=sys.stderr)
+    return 0
