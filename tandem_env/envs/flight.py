@@ -94,7 +94,36 @@ def frame_for(task: FlightTask, title: str, condition: float | None, last: LastS
     )
 
 
-class FlightEnv(gym.Env[np.ndarray, np.ndarray]):
+class RenderWindow:
+    """The human-mode window of an env (single or vector): opened at its first render, closed by
+    ``close``, never pickled (a pyplot window cannot be; a copy opens its own at its next render).
+    Matplotlib is imported only when something is rendered."""
+
+    _window: Any = None
+
+    def _show(self, frame: Any) -> np.ndarray | None:
+        """``frame`` as an RGB array (``render_mode="rgb_array"``) or in the window (``"human"``)."""
+        from .render import HumanWindow, to_rgb_array
+
+        if self.render_mode == "rgb_array":  # type: ignore[attr-defined]
+            return to_rgb_array(frame)
+        if self._window is None:
+            self._window = HumanWindow(self.metadata["render_fps"])  # type: ignore[attr-defined]
+        self._window.show(frame)
+        return None
+
+    def _close_window(self) -> None:
+        if self._window is not None:
+            self._window.close()
+            self._window = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_window"] = None
+        return state
+
+
+class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
     """Shared base of the flight environments (see :class:`LevelFlightEnv`, :class:`AccelerateEnv`)."""
 
     metadata: ClassVar[dict[str, Any]] = {
@@ -164,27 +193,11 @@ class FlightEnv(gym.Env[np.ndarray, np.ndarray]):
                 f"render_mode in {list(RENDER_MODES)}"
             )
             return None
-        from .render import HumanWindow, to_rgb_array
-
         title = self.spec.id if self.spec is not None else self.title
-        frame = frame_for(self.task, title, self._condition, self._last)
-        if self.render_mode == "rgb_array":
-            return to_rgb_array(frame)
-        if self._window is None:
-            self._window = HumanWindow(self.metadata["render_fps"])
-        self._window.show(frame)
-        return None
+        return self._show(frame_for(self.task, title, self._condition, self._last))
 
     def close(self) -> None:
-        if self._window is not None:
-            self._window.close()
-            self._window = None
-
-    def __getstate__(self) -> dict[str, Any]:
-        # A pyplot window cannot be pickled; the copy opens its own at its next render.
-        state = self.__dict__.copy()
-        state["_window"] = None
-        return state
+        self._close_window()
 
 
 class LevelFlightEnv(FlightEnv):

@@ -16,7 +16,14 @@ import numpy as np
 from gymnasium import spaces
 
 from ..physics import N_PARAMETERS, stroke_history
-from .flight import RENDER_FPS, RENDER_MODES, action_space, build_config, check_render_mode
+from .flight import (
+    RENDER_FPS,
+    RENDER_MODES,
+    RenderWindow,
+    action_space,
+    build_config,
+    check_render_mode,
+)
 from .speed_change_config import SpeedChangeConfig
 from .speed_change_task import OBSERVATION_NAMES, CycleBatch, Flight, SpeedChangeTask
 from .task import row
@@ -70,7 +77,7 @@ def frame_for(
     return Frame(title=heading, subtitle=subtitle, history=history)
 
 
-class SpeedChangeEnv(gym.Env[np.ndarray, np.ndarray]):
+class SpeedChangeEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
     """Change forward speed and hold altitude over many wing-beats of the tandem-wing dragonfly.
 
     ## Description
@@ -219,23 +226,8 @@ class SpeedChangeEnv(gym.Env[np.ndarray, np.ndarray]):
                 f"render_mode in {list(RENDER_MODES)}"
             )
             return None
-        from .render import HumanWindow, to_rgb_array
-
         title = self.spec.id if self.spec is not None else self.title
-        frame = frame_for(self.task, title, self._flight, 0, self._last)
-        if self.render_mode == "rgb_array":
-            return to_rgb_array(frame)
-        if self._window is None:
-            self._window = HumanWindow(self.metadata["render_fps"])
-        self._window.show(frame)
-        return None
+        return self._show(frame_for(self.task, title, self._flight, 0, self._last))
 
     def close(self) -> None:
-        if self._window is not None:
-            self._window.close()
-            self._window = None
-
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        state["_window"] = None
-        return state
+        self._close_window()

@@ -31,6 +31,7 @@ from .flight import (
     RENDER_FPS,
     RENDER_MODES,
     LastStep,
+    RenderWindow,
     action_space,
     build_config,
     check_render_mode,
@@ -40,7 +41,7 @@ from .flight import (
 from .task import StepBatch, add_columns, make_task
 
 
-class FlightVectorEnv(VectorEnv):
+class FlightVectorEnv(RenderWindow, VectorEnv):
     """Shared base of the native vector envs; see the module docstring for the semantics.
 
     Args:
@@ -285,14 +286,7 @@ class FlightVectorEnv(VectorEnv):
         return None
 
     def close_extras(self, **kwargs: Any) -> None:
-        if self._window is not None:
-            self._window.close()
-            self._window = None
-
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        state["_window"] = None
-        return state
+        self._close_window()
 
     def __repr__(self) -> str:
         name = self.spec.id if self.spec is not None else type(self).__name__
