@@ -23,6 +23,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from agents.selection import BestStroke
 from agents.tasks import Condition, TaskSpec
 
 __all__ = [
@@ -95,8 +96,8 @@ class VectorEnvEvaluator:
         self._iterations = 0
         self._best_reward = -np.inf
         self._best_action: np.ndarray | None = None
-        self._best_feasible_reward = -np.inf
-        self._best_feasible_action: np.ndarray | None = None
+        self._best = BestStroke()
+        self._best_stroke_action: np.ndarray | None = None
         self._history: list[tuple[int, float]] = []
         self.step_time = 0.0
         """Wall time spent in the vector envs' reset and step [s] (for overhead accounting)."""
@@ -161,12 +162,11 @@ class VectorEnvEvaluator:
             self._best_reward = float(clean[i])
             self._best_action = actions[i].copy()
         # A penalised reward can rank a marginally infeasible stroke above every feasible one;
-        # the best feasible stroke is kept too, so the harness can return a stroke that flies.
-        feasible_rewards = np.where(feasible, clean, -np.inf)
-        j = int(np.argmax(feasible_rewards))
-        if feasible_rewards[j] > self._best_feasible_reward:
-            self._best_feasible_reward = float(feasible_rewards[j])
-            self._best_feasible_action = actions[j].copy()
+        # the best stroke by the selection rule (feasible first) is kept too, so the harness
+        # can return a stroke that flies.
+        j = self._best.offer(feasible, rewards)
+        if j is not None:
+            self._best_stroke_action = actions[j].copy()
         self._history.append((self._evaluations, self._best_reward))
         if self._on_batch is not None:
             self._on_batch(self._iterations, self._evaluations, self._best_reward)
@@ -212,10 +212,11 @@ class VectorEnvEvaluator:
 
     @property
     def best_feasible(self) -> tuple[np.ndarray, float] | None:
-        """(action, reward) of the best feasible stroke so far (a copy), or None if none was."""
-        if self._best_feasible_action is None:
+        """(action, reward) of the best feasible stroke so far (a copy), or None if none was
+        (by the selection rule, :mod:`agents.selection`)."""
+        if self._best_stroke_action is None or not self._best.feasible:
             return None
-        return self._best_feasible_action.copy(), self._best_feasible_reward
+        return self._best_stroke_action.copy(), self._best.reward
 
     @property
     def history(self) -> list[tuple[int, float]]:

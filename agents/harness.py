@@ -294,12 +294,8 @@ def run(
 
 
 def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator) -> tuple[np.ndarray, float, str]:
-    """The stroke a record reports: the best feasible stroke the search evaluated, if any.
-
-    A feasible stroke's reward is exactly its objective, so among feasible strokes the best
-    reward is the best objective; a penalised reward can still rank a marginally infeasible
-    stroke above all of them, which would report a stroke that does not fly.
-    """
+    """The stroke a record reports: the best feasible stroke the search evaluated, if any
+    (the selection rule, :mod:`agents.selection`), else the method's best-reward stroke."""
     if evaluator.evaluations < outcome.evaluations:
         # the method evaluated (some) strokes through its own envs (SB3): it chooses, by the
         # same rule (train/policies.py)

@@ -40,6 +40,7 @@ from tqdm.auto import tqdm
 
 from agents.fileio import to_jsonable
 from agents.methods import Method, SearchContext, SearchOutcome
+from agents.selection import is_better
 from tandem_env.envs.sb3 import make_sb3_vec_env
 from tandem_env.physics.checks import is_integer
 from train.config import ALGOS, check_algo, plain
@@ -314,11 +315,9 @@ class TrainingMethod:
             training = self._learn_with_files(context)
         evaluations = training.steps + 1
         final_reward = training.final_reward
-        # feasible strokes first, then the higher reward (the harness's rule, docs/harness.md)
-        final_key = (training.final_feasible, final_reward)
-        if training.best_action is None or final_key > (
-            training.best_feasible,
-            training.best_reward,
+        # the selection rule (agents.selection); on a tie the stroke seen in training stays
+        if training.best_action is None or is_better(
+            training.final_feasible, final_reward, training.best_feasible, training.best_reward
         ):
             best_action, best_reward = training.final_action, final_reward
             chosen = "final policy"

@@ -12,7 +12,7 @@ import json
 import math
 import time
 import warnings
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -26,6 +26,7 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize, sync_envs_normalization
 
 from agents.fileio import atomic_path, write_json_atomic, write_text_atomic
+from agents.selection import best_index
 from tandem_env.envs.registration import check_env_id
 from train.callbacks import PhysicsLogger, ResumableEvalCallback, SaveVecNormalize
 from train.config import Hyperparams, TrainConfig, load_entry, plain, resolve_hyperparams
@@ -520,11 +521,12 @@ def _say_plan(plan: _Plan) -> None:
         print(f"{layout.run_dir} has no complete checkpoint: starting it again from step 0")
 
 
-def _best_seen_key(segment: Mapping[str, Any]) -> tuple[bool, float]:
-    """Feasible strokes first, then the higher reward (the harness's rule, docs/harness.md)."""
-    reward = segment["best_reward"]
-    feasible = bool((segment.get("best_info") or {}).get("feasible", False))
-    return feasible, -math.inf if reward is None else reward
+def _best_segment(segments: Sequence[Mapping[str, Any]]) -> Mapping[str, Any]:
+    """The segment whose best stroke wins by the selection rule (:mod:`agents.selection`);
+    a segment without one (reward None) ranks last."""
+    feasible = [bool((s.get("best_info") or {}).get("feasible", False)) for s in segments]
+    rewards = [-math.inf if s["best_reward"] is None else s["best_reward"] for s in segments]
+    return segments[best_index(feasible, rewards)]
 
 
 def _write_result(layout: RunLayout, result: TrainResult, hp: Hyperparams) -> None:
@@ -542,7 +544,7 @@ def _write_result(layout: RunLayout, result: TrainResult, hp: Hyperparams) -> No
             "best_info": result.best_info,
         }
     )
-    best = max(segments, key=_best_seen_key)
+    best = _best_segment(segments)
     data = {
         "algo": result.algo,
         "env_id": result.env_id,

@@ -21,6 +21,7 @@ import numpy as np
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecMonitor, VecNormalize
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 
+from agents.selection import BestStroke
 from tandem_env.envs.sb3 import TandemVecEnv, make_sb3_vec_env
 
 #: ``info`` entries written to the Monitor CSV next to each episode's reward and length.
@@ -42,8 +43,8 @@ SWEEP_POWERS: tuple[float, ...] = (50.0, 60.0, 70.0, 80.0, 90.0)
 class StrokeRecorder(VecEnvWrapper):
     """Keeps the best stroke any sub-env was given and counts evaluations.
 
-    "Best" prefers feasible strokes, then the higher raw reward: a penalised reward can rank a
-    marginally infeasible stroke above every feasible one (the harness's rule, docs/harness.md).
+    "Best" is the harness's selection rule (:mod:`agents.selection`: feasible strokes first,
+    then the higher raw reward, the earlier on ties).
     ``history`` records the best reward so far, feasible or not, so that it never decreases.
     Sits directly on the adapter, so it sees the exact actions evaluated (after SB3's clipping
     or rescaling) and the env's own rewards (before any normalisation).
@@ -62,6 +63,7 @@ class StrokeRecorder(VecEnvWrapper):
         self.max_reward = -np.inf
         self.history: list[tuple[int, float]] = []
         """(evaluations, best reward so far) after every vector step."""
+        self._best = BestStroke()
         self._actions: np.ndarray | None = None
         self._on_step = on_step
 
@@ -75,19 +77,14 @@ class StrokeRecorder(VecEnvWrapper):
     def step_wait(self) -> VecEnvStepReturn:
         observations, rewards, dones, infos = self.venv.step_wait()
         exact = _exact_rewards(rewards, infos)
-        clean = np.where(np.isnan(exact), -np.inf, exact)
         feasible = np.array([bool(info.get("feasible", True)) for info in infos], dtype=bool)
-        candidates = np.flatnonzero(feasible) if feasible.any() else np.arange(len(clean))
-        i = int(candidates[np.argmax(clean[candidates])])
-        # Strict '>' as the harness's evaluator: the first of equal rewards stays the best.
-        better = (feasible[i] and not self.best_feasible) or (
-            feasible[i] == self.best_feasible and clean[i] > self.best_reward
-        )
-        if better and self._actions is not None:
-            self.best_reward = float(clean[i])
-            self.best_feasible = bool(feasible[i])
+        i = None if self._actions is None else self._best.offer(feasible, exact)
+        if i is not None:
+            self.best_reward = self._best.reward
+            self.best_feasible = self._best.feasible
             self.best_action = self._actions[i].copy()
             self.best_info = {k: v for k, v in infos[i].items() if k != "terminal_observation"}
+        clean = np.where(np.isnan(exact), -np.inf, exact)
         self.max_reward = max(self.max_reward, float(clean.max()))
         self.evaluations += len(rewards)
         self.steps += 1

@@ -1,0 +1,122 @@
+"""The one rule that picks "the best stroke": feasible first, then the higher reward, the
+earlier one on ties.
+
+Every place that chooses a stroke to report uses it: the harness's evaluator (the stroke a
+record reports), the SB3 stroke recorder (``train.vec.StrokeRecorder``), the training method's
+choice between the best training stroke and the final policy (``train.policies``) and a
+resumed training run's best over its segments (``train.run``).
+
+The rule, for strokes with a feasibility flag and a (penalised) reward [reward units]:
+
+1. A feasible stroke beats every infeasible one, whatever their rewards: a penalised reward
+   can rank a marginally infeasible stroke above every feasible one, which would report a
+   stroke that does not fly (docs/harness.md, "Which stroke").
+2. Between strokes of equal feasibility the higher reward wins. For feasible strokes the reward
+   is exactly the objective, so this is the highest objective that flies.
+3. Ties go to the earlier stroke: the lower index in a batch, the incumbent against a newcomer
+   (a newcomer must be strictly better to replace it).
+
+A NaN reward or a reward of -inf says nothing about the stroke (a failed evaluation), so it
+ranks as an infeasible stroke with reward -inf whatever its flag: below every stroke with a
+real reward, and never an improvement on "nothing yet" (:data:`NOTHING`). Rewards of +inf are
+ranked as numbers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+
+@dataclass(frozen=True)
+class Rank:
+    """What the rule compares for one stroke."""
+
+    feasible: bool
+    """All constraints met (False for a stroke whose reward is NaN or -inf)."""
+    reward: float
+    """The reward [reward units]; -inf for a NaN reward."""
+
+    def beats(self, other: Rank) -> bool:
+        """Strictly better than ``other`` by the rule (ties keep ``other``, the earlier one)."""
+        return (self.feasible, self.reward) > (other.feasible, other.reward)
+
+
+NOTHING = Rank(feasible=False, reward=-np.inf)
+"""The rank before any stroke: only a stroke with a real reward (> -inf) beats it."""
+
+
+def rank(feasible: bool | np.bool_, reward: float) -> Rank:
+    """The rule's view of one stroke (NaN -> -inf, and such a stroke counts as infeasible)."""
+    value = float(reward)
+    if np.isnan(value):
+        value = -np.inf
+    return Rank(feasible=bool(feasible) and value > -np.inf, reward=value)
+
+
+def is_better(
+    feasible: bool | np.bool_, reward: float, best_feasible: bool | np.bool_, best_reward: float
+) -> bool:
+    """Whether a stroke (``feasible``, ``reward``) strictly beats the incumbent
+    (``best_feasible``, ``best_reward``) by the rule; False on a tie."""
+    return rank(feasible, reward).beats(rank(best_feasible, best_reward))
+
+
+def best_index(feasible: ArrayLike, reward: ArrayLike) -> int:
+    """Index of the best of n strokes by the rule (the first of equals), vectorised.
+
+    ``feasible`` (n,) bool and ``reward`` (n,) [reward units]; n >= 1. When no stroke has a
+    real reward, every stroke ties and the answer is 0.
+    """
+    flags = np.asarray(feasible, dtype=bool)
+    values = np.asarray(reward, dtype=np.float64)
+    if values.ndim != 1 or values.shape != flags.shape or values.size == 0:
+        raise ValueError(
+            f"feasible {flags.shape} and reward {values.shape}; allowed: two arrays of the "
+            "same shape (n,) with n >= 1"
+        )
+    clean = np.where(np.isnan(values), -np.inf, values)
+    usable = flags & (clean > -np.inf)
+    if usable.any():
+        candidates = np.flatnonzero(usable)
+        return int(candidates[np.argmax(clean[candidates])])
+    return int(np.argmax(clean))  # np.argmax returns the first of equal maxima
+
+
+class BestStroke:
+    """The best stroke seen so far over batches, by the rule: offer each batch, keep the winner.
+
+    Holds only the winner's rank and its batch-local index; the caller keeps whatever it
+    wants to remember about that stroke (action, info) when :meth:`offer` says it won.
+    """
+
+    def __init__(self) -> None:
+        self.rank = NOTHING
+
+    @property
+    def found(self) -> bool:
+        """Whether any stroke with a real reward was offered."""
+        return self.rank is not NOTHING
+
+    @property
+    def feasible(self) -> bool:
+        return self.rank.feasible
+
+    @property
+    def reward(self) -> float:
+        """The best stroke's reward [reward units] (-inf before any)."""
+        return self.rank.reward
+
+    def offer(self, feasible: ArrayLike, reward: ArrayLike) -> int | None:
+        """Offer a batch (n,) of strokes; the index of its best one if that beats the best so
+        far (which it then becomes), else None."""
+        flags = np.asarray(feasible, dtype=bool)
+        values = np.asarray(reward, dtype=np.float64)
+        i = best_index(flags, values)
+        candidate = rank(flags[i], values[i])
+        if not candidate.beats(self.rank):
+            return None
+        self.rank = candidate
+        return i
