@@ -123,16 +123,52 @@ class RenderWindow:
         return state
 
 
-class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
-    """Shared base of the flight environments (see :class:`LevelFlightEnv`, :class:`AccelerateEnv`)."""
+def check_action(action: Any) -> np.ndarray:
+    """A single env's action as a float64 (28,) array, or a ``ValueError`` saying what is allowed."""
+    actions = real_array(
+        action, "action", f"{N_PARAMETERS} real numbers in [-1, 1] (a normalised stroke)"
+    )
+    if actions.shape != (N_PARAMETERS,):
+        raise ValueError(
+            f"action must have shape ({N_PARAMETERS},) (normalised stroke, fore-wing first); "
+            f"got shape {actions.shape}"
+        )
+    return actions
+
+
+class SingleEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
+    """What every single env shares: its render modes, ``render`` (a warning without a render
+    mode, else the frame of :meth:`_frame` as an array or in the window) and ``close``."""
 
     metadata: ClassVar[dict[str, Any]] = {
         "render_modes": list(RENDER_MODES),
         "render_fps": RENDER_FPS,
     }
+    title: ClassVar[str] = "Env"
+    """Name in render titles when the env was not made by ``gym.make`` (no spec)."""
+
+    def _frame(self, title: str) -> Any:
+        """The render frame of the current state, headed ``title``."""
+        raise NotImplementedError
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            gym.logger.warn(
+                "render() called without a render mode; make the env with "
+                f"render_mode in {list(RENDER_MODES)}"
+            )
+            return None
+        return self._show(self._frame(self.spec.id if self.spec is not None else self.title))
+
+    def close(self) -> None:
+        self._close_window()
+
+
+class FlightEnv(SingleEnv):
+    """Shared base of the flight environments (see :class:`LevelFlightEnv`, :class:`AccelerateEnv`)."""
+
     config_class: ClassVar[type[FlightConfig]] = FlightConfig
     title: ClassVar[str] = "Flight"
-    """Name in render titles when the env was not made by ``gym.make`` (no spec)."""
 
     def __init__(
         self, render_mode: str | None = None, *, config: FlightConfig | None = None, **kwargs: Any
@@ -166,14 +202,7 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
         if self._condition is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         values = np.array([self._condition])
-        actions = real_array(
-            action, "action", f"{N_PARAMETERS} real numbers in [-1, 1] (a normalised stroke)"
-        )
-        if actions.shape != (N_PARAMETERS,):
-            raise ValueError(
-                f"action must have shape ({N_PARAMETERS},) (normalised stroke, fore-wing first); "
-                f"got shape {actions.shape}"
-            )
+        actions = check_action(action)
         batch = self.task.step(actions[None, :], values)
         self._last = LastStep(batch, 0)
         if self.render_mode == "human":
@@ -186,18 +215,8 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
             row(batch.info_columns(), 0),
         )
 
-    def render(self) -> np.ndarray | None:
-        if self.render_mode is None:
-            gym.logger.warn(
-                "render() called without a render mode; make the env with "
-                f"render_mode in {list(RENDER_MODES)}"
-            )
-            return None
-        title = self.spec.id if self.spec is not None else self.title
-        return self._show(frame_for(self.task, title, self._condition, self._last))
-
-    def close(self) -> None:
-        self._close_window()
+    def _frame(self, title: str) -> Any:
+        return frame_for(self.task, title, self._condition, self._last)
 
 
 class LevelFlightEnv(FlightEnv):

@@ -90,9 +90,7 @@ class TandemVecEnv(VecEnv):
             raise ValueError(f"actions must have shape ({n}, 28); got shape {actions.shape}")
         everyone = np.arange(n)
         batch, final = self.vector_env.step_envs(everyone, actions)
-        # One-cycle envs end every episode at every step; SpeedChange reports its own ends.
-        terminated = np.asarray(getattr(batch, "terminated", np.ones(n, dtype=np.bool_)))
-        truncated = np.asarray(getattr(batch, "truncated", np.zeros(n, dtype=np.bool_)))
+        terminated, truncated = batch.terminated, batch.truncated
         dones = terminated | truncated
         infos = rows(batch.info_columns(), n)
         # What DummyVecEnv adds: the truncation flag at every step, the last observation at

@@ -15,15 +15,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ..physics import N_PARAMETERS, stroke_history
-from .flight import (
-    RENDER_FPS,
-    RENDER_MODES,
-    RenderWindow,
-    action_space,
-    build_config,
-    check_render_mode,
-)
+from ..physics import stroke_history
+from .flight import SingleEnv, action_space, build_config, check_action, check_render_mode
 from .speed_change_config import SpeedChangeConfig
 from .speed_change_task import OBSERVATION_NAMES, CycleBatch, Flight, SpeedChangeTask
 from .task import row
@@ -77,7 +70,7 @@ def frame_for(
     return Frame(title=heading, subtitle=subtitle, history=history)
 
 
-class SpeedChangeEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
+class SpeedChangeEnv(SingleEnv):
     """Change forward speed and hold altitude over many wing-beats of the tandem-wing dragonfly.
 
     ## Description
@@ -151,10 +144,6 @@ class SpeedChangeEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
     * v0: initial version.
     """
 
-    metadata: ClassVar[dict[str, Any]] = {
-        "render_modes": list(RENDER_MODES),
-        "render_fps": RENDER_FPS,
-    }
     title: ClassVar[str] = "SpeedChange"
 
     def __init__(
@@ -195,15 +184,7 @@ class SpeedChangeEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
             raise gym.error.ResetNeeded("call reset() before step()")
         if self._done:
             raise gym.error.ResetNeeded("the episode has ended; call reset() before step()")
-        try:
-            actions = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError) as error:
-            raise ValueError(f"action must be {N_PARAMETERS} numbers; got {action!r}") from error
-        if actions.shape != (N_PARAMETERS,):
-            raise ValueError(
-                f"action must have shape ({N_PARAMETERS},) (normalised stroke, fore-wing first); "
-                f"got shape {actions.shape}"
-            )
+        actions = check_action(action)
         batch = self.task.step(actions[None, :], self._flight)
         self._flight = batch.after
         terminated, truncated = bool(batch.terminated[0]), bool(batch.truncated[0])
@@ -219,15 +200,5 @@ class SpeedChangeEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
             row(batch.info_columns(), 0),
         )
 
-    def render(self) -> np.ndarray | None:
-        if self.render_mode is None:
-            gym.logger.warn(
-                "render() called without a render mode; make the env with "
-                f"render_mode in {list(RENDER_MODES)}"
-            )
-            return None
-        title = self.spec.id if self.spec is not None else self.title
-        return self._show(frame_for(self.task, title, self._flight, 0, self._last))
-
-    def close(self) -> None:
-        self._close_window()
+    def _frame(self, title: str) -> Any:
+        return frame_for(self.task, title, self._flight, 0, self._last)

@@ -327,11 +327,3 @@ class SpeedChangeTask:
             terminated=terminated,
             truncated=truncated,
         )
-
-
-def take_columns(columns: Columns, index: np.ndarray) -> Columns:
-    """The rows ``index`` of info columns (nested dicts too)."""
-    return {
-        key: take_columns(value, index) if isinstance(value, dict) else value[index]
-        for key, value in columns.items()
-    }

@@ -66,6 +66,16 @@ class StepBatch:
     def __len__(self) -> int:
         return int(self.reward.shape[0])
 
+    @property
+    def terminated(self) -> np.ndarray:
+        """(B,) bool, all True: a one-cycle episode ends with its stroke."""
+        return np.ones(len(self), dtype=np.bool_)
+
+    @property
+    def truncated(self) -> np.ndarray:
+        """(B,) bool, all False: a one-cycle episode is never cut short."""
+        return np.zeros(len(self), dtype=np.bool_)
+
     def info_columns(self) -> Columns:
         """Every metric of the model plus the task's reward terms and the named stroke."""
         columns: Columns = {}
@@ -297,6 +307,14 @@ def row(columns: Columns, index: int) -> dict[str, Any]:
     """One env's info dict: plain Python floats, bools and ints (nested dicts stay dicts)."""
     return {
         key: row(value, index) if isinstance(value, dict) else value[index].item()
+        for key, value in columns.items()
+    }
+
+
+def take_columns(columns: Columns, index: np.ndarray) -> Columns:
+    """The rows ``index`` of info columns (nested dicts too)."""
+    return {
+        key: take_columns(value, index) if isinstance(value, dict) else value[index]
         for key, value in columns.items()
     }
 

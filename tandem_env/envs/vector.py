@@ -16,7 +16,7 @@ observation and info are in ``info["final_obs"]`` / ``info["final_info"]``).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -38,7 +38,7 @@ from .flight import (
     frame_for,
     observation_space,
 )
-from .task import StepBatch, add_columns, make_task
+from .task import Columns, StepBatch, add_columns, make_task, take_columns
 
 
 class FlightVectorEnv(RenderWindow, VectorEnv):
@@ -58,6 +58,8 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         "autoreset_mode": AutoresetMode.NEXT_STEP,
     }
     config_class: ClassVar[type[FlightConfig]] = FlightConfig
+    picture: ClassVar[Callable[[Any, int], Any]] = LastStep
+    """What a sub-env's picture keeps of its last step: ``picture(batch, k)``."""
 
     def __init__(
         self,
@@ -134,7 +136,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         index: np.ndarray,
         seeds: Sequence[int | None],
         options: Mapping[str, Any] | Sequence[Mapping[str, Any] | None] | None,
-    ) -> dict[str, Any]:
+    ) -> Columns:
         """Start new episodes in sub-envs ``index`` (each seeded with its entry of ``seeds``
         unless None; ``options`` one mapping for all or one per env); returns their reset info
         columns. ``reset`` and the SB3 adapter both start episodes through it."""
@@ -146,26 +148,47 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
             per_env = [options] * index.size
         else:
             per_env = list(options)
-        values = self.task.draw_conditions(index.size, lambda k: self._rng(int(index[k])), per_env)
-        self._values[index] = values
-        self._observations[index] = self.task.observe(values)
+        columns = self._start(index, lambda k: self._rng(int(index[k])), per_env)
         self._started[index] = True
         for i in index:
             self._last[i] = None
-        return self.task.reset_columns(values)
+        return columns
 
-    def step_envs(self, index: np.ndarray, actions: Any) -> tuple[StepBatch, np.ndarray]:
+    def step_envs(self, index: np.ndarray, actions: Any) -> tuple[Any, np.ndarray]:
         """Evaluate the strokes (actions) of sub-envs ``index`` in one model call; returns the
-        batch and the observations the episodes ended on. ``step`` and the SB3 adapter both step
-        through it."""
+        batch and the observations after it (those an ended episode ended on). ``step`` and the
+        SB3 adapter both step through it."""
         index = np.asarray(index, dtype=np.intp)
         if not self._started[index].all():
             raise ResetNeeded("call reset() before step()")
-        values = self._values[index]
-        batch = self.task.step(actions, values)
+        batch, observations = self._fly(index, actions)
         for k, i in enumerate(index):
-            self._last[i] = LastStep(batch, k)
-        return batch, self.task.observe(values)
+            self._last[i] = self.picture(batch, k)
+        return batch, observations
+
+    # --- what differs between the one-cycle and the multi-cycle env ----------------------------
+    def _start(
+        self,
+        index: np.ndarray,
+        rng: Callable[[int], np.random.Generator],
+        options: list[Mapping[str, Any] | None],
+    ) -> Columns:
+        """Draw new episodes for sub-envs ``index`` (``rng(k)`` the generator of the k-th),
+        set their state and observations; their reset info columns."""
+        values = self.task.draw_conditions(index.size, rng, options)
+        self._values[index] = values
+        self._observations[index] = self.task.observe(values)
+        return self.task.reset_columns(values)
+
+    def _fly(self, index: np.ndarray, actions: Any) -> tuple[StepBatch, np.ndarray]:
+        """Evaluate the strokes of started sub-envs ``index``; (batch, observations after)."""
+        values = self._values[index]
+        return self.task.step(actions, values), self.task.observe(values)
+
+    def _frame(self, i: int, title: str) -> Any:
+        """The render frame of sub-env ``i``."""
+        value = None if not self._started[i] else float(self._values[i])
+        return frame_for(self.task, title, value, self._last[i])
 
     # --- Gymnasium VectorEnv API ------------------------------------------------------------------
     def reset(
@@ -221,68 +244,66 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         truncations = np.zeros(n, dtype=np.bool_)
         infos: dict[str, Any] = {}
 
+        def fly(index: np.ndarray) -> tuple[Any, np.ndarray]:
+            batch, final = self.step_envs(index, actions[index])
+            rewards[index] = batch.reward
+            terminations[index] = batch.terminated
+            truncations[index] = batch.truncated
+            return batch, final
+
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
             resetting = np.flatnonzero(self._autoreset)
             stepping = np.flatnonzero(~self._autoreset)
             if stepping.size:
-                batch, _ = self.step_envs(stepping, actions[stepping])
-                rewards[stepping] = batch.reward
-                terminations[stepping] = True
+                batch, _ = fly(stepping)
                 add_columns(infos, batch.info_columns(), stepping, n)
             if resetting.size:
                 columns = self.reset_envs(resetting, [None] * resetting.size, None)
                 add_columns(infos, columns, resetting, n)
-            observations = self._observations.copy()
         elif self.autoreset_mode == AutoresetMode.SAME_STEP:
-            everyone = np.arange(n)
-            batch, final = self.step_envs(everyone, actions)
-            rewards[:] = batch.reward
-            terminations[:] = True
-            final_obs = np.empty(n, dtype=object)
-            final_obs[:] = list(final)
-            infos["final_obs"], infos["_final_obs"] = final_obs, np.ones(n, dtype=np.bool_)
-            infos["final_info"] = add_columns({}, batch.info_columns(), everyone, n)
-            infos["_final_info"] = np.ones(n, dtype=np.bool_)
-            add_columns(infos, self.reset_envs(everyone, [None] * n, None), everyone, n)
-            # The stroke just evaluated stays the picture until the next step.
-            for k in range(n):
-                self._last[k] = LastStep(batch, k)
-            observations = self._observations.copy()
+            batch, final = fly(np.arange(n))
+            ended = terminations | truncations
+            columns = batch.info_columns()
+            running, done = np.flatnonzero(~ended), np.flatnonzero(ended)
+            if running.size:
+                add_columns(infos, take_columns(columns, running), running, n)
+            if done.size:
+                final_obs = np.full(n, None, dtype=object)
+                for i in done:
+                    final_obs[i] = final[i]
+                infos["final_obs"], infos["_final_obs"] = final_obs, ended.copy()
+                infos["final_info"] = add_columns({}, take_columns(columns, done), done, n)
+                infos["_final_info"] = ended.copy()
+                add_columns(infos, self.reset_envs(done, [None] * done.size, None), done, n)
+                # The stroke just evaluated stays the picture until the next step.
+                for i in done:
+                    self._last[i] = self.picture(batch, int(i))
         else:
             if self._autoreset.any():
                 raise RuntimeError(
-                    f"sub-envs {np.flatnonzero(self._autoreset).tolist()} have terminated; with "
-                    "autoreset_mode=Disabled reset them first, e.g. "
+                    f"sub-envs {np.flatnonzero(self._autoreset).tolist()} have ended their "
+                    "episodes; with autoreset_mode=Disabled reset them first, e.g. "
                     "reset(options={'reset_mask': mask})"
                 )
-            batch, _ = self.step_envs(np.arange(n), actions)
-            rewards[:] = batch.reward
-            terminations[:] = True
-            add_columns(infos, batch.info_columns(), np.arange(n), n)
-            observations = self._observations.copy()
+            everyone = np.arange(n)
+            batch, _ = fly(everyone)
+            add_columns(infos, batch.info_columns(), everyone, n)
 
         self._autoreset = terminations | truncations
         if self.render_mode == "human":
             self.render()
-        return observations, rewards, terminations, truncations, infos
+        return self._observations.copy(), rewards, terminations, truncations, infos
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """rgb_array: one frame per sub-env (costly for large n); human: sub-env 0 in a window."""
         if self.render_mode is None:
             return None
-        from .render import HumanWindow, to_rgb_array
-
         title = self.spec.id if self.spec is not None else type(self).__name__
-
-        def frame(i: int) -> Any:
-            value = None if not self._started[i] else float(self._values[i])
-            return frame_for(self.task, f"{title} [env {i}]", value, self._last[i])
-
         if self.render_mode == "rgb_array":
-            return tuple(to_rgb_array(frame(i)) for i in range(self.num_envs))
-        if self._window is None:
-            self._window = HumanWindow(self.metadata["render_fps"])
-        self._window.show(frame(0))
+            return tuple(
+                self._show(self._frame(i, f"{title} [env {i}]")) for i in range(self.num_envs)
+            )  # type: ignore[return-value]
+        self._show(self._frame(0, f"{title} [env 0]"))
         return None
 
     def close_extras(self, **kwargs: Any) -> None:
