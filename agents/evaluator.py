@@ -23,6 +23,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from agents.optimiser import Tally
 from agents.selection import BestStroke
 from agents.tasks import Condition, TaskSpec
 
@@ -92,13 +93,9 @@ class VectorEnvEvaluator:
         self.budget = int(budget)
         self._on_batch = on_batch
         self._envs: dict[int, gym.vector.VectorEnv] = {}
-        self._evaluations = 0
-        self._iterations = 0
-        self._best_reward = -np.inf
-        self._best_action: np.ndarray | None = None
+        self._tally = Tally()
         self._best = BestStroke()
         self._best_stroke_action: np.ndarray | None = None
-        self._history: list[tuple[int, float]] = []
         self.step_time = 0.0
         """Wall time spent in the vector envs' reset and step [s] (for overhead accounting)."""
 
@@ -138,10 +135,10 @@ class VectorEnvEvaluator:
         if actions.ndim != 2 or actions.shape[0] < 1:
             raise ValueError(f"actions must have shape (n, dim) with n >= 1; got {actions.shape}")
         n = actions.shape[0]
-        if self._evaluations + n > self.budget:
+        if self.evaluations + n > self.budget:
             raise BudgetExceededError(
                 f"{n} more evaluations would exceed the budget of {self.budget} "
-                f"({self._evaluations} used)"
+                f"({self.evaluations} used)"
             )
         start = time.perf_counter()
         env = self._env(n)
@@ -153,23 +150,16 @@ class VectorEnvEvaluator:
         rewards = np.asarray(rewards, dtype=np.float64).copy()
         objective = np.asarray(infos.get("objective", rewards), dtype=np.float64)
         feasible = np.asarray(infos.get("feasible", np.ones(n, dtype=bool)), dtype=bool)
-        self._evaluations += n
-        self._iterations += 1
-        clean = np.where(np.isnan(rewards), -np.inf, rewards)
-        i = int(np.argmax(clean))
-        # Strict '>' as in the optimisers: the first of equal rewards stays the best.
-        if clean[i] > self._best_reward:
-            self._best_reward = float(clean[i])
-            self._best_action = actions[i].copy()
+        # the best reward so far, feasible or not, as the optimisers count it (the history)
+        self._tally.add(actions, rewards)
         # A penalised reward can rank a marginally infeasible stroke above every feasible one;
         # the best stroke by the selection rule (feasible first) is kept too, so the harness
         # can return a stroke that flies.
         j = self._best.offer(feasible, rewards)
         if j is not None:
             self._best_stroke_action = actions[j].copy()
-        self._history.append((self._evaluations, self._best_reward))
         if self._on_batch is not None:
-            self._on_batch(self._iterations, self._evaluations, self._best_reward)
+            self._on_batch(self.iterations, self.evaluations, self.best_reward)
         return EvaluatedBatch(rewards=rewards, objective=objective, feasible=feasible)
 
     def __call__(self, actions: np.ndarray) -> np.ndarray:
@@ -193,22 +183,22 @@ class VectorEnvEvaluator:
     @property
     def evaluations(self) -> int:
         """Actions evaluated so far."""
-        return self._evaluations
+        return self._tally.evaluations
 
     @property
     def iterations(self) -> int:
         """Batches (vector-env steps) so far."""
-        return self._iterations
+        return self._tally.iterations
 
     @property
     def best_reward(self) -> float:
         """Best reward so far (-inf before any)."""
-        return self._best_reward
+        return self._tally.best_value
 
     @property
     def best_action(self) -> np.ndarray | None:
         """Action of the best reward so far (a copy), or None."""
-        return None if self._best_action is None else self._best_action.copy()
+        return self._tally.best_point
 
     @property
     def best_feasible(self) -> tuple[np.ndarray, float] | None:
@@ -221,7 +211,7 @@ class VectorEnvEvaluator:
     @property
     def history(self) -> list[tuple[int, float]]:
         """(evaluations, best reward so far) after every batch."""
-        return list(self._history)
+        return list(self._tally.history)
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,8 @@ from typing import Any, Literal, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agents.selection import BestStroke
+
 FloatArray = NDArray[np.float64]
 SeedLike = int | np.random.SeedSequence | None
 Objective = Callable[[FloatArray], ArrayLike]
@@ -168,6 +170,45 @@ class OptimisationResult:
         }
 
 
+class Tally:
+    """Points evaluated, rounds, and the best value so far with its point, after every round.
+
+    NaN counts as -inf and only a strictly higher value replaces the best, so the first of
+    equal values stays and -inf is never a best: the selection rule of :mod:`agents.selection`
+    for points without constraints.
+    """
+
+    def __init__(self) -> None:
+        self.evaluations = 0
+        """Points added so far."""
+        self.iterations = 0
+        """Rounds (batches) added so far."""
+        self.history: list[tuple[int, float]] = []
+        """(evaluations, best value so far) after every round."""
+        self._best = BestStroke()
+        self._point: FloatArray | None = None
+
+    @property
+    def best_value(self) -> float:
+        """Best value so far (-inf before any above -inf)."""
+        return self._best.reward
+
+    @property
+    def best_point(self) -> FloatArray | None:
+        """The point of the best value (a copy), or None before any value above -inf."""
+        return None if self._point is None else self._point.copy()
+
+    def add(self, points: FloatArray, values: ArrayLike) -> None:
+        """Count a round of points (n, dim) with their values (n,) and keep the best."""
+        values = np.asarray(values, dtype=np.float64)
+        i = self._best.offer(np.zeros(values.shape, dtype=bool), values)
+        if i is not None:
+            self._point = np.array(points[i], dtype=np.float64)
+        self.evaluations += values.shape[0]
+        self.iterations += 1
+        self.history.append((self.evaluations, self.best_value))
+
+
 class OptimiserConfig(Protocol):
     """What the driver needs from an optimiser configuration."""
 
@@ -207,11 +248,7 @@ class AskTellOptimiser(ABC):
         self._config = config
         self._budget = config.budget
         self._rng = np.random.default_rng(seed)
-        self._evaluations = 0
-        self._iterations = 0
-        self._best_fitness = -math.inf
-        self._best_position: FloatArray | None = None
-        self._history: list[tuple[int, float]] = []
+        self._tally = Tally()
         self._pending: FloatArray | None = None
 
     def _batch(self) -> int:
@@ -234,10 +271,10 @@ class AskTellOptimiser(ABC):
         """
         if self._pending is not None:
             raise RuntimeError("ask() called again before tell(); tell the pending batch first")
-        n = self._budget.batch_size(self._batch(), self._iterations, self._evaluations)
+        n = self._budget.batch_size(self._batch(), self.iterations, self.evaluations)
         if n == 0:
             raise RuntimeError(
-                f"budget exhausted after {self._evaluations} evaluations; check `done` first"
+                f"budget exhausted after {self.evaluations} evaluations; check `done` first"
             )
         self._pending = self._propose(n)
         return self._pending.copy()
@@ -267,14 +304,7 @@ class AskTellOptimiser(ABC):
         f = np.where(np.isnan(f), -np.inf, f)
 
         self._observe(self._pending, f)
-        i = int(np.argmax(f))
-        # Strict '>' keeps -inf (and NaN mapped to it) from ever becoming the best point.
-        if f[i] > self._best_fitness:
-            self._best_fitness = float(f[i])
-            self._best_position = self._pending[i].copy()
-        self._evaluations += X.shape[0]
-        self._iterations += 1
-        self._history.append((self._evaluations, self._best_fitness))
+        self._tally.add(self._pending, f)
         self._pending = None
 
     @property
@@ -290,43 +320,43 @@ class AskTellOptimiser(ABC):
     @property
     def best_position(self) -> FloatArray | None:
         """Best point told so far (a copy), or None before any fitness above -inf."""
-        return None if self._best_position is None else self._best_position.copy()
+        return self._tally.best_point
 
     @property
     def best_fitness(self) -> float:
         """Best fitness told so far (-inf before any)."""
-        return self._best_fitness
+        return self._tally.best_value
 
     @property
     def evaluations(self) -> int:
         """Number of points told so far."""
-        return self._evaluations
+        return self._tally.evaluations
 
     @property
     def iterations(self) -> int:
         """Number of completed ask/tell rounds."""
-        return self._iterations
+        return self._tally.iterations
 
     @property
     def history(self) -> list[tuple[int, float]]:
         """(evaluations, best fitness so far) after every tell."""
-        return list(self._history)
+        return list(self._tally.history)
 
     @property
     def done(self) -> bool:
         """True once the budget is exhausted (a further :meth:`ask` would raise)."""
-        return self._budget.batch_size(self._batch(), self._iterations, self._evaluations) == 0
+        return self._budget.batch_size(self._batch(), self.iterations, self.evaluations) == 0
 
     def result(self, sense: Sense = "maximise") -> OptimisationResult:
         """Snapshot of the run so far; ``sense="minimise"`` undoes the driver's negation."""
         sign = 1.0 if sense == "maximise" else -1.0
-        history = np.array(self._history, dtype=float).reshape(-1, 2)
+        history = np.array(self._tally.history, dtype=float).reshape(-1, 2)
         history[:, 1] *= sign
         return OptimisationResult(
             best_position=self.best_position,
-            best_fitness=sign * self._best_fitness,
-            evaluations=self._evaluations,
-            iterations=self._iterations,
+            best_fitness=sign * self.best_fitness,
+            evaluations=self.evaluations,
+            iterations=self.iterations,
             history=history,
             config=self._config.to_dict(),
             sense=sense,

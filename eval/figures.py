@@ -151,6 +151,17 @@ def _trace_style(trace: Trace) -> dict:
     return {"lw": 2.0, "alpha": 1.0} if trace.best else {"lw": 0.8, "alpha": 0.35}
 
 
+def _plot_wings(ax: plt.Axes, traces: Sequence[Trace], quantity: str) -> None:
+    """``quantity`` over the cycle per seed: fore-wing solid blue, hind-wing dashed red, with
+    one legend entry each."""
+    for trace in traces:
+        style = _trace_style(trace)
+        ax.plot(trace.cycle, trace.fore[quantity], "-", color="tab:blue", **style)
+        ax.plot(trace.cycle, trace.hind[quantity], "--", color="tab:red", **style)
+    ax.plot([], [], "-", color="tab:blue", label="fore-wing")
+    ax.plot([], [], "--", color="tab:red", label="hind-wing")
+
+
 def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
     """Wing-tip paths relative to the wing base, side view (x forward, z up), per wing."""
     fig, axes = plt.subplots(1, 2, figsize=(7.5, 3.8))
@@ -207,12 +218,7 @@ def cycle_figure(
     fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 3.4))
     axes = np.atleast_1d(axes)
     for ax, (name, traces) in zip(axes, rows, strict=False):
-        for trace in traces:
-            style = _trace_style(trace)
-            ax.plot(trace.cycle, trace.fore[quantity], "-", color="tab:blue", **style)
-            ax.plot(trace.cycle, trace.hind[quantity], "--", color="tab:red", **style)
-        ax.plot([], [], "-", color="tab:blue", label="fore-wing")
-        ax.plot([], [], "--", color="tab:red", label="hind-wing")
+        _plot_wings(ax, traces, quantity)
         ax.set_title(name, fontsize=9)
         ax.set_xlabel("cycle t/T [-]")
         ax.set_ylabel(ylabel)
@@ -252,12 +258,7 @@ def flow_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
         ),
         strict=True,
     ):
-        for trace in traces:
-            style = _trace_style(trace)
-            ax.plot(trace.cycle, trace.fore[quantity], "-", color="tab:blue", **style)
-            ax.plot(trace.cycle, trace.hind[quantity], "--", color="tab:red", **style)
-        ax.plot([], [], "-", color="tab:blue", label="fore-wing")
-        ax.plot([], [], "--", color="tab:red", label="hind-wing")
+        _plot_wings(ax, traces, quantity)
         ax.axvline(0.5, color="grey", lw=0.8)
         ax.set_ylabel(ylabel)
         ax.grid(alpha=0.3)

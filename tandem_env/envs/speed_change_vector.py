@@ -17,18 +17,16 @@ generators, rendering, pickling and closing are the one-cycle vector env's
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
-from gymnasium.vector import AutoresetMode
-from gymnasium.vector.utils import batch_space
+from gymnasium import spaces
 
 from .speed_change import LastCycle, frame_for, observation_space
 from .speed_change_config import SpeedChangeConfig
 from .speed_change_task import CycleBatch, Flight, SpeedChangeTask
 from .task import Columns
-from .vector import FlightVectorEnv
+from .vector import EnvGenerators, EnvOptions, FlightVectorEnv
 
 
 class SpeedChangeVectorEnv(FlightVectorEnv):
@@ -42,26 +40,7 @@ class SpeedChangeVectorEnv(FlightVectorEnv):
     config: SpeedChangeConfig
     task: SpeedChangeTask  # type: ignore[assignment]
     picture = LastCycle
-
-    def __init__(
-        self,
-        num_envs: int = 1,
-        render_mode: str | None = None,
-        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
-        *,
-        config: SpeedChangeConfig | None = None,
-        **kwargs: Any,
-    ) -> None:
-        super().__init__(num_envs, render_mode, autoreset_mode, config=config, **kwargs)
-        n = self.num_envs
-        self.single_observation_space = observation_space()
-        self.observation_space = batch_space(self.single_observation_space, n)
-        self._observations = np.zeros((n, *self.single_observation_space.shape), dtype=np.float32)
-        self._flight = Flight.empty(n)
-        self._last: list[LastCycle | None] = [None] * n  # type: ignore[assignment]
-
-    def _make_task(self) -> SpeedChangeTask:
-        return SpeedChangeTask(self.config)
+    _last: list[LastCycle | None]  # type: ignore[assignment]
 
     @property
     def conditions(self) -> np.ndarray:
@@ -74,12 +53,16 @@ class SpeedChangeVectorEnv(FlightVectorEnv):
         return self._flight.take(np.arange(self.num_envs))
 
     # --- what differs from the one-cycle env ----------------------------------------------------
-    def _start(
-        self,
-        index: np.ndarray,
-        rng: Callable[[int], np.random.Generator],
-        options: list[Mapping[str, Any] | None],
-    ) -> Columns:
+    def _make_task(self) -> SpeedChangeTask:
+        return SpeedChangeTask(self.config)
+
+    def _observation_space(self) -> spaces.Box:
+        return observation_space()
+
+    def _init_episodes(self, n: int) -> None:
+        self._flight = Flight.empty(n)
+
+    def _start(self, index: np.ndarray, rng: EnvGenerators, options: EnvOptions) -> Columns:
         flight = self.task.draw(index.size, rng, options)
         self._flight.put(index, flight)
         self._observations[index] = self.task.observe(flight)

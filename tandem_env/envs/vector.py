@@ -20,6 +20,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
+from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
@@ -39,6 +40,11 @@ from .flight import (
     observation_space,
 )
 from .task import Columns, StepBatch, add_columns, make_task, take_columns
+
+EnvGenerators = Callable[[int], np.random.Generator]
+"""``rng(k)``: the generator of the k-th sub-env being reset."""
+EnvOptions = list[Mapping[str, Any] | None]
+"""The reset options of each sub-env being reset."""
 
 
 class FlightVectorEnv(RenderWindow, VectorEnv):
@@ -84,23 +90,19 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         self.config = build_config(self.config_class, config, kwargs)
         self.task = self._make_task()
         self.single_action_space = action_space()
-        self.single_observation_space = observation_space()
+        self.single_observation_space = self._observation_space()
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
 
         n = self.num_envs
         self._rngs: list[np.random.Generator | None] = [None] * n
         self._rng_seeds: list[int | None] = [None] * n
-        self._values = np.full(n, np.nan)
-        self._observations = np.zeros((n, 1), dtype=np.float32)
+        self._observations = np.zeros((n, *self.single_observation_space.shape), dtype=np.float32)
         self._autoreset = np.zeros(n, dtype=np.bool_)
         self._started = np.zeros(n, dtype=np.bool_)
         self._last: list[LastStep | None] = [None] * n
         self._window: Any = None
-
-    def _make_task(self) -> Any:
-        """The batched core behind the sub-envs (the multi-cycle env builds its own)."""
-        return make_task(self.config)
+        self._init_episodes(n)
 
     # --- per-env random generators (one per sub-env, as SyncVectorEnv's envs have) -------------
     def _rng(self, i: int) -> np.random.Generator:
@@ -167,12 +169,19 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         return batch, observations
 
     # --- what differs between the one-cycle and the multi-cycle env ----------------------------
-    def _start(
-        self,
-        index: np.ndarray,
-        rng: Callable[[int], np.random.Generator],
-        options: list[Mapping[str, Any] | None],
-    ) -> Columns:
+    def _make_task(self) -> Any:
+        """The batched core behind the sub-envs."""
+        return make_task(self.config)
+
+    def _observation_space(self) -> spaces.Box:
+        """One sub-env's observation space."""
+        return observation_space()
+
+    def _init_episodes(self, n: int) -> None:
+        """The episode state of n sub-envs before their first reset."""
+        self._values = np.full(n, np.nan)
+
+    def _start(self, index: np.ndarray, rng: EnvGenerators, options: EnvOptions) -> Columns:
         """Draw new episodes for sub-envs ``index`` (``rng(k)`` the generator of the k-th),
         set their state and observations; their reset info columns."""
         values = self.task.draw_conditions(index.size, rng, options)
