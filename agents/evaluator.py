@@ -23,7 +23,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.optimiser import Tally
+from agents.optimiser import Tallied, Tally
 from agents.selection import BestStroke
 from agents.tasks import Condition, TaskSpec
 
@@ -55,7 +55,7 @@ class EvaluatedBatch:
     """``info["feasible"]`` (all True if the env has none)."""
 
 
-class VectorEnvEvaluator:
+class VectorEnvEvaluator(Tallied):
     """Budgeted, batched fitness through the task's native vector env.
 
     Parameters
@@ -181,16 +181,6 @@ class VectorEnvEvaluator:
 
     # --- what was found ----------------------------------------------------------------------
     @property
-    def evaluations(self) -> int:
-        """Actions evaluated so far."""
-        return self._tally.evaluations
-
-    @property
-    def iterations(self) -> int:
-        """Batches (vector-env steps) so far."""
-        return self._tally.iterations
-
-    @property
     def best_reward(self) -> float:
         """Best reward so far (-inf before any)."""
         return self._tally.best_value
@@ -207,11 +197,6 @@ class VectorEnvEvaluator:
         if self._best_stroke_action is None or not self._best.feasible:
             return None
         return self._best_stroke_action.copy(), self._best.reward
-
-    @property
-    def history(self) -> list[tuple[int, float]]:
-        """(evaluations, best reward so far) after every batch."""
-        return list(self._tally.history)
 
 
 @dataclass(frozen=True)

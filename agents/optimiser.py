@@ -209,6 +209,28 @@ class Tally:
         self.history.append((self.evaluations, self.best_value))
 
 
+class Tallied:
+    """``evaluations``, ``iterations`` and ``history`` of a search that keeps a :class:`Tally`
+    (an optimiser, the harness's evaluator)."""
+
+    _tally: Tally
+
+    @property
+    def evaluations(self) -> int:
+        """Points (strokes, actions) evaluated so far."""
+        return self._tally.evaluations
+
+    @property
+    def iterations(self) -> int:
+        """Rounds (ask/tell rounds, batches) so far."""
+        return self._tally.iterations
+
+    @property
+    def history(self) -> list[tuple[int, float]]:
+        """(evaluations, best value so far) after every round."""
+        return list(self._tally.history)
+
+
 class OptimiserConfig(Protocol):
     """What the driver needs from an optimiser configuration."""
 
@@ -223,7 +245,7 @@ class OptimiserConfig(Protocol):
     def build(self, dim: int, seed: SeedLike = None) -> AskTellOptimiser: ...
 
 
-class AskTellOptimiser(ABC):
+class AskTellOptimiser(Tallied, ABC):
     """Base class for batched ask/tell maximisers over [-1, 1]^dim.
 
     Subclasses implement :meth:`_propose` (the next batch) and :meth:`_observe` (learn from its
@@ -326,21 +348,6 @@ class AskTellOptimiser(ABC):
     def best_fitness(self) -> float:
         """Best fitness told so far (-inf before any)."""
         return self._tally.best_value
-
-    @property
-    def evaluations(self) -> int:
-        """Number of points told so far."""
-        return self._tally.evaluations
-
-    @property
-    def iterations(self) -> int:
-        """Number of completed ask/tell rounds."""
-        return self._tally.iterations
-
-    @property
-    def history(self) -> list[tuple[int, float]]:
-        """(evaluations, best fitness so far) after every tell."""
-        return list(self._tally.history)
 
     @property
     def done(self) -> bool:

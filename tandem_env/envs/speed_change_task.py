@@ -304,16 +304,7 @@ class SpeedChangeTask:
         # cycle by the env's PenaltyConfig (exactly 0 within the cap).
         violation = result.power_violation / result.available_power
         feasible = result.power_violation == 0.0
-        penalty = cfg.penalty.penalty(violation, feasible)
-        strokes = StepBatch(
-            physical=physical,
-            result=result,
-            objective=objective,
-            violation=violation,
-            penalty=penalty,
-            reward=objective - penalty,
-            feasible=feasible,
-        )
+        strokes = StepBatch.scored(physical, result, objective, violation, feasible, cfg.penalty)
         return CycleBatch(
             strokes=strokes,
             after=after,

@@ -26,7 +26,7 @@ from ..physics import (
     normalised_to_physical,
 )
 from ..physics.checks import is_real, real_array
-from .config import AccelerateConfig, FlightConfig, LevelFlightConfig
+from .config import AccelerateConfig, FlightConfig, LevelFlightConfig, PenaltyConfig
 
 Columns = dict[str, Any]
 """Info columns: name -> (B,) array, or a nested dict of columns (``"stroke"``)."""
@@ -62,6 +62,29 @@ class StepBatch:
     """(B,) objective − penalty."""
     feasible: np.ndarray
     """(B,) bool, every constraint of the task met."""
+
+    @classmethod
+    def scored(
+        cls,
+        physical: np.ndarray,
+        result: Result,
+        objective: np.ndarray,
+        violation: np.ndarray,
+        feasible: np.ndarray,
+        penalty: PenaltyConfig,
+    ) -> StepBatch:
+        """The batch of a task's objective, violation and feasibility, its reward penalised
+        by the env's ``penalty`` (exactly the objective where feasible)."""
+        lost = penalty.penalty(violation, feasible)
+        return cls(
+            physical=physical,
+            result=result,
+            objective=objective,
+            violation=violation,
+            penalty=lost,
+            reward=objective - lost,
+            feasible=feasible,
+        )
 
     def __len__(self) -> int:
         return int(self.reward.shape[0])
@@ -209,18 +232,13 @@ class FlightTask:
         result = evaluate(
             physical, speed, power, insect=self.config.insect, options=self.config.options
         )
-        objective = self.objective(result)
-        violation = self.violation(result)
-        feasible = self.feasible(result)
-        penalty = self.config.penalty.penalty(violation, feasible)
-        return StepBatch(
-            physical=physical,
-            result=result,
-            objective=objective,
-            violation=violation,
-            penalty=penalty,
-            reward=objective - penalty,
-            feasible=feasible,
+        return StepBatch.scored(
+            physical,
+            result,
+            self.objective(result),
+            self.violation(result),
+            self.feasible(result),
+            self.config.penalty,
         )
 
     def objective(self, result: Result) -> np.ndarray:

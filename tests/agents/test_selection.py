@@ -73,3 +73,16 @@ def test_bad_shapes_are_refused() -> None:
         best_index([], [])
     with pytest.raises(ValueError, match="same shape"):
         best_index([True], [1.0, 2.0])
+
+
+def test_the_optimisers_running_best_is_the_rule_without_constraints() -> None:
+    from agents.optimiser import Tally
+
+    tally = Tally()
+    points = np.arange(6.0).reshape(3, 2)
+    tally.add(points, [NAN, -INF, NAN])
+    assert tally.best_point is None and tally.best_value == -INF
+    tally.add(points, [1.0, 2.0, 2.0])
+    tally.add(points, [2.0, NAN, 0.0])  # a tie keeps the earlier point
+    assert tally.best_value == 2.0 and np.array_equal(tally.best_point, points[1])
+    assert tally.history == [(3, -INF), (6, 2.0), (9, 2.0)] and tally.iterations == 3
