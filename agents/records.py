@@ -123,7 +123,8 @@ class Job:
     task: str
     """Task name, ``"level"`` or ``"accelerate"`` (or a registered task)."""
     condition: float
-    """Flight speed [m/s] (level) or available power [W/kg] (accelerate)."""
+    """The task's condition in its declared unit, e.g. flight speed [m/s] (level) or available
+    power [W/kg] (accelerate)."""
     budget: int
     """Model evaluations."""
     seed: int

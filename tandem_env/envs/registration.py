@@ -78,7 +78,8 @@ def register_envs() -> None:
 
 
 def config_class(env_id: str) -> type[Any]:
-    """The config class of a registered env id (its entry point's ``config_class``).
+    """The config class of a registered env id: the ``config_class`` of its entry point (or,
+    if that has none, of its vector entry point).
 
     Works for any id in Gymnasium's registry whose entry point is a class (or a
     ``module:Class`` string) with a ``config_class`` attribute, so that tasks registered
@@ -88,12 +89,25 @@ def config_class(env_id: str) -> type[Any]:
 
     if env_id not in registry:
         raise ValueError(f"env id {env_id!r} is not registered with Gymnasium")
-    entry_point = registry[env_id].entry_point
-    creator = load_env_creator(entry_point) if isinstance(entry_point, str) else entry_point
-    found = getattr(creator, "config_class", None)
-    if not isinstance(found, type):
-        raise ValueError(
-            f"{env_id}: its entry point {entry_point!r} has no config_class; allowed: an env "
-            "class whose config_class declares CONDITION and OBJECTIVES (tandem_env.envs.condition)"
-        )
-    return found
+    spec = registry[env_id]
+    for entry_point in (spec.entry_point, spec.vector_entry_point):
+        creator = load_env_creator(entry_point) if isinstance(entry_point, str) else entry_point
+        found = getattr(creator, "config_class", None)
+        if isinstance(found, type):
+            return found
+    raise ValueError(
+        f"{env_id}: neither its entry point {spec.entry_point!r} nor its vector entry point "
+        f"{spec.vector_entry_point!r} has a config_class; allowed: an env class whose "
+        "config_class declares CONDITION and OBJECTIVES (tandem_env.envs.condition)"
+    )
+
+
+def condition_keywords() -> tuple[str, ...]:
+    """Every keyword that sets a declared condition (fixed value or range) of this package's
+    envs, e.g. ``("speed", "speed_range", "power", "power_range")``."""
+    keywords: list[str] = []
+    for env_id in ENTRIES:
+        declared = getattr(config_class(env_id), "CONDITION", None)
+        if declared is not None:
+            keywords += [declared.keyword, declared.range_keyword]
+    return tuple(dict.fromkeys(keywords))
