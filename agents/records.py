@@ -29,7 +29,7 @@ from typing import Any
 
 import tandem_env
 from agents.fileio import read_json, to_jsonable, write_csv_atomic, write_json_atomic
-from agents.tasks import Condition
+from agents.tasks import Condition, available_tasks, get_task
 
 __all__ = [
     "RECORDS_DIR",
@@ -123,7 +123,8 @@ class Job:
     task: str
     """Task name, ``"level"`` or ``"accelerate"`` (or a registered task)."""
     condition: float
-    """Flight speed [m/s] (level) or available power [W/kg] (accelerate)."""
+    """The task's condition in its declared unit, e.g. flight speed [m/s] (level) or available
+    power [W/kg] (accelerate)."""
     budget: int
     """Model evaluations."""
     seed: int
@@ -171,10 +172,12 @@ class Job:
 
     def label(self) -> str:
         """Short human label, e.g. ``pso level V=1.5 seed 0``."""
-        unit = "V=" if self.task == "level" else "P="
+        # The condition's command-line symbol (V, P) from the task's declaration.
+        known = self.task in available_tasks()
+        symbol = get_task(self.task).condition_metavar if known else "condition"
         extra = [str(v) for k, v in self.env_kwargs if k in ("objective", "planform")]
         return " ".join(
-            [self.method, self.task, *extra, f"{unit}{self.condition:g}", f"seed {self.seed}"]
+            [self.method, self.task, *extra, f"{symbol}={self.condition:g}", f"seed {self.seed}"]
         )
 
 

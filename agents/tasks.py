@@ -2,9 +2,12 @@
 
 A :class:`TaskSpec` is data only: the Gymnasium id (whose ``vector_entry_point`` the harness
 evaluates batches through), the constructor keyword and reset option that set the condition,
-the condition's name and unit for records, and the objectives the env offers. ``"level"`` and
-``"accelerate"`` are registered here; tests register analytic tasks the same way
-(:func:`register_task`), so every method runs through one code path.
+the condition's name and unit for records, and the objectives the env offers. The tasks of this
+package's envs (``"level"``, ``"accelerate"``) are built from their env config's declarations
+(:meth:`TaskSpec.from_env`, for every id with a task in
+``tandem_env.envs.registration.ENTRIES``), so adding a task touches nothing here; tests
+register analytic tasks the same way (:func:`register_task`), so every method runs through one
+code path.
 """
 
 from __future__ import annotations
@@ -17,7 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from tandem_env.envs.registration import ACCELERATE_ID, LEVEL_FLIGHT_ID
+from tandem_env.envs.condition import TaskCondition, TaskObjectives
+from tandem_env.envs.config import FlightConfig
+from tandem_env.envs.registration import TASK_ENV_IDS, config_class
 from tandem_env.physics.checks import is_real
 from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
 
@@ -32,6 +37,13 @@ __all__ = [
 ]
 
 _NAME = re.compile(r"^[a-z][a-z0-9_-]*$")
+
+
+#: The harmonic N of each wing, 1 or 2 (``normalised_to_physical``: N = 1 where a < 0, else 2,
+#: i.e. two equal bins of [-1, 1]); the stroke's only discrete parameters.
+STROKE_DISCRETE: tuple[tuple[int, int], ...] = tuple(
+    (int(i), int(UPPER[i] - LOWER[i]) + 1) for i in np.flatnonzero(DISCRETE)
+)
 
 
 @dataclass(frozen=True)
@@ -101,6 +113,41 @@ class TaskSpec:
     on the i-th of ``levels`` equal bins of [-1, 1]. Methods that know discrete variables
     (CMA-ES) search those coordinates on the bin centres; the others search them as continuous
     and the env's map decides."""
+    declaration: TaskCondition | None = None
+    """The env config's declaration of the condition (label, symbol, envelope, sweep) for a
+    task built by :meth:`from_env`; None for a task declared field by field."""
+
+    @classmethod
+    def from_env(cls, name: str, env_id: str) -> TaskSpec:
+        """The task of a registered env id, read from its config's ``CONDITION`` and
+        ``OBJECTIVES`` (``tandem_env.envs.condition``): nothing about it is repeated here."""
+        config = config_class(env_id)
+        condition = getattr(config, "CONDITION", None)
+        objectives = getattr(config, "OBJECTIVES", None)
+        if not isinstance(condition, TaskCondition) or not isinstance(objectives, TaskObjectives):
+            raise ValueError(
+                f"task {name!r}: {env_id}'s config {config.__name__} declares CONDITION = "
+                f"{condition!r}, OBJECTIVES = {objectives!r}; allowed: a TaskCondition and a "
+                "TaskObjectives (tandem_env.envs.condition)"
+            )
+        summary = (config.__doc__ or "").strip().split("\n")[0]
+        return cls(
+            name=name,
+            env_id=env_id,
+            condition_name=condition.info_key,
+            condition_unit=condition.unit,
+            condition_kwarg=condition.keyword,
+            reset_option=condition.reset_option,
+            objectives=objectives.metrics,
+            default_objective=objectives.default,
+            objective_kwarg=objectives.keyword,
+            objective_unit=objectives.unit,
+            description=summary,
+            forbidden_kwargs=(condition.range_keyword,),
+            # Every flight env's action is a normalised stroke (tandem_env.envs.task).
+            discrete_actions=STROKE_DISCRETE if issubclass(config, FlightConfig) else (),
+            declaration=condition,
+        )
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not _NAME.match(self.name):
@@ -123,6 +170,18 @@ class TaskSpec:
         object.__setattr__(self, "objectives", MappingProxyType(dict(self.objectives)))
         forbidden = (self.condition_kwarg, *self.forbidden_kwargs)
         object.__setattr__(self, "forbidden_kwargs", tuple(dict.fromkeys(forbidden)))
+
+    @property
+    def condition_label(self) -> str:
+        """The condition in words, e.g. ``"flight speed"`` (its name when not declared)."""
+        return self.condition_name if self.declaration is None else self.declaration.label
+
+    @property
+    def condition_metavar(self) -> str:
+        """Placeholder of the condition's value on a command line, e.g. ``"V"``."""
+        if self.declaration is None:
+            return self.condition_kwarg.upper()
+        return self.declaration.metavar
 
     def condition(self, value: float) -> Condition:
         """The recorded condition for ``value`` [condition_unit] (range checks are the env's)."""
@@ -157,51 +216,13 @@ class TaskSpec:
         return f"{self.name}-{self.objective_choice(env_kwargs)}"
 
 
-#: The harmonic N of each wing, 1 or 2 (``normalised_to_physical``: N = 1 where a < 0, else 2,
-#: i.e. two equal bins of [-1, 1]); the stroke's only discrete parameters.
-STROKE_DISCRETE: tuple[tuple[int, int], ...] = tuple(
-    (int(i), int(UPPER[i] - LOWER[i]) + 1) for i in np.flatnonzero(DISCRETE)
-)
-
-LEVEL = TaskSpec(
-    name="level",
-    env_id=LEVEL_FLIGHT_ID,
-    condition_name="speed",
-    condition_unit="m/s",
-    condition_kwarg="speed",
-    reset_option="speed",
-    objectives={"efficiency": "efficiency"},
-    default_objective="efficiency",
-    objective_unit="-",
-    description="level flight at speed V [m/s]: maximise η = T·V/P with L = W, T = D, P/m <= 90 W/kg",
-    forbidden_kwargs=("speed_range",),
-    discrete_actions=STROKE_DISCRETE,
-)
-
-ACCELERATE = TaskSpec(
-    name="accelerate",
-    env_id=ACCELERATE_ID,
-    condition_name="available_power",
-    condition_unit="W/kg",
-    condition_kwarg="power",
-    reset_option="power",
-    objectives={
-        "vertical": "excess_vertical",
-        "horizontal": "excess_horizontal",
-        "resultant": "excess_total",
-    },
-    default_objective="vertical",
-    objective_kwarg="objective",
-    objective_unit="-",
-    description=(
-        "accelerating flight at available power P [W/kg]: maximise F̄_v, F̄_h or F̄_a with "
-        "F̄_v, F̄_h >= 0 and P/m <= P"
-    ),
-    forbidden_kwargs=("power_range",),
-    discrete_actions=STROKE_DISCRETE,
-)
-
-_TASKS: dict[str, TaskSpec] = {LEVEL.name: LEVEL, ACCELERATE.name: ACCELERATE}
+#: The tasks of this package's envs, each built from its env config's declarations.
+_TASKS: dict[str, TaskSpec] = {
+    name: TaskSpec.from_env(name, env_id) for name, env_id in TASK_ENV_IDS.items()
+}
+#: The paper's two tasks (the studies name them).
+LEVEL: TaskSpec = _TASKS["level"]
+ACCELERATE: TaskSpec = _TASKS["accelerate"]
 
 
 def register_task(spec: TaskSpec, *, replace: bool = False) -> None:

@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import argparse
 import sys
+import textwrap
 
 from agents.harness import prepare
 from agents.keyvalue import parse_pairs
 from agents.methods import available_methods
 from agents.records import RecordStore
-from agents.tasks import ACCELERATE, LEVEL
+from agents.tasks import TaskSpec, available_tasks, get_task
 from eval.studies.runner import (
     JobsFailed,
     SchedulerUnreachable,
@@ -24,9 +25,44 @@ from eval.studies.runner import (
     run_jobs,
 )
 
+
+def _tasks() -> list[TaskSpec]:
+    return [get_task(name) for name in available_tasks()]
+
+
+def _flag(task: TaskSpec) -> str:
+    """The command-line option of a task's condition, from its keyword (``--speed``)."""
+    return "--" + task.condition_kwarg.replace("_", "-")
+
+
+def _usage(task: TaskSpec) -> str:
+    """``--speed V`` [m/s]: how a task's condition is given."""
+    return f"{_flag(task)} {task.condition_metavar} [{task.condition_unit}]"
+
+
+def _tasks_text(width: int = 92) -> str:
+    """The "Tasks and conditions" paragraph of ``--help``, from the tasks' declarations."""
+    lines = []
+    for task in _tasks():
+        what = f"{task.condition_label} [{task.condition_unit}]"
+        if task.declaration is not None:
+            low, high = task.declaration.envelope
+            what += f" ({low:g}-{high:g})"
+        text = f"{_flag(task)} {task.condition_metavar}  {what}; {task.description}"
+        if task.objective_kwarg is not None:
+            choices = ", ".join(task.objectives)
+            text += f" --objective: {choices} (default {task.default_objective})."
+        lines.append(
+            textwrap.fill(
+                text, width, initial_indent=f"  {task.name:<11} ", subsequent_indent=" " * 14
+            )
+        )
+    return "\n".join(lines)
+
+
 NAME = "optimize"
 HELP = "run a method (pso, random, ...) on one flight condition for several seeds"
-DESCRIPTION = """\
+DESCRIPTION = f"""\
 Run one search method on one flight condition for a list of seeds. Every iteration's batch
 of strokes is evaluated through the task's batched vector env (fitness = the env's reward,
 the penalised objective); the best stroke of each seed is re-evaluated and stored as a JSON
@@ -36,12 +72,9 @@ DIR/summary.csv over every record in DIR. A seed whose record is already there w
 configuration is not run again (a killed run resumes); another budget or setting is another
 record, beside it.
 
-Tasks and conditions:
-  level       --speed V   flight speed [m/s] (0.25-2.0); maximise efficiency η = T·V/P
-              subject to L = W, T = D (±2 % of W) and P/m <= 90 W/kg.
-  accelerate  --power P   available power per body mass [W/kg] (50-90); maximise the
-              --objective (vertical F̄_v, horizontal F̄_h or resultant F̄_a) subject to
-              F̄_v >= 0, F̄_h >= 0 and P/m <= P.
+Tasks and conditions (from each env config's declaration; the condition may be widened
+up to the model's limits with --env-kwargs, e.g. speed_envelope=(0.1,3)):
+{_tasks_text()}
 
 The budget counts model evaluations (= env steps = strokes evaluated). The seeds run here,
 one after another (default), or on Dask: --scheduler local:N starts N worker processes here,
@@ -63,23 +96,31 @@ INTERRUPTED = "the finished records are stored; the same command resumes from th
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    tasks = _tasks()
     parser.add_argument(
-        "--task", required=True, choices=(LEVEL.name, ACCELERATE.name), help="the flight task"
+        "--task", required=True, choices=tuple(t.name for t in tasks), help="the flight task"
     )
+    # One option per condition keyword, from the tasks' declarations (--speed, --power).
     condition = parser.add_mutually_exclusive_group(required=True)
-    condition.add_argument(
-        "--speed", type=float, metavar="V", help="level flight: flight speed [m/s]"
-    )
-    condition.add_argument(
-        "--power",
-        type=float,
-        metavar="P",
-        help="accelerating flight: available power per body mass [W/kg]",
-    )
+    by_flag: dict[str, list[TaskSpec]] = {}
+    for task in tasks:
+        by_flag.setdefault(_flag(task), []).append(task)
+    for flag, owners in by_flag.items():
+        condition.add_argument(
+            flag,
+            type=float,
+            dest=owners[0].condition_kwarg,
+            metavar=owners[0].condition_metavar,
+            help="; ".join(f"{t.name}: {t.condition_label} [{t.condition_unit}]" for t in owners),
+        )
+    choosers = [t for t in tasks if t.objective_kwarg is not None]
     parser.add_argument(
         "--objective",
-        choices=tuple(ACCELERATE.objectives),
-        help="accelerating flight only: the excess force maximised (default vertical)",
+        choices=tuple(dict.fromkeys(c for t in choosers for c in t.objectives)),
+        help="; ".join(
+            f"{t.name} only: the objective maximised (default {t.default_objective})"
+            for t in choosers
+        ),
     )
     parser.add_argument(
         "--method",
@@ -139,14 +180,19 @@ def add_scheduler_argument(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    task = LEVEL if args.task == LEVEL.name else ACCELERATE
-    if task is LEVEL and args.speed is None:
-        parser.error("--task level takes --speed V [m/s], not --power")
-    if task is ACCELERATE and args.power is None:
-        parser.error("--task accelerate takes --power P [W/kg], not --speed")
-    if task is LEVEL and args.objective is not None:
-        parser.error("--objective is for --task accelerate; level flight maximises efficiency")
-    condition = args.speed if task is LEVEL else args.power
+    task = get_task(args.task)
+    condition = getattr(args, task.condition_kwarg)
+    if condition is None:
+        given = [_flag(t) for t in _tasks() if getattr(args, t.condition_kwarg, None) is not None]
+        parser.error(
+            f"--task {task.name} takes {_usage(task)}, not {' '.join(dict.fromkeys(given))}"
+        )
+    if task.objective_kwarg is None and args.objective is not None:
+        choosers = [t.name for t in _tasks() if t.objective_kwarg is not None]
+        parser.error(
+            f"--objective is for --task {' or '.join(choosers)}; {task.name} maximises "
+            f"{task.default_objective}"
+        )
     try:
         store = RecordStore(args.out)
         scheduler = None if args.scheduler is None else parse_scheduler(args.scheduler)

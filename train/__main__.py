@@ -129,10 +129,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"reward {result.best_reward:.4g}, objective {best.get('objective', float('nan')):.4g}, "
         f"feasible {best.get('feasible')}"
     )
+    from tandem_env.envs.registration import config_class
+
+    # The info key of the env's observed condition (speed, available_power, target_speed).
+    condition_key = config_class(result.env_id).condition_key
     for row in result.final_evaluation:
-        condition = (
-            row.get("speed") if "LevelFlight" in result.env_id else row.get("available_power")
-        )
+        condition = row.get(condition_key)
         print(
             f"  final deterministic policy at {condition:g}: reward {row['reward']:.4g}, "
             f"objective {row['objective']:.4g}, feasible {row['feasible']}"

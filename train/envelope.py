@@ -25,7 +25,6 @@ from pathlib import Path
 from typing import Any
 
 from agents.fileio import write_csv_atomic
-from train.vec import SWEEP_POWERS, SWEEP_SPEEDS
 
 #: Columns of envelope.csv.
 COLUMNS: tuple[str, ...] = (
@@ -62,7 +61,26 @@ def task_of(env_id: str) -> str:
 
 
 def sweep_conditions(task: str) -> tuple[float, ...]:
-    return SWEEP_SPEEDS if task == "level" else SWEEP_POWERS
+    """The task's declared sweep (its env config's ``CONDITION.sweep``)."""
+    from agents.tasks import get_task
+
+    declared = get_task(task).declaration
+    if declared is None:
+        raise ValueError(f"task {task!r} declares no sweep; give the conditions")
+    return declared.sweep
+
+
+def _sweeps_text() -> str:
+    """Each declared task's sweep, for ``--help``."""
+    from agents.tasks import available_tasks, get_task
+
+    parts = []
+    for name in available_tasks():
+        declared = get_task(name).declaration
+        if declared is not None:
+            values = ", ".join(f"{v:g}" for v in declared.sweep)
+            parts.append(f"{name}: {declared.keyword} {values} {declared.unit}")
+    return "; ".join(parts)
 
 
 def evaluate_envelope(
@@ -135,7 +153,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         type=float,
         nargs="+",
         default=None,
-        help="conditions to evaluate (default: speeds 0.25..2.0 step 0.25, or powers 50..90 step 10)",
+        help=f"conditions to evaluate (default: the task's sweep, {_sweeps_text()})",
     )
     parser.add_argument("--model", choices=("best", "final"), default="best")
     args = parser.parse_args(argv)
@@ -152,16 +170,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     outside = [row for row in rows if not row["trained_at"]]
     if outside:
+        from agents.tasks import get_task
         from train.policies import TrainedPolicy
 
-        seen = TrainedPolicy.load(args.run, args.model).training_conditions
+        policy = TrainedPolicy.load(args.run, args.model)
+        seen = policy.training_conditions
+        declared = get_task(task_of(policy.env_id)).declaration
+        ranged = "a range" if declared is None else declared.range_keyword
         unit = outside[0]["condition_unit"]
         trained = f"({seen[0]:g}, {seen[1]:g})" if isinstance(seen, tuple) else f"{seen:g}"
         print(
             f"note: the policy was trained at {outside[0]['condition']} = {trained} {unit}; "
             f"{len(outside)} of {len(rows)} conditions lie outside that, where its strokes are "
-            "extrapolations (a policy for the whole envelope is trained with speed_range or "
-            "power_range, docs/training.md)"
+            f"extrapolations (a policy for the whole envelope is trained with {ranged}, "
+            "docs/training.md)"
         )
     print(f"wrote {Path(args.out) / 'envelope.csv'}")
     return 0

@@ -41,6 +41,7 @@ from tqdm.auto import tqdm
 from agents.fileio import to_jsonable
 from agents.methods import Method, SearchContext, SearchOutcome
 from agents.selection import is_better
+from tandem_env.envs.registration import condition_keywords, config_class
 from tandem_env.envs.sb3 import make_sb3_vec_env
 from tandem_env.physics.checks import is_integer
 from train.config import ALGOS, check_algo, plain
@@ -65,7 +66,7 @@ WhichModel = Literal["best", "final"]
 WHICH_MODELS: tuple[str, ...] = get_args(WhichModel)
 
 #: Env keywords that set the condition; they may differ between training and evaluation.
-CONDITION_KWARGS: tuple[str, ...] = ("speed", "speed_range", "power", "power_range")
+CONDITION_KWARGS: tuple[str, ...] = condition_keywords()
 
 CITATIONS: dict[str, str] = {
     "ppo": (
@@ -173,13 +174,14 @@ class TrainedPolicy:
     @property
     def training_conditions(self) -> tuple[float, float] | float | None:
         """The condition range it was trained on, or the fixed condition (None if unknown)."""
-        for key in ("speed_range", "power_range"):
-            if self.env_kwargs.get(key) is not None:
-                low, high = self.env_kwargs[key]
-                return float(low), float(high)
-        for key in ("speed", "power"):
-            if self.env_kwargs.get(key) is not None:
-                return float(self.env_kwargs[key])
+        declared = getattr(config_class(self.env_id), "CONDITION", None)
+        if declared is None:
+            return None
+        if self.env_kwargs.get(declared.range_keyword) is not None:
+            low, high = self.env_kwargs[declared.range_keyword]
+            return float(low), float(high)
+        if self.env_kwargs.get(declared.keyword) is not None:
+            return float(self.env_kwargs[declared.keyword])
         return None
 
     def trained_at(self, value: float) -> bool:

@@ -35,10 +35,6 @@ MONITOR_KEYWORDS: tuple[str, ...] = (
     "available_power",
 )
 
-#: The sweep conditions of each env's condition (m/s for speed, W/kg for power).
-SWEEP_SPEEDS: tuple[float, ...] = (0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0)
-SWEEP_POWERS: tuple[float, ...] = (50.0, 60.0, 70.0, 80.0, 90.0)
-
 
 class StrokeRecorder(VecEnvWrapper):
     """Keeps the best stroke any sub-env was given and counts evaluations.
@@ -143,15 +139,17 @@ def condition_range(venv: VecEnv) -> tuple[float, float] | None:
 
 
 def evaluation_conditions(env_id: str, env_kwargs: Mapping[str, Any]) -> tuple[float, ...]:
-    """The conditions a deterministic evaluation scores: the fixed one, or the sweep points in
-    the sampled range (its ends and midpoint if the range holds fewer than two of them)."""
+    """The conditions a deterministic evaluation scores: the fixed one, or the points of the
+    config's declared sweep (``CONDITION.sweep``) in the sampled range (its ends and midpoint if
+    the range holds fewer than two of them, or the config declares no sweep)."""
     probe = make_sb3_vec_env(env_id, n_envs=1, seed=0, **env_kwargs)
     try:
         config = adapter(probe).config
         sampled = config.condition_range
         if sampled is None:
             return (float(config.fixed_condition),)
-        sweep = SWEEP_SPEEDS if option_key(probe) == "speed" else SWEEP_POWERS
+        declared = type(config).CONDITION
+        sweep = () if declared is None else declared.sweep
     finally:
         probe.close()
     low, high = sampled

@@ -17,7 +17,7 @@ from agents.fileio import write_csv_atomic, write_json_atomic
 from agents.records import Record
 from eval.studies.claims import Claim
 from eval.studies.presets import Preset
-from eval.studies.runner import RECORDS_DIR, Job, Task
+from eval.studies.runner import RECORDS_DIR, Job
 from eval.studies.tables import summary_rows, tidy_rows
 
 #: Methods whose settings include the swarm/batch size (others take no settings from a study).
@@ -55,7 +55,7 @@ class Plan:
 
     def jobs(
         self,
-        task: Task,
+        task: str,
         conditions: Sequence[float],
         *,
         objective: str | None = None,

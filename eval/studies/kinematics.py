@@ -22,13 +22,15 @@ from typing import Any
 import numpy as np
 
 from agents.records import Record
+from agents.tasks import get_task
 from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import Plan, StudyOutput, write_tables
 from eval.studies.runner import Job
 from eval.studies.tables import circular_median, select, spread
 from tandem_env import PARAMETER_NAMES, stroke_history
-from tandem_env.envs.config import AccelerateConfig, LevelFlightConfig
+from tandem_env.envs import registration
+from tandem_env.envs.task import make_task
 
 NAME = "kinematics"
 TITLE = "Kinematics of the optimised strokes (Figs. 9-13)"
@@ -56,13 +58,11 @@ def jobs(plan: Plan) -> list[Job]:
 
 def history_of(record: Record, n_samples: int = HISTORY_SAMPLES):
     """The record's best stroke over one cycle, with the env's own insect and model options."""
-    kwargs = dict(record.config["env_kwargs"])
-    if record.task == "level":
-        cfg = LevelFlightConfig.from_kwargs(**kwargs)
-        speed, power = cfg.speed, cfg.available_power
-    else:
-        cfg = AccelerateConfig.from_kwargs(**kwargs)
-        speed, power = cfg.speed, cfg.power
+    config_class = registration.config_class(get_task(record.task).env_id)
+    cfg = config_class.from_kwargs(**dict(record.config["env_kwargs"]))
+    # The task's condition sets one model input; its config fixes the other (task core).
+    speeds, powers = make_task(cfg).flight_conditions(np.array([cfg.fixed_condition]))
+    speed, power = float(speeds[0]), float(powers[0])
     stroke = np.array([float(record.stroke[name]) for name in PARAMETER_NAMES])
     return stroke_history(
         stroke, speed, power, insect=cfg.insect, options=cfg.options, n_samples=n_samples

@@ -18,23 +18,30 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Literal, get_args
 
+from tandem_env.envs.condition import TaskCondition
+from tandem_env.envs.config import AccelerateConfig, LevelFlightConfig
+
 AccelerateObjective = Literal["vertical", "horizontal"]
 
-#: Level-flight speeds of the paper's sweep (Figs. 4-6, 15) [m/s].
-PAPER_SPEEDS: tuple[float, ...] = (0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0)
+_SPEED, _POWER = LevelFlightConfig.CONDITION, AccelerateConfig.CONDITION
+#: Level-flight speeds of the paper's sweep (Figs. 4-6, 15) [m/s]: the env's declared sweep.
+PAPER_SPEEDS: tuple[float, ...] = _SPEED.sweep
 #: Available powers of the paper's sweep (Figs. 7-8, 16) [W/kg]: 30-60 % flight muscle.
-PAPER_POWERS: tuple[float, ...] = (50.0, 60.0, 70.0, 80.0, 90.0)
-#: Available powers the Accelerate env accepts without widening its observation envelope [W/kg].
-POWER_LIMITS: tuple[float, float] = (50.0, 90.0)
-#: Flight speeds the level-flight env accepts without widening its envelope [m/s].
-SPEED_LIMITS: tuple[float, float] = (0.25, 2.0)
+PAPER_POWERS: tuple[float, ...] = _POWER.sweep
+#: Env keywords a preset may not set: each job sets the condition and the objective.
+_PER_JOB_KWARGS: frozenset[str] = frozenset(
+    {_SPEED.keyword, _POWER.keyword, str(AccelerateConfig.OBJECTIVES.keyword)}
+)
 
 
 def _fail(name: str, value: Any, allowed: str) -> None:
     raise ValueError(f"Preset.{name} = {value!r}; allowed: {allowed}")
 
 
-def _check_values(name: str, values: Any, limits: tuple[float, float], unit: str) -> None:
+def _check_values(name: str, values: Any, condition: TaskCondition) -> None:
+    """``values`` must be distinct, increasing and inside the env's default envelope (the
+    conditions it accepts without widening its observation envelope)."""
+    limits, unit = condition.envelope, condition.unit
     ok = (
         isinstance(values, tuple)
         and len(values) > 0
@@ -96,8 +103,8 @@ class ConvergenceSpec:
                 f"ConvergenceSpec.methods = {self.methods!r}; allowed: distinct method names "
                 "such as ('pso', 'cmaes')"
             )
-        _check_values("convergence speed", (self.speed,), SPEED_LIMITS, "m/s")
-        _check_values("convergence power", (self.power,), POWER_LIMITS, "W/kg")
+        _check_values("convergence speed", (self.speed,), _SPEED)
+        _check_values("convergence power", (self.power,), _POWER)
 
 
 @dataclass(frozen=True)
@@ -159,17 +166,16 @@ class Preset:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < self.swarm_size:
                 _fail(name, value, f"an integer >= swarm_size ({self.swarm_size}) evaluations")
-        _check_values("speeds", self.speeds, SPEED_LIMITS, "m/s")
-        _check_values("shape_speeds", self.shape_speeds, SPEED_LIMITS, "m/s")
-        _check_values("powers", self.powers, POWER_LIMITS, "W/kg")
-        _check_values("shape_powers", self.shape_powers, POWER_LIMITS, "W/kg")
+        _check_values("speeds", self.speeds, _SPEED)
+        _check_values("shape_speeds", self.shape_speeds, _SPEED)
+        _check_values("powers", self.powers, _POWER)
+        _check_values("shape_powers", self.shape_powers, _POWER)
         _check_values(
             "kinematics_speed/phase_speed",
             tuple(sorted({self.kinematics_speed, self.phase_speed})),
-            SPEED_LIMITS,
-            "m/s",
+            _SPEED,
         )
-        _check_values("kinematics_power", (self.kinematics_power,), POWER_LIMITS, "W/kg")
+        _check_values("kinematics_power", (self.kinematics_power,), _POWER)
         if self.kinematics_objective not in get_args(AccelerateObjective):
             _fail("kinematics_objective", self.kinematics_objective, "'vertical' or 'horizontal'")
         if (
@@ -181,7 +187,7 @@ class Preset:
         if not isinstance(self.convergence, ConvergenceSpec):
             _fail("convergence", self.convergence, "a ConvergenceSpec")
         keys = [k for k, _ in self.env_kwargs]
-        if len(set(keys)) != len(keys) or any(k in {"speed", "power", "objective"} for k in keys):
+        if len(set(keys)) != len(keys) or any(k in _PER_JOB_KWARGS for k in keys):
             _fail(
                 "env_kwargs",
                 self.env_kwargs,

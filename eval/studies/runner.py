@@ -46,7 +46,7 @@ import traceback
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any
 
 from agents.progress import ProgressBar, Reporter
 from agents.records import RECORDS_DIR, Job, Record, RecordStore
@@ -68,8 +68,6 @@ __all__ = [
     "parse_scheduler",
     "run_jobs",
 ]
-
-Task = Literal["level", "accelerate"]
 
 #: Seconds to wait for a Dask scheduler to answer before giving up [s].
 CONNECT_TIMEOUT = 10.0

@@ -20,14 +20,14 @@ import numpy as np
 
 from ..physics import AVAILABLE_POWER_LIMITS, PLANFORMS, SPEED_LIMITS, Dragonfly, ModelOptions
 from ..physics.checks import is_real as _is_real
+from .condition import TaskCondition, TaskObjectives, check_declarations
 
+#: Accelerate's objective choices (``AccelerateConfig.OBJECTIVES`` maps each to its metric).
 Objective = Literal["vertical", "horizontal", "resultant"]
 OBJECTIVES: tuple[str, ...] = get_args(Objective)
 
 #: Flight speeds an env accepts [m/s]: the model's own limits.
 MODEL_SPEED_LIMITS: tuple[float, float] = SPEED_LIMITS
-#: Available powers per body mass an env accepts [W/kg]: the model's own limits.
-MODEL_POWER_LIMITS: tuple[float, float] = AVAILABLE_POWER_LIMITS
 
 #: ``gym.make`` kwargs that become fields of :class:`~tandem_env.physics.ModelOptions`, mapped to
 #: the field's name there (``power_convention`` avoids a clash with Accelerate's ``power``).
@@ -78,18 +78,21 @@ def check_interval(
     return low, high
 
 
-def normalise_condition(
-    config: Any, name: str, unit: str, limits: tuple[float, float], default: float
-) -> None:
-    """Validate and store a flight condition's fields on a frozen config.
+def normalise_condition(config: FlightConfig) -> None:
+    """Validate and store the fields of the condition ``type(config).CONDITION`` declares.
 
-    ``{name}_envelope`` is the range the observation is normalised over; the condition is either
-    a fixed ``{name}`` (``default`` when None) or a ``{name}_range`` sampled at each reset, both
-    inside the envelope. A bad condition gets one message whatever is wrong with it (not a
-    number, outside the model's limits, outside the envelope): what is allowed is the envelope.
+    ``{keyword}_envelope`` is the range the observation is normalised over; the condition is
+    either a fixed ``{keyword}`` (the declared default when None) or a ``{keyword}_range``
+    sampled at each reset, both inside the envelope. A bad condition gets one message whatever
+    is wrong with it (not a number, outside the model's limits, outside the envelope): what is
+    allowed is the envelope.
     """
+    declared = type(config).CONDITION
+    if declared is None:
+        raise TypeError(f"{type(config).__name__} declares no CONDITION")
     owner = type(config).__name__
-    envelope_name, range_name = f"{name}_envelope", f"{name}_range"
+    name, range_name, envelope_name = declared.keywords
+    unit, limits = declared.unit, declared.limits
     envelope = check_interval(owner, envelope_name, getattr(config, envelope_name), unit, limits)
     object.__setattr__(config, envelope_name, envelope)
     fixed, sampled = getattr(config, name), getattr(config, range_name)
@@ -116,7 +119,7 @@ def normalise_condition(
             raise ValueError(f"{owner}.{range_name} = {sampled!r} {unit}; {allowed}")
         object.__setattr__(config, range_name, (float(low), float(high)))
     else:
-        value = default if fixed is None else fixed
+        value = declared.default if fixed is None else fixed
         if not (_is_real(value) and envelope[0] <= value <= envelope[1]):
             raise ValueError(
                 f"{owner}.{name} = {value!r} {unit}; allowed: a finite number {inside}"
@@ -188,8 +191,20 @@ class FlightConfig:
 
     #: The task's name in messages.
     name: ClassVar[str] = "FlightConfig"
-    #: Which ``info`` / reset-option key holds the observed condition.
+    #: The one flight condition the task is optimised at and observes (its keyword, unit,
+    #: limits, default, envelope and sweep), or None for a task that does not have one.
+    CONDITION: ClassVar[TaskCondition | None] = None
+    #: What the task maximises: each objective choice and its ``info`` metric (None with
+    #: ``CONDITION``).
+    OBJECTIVES: ClassVar[TaskObjectives | None] = None
+    #: The ``info`` key reporting the observed condition: ``CONDITION.info_key`` where declared.
     condition_key: ClassVar[str] = ""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        check_declarations(cls)  # a declaration naming a missing field fails at import
+        if cls.CONDITION is not None:
+            cls.condition_key = cls.CONDITION.info_key
 
     def __post_init__(self) -> None:
         owner = type(self).__name__
@@ -211,21 +226,35 @@ class FlightConfig:
             )
         object.__setattr__(self, "clip_actions", bool(self.clip_actions))
 
-    # --- the observed flight condition ------------------------------------------------------
+    # --- the observed flight condition (read from the fields CONDITION names) ---------------
+    @property
+    def declared_condition(self) -> TaskCondition:
+        """``CONDITION``; NotImplementedError for a config that declares none."""
+        if self.CONDITION is None:
+            raise NotImplementedError(f"{type(self).__name__} declares no CONDITION")
+        return self.CONDITION
+
     @property
     def envelope(self) -> tuple[float, float]:
         """The range the observed condition is normalised over, to [-1, 1]."""
-        raise NotImplementedError
+        return getattr(self, self.declared_condition.envelope_keyword)
 
     @property
     def condition_range(self) -> tuple[float, float] | None:
         """The range the condition is sampled from at reset, or None for a fixed condition."""
-        raise NotImplementedError
+        return getattr(self, self.declared_condition.range_keyword)
 
     @property
     def fixed_condition(self) -> float | None:
         """The fixed condition, or None when it is sampled."""
-        raise NotImplementedError
+        return getattr(self, self.declared_condition.keyword)
+
+    @property
+    def objective_metric(self) -> str:
+        """The ``info`` metric (a ``Result`` field) this config maximises, e.g. ``"efficiency"``."""
+        if self.OBJECTIVES is None:
+            raise NotImplementedError(f"{type(self).__name__} declares no OBJECTIVES")
+        return self.OBJECTIVES.metric(self)
 
     @property
     def thrust_split(self) -> str:
@@ -329,35 +358,35 @@ class LevelFlightConfig(FlightConfig):
     ``speed_envelope`` to [-1, 1].
     """
 
+    name: ClassVar[str] = "LevelFlight"
+    CONDITION: ClassVar[TaskCondition] = TaskCondition(
+        keyword="speed",
+        info_key="speed",
+        label="flight speed",
+        symbol="V",
+        unit="m/s",
+        limits=MODEL_SPEED_LIMITS,
+        default=1.5,  # the paper's best-efficiency speed
+        envelope=(0.25, 2.0),  # the paper's range
+        sweep=(0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0),  # Figs. 4-6, 15
+    )
+    OBJECTIVES: ClassVar[TaskObjectives] = TaskObjectives(
+        metrics={"efficiency": "efficiency"}, default="efficiency"
+    )
+
     speed: float | None = None
     """Fixed flight speed V [m/s]; default 1.5 m/s (the paper's best-efficiency speed) unless
     ``speed_range`` is given."""
     speed_range: tuple[float, float] | None = None
     """(low, high) [m/s]: V is drawn uniformly from it at each reset (from the env's seeded
     ``np_random``), so one policy can learn the whole envelope."""
-    speed_envelope: tuple[float, float] = (0.25, 2.0)
+    speed_envelope: tuple[float, float] = CONDITION.envelope
     """(low, high) [m/s] mapped linearly to the observation's [-1, 1]; every speed used must lie
     inside it. Default the paper's range, 0.25 to 2.0 m/s."""
 
-    name: ClassVar[str] = "LevelFlight"
-    condition_key: ClassVar[str] = "speed"
-    DEFAULT_SPEED: ClassVar[float] = 1.5
-
     def __post_init__(self) -> None:
         super().__post_init__()
-        normalise_condition(self, "speed", "m/s", MODEL_SPEED_LIMITS, self.DEFAULT_SPEED)
-
-    @property
-    def envelope(self) -> tuple[float, float]:
-        return self.speed_envelope
-
-    @property
-    def condition_range(self) -> tuple[float, float] | None:
-        return self.speed_range
-
-    @property
-    def fixed_condition(self) -> float | None:
-        return self.speed
+        normalise_condition(self)
 
     @property
     def available_power(self) -> float:
@@ -365,9 +394,7 @@ class LevelFlightConfig(FlightConfig):
         return self.insect.max_power_per_mass
 
     def describe(self) -> str:
-        if self.speed_range is not None:
-            return f"V ~ U({self.speed_range[0]:g}, {self.speed_range[1]:g}) m/s"
-        return f"V = {self.speed:g} m/s"
+        return self.CONDITION.describe(self.speed, self.speed_range)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -380,7 +407,30 @@ class AccelerateConfig(FlightConfig):
     or escape from hover).
     """
 
-    objective: Objective = "vertical"
+    name: ClassVar[str] = "Accelerate"
+    CONDITION: ClassVar[TaskCondition] = TaskCondition(
+        keyword="power",
+        info_key="available_power",
+        label="available power per body mass",
+        symbol="P_avail",
+        metavar="P",
+        unit="W/kg",
+        limits=AVAILABLE_POWER_LIMITS,
+        default=90.0,  # the insect's maximum
+        envelope=(50.0, 90.0),  # the paper's sweep: 30-60 % flight muscle
+        sweep=(50.0, 60.0, 70.0, 80.0, 90.0),  # Figs. 7-8, 16
+    )
+    OBJECTIVES: ClassVar[TaskObjectives] = TaskObjectives(
+        metrics={
+            "vertical": "excess_vertical",
+            "horizontal": "excess_horizontal",
+            "resultant": "excess_total",
+        },
+        default="vertical",
+        keyword="objective",
+    )
+
+    objective: Objective = OBJECTIVES.default
     """Which specific excess force is maximised: ``"vertical"`` F̄_v = (L − W)/W,
     ``"horizontal"`` F̄_h = (T − D)/W or ``"resultant"`` F̄_a = sqrt(F̄_v² + F̄_h²) [-]
     (docs/model.md §7: the paper's attainable F̄_a combines the first two)."""
@@ -389,44 +439,26 @@ class AccelerateConfig(FlightConfig):
     unless ``power_range`` is given."""
     power_range: tuple[float, float] | None = None
     """(low, high) [W/kg]: the available power is drawn uniformly from it at each reset."""
-    power_envelope: tuple[float, float] = (50.0, 90.0)
+    power_envelope: tuple[float, float] = CONDITION.envelope
     """(low, high) [W/kg] mapped linearly to the observation's [-1, 1]; every available power
     used must lie inside it. Default the paper's sweep, 50 to 90 W/kg (30-60 % muscle)."""
     speed: float = 0.0
     """Flight speed V [m/s], fixed for every episode (not observed); within the model's
     ``SPEED_LIMITS`` (0 to 20 m/s)."""
 
-    name: ClassVar[str] = "Accelerate"
-    condition_key: ClassVar[str] = "available_power"
-    DEFAULT_POWER: ClassVar[float] = 90.0
-
     def __post_init__(self) -> None:
         super().__post_init__()
         owner = type(self).__name__
-        if self.objective not in OBJECTIVES:
+        choices = self.OBJECTIVES.choices
+        if self.objective not in choices:
             raise ValueError(
-                f"{owner}.objective = {self.objective!r}; allowed: {', '.join(map(repr, OBJECTIVES))}"
+                f"{owner}.objective = {self.objective!r}; allowed: {', '.join(map(repr, choices))}"
             )
         object.__setattr__(
             self, "speed", check_real(owner, "speed", self.speed, "m/s", *MODEL_SPEED_LIMITS)
         )
-        normalise_condition(self, "power", "W/kg", MODEL_POWER_LIMITS, self.DEFAULT_POWER)
-
-    @property
-    def envelope(self) -> tuple[float, float]:
-        return self.power_envelope
-
-    @property
-    def condition_range(self) -> tuple[float, float] | None:
-        return self.power_range
-
-    @property
-    def fixed_condition(self) -> float | None:
-        return self.power
+        normalise_condition(self)
 
     def describe(self) -> str:
-        if self.power_range is not None:
-            power = f"P_avail ~ U({self.power_range[0]:g}, {self.power_range[1]:g}) W/kg"
-        else:
-            power = f"P_avail = {self.power:g} W/kg"
+        power = self.CONDITION.describe(self.power, self.power_range)
         return f"{power}, V = {self.speed:g} m/s, objective {self.objective}"

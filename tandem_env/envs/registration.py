@@ -6,28 +6,52 @@ Entry points are strings, so registering imports neither the env classes' depend
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 LEVEL_FLIGHT_ID = "TandemWing/LevelFlight-v0"
 """Level flight: maximise η with L = W, T = D and P/m <= 90 W/kg."""
 ACCELERATE_ID = "TandemWing/Accelerate-v0"
 """Accelerating flight: maximise a specific excess force with F_v, F_h >= 0 and P/m <= P_avail."""
 SPEED_CHANGE_ID = "TandemWing/SpeedChange-v0"
 """Multi-cycle flight: reach a target speed and hold altitude, one stroke per wing-beat."""
-ENV_IDS: tuple[str, ...] = (LEVEL_FLIGHT_ID, ACCELERATE_ID, SPEED_CHANGE_ID)
 
-_ENTRY_POINTS: dict[str, tuple[str, str]] = {
-    LEVEL_FLIGHT_ID: (
+
+@dataclass(frozen=True)
+class EnvEntry:
+    """One registered env: its entry points and, if any, the harness task that runs it."""
+
+    entry_point: str
+    """``module:Class`` of the single env; the class's ``config_class`` declares the task."""
+    vector_entry_point: str
+    """``module:Class`` of the batched vector env."""
+    task: str | None = None
+    """Name of the harness task (``agents.tasks``, ``--task`` on the command line) that
+    optimises one stroke on this env, built from its config's ``CONDITION`` and
+    ``OBJECTIVES``; None for an env the harness does not run (multi-cycle episodes)."""
+
+
+#: Every env id this package registers. Adding a task is one line here, with the env package's
+#: config (declaring ``CONDITION`` and ``OBJECTIVES``), task core, env and vector env.
+ENTRIES: dict[str, EnvEntry] = {
+    LEVEL_FLIGHT_ID: EnvEntry(
         "tandem_env.envs.flight:LevelFlightEnv",
         "tandem_env.envs.vector:LevelFlightVectorEnv",
+        task="level",
     ),
-    ACCELERATE_ID: (
+    ACCELERATE_ID: EnvEntry(
         "tandem_env.envs.flight:AccelerateEnv",
         "tandem_env.envs.vector:AccelerateVectorEnv",
+        task="accelerate",
     ),
-    SPEED_CHANGE_ID: (
+    SPEED_CHANGE_ID: EnvEntry(
         "tandem_env.envs.speed_change:SpeedChangeEnv",
         "tandem_env.envs.speed_change_vector:SpeedChangeVectorEnv",
     ),
 }
+ENV_IDS: tuple[str, ...] = tuple(ENTRIES)
+#: Harness task name -> the env id it runs, for the ids with a task.
+TASK_ENV_IDS: dict[str, str] = {e.task: i for i, e in ENTRIES.items() if e.task is not None}
 
 
 def check_env_id(env_id: object, name: str = "env_id") -> str:
@@ -43,9 +67,47 @@ def register_envs() -> None:
     """Register every id (idempotent: a reload does not re-register or warn)."""
     from gymnasium.envs.registration import register, registry
 
-    for env_id, (entry_point, vector_entry_point) in _ENTRY_POINTS.items():
+    for env_id, entry in ENTRIES.items():
         if env_id in registry:
             continue
         # No max_episode_steps: the one-cycle episodes terminate after their step and
         # SpeedChange truncates itself after max_cycles, so a TimeLimit would only duplicate it.
-        register(id=env_id, entry_point=entry_point, vector_entry_point=vector_entry_point)
+        register(
+            id=env_id, entry_point=entry.entry_point, vector_entry_point=entry.vector_entry_point
+        )
+
+
+def config_class(env_id: str) -> type[Any]:
+    """The config class of a registered env id: the ``config_class`` of its entry point (or,
+    if that has none, of its vector entry point).
+
+    Works for any id in Gymnasium's registry whose entry point is a class (or a
+    ``module:Class`` string) with a ``config_class`` attribute, so that tasks registered
+    outside this package (tests, plug-ins) are looked up the same way.
+    """
+    from gymnasium.envs.registration import load_env_creator, registry
+
+    if env_id not in registry:
+        raise ValueError(f"env id {env_id!r} is not registered with Gymnasium")
+    spec = registry[env_id]
+    for entry_point in (spec.entry_point, spec.vector_entry_point):
+        creator = load_env_creator(entry_point) if isinstance(entry_point, str) else entry_point
+        found = getattr(creator, "config_class", None)
+        if isinstance(found, type):
+            return found
+    raise ValueError(
+        f"{env_id}: neither its entry point {spec.entry_point!r} nor its vector entry point "
+        f"{spec.vector_entry_point!r} has a config_class; allowed: an env class whose "
+        "config_class declares CONDITION and OBJECTIVES (tandem_env.envs.condition)"
+    )
+
+
+def condition_keywords() -> tuple[str, ...]:
+    """Every keyword that sets a declared condition (fixed value or range) of this package's
+    envs, e.g. ``("speed", "speed_range", "power", "power_range")``."""
+    keywords: list[str] = []
+    for env_id in ENTRIES:
+        declared = getattr(config_class(env_id), "CONDITION", None)
+        if declared is not None:
+            keywords += [declared.keyword, declared.range_keyword]
+    return tuple(dict.fromkeys(keywords))

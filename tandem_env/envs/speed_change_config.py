@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
@@ -18,16 +18,9 @@ import numpy as np
 from ..physics import ModelOptions
 from .config import MODEL_SPEED_LIMITS, FlightConfig, LevelFlightConfig, check_interval, check_real
 
-
-def _level_flight_envelope() -> tuple[float, float]:
-    # The level-flight env's envelope, the paper's 0.25-2.0 m/s: one home for that range.
-    default = next(f.default for f in fields(LevelFlightConfig) if f.name == "speed_envelope")
-    return tuple(default)  # type: ignore[return-value]
-
-
 #: Speeds the episode's start and target are drawn from by default [m/s]: the level-flight
-#: envelope (``LevelFlightConfig.speed_envelope``), where a steady level stroke exists.
-LEVEL_FLIGHT_ENVELOPE: tuple[float, float] = _level_flight_envelope()
+#: envelope (``LevelFlightConfig.CONDITION.envelope``), where a steady level stroke exists.
+LEVEL_FLIGHT_ENVELOPE: tuple[float, float] = LevelFlightConfig.CONDITION.envelope
 
 
 @dataclass(frozen=True)
@@ -173,6 +166,8 @@ class SpeedChangeConfig(FlightConfig):
     """Weights of the reward's terms (``gym.make`` accepts a dict of some of them)."""
 
     name: ClassVar[str] = "SpeedChange"
+    # No CONDITION: two speeds (start and target) share one envelope (speed_envelope), a
+    # range defaults to the whole envelope, and the harness does not run multi-cycle episodes.
     condition_key: ClassVar[str] = "target_speed"
 
     def __post_init__(self) -> None:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
@@ -122,7 +122,9 @@ class StepBatch:
 class FlightTask:
     """Task logic over a batch: draw conditions, observe them, score strokes.
 
-    Subclasses define the objective, the normalised violation and the feasibility flag.
+    The condition's reset option and the objective's metric come from the config's declarations
+    (``CONDITION``, ``OBJECTIVES``); subclasses define how the condition enters the model, the
+    normalised violation and the feasibility flag.
     """
 
     config: FlightConfig
@@ -135,7 +137,7 @@ class FlightTask:
     @property
     def option_key(self) -> str:
         """The ``reset(options=...)`` key that sets the condition for one episode."""
-        raise NotImplementedError
+        return self.config.declared_condition.reset_option
 
     def draw_conditions(
         self,
@@ -242,7 +244,8 @@ class FlightTask:
         )
 
     def objective(self, result: Result) -> np.ndarray:
-        raise NotImplementedError
+        """(B,) the declared objective's metric of each stroke [-]."""
+        return getattr(result, self.config.objective_metric)
 
     def violation(self, result: Result) -> np.ndarray:
         raise NotImplementedError
@@ -256,15 +259,8 @@ class LevelFlightTask(FlightTask):
 
     config: LevelFlightConfig
 
-    @property
-    def option_key(self) -> str:
-        return "speed"
-
     def flight_conditions(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return values.copy(), np.full(values.shape, self.config.available_power)
-
-    def objective(self, result: Result) -> np.ndarray:
-        return result.efficiency
 
     def violation(self, result: Result) -> np.ndarray:
         # Forces are already fractions of W; the power excess becomes a fraction of the cap, so
@@ -284,21 +280,8 @@ class AccelerateTask(FlightTask):
 
     config: AccelerateConfig
 
-    _OBJECTIVE_FIELDS: ClassVar[dict[str, str]] = {
-        "vertical": "excess_vertical",
-        "horizontal": "excess_horizontal",
-        "resultant": "excess_total",
-    }
-
-    @property
-    def option_key(self) -> str:
-        return "power"
-
     def flight_conditions(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.full(values.shape, self.config.speed), values.copy()
-
-    def objective(self, result: Result) -> np.ndarray:
-        return getattr(result, self._OBJECTIVE_FIELDS[self.config.objective])
 
     def violation(self, result: Result) -> np.ndarray:
         return (

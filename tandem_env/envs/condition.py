@@ -1,0 +1,261 @@
+"""A task's flight condition and objectives, declared once on its env config.
+
+Each one-stroke env config (``LevelFlightConfig``, ``AccelerateConfig``) carries two class
+attributes: ``CONDITION``, a :class:`TaskCondition` (the keyword that fixes the condition, its
+unit, the model's limits, the default value and envelope, the paper's sweep), and
+``OBJECTIVES``, a :class:`TaskObjectives` (each objective choice and the ``info`` metric it
+maximises). Everything else is derived from them: the config's fields are validated by
+:func:`~tandem_env.envs.config.normalise_condition`, the harness's task (``agents.tasks.TaskSpec.from_env``), the
+``--speed`` / ``--power`` options of ``python -m eval optimize``, the training sweeps and the
+study presets' limits. Adding a task is an env config with these two declarations, its task
+core and one entry in :mod:`tandem_env.envs.registration`.
+
+Nothing here imports Gymnasium.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from itertools import pairwise
+from types import MappingProxyType
+from typing import Any, Literal, get_args, get_origin, get_type_hints
+
+from ..physics.checks import is_real
+
+__all__ = ["TaskCondition", "TaskObjectives", "check_declarations"]
+
+
+def _identifier(owner: str, name: str, value: Any) -> None:
+    if not isinstance(value, str) or not value.isidentifier():
+        raise ValueError(
+            f"{owner}.{name} = {value!r}; allowed: a Python identifier (it is a keyword "
+            "argument or an info key), e.g. 'speed'"
+        )
+
+
+def _text(owner: str, name: str, value: Any) -> None:
+    if not isinstance(value, str) or not value.strip():
+        raise ValueError(f"{owner}.{name} = {value!r}; allowed: a non-empty string")
+
+
+def _pair(owner: str, name: str, value: Any, unit: str) -> tuple[float, float]:
+    ok = (
+        isinstance(value, tuple)
+        and len(value) == 2
+        and all(is_real(v) and math.isfinite(v) for v in value)
+        and value[0] < value[1]
+    )
+    if not ok:
+        raise ValueError(
+            f"{owner}.{name} = {value!r}; allowed: a tuple (low, high) of finite numbers with "
+            f"low < high [{unit}]"
+        )
+    return float(value[0]), float(value[1])
+
+
+@dataclass(frozen=True)
+class TaskCondition:
+    """The flight condition a task is optimised at and observes, e.g. the flight speed.
+
+    The config that declares it has three fields named after ``keyword``: ``{keyword}`` (a
+    fixed value, ``default`` when None), ``{keyword}_range`` (a range sampled at every reset)
+    and ``{keyword}_envelope`` (the range the observation is normalised over, default
+    ``envelope``). ``reset(options={keyword: value})`` sets one episode's condition.
+    """
+
+    keyword: str
+    """Constructor keyword of a fixed condition and the reset option, e.g. ``"speed"``."""
+    info_key: str
+    """The model input it sets and the ``info`` key reporting it, ``"speed"`` or
+    ``"available_power"``; also the condition's name in records."""
+    label: str
+    """What it is, in words, for help texts and axis labels, e.g. ``"flight speed"``."""
+    symbol: str
+    """Its symbol in titles and plots, e.g. ``"V"`` or ``"P_avail"``."""
+    unit: str
+    """Its unit, e.g. ``"m/s"``."""
+    limits: tuple[float, float]
+    """What the model accepts [unit]: an envelope must lie inside (the physics' limits)."""
+    default: float
+    """The condition when neither ``{keyword}`` nor ``{keyword}_range`` is given [unit]."""
+    envelope: tuple[float, float]
+    """Default ``{keyword}_envelope`` [unit]: the paper's range of the condition."""
+    sweep: tuple[float, ...]
+    """The paper's sweep of the condition [unit], increasing, inside ``envelope``: what the
+    studies and the training evaluations run at."""
+    metavar: str = ""
+    """Placeholder of the value on the command line, e.g. ``"V"``; default ``symbol``."""
+
+    def __post_init__(self) -> None:
+        owner = "TaskCondition"
+        _identifier(owner, "keyword", self.keyword)
+        _identifier(owner, "info_key", self.info_key)
+        for name in ("label", "symbol", "unit"):
+            _text(owner, name, getattr(self, name))
+        if self.metavar == "":
+            object.__setattr__(self, "metavar", self.symbol)
+        _text(owner, "metavar", self.metavar)
+        limits = _pair(owner, "limits", self.limits, self.unit)
+        envelope = _pair(owner, "envelope", self.envelope, self.unit)
+        if not limits[0] <= envelope[0] < envelope[1] <= limits[1]:
+            raise ValueError(
+                f"{owner} {self.keyword!r}: envelope = {self.envelope!r} {self.unit}; allowed: "
+                f"inside limits = ({limits[0]:g}, {limits[1]:g}) {self.unit}"
+            )
+        if not (is_real(self.default) and envelope[0] <= self.default <= envelope[1]):
+            raise ValueError(
+                f"{owner} {self.keyword!r}: default = {self.default!r} {self.unit}; allowed: a "
+                f"number inside envelope = ({envelope[0]:g}, {envelope[1]:g}) {self.unit}"
+            )
+        sweep = self.sweep
+        ok = (
+            isinstance(sweep, tuple)
+            and len(sweep) > 0
+            and all(is_real(v) and envelope[0] <= v <= envelope[1] for v in sweep)
+            and all(a < b for a, b in pairwise(sweep))
+        )
+        if not ok:
+            raise ValueError(
+                f"{owner} {self.keyword!r}: sweep = {sweep!r}; allowed: a non-empty, increasing "
+                f"tuple of numbers inside envelope = ({envelope[0]:g}, {envelope[1]:g}) "
+                f"{self.unit}"
+            )
+        object.__setattr__(self, "limits", limits)
+        object.__setattr__(self, "envelope", envelope)
+        object.__setattr__(self, "default", float(self.default))
+        object.__setattr__(self, "sweep", tuple(float(v) for v in sweep))
+
+    @property
+    def range_keyword(self) -> str:
+        """Constructor keyword of a range sampled at every reset, e.g. ``"speed_range"``."""
+        return f"{self.keyword}_range"
+
+    @property
+    def envelope_keyword(self) -> str:
+        """Constructor keyword of the observation's envelope, e.g. ``"speed_envelope"``."""
+        return f"{self.keyword}_envelope"
+
+    @property
+    def reset_option(self) -> str:
+        """The ``reset(options=...)`` key that sets one episode's condition: the keyword."""
+        return self.keyword
+
+    @property
+    def keywords(self) -> tuple[str, str, str]:
+        """The three config fields the condition needs: fixed value, range, envelope."""
+        return self.keyword, self.range_keyword, self.envelope_keyword
+
+    def describe(self, fixed: float | None, sampled: tuple[float, float] | None) -> str:
+        """``"V = 1.5 m/s"`` or ``"V ~ U(0.25, 2) m/s"``, for titles and reprs."""
+        if sampled is not None:
+            return f"{self.symbol} ~ U({sampled[0]:g}, {sampled[1]:g}) {self.unit}"
+        return f"{self.symbol} = {fixed:g} {self.unit}"
+
+
+@dataclass(frozen=True)
+class TaskObjectives:
+    """What a task maximises: each objective choice and the ``info`` metric it is.
+
+    One entry and ``keyword=None`` for a task with a fixed objective (level flight's η);
+    several and the constructor keyword choosing between them otherwise.
+    """
+
+    metrics: Mapping[str, str]
+    """Objective choice -> the ``info`` metric (a :class:`~tandem_env.physics.Result` field)
+    it maximises, e.g. ``{"vertical": "excess_vertical"}``."""
+    default: str
+    """The choice used when none is given."""
+    keyword: str | None = None
+    """Constructor keyword selecting the objective, or None when there is only one."""
+    unit: str = "-"
+    """Unit of the objective's values."""
+    choices: tuple[str, ...] = field(init=False)
+    """The choices, in declaration order."""
+
+    def __post_init__(self) -> None:
+        owner = "TaskObjectives"
+        if (
+            not isinstance(self.metrics, Mapping)
+            or not self.metrics
+            or not all(isinstance(k, str) and k for k in self.metrics)
+        ):
+            raise ValueError(
+                f"{owner}.metrics = {self.metrics!r}; allowed: a non-empty mapping of objective "
+                "choice -> info metric, e.g. {'efficiency': 'efficiency'}"
+            )
+        for choice, metric in self.metrics.items():
+            _identifier(f"{owner}.metrics[{choice!r}]", "metric", metric)
+        if self.default not in self.metrics:
+            raise ValueError(
+                f"{owner}.default = {self.default!r}; allowed: one of "
+                f"{', '.join(map(repr, self.metrics))}"
+            )
+        if self.keyword is None:
+            if len(self.metrics) > 1:
+                raise ValueError(
+                    f"{owner}: {len(self.metrics)} objectives ({', '.join(self.metrics)}) but no "
+                    "keyword to choose between them; allowed: a keyword, or one objective"
+                )
+        else:
+            _identifier(owner, "keyword", self.keyword)
+        _text(owner, "unit", self.unit)
+        object.__setattr__(self, "metrics", MappingProxyType(dict(self.metrics)))
+        object.__setattr__(self, "choices", tuple(self.metrics))
+
+    def choice(self, config: Any) -> str:
+        """The objective ``config`` maximises."""
+        return self.default if self.keyword is None else getattr(config, self.keyword)
+
+    def metric(self, config: Any) -> str:
+        """The ``info`` metric ``config`` maximises, e.g. ``"efficiency"``."""
+        return self.metrics[self.choice(config)]
+
+
+def _annotated(cls: type) -> set[str]:
+    return {name for klass in cls.__mro__ for name in getattr(klass, "__annotations__", {})}
+
+
+def check_declarations(cls: type) -> None:
+    """Check a config class's ``CONDITION`` / ``OBJECTIVES`` against its own fields.
+
+    Called when the class is defined (``FlightConfig.__init_subclass__``), so that a
+    declaration naming a field the class lacks fails at import, naming both.
+    """
+    condition = getattr(cls, "CONDITION", None)
+    objectives = getattr(cls, "OBJECTIVES", None)
+    if condition is None and objectives is None:
+        return
+    if not isinstance(condition, TaskCondition) or not isinstance(objectives, TaskObjectives):
+        raise TypeError(
+            f"{cls.__name__}: CONDITION = {condition!r}, OBJECTIVES = {objectives!r}; allowed: "
+            "a TaskCondition and a TaskObjectives, or neither (a task without a single "
+            "condition)"
+        )
+    fields = _annotated(cls)
+    needed = [*condition.keywords, *([objectives.keyword] if objectives.keyword else [])]
+    missing = [name for name in needed if name not in fields]
+    if missing:
+        raise TypeError(
+            f"{cls.__name__} declares the condition {condition.keyword!r} and objectives "
+            f"{objectives.choices} but has no field(s) {', '.join(map(repr, missing))}; a "
+            f"declared condition needs the fields {', '.join(condition.keywords)}"
+            + (f" and {objectives.keyword}" if objectives.keyword else "")
+        )
+    if objectives.keyword is not None:
+        _check_literal(cls, objectives)
+
+
+def _check_literal(cls: type, objectives: TaskObjectives) -> None:
+    """A ``Literal`` objective field must offer exactly the declared choices."""
+    try:
+        hint = get_type_hints(cls).get(objectives.keyword)
+    except NameError:  # an annotation not resolvable yet: nothing to compare
+        return
+    if get_origin(hint) is Literal and set(get_args(hint)) != set(objectives.choices):
+        raise TypeError(
+            f"{cls.__name__}.{objectives.keyword} is typed {hint} but OBJECTIVES declares "
+            f"{objectives.choices}; allowed: the same choices in both (each with its info "
+            "metric in OBJECTIVES.metrics)"
+        )
