@@ -23,7 +23,7 @@ from ..physics.checks import is_real as _is_real
 from .condition import TaskCondition, TaskObjectives, check_declarations
 
 #: Accelerate's objective choices (``AccelerateConfig.OBJECTIVES`` maps each to its metric).
-Objective = Literal["vertical", "horizontal", "resultant"]
+Objective = Literal["vertical", "horizontal", "resultant", "horizontal_literal"]
 OBJECTIVES: tuple[str, ...] = get_args(Objective)
 
 #: Flight speeds an env accepts [m/s]: the model's own limits.
@@ -39,6 +39,7 @@ MODEL_OPTION_KWARGS: dict[str, str] = {
     "power_convention": "power",
     "thrust_split": "thrust_split",
     "spin": "spin",
+    "hover_inflow": "hover_inflow",
     "tolerance": "tolerance",
     "max_evaluations": "max_evaluations",
     "constraint_tolerance": "constraint_tolerance",
@@ -425,6 +426,7 @@ class AccelerateConfig(FlightConfig):
             "vertical": "excess_vertical",
             "horizontal": "excess_horizontal",
             "resultant": "excess_total",
+            "horizontal_literal": "excess_horizontal_literal",
         },
         default="vertical",
         keyword="objective",
@@ -432,8 +434,10 @@ class AccelerateConfig(FlightConfig):
 
     objective: Objective = OBJECTIVES.default
     """Which specific excess force is maximised: ``"vertical"`` F̄_v = (L − W)/W,
-    ``"horizontal"`` F̄_h = (T − D)/W or ``"resultant"`` F̄_a = sqrt(F̄_v² + F̄_h²) [-]
-    (docs/model.md §7: the paper's attainable F̄_a combines the first two)."""
+    ``"horizontal"`` F̄_h = (T − D)/W, ``"resultant"`` F̄_a = sqrt(F̄_v² + F̄_h²) or
+    ``"horizontal_literal"`` (D_f + D_h)/W, Eq. 24 read literally (the wings' rearward forces,
+    ``excess_horizontal_literal``) [-] (docs/model.md §7.6: the paper's attainable F̄_a combines
+    the first two). The constraints are the same for all."""
     power: float | None = None
     """Fixed available power per body mass [W/kg]; default 90 W/kg (the insect's maximum)
     unless ``power_range`` is given."""

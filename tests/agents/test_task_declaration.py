@@ -145,6 +145,7 @@ def test_the_package_tasks_are_built_from_the_env_configs() -> None:
         "vertical": "excess_vertical",
         "horizontal": "excess_horizontal",
         "resultant": "excess_total",
+        "horizontal_literal": "excess_horizontal_literal",
     }
     assert (ACCELERATE.default_objective, ACCELERATE.objective_kwarg) == ("vertical", "objective")
     assert ACCELERATE.forbidden_kwargs == ("power", "power_range")
