@@ -121,22 +121,33 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     except ValueError as error:
         parser.error(str(error))
-    best = result.best_info or {}
     print(f"run folder: {result.run_dir}")
-    since = "" if result.resumed_from is None else f" since step {result.resumed_from}"
-    print(
-        f"{result.num_timesteps} steps in {result.wall_time:.1f} s; best stroke seen{since}: "
-        f"reward {result.best_reward:.4g}, objective {best.get('objective', float('nan')):.4g}, "
-        f"feasible {best.get('feasible')}"
-    )
     from tandem_env.envs.registration import config_class
 
     # The info key of the env's observed condition (speed, available_power, target_speed).
     condition_key = config_class(result.env_id).condition_key
+    episodic = any(row["episode_length"] > 1 for row in result.final_evaluation)
+    print(f"{result.num_timesteps} steps in {result.wall_time:.1f} s", end="")
+    if episodic:
+        # A step is one cycle of an episode: the best single step says nothing about the policy.
+        print()
+        for row in result.final_evaluation:
+            print(
+                f"  final deterministic policy, episode to {condition_key} "
+                f"{row[condition_key]:g}: return {row['reward']:.4g} over "
+                f"{row['episode_length']} cycles, ended at u = {row['forward_speed']:.3g} m/s, "
+                f"h = {1e3 * row['altitude']:.3g} mm"
+            )
+        return 0
+    best = result.best_info or {}
+    since = "" if result.resumed_from is None else f" since step {result.resumed_from}"
+    print(
+        f"; best stroke seen{since}: reward {result.best_reward:.4g}, "
+        f"objective {best.get('objective', float('nan')):.4g}, feasible {best.get('feasible')}"
+    )
     for row in result.final_evaluation:
-        condition = row.get(condition_key)
         print(
-            f"  final deterministic policy at {condition:g}: reward {row['reward']:.4g}, "
+            f"  final deterministic policy at {row[condition_key]:g}: reward {row['reward']:.4g}, "
             f"objective {row['objective']:.4g}, feasible {row['feasible']}"
         )
     return 0

@@ -122,22 +122,43 @@ def build_model(
         raise ValueError(f"{algo.upper()} rejected a hyperparameter: {error}") from error
 
 
-def evaluate_deterministic(model: BaseAlgorithm, eval_env: VecEnv) -> list[dict[str, Any]]:
-    """The deterministic stroke at each evaluation condition, with its metrics (one step)."""
+def evaluate_deterministic(
+    model: BaseAlgorithm, eval_env: VecEnv, max_steps: int = 100_000
+) -> list[dict[str, Any]]:
+    """The deterministic policy from one reset of each evaluation env, played to the end of that
+    episode: one row per env with the info of its last step, ``reward`` the episode's return,
+    ``episode_length`` its steps and ``action`` its first action. The one-cycle envs end after one
+    stroke, so their row is that stroke's metrics; SpeedChange rows summarise whole episodes."""
     observations = eval_env.reset()
-    actions, _ = model.predict(observations, deterministic=True)
-    _, rewards, _, infos = eval_env.step(actions)
-    rows = []
-    for reward, info, action in zip(rewards, infos, actions, strict=True):
-        row = {
-            k: v
-            for k, v in info.items()
-            if k not in ("terminal_observation", "episode", "stroke", "TimeLimit.truncated")
-        }
-        row["reward"] = float(reward)
-        row["action"] = [float(a) for a in action]
-        rows.append(row)
-    return rows
+    n_envs = eval_env.num_envs
+    returns = np.zeros(n_envs)
+    lengths = np.zeros(n_envs, dtype=np.int64)
+    first_actions: list[Any] = [None] * n_envs
+    rows: list[dict[str, Any] | None] = [None] * n_envs
+    for _ in range(max_steps):
+        actions, _ = model.predict(observations, deterministic=True)
+        observations, rewards, dones, infos = eval_env.step(actions)
+        for k in range(n_envs):
+            if rows[k] is not None:
+                continue  # this env's episode is over; later steps belong to the next one
+            if first_actions[k] is None:
+                first_actions[k] = [float(a) for a in actions[k]]
+            returns[k] += float(rewards[k])
+            lengths[k] += 1
+            if dones[k]:
+                row = {
+                    key: value
+                    for key, value in infos[k].items()
+                    if key
+                    not in ("terminal_observation", "episode", "stroke", "TimeLimit.truncated")
+                }
+                row["reward"] = float(returns[k])
+                row["episode_length"] = int(lengths[k])
+                row["action"] = first_actions[k]
+                rows[k] = row
+        if all(row is not None for row in rows):
+            return [row for row in rows if row is not None]
+    raise RuntimeError(f"the evaluation episodes did not end within {max_steps} steps")
 
 
 class RunCheckpoint(BaseCallback):
