@@ -501,7 +501,7 @@ class CMAES(AskTellOptimiser):
         assigned to candidates in stream order; those a population does not use are kept (as z,
         before the transform) for the next population of the run, which takes them first. So
         every population is built from the very deviates the package's ``ask()`` would use, and
-        no deviate is drawn twice or thrown away (drawing them is most of the cost here).
+        no deviate is drawn twice or thrown away.
         """
         es = self._es
         cma = es._cma
@@ -516,13 +516,34 @@ class CMAES(AskTellOptimiser):
             part = rows[:, continuous]
             return rows, np.all((part >= low) & (part <= high), axis=1)
 
+        def more(
+            z: FloatArray, rows: FloatArray, inside: np.ndarray
+        ) -> tuple[FloatArray, FloatArray, np.ndarray]:
+            """The rows in hand and the next block of the stream (growing geometrically)."""
+            z_new = cma._rng.randn(max(count, tries, len(z)), self.dim)
+            rows_new, inside_new = candidates(z_new)
+            return (
+                np.concatenate((z, z_new)),
+                np.concatenate((rows, rows_new)),
+                np.concatenate((inside, inside_new)),
+            )
+
         z = self._deviates
         if len(z) < count:
             z = np.concatenate((z, cma._rng.randn(count - len(z), self.dim)))
         rows, inside = candidates(z)
-        if tries > 1 and inside[:count].all():  # the common case: nothing to resample
-            self._deviates = z[count:]
-            return rows[:count]
+        # The common case: no candidate runs out of draws (no run of tries - 1 rows outside the
+        # box), so the candidates are simply the first `count` rows inside it.
+        while True:
+            hits = np.flatnonzero(inside)[:count]
+            misses = np.diff(hits, prepend=-1) - 1  # rows outside the box before each hit
+            tail = len(inside) - (hits[-1] + 1 if len(hits) else 0)
+            if np.any(misses >= tries - 1) or (len(hits) < count and tail >= tries - 1):
+                break  # some candidate is clipped: assign them one by one below
+            if len(hits) == count:
+                self._deviates = z[hits[-1] + 1 :]
+                return rows[hits]
+            z, rows, inside = more(z, rows, inside)
         chosen: list[int] = []  # row of each candidate
         clipped: list[int] = []  # candidates whose last row is clipped onto the box
         used = 0  # rows assigned so far
@@ -544,11 +565,7 @@ class CMAES(AskTellOptimiser):
                 used = chosen[-1] + 1
             if len(chosen) == count:
                 break
-            more = cma._rng.randn(max(count, tries, size), self.dim)
-            more_rows, more_inside = candidates(more)
-            z = np.concatenate((z, more))
-            rows = np.concatenate((rows, more_rows))
-            inside = np.concatenate((inside, more_inside))
+            z, rows, inside = more(z, rows, inside)
         self._deviates = z[used:]
         raw = rows[chosen]
         if clipped:
