@@ -484,8 +484,7 @@ class CMAES(AskTellOptimiser):
         # The whole population is drawn even when only n < popsize are evaluated, so the random
         # stream (and every earlier population) does not depend on the budget.
         es = self._es
-        with _fast_package_numerics():
-            raw = self._draw(es.population_size)
+        raw = self._draw(es.population_size)
         points = raw.copy()
         if es._n_zdim > 0:
             points[:, es._discrete_idx] = es._encode_discrete_params(raw[:, es._discrete_idx])
@@ -536,9 +535,10 @@ class CMAES(AskTellOptimiser):
         # box), so the candidates are simply the first `count` rows inside it.
         while True:
             hits = np.flatnonzero(inside)[:count]
-            misses = np.diff(hits, prepend=-1) - 1  # rows outside the box before each hit
+            # a candidate whose tries - 1 rows all fall outside: before a hit, or after the last
+            gap = len(hits) > 0 and (hits[0] >= tries - 1 or np.any(hits[1:] - hits[:-1] >= tries))
             tail = len(inside) - (hits[-1] + 1 if len(hits) else 0)
-            if np.any(misses >= tries - 1) or (len(hits) < count and tail >= tries - 1):
+            if gap or (len(hits) < count and tail >= tries - 1):
                 break  # some candidate is clipped: assign them one by one below
             if len(hits) == count:
                 self._deviates = z[hits[-1] + 1 :]
