@@ -24,8 +24,10 @@ evaluated stroke has an integer N and nothing is rounded behind the optimiser's 
 **One population = one batch.** A population is sampled in one vectorised draw from the
 package's own state (mean, step size, eigendecomposition, random stream) and is one ask/tell
 round of :class:`~agents.optimiser.AskTellOptimiser`, so one batched model call. The draw is
-exactly the package's ``ask()`` called λ times (same random stream, same resampling), done
-with array operations; a test checks that the two agree.
+exactly the package's ``ask()`` called λ times (the same normal deviates of the same random
+stream, the same resampling), done with array operations; deviates drawn ahead are kept for
+the next population rather than drawn again. A test checks that the two agree population
+after population, and that the package internals the draw reads are still there.
 
 **Restarts** (``restarts``), triggered by stagnation (below), each from a new uniform random
 mean:
@@ -265,10 +267,11 @@ def _cmaes_version() -> str:
 
 
 @cache
-def _blas_controller() -> Any:
+def _blas_libraries() -> tuple[Any, ...]:
+    """The loaded BLAS libraries' thread controllers (threadpoolctl), looked up once."""
     from threadpoolctl import ThreadpoolController
 
-    return ThreadpoolController()
+    return tuple(ThreadpoolController().select(user_api="blas").lib_controllers)
 
 
 def _norm_cdf(x: Any, loc: Any = 0.0, scale: Any = 1.0) -> FloatArray:
@@ -296,12 +299,19 @@ def _fast_package_numerics() -> Iterator[None]:
     """
     module = cmaes._cmawm
     saved = module.norm_cdf, module.chi2_ppf
+    libraries = _blas_libraries()
+    # Set directly, not with ``ThreadpoolController.limit``: that looks the libraries up again
+    # on every call (20-90 µs against 5 µs, twice a generation).
+    threads = [library.num_threads for library in libraries]
     module.norm_cdf, module.chi2_ppf = _norm_cdf, _chi2_ppf
     try:
-        with _blas_controller().limit(limits=1, user_api="blas"):
-            yield
+        for library in libraries:
+            library.set_num_threads(1)
+        yield
     finally:
         module.norm_cdf, module.chi2_ppf = saved
+        for library, count in zip(libraries, threads, strict=True):
+            library.set_num_threads(count)
 
 
 @dataclass(frozen=True)
@@ -397,6 +407,8 @@ class CMAES(AskTellOptimiser):
             seed=int(self._rng.integers(2**32)),
             population_size=popsize,
         )
+        # standard normal deviates drawn from the run's generator but not yet used (_draw)
+        self._deviates = np.empty((0, self.dim))
         self._regime = regime
         self._run_sigma0 = float(sigma)
         self._run_start = start
@@ -482,78 +494,98 @@ class CMAES(AskTellOptimiser):
     def _draw(self, count: int) -> FloatArray:
         """``count`` raw candidates exactly as ``count`` calls of the package's ``ask()`` draw them.
 
-        ``ask()`` draws a candidate up to ``resampling`` times until its continuous coordinates
-        are inside the box, else once more and clips it. Here the normal deviates are drawn in
-        blocks (growing geometrically) and assigned to candidates in stream order; the generator
-        is then rewound and advanced by exactly the deviates used, so the next population
-        continues the stream where the package's would.
+        ``ask()`` draws a candidate (``mean + σ B D z``, z a row of standard normal deviates from
+        the package's generator) up to ``resampling`` times until its continuous coordinates are
+        inside the box, else once more and clips it. Here the deviates are drawn in blocks and
+        assigned to candidates in stream order; those a population does not use are kept (as z,
+        before the transform) for the next population of the run, which takes them first. So
+        every population is built from the very deviates the package's ``ask()`` would use, and
+        no deviate is drawn twice or thrown away.
         """
         es = self._es
         cma = es._cma
-        rng = cma._rng
         B, D = cma._eigen_decomposition()  # cached: computed at the end of the last tell
         transform = (B * D).T
         low, high = es._continuous_space[:, 0], es._continuous_space[:, 1]
         continuous = es._continuous_idx
-        tries = self._config.resampling + 1  # draws a candidate may use, the clipped one last
+        tries = self._config.resampling + 1  # rows a candidate may use, the clipped one last
 
-        blocks: list[tuple[Any, int]] = []  # (generator state before the block, its first row)
-        parts: list[FloatArray] = []
-        flags: list[np.ndarray] = []
-        drawn = 0
-
-        def draw(size: int) -> None:
-            nonlocal drawn
-            blocks.append((rng.get_state(), drawn))
-            rows = cma._mean + cma._sigma * (rng.randn(size, self.dim) @ transform)
+        def candidates(z: FloatArray) -> tuple[FloatArray, np.ndarray]:
+            rows = cma._mean + cma._sigma * (z @ transform)
             part = rows[:, continuous]
-            parts.append(rows)
-            flags.append(np.all((part >= low) & (part <= high), axis=1))
-            drawn += size
+            return rows, np.all((part >= low) & (part <= high), axis=1)
 
-        draw(count)
-        if flags[0].all() or tries == 1:  # the common case: nothing to resample
-            rows = parts[0]
-            if tries == 1:
-                rows[:, continuous] = np.clip(rows[:, continuous], low, high)
-            return rows
-        chosen, clipped = [], []
-        used = 0
-        inside = flags[0]
-        for _ in range(count):
-            while True:
-                block = inside[used : used + tries]
-                hits = np.flatnonzero(block[: tries - 1])
-                if hits.size or block.size == tries:
-                    break
-                # not enough deviates in hand to decide this candidate: draw more
-                draw(max(count, tries, drawn))
-                inside = np.concatenate(flags)
-            if hits.size:
-                chosen.append(used + int(hits[0]))
-                used += int(hits[0]) + 1
-            else:
-                chosen.append(used + tries - 1)
-                clipped.append(len(chosen) - 1)
-                used += tries
-        # rewind to the block holding the last deviate used and draw exactly up to it
-        state, first = next((b for b in reversed(blocks) if b[1] < used), blocks[0])
-        rng.set_state(state)
-        rng.randn(used - first, self.dim)
-        raw = np.concatenate(parts)[chosen]
+        def more(
+            z: FloatArray, rows: FloatArray, inside: np.ndarray
+        ) -> tuple[FloatArray, FloatArray, np.ndarray]:
+            """The rows in hand and the next block of the stream (growing geometrically)."""
+            z_new = cma._rng.randn(max(count, tries, len(z)), self.dim)
+            rows_new, inside_new = candidates(z_new)
+            return (
+                np.concatenate((z, z_new)),
+                np.concatenate((rows, rows_new)),
+                np.concatenate((inside, inside_new)),
+            )
+
+        z = self._deviates
+        if len(z) < count:
+            z = np.concatenate((z, cma._rng.randn(count - len(z), self.dim)))
+        rows, inside = candidates(z)
+        # The common case: no candidate runs out of draws (no run of tries - 1 rows outside the
+        # box), so the candidates are simply the first `count` rows inside it.
+        while True:
+            hits = np.flatnonzero(inside)[:count]
+            # a candidate whose tries - 1 rows all fall outside: before a hit, or after the last
+            gap = len(hits) > 0 and (hits[0] >= tries - 1 or np.any(hits[1:] - hits[:-1] >= tries))
+            tail = len(inside) - (hits[-1] + 1 if len(hits) else 0)
+            if gap or (len(hits) < count and tail >= tries - 1):
+                break  # some candidate is clipped: assign them one by one below
+            if len(hits) == count:
+                self._deviates = z[hits[-1] + 1 :]
+                return rows[hits]
+            z, rows, inside = more(z, rows, inside)
+        chosen: list[int] = []  # row of each candidate
+        clipped: list[int] = []  # candidates whose last row is clipped onto the box
+        used = 0  # rows assigned so far
+        while True:
+            size = len(inside)
+            # first row at or after each row that is inside the box (size if none)
+            index = np.where(inside, np.arange(size), size)
+            following = np.minimum.accumulate(index[::-1])[::-1].tolist()
+            while len(chosen) < count:
+                hit = following[used] if used < size else size
+                last = used + tries - 1  # the row clipped when none before it is inside
+                if hit < min(last, size):
+                    chosen.append(hit)
+                elif last < size:
+                    clipped.append(len(chosen))
+                    chosen.append(last)
+                else:
+                    break  # not enough rows in hand to decide this candidate
+                used = chosen[-1] + 1
+            if len(chosen) == count:
+                break
+            z, rows, inside = more(z, rows, inside)
+        self._deviates = z[used:]
+        raw = rows[chosen]
         if clipped:
             raw[np.ix_(clipped, continuous)] = np.clip(raw[np.ix_(clipped, continuous)], low, high)
         return raw
 
     def _observe(self, X: FloatArray, fitness: FloatArray) -> None:
-        self._run_top = max(self._run_top, float(fitness.max()))
-        if fitness.shape[0] < self._es.population_size:
+        values = fitness.tolist()
+        best = max(values)
+        self._run_top = max(self._run_top, best)
+        if len(values) < self._es.population_size:
             return  # a truncated last population: the budget ends here, nothing more to learn
-        self._generation_best.append(float(fitness.max()))
-        self._generation_median.append(float(np.median(fitness)))
+        ranked = sorted(values)
+        middle = len(ranked) // 2
+        median = ranked[middle] if len(ranked) % 2 else (ranked[middle - 1] + ranked[middle]) / 2
+        self._generation_best.append(best)
+        self._generation_median.append(median)
         with _fast_package_numerics():
             # cmaes minimises: tell the negated fitness (NaN, mapped to -inf, becomes +inf).
-            self._es.tell([(self._raw[i], -float(f)) for i, f in enumerate(fitness)])
+            self._es.tell(list(zip(self._raw, (-fitness).tolist(), strict=True)))
             # The tests watch slow quantities (a history of >= 120 generations, the step size);
             # checking every CHECK_EVERY generations keeps their cost out of the run time.
             check = len(self._generation_best) % CHECK_EVERY == 0
