@@ -39,6 +39,7 @@ MODEL_OPTION_KWARGS: dict[str, str] = {
     "power_convention": "power",
     "thrust_split": "thrust_split",
     "spin": "spin",
+    "hover_inflow": "hover_inflow",
     "tolerance": "tolerance",
     "max_evaluations": "max_evaluations",
     "constraint_tolerance": "constraint_tolerance",

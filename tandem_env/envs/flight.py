@@ -255,8 +255,8 @@ class LevelFlightEnv(FlightEnv):
     :meth:`FlightConfig.from_kwargs`: ``speed``, ``speed_range``, ``speed_envelope``,
     ``insect``, ``planform`` ("tear-drop" | "real"), ``options`` or its fields (``n_time``,
     ``n_blade``, ``induction`` ("coupled" | "isolated" | "none"), ``interference``,
-    ``power_convention`` ("absolute" | "elastic"), ``thrust_split`` ("sign" | "body"), ``spin``,
-    ``tolerance``, ``max_evaluations``, ``constraint_tolerance``), ``penalty`` or
+    ``power_convention`` ("absolute" | "elastic" | "aerodynamic"), ``thrust_split`` ("sign" |
+    "body"), ``spin``, ``hover_inflow`` ("momentum" | "none"), ``tolerance``, ``max_evaluations``, ``constraint_tolerance``), ``penalty`` or
     ``penalty_weight`` / ``penalty_offset``, ``clip_actions``, ``render_mode``
     ("rgb_array" | "human"). Invalid values raise ``ValueError`` at construction.
 

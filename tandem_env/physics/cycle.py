@@ -73,7 +73,8 @@ W_AOA = 7  # area-weighted cycle-mean acute angle of attack [rad]
 W_CONVERGED = 8  # 1 if every annulus's inflow converged
 W_EVALS = 9  # largest number of force sweeps an annulus needed
 W_INFLOW = 10  # area-weighted mean induced velocity [m/s]
-N_WING_OUT = 11
+W_P_AERO_POSITIVE = 11  # mean of the positive part of P_aero [W]
+N_WING_OUT = 12
 
 MODE_NONE = 0
 MODE_ISOLATED = 1
@@ -187,7 +188,7 @@ def mean_positive_part(g, cos_table, sin_table):
 def cycle_means(histories, weight, out, cos_table, sin_table):
     """Cycle means of one wing's per-sample F_x, F_z, F_y, P_aero, P_iner (``histories``,
     (n_time, 5) [N, W]) with quadrature weights ``weight`` (n_time,): writes W_FX, W_FZ,
-    W_THRUST, W_DRAG, W_P_AERO, W_P_INER and W_P_ELASTIC of ``out``."""
+    W_THRUST, W_DRAG, W_P_AERO, W_P_AERO_POSITIVE, W_P_INER and W_P_ELASTIC of ``out``."""
     n_time = histories.shape[0]
     g = np.empty(n_time)
     fx = 0.0
@@ -209,7 +210,9 @@ def cycle_means(histories, weight, out, cos_table, sin_table):
         g[k] = histories[k, 3] * weight[k]
         mean_aero += g[k]
     mean_aero /= n_time
-    out[W_P_AERO] = max(2.0 * mean_positive_part(g, cos_table, sin_table) - mean_aero, 0.0)
+    aero_positive = mean_positive_part(g, cos_table, sin_table)
+    out[W_P_AERO_POSITIVE] = aero_positive
+    out[W_P_AERO] = max(2.0 * aero_positive - mean_aero, 0.0)
     for k in range(n_time):
         g[k] = histories[k, 4] * weight[k]
         mean_iner += g[k]
@@ -356,6 +359,7 @@ def tandem_stroke(
     consts_hind,
     rho,
     mode,
+    inflow_off,
     interference,
     spin_total,
     tolerance,
@@ -375,13 +379,15 @@ def tandem_stroke(
     coef = np.empty((n_time, N_COEF))
     hist = np.empty((n_time, 5))
     v_ext = np.zeros(n_r)
-    solve = mode != MODE_NONE
     for wing in range(2):
+        # a wing with its induced velocity switched off (``ModelOptions.hover_inflow``) neither
+        # solves its own inflow nor sees the fore-wing's slipstream
+        solve = mode != MODE_NONE and not inflow_off[b, wing]
         if wing == 0:
             fill_frame_coefficients(angles_fore[b], weight_fore[b], beta[b, 0], spin_total, 1, coef)
         else:
             fill_frame_coefficients(angles_hind[b], weight_hind[b], beta[b, 1], spin_total, 1, coef)
-            if mode == MODE_COUPLED:
+            if mode == MODE_COUPLED and not inflow_off[b, 1]:
                 for j in range(n_r):
                     v_ext[j] = interference * out_inflow[b, 0, j]
         v_t = freestream[b, wing, 0]
@@ -426,6 +432,7 @@ def tandem_cycle(
     consts_hind,
     rho,
     mode,
+    inflow_off,
     interference,
     spin_total,
     tolerance,
@@ -443,7 +450,8 @@ def tandem_cycle(
     ``angles_*``: (B, n_time, 9); ``weight_*``: (B, n_time); ``frequency``, ``beta``,
     ``sweep_amplitude``: (B, 2) per wing [Hz, rad, rad]; ``freestream``: (B, 2, 2), per wing the
     body's velocity along x_s and z_s of its stroke plane, (V_t, V_n) [m/s]
-    (``model.freestream_components``).
+    (``model.freestream_components``); ``inflow_off``: (B, 2) bool, True where a wing has no
+    induced velocity whatever ``mode`` (``model.inflow_switched_off``).
     Writes ``out`` (B, 2, N_WING_OUT) and ``out_inflow`` (B, 2, n_r) [m/s]; if ``out_history``
     has B rows, also the per-sample F_x, F_z, F_y, P_aero, P_iner of each wing (B, 2, n_time, 5).
     ``table_fore``, ``table_hind``: the wings' force-coefficient models (``coefficients``), both
@@ -466,6 +474,7 @@ def tandem_cycle(
             consts_hind,
             rho,
             mode,
+            inflow_off,
             interference,
             spin_total,
             tolerance,

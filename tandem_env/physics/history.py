@@ -29,6 +29,7 @@ from .model import (
     coefficient_tables,
     evaluate,
     freestream_components,
+    inflow_switched_off,
     validate_conditions,
     wing_tables,
 )
@@ -222,7 +223,7 @@ def _histories(
             weights[w][0],
             beta[0, w],
             freestream[0, w],
-            _total_inflow(inflow, w, options),
+            _total_inflow(inflow, w, freestream, options),
             wing,
             insect,
             options,
@@ -243,15 +244,22 @@ def _histories(
                 lateral_force=hist[0, w, :, 2],
                 aero_power=n_w * hist[0, w, :, 3],
                 inertial_power=n_w * hist[0, w, :, 4],
-                inflow=_total_inflow(inflow, w, options),
+                inflow=_total_inflow(inflow, w, freestream, options),
             )
         )
     return StrokeHistory(fore=wings[0], hind=wings[1], result=result)
 
 
-def _total_inflow(inflow: np.ndarray, w: int, options: ModelOptions) -> np.ndarray:
-    """A wing's own induced velocity per annulus plus the upstream share [m/s]."""
-    if w == 1 and options.induction == "coupled":
+def _total_inflow(
+    inflow: np.ndarray, w: int, freestream: np.ndarray, options: ModelOptions
+) -> np.ndarray:
+    """A wing's own induced velocity per annulus plus the upstream share [m/s] (none upstream
+    where ``hover_inflow`` switches the wing's induced velocity off; ``freestream`` (1, 2, 2))."""
+    if (
+        w == 1
+        and options.induction == "coupled"
+        and not inflow_switched_off(freestream, options)[0, 1]
+    ):
         return inflow[0, w] + options.interference * inflow[0, 0]
     return inflow[0, w] + 0.0
 
@@ -275,7 +283,7 @@ def _mirror_run(angles, weights, frequency, beta, freestream, inflow, insect, op
     out = np.empty(cycle.N_WING_OUT)
     scratch = np.empty((n_time, 5))
     for w, wing in enumerate((insect.fore, insect.hind)):
-        v_ext = _total_inflow(inflow, w, options)
+        v_ext = _total_inflow(inflow, w, freestream, options)
         frames = _element_frames(angles[w], weights[w][0], beta[0, w], options.spin == "total", -1)
         if len(frames) == 1:
             tables = [wing_tables(wing, options.n_blade, insect.air_density)]

@@ -18,7 +18,7 @@ from .checks import real_array
 from .coefficients import PaperCoefficients
 from .insect import DRAGONFLY, Dragonfly, Wing
 from .kinematics import fill_angle_history, wing_params_radians
-from .options import ModelOptions
+from .options import HOVER_NORMAL_SPEED, ModelOptions
 from .stroke import N_PER_WING, validate_physical
 
 DEFAULT_OPTIONS = ModelOptions()
@@ -112,7 +112,7 @@ class Result:
     drag: np.ndarray
     """D [N], horizontal (earth axes), per ``thrust_split``."""
     power: np.ndarray
-    """P = P_fore + P_hind (Eq. 19) [W]."""
+    """P = P_fore + P_hind (Eq. 19) [W], each per ``options.power`` (docs/model.md §6.3)."""
     power_per_mass: np.ndarray
     """P/m [W/kg]."""
     efficiency: np.ndarray
@@ -298,6 +298,20 @@ def freestream_components(
     return out
 
 
+def inflow_switched_off(freestream: np.ndarray, options: ModelOptions) -> np.ndarray:
+    """(B, 2) bool: the wings that have no induced velocity whatever ``options.induction``.
+
+    With ``hover_inflow="none"`` these are the wings whose free stream has no component normal
+    to their stroke plane, |V_n| < :data:`~tandem_env.physics.options.HOVER_NORMAL_SPEED`
+    [m/s] (in practice V = 0): the paper's inflow v_z·(1 + a) (Eqs. 20-21) read literally is
+    zero there (docs/model.md §5.5). ``freestream``: (B, 2, 2) from
+    :func:`freestream_components`. With ``"momentum"`` (the default) none.
+    """
+    if options.hover_inflow == "momentum":
+        return np.zeros(freestream.shape[:2], dtype=bool)
+    return np.abs(freestream[:, :, 1]) < HOVER_NORMAL_SPEED
+
+
 def coefficient_tables(insect: Dragonfly) -> tuple[np.ndarray | None, np.ndarray | None]:
     """The wings' force-coefficient tables for the kernel (``coefficients``): ``(None, None)``
     when both use the paper's model, which keeps the default path's compiled code as it was."""
@@ -339,10 +353,11 @@ def run_kernel(
     inflow = np.empty((batch, 2, nodes_f.shape[0]))
     mode = {"none": cycle.MODE_NONE, "isolated": cycle.MODE_ISOLATED, "coupled": cycle.MODE_COUPLED}
     history = np.empty((batch if keep_history else 0, 2, n_time, 5))
+    freestream = freestream_components(speed, beta, flight_path_angle)
     args = (
         angles[0], weights[0], angles[1], weights[1], frequency, beta, sweep,
-        freestream_components(speed, beta, flight_path_angle), nodes_f, consts_f, nodes_h, consts_h, insect.air_density, mode[options.induction],
-        options.interference, options.spin == "total", options.tolerance,
+        freestream, nodes_f, consts_f, nodes_h, consts_h, insect.air_density, mode[options.induction],
+        inflow_switched_off(freestream, options), options.interference, options.spin == "total", options.tolerance,
         options.max_evaluations, out, inflow, history, *cycle.fourier_tables(n_time),
         *coefficient_tables(insect),
     )  # fmt: skip
@@ -381,8 +396,10 @@ def _performance(
     inertial = n_w * out[:, :, cycle.W_P_INER]
     if options.power == "absolute":
         wing_power = aero + inertial
-    else:
+    elif options.power == "elastic":
         wing_power = n_w * out[:, :, cycle.W_P_ELASTIC]
+    else:
+        wing_power = n_w * out[:, :, cycle.W_P_AERO_POSITIVE]
     power = wing_power.sum(axis=1)
     power_per_mass = power / insect.body_mass
     with np.errstate(divide="ignore", invalid="ignore"):

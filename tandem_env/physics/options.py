@@ -8,9 +8,16 @@ from dataclasses import asdict, dataclass
 from typing import Any, Literal, get_args
 
 Induction = Literal["coupled", "isolated", "none"]
-PowerConvention = Literal["absolute", "elastic"]
+PowerConvention = Literal["absolute", "elastic", "aerodynamic"]
 ThrustSplit = Literal["sign", "body"]
 Spin = Literal["pitch", "total"]
+HoverInflow = Literal["momentum", "none"]
+
+
+#: Below this free-stream speed normal to a wing's stroke plane, |V·sin(β + γ)| [m/s], the wing
+#: counts as hovering for ``ModelOptions.hover_inflow``: far below any flight speed the model is
+#: used at (0.25-2 m/s) and any induced velocity (of order 1 m/s), so in practice only V = 0.
+HOVER_NORMAL_SPEED = 1e-9
 
 
 def _is_int(value: Any) -> bool:
@@ -50,8 +57,10 @@ class ModelOptions:
     interference: float = 1.0
     """C_hf, share of the fore-wing's induced velocity seen by the hind-wing [-] (Eq. 21)."""
     power: PowerConvention = "absolute"
-    """``"absolute"``: P = N_w·(mean|P_aero| + mean|P_iner|) per wing (Eqs. 18-19, the paper);
-    ``"elastic"``: mean of the positive part of the total (Berman & Wang's elastic storage)."""
+    """Power accounting per wing pair [W] (docs/model.md §6.3): ``"absolute"`` P = N_w·(mean|P_aero|
+    + mean|P_iner|) (Eqs. 18-19, the paper); ``"elastic"`` N_w·mean(max(P_aero + P_iner, 0))
+    (Berman & Wang's elastic storage); ``"aerodynamic"`` N_w·mean(max(P_aero, 0)): the inertial
+    power fully recovered and negative aerodynamic power not recovered."""
     thrust_split: ThrustSplit = "sign"
     """T/D reading (docs/model.md §7): ``"sign"`` T and D are the cycle means of the forward and
     rearward parts of each wing's horizontal force (the paper's literal reading, gross
@@ -59,6 +68,12 @@ class ModelOptions:
     spin: Spin = "pitch"
     """Rotation rate Ω in the circulation and added mass: ``"pitch"`` η̇ (the paper, Berman &
     Wang) or ``"total"`` the section's true spin about the span η̇ − φ̇·sin θ (docs/model.md §4)."""
+    hover_inflow: HoverInflow = "momentum"
+    """Induced velocity where the free stream has no component normal to a wing's stroke plane,
+    |V·sin(β + γ)| < ``HOVER_NORMAL_SPEED`` (in practice V = 0, hover; docs/model.md §5.5):
+    ``"momentum"`` the momentum inflow of ``induction`` as at any speed; ``"none"`` no induced
+    velocity on that wing (Eqs. 20-21 read literally: the inflow v_z·(1 + a) is zero where
+    v_z = 0). At V_n ≠ 0 both are the same."""
     tolerance: float = 1e-4
     """Relative tolerance of the per-annulus inflow solve [-]."""
     max_evaluations: int = 30
@@ -79,6 +94,7 @@ class ModelOptions:
         _check_choice("power", self.power, PowerConvention)
         _check_choice("thrust_split", self.thrust_split, ThrustSplit)
         _check_choice("spin", self.spin, Spin)
+        _check_choice("hover_inflow", self.hover_inflow, HoverInflow)
         if not (_is_real(self.interference) and 0.0 <= self.interference <= 2.0):
             raise ValueError(f"ModelOptions.interference = {self.interference!r}; allowed: 0 to 2")
         if not (_is_real(self.tolerance) and 1e-12 <= self.tolerance <= 1e-1):
