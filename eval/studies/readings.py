@@ -61,6 +61,12 @@ SINGLES: tuple[Reading, ...] = (
         options={"power": "elastic"},
     ),
     Reading(
+        "aerodynamic",
+        'power="aerodynamic" (§6.3): only the positive aerodynamic power is charged (inertial '
+        "power fully stored and returned) instead of |P_aero| and |P_iner| in full",
+        options={"power": "aerodynamic"},
+    ),
+    Reading(
         "spin-total",
         'spin="total" (§4): circulation and added mass use the section\'s true spin '
         "η̇ − φ̇·sin θ instead of the pitch rate η̇",
@@ -71,6 +77,12 @@ SINGLES: tuple[Reading, ...] = (
         "C_r = π/2 on both wings (§1.3): the rotational coefficient of the quasi-steady "
         "literature's other normalisation instead of Table 3's π",
         rotational_coefficient=math.pi / 2,
+    ),
+    Reading(
+        "hover-none",
+        'hover_inflow="none" (§5.5): Eqs. 20-21 read literally, no induced velocity where the '
+        "free stream has no normal component (hover, V = 0) instead of the momentum inflow",
+        options={"hover_inflow": "none"},
     ),
     Reading(
         "Chf=0",
