@@ -189,6 +189,7 @@ ACCELERATE = TaskSpec(
         "vertical": "excess_vertical",
         "horizontal": "excess_horizontal",
         "resultant": "excess_total",
+        "horizontal_literal": "excess_horizontal_literal",
     },
     default_objective="vertical",
     objective_kwarg="objective",

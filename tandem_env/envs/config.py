@@ -21,7 +21,7 @@ import numpy as np
 from ..physics import AVAILABLE_POWER_LIMITS, PLANFORMS, SPEED_LIMITS, Dragonfly, ModelOptions
 from ..physics.checks import is_real as _is_real
 
-Objective = Literal["vertical", "horizontal", "resultant"]
+Objective = Literal["vertical", "horizontal", "resultant", "horizontal_literal"]
 OBJECTIVES: tuple[str, ...] = get_args(Objective)
 
 #: Flight speeds an env accepts [m/s]: the model's own limits.
@@ -405,8 +405,10 @@ class AccelerateConfig(FlightConfig):
 
     objective: Objective = "vertical"
     """Which specific excess force is maximised: ``"vertical"`` F̄_v = (L − W)/W,
-    ``"horizontal"`` F̄_h = (T − D)/W or ``"resultant"`` F̄_a = sqrt(F̄_v² + F̄_h²) [-]
-    (docs/model.md §7: the paper's attainable F̄_a combines the first two)."""
+    ``"horizontal"`` F̄_h = (T − D)/W, ``"resultant"`` F̄_a = sqrt(F̄_v² + F̄_h²) or
+    ``"horizontal_literal"`` (D_f + D_h)/W, Eq. 24 read literally (the wings' rearward forces,
+    ``excess_horizontal_literal``) [-] (docs/model.md §7.6: the paper's attainable F̄_a combines
+    the first two). The constraints are the same for all."""
     power: float | None = None
     """Fixed available power per body mass [W/kg]; default 90 W/kg (the insect's maximum)
     unless ``power_range`` is given."""

@@ -245,7 +245,7 @@ class LevelFlightEnv(FlightEnv):
     Every ``step`` evaluates one wing-beat cycle and terminates the episode
     (``terminated=True``, ``truncated=False``). ``info`` holds the named physical stroke
     (``info["stroke"]``), every metric of the model (the :class:`tandem_env.Result` fields:
-    the ten ``METRIC_NAMES``, each constraint's violation, feasibility flags, per-wing
+    the ``METRIC_NAMES``, each constraint's violation, feasibility flags, per-wing
     breakdown, ``speed``, ``available_power``) and the reward terms ``objective``,
     ``constraint_violation``, ``penalty`` and ``feasible``.
 
@@ -293,7 +293,8 @@ class AccelerateEnv(FlightEnv):
     ## Rewards
 
     ``reward = F̄ − penalty`` where F̄ is the ``objective``: ``"vertical"`` F̄_v = (L − W)/W,
-    ``"horizontal"`` F̄_h = (T − D)/W or ``"resultant"`` F̄_a = sqrt(F̄_v² + F̄_h²);
+    ``"horizontal"`` F̄_h = (T − D)/W, ``"resultant"`` F̄_a = sqrt(F̄_v² + F̄_h²) or
+    ``"horizontal_literal"`` (D_f + D_h)/W (Eq. 24 read literally, docs/model.md §7.6);
     ``penalty = weight·violation + offset·[infeasible]`` with
     ``violation = max(0, −F̄_v) + max(0, −F̄_h) + max(0, P/m − P_avail)/P_avail``
     (weight 10, offset 0 by default). A feasible stroke is rewarded with exactly its F̄.
@@ -314,7 +315,7 @@ class AccelerateEnv(FlightEnv):
     ## Arguments
 
     ``gym.make("TandemWing/Accelerate-v0", **kwargs)``, see :class:`AccelerateConfig`:
-    ``objective`` ("vertical" | "horizontal" | "resultant"), ``power``, ``power_range``,
+    ``objective`` ("vertical" | "horizontal" | "resultant" | "horizontal_literal"), ``power``, ``power_range``,
     ``power_envelope``, ``speed`` [m/s], and every model, penalty and action option of
     :class:`LevelFlightEnv` (``thrust_split`` among them). Invalid values raise ``ValueError``
     at construction.

@@ -260,6 +260,7 @@ class AccelerateTask(FlightTask):
         "vertical": "excess_vertical",
         "horizontal": "excess_horizontal",
         "resultant": "excess_total",
+        "horizontal_literal": "excess_horizontal_literal",
     }
 
     @property

@@ -38,6 +38,7 @@ METRIC_NAMES: tuple[str, ...] = (
     "excess_vertical",
     "excess_horizontal",
     "excess_total",
+    "excess_horizontal_literal",
     "mean_angle_of_attack",
 )
 
@@ -123,6 +124,10 @@ class Result:
     """F̄_h = (T − D)/W (Eqs. 24, 26) [-]."""
     excess_total: np.ndarray
     """F̄_a = sqrt(F̄_v² + F̄_h²) of this stroke (Eq. 27) [-]."""
+    excess_horizontal_literal: np.ndarray
+    """(D_f + D_h)/W, Eq. 24 read literally (docs/model.md §7.6) [-]: the sum over all wings of
+    the cycle mean of the rearward part of each wing's horizontal force, max(−F_x, 0), a
+    magnitude (≥ 0) whatever ``thrust_split``; a reading, not the net force on the body."""
     mean_angle_of_attack: np.ndarray
     """Cycle- and area-weighted mean acute angle of attack, averaged over both wings [deg]."""
     lift_violation: np.ndarray
@@ -181,7 +186,7 @@ class Result:
         return int(self.lift_to_weight.shape[0])
 
     def metrics(self) -> dict[str, np.ndarray]:
-        """The ten headline metrics (:data:`METRIC_NAMES`) as a dict of (B,) arrays."""
+        """The headline metrics (:data:`METRIC_NAMES`) as a dict of (B,) arrays."""
         return {name: getattr(self, name) for name in METRIC_NAMES}
 
     def as_dict(self) -> dict[str, np.ndarray]:
@@ -382,9 +387,11 @@ def _performance(
     fz = out[:, :, cycle.W_FZ] * n_w
     fx = out[:, :, cycle.W_FX] * n_w
     lift = fz.sum(axis=1)
+    # the wings' own rearward ("drag") forces D_f + D_h, whatever the thrust/drag reading
+    wing_drag = n_w * out[:, :, cycle.W_DRAG].sum(axis=1)
     if options.thrust_split == "sign":
         thrust = n_w * out[:, :, cycle.W_THRUST].sum(axis=1)
-        drag = n_w * out[:, :, cycle.W_DRAG].sum(axis=1)
+        drag = wing_drag
     else:
         thrust = fx.sum(axis=1)
         # The body's parasite drag acts against its velocity, along the flight path: its
@@ -424,6 +431,7 @@ def _performance(
         excess_vertical=excess_vertical,
         excess_horizontal=excess_horizontal,
         excess_total=np.hypot(excess_vertical, excess_horizontal),
+        excess_horizontal_literal=wing_drag / weight,
         mean_angle_of_attack=aoa.mean(axis=1),
         lift_violation=lift_violation,
         thrust_violation=thrust_violation,

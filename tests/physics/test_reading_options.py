@@ -120,7 +120,8 @@ def test_massless_wings_make_aerodynamic_equal_elastic() -> None:
 
 def test_aerodynamic_power_from_the_time_history() -> None:
     """N_w·mean(max(P_aero, 0)) of each pair, from stroke_history's uniform samples (a plain
-    mean, second order at the kinks, on a fine grid): the result's power per pair."""
+    mean, second order at the kinks, on a fine grid; the inflow is solved on that grid too):
+    the result's power per pair. Measured agreement 1e-7 to 4e-6 on 12 random cases."""
     strokes = random_strokes(3, seed=13)
     for stroke in strokes:
         history = stroke_history(stroke, 1.0, n_samples=2048, options=AERODYNAMIC)
@@ -128,7 +129,7 @@ def test_aerodynamic_power_from_the_time_history() -> None:
             wing = getattr(history, pair)
             expected = np.mean(np.maximum(wing.aero_power, 0.0))
             got = float(getattr(history.result, f"{pair}_power")[0])
-            assert got == pytest.approx(expected, rel=2e-3)
+            assert got == pytest.approx(expected, rel=3e-5)
 
 
 # --- hover_inflow (docs/model.md §5.5) ----------------------------------------------------------
@@ -196,3 +197,38 @@ def test_hover_inflow_none_in_the_time_history() -> None:
         np.testing.assert_array_equal(
             getattr(history, pair).vertical_force, getattr(bare, pair).vertical_force
         )
+
+
+# --- Eq. 24 read literally: excess_horizontal_literal (docs/model.md §7.6) ---------------------
+
+
+@pytest.mark.parametrize("speed", [0.0, 1.0])
+def test_literal_horizontal_force_is_the_wings_rearward_parts(speed: float) -> None:
+    """(D_f + D_h)/W from stroke_history's uniform samples of each pair's horizontal force (a
+    plain mean of max(−F_x, 0) on a fine grid, independent of the kernel's quadrature; measured
+    agreement 1e-7 to 4e-6 on 12 random cases)."""
+    strokes = random_strokes(4, seed=31 + int(speed))
+    for stroke in strokes:
+        history = stroke_history(stroke, speed, n_samples=2048)
+        rearward = sum(
+            np.mean(np.maximum(-getattr(history, pair).horizontal_force, 0.0))
+            for pair in ("fore", "hind")
+        )
+        weight = Dragonfly().weight
+        got = float(history.result.excess_horizontal_literal[0])
+        assert got == pytest.approx(rearward / weight, rel=3e-5)
+        assert got >= 0.0
+
+
+def test_literal_horizontal_force_whatever_the_thrust_split() -> None:
+    """It is the wings' own drag: the `sign` split's D/W, and the same under `body`, while the
+    net F̄_h is another quantity (T − D can have either sign, the literal one cannot)."""
+    strokes = random_strokes(32, seed=33)
+    sign = evaluate(strokes, 1.0)
+    body = evaluate(strokes, 1.0, options=ModelOptions(thrust_split="body"))
+    np.testing.assert_array_equal(sign.excess_horizontal_literal, sign.drag / Dragonfly().weight)
+    np.testing.assert_array_equal(body.excess_horizontal_literal, sign.excess_horizontal_literal)
+    assert np.all(sign.excess_horizontal_literal >= 0.0)
+    assert np.any(sign.excess_horizontal < 0.0)
+    # D_f + D_h ≥ −(net horizontal force)/W: the rearward parts bound the net force from below
+    assert np.all(sign.excess_horizontal_literal >= -sign.excess_horizontal - 1e-12)
