@@ -85,6 +85,13 @@ SINGLES: tuple[Reading, ...] = (
         options={"hover_inflow": "none"},
     ),
     Reading(
+        "Fh-literal",
+        "F̄_h from Eq. 24 read literally (§7.6): F_h = D_f + D_h, the wings' rearward "
+        "horizontal forces, maximised (objective horizontal_literal) instead of the net "
+        "horizontal wing force",
+        horizontal_objective="horizontal_literal",
+    ),
+    Reading(
         "Chf=0",
         "C_hf = 0 (§5, Eq. 21): the hind-wing does not see the fore-wing's induced velocity "
         "instead of all of it",
