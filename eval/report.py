@@ -186,6 +186,10 @@ def _num(value: float) -> str:
     return "–" if math.isnan(value) else f"{value:.3g}"
 
 
+def _delta(value: float) -> str:
+    return "–" if math.isnan(value) else f"{value:+.3g}"
+
+
 def _within_spread(a: Claim, b: Claim) -> bool:
     """Whether each claim's median lies inside the other's inter-quartile range over seeds
     (a verdict flip between them is then within the seed-to-seed spread)."""
@@ -269,7 +273,13 @@ def render_readings(
         "",
         "## Best reading",
         "",
-        f"`{best.reading.name}`: {best.agree} of {n_claims} claims agree "
+        f"`{best.reading.name}`"
+        + "".join(
+            f", tied with `{r.reading.name}`"
+            for r in results
+            if r.agree == best.agree and r is not best
+        )
+        + f": {best.agree} of {n_claims} claims agree "
         f"({best.differ} differ, {best.undecided} without data); the default: "
         f"{default.agree}. Goal: {READINGS_GOAL} or more of {n_claims}"
         + (" (reached)." if best.agree >= READINGS_GOAL else " (not reached)."),
@@ -298,7 +308,7 @@ def render_readings(
                     f"`{r.reading.name}`",
                     "; ".join(moves) or "none",
                     f"{r.agree - default.agree:+d}",
-                    *(_num(head[k] - base_head[k]) for k in heads),
+                    *(_delta(head[k] - base_head[k]) for k in heads),
                 )
             )
             + " |"

@@ -429,6 +429,7 @@ def write_outputs(
         columns,
         out_dir / "readings_matrix.png",
         f"Paper claims under each reading ({plan.preset.name} preset, {', '.join(plan.methods)})",
+        split=next((k for k, r in enumerate(results) if r.reading.derived_from), None),
     )
     report_path = report.write_readings_report(
         out_dir / "report.md", plan, results, rule, csv_path, figure

@@ -2,8 +2,9 @@
 
 One row per claim (paper order), one column per reading; a cell is green where the claim
 agrees, red where it differs and grey where it has no data. Column labels carry the reading's
-count of agreeing claims; a marker in a cell flags a verdict that changed from the first
-(default) reading.
+count of agreeing claims out of all claims; a marker in a cell flags a verdict that changed
+from the first (default) reading; a black line separates the single readings from the
+combinations derived from them.
 """
 
 from __future__ import annotations
@@ -35,11 +36,12 @@ def matrix_figure(
     columns: Sequence[tuple[str, Sequence[str]]],
     path: Path,
     title: str,
+    split: int | None = None,
 ) -> Path:
     """Draw the matrix: ``columns`` are (reading name, verdict per claim in ``claim_ids`` order).
 
     The first column is the reference: a dot marks every other cell whose verdict differs
-    from it.
+    from it. A vertical line goes before column ``split`` (the first combination reading).
     """
     n_rows, n_cols = len(claim_ids), len(columns)
     grid = [[_CODE.get(verdicts[i], 2) for _, verdicts in columns] for i in range(n_rows)]
@@ -56,8 +58,7 @@ def matrix_figure(
     labels = []
     for name, verdicts in columns:
         agree = sum(v == "agrees" for v in verdicts)
-        decided = sum(v in _CODE for v in verdicts)
-        labels.append(f"{name} ({agree}/{decided})")
+        labels.append(f"{name} ({agree}/{len(verdicts)})")
     ax.set_xticks(range(n_cols), labels, rotation=60, ha="right", fontsize=7)
     ax.set_yticks(
         range(n_rows),
@@ -68,6 +69,8 @@ def matrix_figure(
     ax.set_yticks([y - 0.5 for y in range(1, n_rows)], minor=True)
     ax.grid(which="minor", color="white", linewidth=0.8)
     ax.tick_params(which="minor", length=0)
+    if split is not None and 0 < split < n_cols:
+        ax.axvline(split - 0.5, color="black", linewidth=1.5)
     ax.set_title(title, fontsize=9)
     ax.legend(
         handles=[

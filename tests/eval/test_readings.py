@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from eval.studies import PAPER_STUDIES, claims, readings, runner
+from eval.studies import PAPER_STUDIES, claims, readings, readings_time, runner
 from eval.studies.base import Plan, StudyOutput
-from eval.studies.presets import TINY
+from eval.studies.presets import PRESETS, TINY
 from eval.studies.reading import DEFAULT, Reading, combine
 from eval.studies.readings import ReadingResult, combinations, reading_jobs
 
@@ -143,10 +143,12 @@ def test_csv_has_one_row_per_reading_with_the_documented_columns() -> None:
 
 # --- end to end --------------------------------------------------------------------------------
 def test_tiny_run_writes_everything_and_a_rerun_computes_nothing(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture
 ) -> None:
+    from eval.__main__ import main
+
     plan = Plan(TINY)
-    chosen = (DEFAULT, Reading("spin-total", "test", {"spin": "total"}))
+    chosen = readings.single_readings(["spin-total"])
     first = readings.run_readings(plan, tmp_path, readings=chosen, progress=False)
     assert first.runs[0].ran == len(_keys(reading_jobs(plan, DEFAULT))) * 2
     for name in ("readings.csv", "readings_matrix.png", "report.md", readings.MANIFEST):
@@ -163,8 +165,29 @@ def test_tiny_run_writes_everything_and_a_rerun_computes_nothing(
     report = (tmp_path / "report.md").read_text(encoding="utf-8")
     assert "## Which decision moves which claim" in report and "`spin-total`" in report
 
+    # The same study from the command line: every record is reused, the verdicts are the same.
     calls: list[runner.Job] = []
     monkeypatch.setattr(runner, "_harness_run", lambda job: calls.append(job))
-    again = readings.run_readings(plan, tmp_path, readings=chosen, progress=False)
-    assert calls == [] and again.runs[0].ran == 0
-    assert [r.agree for r in again.results] == [r.agree for r in first.results]
+    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    argv = ["study", "readings", "--preset", "tiny", "--out", str(tmp_path), "--quiet"]
+    assert main([*argv, "--reading", "spin-total"]) == 0
+    out = capsys.readouterr().out
+    assert calls == []
+    for r in first.results:
+        assert f"{r.reading.name}: {r.agree} agree, {r.differ} differ" in out
+
+    # The cost estimate for another preset reads the measured records.
+    readings_time.main(["--measured", str(tmp_path), "--preset", "quick"])
+    out = capsys.readouterr().out
+    assert "spin-total" in out and "h serial" in out
+
+
+def test_cli_names_an_unknown_reading(capsys: pytest.CaptureFixture) -> None:
+    from eval.__main__ import main
+
+    with pytest.raises(SystemExit):
+        main(["study", "readings", "--reading", "nope", "--quiet"])
+    assert "unknown reading(s) 'nope'; allowed: default, body" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["study", "speed", "--reading", "body", "--quiet"])
+    assert "--reading is for the readings study only" in capsys.readouterr().err
