@@ -9,7 +9,8 @@ the studies' own claim builders. The readings are
    changed alone;
 2. the combinations the singles point to (:func:`combinations`), derived from their results by
    a rule, not chosen by hand: the singles that each raised the count of agreeing claims over the
-   default are combined, all together and as the pair of the best two.
+   default are combined, all together and as the pair of the best two, and the best of them is
+   paired with each other single.
 
 All jobs of a phase go into one :func:`~eval.studies.runner.run_jobs` call, so a job two
 readings share (the same env keywords: e.g. every job but the horizontal accelerating ones of
@@ -219,11 +220,19 @@ def combinations(
 ) -> tuple[list[Reading], str]:
     """The combination readings the singles' results point to, and the rule's outcome in words.
 
-    Rule: the *gainers* are the singles (other than the default) with more agreeing claims
-    than the default, best first (ties in :data:`SINGLES` order). Taken best first, each gainer
-    joins the set unless it conflicts with one already in it (two values of one option); the
-    combinations are the whole set (if it has 3 or more) and the pair of its best two (if it
-    has 2 or more). With fewer than two compatible gainers there is nothing to combine.
+    Rule, in two parts:
+
+    1. *Gainers together.* The gainers are the singles (other than the default) with more
+       agreeing claims than the default, best first (ties in :data:`SINGLES` order). Taken best
+       first, each gainer joins the set unless it conflicts with one already in it (two values
+       of one option); combined are the pair of its best two (if it has 2 or more) and the
+       whole set (if it has 3 or more).
+    2. *The best single with each other.* If a gainer exists, the best one is paired with every
+       other single it does not conflict with: a change that loses claims on its own can win
+       them beside another (one that lowers F̄_h, say, where the best raises it too far), and
+       the singles' counts cannot show that.
+
+    Duplicates (the same changes) are dropped. Without a gainer there is nothing to combine.
     """
     base = default.agree
     gainers = sorted(
@@ -242,15 +251,26 @@ def combinations(
     words = f"singles that raised the agreeing claims over the default ({base}): {gains}"
     if skipped:
         words += f"; left out: {', '.join(skipped)}"
-    out: list[Reading] = []
+    groups: list[list[ReadingResult]] = []
     if len(chosen) >= 2:
-        out.append(combine([c.reading for c in chosen[:2]], _combined_name(chosen[:2])))
+        groups.append(chosen[:2])
     if len(chosen) >= 3:
-        out.append(combine([c.reading for c in chosen], _combined_name(chosen)))
+        groups.append(chosen)
+    if gainers:
+        top = gainers[0]
+        groups += [
+            [top, other]
+            for other in singles
+            if other.reading not in (default.reading, top.reading)
+            and not top.reading.conflicts(other.reading)
+        ]
+    out: list[Reading] = []
+    for group in groups:
+        reading = combine([g.reading for g in group], _combined_name(group))
+        if all(r.changes() != reading.changes() for r in out):
+            out.append(reading)
     words += (
-        "; combined: " + "; ".join(r.name for r in out)
-        if out
-        else "; fewer than two compatible gainers, so no combination"
+        "; combined: " + "; ".join(r.name for r in out) if out else "; no gainer, so no combination"
     )
     return out, words
 

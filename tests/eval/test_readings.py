@@ -105,23 +105,27 @@ def test_combinations_join_the_gainers_best_first_skipping_conflicts() -> None:
     c2 = Reading("c2", "t", {"thrust_split": "sign", "interference": 0.0})
     d = Reading("d", "t", rotational_coefficient=1.0)
     lose = Reading("lose", "t", {"interference": 2.0})
-    x = Reading("x", "t", {"interference": 0.0, "thrust_split": "body"})
-    x_conflict = Reading("x-conflict", "t", {"interference": 2.0})
     singles = [_result(DEFAULT, 4), _result(a, 7), _result(b, 6), _result(c, 5)]
     singles += [_result(lose, 3), _result(d, 4), _result(c2, 5)]
     out, words = combinations(singles[0], singles)
-    assert [r.name for r in out] == ["a+b", "a+b+c+c2"]
+    # Gainers a, b, c, c2: their best two, all four; then a with each other single (a+b and
+    # a+c2 once only), c2 and lose conflict with each other but not with a.
+    assert [r.name for r in out] == ["a+b", "a+b+c+c2", "a+c", "a+lose", "a+d", "a+c2"]
     assert out[0].changes() == {"thrust_split": "body", "spin": "total"}
     assert out[0].derived_from == ("a", "b")
-    assert "lose" not in words and "d (" not in words and "a (+3)" in words
-    # A gainer that conflicts with a better one is left out, and said so.
+    assert "lose (" not in words and "d (" not in words and "a (+3)" in words
+    # A gainer that conflicts with a better one is left out of the set, and said so.
+    x = Reading("x", "t", {"interference": 0.0, "thrust_split": "body"})
+    x_conflict = Reading("x-conflict", "t", {"interference": 2.0})
     singles = [_result(DEFAULT, 4), _result(x, 7), _result(x_conflict, 6), _result(b, 5)]
     out, words = combinations(singles[0], singles)
     assert [r.name for r in out] == ["x+b"]
     assert "x-conflict (conflicts with x)" in words
-    # One gainer or none: nothing to combine.
-    out, words = combinations(singles[0], singles[:2])
-    assert out == [] and "no combination" in words
+    # One gainer: paired with every other single (a loser included); none: nothing.
+    out, words = combinations(singles[0], [singles[0], singles[3], _result(lose, 2)])
+    assert [r.name for r in out] == ["b+lose"]
+    out, words = combinations(singles[0], [singles[0], _result(lose, 2)])
+    assert out == [] and "no gainer" in words
 
 
 def test_combine_refuses_conflicting_readings() -> None:
