@@ -6,13 +6,18 @@ times are in ``manifest.json``.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from agents.fileio import write_text_atomic
 from eval.studies.base import Plan, StudyOutput
 from eval.studies.claims import RULES, Claim
+
+if TYPE_CHECKING:
+    from eval.studies.readings import ReadingResult
 
 UNDERSTOOD = {
     "thrust_split": (
@@ -98,8 +103,13 @@ def _settings(plan: Plan) -> list[str]:
         f"- speeds {list(p.speeds)} m/s, powers {list(p.powers)} W/kg; wing shape at "
         f"{list(p.shape_speeds)} m/s and {list(p.shape_powers)} W/kg; kinematics at "
         f"{p.kinematics_speed:g} m/s and {p.kinematics_power:g} W/kg ({p.kinematics_objective})",
-        '- model: defaults of `tandem_env.ModelOptions` (thrust_split = "sign", coupled '
-        "induction, absolute power)"
+        (
+            '- model: defaults of `tandem_env.ModelOptions` (thrust_split = "sign", coupled '
+            "induction, absolute power)"
+            if not plan.reading.changes()
+            else f"- model: reading `{plan.reading.name}` ({plan.reading.describe_changes()}; "
+            f"defaults otherwise): {plan.reading.description}"
+        )
         + (f", env kwargs {dict(p.env_kwargs)}" if p.env_kwargs else ""),
         "- statistics over the feasible seeds of each condition; *best seed* = the seed with the "
         "best objective",
@@ -164,4 +174,179 @@ def write_report(
 ) -> Path:
     """Write ``path`` (atomically) and return it."""
     write_text_atomic(path, render(plan, outputs, all_studies, path.parent))
+    return path
+
+
+# --- the readings study -------------------------------------------------------------------------
+#: Goal of issue 14: a reading under which this many of the paper's claims agree.
+READINGS_GOAL = 16
+
+
+def _num(value: float) -> str:
+    return "–" if math.isnan(value) else f"{value:.3g}"
+
+
+def _delta(value: float) -> str:
+    return "–" if math.isnan(value) else f"{value:+.3g}"
+
+
+def _within_spread(a: Claim, b: Claim) -> bool:
+    """Whether each claim's median lies inside the other's inter-quartile range over seeds
+    (a verdict flip between them is then within the seed-to-seed spread)."""
+    values = (a.median, a.q25, a.q75, b.median, b.q25, b.q75)
+    if any(math.isnan(v) for v in values):
+        return False
+    return a.q25 <= b.median <= a.q75 and b.q25 <= a.median <= b.q75
+
+
+def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
+    """One line per claim whose verdict differs from the default's: the change and the
+    statistic before and after (``*``: the two medians lie in each other's seed IQR)."""
+    mine = {c.id: c for c in other.claims}
+    lines = []
+    for before in default.claims:
+        after = mine.get(before.id)
+        if after is None or after.verdict == before.verdict:
+            continue
+        sign = "+" if after.verdict == "agrees" else ("−" if before.verdict == "agrees" else "·")
+        noise = "*" if _within_spread(before, after) else ""
+        lines.append(
+            f"{sign}{before.id}{noise} ({before.verdict} → {after.verdict}: "
+            f"{_num(before.median)} → {_num(after.median)} {after.unit})".replace(" )", ")")
+        )
+    return lines
+
+
+def render_readings(
+    plan: Plan,
+    results: Sequence[ReadingResult],
+    rule: str,
+    table: Path,
+    figure: Path,
+    base: Path,
+) -> str:
+    """The readings study's report: the table of readings, the best one, which decision moves
+    which claim and by how much, the matrix figure."""
+    from eval.studies.readings import HEADLINES, reading_dir
+
+    default = results[0]
+    best = max(results, key=lambda r: r.agree)
+    n_claims = len(default.claims)
+    heads = list(HEADLINES)
+    parts = [
+        "# Readings of the paper: which reading reproduces which claim",
+        "",
+        *_settings(plan)[:3],
+        "- every reading runs the four paper studies (speed, power, kinematics, wing shape) with "
+        "these settings; a job two readings share runs once",
+        "",
+        "## Readings",
+        "",
+        "| reading | changes from the default | agree | differ | no data | "
+        + " | ".join(f"{k}" for k in heads)
+        + " |",
+        "|---|---|---|---|---|" + "---|" * len(heads),
+    ]
+    for r in results:
+        head = r.headline()
+        parts.append(
+            "| "
+            + " | ".join(
+                _cell(x)
+                for x in (
+                    f"`{r.reading.name}`",
+                    r.reading.describe_changes(),
+                    str(r.agree),
+                    str(r.differ),
+                    str(r.undecided),
+                    *(_num(head[k]) for k in heads),
+                )
+            )
+            + " |"
+        )
+    parts += [
+        "",
+        "Headline columns: " + "; ".join(f"{k}: {text}" for k, (_, text) in HEADLINES.items()),
+        "",
+        f"Combination rule (combinations derived from the singles' results, not chosen by "
+        f"hand): {rule}.",
+        "",
+        "## Best reading",
+        "",
+        f"`{best.reading.name}`"
+        + "".join(
+            f", tied with `{r.reading.name}`"
+            for r in results
+            if r.agree == best.agree and r is not best
+        )
+        + f": {best.agree} of {n_claims} claims agree "
+        f"({best.differ} differ, {best.undecided} without data); the default: "
+        f"{default.agree}. Goal: {READINGS_GOAL} or more of {n_claims}"
+        + (" (reached)." if best.agree >= READINGS_GOAL else " (not reached)."),
+        "",
+        f"{best.reading.description}.",
+        "",
+        "## Which decision moves which claim",
+        "",
+        "Claims whose verdict differs from the default's (+ now agrees, − no longer agrees, "
+        "· to or from no data), with our statistic under the default → under the reading. "
+        "`*` marks a flip where both medians lie inside the other's inter-quartile range over "
+        "seeds: within the seed-to-seed spread, i.e. possibly search noise.",
+        "",
+        "| reading | claims moved | Δ agree | " + " | ".join(f"Δ {k}" for k in heads) + " |",
+        "|---|---|---|" + "---|" * len(heads),
+    ]
+    base_head = default.headline()
+    for r in results[1:]:
+        head = r.headline()
+        moves = reading_moves(default, r)
+        parts.append(
+            "| "
+            + " | ".join(
+                _cell(x)
+                for x in (
+                    f"`{r.reading.name}`",
+                    "; ".join(moves) or "none",
+                    f"{r.agree - default.agree:+d}",
+                    *(_delta(head[k] - base_head[k]) for k in heads),
+                )
+            )
+            + " |"
+        )
+    parts += [
+        "",
+        "## Claims × readings",
+        "",
+        f"![claims × readings matrix]({_rel(figure, base)})",
+        "",
+        f"Data: [`{_rel(table, base)}`]({_rel(table, base)}). Each reading's full report "
+        "(paper vs ours, figures): "
+        + ", ".join(
+            f"[`{r.reading.name}`]({_rel(reading_dir(base, r.reading) / 'report.md', base)})"
+            for r in results
+        )
+        + ".",
+        "",
+        "## Readings in full",
+        "",
+        *[f"- `{r.reading.name}`: {r.reading.description}" for r in results],
+        "",
+        "## Agreement rules",
+        "",
+        *[f"- `{name}`: {text}" for name, text in RULES.items()],
+        "",
+    ]
+    return "\n".join(parts)
+
+
+def write_readings_report(
+    path: Path,
+    plan: Plan,
+    results: Sequence[ReadingResult],
+    rule: str,
+    table: Path,
+    figure: Path,
+) -> Path:
+    """Write the readings study's report to ``path`` (atomically) and return it."""
+    write_text_atomic(path, render_readings(plan, results, rule, table, figure, path.parent))
     return path

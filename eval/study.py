@@ -9,7 +9,7 @@ import textwrap
 
 from agents.records import RecordStore
 from eval.optimize import INTERRUPTED, add_scheduler_argument
-from eval.studies import STUDIES
+from eval.studies import STUDIES, readings
 from eval.studies.base import Plan
 from eval.studies.presets import PRESETS, get_preset
 from eval.studies.runner import JobsFailed, SchedulerUnreachable, executor_spec
@@ -31,6 +31,10 @@ Studies:
   wing-shape   tear-drop vs real planform (Figs. 14-16)
   all          the four above (one pool; shared optimisations run once)
   convergence  the budget study (PSO and CMA-ES) the presets' methods and budgets come from
+  readings     the four paper studies under each reading of the paper's open decisions (the
+               default, each decision changed alone, the combinations those results point
+               to): readings.csv, a claims × readings matrix, report.md (default out
+               results/readings)
 
 Presets:
 """
@@ -55,21 +59,24 @@ examples:
   python -m eval study all                       # quick preset into results/study
   python -m eval study all --preset paper --out results/study-paper
   python -m eval study speed --method cmaes --method pso --out results/study
-  python -m eval study all --preset paper --scheduler tcp://scheduler-host:8786"""
+  python -m eval study all --preset paper --scheduler tcp://scheduler-host:8786
+  python -m eval study readings --preset quick   # into results/readings"""
 
 DEFAULT_OUT = os.path.join("results", "study")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("study", choices=("all", *STUDIES), help="which study to run")
+    parser.add_argument(
+        "study", choices=("all", *STUDIES, readings.NAME), help="which study to run"
+    )
     parser.add_argument(
         "--preset", choices=tuple(PRESETS), default="quick", help="conditions, seeds, budgets"
     )
     parser.add_argument(
         "--out",
-        default=DEFAULT_OUT,
+        default=None,
         metavar="DIR",
-        help=f"output directory (default {DEFAULT_OUT})",
+        help=f"output directory (default {DEFAULT_OUT}; {readings.DEFAULT_OUT} for readings)",
     )
     parser.add_argument(
         "--method",
@@ -86,17 +93,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="N > 1 is short for --scheduler local:N; 1 (default) runs in this process",
     )
+    parser.add_argument(
+        "--reading",
+        action="append",
+        metavar="NAME",
+        help="readings study only: run these single readings (repeat; the default is always "
+        f"run); allowed: {', '.join(r.name for r in readings.SINGLES)}",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress display")
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     methods = tuple(dict.fromkeys(args.method)) if args.method else None
+    if args.out is None:
+        args.out = readings.DEFAULT_OUT if args.study == readings.NAME else DEFAULT_OUT
+    if args.reading and args.study != readings.NAME:
+        parser.error(f"--reading is for the readings study only (study {args.study!r})")
     try:
         scheduler = executor_spec(args.scheduler, args.workers)
         RecordStore(args.out)  # rejects a file
         plan = Plan(get_preset(args.preset), methods)
+        chosen = readings.single_readings(args.reading)
     except ValueError as error:
         parser.error(str(error))
+    if args.study == readings.NAME:
+        return _run_readings(args, parser, plan, scheduler, chosen)
     try:
         result = run_studies(
             [args.study], plan, args.out, scheduler=scheduler, progress=not args.quiet
@@ -120,4 +141,36 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         print(f"{output.name}: {len(output.rows)} records, {len(output.figures)} figures{claims}")
     if result.report is not None:
         print(f"report: {result.report}")
+    return 0
+
+
+def _run_readings(
+    args: argparse.Namespace,
+    parser: argparse.ArgumentParser,
+    plan: Plan,
+    scheduler: str | None,
+    chosen: tuple[readings.Reading, ...],
+) -> int:
+    try:
+        result = readings.run_readings(
+            plan, args.out, readings=chosen, scheduler=scheduler, progress=not args.quiet
+        )
+    except (SchedulerUnreachable, JobsFailed) as error:
+        print(f"{parser.prog}: error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
+        return 130
+    for k, run in enumerate(result.runs):
+        phase = "singles" if k == 0 else "combinations"
+        print(
+            f"{phase}: {run.total} optimisations: {run.ran} run, {run.reused} reused from "
+            f"{args.out} ({run.executor}); {run.wall_time:.1f} s",
+            file=sys.stderr,
+        )
+    for r in result.results:
+        print(f"{r.reading.name}: {r.agree} agree, {r.differ} differ, {r.undecided} no data")
+    print(f"best: {result.best.reading.name} ({result.best.agree} claims agree)")
+    print(f"combinations: {result.combination_rule}")
+    print(f"report: {result.files[-1]}; total {result.wall_time:.1f} s")
     return 0

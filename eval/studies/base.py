@@ -17,6 +17,7 @@ from agents.fileio import write_csv_atomic, write_json_atomic
 from agents.records import Record
 from eval.studies.claims import Claim
 from eval.studies.presets import Preset
+from eval.studies.reading import DEFAULT, Reading
 from eval.studies.runner import RECORDS_DIR, Job
 from eval.studies.tables import summary_rows, tidy_rows
 
@@ -26,10 +27,15 @@ _BATCHED = {"pso": "swarm_size", "random": "batch_size"}
 
 @dataclass(frozen=True)
 class Plan:
-    """A preset and the methods to run at every condition (the preset's method by default)."""
+    """A preset and the methods to run at every condition (the preset's method by default),
+    under a reading of the paper (the documented defaults by default)."""
 
     preset: Preset
     methods: tuple[str, ...] | None = None
+    reading: Reading = DEFAULT
+    """The model options every job runs with and which objective gives F̄_h
+    (:mod:`eval.studies.reading`); the default reading adds no env keyword, so its jobs and
+    keys are those of a plan without one."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.preset, Preset):
@@ -47,6 +53,14 @@ class Plan:
                 f"Plan.methods = {self.methods!r}; allowed: distinct method specs such as "
                 "('pso',), ('pso', 'random') or ('pso', 'policy:runs/ppo')"
             )
+        if not isinstance(self.reading, Reading):
+            raise ValueError(f"Plan.reading = {self.reading!r}; allowed: a Reading")
+        clash = sorted({k for k, _ in self.preset.env_kwargs} & set(self.reading.env_kwargs()))
+        if clash:
+            raise ValueError(
+                f"Plan.reading {self.reading.name!r} sets {clash}, which preset "
+                f"{self.preset.name!r} sets too; allowed: a reading of other options"
+            )
 
     def method_config(self, method: str) -> tuple[tuple[str, Any], ...]:
         name = method.partition(":")[0]
@@ -63,11 +77,14 @@ class Plan:
         budget: int | None = None,
         seeds: Sequence[int] | None = None,
     ) -> list[Job]:
-        """Every method × condition × seed of one series (preset budget and seeds by default)."""
+        """Every method × condition × seed of one series (preset budget and seeds by default),
+        under the plan's reading (its model options; ``objective="horizontal"`` becomes the
+        reading's F̄_h objective)."""
         kwargs: dict[str, Any] = dict(self.preset.env_kwargs)
+        kwargs.update(self.reading.env_kwargs())
         kwargs["planform"] = planform
         if objective is not None:
-            kwargs["objective"] = objective
+            kwargs["objective"] = self.reading.objective(objective)
         return [
             Job(
                 method=method,

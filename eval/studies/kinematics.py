@@ -106,7 +106,10 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
     method = plan.methods[0]
     level = dict(method=method, task="level", planform="tear-drop")
     accel = dict(
-        method=method, task="accelerate", planform="tear-drop", objective=p.kinematics_objective
+        method=method,
+        task="accelerate",
+        planform="tear-drop",
+        objective=plan.reading.objective(p.kinematics_objective),  # the job's (Plan.jobs)
     )
     lv = traces(records, rows, condition=p.kinematics_speed, **level)
     ac = traces(records, rows, condition=p.kinematics_power, **accel)
@@ -196,7 +199,10 @@ def _claims(plan: Plan, rows: list[dict[str, Any]], method: str, index: int) -> 
     p = plan.preset
     level = dict(method=method, task="level", planform="tear-drop")
     accel = dict(
-        method=method, task="accelerate", planform="tear-drop", objective=p.kinematics_objective
+        method=method,
+        task="accelerate",
+        planform="tear-drop",
+        objective=plan.reading.objective(p.kinematics_objective),  # the job's (Plan.jobs)
     )
     lv_abs = spread(select(rows, condition=p.kinematics_speed, **level), "phase_difference_abs")
     lead = spread(select(rows, condition=p.phase_speed, **level), "phase_difference")

@@ -81,8 +81,9 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
         for m in plan.methods
         for planform in PLANFORMS
     ]
+    h_obj = plan.reading.horizontal_objective
     acc = [
-        figures.Series(_label(m, planform), attainable(rows, m, planform))
+        figures.Series(_label(m, planform), attainable(rows, m, planform, h_obj))
         for m in plan.methods
         for planform in PLANFORMS
     ]
@@ -129,7 +130,7 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
             ),
         ),
     ]
-    found = [c for i, m in enumerate(plan.methods) for c in _claims(rows, m, i)]
+    found = [c for i, m in enumerate(plan.methods) for c in _claims(rows, m, i, h_obj)]
     return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
@@ -147,13 +148,15 @@ def _share_better(real: Mapping[float, Spread], tear: Mapping[float, Spread], st
     return math.nan if not pairs else float(np.mean([a > b for a, b in pairs]))
 
 
-def _claims(rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim]:
+def _claims(
+    rows: list[dict[str, Any]], method: str, index: int, h_obj: str = "horizontal"
+) -> list[C.Claim]:
     make = C.ClaimBuilder(NAME, method, index)
     eff = {
         pf: by_condition(rows, "efficiency_pct", method=method, task="level", planform=pf)
         for pf in PLANFORMS
     }
-    acc = {pf: attainable(rows, method, pf) for pf in PLANFORMS}
+    acc = {pf: attainable(rows, method, pf, h_obj) for pf in PLANFORMS}
     every_speed = "the real wing is more efficient than the tear-drop at every speed"
     every_power = "the real wing attains slightly more F̄_a at every power"
     return [

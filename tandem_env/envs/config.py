@@ -272,14 +272,22 @@ class FlightConfig:
     def allowed_kwargs(cls) -> tuple[str, ...]:
         """Every keyword ``from_kwargs`` (and so ``gym.make``) accepts for this task."""
         own = tuple(f.name for f in fields(cls))
-        return (*own, "planform", *MODEL_OPTION_KWARGS, "penalty_weight", "penalty_offset")
+        return (
+            *own,
+            "planform",
+            "rotational_coefficient",
+            *MODEL_OPTION_KWARGS,
+            "penalty_weight",
+            "penalty_offset",
+        )
 
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> FlightConfig:
         """Build the config from flat keyword arguments (the ``gym.make`` kwargs).
 
-        Besides the dataclass fields this accepts ``planform`` ("tear-drop" | "real"), applied
-        to ``insect``; the :class:`~tandem_env.physics.ModelOptions` fields (``n_time``,
+        Besides the dataclass fields this accepts ``planform`` ("tear-drop" | "real") and
+        ``rotational_coefficient`` (C_r of both wings [-], Table 3), applied to ``insect``; the
+        :class:`~tandem_env.physics.ModelOptions` fields (``n_time``,
         ``n_blade``, ``induction``, ``interference``, ``power_convention`` (its ``power``),
         ``thrust_split``, ``spin``, ``tolerance``, ``max_evaluations``,
         ``constraint_tolerance``), applied over ``options``; and ``penalty_weight`` /
@@ -304,6 +312,20 @@ class FlightConfig:
                     f"{', '.join(map(repr, PLANFORMS))}"
                 )
             insect = insect.with_planform(planform)
+        if "rotational_coefficient" in kwargs:
+            c_r = check_real(
+                cls.name,
+                "rotational_coefficient",
+                kwargs.pop("rotational_coefficient"),
+                "",
+                0.0,
+                100.0,
+            )
+            insect = replace(
+                insect,
+                fore=replace(insect.fore, rotational_coefficient=c_r),
+                hind=replace(insect.hind, rotational_coefficient=c_r),
+            )
 
         options = kwargs.pop("options", None)
         options = ModelOptions() if options is None else options

@@ -1,0 +1,93 @@
+"""Estimate what the readings study costs at another preset, from a measured run's records.
+
+    python -m eval.studies.readings_time [--measured results/readings] [--preset paper]
+
+Reads ``DIR/readings_manifest.json`` of a finished readings run (its preset and readings, the
+derived combinations included) and every record's ``wall_time``. Per reading and task it takes
+the median seconds per model evaluation of the measured jobs; each job of ``--preset`` under
+the same readings (a job two readings share counted once) is then estimated as that rate times
+its budget. Printed: the measured and estimated job-seconds per reading, the serial total, and
+the wall time W workers need at best (jobs started largest budget first, each to the worker
+free first: :func:`eval.studies.bench_workers.makespan`). An estimate, not a measurement: the
+rates carry the measured run's machine and load, and a larger budget's later iterations cost
+what its first ones did (CMA-ES's cost per evaluation does not depend on the budget).
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from agents.fileio import read_json
+from eval.studies.base import Plan
+from eval.studies.bench_workers import makespan
+from eval.studies.presets import PRESETS, TINY, get_preset
+from eval.studies.reading import Reading
+from eval.studies.readings import MANIFEST, reading_jobs
+from eval.studies.runner import load_records
+
+WORKERS: tuple[int, ...] = (1, 2, 8, 32)
+
+
+def manifest_readings(entries: Sequence[dict]) -> list[Reading]:
+    """The readings a manifest lists (rebuilt from their changes)."""
+    out = []
+    for entry in entries:
+        changes = dict(entry["changes"])
+        c_r = changes.pop("rotational_coefficient", None)
+        horizontal = changes.pop("horizontal_objective", "horizontal")
+        out.append(
+            Reading(
+                entry["name"],
+                "as measured",
+                options=changes,
+                rotational_coefficient=c_r,
+                horizontal_objective=horizontal,
+            )
+        )
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--measured", default="results/readings", metavar="DIR")
+    parser.add_argument("--preset", choices=tuple(PRESETS), default="paper")
+    args = parser.parse_args(argv)
+    manifest = read_json(Path(args.measured) / MANIFEST)
+    presets = {**PRESETS, TINY.name: TINY}
+    measured = Plan(presets[manifest["preset"]], tuple(manifest["methods"]))
+    target = Plan(get_preset(args.preset), tuple(manifest["methods"]))
+    seen: set[str] = set()
+    durations: list[tuple[int, float]] = []
+    print(f"measured: {args.measured} ({measured.preset.name}); estimated: {args.preset}")
+    for reading in manifest_readings(manifest["readings"]):
+        jobs = list({j.key: j for j in reading_jobs(measured, reading)}.values())
+        records = load_records(args.measured, jobs)
+        per_eval = {
+            task: float(
+                np.median([records[j].wall_time / j.budget for j in jobs if j.task == task])
+            )
+            for task in sorted({j.task for j in jobs})
+        }
+        spent = sum(r.wall_time for r in records.values())
+        new = [j for j in reading_jobs(target, reading) if j.key not in seen]
+        new = list({j.key: j for j in new}.values())
+        seen.update(j.key for j in new)
+        estimate = [(j.budget, per_eval[j.task] * j.budget) for j in new]
+        durations += estimate
+        rates = ", ".join(f"{t} {1e3 * v:.2f} ms/eval" for t, v in per_eval.items())
+        print(
+            f"{reading.name:>28}: measured {spent / 60:6.1f} min of jobs ({rates}); "
+            f"{args.preset}: {len(new)} new jobs, {sum(d for _, d in estimate) / 60:6.1f} min"
+        )
+    ordered = [d for _, d in sorted(durations, key=lambda x: -x[0])]
+    total = sum(ordered)
+    cells = ", ".join(f"{w} workers {makespan(ordered, w) / 3600:.1f} h" for w in WORKERS)
+    print(f"{args.preset}: {len(ordered)} jobs, {total / 3600:.1f} h serial; at best {cells}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,197 @@
+"""The readings study: reading validation, job identity with the ``all`` suite, shared records,
+the combination rule, the CSV and a tiny end-to-end run that a rerun does not recompute."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import pytest
+
+from eval.studies import PAPER_STUDIES, claims, readings, readings_time, runner
+from eval.studies.base import Plan, StudyOutput
+from eval.studies.presets import PRESETS, TINY
+from eval.studies.reading import DEFAULT, Reading, combine
+from eval.studies.readings import ReadingResult, combinations, reading_jobs
+
+
+def _keys(jobs: list[runner.Job]) -> set[str]:
+    return {job.key for job in jobs}
+
+
+# --- readings ----------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"options": {"bogus": 1}}, r"'x'.*options = 'bogus'; allowed: .*thrust_split"),
+        ({"options": {"n_time": 64}}, r"options = 'n_time'; allowed: ModelOptions fields"),
+        ({"options": {"thrust_split": "net"}}, r"'x'.*thrust_split.*'net'.*sign"),
+        ({"options": {"interference": 3.0}}, r"'x'.*interference = 3.0; allowed: 0 to 2"),
+        ({"rotational_coefficient": -1.0}, r"rotational_coefficient = -1.0; allowed"),
+        ({"rotational_coefficient": "pi"}, r"rotational_coefficient = 'pi'; allowed"),
+        ({"horizontal_objective": "vertical"}, r"horizontal_objective = 'vertical'; allowed: "),
+        ({"description": " "}, r"description = ' '; allowed: a one-line description"),
+    ],
+)
+def test_bad_reading_names_the_value_and_what_is_allowed(kwargs: dict, match: str) -> None:
+    base = {"name": "x", "description": "a test reading"}
+    with pytest.raises(ValueError, match=match):
+        Reading(**{**base, **kwargs})
+
+
+def test_unknown_single_reading_is_named() -> None:
+    with pytest.raises(ValueError, match=r"unknown reading\(s\) 'nope'; allowed: default, body"):
+        readings.single_readings(["nope"])
+    assert readings.single_readings(["body"])[0] == DEFAULT
+
+
+def test_every_single_reading_changes_one_decision_and_builds_envs() -> None:
+    from tandem_env.envs.config import AccelerateConfig
+
+    names = [r.name for r in readings.SINGLES]
+    assert names[0] == "default" and len(set(names)) == len(names)
+    assert DEFAULT.changes() == {} and DEFAULT.env_kwargs() == {}
+    for reading in readings.SINGLES[1:]:
+        assert len(reading.changes()) == 1, reading.name
+        config = AccelerateConfig.from_kwargs(power=60.0, **reading.env_kwargs())
+        for name, value in reading.options:
+            assert getattr(config.options, name) == value
+        if reading.rotational_coefficient is not None:
+            assert config.insect.fore.rotational_coefficient == reading.rotational_coefficient
+            assert config.insect.hind.rotational_coefficient == reading.rotational_coefficient
+
+
+def test_default_reading_gives_the_all_suite_jobs_key_for_key() -> None:
+    plan = Plan(TINY)
+    suite = [job for study in PAPER_STUDIES.values() for job in study.jobs(plan)]
+    assert [j.key for j in reading_jobs(plan, DEFAULT)] == [j.key for j in suite]
+    # ... and a reading that restates the defaults is the same configuration.
+    restated = Reading("restated", "defaults spelt out", {"thrust_split": "sign", "spin": "pitch"})
+    assert _keys(reading_jobs(plan, restated)) == _keys(suite)
+
+
+def test_readings_share_records_where_the_configuration_is_the_same() -> None:
+    plan = Plan(TINY)
+    default = _keys(reading_jobs(plan, DEFAULT))
+    body = _keys(reading_jobs(plan, readings.SINGLES[1]))
+    assert not default & body  # a model option changes every job
+    # F̄_h's objective changes the horizontal accelerating jobs only.
+    literal = Reading("literal", "test", horizontal_objective="horizontal_literal")
+    jobs = reading_jobs(plan, literal)
+    changed = {j.key for j in jobs if j.env("objective") == "horizontal_literal"}
+    assert changed and not changed & default
+    assert _keys(jobs) - changed <= default
+    assert len(_keys(jobs) - changed) == len(default) - len(changed)
+    both = combine([readings.SINGLES[1], literal])
+    assert _keys(reading_jobs(plan, both)) - body == {
+        j.key for j in reading_jobs(plan, both) if j.env("objective") == "horizontal_literal"
+    }
+
+
+# --- the combination rule ----------------------------------------------------------------------
+def _result(reading: Reading, agree: int, total: int = 10) -> ReadingResult:
+    found = [
+        claims.Claim(f"C{i}", "s", "Fig. 1", "x", "x", "number", verdict=v)
+        for i, v in enumerate(["agrees"] * agree + ["differs"] * (total - agree))
+    ]
+    return ReadingResult(reading, (StudyOutput("s", "S", [], [], found),))
+
+
+def test_combinations_join_the_gainers_best_first_skipping_conflicts() -> None:
+    a = Reading("a", "t", {"thrust_split": "body"})
+    b = Reading("b", "t", {"spin": "total"})
+    c = Reading("c", "t", {"power": "elastic"})
+    c2 = Reading("c2", "t", {"thrust_split": "sign", "interference": 0.0})
+    d = Reading("d", "t", rotational_coefficient=1.0)
+    lose = Reading("lose", "t", {"interference": 2.0})
+    singles = [_result(DEFAULT, 4), _result(a, 7), _result(b, 6), _result(c, 5)]
+    singles += [_result(lose, 3), _result(d, 4), _result(c2, 5)]
+    out, words = combinations(singles[0], singles)
+    # Gainers a, b, c, c2: their best two, all four; then a with each other single (a+b and
+    # a+c2 once only), c2 and lose conflict with each other but not with a.
+    assert [r.name for r in out] == ["a+b", "a+b+c+c2", "a+c", "a+lose", "a+d", "a+c2"]
+    assert out[0].changes() == {"thrust_split": "body", "spin": "total"}
+    assert out[0].derived_from == ("a", "b")
+    assert "lose (" not in words and "d (" not in words and "a (+3)" in words
+    # A gainer that conflicts with a better one is left out of the set, and said so.
+    x = Reading("x", "t", {"interference": 0.0, "thrust_split": "body"})
+    x_conflict = Reading("x-conflict", "t", {"interference": 2.0})
+    singles = [_result(DEFAULT, 4), _result(x, 7), _result(x_conflict, 6), _result(b, 5)]
+    out, words = combinations(singles[0], singles)
+    assert [r.name for r in out] == ["x+b"]
+    assert "x-conflict (conflicts with x)" in words
+    # One gainer: paired with every other single (a loser included); none: nothing.
+    out, words = combinations(singles[0], [singles[0], singles[3], _result(lose, 2)])
+    assert [r.name for r in out] == ["b+lose"]
+    out, words = combinations(singles[0], [singles[0], _result(lose, 2)])
+    assert out == [] and "no gainer" in words
+
+
+def test_combine_refuses_conflicting_readings() -> None:
+    assert combine([Reading("a", "t", {"spin": "total"}), Reading("b", "t", {"spin": "total"})])
+    with pytest.raises(ValueError, match="conflict on interference"):
+        combine(
+            [Reading("a", "t", {"interference": 0.0}), Reading("b", "t", {"interference": 2.0})]
+        )
+
+
+def test_csv_has_one_row_per_reading_with_the_documented_columns() -> None:
+    rows = readings.csv_rows([_result(DEFAULT, 4), _result(readings.SINGLES[1], 6)])
+    assert [tuple(r) for r in rows] == [readings.CSV_COLUMNS] * 2
+    assert rows[1]["reading"] == "body" and rows[1]["thrust_split"] == "body"
+    assert (rows[1]["agree"], rows[1]["differ"], rows[1]["undecided"]) == (6, 4, 0)
+    assert rows[0]["rotational_coefficient"] == math.pi
+    assert math.isnan(rows[0]["eta_max_pct"])  # no S7 claim in the synthetic results
+
+
+# --- end to end --------------------------------------------------------------------------------
+def test_tiny_run_writes_everything_and_a_rerun_computes_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture
+) -> None:
+    from eval.__main__ import main
+
+    plan = Plan(TINY)
+    chosen = readings.single_readings(["spin-total"])
+    first = readings.run_readings(plan, tmp_path, readings=chosen, progress=False)
+    assert first.runs[0].ran == len(_keys(reading_jobs(plan, DEFAULT))) * 2
+    for name in ("readings.csv", "readings_matrix.png", "report.md", readings.MANIFEST):
+        assert (tmp_path / name).is_file(), name
+    for reading in chosen:
+        assert (tmp_path / reading.name / "report.md").is_file()
+        assert (tmp_path / reading.name / "records").resolve() == (tmp_path / "records").resolve()
+    with open(tmp_path / "readings.csv", newline="", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [r["reading"] for r in rows] == ["default", "spin-total"]
+    assert tuple(rows[0]) == readings.CSV_COLUMNS
+    n_claims = len(first.results[0].claims)
+    assert all(int(r["agree"]) + int(r["differ"]) + int(r["undecided"]) == n_claims for r in rows)
+    report = (tmp_path / "report.md").read_text(encoding="utf-8")
+    assert "## Which decision moves which claim" in report and "`spin-total`" in report
+
+    # The same study from the command line: every record is reused, the verdicts are the same.
+    calls: list[runner.Job] = []
+    monkeypatch.setattr(runner, "_harness_run", lambda job: calls.append(job))
+    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    argv = ["study", "readings", "--preset", "tiny", "--out", str(tmp_path), "--quiet"]
+    assert main([*argv, "--reading", "spin-total"]) == 0
+    out = capsys.readouterr().out
+    assert calls == []
+    for r in first.results:
+        assert f"{r.reading.name}: {r.agree} agree, {r.differ} differ" in out
+
+    # The cost estimate for another preset reads the measured records.
+    readings_time.main(["--measured", str(tmp_path), "--preset", "quick"])
+    out = capsys.readouterr().out
+    assert "spin-total" in out and "h serial" in out
+
+
+def test_cli_names_an_unknown_reading(capsys: pytest.CaptureFixture) -> None:
+    from eval.__main__ import main
+
+    with pytest.raises(SystemExit):
+        main(["study", "readings", "--reading", "nope", "--quiet"])
+    assert "unknown reading(s) 'nope'; allowed: default, body" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["study", "speed", "--reading", "body", "--quiet"])
+    assert "--reading is for the readings study only" in capsys.readouterr().err
