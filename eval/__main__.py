@@ -43,10 +43,12 @@ def build_parser(modules: Sequence[ModuleType] | None = None) -> argparse.Argume
     )
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for module in modules:
+        # A module whose help depends on what is registered builds it now: description().
+        describe = getattr(module, "description", None)
         sub = subparsers.add_parser(
             module.NAME,
             help=module.HELP,
-            description=getattr(module, "DESCRIPTION", module.HELP),
+            description=describe() if describe else getattr(module, "DESCRIPTION", module.HELP),
             epilog=getattr(module, "EPILOG", None),
             formatter_class=argparse.RawDescriptionHelpFormatter,
         )

@@ -62,7 +62,11 @@ def _tasks_text(width: int = 92) -> str:
 
 NAME = "optimize"
 HELP = "run a method (pso, random, ...) on one flight condition for several seeds"
-DESCRIPTION = f"""\
+
+
+def description() -> str:
+    """The ``--help`` description, built when the parser is (tasks registered later show up)."""
+    return f"""\
 Run one search method on one flight condition for a list of seeds. Every iteration's batch
 of strokes is evaluated through the task's batched vector env (fitness = the env's reward,
 the penalised objective); the best stroke of each seed is re-evaluated and stored as a JSON
@@ -79,6 +83,8 @@ up to the model's limits with --env-kwargs, e.g. speed_envelope=(0.1,3)):
 The budget counts model evaluations (= env steps = strokes evaluated). The seeds run here,
 one after another (default), or on Dask: --scheduler local:N starts N worker processes here,
 --scheduler tcp://HOST:PORT uses a running Dask scheduler (docs/scaling.md)."""
+
+
 EPILOG = """\
 examples:
   python -m eval optimize --task level --speed 1.5 --method pso --budget 12000 \\
