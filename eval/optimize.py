@@ -11,6 +11,8 @@ from __future__ import annotations
 import argparse
 import sys
 import textwrap
+from collections.abc import Callable
+from typing import TypeVar
 
 from agents.harness import prepare
 from agents.keyvalue import parse_pairs
@@ -97,8 +99,23 @@ examples:
       --seeds 0 1 2 3 4 5 6 7 --out results/v15 --scheduler local:2"""
 
 
+T = TypeVar("T")
+
 #: What an interrupted run says (optimize and study).
 INTERRUPTED = "the finished records are stored; the same command resumes from them"
+
+
+def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T | int:
+    """``call()``, or the exit status of how it stopped (optimize and study): 1 with the message
+    for an unreachable scheduler or failed jobs, 130 for an interrupt (records are kept)."""
+    try:
+        return call()
+    except (SchedulerUnreachable, JobsFailed) as error:
+        print(f"{parser.prog}: error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
+        return 130
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -225,16 +242,15 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         print(f"optimize: {plan.describe()} -> {store.directory}", file=sys.stderr)
     jobs = [plan.job(seed) for seed in plan.seeds]
     try:
-        summary = run_jobs(jobs, store.directory, scheduler=scheduler, progress=not args.quiet)
-    except (SchedulerUnreachable, JobsFailed) as error:
-        print(f"{parser.prog}: error: {error}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
-        return 130
+        summary = run_reporting(
+            parser,
+            lambda: run_jobs(jobs, store.directory, scheduler=scheduler, progress=not args.quiet),
+        )
     finally:
         if store.directory.exists():  # over what is stored, also after a failure
             store.write_summary()
+    if isinstance(summary, int):
+        return summary
     for record in load_records(store.directory, jobs).values():
         metrics = record.metrics
         power = metrics.get("power_per_mass")

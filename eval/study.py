@@ -8,11 +8,11 @@ import sys
 import textwrap
 
 from agents.records import RecordStore
-from eval.optimize import INTERRUPTED, add_scheduler_argument
+from eval.optimize import add_scheduler_argument, run_reporting
 from eval.studies import STUDIES, readings
 from eval.studies.base import Plan
 from eval.studies.presets import PRESETS, get_preset
-from eval.studies.runner import JobsFailed, SchedulerUnreachable, executor_spec
+from eval.studies.runner import executor_spec
 from eval.studies.suite import run_studies
 
 NAME = "study"
@@ -118,16 +118,14 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         parser.error(str(error))
     if args.study == readings.NAME:
         return _run_readings(args, parser, plan, scheduler, chosen)
-    try:
-        result = run_studies(
+    result = run_reporting(
+        parser,
+        lambda: run_studies(
             [args.study], plan, args.out, scheduler=scheduler, progress=not args.quiet
-        )
-    except (SchedulerUnreachable, JobsFailed) as error:
-        print(f"{parser.prog}: error: {error}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
-        return 130
+        ),
+    )
+    if isinstance(result, int):
+        return result
     run = result.run
     print(
         f"{run.total} optimisations: {run.ran} run, {run.reused} reused from {args.out} "
@@ -151,16 +149,14 @@ def _run_readings(
     scheduler: str | None,
     chosen: tuple[readings.Reading, ...],
 ) -> int:
-    try:
-        result = readings.run_readings(
+    result = run_reporting(
+        parser,
+        lambda: readings.run_readings(
             plan, args.out, readings=chosen, scheduler=scheduler, progress=not args.quiet
-        )
-    except (SchedulerUnreachable, JobsFailed) as error:
-        print(f"{parser.prog}: error: {error}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
-        return 130
+        ),
+    )
+    if isinstance(result, int):
+        return result
     for k, run in enumerate(result.runs):
         phase = "singles" if k == 0 else "combinations"
         print(
