@@ -65,6 +65,11 @@ def _cell(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
 
+def _row(cells: Sequence[str]) -> str:
+    """One Markdown table row, each cell escaped."""
+    return "| " + " | ".join(_cell(x) for x in cells) + " |"
+
+
 def claims_table(claims: Sequence[Claim]) -> str:
     """The paper-vs-ours Markdown table, one row per claim."""
     lines = [
@@ -73,10 +78,8 @@ def claims_table(claims: Sequence[Claim]) -> str:
     ]
     for c in claims:
         lines.append(
-            "| "
-            + " | ".join(
-                _cell(x)
-                for x in (
+            _row(
+                (
                     c.id,
                     c.figure,
                     c.statement,
@@ -87,7 +90,6 @@ def claims_table(claims: Sequence[Claim]) -> str:
                     c.verdict,
                 )
             )
-            + " |"
         )
     return "\n".join(lines)
 
@@ -250,10 +252,8 @@ def render_readings(
     for r in results:
         head = r.headline()
         parts.append(
-            "| "
-            + " | ".join(
-                _cell(x)
-                for x in (
+            _row(
+                (
                     f"`{r.reading.name}`",
                     r.reading.describe_changes(),
                     str(r.agree),
@@ -262,7 +262,6 @@ def render_readings(
                     *(_num(head[k]) for k in heads),
                 )
             )
-            + " |"
         )
     parts += [
         "",
@@ -301,17 +300,14 @@ def render_readings(
         head = r.headline()
         moves = reading_moves(default, r)
         parts.append(
-            "| "
-            + " | ".join(
-                _cell(x)
-                for x in (
+            _row(
+                (
                     f"`{r.reading.name}`",
                     "; ".join(moves) or "none",
                     f"{r.agree - default.agree:+d}",
                     *(_delta(head[k] - base_head[k]) for k in heads),
                 )
             )
-            + " |"
         )
     parts += [
         "",
