@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 from agents.fileio import write_text_atomic
 from eval.studies.base import Plan, StudyOutput
-from eval.studies.claims import RULES, Claim
+from eval.studies.claims import RULES, Claim, VerdictCount
 
 if TYPE_CHECKING:
     from eval.studies.readings import ReadingResult
@@ -123,8 +123,7 @@ def render(
     plan: Plan, outputs: Sequence[StudyOutput], all_studies: Sequence[str], base: Path
 ) -> str:
     claims = [c for o in outputs for c in o.claims]
-    decided = [c for c in claims if c.verdict in ("agrees", "differs")]
-    agree = sum(c.verdict == "agrees" for c in decided)
+    counts = VerdictCount.of(claims)
     parts = [
         '# Reproduction report: Faisal & Filippone, "Aerodynamic Model for Tandem Flapping Wings"',
         "",
@@ -136,7 +135,7 @@ def render(
         "",
         "## Paper vs ours",
         "",
-        f"{agree} of {len(decided)} decided claims agree ({len(claims) - len(decided)} without data).",
+        f"{counts.agree} of {counts.decided} decided claims agree ({counts.undecided} without data).",
         "",
         claims_table(claims),
         "",

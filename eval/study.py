@@ -11,6 +11,7 @@ from agents.records import RecordStore
 from eval.optimize import add_scheduler_argument, run_reporting
 from eval.studies import STUDIES, readings
 from eval.studies.base import Plan
+from eval.studies.claims import VerdictCount
 from eval.studies.presets import PRESETS, get_preset
 from eval.studies.runner import executor_spec
 from eval.studies.suite import run_studies
@@ -133,9 +134,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         file=sys.stderr,
     )
     for output in result.outputs:
-        decided = [c for c in output.claims if c.verdict in ("agrees", "differs")]
-        agree = sum(c.verdict == "agrees" for c in decided)
-        claims = f", {agree}/{len(decided)} claims agree" if output.claims else ""
+        counts = VerdictCount.of(output.claims)
+        claims = f", {counts.agree}/{counts.decided} claims agree" if output.claims else ""
         print(f"{output.name}: {len(output.rows)} records, {len(output.figures)} figures{claims}")
     if result.report is not None:
         print(f"report: {result.report}")

@@ -21,7 +21,7 @@ the best objective), i.e. what a "take the best of N runs" protocol, like the pa
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -96,6 +96,25 @@ def _fmt(value: float) -> str:
 def claim_id(base: str, method_index: int, method: str) -> str:
     """A claim's id: ``base`` for the first method of a study, ``base/method`` for the others."""
     return base if method_index == 0 else f"{base}/{method}"
+
+
+@dataclass(frozen=True)
+class VerdictCount:
+    """How many of some claims agree, differ, or have no verdict (no data)."""
+
+    agree: int
+    differ: int
+    undecided: int
+
+    @property
+    def decided(self) -> int:
+        return self.agree + self.differ
+
+    @classmethod
+    def of(cls, claims: Iterable[Claim]) -> VerdictCount:
+        verdicts = [c.verdict for c in claims]
+        agree, differ = verdicts.count("agrees"), verdicts.count("differs")
+        return cls(agree, differ, len(verdicts) - agree - differ)
 
 
 def verdict(ok: bool | None) -> Verdict:

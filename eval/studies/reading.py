@@ -117,6 +117,27 @@ class Reading:
             out["horizontal_objective"] = self.horizontal_objective
         return out
 
+    @classmethod
+    def from_changes(
+        cls,
+        name: str,
+        description: str,
+        changes: Mapping[str, Any],
+        derived_from: tuple[str, ...] = (),
+    ) -> Reading:
+        """The reading whose :meth:`changes` are ``changes`` (the inverse of that method)."""
+        options = dict(changes)
+        c_r = options.pop("rotational_coefficient", None)
+        horizontal = options.pop("horizontal_objective", "horizontal")
+        return cls(
+            name,
+            description,
+            options=tuple(options.items()),
+            rotational_coefficient=c_r,
+            horizontal_objective=horizontal,
+            derived_from=derived_from,
+        )
+
     def env_kwargs(self) -> dict[str, Any]:
         """The env keywords of this reading's model (``gym.make`` names): only the options
         that differ from the defaults, so a reading that restates a default has the default's
@@ -173,14 +194,10 @@ def combine(readings: tuple[Reading, ...] | list[Reading], name: str | None = No
                     f"{merged[key]!r} vs {value!r}"
                 )
             merged[key] = value
-    c_r = merged.pop("rotational_coefficient", None)
-    horizontal = merged.pop("horizontal_objective", "horizontal")
     names = tuple(r.name for r in readings)
-    return Reading(
+    return Reading.from_changes(
         name or " + ".join(names),
         "combination of " + "; ".join(r.description for r in readings),
-        options=tuple(merged.items()),
-        rotational_coefficient=c_r,
-        horizontal_objective=horizontal,
+        merged,
         derived_from=names,
     )

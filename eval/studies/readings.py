@@ -36,7 +36,7 @@ from agents.fileio import read_json, write_csv_atomic, write_json_atomic
 from eval import report
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import Plan, StudyOutput
-from eval.studies.claims import Claim
+from eval.studies.claims import Claim, VerdictCount
 from eval.studies.reading import DECISION_OPTIONS, DEFAULT, Reading, combine
 from eval.studies.readings_figure import matrix_figure
 from eval.studies.runner import RECORDS_DIR, Job, RunSummary, load_records, run_jobs
@@ -143,20 +143,17 @@ class ReadingResult:
     def claims(self) -> list[Claim]:
         return [c for o in self.outputs for c in o.claims]
 
-    def count(self, verdict: str) -> int:
-        return sum(c.verdict == verdict for c in self.claims)
-
     @property
     def agree(self) -> int:
-        return self.count("agrees")
+        return VerdictCount.of(self.claims).agree
 
     @property
     def differ(self) -> int:
-        return self.count("differs")
+        return VerdictCount.of(self.claims).differ
 
     @property
     def undecided(self) -> int:
-        return len(self.claims) - self.agree - self.differ
+        return VerdictCount.of(self.claims).undecided
 
     def verdicts(self) -> dict[str, str]:
         return {c.id: c.verdict for c in self.claims}
@@ -390,16 +387,7 @@ def run_readings(
                 for r in results
             ],
             "combination_rule": words,
-            "phases": [
-                {
-                    "jobs": s.total,
-                    "ran": s.ran,
-                    "reused": s.reused,
-                    "executor": s.executor,
-                    "wall_time_s": round(s.wall_time, 1),
-                }
-                for s in runs
-            ],
+            "phases": [s.to_dict() for s in runs],
             "wall_time_s": round(wall, 1),
         },
     )

@@ -34,21 +34,7 @@ WORKERS: tuple[int, ...] = (1, 2, 8, 32)
 
 def manifest_readings(entries: Sequence[dict]) -> list[Reading]:
     """The readings a manifest lists (rebuilt from their changes)."""
-    out = []
-    for entry in entries:
-        changes = dict(entry["changes"])
-        c_r = changes.pop("rotational_coefficient", None)
-        horizontal = changes.pop("horizontal_objective", "horizontal")
-        out.append(
-            Reading(
-                entry["name"],
-                "as measured",
-                options=changes,
-                rotational_coefficient=c_r,
-                horizontal_objective=horizontal,
-            )
-        )
-    return out
+    return [Reading.from_changes(e["name"], "as measured", e["changes"]) for e in entries]
 
 
 def main(argv: Sequence[str] | None = None) -> None:

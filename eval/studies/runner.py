@@ -151,6 +151,16 @@ class RunSummary:
     failures: tuple[JobFailure, ...] = field(default=())
     """Jobs that raised."""
 
+    def to_dict(self) -> dict[str, Any]:
+        """The run as the manifests record it."""
+        return {
+            "jobs": self.total,
+            "ran": self.ran,
+            "reused": self.reused,
+            "executor": self.executor,
+            "wall_time_s": round(self.wall_time, 1),
+        }
+
 
 class JobsFailed(RuntimeError):
     """Some jobs raised; the others finished and their records are stored."""

@@ -93,11 +93,8 @@ def run_studies(
                 "jobs": sorted({j.key for n in done for j in STUDIES[n].jobs(plan)}),
                 "last_run": {
                     "studies": [s.NAME for s in studies],
-                    "jobs": summary.total,
-                    "ran": summary.ran,
-                    "reused": summary.reused,
-                    "executor": summary.executor,
-                    "wall_time_s": round(wall, 1),
+                    **summary.to_dict(),
+                    "wall_time_s": round(wall, 1),  # the whole call's, analysis included
                 },
             },
         )
