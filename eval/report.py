@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 from agents.fileio import write_text_atomic
 from eval.studies.base import Plan, StudyOutput
-from eval.studies.claims import RULES, Claim, VerdictCount
+from eval.studies.claims import CONFIDENCE_RULE, RULES, Claim, VerdictCount
 
 if TYPE_CHECKING:
     from eval.studies.readings import ReadingResult
@@ -73,8 +73,9 @@ def _row(cells: Sequence[str]) -> str:
 def claims_table(claims: Sequence[Claim]) -> str:
     """The paper-vs-ours Markdown table, one row per claim."""
     lines = [
-        "| id | figure | claim | paper | ours: median [IQR] | best seed | rule | verdict |",
-        "|---|---|---|---|---|---|---|---|",
+        "| id | figure | claim | paper | ours: median [IQR] | best seed | rule | "
+        "verdict: median | verdict: best seed |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for c in claims:
         lines.append(
@@ -87,11 +88,36 @@ def claims_table(claims: Sequence[Claim]) -> str:
                     c.ours(),
                     c.best_text(),
                     c.rule,
-                    c.verdict,
+                    c.verdict_text(),
+                    c.verdict_text(best=True),
                 )
             )
         )
     return "\n".join(lines)
+
+
+def verdict_summary(claims: Sequence[Claim]) -> list[str]:
+    """The counts of the verdicts on the median and on the best seed, and the undecided
+    claims by id (Markdown lines)."""
+    lines = []
+    for best, name in ((False, "the median"), (True, "the best seed")):
+        counts = VerdictCount.of(claims, best=best)
+        undecided = [c.id for c in claims if (c.best_verdict if best else c.verdict) == "undecided"]
+        lines.append(
+            f"- on {name}: {counts.agree} of {counts.decided} decided claims agree; "
+            f"{counts.undecided} undecided"
+            + (f" ({', '.join(undecided)})" if undecided else "")
+            + f", {counts.no_data} without data"
+        )
+    return lines
+
+
+def agreement_rules() -> list[str]:
+    """The agreement rules and the confidence rule (Markdown lines)."""
+    return [
+        *[f"- `{name}`: {text}" for name, text in RULES.items()],
+        f"- confidence: {CONFIDENCE_RULE}.",
+    ]
 
 
 def _settings(plan: Plan) -> list[str]:
@@ -123,7 +149,6 @@ def render(
     plan: Plan, outputs: Sequence[StudyOutput], all_studies: Sequence[str], base: Path
 ) -> str:
     claims = [c for o in outputs for c in o.claims]
-    counts = VerdictCount.of(claims)
     parts = [
         '# Reproduction report: Faisal & Filippone, "Aerodynamic Model for Tandem Flapping Wings"',
         "",
@@ -131,11 +156,11 @@ def render(
         "",
         "## Agreement rules",
         "",
-        *[f"- `{name}`: {text}" for name, text in RULES.items()],
+        *agreement_rules(),
         "",
         "## Paper vs ours",
         "",
-        f"{counts.agree} of {counts.decided} decided claims agree ({counts.undecided} without data).",
+        *verdict_summary(claims),
         "",
         claims_table(claims),
         "",
@@ -243,10 +268,10 @@ def render_readings(
         "",
         "## Readings",
         "",
-        "| reading | changes from the default | agree | differ | no data | "
+        "| reading | changes from the default | agree | differ | undecided | no data | "
         + " | ".join(f"{k}" for k in heads)
         + " |",
-        "|---|---|---|---|---|" + "---|" * len(heads),
+        "|---|---|---|---|---|---|" + "---|" * len(heads),
     ]
     for r in results:
         head = r.headline()
@@ -258,6 +283,7 @@ def render_readings(
                     str(r.agree),
                     str(r.differ),
                     str(r.undecided),
+                    str(r.no_data),
                     *(_num(head[k]) for k in heads),
                 )
             )
@@ -278,7 +304,8 @@ def render_readings(
             if r.agree == best.agree and r is not best
         )
         + f": {best.agree} of {n_claims} claims agree "
-        f"({best.differ} differ, {best.undecided} without data); the default: "
+        f"({best.differ} differ, {best.undecided} undecided, {best.no_data} without data); "
+        "the default: "
         f"{default.agree}. Goal: {READINGS_GOAL} or more of {n_claims}"
         + (" (reached)." if best.agree >= READINGS_GOAL else " (not reached)."),
         "",
@@ -286,8 +313,9 @@ def render_readings(
         "",
         "## Which decision moves which claim",
         "",
-        "Claims whose verdict differs from the default's (+ now agrees, − no longer agrees, "
-        "· to or from no data), with our statistic under the default → under the reading. "
+        "Claims whose verdict (on the median) differs from the default's (+ now agrees, − no "
+        "longer agrees, · between differs, undecided and no data), with our statistic under the "
+        "default → under the reading. "
         "`*` marks a flip where both medians lie inside the other's inter-quartile range over "
         "seeds: within the seed-to-seed spread, i.e. possibly search noise.",
         "",
@@ -328,7 +356,7 @@ def render_readings(
         "",
         "## Agreement rules",
         "",
-        *[f"- `{name}`: {text}" for name, text in RULES.items()],
+        *agreement_rules(),
         "",
     ]
     return "\n".join(parts)

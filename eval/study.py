@@ -134,8 +134,12 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         file=sys.stderr,
     )
     for output in result.outputs:
-        counts = VerdictCount.of(output.claims)
-        claims = f", {counts.agree}/{counts.decided} claims agree" if output.claims else ""
+        claims = (
+            f"; claims on the median: {VerdictCount.of(output.claims).text()}; on the best "
+            f"seed: {VerdictCount.of(output.claims, best=True).text()}"
+            if output.claims
+            else ""
+        )
         print(f"{output.name}: {len(output.rows)} records, {len(output.figures)} figures{claims}")
     if result.report is not None:
         print(f"report: {result.report}")
@@ -165,7 +169,7 @@ def _run_readings(
             file=sys.stderr,
         )
     for r in result.results:
-        print(f"{r.reading.name}: {r.agree} agree, {r.differ} differ, {r.undecided} no data")
+        print(f"{r.reading.name}: {VerdictCount.of(r.claims).text()}")
     print(f"best: {result.best.reading.name} ({result.best.agree} claims agree)")
     print(f"combinations: {result.combination_rule}")
     print(f"report: {result.files[-1]}; total {result.wall_time:.1f} s")

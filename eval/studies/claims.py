@@ -16,13 +16,18 @@ Agreement rules (stated in every report):
 
 "best" is the same statistic computed from the best seed of each condition (the seed with
 the best objective), i.e. what a "take the best of N runs" protocol, like the paper's, gives.
+Every claim is judged on both, by the same rule.
+
+Confidence (:data:`CONFIDENCE_RULE`, :func:`with_confidence`): each verdict is recomputed on
+bootstrap resamples of the seeds; one that flips in more than :data:`FLIP_THRESHOLD` of them
+is *undecided*: the seeds run do not decide it.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -30,7 +35,7 @@ from scipy.stats import spearmanr
 
 from eval.studies.tables import Spread
 
-Verdict = Literal["agrees", "differs", "not run", "no data"]
+Verdict = Literal["agrees", "differs", "undecided", "not run", "no data"]
 Rule = Literal["number", "range", "trend", "follows", "location", "angle", "phase", "compare"]
 
 RELATIVE_TOLERANCE = 0.20
@@ -38,6 +43,21 @@ TREND_RHO = 0.5
 LOCATION_TOLERANCE = 0.25  # m/s, one step of the paper's sweep
 ANGLE_TOLERANCE = 15.0  # deg
 IN_PHASE = 15.0  # deg
+
+#: Bootstrap behind every verdict's confidence: resamples of the seeds, the share of them in
+#: which a verdict may flip before it is undecided, and the fixed RNG seed (same records, same
+#: verdicts).
+BOOTSTRAP_RESAMPLES = 200
+FLIP_THRESHOLD = 0.20
+BOOTSTRAP_SEED = 0
+CONFIDENCE_RULE = (
+    f"each verdict (on the median and on the best seed) is recomputed on {BOOTSTRAP_RESAMPLES} "
+    "bootstrap resamples of the seeds (at every condition its seeds drawn with replacement, a "
+    "seed's vertical and horizontal optimisations together; fixed RNG seed, so the same records "
+    f"give the same verdicts); a verdict that flips in more than {100 * FLIP_THRESHOLD:.0f} % of "
+    "the resamples is **undecided** (the seeds run do not decide it) and counted apart; each "
+    "verdict shows the share of resamples that flip it"
+)
 
 RULES: dict[str, str] = {
     "number": "median within ±20 % of the paper",
@@ -72,10 +92,33 @@ class Claim:
     """The same statistic from each condition's best seed."""
     unit: str = ""
     verdict: Verdict = "no data"
+    """On the median, after the bootstrap (:func:`decide`)."""
+    best_verdict: Verdict = "no data"
+    """On the best seed, after the bootstrap."""
+    leaning: Verdict | None = None
+    """The median's verdict on the seeds as run (None: the same as ``verdict``)."""
+    best_leaning: Verdict | None = None
+    flips: float = math.nan
+    """Share of bootstrap resamples in which the median's verdict differs from ``leaning``
+    (NaN: not resampled)."""
+    best_flips: float = math.nan
     detail: str = ""
     """Extra numbers behind the verdict (e.g. the monotonic fraction, n feasible)."""
     note: str = ""
     """Why a difference is understood, when it is."""
+
+    def __post_init__(self) -> None:
+        if self.leaning is None:
+            object.__setattr__(self, "leaning", self.verdict)
+        if self.best_leaning is None:
+            object.__setattr__(self, "best_leaning", self.best_verdict)
+
+    def verdict_text(self, best: bool = False) -> str:
+        """The verdict with its confidence, e.g. ``agrees (flips 4 %)`` or
+        ``undecided (leans differs, flips 35 %)``."""
+        if best:
+            return _judgement_text(self.best_verdict, self.best_leaning, self.best_flips)
+        return _judgement_text(self.verdict, self.leaning, self.flips)
 
     def ours(self) -> str:
         if math.isnan(self.median):
@@ -93,6 +136,23 @@ def _fmt(value: float) -> str:
     return f"{value:.3g}"
 
 
+def _judgement_text(verdict: Verdict, leaning: Verdict | None, flips: float) -> str:
+    if math.isnan(flips):
+        return verdict
+    share = f"flips {100.0 * flips:.0f} %"
+    if verdict == "undecided":
+        return f"undecided (leans {leaning}, {share})"
+    return f"{verdict} ({share})"
+
+
+def decide(leaning: Verdict, flips: float) -> Verdict:
+    """The confidence rule: a decided verdict that flips in more than :data:`FLIP_THRESHOLD`
+    of the resamples is ``"undecided"``; any other stays as it is."""
+    if leaning in ("agrees", "differs") and flips > FLIP_THRESHOLD:
+        return "undecided"
+    return leaning
+
+
 def claim_id(base: str, method_index: int, method: str) -> str:
     """A claim's id: ``base`` for the first method of a study, ``base/method`` for the others."""
     return base if method_index == 0 else f"{base}/{method}"
@@ -100,30 +160,45 @@ def claim_id(base: str, method_index: int, method: str) -> str:
 
 @dataclass(frozen=True)
 class VerdictCount:
-    """How many of some claims agree, differ, or have no verdict (no data)."""
+    """How many of some claims agree, differ, are undecided (the bootstrap flips them) or
+    have no verdict (no data, not run)."""
 
     agree: int
     differ: int
     undecided: int
+    no_data: int
 
     @property
     def decided(self) -> int:
         return self.agree + self.differ
 
     @classmethod
-    def of(cls, claims: Iterable[Claim]) -> VerdictCount:
-        verdicts = [c.verdict for c in claims]
+    def of(cls, claims: Iterable[Claim], best: bool = False) -> VerdictCount:
+        """Counts of the verdicts on the median (on the best seed if ``best``)."""
+        verdicts = [c.best_verdict if best else c.verdict for c in claims]
         agree, differ = verdicts.count("agrees"), verdicts.count("differs")
-        return cls(agree, differ, len(verdicts) - agree - differ)
+        undecided = verdicts.count("undecided")
+        return cls(agree, differ, undecided, len(verdicts) - agree - differ - undecided)
+
+    def text(self) -> str:
+        """``3 agree, 2 differ, 4 undecided, 1 no data``."""
+        return (
+            f"{self.agree} agree, {self.differ} differ, {self.undecided} undecided, "
+            f"{self.no_data} no data"
+        )
 
 
 def verdict(ok: bool | None) -> Verdict:
     return "no data" if ok is None else ("agrees" if ok else "differs")
 
 
-def judge(value: float, test: Callable[[float], Any]) -> bool | None:
-    """``test(value)`` as the agreement, None (no data) for a NaN value."""
-    return None if math.isnan(value) else bool(test(value))
+def judge(value: float, test: Callable[[float], Any] | None) -> bool | None:
+    """``test(value)`` as the agreement, None (no data) for a NaN value, no test or a test
+    that answers None."""
+    if test is None or math.isnan(value):
+        return None
+    ok = test(value)
+    return None if ok is None else bool(ok)
 
 
 def spread_fields(s: Spread) -> dict[str, float]:
@@ -193,8 +268,18 @@ def trend(series: Mapping[float, Spread], direction: int) -> tuple[float, float,
     bests = [s.best for s in series.values()]
     r, r_best = rho(x, medians), rho(x, bests)
     frac = monotonic_fraction(x, medians, direction)
-    ok = None if math.isnan(r) else direction * r >= TREND_RHO
+    ok = judge(r, trend_test(direction))
     return r, r_best, ok, f"monotonic fraction {frac:.2f}" if not math.isnan(frac) else ""
+
+
+def trend_test(direction: int) -> Callable[[float], bool]:
+    """``trend``: ρ ≥ 0.5 in ``direction`` (+1 rises, −1 falls)."""
+    return lambda r: direction * r >= TREND_RHO
+
+
+def location_test(paper: float) -> Callable[[float], bool]:
+    """``location``: within one sweep step of the paper's condition."""
+    return lambda at: abs(at - paper) <= LOCATION_TOLERANCE + 1e-9
 
 
 def location(
@@ -210,15 +295,15 @@ def location(
 
     at = where([s.median for s in series.values()])
     at_best = where([s.best for s in series.values()])
-    ok = None if math.isnan(at) else abs(at - paper) <= LOCATION_TOLERANCE + 1e-9
-    return at, at_best, ok
+    return at, at_best, judge(at, location_test(paper))
 
 
-# --- claim builders: a row's rule, statistics and agreement as ClaimBuilder.claim's arguments --
+# --- claim builders: a row's rule, statistics and test as ClaimBuilder.claim's arguments ------
 @dataclass(frozen=True)
 class ClaimBuilder:
     """Builds one study's claims for one method: the id gets the method's suffix
-    (:func:`claim_id`) and the verdict comes from the rule's agreement ``ok`` (None: no data)."""
+    (:func:`claim_id`); the verdicts on the median and on the best seed come from one ``test``
+    of the rule applied to each (None, NaN or no test: no data)."""
 
     study: str
     method: str
@@ -233,11 +318,13 @@ class ClaimBuilder:
         paper: str,
         *,
         rule: Rule,
-        ok: bool | None = None,
+        test: Callable[[float], Any] | None = None,
         **fields: Any,
     ) -> Claim:
-        """One row; ``fields`` are the other :class:`Claim` fields. The ``*_row`` functions
-        below give a rule's arguments, e.g. ``claim(..., **trend_row(series, +1))``."""
+        """One row; ``fields`` are the other :class:`Claim` fields (``median`` and ``best``
+        are what ``test`` judges). The ``*_row`` functions below give a rule's arguments,
+        e.g. ``claim(..., **trend_row(series, +1))``."""
+        median, best = fields.get("median", math.nan), fields.get("best", math.nan)
         return Claim(
             id=claim_id(cid, self.index, self.method),
             study=self.study,
@@ -245,38 +332,135 @@ class ClaimBuilder:
             statement=statement,
             paper=paper,
             rule=rule,
-            verdict=verdict(ok),
+            verdict=verdict(judge(median, test)),
+            best_verdict=verdict(judge(best, test)),
             **fields,
         )
 
 
 def trend_row(series: Mapping[float, Spread], direction: int, **fields: Any) -> dict[str, Any]:
     """``trend``: ρ between the condition and the medians (and the best seeds)."""
-    r, r_best, ok, detail = trend(series, direction)
-    return dict(rule="trend", ok=ok, median=r, best=r_best, unit="(ρ)", detail=detail, **fields)
+    r, r_best, _, detail = trend(series, direction)
+    test = trend_test(direction)
+    return dict(rule="trend", test=test, median=r, best=r_best, unit="(ρ)", detail=detail, **fields)
 
 
 def location_row(
     series: Mapping[float, Spread], paper: float, kind: Literal["min", "max"], **fields: Any
 ) -> dict[str, Any]:
     """``location``: the speed [m/s] of the extremum of the medians (and the best seeds)."""
-    at, at_best, ok = location(series, paper, kind)
-    return dict(rule="location", ok=ok, median=at, best=at_best, unit="m/s", **fields)
+    at, at_best, _ = location(series, paper, kind)
+    test = location_test(paper)
+    return dict(rule="location", test=test, median=at, best=at_best, unit="m/s", **fields)
 
 
-def spread_row(rule: Rule, s: Spread, ok: bool | None, **fields: Any) -> dict[str, Any]:
-    """A row of one spread over seeds: its median, quartiles and best seed, and how many seeds
-    were feasible as the detail (``fields`` override any of these)."""
-    return {"rule": rule, "ok": ok, **spread_fields(s), "detail": seeds_feasible(s), **fields}
+def spread_row(
+    rule: Rule, s: Spread, test: Callable[[float], Any], **fields: Any
+) -> dict[str, Any]:
+    """A row of one spread over seeds: its median, quartiles and best seed (``test`` judges
+    the median and the best), and how many seeds were feasible as the detail (``fields``
+    override any of these)."""
+    return {"rule": rule, "test": test, **spread_fields(s), "detail": seeds_feasible(s), **fields}
 
 
 def number_row(s: Spread, paper: float, **fields: Any) -> dict[str, Any]:
     """``number``: the spread's median against the paper's number (see :func:`spread_row`)."""
-    return spread_row("number", s, number(s, paper), **fields)
+    return spread_row("number", s, lambda v: close(v, paper), **fields)
 
 
 def compare_row(
     median: float, best: float, holds: Callable[[float], Any], **fields: Any
 ) -> dict[str, Any]:
-    """``compare``: the claimed order ``holds(median)`` between medians."""
-    return dict(rule="compare", ok=judge(median, holds), median=median, best=best, **fields)
+    """``compare``: the claimed order ``holds(median)`` between medians (and between the best
+    seeds)."""
+    return dict(rule="compare", test=holds, median=median, best=best, **fields)
+
+
+# --- confidence: the bootstrap over seeds ------------------------------------------------------
+Rows = list[dict[str, Any]]
+
+
+def _strata(rows: Sequence[Mapping[str, Any]]) -> list[tuple[list[int], dict[int, list[dict]]]]:
+    """The rows grouped by what a seed is drawn within: one condition of one series
+    (method, task, planform; the objectives together, so a seed's vertical and horizontal
+    optimisations stay paired), each as (its seeds, {seed: rows}), in a fixed order."""
+    groups: dict[tuple[str, ...], dict[int, list[dict]]] = {}
+    for row in rows:
+        key = tuple(str(row.get(k)) for k in ("method", "task", "planform", "condition"))
+        groups.setdefault(key, {}).setdefault(int(row["seed"]), []).append(dict(row))
+    return [(sorted(groups[k]), groups[k]) for k in sorted(groups)]
+
+
+def resample(
+    strata: Sequence[tuple[list[int], Mapping[int, list[dict]]]], rng: np.random.Generator
+) -> Rows:
+    """One bootstrap resample: at every condition as many seeds as it has, drawn with
+    replacement; the k-th draw's rows get seed k (a seed drawn twice counts twice)."""
+    out: Rows = []
+    for seeds, by_seed in strata:
+        for k, i in enumerate(rng.integers(0, len(seeds), size=len(seeds))):
+            out += [{**row, "seed": k} for row in by_seed[seeds[i]]]
+    return out
+
+
+def with_confidence(
+    claims_of: Callable[[Rows], list[Claim]],
+    rows: Sequence[Mapping[str, Any]],
+    resamples: int = BOOTSTRAP_RESAMPLES,
+    seed: int = BOOTSTRAP_SEED,
+) -> list[Claim]:
+    """``claims_of(rows)`` with each verdict's confidence (:data:`CONFIDENCE_RULE`).
+
+    ``claims_of`` builds claims from tidy rows (one per seed and optimisation); it is rerun on
+    ``resamples`` bootstrap resamples of the seeds (:func:`resample`, RNG seeded by ``seed``,
+    so the result is deterministic). A claim missing from a resample counts as flipped.
+    """
+    claims = claims_of([dict(r) for r in rows])
+    if not claims or resamples <= 0:
+        return claims
+    strata = _strata(rows)
+    rng = np.random.default_rng(seed)
+    flips = {c.id: np.zeros(2) for c in claims}
+    for _ in range(resamples):
+        again = {c.id: c for c in claims_of(resample(strata, rng))}
+        for c in claims:
+            other = again.get(c.id)
+            if other is None:
+                flips[c.id] += 1.0
+            else:
+                flips[c.id] += (other.verdict != c.verdict, other.best_verdict != c.best_verdict)
+    out = []
+    for c in claims:
+        median_flips, best_flips = flips[c.id] / resamples
+        if c.verdict in ("no data", "not run"):
+            median_flips = math.nan
+        if c.best_verdict in ("no data", "not run"):
+            best_flips = math.nan
+        out.append(
+            replace(
+                c,
+                verdict=decide(c.verdict, median_flips),
+                best_verdict=decide(c.best_verdict, best_flips),
+                leaning=c.verdict,
+                best_leaning=c.best_verdict,
+                flips=float(median_flips),
+                best_flips=float(best_flips),
+            )
+        )
+    return out
+
+
+def study_claims(
+    rows: Sequence[Mapping[str, Any]],
+    methods: Sequence[str],
+    claims_of: Callable[[Rows, str, int], list[Claim]],
+) -> list[Claim]:
+    """Every method's claims (``claims_of(rows, method, index)``) with their confidence, each
+    method's bootstrap over its own rows."""
+    return [
+        c
+        for i, m in enumerate(methods)
+        for c in with_confidence(
+            lambda r, m=m, i=i: claims_of(r, m, i), [r for r in rows if r["method"] == m]
+        )
+    ]

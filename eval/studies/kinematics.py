@@ -191,7 +191,7 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
             ),
         ),
     ]
-    found = [c for i, m in enumerate(plan.methods) for c in _claims(plan, rows, m, i)]
+    found = C.study_claims(rows, plan.methods, lambda r, m, i: _claims(plan, r, m, i))
     return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
@@ -223,7 +223,7 @@ def _claims(plan: Plan, rows: list[dict[str, Any]], method: str, index: int) -> 
             "Fig. 11a",
             f"level flight ({level_at}): fore- and hind-wing flap out of phase (|ΔΦ|)",
             "out of phase",
-            **C.spread_row("phase", lv_abs, C.phase(lv_abs.median, in_phase=False), unit="deg"),
+            **C.spread_row("phase", lv_abs, lambda v: C.phase(v, in_phase=False), unit="deg"),
         ),
         make.claim(
             "K2",
@@ -231,7 +231,7 @@ def _claims(plan: Plan, rows: list[dict[str, Any]], method: str, index: int) -> 
             f"at {p.phase_speed:g} m/s the hind-wing leads by about 30° (ΔΦ)",
             "+30°",
             **C.spread_row(
-                "angle", lead, C.angle(lead.median, PAPER_PHASE_LEAD), unit="deg", note=noisy
+                "angle", lead, lambda v: C.angle(v, PAPER_PHASE_LEAD), unit="deg", note=noisy
             ),
         ),
         make.claim(
@@ -239,7 +239,7 @@ def _claims(plan: Plan, rows: list[dict[str, Any]], method: str, index: int) -> 
             "Fig. 11b",
             f"accelerating flight ({accel_at}): the wings flap in phase (|ΔΦ|)",
             "in phase",
-            **C.spread_row("phase", ac_abs, C.phase(ac_abs.median, in_phase=True), unit="deg"),
+            **C.spread_row("phase", ac_abs, lambda v: C.phase(v, in_phase=True), unit="deg"),
         ),
         make.claim(
             "K4",

@@ -152,7 +152,7 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
             ),
         ),
     ]
-    found = [c for i, m in enumerate(plan.methods) for c in _claims(rows, m, i, h_obj)]
+    found = C.study_claims(rows, plan.methods, lambda r, m, i: _claims(r, m, i, h_obj))
     return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
@@ -221,7 +221,7 @@ def _ratio_claim(
             "F̄_v exceeds F̄_h by 10-20 % (median over powers; IQR over powers)",
             "10-20 %",
             rule="range",
-            ok=C.in_range(float(med), *PAPER_RATIO),
+            test=lambda v: C.in_range(v, *PAPER_RATIO),
             median=float(med),
             q25=float(q25),
             q75=float(q75),

@@ -127,6 +127,7 @@ CSV_COLUMNS: tuple[str, ...] = (
     "agree",
     "differ",
     "undecided",
+    "no_data",
     *HEADLINES,
     "description",
 )
@@ -153,7 +154,12 @@ class ReadingResult:
 
     @property
     def undecided(self) -> int:
+        """Claims whose verdict on the median the bootstrap over seeds leaves undecided."""
         return VerdictCount.of(self.claims).undecided
+
+    @property
+    def no_data(self) -> int:
+        return VerdictCount.of(self.claims).no_data
 
     def verdicts(self) -> dict[str, str]:
         return {c.id: c.verdict for c in self.claims}
@@ -410,6 +416,7 @@ def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
             "agree": r.agree,
             "differ": r.differ,
             "undecided": r.undecided,
+            "no_data": r.no_data,
             **{k: _round(v) for k, v in r.headline().items()},
             "description": r.reading.description,
         }

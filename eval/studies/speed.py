@@ -124,7 +124,7 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
             ),
         ),
     ]
-    found = [c for i, m in enumerate(plan.methods) for c in _claims(rows, m, i)]
+    found = C.study_claims(rows, plan.methods, _claims)
     return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
@@ -185,7 +185,6 @@ def _follows(
     common = [v for v in power if v in other]
     r = C.rho([power[v].median for v in common], [other[v].median for v in common])
     r_best = C.rho([power[v].best for v in common], [other[v].best for v in common])
-    ok = C.judge(r, lambda v: v >= C.TREND_RHO)
     statement = f"{label} follows the power trend"
     return make.claim(
         cid,
@@ -193,7 +192,7 @@ def _follows(
         statement,
         "follows P",
         rule="follows",
-        ok=ok,
+        test=C.trend_test(+1),
         median=r,
         best=r_best,
         unit="(ρ)",

@@ -130,7 +130,7 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
             ),
         ),
     ]
-    found = [c for i, m in enumerate(plan.methods) for c in _claims(rows, m, i, h_obj)]
+    found = C.study_claims(rows, plan.methods, lambda r, m, i: _claims(r, m, i, h_obj))
     return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
@@ -203,7 +203,7 @@ def _gain_at_2(make: C.ClaimBuilder, eff: Mapping[str, Mapping[float, Spread]]) 
             "efficiency gain of the real wing at 2 m/s (relative)",
             "≈ 12 %",
             rule="number",
-            ok=C.close(gain, PAPER_GAIN_AT_2),
+            test=lambda v: C.close(v, PAPER_GAIN_AT_2),
             median=gain,
             best=100.0 * (real2.best / tear2.best - 1.0),
             unit="%",

@@ -165,7 +165,8 @@ def test_tiny_run_writes_everything_and_a_rerun_computes_nothing(
     assert [r["reading"] for r in rows] == ["default", "spin-total"]
     assert tuple(rows[0]) == readings.CSV_COLUMNS
     n_claims = len(first.results[0].claims)
-    assert all(int(r["agree"]) + int(r["differ"]) + int(r["undecided"]) == n_claims for r in rows)
+    counts = ("agree", "differ", "undecided", "no_data")
+    assert all(sum(int(r[k]) for k in counts) == n_claims for r in rows)
     report = (tmp_path / "report.md").read_text(encoding="utf-8")
     assert "## Which decision moves which claim" in report and "`spin-total`" in report
 

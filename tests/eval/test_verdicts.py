@@ -1,0 +1,117 @@
+"""Verdicts with their confidence: the bootstrap over seeds on synthetic records whose outcome
+is known (far from the paper's threshold: decided; straddling it: undecided; deterministic)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from eval import report
+from eval.studies import claims as C
+from eval.studies.tables import spread
+
+PAPER = 10.0  # the number rule's ±20 % band is [8, 12]
+
+
+def _rows(values: list[float], condition: float = 1.0, method: str = "cmaes") -> list[dict]:
+    """One tidy row per seed: value x, objective equal to x (so the best seed has the largest)."""
+    return [
+        {
+            "method": method,
+            "task": "level",
+            "planform": "tear-drop",
+            "condition": condition,
+            "seed": seed,
+            "feasible": True,
+            "objective_value": x,
+            "x": x,
+        }
+        for seed, x in enumerate(values)
+    ]
+
+
+def _number_claims(rows: list[dict[str, Any]], method: str = "cmaes", index: int = 0):
+    make = C.ClaimBuilder("test", method, index)
+    s = spread([r for r in rows if r["method"] == method], "x")
+    return [make.claim("X1", "Fig. 0", "x is about 10", "≈ 10", **C.number_row(s, PAPER))]
+
+
+def test_a_claim_far_from_its_threshold_is_decided() -> None:
+    [far] = C.with_confidence(_number_claims, _rows([20.0, 21.0, 22.0, 23.0, 24.0]))
+    assert (far.verdict, far.best_verdict) == ("differs", "differs")
+    assert far.flips == 0.0 and far.best_flips == 0.0
+    [near] = C.with_confidence(_number_claims, _rows([9.6, 9.8, 10.0, 10.2, 10.4]))
+    assert (near.verdict, near.flips) == ("agrees", 0.0)
+    assert near.verdict_text() == "agrees (flips 0 %)"
+
+
+def test_a_claim_straddling_its_threshold_is_undecided() -> None:
+    # Median 10.0 agrees; half the seeds lie outside [8, 12], so resampled medians leave it.
+    values = [6.0, 7.0, 7.5, 10.0, 12.5, 13.0, 14.0]
+    [c] = C.with_confidence(_number_claims, _rows(values))
+    assert c.leaning == "agrees" and c.flips > C.FLIP_THRESHOLD
+    assert c.verdict == "undecided"
+    assert c.verdict_text().startswith("undecided (leans agrees, flips ")
+    # The best seed (14.0) differs; it is drawn in ~65 % of resamples, and the second best
+    # (13.0) differs too, so its verdict is decided.
+    assert (c.best_verdict, c.best_leaning) == ("differs", "differs") and c.best_flips < 0.2
+
+
+def test_the_bootstrap_is_deterministic() -> None:
+    rows = _rows([6.0, 7.0, 7.5, 10.0, 12.5, 13.0, 14.0])
+    first = C.with_confidence(_number_claims, rows)
+    assert C.with_confidence(_number_claims, rows) == first
+    other = C.with_confidence(_number_claims, rows, seed=C.BOOTSTRAP_SEED + 1)
+    assert other[0].flips != first[0].flips  # the fixed seed is what makes it repeatable
+
+
+def test_the_best_seed_decides_apart_from_the_median() -> None:
+    # The median (9) agrees (only resamples drawing the one high seed 3+ times move it); the
+    # best seed (30) differs, and only one seed is that high: the resamples without it (about
+    # a third) flip the best seed's verdict.
+    [c] = C.with_confidence(_number_claims, _rows([8.8, 8.9, 9.0, 9.1, 30.0]))
+    assert c.verdict == "agrees" and c.flips < C.FLIP_THRESHOLD
+    assert c.best_leaning == "differs" and c.best_verdict == "undecided"
+    assert 0.2 < c.best_flips < 0.5
+
+
+def test_resampling_keeps_a_seeds_optimisations_together() -> None:
+    rows = _rows([1.0, 2.0, 3.0]) + [
+        {**r, "objective": "horizontal", "x": 10 * r["x"]} for r in _rows([1.0, 2.0, 3.0])
+    ]
+    strata = C._strata(rows)
+    assert len(strata) == 1  # one condition; both objectives in it
+    out = C.resample(strata, np.random.default_rng(0))
+    by_seed: dict[int, list[float]] = {}
+    for r in out:
+        by_seed.setdefault(r["seed"], []).append(r["x"])
+    assert all(len(v) == 2 and v[1] == 10 * v[0] for v in by_seed.values())
+
+
+def test_no_data_is_not_resampled_and_counts_apart() -> None:
+    def none(rows: list[dict]) -> list[C.Claim]:
+        return [C.ClaimBuilder("t", "cmaes", 0).claim("X2", "Fig. 0", "x", "x", rule="number")]
+
+    [c] = C.with_confidence(none, _rows([1.0, 2.0]))
+    assert c.verdict == "no data" and math.isnan(c.flips)
+    claims = [
+        *C.with_confidence(_number_claims, _rows([20.0, 21.0, 22.0])),
+        *C.with_confidence(_number_claims, _rows([6.0, 7.0, 7.5, 10.0, 12.5, 13.0, 14.0])),
+        c,
+    ]
+    counts = C.VerdictCount.of(claims)
+    assert (counts.agree, counts.differ, counts.undecided, counts.no_data) == (0, 1, 1, 1)
+    assert counts.text() == "0 agree, 1 differ, 1 undecided, 1 no data"
+    lines = report.verdict_summary(claims)
+    assert (
+        lines[0] == "- on the median: 0 of 1 decided claims agree; 1 undecided (X1), 1 without data"
+    )
+    assert "flips in more than 20 %" in "\n".join(report.agreement_rules())
+
+
+def test_study_claims_bootstrap_each_method_on_its_own_rows() -> None:
+    rows = _rows([20.0, 21.0, 22.0]) + _rows([9.9, 10.0, 10.1], method="pso")
+    out = C.study_claims(rows, ("cmaes", "pso"), _number_claims)
+    assert [(c.id, c.verdict) for c in out] == [("X1", "differs"), ("X1/pso", "agrees")]
