@@ -187,8 +187,15 @@ def render(
         files = ", ".join(f"[`{_rel(f, base)}`]({_rel(f, base)})" for f in o.files)
         parts += [f"Data: {files}", ""]
         for caption, path in o.figures:
-            parts += [f"![{caption}]({_rel(path, base)})", ""]
+            parts += [figure_markdown(caption, path, base), ""]
     return "\n".join(parts)
+
+
+def figure_markdown(caption: str, path: Path, base: Path) -> str:
+    """A figure in the report: embedded (PNG, SVG), or linked where Markdown viewers cannot
+    show it (PDF)."""
+    target = _rel(path, base)
+    return f"[{caption} (PDF)]({target})" if path.suffix == ".pdf" else f"![{caption}]({target})"
 
 
 def _rel(path: Path, base: Path) -> str:
@@ -340,7 +347,7 @@ def render_readings(
         "",
         "## Claims × readings",
         "",
-        f"![claims × readings matrix]({_rel(figure, base)})",
+        figure_markdown("claims × readings matrix", figure, base),
         "",
         f"Data: [`{_rel(table, base)}`]({_rel(table, base)}). Each reading's full report "
         "(paper vs ours, figures): "

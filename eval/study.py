@@ -8,10 +8,11 @@ import sys
 import textwrap
 
 from agents.records import RecordStore
+from eval.figures import FORMATS
 from eval.optimize import add_scheduler_argument, run_reporting
 from eval.studies import STUDIES, readings
 from eval.studies.base import Plan
-from eval.studies.claims import VerdictCount
+from eval.studies.claims import FLIP_THRESHOLD, VerdictCount
 from eval.studies.presets import PRESETS, get_preset
 from eval.studies.runner import executor_spec
 from eval.studies.suite import run_studies
@@ -19,11 +20,13 @@ from eval.studies.suite import run_studies
 NAME = "study"
 HELP = "reproduce the paper's figures: speed/power sweeps, kinematics, wing shape, report"
 DESCRIPTION = (
-    """\
+    f"""\
 Run the reproduction studies of Faisal & Filippone (2016) on the evaluation harness and
-write, per study, the records (JSON), a tidy CSV, a summary CSV and paper-style PNG figures,
-and DIR/report.md: every claim of the paper beside ours (median [IQR] over seeds, best seed)
-with an explicit agreement rule.
+write, per study, the records (JSON), a tidy CSV, a summary CSV and paper-style figures (PNG;
+--format svg or pdf), and DIR/report.md: every claim of the paper beside ours (median [IQR]
+over seeds, best seed) with an explicit agreement rule, judged on the median and on the best
+seed; a verdict that a bootstrap over the seeds flips in more than
+{100 * FLIP_THRESHOLD:.0f} % of resamples is "undecided".
 
 Studies:
   speed        level flight at each speed, optimised for efficiency (Figs. 4-6)
@@ -101,6 +104,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="readings study only: run these single readings (repeat; the default is always "
         f"run); allowed: {', '.join(r.name for r in readings.SINGLES)}",
     )
+    parser.add_argument(
+        "--format",
+        choices=FORMATS,
+        default=FORMATS[0],
+        help=f"file format of the figures (default {FORMATS[0]}; svg and pdf are vector "
+        "graphics, for print)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress display")
 
 
@@ -113,7 +123,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     try:
         scheduler = executor_spec(args.scheduler, args.workers)
         RecordStore(args.out)  # rejects a file
-        plan = Plan(get_preset(args.preset), methods)
+        plan = Plan(get_preset(args.preset), methods, figure_format=args.format)
         chosen = readings.single_readings(args.reading)
     except ValueError as error:
         parser.error(str(error))

@@ -15,6 +15,7 @@ from typing import Any
 
 from agents.fileio import write_csv_atomic, write_json_atomic
 from agents.records import Record
+from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim
 from eval.studies.presets import Preset
 from eval.studies.reading import DEFAULT, Reading
@@ -36,6 +37,8 @@ class Plan:
     """The model options every job runs with and which objective gives F̄_h
     (:mod:`eval.studies.reading`); the default reading adds no env keyword, so its jobs and
     keys are those of a plan without one."""
+    figure_format: str = FORMATS[0]
+    """The figures' file format (:data:`eval.figures.FORMATS`)."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.preset, Preset):
@@ -53,6 +56,10 @@ class Plan:
                 f"Plan.methods = {self.methods!r}; allowed: distinct method specs such as "
                 "('pso',), ('pso', 'random') or ('pso', 'policy:runs/ppo')"
             )
+        if self.figure_format not in FORMATS:
+            raise ValueError(
+                f"Plan.figure_format = {self.figure_format!r}; allowed: {', '.join(FORMATS)}"
+            )
         if not isinstance(self.reading, Reading):
             raise ValueError(f"Plan.reading = {self.reading!r}; allowed: a Reading")
         clash = sorted({k for k, _ in self.preset.env_kwargs} & set(self.reading.env_kwargs()))
@@ -61,6 +68,10 @@ class Plan:
                 f"Plan.reading {self.reading.name!r} sets {clash}, which preset "
                 f"{self.preset.name!r} sets too; allowed: a reading of other options"
             )
+
+    def figure(self, folder: Path, stem: str) -> Path:
+        """The path of the figure ``stem`` in ``folder``, in the plan's format."""
+        return figure_path(folder, stem, self.figure_format)
 
     def method_config(self, method: str) -> tuple[tuple[str, Any], ...]:
         name = method.partition(":")[0]
@@ -143,13 +154,3 @@ def write_tables(
     write_csv_atomic(paths[1], rows)
     write_csv_atomic(paths[2], summary_rows(rows, quantities))
     return rows, paths
-
-
-def series_label(method: str, planform: str | None = None, objective: str | None = None) -> str:
-    """Legend label of a series, e.g. ``pso`` or ``pso, real wing``."""
-    parts = [method]
-    if objective:
-        parts.append(objective)
-    if planform and planform != "tear-drop":
-        parts.append(f"{planform} wing")
-    return ", ".join(parts)

@@ -133,6 +133,6 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
     markdown = out_dir / NAME / "convergence_checkpoints.md"
     write_text_atomic(markdown, markdown_table(table))
     files += [path, markdown]
-    fig = figures.convergence_figure(panels, out_dir / NAME / "convergence.png")
+    fig = figures.convergence_figure(panels, plan.figure(out_dir / NAME, "convergence"))
     caption = f"{' and '.join(methods(plan))} best-so-far over evaluations"
     return StudyOutput(NAME, TITLE, rows, [(caption, fig)], [], files)

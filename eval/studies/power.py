@@ -18,7 +18,7 @@ import numpy as np
 from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import Plan, StudyOutput, series_label, write_tables
+from eval.studies.base import Plan, StudyOutput, write_tables
 from eval.studies.runner import Job
 from eval.studies.tables import Spread, by_condition, select
 
@@ -106,21 +106,32 @@ def attainable(
     return out
 
 
+def paper_attainable(label: str = "") -> list[tuple[float, float] | tuple[float, float, str]]:
+    """The paper's F̄_a (Fig. 8) as figure points, each labelled ``label`` if given."""
+    return [(p, v, label) if label else (p, v) for p, v in PAPER_ATTAINABLE.items()]
+
+
 def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
     rows, files = write_tables(NAME, records, out_dir, QUANTITIES)
     study_dir = out_dir / NAME
     xlabel = "available power P/m [W/kg]"
     h_obj = plan.reading.horizontal_objective
+    label = figures.method_label
     fv = [
-        figures.Series(f"F̄_v, {series_label(m)}", excess(rows, m, "tear-drop", "vertical"))
+        figures.Series(f"F̄_v, {label(m)}", excess(rows, m, "tear-drop", "vertical"), method=m)
         for m in plan.methods
     ]
     fh = [
-        figures.Series(f"F̄_h, {series_label(m)}", excess(rows, m, "tear-drop", "horizontal", h_obj))
+        figures.Series(
+            f"F̄_h, {label(m)}",
+            excess(rows, m, "tear-drop", "horizontal", h_obj),
+            method=m,
+            variant=1,
+        )
         for m in plan.methods
     ]
     fa = [
-        figures.Series(series_label(m), attainable(rows, m, "tear-drop", h_obj))
+        figures.Series(label(m), attainable(rows, m, "tear-drop", h_obj), method=m)
         for m in plan.methods
     ]
     figs = [
@@ -139,16 +150,16 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
                 ],
                 xlabel,
                 "Fig. 7: F̄_v (max F̄_v s.t. F̄_h ≥ 0) and F̄_h (max F̄_h s.t. F̄_v ≥ 0), V = 0",
-                study_dir / "fig7_excess_forces.png",
+                plan.figure(study_dir, "fig7_excess_forces"),
             ),
         ),
         (
             "Fig. 8: attainable specific excess force against available power",
             figures.sweep_figure(
-                [figures.Panel("attainable F̄_a [g]", fa, paper=list(PAPER_ATTAINABLE.items()))],
+                [figures.Panel("attainable F̄_a [g]", fa, paper=paper_attainable())],
                 xlabel,
                 "Fig. 8: F̄_a = sqrt(F̄_v² + F̄_h²) (Eq. 27), V = 0",
-                study_dir / "fig8_attainable.png",
+                plan.figure(study_dir, "fig8_attainable"),
             ),
         ),
     ]

@@ -17,7 +17,7 @@ readings share (the same env keywords: e.g. every job but the horizontal acceler
 the F̄_h reading, or any job of a reading that restates a default) runs once, and the default's
 jobs are the ``all`` suite's own. Records are written as jobs finish; a killed run resumes in
 either phase. Outputs under the output directory: ``readings.csv`` (one row per reading),
-``readings_matrix.png`` (claims × readings), ``report.md`` and, per reading, ``<name>/`` with
+``readings_matrix.png`` (claims × readings; ``--format`` svg or pdf likewise), ``report.md`` and, per reading, ``<name>/`` with
 that reading's study tables, figures and report.
 """
 
@@ -431,7 +431,7 @@ def _round(value: float) -> float:
 def write_outputs(
     plan: Plan, results: Sequence[ReadingResult], rule: str, out_dir: Path
 ) -> list[Path]:
-    """readings.csv, readings_matrix.png and report.md."""
+    """readings.csv, readings_matrix.<format> and report.md."""
     csv_path = out_dir / "readings.csv"
     write_csv_atomic(csv_path, csv_rows(results))
     claims = results[0].claims
@@ -442,7 +442,7 @@ def write_outputs(
         [c.id for c in claims],
         [c.statement for c in claims],
         columns,
-        out_dir / "readings_matrix.png",
+        plan.figure(out_dir, "readings_matrix"),
         f"Paper claims under each reading ({plan.preset.name} preset, {', '.join(plan.methods)})",
         split=next((k for k, r in enumerate(results) if r.reading.derived_from), None),
     )

@@ -1,10 +1,11 @@
 """The claims × readings matrix: which reading of the paper reproduces which claim.
 
-One row per claim (paper order), one column per reading; a cell is green where the claim
-agrees, red where it differs and grey where it has no data. Column labels carry the reading's
-count of agreeing claims out of all claims; a marker in a cell flags a verdict that changed
-from the first (default) reading; a black line separates the single readings from the
-combinations derived from them.
+One row per claim (paper order), one column per reading; a cell shows the claim's verdict on
+the median by colour and by glyph, so no colour vision is needed (Okabe & Ito's palette): blue
+✓ agrees, vermillion ✗ differs, yellow ? undecided (the bootstrap over seeds flips it), grey –
+no data. Column labels carry the reading's counts of agreeing and undecided claims; a black
+frame flags a verdict that changed from the first (default) reading; a black line separates
+the single readings from the combinations derived from them.
 """
 
 from __future__ import annotations
@@ -17,17 +18,19 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 from matplotlib.colors import ListedColormap
-from matplotlib.patches import Patch
+from matplotlib.patches import Patch, Rectangle
 
-from eval.figures import save
+from eval.figures import PALETTE, save
 
-#: Cell colour of each verdict.
-VERDICT_COLORS: dict[str, str] = {
-    "agrees": "#4daf4a",
-    "differs": "#e41a1c",
-    "no data": "#bdbdbd",
+#: Cell colour and glyph of each verdict (any other verdict is drawn as "no data").
+VERDICT_STYLE: dict[str, tuple[str, str, str]] = {
+    # verdict: (cell colour, glyph, glyph colour)
+    "agrees": (PALETTE[0], "✓", "white"),
+    "differs": (PALETTE[1], "✗", "white"),
+    "undecided": (PALETTE[6], "?", "black"),
+    "no data": ("#bbbbbb", "–", "black"),
 }
-_CODE = {"agrees": 0, "differs": 1}
+_CODE = {verdict: k for k, verdict in enumerate(VERDICT_STYLE)}
 
 
 def matrix_figure(
@@ -40,25 +43,33 @@ def matrix_figure(
 ) -> Path:
     """Draw the matrix: ``columns`` are (reading name, verdict per claim in ``claim_ids`` order).
 
-    The first column is the reference: a dot marks every other cell whose verdict differs
-    from it. A vertical line goes before column ``split`` (the first combination reading).
+    The first column is the reference: a black frame marks every other cell whose verdict
+    differs from it. A vertical line goes before column ``split`` (the first combination
+    reading).
     """
     n_rows, n_cols = len(claim_ids), len(columns)
-    grid = [[_CODE.get(verdicts[i], 2) for _, verdicts in columns] for i in range(n_rows)]
+    no_data = _CODE["no data"]
+    grid = [[_CODE.get(verdicts[i], no_data) for _, verdicts in columns] for i in range(n_rows)]
     width = 3.6 + 0.42 * n_cols
     height = 1.6 + 0.24 * n_rows
     fig, ax = plt.subplots(figsize=(width, height))
-    cmap = ListedColormap([VERDICT_COLORS["agrees"], VERDICT_COLORS["differs"], "#bdbdbd"])
-    ax.imshow(grid, cmap=cmap, vmin=0, vmax=2, aspect="auto", interpolation="nearest")
+    cmap = ListedColormap([color for color, _, _ in VERDICT_STYLE.values()])
+    ax.imshow(grid, cmap=cmap, vmin=0, vmax=len(_CODE) - 1, aspect="auto", interpolation="nearest")
+    styles = list(VERDICT_STYLE.values())
     reference = columns[0][1] if columns else []
-    for j, (_, verdicts) in enumerate(columns[1:], start=1):
+    for j, (_, verdicts) in enumerate(columns):
         for i in range(n_rows):
-            if verdicts[i] != reference[i]:
-                ax.plot(j, i, "o", color="white", markersize=3.5, markeredgecolor="black")
+            _, glyph, ink = styles[grid[i][j]]
+            ax.text(j, i, glyph, ha="center", va="center", fontsize=6.5, color=ink)
+            if j and verdicts[i] != reference[i]:
+                ax.add_patch(
+                    Rectangle((j - 0.45, i - 0.42), 0.9, 0.84, fill=False, ec="black", lw=1.3)
+                )
     labels = []
     for name, verdicts in columns:
         agree = sum(v == "agrees" for v in verdicts)
-        labels.append(f"{name} ({agree}/{len(verdicts)})")
+        undecided = sum(v == "undecided" for v in verdicts)
+        labels.append(f"{name} ({agree} ✓, {undecided} ?)")
     ax.set_xticks(range(n_cols), labels, rotation=60, ha="right", fontsize=7)
     ax.set_yticks(
         range(n_rows),
@@ -74,16 +85,14 @@ def matrix_figure(
     ax.set_title(title, fontsize=9)
     ax.legend(
         handles=[
-            Patch(color=VERDICT_COLORS["agrees"], label="agrees"),
-            Patch(color=VERDICT_COLORS["differs"], label="differs"),
-            Patch(color=VERDICT_COLORS["no data"], label="no data"),
-            plt.Line2D(
-                [],
-                [],
-                marker="o",
-                linestyle="",
-                color="white",
-                markeredgecolor="black",
+            *(
+                Patch(color=color, label=f"{glyph} {verdict}")
+                for verdict, (color, glyph, _) in VERDICT_STYLE.items()
+            ),
+            Patch(
+                fill=False,
+                ec="black",
+                lw=1.3,
                 label=f"changed vs {columns[0][0] if columns else 'first'}",
             ),
         ],

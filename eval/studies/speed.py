@@ -13,7 +13,7 @@ from pathlib import Path
 from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import Plan, StudyOutput, series_label, write_tables
+from eval.studies.base import Plan, StudyOutput, write_tables
 from eval.studies.runner import Job
 from eval.studies.tables import Spread, by_condition
 
@@ -50,7 +50,9 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
 
     def series(quantity: str) -> list[figures.Series]:
         return [
-            figures.Series(series_label(m), by_condition(rows, quantity, method=m, **where))
+            figures.Series(
+                figures.method_label(m), by_condition(rows, quantity, method=m, **where), method=m
+            )
             for m in plan.methods
         ]
 
@@ -80,7 +82,7 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
                 ],
                 xlabel,
                 "Fig. 4: level flight, optimised at each speed",
-                study_dir / "fig4_thrust_aoa_stroke_plane.png",
+                plan.figure(study_dir, "fig4_thrust_aoa_stroke_plane"),
             ),
         ),
         (
@@ -105,7 +107,7 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
                 ],
                 xlabel,
                 "Fig. 5: level flight, optimised at each speed",
-                study_dir / "fig5_power_frequency_sweep.png",
+                plan.figure(study_dir, "fig5_power_frequency_sweep"),
             ),
         ),
         (
@@ -120,7 +122,7 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
                 ],
                 xlabel,
                 f"Fig. 6: level-flight efficiency (thrust_split = {_thrust_split(records)})",
-                study_dir / "fig6_efficiency.png",
+                plan.figure(study_dir, "fig6_efficiency"),
             ),
         ),
     ]

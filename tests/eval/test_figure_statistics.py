@@ -1,4 +1,5 @@
-"""Figures: circular statistics of phases, the paper's statements drawn, legends that name the wing."""
+"""Figures: circular statistics of phases, the paper's statements drawn, legends that name the
+wing and list only drawn series, fixed colour-blind-safe colours, the figure formats."""
 
 from __future__ import annotations
 
@@ -11,6 +12,8 @@ import pytest
 
 from eval import figures
 from eval.studies import wing_shape
+from eval.studies.base import Plan
+from eval.studies.presets import TINY
 from eval.studies.tables import Spread, circular_median, circular_quartiles, spread
 
 
@@ -81,8 +84,13 @@ def _spread(values: list[float]) -> Spread:
                   max(values), 0, len(values), len(values))  # fmt: skip
 
 
+def _legend_texts(ax: plt.Axes) -> list[str]:
+    legend = ax.get_legend()
+    return [] if legend is None else [t.get_text() for t in legend.get_texts()]
+
+
 def test_sweep_panels_draw_what_the_paper_states(kept: list[plt.Figure], tmp_path: Path) -> None:
-    series = figures.Series("pso, tear-drop wing", {1.0: _spread([1, 2]), 2.0: _spread([2, 3])})
+    series = figures.Series("PSO, tear-drop wing", {1.0: _spread([1, 2]), 2.0: _spread([2, 3])})
     panel = figures.Panel(
         "η [%]",
         [series],
@@ -92,31 +100,103 @@ def test_sweep_panels_draw_what_the_paper_states(kept: list[plt.Figure], tmp_pat
     )
     figures.sweep_figure([panel], "V", "title", tmp_path / "f.png")
     [ax] = kept[0].axes
-    labels = ax.get_legend_handles_labels()[1]
-    assert "paper" in labels and "paper: both peak at 1.5 m/s" in labels
-    assert "pso, tear-drop wing (median, IQR)" in labels
-    assert "paper: falls with V" in [t.get_text() for t in ax.texts]
-    [vertical] = [line for line in ax.lines if line.get_label() == "paper: both peak at 1.5 m/s"]
-    assert list(vertical.get_xdata()) == [1.5, 1.5]
+    labels = _legend_texts(ax)
+    assert {"paper", "paper: both peak at 1.5 m/s", "paper: falls with V"} <= set(labels)
+    assert "PSO, tear-drop wing" in labels and figures.SERIES_KEY in labels
+    [vertical] = [line for line in ax.lines if list(line.get_xdata()) == [1.5, 1.5]]
+    assert vertical.get_linestyle() == ":"
 
 
-def test_phase_panel_bar_is_the_circular_median(kept: list[plt.Figure], tmp_path: Path) -> None:
-    groups = {"level 2 m/s": [136.0, -170.0]}
-    figures.cycle_figure(
-        [],
-        "sweep",
-        "φ",
-        "title",
-        tmp_path / "f.png",
-        extra=("(c)", groups, "ΔΦ [deg]"),
-        extra_median=circular_median,
-        extra_median_label="circular median",
-        extra_paper={"level 2 m/s": 30.0},
-    )
+def test_legends_list_only_drawn_series_outside_the_axes(
+    kept: list[plt.Figure], tmp_path: Path
+) -> None:
+    nan = math.nan
+    empty = Spread((), (), nan, nan, nan, nan, None, 2, 0)  # no feasible seed
+    drawn = figures.Series("CMA-ES", {1.0: _spread([1, 2]), 2.0: _spread([2, 3])}, method="cmaes")
+    missing = figures.Series("PSO", {1.0: empty, 2.0: empty}, method="pso")
+    figures.sweep_figure([figures.Panel("y", [drawn, missing])], "V", "t", tmp_path / "f.png")
     [ax] = kept[0].axes
-    bars = [line for line in ax.lines if line.get_linewidth() == 2 and len(line.get_xdata()) == 2]
-    assert [list(bar.get_ydata()) for bar in bars] == [[163.0, 163.0]]
-    assert {"circular median", "paper"} <= set(ax.get_legend_handles_labels()[1])
+    labels = _legend_texts(ax)
+    assert "CMA-ES" in labels and "PSO" not in labels
+    # The legend sits right of the axes (anchored beyond x = 1 in axes coordinates): it
+    # covers no data and no paper mark.
+    legend = ax.get_legend()
+    assert legend.get_bbox_to_anchor().transformed(ax.transAxes.inverted()).x0 > 1.0
+
+
+def test_colours_are_fixed_per_series_and_colour_blind_safe() -> None:
+    # A series' colour depends on its method and variant only, not on its place in a figure.
+    assert figures.series_style("cmaes") == figures.series_style("cmaes", 0)
+    assert figures.series_style("pso")["color"] != figures.series_style("cmaes")["color"]
+    assert figures.series_style("cmaes", 1)["ls"] != figures.series_style("cmaes", 0)["ls"]
+    assert figures.method_color("policy:runs/a") == figures.method_color("policy:runs/a")
+    assert set(figures.METHOD_COLORS.values()) <= set(figures.PALETTE)
+
+
+def test_method_specs_are_labelled_readably() -> None:
+    assert figures.method_label("cmaes") == "CMA-ES"
+    assert figures.method_label("pso") == "PSO"
+    assert figures.method_label("policy:logs/ppo/level_3/best_model.zip") == (
+        "policy level_3/best_model"
+    )
+    assert figures.method_label("something") == "something"
+
+
+def test_paper_labels_stay_inside_the_axes(kept: list[plt.Figure], tmp_path: Path) -> None:
+    s = figures.Series("CMA-ES", {50.0: _spread([1, 2]), 90.0: _spread([2, 3])}, method="cmaes")
+    panel = figures.Panel("F", [s], paper=[(50.0, 2.7, "paper F̄_v"), (90.0, 4.4, "paper F̄_v")])
+    figures.sweep_figure([panel], "P", "t", tmp_path / "f.png")
+    [ax] = kept[0].axes
+    kept[0].canvas.draw()
+    box = ax.get_window_extent()
+    for text in ax.texts:
+        extent = text.get_window_extent()
+        assert box.x0 <= extent.x0 and extent.x1 <= box.x1, text.get_text()
+
+
+@pytest.mark.parametrize("fmt", figures.FORMATS)
+def test_figures_are_written_in_each_format(tmp_path: Path, fmt: str) -> None:
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    path = figures.save(fig, figures.figure_path(tmp_path, "f", fmt))
+    head = path.read_bytes()[:8]
+    assert {"png": b"\x89PNG", "svg": b"<?xml", "pdf": b"%PDF"}[fmt] in head
+
+
+def test_an_unknown_format_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="format 'jpg'; allowed: png, svg, pdf"):
+        figures.figure_path(tmp_path, "f", "jpg")
+    fig = plt.figure()
+    with pytest.raises(ValueError, match="allowed: png, svg, pdf"):
+        figures.save(fig, tmp_path / "f.gif")
+    with pytest.raises(ValueError, match="figure_format = 'jpg'"):
+        Plan(TINY, figure_format="jpg")
+    assert Plan(TINY, figure_format="svg").figure(tmp_path, "fig6") == tmp_path / "fig6.svg"
+
+
+def test_phase_panels_show_the_statistic_the_report_judges(
+    kept: list[plt.Figure], tmp_path: Path
+) -> None:
+    # K1/K3 judge the median of |ΔΦ|; K2 the circular median of ΔΦ.
+    absolute = figures.GroupPanel(
+        "(c)", {"level 1.25 m/s": [170.0, 170.0, 5.0]}, "|ΔΦ|", best={"level 1.25 m/s": 5.0}
+    )
+    signed = figures.GroupPanel(
+        "(d)",
+        {"level 2 m/s": [136.0, -170.0]},
+        "ΔΦ",
+        statistic=circular_median,
+        statistic_label="circular median",
+        paper={"level 2 m/s": 30.0},
+    )
+    figures.cycle_figure([], "sweep", "φ", "title", tmp_path / "f.png", extras=(absolute, signed))
+    for ax, expected in zip(kept[0].axes, (170.0, 163.0), strict=True):
+        bars = [
+            line for line in ax.lines if line.get_linewidth() == 2 and len(line.get_xdata()) == 2
+        ]
+        assert [list(bar.get_ydata()) for bar in bars] == [[expected, expected]]
+    assert "paper" in _legend_texts(kept[0].axes[1])
+    assert "best seed" in _legend_texts(kept[0].axes[0])
 
 
 def test_tip_path_markers_are_explained(kept: list[plt.Figure], tmp_path: Path) -> None:
@@ -132,5 +212,5 @@ def test_tip_path_markers_are_explained(kept: list[plt.Figure], tmp_path: Path) 
 
 
 def test_wing_shape_legends_name_both_wings() -> None:
-    assert wing_shape._label("pso", "tear-drop") == "pso, tear-drop wing"
-    assert wing_shape._label("pso", "real") == "pso, real wing"
+    assert wing_shape._label("pso", "tear-drop") == "PSO, tear-drop wing"
+    assert wing_shape._label("pso", "real") == "PSO, real wing"
