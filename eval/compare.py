@@ -22,6 +22,7 @@ import numpy as np
 
 from agents.fileio import atomic_path, write_csv_atomic, write_text_atomic
 from agents.records import Record, load_records
+from eval.figures import FORMATS, figure_path, method_color, method_label
 
 __all__ = [
     "Row",
@@ -47,7 +48,9 @@ sub-folder):
                                  table): the objective of a stroke that does not fly is not
                                  a result;
   convergence.png                best-so-far reward against evaluations, median over seeds
-                                 with the IQR band, one panel per task/objective/condition."""
+                                 with the IQR band, one panel per task/objective/condition
+                                 (--format svg or pdf: convergence.svg, convergence.pdf);
+                                 each method in its fixed colour."""
 EPILOG = """\
 example:
   python -m eval compare results/v1.5                 # writes results/v1.5/compare/
@@ -58,7 +61,7 @@ DEFAULT_OUT = "compare"
 
 TABLE_CSV = "comparison.csv"
 TABLE_MD = "comparison.md"
-PLOT_PNG = "convergence.png"
+PLOT_STEM = "convergence"
 
 
 @dataclass(frozen=True)
@@ -254,10 +257,12 @@ def plot_convergence(records: Sequence[Record], path: Path) -> None:
         finals = []
         for (method, budget), runs in series.items():
             x, q25, median, q75 = convergence_curve(runs)
-            label = f"{method} ({len(runs)} seeds)"
+            label = f"{method_label(method)} ({len(runs)} seeds)"
             if len(budgets) > 1:
-                label = f"{method}, budget {budget} ({len(runs)} seeds)"
-            (line,) = ax.plot(x, median, drawstyle="steps-post", label=label)
+                label = f"{method_label(method)}, budget {budget} ({len(runs)} seeds)"
+            (line,) = ax.plot(
+                x, median, drawstyle="steps-post", label=label, color=method_color(method)
+            )
             ax.fill_between(x, q25, q75, step="post", alpha=0.25, color=line.get_color())
             finals.extend(v for v in (q25[-1], median[-1], q75[-1]) if np.isfinite(v))
             tail = median[x >= 0.1 * x[-1]]
@@ -274,7 +279,7 @@ def plot_convergence(records: Sequence[Record], path: Path) -> None:
     fig.tight_layout()
     try:
         with atomic_path(path) as tmp:  # a killed run never leaves half a PNG
-            fig.savefig(tmp, dpi=120)
+            fig.savefig(tmp, dpi=120, format=path.suffix.lstrip("."))
     finally:
         plt.close(fig)
 
@@ -289,8 +294,12 @@ def _focus(ax: Any, values: list[float]) -> None:
     ax.set_ylim(low - pad, high + pad)
 
 
-def compare(directories: Sequence[str | Path], out: str | Path) -> list[Row]:
-    """Load the records under ``directories`` and write table and plot into ``out``."""
+def compare(
+    directories: Sequence[str | Path], out: str | Path, figure_format: str = FORMATS[0]
+) -> list[Row]:
+    """Load the records under ``directories`` and write table and plot (``figure_format``,
+    :data:`eval.figures.FORMATS`) into ``out``."""
+    plot_path = figure_path(Path(out), PLOT_STEM, figure_format)  # a bad format fails first
     records = load_records(directories)
     if not records:
         raise ValueError(
@@ -301,7 +310,7 @@ def compare(directories: Sequence[str | Path], out: str | Path) -> list[Row]:
     rows = table_rows(records)
     write_csv_atomic(out / TABLE_CSV, [r.to_dict() for r in rows])
     write_text_atomic(out / TABLE_MD, markdown_table(rows))
-    plot_convergence(records, out / PLOT_PNG)
+    plot_convergence(records, plot_path)
     return rows
 
 
@@ -319,14 +328,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="OUT",
         help=f"directory for the outputs (default: the first DIR's {DEFAULT_OUT}/ sub-folder)",
     )
+    parser.add_argument(
+        "--format",
+        choices=FORMATS,
+        default=FORMATS[0],
+        help=f"file format of the convergence figure (default {FORMATS[0]})",
+    )
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     out = Path(args.out) if args.out is not None else default_out(args.dirs)
     try:
-        rows = compare(args.dirs, out)
+        rows = compare(args.dirs, out, args.format)
     except ValueError as error:
         parser.error(str(error))
     sys.stdout.write(markdown_table(rows))
-    print(f"wrote {out / TABLE_CSV}, {TABLE_MD} and {PLOT_PNG}", file=sys.stderr)
+    print(f"wrote {out / TABLE_CSV}, {TABLE_MD} and {PLOT_STEM}.{args.format}", file=sys.stderr)
     return 0

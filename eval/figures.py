@@ -374,6 +374,8 @@ class GroupPanel:
     band: tuple[float, float, str] | None = None
     """(low, high, label): a range the rule names, e.g. (0, 15, "in phase: |ΔΦ| < 15°")."""
     ylim: tuple[float, float] | None = None
+    paper_note: str = ""
+    """What the paper states in words only (a legend line)."""
 
 
 def draw_groups(ax: plt.Axes, panel: GroupPanel) -> None:
@@ -398,6 +400,8 @@ def draw_groups(ax: plt.Axes, panel: GroupPanel) -> None:
         (cross,) = ax.plot(names.index(name) + 0.3, value, "kx", ms=8, mew=2)
         if k == 0:
             entries.append((cross, "paper"))
+    if panel.paper_note:
+        entries.append(_text_entry(panel.paper_note))
     ax.set_xlim(-0.5, len(names) - 0.5)
     if panel.ylim is not None:
         ax.set_ylim(*panel.ylim)

@@ -176,6 +176,7 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
         "η_m, mean of both wings [deg]",
         statistic_label="median (judged)",
         best=bests(pitch),
+        paper_note="paper: larger in accelerating flight",
     )
     figs = [
         (

@@ -101,3 +101,12 @@ def test_no_median_objective_over_seeds_none_of_which_is_feasible(records: Path)
         table = {row["method"]: row for row in csv.DictReader(stream)}
     assert table["random"]["objective_median"] in ("", "nan")
     assert float(table["pso"]["objective_median_feasible"]) == pytest.approx(0.35)
+
+
+def test_the_convergence_figure_is_written_in_the_format_asked(records: Path) -> None:
+    out = records / "svg"
+    compare_module.compare([records], out, "svg")
+    assert (out / "convergence.svg").read_bytes().startswith(b"<?xml")
+    assert not (out / "convergence.png").exists()
+    with pytest.raises(ValueError, match="allowed: png, svg, pdf"):
+        compare_module.compare([records], records / "bad", "jpg")

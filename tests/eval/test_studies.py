@@ -335,3 +335,21 @@ def test_phase_angle_and_compare_rules() -> None:
     )
     none = make.claim("S9", "Fig. 0", "x", "1.5 m/s", rule="location")
     assert none.verdict == "no data" and math.isnan(none.median)
+
+
+def test_figures_in_another_format_and_the_report_shows_them(tmp_path: Path) -> None:
+    run_studies(["power"], Plan(TINY, figure_format="pdf"), tmp_path, progress=False)
+    figures = sorted(p.name for p in (tmp_path / "power").glob("fig*"))
+    assert figures == ["fig7_excess_forces.pdf", "fig8_attainable.pdf"]
+    report = (tmp_path / "report.md").read_text(encoding="utf-8")
+    # Markdown viewers cannot show a PDF inline: the report links it instead.
+    assert "](power/fig8_attainable.pdf)" in report and "![" not in report
+    assert "undecided" in report and "flips in more than 20 %" in report
+
+
+def test_the_study_command_refuses_an_unknown_format(capsys: pytest.CaptureFixture) -> None:
+    from eval.__main__ import main
+
+    with pytest.raises(SystemExit):
+        main(["study", "power", "--format", "jpg"])
+    assert "invalid choice: 'jpg'" in capsys.readouterr().err
