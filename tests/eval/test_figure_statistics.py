@@ -214,3 +214,14 @@ def test_tip_path_markers_are_explained(kept: list[plt.Figure], tmp_path: Path) 
 def test_wing_shape_legends_name_both_wings() -> None:
     assert wing_shape._label("pso", "tear-drop") == "PSO, tear-drop wing"
     assert wing_shape._label("pso", "real") == "PSO, real wing"
+
+
+def test_planforms_are_drawn_at_equal_aspect(kept: list[plt.Figure], tmp_path: Path) -> None:
+    figures.planform_figure(wing_shape.planform_outlines(20), tmp_path / "f.png")
+    fig = kept[0]
+    fig.canvas.draw()
+    for ax in fig.axes[:2]:
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        box = ax.get_window_extent()
+        # 1 mm spans as many pixels along the span as along the chord
+        assert (box.width / (x1 - x0)) == pytest.approx(box.height / (y1 - y0), rel=1e-3)
