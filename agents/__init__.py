@@ -9,10 +9,10 @@ import Gymnasium and the model.
 from importlib import import_module
 from typing import Any
 
-from agents.fileio import read_json, to_jsonable, write_csv_atomic, write_json_atomic
 from agents.optimiser import OptimisationResult, Progress, maximise, minimise
 from agents.pso import PSO, PSOConfig
 from agents.random_search import RandomSearch, RandomSearchConfig
+from tandem_env.io.files import read_json, to_jsonable, write_csv_atomic, write_json_atomic
 
 # name -> module, for the lazily imported harness API.
 _LAZY = {

@@ -39,9 +39,7 @@ import numpy as np
 
 import tandem_env
 from agents.evaluator import VectorEnvEvaluator, reevaluate
-from agents.fileio import to_jsonable
 from agents.methods import Method, SearchContext, SearchOutcome, get_method
-from agents.progress import ProgressBar, Reporter
 from agents.records import (
     SELECTION_BEST_FEASIBLE,
     SELECTION_BEST_REWARD,
@@ -52,6 +50,8 @@ from agents.records import (
     package_versions,
 )
 from agents.tasks import Condition, TaskSpec, get_task
+from tandem_env.io.files import to_jsonable
+from tandem_env.io.progress_bar import ProgressBar, Reporter
 
 __all__ = ["RunPlan", "execute", "prepare", "run", "run_job", "run_seed"]
 

@@ -7,7 +7,7 @@ run found, whichever method ran (PSO, random search, a trained policy), so that 
 compare`` and the studies read one format; it carries its job and key.
 
 A :class:`RecordStore` keeps records as ``DIR/records/<key>.json``, each written atomically
-(:func:`agents.fileio.write_json_atomic`). Both ``python -m eval optimize`` and the studies
+(:func:`tandem_env.io.files.write_json_atomic`). Both ``python -m eval optimize`` and the studies
 write through it, so a record is found by its configuration: another budget, seed or model
 option is another file, a killed run resumes from the records already there, and nothing of
 another configuration is overwritten without a warning. The schema with units is documented
@@ -28,8 +28,8 @@ from pathlib import Path
 from typing import Any
 
 import tandem_env
-from agents.fileio import read_json, to_jsonable, write_csv_atomic, write_json_atomic
 from agents.tasks import Condition, available_tasks, get_task
+from tandem_env.io.files import read_json, to_jsonable, write_csv_atomic, write_json_atomic
 
 __all__ = [
     "RECORDS_DIR",

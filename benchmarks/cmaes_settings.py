@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.fileio import write_csv_atomic
 from agents.harness import run
-from agents.keyvalue import parse_pairs
+from tandem_env.io.files import write_csv_atomic
+from tandem_env.io.keyvalue import parse_pairs
 
 TASKS = {"level": (1.5, None), "accelerate": (60.0, "vertical")}
 

@@ -33,9 +33,9 @@ import cmaes
 import numpy as np
 
 from agents.evaluator import VectorEnvEvaluator
-from agents.keyvalue import parse_pairs
 from agents.methods import AskTellMethod, get_method
 from agents.tasks import get_task
+from tandem_env.io.keyvalue import parse_pairs
 
 TARGET = 0.05
 CONDITIONS = {"level": ({"speed": 1.5}, 1.5), "accelerate": ({"power": 60.0}, 60.0)}

@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from agents.fileio import atomic_path, write_csv_atomic, write_text_atomic
 from agents.records import Record, load_records
 from eval.figures import FORMATS, figure_path, method_color, method_label
+from tandem_env.io.files import atomic_path, write_csv_atomic, write_text_atomic
 
 __all__ = [
     "Row",

@@ -28,7 +28,7 @@ from matplotlib.legend_handler import HandlerTuple
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from agents.fileio import atomic_path
+from tandem_env.io.files import atomic_path
 
 if TYPE_CHECKING:  # annotations only: eval.studies imports this module
     from eval.studies.tables import Spread

@@ -15,7 +15,6 @@ from collections.abc import Callable
 from typing import TypeVar
 
 from agents.harness import prepare
-from agents.keyvalue import parse_pairs
 from agents.methods import available_methods
 from agents.records import RecordStore
 from agents.tasks import TaskSpec, available_tasks, get_task
@@ -26,6 +25,7 @@ from eval.studies.runner import (
     parse_scheduler,
     run_jobs,
 )
+from tandem_env.io.keyvalue import parse_pairs
 
 
 def _tasks() -> list[TaskSpec]:

@@ -12,9 +12,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from agents.fileio import write_text_atomic
 from eval.studies.base import Plan, StudyOutput
 from eval.studies.claims import CONFIDENCE_RULE, RULES, Claim, VerdictCount
+from tandem_env.io.files import write_text_atomic
 
 if TYPE_CHECKING:
     from eval.studies.readings import ReadingResult

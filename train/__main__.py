@@ -17,7 +17,7 @@ from dataclasses import MISSING, fields
 from pathlib import Path
 from typing import Any
 
-from agents.keyvalue import parse_pairs
+from tandem_env.io.keyvalue import parse_pairs
 from train.config import ALGOS, DEVICES, TrainConfig
 from train.layout import RunComplete
 

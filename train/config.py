@@ -20,8 +20,8 @@ from typing import Any, Literal, get_args
 
 import yaml
 
-from agents.fileio import to_jsonable
 from tandem_env.envs.registration import check_env_id
+from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import is_integer, is_real
 
 Algo = Literal["ppo", "sac"]
@@ -371,7 +371,7 @@ class TrainConfig:
 
 def plain(value: Any) -> Any:
     """YAML-safe form (config.yml, args.yml): the project's JSON conversion
-    (:func:`agents.fileio.to_jsonable`: string keys, tuples as lists, which ``yaml.safe_dump``
+    (:func:`tandem_env.io.files.to_jsonable`: string keys, tuples as lists, which ``yaml.safe_dump``
     needs, numpy scalars as Python numbers); anything it cannot convert is kept, for
     ``yaml.safe_dump`` to accept or refuse."""
     return to_jsonable(value, default=_as_is)

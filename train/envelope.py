@@ -24,7 +24,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from agents.fileio import write_csv_atomic
+from tandem_env.io.files import write_csv_atomic
 
 #: Columns of envelope.csv.
 COLUMNS: tuple[str, ...] = (

@@ -38,11 +38,11 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from tqdm.auto import tqdm
 
-from agents.fileio import to_jsonable
 from agents.methods import Method, SearchContext, SearchOutcome
 from agents.selection import is_better
 from tandem_env.envs.registration import condition_keywords, config_class
 from tandem_env.envs.sb3 import make_sb3_vec_env
+from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import is_integer
 from train.config import ALGOS, check_algo, plain
 from train.layout import RunLayout

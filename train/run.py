@@ -25,9 +25,9 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize, sync_envs_normalization
 
-from agents.fileio import atomic_path, write_json_atomic, write_text_atomic
 from agents.selection import best_index
 from tandem_env.envs.registration import check_env_id
+from tandem_env.io.files import atomic_path, write_json_atomic, write_text_atomic
 from train.callbacks import PhysicsLogger, ResumableEvalCallback, SaveVecNormalize
 from train.config import Hyperparams, TrainConfig, load_entry, plain, resolve_hyperparams
 from train.layout import Checkpoint, RunComplete, RunLayout

@@ -13,7 +13,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from agents.fileio import write_csv_atomic, write_json_atomic
 from agents.records import Record
 from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim
@@ -21,6 +20,7 @@ from eval.studies.presets import Preset
 from eval.studies.reading import DEFAULT, Reading
 from eval.studies.runner import RECORDS_DIR, Job
 from eval.studies.tables import summary_rows, tidy_rows
+from tandem_env.io.files import write_csv_atomic, write_json_atomic
 
 #: Methods whose settings include the swarm/batch size (others take no settings from a study).
 _BATCHED = {"pso": "swarm_size", "random": "batch_size"}

@@ -19,12 +19,12 @@ from typing import Any
 
 import numpy as np
 
-from agents.fileio import write_csv_atomic, write_text_atomic
 from agents.records import Record
 from eval import figures
 from eval.studies.base import Plan, StudyOutput, write_tables
 from eval.studies.presets import PRESETS
 from eval.studies.runner import Job
+from tandem_env.io.files import write_csv_atomic, write_text_atomic
 
 NAME = "convergence"
 TITLE = "Budget study: PSO and CMA-ES best-so-far over evaluations"

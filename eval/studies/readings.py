@@ -32,7 +32,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from agents.fileio import read_json, write_csv_atomic, write_json_atomic
 from eval import report
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import Plan, StudyOutput
@@ -40,6 +39,7 @@ from eval.studies.claims import Claim, VerdictCount
 from eval.studies.reading import DECISION_OPTIONS, DEFAULT, Reading, combine
 from eval.studies.readings_figure import matrix_figure
 from eval.studies.runner import RECORDS_DIR, Job, RunSummary, load_records, run_jobs
+from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
 
 NAME = "readings"
 TITLE = "Readings of the paper against its claims"

@@ -21,13 +21,13 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.fileio import read_json
 from eval.studies.base import Plan
 from eval.studies.bench_workers import makespan
 from eval.studies.presets import PRESETS, TINY, get_preset
 from eval.studies.reading import Reading
 from eval.studies.readings import MANIFEST, reading_jobs
 from eval.studies.runner import load_records
+from tandem_env.io.files import read_json
 
 WORKERS: tuple[int, ...] = (1, 2, 8, 32)
 

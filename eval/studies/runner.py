@@ -48,8 +48,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from agents.progress import ProgressBar, Reporter
 from agents.records import RECORDS_DIR, Job, Record, RecordStore
+from tandem_env.io.progress_bar import ProgressBar, Reporter
 
 if TYPE_CHECKING:
     from distributed import Client

@@ -8,7 +8,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from agents.fileio import write_json_atomic
 from eval import report
 from eval.studies import PAPER_STUDIES, STUDIES
 from eval.studies.base import Plan, StudyOutput
@@ -19,6 +18,7 @@ from eval.studies.runner import (
     load_records,
     run_jobs,
 )
+from tandem_env.io.files import write_json_atomic
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""Tests for agents.fileio (atomic JSON/CSV writes) and agents.records.package_versions."""
+"""Tests for tandem_env.io.files (atomic JSON/CSV writes) and agents.records.package_versions."""
 
 from __future__ import annotations
 
@@ -14,16 +14,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents import (
-    PSOConfig,
-    fileio,
-    maximise,
-    package_versions,
-    read_json,
-    records,
-    write_csv_atomic,
-    write_json_atomic,
-)
+from agents import records
+from agents.optimiser import maximise
+from agents.pso import PSOConfig
+from agents.records import package_versions
+from tandem_env.io import files as fileio
+from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
 
 
 def test_json_round_trip_with_numpy_types(tmp_path: Path) -> None:
@@ -154,7 +150,7 @@ def test_package_versions(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_one_converter_for_dataclasses_keys_and_unknown_values() -> None:
     from dataclasses import dataclass
 
-    from agents import to_jsonable
+    from tandem_env.io.files import to_jsonable
 
     @dataclass(frozen=True)
     class Wing:

@@ -189,7 +189,7 @@ def test_module_entry_point_help() -> None:
 
 def test_eval_and_train_parse_key_values_the_same_way() -> None:
     """One parser for every command: a tuple is a tuple in `python -m eval` as in `python -m train`."""
-    from agents.keyvalue import parse_pairs
+    from tandem_env.io.keyvalue import parse_pairs
 
     parsed = parse_pairs(
         ["speed_range=(0.25, 2.0)", "thrust_split=body", "penalty_weight=20"], "--env-kwargs"

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 import yaml
 
-from agents.keyvalue import parse_pairs, parse_value
 from tandem_env.envs.registration import ENV_IDS
+from tandem_env.io.keyvalue import parse_pairs, parse_value
 from train.config import (
     ALGOS,
     HYPERPARAMS_DIR,
