@@ -23,7 +23,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "eval.compare",
     "eval.study",
     "eval.measured",
-    "eval.episodes",
+    "eval.speed_change",
 )
 
 

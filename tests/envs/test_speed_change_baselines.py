@@ -11,9 +11,9 @@ import pytest
 
 import agents.harness
 from agents.records import load_records
-from eval import episodes as module
+from eval import speed_change as module
 from eval.__main__ import main
-from eval.episodes import (
+from eval.speed_change import (
     RandomPolicy,
     SteadyPolicy,
     episode_metrics,

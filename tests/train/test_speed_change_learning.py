@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 import tandem_env  # noqa: F401 - registers the ids
-from eval.episodes import RandomPolicy, SB3Policy, episode_metrics, run_episodes
+from eval.speed_change import RandomPolicy, SB3Policy, episode_metrics, run_episodes
 from tandem_env.envs.registration import SPEED_CHANGE_ID
 from train.run import learn_in_memory
 
