@@ -16,8 +16,8 @@ from typing import Any
 from agents.records import Record
 from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim
+from eval.studies.paper_reading import DEFAULT, Reading
 from eval.studies.presets import Preset
-from eval.studies.reading import DEFAULT, Reading
 from eval.studies.runner import RECORDS_DIR, Job
 from eval.studies.tables import summary_rows, tidy_rows
 from tandem_env.io.files import write_csv_atomic, write_json_atomic
@@ -35,7 +35,7 @@ class Plan:
     methods: tuple[str, ...] | None = None
     reading: Reading = DEFAULT
     """The model options every job runs with and which objective gives F̄_h
-    (:mod:`eval.studies.reading`); the default reading adds no env keyword, so its jobs and
+    (:mod:`eval.studies.paper_reading`); the default reading adds no env keyword, so its jobs and
     keys are those of a plan without one."""
     figure_format: str = FORMATS[0]
     """The figures' file format (:data:`eval.figures.FORMATS`)."""

@@ -1,7 +1,7 @@
 """The readings study: which reading of the paper reproduces which of its claims.
 
 ``python -m eval study readings [--preset quick|paper]``. For every reading
-(:mod:`eval.studies.reading`) the four paper studies (speed, power, kinematics, wing shape: the
+(:mod:`eval.studies.paper_reading`) the four paper studies (speed, power, kinematics, wing shape: the
 ``all`` suite) run under it with the preset's method and budgets, and their claims are judged by
 the studies' own claim builders. The readings are
 
@@ -36,7 +36,7 @@ from eval import report
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import Plan, StudyOutput
 from eval.studies.claims import Claim, VerdictCount
-from eval.studies.reading import DECISION_OPTIONS, DEFAULT, Reading, combine
+from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading, combine
 from eval.studies.readings_figure import matrix_figure
 from eval.studies.runner import RECORDS_DIR, Job, RunSummary, load_records, run_jobs
 from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic

@@ -23,8 +23,8 @@ import numpy as np
 
 from eval.studies.base import Plan
 from eval.studies.bench_workers import makespan
+from eval.studies.paper_reading import Reading
 from eval.studies.presets import PRESETS, TINY, get_preset
-from eval.studies.reading import Reading
 from eval.studies.readings import MANIFEST, reading_jobs
 from eval.studies.runner import load_records
 from tandem_env.io.files import read_json

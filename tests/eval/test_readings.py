@@ -11,8 +11,8 @@ import pytest
 
 from eval.studies import PAPER_STUDIES, claims, readings, readings_time, runner
 from eval.studies.base import Plan, StudyOutput
+from eval.studies.paper_reading import DEFAULT, Reading, combine
 from eval.studies.presets import PRESETS, TINY
-from eval.studies.reading import DEFAULT, Reading, combine
 from eval.studies.readings import ReadingResult, combinations, reading_jobs
 
 
