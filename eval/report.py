@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from eval.studies.base import Plan, StudyOutput
+from eval.studies.base import StudyOutput, StudyPlan
 from eval.studies.claims import CONFIDENCE_RULE, RULES, Claim, VerdictCount
 from tandem_env.io.files import write_text_atomic
 
@@ -120,7 +120,7 @@ def agreement_rules() -> list[str]:
     ]
 
 
-def _settings(plan: Plan) -> list[str]:
+def _settings(plan: StudyPlan) -> list[str]:
     p = plan.preset
     lines = [
         f"- preset `{p.name}`: {p.description}",
@@ -146,7 +146,7 @@ def _settings(plan: Plan) -> list[str]:
 
 
 def render(
-    plan: Plan, outputs: Sequence[StudyOutput], all_studies: Sequence[str], base: Path
+    plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str], base: Path
 ) -> str:
     claims = [c for o in outputs for c in o.claims]
     parts = [
@@ -203,7 +203,7 @@ def _rel(path: Path, base: Path) -> str:
 
 
 def write_report(
-    path: Path, plan: Plan, outputs: Sequence[StudyOutput], all_studies: Sequence[str]
+    path: Path, plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str]
 ) -> Path:
     """Write ``path`` (atomically) and return it."""
     write_text_atomic(path, render(plan, outputs, all_studies, path.parent))
@@ -251,7 +251,7 @@ def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
 
 
 def render_readings(
-    plan: Plan,
+    plan: StudyPlan,
     results: Sequence[ReadingResult],
     rule: str,
     table: Path,
@@ -371,7 +371,7 @@ def render_readings(
 
 def write_readings_report(
     path: Path,
-    plan: Plan,
+    plan: StudyPlan,
     results: Sequence[ReadingResult],
     rule: str,
     table: Path,

@@ -11,7 +11,7 @@ from agents.records import RecordStore
 from eval.figures import FORMATS
 from eval.optimize import add_scheduler_argument, run_reporting
 from eval.studies import STUDIES, readings
-from eval.studies.base import Plan
+from eval.studies.base import StudyPlan
 from eval.studies.claims import FLIP_THRESHOLD, VerdictCount
 from eval.studies.presets import PRESETS, get_preset
 from eval.studies.runner import executor_spec
@@ -123,7 +123,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     try:
         scheduler = executor_spec(args.scheduler, args.workers)
         RecordStore(args.out)  # rejects a file
-        plan = Plan(get_preset(args.preset), methods, figure_format=args.format)
+        plan = StudyPlan(get_preset(args.preset), methods, figure_format=args.format)
         chosen = readings.single_readings(args.reading)
     except ValueError as error:
         parser.error(str(error))
@@ -159,7 +159,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 def _run_readings(
     args: argparse.Namespace,
     parser: argparse.ArgumentParser,
-    plan: Plan,
+    plan: StudyPlan,
     scheduler: str | None,
     chosen: tuple[readings.Reading, ...],
 ) -> int:

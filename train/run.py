@@ -239,7 +239,7 @@ def read_yaml(path: Path) -> dict[str, Any]:
 
 # --- the run ---------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class _Plan:
+class TrainPlan:
     config: TrainConfig
     hp: Hyperparams
     env_kwargs: dict[str, Any]
@@ -257,7 +257,7 @@ def whole_iterations(n_timesteps: int, unit: int) -> int:
     return -(-n_timesteps // unit) * unit
 
 
-def plan_run(config: TrainConfig) -> _Plan:
+def plan_run(config: TrainConfig) -> TrainPlan:
     """Where the run goes and what it resumes from; validates everything before any work."""
     if config.resume:
         layout = RunLayout.latest(config.log_folder, config.algo, config.env_id)
@@ -309,7 +309,7 @@ def plan_run(config: TrainConfig) -> _Plan:
     if layout is None:
         layout = RunLayout.new(config.log_folder, config.algo, config.env_id)
     layout.run_dir.mkdir(parents=True, exist_ok=True)
-    return _Plan(config, hp, env_kwargs, layout, checkpoint, target, unit)
+    return TrainPlan(config, hp, env_kwargs, layout, checkpoint, target, unit)
 
 
 def _merge_saved(config: TrainConfig, saved: Mapping[str, Any], layout: RunLayout) -> TrainConfig:
@@ -416,7 +416,7 @@ def train(config: TrainConfig) -> TrainResult:
     return result
 
 
-def _run_envs(plan: _Plan) -> tuple[VecEnv, StrokeRecorder, VecEnv]:
+def _run_envs(plan: TrainPlan) -> tuple[VecEnv, StrokeRecorder, VecEnv]:
     """The training env (Monitor file, normalisation resumed from the checkpoint or new) with
     its stroke recorder, and the evaluation env."""
     config, hp = plan.config, plan.hp
@@ -440,7 +440,7 @@ def _run_envs(plan: _Plan) -> tuple[VecEnv, StrokeRecorder, VecEnv]:
     return venv, recorder, eval_env
 
 
-def _run_model(plan: _Plan, venv: VecEnv) -> BaseAlgorithm:
+def _run_model(plan: TrainPlan, venv: VecEnv) -> BaseAlgorithm:
     """A new model, or the checkpoint's (with SAC's replay buffer) for a resumed run."""
     config = plan.config
     tensorboard = plan.layout.tensorboard if config.tensorboard else None
@@ -469,7 +469,7 @@ def _run_model(plan: _Plan, venv: VecEnv) -> BaseAlgorithm:
 
 
 def _run_callbacks(
-    plan: _Plan, recorder: StrokeRecorder, eval_env: VecEnv, start_step: int
+    plan: TrainPlan, recorder: StrokeRecorder, eval_env: VecEnv, start_step: int
 ) -> list[BaseCallback]:
     """Physics logging, checkpoints every ``save_freq`` and evaluations every ``eval_freq``."""
     config, hp, layout = plan.config, plan.hp, plan.layout
@@ -500,7 +500,7 @@ def _run_callbacks(
 
 
 def _save_and_evaluate(
-    plan: _Plan, model: BaseAlgorithm, venv: VecEnv, eval_env: VecEnv
+    plan: TrainPlan, model: BaseAlgorithm, venv: VecEnv, eval_env: VecEnv
 ) -> list[dict[str, Any]]:
     """Save the final model (normalisation statistics, a last checkpoint), then evaluate its
     deterministic policy at every evaluation condition; closes both envs."""
@@ -520,7 +520,7 @@ def _save_and_evaluate(
     return final
 
 
-def _say_plan(plan: _Plan) -> None:
+def _say_plan(plan: TrainPlan) -> None:
     """What this command is about to do, before any work (stdout, ``verbose >= 1``)."""
     hp, layout = plan.hp, plan.layout
     if plan.target != hp.n_timesteps:

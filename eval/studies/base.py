@@ -27,7 +27,7 @@ _BATCHED = {"pso": "swarm_size", "random": "batch_size"}
 
 
 @dataclass(frozen=True)
-class Plan:
+class StudyPlan:
     """A preset and the methods to run at every condition (the preset's method by default),
     under a reading of the paper (the documented defaults by default)."""
 
@@ -42,7 +42,7 @@ class Plan:
 
     def __post_init__(self) -> None:
         if not isinstance(self.preset, Preset):
-            raise ValueError(f"Plan.preset = {self.preset!r}; allowed: a Preset")
+            raise ValueError(f"StudyPlan.preset = {self.preset!r}; allowed: a Preset")
         if self.methods is None:
             object.__setattr__(self, "methods", (self.preset.method,))
         ok = (
@@ -53,19 +53,19 @@ class Plan:
         )
         if not ok:
             raise ValueError(
-                f"Plan.methods = {self.methods!r}; allowed: distinct method specs such as "
+                f"StudyPlan.methods = {self.methods!r}; allowed: distinct method specs such as "
                 "('pso',), ('pso', 'random') or ('pso', 'policy:runs/ppo')"
             )
         if self.figure_format not in FORMATS:
             raise ValueError(
-                f"Plan.figure_format = {self.figure_format!r}; allowed: {', '.join(FORMATS)}"
+                f"StudyPlan.figure_format = {self.figure_format!r}; allowed: {', '.join(FORMATS)}"
             )
         if not isinstance(self.reading, Reading):
-            raise ValueError(f"Plan.reading = {self.reading!r}; allowed: a Reading")
+            raise ValueError(f"StudyPlan.reading = {self.reading!r}; allowed: a Reading")
         clash = sorted({k for k, _ in self.preset.env_kwargs} & set(self.reading.env_kwargs()))
         if clash:
             raise ValueError(
-                f"Plan.reading {self.reading.name!r} sets {clash}, which preset "
+                f"StudyPlan.reading {self.reading.name!r} sets {clash}, which preset "
                 f"{self.preset.name!r} sets too; allowed: a reading of other options"
             )
 

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from eval.studies import PAPER_STUDIES
-from eval.studies.base import Plan
+from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, get_preset
 from eval.studies.runner import load_records, parse_scheduler, run_jobs
 
@@ -57,7 +57,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--scheduler", default="local:2", type=parse_scheduler)
     parser.add_argument("--repeat", type=int, default=1, help="runs of each mode (alternating)")
     args = parser.parse_args(argv)
-    plan = Plan(get_preset(args.preset))
+    plan = StudyPlan(get_preset(args.preset))
     jobs = list({j.key: j for s in PAPER_STUDIES.values() for j in s.jobs(plan)}.values())
     evaluations = sum(j.budget for j in jobs)
     print(f"preset {args.preset}: {len(jobs)} optimisations, {evaluations} evaluations")
@@ -96,7 +96,9 @@ def main(argv: Sequence[str] | None = None) -> None:
         _speedups(f"{args.preset} (measured)", durations)
         for name, preset in PRESETS.items():
             others = sorted(
-                {j.key: j for s in PAPER_STUDIES.values() for j in s.jobs(Plan(preset))}.values(),
+                {
+                    j.key: j for s in PAPER_STUDIES.values() for j in s.jobs(StudyPlan(preset))
+                }.values(),
                 key=lambda j: -j.budget,
             )
             _speedups(f"{name} (estimated)", [per_eval[j.task] * j.budget for j in others])

@@ -21,7 +21,7 @@ import numpy as np
 
 from agents.records import Record
 from eval import figures
-from eval.studies.base import Plan, StudyOutput, write_tables
+from eval.studies.base import StudyOutput, StudyPlan, write_tables
 from eval.studies.presets import PRESETS
 from eval.studies.runner import Job
 from tandem_env.io.files import write_csv_atomic, write_text_atomic
@@ -31,14 +31,14 @@ TITLE = "Budget study: PSO and CMA-ES best-so-far over evaluations"
 CHECKPOINTS = (1_000, 2_000, 4_000, 6_000, 8_000, 12_000, 16_000, 20_000, 30_000, 40_000, 60_000)
 
 
-def methods(plan: Plan) -> tuple[str, ...]:
+def methods(plan: StudyPlan) -> tuple[str, ...]:
     """The spec's methods, then those the study is run with."""
     return tuple(dict.fromkeys((*plan.preset.convergence.methods, *plan.methods)))
 
 
-def jobs(plan: Plan) -> list[Job]:
+def jobs(plan: StudyPlan) -> list[Job]:
     spec = plan.preset.convergence
-    side_by_side = Plan(plan.preset, methods(plan))
+    side_by_side = StudyPlan(plan.preset, methods(plan))
     return [
         *side_by_side.jobs("level", [spec.speed], budget=spec.budget, seeds=spec.seeds),
         *side_by_side.jobs(
@@ -112,7 +112,7 @@ def markdown_table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
+def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
     rows, files = write_tables(NAME, records, out_dir, ("objective_value",))
     spec = plan.preset.convergence
     labels = {

@@ -25,7 +25,7 @@ from agents.records import Record
 from agents.tasks import get_task
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import Plan, StudyOutput, write_tables
+from eval.studies.base import StudyOutput, StudyPlan, write_tables
 from eval.studies.runner import Job
 from eval.studies.tables import circular_median, select, spread
 from tandem_env import PARAMETER_NAMES, stroke_history
@@ -48,7 +48,7 @@ PAPER_IN_PHASE = 0.0  # deg: "the wings flap in-phase" in accelerating flight (F
 HISTORY_SAMPLES = 120
 
 
-def jobs(plan: Plan) -> list[Job]:
+def jobs(plan: StudyPlan) -> list[Job]:
     p = plan.preset
     return [
         *plan.jobs("level", sorted({p.kinematics_speed, p.phase_speed})),
@@ -100,7 +100,7 @@ def traces(
     return out
 
 
-def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
+def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
     rows, files = write_tables(NAME, records, out_dir, QUANTITIES)
     p = plan.preset
     method = plan.methods[0]
@@ -109,7 +109,7 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
         method=method,
         task="accelerate",
         planform="tear-drop",
-        objective=plan.reading.objective(p.kinematics_objective),  # the job's (Plan.jobs)
+        objective=plan.reading.objective(p.kinematics_objective),  # the job's (StudyPlan.jobs)
     )
     lv = traces(records, rows, condition=p.kinematics_speed, **level)
     ac = traces(records, rows, condition=p.kinematics_power, **accel)
@@ -231,14 +231,14 @@ def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOu
     return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
-def _claims(plan: Plan, rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim]:
+def _claims(plan: StudyPlan, rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim]:
     p = plan.preset
     level = dict(method=method, task="level", planform="tear-drop")
     accel = dict(
         method=method,
         task="accelerate",
         planform="tear-drop",
-        objective=plan.reading.objective(p.kinematics_objective),  # the job's (Plan.jobs)
+        objective=plan.reading.objective(p.kinematics_objective),  # the job's (StudyPlan.jobs)
     )
     lv_abs = spread(select(rows, condition=p.kinematics_speed, **level), "phase_difference_abs")
     lead = spread(select(rows, condition=p.phase_speed, **level), "phase_difference")

@@ -5,7 +5,7 @@ The paper (Faisal & Filippone 2016) leaves several modelling decisions open (doc
 rotational coefficient C_r, which spin rate enters circulation and added mass, the inflow in
 hover, the fore-wing's share C_hf on the hind-wing, and what F̄_h of accelerating flight is. A
 :class:`Reading` names one combination of those choices; the studies build their jobs under it
-(:meth:`eval.studies.base.Plan.jobs`), so a reading changes the env keywords of every job and
+(:meth:`eval.studies.base.StudyPlan.jobs`), so a reading changes the env keywords of every job and
 nothing else. The default reading changes nothing: its jobs are the ``all`` suite's, key for key.
 """
 

@@ -18,7 +18,7 @@ import numpy as np
 from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import Plan, StudyOutput, write_tables
+from eval.studies.base import StudyOutput, StudyPlan, write_tables
 from eval.studies.runner import Job
 from eval.studies.tables import Spread, by_condition, select
 
@@ -40,11 +40,11 @@ PAPER_ATTAINABLE = {50.0: 3.6, 90.0: 5.6}
 PAPER_RATIO = (10.0, 20.0)  # % by which F̄_v exceeds F̄_h
 
 
-def jobs(plan: Plan) -> list[Job]:
+def jobs(plan: StudyPlan) -> list[Job]:
     return series_jobs(plan, plan.preset.powers, "tear-drop")
 
 
-def series_jobs(plan: Plan, powers: tuple[float, ...], planform: str) -> list[Job]:
+def series_jobs(plan: StudyPlan, powers: tuple[float, ...], planform: str) -> list[Job]:
     return [
         job
         for objective in ("vertical", "horizontal")
@@ -61,7 +61,7 @@ def excess(
 ) -> dict[float, Spread]:
     """F̄_v (axis "vertical") or F̄_h ("horizontal") per power: the objective value of its own
     optimisation; F̄_h's is the accelerating objective ``horizontal`` (the plan's reading's,
-    ``Plan.reading.horizontal_objective``; its value is ``excess_<horizontal>``)."""
+    ``StudyPlan.reading.horizontal_objective``; its value is ``excess_<horizontal>``)."""
     return by_condition(
         rows,
         "objective_value",
@@ -111,7 +111,7 @@ def paper_attainable(label: str = "") -> list[tuple[float, float] | tuple[float,
     return [(p, v, label) if label else (p, v) for p, v in PAPER_ATTAINABLE.items()]
 
 
-def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
+def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
     rows, files = write_tables(NAME, records, out_dir, QUANTITIES)
     study_dir = out_dir / NAME
     xlabel = "available power P/m [W/kg]"

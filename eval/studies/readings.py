@@ -34,7 +34,7 @@ from typing import Any
 
 from eval import report
 from eval.studies import PAPER_STUDIES
-from eval.studies.base import Plan, StudyOutput
+from eval.studies.base import StudyOutput, StudyPlan
 from eval.studies.claims import Claim, VerdictCount
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading, combine
 from eval.studies.readings_figure import matrix_figure
@@ -207,12 +207,12 @@ def single_readings(names: Sequence[str] | None = None) -> tuple[Reading, ...]:
     return tuple(chosen)
 
 
-def reading_plan(plan: Plan, reading: Reading) -> Plan:
+def reading_plan(plan: StudyPlan, reading: Reading) -> StudyPlan:
     """``plan`` (preset and methods) under ``reading``."""
     return replace(plan, reading=reading)
 
 
-def reading_jobs(plan: Plan, reading: Reading) -> list[Job]:
+def reading_jobs(plan: StudyPlan, reading: Reading) -> list[Job]:
     """Every job of the ``all`` suite under ``reading`` (duplicates between studies included)."""
     p = reading_plan(plan, reading)
     return [job for study in PAPER_STUDIES.values() for job in study.jobs(p)]
@@ -287,7 +287,7 @@ def reading_dir(out_dir: Path, reading: Reading) -> Path:
     return out_dir / reading.name
 
 
-def analyse_reading(plan: Plan, reading: Reading, out_dir: Path) -> ReadingResult:
+def analyse_reading(plan: StudyPlan, reading: Reading, out_dir: Path) -> ReadingResult:
     """Analyse the four studies under ``reading`` (every record present) into its folder.
 
     The folder gets a relative link ``records -> ../records`` so the study indexes' record
@@ -311,7 +311,7 @@ def analyse_reading(plan: Plan, reading: Reading, out_dir: Path) -> ReadingResul
 
 
 def _phase(
-    plan: Plan,
+    plan: StudyPlan,
     readings: Sequence[Reading],
     out_dir: Path,
     scheduler: str | None,
@@ -327,7 +327,7 @@ def _phase(
     return results, summary
 
 
-def _check_preset(out_dir: Path, plan: Plan) -> None:
+def _check_preset(out_dir: Path, plan: StudyPlan) -> None:
     """Say so (stderr) when ``out_dir`` holds another preset's readings, which are replaced."""
     try:
         before = read_json(out_dir / MANIFEST)
@@ -343,7 +343,7 @@ def _check_preset(out_dir: Path, plan: Plan) -> None:
 
 
 def run_readings(
-    plan: Plan,
+    plan: StudyPlan,
     out_dir: str | os.PathLike[str],
     *,
     readings: Sequence[Reading] = SINGLES,
@@ -429,7 +429,7 @@ def _round(value: float) -> float:
 
 
 def write_outputs(
-    plan: Plan, results: Sequence[ReadingResult], rule: str, out_dir: Path
+    plan: StudyPlan, results: Sequence[ReadingResult], rule: str, out_dir: Path
 ) -> list[Path]:
     """readings.csv, readings_matrix.<format> and report.md."""
     csv_path = out_dir / "readings.csv"

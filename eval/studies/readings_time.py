@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from eval.studies.base import Plan
+from eval.studies.base import StudyPlan
 from eval.studies.bench_workers import makespan
 from eval.studies.paper_reading import Reading
 from eval.studies.presets import PRESETS, TINY, get_preset
@@ -44,8 +44,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     args = parser.parse_args(argv)
     manifest = read_json(Path(args.measured) / MANIFEST)
     presets = {**PRESETS, TINY.name: TINY}
-    measured = Plan(presets[manifest["preset"]], tuple(manifest["methods"]))
-    target = Plan(get_preset(args.preset), tuple(manifest["methods"]))
+    measured = StudyPlan(presets[manifest["preset"]], tuple(manifest["methods"]))
+    target = StudyPlan(get_preset(args.preset), tuple(manifest["methods"]))
     seen: set[str] = set()
     durations: list[tuple[int, float]] = []
     print(f"measured: {args.measured} ({measured.preset.name}); estimated: {args.preset}")

@@ -13,7 +13,7 @@ from pathlib import Path
 from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import Plan, StudyOutput, write_tables
+from eval.studies.base import StudyOutput, StudyPlan, write_tables
 from eval.studies.runner import Job
 from eval.studies.tables import Spread, by_condition
 
@@ -40,11 +40,11 @@ SIGN_NOTE = (
 )
 
 
-def jobs(plan: Plan) -> list[Job]:
+def jobs(plan: StudyPlan) -> list[Job]:
     return plan.jobs("level", plan.preset.speeds)
 
 
-def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
+def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
     rows, files = write_tables(NAME, records, out_dir, QUANTITIES)
     where = {"task": "level", "planform": "tear-drop"}
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from eval import report
 from eval.studies import PAPER_STUDIES, STUDIES
-from eval.studies.base import Plan, StudyOutput
+from eval.studies.base import StudyOutput, StudyPlan
 from eval.studies.runner import (
     RunSummary,
     executor_spec,
@@ -46,7 +46,7 @@ def expand(names: Sequence[str]) -> list[str]:
 
 def run_studies(
     names: Sequence[str],
-    plan: Plan,
+    plan: StudyPlan,
     out_dir: str | os.PathLike[str],
     *,
     scheduler: str | None = None,

@@ -18,7 +18,7 @@ import numpy as np
 from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import Plan, StudyOutput, write_tables
+from eval.studies.base import StudyOutput, StudyPlan, write_tables
 from eval.studies.power import attainable, paper_attainable, series_jobs
 from eval.studies.runner import Job
 from eval.studies.speed import PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY
@@ -38,7 +38,7 @@ QUANTITIES = (
 PAPER_GAIN_AT_2 = 12.0  # % efficiency gain of the real wing at 2 m/s (Fig. 15)
 
 
-def jobs(plan: Plan) -> list[Job]:
+def jobs(plan: StudyPlan) -> list[Job]:
     p = plan.preset
     out: list[Job] = []
     for planform in PLANFORMS:
@@ -70,7 +70,7 @@ def planform_outlines(n: int = 200) -> list[tuple[str, np.ndarray, np.ndarray, n
     return out
 
 
-def analyse(plan: Plan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
+def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
     rows, files = write_tables(NAME, records, out_dir, QUANTITIES)
     study_dir = out_dir / NAME
     variant = figures.PLANFORM_VARIANT

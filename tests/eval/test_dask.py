@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 
 from eval.studies import runner
-from eval.studies.base import Plan
+from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, TINY
 from eval.studies.runner import Job, JobsFailed, parse_scheduler, run_jobs
 from eval.studies.suite import run_studies
@@ -127,7 +127,7 @@ def _csv_without_timings(path: Path) -> list[list[str]]:
 def test_killed_worker_gives_the_serial_report(
     cluster: Cluster, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    plan = Plan(PRESET)
+    plan = StudyPlan(PRESET)
     run_studies(["speed"], plan, tmp_path / "serial", progress=False)
     capsys.readouterr()
 
@@ -177,7 +177,7 @@ def test_killed_worker_gives_the_serial_report(
 
 
 def test_failing_job_is_reported_and_the_others_finish(cluster: Cluster, tmp_path: Path) -> None:
-    good = Plan(TINY).jobs("level", [2.0])
+    good = StudyPlan(TINY).jobs("level", [2.0])
     bad = replace(good[0], method="no-such-method")
     with pytest.raises(JobsFailed) as info:
         run_jobs([bad, *good], tmp_path, scheduler=cluster.address, progress=False)
@@ -248,6 +248,6 @@ def test_local_cluster_workers_use_one_numba_thread() -> None:
 def test_jobs_are_picklable_with_their_key() -> None:
     import pickle
 
-    (job,) = Plan(TINY).jobs("level", [2.0], seeds=[0])
+    (job,) = StudyPlan(TINY).jobs("level", [2.0], seeds=[0])
     again = pickle.loads(pickle.dumps(job))
     assert again == job and again.key == job.key and isinstance(again, Job)

@@ -12,7 +12,7 @@ import pytest
 
 from eval import figures
 from eval.studies import wing_shape
-from eval.studies.base import Plan
+from eval.studies.base import StudyPlan
 from eval.studies.presets import TINY
 from eval.studies.tables import Spread, circular_median, circular_quartiles, spread
 
@@ -170,8 +170,8 @@ def test_an_unknown_format_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="allowed: png, svg, pdf"):
         figures.save(fig, tmp_path / "f.gif")
     with pytest.raises(ValueError, match="figure_format = 'jpg'"):
-        Plan(TINY, figure_format="jpg")
-    assert Plan(TINY, figure_format="svg").figure(tmp_path, "fig6") == tmp_path / "fig6.svg"
+        StudyPlan(TINY, figure_format="jpg")
+    assert StudyPlan(TINY, figure_format="svg").figure(tmp_path, "fig6") == tmp_path / "fig6.svg"
 
 
 def test_phase_panels_show_the_statistic_the_report_judges(

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from eval.studies import PAPER_STUDIES, claims, readings, readings_time, runner
-from eval.studies.base import Plan, StudyOutput
+from eval.studies.base import StudyOutput, StudyPlan
 from eval.studies.paper_reading import DEFAULT, Reading, combine
 from eval.studies.presets import PRESETS, TINY
 from eval.studies.readings import ReadingResult, combinations, reading_jobs
@@ -63,7 +63,7 @@ def test_every_single_reading_changes_one_decision_and_builds_envs() -> None:
 
 
 def test_default_reading_gives_the_all_suite_jobs_key_for_key() -> None:
-    plan = Plan(TINY)
+    plan = StudyPlan(TINY)
     suite = [job for study in PAPER_STUDIES.values() for job in study.jobs(plan)]
     assert [j.key for j in reading_jobs(plan, DEFAULT)] == [j.key for j in suite]
     # ... and a reading that restates the defaults is the same configuration.
@@ -72,7 +72,7 @@ def test_default_reading_gives_the_all_suite_jobs_key_for_key() -> None:
 
 
 def test_readings_share_records_where_the_configuration_is_the_same() -> None:
-    plan = Plan(TINY)
+    plan = StudyPlan(TINY)
     default = _keys(reading_jobs(plan, DEFAULT))
     body = _keys(reading_jobs(plan, readings.SINGLES[1]))
     assert not default & body  # a model option changes every job
@@ -151,7 +151,7 @@ def test_tiny_run_writes_everything_and_a_rerun_computes_nothing(
 ) -> None:
     from eval.__main__ import main
 
-    plan = Plan(TINY)
+    plan = StudyPlan(TINY)
     chosen = readings.single_readings(["spin-total"])
     first = readings.run_readings(plan, tmp_path, readings=chosen, progress=False)
     assert first.runs[0].ran == len(_keys(reading_jobs(plan, DEFAULT))) * 2

@@ -21,7 +21,7 @@ from agents.records import (
 )
 from eval.__main__ import main
 from eval.studies import runner
-from eval.studies.base import Plan
+from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, TINY
 from eval.studies.runner import JobsFailed, run_jobs
 
@@ -142,7 +142,7 @@ def test_optimize_resumes_and_adds_seeds(tmp_path: Path, monkeypatch, capsys) ->
 def test_failing_job_is_reported_by_key_and_the_others_finish(
     tmp_path: Path, monkeypatch, capsys
 ) -> None:
-    jobs = Plan(TINY).jobs("level", TINY.speeds)
+    jobs = StudyPlan(TINY).jobs("level", TINY.speeds)
     victim = jobs[1]
     original = runner._harness_run
 

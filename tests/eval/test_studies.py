@@ -14,7 +14,7 @@ import pytest
 
 from agents.harness import run
 from eval.studies import STUDIES, claims, runner
-from eval.studies.base import Plan
+from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, TINY, ConvergenceSpec, Preset
 from eval.studies.suite import run_studies
 from eval.studies.tables import Spread
@@ -27,7 +27,7 @@ SMALL = replace(TINY, level_budget=48, accelerate_budget=48)
 @pytest.fixture(scope="module")
 def study_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("study")
-    run_studies(["all", "convergence"], Plan(SMALL), out, workers=1, progress=False)
+    run_studies(["all", "convergence"], StudyPlan(SMALL), out, workers=1, progress=False)
     return out
 
 
@@ -128,7 +128,7 @@ def test_report_numbers_are_the_records_numbers(study_dir: Path) -> None:
 
 def test_resume_skips_finished_jobs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     calls = _count_calls(monkeypatch)
-    plan = Plan(TINY)
+    plan = StudyPlan(TINY)
     first = run_studies(["power"], plan, tmp_path, workers=1, progress=False)
     n = len(calls)
     assert n == first.run.total == first.run.ran > 0
@@ -151,24 +151,24 @@ def test_changed_configuration_is_not_mixed(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     calls = _count_calls(monkeypatch)
-    run_studies(["speed"], Plan(TINY), tmp_path, workers=1, progress=False)
+    run_studies(["speed"], StudyPlan(TINY), tmp_path, workers=1, progress=False)
     old = len(calls)
     changed = replace(TINY, level_budget=24)
-    run_studies(["speed"], Plan(changed), tmp_path, workers=1, progress=False)
+    run_studies(["speed"], StudyPlan(changed), tmp_path, workers=1, progress=False)
     assert len(calls) == 2 * old  # nothing reused
     rows = _read_csv(tmp_path / "speed" / "speed.csv")
     assert len(rows) == len(TINY.speeds) * len(TINY.seeds)
     assert {r["budget"] for r in rows} == {"24"}
     # Model options are part of the configuration too.
     other = replace(TINY, env_kwargs=(("n_blade", 6), ("n_time", 40)))
-    run_studies(["speed"], Plan(other), tmp_path, workers=1, progress=False)
+    run_studies(["speed"], StudyPlan(other), tmp_path, workers=1, progress=False)
     assert len(calls) == 3 * old
     # The old records are still there, but only the current ones are read.
     assert len(list((tmp_path / "records").glob("*.json"))) == 3 * old
 
 
 def test_pool_gives_the_serial_numbers(tmp_path: Path) -> None:
-    plan = Plan(TINY)
+    plan = StudyPlan(TINY)
     run_studies(["speed"], plan, tmp_path / "serial", workers=1, progress=False)
     run_studies(["speed"], plan, tmp_path / "pool", workers=2, progress=False)
     serial = _read_csv(tmp_path / "serial" / "speed" / "speed.csv")
@@ -183,7 +183,7 @@ def test_pool_gives_the_serial_numbers(tmp_path: Path) -> None:
 
 def test_other_methods_run_beside_pso(tmp_path: Path) -> None:
     result = run_studies(
-        ["speed"], Plan(TINY, ("pso", "random")), tmp_path, workers=1, progress=False
+        ["speed"], StudyPlan(TINY, ("pso", "random")), tmp_path, workers=1, progress=False
     )
     rows = result.outputs[0].rows
     assert {r["method"] for r in rows} == {"pso", "random"}
@@ -256,9 +256,9 @@ def test_convergence_study_compares_pso_and_cmaes(study_dir: Path) -> None:
 
 
 def test_studies_default_to_the_presets_method() -> None:
-    assert Plan(TINY).methods == (TINY.method,)
+    assert StudyPlan(TINY).methods == (TINY.method,)
     assert {p.method for p in PRESETS.values()} <= {"pso", "cmaes"}
-    assert Plan(TINY, ("pso",)).methods == ("pso",)
+    assert StudyPlan(TINY, ("pso",)).methods == ("pso",)
     with pytest.raises(ValueError, match="method"):
         replace(TINY, method="")
 
@@ -279,7 +279,7 @@ def test_presets_are_validated() -> None:
     with pytest.raises(ValueError, match="methods"):
         ConvergenceSpec(budget=100, seeds=(0,), methods=("pso", "pso"))
     with pytest.raises(ValueError, match="methods"):
-        Plan(TINY, ())
+        StudyPlan(TINY, ())
     assert all(isinstance(p, Preset) for p in PRESETS.values())
     # The presets cover the kinematics conditions and the 2 m/s phase claim.
     for preset in PRESETS.values():
@@ -338,7 +338,7 @@ def test_phase_angle_and_compare_rules() -> None:
 
 
 def test_figures_in_another_format_and_the_report_shows_them(tmp_path: Path) -> None:
-    run_studies(["power"], Plan(TINY, figure_format="pdf"), tmp_path, progress=False)
+    run_studies(["power"], StudyPlan(TINY, figure_format="pdf"), tmp_path, progress=False)
     figures = sorted(p.name for p in (tmp_path / "power").glob("fig*"))
     assert figures == ["fig7_excess_forces.pdf", "fig8_attainable.pdf"]
     report = (tmp_path / "report.md").read_text(encoding="utf-8")
