@@ -10,14 +10,11 @@ import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from eval.studies.base import StudyOutput, StudyPlan
 from eval.studies.claims import CONFIDENCE_RULE, RULES, Claim, VerdictCount
+from eval.studies.readings_result import HEADLINES, ReadingResult, reading_dir
 from tandem_env.io.files import write_text_atomic
-
-if TYPE_CHECKING:
-    from eval.studies.readings import ReadingResult
 
 UNDERSTOOD = {
     "thrust_split": (
@@ -260,8 +257,6 @@ def render_readings(
 ) -> str:
     """The readings study's report: the table of readings, the best one, which decision moves
     which claim and by how much, the matrix figure."""
-    from eval.studies.readings import HEADLINES, reading_dir
-
     default = results[0]
     best = max(results, key=lambda r: r.agree)
     n_claims = len(default.claims)

@@ -34,10 +34,10 @@ from typing import Any
 
 from eval import report
 from eval.studies import PAPER_STUDIES
-from eval.studies.base import StudyOutput, StudyPlan
-from eval.studies.claims import Claim, VerdictCount
+from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading, combine
 from eval.studies.readings_figure import matrix_figure
+from eval.studies.readings_result import HEADLINES, ReadingResult, reading_dir
 from eval.studies.runner import RECORDS_DIR, Job, RunSummary, load_records, run_jobs
 from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
 
@@ -106,16 +106,6 @@ SINGLES: tuple[Reading, ...] = (
     ),
 )
 
-#: Headline numbers of readings.csv: column -> (claim id whose median it is, description).
-HEADLINES: dict[str, tuple[str, str]] = {
-    "eta_max_pct": ("S7", "highest median level-flight efficiency over speeds [%]"),
-    "Fv_50": ("P1a", "median F̄_v at 50 W/kg [-]"),
-    "Fv_90": ("P1b", "median F̄_v at 90 W/kg [-]"),
-    "Fh_50": ("P2a", "median F̄_h at 50 W/kg [-]"),
-    "Fh_90": ("P2b", "median F̄_h at 90 W/kg [-]"),
-    "Fa_50": ("P6a", "median F̄_a at 50 W/kg [g]"),
-    "Fa_90": ("P6b", "median F̄_a at 90 W/kg [g]"),
-}
 #: The columns of readings.csv, in order.
 CSV_COLUMNS: tuple[str, ...] = (
     "reading",
@@ -131,45 +121,6 @@ CSV_COLUMNS: tuple[str, ...] = (
     *HEADLINES,
     "description",
 )
-
-
-@dataclass(frozen=True)
-class ReadingResult:
-    """One reading's studies, analysed."""
-
-    reading: Reading
-    outputs: tuple[StudyOutput, ...]
-
-    @property
-    def claims(self) -> list[Claim]:
-        return [c for o in self.outputs for c in o.claims]
-
-    @property
-    def agree(self) -> int:
-        return VerdictCount.of(self.claims).agree
-
-    @property
-    def differ(self) -> int:
-        return VerdictCount.of(self.claims).differ
-
-    @property
-    def undecided(self) -> int:
-        """Claims whose verdict on the median the bootstrap over seeds leaves undecided."""
-        return VerdictCount.of(self.claims).undecided
-
-    @property
-    def no_data(self) -> int:
-        return VerdictCount.of(self.claims).no_data
-
-    def verdicts(self) -> dict[str, str]:
-        return {c.id: c.verdict for c in self.claims}
-
-    def headline(self) -> dict[str, float]:
-        """The :data:`HEADLINES` numbers: the medians of those claims (NaN where absent)."""
-        by_id = {c.id: c for c in self.claims}
-        return {
-            k: by_id[cid].median if cid in by_id else math.nan for k, (cid, _) in HEADLINES.items()
-        }
 
 
 @dataclass(frozen=True)
@@ -280,11 +231,6 @@ def combinations(
 
 def _combined_name(results: Sequence[ReadingResult]) -> str:
     return "+".join(r.reading.name for r in results)
-
-
-def reading_dir(out_dir: Path, reading: Reading) -> Path:
-    """The folder of one reading's study outputs, ``DIR/<name>``."""
-    return out_dir / reading.name
 
 
 def analyse_reading(plan: StudyPlan, reading: Reading, out_dir: Path) -> ReadingResult:

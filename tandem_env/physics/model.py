@@ -550,13 +550,3 @@ def evaluate(
     angles, weights, frequency, beta, sweep = _parametric_inputs(physical, options.n_time)
     out, _, _ = run_kernel(angles, weights, frequency, beta, sweep, v, gamma, insect, options)
     return _performance(out, v, gamma, p_avail, insect, options)
-
-
-def __getattr__(name: str):
-    """``MeasuredWing`` and ``evaluate_measured`` live in ``measured`` (which builds on this
-    module); they are still reachable here for code that imported them from ``model``."""
-    if name in ("MeasuredWing", "evaluate_measured"):
-        from . import measured
-
-        return getattr(measured, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

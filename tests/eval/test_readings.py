@@ -13,7 +13,8 @@ from eval.studies import PAPER_STUDIES, claims, readings, readings_time, runner
 from eval.studies.base import StudyOutput, StudyPlan
 from eval.studies.paper_reading import DEFAULT, Reading, combine
 from eval.studies.presets import PRESETS, TINY
-from eval.studies.readings import ReadingResult, combinations, reading_jobs
+from eval.studies.readings import combinations, reading_jobs
+from eval.studies.readings_result import ReadingResult
 
 
 def _keys(jobs: list[runner.Job]) -> set[str]:
