@@ -17,6 +17,8 @@ import sys
 from collections.abc import Sequence
 from types import ModuleType
 
+from tandem_env.io.progress_bar import warnings_as_lines
+
 #: Modules providing the subcommands, in the order ``--help`` lists them.
 SUBCOMMANDS: tuple[str, ...] = (
     "eval.optimize",
@@ -61,7 +63,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Parse ``argv`` (default ``sys.argv[1:]``) and run the subcommand; its exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    return int(args._main(args, args._parser) or 0)
+    with warnings_as_lines():
+        return int(args._main(args, args._parser) or 0)
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from tandem_env.io.keyvalue import parse_pairs
+from tandem_env.io.progress_bar import warnings_as_lines
 from train.config import ALGOS, DEVICES, TrainConfig
 from train.layout import RunComplete
 
@@ -115,12 +116,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         config = config_from_args(args)
         from train.run import train
 
-        result = train(config)
+        with warnings_as_lines():
+            result = train(config)
     except RunComplete as done:
         print(done)
         return 0
     except ValueError as error:
         parser.error(str(error))
+    except OSError as error:  # a disk that fills or a folder made read-only during the run
+        print(f"{parser.prog}: error: {error}", file=sys.stderr)
+        return 1
     print(f"run folder: {result.run_dir}")
     from tandem_env.envs.registration import config_class
 

@@ -26,9 +26,14 @@ folder is not one, and ``python -m train`` never resumes in, or writes into, suc
 
 from __future__ import annotations
 
+import fcntl
+import os
+import pickletools
 import re
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import yaml
 
@@ -39,6 +44,93 @@ MADE_BY = "tandem-env python -m train"
 #: zoo calls its thread count ``num_threads``).
 _LEGACY_KEY = "torch_threads"
 _CHECKPOINT = re.compile(rf"^{CHECKPOINT_PREFIX}_(\d+)_steps\.zip$")
+#: The lock file of a run folder: held (``flock``) by the ``python -m train`` writing there.
+LOCK_FILE = ".train.lock"
+
+
+# --- the YAML of a run folder ---------------------------------------------------------------
+class RunFileLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` plus the two Python tags rl_zoo3 writes (``yaml.dump`` of its
+    ``OrderedDict`` of arguments and hyperparameters, and of tuples such as ``train_freq``):
+    ``!!python/object/apply:collections.OrderedDict`` becomes a dict and ``!!python/tuple`` a
+    tuple. Every other tag is refused (:class:`ForbiddenTag`) before anything is built."""
+
+
+class ForbiddenTag(yaml.constructor.ConstructorError):
+    """A YAML tag :class:`RunFileLoader` does not admit (``node.tag`` in :attr:`tag`)."""
+
+    def __init__(self, node: yaml.Node) -> None:
+        self.tag = node.tag
+        super().__init__(None, None, f"the tag {node.tag!r} is not admitted", node.start_mark)
+
+
+def _ordered_dict(loader: RunFileLoader, node: yaml.Node) -> dict[Any, Any]:
+    # PyYAML writes an OrderedDict as a one-item sequence: the list of [key, value] pairs.
+    arguments = (
+        loader.construct_sequence(node, deep=True) if isinstance(node, yaml.SequenceNode) else None
+    )
+    if (
+        not arguments
+        or len(arguments) != 1
+        or not all(isinstance(pair, list) and len(pair) == 2 for pair in arguments[0])
+    ):
+        raise ForbiddenTag(node)  # the tag, but not the zoo's form of it
+    return {key: value for key, value in arguments[0]}
+
+
+def _tuple(loader: RunFileLoader, node: yaml.Node) -> tuple[Any, ...]:
+    if not isinstance(node, yaml.SequenceNode):
+        raise ForbiddenTag(node)
+    return tuple(loader.construct_sequence(node, deep=True))
+
+
+def _refuse(loader: RunFileLoader, node: yaml.Node) -> None:
+    raise ForbiddenTag(node)
+
+
+RunFileLoader.add_constructor(
+    "tag:yaml.org,2002:python/object/apply:collections.OrderedDict", _ordered_dict
+)
+RunFileLoader.add_constructor("tag:yaml.org,2002:python/tuple", _tuple)
+RunFileLoader.add_constructor(None, _refuse)
+
+
+def parse_run_yaml(text: str, path: Path) -> dict[str, Any]:
+    """The mapping in a run folder's YAML ``text`` (of file ``path``), read with
+    :class:`RunFileLoader`; ValueError naming the file for a refused tag, YAML that does not
+    parse, or a document that is not a mapping."""
+    try:
+        data = yaml.load(text, Loader=RunFileLoader)
+    except ForbiddenTag as error:
+        line = f" (line {error.problem_mark.line + 1})" if error.problem_mark else ""
+        raise ValueError(
+            f"{path}: refused: it holds the YAML tag {error.tag}{line}, which builds a Python "
+            "object; allowed in a run folder's YAML: plain YAML values, !!python/tuple and "
+            "rl_zoo3's !!python/object/apply:collections.OrderedDict. Nothing was loaded"
+        ) from None
+    except yaml.YAMLError as error:
+        raise ValueError(f"{path} is not readable YAML ({error}); it is left untouched") from None
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise ValueError(
+            f"{path} holds a YAML {type(data).__name__}, not a mapping of settings; it is left "
+            "untouched. Allowed: the file python -m train wrote there"
+        )
+    return data
+
+
+def read_run_yaml(path: Path) -> dict[str, Any]:
+    """:func:`parse_run_yaml` of the file ``path``; ValueError naming it if it cannot be read."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(
+            f"{path} is not UTF-8 text (a damaged file?); it is left untouched"
+        ) from None
+    except OSError as error:
+        raise ValueError(f"{path} cannot be read ({error.strerror})") from None
+    return parse_run_yaml(text, path)
 
 
 def env_name(env_id: str) -> str:
@@ -88,8 +180,60 @@ class Checkpoint:
             needed.append(self.vecnormalize)
         return all(p.is_file() and p.stat().st_size > 0 for p in needed)
 
+    def damage(self, *, replay_buffer: bool, vecnormalize: bool) -> str | None:
+        """None if every file a resume needs is there and intact, else what is wrong, in words.
+
+        Read without loading anything: the model is a zip whose every member's CRC must match
+        (a truncated or altered file fails), and a companion is a pickle whose opcodes must run
+        to its STOP (``pickletools.genops``, which builds no object), so a file cut short by a
+        kill or a full disk is found before SB3 loads it.
+        """
+        needed = [(self.model, _zip_damage)]
+        if replay_buffer:
+            needed.append((self.replay_buffer, _pickle_damage))
+        if vecnormalize:
+            needed.append((self.vecnormalize, _pickle_damage))
+        for path, check in needed:
+            if not path.is_file():
+                return f"{path.name} is missing"
+            if path.stat().st_size == 0:
+                return f"{path.name} is empty"
+            problem = check(path)
+            if problem is not None:
+                return f"{path.name} is damaged ({problem})"
+        return None
+
     def paths(self) -> tuple[Path, ...]:
         return (self.model, self.replay_buffer, self.vecnormalize)
+
+
+#: Members every SB3 model zip has (``save_to_zip_file``).
+_MODEL_MEMBERS = frozenset({"data", "_stable_baselines3_version"})
+
+
+def _zip_damage(path: Path) -> str | None:
+    try:
+        with zipfile.ZipFile(path) as archive:
+            # The model's zip stores torch's own zips uncompressed, so a file cut short can end
+            # in an inner archive's directory and read as that archive: its members tell.
+            missing = _MODEL_MEMBERS - set(archive.namelist())
+            bad = None if missing else archive.testzip()
+    except (zipfile.BadZipFile, OSError, EOFError, ValueError) as error:
+        return f"not a complete zip file: {error}"
+    if missing:
+        return f"not a complete model file: no {', '.join(sorted(missing))}"
+    return None if bad is None else f"member {bad} fails its CRC check"
+
+
+def _pickle_damage(path: Path) -> str | None:
+    try:
+        with path.open("rb") as stream:
+            for opcode, _, _ in pickletools.genops(stream):
+                if opcode.name == "STOP":
+                    return None
+    except (ValueError, EOFError, OSError) as error:
+        return f"not a complete pickle: {error}"
+    return "not a complete pickle: no STOP opcode"
 
 
 @dataclass(frozen=True)
@@ -154,7 +298,7 @@ class RunLayout:
         if not self.run_dir.is_dir():
             return f"{self.run_dir} is a file, not a run folder"
         if not self.args_file.is_file():
-            if not any(self.run_dir.iterdir()):
+            if not any(p.name != LOCK_FILE for p in self.run_dir.iterdir()):
                 return None
             others = sorted(p.parent.name for p in self.run_dir.glob("*/args.yml"))
             if others:
@@ -163,11 +307,13 @@ class RunLayout:
                     f"{self.env_id}"
                 )
             return f"{self.run_dir} holds files but no {self.name}/args.yml: not a training run"
-        text = self.args_file.read_text()
         try:
-            args = yaml.load(text, Loader=yaml.UnsafeLoader)  # the zoo writes python tags
-        except yaml.YAMLError as error:
-            return f"{self.args_file} is not readable YAML ({error})"
+            text = self.args_file.read_text(encoding="utf-8")
+            args = parse_run_yaml(text, self.args_file)
+        except UnicodeDecodeError:
+            return f"{self.args_file} is not UTF-8 text"
+        except (OSError, ValueError) as error:
+            return str(error)
         if isinstance(args, dict) and args.get("made_by") == MADE_BY:
             return None
         if isinstance(args, dict) and _LEGACY_KEY in args and "!!python" not in text:
@@ -239,3 +385,67 @@ class RunLayout:
                 f"Allowed: {hint}"
             )
         return layout
+
+
+def resolve_run_dir(path: str | os.PathLike[str]) -> Path:
+    """A run folder, or the latest run a path names: ``logs/ppo/TandemWing-LevelFlight-v0``
+    (the folder without its ``_<n>``) is the run ``logs/ppo/TandemWing-LevelFlight-v0_<n>``
+    with the greatest ``n`` there, so a command need not hard-code a run number. Any other path
+    is returned as given."""
+    path = Path(path)
+    if path.is_dir() or not path.parent.is_dir():
+        return path
+    n = latest_run_id(path.parent, path.name)
+    return path.parent / f"{path.name}_{n}" if n else path
+
+
+class RunInUse(ValueError):
+    """Another process holds the run folder's lock (it is training there)."""
+
+
+class RunLock:
+    """The exclusive lock of a run folder, held while ``python -m train`` writes there.
+
+    An ``flock`` on ``<run>/.train.lock``: the kernel releases it when the holder exits, however
+    it exits, so a killed run leaves no stale lock (the file stays and is reused). The holder's
+    pid is written into the file for the refusal's message. Use as a context manager.
+    """
+
+    def __init__(self, run_dir: Path) -> None:
+        self.path = Path(run_dir) / LOCK_FILE
+        self._fd: int | None = None
+
+    def acquire(self) -> RunLock:
+        try:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as error:
+            raise ValueError(
+                f"{self.path.parent} is not writable ({error.strerror}); a run folder must be "
+                "writable to train in it. Allowed: a folder you can write, or a new run"
+            ) from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            holder = os.read(fd, 32).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise RunInUse(
+                f"{self.path.parent} is in use: another python -m train (pid {holder}) is "
+                f"training there and holds {self.path.name}; nothing was changed. Allowed: wait "
+                "for it to finish, or resume another run"
+            ) from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        self._fd = fd
+        return self
+
+    def release(self) -> None:
+        if self._fd is not None:
+            fcntl.flock(self._fd, fcntl.LOCK_UN)
+            os.close(self._fd)
+            self._fd = None
+
+    def __enter__(self) -> RunLock:
+        return self.acquire() if self._fd is None else self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()

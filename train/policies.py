@@ -7,7 +7,8 @@ provider :mod:`agents.methods` imports on first use, so ``agents`` imports SB3 o
     A policy trained by ``python -m train``. Asked deterministically for its stroke at the
     condition (one forward pass), which the harness evaluates once: **1 evaluation**, any
     larger budget is left unused. ``model=best`` (default: ``best_model.zip``, the best
-    deterministic evaluation during training) or ``model=final`` (``<env>.zip``).
+    deterministic evaluation during training) or ``model=final`` (``<env>.zip``). ``RUN_DIR``
+    without its run number (``logs/ppo/TandemWing-LevelFlight-v0``) is the latest run there.
 ``ppo`` / ``sac``
     Trained from scratch at the harness's condition with the zoo hyperparameters of
     ``train/hyperparams/<algo>.yml``. The budget counts env steps (one env step = one stroke =
@@ -45,8 +46,8 @@ from tandem_env.envs.sb3 import make_sb3_vec_env
 from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import is_integer
 from train.config import ALGOS, check_algo, plain
-from train.layout import RunLayout
-from train.run import ALGORITHMS, learn_in_memory, read_yaml
+from train.layout import RunLayout, read_run_yaml, resolve_run_dir
+from train.run import ALGORITHMS, learn_in_memory
 from train.vec import ConditionGrid, StrokeRecorder, option_key
 
 __all__ = [
@@ -109,19 +110,20 @@ class TrainedPolicy:
         run had no evaluations) or the final ``<env>.zip`` of a run folder."""
         if which not in WHICH_MODELS:
             raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
-        run_dir = Path(run_dir)
+        run_dir = resolve_run_dir(run_dir)
         args_files = sorted(run_dir.glob("*/args.yml")) if run_dir.is_dir() else []
         if len(args_files) != 1:
             raise ValueError(
                 f"{run_dir} is not a training run folder (expected one <env>/args.yml, found "
                 f"{len(args_files)}); allowed: a folder written by python -m train, e.g. "
-                "logs/sac/TandemWing-LevelFlight-v0_1"
+                "logs/sac/TandemWing-LevelFlight-v0_1, or logs/sac/TandemWing-LevelFlight-v0 "
+                "for the latest run there"
             )
-        args = read_yaml(args_files[0])
+        args = read_run_yaml(args_files[0])
         algo = check_algo(str(args.get("algo")))
         env_id = str(args["env"])
         layout = RunLayout(run_dir, env_id)
-        entry = read_yaml(layout.config_file) if layout.config_file.is_file() else {}
+        entry = read_run_yaml(layout.config_file) if layout.config_file.is_file() else {}
         env_kwargs = {**(entry.get("env_kwargs") or {}), **(args.get("env_kwargs") or {})}
         path = layout.best_model if which == "best" else layout.final_model
         normalizer: Path | None = None
@@ -441,7 +443,7 @@ class TrainingMethod:
         context.report(len(result.history), result.num_timesteps, result.best_reward)
         # train() evaluated the final deterministic stroke at the (fixed) condition once.
         [final] = result.final_evaluation
-        saved = read_yaml(RunLayout(result.run_dir, context.env_id).config_file)  # type: ignore[arg-type]
+        saved = read_run_yaml(RunLayout(result.run_dir, context.env_id).config_file)  # type: ignore[arg-type]
         return _Training(
             best_action=result.best_action,
             best_reward=result.best_reward,
@@ -506,9 +508,12 @@ def policy_factory(argument: str | None, config: Mapping[str, Any]) -> Method:
     which = config.get("model", "best")
     if which not in WHICH_MODELS:
         raise ValueError(f"method 'policy': model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
-    run_dir = Path(argument)
+    run_dir = resolve_run_dir(argument)  # logs/<algo>/<env> -> its latest run
     if not run_dir.is_dir():
-        raise ValueError(f"method 'policy': {run_dir} is not a folder; allowed: a training run")
+        raise ValueError(
+            f"method 'policy': {run_dir} is not a folder; allowed: a training run folder, or "
+            "logs/<algo>/<env> for the latest run there"
+        )
     return PolicyMethod(run_dir, which)
 
 

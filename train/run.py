@@ -10,8 +10,11 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import os
+import pickle
 import time
 import warnings
+import zipfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -30,7 +33,7 @@ from tandem_env.envs.registration import check_env_id
 from tandem_env.io.files import atomic_path, write_json_atomic, write_text_atomic
 from train.callbacks import PhysicsLogger, ResumableEvalCallback, SaveVecNormalize
 from train.config import Hyperparams, TrainConfig, load_entry, plain, resolve_hyperparams
-from train.layout import Checkpoint, RunComplete, RunLayout
+from train.layout import Checkpoint, RunComplete, RunLayout, RunLock, read_run_yaml
 from train.vec import StrokeRecorder, make_evaluation_env, make_training_env
 
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
@@ -230,13 +233,6 @@ def write_yaml(path: Path, data: Mapping[str, Any]) -> None:
     write_text_atomic(path, text)
 
 
-def read_yaml(path: Path) -> dict[str, Any]:
-    with path.open() as stream:
-        # The zoo writes OrderedDicts with python tags; ours are plain, but read both.
-        data = yaml.load(stream, Loader=yaml.UnsafeLoader)
-    return dict(data or {})
-
-
 # --- the run ---------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class TrainPlan:
@@ -249,6 +245,8 @@ class TrainPlan:
     """Env steps the run ends at: n_timesteps rounded up to whole learn iterations."""
     unit: int
     """Env steps of one learn iteration (see :func:`step_granularity`)."""
+    lock: RunLock
+    """The run folder's lock, held from the plan to the end of the run (:func:`train`)."""
 
 
 def whole_iterations(n_timesteps: int, unit: int) -> int:
@@ -258,7 +256,11 @@ def whole_iterations(n_timesteps: int, unit: int) -> int:
 
 
 def plan_run(config: TrainConfig) -> TrainPlan:
-    """Where the run goes and what it resumes from; validates everything before any work."""
+    """Where the run goes and what it resumes from; validates everything before any work.
+
+    The run folder is locked (:class:`~train.layout.RunLock`) before its files are read, so a
+    second command on the same run is refused instead of training beside the first; the
+    caller releases ``plan.lock`` (:func:`train` does when the run ends)."""
     if config.resume:
         layout = RunLayout.latest(config.log_folder, config.algo, config.env_id)
     elif config.run_dir is not None:
@@ -271,15 +273,35 @@ def plan_run(config: TrainConfig) -> TrainPlan:
             )
     else:
         layout = None
+    # A folder that is not ours was refused above, before the lock file is made in it.
+    lock = RunLock(layout.run_dir) if layout is not None and layout.run_dir.is_dir() else None
+    if lock is not None:
+        lock.acquire()
+    try:
+        return _plan_locked(config, layout, lock)
+    except BaseException:
+        if lock is not None:
+            lock.release()
+        raise
 
+
+def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | None) -> TrainPlan:
+    resume = config.resume  # the merge below turns a resume into a run of a given folder
     saved = None
     if layout is not None and layout.args_file.is_file():
-        saved = read_yaml(layout.args_file)
+        saved = read_run_yaml(layout.args_file)
         config = _merge_saved(config, saved, layout)
     checkpoint = None
     if layout is not None:
         checkpoint = _latest_usable_checkpoint(config, layout)
-        if checkpoint is None and config.resume:
+        damaged = [c.model.name for c in layout.checkpoints()]
+        if checkpoint is None and damaged:
+            raise ValueError(
+                f"{layout.run_dir}: no checkpoint is intact ({', '.join(damaged)}: see the "
+                "warnings above); it is left untouched. Allowed: move the damaged checkpoints "
+                "away to start this run again from step 0, or a new run"
+            )
+        if checkpoint is None and resume:
             raise ValueError(
                 f"{layout.run_dir} has no complete checkpoint to resume from (save_freq <= 0, "
                 "or killed before the first); allowed: start a new run"
@@ -287,7 +309,7 @@ def plan_run(config: TrainConfig) -> TrainPlan:
 
     if checkpoint is not None and layout is not None and layout.config_file.is_file():
         # A resumed run keeps the hyperparameters it started with, whatever the yml says now.
-        entry = read_yaml(layout.config_file)
+        entry = read_run_yaml(layout.config_file)
         hp = resolve_hyperparams(entry, n_timesteps=config.n_timesteps)
     else:
         hp = config.hyperparameters()
@@ -309,7 +331,20 @@ def plan_run(config: TrainConfig) -> TrainPlan:
     if layout is None:
         layout = RunLayout.new(config.log_folder, config.algo, config.env_id)
     layout.run_dir.mkdir(parents=True, exist_ok=True)
-    return TrainPlan(config, hp, env_kwargs, layout, checkpoint, target, unit)
+    if lock is None:  # a new folder (this process made it, or --run-dir of an absent one)
+        lock = RunLock(layout.run_dir).acquire()
+    _check_writable(layout)
+    return TrainPlan(config, hp, env_kwargs, layout, checkpoint, target, unit, lock)
+
+
+def _check_writable(layout: RunLayout) -> None:
+    """A run folder (and its params folder) must be writable before any training is spent."""
+    for folder in (layout.run_dir, layout.params_dir):
+        if folder.is_dir() and not os.access(folder, os.W_OK | os.X_OK):
+            raise ValueError(
+                f"{folder} is not writable; a run writes its checkpoints, models and settings "
+                "there. Allowed: a folder you can write (chmod u+w), or a new run"
+            )
 
 
 def _merge_saved(config: TrainConfig, saved: Mapping[str, Any], layout: RunLayout) -> TrainConfig:
@@ -346,12 +381,14 @@ def _latest_usable_checkpoint(config: TrainConfig, layout: RunLayout) -> Checkpo
     needs_buffer = config.algo == "sac"
     normalize = None
     if layout.config_file.is_file():
-        normalize = read_yaml(layout.config_file).get("normalize")
+        normalize = read_run_yaml(layout.config_file).get("normalize")
     for checkpoint in reversed(layout.checkpoints()):
-        if checkpoint.complete(replay_buffer=needs_buffer, vecnormalize=bool(normalize)):
+        problem = checkpoint.damage(replay_buffer=needs_buffer, vecnormalize=bool(normalize))
+        if problem is None:
             return checkpoint
         warnings.warn(
-            f"skipping incomplete checkpoint {checkpoint.model.name} (killed while saving?)",
+            f"skipping checkpoint {checkpoint.model.name} of {layout.run_dir}: {problem} "
+            "(killed while saving?); an earlier intact checkpoint is used if there is one",
             RuntimeWarning,
             stacklevel=3,
         )
@@ -373,6 +410,13 @@ def _check_env(env_id: str, env_kwargs: Mapping[str, Any]) -> None:
 def train(config: TrainConfig) -> TrainResult:
     """Run (or resume) one training run with files; see :mod:`train.layout` for the folder."""
     plan = plan_run(config)
+    try:
+        return _train_planned(plan)
+    finally:
+        plan.lock.release()
+
+
+def _train_planned(plan: TrainPlan) -> TrainResult:
     config, hp, layout = plan.config, plan.hp, plan.layout
     if config.verbose:
         _say_plan(plan)
@@ -430,7 +474,8 @@ def _run_envs(plan: TrainPlan) -> tuple[VecEnv, StrokeRecorder, VecEnv]:
     )
     if hp.normalize is not None:
         if plan.checkpoint is not None:
-            venv = VecNormalize.load(str(plan.checkpoint.vecnormalize), venv)
+            with _loading(plan.checkpoint.vecnormalize):
+                venv = VecNormalize.load(str(plan.checkpoint.vecnormalize), venv)
             venv.training = True
         else:
             venv = VecNormalize(venv, **dict(hp.normalize))
@@ -438,6 +483,30 @@ def _run_envs(plan: TrainPlan) -> tuple[VecEnv, StrokeRecorder, VecEnv]:
         config.env_id, plan.env_kwargs, config.seed + 10_000, normalize=hp.normalize
     )
     return venv, recorder, eval_env
+
+
+@contextlib.contextmanager
+def _loading(path: Path) -> Iterator[None]:
+    """A checkpoint file SB3 cannot load (intact as a file, e.g. of another SB3 version) is
+    named in a ValueError instead of SB3's traceback."""
+    try:
+        yield
+    except (
+        AssertionError,
+        AttributeError,
+        EOFError,
+        KeyError,
+        OSError,
+        RuntimeError,
+        TypeError,
+        ValueError,
+        zipfile.BadZipFile,
+        pickle.UnpicklingError,
+    ) as error:
+        raise ValueError(
+            f"checkpoint file {path} could not be loaded ({type(error).__name__}: {error}); "
+            "allowed: move it away to resume from the earlier checkpoint, or a new run"
+        ) from error
 
 
 def _run_model(plan: TrainPlan, venv: VecEnv) -> BaseAlgorithm:
@@ -454,15 +523,17 @@ def _run_model(plan: TrainPlan, venv: VecEnv) -> BaseAlgorithm:
             verbose=config.verbose,
             device=config.device,
         )
-    model = ALGORITHMS[config.algo].load(
-        plan.checkpoint.model,
-        env=venv,
-        device=config.device,
-        tensorboard_log=None if tensorboard is None else str(tensorboard),
-        verbose=config.verbose,
-    )
+    with _loading(plan.checkpoint.model):
+        model = ALGORITHMS[config.algo].load(
+            plan.checkpoint.model,
+            env=venv,
+            device=config.device,
+            tensorboard_log=None if tensorboard is None else str(tensorboard),
+            verbose=config.verbose,
+        )
     if config.algo == "sac":
-        model.load_replay_buffer(plan.checkpoint.replay_buffer)  # type: ignore[attr-defined]
+        with _loading(plan.checkpoint.replay_buffer):
+            model.load_replay_buffer(plan.checkpoint.replay_buffer)  # type: ignore[attr-defined]
     # A resumed segment is reproducible given its checkpoint (RNG states are not saved).
     model.set_random_seed(config.seed + model.num_timesteps)
     return model

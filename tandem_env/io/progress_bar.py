@@ -8,12 +8,14 @@ bar's rate and time left are in evaluations either way.
 
 from __future__ import annotations
 
+import contextlib
 import sys
-from collections.abc import Callable
+import warnings
+from collections.abc import Callable, Iterator
 
 from tqdm.auto import tqdm
 
-__all__ = ["ProgressBar", "Reporter"]
+__all__ = ["ProgressBar", "Reporter", "warnings_as_lines"]
 
 #: A search's progress callback: (iteration, evaluations so far, best reward so far).
 Reporter = Callable[[int, int, float], None]
@@ -70,3 +72,21 @@ class ProgressBar:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+@contextlib.contextmanager
+def warnings_as_lines() -> Iterator[None]:
+    """Within the block every warning is shown as one line on stderr, ``Category: message``,
+    written through ``tqdm.write`` so that an open bar is redrawn below it instead of being cut
+    (the command lines run in it; ``warnings.showwarning`` is the documented hook)."""
+    previous = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        text = " ".join(str(message).split())
+        tqdm.write(f"{category.__name__}: {text}", file=sys.stderr)
+
+    warnings.showwarning = show
+    try:
+        yield
+    finally:
+        warnings.showwarning = previous
