@@ -7,6 +7,8 @@ seen so far (from :class:`~train.vec.StrokeRecorder`) is logged beside them.
 
 from __future__ import annotations
 
+import warnings
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -69,11 +71,20 @@ class ResumableEvalCallback(EvalCallback):
         path = Path(self.log_path if self.log_path.endswith(".npz") else f"{self.log_path}.npz")
         if not path.is_file():
             return
-        with np.load(path) as data:
-            steps = data["timesteps"]
-            results = data["results"]
-            lengths = data["ep_lengths"]
-            successes = data["successes"] if "successes" in data.files else None
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                steps = data["timesteps"]
+                results = data["results"]
+                lengths = data["ep_lengths"]
+                successes = data["successes"] if "successes" in data.files else None
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
+            warnings.warn(
+                f"{path} cannot be read ({type(error).__name__}: {error}); the evaluation "
+                "history starts again from this segment",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+            return
         if len(steps):
             self.best_mean_reward = float(np.max(np.mean(results, axis=1)))
         keep = steps <= self._resume_from_step

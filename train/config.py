@@ -48,50 +48,88 @@ UNSUPPORTED_ZOO_KEYS = (
 #: Constructor arguments the zoo turns from "lin_<x>" strings into linear schedules.
 SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
 
-# Names a ``policy_kwargs`` string may use (the zoo evaluates it with torch in scope).
-_POLICY_KWARGS_NAMES = ("dict", "list", "tuple", "nn", "th", "torch")
+# Modules whose classes a ``policy_kwargs`` string may name (activation functions, optimisers),
+# under the zoo's spellings.
+_POLICY_KWARGS_MODULES = {
+    "nn": "torch.nn",
+    "th.nn": "torch.nn",
+    "torch.nn": "torch.nn",
+    "th.optim": "torch.optim",
+    "torch.optim": "torch.optim",
+}
+_POLICY_KWARGS_ALLOWED = (
+    "allowed names: numbers, strings, True/False/None, lists, tuples, {...}, dict(key=...), "
+    "list(...), tuple(...) and the classes nn.<Name>, th.nn.<Name>, torch.nn.<Name>, "
+    "th.optim.<Name>, torch.optim.<Name> (e.g. nn.ReLU)"
+)
 
 
 # --- parsing ---------------------------------------------------------------------------------
 def eval_policy_kwargs(text: str) -> dict[str, Any]:
     """The zoo's ``policy_kwargs`` string, e.g. ``"dict(net_arch=[64, 64], log_std_init=-1)"``.
 
-    Evaluated with no builtins and only ``dict``, ``list``, ``tuple`` and torch (``nn``,
-    ``th``, ``torch``) in scope, so activation functions can be named as in the zoo.
+    The zoo evaluates it with ``eval`` and torch in scope; here it is read from its syntax tree
+    and nothing in it runs: literals, ``dict(key=...)``, ``list(...)``, ``tuple(...)`` and
+    classes of ``torch.nn`` or ``torch.optim`` named as in the zoo (``nn.ReLU``,
+    ``th.optim.RMSprop``), which are looked up, never called.
     """
-    import torch
-
-    names = {
-        "dict": dict,
-        "list": list,
-        "tuple": tuple,
-        "nn": torch.nn,
-        "th": torch,
-        "torch": torch,
-    }
     try:
-        code = compile(text, "<policy_kwargs>", "eval")
-    except SyntaxError as error:
-        raise ValueError(f"policy_kwargs = {text!r} is not a Python expression: {error}") from error
-    bad = sorted(set(code.co_names) - set(_POLICY_KWARGS_NAMES) - _attribute_names(text))
-    if bad:
+        tree = ast.parse(text, mode="eval")
+        value = _policy_value(tree.body, text)
+    except (SyntaxError, RecursionError, MemoryError) as error:
         raise ValueError(
-            f"policy_kwargs = {text!r} uses {bad}; allowed names: "
-            f"{', '.join(_POLICY_KWARGS_NAMES)} (e.g. nn.ReLU)"
-        )
-    value = eval(code, {"__builtins__": {}}, names)  # restricted namespace: see above
+            f"policy_kwargs = {text[:200]!r} is not a Python expression this reader takes: "
+            f"{type(error).__name__}"
+        ) from None
     if not isinstance(value, dict):
         raise ValueError(f"policy_kwargs = {text!r} gives {type(value).__name__}; allowed: a dict")
     return value
 
 
-def _attribute_names(text: str) -> set[str]:
-    # co_names lists attribute names too (nn.ReLU -> "ReLU"); they are looked up on torch.nn.
-    return {
-        node.attr
-        for node in ast.walk(ast.parse(text, mode="eval"))
-        if isinstance(node, ast.Attribute)
-    }
+def _policy_value(node: ast.expr, text: str) -> Any:
+    if isinstance(node, ast.Constant):
+        return node.value
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub | ast.UAdd):
+        operand = _policy_value(node.operand, text)
+        if isinstance(operand, int | float) and not isinstance(operand, bool):
+            return -operand if isinstance(node.op, ast.USub) else operand
+    elif isinstance(node, ast.List | ast.Tuple):
+        items = [_policy_value(item, text) for item in node.elts]
+        return items if isinstance(node, ast.List) else tuple(items)
+    elif isinstance(node, ast.Dict) and None not in node.keys:
+        return {
+            _policy_value(k, text): _policy_value(v, text)  # type: ignore[arg-type]
+            for k, v in zip(node.keys, node.values, strict=True)
+        }
+    elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
+        name, args, keywords = node.func.id, node.args, node.keywords
+        if name == "dict" and not args and all(k.arg is not None for k in keywords):
+            return {k.arg: _policy_value(k.value, text) for k in keywords}
+        if name in ("list", "tuple") and len(args) <= 1 and not keywords:
+            items = _policy_value(args[0], text) if args else []
+            if isinstance(items, list | tuple):
+                return list(items) if name == "list" else tuple(items)
+    elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Load):
+        module = _POLICY_KWARGS_MODULES.get(_dotted(node.value) or "")
+        if module is not None:
+            import importlib
+
+            found = getattr(importlib.import_module(module), node.attr, None)
+            if isinstance(found, type) and not node.attr.startswith("_"):
+                return found
+    raise ValueError(
+        f"policy_kwargs = {text!r} uses {ast.unparse(node)!r}; {_POLICY_KWARGS_ALLOWED}"
+    )
+
+
+def _dotted(node: ast.expr) -> str | None:
+    """``a.b.c`` as text if ``node`` is a chain of plain names, else None."""
+    if isinstance(node, ast.Name):
+        return node.id
+    if isinstance(node, ast.Attribute):
+        head = _dotted(node.value)
+        return None if head is None else f"{head}.{node.attr}"
+    return None
 
 
 # --- hyperparameter files ----------------------------------------------------------------------

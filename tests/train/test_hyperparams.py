@@ -73,6 +73,13 @@ def test_policy_kwargs_strings_are_restricted() -> None:
     assert kwargs["net_arch"] == [64, 64]
     with pytest.raises(ValueError, match="allowed names"):
         eval_policy_kwargs("dict(x=__import__('os'))")
+    assert eval_policy_kwargs("dict(optimizer_class=th.optim.RMSprop)")["optimizer_class"]
+    # Nothing runs: an attribute path to a function (torch imports os) is refused, not called.
+    for text in ("dict(x=torch.os.getcwd())", "dict(x=th.load)", "dict(x=nn.ReLU())"):
+        with pytest.raises(ValueError, match="allowed names"):
+            eval_policy_kwargs(text)
+    with pytest.raises(ValueError, match="not a Python expression"):
+        eval_policy_kwargs("dict(x=" + "[" * 100_000 + "]" * 100_000 + ")")
 
 
 def test_schedules_and_overrides() -> None:
