@@ -35,28 +35,6 @@ OBSERVATION_NAMES: tuple[str, ...] = (
 #: ``speed_envelope``) and its start vertical speed [m/s] (default 0).
 RESET_OPTIONS: tuple[str, ...] = ("start_speed", "target_speed", "vertical_speed")
 
-#: Units of the ``info`` keys the env adds to the model's ``Result`` fields (docs table).
-INFO_UNITS: dict[str, str] = {
-    "forward_speed": "u after the cycle [m/s]",
-    "vertical_speed": "w after the cycle [m/s], + up",
-    "altitude": "h after the cycle, relative to the start [m]",
-    "distance": "horizontal distance flown since reset [m]",
-    "time": "flight time since reset [s]",
-    "cycle": "cycles flown since reset [-]",
-    "target_speed": "u* [m/s]",
-    "cycle_time": "Δt of this step, max(1/f_fore, 1/f_hind) [s]",
-    "force_horizontal": "net F_x that moved the body this step (wings + body drag) [N]",
-    "force_vertical": "net F_z that moved the body this step (wings + body drag + weight) [N]",
-    "energy": "P·Δt spent by the wings this step [J]",
-    "reward_progress": "w_progress·(|u − u*| before − after the cycle) [reward]",
-    "reward_speed": "−w_speed·|u − u*|·Δt [reward]",
-    "reward_altitude": "−w_altitude·|h|·Δt [reward]",
-    "reward_energy": "−w_energy·P·Δt [reward]",
-    "reward_termination": "−w_termination·(cycles not flown), on termination [reward]",
-    "left_altitude_band": "|h| > altitude_band (terminates) (bool)",
-    "left_speed_band": "u outside forward_speed_band, or V > 20 m/s (terminates) (bool)",
-}
-
 
 @dataclass(frozen=True)
 class Flight:

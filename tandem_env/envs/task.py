@@ -31,16 +31,6 @@ from .config import AccelerateConfig, FlightConfig, LevelFlightConfig, PenaltyCo
 Columns = dict[str, Any]
 """Info columns: name -> (B,) array, or a nested dict of columns (``"stroke"``)."""
 
-#: Units of the ``info`` keys an env adds on top of the :class:`~tandem_env.physics.Result`
-#: fields (whose units are in its docstrings); the docs table is written from this.
-EXTRA_INFO_UNITS: dict[str, str] = {
-    "objective": "the task's objective: η [-] or F̄ [-]",
-    "constraint_violation": "sum of normalised violations [-]",
-    "penalty": "weight·violation + offset·infeasible [reward units]",
-    "feasible": "all constraints met (bool)",
-    "stroke": "named physical stroke, Table 4 units (Hz, deg, -)",
-}
-
 _HARMONIC = {name for name in PARAMETER_NAMES if name.endswith("_elevation_harmonic")}
 
 
