@@ -14,7 +14,8 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from pathlib import Path
 from types import ModuleType
 
 from tandem_env.io.progress_bar import warnings_as_lines
@@ -33,11 +34,31 @@ def _load(names: Sequence[str]) -> list[ModuleType]:
     return [importlib.import_module(name) for name in names]
 
 
-def build_parser(modules: Sequence[ModuleType] | None = None) -> argparse.ArgumentParser:
+def _texts(module: ModuleType) -> dict[str, object]:
+    """The description and epilog of a subcommand's parser (the same under either program)."""
+    # A module whose help depends on what is registered builds it now: description().
+    describe = getattr(module, "description", None)
+    return {
+        "description": describe() if describe else getattr(module, "DESCRIPTION", module.HELP),
+        "epilog": getattr(module, "EPILOG", None),
+        "formatter_class": argparse.RawDescriptionHelpFormatter,
+    }
+
+
+def _prog(default: str) -> str:
+    """The program name for usage lines: a console script's own (``tandem-study``) when run as
+    one, else ``default``."""
+    name = Path(sys.argv[0]).name
+    return name if name.startswith("tandem-") else default
+
+
+def build_parser(
+    modules: Sequence[ModuleType] | None = None, prog: str = "python -m eval"
+) -> argparse.ArgumentParser:
     """The top-level parser with one sub-parser per subcommand module."""
     modules = _load(SUBCOMMANDS) if modules is None else modules
     parser = argparse.ArgumentParser(
-        prog="python -m eval",
+        prog=prog,
         description=(
             "Optimise strokes of the tandem-wing model with PSO, random search or RL agents, "
             "and compare the recorded results."
@@ -45,15 +66,7 @@ def build_parser(modules: Sequence[ModuleType] | None = None) -> argparse.Argume
     )
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for module in modules:
-        # A module whose help depends on what is registered builds it now: description().
-        describe = getattr(module, "description", None)
-        sub = subparsers.add_parser(
-            module.NAME,
-            help=module.HELP,
-            description=describe() if describe else getattr(module, "DESCRIPTION", module.HELP),
-            epilog=getattr(module, "EPILOG", None),
-            formatter_class=argparse.RawDescriptionHelpFormatter,
-        )
+        sub = subparsers.add_parser(module.NAME, help=module.HELP, **_texts(module))
         module.add_arguments(sub)
         sub.set_defaults(_main=module.main, _parser=sub)
     return parser
@@ -61,10 +74,36 @@ def build_parser(modules: Sequence[ModuleType] | None = None) -> argparse.Argume
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Parse ``argv`` (default ``sys.argv[1:]``) and run the subcommand; its exit status."""
-    parser = build_parser()
+    parser = build_parser(prog=_prog("python -m eval") if argv is None else "python -m eval")
     args = parser.parse_args(argv)
     with warnings_as_lines():
         return int(args._main(args, args._parser) or 0)
+
+
+def _script(module_name: str) -> Callable[[], int]:
+    """The console script of one subcommand: ``tandem-<name> ARGS`` is ``python -m eval <name>
+    ARGS``, with its own name in the usage line."""
+
+    def script() -> int:
+        module = importlib.import_module(module_name)
+        parser = argparse.ArgumentParser(
+            prog=_prog(f"python -m eval {module.NAME}"), **_texts(module)
+        )
+        module.add_arguments(parser)
+        args = parser.parse_args(sys.argv[1:])
+        with warnings_as_lines():
+            return int(module.main(args, parser) or 0)
+
+    script.__doc__ = f"The console script of :mod:`{module_name}` (``[project.scripts]``)."
+    return script
+
+
+# The console scripts of pyproject.toml's [project.scripts] (README, "Console scripts").
+optimize = _script("eval.optimize")
+compare = _script("eval.compare")
+study = _script("eval.study")
+measured = _script("eval.measured")
+speed_change = _script("eval.speed_change")
 
 
 if __name__ == "__main__":

@@ -24,11 +24,12 @@ def test_every_script_names_a_function() -> None:
 @pytest.mark.parametrize(
     ("script", "usage"),
     [
-        ("tandem-study", "usage: python -m eval study"),
-        ("tandem-optimize", "usage: python -m eval optimize"),
-        ("tandem-compare", "usage: python -m eval compare"),
-        ("tandem-measured", "usage: python -m eval measured"),
-        ("tandem-eval", "usage: python -m eval"),
+        ("tandem-study", "usage: tandem-study [-h]"),
+        ("tandem-optimize", "usage: tandem-optimize [-h]"),
+        ("tandem-compare", "usage: tandem-compare [-h]"),
+        ("tandem-measured", "usage: tandem-measured [-h]"),
+        ("tandem-speed-change", "usage: tandem-speed-change [-h]"),
+        ("tandem-eval", "usage: tandem-eval [-h]"),
         ("tandem-train", "usage: tandem-train"),
         ("tandem-envelope", "usage: tandem-envelope"),
     ],
