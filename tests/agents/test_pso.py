@@ -8,16 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from agents import (
-    PSO,
-    OptimisationResult,
-    Progress,
-    PSOConfig,
-    RandomSearchConfig,
-    maximise,
-    minimise,
-)
-from agents.optimiser import FloatArray
+from agents.optimiser import FloatArray, OptimisationResult, Progress, maximise, minimise
+from agents.pso import PSO, PSOConfig
+from agents.random_search import RandomSearchConfig
 
 DIM = 28
 X_STAR = 0.3  # optimum of the test functions, in every coordinate of the box

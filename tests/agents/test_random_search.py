@@ -7,16 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from agents import (
-    PSO,
-    OptimisationResult,
-    PSOConfig,
-    RandomSearch,
-    RandomSearchConfig,
-    maximise,
-    minimise,
-)
-from agents.optimiser import AskTellOptimiser, FloatArray
+from agents.optimiser import AskTellOptimiser, FloatArray, OptimisationResult, maximise, minimise
+from agents.pso import PSO, PSOConfig
+from agents.random_search import RandomSearch, RandomSearchConfig
 
 
 def neg_sphere(X: FloatArray) -> FloatArray:
