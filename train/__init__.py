@@ -2,11 +2,6 @@
 
 ``python -m train --algo sac --env TandemWing/LevelFlight-v0`` trains with the zoo-format
 hyperparameters in ``train/hyperparams/``; :func:`train.run.train` is the same from Python.
-Stable-Baselines3 and torch are imported only by the submodules that need them.
+Stable-Baselines3 and torch are imported only by the submodules that need them; the package
+itself imports nothing.
 """
-
-from __future__ import annotations
-
-from train.config import ALGOS, HYPERPARAMS_DIR, Algo, Hyperparams, TrainConfig
-
-__all__ = ["ALGOS", "HYPERPARAMS_DIR", "Algo", "Hyperparams", "TrainConfig"]
