@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import re
 import sys
 from pathlib import Path
 
@@ -44,3 +45,9 @@ def test_scripts_show_their_command(
         function()
     assert exit_.value.code == 0
     assert capsys.readouterr().out.startswith(usage)
+
+
+def test_readme_lists_every_script() -> None:
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    listed = set(re.findall(r"^\| `(tandem-[a-z-]+)` \|", readme, flags=re.MULTILINE))
+    assert listed == set(SCRIPTS)
