@@ -45,7 +45,7 @@ def _choices(name: str) -> tuple[object, ...] | None:
 
 def docs_table() -> dict[str, tuple[str, str]]:
     """option -> (default, allowed) cells of docs/model.md's options table."""
-    lines = (ROOT / "docs" / "model.md").read_text(encoding="utf-8").splitlines()
+    lines = (ROOT / "docs/model.md").read_text(encoding="utf-8").splitlines()
     start = lines.index(HEADER) + 2  # the header and its |---| line
     rows: dict[str, tuple[str, str]] = {}
     for line in lines[start:]:
