@@ -1,11 +1,12 @@
 """The import layering of docs/architecture.md, read statically from the source with ``ast``.
 
-Layers, lowest first (docs/architecture.md): ``tandem_env.io`` (generic I/O) ←
-``tandem_env.physics`` ← ``tandem_env.envs`` (and the ``tandem_env`` package itself, which
-registers the envs) ← ``agents`` ← ``train`` ← ``eval``. A module may import its own layer and
+Layers, lowest first (docs/architecture.md): ``tandem_env.io`` (generic I/O) <-
+``tandem_env.physics`` <- ``tandem_env.envs`` (and the ``tandem_env`` package itself, which
+registers the envs) <- ``agents`` <- ``train`` <- ``eval``. A module may import its own layer and
 the layers below it, never one above; ``tandem_env.io`` imports nothing of the project; physics
-imports no Gymnasium; and no chain of imports between the project's modules leads back to where
-it started. Every import counts: at module level, inside a function (lazy) or under
+imports none of Gymnasium, SB3, torch or matplotlib, and agents none of SB3, torch or
+matplotlib; and no chain of imports between the project's modules leads back to where it
+started. Every import counts: at module level, inside a function (lazy) or under
 ``TYPE_CHECKING``. ``benchmarks/`` and ``examples/`` are scripts on top and may import anything.
 
 The checker is tested on a small synthetic tree first, so that a bad import would fail it.
@@ -35,6 +36,7 @@ LAYERS: dict[str, int] = {
 FORBIDDEN: dict[str, frozenset[str]] = {
     "tandem_env.io": frozenset(),
     "tandem_env.physics": frozenset({"gymnasium", "stable_baselines3", "torch", "matplotlib"}),
+    "agents": frozenset({"stable_baselines3", "torch", "matplotlib"}),
 }
 PACKAGES = ("tandem_env", "agents", "train", "eval")
 
