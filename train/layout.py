@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import fcntl
 import os
+import pickle
 import pickletools
 import re
 import zipfile
@@ -46,6 +47,64 @@ _LEGACY_KEY = "torch_threads"
 _CHECKPOINT = re.compile(rf"^{CHECKPOINT_PREFIX}_(\d+)_steps\.zip$")
 #: The lock file of a run folder: held (``flock``) by the ``python -m train`` writing there.
 LOCK_FILE = ".train.lock"
+
+
+# --- the pickled normalisation statistics ----------------------------------------------------
+#: The globals a pickled ``VecNormalize`` (SB3's ``save``) refers to: the wrapper and its running
+#: statistics, the spaces, numpy arrays and random generators. Nothing that runs code.
+_NORMALIZER_GLOBALS = frozenset(
+    {
+        ("stable_baselines3.common.vec_env.vec_normalize", "VecNormalize"),
+        ("stable_baselines3.common.running_mean_std", "RunningMeanStd"),
+        ("gymnasium.spaces.box", "Box"),
+        ("gymnasium.spaces.dict", "Dict"),
+        ("gymnasium.spaces.discrete", "Discrete"),
+        ("collections", "OrderedDict"),
+        ("numpy", "dtype"),
+        ("numpy", "ndarray"),
+        ("numpy.core.multiarray", "_reconstruct"),
+        ("numpy._core.multiarray", "_reconstruct"),
+        ("numpy.core.multiarray", "scalar"),
+        ("numpy._core.multiarray", "scalar"),
+        ("numpy.random._pickle", "__generator_ctor"),
+        ("numpy.random._pickle", "__bit_generator_ctor"),
+        ("numpy.random._pcg64", "PCG64"),
+        ("numpy.random.bit_generator", "SeedSequence"),
+        ("numpy.random.bit_generator", "__pyx_unpickle_SeedSequence"),
+    }
+)
+
+
+class _NormalizerUnpickler(pickle.Unpickler):
+    """``pickle.Unpickler`` that builds only :data:`_NORMALIZER_GLOBALS` (the "restricting
+    globals" recipe of the ``pickle`` documentation)."""
+
+    def find_class(self, module: str, name: str) -> Any:
+        if (module, name) in _NORMALIZER_GLOBALS:
+            return super().find_class(module, name)
+        raise pickle.UnpicklingError(
+            f"it names {module}.{name}, which a VecNormalize file does not"
+        )
+
+
+def read_normalizer(path: Path) -> Any:
+    """The ``VecNormalize`` statistics SB3 saved at ``path``, unpickled with only the classes
+    such a file holds (:data:`_NORMALIZER_GLOBALS`); ValueError naming the file otherwise. The
+    caller attaches its env with the public ``set_venv`` (what ``VecNormalize.load`` does)."""
+    try:
+        with Path(path).open("rb") as stream:
+            normalizer = _NormalizerUnpickler(stream).load()
+    except (pickle.UnpicklingError, EOFError, ValueError, TypeError, AttributeError) as error:
+        raise ValueError(
+            f"{path}: refused: not a VecNormalize file of SB3 ({error}); nothing was run"
+        ) from None
+    except OSError as error:
+        raise ValueError(f"{path} cannot be read ({error.strerror})") from None
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    if not isinstance(normalizer, VecNormalize):
+        raise ValueError(f"{path} holds a {type(normalizer).__name__}, not VecNormalize statistics")
+    return normalizer
 
 
 # --- the YAML of a run folder ---------------------------------------------------------------

@@ -36,7 +36,7 @@ from typing import Any, Literal, get_args
 
 import numpy as np
 from stable_baselines3.common.base_class import BaseAlgorithm
-from stable_baselines3.common.vec_env import VecEnv, VecNormalize
+from stable_baselines3.common.vec_env import VecEnv
 from tqdm.auto import tqdm
 
 from agents.methods import Method, SearchContext, SearchOutcome
@@ -46,8 +46,8 @@ from tandem_env.envs.sb3 import make_sb3_vec_env
 from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import is_integer
 from train.config import ALGOS, check_algo, plain
-from train.layout import RunLayout, read_run_yaml, resolve_run_dir
-from train.run import ALGORITHMS, learn_in_memory
+from train.layout import RunLayout, read_normalizer, read_run_yaml, resolve_run_dir
+from train.run import learn_in_memory, load_policy_model
 from train.vec import ConditionGrid, StrokeRecorder, option_key
 
 __all__ = [
@@ -136,7 +136,13 @@ class TrainedPolicy:
             path = layout.final_model
         if not path.is_file():
             raise ValueError(f"{run_dir}: no model file {path.name} (did the run finish?)")
-        model = ALGORITHMS[algo].load(path, device="cpu")
+        if not layout.config_file.is_file():
+            raise ValueError(
+                f"{run_dir}: no {layout.config_file.relative_to(run_dir)}; the policy is rebuilt "
+                "from the run's hyperparameters (its model file is not unpickled), so the run "
+                "folder needs them. Allowed: a folder written by python -m train"
+            )
+        model = load_policy_model(algo, path, entry, env_id, env_kwargs)
         return cls(
             run_dir=run_dir,
             algo=algo,
@@ -154,7 +160,9 @@ class TrainedPolicy:
         base = make_sb3_vec_env(self.env_id, n_envs=len(conditions), seed=0, **self.env_kwargs)
         venv: VecEnv = ConditionGrid(base, option_key(base), conditions)
         if self.normalizer_path is not None:
-            venv = VecNormalize.load(str(self.normalizer_path), venv)
+            normalizer = read_normalizer(self.normalizer_path)
+            normalizer.set_venv(venv)
+            venv = normalizer
             venv.training = False
             venv.norm_reward = False
         return venv

@@ -33,7 +33,14 @@ from tandem_env.envs.registration import check_env_id
 from tandem_env.io.files import atomic_path, write_json_atomic, write_text_atomic
 from train.callbacks import PhysicsLogger, ResumableEvalCallback, SaveVecNormalize
 from train.config import Hyperparams, TrainConfig, load_entry, plain, resolve_hyperparams
-from train.layout import Checkpoint, RunComplete, RunLayout, RunLock, read_run_yaml
+from train.layout import (
+    Checkpoint,
+    RunComplete,
+    RunLayout,
+    RunLock,
+    read_normalizer,
+    read_run_yaml,
+)
 from train.vec import StrokeRecorder, make_evaluation_env, make_training_env
 
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
@@ -474,8 +481,9 @@ def _run_envs(plan: TrainPlan) -> tuple[VecEnv, StrokeRecorder, VecEnv]:
     )
     if hp.normalize is not None:
         if plan.checkpoint is not None:
-            with _loading(plan.checkpoint.vecnormalize):
-                venv = VecNormalize.load(str(plan.checkpoint.vecnormalize), venv)
+            normalizer = read_normalizer(plan.checkpoint.vecnormalize)
+            normalizer.set_venv(venv)
+            venv = normalizer
             venv.training = True
         else:
             venv = VecNormalize(venv, **dict(hp.normalize))
@@ -648,6 +656,36 @@ def _write_result(layout: RunLayout, result: TrainResult, hp: Hyperparams) -> No
         "segments": segments,
     }
     write_json_atomic(layout.result_file, data, indent=1)
+
+
+# --- a saved policy, without unpickling ---------------------------------------------------------
+def load_policy_model(
+    algo: str, path: Path, entry: Mapping[str, Any], env_id: str, env_kwargs: Mapping[str, Any]
+) -> BaseAlgorithm:
+    """The model saved at ``path`` for prediction, read without unpickling anything.
+
+    SB3's ``load`` unpickles (cloudpickle) the objects stored in the zip's ``data``, so any
+    model file could run code. Here the model is rebuilt from the run's hyperparameters
+    (``entry``, its config.yml) on a copy of its env, and only its weights are read
+    (``set_parameters``: tensors, ``torch.load(weights_only=True)``); ``num_timesteps`` comes
+    from the zip's JSON. ValueError naming the file if the weights do not fit the rebuilt model.
+    """
+    # The run's own n_envs, so that the rebuilt model is the saved one (PPO's rollout size).
+    hp = resolve_hyperparams(entry, n_timesteps=1)
+    venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs, monitor_file=None, normalize=None)
+    model = build_model(algo, hp, venv, seed=0, tensorboard_log=None, verbose=0, device="cpu")
+    try:
+        with zipfile.ZipFile(path) as archive:
+            steps = json.loads(archive.read("data")).get("num_timesteps", 0)
+        model.set_parameters(str(path), exact_match=True, device="cpu")
+    except (KeyError, OSError, RuntimeError, ValueError, zipfile.BadZipFile) as error:
+        raise ValueError(
+            f"{path}: its weights do not load into a {algo.upper()} model built from the run's "
+            f"config.yml ({type(error).__name__}: {error}); allowed: a model saved by "
+            "python -m train with that config.yml"
+        ) from None
+    model.num_timesteps = int(steps)
+    return model
 
 
 # --- the harness's lean variant ----------------------------------------------------------------

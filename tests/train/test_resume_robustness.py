@@ -4,14 +4,19 @@ no traceback) or in a documented fallback, and leaves the run's files as they we
 
 from __future__ import annotations
 
+import base64
+import json
 import os
+import pickle
 import shutil
 import subprocess
 import sys
 import warnings
+import zipfile
 from collections import OrderedDict
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -278,3 +283,68 @@ def test_a_warning_is_one_line_above_a_bar(capsys: pytest.CaptureFixture[str]) -
     err = capsys.readouterr().err
     assert "RuntimeWarning: trained at speed 1.5, asked at 1.0\n" in err
     assert "warnings.warn(" not in err
+
+
+# --- pickled files of a run folder ---------------------------------------------------------------
+class _Touch:
+    """Unpickling this runs ``touch path`` (what a hostile file would do)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __reduce__(self):
+        return (os.system, (f"touch {self.path}",))
+
+
+def test_a_policy_is_loaded_without_unpickling_its_model_file(
+    finished_run: Path, tmp_path: Path
+) -> None:
+    from train.policies import TrainedPolicy
+
+    layout = _copy(finished_run, tmp_path)
+    marker = tmp_path / "executed"
+    original = layout.final_model.read_bytes()
+    expected = TrainedPolicy.load(layout.run_dir, "final").strokes([1.5])
+    # The same model file with a hostile cloudpickled entry in its JSON `data`, as SB3's
+    # `load` would unpickle it.
+    hostile = tmp_path / "hostile.zip"
+    with zipfile.ZipFile(layout.final_model) as source, zipfile.ZipFile(hostile, "w") as target:
+        for item in source.infolist():
+            content = source.read(item)
+            if item.filename == "data":
+                data = json.loads(content)
+                data["evil"] = {
+                    ":type:": "<class 'object'>",
+                    ":serialized:": base64.b64encode(pickle.dumps(_Touch(marker))).decode(),
+                }
+                content = json.dumps(data).encode()
+            target.writestr(item, content)
+    shutil.move(hostile, layout.final_model)
+    assert layout.final_model.read_bytes() != original
+    policy = TrainedPolicy.load(layout.run_dir, "final")
+    np.testing.assert_array_equal(policy.strokes([1.5]), expected)
+    assert policy.num_timesteps == 128
+    assert not marker.exists()
+
+
+def test_normalisation_statistics_are_read_with_their_classes_only(tmp_path: Path) -> None:
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from tandem_env.envs.sb3 import make_sb3_vec_env
+    from train.layout import read_normalizer
+
+    venv = make_sb3_vec_env(LEVEL_FLIGHT_ID, n_envs=2, seed=0)
+    saved = VecNormalize(venv, norm_obs=True, norm_reward=False)
+    saved.reset()
+    saved.save(str(tmp_path / "vecnormalize.pkl"))
+    loaded = read_normalizer(tmp_path / "vecnormalize.pkl")
+    np.testing.assert_array_equal(loaded.obs_rms.mean, saved.obs_rms.mean)
+    loaded.set_venv(venv)
+
+    marker = tmp_path / "executed"
+    (tmp_path / "hostile.pkl").write_bytes(pickle.dumps(_Touch(marker)))
+    with pytest.raises(
+        ValueError, match=r"refused: not a VecNormalize file of SB3 .*posix\.system"
+    ):
+        read_normalizer(tmp_path / "hostile.pkl")
+    assert not marker.exists()
