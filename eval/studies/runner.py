@@ -374,21 +374,25 @@ def run_jobs(
     ``scheduler`` chooses where (module docstring): None runs them here, one after another;
     ``"local:N"`` or a scheduler address runs them on Dask. The jobs to run are validated
     first, all of them before any runs (a :class:`~agents.harness.PreparedJob` is validated
-    already); they start largest budget first, so the workers stay busy to the end. Each record
-    is stored as its job finishes, by this function alone. Raises ValueError for a job that
-    :func:`~agents.harness.prepare_job` rejects, a bad ``scheduler`` or an ``out_dir`` that is
-    a file; :class:`JobsFailed` (after every other job has finished) if any job raised;
-    :class:`SchedulerUnreachable` if the scheduler does not answer.
+    already; a job :func:`~agents.harness.prepare_job` rejects is a failure and does not run);
+    they start largest budget first, so the workers stay busy to the end. Each record is stored
+    as its job finishes, by this function alone. Raises :class:`JobsFailed` (after every other
+    job has finished) if any job was rejected or raised, :class:`SchedulerUnreachable` if the
+    scheduler does not answer, ValueError for a bad ``scheduler`` or an ``out_dir`` that is a
+    file.
     """
     executor = "serial" if scheduler is None else parse_scheduler(scheduler)
     start = time.perf_counter()
     store = RecordStore(out_dir)
     given = {_job_of(job).key: job for job in jobs}
-    todo = [
-        job if isinstance(job, PreparedJob) else prepare_job(job)
-        for job in given.values()
-        if store.load(_job_of(job)) is None
-    ]
+    missing = [job for job in given.values() if store.load(_job_of(job)) is None]
+    failures: list[JobFailure] = []
+    todo: list[PreparedJob] = []
+    for job in missing:  # validated once, all before any runs; a rejected job is a failure
+        try:
+            todo.append(job if isinstance(job, PreparedJob) else prepare_job(job))
+        except Exception as error:
+            failures.append(_failure(_job_of(job), error, error.__traceback__))
     todo.sort(key=lambda p: -p.job.budget)
     if todo and (old := store.outdated()):
         # Their keys hash the earlier format, so no job finds them: say so once.
@@ -398,7 +402,6 @@ def run_jobs(
             RecordWarning,
             stacklevel=2,
         )
-    failures: list[JobFailure] = []
     with contextlib.ExitStack() as stack:
         client = None
         if todo and scheduler is not None:
@@ -418,8 +421,8 @@ def run_jobs(
             display.finished(job, outcome)
     summary = RunSummary(
         total=len(given),
-        reused=len(given) - len(todo),
-        ran=len(todo),
+        reused=len(given) - len(missing),
+        ran=len(missing),
         wall_time=time.perf_counter() - start,
         executor=executor,
         failures=tuple(sorted(failures, key=lambda f: f.key)),
