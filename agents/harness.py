@@ -30,7 +30,6 @@ import time
 import warnings
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
-from types import MappingProxyType
 from typing import Any
 
 import gymnasium as gym
@@ -127,7 +126,7 @@ def prepare_job(
         method=method_obj,
         task=spec,
         condition=cond,
-        env_kwargs=MappingProxyType(kwargs),
+        env_kwargs=kwargs,
         objective_name=objective_name,
         dim=dim,
     )
@@ -342,7 +341,7 @@ def _results(
         "metrics": to_jsonable(info),
         "history": [[int(e), float(b)] for e, b in outcome.history],
         "wall_time": 0.0,
-        "method": to_jsonable(outcome.config),
+        "method_settings": to_jsonable(outcome.config),
         "env": to_jsonable(again.env_config),
         "versions": {**package_versions(), "tandem_env": tandem_env.__version__},
     }

@@ -95,7 +95,7 @@ RESULTS: dict[str, str] = {
     "metrics": "every info entry of the re-evaluation except the stroke (docs/envs.md)",
     "history": "[evaluations, best reward so far] after every iteration of the search",
     "wall_time": "wall-clock time of the run, search plus re-evaluation [s]",
-    "method": "the method's settings and citation as it reports them",
+    "method_settings": "the method's settings and citation as it reports them",
     "env": "the env's full configuration (insect, model options, penalty)",
     "versions": "package versions (numpy, gymnasium, torch, ..., python, tandem_env)",
 }
@@ -371,9 +371,9 @@ class Record:
 
     @property
     def config(self) -> dict[str, Any]:
-        """``method`` (the method's settings and citation) and ``env`` (the env's full
+        """``method`` (``method_settings``: the method's settings and citation) and ``env`` (the env's full
         configuration: insect, model options incl. ``thrust_split``, penalty)."""
-        return {"method": self.results["method"], "env": self.results["env"]}
+        return {"method": self.results["method_settings"], "env": self.results["env"]}
 
     # --- JSON ------------------------------------------------------------------------------------
     def _payload(self) -> dict[str, Any]:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import textwrap
 from collections import defaultdict
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -181,7 +182,7 @@ def distinct_settings(keys: Sequence[SeriesKey]) -> dict[SeriesKey, str]:
     out = {}
     for key, m in zip(keys, maps, strict=True):
         parts = [f"budget {key[1]}"] if len(budgets) > 1 else []
-        parts += [f"{n}={m.get(n, '-')}" for n in varying]
+        parts += [f"{n}={m.get(n, 'default')}" for n in varying]
         out[key] = ", ".join(parts)
     return out
 
@@ -388,12 +389,12 @@ def convergence_figure(records: Sequence[Record]) -> Any:
         ax.legend(fontsize=7, loc="lower right")
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
-    fig.suptitle(
-        "Curves: best reward seen, feasible or not (median over seeds, band = IQR). Markers: the\n"
-        "reported objective (best feasible stroke, re-evaluated); below a curve where a higher "
-        "reward was infeasible",
-        fontsize=9,
+    caption = (
+        "Curves: best reward seen, feasible or not (median over seeds, band = IQR). Markers: "
+        "the reported objective (best feasible stroke, re-evaluated), below a curve where a "
+        "higher reward was infeasible."
     )
+    fig.suptitle(textwrap.fill(caption, 62 * cols), fontsize=9)
     fig.tight_layout()
     return fig
 

@@ -196,7 +196,9 @@ def test_lazy_provider_registers_on_first_use(
         record = run_analytic("fake:5", "sphere", 20, 0)
         assert record.method == "fake:5"
         assert [e for e, _ in record.history] == [5, 10, 15, 20]
-        assert record.job.method == "fake:5" and Job.from_dict(record.job.to_dict()).key == record.key
+        assert (
+            record.job.method == "fake:5" and Job.from_dict(record.job.to_dict()).key == record.key
+        )
     finally:
         from agents import methods
 

@@ -35,7 +35,7 @@ def _record(
         "metrics": {},
         "history": [[5, -2.0], [10, objective - 1.0]],
         "wall_time": 1.0,
-        "method": {},
+        "method_settings": {},
         "env": {},
         "versions": {"tandem_env": "test"},
     }
@@ -119,8 +119,8 @@ def test_records_of_different_configurations_are_never_merged(
     assert "found twice" in capsys.readouterr().err
     assert [(r.seeds, r.distinct) for r in rows] == [
         (1, "n_time=64, planform=real"),
-        (2, "n_time=-, planform=real"),
-        (2, "n_time=-, planform=tear-drop"),
+        (2, "n_time=default, planform=real"),
+        (2, "n_time=default, planform=tear-drop"),
     ]
     assert [r.objective_median for r in rows] == pytest.approx([0.25, 0.205, 0.305])
     assert rows[1].settings == "planform=real; tandem_env=test"
