@@ -207,6 +207,34 @@ def test_older_records_are_recomputed_never_mixed_in(tmp_path: Path, monkeypatch
         summary = run_jobs([job], tmp_path, progress=False)
     assert summary.ran == 1 and calls == [job]
     assert Record.load(path).schema == SCHEMA
+    # Where it really lies, under the key the earlier format hashed: no job finds it, and the
+    # runner says once that the store holds it.
+    path.with_name("0123456789abcdef0123.json").write_text(json.dumps(old))
+    path.unlink()
+    with pytest.warns(RecordWarning, match=r"1 record file\(s\) of an earlier format .* not used"):
+        run_jobs([job], tmp_path, progress=False)
+
+
+def test_a_job_is_validated_once_on_the_optimize_path(tmp_path: Path, monkeypatch) -> None:
+    """`optimize` prepares its seeds' jobs; the runner and run_job do not validate them again."""
+    checked: list[Job] = []
+    original = harness.prepare_job
+
+    def counting(job: Job, **kwargs: object) -> PreparedJob:
+        checked.append(job)
+        return original(job, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(harness, "prepare_job", counting)
+    monkeypatch.setattr(runner, "prepare_job", counting)
+    argv = ["optimize", "--task", "level", "--speed", "2", "--method", "pso", "--budget", "16",
+            "--swarm-size", "8", "--out", str(tmp_path), "--env-kwargs", "n_blade=6", "n_time=32",
+            "--quiet", "--seeds", "0", "1"]  # fmt: skip
+    assert main(argv) == 0
+    assert len(checked) == 1  # one configuration, two seeds: validated once
+    # A study's plain jobs are validated by the runner, once each, before any runs.
+    checked.clear()
+    run_jobs([_job(seed=5), _job(seed=6)], tmp_path, progress=False)
+    assert [j.seed for j in checked] == [5, 6]
 
 
 def test_a_record_edited_by_hand_is_detected_and_recomputed(tmp_path: Path, monkeypatch) -> None:
