@@ -394,8 +394,9 @@ def run_jobs(
         except Exception as error:
             failures.append(_failure(_job_of(job), error, error.__traceback__))
     todo.sort(key=lambda p: -p.job.budget)
-    if todo and (old := store.outdated()):
-        # Their keys hash the earlier format, so no job finds them: say so once.
+    if todo and (old := [p for p in store.outdated() if p.stem not in given]):
+        # Their keys hash the earlier format, so no job finds them: say so once (one at a
+        # job's own key was reported by store.load).
         warnings.warn(
             f"{len(old)} record file(s) of an earlier format in {old[0].parent} (e.g. "
             f"{old[0].name}) are not used: the jobs they held run again in this format",
