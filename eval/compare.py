@@ -177,23 +177,34 @@ def distinct_settings(keys: Sequence[SeriesKey]) -> dict[SeriesKey, str]:
     and the settings whose values differ (or are missing in some)."""
     budgets = {budget for _, budget, _ in keys}
     maps = [dict(pairs) for _, _, pairs in keys]
-    names = sorted({name for m in maps for name in m})
-    varying = [n for n in names if len({m.get(n) for m in maps}) > 1]
     out = {}
     for key, m in zip(keys, maps, strict=True):
+        # method settings are compared among the series of the same method only
+        peers = [p for k, p in zip(keys, maps, strict=True) if k[0] == key[0]]
+        names = sorted({n for p in maps for n in p if not n.startswith("method.")})
+        names += sorted({n for p in peers for n in p if n.startswith("method.")})
+        varying = [
+            n
+            for n in names
+            if len({p.get(n) for p in (peers if n.startswith("method.") else maps)}) > 1
+        ]
         parts = [f"budget {key[1]}"] if len(budgets) > 1 else []
         parts += [f"{n}={m.get(n, 'default')}" for n in varying]
         out[key] = ", ".join(parts)
     return out
 
 
-def group(records: Sequence[Record]) -> dict[PanelKey, dict[SeriesKey, list[Record]]]:
+def group(
+    records: Sequence[Record], *, quiet: bool = False
+) -> dict[PanelKey, dict[SeriesKey, list[Record]]]:
     """Records by panel, then by configuration; a record seen twice (same key: the same job)
-    counts once."""
+    counts once, said on stderr unless ``quiet``."""
     out: dict[PanelKey, dict[SeriesKey, list[Record]]] = defaultdict(lambda: defaultdict(list))
     seen: dict[str, Record] = {}
     for record in records:
         if record.key in seen:  # one configuration and seed: the same run, found twice
+            if quiet:
+                continue
             print(
                 f"compare: {record.label()} (key {record.key}) found twice; the first found "
                 "is counted",
@@ -351,7 +362,7 @@ def convergence_figure(records: Sequence[Record]) -> Any:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    panels = group(records)
+    panels = group(records, quiet=True)  # duplicates are reported by table_rows
     n = len(panels)
     cols = min(n, 3)
     rows = math.ceil(n / cols)

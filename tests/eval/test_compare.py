@@ -170,3 +170,20 @@ def test_the_convergence_figure_is_written_in_the_format_asked(records: Path) ->
     assert not (out / "convergence.png").exists()
     with pytest.raises(ValueError, match="allowed: png, svg, pdf"):
         compare_module.compare([records], records / "bad", "jpg")
+
+
+def test_method_settings_tell_apart_only_the_variants_of_one_method() -> None:
+    base = _record("pso", 0, 0.3, True)
+
+    def variant(method: str, **settings: object) -> Record:
+        job = Job(method, "level", 1.5, 10, 0, method_config=settings)
+        return Record(job=job, key=job.key, results=base.results)
+
+    rows = compare_module.table_rows(
+        [variant("pso", swarm_size=8), variant("pso", swarm_size=16), variant("cmaes", popsize=8)]
+    )
+    assert {(r.method, r.distinct) for r in rows} == {
+        ("cmaes", ""),
+        ("pso", "method.swarm_size=16"),
+        ("pso", "method.swarm_size=8"),
+    }
