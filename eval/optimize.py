@@ -267,7 +267,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             + f", {record.evaluations} evaluations, {record.wall_time:.1f} s"
         )
     print(
-        f"{summary.total} seeds: {summary.ran} run, {summary.reused} reused from {store.directory}",
+        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.ran} run, "
+        f"{summary.reused} reused from {store.directory}",
         file=sys.stderr,
     )
     return 0
