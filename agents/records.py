@@ -3,41 +3,53 @@
 A :class:`Job` is the configuration of one harness run (one method, task, condition, budget and
 seed, with its env keywords, method settings and study preset); its :attr:`Job.key` hashes all
 of that plus the ``tandem_env`` version and the record format. A :class:`Record` is what the
-run found, whichever method ran (PSO, random search, a trained policy), so that ``python -m eval
-compare`` and the studies read one format; it carries its job and key.
+run found, whichever method ran (PSO, CMA-ES, random search, a trained policy), so that
+``python -m eval compare`` and the studies read one format. It holds three things, each once:
+its job, the job's key and one mapping of results (:data:`RESULTS`; a later stage of the run
+adds its own key to it), and its file carries a checksum of all three, so a record edited by
+hand or damaged is detected.
 
 A :class:`RecordStore` keeps records as ``DIR/records/<key>.json``, each written atomically
-(:func:`tandem_env.io.files.write_json_atomic`). Both ``python -m eval optimize`` and the studies
-write through it, so a record is found by its configuration: another budget, seed or model
-option is another file, a killed run resumes from the records already there, and nothing of
-another configuration is overwritten without a warning. The schema with units is documented
-in ``docs/harness.md``.
+(:func:`tandem_env.io.files.write_json_atomic`). The runner (:func:`eval.studies.runner.run_jobs`)
+is the one writer: ``python -m eval optimize`` and the studies run their jobs through it, so a
+record is found by its configuration: another budget, seed or model option is another file, a
+killed run resumes from the records already there, and a file that is not a valid record of
+its job (corrupt, edited, of an older format, of another job) is recomputed with a
+:class:`RecordWarning`. The schema with units is documented in ``docs/harness.md``.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import platform
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import MISSING, dataclass, field, fields
+from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 import tandem_env
 from agents.tasks import Condition, available_tasks, get_task
 from tandem_env.io.files import read_json, to_jsonable, write_csv_atomic, write_json_atomic
 
 __all__ = [
+    "OLD_SCHEMAS",
     "RECORDS_DIR",
+    "RESULTS",
     "SCHEMA",
     "SUMMARY_METRICS",
     "SUMMARY_NAME",
     "Job",
+    "OutdatedRecordError",
     "Record",
+    "RecordChecksumError",
+    "RecordError",
     "RecordStore",
     "RecordWarning",
     "load_records",
@@ -47,11 +59,15 @@ __all__ = [
 ]
 
 #: Identifies record files (and their version) among other JSON files.
-SCHEMA = "tandem_env.harness-record/3"
+SCHEMA = "tandem_env.harness-record/4"
 """Record format; /2 added ``selection`` (records report the best feasible stroke seen), /3
-``key`` and ``job`` (the configuration the record is stored under)."""
-#: Older formats :meth:`Record.from_dict` still reads (their ``key`` and ``job`` are empty).
-READABLE_SCHEMAS = ("tandem_env.harness-record/2",)
+``key`` and ``job``, /4 holds the job, key and results once each plus a checksum."""
+#: Earlier formats: recognised, never read as results (their jobs are recomputed).
+OLD_SCHEMAS = (
+    "tandem_env.harness-record/1",
+    "tandem_env.harness-record/2",
+    "tandem_env.harness-record/3",
+)
 #: The record's ``selection``: which of the strokes a search evaluated it reports.
 SELECTION_BEST_FEASIBLE = "best feasible stroke seen"
 SELECTION_BEST_REWARD = "best reward seen (no feasible stroke)"
@@ -60,6 +76,29 @@ SELECTION_METHOD = "the method's stroke"
 RECORDS_DIR = "records"
 #: A store's CSV summary over its records, ``DIR/summary.csv``.
 SUMMARY_NAME = "summary.csv"
+
+#: The keys every record's results hold, with their meaning and units (docs/harness.md).
+#: Further keys (e.g. a stage run after the search) are kept and checksummed as they are.
+RESULTS: dict[str, str] = {
+    "env_id": "Gymnasium id of the env the search stepped",
+    "objective_name": "the info metric the task maximises, e.g. efficiency or excess_vertical",
+    "condition_name": "what the job's condition is, e.g. speed or available_power",
+    "condition_unit": "the condition's unit, e.g. m/s or W/kg",
+    "evaluations": "model evaluations the search used (<= budget; the re-evaluation not counted)",
+    "objective": "the task's raw objective of the reported stroke, re-evaluated: eta [-] or F [-]",
+    "reward": "the penalised objective of the reported stroke, re-evaluated",
+    "search_reward": "the reported stroke's reward as seen during the search (= reward)",
+    "feasible": "every constraint of the task met at the re-evaluation",
+    "selection": "which stroke is reported (best feasible seen, best reward seen, the method's)",
+    "stroke": "the stroke, named physical parameters in Table 4 units (Hz, deg, -)",
+    "normalised_stroke": "the same stroke as the 28 normalised action values in [-1, 1]",
+    "metrics": "every info entry of the re-evaluation except the stroke (docs/envs.md)",
+    "history": "[evaluations, best reward so far] after every iteration of the search",
+    "wall_time": "wall-clock time of the run, search plus re-evaluation [s]",
+    "method_settings": "the method's settings and citation as it reports them",
+    "env": "the env's full configuration (insect, model options, penalty)",
+    "versions": "package versions (numpy, gymnasium, torch, ..., python, tandem_env)",
+}
 
 #: Metrics copied into the CSV summary when a record has them.
 SUMMARY_METRICS: tuple[str, ...] = (
@@ -88,6 +127,18 @@ _PACKAGES = {
 }
 
 
+class RecordError(ValueError):
+    """Data that is not a valid record: not JSON, not a record, malformed or failing its checksum."""
+
+
+class RecordChecksumError(RecordError):
+    """A record whose checksum does not match its contents (edited by hand or damaged)."""
+
+
+class OutdatedRecordError(RecordError):
+    """A record of an earlier format (:data:`OLD_SCHEMAS`): its job is to be recomputed."""
+
+
 class RecordWarning(UserWarning):
     """A stored record that is corrupt, or replaced by a record of another configuration."""
 
@@ -106,6 +157,11 @@ def package_versions() -> dict[str, str]:
             versions[key] = "not installed"
     versions["python"] = platform.python_version()
     return versions
+
+
+def _check_count(name: str, value: Any, low: int, allowed: str) -> None:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
+        raise ValueError(f"{name} = {value!r}; allowed: {allowed}")
 
 
 def _pairs(value: Any) -> tuple[tuple[str, Any], ...]:
@@ -138,11 +194,39 @@ class Job:
     empty for a run outside the studies (``python -m eval optimize``)."""
 
     def __post_init__(self) -> None:
+        # The one structural check of a job, where it is made (the CLI, a study, a record file):
+        # the harness's prepare_job adds what needs the task and method registries.
+        for name in ("method", "task", "preset"):
+            value = getattr(self, name)
+            if not isinstance(value, str) or (name != "preset" and not value):
+                raise ValueError(f"job {name} = {value!r}; allowed: a non-empty name")
+        if (
+            isinstance(self.condition, bool)
+            or not isinstance(self.condition, int | float | np.integer | np.floating)
+            or not math.isfinite(self.condition)
+        ):
+            raise ValueError(f"condition = {self.condition!r}; allowed: a finite number")
+        _check_count("budget", self.budget, 1, "an integer >= 1 (model evaluations)")
+        _check_count("seed", self.seed, 0, "integers >= 0")
         object.__setattr__(self, "condition", float(self.condition))
         object.__setattr__(self, "budget", int(self.budget))
         object.__setattr__(self, "seed", int(self.seed))
         object.__setattr__(self, "env_kwargs", _pairs(self.env_kwargs))
         object.__setattr__(self, "method_config", _pairs(self.method_config))
+
+    @classmethod
+    def from_dict(cls, data: Any) -> Job:
+        """Inverse of :meth:`to_dict`; raises :class:`RecordError` for anything else."""
+        if not isinstance(data, Mapping):
+            raise RecordError(f"job = {data!r}; allowed: a JSON object (Job.to_dict)")
+        allowed = set(cls.__dataclass_fields__)
+        unknown = sorted(set(data) - allowed)
+        if unknown:
+            raise RecordError(f"job has unknown field(s) {unknown}; allowed: {sorted(allowed)}")
+        try:
+            return cls(**data)
+        except (TypeError, ValueError) as error:
+            raise RecordError(f"malformed job: {error}") from None
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-JSON form (keyword pairs become objects): what a record stores as ``job``."""
@@ -181,117 +265,190 @@ class Job:
         )
 
 
+def _result(name: str, doc: str) -> property:
+    # One accessor per results key, documented from RESULTS (one home for the schema).
+    return property(lambda self: self.results[name], doc=doc)
+
+
+def _checksum(payload: Mapping[str, Any]) -> str:
+    text = json.dumps(payload, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
 @dataclass(frozen=True)
 class Record:
-    """One run of one method on one task, condition and seed.
+    """What one :class:`Job` found: the job, its key and one mapping of results.
 
-    Every number describing the stroke comes from the final re-evaluation of the best stroke
-    (a fresh single-env step), not from the search.
+    Every number describing the stroke comes from the final re-evaluation of the reported
+    stroke (a fresh single-env step), not from the search. The results' keys and units are
+    :data:`RESULTS`; each has an attribute of that name (``record.objective``), and the job's
+    fields read through (``record.method``, ``record.seed``, ...).
     """
 
-    method: str
-    """Method spec, e.g. ``"pso"``, ``"random"``, ``"policy:runs/ppo"``."""
-    task: str
-    """Task name, ``"level"`` or ``"accelerate"``."""
-    env_id: str
-    """Gymnasium id of the env the search stepped."""
-    objective_name: str
-    """The ``info`` metric the task maximises, e.g. ``"efficiency"`` or ``"excess_vertical"``."""
-    condition: Condition
-    """The flight condition (name, value, unit), e.g. speed 1.5 m/s."""
-    seed: int
-    """Seed of the method (and of the envs' first reset)."""
-    budget: int
-    """Allowed model evaluations (= env steps = strokes evaluated)."""
-    evaluations: int
-    """Model evaluations the search used (<= budget; the re-evaluation is not counted)."""
-    objective: float
-    """The task's raw objective of the best stroke, re-evaluated: η [-] or F̄ [-]."""
-    reward: float
-    """The penalised objective of the best stroke, re-evaluated (= objective when feasible)."""
-    search_reward: float
-    """The reported stroke's reward as seen during the search (equals ``reward``: the model is
-    deterministic and bit-identical at any batch size)."""
-    feasible: bool
-    """Every constraint of the task met at the re-evaluation."""
-    stroke: dict[str, float | int]
-    """The best stroke, named physical parameters in Table 4 units (Hz, deg, -)."""
-    normalised_stroke: tuple[float, ...]
-    """The same stroke as the 28 normalised action values in [-1, 1]."""
-    metrics: dict[str, Any]
-    """Every ``info`` entry of the re-evaluation except the stroke (units: docs/envs.md)."""
-    history: tuple[tuple[int, float], ...]
-    """(evaluations, best reward so far) after every iteration of the search."""
-    wall_time: float
-    """Wall-clock time of the run, search plus re-evaluation [s]."""
-    config: dict[str, Any]
-    """``method`` (its settings and citation), ``env_kwargs`` and ``env`` (the env's full
-    configuration: insect, model options incl. ``thrust_split``, penalty)."""
-    versions: dict[str, str]
-    """Package versions (numpy, gymnasium, torch, ..., python, tandem_env)."""
-    selection: str = SELECTION_BEST_FEASIBLE
-    """Which stroke is reported: ``"best feasible stroke seen"`` (the highest objective among
-    the feasible strokes the search evaluated), ``"best reward seen (no feasible stroke)"``, or
-    ``"the method's stroke"`` (methods that evaluate through their own envs, e.g. SB3)."""
-    key: str = ""
-    """The job's configuration hash (:attr:`Job.key`): the record's name in a store."""
-    job: dict[str, Any] = field(default_factory=dict)
-    """The job that produced the record (:meth:`Job.to_dict`)."""
-    schema: str = SCHEMA
+    job: Job
+    """The configuration that produced the record."""
+    key: str
+    """The job's configuration hash when it ran (:attr:`Job.key`): the record's file name."""
+    results: dict[str, Any]
+    """What the run found, plain JSON (:data:`RESULTS`, plus any key a later stage adds)."""
+    schema: str = field(default=SCHEMA)
     """Record format identifier."""
 
     def __post_init__(self) -> None:
         if self.schema != SCHEMA:
-            raise ValueError(f"record schema {self.schema!r}; allowed: {SCHEMA!r}")
-        if not isinstance(self.condition, Condition):
-            raise ValueError(f"condition = {self.condition!r}; allowed: a Condition")
-        object.__setattr__(self, "normalised_stroke", tuple(map(float, self.normalised_stroke)))
-        object.__setattr__(self, "history", tuple((int(e), float(b)) for e, b in self.history))
-        if self.evaluations > self.budget:
-            raise ValueError(
-                f"record evaluations = {self.evaluations} exceed its budget {self.budget}"
+            raise RecordError(f"record schema {self.schema!r}; allowed: {SCHEMA!r}")
+        if not isinstance(self.job, Job):
+            raise RecordError(f"job = {self.job!r}; allowed: a Job")
+        if not isinstance(self.key, str) or not self.key:
+            raise RecordError(f"key = {self.key!r}; allowed: the job's key (Job.key)")
+        if not isinstance(self.results, Mapping):
+            raise RecordError(f"results = {self.results!r}; allowed: a mapping")
+        missing = [name for name in RESULTS if name not in self.results]
+        if missing:
+            raise RecordError(f"record results are missing {missing}")
+        try:
+            results = to_jsonable(self.results)
+        except TypeError as error:
+            raise RecordError(f"record results are not plain JSON: {error}") from None
+        object.__setattr__(self, "results", results)
+        evaluations = results["evaluations"]
+        if not isinstance(evaluations, int) or not 0 <= evaluations <= self.job.budget:
+            raise RecordError(
+                f"record evaluations = {evaluations!r}; allowed: an integer from 0 to its "
+                f"budget {self.job.budget}"
             )
 
+    # --- the job's fields -----------------------------------------------------------------------
+    @property
+    def method(self) -> str:
+        """Method spec, e.g. ``"pso"``, ``"cmaes"``, ``"policy:runs/ppo"``."""
+        return self.job.method
+
+    @property
+    def task(self) -> str:
+        """Task name, e.g. ``"level"`` or ``"accelerate"``."""
+        return self.job.task
+
+    @property
+    def seed(self) -> int:
+        """Seed of the method (and of the envs' first reset)."""
+        return self.job.seed
+
+    @property
+    def budget(self) -> int:
+        """Allowed model evaluations (= env steps = strokes evaluated)."""
+        return self.job.budget
+
+    @property
+    def condition(self) -> Condition:
+        """The flight condition (name, the job's value, unit), e.g. speed = 1.5 m/s."""
+        r = self.results
+        return Condition(r["condition_name"], self.job.condition, r["condition_unit"])
+
+    # --- the results --------------------------------------------------------------------------
+    env_id = _result("env_id", RESULTS["env_id"])
+    objective_name = _result("objective_name", RESULTS["objective_name"])
+    evaluations = _result("evaluations", RESULTS["evaluations"])
+    objective = _result("objective", RESULTS["objective"])
+    reward = _result("reward", RESULTS["reward"])
+    search_reward = _result("search_reward", RESULTS["search_reward"])
+    feasible = _result("feasible", RESULTS["feasible"])
+    selection = _result("selection", RESULTS["selection"])
+    stroke = _result("stroke", RESULTS["stroke"])
+    metrics = _result("metrics", RESULTS["metrics"])
+    wall_time = _result("wall_time", RESULTS["wall_time"])
+    versions = _result("versions", RESULTS["versions"])
+
+    @property
+    def normalised_stroke(self) -> tuple[float, ...]:
+        """The stroke as the 28 normalised action values in [-1, 1]."""
+        return tuple(self.results["normalised_stroke"])
+
+    @property
+    def history(self) -> tuple[tuple[int, float], ...]:
+        """(evaluations, best reward so far) after every iteration of the search."""
+        return tuple((int(e), float(b)) for e, b in self.results["history"])
+
+    @property
+    def config(self) -> dict[str, Any]:
+        """``method`` (``method_settings``: the method's settings and citation) and ``env`` (the env's full
+        configuration: insect, model options incl. ``thrust_split``, penalty)."""
+        return {"method": self.results["method_settings"], "env": self.results["env"]}
+
     # --- JSON ------------------------------------------------------------------------------------
+    def _payload(self) -> dict[str, Any]:
+        return {
+            "schema": self.schema,
+            "key": self.key,
+            "job": self.job.to_dict(),
+            "results": self.results,
+        }
+
+    @property
+    def checksum(self) -> str:
+        """SHA-256 of the schema, key, job and results as JSON (sorted keys, no spaces)."""
+        return _checksum(self._payload())
+
     def to_dict(self) -> dict[str, Any]:
-        """Plain-JSON form (the file format); schema and key first, then the field order."""
-        out: dict[str, Any] = {"schema": self.schema, "key": self.key}
-        for f in fields(self):
-            if f.name in out:
-                continue
-            value = getattr(self, f.name)
-            if isinstance(value, Condition):
-                value = value.to_dict()
-            elif f.name in ("normalised_stroke", "history"):
-                value = [list(v) if isinstance(v, tuple) else v for v in value]
-            out[f.name] = value
-        return out
+        """Plain-JSON form (the file format): schema, key, checksum, job, results."""
+        payload = self._payload()
+        return {
+            "schema": payload["schema"],
+            "key": payload["key"],
+            "checksum": _checksum(payload),
+            "job": payload["job"],
+            "results": payload["results"],
+        }
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> Record:
-        """Inverse of :meth:`to_dict`; raises ValueError for a non-record or a missing field.
+    def from_dict(cls, data: Any) -> Record:
+        """Inverse of :meth:`to_dict`.
 
-        Records of an older format in :data:`READABLE_SCHEMAS` are read with an empty key and
-        job (they are never taken as a job's stored result).
+        Raises :class:`OutdatedRecordError` for a record of an earlier format and
+        :class:`RecordError` for anything else that is not a valid record, including one whose
+        checksum does not match its contents (edited by hand or damaged).
         """
+        if not isinstance(data, Mapping):
+            raise RecordError(
+                f"record data is {type(data).__name__} {_short(data)}; allowed: a JSON object "
+                f"with schema {SCHEMA!r}"
+            )
         schema = data.get("schema")
-        if schema != SCHEMA and schema not in READABLE_SCHEMAS:
-            raise ValueError(f"not a harness record (schema {schema!r}, want {SCHEMA!r})")
-        names = {f.name for f in fields(cls)}
-        required = {f.name for f in fields(cls) if f.default is MISSING}
-        required -= {f.name for f in fields(cls) if f.default_factory is not MISSING}
-        missing = sorted(required - set(data))
-        if missing:
-            raise ValueError(f"record is missing field(s) {missing}")
-        kwargs = {name: data[name] for name in names if name in data}
-        kwargs["condition"] = Condition(**kwargs["condition"])
-        kwargs["schema"] = SCHEMA
-        return cls(**kwargs)
+        if schema in OLD_SCHEMAS:
+            raise OutdatedRecordError(
+                f"a record of the earlier format {schema!r} (now {SCHEMA!r}); it is not read "
+                "as a result: rerun the command that wrote it to recompute it"
+            )
+        if schema != SCHEMA:
+            raise RecordError(f"not a harness record (schema {_short(schema)}, want {SCHEMA!r})")
+        expected = {"schema", "key", "checksum", "job", "results"}
+        if set(data) != expected:
+            raise RecordError(f"record fields {sorted(data)}; allowed: exactly {sorted(expected)}")
+        record = cls(
+            job=Job.from_dict(data["job"]),
+            key=data["key"],
+            results=data["results"],
+            schema=schema,
+        )
+        if record.checksum != data["checksum"]:
+            raise RecordChecksumError(
+                f"checksum {_short(data['checksum'])} does not match the record's contents: "
+                "edited by hand or damaged; it is not used"
+            )
+        return record
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Record:
-        """Read a record file."""
-        return cls.from_dict(read_json(path))
+        """Read a record file; :class:`RecordError` naming the file for anything but a valid
+        record (OSError if it cannot be opened)."""
+        try:
+            data = read_json(path)
+        except ValueError as error:  # not UTF-8, not JSON, truncated
+            raise RecordError(f"{path}: not a record file, cannot read JSON ({error})") from None
+        try:
+            return cls.from_dict(data)
+        except RecordError as error:
+            raise type(error)(f"{path}: {error}") from None
 
     def label(self) -> str:
         """Short human label, e.g. ``pso level efficiency speed=1.5 seed 0, budget 12000``."""
@@ -330,6 +487,11 @@ class Record:
         return [e for e, _ in self.history], [b for _, b in self.history]
 
 
+def _short(value: Any, limit: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 class RecordStore:
     """Records keyed by configuration: ``DIR/records/<key>.json``, written atomically.
 
@@ -351,60 +513,66 @@ class RecordStore:
     def load(self, job: Job) -> Record | None:
         """The stored record of ``job``, or None if it has not run with this configuration.
 
-        A file that cannot be read as a record, or that holds another job (a hand-edited file
-        or a truncated-hash collision), is reported with a :class:`RecordWarning` and treated
-        as missing, so the job runs again and its record replaces the file.
+        A file that is not a valid record of ``job`` (corrupt, failing its checksum, of an
+        earlier format, or holding another job: a file copied by hand or a truncated-hash
+        collision) is reported with a :class:`RecordWarning` and treated as missing, so the job
+        runs again and its record replaces the file.
         """
         path = self.path(job.key)
         if not path.exists():
             return None
         try:
             record = Record.load(path)
-        except (OSError, ValueError, TypeError, KeyError) as error:
-            _warn(f"{path}: corrupt record ({error}); {job.label()} runs again")
+        except OutdatedRecordError as error:
+            _warn(f"{error}; {job.label()} is recomputed")
             return None
-        if record.key != job.key or record.job != job.to_dict():
+        except (OSError, RecordError) as error:
+            reason = str(error).removeprefix(f"{path}: ")
+            _warn(f"{path}: corrupt record ({reason}); {job.label()} runs again")
+            return None
+        if record.key != job.key or record.job.to_dict() != job.to_dict():
             _warn(
-                f"{path}: holds {record.label()} (job {record.job}), not {job.label()}; "
-                "it runs again and its record replaces the file"
+                f"{path}: holds {record.label()} (job {record.job.to_dict()}), not "
+                f"{job.label()}; it runs again and its record replaces the file"
             )
             return None
         return record
 
     def save(self, record: Record) -> Path:
-        """Write ``record`` as ``records/<record.key>.json``; returns the path.
+        """Write ``record`` as ``records/<record.key>.json`` atomically; returns the path.
 
-        Replacing a valid record of another configuration is reported with a
-        :class:`RecordWarning`; replacing the same configuration's record (a rerun) is silent.
+        Nothing is read back: the one writer (:func:`eval.studies.runner.run_jobs`) saves a
+        job's record only after :meth:`load` found none valid under its key.
         """
-        if not record.key:
-            raise ValueError(
-                f"{record.label()} has no key; allowed: records made by the harness "
-                "(agents.harness.run_seed), which carry their job and key"
-            )
         path = self.path(record.key)
-        if path.exists():
-            try:
-                old = Record.load(path)
-            except (OSError, ValueError, TypeError, KeyError):
-                old = None  # corrupt: already reported by load()
-            if old is not None and old.job != record.job:
-                _warn(f"{path}: replacing {old.label()} (job {old.job}) by {record.label()}")
         write_json_atomic(path, record.to_dict())
         return path
 
     def records(self) -> list[Record]:
-        """Every readable record in the store, ordered as :func:`summary_rows` orders them."""
+        """Every valid record in the store, ordered as :func:`summary_rows` orders them; the
+        others are left out with a :class:`RecordWarning`."""
         found = []
         for path in sorted((self.directory / RECORDS_DIR).glob("*.json")):
             try:
                 found.append(Record.load(path))
-            except (OSError, ValueError, TypeError, KeyError) as error:
-                _warn(f"{path}: corrupt record ({error}); left out")
+            except (OSError, RecordError) as error:
+                _warn(f"{error}; left out")
         return sorted(found, key=_summary_order)
 
+    def outdated(self) -> list[Path]:
+        """The store's files holding records of an earlier format (:data:`OLD_SCHEMAS`)."""
+        found = []
+        for path in sorted((self.directory / RECORDS_DIR).glob("*.json")):
+            try:
+                data = read_json(path)
+            except (OSError, ValueError):
+                continue  # reported by load() when its job asks for it
+            if isinstance(data, dict) and data.get("schema") in OLD_SCHEMAS:
+                found.append(path)
+        return found
+
     def write_summary(self) -> Path:
-        """Rewrite ``DIR/summary.csv`` over every record in the store; returns its path."""
+        """Rewrite ``DIR/summary.csv`` over every record in the store (read once); its path."""
         path = self.directory / SUMMARY_NAME
         write_summary(path, self.records())
         return path
@@ -431,9 +599,11 @@ def write_summary(path: str | os.PathLike[str], records: Sequence[Record]) -> No
 def load_records(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
     """Every record in the given files and directories (searched recursively for ``*.json``).
 
-    Finds the records of stores (``DIR/records/*.json``), of study directories and older flat
-    files alike. JSON files that are not records (other schema) are skipped; a file claiming
-    the record schema but malformed raises ValueError naming it.
+    Finds the records of stores (``DIR/records/*.json``) and of study directories alike. JSON
+    files that are not records (another schema) are skipped; a record of an earlier format or
+    one failing its checksum is left out with a :class:`RecordWarning` (never mixed in); a file
+    that cannot be read, or claims the record schema but is malformed, raises
+    :class:`RecordError` naming it.
     """
     records: list[Record] = []
     for base in map(Path, paths):
@@ -444,12 +614,19 @@ def load_records(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
             try:
                 data = read_json(path)
             except (OSError, ValueError) as error:
-                raise ValueError(f"{path}: cannot read JSON: {error}") from error
+                raise RecordError(f"{path}: cannot read JSON: {error}") from None
             schema = data.get("schema") if isinstance(data, dict) else None
-            if schema != SCHEMA and schema not in READABLE_SCHEMAS:
+            if schema in OLD_SCHEMAS:
+                _warn(f"{path}: a record of the earlier format {schema!r}; left out (rerun "
+                      "the command that wrote it to recompute it)")  # fmt: skip
+                continue
+            if schema != SCHEMA:
                 continue
             try:
                 records.append(Record.from_dict(data))
-            except (TypeError, ValueError) as error:
-                raise ValueError(f"{path}: malformed record: {error}") from error
+            except RecordChecksumError as error:
+                _warn(f"{path}: {error}; left out")
+                continue
+            except RecordError as error:
+                raise RecordError(f"{path}: malformed record: {error}") from None
     return records

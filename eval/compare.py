@@ -1,10 +1,14 @@
 """``python -m eval compare``: tables and convergence plots across harness records.
 
 Records are grouped by task, objective and condition (one plot panel each) and, within a
-group, by method and budget (one table row and one curve each). The table gives the median
-and inter-quartile range of the re-evaluated objective over seeds, the feasible share and the
-median evaluations and wall time; the plot the median best-so-far reward against evaluations
-with the inter-quartile band over seeds.
+group, by the rest of their job's configuration: method, budget, env keywords (planform, model
+options, ...), method settings, preset and ``tandem_env`` version (one table row and one curve
+each; only the seeds differ within a row). Records of different configurations are never
+merged, and one that is found twice (the same record file in two folders given) counts once.
+The table gives the median, inter-quartile range and spread of the re-evaluated objective over
+seeds, the feasible share and the median evaluations and wall time; the plot the median
+best-so-far reward against evaluations with the inter-quartile band over seeds, and the
+reported objective as a marker at the end of each curve.
 """
 
 from __future__ import annotations
@@ -12,6 +16,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import textwrap
 from collections import defaultdict
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -21,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from agents.records import Record, load_records
-from eval.figures import FORMATS, figure_path, method_color, method_label
+from eval.figures import FORMATS, VARIANT_LINES, figure_path, method_color, method_label
 from tandem_env.io.files import atomic_path, write_csv_atomic, write_text_atomic
 
 __all__ = [
@@ -34,23 +39,32 @@ __all__ = [
 ]
 
 NAME = "compare"
-HELP = "compare records: median/IQR table (CSV, Markdown) and convergence plot (PNG)"
+HELP = "compare records: median/IQR/spread table (CSV, Markdown) and convergence plot (PNG)"
 DESCRIPTION = """\
 Compare harness records (the records/<key>.json files of `optimize` and `study`) found
-recursively in the given directories. Writes into --out (default: the first DIR's compare/
+recursively in the given directories. Records are grouped by their full job configuration
+(method, budget, env keywords such as planform and model options, method settings, preset,
+package version): only seeds differ within a row, and the settings that tell the rows of one
+condition apart are shown beside the method. A record failing its checksum or of an earlier
+format is left out with a warning. Writes into --out (default: the first DIR's compare/
 sub-folder):
-  comparison.csv, comparison.md  per task/objective/condition and method: seeds, median and
-                                 IQR (25th-75th percentile) of the re-evaluated objective
-                                 over all seeds, best, median over the feasible seeds, median
-                                 reward, feasible share, median evaluations and median wall
-                                 time [s]. Where no seed is feasible the objective columns
-                                 are left out (nan in the CSV, "n/a (none feasible)" in the
-                                 table): the objective of a stroke that does not fly is not
-                                 a result;
-  convergence.png                best-so-far reward against evaluations, median over seeds
-                                 with the IQR band, one panel per task/objective/condition
-                                 (--format svg or pdf: convergence.svg, convergence.pdf);
-                                 each method in its fixed colour."""
+  comparison.csv, comparison.md  per task/objective/condition and configuration: seeds,
+                                 median, IQR (25th-75th percentile) and spread (max - min) /
+                                 |median| of the re-evaluated objective over all seeds, best,
+                                 median over the feasible seeds, median reward, feasible share,
+                                 median evaluations and median wall time [s]. Where no seed is
+                                 feasible the objective columns are left out (nan in the CSV,
+                                 "n/a (none feasible)" in the table): the objective of a
+                                 stroke that does not fly is not a result;
+  convergence.png                best-so-far reward (the penalised objective the search
+                                 maximises, feasible or not) against evaluations, median over
+                                 seeds with the IQR band, one panel per task/objective/
+                                 condition; a marker at the end of each curve is the median
+                                 reported objective (the best feasible stroke, re-evaluated),
+                                 which lies below the curve where a higher reward was
+                                 infeasible. Each method in its fixed colour-blind-safe
+                                 colour, its variants by line style (--format svg or pdf:
+                                 convergence.svg, convergence.pdf)."""
 EPILOG = """\
 example:
   python -m eval compare results/v1.5                 # writes results/v1.5/compare/
@@ -64,9 +78,14 @@ TABLE_MD = "comparison.md"
 PLOT_STEM = "convergence"
 
 
+def plural(n: int, noun: str) -> str:
+    """``1 seed``, ``2 seeds``."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
 @dataclass(frozen=True)
 class Row:
-    """One method (at one budget) on one task/objective/condition, over its seeds."""
+    """One configuration on one task/objective/condition, over its seeds."""
 
     task: str
     objective_name: str
@@ -75,11 +94,18 @@ class Row:
     condition_unit: str
     method: str
     budget: int
+    settings: str
+    """The configuration besides method and budget (env keywords, method settings, preset,
+    version), ``name=value`` joined by ``; `` (empty if none)."""
+    distinct: str
+    """The part of ``settings`` that tells this row from the others of its condition."""
     seeds: int
     objective_median: float
     objective_q25: float
     objective_q75: float
     objective_best: float
+    objective_spread: float
+    """(max - min) / |median| of the objective over the seeds [-] (NaN if none feasible)."""
     objective_median_feasible: float
     """Median objective over the feasible seeds (NaN if none)."""
     reward_median: float
@@ -100,11 +126,13 @@ class Row:
             "condition_unit": self.condition_unit,
             "method": self.method,
             "budget": self.budget,
+            "settings": self.settings,
             "seeds": self.seeds,
             "objective_median": self.objective_median,
             "objective_q25": self.objective_q25,
             "objective_q75": self.objective_q75,
             "objective_iqr": self.objective_iqr,
+            "objective_spread": self.objective_spread,
             "objective_best": self.objective_best,
             "objective_median_feasible": self.objective_median_feasible,
             "reward_median": self.reward_median,
@@ -116,6 +144,8 @@ class Row:
 
 PanelKey = tuple[str, str, str, float, str]
 """(task, objective_name, condition name, value, unit)."""
+SeriesKey = tuple[str, int, tuple[tuple[str, str], ...]]
+"""(method, budget, the rest of the job's configuration as sorted (name, value text) pairs)."""
 
 
 def panel_key(record: Record) -> PanelKey:
@@ -123,45 +153,94 @@ def panel_key(record: Record) -> PanelKey:
     return (record.task, record.objective_name, c.name, c.value, c.unit)
 
 
-def series_key(record: Record) -> tuple[str, int]:
-    return (record.method, record.budget)
+def series_key(record: Record) -> SeriesKey:
+    """Everything of the record's job but its task, condition and seed, plus its version."""
+    job = record.job
+    settings = {f"{k}": _text(v) for k, v in job.env_kwargs}
+    settings.update({f"method.{k}": _text(v) for k, v in job.method_config})
+    if job.preset:
+        settings["preset"] = job.preset
+    settings["tandem_env"] = str(record.versions.get("tandem_env", "?"))
+    return (job.method, job.budget, tuple(sorted(settings.items())))
 
 
-def group(records: Sequence[Record]) -> dict[PanelKey, dict[tuple[str, int], list[Record]]]:
-    """Records by panel, then by (method, budget); duplicate seeds keep the first seen."""
-    out: dict[PanelKey, dict[tuple[str, int], list[Record]]] = defaultdict(
-        lambda: defaultdict(list)
-    )
+def _text(value: Any) -> str:
+    return ",".join(map(_text, value)) if isinstance(value, list | tuple) else f"{value}"
+
+
+def _settings(pairs: Sequence[tuple[str, str]]) -> str:
+    return "; ".join(f"{k}={v}" for k, v in pairs)
+
+
+def distinct_settings(keys: Sequence[SeriesKey]) -> dict[SeriesKey, str]:
+    """What tells each series of one panel from the others: the budget where budgets differ,
+    and the settings whose values differ (or are missing in some)."""
+    budgets = {budget for _, budget, _ in keys}
+    maps = [dict(pairs) for _, _, pairs in keys]
+    out = {}
+    for key, m in zip(keys, maps, strict=True):
+        # method settings are compared among the series of the same method only
+        peers = [p for k, p in zip(keys, maps, strict=True) if k[0] == key[0]]
+        names = sorted({n for p in maps for n in p if not n.startswith("method.")})
+        names += sorted({n for p in peers for n in p if n.startswith("method.")})
+        varying = [
+            n
+            for n in names
+            if len({p.get(n) for p in (peers if n.startswith("method.") else maps)}) > 1
+        ]
+        parts = [f"budget {key[1]}"] if len(budgets) > 1 else []
+        parts += [f"{n}={m.get(n, 'default')}" for n in varying]
+        out[key] = ", ".join(parts)
+    return out
+
+
+def group(
+    records: Sequence[Record], *, quiet: bool = False
+) -> dict[PanelKey, dict[SeriesKey, list[Record]]]:
+    """Records by panel, then by configuration; a record seen twice (same key: the same job)
+    counts once, said on stderr unless ``quiet``."""
+    out: dict[PanelKey, dict[SeriesKey, list[Record]]] = defaultdict(lambda: defaultdict(list))
+    seen: dict[str, Record] = {}
     for record in records:
-        runs = out[panel_key(record)][series_key(record)]
-        if any(r.seed == record.seed for r in runs):
+        if record.key in seen:  # one configuration and seed: the same run, found twice
+            if quiet:
+                continue
             print(
-                f"compare: duplicate record {record.label()} (key {record.key or '-'}) ignored "
-                "(same method, budget, condition and seed seen before)",
+                f"compare: {record.label()} (key {record.key}) found twice; the first found "
+                "is counted",
                 file=sys.stderr,
             )
             continue
-        runs.append(record)
+        seen[record.key] = record
+        out[panel_key(record)][series_key(record)].append(record)
     return {
         key: {k: sorted(v, key=lambda r: r.seed) for k, v in sorted(series.items())}
         for key, series in sorted(out.items())
     }
 
 
+def _spread(values: np.ndarray) -> float:
+    median = float(np.median(values))
+    return math.nan if median == 0 else float((values.max() - values.min()) / abs(median))
+
+
 def table_rows(records: Sequence[Record]) -> list[Row]:
-    """One :class:`Row` per task/objective/condition and method/budget."""
+    """One :class:`Row` per task/objective/condition and configuration."""
     rows = []
     for key, series in group(records).items():
         task, objective_name, condition, value, unit = key
-        for (method, budget), runs in series.items():
+        distinct = distinct_settings(list(series))
+        for skey, runs in series.items():
+            method, budget, pairs = skey
             objective = np.array([r.objective for r in runs])
             feasible = np.array([r.feasible for r in runs], dtype=bool)
             if feasible.any():
                 q25, median, q75 = np.percentile(objective, [25, 50, 75])
                 best = float(objective.max())
+                spread = _spread(objective)
                 median_feasible = float(np.median(objective[feasible]))
             else:  # the objective of strokes that do not fly is not a result: leave it out
-                q25 = median = q75 = best = median_feasible = math.nan
+                q25 = median = q75 = best = spread = median_feasible = math.nan
             rows.append(
                 Row(
                     task=task,
@@ -171,11 +250,14 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
                     condition_unit=unit,
                     method=method,
                     budget=budget,
+                    settings=_settings(pairs),
+                    distinct=distinct[skey],
                     seeds=len(runs),
                     objective_median=float(median),
                     objective_q25=float(q25),
                     objective_q75=float(q75),
                     objective_best=best,
+                    objective_spread=spread,
                     objective_median_feasible=median_feasible,
                     reward_median=float(np.median([r.reward for r in runs])),
                     feasible_share=float(np.mean(feasible)),
@@ -194,7 +276,7 @@ def markdown_table(rows: Sequence[Row]) -> str:
     """The rows as a Markdown table (objective values to 4 significant digits)."""
     header = (
         "| task | objective | condition | method | budget | seeds | median | IQR (25-75 %) "
-        "| best | median of feasible | median reward | feasible | median evaluations "
+        "| spread | best | median of feasible | median reward | feasible | median evaluations "
         "| median wall time [s] |"
     )
     lines = [header, "|" + "---|" * header.count(" | ") + "---|"]
@@ -203,17 +285,32 @@ def markdown_table(rows: Sequence[Row]) -> str:
             objective = (
                 f"{_fmt(r.objective_median)} | {_fmt(r.objective_q25)}-"
                 f"{_fmt(r.objective_q75)} ({_fmt(r.objective_iqr, 3)}) | "
+                f"{_percent(r.objective_spread)} | "
                 f"{_fmt(r.objective_best)} | {_fmt(r.objective_median_feasible)}"
             )
         else:
-            objective = "n/a (none feasible) | n/a | n/a | n/a"
+            objective = "n/a (none feasible) | n/a | n/a | n/a | n/a"
+        method = f"{r.method} ({r.distinct})" if r.distinct else r.method
         lines.append(
             f"| {r.task} | {r.objective_name} | {r.condition} = {r.condition_value:g} "
-            f"{r.condition_unit} | {r.method} | {r.budget} | {r.seeds} | {objective} | "
+            f"{r.condition_unit} | {_cell(method)} | {r.budget} | {r.seeds} | {objective} | "
             f"{_fmt(r.reward_median)} | {r.feasible_share:.0%} | {r.evaluations_median:g} | "
             f"{r.wall_time_median_s:.3g} |"
         )
-    return "\n".join(lines) + "\n"
+    notes = [
+        "spread = (max - min) / |median| of the objective over the seeds.",
+    ]
+    if any(r.distinct for r in rows):
+        notes.append("In brackets: the settings that tell a row from the others of its condition.")
+    return "\n".join(lines) + "\n\n" + "\n".join(notes) + "\n"
+
+
+def _percent(value: float) -> str:
+    return "n/a" if not math.isfinite(value) else f"{100 * value:.3g} %"
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|")
 
 
 def convergence_curve(
@@ -240,48 +337,77 @@ def convergence_curve(
 
 
 def plot_convergence(records: Sequence[Record], path: Path) -> None:
-    """Write the convergence PNG: one panel per task/objective/condition."""
+    """Write the convergence figure (:func:`convergence_figure`) atomically, in the format of
+    ``path``'s suffix."""
+    import matplotlib.pyplot as plt
+
+    fig = convergence_figure(records)
+    try:
+        with atomic_path(path) as tmp:  # a killed run never leaves half a figure
+            fig.savefig(tmp, dpi=120, format=path.suffix.lstrip("."))
+    finally:
+        plt.close(fig)
+
+
+def convergence_figure(records: Sequence[Record]) -> Any:
+    """The convergence figure: one panel per task/objective/condition.
+
+    Each configuration's curve is the median best-so-far reward over its seeds (band: IQR);
+    the marker at its end is the median reported objective over the feasible seeds, the number
+    the table reports. Colours are fixed per method (:func:`eval.figures.method_color`), line styles tell
+    a method's variants in one panel apart.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    panels = group(records)
+    panels = group(records, quiet=True)  # duplicates are reported by table_rows
     n = len(panels)
     cols = min(n, 3)
     rows = math.ceil(n / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 3.9 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.3 * rows), squeeze=False)
     for ax, (key, series) in zip(axes.flat, panels.items(), strict=False):
         task, objective_name, condition, value, unit = key
-        budgets = {budget for _, budget in series}
+        distinct = distinct_settings(list(series))
+        variant: dict[str, int] = defaultdict(int)
         finals = []
-        for (method, budget), runs in series.items():
+        for skey, runs in series.items():
+            method = skey[0]
+            colour = method_color(method)
+            style = VARIANT_LINES[variant[method] % len(VARIANT_LINES)]
+            variant[method] += 1
             x, q25, median, q75 = convergence_curve(runs)
-            label = f"{method_label(method)} ({len(runs)} seeds)"
-            if len(budgets) > 1:
-                label = f"{method_label(method)}, budget {budget} ({len(runs)} seeds)"
-            (line,) = ax.plot(
-                x, median, drawstyle="steps-post", label=label, color=method_color(method)
-            )
-            ax.fill_between(x, q25, q75, step="post", alpha=0.25, color=line.get_color())
+            label = ", ".join(p for p in (method_label(method), distinct[skey]) if p)
+            label += f" ({plural(len(runs), 'seed')})"
+            ax.plot(x, median, drawstyle="steps-post", color=colour, ls=style, label=label)
+            ax.fill_between(x, q25, q75, step="post", alpha=0.2, color=colour, lw=0)
+            feasible = [r.objective for r in runs if r.feasible]
+            if feasible:
+                reported = float(np.median(feasible))
+                ax.plot([x[-1]], [reported], marker="D", color=colour, ms=6, mec="k", ls="none")
+                finals.append(reported)
             finals.extend(v for v in (q25[-1], median[-1], q75[-1]) if np.isfinite(v))
             tail = median[x >= 0.1 * x[-1]]
             finals.extend(v for v in tail[:1] if np.isfinite(v))
+        ax.plot([], [], marker="D", color="0.5", mec="k", ls="none",
+                label=f"reported {objective_name} (median of feasible seeds)")  # fmt: skip
         _focus(ax, finals)
         ax.set_title(f"{task}, {objective_name}, {condition} = {value:g} {unit}", fontsize=10)
         ax.set_xlabel("model evaluations")
         ax.set_ylabel("best reward so far (penalised objective)")
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=8, loc="best")
+        ax.legend(fontsize=7, loc="lower right")
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
-    fig.suptitle("Best-so-far reward: median over seeds, band = inter-quartile range", fontsize=11)
+    caption = (
+        "Curves: best reward seen, feasible or not (median over seeds, band = IQR). Markers: "
+        "the reported objective (best feasible stroke, re-evaluated), below a curve where a "
+        "higher reward was infeasible."
+    )
+    fig.suptitle(textwrap.fill(caption, 62 * cols), fontsize=9)
     fig.tight_layout()
-    try:
-        with atomic_path(path) as tmp:  # a killed run never leaves half a PNG
-            fig.savefig(tmp, dpi=120, format=path.suffix.lstrip("."))
-    finally:
-        plt.close(fig)
+    return fig
 
 
 def _focus(ax: Any, values: list[float]) -> None:

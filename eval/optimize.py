@@ -225,7 +225,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             if "swarm_size" in method_config:
                 raise ValueError("give --swarm-size or --method-config swarm_size=N, not both")
             method_config["swarm_size"] = args.swarm_size
-        plan = prepare(
+        # Validated once, here (the runner does not validate a prepared job again).
+        prepared = prepare(
             args.method,
             task,
             condition,
@@ -234,20 +235,25 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             objective=args.objective,
             env_kwargs=env_kwargs,
             method_config=method_config,
-            progress=False,
         )
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     if not args.quiet:
-        print(f"optimize: {plan.describe()} -> {store.directory}", file=sys.stderr)
-    jobs = [plan.job(seed) for seed in plan.seeds]
+        print(
+            f"optimize: {prepared[0].describe()}, seeds {[p.job.seed for p in prepared]} "
+            f"-> {store.directory}",
+            file=sys.stderr,
+        )
+    jobs = [p.job for p in prepared]
     try:
         summary = run_reporting(
             parser,
-            lambda: run_jobs(jobs, store.directory, scheduler=scheduler, progress=not args.quiet),
+            lambda: run_jobs(
+                prepared, store.directory, scheduler=scheduler, progress=not args.quiet
+            ),
         )
     finally:
-        if store.directory.exists():  # over what is stored, also after a failure
+        if store.directory.exists():  # over what is stored (read once), also after a failure
             store.write_summary()
     if isinstance(summary, int):
         return summary
@@ -261,7 +267,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             + f", {record.evaluations} evaluations, {record.wall_time:.1f} s"
         )
     print(
-        f"{summary.total} seeds: {summary.ran} run, {summary.reused} reused from {store.directory}",
+        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.ran} run, "
+        f"{summary.reused} reused from {store.directory}",
         file=sys.stderr,
     )
     return 0

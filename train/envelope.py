@@ -93,6 +93,7 @@ def evaluate_envelope(
 ) -> list[dict[str, Any]]:
     """Record the run's policy at each condition (default the sweep); write envelope.csv."""
     from agents.harness import run
+    from agents.records import RecordStore
     from train.policies import CONDITION_KWARGS, TrainedPolicy, TrainingMismatchWarning
 
     policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
@@ -115,8 +116,9 @@ def evaluate_envelope(
                 env_kwargs=env_kwargs,
                 method_config={"model": which},
                 progress=progress,
-                out_dir=out,
             )[0]
+        store = RecordStore(out)  # one record per condition; a rerun replaces them
+        store.save(record)
         metrics = record.metrics
         rows.append(
             {

@@ -58,8 +58,10 @@ def jobs(plan: StudyPlan) -> list[Job]:
 
 def history_of(record: Record, n_samples: int = HISTORY_SAMPLES):
     """The record's best stroke over one cycle, with the env's own insect and model options."""
-    config_class = registration.config_class(get_task(record.task).env_id)
-    cfg = config_class.from_kwargs(**dict(record.config["env_kwargs"]))
+    task = get_task(record.task)
+    config_class = registration.config_class(task.env_id)
+    kwargs = {**dict(record.job.env_kwargs), task.condition_kwarg: record.job.condition}
+    cfg = config_class.from_kwargs(**kwargs)
     # The task's condition sets one model input; its config fixes the other (task core).
     speeds, powers = make_task(cfg).flight_conditions(np.array([cfg.fixed_condition]))
     speed, power = float(speeds[0]), float(powers[0])

@@ -26,8 +26,11 @@ Where the jobs run (``scheduler``, ``--scheduler`` on the command line):
     dask-jobqueue on SLURM/PBS; docs/scaling.md). Every worker needs this project importable
     (the same environment on every node).
 
-Either way this process writes each record as its job finishes (workers need no shared
-filesystem), one progress bar counts the evaluations of the finished jobs, a worker that dies
+Every job to run is validated once, here, before any of them runs
+(:func:`agents.harness.prepare_job`; a job already prepared, as ``python -m eval optimize``
+prepares its seeds, is not validated again), and the workers are sent the prepared jobs. This
+process is the one writer of the records: it writes each as its job finishes (workers need no
+shared filesystem), one progress bar counts the evaluations of the finished jobs, a worker that dies
 has its jobs rerun by Dask, and a job that raises is reported with its key and traceback
 after the other jobs have finished (:class:`JobsFailed`).
 """
@@ -43,12 +46,14 @@ import socket
 import sys
 import time
 import traceback
+import warnings
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from agents.records import RECORDS_DIR, Job, Record, RecordStore
+from agents.harness import PreparedJob, prepare_job, run_job
+from agents.records import RECORDS_DIR, Job, Record, RecordStore, RecordWarning
 from tandem_env.io.progress_bar import ProgressBar, Reporter
 
 if TYPE_CHECKING:
@@ -183,14 +188,12 @@ _REPORTER: contextvars.ContextVar[Reporter | None] = contextvars.ContextVar(
 )
 
 
-def _harness_run(job: Job) -> Record:
+def _harness_run(job: PreparedJob) -> Record:
     """One harness call (module level so tests can count calls and workers can import it)."""
-    from agents.harness import run_job
-
     return run_job(job, _REPORTER.get())
 
 
-def _on_worker(job: Job) -> Record:
+def _on_worker(job: PreparedJob) -> Record:
     """What a Dask worker runs: the harness call, with one numba thread per job.
 
     numba's thread count is per calling thread; a worker runs as many jobs at once as it has
@@ -216,11 +219,12 @@ def _failure(job: Job, error: BaseException, tb: Any) -> JobFailure:
     )
 
 
-def _run_serially(todo: Sequence[Job], display: _Display) -> Iterator[tuple[Job, Outcome]]:
-    for job in todo:
+def _run_serially(todo: Sequence[PreparedJob], display: _Display) -> Iterator[tuple[Job, Outcome]]:
+    for prepared in todo:
+        job = prepared.job
         token = _REPORTER.set(display.reporter(job))
         try:
-            outcome: Outcome = _harness_run(job)
+            outcome: Outcome = _harness_run(prepared)
         except Exception as error:
             outcome = _failure(job, error, error.__traceback__)
         finally:
@@ -228,14 +232,14 @@ def _run_serially(todo: Sequence[Job], display: _Display) -> Iterator[tuple[Job,
         yield job, outcome
 
 
-def _run_on_dask(client: Client, todo: Sequence[Job]) -> Iterator[tuple[Job, Outcome]]:
+def _run_on_dask(client: Client, todo: Sequence[PreparedJob]) -> Iterator[tuple[Job, Outcome]]:
     from distributed import as_completed
 
     futures = {
         client.submit(
-            _on_worker, job, key=f"{TASK_PREFIX}-{job.key}", priority=job.budget, retries=0
-        ): job
-        for job in todo
+            _on_worker, p, key=f"{TASK_PREFIX}-{p.job.key}", priority=p.job.budget, retries=0
+        ): p.job
+        for p in todo
     }
     for future in as_completed(futures):
         job = futures[future]
@@ -359,33 +363,51 @@ class _Display:
 
 
 def run_jobs(
-    jobs: Iterable[Job],
+    jobs: Iterable[Job | PreparedJob],
     out_dir: str | os.PathLike[str],
     *,
     scheduler: str | None = None,
     progress: bool = True,
 ) -> RunSummary:
-    """Run every job that has no stored record yet; duplicates run once.
+    """Run every job that has no valid stored record yet; duplicates run once.
 
     ``scheduler`` chooses where (module docstring): None runs them here, one after another;
-    ``"local:N"`` or a scheduler address runs them on Dask. Jobs start largest budget first,
-    so the workers stay busy to the end. Each record is stored as its job finishes. Raises
-    :class:`JobsFailed` (after every other job has finished) if any job raised,
-    :class:`SchedulerUnreachable` if the scheduler does not answer, ValueError for a bad
-    ``scheduler`` or an ``out_dir`` that is a file.
+    ``"local:N"`` or a scheduler address runs them on Dask. The jobs to run are validated
+    first, all of them before any runs (a :class:`~agents.harness.PreparedJob` is validated
+    already; a job :func:`~agents.harness.prepare_job` rejects is a failure and does not run);
+    they start largest budget first, so the workers stay busy to the end. Each record is stored
+    as its job finishes, by this function alone. Raises :class:`JobsFailed` (after every other
+    job has finished) if any job was rejected or raised, :class:`SchedulerUnreachable` if the
+    scheduler does not answer, ValueError for a bad ``scheduler`` or an ``out_dir`` that is a
+    file.
     """
     executor = "serial" if scheduler is None else parse_scheduler(scheduler)
     start = time.perf_counter()
     store = RecordStore(out_dir)
-    unique = list({job.key: job for job in jobs}.values())
-    todo = [job for job in unique if store.load(job) is None]
-    todo.sort(key=lambda j: -j.budget)
+    given = {_job_of(job).key: job for job in jobs}
+    missing = [job for job in given.values() if store.load(_job_of(job)) is None]
     failures: list[JobFailure] = []
+    todo: list[PreparedJob] = []
+    for job in missing:  # validated once, all before any runs; a rejected job is a failure
+        try:
+            todo.append(job if isinstance(job, PreparedJob) else prepare_job(job))
+        except Exception as error:
+            failures.append(_failure(_job_of(job), error, error.__traceback__))
+    todo.sort(key=lambda p: -p.job.budget)
+    if todo and (old := [p for p in store.outdated() if p.stem not in given]):
+        # Their keys hash the earlier format, so no job finds them: say so once (one at a
+        # job's own key was reported by store.load).
+        warnings.warn(
+            f"{len(old)} record file(s) of an earlier format in {old[0].parent} (e.g. "
+            f"{old[0].name}) are not used: the jobs they held run again in this format",
+            RecordWarning,
+            stacklevel=2,
+        )
     with contextlib.ExitStack() as stack:
         client = None
         if todo and scheduler is not None:
             client = stack.enter_context(dask_client(executor, quiet=not progress))
-        display = _Display(todo, progress and bool(todo))
+        display = _Display([p.job for p in todo], progress and bool(todo))
         stack.callback(display.close)
         outcomes = _run_serially(todo, display) if client is None else _run_on_dask(client, todo)
         for job, outcome in outcomes:
@@ -399,9 +421,9 @@ def run_jobs(
                 store.save(outcome)
             display.finished(job, outcome)
     summary = RunSummary(
-        total=len(unique),
-        reused=len(unique) - len(todo),
-        ran=len(todo),
+        total=len(given),
+        reused=len(given) - len(missing),
+        ran=len(missing),
         wall_time=time.perf_counter() - start,
         executor=executor,
         failures=tuple(sorted(failures, key=lambda f: f.key)),
@@ -409,6 +431,10 @@ def run_jobs(
     if failures:
         raise JobsFailed(summary)
     return summary
+
+
+def _job_of(job: Job | PreparedJob) -> Job:
+    return job.job if isinstance(job, PreparedJob) else job
 
 
 def load_records(out_dir: str | os.PathLike[str], jobs: Iterable[Job]) -> dict[Job, Record]:

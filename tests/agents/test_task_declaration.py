@@ -7,7 +7,6 @@ help come from the declaration; bad declarations fail when declared, naming what
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -21,6 +20,7 @@ from gymnasium.vector.utils import batch_space
 
 import agents.tasks as tasks
 from agents.harness import run
+from agents.records import Record
 from agents.tasks import ACCELERATE, LEVEL, STROKE_DISCRETE, TaskSpec, get_task, register_task
 from tandem_env.envs import ACCELERATE_ID, LEVEL_FLIGHT_ID, SPEED_CHANGE_ID
 from tandem_env.envs.condition import TaskCondition, TaskObjectives
@@ -196,8 +196,8 @@ def test_eval_optimize_takes_the_new_condition(toy: TaskSpec, tmp_path, capsys) 
     argv += ["--budget", "16", "--seeds", "0", "--out", str(out), "--quiet"]
     assert main(argv) == 0
     (path,) = (out / "records").glob("*.json")
-    record = json.loads(path.read_text())
-    assert record["condition"] == {"name": "offset", "value": -0.1, "unit": "-"}
+    record = Record.load(path)
+    assert record.condition.to_dict() == {"name": "offset", "value": -0.1, "unit": "-"}
     for wrong, message in (
         (["--speed", "1"], "--task offset-toy takes --offset c [-], not --speed"),
         (["--offset", "0", "--objective", "vertical"], "offset-toy maximises closeness"),

@@ -8,35 +8,38 @@ from pathlib import Path
 
 import pytest
 
-from agents.records import Record, RecordStore
-from agents.tasks import Condition
+from agents.records import Job, Record, RecordStore
 from eval import compare as compare_module
+from eval import figures
 from eval.__main__ import build_parser, main
 
 
-def _record(method: str, seed: int, objective: float, feasible: bool) -> Record:
-    return Record(
-        method=method,
-        task="level",
-        env_id="TandemWing/LevelFlight-v0",
-        objective_name="efficiency",
-        condition=Condition("speed", 1.5, "m/s"),
-        seed=seed,
-        budget=10,
-        evaluations=10,
-        objective=objective,
-        reward=objective if feasible else objective - 1.0,
-        search_reward=objective if feasible else objective - 1.0,
-        feasible=feasible,
-        stroke={},
-        normalised_stroke=(0.0,) * 28,
-        metrics={},
-        history=((5, -2.0), (10, objective - 1.0)),
-        wall_time=1.0,
-        config={},
-        versions={},
-        key=f"{method}-{seed}",
-    )
+def _record(
+    method: str, seed: int, objective: float, feasible: bool, **env_kwargs: object
+) -> Record:
+    job = Job(method, "level", 1.5, 10, seed, env_kwargs=env_kwargs)
+    reward = objective if feasible else objective - 1.0
+    results = {
+        "env_id": "TandemWing/LevelFlight-v0",
+        "objective_name": "efficiency",
+        "condition_name": "speed",
+        "condition_unit": "m/s",
+        "evaluations": 10,
+        "objective": objective,
+        "reward": reward,
+        "search_reward": reward,
+        "feasible": feasible,
+        "selection": "best feasible stroke seen",
+        "stroke": {},
+        "normalised_stroke": [0.0] * 28,
+        "metrics": {},
+        "history": [[5, -2.0], [10, objective - 1.0]],
+        "wall_time": 1.0,
+        "method_settings": {},
+        "env": {},
+        "versions": {"tandem_env": "test"},
+    }
+    return Record(job=job, key=job.key, results=results)
 
 
 @pytest.fixture
@@ -87,6 +90,7 @@ def test_no_median_objective_over_seeds_none_of_which_is_feasible(records: Path)
     out = records / "table"
     rows = compare_module.compare([records], out)
     pso, random = rows
+    assert pso.objective_spread == pytest.approx((0.40 - 0.20) / 0.30)
     # pso: 2 of 3 feasible: the statistics over all seeds, and the median of the feasible ones
     assert pso.objective_median == pytest.approx(0.30)
     assert pso.objective_median_feasible == pytest.approx(0.35)
@@ -103,6 +107,62 @@ def test_no_median_objective_over_seeds_none_of_which_is_feasible(records: Path)
     assert float(table["pso"]["objective_median_feasible"]) == pytest.approx(0.35)
 
 
+def test_records_of_different_configurations_are_never_merged(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A real-planform and a tear-drop run are two rows (main reported them as one row of
+    4 seeds), and a record found twice counts once."""
+    runs = [_record("pso", s, 0.3 + 0.01 * s, True, planform="tear-drop") for s in (0, 1)]
+    runs += [_record("pso", s, 0.2 + 0.01 * s, True, planform="real") for s in (0, 1)]
+    runs += [_record("pso", 0, 0.25, True, planform="real", n_time=64)]
+    rows = compare_module.table_rows([*runs, runs[0]])
+    assert "found twice" in capsys.readouterr().err
+    assert [(r.seeds, r.distinct) for r in rows] == [
+        (1, "n_time=64, planform=real"),
+        (2, "n_time=default, planform=real"),
+        (2, "n_time=default, planform=tear-drop"),
+    ]
+    assert [r.objective_median for r in rows] == pytest.approx([0.25, 0.205, 0.305])
+    assert rows[1].settings == "planform=real; tandem_env=test"
+    markdown = compare_module.markdown_table(rows)
+    assert "| pso (n_time=64, planform=real) |" in markdown
+    assert "spread = (max - min) / |median|" in markdown
+    # Another budget is another row too.
+    longer = Job("pso", "level", 1.5, 20, 0, env_kwargs={"planform": "real"})
+    other = Record(job=longer, key=longer.key, results=runs[2].results)
+    assert len(compare_module.table_rows([runs[2], other])) == 2
+
+
+def test_colours_are_fixed_per_method_and_labels_count_seeds_right() -> None:
+    import matplotlib.pyplot as plt
+
+    def lines(records: list[Record]) -> dict[str, tuple[str, str]]:
+        fig = compare_module.convergence_figure(records)
+        try:
+            ax = fig.axes[0]
+            return {
+                line.get_label(): (line.get_color(), line.get_linestyle())
+                for line in ax.get_lines()
+                if not line.get_label().startswith("_")
+            }
+        finally:
+            plt.close(fig)
+
+    pso = [_record("pso", 0, 0.3, True)]
+    alone = lines(pso)
+    assert "PSO (1 seed)" in alone  # not "1 seeds"
+    both = lines([*pso, _record("cmaes", 0, 0.4, True), _record("cmaes", 1, 0.5, True)])
+    assert both["PSO (1 seed)"] == alone["PSO (1 seed)"]  # adding a series keeps pso's colour
+    assert both["CMA-ES (2 seeds)"][0] == figures.METHOD_COLORS["cmaes"]
+    assert both["PSO (1 seed)"][0] == figures.METHOD_COLORS["pso"]
+    # the reported objective is drawn and named beside the best-so-far reward
+    assert any(label.startswith("reported efficiency") for label in both)
+    variants = lines([_record("pso", 0, 0.3, True, planform="real"),
+                      _record("pso", 0, 0.3, True, planform="tear-drop")])  # fmt: skip
+    styles = {style for _, style in variants.values() if style != "None"}
+    assert len(styles) == 2  # one method, two variants: one colour, two line styles
+
+
 def test_the_convergence_figure_is_written_in_the_format_asked(records: Path) -> None:
     out = records / "svg"
     compare_module.compare([records], out, "svg")
@@ -110,3 +170,20 @@ def test_the_convergence_figure_is_written_in_the_format_asked(records: Path) ->
     assert not (out / "convergence.png").exists()
     with pytest.raises(ValueError, match="allowed: png, svg, pdf"):
         compare_module.compare([records], records / "bad", "jpg")
+
+
+def test_method_settings_tell_apart_only_the_variants_of_one_method() -> None:
+    base = _record("pso", 0, 0.3, True)
+
+    def variant(method: str, **settings: object) -> Record:
+        job = Job(method, "level", 1.5, 10, 0, method_config=settings)
+        return Record(job=job, key=job.key, results=base.results)
+
+    rows = compare_module.table_rows(
+        [variant("pso", swarm_size=8), variant("pso", swarm_size=16), variant("cmaes", popsize=8)]
+    )
+    assert {(r.method, r.distinct) for r in rows} == {
+        ("cmaes", ""),
+        ("pso", "method.swarm_size=16"),
+        ("pso", "method.swarm_size=8"),
+    }

@@ -6,6 +6,7 @@ import csv
 import os
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -78,7 +79,7 @@ def test_optimize_passes_env_kwargs_and_method_config(tmp_path: Path) -> None:
     (record,) = load_records([tmp_path])
     assert record.task == "accelerate" and record.objective_name == "excess_horizontal"
     assert record.condition.to_dict() == {"name": "available_power", "value": 70.0, "unit": "W/kg"}
-    assert record.config["env_kwargs"] == {
+    assert {**dict(record.job.env_kwargs), "power": record.job.condition} == {
         "thrust_split": "body", "penalty_weight": 20, "objective": "horizontal", "power": 70.0
     }  # fmt: skip
     assert record.config["env"]["options"]["thrust_split"] == "body"
@@ -87,7 +88,7 @@ def test_optimize_passes_env_kwargs_and_method_config(tmp_path: Path) -> None:
     assert record.config["method"]["velocity_clamp"] == 0.25
     assert record.objective == record.metrics["excess_horizontal"]
     assert (tmp_path / "records" / f"{record.key}.json").exists()
-    assert record.job["env_kwargs"] == {
+    assert record.job.to_dict()["env_kwargs"] == {
         "thrust_split": "body", "penalty_weight": 20, "objective": "horizontal"
     }  # fmt: skip
 
@@ -151,7 +152,7 @@ def test_compare_writes_table_and_plot(results: Path, tmp_path: Path) -> None:
 def test_convergence_curve_on_mixed_grids(results: Path) -> None:
     a = Record.load(_stored(results, "pso", 0))
     b = Record.load(_stored(results, "pso", 1))
-    b = Record.from_dict({**b.to_dict(), "history": [[6, -3.0], [12, -1.0]]})
+    b = replace(b, results={**b.results, "history": [[6, -3.0], [12, -1.0]]})
     x, q25, median, q75 = compare_module.convergence_curve([a, b])
     assert x.tolist() == [4, 6, 8, 12]
     assert median[0] == a.history[0][1]  # only run a reports at 4 evaluations

@@ -1,5 +1,6 @@
-"""One keyed, atomic record store for the harness, `optimize` and the studies; the serial runner's
-resume, failures and progress."""
+"""One keyed, atomic record store for `optimize` and the studies, written by the runner alone; the
+serial runner's resume, failures and progress; records that are not valid (corrupt, edited,
+of an earlier format) are recomputed, never mixed in."""
 
 from __future__ import annotations
 
@@ -10,11 +11,13 @@ from pathlib import Path
 import pytest
 
 from agents import harness
+from agents.harness import PreparedJob
 from agents.records import (
-    READABLE_SCHEMAS,
+    OLD_SCHEMAS,
     SCHEMA,
     Job,
     Record,
+    RecordError,
     RecordStore,
     RecordWarning,
     load_records,
@@ -45,9 +48,9 @@ def _count_calls(monkeypatch: pytest.MonkeyPatch) -> list[Job]:
     calls: list[Job] = []
     original = runner._harness_run
 
-    def counting(job: Job) -> Record:
-        calls.append(job)
-        return original(job)
+    def counting(prepared: PreparedJob) -> Record:
+        calls.append(prepared.job)
+        return original(prepared)
 
     monkeypatch.setattr(runner, "_harness_run", counting)
     return calls
@@ -62,20 +65,31 @@ def test_job_key_is_the_configuration() -> None:
               _job(env_kwargs={**SMALL["env_kwargs"], "thrust_split": "body"})]  # fmt: skip
     assert len({j.key for j in [job, *others]}) == 1 + len(others)
     assert Job(**job.to_dict()) == job  # what a record stores is enough to rebuild the job
+    assert Job.from_dict(job.to_dict()) == job
 
 
-def test_harness_and_runner_share_one_store(tmp_path: Path, monkeypatch) -> None:
+def _run_prepared(out: Path, budget: int) -> Record:
+    # What `eval optimize` does: prepare (validate once), run through the runner, read back.
+    (prepared,) = harness.prepare("pso", "level", 2.0, budget, [0], **SMALL)
+    run_jobs([prepared], out, progress=False)
+    record = RecordStore(out).load(prepared.job)
+    assert record is not None
+    return record
+
+
+def test_prepared_and_plain_jobs_share_one_store(tmp_path: Path, monkeypatch) -> None:
+    first = _run_prepared(tmp_path, 16)
     calls = _count_calls(monkeypatch)
-    (first,) = harness.run("pso", "level", 2.0, 16, [0], out_dir=tmp_path, progress=False, **SMALL)
-    assert first.key == _job().key and first.job == _job().to_dict()
+    assert first.key == _job().key and first.job == _job()
     assert (tmp_path / "records" / f"{first.key}.json").is_file()
-    # The runner finds the harness's record by its configuration and does not run it again.
+    # The runner finds the prepared job's record by its configuration and does not run it again.
     summary = run_jobs([_job()], tmp_path, progress=False)
     assert (summary.ran, summary.reused, calls) == (0, 1, [])
     # Another budget is another record, beside the first (the old file names lost one).
-    (second,) = harness.run("pso", "level", 2.0, 24, [0], out_dir=tmp_path, progress=False, **SMALL)
+    second = _run_prepared(tmp_path, 24)
     assert second.key != first.key
     assert sorted(r.budget for r in load_records([tmp_path])) == [16, 24]
+    RecordStore(tmp_path).write_summary()
     rows = (tmp_path / "summary.csv").read_text().splitlines()
     assert len(rows) == 3 and rows[0].endswith(",key")
 
@@ -103,8 +117,9 @@ def test_record_of_another_configuration_is_not_replaced_silently(tmp_path: Path
         warnings.simplefilter("always")
         run_jobs([b], tmp_path, progress=False)
     messages = [str(w.message) for w in caught if issubclass(w.category, RecordWarning)]
-    assert any("not pso level V=2 seed 1" in m for m in messages)  # found on loading
-    assert any("replacing" in m and "seed 0" in m for m in messages)  # said on writing
+    # found on loading, and said there: the store's one writer never reads a file back
+    assert any("not pso level V=2 seed 1" in m for m in messages)
+    assert any("replaces the file" in m and "seed 0" in m for m in messages)
     assert store.load(b).seed == 1 and store.load(a).seed == 0
 
 
@@ -122,7 +137,7 @@ def test_out_that_is_a_file_is_rejected(tmp_path: Path, capsys) -> None:
         assert f"{target} is a file; allowed: a directory" in capsys.readouterr().err
     assert target.read_text() == "{}"
     with pytest.raises(ValueError, match="is a file"):
-        harness.run("pso", "level", 2.0, 8, [0], out_dir=target, progress=False)
+        run_jobs([_job(budget=8)], target, progress=False)
 
 
 def test_optimize_resumes_and_adds_seeds(tmp_path: Path, monkeypatch, capsys) -> None:
@@ -146,10 +161,10 @@ def test_failing_job_is_reported_by_key_and_the_others_finish(
     victim = jobs[1]
     original = runner._harness_run
 
-    def sometimes_failing(job: Job) -> Record:
-        if job == victim:
+    def sometimes_failing(prepared: PreparedJob) -> Record:
+        if prepared.job == victim:
             raise RuntimeError("induction diverged (test)")
-        return original(job)
+        return original(prepared)
 
     monkeypatch.setattr(runner, "_harness_run", sometimes_failing)
     with pytest.raises(JobsFailed) as info:
@@ -174,13 +189,123 @@ def test_one_progress_bar_over_the_jobs(tmp_path: Path, capsys) -> None:
     assert "2 optimisations" in err and "2/2 jobs" in err and "32.0/32.0" in err
 
 
-def test_older_records_are_still_read(tmp_path: Path) -> None:
-    (record,) = harness.run("pso", "level", 2.0, 16, [0], progress=False, **SMALL)
-    old = record.to_dict()
-    del old["key"], old["job"]
-    old["schema"] = READABLE_SCHEMAS[0]
-    (tmp_path / "pso_level_efficiency_speed2_seed0.json").write_text(json.dumps(old))
-    (loaded,) = load_records([tmp_path])
-    assert loaded.schema == SCHEMA and loaded.key == "" and loaded.objective == record.objective
-    with pytest.raises(ValueError, match="has no key"):
-        RecordStore(tmp_path / "new").save(loaded)
+def test_older_records_are_recomputed_never_mixed_in(tmp_path: Path, monkeypatch) -> None:
+    job = _job()
+    run_jobs([job], tmp_path, progress=False)
+    path = RecordStore(tmp_path).path(job.key)
+    good = Record.load(path)
+    # The previous format held the configuration three times and no checksum.
+    old = {"schema": OLD_SCHEMAS[-1], "key": job.key, "job": job.to_dict(), **good.results}
+    old.update(method="pso", task="level", seed=0, budget=16, config={})
+    path.write_text(json.dumps(old))
+    with pytest.warns(RecordWarning, match="left out"):
+        assert load_records([tmp_path]) == []
+    with pytest.raises(RecordError, match=r"earlier format .* rerun the command"):
+        Record.load(path)
+    calls = _count_calls(monkeypatch)
+    with pytest.warns(RecordWarning, match=f"{path}: a record of the earlier format .* recomputed"):
+        summary = run_jobs([job], tmp_path, progress=False)
+    assert summary.ran == 1 and calls == [job]
+    assert Record.load(path).schema == SCHEMA
+    # Where it really lies, under the key the earlier format hashed: no job finds it, and the
+    # runner says once that the store holds it.
+    path.with_name("0123456789abcdef0123.json").write_text(json.dumps(old))
+    path.unlink()
+    with pytest.warns(RecordWarning, match=r"1 record file\(s\) of an earlier format .* not used"):
+        run_jobs([job], tmp_path, progress=False)
+
+
+def test_a_job_is_validated_once_on_the_optimize_path(tmp_path: Path, monkeypatch) -> None:
+    """`optimize` prepares its seeds' jobs; the runner and run_job do not validate them again."""
+    checked: list[Job] = []
+    original = harness.prepare_job
+
+    def counting(job: Job, **kwargs: object) -> PreparedJob:
+        checked.append(job)
+        return original(job, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(harness, "prepare_job", counting)
+    monkeypatch.setattr(runner, "prepare_job", counting)
+    argv = ["optimize", "--task", "level", "--speed", "2", "--method", "pso", "--budget", "16",
+            "--swarm-size", "8", "--out", str(tmp_path), "--env-kwargs", "n_blade=6", "n_time=32",
+            "--quiet", "--seeds", "0", "1"]  # fmt: skip
+    assert main(argv) == 0
+    assert len(checked) == 1  # one configuration, two seeds: validated once
+    # A study's plain jobs are validated by the runner, once each, before any runs.
+    checked.clear()
+    run_jobs([_job(seed=5), _job(seed=6)], tmp_path, progress=False)
+    assert [j.seed for j in checked] == [5, 6]
+
+
+def test_a_record_edited_by_hand_is_detected_and_recomputed(tmp_path: Path, monkeypatch) -> None:
+    job = _job()
+    run_jobs([job], tmp_path, progress=False)
+    path = RecordStore(tmp_path).path(job.key)
+    good = Record.load(path)
+    data = json.loads(path.read_text())
+    assert data["checksum"] == good.checksum and len(data["checksum"]) == 64
+    data["results"]["objective"] = good.objective + 0.1  # a "better" result, by hand
+    path.write_text(json.dumps(data))
+    with pytest.raises(RecordError, match=r"checksum .* edited by hand or damaged"):
+        Record.load(path)
+    with pytest.warns(RecordWarning, match="checksum .* left out"):
+        assert load_records([tmp_path]) == []  # compare does not report it
+    calls = _count_calls(monkeypatch)
+    with pytest.warns(RecordWarning, match=f"{path}: corrupt record .*checksum.* runs again"):
+        summary = run_jobs([job], tmp_path, progress=False)
+    assert summary.ran == 1 and calls == [job]
+    again = Record.load(path)  # recomputed: the computed result, not the edited one
+    assert again.objective == good.objective and again.normalised_stroke == good.normalised_stroke
+    # Editing the job inside the file is caught the same way.
+    data = json.loads(path.read_text())
+    data["job"]["seed"] = 5
+    path.write_text(json.dumps(data))
+    with pytest.raises(RecordError, match="checksum"):
+        Record.load(path)
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        ("abc", r"record data is str 'abc'; allowed: a JSON object with schema"),
+        ([1, 2], r"record data is list \[1, 2\]; allowed: a JSON object"),
+        ({}, r"not a harness record \(schema None"),
+        ({"schema": SCHEMA}, r"record fields \['schema'\]; allowed: exactly"),
+        (
+            {"schema": SCHEMA, "key": "k", "checksum": "c", "job": "x", "results": {}},
+            "job = 'x'; allowed: a JSON object",
+        ),
+        (
+            {
+                "schema": SCHEMA,
+                "key": "k",
+                "checksum": "c",
+                "job": {"method": "pso"},
+                "results": {},
+            },
+            "malformed job",
+        ),
+        (
+            {"schema": SCHEMA, "key": "k", "checksum": "c", "job": _job().to_dict(), "results": {}},
+            "record results are missing",
+        ),
+    ],
+)
+def test_bad_record_data_gives_a_clear_error(data: object, message: str) -> None:
+    with pytest.raises(RecordError, match=message):
+        Record.from_dict(data)  # type: ignore[arg-type]
+
+
+def test_truncated_or_binary_record_files_give_a_clear_error(tmp_path: Path) -> None:
+    job = _job()
+    run_jobs([job], tmp_path, progress=False)
+    path = RecordStore(tmp_path).path(job.key)
+    text = path.read_text()
+    for name, content in (
+        ("truncated", text[: len(text) // 2].encode()),
+        ("binary", b"\xff\xfe\x00"),
+    ):
+        bad = tmp_path / f"{name}.json"
+        bad.write_bytes(content)
+        with pytest.raises(RecordError, match=f"{bad}: not a record file, cannot read JSON"):
+            Record.load(bad)

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from agents.harness import run
+from agents.records import Record
 from tandem_env.envs.registration import LEVEL_FLIGHT_ID
 from train.config import TrainConfig
 from train.envelope import evaluate_envelope
@@ -50,7 +51,6 @@ def test_policy_method_records_its_stroke_with_one_evaluation(
         budget=5,
         seeds=[0],
         progress=False,
-        out_dir=tmp_path,
     )
     assert record.evaluations == 1 and record.budget == 5
     expected = policy_stroke(envelope_run, 1.0)
@@ -58,7 +58,7 @@ def test_policy_method_records_its_stroke_with_one_evaluation(
     assert record.reward == record.search_reward  # re-evaluated exactly
     assert record.config["method"]["model"] == "best"
     assert record.metrics["speed"] == 1.0
-    assert list(tmp_path.glob("records/*.json"))
+    assert Record.from_dict(record.to_dict()) == record
 
 
 def test_policy_strokes_depend_on_the_condition(envelope_run: Path) -> None:
