@@ -12,7 +12,11 @@ fitness through the task's vector env) and records what it returns. Two kinds fi
 
 Extension point
 ---------------
-``register_method(name, factory)`` with ``factory(argument, config) -> Method``: ``argument``
+An ask/tell optimiser (a frozen config dataclass with ``max_evaluations``, ``citation``,
+``to_dict()`` and ``build(dim, seed)``, and an :class:`~agents.optimiser.AskTellOptimiser`) is
+registered with one line, ``register_optimiser(name, ConfigClass, batch="...")``, as the
+built-in ones are at the end of this module; its settings are its config's fields. Any other
+method: ``register_method(name, factory)`` with ``factory(argument, config) -> Method``: ``argument``
 is the text after a colon in the method spec (``"policy:runs/ppo"`` -> ``"runs/ppo"``, None
 without one) and ``config`` the method's settings. Names listed in :data:`PROVIDERS` are
 registered lazily by importing their provider module the first time they are asked for: the
@@ -24,7 +28,7 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -45,7 +49,9 @@ __all__ = [
     "SearchOutcome",
     "available_methods",
     "get_method",
+    "preset_batch_setting",
     "register_method",
+    "register_optimiser",
 ]
 
 
@@ -159,25 +165,22 @@ MethodFactory = Callable[[str | None, Mapping[str, Any]], Method]
 class AskTellMethod:
     """An ask/tell optimiser from :mod:`agents` run on the vector-env fitness.
 
-    ``make_config(budget)`` returns the optimiser's configuration with ``max_evaluations =
-    budget``; it is called once at construction with budget 1 so bad settings fail early.
-    ``adapt(config, task)``, if given, completes it from the task (CMA-ES takes the task's
-    discrete action coordinates).
+    ``config(budget, task)`` is ``config_class(**settings, **from the task, max_evaluations =
+    budget)``; it is built once at construction (budget 1) so bad settings fail early.
     """
 
     name: str
-    make_config: Callable[[int], OptimiserConfig]
-    adapt: Callable[[OptimiserConfig, TaskSpec], OptimiserConfig] | None = None
+    config_class: Callable[..., OptimiserConfig]
+    settings: Mapping[str, Any]
+    from_task: Mapping[str, Callable[[TaskSpec], Any]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.make_config(1)
+        self.config_class(**self.settings, max_evaluations=1)
 
     def config(self, budget: int, task: TaskSpec | None = None) -> OptimiserConfig:
         """The optimiser configuration for ``budget`` evaluations (on ``task``, if given)."""
-        config = self.make_config(budget)
-        if self.adapt is not None and task is not None:
-            config = self.adapt(config, task)
-        return config
+        extra = {} if task is None else {key: get(task) for key, get in self.from_task.items()}
+        return self.config_class(**self.settings, **extra, max_evaluations=budget)
 
     def check(self, budget: int, dim: int, task: TaskSpec) -> None:
         """Raise ValueError if the optimiser cannot run this budget on this box (e.g. a budget
@@ -189,84 +192,79 @@ class AskTellMethod:
         while not optimiser.done:
             X = optimiser.ask()
             optimiser.tell(X, context.evaluate(X))
-        result = optimiser.result()
-        if result.best_position is None:
+        best = optimiser.best_position
+        if best is None:
             raise RuntimeError(f"{self.name}: every evaluation returned NaN or -inf")
         return SearchOutcome(
-            best_action=result.best_position,
-            best_reward=result.best_fitness,
-            evaluations=result.evaluations,
-            history=tuple(map(tuple, result.history.tolist())),
-            config=dict(result.config),
+            best_action=best,
+            best_reward=optimiser.best_fitness,
+            evaluations=optimiser.evaluations,
+            history=tuple(optimiser.history),
+            config=optimiser.record(),
         )
 
 
-_BUDGET_KEYS = ("iterations", "max_evaluations")
+#: The setting a study's preset swarm size goes to, per ask/tell method (None: the method
+#: keeps its own default batch), filled by :func:`register_optimiser`.
+_PRESET_BATCH: dict[str, str | None] = {}
 
 
-def _settings(name: str, config: Mapping[str, Any], allowed: tuple[str, ...]) -> dict[str, Any]:
-    config = dict(config)
-    budget_keys = sorted(set(config) & set(_BUDGET_KEYS))
-    if budget_keys:
-        raise ValueError(
-            f"method {name!r}: {budget_keys} cannot be set here; the harness budget (model "
-            "evaluations) is the only budget"
-        )
-    unknown = sorted(set(config) - set(allowed))
-    if unknown:
-        raise ValueError(
-            f"method {name!r}: unknown setting(s) {unknown}; allowed: {', '.join(allowed)}"
-        )
-    return config
+def register_optimiser(
+    name: str,
+    config_class: type,
+    *,
+    batch: str,
+    from_task: Mapping[str, Callable[[TaskSpec], Any]] | None = None,
+    preset_batch: bool = True,
+    replace: bool = False,
+) -> None:
+    """Register an ask/tell optimiser as method ``name``.
 
-
-_PSO_SETTINGS = ("swarm_size", "inertia", "cognitive", "social", "velocity_clamp", "boundary")
-
-
-def _pso(argument: str | None, config: Mapping[str, Any]) -> Method:
-    _no_argument("pso", argument)
-    settings = _settings("pso", config, _PSO_SETTINGS)
-    return AskTellMethod("pso", lambda budget: PSOConfig(**settings, max_evaluations=budget))
-
-
-_CMAES_SETTINGS = ("popsize", "sigma0", "restarts", "patience", "tolerance", "resampling")
-
-
-def _cmaes(argument: str | None, config: Mapping[str, Any]) -> Method:
-    _no_argument("cmaes", argument)
-    settings = _settings("cmaes", config, (*_CMAES_SETTINGS, "swarm_size"))
-    # swarm_size is accepted as an alias so one CLI flag (--swarm-size) sets every batch size.
-    if "swarm_size" in settings:
-        if "popsize" in settings and settings["popsize"] != settings["swarm_size"]:
-            raise ValueError("method 'cmaes': give popsize or its alias swarm_size, not both")
-        settings["popsize"] = settings.pop("swarm_size")
-    return AskTellMethod(
-        "cmaes",
-        lambda budget: CMAESConfig(**settings, max_evaluations=budget),
-        adapt=lambda config, task: replace(config, discrete=task.discrete_actions),
+    Its settings are the fields of the dataclass ``config_class`` except ``max_evaluations``
+    (the harness's budget, the only one) and those ``from_task`` fills from the task (name ->
+    ``get(task)``). ``batch`` names the field of the points per ask/tell round; ``swarm_size``
+    (the CLI's ``--swarm-size``) is accepted as its alias. ``preset_batch=False`` keeps the
+    method's own default batch in studies instead of the preset's swarm size.
+    """
+    filled = dict(from_task or {})
+    allowed = tuple(
+        f.name for f in fields(config_class) if f.name != "max_evaluations" and f.name not in filled
     )
+    if batch not in allowed:
+        raise ValueError(f"batch {batch!r} is not a setting of {config_class.__name__}: {allowed}")
+
+    def factory(argument: str | None, config: Mapping[str, Any]) -> Method:
+        if argument is not None:
+            raise ValueError(f"method {name!r} takes no ':' argument; got {name}:{argument}")
+        settings = dict(config)
+        if "max_evaluations" in settings:
+            raise ValueError(
+                f"method {name!r}: max_evaluations cannot be set here; the harness budget (model "
+                "evaluations) is the only budget"
+            )
+        if batch != "swarm_size" and "swarm_size" in settings:
+            alias = settings.pop("swarm_size")
+            if settings.setdefault(batch, alias) != alias:
+                raise ValueError(f"method {name!r}: give {batch} or its alias swarm_size, not both")
+        unknown = sorted(set(settings) - set(allowed))
+        if unknown:
+            raise ValueError(
+                f"method {name!r}: unknown setting(s) {unknown}; allowed: {', '.join(allowed)}"
+                + ("" if batch == "swarm_size" else f", swarm_size (alias of {batch})")
+            )
+        return AskTellMethod(name, config_class, settings, filled)
+
+    register_method(name, factory, replace=replace)
+    _PRESET_BATCH[name] = batch if preset_batch else None
 
 
-def _random(argument: str | None, config: Mapping[str, Any]) -> Method:
-    _no_argument("random", argument)
-    settings = _settings("random", config, ("batch_size", "swarm_size"))
-    # swarm_size is accepted as an alias so one CLI flag sets the batch of both baselines.
-    if "swarm_size" in settings:
-        if "batch_size" in settings and settings["batch_size"] != settings["swarm_size"]:
-            raise ValueError("method 'random': give batch_size or its alias swarm_size, not both")
-        settings["batch_size"] = settings.pop("swarm_size")
-    return AskTellMethod(
-        "random", lambda budget: RandomSearchConfig(**settings, max_evaluations=budget)
-    )
-
-
-def _no_argument(name: str, argument: str | None) -> None:
-    if argument is not None:
-        raise ValueError(f"method {name!r} takes no ':' argument; got {name}:{argument}")
+def preset_batch_setting(method: str) -> str | None:
+    """The setting of ``method`` (a spec) that a study's preset swarm size sets, or None."""
+    return _PRESET_BATCH.get(method.partition(":")[0])
 
 
 # --- the registry ------------------------------------------------------------------------------
-_REGISTRY: dict[str, MethodFactory] = {"pso": _pso, "random": _random, "cmaes": _cmaes}
+_REGISTRY: dict[str, MethodFactory] = {}
 
 #: Method names registered on first use by importing a provider module (which must call
 #: :func:`register_method` for them). The RL methods live with the training code.
@@ -338,3 +336,14 @@ def get_method(spec: str | Method, config: Mapping[str, Any] | None = None) -> M
     if sep and not argument:
         raise ValueError(f"method {spec!r}: empty argument after ':'")
     return _factory(name)(argument if sep else None, dict(config or {}))
+
+
+register_optimiser("pso", PSOConfig, batch="swarm_size")
+register_optimiser("random", RandomSearchConfig, batch="batch_size")
+register_optimiser(
+    "cmaes",
+    CMAESConfig,
+    batch="popsize",
+    from_task={"discrete": lambda task: task.discrete_actions},
+    preset_batch=False,  # its default population, 26 at d = 28, is measured (docs/harness.md)
+)

@@ -2,17 +2,14 @@
 
 Every optimiser here *maximises* a fitness over the normalised box; callers map the box onto
 physical parameter ranges themselves. This module holds what all of them share: the evaluation
-budget, best-so-far bookkeeping and history, the result record and the batched driver loop
-(:func:`maximise` / :func:`minimise`).
+budget, best-so-far bookkeeping and history, and the checks of their settings.
 """
 
 from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Any, Literal, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -21,8 +18,6 @@ from agents.selection import BestStroke
 
 FloatArray = NDArray[np.float64]
 SeedLike = int | np.random.SeedSequence | None
-Objective = Callable[[FloatArray], ArrayLike]
-Sense = Literal["maximise", "minimise"]
 
 LOWER = -1.0
 UPPER = 1.0
@@ -63,111 +58,6 @@ def check_real(name: str, value: object, *, low: float, high: float, low_inclusi
         raise ValueError(
             f"{name} must be a finite number in {opening}{low}, {high}{closing}, got {value!r}"
         )
-
-
-@dataclass(frozen=True)
-class Budget:
-    """Evaluation budget: a number of ask/tell rounds and/or a number of evaluations.
-
-    One evaluation is one point (particle, sample) evaluated. When both limits are set, whichever
-    is reached first ends the run. The last batch is truncated so ``max_evaluations`` is never
-    exceeded.
-    """
-
-    iterations: int | None = None
-    max_evaluations: int | None = None
-
-    def __post_init__(self) -> None:
-        if self.iterations is None and self.max_evaluations is None:
-            raise ValueError(
-                "no budget given: set iterations and/or max_evaluations to a positive integer"
-            )
-        if self.iterations is not None:
-            check_int("iterations", self.iterations, minimum=1)
-        if self.max_evaluations is not None:
-            check_int("max_evaluations", self.max_evaluations, minimum=1)
-
-    def describe(self) -> str:
-        """The limits that are set, e.g. ``"iterations = 500, max_evaluations = 20000"``."""
-        limits = (("iterations", self.iterations), ("max_evaluations", self.max_evaluations))
-        return ", ".join(f"{name} = {value}" for name, value in limits if value is not None)
-
-    def batch_size(self, full: int, iterations_done: int, evaluations_done: int) -> int:
-        """Size of the next batch (0 when the budget is exhausted)."""
-        if self.iterations is not None and iterations_done >= self.iterations:
-            return 0
-        if self.max_evaluations is not None:
-            return max(0, min(full, self.max_evaluations - evaluations_done))
-        return full
-
-    def horizon(self, full: int) -> int:
-        """Number of ask/tell rounds the budget allows with batches of ``full`` points."""
-        rounds = []
-        if self.iterations is not None:
-            rounds.append(self.iterations)
-        if self.max_evaluations is not None:
-            rounds.append(-(-self.max_evaluations // full))  # ceil: last batch may be partial
-        return min(rounds)
-
-
-@dataclass(frozen=True)
-class Progress:
-    """Progress report passed to the driver callback after every iteration."""
-
-    iteration: int
-    evaluations: int
-    best_fitness: float
-
-
-@dataclass(frozen=True, eq=False)
-class OptimisationResult:
-    """Outcome of one optimisation run.
-
-    Attributes
-    ----------
-    best_position : ndarray of shape (dim,) or None
-        Best point found, in the normalised box [-1, 1]^d; None if every evaluation was NaN
-        (or the worst possible value).
-    best_fitness : float
-        Objective value at ``best_position`` in the caller's sense (a minimum for
-        :func:`minimise`).
-    evaluations : int
-        Number of points evaluated.
-    iterations : int
-        Number of ask/tell rounds (objective calls).
-    history : ndarray of shape (iterations, 2)
-        Columns: cumulative evaluations, best-so-far objective value after that round.
-    config : dict
-        The optimiser configuration, including its ``citation``.
-    sense : {"maximise", "minimise"}
-        Whether the objective was maximised or minimised.
-    """
-
-    best_position: FloatArray | None
-    best_fitness: float
-    evaluations: int
-    iterations: int
-    history: FloatArray
-    config: dict[str, Any]
-    sense: Sense = "maximise"
-
-    def __post_init__(self) -> None:
-        # The dataclass is frozen; make the arrays read-only too so the record cannot drift.
-        for array in (self.best_position, self.history):
-            if array is not None:
-                array.setflags(write=False)
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain-Python (JSON-ready) representation."""
-        return {
-            "sense": self.sense,
-            "best_position": None if self.best_position is None else self.best_position.tolist(),
-            "best_fitness": self.best_fitness,
-            "evaluations": self.evaluations,
-            "iterations": self.iterations,
-            "history": self.history.tolist(),
-            "config": dict(self.config),
-        }
 
 
 class Tally:
@@ -232,10 +122,12 @@ class Tallied:
 
 
 class OptimiserConfig(Protocol):
-    """What the driver needs from an optimiser configuration."""
+    """What an optimiser's configuration provides (a frozen dataclass of its settings)."""
 
     @property
-    def budget(self) -> Budget: ...
+    def max_evaluations(self) -> int:
+        """Points to evaluate in all (the harness's budget)."""
+        ...
 
     @property
     def citation(self) -> str: ...
@@ -258,7 +150,7 @@ class AskTellOptimiser(Tallied, ABC):
     batch_size : int
         Points per full ask/tell round.
     config : OptimiserConfig
-        Configuration; its budget bounds the run and its ``to_dict()`` goes into results.
+        Configuration; its ``max_evaluations`` bounds the run and its ``to_dict()`` is recorded.
     seed : int, SeedSequence or None
         Seed for ``numpy.random.default_rng``; equal seeds give identical runs.
     """
@@ -268,7 +160,6 @@ class AskTellOptimiser(Tallied, ABC):
         self._dim = int(dim)
         self._full_batch = int(batch_size)
         self._config = config
-        self._budget = config.budget
         self._rng = np.random.default_rng(seed)
         self._tally = Tally()
         self._pending: FloatArray | None = None
@@ -285,6 +176,10 @@ class AskTellOptimiser(Tallied, ABC):
     def _observe(self, X: FloatArray, fitness: FloatArray) -> None:
         """Update internal state from a told batch; NaN has already been mapped to -inf."""
 
+    def _next_size(self) -> int:
+        """Points in the next round: a full one, or what is left of the budget (0 at the end)."""
+        return max(0, min(self._batch(), self._config.max_evaluations - self.evaluations))
+
     def ask(self) -> FloatArray:
         """Next batch of points to evaluate, shape (n, dim), inside [-1, 1]^dim.
 
@@ -293,7 +188,7 @@ class AskTellOptimiser(Tallied, ABC):
         """
         if self._pending is not None:
             raise RuntimeError("ask() called again before tell(); tell the pending batch first")
-        n = self._budget.batch_size(self._batch(), self.iterations, self.evaluations)
+        n = self._next_size()
         if n == 0:
             raise RuntimeError(
                 f"budget exhausted after {self.evaluations} evaluations; check `done` first"
@@ -352,83 +247,8 @@ class AskTellOptimiser(Tallied, ABC):
     @property
     def done(self) -> bool:
         """True once the budget is exhausted (a further :meth:`ask` would raise)."""
-        return self._budget.batch_size(self._batch(), self.iterations, self.evaluations) == 0
+        return self._next_size() == 0
 
-    def result(self, sense: Sense = "maximise") -> OptimisationResult:
-        """Snapshot of the run so far; ``sense="minimise"`` undoes the driver's negation."""
-        sign = 1.0 if sense == "maximise" else -1.0
-        history = np.array(self._tally.history, dtype=float).reshape(-1, 2)
-        history[:, 1] *= sign
-        return OptimisationResult(
-            best_position=self.best_position,
-            best_fitness=sign * self.best_fitness,
-            evaluations=self.evaluations,
-            iterations=self.iterations,
-            history=history,
-            config=self._config.to_dict(),
-            sense=sense,
-        )
-
-
-def maximise(
-    objective: Objective,
-    dim: int,
-    config: OptimiserConfig,
-    seed: SeedLike = None,
-    callback: Callable[[Progress], None] | None = None,
-) -> OptimisationResult:
-    """Maximise a batched objective over [-1, 1]^dim until the budget is spent.
-
-    Parameters
-    ----------
-    objective : callable
-        ``objective(X) -> values`` with X of shape (n, dim) and values of shape (n,); called once
-        per iteration with the whole batch. NaN values count as the worst possible.
-    dim : int
-        Dimension of the search box.
-    config : PSOConfig or RandomSearchConfig
-        Optimiser configuration (any object providing ``build``, ``budget`` and ``to_dict``).
-    seed : int, SeedSequence or None
-        Random seed; equal seeds give identical runs.
-    callback : callable, optional
-        Called with a :class:`Progress` after every iteration.
-    """
-    return _run(objective, config.build(dim, seed), callback, "maximise")
-
-
-def minimise(
-    objective: Objective,
-    dim: int,
-    config: OptimiserConfig,
-    seed: SeedLike = None,
-    callback: Callable[[Progress], None] | None = None,
-) -> OptimisationResult:
-    """Minimise a batched objective; same arguments as :func:`maximise`.
-
-    The optimiser maximises the negated objective, but the result, history and progress
-    reports are in the objective's own units (smaller is better).
-    """
-    return _run(objective, config.build(dim, seed), callback, "minimise")
-
-
-def _run(
-    objective: Objective,
-    optimiser: AskTellOptimiser,
-    callback: Callable[[Progress], None] | None,
-    sense: Sense,
-) -> OptimisationResult:
-    sign = 1.0 if sense == "maximise" else -1.0
-    while not optimiser.done:
-        X = optimiser.ask()
-        # A copy, so an objective that scribbles on its input cannot break tell()'s check.
-        values = np.asarray(objective(X.copy()), dtype=float)
-        optimiser.tell(X, sign * values)
-        if callback is not None:
-            callback(
-                Progress(
-                    iteration=optimiser.iterations,
-                    evaluations=optimiser.evaluations,
-                    best_fitness=sign * optimiser.best_fitness,
-                )
-            )
-    return optimiser.result(sense)
+    def record(self) -> dict[str, Any]:
+        """JSON-ready record of the run's configuration (CMA-ES adds its restarts)."""
+        return self._config.to_dict()

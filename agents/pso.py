@@ -39,17 +39,14 @@ from agents.optimiser import (
     LOWER,
     UPPER,
     AskTellOptimiser,
-    Budget,
     FloatArray,
     SeedLike,
     check_int,
     check_real,
-    maximise,
-    minimise,
     store_plain,
 )
 
-__all__ = ["PSO", "Boundary", "Inertia", "PSOConfig", "maximise", "minimise"]
+__all__ = ["PSO", "Boundary", "Inertia", "PSOConfig"]
 
 Inertia = Literal["constriction", "linear-decreasing"]
 Boundary = Literal["clip", "reflect"]
@@ -78,12 +75,15 @@ _CITATIONS: dict[str, str] = {
 }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class PSOConfig:
     """Configuration of :class:`PSO`.
 
     Parameters
     ----------
+    max_evaluations : int
+        Particle evaluations (>= 1; the initial swarm counts); the last iteration is truncated
+        to fit.
     swarm_size : int
         Number of particles (>= 2).
     inertia : {"constriction", "linear-decreasing"}
@@ -95,20 +95,15 @@ class PSOConfig:
     boundary : {"clip", "reflect"}
         "clip" puts a particle that leaves the box on the wall and zeroes that velocity
         component; "reflect" mirrors the position back inside and reverses the component.
-    iterations : int or None
-        Maximum number of swarm evaluations (the initial swarm counts as the first).
-    max_evaluations : int or None
-        Maximum number of particle evaluations; the last iteration is truncated to fit.
     """
 
+    max_evaluations: int
     swarm_size: int = 40
     inertia: Inertia = "constriction"
     cognitive: float | None = None
     social: float | None = None
     velocity_clamp: float = 0.5
     boundary: Boundary = "clip"
-    iterations: int | None = None
-    max_evaluations: int | None = None
 
     def __post_init__(self) -> None:
         check_int("swarm_size", self.swarm_size, minimum=2)
@@ -124,10 +119,10 @@ class PSOConfig:
             if value is not None:
                 check_real(name, value, low=0.0, high=math.inf, low_inclusive=True)
         check_real("velocity_clamp", self.velocity_clamp, low=0.0, high=1.0, low_inclusive=False)
-        Budget(self.iterations, self.max_evaluations)  # validates the budget fields
+        check_int("max_evaluations", self.max_evaluations, minimum=1)
         store_plain(
             self,
-            ints=("swarm_size", "iterations", "max_evaluations"),
+            ints=("swarm_size", "max_evaluations"),
             floats=("cognitive", "social", "velocity_clamp"),
         )
 
@@ -144,11 +139,6 @@ class PSOConfig:
     @property
     def _default_c(self) -> float:
         return CONSTRICTION_C if self.inertia == "constriction" else LINEAR_C
-
-    @property
-    def budget(self) -> Budget:
-        """The evaluation budget."""
-        return Budget(self.iterations, self.max_evaluations)
 
     @property
     def citation(self) -> str:
@@ -172,13 +162,6 @@ class PSOConfig:
             return np.full(n_updates, CONSTRICTION_W)
         return np.linspace(LINEAR_W_START, LINEAR_W_END, n_updates)
 
-    def describe(self) -> str:
-        """One-line human-readable summary, including the citation."""
-        return (
-            f"PSO, {self.swarm_size} particles, velocity clamp {self.velocity_clamp} x box width, "
-            f"boundary {self.boundary}, {self.budget.describe()}; {self.citation}"
-        )
-
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready record of every setting, the constants in use and the citation."""
         return {
@@ -192,7 +175,6 @@ class PSOConfig:
             "social": self.c2,
             "velocity_clamp": self.velocity_clamp,
             "boundary": self.boundary,
-            "iterations": self.iterations,
             "max_evaluations": self.max_evaluations,
             "citation": self.citation,
         }
@@ -228,7 +210,7 @@ class PSO(AskTellOptimiser):
         self._vmax = config.velocity_clamp * _BOX_WIDTH
         self._c1, self._c2 = config.c1, config.c2
         self._boundary = config.boundary
-        self._schedule = config.inertia_schedule(config.budget.horizon(n))
+        self._schedule = config.inertia_schedule(-(-config.max_evaluations // n))  # iterations
         self._schedule.setflags(write=False)
         self._x = self._rng.uniform(LOWER, UPPER, (n, d))
         self._v = self._rng.uniform(-self._vmax, self._vmax, (n, d))

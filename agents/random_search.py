@@ -9,7 +9,6 @@ from agents.optimiser import (
     LOWER,
     UPPER,
     AskTellOptimiser,
-    Budget,
     FloatArray,
     SeedLike,
     check_int,
@@ -19,52 +18,36 @@ from agents.optimiser import (
 __all__ = ["RandomSearch", "RandomSearchConfig"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RandomSearchConfig:
     """Configuration of :class:`RandomSearch`.
 
     Parameters
     ----------
+    max_evaluations : int
+        Points evaluated (>= 1); the last batch is truncated to fit.
     batch_size : int
         Points per ask (>= 1); 40 matches the default PSO swarm so per-iteration costs compare.
-    iterations : int or None
-        Maximum number of batches.
-    max_evaluations : int or None
-        Maximum number of points evaluated; the last batch is truncated to fit.
     """
 
+    max_evaluations: int
     batch_size: int = 40
-    iterations: int | None = None
-    max_evaluations: int | None = None
 
     def __post_init__(self) -> None:
+        check_int("max_evaluations", self.max_evaluations, minimum=1)
         check_int("batch_size", self.batch_size, minimum=1)
-        Budget(self.iterations, self.max_evaluations)  # validates the budget fields
-        store_plain(self, ints=("batch_size", "iterations", "max_evaluations"))
-
-    @property
-    def budget(self) -> Budget:
-        """The evaluation budget."""
-        return Budget(self.iterations, self.max_evaluations)
+        store_plain(self, ints=("batch_size", "max_evaluations"))
 
     @property
     def citation(self) -> str:
         """What the baseline is."""
         return "uniform random search over [-1, 1]^d (i.i.d. samples, no adaptation; baseline)"
 
-    def describe(self) -> str:
-        """One-line human-readable summary, including the citation."""
-        return (
-            f"random search, batches of {self.batch_size}, {self.budget.describe()}; "
-            f"{self.citation}"
-        )
-
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready record of every setting and the citation."""
         return {
             "algorithm": "random-search",
             "batch_size": self.batch_size,
-            "iterations": self.iterations,
             "max_evaluations": self.max_evaluations,
             "citation": self.citation,
         }

@@ -1,4 +1,4 @@
-"""How much of an optimisation run is the optimiser itself? (target: < 5 %).
+"""How much of an optimisation run is the optimiser itself?
 
 Runs a harness method (``pso``, ``cmaes``, ``random``) on a flight task exactly as
 ``agents.harness`` does (ask, one vector-env step of the whole batch, tell) and times separately
@@ -7,12 +7,13 @@ Runs a harness method (``pso``, ``cmaes``, ``random``) on a flight task exactly 
 * the vector-env step (reset with the condition + step: the model call plus the env's own
   work, building rewards and infos),
 * ask + tell (the optimiser's arithmetic) and the remaining loop/bookkeeping,
-* for ``cmaes``, the part of ask + tell spent inside the ``cmaes`` package itself (its ``tell``
-  with the margin correction, its eigendecomposition, its discrete encoding): the floor that
-  no change to our wrapper can go below.
+* for ``cmaes``, the part spent inside the ``cmaes`` package's public calls (``ask``, ``tell``
+  with the margin correction and eigendecomposition, ``should_stop``), timed by wrapping those
+  methods for the duration of the benchmark: the package's own cost, against our wrapper's.
 
 The optimiser's overhead is everything but the env step, as a share of the run time; both are
-measured in the same process and run, so the ratio holds on a loaded machine too. Usage::
+measured in the same process and run, so the ratio holds on a loaded machine too. It prints
+numbers and exits 0: what share is acceptable is stated in docs/harness.md. Usage::
 
     python benchmarks/optimiser_overhead.py [--method cmaes] [--method-config popsize=20]
         [--task level] [--evaluations 12000] [--repeats 3]
@@ -37,16 +38,10 @@ from agents.methods import AskTellMethod, get_method
 from agents.tasks import get_task
 from tandem_env.io.keyvalue import parse_pairs
 
-TARGET = 0.05
 CONDITIONS = {"level": ({"speed": 1.5}, 1.5), "accelerate": ({"power": 60.0}, 60.0)}
-#: The package's entry points our CMA-ES calls (agents/cmaes_search.py): its whole work.
+#: The package's public calls our CMA-ES makes (agents/cmaes_search.py): its whole work.
 PACKAGE_CALLS = {
-    "cmaes": (
-        (cmaes.CMAwM, "tell"),
-        (cmaes.CMAwM, "should_stop"),
-        (cmaes.CMAwM, "_encode_discrete_params"),
-        (cmaes.CMA, "_eigen_decomposition"),
-    )
+    "cmaes": ((cmaes.CMAwM, "ask"), (cmaes.CMAwM, "tell"), (cmaes.CMAwM, "should_stop")),
 }
 
 
@@ -187,13 +182,12 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"all  optimiser overhead (everything but the env step) {total - env_step:.3f} s = "
         f"{overhead:.2%} of {total:.3f} s (ask+tell {ask_tell:.3f} s = "
-        f"{ask_tell / total:.2%}); target < {TARGET:.0%}: "
-        f"{'met' if overhead < TARGET else 'NOT met'}"
+        f"{ask_tell / total:.2%})"
     )
     if args.method in PACKAGE_CALLS:
         print(
-            f"     of which inside the {args.method} package (tell, margin, eigendecomposition, "
-            f"encoding) {package:.3f} s = {package / total:.2%} of the run, our own code "
+            f"     of which inside the {args.method} package (ask, tell, should_stop) "
+            f"{package:.3f} s = {package / total:.2%} of the run, our own code "
             f"{total - env_step - package:.3f} s = {(total - env_step - package) / total:.2%}"
         )
     iterations = sum(t.iterations for t in timings)
@@ -208,7 +202,7 @@ def main(argv: list[str] | None = None) -> int:
         f"{ask_tell / iterations * 1e3:.3f} ms{in_package} against "
         f"{env_step / iterations * 1e3:.2f} ms of env step"
     )
-    return 0 if overhead < TARGET else 1
+    return 0
 
 
 if __name__ == "__main__":

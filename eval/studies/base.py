@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from agents.methods import preset_batch_setting
 from agents.records import Record
 from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim
@@ -21,9 +22,6 @@ from eval.studies.presets import Preset
 from eval.studies.runner import RECORDS_DIR, Job
 from eval.studies.tables import summary_rows, tidy_rows
 from tandem_env.io.files import write_csv_atomic, write_json_atomic
-
-#: Methods whose settings include the swarm/batch size (others take no settings from a study).
-_BATCHED = {"pso": "swarm_size", "random": "batch_size"}
 
 
 @dataclass(frozen=True)
@@ -74,8 +72,7 @@ class StudyPlan:
         return figure_path(folder, stem, self.figure_format)
 
     def method_config(self, method: str) -> tuple[tuple[str, Any], ...]:
-        name = method.partition(":")[0]
-        key = _BATCHED.get(name)
+        key = preset_batch_setting(method)
         return ((key, self.preset.swarm_size),) if key else ()
 
     def jobs(

@@ -19,6 +19,7 @@ from gymnasium.envs.registration import register, registry
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from agents.optimiser import AskTellOptimiser
 from agents.tasks import TaskSpec, register_task
 
 DIM = 28
@@ -162,3 +163,14 @@ def register_analytic() -> dict[str, TaskSpec]:
         register_task(spec)
         specs[function] = spec
     return specs
+
+
+def drive(optimiser: AskTellOptimiser, objective: Any) -> list[np.ndarray]:
+    """Run ``optimiser`` on the batched ``objective`` (maximised) to the end of its budget, one
+    call per ask/tell round; returns every asked batch."""
+    batches = []
+    while not optimiser.done:
+        X = optimiser.ask()
+        batches.append(X)
+        optimiser.tell(X, objective(X.copy()))
+    return batches

@@ -8,6 +8,7 @@ import math
 import os
 import platform
 import stat
+import sys
 from importlib import metadata
 from pathlib import Path
 
@@ -15,11 +16,13 @@ import numpy as np
 import pytest
 
 from agents import records
-from agents.optimiser import maximise
 from agents.pso import PSOConfig
 from agents.records import package_versions
 from tandem_env.io import files as fileio
 from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
+
+sys.path.insert(0, str(Path(__file__).parent))
+from analytic_envs import drive
 
 
 def test_json_round_trip_with_numpy_types(tmp_path: Path) -> None:
@@ -50,13 +53,14 @@ def test_json_round_trip_with_numpy_types(tmp_path: Path) -> None:
     assert sorted(os.listdir(tmp_path)) == ["record.json"]  # no temp files left behind
 
 
-def test_optimisation_result_serialises(tmp_path: Path) -> None:
-    result = maximise(lambda X: -np.sum(X**2, axis=1), 3, PSOConfig(iterations=3), seed=0)
+def test_optimiser_record_serialises(tmp_path: Path) -> None:
+    optimiser = PSOConfig(max_evaluations=120).build(3, 0)
+    drive(optimiser, lambda X: -np.sum(X**2, axis=1))
+    result = {"config": optimiser.record(), "history": optimiser.history}
     write_json_atomic(tmp_path / "result.json", result)
     loaded = read_json(tmp_path / "result.json")
-    assert loaded["config"]["citation"] == PSOConfig(iterations=3).citation
-    assert loaded["best_fitness"] == result.best_fitness
-    assert np.array_equal(loaded["history"], result.history)
+    assert loaded["config"]["citation"] == PSOConfig(max_evaluations=120).citation
+    assert np.array_equal(loaded["history"], optimiser.history)
 
 
 def test_failed_serialisation_keeps_old_file(tmp_path: Path) -> None:
