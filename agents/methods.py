@@ -237,9 +237,10 @@ def register_optimiser(
         if argument is not None:
             raise ValueError(f"method {name!r} takes no ':' argument; got {name}:{argument}")
         settings = dict(config)
-        if "max_evaluations" in settings:
+        budget = sorted({"iterations", "max_evaluations"} & set(settings))
+        if budget:
             raise ValueError(
-                f"method {name!r}: max_evaluations cannot be set here; the harness budget (model "
+                f"method {name!r}: {budget} cannot be set here; the harness budget (model "
                 "evaluations) is the only budget"
             )
         if batch != "swarm_size" and "swarm_size" in settings:

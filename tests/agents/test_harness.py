@@ -181,10 +181,7 @@ def test_lazy_provider_registers_on_first_use(
 
             def factory(argument, config):
                 size = int(argument) if argument else 8
-                return AskTellMethod(
-                    f"fake:{argument}",
-                    lambda budget: RandomSearchConfig(batch_size=size, max_evaluations=budget),
-                )
+                return AskTellMethod(f"fake:{argument}", RandomSearchConfig, {"batch_size": size})
 
             register_method("fake", factory)
             """
