@@ -3,7 +3,6 @@ hill climber with a shrinking step) and runs it through the harness and ``eval o
 
 from __future__ import annotations
 
-import json
 import sys
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -15,6 +14,7 @@ import pytest
 from agents.harness import run
 from agents.methods import available_methods, get_method, preset_batch_setting, register_optimiser
 from agents.optimiser import LOWER, UPPER, AskTellOptimiser, FloatArray, SeedLike, check_int
+from agents.records import load_records
 
 sys.path.insert(0, str(Path(__file__).parent))
 from analytic_envs import ACTION_LOG, DIM, optimum, register_analytic
@@ -96,6 +96,6 @@ def test_the_toy_runs_through_eval_optimize(tmp_path: Path) -> None:
     argv = ["optimize", "--task", "sphere", "--shift", "0.3", "--method", "hill-climb"]
     argv += ["--budget", "160", "--seeds", "0", "1", "--out", str(out), "--quiet"]
     assert main([*argv, "--method-config", "step=0.3"]) == 0
-    records = [json.loads(p.read_text()) for p in (out / "records").glob("*.json")]
-    assert sorted(r["seed"] for r in records) == [0, 1]
-    assert all(r["evaluations"] == 160 and r["config"]["method"]["step"] == 0.3 for r in records)
+    records = load_records([out])
+    assert sorted(r.seed for r in records) == [0, 1]
+    assert all(r.evaluations == 160 and r.config["method"]["step"] == 0.3 for r in records)
