@@ -1,9 +1,10 @@
-"""The harness's tasks: which env id a task name means and how its flight condition is passed.
+"""The harness's tasks: which env id a task name means, read from the env's task declaration.
 
-A :class:`TaskSpec` is data only: the Gymnasium id (whose ``vector_entry_point`` the harness
-evaluates batches through), the constructor keyword and reset option that set the condition,
-the condition's name and unit for records, and the objectives the env offers. The tasks of this
-package's envs (``"level"``, ``"accelerate"``) are built from their env config's declarations
+A :class:`TaskSpec` is a name, a Gymnasium id (whose ``vector_entry_point`` the harness
+evaluates batches through) and the env config's :class:`~tandem_env.envs.TaskDeclaration`,
+which it reads and never copies: the condition's one name (constructor keyword, reset option,
+``info`` key, record name), its unit, the objectives the env offers. The tasks of this
+package's envs (``"level"``, ``"accelerate"``) are built from their configs' declarations
 (:meth:`TaskSpec.from_env`, for every id with a task in
 ``tandem_env.envs.registration.ENTRIES``), so adding a task touches nothing here; tests
 register analytic tasks the same way (:func:`register_task`), so every method runs through one
@@ -15,17 +16,15 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 
-from tandem_env.envs.condition import TaskCondition, TaskObjectives
 from tandem_env.envs.config import FlightConfig
+from tandem_env.envs.declaration import TaskCondition, TaskDeclaration, TaskObjectives
 from tandem_env.envs.registration import TASK_ENV_IDS, config_class
 from tandem_env.physics.checks import is_real
 from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
-
 __all__ = [
     "ACCELERATE",
     "LEVEL",
@@ -66,7 +65,7 @@ class Condition:
 
 @dataclass(frozen=True)
 class TaskSpec:
-    """How the harness runs one task.
+    """How the harness runs one task: a name, an env id and the env's task declaration.
 
     Parameters
     ----------
@@ -74,80 +73,36 @@ class TaskSpec:
         Short name used on the command line and in record file names (lower case).
     env_id : str
         Registered Gymnasium id; it must have a ``vector_entry_point`` whose vector env accepts
-        ``autoreset_mode="Disabled"`` and the keyword arguments of the single env.
-    condition_name, condition_unit : str
-        Name and unit of the condition in records, e.g. ``"speed"``, ``"m/s"``. The env's step
-        ``info`` reports the condition under ``condition_name`` (checked when present).
-    condition_kwarg : str
-        Constructor keyword that fixes the condition, e.g. ``"speed"``.
-    reset_option : str
-        ``reset(options={reset_option: value})`` key that sets the condition of an episode.
-    objectives : mapping of str to str
-        Objective choice -> the ``info`` metric it maximises, e.g. ``{"vertical":
-        "excess_vertical"}``. One entry and ``objective_kwarg=None`` for a fixed objective.
-    objective_kwarg : str or None
-        Constructor keyword selecting the objective, or None if the task has only one.
-    default_objective : str
-        The choice used when none is given (the env's own default).
-    objective_unit : str
-        Unit of the objective values, for records and tables.
-    description : str
-        One line for ``--help`` and docs.
+        ``autoreset_mode="Disabled"`` and the keyword arguments of the single env, and whose
+        step ``info`` reports the condition under its keyword (checked when present).
+    declaration : TaskDeclaration
+        The env's declaration (its config's ``DECLARATION``), with a condition and objectives.
+    discrete_actions : tuple of (int, int)
+        (index, levels) of each discrete action coordinate: it takes ``levels`` values, value i
+        on the i-th of ``levels`` equal bins of [-1, 1]. Methods that know discrete variables
+        (CMA-ES) search those coordinates on the bin centres; the others search them as
+        continuous and the env's map decides.
     """
 
     name: str
     env_id: str
-    condition_name: str
-    condition_unit: str
-    condition_kwarg: str
-    reset_option: str
-    objectives: Mapping[str, str]
-    default_objective: str
-    objective_kwarg: str | None = None
-    objective_unit: str = "-"
-    description: str = ""
-    forbidden_kwargs: tuple[str, ...] = field(default=())
-    """Env kwargs the harness refuses (they would fight the condition it sets)."""
+    declaration: TaskDeclaration
     discrete_actions: tuple[tuple[int, int], ...] = field(default=())
-    """(index, levels) of each discrete action coordinate: it takes ``levels`` values, value i
-    on the i-th of ``levels`` equal bins of [-1, 1]. Methods that know discrete variables
-    (CMA-ES) search those coordinates on the bin centres; the others search them as continuous
-    and the env's map decides."""
-    declaration: TaskCondition | None = None
-    """The env config's declaration of the condition (label, symbol, envelope, sweep) for a
-    task built by :meth:`from_env`; None for a task declared field by field."""
 
     @classmethod
     def from_env(cls, name: str, env_id: str) -> TaskSpec:
-        """The task of a registered env id, read from its config's ``CONDITION`` and
-        ``OBJECTIVES`` (``tandem_env.envs.condition``): nothing about it is repeated here."""
+        """The task of a registered env id: its config's ``DECLARATION``, read, not copied."""
         config = config_class(env_id)
-        condition = getattr(config, "CONDITION", None)
-        objectives = getattr(config, "OBJECTIVES", None)
-        if not isinstance(condition, TaskCondition) or not isinstance(objectives, TaskObjectives):
+        declaration = getattr(config, "DECLARATION", None)
+        if not isinstance(declaration, TaskDeclaration) or declaration.condition is None:
             raise ValueError(
-                f"task {name!r}: {env_id}'s config {config.__name__} declares CONDITION = "
-                f"{condition!r}, OBJECTIVES = {objectives!r}; allowed: a TaskCondition and a "
-                "TaskObjectives (tandem_env.envs.condition)"
+                f"task {name!r}: {env_id}'s config {config.__name__} declares DECLARATION = "
+                f"{declaration!r}; allowed: a TaskDeclaration with a condition and objectives "
+                "(tandem_env.envs.declaration)"
             )
-        summary = (config.__doc__ or "").strip().split("\n")[0]
-        return cls(
-            name=name,
-            env_id=env_id,
-            condition_name=condition.info_key,
-            condition_unit=condition.unit,
-            condition_kwarg=condition.keyword,
-            reset_option=condition.reset_option,
-            objectives=objectives.metrics,
-            default_objective=objectives.default,
-            objective_kwarg=objectives.keyword,
-            objective_unit=objectives.unit,
-            description=summary,
-            forbidden_kwargs=(condition.range_keyword,),
-            # Every flight env's action is a normalised stroke (tandem_env.envs.task).
-            discrete_actions=STROKE_DISCRETE if issubclass(config, FlightConfig) else (),
-            declaration=condition,
-        )
+        # Every flight env's action is a normalised stroke (tandem_env.envs.base).
+        discrete = STROKE_DISCRETE if issubclass(config, FlightConfig) else ()
+        return cls(name=name, env_id=env_id, declaration=declaration, discrete_actions=discrete)
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not _NAME.match(self.name):
@@ -155,33 +110,77 @@ class TaskSpec:
                 f"TaskSpec.name = {self.name!r}; allowed: lower-case letters, digits, '_' and "
                 "'-', starting with a letter"
             )
-        if not self.objectives:
-            raise ValueError(f"TaskSpec {self.name!r}: objectives is empty; allowed: >= 1 entry")
-        if self.default_objective not in self.objectives:
+        declared = self.declaration
+        if not isinstance(declared, TaskDeclaration) or declared.condition is None:
             raise ValueError(
-                f"TaskSpec {self.name!r}: default_objective = {self.default_objective!r}; "
-                f"allowed: one of {sorted(self.objectives)}"
+                f"TaskSpec {self.name!r}: declaration = {declared!r}; allowed: a "
+                "TaskDeclaration with a condition and objectives"
             )
-        if self.objective_kwarg is None and len(self.objectives) > 1:
-            raise ValueError(
-                f"TaskSpec {self.name!r}: {len(self.objectives)} objectives but no "
-                "objective_kwarg to choose between them"
-            )
-        object.__setattr__(self, "objectives", MappingProxyType(dict(self.objectives)))
-        forbidden = (self.condition_kwarg, *self.forbidden_kwargs)
-        object.__setattr__(self, "forbidden_kwargs", tuple(dict.fromkeys(forbidden)))
+
+    # --- views of the declaration ---------------------------------------------------------------
+    @property
+    def declared_condition(self) -> TaskCondition:
+        """The declared condition (keyword, unit, label, envelope, sweep)."""
+        return self.declaration.condition  # type: ignore[return-value]
+
+    @property
+    def declared_objectives(self) -> TaskObjectives:
+        """The declared objectives (each choice's ``info`` metric)."""
+        return self.declaration.objectives  # type: ignore[return-value]
+
+    @property
+    def condition_name(self) -> str:
+        """The condition's one name: env keyword, reset option, ``info`` key, record name."""
+        return self.declared_condition.keyword
+
+    condition_kwarg = reset_option = condition_name
+
+    @property
+    def condition_flag(self) -> str:
+        """The condition's command-line option, e.g. ``"--speed"`` or ``"--power"``."""
+        return "--" + self.declared_condition.option.replace("_", "-")
+
+    @property
+    def condition_unit(self) -> str:
+        return self.declared_condition.unit
 
     @property
     def condition_label(self) -> str:
-        """The condition in words, e.g. ``"flight speed"`` (its name when not declared)."""
-        return self.condition_name if self.declaration is None else self.declaration.label
+        """The condition in words, e.g. ``"flight speed"``."""
+        return self.declared_condition.label
 
     @property
     def condition_metavar(self) -> str:
         """Placeholder of the condition's value on a command line, e.g. ``"V"``."""
-        if self.declaration is None:
-            return self.condition_kwarg.upper()
-        return self.declaration.metavar
+        return self.declared_condition.metavar
+
+    @property
+    def forbidden_kwargs(self) -> tuple[str, ...]:
+        """Env kwargs the harness refuses (they would fight the condition it sets)."""
+        return self.declared_condition.keyword, self.declared_condition.range_keyword
+
+    @property
+    def objectives(self) -> Mapping[str, str]:
+        """Objective choice -> the ``info`` metric it maximises."""
+        return self.declared_objectives.metrics
+
+    @property
+    def default_objective(self) -> str:
+        return self.declared_objectives.default
+
+    @property
+    def objective_kwarg(self) -> str | None:
+        """Constructor keyword selecting the objective, or None if the task has only one."""
+        return self.declared_objectives.keyword
+
+    @property
+    def objective_unit(self) -> str:
+        return self.declared_objectives.unit
+
+    @property
+    def description(self) -> str:
+        """One line for ``--help`` and docs."""
+        return self.declaration.summary
 
     def condition(self, value: float) -> Condition:
         """The recorded condition for ``value`` [condition_unit] (range checks are the env's)."""

@@ -38,7 +38,7 @@ from agents.methods import AskTellMethod, get_method
 from agents.tasks import get_task
 from tandem_env.io.keyvalue import parse_pairs
 
-CONDITIONS = {"level": ({"speed": 1.5}, 1.5), "accelerate": ({"power": 60.0}, 60.0)}
+CONDITIONS = {"level": ({"speed": 1.5}, 1.5), "accelerate": ({"available_power": 60.0}, 60.0)}
 #: The package's public calls our CMA-ES makes (agents/cmaes_search.py): its whole work.
 PACKAGE_CALLS = {
     "cmaes": ((cmaes.CMAwM, "ask"), (cmaes.CMAwM, "tell"), (cmaes.CMAwM, "should_stop")),
@@ -95,7 +95,7 @@ def timed_package(method: str, timing: Timing) -> Iterator[None]:
 def time_run(
     method: str, settings: dict[str, Any], task_name: str, evaluations: int, seed: int
 ) -> Timing:
-    task_module = importlib.import_module("tandem_env.envs.task")
+    task_module = importlib.import_module("tandem_env.envs.base")
     real = task_module.evaluate
     timing = Timing()
 

@@ -34,7 +34,7 @@ def _tasks() -> list[TaskSpec]:
 
 def _flag(task: TaskSpec) -> str:
     """The command-line option of a task's condition, from its keyword (``--speed``)."""
-    return "--" + task.condition_kwarg.replace("_", "-")
+    return task.condition_flag
 
 
 def _usage(task: TaskSpec) -> str:
@@ -48,7 +48,7 @@ def _tasks_text(width: int = 92) -> str:
     for task in _tasks():
         what = f"{task.condition_label} [{task.condition_unit}]"
         if task.declaration is not None:
-            low, high = task.declaration.envelope
+            low, high = task.declared_condition.envelope
             what += f" ({low:g}-{high:g})"
         text = f"{_flag(task)} {task.condition_metavar}  {what}; {task.description}"
         if task.objective_kwarg is not None:

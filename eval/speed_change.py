@@ -32,8 +32,7 @@ import numpy as np
 
 import tandem_env  # noqa: F401  (registers the ids)
 from tandem_env.envs.registration import SPEED_CHANGE_ID
-from tandem_env.envs.speed_change_config import LEVEL_FLIGHT_ENVELOPE, SpeedChangeConfig
-from tandem_env.envs.speed_change_task import Flight
+from tandem_env.envs.speed_change import LEVEL_FLIGHT_ENVELOPE, Flight, SpeedChangeConfig
 from tandem_env.io.files import write_csv_atomic
 
 __all__ = [

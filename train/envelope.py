@@ -64,7 +64,7 @@ def sweep_conditions(task: str) -> tuple[float, ...]:
     """The task's declared sweep (its env config's ``CONDITION.sweep``)."""
     from agents.tasks import get_task
 
-    declared = get_task(task).declaration
+    declared = get_task(task).declaration.condition
     if declared is None:
         raise ValueError(f"task {task!r} declares no sweep; give the conditions")
     return declared.sweep
@@ -76,7 +76,7 @@ def _sweeps_text() -> str:
 
     parts = []
     for name in available_tasks():
-        declared = get_task(name).declaration
+        declared = get_task(name).declaration.condition
         if declared is not None:
             values = ", ".join(f"{v:g}" for v in declared.sweep)
             parts.append(f"{name}: {declared.keyword} {values} {declared.unit}")
@@ -177,7 +177,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         policy = TrainedPolicy.load(args.run, args.model)
         seen = policy.training_conditions
-        declared = get_task(task_of(policy.env_id)).declaration
+        declared = get_task(task_of(policy.env_id)).declaration.condition
         ranged = "a range" if declared is None else declared.range_keyword
         unit = outside[0]["condition_unit"]
         trained = f"({seen[0]:g}, {seen[1]:g})" if isinstance(seen, tuple) else f"{seen:g}"

@@ -129,8 +129,8 @@ def adapter(venv: VecEnv) -> TandemVecEnv:
 
 
 def option_key(venv: VecEnv) -> str:
-    """The reset option that sets the condition (``"speed"`` or ``"power"``)."""
-    return adapter(venv).vector_env.task.option_key
+    """The reset option that sets the condition (``"speed"`` or ``"available_power"``)."""
+    return adapter(venv).vector_env.core.option_key
 
 
 def condition_range(venv: VecEnv) -> tuple[float, float] | None:

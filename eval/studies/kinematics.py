@@ -30,7 +30,6 @@ from eval.studies.runner import Job
 from eval.studies.tables import circular_median, select, spread
 from tandem_env import PARAMETER_NAMES, stroke_history
 from tandem_env.envs import registration
-from tandem_env.envs.task import make_task
 
 NAME = "kinematics"
 TITLE = "Kinematics of the optimised strokes (Figs. 9-13)"
@@ -59,11 +58,12 @@ def jobs(plan: StudyPlan) -> list[Job]:
 def history_of(record: Record, n_samples: int = HISTORY_SAMPLES):
     """The record's best stroke over one cycle, with the env's own insect and model options."""
     task = get_task(record.task)
-    config_class = registration.config_class(task.env_id)
+    env_id = task.env_id
     kwargs = {**dict(record.job.env_kwargs), task.condition_kwarg: record.job.condition}
-    cfg = config_class.from_kwargs(**kwargs)
+    cfg = registration.config_class(env_id).from_kwargs(**kwargs)
     # The task's condition sets one model input; its config fixes the other (task core).
-    speeds, powers = make_task(cfg).flight_conditions(np.array([cfg.fixed_condition]))
+    core = registration.core_class(env_id)(cfg)
+    speeds, powers = core.flight_conditions(np.array([cfg.fixed_condition]))
     speed, power = float(speeds[0]), float(powers[0])
     stroke = np.array([float(record.stroke[name]) for name in PARAMETER_NAMES])
     return stroke_history(

@@ -18,8 +18,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Literal, get_args
 
-from tandem_env.envs.condition import TaskCondition
-from tandem_env.envs.config import AccelerateConfig, LevelFlightConfig
+from tandem_env.envs import AccelerateConfig, LevelFlightConfig, TaskCondition
 
 AccelerateObjective = Literal["vertical", "horizontal"]
 

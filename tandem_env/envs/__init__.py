@@ -1,7 +1,9 @@
 """Gymnasium environments over the tandem-wing model (see docs/envs.md).
 
 Ids ``TandemWing/LevelFlight-v0``, ``TandemWing/Accelerate-v0`` (one wing-beat per episode)
-and ``TandemWing/SpeedChange-v0`` (many wing-beats) are registered by ``import tandem_env``.
+and ``TandemWing/SpeedChange-v0`` (many wing-beats) are registered by ``import tandem_env``;
+each is one module (``level_flight``, ``accelerate``, ``speed_change``: declaration, config,
+batched core, vector env, single env) over the shared machinery of ``base``.
 The SB3 adapter (``TandemVecEnv``, ``make_sb3_vec_env``) lives in :mod:`tandem_env.envs.sb3`
 and is imported only when asked for, so that importing the envs does not import
 Stable-Baselines3 (or torch).
@@ -11,8 +13,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from .config import AccelerateConfig, FlightConfig, LevelFlightConfig, PenaltyConfig
-from .flight import AccelerateEnv, FlightEnv, LevelFlightEnv
+from .accelerate import ACCELERATE, AccelerateConfig, AccelerateEnv, AccelerateVectorEnv
+from .base import FlightEnv, FlightVectorEnv
+from .config import FlightConfig, PenaltyConfig
+from .declaration import Constraint, TaskCondition, TaskDeclaration, TaskObjectives
+from .level_flight import LEVEL_FLIGHT, LevelFlightConfig, LevelFlightEnv, LevelFlightVectorEnv
 from .registration import (
     ACCELERATE_ID,
     ENV_IDS,
@@ -21,19 +26,26 @@ from .registration import (
     check_env_id,
     register_envs,
 )
-from .speed_change import SpeedChangeEnv
-from .speed_change_config import SpeedChangeConfig, SpeedChangeReward
-from .speed_change_vector import SpeedChangeVectorEnv
-from .vector import AccelerateVectorEnv, FlightVectorEnv, LevelFlightVectorEnv
+from .speed_change import (
+    SPEED_CHANGE,
+    SpeedChangeConfig,
+    SpeedChangeEnv,
+    SpeedChangeReward,
+    SpeedChangeVectorEnv,
+)
 
 __all__ = [
+    "ACCELERATE",
     "ACCELERATE_ID",
     "ENV_IDS",
+    "LEVEL_FLIGHT",
     "LEVEL_FLIGHT_ID",
+    "SPEED_CHANGE",
     "SPEED_CHANGE_ID",
     "AccelerateConfig",
     "AccelerateEnv",
     "AccelerateVectorEnv",
+    "Constraint",
     "FlightConfig",
     "FlightEnv",
     "FlightVectorEnv",
@@ -45,6 +57,9 @@ __all__ = [
     "SpeedChangeEnv",
     "SpeedChangeReward",
     "SpeedChangeVectorEnv",
+    "TaskCondition",
+    "TaskDeclaration",
+    "TaskObjectives",
     "TandemVecEnv",
     "check_env_id",
     "make_sb3_vec_env",

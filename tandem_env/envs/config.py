@@ -1,9 +1,10 @@
-"""Configuration of the flight environments: frozen, validated dataclasses built from ``gym.make`` kwargs.
+"""What every flight env's configuration shares: frozen, validated dataclasses built from ``gym.make`` kwargs.
 
-Every option an environment takes is a field of one of these classes, so that what an env does
-is fully described by ``env.config`` (and reproducible from it). ``gym.make(id, **kwargs)`` passes
-flat keyword arguments; :meth:`FlightConfig.from_kwargs` maps them onto the dataclasses and
-rejects anything it does not know, naming what is allowed.
+Every option an environment takes is a field of its config (a :class:`FlightConfig` subclass in
+its task module), so that what an env does is fully described by ``env.config`` (and
+reproducible from it). ``gym.make(id, **kwargs)`` passes flat keyword arguments;
+:meth:`FlightConfig.from_kwargs` maps them onto the dataclasses and rejects anything it does
+not know, naming what is allowed (and an old name, naming the new one).
 
 Units follow the physics: speeds in m/s, powers per body mass in W/kg, forces as fractions of
 the weight W (dimensionless).
@@ -11,26 +12,22 @@ the weight W (dimensionless).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
-from typing import Any, ClassVar, Literal, get_args
+from typing import Any, ClassVar
 
 import numpy as np
 
-from ..physics import AVAILABLE_POWER_LIMITS, PLANFORMS, SPEED_LIMITS, Dragonfly, ModelOptions
+from ..physics import PLANFORMS, SPEED_LIMITS, Dragonfly, ModelOptions
 from ..physics.checks import is_real as _is_real
-from .condition import TaskCondition, TaskObjectives, check_declarations
-
-#: Accelerate's objective choices (``AccelerateConfig.OBJECTIVES`` maps each to its metric).
-Objective = Literal["vertical", "horizontal", "resultant", "horizontal_literal"]
-OBJECTIVES: tuple[str, ...] = get_args(Objective)
+from .declaration import TaskCondition, TaskDeclaration, TaskObjectives, check_declarations
+from .validate import check_interval, check_real
 
 #: Flight speeds an env accepts [m/s]: the model's own limits.
 MODEL_SPEED_LIMITS: tuple[float, float] = SPEED_LIMITS
 
 #: ``gym.make`` kwargs that become fields of :class:`~tandem_env.physics.ModelOptions`, mapped to
-#: the field's name there (``power_convention`` avoids a clash with Accelerate's ``power``).
+#: the field's name there (``power_convention``: ``power`` was Accelerate's old condition name).
 MODEL_OPTION_KWARGS: dict[str, str] = {
     "n_time": "n_time",
     "n_blade": "n_blade",
@@ -42,41 +39,10 @@ MODEL_OPTION_KWARGS: dict[str, str] = {
     "hover_inflow": "hover_inflow",
     "tolerance": "tolerance",
     "max_evaluations": "max_evaluations",
-    "constraint_tolerance": "constraint_tolerance",
 }
 #: Model options that must be real numbers (checked here, because ``ModelOptions`` would raise
 #: a bare ``TypeError`` from ``math.isfinite`` on a string).
-_REAL_MODEL_OPTIONS = ("interference", "tolerance", "constraint_tolerance")
-
-
-def check_real(owner: str, name: str, value: Any, unit: str, low: float, high: float) -> float:
-    """``value`` as a float if it is a finite real number in [low, high]; else a ValueError."""
-    if not _is_real(value) or not math.isfinite(value) or not low <= value <= high:
-        unit = f" {unit}" if unit else ""
-        raise ValueError(
-            f"{owner}.{name} = {value!r}{unit}; allowed: a finite number from {low:g} to "
-            f"{high:g}{unit}"
-        )
-    return float(value)
-
-
-def check_interval(
-    owner: str, name: str, value: Any, unit: str, limits: tuple[float, float]
-) -> tuple[float, float]:
-    """``value`` as a ``(low, high)`` float pair with limits[0] <= low < high <= limits[1]."""
-    allowed = (
-        f"allowed: a pair (low, high) of finite numbers with {limits[0]:g} <= low < high <= "
-        f"{limits[1]:g} {unit}"
-    )
-    if isinstance(value, str | bytes) or not hasattr(value, "__len__") or len(value) != 2:
-        raise ValueError(f"{owner}.{name} = {value!r}; {allowed}")
-    low, high = value
-    if not (_is_real(low) and _is_real(high)):
-        raise ValueError(f"{owner}.{name} = {value!r}; {allowed}")
-    low, high = float(low), float(high)
-    if not (math.isfinite(low) and math.isfinite(high) and limits[0] <= low < high <= limits[1]):
-        raise ValueError(f"{owner}.{name} = {value!r} {unit}; {allowed}")
-    return low, high
+_REAL_MODEL_OPTIONS = ("interference", "tolerance")
 
 
 def normalise_condition(config: FlightConfig) -> None:
@@ -90,7 +56,7 @@ def normalise_condition(config: FlightConfig) -> None:
     """
     declared = type(config).CONDITION
     if declared is None:
-        raise TypeError(f"{type(config).__name__} declares no CONDITION")
+        raise TypeError(f"{type(config).__name__} declares no condition")
     owner = type(config).__name__
     name, range_name, envelope_name = declared.keywords
     unit, limits = declared.unit, declared.limits
@@ -190,22 +156,26 @@ class FlightConfig:
     """Clip actions into [-1, 1] before mapping them to strokes; if False an action outside
     [-1, 1] raises ``ValueError``. Non-finite actions raise either way."""
 
-    #: The task's name in messages.
+    #: The task's declaration (condition, objectives, constraints, sweep): its one home.
+    DECLARATION: ClassVar[TaskDeclaration | None] = None
+    #: The task's name in messages (``DECLARATION.name``).
     name: ClassVar[str] = "FlightConfig"
-    #: The one flight condition the task is optimised at and observes (its keyword, unit,
-    #: limits, default, envelope and sweep), or None for a task that does not have one.
+    #: ``DECLARATION.condition`` (None for a task without one condition), read from it.
     CONDITION: ClassVar[TaskCondition | None] = None
-    #: What the task maximises: each objective choice and its ``info`` metric (None with
-    #: ``CONDITION``).
+    #: ``DECLARATION.objectives``, read from it.
     OBJECTIVES: ClassVar[TaskObjectives | None] = None
-    #: The ``info`` key reporting the observed condition: ``CONDITION.info_key`` where declared.
+    #: The ``info`` key reporting the observed condition: ``CONDITION.keyword`` where declared.
     condition_key: ClassVar[str] = ""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         check_declarations(cls)  # a declaration naming a missing field fails at import
-        if cls.CONDITION is not None:
-            cls.condition_key = cls.CONDITION.info_key
+        declared = cls.__dict__.get("DECLARATION")
+        if declared is not None:
+            cls.name = declared.name
+            cls.CONDITION, cls.OBJECTIVES = declared.condition, declared.objectives
+            if declared.condition is not None:
+                cls.condition_key = declared.condition.keyword
 
     def __post_init__(self) -> None:
         owner = type(self).__name__
@@ -271,7 +241,7 @@ class FlightConfig:
     @classmethod
     def allowed_kwargs(cls) -> tuple[str, ...]:
         """Every keyword ``from_kwargs`` (and so ``gym.make``) accepts for this task."""
-        own = tuple(f.name for f in fields(cls))
+        own = tuple(f.name for f in fields(cls) if f.init)
         return (
             *own,
             "planform",
@@ -289,10 +259,17 @@ class FlightConfig:
         ``rotational_coefficient`` (C_r of both wings [-], Table 3), applied to ``insect``; the
         :class:`~tandem_env.physics.ModelOptions` fields (``n_time``,
         ``n_blade``, ``induction``, ``interference``, ``power_convention`` (its ``power``),
-        ``thrust_split``, ``spin``, ``tolerance``, ``max_evaluations``,
-        ``constraint_tolerance``), applied over ``options``; and ``penalty_weight`` /
-        ``penalty_offset``, applied over ``penalty``.
+        ``thrust_split``, ``spin``, ``hover_inflow``, ``tolerance``, ``max_evaluations``),
+        applied over ``options``; and ``penalty_weight`` / ``penalty_offset``, applied over
+        ``penalty``. A condition's old keyword (``power`` for ``available_power``) is refused
+        naming the new one.
         """
+        renamed = cls.CONDITION.renamed() if cls.CONDITION is not None else {}
+        old = sorted(set(kwargs) & set(renamed))
+        if old:
+            raise ValueError(
+                f"{cls.name}: {', '.join(f'{k!r} was renamed; use {renamed[k]!r}' for k in old)}"
+            )
         unknown = sorted(set(kwargs) - set(cls.allowed_kwargs()))
         if unknown:
             raise ValueError(
@@ -370,121 +347,3 @@ class FlightConfig:
     def describe(self) -> str:
         """One line naming the condition, for titles and reprs."""
         raise NotImplementedError
-
-
-@dataclass(frozen=True, kw_only=True)
-class LevelFlightConfig(FlightConfig):
-    """Level flight at speed V: maximise η = T·V/P with L = W, T = D and P/m <= the insect's maximum.
-
-    Give ``speed`` for a fixed speed or ``speed_range`` to sample V uniformly at every reset
-    (not both); with neither, V = 1.5 m/s. The observation is V normalised from
-    ``speed_envelope`` to [-1, 1].
-    """
-
-    name: ClassVar[str] = "LevelFlight"
-    CONDITION: ClassVar[TaskCondition] = TaskCondition(
-        keyword="speed",
-        info_key="speed",
-        label="flight speed",
-        symbol="V",
-        unit="m/s",
-        limits=MODEL_SPEED_LIMITS,
-        default=1.5,  # the paper's best-efficiency speed
-        envelope=(0.25, 2.0),  # the paper's range
-        sweep=(0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0),  # Figs. 4-6, 15
-    )
-    OBJECTIVES: ClassVar[TaskObjectives] = TaskObjectives(
-        metrics={"efficiency": "efficiency"}, default="efficiency"
-    )
-
-    speed: float | None = None
-    """Fixed flight speed V [m/s]; default 1.5 m/s (the paper's best-efficiency speed) unless
-    ``speed_range`` is given."""
-    speed_range: tuple[float, float] | None = None
-    """(low, high) [m/s]: V is drawn uniformly from it at each reset (from the env's seeded
-    ``np_random``), so one policy can learn the whole envelope."""
-    speed_envelope: tuple[float, float] = CONDITION.envelope
-    """(low, high) [m/s] mapped linearly to the observation's [-1, 1]; every speed used must lie
-    inside it. Default the paper's range, 0.25 to 2.0 m/s."""
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        normalise_condition(self)
-
-    @property
-    def available_power(self) -> float:
-        """Power cap of level flight [W/kg]: the insect's maximum (90 W/kg, docs/model.md §7)."""
-        return self.insect.max_power_per_mass
-
-    def describe(self) -> str:
-        return self.CONDITION.describe(self.speed, self.speed_range)
-
-
-@dataclass(frozen=True, kw_only=True)
-class AccelerateConfig(FlightConfig):
-    """Accelerating flight: maximise a specific excess force with F_v >= 0, F_h >= 0 and P/m <= P_avail.
-
-    Give ``power`` for a fixed available power or ``power_range`` to sample it uniformly at every
-    reset (not both); with neither, 90 W/kg. The observation is the available power normalised
-    from ``power_envelope`` to [-1, 1]. The flight speed ``speed`` is fixed (default 0: take-off
-    or escape from hover).
-    """
-
-    name: ClassVar[str] = "Accelerate"
-    CONDITION: ClassVar[TaskCondition] = TaskCondition(
-        keyword="power",
-        info_key="available_power",
-        label="available power per body mass",
-        symbol="P_avail",
-        metavar="P",
-        unit="W/kg",
-        limits=AVAILABLE_POWER_LIMITS,
-        default=90.0,  # the insect's maximum
-        envelope=(50.0, 90.0),  # the paper's sweep: 30-60 % flight muscle
-        sweep=(50.0, 60.0, 70.0, 80.0, 90.0),  # Figs. 7-8, 16
-    )
-    OBJECTIVES: ClassVar[TaskObjectives] = TaskObjectives(
-        metrics={
-            "vertical": "excess_vertical",
-            "horizontal": "excess_horizontal",
-            "resultant": "excess_total",
-            "horizontal_literal": "excess_horizontal_literal",
-        },
-        default="vertical",
-        keyword="objective",
-    )
-
-    objective: Objective = OBJECTIVES.default
-    """Which specific excess force is maximised: ``"vertical"`` F̄_v = (L − W)/W,
-    ``"horizontal"`` F̄_h = (T − D)/W, ``"resultant"`` F̄_a = sqrt(F̄_v² + F̄_h²) or
-    ``"horizontal_literal"`` (D_f + D_h)/W, Eq. 24 read literally (the wings' rearward forces,
-    ``excess_horizontal_literal``) [-] (docs/model.md §7.6: the paper's attainable F̄_a combines
-    the first two). The constraints are the same for all."""
-    power: float | None = None
-    """Fixed available power per body mass [W/kg]; default 90 W/kg (the insect's maximum)
-    unless ``power_range`` is given."""
-    power_range: tuple[float, float] | None = None
-    """(low, high) [W/kg]: the available power is drawn uniformly from it at each reset."""
-    power_envelope: tuple[float, float] = CONDITION.envelope
-    """(low, high) [W/kg] mapped linearly to the observation's [-1, 1]; every available power
-    used must lie inside it. Default the paper's sweep, 50 to 90 W/kg (30-60 % muscle)."""
-    speed: float = 0.0
-    """Flight speed V [m/s], fixed for every episode (not observed); within the model's
-    ``SPEED_LIMITS`` (0 to 20 m/s)."""
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        owner = type(self).__name__
-        choices = self.OBJECTIVES.choices
-        if self.objective not in choices:
-            raise ValueError(
-                f"{owner}.objective = {self.objective!r}; allowed: {', '.join(map(repr, choices))}"
-            )
-        object.__setattr__(
-            self, "speed", check_real(owner, "speed", self.speed, "m/s", *MODEL_SPEED_LIMITS)
-        )
-        normalise_condition(self)
-
-    def describe(self) -> str:
-        power = self.CONDITION.describe(self.power, self.power_range)
-        return f"{power}, V = {self.speed:g} m/s, objective {self.objective}"

@@ -19,35 +19,35 @@ SPEED_CHANGE_ID = "TandemWing/SpeedChange-v0"
 
 @dataclass(frozen=True)
 class EnvEntry:
-    """One registered env: its entry points and, if any, the harness task that runs it."""
+    """One registered env: its task module and, if any, the harness task that runs it."""
 
-    entry_point: str
-    """``module:Class`` of the single env; the class's ``config_class`` declares the task."""
-    vector_entry_point: str
-    """``module:Class`` of the batched vector env."""
+    module: str
+    """The task module; it defines ``{env}Env`` and ``{env}VectorEnv`` (the single env's
+    ``config_class`` declares the task)."""
+    env: str
+    """The env's class name without ``Env``, e.g. ``"LevelFlight"``."""
     task: str | None = None
     """Name of the harness task (``agents.tasks``, ``--task`` on the command line) that
-    optimises one stroke on this env, built from its config's ``CONDITION`` and
-    ``OBJECTIVES``; None for an env the harness does not run (multi-cycle episodes)."""
+    optimises one stroke on this env, read from its config's ``DECLARATION``; None for an env
+    the harness does not run (multi-cycle episodes)."""
+
+    @property
+    def entry_point(self) -> str:
+        """``module:Class`` of the single env."""
+        return f"{self.module}:{self.env}Env"
+
+    @property
+    def vector_entry_point(self) -> str:
+        """``module:Class`` of the batched vector env."""
+        return f"{self.module}:{self.env}VectorEnv"
 
 
-#: Every env id this package registers. Adding a task is one line here, with the env package's
-#: config (declaring ``CONDITION`` and ``OBJECTIVES``), task core, env and vector env.
+#: Every env id this package registers. Adding a task is its module (declaration, config, core,
+#: vector env, single env) and one line here.
 ENTRIES: dict[str, EnvEntry] = {
-    LEVEL_FLIGHT_ID: EnvEntry(
-        "tandem_env.envs.flight:LevelFlightEnv",
-        "tandem_env.envs.vector:LevelFlightVectorEnv",
-        task="level",
-    ),
-    ACCELERATE_ID: EnvEntry(
-        "tandem_env.envs.flight:AccelerateEnv",
-        "tandem_env.envs.vector:AccelerateVectorEnv",
-        task="accelerate",
-    ),
-    SPEED_CHANGE_ID: EnvEntry(
-        "tandem_env.envs.speed_change:SpeedChangeEnv",
-        "tandem_env.envs.speed_change_vector:SpeedChangeVectorEnv",
-    ),
+    LEVEL_FLIGHT_ID: EnvEntry("tandem_env.envs.level_flight", "LevelFlight", task="level"),
+    ACCELERATE_ID: EnvEntry("tandem_env.envs.accelerate", "Accelerate", task="accelerate"),
+    SPEED_CHANGE_ID: EnvEntry("tandem_env.envs.speed_change", "SpeedChange"),
 }
 ENV_IDS: tuple[str, ...] = tuple(ENTRIES)
 #: Harness task name -> the env id it runs, for the ids with a task.
@@ -98,13 +98,26 @@ def config_class(env_id: str) -> type[Any]:
     raise ValueError(
         f"{env_id}: neither its entry point {spec.entry_point!r} nor its vector entry point "
         f"{spec.vector_entry_point!r} has a config_class; allowed: an env class whose "
-        "config_class declares CONDITION and OBJECTIVES (tandem_env.envs.condition)"
+        "config_class has a DECLARATION (tandem_env.envs.declaration)"
     )
+
+
+def core_class(env_id: str) -> type[Any]:
+    """The batched core class of a registered env id (its vector env's ``core_class``)."""
+    from gymnasium.envs.registration import load_env_creator, registry
+
+    spec = registry[env_id]
+    entry = spec.vector_entry_point
+    creator = load_env_creator(entry) if isinstance(entry, str) else entry
+    found = getattr(creator, "core_class", None)
+    if not isinstance(found, type):
+        raise ValueError(f"{env_id}: its vector entry point {entry!r} has no core_class")
+    return found
 
 
 def condition_keywords() -> tuple[str, ...]:
     """Every keyword that sets a declared condition (fixed value or range) of this package's
-    envs, e.g. ``("speed", "speed_range", "power", "power_range")``."""
+    envs, e.g. ``("speed", "speed_range", "available_power", "available_power_range")``."""
     keywords: list[str] = []
     for env_id in ENTRIES:
         declared = getattr(config_class(env_id), "CONDITION", None)

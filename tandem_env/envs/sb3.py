@@ -29,12 +29,11 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
 
 from .registration import check_env_id
-from .task import rows
-from .vector import FlightVectorEnv
+from .base import FlightVectorEnv, rows
 
 
 class TandemVecEnv(VecEnv):
-    """SB3 ``VecEnv`` over a native :class:`~tandem_env.envs.vector.FlightVectorEnv`.
+    """SB3 ``VecEnv`` over a native :class:`~tandem_env.envs.base.FlightVectorEnv`.
 
     Every SB3 step evaluates all n strokes in one model call and resets the sub-envs whose
     episode ended, as ``DummyVecEnv`` does: all of them for the one-cycle envs (``dones`` all
@@ -86,10 +85,8 @@ class TandemVecEnv(VecEnv):
             raise RuntimeError("step_async(actions) must come before step_wait()")
         n = self.num_envs
         actions, self._actions = self._actions, None
-        if actions.shape[:1] != (n,):
-            raise ValueError(f"actions must have shape ({n}, 28); got shape {actions.shape}")
-        everyone = np.arange(n)
-        batch, final = self.vector_env.step_envs(everyone, actions)
+        # The vector env validates the actions where it receives them.
+        batch, final = self.vector_env.step_envs(np.arange(n), actions)
         terminated, truncated = batch.terminated, batch.truncated
         dones = terminated | truncated
         infos = rows(batch.info_columns(), n)

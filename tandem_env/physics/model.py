@@ -130,20 +130,6 @@ class Result:
     magnitude (≥ 0) whatever ``thrust_split``; a reading, not the net force on the body."""
     mean_angle_of_attack: np.ndarray
     """Cycle- and area-weighted mean acute angle of attack, averaged over both wings [deg]."""
-    lift_violation: np.ndarray
-    """max(0, |L/W − 1| − tol) [-]: level flight's L = W."""
-    thrust_violation: np.ndarray
-    """max(0, |T − D|/W − tol) [-]: level flight's T = D."""
-    power_violation: np.ndarray
-    """max(0, P/m − available power) [W/kg]."""
-    vertical_deficit: np.ndarray
-    """max(0, −F̄_v) [-]: accelerating flight needs L ≥ W."""
-    horizontal_deficit: np.ndarray
-    """max(0, −F̄_h) [-]: accelerating flight needs T ≥ D."""
-    level_feasible: np.ndarray
-    """L = W and T = D within tolerance and P/m within the available power (bool)."""
-    accelerate_feasible: np.ndarray
-    """F̄_v ≥ 0, F̄_h ≥ 0 and P/m within the available power (bool)."""
     efficiency_above_one: np.ndarray
     """η > 1 (possible with ``thrust_split="sign"``; never clipped, docs/model.md §7) (bool)."""
     induction_converged: np.ndarray
@@ -415,12 +401,6 @@ def _performance(
     excess_vertical = lift_to_weight - 1.0
     excess_horizontal = (thrust - drag) / weight
     aoa = np.rad2deg(out[:, :, cycle.W_AOA])
-    tol = options.constraint_tolerance
-    lift_violation = np.maximum(0.0, np.abs(lift_to_weight - 1.0) - tol)
-    thrust_violation = np.maximum(0.0, np.abs(excess_horizontal) - tol)
-    power_violation = np.maximum(0.0, power_per_mass - available_power)
-    vertical_deficit = np.maximum(0.0, -excess_vertical)
-    horizontal_deficit = np.maximum(0.0, -excess_horizontal)
     return Result(
         lift_to_weight=lift_to_weight,
         thrust=thrust,
@@ -433,17 +413,6 @@ def _performance(
         excess_total=np.hypot(excess_vertical, excess_horizontal),
         excess_horizontal_literal=wing_drag / weight,
         mean_angle_of_attack=aoa.mean(axis=1),
-        lift_violation=lift_violation,
-        thrust_violation=thrust_violation,
-        power_violation=power_violation,
-        vertical_deficit=vertical_deficit,
-        horizontal_deficit=horizontal_deficit,
-        level_feasible=(lift_violation == 0.0)
-        & (thrust_violation == 0.0)
-        & (power_violation == 0.0),
-        accelerate_feasible=(vertical_deficit == 0.0)
-        & (horizontal_deficit == 0.0)
-        & (power_violation == 0.0),
         efficiency_above_one=efficiency > 1.0,
         induction_converged=np.all(out[:, :, cycle.W_CONVERGED] > 0.5, axis=1),
         induction_evaluations=out[:, :, cycle.W_EVALS].max(axis=1).astype(np.int64),

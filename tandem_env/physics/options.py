@@ -78,8 +78,6 @@ class ModelOptions:
     """Relative tolerance of the per-annulus inflow solve [-]."""
     max_evaluations: int = 30
     """Cap on force sweeps per annulus in the inflow solve [-]; hitting it is reported."""
-    constraint_tolerance: float = 0.02
-    """Tolerance of the level-flight equalities L = W and T = D, as a fraction of W [-]."""
 
     def __post_init__(self) -> None:
         if not _is_int(self.n_time) or not 8 <= self.n_time <= 8192:
@@ -102,10 +100,6 @@ class ModelOptions:
         if not _is_int(self.max_evaluations) or not 2 <= self.max_evaluations <= 1000:
             raise ValueError(
                 f"ModelOptions.max_evaluations = {self.max_evaluations!r}; allowed: an integer 2 to 1000"
-            )
-        if not (_is_real(self.constraint_tolerance) and 0.0 <= self.constraint_tolerance < 1.0):
-            raise ValueError(
-                f"ModelOptions.constraint_tolerance = {self.constraint_tolerance!r}; allowed: 0 <= tol < 1"
             )
 
     def to_dict(self) -> dict[str, Any]:

@@ -350,7 +350,7 @@ def test_box_is_respected_with_a_wide_step_size() -> None:
 
 
 def test_harness_one_model_call_per_population(monkeypatch: pytest.MonkeyPatch) -> None:
-    task_module = importlib.import_module("tandem_env.envs.task")
+    task_module = importlib.import_module("tandem_env.envs.base")
     calls: list[int] = []
     real = task_module.evaluate
 

@@ -255,7 +255,7 @@ def test_prepare_rejects_bad_input(kwargs: dict, message: str) -> None:
 
 def test_accelerate_objective_goes_to_the_env() -> None:
     (plan,) = harness.prepare("random", "accelerate", 70.0, 10, [0], objective="horizontal")
-    assert plan.env_kwargs == {"objective": "horizontal", "power": 70.0}
+    assert plan.env_kwargs == {"objective": "horizontal", "available_power": 70.0}
     assert plan.objective_name == "excess_horizontal"
     assert plan.condition.to_dict() == {"name": "available_power", "value": 70.0, "unit": "W/kg"}
     with pytest.raises(ValueError, match="allowed: 'vertical', 'horizontal', 'resultant'"):
@@ -345,7 +345,7 @@ def test_level_deterministic_per_seed(level_records) -> None:
 
 
 def test_one_batched_model_call_per_iteration(monkeypatch: pytest.MonkeyPatch) -> None:
-    task_module = importlib.import_module("tandem_env.envs.task")
+    task_module = importlib.import_module("tandem_env.envs.base")
     calls: list[int] = []
     real = task_module.evaluate
 

@@ -9,6 +9,17 @@ import numpy as np
 import pytest
 
 import tandem_env as te
+from tandem_env.envs import ACCELERATE, LEVEL_FLIGHT, AccelerateConfig, LevelFlightConfig
+
+
+def level_scores(result: te.Result, tolerance: float = 0.02):
+    """Level flight's constraints (its declaration) on a model result."""
+    return LEVEL_FLIGHT.score(result, LevelFlightConfig(constraint_tolerance=tolerance))
+
+
+def accelerate_scores(result: te.Result):
+    """Accelerating flight's constraints (its declaration) on a model result."""
+    return ACCELERATE.score(result, AccelerateConfig())
 
 # A level-flight-feasible stroke at V = 1.5 m/s (tear-drop wings, default ModelOptions,
 # thrust_split="sign"), found offline by a 64-particle × 400-iteration PSO (Clerc-Kennedy
@@ -37,13 +48,10 @@ ACCELERATE_POWER = 60.0
 def search_level_feasible(speed: float, seed: int = 1, iterations: int = 300) -> np.ndarray:
     """Seeded PSO for a level-feasible normalised stroke (how LEVEL_FEASIBLE_ACTION was found)."""
     rng = np.random.default_rng(seed)
-    tight = te.ModelOptions(constraint_tolerance=0.004)
 
     def fitness(x: np.ndarray) -> np.ndarray:
-        r = te.evaluate(te.normalised_to_physical(x), speed, options=tight)
-        return r.efficiency - 10.0 * (
-            r.lift_violation + r.thrust_violation + r.power_violation / r.available_power
-        )
+        r = te.evaluate(te.normalised_to_physical(x), speed)
+        return r.efficiency - 10.0 * level_scores(r, tolerance=0.004).total
 
     x = rng.uniform(-1.0, 1.0, (64, 28))
     v = np.zeros_like(x)
@@ -68,7 +76,8 @@ def level_feasible_action() -> np.ndarray:
     """
     for candidate in (LEVEL_FEASIBLE_ACTION, None):
         action = search_level_feasible(LEVEL_SPEED) if candidate is None else candidate
-        if te.evaluate(te.normalised_to_physical(action), LEVEL_SPEED).level_feasible[0]:
+        result = te.evaluate(te.normalised_to_physical(action), LEVEL_SPEED)
+        if level_scores(result).feasible[0]:
             return action.copy()
     pytest.fail("no level-feasible stroke at 1.5 m/s found; check the physics")
 
@@ -78,7 +87,7 @@ def accelerate_feasible_action() -> np.ndarray:
     result = te.evaluate(
         te.normalised_to_physical(ACCELERATE_FEASIBLE_ACTION), 0.0, ACCELERATE_POWER
     )
-    assert result.accelerate_feasible[0], "ACCELERATE_FEASIBLE_ACTION is no longer feasible"
+    assert accelerate_scores(result).feasible[0], "ACCELERATE_FEASIBLE_ACTION is no longer feasible"
     return ACCELERATE_FEASIBLE_ACTION.copy()
 
 

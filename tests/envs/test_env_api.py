@@ -29,7 +29,7 @@ def test_ids_resolve_with_module_prefix() -> None:
     env = gym.make(f"tandem_env:{LEVEL}")
     assert isinstance(env.unwrapped, LevelFlightEnv)
     assert isinstance(gym.make(ACCELERATE).unwrapped, AccelerateEnv)
-    assert gym.spec(LEVEL).vector_entry_point == "tandem_env.envs.vector:LevelFlightVectorEnv"
+    assert gym.spec(LEVEL).vector_entry_point == "tandem_env.envs.level_flight:LevelFlightVectorEnv"
 
 
 def test_registration_is_idempotent() -> None:
@@ -67,7 +67,7 @@ def test_speed_range_is_sampled_from_the_seeded_generator() -> None:
     for _ in range(50):
         obs, info = env.reset()
         assert 0.5 <= info["speed"] <= 1.75
-        np.testing.assert_array_equal(obs, env.unwrapped.task.observe(np.array([info["speed"]]))[0])
+        np.testing.assert_array_equal(obs, env.unwrapped.core.observe(np.array([info["speed"]]))[0])
         speeds.append(info["speed"])
     assert len(set(speeds)) == len(speeds)
     # The same seed gives the same sequence; the draw is one uniform per reset.
@@ -76,7 +76,7 @@ def test_speed_range_is_sampled_from_the_seeded_generator() -> None:
 
 
 def test_accelerate_condition_is_the_available_power() -> None:
-    env = gym.make(ACCELERATE, power_range=(50.0, 90.0), speed=0.5)
+    env = gym.make(ACCELERATE, available_power_range=(50.0, 90.0), speed=0.5)
     obs, info = env.reset(seed=0)
     assert 50.0 <= info["available_power"] <= 90.0 and info["speed"] == 0.5
     assert obs[0] == np.float32(2.0 * (info["available_power"] - 50.0) / 40.0 - 1.0)
@@ -88,29 +88,33 @@ def test_reset_options_set_the_condition_for_one_episode() -> None:
     env = gym.make(LEVEL, speed_range=(0.25, 2.0))
     _, info = env.reset(seed=0, options={"speed": 0.75})
     assert info["speed"] == 0.75
-    _, info = gym.make(ACCELERATE).reset(options={"power": 55})
+    _, info = gym.make(ACCELERATE).reset(options={"available_power": 55})
     assert info["available_power"] == 55.0
     with pytest.raises(ValueError, match="allowed: 'speed'"):
-        env.reset(options={"power": 60.0})
+        env.reset(options={"available_power": 60.0})
+    with pytest.raises(ValueError, match="reset option 'power' was renamed; use 'available_power'"):
+        gym.make(ACCELERATE).reset(options={"power": 60.0})
     with pytest.raises(ValueError, match=r"envelope 0\.25 to 2"):
         env.reset(options={"speed": 3.0})
 
 
 def test_info_has_the_stroke_every_metric_and_each_violation() -> None:
+    # Each env reports its own task's constraints (its declaration's), not the other task's.
+    accelerate = _step_once(ACCELERATE)
+    for name in ("vertical_deficit", "horizontal_deficit", "power_violation"):
+        assert isinstance(accelerate[name], float)
+    assert "lift_violation" not in accelerate
     env = gym.make(LEVEL)
     env.reset(seed=0)
     action = env.action_space.sample()
     _, reward, _, _, info = env.step(action)
     for name in te.METRIC_NAMES:
         assert isinstance(info[name], float)
+    assert "vertical_deficit" not in info
     for name in (
         "lift_violation",
         "thrust_violation",
         "power_violation",
-        "vertical_deficit",
-        "horizontal_deficit",
-        "level_feasible",
-        "accelerate_feasible",
         "feasible",
         "objective",
         "constraint_violation",
@@ -156,7 +160,7 @@ def test_info_has_the_stroke_every_metric_and_each_violation() -> None:
         ),
         (
             ACCELERATE,
-            {"power": 70.0, "speed": 1.0, "spin": "total"},
+            {"available_power": 70.0, "speed": 1.0, "spin": "total"},
             1.0,
             70.0,
             te.Dragonfly(),
@@ -188,7 +192,8 @@ def test_model_options_and_insect_objects_pass_through() -> None:
     env = gym.make(LEVEL, insect=insect, options=options, constraint_tolerance=0.05)
     cfg = env.unwrapped.config
     assert cfg.insect is insect
-    assert cfg.options == te.ModelOptions(n_time=64, constraint_tolerance=0.05)
+    assert cfg.options == te.ModelOptions(n_time=64)
+    assert cfg.constraint_tolerance == 0.05  # the task's, not the model's
     penalty = gym.make(LEVEL, penalty_weight=3.0, penalty_offset=1.0).unwrapped.config.penalty
     assert penalty == PenaltyConfig(weight=3.0, offset=1.0)
     assert gym.make(LEVEL, penalty={"weight": 2.0}).unwrapped.config.penalty.weight == 2.0
@@ -197,14 +202,14 @@ def test_model_options_and_insect_objects_pass_through() -> None:
 def test_a_config_object_can_be_given_instead_of_kwargs() -> None:
     env = LevelFlightEnv(config=LevelFlightConfig(speed=1.0))
     assert env.config.speed == 1.0
-    assert AccelerateEnv(config=AccelerateConfig(objective="horizontal")).config.power == 90.0
+    assert AccelerateEnv(config=AccelerateConfig(objective="horizontal")).config.available_power == 90.0
     for f in fields(LevelFlightConfig):
         assert f.name in LevelFlightConfig.allowed_kwargs()
 
 
 @pytest.mark.parametrize("env_id", [LEVEL, ACCELERATE])
 def test_same_seed_same_everything(env_id: str, same) -> None:
-    kwargs = {"speed_range": (0.25, 2.0)} if env_id == LEVEL else {"power_range": (50.0, 90.0)}
+    kwargs = {"speed_range": (0.25, 2.0)} if env_id == LEVEL else {"available_power_range": (50.0, 90.0)}
     envs = [gym.make(env_id, **kwargs) for _ in range(2)]
     outputs = []
     for env in envs:
@@ -235,3 +240,9 @@ def test_pickle_round_trip_then_step(dumps, loads, wrapped: bool, same) -> None:
     action = np.linspace(-1.0, 1.0, 28, dtype=np.float32)
     same(copy.step(action), env.step(action))
     same(copy.reset(), env.reset())  # the generator state travelled too
+
+
+def _step_once(env_id: str) -> dict:
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    return env.step(np.zeros(28))[4]

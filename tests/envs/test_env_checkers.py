@@ -16,8 +16,8 @@ CASES: list[tuple[str, dict[str, Any]]] = [
     ("TandemWing/LevelFlight-v0", {}),
     ("TandemWing/LevelFlight-v0", {"speed_range": (0.25, 2.0), "thrust_split": "body"}),
     ("TandemWing/Accelerate-v0", {"objective": "vertical"}),
-    ("TandemWing/Accelerate-v0", {"objective": "horizontal", "power": 60.0}),
-    ("TandemWing/Accelerate-v0", {"objective": "resultant", "power_range": (50.0, 90.0)}),
+    ("TandemWing/Accelerate-v0", {"objective": "horizontal", "available_power": 60.0}),
+    ("TandemWing/Accelerate-v0", {"objective": "resultant", "available_power_range": (50.0, 90.0)}),
     ("TandemWing/SpeedChange-v0", {}),
     ("TandemWing/SpeedChange-v0", {"target_speed": 1.5, "start_speed_range": (0.5, 1.0)}),
 ]

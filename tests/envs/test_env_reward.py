@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import tandem_env as te
-from tandem_env.envs.config import LevelFlightConfig, PenaltyConfig
-from tandem_env.envs.task import make_task
+from tandem_env.envs import LevelFlightConfig, PenaltyConfig
+from tandem_env.envs.level_flight import LevelFlightCore
 
 LEVEL = "TandemWing/LevelFlight-v0"
 ACCELERATE = "TandemWing/Accelerate-v0"
@@ -21,7 +21,8 @@ def test_feasible_level_stroke_is_rewarded_with_exactly_its_efficiency(
     env.reset(seed=0)
     _, reward, _, _, info = env.step(level_feasible_action)
     direct = te.evaluate(te.normalised_to_physical(level_feasible_action), 1.5)
-    assert direct.level_feasible[0] and info["feasible"] and info["level_feasible"]
+    assert info["feasible"] and info["constraint_violation"] == 0.0
+    assert abs(direct.lift_to_weight[0] - 1.0) <= 0.02 and abs(direct.excess_horizontal[0]) <= 0.02
     assert reward == info["efficiency"] == direct.efficiency[0] == info["objective"]
     assert info["penalty"] == 0.0 and info["constraint_violation"] == 0.0
     assert 0.0 < reward < 1.0
@@ -36,17 +37,23 @@ def test_feasibility_does_not_depend_on_the_penalty_settings(level_feasible_acti
 
 def test_infeasible_level_strokes_are_penalised_by_their_normalised_violation() -> None:
     weight, offset = 7.0, 0.5
-    task = make_task(
+    core = LevelFlightCore(
         LevelFlightConfig(speed=1.0, penalty=PenaltyConfig(weight=weight, offset=offset))
     )
     actions = np.random.default_rng(0).uniform(-1.0, 1.0, (256, 28))
-    batch = task.step(actions, np.full(256, 1.0))
+    batch = core.step(te.normalised_to_physical(actions), np.full(256, 1.0))
     r = batch.result
-    assert not r.level_feasible.any()  # random strokes never fly level
-    violation = r.lift_violation + r.thrust_violation + r.power_violation / 90.0
-    np.testing.assert_array_equal(batch.violation, violation)
-    np.testing.assert_array_equal(batch.penalty, weight * violation + offset)
-    np.testing.assert_array_equal(batch.reward, r.efficiency - (weight * violation + offset))
+    assert not batch.feasible.any()  # random strokes never fly level
+    # The declared constraints, written out from the model's forces and power.
+    violation = (
+        np.maximum(0.0, np.abs(r.lift_to_weight - 1.0) - 0.02)
+        + np.maximum(0.0, np.abs(r.excess_horizontal) - 0.02)
+        + np.maximum(0.0, r.power_per_mass - 90.0) / 90.0
+    )
+    np.testing.assert_allclose(batch.scores.total, violation, rtol=1e-12, atol=0.0)
+    np.testing.assert_allclose(batch.penalty, weight * violation + offset, rtol=1e-12)
+    np.testing.assert_array_equal(batch.penalty, weight * batch.scores.total + offset)
+    np.testing.assert_array_equal(batch.reward, r.efficiency - batch.penalty)
     assert np.all(batch.reward < batch.objective)
     # The penalty ranks infeasible strokes by how infeasible they are.
     order = np.argsort(violation)
@@ -75,11 +82,12 @@ def test_constraint_tolerance_moves_the_feasibility_band(level_feasible_action) 
 def test_feasible_accelerate_stroke_is_rewarded_with_exactly_its_excess_force(
     objective: str, metric: str, accelerate_feasible_action
 ) -> None:
-    env = gym.make(ACCELERATE, objective=objective, power=60.0)
+    env = gym.make(ACCELERATE, objective=objective, available_power=60.0)
     env.reset()
     _, reward, _, _, info = env.step(accelerate_feasible_action)
     direct = te.evaluate(te.normalised_to_physical(accelerate_feasible_action), 0.0, 60.0)
-    assert info["feasible"] and info["accelerate_feasible"]
+    assert info["feasible"] and info["constraint_violation"] == 0.0
+    assert direct.excess_vertical[0] >= 0.0 and direct.excess_horizontal[0] >= 0.0
     assert reward == info[metric] == getattr(direct, metric)[0] == info["objective"]
     assert reward > 0.0
 
@@ -87,7 +95,7 @@ def test_feasible_accelerate_stroke_is_rewarded_with_exactly_its_excess_force(
 def test_accelerate_power_above_the_available_power_is_penalised(
     accelerate_feasible_action,
 ) -> None:
-    env = gym.make(ACCELERATE, objective="vertical", power=50.0)
+    env = gym.make(ACCELERATE, objective="vertical", available_power=50.0)
     env.reset()
     _, reward, _, _, info = env.step(accelerate_feasible_action)
     assert not info["feasible"]
@@ -98,7 +106,7 @@ def test_accelerate_power_above_the_available_power_is_penalised(
 
 
 def test_accelerate_deficits_are_penalised() -> None:
-    env = gym.make(ACCELERATE, objective="resultant", power=90.0)
+    env = gym.make(ACCELERATE, objective="resultant", available_power=90.0)
     env.reset(seed=0)
     _, reward, _, _, info = env.step(np.zeros(28, dtype=np.float32))
     assert info["horizontal_deficit"] > 0.0 or info["vertical_deficit"] > 0.0

@@ -25,7 +25,7 @@ def dummy(env_id: str, n: int, **kwargs: Any) -> DummyVecEnv:
     ("env_id", "kwargs"),
     [
         (LEVEL, {"speed_range": (0.25, 2.0)}),
-        (ACCELERATE, {"objective": "horizontal", "power_range": (50.0, 90.0), "planform": "real"}),
+        (ACCELERATE, {"objective": "horizontal", "available_power_range": (50.0, 90.0), "planform": "real"}),
     ],
 )
 def test_adapter_matches_dummy_vec_env(env_id: str, kwargs: dict, same) -> None:
@@ -48,7 +48,7 @@ def test_adapter_matches_dummy_vec_env(env_id: str, kwargs: dict, same) -> None:
         assert "terminal_observation" in out_ours[3][0]
         same(ours.reset_infos, theirs.reset_infos)
     # Seeds and per-env options are used at the next reset only, as in DummyVecEnv.
-    key = "speed" if env_id == LEVEL else "power"
+    key = "speed" if env_id == LEVEL else "available_power"
     value = 1.0 if env_id == LEVEL else 60.0
     for venv in (ours, theirs):
         venv.seed(3)

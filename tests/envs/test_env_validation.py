@@ -63,8 +63,8 @@ def test_env_limits_are_the_models() -> None:
     for power in te.AVAILABLE_POWER_LIMITS:
         env = gym.make(
             ACCELERATE,
-            power_envelope=te.AVAILABLE_POWER_LIMITS,
-            power=power,
+            available_power_envelope=te.AVAILABLE_POWER_LIMITS,
+            available_power=power,
             speed=te.SPEED_LIMITS[1],
         )
         env.reset(seed=0)
@@ -72,7 +72,7 @@ def test_env_limits_are_the_models() -> None:
     with pytest.raises(ValueError, match="high <= 20"):
         LevelFlightConfig(speed_envelope=(0.25, 20.5))
     with pytest.raises(ValueError, match="1 <= low < high <= 1000"):
-        AccelerateConfig(power_envelope=(0.5, 90.0))
+        AccelerateConfig(available_power_envelope=(0.5, 90.0))
     with pytest.raises(ValueError, match="allowed: a finite number from 0 to 20 m/s"):
         AccelerateConfig(speed=20.5)
 
@@ -113,8 +113,8 @@ def test_env_limits_are_the_models() -> None:
             {"objective": "sideways"},
             "objective = 'sideways'; allowed: 'vertical', 'horizontal', 'resultant'",
         ),
-        (ACCELERATE, {"power": 95.0}, "power_envelope"),
-        (ACCELERATE, {"power": 0.0}, r"allowed: a finite number inside .*\(50, 90\) W/kg"),
+        (ACCELERATE, {"available_power": 95.0}, "available_power_envelope"),
+        (ACCELERATE, {"available_power": 0.0}, r"allowed: a finite number inside .*\(50, 90\) W/kg"),
         (ACCELERATE, {"speed": -0.5}, "speed = -0.5 m/s"),
         (ACCELERATE, {"speed_range": (0.5, 1.0)}, "unknown argument.*'speed_range'"),
     ],
@@ -152,7 +152,7 @@ def test_configs_are_frozen_and_normalised() -> None:
     cfg = LevelFlightConfig(speed_range=[0.5, 1])
     assert cfg.speed_range == (0.5, 1.0) and cfg.speed is None
     assert LevelFlightConfig().speed == 1.5
-    assert AccelerateConfig().power == 90.0 and AccelerateConfig().speed == 0.0
+    assert AccelerateConfig().available_power == 90.0 and AccelerateConfig().speed == 0.0
     with pytest.raises(AttributeError):
         cfg.speed = 1.0  # type: ignore[misc]
     assert hash(cfg) == hash(LevelFlightConfig(speed_range=(0.5, 1.0)))

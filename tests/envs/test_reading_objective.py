@@ -13,10 +13,10 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import tandem_env as te
 from agents import harness
 from agents.tasks import ACCELERATE as ACCELERATE_TASK
-from tandem_env.envs.config import OBJECTIVES
+from tandem_env.envs import AccelerateConfig
 
 ACCELERATE = "TandemWing/Accelerate-v0"
-KWARGS = {"objective": "horizontal_literal", "power": 60.0}
+KWARGS = {"objective": "horizontal_literal", "available_power": 60.0}
 
 
 def test_env_checkers_pass() -> None:
@@ -37,11 +37,11 @@ def test_feasible_stroke_is_rewarded_with_exactly_its_literal_excess_force(
     obs, _ = env.reset(seed=0)
     _, reward, _, _, info = env.step(accelerate_feasible_action)
     direct = te.evaluate(te.normalised_to_physical(accelerate_feasible_action), 0.0, 60.0)
-    assert info["feasible"] and info["accelerate_feasible"]
+    assert info["feasible"] and info["constraint_violation"] == 0.0
     assert reward == info["excess_horizontal_literal"] == info["objective"]
     assert reward == direct.excess_horizontal_literal[0] > 0.0
     # the observation and the info keys are those of any other objective
-    other = gym.make(ACCELERATE, objective="horizontal", power=60.0)
+    other = gym.make(ACCELERATE, objective="horizontal", available_power=60.0)
     other_obs, _ = other.reset(seed=0)
     _, _, _, _, other_info = other.step(accelerate_feasible_action)
     np.testing.assert_array_equal(obs, other_obs)
@@ -50,12 +50,12 @@ def test_feasible_stroke_is_rewarded_with_exactly_its_literal_excess_force(
 
 
 def test_every_objective_is_a_harness_objective() -> None:
-    assert set(ACCELERATE_TASK.objectives) == set(OBJECTIVES)
+    assert set(ACCELERATE_TASK.objectives) == set(AccelerateConfig.DECLARATION.objectives.choices)
     (plan,) = harness.prepare("random", "accelerate", 70.0, 10, [0], objective="horizontal_literal")
     assert plan.objective_name == "excess_horizontal_literal"
-    assert plan.env_kwargs == {"objective": "horizontal_literal", "power": 70.0}
+    assert plan.env_kwargs == {"objective": "horizontal_literal", "available_power": 70.0}
 
 
 def test_bad_objective_names_value_and_allowed() -> None:
     with pytest.raises(ValueError, match=r"objective = 'literal'; allowed: .*'horizontal_literal'"):
-        te.envs.config.AccelerateConfig(objective="literal")
+        te.envs.AccelerateConfig(objective="literal")

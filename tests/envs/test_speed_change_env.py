@@ -13,9 +13,9 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 import tandem_env as te
 from tandem_env.envs import SPEED_CHANGE_ID, SpeedChangeConfig, SpeedChangeEnv, TandemVecEnv
-from tandem_env.envs import speed_change_task as task_module
+from tandem_env.envs import base as task_module
 from tandem_env.envs.sb3 import make_sb3_vec_env
-from tandem_env.envs.speed_change_vector import SpeedChangeVectorEnv
+from tandem_env.envs.speed_change import SpeedChangeVectorEnv
 
 # Short episodes, so truncation and autoreset happen within a few steps; random strokes also
 # leave the bands at different cycles, so sub-envs end at different steps.

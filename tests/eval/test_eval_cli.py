@@ -79,8 +79,9 @@ def test_optimize_passes_env_kwargs_and_method_config(tmp_path: Path) -> None:
     (record,) = load_records([tmp_path])
     assert record.task == "accelerate" and record.objective_name == "excess_horizontal"
     assert record.condition.to_dict() == {"name": "available_power", "value": 70.0, "unit": "W/kg"}
-    assert {**dict(record.job.env_kwargs), "power": record.job.condition} == {
-        "thrust_split": "body", "penalty_weight": 20, "objective": "horizontal", "power": 70.0
+    assert {**dict(record.job.env_kwargs), "available_power": record.job.condition} == {
+        "thrust_split": "body", "penalty_weight": 20, "objective": "horizontal",
+        "available_power": 70.0,
     }  # fmt: skip
     assert record.config["env"]["options"]["thrust_split"] == "body"
     assert record.config["env"]["penalty"]["weight"] == 20.0

@@ -48,14 +48,14 @@ def test_unknown_single_reading_is_named() -> None:
 
 
 def test_every_single_reading_changes_one_decision_and_builds_envs() -> None:
-    from tandem_env.envs.config import AccelerateConfig
+    from tandem_env.envs import AccelerateConfig
 
     names = [r.name for r in readings.SINGLES]
     assert names[0] == "default" and len(set(names)) == len(names)
     assert DEFAULT.changes() == {} and DEFAULT.env_kwargs() == {}
     for reading in readings.SINGLES[1:]:
         assert len(reading.changes()) == 1, reading.name
-        config = AccelerateConfig.from_kwargs(power=60.0, **reading.env_kwargs())
+        config = AccelerateConfig.from_kwargs(available_power=60.0, **reading.env_kwargs())
         for name, value in reading.options:
             assert getattr(config.options, name) == value
         if reading.rotational_coefficient is not None:

@@ -1,14 +1,14 @@
-"""A task's flight condition and objectives, declared once on its env config.
+"""A task's declaration, in one place: its condition, objectives, constraints and sweep.
 
-Each one-stroke env config (``LevelFlightConfig``, ``AccelerateConfig``) carries two class
-attributes: ``CONDITION``, a :class:`TaskCondition` (the keyword that fixes the condition, its
-unit, the model's limits, the default value and envelope, the paper's sweep), and
-``OBJECTIVES``, a :class:`TaskObjectives` (each objective choice and the ``info`` metric it
-maximises). Everything else is derived from them: the config's fields are validated by
-:func:`~tandem_env.envs.config.normalise_condition`, the harness's task (``agents.tasks.TaskSpec.from_env``), the
-``--speed`` / ``--power`` options of ``python -m eval optimize``, the training sweeps and the
-study presets' limits. Adding a task is an env config with these two declarations, its task
-core and one entry in :mod:`tandem_env.envs.registration`.
+Each task module (:mod:`~tandem_env.envs.level_flight`, :mod:`~tandem_env.envs.accelerate`,
+:mod:`~tandem_env.envs.speed_change`) declares one :class:`TaskDeclaration` and puts it on its
+env config as ``DECLARATION``: the :class:`TaskCondition` (ONE name for the constructor keyword,
+the reset option, the ``info`` key and the record's condition; its unit, the model's limits, the
+default value and envelope, the paper's sweep), the :class:`TaskObjectives` (each objective
+choice and the ``info`` metric it maximises) and the :class:`Constraint` list. Physics reports
+forces and power; the constraints here decide what is feasible, and the env scores a stroke
+from them (:meth:`TaskDeclaration.score`). The harness (``agents.tasks``), ``python -m eval
+optimize``, the training tools and the study presets read the declaration; nothing copies it.
 
 Nothing here imports Gymnasium.
 """
@@ -16,15 +16,25 @@ Nothing here imports Gymnasium.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from itertools import pairwise
 from types import MappingProxyType
 from typing import Any, Literal, get_args, get_origin, get_type_hints
 
+import numpy as np
+
+from ..physics import Result
 from ..physics.checks import is_real
 
-__all__ = ["TaskCondition", "TaskObjectives", "check_declarations"]
+__all__ = [
+    "POWER_CAP",
+    "Constraint",
+    "TaskCondition",
+    "TaskDeclaration",
+    "TaskObjectives",
+    "check_declarations",
+]
 
 
 def _identifier(owner: str, name: str, value: Any) -> None:
@@ -66,10 +76,9 @@ class TaskCondition:
     """
 
     keyword: str
-    """Constructor keyword of a fixed condition and the reset option, e.g. ``"speed"``."""
-    info_key: str
-    """The model input it sets and the ``info`` key reporting it, ``"speed"`` or
-    ``"available_power"``; also the condition's name in records."""
+    """The condition's one name: constructor keyword, reset option, the model input and
+    ``info`` key reporting it, and its name in records, e.g. ``"speed"`` or
+    ``"available_power"``."""
     label: str
     """What it is, in words, for help texts and axis labels, e.g. ``"flight speed"``."""
     symbol: str
@@ -87,11 +96,21 @@ class TaskCondition:
     studies and the training evaluations run at."""
     metavar: str = ""
     """Placeholder of the value on the command line, e.g. ``"V"``; default ``symbol``."""
+    option: str = ""
+    """Its command-line option without the dashes (``python -m eval optimize``), e.g.
+    ``"power"`` for ``--power``; default the keyword."""
+    former_keyword: str | None = None
+    """The condition's old name, refused with a message naming the new one (``"power"`` for
+    ``"available_power"``), or None."""
 
     def __post_init__(self) -> None:
         owner = "TaskCondition"
         _identifier(owner, "keyword", self.keyword)
-        _identifier(owner, "info_key", self.info_key)
+        if self.former_keyword is not None:
+            _identifier(owner, "former_keyword", self.former_keyword)
+        if self.option == "":
+            object.__setattr__(self, "option", self.keyword)
+        _identifier(owner, "option", self.option)
         for name in ("label", "symbol", "unit"):
             _text(owner, name, getattr(self, name))
         if self.metavar == "":
@@ -138,14 +157,17 @@ class TaskCondition:
         return f"{self.keyword}_envelope"
 
     @property
-    def reset_option(self) -> str:
-        """The ``reset(options=...)`` key that sets one episode's condition: the keyword."""
-        return self.keyword
-
-    @property
     def keywords(self) -> tuple[str, str, str]:
         """The three config fields the condition needs: fixed value, range, envelope."""
         return self.keyword, self.range_keyword, self.envelope_keyword
+
+    def renamed(self) -> dict[str, str]:
+        """Old keyword -> new keyword, for the three fields (empty without a former name)."""
+        old = self.former_keyword
+        if old is None:
+            return {}
+        return {old: self.keyword, f"{old}_range": self.range_keyword,
+                f"{old}_envelope": self.envelope_keyword}
 
     def describe(self, fixed: float | None, sampled: tuple[float, float] | None) -> str:
         """``"V = 1.5 m/s"`` or ``"V ~ U(0.25, 2) m/s"``, for titles and reprs."""
@@ -213,26 +235,117 @@ class TaskObjectives:
         return self.metrics[self.choice(config)]
 
 
+@dataclass(frozen=True)
+class Constraint:
+    """One constraint of a task: its violation from the model's result, >= 0 and exactly 0
+    where the constraint holds."""
+
+    name: str
+    """The ``info`` key reporting the violation, e.g. ``"lift_violation"``."""
+    text: str
+    """The constraint in symbols, for docs and messages, e.g. ``"|L/W − 1| ≤ tol"``."""
+    unit: str
+    """Unit of the violation, e.g. ``"-"`` (a fraction of W) or ``"W/kg"``."""
+    violation: Callable[[Result, Any], np.ndarray]
+    """``violation(result, config)``: (B,) violation [unit], 0 where the constraint holds (a
+    module-level function, so that envs pickle)."""
+    scale: Callable[[Result, Any], np.ndarray] | None = None
+    """``scale(result, config)``: (B,) divisor making the violation a fraction (the power cap
+    for the power excess) in the reward's sum; None when it already is one."""
+
+
+def _power_excess(result: Result, _: Any) -> np.ndarray:
+    return np.maximum(0.0, result.power_per_mass - result.available_power)
+
+
+def _power_cap(result: Result, _: Any) -> np.ndarray:
+    return result.available_power
+
+
+#: The power cap every flight task has: P/m ≤ the available power (a fraction of it in the sum).
+POWER_CAP = Constraint("power_violation", "P/m ≤ P_avail", "W/kg", _power_excess, _power_cap)
+
+
+@dataclass(frozen=True)
+class Scores:
+    """A batch's constraint violations, their normalised sum and the feasibility flags."""
+
+    violations: dict[str, np.ndarray]
+    """Each constraint's violation (B,) [its unit], by its ``info`` name."""
+    total: np.ndarray
+    """(B,) sum of the normalised violations [-], 0 where feasible."""
+    feasible: np.ndarray
+    """(B,) bool: every constraint holds."""
+
+
+@dataclass(frozen=True)
+class TaskDeclaration:
+    """Everything a task is, in one place (see the module docstring)."""
+
+    name: str
+    """The task's name in messages, e.g. ``"LevelFlight"``."""
+    summary: str
+    """One line for ``--help`` and docs."""
+    constraints: tuple[Constraint, ...]
+    """What a feasible stroke satisfies; a feasible stroke is rewarded with its objective."""
+    condition: TaskCondition | None = None
+    """The one flight condition the task is optimised at and observes, or None (a task with
+    several, such as SpeedChange's start and target speeds)."""
+    objectives: TaskObjectives | None = None
+    """What the task maximises as an ``info`` metric, or None (a reward of several terms)."""
+
+    def __post_init__(self) -> None:
+        _text("TaskDeclaration", "name", self.name)
+        _text("TaskDeclaration", "summary", self.summary)
+        if (self.condition is None) != (self.objectives is None) or not (
+            self.condition is None or isinstance(self.condition, TaskCondition)
+        ) or not (self.objectives is None or isinstance(self.objectives, TaskObjectives)):
+            raise TypeError(
+                f"TaskDeclaration {self.name!r}: condition = {self.condition!r}, objectives = "
+                f"{self.objectives!r}; allowed: a TaskCondition and a TaskObjectives, or neither"
+            )
+        constraints = tuple(self.constraints) if isinstance(self.constraints, list | tuple) else ()
+        if not constraints or not all(isinstance(c, Constraint) for c in constraints):
+            raise TypeError(
+                f"TaskDeclaration {self.name!r}: constraints = {self.constraints!r}; allowed: a "
+                "non-empty tuple of Constraint"
+            )
+        object.__setattr__(self, "constraints", constraints)
+
+    def score(self, result: Result, config: Any) -> Scores:
+        """The constraints of ``config``'s task on a batch's model ``result``."""
+        violations: dict[str, np.ndarray] = {}
+        total = np.zeros(result.power.shape)
+        feasible = np.ones(result.power.shape, dtype=np.bool_)
+        for constraint in self.constraints:
+            value = constraint.violation(result, config)
+            violations[constraint.name] = value
+            total = total + (value if constraint.scale is None else value / constraint.scale(result, config))
+            feasible &= value == 0.0
+        return Scores(violations, total, feasible)
+
+
 def _annotated(cls: type) -> set[str]:
     return {name for klass in cls.__mro__ for name in getattr(klass, "__annotations__", {})}
 
 
 def check_declarations(cls: type) -> None:
-    """Check a config class's ``CONDITION`` / ``OBJECTIVES`` against its own fields.
+    """Check a config class's ``DECLARATION`` against its own fields.
 
     Called when the class is defined (``FlightConfig.__init_subclass__``), so that a
     declaration naming a field the class lacks fails at import, naming both.
     """
-    condition = getattr(cls, "CONDITION", None)
-    objectives = getattr(cls, "OBJECTIVES", None)
-    if condition is None and objectives is None:
+    declaration = getattr(cls, "DECLARATION", None)
+    if declaration is None:
         return
-    if not isinstance(condition, TaskCondition) or not isinstance(objectives, TaskObjectives):
+    if not isinstance(declaration, TaskDeclaration):
         raise TypeError(
-            f"{cls.__name__}: CONDITION = {condition!r}, OBJECTIVES = {objectives!r}; allowed: "
-            "a TaskCondition and a TaskObjectives, or neither (a task without a single "
-            "condition)"
+            f"{cls.__name__}: DECLARATION = {declaration!r}; allowed: a TaskDeclaration "
+            "(tandem_env.envs.declaration)"
         )
+    condition, objectives = declaration.condition, declaration.objectives
+    if condition is None or objectives is None:
+        return
     fields = _annotated(cls)
     needed = [*condition.keywords, *([objectives.keyword] if objectives.keyword else [])]
     missing = [name for name in needed if name not in fields]
@@ -248,7 +361,8 @@ def check_declarations(cls: type) -> None:
 
 
 def _check_literal(cls: type, objectives: TaskObjectives) -> None:
-    """A ``Literal`` objective field must offer exactly the declared choices."""
+    """An objective field typed ``Literal`` must offer exactly the declared choices (the
+    package's own configs type it ``str``: the declaration is the one list)."""
     try:
         hint = get_type_hints(cls).get(objectives.keyword)
     except NameError:  # an annotation not resolvable yet: nothing to compare

@@ -1,0 +1,194 @@
+"""``TandemWing/Accelerate-v0``: the stroke with most specific excess force, one wing-beat per episode.
+
+The task in one place: its declaration (:data:`ACCELERATE`: condition, objectives, constraints,
+sweep), its config, its batched core, the vector env and the single env (the vector env at
+B = 1, :mod:`tandem_env.envs.base`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..physics import AVAILABLE_POWER_LIMITS, DRAGONFLY, SPEED_LIMITS, Result
+from .base import FlightCore, FlightEnv, FlightVectorEnv
+from .config import FlightConfig, normalise_condition
+from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
+from .validate import check_real
+
+#: The specimen's available power per body mass [W/kg]: its muscle ratio × muscle power
+#: (``Dragonfly.max_power_per_mass``, 90 W/kg), the top of the paper's sweep.
+SPECIMEN_POWER: float = DRAGONFLY.max_power_per_mass
+
+
+def _vertical_deficit(result: Result, _: Any) -> np.ndarray:
+    return np.maximum(0.0, -result.excess_vertical)
+
+
+def _horizontal_deficit(result: Result, _: Any) -> np.ndarray:
+    return np.maximum(0.0, -result.excess_horizontal)
+
+
+ACCELERATE = TaskDeclaration(
+    name="Accelerate",
+    summary="Accelerating flight: maximise a specific excess force with F_v, F_h >= 0 and "
+    "P/m <= P_avail.",
+    condition=TaskCondition(
+        keyword="available_power",
+        option="power",  # --power on the command line
+        former_keyword="power",
+        label="available power per body mass",
+        symbol="P_avail",
+        metavar="P",
+        unit="W/kg",
+        limits=AVAILABLE_POWER_LIMITS,
+        default=SPECIMEN_POWER,
+        envelope=(50.0, SPECIMEN_POWER),  # the paper's sweep, 50 W/kg to the specimen's maximum
+        sweep=(50.0, 60.0, 70.0, 80.0, SPECIMEN_POWER),  # Figs. 7-8, 16
+    ),
+    objectives=TaskObjectives(
+        metrics={
+            "vertical": "excess_vertical",
+            "horizontal": "excess_horizontal",
+            "resultant": "excess_total",
+            "horizontal_literal": "excess_horizontal_literal",
+        },
+        default="vertical",
+        keyword="objective",
+    ),
+    constraints=(
+        Constraint("vertical_deficit", "F̄_v ≥ 0", "-", _vertical_deficit),
+        Constraint("horizontal_deficit", "F̄_h ≥ 0", "-", _horizontal_deficit),
+        POWER_CAP,
+    ),
+)
+_OBJECTIVES: TaskObjectives = ACCELERATE.objectives  # type: ignore[assignment]
+_CONDITION: TaskCondition = ACCELERATE.condition  # type: ignore[assignment]
+
+
+@dataclass(frozen=True, kw_only=True)
+class AccelerateConfig(FlightConfig):
+    """Accelerating flight: maximise a specific excess force with F_v >= 0, F_h >= 0 and P/m <= P_avail.
+
+    Give ``available_power`` for a fixed available power or ``available_power_range`` to sample
+    it uniformly at every reset (not both); with neither, the insect's maximum (90 W/kg). The
+    observation is the available power normalised from ``available_power_envelope`` to
+    [-1, 1]. The flight speed ``speed`` is fixed (default 0: take-off or escape from hover).
+    """
+
+    DECLARATION: ClassVar[TaskDeclaration] = ACCELERATE
+
+    objective: str = _OBJECTIVES.default
+    """Which specific excess force is maximised (one of ``ACCELERATE.objectives.choices``):
+    ``"vertical"`` F̄_v = (L − W)/W, ``"horizontal"`` F̄_h = (T − D)/W, ``"resultant"``
+    F̄_a = sqrt(F̄_v² + F̄_h²) or ``"horizontal_literal"`` (D_f + D_h)/W, Eq. 24 read literally
+    (the wings' rearward forces, ``excess_horizontal_literal``) [-] (docs/model.md §7.6: the
+    paper's attainable F̄_a combines the first two). The constraints are the same for all."""
+    available_power: float | None = None
+    """Fixed available power per body mass [W/kg]; default the insect's maximum (90 W/kg)
+    unless ``available_power_range`` is given."""
+    available_power_range: tuple[float, float] | None = None
+    """(low, high) [W/kg]: the available power is drawn uniformly from it at each reset."""
+    available_power_envelope: tuple[float, float] = _CONDITION.envelope
+    """(low, high) [W/kg] mapped linearly to the observation's [-1, 1]; every available power
+    used must lie inside it. Default the paper's sweep, 50 to 90 W/kg."""
+    speed: float = 0.0
+    """Flight speed V [m/s], fixed for every episode (not observed); within the model's
+    ``SPEED_LIMITS`` (0 to 20 m/s)."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        owner = type(self).__name__
+        choices = _OBJECTIVES.choices
+        if self.objective not in choices:
+            raise ValueError(
+                f"{owner}.objective = {self.objective!r}; allowed: {', '.join(map(repr, choices))}"
+            )
+        object.__setattr__(
+            self, "speed", check_real(owner, "speed", self.speed, "m/s", *SPEED_LIMITS)
+        )
+        normalise_condition(self)
+
+    def describe(self) -> str:
+        power = _CONDITION.describe(self.available_power, self.available_power_range)
+        return f"{power}, V = {self.speed:g} m/s, objective {self.objective}"
+
+
+class AccelerateCore(FlightCore):
+    """The condition is the available power; the speed is the config's."""
+
+    config: AccelerateConfig
+
+    def flight_conditions(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.full(values.shape, self.config.speed), values.copy()
+
+
+class AccelerateVectorEnv(FlightVectorEnv):
+    """n :class:`AccelerateEnv` in one batched model call (:class:`~tandem_env.envs.base.FlightVectorEnv`)."""
+
+    config_class = AccelerateConfig
+    core_class = AccelerateCore
+    config: AccelerateConfig
+
+
+class AccelerateEnv(FlightEnv):
+    """Accelerating flight of the tandem-wing dragonfly: find the stroke with most excess force.
+
+    ## Description
+
+    The same quasi-steady tandem-wing model as :class:`LevelFlightEnv` (one wing-beat cycle per
+    episode) at a fixed flight speed (default 0: take-off or escape from hover). The task is
+    the paper's accelerating-flight optimisation (docs/model.md §7): maximise a specific excess
+    force subject to F_v >= 0, F_h >= 0 and P/m <= the available power. The observation is the
+    available power, so one policy can cover the paper's 50-90 W/kg sweep.
+
+    ## Action Space
+
+    ``Box(-1, 1, (28,), float32)``, as in :class:`LevelFlightEnv`.
+
+    ## Observation Space
+
+    ``Box(-1, 1, (1,), float32)``: the available power per body mass [W/kg] mapped linearly from
+    ``available_power_envelope`` (default 50-90 W/kg) to [-1, 1].
+
+    ## Rewards
+
+    ``reward = F̄ − penalty`` where F̄ is the ``objective``: ``"vertical"`` F̄_v = (L − W)/W,
+    ``"horizontal"`` F̄_h = (T − D)/W, ``"resultant"`` F̄_a = sqrt(F̄_v² + F̄_h²) or
+    ``"horizontal_literal"`` (D_f + D_h)/W (Eq. 24 read literally, docs/model.md §7.6);
+    ``penalty = weight·violation + offset·[infeasible]`` with
+    ``violation = max(0, −F̄_v) + max(0, −F̄_h) + max(0, P/m − P_avail)/P_avail``
+    (:data:`ACCELERATE`'s constraints; weight 10, offset 0 by default). A feasible stroke is rewarded with exactly its F̄.
+    Scale: feasible rewards are F̄ in [0, ~6] (the paper reports F̄_v ≈ 2.7-4.4 for 50-90 W/kg);
+    uniform random strokes score about −100 to 0 (median about −15).
+
+    ## Starting State
+
+    The available power is ``available_power`` (default the insect's maximum, 90 W/kg) or, with
+    ``available_power_range=(low, high)``, drawn uniformly at each reset from the env's seeded
+    ``np_random``. ``reset(options={"available_power": p})`` sets it for one episode. (The old
+    names ``power``, ``power_range`` and ``power_envelope`` are refused naming the new ones.)
+
+    ## Episode End
+
+    As in :class:`LevelFlightEnv`: one cycle, ``terminated=True``, ``truncated=False``, and the
+    same ``info`` keys.
+
+    ## Arguments
+
+    ``gym.make("TandemWing/Accelerate-v0", **kwargs)``, see :class:`AccelerateConfig`:
+    ``objective`` ("vertical" | "horizontal" | "resultant" | "horizontal_literal"),
+    ``available_power``, ``available_power_range``, ``available_power_envelope``, ``speed``
+    [m/s], and every model, penalty and action option of :class:`LevelFlightEnv` (``thrust_split`` among them). Invalid values raise ``ValueError``
+    at construction.
+
+    ## Version History
+
+    * v0: initial version.
+    """
+
+    vector_class = AccelerateVectorEnv
+    config: AccelerateConfig
+    title = "Accelerate"

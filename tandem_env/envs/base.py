@@ -1,0 +1,720 @@
+"""The machinery every task module shares: the batched core, the vector env and the single env.
+
+A task module (:mod:`~tandem_env.envs.level_flight`, :mod:`~tandem_env.envs.accelerate`,
+:mod:`~tandem_env.envs.speed_change`) declares its config and its batched core and gets:
+
+* the **core** (:class:`FlightCore` for one-cycle tasks): conditions, observations, one
+  batched model call, rewards and infos for B strokes; nothing here imports Gymnasium for it;
+* the **vector env** (:class:`FlightVectorEnv`): n sub-envs stepped by ONE model call, equal to
+  :class:`gymnasium.vector.SyncVectorEnv` over n single envs in every autoreset mode;
+* the **single env** (:class:`FlightEnv`): the vector env at B = 1, so the two cannot drift
+  apart (the model itself is bit-identical per stroke at any batch size).
+
+An action is validated once, where an env receives it (``step`` of either env, or
+:meth:`FlightVectorEnv.step_envs` for the SB3 adapter). Infos are built as *columns* (name ->
+(B,) array, ``"stroke"`` a nested dict) and turned into per-env dicts or Gymnasium's masked dict
+of arrays by the helpers below, without a Python loop over metrics per env.
+
+Autoreset of the vector env (default ``NEXT_STEP``, Gymnasium's default): after a step that
+ends an episode, the *next* ``step`` resets those sub-envs instead of stepping them (their
+actions are ignored; reward 0, ``terminated=False``, the reset info). ``SameStep`` resets at
+once (the final observation and info in ``info["final_obs"]`` / ``info["final_info"]``);
+``Disabled`` leaves it to ``reset(options={"reset_mask": mask})``. Stepping an ended episode
+raises :class:`gymnasium.error.ResetNeeded` in every env.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.error import ResetNeeded
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from ..physics import N_PARAMETERS, PARAMETER_NAMES, Result, evaluate, normalised_to_physical
+from .config import FlightConfig, PenaltyConfig
+from .declaration import Scores, TaskDeclaration
+from .validate import (
+    RENDER_MODES,
+    action_array,
+    action_values,
+    check_actions,
+    check_render_mode,
+    option_value,
+    reset_options,
+)
+
+RENDER_FPS = 4
+
+Columns = dict[str, Any]
+"""Info columns: name -> (B,) array, or a nested dict of columns (``"stroke"``)."""
+EnvGenerators = Callable[[int], np.random.Generator]
+"""``rng(k)``: the generator of the k-th sub-env being reset."""
+EnvOptions = Sequence[Mapping[str, Any] | None]
+"""The reset options of each sub-env being reset."""
+
+_HARMONIC = {name for name in PARAMETER_NAMES if name.endswith("_elevation_harmonic")}
+_FIRST = np.zeros(1, dtype=np.intp)
+
+
+def action_space() -> spaces.Box:
+    """Box(-1, 1, (28,), float32): the normalised stroke, fore-wing first (Table 4 order)."""
+    return spaces.Box(-1.0, 1.0, (N_PARAMETERS,), dtype=np.float32)
+
+
+def fly(
+    config: FlightConfig,
+    physical: np.ndarray,
+    speed: np.ndarray,
+    power: np.ndarray,
+    flight_path_angle: float | np.ndarray = 0.0,
+) -> Result:
+    """ONE batched model call for B physical strokes in their conditions: every env's strokes
+    are evaluated here, with the config's insect and model options."""
+    return evaluate(
+        physical,
+        speed,
+        power,
+        flight_path_angle=flight_path_angle,
+        insect=config.insect,
+        options=config.options,
+    )
+
+
+# --- the batched core ----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class StepBatch:
+    """B evaluated strokes: what ``step`` returns and records, before it is split per env."""
+
+    physical: np.ndarray
+    """(B, 28) physical strokes (Table 4 units)."""
+    result: Result
+    """The model's full result, (B,) arrays."""
+    objective: np.ndarray
+    """(B,) the task's objective [-]."""
+    scores: Scores
+    """The task's constraint violations and feasibility (its declaration's constraints)."""
+    penalty: np.ndarray
+    """(B,) reward lost to the constraints [reward units] (exactly 0 when feasible)."""
+    reward: np.ndarray
+    """(B,) objective − penalty."""
+
+    @classmethod
+    def scored(
+        cls,
+        physical: np.ndarray,
+        result: Result,
+        objective: np.ndarray,
+        scores: Scores,
+        penalty: PenaltyConfig,
+    ) -> StepBatch:
+        """The batch of a task's objective and constraints, its reward penalised by the env's
+        ``penalty`` (exactly the objective where feasible)."""
+        lost = penalty.penalty(scores.total, scores.feasible)
+        return cls(physical, result, objective, scores, lost, objective - lost)
+
+    def __len__(self) -> int:
+        return int(self.reward.shape[0])
+
+    @property
+    def feasible(self) -> np.ndarray:
+        """(B,) bool, every constraint of the task met."""
+        return self.scores.feasible
+
+    @property
+    def terminated(self) -> np.ndarray:
+        """(B,) bool, all True: a one-cycle episode ends with its stroke."""
+        return np.ones(len(self), dtype=np.bool_)
+
+    @property
+    def truncated(self) -> np.ndarray:
+        """(B,) bool, all False: a one-cycle episode is never cut short."""
+        return np.zeros(len(self), dtype=np.bool_)
+
+    def info_columns(self) -> Columns:
+        """Every metric of the model, the task's constraints and reward terms, the stroke."""
+        columns: Columns = {}
+        for name, values in self.result.as_dict().items():
+            columns[name] = (
+                values if values.dtype == bool else values.astype(np.float64, copy=False)
+            )
+        columns.update(self.scores.violations)
+        columns["objective"] = self.objective
+        columns["constraint_violation"] = self.scores.total
+        columns["penalty"] = self.penalty
+        columns["feasible"] = self.scores.feasible
+        stroke: Columns = {}
+        for j, name in enumerate(PARAMETER_NAMES):
+            column = self.physical[:, j]
+            # N is an integer parameter; strokes_to_dicts reports it as int, and so do we.
+            stroke[name] = column.astype(int) if name in _HARMONIC else column.copy()
+        columns["stroke"] = stroke
+        return columns
+
+
+class FlightCore:
+    """The batched core of a one-cycle task: draw conditions, observe them, score strokes.
+
+    The condition, its reset option and the objective's metric come from the config's
+    ``DECLARATION``; a task's core defines only how the condition enters the model
+    (:meth:`flight_conditions`).
+    """
+
+    config: FlightConfig
+
+    def __init__(self, config: FlightConfig) -> None:
+        self.config = config
+        self._low, self._high = config.envelope
+        condition = config.declared_condition
+        self._options = (condition.keyword,)
+        self._renamed = condition.renamed()
+
+    @property
+    def declaration(self) -> TaskDeclaration:
+        """The task's declaration (a class attribute of its config, so never pickled)."""
+        return type(self.config).DECLARATION  # type: ignore[return-value]
+
+    @property
+    def option_key(self) -> str:
+        """The ``reset(options=...)`` key that sets the condition for one episode."""
+        return self.config.declared_condition.keyword
+
+    def draw_conditions(self, count: int, rngs: EnvGenerators, options: EnvOptions) -> np.ndarray:
+        """Conditions for ``count`` episodes starting now, (count,) float64.
+
+        ``rngs(k)`` gives episode k's generator (created lazily, as ``Env.np_random`` is);
+        ``options[k]`` its reset options. A sampled condition draws exactly one
+        ``uniform(low, high)`` from that generator; a fixed or overridden one draws nothing,
+        so the single env, the vector env and SyncVectorEnv consume the streams identically.
+        """
+        values = np.empty(count)
+        cfg = self.config
+        for k in range(count):
+            given = reset_options(cfg.name, options[k], self._options, self._renamed)
+            if given:
+                unit = cfg.declared_condition.unit
+                values[k] = option_value(
+                    cfg.name, self.option_key, given[self.option_key], self._low, self._high,
+                    unit, "the observation envelope",
+                )
+            elif cfg.condition_range is None:
+                values[k] = cfg.fixed_condition
+            else:
+                values[k] = rngs(k).uniform(*cfg.condition_range)
+        return values
+
+    def observe(self, values: np.ndarray) -> np.ndarray:
+        """(B, 1) float32 observations: each condition mapped from the envelope to [-1, 1]."""
+        scaled = 2.0 * (np.asarray(values, dtype=np.float64) - self._low) / (self._high - self._low)
+        return np.clip(scaled - 1.0, -1.0, 1.0).astype(np.float32)[:, None]
+
+    def flight_conditions(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(speed [m/s], available power [W/kg]) arrays (B,) for conditions ``values``."""
+        raise NotImplementedError
+
+    def reset_columns(self, values: np.ndarray) -> Columns:
+        """Reset info columns: the flight condition of each new episode."""
+        speed, power = self.flight_conditions(values)
+        return {"speed": speed, "available_power": power}
+
+    def step(self, physical: np.ndarray, values: np.ndarray) -> StepBatch:
+        """Evaluate one wing-beat of each (validated, physical) stroke in its condition, in ONE
+        batched model call, and score it by the task's declaration."""
+        speed, power = self.flight_conditions(values)
+        result = fly(self.config, physical, speed, power)
+        return StepBatch.scored(
+            physical,
+            result,
+            getattr(result, self.config.objective_metric),
+            self.declaration.score(result, self.config),
+            self.config.penalty,
+        )
+
+
+# --- columns -> per-env dicts / Gymnasium vector infos -------------------------------------------
+def row(columns: Columns, index: int) -> dict[str, Any]:
+    """One env's info dict: plain Python floats, bools and ints (nested dicts stay dicts)."""
+    return {
+        key: row(value, index) if isinstance(value, dict) else value[index].item()
+        for key, value in columns.items()
+    }
+
+
+def take_columns(columns: Columns, index: np.ndarray) -> Columns:
+    """The rows ``index`` of info columns (nested dicts too)."""
+    return {
+        key: take_columns(value, index) if isinstance(value, dict) else value[index]
+        for key, value in columns.items()
+    }
+
+
+def rows(columns: Columns, count: int) -> list[dict[str, Any]]:
+    """All ``count`` info dicts at once (``tolist`` per column, not per value)."""
+    keys = list(columns)
+    lists = [
+        rows(columns[key], count) if isinstance(columns[key], dict) else columns[key].tolist()
+        for key in keys
+    ]
+    if not keys:
+        return [{} for _ in range(count)]
+    return [dict(zip(keys, values, strict=True)) for values in zip(*lists, strict=True)]
+
+
+def add_columns(
+    infos: dict[str, Any], columns: Columns, index: np.ndarray, num_envs: int
+) -> dict[str, Any]:
+    """Scatter columns for envs ``index`` into Gymnasium's vector info dict, with ``_key`` masks.
+
+    Reproduces ``VectorEnv._add_info`` applied env by env (same keys, dtypes and masks), so
+    the native vector env's infos equal SyncVectorEnv's.
+    """
+    for key, values in columns.items():
+        if isinstance(values, dict):
+            array = add_columns(infos.get(key, {}), values, index, num_envs)
+        else:
+            array = infos.get(key)
+            if array is None:
+                array = np.zeros(num_envs, dtype=values.dtype)
+            array[index] = values
+        mask = infos.get(f"_{key}")
+        if mask is None:
+            mask = np.zeros(num_envs, dtype=np.bool_)
+        mask[index] = True
+        infos[key], infos[f"_{key}"] = array, mask
+    return infos
+
+
+# --- rendering -------------------------------------------------------------------------------------
+@dataclass
+class LastStep:
+    """What the picture of a sub-env shows: its last evaluated step, or None."""
+
+    batch: Any
+    index: int
+
+
+def frame_for(core: FlightCore, title: str, condition: float | None, last: LastStep | None) -> Any:
+    """The render frame of one one-cycle env (imports matplotlib lazily)."""
+    from .render import Frame, history_of, metrics_line
+
+    cfg = core.config
+    if last is not None:
+        # The condition the stroke was evaluated in (a same-step autoreset may have moved on).
+        speed = float(last.batch.result.speed[last.index])
+        power = float(last.batch.result.available_power[last.index])
+    elif condition is not None:
+        speed, power = (float(v[0]) for v in core.flight_conditions(np.array([condition])))
+    else:
+        return Frame(title=f"{title}  {cfg.describe()}", subtitle="not reset yet", history=None)
+    heading = f"{title}  V = {speed:.3g} m/s, P_avail = {power:.3g} W/kg"
+    if last is None:
+        return Frame(title=heading, subtitle="no stroke evaluated since reset", history=None)
+    info = row(
+        {k: v for k, v in last.batch.info_columns().items() if not isinstance(v, dict)}, last.index
+    )
+    keyword = cfg.OBJECTIVES.keyword if cfg.OBJECTIVES is not None else None
+    label = "η" if keyword is None else f"F̄ ({getattr(cfg, keyword)})"
+    return Frame(
+        title=heading,
+        subtitle=metrics_line(float(last.batch.reward[last.index]), info, label),
+        history=history_of(last.batch.physical[last.index], speed, power, cfg.insect, cfg.options),
+    )
+
+
+class RenderWindow:
+    """The human-mode window of an env (single or vector): opened at its first render, closed by
+    ``close``, never pickled (a pyplot window cannot be; a copy opens its own at its next render).
+    Matplotlib is imported only when something is rendered."""
+
+    _window: Any = None
+
+    def _show(self, frame: Any) -> np.ndarray | None:
+        """``frame`` as an RGB array (``render_mode="rgb_array"``) or in the window (``"human"``)."""
+        from .render import HumanWindow, to_rgb_array
+
+        if self.render_mode == "rgb_array":  # type: ignore[attr-defined]
+            return to_rgb_array(frame)
+        if self._window is None:
+            self._window = HumanWindow(self.metadata["render_fps"])  # type: ignore[attr-defined]
+        self._window.show(frame)
+        return None
+
+    def _close_window(self) -> None:
+        if self._window is not None:
+            self._window.close()
+            self._window = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_window"] = None
+        return state
+
+
+def build_config(
+    config_class: type[FlightConfig], config: FlightConfig | None, kwargs: dict[str, Any]
+) -> FlightConfig:
+    """The env's config: ``config`` as given, or built from the ``gym.make`` kwargs."""
+    if config is None:
+        return config_class.from_kwargs(**kwargs)
+    if kwargs:
+        raise ValueError(
+            f"give either config= or keyword options, not both; got config and {sorted(kwargs)}"
+        )
+    if not isinstance(config, config_class):
+        raise ValueError(
+            f"config = {config!r}; allowed: a {config_class.__name__} (or keyword options)"
+        )
+    return config
+
+
+# --- the vector env --------------------------------------------------------------------------------
+class FlightVectorEnv(RenderWindow, VectorEnv):
+    """n sub-envs of a task in ONE batched model call per step (see the module docstring).
+
+    Args:
+        num_envs: Number of sub-envs n (>= 1).
+        render_mode: None, "rgb_array" (``render()`` returns one frame per sub-env) or "human"
+            (a window showing sub-env 0, redrawn at each step).
+        autoreset_mode: ``AutoresetMode`` or its value ("NextStep", "SameStep", "Disabled").
+        config: A ready config; otherwise the keyword options, as for the single env.
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {
+        "render_modes": list(RENDER_MODES),
+        "render_fps": RENDER_FPS,
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
+    config_class: ClassVar[type[FlightConfig]] = FlightConfig
+    core_class: ClassVar[type[Any]] = FlightCore
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        render_mode: str | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        *,
+        config: FlightConfig | None = None,
+        **kwargs: Any,
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
+            raise ValueError(f"num_envs = {num_envs!r}; allowed: an integer >= 1")
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError as error:
+            allowed = ", ".join(repr(m.value) for m in AutoresetMode)
+            raise ValueError(f"autoreset_mode = {autoreset_mode!r}; allowed: {allowed}") from error
+        self.num_envs = int(num_envs)
+        self.render_mode = check_render_mode(render_mode)
+        self.autoreset_mode = mode
+        self.metadata = {**type(self).metadata, "autoreset_mode": mode}
+        self.config = build_config(self.config_class, config, kwargs)
+        self.core = self.core_class(self.config)
+        self.single_action_space = action_space()
+        self.single_observation_space = self._observation_space()
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+
+        n = self.num_envs
+        self._rngs: list[np.random.Generator | None] = [None] * n
+        self._rng_seeds: list[int | None] = [None] * n
+        self._observations = np.zeros((n, *self.single_observation_space.shape), dtype=np.float32)
+        self._started = np.zeros(n, dtype=np.bool_)
+        self._ended = np.zeros(n, dtype=np.bool_)
+        self._last: list[LastStep | None] = [None] * n
+        self._window: Any = None
+        self._init_episodes(n)
+
+    # --- per-env random generators (one per sub-env, as SyncVectorEnv's envs have) -------------
+    def _rng(self, i: int) -> np.random.Generator:
+        if self._rngs[i] is None:
+            self._rngs[i], self._rng_seeds[i] = seeding.np_random()
+        return self._rngs[i]  # type: ignore[return-value]
+
+    @property
+    def np_random(self) -> tuple[np.random.Generator, ...]:  # type: ignore[override]
+        """Each sub-env's generator (created with a random seed if never seeded)."""
+        return tuple(self._rng(i) for i in range(self.num_envs))
+
+    @property
+    def np_random_seed(self) -> tuple[int | None, ...]:  # type: ignore[override]
+        """Each sub-env's seed."""
+        for i in range(self.num_envs):
+            self._rng(i)
+        return tuple(self._rng_seeds)
+
+    @property
+    def conditions(self) -> np.ndarray:
+        """(n,) current condition of each sub-env (its declared condition's unit)."""
+        return self._values.copy()
+
+    @property
+    def observations(self) -> np.ndarray:
+        """(n, ...) current observation of each sub-env (a copy)."""
+        return self._observations.copy()
+
+    # --- primitives shared with the single env and the SB3 adapter --------------------------------
+    def start(self, index: np.ndarray, rng: EnvGenerators, options: EnvOptions) -> Columns:
+        """Start new episodes in sub-envs ``index`` drawing from ``rng(k)`` (the generator of
+        the k-th); their reset info columns. The single env passes its own ``np_random``."""
+        columns = self._start(index, rng, options)
+        self._started[index] = True
+        self._ended[index] = False
+        for i in index:
+            self._last[i] = None
+        return columns
+
+    def reset_envs(
+        self,
+        index: np.ndarray,
+        seeds: Sequence[int | None],
+        options: Mapping[str, Any] | Sequence[Mapping[str, Any] | None] | None,
+    ) -> Columns:
+        """Start new episodes in sub-envs ``index`` (each seeded with its entry of ``seeds``
+        unless None; ``options`` one mapping for all or one per env); their reset info columns."""
+        index = np.asarray(index, dtype=np.intp)
+        for i, seed in zip(index, seeds, strict=True):
+            if seed is not None:
+                self._rngs[i], self._rng_seeds[i] = seeding.np_random(seed)
+        if options is None or isinstance(options, Mapping):
+            per_env: EnvOptions = [options] * index.size
+        else:
+            per_env = list(options)
+        return self.start(index, lambda k: self._rng(int(index[k])), per_env)
+
+    def step_envs(self, index: np.ndarray, actions: Any) -> tuple[Any, np.ndarray]:
+        """Validate and evaluate the actions (len(index), 28) of sub-envs ``index`` in one model
+        call; (batch, observations after it). The SB3 adapter steps through it."""
+        index = np.asarray(index, dtype=np.intp)
+        arr = check_actions(actions, (index.size, N_PARAMETERS), self.config.clip_actions)
+        return self._step(index, arr)
+
+    def _step(self, index: np.ndarray, actions: np.ndarray) -> tuple[Any, np.ndarray]:
+        """Step sub-envs ``index`` with validated normalised actions."""
+        if not self._started[index].all():
+            raise ResetNeeded("call reset() before step()")
+        if self._ended[index].any():
+            raise ResetNeeded("the episode has ended; call reset() before step()")
+        batch, observations = self._fly(index, normalised_to_physical(actions))
+        self._ended[index] = batch.terminated | batch.truncated
+        for k, i in enumerate(index):
+            self._last[i] = LastStep(batch, k)
+        return batch, observations
+
+    # --- what a task with another episode state overrides ----------------------------------------
+    def _observation_space(self) -> spaces.Box:
+        """One sub-env's observation space: the condition normalised over its envelope."""
+        return spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
+
+    def _init_episodes(self, n: int) -> None:
+        """The episode state of n sub-envs before their first reset."""
+        self._values = np.full(n, np.nan)
+
+    def _start(self, index: np.ndarray, rng: EnvGenerators, options: EnvOptions) -> Columns:
+        """Draw new episodes for sub-envs ``index``, set their state and observations; their
+        reset info columns."""
+        values = self.core.draw_conditions(index.size, rng, options)
+        self._values[index] = values
+        self._observations[index] = self.core.observe(values)
+        return self.core.reset_columns(values)
+
+    def _fly(self, index: np.ndarray, physical: np.ndarray) -> tuple[Any, np.ndarray]:
+        """Evaluate the strokes of started sub-envs ``index``; (batch, observations after)."""
+        values = self._values[index]
+        return self.core.step(physical, values), self._observations[index]
+
+    def _frame(self, i: int, title: str) -> Any:
+        """The render frame of sub-env ``i``."""
+        value = None if not self._started[i] else float(self._values[i])
+        return frame_for(self.core, title, value, self._last[i])
+
+    # --- Gymnasium VectorEnv API ------------------------------------------------------------------
+    def reset(
+        self,
+        *,
+        seed: int | Sequence[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        n = self.num_envs
+        if seed is None:
+            seeds: list[int | None] = [None] * n
+        elif isinstance(seed, int | np.integer) and not isinstance(seed, bool):
+            seeds = [int(seed) + i for i in range(n)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != n:
+                raise ValueError(
+                    f"If seeds are passed as a list the length must match num_envs={n} but got "
+                    f"length={len(seeds)}."
+                )
+        options = dict(options) if options is not None else None
+        if options is not None and "reset_mask" in options:
+            mask = options.pop("reset_mask")
+            if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (n,):
+                raise ValueError(
+                    f"options['reset_mask'] must be a numpy bool array of shape ({n},); got {mask!r}"
+                )
+            if not mask.any():
+                raise ValueError("options['reset_mask'] must contain at least one True value")
+            index = np.flatnonzero(mask)
+        else:
+            index = np.arange(n)
+        columns = self.reset_envs(index, [seeds[i] for i in index], options)
+        if self.render_mode == "human":
+            self.render()
+        return self._observations.copy(), add_columns({}, columns, index, n)
+
+    def step(
+        self, actions: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        n = self.num_envs
+        actions = action_array(actions, (n, N_PARAMETERS))
+        clip = self.config.clip_actions
+        rewards = np.zeros(n, dtype=np.float64)
+        terminations = np.zeros(n, dtype=np.bool_)
+        truncations = np.zeros(n, dtype=np.bool_)
+        infos: dict[str, Any] = {}
+
+        def fly_envs(index: np.ndarray) -> tuple[Any, np.ndarray]:
+            batch, final = self._step(index, action_values(actions[index], clip))
+            rewards[index] = batch.reward
+            terminations[index] = batch.terminated
+            truncations[index] = batch.truncated
+            return batch, final
+
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP:
+            resetting = np.flatnonzero(self._ended)
+            stepping = np.flatnonzero(~self._ended)
+            if stepping.size:
+                batch, _ = fly_envs(stepping)
+                add_columns(infos, batch.info_columns(), stepping, n)
+            if resetting.size:
+                columns = self.reset_envs(resetting, [None] * resetting.size, None)
+                add_columns(infos, columns, resetting, n)
+        elif self.autoreset_mode == AutoresetMode.SAME_STEP:
+            batch, final = fly_envs(np.arange(n))
+            ended = terminations | truncations
+            columns = batch.info_columns()
+            running, done = np.flatnonzero(~ended), np.flatnonzero(ended)
+            if running.size:
+                add_columns(infos, take_columns(columns, running), running, n)
+            if done.size:
+                final_obs = np.full(n, None, dtype=object)
+                for i in done:
+                    final_obs[i] = final[i]
+                infos["final_obs"], infos["_final_obs"] = final_obs, ended.copy()
+                infos["final_info"] = add_columns({}, take_columns(columns, done), done, n)
+                infos["_final_info"] = ended.copy()
+                add_columns(infos, self.reset_envs(done, [None] * done.size, None), done, n)
+                # The stroke just evaluated stays the picture until the next step.
+                for i in done:
+                    self._last[i] = LastStep(batch, int(i))
+        else:
+            if self._ended.any():
+                raise RuntimeError(
+                    f"sub-envs {np.flatnonzero(self._ended).tolist()} have ended their "
+                    "episodes; with autoreset_mode=Disabled reset them first, e.g. "
+                    "reset(options={'reset_mask': mask})"
+                )
+            everyone = np.arange(n)
+            batch, _ = fly_envs(everyone)
+            add_columns(infos, batch.info_columns(), everyone, n)
+
+        if self.render_mode == "human":
+            self.render()
+        return self._observations.copy(), rewards, terminations, truncations, infos
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """rgb_array: one frame per sub-env (costly for large n); human: sub-env 0 in a window."""
+        if self.render_mode is None:
+            return None
+        title = self.spec.id if self.spec is not None else type(self).__name__
+        if self.render_mode == "rgb_array":
+            return tuple(
+                self._show(self._frame(i, f"{title} [env {i}]")) for i in range(self.num_envs)
+            )  # type: ignore[return-value]
+        self._show(self._frame(0, f"{title} [env 0]"))
+        return None
+
+    def close_extras(self, **kwargs: Any) -> None:
+        self._close_window()
+
+    def __repr__(self) -> str:
+        name = self.spec.id if self.spec is not None else type(self).__name__
+        return f"{type(self).__name__}({name}, num_envs={self.num_envs})"
+
+
+# --- the single env: the vector env at B = 1 ------------------------------------------------------
+class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
+    """One env of a task: its vector env at B = 1 (``vector_class``), seeded and reset through
+    Gymnasium's ``Env.np_random``. Stepping after the episode ended raises ``ResetNeeded``."""
+
+    metadata: ClassVar[dict[str, Any]] = {
+        "render_modes": list(RENDER_MODES),
+        "render_fps": RENDER_FPS,
+    }
+    vector_class: ClassVar[type[FlightVectorEnv]] = FlightVectorEnv
+    #: The task's config class (``vector_class.config_class``), for the registry's look-ups.
+    config_class: ClassVar[type[FlightConfig]] = FlightConfig
+    title: ClassVar[str] = "Flight"
+    """Name in render titles when the env was not made by ``gym.make`` (no spec)."""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls.config_class = cls.vector_class.config_class
+
+    def __init__(
+        self, render_mode: str | None = None, *, config: FlightConfig | None = None, **kwargs: Any
+    ) -> None:
+        self.render_mode = check_render_mode(render_mode)
+        self.batch = self.vector_class(1, None, AutoresetMode.DISABLED, config=config, **kwargs)
+        self.config = self.batch.config
+        self.core = self.batch.core
+        self.action_space = action_space()
+        self.observation_space = self.batch.single_observation_space
+        self._window: Any = None
+
+    @property
+    def condition(self) -> float | None:
+        """The current episode's condition (its declared unit), or None before the first reset."""
+        return float(self.batch.conditions[0]) if self.batch._started[0] else None
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        columns = self.batch.start(_FIRST, lambda _: self.np_random, [options])
+        if self.render_mode == "human":
+            self.render()
+        return self.batch._observations[0].copy(), row(columns, 0)
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        arr = check_actions(action, (N_PARAMETERS,), self.config.clip_actions)
+        batch, observations = self.batch._step(_FIRST, arr[None, :])
+        if self.render_mode == "human":
+            self.render()
+        return (
+            observations[0].copy(),
+            float(batch.reward[0]),
+            bool(batch.terminated[0]),
+            bool(batch.truncated[0]),
+            row(batch.info_columns(), 0),
+        )
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            gym.logger.warn(
+                "render() called without a render mode; make the env with "
+                f"render_mode in {list(RENDER_MODES)}"
+            )
+            return None
+        title = self.spec.id if self.spec is not None else self.title
+        return self._show(self.batch._frame(0, title))
+
+    def close(self) -> None:
+        self._close_window()

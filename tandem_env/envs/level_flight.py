@@ -1,0 +1,179 @@
+"""``TandemWing/LevelFlight-v0``: the most efficient stroke in steady level flight, one wing-beat per episode.
+
+The task in one place: its declaration (:data:`LEVEL_FLIGHT`: condition, objective, constraints,
+sweep), its config, its batched core, the vector env and the single env (the vector env at
+B = 1, :mod:`tandem_env.envs.base`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..physics import SPEED_LIMITS, Result
+from .base import FlightCore, FlightEnv, FlightVectorEnv
+from .config import FlightConfig, normalise_condition
+from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
+from .validate import check_real
+
+
+def _lift_violation(result: Result, config: Any) -> np.ndarray:
+    return np.maximum(0.0, np.abs(result.lift_to_weight - 1.0) - config.constraint_tolerance)
+
+
+def _thrust_violation(result: Result, config: Any) -> np.ndarray:
+    return np.maximum(0.0, np.abs(result.excess_horizontal) - config.constraint_tolerance)
+
+
+LEVEL_FLIGHT = TaskDeclaration(
+    name="LevelFlight",
+    summary="Level flight at speed V: maximise η = T·V/P with L = W, T = D and P/m <= the "
+    "insect's maximum.",
+    condition=TaskCondition(
+        keyword="speed",
+        label="flight speed",
+        symbol="V",
+        unit="m/s",
+        limits=SPEED_LIMITS,
+        default=1.5,  # the paper's best-efficiency speed
+        envelope=(0.25, 2.0),  # the paper's range
+        sweep=(0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0),  # Figs. 4-6, 15
+    ),
+    objectives=TaskObjectives(metrics={"efficiency": "efficiency"}, default="efficiency"),
+    # Forces are fractions of W and the power excess a fraction of the cap, so the three terms
+    # share one scale (a 10 % miss costs the same whichever constraint).
+    constraints=(
+        Constraint("lift_violation", "|L/W − 1| ≤ tol", "-", _lift_violation),
+        Constraint("thrust_violation", "|T − D|/W ≤ tol", "-", _thrust_violation),
+        POWER_CAP,
+    ),
+)
+
+
+@dataclass(frozen=True, kw_only=True)
+class LevelFlightConfig(FlightConfig):
+    """Level flight at speed V: maximise η = T·V/P with L = W, T = D and P/m <= the insect's maximum.
+
+    Give ``speed`` for a fixed speed or ``speed_range`` to sample V uniformly at every reset
+    (not both); with neither, V = 1.5 m/s. The observation is V normalised from
+    ``speed_envelope`` to [-1, 1].
+    """
+
+    DECLARATION: ClassVar[TaskDeclaration] = LEVEL_FLIGHT
+
+    speed: float | None = None
+    """Fixed flight speed V [m/s]; default 1.5 m/s (the paper's best-efficiency speed) unless
+    ``speed_range`` is given."""
+    speed_range: tuple[float, float] | None = None
+    """(low, high) [m/s]: V is drawn uniformly from it at each reset (from the env's seeded
+    ``np_random``), so one policy can learn the whole envelope."""
+    speed_envelope: tuple[float, float] = LEVEL_FLIGHT.condition.envelope  # type: ignore[union-attr]
+    """(low, high) [m/s] mapped linearly to the observation's [-1, 1]; every speed used must lie
+    inside it. Default the paper's range, 0.25 to 2.0 m/s."""
+    constraint_tolerance: float = 0.02
+    """Band of the equalities L = W and T = D, as a fraction of W [-] (docs/model.md §7.5)."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        normalise_condition(self)
+        tol = check_real(
+            type(self).__name__, "constraint_tolerance", self.constraint_tolerance, "", 0.0, 0.999
+        )
+        object.__setattr__(self, "constraint_tolerance", tol)
+
+    @property
+    def available_power(self) -> float:
+        """Power cap of level flight [W/kg]: the insect's maximum (90 W/kg, docs/model.md §7)."""
+        return self.insect.max_power_per_mass
+
+    def describe(self) -> str:
+        return self.CONDITION.describe(self.speed, self.speed_range)  # type: ignore[union-attr]
+
+
+class LevelFlightCore(FlightCore):
+    """The condition is the speed; the power cap the insect's maximum."""
+
+    config: LevelFlightConfig
+
+    def flight_conditions(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return values.copy(), np.full(values.shape, self.config.available_power)
+
+
+class LevelFlightVectorEnv(FlightVectorEnv):
+    """n :class:`LevelFlightEnv` in one batched model call (:class:`~tandem_env.envs.base.FlightVectorEnv`)."""
+
+    config_class = LevelFlightConfig
+    core_class = LevelFlightCore
+    config: LevelFlightConfig
+
+
+class LevelFlightEnv(FlightEnv):
+    """Steady level flight of the tandem-wing dragonfly: find the most efficient stroke.
+
+    ## Description
+
+    The quasi-steady tandem flapping-wing model of Faisal & Filippone (2016, AIAA J.) evaluates
+    one wing-beat cycle of a stroke (both wing pairs, with the fore-wing's slipstream on the
+    hind-wing) at flight speed V. The task is the paper's level-flight optimisation
+    (docs/model.md §7): maximise the propulsive efficiency η = T·V/P subject to L = W, T = D and
+    P/m <= 90 W/kg. Each episode is one cycle (a contextual bandit): observe V, choose a stroke.
+
+    ## Action Space
+
+    ``Box(-1, 1, (28,), float32)``: the 14 stroke parameters of each wing (fore-wing first,
+    ``f, φ_m, θ_m, η_m, φ_0, θ_0, η_0, Φ_φ, Φ_θ, Φ_η, K, N, C_η, β_m``), each mapped linearly
+    onto its Table 4 range by :func:`tandem_env.normalised_to_physical` (N = 1 below 0, else 2).
+    Non-finite actions raise ``ValueError``; so do values outside [-1, 1] unless the env was
+    made with ``clip_actions=True``.
+
+    ## Observation Space
+
+    ``Box(-1, 1, (1,), float32)``: the flight speed V [m/s] mapped linearly from
+    ``speed_envelope`` (default 0.25-2.0 m/s, the paper's range) to [-1, 1].
+
+    ## Rewards
+
+    ``reward = η − penalty``, ``penalty = weight·violation + offset·[infeasible]`` with
+    ``violation = max(0, |L/W − 1| − tol) + max(0, |T − D|/W − tol) + max(0, P/m − P_max)/P_max``
+    (:data:`LEVEL_FLIGHT`'s constraints; tol = ``constraint_tolerance``, default 0.02; P_max the
+    insect's maximum, 90 W/kg; weight 10, offset 0 by default). A feasible stroke is rewarded with exactly its η. Scale: feasible rewards are
+    η in [0, ~0.5] (values above 1 are possible with ``thrust_split="sign"``, flagged in
+    ``info["efficiency_above_one"]``, never clipped); uniform random strokes score about −120 to 0
+    (median −15 to −45).
+
+    ## Starting State
+
+    V is ``speed`` (default 1.5 m/s) or, with ``speed_range=(low, high)``, drawn uniformly at
+    each reset from the env's seeded ``np_random``. ``reset(options={"speed": v})`` sets V for
+    one episode.
+
+    ## Episode End
+
+    Every ``step`` evaluates one wing-beat cycle and terminates the episode
+    (``terminated=True``, ``truncated=False``). ``info`` holds the named physical stroke
+    (``info["stroke"]``), every metric of the model (the :class:`tandem_env.Result` fields:
+    the ``METRIC_NAMES``, per-wing breakdown, ``speed``, ``available_power``), each
+    constraint's violation (``lift_violation``, ``thrust_violation``, ``power_violation``) and
+    the reward terms ``objective``, ``constraint_violation``, ``penalty`` and ``feasible``.
+
+    ## Arguments
+
+    ``gym.make("TandemWing/LevelFlight-v0", **kwargs)``, see :class:`LevelFlightConfig` and
+    :meth:`FlightConfig.from_kwargs`: ``speed``, ``speed_range``, ``speed_envelope``,
+    ``constraint_tolerance``, ``insect``, ``planform`` ("tear-drop" | "real"), ``options`` or its fields (``n_time``,
+    ``n_blade``, ``induction`` ("coupled" | "isolated" | "none"), ``interference``,
+    ``power_convention`` ("absolute" | "elastic" | "aerodynamic"), ``thrust_split`` ("sign" |
+    "body"), ``spin``, ``hover_inflow`` ("momentum" | "none"), ``tolerance``, ``max_evaluations``), ``penalty`` or
+    ``penalty_weight`` / ``penalty_offset``, ``clip_actions``, ``render_mode``
+    ("rgb_array" | "human"). Invalid values raise ``ValueError`` at construction.
+
+    ## Version History
+
+    * v0: initial version.
+    """
+
+    vector_class = LevelFlightVectorEnv
+    config: LevelFlightConfig
+    title = "LevelFlight"

@@ -1,0 +1,153 @@
+"""The env layer's validators: each value is checked once, where an env receives it.
+
+Configs check their fields when built, an env checks an action where its ``step`` (or the SB3
+adapter's) receives it and a reset option where ``reset`` receives it; nothing downstream checks
+again (the model's ``evaluate`` checks the physical strokes it receives, its own boundary). A
+bad value gets a ``ValueError`` naming it, its value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ..physics import N_PARAMETERS, PARAMETER_NAMES
+from ..physics.checks import is_integer, is_real, real_array
+
+__all__ = [
+    "RENDER_MODES",
+    "action_array",
+    "action_values",
+    "check_actions",
+    "check_count",
+    "check_interval",
+    "check_real",
+    "check_render_mode",
+    "reset_options",
+]
+
+RENDER_MODES: tuple[str, ...] = ("human", "rgb_array")
+
+
+def check_real(owner: str, name: str, value: Any, unit: str, low: float, high: float) -> float:
+    """``value`` as a float if it is a finite real number in [low, high]; else a ValueError."""
+    if not is_real(value) or not math.isfinite(value) or not low <= value <= high:
+        unit = f" {unit}" if unit else ""
+        raise ValueError(
+            f"{owner}.{name} = {value!r}{unit}; allowed: a finite number from {low:g} to "
+            f"{high:g}{unit}"
+        )
+    return float(value)
+
+
+def check_count(owner: str, name: str, value: Any, low: int, high: int, what: str) -> int:
+    """``value`` as an int if it is an integer in [low, high]; else a ValueError."""
+    if not is_integer(value) or not low <= value <= high:
+        raise ValueError(
+            f"{owner}.{name} = {value!r}; allowed: an integer from {low} to {high} ({what})"
+        )
+    return int(value)
+
+
+def check_interval(
+    owner: str, name: str, value: Any, unit: str, limits: tuple[float, float]
+) -> tuple[float, float]:
+    """``value`` as a ``(low, high)`` float pair with limits[0] <= low < high <= limits[1]."""
+    allowed = (
+        f"allowed: a pair (low, high) of finite numbers with {limits[0]:g} <= low < high <= "
+        f"{limits[1]:g} {unit}"
+    )
+    if isinstance(value, str | bytes) or not hasattr(value, "__len__") or len(value) != 2:
+        raise ValueError(f"{owner}.{name} = {value!r}; {allowed}")
+    low, high = value
+    if not (is_real(low) and is_real(high)):
+        raise ValueError(f"{owner}.{name} = {value!r}; {allowed}")
+    low, high = float(low), float(high)
+    if not (math.isfinite(low) and math.isfinite(high) and limits[0] <= low < high <= limits[1]):
+        raise ValueError(f"{owner}.{name} = {value!r} {unit}; {allowed}")
+    return low, high
+
+
+def check_render_mode(render_mode: Any) -> str | None:
+    """``render_mode`` if it is None or one of :data:`RENDER_MODES`."""
+    if render_mode is not None and render_mode not in RENDER_MODES:
+        raise ValueError(
+            f"render_mode = {render_mode!r}; allowed: None, {', '.join(map(repr, RENDER_MODES))}"
+        )
+    return render_mode
+
+
+def check_actions(actions: Any, shape: tuple[int, ...], clip: bool) -> np.ndarray:
+    """Normalised strokes of ``shape`` ((28,) or (B, 28)) as a float64 array: real numbers,
+    finite, and inside [-1, 1] (or clipped into it when ``clip``)."""
+    return action_values(action_array(actions, shape), clip)
+
+
+def action_array(actions: Any, shape: tuple[int, ...]) -> np.ndarray:
+    """``actions`` as a float64 array of ``shape`` (real numbers; values not checked yet)."""
+    what = "action" if len(shape) == 1 else "actions"
+    arr = real_array(actions, what, f"real numbers in [-1, 1] of shape {shape}")
+    if arr.shape != shape:
+        raise ValueError(
+            f"{what} must have shape {shape} here (one normalised stroke of {N_PARAMETERS} "
+            f"parameters per env, fore-wing first); got shape {arr.shape}"
+        )
+    return arr
+
+
+def action_values(arr: np.ndarray, clip: bool) -> np.ndarray:
+    """Actions (an array from :func:`action_array`) finite and inside [-1, 1], or clipped into
+    it when ``clip``; only the actions that are evaluated are checked (a vector env ignores the
+    actions of the sub-envs it resets)."""
+    flat = arr.reshape(-1, N_PARAMETERS)
+    finite = np.isfinite(flat)
+    if not finite.all():
+        row, col = np.argwhere(~finite)[0]
+        raise ValueError(
+            f"action {row}: {PARAMETER_NAMES[col]} = {flat[row, col]!r} is not finite; "
+            "allowed: finite numbers in [-1, 1]"
+        )
+    if clip:
+        return np.clip(arr, -1.0, 1.0)
+    outside = np.abs(flat) > 1.0
+    if outside.any():
+        row, col = np.argwhere(outside)[0]
+        raise ValueError(
+            f"action {row}: {PARAMETER_NAMES[col]} = {flat[row, col]:g} is outside the action "
+            "space; allowed: [-1, 1] (make the env with clip_actions=True to clip instead)"
+        )
+    return arr
+
+
+def reset_options(owner: str, options: Any, allowed: tuple[str, ...], renamed: Mapping[str, str]) -> Mapping[str, Any]:
+    """``options`` of ``reset`` as a mapping (empty for None) whose keys are all ``allowed``;
+    an old key of ``renamed`` is refused naming its new one."""
+    if not options:
+        return {}
+    if not isinstance(options, Mapping):
+        raise ValueError(f"reset options = {options!r}; allowed: None or a dict")
+    for key in options:
+        if key in renamed:
+            raise ValueError(
+                f"{owner}: reset option {key!r} was renamed; use {renamed[key]!r}"
+            )
+    unknown = sorted(set(options) - set(allowed))
+    if unknown:
+        raise ValueError(
+            f"{owner}: unknown reset option(s) {unknown}; allowed: "
+            f"{', '.join(map(repr, allowed))}"
+        )
+    return options
+
+
+def option_value(owner: str, key: str, value: Any, low: float, high: float, unit: str, where: str) -> float:
+    """A reset option's number: finite and in [low, high] (``where`` names that range)."""
+    if not is_real(value) or not math.isfinite(value) or not low <= value <= high:
+        raise ValueError(
+            f"{owner}: reset option {key} = {value!r}; allowed: a number in {where} {low:g} to "
+            f"{high:g} {unit}"
+        )
+    return float(value)
