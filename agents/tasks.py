@@ -22,7 +22,8 @@ import numpy as np
 
 from tandem_env.envs.config import FlightConfig
 from tandem_env.envs.declaration import TaskCondition, TaskDeclaration, TaskObjectives
-from tandem_env.envs.registration import TASK_ENV_IDS, config_class
+from tandem_env.envs import registration
+from tandem_env.envs.registration import config_class
 from tandem_env.physics.checks import is_real
 from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
 __all__ = [
@@ -215,13 +216,22 @@ class TaskSpec:
         return f"{self.name}-{self.objective_choice(env_kwargs)}"
 
 
-#: The tasks of this package's envs, each built from its env config's declarations.
-_TASKS: dict[str, TaskSpec] = {
-    name: TaskSpec.from_env(name, env_id) for name, env_id in TASK_ENV_IDS.items()
-}
+#: The registered tasks: those of every env entry with a task (built from its declaration
+#: when first asked for) and those registered with :func:`register_task`.
+_TASKS: dict[str, TaskSpec] = {}
+
+
+def _declared() -> dict[str, TaskSpec]:
+    """``_TASKS``, with a spec for every env entry with a task (``registration.add_entry``)."""
+    for name, env_id in registration.TASK_ENV_IDS.items():
+        if name not in _TASKS:
+            _TASKS[name] = TaskSpec.from_env(name, env_id)
+    return _TASKS
+
+
 #: The paper's two tasks (the studies name them).
-LEVEL: TaskSpec = _TASKS["level"]
-ACCELERATE: TaskSpec = _TASKS["accelerate"]
+LEVEL: TaskSpec = _declared()["level"]
+ACCELERATE: TaskSpec = _declared()["accelerate"]
 
 
 def register_task(spec: TaskSpec, *, replace: bool = False) -> None:
@@ -237,7 +247,7 @@ def register_task(spec: TaskSpec, *, replace: bool = False) -> None:
 
 def available_tasks() -> tuple[str, ...]:
     """Names of the registered tasks."""
-    return tuple(_TASKS)
+    return tuple(_declared())
 
 
 def get_task(task: str | TaskSpec) -> TaskSpec:
@@ -245,7 +255,7 @@ def get_task(task: str | TaskSpec) -> TaskSpec:
     if isinstance(task, TaskSpec):
         return task
     try:
-        return _TASKS[task]
+        return _declared()[task]
     except (KeyError, TypeError):
         raise ValueError(
             f"unknown task {task!r}; allowed: {', '.join(map(repr, _TASKS))}"

@@ -1,7 +1,7 @@
 """``python -m train.envelope``: one trained policy evaluated at every sweep condition.
 
 A policy trained over the whole envelope (``speed_range=(0.25, 2.0)`` for level flight,
-``power_range=(50, 90)`` for accelerating flight) is asked, through the harness method
+``available_power_range=(50, 90)`` for accelerating flight) is asked, through the harness method
 ``policy:RUN_DIR``, for its deterministic stroke at each sweep condition; each stroke is
 re-evaluated and recorded exactly like a PSO result (one record per condition), and a CSV
 gathers them::

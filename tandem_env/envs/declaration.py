@@ -287,7 +287,8 @@ class TaskDeclaration:
     summary: str
     """One line for ``--help`` and docs."""
     constraints: tuple[Constraint, ...]
-    """What a feasible stroke satisfies; a feasible stroke is rewarded with its objective."""
+    """What a feasible stroke satisfies (a feasible stroke is rewarded with its objective);
+    empty for an unconstrained task."""
     condition: TaskCondition | None = None
     """The one flight condition the task is optimised at and observes, or None (a task with
     several, such as SpeedChange's start and target speeds)."""
@@ -304,13 +305,14 @@ class TaskDeclaration:
                 f"TaskDeclaration {self.name!r}: condition = {self.condition!r}, objectives = "
                 f"{self.objectives!r}; allowed: a TaskCondition and a TaskObjectives, or neither"
             )
-        constraints = tuple(self.constraints) if isinstance(self.constraints, list | tuple) else ()
-        if not constraints or not all(isinstance(c, Constraint) for c in constraints):
+        constraints = self.constraints
+        if not isinstance(constraints, tuple) or not all(
+            isinstance(c, Constraint) for c in constraints
+        ):
             raise TypeError(
-                f"TaskDeclaration {self.name!r}: constraints = {self.constraints!r}; allowed: a "
-                "non-empty tuple of Constraint"
+                f"TaskDeclaration {self.name!r}: constraints = {constraints!r}; allowed: a "
+                "tuple of Constraint (empty for an unconstrained task)"
             )
-        object.__setattr__(self, "constraints", constraints)
 
     def score(self, result: Result, config: Any) -> Scores:
         """The constraints of ``config``'s task on a batch's model ``result``."""

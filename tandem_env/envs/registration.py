@@ -49,8 +49,9 @@ ENTRIES: dict[str, EnvEntry] = {
     ACCELERATE_ID: EnvEntry("tandem_env.envs.accelerate", "Accelerate", task="accelerate"),
     SPEED_CHANGE_ID: EnvEntry("tandem_env.envs.speed_change", "SpeedChange"),
 }
+#: This package's own ids (``check_env_id``: the ids the SB3 adapter and training accept).
 ENV_IDS: tuple[str, ...] = tuple(ENTRIES)
-#: Harness task name -> the env id it runs, for the ids with a task.
+#: Harness task name -> the env id it runs, for the ids with a task (:func:`add_entry` adds).
 TASK_ENV_IDS: dict[str, str] = {e.task: i for i, e in ENTRIES.items() if e.task is not None}
 
 
@@ -65,11 +66,25 @@ def check_env_id(env_id: object, name: str = "env_id") -> str:
 
 def register_envs() -> None:
     """Register every id (idempotent: a reload does not re-register or warn)."""
+    for env_id, entry in ENTRIES.items():
+        add_entry(env_id, entry)
+
+
+def add_entry(env_id: str, entry: EnvEntry) -> None:
+    """Register one task module's env under ``env_id`` with Gymnasium and, with
+    ``entry.task``, as a harness task: the one line that adds a task (a plug-in or a test
+    calls it as this package's :data:`ENTRIES` does). Idempotent for the same entry."""
     from gymnasium.envs.registration import register, registry
 
-    for env_id, entry in ENTRIES.items():
-        if env_id in registry:
-            continue
+    if not isinstance(entry, EnvEntry):
+        raise ValueError(f"entry = {entry!r}; allowed: an EnvEntry(module, env, task=None)")
+    known = ENTRIES.get(env_id)
+    if known is not None and known != entry:
+        raise ValueError(f"env id {env_id!r} is already registered as {known!r}")
+    ENTRIES[env_id] = entry
+    if entry.task is not None:
+        TASK_ENV_IDS[entry.task] = env_id
+    if env_id not in registry:
         # No max_episode_steps: the one-cycle episodes terminate after their step and
         # SpeedChange truncates itself after max_cycles, so a TimeLimit would only duplicate it.
         register(

@@ -21,6 +21,7 @@ from gymnasium.vector.utils import batch_space
 
 from agents.optimiser import AskTellOptimiser
 from agents.tasks import TaskSpec, register_task
+from tandem_env.envs import TaskCondition, TaskDeclaration, TaskObjectives
 
 DIM = 28
 FUNCTIONS = ("sphere", "rastrigin", "constrained")
@@ -136,6 +137,13 @@ class AnalyticVectorEnv(VectorEnv):
         return obs, rewards, np.ones(n, bool), np.zeros(n, bool), infos
 
 
+#: The analytic tasks' condition: the shift of the optimum.
+SHIFT = TaskCondition(
+    keyword="shift", label="optimum shift", symbol="s", unit="-", limits=(-1.0, 1.0),
+    default=0.0, envelope=(-1.0, 1.0), sweep=(0.0,),
+)
+
+
 def register_analytic() -> dict[str, TaskSpec]:
     """Register the gym ids and harness tasks of :data:`FUNCTIONS` (idempotent)."""
     specs = {}
@@ -149,17 +157,14 @@ def register_analytic() -> dict[str, TaskSpec]:
                     function=function, **kw
                 ),
             )
-        spec = TaskSpec(
+        declaration = TaskDeclaration(
             name=function,
-            env_id=env_id,
-            condition_name="shift",
-            condition_unit="-",
-            condition_kwarg="shift",
-            reset_option="shift",
-            objectives={"value": "objective"},
-            default_objective="value",
-            description=f"28-D {function}, maximum 0 at x*_j = shift·(-1)^j",
+            summary=f"28-D {function}, maximum 0 at x*_j = shift·(-1)^j",
+            condition=SHIFT,
+            objectives=TaskObjectives(metrics={"value": "objective"}, default="value"),
+            constraints=(),  # the analytic envs report their own "feasible"
         )
+        spec = TaskSpec(name=function, env_id=env_id, declaration=declaration)
         register_task(spec)
         specs[function] = spec
     return specs

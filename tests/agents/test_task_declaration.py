@@ -1,146 +1,70 @@
-"""A task's condition and objectives are declared once, on its env config, and read everywhere.
+"""A task is declared once, in its env module, and read everywhere.
 
-A toy task (a new config class, env and vector env, nothing added to agents/ or eval/) runs
-through the harness and through ``python -m eval optimize``, whose ``--offset`` option and
-help come from the declaration; bad declarations fail when declared, naming what is wrong.
+A toy task declared in ONE file (``toy_task.py``: declaration, config, core, vector env, single
+env) plus one registration line passes Gymnasium's env checker and runs through the harness and
+through ``python -m eval optimize``, whose ``--cruise-speed`` option and help come from the
+declaration; bad declarations fail when declared, and old names are refused naming the new.
 """
 
 from __future__ import annotations
 
+import sys
+import warnings
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from pathlib import Path
+from typing import Any, ClassVar, Literal
 
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium import spaces
-from gymnasium.envs.registration import register, registry
-from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space
+from gymnasium.envs.registration import registry
+from gymnasium.utils.env_checker import check_env
 
 import agents.tasks as tasks
 from agents.harness import run
 from agents.records import Record
-from agents.tasks import ACCELERATE, LEVEL, STROKE_DISCRETE, TaskSpec, get_task, register_task
-from tandem_env.envs import ACCELERATE_ID, LEVEL_FLIGHT_ID, SPEED_CHANGE_ID
-from tandem_env.envs.condition import TaskCondition, TaskObjectives
-from tandem_env.envs.config import (
+from agents.tasks import ACCELERATE, LEVEL, STROKE_DISCRETE, TaskSpec, get_task
+from tandem_env.envs import (
+    ACCELERATE_ID,
+    LEVEL_FLIGHT_ID,
+    SPEED_CHANGE_ID,
     AccelerateConfig,
     FlightConfig,
     LevelFlightConfig,
-    normalise_condition,
+    TaskCondition,
+    TaskDeclaration,
+    TaskObjectives,
+    registration,
 )
-from tandem_env.envs.registration import TASK_ENV_IDS, config_class
+from tandem_env.envs.declaration import POWER_CAP
+from tandem_env.envs.registration import add_entry, config_class
 
-TOY_ID = "DeclarationTest/Offset-v0"
-DIM = 4
-
-
-@dataclass(frozen=True, kw_only=True)
-class OffsetConfig:
-    """Toy task: bring every coordinate of the action to the offset c."""
-
-    CONDITION: ClassVar[TaskCondition] = TaskCondition(
-        keyword="offset",
-        info_key="offset",
-        label="target offset",
-        symbol="c",
-        unit="-",
-        limits=(-1.0, 1.0),
-        default=0.25,
-        envelope=(-0.5, 0.5),
-        sweep=(-0.5, 0.0, 0.5),
-    )
-    OBJECTIVES: ClassVar[TaskObjectives] = TaskObjectives(
-        metrics={"closeness": "closeness"}, default="closeness"
-    )
-
-    offset: float | None = None
-    offset_range: tuple[float, float] | None = None
-    offset_envelope: tuple[float, float] = CONDITION.envelope
-
-    def __post_init__(self) -> None:
-        normalise_condition(self)  # type: ignore[arg-type]
-
-
-class OffsetVectorEnv(VectorEnv):
-    """n toy envs in one call: reward = closeness = −|a − c|² (maximum 0 at a = c)."""
-
-    metadata = {"autoreset_mode": AutoresetMode.DISABLED}  # noqa: RUF012
-    config_class = OffsetConfig
-
-    def __init__(self, num_envs: int = 1, autoreset_mode: str = "Disabled", **kwargs: Any):
-        self.config = OffsetConfig(**kwargs)
-        self.num_envs = num_envs
-        self.single_action_space = spaces.Box(-1.0, 1.0, (DIM,), dtype=np.float32)
-        self.single_observation_space = spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
-        self.action_space = batch_space(self.single_action_space, num_envs)
-        self.observation_space = batch_space(self.single_observation_space, num_envs)
-        self.offsets: list[float] = []
-        self._offset = float(self.config.offset)
-
-    def reset(self, *, seed: Any = None, options: dict[str, Any] | None = None):
-        key = OffsetConfig.CONDITION.reset_option
-        self._offset = float((options or {}).get(key, self.config.offset))
-        self.offsets.append(self._offset)
-        n = self.num_envs
-        return np.full((n, 1), self._offset, np.float32), {"offset": np.full(n, self._offset)}
-
-    def step(self, actions: np.ndarray):
-        n = self.num_envs
-        closeness = -np.sum((np.asarray(actions, dtype=np.float64) - self._offset) ** 2, axis=1)
-        infos = {
-            "closeness": closeness,
-            "objective": closeness,
-            "feasible": np.ones(n, dtype=bool),
-            "offset": np.full(n, self._offset),
-        }
-        obs = np.zeros((n, 1), np.float32)
-        return obs, closeness, np.ones(n, bool), np.zeros(n, bool), infos
-
-
-class OffsetEnv(gym.Env):
-    """The toy task, one env (the vector env at n = 1)."""
-
-    metadata = {"render_modes": []}  # noqa: RUF012
-    config_class = OffsetConfig
-
-    def __init__(self, **kwargs: Any) -> None:
-        self._batch = OffsetVectorEnv(1, **kwargs)
-        self.config = self._batch.config
-        self.action_space = self._batch.single_action_space
-        self.observation_space = self._batch.single_observation_space
-
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
-        obs, info = self._batch.reset(options=options)
-        return obs[0], {k: v[0].item() for k, v in info.items()}
-
-    def step(self, action: np.ndarray):
-        obs, reward, _, _, info = self._batch.step(np.asarray(action)[None, :])
-        return obs[0], float(reward[0]), True, False, {k: v[0].item() for k, v in info.items()}
+sys.path.insert(0, str(Path(__file__).parent))
+from toy_task import TOY_ENTRY, TOY_ID, CruiseConfig  # noqa: E402
 
 
 @pytest.fixture()
 def toy(monkeypatch: pytest.MonkeyPatch) -> TaskSpec:
-    """The toy task registered like the package's own: a gym id and ``from_env``."""
-    if TOY_ID not in registry:
-        register(id=TOY_ID, entry_point=OffsetEnv, vector_entry_point=OffsetVectorEnv)
-    monkeypatch.setattr(tasks, "_TASKS", dict(tasks._TASKS))  # unregistered afterwards
-    spec = TaskSpec.from_env("offset-toy", TOY_ID)
-    register_task(spec)
-    return spec
+    """The toy task, registered in one line; unregistered afterwards."""
+    monkeypatch.setattr(registration, "ENTRIES", dict(registration.ENTRIES))
+    monkeypatch.setattr(registration, "TASK_ENV_IDS", dict(registration.TASK_ENV_IDS))
+    monkeypatch.setattr(tasks, "_TASKS", dict(tasks._TASKS))
+    monkeypatch.setitem(registry, TOY_ID, registry.get(TOY_ID))  # restored (or removed) after
+    registry.pop(TOY_ID)
+    add_entry(TOY_ID, TOY_ENTRY)  # the one registration line
+    return get_task("cruise-toy")
 
 
-def test_the_package_tasks_are_built_from_the_env_configs() -> None:
-    assert TASK_ENV_IDS == {"level": LEVEL_FLIGHT_ID, "accelerate": ACCELERATE_ID}
-    # What the hand-written specs said before, now read from the declarations.
+def test_the_package_tasks_are_read_from_the_env_declarations() -> None:
+    assert registration.TASK_ENV_IDS == {"level": LEVEL_FLIGHT_ID, "accelerate": ACCELERATE_ID}
     assert (LEVEL.condition_name, LEVEL.condition_unit) == ("speed", "m/s")
     assert (LEVEL.condition_kwarg, LEVEL.reset_option) == ("speed", "speed")
     assert dict(LEVEL.objectives) == {"efficiency": "efficiency"}
     assert (LEVEL.objective_kwarg, LEVEL.forbidden_kwargs) == (None, ("speed", "speed_range"))
+    # One name for Accelerate's condition: keyword, reset option, info key, record name.
     assert (ACCELERATE.condition_name, ACCELERATE.condition_unit) == ("available_power", "W/kg")
-    assert (ACCELERATE.condition_kwarg, ACCELERATE.reset_option) == ("power", "power")
+    assert ACCELERATE.condition_kwarg == ACCELERATE.reset_option == "available_power"
+    assert ACCELERATE.condition_flag == "--power"  # the command line keeps --power
     assert dict(ACCELERATE.objectives) == {
         "vertical": "excess_vertical",
         "horizontal": "excess_horizontal",
@@ -148,11 +72,22 @@ def test_the_package_tasks_are_built_from_the_env_configs() -> None:
         "horizontal_literal": "excess_horizontal_literal",
     }
     assert (ACCELERATE.default_objective, ACCELERATE.objective_kwarg) == ("vertical", "objective")
-    assert ACCELERATE.forbidden_kwargs == ("power", "power_range")
+    assert ACCELERATE.forbidden_kwargs == ("available_power", "available_power_range")
     assert LEVEL.discrete_actions == ACCELERATE.discrete_actions == STROKE_DISCRETE
     assert config_class(LEVEL_FLIGHT_ID) is LevelFlightConfig
-    assert LEVEL.declaration is LevelFlightConfig.CONDITION
-    assert ACCELERATE.declaration is AccelerateConfig.CONDITION
+    # The spec is a view of the declaration, not a copy.
+    assert LEVEL.declaration is LevelFlightConfig.DECLARATION
+    assert ACCELERATE.declaration is AccelerateConfig.DECLARATION
+    assert AccelerateConfig.CONDITION is ACCELERATE.declaration.condition
+
+
+def test_the_specimen_power_is_derived_from_the_insect() -> None:
+    from tandem_env import Dragonfly
+
+    insect = Dragonfly()
+    top = insect.flight_muscle_ratio * insect.muscle_specific_power
+    condition = AccelerateConfig.CONDITION
+    assert condition.default == condition.envelope[1] == condition.sweep[-1] == top == 90.0
 
 
 def test_the_config_reads_its_declaration() -> None:
@@ -160,61 +95,94 @@ def test_the_config_reads_its_declaration() -> None:
     assert level.speed == LevelFlightConfig.CONDITION.default == 1.5
     assert level.envelope == level.speed_envelope == LevelFlightConfig.CONDITION.envelope
     assert level.condition_key == "speed" and level.objective_metric == "efficiency"
-    accelerate = AccelerateConfig(power_range=(60.0, 80.0), objective="horizontal")
+    accelerate = AccelerateConfig(available_power_range=(60.0, 80.0), objective="horizontal")
     assert accelerate.condition_range == (60.0, 80.0) and accelerate.fixed_condition is None
     assert accelerate.condition_key == "available_power"
     assert accelerate.objective_metric == "excess_horizontal"
     assert accelerate.describe().startswith("P_avail ~ U(60, 80) W/kg")
 
 
+@pytest.mark.parametrize(
+    ("old", "new"),
+    [("power", "available_power"), ("power_range", "available_power_range"),
+     ("power_envelope", "available_power_envelope")],
+)
+def test_old_names_are_refused_naming_the_new(old: str, new: str) -> None:
+    value = (50.0, 90.0) if old != "power" else 60.0
+    with pytest.raises(ValueError, match=f"'{old}' was renamed; use '{new}'"):
+        gym.make(ACCELERATE_ID, **{old: value})
+    env = gym.make(ACCELERATE_ID)
+    with pytest.raises(ValueError, match="reset option 'power' was renamed; use 'available_power'"):
+        env.reset(options={"power": 60.0})
+
+
+def test_the_toy_task_passes_the_env_checker_in_both_front_ends(toy: TaskSpec) -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env = gym.make(TOY_ID, cruise_speed_range=(0.5, 1.5))
+        check_env(env.unwrapped, skip_render_check=False)
+    assert isinstance(env.unwrapped.config, CruiseConfig)
+    # The single env is the vector env at B = 1: the same stroke, the same info.
+    action = np.full(28, 0.1)
+    vector = gym.make_vec(TOY_ID, num_envs=3, vectorization_mode="vector_entry_point")
+    vector.reset(seed=0, options={"cruise_speed": 0.75})
+    _, rewards, terminated, _, infos = vector.step(np.tile(action, (3, 1)))
+    env.reset(options={"cruise_speed": 0.75})
+    _, reward, done, _, info = env.step(action)
+    assert done and terminated.all() and rewards[0] == reward == rewards[2]
+    assert info["lift_deficit"] == infos["lift_deficit"][0] and "lift_violation" not in info
+    assert info["objective"] == info["excess_horizontal"]
+    with pytest.raises(gym.error.ResetNeeded):
+        env.step(action)
+
+
 def test_a_new_task_runs_through_the_harness(toy: TaskSpec) -> None:
-    assert (toy.condition_name, toy.condition_kwarg, toy.reset_option) == ("offset",) * 3
-    assert toy.forbidden_kwargs == ("offset", "offset_range")
-    assert toy.discrete_actions == ()  # not a flight env: its actions are not strokes
-    assert get_task("offset-toy") is toy
-    (record,) = run("random", "offset-toy", 0.2, 64, [0], progress=False)
-    assert record.condition.to_dict() == {"name": "offset", "value": 0.2, "unit": "-"}
-    assert record.objective_name == "closeness"
-    # The re-evaluation ran at the condition, so the reward is −|a − 0.2|².
-    action = np.array(record.normalised_stroke, dtype=np.float64)
-    assert record.metrics["offset"] == 0.2
-    assert record.reward == pytest.approx(-np.sum((action - 0.2) ** 2))
-    with pytest.raises(ValueError, match="offset_range"):
-        run("random", "offset-toy", 0.2, 8, [0], env_kwargs={"offset_range": (0, 0.1)})
-    with pytest.raises(ValueError, match=r"OffsetConfig.offset = 0.9 -; allowed.*offset_envelope"):
-        run("random", "offset-toy", 0.9, 8, [0], progress=False)
+    assert (toy.condition_name, toy.condition_kwarg, toy.reset_option) == ("cruise_speed",) * 3
+    assert toy.forbidden_kwargs == ("cruise_speed", "cruise_speed_range")
+    assert toy.discrete_actions == STROKE_DISCRETE  # a flight env: its actions are strokes
+    assert toy.declaration is CruiseConfig.DECLARATION
+    small = {"n_time": 16, "n_blade": 4}
+    (record,) = run("random", "cruise-toy", 1.2, 16, [0], env_kwargs=small, progress=False)
+    assert record.condition.to_dict() == {"name": "cruise_speed", "value": 1.2, "unit": "m/s"}
+    assert record.objective_name == "excess_horizontal"
+    assert record.metrics["speed"] == 1.2  # the re-evaluation ran at the condition
+    with pytest.raises(ValueError, match="cruise_speed_range"):
+        run("random", "cruise-toy", 1.0, 8, [0], env_kwargs={"cruise_speed_range": (0.5, 1)})
+    with pytest.raises(ValueError, match=r"CruiseConfig.cruise_speed = 1.9 m/s; allowed.*envelope"):
+        run("random", "cruise-toy", 1.9, 8, [0], env_kwargs=small, progress=False)
 
 
 def test_eval_optimize_takes_the_new_condition(toy: TaskSpec, tmp_path, capsys) -> None:
     from eval.__main__ import build_parser, main
 
     help_text = build_parser()._subparsers._group_actions[0].choices["optimize"].format_help()
-    assert "--offset c" in help_text and "offset-toy: target offset [-]" in help_text
-    assert "Toy task: bring every coordinate" in help_text  # the config's docstring
+    assert "--cruise-speed V_c" in help_text and "cruise-toy: cruise speed [m/s]" in help_text
+    words = " ".join(help_text.split())
+    assert "Toy cruise: maximise the thrust surplus" in words  # the declaration's summary
     out = tmp_path / "toy"
-    argv = ["optimize", "--task", "offset-toy", "--offset", "-0.1", "--method", "random"]
-    argv += ["--budget", "16", "--seeds", "0", "--out", str(out), "--quiet"]
+    argv = ["optimize", "--task", "cruise-toy", "--cruise-speed", "0.8", "--method", "random"]
+    argv += ["--budget", "8", "--seeds", "0", "--out", str(out), "--quiet"]
+    argv += ["--env-kwargs", "n_time=16", "n_blade=4"]
     assert main(argv) == 0
     (path,) = (out / "records").glob("*.json")
     record = Record.load(path)
-    assert record.condition.to_dict() == {"name": "offset", "value": -0.1, "unit": "-"}
+    assert record.condition.to_dict() == {"name": "cruise_speed", "value": 0.8, "unit": "m/s"}
     for wrong, message in (
-        (["--speed", "1"], "--task offset-toy takes --offset c [-], not --speed"),
-        (["--offset", "0", "--objective", "vertical"], "offset-toy maximises closeness"),
+        (["--speed", "1"], "--task cruise-toy takes --cruise-speed V_c [m/s], not --speed"),
+        (["--cruise-speed", "1", "--objective", "vertical"], "cruise-toy maximises surplus"),
     ):
         with pytest.raises(SystemExit):
-            main(["optimize", "--task", "offset-toy", *wrong, *argv[5:]])
+            main(["optimize", "--task", "cruise-toy", *wrong, *argv[5:]])
         assert message in capsys.readouterr().err
     # The paper's tasks keep their documented options.
     with pytest.raises(SystemExit):
-        main(["optimize", "--task", "level", "--offset", "0", *argv[5:]])
-    assert "--task level takes --speed V [m/s], not --offset" in capsys.readouterr().err
+        main(["optimize", "--task", "level", "--cruise-speed", "1", *argv[5:]])
+    assert "--task level takes --speed V [m/s], not --cruise-speed" in capsys.readouterr().err
 
 
 # --- bad declarations ---------------------------------------------------------------------------
 GOOD = dict(
     keyword="climb",
-    info_key="climb_rate",
     label="climb rate",
     symbol="w",
     unit="m/s",
@@ -229,7 +197,8 @@ GOOD = dict(
     ("change", "message"),
     [
         ({"keyword": "climb rate"}, "TaskCondition.keyword = 'climb rate'; allowed: a Python"),
-        ({"info_key": ""}, "TaskCondition.info_key = ''"),
+        ({"option": "climb rate"}, "TaskCondition.option = 'climb rate'"),
+        ({"former_keyword": ""}, "TaskCondition.former_keyword = ''"),
         ({"unit": " "}, "TaskCondition.unit = ' '; allowed: a non-empty string"),
         ({"limits": (5.0, -5.0)}, r"TaskCondition.limits = \(5.0, -5.0\); allowed: .*low < high"),
         ({"envelope": (-6.0, 1.0)}, r"envelope = \(-6.0, 1.0\) m/s; allowed: inside limits"),
@@ -263,32 +232,49 @@ def test_a_config_missing_the_declared_fields_fails_when_defined() -> None:
 
         @dataclass(frozen=True, kw_only=True)
         class ClimbConfig(FlightConfig):
-            CONDITION: ClassVar[TaskCondition] = TaskCondition(**GOOD)
-            OBJECTIVES: ClassVar[TaskObjectives] = TaskObjectives(
-                metrics={"efficiency": "efficiency"}, default="efficiency"
-            )
+            DECLARATION: ClassVar[TaskDeclaration] = _declaration()
             climb: float | None = None
 
-    with pytest.raises(TypeError, match=r"CONDITION = .*OBJECTIVES = None; allowed: a"):
+    with pytest.raises(TypeError, match=r"condition = .*objectives = None; allowed: a"):
+        TaskDeclaration("Half", "half", (POWER_CAP,), condition=TaskCondition(**GOOD))
+    with pytest.raises(TypeError, match=r"DECLARATION = 3; allowed: a TaskDeclaration"):
 
-        class HalfConfig(FlightConfig):
-            CONDITION: ClassVar[TaskCondition] = TaskCondition(**GOOD)
+        class NotAConfig(FlightConfig):
+            DECLARATION: ClassVar[Any] = 3
+    with pytest.raises(TypeError, match=r"constraints = \[.*\]; allowed: a tuple of Constraint"):
+        TaskDeclaration("List", "list", [POWER_CAP])  # type: ignore[arg-type]
+
+
+def _declaration(**objectives: Any) -> TaskDeclaration:
+    return TaskDeclaration(
+        name="Climb",
+        summary="climb",
+        constraints=(POWER_CAP,),
+        condition=TaskCondition(**GOOD),
+        objectives=TaskObjectives(
+            **(objectives or {"metrics": {"efficiency": "efficiency"}, "default": "efficiency"})
+        ),
+    )
 
 
 def test_objective_choices_must_match_the_literal() -> None:
     with pytest.raises(TypeError, match=r"objective is typed .*Literal.* but OBJECTIVES declares"):
 
         @dataclass(frozen=True, kw_only=True)
-        class TwoObjectives(AccelerateConfig):
-            OBJECTIVES: ClassVar[TaskObjectives] = TaskObjectives(
+        class TwoObjectives(FlightConfig):
+            DECLARATION: ClassVar[TaskDeclaration] = _declaration(
                 metrics={"vertical": "excess_vertical", "horizontal": "excess_horizontal"},
                 default="vertical",
                 keyword="objective",
             )
+            climb: float | None = None
+            climb_range: tuple[float, float] | None = None
+            climb_envelope: tuple[float, float] = (-1.0, 1.0)
+            objective: Literal["vertical", "resultant"] = "vertical"
 
 
 def test_from_env_names_what_is_missing() -> None:
-    with pytest.raises(ValueError, match="SpeedChangeConfig declares CONDITION = None"):
+    with pytest.raises(ValueError, match="SpeedChangeConfig declares DECLARATION = .*SpeedChange"):
         TaskSpec.from_env("speed-change", SPEED_CHANGE_ID)
     with pytest.raises(ValueError, match="'Nope/Nothing-v0' is not registered"):
         TaskSpec.from_env("nothing", "Nope/Nothing-v0")
