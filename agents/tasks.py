@@ -20,12 +20,13 @@ from typing import Any
 
 import numpy as np
 
+from tandem_env.envs import registration
 from tandem_env.envs.config import FlightConfig
 from tandem_env.envs.declaration import TaskCondition, TaskDeclaration, TaskObjectives
-from tandem_env.envs import registration
 from tandem_env.envs.registration import config_class
 from tandem_env.physics.checks import is_real
 from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
+
 __all__ = [
     "ACCELERATE",
     "LEVEL",

@@ -21,16 +21,16 @@ from tandem_env.envs import ACCELERATE
 from tandem_env.envs.config import MODEL_OPTION_KWARGS
 
 #: ModelOptions fields that set the numerics (resolution, solver), not a reading of the paper.
-NUMERICAL_OPTIONS: frozenset[str] = frozenset(
-    {"n_time", "n_blade", "tolerance", "max_evaluations"}
-)
+NUMERICAL_OPTIONS: frozenset[str] = frozenset({"n_time", "n_blade", "tolerance", "max_evaluations"})
 #: The ModelOptions fields a reading may set: every modelling decision.
 DECISION_OPTIONS: tuple[str, ...] = tuple(
     f.name for f in fields(ModelOptions) if f.name not in NUMERICAL_OPTIONS
 )
 #: Accelerating-flight objectives whose optimum can stand for the paper's F̄_h (Fig. 7).
 HORIZONTAL_OBJECTIVES: tuple[str, ...] = tuple(
-    o for o in ACCELERATE.objectives.choices if o.startswith("horizontal")  # type: ignore[union-attr]
+    o
+    for o in ACCELERATE.objectives.choices
+    if o.startswith("horizontal")  # type: ignore[union-attr]
 )
 #: C_r of the default insect's wings (Table 3: π) [-].
 DEFAULT_ROTATIONAL = Dragonfly().fore.rotational_coefficient

@@ -200,8 +200,13 @@ class FlightCore:
             if given:
                 unit = cfg.declared_condition.unit
                 values[k] = option_value(
-                    cfg.name, self.option_key, given[self.option_key], self._low, self._high,
-                    unit, "the observation envelope",
+                    cfg.name,
+                    self.option_key,
+                    given[self.option_key],
+                    self._low,
+                    self._high,
+                    unit,
+                    "the observation envelope",
                 )
             elif cfg.condition_range is None:
                 values[k] = cfg.fixed_condition

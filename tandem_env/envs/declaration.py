@@ -166,8 +166,11 @@ class TaskCondition:
         old = self.former_keyword
         if old is None:
             return {}
-        return {old: self.keyword, f"{old}_range": self.range_keyword,
-                f"{old}_envelope": self.envelope_keyword}
+        return {
+            old: self.keyword,
+            f"{old}_range": self.range_keyword,
+            f"{old}_envelope": self.envelope_keyword,
+        }
 
     def describe(self, fixed: float | None, sampled: tuple[float, float] | None) -> str:
         """``"V = 1.5 m/s"`` or ``"V ~ U(0.25, 2) m/s"``, for titles and reprs."""
@@ -298,9 +301,11 @@ class TaskDeclaration:
     def __post_init__(self) -> None:
         _text("TaskDeclaration", "name", self.name)
         _text("TaskDeclaration", "summary", self.summary)
-        if (self.condition is None) != (self.objectives is None) or not (
-            self.condition is None or isinstance(self.condition, TaskCondition)
-        ) or not (self.objectives is None or isinstance(self.objectives, TaskObjectives)):
+        if (
+            (self.condition is None) != (self.objectives is None)
+            or not (self.condition is None or isinstance(self.condition, TaskCondition))
+            or not (self.objectives is None or isinstance(self.objectives, TaskObjectives))
+        ):
             raise TypeError(
                 f"TaskDeclaration {self.name!r}: condition = {self.condition!r}, objectives = "
                 f"{self.objectives!r}; allowed: a TaskCondition and a TaskObjectives, or neither"
@@ -322,7 +327,9 @@ class TaskDeclaration:
         for constraint in self.constraints:
             value = constraint.violation(result, config)
             violations[constraint.name] = value
-            total = total + (value if constraint.scale is None else value / constraint.scale(result, config))
+            total = total + (
+                value if constraint.scale is None else value / constraint.scale(result, config)
+            )
             feasible &= value == 0.0
         return Scores(violations, total, feasible)
 

@@ -28,8 +28,8 @@ import numpy as np
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
 
-from .registration import check_env_id
 from .base import FlightVectorEnv, rows
+from .registration import check_env_id
 
 
 class TandemVecEnv(VecEnv):

@@ -42,6 +42,14 @@ LEVEL_FLIGHT_ENVELOPE: tuple[float, float] = LEVEL_FLIGHT.condition.envelope  # 
 #: are int64 and the observation divides by it.
 MAX_CYCLES = 500_000
 
+#: Fastest forward (and vertical) speed a SpeedChange episode may reach [m/s]: the top of the
+#: default ``forward_speed_band``. One step holds the wings' cycle-mean force, evaluated at the
+#: cycle's start, over the whole cycle (a zero-order hold, explicit in the velocity). The force
+#: grows with V, and above this speed that step is no longer resolved: at 4 m/s some strokes
+#: already reverse the flight in one cycle, and at 19.9 m/s most do (19.9 -> -29 m/s). So the
+#: config refuses a band beyond it rather than report such steps as ordinary ones.
+MAX_BAND_SPEED: float = 3.0
+
 SPEED_CHANGE = TaskDeclaration(
     name="SpeedChange",
     summary="Multi-cycle flight: reach a target speed and hold altitude, one stroke per wing-beat.",
@@ -184,10 +192,11 @@ class SpeedChangeConfig(FlightConfig):
     are 1.1-1.6 s of flight."""
     altitude_band: float = 0.5
     """|h| [m] beyond which the episode terminates (h: altitude relative to the start)."""
-    forward_speed_band: tuple[float, float] = (0.0, 3.0)
+    forward_speed_band: tuple[float, float] = (0.0, MAX_BAND_SPEED)
     """(low, high) [m/s]: a forward speed u outside terminates the episode; the observation of u
     is normalised over it. The low end may not be below 0: the model covers forward flight only
-    (|γ| ≤ 90°)."""
+    (|γ| ≤ 90°); the high end not above :data:`MAX_BAND_SPEED` (3 m/s), where one cycle's step
+    stops being resolved."""
     vertical_speed_scale: float = 2.0
     """|w| [m/s] mapped to ±1 in the observation (clipped beyond; w is not bounded)."""
     reward: SpeedChangeReward = field(default_factory=SpeedChangeReward)
@@ -200,9 +209,7 @@ class SpeedChangeConfig(FlightConfig):
     def __post_init__(self) -> None:
         super().__post_init__()
         owner = type(self).__name__
-        envelope = check_interval(
-            owner, "speed_envelope", self.speed_envelope, "m/s", SPEED_LIMITS
-        )
+        envelope = check_interval(owner, "speed_envelope", self.speed_envelope, "m/s", SPEED_LIMITS)
         object.__setattr__(self, "speed_envelope", envelope)
         _speed_option(owner, self, "start_speed", envelope)
         _speed_option(owner, self, "target_speed", envelope)
@@ -218,6 +225,13 @@ class SpeedChangeConfig(FlightConfig):
         band = check_interval(
             owner, "forward_speed_band", self.forward_speed_band, "m/s", SPEED_LIMITS
         )
+        if band[1] > MAX_BAND_SPEED:
+            raise ValueError(
+                f"{owner}.forward_speed_band = {self.forward_speed_band!r} m/s; allowed: a band "
+                f"within 0 to {MAX_BAND_SPEED:g} m/s (MAX_BAND_SPEED: beyond it one wing-beat's "
+                "step, the cycle-mean force held over the cycle, is not resolved and can reverse "
+                "the flight)"
+            )
         _inside(owner, "speed_envelope low", envelope[0], "forward_speed_band", band)
         _inside(owner, "speed_envelope high", envelope[1], "forward_speed_band", band)
         object.__setattr__(self, "forward_speed_band", band)
@@ -295,6 +309,7 @@ OBSERVATION_NAMES: tuple[str, ...] = (
 #: ``reset(options=...)`` keys: the episode's start and target forward speeds [m/s] (inside
 #: ``speed_envelope``) and its start vertical speed [m/s] (default 0).
 RESET_OPTIONS: tuple[str, ...] = ("start_speed", "target_speed", "vertical_speed")
+
 
 @dataclass(frozen=True)
 class Flight:
@@ -392,7 +407,7 @@ class SpeedChangeCore:
     def draw(
         self,
         count: int,
-        rngs: Callable[[int], np.random.Generator],
+        rngs: EnvGenerators,
         options: Sequence[Mapping[str, Any] | None],
     ) -> Flight:
         """States of ``count`` new episodes: u = u₀, w = w₀ (0), h = 0, target u*.
@@ -413,17 +428,10 @@ class SpeedChangeCore:
                     values[name] = getattr(cfg, name)
                 else:
                     values[name] = rngs(k).uniform(*getattr(cfg, f"{name}_range"))
-            vertical = given.get("vertical_speed", 0.0)
-            if np.hypot(values["start_speed"], vertical) > SPEED_LIMITS[1]:
-                raise ValueError(
-                    f"{cfg.name}: reset options start_speed = {values['start_speed']:g} m/s and "
-                    f"vertical_speed = {vertical:g} m/s give V = "
-                    f"{np.hypot(values['start_speed'], vertical):g} m/s; allowed: "
-                    f"sqrt(u² + w²) <= {SPEED_LIMITS[1]:g} m/s (the model's limit)"
-                )
             flight.forward_speed[k] = values["start_speed"]
             flight.target_speed[k] = values["target_speed"]
-            flight.vertical_speed[k] = vertical
+            # Within ±MAX_BAND_SPEED (checked in _options), as u is within the band.
+            flight.vertical_speed[k] = given.get("vertical_speed", 0.0)
         return flight
 
     def _options(self, options: Mapping[str, Any] | None) -> dict[str, float]:
@@ -436,12 +444,18 @@ class SpeedChangeCore:
             if key in given
         }
         if "vertical_speed" in given:
-            limit = SPEED_LIMITS[1] / 2.0
+            limit = MAX_BAND_SPEED
             out["vertical_speed"] = option_value(
-                cfg.name, "vertical_speed", given["vertical_speed"], -limit, limit, "m/s",
+                cfg.name,
+                "vertical_speed",
+                given["vertical_speed"],
+                -limit,
+                limit,
+                "m/s",
                 "the range",
             )
         return out
+
     def observe(self, flight: Flight) -> np.ndarray:
         """(B, 5) float32 observations in [-1, 1] (:data:`OBSERVATION_NAMES`): u over
         ``forward_speed_band``, w / ``vertical_speed_scale``, h / ``altitude_band``, u* over
@@ -540,6 +554,8 @@ class SpeedChangeCore:
             terminated=terminated,
             truncated=truncated,
         )
+
+
 def frame_for(
     core: SpeedChangeCore, title: str, flight: Flight | None, index: int, last: LastStep | None
 ) -> Any:

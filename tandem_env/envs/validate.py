@@ -122,7 +122,9 @@ def action_values(arr: np.ndarray, clip: bool) -> np.ndarray:
     return arr
 
 
-def reset_options(owner: str, options: Any, allowed: tuple[str, ...], renamed: Mapping[str, str]) -> Mapping[str, Any]:
+def reset_options(
+    owner: str, options: Any, allowed: tuple[str, ...], renamed: Mapping[str, str]
+) -> Mapping[str, Any]:
     """``options`` of ``reset`` as a mapping (empty for None) whose keys are all ``allowed``;
     an old key of ``renamed`` is refused naming its new one."""
     if not options:
@@ -131,19 +133,18 @@ def reset_options(owner: str, options: Any, allowed: tuple[str, ...], renamed: M
         raise ValueError(f"reset options = {options!r}; allowed: None or a dict")
     for key in options:
         if key in renamed:
-            raise ValueError(
-                f"{owner}: reset option {key!r} was renamed; use {renamed[key]!r}"
-            )
+            raise ValueError(f"{owner}: reset option {key!r} was renamed; use {renamed[key]!r}")
     unknown = sorted(set(options) - set(allowed))
     if unknown:
         raise ValueError(
-            f"{owner}: unknown reset option(s) {unknown}; allowed: "
-            f"{', '.join(map(repr, allowed))}"
+            f"{owner}: unknown reset option(s) {unknown}; allowed: {', '.join(map(repr, allowed))}"
         )
     return options
 
 
-def option_value(owner: str, key: str, value: Any, low: float, high: float, unit: str, where: str) -> float:
+def option_value(
+    owner: str, key: str, value: Any, low: float, high: float, unit: str, where: str
+) -> float:
     """A reset option's number: finite and in [low, high] (``where`` names that range)."""
     if not is_real(value) or not math.isfinite(value) or not low <= value <= high:
         raise ValueError(

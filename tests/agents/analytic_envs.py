@@ -139,8 +139,14 @@ class AnalyticVectorEnv(VectorEnv):
 
 #: The analytic tasks' condition: the shift of the optimum.
 SHIFT = TaskCondition(
-    keyword="shift", label="optimum shift", symbol="s", unit="-", limits=(-1.0, 1.0),
-    default=0.0, envelope=(-1.0, 1.0), sweep=(0.0,),
+    keyword="shift",
+    label="optimum shift",
+    symbol="s",
+    unit="-",
+    limits=(-1.0, 1.0),
+    default=0.0,
+    envelope=(-1.0, 1.0),
+    sweep=(0.0,),
 )
 
 

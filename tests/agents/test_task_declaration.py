@@ -40,7 +40,7 @@ from tandem_env.envs.declaration import POWER_CAP
 from tandem_env.envs.registration import add_entry, config_class
 
 sys.path.insert(0, str(Path(__file__).parent))
-from toy_task import TOY_ENTRY, TOY_ID, CruiseConfig  # noqa: E402
+from toy_task import TOY_ENTRY, TOY_ID, CruiseConfig
 
 
 @pytest.fixture()
@@ -104,8 +104,11 @@ def test_the_config_reads_its_declaration() -> None:
 
 @pytest.mark.parametrize(
     ("old", "new"),
-    [("power", "available_power"), ("power_range", "available_power_range"),
-     ("power_envelope", "available_power_envelope")],
+    [
+        ("power", "available_power"),
+        ("power_range", "available_power_range"),
+        ("power_envelope", "available_power_envelope"),
+    ],
 )
 def test_old_names_are_refused_naming_the_new(old: str, new: str) -> None:
     value = (50.0, 90.0) if old != "power" else 60.0
@@ -241,6 +244,7 @@ def test_a_config_missing_the_declared_fields_fails_when_defined() -> None:
 
         class NotAConfig(FlightConfig):
             DECLARATION: ClassVar[Any] = 3
+
     with pytest.raises(TypeError, match=r"constraints = \[.*\]; allowed: a tuple of Constraint"):
         TaskDeclaration("List", "list", [POWER_CAP])  # type: ignore[arg-type]
 
@@ -274,7 +278,7 @@ def test_objective_choices_must_match_the_literal() -> None:
 
 
 def test_from_env_names_what_is_missing() -> None:
-    with pytest.raises(ValueError, match="SpeedChangeConfig declares DECLARATION = .*SpeedChange"):
+    with pytest.raises(ValueError, match=r"SpeedChangeConfig declares DECLARATION = .*SpeedChange"):
         TaskSpec.from_env("speed-change", SPEED_CHANGE_ID)
     with pytest.raises(ValueError, match="'Nope/Nothing-v0' is not registered"):
         TaskSpec.from_env("nothing", "Nope/Nothing-v0")

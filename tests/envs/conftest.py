@@ -21,6 +21,7 @@ def accelerate_scores(result: te.Result):
     """Accelerating flight's constraints (its declaration) on a model result."""
     return ACCELERATE.score(result, AccelerateConfig())
 
+
 # A level-flight-feasible stroke at V = 1.5 m/s (tear-drop wings, default ModelOptions,
 # thrust_split="sign"), found offline by a 64-particle × 400-iteration PSO (Clerc-Kennedy
 # constriction, seed 1) over the normalised box maximising η − 10·violation with a tighter

@@ -202,14 +202,19 @@ def test_model_options_and_insect_objects_pass_through() -> None:
 def test_a_config_object_can_be_given_instead_of_kwargs() -> None:
     env = LevelFlightEnv(config=LevelFlightConfig(speed=1.0))
     assert env.config.speed == 1.0
-    assert AccelerateEnv(config=AccelerateConfig(objective="horizontal")).config.available_power == 90.0
+    assert (
+        AccelerateEnv(config=AccelerateConfig(objective="horizontal")).config.available_power
+        == 90.0
+    )
     for f in fields(LevelFlightConfig):
         assert f.name in LevelFlightConfig.allowed_kwargs()
 
 
 @pytest.mark.parametrize("env_id", [LEVEL, ACCELERATE])
 def test_same_seed_same_everything(env_id: str, same) -> None:
-    kwargs = {"speed_range": (0.25, 2.0)} if env_id == LEVEL else {"available_power_range": (50.0, 90.0)}
+    kwargs = (
+        {"speed_range": (0.25, 2.0)} if env_id == LEVEL else {"available_power_range": (50.0, 90.0)}
+    )
     envs = [gym.make(env_id, **kwargs) for _ in range(2)]
     outputs = []
     for env in envs:

@@ -25,7 +25,10 @@ def dummy(env_id: str, n: int, **kwargs: Any) -> DummyVecEnv:
     ("env_id", "kwargs"),
     [
         (LEVEL, {"speed_range": (0.25, 2.0)}),
-        (ACCELERATE, {"objective": "horizontal", "available_power_range": (50.0, 90.0), "planform": "real"}),
+        (
+            ACCELERATE,
+            {"objective": "horizontal", "available_power_range": (50.0, 90.0), "planform": "real"},
+        ),
     ],
 )
 def test_adapter_matches_dummy_vec_env(env_id: str, kwargs: dict, same) -> None:

@@ -114,7 +114,11 @@ def test_env_limits_are_the_models() -> None:
             "objective = 'sideways'; allowed: 'vertical', 'horizontal', 'resultant'",
         ),
         (ACCELERATE, {"available_power": 95.0}, "available_power_envelope"),
-        (ACCELERATE, {"available_power": 0.0}, r"allowed: a finite number inside .*\(50, 90\) W/kg"),
+        (
+            ACCELERATE,
+            {"available_power": 0.0},
+            r"allowed: a finite number inside .*\(50, 90\) W/kg",
+        ),
         (ACCELERATE, {"speed": -0.5}, "speed = -0.5 m/s"),
         (ACCELERATE, {"speed_range": (0.5, 1.0)}, "unknown argument.*'speed_range'"),
     ],

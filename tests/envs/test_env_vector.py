@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
-from tandem_env.envs import base as task_module
 from tandem_env.envs import AccelerateVectorEnv, LevelFlightVectorEnv
+from tandem_env.envs import base as task_module
 
 LEVEL = "TandemWing/LevelFlight-v0"
 ACCELERATE = "TandemWing/Accelerate-v0"
@@ -101,7 +101,9 @@ def test_partial_reset_mask_and_mixed_infos_match_sync_vector_env(same) -> None:
 
 def test_disabled_autoreset_matches_sync_vector_env(same) -> None:
     n = 3
-    native, sync = make_pair(ACCELERATE, n, AutoresetMode.DISABLED, available_power_range=(50.0, 90.0))
+    native, sync = make_pair(
+        ACCELERATE, n, AutoresetMode.DISABLED, available_power_range=(50.0, 90.0)
+    )
     same(native.reset(seed=9), sync.reset(seed=9))
     same(native.step(actions_for(n, 0)), sync.step(actions_for(n, 0)))
     with pytest.raises(RuntimeError, match="reset_mask"):

@@ -11,6 +11,7 @@ import pytest
 import tandem_env as te
 from tandem_env.envs import SPEED_CHANGE_ID, SpeedChangeEnv
 from tandem_env.envs.dynamics import advance, body_drag, cycle_time, flight_path, net_force
+from tandem_env.envs.speed_change import Flight, SpeedChangeConfig, SpeedChangeCore
 from tandem_env.physics.stroke import N_PER_WING, TABLE_4
 
 BETA = [
@@ -213,3 +214,30 @@ def test_body_drag_opposes_the_velocity() -> None:
     drag = body_drag(speed, insect)
     np.testing.assert_allclose(fx, -drag * np.cos(gamma), atol=1e-18)
     np.testing.assert_allclose(fz + insect.weight, -drag * np.sin(gamma), atol=1e-18)
+
+
+def test_an_envelope_where_one_step_is_not_resolved_is_refused() -> None:
+    """A widened band let one step reverse the flight (19.9 -> -29 m/s); it is refused."""
+    from tandem_env.envs.speed_change import MAX_BAND_SPEED
+
+    wide = {"speed_envelope": (0.25, 20.0), "forward_speed_band": (0.0, 20.0)}
+    with pytest.raises(
+        ValueError, match=r"forward_speed_band = \(0.0, 20.0\) m/s; allowed: a band"
+    ):
+        gym.make("TandemWing/SpeedChange-v0", **wide)
+    # What the refusal prevents: at speeds past the limit the zero-order hold overshoots.
+    core = SpeedChangeCore(SpeedChangeConfig())
+    actions = np.random.default_rng(0).uniform(-1.0, 1.0, (2048, 28))
+    physical = te.normalised_to_physical(actions)
+    flight = Flight.empty(2048)
+    flight.forward_speed[:] = 19.9  # a state the refused envelope would have allowed
+    after = core.step(physical, flight).after.forward_speed
+    assert (after < 0.0).mean() > 0.5  # most strokes reverse the flight in one cycle
+    # At the band's top all but a rare strong brake among the same strokes keep flying forward.
+    flight.forward_speed[:] = MAX_BAND_SPEED
+    after = core.step(physical, flight).after.forward_speed
+    assert (after > 0.0).mean() > 0.99
+    # A reset that would start the body beyond the limit is refused at reset, naming the option.
+    env = gym.make("TandemWing/SpeedChange-v0")
+    with pytest.raises(ValueError, match=r"reset option vertical_speed = 5.0; allowed"):
+        env.reset(options={"vertical_speed": 5.0})

@@ -112,4 +112,4 @@ def test_result_records_its_options_and_integer_sweep_counts() -> None:
     assert "options" not in result.as_dict()
     row = result.row(0)
     assert isinstance(row["induction_evaluations"], int)
-    assert isinstance(row["level_feasible"], bool)
+    assert isinstance(row["efficiency_above_one"], bool)
