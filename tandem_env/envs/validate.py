@@ -88,8 +88,11 @@ def check_actions(actions: Any, shape: tuple[int, ...], clip: bool) -> np.ndarra
 
 def action_array(actions: Any, shape: tuple[int, ...]) -> np.ndarray:
     """``actions`` as a float64 array of ``shape`` (real numbers; values not checked yet)."""
-    what = "action" if len(shape) == 1 else "actions"
-    arr = real_array(actions, what, f"real numbers in [-1, 1] of shape {shape}")
+    if len(shape) == 1:
+        what, allowed = "action", f"{N_PARAMETERS} real numbers in [-1, 1] (a normalised stroke)"
+    else:
+        what, allowed = "actions", f"real numbers of shape {shape} (one normalised stroke per env)"
+    arr = real_array(actions, what, allowed)
     if arr.shape != shape:
         raise ValueError(
             f"{what} must have shape {shape} here (one normalised stroke of {N_PARAMETERS} "
