@@ -227,6 +227,18 @@ def test_same_seed_same_everything(env_id: str, same) -> None:
     same(outputs[0], outputs[1])
 
 
+@pytest.mark.parametrize("env_id", [LEVEL, ACCELERATE])
+def test_a_second_step_after_the_episode_ended_raises_as_in_speed_change(env_id: str) -> None:
+    env = gym.make(env_id).unwrapped
+    env.reset(seed=0)
+    action = np.zeros(28)
+    assert env.step(action)[2]  # terminated: a one-cycle episode
+    with pytest.raises(gym.error.ResetNeeded, match="the episode has ended; call reset"):
+        env.step(action)
+    env.reset()
+    assert env.step(action)[2]  # and a reset starts the next episode
+
+
 def test_step_before_reset_raises() -> None:
     with pytest.raises(gym.error.ResetNeeded):
         LevelFlightEnv().step(np.zeros(28, dtype=np.float32))
