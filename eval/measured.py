@@ -10,10 +10,14 @@ documented in docs/measured.md; ``examples/`` has complete files.
 from __future__ import annotations
 
 import argparse
+import collections.abc
 import csv
+import io
 import json
 import math
+import re
 import sys
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
@@ -22,6 +26,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from tandem_env.io.files import output_directory, write_text_atomic
 from tandem_env.physics import (
     DRAGONFLY,
     Dragonfly,
@@ -32,7 +37,7 @@ from tandem_env.physics import (
     Wing,
     measured_history,
 )
-from tandem_env.physics.measured import FOURIER_SAMPLES
+from tandem_env.physics.measured import FOURIER_SAMPLES, MAX_SAMPLES
 
 NAME = "measured"
 HELP = "forces and power of measured wing kinematics (YAML: insect, kinematics, flight)"
@@ -62,6 +67,60 @@ ANGLES = ("sweep", "elevation", "pitch")
 
 class SpecError(ValueError):
     """A bad field in a kinematics file; the message names the field and what is allowed."""
+
+
+class _Loader(yaml.SafeLoader):
+    """YAML's safe loader (plain data only) with two fixes for hand-written kinematics files.
+
+    * YAML 1.2 numbers: PyYAML reads YAML 1.1, where ``1e-4`` and ``34e0`` (no dot, or no sign
+      in the exponent) are strings; they are floats here, as in YAML 1.2 and every spreadsheet.
+    * Duplicate keys are refused, naming the key and its line (YAML 1.1 loaders keep the
+      last one silently, so a pasted second ``speed:`` would win without a word).
+    """
+
+    def construct_mapping(self, node: yaml.Node, deep: bool = False) -> dict[Any, Any]:
+        if isinstance(node, yaml.MappingNode):
+            seen: dict[Any, int] = {}
+            for key_node, _ in node.value:
+                key = self.construct_object(key_node, deep=True)
+                if not isinstance(key, collections.abc.Hashable):
+                    continue  # reported by the base class
+                line = key_node.start_mark.line + 1
+                if key in seen:
+                    raise yaml.constructor.ConstructorError(
+                        None,
+                        None,
+                        f"duplicate key {key!r} on lines {seen[key]} and {line}; allowed: each "
+                        "key once per mapping",
+                        key_node.start_mark,
+                    )
+                seen[key] = line
+        return super().construct_mapping(node, deep=deep)
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$"),
+    list("-+.0123456789"),
+)
+
+
+def _text(path: Path, where: str) -> str:
+    """A file's text: UTF-8 (a BOM allowed), no NUL bytes; errors say what the file is."""
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise SpecError(f"{where} {str(path)!r} cannot be read ({exc.strerror or exc})") from None
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")) or b"\x00" in data[:4096]:
+        kind = "UTF-16 text" if data.startswith((b"\xff\xfe", b"\xfe\xff")) else "binary data"
+        raise SpecError(f"{where} {str(path)!r} holds {kind}; allowed: UTF-8 text")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise SpecError(
+            f"{where} {str(path)!r} is not UTF-8 text (byte {exc.start}: "
+            f"{data[exc.start : exc.start + 1]!r}); allowed: UTF-8 text (save it as UTF-8)"
+        ) from None
 
 
 @dataclass(frozen=True)
@@ -168,11 +227,26 @@ def _series(value: Any, where: str) -> tuple[float, list[tuple[float, float]]]:
 def _read_csv(path: Path, where: str) -> dict[str, np.ndarray]:
     if not path.is_file():
         raise SpecError(f"{where}.csv = {str(path)!r}: no such file")
-    with open(path, newline="", encoding="utf-8") as handle:
-        rows = [row for row in csv.reader(handle) if row and not row[0].lstrip().startswith("#")]
+    text = _text(path, f"{where}.csv")
+    reader = csv.reader(io.StringIO(text, newline=""))
+    try:
+        rows = [row for row in reader if row and not row[0].lstrip().startswith("#")]
+    except csv.Error as exc:
+        raise SpecError(f"{where}.csv {str(path)!r}: not CSV ({exc})") from None
     if len(rows) < 2:
         raise SpecError(f"{where}.csv {str(path)!r}: needs a header row and samples")
+    if len(rows) - 1 > MAX_SAMPLES + 1:  # before parsing a huge file (a closed cycle: + 1)
+        raise SpecError(
+            f"{where}.csv {str(path)!r} has {len(rows) - 1} samples; allowed: at most "
+            f"{MAX_SAMPLES} per cycle (resample it)"
+        )
     header = [h.strip() for h in rows[0]]
+    repeated = sorted({h for h in header if header.count(h) > 1})
+    if repeated:
+        raise SpecError(
+            f"{where}.csv {str(path)!r}: column {repeated[0]!r} appears "
+            f"{header.count(repeated[0])} times in the header; allowed: distinct column names"
+        )
     data: dict[str, list[float]] = {h: [] for h in header}
     for line, row in enumerate(rows[1:], start=2):
         if len(row) != len(header):
@@ -272,9 +346,18 @@ def load_case(path: str | Path) -> MeasuredCase:
     if not path.is_file():
         raise SpecError(f"{str(path)!r}: no such file")
     try:
-        spec = yaml.safe_load(path.read_text(encoding="utf-8"))
+        spec = yaml.load(_text(path, "kinematics file"), Loader=_Loader)  # safe: plain data
     except yaml.YAMLError as exc:
         raise SpecError(f"{str(path)!r} is not valid YAML: {exc}") from None
+    except RecursionError:
+        raise SpecError(
+            f"{str(path)!r} nests too deeply; allowed: the format of docs/measured.md"
+        ) from None
+    if spec is None:
+        raise SpecError(
+            f"{str(path)!r} is empty; allowed: a mapping with flight, kinematics (fore, hind) "
+            "and optionally insect, options, description (docs/measured.md)"
+        )
     spec = _mapping(spec, str(path))
     _take(spec, ("description", "insect", "flight", "options", "kinematics"), "file")
     flight = _mapping(spec.get("flight"), "flight")
@@ -457,22 +540,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     source = Path(args.kinematics)
-    try:
-        case = load_case(source)
-        history = run_case(case)
-    except SpecError as exc:
-        parser.error(f"{source}: {exc}")
-    print(format_summary(case, history))
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        output_directory(out)  # before any work: a file or a read-only folder is refused now
+    except ValueError as exc:
+        parser.error(str(exc))
+    # The model's warnings (a jump in a series, radians given as degrees, a flipped pitch)
+    # are part of the answer: one line each, with the file named, not Python's file:line.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            case = load_case(source)
+            history = run_case(case)
+        except SpecError as exc:
+            parser.error(f"{source}: {exc}")
+    for warning in caught:
+        print(f"{parser.prog}: warning: {source}: {warning.message}", file=sys.stderr)
+    print(format_summary(case, history))
     json_path = out / f"{case.name}.json"
     png_path = out / f"{case.name}.png"
     for path in (json_path, png_path):
         if path.exists():
             print(f"replacing {path}", file=sys.stderr)
-    tmp = json_path.with_name(f".{json_path.name}.tmp")
-    tmp.write_text(json.dumps(record(case, history, source), indent=1) + "\n", encoding="utf-8")
-    tmp.replace(json_path)
+    # Unique temporary names and an atomic rename: concurrent runs into one folder never mix
+    # their files (the last one to finish wins, whole).
+    write_text_atomic(json_path, json.dumps(record(case, history, source), indent=1) + "\n")
     plot(case, history, png_path)
     print(f"wrote {json_path} and {png_path}", file=sys.stderr)
     return 0

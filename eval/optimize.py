@@ -16,15 +16,17 @@ from typing import TypeVar
 
 from agents.harness import prepare
 from agents.methods import available_methods
-from agents.records import RecordStore
+from agents.records import SUMMARY_NAME, RecordStore
 from agents.tasks import TaskSpec, available_tasks, get_task
 from eval.studies.runner import (
     JobsFailed,
     SchedulerUnreachable,
+    have_records,
     load_records,
     parse_scheduler,
     run_jobs,
 )
+from tandem_env.io.files import output_directory
 from tandem_env.io.keyvalue import parse_pairs
 
 
@@ -90,7 +92,7 @@ one after another (default), or on Dask: --scheduler local:N starts N worker pro
 EPILOG = """\
 examples:
   python -m eval optimize --task level --speed 1.5 --method pso --budget 12000 \\
-      --seeds 0 1 2 3 4 --out results/issue4
+      --seeds 0 1 2 3 4 --out results/level-1.5
   python -m eval optimize --task accelerate --power 70 --objective horizontal \\
       --method random --budget 4000 --seeds 0 --out results/acc --quiet
   python -m eval optimize --task level --speed 1.0 --method pso --budget 8000 --seeds 0 \\
@@ -217,6 +219,9 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             f"{task.default_objective}"
         )
     try:
+        # Checked before any work: a file is refused; a read-only folder only if there is
+        # something to compute (a rerun whose records are all stored just reports them).
+        writable = output_directory(args.out, write=False)
         store = RecordStore(args.out)
         scheduler = None if args.scheduler is None else parse_scheduler(args.scheduler)
         env_kwargs = parse_pairs(args.env_kwargs, "--env-kwargs")
@@ -236,6 +241,9 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             env_kwargs=env_kwargs,
             method_config=method_config,
         )
+        jobs = [p.job for p in prepared]
+        if not writable and not have_records(store.directory, jobs):
+            output_directory(args.out)  # raises, naming the folder and why
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     if not args.quiet:
@@ -244,7 +252,6 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             f"-> {store.directory}",
             file=sys.stderr,
         )
-    jobs = [p.job for p in prepared]
     try:
         summary = run_reporting(
             parser,
@@ -253,8 +260,15 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             ),
         )
     finally:
-        if store.directory.exists():  # over what is stored (read once), also after a failure
+        # over what is stored (read once), also after a failure
+        if writable and store.directory.exists():
             store.write_summary()
+        elif not writable:
+            print(
+                f"{store.directory} cannot be written: every seed is stored there, "
+                f"{SUMMARY_NAME} is left as it is",
+                file=sys.stderr,
+            )
     if isinstance(summary, int):
         return summary
     for record in load_records(store.directory, jobs).values():

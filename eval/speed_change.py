@@ -33,7 +33,7 @@ import numpy as np
 import tandem_env  # noqa: F401  (registers the ids)
 from tandem_env.envs.registration import SPEED_CHANGE_ID
 from tandem_env.envs.speed_change import LEVEL_FLIGHT_ENVELOPE, Flight, SpeedChangeConfig
-from tandem_env.io.files import write_csv_atomic
+from tandem_env.io.files import output_directory, write_csv_atomic
 
 __all__ = [
     "EpisodeLog",
@@ -505,31 +505,63 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
+def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> str:
+    """Validate --optimiser, --optima-budget, --grid and --scheduler before any optimisation
+    (ValueError naming the option and what is allowed); returns the optimiser."""
+    from agents.harness import prepare
+    from eval.studies.runner import parse_scheduler
+
+    if args.scheduler is not None:
+        parse_scheduler(args.scheduler)
+    method = default_optimiser() if args.optimiser is None else args.optimiser
+    if len(set(args.grid)) != len(args.grid):
+        raise ValueError(
+            f"--grid {' '.join(f'{v:g}' for v in args.grid)}: allowed: distinct speeds"
+        )
+    kwargs = level_kwargs(config)
+    for speed in args.grid:
+        try:  # the harness's own checks: method, budget, speed within the level task's range
+            prepare(method, "level", speed, args.optima_budget, [0], env_kwargs=kwargs)
+        except ValueError as error:
+            raise ValueError(
+                f"the level-flight optimum at --grid speed {speed:g} m/s (--optimiser {method}, "
+                f"--optima-budget {args.optima_budget}): {error}"
+            ) from None
+    return method
+
+
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from eval.optimize import run_reporting
+
     if args.episodes < 1:
         parser.error(f"--episodes {args.episodes}; allowed: >= 1")
     if not 0 <= args.figure_episode < args.episodes:
         parser.error(f"--figure-episode {args.figure_episode}; allowed: 0 to {args.episodes - 1}")
     try:
+        output_directory(args.out)
+        config = SpeedChangeConfig.from_kwargs()
+        method = _check_optima(args, config)
         policies: list[Any] = [RandomPolicy(seed=0)]
         for name in ("ppo", "sac"):
             for run_dir in getattr(args, name):
                 policies.append(SB3Policy.load(run_dir, name, args.model))
-        config = SpeedChangeConfig.from_kwargs()
-        policies.insert(
-            1,
-            steady_optima(
-                config,  # type: ignore[arg-type]
-                speeds=args.grid,
-                method=args.optimiser,
-                budget=args.optima_budget,
-                cache_dir=args.out / "optima",
-                scheduler=args.scheduler,
-                progress=not args.quiet,
-            ),
-        )
-    except ValueError as error:
+    except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
+    steady = run_reporting(
+        parser,
+        lambda: steady_optima(
+            config,  # type: ignore[arg-type]
+            speeds=args.grid,
+            method=method,
+            budget=args.optima_budget,
+            cache_dir=args.out / "optima",
+            scheduler=args.scheduler,
+            progress=not args.quiet,
+        ),
+    )
+    if isinstance(steady, int):
+        return steady
+    policies.insert(1, steady)
     seeds = list(range(args.first_seed, args.first_seed + args.episodes))
     episodes, shown = [], []
     for policy in policies:

@@ -6,16 +6,20 @@ import argparse
 import os
 import sys
 import textwrap
+from collections.abc import Sequence
+from pathlib import Path
 
-from agents.records import RecordStore
+from agents.methods import get_method
+from agents.records import Job, RecordStore
 from eval.figures import FORMATS
 from eval.optimize import add_scheduler_argument, run_reporting
 from eval.studies import STUDIES, readings
 from eval.studies.base import StudyPlan
 from eval.studies.claims import FLIP_THRESHOLD, VerdictCount
 from eval.studies.presets import PRESETS, get_preset
-from eval.studies.runner import executor_spec
-from eval.studies.suite import run_studies
+from eval.studies.runner import executor_spec, have_records
+from eval.studies.suite import expand, run_studies
+from tandem_env.io.files import output_directory
 
 NAME = "study"
 HELP = "reproduce the paper's figures: speed/power sweeps, kinematics, wing shape, report"
@@ -122,11 +126,42 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         parser.error(f"--reading is for the readings study only (study {args.study!r})")
     try:
         scheduler = executor_spec(args.scheduler, args.workers)
-        RecordStore(args.out)  # rejects a file
+        # Checked before any work: a file is refused, a read-only folder unless everything
+        # is stored already (then the run only reports that).
+        writable = output_directory(args.out, write=False)
+        RecordStore(args.out)
         plan = StudyPlan(get_preset(args.preset), methods, figure_format=args.format)
+        for method in plan.methods:  # an unknown method or bad setting, before any job
+            get_method(method, dict(plan.method_config(method)))
         chosen = readings.single_readings(args.reading)
-    except ValueError as error:
+        if args.study == readings.NAME:
+            jobs = [job for r in chosen for job in readings.reading_jobs(plan, r)]
+            title = (
+                f"readings study, first phase (the default and {len(chosen) - 1} single "
+                "readings; the combinations their results point to follow)"
+            )
+        else:
+            jobs = [job for name in expand([args.study]) for job in STUDIES[name].jobs(plan)]
+            title = f"study {args.study} ({', '.join(expand([args.study]))})"
+        unique = list({job.key: job for job in jobs}.values())
+        if not writable and (args.study == readings.NAME or not have_records(args.out, unique)):
+            output_directory(args.out)  # raises, naming the folder and why
+    except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
+    if not writable:
+        print(
+            f"all {len(unique)} optimisations are stored in {args.out}, which cannot be written: "
+            "nothing to run, and its figures and report are left as they are"
+            + (
+                f" ({Path(args.out) / 'report.md'})"
+                if (Path(args.out) / "report.md").exists()
+                else ""
+            ),
+            file=sys.stderr,
+        )
+        return 0
+    if not args.quiet:
+        print(_announce(title, plan, unique, args.out), file=sys.stderr)
     if args.study == readings.NAME:
         return _run_readings(args, parser, plan, scheduler, chosen)
     result = run_reporting(
@@ -154,6 +189,20 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     if result.report is not None:
         print(f"report: {result.report}")
     return 0
+
+
+def _announce(title: str, plan: StudyPlan, jobs: Sequence[Job], out: str) -> str:
+    """What a study run will do, before it starts: optimisations, seeds, budgets, work left."""
+    store = RecordStore(out)
+    todo = [job for job in jobs if not store.path(job.key).exists()]
+    seeds = sorted({job.seed for job in jobs})
+    budgets = " / ".join(f"{b:,}" for b in sorted({job.budget for job in jobs}))
+    return (
+        f"{title}: preset {plan.preset.name}, method {', '.join(plan.methods)}; "
+        f"{len(jobs)} optimisations over seeds {seeds}, budgets {budgets} model evaluations "
+        f"each; {len(jobs) - len(todo)} stored in {out}, {len(todo)} to run "
+        f"({sum(job.budget for job in todo):,} evaluations; the progress bar gives the time left)"
+    )
 
 
 def _run_readings(

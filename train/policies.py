@@ -81,6 +81,8 @@ CITATIONS: dict[str, str] = {
 }
 
 # Settings of the training methods that are not hyperparameter overrides.
+# The budget notices this process has printed (PolicySearch._announce_budget).
+_ANNOUNCED: set[tuple[Any, ...]] = set()
 _TRAINING_SETTINGS = ("n_envs", "conf_file", "torch_threads", "log_dir")
 
 
@@ -375,13 +377,16 @@ class TrainingMethod:
         entry = load_entry(self.algo, context.env_id, self.conf_file)
         steps = budget_steps(self.algo, entry, self.overrides, self.n_envs, context.budget - 1)
         unused = context.budget - (steps + 1)
-        if unused > 0:
+        # Once per process and setting, not once per seed: the seeds of a run share it.
+        said = (self.algo, context.env_id, context.budget, self.n_envs, repr(self.overrides))
+        if unused > 0 and said not in _ANNOUNCED:
+            _ANNOUNCED.add(said)
             hp = resolve_hyperparams(entry, self.overrides, n_envs=self.n_envs, n_timesteps=1)
             unit = step_granularity(self.algo, hp)
             tqdm.write(
                 f"{self.algo}: budget {context.budget} -> {steps} training steps (whole "
                 f"{self.algo.upper()} iterations of {unit} env steps, n_envs {hp.n_envs}) + 1 "
-                f"final evaluation; {unused} evaluations stay unused",
+                f"final evaluation; {unused} evaluations stay unused (each seed alike)",
                 file=sys.stderr,
             )
         return unused

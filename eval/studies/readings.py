@@ -223,9 +223,15 @@ def combinations(
         reading = combine([g.reading for g in group], _combined_name(group))
         if all(r.changes() != reading.changes() for r in out):
             out.append(reading)
-    words += (
-        "; combined: " + "; ".join(r.name for r in out) if out else "; no gainer, so no combination"
-    )
+    if out:
+        words += "; combined: " + "; ".join(r.name for r in out)
+    elif not gainers:
+        words += "; no gainer, so no combination"
+    else:  # one gainer, and every other single is the default or changes the same option
+        words += (
+            f"; no combination: {gainers[0].reading.name} is the only gainer and no other "
+            "single run here can join it (none, or each changes the same option)"
+        )
     return out, words
 
 

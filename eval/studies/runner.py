@@ -42,8 +42,10 @@ import contextvars
 import math
 import os
 import re
+import signal
 import socket
 import sys
+import threading
 import time
 import traceback
 import warnings
@@ -78,10 +80,21 @@ __all__ = [
 CONNECT_TIMEOUT = 10.0
 #: Prefix of the Dask task keys (``harness-<job key>``; the dashboard groups tasks by it).
 TASK_PREFIX = "harness"
+#: Most worker processes ``local:N`` starts on this machine [-].
+MAX_LOCAL_WORKERS = 1024
+#: TCP ports a scheduler address may name [-].
+PORTS = (1, 65535)
+#: The one transport the runner connects to (Dask's tls:// needs certificates it does not take).
+SCHEME = "tcp"
 _ALLOWED = (
-    "local:N (N >= 1 worker processes started here) or the address of a running Dask "
-    "scheduler, e.g. tcp://HOST:8786"
+    f"local:N (N = 1 to {MAX_LOCAL_WORKERS} worker processes started here) or the address of a "
+    f"running Dask scheduler, {SCHEME}://HOST:PORT or HOST:PORT with PORT {PORTS[0]} to "
+    f"{PORTS[1]}, e.g. {SCHEME}://HOST:8786"
 )
+#: What the bar of a Dask run shows until the first job finishes.
+DASK_WAITING = "waiting for the first job to finish (workers compile the model on first use)…"
+# The largest first frame a Dask scheduler's handshake can plausibly have [bytes] (_probe).
+_HANDSHAKE_BYTES = 1 << 24
 
 
 class SchedulerUnreachable(ConnectionError):
@@ -93,20 +106,33 @@ def parse_scheduler(text: str) -> str:
 
     Raises ValueError naming the value and what is allowed.
     """
+    if not isinstance(text, str):
+        raise ValueError(f"scheduler = {text!r}; allowed: a string, {_ALLOWED}")
     text = text.strip()
     if text.startswith("local:"):
         count = text.partition(":")[2]
-        if not count.isdigit() or int(count) < 1:
+        if not count.isdigit() or not 1 <= int(count) <= MAX_LOCAL_WORKERS:
             raise ValueError(
-                f"--scheduler {text!r}: local:N needs a whole number N >= 1 of worker processes; "
-                f"allowed: {_ALLOWED}"
+                f"--scheduler {text!r}: local:N needs a whole number N of worker processes from "
+                f"1 to {MAX_LOCAL_WORKERS}; allowed: {_ALLOWED}"
             )
         return f"local:{int(count)}"
-    match = re.fullmatch(r"(?:([a-z][a-z0-9+.-]*)://)?(\[[0-9a-fA-F:]+\]|[^\s/:]+):(\d+)", text)
+    scheme, _, rest = text.rpartition("://")
+    if scheme and scheme != SCHEME:
+        raise ValueError(
+            f"--scheduler {text!r}: the scheme {scheme + '://'!r} is not supported; allowed: "
+            f"{_ALLOWED}"
+        )
+    match = re.fullmatch(r"(\[[0-9a-fA-F:]+\]|[^\s/:\[\]]+):(\d{1,6})", rest)
     if match is None:
         raise ValueError(f"--scheduler {text!r}; allowed: {_ALLOWED}")
-    scheme, host, port = match.groups()
-    return f"{scheme or 'tcp'}://{host}:{port}"
+    host, port = match.groups()
+    if not PORTS[0] <= int(port) <= PORTS[1]:
+        raise ValueError(
+            f"--scheduler {text!r}: port {int(port)} is outside {PORTS[0]} to {PORTS[1]}; "
+            f"allowed: {_ALLOWED}"
+        )
+    return f"{SCHEME}://{host}:{int(port)}"
 
 
 def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
@@ -114,8 +140,15 @@ def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
 
     ``workers=1`` (the default) leaves ``scheduler`` as given (None: serially, here).
     """
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ValueError(f"workers = {workers!r}; allowed: an integer >= 1 (N > 1 means local:N)")
+    if (
+        isinstance(workers, bool)
+        or not isinstance(workers, int)
+        or not 1 <= workers <= MAX_LOCAL_WORKERS
+    ):
+        raise ValueError(
+            f"workers = {workers!r}; allowed: an integer from 1 to {MAX_LOCAL_WORKERS} (N > 1 "
+            "means local:N)"
+        )
     if workers == 1:
         return None if scheduler is None else parse_scheduler(scheduler)
     if scheduler is not None:
@@ -256,20 +289,74 @@ def _run_on_dask(client: Client, todo: Sequence[PreparedJob]) -> Iterator[tuple[
 
 
 def _probe(address: str) -> None:
-    # Fails fast (connection refused) where the Dask client would retry until its timeout.
-    match = re.fullmatch(r"tcp://(\[[0-9a-fA-F:]+\]|[^\s/:]+):(\d+)", address)
-    if match is None:
-        return
-    host, port = match.group(1).strip("[]"), int(match.group(2))
+    """Check that a Dask scheduler answers at ``address`` within :data:`CONNECT_TIMEOUT`.
+
+    Fails fast (connection refused) where the Dask client would retry until its timeout, and
+    bounds what the client cannot: a Dask scheduler speaks first (its handshake, framed by an
+    8-byte little-endian length), so a port that accepts but stays silent (an HTTP server
+    waits for a request) is reported after the timeout instead of hanging the client, and one
+    that answers with something else (its first bytes read as an absurd frame length) instead
+    of making the client allocate that length.
+    """
+    host, port = address.removeprefix(f"{SCHEME}://").rsplit(":", 1)
+    deadline = time.monotonic() + CONNECT_TIMEOUT
+    advice = (
+        "start one with `dask scheduler` and workers with `dask worker ADDRESS` "
+        "(docs/scaling.md), or run here with --scheduler local:N"
+    )
     try:
-        with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT):
-            pass
-    except OSError as error:
+        conn = socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT)
+    except OSError as error:  # refused, unknown host, or no answer to connect (TimeoutError)
         raise SchedulerUnreachable(
-            f"no Dask scheduler answers at {address} ({error.strerror or error}); start one "
-            "with `dask scheduler` and workers with `dask worker ADDRESS` (docs/scaling.md), "
-            "or run here with --scheduler local:N"
+            f"no Dask scheduler answers at {address} ({error.strerror or error}); {advice}"
         ) from None
+    head = b""
+    with conn:
+        try:
+            while len(head) < 8:
+                conn.settimeout(max(deadline - time.monotonic(), 1e-3))
+                chunk = conn.recv(8 - len(head))
+                if not chunk:
+                    break
+                head += chunk
+        except TimeoutError:
+            raise SchedulerUnreachable(
+                f"{address} accepts connections but sent no Dask handshake within "
+                f"{CONNECT_TIMEOUT:g} s: not a Dask scheduler (or a stalled one); {advice}"
+            ) from None
+        except OSError as error:
+            raise SchedulerUnreachable(
+                f"{address} dropped the connection ({error.strerror or error}) before a Dask "
+                f"handshake: not a Dask scheduler; {advice}"
+            ) from None
+    if len(head) < 8:
+        raise SchedulerUnreachable(
+            f"{address} accepted the connection and closed it without a Dask handshake: not a "
+            f"Dask scheduler; {advice}"
+        )
+    if not 0 < int.from_bytes(head, "little") <= _HANDSHAKE_BYTES:
+        raise SchedulerUnreachable(
+            f"{address} answers, but not with the Dask protocol (first bytes {head!r}): not a "
+            f"Dask scheduler; {advice}"
+        )
+
+
+@contextlib.contextmanager
+def _workers_ignore_interrupts() -> Iterator[None]:
+    """Start worker processes that ignore Ctrl-C (SIGINT), so only this process handles it.
+
+    A Ctrl-C in a terminal goes to the whole process group: the local workers would die at once
+    and their nannies log tracebacks while this process closes the cluster in order. A process
+    started while SIGINT is ignored inherits that (POSIX; Python then leaves it ignored).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 @contextlib.contextmanager
@@ -286,8 +373,8 @@ def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
     spec = parse_scheduler(scheduler)
     with contextlib.ExitStack() as stack:
         if spec.startswith("local:"):
-            cluster = stack.enter_context(
-                LocalCluster(
+            with _workers_ignore_interrupts():
+                cluster = LocalCluster(
                     n_workers=int(spec.partition(":")[2]),
                     threads_per_worker=1,
                     processes=True,
@@ -295,9 +382,12 @@ def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
                     dashboard_address="127.0.0.1:0",  # a free port (the dashboard needs bokeh)
                     # One numba thread per worker process (a job per core, see _on_worker).
                     env={"NUMBA_NUM_THREADS": "1"},
-                    silence_logs=logging.ERROR,
+                    # The runner reports every failed job itself (key and traceback) and
+                    # Dask reruns a dead worker's jobs: the cluster's own ERROR logs are noise
+                    # then, e.g. a busy worker's heartbeat to a scheduler closed by Ctrl-C.
+                    silence_logs=logging.CRITICAL,
                 )
-            )
+            stack.enter_context(cluster)
             client = stack.enter_context(Client(cluster))
         else:
             _probe(spec)
@@ -338,10 +428,15 @@ class _Display:
     def __post_init__(self) -> None:
         total = sum(j.budget for j in self.jobs)
         n = len(self.jobs)
-        self.bar = ProgressBar(total, f"{n} optimisation{'s' * (n != 1)}", self.enabled)
+        # On Dask the bar moves as jobs finish; serially, reporter() says what it waits for.
+        self.bar = ProgressBar(
+            total, f"{n} optimisation{'s' * (n != 1)}", self.enabled, waiting=DASK_WAITING
+        )
 
     def reporter(self, job: Job) -> Reporter:
         """Live progress of a job running in this process."""
+        if self.done == 0:
+            self.bar.waiting()
         return lambda iteration, evaluations, best: self.bar.move_to(
             self.evaluations + min(evaluations, job.budget)
         )

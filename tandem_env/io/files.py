@@ -4,7 +4,8 @@
 :func:`atomic_path` is the one atomic write: it hands out a temporary file in the target's
 directory and, when the block succeeds, fsyncs it and renames it over the target with
 :func:`os.replace`, so a reader (or a crash) only ever sees the old file or the complete new
-one. :func:`write_text_atomic`, :func:`write_json_atomic` and :func:`write_csv_atomic` are built
+one. :func:`output_directory` is the one check of an output folder that every command makes
+before it computes anything. :func:`write_text_atomic`, :func:`write_json_atomic` and :func:`write_csv_atomic` are built
 on it, and a writer that needs a path (a matplotlib figure) uses it directly. Serialisation
 happens before any file is touched.
 
@@ -30,6 +31,7 @@ import numpy as np
 
 __all__ = [
     "atomic_path",
+    "output_directory",
     "read_json",
     "to_jsonable",
     "write_csv_atomic",
@@ -82,6 +84,47 @@ def _json_key(key: Any) -> str:
     if key is None or isinstance(key, bool | int | float):
         return json.dumps(key)
     raise TypeError(f"JSON object keys must be str, int, float, bool or None, got {key!r}")
+
+
+def output_directory(
+    path: str | os.PathLike[str], option: str = "--out", *, write: bool = True
+) -> bool:
+    """Check ``path`` as an output folder before any work; whether it can be written now.
+
+    The folder need not exist (it is created by the first write). Raises ValueError naming
+    ``option`` and the path if ``path`` or one of its parents is a file, and, with ``write``,
+    if the folder (or, for a new one, its nearest existing parent) cannot be written; without
+    ``write`` (a rerun that may have nothing to write) returns False instead. Writability is
+    tried with a temporary file, so permissions, ACLs and read-only mounts all count.
+    """
+    path = Path(path)
+    existing = path
+    try:
+        while not existing.exists() and existing.parent != existing:
+            existing = existing.parent
+        is_dir = existing.is_dir()
+    except OSError as error:
+        raise ValueError(
+            f"{option} {str(path)!r}: cannot look into {existing} ({error.strerror or error}); "
+            "allowed: a directory this user can write (created if missing)"
+        ) from None
+    if not is_dir:
+        raise ValueError(
+            f"{option} {str(path)!r}: {existing} is a file; allowed: a directory (created if missing)"
+        )
+    try:
+        fd, name = tempfile.mkstemp(prefix=".write-check.", dir=existing)
+        os.close(fd)
+        os.unlink(name)
+    except OSError as error:
+        if write:
+            raise ValueError(
+                f"{option} {str(path)!r}: cannot write into {existing} "
+                f"({error.strerror or error}); allowed: a directory this user can write (created "
+                "if missing)"
+            ) from None
+        return False
+    return True
 
 
 @contextlib.contextmanager

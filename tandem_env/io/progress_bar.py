@@ -4,6 +4,11 @@ A search reports ``(iteration, evaluations, best)`` after every iteration (:data
 the job runner (``eval.studies.runner``) moves one bar over the evaluations of all its jobs
 as they run (serially) or finish (on a Dask cluster), with the jobs done in its status. The
 bar's rate and time left are in evaluations either way.
+
+Until its first report a bar shows what it waits for instead of a rate and a time left: the
+first evaluation in a process compiles the model (tens of seconds), and a rate measured over
+that would promise days. The clock restarts at the first report, so the time left counts
+evaluations only.
 """
 
 from __future__ import annotations
@@ -20,6 +25,14 @@ __all__ = ["ProgressBar", "Reporter", "warnings_as_lines"]
 #: A search's progress callback: (iteration, evaluations so far, best reward so far).
 Reporter = Callable[[int, int, float], None]
 
+#: What a bar waits for before its first report in a process that has not evaluated yet.
+COMPILING = "compiling the model (first use)…"
+#: ... and in one that has (the model is compiled): the first iteration's evaluations.
+STARTING = "first iteration…"
+# No rate or time left until the first report (tqdm's default format less those two).
+_WAITING_FORMAT = "{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]"
+_reported = False  # whether any bar of this process has had a report (the model is compiled)
+
 
 class ProgressBar:
     """A tqdm bar over model evaluations (so its rate and ETA are in evaluations).
@@ -32,9 +45,15 @@ class ProgressBar:
         Label, e.g. ``"pso level speed=1.5 seed 0"``.
     enabled : bool
         False makes every call a no-op (``--quiet``).
+    waiting : str, optional
+        What the bar shows until its first report; default :data:`COMPILING` in a process
+        whose bars have had no report yet, else :data:`STARTING`.
     """
 
-    def __init__(self, total: int, description: str, enabled: bool = True) -> None:
+    def __init__(
+        self, total: int, description: str, enabled: bool = True, waiting: str | None = None
+    ) -> None:
+        self._waiting = True
         self._bar = (
             tqdm(
                 total=total,
@@ -45,6 +64,8 @@ class ProgressBar:
                 dynamic_ncols=True,
                 mininterval=0.5,
                 leave=True,
+                bar_format=_WAITING_FORMAT,
+                postfix=waiting or (STARTING if _reported else COMPILING),
             )
             if enabled
             else None
@@ -52,11 +73,23 @@ class ProgressBar:
 
     def move_to(self, evaluations: int, status: str | None = None) -> None:
         """Move the bar to ``evaluations`` (absolute, so irregular reports still work)."""
+        global _reported
         if self._bar is None:
             return
+        if self._waiting:  # the first report: restart the clock, show rate and time left
+            self._waiting = False
+            _reported = True
+            self._bar.set_postfix_str("", refresh=False)
+            self._bar.bar_format = None
+            self._bar.reset()
         self._bar.update(evaluations - self._bar.n)
         if status is not None:
             self._bar.set_postfix_str(status, refresh=False)
+
+    def waiting(self, text: str | None = None) -> None:
+        """Show ``text`` (default as at creation) until the first report, if none came yet."""
+        if self._bar is not None and self._waiting:
+            self._bar.set_postfix_str(text or (STARTING if _reported else COMPILING))
 
     def update(self, iteration: int, evaluations: int, best: float) -> None:
         """A search's report (:data:`Reporter`): evaluations, iteration and best reward so far."""

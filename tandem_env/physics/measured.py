@@ -49,14 +49,23 @@ from .model import (
     validate_conditions,
     wing_tables,
 )
-from .options import ModelOptions
+from .options import MAX_TIME_SAMPLES, ModelOptions
 
 #: Fewest samples per cycle a measured series may have.
 MIN_SAMPLES = 8
 #: Samples per cycle of :meth:`MeasuredWing.from_fourier` unless told.
 FOURIER_SAMPLES = 256
+#: Most samples per cycle a measured series may have (the model's limit).
+MAX_SAMPLES = MAX_TIME_SAMPLES
 #: Relative tolerance on uniform sample times (:meth:`MeasuredWing.from_samples`).
 TIME_TOLERANCE = 1e-3
+#: A series one of whose sample-to-sample steps is more than this fraction of its total
+#: variation over the cycle (the cycle closed) has a jump; :class:`MeasuredWing` warns [-].
+#: A sampled sinusoid's largest step is at most 0.19 of it (8 samples; less with more).
+JUMP_FRACTION = 0.25
+#: With ``degrees=True``, a sweep and pitch that never leave ±this [deg] look like radians
+#: given as degrees (a stroke of a few degrees); the constructors warn.
+RADIANS_AS_DEGREES = 2.0 * math.pi
 
 _DEGREES_HINT = (
     "angles here are radians; these values look like degrees: convert with np.deg2rad, or use "
@@ -127,9 +136,10 @@ class MeasuredWing:
         elevation = _series("elevation", self.elevation)
         pitch = _series("pitch", self.pitch, ndim=(1, 2))
         n = sweep.shape[0]
-        if n < MIN_SAMPLES:
+        if not MIN_SAMPLES <= n <= MAX_SAMPLES:
             raise ValueError(
-                f"MeasuredWing.sweep has {n} samples; allowed: at least {MIN_SAMPLES} per cycle"
+                f"MeasuredWing.sweep has {n} samples; allowed: at least {MIN_SAMPLES} and at most "
+                f"{MAX_SAMPLES} per cycle (resample a longer series)"
             )
         for name, arr in (("elevation", elevation), ("pitch", pitch)):
             if arr.shape[0] != n:
@@ -150,6 +160,8 @@ class MeasuredWing:
                 f"finite, within one turn (|β| <= 2π; it is wrapped to (−π, π]); {_DEGREES_HINT}"
             )
         self._check_radians(sweep, elevation, pitch)
+        for name, arr in (("sweep", sweep), ("elevation", elevation), ("pitch", pitch)):
+            _warn_jumps(name, arr)
         for name, value in (
             ("sweep", sweep),
             ("elevation", elevation),
@@ -230,9 +242,14 @@ class MeasuredWing:
         ``stroke_plane_angle`` in degrees (else radians). Sampled at ``n_samples`` points
         t = i/(n·f); the series must have fewer than n/2 harmonics (Nyquist).
         """
-        if not isinstance(n_samples, (int, np.integer)) or n_samples < MIN_SAMPLES:
+        if (
+            isinstance(n_samples, bool)
+            or not isinstance(n_samples, (int, np.integer))
+            or not MIN_SAMPLES <= n_samples <= MAX_SAMPLES
+        ):
             raise ValueError(
-                f"from_fourier: n_samples = {n_samples!r}; allowed: an integer >= {MIN_SAMPLES}"
+                f"from_fourier: n_samples = {n_samples!r}; allowed: an integer >= {MIN_SAMPLES} "
+                f"and <= {MAX_SAMPLES}"
             )
         unit = "deg" if degrees else "rad"
         if pitch_stations is None:
@@ -278,6 +295,8 @@ class MeasuredWing:
         pitch_samples = np.stack(
             [to_rad(fourier_samples(*p, n_samples, degrees=degrees)) for p in pitch_series], axis=1
         )
+        if degrees:
+            _warn_radians("from_fourier", sampled["sweep"], pitch_samples)
         beta = _real("stroke_plane_angle", stroke_plane_angle)
         return cls(
             sweep=sampled["sweep"],
@@ -352,6 +371,8 @@ class MeasuredWing:
                 "cycle"
             )
         to_rad = np.deg2rad if degrees else np.asarray
+        if degrees:
+            _warn_radians("from_samples", to_rad(arrays["sweep"]), to_rad(arrays["pitch"]))
         beta = _real("stroke_plane_angle", stroke_plane_angle)
         return cls(
             sweep=to_rad(arrays["sweep"][:keep]),
@@ -433,6 +454,46 @@ class MeasuredWing:
         s = np.sin(self.pitch_at(0.75))
         norm = math.sqrt(float(np.sum(dphi**2) * np.sum(s**2)))
         return float(np.sum(dphi * s) / norm) if norm > 0.0 else 0.0
+
+
+def _warn_jumps(name: str, series: np.ndarray) -> None:
+    """Warn if a periodic series (n,) or (n, k) [rad] jumps between two samples.
+
+    A jump (an angle wrapped by 360°, a sign flip, a gap, the cycle not closing) has no
+    derivative: spectral differentiation turns it into huge rates, so the power (∝ rate³) and
+    forces come out absurd (P/m of 10⁴ W/kg) without any other sign.
+    """
+    columns = series.reshape(series.shape[0], -1)
+    steps = np.abs(np.diff(columns, axis=0, append=columns[:1]))  # the last step closes the cycle
+    variation = steps.sum(axis=0)
+    largest = steps.max(axis=0)
+    bad = np.flatnonzero(largest > JUMP_FRACTION * np.where(variation > 0, variation, np.inf))
+    if bad.size:
+        j = int(bad[0])
+        i = int(np.argmax(steps[:, j]))
+        where = f"{name}[:, {j}]" if series.ndim == 2 else name
+        warnings.warn(
+            f"MeasuredWing.{where} jumps by {math.degrees(largest[j]):.4g}° from sample {i} to "
+            f"{(i + 1) % series.shape[0]} ({largest[j] / variation[j]:.0%} of its whole variation "
+            "over the cycle): the derivatives, forces and power of a discontinuous series are "
+            "meaningless; unwrap angles (np.unwrap), fill gaps and give exactly one cycle",
+            UserWarning,
+            stacklevel=4,
+        )
+
+
+def _warn_radians(where: str, sweep: np.ndarray, pitch: np.ndarray) -> None:
+    """Warn if angles given in degrees [now rad] look like radians (see RADIANS_AS_DEGREES)."""
+    limit = math.radians(RADIANS_AS_DEGREES)
+    size = max(float(np.abs(sweep).max()), float(np.abs(pitch).max()))
+    if 0.0 < size <= limit:
+        warnings.warn(
+            f"{where}: with degrees=True the sweep and pitch never exceed "
+            f"{math.degrees(size):.3g}°: these look like radians; pass degrees=False (a "
+            "kinematics file: degrees: false) if they are",
+            UserWarning,
+            stacklevel=3,
+        )
 
 
 #: Below this :meth:`MeasuredWing.pitch_sign_correlation`, :func:`evaluate_measured` warns.

@@ -36,6 +36,11 @@ def _check_choice(name: str, value: Any, kind: Any) -> None:
         )
 
 
+#: Most time samples per cycle the model takes (``n_time``, a measured wing's samples) [-]:
+#: the cycle means hold (n/2, n) Fourier tables, 512 MiB at this size.
+MAX_TIME_SAMPLES = 8192
+
+
 @dataclass(frozen=True)
 class ModelOptions:
     """How the model is evaluated. Defaults are the paper's model with docs/model.md's decisions.
@@ -80,9 +85,10 @@ class ModelOptions:
     """Cap on force sweeps per annulus in the inflow solve [-]; hitting it is reported."""
 
     def __post_init__(self) -> None:
-        if not _is_int(self.n_time) or not 8 <= self.n_time <= 8192:
+        if not _is_int(self.n_time) or not 8 <= self.n_time <= MAX_TIME_SAMPLES:
             raise ValueError(
-                f"ModelOptions.n_time = {self.n_time!r}; allowed: an integer 8 to 8192"
+                f"ModelOptions.n_time = {self.n_time!r}; allowed: an integer 8 to "
+                f"{MAX_TIME_SAMPLES}"
             )
         if not _is_int(self.n_blade) or not 2 <= self.n_blade <= 512:
             raise ValueError(

@@ -1,0 +1,598 @@
+"""Hostile input on the evaluation side: every class gets a clear error (exit 2 on the command
+line, no traceback) or a documented behaviour, before any computation where it can be known.
+
+Classes: scheduler values and ports that are not Dask schedulers (loopback servers only, each
+bounded in time); output folders that are files or cannot be written; measured-kinematics files
+that are not UTF-8, repeat a key or a column, are too long, jump, or give radians as degrees;
+bad options of ``speed-change`` and ``study``; the rough edges (progress before the first
+report, the readings rule's words, the budget notice once per setting).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import socket
+import subprocess
+import sys
+import threading
+import time
+import warnings
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from eval.__main__ import main
+from eval.measured import SpecError, load_case
+from eval.studies import runner
+from eval.studies.presets import PRESETS, TINY
+from eval.studies.runner import SchedulerUnreachable, dask_client, parse_scheduler
+from tandem_env.io.files import output_directory
+from tandem_env.io.progress_bar import COMPILING, STARTING, ProgressBar
+from tandem_env.physics.measured import MAX_SAMPLES, MeasuredWing
+
+ROOT = Path(__file__).resolve().parents[2]
+HOVER = (ROOT / "examples" / "hover.yaml").read_text(encoding="utf-8")
+CLOSE = b"close"  # what the loopback server below does instead of a greeting
+OPTIMIZE = ["optimize", "--task", "level", "--speed", "1", "--method", "pso", "--budget", "8"]
+
+
+def _exit_status(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    """The status and stderr of a command that must end in an argparse error (no traceback)."""
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    return int(info.value.code or 0), err
+
+
+# --- scheduler values ---------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("value", "match"),
+    [
+        ("tls://127.0.0.1:8786", r"the scheme 'tls://' is not supported; allowed: .*tcp://HOST"),
+        ("foo://x:1", r"the scheme 'foo://' is not supported"),
+        ("http://localhost:8787", r"the scheme 'http://' is not supported"),
+        ("127.0.0.1:99999", r"port 99999 is outside 1 to 65535"),
+        ("tcp://h:0", r"port 0 is outside 1 to 65535"),
+        ("h:1234567", r"allowed: local:N"),
+        ("local:100000", r"local:N needs a whole number N of worker processes from 1 to 1024"),
+        ("local:0", r"from 1 to 1024"),
+        ("local:-3", r"from 1 to 1024"),
+        ("tcp://:8786", r"allowed: local:N"),
+    ],
+)
+def test_bad_scheduler_values_name_the_allowed_range(value: str, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        parse_scheduler(value)
+
+
+@pytest.mark.parametrize("value", [None, 8786, b"local:2"])
+def test_a_scheduler_that_is_not_text_is_refused(value: object) -> None:
+    with pytest.raises(ValueError, match=r"scheduler = .*; allowed: a string, local:N"):
+        parse_scheduler(value)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("workers", [0, -1, 100000])
+def test_workers_out_of_range_exit_2(
+    workers: int, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["study", "speed", "--workers", str(workers), "--out", str(tmp_path)]
+    status, err = _exit_status(argv, capsys)
+    assert status == 2 and f"workers = {workers}; allowed: an integer from 1 to 1024" in err
+
+
+def test_bad_scheduler_on_the_command_line_exits_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for value in ("tls://a:1", "local:100000", "a:99999"):
+        for command in (
+            [*OPTIMIZE, "--seeds", "0", "--out", str(tmp_path)],
+            ["study", "speed", "--out", str(tmp_path)],
+        ):
+            status, err = _exit_status([*command, "--scheduler", value], capsys)
+            assert status == 2 and f"--scheduler {value!r}" in err and "allowed:" in err
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.fixture
+def server() -> Iterator[Callable[[bytes | None, bool], int]]:
+    """Loopback servers: ``start(greeting, answer_http)`` -> port. Each accepts connections;
+    it sends ``greeting`` at once (None: nothing), or, with ``answer_http``, answers a request
+    with an HTTP 400 like a web server. Closed at the end of the test."""
+    sockets: list[socket.socket] = []
+    stop = threading.Event()
+
+    def start(greeting: bytes | None, answer_http: bool = False) -> int:
+        listener = socket.create_server(("127.0.0.1", 0))
+        listener.settimeout(0.2)
+        sockets.append(listener)
+
+        def serve() -> None:
+            while not stop.is_set():
+                try:
+                    conn, _ = listener.accept()
+                except OSError:
+                    continue
+                sockets.append(conn)
+                try:
+                    if greeting == CLOSE:
+                        conn.close()
+                        continue
+                    if greeting is not None:
+                        conn.sendall(greeting)
+                    if answer_http:
+                        conn.settimeout(5.0)
+                        if conn.recv(65536):
+                            conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+                except OSError:
+                    pass
+
+        threading.Thread(target=serve, daemon=True).start()
+        return int(listener.getsockname()[1])
+
+    yield start
+    stop.set()
+    for s in sockets:
+        s.close()
+
+
+@pytest.mark.parametrize(
+    ("greeting", "http", "match"),
+    [
+        (None, False, r"accepts connections but sent no Dask handshake within 0.5 s"),
+        (None, True, r"accepts connections but sent no Dask handshake within 0.5 s"),
+        (b"SSH-2.0-OpenSSH_9.6\r\n", False, r"answers, but not with the Dask protocol"),
+        (b"", False, r"accepts connections but sent no Dask handshake"),
+        (b"\x01\x00", False, r"accepts connections but sent no Dask handshake"),  # 2 of 8 bytes
+        (CLOSE, False, r"accepted the connection and closed it without a Dask handshake"),
+    ],
+)
+def test_a_port_that_is_no_dask_scheduler_is_reported_within_the_timeout(
+    server: Callable[[bytes | None, bool], int],
+    monkeypatch: pytest.MonkeyPatch,
+    greeting: bytes | None,
+    http: bool,
+    match: str,
+) -> None:
+    """A silent port (or an HTTP server, which waits for a request) used to hang the client
+    for minutes, an HTTP or SSH answer made it allocate exabytes: now both are reported after
+    at most the connect timeout."""
+    monkeypatch.setattr(runner, "CONNECT_TIMEOUT", 0.5)
+    port = server(greeting, http)
+    start = time.monotonic()
+    with pytest.raises(SchedulerUnreachable, match=match), dask_client(f"127.0.0.1:{port}"):
+        pass
+    assert time.monotonic() - start < 5.0
+
+
+def test_a_silent_port_ends_optimize_with_status_1(
+    server: Callable[[bytes | None, bool], int],
+    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    monkeypatch.setattr(runner, "CONNECT_TIMEOUT", 0.5)
+    port = server(None, False)
+    argv = [*OPTIMIZE, "--seeds", "0", "--out", str(tmp_path), "--quiet"]
+    assert main([*argv, "--scheduler", f"127.0.0.1:{port}"]) == 1
+    err = capsys.readouterr().err
+    assert "sent no Dask handshake" in err and "Traceback" not in err
+    assert not (tmp_path / "records").exists()
+
+
+# --- output folders -----------------------------------------------------------------------------
+def _commands(out: Path) -> list[list[str]]:
+    return [
+        ["measured", str(ROOT / "examples" / "hover.yaml"), "--out", str(out)],
+        [*OPTIMIZE, "--seeds", "0", "--out", str(out), "--quiet"],
+        ["study", "speed", "--preset", "tiny", "--out", str(out), "--quiet"],
+        ["speed-change", "--out", str(out), "--quiet"],
+    ]
+
+
+@pytest.mark.parametrize("where", ["file", "parent"])
+def test_a_file_as_out_is_refused_before_any_work(
+    where: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    blocker = tmp_path / "taken"
+    blocker.write_text("not a folder")
+    out = blocker if where == "file" else blocker / "sub"
+    for argv in _commands(out):
+        start = time.monotonic()
+        status, err = _exit_status(argv, capsys)
+        assert status == 2, argv
+        assert f"{blocker} is a file; allowed: a directory" in err, argv
+        assert time.monotonic() - start < 30.0  # refused, not computed (the study alone: minutes)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["taken"]
+
+
+def _permissions_bind() -> bool:
+    """Whether this user is kept out of a folder without write permission (root is not,
+    unless it runs without CAP_DAC_OVERRIDE)."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as scratch:
+        os.chmod(scratch, 0o555)
+        try:
+            Path(scratch, "probe").write_text("")
+        except OSError:
+            return True
+        finally:
+            os.chmod(scratch, 0o755)
+    return False
+
+
+needs_permissions = pytest.mark.skipif(
+    not _permissions_bind(),
+    reason="this user writes into read-only folders (root); run as an ordinary user",
+)
+
+
+@needs_permissions
+def test_a_read_only_out_is_refused_before_any_work(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o555)
+    try:
+        for out in (locked, locked / "new"):
+            for argv in _commands(out):
+                status, err = _exit_status(argv, capsys)
+                assert status == 2 and f"cannot write into {locked}" in err, argv
+    finally:
+        locked.chmod(0o755)
+    assert not any(locked.iterdir())
+
+
+@needs_permissions
+def test_a_rerun_with_nothing_to_compute_works_in_a_read_only_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = [*OPTIMIZE, "--swarm-size", "4", "--seeds", "0", "--out", str(tmp_path), "--quiet"]
+    argv += ["--env-kwargs", "n_time=32"]
+    assert main(argv) == 0
+    capsys.readouterr()
+    for path in (tmp_path, tmp_path / "records"):
+        path.chmod(0o555)
+    try:
+        assert main(argv) == 0
+    finally:
+        for path in (tmp_path, tmp_path / "records"):
+            path.chmod(0o755)
+    captured = capsys.readouterr()
+    assert "pso seed 0" in captured.out and "summary.csv is left as it is" in captured.err
+
+
+@needs_permissions
+def test_an_unreadable_kinematics_file_is_named(tmp_path: Path) -> None:
+    path = _case(tmp_path, HOVER)
+    path.chmod(0o000)
+    try:
+        with pytest.raises(SpecError, match=r"cannot be read \(Permission denied\)"):
+            load_case(path)
+    finally:
+        path.chmod(0o644)
+
+
+def test_output_directory_reports_what_it_finds(tmp_path: Path) -> None:
+    assert output_directory(tmp_path / "a" / "b") is True
+    assert not (tmp_path / "a").exists()  # checking creates nothing
+    (tmp_path / "f").write_text("")
+    with pytest.raises(ValueError, match=r"--figures '.*f/x': .*f is a file"):
+        output_directory(tmp_path / "f" / "x", "--figures")
+    assert list(tmp_path.iterdir()) == [tmp_path / "f"]  # no probe file left behind
+
+
+def test_concurrent_measured_runs_into_one_folder_do_not_mix(tmp_path: Path) -> None:
+    """Two processes writing one case into one folder: unique temporary names and an atomic
+    rename, so both succeed and the record is one whole run's (they raced on a fixed name)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    argv = [sys.executable, "-m", "eval", "measured", str(ROOT / "examples" / "hover.yaml")]
+    runs = [
+        subprocess.Popen([*argv, "--out", str(tmp_path)], cwd=ROOT, env=env, stderr=subprocess.PIPE)
+        for _ in range(2)
+    ]
+    for run in runs:
+        _, err = run.communicate(timeout=300)
+        assert run.returncode == 0, err.decode()
+    assert json.loads((tmp_path / "hover.json").read_text())["summary"]["total"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hover.json", "hover.png"]
+
+
+# --- measured-kinematics files ------------------------------------------------------------------
+def _case(tmp_path: Path, text: str | bytes, name: str = "case.yaml") -> Path:
+    path = tmp_path / name
+    if isinstance(text, bytes):
+        path.write_bytes(text)
+    else:
+        path.write_text(text, encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize(
+    ("data", "match"),
+    [
+        (HOVER.encode("utf-16"), r"holds UTF-16 text; allowed: UTF-8 text"),
+        (b"\x00\x01\x02\xff binary", r"holds binary data; allowed: UTF-8 text"),
+        (HOVER.encode("latin-1", "replace"), r"is not UTF-8 text \(byte \d+"),
+    ],
+)
+def test_files_that_are_not_utf8_text_are_named(tmp_path: Path, data: bytes, match: str) -> None:
+    with pytest.raises(SpecError, match=match):
+        load_case(_case(tmp_path, data))
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("", r"is empty; allowed: a mapping with flight, kinematics"),
+        ("# only a comment\n", r"is empty"),
+        ("[" * 20000 + "]" * 20000, r"nests too deeply|is not valid YAML"),
+        ("- 1\n- 2\n", r"= \[1, 2\]; allowed: a mapping of fields"),
+    ],
+)
+def test_empty_or_odd_files_are_named(tmp_path: Path, text: str, match: str) -> None:
+    with pytest.raises(SpecError, match=match):
+        load_case(_case(tmp_path, text))
+
+
+def test_a_utf8_bom_is_accepted(tmp_path: Path) -> None:
+    case = load_case(_case(tmp_path, "\ufeff" + HOVER))
+    assert case.fore.frequency == 39.0
+
+
+def test_yaml_1_2_numbers_are_numbers(tmp_path: Path) -> None:
+    text = HOVER.replace("frequency: 39.0 ", "frequency: 39e0 ", 1)
+    text = text.replace("speed: 0.0 ", "speed: 1e-4 ").replace("[[5.0, 90.0]]", "[[5E+0, 90.0]]")
+    case = load_case(_case(tmp_path, text))
+    assert case.fore.frequency == 39.0 and case.speed == 1e-4
+    assert np.ptp(case.fore.elevation) == pytest.approx(np.deg2rad(10.0))
+    # text that only looks numeric stays text, and is refused as such
+    with pytest.raises(SpecError, match=r"kinematics.fore.frequency = '39e'"):
+        load_case(_case(tmp_path, HOVER.replace("frequency: 39.0 ", "frequency: 39e ", 1)))
+
+
+def test_duplicate_keys_are_refused_naming_the_key(tmp_path: Path) -> None:
+    text = HOVER.replace("  speed: 0.0 ", "  speed: 0.0\n  speed: 3.0 ")
+    with pytest.raises(SpecError, match=r"duplicate key 'speed' on lines 8 and 9"):
+        load_case(_case(tmp_path, text))
+    nested = HOVER.replace("    frequency: 39.0 ", "    frequency: 39.0\n    frequency: 40 ", 1)
+    with pytest.raises(SpecError, match=r"duplicate key 'frequency'"):
+        load_case(_case(tmp_path, nested))
+
+
+def test_the_loader_builds_no_python_objects(tmp_path: Path) -> None:
+    text = "!!python/object/apply:os.system ['echo owned']\n"
+    with pytest.raises(SpecError, match="is not valid YAML"):
+        load_case(_case(tmp_path, text))
+
+
+def _csv_case(tmp_path: Path, header: str, rows: list[str], n_samples: int | None = None) -> Path:
+    (tmp_path / "fore.csv").write_text("\n".join([header, *rows]) + "\n", encoding="utf-8")
+    fore = "  fore:\n    frequency: 39.0\n    stroke_plane_angle: 55.0\n    csv: fore.csv\n"
+    text = re.sub(r"  fore:\n(    .*\n)+", fore, HOVER, count=1)
+    if n_samples is not None:
+        text = text.replace("degrees: true ", f"degrees: true\n  n_samples: {n_samples} ")
+    return _case(tmp_path, text)
+
+
+def _cycle(n: int, sweep: Callable[[np.ndarray], np.ndarray]) -> list[str]:
+    i = np.arange(n + 1)
+    phase = 2 * np.pi * i / n
+    return [
+        f"{float(k / n / 39.0)!r},{float(s)!r},0,{float(30 * np.cos(p))!r}"
+        for k, s, p in zip(i, sweep(phase), phase, strict=True)
+    ]
+
+
+def test_a_repeated_csv_column_is_named(tmp_path: Path) -> None:
+    path = _csv_case(tmp_path, "time,sweep,elevation,pitch,sweep", [r + ",0" for r in _cycle(
+        64, lambda p: 40 * np.cos(p))])  # fmt: skip
+    with pytest.raises(SpecError, match=r"column 'sweep' appears 2 times in the header"):
+        load_case(path)
+
+
+def test_sample_counts_are_bounded_before_any_table(tmp_path: Path) -> None:
+    big = HOVER.replace("degrees: true ", "degrees: true\n  n_samples: 100000000 ")
+    with pytest.raises(SpecError, match=rf"n_samples = 100000000; allowed: .*<= {MAX_SAMPLES}"):
+        load_case(_case(tmp_path, big))
+    n = 3 * MAX_SAMPLES
+    path = _csv_case(tmp_path, "time,sweep,elevation,pitch", _cycle(n, lambda p: 40 * np.cos(p)))
+    with pytest.raises(SpecError, match=rf"has {n + 1} samples; allowed: at most {MAX_SAMPLES}"):
+        load_case(path)
+    with pytest.raises(ValueError, match=rf"at most {MAX_SAMPLES} per cycle"):
+        z = np.zeros(MAX_SAMPLES + 1)
+        MeasuredWing(z, z, z, 40.0, 0.5)
+
+
+def test_a_jump_in_a_series_is_warned_about(tmp_path: Path) -> None:
+    """A square-wave sweep (a jump of 80° between two samples) gives P/m of ~10⁴ W/kg: the
+    command says why, naming the series and the samples."""
+    path = _csv_case(
+        tmp_path,
+        "time,sweep,elevation,pitch",
+        _cycle(64, lambda p: np.where(p < np.pi, 40.0, -40.0)),
+        n_samples=64,
+    )
+    with pytest.warns(UserWarning, match=r"MeasuredWing.sweep jumps by 80° from sample 31 to 32"):
+        load_case(path)
+
+
+def test_smooth_series_and_the_examples_raise_no_warning() -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for name in ("hover", "forward_flight", "climb", "twisted_wing"):
+            load_case(ROOT / "examples" / f"{name}.yaml")
+        n = 8  # the fewest samples: a sinusoid's largest step is 0.19 of its variation
+        phase = 2 * np.pi * np.arange(n) / n
+        MeasuredWing(0.7 * np.cos(phase), 0 * phase, 0.5 * np.sin(phase), 40.0, 0.5)
+
+
+def test_radians_declared_as_degrees_are_warned_about(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    text = HOVER.replace("37.0", "0.65").replace("-29.0", "-0.5").replace("7.4", "0.1")
+    path = _case(tmp_path, text.replace("[[5.0", "[[0.09"))
+    assert main(["measured", str(path), "--out", str(tmp_path / "out")]) == 0
+    err = capsys.readouterr().err
+    assert err.count("warning: ") == 2 and "these look like radians; pass degrees=False" in err
+    assert "Traceback" not in err and "UserWarning" not in err  # one line each, no file:line
+
+
+# --- command-line options -----------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("options", "match"),
+    [
+        (["--grid", "99"], r"--grid speed 99 m/s .*speed_envelope"),
+        (["--grid", "nan"], r"--grid speed nan m/s"),
+        (["--grid", "1", "1"], r"--grid 1 1: allowed: distinct speeds"),
+        (["--grid", "x"], r"argument --grid: invalid float value: 'x'"),
+        (["--optima-budget", "0"], r"budget = 0; allowed: an integer >= 1"),
+        (["--optima-budget", "-5"], r"budget = -5; allowed"),
+        (["--optimiser", "nosuch"], r"unknown method 'nosuch'; allowed: pso"),
+        (["--optimiser", "pso:x"], r"method 'pso' takes no ':' argument"),
+        (["--scheduler", "tls://a:1"], r"the scheme 'tls://' is not supported"),
+    ],
+)
+def test_bad_speed_change_options_exit_2_before_any_work(
+    options: list[str], match: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "sc"
+    status, err = _exit_status(["speed-change", *options, "--out", str(out), "--quiet"], capsys)
+    assert status == 2 and re.search(match, err), err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("method", "match"),
+    [
+        ("nosuch", r"unknown method 'nosuch'; allowed: pso, random, cmaes"),
+        ("pso:x", r"method 'pso' takes no ':' argument"),
+        ("policy:", r"empty argument after ':'"),
+    ],
+)
+def test_a_bad_study_method_exits_2_before_any_job(
+    method: str, match: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    status, err = _exit_status(
+        ["study", "speed", "--method", method, "--out", str(tmp_path)], capsys
+    )
+    assert status == 2 and re.search(match, err), err
+    assert not any(tmp_path.iterdir())
+
+
+# --- rough edges --------------------------------------------------------------------------------
+def test_study_says_what_it_will_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Before the first job: the studies, optimisations, seeds, budgets and the work left."""
+    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    monkeypatch.setattr("eval.study.run_studies", lambda *a, **k: (_ for _ in ()).throw(
+        KeyboardInterrupt))  # fmt: skip
+    assert main(["study", "speed", "--preset", "tiny", "--out", str(tmp_path)]) == 130
+    err = capsys.readouterr().err
+    jobs = len(TINY.speeds) * len(TINY.seeds)
+    assert (
+        f"study speed (speed): preset tiny, method {TINY.method}; {jobs} optimisations over "
+        f"seeds {list(TINY.seeds)}, budgets {TINY.level_budget:,} model evaluations each; 0 "
+        f"stored in {tmp_path}, {jobs} to run ({jobs * TINY.level_budget:,} evaluations"
+    ) in err
+    assert "interrupted" in err
+
+
+def test_the_progress_bar_says_it_waits_instead_of_a_rate(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import tandem_env.io.progress_bar as progress
+
+    monkeypatch.setattr(progress, "_reported", False)
+    bar = ProgressBar(1000, "job")
+    err = capsys.readouterr().err
+    assert COMPILING in err and "eval/s" not in err and "<" not in err  # no rate, no ETA
+    bar.move_to(40, "iter 1")
+    bar.close()
+    err = capsys.readouterr().err
+    assert "eval/s" in err and "iter 1" in err
+    with ProgressBar(1000, "next") as second:
+        assert STARTING in capsys.readouterr().err  # the model is compiled by now
+        second.waiting("waiting for the first job")
+        assert "waiting for the first job" in capsys.readouterr().err
+
+
+def test_the_readings_rule_never_says_no_gainer_when_there_is_one() -> None:
+    from eval.studies import claims
+    from eval.studies.base import StudyOutput
+    from eval.studies.paper_reading import DEFAULT, Reading
+    from eval.studies.readings import combinations
+    from eval.studies.readings_result import ReadingResult
+
+    def result(reading: Reading, agree: int) -> ReadingResult:
+        found = [
+            claims.Claim(f"C{i}", "s", "Fig. 1", "x", "x", "number", verdict=v)
+            for i, v in enumerate(["agrees"] * agree + ["differs"] * (10 - agree))
+        ]
+        return ReadingResult(reading, (StudyOutput("s", "S", [], [], found),))
+
+    hover = Reading("hover-none", "t", {"interference": 0.0})
+    out, words = combinations(result(DEFAULT, 4), [result(DEFAULT, 4), result(hover, 6)])
+    assert out == [] and "hover-none (+2)" in words and "no gainer" not in words
+    assert "hover-none is the only gainer" in words
+
+
+def test_the_unused_budget_notice_is_said_once_per_setting(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from agents.harness import run
+
+    settings = {"n_envs": 16, "n_steps": 4, "batch_size": 64}
+    records = run("ppo", "level", 1.5, budget=203, seeds=[0, 1], method_config=settings)
+    assert [r.config["method"]["budget_unused"] for r in records] == [10, 10]
+    assert capsys.readouterr().err.count("evaluations stay unused") == 1
+
+
+def test_ctrl_c_on_a_local_dask_run_prints_one_line(tmp_path: Path) -> None:
+    """Ctrl-C reaches the whole process group: the workers ignore it (they used to die at once
+    and their nannies log tracebacks), this process closes the cluster and says one line."""
+    import signal
+
+    argv = [sys.executable, "-m", "eval", *OPTIMIZE[:-1], "200000", "--seeds", "0"]
+    argv += ["--out", str(tmp_path), "--scheduler", "local:1", "--env-kwargs", "n_time=32"]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    run = subprocess.Popen(
+        argv,
+        cwd=ROOT,
+        env=env,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # as a terminal's
+    )
+    assert run.stderr is not None
+    lines = []
+    deadline = time.monotonic() + 180.0  # imports and the cluster's start on a loaded machine
+    while time.monotonic() < deadline:
+        line = run.stderr.readline()
+        lines.append(line)
+        if not line or line.startswith("Dask scheduler"):
+            break
+    assert lines[-1].startswith("Dask scheduler"), lines
+    time.sleep(2.0)  # the job is running on the worker
+    os.killpg(run.pid, signal.SIGINT)
+    try:
+        err = run.communicate(timeout=120)[1]
+    finally:
+        if run.poll() is None:
+            os.killpg(run.pid, signal.SIGKILL)
+    assert run.returncode == 130
+    assert "Traceback" not in err and "ERROR" not in err, err
+    assert err.count("interrupted; the finished records are stored") == 1
