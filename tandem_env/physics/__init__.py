@@ -81,3 +81,15 @@ __all__ = [
 from .history import StrokeHistory, WingHistory, measured_history, stroke_history
 
 __all__ += ["StrokeHistory", "WingHistory", "measured_history", "stroke_history"]
+
+#: Names of the torch backend (``torch_model``), imported on first use so that importing the
+#: package never imports torch.
+_TORCH_NAMES = ("evaluate_torch", "TorchResult")
+
+
+def __getattr__(name: str):
+    if name in _TORCH_NAMES:
+        from . import torch_model
+
+        return getattr(torch_model, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -83,8 +83,8 @@ def resolve_device(device: Any) -> torch.device:
     allowed = "None, 'cpu', 'cuda', 'cuda:<index>' or a torch.device of those"
     try:
         dev = torch.device(device)
-    except (RuntimeError, TypeError) as error:
-        raise ValueError(f"device = {device!r} is not a device ({error}); allowed: {allowed}") from None
+    except (RuntimeError, TypeError):
+        raise ValueError(f"device = {device!r} is not a torch device; allowed: {allowed}") from None
     if dev.type not in DEVICE_TYPES:
         raise ValueError(f"device = {device!r}; allowed: {allowed}")
     if dev.type == "cuda":
