@@ -230,6 +230,10 @@ def _frame(angles: list[torch.Tensor], weight: torch.Tensor, beta: torch.Tensor,
 
 
 # --- element forces and the force sweep (blade.element_force, induction.normal_force_*) ---------
+#: The frame coefficients a force sweep and its slope read.
+_SWEEP_KEYS = ("AU", "AV", "BU", "BV", "ECX", "ECZ", "ENX", "ENZ", "DECX", "DECZ", "DENX", "DENZ",
+               "SPIN", "WEIGHT")  # fmt: skip
+
 class _Wing:
     """One wing's frame (each (B, 1, n_time)), nodes (each (1, n_blade, 1)) and constants."""
 
@@ -252,12 +256,21 @@ class _Wing:
         self.rho = rho
         self.n_time = frame["AU"].shape[1]
 
+    def annuli(self, batch_index: torch.Tensor, blade_index: torch.Tensor) -> _Wing:
+        """The same wing restricted to the listed (stroke, annulus) pairs: frame (n, n_time),
+        nodes (n, 1), so that a sweep computes only those (the inflow solve's active annuli)."""
+        sub = object.__new__(_Wing)
+        sub.__dict__.update(self.__dict__)
+        sub.f = {key: self.f[key][batch_index, 0] for key in _SWEEP_KEYS}
+        for name in ("r", "chord", "m11", "m22"):
+            setattr(sub, name, getattr(self, name)[0, blade_index])
+        return sub
+
     def sweep(self, vt: torch.Tensor, vn: torch.Tensor):
-        """Element forces over the cycle at normal inflow ``vn`` (B, n_blade) with ``vt`` (B,):
-        (F̄_n (B, n_blade) [N/m], F_c, F_n, u, v (B, n_blade, n_time))."""
+        """Element forces over the cycle at normal inflow ``vn`` with ``vt``, both shaped like
+        the nodes ((B, n_blade, 1) or (n, 1)): F̄_n [N/m] (the nodes' shape without the last
+        axis) and F_c, F_n, u, v over the cycle (one more axis of n_time samples)."""
         f = self.f
-        vt = vt[:, None, None]
-        vn = vn[:, :, None]
         u = self.r * f["AU"] + vt * f["ECX"] + vn * f["ECZ"]
         v = self.r * f["AV"] + vt * f["ENX"] + vn * f["ENZ"]
         du = self.r * f["BU"] + vt * f["DECX"] + vn * f["DECZ"]
@@ -389,7 +402,7 @@ def _solve_inflow(wing: _Wing, vt, vn0, sweep_amplitude, solve, tolerance, max_e
     strokes whose wing solves its inflow at all)."""
     vt_b = vt[:, None]
     k_area = (4.0 * wing.rho * sweep_amplitude[:, None] * wing.r[..., 0]).expand_as(vn0)
-    f0, _, _, u0, v0 = wing.sweep(vt, vn0)
+    f0, _, _, u0, v0 = wing.sweep(vt[:, None, None], vn0[:, :, None])
     trivial = (f0 <= 0.0) | (k_area <= 0.0) | ~solve[:, None]
     zeros = torch.zeros_like(f0)
     ones = torch.ones_like(f0)
@@ -440,7 +453,11 @@ def _solve_inflow(wing: _Wing, vt, vn0, sweep_amplitude, solve, tolerance, max_e
         step_before = torch.where(closed, step_last, step_before)
         step_last = torch.where(closed, (v_b - v).detach().abs(), step_last)
         v = torch.where(active, torch.where(open_, v_a, v_b), v)
-        fv, _, _, u_s, v_s = wing.sweep(vt, vn0 + v)
+        # sweep only the annuli still solving (the others keep their values)
+        rows, cols = torch.nonzero(active, as_tuple=True)
+        part = wing.annuli(rows, cols)
+        fv_part, _, _, u_s, v_s = part.sweep(vt[rows, None], (vn0 + v)[rows, cols, None])
+        fv = torch.zeros_like(f0).index_put((rows, cols), fv_part)
         evaluations = evaluations + active.to(torch.int64)
         hv = (fv - _momentum(v, k_area, vt_b, vn0)[0]).detach()
         gap = torch.where(hv > 0.0, hi - v.detach(), v.detach() - lo.detach())
@@ -451,7 +468,7 @@ def _solve_inflow(wing: _Wing, vt, vn0, sweep_amplitude, solve, tolerance, max_e
         iteration += 1
         if not bool(go_on.any()):
             break
-        sv = wing.slope(u_s, v_s)
+        sv = torch.zeros_like(f0).index_put((rows, cols), part.slope(u_s, v_s))
         up = go_on & (hv > 0.0)
         down = go_on & ~(hv > 0.0)
         curvature = torch.where(up, (sv - s_lo) / torch.where(up, v - lo, ones), curvature)
@@ -564,7 +581,7 @@ def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options
         v_i, evaluations, converged = _solve_inflow(
             wing, vt, vn0, sweep_amplitude, solve, options.tolerance, options.max_evaluations
         )
-    _, fc, fn, u, v = wing.sweep(vt, vn0 + v_i)
+    _, fc, fn, u, v = wing.sweep(vt[:, None, None], (vn0 + v_i)[:, :, None])
     f = wing.f
     spin = f["SPIN"]
     moment = (
