@@ -55,6 +55,10 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=None, help="torch CPU threads")
     parser.add_argument("--batches", type=int, nargs="+", default=None, help="batch sizes")
     parser.add_argument("--gradient", action="store_true", help="time gradients too")
+    parser.add_argument("--compile", action="store_true", help="torch.compile the sweeps")
+    parser.add_argument(
+        "--induction", nargs="+", default=["coupled", "isolated", "none"], help="inflow models"
+    )
     args = parser.parse_args()
     if args.backend == "torch":
         torch_throughput(args)
@@ -141,6 +145,7 @@ def torch_throughput(args: argparse.Namespace) -> None:
     name = torch.cuda.get_device_name(device) if device.type == "cuda" else platform.processor()
     print(
         f"torch {torch.__version__} on {device} ({name or platform.machine()}), {args.dtype}, "
+        f"{'compiled' if args.compile else 'eager'}, "
         f"{torch.get_num_threads()} CPU threads; numba {numba.__version__} with "
         f"{numba.get_num_threads()} threads; {os.cpu_count()} cores, load average "
         f"{', '.join(f'{x:.1f}' for x in os.getloadavg())}"
@@ -150,12 +155,14 @@ def torch_throughput(args: argparse.Namespace) -> None:
 
     def run_torch(batch: int, opts: te.ModelOptions) -> None:
         with torch.no_grad():
-            result = torch_model.evaluate_torch(x_all[:batch], v_all[:batch], options=opts)
+            result = torch_model.evaluate_torch(
+                x_all[:batch], v_all[:batch], options=opts, compiled=args.compile
+            )
             float(result.power.sum())  # waits for the device
 
     header = f"{'batch':>7} {'induction':>10} {'torch evals/s':>14} {'ms/call':>9}"
     print(header + (f" {'numba evals/s':>14} {'torch/numba':>12}" if on_cpu else ""))
-    for induction in ("coupled", "isolated", "none"):
+    for induction in args.induction:
         opts = te.ModelOptions(induction=induction)
         for batch in batches:
             seconds, _ = best_times(lambda b=batch, o=opts: run_torch(b, o), args.repeats)
@@ -188,7 +195,9 @@ def gradient_cost(args, torch_model, x_all, strokes: np.ndarray, speeds: np.ndar
     )
     for batch in (1, 64):
         seconds, _ = best_times(
-            lambda b=batch: torch_model.value_and_grad(x_all[:b], "power", speeds[0]),
+            lambda b=batch: torch_model.value_and_grad(
+                x_all[:b], "power", speeds[0], compiled=args.compile
+            ),
             args.repeats,
         )
         print(

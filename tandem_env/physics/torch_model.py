@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import fields, make_dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -237,7 +238,8 @@ _SWEEP_KEYS = ("AU", "AV", "BU", "BV", "ECX", "ECZ", "ENX", "ENZ", "DECX", "DECZ
 class _Wing:
     """One wing's frame (each (B, 1, n_time)), nodes (each (1, n_blade, 1)) and constants."""
 
-    def __init__(self, frame: dict, nodes: np.ndarray, consts: np.ndarray, rho: float, like):
+    def __init__(self, frame: dict, nodes: np.ndarray, consts: np.ndarray, rho: float, like, compiled):
+        self.compiled = compiled
         self.f = {key: value[:, None, :] for key, value in frame.items()}
         node = torch.tensor(nodes, dtype=like.dtype, device=like.device)[None, :, :, None]
         self.r = node[:, :, cycle.N_R]
@@ -266,49 +268,95 @@ class _Wing:
             setattr(sub, name, getattr(self, name)[0, blade_index])
         return sub
 
-    def sweep(self, vt: torch.Tensor, vn: torch.Tensor):
-        """Element forces over the cycle at normal inflow ``vn`` with ``vt``, both shaped like
-        the nodes ((B, n_blade, 1) or (n, 1)): F̄_n [N/m] (the nodes' shape without the last
-        axis) and F_c, F_n, u, v over the cycle (one more axis of n_time samples)."""
-        f = self.f
-        u = self.r * f["AU"] + vt * f["ECX"] + vn * f["ECZ"]
-        v = self.r * f["AV"] + vt * f["ENX"] + vn * f["ENZ"]
-        du = self.r * f["BU"] + vt * f["DECX"] + vn * f["DECZ"]
-        dv = self.r * f["BV"] + vt * f["DENX"] + vn * f["DENZ"]
-        spin, chord, m11, m22, rho = f["SPIN"], self.chord, self.m11, self.m22, self.rho
-        speed2 = u * u + v * v
-        moving = speed2 > 0.0
-        speed = torch.sqrt(torch.where(moving, speed2, torch.ones_like(speed2)))
-        gamma = 0.5 * self.cr * spin * chord * chord
-        gamma = gamma - torch.where(moving, self.ct * chord * u * v / speed, 0.0)
-        drag = torch.where(
-            moving, 0.5 * rho * chord * (self.cd0 * u * u + self.cd90 * v * v) / speed, 0.0
-        )
-        fc = m22 * v * spin - m11 * du - drag * u - rho * gamma * v
-        fn = -m11 * u * spin - m22 * dv - drag * v + rho * gamma * u
-        mean = ((fc * f["ECZ"] + fn * f["ENZ"]) * f["WEIGHT"]).sum(-1) / self.n_time
-        return mean, fc, fn, u, v
+    def constants(self) -> tuple[float, ...]:
+        return (self.ct, self.cd0, self.cd90, self.cr, self.rho)
 
-    def slope(self, u: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
-        """dF̄_n/dv_n (B, n_blade) [N·s/m²] at a sweep's (u, v) (``induction.normal_force_rate``)."""
-        f = self.f
-        a, b, c, d = f["ECZ"], f["ENZ"], f["DECZ"], f["DENZ"]
-        chord, m11, m22, rho = self.chord, self.m11, self.m22, self.rho
-        rate = (m22 - m11) * a * b * f["SPIN"] - m11 * a * c - m22 * b * d
-        speed2 = u * u + v * v
-        moving = speed2 > 0.0
-        inv = 1.0 / torch.sqrt(torch.where(moving, speed2, torch.ones_like(speed2)))
-        along = u * a + v * b
-        across = u * b - v * a
-        dspeed = along * inv
-        uv = u * v * inv
-        duv = (a * v + u * b - uv * dspeed) * inv
-        k = 0.5 * rho * chord
-        drag = k * (self.cd0 * u * u + self.cd90 * v * v) * inv
-        ddrag = (2.0 * k * (self.cd0 * u * a + self.cd90 * v * b) - drag * dspeed) * inv
-        viscous = rho * self.ct * chord * duv * across + ddrag * along + drag * (a * a + b * b)
-        rate = rate - torch.where(moving, viscous, 0.0)
-        return (rate * f["WEIGHT"]).sum(-1) / self.n_time
+    def nodes(self) -> tuple[torch.Tensor, ...]:
+        return (self.r, self.chord, self.m11, self.m22)
+
+    def sweep_and_slope(self, vt: torch.Tensor, vn: torch.Tensor):
+        """F̄_n [N/m] and dF̄_n/dv_n [N·s/m²] at normal inflow ``vn`` with ``vt``, both shaped
+        like the nodes ((B, n_blade, 1) or (n, 1)); results have the nodes' shape without the
+        last axis (``induction.normal_force_sweep`` and ``normal_force_slope``)."""
+        core = _compiled(_sweep_and_slope) if self.compiled else _sweep_and_slope
+        frame = tuple(self.f[key] for key in _SWEEP_KEYS)
+        return core(frame, self.nodes(), self.constants(), vt, vn)
+
+
+def _element_state(frame, nodes, constants, vt, vn):
+    """(u, v, u̇, v̇) of every element and sample (``blade.relative_velocity``) and the element
+    force (F_c, F_n) [N/m] (``blade.element_force``, the paper's coefficients)."""
+    au, av, bu, bv, ecx, ecz, enx, enz, decx, decz, denx, denz, spin, _ = frame
+    r, chord, m11, m22 = nodes
+    ct, cd0, cd90, cr, rho = constants
+    u = r * au + vt * ecx + vn * ecz
+    v = r * av + vt * enx + vn * enz
+    du = r * bu + vt * decx + vn * decz
+    dv = r * bv + vt * denx + vn * denz
+    speed2 = u * u + v * v
+    moving = speed2 > 0.0
+    speed = torch.sqrt(torch.where(moving, speed2, torch.ones_like(speed2)))
+    gamma = 0.5 * cr * spin * chord * chord
+    gamma = gamma - torch.where(moving, ct * chord * u * v / speed, 0.0)
+    drag = torch.where(moving, 0.5 * rho * chord * (cd0 * u * u + cd90 * v * v) / speed, 0.0)
+    fc = m22 * v * spin - m11 * du - drag * u - rho * gamma * v
+    fn = -m11 * u * spin - m22 * dv - drag * v + rho * gamma * u
+    return u, v, fc, fn
+
+
+def _sweep_and_slope(frame, nodes, constants, vt, vn):
+    """Cycle-mean normal force and its exact slope (``induction.normal_force_rate``) of a sweep."""
+    u, v, fc, fn = _element_state(frame, nodes, constants, vt, vn)
+    _, _, _, _, _, a, _, b, _, c, _, d, spin, weight = frame
+    _, chord, m11, m22 = nodes
+    ct, cd0, cd90, _, rho = constants
+    n_time = weight.shape[-1]
+    mean = ((fc * a + fn * b) * weight).sum(-1) / n_time
+    rate = (m22 - m11) * a * b * spin - m11 * a * c - m22 * b * d
+    speed2 = u * u + v * v
+    moving = speed2 > 0.0
+    inv = 1.0 / torch.sqrt(torch.where(moving, speed2, torch.ones_like(speed2)))
+    along = u * a + v * b
+    across = u * b - v * a
+    dspeed = along * inv
+    uv = u * v * inv
+    duv = (a * v + u * b - uv * dspeed) * inv
+    k = 0.5 * rho * chord
+    drag = k * (cd0 * u * u + cd90 * v * v) * inv
+    ddrag = (2.0 * k * (cd0 * u * a + cd90 * v * b) - drag * dspeed) * inv
+    viscous = rho * ct * chord * duv * across + ddrag * along + drag * (a * a + b * b)
+    rate = rate - torch.where(moving, viscous, 0.0)
+    return mean, (rate * weight).sum(-1) / n_time
+
+
+def _span_integrals(frame, nodes, constants, vt, vn, rotation, extra):
+    """Per sample, the span integrals of F_c, F_n [N], of the power delivered to the air P_aero
+    [W] and of the chord-weighted acute angle of attack [m²·rad] at the solved inflow
+    (``cycle.wing_cycle``'s final pass); ``rotation``: (AU, AV, DSPIN, frequency) with
+    frequency (B, 1, 1) [Hz], ``extra``: (width, inertia_a, damping, mu1, mu2)."""
+    u, v, fc, fn = _element_state(frame, nodes, constants, vt, vn)
+    spin = frame[12]
+    r, chord, m11, m22 = nodes
+    au, av, dspin, frequency = rotation
+    width, inertia_a, damping, mu1, mu2 = extra
+    moment = (
+        (m11 - m22) * u * v
+        - inertia_a * dspin
+        - damping * (mu1 * frequency + mu2 * spin.abs()) * spin
+    )
+    return (
+        (width * fc).sum(1),
+        (width * fn).sum(1),
+        -(width * (r * (fc * au + fn * av) + moment * spin)).sum(1),
+        (chord * width * acute_angle(u, v)).sum(1),
+    )
+
+
+@lru_cache(maxsize=None)
+def _compiled(function: Callable) -> Callable:
+    """``function`` compiled by ``torch.compile`` (shapes dynamic: the solve's active set
+    changes size every step), once per process."""
+    return torch.compile(function, dynamic=True)
 
 
 # --- the inflow solve (induction.solve_annulus_samples), every annulus at once -----------------
@@ -402,7 +450,7 @@ def _solve_inflow(wing: _Wing, vt, vn0, sweep_amplitude, solve, tolerance, max_e
     strokes whose wing solves its inflow at all)."""
     vt_b = vt[:, None]
     k_area = (4.0 * wing.rho * sweep_amplitude[:, None] * wing.r[..., 0]).expand_as(vn0)
-    f0, _, _, u0, v0 = wing.sweep(vt[:, None, None], vn0[:, :, None])
+    f0, s0 = wing.sweep_and_slope(vt[:, None, None], vn0[:, :, None])
     trivial = (f0 <= 0.0) | (k_area <= 0.0) | ~solve[:, None]
     zeros = torch.zeros_like(f0)
     ones = torch.ones_like(f0)
@@ -413,7 +461,6 @@ def _solve_inflow(wing: _Wing, vt, vn0, sweep_amplitude, solve, tolerance, max_e
     v = zeros
     if bool(done.all()):
         return v, torch.where(solve[:, None], evaluations, 0), converged
-    s0 = wing.slope(u0, v0)
     v_hover = _search([zeros, f0, zeros, zeros, zeros], k_area, vt_b, vn0, zeros, ones, ~done)
     f_tol = tolerance * f0.detach()
     x_tol = tolerance * torch.clamp(v_hover.detach(), min=1e-9)
@@ -456,7 +503,7 @@ def _solve_inflow(wing: _Wing, vt, vn0, sweep_amplitude, solve, tolerance, max_e
         # sweep only the annuli still solving (the others keep their values)
         rows, cols = torch.nonzero(active, as_tuple=True)
         part = wing.annuli(rows, cols)
-        fv_part, _, _, u_s, v_s = part.sweep(vt[rows, None], (vn0 + v)[rows, cols, None])
+        fv_part, sv_part = part.sweep_and_slope(vt[rows, None], (vn0 + v)[rows, cols, None])
         fv = torch.zeros_like(f0).index_put((rows, cols), fv_part)
         evaluations = evaluations + active.to(torch.int64)
         hv = (fv - _momentum(v, k_area, vt_b, vn0)[0]).detach()
@@ -468,7 +515,7 @@ def _solve_inflow(wing: _Wing, vt, vn0, sweep_amplitude, solve, tolerance, max_e
         iteration += 1
         if not bool(go_on.any()):
             break
-        sv = torch.zeros_like(f0).index_put((rows, cols), part.slope(u_s, v_s))
+        sv = torch.zeros_like(f0).index_put((rows, cols), sv_part)
         up = go_on & (hv > 0.0)
         down = go_on & ~(hv > 0.0)
         curvature = torch.where(up, (sv - s_lo) / torch.where(up, v - lo, ones), curvature)
@@ -581,19 +628,15 @@ def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options
         v_i, evaluations, converged = _solve_inflow(
             wing, vt, vn0, sweep_amplitude, solve, options.tolerance, options.max_evaluations
         )
-    _, fc, fn, u, v = wing.sweep(vt[:, None, None], (vn0 + v_i)[:, :, None])
     f = wing.f
-    spin = f["SPIN"]
-    moment = (
-        (wing.m11 - wing.m22) * u * v
-        - wing.inertia_a * f["DSPIN"]
-        - wing.damping * (wing.mu1 * frequency[:, None, None] + wing.mu2 * spin.abs()) * spin
-    )
-    width, chord, r = wing.width, wing.chord, wing.r
-    span_fc = (width * fc).sum(1)
-    span_fn = (width * fn).sum(1)
-    span_power = -(width * (r * (fc * f["AU"] + fn * f["AV"]) + moment * spin)).sum(1)
-    span_aoa = (chord * width * acute_angle(u, v)).sum(1)
+    core = _compiled(_span_integrals) if wing.compiled else _span_integrals
+    span_fc, span_fn, span_power, span_aoa = core(
+        tuple(f[key] for key in _SWEEP_KEYS), wing.nodes(), wing.constants(),
+        vt[:, None, None], (vn0 + v_i)[:, :, None],
+        (f["AU"], f["AV"], f["DSPIN"], frequency[:, None, None]),
+        (wing.width, wing.inertia_a, wing.damping, wing.mu1, wing.mu2),
+    )  # fmt: skip
+    chord, width = wing.chord, wing.width
     g = {k: value[:, 0, :] for k, value in f.items()}
     n_time = wing.n_time
     fx = span_fc * g["ECXE"] + span_fn * g["ENXE"]
@@ -715,7 +758,7 @@ def _performance(wings, speed, gamma, available_power, insect: Dragonfly, option
     }
 
 
-def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options):
+def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, compiled):
     # degrees to radians as kinematics.wing_params_radians (built in float64, then cast)
     scale = torch.as_tensor(
         np.where(ANGULAR[:N_PER_WING], np.pi / 180.0, 1.0), dtype=strokes.dtype, device=strokes.device
@@ -728,7 +771,7 @@ def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options):
         angles, weight = _angle_history(params, options.n_time)
         frame = _frame(angles, weight, beta, options.spin == "total")
         nodes, consts = wing_tables(geometry, options.n_blade, insect.air_density)
-        wing = _Wing(frame, nodes, consts, insect.air_density, strokes)
+        wing = _Wing(frame, nodes, consts, insect.air_density, strokes, compiled)
         # the free stream in the stroke plane (model.freestream_components) and the hover mask
         # (model.inflow_switched_off)
         angle = beta + gamma
@@ -757,6 +800,7 @@ def evaluate_torch(
     insect: Dragonfly = DRAGONFLY,
     options: ModelOptions = DEFAULT_OPTIONS,
     chunk_size: int | None = None,
+    compiled: bool = False,
 ) -> Any:
     """Evaluate one wing-beat cycle of each stroke of a batch, in torch (see the module docstring).
 
@@ -775,6 +819,9 @@ def evaluate_torch(
     chunk_size : int, optional
         Strokes evaluated at once (memory ∝ chunk_size·n_blade·n_time); default
         :data:`CHUNK_SIZE` of the device type.
+    compiled : bool
+        Fuse the force sweeps and span integrals with ``torch.compile`` (the same operations;
+        the first call in a process compiles them, which takes minutes; docs/model.md §12.1).
 
     Returns
     -------
@@ -811,7 +858,7 @@ def evaluate_torch(
     parts = [
         _evaluate_chunk(
             strokes[i : i + chunk_size], v[i : i + chunk_size], gamma[i : i + chunk_size],
-            p_avail[i : i + chunk_size], insect, options,
+            p_avail[i : i + chunk_size], insect, options, bool(compiled),
         )  # fmt: skip
         for i in range(0, batch, chunk_size)
     ]

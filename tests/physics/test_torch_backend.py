@@ -162,7 +162,8 @@ def _relative_norm(got: np.ndarray, want: np.ndarray) -> float:
 
 
 def test_gradients_match_central_differences_of_numba():
-    rng = np.random.default_rng(11)
+    # two strokes whose wings both have induced velocity (so the inflow's derivatives count)
+    rng = np.random.default_rng(0)
     strokes = te.normalised_to_physical(rng.uniform(-0.9, 0.9, (2, 28)))
     speed, gamma = 1.2, 0.15
     x = torch.tensor(strokes, requires_grad=True)
