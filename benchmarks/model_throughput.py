@@ -174,8 +174,36 @@ def torch_throughput(args: argparse.Namespace) -> None:
                 )
                 line += f" {batch / numba_s:>14.0f} {numba_s / seconds:>12.3f}"
             print(line)
+    accuracy(args, torch_model, x_all, v_all, strokes, speeds)
     if args.gradient:
         gradient_cost(args, torch_model, x_all, strokes, speeds)
+
+
+def accuracy(args, torch_model, x_all, v_all, strokes: np.ndarray, speeds: np.ndarray) -> None:
+    """The torch results against the numba kernel's on (up to) 256 of the strokes: the largest
+    relative difference of any field (denominator floored at 1e-6) and, per headline metric,
+    the largest difference relative to the metric's largest magnitude in the batch."""
+    import torch
+
+    n = min(256, strokes.shape[0])
+    want = te.evaluate(strokes[:n], speeds[:n])
+    with torch.no_grad():
+        got = torch_model.evaluate_torch(x_all[:n], v_all[:n], compiled=args.compile).to_numpy()
+    worst, worst_name = 0.0, ""
+    for name, value in want.as_dict().items():
+        a, b = value.astype(float), getattr(got, name).astype(float)
+        error = float(np.max(np.abs(b - a) / np.maximum(np.abs(a), 1e-6)))
+        if error > worst:
+            worst, worst_name = error, name
+    print()
+    print(
+        f"against numba on {n} strokes (coupled): largest relative difference {worst:.2g} ({worst_name})"
+    )
+    scaled = []
+    for name in ("lift_to_weight", "thrust", "drag", "power", "efficiency", "fore_inflow"):
+        a, b = getattr(want, name), getattr(got, name)
+        scaled.append(f"{name} {np.max(np.abs(b - a)) / np.max(np.abs(a)):.1g}")
+    print("  largest difference / largest magnitude: " + ", ".join(scaled))
 
 
 def gradient_cost(args, torch_model, x_all, strokes: np.ndarray, speeds: np.ndarray) -> None:

@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import fields, make_dataclass
-from functools import lru_cache
+from functools import cache
 from typing import Any
 
 import numpy as np
@@ -109,7 +109,9 @@ def _check_strokes(strokes: Any) -> torch.Tensor:
             "(tandem_env.evaluate(..., backend='torch') takes arrays)"
         )
     if strokes.dtype not in DTYPES:
-        raise ValueError(f"strokes has dtype {strokes.dtype}; allowed: torch.float64 or torch.float32")
+        raise ValueError(
+            f"strokes has dtype {strokes.dtype}; allowed: torch.float64 or torch.float32"
+        )
     if strokes.device.type not in DEVICE_TYPES:
         raise ValueError(f"strokes is on device {strokes.device}; allowed: a cpu or cuda tensor")
     if strokes.ndim == 1:
@@ -132,13 +134,21 @@ def _condition(value: Any, name: str, checked: np.ndarray, like: torch.Tensor) -
                 f"{name} is on device {value.device}; allowed: the strokes' device {like.device}"
             )
         if value.dtype not in DTYPES:
-            raise ValueError(f"{name} has dtype {value.dtype}; allowed: torch.float64 or torch.float32")
-        return value.to(like.dtype).expand(like.shape[0]) if value.ndim == 0 else value.to(like.dtype)
+            raise ValueError(
+                f"{name} has dtype {value.dtype}; allowed: torch.float64 or torch.float32"
+            )
+        return (
+            value.to(like.dtype).expand(like.shape[0]) if value.ndim == 0 else value.to(like.dtype)
+        )
     return torch.as_tensor(checked, dtype=like.dtype, device=like.device)
 
 
 def _as_checkable(value: Any) -> Any:
-    return value.detach().to("cpu", torch.float64).numpy() if isinstance(value, torch.Tensor) else value
+    return (
+        value.detach().to("cpu", torch.float64).numpy()
+        if isinstance(value, torch.Tensor)
+        else value
+    )
 
 
 # --- kinematics (kinematics.py) and frames (blade.fill_frame_coefficients) ----------------------
@@ -235,10 +245,13 @@ def _frame(angles: list[torch.Tensor], weight: torch.Tensor, beta: torch.Tensor,
 _SWEEP_KEYS = ("AU", "AV", "BU", "BV", "ECX", "ECZ", "ENX", "ENZ", "DECX", "DECZ", "DENX", "DENZ",
                "SPIN", "WEIGHT")  # fmt: skip
 
+
 class _Wing:
     """One wing's frame (each (B, 1, n_time)), nodes (each (1, n_blade, 1)) and constants."""
 
-    def __init__(self, frame: dict, nodes: np.ndarray, consts: np.ndarray, rho: float, like, compiled):
+    def __init__(
+        self, frame: dict, nodes: np.ndarray, consts: np.ndarray, rho: float, like, compiled
+    ):
         self.compiled = compiled
         self.f = {key: value[:, None, :] for key, value in frame.items()}
         node = torch.tensor(nodes, dtype=like.dtype, device=like.device)[None, :, :, None]
@@ -352,7 +365,7 @@ def _span_integrals(frame, nodes, constants, vt, vn, rotation, extra):
     )
 
 
-@lru_cache(maxsize=None)
+@cache
 def _compiled(function: Callable) -> Callable:
     """``function`` compiled by ``torch.compile`` (shapes dynamic: the solve's active set
     changes size every step), once per process."""
@@ -519,7 +532,9 @@ def _solve_inflow(wing: _Wing, vt, vn0, sweep_amplitude, solve, tolerance, max_e
         up = go_on & (hv > 0.0)
         down = go_on & ~(hv > 0.0)
         curvature = torch.where(up, (sv - s_lo) / torch.where(up, v - lo, ones), curvature)
-        lo, f_lo, s_lo = (torch.where(up, new, old) for new, old in ((v, lo), (fv, f_lo), (sv, s_lo)))
+        lo, f_lo, s_lo = (
+            torch.where(up, new, old) for new, old in ((v, lo), (fv, f_lo), (sv, s_lo))
+        )
         hi, f_hi, s_hi = (
             torch.where(down, new, old) for new, old in ((v, hi), (fv, f_hi), (sv, s_hi))
         )
@@ -544,7 +559,9 @@ def mean_positive_part(g: torch.Tensor) -> torch.Tensor:
     (``cycle.mean_positive_part``: the trigonometric interpolant integrated exactly between its
     zero crossings, each located by safeguarded Newton from the linear guess)."""
     n_series, n = g.shape
-    cos_t, sin_t = (torch.tensor(t, dtype=g.dtype, device=g.device) for t in cycle.fourier_tables(n))
+    cos_t, sin_t = (
+        torch.tensor(t, dtype=g.dtype, device=g.device) for t in cycle.fourier_tables(n)
+    )
     harmonics = torch.arange(1, cos_t.shape[0] + 1, dtype=g.dtype, device=g.device)
     a0 = g.sum(-1) / n
     a = 2.0 * (g @ cos_t.T) / n
@@ -761,7 +778,9 @@ def _performance(wings, speed, gamma, available_power, insect: Dragonfly, option
 def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, compiled):
     # degrees to radians as kinematics.wing_params_radians (built in float64, then cast)
     scale = torch.as_tensor(
-        np.where(ANGULAR[:N_PER_WING], np.pi / 180.0, 1.0), dtype=strokes.dtype, device=strokes.device
+        np.where(ANGULAR[:N_PER_WING], np.pi / 180.0, 1.0),
+        dtype=strokes.dtype,
+        device=strokes.device,
     )
     wings = []
     inflow_fore = None
@@ -849,19 +868,21 @@ def evaluate_torch(
     given = (speed, available_power, flight_path_angle)
     names = ("speed", "available_power", "flight_path_angle")
     v, p_avail, gamma = (
-        _condition(value, name, arr, strokes) for value, name, arr in zip(given, names, checked)
+        _condition(value, name, arr, strokes)
+        for value, name, arr in zip(given, names, checked, strict=True)
     )
     if chunk_size is None:
         chunk_size = CHUNK_SIZE[strokes.device.type]
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
         raise ValueError(f"chunk_size = {chunk_size!r}; allowed: a positive integer")
-    parts = [
-        _evaluate_chunk(
-            strokes[i : i + chunk_size], v[i : i + chunk_size], gamma[i : i + chunk_size],
-            p_avail[i : i + chunk_size], insect, options, bool(compiled),
-        )  # fmt: skip
-        for i in range(0, batch, chunk_size)
-    ]
+    parts = []
+    for i in range(0, batch, chunk_size):
+        part = slice(i, i + chunk_size)
+        parts.append(
+            _evaluate_chunk(
+                strokes[part], v[part], gamma[part], p_avail[part], insect, options, bool(compiled)
+            )
+        )
     values = {key: torch.cat([part[key] for part in parts]) for key in parts[0]}
     missing = [name for name in RESULT_FIELDS if name not in values]
     if missing:

@@ -134,7 +134,9 @@ def test_float32_error_is_small():
     args = [torch.tensor(a) for a in (strokes, speed, gamma)]
     with torch.no_grad():
         exact = te.evaluate_torch(args[0], args[1], flight_path_angle=args[2])
-        single = te.evaluate_torch(*(a.float() for a in args[:2]), flight_path_angle=args[2].float())
+        single = te.evaluate_torch(
+            *(a.float() for a in args[:2]), flight_path_angle=args[2].float()
+        )
     assert single.power.dtype == torch.float32
     for name in ("lift_to_weight", "thrust", "drag", "power", "efficiency", "fore_inflow"):
         want = getattr(exact, name)
@@ -186,8 +188,13 @@ def test_gradients_match_central_differences_of_numba():
 def test_gradients_with_respect_to_the_condition():
     strokes = te.normalised_to_physical(np.random.default_rng(12).uniform(-0.9, 0.9, (1, 28)))
     speed, gamma, power = 0.8, -0.2, 50.0
-    tensors = [torch.tensor(value, dtype=torch.float64, requires_grad=True) for value in (speed, gamma, power)]
-    result = te.evaluate_torch(torch.tensor(strokes), tensors[0], tensors[2], flight_path_angle=tensors[1])
+    tensors = [
+        torch.tensor(value, dtype=torch.float64, requires_grad=True)
+        for value in (speed, gamma, power)
+    ]
+    result = te.evaluate_torch(
+        torch.tensor(strokes), tensors[0], tensors[2], flight_path_angle=tensors[1]
+    )
     metric = result.lift_to_weight + result.excess_horizontal + result.power_violation
     grads = torch.autograd.grad(metric.sum(), tensors)
     h = (1e-6, 1e-6, 1e-4)
@@ -196,9 +203,7 @@ def test_gradients_with_respect_to_the_condition():
         plus, minus = list(values), list(values)
         plus[k] += h[k]
         minus[k] -= h[k]
-        outs = [
-            te.evaluate(strokes, v[0], v[2], flight_path_angle=v[1]) for v in (plus, minus)
-        ]
+        outs = [te.evaluate(strokes, v[0], v[2], flight_path_angle=v[1]) for v in (plus, minus)]
         f = [o.lift_to_weight + o.excess_horizontal + o.power_violation for o in outs]
         central = float((f[0] - f[1])[0] / (2.0 * h[k]))
         assert abs(float(grads[k]) - central) <= 1e-4 * max(abs(central), 1e-3), name
@@ -272,12 +277,17 @@ def test_import_does_not_import_torch():
 def test_cuda_equal_to_numba_and_cpu():
     strokes, speed, gamma = _case(5, batch=64)
     expected = te.evaluate(strokes, speed, flight_path_angle=gamma)
-    _assert_equal(expected, te.evaluate(strokes, speed, flight_path_angle=gamma, backend="torch", device="cuda"))
+    _assert_equal(
+        expected,
+        te.evaluate(strokes, speed, flight_path_angle=gamma, backend="torch", device="cuda"),
+    )
 
 
 @CUDA
 def test_cuda_gradient_equals_cpu_gradient():
-    strokes = torch.tensor(te.normalised_to_physical(np.random.default_rng(3).uniform(-0.9, 0.9, (4, 28))))
+    strokes = torch.tensor(
+        te.normalised_to_physical(np.random.default_rng(3).uniform(-0.9, 0.9, (4, 28)))
+    )
     _, cpu = torch_model.value_and_grad(strokes, "power", 1.0)
     _, gpu = torch_model.value_and_grad(strokes.cuda(), "power", 1.0)
     assert gpu.device.type == "cuda"
