@@ -391,16 +391,14 @@ def _model_residual(v, coefs, k_area, vt, vn0):
     return c0 + d * (c1 + d * (c2 + d * c3)) - m, c1 + d * (2.0 * c2 + 3.0 * d * c3) - dm
 
 
-def _solve_model(coefs, k_area, vt, vn0, lo, hi, mask):
-    """``induction._solve_model`` where ``mask``: the root of the force model minus m(v) in
-    [lo, hi] by safeguarded Newton; no graph (see :func:`_attach_root`)."""
+def _newton_in_bracket(coefs, k_area, vt, vn0, lo, hi):
+    """``induction._solve_model`` on 1-D tensors (one entry per annulus): the root of the force
+    model minus m(v) in [lo, hi] by safeguarded Newton, each entry stopping on its own."""
     v = 0.5 * (lo + hi)
     a, b = lo.clone(), hi.clone()
     result = v.clone()
-    done = ~mask
+    done = torch.zeros_like(v, dtype=torch.bool)
     for _ in range(60):
-        if bool(done.all()):
-            break
         q, dq = _model_residual(v, coefs, k_area, vt, vn0)
         positive = q > 0.0
         a = torch.where(positive, v, a)
@@ -412,27 +410,63 @@ def _solve_model(coefs, k_area, vt, vn0, lo, hi, mask):
         result = torch.where(~done & close, v_new, result)
         done = done | close
         v = torch.where(done, v, v_new)
+        if bool(done.all()):
+            break
     return torch.where(done, result, v)
+
+
+def _gather(mask: torch.Tensor, tensors):
+    """The entries of (B, n_blade)-broadcastable tensors where ``mask``, as 1-D tensors."""
+    index = torch.nonzero(mask, as_tuple=True)
+    return index, [t.expand(mask.shape)[index] for t in tensors]
+
+
+def _solve_model(coefs, k_area, vt, vn0, lo, hi, mask):
+    """:func:`_newton_in_bracket` on the annuli where ``mask`` (the others get the midpoint);
+    no graph (see :func:`_attach_root`)."""
+    out = 0.5 * (lo + hi)
+    if not bool(mask.any()):
+        return out
+    index, (x0, c0, c1, c2, c3, k, t, n, a, b) = _gather(mask, [*coefs, k_area, vt, vn0, lo, hi])
+    out = out.clone()
+    out[index] = _newton_in_bracket((x0, c0, c1, c2, c3), k, t, n, a, b)
+    return out
 
 
 def _search_upwards(coefs, k_area, vt, vn0, lo, start, mask):
     """``induction._search_upwards`` where ``mask``: the root above ``lo``, bracketed by doubling
     from ``start``; −1 where the model has no sign change (and outside ``mask``)."""
-    found = mask & (_model_residual(lo, coefs, k_area, vt, vn0)[0] > 0.0)
-    a = lo.clone()
-    b = torch.maximum(torch.maximum(start, 2.0 * lo), torch.full_like(lo, 1e-6))
-    pending = found.clone()
-    bracketed = torch.zeros_like(found)
+    root = torch.full_like(lo, -1.0)
+    bracketed = torch.zeros_like(mask)
+    if not bool(mask.any()):
+        return root, bracketed
+    index, (x0, c0, c1, c2, c3, k, t, n, low, first) = _gather(
+        mask, [*coefs, k_area, vt, vn0, lo, start]
+    )
+    coefs = (x0, c0, c1, c2, c3)
+    pending = _model_residual(low, coefs, k, t, n)[0] > 0.0
+    a = low.clone()
+    b = torch.maximum(torch.maximum(first, 2.0 * low), torch.full_like(low, 1e-6))
+    hit_any = torch.zeros_like(pending)
     for _ in range(64):
         if not bool(pending.any()):
             break
-        hit = pending & (_model_residual(b, coefs, k_area, vt, vn0)[0] <= 0.0)
-        bracketed = bracketed | hit
+        hit = pending & (_model_residual(b, coefs, k, t, n)[0] <= 0.0)
+        hit_any = hit_any | hit
         pending = pending & ~hit
         a = torch.where(pending, b, a)
         b = torch.where(pending, 2.0 * b, b)
-    root = _solve_model(coefs, k_area, vt, vn0, a, b, bracketed)
-    return torch.where(bracketed, root, -1.0), bracketed
+    if bool(hit_any.any()):
+        inner = torch.nonzero(hit_any, as_tuple=True)
+        value = root[index]
+        value[inner] = _newton_in_bracket(
+            [c[inner] for c in coefs], k[inner], t[inner], n[inner], a[inner], b[inner]
+        )
+        root[index] = value
+        flags = bracketed[index]
+        flags[inner] = True
+        bracketed[index] = flags
+    return root, bracketed
 
 
 def _attach_root(root, ok, coefs, k_area, vt, vn0):
