@@ -297,8 +297,8 @@ class _Wing:
 
 
 def _element_state(frame, nodes, constants, vt, vn):
-    """(u, v, u̇, v̇) of every element and sample (``blade.relative_velocity``) and the element
-    force (F_c, F_n) [N/m] (``blade.element_force``, the paper's coefficients)."""
+    """The relative velocity (u, v) [m/s] of every element and sample (``blade.relative_velocity``)
+    and the element force (F_c, F_n) [N/m] (``blade.element_force``, the paper's coefficients)."""
     au, av, bu, bv, ecx, ecz, enx, enz, decx, decz, denx, denz, spin, _ = frame
     r, chord, m11, m22 = nodes
     ct, cd0, cd90, cr, rho = constants
