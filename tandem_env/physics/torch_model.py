@@ -271,16 +271,6 @@ class _Wing:
         self.rho = rho
         self.n_time = frame["AU"].shape[1]
 
-    def annuli(self, batch_index: torch.Tensor, blade_index: torch.Tensor) -> _Wing:
-        """The same wing restricted to the listed (stroke, annulus) pairs: frame (n, n_time),
-        nodes (n, 1), so that a sweep computes only those (the inflow solve's active annuli)."""
-        sub = object.__new__(_Wing)
-        sub.__dict__.update(self.__dict__)
-        sub.f = {key: self.f[key][batch_index, 0] for key in _SWEEP_KEYS}
-        for name in ("r", "chord", "m11", "m22"):
-            setattr(sub, name, getattr(self, name)[0, blade_index])
-        return sub
-
     def constants(self) -> tuple[float, ...]:
         return (self.ct, self.cd0, self.cd90, self.cr, self.rho)
 
@@ -294,6 +284,13 @@ class _Wing:
         core = _compiled(_sweep_and_slope) if self.compiled else _sweep_and_slope
         frame = tuple(self.f[key] for key in _SWEEP_KEYS)
         return core(frame, self.nodes(), self.constants(), vt, vn)
+
+    def sweep_and_slope_at(self, rows: torch.Tensor, cols: torch.Tensor, vt, vn):
+        """:meth:`sweep_and_slope` of the listed (stroke, annulus) pairs only (the inflow
+        solve's active annuli), ``vt`` and ``vn`` (n, 1): results (n,)."""
+        core = _compiled(_sweep_and_slope_at) if self.compiled else _sweep_and_slope_at
+        frame = tuple(self.f[key] for key in _SWEEP_KEYS)
+        return core(frame, self.nodes(), self.constants(), vt, vn, rows, cols)
 
 
 def _element_state(frame, nodes, constants, vt, vn):
@@ -340,6 +337,14 @@ def _sweep_and_slope(frame, nodes, constants, vt, vn):
     viscous = rho * ct * chord * duv * across + ddrag * along + drag * (a * a + b * b)
     rate = rate - torch.where(moving, viscous, 0.0)
     return mean, (rate * weight).sum(-1) / n_time
+
+
+def _sweep_and_slope_at(frame, nodes, constants, vt, vn, rows, cols):
+    """:func:`_sweep_and_slope` of the (stroke ``rows``, annulus ``cols``) pairs: the gathers
+    sit inside the function, so that a compiled version reads the frame in place."""
+    frame = tuple(t[rows, 0] for t in frame)
+    nodes = tuple(t[0, cols] for t in nodes)
+    return _sweep_and_slope(frame, nodes, constants, vt, vn)
 
 
 def _span_integrals(frame, nodes, constants, vt, vn, rotation, extra):
@@ -549,8 +554,9 @@ def _solve_inflow(wing: _Wing, vt, vn0, sweep_amplitude, solve, tolerance, max_e
         v = torch.where(active, torch.where(open_, v_a, v_b), v)
         # sweep only the annuli still solving (the others keep their values)
         rows, cols = torch.nonzero(active, as_tuple=True)
-        part = wing.annuli(rows, cols)
-        fv_part, sv_part = part.sweep_and_slope(vt[rows, None], (vn0 + v)[rows, cols, None])
+        fv_part, sv_part = wing.sweep_and_slope_at(
+            rows, cols, vt[rows, None], (vn0 + v)[rows, cols, None]
+        )
         fv = torch.zeros_like(f0).index_put((rows, cols), fv_part)
         evaluations = evaluations + active.to(torch.int64)
         hv = (fv - _momentum(v, k_area, vt_b, vn0)[0]).detach()
@@ -616,19 +622,22 @@ def mean_positive_part(g: torch.Tensor) -> torch.Tensor:
         hi = lo + h
         x = lo + h * g0 / (g0 - g1)
         x_eval = x.clone()
-        done = torch.zeros_like(g0, dtype=torch.bool)
+        live = torch.arange(x.numel(), device=g.device)  # the crossings still iterating
         for _ in range(6):
-            p, dp, _ = _trig(ca0d, cad, cbd, x, harmonics)
-            x_eval = torch.where(done, x_eval, x)
-            same = (p > 0.0) == (g0 > 0.0)
-            lo = torch.where(~done & same, x, lo)
-            hi = torch.where(~done & ~same, x, hi)
-            x_new = torch.where(dp != 0.0, x - p / torch.where(dp != 0.0, dp, 1.0), 0.5 * (lo + hi))
-            x_new = torch.where((lo <= x_new) & (x_new <= hi), x_new, 0.5 * (lo + hi))
-            close = (x_new - x).abs() < 1e-11
-            x = torch.where(done | close, x, x_new)
-            done = done | close
-            if bool(done.all()):
+            xs = x[live]
+            p, dp, _ = _trig(ca0d[live], cad[live], cbd[live], xs, harmonics)
+            x_eval[live] = xs
+            same = (p > 0.0) == (g0[live] > 0.0)
+            lo_l = torch.where(same, xs, lo[live])
+            hi_l = torch.where(same, hi[live], xs)
+            lo[live], hi[live] = lo_l, hi_l
+            mid = 0.5 * (lo_l + hi_l)
+            x_new = torch.where(dp != 0.0, xs - p / torch.where(dp != 0.0, dp, 1.0), mid)
+            x_new = torch.where((lo_l <= x_new) & (x_new <= hi_l), x_new, mid)
+            close = (x_new - xs).abs() < 1e-11
+            x[live] = torch.where(close, xs, x_new)
+            live = live[~close]
+            if live.numel() == 0:
                 break
     big_p = _trig(ca0, ca, cb, x_eval, harmonics)[2]
     # each positive arc runs from a crossing upwards to the next crossing of its series
