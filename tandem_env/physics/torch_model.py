@@ -126,29 +126,26 @@ def _check_strokes(strokes: Any) -> torch.Tensor:
     return strokes
 
 
-def _condition(value: Any, name: str, checked: np.ndarray, like: torch.Tensor) -> torch.Tensor:
+def _as_checkable(value: Any, name: str, like: torch.Tensor) -> Any:
+    """A flight condition for ``model.validate_conditions``: a tensor (on the strokes' device, a
+    float dtype) as a detached float64 numpy copy, anything else as it is."""
+    if not isinstance(value, torch.Tensor):
+        return value
+    if value.device != like.device:
+        raise ValueError(
+            f"{name} is on device {value.device}; allowed: the strokes' device {like.device}"
+        )
+    if value.dtype not in DTYPES:
+        raise ValueError(f"{name} has dtype {value.dtype}; allowed: torch.float64 or torch.float32")
+    return value.detach().to("cpu", torch.float64).numpy()
+
+
+def _condition(value: Any, checked: np.ndarray, like: torch.Tensor) -> torch.Tensor:
     """A flight condition as a (B,) tensor: a given tensor keeps its graph, else ``checked``."""
     if isinstance(value, torch.Tensor):
-        if value.device != like.device:
-            raise ValueError(
-                f"{name} is on device {value.device}; allowed: the strokes' device {like.device}"
-            )
-        if value.dtype not in DTYPES:
-            raise ValueError(
-                f"{name} has dtype {value.dtype}; allowed: torch.float64 or torch.float32"
-            )
-        return (
-            value.to(like.dtype).expand(like.shape[0]) if value.ndim == 0 else value.to(like.dtype)
-        )
+        value = value.to(like.dtype)
+        return value.expand(like.shape[0]) if value.ndim == 0 else value
     return torch.as_tensor(checked, dtype=like.dtype, device=like.device)
-
-
-def _as_checkable(value: Any) -> Any:
-    return (
-        value.detach().to("cpu", torch.float64).numpy()
-        if isinstance(value, torch.Tensor)
-        else value
-    )
 
 
 # --- kinematics (kinematics.py) and frames (blade.fill_frame_coefficients) ----------------------
@@ -904,15 +901,15 @@ def evaluate_torch(
             )
     strokes = _check_strokes(strokes)
     batch = strokes.shape[0]
-    checked = validate_conditions(
-        _as_checkable(speed), _as_checkable(available_power), _as_checkable(flight_path_angle),
-        batch, insect,
-    )  # fmt: skip
     given = (speed, available_power, flight_path_angle)
     names = ("speed", "available_power", "flight_path_angle")
+    checked = validate_conditions(
+        *(_as_checkable(value, name, strokes) for value, name in zip(given, names, strict=True)),
+        batch,
+        insect,
+    )
     v, p_avail, gamma = (
-        _condition(value, name, arr, strokes)
-        for value, name, arr in zip(given, names, checked, strict=True)
+        _condition(value, arr, strokes) for value, arr in zip(given, checked, strict=True)
     )
     if chunk_size is None:
         chunk_size = CHUNK_SIZE[strokes.device.type]

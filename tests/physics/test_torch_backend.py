@@ -241,6 +241,10 @@ def test_bad_condition_tensor():
         te.evaluate_torch(strokes, torch.tensor([1, 1]))
     with pytest.raises(ValueError, match=r"speed\[1\] = 30 m/s; allowed"):
         te.evaluate_torch(strokes, torch.tensor([1.0, 30.0], dtype=torch.float64))
+    with pytest.raises(ValueError, match=r"speed is on device meta; allowed: the strokes' device"):
+        te.evaluate_torch(strokes, torch.ones(2, dtype=torch.float64, device="meta"))
+    with pytest.raises(ValueError, match=r"strokes is on device meta; allowed: a cpu or cuda"):
+        te.evaluate_torch(torch.ones(2, 28, dtype=torch.float64, device="meta"))
     with pytest.raises(ValueError, match=r"chunk_size = 0; allowed"):
         te.evaluate_torch(strokes, chunk_size=0)
 
