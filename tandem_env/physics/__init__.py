@@ -10,6 +10,7 @@ import numba as _numba
 if "NUMBA_THREADING_LAYER" not in _os.environ:
     _numba.config.THREADING_LAYER = "workqueue"
 
+from .backends import BACKENDS, evaluate
 from .coefficients import (
     COEFFICIENT_MODELS,
     PaperCoefficients,
@@ -25,7 +26,6 @@ from .model import (
     METRIC_NAMES,
     SPEED_LIMITS,
     Result,
-    evaluate,
     validate_conditions,
 )
 from .options import ModelOptions
@@ -46,6 +46,7 @@ from .stroke import (
 
 __all__ = [
     "AVAILABLE_POWER_LIMITS",
+    "BACKENDS",
     "COEFFICIENT_MODELS",
     "DRAGONFLY",
     "LOWER",

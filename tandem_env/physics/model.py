@@ -27,10 +27,6 @@ DEFAULT_OPTIONS = ModelOptions()
 #: more than it saves.
 SERIAL_BELOW = 4
 
-#: The implementations of :func:`evaluate`: the compiled numba kernel (default) and the torch
-#: port (``torch_model``, any torch device; torch is imported only when it is used).
-BACKENDS: tuple[str, ...] = ("numba", "torch")
-
 #: The metrics every evaluation reports, in the order environments list them in ``info``.
 METRIC_NAMES: tuple[str, ...] = (
     "lift_to_weight",
@@ -478,8 +474,6 @@ def evaluate(
     flight_path_angle: float | np.ndarray = 0.0,
     insect: Dragonfly = DRAGONFLY,
     options: ModelOptions = DEFAULT_OPTIONS,
-    backend: str = "numba",
-    device: str | None = None,
 ) -> Result:
     """Evaluate one wing-beat cycle of each stroke in a batch.
 
@@ -502,12 +496,6 @@ def evaluate(
         The insect (wings, planform, masses, air); default the paper's specimen.
     options : ModelOptions
         Resolution, inflow model and conventions.
-    backend : {"numba", "torch"}
-        The implementation (:data:`BACKENDS`): the numba kernel, or the torch port
-        (``torch_model.evaluate_torch``, float64, equal to the kernel to 1e-8, docs/model.md §12).
-    device : str, optional
-        The torch device (``"cpu"``, ``"cuda"``, ``"cuda:1"``; default the CPU); only with
-        ``backend="torch"``.
 
     Returns
     -------
@@ -517,23 +505,8 @@ def evaluate(
     Raises
     ------
     ValueError
-        For strokes outside Table 4, non-finite values, wrong shapes, a bad condition, an
-        unknown backend, or a device that is not available.
+        For strokes outside Table 4, non-finite values, wrong shapes, or a bad condition.
     """
-    if backend != "numba":
-        if backend != "torch":
-            raise ValueError(f"backend = {backend!r}; allowed: {', '.join(map(repr, BACKENDS))}")
-        from .torch_model import evaluate_numpy
-
-        return evaluate_numpy(
-            strokes, speed, available_power, flight_path_angle=flight_path_angle,
-            insect=insect, options=options, device=device,
-        )  # fmt: skip
-    if device is not None:
-        raise ValueError(
-            f"device = {device!r} with backend 'numba'; allowed: None (the numba kernel runs on "
-            "the CPU; give backend='torch' to choose a device)"
-        )
     if not isinstance(insect, Dragonfly):
         raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
     if not isinstance(options, ModelOptions):
