@@ -763,12 +763,6 @@ def _performance(wings, speed, gamma, available_power, insect: Dragonfly, option
     excess_vertical = lift_to_weight - 1.0
     excess_horizontal = (thrust - drag) / weight
     aoa = torch.rad2deg(pair("AOA"))
-    tol = options.constraint_tolerance
-    lift_violation = torch.clamp((lift_to_weight - 1.0).abs() - tol, min=0.0)
-    thrust_violation = torch.clamp(excess_horizontal.abs() - tol, min=0.0)
-    power_violation = torch.clamp(power_per_mass - available_power, min=0.0)
-    vertical_deficit = torch.clamp(-excess_vertical, min=0.0)
-    horizontal_deficit = torch.clamp(-excess_horizontal, min=0.0)
     return {
         "lift_to_weight": lift_to_weight,
         "thrust": thrust,
@@ -781,17 +775,6 @@ def _performance(wings, speed, gamma, available_power, insect: Dragonfly, option
         "excess_total": torch.hypot(excess_vertical, excess_horizontal),
         "excess_horizontal_literal": wing_drag / weight,
         "mean_angle_of_attack": aoa.mean(1),
-        "lift_violation": lift_violation,
-        "thrust_violation": thrust_violation,
-        "power_violation": power_violation,
-        "vertical_deficit": vertical_deficit,
-        "horizontal_deficit": horizontal_deficit,
-        "level_feasible": (lift_violation == 0.0)
-        & (thrust_violation == 0.0)
-        & (power_violation == 0.0),
-        "accelerate_feasible": (vertical_deficit == 0.0)
-        & (horizontal_deficit == 0.0)
-        & (power_violation == 0.0),
         "efficiency_above_one": efficiency > 1.0,
         "induction_converged": fore["CONVERGED"] & hind["CONVERGED"],
         "induction_evaluations": torch.maximum(fore["EVALS"], hind["EVALS"]),
