@@ -1,12 +1,20 @@
 """Model throughput: tandem-cycle evaluations per second, and where the time goes.
 
     python benchmarks/model_throughput.py [--repeats 5] [--seed 0]
+    python benchmarks/model_throughput.py --backend torch [--device cuda] [--dtype float32]
+        [--threads 1] [--batches 1 64 1024] [--gradient]
 
 One evaluation is one full wing-beat cycle of both wing pairs at the default (converged)
 resolution; "coupled" solves each pair's momentum inflow and the fore-wing's slipstream on the
 hind-wing, "isolated" each pair's inflow alone, "none" no inflow at all. Numbers are the best of
 ``--repeats`` timed calls after a warm-up call (which compiles or loads the numba cache); the
 breakdown also gives CPU time (all threads), steadier than wall time on a loaded machine.
+
+``--backend torch`` times the torch port (``tandem_env.evaluate_torch``, without a graph) per
+batch size and, on the CPU, the numba kernel on the same strokes in the same process, with the
+ratio torch / numba (> 1: torch faster). ``--gradient`` adds the cost of one autograd gradient
+of a metric with respect to all 28 parameters against a central difference of the numba model
+(the stroke and its 2 × 26 probes of the continuous parameters in one ``evaluate`` call).
 """
 
 from __future__ import annotations
@@ -41,7 +49,20 @@ def main() -> None:
         "--repeats", type=int, default=5, help="timed calls per case (best is kept)"
     )
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--backend", choices=("numba", "torch"), default="numba")
+    parser.add_argument("--device", default=None, help="torch device (default: the CPU)")
+    parser.add_argument("--dtype", choices=("float64", "float32"), default="float64")
+    parser.add_argument("--threads", type=int, default=None, help="torch CPU threads")
+    parser.add_argument("--batches", type=int, nargs="+", default=None, help="batch sizes")
+    parser.add_argument("--gradient", action="store_true", help="time gradients too")
+    parser.add_argument("--compile", action="store_true", help="torch.compile the sweeps")
+    parser.add_argument(
+        "--induction", nargs="+", default=["coupled", "isolated", "none"], help="inflow models"
+    )
     args = parser.parse_args()
+    if args.backend == "torch":
+        torch_throughput(args)
+        return
 
     options = te.ModelOptions()
     rng = np.random.default_rng(args.seed)
@@ -104,6 +125,113 @@ def main() -> None:
     for name, call in parts.items():
         wall, cpu = best_times(call, args.repeats)
         print(f"  {name:<55} {1e3 * wall:8.2f} {1e3 * cpu:8.2f}")
+
+
+def torch_throughput(args: argparse.Namespace) -> None:
+    """Evaluations per second of the torch port per batch size (and numba's, on the CPU)."""
+    import torch
+
+    from tandem_env.physics import torch_model
+
+    if args.threads is not None:
+        torch.set_num_threads(args.threads)
+    device = torch_model.resolve_device(args.device)
+    dtype = getattr(torch, args.dtype)
+    on_cpu = device.type == "cpu"
+    batches = args.batches or ([1, 64, 1024] if on_cpu else [1, 1024, 16384, 65536, 262144])
+    rng = np.random.default_rng(args.seed)
+    strokes = te.normalised_to_physical(rng.uniform(-1, 1, (max(batches), 28)))
+    speeds = rng.uniform(0.25, 2.0, max(batches))
+    name = torch.cuda.get_device_name(device) if device.type == "cuda" else platform.processor()
+    print(
+        f"torch {torch.__version__} on {device} ({name or platform.machine()}), {args.dtype}, "
+        f"{'compiled' if args.compile else 'eager'}, "
+        f"{torch.get_num_threads()} CPU threads; numba {numba.__version__} with "
+        f"{numba.get_num_threads()} threads; {os.cpu_count()} cores, load average "
+        f"{', '.join(f'{x:.1f}' for x in os.getloadavg())}"
+    )
+    x_all = torch.tensor(strokes, dtype=dtype, device=device)
+    v_all = torch.tensor(speeds, dtype=dtype, device=device)
+
+    def run_torch(batch: int, opts: te.ModelOptions) -> None:
+        with torch.no_grad():
+            result = torch_model.evaluate_torch(
+                x_all[:batch], v_all[:batch], options=opts, compiled=args.compile
+            )
+            float(result.power.sum())  # waits for the device
+
+    header = f"{'batch':>7} {'induction':>10} {'torch evals/s':>14} {'ms/call':>9}"
+    print(header + (f" {'numba evals/s':>14} {'torch/numba':>12}" if on_cpu else ""))
+    for induction in args.induction:
+        opts = te.ModelOptions(induction=induction)
+        for batch in batches:
+            seconds, _ = best_times(lambda b=batch, o=opts: run_torch(b, o), args.repeats)
+            line = f"{batch:>7} {induction:>10} {batch / seconds:>14.0f} {1e3 * seconds:>9.2f}"
+            if on_cpu:
+                numba_s, _ = best_times(
+                    lambda b=batch, o=opts: te.evaluate(strokes[:b], speeds[:b], options=o),
+                    args.repeats,
+                )
+                line += f" {batch / numba_s:>14.0f} {numba_s / seconds:>12.3f}"
+            print(line)
+    accuracy(args, torch_model, x_all, v_all, strokes, speeds)
+    if args.gradient:
+        gradient_cost(args, torch_model, x_all, strokes, speeds)
+
+
+def accuracy(args, torch_model, x_all, v_all, strokes: np.ndarray, speeds: np.ndarray) -> None:
+    """The torch results against the numba kernel's on (up to) 256 of the strokes: the largest
+    relative difference of any field (denominator floored at 1e-6) and, per headline metric,
+    the largest difference relative to the metric's largest magnitude in the batch."""
+    import torch
+
+    n = min(256, strokes.shape[0])
+    want = te.evaluate(strokes[:n], speeds[:n])
+    with torch.no_grad():
+        got = torch_model.evaluate_torch(x_all[:n], v_all[:n], compiled=args.compile).to_numpy()
+    worst, worst_name = 0.0, ""
+    for name, value in want.as_dict().items():
+        a, b = value.astype(float), getattr(got, name).astype(float)
+        error = float(np.max(np.abs(b - a) / np.maximum(np.abs(a), 1e-6)))
+        if error > worst:
+            worst, worst_name = error, name
+    print()
+    print(
+        f"against numba on {n} strokes (coupled): largest relative difference {worst:.2g} ({worst_name})"
+    )
+    scaled = []
+    for name in ("lift_to_weight", "thrust", "drag", "power", "efficiency", "fore_inflow"):
+        a, b = getattr(want, name), getattr(got, name)
+        scaled.append(f"{name} {np.max(np.abs(b - a)) / np.max(np.abs(a)):.1g}")
+    print("  largest difference / largest magnitude: " + ", ".join(scaled))
+
+
+def gradient_cost(args, torch_model, x_all, strokes: np.ndarray, speeds: np.ndarray) -> None:
+    """One autograd gradient against one batched central difference of the numba model."""
+    from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
+
+    columns = np.flatnonzero(~DISCRETE)
+    step = 1e-6 * (UPPER - LOWER)[columns]
+    probes = np.repeat(strokes[:1], 1 + 2 * columns.size, axis=0)
+    probes[1::2, columns] += np.diag(step)
+    probes[2::2, columns] -= np.diag(step)
+    central, _ = best_times(lambda: te.evaluate(probes, speeds[0]), args.repeats)
+    print()
+    print(
+        f"gradient of power with respect to the 28 parameters, per stroke: central difference "
+        f"of numba ({probes.shape[0]} strokes in one call) {1e3 * central:.1f} ms"
+    )
+    for batch in (1, 64):
+        seconds, _ = best_times(
+            lambda b=batch: torch_model.value_and_grad(
+                x_all[:b], "power", speeds[0], compiled=args.compile
+            ),
+            args.repeats,
+        )
+        print(
+            f"  autograd at batch {batch:>3}: {1e3 * seconds / batch:8.1f} ms per stroke "
+            f"({central * batch / seconds:.2f}x the central difference's rate)"
+        )
 
 
 if __name__ == "__main__":

@@ -11,3 +11,12 @@ __version__ = "0.1.0"
 from .envs.registration import register_envs as _register_envs
 
 _register_envs()
+
+
+def __getattr__(name: str):
+    """``evaluate_torch`` and ``TorchResult`` (the torch backend), imported on first use."""
+    from . import physics
+
+    if name in physics._TORCH_NAMES:
+        return getattr(physics, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

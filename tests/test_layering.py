@@ -4,7 +4,8 @@ Layers, lowest first (docs/architecture.md): ``tandem_env.io`` (generic I/O) <-
 ``tandem_env.physics`` <- ``tandem_env.envs`` (and the ``tandem_env`` package itself, which
 registers the envs) <- ``agents`` <- ``train`` <- ``eval``. A module may import its own layer and
 the layers below it, never one above; ``tandem_env.io`` imports nothing of the project; physics
-imports none of Gymnasium, SB3, torch or matplotlib, and agents none of SB3, torch or
+imports none of Gymnasium, SB3, torch (but for its optional torch backend, ``torch_model``) or
+matplotlib, and agents none of SB3, torch or
 matplotlib; and no chain of imports between the project's modules leads back to where it
 started. Every import counts: at module level, inside a function (lazy) or under
 ``TYPE_CHECKING``. ``benchmarks/`` and ``examples/`` are scripts on top and may import anything.
@@ -36,6 +37,9 @@ LAYERS: dict[str, int] = {
 FORBIDDEN: dict[str, frozenset[str]] = {
     "tandem_env.io": frozenset(),
     "tandem_env.physics": frozenset({"gymnasium", "stable_baselines3", "torch", "matplotlib"}),
+    # the optional torch backend: the one physics module that imports torch, only when used
+    # (tests/physics/test_torch_backend.py checks that importing tandem_env does not)
+    "tandem_env.physics.torch_model": frozenset({"gymnasium", "stable_baselines3", "matplotlib"}),
     "agents": frozenset({"stable_baselines3", "torch", "matplotlib"}),
 }
 PACKAGES = ("tandem_env", "agents", "train", "eval")

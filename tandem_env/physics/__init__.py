@@ -10,6 +10,7 @@ import numba as _numba
 if "NUMBA_THREADING_LAYER" not in _os.environ:
     _numba.config.THREADING_LAYER = "workqueue"
 
+from .backends import BACKENDS, evaluate
 from .coefficients import (
     COEFFICIENT_MODELS,
     PaperCoefficients,
@@ -25,7 +26,6 @@ from .model import (
     METRIC_NAMES,
     SPEED_LIMITS,
     Result,
-    evaluate,
     validate_conditions,
 )
 from .options import ModelOptions
@@ -46,6 +46,7 @@ from .stroke import (
 
 __all__ = [
     "AVAILABLE_POWER_LIMITS",
+    "BACKENDS",
     "COEFFICIENT_MODELS",
     "DRAGONFLY",
     "LOWER",
@@ -81,3 +82,15 @@ __all__ = [
 from .history import StrokeHistory, WingHistory, measured_history, stroke_history
 
 __all__ += ["StrokeHistory", "WingHistory", "measured_history", "stroke_history"]
+
+#: Names of the torch backend (``torch_model``), imported on first use so that importing the
+#: package never imports torch.
+_TORCH_NAMES = ("evaluate_torch", "TorchResult")
+
+
+def __getattr__(name: str):
+    if name in _TORCH_NAMES:
+        from . import torch_model
+
+        return getattr(torch_model, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

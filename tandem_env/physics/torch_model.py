@@ -1,0 +1,971 @@
+"""The model in PyTorch: the numba kernel's cycle (``cycle``), differentiable and on any device.
+
+:func:`evaluate_torch` evaluates the same model as :func:`model.evaluate` (docs/model.md, every
+``ModelOptions`` value, both planforms, the paper's force coefficients), vectorised over the
+batch and the blade elements instead of looping over them, and returns a :class:`TorchResult`
+of tensors with the :class:`~tandem_env.physics.model.Result` field names, differentiable by
+autograd with respect to the strokes and to speed, flight-path angle and available power where
+those are tensors. It follows the numba kernel decision by decision, so that the two agree to
+rounding (docs/model.md §12.1):
+
+* the kinematics and the motion-following grid (``kinematics``), the frame rates and element
+  forces (``blade``, Eqs. 6-16), the node tables of :func:`model.wing_tables`;
+* the per-annulus safeguarded Newton inflow solve of ``induction.solve_annulus_samples``, every
+  annulus with its own iterate, bracket and stopping rule: a converged annulus is masked and
+  keeps its value while the others go on (no fixed iteration count);
+* the exact positive-part integrals of ``cycle.mean_positive_part`` (zero crossings of the
+  trigonometric interpolant by the same safeguarded Newton);
+* the performance step of ``model._performance`` (Eqs. 17-27).
+
+Derivatives. Autograd differentiates the solve as the numba kernel computes it: through every
+force sweep and slope the outer iteration used. The inner scalar solves (the force model
+against the momentum side, converged to 1e-12) run without a graph, and their root v* is
+attached by the implicit-function rule dv*/dθ = −(∂q/∂θ)/(∂q/∂v) at that root. The zero
+crossings of the positive-part integrals are attached as constants: the integrand vanishes
+there, so their motion changes the integral only to second order.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import fields, make_dataclass
+from functools import cache
+from typing import Any
+
+import numpy as np
+import torch
+
+from . import cycle
+from .coefficients import PaperCoefficients
+from .insect import DRAGONFLY, Dragonfly
+from .kinematics import MAX_SWEEP_SHAPE
+from .model import (
+    _METADATA,
+    DEFAULT_OPTIONS,
+    Result,
+    validate_conditions,
+    wing_tables,
+)
+from .options import HOVER_NORMAL_SPEED, ModelOptions
+from .stroke import ANGULAR, N_PARAMETERS, N_PER_WING, validate_physical
+
+#: Floating dtypes the backend computes in (float64 is the default and the one tested to 1e-8).
+DTYPES = (torch.float64, torch.float32)
+#: Device types the backend runs on.
+DEVICE_TYPES = ("cpu", "cuda")
+#: Strokes per chunk (memory is bounded by one chunk's (chunk, n_blade, n_time) sweeps).
+CHUNK_SIZE = {"cpu": 1024, "cuda": 16384}
+
+#: The array fields of ``Result``, read from the dataclass itself (a field added there or
+#: removed is a test failure here, not silent drift).
+RESULT_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Result) if f.name not in _METADATA)
+
+TorchResult = make_dataclass(
+    "TorchResult",
+    [(name, torch.Tensor) for name in RESULT_FIELDS]
+    + [("options", ModelOptions, DEFAULT_OPTIONS), ("planform", str, "tear-drop")],
+    frozen=True,
+    namespace={
+        "__doc__": "``Result``'s fields as (B,) tensors on the strokes' device (same names, units).",
+        "__len__": lambda self: int(self.lift_to_weight.shape[0]),
+        "to_numpy": lambda self: to_numpy_result(self),
+    },
+)
+
+_TWO_PI = 2.0 * math.pi
+
+
+# --- input checks -------------------------------------------------------------------------------
+def resolve_device(device: Any) -> torch.device:
+    """``device`` (None: the CPU) as a ``torch.device`` this backend can run on, or ValueError."""
+    if device is None:
+        return torch.device("cpu")
+    allowed = "None, 'cpu', 'cuda', 'cuda:<index>' or a torch.device of those"
+    try:
+        dev = torch.device(device)
+    except (RuntimeError, TypeError):
+        raise ValueError(f"device = {device!r} is not a torch device; allowed: {allowed}") from None
+    if dev.type not in DEVICE_TYPES:
+        raise ValueError(f"device = {device!r}; allowed: {allowed}")
+    if dev.type == "cuda":
+        if not torch.cuda.is_available():
+            raise ValueError(
+                f"device = {device!r} but CUDA is not available (torch {torch.__version__}, "
+                f"torch.cuda.is_available() is False); allowed here: None or 'cpu'"
+            )
+        if dev.index is not None and dev.index >= torch.cuda.device_count():
+            raise ValueError(
+                f"device = {device!r}; allowed: cuda:0 to cuda:{torch.cuda.device_count() - 1}"
+            )
+    return dev
+
+
+def _check_strokes(strokes: Any) -> torch.Tensor:
+    if not isinstance(strokes, torch.Tensor):
+        raise ValueError(
+            f"strokes is a {type(strokes).__name__}; allowed: a torch.Tensor of shape "
+            f"(B, {N_PARAMETERS}) or ({N_PARAMETERS},), float64 or float32 "
+            "(tandem_env.evaluate(..., backend='torch') takes arrays)"
+        )
+    if strokes.dtype not in DTYPES:
+        raise ValueError(
+            f"strokes has dtype {strokes.dtype}; allowed: torch.float64 or torch.float32"
+        )
+    if strokes.device.type not in DEVICE_TYPES:
+        raise ValueError(f"strokes is on device {strokes.device}; allowed: a cpu or cuda tensor")
+    if strokes.ndim == 1:
+        strokes = strokes[None, :]
+    if strokes.ndim != 2 or strokes.shape[1] != N_PARAMETERS or strokes.shape[0] == 0:
+        raise ValueError(
+            f"strokes has shape {tuple(strokes.shape)}; allowed: (B, {N_PARAMETERS}) with B >= 1 "
+            f"or ({N_PARAMETERS},)"
+        )
+    # Table 4 bounds, N in {1, 2}, finiteness: the numpy check, on a detached copy
+    validate_physical(strokes.detach().to("cpu", torch.float64).numpy())
+    return strokes
+
+
+def _as_checkable(value: Any, name: str, like: torch.Tensor) -> Any:
+    """A flight condition for ``model.validate_conditions``: a tensor (on the strokes' device, a
+    float dtype) as a detached float64 numpy copy, anything else as it is."""
+    if not isinstance(value, torch.Tensor):
+        return value
+    if value.device != like.device:
+        raise ValueError(
+            f"{name} is on device {value.device}; allowed: the strokes' device {like.device}"
+        )
+    if value.dtype not in DTYPES:
+        raise ValueError(f"{name} has dtype {value.dtype}; allowed: torch.float64 or torch.float32")
+    return value.detach().to("cpu", torch.float64).numpy()
+
+
+def _condition(value: Any, checked: np.ndarray, like: torch.Tensor) -> torch.Tensor:
+    """A flight condition as a (B,) tensor: a given tensor keeps its graph, else ``checked``."""
+    if isinstance(value, torch.Tensor):
+        value = value.to(like.dtype)
+        return value.expand(like.shape[0]) if value.ndim == 0 else value
+    return torch.as_tensor(checked, dtype=like.dtype, device=like.device)
+
+
+# --- kinematics (kinematics.py) and frames (blade.fill_frame_coefficients) ----------------------
+def _angle_history(params: torch.Tensor, n_time: int) -> tuple[list[torch.Tensor], torch.Tensor]:
+    """φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈ (each (B, n_time)) and dτ/ds of one wing's (B, 14) parameters
+    in Hz/rad/- on the motion-following grid (``kinematics.fill_angle_history``)."""
+    col = [params[:, i : i + 1] for i in range(N_PER_WING)]
+    freq, amp_phi, amp_th, amp_eta, off_phi, off_th, off_eta = col[:7]
+    ph_phi, ph_th, ph_eta, shape_k, harmonic, shape_c = col[7:13]
+    k = torch.clamp(shape_k, max=MAX_SWEEP_SHAPE)
+    crowding = k * k
+    reversal = 0.5 * math.pi - ph_phi
+    s = 2.0 * math.pi * torch.arange(n_time, dtype=params.dtype, device=params.device) / n_time
+    d = 2.0 * (s - reversal)
+    tau = s - 0.5 * crowding * torch.sin(d)
+    weight = 1.0 - crowding * torch.cos(d)
+    omega = 2.0 * math.pi * freq
+    # weaving, Eq. 3
+    x = tau + ph_phi
+    sx, cx = torch.sin(x), torch.cos(x)
+    scale = amp_phi / torch.asin(k)
+    q = 1.0 - k * k * sx * sx
+    root = torch.sqrt(q)
+    phi = scale * torch.asin(k * sx) + off_phi
+    dphi = omega * scale * k * cx / root
+    ddphi = omega * omega * scale * k * (k * k - 1.0) * sx / (q * root)
+    # flapping, Eq. 4
+    x = harmonic * tau + ph_th
+    th = amp_th * torch.cos(x) + off_th
+    dth = -omega * harmonic * amp_th * torch.sin(x)
+    ddth = -omega * omega * harmonic * harmonic * amp_th * torch.cos(x)
+    # pitching, Eq. 5
+    y = tau + ph_eta
+    sy, cy = torch.sin(y), torch.cos(y)
+    tz = torch.tanh(shape_c * sy)
+    sech2 = 1.0 - tz * tz
+    scale = amp_eta / torch.tanh(shape_c)
+    eta = scale * tz + off_eta
+    deta = omega * scale * shape_c * cy * sech2
+    ddeta = omega * omega * scale * shape_c * sech2 * (-sy - 2.0 * shape_c * cy * cy * tz)
+    return [phi, dphi, ddphi, th, dth, ddth, eta, deta, ddeta], weight
+
+
+def _cross(a, b):
+    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
+
+
+def _frame(angles: list[torch.Tensor], weight: torch.Tensor, beta: torch.Tensor, spin_total: bool):
+    """The per-sample frame coefficients of ``blade.fill_frame_coefficients`` (right wing) as a
+    dict of (B, n_time) tensors keyed by the ``blade`` column names (``AU`` for ``C_AU``, …)."""
+    phi, dphi, ddphi, th, dth, ddth, eta, deta, ddeta = angles
+    cb, sb = torch.cos(beta)[:, None], torch.sin(beta)[:, None]
+    cf, sf = torch.cos(phi), torch.sin(phi)
+    ct, st = torch.cos(th), torch.sin(th)
+    ce, se = torch.cos(eta), torch.sin(eta)
+    es = (ct * sf, ct * cf, st)
+    ec = (se * cf - st * ce * sf, -se * sf - st * ce * cf, ct * ce)
+    en = (ce * cf + st * se * sf, -ce * sf + st * se * cf, -ct * se)
+    w = (dth * cf + deta * es[0], -dth * sf + deta * es[1], -dphi + deta * es[2])
+    des = _cross(w, es)
+    dec = _cross(w, ec)
+    den = _cross(w, en)
+    a = (
+        ddth * cf - dth * dphi * sf + ddeta * es[0] + deta * des[0],
+        -ddth * sf - dth * dphi * cf + ddeta * es[1] + deta * des[1],
+        -ddphi + ddeta * es[2] + deta * des[2],
+    )
+    x = _cross(a, es)
+    y = _cross(w, des)
+    dd = (x[0] + y[0], x[1] + y[1], x[2] + y[2])
+    if spin_total:
+        spin = w[0] * es[0] + w[1] * es[1] + w[2] * es[2]
+        dspin = a[0] * es[0] + a[1] * es[1] + a[2] * es[2]  # ω·ė_s = 0
+    else:
+        spin, dspin = deta, ddeta
+    return {
+        "AU": des[0] * ec[0] + des[1] * ec[1] + des[2] * ec[2],
+        "AV": des[0] * en[0] + des[1] * en[1] + des[2] * en[2],
+        "BU": dd[0] * ec[0] + dd[1] * ec[1] + dd[2] * ec[2]
+        + des[0] * dec[0] + des[1] * dec[1] + des[2] * dec[2],
+        "BV": dd[0] * en[0] + dd[1] * en[1] + dd[2] * en[2]
+        + des[0] * den[0] + des[1] * den[1] + des[2] * den[2],
+        "ECX": ec[0], "ECZ": ec[2], "ENX": en[0], "ENZ": en[2],
+        "DECX": dec[0], "DECZ": dec[2], "DENX": den[0], "DENZ": den[2],
+        "SPIN": spin, "DSPIN": dspin, "WEIGHT": weight.expand_as(spin),
+        "ECXE": ec[0] * cb + ec[2] * sb, "ENXE": en[0] * cb + en[2] * sb,
+        "ECZE": -ec[0] * sb + ec[2] * cb, "ENZE": -en[0] * sb + en[2] * cb,
+        "KIN": des[0] * dd[0] + des[1] * dd[1] + des[2] * dd[2],
+    }  # fmt: skip
+
+
+# --- element forces and the force sweep (blade.element_force, induction.normal_force_*) ---------
+#: The frame coefficients a force sweep and its slope read.
+_SWEEP_KEYS = ("AU", "AV", "BU", "BV", "ECX", "ECZ", "ENX", "ENZ", "DECX", "DECZ", "DENX", "DENZ",
+               "SPIN", "WEIGHT")  # fmt: skip
+
+
+class _Wing:
+    """One wing's frame (each (B, 1, n_time)), nodes (each (1, n_blade, 1)) and constants."""
+
+    def __init__(
+        self, frame: dict, nodes: np.ndarray, consts: np.ndarray, rho: float, like, compiled
+    ):
+        self.compiled = compiled
+        self.f = {key: value[:, None, :] for key, value in frame.items()}
+        node = torch.tensor(nodes, dtype=like.dtype, device=like.device)[None, :, :, None]
+        self.r = node[:, :, cycle.N_R]
+        self.chord = node[:, :, cycle.N_CHORD]
+        self.width = node[:, :, cycle.N_WIDTH]
+        self.m11 = node[:, :, cycle.N_M11]
+        self.m22 = node[:, :, cycle.N_M22]
+        self.inertia_a = node[:, :, cycle.N_IA]
+        self.damping = node[:, :, cycle.N_DAMP]
+        c = [float(v) for v in consts]
+        self.ct, self.cd0, self.cd90, self.cr = (
+            c[cycle.K_CT], c[cycle.K_CD0], c[cycle.K_CD90], c[cycle.K_CR]
+        )  # fmt: skip
+        self.mu1, self.mu2 = c[cycle.K_MU1], c[cycle.K_MU2]
+        self.i_span, self.i_pitch = c[cycle.K_I_SPAN], c[cycle.K_I_PITCH]
+        self.rho = rho
+        self.n_time = frame["AU"].shape[1]
+
+    def constants(self) -> tuple[float, ...]:
+        return (self.ct, self.cd0, self.cd90, self.cr, self.rho)
+
+    def nodes(self) -> tuple[torch.Tensor, ...]:
+        return (self.r, self.chord, self.m11, self.m22)
+
+    def sweep_and_slope(self, vt: torch.Tensor, vn: torch.Tensor):
+        """F̄_n [N/m] and dF̄_n/dv_n [N·s/m²] at normal inflow ``vn`` with ``vt``, both shaped
+        like the nodes ((B, n_blade, 1) or (n, 1)); results have the nodes' shape without the
+        last axis (``induction.normal_force_sweep`` and ``normal_force_slope``)."""
+        core = _compiled(_sweep_and_slope) if self.compiled else _sweep_and_slope
+        frame = tuple(self.f[key] for key in _SWEEP_KEYS)
+        return core(frame, self.nodes(), self.constants(), vt, vn)
+
+    def sweep_and_slope_at(self, rows: torch.Tensor, cols: torch.Tensor, vt, vn):
+        """:meth:`sweep_and_slope` of the listed (stroke, annulus) pairs only (the inflow
+        solve's active annuli), ``vt`` and ``vn`` (n, 1): results (n,)."""
+        core = _compiled(_sweep_and_slope_at) if self.compiled else _sweep_and_slope_at
+        frame = tuple(self.f[key] for key in _SWEEP_KEYS)
+        return core(frame, self.nodes(), self.constants(), vt, vn, rows, cols)
+
+
+def _element_state(frame, nodes, constants, vt, vn):
+    """The relative velocity (u, v) [m/s] of every element and sample (``blade.relative_velocity``)
+    and the element force (F_c, F_n) [N/m] (``blade.element_force``, the paper's coefficients)."""
+    au, av, bu, bv, ecx, ecz, enx, enz, decx, decz, denx, denz, spin, _ = frame
+    r, chord, m11, m22 = nodes
+    ct, cd0, cd90, cr, rho = constants
+    u = r * au + vt * ecx + vn * ecz
+    v = r * av + vt * enx + vn * enz
+    du = r * bu + vt * decx + vn * decz
+    dv = r * bv + vt * denx + vn * denz
+    speed2 = u * u + v * v
+    moving = speed2 > 0.0
+    speed = torch.sqrt(torch.where(moving, speed2, torch.ones_like(speed2)))
+    gamma = 0.5 * cr * spin * chord * chord
+    gamma = gamma - torch.where(moving, ct * chord * u * v / speed, 0.0)
+    drag = torch.where(moving, 0.5 * rho * chord * (cd0 * u * u + cd90 * v * v) / speed, 0.0)
+    fc = m22 * v * spin - m11 * du - drag * u - rho * gamma * v
+    fn = -m11 * u * spin - m22 * dv - drag * v + rho * gamma * u
+    return u, v, fc, fn
+
+
+def _sweep_and_slope(frame, nodes, constants, vt, vn):
+    """Cycle-mean normal force and its exact slope (``induction.normal_force_rate``) of a sweep."""
+    u, v, fc, fn = _element_state(frame, nodes, constants, vt, vn)
+    _, _, _, _, _, a, _, b, _, c, _, d, spin, weight = frame
+    _, chord, m11, m22 = nodes
+    ct, cd0, cd90, _, rho = constants
+    n_time = weight.shape[-1]
+    mean = ((fc * a + fn * b) * weight).sum(-1) / n_time
+    rate = (m22 - m11) * a * b * spin - m11 * a * c - m22 * b * d
+    speed2 = u * u + v * v
+    moving = speed2 > 0.0
+    inv = 1.0 / torch.sqrt(torch.where(moving, speed2, torch.ones_like(speed2)))
+    along = u * a + v * b
+    across = u * b - v * a
+    dspeed = along * inv
+    uv = u * v * inv
+    duv = (a * v + u * b - uv * dspeed) * inv
+    k = 0.5 * rho * chord
+    drag = k * (cd0 * u * u + cd90 * v * v) * inv
+    ddrag = (2.0 * k * (cd0 * u * a + cd90 * v * b) - drag * dspeed) * inv
+    viscous = rho * ct * chord * duv * across + ddrag * along + drag * (a * a + b * b)
+    rate = rate - torch.where(moving, viscous, 0.0)
+    return mean, (rate * weight).sum(-1) / n_time
+
+
+def _sweep_and_slope_at(frame, nodes, constants, vt, vn, rows, cols):
+    """:func:`_sweep_and_slope` of the (stroke ``rows``, annulus ``cols``) pairs: the gathers
+    sit inside the function, so that a compiled version reads the frame in place."""
+    frame = tuple(t[rows, 0] for t in frame)
+    nodes = tuple(t[0, cols] for t in nodes)
+    return _sweep_and_slope(frame, nodes, constants, vt, vn)
+
+
+def _span_integrals(frame, nodes, constants, vt, vn, rotation, extra):
+    """Per sample, the span integrals of F_c, F_n [N], of the power delivered to the air P_aero
+    [W] and of the chord-weighted acute angle of attack [m²·rad] at the solved inflow
+    (``cycle.wing_cycle``'s final pass); ``rotation``: (AU, AV, DSPIN, frequency) with
+    frequency (B, 1, 1) [Hz], ``extra``: (width, inertia_a, damping, mu1, mu2)."""
+    u, v, fc, fn = _element_state(frame, nodes, constants, vt, vn)
+    spin = frame[12]
+    r, chord, m11, m22 = nodes
+    au, av, dspin, frequency = rotation
+    width, inertia_a, damping, mu1, mu2 = extra
+    moment = (
+        (m11 - m22) * u * v
+        - inertia_a * dspin
+        - damping * (mu1 * frequency + mu2 * spin.abs()) * spin
+    )
+    return (
+        (width * fc).sum(1),
+        (width * fn).sum(1),
+        -(width * (r * (fc * au + fn * av) + moment * spin)).sum(1),
+        (chord * width * acute_angle(u, v)).sum(1),
+    )
+
+
+@cache
+def _compiled(function: Callable) -> Callable:
+    """``function`` compiled by ``torch.compile`` (shapes dynamic: the solve's active set
+    changes size every step), once per process."""
+    return torch.compile(function, dynamic=True)
+
+
+# --- the inflow solve (induction.solve_annulus_samples), every annulus at once -----------------
+def _momentum(v, k_area, vt, vn0):
+    """m(v) = k·v·sqrt(V_t² + (V_n' + v)²) and dm/dv (0 where the root vanishes)."""
+    w = vn0 + v
+    root2 = vt * vt + w * w
+    nonzero = root2 > 0.0
+    root = torch.sqrt(torch.where(nonzero, root2, torch.ones_like(root2)))
+    m = torch.where(nonzero, k_area * v * root, 0.0)
+    dm = torch.where(nonzero, k_area * (root + v * w / root), 0.0)
+    return m, dm
+
+
+def _model_residual(v, coefs, k_area, vt, vn0):
+    x0, c0, c1, c2, c3 = coefs
+    d = v - x0
+    m, dm = _momentum(v, k_area, vt, vn0)
+    return c0 + d * (c1 + d * (c2 + d * c3)) - m, c1 + d * (2.0 * c2 + 3.0 * d * c3) - dm
+
+
+def _newton_in_bracket(coefs, k_area, vt, vn0, lo, hi):
+    """``induction._solve_model`` on 1-D tensors (one entry per annulus): the root of the force
+    model minus m(v) in [lo, hi] by safeguarded Newton, each entry stopping on its own."""
+    v = 0.5 * (lo + hi)
+    a, b = lo.clone(), hi.clone()
+    result = v.clone()
+    done = torch.zeros_like(v, dtype=torch.bool)
+    for _ in range(60):
+        q, dq = _model_residual(v, coefs, k_area, vt, vn0)
+        positive = q > 0.0
+        a = torch.where(positive, v, a)
+        b = torch.where(positive, b, v)
+        v_new = v - q / torch.where(dq != 0.0, dq, torch.ones_like(dq))
+        ok = (dq != 0.0) & (a < v_new) & (v_new < b)
+        v_new = torch.where(ok, v_new, 0.5 * (a + b))
+        close = (v_new - v).abs() <= 1e-12 * (1.0 + v.abs())
+        result = torch.where(~done & close, v_new, result)
+        done = done | close
+        v = torch.where(done, v, v_new)
+        if bool(done.all()):
+            break
+    return torch.where(done, result, v)
+
+
+def _gather(mask: torch.Tensor, tensors):
+    """The entries of (B, n_blade)-broadcastable tensors where ``mask``, as 1-D tensors."""
+    index = torch.nonzero(mask, as_tuple=True)
+    return index, [t.expand(mask.shape)[index] for t in tensors]
+
+
+def _solve_model(coefs, k_area, vt, vn0, lo, hi, mask):
+    """:func:`_newton_in_bracket` on the annuli where ``mask`` (the others get the midpoint);
+    no graph (see :func:`_attach_root`)."""
+    out = 0.5 * (lo + hi)
+    if not bool(mask.any()):
+        return out
+    index, (x0, c0, c1, c2, c3, k, t, n, a, b) = _gather(mask, [*coefs, k_area, vt, vn0, lo, hi])
+    out = out.clone()
+    out[index] = _newton_in_bracket((x0, c0, c1, c2, c3), k, t, n, a, b)
+    return out
+
+
+def _search_upwards(coefs, k_area, vt, vn0, lo, start, mask):
+    """``induction._search_upwards`` where ``mask``: the root above ``lo``, bracketed by doubling
+    from ``start``; −1 where the model has no sign change (and outside ``mask``)."""
+    root = torch.full_like(lo, -1.0)
+    bracketed = torch.zeros_like(mask)
+    if not bool(mask.any()):
+        return root, bracketed
+    index, (x0, c0, c1, c2, c3, k, t, n, low, first) = _gather(
+        mask, [*coefs, k_area, vt, vn0, lo, start]
+    )
+    coefs = (x0, c0, c1, c2, c3)
+    pending = _model_residual(low, coefs, k, t, n)[0] > 0.0
+    a = low.clone()
+    b = torch.maximum(torch.maximum(first, 2.0 * low), torch.full_like(low, 1e-6))
+    hit_any = torch.zeros_like(pending)
+    for _ in range(64):
+        if not bool(pending.any()):
+            break
+        hit = pending & (_model_residual(b, coefs, k, t, n)[0] <= 0.0)
+        hit_any = hit_any | hit
+        pending = pending & ~hit
+        a = torch.where(pending, b, a)
+        b = torch.where(pending, 2.0 * b, b)
+    if bool(hit_any.any()):
+        inner = torch.nonzero(hit_any, as_tuple=True)
+        value = root[index]
+        value[inner] = _newton_in_bracket(
+            [c[inner] for c in coefs], k[inner], t[inner], n[inner], a[inner], b[inner]
+        )
+        root[index] = value
+        flags = bracketed[index]
+        flags[inner] = True
+        bracketed[index] = flags
+    return root, bracketed
+
+
+def _attach_root(root, ok, coefs, k_area, vt, vn0):
+    """``root`` (solved without a graph) with the implicit-function derivative of
+    q(v*; θ) = 0 where ``ok``: v* − (q − q̂)/∂q/∂v, whose value is v* itself."""
+    if not torch.is_grad_enabled():
+        return root
+    safe = torch.where(ok, root, coefs[0].detach())
+    q, dq = _model_residual(safe, coefs, k_area, vt, vn0)
+    dq = dq.detach()
+    use = ok & (dq != 0.0)
+    step = (q - q.detach()) / torch.where(use, dq, torch.ones_like(dq))
+    return torch.where(use, root - step, root)
+
+
+def _search(coefs, k_area, vt, vn0, lo, start, mask):
+    with torch.no_grad():
+        root, ok = _search_upwards(
+            [c.detach() for c in coefs], k_area.detach(), vt.detach(), vn0.detach(),
+            lo.detach(), start.detach(), mask,
+        )  # fmt: skip
+    return _attach_root(root, ok, coefs, k_area, vt, vn0)
+
+
+def _solve_inflow(wing: _Wing, vt, vn0, sweep_amplitude, solve, tolerance, max_evaluations):
+    """Induced velocity v_i (B, n_blade) [m/s], force sweeps (B, n_blade) and converged
+    (B, n_blade) of every annulus (``induction.solve_annulus_samples``; ``solve`` (B,): the
+    strokes whose wing solves its inflow at all)."""
+    vt_b = vt[:, None]
+    k_area = (4.0 * wing.rho * sweep_amplitude[:, None] * wing.r[..., 0]).expand_as(vn0)
+    f0, s0 = wing.sweep_and_slope(vt[:, None, None], vn0[:, :, None])
+    trivial = (f0 <= 0.0) | (k_area <= 0.0) | ~solve[:, None]
+    zeros = torch.zeros_like(f0)
+    ones = torch.ones_like(f0)
+    inf = torch.full_like(f0, math.inf)
+    done = trivial.clone()
+    converged = trivial.clone()
+    evaluations = torch.ones_like(f0, dtype=torch.int64)
+    v = zeros
+    if bool(done.all()):
+        return v, torch.where(solve[:, None], evaluations, 0), converged
+    v_hover = _search([zeros, f0, zeros, zeros, zeros], k_area, vt_b, vn0, zeros, ones, ~done)
+    f_tol = tolerance * f0.detach()
+    x_tol = tolerance * torch.clamp(v_hover.detach(), min=1e-9)
+    lo, f_lo, s_lo = zeros, f0, s0
+    hi, f_hi, s_hi = inf, zeros, zeros
+    curvature = zeros
+    step_last, step_before = inf, inf.clone()
+    iteration = 1
+    while iteration < max_evaluations and not bool(done.all()):
+        active = ~done
+        open_ = torch.isinf(hi)
+        # no bracket yet: the tangent bent by the curvature, searched upwards from lo
+        v_a = _search(
+            [lo, f_lo, s_lo, 0.5 * curvature, zeros], k_area, vt_b, vn0, lo, v_hover, active & open_
+        )
+        if iteration == 1:
+            capped = torch.where(v_a > lo, torch.minimum(v_a, 4.0 * v_hover), 4.0 * v_hover)
+            v_a = torch.where(s_lo > 0.0, capped, v_a)
+        v_a = torch.where(v_a > lo, v_a, 2.0 * torch.maximum(lo, v_hover))
+        # bracketed: the cubic Hermite model on [lo, hi], or bisection
+        hi_s = torch.where(open_, lo + 1.0, hi)
+        f_hi_s = torch.where(open_, f_lo, f_hi)
+        s_hi_s = torch.where(open_, s_lo, s_hi)
+        w = hi_s - lo
+        secant = (f_hi_s - f_lo) / w
+        c2 = (3.0 * secant - 2.0 * s_lo - s_hi_s) / w
+        c3 = (s_lo + s_hi_s - 2.0 * secant) / (w * w)
+        closed = active & ~open_
+        with torch.no_grad():
+            v_model = _solve_model(
+                [lo.detach(), f_lo.detach(), s_lo.detach(), c2.detach(), c3.detach()],
+                k_area, vt_b, vn0.detach(), lo.detach(), hi_s.detach(), closed,
+            )  # fmt: skip
+        v_model = _attach_root(v_model, closed, [lo, f_lo, s_lo, c2, c3], k_area, vt_b, vn0)
+        accept = (lo < v_model) & (v_model < hi_s) & ((v_model - v).abs() <= 0.5 * step_before)
+        v_b = torch.where(accept, v_model, 0.5 * (lo + hi_s))
+        step_before = torch.where(closed, step_last, step_before)
+        step_last = torch.where(closed, (v_b - v).detach().abs(), step_last)
+        v = torch.where(active, torch.where(open_, v_a, v_b), v)
+        # sweep only the annuli still solving (the others keep their values)
+        rows, cols = torch.nonzero(active, as_tuple=True)
+        fv_part, sv_part = wing.sweep_and_slope_at(
+            rows, cols, vt[rows, None], (vn0 + v)[rows, cols, None]
+        )
+        fv = torch.zeros_like(f0).index_put((rows, cols), fv_part)
+        evaluations = evaluations + active.to(torch.int64)
+        hv = (fv - _momentum(v, k_area, vt_b, vn0)[0]).detach()
+        gap = torch.where(hv > 0.0, hi - v.detach(), v.detach() - lo.detach())
+        now = active & ((hv.abs() <= f_tol) | (gap <= x_tol))
+        converged = converged | now
+        done = done | now
+        go_on = active & ~now
+        iteration += 1
+        if not bool(go_on.any()):
+            break
+        sv = torch.zeros_like(f0).index_put((rows, cols), sv_part)
+        up = go_on & (hv > 0.0)
+        down = go_on & ~(hv > 0.0)
+        curvature = torch.where(up, (sv - s_lo) / torch.where(up, v - lo, ones), curvature)
+        lo, f_lo, s_lo = (
+            torch.where(up, new, old) for new, old in ((v, lo), (fv, f_lo), (sv, s_lo))
+        )
+        hi, f_hi, s_hi = (
+            torch.where(down, new, old) for new, old in ((v, hi), (fv, f_hi), (sv, s_hi))
+        )
+    v = torch.where(trivial, 0.0, v)
+    return v, torch.where(solve[:, None], evaluations, 0), converged
+
+
+# --- cycle means (cycle.cycle_means, cycle.mean_positive_part) ---------------------------------
+def _trig(coef_a0, coef_a, coef_b, x, harmonics):
+    """The interpolant p(x), p'(x) and its antiderivative P(x) at points x (n,) of series whose
+    coefficients are rows of coef_a, coef_b (n, M) (``cycle._trig_eval``)."""
+    mx = harmonics * x[:, None]
+    c, s = torch.cos(mx), torch.sin(mx)
+    value = coef_a0 + (coef_a * c + coef_b * s).sum(-1)
+    slope = (harmonics * (coef_b * c - coef_a * s)).sum(-1)
+    integral = coef_a0 * x + ((coef_a * s - coef_b * c) / harmonics).sum(-1)
+    return value, slope, integral
+
+
+def mean_positive_part(g: torch.Tensor) -> torch.Tensor:
+    """Cycle means of max(g, 0) of (G, n) periodic series on s_k = 2πk/n, to spectral accuracy
+    (``cycle.mean_positive_part``: the trigonometric interpolant integrated exactly between its
+    zero crossings, each located by safeguarded Newton from the linear guess)."""
+    n_series, n = g.shape
+    cos_t, sin_t = (
+        torch.tensor(t, dtype=g.dtype, device=g.device) for t in cycle.fourier_tables(n)
+    )
+    harmonics = torch.arange(1, cos_t.shape[0] + 1, dtype=g.dtype, device=g.device)
+    a0 = g.sum(-1) / n
+    a = 2.0 * (g @ cos_t.T) / n
+    b = 2.0 * (g @ sin_t.T) / n
+    positive = g > 0.0
+    change = positive != torch.roll(positive, -1, dims=1)
+    series, k = torch.nonzero(change, as_tuple=True)  # row-major: by series, then k
+    h = _TWO_PI / n
+    out = torch.where(positive[:, 0], torch.clamp(a0, min=0.0), torch.zeros_like(a0))
+    if series.numel() == 0:
+        return out
+    ca0, ca, cb = a0[series], a[series], b[series]
+    g0 = g[series, k].detach()
+    g1 = g[series, (k + 1) % n].detach()
+    with torch.no_grad():
+        ca0d, cad, cbd = ca0.detach(), ca.detach(), cb.detach()
+        lo = k.to(g.dtype) * h
+        hi = lo + h
+        x = lo + h * g0 / (g0 - g1)
+        x_eval = x.clone()
+        live = torch.arange(x.numel(), device=g.device)  # the crossings still iterating
+        for _ in range(6):
+            xs = x[live]
+            p, dp, _ = _trig(ca0d[live], cad[live], cbd[live], xs, harmonics)
+            x_eval[live] = xs
+            same = (p > 0.0) == (g0[live] > 0.0)
+            lo_l = torch.where(same, xs, lo[live])
+            hi_l = torch.where(same, hi[live], xs)
+            lo[live], hi[live] = lo_l, hi_l
+            mid = 0.5 * (lo_l + hi_l)
+            x_new = torch.where(dp != 0.0, xs - p / torch.where(dp != 0.0, dp, 1.0), mid)
+            x_new = torch.where((lo_l <= x_new) & (x_new <= hi_l), x_new, mid)
+            close = (x_new - xs).abs() < 1e-11
+            x[live] = torch.where(close, xs, x_new)
+            live = live[~close]
+            if live.numel() == 0:
+                break
+    big_p = _trig(ca0, ca, cb, x_eval, harmonics)[2]
+    # each positive arc runs from a crossing upwards to the next crossing of its series
+    count = torch.bincount(series, minlength=n_series)
+    first = torch.cumsum(count, 0) - count
+    index = torch.arange(series.numel(), device=g.device)
+    last = index == first[series] + count[series] - 1
+    following = torch.where(last, first[series], index + 1)
+    wrap = torch.where(last, _TWO_PI * ca0, torch.zeros_like(ca0))
+    arcs = torch.where(g1 > 0.0, big_p[following] + wrap - big_p, torch.zeros_like(big_p))
+    total = torch.zeros_like(a0).index_add(0, series, arcs)
+    return torch.where(count > 0, torch.clamp(total, min=0.0) / _TWO_PI, out)
+
+
+_ACUTE_SERIES = (-1.0 / 11.0, 1.0 / 9.0, -1.0 / 7.0, 1.0 / 5.0, -1.0 / 3.0)
+
+
+def acute_angle(along: torch.Tensor, across: torch.Tensor) -> torch.Tensor:
+    """atan(|across|/|along|) ∈ [0, π/2] [rad] by ``blade.acute_angle``'s polynomial (the same
+    2e-8 rad approximation, so the mean angle of attack agrees to rounding)."""
+    x, y = along.abs(), across.abs()
+    still = (x == 0.0) & (y == 0.0)
+    swap = y > x
+    num = torch.where(swap, x, y)
+    den = torch.where(still, torch.ones_like(x), torch.where(swap, y, x))
+    z = num / den
+    reduce = z > 0.41421356237309503
+    z = torch.where(reduce, (z - 1.0) / (z + 1.0), z)
+    offset = reduce.to(z.dtype) * 0.7853981633974483
+    z2 = z * z
+    # odd Taylor series of atan to z¹⁵ by Horner, in blade.acute_angle's order of operations
+    poly = 1.0 / 13.0 - z2 / 15.0
+    for coefficient in _ACUTE_SERIES:
+        poly = coefficient + z2 * poly
+    angle = offset + z * (1.0 + z2 * poly)
+    angle = torch.where(swap, 1.5707963267948966 - angle, angle)
+    return torch.where(still, 0.0, angle)
+
+
+def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options):
+    """Per-wing cycle means (a dict of (B,) tensors keyed like ``cycle``'s W_ columns, ``FZ``
+    for ``W_FZ``, …) and the inflow per annulus (B, n_blade) (``cycle.wing_cycle``)."""
+    if options.induction == "none":
+        v_i = torch.zeros_like(vn0)
+        evaluations = torch.zeros_like(vn0, dtype=torch.int64)
+        converged = torch.ones_like(vn0, dtype=torch.bool)
+    else:
+        v_i, evaluations, converged = _solve_inflow(
+            wing, vt, vn0, sweep_amplitude, solve, options.tolerance, options.max_evaluations
+        )
+    f = wing.f
+    core = _compiled(_span_integrals) if wing.compiled else _span_integrals
+    span_fc, span_fn, span_power, span_aoa = core(
+        tuple(f[key] for key in _SWEEP_KEYS), wing.nodes(), wing.constants(),
+        vt[:, None, None], (vn0 + v_i)[:, :, None],
+        (f["AU"], f["AV"], f["DSPIN"], frequency[:, None, None]),
+        (wing.width, wing.inertia_a, wing.damping, wing.mu1, wing.mu2),
+    )  # fmt: skip
+    chord, width = wing.chord, wing.width
+    g = {k: value[:, 0, :] for k, value in f.items()}
+    n_time = wing.n_time
+    fx = span_fc * g["ECXE"] + span_fn * g["ENXE"]
+    fz = span_fc * g["ECZE"] + span_fn * g["ENZE"]
+    p_iner = wing.i_span * g["KIN"] + wing.i_pitch * g["SPIN"] * g["DSPIN"]
+    weight = g["WEIGHT"]
+    out = {"FX": (fx * weight).sum(-1) / n_time, "FZ": (fz * weight).sum(-1) / n_time}
+    mean_aero = (span_power * weight).sum(-1) / n_time
+    mean_iner = (p_iner * weight).sum(-1) / n_time
+    series = torch.stack([fx, span_power, p_iner, span_power + p_iner]) * weight
+    thrust, aero_positive, iner_positive, elastic = mean_positive_part(
+        series.reshape(-1, n_time)
+    ).reshape(4, -1)
+    out["THRUST"] = thrust
+    out["DRAG"] = torch.clamp(thrust - out["FX"], min=0.0)
+    out["P_AERO_POSITIVE"] = aero_positive
+    out["P_AERO"] = torch.clamp(2.0 * aero_positive - mean_aero, min=0.0)
+    out["P_INER"] = torch.clamp(2.0 * iner_positive - mean_iner, min=0.0)
+    out["P_ELASTIC"] = elastic
+    area = (chord * width).sum()
+    out["AOA"] = (span_aoa * weight).sum(-1) / (area * n_time)
+    out["CONVERGED"] = converged.all(-1)
+    out["EVALS"] = evaluations.max(-1).values
+    out["INFLOW"] = (chord[..., 0] * width[..., 0] * v_i).sum(-1) / area
+    return out, v_i
+
+
+# --- the performance step (model._performance, Eqs. 17-27) ------------------------------------
+def _performance(wings, speed, gamma, available_power, insect: Dragonfly, options: ModelOptions):
+    """``model._performance`` on tensors: every quantity it reports, by ``Result`` field name."""
+    n_w = insect.wings_per_pair
+    weight = insect.weight
+    fore, hind = wings
+
+    def pair(key):
+        return torch.stack([fore[key], hind[key]], dim=1)
+
+    fz = pair("FZ") * n_w
+    fx = pair("FX") * n_w
+    lift = fz.sum(1)
+    wing_drag = n_w * pair("DRAG").sum(1)
+    if options.thrust_split == "sign":
+        thrust = n_w * pair("THRUST").sum(1)
+        drag = wing_drag
+    else:
+        thrust = fx.sum(1)
+        body_drag = 0.5 * insect.air_density * speed**2 * insect.body_drag_area
+        drag = body_drag * torch.cos(gamma)
+        lift = lift - body_drag * torch.sin(gamma)
+    aero = n_w * pair("P_AERO")
+    inertial = n_w * pair("P_INER")
+    if options.power == "absolute":
+        wing_power = aero + inertial
+    elif options.power == "elastic":
+        wing_power = n_w * pair("P_ELASTIC")
+    else:
+        wing_power = n_w * pair("P_AERO_POSITIVE")
+    power = wing_power.sum(1)
+    power_per_mass = power / insect.body_mass
+    powered = power > 0.0
+    efficiency = torch.where(
+        powered,
+        torch.clamp(thrust, min=0.0) * speed / torch.where(powered, power, torch.ones_like(power)),
+        0.0,
+    )
+    lift_to_weight = lift / weight
+    excess_vertical = lift_to_weight - 1.0
+    excess_horizontal = (thrust - drag) / weight
+    aoa = torch.rad2deg(pair("AOA"))
+    return {
+        "lift_to_weight": lift_to_weight,
+        "thrust": thrust,
+        "drag": drag,
+        "power": power,
+        "power_per_mass": power_per_mass,
+        "efficiency": efficiency,
+        "excess_vertical": excess_vertical,
+        "excess_horizontal": excess_horizontal,
+        "excess_total": torch.hypot(excess_vertical, excess_horizontal),
+        "excess_horizontal_literal": wing_drag / weight,
+        "mean_angle_of_attack": aoa.mean(1),
+        "efficiency_above_one": efficiency > 1.0,
+        "induction_converged": fore["CONVERGED"] & hind["CONVERGED"],
+        "induction_evaluations": torch.maximum(fore["EVALS"], hind["EVALS"]),
+        "fore_lift_to_weight": fz[:, 0] / weight,
+        "hind_lift_to_weight": fz[:, 1] / weight,
+        "fore_horizontal_force": fx[:, 0],
+        "hind_horizontal_force": fx[:, 1],
+        "fore_power": wing_power[:, 0],
+        "hind_power": wing_power[:, 1],
+        "fore_aero_power": aero[:, 0],
+        "hind_aero_power": aero[:, 1],
+        "fore_inertial_power": inertial[:, 0],
+        "hind_inertial_power": inertial[:, 1],
+        "fore_mean_angle_of_attack": aoa[:, 0],
+        "hind_mean_angle_of_attack": aoa[:, 1],
+        "fore_inflow": fore["INFLOW"],
+        "hind_inflow": hind["INFLOW"],
+        "speed": speed,
+        "flight_path_angle": gamma,
+        "available_power": available_power,
+    }
+
+
+def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, compiled):
+    # degrees to radians as kinematics.wing_params_radians (built in float64, then cast)
+    scale = torch.as_tensor(
+        np.where(ANGULAR[:N_PER_WING], np.pi / 180.0, 1.0),
+        dtype=strokes.dtype,
+        device=strokes.device,
+    )
+    wings = []
+    inflow_fore = None
+    for index, geometry in enumerate((insect.fore, insect.hind)):
+        params = strokes[:, index * N_PER_WING : (index + 1) * N_PER_WING] * scale
+        frequency, sweep_amplitude, beta = params[:, 0], params[:, 1], params[:, 13]
+        angles, weight = _angle_history(params, options.n_time)
+        frame = _frame(angles, weight, beta, options.spin == "total")
+        nodes, consts = wing_tables(geometry, options.n_blade, insect.air_density)
+        wing = _Wing(frame, nodes, consts, insect.air_density, strokes, compiled)
+        # the free stream in the stroke plane (model.freestream_components) and the hover mask
+        # (model.inflow_switched_off)
+        angle = beta + gamma
+        vt = speed * torch.cos(angle)
+        vn = speed * torch.sin(angle)
+        off = (
+            (vn.detach().abs() < HOVER_NORMAL_SPEED)
+            if options.hover_inflow == "none"
+            else torch.zeros_like(vn, dtype=torch.bool)
+        )
+        vn0 = vn[:, None].expand(-1, nodes.shape[0])
+        if index == 1 and options.induction == "coupled":
+            vn0 = vn0 + torch.where(off[:, None], 0.0, options.interference * inflow_fore)
+        out, inflow = _wing_cycle(wing, frequency, sweep_amplitude, vt, vn0, ~off, options)
+        inflow_fore = inflow
+        wings.append(out)
+    return _performance(wings, speed, gamma, available_power, insect, options)
+
+
+def evaluate_torch(
+    strokes: torch.Tensor,
+    speed: float | torch.Tensor = 0.0,
+    available_power: float | torch.Tensor | None = None,
+    *,
+    flight_path_angle: float | torch.Tensor = 0.0,
+    insect: Dragonfly = DRAGONFLY,
+    options: ModelOptions = DEFAULT_OPTIONS,
+    chunk_size: int | None = None,
+    compiled: bool = False,
+) -> Any:
+    """Evaluate one wing-beat cycle of each stroke of a batch, in torch (see the module docstring).
+
+    Parameters
+    ----------
+    strokes : (B, 28) or (28,) tensor, float64 (default precision) or float32
+        Physical strokes in Table 4 units (Hz, deg, -), fore-wing first, on the CPU or a CUDA
+        device; the computation runs in their dtype on their device.
+    speed, available_power, flight_path_angle
+        As for :func:`tandem_env.evaluate` [m/s, W/kg, rad]: numbers, arrays, or tensors on the
+        strokes' device (0-d or (B,)); tensors keep their graph, so results are differentiable
+        with respect to them.
+    insect, options
+        As for :func:`tandem_env.evaluate`; the insect's wings must use the paper's force
+        coefficients (``PaperCoefficients``).
+    chunk_size : int, optional
+        Strokes evaluated at once (memory ∝ chunk_size·n_blade·n_time); default
+        :data:`CHUNK_SIZE` of the device type.
+    compiled : bool
+        Fuse the force sweeps and span integrals with ``torch.compile`` (the same operations;
+        the first call in a process compiles them, which takes minutes; docs/model.md §12.1).
+
+    Returns
+    -------
+    TorchResult
+        ``Result``'s fields as (B,) tensors on the strokes' device (bool and int64 where
+        ``Result`` has them); ``.to_numpy()`` gives the ``Result``.
+    """
+    if not isinstance(insect, Dragonfly):
+        raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
+    if not isinstance(options, ModelOptions):
+        raise ValueError(f"options must be a ModelOptions; got {type(options).__name__}")
+    for name, wing in (("fore", insect.fore), ("hind", insect.hind)):
+        if not isinstance(wing.coefficients, PaperCoefficients):
+            raise ValueError(
+                f"insect.{name}.coefficients = {wing.coefficients.name!r}; allowed with "
+                "backend 'torch': the paper's (PaperCoefficients); use the numba backend for "
+                "other force-coefficient models"
+            )
+    strokes = _check_strokes(strokes)
+    batch = strokes.shape[0]
+    given = (speed, available_power, flight_path_angle)
+    names = ("speed", "available_power", "flight_path_angle")
+    checked = validate_conditions(
+        *(_as_checkable(value, name, strokes) for value, name in zip(given, names, strict=True)),
+        batch,
+        insect,
+    )
+    v, p_avail, gamma = (
+        _condition(value, arr, strokes) for value, arr in zip(given, checked, strict=True)
+    )
+    if chunk_size is None:
+        chunk_size = CHUNK_SIZE[strokes.device.type]
+    if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
+        raise ValueError(f"chunk_size = {chunk_size!r}; allowed: a positive integer")
+    parts = []
+    for i in range(0, batch, chunk_size):
+        part = slice(i, i + chunk_size)
+        parts.append(
+            _evaluate_chunk(
+                strokes[part], v[part], gamma[part], p_avail[part], insect, options, bool(compiled)
+            )
+        )
+    values = {key: torch.cat([part[key] for part in parts]) for key in parts[0]}
+    missing = [name for name in RESULT_FIELDS if name not in values]
+    if missing:
+        raise RuntimeError(f"the torch backend does not compute Result fields {missing}")
+    return TorchResult(
+        **{name: values[name] for name in RESULT_FIELDS}, options=options, planform=insect.planform
+    )
+
+
+def to_numpy_result(result: Any) -> Result:
+    """The numpy :class:`Result` of a :class:`TorchResult` (detached, on the CPU)."""
+    arrays = {name: getattr(result, name).detach().cpu().numpy() for name in RESULT_FIELDS}
+    return Result(**arrays, options=result.options, planform=result.planform)
+
+
+def evaluate_numpy(
+    strokes: np.ndarray,
+    speed: Any = 0.0,
+    available_power: Any = None,
+    *,
+    flight_path_angle: Any = 0.0,
+    insect: Dragonfly = DRAGONFLY,
+    options: ModelOptions = DEFAULT_OPTIONS,
+    device: Any = None,
+) -> Result:
+    """:func:`tandem_env.evaluate`'s ``backend="torch"``: numpy in, numpy ``Result`` out, float64
+    on ``device`` (None: the CPU), without a graph."""
+    dev = resolve_device(device)
+    physical = validate_physical(strokes)
+    with torch.no_grad():
+        result = evaluate_torch(
+            torch.as_tensor(physical, dtype=torch.float64, device=dev),
+            speed,
+            available_power,
+            flight_path_angle=flight_path_angle,
+            insect=insect,
+            options=options,
+        )
+    return to_numpy_result(result)
+
+
+def value_and_grad(
+    strokes: torch.Tensor,
+    metric: str | Callable[[Any], torch.Tensor],
+    speed: float | torch.Tensor = 0.0,
+    available_power: float | torch.Tensor | None = None,
+    **kwargs: Any,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """A metric of every stroke of a batch and its gradient with respect to the strokes.
+
+    ``metric``: a ``Result`` field name (e.g. ``"power_per_mass"``) or a function of the
+    :class:`TorchResult` returning (B,) values. Returns ((B,) values, (B, 28) d(metric)/d(stroke)
+    in the strokes' units, per Hz, per degree, …), from one backward pass: each stroke's metric
+    depends on its own stroke only, so the gradient of the batch sum is every stroke's gradient.
+    The column of the discrete N (``elevation_harmonic``) is not a derivative (N ∈ {1, 2}).
+    ``kwargs`` go to :func:`evaluate_torch`.
+    """
+    x = strokes.detach().clone().requires_grad_(True)
+    with torch.enable_grad():
+        result = evaluate_torch(x, speed, available_power, **kwargs)
+        values = getattr(result, metric) if isinstance(metric, str) else metric(result)
+        (gradient,) = torch.autograd.grad(values.sum(), x)
+    return values.detach(), gradient
