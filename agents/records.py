@@ -2,7 +2,8 @@
 
 A :class:`Job` is the configuration of one harness run (one method, task, condition, budget and
 seed, with its env keywords, method settings and study preset); its :attr:`Job.key` hashes all
-of that plus the ``tandem_env`` version and the record format. A :class:`Record` is what the
+of that (but the model's backend and device, which do not change results) plus the
+``tandem_env`` version and the record format. A :class:`Record` is what the
 run found, whichever method ran (PSO, CMA-ES, random search, a trained policy), so that
 ``python -m eval compare`` and the studies read one format. It holds three things, each once:
 its job, the job's key and one mapping of results (:data:`RESULTS`; a later stage of the run
@@ -36,6 +37,7 @@ import numpy as np
 
 import tandem_env
 from agents.tasks import Condition, available_tasks, get_task
+from tandem_env.envs.config import EXECUTION_KWARGS
 from tandem_env.io.files import read_json, to_jsonable, write_csv_atomic, write_json_atomic
 
 __all__ = [
@@ -243,10 +245,21 @@ class Job:
             }
         )
 
+    def configuration(self) -> dict[str, Any]:
+        """What decides the job's result: :meth:`to_dict` without the env keywords that choose
+        only how the model is computed (``backend``, ``device``: ``EXECUTION_KWARGS``), so a
+        torch run reuses a numba run's record and the other way round."""
+        data = self.to_dict()
+        data["env_kwargs"] = {
+            k: v for k, v in data["env_kwargs"].items() if k not in EXECUTION_KWARGS
+        }
+        return data
+
     @property
     def key(self) -> str:
-        """Configuration hash: the job, the tandem_env version and the record format."""
-        payload = {**self.to_dict(), "tandem_env": tandem_env.__version__, "record": SCHEMA}
+        """Configuration hash: the job's :meth:`configuration`, the tandem_env version and the
+        record format."""
+        payload = {**self.configuration(), "tandem_env": tandem_env.__version__, "record": SCHEMA}
         text = json.dumps(payload, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:20]
 
@@ -530,7 +543,7 @@ class RecordStore:
             reason = str(error).removeprefix(f"{path}: ")
             _warn(f"{path}: corrupt record ({reason}); {job.label()} runs again")
             return None
-        if record.key != job.key or record.job.to_dict() != job.to_dict():
+        if record.key != job.key or record.job.configuration() != job.configuration():
             _warn(
                 f"{path}: holds {record.label()} (job {record.job.to_dict()}), not "
                 f"{job.label()}; it runs again and its record replaces the file"

@@ -26,8 +26,11 @@ from eval.studies.runner import (
     parse_scheduler,
     run_jobs,
 )
+from tandem_env.envs.config import EXECUTION_KWARGS
 from tandem_env.io.files import output_directory
 from tandem_env.io.keyvalue import parse_pairs
+from tandem_env.physics import BACKENDS
+from tandem_env.physics.backends import check_backend
 
 
 def _tasks() -> list[TaskSpec]:
@@ -189,8 +192,33 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)"
         ),
     )
+    add_backend_arguments(parser)
     add_scheduler_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress display")
+
+
+def add_backend_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--backend`` and ``--device`` (shared with ``study``): env keywords of every job."""
+    parser.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        help="the model's implementation (env keyword backend; default numba): the results "
+        "agree within 1e-8, so records are shared between backends (docs/harness.md)",
+    )
+    parser.add_argument(
+        "--device",
+        metavar="DEVICE",
+        help="torch device of --backend torch: cpu (default), cuda, cuda:N",
+    )
+
+
+def backend_kwargs(args: argparse.Namespace) -> dict[str, str]:
+    """The env keywords of ``--backend`` / ``--device`` (none when neither is given), checked
+    here, before any work: ValueError naming the value and what is allowed."""
+    if args.backend is None and args.device is None:
+        return {}
+    backend, device = check_backend(args.backend or BACKENDS[0], args.device)
+    return {"backend": backend} | ({} if device is None else {"device": device})
 
 
 def add_scheduler_argument(parser: argparse.ArgumentParser) -> None:
@@ -225,6 +253,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         store = RecordStore(args.out)
         scheduler = None if args.scheduler is None else parse_scheduler(args.scheduler)
         env_kwargs = parse_pairs(args.env_kwargs, "--env-kwargs")
+        given = backend_kwargs(args)
+        if given and set(EXECUTION_KWARGS) & set(env_kwargs):
+            raise ValueError("give --backend/--device or --env-kwargs backend=/device=, not both")
+        env_kwargs.update(given)
         method_config = parse_pairs(args.method_config, "--method-config")
         if args.swarm_size is not None:
             if "swarm_size" in method_config:

@@ -12,7 +12,12 @@ from pathlib import Path
 from agents.methods import get_method
 from agents.records import Job, RecordStore
 from eval.figures import FORMATS
-from eval.optimize import add_scheduler_argument, run_reporting
+from eval.optimize import (
+    add_backend_arguments,
+    add_scheduler_argument,
+    backend_kwargs,
+    run_reporting,
+)
 from eval.studies import STUDIES, readings
 from eval.studies.base import StudyPlan
 from eval.studies.claims import FLIP_THRESHOLD, VerdictCount
@@ -93,6 +98,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="harness method: cmaes, pso, random, policy:RUN_DIR, ...; repeat to run several "
         "side by side (default: the preset's method)",
     )
+    add_backend_arguments(parser)
     add_scheduler_argument(parser)
     parser.add_argument(
         "--workers",
@@ -130,7 +136,12 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         # is stored already (then the run only reports that).
         writable = output_directory(args.out, write=False)
         RecordStore(args.out)
-        plan = StudyPlan(get_preset(args.preset), methods, figure_format=args.format)
+        plan = StudyPlan(
+            get_preset(args.preset),
+            methods,
+            figure_format=args.format,
+            execution=tuple(backend_kwargs(args).items()),
+        )
         for method in plan.methods:  # an unknown method or bad setting, before any job
             get_method(method, dict(plan.method_config(method)))
         chosen = readings.single_readings(args.reading)

@@ -21,6 +21,7 @@ from eval.studies.paper_reading import DEFAULT, Reading
 from eval.studies.presets import Preset
 from eval.studies.runner import RECORDS_DIR, Job
 from eval.studies.tables import summary_rows, tidy_rows
+from tandem_env.envs.config import EXECUTION_KWARGS
 from tandem_env.io.files import write_csv_atomic, write_json_atomic
 
 
@@ -37,6 +38,9 @@ class StudyPlan:
     keys are those of a plan without one."""
     figure_format: str = FORMATS[0]
     """The figures' file format (:data:`eval.figures.FORMATS`)."""
+    execution: tuple[tuple[str, Any], ...] = ()
+    """Env keywords of every job that choose only how the model is computed (``backend``,
+    ``device``: :data:`~tandem_env.envs.config.EXECUTION_KWARGS`); left out of the record keys."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.preset, Preset):
@@ -60,6 +64,13 @@ class StudyPlan:
             )
         if not isinstance(self.reading, Reading):
             raise ValueError(f"StudyPlan.reading = {self.reading!r}; allowed: a Reading")
+        execution = dict(self.execution)
+        if not set(execution) <= set(EXECUTION_KWARGS):
+            raise ValueError(
+                f"StudyPlan.execution = {self.execution!r}; allowed: keywords among "
+                f"{', '.join(EXECUTION_KWARGS)}"
+            )
+        object.__setattr__(self, "execution", tuple(sorted(execution.items())))
         clash = sorted({k for k, _ in self.preset.env_kwargs} & set(self.reading.env_kwargs()))
         if clash:
             raise ValueError(
@@ -90,6 +101,7 @@ class StudyPlan:
         reading's F̄_h objective)."""
         kwargs: dict[str, Any] = dict(self.preset.env_kwargs)
         kwargs.update(self.reading.env_kwargs())
+        kwargs.update(self.execution)
         kwargs["planform"] = planform
         if objective is not None:
             kwargs["objective"] = self.reading.objective(objective)

@@ -38,7 +38,7 @@ def methods(plan: StudyPlan) -> tuple[str, ...]:
 
 def jobs(plan: StudyPlan) -> list[Job]:
     spec = plan.preset.convergence
-    side_by_side = StudyPlan(plan.preset, methods(plan))
+    side_by_side = StudyPlan(plan.preset, methods(plan), execution=plan.execution)
     return [
         *side_by_side.jobs("level", [spec.speed], budget=spec.budget, seeds=spec.seeds),
         *side_by_side.jobs(

@@ -76,7 +76,7 @@ def fly(
     flight_path_angle: float | np.ndarray = 0.0,
 ) -> Result:
     """ONE batched model call for B physical strokes in their conditions: every env's strokes
-    are evaluated here, with the config's insect and model options."""
+    are evaluated here, with the config's insect, model options, backend and device."""
     return evaluate(
         physical,
         speed,
@@ -84,6 +84,8 @@ def fly(
         flight_path_angle=flight_path_angle,
         insect=config.insect,
         options=config.options,
+        backend=config.backend,
+        device=config.device,
     )
 
 

@@ -19,6 +19,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..physics import PLANFORMS, SPEED_LIMITS, Dragonfly, ModelOptions
+from ..physics.backends import check_backend
 from ..physics.checks import is_real as _is_real
 from .declaration import TaskCondition, TaskDeclaration, TaskObjectives, check_declarations
 from .validate import check_interval, check_real
@@ -40,6 +41,10 @@ MODEL_OPTION_KWARGS: dict[str, str] = {
     "tolerance": "tolerance",
     "max_evaluations": "max_evaluations",
 }
+#: ``gym.make`` kwargs that choose how the model is computed, not what it computes (the torch
+#: backend equals the numba kernel within 1e-8, docs/model.md §12.1): a record's key leaves them
+#: out (:attr:`agents.records.Job.key`), so a run on one backend reuses another's records.
+EXECUTION_KWARGS: tuple[str, ...] = ("backend", "device")
 #: Model options that must be real numbers (checked here, because ``ModelOptions`` would raise
 #: a bare ``TypeError`` from ``math.isfinite`` on a string).
 _REAL_MODEL_OPTIONS = ("interference", "tolerance")
@@ -155,6 +160,12 @@ class FlightConfig:
     clip_actions: bool = False
     """Clip actions into [-1, 1] before mapping them to strokes; if False an action outside
     [-1, 1] raises ``ValueError``. Non-finite actions raise either way."""
+    backend: str = "numba"
+    """The model's implementation (``tandem_env.physics.BACKENDS``): ``"numba"``, the compiled
+    kernel (default), or ``"torch"``, its port (the same results within 1e-8; imports torch)."""
+    device: str | None = None
+    """The torch device of ``backend="torch"`` (``"cpu"``, ``"cuda"``, ``"cuda:1"``; None: the
+    CPU), stored by its canonical name; only with the torch backend."""
 
     #: The task's declaration (condition, objectives, constraints, sweep): its one home.
     DECLARATION: ClassVar[TaskDeclaration | None] = None
@@ -196,6 +207,12 @@ class FlightConfig:
                 f"{owner}.clip_actions = {self.clip_actions!r}; allowed: True or False"
             )
         object.__setattr__(self, "clip_actions", bool(self.clip_actions))
+        try:
+            backend, device = check_backend(self.backend, self.device)
+        except ValueError as error:
+            raise ValueError(f"{owner}: {error}") from None
+        object.__setattr__(self, "backend", backend)
+        object.__setattr__(self, "device", device)
 
     # --- the observed flight condition (read from the fields CONDITION names) ---------------
     @property

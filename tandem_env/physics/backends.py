@@ -46,11 +46,26 @@ def evaluate(
         from .torch_model import evaluate_numpy
 
         return evaluate_numpy(strokes, speed, available_power, device=device, **kwargs)
-    if backend != "numba":
+    check_backend(backend, device)
+    return model.evaluate(strokes, speed, available_power, **kwargs)
+
+
+def check_backend(backend: Any, device: Any = None) -> tuple[str, str | None]:
+    """``(backend, device)`` as :func:`evaluate` takes them, the device as its canonical name
+    (``"cpu"``, ``"cuda:1"``) or None (the backend's default); ValueError naming the value and
+    what is allowed for an unknown backend, a device with the numba backend, or a device that
+    is not available (torch is imported only for ``backend="torch"``)."""
+    if backend not in BACKENDS:
         raise ValueError(f"backend = {backend!r}; allowed: {', '.join(map(repr, BACKENDS))}")
+    if backend == "torch":
+        if device is None:
+            return backend, None
+        from .torch_model import resolve_device
+
+        return backend, str(resolve_device(device))
     if device is not None:
         raise ValueError(
             f"device = {device!r} with backend 'numba'; allowed: None (the numba kernel runs on "
             "the CPU; give backend='torch' to choose a device)"
         )
-    return model.evaluate(strokes, speed, available_power, **kwargs)
+    return backend, None
