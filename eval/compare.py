@@ -156,7 +156,8 @@ def panel_key(record: Record) -> PanelKey:
 def series_key(record: Record) -> SeriesKey:
     """Everything of the record's job but its task, condition and seed, plus its version."""
     job = record.job
-    settings = {f"{k}": _text(v) for k, v in job.env_kwargs}
+    # its configuration's env keywords: runs on another backend are the same series
+    settings = {f"{k}": _text(v) for k, v in job.configuration()["env_kwargs"].items()}
     settings.update({f"method.{k}": _text(v) for k, v in job.method_config})
     if job.preset:
         settings["preset"] = job.preset

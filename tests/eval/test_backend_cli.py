@@ -11,6 +11,7 @@ import pytest
 
 from agents.records import Job, load_records
 from eval.__main__ import main
+from eval.compare import series_key
 from eval.studies.base import StudyPlan
 from eval.studies.presets import get_preset
 
@@ -35,6 +36,7 @@ def test_optimize_on_torch_matches_numba_and_shares_its_record(
     assert t.job.env("backend") == "torch" and t.job.env("device") == "cpu"  # what it ran on
     assert n.job.env("backend") is None
     assert t.key == n.key  # the backend is not part of the configuration
+    assert series_key(t) == series_key(n)  # nor of a compare series
     # The same search (PSO follows the rewards, equal within 1e-8) finds the same stroke.
     np.testing.assert_allclose(t.normalised_stroke, n.normalised_stroke, rtol=0, atol=1e-8)
     for name, value in n.metrics.items():
