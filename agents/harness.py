@@ -21,6 +21,10 @@ job's budget of model evaluations, every batch through the task's native vector 
 batched model call per iteration; fitness = the env's reward, the penalised objective an RL
 agent sees). The reported stroke (the one selection rule, :mod:`agents.selection`) is then
 re-evaluated in a fresh single env, and the record's results come from that re-evaluation.
+Before the re-evaluation the best feasible stroke is polished by a constrained local optimiser
+(:mod:`agents.polish`; on by default for ``cmaes`` and ``pso``): its evaluations count in the
+job's budget (the search gets the budget less the polish's share) and its certificate is the
+results' ``certificate``.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ import math
 import time
 import warnings
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import gymnasium as gym
@@ -38,10 +42,13 @@ import numpy as np
 import tandem_env
 from agents.evaluator import Reevaluation, VectorEnvEvaluator, reevaluate
 from agents.methods import Method, SearchContext, SearchOutcome, get_method
+from agents.polish import Certificate, PolishConfig, polish, split_settings, task_problem
 from agents.records import (
+    CERTIFICATE,
     SELECTION_BEST_FEASIBLE,
     SELECTION_BEST_REWARD,
     SELECTION_METHOD,
+    SELECTION_POLISHED,
     Job,
     Record,
     package_versions,
@@ -67,6 +74,11 @@ class PreparedJob:
     """The ``info`` metric the task maximises under these keywords."""
     dim: int
     """Dimension of the action box."""
+    polish: PolishConfig = field(default_factory=lambda: PolishConfig(method="none"))
+    """The local polish after the search (its settings are the ``polish*`` method settings)."""
+    polish_reserve: int = 0
+    """Evaluations of the budget kept for the polish (:meth:`PolishConfig.reserve`); the
+    search gets the rest. 0 when the polish is off or the budget too small for it."""
 
     def describe(self) -> str:
         """E.g. ``pso on level (efficiency) at speed = 1.5 m/s, budget 12000 evaluations``."""
@@ -113,14 +125,28 @@ def prepare_job(
         ):
             raise ValueError(f"{spec.env_id}: action space {space}; allowed: Box(-1, 1, (d,))")
         dim = int(space.shape[0])
+        # The polish needs the task's constraints (its env core's ``constraints``).
+        core = getattr(env.unwrapped, "core", None)
+        declared = getattr(getattr(core, "declaration", None), "constraints", None)
+        polishable = bool(declared) and all(c.margin is not None for c in declared)
     finally:
         env.close()
-    method_obj = get_method(job.method, dict(job.method_config)) if method is None else method
+    polish_config, own_config = split_settings(job.method, dict(job.method_config))
+    if polish_config.enabled and not polishable:
+        if "polish" in dict(job.method_config):
+            raise ValueError(
+                f"polish = {polish_config.method!r}: task {spec.name!r} declares no constraints "
+                "for a local polish (its env has no task core with constraints); allowed: 'none'"
+            )
+        polish_config = PolishConfig(method="none")  # the default polish needs a flight task
+    # one central-difference gradient: the point and two neighbours per continuous coordinate
+    reserve = polish_config.reserve(job.budget, 1 + 2 * (dim - len(spec.discrete_actions)))
+    method_obj = get_method(job.method, own_config) if method is None else method
     # Optional hook: a method that can tell before searching that it cannot run this budget on
     # this box (a budget smaller than one CMA-ES population) says so here, not mid-run.
     check = getattr(method_obj, "check", None)
     if callable(check):
-        check(job.budget, dim, spec)
+        check(job.budget - reserve, dim, spec)
     return PreparedJob(
         job=job,
         method=method_obj,
@@ -129,6 +155,8 @@ def prepare_job(
         env_kwargs=kwargs,
         objective_name=objective_name,
         dim=dim,
+        polish=polish_config,
+        polish_reserve=reserve,
     )
 
 
@@ -188,7 +216,8 @@ def prepare(
     seed_list = list(seeds)
     if not seed_list:
         raise ValueError("seeds is empty; allowed: one or more integers >= 0")
-    method_obj = get_method(method, method_config)
+    name = method if isinstance(method, str) else getattr(method, "name", "")
+    method_obj = get_method(method, split_settings(name, dict(method_config or {}))[1])
     first = Job(
         method=method if isinstance(method, str) else method_obj.name,
         task=spec.name,
@@ -242,15 +271,44 @@ def run_job(
     start = time.perf_counter()
     outcome, evaluator = _search(prepared, reporter, progress)
     action, search_reward, selection = _select(outcome, evaluator)
+    action, search_reward, selection, certificate = _polish(
+        prepared, action, search_reward, selection, prepared.job.budget - outcome.evaluations
+    )
+    evaluations = outcome.evaluations + certificate.evaluations
+    if evaluations > prepared.job.budget:  # the polish counts its own; never over its allowance
+        raise RuntimeError(f"search and polish used {evaluations} > budget {prepared.job.budget}")
     again = reevaluate(
         prepared.task, prepared.condition, prepared.env_kwargs, prepared.job.seed, action
     )
     results = _results(prepared, outcome, action, search_reward, selection, again)
-    # A stage after the search (e.g. a local polish of the reported stroke) adds its own key
-    # to ``results`` here, from ``prepared`` and ``action``; the record checksums it with the
-    # rest, and RESULTS lists only the keys every record has.
+    results["evaluations"] = int(evaluations)
+    results[CERTIFICATE] = certificate.to_dict()
     results["wall_time"] = time.perf_counter() - start
     return Record(job=prepared.job, key=prepared.job.key, results=results)
+
+
+def _polish(
+    prepared: PreparedJob, action: np.ndarray, reward: float, selection: str, allowance: int
+) -> tuple[np.ndarray, float, str, Certificate]:
+    """The polished stroke (or the search's, when the polish is off, cannot start or does not
+    gain), its reward, the selection and the certificate."""
+    config = prepared.polish
+    if not config.enabled:
+        return action, reward, selection, Certificate.off()
+    if prepared.polish_reserve == 0:
+        status = "not applicable: the budget's polish share is below two gradients"
+        return action, reward, selection, Certificate(method=config.method, status=status)
+    if selection != SELECTION_BEST_FEASIBLE:
+        status = "not applicable: no feasible stroke to start from"
+        if selection == SELECTION_METHOD:
+            status = "not applicable: the method evaluates through its own envs"
+        return action, reward, selection, Certificate(method=config.method, status=status)
+    problem = task_problem(prepared.task, prepared.condition, prepared.env_kwargs)
+    result = polish(problem, action, allowance, config)
+    if not result.improved:
+        return action, reward, selection, result.certificate
+    # accepted strokes pass the task's feasibility test, so their reward is their objective
+    return result.stroke, result.objective, SELECTION_POLISHED, result.certificate
 
 
 def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator) -> tuple[np.ndarray, float, str]:
@@ -272,12 +330,14 @@ def _search(
 ) -> tuple[SearchOutcome, VectorEnvEvaluator]:
     """The method's search through the budgeted vector-env evaluator, checked."""
     job = prepared.job
+    # The search gets the budget less the polish's share; the polish gets what it leaves.
+    budget = job.budget - prepared.polish_reserve
     bar = ProgressBar(job.budget, job.label(), progress and reporter is None)
     report = bar.update if reporter is None else reporter
     with (
         bar,
         VectorEnvEvaluator(
-            prepared.task, prepared.condition, prepared.env_kwargs, job.seed, job.budget, report
+            prepared.task, prepared.condition, prepared.env_kwargs, job.seed, budget, report
         ) as evaluator,
     ):
         context = SearchContext(
@@ -285,17 +345,17 @@ def _search(
             condition=prepared.condition,
             env_id=prepared.task.env_id,
             env_kwargs=prepared.env_kwargs,
-            budget=job.budget,
+            budget=budget,
             seed=job.seed,
             dim=prepared.dim,
             evaluator=evaluator,
             _reporter=report,
         )
         outcome = prepared.method.search(context)
-    if not evaluator.evaluations <= outcome.evaluations <= job.budget:
+    if not evaluator.evaluations <= outcome.evaluations <= budget:
         raise RuntimeError(
             f"{job.method} reported {outcome.evaluations} evaluations; it made "
-            f"{evaluator.evaluations} through the harness and the budget is {job.budget}"
+            f"{evaluator.evaluations} through the harness and its budget is {budget}"
         )
     if outcome.best_action.shape != (prepared.dim,):
         raise RuntimeError(

@@ -61,19 +61,22 @@ __all__ = [
 ]
 
 #: Identifies record files (and their version) among other JSON files.
-SCHEMA = "tandem_env.harness-record/4"
+SCHEMA = "tandem_env.harness-record/5"
 """Record format; /2 added ``selection`` (records report the best feasible stroke seen), /3
-``key`` and ``job``, /4 holds the job, key and results once each plus a checksum."""
+``key`` and ``job``, /4 holds the job, key and results once each plus a checksum, /5 the
+results' ``certificate`` (the local polish, ``agents.polish``)."""
 #: Earlier formats: recognised, never read as results (their jobs are recomputed).
 OLD_SCHEMAS = (
     "tandem_env.harness-record/1",
     "tandem_env.harness-record/2",
     "tandem_env.harness-record/3",
+    "tandem_env.harness-record/4",
 )
 #: The record's ``selection``: which of the strokes a search evaluated it reports.
 SELECTION_BEST_FEASIBLE = "best feasible stroke seen"
 SELECTION_BEST_REWARD = "best reward seen (no feasible stroke)"
 SELECTION_METHOD = "the method's stroke"
+SELECTION_POLISHED = "best feasible stroke seen, polished"
 #: A store's records folder, ``DIR/records``.
 RECORDS_DIR = "records"
 #: A store's CSV summary over its records, ``DIR/summary.csv``.
@@ -86,12 +89,14 @@ RESULTS: dict[str, str] = {
     "objective_name": "the info metric the task maximises, e.g. efficiency or excess_vertical",
     "condition_name": "what the job's condition is, e.g. speed or available_power",
     "condition_unit": "the condition's unit, e.g. m/s or W/kg",
-    "evaluations": "model evaluations the search used (<= budget; the re-evaluation not counted)",
+    "evaluations": "model evaluations the search and the polish used (<= budget; the "
+    "re-evaluation not counted)",
     "objective": "the task's raw objective of the reported stroke, re-evaluated: eta [-] or F [-]",
     "reward": "the penalised objective of the reported stroke, re-evaluated",
     "search_reward": "the reported stroke's reward as seen during the search (= reward)",
     "feasible": "every constraint of the task met at the re-evaluation",
-    "selection": "which stroke is reported (best feasible seen, best reward seen, the method's)",
+    "selection": "which stroke is reported (best feasible seen, best reward seen, the method's, "
+    "best feasible seen and polished)",
     "stroke": "the stroke, named physical parameters in Table 4 units (Hz, deg, -)",
     "normalised_stroke": "the same stroke as the 28 normalised action values in [-1, 1]",
     "metrics": "every info entry of the re-evaluation except the stroke (docs/envs.md)",
@@ -101,6 +106,9 @@ RESULTS: dict[str, str] = {
     "env": "the env's full configuration (insect, model options, penalty)",
     "versions": "package versions (numpy, gymnasium, torch, ..., python, tandem_env)",
 }
+#: The results key of the stage after the search: the local polish and the optimality of the
+#: reported stroke (:meth:`agents.polish.Certificate.to_dict`); every harness record has it.
+CERTIFICATE = "certificate"
 
 #: Metrics copied into the CSV summary when a record has them.
 SUMMARY_METRICS: tuple[str, ...] = (
@@ -371,6 +379,13 @@ class Record:
     metrics = _result("metrics", RESULTS["metrics"])
     wall_time = _result("wall_time", RESULTS["wall_time"])
     versions = _result("versions", RESULTS["versions"])
+
+    @property
+    def certificate(self) -> dict[str, Any]:
+        """The local polish and the optimality of the reported stroke (method, status, gain
+        [-], evaluations, iterations, converged, KKT residual [-], active constraints;
+        :class:`agents.polish.Certificate`); empty for a record made without one."""
+        return dict(self.results.get(CERTIFICATE, {}))
 
     @property
     def normalised_stroke(self) -> tuple[float, ...]:

@@ -52,7 +52,9 @@ sub-folder):
                                  median, IQR (25th-75th percentile) and spread (max - min) /
                                  |median| of the re-evaluated objective over all seeds, best,
                                  median over the feasible seeds, median reward, feasible share,
-                                 median evaluations and median wall time [s]. Where no seed is
+                                 median evaluations, median wall time [s] and, from the
+                                 records' certificates, the median gain of the local polish
+                                 and the median KKT residual. Where no seed is
                                  feasible the objective columns are left out (nan in the CSV,
                                  "n/a (none feasible)" in the table): the objective of a
                                  stroke that does not fly is not a result;
@@ -112,6 +114,11 @@ class Row:
     feasible_share: float
     evaluations_median: float
     wall_time_median_s: float
+    polish_gain_median: float = math.nan
+    """Median over the seeds of the local polish's gain (the records' ``certificate``) [-];
+    NaN where no seed was polished."""
+    kkt_residual_median: float = math.nan
+    """Median first-order optimality residual of the reported strokes [-] (NaN: none known)."""
 
     @property
     def objective_iqr(self) -> float:
@@ -139,6 +146,8 @@ class Row:
             "feasible_share": self.feasible_share,
             "evaluations_median": self.evaluations_median,
             "wall_time_median_s": self.wall_time_median_s,
+            "polish_gain_median": self.polish_gain_median,
+            "kkt_residual_median": self.kkt_residual_median,
         }
 
 
@@ -264,9 +273,17 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
                     feasible_share=float(np.mean(feasible)),
                     evaluations_median=float(np.median([r.evaluations for r in runs])),
                     wall_time_median_s=float(np.median([r.wall_time for r in runs])),
+                    polish_gain_median=_certificate_median(runs, "gain"),
+                    kkt_residual_median=_certificate_median(runs, "kkt_residual"),
                 )
             )
     return rows
+
+
+def _certificate_median(runs: Sequence[Record], name: str) -> float:
+    values = [r.certificate.get(name) for r in runs]
+    known = [float(v) for v in values if v is not None]
+    return float(np.median(known)) if known else math.nan
 
 
 def _fmt(value: float, digits: int = 4) -> str:
@@ -278,7 +295,7 @@ def markdown_table(rows: Sequence[Row]) -> str:
     header = (
         "| task | objective | condition | method | budget | seeds | median | IQR (25-75 %) "
         "| spread | best | median of feasible | median reward | feasible | median evaluations "
-        "| median wall time [s] |"
+        "| median wall time [s] | median polish gain | median KKT residual |"
     )
     lines = [header, "|" + "---|" * header.count(" | ") + "---|"]
     for r in rows:
@@ -296,7 +313,13 @@ def markdown_table(rows: Sequence[Row]) -> str:
             f"| {r.task} | {r.objective_name} | {r.condition} = {r.condition_value:g} "
             f"{r.condition_unit} | {_cell(method)} | {r.budget} | {r.seeds} | {objective} | "
             f"{_fmt(r.reward_median)} | {r.feasible_share:.0%} | {r.evaluations_median:g} | "
-            f"{r.wall_time_median_s:.3g} |"
+            f"{r.wall_time_median_s:.3g} | "
+            + (
+                "n/a"
+                if math.isnan(r.polish_gain_median)
+                else f"{100 * r.polish_gain_median:+.2f} %"
+            )
+            + f" | {_fmt(r.kkt_residual_median, 2)} |"
         )
     notes = [
         "spread = (max - min) / |median| of the objective over the seeds.",

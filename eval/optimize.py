@@ -16,6 +16,8 @@ from typing import TypeVar
 
 from agents.harness import prepare
 from agents.methods import available_methods
+from agents.polish import POLISH_DEFAULTS, POLISH_METHODS
+from agents.polish import describe as describe_certificate
 from agents.records import SUMMARY_NAME, RecordStore
 from agents.tasks import TaskSpec, available_tasks, get_task
 from eval.studies.runner import (
@@ -193,6 +195,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         ),
     )
     add_backend_arguments(parser)
+    parser.add_argument(
+        "--polish",
+        choices=POLISH_METHODS,
+        help="local polish of each seed's best feasible stroke (agents/polish.py): "
+        f"default {', '.join(f'{k} for {m}' for m, k in POLISH_DEFAULTS.items())}, none for "
+        "the other methods; its evaluations count in --budget (the method setting "
+        "polish_share sets its part)",
+    )
     add_scheduler_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress display")
 
@@ -262,6 +272,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             if "swarm_size" in method_config:
                 raise ValueError("give --swarm-size or --method-config swarm_size=N, not both")
             method_config["swarm_size"] = args.swarm_size
+        if args.polish is not None:
+            if "polish" in method_config and method_config["polish"] != args.polish:
+                raise ValueError("give --polish or --method-config polish=..., not both")
+            method_config["polish"] = args.polish
         # Validated once, here (the runner does not validate a prepared job again).
         prepared = prepare(
             args.method,
@@ -312,6 +326,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             + (f", P/m = {power:.4g} W/kg" if power is not None else "")
             + f", {record.evaluations} evaluations, {record.wall_time:.1f} s"
         )
+        print(f"  {describe_certificate(record.certificate)}")
     print(
         f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.ran} run, "
         f"{summary.reused} reused from {store.directory}",

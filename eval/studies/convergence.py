@@ -8,17 +8,28 @@ evaluations of a longer run with the same seed), so each run's history gives the
 that every smaller budget would have reached. The table lists, per condition, method and
 checkpoint budget, the median over seeds, the IQR, min and max, the spread (max − min) /
 median and the median as a fraction of the longest run's median; the presets' methods and
-budgets are chosen from it (docs/reproduction.md).
+budgets are chosen from it (docs/reproduction.md). The long runs have no local polish (a
+polish at the end would break the prefix property).
+
+v3 adds the budget splits (``ConvergenceSpec.polish_shares``): the preset's method at the
+preset's own budgets, each share of the budget kept for the local polish (0: none), judged by
+what a record reports, the best feasible objective, not by the penalised reward: the median
+over seeds, the best of the first and of the second half of the seeds (disjoint seed sets) and
+how far apart they are, the share of feasible seeds, the median polish gain and how many
+polishes converged (``convergence_splits.csv``/``.md``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from agents.polish import split_settings as polish_settings
 from agents.records import Record
 from eval import figures
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
@@ -36,21 +47,73 @@ def methods(plan: StudyPlan) -> tuple[str, ...]:
     return tuple(dict.fromkeys((*plan.preset.convergence.methods, *plan.methods)))
 
 
-def jobs(plan: StudyPlan) -> list[Job]:
+def _with(job: Job, settings: tuple[tuple[str, object], ...]) -> Job:
+    return replace(job, method_config=(*job.method_config, *settings))
+
+
+def long_jobs(plan: StudyPlan) -> list[Job]:
+    """The long runs, one per method, condition and seed, without a polish."""
     spec = plan.preset.convergence
     side_by_side = StudyPlan(plan.preset, methods(plan), execution=plan.execution)
     return [
-        *side_by_side.jobs("level", [spec.speed], budget=spec.budget, seeds=spec.seeds),
-        *side_by_side.jobs(
-            "accelerate", [spec.power], objective="vertical", budget=spec.budget, seeds=spec.seeds
-        ),
+        _with(job, (("polish", "none"),))
+        for job in (
+            *side_by_side.jobs("level", [spec.speed], budget=spec.budget, seeds=spec.seeds),
+            *side_by_side.jobs(
+                "accelerate",
+                [spec.power],
+                objective="vertical",
+                budget=spec.budget,
+                seeds=spec.seeds,
+            ),
+        )
     ]
 
 
-def curves(records: Mapping[Job, Record], task: str, method: str) -> tuple[np.ndarray, np.ndarray]:
-    """(evaluations (n,), best reward so far (seeds, n)) on a common evaluation grid."""
+def split_jobs(plan: StudyPlan) -> dict[float, list[Job]]:
+    """Per polish share: the preset's method at its budgets, both conditions, the spec's seeds."""
+    spec = plan.preset.convergence
+    one = StudyPlan(plan.preset, (plan.preset.method,))
+    out = {}
+    for share in spec.polish_shares:
+        settings = split_settings(plan.preset.method, float(share))
+        out[float(share)] = [
+            _with(job, settings)
+            for job in (
+                *one.jobs("level", [spec.speed], seeds=spec.seeds),
+                *one.jobs("accelerate", [spec.power], objective="vertical", seeds=spec.seeds),
+            )
+        ]
+    return out
+
+
+def split_settings(method: str, share: float) -> tuple[tuple[str, object], ...]:
+    """The method settings of a polish share: none for the method's default (so the split's
+    jobs are the other studies' jobs at that condition, run once), else the share."""
+    default = polish_settings(method, {})[0]
+    if share == 0:
+        return (("polish", "none"),) if default.enabled else ()
+    if default.enabled:
+        return () if share == default.share else (("polish_share", share),)
+    return (("polish", "slsqp"), ("polish_share", share))
+
+
+def jobs(plan: StudyPlan) -> list[Job]:
+    splits = [job for group in split_jobs(plan).values() for job in group]
+    return list(dict.fromkeys([*long_jobs(plan), *splits]))
+
+
+def curves(
+    records: Mapping[Job, Record], task: str, method: str, budget: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """(evaluations (n,), best reward so far (seeds, n)) of the long runs (``budget``
+    evaluations, no polish) on a common evaluation grid."""
     chosen = sorted(
-        (r for j, r in records.items() if j.task == task and j.method == method),
+        (
+            r
+            for j, r in records.items()
+            if j.task == task and j.method == method and j.budget == budget and _long(j)
+        ),
         key=lambda r: r.seed,
     )
     grid = np.array(sorted({e for r in chosen for e, _ in r.history}), dtype=float)
@@ -61,6 +124,72 @@ def curves(records: Mapping[Job, Record], task: str, method: str) -> tuple[np.nd
         idx = np.searchsorted(e, grid, side="right") - 1
         values[i] = np.where(idx >= 0, b[np.clip(idx, 0, None)], -np.inf)
     return grid, values
+
+
+def _long(job: Job) -> bool:
+    return ("polish", "none") in job.method_config and not any(
+        k == "polish_share" for k, _ in job.method_config
+    )
+
+
+def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, Any]:
+    """Reproducibility of one budget split, from what the records report.
+
+    The objective of a seed is its record's objective when feasible, else NaN (a stroke that
+    does not fly is not a result). ``halves_apart`` = |best(first half) − best(second half)| /
+    the larger, the seeds in their order split into two disjoint sets.
+    """
+    runs = sorted(runs, key=lambda r: r.seed)
+    values = np.array([r.objective if r.feasible else np.nan for r in runs], dtype=float)
+    half = len(runs) // 2
+    first = float(np.nanmax(values[:half])) if half and np.isfinite(values[:half]).any() else np.nan
+    second = (
+        float(np.nanmax(values[half:])) if half and np.isfinite(values[half:]).any() else np.nan
+    )
+    gains = [r.certificate.get("gain") for r in runs]
+    known = [g for g in gains if g is not None]
+    finite = values[np.isfinite(values)]
+    return {
+        "condition": label,
+        "polish_share": share,
+        "budget": runs[0].budget if runs else 0,
+        "seeds": len(runs),
+        "feasible": int(np.isfinite(values).sum()),
+        "median": float(np.median(finite)) if finite.size else float("nan"),
+        "min": float(finite.min()) if finite.size else float("nan"),
+        "max": float(finite.max()) if finite.size else float("nan"),
+        "best_first_half": first,
+        "best_second_half": second,
+        "halves_apart": abs(first - second) / max(first, second)
+        if np.isfinite(first) and np.isfinite(second) and max(first, second) > 0
+        else float("nan"),
+        "polish_gain_median": float(np.median(known)) if known else float("nan"),
+        "polish_converged": sum(bool(r.certificate.get("converged")) for r in runs),
+    }
+
+
+def splits_markdown(rows: list[dict[str, Any]]) -> str:
+    """The splits table as Markdown."""
+    lines = [
+        "| condition | polish share | budget | seeds | feasible | median | min - max "
+        "| best of halves | apart | median polish gain | polish converged |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['condition']} | {r['polish_share']:g} | {r['budget']} | {r['seeds']} | "
+            f"{r['feasible']} | {r['median']:.4f} | {r['min']:.4f} - {r['max']:.4f} | "
+            f"{r['best_first_half']:.4f} / {r['best_second_half']:.4f} | "
+            f"{100 * r['halves_apart']:.2f} % | "
+            + (
+                "–"
+                if math.isnan(r["polish_gain_median"])
+                else f"{100 * r['polish_gain_median']:+.2f} %"
+            )
+            + " | "
+            f"{r['polish_converged']} |"
+        )
+    return "\n".join(lines) + "\n"
 
 
 def checkpoint_rows(
@@ -123,11 +252,22 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
     for task, label in labels.items():
         series = []
         for method in methods(plan):
-            grid, values = curves(records, task, method)
+            grid, values = curves(records, task, method, spec.budget)
             series.append((method, grid, values))
             table += checkpoint_rows(label, method, grid, values)
         budgets = [(p.name, p.budget(task)) for p in PRESETS.values()]
         panels.append((label, series, budgets))
+    splits = []
+    for share, group in split_jobs(plan).items():
+        for task, label in labels.items():
+            runs = [records[j] for j in group if j.task == task and j in records]
+            if runs:
+                splits.append(split_rows(label, share, runs))
+    split_csv = out_dir / NAME / "convergence_splits.csv"
+    write_csv_atomic(split_csv, splits)
+    split_md = out_dir / NAME / "convergence_splits.md"
+    write_text_atomic(split_md, splits_markdown(splits))
+    files += [split_csv, split_md]
     path = out_dir / NAME / "convergence_checkpoints.csv"
     write_csv_atomic(path, table)
     markdown = out_dir / NAME / "convergence_checkpoints.md"

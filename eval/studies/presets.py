@@ -85,7 +85,12 @@ class ConvergenceSpec:
     """Accelerating condition [W/kg], objective ``vertical``."""
     methods: tuple[str, ...] = ("pso", "cmaes")
     """Harness methods compared side by side (with their default settings; PSO with the
-    preset's swarm), besides any the study is run with (``--method``)."""
+    preset's swarm), besides any the study is run with (``--method``). Their long runs have
+    no polish (it would end the prefix property)."""
+    polish_shares: tuple[float, ...] = (0.0, 0.25, 0.4)
+    """The budget splits compared at the preset's own budgets (v3): the preset's method with
+    this share of the budget kept for the local polish (``polish_share``; 0: no polish), by
+    what the records report (the best feasible objective), over ``seeds``."""
 
     def __post_init__(self) -> None:
         if isinstance(self.budget, bool) or not isinstance(self.budget, int) or self.budget < 2:
@@ -103,6 +108,22 @@ class ConvergenceSpec:
             raise ValueError(
                 f"ConvergenceSpec.methods = {self.methods!r}; allowed: distinct method names "
                 "such as ('pso', 'cmaes')"
+            )
+        shares = self.polish_shares
+        if (
+            not isinstance(shares, tuple)
+            or not shares
+            or len(set(shares)) != len(shares)
+            or not all(
+                isinstance(v, int | float)
+                and not isinstance(v, bool)
+                and (v == 0 or 0.01 <= v <= 0.9)
+                for v in shares
+            )
+        ):
+            raise ValueError(
+                f"ConvergenceSpec.polish_shares = {shares!r}; allowed: distinct numbers, each 0 "
+                "(no polish) or in [0.01, 0.9]"
             )
         _check_values("convergence speed", (self.speed,), _SPEED)
         _check_values("convergence power", (self.power,), _POWER)

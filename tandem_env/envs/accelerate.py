@@ -31,6 +31,14 @@ def _horizontal_deficit(result: Result, _: Any) -> np.ndarray:
     return np.maximum(0.0, -result.excess_horizontal)
 
 
+def _vertical_margin(result: Result, _: Any) -> np.ndarray:
+    return result.excess_vertical.copy()
+
+
+def _horizontal_margin(result: Result, _: Any) -> np.ndarray:
+    return result.excess_horizontal.copy()
+
+
 ACCELERATE = TaskDeclaration(
     name="Accelerate",
     summary="Accelerating flight: maximise a specific excess force with F_v, F_h >= 0 and "
@@ -59,8 +67,10 @@ ACCELERATE = TaskDeclaration(
         keyword="objective",
     ),
     constraints=(
-        Constraint("vertical_deficit", "F̄_v ≥ 0", "-", _vertical_deficit),
-        Constraint("horizontal_deficit", "F̄_h ≥ 0", "-", _horizontal_deficit),
+        Constraint("vertical_deficit", "F̄_v ≥ 0", "-", _vertical_deficit, None, _vertical_margin),
+        Constraint(
+            "horizontal_deficit", "F̄_h ≥ 0", "-", _horizontal_deficit, None, _horizontal_margin
+        ),
         POWER_CAP,
     ),
 )

@@ -255,6 +255,11 @@ class Constraint:
     scale: Callable[[Result, Any], np.ndarray] | None = None
     """``scale(result, config)``: (B,) divisor making the violation a fraction (the power cap
     for the power excess) in the reward's sum; None when it already is one."""
+    margin: Callable[[Result, Any], np.ndarray] | None = None
+    """``margin(result, config)``: (B,) signed margin [-], on the scale of the reward's sum:
+    ``max(0, −margin) == violation / scale``, so >= 0 exactly where the constraint holds and
+    smooth across its boundary (what a constrained local optimiser needs, ``agents.polish``);
+    None for a constraint without one."""
 
 
 def _power_excess(result: Result, _: Any) -> np.ndarray:
@@ -265,8 +270,14 @@ def _power_cap(result: Result, _: Any) -> np.ndarray:
     return result.available_power
 
 
+def _power_margin(result: Result, _: Any) -> np.ndarray:
+    return 1.0 - result.power_per_mass / result.available_power
+
+
 #: The power cap every flight task has: P/m ≤ the available power (a fraction of it in the sum).
-POWER_CAP = Constraint("power_violation", "P/m ≤ P_avail", "W/kg", _power_excess, _power_cap)
+POWER_CAP = Constraint(
+    "power_violation", "P/m ≤ P_avail", "W/kg", _power_excess, _power_cap, _power_margin
+)
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,14 @@ def _thrust_violation(result: Result, config: Any) -> np.ndarray:
     return np.maximum(0.0, np.abs(result.excess_horizontal) - config.constraint_tolerance)
 
 
+def _lift_margin(result: Result, config: Any) -> np.ndarray:
+    return config.constraint_tolerance - np.abs(result.lift_to_weight - 1.0)
+
+
+def _thrust_margin(result: Result, config: Any) -> np.ndarray:
+    return config.constraint_tolerance - np.abs(result.excess_horizontal)
+
+
 LEVEL_FLIGHT = TaskDeclaration(
     name="LevelFlight",
     summary="Level flight at speed V: maximise η = T·V/P with L = W, T = D and P/m <= the "
@@ -45,8 +53,10 @@ LEVEL_FLIGHT = TaskDeclaration(
     # Forces are fractions of W and the power excess a fraction of the cap, so the three terms
     # share one scale (a 10 % miss costs the same whichever constraint).
     constraints=(
-        Constraint("lift_violation", "|L/W − 1| ≤ tol", "-", _lift_violation),
-        Constraint("thrust_violation", "|T − D|/W ≤ tol", "-", _thrust_violation),
+        Constraint("lift_violation", "|L/W − 1| ≤ tol", "-", _lift_violation, None, _lift_margin),
+        Constraint(
+            "thrust_violation", "|T − D|/W ≤ tol", "-", _thrust_violation, None, _thrust_margin
+        ),
         POWER_CAP,
     ),
 )

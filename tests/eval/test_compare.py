@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 from pathlib import Path
 
@@ -187,3 +188,20 @@ def test_method_settings_tell_apart_only_the_variants_of_one_method() -> None:
         ("pso", "method.swarm_size=16"),
         ("pso", "method.swarm_size=8"),
     }
+
+
+def test_certificate_columns_are_the_records_medians() -> None:
+    runs = [_record("cmaes", seed, 0.4, feasible=True) for seed in range(3)]
+    certified = [
+        dataclasses.replace(
+            r, results={**r.results, "certificate": {"gain": gain, "kkt_residual": kkt}}
+        )
+        for r, gain, kkt in zip(runs, (0.01, 0.05, 0.03), (1e-6, None, 1e-2), strict=True)
+    ]
+    (row,) = compare_module.table_rows(certified)
+    assert row.polish_gain_median == pytest.approx(0.03)
+    assert row.kkt_residual_median == pytest.approx(0.5 * (1e-6 + 1e-2))  # unknown left out
+    assert "+3.00 %" in compare_module.markdown_table([row])
+    # records without a certificate (older formats, no polish): no numbers, not zeros
+    (row,) = compare_module.table_rows(runs)
+    assert math.isnan(row.polish_gain_median) and math.isnan(row.kkt_residual_median)

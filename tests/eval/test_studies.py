@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from agents.harness import run
-from eval.studies import STUDIES, claims, runner
+from eval.studies import STUDIES, claims, convergence, runner
 from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, TINY, ConvergenceSpec, Preset
 from eval.studies.suite import run_studies
@@ -108,6 +108,8 @@ def test_report_numbers_are_the_records_numbers(study_dir: Path) -> None:
             and r["job"]["budget"] == SMALL.budget(task)
             and r["job"]["condition"] == condition
             and r["feasible"]
+            # the convergence study's other budget splits at the same condition
+            and not any(k.startswith("polish") for k in r["job"]["method_config"])
         ]
 
     checked = 0
@@ -363,3 +365,45 @@ def test_the_study_command_refuses_an_unknown_format(capsys: pytest.CaptureFixtu
     with pytest.raises(SystemExit):
         main(["study", "power", "--format", "jpg"])
     assert "invalid choice: 'jpg'" in capsys.readouterr().err
+
+
+def test_convergence_splits_report_what_the_records_report(study_dir: Path) -> None:
+    """v3: each polish share at the preset's budgets, judged by the records' feasible objective."""
+    rows = _read_csv(study_dir / "convergence" / "convergence_splits.csv")
+    spec = SMALL.convergence
+    assert {(float(r["polish_share"]), r["condition"].split(",")[0]) for r in rows} == {
+        (s, t) for s in spec.polish_shares for t in ("level", "accelerating")
+    }
+    records = [json.loads(p.read_text()) for p in (study_dir / "records").glob("*.json")]
+    for row in rows:
+        task = "level" if row["condition"].startswith("level") else "accelerate"
+        share = float(row["polish_share"])
+        setting = dict(convergence.split_settings(SMALL.method, share))
+        chosen = sorted(
+            (
+                r
+                for r in records
+                if r["task"] == task
+                and r["job"]["budget"] == SMALL.budget(task)
+                and r["condition"]["value"] == (spec.speed if task == "level" else spec.power)
+                and r["job"]["env_kwargs"].get("objective", "vertical") == "vertical"
+                and r["job"]["env_kwargs"]["planform"] == "tear-drop"
+                and {k: v for k, v in r["job"]["method_config"].items() if "polish" in k} == setting
+            ),
+            key=lambda r: r["seed"],
+        )
+        assert [r["seed"] for r in chosen] == list(spec.seeds)
+        values = [r["objective"] if r["feasible"] else math.nan for r in chosen]
+        assert int(row["feasible"]) == sum(r["feasible"] for r in chosen)
+        half = len(values) // 2
+        first = max((v for v in values[:half] if math.isfinite(v)), default=math.nan)
+        second = max((v for v in values[half:] if math.isfinite(v)), default=math.nan)
+        if all(math.isfinite(v) for v in (first, second)):
+            assert float(row["best_first_half"]) == first
+            assert float(row["best_second_half"]) == second
+            assert float(row["halves_apart"]) == pytest.approx(
+                abs(first - second) / max(first, second)
+            )
+    assert (study_dir / "convergence" / "convergence_splits.md").read_text().count("\n") == len(
+        rows
+    ) + 2

@@ -1,0 +1,706 @@
+"""Local polish: a constrained local optimiser from a search's best feasible stroke.
+
+A population search (CMA-ES, PSO) stops somewhere on the slope of the basin it found: its
+reported stroke is its last good point, not the top of the basin. The polish climbs the rest
+of the way with a gradient-based constrained optimiser (scipy's SLSQP, or trust-constr) over
+the continuous stroke parameters, the discrete ones (each wing's harmonic N) held fixed, in
+the normalised box [-1, 1] as bounds, with the task's constraints as constraints (the signed
+margins of ``FlightTask.constraints``, the same constraints the reward penalises), not as a
+penalty.
+
+Gradients come from a :class:`GradientFunction`; the default, :class:`CentralDifferences`,
+evaluates the point and its 2k perturbations (k free parameters; 53 strokes for the 26
+continuous ones) in ONE batched model call, so the objective's gradient and the constraints'
+Jacobian come from the same batch. A differentiable backend can pass its own gradient function
+(autograd) instead: that is the one seam.
+
+Every model evaluation counts against the polish's allowance (its share of the run's budget);
+the allowance is never exceeded. The result is the best of the optimiser's points (not the
+perturbed points of the differences) that the task calls feasible (its exact test), if it
+beats the start; otherwise the start is kept and
+the certificate says why. The :class:`Certificate` reports the gain, the evaluations and
+iterations used, whether the optimiser converged, the first-order optimality (KKT) residual
+at the reported stroke and the constraints active there.
+
+::
+
+    problem = task_problem(task, condition, env_kwargs)
+    result = polish(problem, start, budget=4000, config=PolishConfig())
+    result.stroke, result.certificate.to_dict()
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import gymnasium as gym
+import numpy as np
+from scipy.optimize import (
+    BFGS,
+    Bounds,
+    NonlinearConstraint,
+    OptimizeResult,
+    minimize,
+    nnls,
+)
+
+from agents.tasks import Condition, TaskSpec
+from tandem_env.physics import PARAMETER_NAMES, normalised_to_physical
+
+__all__ = [
+    "POLISH_DEFAULTS",
+    "POLISH_METHODS",
+    "POLISH_SETTINGS",
+    "BatchEvaluation",
+    "CentralDifferences",
+    "Certificate",
+    "Gradient",
+    "GradientFunction",
+    "PolishConfig",
+    "PolishResult",
+    "Problem",
+    "describe",
+    "kkt_residual",
+    "polish",
+    "split_settings",
+    "task_problem",
+]
+
+#: Local optimisers the polish offers ("none": no polish).
+POLISH_METHODS: tuple[str, ...] = ("none", "slsqp", "trust-constr")
+#: The polish each search method gets when none is given (others: none).
+POLISH_DEFAULTS: Mapping[str, str] = {"cmaes": "slsqp", "pso": "slsqp"}
+#: Method settings (``method_config`` keys, ``--method-config``) that configure the polish.
+POLISH_SETTINGS: Mapping[str, str] = {
+    "polish": "method",
+    "polish_share": "share",
+    "polish_step": "step",
+    "polish_tolerance": "tolerance",
+    "polish_iterations": "max_iterations",
+}
+
+
+@dataclass(frozen=True)
+class PolishConfig:
+    """Settings of the local polish (validated here, where they enter).
+
+    Parameters
+    ----------
+    method : {"slsqp", "trust-constr", "none"}
+        The scipy optimiser (``minimize(method=...)``); ``"none"`` turns the polish off.
+    share : float
+        Fraction of the run's budget reserved for the polish, in [0.01, 0.9]: the search gets
+        the rest. Chosen by measurement (docs/harness.md, "Local polish").
+    step : float
+        Central-difference step in normalised units, in [1e-8, 1e-2] (1e-5 by default:
+        gradients agree to ~1e-7 relative between 1e-4 and 1e-5).
+    tolerance : float
+        The optimiser's stopping tolerance (SLSQP ``ftol``; trust-constr ``gtol``/``xtol``),
+        in [1e-14, 1e-2].
+    max_iterations : int
+        Optimiser iterations at most, 1 to 10 000.
+    margin : float
+        The optimiser holds every constraint at margin >= ``margin`` [-] (normalised, as
+        ``FlightTask.constraints``), so its optimum passes the task's exact feasibility test
+        (a stroke on the boundary can miss it by rounding); 0 to 1e-4.
+    active : float
+        A constraint (or bound) within ``active`` [-] of its limit counts as active in the
+        certificate, 0 to 1e-2.
+    """
+
+    method: str = "slsqp"
+    share: float = 0.4
+    step: float = 1e-5
+    tolerance: float = 1e-10
+    max_iterations: int = 200
+    margin: float = 1e-9
+    active: float = 1e-6
+
+    def __post_init__(self) -> None:
+        if self.method not in POLISH_METHODS:
+            raise ValueError(
+                f"polish = {self.method!r}; allowed: {', '.join(map(repr, POLISH_METHODS))}"
+            )
+        for name, low, high in (
+            ("share", 0.01, 0.9),
+            ("step", 1e-8, 1e-2),
+            ("tolerance", 1e-14, 1e-2),
+            ("margin", 0.0, 1e-4),
+            ("active", 0.0, 1e-2),
+        ):
+            value = getattr(self, name)
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int | float | np.floating | np.integer)
+                or not math.isfinite(value)
+                or not low <= value <= high
+            ):
+                raise ValueError(
+                    f"polish {name} = {value!r}; allowed: a number in [{low:g}, {high:g}]"
+                )
+            object.__setattr__(self, name, float(value))
+        n = self.max_iterations
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 1 <= n <= 10_000:
+            raise ValueError(f"polish max_iterations = {n!r}; allowed: an integer in [1, 10000]")
+        object.__setattr__(self, "max_iterations", int(n))
+
+    @property
+    def enabled(self) -> bool:
+        return self.method != "none"
+
+    def reserve(self, budget: int, gradient_cost: int) -> int:
+        """Evaluations of a run's ``budget`` kept for the polish: ``share`` of it, or 0 when
+        the polish is off or that share is below two gradients (``gradient_cost`` model
+        evaluations each: the polish could not take one step and check it)."""
+        reserve = round(self.share * budget) if self.enabled else 0
+        return reserve if reserve >= 2 * gradient_cost else 0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "method": self.method,
+            "share": self.share,
+            "step": self.step,
+            "tolerance": self.tolerance,
+            "max_iterations": self.max_iterations,
+            "margin": self.margin,
+            "active": self.active,
+        }
+
+
+def split_settings(
+    method: str, method_config: Mapping[str, Any]
+) -> tuple[PolishConfig, dict[str, Any]]:
+    """The polish settings among a method's settings, and the rest (the method's own).
+
+    ``method`` is the method spec; its name (before any ``:``) picks the default polish
+    (:data:`POLISH_DEFAULTS`). Raises ValueError for an unknown polish or a setting out of
+    range, naming it.
+    """
+    name = method.partition(":")[0]
+    own = {k: v for k, v in method_config.items() if k not in POLISH_SETTINGS}
+    given = {POLISH_SETTINGS[k]: v for k, v in method_config.items() if k in POLISH_SETTINGS}
+    given.setdefault("method", POLISH_DEFAULTS.get(name, "none"))
+    return PolishConfig(**given), own
+
+
+# --- the problem -------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class BatchEvaluation:
+    """What one batched model call gives for n strokes."""
+
+    objective: np.ndarray
+    """(n,) the task's objective, maximised [objective units]."""
+    margins: np.ndarray
+    """(n, m) signed constraint margins, >= 0 where a constraint holds [-]."""
+    feasible: np.ndarray
+    """(n,) bool, the task's exact feasibility test."""
+    names: tuple[str, ...]
+    """The m constraints' names."""
+
+
+BatchFunction = Callable[[np.ndarray], BatchEvaluation]
+"""Evaluates normalised strokes (n, dim) in one model call."""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A maximisation over the box [-1, 1]^dim with constraints, some coordinates fixed."""
+
+    evaluate: BatchFunction
+    dim: int
+    free: tuple[int, ...]
+    """The coordinates the polish moves (the others stay at the start's values)."""
+    parameter_names: tuple[str, ...] = ()
+    """Names of the dim coordinates (for the certificate's active bounds); default x0, x1..."""
+
+    def __post_init__(self) -> None:
+        if not self.free or any(not 0 <= j < self.dim for j in self.free):
+            raise ValueError(f"free = {self.free!r}; allowed: indices in [0, {self.dim})")
+        if not self.parameter_names:
+            object.__setattr__(self, "parameter_names", tuple(f"x{j}" for j in range(self.dim)))
+
+
+def task_problem(task: TaskSpec, condition: Condition, env_kwargs: Mapping[str, Any]) -> Problem:
+    """The polish problem of a harness task: its env's batched core at ``condition``.
+
+    Objective and feasibility come from the env's core (``env.unwrapped.core.step``: one
+    batched model call, scored by the task's declaration), the constraint margins from the
+    declaration's constraints (``Constraint.margin``), so the polish optimises exactly what the
+    env rewards under the constraints it penalises; the continuous coordinates are those that
+    are not ``task.discrete_actions``.
+    """
+    env = gym.make(task.env_id, disable_env_checker=True, **dict(env_kwargs))
+    core = getattr(env.unwrapped, "core", None)
+    dim = int(env.action_space.shape[0])
+    env.close()
+    constraints = getattr(getattr(core, "declaration", None), "constraints", None)
+    if not constraints or any(c.margin is None for c in constraints):
+        raise ValueError(f"{task.env_id}: its task declares no constraint margins; cannot polish")
+    names = tuple(c.name for c in constraints)
+
+    def evaluate(actions: np.ndarray) -> BatchEvaluation:
+        actions = np.asarray(actions, dtype=np.float64)
+        batch = core.step(
+            normalised_to_physical(actions), np.full(actions.shape[0], condition.value)
+        )
+        margins = np.column_stack([c.margin(batch.result, core.config) for c in constraints])
+        return BatchEvaluation(
+            objective=np.asarray(batch.objective, dtype=np.float64),
+            margins=margins,
+            feasible=np.asarray(batch.feasible, dtype=bool),
+            names=names,
+        )
+
+    discrete = {i for i, _ in task.discrete_actions}
+    parameters = PARAMETER_NAMES if dim == len(PARAMETER_NAMES) else ()
+    return Problem(evaluate, dim, tuple(j for j in range(dim) if j not in discrete), parameters)
+
+
+# --- gradients ----------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Gradient:
+    """Value and first derivatives at one point, w.r.t. the free coordinates."""
+
+    objective: float
+    margins: np.ndarray
+    """(m,)"""
+    feasible: bool
+    objective_gradient: np.ndarray
+    """(k,) d objective / d x_free."""
+    jacobian: np.ndarray
+    """(m, k) d margins / d x_free."""
+    names: tuple[str, ...]
+
+
+class GradientFunction(Protocol):
+    """``gradient(x) -> Gradient`` at the full point x (dim,); ``cost`` model evaluations per
+    call (counted in the budget). The seam for an autograd gradient."""
+
+    cost: int
+
+    def __call__(self, x: np.ndarray) -> Gradient: ...
+
+
+@dataclass(frozen=True)
+class CentralDifferences:
+    """Central differences of a :class:`Problem`: x and x ± h e_j for every free j in ONE call.
+
+    At a bound the step is cut to stay inside [-1, 1] (a one-sided difference there).
+    """
+
+    problem: Problem
+    step: float = 1e-5
+    cost: int = field(init=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "cost", 1 + 2 * len(self.problem.free))
+
+    def __call__(self, x: np.ndarray) -> Gradient:
+        free = np.asarray(self.problem.free)
+        k = free.size
+        points = np.repeat(np.asarray(x, dtype=np.float64)[None, :], 1 + 2 * k, axis=0)
+        rows = np.arange(k)
+        up = np.minimum(points[0, free] + self.step, 1.0)
+        down = np.maximum(points[0, free] - self.step, -1.0)
+        points[1 + rows, free] = up
+        points[1 + k + rows, free] = down
+        batch = self.problem.evaluate(points)
+        width = up - down
+        d_obj = (batch.objective[1 : 1 + k] - batch.objective[1 + k :]) / width
+        d_margins = (batch.margins[1 : 1 + k] - batch.margins[1 + k :]) / width[:, None]
+        return Gradient(
+            objective=float(batch.objective[0]),
+            margins=batch.margins[0].copy(),
+            feasible=bool(batch.feasible[0]),
+            objective_gradient=d_obj,
+            jacobian=d_margins.T.copy(),
+            names=batch.names,
+        )
+
+
+# --- first-order optimality ----------------------------------------------------------------------
+def kkt_residual(
+    objective_gradient: np.ndarray,
+    margins: np.ndarray,
+    jacobian: np.ndarray,
+    x_free: np.ndarray,
+    active: float,
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """First-order optimality of a maximum of f subject to c >= 0 and -1 <= x <= 1.
+
+    Stationarity of the Lagrangian, ∇f + Σ λ_i ∇c_i = 0 with λ_i >= 0 over the active
+    constraints (c_i <= ``active``) and active bounds, solved for the multipliers by
+    non-negative least squares. Returns (residual, active constraint mask, active bound mask):
+    the residual is ||∇f + Σ λ_i ∇c_i|| / ||∇f|| [-] (0 where ∇f = 0): near 0 at a KKT
+    point, of order 1 where f can still rise without leaving the feasible set. An infeasible
+    point (some c_i < -active) gets residual inf.
+    """
+    g = np.asarray(objective_gradient, dtype=np.float64)
+    norm = float(np.linalg.norm(g))
+    if np.any(margins < -active):
+        return math.inf, margins <= active, np.zeros(g.size, dtype=bool)
+    if norm == 0.0:
+        return 0.0, margins <= active, np.zeros(g.size, dtype=bool)
+    on_constraint = margins <= active
+    upper = x_free >= 1.0 - active
+    lower = x_free <= -1.0 + active
+    columns = [jacobian[on_constraint].T]
+    eye = np.eye(g.size)
+    columns.append(-eye[:, upper])  # c = 1 - x_j >= 0
+    columns.append(eye[:, lower])  # c = x_j + 1 >= 0
+    a = np.concatenate(columns, axis=1)
+    if a.shape[1] == 0:
+        return 1.0, on_constraint, upper | lower
+    # min ||A λ - (-∇f)||, λ >= 0; scaled by ||∇f|| so the residual is relative.
+    _, rnorm = nnls(a / norm, -g / norm)
+    return float(rnorm), on_constraint, upper | lower
+
+
+# --- the polish -------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Certificate:
+    """What a record says about the local optimality of its stroke (JSON: :meth:`to_dict`)."""
+
+    method: str
+    """The polish's optimiser, ``"none"`` when it did not run."""
+    status: str
+    """``"improved"``, ``"no gain"`` (the start is kept), ``"failed: ..."`` (the start is
+    kept), ``"off"`` or ``"not applicable"``."""
+    gain: float | None = None
+    """(objective_after − objective_before) / |objective_before| [-] (0 when the start is
+    kept; None where the start's objective is 0)."""
+    objective_before: float | None = None
+    objective_after: float | None = None
+    evaluations: int = 0
+    """Model evaluations the polish used (counted in the run's budget)."""
+    allowance: int = 0
+    """Model evaluations it was allowed (the run's budget less what the search used)."""
+    iterations: int = 0
+    converged: bool | None = None
+    """The optimiser's own convergence test passed (scipy ``success``)."""
+    message: str = ""
+    """The optimiser's message."""
+    kkt_residual: float | None = None
+    """First-order optimality residual at the reported stroke (:func:`kkt_residual`) [-]."""
+    active_constraints: tuple[str, ...] = ()
+    """Constraints (and bounds, as ``bound:<parameter>``) active at the reported stroke."""
+
+    def to_dict(self) -> dict[str, Any]:
+        out = {
+            "method": self.method,
+            "status": self.status,
+            "gain": self.gain,
+            "objective_before": self.objective_before,
+            "objective_after": self.objective_after,
+            "evaluations": self.evaluations,
+            "allowance": self.allowance,
+            "iterations": self.iterations,
+            "converged": self.converged,
+            "message": self.message,
+            "kkt_residual": self.kkt_residual,
+            "active_constraints": list(self.active_constraints),
+        }
+        # JSON has no inf/nan: an undefined residual is null.
+        if out["kkt_residual"] is not None and not math.isfinite(out["kkt_residual"]):
+            out["kkt_residual"] = None
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Certificate:
+        kwargs = dict(data)
+        kwargs["active_constraints"] = tuple(kwargs.get("active_constraints", ()))
+        return cls(**kwargs)
+
+    @classmethod
+    def off(cls, status: str = "off") -> Certificate:
+        return cls(method="none", status=status)
+
+
+@dataclass(frozen=True)
+class PolishResult:
+    stroke: np.ndarray
+    """The reported stroke (dim,): the polished one, or the start when the polish did not gain."""
+    objective: float
+    certificate: Certificate
+
+    @property
+    def improved(self) -> bool:
+        return self.certificate.status == "improved"
+
+
+class _OutOfBudget(Exception):
+    pass
+
+
+class _Run:
+    """The bookkeeping of one polish: budget, cache by point, best feasible point seen."""
+
+    def __init__(
+        self, problem: Problem, start: np.ndarray, allowance: int, gradient: GradientFunction
+    ) -> None:
+        self.problem = problem
+        self.start = start
+        self.free = np.asarray(problem.free)
+        self.allowance = allowance
+        self.gradient_function = gradient
+        self.used = 0
+        self.values: dict[bytes, tuple[float, np.ndarray, bool]] = {}
+        self.gradients: dict[bytes, Gradient] = {}
+        self.best: tuple[float, np.ndarray] | None = None
+        self.names: tuple[str, ...] = ()
+
+    def full(self, z: np.ndarray) -> np.ndarray:
+        x = self.start.copy()
+        x[self.free] = np.clip(z, -1.0, 1.0)
+        return x
+
+    def _spend(self, n: int) -> None:
+        if self.used + n > self.allowance:
+            raise _OutOfBudget
+        self.used += n
+
+    def _offer(self, objective: float, feasible: bool, x: np.ndarray) -> None:
+        if (
+            feasible
+            and math.isfinite(objective)
+            and (self.best is None or objective > self.best[0])
+        ):
+            self.best = (objective, x.copy())
+
+    def value(self, z: np.ndarray) -> tuple[float, np.ndarray, bool]:
+        x = self.full(z)
+        key = x.tobytes()
+        if key not in self.values:
+            self._spend(1)
+            batch = self.problem.evaluate(x[None, :])
+            self.names = batch.names
+            found = (float(batch.objective[0]), batch.margins[0].copy(), bool(batch.feasible[0]))
+            self.values[key] = found
+            self._offer(found[0], found[2], x)
+        return self.values[key]
+
+    def gradient(self, z: np.ndarray) -> Gradient:
+        x = self.full(z)
+        key = x.tobytes()
+        if key not in self.gradients:
+            self._spend(self.gradient_function.cost)
+            grad = self.gradient_function(x)
+            self.names = grad.names
+            self.gradients[key] = grad
+            self.values[key] = (grad.objective, grad.margins, grad.feasible)
+            # Only the point itself is a candidate, not its perturbed neighbours: one of those
+            # can beat it by rounding while h off an active constraint, where the KKT check
+            # would no longer see that constraint as active.
+            self._offer(grad.objective, grad.feasible, x)
+        return self.gradients[key]
+
+
+def polish(
+    problem: Problem,
+    start: np.ndarray,
+    budget: int,
+    config: PolishConfig,
+    gradient: GradientFunction | None = None,
+) -> PolishResult:
+    """Polish ``start`` (dim,) on ``problem`` with at most ``budget`` model evaluations.
+
+    ``gradient`` is the gradient function (default :class:`CentralDifferences` with
+    ``config.step``); its ``cost`` is counted per call. One gradient's cost is kept back for
+    the certificate's optimality check at the reported stroke, so the total never exceeds
+    ``budget``. Returns the start unchanged (certificate status ``"no gain"`` or ``"failed:
+    ..."``) when no feasible stroke better than the start was found.
+    """
+    if not config.enabled:
+        return PolishResult(np.asarray(start, dtype=np.float64), math.nan, Certificate.off())
+    x0 = np.asarray(start, dtype=np.float64)
+    if x0.shape != (problem.dim,) or not np.all(np.abs(x0) <= 1.0):
+        raise ValueError(f"start has shape {x0.shape} or leaves [-1, 1]; allowed: ({problem.dim},)")
+    if isinstance(budget, bool) or not isinstance(budget, int | np.integer) or budget < 0:
+        raise ValueError(f"polish budget = {budget!r}; allowed: an integer >= 0")
+    grad_fn = gradient if gradient is not None else CentralDifferences(problem, config.step)
+    if budget < 2 * grad_fn.cost:
+        return PolishResult(
+            x0,
+            math.nan,
+            Certificate(
+                method=config.method,
+                status=f"failed: allowance {budget} < two gradients ({2 * grad_fn.cost})",
+                allowance=int(budget),
+            ),
+        )
+    run = _Run(problem, x0, int(budget) - grad_fn.cost, grad_fn)
+    z0 = x0[run.free]
+    first = run.gradient(z0)
+    before = first.objective
+    if not first.feasible:
+        # the search's stroke is where the polish starts; one that fails the task's test has
+        # no feasible neighbourhood guaranteed: keep it and say so.
+        return _keep(run, x0, before, config, "failed: the start is infeasible", 0, None, "")
+    margin = config.margin
+
+    def fun(z: np.ndarray) -> float:
+        return -run.value(z)[0]
+
+    def jac(z: np.ndarray) -> np.ndarray:
+        return -run.gradient(z).objective_gradient
+
+    def cons(z: np.ndarray) -> np.ndarray:
+        return run.value(z)[1] - margin
+
+    def cons_jac(z: np.ndarray) -> np.ndarray:
+        return run.gradient(z).jacobian
+
+    bounds = Bounds(-np.ones(z0.size), np.ones(z0.size))
+    counter = [0]
+
+    def count(*_: Any) -> None:  # called once per optimiser iteration
+        counter[0] += 1
+
+    outcome: OptimizeResult | None = None
+    failure = ""
+    with warnings.catch_warnings():
+        # trust-constr warns when it skips a BFGS update (delta_grad == 0) and SLSQP about
+        # values outside the bounds it clips; the outcome is in the certificate either way
+        warnings.simplefilter("ignore")
+        try:
+            if config.method == "slsqp":
+                outcome = minimize(
+                    fun,
+                    z0,
+                    jac=jac,
+                    method="SLSQP",
+                    bounds=bounds,
+                    constraints=[{"type": "ineq", "fun": cons, "jac": cons_jac}],
+                    options={"ftol": config.tolerance, "maxiter": config.max_iterations},
+                    callback=count,
+                )
+            else:
+                outcome = minimize(
+                    fun,
+                    z0,
+                    jac=jac,
+                    hess=BFGS(),
+                    method="trust-constr",
+                    bounds=bounds,
+                    constraints=[NonlinearConstraint(cons, 0.0, np.inf, jac=cons_jac, hess=BFGS())],
+                    options={
+                        "gtol": config.tolerance,
+                        "xtol": config.tolerance,
+                        "maxiter": config.max_iterations,
+                    },
+                    callback=count,
+                )
+        except _OutOfBudget:
+            failure = "allowance used up"
+        except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
+            failure = f"failed: {type(error).__name__}: {error}"
+    iterations = counter[0]
+    if outcome is not None:
+        iterations = int(outcome.get("nit", iterations))
+        # the optimiser's last point, for the certificate (it is feasible only if it says so)
+        try:
+            run.value(np.asarray(outcome.x))
+        except _OutOfBudget:
+            pass
+    converged = None if outcome is None else bool(outcome.success)
+    message = failure if outcome is None else str(outcome.message)
+    if run.best is None or run.best[0] <= before:
+        status = "no gain" if not failure.startswith("failed") else failure
+        return _keep(run, x0, before, config, status, iterations, converged, message)
+    after, x_best = run.best
+    run.allowance += grad_fn.cost  # the check kept back for the certificate
+    kkt, active = _check(run, x_best, config)
+    return PolishResult(
+        x_best,
+        after,
+        Certificate(
+            method=config.method,
+            status="improved",
+            gain=(after - before) / abs(before) if before != 0.0 else None,
+            objective_before=before,
+            objective_after=after,
+            evaluations=run.used,
+            allowance=int(budget),
+            iterations=iterations,
+            converged=converged,
+            message=message,
+            kkt_residual=kkt,
+            active_constraints=active,
+        ),
+    )
+
+
+def _check(run: _Run, x: np.ndarray, config: PolishConfig) -> tuple[float | None, tuple[str, ...]]:
+    """KKT residual and active constraints at x (one more gradient unless cached)."""
+    try:
+        grad = run.gradient(x[run.free])
+    except _OutOfBudget:
+        return None, ()
+    residual, on_constraint, on_bound = kkt_residual(
+        grad.objective_gradient,
+        grad.margins - config.margin,
+        grad.jacobian,
+        x[run.free],
+        config.active,
+    )
+    names: list[str] = [n for n, a in zip(grad.names, on_constraint, strict=True) if a]
+    names += [f"bound:{run.problem.parameter_names[j]}" for j in run.free[on_bound]]
+    return residual, tuple(names)
+
+
+def _keep(
+    run: _Run,
+    x0: np.ndarray,
+    before: float,
+    config: PolishConfig,
+    status: str,
+    iterations: int,
+    converged: bool | None,
+    message: str,
+) -> PolishResult:
+    run.allowance += run.gradient_function.cost
+    kkt, active = _check(run, x0, config)
+    return PolishResult(
+        x0,
+        before,
+        Certificate(
+            method=config.method,
+            status=status,
+            gain=0.0,
+            objective_before=before,
+            objective_after=before,
+            evaluations=run.used,
+            allowance=run.allowance,
+            iterations=iterations,
+            converged=converged,
+            message=message,
+            kkt_residual=kkt,
+            active_constraints=active,
+        ),
+    )
+
+
+def describe(certificate: Mapping[str, Any] | Certificate) -> str:
+    """One line for a console, e.g. ``polish slsqp improved +7.49 %, 49 it, 2714 ev,
+    converged, KKT 8.0e-06, active: power 8 bounds``."""
+    c = certificate.to_dict() if isinstance(certificate, Certificate) else dict(certificate)
+    if not c or c.get("method", "none") == "none":
+        return f"polish {c.get('status', 'off')}"
+    parts = [f"polish {c['method']} {c['status']}"]
+    if c.get("gain") is not None:
+        parts[0] += f" {100 * c['gain']:+.2f} %"
+    parts.append(f"{c.get('iterations', 0)} it")
+    parts.append(f"{c.get('evaluations', 0)} ev")
+    parts.append("converged" if c.get("converged") else "not converged")
+    kkt = c.get("kkt_residual")
+    parts.append("KKT n/a" if kkt is None else f"KKT {kkt:.1e}")
+    active = list(c.get("active_constraints") or ())
+    bounds = sum(name.startswith("bound:") for name in active)
+    named = [name for name in active if not name.startswith("bound:")]
+    if active:
+        parts.append("active: " + " ".join([*named, f"{bounds} bounds" if bounds else ""]).strip())
+    return ", ".join(parts)

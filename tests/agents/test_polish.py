@@ -1,0 +1,224 @@
+"""The local polish (agents/polish.py): optimum, optimality residual, constraints, budget.
+
+The analytic problem: maximise f(x) = −Σ_free (x_j − 0.6)² over the 26 free coordinates of
+[-1, 1]^28 (coordinates 11 and 25 fixed, like the wings' harmonic N) subject to
+Σ_free x_j <= 7.8. Its optimum is the projection of the unconstrained one onto the constraint:
+x_j = 0.3 for every free j, f* = −26·0.09 = −2.34, the constraint active with multiplier
+λ = 2·0.3 = 0.6; the fixed coordinates keep their start values.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from agents.harness import prepare, run
+from agents.polish import (
+    BatchEvaluation,
+    CentralDifferences,
+    Certificate,
+    PolishConfig,
+    Problem,
+    kkt_residual,
+    polish,
+    split_settings,
+)
+from agents.records import SELECTION_POLISHED, Record
+from tandem_env.physics import normalised_to_physical
+
+DIM = 28
+FIXED = (11, 25)
+FREE = tuple(j for j in range(DIM) if j not in FIXED)
+TARGET, CAP = 0.6, 7.8
+X_STAR = 0.3  # (26·0.6 − 7.8)/26 below the target on every free coordinate
+F_STAR = -len(FREE) * (TARGET - X_STAR) ** 2
+
+
+class Counted:
+    """The analytic problem's batch function, counting evaluated strokes."""
+
+    def __init__(self, nan_objective: bool = False) -> None:
+        self.count = 0
+        self.nan_objective = nan_objective
+
+    def __call__(self, x: np.ndarray) -> BatchEvaluation:
+        assert np.all(np.abs(x) <= 1.0), "the polish left the box"
+        self.count += x.shape[0]
+        free = x[:, FREE]
+        objective = -np.sum((free - TARGET) ** 2, axis=1)
+        if self.nan_objective:
+            objective = np.full_like(objective, np.nan)
+        margins = (CAP - free.sum(axis=1))[:, None]
+        return BatchEvaluation(objective, margins, margins[:, 0] >= 0.0, ("sum",))
+
+
+def problem(evaluate: Counted) -> Problem:
+    return Problem(evaluate, DIM, FREE)
+
+
+def start() -> np.ndarray:
+    x = np.zeros(DIM)
+    x[list(FIXED)] = 0.5  # a bin centre, as CMA-ES leaves the harmonic N
+    return x
+
+
+def test_reaches_the_known_constrained_optimum_and_certifies_it():
+    evaluate = Counted()
+    result = polish(problem(evaluate), start(), 5_000, PolishConfig())
+    c = result.certificate
+    assert c.status == "improved" and c.converged
+    np.testing.assert_allclose(result.stroke[list(FREE)], X_STAR, atol=1e-6)
+    np.testing.assert_array_equal(result.stroke[list(FIXED)], 0.5)  # N stays fixed
+    assert result.objective == pytest.approx(F_STAR, abs=1e-7)
+    f_start = -len(FREE) * TARGET**2
+    assert c.gain == pytest.approx((F_STAR - f_start) / abs(f_start), abs=1e-7)
+    assert c.kkt_residual < 1e-6
+    assert c.active_constraints == ("sum",)
+    # the reported stroke satisfies the constraint (held at the margin inside it)
+    assert CAP - result.stroke[list(FREE)].sum() >= 0.0
+    assert c.evaluations == evaluate.count <= 5_000
+
+
+def test_kkt_residual_is_large_away_from_the_optimum():
+    grad = CentralDifferences(problem(Counted()), 1e-5)
+    # interior point: nothing active, the gradient is unbalanced -> residual 1
+    g = grad(start())
+    residual, active, _ = kkt_residual(
+        g.objective_gradient, g.margins, g.jacobian, np.zeros(26), 1e-6
+    )
+    assert residual == pytest.approx(1.0) and not active.any()
+    # on the constraint but not at its optimum: the multiplier balances only part of ∇f
+    x = start()
+    x[list(FREE)] = np.linspace(0.0, 0.6, 26)
+    x[list(FREE)] *= CAP / x[list(FREE)].sum()
+    g = grad(x)
+    residual, active, _ = kkt_residual(
+        g.objective_gradient, g.margins, g.jacobian, x[list(FREE)], 1e-6
+    )
+    assert active.all() and residual > 0.3
+    # at the optimum it vanishes (to the differences' error)
+    x[list(FREE)] = X_STAR
+    g = grad(x)
+    residual, _, _ = kkt_residual(g.objective_gradient, g.margins, g.jacobian, x[list(FREE)], 1e-6)
+    assert residual < 1e-8
+
+
+def test_CentralDifferences_use_one_batch_and_are_exact_on_a_quadratic():
+    evaluate = Counted()
+    grad = CentralDifferences(problem(evaluate), 1e-4)
+    x = start()
+    x[list(FREE)] = np.linspace(-0.9, 0.9, 26)
+    g = grad(x)
+    assert evaluate.count == grad.cost == 53  # x and x ± h e_j, j free, in one call
+    np.testing.assert_allclose(g.objective_gradient, -2.0 * (x[list(FREE)] - TARGET), atol=1e-9)
+    np.testing.assert_allclose(g.jacobian, -np.ones((1, 26)), atol=1e-9)
+
+
+@pytest.mark.parametrize("budget", [120, 400, 1_000])
+def test_budget_is_never_exceeded(budget):
+    evaluate = Counted()
+    result = polish(problem(evaluate), start(), budget, PolishConfig())
+    assert evaluate.count <= budget
+    assert result.certificate.evaluations == evaluate.count
+
+
+def test_no_gain_or_failure_keeps_the_start():
+    # already at the optimum: nothing to gain, the start is returned as it was
+    x = start()
+    x[list(FREE)] = X_STAR
+    result = polish(problem(Counted()), x, 5_000, PolishConfig())
+    assert result.certificate.status == "no gain" and result.certificate.gain == 0.0
+    np.testing.assert_array_equal(result.stroke, x)
+    assert result.certificate.kkt_residual < 1e-6
+    # a model that returns NaN: no feasible improvement, the start is kept
+    result = polish(problem(Counted(nan_objective=True)), start(), 2_000, PolishConfig())
+    assert not result.improved
+    np.testing.assert_array_equal(result.stroke, start())
+    # an infeasible start is kept and said so
+    x = start()
+    x[list(FREE)] = 0.9
+    result = polish(problem(Counted()), x, 2_000, PolishConfig())
+    assert result.certificate.status.startswith("failed: the start is infeasible")
+    np.testing.assert_array_equal(result.stroke, x)
+    # an allowance below two gradients does not start
+    result = polish(problem(Counted()), start(), 100, PolishConfig())
+    assert result.certificate.status.startswith("failed: allowance")
+    assert result.certificate.evaluations == 0
+
+
+@pytest.mark.parametrize(
+    "settings",
+    [
+        {"polish": "bfgs"},
+        {"polish_share": 0.95},
+        {"polish_share": "0.3"},
+        {"polish_step": 0.0},
+        {"polish_tolerance": math.nan},
+        {"polish_iterations": 0},
+    ],
+)
+def test_bad_settings_are_rejected_before_any_computation(settings):
+    with pytest.raises(ValueError, match="polish"):
+        split_settings("cmaes", settings)
+    with pytest.raises(ValueError, match="polish"):
+        prepare("cmaes", "accelerate", 60.0, 2_000, [0], method_config=settings)
+
+
+def test_defaults_and_the_method_setting_that_turns_it_off():
+    assert split_settings("cmaes", {})[0].method == "slsqp"
+    assert split_settings("pso", {"swarm_size": 20}) == (PolishConfig(), {"swarm_size": 20})
+    assert not split_settings("random", {})[0].enabled
+    assert not split_settings("cmaes", {"polish": "none"})[0].enabled
+    assert PolishConfig().reserve(12_000, 53) == 4_800
+    assert PolishConfig().reserve(250, 53) == 0  # below two gradients: no polish
+    assert PolishConfig(method="none").reserve(12_000, 53) == 0
+
+
+def test_task_constraints_are_the_penalised_ones():
+    # The margins the polish holds are those whose negative parts the reward penalises: the
+    # env's normalised violation sum is their sum, and its feasibility test is all of them >= 0.
+    rng = np.random.default_rng(3)
+    actions = rng.uniform(-1.0, 1.0, (256, DIM))
+    for env_id, value in (("TandemWing/LevelFlight-v0", 1.5), ("TandemWing/Accelerate-v0", 60.0)):
+        env = gym.make(env_id, disable_env_checker=True)
+        core = env.unwrapped.core
+        batch = core.step(normalised_to_physical(actions), np.full(256, value))
+        margins = np.column_stack(
+            [c.margin(batch.result, core.config) for c in core.declaration.constraints]
+        )
+        np.testing.assert_allclose(
+            np.maximum(0.0, -margins).sum(axis=1), batch.scores.total, rtol=1e-12, atol=1e-15
+        )
+        np.testing.assert_array_equal(np.all(margins >= 0.0, axis=1), batch.feasible)
+        env.close()
+
+
+def test_harness_polish_counts_in_the_budget_and_certifies_the_record():
+    polished, plain = (
+        run(
+            "cmaes",
+            "accelerate",
+            60.0,
+            2_500,
+            [0],
+            objective="vertical",
+            progress=False,
+            method_config=config,
+        )[0]
+        for config in ({}, {"polish": "none"})
+    )
+    for record in (polished, plain):
+        assert record.feasible and record.evaluations <= record.budget == 2_500
+        assert Record.from_dict(record.to_dict()) == record  # the certificate round-trips
+    assert plain.certificate == Certificate.off().to_dict()
+    c = polished.certificate
+    assert c["method"] == "slsqp" and c["allowance"] >= PolishConfig().reserve(2_500, 53)
+    if c["status"] == "improved":
+        assert polished.selection == SELECTION_POLISHED
+        assert polished.objective == pytest.approx(c["objective_after"], rel=1e-12)
+        assert polished.objective > c["objective_before"]
+    else:  # the search's stroke is kept and the record says so
+        assert polished.objective == c["objective_before"]
