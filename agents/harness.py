@@ -136,7 +136,7 @@ def prepare_job(
         if "polish" in dict(job.method_config):
             raise ValueError(
                 f"polish = {polish_config.method!r}: task {spec.name!r} declares no constraints "
-                "for a local polish (its env has no task core with constraints); allowed: 'none'"
+                "with margins for a local polish (Constraint.margin); allowed: 'none'"
             )
         polish_config = PolishConfig(method="none")  # the default polish needs a flight task
     # one central-difference gradient: the point and two neighbours per continuous coordinate

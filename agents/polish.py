@@ -5,7 +5,7 @@ reported stroke is its last good point, not the top of the basin. The polish cli
 of the way with a gradient-based constrained optimiser (scipy's SLSQP, or trust-constr) over
 the continuous stroke parameters, the discrete ones (each wing's harmonic N) held fixed, in
 the normalised box [-1, 1] as bounds, with the task's constraints as constraints (the signed
-margins of ``FlightTask.constraints``, the same constraints the reward penalises), not as a
+margins of the task declaration's ``Constraint.margin``, the constraints the reward penalises), not as a
 penalty.
 
 Gradients come from a :class:`GradientFunction`; the default, :class:`CentralDifferences`,
@@ -105,7 +105,7 @@ class PolishConfig:
         Optimiser iterations at most, 1 to 10 000.
     margin : float
         The optimiser holds every constraint at margin >= ``margin`` [-] (normalised, as
-        ``FlightTask.constraints``), so its optimum passes the task's exact feasibility test
+        ``Constraint.margin``), so its optimum passes the task's exact feasibility test
         (a stroke on the boundary can miss it by rounding); 0 to 1e-4.
     active : float
         A constraint (or bound) within ``active`` [-] of its limit counts as active in the
