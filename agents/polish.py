@@ -685,8 +685,8 @@ def _keep(
 
 
 def describe(certificate: Mapping[str, Any] | Certificate) -> str:
-    """One line for a console, e.g. ``polish slsqp improved +7.49 %, 49 it, 2714 ev,
-    converged, KKT 8.0e-06, active: power 8 bounds``."""
+    """One line for a console, e.g. ``polish slsqp improved +7.49 %, 49 it, 2661 ev,
+    converged, KKT 7.9e-06, active: power_violation 8 bounds``."""
     c = certificate.to_dict() if isinstance(certificate, Certificate) else dict(certificate)
     if not c or c.get("method", "none") == "none":
         return f"polish {c.get('status', 'off')}"
