@@ -27,6 +27,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "eval.study",
     "eval.measured",
     "eval.speed_change",
+    "eval.numbers",
 )
 
 
