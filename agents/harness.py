@@ -43,7 +43,14 @@ from threadpoolctl import threadpool_limits
 import tandem_env
 from agents.evaluator import Reevaluation, VectorEnvEvaluator, reevaluate
 from agents.methods import Method, SearchContext, SearchOutcome, get_method
-from agents.polish import Certificate, PolishConfig, polish, split_settings, task_problem
+from agents.polish import (
+    AutogradGradient,
+    Certificate,
+    PolishConfig,
+    polish,
+    split_settings,
+    task_problem,
+)
 from agents.records import (
     CERTIFICATE,
     SELECTION_BEST_FEASIBLE,
@@ -310,7 +317,10 @@ def _polish(
             status = "not applicable: the method evaluates through its own envs"
         return action, reward, selection, Certificate(method=config.method, status=status)
     problem = task_problem(prepared.task, prepared.condition, prepared.env_kwargs)
-    result = polish(problem, action, allowance, config)
+    # the torch backend differentiates: one model evaluation per gradient instead of 2k + 1
+    torch = prepared.env_kwargs.get("backend") == "torch"
+    gradient = AutogradGradient(problem) if torch else None
+    result = polish(problem, action, allowance, config, gradient)
     if not result.improved:
         return action, reward, selection, result.certificate
     # accepted strokes pass the task's feasibility test, so their reward is their objective

@@ -11,9 +11,14 @@ penalty.
 Gradients come from a :class:`GradientFunction`; the default, :class:`CentralDifferences`,
 evaluates the point and its 2k perturbations (k free parameters; 53 strokes for the 26
 continuous ones) in ONE batched model call, so the objective's gradient and the constraints'
-Jacobian come from the same batch. A differentiable backend can pass its own gradient function
-(autograd) instead: that is the one seam.
+Jacobian come from the same batch. With the torch backend (env keyword ``backend="torch"``),
+:class:`AutogradGradient` takes them by autograd from ONE model evaluation instead
+(``tandem_env.physics.torch_model.normalised_jacobian``): that is the one seam, and the
+certificate names the gradient used.
 
+The budget counts model evaluations (strokes evaluated, not wall time): a central-difference
+gradient costs 2k + 1 of them, an autograd gradient one (its forward pass; the backward passes
+are not model evaluations: their wall cost is measured in docs/harness.md, "Local polish").
 Every model evaluation counts against the polish's allowance (its share of the run's budget);
 the allowance is never exceeded. The result is the best of the optimiser's points (not the
 perturbed points of the differences) that the task calls feasible (its exact test), if it
@@ -55,6 +60,7 @@ __all__ = [
     "POLISH_DEFAULTS",
     "POLISH_METHODS",
     "POLISH_SETTINGS",
+    "AutogradGradient",
     "BatchEvaluation",
     "CentralDifferences",
     "Certificate",
@@ -205,6 +211,10 @@ class BatchEvaluation:
 BatchFunction = Callable[[np.ndarray], BatchEvaluation]
 """Evaluates normalised strokes (n, dim) in one model call."""
 
+DifferentiateFunction = Callable[[np.ndarray], tuple[BatchEvaluation, np.ndarray, np.ndarray]]
+"""Evaluates normalised strokes (n, dim) in one differentiable model call: the evaluation, the
+objective's gradient (n, dim) and the margins' Jacobian (n, m, dim) w.r.t. every coordinate."""
+
 
 @dataclass(frozen=True)
 class Problem:
@@ -216,6 +226,8 @@ class Problem:
     """The coordinates the polish moves (the others stay at the start's values)."""
     parameter_names: tuple[str, ...] = ()
     """Names of the dim coordinates (for the certificate's active bounds); default x0, x1..."""
+    differentiate: DifferentiateFunction | None = None
+    """The same evaluation with derivatives (autograd), or None where the model has none."""
 
     def __post_init__(self) -> None:
         if not self.free or any(not 0 <= j < self.dim for j in self.free):
@@ -231,7 +243,8 @@ def task_problem(task: TaskSpec, condition: Condition, env_kwargs: Mapping[str, 
     batched model call, scored by the task's declaration), the constraint margins from the
     declaration's constraints (``Constraint.margin``), so the polish optimises exactly what the
     env rewards under the constraints it penalises; the continuous coordinates are those that
-    are not ``task.discrete_actions``.
+    are not ``task.discrete_actions``. ``differentiate`` is the same through the torch backend
+    by autograd (imported when called; the env's insect, options and device).
     """
     env = gym.make(task.env_id, disable_env_checker=True, **dict(env_kwargs))
     core = getattr(env.unwrapped, "core", None)
@@ -255,9 +268,36 @@ def task_problem(task: TaskSpec, condition: Condition, env_kwargs: Mapping[str, 
             names=names,
         )
 
+    def differentiate(actions: np.ndarray) -> tuple[BatchEvaluation, np.ndarray, np.ndarray]:
+        from tandem_env.physics import torch_model  # torch only when the polish differentiates
+
+        actions = np.atleast_2d(np.asarray(actions, dtype=np.float64))
+        config = core.config
+        speed, power = core.flight_conditions(np.full(actions.shape[0], condition.value))
+        metric = config.objective_metric
+        functions = [lambda result: getattr(result, metric)]
+        functions += [lambda result, c=c: c.margin(result, config) for c in constraints]
+        result, values, jacobian = torch_model.normalised_jacobian(
+            actions,
+            functions,
+            speed,
+            power,
+            insect=config.insect,
+            options=config.options,
+            device=config.device,
+        )
+        batch = BatchEvaluation(
+            objective=values[:, 0],
+            margins=values[:, 1:],
+            feasible=np.asarray(core.declaration.score(result, config).feasible, dtype=bool),
+            names=names,
+        )
+        return batch, jacobian[:, 0], jacobian[:, 1:]
+
     discrete = {i for i, _ in task.discrete_actions}
     parameters = PARAMETER_NAMES if dim == len(PARAMETER_NAMES) else ()
-    return Problem(evaluate, dim, tuple(j for j in range(dim) if j not in discrete), parameters)
+    free = tuple(j for j in range(dim) if j not in discrete)
+    return Problem(evaluate, dim, free, parameters, differentiate)
 
 
 # --- gradients ----------------------------------------------------------------------------------
@@ -278,9 +318,11 @@ class Gradient:
 
 class GradientFunction(Protocol):
     """``gradient(x) -> Gradient`` at the full point x (dim,); ``cost`` model evaluations per
-    call (counted in the budget). The seam for an autograd gradient."""
+    call (counted in the budget); ``name`` for the certificate. The seam for an autograd
+    gradient."""
 
     cost: int
+    name: str
 
     def __call__(self, x: np.ndarray) -> Gradient: ...
 
@@ -295,6 +337,7 @@ class CentralDifferences:
     problem: Problem
     step: float = 1e-5
     cost: int = field(init=False)
+    name: str = field(init=False, default="central differences")
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "cost", 1 + 2 * len(self.problem.free))
@@ -318,6 +361,35 @@ class CentralDifferences:
             feasible=bool(batch.feasible[0]),
             objective_gradient=d_obj,
             jacobian=d_margins.T.copy(),
+            names=batch.names,
+        )
+
+
+@dataclass(frozen=True)
+class AutogradGradient:
+    """The gradient of a :class:`Problem` by autograd: value, objective gradient and margin
+    Jacobian from ONE differentiable model evaluation (``problem.differentiate``, the torch
+    backend), so ``cost`` is 1 model evaluation."""
+
+    problem: Problem
+    cost: int = field(init=False, default=1)
+    name: str = field(init=False, default="autograd")
+
+    def __post_init__(self) -> None:
+        if self.problem.differentiate is None:
+            raise ValueError("AutogradGradient: the problem has no differentiate function")
+
+    def __call__(self, x: np.ndarray) -> Gradient:
+        free = np.asarray(self.problem.free)
+        differentiate = self.problem.differentiate
+        assert differentiate is not None  # checked in __post_init__
+        batch, d_obj, d_margins = differentiate(np.asarray(x, dtype=np.float64)[None, :])
+        return Gradient(
+            objective=float(batch.objective[0]),
+            margins=batch.margins[0].copy(),
+            feasible=bool(batch.feasible[0]),
+            objective_gradient=d_obj[0, free].copy(),
+            jacobian=d_margins[0][:, free].copy(),
             names=batch.names,
         )
 
@@ -388,6 +460,9 @@ class Certificate:
     """First-order optimality residual at the reported stroke (:func:`kkt_residual`) [-]."""
     active_constraints: tuple[str, ...] = ()
     """Constraints (and bounds, as ``bound:<parameter>``) active at the reported stroke."""
+    gradient: str = ""
+    """The gradient the optimiser used (``GradientFunction.name``: ``"central differences"``
+    or ``"autograd"``); empty when the polish did not run."""
 
     def to_dict(self) -> dict[str, Any]:
         out = {
@@ -403,6 +478,7 @@ class Certificate:
             "message": self.message,
             "kkt_residual": self.kkt_residual,
             "active_constraints": list(self.active_constraints),
+            "gradient": self.gradient,
         }
         # JSON has no inf/nan: an undefined residual is null.
         if out["kkt_residual"] is not None and not math.isfinite(out["kkt_residual"]):
@@ -530,6 +606,7 @@ def polish(
                 method=config.method,
                 status=f"failed: allowance {budget} < two gradients ({2 * grad_fn.cost})",
                 allowance=int(budget),
+                gradient=grad_fn.name,
             ),
         )
     run = _Run(problem, x0, int(budget) - grad_fn.cost, grad_fn)
@@ -630,6 +707,7 @@ def polish(
             message=message,
             kkt_residual=kkt,
             active_constraints=active,
+            gradient=run.gradient_function.name,
         ),
     )
 
@@ -680,6 +758,7 @@ def _keep(
             message=message,
             kkt_residual=kkt,
             active_constraints=active,
+            gradient=run.gradient_function.name,
         ),
     )
 

@@ -31,12 +31,14 @@ def _horizontal_deficit(result: Result, _: Any) -> np.ndarray:
     return np.maximum(0.0, -result.excess_horizontal)
 
 
+# The margins are array-agnostic (``0.0 + x``: a new array, numpy's or torch's): the polish
+# evaluates them on the torch backend's tensors too, to differentiate them (agents.polish).
 def _vertical_margin(result: Result, _: Any) -> np.ndarray:
-    return result.excess_vertical.copy()
+    return 0.0 + result.excess_vertical
 
 
 def _horizontal_margin(result: Result, _: Any) -> np.ndarray:
-    return result.excess_horizontal.copy()
+    return 0.0 + result.excess_horizontal
 
 
 ACCELERATE = TaskDeclaration(

@@ -27,12 +27,14 @@ def _thrust_violation(result: Result, config: Any) -> np.ndarray:
     return np.maximum(0.0, np.abs(result.excess_horizontal) - config.constraint_tolerance)
 
 
+# The margins are array-agnostic (builtin abs, arithmetic): the polish evaluates them on the
+# torch backend's tensors too, to differentiate them by autograd (agents.polish).
 def _lift_margin(result: Result, config: Any) -> np.ndarray:
-    return config.constraint_tolerance - np.abs(result.lift_to_weight - 1.0)
+    return config.constraint_tolerance - abs(result.lift_to_weight - 1.0)
 
 
 def _thrust_margin(result: Result, config: Any) -> np.ndarray:
-    return config.constraint_tolerance - np.abs(result.excess_horizontal)
+    return config.constraint_tolerance - abs(result.excess_horizontal)
 
 
 LEVEL_FLIGHT = TaskDeclaration(

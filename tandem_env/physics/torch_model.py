@@ -28,7 +28,7 @@ there, so their motion changes the integral only to second order.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import fields, make_dataclass
 from functools import cache
 from typing import Any
@@ -48,7 +48,16 @@ from .model import (
     wing_tables,
 )
 from .options import HOVER_NORMAL_SPEED, ModelOptions
-from .stroke import ANGULAR, N_PARAMETERS, N_PER_WING, validate_physical
+from .stroke import (
+    ANGULAR,
+    DISCRETE,
+    LOWER,
+    N_PARAMETERS,
+    N_PER_WING,
+    UPPER,
+    normalised_to_physical,
+    validate_physical,
+)
 
 #: Floating dtypes the backend computes in (float64 is the default and the one tested to 1e-8).
 DTYPES = (torch.float64, torch.float32)
@@ -969,3 +978,46 @@ def value_and_grad(
         values = getattr(result, metric) if isinstance(metric, str) else metric(result)
         (gradient,) = torch.autograd.grad(values.sum(), x)
     return values.detach(), gradient
+
+
+def normalised_jacobian(
+    actions: np.ndarray,
+    metrics: Sequence[Callable[[Any], torch.Tensor]],
+    speed: Any = 0.0,
+    available_power: Any = None,
+    *,
+    device: Any = None,
+    **kwargs: Any,
+) -> tuple[Result, np.ndarray, np.ndarray]:
+    """Metrics of normalised strokes and their Jacobian w.r.t. the normalised coordinates, from
+    ONE :func:`evaluate_torch` call (float64, on ``device``; None: the CPU).
+
+    ``actions``: (B, 28) normalised strokes in [-1, 1] (:func:`stroke.normalised_to_physical`'s
+    map, from the same Table 4 bounds, here in torch so autograd goes through it: linear per
+    coordinate, N a step, so its column is 0). ``metrics``: functions of the
+    :class:`TorchResult` returning (B,) tensors (array-agnostic arithmetic on its fields).
+    Returns the numpy :class:`Result`, the (B, m) metric values and their (B, m, 28) Jacobian,
+    one backward pass per metric through the one forward graph (each stroke's metrics depend on
+    its own stroke only, so the gradient of a batch sum is every stroke's gradient).
+    ``kwargs`` go to :func:`evaluate_torch`.
+    """
+    normalised_to_physical(actions)  # the numpy checks (shape, finite, inside [-1, 1])
+    dev = resolve_device(device)
+    a = torch.as_tensor(np.atleast_2d(np.asarray(actions, dtype=np.float64)), device=dev)
+    a = a.clamp(-1.0, 1.0).requires_grad_(True)
+    low, high = (torch.as_tensor(bound, device=dev) for bound in (LOWER, UPPER))
+    discrete = torch.as_tensor(DISCRETE, device=dev)
+    with torch.enable_grad():
+        continuous = low + 0.5 * (a + 1.0) * (high - low)
+        harmonic = torch.where(a < 0.0, 1.0, 2.0).to(a.dtype)
+        result = evaluate_torch(
+            torch.where(discrete, harmonic, continuous), speed, available_power, **kwargs
+        )
+        values = [metric(result) for metric in metrics]
+        rows = [
+            torch.autograd.grad(value.sum(), a, retain_graph=i + 1 < len(values))[0]
+            for i, value in enumerate(values)
+        ]
+    jacobian = torch.stack(rows, dim=1).detach().cpu().numpy()
+    stacked = torch.stack([value.detach() for value in values], dim=1).cpu().numpy()
+    return to_numpy_result(result), stacked, jacobian

@@ -1,0 +1,72 @@
+"""Wall cost of one polish gradient: autograd (torch backend) vs batched central differences (numba).
+
+    python benchmarks/polish_gradient.py [--repeats 7] [--device cpu]
+
+Both are the polish's own gradient functions (``agents.polish``) on the level-flight task at
+V = 1.5 m/s and the accelerating task at 60 W/kg, at seeded random strokes, in one process (so
+the ratio holds on a loaded machine): ``CentralDifferences`` evaluates the point and its 52
+neighbours in ONE numba call (53 model evaluations in the budget), ``AutogradGradient`` one
+stroke in torch, forward and one backward pass per output (objective and each margin; 1 model
+evaluation in the budget). Each is called once first (numba compiles, torch warms up), then
+``--repeats`` times; prints the median and the fastest call [ms] and their ratio, and the torch
+forward pass alone (no graph) for comparison.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+
+import numpy as np
+
+from agents.polish import AutogradGradient, CentralDifferences, task_problem
+from agents.tasks import ACCELERATE, LEVEL
+
+
+def _times(function, repeats: int) -> list[float]:
+    function()  # compile / warm up
+    out = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function()
+        out.append(1e3 * (time.perf_counter() - start))
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--device", default="cpu", help="torch device (default cpu)")
+    args = parser.parse_args()
+    import torch
+
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(
+        f"{os.cpu_count()} CPUs, load {load:.1f}, torch {torch.__version__} "
+        f"({torch.get_num_threads()} threads), device {args.device}"
+    )
+    rng = np.random.default_rng(0)
+    for task, value, kwargs in ((LEVEL, 1.5, {}), (ACCELERATE, 60.0, {"objective": "vertical"})):
+        condition = task.condition(value)
+        numba = CentralDifferences(task_problem(task, condition, kwargs))
+        problem = task_problem(
+            task, condition, {**kwargs, "backend": "torch", "device": args.device}
+        )
+        autograd = AutogradGradient(problem)
+        x = rng.uniform(-0.9, 0.9, 28)
+        cd = _times(lambda: numba(x), args.repeats)  # noqa: B023 (called here, in the loop)
+        ag = _times(lambda: autograd(x), args.repeats)  # noqa: B023
+        forward = _times(lambda: problem.evaluate(x[None, :]), args.repeats)  # noqa: B023
+        cd_med, ag_med = statistics.median(cd), statistics.median(ag)
+        print(
+            f"{task.name:>10}: central differences ({numba.cost} strokes, numba) "
+            f"{cd_med:7.1f} ms (fastest {min(cd):.1f}); autograd (1 stroke, torch) "
+            f"{ag_med:7.1f} ms (fastest {min(ag):.1f}); autograd / differences "
+            f"{ag_med / cd_med:.1f}; torch forward alone {statistics.median(forward):.1f} ms"
+        )
+
+
+if __name__ == "__main__":
+    main()
