@@ -69,7 +69,7 @@ examples:
   python -m eval speed-change --episodes 32 --out results/speed-change \\
       --ppo logs/ppo/TandemWing-SpeedChange-v0_1 logs/ppo/TandemWing-SpeedChange-v0_2 \\
       --sac logs/sac/TandemWing-SpeedChange-v0_1 \\
-      --figure docs/figures/speed_change_episode.png --figure-episode 5"""
+      --figure results/speed-change/episode.png --figure-episode 5"""
 
 #: Speeds [m/s] of the level-flight optima the steady schedule chooses from: the envelope in
 #: steps of 0.25 m/s (the training sweep's grid).

@@ -1,6 +1,9 @@
-"""Draw docs/figures/measured_conventions.png: the angles of measured kinematics.
+"""Draw the figure of the angles of measured kinematics (docs/figures/measured_conventions.png).
 
-    python examples/conventions_figure.py [--out docs/figures/measured_conventions.png]
+    python examples/conventions_figure.py [--out results/figures/measured_conventions.png]
+
+The default writes under results/ (ignored); docs/measured.md's copy is this figure drawn with
+``--out docs/figures/measured_conventions.png``.
 
 Every direction in the figure comes from the model's own frame code
 (``blade.fill_frame_coefficients``), so the figure shows what the model does.
@@ -129,7 +132,7 @@ def chord_view(ax) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="docs/figures/measured_conventions.png")
+    parser.add_argument("--out", default="results/figures/measured_conventions.png")
     args = parser.parse_args()
     fig, axes = plt.subplots(1, 3, figsize=(14.0, 4.4))
     side_view(axes[0])

@@ -5,7 +5,7 @@ bins of env steps). Right: the objective (η or F̄) of the best *feasible* stro
 and, as markers, the deterministic policy's reward at each evaluation (evaluations.npz)::
 
     python -m train.curves --runs logs/ppo/TandemWing-LevelFlight-v0_{1,2,3} \\
-        --out docs/figures/ppo_level_v15.png --title "PPO, level flight, V = 1.5 m/s"
+        --out results/figures/ppo_level_v15.png --title "PPO, level flight, V = 1.5 m/s"
 """
 
 from __future__ import annotations
