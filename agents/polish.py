@@ -689,26 +689,9 @@ def polish(
         status = "no gain" if not failure.startswith("failed") else failure
         return _keep(run, x0, before, config, status, iterations, converged, message)
     after, x_best = run.best
-    run.allowance += grad_fn.cost  # the check kept back for the certificate
-    kkt, active = _check(run, x_best, config)
-    return PolishResult(
-        x_best,
-        after,
-        Certificate(
-            method=config.method,
-            status="improved",
-            gain=(after - before) / abs(before) if before != 0.0 else None,
-            objective_before=before,
-            objective_after=after,
-            evaluations=run.used,
-            allowance=int(budget),
-            iterations=iterations,
-            converged=converged,
-            message=message,
-            kkt_residual=kkt,
-            active_constraints=active,
-            gradient=run.gradient_function.name,
-        ),
+    gain = (after - before) / abs(before) if before != 0.0 else None
+    return _finish(
+        run, x_best, before, after, gain, config, "improved", iterations, converged, message
     )
 
 
@@ -740,17 +723,35 @@ def _keep(
     converged: bool | None,
     message: str,
 ) -> PolishResult:
+    """The search's stroke stays: no gain, a failure, or an infeasible start."""
+    return _finish(run, x0, before, before, 0.0, config, status, iterations, converged, message)
+
+
+def _finish(
+    run: _Run,
+    x: np.ndarray,
+    before: float,
+    after: float,
+    gain: float | None,
+    config: PolishConfig,
+    status: str,
+    iterations: int,
+    converged: bool | None,
+    message: str,
+) -> PolishResult:
+    """The reported stroke x and its certificate, with the KKT check at x (the gradient kept
+    back for it is released from the allowance first)."""
     run.allowance += run.gradient_function.cost
-    kkt, active = _check(run, x0, config)
+    kkt, active = _check(run, x, config)
     return PolishResult(
-        x0,
-        before,
+        x,
+        after,
         Certificate(
             method=config.method,
             status=status,
-            gain=0.0,
+            gain=gain,
             objective_before=before,
-            objective_after=before,
+            objective_after=after,
             evaluations=run.used,
             allowance=run.allowance,
             iterations=iterations,

@@ -229,7 +229,9 @@ def group(
     }
 
 
-def _spread(values: np.ndarray) -> float:
+def relative_spread(values: np.ndarray) -> float:
+    """(max − min) / |median| of a set of objectives [-], the spread README and docs quote."""
+    values = np.asarray(values, dtype=np.float64)
     median = float(np.median(values))
     return math.nan if median == 0 else float((values.max() - values.min()) / abs(median))
 
@@ -247,7 +249,7 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
             if feasible.any():
                 q25, median, q75 = np.percentile(objective, [25, 50, 75])
                 best = float(objective.max())
-                spread = _spread(objective)
+                spread = relative_spread(objective)
                 median_feasible = float(np.median(objective[feasible]))
             else:  # the objective of strokes that do not fly is not a result: leave it out
                 q25 = median = q75 = best = spread = median_feasible = math.nan

@@ -37,6 +37,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from eval.compare import relative_spread
+
 NAME = "numbers"
 HELP = "rerun the measurements README and docs quote, and write them into the documents"
 ROOT = Path(__file__).resolve().parents[1]
@@ -115,11 +117,6 @@ def run_optimize(row: ComparisonRow, method: str, seeds: Sequence[int]) -> list[
     ]
 
 
-def spread(values: Sequence[float]) -> float:
-    """(max − min) / median, the spread README quotes."""
-    return (max(values) - min(values)) / statistics.median(values)
-
-
 def measure_comparison() -> dict[str, Any]:
     rows = []
     for row in COMPARISON_ROWS:
@@ -148,7 +145,7 @@ def render_comparison(data: dict[str, Any]) -> str:
         lines.append(
             f"| {row['label']} ({row['symbol']}) | `{row['method']}` | "
             f"{', '.join(f'{v:.4f}' for v in values)} | **{statistics.median(values):.3f}** | "
-            f"{100 * spread(values):.1f} % | {'yes' if all(s['feasible'] for s in row['seeds']) else 'no'} | "
+            f"{100 * relative_spread(values):.1f} % | {'yes' if all(s['feasible'] for s in row['seeds']) else 'no'} | "
             f"{min(times):.1f}-{max(times):.1f} s |"
         )
     lines += ["", machine_line(data), "", "Each row's command:", ""]
