@@ -55,8 +55,11 @@ from agents.records import (
     CERTIFICATE,
     SELECTION_BEST_FEASIBLE,
     SELECTION_BEST_REWARD,
+    SELECTION_INITIAL,
+    SELECTION_INITIAL_POLISHED,
     SELECTION_METHOD,
     SELECTION_POLISHED,
+    STARTS,
     Job,
     Record,
     package_versions,
@@ -85,8 +88,9 @@ class PreparedJob:
     polish: PolishConfig = field(default_factory=lambda: PolishConfig(method="none"))
     """The local polish after the search (its settings are the ``polish*`` method settings)."""
     polish_reserve: int = 0
-    """Evaluations of the budget kept for the polish (:meth:`PolishConfig.reserve`); the
-    search gets the rest. 0 when the polish is off or the budget too small for it."""
+    """Evaluations of a search part's budget kept for its polish (:meth:`PolishConfig.reserve`
+    of the smallest part); the search gets the rest. 0 when the polish is off or the part too
+    small for it."""
 
     def describe(self) -> str:
         """E.g. ``pso on level (efficiency) at speed = 1.5 m/s, budget 12000 evaluations``."""
@@ -141,20 +145,34 @@ def prepare_job(
         env.close()
     polish_config, own_config = split_settings(job.method, dict(job.method_config))
     if polish_config.enabled and not polishable:
-        if "polish" in dict(job.method_config):
+        given = dict(job.method_config)
+        if "polish" in given or "initial" in given:
             raise ValueError(
                 f"polish = {polish_config.method!r}: task {spec.name!r} declares no constraints "
                 "with margins for a local polish (Constraint.margin); allowed: 'none'"
             )
-        polish_config = PolishConfig(method="none")  # the default polish needs a flight task
+        # the default polish needs a flight task
+        polish_config = replace(polish_config, method="none")
+    wrong = [len(stroke) for stroke in polish_config.initial if len(stroke) != dim]
+    if wrong:
+        raise ValueError(
+            f"initial stroke of length {wrong[0]}; allowed: {dim} values (the action box)"
+        )
+    if job.budget < polish_config.segments:
+        raise ValueError(
+            f"budget {job.budget} < {polish_config.segments} parts (starts + initial strokes); "
+            "allowed: a budget of at least one evaluation per part"
+        )
+    # The smallest search part (the budget splits evenly; the last part takes the remainder).
+    part = job.budget // polish_config.segments
     # one central-difference gradient: the point and two neighbours per continuous coordinate
-    reserve = polish_config.reserve(job.budget, 1 + 2 * (dim - len(spec.discrete_actions)))
+    reserve = polish_config.reserve(part, 1 + 2 * (dim - len(spec.discrete_actions)))
     method_obj = get_method(job.method, own_config) if method is None else method
     # Optional hook: a method that can tell before searching that it cannot run this budget on
     # this box (a budget smaller than one CMA-ES population) says so here, not mid-run.
     check = getattr(method_obj, "check", None)
     if callable(check):
-        check(job.budget - reserve, dim, spec)
+        check(part - reserve, dim, spec)
     return PreparedJob(
         job=job,
         method=method_obj,
@@ -269,46 +287,195 @@ def run(
 def run_job(
     job: Job | PreparedJob, reporter: Reporter | None = None, *, progress: bool = False
 ) -> Record:
-    """Run one job: search, re-evaluate the reported stroke and build its record.
+    """Run one job: search (and polish), re-evaluate the reported stroke, build its record.
 
     A plain :class:`~agents.records.Job` is validated first (:func:`prepare_job`); a
-    :class:`PreparedJob` is run as it is. The search's progress goes to ``reporter`` when
-    given, else to a progress bar of its own if ``progress``. Writes nothing.
+    :class:`PreparedJob` is run as it is. The budget is split into equal parts, one per
+    search (the ``starts`` setting) and one per initial stroke (``initial``): each search is
+    the method with its own seed, polished; each initial stroke is polished directly. The
+    record reports the best feasible stroke of all parts (:data:`~agents.records.STARTS` lists
+    each). The search's progress goes to ``reporter`` when given, else to a progress bar of its
+    own if ``progress``. Writes nothing.
     """
     prepared = prepare_job(job) if isinstance(job, Job) else job
     start = time.perf_counter()
+    budget = prepared.job.budget
+    bar = ProgressBar(budget, prepared.job.label(), progress and reporter is None)
+    report = bar.update if reporter is None else reporter
+    parts: list[_Part] = []
     # The search's and the polish's linear algebra is on matrices of the stroke's size (d = 28):
     # BLAS threads only cost there (CMA-ES seed 0 at 60 W/kg: 6.9-7.3 s with the default
     # threads, 5.5 s with one, on the idle 2-core machine) and make the optimum depend on the
     # machine's thread count. The model's own threads (numba) are not BLAS threads.
-    with threadpool_limits(limits=1, user_api="blas"):
-        outcome, evaluator = _search(prepared, reporter, progress)
-        action, search_reward, selection = _select(outcome, evaluator)
-        action, search_reward, selection, certificate = _polish(
-            prepared, action, search_reward, selection, prepared.job.budget - outcome.evaluations
-        )
-    evaluations = outcome.evaluations + certificate.evaluations
-    if evaluations > prepared.job.budget:  # the polish counts its own; never over its allowance
-        raise RuntimeError(f"search and polish used {evaluations} > budget {prepared.job.budget}")
+    with bar, threadpool_limits(limits=1, user_api="blas"):
+        for index, (kind, part_budget, stroke) in enumerate(_plan(prepared)):
+            offset = sum(part.evaluations for part in parts)
+            if kind == "search":
+                parts.append(_search_part(prepared, len(parts), part_budget, offset, report))
+            else:
+                parts.append(_initial_part(prepared, index, part_budget, stroke))
+    chosen = max(parts, key=lambda part: (part.feasible, part.reward))
+    evaluations = sum(part.evaluations for part in parts)
+    if evaluations > budget:  # every part counts its own; never over its share
+        raise RuntimeError(f"search and polish used {evaluations} > budget {budget}")
     again = reevaluate(
-        prepared.task, prepared.condition, prepared.env_kwargs, prepared.job.seed, action
+        prepared.task, prepared.condition, prepared.env_kwargs, prepared.job.seed, chosen.action
     )
-    results = _results(prepared, outcome, action, search_reward, selection, again)
+    results = _results(prepared, chosen, _history(parts), again)
     results["evaluations"] = int(evaluations)
-    results[CERTIFICATE] = certificate.to_dict()
+    results[CERTIFICATE] = chosen.certificate.to_dict()
+    if len(parts) > 1:
+        results[STARTS] = [part.summary() for part in parts]
     results["wall_time"] = time.perf_counter() - start
     return Record(job=prepared.job, key=prepared.job.key, results=results)
 
 
+@dataclass(frozen=True)
+class _Part:
+    """What one part of a run's budget found: a search (polished) or a polished initial stroke."""
+
+    kind: str
+    seed: int
+    action: np.ndarray
+    reward: float
+    """Its reward as the search or the polish saw it (the objective where it is feasible)."""
+    feasible: bool
+    selection: str
+    certificate: Certificate
+    evaluations: int
+    outcome: SearchOutcome | None = None
+
+    def summary(self) -> dict[str, Any]:
+        """The part's line in the record's ``starts``."""
+        return {
+            "kind": self.kind,
+            "seed": self.seed,
+            "evaluations": self.evaluations,
+            "reward": self.reward,
+            "feasible": self.feasible,
+            "selection": self.selection,
+            "polish": self.certificate.status,
+            "gain": self.certificate.gain,
+        }
+
+
+def _plan(prepared: PreparedJob) -> list[tuple[str, int, np.ndarray | None]]:
+    """The run's parts: (kind, budget, initial stroke), initial strokes first; the budget split
+    evenly, the remainder to the last part."""
+    config = prepared.polish
+    kinds = [("initial", np.asarray(s)) for s in config.initial]
+    kinds += [("search", None)] * config.starts
+    share, rest = divmod(prepared.job.budget, len(kinds))
+    budgets = [share] * len(kinds)
+    budgets[-1] += rest
+    return [(kind, b, stroke) for (kind, stroke), b in zip(kinds, budgets, strict=True)]
+
+
+def _part_seed(seed: int, index: int) -> int:
+    """The seed of a run's search number ``index``: the job's own for the first (so one start
+    is the plain run), independent streams for the others."""
+    if index == 0:
+        return seed
+    return int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
+
+
+def _search_part(
+    prepared: PreparedJob, index: int, budget: int, offset: int, report: Reporter
+) -> _Part:
+    """One search on ``budget`` evaluations (less the polish's share), then its polish."""
+    seed = _part_seed(prepared.job.seed, index)
+    reserve = _reserve(prepared, budget)
+
+    def shifted(iteration: int, evaluations: int, best: float) -> None:
+        report(iteration, offset + evaluations, best)
+
+    outcome, evaluator = _search(prepared, seed, budget - reserve, shifted)
+    action, reward, selection = _select(outcome, evaluator)
+    action, reward, selection, certificate = _polish(
+        prepared, action, reward, selection, budget - outcome.evaluations, reserve
+    )
+    feasible = selection in (SELECTION_BEST_FEASIBLE, SELECTION_POLISHED)
+    return _Part(
+        "search",
+        seed,
+        action,
+        reward,
+        feasible,
+        selection,
+        certificate,
+        outcome.evaluations + certificate.evaluations,
+        outcome,
+    )
+
+
+def _initial_part(
+    prepared: PreparedJob, index: int, budget: int, stroke: np.ndarray | None
+) -> _Part:
+    """One initial stroke polished on ``budget`` evaluations (it may start infeasible)."""
+    assert stroke is not None
+    problem = task_problem(prepared.task, prepared.condition, prepared.env_kwargs)
+    result = polish(
+        problem,
+        stroke,
+        budget,
+        prepared.polish,
+        _gradient(prepared, problem),
+        infeasible_start=True,
+    )
+    certificate = result.certificate
+    objective = certificate.objective_after
+    reward = float(objective) if objective is not None else -math.inf
+    selection = SELECTION_INITIAL_POLISHED if result.improved else SELECTION_INITIAL
+    return _Part(
+        "initial",
+        prepared.job.seed,
+        result.stroke,
+        reward,
+        result.feasible,
+        selection,
+        certificate,
+        certificate.evaluations,
+    )
+
+
+def _reserve(prepared: PreparedJob, budget: int) -> int:
+    """Evaluations of a search part's ``budget`` kept for its polish."""
+    spec = prepared.task
+    return prepared.polish.reserve(budget, 1 + 2 * (prepared.dim - len(spec.discrete_actions)))
+
+
+def _gradient(prepared: PreparedJob, problem: Any) -> AutogradGradient | None:
+    # the torch backend differentiates: one model evaluation per gradient instead of 2k + 1
+    return AutogradGradient(problem) if prepared.env_kwargs.get("backend") == "torch" else None
+
+
+def _history(parts: list[_Part]) -> list[tuple[int, float]]:
+    """The searches' (evaluations, best reward so far) one after another, over the whole run."""
+    history: list[tuple[int, float]] = []
+    offset, best = 0, -math.inf
+    for part in parts:
+        if part.outcome is not None:
+            for evaluations, value in part.outcome.history:
+                best = max(best, value)
+                history.append((offset + evaluations, best))
+        offset += part.evaluations
+    return history
+
+
 def _polish(
-    prepared: PreparedJob, action: np.ndarray, reward: float, selection: str, allowance: int
+    prepared: PreparedJob,
+    action: np.ndarray,
+    reward: float,
+    selection: str,
+    allowance: int,
+    reserve: int,
 ) -> tuple[np.ndarray, float, str, Certificate]:
     """The polished stroke (or the search's, when the polish is off, cannot start or does not
     gain), its reward, the selection and the certificate."""
     config = prepared.polish
     if not config.enabled:
         return action, reward, selection, Certificate.off()
-    if prepared.polish_reserve == 0:
+    if reserve == 0:
         status = "not applicable: the budget's polish share is below two gradients"
         return action, reward, selection, Certificate(method=config.method, status=status)
     if selection != SELECTION_BEST_FEASIBLE:
@@ -317,10 +484,7 @@ def _polish(
             status = "not applicable: the method evaluates through its own envs"
         return action, reward, selection, Certificate(method=config.method, status=status)
     problem = task_problem(prepared.task, prepared.condition, prepared.env_kwargs)
-    # the torch backend differentiates: one model evaluation per gradient instead of 2k + 1
-    torch = prepared.env_kwargs.get("backend") == "torch"
-    gradient = AutogradGradient(problem) if torch else None
-    result = polish(problem, action, allowance, config, gradient)
+    result = polish(problem, action, allowance, config, _gradient(prepared, problem))
     if not result.improved:
         return action, reward, selection, result.certificate
     # accepted strokes pass the task's feasibility test, so their reward is their objective
@@ -342,27 +506,21 @@ def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator) -> tuple[np.n
 
 
 def _search(
-    prepared: PreparedJob, reporter: Reporter | None, progress: bool
+    prepared: PreparedJob, seed: int, budget: int, report: Reporter
 ) -> tuple[SearchOutcome, VectorEnvEvaluator]:
-    """The method's search through the budgeted vector-env evaluator, checked."""
+    """The method's search (seed ``seed``, ``budget`` evaluations) through the budgeted
+    vector-env evaluator, checked."""
     job = prepared.job
-    # The search gets the budget less the polish's share; the polish gets what it leaves.
-    budget = job.budget - prepared.polish_reserve
-    bar = ProgressBar(job.budget, job.label(), progress and reporter is None)
-    report = bar.update if reporter is None else reporter
-    with (
-        bar,
-        VectorEnvEvaluator(
-            prepared.task, prepared.condition, prepared.env_kwargs, job.seed, budget, report
-        ) as evaluator,
-    ):
+    with VectorEnvEvaluator(
+        prepared.task, prepared.condition, prepared.env_kwargs, seed, budget, report
+    ) as evaluator:
         context = SearchContext(
             task=prepared.task,
             condition=prepared.condition,
             env_id=prepared.task.env_id,
             env_kwargs=prepared.env_kwargs,
             budget=budget,
-            seed=job.seed,
+            seed=seed,
             dim=prepared.dim,
             evaluator=evaluator,
             _reporter=report,
@@ -382,14 +540,10 @@ def _search(
 
 
 def _results(
-    prepared: PreparedJob,
-    outcome: SearchOutcome,
-    action: np.ndarray,
-    search_reward: float,
-    selection: str,
-    again: Reevaluation,
+    prepared: PreparedJob, chosen: _Part, history: list[tuple[int, float]], again: Reevaluation
 ) -> dict[str, Any]:
     """The record's results (:data:`agents.records.RESULTS`) from the re-evaluation."""
+    action, search_reward, selection = chosen.action, chosen.reward, chosen.selection
     if not _same(again.reward, search_reward):
         warnings.warn(
             f"{prepared.job.label()}: re-evaluated reward {again.reward!r} differs from the "
@@ -406,7 +560,7 @@ def _results(
         "objective_name": prepared.objective_name,
         "condition_name": prepared.condition.name,
         "condition_unit": prepared.condition.unit,
-        "evaluations": int(outcome.evaluations),
+        "evaluations": chosen.evaluations,
         "objective": float(info.get("objective", again.reward)),
         "reward": again.reward,
         "search_reward": search_reward,
@@ -415,12 +569,20 @@ def _results(
         "stroke": to_jsonable(stroke),
         "normalised_stroke": action.tolist(),
         "metrics": to_jsonable(info),
-        "history": [[int(e), float(b)] for e, b in outcome.history],
+        "history": [[int(e), float(b)] for e, b in history],
         "wall_time": 0.0,
-        "method_settings": to_jsonable(outcome.config),
+        "method_settings": to_jsonable(_method_settings(prepared, chosen)),
         "env": to_jsonable(again.env_config),
         "versions": {**package_versions(), "tandem_env": tandem_env.__version__},
     }
+
+
+def _method_settings(prepared: PreparedJob, chosen: _Part) -> dict[str, Any]:
+    """The method's settings as its (chosen) search reports them; for a polished initial stroke
+    the method did not run there, so the method's name only."""
+    if chosen.outcome is not None:
+        return dict(chosen.outcome.config)
+    return {"algorithm": prepared.job.method, "note": "initial stroke polished; no search"}
 
 
 def _same(a: float, b: float) -> bool:

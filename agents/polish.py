@@ -39,7 +39,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
 import gymnasium as gym
@@ -87,7 +87,11 @@ POLISH_SETTINGS: Mapping[str, str] = {
     "polish_step": "step",
     "polish_tolerance": "tolerance",
     "polish_iterations": "max_iterations",
+    "starts": "starts",
+    "initial": "initial",
 }
+#: Most independent searches one run may split its budget into (``starts``).
+MAX_STARTS = 64
 
 
 @dataclass(frozen=True)
@@ -116,6 +120,16 @@ class PolishConfig:
     active : float
         A constraint (or bound) within ``active`` [-] of its limit counts as active in the
         certificate, 0 to 1e-2.
+    starts : int
+        Independent searches the run's budget is split into, 1 to :data:`MAX_STARTS`; each is
+        the method with its own seed on an equal part of the budget, polished (``share`` of
+        its part), and the run reports the best (docs/harness.md, "Starts"). Chosen by
+        measurement.
+    initial : tuple of strokes
+        Normalised strokes (each a sequence of the action box's dimension, values in [-1, 1])
+        that are polished directly, each on an equal part of the budget beside the searches:
+        a warm start, e.g. the optimum of a neighbouring model reading (continuation). A start
+        may be infeasible; the polish then moves it onto the constraints.
     """
 
     method: str = "slsqp"
@@ -125,6 +139,8 @@ class PolishConfig:
     max_iterations: int = 200
     margin: float = 1e-9
     active: float = 1e-6
+    starts: int = 1
+    initial: tuple[tuple[float, ...], ...] = ()
 
     def __post_init__(self) -> None:
         if self.method not in POLISH_METHODS:
@@ -153,6 +169,21 @@ class PolishConfig:
         if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 1 <= n <= 10_000:
             raise ValueError(f"polish max_iterations = {n!r}; allowed: an integer in [1, 10000]")
         object.__setattr__(self, "max_iterations", int(n))
+        k = self.starts
+        if isinstance(k, bool) or not isinstance(k, int | np.integer) or not 1 <= k <= MAX_STARTS:
+            raise ValueError(f"starts = {k!r}; allowed: an integer in [1, {MAX_STARTS}]")
+        object.__setattr__(self, "starts", int(k))
+        object.__setattr__(self, "initial", _strokes(self.initial))
+        if self.initial and not self.enabled:
+            raise ValueError(
+                "initial strokes are polished, but polish = 'none'; allowed: "
+                "initial with polish 'slsqp' or 'trust-constr'"
+            )
+
+    @property
+    def segments(self) -> int:
+        """Parts the run's budget is split into: one per initial stroke and per search."""
+        return len(self.initial) + self.starts
 
     @property
     def enabled(self) -> bool:
@@ -174,7 +205,36 @@ class PolishConfig:
             "max_iterations": self.max_iterations,
             "margin": self.margin,
             "active": self.active,
+            "starts": self.starts,
+            "initial": [list(stroke) for stroke in self.initial],
         }
+
+
+def _strokes(value: Any) -> tuple[tuple[float, ...], ...]:
+    """``initial`` as a tuple of strokes of finite values in [-1, 1] (equal lengths)."""
+    allowed = "a list of strokes, each a list of numbers in [-1, 1] of the action box's size"
+    if isinstance(value, str | bytes) or not isinstance(value, list | tuple):
+        raise ValueError(f"initial = {value!r}; allowed: {allowed}")
+    strokes = []
+    for stroke in value:
+        if isinstance(stroke, str | bytes) or not isinstance(stroke, list | tuple | np.ndarray):
+            raise ValueError(f"initial stroke {stroke!r}; allowed: {allowed}")
+        numbers = []
+        for v in stroke:
+            if (
+                isinstance(v, bool)
+                or not isinstance(v, int | float | np.floating | np.integer)
+                or not math.isfinite(v)
+                or not -1.0 <= v <= 1.0
+            ):
+                raise ValueError(f"initial stroke value {v!r}; allowed: {allowed}")
+            numbers.append(float(v))
+        strokes.append(tuple(numbers))
+    if len({len(s) for s in strokes}) > 1:
+        raise ValueError(
+            f"initial strokes of lengths {sorted({len(s) for s in strokes})}; allowed: {allowed}"
+        )
+    return tuple(strokes)
 
 
 def split_settings(
@@ -502,6 +562,9 @@ class PolishResult:
     """The reported stroke (dim,): the polished one, or the start when the polish did not gain."""
     objective: float
     certificate: Certificate
+    feasible: bool = True
+    """The reported stroke passes the task's feasibility test (False only for an infeasible
+    start that was kept)."""
 
     @property
     def improved(self) -> bool:
@@ -581,8 +644,15 @@ def polish(
     budget: int,
     config: PolishConfig,
     gradient: GradientFunction | None = None,
+    *,
+    infeasible_start: bool = False,
 ) -> PolishResult:
     """Polish ``start`` (dim,) on ``problem`` with at most ``budget`` model evaluations.
+
+    A start that fails the task's feasibility test is kept unpolished (status ``"failed: the
+    start is infeasible"``) unless ``infeasible_start``: then the optimiser starts there all
+    the same (SLSQP moves onto the constraints) and any feasible point it finds counts as a
+    gain over the start (certificate ``gain`` None: there is no feasible objective to compare).
 
     ``gradient`` is the gradient function (default :class:`CentralDifferences` with
     ``config.step``); its ``cost`` is counted per call. One gradient's cost is kept back for
@@ -613,10 +683,10 @@ def polish(
     z0 = x0[run.free]
     first = run.gradient(z0)
     before = first.objective
-    if not first.feasible:
+    if not first.feasible and not infeasible_start:
         # the search's stroke is where the polish starts; one that fails the task's test has
         # no feasible neighbourhood guaranteed: keep it and say so.
-        return _keep(run, x0, before, config, "failed: the start is infeasible", 0, None, "")
+        return _keep(run, x0, before, config, "failed: the start is infeasible", 0, None, "", False)
     margin = config.margin
 
     def fun(z: np.ndarray) -> float:
@@ -685,11 +755,15 @@ def polish(
             pass
     converged = None if outcome is None else bool(outcome.success)
     message = failure if outcome is None else str(outcome.message)
-    if run.best is None or run.best[0] <= before:
+    if run.best is None or (first.feasible and run.best[0] <= before):
         status = "no gain" if not failure.startswith("failed") else failure
-        return _keep(run, x0, before, config, status, iterations, converged, message)
+        if not first.feasible and not failure.startswith("failed"):
+            status = "failed: no feasible point from the infeasible start"
+        return _keep(
+            run, x0, before, config, status, iterations, converged, message, first.feasible
+        )
     after, x_best = run.best
-    gain = (after - before) / abs(before) if before != 0.0 else None
+    gain = (after - before) / abs(before) if before != 0.0 and first.feasible else None
     return _finish(
         run, x_best, before, after, gain, config, "improved", iterations, converged, message
     )
@@ -722,9 +796,12 @@ def _keep(
     iterations: int,
     converged: bool | None,
     message: str,
+    feasible: bool = True,
 ) -> PolishResult:
     """The search's stroke stays: no gain, a failure, or an infeasible start."""
-    return _finish(run, x0, before, before, 0.0, config, status, iterations, converged, message)
+    gain = 0.0 if feasible else None
+    result = _finish(run, x0, before, before, gain, config, status, iterations, converged, message)
+    return replace(result, feasible=feasible)
 
 
 def _finish(

@@ -61,22 +61,26 @@ __all__ = [
 ]
 
 #: Identifies record files (and their version) among other JSON files.
-SCHEMA = "tandem_env.harness-record/5"
+SCHEMA = "tandem_env.harness-record/6"
 """Record format; /2 added ``selection`` (records report the best feasible stroke seen), /3
 ``key`` and ``job``, /4 holds the job, key and results once each plus a checksum, /5 the
-results' ``certificate`` (the local polish, ``agents.polish``)."""
+results' ``certificate`` (the local polish, ``agents.polish``), /6 runs split into parts
+(``starts``, ``initial``) and the results' ``starts``."""
 #: Earlier formats: recognised, never read as results (their jobs are recomputed).
 OLD_SCHEMAS = (
     "tandem_env.harness-record/1",
     "tandem_env.harness-record/2",
     "tandem_env.harness-record/3",
     "tandem_env.harness-record/4",
+    "tandem_env.harness-record/5",
 )
 #: The record's ``selection``: which of the strokes a search evaluated it reports.
 SELECTION_BEST_FEASIBLE = "best feasible stroke seen"
 SELECTION_BEST_REWARD = "best reward seen (no feasible stroke)"
 SELECTION_METHOD = "the method's stroke"
 SELECTION_POLISHED = "best feasible stroke seen, polished"
+SELECTION_INITIAL = "an initial stroke (not improved by the polish)"
+SELECTION_INITIAL_POLISHED = "an initial stroke, polished"
 #: A store's records folder, ``DIR/records``.
 RECORDS_DIR = "records"
 #: A store's CSV summary over its records, ``DIR/summary.csv``.
@@ -96,7 +100,7 @@ RESULTS: dict[str, str] = {
     "search_reward": "the reported stroke's reward as seen during the search (= reward)",
     "feasible": "every constraint of the task met at the re-evaluation",
     "selection": "which stroke is reported (best feasible seen, best reward seen, the method's, "
-    "best feasible seen and polished)",
+    "best feasible seen and polished, an initial stroke (polished))",
     "stroke": "the stroke, named physical parameters in Table 4 units (Hz, deg, -)",
     "normalised_stroke": "the same stroke as the 28 normalised action values in [-1, 1]",
     "metrics": "every info entry of the re-evaluation except the stroke (docs/envs.md)",
@@ -109,6 +113,10 @@ RESULTS: dict[str, str] = {
 #: The results key of the stage after the search: the local polish and the optimality of the
 #: reported stroke (:meth:`agents.polish.Certificate.to_dict`); every harness record has it.
 CERTIFICATE = "certificate"
+#: The results key listing the parts of a run split into several (``starts`` searches,
+#: ``initial`` strokes; :mod:`agents.harness`): kind, seed, evaluations, reward, feasible,
+#: selection, polish status and gain of each. Absent for a run of one search.
+STARTS = "starts"
 
 #: Metrics copied into the CSV summary when a record has them.
 SUMMARY_METRICS: tuple[str, ...] = (
