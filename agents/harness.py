@@ -163,8 +163,17 @@ def prepare_job(
             f"budget {job.budget} < {polish_config.segments} parts (starts + initial strokes); "
             "allowed: a budget of at least one evaluation per part"
         )
-    # The smallest search part (the budget splits evenly; the last part takes the remainder).
-    part = job.budget // polish_config.segments
+    # The smallest search part (:func:`_plan`).
+    if polish_config.initial_share is None:
+        part = job.budget // polish_config.segments
+    else:
+        first = round(polish_config.initial_share * job.budget)
+        if first < len(polish_config.initial) or job.budget - first < polish_config.starts:
+            raise ValueError(
+                f"budget {job.budget} with initial_share {polish_config.initial_share:g} leaves a "
+                "part without evaluations; allowed: a larger budget or share"
+            )
+        part = (job.budget - first) // polish_config.starts
     # one central-difference gradient: the point and two neighbours per continuous coordinate
     reserve = polish_config.reserve(part, 1 + 2 * (dim - len(spec.discrete_actions)))
     method_obj = get_method(job.method, own_config) if method is None else method
@@ -321,6 +330,9 @@ def run_job(
     again = reevaluate(
         prepared.task, prepared.condition, prepared.env_kwargs, prepared.job.seed, chosen.action
     )
+    if not chosen.feasible and chosen.kind == "initial":
+        # an infeasible initial stroke has no search reward: its reward is the re-evaluation's
+        chosen = replace(chosen, reward=again.reward)
     results = _results(prepared, chosen, _history(parts), again)
     results["evaluations"] = int(evaluations)
     results[CERTIFICATE] = chosen.certificate.to_dict()
@@ -360,15 +372,24 @@ class _Part:
 
 
 def _plan(prepared: PreparedJob) -> list[tuple[str, int, np.ndarray | None]]:
-    """The run's parts: (kind, budget, initial stroke), initial strokes first; the budget split
-    evenly, the remainder to the last part."""
+    """The run's parts: (kind, budget, initial stroke), initial strokes first. The budget is
+    split evenly over the parts, or ``initial_share`` of it over the initial strokes and the
+    rest over the searches; a group's remainder goes to its last part."""
     config = prepared.polish
-    kinds = [("initial", np.asarray(s)) for s in config.initial]
-    kinds += [("search", None)] * config.starts
-    share, rest = divmod(prepared.job.budget, len(kinds))
-    budgets = [share] * len(kinds)
-    budgets[-1] += rest
-    return [(kind, b, stroke) for (kind, stroke), b in zip(kinds, budgets, strict=True)]
+    budget = prepared.job.budget
+    initial = [("initial", np.asarray(s)) for s in config.initial]
+    searches: list[tuple[str, np.ndarray | None]] = [("search", None)] * config.starts
+    if config.initial_share is None:
+        groups = [(initial + searches, budget)]
+    else:
+        first = round(config.initial_share * budget)
+        groups = [(initial, first), (searches, budget - first)]
+    plan = []
+    for parts, total in groups:
+        share, rest = divmod(total, len(parts))
+        for k, (kind, stroke) in enumerate(parts):
+            plan.append((kind, share + (rest if k == len(parts) - 1 else 0), stroke))
+    return plan
 
 
 def _part_seed(seed: int, index: int) -> int:
@@ -423,18 +444,25 @@ def _initial_part(
         infeasible_start=True,
     )
     certificate = result.certificate
-    objective = certificate.objective_after
-    reward = float(objective) if objective is not None else -math.inf
+    evaluations = certificate.evaluations
+    objective, feasible = certificate.objective_after, result.feasible
+    if objective is None and budget >= 1:
+        # an allowance too small to polish: the stroke is reported as given, evaluated once
+        # so that its feasibility is known
+        batch = problem.evaluate(np.asarray(stroke, dtype=np.float64)[None, :])
+        objective, feasible = float(batch.objective[0]), bool(batch.feasible[0])
+        evaluations += 1
+    reward = float(objective) if objective is not None and feasible else -math.inf
     selection = SELECTION_INITIAL_POLISHED if result.improved else SELECTION_INITIAL
     return _Part(
         "initial",
         prepared.job.seed,
         result.stroke,
         reward,
-        result.feasible,
+        feasible and objective is not None,
         selection,
         certificate,
-        certificate.evaluations,
+        evaluations,
     )
 
 

@@ -89,6 +89,7 @@ POLISH_SETTINGS: Mapping[str, str] = {
     "polish_iterations": "max_iterations",
     "starts": "starts",
     "initial": "initial",
+    "initial_share": "initial_share",
 }
 #: Most independent searches one run may split its budget into (``starts``).
 MAX_STARTS = 64
@@ -130,6 +131,10 @@ class PolishConfig:
         that are polished directly, each on an equal part of the budget beside the searches:
         a warm start, e.g. the optimum of a neighbouring model reading (continuation). A start
         may be infeasible; the polish then moves it onto the constraints.
+    initial_share : float or None
+        Fraction of the run's budget the initial strokes get together (split evenly among
+        them), in [0.05, 0.95], the searches sharing the rest; None: every part (initial
+        strokes and searches) gets an equal share.
     """
 
     method: str = "slsqp"
@@ -141,6 +146,7 @@ class PolishConfig:
     active: float = 1e-6
     starts: int = 1
     initial: tuple[tuple[float, ...], ...] = ()
+    initial_share: float | None = None
 
     def __post_init__(self) -> None:
         if self.method not in POLISH_METHODS:
@@ -174,6 +180,20 @@ class PolishConfig:
             raise ValueError(f"starts = {k!r}; allowed: an integer in [1, {MAX_STARTS}]")
         object.__setattr__(self, "starts", int(k))
         object.__setattr__(self, "initial", _strokes(self.initial))
+        share = self.initial_share
+        if share is not None:
+            if (
+                isinstance(share, bool)
+                or not isinstance(share, int | float | np.floating | np.integer)
+                or not math.isfinite(share)
+                or not 0.05 <= share <= 0.95
+            ):
+                raise ValueError(
+                    f"initial_share = {share!r}; allowed: a number in [0.05, 0.95], or none"
+                )
+            if not self.initial:
+                raise ValueError("initial_share without initial strokes; allowed: with initial")
+            object.__setattr__(self, "initial_share", float(share))
         if self.initial and not self.enabled:
             raise ValueError(
                 "initial strokes are polished, but polish = 'none'; allowed: "
@@ -207,6 +227,7 @@ class PolishConfig:
             "active": self.active,
             "starts": self.starts,
             "initial": [list(stroke) for stroke in self.initial],
+            "initial_share": self.initial_share,
         }
 
 

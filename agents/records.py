@@ -61,18 +61,18 @@ __all__ = [
 ]
 
 #: Identifies record files (and their version) among other JSON files.
-SCHEMA = "tandem_env.harness-record/6"
+SCHEMA = "tandem_env.harness-record/5"
 """Record format; /2 added ``selection`` (records report the best feasible stroke seen), /3
 ``key`` and ``job``, /4 holds the job, key and results once each plus a checksum, /5 the
-results' ``certificate`` (the local polish, ``agents.polish``), /6 runs split into parts
-(``starts``, ``initial``) and the results' ``starts``."""
+results' ``certificate`` (the local polish, ``agents.polish``); a run split into parts
+(``starts``, ``initial``) adds the results' ``starts`` (optional: a one-part run's record is
+unchanged)."""
 #: Earlier formats: recognised, never read as results (their jobs are recomputed).
 OLD_SCHEMAS = (
     "tandem_env.harness-record/1",
     "tandem_env.harness-record/2",
     "tandem_env.harness-record/3",
     "tandem_env.harness-record/4",
-    "tandem_env.harness-record/5",
 )
 #: The record's ``selection``: which of the strokes a search evaluated it reports.
 SELECTION_BEST_FEASIBLE = "best feasible stroke seen"
@@ -183,9 +183,16 @@ def _check_count(name: str, value: Any, low: int, allowed: str) -> None:
 
 
 def _pairs(value: Any) -> tuple[tuple[str, Any], ...]:
-    # Sorted by name, lists as tuples: the same settings give one Job, whatever their order.
+    # Sorted by name, lists as tuples (nested too: e.g. the polish's initial strokes): the same
+    # settings give one hashable Job, whatever their order.
     items = value.items() if isinstance(value, Mapping) else value
-    return tuple(sorted((str(k), tuple(v) if isinstance(v, list) else v) for k, v in items))
+    return tuple(sorted((str(k), _frozen(v)) for k, v in items))
+
+
+def _frozen(value: Any) -> Any:
+    if isinstance(value, list | tuple):
+        return tuple(_frozen(v) for v in value)
+    return value
 
 
 @dataclass(frozen=True)

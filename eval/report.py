@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 from eval.studies.base import StudyOutput, StudyPlan
 from eval.studies.claims import CONFIDENCE_RULE, RULES, Claim, VerdictCount
@@ -254,9 +255,13 @@ def render_readings(
     table: Path,
     figure: Path,
     base: Path,
+    check: Sequence[Mapping[str, Any]] = (),
+    continuation: Any = None,
 ) -> str:
     """The readings study's report: the table of readings, the best one, which decision moves
-    which claim and by how much, the matrix figure."""
+    which claim and by how much, the matrix figure; how the readings continued from the
+    default's optima (``continuation``: an ``eval.studies.readings.Continuation`` or None) and
+    the measured bias of that (``check``: ``readings.check_summary`` rows)."""
     default = results[0]
     best = max(results, key=lambda r: r.agree)
     n_claims = len(default.claims)
@@ -297,6 +302,7 @@ def render_readings(
         f"Combination rule (combinations derived from the singles' results, not chosen by "
         f"hand): {rule}.",
         "",
+        *_continuation_section(continuation, check),
         "## Best reading",
         "",
         f"`{best.reading.name}`"
@@ -364,6 +370,47 @@ def render_readings(
     return "\n".join(parts)
 
 
+def _continuation_section(continuation: Any, check: Sequence[Mapping[str, Any]]) -> list[str]:
+    """The report's account of the continuation and its measured bias."""
+    if continuation is None:
+        return ["Every reading ran in full (no continuation).", ""]
+    lines = [
+        "## Continuation and its bias",
+        "",
+        f"The default reading ran in full; every other reading's job that differs from the "
+        f"default's continued from the default's optimum of the same job: "
+        f"{100 * continuation.share:g} % of the budget, {100 * continuation.initial_share:g} % "
+        f"of that for polishing that stroke under the reading and the rest for "
+        f"{continuation.starts} short search(es) of the method, each polished; the best "
+        "feasible stroke is reported. Bias check: the "
+        f"{', '.join(f'`{name}`' for name in continuation.check_studies)} studies' jobs at seeds "
+        f"{', '.join(map(str, continuation.check_seeds))} of every single reading also ran "
+        "in full (continuation_check.csv); difference = (continued − full) / |full|.",
+        "",
+    ]
+    if not check:
+        return [*lines, "No checked pairs (no single reading besides the default).", ""]
+    lines += [
+        "| reading | pairs | median | lowest | highest | within 0.5 % or above | infeasible |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for row in check:
+        lines.append(
+            _row(
+                (
+                    f"`{row['reading']}`" if row["reading"] != "all" else "**all**",
+                    str(row["pairs"]),
+                    f"{100 * row['median']:+.2f} %",
+                    f"{100 * row['lowest']:+.2f} %",
+                    f"{100 * row['highest']:+.2f} %",
+                    f"{row['within_0.5%']} of {row['pairs']}",
+                    str(row["infeasible"]),
+                )
+            )
+        )
+    return [*lines, ""]
+
+
 def write_readings_report(
     path: Path,
     plan: StudyPlan,
@@ -371,7 +418,11 @@ def write_readings_report(
     rule: str,
     table: Path,
     figure: Path,
+    check: Sequence[Mapping[str, Any]] = (),
+    continuation: Any = None,
 ) -> Path:
-    """Write the readings study's report to ``path`` (atomically) and return it."""
-    write_text_atomic(path, render_readings(plan, results, rule, table, figure, path.parent))
+    """Write the readings study's report to ``path`` (atomically) and return it; ``check`` and
+    ``continuation`` as for :func:`render_readings`."""
+    text = render_readings(plan, results, rule, table, figure, path.parent, check, continuation)
+    write_text_atomic(path, text)
     return path

@@ -115,6 +115,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         f"run); allowed: {', '.join(r.name for r in readings.SINGLES)}",
     )
     parser.add_argument(
+        "--continuation",
+        type=_continuation,
+        default=readings.Continuation(),
+        metavar="SHARE|none",
+        help="readings study only: the other readings continue from the default's optima on "
+        f"SHARE of the budget (default {readings.Continuation().share:g}; docs/reproduction.md, "
+        "Readings); none runs every reading in full",
+    )
+    parser.add_argument(
         "--format",
         choices=FORMATS,
         default=FORMATS[0],
@@ -124,12 +133,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress display")
 
 
+def _continuation(text: str) -> readings.Continuation | None:
+    """``--continuation``: a share in (0, 1], or none."""
+    if text.strip().lower() == "none":
+        return None
+    try:
+        return readings.Continuation(share=float(text))
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(
+            f"{error} (got {text!r}; or none to run every reading in full)"
+        ) from None
+
+
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     methods = tuple(dict.fromkeys(args.method)) if args.method else None
     if args.out is None:
         args.out = readings.DEFAULT_OUT if args.study == readings.NAME else DEFAULT_OUT
     if args.reading and args.study != readings.NAME:
         parser.error(f"--reading is for the readings study only (study {args.study!r})")
+    if args.continuation != readings.Continuation() and args.study != readings.NAME:
+        parser.error(f"--continuation is for the readings study only (study {args.study!r})")
     try:
         scheduler = executor_spec(args.scheduler, args.workers)
         # Checked before any work: a file is refused, a read-only folder unless everything
@@ -145,7 +168,14 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         for method in plan.methods:  # an unknown method or bad setting, before any job
             get_method(method, dict(plan.method_config(method)))
         chosen = readings.single_readings(args.reading)
-        if args.study == readings.NAME:
+        if args.study == readings.NAME and args.continuation is not None:
+            jobs = readings.reading_jobs(plan, readings.DEFAULT)
+            title = (
+                f"readings study, first phase (the default reading in full; {len(chosen) - 1} "
+                f"single readings continue from its optima on {args.continuation.share:g} of "
+                "the budget, then the combinations their results point to)"
+            )
+        elif args.study == readings.NAME:
             jobs = [job for r in chosen for job in readings.reading_jobs(plan, r)]
             title = (
                 f"readings study, first phase (the default and {len(chosen) - 1} single "
@@ -226,13 +256,17 @@ def _run_readings(
     result = run_reporting(
         parser,
         lambda: readings.run_readings(
-            plan, args.out, readings=chosen, scheduler=scheduler, progress=not args.quiet
+            plan,
+            args.out,
+            readings=chosen,
+            scheduler=scheduler,
+            progress=not args.quiet,
+            continuation=args.continuation,
         ),
     )
     if isinstance(result, int):
         return result
-    for k, run in enumerate(result.runs):
-        phase = "singles" if k == 0 else "combinations"
+    for phase, run in zip(result.phases, result.runs, strict=True):
         print(
             f"{phase}: {run.total} optimisations: {run.ran} run, {run.reused} reused from "
             f"{args.out} ({run.executor}); {run.wall_time:.1f} s",

@@ -12,23 +12,34 @@ the studies' own claim builders. The readings are
    default are combined, all together and as the pair of the best two, and the best of them is
    paired with each other single.
 
+**Continuation** (:class:`Continuation`, on by default): the readings are small changes of the
+model, so each reading's optimisation starts from the default reading's certified optimum of
+the same job (condition, objective, planform, seed): that stroke is polished under the reading,
+beside a short global search of the method (itself polished), on a share of the preset's budget
+(the harness's ``initial`` and ``starts`` settings), and the better of the two is reported. The
+default's jobs run first and in full. The continuation's bias is measured, not assumed: for
+every single reading the jobs of one study (``Continuation.check_study``) at a few seeds also
+run in full, and ``continuation_check.csv`` and the report compare the two optima.
+
 All jobs of a phase go into one :func:`~eval.studies.runner.run_jobs` call, so a job two
 readings share (the same env keywords: e.g. every job but the horizontal accelerating ones of
 the F̄_h reading, or any job of a reading that restates a default) runs once, and the default's
 jobs are the ``all`` suite's own. Records are written as jobs finish; a killed run resumes in
-either phase. Outputs under the output directory: ``readings.csv`` (one row per reading),
-``readings_matrix.png`` (claims × readings; ``--format`` svg or pdf likewise), ``report.md`` and, per reading, ``<name>/`` with
-that reading's study tables, figures and report.
+any phase. Outputs under the output directory: ``readings.csv`` (one row per reading),
+``readings_matrix.png`` (claims × readings; ``--format`` svg or pdf likewise), ``report.md``,
+``continuation_check.csv`` and, per reading, ``<name>/`` with that reading's study tables,
+figures and report.
 """
 
 from __future__ import annotations
 
 import math
 import os
+import statistics
 import sys
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -45,6 +56,9 @@ NAME = "readings"
 TITLE = "Readings of the paper against its claims"
 DEFAULT_OUT = os.path.join("results", "readings")
 MANIFEST = "readings_manifest.json"
+CHECK_CSV = "continuation_check.csv"
+#: The phases of a run with the continuation: the default in full, the singles, the combinations.
+PHASES = ("default", "singles", "combinations")
 
 #: The single readings: the default, then each open decision changed alone (docs/model.md).
 SINGLES: tuple[Reading, ...] = (
@@ -124,19 +138,107 @@ CSV_COLUMNS: tuple[str, ...] = (
 
 
 @dataclass(frozen=True)
+class Continuation:
+    """How a reading's optimisations continue from the default reading's optima.
+
+    Parameters
+    ----------
+    share : float
+        A continued job's budget as a fraction of the preset's, in (0, 1].
+    initial_share : float
+        The part of that budget for polishing the default's optimum under the reading, in
+        [0.05, 0.95]; ``starts`` short searches of the preset's method, each polished, share
+        the rest (harness settings ``initial``, ``initial_share`` and ``starts``,
+        docs/harness.md).
+    starts : int
+        Short global searches beside the warm start (1 to 8): they catch a basin that moved.
+    check_studies : tuple of str
+        The paper studies whose jobs also run in full for each single reading, to measure the
+        continuation's bias (``continuation_check.csv``): one per task.
+    check_seeds : tuple of int
+        The seeds of those full runs (seeds of the preset that are not among them are not
+        checked).
+    """
+
+    share: float = 0.2
+    initial_share: float = 0.75
+    starts: int = 1
+    check_studies: tuple[str, ...] = ("power", "speed")
+    check_seeds: tuple[int, ...] = (0,)
+
+    def __post_init__(self) -> None:
+        share = self.share
+        if (
+            isinstance(share, bool)
+            or not isinstance(share, int | float)
+            or not math.isfinite(share)
+            or not 0.0 < share <= 1.0
+        ):
+            raise ValueError(f"continuation share = {share!r}; allowed: a number in (0, 1]")
+        object.__setattr__(self, "share", float(share))
+        if (
+            isinstance(self.starts, bool)
+            or not isinstance(self.starts, int)
+            or not 1 <= self.starts <= 8
+        ):
+            raise ValueError(
+                f"continuation starts = {self.starts!r}; allowed: an integer in [1, 8]"
+            )
+        share = self.initial_share
+        if (
+            isinstance(share, bool)
+            or not isinstance(share, int | float)
+            or not math.isfinite(share)
+            or not 0.05 <= share <= 0.95
+        ):
+            raise ValueError(
+                f"continuation initial_share = {share!r}; allowed: a number in [0.05, 0.95]"
+            )
+        object.__setattr__(self, "initial_share", float(share))
+        studies = tuple(self.check_studies)
+        if any(name not in PAPER_STUDIES for name in studies):
+            raise ValueError(
+                f"continuation check_studies = {self.check_studies!r}; allowed: names among "
+                f"{', '.join(PAPER_STUDIES)}"
+            )
+        object.__setattr__(self, "check_studies", studies)
+        seeds = tuple(self.check_seeds)
+        if any(isinstance(x, bool) or not isinstance(x, int) or x < 0 for x in seeds):
+            raise ValueError(
+                f"continuation check_seeds = {self.check_seeds!r}; allowed: integers >= 0"
+            )
+        object.__setattr__(self, "check_seeds", seeds)
+
+    def job(self, job: Job, start: Sequence[float]) -> Job:
+        """``job`` continued from the normalised stroke ``start``: a share of its budget, the
+        start polished beside ``starts`` short searches."""
+        config = dict(job.method_config)
+        config.update(
+            initial=[list(map(float, start))],
+            initial_share=self.initial_share,
+            starts=self.starts,
+        )
+        budget = max(1, round(self.share * job.budget))
+        return replace(job, budget=budget, method_config=config)
+
+
+@dataclass(frozen=True)
 class ReadingsResult:
     """What :func:`run_readings` did."""
 
     results: tuple[ReadingResult, ...]
     """Singles first, then the derived combinations."""
     runs: tuple[RunSummary, ...]
-    """One per phase (singles, combinations)."""
+    """One per phase (:attr:`phases`)."""
     combination_rule: str
     """The rule's outcome in words (which singles gained, what was combined)."""
     files: tuple[Path, ...]
     """readings.csv, the matrix figure, report.md."""
     wall_time: float
     """Seconds for the whole call [s]."""
+    phases: tuple[str, ...] = ()
+    """The phases' names, one per run: ``singles`` and ``combinations``; with the
+    continuation ``default`` first."""
 
     @property
     def best(self) -> ReadingResult:
@@ -167,6 +269,57 @@ def reading_jobs(plan: StudyPlan, reading: Reading) -> list[Job]:
     """Every job of the ``all`` suite under ``reading`` (duplicates between studies included)."""
     p = reading_plan(plan, reading)
     return [job for study in PAPER_STUDIES.values() for job in study.jobs(p)]
+
+
+Starts = Mapping[str, Sequence[float]]
+"""The default reading's optima: normalised stroke by the default job's key."""
+
+
+def study_jobs(
+    plan: StudyPlan,
+    reading: Reading,
+    continuation: Continuation | None = None,
+    starts: Starts | None = None,
+) -> dict[str, list[Job]]:
+    """Each paper study's jobs under ``reading``, by study name.
+
+    Without ``continuation`` (or for the default reading) these are the studies' own jobs.
+    With it, each job pairs with the default's job of the same position (the studies build
+    both lists in one order, differing only in the reading's keywords): a job the default
+    shares (same key) stays, any other continues from the default's optimum in ``starts``.
+    """
+    p = reading_plan(plan, reading)
+    if continuation is None or reading == DEFAULT:
+        return {name: study.jobs(p) for name, study in PAPER_STUDIES.items()}
+    if starts is None:
+        raise ValueError("continuation needs the default reading's optima (starts)")
+    base = reading_plan(plan, DEFAULT)
+    out: dict[str, list[Job]] = {}
+    for name, study in PAPER_STUDIES.items():
+        jobs = []
+        for default_job, job in zip(study.jobs(base), study.jobs(p), strict=True):
+            if job.key == default_job.key:
+                jobs.append(job)
+            else:
+                jobs.append(continuation.job(job, starts[default_job.key]))
+        out[name] = jobs
+    return out
+
+
+def check_jobs(
+    plan: StudyPlan, reading: Reading, continuation: Continuation, starts: Starts
+) -> list[tuple[Job, Job]]:
+    """(continued job, the same job in full) for the continuation's bias check: the check
+    studies' jobs at the check seeds that the reading does not share with the default."""
+    continued = study_jobs(plan, reading, continuation, starts)
+    full = study_jobs(plan, reading)
+    pairs = dict.fromkeys(
+        (c, f)
+        for name in continuation.check_studies
+        for c, f in zip(continued[name], full[name], strict=True)
+        if c != f and f.seed in continuation.check_seeds
+    )
+    return list(pairs)
 
 
 def combinations(
@@ -239,8 +392,14 @@ def _combined_name(results: Sequence[ReadingResult]) -> str:
     return "+".join(r.reading.name for r in results)
 
 
-def analyse_reading(plan: StudyPlan, reading: Reading, out_dir: Path) -> ReadingResult:
-    """Analyse the four studies under ``reading`` (every record present) into its folder.
+def analyse_reading(
+    plan: StudyPlan,
+    reading: Reading,
+    out_dir: Path,
+    jobs: Mapping[str, list[Job]] | None = None,
+) -> ReadingResult:
+    """Analyse the four studies under ``reading`` (every record present) into its folder;
+    ``jobs`` are each study's jobs (:func:`study_jobs`; the studies' own by default).
 
     The folder gets a relative link ``records -> ../records`` so the study indexes' record
     paths resolve, and its own ``report.md``.
@@ -254,9 +413,10 @@ def analyse_reading(plan: StudyPlan, reading: Reading, out_dir: Path) -> Reading
             link.symlink_to(Path("..") / RECORDS_DIR, target_is_directory=True)
         except OSError:  # no symlinks here (e.g. some Windows setups): the index paths dangle
             pass
+    jobs = study_jobs(plan, reading) if jobs is None else jobs
     outputs = tuple(
-        study.analyse(p, load_records(out_dir, study.jobs(p)), where)
-        for study in PAPER_STUDIES.values()
+        study.analyse(p, load_records(out_dir, jobs[name]), where)
+        for name, study in PAPER_STUDIES.items()
     )
     report.write_report(where / "report.md", p, outputs, list(PAPER_STUDIES))
     return ReadingResult(reading, outputs)
@@ -268,15 +428,113 @@ def _phase(
     out_dir: Path,
     scheduler: str | None,
     progress: bool,
-) -> tuple[list[ReadingResult], RunSummary]:
-    jobs = [job for reading in readings for job in reading_jobs(plan, reading)]
-    summary = run_jobs(jobs, out_dir, scheduler=scheduler, progress=progress)
+    continuation: Continuation | None = None,
+    starts: Starts | None = None,
+    check: bool = False,
+) -> tuple[list[ReadingResult], RunSummary, list[tuple[Reading, Job, Job]]]:
+    """Run and analyse ``readings``; with ``check`` also the full runs of the bias check."""
+    jobs = {r.name: study_jobs(plan, r, continuation, starts) for r in readings}
+    checks = []
+    if check and continuation is not None and starts is not None:
+        checks = [
+            (r, c, f)
+            for r in readings
+            if r != DEFAULT
+            for c, f in check_jobs(plan, r, continuation, starts)
+        ]
+    todo = [job for by_study in jobs.values() for group in by_study.values() for job in group]
+    todo += [full for _, _, full in checks]
+    summary = run_jobs(todo, out_dir, scheduler=scheduler, progress=progress)
     results = []
     for reading in readings:
         if progress:
             print(f"analysing reading {reading.name}", file=sys.stderr)
-        results.append(analyse_reading(plan, reading, out_dir))
-    return results, summary
+        results.append(analyse_reading(plan, reading, out_dir, jobs[reading.name]))
+    return results, summary, checks
+
+
+def default_optima(out_dir: Path, default_jobs: Mapping[str, list[Job]]) -> dict[str, list[float]]:
+    """The default reading's optima (normalised strokes) by job key."""
+    jobs = [job for group in default_jobs.values() for job in group]
+    return {
+        job.key: list(record.results["normalised_stroke"])
+        for job, record in load_records(out_dir, jobs).items()
+    }
+
+
+#: The columns of continuation_check.csv, in order.
+CHECK_COLUMNS: tuple[str, ...] = (
+    "reading",
+    "task",
+    "objective",
+    "condition",
+    "seed",
+    "budget_full",
+    "budget_continued",
+    "objective_full",
+    "objective_continued",
+    "feasible_full",
+    "feasible_continued",
+    "difference",
+    "chosen",
+)
+
+
+def check_rows(out_dir: Path, checks: Sequence[tuple[Reading, Job, Job]]) -> list[dict[str, Any]]:
+    """One row per checked job: the continued and the full optimum (``difference`` =
+    (continued − full) / |full| [-]) and which part the continued run reported."""
+    continued = load_records(out_dir, [c for _, c, _ in checks])
+    full = load_records(out_dir, [f for _, _, f in checks])
+    rows = []
+    for reading, c, f in checks:
+        rc, rf = continued[c].results, full[f].results
+        oc, of = float(rc["objective"]), float(rf["objective"])
+        rows.append(
+            {
+                "reading": reading.name,
+                "task": f.task,
+                "objective": rf["objective_name"],
+                "condition": f.condition,
+                "seed": f.seed,
+                "budget_full": f.budget,
+                "budget_continued": c.budget,
+                "objective_full": of,
+                "objective_continued": oc,
+                "feasible_full": bool(rf["feasible"]),
+                "feasible_continued": bool(rc["feasible"]),
+                "difference": (oc - of) / abs(of) if of else math.nan,
+                "chosen": rc["selection"],
+            }
+        )
+    return rows
+
+
+def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Per reading, and over all: the continuation's bias on the checked jobs (both
+    feasible): pairs, median, lowest and highest relative difference, and how many continued
+    optima are within 0.5 % of the full run's or above it."""
+    groups: dict[str, list[float]] = {}
+    for row in rows:
+        if row["feasible_full"] and row["feasible_continued"]:
+            groups.setdefault(row["reading"], []).append(float(row["difference"]))
+            groups.setdefault("all", []).append(float(row["difference"]))
+    return [
+        {
+            "reading": name,
+            "pairs": len(values),
+            "median": statistics.median(values),
+            "lowest": min(values),
+            "highest": max(values),
+            "within_0.5%": sum(v >= -0.005 for v in values),
+            "infeasible": sum(
+                1
+                for row in rows
+                if (name == "all" or row["reading"] == name)
+                and not (row["feasible_full"] and row["feasible_continued"])
+            ),
+        }
+        for name, values in groups.items()
+    ]
 
 
 def _check_preset(out_dir: Path, plan: StudyPlan) -> None:
@@ -302,9 +560,14 @@ def run_readings(
     derive: bool = True,
     scheduler: str | None = None,
     progress: bool = True,
+    continuation: Continuation | None = Continuation(),
 ) -> ReadingsResult:
     """Run the readings study into ``out_dir``: the ``readings`` (singles; the default first),
     then, if ``derive``, the combinations their results point to (:func:`combinations`).
+
+    With ``continuation`` (the default; None runs every reading in full) the default reading
+    runs first and the others continue from its optima (:class:`Continuation`), with the bias
+    check on the singles.
 
     ``plan`` gives the preset and methods (its own reading is ignored). ``scheduler`` as for
     :func:`eval.studies.runner.run_jobs`. Raises ValueError if ``readings`` does not start with
@@ -322,18 +585,33 @@ def run_readings(
     if len(set(names)) != len(names):
         raise ValueError(f"readings = {names}; allowed: distinct names")
     _check_preset(out, plan)
-    singles, first = _phase(plan, readings, out, scheduler, progress)
-    runs = [first]
+    starts: Starts | None = None
+    runs: list[RunSummary] = []
+    if continuation is None:
+        singles, first, checks = _phase(plan, readings, out, scheduler, progress)
+        runs.append(first)
+    else:
+        # the default first: the others start from its optima
+        default, first, _ = _phase(plan, readings[:1], out, scheduler, progress)
+        starts = default_optima(out, study_jobs(plan, DEFAULT))
+        others, second, checks = _phase(
+            plan, readings[1:], out, scheduler, progress, continuation, starts, check=True
+        )
+        singles = default + others
+        runs += [first, second]
     words = "not derived (derive=False)"
     results = list(singles)
     if derive:
         derived, words = combinations(singles[0], singles)
         derived = [r for r in derived if r.name not in names]
         if derived:
-            more, second = _phase(plan, derived, out, scheduler, progress)
+            more, third, _ = _phase(plan, derived, out, scheduler, progress, continuation, starts)
             results += more
-            runs.append(second)
-    files = write_outputs(plan, results, words, out)
+            runs.append(third)
+    rows = check_rows(out, checks) if checks else []
+    if rows:
+        write_csv_atomic(out / CHECK_CSV, rows)
+    files = write_outputs(plan, results, words, out, check_summary(rows), continuation)
     wall = time.perf_counter() - start
     write_json_atomic(
         out / MANIFEST,
@@ -345,11 +623,16 @@ def run_readings(
                 for r in results
             ],
             "combination_rule": words,
+            "continuation": None if continuation is None else asdict(continuation),
+            "continuation_check": check_summary(rows),
             "phases": [s.to_dict() for s in runs],
             "wall_time_s": round(wall, 1),
         },
     )
-    return ReadingsResult(tuple(results), tuple(runs), words, tuple(files), wall)
+    names = ("singles", "combinations") if continuation is None else PHASES
+    return ReadingsResult(
+        tuple(results), tuple(runs), words, tuple(files), wall, names[: len(runs)]
+    )
 
 
 def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
@@ -381,9 +664,15 @@ def _round(value: float) -> float:
 
 
 def write_outputs(
-    plan: StudyPlan, results: Sequence[ReadingResult], rule: str, out_dir: Path
+    plan: StudyPlan,
+    results: Sequence[ReadingResult],
+    rule: str,
+    out_dir: Path,
+    check: Sequence[Mapping[str, Any]] = (),
+    continuation: Continuation | None = None,
 ) -> list[Path]:
-    """readings.csv, readings_matrix.<format> and report.md."""
+    """readings.csv, readings_matrix.<format> and report.md (with the continuation and its
+    bias check, ``check``: :func:`check_summary`)."""
     csv_path = out_dir / "readings.csv"
     write_csv_atomic(csv_path, csv_rows(results))
     claims = results[0].claims
@@ -399,6 +688,6 @@ def write_outputs(
         split=next((k for k, r in enumerate(results) if r.reading.derived_from), None),
     )
     report_path = report.write_readings_report(
-        out_dir / "report.md", plan, results, rule, csv_path, figure
+        out_dir / "report.md", plan, results, rule, csv_path, figure, check, continuation
     )
     return [csv_path, figure, report_path]

@@ -154,7 +154,9 @@ def test_tiny_run_writes_everything_and_a_rerun_computes_nothing(
 
     plan = StudyPlan(TINY)
     chosen = readings.single_readings(["spin-total"])
-    first = readings.run_readings(plan, tmp_path, readings=chosen, progress=False)
+    first = readings.run_readings(
+        plan, tmp_path, readings=chosen, progress=False, continuation=None
+    )
     assert first.runs[0].ran == len(_keys(reading_jobs(plan, DEFAULT))) * 2
     for name in ("readings.csv", "readings_matrix.png", "report.md", readings.MANIFEST):
         assert (tmp_path / name).is_file(), name
@@ -176,7 +178,7 @@ def test_tiny_run_writes_everything_and_a_rerun_computes_nothing(
     monkeypatch.setattr(runner, "_harness_run", lambda job: calls.append(job))
     monkeypatch.setitem(PRESETS, TINY.name, TINY)
     argv = ["study", "readings", "--preset", "tiny", "--out", str(tmp_path), "--quiet"]
-    assert main([*argv, "--reading", "spin-total"]) == 0
+    assert main([*argv, "--reading", "spin-total", "--continuation", "none"]) == 0
     out = capsys.readouterr().out
     assert calls == []
     for r in first.results:
@@ -197,3 +199,71 @@ def test_cli_names_an_unknown_reading(capsys: pytest.CaptureFixture) -> None:
     with pytest.raises(SystemExit):
         main(["study", "speed", "--reading", "body", "--quiet"])
     assert "--reading is for the readings study only" in capsys.readouterr().err
+
+
+# --- continuation ------------------------------------------------------------------------------
+def test_continued_jobs_start_from_the_default_optimum_of_the_same_job() -> None:
+    plan = StudyPlan(TINY)
+    reading = next(r for r in readings.SINGLES if r.name == "Fh-literal")
+    continuation = readings.Continuation(share=0.5, initial_share=0.6, starts=2)
+    default = readings.study_jobs(plan, DEFAULT)
+    starts = {
+        job.key: [0.01 * k] * 28 for k, job in enumerate(j for g in default.values() for j in g)
+    }
+    continued = readings.study_jobs(plan, reading, continuation, starts)
+    full = readings.study_jobs(plan, reading)
+    assert readings.study_jobs(plan, DEFAULT, continuation, starts) == default
+    shared = changed = 0
+    for name in default:
+        for d, c, f in zip(default[name], continued[name], full[name], strict=True):
+            if f.key == d.key:  # Fh-literal changes only the horizontal jobs: shared
+                assert c == d
+                shared += 1
+                continue
+            changed += 1
+            config = dict(c.method_config)
+            assert config["initial"] == (tuple(starts[d.key]),) and config["starts"] == 2
+            assert config["initial_share"] == 0.6
+            assert c.budget == round(0.5 * f.budget) and c.seed == f.seed
+            assert (c.task, c.condition, c.env_kwargs) == (f.task, f.condition, f.env_kwargs)
+    assert shared and changed
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"share": 0.0}, r"share = 0.0; allowed: a number in \(0, 1\]"),
+        ({"share": 1.5}, r"share = 1.5"),
+        ({"starts": 0}, r"starts = 0; allowed: an integer in \[1, 8\]"),
+        ({"initial_share": 1.0}, r"initial_share = 1.0; allowed: a number in \[0.05, 0.95\]"),
+        ({"check_studies": ("nope",)}, r"check_studies = \('nope',\); allowed: names among speed"),
+        ({"check_seeds": (-1,)}, r"check_seeds = \(-1,\); allowed: integers >= 0"),
+    ],
+)
+def test_bad_continuation_is_refused(kwargs: dict, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        readings.Continuation(**kwargs)
+
+
+def test_tiny_run_with_continuation_checks_its_bias(tmp_path: Path) -> None:
+    plan = StudyPlan(TINY)
+    chosen = readings.single_readings(["hover-none"])
+    continuation = readings.Continuation(share=1.0)
+    result = readings.run_readings(
+        plan, tmp_path, readings=chosen, progress=False, continuation=continuation
+    )
+    assert result.phases[:2] == ("default", "singles")
+    n_default = len(_keys(reading_jobs(plan, DEFAULT)))
+    assert result.runs[0].ran == n_default
+    with open(tmp_path / readings.CHECK_CSV, newline="", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    checked = readings.check_jobs(
+        plan,
+        chosen[1],
+        continuation,
+        readings.default_optima(tmp_path, readings.study_jobs(plan, DEFAULT)),
+    )
+    assert len(rows) == len(checked) > 0 and tuple(rows[0]) == readings.CHECK_COLUMNS
+    assert {r["reading"] for r in rows} == {"hover-none"}
+    report = (tmp_path / "report.md").read_text(encoding="utf-8")
+    assert "## Continuation and its bias" in report and "**all**" in report
