@@ -4,7 +4,7 @@ from .physics import *  # noqa: F403
 from .physics import __all__ as _physics_all
 
 __all__ = list(_physics_all)
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 # Register the Gymnasium ids (TandemWing/LevelFlight-v0, TandemWing/Accelerate-v0,
 # TandemWing/SpeedChange-v0).
