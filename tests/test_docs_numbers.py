@@ -2,8 +2,10 @@
 
 ``python -m eval numbers`` measures and writes them (eval/numbers.py). Here: every marked region
 of every document equals its rendering from ``docs/numbers/*.json`` (no hand edit, no stale
-text), every measurement has a region, and seed 0 of each deterministic comparison row, rerun by
-its documented command at its stated settings, gives the stored objective.
+text), every measurement has a region, and the deterministic numbers are rerun at their stated
+settings against the stored ones: seed 0 of each comparison row by its documented command, the
+SpeedChange random and steady baselines from the stored optima, and one of those optima.
+Timings (the benchmarks' regions) are only checked to be their stored rendering.
 """
 
 from __future__ import annotations
@@ -55,3 +57,46 @@ def test_comparison_seed0_reproduces(row: numbers.ComparisonRow, method: str) ->
         "(rerun `python -m eval numbers`)"
     )
     assert fresh["feasible"] == old["feasible"]
+
+
+def assert_same_rows(fresh: list[dict], stored: list[dict], what: str) -> None:
+    assert [r["policy"] for r in fresh] == [r["policy"] for r in stored]
+    for new, old in zip(fresh, stored, strict=True):
+        assert new.keys() == old.keys()
+        for key, value in old.items():
+            if isinstance(value, float):
+                same = math.isclose(new[key], value, rel_tol=1e-9, abs_tol=1e-12) or (
+                    math.isnan(new[key]) and math.isnan(value)
+                )
+            else:
+                same = new[key] == value
+            assert same, (
+                f"{what}: {old['policy']} {key} is {new[key]!r}, docs say {value!r} "
+                "(rerun `python -m eval numbers --only speed-change`)"
+            )
+
+
+def test_speed_change_baselines_reproduce() -> None:
+    """The random and steady rows, flown again from the stored optima (one batched model call
+    per cycle for the 32 episodes): the env, the dynamics and the metrics are deterministic."""
+    stored = numbers.load("speed-change")
+    fresh = numbers.speed_change_rows(stored["optima"], stored["first_seed"])
+    assert_same_rows(fresh, stored["rows"], numbers.SPEED_CHANGE_COMMAND)
+
+
+@pytest.mark.slow
+def test_speed_change_optimum_reproduces() -> None:
+    """One of the steady schedule's optima (the 1.5 m/s one), rerun as ``eval speed-change``
+    makes it, gives the stored stroke."""
+    stored = next(o for o in numbers.load("speed-change")["optima"] if o["speed"] == 1.5)
+    (fresh,) = numbers.speed_change_optima([1.5])
+    assert (fresh["method"], fresh["budget"], fresh["seed"]) == (
+        stored["method"],
+        stored["budget"],
+        stored["seed"],
+    ), (
+        "the command's optimiser defaults changed (rerun `python -m eval numbers --only speed-change`)"
+    )
+    assert math.isclose(fresh["objective"], stored["objective"], rel_tol=1e-9)
+    assert fresh["feasible"] == stored["feasible"]
+    assert fresh["normalised_stroke"] == pytest.approx(stored["normalised_stroke"], abs=1e-9)
