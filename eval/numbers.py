@@ -18,7 +18,7 @@ commands, date, machine and load), and the Markdown is rendered from that file a
 
 * ``python -m eval numbers --only NAME ...`` reruns only those (:data:`MEASUREMENTS` lists
   them: the comparison of methods, the benchmarks of the model, the torch port and the envs,
-  and SpeedChange's random and steady baselines).
+  SpeedChange's random and steady baselines, and readings of the model on random strokes).
 
 Adding a number is one :class:`Measurement` (a name, ``measure() -> dict`` and a pure
 ``render(dict) -> str``) and one region in a document. A benchmark is measured by running its
@@ -490,6 +490,121 @@ def render_speed_change(data: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+# --- readings of the model on random strokes (deterministic: the test reruns them) -------------
+RANDOM_STROKES = 1000
+"""Random Table 4 strokes (uniform in the normalised box, seed 0) of the model's readings."""
+
+
+def random_strokes(n: int = RANDOM_STROKES, seed: int = 0) -> Any:
+    """(n, 28) physical strokes drawn uniformly in Table 4's box."""
+    import numpy as np
+
+    import tandem_env as te
+
+    return te.normalised_to_physical(np.random.default_rng(seed).uniform(-1.0, 1.0, (n, 28)))
+
+
+ROTATION_SPEEDS: tuple[float, ...] = (0.0, 1.5)
+"""Flight speeds [m/s] of the rotational-coefficient reading (hover and 1.5 m/s)."""
+
+
+def measure_rotational_coefficient() -> dict[str, Any]:
+    """L/W with the paper's C_r = π over L/W with π/2 (both wings), for the random strokes that
+    lift at least half the weight with π (docs/model.md §1.3)."""
+    import math
+    from dataclasses import replace
+
+    import numpy as np
+
+    import tandem_env as te
+
+    strokes = random_strokes()
+    insect = te.DRAGONFLY
+    half = replace(
+        insect,
+        fore=replace(insect.fore, rotational_coefficient=math.pi / 2),
+        hind=replace(insect.hind, rotational_coefficient=math.pi / 2),
+    )
+    rows = []
+    for speed in ROTATION_SPEEDS:
+        paper = te.evaluate(strokes, speed, insect=insect).lift_to_weight
+        lifting = paper >= 0.5
+        ratio = paper[lifting] / te.evaluate(strokes[lifting], speed, insect=half).lift_to_weight
+        p5, p95 = np.percentile(ratio, [5, 95])
+        rows.append(
+            {
+                "speed": speed,
+                "strokes": int(lifting.sum()),
+                "median": float(np.median(ratio)),
+                "p5": float(p5),
+                "p95": float(p95),
+            }
+        )
+    return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}
+
+
+def render_rotational_coefficient(data: dict[str, Any]) -> str:
+    hover, forward = data["rows"]
+    return (
+        f"On {spaced(data['random_strokes'])} random Table 4 strokes (seed {data['seed']}, "
+        f"default options) that lift at least half the weight with C_r = π ({hover['strokes']} "
+        f"in hover, {forward['strokes']} at {forward['speed']:g} m/s), L/W with C_r = π is a "
+        f"median {hover['median']:.2f}× its value with C_r = π/2 in hover and "
+        f"{forward['median']:.2f}× at {forward['speed']:g} m/s (5th-95th percentiles "
+        f"{hover['p5']:.2f}-{hover['p95']:.1f}× and {forward['p5']:.2f}-{forward['p95']:.1f}×; "
+        "`evaluate` with `rotational_coefficient` replaced on both wings, written by `python -m "
+        "eval numbers --only rotational-coefficient`).\n"
+    )
+
+
+POWER_SPEEDS: tuple[float, ...] = (0.0, 1.0, 2.0)
+"""Flight speeds [m/s] of the power-conventions reading."""
+
+
+def measure_power_conventions() -> dict[str, Any]:
+    """The ``"aerodynamic"`` power over the ``"absolute"`` and ``"elastic"`` ones on the random
+    strokes (docs/model.md §6.3)."""
+    import numpy as np
+
+    import tandem_env as te
+
+    strokes = random_strokes()
+    rows = []
+    for speed in POWER_SPEEDS:
+        power = {
+            kind: te.evaluate(strokes, speed, options=te.ModelOptions(power=kind)).power
+            for kind in ("absolute", "elastic", "aerodynamic")
+        }
+        rows.append(
+            {
+                "speed": speed,
+                "over_absolute_median": float(np.median(power["aerodynamic"] / power["absolute"])),
+                "over_elastic_median": float(np.median(power["aerodynamic"] / power["elastic"])),
+                "above_elastic_share": float(np.mean(power["aerodynamic"] > power["elastic"])),
+            }
+        )
+    return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}
+
+
+def render_power_conventions(data: dict[str, Any]) -> str:
+    rows = data["rows"]
+
+    def listed(values: Sequence[str]) -> str:
+        return ", ".join(values[:-1]) + " and " + values[-1]
+
+    speeds = listed([f"{r['speed']:g}" for r in rows])
+    absolute = listed([f"{r['over_absolute_median']:.2f}×" for r in rows])
+    elastic = listed([f"{r['over_elastic_median']:.2f}×" for r in rows])
+    above = listed([f"{100 * r['above_elastic_share']:.1f} %" for r in rows])
+    return (
+        f"On {spaced(data['random_strokes'])} random Table 4 strokes (seed {data['seed']}, other "
+        f"options default) aerodynamic power is a median {absolute} the absolute power at "
+        f"V = {speeds} m/s, {elastic} the elastic one, and exceeds the elastic one for {above} "
+        "of the strokes "
+        "(written by `python -m eval numbers --only power-conventions`).\n"
+    )
+
+
 # --- the registry -------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Measurement:
@@ -510,6 +625,10 @@ MEASUREMENTS: dict[str, Measurement] = {
         Measurement("torch-throughput", measure_torch_throughput, render_torch_throughput),
         Measurement("env-throughput", ENV_THROUGHPUT.run, render_env_throughput),
         Measurement("speed-change", measure_speed_change, render_speed_change),
+        Measurement(
+            "rotational-coefficient", measure_rotational_coefficient, render_rotational_coefficient
+        ),
+        Measurement("power-conventions", measure_power_conventions, render_power_conventions),
     )
 }
 

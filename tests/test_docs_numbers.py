@@ -4,7 +4,8 @@
 of every document equals its rendering from ``docs/numbers/*.json`` (no hand edit, no stale
 text), every measurement has a region, and the deterministic numbers are rerun at their stated
 settings against the stored ones: seed 0 of each comparison row by its documented command, the
-SpeedChange random and steady baselines from the stored optima, and one of those optima.
+SpeedChange random and steady baselines from the stored optima, one of those optima, and
+the model's readings on random strokes (docs/model.md §1.3, §6.3).
 Timings (the benchmarks' regions) are only checked to be their stored rendering.
 """
 
@@ -100,3 +101,17 @@ def test_speed_change_optimum_reproduces() -> None:
     assert math.isclose(fresh["objective"], stored["objective"], rel_tol=1e-9)
     assert fresh["feasible"] == stored["feasible"]
     assert fresh["normalised_stroke"] == pytest.approx(stored["normalised_stroke"], abs=1e-9)
+
+
+@pytest.mark.parametrize("name", ["rotational-coefficient", "power-conventions"])
+def test_model_readings_reproduce(name: str) -> None:
+    """The readings of the model on random strokes (docs/model.md §1.3, §6.3), measured again."""
+    stored = numbers.load(name)
+    fresh = numbers.MEASUREMENTS[name].measure()
+    assert fresh.keys() == stored.keys() - {"machine_before", "machine_after"}
+    assert fresh["rows"] == [
+        {key: pytest.approx(value, rel=1e-9) for key, value in row.items()}
+        for row in stored["rows"]
+    ], (
+        f"{name} differs from docs/numbers/{name}.json (rerun `python -m eval numbers --only {name}`)"
+    )
