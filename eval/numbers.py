@@ -18,7 +18,8 @@ commands, date, machine and load), and the Markdown is rendered from that file a
 
 * ``python -m eval numbers --only NAME ...`` reruns only those (:data:`MEASUREMENTS` lists
   them: the comparison of methods, the benchmarks of the model, the torch port and the envs,
-  SpeedChange's random and steady baselines, and readings of the model on random strokes).
+  SpeedChange's random and steady baselines, readings of the model on random strokes and
+  the resolution study of the defaults).
 
 Adding a number is one :class:`Measurement` (a name, ``measure() -> dict`` and a pure
 ``render(dict) -> str``) and one region in a document. A benchmark is measured by running its
@@ -605,6 +606,48 @@ def render_power_conventions(data: dict[str, Any]) -> str:
     )
 
 
+# --- the resolution study at the defaults (deterministic: the test reruns it) -------------------
+CONVERGENCE = Benchmark(("benchmarks/convergence.py", "--resolutions", "128x24"))
+CONVERGENCE_BOUND_PERCENT = 0.5
+"""The defaults' bound on the error of forces and power against the refined run [%] (§11.4)."""
+CONVERGENCE_COLUMNS: tuple[tuple[str, str], ...] = (
+    ("lift_to_weight", "L/W"),
+    ("thrust", "T"),
+    ("drag", "D"),
+    ("power", "P"),
+)
+
+
+def render_convergence(data: dict[str, Any]) -> str:
+    rows = sorted(data["rows"], key=lambda r: (r["speed"] == 0.0, r["speed"]))  # hover last
+
+    def cell(error: dict[str, float]) -> str:
+        text = f"{error['median']:.1g} % / {error['max']:.2g} %"
+        if error["max"] > CONVERGENCE_BOUND_PERCENT:  # the few strokes beyond it: how few
+            text += f" (p95 {error['p95']:.2g} %)"
+        return text
+
+    lines = [
+        "| V [m/s] | "
+        + " | ".join(f"{title} median / max" for _, title in CONVERGENCE_COLUMNS)
+        + " |",
+        "|---" * (1 + len(CONVERGENCE_COLUMNS)) + "|",
+    ]
+    for r in rows:
+        speed = "0 (hover)" if r["speed"] == 0.0 else f"{r['speed']:.1f}"
+        cells = " | ".join(cell(r["error_percent"][name]) for name, _ in CONVERGENCE_COLUMNS)
+        lines.append(f"| {speed} | {cells} |")
+    lines += [
+        "",
+        f"{data['strokes']} random strokes (seed {data['seed']}), n_time = {rows[0]['n_time']}, "
+        f"n_blade = {rows[0]['n_blade']} against {4 * rows[0]['n_time']} and "
+        f"{4 * rows[0]['n_blade']}; written by `python -m eval numbers --only convergence` from:",
+        "",
+        f"    {data['command']}",
+    ]
+    return "\n".join(lines) + "\n"
+
+
 # --- the registry -------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Measurement:
@@ -629,6 +672,7 @@ MEASUREMENTS: dict[str, Measurement] = {
             "rotational-coefficient", measure_rotational_coefficient, render_rotational_coefficient
         ),
         Measurement("power-conventions", measure_power_conventions, render_power_conventions),
+        Measurement("convergence", CONVERGENCE.run, render_convergence),
     )
 }
 

@@ -5,7 +5,8 @@ of every document equals its rendering from ``docs/numbers/*.json`` (no hand edi
 text), every measurement has a region, and the deterministic numbers are rerun at their stated
 settings against the stored ones: seed 0 of each comparison row by its documented command, the
 SpeedChange random and steady baselines from the stored optima, one of those optima, and
-the model's readings on random strokes (docs/model.md §1.3, §6.3).
+the model's readings on random strokes (docs/model.md §1.3, §6.3) and the resolution study of
+the defaults (§11.4).
 Timings (the benchmarks' regions) are only checked to be their stored rendering.
 """
 
@@ -115,3 +116,19 @@ def test_model_readings_reproduce(name: str) -> None:
     ], (
         f"{name} differs from docs/numbers/{name}.json (rerun `python -m eval numbers --only {name}`)"
     )
+
+
+def test_convergence_reproduces() -> None:
+    """The resolution study of the defaults (docs/model.md §11.4), its command rerun; the
+    throughput it also prints is a timing and not compared."""
+    stored = numbers.load("convergence")
+    fresh = numbers.CONVERGENCE.run()
+    assert [(r["n_time"], r["n_blade"], r["speed"]) for r in fresh["rows"]] == [
+        (r["n_time"], r["n_blade"], r["speed"]) for r in stored["rows"]
+    ]
+    for new, old in zip(fresh["rows"], stored["rows"], strict=True):
+        for name, error in old["error_percent"].items():
+            assert new["error_percent"][name] == pytest.approx(error, rel=1e-9), (
+                f"{stored['command']}: {name} at V = {old['speed']} m/s differs from "
+                "docs/numbers/convergence.json (rerun `python -m eval numbers --only convergence`)"
+            )
