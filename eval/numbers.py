@@ -172,7 +172,7 @@ def render_comparison(data: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-# --- benchmarks: timings, shown with their machine, date and load, never compared --------------
+# --- benchmarks: documented commands run with --json (timings: shown, never compared) ---------
 @dataclass(frozen=True)
 class Benchmark:
     """A documented benchmark command; run with ``--json`` into a temporary file."""
