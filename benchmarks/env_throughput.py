@@ -6,19 +6,23 @@ cost about one batched ``evaluate`` call at B = 1024, i.e. the vector env and th
 should run at a large fraction of the raw model rate, and the single env at the B = 1 rate.
 
 With Gymnasium's default next-step autoreset, every other vector step only resets the envs
-(no model call), so the native env is timed in both autoreset modes.
+(no model call), so the native env is timed in both autoreset modes. ``--json PATH`` also
+writes the numbers to PATH (``python -m eval numbers`` renders docs/envs.md from it).
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 
 import tandem_env as te
+from tandem_env.io.files import write_json_atomic
 
 ENV_ID = "TandemWing/LevelFlight-v0"
 
@@ -36,6 +40,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--num-envs", type=int, default=1024, help="vector width n (default 1024)")
     parser.add_argument("--seconds", type=float, default=4.0, help="time per measurement [s]")
+    parser.add_argument("--json", type=Path, default=None, help="also write the numbers here")
     args = parser.parse_args()
     n, seconds = args.num_envs, args.seconds
     rng = np.random.default_rng(0)
@@ -94,6 +99,21 @@ def main() -> None:
     print(f"{'':{width}}  strokes/s   vs evaluate(B={n})")
     for name, value in rows:
         print(f"{name:{width}}  {value:9.0f}   {value / reference:6.1%}")
+    if args.json is not None:
+        command = " ".join(["python", "benchmarks/env_throughput.py", *sys.argv[1:]])
+        write_json_atomic(
+            args.json,
+            {
+                "command": command,
+                "num_envs": n,
+                "seconds": seconds,
+                "reference": rows[1][0],
+                "rows": [
+                    {"case": name, "strokes_per_s": value, "of_reference": value / reference}
+                    for name, value in rows
+                ],
+            },
+        )
 
 
 if __name__ == "__main__":

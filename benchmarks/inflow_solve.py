@@ -10,6 +10,8 @@ ratios are the medians of the per-round ratios, of wall time and of CPU time (al
 steadier than wall time when other processes compete for the cores). Then it counts force sweeps per annulus by calling the
 solver directly (``induction.solve_annulus``) on the fore-wing annuli of random Table 4
 strokes: the mean over annuli that need a solve (F̄_n(0) > 0) is the solver's own cost.
+``--json PATH`` also writes the numbers to PATH (``python -m eval numbers`` renders
+docs/model.md §12 from it).
 """
 
 from __future__ import annotations
@@ -17,18 +19,26 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import sys
 import time
 from functools import partial
+from pathlib import Path
+from typing import Any
 
 import numba
 import numpy as np
 
 import tandem_env as te
+from tandem_env.io.files import write_json_atomic
 from tandem_env.physics import blade, induction, model
 from tandem_env.physics.kinematics import fill_angle_history, wing_params_radians
 
 INDUCTION = ("coupled", "isolated", "none")
 BATCHES = (1, 64, 1024)
+SWEEP_STROKES = 200
+"""Random strokes whose fore-wing annuli are solved one by one to count the sweeps."""
+SWEEP_SPEEDS = (0.0, 1.0, 2.0)
+"""Flight speeds [m/s] of that count."""
 
 
 def timed(call, min_seconds: float) -> tuple[float, float]:
@@ -45,7 +55,9 @@ def timed(call, min_seconds: float) -> tuple[float, float]:
             return elapsed / calls, (time.process_time() - cpu) / calls
 
 
-def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> None:
+def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> dict[str, Any]:
+    """Seconds per call of every case in ``rounds`` interleaved rounds (printed, and returned
+    as per-case best and median rates and the per-round coupled / none ratios)."""
     cases = [(induction, batch) for batch in BATCHES for induction in INDUCTION]
     calls = {
         case: partial(
@@ -69,11 +81,21 @@ def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> None:
         f"{'batch':>6} {'induction':>10} {'evals/s best':>13} {'evals/s median':>15} "
         f"{'CPU ms/call best':>17}"
     )
+    numbers: dict[str, Any] = {"rounds": rounds, "rates": [], "ratios": []}
     for case in cases:
         t = np.array(wall[case])
         print(
             f"{case[1]:>6} {case[0]:>10} {case[1] / t.min():>13.0f} "
             f"{case[1] / np.median(t):>15.0f} {1e3 * min(cpu[case]):>17.2f}"
+        )
+        numbers["rates"].append(
+            {
+                "batch": case[1],
+                "induction": case[0],
+                "best_per_s": case[1] / t.min(),
+                "median_per_s": case[1] / np.median(t),
+                "best_cpu_per_s": case[1] / min(cpu[case]),
+            }
         )
     print()
     print("coupled / none (time per call; per-round ratios: median and range):")
@@ -86,6 +108,16 @@ def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> None:
             f"best/best {min(wall[coupled]) / min(wall[none]):.3f}; "
             f"CPU {np.median(cpu_ratio):.3f} ({cpu_ratio.min():.3f}-{cpu_ratio.max():.3f})"
         )
+        numbers["ratios"].append(
+            {
+                "batch": batch,
+                "wall_median": float(np.median(ratio)),
+                "wall_range": [float(ratio.min()), float(ratio.max())],
+                "cpu_median": float(np.median(cpu_ratio)),
+                "cpu_range": [float(cpu_ratio.min()), float(cpu_ratio.max())],
+            }
+        )
+    return numbers
 
 
 def sweeps_per_annulus(strokes: np.ndarray, speed: float) -> tuple[np.ndarray, np.ndarray]:
@@ -117,6 +149,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=7, help="interleaved timing rounds")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--json", type=Path, default=None, help="also write the numbers here")
     args = parser.parse_args()
 
     rng = np.random.default_rng(args.seed)
@@ -129,17 +162,32 @@ def main() -> None:
         f"n_time = {options.n_time}, n_blade = {options.n_blade}, tolerance {options.tolerance:g}"
     )
     print()
-    print("force sweeps per fore-wing annulus (own inflow, 200 random strokes):")
-    for speed in (0.0, 1.0, 2.0):
-        counts, solved = sweeps_per_annulus(strokes[:200], speed)
+    print(f"force sweeps per fore-wing annulus (own inflow, {SWEEP_STROKES} random strokes):")
+    sweeps = []
+    for speed in SWEEP_SPEEDS:
+        counts, solved = sweeps_per_annulus(strokes[:SWEEP_STROKES], speed)
         hist = np.bincount(counts[solved])
         print(
             f"  V = {speed:.0f} m/s: {solved.mean():.0%} of annuli solved, mean "
             f"{counts[solved].mean():.2f} sweeps (max {counts.max()}), "
             f"histogram {dict((int(k), int(n)) for k, n in enumerate(hist) if n)}"
         )
+        sweeps.append(
+            {
+                "speed": speed,
+                "solved_share": float(solved.mean()),
+                "mean_sweeps": float(counts[solved].mean()),
+                "max_sweeps": int(counts.max()),
+            }
+        )
     print()
-    throughput(strokes, speeds, args.rounds)
+    numbers = throughput(strokes, speeds, args.rounds)
+    if args.json is not None:
+        command = " ".join(["python", "benchmarks/inflow_solve.py", *sys.argv[1:]])
+        write_json_atomic(
+            args.json,
+            {"command": command, "seed": args.seed, "sweeps": sweeps, **numbers},
+        )
 
 
 if __name__ == "__main__":

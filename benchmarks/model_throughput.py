@@ -3,6 +3,7 @@
     python benchmarks/model_throughput.py [--repeats 5] [--seed 0]
     python benchmarks/model_throughput.py --backend torch [--device cuda] [--dtype float32]
         [--threads 1] [--batches 1 64 1024] [--gradient]
+    python benchmarks/model_throughput.py --json results/throughput.json   # the numbers too
 
 One evaluation is one full wing-beat cycle of both wing pairs at the default (converged)
 resolution; "coupled" solves each pair's momentum inflow and the fore-wing's slipstream on the
@@ -15,6 +16,9 @@ batch size and, on the CPU, the numba kernel on the same strokes in the same pro
 ratio torch / numba (> 1: torch faster). ``--gradient`` adds the cost of one autograd gradient
 of a metric with respect to all 28 parameters against a central difference of the numba model
 (the stroke and its 2 × 26 probes of the continuous parameters in one ``evaluate`` call).
+
+``--json PATH`` also writes every printed number to PATH (``python -m eval numbers`` renders
+docs/model.md §12 from it).
 """
 
 from __future__ import annotations
@@ -22,12 +26,16 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import sys
 import time
+from pathlib import Path
+from typing import Any
 
 import numba
 import numpy as np
 
 import tandem_env as te
+from tandem_env.io.files import write_json_atomic
 from tandem_env.physics import model
 
 
@@ -59,10 +67,17 @@ def main() -> None:
     parser.add_argument(
         "--induction", nargs="+", default=["coupled", "isolated", "none"], help="inflow models"
     )
+    parser.add_argument("--json", type=Path, default=None, help="also write the numbers here")
     args = parser.parse_args()
-    if args.backend == "torch":
-        torch_throughput(args)
-        return
+    numbers = torch_throughput(args) if args.backend == "torch" else numba_throughput(args)
+    if args.json is not None:
+        numbers["command"] = " ".join(["python", "benchmarks/model_throughput.py", *sys.argv[1:]])
+        write_json_atomic(args.json, numbers)
+
+
+def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
+    """Evaluations per second of the numba kernel per inflow model and batch, and where the
+    time of one coupled batch of 1024 goes."""
 
     options = te.ModelOptions()
     rng = np.random.default_rng(args.seed)
@@ -77,17 +92,36 @@ def main() -> None:
         f"n_blade = {options.n_blade} blade elements per wing, inflow tolerance {options.tolerance:g}"
     )
     print()
+    numbers: dict[str, Any] = {
+        "numba": numba.__version__,
+        "numba_threads": numba.get_num_threads(),
+        "n_time": options.n_time,
+        "n_blade": options.n_blade,
+        "tolerance": options.tolerance,
+        "repeats": args.repeats,
+        "rates": [],
+        "breakdown": [],
+    }
     print(f"{'batch':>6} {'induction':>10} {'evals/s':>10} {'ms/call':>9} {'inflow sweeps*':>15}")
-    for induction in ("coupled", "isolated", "none"):
+    for induction in args.induction:
         opts = te.ModelOptions(induction=induction)
-        for batch in (1, 64, 1024):
+        for batch in args.batches or (1, 64, 1024):
             x, v = strokes[:batch], speeds[:batch]
             seconds, _ = best_times(
                 lambda x=x, v=v, opts=opts: te.evaluate(x, v, options=opts), args.repeats
             )
-            sweeps = te.evaluate(x, v, options=opts).induction_evaluations.mean()
+            sweeps = float(te.evaluate(x, v, options=opts).induction_evaluations.mean())
             print(
                 f"{batch:>6} {induction:>10} {batch / seconds:>10.0f} {1e3 * seconds:>9.2f} {sweeps:>15.1f}"
+            )
+            numbers["rates"].append(
+                {
+                    "batch": batch,
+                    "induction": induction,
+                    "evaluations_per_s": batch / seconds,
+                    "ms_per_call": 1e3 * seconds,
+                    "inflow_sweeps": sweeps,
+                }
             )
     print("* force sweeps over the cycle needed by a stroke's slowest annulus, mean over the batch")
     print()
@@ -125,9 +159,11 @@ def main() -> None:
     for name, call in parts.items():
         wall, cpu = best_times(call, args.repeats)
         print(f"  {name:<55} {1e3 * wall:8.2f} {1e3 * cpu:8.2f}")
+        numbers["breakdown"].append({"part": name, "wall_ms": 1e3 * wall, "cpu_ms": 1e3 * cpu})
+    return numbers
 
 
-def torch_throughput(args: argparse.Namespace) -> None:
+def torch_throughput(args: argparse.Namespace) -> dict[str, Any]:
     """Evaluations per second of the torch port per batch size (and numba's, on the CPU)."""
     import torch
 
@@ -152,6 +188,18 @@ def torch_throughput(args: argparse.Namespace) -> None:
     )
     x_all = torch.tensor(strokes, dtype=dtype, device=device)
     v_all = torch.tensor(speeds, dtype=dtype, device=device)
+    numbers: dict[str, Any] = {
+        "torch": torch.__version__,
+        "device": str(device),
+        "device_name": name or platform.machine(),
+        "dtype": args.dtype,
+        "compiled": args.compile,
+        "torch_threads": torch.get_num_threads(),
+        "numba": numba.__version__,
+        "numba_threads": numba.get_num_threads(),
+        "repeats": args.repeats,
+        "rates": [],
+    }
 
     def run_torch(batch: int, opts: te.ModelOptions) -> None:
         with torch.no_grad():
@@ -167,19 +215,28 @@ def torch_throughput(args: argparse.Namespace) -> None:
         for batch in batches:
             seconds, _ = best_times(lambda b=batch, o=opts: run_torch(b, o), args.repeats)
             line = f"{batch:>7} {induction:>10} {batch / seconds:>14.0f} {1e3 * seconds:>9.2f}"
+            row = {"batch": batch, "induction": induction, "evaluations_per_s": batch / seconds}
             if on_cpu:
                 numba_s, _ = best_times(
                     lambda b=batch, o=opts: te.evaluate(strokes[:b], speeds[:b], options=o),
                     args.repeats,
                 )
                 line += f" {batch / numba_s:>14.0f} {numba_s / seconds:>12.3f}"
+                row |= {
+                    "numba_evaluations_per_s": batch / numba_s,
+                    "torch_over_numba": numba_s / seconds,
+                }
             print(line)
-    accuracy(args, torch_model, x_all, v_all, strokes, speeds)
+            numbers["rates"].append(row)
+    numbers["accuracy"] = accuracy(args, torch_model, x_all, v_all, strokes, speeds)
     if args.gradient:
-        gradient_cost(args, torch_model, x_all, strokes, speeds)
+        numbers["gradient"] = gradient_cost(args, torch_model, x_all, strokes, speeds)
+    return numbers
 
 
-def accuracy(args, torch_model, x_all, v_all, strokes: np.ndarray, speeds: np.ndarray) -> None:
+def accuracy(
+    args, torch_model, x_all, v_all, strokes: np.ndarray, speeds: np.ndarray
+) -> dict[str, Any]:
     """The torch results against the numba kernel's on (up to) 256 of the strokes: the largest
     relative difference of any field (denominator floored at 1e-6) and, per headline metric,
     the largest difference relative to the metric's largest magnitude in the batch."""
@@ -199,14 +256,20 @@ def accuracy(args, torch_model, x_all, v_all, strokes: np.ndarray, speeds: np.nd
     print(
         f"against numba on {n} strokes (coupled): largest relative difference {worst:.2g} ({worst_name})"
     )
-    scaled = []
+    scaled = {}
     for name in ("lift_to_weight", "thrust", "drag", "power", "efficiency", "fore_inflow"):
         a, b = getattr(want, name), getattr(got, name)
-        scaled.append(f"{name} {np.max(np.abs(b - a)) / np.max(np.abs(a)):.1g}")
-    print("  largest difference / largest magnitude: " + ", ".join(scaled))
+        scaled[name] = float(np.max(np.abs(b - a)) / np.max(np.abs(a)))
+    print(
+        "  largest difference / largest magnitude: "
+        + ", ".join(f"{name} {value:.1g}" for name, value in scaled.items())
+    )
+    return {"strokes": n, "largest_relative": worst, "field": worst_name, "scaled": scaled}
 
 
-def gradient_cost(args, torch_model, x_all, strokes: np.ndarray, speeds: np.ndarray) -> None:
+def gradient_cost(
+    args, torch_model, x_all, strokes: np.ndarray, speeds: np.ndarray
+) -> dict[str, Any]:
     """One autograd gradient against one batched central difference of the numba model."""
     from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
 
@@ -221,6 +284,7 @@ def gradient_cost(args, torch_model, x_all, strokes: np.ndarray, speeds: np.ndar
         f"gradient of power with respect to the 28 parameters, per stroke: central difference "
         f"of numba ({probes.shape[0]} strokes in one call) {1e3 * central:.1f} ms"
     )
+    numbers: dict[str, Any] = {"central_difference_ms": 1e3 * central, "probes": probes.shape[0]}
     for batch in (1, 64):
         seconds, _ = best_times(
             lambda b=batch: torch_model.value_and_grad(
@@ -232,6 +296,8 @@ def gradient_cost(args, torch_model, x_all, strokes: np.ndarray, speeds: np.ndar
             f"  autograd at batch {batch:>3}: {1e3 * seconds / batch:8.1f} ms per stroke "
             f"({central * batch / seconds:.2f}x the central difference's rate)"
         )
+        numbers[f"autograd_ms_per_stroke_batch_{batch}"] = 1e3 * seconds / batch
+    return numbers
 
 
 if __name__ == "__main__":

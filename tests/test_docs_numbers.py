@@ -2,8 +2,12 @@
 
 ``python -m eval numbers`` measures and writes them (eval/numbers.py). Here: every marked region
 of every document equals its rendering from ``docs/numbers/*.json`` (no hand edit, no stale
-text), every measurement has a region, and seed 0 of each deterministic comparison row, rerun by
-its documented command at its stated settings, gives the stored objective.
+text), every measurement has a region, and the deterministic numbers are rerun at their stated
+settings against the stored ones: seed 0 of each comparison row by its documented command, the
+SpeedChange random and steady baselines from the stored optima, one of those optima, and
+the model's readings on random strokes (docs/model.md §1.3, §6.3) and the resolution study of
+the defaults (§11.4).
+Timings (the benchmarks' regions) are only checked to be their stored rendering.
 """
 
 from __future__ import annotations
@@ -55,3 +59,76 @@ def test_comparison_seed0_reproduces(row: numbers.ComparisonRow, method: str) ->
         "(rerun `python -m eval numbers`)"
     )
     assert fresh["feasible"] == old["feasible"]
+
+
+def assert_same_rows(fresh: list[dict], stored: list[dict], what: str) -> None:
+    assert [r["policy"] for r in fresh] == [r["policy"] for r in stored]
+    for new, old in zip(fresh, stored, strict=True):
+        assert new.keys() == old.keys()
+        for key, value in old.items():
+            if isinstance(value, float):
+                same = math.isclose(new[key], value, rel_tol=1e-9, abs_tol=1e-12) or (
+                    math.isnan(new[key]) and math.isnan(value)
+                )
+            else:
+                same = new[key] == value
+            assert same, (
+                f"{what}: {old['policy']} {key} is {new[key]!r}, docs say {value!r} "
+                "(rerun `python -m eval numbers --only speed-change`)"
+            )
+
+
+def test_speed_change_baselines_reproduce() -> None:
+    """The random and steady rows, flown again from the stored optima (one batched model call
+    per cycle for the 32 episodes): the env, the dynamics and the metrics are deterministic."""
+    stored = numbers.load("speed-change")
+    fresh = numbers.speed_change_rows(stored["optima"], stored["first_seed"])
+    assert_same_rows(fresh, stored["rows"], numbers.SPEED_CHANGE_COMMAND)
+
+
+@pytest.mark.slow
+def test_speed_change_optimum_reproduces() -> None:
+    """One of the steady schedule's optima (the 1.5 m/s one), rerun as ``eval speed-change``
+    makes it, gives the stored stroke."""
+    stored = next(o for o in numbers.load("speed-change")["optima"] if o["speed"] == 1.5)
+    (fresh,) = numbers.speed_change_optima([1.5])
+    assert (fresh["method"], fresh["budget"], fresh["seed"]) == (
+        stored["method"],
+        stored["budget"],
+        stored["seed"],
+    ), (
+        "the command's optimiser defaults changed (rerun `python -m eval numbers --only speed-change`)"
+    )
+    assert math.isclose(fresh["objective"], stored["objective"], rel_tol=1e-9)
+    assert fresh["feasible"] == stored["feasible"]
+    assert fresh["normalised_stroke"] == pytest.approx(stored["normalised_stroke"], abs=1e-9)
+
+
+@pytest.mark.parametrize("name", ["rotational-coefficient", "power-conventions"])
+def test_model_readings_reproduce(name: str) -> None:
+    """The readings of the model on random strokes (docs/model.md §1.3, §6.3), measured again."""
+    stored = numbers.load(name)
+    fresh = numbers.MEASUREMENTS[name].measure()
+    assert fresh.keys() == stored.keys() - {"machine_before", "machine_after"}
+    assert fresh["rows"] == [
+        {key: pytest.approx(value, rel=1e-9) for key, value in row.items()}
+        for row in stored["rows"]
+    ], (
+        f"{name} differs from docs/numbers/{name}.json (rerun `python -m eval numbers --only {name}`)"
+    )
+
+
+def test_convergence_reproduces() -> None:
+    """The resolution study of the defaults (docs/model.md §11.4), its command rerun; the
+    throughput it also prints is a timing and not compared."""
+    stored = numbers.load("convergence")
+    fresh = numbers.CONVERGENCE.run()
+    assert [(r["n_time"], r["n_blade"], r["speed"]) for r in fresh["rows"]] == [
+        (r["n_time"], r["n_blade"], r["speed"]) for r in stored["rows"]
+    ]
+    for new, old in zip(fresh["rows"], stored["rows"], strict=True):
+        for name, error in old["error_percent"].items():
+            assert new["error_percent"][name] == pytest.approx(error, rel=1e-9), (
+                f"{stored['command']}: {name} at V = {old['speed']} m/s differs from "
+                "docs/numbers/convergence.json (rerun `python -m eval numbers --only convergence`)"
+            )
