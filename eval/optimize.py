@@ -20,6 +20,7 @@ from agents.polish import POLISH_DEFAULTS, POLISH_METHODS
 from agents.polish import describe as describe_certificate
 from agents.records import SUMMARY_NAME, RecordStore
 from agents.tasks import TaskSpec, available_tasks, get_task
+from eval.studies.readings import reading_by_name
 from eval.studies.runner import (
     JobsFailed,
     SchedulerUnreachable,
@@ -203,6 +204,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "the other methods; its evaluations count in --budget (the method setting "
         "polish_share sets its part)",
     )
+    parser.add_argument(
+        "--reading",
+        metavar="NAME",
+        help="run under a reading of the paper's open decisions (eval/studies/readings.py): "
+        "paper (the reading that reproduces the most claims, docs/reproduction.md), a single "
+        "such as hover-none, or singles joined by '+'; sets its model options as env "
+        "keywords and, for --objective horizontal, its F̄_h objective",
+    )
     add_scheduler_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress display")
 
@@ -267,6 +276,18 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         if given and set(EXECUTION_KWARGS) & set(env_kwargs):
             raise ValueError("give --backend/--device or --env-kwargs backend=/device=, not both")
         env_kwargs.update(given)
+        objective = args.objective
+        if args.reading is not None:
+            reading = reading_by_name(args.reading)
+            clash = sorted(set(env_kwargs) & set(reading.env_kwargs()))
+            if clash:
+                raise ValueError(
+                    f"--reading {args.reading} sets {clash}; give them there or in "
+                    "--env-kwargs, not both"
+                )
+            env_kwargs.update(reading.env_kwargs())
+            if objective is not None:
+                objective = reading.objective(objective)
         method_config = parse_pairs(args.method_config, "--method-config")
         if args.swarm_size is not None:
             if "swarm_size" in method_config:
@@ -283,7 +304,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             condition,
             args.budget,
             args.seeds,
-            objective=args.objective,
+            objective=objective,
             env_kwargs=env_kwargs,
             method_config=method_config,
         )

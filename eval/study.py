@@ -111,8 +111,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--reading",
         action="append",
         metavar="NAME",
-        help="readings study only: run these single readings (repeat; the default is always "
-        f"run); allowed: {', '.join(r.name for r in readings.SINGLES)}",
+        help="readings study: run these single readings (repeat; the default is always "
+        f"run; allowed: {', '.join(r.name for r in readings.SINGLES)}); any other study: run "
+        "it under this one reading (paper, a single, or singles joined by '+'; "
+        "docs/reproduction.md, Readings)",
     )
     parser.add_argument(
         "--continuation",
@@ -149,8 +151,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     methods = tuple(dict.fromkeys(args.method)) if args.method else None
     if args.out is None:
         args.out = readings.DEFAULT_OUT if args.study == readings.NAME else DEFAULT_OUT
-    if args.reading and args.study != readings.NAME:
-        parser.error(f"--reading is for the readings study only (study {args.study!r})")
+    if args.reading and args.study != readings.NAME and len(args.reading) > 1:
+        parser.error(f"study {args.study!r} runs under one --reading, got {args.reading}")
     if args.continuation != readings.Continuation() and args.study != readings.NAME:
         parser.error(f"--continuation is for the readings study only (study {args.study!r})")
     try:
@@ -164,10 +166,13 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             methods,
             figure_format=args.format,
             execution=tuple(backend_kwargs(args).items()),
+            reading=readings.reading_by_name(args.reading[0])
+            if args.reading and args.study != readings.NAME
+            else readings.DEFAULT,
         )
         for method in plan.methods:  # an unknown method or bad setting, before any job
             get_method(method, dict(plan.method_config(method)))
-        chosen = readings.single_readings(args.reading)
+        chosen = readings.single_readings(args.reading if args.study == readings.NAME else None)
         if args.study == readings.NAME and args.continuation is not None:
             jobs = readings.reading_jobs(plan, readings.DEFAULT)
             title = (

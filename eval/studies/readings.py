@@ -120,6 +120,10 @@ SINGLES: tuple[Reading, ...] = (
     ),
 )
 
+#: Named readings: ``paper`` is the reading that reproduces the most of the paper's claims
+#: at the paper preset (docs/reproduction.md, "Readings"; docs/model.md §13).
+ALIASES: dict[str, str] = {}
+
 #: The columns of readings.csv, in order.
 CSV_COLUMNS: tuple[str, ...] = (
     "reading",
@@ -258,6 +262,27 @@ def single_readings(names: Sequence[str] | None = None) -> tuple[Reading, ...]:
         )
     chosen = [DEFAULT] + [known[n] for n in dict.fromkeys(names) if n != DEFAULT.name]
     return tuple(chosen)
+
+
+def reading_by_name(name: str) -> Reading:
+    """The reading ``name``: a single (:data:`SINGLES`), singles joined by ``+`` (their
+    combination, as the study derives them, e.g. ``hover-none+Fh-literal``) or an alias of
+    :data:`ALIASES` (``paper``). Raises ValueError naming what is allowed."""
+    if name in ALIASES:
+        name = ALIASES[name]
+    known = {r.name: r for r in SINGLES}
+    parts = name.split("+")
+    unknown = [part for part in parts if part not in known]
+    if unknown or not name:
+        raise ValueError(
+            f"reading {name!r}: unknown {', '.join(map(repr, unknown)) or 'name'}; allowed: "
+            f"{', '.join([*ALIASES, *known])}, or singles joined by '+'"
+        )
+    if len(parts) == 1:
+        return known[name]
+    if len(set(parts)) != len(parts) or DEFAULT.name in parts:
+        raise ValueError(f"reading {name!r}: allowed: distinct singles other than the default")
+    return combine([known[part] for part in parts], name)
 
 
 def reading_plan(plan: StudyPlan, reading: Reading) -> StudyPlan:

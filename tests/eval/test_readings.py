@@ -197,8 +197,41 @@ def test_cli_names_an_unknown_reading(capsys: pytest.CaptureFixture) -> None:
         main(["study", "readings", "--reading", "nope", "--quiet"])
     assert "unknown reading(s) 'nope'; allowed: default, body" in capsys.readouterr().err
     with pytest.raises(SystemExit):
-        main(["study", "speed", "--reading", "body", "--quiet"])
-    assert "--reading is for the readings study only" in capsys.readouterr().err
+        main(["study", "speed", "--reading", "body", "--reading", "elastic", "--quiet"])
+    assert "study 'speed' runs under one --reading" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["study", "speed", "--reading", "body+nope", "--quiet"])
+    assert "reading 'body+nope': unknown 'nope'; allowed: " in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["optimize", "--task", "level", "--speed", "1.5", "--method", "cmaes",
+              "--budget", "100", "--seeds", "0", "--out", "x", "--reading", "nope"])  # fmt: skip
+    assert "reading 'nope': unknown 'nope'" in capsys.readouterr().err
+
+
+def test_named_readings_are_the_singles_and_their_combinations() -> None:
+    assert readings.reading_by_name("body") is readings.single_readings(["body"])[1]
+    both = readings.reading_by_name("hover-none+Fh-literal")
+    assert both.changes() == {"hover_inflow": "none", "horizontal_objective": "horizontal_literal"}
+    assert both.derived_from == ("hover-none", "Fh-literal")
+    for alias, name in readings.ALIASES.items():
+        assert readings.reading_by_name(alias) == readings.reading_by_name(name)
+    with pytest.raises(ValueError, match="distinct singles other than the default"):
+        readings.reading_by_name("body+body")
+
+
+def test_optimize_and_study_run_under_a_named_reading(tmp_path: Path, capsys) -> None:
+    from eval.__main__ import main
+
+    argv = ["optimize", "--task", "accelerate", "--power", "60", "--objective", "horizontal",
+            "--method", "random", "--budget", "20", "--seeds", "0", "--quiet"]  # fmt: skip
+    assert main([*argv, "--out", str(tmp_path / "o"), "--reading", "hover-none+Fh-literal"]) == 0
+    (record,) = runner.RecordStore(tmp_path / "o").records()
+    assert record.job.env("hover_inflow") == "none"
+    assert record.job.env("objective") == "horizontal_literal"
+    with pytest.raises(SystemExit):  # the reading and --env-kwargs may not both set an option
+        main([*argv, "--out", str(tmp_path / "p"), "--reading", "hover-none",
+              "--env-kwargs", "hover_inflow=momentum"])  # fmt: skip
+    assert "--reading hover-none sets ['hover_inflow']" in capsys.readouterr().err
 
 
 # --- continuation ------------------------------------------------------------------------------
