@@ -95,6 +95,6 @@ def test_bad_settings_are_refused_naming_the_value(settings: dict, match: str):
 def test_a_stroke_of_the_wrong_size_or_too_many_parts_is_refused_before_running():
     with pytest.raises(ValueError, match=r"initial stroke of length 3; allowed: 28 values"):
         prepare("cmaes", "accelerate", 60.0, 2_000, [0], method_config={"initial": [[0.0] * 3]})
-    # each of 64 searches would get 15 evaluations: below one CMA-ES population (26)
-    with pytest.raises(ValueError, match=r"smaller than one CMA-ES population \(26 points\)"):
+    # each of 64 searches would get 15 evaluations: below one CMA-ES population (52)
+    with pytest.raises(ValueError, match=r"smaller than one CMA-ES population \(52 points\)"):
         prepare("cmaes", "accelerate", 60.0, 1_000, [0], method_config={"starts": 64})
