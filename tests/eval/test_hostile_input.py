@@ -63,11 +63,23 @@ def _exit_status(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[i
         ("local:0", r"from 1 to 1024"),
         ("local:-3", r"from 1 to 1024"),
         ("tcp://:8786", r"allowed: local:N"),
+        # names the resolver refuses with a codec error or a NUL instead of "not found"
+        ("a" * 64 + ":8786", r"'a{40}…' is not a host name .*labels of 1 to 63"),
+        ("a." * 130 + "b:8786", r"is not a host name .*at most 253 in all"),
+        ("\x00:8786", r"'\\x00' is not a host name"),
+        ("-a:1", r"'-a' is not a host name"),
+        ("a..b:1", r"'a..b' is not a host name"),
     ],
 )
 def test_bad_scheduler_values_name_the_allowed_range(value: str, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         parse_scheduler(value)
+
+
+@pytest.mark.parametrize("value", ["localhost:8786", "tcp://my-host.example.org:1", "h_1:2",
+                                   "10.0.0.1:8786", "[::1]:8786", "host.:8786"])  # fmt: skip
+def test_host_names_and_addresses_are_accepted(value: str) -> None:
+    assert parse_scheduler(value).startswith("tcp://")
 
 
 @pytest.mark.parametrize("value", [None, 8786, b"local:2"])
