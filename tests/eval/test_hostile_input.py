@@ -469,7 +469,8 @@ def test_radians_declared_as_degrees_are_warned_about(
         (["--grid", "nan"], r"--grid speed nan m/s"),
         (["--grid", "1", "1"], r"--grid 1 1: allowed: distinct speeds"),
         (["--grid", "x"], r"argument --grid: invalid float value: 'x'"),
-        (["--optima-budget", "0"], r"budget = 0; allowed: an integer >= 1"),
+        (["--optima-budget", "0"], r"budget = 0; allowed: an integer from 1 to 100,000,000"),
+        (["--optima-budget", str(2**63)], r"budget = 9223372036854775808; allowed: an integer"),
         (["--optima-budget", "-5"], r"budget = -5; allowed"),
         (["--optimiser", "nosuch"], r"unknown method 'nosuch'; allowed: pso"),
         (["--optimiser", "pso:x"], r"method 'pso' takes no ':' argument"),
@@ -501,6 +502,19 @@ def test_a_bad_study_method_exits_2_before_any_job(
     )
     assert status == 2 and re.search(match, err), err
     assert not any(tmp_path.iterdir())
+
+
+def test_a_folder_that_is_no_training_run_is_refused_before_any_job(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``policy:DIR`` of a folder without a run was found only when the job ran: a failed job,
+    its traceback, exit 1. The method's check now reads the folder when the job is prepared."""
+    (tmp_path / "notarun").mkdir()
+    argv = [*OPTIMIZE, "--seeds", "0", "--out", str(tmp_path / "out"), "--quiet"]
+    argv[argv.index("pso")] = f"policy:{tmp_path / 'notarun'}"
+    status, err = _exit_status(argv, capsys)
+    assert status == 2 and f"{tmp_path / 'notarun'} is not a training run folder" in err
+    assert not (tmp_path / "out").exists()
 
 
 # --- rough edges --------------------------------------------------------------------------------
