@@ -407,6 +407,15 @@ class TrainingMethod:
             },
         )
 
+    def check(self, budget: int, dim: int, task: TaskSpec) -> None:
+        """The harness's check before any work: the yml entry and the overrides resolve, and
+        the budget holds one whole iteration (:func:`~train.run.budget_steps` raises)."""
+        from train.config import load_entry
+        from train.run import budget_steps
+
+        entry = load_entry(self.algo, task.env_id, self.conf_file)
+        budget_steps(self.algo, entry, self.overrides, self.n_envs, budget - 1)
+
     def _announce_budget(self, context: SearchContext) -> int:
         """Say (stderr, one line) when training cannot use the whole budget; returns the
         evaluations left unused. SB3 learns in whole iterations, so the training steps are
