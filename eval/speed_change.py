@@ -550,6 +550,15 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             figure = Path(args.figure)
             if figure.is_dir():
                 raise ValueError(f"--figure {str(figure)!r} is a folder; allowed: a file name")
+            from matplotlib.backend_bases import FigureCanvasBase
+
+            formats = FigureCanvasBase.get_supported_filetypes()
+            if figure.suffix[1:].lower() not in formats:
+                raise ValueError(
+                    f"--figure {str(figure)!r}: the format {figure.suffix or '(none)'!r} is not "
+                    f"one matplotlib writes; allowed: a name ending in "
+                    f"{', '.join('.' + f for f in sorted(formats))}"
+                )
             output_directory(figure.parent, "--figure")
         config = SpeedChangeConfig.from_kwargs()
         method = _check_optima(args, config)

@@ -293,6 +293,9 @@ def check_algo(algo: str) -> str:
 
 
 # --- the run configuration ---------------------------------------------------------------------
+#: The largest training seed: SB3 seeds numpy's legacy generator, which takes 32 bits.
+MAX_SEED = 2**32 - 1
+
 @dataclass(frozen=True, kw_only=True)
 class TrainConfig:
     """Everything one training run is made from (the command line, as data).
@@ -344,6 +347,8 @@ class TrainConfig:
             if not is_integer(value) or value < low:
                 raise ValueError(f"{name} = {value!r}; allowed: an integer >= {low}")
             object.__setattr__(self, name, int(value))
+        if self.seed > MAX_SEED:
+            raise ValueError(f"seed = {self.seed!r}; allowed: an integer from 0 to 2**32 - 1")
         for name in ("eval_freq", "save_freq"):
             value = getattr(self, name)
             if not is_integer(value):

@@ -203,6 +203,7 @@ def _commands(out: Path) -> list[list[str]]:
         [*OPTIMIZE, "--seeds", "0", "--out", str(out), "--quiet"],
         ["study", "speed", "--preset", "tiny", "--out", str(out), "--quiet"],
         ["speed-change", "--out", str(out), "--quiet"],
+        ["compare", str(ROOT / "examples"), "--out", str(out)],
     ]
 
 
@@ -473,6 +474,10 @@ def test_radians_declared_as_degrees_are_warned_about(
         (["--optima-budget", str(2**63)], r"budget = 9223372036854775808; allowed: an integer"),
         (["--optima-budget", "-5"], r"budget = -5; allowed"),
         (["--optimiser", "nosuch"], r"unknown method 'nosuch'; allowed: pso"),
+        # found by the method's check when the optimum is prepared, not after training started
+        (["--optimiser", "ppo", "--optima-budget", "8"], r"budget 7 is below one PPO iteration"),
+        (["--episodes", str(2**63)], r"--episodes 9223372036854775808; allowed: 1 to 10,000"),
+        (["--first-seed", "-1"], r"--first-seed -1; allowed: an integer >= 0"),
         (["--optimiser", "pso:x"], r"method 'pso' takes no ':' argument"),
         (["--scheduler", "tls://a:1"], r"the scheme 'tls://' is not supported"),
     ],
@@ -484,6 +489,21 @@ def test_bad_speed_change_options_exit_2_before_any_work(
     status, err = _exit_status(["speed-change", *options, "--out", str(out), "--quiet"], capsys)
     assert status == 2 and re.search(match, err), err
     assert not out.exists()
+
+
+def test_a_figure_that_cannot_be_written_is_refused_before_any_work(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "taken").write_text("")
+    for figure, match in [
+        (tmp_path / "taken" / "episode.png", f"--figure '{tmp_path / 'taken'}': .* is a file"),
+        (tmp_path, "is a folder; allowed: a file name"),
+        (tmp_path / "episode.txt", r"the format '.txt' is not one matplotlib writes; .*\.png"),
+    ]:
+        argv = ["speed-change", "--out", str(tmp_path / "sc"), "--quiet", "--figure", str(figure)]
+        status, err = _exit_status(argv, capsys)
+        assert status == 2 and re.search(match, err), err
+    assert not (tmp_path / "sc").exists()
 
 
 @pytest.mark.parametrize(
