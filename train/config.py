@@ -245,6 +245,12 @@ def resolve_hyperparams(
         raise ValueError(
             f"policy_kwargs = {policy_kwargs!r}; allowed: a dict or a 'dict(...)' string"
         )
+    arch = policy_kwargs.get("net_arch")
+    if arch is not None and not _layer_sizes(arch):
+        raise ValueError(
+            f"net_arch = {arch!r}; allowed: a list of layer sizes >= 1, or a dict of such lists "
+            "(pi, vf, qf)"
+        )
     normalize = _normalize_kwargs(params.pop("normalize", False), params.get("gamma"))
     env_kwargs = params.pop("env_kwargs", None) or {}
     if not isinstance(env_kwargs, dict):
@@ -274,14 +280,23 @@ def resolve_hyperparams(
     )
 
 
+def _layer_sizes(arch: Any) -> bool:
+    """Whether ``arch`` is an SB3 ``net_arch``: layer sizes >= 1 (a zero-width layer trains
+    without an error and without any hidden unit), or a dict of them per network."""
+    if isinstance(arch, Mapping):
+        return all(_layer_sizes(v) for v in arch.values())
+    return isinstance(arch, list | tuple) and all(is_integer(n) and n >= 1 for n in arch)
+
+
 def _positive_int(name: str, value: Any) -> int:
     # YAML reads 1e5 as a float (the zoo writes !!float 1e5); accept integral floats.
     if not is_real(value) or not math.isfinite(value):
         raise ValueError(f"{name} = {value!r}; allowed: an integer >= 1")
     if int(value) != value or value < 1:
         raise ValueError(f"{name} = {value!r}; allowed: an integer >= 1")
-    if name == "n_envs" and value > MAX_ENVS:
-        raise ValueError(f"n_envs = {value!r}; allowed: an integer from 1 to {MAX_ENVS:,}")
+    most = {"n_envs": MAX_ENVS, "n_timesteps": MAX_TIMESTEPS}.get(name)
+    if most is not None and value > most:
+        raise ValueError(f"{name} = {value!r}; allowed: an integer from 1 to {most:,}")
     return int(value)
 
 
@@ -333,6 +348,9 @@ def check_algo(algo: str) -> str:
 #: The most parallel envs of a run [-]: they are stepped by one model call of that many strokes
 #: (10 000 strokes take under 0.5 GB); SB3 keeps per-env buffers besides.
 MAX_ENVS = 10_000
+#: The most env steps of a run [-]: 10¹², far beyond any training run, and inside the int64
+#: step counters of SB3 and numpy (2**63 wraps them).
+MAX_TIMESTEPS = 10**12
 #: The largest training seed: SB3 seeds numpy's legacy generator, which takes 32 bits.
 MAX_SEED = 2**32 - 1
 

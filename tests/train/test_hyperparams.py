@@ -111,6 +111,9 @@ def test_train_config_validates() -> None:
         ({"batch_size": 1.5}, r"batch_size = 1.5; allowed: an integer from 1"),
         ({"ent_coef": -1}, r"ent_coef = -1; allowed: a number from 0"),
         ({"n_envs": 10**6}, r"n_envs = 1000000; allowed: an integer from 1 to 10,000"),
+        ({"n_timesteps": 2**63}, r"n_timesteps = 9223372036854775808; allowed: .* to 1,000,000"),
+        ({"policy_kwargs": "dict(net_arch=[0])"}, r"net_arch = \[0\]; allowed: a list of layer"),
+        ({"policy_kwargs": {"net_arch": {"pi": [64], "vf": [-1]}}}, r"net_arch = .*'vf': \[-1\]"),
     ],
 )
 def test_hyperparameters_out_of_range_are_named(override: dict, match: str) -> None:
