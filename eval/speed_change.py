@@ -458,7 +458,9 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
 
 # --- the command -------------------------------------------------------------------------------
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--episodes", type=int, default=32, help="evaluation episodes (32)")
+    parser.add_argument(
+        "--episodes", type=int, default=32, help=f"evaluation episodes (32; 1 to {MAX_EPISODES:,})"
+    )
     parser.add_argument(
         "--first-seed", type=int, default=FIRST_SEED, help=f"first evaluation seed ({FIRST_SEED})"
     )
