@@ -23,11 +23,24 @@ LOWER = -1.0
 UPPER = 1.0
 
 
-def check_int(name: str, value: object, *, minimum: int) -> None:
-    """Raise ValueError unless ``value`` is an integer (not a bool) ``>= minimum``."""
+#: The most points of one ask/tell round (a PSO swarm, a random-search batch) [-]: a batch of
+#: 10 000 strokes is evaluated in under 0.5 GB; the batch is allocated when the optimiser is
+#: built, so a larger one would fail for memory before the first evaluation.
+MAX_BATCH = 10_000
+
+
+def check_int(name: str, value: object, *, minimum: int, maximum: int | None = None) -> None:
+    """Raise ValueError unless ``value`` is an integer (not a bool) ``>= minimum`` (and
+    ``<= maximum`` where given)."""
     # bool is an int subclass; True as a swarm size is always a bug, never an intent.
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | np.integer)
+        or value < minimum
+        or (maximum is not None and value > maximum)
+    ):
+        most = "" if maximum is None else f" and <= {maximum:,}"
+        raise ValueError(f"{name} must be an integer >= {minimum}{most}, got {value!r}")
 
 
 def store_plain(instance: object, ints: tuple[str, ...], floats: tuple[str, ...] = ()) -> None:

@@ -37,6 +37,7 @@ import numpy as np
 
 from agents.optimiser import (
     LOWER,
+    MAX_BATCH,
     UPPER,
     AskTellOptimiser,
     FloatArray,
@@ -106,7 +107,7 @@ class PSOConfig:
     boundary: Boundary = "clip"
 
     def __post_init__(self) -> None:
-        check_int("swarm_size", self.swarm_size, minimum=2)
+        check_int("swarm_size", self.swarm_size, minimum=2, maximum=MAX_BATCH)
         if self.inertia not in get_args(Inertia):
             raise ValueError(f"inertia must be one of {get_args(Inertia)}, got {self.inertia!r}")
         if self.boundary not in get_args(Boundary):

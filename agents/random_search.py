@@ -7,6 +7,7 @@ from typing import Any
 
 from agents.optimiser import (
     LOWER,
+    MAX_BATCH,
     UPPER,
     AskTellOptimiser,
     FloatArray,
@@ -35,7 +36,7 @@ class RandomSearchConfig:
 
     def __post_init__(self) -> None:
         check_int("max_evaluations", self.max_evaluations, minimum=1)
-        check_int("batch_size", self.batch_size, minimum=1)
+        check_int("batch_size", self.batch_size, minimum=1, maximum=MAX_BATCH)
         store_plain(self, ints=("batch_size", "max_evaluations"))
 
     @property

@@ -177,8 +177,19 @@ def package_versions() -> dict[str, str]:
     return versions
 
 
-def _check_count(name: str, value: Any, low: int, allowed: str) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
+#: The largest budget of one job [model evaluations]: 10⁸, over 6 000 times the paper's
+#: budgets; a larger one would run for days and outgrow the memory of the methods' per-iteration
+#: tables (PSO's inertia schedule alone: 8 bytes per iteration).
+MAX_BUDGET = 10**8
+
+
+def _check_count(name: str, value: Any, low: int, allowed: str, high: int | None = None) -> None:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | np.integer)
+        or value < low
+        or (high is not None and value > high)
+    ):
         raise ValueError(f"{name} = {value!r}; allowed: {allowed}")
 
 
@@ -231,7 +242,10 @@ class Job:
             or not math.isfinite(self.condition)
         ):
             raise ValueError(f"condition = {self.condition!r}; allowed: a finite number")
-        _check_count("budget", self.budget, 1, "an integer >= 1 (model evaluations)")
+        _check_count(
+            "budget", self.budget, 1, f"an integer from 1 to {MAX_BUDGET:,} (model evaluations)",
+            MAX_BUDGET,
+        )  # fmt: skip
         _check_count("seed", self.seed, 0, "integers >= 0")
         object.__setattr__(self, "condition", float(self.condition))
         object.__setattr__(self, "budget", int(self.budget))

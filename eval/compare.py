@@ -27,7 +27,7 @@ import numpy as np
 
 from agents.records import Record, load_records
 from eval.figures import FORMATS, VARIANT_LINES, figure_path, method_color, method_label
-from tandem_env.io.files import atomic_path, write_csv_atomic, write_text_atomic
+from tandem_env.io.files import atomic_path, output_directory, write_csv_atomic, write_text_atomic
 
 __all__ = [
     "Row",
@@ -491,6 +491,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     out = Path(args.out) if args.out is not None else default_out(args.dirs)
     try:
+        output_directory(out)  # before reading any record
         rows = compare(args.dirs, out, args.format)
     except ValueError as error:
         parser.error(str(error))

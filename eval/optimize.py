@@ -16,9 +16,10 @@ from typing import TypeVar
 
 from agents.harness import prepare
 from agents.methods import available_methods
+from agents.optimiser import MAX_BATCH
 from agents.polish import POLISH_DEFAULTS, POLISH_METHODS
 from agents.polish import describe as describe_certificate
-from agents.records import SUMMARY_NAME, RecordStore
+from agents.records import MAX_BUDGET, SUMMARY_NAME, RecordStore
 from agents.tasks import TaskSpec, available_tasks, get_task
 from eval.studies.readings import reading_by_name
 from eval.studies.runner import (
@@ -163,7 +164,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         ),
     )
     parser.add_argument(
-        "--budget", required=True, type=int, metavar="N", help="model evaluations per seed"
+        "--budget",
+        required=True,
+        type=int,
+        metavar="N",
+        help=f"model evaluations per seed (1 to {MAX_BUDGET:,})",
     )
     parser.add_argument(
         "--seeds", required=True, type=int, nargs="+", metavar="SEED", help="one run per seed"
@@ -173,7 +178,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--swarm-size",
         type=int,
         metavar="N",
-        help="strokes per iteration: PSO particles / random-search batch (default 40)",
+        help=f"strokes per iteration: PSO particles / random-search batch (default 40, at most "
+        f"{MAX_BATCH:,})",
     )
     parser.add_argument(
         "--method-config",

@@ -239,6 +239,11 @@ def steady_optima(
     return SteadyPolicy(np.asarray(speeds, dtype=np.float64), np.stack(actions))
 
 
+#: The most evaluation episodes [-]: they are flown as one vector env, one model call of that
+#: many strokes per cycle (10 000 strokes take under 0.5 GB).
+MAX_EPISODES = 10_000
+
+
 # --- episodes ----------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class EpisodeLog:
@@ -453,7 +458,9 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
 
 # --- the command -------------------------------------------------------------------------------
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--episodes", type=int, default=32, help="evaluation episodes (32)")
+    parser.add_argument(
+        "--episodes", type=int, default=32, help=f"evaluation episodes (32; 1 to {MAX_EPISODES:,})"
+    )
     parser.add_argument(
         "--first-seed", type=int, default=FIRST_SEED, help=f"first evaluation seed ({FIRST_SEED})"
     )
@@ -533,12 +540,28 @@ def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> str:
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from eval.optimize import run_reporting
 
-    if args.episodes < 1:
-        parser.error(f"--episodes {args.episodes}; allowed: >= 1")
+    if not 1 <= args.episodes <= MAX_EPISODES:
+        parser.error(f"--episodes {args.episodes}; allowed: 1 to {MAX_EPISODES:,}")
+    if args.first_seed < 0:  # Gymnasium's seeds; found only after the optima otherwise
+        parser.error(f"--first-seed {args.first_seed}; allowed: an integer >= 0")
     if not 0 <= args.figure_episode < args.episodes:
         parser.error(f"--figure-episode {args.figure_episode}; allowed: 0 to {args.episodes - 1}")
     try:
         output_directory(args.out)
+        if args.figure is not None:
+            figure = Path(args.figure)
+            if figure.is_dir():
+                raise ValueError(f"--figure {str(figure)!r} is a folder; allowed: a file name")
+            from matplotlib.backend_bases import FigureCanvasBase
+
+            formats = FigureCanvasBase.get_supported_filetypes()
+            if figure.suffix[1:].lower() not in formats:
+                raise ValueError(
+                    f"--figure {str(figure)!r}: the format {figure.suffix or '(none)'!r} is not "
+                    f"one matplotlib writes; allowed: a name ending in "
+                    f"{', '.join('.' + f for f in sorted(formats))}"
+                )
+            output_directory(figure.parent, "--figure")
         config = SpeedChangeConfig.from_kwargs()
         method = _check_optima(args, config)
         policies: list[Any] = [RandomPolicy(seed=0)]

@@ -47,6 +47,22 @@ UNSUPPORTED_ZOO_KEYS = (
 )
 #: Constructor arguments the zoo turns from "lin_<x>" strings into linear schedules.
 SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
+#: Ranges of the numeric PPO / SAC hyperparameters that SB3 takes unchecked (``gamma = 2``
+#: trains on a diverging return, ``n_epochs = 0`` fails after the first rollout): (integer?,
+#: low, high). A string (SAC's ``ent_coef = "auto"``) and a schedule are left to SB3.
+HYPERPARAM_RANGES: dict[str, tuple[bool, float, float]] = {
+    "n_steps": (True, 1, math.inf),
+    "batch_size": (True, 1, math.inf),
+    "n_epochs": (True, 1, math.inf),
+    "buffer_size": (True, 1, math.inf),
+    "learning_starts": (True, 0, math.inf),
+    "gamma": (False, 0.0, 1.0),
+    "gae_lambda": (False, 0.0, 1.0),
+    "tau": (False, 0.0, 1.0),
+    "ent_coef": (False, 0.0, math.inf),
+    "vf_coef": (False, 0.0, math.inf),
+    "max_grad_norm": (False, 0.0, math.inf),
+}
 
 # Modules whose classes a ``policy_kwargs`` string may name (activation functions, optimisers),
 # under the zoo's spellings.
@@ -144,8 +160,19 @@ def load_hyperparams_file(path: str | Path) -> dict[str, dict[str, Any]]:
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"hyperparameter file {path} does not exist; allowed: a zoo-format .yml")
-    with path.open() as stream:
-        data = yaml.safe_load(stream)
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as error:
+        raise ValueError(
+            f"hyperparameter file {path} is not UTF-8 text (byte {error.start}); allowed: a "
+            "zoo-format .yml"
+        ) from None
+    except (yaml.YAMLError, RecursionError) as error:
+        # safe_load: a Python tag (the zoo's files have none) is refused, not built
+        raise ValueError(
+            f"hyperparameter file {path} is not plain YAML ({' '.join(str(error).split())}); "
+            "allowed: a zoo-format .yml"
+        ) from None
     if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
         raise ValueError(f"{path}: expected a mapping of env id -> mapping of hyperparameters")
     return data
@@ -218,10 +245,24 @@ def resolve_hyperparams(
         raise ValueError(
             f"policy_kwargs = {policy_kwargs!r}; allowed: a dict or a 'dict(...)' string"
         )
+    arch = policy_kwargs.get("net_arch")
+    if arch is not None and not _layer_sizes(arch):
+        raise ValueError(
+            f"net_arch = {arch!r}; allowed: a list of layer sizes >= 1, or a dict of such lists "
+            "(pi, vf, qf)"
+        )
     normalize = _normalize_kwargs(params.pop("normalize", False), params.get("gamma"))
     env_kwargs = params.pop("env_kwargs", None) or {}
     if not isinstance(env_kwargs, dict):
         raise ValueError(f"env_kwargs = {env_kwargs!r}; allowed: a mapping of env options")
+    for key, (integer, low, high) in HYPERPARAM_RANGES.items():
+        value = params.get(key)
+        if value is None or (isinstance(value, str) and key == "ent_coef"):
+            continue
+        if not (is_integer(value) if integer else is_real(value)) or not low <= value <= high:
+            kind = "an integer" if integer else "a number"
+            upper = "" if high == math.inf else f" to {high:g}"
+            raise ValueError(f"{key} = {value!r}; allowed: {kind} from {low:g}{upper}")
     for key in SCHEDULE_KEYS:
         if key in params:
             params[key] = _schedule(key, params[key])
@@ -239,12 +280,23 @@ def resolve_hyperparams(
     )
 
 
+def _layer_sizes(arch: Any) -> bool:
+    """Whether ``arch`` is an SB3 ``net_arch``: layer sizes >= 1 (a zero-width layer trains
+    without an error and without any hidden unit), or a dict of them per network."""
+    if isinstance(arch, Mapping):
+        return all(_layer_sizes(v) for v in arch.values())
+    return isinstance(arch, list | tuple) and all(is_integer(n) and n >= 1 for n in arch)
+
+
 def _positive_int(name: str, value: Any) -> int:
     # YAML reads 1e5 as a float (the zoo writes !!float 1e5); accept integral floats.
     if not is_real(value) or not math.isfinite(value):
         raise ValueError(f"{name} = {value!r}; allowed: an integer >= 1")
     if int(value) != value or value < 1:
         raise ValueError(f"{name} = {value!r}; allowed: an integer >= 1")
+    most = {"n_envs": MAX_ENVS, "n_timesteps": MAX_TIMESTEPS}.get(name)
+    if most is not None and value > most:
+        raise ValueError(f"{name} = {value!r}; allowed: an integer from 1 to {most:,}")
     return int(value)
 
 
@@ -293,6 +345,16 @@ def check_algo(algo: str) -> str:
 
 
 # --- the run configuration ---------------------------------------------------------------------
+#: The most parallel envs of a run [-]: they are stepped by one model call of that many strokes
+#: (10 000 strokes take under 0.5 GB); SB3 keeps per-env buffers besides.
+MAX_ENVS = 10_000
+#: The most env steps of a run [-]: 10¹², far beyond any training run, and inside the int64
+#: step counters of SB3 and numpy (2**63 wraps them).
+MAX_TIMESTEPS = 10**12
+#: The largest training seed: SB3 seeds numpy's legacy generator, which takes 32 bits.
+MAX_SEED = 2**32 - 1
+
+
 @dataclass(frozen=True, kw_only=True)
 class TrainConfig:
     """Everything one training run is made from (the command line, as data).
@@ -344,6 +406,10 @@ class TrainConfig:
             if not is_integer(value) or value < low:
                 raise ValueError(f"{name} = {value!r}; allowed: an integer >= {low}")
             object.__setattr__(self, name, int(value))
+        if self.verbose > 2:
+            raise ValueError(f"verbose = {self.verbose!r}; allowed: 0 quiet, 1 info, 2 debug")
+        if self.seed > MAX_SEED:
+            raise ValueError(f"seed = {self.seed!r}; allowed: an integer from 0 to 2**32 - 1")
         for name in ("eval_freq", "save_freq"):
             value = getattr(self, name)
             if not is_integer(value):

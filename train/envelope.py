@@ -24,7 +24,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from tandem_env.io.files import write_csv_atomic
+from tandem_env.io.files import output_directory, write_csv_atomic
 
 #: Columns of envelope.csv.
 COLUMNS: tuple[str, ...] = (
@@ -160,6 +160,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--model", choices=("best", "final"), default="best")
     args = parser.parse_args(argv)
     try:
+        output_directory(args.out)  # before loading the policy
         rows = evaluate_envelope(args.run, args.out, conditions=args.conditions, which=args.model)
     except ValueError as error:
         parser.error(str(error))

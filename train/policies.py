@@ -32,7 +32,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Literal, get_args
+from typing import TYPE_CHECKING, Any, Literal, get_args
 
 import numpy as np
 from stable_baselines3.common.base_class import BaseAlgorithm
@@ -49,6 +49,9 @@ from train.config import ALGOS, check_algo, plain
 from train.layout import RunLayout, read_normalizer, read_run_yaml, resolve_run_dir
 from train.run import learn_in_memory, load_policy_model
 from train.vec import ConditionGrid, StrokeRecorder, option_key
+
+if TYPE_CHECKING:
+    from agents.tasks import TaskSpec
 
 __all__ = [
     "CITATIONS",
@@ -91,25 +94,24 @@ class TrainingMismatchWarning(RuntimeWarning):
 
 
 # --- a trained run ---------------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class TrainedPolicy:
-    """A model saved by ``python -m train``, with what it needs to observe a condition."""
+@dataclass(frozen=True)
+class RunFiles:
+    """What a run folder of ``python -m train`` holds for loading its policy, read without
+    loading the model: so that a command can refuse a folder before any work."""
 
     run_dir: Path
     algo: str
     env_id: str
-    env_kwargs: Mapping[str, Any]
-    """The env options it was trained with (``args.yml`` and the yml entry's ``env_kwargs``)."""
-    model: BaseAlgorithm
-    which: WhichModel
+    entry: Mapping[str, Any]
+    """The run's hyperparameters (``config.yml``)."""
+    env_kwargs: dict[str, Any]
     model_path: Path
     normalizer_path: Path | None
-    """VecNormalize statistics applied to observations, if the run normalised them."""
 
     @classmethod
-    def load(cls, run_dir: str | Path, which: WhichModel = "best") -> TrainedPolicy:
-        """Load ``best_model.zip`` (``which="best"``, falling back to the final model when the
-        run had no evaluations) or the final ``<env>.zip`` of a run folder."""
+    def read(cls, run_dir: str | Path, which: WhichModel = "best") -> RunFiles:
+        """The files of ``run_dir`` (or of the latest run it names); ValueError naming the
+        folder and what is missing."""
         if which not in WHICH_MODELS:
             raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
         run_dir = resolve_run_dir(run_dir)
@@ -144,16 +146,53 @@ class TrainedPolicy:
                 "from the run's hyperparameters (its model file is not unpickled), so the run "
                 "folder needs them. Allowed: a folder written by python -m train"
             )
-        model = load_policy_model(algo, path, entry, env_id, env_kwargs)
+        return cls(run_dir, algo, env_id, entry, env_kwargs, path, normalizer)
+
+    def check_env(self, env_id: str) -> None:
+        """ValueError unless the run was trained on ``env_id``."""
+        _check_env(self.run_dir, self.env_id, env_id)
+
+
+def _check_env(run_dir: Path, trained: str, env_id: str) -> None:
+    if trained != env_id:
+        raise ValueError(
+            f"{run_dir} was trained on {trained}; this task's env is {env_id}; allowed: a run "
+            "of the same env"
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class TrainedPolicy:
+    """A model saved by ``python -m train``, with what it needs to observe a condition."""
+
+    run_dir: Path
+    algo: str
+    env_id: str
+    env_kwargs: Mapping[str, Any]
+    """The env options it was trained with (``args.yml`` and the yml entry's ``env_kwargs``)."""
+    model: BaseAlgorithm
+    which: WhichModel
+    model_path: Path
+    normalizer_path: Path | None
+    """VecNormalize statistics applied to observations, if the run normalised them."""
+
+    @classmethod
+    def load(cls, run_dir: str | Path, which: WhichModel = "best") -> TrainedPolicy:
+        """Load ``best_model.zip`` (``which="best"``, falling back to the final model when the
+        run had no evaluations) or the final ``<env>.zip`` of a run folder."""
+        files = RunFiles.read(run_dir, which)
+        model = load_policy_model(
+            files.algo, files.model_path, files.entry, files.env_id, files.env_kwargs
+        )
         return cls(
-            run_dir=run_dir,
-            algo=algo,
-            env_id=env_id,
-            env_kwargs=MappingProxyType(env_kwargs),
+            run_dir=files.run_dir,
+            algo=files.algo,
+            env_id=files.env_id,
+            env_kwargs=MappingProxyType(files.env_kwargs),
             model=model,
             which=which,
-            model_path=path,
-            normalizer_path=normalizer,
+            model_path=files.model_path,
+            normalizer_path=files.normalizer_path,
         )
 
     def _observing_env(self, conditions: Sequence[float]) -> VecEnv:
@@ -226,13 +265,14 @@ class PolicyMethod:
     def name(self) -> str:
         return f"policy:{self.run_dir}"
 
+    def check(self, budget: int, dim: int, task: TaskSpec) -> None:
+        """The harness's check before any work: the run folder holds a policy of this task's
+        env (the model itself is loaded by :meth:`search`)."""
+        RunFiles.read(self.run_dir, self.which).check_env(task.env_id)
+
     def search(self, context: SearchContext) -> SearchOutcome:
         policy = TrainedPolicy.load(self.run_dir, self.which)
-        if policy.env_id != context.env_id:
-            raise ValueError(
-                f"{self.run_dir} was trained on {policy.env_id}; this task's env is "
-                f"{context.env_id}; allowed: a run of the same env"
-            )
+        _check_env(self.run_dir, policy.env_id, context.env_id)
         _warn_on_differences(policy, context)
         action = policy.strokes([context.condition.value])[0]
         reward = float(context.evaluate(action[None, :])[0])
@@ -366,6 +406,15 @@ class TrainingMethod:
                 "citation": CITATIONS[self.algo],
             },
         )
+
+    def check(self, budget: int, dim: int, task: TaskSpec) -> None:
+        """The harness's check before any work: the yml entry and the overrides resolve, and
+        the budget holds one whole iteration (:func:`~train.run.budget_steps` raises)."""
+        from train.config import load_entry
+        from train.run import budget_steps
+
+        entry = load_entry(self.algo, task.env_id, self.conf_file)
+        budget_steps(self.algo, entry, self.overrides, self.n_envs, budget - 1)
 
     def _announce_budget(self, context: SearchContext) -> int:
         """Say (stderr, one line) when training cannot use the whole budget; returns the

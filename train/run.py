@@ -314,7 +314,13 @@ def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | 
                 "or killed before the first); allowed: start a new run"
             )
 
-    if checkpoint is not None and layout is not None and layout.config_file.is_file():
+    if checkpoint is not None and layout is not None and not layout.config_file.is_file():
+        # Resuming from the current yml instead would mix two runs' hyperparameters unsaid.
+        raise ValueError(
+            f"{layout.config_file} is missing: the hyperparameters the run started with cannot "
+            "be restored; allowed: a run folder with its config.yml (or a new run)"
+        )
+    if checkpoint is not None and layout is not None:
         # A resumed run keeps the hyperparameters it started with, whatever the yml says now.
         entry = read_run_yaml(layout.config_file)
         hp = resolve_hyperparams(entry, n_timesteps=config.n_timesteps)

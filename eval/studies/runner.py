@@ -93,8 +93,17 @@ _ALLOWED = (
 )
 #: What the bar of a Dask run shows until the first job finishes.
 DASK_WAITING = "waiting for the first job to finish (workers compile the model on first use)…"
+#: A host name or IPv4 address of a scheduler address (RFC 1123 lengths; '_' as resolvers allow).
+_HOST = re.compile(
+    r"(?=.{1,253}$)[A-Za-z0-9_](?:[A-Za-z0-9_-]{0,61}[A-Za-z0-9_])?"
+    r"(?:\.[A-Za-z0-9_](?:[A-Za-z0-9_-]{0,61}[A-Za-z0-9_])?)*\.?"
+)
 # The largest first frame a Dask scheduler's handshake can plausibly have [bytes] (_probe).
 _HANDSHAKE_BYTES = 1 << 24
+
+
+def _short(text: str, limit: int = 40) -> str:
+    return text if len(text) <= limit else f"{text[:limit]}…"
 
 
 class SchedulerUnreachable(ConnectionError):
@@ -127,6 +136,13 @@ def parse_scheduler(text: str) -> str:
     if match is None:
         raise ValueError(f"--scheduler {text!r}; allowed: {_ALLOWED}")
     host, port = match.groups()
+    if not host.startswith("[") and not _HOST.fullmatch(host):
+        # The resolver refuses other names with a codec error ("label too long") or a NUL.
+        raise ValueError(
+            f"--scheduler {text!r}: {_short(host)!r} is not a host name (letters, digits, '-', "
+            f"'.', '_'; labels of 1 to 63, at most 253 in all) nor an IP address; allowed: "
+            f"{_ALLOWED}"
+        )
     if not PORTS[0] <= int(port) <= PORTS[1]:
         raise ValueError(
             f"--scheduler {text!r}: port {int(port)} is outside {PORTS[0]} to {PORTS[1]}; "

@@ -12,6 +12,7 @@ the weight W (dimensionless).
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from typing import Any, ClassVar
@@ -48,6 +49,17 @@ EXECUTION_KWARGS: tuple[str, ...] = ("backend", "device")
 #: Model options that must be real numbers (checked here, because ``ModelOptions`` would raise
 #: a bare ``TypeError`` from ``math.isfinite`` on a string).
 _REAL_MODEL_OPTIONS = ("interference", "tolerance")
+
+
+def _as_keywords(error: ValueError, task: str, owner: str, given: Mapping[str, str]) -> ValueError:
+    """``error`` of ``owner`` (a ``ModelOptions`` or ``PenaltyConfig``) naming each field by the
+    keyword the caller gave for it (``given``: field -> keyword), so that a message about
+    ``ModelOptions.power`` says ``power_convention``, the word of ``gym.make``."""
+    text = str(error)
+    for name, keyword in given.items():
+        if keyword != name:
+            text = re.sub(rf"\b{owner}\.{name}\b", f"{keyword} ({owner}.{name})", text)
+    return ValueError(f"{task}: {text}")
 
 
 def normalise_condition(config: FlightConfig) -> None:
@@ -327,6 +339,7 @@ class FlightConfig:
             raise ValueError(
                 f"{cls.name}: options = {options!r}; allowed: a tandem_env.ModelOptions"
             )
+        fields_given = {MODEL_OPTION_KWARGS[k]: k for k in MODEL_OPTION_KWARGS if k in kwargs}
         overrides = {
             MODEL_OPTION_KWARGS[k]: kwargs.pop(k) for k in MODEL_OPTION_KWARGS if k in kwargs
         }
@@ -336,7 +349,10 @@ class FlightConfig:
                     f"{cls.name}: {name} = {overrides[name]!r}; allowed: a finite number"
                 )
         if overrides:
-            options = replace(options, **overrides)  # ModelOptions validates and names the rule
+            try:
+                options = replace(options, **overrides)  # ModelOptions validates, names the rule
+            except ValueError as error:
+                raise _as_keywords(error, cls.name, "ModelOptions", fields_given) from None
 
         penalty = kwargs.pop("penalty", None)
         penalty = PenaltyConfig() if penalty is None else penalty
@@ -358,7 +374,11 @@ class FlightConfig:
             if f"penalty_{key}" in kwargs
         }
         if penalty_overrides:
-            penalty = replace(penalty, **penalty_overrides)
+            try:
+                penalty = replace(penalty, **penalty_overrides)
+            except ValueError as error:
+                given = {key: f"penalty_{key}" for key in penalty_overrides}
+                raise _as_keywords(error, cls.name, "PenaltyConfig", given) from None
         return cls(insect=insect, options=options, penalty=penalty, **kwargs)
 
     def describe(self) -> str:

@@ -172,9 +172,17 @@ def write_json_atomic(path: str | os.PathLike[str], obj: Any, *, indent: int | N
 
 
 def read_json(path: str | os.PathLike[str]) -> Any:
-    """Read a JSON file written by :func:`write_json_atomic`."""
+    """Read a JSON file written by :func:`write_json_atomic`.
+
+    Raises ValueError for a file that is not UTF-8 JSON, including JSON nested too deeply for
+    the parser (``[[[...]]]``), so that one damaged file is reported like any other.
+    """
     with open(path, encoding="utf-8") as handle:
-        return json.load(handle)
+        try:
+            return json.load(handle)
+        except RecursionError:
+            # The decoder recurses per nesting level; a hand-made file can exceed the stack.
+            raise ValueError("JSON nested too deeply to read") from None
 
 
 def write_csv_atomic(path: str | os.PathLike[str], rows: Sequence[Mapping[str, Any]]) -> None:

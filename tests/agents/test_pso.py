@@ -340,6 +340,8 @@ def test_citation_names_variant_and_constants() -> None:
         ({"swarm_size": 1}, "swarm_size must be an integer >= 2"),
         ({"swarm_size": True}, "swarm_size must be an integer >= 2"),
         ({"swarm_size": 10.0}, "swarm_size must be an integer"),
+        # allocated when the optimiser is built: refused before any memory is asked for
+        ({"swarm_size": 10**9}, r"swarm_size must be an integer >= 2 and <= 10,000, got 10+$"),
         (
             {"inertia": "adaptive"},
             r"inertia must be one of \('constriction', 'linear-decreasing'\)",

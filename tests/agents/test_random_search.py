@@ -95,6 +95,7 @@ def test_tell_requires_the_asked_batch() -> None:
     [
         ({"batch_size": 0, "max_evaluations": 1}, "batch_size must be an integer >= 1"),
         ({"batch_size": 2.0, "max_evaluations": 1}, "batch_size must be an integer >= 1"),
+        ({"batch_size": 2**63, "max_evaluations": 1}, r"batch_size .* <= 10,000, got 9223"),
         ({"max_evaluations": -5}, "max_evaluations must be an integer >= 1"),
     ],
 )

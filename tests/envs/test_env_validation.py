@@ -95,7 +95,11 @@ def test_env_limits_are_the_models() -> None:
             "induction = 'magic'; allowed: 'coupled', 'isolated', 'none'",
         ),
         (LEVEL, {"thrust_split": "force"}, "thrust_split = 'force'; allowed: 'sign', 'body'"),
-        (LEVEL, {"power_convention": "net"}, "allowed: 'absolute', 'elastic'"),
+        (
+            LEVEL,
+            {"power_convention": "net"},
+            r"power_convention \(ModelOptions.power\) = 'net'; allowed: 'absolute', 'elastic'",
+        ),
         (LEVEL, {"n_time": 4}, "n_time = 4; allowed: an integer 8 to 8192"),
         (LEVEL, {"interference": "high"}, "interference = 'high'; allowed: a finite number"),
         (LEVEL, {"insect": "dragonfly"}, "allowed: a tandem_env.Dragonfly"),
@@ -103,9 +107,10 @@ def test_env_limits_are_the_models() -> None:
         (
             LEVEL,
             {"penalty_weight": -1.0},
-            "PenaltyConfig.weight = -1.0; allowed: a finite number from 0",
+            r"penalty_weight \(PenaltyConfig.weight\) = -1.0; allowed: a finite number from 0",
         ),
-        (LEVEL, {"penalty_weight": 0.0}, "weight > 0 or offset > 0"),
+        (LEVEL, {"penalty_offset": "x"}, r"penalty_offset \(PenaltyConfig.offset\) = 'x'"),
+        (LEVEL, {"penalty_weight": 0.0}, r"penalty_weight \(PenaltyConfig.weight\) and .*> 0"),
         (LEVEL, {"penalty": {"scale": 2.0}}, "allowed: weight, offset"),
         (LEVEL, {"clip_actions": "yes"}, "clip_actions = 'yes'; allowed: True or False"),
         (

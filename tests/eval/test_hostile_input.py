@@ -63,11 +63,23 @@ def _exit_status(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[i
         ("local:0", r"from 1 to 1024"),
         ("local:-3", r"from 1 to 1024"),
         ("tcp://:8786", r"allowed: local:N"),
+        # names the resolver refuses with a codec error or a NUL instead of "not found"
+        ("a" * 64 + ":8786", r"'a{40}…' is not a host name .*labels of 1 to 63"),
+        ("a." * 130 + "b:8786", r"is not a host name .*at most 253 in all"),
+        ("\x00:8786", r"'\\x00' is not a host name"),
+        ("-a:1", r"'-a' is not a host name"),
+        ("a..b:1", r"'a..b' is not a host name"),
     ],
 )
 def test_bad_scheduler_values_name_the_allowed_range(value: str, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         parse_scheduler(value)
+
+
+@pytest.mark.parametrize("value", ["localhost:8786", "tcp://my-host.example.org:1", "h_1:2",
+                                   "10.0.0.1:8786", "[::1]:8786", "host.:8786"])  # fmt: skip
+def test_host_names_and_addresses_are_accepted(value: str) -> None:
+    assert parse_scheduler(value).startswith("tcp://")
 
 
 @pytest.mark.parametrize("value", [None, 8786, b"local:2"])
@@ -191,6 +203,7 @@ def _commands(out: Path) -> list[list[str]]:
         [*OPTIMIZE, "--seeds", "0", "--out", str(out), "--quiet"],
         ["study", "speed", "--preset", "tiny", "--out", str(out), "--quiet"],
         ["speed-change", "--out", str(out), "--quiet"],
+        ["compare", str(ROOT / "examples"), "--out", str(out)],
     ]
 
 
@@ -457,9 +470,14 @@ def test_radians_declared_as_degrees_are_warned_about(
         (["--grid", "nan"], r"--grid speed nan m/s"),
         (["--grid", "1", "1"], r"--grid 1 1: allowed: distinct speeds"),
         (["--grid", "x"], r"argument --grid: invalid float value: 'x'"),
-        (["--optima-budget", "0"], r"budget = 0; allowed: an integer >= 1"),
+        (["--optima-budget", "0"], r"budget = 0; allowed: an integer from 1 to 100,000,000"),
+        (["--optima-budget", str(2**63)], r"budget = 9223372036854775808; allowed: an integer"),
         (["--optima-budget", "-5"], r"budget = -5; allowed"),
         (["--optimiser", "nosuch"], r"unknown method 'nosuch'; allowed: pso"),
+        # found by the method's check when the optimum is prepared, not after training started
+        (["--optimiser", "ppo", "--optima-budget", "8"], r"budget 7 is below one PPO iteration"),
+        (["--episodes", str(2**63)], r"--episodes 9223372036854775808; allowed: 1 to 10,000"),
+        (["--first-seed", "-1"], r"--first-seed -1; allowed: an integer >= 0"),
         (["--optimiser", "pso:x"], r"method 'pso' takes no ':' argument"),
         (["--scheduler", "tls://a:1"], r"the scheme 'tls://' is not supported"),
     ],
@@ -471,6 +489,21 @@ def test_bad_speed_change_options_exit_2_before_any_work(
     status, err = _exit_status(["speed-change", *options, "--out", str(out), "--quiet"], capsys)
     assert status == 2 and re.search(match, err), err
     assert not out.exists()
+
+
+def test_a_figure_that_cannot_be_written_is_refused_before_any_work(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "taken").write_text("")
+    for figure, match in [
+        (tmp_path / "taken" / "episode.png", f"--figure '{tmp_path / 'taken'}': .* is a file"),
+        (tmp_path, "is a folder; allowed: a file name"),
+        (tmp_path / "episode.txt", r"the format '.txt' is not one matplotlib writes; .*\.png"),
+    ]:
+        argv = ["speed-change", "--out", str(tmp_path / "sc"), "--quiet", "--figure", str(figure)]
+        status, err = _exit_status(argv, capsys)
+        assert status == 2 and re.search(match, err), err
+    assert not (tmp_path / "sc").exists()
 
 
 @pytest.mark.parametrize(
@@ -489,6 +522,19 @@ def test_a_bad_study_method_exits_2_before_any_job(
     )
     assert status == 2 and re.search(match, err), err
     assert not any(tmp_path.iterdir())
+
+
+def test_a_folder_that_is_no_training_run_is_refused_before_any_job(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``policy:DIR`` of a folder without a run was found only when the job ran: a failed job,
+    its traceback, exit 1. The method's check now reads the folder when the job is prepared."""
+    (tmp_path / "notarun").mkdir()
+    argv = [*OPTIMIZE, "--seeds", "0", "--out", str(tmp_path / "out"), "--quiet"]
+    argv[argv.index("pso")] = f"policy:{tmp_path / 'notarun'}"
+    status, err = _exit_status(argv, capsys)
+    assert status == 2 and f"{tmp_path / 'notarun'} is not a training run folder" in err
+    assert not (tmp_path / "out").exists()
 
 
 # --- rough edges --------------------------------------------------------------------------------

@@ -309,3 +309,19 @@ def test_truncated_or_binary_record_files_give_a_clear_error(tmp_path: Path) -> 
         bad.write_bytes(content)
         with pytest.raises(RecordError, match=f"{bad}: not a record file, cannot read JSON"):
             Record.load(bad)
+
+
+def test_a_record_file_nested_too_deeply_is_left_out_not_a_crash(tmp_path: Path) -> None:
+    """``[[[...]]]`` 10⁵ deep made the JSON decoder raise RecursionError: Record.load crashed
+    and RecordStore.records() with it, so one such file hid every good record beside it."""
+    job = _job()
+    run_jobs([job], tmp_path, progress=False)
+    deep = tmp_path / "records" / "deep.json"
+    deep.write_bytes(b"[" * 100_000 + b"]" * 100_000)
+    with pytest.raises(RecordError, match=f"{deep}: not a record file, .*nested too deeply"):
+        Record.load(deep)
+    with pytest.warns(RecordWarning, match="nested too deeply"):
+        records = RecordStore(tmp_path).records()
+    assert [r.key for r in records] == [job.key]
+    with pytest.raises(RecordError, match=f"{deep}: cannot read JSON: JSON nested too deeply"):
+        load_records([tmp_path])

@@ -191,3 +191,32 @@ def test_cli_rejects_bad_arguments(tmp_path: Path, capsys: pytest.CaptureFixture
             ]
         )
     assert "bogus" in capsys.readouterr().err
+
+
+def test_a_seed_beyond_32_bits_is_refused_naming_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """SB3 seeds numpy's legacy generator (32 bits): it said "Seed must be between 0 and
+    2**32 - 1" without naming the option or the value."""
+    argv = ["--algo", "ppo", "--env", LEVEL_FLIGHT_ID, "-f", str(tmp_path / "logs")]
+    with pytest.raises(SystemExit) as info:
+        main([*argv, "--seed", str(2**32)])
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and "seed = 4294967296; allowed: an integer from 0 to 2**32" in err
+    assert not (tmp_path / "logs").exists()
+
+
+@pytest.mark.parametrize("where", ["file", "parent"])
+def test_envelope_refuses_a_file_as_out_before_loading_the_policy(
+    where: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from train.envelope import main as envelope
+
+    blocker = tmp_path / "taken"
+    blocker.write_text("")
+    out = blocker if where == "file" else blocker / "sub"
+    with pytest.raises(SystemExit) as info:
+        envelope(["--run", str(tmp_path / "no-run"), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and f"{blocker} is a file; allowed: a directory" in err
+    assert "Traceback" not in err

@@ -99,3 +99,50 @@ def test_train_config_validates() -> None:
         TrainConfig(algo="ppo", env_id=ENV_IDS[0], n_timesteps=0)
     with pytest.raises(ValueError, match="not both"):
         TrainConfig(algo="ppo", env_id=ENV_IDS[0], resume=True, run_dir="logs/x")
+
+
+@pytest.mark.parametrize(
+    ("override", "match"),
+    [
+        # SB3 took these unchecked: a diverging return, a crash after the first rollout
+        ({"gamma": 2}, r"gamma = 2; allowed: a number from 0 to 1"),
+        ({"gamma": float("nan")}, r"gamma = nan; allowed"),
+        ({"n_epochs": 0}, r"n_epochs = 0; allowed: an integer from 1"),
+        ({"batch_size": 1.5}, r"batch_size = 1.5; allowed: an integer from 1"),
+        ({"ent_coef": -1}, r"ent_coef = -1; allowed: a number from 0"),
+        ({"n_envs": 10**6}, r"n_envs = 1000000; allowed: an integer from 1 to 10,000"),
+        ({"n_timesteps": 2**63}, r"n_timesteps = 9223372036854775808; allowed: .* to 1,000,000"),
+        ({"policy_kwargs": "dict(net_arch=[0])"}, r"net_arch = \[0\]; allowed: a list of layer"),
+        ({"policy_kwargs": {"net_arch": {"pi": [64], "vf": [-1]}}}, r"net_arch = .*'vf': \[-1\]"),
+    ],
+)
+def test_hyperparameters_out_of_range_are_named(override: dict, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        resolve_hyperparams({"n_timesteps": 64, **override})
+
+
+def test_sac_entropy_auto_and_the_shipped_entries_pass_the_ranges() -> None:
+    assert resolve_hyperparams({"n_timesteps": 64, "ent_coef": "auto_0.1"})
+    for algo in ALGOS:
+        for env_id in ENV_IDS:
+            assert resolve_hyperparams(load_entry(algo, env_id)).n_timesteps >= 1
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        (b"::: [[[\n", r"is not plain YAML \(while parsing"),
+        (b"a: !!python/object/apply:os.system ['true']\n", r"is not plain YAML .*python/object"),
+        (b"\xff\x00", r"is not UTF-8 text \(byte 0\)"),
+    ],
+)
+def test_a_hyperparameter_file_that_is_not_yaml_is_named(tmp_path, text: bytes, match: str) -> None:
+    path = tmp_path / "conf.yml"
+    path.write_bytes(text)
+    with pytest.raises(ValueError, match=rf"hyperparameter file {path} {match}"):
+        load_entry("ppo", ENV_IDS[0], path)
+
+
+def test_verbose_beyond_debug_is_refused() -> None:
+    with pytest.raises(ValueError, match="verbose = 9; allowed: 0 quiet, 1 info, 2 debug"):
+        TrainConfig(algo="ppo", env_id=ENV_IDS[0], verbose=9)

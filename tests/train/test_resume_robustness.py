@@ -143,6 +143,19 @@ def test_a_garbage_config_file_is_named(
     assert _files(layout.run_dir) == files
 
 
+def test_a_missing_config_file_is_refused_not_replaced_by_the_yml(
+    finished_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Without config.yml the resume took the yml's current hyperparameters, unsaid: a run of
+    two settings under one name."""
+    layout = _copy(finished_run, tmp_path)
+    layout.config_file.unlink()
+    files = _files(layout.run_dir)
+    err = _refused([*COMMON, "--run-dir", str(layout.run_dir), "-n", "192"], capsys)
+    assert f"{layout.config_file} is missing: the hyperparameters the run started with" in err
+    assert _files(layout.run_dir) == files
+
+
 # --- checkpoints ---------------------------------------------------------------------------------
 def test_a_truncated_checkpoint_falls_back_to_the_intact_earlier_one(
     finished_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
