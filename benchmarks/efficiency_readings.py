@@ -16,8 +16,8 @@ those of ``python -m eval optimize``, so its records are shared with such runs):
 
 3. *Which claims the paper-era search moves* (``--claims PRESET``, instead of 1-2): the
    readings study (``eval.studies.readings.run_readings``: the four paper studies, their claims
-   judged by the studies' own rules) under the default reading, each search reading,
-   ``hover-none`` (whose F̄_v is the paper's) and ``hover-none`` with the middle search, without
+   judged by the studies' own rules) under the default reading and ``hover-none`` (whose F̄_v
+   is the paper's), each as the preset searches and searched by each search reading, without
    derived combinations, in ``OUT/claims-PRESET``; prints each claim's verdict and median per
    reading and writes ``OUT/claims-PRESET/efficiency_claims.json``.
 
@@ -47,7 +47,6 @@ from agents.harness import PreparedJob, prepare
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import (
     DEFAULT,
-    PAPER_SEARCH,
     PAPER_SEARCHES,
     Reading,
     Search,
@@ -220,9 +219,14 @@ HOVER_NONE = next(r for r in SINGLES if r.name == "hover-none")
 
 
 def claim_readings() -> tuple[Reading, ...]:
-    """Part 3's readings: the default, each search reading, hover-none, and hover-none searched
-    by the middle search reading."""
-    return (DEFAULT, *PAPER_SEARCHES, HOVER_NONE, combine([HOVER_NONE, PAPER_SEARCH]))
+    """Part 3's readings: the default and hover-none, each as the preset searches and searched
+    by each search reading."""
+    return (
+        DEFAULT,
+        *PAPER_SEARCHES,
+        HOVER_NONE,
+        *(combine([HOVER_NONE, search]) for search in PAPER_SEARCHES),
+    )
 
 
 def claims(preset: str, out: Path, scheduler: str | None) -> int:
