@@ -18,7 +18,8 @@ those of ``python -m eval optimize``, so its records are shared with such runs):
    readings study (``eval.studies.readings.run_readings``: the four paper studies, their claims
    judged by the studies' own rules) under the default reading and ``hover-none`` (whose F̄_v
    is the paper's), each as the preset searches and searched by each search reading, without
-   derived combinations, in ``OUT/claims-PRESET``; prints each claim's verdict and median per
+   derived combinations and without the continuation from the default's optima (every reading
+   searched from scratch), in ``OUT/claims-PRESET``; prints each claim's verdict and median per
    reading and writes ``OUT/claims-PRESET/efficiency_claims.json``.
 
 Parts 1-2 print one table (reading, T, P, search, median η [%] and range over the seeds' best feasible
@@ -243,6 +244,7 @@ def claims(preset: str, out: Path, scheduler: str | None) -> int:
         derive=False,
         scheduler=scheduler,
         progress=False,
+        continuation=None,  # every reading searched from scratch: the search is what is read
     )
     wall = time.perf_counter() - start
     by_model = {json.dumps(r.reading.env_kwargs(), sort_keys=True): r for r in result.results}
