@@ -32,10 +32,14 @@ class StudyPlan:
 
     preset: Preset
     methods: tuple[str, ...] | None = None
+    """The methods run at every condition; under a reading with a search
+    (:attr:`Reading.search <eval.studies.paper_reading.Reading.search>`) that search's method
+    alone, whatever is given here."""
     reading: Reading = DEFAULT
-    """The model options every job runs with and which objective gives F̄_h
-    (:mod:`eval.studies.paper_reading`); the default reading adds no env keyword, so its jobs and
-    keys are those of a plan without one."""
+    """The model options every job runs with, which objective gives F̄_h and, if it has one, the
+    search (method, budget, settings) of every job (:mod:`eval.studies.paper_reading`); the
+    default reading adds no env keyword and no search, so its jobs and keys are those of a plan
+    without one."""
     figure_format: str = FORMATS[0]
     """The figures' file format (:data:`eval.figures.FORMATS`)."""
     execution: tuple[tuple[str, Any], ...] = ()
@@ -64,6 +68,9 @@ class StudyPlan:
             )
         if not isinstance(self.reading, Reading):
             raise ValueError(f"StudyPlan.reading = {self.reading!r}; allowed: a Reading")
+        if self.reading.search is not None:
+            # the analyses select records by plan.methods, so the search's method goes there
+            object.__setattr__(self, "methods", (self.reading.search.method,))
         execution = dict(self.execution)
         if not set(execution) <= set(EXECUTION_KWARGS):
             raise ValueError(
@@ -83,8 +90,20 @@ class StudyPlan:
         return figure_path(folder, stem, self.figure_format)
 
     def method_config(self, method: str) -> tuple[tuple[str, Any], ...]:
+        """The settings of ``method`` in every job: the reading's search's (with its swarm
+        size), else the preset's swarm size as the method's batch."""
+        search = self.reading.search
+        if search is not None and method == search.method:
+            return search.method_config(self.preset.swarm_size)
         key = preset_batch_setting(method)
         return ((key, self.preset.swarm_size),) if key else ()
+
+    def budget(self, task: str) -> int:
+        """Model evaluations per optimisation of ``task``: the reading's search's budget, else
+        the preset's."""
+        search = self.reading.search
+        given = None if search is None else search.budget(task)
+        return self.preset.budget(task) if given is None else given
 
     def jobs(
         self,
@@ -96,9 +115,9 @@ class StudyPlan:
         budget: int | None = None,
         seeds: Sequence[int] | None = None,
     ) -> list[Job]:
-        """Every method × condition × seed of one series (preset budget and seeds by default),
-        under the plan's reading (its model options; ``objective="horizontal"`` becomes the
-        reading's F̄_h objective)."""
+        """Every method × condition × seed of one series (the plan's :meth:`budget` and the
+        preset's seeds unless given), under the plan's reading (its model options and search;
+        ``objective="horizontal"`` becomes the reading's F̄_h objective)."""
         kwargs: dict[str, Any] = dict(self.preset.env_kwargs)
         kwargs.update(self.reading.env_kwargs())
         kwargs.update(self.execution)
@@ -110,7 +129,7 @@ class StudyPlan:
                 method=method,
                 task=task,
                 condition=float(c),
-                budget=self.preset.budget(task) if budget is None else budget,
+                budget=self.budget(task) if budget is None else budget,
                 seed=seed,
                 env_kwargs=tuple(kwargs.items()),
                 method_config=self.method_config(method),

@@ -7,6 +7,12 @@ hover, the fore-wing's share C_hf on the hind-wing, and what F̄_h of accelerati
 :class:`Reading` names one combination of those choices; the studies build their jobs under it
 (:meth:`eval.studies.base.StudyPlan.jobs`), so a reading changes the env keywords of every job and
 nothing else. The default reading changes nothing: its jobs are the ``all`` suite's, key for key.
+
+One more open decision is not the model's but the search's: the paper optimises with "particle
+swarm optimization" (Sec. II.F) and states no swarm size, iteration count or stopping rule. A
+reading may carry a :class:`Search` (method, budget, method settings) that replaces the plan's
+method and the preset's budget in every job, so that "the paper's optimiser had not converged"
+is a reading the studies can run like any other (:data:`PAPER_SEARCHES`, docs/efficiency.md).
 """
 
 from __future__ import annotations
@@ -16,6 +22,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
+from agents.methods import get_method, preset_batch_setting
+from agents.polish import split_settings
+from agents.tasks import available_tasks
 from tandem_env import Dragonfly, ModelOptions
 from tandem_env.envs import ACCELERATE
 from tandem_env.envs.config import MODEL_OPTION_KWARGS
@@ -41,6 +50,144 @@ def _fail(name: str, field_name: str, value: Any, allowed: str) -> None:
     raise ValueError(f"Reading {name!r}: {field_name} = {value!r}; allowed: {allowed}")
 
 
+def _is_count(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 1
+
+
+def _pairs(value: Any, what: str) -> tuple[tuple[str, Any], ...]:
+    """``value`` (pairs or a mapping) as sorted (name, value) pairs with distinct names."""
+    items = value.items() if isinstance(value, Mapping) else value
+    try:
+        pairs = tuple(sorted((k, v) for k, v in items))
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"Search.{what} = {value!r}; allowed: (name, value) pairs or a mapping"
+        ) from None
+    names = [k for k, _ in pairs]
+    if not all(isinstance(k, str) and k for k in names) or len(set(names)) != len(names):
+        raise ValueError(f"Search.{what} = {value!r}; allowed: each name once, as text")
+    return pairs
+
+
+@dataclass(frozen=True)
+class Search:
+    """How every job of a reading searches: the method, its budget and its settings, replacing
+    the plan's method and the preset's budget (:meth:`eval.studies.base.StudyPlan.jobs`).
+
+    The budget is ``swarm_size`` × ``iterations`` model evaluations for every task, or
+    ``budgets`` per task, or (neither given) the preset's. A polish, when the settings leave one
+    on, takes its share of that budget (``polish_share``, agents/polish.py).
+    """
+
+    method: str
+    """A harness method name, e.g. ``"pso"`` (:func:`agents.methods.available_methods`)."""
+    swarm_size: int | None = None
+    """Strokes per iteration (PSO particles, a CMA-ES population: the method's batch), >= 2;
+    None keeps the batch a plan gives the method (the preset's swarm size for PSO)."""
+    iterations: int | None = None
+    """Iterations per run (the initial swarm counts as one), >= 1; with ``swarm_size`` it sets
+    the budget of every task. None: ``budgets`` or the preset's budget."""
+    budgets: tuple[tuple[str, int], ...] = ()
+    """Model evaluations per run by task name (``"level"``, ``"accelerate"``), sorted; a mapping
+    is accepted. A task not named keeps the preset's budget."""
+    settings: tuple[tuple[str, Any], ...] = ()
+    """Method settings (``method_config``), e.g. ``{"polish": "none"}``, sorted; a mapping is
+    accepted; the batch size goes in ``swarm_size``, the budget in ``iterations``/``budgets``."""
+
+    def __post_init__(self) -> None:
+        method = self.method
+        if not isinstance(method, str) or not method or ":" in method or method != method.strip():
+            raise ValueError(
+                f"Search.method = {method!r}; allowed: a harness method name without ':' "
+                "such as 'pso' or 'cmaes'"
+            )
+        for name in ("swarm_size", "iterations"):
+            value = getattr(self, name)
+            low = 2 if name == "swarm_size" else 1
+            if value is not None and not (_is_count(value) and value >= low):
+                raise ValueError(f"Search.{name} = {value!r}; allowed: None or an integer >= {low}")
+        if self.iterations is not None and self.swarm_size is None:
+            raise ValueError(
+                f"Search.iterations = {self.iterations!r} without swarm_size; allowed: both "
+                "(budget = swarm_size × iterations) or neither"
+            )
+        budgets = _pairs(self.budgets, "budgets")
+        tasks = available_tasks()
+        for task, value in budgets:
+            if task not in tasks or not _is_count(value):
+                raise ValueError(
+                    f"Search.budgets[{task!r}] = {value!r}; allowed: tasks {', '.join(tasks)} "
+                    "with an integer >= 1 (model evaluations)"
+                )
+        if budgets and self.iterations is not None:
+            raise ValueError(
+                f"Search.budgets = {dict(budgets)!r} and iterations = {self.iterations!r}; "
+                "allowed: one of the two"
+            )
+        settings = _pairs(self.settings, "settings")
+        given = {k for k, _ in settings}
+        budget_keys = sorted(given & {"iterations", "max_evaluations", "budget"})
+        if budget_keys:
+            raise ValueError(
+                f"Search.settings sets {budget_keys}; allowed: the budget as iterations or "
+                "budgets, not a method setting"
+            )
+        if self.swarm_size is not None and "swarm_size" in given:
+            raise ValueError(
+                f"Search.settings sets ['swarm_size'] and swarm_size = {self.swarm_size!r}; "
+                "allowed: the batch size once, as swarm_size"
+            )
+        object.__setattr__(self, "budgets", budgets)
+        object.__setattr__(self, "settings", settings)
+        try:  # the settings are validated by their owners, the polish and the method
+            _, own = split_settings(method, dict(settings))
+            get_method(method, {**own, **self._batch(None)})
+        except (ValueError, NotImplementedError) as error:
+            raise ValueError(f"Search of method {method!r}: {error}") from None
+
+    def _batch(self, preset_swarm: int | None) -> dict[str, int]:
+        """The batch setting this search gives: its swarm size as ``swarm_size`` (the alias
+        every ask/tell optimiser accepts for its batch, agents/methods.py), else
+        ``preset_swarm`` where a study's preset sets the method's batch."""
+        if self.swarm_size is not None:
+            return {"swarm_size": self.swarm_size}
+        key = preset_batch_setting(self.method)
+        if key is None or preset_swarm is None or {"swarm_size", key} & dict(self.settings).keys():
+            return {}
+        return {key: preset_swarm}
+
+    def budget(self, task: str) -> int | None:
+        """Model evaluations per run of ``task``; None where the preset's budget stays."""
+        if self.iterations is not None:
+            assert self.swarm_size is not None  # checked in __post_init__
+            return self.swarm_size * self.iterations
+        return dict(self.budgets).get(task)
+
+    def method_config(self, preset_swarm: int) -> tuple[tuple[str, Any], ...]:
+        """A job's method settings: ``settings`` and the batch (``swarm_size``, else the
+        preset's ``preset_swarm``), sorted."""
+        return tuple(sorted({**dict(self.settings), **self._batch(preset_swarm)}.items()))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain form (pairs become dicts); ``Search(**d)`` rebuilds it."""
+        return {
+            "method": self.method,
+            "swarm_size": self.swarm_size,
+            "iterations": self.iterations,
+            "budgets": dict(self.budgets),
+            "settings": dict(self.settings),
+        }
+
+    def describe(self) -> str:
+        """``pso 40×50 (2000 evaluations), polish=none``."""
+        if self.iterations is not None:
+            size = f" {self.swarm_size}×{self.iterations} ({self.budget('level')} evaluations)"
+        else:
+            size = f" swarm {self.swarm_size}" if self.swarm_size is not None else ""
+            size += "".join(f", {t} {b} evaluations" for t, b in self.budgets)
+        return self.method + size + "".join(f", {k}={v}" for k, v in self.settings)
+
+
 @dataclass(frozen=True)
 class Reading:
     """One reading of the paper: the options it changes from the documented defaults."""
@@ -57,6 +204,9 @@ class Reading:
     horizontal_objective: str = "horizontal"
     """The accelerating-flight objective whose optimum gives F̄_h (``HORIZONTAL_OBJECTIVES``):
     ``"horizontal"`` (docs/model.md §7) or ``"horizontal_literal"`` (Eq. 24 read literally)."""
+    search: Search | None = None
+    """How every job searches (:class:`Search`; a mapping of its fields is accepted); None keeps
+    the plan's method and the preset's budgets."""
     derived_from: tuple[str, ...] = field(default=(), compare=False)
     """The single readings a combination was derived from (empty for a single reading)."""
 
@@ -103,6 +253,13 @@ class Reading:
                 self.horizontal_objective,
                 ", ".join(map(repr, HORIZONTAL_OBJECTIVES)),
             )
+        if isinstance(self.search, Mapping):
+            try:
+                object.__setattr__(self, "search", Search(**self.search))
+            except (TypeError, ValueError) as error:
+                raise ValueError(f"Reading {self.name!r}: {error}") from None
+        elif self.search is not None and not isinstance(self.search, Search):
+            _fail(self.name, "search", self.search, "None, a Search or a mapping of its fields")
 
     @property
     def model_options(self) -> ModelOptions:
@@ -118,6 +275,8 @@ class Reading:
             out["rotational_coefficient"] = float(c_r)
         if self.horizontal_objective != "horizontal":
             out["horizontal_objective"] = self.horizontal_objective
+        if self.search is not None:
+            out["search"] = self.search.to_dict()
         return out
 
     @classmethod
@@ -132,12 +291,14 @@ class Reading:
         options = dict(changes)
         c_r = options.pop("rotational_coefficient", None)
         horizontal = options.pop("horizontal_objective", "horizontal")
+        search = options.pop("search", None)
         return cls(
             name,
             description,
             options=tuple(options.items()),
             rotational_coefficient=c_r,
             horizontal_objective=horizontal,
+            search=search,
             derived_from=derived_from,
         )
 
@@ -147,6 +308,7 @@ class Reading:
         job keys."""
         changed = self.changes()
         changed.pop("horizontal_objective", None)
+        changed.pop("search", None)
         out = {}
         for key, value in changed.items():
             if key == "rotational_coefficient":
@@ -172,7 +334,10 @@ class Reading:
 
     def describe_changes(self) -> str:
         """``thrust_split=body, power=elastic`` (``-`` for the default)."""
-        return ", ".join(f"{k}={_short(v)}" for k, v in self.changes().items()) or "-"
+        changes = self.changes()
+        if self.search is not None:
+            changes["search"] = self.search.describe()
+        return ", ".join(f"{k}={_short(v)}" for k, v in changes.items()) or "-"
 
 
 def _short(value: Any) -> str:
@@ -204,3 +369,25 @@ def combine(readings: tuple[Reading, ...] | list[Reading], name: str | None = No
         merged,
         derived_from=names,
     )
+
+
+def _paper_search(swarm: int, iterations: int) -> Reading:
+    return Reading(
+        f"pso-{swarm}x{iterations}",
+        f"the paper's search unconverged (Sec. II.F names particle swarm optimization and no "
+        f"swarm size, iterations or stopping rule; assumed): PSO, {swarm} particles × "
+        f"{iterations} iterations = {swarm * iterations} evaluations per optimisation, no local "
+        "polish, instead of the preset's method and budget",
+        search=Search("pso", swarm_size=swarm, iterations=iterations, settings={"polish": "none"}),
+    )
+
+
+#: The paper-era search budgets (an assumption: swarms of 20-40 particles for 50-100 iterations,
+#: the range usual in PSO studies of that time), smallest first; docs/efficiency.md.
+PAPER_SEARCHES: tuple[Reading, ...] = (
+    _paper_search(20, 50),
+    _paper_search(40, 50),
+    _paper_search(40, 100),
+)
+#: The middle of that range: 40 particles (the harness default) × 50 iterations.
+PAPER_SEARCH: Reading = PAPER_SEARCHES[1]

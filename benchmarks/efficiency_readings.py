@@ -1,0 +1,334 @@
+"""Which reading of η = T·V/P (Eq. 22) gives the paper's 12.7 % at 1.5 m/s (docs/efficiency.md).
+
+    python benchmarks/efficiency_readings.py [--scheduler local:2] [--out results/efficiency]
+
+Two parts, both level flight at 1.5 m/s over the same seeds, through the harness (the jobs are
+those of ``python -m eval optimize``, so its records are shared with such runs):
+
+1. *Readings of T and P, certified optima.* Each of the six readings (T: the ``sign`` or the
+   ``body`` thrust split, docs/model.md §7.3; P: ``absolute``, ``elastic`` or ``aerodynamic``
+   power, §6.3) optimised under itself: CMA-ES, 16 000 evaluations, the default SLSQP polish
+   (its certificate says whether the reported stroke is a constrained local optimum).
+2. *The paper-era search.* The same readings searched by the search readings
+   (``eval.studies.paper_reading.PAPER_SEARCHES``: PSO, 20-40 particles × 50-100 iterations, no
+   polish), plus PSO 40 × 50 with the linearly decreasing inertia of that era (Shi & Eberhart)
+   under the default reading: what an unconverged search reports.
+
+3. *Which claims the paper-era search moves* (``--claims PRESET``, instead of 1-2): the
+   readings study (``eval.studies.readings.run_readings``: the four paper studies, their claims
+   judged by the studies' own rules) under the default reading and ``hover-none`` (whose F̄_v
+   is the paper's), each as the preset searches and searched by each search reading, without
+   derived combinations and without the continuation from the default's optima (every reading
+   searched from scratch), in ``OUT/claims-PRESET``; prints each claim's verdict and median per
+   reading and writes ``OUT/claims-PRESET/efficiency_claims.json``.
+
+Parts 1-2 print one table (reading, T, P, search, median η [%] and range over the seeds' best feasible
+strokes, best seed, median / 12.7 %, whether 12.7 % lies within the seeds' range, how many
+seeds' polish converged (a constrained local optimum, KKT residual in the record), median T/W
+and P/m, and the median of the same strokes' D·V/P: T = D read exactly) and writes it
+with the run's date, machine and load to ``OUT/efficiency_readings.json``. Records are stored
+in ``OUT/records`` as each run finishes; a rerun computes only what is missing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import statistics
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from agents.harness import PreparedJob, prepare
+from eval.studies.base import StudyPlan
+from eval.studies.paper_reading import (
+    DEFAULT,
+    PAPER_SEARCHES,
+    Reading,
+    Search,
+    combine,
+)
+from eval.studies.presets import get_preset
+from eval.studies.readings import SINGLES, run_readings
+from eval.studies.runner import load_records, run_jobs
+from tandem_env import DRAGONFLY
+from tandem_env.io.files import read_json, write_json_atomic
+
+SPEED = 1.5  # [m/s], the paper's peak (Fig. 6)
+PAPER_ETA = 12.7  # [%], Fig. 6 (claim S7)
+CERTIFIED = Search("cmaes", budgets={"level": 16_000})  # the paper preset's level search
+#: T readings: env keyword value -> what T is (docs/model.md §7.3).
+THRUST = {
+    "sign": "forward part of each wing's horizontal force (gross)",
+    "body": "net horizontal wing force; D = body drag",
+}
+#: P readings: env keyword value -> what P is (docs/model.md §6.3, Eqs. 18-19).
+POWER = {
+    "absolute": "N_w·(mean|P_aero| + mean|P_iner|)",
+    "elastic": "N_w·mean(P_aero + P_iner)⁺",
+    "aerodynamic": "N_w·mean(P_aero)⁺",
+}
+#: The era's other common PSO parameter set, at the middle budget, under the default reading.
+LINEAR_INERTIA = Search(
+    "pso",
+    swarm_size=40,
+    iterations=50,
+    settings={"polish": "none", "inertia": "linear-decreasing"},
+)
+
+
+@dataclass(frozen=True)
+class Case:
+    """One row: a reading of T and P searched one way."""
+
+    thrust: str
+    power: str
+    search: Search
+
+    def env_kwargs(self) -> dict[str, str]:
+        """Only what differs from the defaults, so the records are plain runs' records."""
+        out = {}
+        if self.thrust != "sign":
+            out["thrust_split"] = self.thrust
+        if self.power != "absolute":
+            out["power_convention"] = self.power
+        return out
+
+    def prepare(self, seeds: list[int]) -> list[PreparedJob]:
+        budget = self.search.budget("level")
+        assert budget is not None
+        return prepare(
+            self.search.method,
+            "level",
+            SPEED,
+            budget,
+            seeds,
+            env_kwargs=self.env_kwargs(),
+            method_config=dict(self.search.method_config(40)),
+        )
+
+
+def cases() -> list[Case]:
+    """Part 1 (certified) for every reading, then part 2 (the paper-era searches)."""
+    readings = [(t, p) for t in THRUST for p in POWER]
+    searches: list[Search] = []
+    for reading in PAPER_SEARCHES:
+        assert isinstance(reading, Reading) and reading.search is not None
+        searches.append(reading.search)
+    out = [Case(t, p, CERTIFIED) for t, p in readings]
+    out += [Case(t, p, s) for s in searches for t, p in readings]
+    out.append(Case("sign", "absolute", LINEAR_INERTIA))
+    return out
+
+
+def _label(search: Search) -> str:
+    if search == CERTIFIED:
+        return "CMA-ES 16 000 + SLSQP polish"
+    inertia = dict(search.settings).get("inertia")
+    return f"PSO {search.swarm_size}×{search.iterations}, no polish" + (
+        f", {inertia}" if inertia else ""
+    )
+
+
+def summarise(case: Case, records: list[Any]) -> dict[str, Any]:
+    """The row of ``case`` from its seeds' records (η of each seed's best feasible stroke)."""
+    feasible = [r for r in records if r.feasible]
+    eta = sorted(100 * r.objective for r in feasible)
+    row: dict[str, Any] = {
+        "T": case.thrust,
+        "P": case.power,
+        "search": _label(case.search),
+        "budget": case.search.budget("level"),
+        "seeds": len(records),
+        "feasible": len(feasible),
+    }
+    if not eta:
+        return row | {"median_eta": None}
+    best = max(feasible, key=lambda r: r.objective)
+    # a polish that converged ends at a constrained local optimum (KKT residual in the record)
+    certified = [r for r in feasible if r.certificate.get("converged") is True]
+    low, high = eta[0], eta[-1]
+    median = statistics.median(eta)
+    return row | {
+        "median_eta": round(median, 2),
+        "min_eta": round(low, 2),
+        "max_eta": round(high, 2),
+        "best_seed": best.seed,
+        "median_over_paper": round(median / PAPER_ETA, 2),
+        "paper_in_range": low <= PAPER_ETA <= high,
+        "polish_converged": len(certified),
+        "median_T_over_W": round(
+            statistics.median(r.metrics["thrust"] for r in feasible) / DRAGONFLY.weight, 3
+        ),
+        "median_P_per_mass": round(
+            statistics.median(r.metrics["power_per_mass"] for r in feasible), 1
+        ),
+        # T = D read exactly: the same strokes' D·V/P (level flight holds T = D only to the
+        # task's tolerance, 2 % of W, which exceeds the body's drag at 1.5 m/s)
+        "median_eta_T_is_D": round(
+            statistics.median(
+                100 * r.objective * r.metrics["drag"] / r.metrics["thrust"] for r in feasible
+            ),
+            2,
+        ),
+    }
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """The markdown table of docs/efficiency.md."""
+    lines = [
+        "| T | P | search | median η [%] | range [%] | best seed | median / 12.7 % "
+        "| 12.7 % in range | polish converged | T/W | P/m [W/kg] | D·V/P [%] |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        if r["median_eta"] is None:
+            lines.append(f"| {r['T']} | {r['P']} | {r['search']} | no feasible seed |" + " |" * 8)
+            continue
+        lines.append(
+            f"| {r['T']} | {r['P']} | {r['search']} | {r['median_eta']:.1f} "
+            f"| {r['min_eta']:.1f} - {r['max_eta']:.1f} | {r['best_seed']} "
+            f"| {r['median_over_paper']:.2f} | {'yes' if r['paper_in_range'] else 'no'} "
+            f"| {r['polish_converged']}/{r['seeds']} "
+            f"| {r['median_T_over_W']:.3f} | {r['median_P_per_mass']:.1f} "
+            f"| {r['median_eta_T_is_D']:.2f} |"
+        )
+    return "\n".join(lines)
+
+
+def _meta(load_before: tuple[float, ...], wall: float, scheduler: str | None) -> dict[str, Any]:
+    """Date, machine, load and command of a run (the docs quote them beside its numbers)."""
+    return {
+        "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "machine": f"{os.cpu_count()} CPU cores ({platform.machine()}), "
+        f"Python {platform.python_version()}",
+        "load_average_before": [round(x, 2) for x in load_before],
+        "load_average_after": [round(x, 2) for x in os.getloadavg()],
+        "command": " ".join(["python", *sys.argv]),
+        "scheduler": scheduler or "serial",
+        "wall_time_s": round(wall, 1),
+    }
+
+
+#: The reading under which the paper's F̄_v matches converged optima (docs/reproduction.md).
+HOVER_NONE = next(r for r in SINGLES if r.name == "hover-none")
+
+
+def claim_readings() -> tuple[Reading, ...]:
+    """Part 3's readings: the default and hover-none, each as the preset searches and searched
+    by each search reading."""
+    return (
+        DEFAULT,
+        *PAPER_SEARCHES,
+        HOVER_NONE,
+        *(combine([HOVER_NONE, search]) for search in PAPER_SEARCHES),
+    )
+
+
+def claims(preset: str, out: Path, scheduler: str | None) -> int:
+    """Part 3: the four studies' claims under :func:`claim_readings`; a search reading's claim
+    is "moved" where its verdict differs from that of the same model searched as the preset
+    searches."""
+    where = out / f"claims-{preset}"
+    load_before = os.getloadavg()
+    start = time.perf_counter()
+    result = run_readings(
+        StudyPlan(get_preset(preset)),
+        where,
+        readings=claim_readings(),
+        derive=False,
+        scheduler=scheduler,
+        progress=False,
+        continuation=None,  # every reading searched from scratch: the search is what is read
+    )
+    wall = time.perf_counter() - start
+    by_model = {json.dumps(r.reading.env_kwargs(), sort_keys=True): r for r in result.results}
+    names = [r.reading.name for r in result.results]
+    print("| claim | paper | " + " | ".join(names) + " |")
+    print("|---|---|" + "---|" * len(names))
+    rows = []
+    for claim in result.results[0].claims:
+        cells, moved = [], []
+        for r in result.results:
+            c = {x.id: x for x in r.claims}.get(claim.id)
+            cells.append("no data" if c is None else f"{c.verdict} ({c.median:.3g}{c.unit})")
+            base = by_model[json.dumps(r.reading.env_kwargs(), sort_keys=True)]
+            if r.reading.search is not None and base.reading.search is None:
+                if r.verdicts().get(claim.id) != base.verdicts().get(claim.id):
+                    moved.append(r.reading.name)
+        rows.append({"claim": claim.id, "paper": claim.paper, "cells": cells, "moved_by": moved})
+        print(f"| {claim.id} | {claim.paper} | " + " | ".join(cells) + " |")
+    counts = {r.reading.name: {"agree": r.agree, "differ": r.differ} for r in result.results}
+    print("agree: " + ", ".join(f"{n} {c['agree']}" for n, c in counts.items()))
+    print("differ: " + ", ".join(f"{n} {c['differ']}" for n, c in counts.items()))
+    meta = _meta(load_before, wall, scheduler) | {
+        "preset": preset,
+        "runs": [s.to_dict() for s in result.runs],
+    }
+    write_json_atomic(
+        where / "efficiency_claims.json", {"meta": meta, "counts": counts, "claims": rows}
+    )
+    print(f"{wall:.0f} s; wrote {where / 'efficiency_claims.json'}", file=sys.stderr)
+    return 0
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", default=os.path.join("results", "efficiency"))
+    parser.add_argument("--seeds", type=int, nargs="+", default=list(range(8)))
+    parser.add_argument("--scheduler", help="as for python -m eval optimize, e.g. local:2")
+    parser.add_argument(
+        "--part", choices=("all", "certified", "search"), default="all", help="which part to run"
+    )
+    parser.add_argument(
+        "--claims",
+        metavar="PRESET",
+        help="run part 3 instead: the studies' claims under the default and the search "
+        "readings at this preset (quick or paper)",
+    )
+    args = parser.parse_args()
+    if args.claims is not None:
+        return claims(args.claims, Path(args.out), args.scheduler)
+    chosen = [
+        c
+        for c in cases()
+        if args.part == "all" or (c.search == CERTIFIED) == (args.part == "certified")
+    ]
+    prepared = {c: c.prepare(args.seeds) for c in chosen}
+    load_before = os.getloadavg()
+    start = time.perf_counter()
+    jobs = [p for group in prepared.values() for p in group]
+    summary = run_jobs(jobs, args.out, scheduler=args.scheduler, progress=False)
+    wall = time.perf_counter() - start
+    rows = []
+    for case, group in prepared.items():
+        stored = load_records(args.out, [p.job for p in group])
+        rows.append(summarise(case, [stored[p.job] for p in group]))
+    print(table(rows))
+    meta = _meta(load_before, wall, args.scheduler) | {
+        "runs": summary.total,
+        "ran": summary.ran,
+        "reused": summary.reused,
+        "speed": SPEED,
+        "paper_eta": PAPER_ETA,
+    }
+    path = Path(args.out) / "efficiency_readings.json"
+    if summary.ran == 0 and path.exists():  # nothing ran: keep the timing of the run that did
+        before = read_json(path).get("meta", {})
+        meta["measured_by"] = before.get("measured_by", before)
+    write_json_atomic(path, {"meta": meta, "rows": rows})
+    print(
+        f"{summary.total} runs ({summary.ran} run, {summary.reused} reused) in {wall:.0f} s; "
+        f"load {meta['load_average_before']} -> {meta['load_average_after']}; wrote {path}",
+        file=sys.stderr,
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
