@@ -121,7 +121,7 @@ SINGLES: tuple[Reading, ...] = (
 )
 
 #: Named readings: ``paper`` is the reading that reproduces the most of the paper's claims
-#: at the paper preset (docs/reproduction.md, "Readings"; docs/model.md §13).
+#: at the paper preset (docs/reproduction.md, "Readings"): none yet, that run has not been made.
 ALIASES: dict[str, str] = {}
 
 #: The columns of readings.csv, in order.
@@ -308,13 +308,15 @@ def study_jobs(
 ) -> dict[str, list[Job]]:
     """Each paper study's jobs under ``reading``, by study name.
 
-    Without ``continuation`` (or for the default reading) these are the studies' own jobs.
-    With it, each job pairs with the default's job of the same position (the studies build
-    both lists in one order, differing only in the reading's keywords): a job the default
-    shares (same key) stays, any other continues from the default's optimum in ``starts``.
+    Without ``continuation`` (or for the default reading, or a reading of the search itself,
+    ``Reading.search``: its point is the search from scratch) these are the studies' own
+    jobs. With it, each job pairs with the default's job of the same position (the studies
+    build both lists in one order, differing only in the reading's keywords): a job the
+    default shares (same key) stays, any other continues from the default's optimum in
+    ``starts``.
     """
     p = reading_plan(plan, reading)
-    if continuation is None or reading == DEFAULT:
+    if continuation is None or reading == DEFAULT or reading.search is not None:
         return {name: study.jobs(p) for name, study in PAPER_STUDIES.items()}
     if starts is None:
         raise ValueError("continuation needs the default reading's optima (starts)")
@@ -335,7 +337,8 @@ def check_jobs(
     plan: StudyPlan, reading: Reading, continuation: Continuation, starts: Starts
 ) -> list[tuple[Job, Job]]:
     """(continued job, the same job in full) for the continuation's bias check: the check
-    studies' jobs at the check seeds that the reading does not share with the default."""
+    studies' jobs at the check seeds that the reading does not share with the default (none
+    for a search reading, which runs in full)."""
     continued = study_jobs(plan, reading, continuation, starts)
     full = study_jobs(plan, reading)
     pairs = dict.fromkeys(
