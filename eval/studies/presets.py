@@ -271,9 +271,9 @@ TINY = Preset(
     powers=(50.0, 90.0),
     shape_speeds=(2.0,),
     shape_powers=(90.0,),
-    convergence=ConvergenceSpec(budget=32, seeds=(0, 1), speed=2.0, power=90.0),
+    convergence=ConvergenceSpec(budget=64, seeds=(0, 1), speed=2.0, power=90.0),
     kinematics_power=90.0,
-    method="pso",  # its budgets are below one CMA-ES population (26)
+    method="pso",  # its budgets are below one CMA-ES population (52)
     swarm_size=8,
     env_kwargs=(("n_blade", 6), ("n_time", 32)),
 )

@@ -229,8 +229,8 @@ def test_pso_budget_prefix_property() -> None:
 def test_cmaes_budget_prefix_property() -> None:
     """The same for CMA-ES, its default restarts and a truncated last population included."""
     kwargs = dict(env_kwargs=dict(TINY.env_kwargs), progress=False)
-    (long,) = run("cmaes", "level", 1.5, 120, [3], **kwargs)
-    for budget in (26, 40, 79):
+    (long,) = run("cmaes", "level", 1.5, 180, [3], **kwargs)
+    for budget in (52, 80, 131):  # one population (λ = 52), a truncated one, two and a part
         (short,) = run("cmaes", "level", 1.5, budget, [3], **kwargs)
         assert long.history[: len(short.history) - 1] == short.history[:-1]
         # the truncated last population is the first evaluations of the longer run's population
