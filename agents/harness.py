@@ -299,9 +299,9 @@ def run_job(
     """Run one job: search (and polish), re-evaluate the reported stroke, build its record.
 
     A plain :class:`~agents.records.Job` is validated first (:func:`prepare_job`); a
-    :class:`PreparedJob` is run as it is. The budget is split into equal parts, one per
-    search (the ``starts`` setting) and one per initial stroke (``initial``): each search is
-    the method with its own seed, polished; each initial stroke is polished directly. The
+    :class:`PreparedJob` is run as it is. The budget is split into parts (:func:`_plan`), one
+    per search (the ``starts`` setting) and one per initial stroke (``initial``): each search
+    is the method with its own seed, polished; each initial stroke is polished directly. The
     record reports the best feasible stroke of all parts (:data:`~agents.records.STARTS` lists
     each). The search's progress goes to ``reporter`` when given, else to a progress bar of its
     own if ``progress``. Writes nothing.
@@ -320,9 +320,9 @@ def run_job(
         for index, (kind, part_budget, stroke) in enumerate(_plan(prepared)):
             offset = sum(part.evaluations for part in parts)
             if kind == "search":
-                parts.append(_search_part(prepared, len(parts), part_budget, offset, report))
+                parts.append(_search_part(prepared, index, part_budget, offset, report))
             else:
-                parts.append(_initial_part(prepared, index, part_budget, stroke))
+                parts.append(_initial_part(prepared, part_budget, stroke))
     chosen = max(parts, key=lambda part: (part.feasible, part.reward))
     evaluations = sum(part.evaluations for part in parts)
     if evaluations > budget:  # every part counts its own; never over its share
@@ -393,8 +393,8 @@ def _plan(prepared: PreparedJob) -> list[tuple[str, int, np.ndarray | None]]:
 
 
 def _part_seed(seed: int, index: int) -> int:
-    """The seed of a run's search number ``index``: the job's own for the first (so one start
-    is the plain run), independent streams for the others."""
+    """The seed of the search in part ``index`` of a run (initial strokes first): the job's own
+    for part 0 (so one start is the plain run), independent streams of it for the others."""
     if index == 0:
         return seed
     return int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
@@ -429,9 +429,7 @@ def _search_part(
     )
 
 
-def _initial_part(
-    prepared: PreparedJob, index: int, budget: int, stroke: np.ndarray | None
-) -> _Part:
+def _initial_part(prepared: PreparedJob, budget: int, stroke: np.ndarray | None) -> _Part:
     """One initial stroke polished on ``budget`` evaluations (it may start infeasible)."""
     assert stroke is not None
     problem = task_problem(prepared.task, prepared.condition, prepared.env_kwargs)

@@ -16,10 +16,12 @@ the studies' own claim builders. The readings are
 model, so each reading's optimisation starts from the default reading's certified optimum of
 the same job (condition, objective, planform, seed): that stroke is polished under the reading,
 beside a short global search of the method (itself polished), on a share of the preset's budget
-(the harness's ``initial`` and ``starts`` settings), and the better of the two is reported. The
+(the harness's ``initial``, ``initial_share`` and ``starts`` settings), and the better of the
+two is reported. The
 default's jobs run first and in full. The continuation's bias is measured, not assumed: for
-every single reading the jobs of one study (``Continuation.check_study``) at a few seeds also
-run in full, and ``continuation_check.csv`` and the report compare the two optima.
+every single reading the jobs of the check studies (``Continuation.check_studies``) at a few
+seeds also run in full, and ``continuation_check.csv`` and the report compare the two optima.
+A reading of the search itself (``Reading.search``) always runs in full.
 
 All jobs of a phase go into one :func:`~eval.studies.runner.run_jobs` call, so a job two
 readings share (the same env keywords: e.g. every job but the horizontal accelerating ones of
