@@ -124,8 +124,9 @@ class PolishConfig:
     starts : int
         Independent searches the run's budget is split into, 1 to :data:`MAX_STARTS`; each is
         the method with its own seed on an equal part of the budget, polished (``share`` of
-        its part), and the run reports the best (docs/harness.md, "Starts"). Chosen by
-        measurement.
+        its part), and the run reports the best (docs/harness.md, "Starts and initial
+        strokes"). 1 by default: more did not reproduce better (docs/harness.md,
+        "Reproducibility check").
     initial : tuple of strokes
         Normalised strokes (each a sequence of the action box's dimension, values in [-1, 1])
         that are polished directly, each on an equal part of the budget beside the searches:
