@@ -87,10 +87,6 @@ class PreparedJob:
     """Dimension of the action box."""
     polish: PolishConfig = field(default_factory=lambda: PolishConfig(method="none"))
     """The local polish after the search (its settings are the ``polish*`` method settings)."""
-    polish_reserve: int = 0
-    """Evaluations of a search part's budget kept for its polish (:meth:`PolishConfig.reserve`
-    of the smallest part); the search gets the rest. 0 when the polish is off or the part too
-    small for it."""
 
     def describe(self) -> str:
         """E.g. ``pso on level (efficiency) at speed = 1.5 m/s, budget 12000 evaluations``."""
@@ -158,24 +154,16 @@ def prepare_job(
         raise ValueError(
             f"initial stroke of length {wrong[0]}; allowed: {dim} values (the action box)"
         )
-    if job.budget < polish_config.segments:
+    plan = _plan(polish_config, job.budget)
+    if any(part_budget < 1 for _, part_budget, _ in plan):
         raise ValueError(
-            f"budget {job.budget} < {polish_config.segments} parts (starts + initial strokes); "
-            "allowed: a budget of at least one evaluation per part"
+            f"budget {job.budget} leaves a part of the run without evaluations ({len(plan)} "
+            "parts: starts + initial strokes, split by initial_share if given); allowed: a "
+            "budget of at least one evaluation per part"
         )
-    # The smallest search part (:func:`_plan`).
-    if polish_config.initial_share is None:
-        part = job.budget // polish_config.segments
-    else:
-        first = round(polish_config.initial_share * job.budget)
-        if first < len(polish_config.initial) or job.budget - first < polish_config.starts:
-            raise ValueError(
-                f"budget {job.budget} with initial_share {polish_config.initial_share:g} leaves a "
-                "part without evaluations; allowed: a larger budget or share"
-            )
-        part = (job.budget - first) // polish_config.starts
-    # one central-difference gradient: the point and two neighbours per continuous coordinate
-    reserve = polish_config.reserve(part, 1 + 2 * (dim - len(spec.discrete_actions)))
+    # The smallest search part and what its polish keeps back decide what the method can run.
+    part = min(part_budget for kind, part_budget, _ in plan if kind == "search")
+    reserve = polish_config.reserve(part, _gradient_cost(dim, spec))
     method_obj = get_method(job.method, own_config) if method is None else method
     # Optional hook: a method that can tell before searching that it cannot run this budget on
     # this box (a budget smaller than one CMA-ES population) says so here, not mid-run.
@@ -191,7 +179,6 @@ def prepare_job(
         objective_name=objective_name,
         dim=dim,
         polish=polish_config,
-        polish_reserve=reserve,
     )
 
 
@@ -317,7 +304,7 @@ def run_job(
     # threads, 5.5 s with one, on the idle 2-core machine) and make the optimum depend on the
     # machine's thread count. The model's own threads (numba) are not BLAS threads.
     with bar, threadpool_limits(limits=1, user_api="blas"):
-        for index, (kind, part_budget, stroke) in enumerate(_plan(prepared)):
+        for index, (kind, part_budget, stroke) in enumerate(_plan(prepared.polish, budget)):
             offset = sum(part.evaluations for part in parts)
             if kind == "search":
                 parts.append(_search_part(prepared, index, part_budget, offset, report))
@@ -371,12 +358,10 @@ class _Part:
         }
 
 
-def _plan(prepared: PreparedJob) -> list[tuple[str, int, np.ndarray | None]]:
-    """The run's parts: (kind, budget, initial stroke), initial strokes first. The budget is
+def _plan(config: PolishConfig, budget: int) -> list[tuple[str, int, np.ndarray | None]]:
+    """A run's parts: (kind, budget, initial stroke), initial strokes first. The budget is
     split evenly over the parts, or ``initial_share`` of it over the initial strokes and the
     rest over the searches; a group's remainder goes to its last part."""
-    config = prepared.polish
-    budget = prepared.job.budget
     initial = [("initial", np.asarray(s)) for s in config.initial]
     searches: list[tuple[str, np.ndarray | None]] = [("search", None)] * config.starts
     if config.initial_share is None:
@@ -466,8 +451,13 @@ def _initial_part(prepared: PreparedJob, budget: int, stroke: np.ndarray | None)
 
 def _reserve(prepared: PreparedJob, budget: int) -> int:
     """Evaluations of a search part's ``budget`` kept for its polish."""
-    spec = prepared.task
-    return prepared.polish.reserve(budget, 1 + 2 * (prepared.dim - len(spec.discrete_actions)))
+    return prepared.polish.reserve(budget, _gradient_cost(prepared.dim, prepared.task))
+
+
+def _gradient_cost(dim: int, task: TaskSpec) -> int:
+    """Model evaluations of one central-difference gradient: the point and two neighbours per
+    continuous coordinate."""
+    return 1 + 2 * (dim - len(task.discrete_actions))
 
 
 def _gradient(prepared: PreparedJob, problem: Any) -> AutogradGradient | None:

@@ -93,6 +93,8 @@ POLISH_SETTINGS: Mapping[str, str] = {
 }
 #: Most independent searches one run may split its budget into (``starts``).
 MAX_STARTS = 64
+#: Allowed ``initial_share``: the initial strokes' fraction of a run's budget, low and high.
+INITIAL_SHARE_RANGE = (0.05, 0.95)
 
 
 @dataclass(frozen=True)
@@ -187,10 +189,11 @@ class PolishConfig:
                 isinstance(share, bool)
                 or not isinstance(share, int | float | np.floating | np.integer)
                 or not math.isfinite(share)
-                or not 0.05 <= share <= 0.95
+                or not INITIAL_SHARE_RANGE[0] <= share <= INITIAL_SHARE_RANGE[1]
             ):
+                low, high = INITIAL_SHARE_RANGE
                 raise ValueError(
-                    f"initial_share = {share!r}; allowed: a number in [0.05, 0.95], or none"
+                    f"initial_share = {share!r}; allowed: a number in [{low:g}, {high:g}], or none"
                 )
             if not self.initial:
                 raise ValueError("initial_share without initial strokes; allowed: with initial")
@@ -200,11 +203,6 @@ class PolishConfig:
                 "initial strokes are polished, but polish = 'none'; allowed: "
                 "initial with polish 'slsqp' or 'trust-constr'"
             )
-
-    @property
-    def segments(self) -> int:
-        """Parts the run's budget is split into: one per initial stroke and per search."""
-        return len(self.initial) + self.starts
 
     @property
     def enabled(self) -> bool:

@@ -45,6 +45,7 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from agents.polish import INITIAL_SHARE_RANGE
 from eval import report
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import StudyPlan
@@ -195,10 +196,11 @@ class Continuation:
             isinstance(share, bool)
             or not isinstance(share, int | float)
             or not math.isfinite(share)
-            or not 0.05 <= share <= 0.95
+            or not INITIAL_SHARE_RANGE[0] <= share <= INITIAL_SHARE_RANGE[1]
         ):
+            low, high = INITIAL_SHARE_RANGE
             raise ValueError(
-                f"continuation initial_share = {share!r}; allowed: a number in [0.05, 0.95]"
+                f"continuation initial_share = {share!r}; allowed: a number in [{low:g}, {high:g}]"
             )
         object.__setattr__(self, "initial_share", float(share))
         studies = tuple(self.check_studies)
