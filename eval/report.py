@@ -257,11 +257,13 @@ def render_readings(
     base: Path,
     check: Sequence[Mapping[str, Any]] = (),
     continuation: Any = None,
+    full: Mapping[str, Mapping[str, str]] | None = None,
 ) -> str:
     """The readings study's report: the table of readings, the best one, which decision moves
     which claim and by how much, the matrix figure; how the readings continued from the
-    default's optima (``continuation``: an ``eval.studies.readings.Continuation`` or None) and
-    the measured bias of that (``check``: ``readings.check_summary`` rows)."""
+    default's optima (``continuation``: an ``eval.studies.readings.Continuation`` or None), the
+    measured bias of that (``check``: ``readings.check_summary`` rows) and the tasks that ran
+    in full for it (``full``: ``readings.full_tasks``)."""
     default = results[0]
     best = max(results, key=lambda r: r.agree)
     n_claims = len(default.claims)
@@ -302,7 +304,7 @@ def render_readings(
         f"Combination rule (combinations derived from the singles' results, not chosen by "
         f"hand): {rule}.",
         "",
-        *_continuation_section(continuation, check),
+        *_continuation_section(continuation, check, full or {}),
         "## Best reading",
         "",
         f"`{best.reading.name}`"
@@ -370,41 +372,53 @@ def render_readings(
     return "\n".join(parts)
 
 
-def _continuation_section(continuation: Any, check: Sequence[Mapping[str, Any]]) -> list[str]:
-    """The report's account of the continuation and its measured bias."""
+def _continuation_section(
+    continuation: Any, check: Sequence[Mapping[str, Any]], full: Mapping[str, Mapping[str, str]]
+) -> list[str]:
+    """The report's account of the continuation, its measured bias and what ran in full."""
     if continuation is None:
         return ["Every reading ran in full (no continuation).", ""]
     lines = [
         "## Continuation and its bias",
         "",
-        f"The default reading ran in full; every other reading's job that differs from the "
-        f"default's continued from the default's optimum of the same job: "
+        f"The default reading ran in full; every other single reading's job that differs from "
+        f"the default's continued from the default's optimum of the same job: "
         f"{100 * continuation.share:g} % of the budget, {100 * continuation.initial_share:g} % "
         f"of that for polishing that stroke under the reading and the rest for "
         f"{continuation.starts} short search(es) of the method, each polished; the best "
-        "feasible stroke is reported. Bias check: the "
+        "feasible stroke is reported. A combination continued likewise from the optima of its "
+        "parts. Bias check, first: the "
         f"{', '.join(f'`{name}`' for name in continuation.check_studies)} studies' jobs at seeds "
         f"{', '.join(map(str, continuation.check_seeds))} of every single reading also ran "
-        "in full (continuation_check.csv); difference = (continued − full) / |full|.",
+        "in full (continuation_check.csv); difference = (continued − full) / |full|. A single "
+        "reading's task whose check falls short (median below "
+        f"{100 * continuation.full_median:+g} %, one pair below "
+        f"{100 * continuation.full_lowest:+g} %, or a continued optimum infeasible where the full "
+        "run's is feasible) then ran in full.",
         "",
     ]
     if not check:
         return [*lines, "No checked pairs (no single reading besides the default).", ""]
     lines += [
-        "| reading | pairs | median | lowest | highest | within 0.5 % or above | infeasible |",
-        "|---|---|---|---|---|---|---|",
+        "| reading | task | pairs | median | lowest | highest | within 0.5 % or above | "
+        "infeasible | runs |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for row in check:
+        overall = row["reading"] == "all"
+        why = full.get(row["reading"], {}).get(row["task"])
         lines.append(
             _row(
                 (
-                    f"`{row['reading']}`" if row["reading"] != "all" else "**all**",
+                    "**all**" if overall else f"`{row['reading']}`",
+                    "" if overall else row["task"],
                     str(row["pairs"]),
                     f"{100 * row['median']:+.2f} %",
                     f"{100 * row['lowest']:+.2f} %",
                     f"{100 * row['highest']:+.2f} %",
                     f"{row['within_0.5%']} of {row['pairs']}",
                     str(row["infeasible"]),
+                    "" if overall else (f"in full ({why})" if why else "continued"),
                 )
             )
         )
@@ -420,9 +434,12 @@ def write_readings_report(
     figure: Path,
     check: Sequence[Mapping[str, Any]] = (),
     continuation: Any = None,
+    full: Mapping[str, Mapping[str, str]] | None = None,
 ) -> Path:
-    """Write the readings study's report to ``path`` (atomically) and return it; ``check`` and
-    ``continuation`` as for :func:`render_readings`."""
-    text = render_readings(plan, results, rule, table, figure, path.parent, check, continuation)
+    """Write the readings study's report to ``path`` (atomically) and return it; ``check``,
+    ``continuation`` and ``full`` as for :func:`render_readings`."""
+    text = render_readings(
+        plan, results, rule, table, figure, path.parent, check, continuation, full
+    )
     write_text_atomic(path, text)
     return path

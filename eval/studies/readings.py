@@ -40,7 +40,7 @@ import os
 import statistics
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -60,8 +60,9 @@ TITLE = "Readings of the paper against its claims"
 DEFAULT_OUT = os.path.join("results", "readings")
 MANIFEST = "readings_manifest.json"
 CHECK_CSV = "continuation_check.csv"
-#: The phases of a run with the continuation: the default in full, the singles, the combinations.
-PHASES = ("default", "singles", "combinations")
+#: The phases of a run with the continuation: the default in full, the continuation's bias
+#: check, the singles, the combinations.
+PHASES = ("default", "check", "singles", "combinations")
 
 #: The single readings: the default, then each open decision changed alone (docs/model.md).
 SINGLES: tuple[Reading, ...] = (
@@ -165,6 +166,13 @@ class Continuation:
     check_seeds : tuple of int
         The seeds of those full runs (seeds of the preset that are not among them are not
         checked).
+    full_median : float
+        A single reading's task (hover-and-accelerate, level) whose checked continued optima
+        fall short of the full runs' by more than this median relative difference [-] runs in
+        full instead (:func:`full_tasks`), in [-1, 0].
+    full_lowest : float
+        Likewise for any one checked pair worse than this [-], or a continued optimum
+        infeasible where the full run's is feasible, in [-1, 0].
     """
 
     share: float = 0.2
@@ -172,6 +180,8 @@ class Continuation:
     starts: int = 1
     check_studies: tuple[str, ...] = ("power", "speed")
     check_seeds: tuple[int, ...] = (0,)
+    full_median: float = -0.02
+    full_lowest: float = -0.5
 
     def __post_init__(self) -> None:
         share = self.share
@@ -216,13 +226,26 @@ class Continuation:
                 f"continuation check_seeds = {self.check_seeds!r}; allowed: integers >= 0"
             )
         object.__setattr__(self, "check_seeds", seeds)
+        for name in ("full_median", "full_lowest"):
+            value = getattr(self, name)
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int | float)
+                or not math.isfinite(value)
+                or not -1.0 <= value <= 0.0
+            ):
+                raise ValueError(
+                    f"continuation {name} = {value!r}; allowed: a relative difference in [-1, 0]"
+                )
+            object.__setattr__(self, name, float(value))
 
-    def job(self, job: Job, start: Sequence[float]) -> Job:
-        """``job`` continued from the normalised stroke ``start``: a share of its budget, the
-        start polished beside ``starts`` short searches."""
+    def job(self, job: Job, strokes: Sequence[Sequence[float]]) -> Job:
+        """``job`` continued from the normalised ``strokes`` (the optima of the readings it
+        continues from): a share of its budget, each stroke polished beside ``starts`` short
+        searches."""
         config = dict(job.method_config)
         config.update(
-            initial=[list(map(float, start))],
+            initial=[list(map(float, stroke)) for stroke in strokes],
             initial_share=self.initial_share,
             starts=self.starts,
         )
@@ -300,15 +323,23 @@ def reading_jobs(plan: StudyPlan, reading: Reading) -> list[Job]:
     return [job for study in PAPER_STUDIES.values() for job in study.jobs(p)]
 
 
-Starts = Mapping[str, Sequence[float]]
-"""The default reading's optima: normalised stroke by the default job's key."""
+Optima = Mapping[str, Mapping[str, Sequence[Sequence[float]]]]
+"""Optima of readings already run: reading name -> study name -> the normalised optimum of each
+of the study's jobs under that reading, in the study's order (:func:`optima_of`)."""
+
+
+def continued_from(reading: Reading) -> tuple[str, ...]:
+    """The readings whose optima ``reading`` continues from: a combination's parts (each a
+    small change away from it, and run before it), any other reading the default's."""
+    return reading.derived_from or (DEFAULT.name,)
 
 
 def study_jobs(
     plan: StudyPlan,
     reading: Reading,
     continuation: Continuation | None = None,
-    starts: Starts | None = None,
+    optima: Optima | None = None,
+    full: Collection[str] = (),
 ) -> dict[str, list[Job]]:
     """Each paper study's jobs under ``reading``, by study name.
 
@@ -316,34 +347,56 @@ def study_jobs(
     ``Reading.search``: its point is the search from scratch) these are the studies' own
     jobs. With it, each job pairs with the default's job of the same position (the studies
     build both lists in one order, differing only in the reading's keywords): a job the
-    default shares (same key) stays, any other continues from the default's optimum in
-    ``starts``.
+    default shares (same key) stays, and so does a job of a task in ``full`` (run in full:
+    :func:`full_tasks`); any other continues from the optima of the same position in
+    ``optima`` of the readings :func:`continued_from` names (duplicate strokes once).
     """
     p = reading_plan(plan, reading)
     if continuation is None or reading == DEFAULT or reading.search is not None:
         return {name: study.jobs(p) for name, study in PAPER_STUDIES.items()}
-    if starts is None:
-        raise ValueError("continuation needs the default reading's optima (starts)")
+    if optima is None:
+        raise ValueError("continuation needs the optima of the readings it continues from")
+    missing = [name for name in continued_from(reading) if name not in optima]
+    if missing:
+        raise ValueError(f"reading {reading.name!r} continues from {missing}, not run yet")
     base = reading_plan(plan, DEFAULT)
     out: dict[str, list[Job]] = {}
     for name, study in PAPER_STUDIES.items():
         jobs = []
-        for default_job, job in zip(study.jobs(base), study.jobs(p), strict=True):
-            if job.key == default_job.key:
+        pairs = zip(study.jobs(base), study.jobs(p), strict=True)
+        for position, (default_job, job) in enumerate(pairs):
+            if job.key == default_job.key or job.task in full:
                 jobs.append(job)
-            else:
-                jobs.append(continuation.job(job, starts[default_job.key]))
+                continue
+            strokes = {
+                tuple(optima[source][name][position]): None for source in continued_from(reading)
+            }
+            jobs.append(continuation.job(job, list(strokes)))
         out[name] = jobs
     return out
 
 
+def optima_of(out_dir: Path, jobs: Mapping[str, Mapping[str, list[Job]]]) -> dict[str, Any]:
+    """:data:`Optima` of the readings in ``jobs`` (reading -> study -> jobs, every record
+    present in ``out_dir``)."""
+    flat = [job for by_study in jobs.values() for group in by_study.values() for job in group]
+    records = load_records(out_dir, flat)
+    return {
+        reading: {
+            study: [list(records[job].results["normalised_stroke"]) for job in group]
+            for study, group in by_study.items()
+        }
+        for reading, by_study in jobs.items()
+    }
+
+
 def check_jobs(
-    plan: StudyPlan, reading: Reading, continuation: Continuation, starts: Starts
+    plan: StudyPlan, reading: Reading, continuation: Continuation, optima: Optima
 ) -> list[tuple[Job, Job]]:
     """(continued job, the same job in full) for the continuation's bias check: the check
     studies' jobs at the check seeds that the reading does not share with the default (none
     for a search reading, which runs in full)."""
-    continued = study_jobs(plan, reading, continuation, starts)
+    continued = study_jobs(plan, reading, continuation, optima)
     full = study_jobs(plan, reading)
     pairs = dict.fromkeys(
         (c, f)
@@ -352,6 +405,29 @@ def check_jobs(
         if c != f and f.seed in continuation.check_seeds
     )
     return list(pairs)
+
+
+def full_tasks(
+    summary: Sequence[Mapping[str, Any]], continuation: Continuation
+) -> dict[str, dict[str, str]]:
+    """reading -> task -> why that task's jobs run in full: the bias check
+    (:func:`check_summary` rows) found its continued optima short of the full runs' by more
+    than ``continuation.full_median`` on the median or ``full_lowest`` in one pair, or a
+    continued optimum infeasible where the full run's is feasible."""
+    out: dict[str, dict[str, str]] = {}
+    for row in summary:
+        if row["reading"] == "all" or row["task"] == "all":
+            continue
+        why = []
+        if row["pairs"] and row["median"] < continuation.full_median:
+            why.append(f"median {100 * row['median']:+.1f} %")
+        if row["pairs"] and row["lowest"] < continuation.full_lowest:
+            why.append(f"lowest {100 * row['lowest']:+.1f} %")
+        if row["infeasible_continued"]:
+            why.append(f"{row['infeasible_continued']} continued optima infeasible")
+        if why:
+            out.setdefault(row["reading"], {})[row["task"]] = ", ".join(why)
+    return out
 
 
 def combinations(
@@ -456,42 +532,23 @@ def analyse_reading(
 
 def _phase(
     plan: StudyPlan,
+    jobs: Mapping[str, Mapping[str, list[Job]]],
     readings: Sequence[Reading],
     out_dir: Path,
     scheduler: str | None,
     progress: bool,
-    continuation: Continuation | None = None,
-    starts: Starts | None = None,
-    check: bool = False,
-) -> tuple[list[ReadingResult], RunSummary, list[tuple[Reading, Job, Job]]]:
-    """Run and analyse ``readings``; with ``check`` also the full runs of the bias check."""
-    jobs = {r.name: study_jobs(plan, r, continuation, starts) for r in readings}
-    checks = []
-    if check and continuation is not None and starts is not None:
-        checks = [
-            (r, c, f)
-            for r in readings
-            if r != DEFAULT
-            for c, f in check_jobs(plan, r, continuation, starts)
-        ]
-    todo = [job for by_study in jobs.values() for group in by_study.values() for job in group]
-    todo += [full for _, _, full in checks]
-    summary = run_jobs(todo, out_dir, scheduler=scheduler, progress=progress)
+    extra: Sequence[Job] = (),
+) -> tuple[list[ReadingResult], RunSummary]:
+    """Run ``readings`` (their jobs: reading -> study -> jobs, :func:`study_jobs`) and
+    ``extra`` jobs in one call, and analyse the readings."""
+    todo = [job for r in readings for group in jobs[r.name].values() for job in group]
+    summary = run_jobs([*todo, *extra], out_dir, scheduler=scheduler, progress=progress)
     results = []
     for reading in readings:
         if progress:
             print(f"analysing reading {reading.name}", file=sys.stderr)
         results.append(analyse_reading(plan, reading, out_dir, jobs[reading.name]))
-    return results, summary, checks
-
-
-def default_optima(out_dir: Path, default_jobs: Mapping[str, list[Job]]) -> dict[str, list[float]]:
-    """The default reading's optima (normalised strokes) by job key."""
-    jobs = [job for group in default_jobs.values() for job in group]
-    return {
-        job.key: list(record.results["normalised_stroke"])
-        for job, record in load_records(out_dir, jobs).items()
-    }
+    return results, summary
 
 
 #: The columns of continuation_check.csv, in order.
@@ -542,31 +599,37 @@ def check_rows(out_dir: Path, checks: Sequence[tuple[Reading, Job, Job]]) -> lis
 
 
 def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Per reading, and over all: the continuation's bias on the checked jobs (both
-    feasible): pairs, median, lowest and highest relative difference, and how many continued
-    optima are within 0.5 % of the full run's or above it."""
-    groups: dict[str, list[float]] = {}
+    """Per reading and task, and over all: the continuation's bias on the checked jobs (both
+    feasible): pairs, median, lowest and highest relative difference, how many continued optima
+    are within 0.5 % of the full run's or above it, the pairs with either infeasible, and those
+    with only the continued one infeasible."""
+    groups: dict[tuple[str, str], list[Mapping[str, Any]]] = {}
     for row in rows:
-        if row["feasible_full"] and row["feasible_continued"]:
-            groups.setdefault(row["reading"], []).append(float(row["difference"]))
-            groups.setdefault("all", []).append(float(row["difference"]))
-    return [
-        {
-            "reading": name,
-            "pairs": len(values),
-            "median": statistics.median(values),
-            "lowest": min(values),
-            "highest": max(values),
-            "within_0.5%": sum(v >= -0.005 for v in values),
-            "infeasible": sum(
-                1
-                for row in rows
-                if (name == "all" or row["reading"] == name)
-                and not (row["feasible_full"] and row["feasible_continued"])
-            ),
-        }
-        for name, values in groups.items()
-    ]
+        groups.setdefault((row["reading"], row["task"]), []).append(row)
+        groups.setdefault(("all", "all"), []).append(row)
+    out = []
+    for (reading, task), members in groups.items():
+        values = [
+            float(r["difference"])
+            for r in members
+            if r["feasible_full"] and r["feasible_continued"]
+        ]
+        out.append(
+            {
+                "reading": reading,
+                "task": task,
+                "pairs": len(values),
+                "median": statistics.median(values) if values else math.nan,
+                "lowest": min(values, default=math.nan),
+                "highest": max(values, default=math.nan),
+                "within_0.5%": sum(v >= -0.005 for v in values),
+                "infeasible": len(members) - len(values),
+                "infeasible_continued": sum(
+                    bool(r["feasible_full"]) and not r["feasible_continued"] for r in members
+                ),
+            }
+        )
+    return out
 
 
 def _check_preset(out_dir: Path, plan: StudyPlan) -> None:
@@ -617,33 +680,52 @@ def run_readings(
     if len(set(names)) != len(names):
         raise ValueError(f"readings = {names}; allowed: distinct names")
     _check_preset(out, plan)
-    starts: Starts | None = None
     runs: list[RunSummary] = []
+    checks: list[tuple[Reading, Job, Job]] = []
+    full: dict[str, dict[str, str]] = {}
     if continuation is None:
-        singles, first, checks = _phase(plan, readings, out, scheduler, progress)
+        jobs = {r.name: study_jobs(plan, r) for r in readings}
+        singles, first = _phase(plan, jobs, readings, out, scheduler, progress)
         runs.append(first)
     else:
         # the default first: the others start from its optima
-        default, first, _ = _phase(plan, readings[:1], out, scheduler, progress)
-        starts = default_optima(out, study_jobs(plan, DEFAULT))
-        others, second, checks = _phase(
-            plan, readings[1:], out, scheduler, progress, continuation, starts, check=True
+        jobs = {DEFAULT.name: study_jobs(plan, DEFAULT)}
+        default, first = _phase(plan, jobs, readings[:1], out, scheduler, progress)
+        optima = optima_of(out, jobs)
+        # the bias check, then each single reading: a task the check fails runs in full
+        others = readings[1:]
+        checks = [(r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)]
+        check = run_jobs(
+            list(dict.fromkeys(job for _, c, f in checks for job in (c, f))),
+            out,
+            scheduler=scheduler,
+            progress=progress,
         )
-        singles = default + others
-        runs += [first, second]
+        full = full_tasks(check_summary(check_rows(out, checks)), continuation)
+        jobs |= {
+            r.name: study_jobs(plan, r, continuation, optima, full.get(r.name, {})) for r in others
+        }
+        rest, second = _phase(plan, jobs, others, out, scheduler, progress)
+        singles = default + rest
+        runs += [first, check, second]
     words = "not derived (derive=False)"
     results = list(singles)
     if derive:
         derived, words = combinations(singles[0], singles)
         derived = [r for r in derived if r.name not in names]
         if derived:
-            more, third, _ = _phase(plan, derived, out, scheduler, progress, continuation, starts)
+            if continuation is not None:
+                optima = optima_of(out, jobs)
+                jobs |= {r.name: study_jobs(plan, r, continuation, optima) for r in derived}
+            else:
+                jobs |= {r.name: study_jobs(plan, r) for r in derived}
+            more, third = _phase(plan, jobs, derived, out, scheduler, progress)
             results += more
             runs.append(third)
     rows = check_rows(out, checks) if checks else []
     if rows:
         write_csv_atomic(out / CHECK_CSV, rows)
-    files = write_outputs(plan, results, words, out, check_summary(rows), continuation)
+    files = write_outputs(plan, results, words, out, check_summary(rows), continuation, full)
     wall = time.perf_counter() - start
     write_json_atomic(
         out / MANIFEST,
@@ -657,6 +739,7 @@ def run_readings(
             "combination_rule": words,
             "continuation": None if continuation is None else asdict(continuation),
             "continuation_check": check_summary(rows),
+            "run_in_full": full,
             "phases": [s.to_dict() for s in runs],
             "wall_time_s": round(wall, 1),
         },
@@ -702,9 +785,11 @@ def write_outputs(
     out_dir: Path,
     check: Sequence[Mapping[str, Any]] = (),
     continuation: Continuation | None = None,
+    full: Mapping[str, Mapping[str, str]] | None = None,
 ) -> list[Path]:
-    """readings.csv, readings_matrix.<format> and report.md (with the continuation and its
-    bias check, ``check``: :func:`check_summary`)."""
+    """readings.csv, readings_matrix.<format> and report.md (with the continuation, its bias
+    check, ``check``: :func:`check_summary`, and the tasks run in full for it, ``full``:
+    :func:`full_tasks`)."""
     csv_path = out_dir / "readings.csv"
     write_csv_atomic(csv_path, csv_rows(results))
     claims = results[0].claims
@@ -720,6 +805,6 @@ def write_outputs(
         split=next((k for k, r in enumerate(results) if r.reading.derived_from), None),
     )
     report_path = report.write_readings_report(
-        out_dir / "report.md", plan, results, rule, csv_path, figure, check, continuation
+        out_dir / "report.md", plan, results, rule, csv_path, figure, check, continuation, full
     )
     return [csv_path, figure, report_path]

@@ -240,22 +240,28 @@ def test_continued_jobs_start_from_the_default_optimum_of_the_same_job() -> None
     reading = next(r for r in readings.SINGLES if r.name == "Fh-literal")
     continuation = readings.Continuation(share=0.5, initial_share=0.6, starts=2)
     default = readings.study_jobs(plan, DEFAULT)
-    starts = {
-        job.key: [0.01 * k] * 28 for k, job in enumerate(j for g in default.values() for j in g)
+    optima = {
+        DEFAULT.name: {
+            name: [[0.01 * k] * 28 for k in range(len(group))] for name, group in default.items()
+        }
     }
-    continued = readings.study_jobs(plan, reading, continuation, starts)
+    continued = readings.study_jobs(plan, reading, continuation, optima)
     full = readings.study_jobs(plan, reading)
-    assert readings.study_jobs(plan, DEFAULT, continuation, starts) == default
+    assert readings.study_jobs(plan, DEFAULT, continuation, optima) == default
+    # a task named in ``full`` keeps its own jobs
+    assert readings.study_jobs(plan, reading, continuation, optima, ("accelerate",)) == full
     shared = changed = 0
     for name in default:
-        for d, c, f in zip(default[name], continued[name], full[name], strict=True):
+        triples = zip(default[name], continued[name], full[name], strict=True)
+        for position, (d, c, f) in enumerate(triples):
             if f.key == d.key:  # Fh-literal changes only the horizontal jobs: shared
                 assert c == d
                 shared += 1
                 continue
             changed += 1
             config = dict(c.method_config)
-            assert config["initial"] == (tuple(starts[d.key]),) and config["starts"] == 2
+            assert config["initial"] == (tuple(optima[DEFAULT.name][name][position]),)
+            assert config["starts"] == 2
             assert config["initial_share"] == 0.6
             assert c.budget == round(0.5 * f.budget) and c.seed == f.seed
             assert (c.task, c.condition, c.env_kwargs) == (f.task, f.condition, f.env_kwargs)
@@ -285,18 +291,77 @@ def test_tiny_run_with_continuation_checks_its_bias(tmp_path: Path) -> None:
     result = readings.run_readings(
         plan, tmp_path, readings=chosen, progress=False, continuation=continuation
     )
-    assert result.phases[:2] == ("default", "singles")
+    assert result.phases[:3] == ("default", "check", "singles")
     n_default = len(_keys(reading_jobs(plan, DEFAULT)))
     assert result.runs[0].ran == n_default
     with open(tmp_path / readings.CHECK_CSV, newline="", encoding="utf-8") as handle:
         rows = list(csv.DictReader(handle))
-    checked = readings.check_jobs(
-        plan,
-        chosen[1],
-        continuation,
-        readings.default_optima(tmp_path, readings.study_jobs(plan, DEFAULT)),
-    )
+    optima = readings.optima_of(tmp_path, {DEFAULT.name: readings.study_jobs(plan, DEFAULT)})
+    checked = readings.check_jobs(plan, chosen[1], continuation, optima)
+    # the check's pairs ran in the check phase, so the singles' phase reuses its checked jobs
+    assert result.runs[1].ran == len({job for pair in checked for job in pair})
+    assert result.runs[2].reused >= len(checked)
     assert len(rows) == len(checked) > 0 and tuple(rows[0]) == readings.CHECK_COLUMNS
     assert {r["reading"] for r in rows} == {"hover-none"}
     report = (tmp_path / "report.md").read_text(encoding="utf-8")
     assert "## Continuation and its bias" in report and "**all**" in report
+
+
+def test_a_task_whose_check_falls_short_runs_in_full() -> None:
+    rule = readings.Continuation(full_median=-0.02, full_lowest=-0.5)
+    base = {"pairs": 4, "highest": 0.1, "within_0.5%": 2, "infeasible": 0}
+    summary = [
+        {**base, "reading": "all", "task": "all", "median": -0.9, "lowest": -1.0,
+         "infeasible_continued": 3},
+        {**base, "reading": "a", "task": "level", "median": -0.019, "lowest": -0.49,
+         "infeasible_continued": 0},
+        {**base, "reading": "a", "task": "accelerate", "median": -0.021, "lowest": -0.1,
+         "infeasible_continued": 0},
+        {**base, "reading": "b", "task": "level", "median": 0.0, "lowest": -0.51,
+         "infeasible_continued": 0},
+        {**base, "reading": "c", "task": "level", "median": 0.0, "lowest": 0.0,
+         "infeasible_continued": 1},
+    ]  # fmt: skip
+    assert readings.full_tasks(summary, rule) == {
+        "a": {"accelerate": "median -2.1 %"},
+        "b": {"level": "lowest -51.0 %"},
+        "c": {"level": "1 continued optima infeasible"},
+    }
+    assert readings.full_tasks(summary, readings.Continuation(full_median=-1, full_lowest=-1)) == {
+        "c": {"level": "1 continued optima infeasible"}
+    }
+    with pytest.raises(ValueError, match=r"full_median = 0.5; allowed: a relative difference"):
+        readings.Continuation(full_median=0.5)
+
+
+def test_a_combination_continues_from_the_optima_of_its_parts() -> None:
+    plan = StudyPlan(TINY)
+    parts = [readings.reading_by_name(name) for name in ("hover-none", "Fh-literal")]
+    combined = readings.reading_by_name("hover-none+Fh-literal")
+    assert readings.continued_from(combined) == ("hover-none", "Fh-literal")
+    default = readings.study_jobs(plan, DEFAULT)
+    optima = {
+        r.name: {
+            name: [[0.01 * k + 0.001 * i] * 28 for k in range(len(group))]
+            for name, group in default.items()
+        }
+        for i, r in enumerate([DEFAULT, *parts])
+    }
+    continuation = readings.Continuation()
+    with pytest.raises(ValueError, match=r"continues from \['Fh-literal'\], not run yet"):
+        readings.study_jobs(plan, combined, continuation, {"hover-none": optima["hover-none"]})
+    continued = readings.study_jobs(plan, combined, continuation, optima)
+    seen = 0
+    for name, group in continued.items():
+        for position, (job, d) in enumerate(zip(group, default[name], strict=True)):
+            if job.key == d.key:
+                continue
+            seen += 1
+            expected = tuple(tuple(optima[p.name][name][position]) for p in parts)
+            assert dict(job.method_config)["initial"] == expected
+    assert seen
+    # a part's stroke that equals the other's is polished once
+    same = {**optima, "Fh-literal": optima["hover-none"]}
+    once = readings.study_jobs(plan, combined, continuation, same)
+    configs = [dict(j.method_config) for g in once.values() for j in g]
+    assert all(len(c["initial"]) == 1 for c in configs if "initial" in c)
