@@ -648,6 +648,149 @@ def render_convergence(data: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+# --- the readings study at the paper preset (docs/reproduction.md, "Readings") -----------------
+READINGS_PAPER_OUT = Path("results") / "readings-paper"
+READINGS_PAPER_COMMAND = (
+    f"python -m eval study readings --preset paper --scheduler local:2 --out {READINGS_PAPER_OUT}"
+)
+#: The run's small outputs kept where the docs include them: run's file -> the docs' copy.
+READINGS_PAPER_FILES: dict[str, Path] = {
+    "readings.csv": ROOT / "docs" / "readings" / "paper_readings.csv",
+    "continuation_check.csv": ROOT / "docs" / "readings" / "paper_continuation_check.csv",
+    "readings_manifest.json": ROOT / "docs" / "readings" / "paper_readings_manifest.json",
+    "readings_matrix.png": ROOT / "docs" / "figures" / "readings_paper_matrix.png",
+}
+#: The headline columns of the readings table: (title, readings.csv columns).
+READINGS_COLUMNS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("η_max [%]", ("eta_max_pct",)),
+    ("F̄_v 50 / 90", ("Fv_50", "Fv_90")),
+    ("F̄_h 50 / 90", ("Fh_50", "Fh_90")),
+    ("F̄_a 50 / 90", ("Fa_50", "Fa_90")),
+)
+
+
+def measure_readings_paper() -> dict[str, Any]:
+    """Collect the finished paper-preset readings run in :data:`READINGS_PAPER_OUT` (it takes
+    1-2 h on 2 cores: run :data:`READINGS_PAPER_COMMAND` first) and copy its small outputs
+    into the docs (:data:`READINGS_PAPER_FILES`)."""
+    import csv
+    import shutil
+
+    from eval.studies.readings import MANIFEST
+    from tandem_env.io.files import atomic_path, read_json
+
+    out = READINGS_PAPER_OUT
+    if not (out / MANIFEST).is_file():
+        raise SystemExit(f"{out} holds no finished readings run; run `{READINGS_PAPER_COMMAND}`")
+    manifest = read_json(out / MANIFEST)
+    if manifest.get("preset") != "paper" or "invocations" not in manifest:
+        raise SystemExit(
+            f"{out / MANIFEST} is not a paper-preset readings run of this version (preset "
+            f"{manifest.get('preset')!r}); run `{READINGS_PAPER_COMMAND}`"
+        )
+    with open(out / "readings.csv", newline="", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    for name, copy in READINGS_PAPER_FILES.items():
+        copy.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(copy) as tmp:
+            shutil.copyfile(out / name, tmp)
+    keep = ("invocations", "continuation", "continuation_check", "run_in_full")
+    return {
+        "command": READINGS_PAPER_COMMAND,
+        "rows": rows,
+        "claims": manifest["claims"],
+        "combination_rule": manifest["combination_rule"],
+        **{key: manifest[key] for key in keep},
+    }
+
+
+def _duration(seconds: float) -> str:
+    minutes, rest = divmod(round(seconds), 60)
+    return f"{minutes} min {rest:02d} s" if minutes else f"{rest} s"
+
+
+def render_readings_paper(data: dict[str, Any]) -> str:
+    """The readings table (the paper's numbers first, the best count in bold), the run's
+    phases, the combination rule and the continuation's bias check with what ran in full."""
+    from eval.studies.readings_result import HEADLINES
+
+    paper = {c["id"]: c["paper"] for c in data["claims"]}
+    rows = data["rows"]
+    best = max(int(r["agree"]) for r in rows)
+    head = " | ".join(title for title, _ in READINGS_COLUMNS)
+    lines = [
+        f"| reading | changes from the default | agree | differ | undecided | no data | {head} |",
+        "|---|---|---|---|---|---|" + "---|" * len(READINGS_COLUMNS),
+        "| paper | | | | | | "
+        + " | ".join(
+            " / ".join(paper.get(HEADLINES[c][0], "–") for c in columns)
+            for _, columns in READINGS_COLUMNS
+        )
+        + " |",
+    ]
+    for r in rows:
+        mark = "**" if int(r["agree"]) == best else ""
+        numbers = [
+            " / ".join(f"{float(r[c]):.3g}" for c in columns) for _, columns in READINGS_COLUMNS
+        ]
+        lines.append(
+            f"| {mark}`{r['reading']}`{mark} | {r['changes']} | {mark}{r['agree']}{mark} | "
+            f"{r['differ']} | {r['undecided']} | {r['no_data']} | {' | '.join(numbers)} |"
+        )
+    lines += [
+        "",
+        f"{len(data['claims'])} claims; verdicts on the median over the seeds, undecided where "
+        "the bootstrap over seeds leaves it open (docs/reproduction.md, *Agreement rules*).",
+        f"Combination rule: {data['combination_rule']}.",
+        "",
+        "The run, invocation by invocation into its folder (a job stored by an earlier "
+        "invocation is reused):",
+        "",
+        *[
+            f"- {inv['finished'] or 'finished before invocations were recorded'}"
+            + (
+                f", {inv['cpus']} CPUs, load average (1 min) "
+                f"{' → '.join(str(x) for x in inv['load_average_1min'])}"
+                if "cpus" in inv
+                else ""
+            )
+            + ": "
+            + "; ".join(
+                f"{p['name']} {p['jobs']} optimisations ({p['ran']} run, {p['reused']} "
+                f"reused) in {_duration(p['wall_time_s'])}"
+                for p in inv["phases"]
+            )
+            + f"; {_duration(inv['wall_time_s'])} with the analysis."
+            for inv in data["invocations"]
+        ],
+        "",
+        "Bias check of the continuation (difference = (continued − full) / |full| of the "
+        "reported objective, per job; a single reading's task that falls short ran in full):",
+        "",
+        "| reading | task | pairs (both feasible) | median | lowest | highest | continued ≥ full "
+        "− 0.5 % | infeasible | runs |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    full = data["run_in_full"]
+    for row in data["continuation_check"]:
+        overall = row["reading"] == "all"
+        why = full.get(row["reading"], {}).get(row["task"])
+        runs = "" if overall else (f"in full ({why})" if why else "continued")
+        lines.append(
+            f"| {'**all**' if overall else '`' + row['reading'] + '`'} | "
+            f"{'' if overall else row['task']} | {row['pairs']} | {100 * row['median']:+.2f} % | "
+            f"{100 * row['lowest']:+.1f} % | {100 * row['highest']:+.1f} % | "
+            f"{row['within_0.5%']} of {row['pairs']} | {row['infeasible']} | {runs} |"
+        )
+    lines += [
+        "",
+        "Collected from the run's own outputs by `python -m eval numbers --only readings-paper` "
+        f"(after `{data['command']}`; its readings.csv, manifest, bias check and matrix are "
+        "copied to docs/readings/ and docs/figures/).",
+    ]
+    return "\n".join(lines) + "\n"
+
+
 # --- the registry -------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Measurement:
@@ -657,6 +800,8 @@ class Measurement:
     name: str
     measure: Callable[[], dict[str, Any]]
     render: Callable[[dict[str, Any]], str]
+    on_request: bool = False
+    """Measured only when named in ``--only``: it collects a long study's outputs (run first)."""
 
 
 MEASUREMENTS: dict[str, Measurement] = {
@@ -673,6 +818,9 @@ MEASUREMENTS: dict[str, Measurement] = {
         ),
         Measurement("power-conventions", measure_power_conventions, render_power_conventions),
         Measurement("convergence", CONVERGENCE.run, render_convergence),
+        Measurement(
+            "readings-paper", measure_readings_paper, render_readings_paper, on_request=True
+        ),
     )
 }
 
@@ -784,7 +932,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     if not args.render:
-        for name in args.only or sorted(MEASUREMENTS):
+        every = [name for name, m in sorted(MEASUREMENTS.items()) if not m.on_request]
+        for name in args.only or every:
             print(f"measuring {name} ...", file=sys.stderr, flush=True)
             before = machine()
             data = MEASUREMENTS[name].measure()

@@ -120,12 +120,16 @@ def agreement_rules() -> list[str]:
 
 def _settings(plan: StudyPlan) -> list[str]:
     p = plan.preset
+    search = plan.reading.search
+    if search is None:
+        batch = f"; PSO swarm {p.swarm_size}" if "pso" in plan.methods else ""
+    else:  # the reading's search replaces the preset's method, budgets and batch
+        batch = f"; search of the reading: {search.describe()}"
     lines = [
         f"- preset `{p.name}`: {p.description}",
         f"- methods: {', '.join(f'`{m}`' for m in plan.methods)}; seeds {list(p.seeds)}; "
-        f"budgets {p.level_budget} (level) and {p.accelerate_budget} (accelerating) model "
-        f"evaluations per optimisation"
-        + (f"; PSO swarm {p.swarm_size}" if "pso" in plan.methods else ""),
+        f"budgets {plan.budget('level')} (level) and {plan.budget('accelerate')} (accelerating) "
+        f"model evaluations per optimisation{batch}",
         f"- speeds {list(p.speeds)} m/s, powers {list(p.powers)} W/kg; wing shape at "
         f"{list(p.shape_speeds)} m/s and {list(p.shape_powers)} W/kg; kinematics at "
         f"{p.kinematics_speed:g} m/s and {p.kinematics_power:g} W/kg ({p.kinematics_objective})",

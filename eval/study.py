@@ -176,9 +176,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         if args.study == readings.NAME and args.continuation is not None:
             jobs = readings.reading_jobs(plan, readings.DEFAULT)
             title = (
-                f"readings study, first phase (the default reading in full; {len(chosen) - 1} "
-                f"single readings continue from its optima on {args.continuation.share:g} of "
-                "the budget, then the combinations their results point to)"
+                f"readings study, first phase (the default reading in full; then the bias "
+                f"check, and {len(chosen) - 1} single readings continue from its optima on "
+                f"{args.continuation.share:g} of the budget, a task the check fails in full; "
+                "then the combinations their results point to)"
             )
         elif args.study == readings.NAME:
             jobs = [job for r in chosen for job in readings.reading_jobs(plan, r)]

@@ -12,6 +12,7 @@ Timings (the benchmarks' regions) are only checked to be their stored rendering.
 
 from __future__ import annotations
 
+import json
 import math
 
 import pytest
@@ -132,3 +133,34 @@ def test_convergence_reproduces() -> None:
                 f"{stored['command']}: {name} at V = {old['speed']} m/s differs from "
                 "docs/numbers/convergence.json (rerun `python -m eval numbers --only convergence`)"
             )
+
+
+def test_the_readings_runs_copies_in_the_docs_are_its_collected_outputs() -> None:
+    """docs/readings/ and docs/figures/ hold the paper-preset readings run's own files, as
+    collected: the table's rows are the copied readings.csv's, the bias check the manifest's."""
+    import csv
+
+    data = numbers.load("readings-paper")
+    copies = numbers.READINGS_PAPER_FILES
+    with open(copies["readings.csv"], newline="", encoding="utf-8") as handle:
+        assert list(csv.DictReader(handle)) == data["rows"]
+    manifest = json.loads(copies["readings_manifest.json"].read_text(encoding="utf-8"))
+    assert manifest["continuation_check"] == data["continuation_check"]
+    assert [r["name"] for r in manifest["readings"]] == [r["reading"] for r in data["rows"]]
+    assert copies["readings_matrix.png"].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_paper_reading_is_the_stored_runs_strict_best() -> None:
+    """``--reading paper`` names the reading with the most agreeing claims in the stored
+    paper-preset readings run, strictly, and its model options are ``ModelOptions.preset``'s."""
+    from eval.studies.readings import ALIASES, reading_by_name
+    from tandem_env.physics.options import PRESETS, ModelOptions
+
+    rows = numbers.load("readings-paper")["rows"]
+    agree = {r["reading"]: int(r["agree"]) for r in rows}
+    best = ALIASES["paper"]
+    assert all(count < agree[best] for name, count in agree.items() if name != best)
+    paper = reading_by_name("paper")
+    assert paper.name == best and paper.model_options == ModelOptions.preset("paper")
+    model_changes = {k: v for k, v in paper.changes().items() if k in PRESETS["paper"]}
+    assert model_changes == dict(PRESETS["paper"])

@@ -42,6 +42,7 @@ import sys
 import time
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
@@ -124,9 +125,12 @@ SINGLES: tuple[Reading, ...] = (
     ),
 )
 
-#: Named readings: ``paper`` is the reading that reproduces the most of the paper's claims
-#: at the paper preset (docs/reproduction.md, "Readings"): none yet, that run has not been made.
-ALIASES: dict[str, str] = {}
+#: Named readings. ``paper``: the reading with the most agreeing claims (13 of 26, 4 undecided,
+#: strictly more than any other) in the paper-preset run of this study (docs/reproduction.md,
+#: "Readings at the paper preset"; tests/test_docs_numbers.py checks it against that run's
+#: stored readings.csv). Its model part is ``ModelOptions.preset("paper")``; what its decisions
+#: mean physically: docs/model.md §5.5 and §7.6.
+ALIASES: dict[str, str] = {"paper": "hover-none+Fh-literal"}
 
 #: The columns of readings.csv, in order.
 CSV_COLUMNS: tuple[str, ...] = (
@@ -136,6 +140,7 @@ CSV_COLUMNS: tuple[str, ...] = (
     *DECISION_OPTIONS,
     "rotational_coefficient",
     "horizontal_objective",
+    "search",
     "agree",
     "differ",
     "undecided",
@@ -632,19 +637,53 @@ def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
-def _check_preset(out_dir: Path, plan: StudyPlan) -> None:
-    """Say so (stderr) when ``out_dir`` holds another preset's readings, which are replaced."""
+def _check_preset(out_dir: Path, plan: StudyPlan) -> Mapping[str, Any] | None:
+    """The manifest ``out_dir`` holds (None if none); say so (stderr) when it is another
+    preset's readings, which are replaced."""
     try:
         before = read_json(out_dir / MANIFEST)
     except (FileNotFoundError, ValueError):
-        return
-    if isinstance(before, Mapping) and before.get("preset") not in (None, plan.preset.name):
+        return None
+    if not isinstance(before, Mapping):
+        return None
+    if before.get("preset") not in (None, plan.preset.name):
         print(
             f"note: {out_dir} holds the {before['preset']!r} preset's readings; its readings.csv, "
             f"matrix and report are replaced by the {plan.preset.name!r} preset's (the records "
             "of both stay: they are keyed by preset). Use --out for a separate folder.",
             file=sys.stderr,
         )
+    return before
+
+
+def _load() -> float | None:
+    """The 1-minute load average (None where the system has none)."""
+    return round(os.getloadavg()[0], 2) if hasattr(os, "getloadavg") else None
+
+
+def _invocations(
+    before: Mapping[str, Any] | None, plan: StudyPlan, this: dict[str, Any]
+) -> list[dict[str, Any]]:
+    """Every invocation into the folder at this preset, ``this`` last: a resumed run (or one
+    that only redraws the outputs) keeps the work and times of those before it. A manifest
+    written before invocations were recorded (no ``invocations``) gives its one run, with the
+    phases named in order."""
+    if before is None or before.get("preset") != plan.preset.name:
+        return [this]
+    earlier = list(before.get("invocations", ()))
+    if not earlier and "phases" in before:
+        names = ("singles", "combinations") if before.get("continuation") is None else PHASES
+        earlier = [
+            {
+                "finished": None,
+                "phases": [
+                    {"name": name, **phase}
+                    for name, phase in zip(names, before["phases"], strict=False)
+                ],
+                "wall_time_s": before.get("wall_time_s"),
+            }
+        ]
+    return [*earlier, this]
 
 
 def run_readings(
@@ -679,7 +718,8 @@ def run_readings(
     names = [r.name for r in readings]
     if len(set(names)) != len(names):
         raise ValueError(f"readings = {names}; allowed: distinct names")
-    _check_preset(out, plan)
+    before = _check_preset(out, plan)
+    load_before = _load()
     runs: list[RunSummary] = []
     checks: list[tuple[Reading, Job, Job]] = []
     full: dict[str, dict[str, str]] = {}
@@ -727,27 +767,39 @@ def run_readings(
         write_csv_atomic(out / CHECK_CSV, rows)
     files = write_outputs(plan, results, words, out, check_summary(rows), continuation, full)
     wall = time.perf_counter() - start
+    phases = (("singles", "combinations") if continuation is None else PHASES)[: len(runs)]
+    this = {
+        "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        "cpus": os.cpu_count(),
+        "load_average_1min": [load_before, _load()],
+        "phases": [{"name": name, **run.to_dict()} for name, run in zip(phases, runs, strict=True)],
+        "wall_time_s": round(wall, 1),
+    }
     write_json_atomic(
         out / MANIFEST,
         {
             "preset": plan.preset.name,
             "methods": list(plan.methods),
+            "claims": [
+                {"id": c.id, "statement": c.statement, "paper": c.paper} for c in results[0].claims
+            ],
             "readings": [
-                {"name": r.reading.name, "changes": r.reading.changes(), "agree": r.agree}
+                {
+                    "name": r.reading.name,
+                    "changes": r.reading.changes(),
+                    "agree": r.agree,
+                    "verdicts": r.verdicts(),
+                }
                 for r in results
             ],
             "combination_rule": words,
             "continuation": None if continuation is None else asdict(continuation),
             "continuation_check": check_summary(rows),
             "run_in_full": full,
-            "phases": [s.to_dict() for s in runs],
-            "wall_time_s": round(wall, 1),
+            "invocations": _invocations(before, plan, this),
         },
     )
-    names = ("singles", "combinations") if continuation is None else PHASES
-    return ReadingsResult(
-        tuple(results), tuple(runs), words, tuple(files), wall, names[: len(runs)]
-    )
+    return ReadingsResult(tuple(results), tuple(runs), words, tuple(files), wall, phases)
 
 
 def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
@@ -763,6 +815,7 @@ def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
             **{name: getattr(options, name) for name in DECISION_OPTIONS},
             "rotational_coefficient": math.pi if c_r is None else float(c_r),
             "horizontal_objective": r.reading.horizontal_objective,
+            "search": "" if r.reading.search is None else r.reading.search.describe(),
             "agree": r.agree,
             "differ": r.differ,
             "undecided": r.undecided,

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass
+from types import MappingProxyType
 from typing import Any, Literal, get_args
 
 Induction = Literal["coupled", "isolated", "none"]
@@ -110,3 +112,30 @@ class ModelOptions:
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
+
+    @classmethod
+    def preset(cls, name: str, **fields: Any) -> ModelOptions:
+        """The options of the preset ``name`` (:data:`PRESETS`) with ``fields`` over them, e.g.
+        ``ModelOptions.preset("paper", n_time=256)``; raises ValueError naming the presets."""
+        if name not in PRESETS:
+            raise ValueError(
+                f"ModelOptions.preset({name!r}); allowed: {', '.join(map(repr, PRESETS))}"
+            )
+        known = set(asdict(cls()))
+        unknown = sorted(set(fields) - known)
+        if unknown:
+            raise ValueError(
+                f"ModelOptions.preset({name!r}, ...): unknown field(s) {unknown}; allowed: "
+                f"{', '.join(sorted(known))}"
+            )
+        return cls(**{**PRESETS[name], **fields})
+
+
+#: Named sets of model options over the defaults (:meth:`ModelOptions.preset`; an env takes one
+#: as ``options=``). ``paper``: the model options of the reading of the paper's open decisions
+#: that reproduces the most of its claims at the paper preset (docs/reproduction.md, "Readings at
+#: the paper preset"; ``--reading paper`` of ``python -m eval``). What it means physically, and
+#: why it is not what momentum theory says: docs/model.md §5.5.
+PRESETS: Mapping[str, Mapping[str, Any]] = MappingProxyType(
+    {"paper": MappingProxyType({"hover_inflow": "none"})}
+)

@@ -4,6 +4,7 @@ the combination rule, the CSV and a tiny end-to-end run that a rerun does not re
 from __future__ import annotations
 
 import csv
+import json
 import math
 from pathlib import Path
 
@@ -305,6 +306,18 @@ def test_tiny_run_with_continuation_checks_its_bias(tmp_path: Path) -> None:
     assert {r["reading"] for r in rows} == {"hover-none"}
     report = (tmp_path / "report.md").read_text(encoding="utf-8")
     assert "## Continuation and its bias" in report and "**all**" in report
+    # a second invocation reuses every job, and the manifest keeps both invocations' work
+    again = readings.run_readings(
+        plan, tmp_path, readings=chosen, progress=False, continuation=continuation
+    )
+    assert sum(run.ran for run in again.runs) == 0
+    manifest = json.loads((tmp_path / readings.MANIFEST).read_text(encoding="utf-8"))
+    first, second = manifest["invocations"]
+    assert [p["name"] for p in first["phases"]] == list(result.phases)
+    assert [p["ran"] for p in first["phases"]] == [run.ran for run in result.runs]
+    assert all(p["ran"] == 0 for p in second["phases"]) and second["cpus"] >= 1
+    verdicts = {r["name"]: r["verdicts"] for r in manifest["readings"]}
+    assert verdicts["hover-none"] == result.results[1].verdicts()
 
 
 def test_a_task_whose_check_falls_short_runs_in_full() -> None:

@@ -166,3 +166,17 @@ def test_the_readings_study_runs_a_search_reading() -> None:
     jobs = readings.reading_jobs(plan, PAPER_SEARCH)
     assert {j.method for j in jobs} == {"pso"} and {j.budget for j in jobs} == {2000}
     assert readings.reading_plan(plan, PAPER_SEARCH).methods == ("pso",)
+
+
+def test_a_search_readings_report_and_csv_row_name_its_search() -> None:
+    from eval.report import _settings
+    from eval.studies.readings_result import ReadingResult
+
+    small = PAPER_SEARCHES[0]  # PSO 20 × 50: not the paper preset's swarm or budgets
+    plan = readings.reading_plan(StudyPlan(PAPER), small)
+    budgets = _settings(plan)[1]
+    assert "budgets 1000 (level) and 1000 (accelerating)" in budgets
+    assert budgets.endswith(f"search of the reading: {small.search.describe()}")
+    assert "PSO swarm" not in budgets  # the preset's swarm, which the search replaces
+    row, default = readings.csv_rows([ReadingResult(small, ()), ReadingResult(DEFAULT, ())])
+    assert row["search"] == small.search.describe() and default["search"] == ""

@@ -232,3 +232,21 @@ def test_literal_horizontal_force_whatever_the_thrust_split() -> None:
     assert np.any(sign.excess_horizontal < 0.0)
     # D_f + D_h ≥ −(net horizontal force)/W: the rearward parts bound the net force from below
     assert np.all(sign.excess_horizontal_literal >= -sign.excess_horizontal - 1e-12)
+
+
+def test_model_presets_are_options_over_the_defaults() -> None:
+    from tandem_env.physics.options import PRESETS
+
+    for name, changes in PRESETS.items():
+        options = ModelOptions.preset(name)
+        changed = {
+            k: v for k, v in dataclasses.asdict(options).items() if getattr(ModelOptions(), k) != v
+        }
+        assert changed == dict(changes) and changed  # each preset changes something, no more
+        assert ModelOptions.preset(name, n_time=64) == dataclasses.replace(options, n_time=64)
+    with pytest.raises(ValueError, match=r"preset\('nope'\); allowed: 'paper'"):
+        ModelOptions.preset("nope")
+    with pytest.raises(ValueError, match=r"unknown field\(s\) \['nope'\]; allowed: hover_inflow"):
+        ModelOptions.preset("paper", nope=1)
+    with pytest.raises(ValueError, match=r"ModelOptions.spin = 'x'"):
+        ModelOptions.preset("paper", spin="x")
