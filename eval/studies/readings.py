@@ -604,14 +604,15 @@ def check_rows(out_dir: Path, checks: Sequence[tuple[Reading, Job, Job]]) -> lis
 
 
 def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Per reading and task, and over all: the continuation's bias on the checked jobs (both
+    """Per reading and task, and over all (last): the continuation's bias on the checked jobs (both
     feasible): pairs, median, lowest and highest relative difference, how many continued optima
     are within 0.5 % of the full run's or above it, the pairs with either infeasible, and those
     with only the continued one infeasible."""
     groups: dict[tuple[str, str], list[Mapping[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["reading"], row["task"]), []).append(row)
-        groups.setdefault(("all", "all"), []).append(row)
+    if rows:  # the overall row last
+        groups[("all", "all")] = list(rows)
     out = []
     for (reading, task), members in groups.items():
         values = [
