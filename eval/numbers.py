@@ -709,6 +709,23 @@ def _duration(seconds: float) -> str:
     return f"{minutes} min {rest:02d} s" if minutes else f"{rest} s"
 
 
+def _invocation_line(invocation: dict[str, Any]) -> str:
+    """One invocation of a readings run: when, where, and each phase's work and time."""
+    where = (
+        f", {invocation['cpus']} CPUs, load average (1 min) "
+        + " → ".join(str(x) for x in invocation["load_average_1min"])
+        if "cpus" in invocation
+        else ""
+    )
+    phases = "; ".join(
+        f"{p['name']} {p['jobs']} optimisations ({p['ran']} run, {p['reused']} reused) in "
+        f"{_duration(p['wall_time_s'])}"
+        for p in invocation["phases"]
+    )
+    finished = invocation["finished"] or "finished before invocations were recorded"
+    return f"- {finished}{where}: {phases}; {_duration(invocation['wall_time_s'])} in all."
+
+
 def render_readings_paper(data: dict[str, Any]) -> str:
     """The readings table (the paper's numbers first, the best count in bold), the run's
     phases, the combination rule and the continuation's bias check with what ran in full."""
@@ -716,6 +733,8 @@ def render_readings_paper(data: dict[str, Any]) -> str:
 
     paper = {c["id"]: c["paper"] for c in data["claims"]}
     rows = data["rows"]
+    worked = [inv for inv in data["invocations"] if any(p["ran"] for p in inv["phases"])]
+    reused = [inv for inv in data["invocations"] if inv not in worked]
     best = max(int(r["agree"]) for r in rows)
     head = " | ".join(title for title, _ in READINGS_COLUMNS)
     lines = [
@@ -743,26 +762,13 @@ def render_readings_paper(data: dict[str, Any]) -> str:
         "the bootstrap over seeds leaves it open (docs/reproduction.md, *Agreement rules*).",
         f"Combination rule: {data['combination_rule']}.",
         "",
-        "The run, invocation by invocation into its folder (a job stored by an earlier "
+        "The invocations into the run's folder that optimised (a job stored by an earlier "
         "invocation is reused):",
         "",
-        *[
-            f"- {inv['finished'] or 'finished before invocations were recorded'}"
-            + (
-                f", {inv['cpus']} CPUs, load average (1 min) "
-                f"{' → '.join(str(x) for x in inv['load_average_1min'])}"
-                if "cpus" in inv
-                else ""
-            )
-            + ": "
-            + "; ".join(
-                f"{p['name']} {p['jobs']} optimisations ({p['ran']} run, {p['reused']} "
-                f"reused) in {_duration(p['wall_time_s'])}"
-                for p in inv["phases"]
-            )
-            + f"; {_duration(inv['wall_time_s'])} with the analysis."
-            for inv in data["invocations"]
-        ],
+        *[_invocation_line(inv) for inv in worked],
+        "",
+        f"{len(reused)} more invocation(s) reused every job and only analysed and redrew "
+        f"the outputs ({', '.join(_duration(inv['wall_time_s']) for inv in reused) or 'none'}).",
         "",
         "Bias check of the continuation (difference = (continued − full) / |full| of the "
         "reported objective, per job; a single reading's task that falls short ran in full):",

@@ -429,7 +429,8 @@ def full_tasks(
         if row["pairs"] and row["lowest"] < continuation.full_lowest:
             why.append(f"lowest {100 * row['lowest']:+.1f} %")
         if row["infeasible_continued"]:
-            why.append(f"{row['infeasible_continued']} continued optima infeasible")
+            count = row["infeasible_continued"]
+            why.append(f"{count} continued optim{'um' if count == 1 else 'a'} infeasible")
         if why:
             out.setdefault(row["reading"], {})[row["task"]] = ", ".join(why)
     return out

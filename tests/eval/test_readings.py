@@ -338,10 +338,10 @@ def test_a_task_whose_check_falls_short_runs_in_full() -> None:
     assert readings.full_tasks(summary, rule) == {
         "a": {"accelerate": "median -2.1 %"},
         "b": {"level": "lowest -51.0 %"},
-        "c": {"level": "1 continued optima infeasible"},
+        "c": {"level": "1 continued optimum infeasible"},
     }
     assert readings.full_tasks(summary, readings.Continuation(full_median=-1, full_lowest=-1)) == {
-        "c": {"level": "1 continued optima infeasible"}
+        "c": {"level": "1 continued optimum infeasible"}
     }
     with pytest.raises(ValueError, match=r"full_median = 0.5; allowed: a relative difference"):
         readings.Continuation(full_median=0.5)
