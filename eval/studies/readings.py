@@ -13,15 +13,16 @@ the studies' own claim builders. The readings are
    paired with each other single.
 
 **Continuation** (:class:`Continuation`, on by default): the readings are small changes of the
-model, so each reading's optimisation starts from the default reading's certified optimum of
-the same job (condition, objective, planform, seed): that stroke is polished under the reading,
-beside a short global search of the method (itself polished), on a share of the preset's budget
-(the harness's ``initial``, ``initial_share`` and ``starts`` settings), and the better of the
-two is reported. The
-default's jobs run first and in full. The continuation's bias is measured, not assumed: for
-every single reading the jobs of the check studies (``Continuation.check_studies``) at a few
-seeds also run in full, and ``continuation_check.csv`` and the report compare the two optima.
-A reading of the search itself (``Reading.search``) always runs in full.
+model, so each reading's optimisation starts from the optima of the readings nearest it (a
+single reading: the default's certified optimum of the same job, i.e. condition, objective,
+planform and seed; a combination: its parts' optima), polished under the reading beside a
+short global search of the method (itself polished), on a share of the preset's budget (the
+harness's ``initial``, ``initial_share`` and ``starts`` settings); the best is reported. The
+phases (:data:`PHASES`): the default's jobs in full; the bias check, which runs the jobs of the
+check studies (``Continuation.check_studies``) at a few seeds of every single reading both
+continued and in full (``continuation_check.csv``); the singles, where a reading's task whose
+check falls short (:func:`full_tasks`) runs in full; the combinations. A reading of the search
+itself (``Reading.search``) always runs in full.
 
 All jobs of a phase go into one :func:`~eval.studies.runner.run_jobs` call, so a job two
 readings share (the same env keywords: e.g. every job but the horizontal accelerating ones of
@@ -29,7 +30,8 @@ the F̄_h reading, or any job of a reading that restates a default) runs once, a
 jobs are the ``all`` suite's own. Records are written as jobs finish; a killed run resumes in
 any phase. Outputs under the output directory: ``readings.csv`` (one row per reading),
 ``readings_matrix.png`` (claims × readings; ``--format`` svg or pdf likewise), ``report.md``,
-``continuation_check.csv`` and, per reading, ``<name>/`` with that reading's study tables,
+``continuation_check.csv``, ``readings_manifest.json`` (each reading's changes and verdicts,
+the bias check, what ran in full, and every invocation's work, time and load) and, per reading, ``<name>/`` with that reading's study tables,
 figures and report.
 """
 
