@@ -174,7 +174,7 @@ class Continuation:
         The seeds of those full runs (seeds of the preset that are not among them are not
         checked).
     full_median : float
-        A single reading's task (hover-and-accelerate, level) whose checked continued optima
+        A single reading's task (``accelerate`` or ``level``) whose checked continued optima
         fall short of the full runs' by more than this median relative difference [-] runs in
         full instead (:func:`full_tasks`), in [-1, 0].
     full_lowest : float
@@ -383,7 +383,9 @@ def study_jobs(
     return out
 
 
-def optima_of(out_dir: Path, jobs: Mapping[str, Mapping[str, list[Job]]]) -> dict[str, Any]:
+def optima_of(
+    out_dir: Path, jobs: Mapping[str, Mapping[str, list[Job]]]
+) -> dict[str, dict[str, list[list[float]]]]:
     """:data:`Optima` of the readings in ``jobs`` (reading -> study -> jobs, every record
     present in ``out_dir``)."""
     flat = [job for by_study in jobs.values() for group in by_study.values() for job in group]
@@ -545,12 +547,11 @@ def _phase(
     out_dir: Path,
     scheduler: str | None,
     progress: bool,
-    extra: Sequence[Job] = (),
 ) -> tuple[list[ReadingResult], RunSummary]:
-    """Run ``readings`` (their jobs: reading -> study -> jobs, :func:`study_jobs`) and
-    ``extra`` jobs in one call, and analyse the readings."""
+    """Run the jobs of ``readings`` (``jobs``: reading -> study -> jobs, :func:`study_jobs`) in
+    one call, and analyse the readings."""
     todo = [job for r in readings for group in jobs[r.name].values() for job in group]
-    summary = run_jobs([*todo, *extra], out_dir, scheduler=scheduler, progress=progress)
+    summary = run_jobs(todo, out_dir, scheduler=scheduler, progress=progress)
     results = []
     for reading in readings:
         if progress:
@@ -607,10 +608,10 @@ def check_rows(out_dir: Path, checks: Sequence[tuple[Reading, Job, Job]]) -> lis
 
 
 def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Per reading and task, and over all (last): the continuation's bias on the checked jobs (both
-    feasible): pairs, median, lowest and highest relative difference, how many continued optima
-    are within 0.5 % of the full run's or above it, the pairs with either infeasible, and those
-    with only the continued one infeasible."""
+    """Per reading and task, and over all (last): the continuation's bias on the checked jobs
+    (both feasible): pairs, median, lowest and highest relative difference, how many continued
+    optima are within 0.5 % of the full run's or above it, the pairs with either infeasible, and
+    those with only the continued one infeasible."""
     groups: dict[tuple[str, str], list[Mapping[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["reading"], row["task"]), []).append(row)
