@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.selection import BestStroke
+from tandem_env.physics.model import MAX_BATCH_STROKES
 
 FloatArray = NDArray[np.float64]
 SeedLike = int | np.random.SeedSequence | None
@@ -23,10 +24,10 @@ LOWER = -1.0
 UPPER = 1.0
 
 
-#: The most points of one ask/tell round (a PSO swarm, a random-search batch) [-]: a batch of
-#: 10 000 strokes is evaluated in under 0.5 GB; the batch is allocated when the optimiser is
-#: built, so a larger one would fail for memory before the first evaluation.
-MAX_BATCH = 10_000
+#: The most points of one ask/tell round (a PSO swarm, a random-search batch) [-]: one batched
+#: model evaluation (``MAX_BATCH_STROKES``); the batch is allocated when the optimiser is built,
+#: so a larger one would fail for memory before the first evaluation.
+MAX_BATCH = MAX_BATCH_STROKES
 
 
 def check_int(name: str, value: object, *, minimum: int, maximum: int | None = None) -> None:

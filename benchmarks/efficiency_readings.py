@@ -90,14 +90,11 @@ class Case:
     power: str
     search: Search
 
-    def env_kwargs(self) -> dict[str, str]:
-        """Only what differs from the defaults, so the records are plain runs' records."""
-        out = {}
-        if self.thrust != "sign":
-            out["thrust_split"] = self.thrust
-        if self.power != "absolute":
-            out["power_convention"] = self.power
-        return out
+    def env_kwargs(self) -> dict[str, Any]:
+        """Only what differs from the defaults (the reading's env keywords), so the records are
+        plain runs' records."""
+        options = {"thrust_split": self.thrust, "power": self.power}
+        return Reading(f"{self.thrust}-{self.power}", "T and P", options=options).env_kwargs()
 
     def prepare(self, seeds: list[int]) -> list[PreparedJob]:
         budget = self.search.budget("level")

@@ -31,11 +31,13 @@ taken, the documents read their ratios within one run, and the test does not com
 from __future__ import annotations
 
 import argparse
+import csv
 import datetime as dt
 import json
 import os
 import platform
 import re
+import shutil
 import statistics
 import subprocess
 import sys
@@ -673,9 +675,6 @@ def measure_readings_paper() -> dict[str, Any]:
     """Collect the finished paper-preset readings run in :data:`READINGS_PAPER_OUT` (it takes
     1-2 h on 2 cores: run :data:`READINGS_PAPER_COMMAND` first) and copy its small outputs
     into the docs (:data:`READINGS_PAPER_FILES`)."""
-    import csv
-    import shutil
-
     from eval.studies.readings import MANIFEST
     from tandem_env.io.files import atomic_path, read_json
 
@@ -729,6 +728,7 @@ def _invocation_line(invocation: dict[str, Any]) -> str:
 def render_readings_paper(data: dict[str, Any]) -> str:
     """The readings table (the paper's numbers first, the best count in bold), the run's
     phases, the combination rule and the continuation's bias check with what ran in full."""
+    from eval.report import check_table
     from eval.studies.readings_result import HEADLINES
 
     paper = {c["id"]: c["paper"] for c in data["claims"]}
@@ -773,22 +773,7 @@ def render_readings_paper(data: dict[str, Any]) -> str:
         "Bias check of the continuation (difference = (continued − full) / |full| of the "
         "reported objective, per job; a single reading's task that falls short ran in full):",
         "",
-        "| reading | task | pairs (both feasible) | median | lowest | highest | continued ≥ full "
-        "− 0.5 % | infeasible | runs |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    full = data["run_in_full"]
-    for row in data["continuation_check"]:
-        overall = row["reading"] == "all"
-        why = full.get(row["reading"], {}).get(row["task"])
-        runs = "" if overall else (f"in full ({why})" if why else "continued")
-        lines.append(
-            f"| {'**all**' if overall else '`' + row['reading'] + '`'} | "
-            f"{'' if overall else row['task']} | {row['pairs']} | {100 * row['median']:+.2f} % | "
-            f"{100 * row['lowest']:+.1f} % | {100 * row['highest']:+.1f} % | "
-            f"{row['within_0.5%']} of {row['pairs']} | {row['infeasible']} | {runs} |"
-        )
-    lines += [
+        *check_table(data["continuation_check"], data["run_in_full"]),
         "",
         "Collected from the run's own outputs by `python -m eval numbers --only readings-paper` "
         f"(after `{data['command']}`; its readings.csv, manifest, bias check and matrix are "

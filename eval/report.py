@@ -403,7 +403,16 @@ def _continuation_section(
     ]
     if not check:
         return [*lines, "No checked pairs (no single reading besides the default).", ""]
-    lines += [
+    return [*lines, *check_table(check, full), ""]
+
+
+def check_table(
+    check: Sequence[Mapping[str, Any]], full: Mapping[str, Mapping[str, str]]
+) -> list[str]:
+    """The continuation's bias check as a Markdown table: one row per reading and task
+    (``readings.check_summary``) with whether it ran in full and why (``readings.full_tasks``),
+    the overall row in bold."""
+    lines = [
         "| reading | task | pairs | median | lowest | highest | within 0.5 % or above | "
         "infeasible | runs |",
         "|---|---|---|---|---|---|---|---|---|",
@@ -426,7 +435,7 @@ def _continuation_section(
                 )
             )
         )
-    return [*lines, ""]
+    return lines
 
 
 def write_readings_report(

@@ -34,6 +34,7 @@ import tandem_env  # noqa: F401  (registers the ids)
 from tandem_env.envs.registration import SPEED_CHANGE_ID
 from tandem_env.envs.speed_change import LEVEL_FLIGHT_ENVELOPE, Flight, SpeedChangeConfig
 from tandem_env.io.files import output_directory, write_csv_atomic
+from tandem_env.physics.model import MAX_BATCH_STROKES
 
 __all__ = [
     "EpisodeLog",
@@ -240,8 +241,8 @@ def steady_optima(
 
 
 #: The most evaluation episodes [-]: they are flown as one vector env, one model call of that
-#: many strokes per cycle (10 000 strokes take under 0.5 GB).
-MAX_EPISODES = 10_000
+#: many strokes per cycle (``MAX_BATCH_STROKES``).
+MAX_EPISODES = MAX_BATCH_STROKES
 
 
 # --- episodes ----------------------------------------------------------------------------------

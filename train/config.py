@@ -23,6 +23,7 @@ import yaml
 from tandem_env.envs.registration import check_env_id
 from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import is_integer, is_real
+from tandem_env.physics.model import MAX_BATCH_STROKES
 
 Algo = Literal["ppo", "sac"]
 ALGOS: tuple[str, ...] = get_args(Algo)
@@ -346,8 +347,8 @@ def check_algo(algo: str) -> str:
 
 # --- the run configuration ---------------------------------------------------------------------
 #: The most parallel envs of a run [-]: they are stepped by one model call of that many strokes
-#: (10 000 strokes take under 0.5 GB); SB3 keeps per-env buffers besides.
-MAX_ENVS = 10_000
+#: (``MAX_BATCH_STROKES``); SB3 keeps per-env buffers besides.
+MAX_ENVS = MAX_BATCH_STROKES
 #: The most env steps of a run [-]: 10¹², far beyond any training run, and inside the int64
 #: step counters of SB3 and numpy (2**63 wraps them).
 MAX_TIMESTEPS = 10**12

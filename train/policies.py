@@ -150,31 +150,21 @@ class RunFiles:
 
     def check_env(self, env_id: str) -> None:
         """ValueError unless the run was trained on ``env_id``."""
-        _check_env(self.run_dir, self.env_id, env_id)
-
-
-def _check_env(run_dir: Path, trained: str, env_id: str) -> None:
-    if trained != env_id:
-        raise ValueError(
-            f"{run_dir} was trained on {trained}; this task's env is {env_id}; allowed: a run "
-            "of the same env"
-        )
+        if self.env_id != env_id:
+            raise ValueError(
+                f"{self.run_dir} was trained on {self.env_id}; this task's env is {env_id}; "
+                "allowed: a run of the same env"
+            )
 
 
 @dataclass(frozen=True, eq=False)
 class TrainedPolicy:
     """A model saved by ``python -m train``, with what it needs to observe a condition."""
 
-    run_dir: Path
-    algo: str
-    env_id: str
-    env_kwargs: Mapping[str, Any]
-    """The env options it was trained with (``args.yml`` and the yml entry's ``env_kwargs``)."""
+    files: RunFiles
+    """The run folder's files the model was loaded from."""
     model: BaseAlgorithm
     which: WhichModel
-    model_path: Path
-    normalizer_path: Path | None
-    """VecNormalize statistics applied to observations, if the run normalised them."""
 
     @classmethod
     def load(cls, run_dir: str | Path, which: WhichModel = "best") -> TrainedPolicy:
@@ -184,16 +174,34 @@ class TrainedPolicy:
         model = load_policy_model(
             files.algo, files.model_path, files.entry, files.env_id, files.env_kwargs
         )
-        return cls(
-            run_dir=files.run_dir,
-            algo=files.algo,
-            env_id=files.env_id,
-            env_kwargs=MappingProxyType(files.env_kwargs),
-            model=model,
-            which=which,
-            model_path=files.model_path,
-            normalizer_path=files.normalizer_path,
-        )
+        return cls(files=files, model=model, which=which)
+
+    @property
+    def run_dir(self) -> Path:
+        return self.files.run_dir
+
+    @property
+    def algo(self) -> str:
+        return self.files.algo
+
+    @property
+    def env_id(self) -> str:
+        return self.files.env_id
+
+    @property
+    def env_kwargs(self) -> Mapping[str, Any]:
+        """The env options it was trained with (``args.yml`` and the yml entry's
+        ``env_kwargs``)."""
+        return MappingProxyType(self.files.env_kwargs)
+
+    @property
+    def model_path(self) -> Path:
+        return self.files.model_path
+
+    @property
+    def normalizer_path(self) -> Path | None:
+        """VecNormalize statistics applied to observations, if the run normalised them."""
+        return self.files.normalizer_path
 
     def _observing_env(self, conditions: Sequence[float]) -> VecEnv:
         # The training env's own observation path: reset at each condition through the env's
@@ -272,7 +280,7 @@ class PolicyMethod:
 
     def search(self, context: SearchContext) -> SearchOutcome:
         policy = TrainedPolicy.load(self.run_dir, self.which)
-        _check_env(self.run_dir, policy.env_id, context.env_id)
+        policy.files.check_env(context.env_id)
         _warn_on_differences(policy, context)
         action = policy.strokes([context.condition.value])[0]
         reward = float(context.evaluate(action[None, :])[0])

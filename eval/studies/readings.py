@@ -191,15 +191,23 @@ class Continuation:
     full_lowest: float = -0.5
 
     def __post_init__(self) -> None:
-        share = self.share
-        if (
-            isinstance(share, bool)
-            or not isinstance(share, int | float)
-            or not math.isfinite(share)
-            or not 0.0 < share <= 1.0
-        ):
-            raise ValueError(f"continuation share = {share!r}; allowed: a number in (0, 1]")
-        object.__setattr__(self, "share", float(share))
+        low, high = INITIAL_SHARE_RANGE
+        numbers = {
+            "share": (lambda x: 0.0 < x <= 1.0, "a number in (0, 1]"),
+            "initial_share": (lambda x: low <= x <= high, f"a number in [{low:g}, {high:g}]"),
+            "full_median": (lambda x: -1.0 <= x <= 0.0, "a relative difference in [-1, 0]"),
+            "full_lowest": (lambda x: -1.0 <= x <= 0.0, "a relative difference in [-1, 0]"),
+        }
+        for name, (inside, allowed) in numbers.items():
+            value = getattr(self, name)
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int | float)
+                or not math.isfinite(value)
+                or not inside(value)
+            ):
+                raise ValueError(f"continuation {name} = {value!r}; allowed: {allowed}")
+            object.__setattr__(self, name, float(value))
         if (
             isinstance(self.starts, bool)
             or not isinstance(self.starts, int)
@@ -208,18 +216,6 @@ class Continuation:
             raise ValueError(
                 f"continuation starts = {self.starts!r}; allowed: an integer in [1, 8]"
             )
-        share = self.initial_share
-        if (
-            isinstance(share, bool)
-            or not isinstance(share, int | float)
-            or not math.isfinite(share)
-            or not INITIAL_SHARE_RANGE[0] <= share <= INITIAL_SHARE_RANGE[1]
-        ):
-            low, high = INITIAL_SHARE_RANGE
-            raise ValueError(
-                f"continuation initial_share = {share!r}; allowed: a number in [{low:g}, {high:g}]"
-            )
-        object.__setattr__(self, "initial_share", float(share))
         studies = tuple(self.check_studies)
         if any(name not in PAPER_STUDIES for name in studies):
             raise ValueError(
@@ -233,18 +229,6 @@ class Continuation:
                 f"continuation check_seeds = {self.check_seeds!r}; allowed: integers >= 0"
             )
         object.__setattr__(self, "check_seeds", seeds)
-        for name in ("full_median", "full_lowest"):
-            value = getattr(self, name)
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, int | float)
-                or not math.isfinite(value)
-                or not -1.0 <= value <= 0.0
-            ):
-                raise ValueError(
-                    f"continuation {name} = {value!r}; allowed: a relative difference in [-1, 0]"
-                )
-            object.__setattr__(self, name, float(value))
 
     def job(self, job: Job, strokes: Sequence[Sequence[float]]) -> Job:
         """``job`` continued from the normalised ``strokes`` (the optima of the readings it
@@ -726,7 +710,7 @@ def run_readings(
     before = _check_preset(out, plan)
     load_before = _load()
     runs: list[RunSummary] = []
-    checks: list[tuple[Reading, Job, Job]] = []
+    rows: list[dict[str, Any]] = []  # the bias check's, one per checked job
     full: dict[str, dict[str, str]] = {}
     if continuation is None:
         jobs = {r.name: study_jobs(plan, r) for r in readings}
@@ -746,7 +730,8 @@ def run_readings(
             scheduler=scheduler,
             progress=progress,
         )
-        full = full_tasks(check_summary(check_rows(out, checks)), continuation)
+        rows = check_rows(out, checks) if checks else []
+        full = full_tasks(check_summary(rows), continuation)
         jobs |= {
             r.name: study_jobs(plan, r, continuation, optima, full.get(r.name, {})) for r in others
         }
@@ -767,10 +752,10 @@ def run_readings(
             more, third = _phase(plan, jobs, derived, out, scheduler, progress)
             results += more
             runs.append(third)
-    rows = check_rows(out, checks) if checks else []
     if rows:
         write_csv_atomic(out / CHECK_CSV, rows)
-    files = write_outputs(plan, results, words, out, check_summary(rows), continuation, full)
+    summary = check_summary(rows)
+    files = write_outputs(plan, results, words, out, summary, continuation, full)
     wall = time.perf_counter() - start
     phases = (("singles", "combinations") if continuation is None else PHASES)[: len(runs)]
     this = {
@@ -799,7 +784,7 @@ def run_readings(
             ],
             "combination_rule": words,
             "continuation": None if continuation is None else asdict(continuation),
-            "continuation_check": check_summary(rows),
+            "continuation_check": summary,
             "run_in_full": full,
             "invocations": _invocations(before, plan, this),
         },

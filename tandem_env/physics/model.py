@@ -205,6 +205,10 @@ SPEED_LIMITS: tuple[float, float] = (0.0, 20.0)
 AVAILABLE_POWER_LIMITS: tuple[float, float] = (1.0, 1000.0)
 #: Largest |flight-path angle| [rad]: the body moves forward (V ≥ 0), climbing or descending.
 MAX_FLIGHT_PATH_ANGLE = 0.5 * np.pi
+#: The most strokes one batched evaluation is offered by the layers above [-]: 10 000 strokes
+#: take under 0.5 GB. An optimiser's round, a vector env's envs and a speed-change evaluation's
+#: episodes are each one such batch, and each is limited by this.
+MAX_BATCH_STROKES = 10_000
 
 
 def validate_conditions(
