@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import io
 import json
+import warnings
 import zipfile
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -189,9 +190,11 @@ def read_weights(path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
             if not name.endswith(".pth"):
                 continue
             try:
-                content = torch.load(
-                    io.BytesIO(archive.read(name)), map_location="cpu", weights_only=True
-                )
+                with warnings.catch_warnings():  # torch's notes on a file it then refuses
+                    warnings.simplefilter("ignore", UserWarning)
+                    content = torch.load(
+                        io.BytesIO(archive.read(name)), map_location="cpu", weights_only=True
+                    )
             # An untrusted file: whatever torch's restricted unpickler or its zip reader raise
             # (UnpicklingError, RuntimeError, EOFError, ...) means the same refusal.
             except Exception as error:

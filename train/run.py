@@ -242,7 +242,10 @@ def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | 
     if checkpoint is not None and layout is not None:
         # A resumed run keeps the hyperparameters it started with, whatever the yml says now.
         entry = read_run_yaml(layout.config_file)
-        hp = resolve_hyperparams(entry, n_timesteps=config.n_timesteps)
+        try:
+            hp = resolve_hyperparams(entry, n_timesteps=config.n_timesteps)
+        except ValueError as error:
+            raise ValueError(f"{layout.config_file}: {error}") from None
     else:
         hp = config.hyperparameters()
     unit = step_granularity(config.algo, hp)
