@@ -46,7 +46,12 @@ from train.layout import (
     read_normalizer,
     read_run_yaml,
 )
-from train.vec import StrokeRecorder, make_evaluation_env, make_training_env
+from train.vec import (
+    StrokeRecorder,
+    evaluate_deterministic,
+    make_evaluation_env,
+    make_training_env,
+)
 
 #: Checkpoints kept in a run folder (older ones are deleted: a SAC replay buffer is ~40 MB).
 KEEP_CHECKPOINTS = 2
@@ -106,45 +111,6 @@ def default_log_interval(algo: str, n_envs: int) -> int:
     if algo == "ppo":
         return 1
     return n_envs * max(1, round(SAC_LOG_EVERY / n_envs))
-
-
-def evaluate_deterministic(
-    model: BaseAlgorithm, eval_env: VecEnv, max_steps: int = 100_000
-) -> list[dict[str, Any]]:
-    """The deterministic policy from one reset of each evaluation env, played to the end of that
-    episode: one row per env with the info of its last step, ``reward`` the episode's return,
-    ``episode_length`` its steps and ``action`` its first action. The one-cycle envs end after one
-    stroke, so their row is that stroke's metrics; SpeedChange rows summarise whole episodes."""
-    observations = eval_env.reset()
-    n_envs = eval_env.num_envs
-    returns = np.zeros(n_envs)
-    lengths = np.zeros(n_envs, dtype=np.int64)
-    first_actions: list[Any] = [None] * n_envs
-    rows: list[dict[str, Any] | None] = [None] * n_envs
-    for _ in range(max_steps):
-        actions, _ = model.predict(observations, deterministic=True)
-        observations, rewards, dones, infos = eval_env.step(actions)
-        for k in range(n_envs):
-            if rows[k] is not None:
-                continue  # this env's episode is over; later steps belong to the next one
-            if first_actions[k] is None:
-                first_actions[k] = [float(a) for a in actions[k]]
-            returns[k] += float(rewards[k])
-            lengths[k] += 1
-            if dones[k]:
-                row = {
-                    key: value
-                    for key, value in infos[k].items()
-                    if key
-                    not in ("terminal_observation", "episode", "stroke", "TimeLimit.truncated")
-                }
-                row["reward"] = float(returns[k])
-                row["episode_length"] = int(lengths[k])
-                row["action"] = first_actions[k]
-                rows[k] = row
-        if all(row is not None for row in rows):
-            return [row for row in rows if row is not None]
-    raise RuntimeError(f"the evaluation episodes did not end within {max_steps} steps")
 
 
 # --- files ---------------------------------------------------------------------------------
