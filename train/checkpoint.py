@@ -266,6 +266,7 @@ def load_model(
             f"config.yml ({type(error).__name__}: {reason[:400]}). {_ALLOWED_MODEL}"
         ) from None
     model.num_timesteps = state.num_timesteps
+    # SB3 has no public setter for the two log counters (see RESTORED).
     model._n_updates = state.n_updates
     model._episode_num = state.episode_num
     return model
