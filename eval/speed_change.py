@@ -147,6 +147,11 @@ class SB3Policy:
         from train.policies import TrainedPolicy
 
         policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
+        if policy.algo != name:
+            raise ValueError(
+                f"--{name} {run_dir} is a {policy.algo.upper()} run; allowed: a "
+                f"{name.upper()} run (or give it with --{policy.algo})"
+            )
         if policy.env_id != SPEED_CHANGE_ID:
             raise ValueError(
                 f"{run_dir} was trained on {policy.env_id}; allowed: a run on {SPEED_CHANGE_ID}"

@@ -14,6 +14,7 @@ import ast
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from itertools import pairwise
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Literal, get_args
@@ -252,6 +253,11 @@ def resolve_hyperparams(
             f"net_arch = {arch!r}; allowed: a list of layer sizes >= 1, or a dict of such lists "
             "(pi, vf, qf)"
         )
+    if arch is not None and network_parameters(arch) > MAX_NETWORK_PARAMETERS:
+        raise ValueError(
+            f"net_arch = {arch!r} has at least {network_parameters(arch):,} weights; allowed: "
+            f"networks of at most {MAX_NETWORK_PARAMETERS:,} (MAX_NETWORK_PARAMETERS)"
+        )
     normalize = _normalize_kwargs(params.pop("normalize", False), params.get("gamma"))
     env_kwargs = params.pop("env_kwargs", None) or {}
     if not isinstance(env_kwargs, dict):
@@ -279,6 +285,24 @@ def resolve_hyperparams(
         model_kwargs=MappingProxyType(params),
         saved=MappingProxyType(saved),
     )
+
+
+#: The most weights and biases the networks of one ``net_arch`` may have [-]: 10⁸ is 0.4 GB of
+#: float32, and the optimiser keeps two more copies (SAC also a target critic); the yml entries'
+#: networks have about 10⁵. Counted from the layer sizes before anything is allocated
+#: (:func:`network_parameters`), so a mistyped size is refused instead of an allocator error.
+MAX_NETWORK_PARAMETERS = 10**8
+
+
+def network_parameters(arch: Any) -> int:
+    """A lower bound on the weights and biases of the networks a valid ``net_arch`` describes
+    [-]: each list of layer sizes is a fully connected network from at least one input to at
+    least one output (SB3 adds the env's observation and action sizes, and builds a list once
+    per network)."""
+    if isinstance(arch, Mapping):
+        return sum(network_parameters(sizes) for sizes in arch.values())
+    sizes = [1, *(int(n) for n in arch), 1]
+    return sum((inputs + 1) * outputs for inputs, outputs in pairwise(sizes))
 
 
 def _layer_sizes(arch: Any) -> bool:

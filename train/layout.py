@@ -7,7 +7,7 @@
         best_model.zip                      best deterministic evaluation (EvalCallback)
         evaluations.npz                     EvalCallback's timesteps / results / ep_lengths
         rl_model_<N>_steps.zip              checkpoints (the last two kept) ...
-        rl_model_replay_buffer_<N>_steps.pkl    ... with the SAC replay buffer
+        rl_model_replay_buffer_<N>_steps.npz    ... with the SAC replay buffer (arrays)
         rl_model_vecnormalize_<N>_steps.pkl     ... and VecNormalize statistics if used
         <k>.monitor.csv                     episodes (one per stroke) of training segment k
         result.json                         summary: best stroke seen, final evaluation, timing
@@ -228,7 +228,10 @@ class Checkpoint:
     step: int
     model: Path
     replay_buffer: Path
+    """SAC's replay buffer, arrays in an ``.npz`` (:func:`train.checkpoint.save_replay_buffer`)."""
     vecnormalize: Path
+    legacy_replay_buffer: Path
+    """The pickled buffer of earlier versions: never loaded (a pickle can run code)."""
 
     def complete(self, *, replay_buffer: bool, vecnormalize: bool) -> bool:
         """All files a faithful resume needs are there."""
@@ -242,17 +245,27 @@ class Checkpoint:
     def damage(self, *, replay_buffer: bool, vecnormalize: bool) -> str | None:
         """None if every file a resume needs is there and intact, else what is wrong, in words.
 
-        Read without loading anything: the model is a zip whose every member's CRC must match
-        (a truncated or altered file fails), and a companion is a pickle whose opcodes must run
-        to its STOP (``pickletools.genops``, which builds no object), so a file cut short by a
-        kill or a full disk is found before SB3 loads it.
+        Read without loading anything: the model and the replay buffer are zips whose every
+        member's CRC must match (a truncated or altered file fails), and the VecNormalize file
+        is a pickle whose opcodes must run to its STOP (``pickletools.genops``, which builds no
+        object), so a file cut short by a kill or a full disk is found before it is loaded. A
+        replay buffer only in the pickled format of earlier versions is not loaded: it says so.
         """
-        needed = [(self.model, _zip_damage)]
+        needed = [(self.model, _model_damage)]
         if replay_buffer:
-            needed.append((self.replay_buffer, _pickle_damage))
+            needed.append((self.replay_buffer, _buffer_damage))
         if vecnormalize:
             needed.append((self.vecnormalize, _pickle_damage))
         for path, check in needed:
+            if (
+                path == self.replay_buffer
+                and not path.exists()
+                and self.legacy_replay_buffer.exists()
+            ):
+                return (
+                    f"its replay buffer is {self.legacy_replay_buffer.name}, the pickled format "
+                    "of earlier versions, which is never loaded (a pickle can run code)"
+                )
             if not path.is_file():
                 return f"{path.name} is missing"
             if path.stat().st_size == 0:
@@ -263,25 +276,35 @@ class Checkpoint:
         return None
 
     def paths(self) -> tuple[Path, ...]:
-        return (self.model, self.replay_buffer, self.vecnormalize)
+        return (self.model, self.replay_buffer, self.vecnormalize, self.legacy_replay_buffer)
 
 
 #: Members every SB3 model zip has (``save_to_zip_file``).
 _MODEL_MEMBERS = frozenset({"data", "_stable_baselines3_version"})
+#: Members every replay buffer ``.npz`` has (:data:`train.checkpoint.REPLAY_COUNTERS`).
+_BUFFER_MEMBERS = frozenset({"pos.npy", "full.npy"})
 
 
-def _zip_damage(path: Path) -> str | None:
+def _zip_damage(path: Path, members: frozenset[str], what: str) -> str | None:
     try:
         with zipfile.ZipFile(path) as archive:
             # The model's zip stores torch's own zips uncompressed, so a file cut short can end
             # in an inner archive's directory and read as that archive: its members tell.
-            missing = _MODEL_MEMBERS - set(archive.namelist())
+            missing = members - set(archive.namelist())
             bad = None if missing else archive.testzip()
     except (zipfile.BadZipFile, OSError, EOFError, ValueError) as error:
         return f"not a complete zip file: {error}"
     if missing:
-        return f"not a complete model file: no {', '.join(sorted(missing))}"
+        return f"not a complete {what}: no {', '.join(sorted(missing))}"
     return None if bad is None else f"member {bad} fails its CRC check"
+
+
+def _model_damage(path: Path) -> str | None:
+    return _zip_damage(path, _MODEL_MEMBERS, "model file")
+
+
+def _buffer_damage(path: Path) -> str | None:
+    return _zip_damage(path, _BUFFER_MEMBERS, "replay buffer file")
 
 
 def _pickle_damage(path: Path) -> str | None:
@@ -391,8 +414,9 @@ class RunLayout:
         return Checkpoint(
             step=step,
             model=Path(f"{base}_{step}_steps.zip"),
-            replay_buffer=Path(f"{base}_replay_buffer_{step}_steps.pkl"),
+            replay_buffer=Path(f"{base}_replay_buffer_{step}_steps.npz"),
             vecnormalize=Path(f"{base}_vecnormalize_{step}_steps.pkl"),
+            legacy_replay_buffer=Path(f"{base}_replay_buffer_{step}_steps.pkl"),
         )
 
     def checkpoints(self) -> list[Checkpoint]:

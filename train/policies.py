@@ -41,13 +41,14 @@ from tqdm.auto import tqdm
 
 from agents.methods import Method, SearchContext, SearchOutcome
 from agents.selection import is_better
-from tandem_env.envs.registration import condition_keywords, config_class
+from tandem_env.envs.registration import check_env_id, condition_keywords, config_class
 from tandem_env.envs.sb3 import make_sb3_vec_env
 from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import is_integer
-from train.config import ALGOS, check_algo, plain
-from train.layout import RunLayout, read_normalizer, read_run_yaml, resolve_run_dir
-from train.run import learn_in_memory, load_policy_model
+from train.checkpoint import load_policy_model
+from train.config import ALGOS, check_algo, plain, resolve_hyperparams
+from train.layout import RunLayout, env_name, read_normalizer, read_run_yaml, resolve_run_dir
+from train.run import learn_in_memory
 from train.vec import ConditionGrid, StrokeRecorder, option_key
 
 if TYPE_CHECKING:
@@ -96,8 +97,8 @@ class TrainingMismatchWarning(RuntimeWarning):
 # --- a trained run ---------------------------------------------------------------------------
 @dataclass(frozen=True)
 class RunFiles:
-    """What a run folder of ``python -m train`` holds for loading its policy, read without
-    loading the model: so that a command can refuse a folder before any work."""
+    """What a run folder of ``python -m train`` holds for loading its policy: its settings read
+    and checked (the model itself is checked by loading it, :meth:`TrainedPolicy.load`)."""
 
     run_dir: Path
     algo: str
@@ -111,7 +112,9 @@ class RunFiles:
     @classmethod
     def read(cls, run_dir: str | Path, which: WhichModel = "best") -> RunFiles:
         """The files of ``run_dir`` (or of the latest run it names); ValueError naming the
-        folder and what is missing."""
+        folder or file and what is wrong: a missing file, an args.yml naming an algo or env
+        other than its own (its folder is named after the env), hyperparameters that do not
+        resolve (:func:`~train.config.resolve_hyperparams`: n_envs, the network's size)."""
         if which not in WHICH_MODELS:
             raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
         run_dir = resolve_run_dir(run_dir)
@@ -124,8 +127,17 @@ class RunFiles:
                 "for the latest run there"
             )
         args = read_run_yaml(args_files[0])
-        algo = check_algo(str(args.get("algo")))
-        env_id = str(args["env"])
+        try:
+            algo = check_algo(str(args.get("algo")))
+        except ValueError as error:
+            raise ValueError(f"{args_files[0]}: {error}") from None
+        env_id = args.get("env")
+        if not isinstance(env_id, str) or env_name(env_id) != args_files[0].parent.name:
+            raise ValueError(
+                f"{args_files[0]}: env = {env_id!r}, but the file sits in the settings folder "
+                f"of {args_files[0].parent.name}; allowed: the env the run was trained on"
+            )
+        check_env_id(env_id, f"{args_files[0]}: env")
         layout = RunLayout(run_dir, env_id)
         entry = read_run_yaml(layout.config_file) if layout.config_file.is_file() else {}
         env_kwargs = {**(entry.get("env_kwargs") or {}), **(args.get("env_kwargs") or {})}
@@ -146,6 +158,10 @@ class RunFiles:
                 "from the run's hyperparameters (its model file is not unpickled), so the run "
                 "folder needs them. Allowed: a folder written by python -m train"
             )
+        try:
+            resolve_hyperparams(entry, n_timesteps=1)
+        except ValueError as error:
+            raise ValueError(f"{layout.config_file}: {error}") from None
         return cls(run_dir, algo, env_id, entry, env_kwargs, path, normalizer)
 
     def check_env(self, env_id: str) -> None:
@@ -170,10 +186,18 @@ class TrainedPolicy:
     def load(cls, run_dir: str | Path, which: WhichModel = "best") -> TrainedPolicy:
         """Load ``best_model.zip`` (``which="best"``, falling back to the final model when the
         run had no evaluations) or the final ``<env>.zip`` of a run folder."""
-        files = RunFiles.read(run_dir, which)
+        return cls.from_files(RunFiles.read(run_dir, which), which)
+
+    @classmethod
+    def from_files(cls, files: RunFiles, which: WhichModel = "best") -> TrainedPolicy:
+        """The policy of checked ``files``: its model loaded without unpickling anything
+        (:func:`~train.checkpoint.load_policy_model`), its normalisation statistics read with
+        their classes only; ValueError naming the file at fault."""
         model = load_policy_model(
             files.algo, files.model_path, files.entry, files.env_id, files.env_kwargs
         )
+        if files.normalizer_path is not None:
+            read_normalizer(files.normalizer_path)
         return cls(files=files, model=model, which=which)
 
     @property
@@ -275,8 +299,11 @@ class PolicyMethod:
 
     def check(self, budget: int, dim: int, task: TaskSpec) -> None:
         """The harness's check before any work: the run folder holds a policy of this task's
-        env (the model itself is loaded by :meth:`search`)."""
-        RunFiles.read(self.run_dir, self.which).check_env(task.env_id)
+        env, and its files load (the same load as :meth:`search`'s, so that a damaged or
+        tampered folder is refused here, not as a failed job)."""
+        files = RunFiles.read(self.run_dir, self.which)
+        files.check_env(task.env_id)
+        TrainedPolicy.from_files(files, self.which)
 
     def search(self, context: SearchContext) -> SearchOutcome:
         policy = TrainedPolicy.load(self.run_dir, self.which)

@@ -11,10 +11,8 @@ import contextlib
 import json
 import math
 import os
-import pickle
 import time
 import warnings
-import zipfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -23,15 +21,22 @@ from typing import Any
 import numpy as np
 import torch
 import yaml
-from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize, sync_envs_normalization
 
 from agents.selection import best_index
 from tandem_env.envs.registration import check_env_id
-from tandem_env.io.files import atomic_path, write_json_atomic, write_text_atomic
+from tandem_env.io.files import write_json_atomic, write_text_atomic
 from train.callbacks import PhysicsLogger, ResumableEvalCallback, SaveVecNormalize
+from train.checkpoint import (
+    RunCheckpoint,
+    build_model,
+    check_checkpoint,
+    load_checkpoint,
+    prune_checkpoints,
+    save_checkpoint,
+)
 from train.config import Hyperparams, TrainConfig, load_entry, plain, resolve_hyperparams
 from train.layout import (
     Checkpoint,
@@ -41,9 +46,12 @@ from train.layout import (
     read_normalizer,
     read_run_yaml,
 )
-from train.vec import StrokeRecorder, make_evaluation_env, make_training_env
-
-ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
+from train.vec import (
+    StrokeRecorder,
+    evaluate_deterministic,
+    make_evaluation_env,
+    make_training_env,
+)
 
 #: Checkpoints kept in a run folder (older ones are deleted: a SAC replay buffer is ~40 MB).
 KEEP_CHECKPOINTS = 2
@@ -103,129 +111,6 @@ def default_log_interval(algo: str, n_envs: int) -> int:
     if algo == "ppo":
         return 1
     return n_envs * max(1, round(SAC_LOG_EVERY / n_envs))
-
-
-def build_model(
-    algo: str,
-    hp: Hyperparams,
-    venv: VecEnv,
-    *,
-    seed: int,
-    tensorboard_log: Path | None,
-    verbose: int,
-    device: str,
-) -> BaseAlgorithm:
-    """A new SB3 model of ``algo`` on ``venv`` with the resolved hyperparameters."""
-    cls = ALGORITHMS[algo]
-    try:
-        return cls(
-            hp.policy,
-            venv,
-            seed=seed,
-            tensorboard_log=None if tensorboard_log is None else str(tensorboard_log),
-            policy_kwargs=dict(hp.policy_kwargs),
-            verbose=verbose,
-            device=device,
-            **dict(hp.model_kwargs),
-        )
-    except TypeError as error:
-        raise ValueError(f"{algo.upper()} rejected a hyperparameter: {error}") from error
-
-
-def evaluate_deterministic(
-    model: BaseAlgorithm, eval_env: VecEnv, max_steps: int = 100_000
-) -> list[dict[str, Any]]:
-    """The deterministic policy from one reset of each evaluation env, played to the end of that
-    episode: one row per env with the info of its last step, ``reward`` the episode's return,
-    ``episode_length`` its steps and ``action`` its first action. The one-cycle envs end after one
-    stroke, so their row is that stroke's metrics; SpeedChange rows summarise whole episodes."""
-    observations = eval_env.reset()
-    n_envs = eval_env.num_envs
-    returns = np.zeros(n_envs)
-    lengths = np.zeros(n_envs, dtype=np.int64)
-    first_actions: list[Any] = [None] * n_envs
-    rows: list[dict[str, Any] | None] = [None] * n_envs
-    for _ in range(max_steps):
-        actions, _ = model.predict(observations, deterministic=True)
-        observations, rewards, dones, infos = eval_env.step(actions)
-        for k in range(n_envs):
-            if rows[k] is not None:
-                continue  # this env's episode is over; later steps belong to the next one
-            if first_actions[k] is None:
-                first_actions[k] = [float(a) for a in actions[k]]
-            returns[k] += float(rewards[k])
-            lengths[k] += 1
-            if dones[k]:
-                row = {
-                    key: value
-                    for key, value in infos[k].items()
-                    if key
-                    not in ("terminal_observation", "episode", "stroke", "TimeLimit.truncated")
-                }
-                row["reward"] = float(returns[k])
-                row["episode_length"] = int(lengths[k])
-                row["action"] = first_actions[k]
-                rows[k] = row
-        if all(row is not None for row in rows):
-            return [row for row in rows if row is not None]
-    raise RuntimeError(f"the evaluation episodes did not end within {max_steps} steps")
-
-
-class RunCheckpoint(BaseCallback):
-    """Checkpoints every ``save_freq`` env steps, keeping the newest ``keep``.
-
-    Unlike SB3's CheckpointCallback (which saves inside ``on_step``, before an off-policy
-    algorithm stores that step's transitions, so a resumed SAC would miss one vector step of
-    its replay buffer), this saves at the end of a rollout: the buffer holds every transition
-    up to the checkpoint's step. Files are named as CheckpointCallback names them.
-    """
-
-    def __init__(self, layout: RunLayout, save_freq: int, keep: int, verbose: int = 0) -> None:
-        super().__init__(verbose)
-        self.layout = layout
-        self.save_freq = save_freq
-        self.keep = keep
-        self._next = save_freq
-
-    def _init_callback(self) -> None:
-        self._next = (self.model.num_timesteps // self.save_freq + 1) * self.save_freq
-
-    def _on_step(self) -> bool:
-        return True
-
-    def _on_rollout_end(self) -> None:
-        step = self.model.num_timesteps
-        if step >= self._next:
-            checkpoint = save_checkpoint(self.model, self.layout)
-            prune_checkpoints(self.layout, self.keep)
-            self._next = (step // self.save_freq + 1) * self.save_freq
-            if self.verbose >= 2:
-                print(f"Saved checkpoint {checkpoint.model}")
-
-
-def prune_checkpoints(layout: RunLayout, keep: int) -> None:
-    for checkpoint in layout.checkpoints()[:-keep]:
-        for path in checkpoint.paths():
-            path.unlink(missing_ok=True)
-
-
-def save_checkpoint(model: BaseAlgorithm, layout: RunLayout) -> Checkpoint:
-    """Checkpoint at the model's current step. Each file is written under a temporary name and
-    renamed, companions first and the model last, so a model file means a complete checkpoint
-    even if the process is killed while saving."""
-    checkpoint = layout.checkpoint(model.num_timesteps)
-    if getattr(model, "replay_buffer", None) is not None:
-        _save_atomic(checkpoint.replay_buffer, model.save_replay_buffer)  # type: ignore[attr-defined]
-    normalizer = model.get_vec_normalize_env()
-    if normalizer is not None:
-        _save_atomic(checkpoint.vecnormalize, lambda p: normalizer.save(str(p)))
-    _save_atomic(checkpoint.model, model.save)
-    return checkpoint
-
-
-def _save_atomic(path: Path, save: Callable[[Path], Any]) -> None:
-    with atomic_path(path) as tmp:
-        save(tmp)
 
 
 # --- files ---------------------------------------------------------------------------------
@@ -323,7 +208,10 @@ def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | 
     if checkpoint is not None and layout is not None:
         # A resumed run keeps the hyperparameters it started with, whatever the yml says now.
         entry = read_run_yaml(layout.config_file)
-        hp = resolve_hyperparams(entry, n_timesteps=config.n_timesteps)
+        try:
+            hp = resolve_hyperparams(entry, n_timesteps=config.n_timesteps)
+        except ValueError as error:
+            raise ValueError(f"{layout.config_file}: {error}") from None
     else:
         hp = config.hyperparameters()
     unit = step_granularity(config.algo, hp)
@@ -341,6 +229,10 @@ def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | 
             )
     env_kwargs = {**hp.env_kwargs, **config.env_kwargs}
     _check_env(config.env_id, env_kwargs)
+    if checkpoint is not None:  # the files a resume loads, read as it will read them
+        check_checkpoint(config.algo, checkpoint, hp, config.env_id, env_kwargs)
+        if hp.normalize is not None:
+            read_normalizer(checkpoint.vecnormalize)
     if layout is None:
         layout = RunLayout.new(config.log_folder, config.algo, config.env_id)
     layout.run_dir.mkdir(parents=True, exist_ok=True)
@@ -499,30 +391,6 @@ def _run_envs(plan: TrainPlan) -> tuple[VecEnv, StrokeRecorder, VecEnv]:
     return venv, recorder, eval_env
 
 
-@contextlib.contextmanager
-def _loading(path: Path) -> Iterator[None]:
-    """A checkpoint file SB3 cannot load (intact as a file, e.g. of another SB3 version) is
-    named in a ValueError instead of SB3's traceback."""
-    try:
-        yield
-    except (
-        AssertionError,
-        AttributeError,
-        EOFError,
-        KeyError,
-        OSError,
-        RuntimeError,
-        TypeError,
-        ValueError,
-        zipfile.BadZipFile,
-        pickle.UnpicklingError,
-    ) as error:
-        raise ValueError(
-            f"checkpoint file {path} could not be loaded ({type(error).__name__}: {error}); "
-            "allowed: move it away to resume from the earlier checkpoint, or a new run"
-        ) from error
-
-
 def _run_model(plan: TrainPlan, venv: VecEnv) -> BaseAlgorithm:
     """A new model, or the checkpoint's (with SAC's replay buffer) for a resumed run."""
     config = plan.config
@@ -537,17 +405,16 @@ def _run_model(plan: TrainPlan, venv: VecEnv) -> BaseAlgorithm:
             verbose=config.verbose,
             device=config.device,
         )
-    with _loading(plan.checkpoint.model):
-        model = ALGORITHMS[config.algo].load(
-            plan.checkpoint.model,
-            env=venv,
-            device=config.device,
-            tensorboard_log=None if tensorboard is None else str(tensorboard),
-            verbose=config.verbose,
-        )
-    if config.algo == "sac":
-        with _loading(plan.checkpoint.replay_buffer):
-            model.load_replay_buffer(plan.checkpoint.replay_buffer)  # type: ignore[attr-defined]
+    model = load_checkpoint(
+        config.algo,
+        plan.checkpoint,
+        plan.hp,
+        venv,
+        seed=config.seed,
+        device=config.device,
+        tensorboard_log=tensorboard,
+        verbose=config.verbose,
+    )
     # A resumed segment is reproducible given its checkpoint (RNG states are not saved).
     model.set_random_seed(config.seed + model.num_timesteps)
     return model
@@ -662,36 +529,6 @@ def _write_result(layout: RunLayout, result: TrainResult, hp: Hyperparams) -> No
         "segments": segments,
     }
     write_json_atomic(layout.result_file, data, indent=1)
-
-
-# --- a saved policy, without unpickling ---------------------------------------------------------
-def load_policy_model(
-    algo: str, path: Path, entry: Mapping[str, Any], env_id: str, env_kwargs: Mapping[str, Any]
-) -> BaseAlgorithm:
-    """The model saved at ``path`` for prediction, read without unpickling anything.
-
-    SB3's ``load`` unpickles (cloudpickle) the objects stored in the zip's ``data``, so any
-    model file could run code. Here the model is rebuilt from the run's hyperparameters
-    (``entry``, its config.yml) on a copy of its env, and only its weights are read
-    (``set_parameters``: tensors, ``torch.load(weights_only=True)``); ``num_timesteps`` comes
-    from the zip's JSON. ValueError naming the file if the weights do not fit the rebuilt model.
-    """
-    # The run's own n_envs, so that the rebuilt model is the saved one (PPO's rollout size).
-    hp = resolve_hyperparams(entry, n_timesteps=1)
-    venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs, monitor_file=None, normalize=None)
-    model = build_model(algo, hp, venv, seed=0, tensorboard_log=None, verbose=0, device="cpu")
-    try:
-        with zipfile.ZipFile(path) as archive:
-            steps = json.loads(archive.read("data")).get("num_timesteps", 0)
-        model.set_parameters(str(path), exact_match=True, device="cpu")
-    except (KeyError, OSError, RuntimeError, ValueError, zipfile.BadZipFile) as error:
-        raise ValueError(
-            f"{path}: its weights do not load into a {algo.upper()} model built from the run's "
-            f"config.yml ({type(error).__name__}: {error}); allowed: a model saved by "
-            "python -m train with that config.yml"
-        ) from None
-    model.num_timesteps = int(steps)
-    return model
 
 
 # --- the harness's lean variant ----------------------------------------------------------------

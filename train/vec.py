@@ -8,7 +8,8 @@ hyperparameters ask for it.
 Evaluation stack: the adapter over one sub-env per evaluation condition ->
 :class:`ConditionGrid` (every reset starts sub-env i at condition i, so each deterministic
 evaluation scores the same conditions and ``best_model.zip`` is chosen on a fixed, not a
-resampled, set) -> ``VecMonitor`` -> ``VecNormalize(training=False, norm_reward=False)``.
+resampled, set) -> ``VecMonitor`` -> ``VecNormalize(training=False, norm_reward=False)``;
+:func:`evaluate_deterministic` plays a model's deterministic policy on it.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecMonitor, VecNormalize
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 
@@ -195,3 +197,42 @@ def make_evaluation_env(
     if normalize is not None:
         venv = VecNormalize(venv, **{**normalize, "training": False, "norm_reward": False})
     return venv
+
+
+def evaluate_deterministic(
+    model: BaseAlgorithm, eval_env: VecEnv, max_steps: int = 100_000
+) -> list[dict[str, Any]]:
+    """The deterministic policy from one reset of each evaluation env, played to the end of that
+    episode: one row per env with the info of its last step, ``reward`` the episode's return,
+    ``episode_length`` its steps and ``action`` its first action. The one-cycle envs end after one
+    stroke, so their row is that stroke's metrics; SpeedChange rows summarise whole episodes."""
+    observations = eval_env.reset()
+    n_envs = eval_env.num_envs
+    returns = np.zeros(n_envs)
+    lengths = np.zeros(n_envs, dtype=np.int64)
+    first_actions: list[Any] = [None] * n_envs
+    rows: list[dict[str, Any] | None] = [None] * n_envs
+    for _ in range(max_steps):
+        actions, _ = model.predict(observations, deterministic=True)
+        observations, rewards, dones, infos = eval_env.step(actions)
+        for k in range(n_envs):
+            if rows[k] is not None:
+                continue  # this env's episode is over; later steps belong to the next one
+            if first_actions[k] is None:
+                first_actions[k] = [float(a) for a in actions[k]]
+            returns[k] += float(rewards[k])
+            lengths[k] += 1
+            if dones[k]:
+                row = {
+                    key: value
+                    for key, value in infos[k].items()
+                    if key
+                    not in ("terminal_observation", "episode", "stroke", "TimeLimit.truncated")
+                }
+                row["reward"] = float(returns[k])
+                row["episode_length"] = int(lengths[k])
+                row["action"] = first_actions[k]
+                rows[k] = row
+        if all(row is not None for row in rows):
+            return [row for row in rows if row is not None]
+    raise RuntimeError(f"the evaluation episodes did not end within {max_steps} steps")

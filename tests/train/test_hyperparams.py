@@ -10,9 +10,11 @@ from tandem_env.io.keyvalue import parse_pairs, parse_value
 from train.config import (
     ALGOS,
     HYPERPARAMS_DIR,
+    MAX_NETWORK_PARAMETERS,
     TrainConfig,
     eval_policy_kwargs,
     load_entry,
+    network_parameters,
     resolve_hyperparams,
 )
 
@@ -45,7 +47,31 @@ def test_entries_build_models(algo: str) -> None:
         venv = make_sb3_vec_env(env_id, n_envs=2, seed=0)
         model = build_model(algo, hp, venv, seed=0, tensorboard_log=None, verbose=0, device="cpu")
         assert model.n_envs == 2
+        # The count the size limit refuses by is a lower bound of what SB3 builds.
+        built = sum(p.numel() for p in model.policy.parameters())
+        assert 0 < network_parameters(hp.policy_kwargs["net_arch"]) <= built
         venv.close()
+
+
+@pytest.mark.parametrize(
+    ("arch", "refused"),
+    [
+        ([4_000_000_000], True),  # a mistyped size: refused, not an allocator error
+        ({"pi": [64], "vf": [20_000, 20_000]}, True),
+        ({"pi": [8_000], "vf": [8_000, 8_000]}, False),  # 64 048 002 weights at least
+    ],
+)
+def test_a_network_beyond_the_size_limit_is_refused_before_it_is_built(
+    arch: list | dict, refused: bool
+) -> None:
+    entry = load_entry("ppo", ENV_IDS[0])
+    overrides = {"policy_kwargs": f"dict(net_arch={arch!r})"}
+    assert (network_parameters(arch) > MAX_NETWORK_PARAMETERS) is refused
+    if refused:
+        with pytest.raises(ValueError, match=r"has at least [\d,]+ weights; allowed: networks"):
+            resolve_hyperparams(entry, overrides)
+    else:
+        assert resolve_hyperparams(entry, overrides).policy_kwargs["net_arch"] == arch
 
 
 def test_parse_values_like_the_zoo() -> None:

@@ -318,15 +318,15 @@ def test_a_policy_is_loaded_without_unpickling_its_model_file(
     marker = tmp_path / "executed"
     original = layout.final_model.read_bytes()
     expected = TrainedPolicy.load(layout.run_dir, "final").strokes([1.5])
-    # The same model file with a hostile cloudpickled entry in its JSON `data`, as SB3's
-    # `load` would unpickle it.
+    # The same model file with a hostile cloudpickled entry in its JSON `data`, one that SB3's
+    # `load` would unpickle (an entry SB3 does not write is refused: test_run_folder_payloads).
     hostile = tmp_path / "hostile.zip"
     with zipfile.ZipFile(layout.final_model) as source, zipfile.ZipFile(hostile, "w") as target:
         for item in source.infolist():
             content = source.read(item)
             if item.filename == "data":
                 data = json.loads(content)
-                data["evil"] = {
+                data["policy_class"] = {
                     ":type:": "<class 'object'>",
                     ":serialized:": base64.b64encode(pickle.dumps(_Touch(marker))).decode(),
                 }

@@ -1,0 +1,457 @@
+"""Saving and loading SB3 models and replay buffers without unpickling anything.
+
+SB3's ``load`` unpickles (cloudpickle) the objects stored in a model zip's ``data`` JSON, and
+``load_replay_buffer`` unpickles the buffer file, so a tampered run folder could run code. Every
+loader of a run folder (``--resume``, ``policy:RUN_DIR``, ``python -m train.envelope``,
+``python -m eval speed-change --ppo/--sac``) goes through :func:`load_model` instead:
+
+1. the zip's ``data`` JSON is parsed as JSON (:func:`read_saved_state`): of SB3's own entries
+   only :data:`RESTORED` plain values are read; serialized (pickled) entries are never decoded,
+   and one SB3 does not write is refused;
+2. the model is rebuilt from the run's ``config.yml`` on the run's env (:func:`build_model`);
+3. the weights and optimiser states, every ``.pth`` member, are read with
+   ``torch.load(weights_only=True)`` (:func:`read_weights`) and put in place with SB3's
+   ``set_parameters``; the names must be the rebuilt model's own.
+
+A SAC replay buffer is saved as arrays in an ``.npz`` (:func:`save_replay_buffer`), loaded with
+``allow_pickle=False`` into the rebuilt model's buffer (:func:`load_replay_buffer`).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import warnings
+import zipfile
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from stable_baselines3 import PPO, SAC
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.buffers import ReplayBuffer
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.vec_env import VecEnv
+
+from tandem_env.io.files import atomic_path
+from train.config import MAX_TIMESTEPS, Hyperparams, resolve_hyperparams
+from train.layout import Checkpoint, RunLayout
+from train.vec import make_training_env
+
+ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
+
+
+def build_model(
+    algo: str,
+    hp: Hyperparams,
+    venv: VecEnv,
+    *,
+    seed: int,
+    tensorboard_log: Path | None,
+    verbose: int,
+    device: str,
+) -> BaseAlgorithm:
+    """A new SB3 model of ``algo`` on ``venv`` with the resolved hyperparameters."""
+    cls = ALGORITHMS[algo]
+    try:
+        return cls(
+            hp.policy,
+            venv,
+            seed=seed,
+            tensorboard_log=None if tensorboard_log is None else str(tensorboard_log),
+            policy_kwargs=dict(hp.policy_kwargs),
+            verbose=verbose,
+            device=device,
+            **dict(hp.model_kwargs),
+        )
+    except TypeError as error:
+        raise ValueError(f"{algo.upper()} rejected a hyperparameter: {error}") from error
+
+
+# --- the model zip ---------------------------------------------------------------------------
+#: The entries SB3 (2.x) writes into the ``data`` JSON of a PPO or SAC model. None of them is
+#: decoded (the model is rebuilt from ``config.yml``) except the plain :data:`RESTORED` ones; a
+#: serialized entry of any other name is refused, as only a tampered file has one.
+SB3_ENTRIES = frozenset(
+    {
+        "policy_class", "verbose", "policy_kwargs", "num_timesteps", "_total_timesteps",
+        "_num_timesteps_at_start", "seed", "action_noise", "start_time", "learning_rate",
+        "tensorboard_log", "_last_obs", "_last_episode_starts", "_last_original_obs",
+        "_episode_num", "use_sde", "sde_sample_freq", "_current_progress_remaining",
+        "_stats_window_size", "ep_info_buffer", "ep_success_buffer", "_n_updates",
+        "observation_space", "action_space", "n_envs", "n_steps", "gamma", "gae_lambda",
+        "ent_coef", "vf_coef", "max_grad_norm", "rollout_buffer_class", "rollout_buffer_kwargs",
+        "batch_size", "n_epochs", "clip_range", "clip_range_vf", "normalize_advantage",
+        "target_kl", "lr_schedule", "buffer_size", "learning_starts", "tau", "gradient_steps",
+        "optimize_memory_usage", "replay_buffer_class", "replay_buffer_kwargs", "train_freq",
+        "use_sde_at_warmup", "target_entropy", "target_update_interval", "batch_norm_stats",
+        "batch_norm_stats_target",
+    }
+)  # fmt: skip
+#: The entries of ``data`` a loaded model takes over: counters, each a plain integer >= 0.
+#: ``num_timesteps`` continues the step count; ``_n_updates`` and ``_episode_num`` (SB3 has no
+#: public setter; its own ``load`` sets them from this JSON) keep the logged update count and
+#: SAC's log schedule continuous. Everything else that training uses is rebuilt from
+#: ``config.yml``, or set by ``learn`` before its first use (the schedules' progress, the
+#: last observation: SB3's ``load`` with an env resets it too).
+RESTORED = ("num_timesteps", "_n_updates", "_episode_num")
+#: The largest ``data`` JSON read [bytes]; SB3's is a few kB plus the last observations.
+MAX_DATA_BYTES = 64 * 2**20
+
+_ALLOWED_MODEL = "Allowed: a model saved by python -m train with the run's config.yml"
+
+
+@dataclass(frozen=True)
+class SavedState:
+    """The :data:`RESTORED` counters of a model zip."""
+
+    num_timesteps: int
+    n_updates: int
+    episode_num: int
+
+
+def _model_error(path: Path, what: str) -> ValueError:
+    return ValueError(f"{path}: refused: {what}; nothing in it was run. {_ALLOWED_MODEL}")
+
+
+def _open_zip(path: Path) -> zipfile.ZipFile:
+    try:
+        return zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, EOFError, ValueError) as error:
+        raise _model_error(path, f"not a zip file ({error})") from None
+    except OSError as error:
+        raise ValueError(f"{path} cannot be read ({error.strerror})") from None
+
+
+def read_saved_state(path: Path) -> SavedState:
+    """The :data:`RESTORED` counters of the model zip at ``path``, its ``data`` parsed as JSON
+    and nothing decoded; ValueError naming the file for a zip without ``data``, JSON that is not
+    an object, a serialized entry SB3 does not write, or a counter that is not an integer from 0
+    (``num_timesteps`` at most ``MAX_TIMESTEPS``)."""
+    with _open_zip(path) as archive:
+        try:
+            info = archive.getinfo("data")
+        except KeyError:
+            members = ", ".join(archive.namelist()) or "no members"
+            raise _model_error(path, f"no data entry (it holds {members})") from None
+        if info.file_size > MAX_DATA_BYTES:
+            raise _model_error(path, f"its data is {info.file_size:,} bytes")
+        try:
+            data = json.loads(archive.read(info))
+        except (UnicodeDecodeError, json.JSONDecodeError, zipfile.BadZipFile, OSError) as error:
+            raise _model_error(path, f"its data is not JSON ({error})") from None
+    if not isinstance(data, dict):
+        raise _model_error(path, f"its data is a JSON {type(data).__name__}, not an object")
+    foreign = sorted(
+        key
+        for key, value in data.items()
+        if key not in SB3_ENTRIES and isinstance(value, dict) and ":serialized:" in value
+    )
+    if foreign:
+        raise _model_error(
+            path,
+            f"its data holds serialized (pickled) entries SB3 does not write: {', '.join(foreign)}",
+        )
+    values = {}
+    for key in RESTORED:
+        value = data.get(key, 0)
+        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_TIMESTEPS:
+            raise _model_error(
+                path, f"its {key} = {value!r}; allowed: an integer from 0 to {MAX_TIMESTEPS:,}"
+            )
+        values[key] = value
+    return SavedState(values["num_timesteps"], values["_n_updates"], values["_episode_num"])
+
+
+#: The ``.pth`` member of a model zip that holds torch variables (SAC's entropy coefficient)
+#: rather than state dicts.
+VARIABLES_MEMBER = "pytorch_variables.pth"
+
+
+def _gist(error: Exception) -> str:
+    """The line of a torch error that says what was found (torch's restricted unpickler
+    explains its defaults at length first)."""
+    lines = [line.strip() for line in str(error).splitlines() if line.strip()]
+    found = [line for line in lines if "nsupported" in line]  # "Trying to load unsupported ..."
+    return (found or lines or [""])[0][:300]
+
+
+def read_weights(path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The state dicts (``policy``, ``policy.optimizer``, ...) and the torch variables of the
+    model zip at ``path``, each ``.pth`` member read with ``torch.load(weights_only=True)`` on
+    the CPU; ValueError naming the file and the member that fails."""
+    params: dict[str, Any] = {}
+    variables: dict[str, Any] = {}
+    with _open_zip(path) as archive:
+        for name in archive.namelist():
+            if not name.endswith(".pth"):
+                continue
+            try:
+                with warnings.catch_warnings():  # torch's notes on a file it then refuses
+                    warnings.simplefilter("ignore", UserWarning)
+                    content = torch.load(
+                        io.BytesIO(archive.read(name)), map_location="cpu", weights_only=True
+                    )
+            # An untrusted file: whatever torch's restricted unpickler or its zip reader raise
+            # (UnpicklingError, RuntimeError, EOFError, ...) means the same refusal.
+            except Exception as error:
+                raise _model_error(
+                    path,
+                    f"its {name} fails the weights-only load (tensors only): "
+                    f"{type(error).__name__}: {_gist(error)}",
+                ) from None
+            if name == VARIABLES_MEMBER:
+                if not isinstance(content, dict):
+                    raise _model_error(path, f"its {name} is not a mapping of tensors")
+                variables = content
+            else:
+                params[name.removesuffix(".pth")] = content
+    if "policy" not in params:
+        raise _model_error(path, "it has no policy.pth (the policy's weights)")
+    return params, variables
+
+
+def _set_variables(model: BaseAlgorithm, variables: Mapping[str, Any]) -> None:
+    """Copy the saved torch variables (SAC's ``log_ent_coef`` or ``ent_coef_tensor``) into the
+    model's own tensors of the same name and shape, as SB3's ``load`` does."""
+    for name, value in variables.items():
+        if value is None:
+            continue  # SB3 saves None for a variable the model does not use
+        target = getattr(model, name, None) if name in ("log_ent_coef", "ent_coef_tensor") else None
+        if not isinstance(target, torch.Tensor) or not isinstance(value, torch.Tensor):
+            raise ValueError(f"a torch variable {name!r} this model does not have")
+        if target.shape != value.shape:
+            raise ValueError(f"{name} has shape {tuple(value.shape)}, not {tuple(target.shape)}")
+        with torch.no_grad():
+            target.copy_(value)
+
+
+def load_model(
+    algo: str,
+    path: Path,
+    hp: Hyperparams,
+    venv: VecEnv,
+    *,
+    seed: int,
+    device: str = "cpu",
+    tensorboard_log: Path | None = None,
+    verbose: int = 0,
+) -> BaseAlgorithm:
+    """The model saved at ``path``, rebuilt from ``hp`` (the run's ``config.yml``) on ``venv``
+    and given the file's weights, optimiser states and counters; nothing in the file is
+    unpickled (see the module docstring). ValueError naming the file if it is not such a model
+    or its weights do not fit the rebuilt one (a changed ``net_arch``, another env)."""
+    state = read_saved_state(path)
+    params, variables = read_weights(path)
+    model = build_model(
+        algo, hp, venv, seed=seed, tensorboard_log=tensorboard_log, verbose=verbose, device=device
+    )
+    expected = sorted(model.get_parameters())
+    if sorted(params) != expected:
+        raise _model_error(
+            path,
+            f"it holds the state dicts {', '.join(sorted(params))}; a {algo.upper()} model of "
+            f"the run's config.yml has {', '.join(expected)}",
+        )
+    try:
+        model.set_parameters(params, exact_match=True, device=device)
+        _set_variables(model, variables)
+    except (RuntimeError, ValueError, KeyError, TypeError, IndexError) as error:
+        reason = " ".join(str(error).split())
+        raise ValueError(
+            f"{path}: its weights do not load into a {algo.upper()} model built from the run's "
+            f"config.yml ({type(error).__name__}: {reason[:400]}). {_ALLOWED_MODEL}"
+        ) from None
+    model.num_timesteps = state.num_timesteps
+    # SB3 has no public setter for the two log counters (see RESTORED).
+    model._n_updates = state.n_updates
+    model._episode_num = state.episode_num
+    return model
+
+
+def load_policy_model(
+    algo: str, path: Path, entry: Mapping[str, Any], env_id: str, env_kwargs: Mapping[str, Any]
+) -> BaseAlgorithm:
+    """The model saved at ``path`` for prediction, on the CPU (:func:`load_model`), rebuilt from
+    the run's hyperparameters ``entry`` (its config.yml) on a copy of its env."""
+    # The run's own n_envs, so that the rebuilt model is the saved one (PPO's rollout size).
+    hp = resolve_hyperparams(entry, n_timesteps=1)
+    venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs, monitor_file=None, normalize=None)
+    return load_model(algo, path, hp, venv, seed=0)
+
+
+# --- the replay buffer -----------------------------------------------------------------------
+#: The arrays of SB3's ``ReplayBuffer`` (public attributes) an ``.npz`` buffer file holds, each
+#: cut to the rows filled so far; ``next_observations`` is None with ``optimize_memory_usage``.
+REPLAY_ARRAYS = ("observations", "next_observations", "actions", "rewards", "dones", "timeouts")
+#: The write position and fullness of the ring, stored beside the arrays.
+REPLAY_COUNTERS = ("pos", "full")
+
+
+def _replay_buffer(model: BaseAlgorithm) -> ReplayBuffer:
+    buffer = getattr(model, "replay_buffer", None)
+    if type(buffer) is not ReplayBuffer:
+        raise TypeError(f"{type(buffer).__name__} is not SB3's plain ReplayBuffer")
+    return buffer
+
+
+def save_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
+    """Write the model's replay buffer to ``path`` as an ``.npz`` of plain arrays (no pickle)."""
+    buffer = _replay_buffer(model)
+    rows = buffer.buffer_size if buffer.full else buffer.pos
+    arrays = {
+        name: getattr(buffer, name)[:rows]
+        for name in REPLAY_ARRAYS
+        if getattr(buffer, name) is not None
+    }
+    with Path(path).open("wb") as stream:  # a file object: savez would append ".npz" to a name
+        np.savez(stream, pos=np.int64(buffer.pos), full=np.bool_(buffer.full), **arrays)
+
+
+def load_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
+    """Fill the model's (empty, rebuilt) replay buffer from the ``.npz`` at ``path``, read with
+    ``allow_pickle=False``; ValueError naming the file if its arrays are not this buffer's
+    (names, dtypes, shapes) or its counters are out of range."""
+    buffer = _replay_buffer(model)
+    expected = {n for n in REPLAY_ARRAYS if getattr(buffer, n) is not None} | set(REPLAY_COUNTERS)
+    refused = f"{path}: refused as the replay buffer of this run"
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            if set(archive.files) != expected:
+                raise ValueError(
+                    f"it holds {', '.join(sorted(archive.files))}; a buffer file holds "
+                    f"{', '.join(sorted(expected))}"
+                )
+            pos, full = archive["pos"], archive["full"]
+            if pos.shape or pos.dtype.kind not in "iu" or not 0 <= pos < buffer.buffer_size:
+                raise ValueError(f"pos = {pos!r}; allowed: 0 to {buffer.buffer_size - 1}")
+            if full.shape or full.dtype != np.bool_:
+                raise ValueError(f"full = {full!r}; allowed: a boolean")
+            rows = buffer.buffer_size if full else int(pos)
+            loaded = {}
+            for name in expected - set(REPLAY_COUNTERS):
+                array, target = archive[name], getattr(buffer, name)
+                shape = (rows, *target.shape[1:])
+                if array.dtype != target.dtype or array.shape != shape:
+                    raise ValueError(
+                        f"{name} is {array.dtype}{list(array.shape)}; this run's buffer takes "
+                        f"{target.dtype}{list(shape)}"
+                    )
+                loaded[name] = array
+    except ValueError as error:
+        raise ValueError(f"{refused} ({error}); nothing was loaded") from None
+    except (OSError, EOFError, zipfile.BadZipFile) as error:
+        raise ValueError(f"{refused}: not a readable .npz ({error}); nothing was loaded") from None
+    for name, array in loaded.items():
+        getattr(buffer, name)[:rows] = array
+    buffer.pos, buffer.full = int(pos), bool(full)
+
+
+# --- checkpoints -----------------------------------------------------------------------------
+def load_checkpoint(
+    algo: str,
+    checkpoint: Checkpoint,
+    hp: Hyperparams,
+    venv: VecEnv,
+    *,
+    seed: int,
+    device: str = "cpu",
+    tensorboard_log: Path | None = None,
+    verbose: int = 0,
+) -> BaseAlgorithm:
+    """The checkpoint's model (:func:`load_model`) with SAC's replay buffer; ValueError naming
+    the file at fault, also when the model's step count is not the one in its name."""
+    model = load_model(
+        algo,
+        checkpoint.model,
+        hp,
+        venv,
+        seed=seed,
+        device=device,
+        tensorboard_log=tensorboard_log,
+        verbose=verbose,
+    )
+    if model.num_timesteps != checkpoint.step:
+        raise _model_error(
+            checkpoint.model,
+            f"its num_timesteps = {model.num_timesteps}, not the step {checkpoint.step} of its name",
+        )
+    if algo == "sac":
+        load_replay_buffer(model, checkpoint.replay_buffer)
+    return model
+
+
+def check_checkpoint(
+    algo: str,
+    checkpoint: Checkpoint,
+    hp: Hyperparams,
+    env_id: str,
+    env_kwargs: Mapping[str, Any],
+) -> None:
+    """Everything :func:`load_checkpoint` checks, on a throwaway copy of the env (no files):
+    so that a resume refuses a checkpoint before any work."""
+    venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs, monitor_file=None, normalize=None)
+    try:
+        load_checkpoint(algo, checkpoint, hp, venv, seed=0)
+    finally:
+        venv.close()
+
+
+class RunCheckpoint(BaseCallback):
+    """Checkpoints every ``save_freq`` env steps, keeping the newest ``keep``.
+
+    Unlike SB3's CheckpointCallback (which saves inside ``on_step``, before an off-policy
+    algorithm stores that step's transitions, so a resumed SAC would miss one vector step of
+    its replay buffer), this saves at the end of a rollout: the buffer holds every transition
+    up to the checkpoint's step. Files are named as CheckpointCallback names them.
+    """
+
+    def __init__(self, layout: RunLayout, save_freq: int, keep: int, verbose: int = 0) -> None:
+        super().__init__(verbose)
+        self.layout = layout
+        self.save_freq = save_freq
+        self.keep = keep
+        self._next = save_freq
+
+    def _init_callback(self) -> None:
+        self._next = (self.model.num_timesteps // self.save_freq + 1) * self.save_freq
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        step = self.model.num_timesteps
+        if step >= self._next:
+            checkpoint = save_checkpoint(self.model, self.layout)
+            prune_checkpoints(self.layout, self.keep)
+            self._next = (step // self.save_freq + 1) * self.save_freq
+            if self.verbose >= 2:
+                print(f"Saved checkpoint {checkpoint.model}")
+
+
+def prune_checkpoints(layout: RunLayout, keep: int) -> None:
+    for checkpoint in layout.checkpoints()[:-keep]:
+        for path in checkpoint.paths():
+            path.unlink(missing_ok=True)
+
+
+def save_checkpoint(model: BaseAlgorithm, layout: RunLayout) -> Checkpoint:
+    """Checkpoint at the model's current step. Each file is written under a temporary name and
+    renamed, companions first and the model last, so a model file means a complete checkpoint
+    even if the process is killed while saving."""
+    checkpoint = layout.checkpoint(model.num_timesteps)
+    if getattr(model, "replay_buffer", None) is not None:
+        _save_atomic(checkpoint.replay_buffer, lambda p: save_replay_buffer(model, p))
+    normalizer = model.get_vec_normalize_env()
+    if normalizer is not None:
+        _save_atomic(checkpoint.vecnormalize, lambda p: normalizer.save(str(p)))
+    _save_atomic(checkpoint.model, model.save)
+    return checkpoint
+
+
+def _save_atomic(path: Path, save: Callable[[Path], Any]) -> None:
+    with atomic_path(path) as tmp:
+        save(tmp)
