@@ -92,12 +92,13 @@ SB3_ENTRIES = frozenset(
     }
 )  # fmt: skip
 #: The entries of ``data`` a loaded model takes over: counters, each a plain integer >= 0.
-#: ``num_timesteps`` continues the step count; ``_n_updates`` and ``_episode_num`` (SB3 has no
-#: public setter; its own ``load`` sets them from this JSON) keep the logged update count and
-#: SAC's log schedule continuous. Everything else that training uses is rebuilt from
+#: ``num_timesteps`` continues the step count (a public attribute). SB3's two log counters,
+#: ``_n_updates`` and ``_episode_num``, are private and have no public setter, so a resumed
+#: run's logged update count and SAC's episode-based log schedule restart (docs/training.md);
+#: training itself does not read them. Everything else that training uses is rebuilt from
 #: ``config.yml``, or set by ``learn`` before its first use (the schedules' progress, the
 #: last observation: SB3's ``load`` with an env resets it too).
-RESTORED = ("num_timesteps", "_n_updates", "_episode_num")
+RESTORED = ("num_timesteps",)
 #: The largest ``data`` JSON read [bytes]; SB3's is a few kB plus the last observations.
 MAX_DATA_BYTES = 64 * 2**20
 
@@ -109,8 +110,6 @@ class SavedState:
     """The :data:`RESTORED` counters of a model zip."""
 
     num_timesteps: int
-    n_updates: int
-    episode_num: int
 
 
 def _model_error(path: Path, what: str) -> ValueError:
@@ -163,7 +162,7 @@ def read_saved_state(path: Path) -> SavedState:
                 path, f"its {key} = {value!r}; allowed: an integer from 0 to {MAX_TIMESTEPS:,}"
             )
         values[key] = value
-    return SavedState(values["num_timesteps"], values["_n_updates"], values["_episode_num"])
+    return SavedState(values["num_timesteps"])
 
 
 #: The ``.pth`` member of a model zip that holds torch variables (SAC's entropy coefficient)
@@ -266,9 +265,6 @@ def load_model(
             f"config.yml ({type(error).__name__}: {reason[:400]}). {_ALLOWED_MODEL}"
         ) from None
     model.num_timesteps = state.num_timesteps
-    # SB3 has no public setter for the two log counters (see RESTORED).
-    model._n_updates = state.n_updates
-    model._episode_num = state.episode_num
     return model
 
 

@@ -82,8 +82,6 @@ def test_a_checkpoint_loads_as_sb3_loads_it_and_resumes_identically(
         ours = load_checkpoint(algo, checkpoint, hp, _venv(SEED + 1), seed=SEED)
 
         assert ours.num_timesteps == theirs.num_timesteps == 64
-        assert ours._n_updates == theirs._n_updates > 0
-        assert ours._episode_num == theirs._episode_num == (64 if algo == "sac" else 0)
         _assert_same(ours.get_parameters(), theirs.get_parameters())
         if algo == "sac":
             assert torch.equal(ours.log_ent_coef, theirs.log_ent_coef)
