@@ -433,9 +433,9 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
         color="0.9",
         zorder=0,
     )
-    for k, log in enumerate(logs):
-        colour = LINE_HUES[k % len(LINE_HUES)]  # Okabe-Ito, one hue per policy
-        (line,) = axes[0].plot(log.time, log.forward_speed, lw=1.5, color=colour, label=log.policy)
+    axes[0].set_prop_cycle(color=LINE_HUES)  # Okabe-Ito, one hue per policy
+    for log in logs:
+        (line,) = axes[0].plot(log.time, log.forward_speed, lw=1.5, label=log.policy)
         axes[1].plot(log.time, 1e3 * log.altitude, lw=1.5, color=line.get_color())
         axes[2].step(log.time[1:], log.power_per_mass, where="pre", lw=1.2, color=line.get_color())
         if log.terminated:
