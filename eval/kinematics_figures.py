@@ -85,8 +85,9 @@ def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
         for i, trace in enumerate(traces):
             tip = getattr(trace, wing)["tip_path"]
             color = _seed_color(trace, i)
+            loop = np.vstack([tip, tip[:1]])  # one period: the path closes on itself
             ax.plot(
-                tip[:, 0], tip[:, 2], "-", color=color, label=trace.label, **_trace_style(trace)
+                loop[:, 0], loop[:, 2], "-", color=color, label=trace.label, **_trace_style(trace)
             )
             if trace.best:
                 # Start of the cycle, and the direction of travel above every path.
@@ -123,6 +124,8 @@ class GroupPanel:
     """Group -> the best seed's value (a star)."""
     paper: Mapping[str, float] = field(default_factory=dict)
     """Group -> the paper's value (a cross)."""
+    paper_label: str = "paper"
+    """The crosses' legend entry: what the paper states there."""
     band: tuple[float, float, str] | None = None
     """(low, high, label): a range the rule names, e.g. (0, 15, "in phase: |ΔΦ| < 15°")."""
     ylim: tuple[float, float] | None = None
@@ -153,7 +156,7 @@ def draw_groups(ax: Axes, panel: GroupPanel) -> None:
     for k, (name, value) in enumerate(panel.paper.items()):
         (cross,) = ax.plot(names.index(name) + 0.3, value, "kx", ms=8, mew=2)
         if k == 0:
-            entries.append((cross, "paper"))
+            entries.append((cross, panel.paper_label))
     if panel.paper_note:
         entries.append(text_entry(panel.paper_note))
     entries += draw_bounds(ax, panel.bounds)

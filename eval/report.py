@@ -16,7 +16,7 @@ from eval.studies.base import StudyOutput, StudyPlan
 from eval.studies.claims import CONFIDENCE_RULE, RULES, Claim, VerdictCount
 from eval.studies.readings_result import HEADLINES, ReadingResult, reading_dir
 from eval.studies.tables import PINNED_SHARE, pinned_parameters
-from tandem_env import BOUND_TOLERANCE
+from tandem_env import BOUND_TOLERANCE, PARAMETER_NAMES
 from tandem_env.io.files import write_text_atomic
 
 UNDERSTOOD = {
@@ -210,13 +210,16 @@ def pinned_section(rows: Sequence[Mapping[str, Any]]) -> list[str]:
         "optimum presses against is a limit of Table 4, not of the flyer.",
         "",
     ]
-    by_parameter: dict[tuple[str, str, float], list[str]] = {}
-    for r in found:
+    places: dict[tuple[str, str, float], dict[tuple[str, str], list[str]]] = {}
+    for r in sorted(found, key=lambda r: (PARAMETER_NAMES.index(r["parameter"]), r["bound"])):
         series = f"{r['task']} {r['objective']}, {r['planform']} ({r['method']})"
-        where = f"{series} at {r['condition']:g} {r['condition_unit']} ({r['share']:.0%})"
-        by_parameter.setdefault((r["parameter"], r["bound"], r["value"]), []).append(where)
-    for (name, bound, value), places in by_parameter.items():
-        lines.append(f"- `{name}` at its {bound} bound {value:g}: {'; '.join(places)}")
+        at = places.setdefault((r["parameter"], r["bound"], r["value"]), {})
+        at.setdefault((series, r["condition_unit"]), []).append(
+            f"{r['condition']:g} ({r['share']:.0%})"
+        )
+    for (name, bound, value), series in places.items():
+        where = "; ".join(f"{s} at {', '.join(c)} {unit}" for (s, unit), c in series.items())
+        lines.append(f"- `{name}` at its {bound} bound {value:g}: {where}")
     if not found:
         lines.append("- none")
     return [*lines, ""]

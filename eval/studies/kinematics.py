@@ -152,6 +152,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             statistic_label="median |ΔΦ| (judged)",
             best=bests(abs_phase),
             paper={accel_at: PAPER_IN_PHASE},
+            paper_label="paper: in phase (ΔΦ = 0°)",
             band=(0.0, C.IN_PHASE, f"in phase: |ΔΦ| < {C.IN_PHASE:g}°"),
             ylim=(-8.0, 185.0),  # room for the paper's 0° cross
         ),
@@ -163,6 +164,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             statistic_label="circular median (judged)",
             best=bests(lead),
             paper={lead_at: PAPER_PHASE_LEAD},
+            paper_label=f"paper: hind leads by ≈ {PAPER_PHASE_LEAD:g}°",
             band=(
                 PAPER_PHASE_LEAD - C.ANGLE_TOLERANCE,
                 PAPER_PHASE_LEAD + C.ANGLE_TOLERANCE,

@@ -82,5 +82,5 @@ def test_summary_and_report_flag_pinned_parameters() -> None:
     assert np.isclose(found[0]["share"], 2 / 3)
     text = "\n".join(report.pinned_section(rows))
     assert "`fore_sweep_amplitude` at its lower bound 30: level efficiency, tear-drop (cmaes) " \
-        "at 1.5 m/s (67%)" in text  # fmt: skip
+        "at 1.5 (67%) m/s" in text  # fmt: skip
     assert "- none" in "\n".join(report.pinned_section([_row(0)]))
