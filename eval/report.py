@@ -62,6 +62,16 @@ UNDERSTOOD = {
 }
 
 
+#: How every figure marks what it draws (the report's Figures section).
+FIGURE_KEY = (
+    "Per series: the median over the feasible seeds (line), the inter-quartile range (band), "
+    "each seed (dot), the best seed (star). The paper's stated values are black markers named "
+    "in the legend; a value derived from a statement of the paper is an open diamond whose "
+    "legend says how it was derived; grey dashed lines are a stroke parameter's Table 4 bounds; "
+    "the tip paths' arrowheads point the way the tip travels."
+)
+
+
 def _cell(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
@@ -187,7 +197,7 @@ def render(
             *[f"- `{n}`: `python -m eval study {n} --preset {plan.preset.name}`" for n in missing],
             "",
         ]
-    parts += ["## Figures", ""]
+    parts += ["## Figures", "", FIGURE_KEY, ""]
     for o in outputs:
         parts += [f"### {o.title}", ""]
         files = ", ".join(f"[`{_rel(f, base)}`]({_rel(f, base)})" for f in o.files)
