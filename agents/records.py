@@ -517,7 +517,8 @@ class Record:
 
     # --- tables ------------------------------------------------------------------------------------
     def summary_row(self) -> dict[str, Any]:
-        """One flat CSV row: identity, result, headline metrics."""
+        """One flat CSV row: identity, result, headline metrics, the 28 stroke parameters and
+        ``at_bounds`` (those at a Table 4 bound, :func:`tandem_env.describe_bounds`)."""
         row: dict[str, Any] = {
             "method": self.method,
             "task": self.task,
@@ -536,6 +537,10 @@ class Record:
         for name in SUMMARY_METRICS:
             if name in self.metrics:
                 row[name] = self.metrics[name]
+        # the stroke itself (Table 4 units), and which of its parameters sit at a Table 4 bound
+        stroke = [float(self.stroke[name]) for name in tandem_env.PARAMETER_NAMES]
+        row.update(zip(tandem_env.PARAMETER_NAMES, stroke, strict=True))
+        row["at_bounds"] = tandem_env.describe_bounds(stroke)
         row["key"] = self.key
         return row
 

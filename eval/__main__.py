@@ -28,6 +28,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "eval.measured",
     "eval.speed_change",
     "eval.numbers",
+    "eval.show",
 )
 
 
@@ -61,8 +62,8 @@ def build_parser(
     parser = argparse.ArgumentParser(
         prog=prog,
         description=(
-            "Optimise strokes of the tandem-wing model with PSO, random search or RL agents, "
-            "and compare the recorded results."
+            "Optimise strokes of the tandem-wing model with CMA-ES (the default), PSO, random "
+            "search or RL agents, and compare the recorded results."
         ),
     )
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)

@@ -7,8 +7,9 @@ each; only the seeds differ within a row). Records of different configurations a
 merged, and one that is found twice (the same record file in two folders given) counts once.
 The table gives the median, inter-quartile range and spread of the re-evaluated objective over
 seeds, the feasible share and the median evaluations and wall time; the plot the median
-best-so-far reward against evaluations with the inter-quartile band over seeds, and the
-reported objective as a marker at the end of each curve.
+best-so-far reward of the search against evaluations with the inter-quartile band over seeds,
+and the reported (polished) objective as a marker at the evaluations spent, joined to the end
+of the search's curve by the polish's dotted segment.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from agents.records import Record, load_records
-from eval.figures import FORMATS, VARIANT_LINES, figure_path, method_color, method_label
+from eval.figures import DPI, FORMATS, figure_path, method_label, series_style
 from tandem_env.io.files import atomic_path, output_directory, write_csv_atomic, write_text_atomic
 
 __all__ = [
@@ -61,12 +62,14 @@ sub-folder):
   convergence.png                best-so-far reward (the penalised objective the search
                                  maximises, feasible or not) against evaluations, median over
                                  seeds with the IQR band, one panel per task/objective/
-                                 condition; a marker at the end of each curve is the median
-                                 reported objective (the best feasible stroke, re-evaluated),
-                                 which lies below the curve where a higher reward was
-                                 infeasible. Each method in its fixed colour-blind-safe
-                                 colour, its variants by line style (--format svg or pdf:
-                                 convergence.svg, convergence.pdf)."""
+                                 condition; a marker is the median reported objective (the
+                                 best feasible stroke, polished, re-evaluated) at the median
+                                 evaluations spent, a dotted segment from the end of the
+                                 search's curve to it the local polish; it lies below the
+                                 curve where a higher reward was infeasible. Each method in
+                                 its fixed colour-blind-safe colour, its variants in other
+                                 hues and line styles (--format svg or pdf: convergence.svg,
+                                 convergence.pdf; PNG at 200 dpi)."""
 EPILOG = """\
 example:
   python -m eval compare results/v1.5                 # writes results/v1.5/compare/
@@ -74,6 +77,9 @@ example:
 
 #: Sub-folder of the first DIR that receives the outputs when --out is not given.
 DEFAULT_OUT = "compare"
+
+#: Legend entry of the dotted segment from the end of a search to its polished result.
+POLISH_LABEL = "local polish (to the median evaluations spent)"
 
 TABLE_CSV = "comparison.csv"
 TABLE_MD = "comparison.md"
@@ -370,7 +376,7 @@ def plot_convergence(records: Sequence[Record], path: Path) -> None:
     fig = convergence_figure(records)
     try:
         with atomic_path(path) as tmp:  # a killed run never leaves half a figure
-            fig.savefig(tmp, dpi=120, format=path.suffix.lstrip("."))
+            fig.savefig(tmp, dpi=DPI, format=path.suffix.lstrip("."))
     finally:
         plt.close(fig)
 
@@ -398,26 +404,36 @@ def convergence_figure(records: Sequence[Record]) -> Any:
         distinct = distinct_settings(list(series))
         variant: dict[str, int] = defaultdict(int)
         finals = []
+        polished = False
         for skey, runs in series.items():
             method = skey[0]
-            colour = method_color(method)
-            style = VARIANT_LINES[variant[method] % len(VARIANT_LINES)]
+            style = series_style(method, variant[method])
+            colour = style["color"]
             variant[method] += 1
             x, q25, median, q75 = convergence_curve(runs)
             label = ", ".join(p for p in (method_label(method), distinct[skey]) if p)
             label += f" ({plural(len(runs), 'seed')})"
-            ax.plot(x, median, drawstyle="steps-post", color=colour, ls=style, label=label)
+            ax.plot(x, median, drawstyle="steps-post", color=colour, ls=style["ls"], label=label)
             ax.fill_between(x, q25, q75, step="post", alpha=0.2, color=colour, lw=0)
             feasible = [r.objective for r in runs if r.feasible]
             if feasible:
                 reported = float(np.median(feasible))
-                ax.plot([x[-1]], [reported], marker="D", color=colour, ms=6, mec="k", ls="none")
+                # The search's history ends at its share of the budget; the polish spends the
+                # rest: the marker sits at the runs' median total evaluations, joined to the
+                # end of the search's curve by the polish segment.
+                end = max(float(np.median([r.evaluations for r in runs])), float(x[-1]))
+                if end > x[-1]:
+                    ax.plot([x[-1], end], [median[-1], reported], ":", color=colour, lw=1.4)
+                    polished = True
+                ax.plot([end], [reported], marker="D", color=colour, ms=6, mec="k", ls="none")
                 finals.append(reported)
             finals.extend(v for v in (q25[-1], median[-1], q75[-1]) if np.isfinite(v))
             tail = median[x >= 0.1 * x[-1]]
             finals.extend(v for v in tail[:1] if np.isfinite(v))
         ax.plot([], [], marker="D", color="0.5", mec="k", ls="none",
                 label=f"reported {objective_name} (median of feasible seeds)")  # fmt: skip
+        if polished:
+            ax.plot([], [], ":", color="0.5", lw=1.4, label=POLISH_LABEL)
         _focus(ax, finals)
         ax.set_title(f"{task}, {objective_name}, {condition} = {value:g} {unit}", fontsize=10)
         ax.set_xlabel("model evaluations")
@@ -427,9 +443,9 @@ def convergence_figure(records: Sequence[Record]) -> Any:
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
     caption = (
-        "Curves: best reward seen, feasible or not (median over seeds, band = IQR). Markers: "
-        "the reported objective (best feasible stroke, re-evaluated), below a curve where a "
-        "higher reward was infeasible."
+        "Curves: best reward the search saw, feasible or not (median over seeds, band = IQR). "
+        "Markers: the reported objective (best feasible stroke, polished and re-evaluated) at "
+        "the evaluations spent; dotted: the local polish after the search."
     )
     fig.suptitle(textwrap.fill(caption, 62 * cols), fontsize=9)
     fig.tight_layout()

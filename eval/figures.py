@@ -3,17 +3,23 @@
 Every sweep figure shows the spread over seeds the same way: the median over feasible seeds as
 a line, the inter-quartile range as a band, each feasible seed as a small dot and the best seed
 (best objective) as a star. What the paper states in its text is drawn the same way in every
-figure: its numbers are black crosses, a condition it names (e.g. "peaks at 1.5 m/s") is a
-black dotted vertical line, and a trend it states only in words is quoted in the legend
-("paper: ..."). Legends sit outside the axes, so they cover nothing, and list only what is
-drawn. Colours are Okabe & Ito's colour-blind-safe palette, fixed per method
-(:func:`series_style`), so a series keeps its colour when another is added.
+figure: its numbers are black markers (one marker per quantity, named in the legend), a
+condition it names (e.g. "peaks at 1.5 m/s") is a black dotted vertical line, and a trend it
+states only in words is quoted in the legend ("paper: ..."). A value we derive from a paper's
+statement (e.g. its relative gain applied to our own median) is an open diamond whose legend
+says how it was derived, never "paper". A panel of a stroke parameter draws its Table 4 bounds
+as grey dashed lines. Legends sit outside the axes, so they cover nothing, and list only what
+is drawn. Colours are Okabe & Ito's colour-blind-safe palette (:data:`PALETTE`), fixed per
+method and variant (:func:`series_style`), so a series keeps its colour when another is added
+and the two series of a pair (F̄_v and F̄_h, tear-drop and real wing) differ in hue.
+
+The kinematics figures (Figs. 9-13) are in :mod:`eval.kinematics_figures`.
 """
 
 from __future__ import annotations
 
 import zlib
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path, PurePath
 from typing import TYPE_CHECKING, Any
@@ -23,9 +29,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.colors import to_rgb
+from matplotlib.axes import Axes
 from matplotlib.legend_handler import HandlerTuple
-from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from tandem_env.io.files import atomic_path
@@ -33,7 +38,8 @@ from tandem_env.io.files import atomic_path
 if TYPE_CHECKING:  # annotations only: eval.studies imports this module
     from eval.studies.tables import Spread
 
-DPI = 90
+#: Resolution of every PNG the project writes (studies, compare, speed-change) [dots per inch].
+DPI = 200
 #: The figure formats the studies write (``--format``); the first is the default.
 FORMATS: tuple[str, ...] = ("png", "svg", "pdf")
 
@@ -47,6 +53,13 @@ PALETTE: tuple[str, ...] = (
     "#56B4E9",  # sky blue
     "#F0E442",  # yellow
 )
+#: The palette's hues that read as lines on white (yellow left out): a variant's hue is taken
+#: from these (:func:`variant_color`).
+LINE_HUES: tuple[str, ...] = PALETTE[:6]
+#: Steps along :data:`LINE_HUES` from a method's hue to its variant 1's (2 for variant 2, ...):
+#: blue -> orange for CMA-ES, vermillion -> sky blue for PSO, so the defaults' pairs never share
+#: a hue with each other.
+VARIANT_HUE_STEP = 4
 #: Fixed colour of each method family (the spec's name before ':'); other specs get a colour
 #: from their name's checksum, so no colour depends on which other series a figure has.
 METHOD_COLORS: dict[str, str] = {
@@ -70,6 +83,17 @@ METHOD_NAMES: dict[str, str] = {
 VARIANT_LINES: tuple[str, ...] = ("-", "--", ":")
 #: The fore- and hind-wing in the kinematics figures.
 WING_COLORS: dict[str, str] = {"fore": PALETTE[0], "hind": PALETTE[1]}
+#: The paper's stated values, one marker per quantity in a panel (black, in this order).
+PAPER_MARKERS: tuple[dict[str, Any], ...] = (
+    {"marker": "x", "ms": 8, "mew": 2},
+    {"marker": "+", "ms": 10, "mew": 2},
+    {"marker": "^", "ms": 7, "mew": 1.5, "mfc": "none"},
+)
+#: A value derived from a paper's statement (never labelled "paper" alone).
+DERIVED_MARKER: dict[str, Any] = {"marker": "D", "ms": 7, "mew": 1.5, "mfc": "none"}
+#: The Table 4 bounds of a stroke parameter's panel.
+BOUND_STYLE: dict[str, Any] = {"color": "0.45", "ls": "--", "lw": 1.0, "zorder": 1}
+BOUND_LABEL = "Table 4 bounds"
 
 
 def method_label(spec: str) -> str:
@@ -90,13 +114,22 @@ def method_color(spec: str) -> str:
     return PALETTE[zlib.crc32(spec.encode()) % len(PALETTE)]
 
 
+def variant_color(base: str, variant: int = 0) -> str:
+    """The hue of variant ``variant`` of a series whose variant 0 is ``base``: ``base`` itself,
+    then :data:`VARIANT_HUE_STEP` steps along :data:`LINE_HUES` per variant."""
+    if not variant:
+        return base
+    start = LINE_HUES.index(base) if base in LINE_HUES else 0
+    return LINE_HUES[(start + VARIANT_HUE_STEP * variant) % len(LINE_HUES)]
+
+
 def series_style(method: str, variant: int = 0) -> dict[str, Any]:
-    """Colour and line style of a series: the method's colour (lightened for variant 1) and
+    """Colour and line style of a series: the method's variant hue (:func:`variant_color`) and
     the variant's line style."""
-    color = np.array(to_rgb(method_color(method)))
-    if variant % 2:
-        color = 0.55 * color + 0.45  # the same hue, lighter
-    return {"color": tuple(float(c) for c in color), "ls": VARIANT_LINES[variant % 3]}
+    return {
+        "color": variant_color(method_color(method), variant),
+        "ls": VARIANT_LINES[variant % len(VARIANT_LINES)],
+    }
 
 
 def figure_path(folder: Path, stem: str, fmt: str = FORMATS[0]) -> Path:
@@ -118,7 +151,7 @@ class Series:
     """The method spec whose fixed colour the series has (:func:`series_style`); empty: the
     label's."""
     variant: int = 0
-    """Which of a method's series this is (line style, shade): 0, 1, ..."""
+    """Which of a method's series this is (line style, hue): 0, 1, ..."""
 
 
 @dataclass(frozen=True)
@@ -128,19 +161,26 @@ class Panel:
     ylabel: str
     series: Sequence[Series]
     paper: Sequence[tuple[float, float] | tuple[float, float, str]] = field(default=())
-    """(condition, value) or (condition, value, label) points the paper states."""
+    """(condition, value) or (condition, value, label) values the paper states; one black
+    marker per label, named in the legend (no label: "paper")."""
     title: str = ""
     paper_at: Sequence[tuple[float, str]] = field(default=())
     """(condition, label): conditions the paper names, e.g. (1.5, "paper: peak")."""
     paper_note: str = ""
     """A trend the paper states in words only, e.g. "paper: falls with V"."""
+    derived: Sequence[tuple[float, float, str]] = field(default=())
+    """(condition, value, label): values derived from a paper's statement and our data; the
+    label says how (e.g. "our tear-drop median × 1.12: the paper's gain"), drawn apart from
+    :attr:`paper`."""
+    bounds: tuple[float, float] | None = None
+    """The Table 4 (low, high) of the stroke parameter drawn (``tables.table4_bounds``)."""
 
 
 #: Legend entry explaining how every sweep series is drawn.
 SERIES_KEY = "line: median, band: IQR, dots: seeds, ★: best seed"
 
 
-def draw_series(ax: plt.Axes, series: Series) -> tuple | None:
+def draw_series(ax: Axes, series: Series) -> tuple | None:
     """Median line, IQR band, seeds as dots, best as a star (conditions with data only).
 
     Returns the series' legend handle (band, line and star together), or None when nothing
@@ -168,8 +208,8 @@ def draw_series(ax: plt.Axes, series: Series) -> tuple | None:
     return (band, line, star)
 
 
-def _legend(
-    ax: plt.Axes, entries: Sequence[tuple[Any, str]], below: bool = False, **kwargs: Any
+def legend(
+    ax: Axes, entries: Sequence[tuple[Any, str]], below: bool = False, **kwargs: Any
 ) -> None:
     """A legend of ``entries`` (handle, label) outside ``ax``: to its right, or below it."""
     if not entries:
@@ -191,9 +231,18 @@ def _legend(
     )
 
 
-def _text_entry(text: str) -> tuple[Any, str]:
+def text_entry(text: str) -> tuple[Any, str]:
     """A legend entry of text only (an invisible handle)."""
     return (Patch(visible=False), text)
+
+
+def draw_bounds(ax: Axes, bounds: tuple[float, float] | None) -> list[tuple[Any, str]]:
+    """A stroke parameter's Table 4 bounds as two grey dashed lines; their legend entry."""
+    if bounds is None:
+        return []
+    for value in bounds:
+        line = ax.axhline(value, **BOUND_STYLE)
+    return [(line, BOUND_LABEL)]
 
 
 def sweep_figure(
@@ -202,7 +251,7 @@ def sweep_figure(
     """Stacked panels over one condition axis, like the paper's Figs. 4-8 and 15-16.
 
     Each panel's legend (outside, right) lists its drawn series (the first panel's only, when
-    every panel has the same ones) and what the paper states for it.
+    every panel has the same ones), what the paper states for it and its Table 4 bounds.
     """
     fig, axes = plt.subplots(
         len(panels), 1, figsize=(width + 2.6, 2.4 * len(panels) + 0.8), sharex=True
@@ -213,27 +262,32 @@ def sweep_figure(
         drawn = [(h, s.label) for s in panel.series if (h := draw_series(ax, s)) is not None]
         shown.append(drawn)
         paper = draw_paper(ax, panel)
+        bounds = draw_bounds(ax, panel.bounds)
         ax.set_ylabel(panel.ylabel)
         if panel.title:
             ax.set_title(panel.title, fontsize=9)
         ax.grid(alpha=0.3)
         same = [label for _, label in drawn] == [label for _, label in shown[0]]
         series = drawn if (ax is axes[0] or not same) else []
-        _legend(ax, [*series, *([_text_entry(SERIES_KEY)] if series else []), *paper])
+        key = [text_entry(SERIES_KEY)] if series else []
+        legend(ax, [*series, *key, *paper, *bounds])
     axes[-1].set_xlabel(xlabel)
     fig.suptitle(title, fontsize=10)
     return save(fig, path)
 
 
-def draw_paper(ax: plt.Axes, panel: Panel) -> list[tuple[Any, str]]:
-    """What the paper states for this panel: crosses (labelled inside the axes), dotted
-    lines and a quoted trend. Returns their legend entries."""
+def draw_paper(ax: Axes, panel: Panel) -> list[tuple[Any, str]]:
+    """What the paper states for this panel: its values (a black marker per label), dotted
+    lines and a quoted trend, then the values derived from it (open diamonds). Nothing is
+    written inside the axes, so no label covers the data. Returns the legend entries."""
     entries: list[tuple[Any, str]] = []
-    if panel.paper:
-        px, py = [p[0] for p in panel.paper], [p[1] for p in panel.paper]
-        (cross,) = ax.plot(px, py, "kx", ms=8, mew=2)
-        entries.append((cross, "paper"))
-        _label_inside(ax, [p for p in panel.paper if len(p) == 3])
+    labels = list(dict.fromkeys(p[2] if len(p) == 3 else "paper" for p in panel.paper))
+    for k, label in enumerate(labels):
+        points = [p for p in panel.paper if (p[2] if len(p) == 3 else "paper") == label]
+        style = PAPER_MARKERS[k % len(PAPER_MARKERS)]
+        (mark,) = ax.plot([p[0] for p in points], [p[1] for p in points], ls="", color="k",
+                          zorder=4, **style)  # fmt: skip
+        entries.append((mark, label))
     for k, (condition, label) in enumerate(panel.paper_at):
         line = ax.axvline(condition, color="k", ls=":", lw=1.2)
         if k == 0:
@@ -241,33 +295,18 @@ def draw_paper(ax: plt.Axes, panel: Panel) -> list[tuple[Any, str]]:
         else:
             ax.annotate(label, (condition, 0.97), xycoords=("data", "axes fraction"), fontsize=7)
     if panel.paper_note:
-        entries.append(_text_entry(panel.paper_note))
+        entries.append(text_entry(panel.paper_note))
+    for label in dict.fromkeys(d[2] for d in panel.derived):
+        points = [d for d in panel.derived if d[2] == label]
+        (mark,) = ax.plot([d[0] for d in points], [d[1] for d in points], ls="", color="0.3",
+                          zorder=4, **DERIVED_MARKER)  # fmt: skip
+        entries.append((mark, label))
     return entries
 
 
-def _label_inside(ax: plt.Axes, points: Sequence[tuple[float, float, str]]) -> None:
-    """Label points so the text stays inside the axes: to the left of points in the right
-    half, below points in the top fifth."""
-    if not points:
-        return
-    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
-    for x, y, text in points:
-        right = x > 0.5 * (x0 + x1)
-        top = y > y0 + 0.8 * (y1 - y0)
-        ax.annotate(
-            text,
-            (x, y),
-            xytext=(-7 if right else 7, -5 if top else 4),
-            textcoords="offset points",
-            ha="right" if right else "left",
-            va="top" if top else "bottom",
-            fontsize=7,
-        )
-
-
 def save(fig: plt.Figure, path: Path) -> Path:
-    """Write ``fig`` to ``path`` (atomically; format from the suffix, :data:`FORMATS`), close
-    it and return ``path``."""
+    """Write ``fig`` to ``path`` (atomically; format from the suffix, :data:`FORMATS`; PNG at
+    :data:`DPI`), close it and return ``path``."""
     fmt = path.suffix.lstrip(".")
     if fmt not in FORMATS:
         plt.close(fig)
@@ -281,214 +320,6 @@ def save(fig: plt.Figure, path: Path) -> Path:
     finally:
         plt.close(fig)
     return path
-
-
-# --- kinematics (Figs. 9-13) -------------------------------------------------------------------
-@dataclass(frozen=True)
-class Trace:
-    """One stroke's time history for the kinematics figures."""
-
-    label: str
-    """E.g. ``"seed 3 (best)"``."""
-    best: bool
-    cycle: np.ndarray
-    """t/T [-]."""
-    fore: Mapping[str, np.ndarray]
-    """Quantity name -> (n,) or (n, 3) array of the fore-wing."""
-    hind: Mapping[str, np.ndarray]
-
-
-def _trace_style(trace: Trace) -> dict:
-    return {"lw": 2.0, "alpha": 1.0} if trace.best else {"lw": 0.8, "alpha": 0.35}
-
-
-def _plot_wings(ax: plt.Axes, traces: Sequence[Trace], quantity: str) -> None:
-    """``quantity`` over the cycle per seed: fore-wing solid, hind-wing dashed, with one
-    legend entry each."""
-    for trace in traces:
-        style = _trace_style(trace)
-        ax.plot(trace.cycle, trace.fore[quantity], "-", color=WING_COLORS["fore"], **style)
-        ax.plot(trace.cycle, trace.hind[quantity], "--", color=WING_COLORS["hind"], **style)
-    ax.plot([], [], "-", color=WING_COLORS["fore"], label="fore-wing")
-    ax.plot([], [], "--", color=WING_COLORS["hind"], label="hind-wing")
-
-
-def _seed_color(trace: Trace, i: int) -> str:
-    """Black for the best seed, else a palette colour fixed by the seed in the label."""
-    if trace.best:
-        return "k"
-    digits = "".join(c for c in trace.label.split("(")[0] if c.isdigit())
-    return PALETTE[(int(digits) if digits else i) % len(PALETTE)]
-
-
-def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
-    """Wing-tip paths relative to the wing base, side view (x forward, z up), per wing."""
-    fig, axes = plt.subplots(1, 2, figsize=(7.5, 3.8))
-    for ax, wing in zip(axes, ("fore", "hind"), strict=True):
-        for i, trace in enumerate(traces):
-            tip = getattr(trace, wing)["tip_path"]
-            color = _seed_color(trace, i)
-            ax.plot(
-                tip[:, 0], tip[:, 2], "-", color=color, label=trace.label, **_trace_style(trace)
-            )
-            if trace.best:
-                # Start of the cycle and the direction of travel.
-                ax.plot(tip[0, 0], tip[0, 2], "o", color="k", ms=5)
-                ax.annotate(
-                    "",
-                    xy=(tip[3, 0], tip[3, 2]),
-                    xytext=(tip[0, 0], tip[0, 2]),
-                    arrowprops={"arrowstyle": "->", "color": "k"},
-                )
-        ax.plot(0, 0, "k+", ms=10)
-        ax.set_title(f"{wing}-wing", fontsize=9)
-        if wing == "hind":
-            # What the markers mean (the paper's Figs. 9-10 have no markers to compare).
-            ax.plot([], [], "o", color="k", ms=5, label="best seed at t = 0 (arrow: direction)")
-            ax.plot([], [], "k+", ms=10, label="wing base")
-        ax.set_xlabel("x/R (forward) [-]")
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.grid(alpha=0.3)
-    axes[0].set_ylabel("z/R (up) [-]")
-    axes[1].legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)
-    fig.suptitle(title, fontsize=10)
-    return save(fig, path)
-
-
-@dataclass(frozen=True)
-class GroupPanel:
-    """A panel of per-seed values in groups (e.g. Fig. 11c's phase differences): each seed a
-    dot, the statistic the report judges as a bar, the best seed a star, the paper's values
-    as crosses and the rule's band shaded."""
-
-    title: str
-    groups: Mapping[str, Sequence[float]]
-    """Group label -> the feasible seeds' values."""
-    ylabel: str
-    statistic: Callable[[Sequence[float]], float] = np.median
-    statistic_label: str = "median"
-    best: Mapping[str, float] = field(default_factory=dict)
-    """Group -> the best seed's value (a star)."""
-    paper: Mapping[str, float] = field(default_factory=dict)
-    """Group -> the paper's value (a cross)."""
-    band: tuple[float, float, str] | None = None
-    """(low, high, label): a range the rule names, e.g. (0, 15, "in phase: |ΔΦ| < 15°")."""
-    ylim: tuple[float, float] | None = None
-    paper_note: str = ""
-    """What the paper states in words only (a legend line)."""
-
-
-def draw_groups(ax: plt.Axes, panel: GroupPanel) -> None:
-    """Draw one :class:`GroupPanel` with its legend (outside the axes, right)."""
-    names = list(panel.groups)
-    entries: list[tuple[Any, str]] = []
-    if panel.band is not None:
-        low, high, label = panel.band
-        entries.append((ax.axhspan(low, high, color="0.85", zorder=0), label))
-    for i, name in enumerate(names):
-        v = np.asarray(panel.groups[name], float)
-        color = PALETTE[i % len(PALETTE)]
-        ax.plot(i + np.linspace(-0.1, 0.1, v.size), v, "o", color=color, alpha=0.7, ms=5)
-        if v.size:
-            ax.plot([i - 0.25, i + 0.25], [panel.statistic(v)] * 2, "k-", lw=2)
-        if name in panel.best and np.isfinite(panel.best[name]):
-            ax.plot(i + 0.2, panel.best[name], "*", color=color, ms=10, mec="k", mew=0.5)
-    entries.append((Line2D([], [], color="k", lw=2), panel.statistic_label))
-    if panel.best:
-        entries.append((Line2D([], [], marker="*", ls="", color="0.5", mec="k", ms=9), "best seed"))
-    for k, (name, value) in enumerate(panel.paper.items()):
-        (cross,) = ax.plot(names.index(name) + 0.3, value, "kx", ms=8, mew=2)
-        if k == 0:
-            entries.append((cross, "paper"))
-    if panel.paper_note:
-        entries.append(_text_entry(panel.paper_note))
-    ax.set_xlim(-0.5, len(names) - 0.5)
-    if panel.ylim is not None:
-        ax.set_ylim(*panel.ylim)
-    ax.set_xticks(range(len(names)), [n.replace(" ", "\n", 1) for n in names], fontsize=7)
-    ax.set_ylabel(panel.ylabel)
-    ax.set_title(panel.title, fontsize=9)
-    ax.grid(alpha=0.3)
-    _legend(ax, entries, below=True)
-
-
-#: The paper's division of the cycle (Fig. 12 text): the down-stroke is 0 < t/T < 0.5.
-PAPER_DOWNSTROKE_END = 0.5
-
-
-def _mark_downstroke(ax: plt.Axes, label: bool) -> None:
-    ax.axvline(
-        PAPER_DOWNSTROKE_END,
-        color="k",
-        ls=":",
-        lw=1.0,
-        label="paper: down-stroke ends (t/T = 0.5)" if label else None,
-    )
-
-
-def cycle_figure(
-    rows: Sequence[tuple[str, Sequence[Trace]]],
-    quantity: str,
-    ylabel: str,
-    title: str,
-    path: Path,
-    extras: Sequence[GroupPanel] = (),
-) -> Path:
-    """One panel per flight mode: ``quantity`` of fore (solid) and hind (dashed) over t/T,
-    then one :class:`GroupPanel` per ``extras`` (e.g. Fig. 11c's phase differences, Fig. 12c's
-    pitch amplitudes)."""
-    n = len(rows) + len(extras)
-    fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 4.4))
-    axes = np.atleast_1d(axes)
-    for k, (ax, (name, traces)) in enumerate(zip(axes, rows, strict=False)):
-        _plot_wings(ax, traces, quantity)
-        _mark_downstroke(ax, label=k == 0)
-        ax.set_title(name, fontsize=9)
-        ax.set_xlabel("cycle t/T [-]")
-        ax.set_ylabel(ylabel)
-        ax.grid(alpha=0.3)
-        if k == 0:
-            handles, labels = ax.get_legend_handles_labels()
-            _legend(
-                ax,
-                [*zip(handles, labels, strict=True), _text_entry("bold: best seed")],
-                below=True,
-            )
-    for ax, extra in zip(axes[len(rows) :], extras, strict=True):
-        draw_groups(ax, extra)
-    fig.suptitle(title, fontsize=10)
-    return save(fig, path)
-
-
-def flow_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
-    """Angle of attack and relative speed at 0.75 R over the cycle (Fig. 13); the dotted line
-    is the paper's end of the down-stroke (t/T = 0.5: the paper's cycles start with it)."""
-    fig, axes = plt.subplots(2, 1, figsize=(8.4, 5.2), sharex=True)
-    for k, (ax, (quantity, ylabel)) in enumerate(
-        zip(
-            axes,
-            (
-                ("angle_of_attack", "angle of attack [deg]"),
-                ("relative_speed", "relative speed at 0.75R [m/s]"),
-            ),
-            strict=True,
-        )
-    ):
-        _plot_wings(ax, traces, quantity)
-        _mark_downstroke(ax, label=k == 0)
-        ax.set_ylabel(ylabel)
-        ax.grid(alpha=0.3)
-    axes[0].legend(
-        fontsize=7,
-        title="bold: best seed",
-        title_fontsize=6,
-        loc="upper left",
-        bbox_to_anchor=(1.01, 1.0),
-        frameon=False,
-    )
-    axes[-1].set_xlabel("cycle t/T [-]")
-    fig.suptitle(title, fontsize=10)
-    return save(fig, path)
 
 
 # --- wing shape (Fig. 14) ----------------------------------------------------------------------
@@ -505,8 +336,9 @@ def planform_figure(
     for label, r, upper, lower in outlines:
         wing, _, planform = label.partition(", ")
         ax = axes[0] if wing == "fore" else axes[1]
-        color = PALETTE[PLANFORM_VARIANT.get(planform, 2)]
-        ls = VARIANT_LINES[PLANFORM_VARIANT.get(planform, 2)]
+        # the hues and line styles of the planforms' series in Figs. 15-16 (of CMA-ES, blue)
+        variant = PLANFORM_VARIANT.get(planform, 2)
+        color, ls = variant_color(PALETTE[0], variant), VARIANT_LINES[variant]
         ax.plot(r, upper, color=color, ls=ls, label=f"{planform} wing")
         ax.plot(r, lower, color=color, ls=ls)
     for ax, wing in zip(axes, ("fore-wing", "hind-wing"), strict=True):

@@ -494,11 +494,11 @@ def record(case: MeasuredCase, history: StrokeHistory, source: Path) -> dict[str
 
 def plot(case: MeasuredCase, history: StrokeHistory, path: Path) -> Path:
     """Vertical and horizontal force and power of each wing pair over its cycle."""
-    from eval.figures import plt, save
+    from eval.figures import WING_COLORS, plt, save
 
     fig, axes = plt.subplots(3, 1, figsize=(6.4, 7.2), sharex=True)
     weight = case.insect.weight
-    for name, color in (("fore", "tab:blue"), ("hind", "tab:orange")):
+    for name, color in WING_COLORS.items():
         w = getattr(history, name)
         x = w.cycle_fraction
         axes[0].plot(x, 1e3 * w.vertical_force, color=color, label=f"{name} pair")

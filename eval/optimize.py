@@ -72,7 +72,9 @@ def _tasks_text(width: int = 92) -> str:
 
 
 NAME = "optimize"
-HELP = "run a method (pso, random, ...) on one flight condition for several seeds"
+HELP = (
+    "run a method (cmaes, the default; pso, random, ...) on one flight condition for several seeds"
+)
 
 
 def description() -> str:

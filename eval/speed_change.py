@@ -425,7 +425,9 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    figure = Figure(figsize=(7.5, 6.5), dpi=110)
+    from eval.figures import DPI, LINE_HUES
+
+    figure = Figure(figsize=(7.5, 6.5), dpi=DPI)
     FigureCanvasAgg(figure)
     axes = figure.subplots(3, 1, sharex=True)
     first = logs[0]
@@ -436,6 +438,7 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
         color="0.9",
         zorder=0,
     )
+    axes[0].set_prop_cycle(color=LINE_HUES)  # Okabe-Ito, one hue per policy
     for log in logs:
         (line,) = axes[0].plot(log.time, log.forward_speed, lw=1.5, label=log.policy)
         axes[1].plot(log.time, 1e3 * log.altitude, lw=1.5, color=line.get_color())

@@ -1,8 +1,9 @@
-"""Every ```python block in README.md and docs/*.md runs as written.
+"""Every ```python block in README.md and docs/*.md runs as written, on its own.
 
-The blocks of one file run in order in one namespace, as a reader pasting them into one Python
-session would run them, in a fresh working directory (so a block that writes ``results/...``
-writes there, not into the checkout). Two first-line markers change that:
+Each block runs in a namespace of its own, as a reader pasting just that block into a fresh
+Python session would run it (so every block carries its imports), in a fresh working directory
+per document (so a block that writes ``results/...`` writes there, not into the checkout). Two
+first-line markers change that:
 
 - ``# excerpt``: a deliberate excerpt of a larger program (a protocol, a fragment of a module);
   it is compiled, so it stays valid Python, but not run;
@@ -81,7 +82,6 @@ def test_python_blocks_run(path: Path, tmp_path: Path, monkeypatch: pytest.Monke
     found = blocks(path)
     matplotlib.use("Agg")
     monkeypatch.chdir(tmp_path)
-    namespace: dict[str, object] = {"__name__": "__docs__"}
     skipped: list[str] = []
     for block in found:
         code = compile(block.code, block.where, "exec")  # an excerpt stays valid Python
@@ -92,7 +92,7 @@ def test_python_blocks_run(path: Path, tmp_path: Path, monkeypatch: pytest.Monke
             skipped.append(f"{block.where} needs {', '.join(missing)}")
             continue
         try:
-            exec(code, namespace)
+            exec(code, {"__name__": "__docs__"})  # on its own: nothing from the blocks before
         except Exception as error:  # name the block; the traceback follows
             raise AssertionError(f"{block.where} fails as written: {error!r}") from error
     assert os.getcwd() == str(tmp_path), "a block changed the working directory"

@@ -21,6 +21,7 @@ from eval.studies.paper_reading import DEFAULT, Reading
 from eval.studies.presets import Preset
 from eval.studies.runner import RECORDS_DIR, Job
 from eval.studies.tables import summary_rows, tidy_rows
+from tandem_env import PARAMETER_NAMES
 from tandem_env.envs.config import EXECUTION_KWARGS
 from tandem_env.io.files import write_csv_atomic, write_json_atomic
 
@@ -161,7 +162,8 @@ def write_tables(
     out_dir: Path,
     quantities: Sequence[str],
 ) -> tuple[list[dict[str, Any]], list[Path]]:
-    """Write ``DIR/<name>/records.json`` (index), ``<name>.csv`` (tidy) and ``<name>_summary.csv``."""
+    """Write ``DIR/<name>/records.json`` (index), ``<name>.csv`` (tidy) and ``<name>_summary.csv``
+    (the ``quantities`` and the 28 stroke parameters per series and condition)."""
     study_dir = out_dir / name
     rows = tidy_rows(records)
     index = [
@@ -180,5 +182,7 @@ def write_tables(
     ]
     write_json_atomic(paths[0], index)
     write_csv_atomic(paths[1], rows)
-    write_csv_atomic(paths[2], summary_rows(rows, quantities))
+    # the study's quantities, then the 28 stroke parameters (each with its ``pinned`` flag)
+    extra = [n for n in PARAMETER_NAMES if n not in quantities]
+    write_csv_atomic(paths[2], summary_rows(rows, [*quantities, *extra]))
     return rows, paths

@@ -24,10 +24,11 @@ import numpy as np
 from agents.records import Record
 from agents.tasks import get_task
 from eval import figures
+from eval import kinematics_figures as kf
 from eval.studies import claims as C
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
 from eval.studies.runner import Job
-from eval.studies.tables import circular_median, select, spread
+from eval.studies.tables import circular_median, select, spread, table4_bounds
 from tandem_env import PARAMETER_NAMES, stroke_history
 from tandem_env.envs import registration
 
@@ -73,7 +74,7 @@ def history_of(record: Record, n_samples: int = HISTORY_SAMPLES):
 
 def traces(
     records: Mapping[Job, Record], rows: list[dict[str, Any]], **where: Any
-) -> list[figures.Trace]:
+) -> list[kf.Trace]:
     """One trace per seed of the series ``where`` picks; the best feasible seed is bold."""
     chosen = select(rows, **where)
     best_seed = spread(chosen, "objective_value").best_seed
@@ -95,9 +96,7 @@ def traces(
         best = row["seed"] == best_seed
         suffix = " (best)" if best else ("" if row["feasible"] else " (infeasible)")
         out.append(
-            figures.Trace(
-                f"seed {row['seed']}{suffix}", best, h.fore.cycle_fraction, wings[0], wings[1]
-            )
+            kf.Trace(f"seed {row['seed']}{suffix}", best, h.fore.cycle_fraction, wings[0], wings[1])
         )
     return out
 
@@ -146,17 +145,18 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
     # Each panel shows the statistic its claim judges: the median of |ΔΦ| (K1, K3), the
     # circular median of ΔΦ (K2), the medians of η_m (K4).
     phase_panels = (
-        figures.GroupPanel(
+        kf.GroupPanel(
             "(c) |ΔΦ| (K1, K3; feasible seeds)",
             values(abs_phase),
             "|ΔΦ| [deg]",
             statistic_label="median |ΔΦ| (judged)",
             best=bests(abs_phase),
             paper={accel_at: PAPER_IN_PHASE},
+            paper_label="paper: in phase (ΔΦ = 0°)",
             band=(0.0, C.IN_PHASE, f"in phase: |ΔΦ| < {C.IN_PHASE:g}°"),
             ylim=(-8.0, 185.0),  # room for the paper's 0° cross
         ),
-        figures.GroupPanel(
+        kf.GroupPanel(
             f"(d) ΔΦ at {p.phase_speed:g} m/s (K2; > 0: hind leads)",
             values(lead),
             "ΔΦ = Φ_hind − Φ_fore [deg]",
@@ -164,6 +164,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             statistic_label="circular median (judged)",
             best=bests(lead),
             paper={lead_at: PAPER_PHASE_LEAD},
+            paper_label=f"paper: hind leads by ≈ {PAPER_PHASE_LEAD:g}°",
             band=(
                 PAPER_PHASE_LEAD - C.ANGLE_TOLERANCE,
                 PAPER_PHASE_LEAD + C.ANGLE_TOLERANCE,
@@ -172,18 +173,19 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             ylim=(-180.0, 180.0),
         ),
     )
-    pitch_panel = figures.GroupPanel(
+    pitch_panel = kf.GroupPanel(
         "(c) pitch amplitude η_m (K4; feasible seeds)",
         values(pitch),
         "η_m, mean of both wings [deg]",
         statistic_label="median (judged)",
         best=bests(pitch),
         paper_note="paper: larger in accelerating flight",
+        bounds=table4_bounds("pitch_amplitude"),
     )
     figs = [
         (
             "Fig. 9: wing-tip paths relative to the wing base, level flight",
-            figures.tip_path_figure(
+            kf.tip_path_figure(
                 lv,
                 f"Fig. 9: tip paths, {level_name} ({figures.method_label(method)})",
                 plan.figure(study_dir, "fig9_tip_paths_level"),
@@ -191,7 +193,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         ),
         (
             "Fig. 10: wing-tip paths relative to the wing base, accelerating flight",
-            figures.tip_path_figure(
+            kf.tip_path_figure(
                 ac,
                 f"Fig. 10: tip paths, {accel_name} ({figures.method_label(method)})",
                 plan.figure(study_dir, "fig10_tip_paths_accelerating"),
@@ -200,7 +202,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         (
             "Fig. 11: weaving angle φ of fore- and hind-wing; (c) |ΔΦ|, (d) ΔΦ at the paper's "
             "largest phase difference",
-            figures.cycle_figure(
+            kf.cycle_figure(
                 [(f"(a) {level_name}", lv), (f"(b) {accel_name}", ac)],
                 "sweep",
                 "weaving angle φ [deg]",
@@ -211,7 +213,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         ),
         (
             "Fig. 12: pitch angle η of fore- and hind-wing; (c) pitch amplitudes",
-            figures.cycle_figure(
+            kf.cycle_figure(
                 [(f"(a) {level_name}", lv), (f"(b) {accel_name}", ac)],
                 "pitch",
                 "pitch angle η [deg]",
@@ -222,7 +224,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         ),
         (
             "Fig. 13: angle of attack and relative speed over the cycle, level flight",
-            figures.flow_figure(
+            kf.flow_figure(
                 lv,
                 f"Fig. 13: flow at the wing, {level_name}",
                 plan.figure(study_dir, "fig13_flow_level"),

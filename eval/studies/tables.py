@@ -17,6 +17,8 @@ import numpy as np
 
 from agents.records import Record
 from eval.studies.runner import Job
+from tandem_env import LOWER, PARAMETER_NAMES, TABLE_4, UPPER, bound_sides, describe_bounds
+from tandem_env.physics.stroke import UNBOUNDED
 
 #: Columns that identify a series (one line in a figure).
 SERIES_KEYS: tuple[str, ...] = ("method", "task", "objective", "planform")
@@ -40,12 +42,59 @@ QUANTITIES: dict[str, str] = {
     "pitch_amplitude": "η_m, mean of fore and hind [deg]",
     "phase_difference": "Φ_φ,hind − Φ_φ,fore wrapped to (−180, 180]; > 0: hind leads [deg]",
     "phase_difference_abs": "|phase_difference| [deg]",
+    **{
+        f"{wing}_{p.name}": f"{p.symbol} of the {wing}-wing: {p.description} [{p.unit}]"
+        for wing in ("fore", "hind")
+        for p in TABLE_4
+    },
 }
 
 
 #: Quantities that are angles on a circle: their statistics are circular (see
 #: :func:`circular_median`); +170° and −170° are 20° apart, not 340°.
-CIRCULAR: frozenset[str] = frozenset({"phase_difference"})
+CIRCULAR: frozenset[str] = frozenset(
+    {"phase_difference", *(n for n in PARAMETER_NAMES if n.endswith("_phase"))}
+)
+
+#: The Table 4 parameter(s) behind each stroke quantity of the rows: a mean of both wings, or
+#: one of the 28 parameters itself (the tidy rows carry all 28, in Table 4 units).
+PARAMETERS_OF: dict[str, tuple[str, ...]] = {
+    **{
+        q: (f"fore_{q}", f"hind_{q}")
+        for q in ("frequency", "sweep_amplitude", "pitch_amplitude", "stroke_plane_angle")
+    },
+    **{name: (name,) for name in PARAMETER_NAMES},
+}
+#: A parameter is *pinned* at a Table 4 bound at one condition of one series when it sits at
+#: that bound (:func:`tandem_env.bound_sides`: within 1 % of its range) in more than this share
+#: of the feasible seeds; a mean of both wings (:data:`PARAMETERS_OF`) when both wings are
+#: pinned at the same bound.
+PINNED_SHARE = 0.5
+
+
+def table4_bounds(quantity: str) -> tuple[float, float] | None:
+    """The Table 4 (low, high) of a stroke quantity (:data:`PARAMETERS_OF`), when its
+    parameters share one range and can sit at a bound; else None."""
+    names = PARAMETERS_OF.get(quantity, ())
+    index = [PARAMETER_NAMES.index(n) for n in names]
+    ranges = {(float(LOWER[i]), float(UPPER[i])) for i in index if not UNBOUNDED[i]}
+    return ranges.pop() if len(ranges) == 1 and len(index) == len(names) else None
+
+
+def pinned(rows: Sequence[Mapping[str, Any]], quantity: str) -> str:
+    """``"lower"``, ``"upper"`` or ``""``: where the stroke quantity is pinned over the
+    feasible ``rows`` (the seeds of one condition, :data:`PINNED_SHARE`); ``""`` for a
+    quantity that is not a stroke parameter."""
+    names = PARAMETERS_OF.get(quantity)
+    feasible = [r for r in rows if r["feasible"]]
+    if not names or not feasible:
+        return ""
+    strokes = np.array([[float(r[n]) for n in PARAMETER_NAMES] for r in feasible])
+    sides = bound_sides(strokes)[:, [PARAMETER_NAMES.index(n) for n in names]]
+    for side, word in ((-1, "lower"), (1, "upper")):
+        if all(np.mean(sides[:, k] == side) > PINNED_SHARE for k in range(len(names))):
+            return word
+    return ""
 
 
 def wrap_degrees(angle: float) -> float:
@@ -101,7 +150,8 @@ def weight_of(record: Record) -> float:
 
 
 def record_row(job: Job, record: Record) -> dict[str, Any]:
-    """The tidy row of one optimisation: identity, feasibility, metrics, stroke summary."""
+    """The tidy row of one optimisation: identity, feasibility, metrics, stroke summary, the 28
+    stroke parameters (Table 4 units) and ``at_bounds`` (:func:`tandem_env.describe_bounds`)."""
     m, s = record.metrics, record.stroke
     mean = lambda name: 0.5 * (float(s[f"fore_{name}"]) + float(s[f"hind_{name}"]))  # noqa: E731
     row: dict[str, Any] = {
@@ -141,9 +191,9 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
         "wall_time_s": float(record.wall_time),
         "key": job.key,
     }
-    for wing in ("fore", "hind"):
-        for name in ("frequency", "sweep_amplitude", "pitch_amplitude", "stroke_plane_angle"):
-            row[f"{wing}_{name}"] = float(s[f"{wing}_{name}"])
+    stroke = [float(s[name]) for name in PARAMETER_NAMES]  # Table 4 units
+    row.update(zip(PARAMETER_NAMES, stroke, strict=True))
+    row["at_bounds"] = describe_bounds(stroke)
     return row
 
 
@@ -223,7 +273,8 @@ def by_condition(
 def summary_rows(
     rows: Sequence[Mapping[str, Any]], quantities: Sequence[str]
 ) -> list[dict[str, Any]]:
-    """Per series, condition and quantity: n, n_feasible, median, q25, q75, best, best_seed."""
+    """Per series, condition and quantity: n, n_feasible, median, q25, q75, best, best_seed and
+    ``pinned`` (:func:`pinned`: the Table 4 bound a stroke quantity is pinned at, or empty)."""
     groups: dict[tuple, list[Mapping[str, Any]]] = {}
     for r in rows:
         groups.setdefault((*(r[k] for k in SERIES_KEYS), float(r["condition"])), []).append(r)
@@ -246,6 +297,39 @@ def summary_rows(
                     "q75": s.q75,
                     "best": s.best,
                     "best_seed": s.best_seed,
+                    "pinned": pinned(members, quantity),
+                }
+            )
+    return out
+
+
+def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Every stroke parameter pinned at a Table 4 bound (:func:`pinned`), per series and
+    condition: the series' columns, condition and unit, parameter, ``bound`` ("lower" or
+    "upper"), its ``value`` [Table 4 units] and ``share`` of the feasible seeds at it. A row
+    seen twice (the same record key, e.g. in two studies) counts once."""
+    unique = list({r["key"]: r for r in rows}.values())
+    groups: dict[tuple, list[Mapping[str, Any]]] = {}
+    for r in unique:
+        groups.setdefault((*(str(r[k]) for k in SERIES_KEYS), float(r["condition"])), []).append(r)
+    out = []
+    for key, members in sorted(groups.items()):
+        feasible = [r for r in members if r["feasible"]]
+        for index, name in enumerate(PARAMETER_NAMES):
+            side = pinned(members, name)
+            if not side:
+                continue
+            sign = -1 if side == "lower" else 1
+            at = bound_sides(np.array([[float(r[n]) for n in PARAMETER_NAMES] for r in feasible]))
+            out.append(
+                {
+                    **dict(zip(SERIES_KEYS, key[:-1], strict=True)),
+                    "condition": key[-1],
+                    "condition_unit": members[0]["condition_unit"],
+                    "parameter": name,
+                    "bound": side,
+                    "value": float(LOWER[index] if sign < 0 else UPPER[index]),
+                    "share": float(np.mean(at[:, index] == sign)),
                 }
             )
     return out

@@ -17,6 +17,8 @@ from matplotlib.figure import Figure
 from ..physics import Dragonfly, ModelOptions, stroke_history
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
     from ..physics import StrokeHistory
 
 #: Frame size [px] of ``rgb_array`` renders (width, height) and its resolution [dpi].
@@ -25,7 +27,11 @@ FRAME_DPI = 80
 #: Uniform samples per cycle of the plotted histories (plotting only; metrics come from evaluate).
 HISTORY_SAMPLES = 120
 
-_WING_STYLE = {"fore": {"color": "tab:blue"}, "hind": {"color": "tab:red"}}
+#: Line style of each wing in the frames.
+WING_STYLE: dict[str, dict[str, str]] = {
+    "fore": {"color": "tab:blue"},
+    "hind": {"color": "tab:red"},
+}
 _NON_INTERACTIVE = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
 
 
@@ -54,8 +60,9 @@ def history_of(
     )
 
 
-def draw(figure: Figure, frame: Frame) -> None:
-    """Draw ``frame`` onto an empty ``figure``: side view left, angle histories right."""
+def draw(figure: Figure, frame: Frame) -> tuple[Axes, list[Axes]]:
+    """Draw ``frame`` onto an empty ``figure``: side view left, angle histories right (φ, θ,
+    η); returns those axes, e.g. to animate the stroke over them."""
     figure.clear()
     grid = figure.add_gridspec(
         3,
@@ -107,16 +114,17 @@ def draw(figure: Figure, frame: Frame) -> None:
             fontsize=10,
             color="0.5",
         )
-        return
+        return side, angle_axes
     for name in ("fore", "hind"):
         wing = getattr(frame.history, name)
-        style = _WING_STYLE[name]
+        style = WING_STYLE[name]
         tip = wing.tip_path
         side.plot(tip[:, 0], tip[:, 2], lw=1.6, label=f"{name}-wing", **style)
         side.plot(tip[0, 0], tip[0, 2], "o", ms=4, **style)
         for axis, (field_name, _) in zip(angle_axes, labels, strict=True):
             axis.plot(wing.cycle_fraction, getattr(wing, field_name), lw=1.4, **style)
     side.legend(loc="upper left", fontsize=7, frameon=False)
+    return side, angle_axes
 
 
 def to_rgb_array(frame: Frame) -> np.ndarray:

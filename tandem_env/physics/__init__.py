@@ -30,6 +30,7 @@ from .model import (
 )
 from .options import ModelOptions
 from .stroke import (
+    BOUND_TOLERANCE,
     LOWER,
     N_PARAMETERS,
     PARAMETER_NAMES,
@@ -38,6 +39,8 @@ from .stroke import (
     UPPER,
     Stroke,
     WingStroke,
+    bound_sides,
+    describe_bounds,
     normalised_to_physical,
     physical_to_normalised,
     strokes_to_dicts,
@@ -47,6 +50,7 @@ from .stroke import (
 __all__ = [
     "AVAILABLE_POWER_LIMITS",
     "BACKENDS",
+    "BOUND_TOLERANCE",
     "COEFFICIENT_MODELS",
     "DRAGONFLY",
     "LOWER",
@@ -69,7 +73,9 @@ __all__ = [
     "TabulatedCoefficients",
     "Wing",
     "WingStroke",
+    "bound_sides",
     "coefficient_model",
+    "describe_bounds",
     "evaluate",
     "evaluate_measured",
     "normalised_to_physical",

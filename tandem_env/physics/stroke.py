@@ -111,6 +111,35 @@ DISCRETE[[HARMONIC_INDEX, N_PER_WING + HARMONIC_INDEX]] = True
 #: Entries given in degrees (converted to radians inside the model).
 ANGULAR = np.array([u == "deg" for u in PARAMETER_UNITS])
 
+#: Share of a parameter's Table 4 range within which a value counts as at that bound [-]
+#: (:func:`bound_sides`): 0.3° of φ_m's 30-60°, 0.25° of β_m's 5-30°, 0.89° of η_m's 1-90°.
+BOUND_TOLERANCE = 0.01
+#: Entries that cannot sit at a bound: the phases (periodic, ±180° is one angle) and N
+#: (discrete, always at one of its two values).
+UNBOUNDED = DISCRETE | np.array([name.endswith("_phase") for name in PARAMETER_NAMES])
+
+
+def bound_sides(strokes: np.ndarray | list | tuple) -> np.ndarray:
+    """Which Table 4 bound each parameter of physical ``strokes`` (28,) or (B, 28) sits at:
+    −1 within :data:`BOUND_TOLERANCE` of its range above the lower bound, +1 as close below
+    the upper, 0 inside (always 0 for the :data:`UNBOUNDED` phases and N). Same shape, int."""
+    arr, single = _as_batch(strokes, "strokes")
+    margin = BOUND_TOLERANCE * (UPPER - LOWER)
+    sides = np.where(arr <= LOWER + margin, -1, np.where(arr >= UPPER - margin, 1, 0))
+    sides[:, UNBOUNDED] = 0
+    return sides[0] if single else sides
+
+
+def describe_bounds(stroke: np.ndarray | list | tuple) -> str:
+    """The parameters of one physical stroke (28,) at a Table 4 bound (:func:`bound_sides`),
+    e.g. ``"fore_sweep_amplitude=lower; hind_stroke_plane_angle=lower"`` (empty: none)."""
+    sides = bound_sides(np.asarray(stroke, float).reshape(N_PARAMETERS))
+    return "; ".join(
+        f"{name}={'lower' if side < 0 else 'upper'}"
+        for name, side in zip(PARAMETER_NAMES, sides, strict=True)
+        if side
+    )
+
 
 #: What a stroke argument may be, for messages.
 _STROKE_SHAPES = (

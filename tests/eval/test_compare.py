@@ -160,8 +160,37 @@ def test_colours_are_fixed_per_method_and_labels_count_seeds_right() -> None:
     assert any(label.startswith("reported efficiency") for label in both)
     variants = lines([_record("pso", 0, 0.3, True, planform="real"),
                       _record("pso", 0, 0.3, True, planform="tear-drop")])  # fmt: skip
-    styles = {style for _, style in variants.values() if style != "None"}
-    assert len(styles) == 2  # one method, two variants: one colour, two line styles
+    drawn = {(colour, style) for colour, style in variants.values() if style != "None"}
+    # one method, two variants: two Okabe-Ito hues and two line styles
+    assert len({c for c, _ in drawn}) == 2 and len({s for _, s in drawn}) == 2
+    assert {c for c, _ in drawn} <= set(figures.PALETTE)
+
+
+def test_the_polish_is_drawn_from_the_end_of_the_search_to_the_reported_marker() -> None:
+    import matplotlib.pyplot as plt
+
+    # The search reported up to 6 evaluations, the polish spent the other 4 of 10.
+    runs = [_record("cmaes", seed, 0.5, True) for seed in (0, 1)]
+    for r in runs:
+        r.results["history"] = [[3, -2.0], [6, 0.4]]
+    fig = compare_module.convergence_figure(runs)
+    try:
+        ax = fig.axes[0]
+        [marker] = [ln for ln in ax.get_lines() if ln.get_marker() == "D" and len(ln.get_xdata())]
+        assert (list(marker.get_xdata()), list(marker.get_ydata())) == ([10.0], [0.5])
+        [segment] = [
+            ln for ln in ax.get_lines() if ln.get_linestyle() == ":" and len(ln.get_xdata())
+        ]
+        assert list(segment.get_xdata()) == [6.0, 10.0] and list(segment.get_ydata()) == [0.4, 0.5]
+        assert compare_module.POLISH_LABEL in ax.get_legend_handles_labels()[1]
+    finally:
+        plt.close(fig)
+    # without a polish (the history reaches the evaluations spent) there is no segment
+    fig = compare_module.convergence_figure([_record("cmaes", 0, 0.5, True)])
+    try:
+        assert compare_module.POLISH_LABEL not in fig.axes[0].get_legend_handles_labels()[1]
+    finally:
+        plt.close(fig)
 
 
 def test_the_convergence_figure_is_written_in_the_format_asked(records: Path) -> None:

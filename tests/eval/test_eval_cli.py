@@ -15,6 +15,7 @@ import pytest
 from agents.records import Record, load_records
 from eval import compare as compare_module
 from eval.__main__ import SUBCOMMANDS, build_parser, main
+from tandem_env import PARAMETER_NAMES, describe_bounds
 
 ROOT = Path(__file__).resolve().parents[2]
 TINY = ["--budget", "12", "--swarm-size", "4", "--quiet"]
@@ -56,6 +57,14 @@ def test_optimize_writes_one_record_per_seed_and_a_summary(results: Path) -> Non
     assert len(rows) == 5  # the summary covers every record in the directory
     assert {row["method"] for row in rows} == {"pso", "random"}
     assert float(rows[0]["objective"]) == records[0].objective
+    # the stroke itself, all 28 parameters in Table 4 units, and those at a Table 4 bound
+    by_key = {r.key: r for r in records}
+    for row in rows:
+        stroke = by_key[row["key"]].stroke
+        assert {n: float(row[n]) for n in PARAMETER_NAMES} == {
+            n: stroke[n] for n in PARAMETER_NAMES
+        }
+        assert row["at_bounds"] == describe_bounds([stroke[n] for n in PARAMETER_NAMES])
 
 
 def test_optimize_is_deterministic(results: Path, tmp_path: Path) -> None:

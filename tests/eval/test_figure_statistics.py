@@ -9,8 +9,10 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
+from matplotlib.patches import FancyArrowPatch
 
 from eval import figures
+from eval import kinematics_figures as kf
 from eval.studies import wing_shape
 from eval.studies.base import StudyPlan
 from eval.studies.presets import TINY
@@ -101,7 +103,7 @@ def test_sweep_panels_draw_what_the_paper_states(kept: list[plt.Figure], tmp_pat
     figures.sweep_figure([panel], "V", "title", tmp_path / "f.png")
     [ax] = kept[0].axes
     labels = _legend_texts(ax)
-    assert {"paper", "paper: both peak at 1.5 m/s", "paper: falls with V"} <= set(labels)
+    assert {"paper, tear-drop", "paper: both peak at 1.5 m/s", "paper: falls with V"} <= set(labels)
     assert "PSO, tear-drop wing" in labels and figures.SERIES_KEY in labels
     [vertical] = [line for line in ax.lines if list(line.get_xdata()) == [1.5, 1.5]]
     assert vertical.get_linestyle() == ":"
@@ -129,6 +131,10 @@ def test_colours_are_fixed_per_series_and_colour_blind_safe() -> None:
     assert figures.series_style("cmaes") == figures.series_style("cmaes", 0)
     assert figures.series_style("pso")["color"] != figures.series_style("cmaes")["color"]
     assert figures.series_style("cmaes", 1)["ls"] != figures.series_style("cmaes", 0)["ls"]
+    # The two series of a pair (F̄_v/F̄_h, tear-drop/real) differ in hue, each an Okabe-Ito
+    # colour; the defaults' four never share one.
+    pairs = [figures.series_style(m, v)["color"] for m in ("cmaes", "pso") for v in (0, 1)]
+    assert len(set(pairs)) == 4 and set(pairs) <= set(figures.LINE_HUES)
     assert figures.method_color("policy:runs/a") == figures.method_color("policy:runs/a")
     assert set(figures.METHOD_COLORS.values()) <= set(figures.PALETTE)
 
@@ -142,16 +148,40 @@ def test_method_specs_are_labelled_readably() -> None:
     assert figures.method_label("something") == "something"
 
 
-def test_paper_labels_stay_inside_the_axes(kept: list[plt.Figure], tmp_path: Path) -> None:
+def test_paper_values_are_named_in_the_legend_not_over_the_data(
+    kept: list[plt.Figure], tmp_path: Path
+) -> None:
     s = figures.Series("CMA-ES", {50.0: _spread([1, 2]), 90.0: _spread([2, 3])}, method="cmaes")
-    panel = figures.Panel("F", [s], paper=[(50.0, 2.7, "paper F̄_v"), (90.0, 4.4, "paper F̄_v")])
+    derived = "derived: our median × 1.12 (the paper's gain)"
+    panel = figures.Panel(
+        "F",
+        [s],
+        paper=[(50.0, 2.7, "paper F̄_v"), (90.0, 4.4, "paper F̄_v"), (50.0, 2.4, "paper F̄_h")],
+        derived=[(90.0, 3.1, derived)],
+    )
     figures.sweep_figure([panel], "P", "t", tmp_path / "f.png")
     [ax] = kept[0].axes
-    kept[0].canvas.draw()
-    box = ax.get_window_extent()
-    for text in ax.texts:
-        extent = text.get_window_extent()
-        assert box.x0 <= extent.x0 and extent.x1 <= box.x1, text.get_text()
+    assert not ax.texts  # no label inside the axes, where it would cover the data
+    legend = ax.get_legend()
+    entries = dict(
+        zip([t.get_text() for t in legend.get_texts()], legend.legend_handles, strict=True)
+    )
+    assert {"paper F̄_v", "paper F̄_h", derived} <= set(entries)
+    markers = {label: entries[label].get_marker() for label in ("paper F̄_v", "paper F̄_h", derived)}
+    assert len(set(markers.values())) == 3  # each quantity its own marker, the derived apart
+    # only the paper's own values are labelled "paper"
+    assert not any(label.startswith("paper") for label in [derived])
+
+
+def test_parameter_panels_draw_the_table_4_bounds(kept: list[plt.Figure], tmp_path: Path) -> None:
+    s = figures.Series("CMA-ES", {1.0: _spread([31, 40]), 2.0: _spread([30, 35])}, method="cmaes")
+    figures.sweep_figure(
+        [figures.Panel("φ_m", [s], bounds=(30.0, 60.0))], "V", "t", tmp_path / "f.png"
+    )
+    [ax] = kept[0].axes
+    lines = [ln for ln in ax.lines if ln.get_linestyle() == "--" and len(set(ln.get_ydata())) == 1]
+    assert sorted(ln.get_ydata()[0] for ln in lines) == [30.0, 60.0]
+    assert figures.BOUND_LABEL in _legend_texts(ax)
 
 
 @pytest.mark.parametrize("fmt", figures.FORMATS)
@@ -178,10 +208,10 @@ def test_phase_panels_show_the_statistic_the_report_judges(
     kept: list[plt.Figure], tmp_path: Path
 ) -> None:
     # K1/K3 judge the median of |ΔΦ|; K2 the circular median of ΔΦ.
-    absolute = figures.GroupPanel(
+    absolute = kf.GroupPanel(
         "(c)", {"level 1.25 m/s": [170.0, 170.0, 5.0]}, "|ΔΦ|", best={"level 1.25 m/s": 5.0}
     )
-    signed = figures.GroupPanel(
+    signed = kf.GroupPanel(
         "(d)",
         {"level 2 m/s": [136.0, -170.0]},
         "ΔΦ",
@@ -189,7 +219,7 @@ def test_phase_panels_show_the_statistic_the_report_judges(
         statistic_label="circular median",
         paper={"level 2 m/s": 30.0},
     )
-    figures.cycle_figure([], "sweep", "φ", "title", tmp_path / "f.png", extras=(absolute, signed))
+    kf.cycle_figure([], "sweep", "φ", "title", tmp_path / "f.png", extras=(absolute, signed))
     for ax, expected in zip(kept[0].axes, (170.0, 163.0), strict=True):
         bars = [
             line for line in ax.lines if line.get_linewidth() == 2 and len(line.get_xdata()) == 2
@@ -203,12 +233,26 @@ def test_tip_path_markers_are_explained(kept: list[plt.Figure], tmp_path: Path) 
     loop = np.stack(
         [np.cos(np.linspace(0, 6.3, 20)), np.zeros(20), np.sin(np.linspace(0, 6.3, 20))], 1
     )
-    trace = figures.Trace(
+    trace = kf.Trace(
         "seed 0 (best)", True, np.linspace(0, 1, 20), {"tip_path": loop}, {"tip_path": loop}
     )
-    figures.tip_path_figure([trace], "Fig. 9", tmp_path / "f.png")
+    kf.tip_path_figure([trace], "Fig. 9", tmp_path / "f.png")
     labels = kept[0].axes[1].get_legend_handles_labels()[1]
-    assert "best seed at t = 0 (arrow: direction)" in labels and "wing base" in labels
+    assert kf.START_LABEL in labels and "wing base" in labels
+    # The direction: one arrowhead per quarter of the cycle on each wing's best path, above
+    # every path and large enough to be seen over a bold line.
+    for ax in kept[0].axes:
+        arrows = [p for p in ax.patches if isinstance(p, FancyArrowPatch)]
+        assert len(arrows) == len(kf.ARROW_PHASES)
+        assert all(a.get_zorder() > max(ln.get_zorder() for ln in ax.lines) for a in arrows)
+        assert all(a.get_mutation_scale() >= 12 for a in arrows)
+    # Each arrow points the way the path runs: from a sample to the next one.
+    fig, ax = plt.subplots()
+    segments = kf.draw_direction(ax, loop[:, [0, 2]])
+    plt.close(fig)
+    for (start, end), phase in zip(segments, kf.ARROW_PHASES, strict=True):
+        k = min(int(phase * len(loop)), len(loop) - 2)
+        assert np.array_equal(start, loop[k, [0, 2]]) and np.array_equal(end, loop[k + 1, [0, 2]])
 
 
 def test_wing_shape_legends_name_both_wings() -> None:

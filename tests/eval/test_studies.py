@@ -18,6 +18,7 @@ from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, TINY, ConvergenceSpec, Preset
 from eval.studies.suite import run_studies
 from eval.studies.tables import Spread
+from tandem_env import PARAMETER_NAMES
 
 # A slightly larger budget than TINY's so that some optimisations are feasible and the report
 # has numbers to check (still well under a second per study).
@@ -81,10 +82,13 @@ def test_every_study_writes_records_csv_figures_and_report(study_dir: Path) -> N
             assert (folder / entry["file"]).resolve().is_file()
         rows = _read_csv(folder / f"{name}.csv")
         assert len(rows) == len(index)
-        assert _read_csv(folder / f"{name}_summary.csv")
+        assert set(PARAMETER_NAMES) | {"at_bounds"} <= set(rows[0])  # the strokes themselves
+        summary = _read_csv(folder / f"{name}_summary.csv")
+        assert "pinned" in summary[0] and {r["quantity"] for r in summary} >= set(PARAMETER_NAMES)
         pngs = sorted(folder.glob("*.png"))
         assert pngs and all(p.stat().st_size > 5_000 for p in pngs), name
     report = (study_dir / "report.md").read_text()
+    assert "## Parameters pinned at Table 4 bounds" in report
     table = _report_rows(study_dir / "report.md")
     for cid in ("S1", "S7", "S8", "P1a", "P1b", "P3", "P6b", "K1", "K2", "K3", "K4", "W1", "W4"):
         assert cid in table, cid

@@ -113,3 +113,19 @@ def test_result_records_its_options_and_integer_sweep_counts() -> None:
     row = result.row(0)
     assert isinstance(row["induction_evaluations"], int)
     assert isinstance(row["efficiency_above_one"], bool)
+
+
+def test_bound_sides_flag_values_within_the_tolerance_of_a_bound() -> None:
+    span = te.UPPER - te.LOWER
+    inside = te.LOWER + 0.5 * span
+    inside[[11, 25]] = 1.0  # N: discrete, never "at a bound"
+    assert not te.bound_sides(inside).any() and te.describe_bounds(inside) == ""
+    near = inside.copy()
+    near[1] = te.LOWER[1] + 0.5 * te.BOUND_TOLERANCE * span[1]  # fore φ_m just above 30°
+    near[27] = te.UPPER[27]  # hind β_m at 30°
+    near[3] = te.LOWER[3] + 2.0 * te.BOUND_TOLERANCE * span[3]  # fore η_m: twice the tolerance
+    near[7] = 180.0  # fore Φ_φ: a phase, periodic, so at no bound
+    sides = te.bound_sides(np.stack([near, inside]))
+    assert sides.shape == (2, 28) and not sides[1].any()
+    assert {i: int(s) for i, s in enumerate(sides[0]) if s} == {1: -1, 27: 1}
+    assert te.describe_bounds(near) == "fore_sweep_amplitude=lower; hind_stroke_plane_angle=upper"

@@ -1,0 +1,249 @@
+"""The kinematics figures of the optimised strokes (paper Figs. 9-13), in the style of
+:mod:`eval.figures`: wing-tip paths with the direction of travel (Figs. 9-10), angles of both
+wings over the cycle with per-seed group panels (Figs. 11-12), flow at the wing (Fig. 13)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.lines import Line2D
+from matplotlib.patches import FancyArrowPatch
+
+from eval import figures
+from eval.figures import PALETTE, WING_COLORS, draw_bounds, legend, plt, text_entry
+
+
+@dataclass(frozen=True)
+class Trace:
+    """One stroke's time history for the kinematics figures."""
+
+    label: str
+    """E.g. ``"seed 3 (best)"``."""
+    best: bool
+    cycle: np.ndarray
+    """t/T [-]."""
+    fore: Mapping[str, np.ndarray]
+    """Quantity name -> (n,) or (n, 3) array of the fore-wing."""
+    hind: Mapping[str, np.ndarray]
+
+
+def _trace_style(trace: Trace) -> dict:
+    return {"lw": 2.0, "alpha": 1.0} if trace.best else {"lw": 0.8, "alpha": 0.35}
+
+
+def _plot_wings(ax: Axes, traces: Sequence[Trace], quantity: str) -> None:
+    """``quantity`` over the cycle per seed: fore-wing solid, hind-wing dashed, with one
+    legend entry each."""
+    for trace in traces:
+        style = _trace_style(trace)
+        ax.plot(trace.cycle, trace.fore[quantity], "-", color=WING_COLORS["fore"], **style)
+        ax.plot(trace.cycle, trace.hind[quantity], "--", color=WING_COLORS["hind"], **style)
+    ax.plot([], [], "-", color=WING_COLORS["fore"], label="fore-wing")
+    ax.plot([], [], "--", color=WING_COLORS["hind"], label="hind-wing")
+
+
+def _seed_color(trace: Trace, i: int) -> str:
+    """Black for the best seed, else a palette colour fixed by the seed in the label."""
+    if trace.best:
+        return "k"
+    digits = "".join(c for c in trace.label.split("(")[0] if c.isdigit())
+    return PALETTE[(int(digits) if digits else i) % len(PALETTE)]
+
+
+#: Where along the cycle the tip paths' direction arrows sit [t/T]: one per quarter, so a
+#: figure-of-eight shows its direction on both loops.
+ARROW_PHASES: tuple[float, ...] = (0.125, 0.375, 0.625, 0.875)
+#: The arrowheads: filled black with a white rim, above every path, 16 pt long.
+ARROW_STYLE: dict = {"arrowstyle": "-|>", "mutation_scale": 16, "fc": "k", "ec": "white",
+                     "lw": 0.8, "shrinkA": 0, "shrinkB": 0, "zorder": 6}  # fmt: skip
+START_LABEL = "best seed at t = 0 (arrows: direction of travel)"
+
+
+def draw_direction(ax: Axes, path: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Arrowheads along a closed path (n, 2) at :data:`ARROW_PHASES`, pointing the way it is
+    travelled, drawn above the paths (:data:`ARROW_STYLE`). Returns each arrow's (from, to):
+    a sample of the path and the next one."""
+    n = len(path)
+    segments = []
+    for phase in ARROW_PHASES:
+        k = min(int(phase * n), n - 2)
+        start, end = path[k], path[k + 1]
+        ax.add_patch(FancyArrowPatch(tuple(start), tuple(end), **ARROW_STYLE))
+        segments.append((start, end))
+    return segments
+
+
+def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
+    """Wing-tip paths relative to the wing base, side view (x forward, z up), per wing."""
+    fig, axes = plt.subplots(1, 2, figsize=(7.5, 3.8))
+    for ax, wing in zip(axes, ("fore", "hind"), strict=True):
+        for i, trace in enumerate(traces):
+            tip = getattr(trace, wing)["tip_path"]
+            color = _seed_color(trace, i)
+            loop = np.vstack([tip, tip[:1]])  # one period: the path closes on itself
+            ax.plot(
+                loop[:, 0], loop[:, 2], "-", color=color, label=trace.label, **_trace_style(trace)
+            )
+            if trace.best:
+                # Start of the cycle, and the direction of travel above every path.
+                ax.plot(tip[0, 0], tip[0, 2], "o", color="k", ms=5, zorder=5)
+                draw_direction(ax, tip[:, [0, 2]])
+        ax.plot(0, 0, "k+", ms=10)
+        ax.set_title(f"{wing}-wing", fontsize=9)
+        if wing == "hind":
+            # What the markers mean (the paper's Figs. 9-10 have no markers to compare).
+            ax.plot([], [], "o", color="k", ms=5, label=START_LABEL)
+            ax.plot([], [], "k+", ms=10, label="wing base")
+        ax.set_xlabel("x/R (forward) [-]")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("z/R (up) [-]")
+    axes[1].legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)
+    fig.suptitle(title, fontsize=10)
+    return figures.save(fig, path)
+
+
+@dataclass(frozen=True)
+class GroupPanel:
+    """A panel of per-seed values in groups (e.g. Fig. 11c's phase differences): each seed a
+    dot, the statistic the report judges as a bar, the best seed a star, the paper's values
+    as crosses and the rule's band shaded."""
+
+    title: str
+    groups: Mapping[str, Sequence[float]]
+    """Group label -> the feasible seeds' values."""
+    ylabel: str
+    statistic: Callable[[Sequence[float]], float] = np.median
+    statistic_label: str = "median"
+    best: Mapping[str, float] = field(default_factory=dict)
+    """Group -> the best seed's value (a star)."""
+    paper: Mapping[str, float] = field(default_factory=dict)
+    """Group -> the paper's value (a cross)."""
+    paper_label: str = "paper"
+    """The crosses' legend entry: what the paper states there."""
+    band: tuple[float, float, str] | None = None
+    """(low, high, label): a range the rule names, e.g. (0, 15, "in phase: |ΔΦ| < 15°")."""
+    ylim: tuple[float, float] | None = None
+    bounds: tuple[float, float] | None = None
+    """The Table 4 (low, high) of the stroke parameter drawn (``tables.table4_bounds``)."""
+    paper_note: str = ""
+    """What the paper states in words only (a legend line)."""
+
+
+def draw_groups(ax: Axes, panel: GroupPanel) -> None:
+    """Draw one :class:`GroupPanel` with its legend (outside the axes, right)."""
+    names = list(panel.groups)
+    entries: list[tuple[Any, str]] = []
+    if panel.band is not None:
+        low, high, label = panel.band
+        entries.append((ax.axhspan(low, high, color="0.85", zorder=0), label))
+    for i, name in enumerate(names):
+        v = np.asarray(panel.groups[name], float)
+        color = PALETTE[i % len(PALETTE)]
+        ax.plot(i + np.linspace(-0.1, 0.1, v.size), v, "o", color=color, alpha=0.7, ms=5)
+        if v.size:
+            ax.plot([i - 0.25, i + 0.25], [panel.statistic(v)] * 2, "k-", lw=2)
+        if name in panel.best and np.isfinite(panel.best[name]):
+            ax.plot(i + 0.2, panel.best[name], "*", color=color, ms=10, mec="k", mew=0.5)
+    entries.append((Line2D([], [], color="k", lw=2), panel.statistic_label))
+    if panel.best:
+        entries.append((Line2D([], [], marker="*", ls="", color="0.5", mec="k", ms=9), "best seed"))
+    for k, (name, value) in enumerate(panel.paper.items()):
+        (cross,) = ax.plot(names.index(name) + 0.3, value, "kx", ms=8, mew=2)
+        if k == 0:
+            entries.append((cross, panel.paper_label))
+    if panel.paper_note:
+        entries.append(text_entry(panel.paper_note))
+    entries += draw_bounds(ax, panel.bounds)
+    ax.set_xlim(-0.5, len(names) - 0.5)
+    if panel.ylim is not None:
+        ax.set_ylim(*panel.ylim)
+    ax.set_xticks(range(len(names)), [n.replace(" ", "\n", 1) for n in names], fontsize=7)
+    ax.set_ylabel(panel.ylabel)
+    ax.set_title(panel.title, fontsize=9)
+    ax.grid(alpha=0.3)
+    legend(ax, entries, below=True)
+
+
+#: The paper's division of the cycle (Fig. 12 text): the down-stroke is 0 < t/T < 0.5.
+PAPER_DOWNSTROKE_END = 0.5
+
+
+def _mark_downstroke(ax: Axes, label: bool) -> None:
+    ax.axvline(
+        PAPER_DOWNSTROKE_END,
+        color="k",
+        ls=":",
+        lw=1.0,
+        label="paper: down-stroke ends (t/T = 0.5)" if label else None,
+    )
+
+
+def cycle_figure(
+    rows: Sequence[tuple[str, Sequence[Trace]]],
+    quantity: str,
+    ylabel: str,
+    title: str,
+    path: Path,
+    extras: Sequence[GroupPanel] = (),
+) -> Path:
+    """One panel per flight mode: ``quantity`` of fore (solid) and hind (dashed) over t/T,
+    then one :class:`GroupPanel` per ``extras`` (e.g. Fig. 11c's phase differences, Fig. 12c's
+    pitch amplitudes)."""
+    n = len(rows) + len(extras)
+    fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 4.4))
+    axes = np.atleast_1d(axes)
+    for k, (ax, (name, traces)) in enumerate(zip(axes, rows, strict=False)):
+        _plot_wings(ax, traces, quantity)
+        _mark_downstroke(ax, label=k == 0)
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel("cycle t/T [-]")
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+        if k == 0:
+            handles, labels = ax.get_legend_handles_labels()
+            legend(
+                ax,
+                [*zip(handles, labels, strict=True), text_entry("bold: best seed")],
+                below=True,
+            )
+    for ax, extra in zip(axes[len(rows) :], extras, strict=True):
+        draw_groups(ax, extra)
+    fig.suptitle(title, fontsize=10)
+    return figures.save(fig, path)
+
+
+def flow_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
+    """Angle of attack and relative speed at 0.75 R over the cycle (Fig. 13); the dotted line
+    is the paper's end of the down-stroke (t/T = 0.5: the paper's cycles start with it)."""
+    fig, axes = plt.subplots(2, 1, figsize=(8.4, 5.2), sharex=True)
+    for k, (ax, (quantity, ylabel)) in enumerate(
+        zip(
+            axes,
+            (
+                ("angle_of_attack", "angle of attack [deg]"),
+                ("relative_speed", "relative speed at 0.75R [m/s]"),
+            ),
+            strict=True,
+        )
+    ):
+        _plot_wings(ax, traces, quantity)
+        _mark_downstroke(ax, label=k == 0)
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+    axes[0].legend(
+        fontsize=7,
+        title="bold: best seed",
+        title_fontsize=6,
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        frameon=False,
+    )
+    axes[-1].set_xlabel("cycle t/T [-]")
+    fig.suptitle(title, fontsize=10)
+    return figures.save(fig, path)
