@@ -517,8 +517,8 @@ def tandem_stroke(
     coef = np.empty((n_time, N_COEF))
     hist = np.empty((n_time, 5))
     v_ext = np.zeros(n_r)
-    # the convected slipstream (§5.7) where the hind-wing feels the fore-wing's at all
-    convect = convected and mode == MODE_COUPLED and not inflow_off[b, 1]
+    # the convected slipstream (§5.7) where the hind-wing feels a fore-wing's wake at all
+    convect = convected and mode == MODE_COUPLED and not (inflow_off[b, 0] or inflow_off[b, 1])
     load = np.empty(n_time if convect else 0)
     wake = np.empty(n_time if convect else 0)
     for wing in range(2):

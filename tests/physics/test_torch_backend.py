@@ -36,6 +36,7 @@ def _option_sets() -> list[te.ModelOptions]:
     split = ("sign", "body")
     spin = ("pitch", "total")
     hover = ("momentum", "none")
+    slipstream = ("mean", "convected")
     sets = []
     for i in range(25):
         extra: dict = {}
@@ -52,6 +53,7 @@ def _option_sets() -> list[te.ModelOptions]:
                 thrust_split=split[i % 2],
                 spin=spin[(i // 2) % 2],
                 hover_inflow=hover[(i // 4) % 2],
+                slipstream=slipstream[(i // 3) % 2],
                 **extra,
             )
         )
@@ -89,11 +91,16 @@ def test_option_sets_cover_every_value():
         ("thrust_split", te.physics.options.ThrustSplit),
         ("spin", te.physics.options.Spin),
         ("hover_inflow", te.physics.options.HoverInflow),
+        ("slipstream", te.physics.options.Slipstream),
     ):
         from typing import get_args
 
         assert {getattr(o, name) for o in OPTION_SETS} == set(get_args(kind)), name
     assert len(OPTION_SETS) == 25
+    # the convected slipstream acts under coupled induction only: covered there, in hover and
+    # forward flight, with an odd n_time
+    convected = [o for o in OPTION_SETS if o.slipstream == "convected" and o.induction == "coupled"]
+    assert len(convected) >= 3 and any(o.n_time % 2 for o in convected)
 
 
 @pytest.mark.parametrize("index", range(len(OPTION_SETS)))
