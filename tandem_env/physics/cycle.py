@@ -395,6 +395,12 @@ def slipstream_delay(
     return distance / speed
 
 
+#: Strength of the exponential filter on the convected wake's harmonics, exp(−36·(m/m_c)^16)
+#: (:func:`convected_wake`): 36 ≈ −ln(machine epsilon), so harmonics beyond m_c vanish to
+#: rounding (the exponential filter of spectral methods, Gottlieb & Hesthaven 2001).
+WAKE_FILTER = 36.0
+
+
 @njit(cache=True)
 def disc_inflow(inflow, nodes):
     """Mean induced velocity over a wing's swept disc, ∫v_i·r·dr / ∫r·dr [m/s] (§5.7)."""
@@ -424,11 +430,17 @@ def convected_wake(
     parameter V_m = U + v̄·w/U at its mean induced velocity v̄ (:func:`disc_inflow`),
     w = V_n + v̄, U = sqrt(V_t² + w²) (``v_tangential``, ``v_normal``: the fore-wing's [m/s]),
     bounded below by sqrt(L_rms/(2ρφ_m·R²)), the speed the loading's fluctuation alone drives
-    through the disc (it keeps Δv finite where the disc's mean flow vanishes). Δv is then
-    evaluated at the hind-wing's phases ``phase_hind`` less ``delay`` δ = 2π·f_h·t_d [rad] by
-    trigonometric interpolation from the fore-wing's phases ``phase_fore`` with the grid's
-    weights dϑ/ds (``weight_fore``): Δv(ψ) = Σ_i w_i·Δv_i·D_M(ψ − ϑ_i)/n, D_M the Dirichlet
-    kernel of M = (n − 1)/2 harmonics, spectrally accurate on the motion-following grid (§3.5).
+    through the disc (it keeps Δv finite where the disc's mean flow vanishes).
+
+    Δv is evaluated at the hind-wing's phases ``phase_hind`` less ``delay`` δ = 2π·f_h·t_d
+    [rad] from its Fourier series in the fore-wing's phase ϑ, harmonics m = 1 … (n − 1)/2,
+    whose coefficients are trapezoid sums over the fore-wing's samples ``phase_fore`` with the
+    grid's weights dϑ/ds (``weight_fore``; spectrally accurate on the motion-following grid,
+    §3.5). Where that grid is sparsest its spacing in ϑ is max(dϑ/ds) = 1 + λ times the
+    uniform one, so harmonic m is weighted by the exponential filter σ_m = exp(−36·(m/m_c)^16)
+    (:data:`WAKE_FILTER`), m_c = ((n − 1)/2)/max(dϑ/ds): the harmonics the sparsest samples
+    cannot resolve are filtered out smoothly (a sharp cut would make the result jump with K),
+    and σ_m → 1 for every m as n grows.
     """
     n = load.shape[0]
     for k in range(n):
@@ -454,18 +466,38 @@ def convected_wake(
     mass_flow = max(mass_flow, np.sqrt(rms / k_disc))
     if not mass_flow > 0.0:
         return
-    scale = interference / (k_disc * mass_flow * n)
-    fluctuation = np.empty(n)
+    scale = interference / (k_disc * mass_flow)
+    n_modes = (n - 1) // 2
+    densest = 0.0
     for i in range(n):
-        fluctuation[i] = (load[i] - mean) * scale * weight_fore[i]
-    order = 2.0 * ((n - 1) // 2) + 1.0
+        densest = max(densest, weight_fore[i])
+    cutoff = n_modes / densest
+    a = np.zeros(n_modes)
+    b = np.zeros(n_modes)
+    for i in range(n):
+        f = (load[i] - mean) * weight_fore[i]
+        c1 = np.cos(phase_fore[i])
+        s1 = np.sin(phase_fore[i])
+        cm = 1.0
+        sm = 0.0
+        for j in range(n_modes):
+            cm, sm = cm * c1 - sm * s1, sm * c1 + cm * s1  # cos(mϑ), sin(mϑ) by rotation
+            a[j] += f * cm
+            b[j] += f * sm
+    for j in range(n_modes):
+        sigma = np.exp(-WAKE_FILTER * ((j + 1) / cutoff) ** 16)
+        a[j] *= 2.0 * scale * sigma / n
+        b[j] *= 2.0 * scale * sigma / n
     for k in range(n):
+        x = phase_hind[k] - delay
+        c1 = np.cos(x)
+        s1 = np.sin(x)
+        cm = 1.0
+        sm = 0.0
         total = 0.0
-        for i in range(n):
-            x = phase_hind[k] - delay - phase_fore[i]
-            half = np.sin(0.5 * x)
-            kernel = order if abs(half) < 1e-12 else np.sin(0.5 * order * x) / half
-            total += kernel * fluctuation[i]
+        for j in range(n_modes):
+            cm, sm = cm * c1 - sm * s1, sm * c1 + cm * s1
+            total += a[j] * cm + b[j] * sm
         out[k] = total
 
 

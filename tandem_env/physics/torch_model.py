@@ -426,14 +426,17 @@ def _convected_wake(load, weight, phase_fore, phase_hind, delay, inflow_fore, fo
     mass_flow = torch.where(flowing, speed + v_disc * w / torch.where(flowing, speed, 1.0), 0.0)
     mass_flow = torch.maximum(mass_flow, torch.sqrt(rms / k_disc))
     live = (k_disc > 0.0) & (mass_flow > 0.0)
-    scale = torch.where(live, interference / torch.where(live, k_disc * mass_flow * n, 1.0), 0.0)
-    fluctuation = (load - mean) * scale[:, None] * weight
-    order = 2.0 * ((n - 1) // 2) + 1.0
-    x = phase_hind[:, :, None] - delay[:, None, None] - phase_fore[:, None, :]
-    half = torch.sin(0.5 * x)
-    small = half.abs() < 1e-12
-    kernel = torch.where(small, order, torch.sin(0.5 * order * x) / torch.where(small, 1.0, half))
-    return (kernel * fluctuation[:, None, :]).sum(-1)
+    scale = torch.where(live, interference / torch.where(live, k_disc * mass_flow, 1.0), 0.0)
+    n_modes = (n - 1) // 2
+    m = torch.arange(1, n_modes + 1, dtype=load.dtype, device=load.device)
+    cutoff = n_modes / weight.max(-1, keepdim=True).values
+    sigma = torch.exp(-cycle.WAKE_FILTER * (m / cutoff) ** 16)
+    f = (load - mean) * weight
+    angle = phase_fore[:, :, None] * m
+    a = (f[:, :, None] * torch.cos(angle)).sum(1) * (2.0 / n) * sigma * scale[:, None]
+    b = (f[:, :, None] * torch.sin(angle)).sum(1) * (2.0 / n) * sigma * scale[:, None]
+    angle = (phase_hind - delay[:, None])[:, :, None] * m
+    return (a[:, None, :] * torch.cos(angle) + b[:, None, :] * torch.sin(angle)).sum(-1)
 
 
 @cache
