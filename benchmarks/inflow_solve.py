@@ -3,7 +3,9 @@
     python benchmarks/inflow_solve.py [--rounds 7] [--seed 0]
 
 Prints evaluations per second for each inflow model at batch 1, 64 and 1024, and the target
-ratio coupled / none at batch 1024. Everything runs in one process and the cases are timed in
+ratio coupled / none at batch 1024; and the same for the coupled inflow with the convected
+slipstream (``ModelOptions(slipstream="convected")``, docs/model.md §5.7), with the ratio
+convected / mean (the target: at most 2 at batch 1024). Everything runs in one process and the cases are timed in
 interleaved rounds (every case once per round), so a load that comes and goes on a shared
 machine hits all of them alike; each case reports the best and the median round, and the
 ratios are the medians of the per-round ratios, of wall time and of CPU time (all threads;
@@ -34,6 +36,12 @@ from tandem_env.physics import blade, induction, model
 from tandem_env.physics.kinematics import fill_angle_history, wing_params_radians
 
 INDUCTION = ("coupled", "isolated", "none")
+#: The cases timed: each inflow model, and the coupled inflow with the convected slipstream
+#: (``ModelOptions.slipstream``, docs/model.md §5.7), against the coupled one (the mean reading).
+CASES = {
+    **{induction: te.ModelOptions(induction=induction) for induction in INDUCTION},
+    "convected": te.ModelOptions(slipstream="convected"),
+}
 BATCHES = (1, 64, 1024)
 SWEEP_STROKES = 200
 """Random strokes whose fore-wing annuli are solved one by one to count the sweeps."""
@@ -58,14 +66,9 @@ def timed(call, min_seconds: float) -> tuple[float, float]:
 def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> dict[str, Any]:
     """Seconds per call of every case in ``rounds`` interleaved rounds (printed, and returned
     as per-case best and median rates and the per-round coupled / none ratios)."""
-    cases = [(induction, batch) for batch in BATCHES for induction in INDUCTION]
+    cases = [(name, batch) for batch in BATCHES for name in CASES]
     calls = {
-        case: partial(
-            te.evaluate,
-            strokes[: case[1]],
-            speeds[: case[1]],
-            options=te.ModelOptions(induction=case[0]),
-        )
+        case: partial(te.evaluate, strokes[: case[1]], speeds[: case[1]], options=CASES[case[0]])
         for case in cases
     }
     for call in calls.values():
@@ -81,7 +84,12 @@ def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> dict[str
         f"{'batch':>6} {'induction':>10} {'evals/s best':>13} {'evals/s median':>15} "
         f"{'CPU ms/call best':>17}"
     )
-    numbers: dict[str, Any] = {"rounds": rounds, "rates": [], "ratios": []}
+    numbers: dict[str, Any] = {
+        "rounds": rounds,
+        "rates": [],
+        "ratios": [],
+        "slipstream_ratios": [],
+    }
     for case in cases:
         t = np.array(wall[case])
         print(
@@ -109,6 +117,24 @@ def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> dict[str
             f"CPU {np.median(cpu_ratio):.3f} ({cpu_ratio.min():.3f}-{cpu_ratio.max():.3f})"
         )
         numbers["ratios"].append(
+            {
+                "batch": batch,
+                "wall_median": float(np.median(ratio)),
+                "wall_range": [float(ratio.min()), float(ratio.max())],
+                "cpu_median": float(np.median(cpu_ratio)),
+                "cpu_range": [float(cpu_ratio.min()), float(cpu_ratio.max())],
+            }
+        )
+    print()
+    print("convected / mean slipstream, both coupled (per-round ratios: median and range):")
+    for batch in BATCHES:
+        ratio = np.array(wall["convected", batch]) / np.array(wall["coupled", batch])
+        cpu_ratio = np.array(cpu["convected", batch]) / np.array(cpu["coupled", batch])
+        print(
+            f"  batch {batch:>4}: wall {np.median(ratio):.3f} ({ratio.min():.3f}-{ratio.max():.3f}); "
+            f"CPU {np.median(cpu_ratio):.3f} ({cpu_ratio.min():.3f}-{cpu_ratio.max():.3f})"
+        )
+        numbers["slipstream_ratios"].append(
             {
                 "batch": batch,
                 "wall_median": float(np.median(ratio)),

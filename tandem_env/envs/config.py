@@ -39,6 +39,7 @@ MODEL_OPTION_KWARGS: dict[str, str] = {
     "thrust_split": "thrust_split",
     "spin": "spin",
     "hover_inflow": "hover_inflow",
+    "slipstream": "slipstream",
     "tolerance": "tolerance",
     "max_evaluations": "max_evaluations",
 }
@@ -288,7 +289,8 @@ class FlightConfig:
         ``rotational_coefficient`` (C_r of both wings [-], Table 3), applied to ``insect``; the
         :class:`~tandem_env.physics.ModelOptions` fields (``n_time``,
         ``n_blade``, ``induction``, ``interference``, ``power_convention`` (its ``power``),
-        ``thrust_split``, ``spin``, ``hover_inflow``, ``tolerance``, ``max_evaluations``),
+        ``thrust_split``, ``spin``, ``hover_inflow``, ``slipstream``, ``tolerance``,
+        ``max_evaluations``),
         applied over ``options``; and ``penalty_weight`` / ``penalty_offset``, applied over
         ``penalty``. A condition's old keyword (``power`` for ``available_power``) is refused
         naming the new one.

@@ -25,9 +25,11 @@ from .blade import (
     C_DSPIN,
     C_ECXE,
     C_ECY,
+    C_ECZ,
     C_ECZE,
     C_ENXE,
     C_ENY,
+    C_ENZ,
     C_ENZE,
     C_KIN,
     C_SPIN,
@@ -36,6 +38,7 @@ from .blade import (
     acute_angle,
     element_moment,
     fill_frame_coefficients,
+    relative_velocity,
 )
 from .induction import N_SAMPLE, S_FC, S_FN, S_U, S_V, normal_force_sweep, solve_annulus_samples
 from .kinematics import fill_angle_history
@@ -243,11 +246,18 @@ def wing_cycle(
     cos_table,
     sin_table,
     table=None,
+    wake=None,
+    out_load=None,
 ):
     """Solve the inflow of one wing and integrate its cycle (writes ``out`` and ``out_inflow``).
 
     ``v_external``: (n_r,) inflow imposed from upstream [m/s] (the fore-wing's slipstream on the
-    hind-wing, already scaled by C_hf). ``histories``: (n_time, 5) scratch receiving F_x, F_z,
+    hind-wing, already scaled by C_hf). ``wake``: (n_time,) the part of that inflow that varies
+    over the cycle [m/s] (the convected slipstream, docs/model.md §5.7): annulus j sees
+    v_external[j] + wake[k] at sample k; ``None``: the same at every sample (compiled exactly
+    as without it). ``out_load``: (n_time,) receives the span integral of the circulatory and
+    viscous element forces along the stroke-plane normal per sample at the solved inflow (the
+    force the wing sheds into its wake, §5.7) [N], or ``None``. ``histories``: (n_time, 5) scratch receiving F_x, F_z,
     F_y, P_aero, P_iner per sample (one wing) [N, W]. ``table``: the wing's force-coefficient
     model (``coefficients``), ``None`` for the paper's (then compiled exactly as without models).
     """
@@ -274,6 +284,7 @@ def wing_cycle(
         for c in range(N_COEF):
             coef_by_column[c, k] = coef[k, c]
     frame = coef_by_column.T
+    fluctuation = np.zeros(n_time)
     for j in range(n_r):
         r = nodes[j, N_R]
         chord = nodes[j, N_CHORD]
@@ -284,17 +295,32 @@ def wing_cycle(
         v_induced = 0.0
         # Either way ``samples`` ends up holding the element forces at the annulus's final
         # inflow: the solver ends on a swept point, so its last sweep is reused, not redone.
-        if solve_inflow:
+        if wake is not None:
+            for k in range(n_time):
+                fluctuation[k] = wake[k]
+        if solve_inflow and wake is None:
             v_induced, evals, ok = solve_annulus_samples(
                 frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
                 sweep_amplitude, tolerance, max_evaluations, samples, table,
             )  # fmt: skip
             converged = converged and ok
             max_evals = max(max_evals, evals)
-        else:
+        elif solve_inflow:
+            v_induced, evals, ok = solve_annulus_samples(
+                frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
+                sweep_amplitude, tolerance, max_evaluations, samples, table, fluctuation,
+            )  # fmt: skip
+            converged = converged and ok
+            max_evals = max(max_evals, evals)
+        elif wake is None:
             normal_force_sweep(
                 frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
                 samples, table,
+            )  # fmt: skip
+        else:
+            normal_force_sweep(
+                frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
+                samples, table, fluctuation,
             )  # fmt: skip
         out_inflow[j] = v_induced
         area += chord * width
@@ -314,6 +340,17 @@ def wing_cycle(
             # power delivered to the air: −(force on wing)·(flapping velocity r·ė_s) − M·Ω
             span[2, k] -= width * (r * (fc * frame[k, C_AU] + fn * frame[k, C_AV]) + moment * spin)
             span[3, k] += chord * width * acute_angle(u, v)
+        if out_load is not None:
+            if j == 0:
+                for k in range(n_time):
+                    out_load[k] = 0.0
+            for k in range(n_time):
+                # the element force less its added mass (Eq. 12), which is not shed
+                _, _, du, dv = relative_velocity(frame, k, r, v_tangential, v_upstream + v_induced)
+                spin = frame[k, C_SPIN]
+                fc = samples[S_FC, k] - m22 * samples[S_V, k] * spin + m11 * du
+                fn = samples[S_FN, k] + m11 * samples[S_U, k] * spin + m22 * dv
+                out_load[k] += width * (fc * frame[k, C_ECZ] + fn * frame[k, C_ENZ])
     aoa = 0.0
     for k in range(n_time):
         span_fc = span[0, k]
@@ -333,6 +370,135 @@ def wing_cycle(
     out[W_CONVERGED] = 1.0 if converged else 0.0
     out[W_EVALS] = max_evals
     out[W_INFLOW] = inflow_mean / area if area > 0.0 else 0.0
+
+
+@njit(cache=True)
+def slipstream_delay(
+    inflow_fore, nodes_fore, normal_speed_hind, beta_fore, beta_hind, root_spacing, root_drop
+):
+    """Time t_d [s] the fore-wing's wake takes to reach the hind-wing's stroke plane (§5.7).
+
+    The wake leaves the fore-wing's root at the free stream plus the fore-wing's induced
+    velocity v̄ (the mean over its swept disc, ∫v_i·r·dr / ∫r·dr, along −z_s of the fore-wing)
+    and crosses the distance from the fore-wing's root to the hind-wing's stroke plane,
+    h_n = d·sin β_h + D·cos β_h (d ``root_spacing`` aft, D ``root_drop`` below [m]), at the flow
+    speed normal to that plane, U = V_n,h + v̄·cos(β_f − β_h) (``normal_speed_hind`` V_n,h
+    [m/s]), bounded below by v̄·cos(β_f − β_h)/2 where the free stream opposes the wake (the
+    vortex-ring state, where momentum theory no longer holds): t_d = h_n / U. Zero where the
+    fore-wing induces nothing (its wake is then zero too).
+    """
+    along = disc_inflow(inflow_fore, nodes_fore) * np.cos(beta_fore - beta_hind)
+    speed = max(normal_speed_hind + along, 0.5 * along)
+    distance = max(root_spacing * np.sin(beta_hind) + root_drop * np.cos(beta_hind), 0.0)
+    if not speed > 0.0:
+        return 0.0
+    return distance / speed
+
+
+#: Strength of the exponential filter on the convected wake's harmonics, exp(−36·(m/m_c)^16)
+#: (:func:`convected_wake`): 36 ≈ −ln(machine epsilon), so harmonics beyond m_c vanish to
+#: rounding (the exponential filter of spectral methods, Gottlieb & Hesthaven 2001).
+WAKE_FILTER = 36.0
+
+
+@njit(cache=True)
+def disc_inflow(inflow, nodes):
+    """Mean induced velocity over a wing's swept disc, ∫v_i·r·dr / ∫r·dr [m/s] (§5.7)."""
+    num = 0.0
+    den = 0.0
+    for j in range(nodes.shape[0]):
+        area = nodes[j, N_R] * nodes[j, N_WIDTH]
+        num += area * inflow[j]
+        den += area
+    return num / den if den > 0.0 else 0.0
+
+
+@njit(cache=True)
+def convected_wake(
+    load, weight_fore, phase_fore, phase_hind, delay, inflow_fore, nodes_fore, sweep_fore,
+    v_tangential, v_normal, rho, interference, out,
+):  # fmt: skip
+    """The part of the fore-wing's slipstream on the hind-wing that varies over the cycle (§5.7):
+    out[k] = C_hf·Δv(ϑ_h,k − δ) [m/s], the same on every annulus.
+
+    ``load`` (n,) is the force along the fore-wing's stroke-plane normal that it sheds into its
+    wake, per sample (one wing: the span integral of the circulatory and viscous element forces
+    at the solved inflow, without the added mass) [N]. Linearised momentum theory on the fore
+    disc (the quasi-steady limit of Pitt & Peters' uniform dynamic-inflow mode) turns its
+    fluctuation into a fluctuation of the induced velocity, uniform over the disc,
+    Δv = (L − L̄)/(2ρφ_m·R²·V_m) (R² = 2∫r·dr over the nodes), with the disc's mass-flow
+    parameter V_m = U + v̄·w/U at its mean induced velocity v̄ (:func:`disc_inflow`),
+    w = V_n + v̄, U = sqrt(V_t² + w²) (``v_tangential``, ``v_normal``: the fore-wing's [m/s]),
+    bounded below by sqrt(L_rms/(2ρφ_m·R²)), the speed the loading's fluctuation alone drives
+    through the disc (it keeps Δv finite where the disc's mean flow vanishes).
+
+    Δv is evaluated at the hind-wing's phases ``phase_hind`` less ``delay`` δ = 2π·f_h·t_d
+    [rad] from its Fourier series in the fore-wing's phase ϑ, harmonics m = 1 … (n − 1)/2,
+    whose coefficients are trapezoid sums over the fore-wing's samples ``phase_fore`` with the
+    grid's weights dϑ/ds (``weight_fore``; spectrally accurate on the motion-following grid,
+    §3.5). Where that grid is sparsest its spacing in ϑ is max(dϑ/ds) = 1 + λ times the
+    uniform one, so harmonic m is weighted by the exponential filter σ_m = exp(−36·(m/m_c)^16)
+    (:data:`WAKE_FILTER`), m_c = ((n − 1)/2)/max(dϑ/ds): the harmonics the sparsest samples
+    cannot resolve are filtered out smoothly (a sharp cut would make the result jump with K),
+    and σ_m → 1 for every m as n grows.
+    """
+    n = load.shape[0]
+    for k in range(n):
+        out[k] = 0.0
+    half_square = 0.0  # ∫r·dr = R²/2
+    for j in range(nodes_fore.shape[0]):
+        half_square += nodes_fore[j, N_R] * nodes_fore[j, N_WIDTH]
+    k_disc = 4.0 * rho * sweep_fore * half_square
+    if not k_disc > 0.0:
+        return
+    mean = 0.0
+    for i in range(n):
+        mean += load[i] * weight_fore[i]
+    mean /= n
+    square = 0.0
+    for i in range(n):
+        square += (load[i] - mean) ** 2 * weight_fore[i]
+    rms = np.sqrt(square / n)
+    v_disc = disc_inflow(inflow_fore, nodes_fore)
+    w = v_normal + v_disc
+    speed = np.sqrt(v_tangential * v_tangential + w * w)
+    mass_flow = speed + v_disc * w / speed if speed > 0.0 else 0.0
+    mass_flow = max(mass_flow, np.sqrt(rms / k_disc))
+    if not mass_flow > 0.0:
+        return
+    scale = interference / (k_disc * mass_flow)
+    n_modes = (n - 1) // 2
+    densest = 0.0
+    for i in range(n):
+        densest = max(densest, weight_fore[i])
+    cutoff = n_modes / densest
+    a = np.zeros(n_modes)
+    b = np.zeros(n_modes)
+    for i in range(n):
+        f = (load[i] - mean) * weight_fore[i]
+        c1 = np.cos(phase_fore[i])
+        s1 = np.sin(phase_fore[i])
+        cm = 1.0
+        sm = 0.0
+        for j in range(n_modes):
+            cm, sm = cm * c1 - sm * s1, sm * c1 + cm * s1  # cos(mϑ), sin(mϑ) by rotation
+            a[j] += f * cm
+            b[j] += f * sm
+    for j in range(n_modes):
+        sigma = np.exp(-WAKE_FILTER * ((j + 1) / cutoff) ** 16)
+        a[j] *= 2.0 * scale * sigma / n
+        b[j] *= 2.0 * scale * sigma / n
+    for k in range(n):
+        x = phase_hind[k] - delay
+        c1 = np.cos(x)
+        s1 = np.sin(x)
+        cm = 1.0
+        sm = 0.0
+        total = 0.0
+        for j in range(n_modes):
+            cm, sm = cm * c1 - sm * s1, sm * c1 + cm * s1
+            total += a[j] * cm + b[j] * sm
+        out[k] = total
 
 
 @njit(parallel=True, cache=True)
@@ -371,6 +537,10 @@ def tandem_stroke(
     sin_table,
     table_fore,
     table_hind,
+    convected,
+    phases,
+    root_spacing,
+    root_drop,
 ):
     """Cycle means of stroke ``b`` of a batch: the fore-wing first, then the hind-wing in its
     slipstream (see :func:`tandem_cycle` for the arguments)."""
@@ -379,6 +549,10 @@ def tandem_stroke(
     coef = np.empty((n_time, N_COEF))
     hist = np.empty((n_time, 5))
     v_ext = np.zeros(n_r)
+    # the convected slipstream (§5.7) where the hind-wing feels a fore-wing's wake at all
+    convect = convected and mode == MODE_COUPLED and not (inflow_off[b, 0] or inflow_off[b, 1])
+    load = np.empty(n_time if convect else 0)
+    wake = np.empty(n_time if convect else 0)
     for wing in range(2):
         # a wing with its induced velocity switched off (``ModelOptions.hover_inflow``) neither
         # solves its own inflow nor sees the fore-wing's slipstream
@@ -392,26 +566,49 @@ def tandem_stroke(
                     v_ext[j] = interference * out_inflow[b, 0, j]
         v_t = freestream[b, wing, 0]
         v_n = freestream[b, wing, 1]
-        wing_cycle(
-            coef,
-            nodes_fore if wing == 0 else nodes_hind,
-            consts_fore if wing == 0 else consts_hind,
-            rho,
-            frequency[b, wing],
-            sweep_amplitude[b, wing],
-            v_t,
-            v_n,
-            v_ext,
-            solve,
-            tolerance,
-            max_evaluations,
-            out_inflow[b, wing],
-            out[b, wing],
-            hist,
-            cos_table,
-            sin_table,
-            table_fore if wing == 0 else table_hind,
-        )
+        if wing == 0 and convect:
+            wing_cycle(
+                coef, nodes_fore, consts_fore, rho, frequency[b, 0], sweep_amplitude[b, 0], v_t,
+                v_n, v_ext, solve, tolerance, max_evaluations, out_inflow[b, 0], out[b, 0], hist,
+                cos_table, sin_table, table_fore, None, load,
+            )  # fmt: skip
+        elif wing == 1 and convect:
+            delay = slipstream_delay(
+                out_inflow[b, 0], nodes_fore, v_n, beta[b, 0], beta[b, 1], root_spacing,
+                root_drop,
+            )  # fmt: skip
+            convected_wake(
+                load, weight_fore[b], phases[b, 0], phases[b, 1],
+                2.0 * np.pi * frequency[b, 1] * delay, out_inflow[b, 0], nodes_fore,
+                sweep_amplitude[b, 0], freestream[b, 0, 0], freestream[b, 0, 1], rho,
+                interference, wake,
+            )  # fmt: skip
+            wing_cycle(
+                coef, nodes_hind, consts_hind, rho, frequency[b, 1], sweep_amplitude[b, 1], v_t,
+                v_n, v_ext, solve, tolerance, max_evaluations, out_inflow[b, 1], out[b, 1], hist,
+                cos_table, sin_table, table_hind, wake,
+            )  # fmt: skip
+        else:
+            wing_cycle(
+                coef,
+                nodes_fore if wing == 0 else nodes_hind,
+                consts_fore if wing == 0 else consts_hind,
+                rho,
+                frequency[b, wing],
+                sweep_amplitude[b, wing],
+                v_t,
+                v_n,
+                v_ext,
+                solve,
+                tolerance,
+                max_evaluations,
+                out_inflow[b, wing],
+                out[b, wing],
+                hist,
+                cos_table,
+                sin_table,
+                table_fore if wing == 0 else table_hind,
+            )
         if out_history.shape[0] > b:
             out_history[b, wing] = hist
 
@@ -444,6 +641,10 @@ def tandem_cycle(
     sin_table,
     table_fore,
     table_hind,
+    convected,
+    phases,
+    root_spacing,
+    root_drop,
 ):
     """Cycle means of a batch of tandem strokes, in parallel over the batch.
 
@@ -456,6 +657,10 @@ def tandem_cycle(
     has B rows, also the per-sample F_x, F_z, F_y, P_aero, P_iner of each wing (B, 2, n_time, 5).
     ``table_fore``, ``table_hind``: the wings' force-coefficient models (``coefficients``), both
     ``None`` for the paper's: numba compiles that signature without the models' code.
+    ``convected``: the hind-wing sees the fore-wing's slipstream as it varies over the cycle
+    (``ModelOptions.slipstream="convected"``, docs/model.md §5.7), with ``phases`` (B, 2,
+    n_time) each wing's grid phases ϑ = 2πft [rad] (read only then) and the roots'
+    ``root_spacing`` and ``root_drop`` [m] (``Dragonfly``).
     """
     for b in prange(angles_fore.shape[0]):
         tandem_stroke(
@@ -486,4 +691,8 @@ def tandem_cycle(
             sin_table,
             table_fore,
             table_hind,
+            convected,
+            phases,
+            root_spacing,
+            root_drop,
         )

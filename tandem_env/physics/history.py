@@ -205,7 +205,14 @@ def _histories(
     pitch: list[np.ndarray] | None = None,
 ) -> StrokeHistory:
     """The histories of both wing pairs from their angles on a uniform grid (B = 1); ``angles``
-    per wing (1, n, 9), or (n_blade, n, 9) per blade element of a twisted wing."""
+    per wing (1, n, 9), or (n_blade, n, 9) per blade element of a twisted wing. Under the
+    convected slipstream (docs/model.md §5.7) the forces and powers follow it; the reported
+    ``inflow`` and angle of attack use its cycle mean, and the mirror image is refused."""
+    if side == -1 and options.slipstream == "convected":
+        raise ValueError(
+            'side = -1 with ModelOptions.slipstream = "convected"; allowed: side = 1 (the left '
+            'wings mirror the right ones), or slipstream = "mean"'
+        )
     freestream = freestream_components(v, beta, gamma)
     _, inflow, hist = run_measured(
         angles, weights, frequency, beta, sweep, v, gamma, insect, options, keep_history=True

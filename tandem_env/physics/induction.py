@@ -116,18 +116,38 @@ def normal_force_rate_model(u, v, a, b, c, d, spin, chord, m11, m22, rho, table)
 
 @njit(cache=True)
 def normal_force_sweep(
-    coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, samples, table=None
+    coef,
+    r,
+    chord,
+    m11,
+    m22,
+    rho,
+    ct,
+    cd0,
+    cd90,
+    cr,
+    v_tangential,
+    v_normal,
+    samples,
+    table=None,
+    wake=None,
 ):
     """One force sweep over the cycle at normal inflow ``v_normal``: F̄_n [N/m].
 
     Leaves each sample's (F_c, F_n, u, v) in ``samples`` (N_SAMPLE, n_time). ``table``: the
-    wing's force-coefficient model (``blade.element_force``; ``None``: the paper's). The element
-    loop holds no running sum, so the compiler vectorises it (with ``coef`` in Fortran order, each
-    column contiguous); the mean is then summed in sample order.
+    wing's force-coefficient model (``blade.element_force``; ``None``: the paper's). ``wake``:
+    (n_time,) a part of the normal inflow that varies over the cycle [m/s], added to
+    ``v_normal`` sample by sample (the convected slipstream, docs/model.md §5.7; ``None``: none,
+    compiled exactly as without it). The element loop holds no running sum, so the compiler
+    vectorises it (with ``coef`` in Fortran order, each column contiguous); the mean is then
+    summed in sample order.
     """
     n = coef.shape[0]
     for k in range(n):
-        u, v, du, dv = relative_velocity(coef, k, r, v_tangential, v_normal)
+        v_n = v_normal
+        if wake is not None:
+            v_n = v_normal + wake[k]
+        u, v, du, dv = relative_velocity(coef, k, r, v_tangential, v_n)
         fc, fn = element_force(
             u, v, du, dv, coef[k, C_SPIN], chord, m11, m22, rho, ct, cd0, cd90, cr, table
         )
@@ -264,11 +284,14 @@ def solve_annulus_samples(
     max_iterations,
     samples,
     table=None,
+    wake=None,
 ):
     """Induced velocity v_i [m/s] of one annulus; returns (v_i, force sweeps, converged).
 
     ``table``: the wing's force-coefficient model (``blade.element_force``; ``None``: the
-    paper's). Converged means |h(v_i)| ≤ tolerance·F̄_n(0) or the bracket is narrower than
+    paper's). ``wake``: (n_time,) the part of the upstream normal inflow that varies over the
+    cycle [m/s] (:func:`normal_force_sweep`); the momentum side m(v) takes the cycle-mean
+    upstream inflow ``v_normal0``. Converged means |h(v_i)| ≤ tolerance·F̄_n(0) or the bracket is narrower than
     tolerance·v_hover (v_hover: the inflow at which m alone absorbs F̄_n(0)). ``samples``
     (N_SAMPLE, n_time) is left holding the sweep at exactly the returned v_i.
 
@@ -282,7 +305,7 @@ def solve_annulus_samples(
     vn0 = v_normal0
     k_area = 4.0 * rho * sweep_amplitude * r
     f0 = normal_force_sweep(
-        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0, samples, table
+        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0, samples, table, wake
     )
     if f0 <= 0.0 or k_area <= 0.0:
         return 0.0, 1, True
@@ -324,7 +347,7 @@ def solve_annulus_samples(
             step_last = abs(v_new - v)
             v = v_new
         fv = normal_force_sweep(
-            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0 + v, samples, table
+            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0 + v, samples, table, wake
         )
         evaluations += 1
         hv = fv - _momentum(v, k_area, vt, vn0)[0]

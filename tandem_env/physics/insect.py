@@ -242,6 +242,14 @@ class Dragonfly:
     """Flight-muscle mass over body mass [-] (Marden 2000; paper §II.F)."""
     muscle_specific_power: float = 150.0
     """Available muscle power per muscle mass [W/kg] (Wakeling & Ellington 1997)."""
+    root_spacing: float = 8.8e-3
+    """Distance from the fore-wing root to the hind-wing root along the body axis [m], + hind
+    aft: 1.5 fore-wing mean chords, as in the dragonfly models of Sun & Lan (2004) and Wang &
+    Sun (2005) (docs/model.md §1.7). Used by ``ModelOptions.slipstream="convected"`` (the
+    wake's travel time) and :func:`~tandem_env.physics.geometry.wing_clearance`."""
+    root_drop: float = 9.0e-3
+    """How far the hind-wing root sits below the fore-wing root, normal to the body axis [m]:
+    enough to keep the model's flat stroke planes apart (docs/model.md §1.7)."""
 
     def __post_init__(self) -> None:
         owner = "Dragonfly"
@@ -252,6 +260,8 @@ class Dragonfly:
         _check_positive(owner, "air_density", self.air_density, "kg/m³")
         _check_positive(owner, "body_drag_area", self.body_drag_area, "m²", allow_zero=True)
         _check_positive(owner, "muscle_specific_power", self.muscle_specific_power, "W/kg")
+        _check_positive(owner, "root_spacing", self.root_spacing, "m", allow_zero=True)
+        _check_positive(owner, "root_drop", self.root_drop, "m", allow_zero=True)
         if not (is_real(self.flight_muscle_ratio) and 0.0 < self.flight_muscle_ratio <= 1.0):
             raise ValueError(
                 f"Dragonfly.flight_muscle_ratio = {self.flight_muscle_ratio!r}; allowed: 0 < ratio <= 1"

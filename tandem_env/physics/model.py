@@ -17,7 +17,7 @@ from . import cycle
 from .checks import real_array
 from .coefficients import PaperCoefficients
 from .insect import DRAGONFLY, Dragonfly, Wing
-from .kinematics import fill_angle_history, wing_params_radians
+from .kinematics import MAX_SWEEP_SHAPE, fill_angle_history, phase_grid, wing_params_radians
 from .options import HOVER_NORMAL_SPEED, ModelOptions
 from .stroke import N_PER_WING, validate_physical
 
@@ -327,6 +327,7 @@ def run_kernel(
     options: ModelOptions,
     keep_history: bool = False,
     tables: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
+    phases: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Run the compiled cycle on prepared angle histories (the step below :func:`evaluate`).
 
@@ -336,8 +337,18 @@ def run_kernel(
     inflow per annulus (B, 2, n_blade) [m/s] and, with ``keep_history``, the per-sample earth-axis
     F_x, F_z, F_y [N] and P_aero, P_iner [W] of one wing (B, 2, n_time, 5). ``tables``
     replaces the insect's (nodes, constants) of the fore- and hind-wing (:func:`wing_tables`),
-    e.g. by single blade elements.
+    e.g. by single blade elements. ``phases``: (B, 2, n_time) each wing's sample phases
+    ϑ = 2πft [rad] (:func:`grid_phases`), read by ``options.slipstream="convected"`` only;
+    ``None``: uniform samples 2πk/n_time (measured kinematics). The convected slipstream follows
+    the whole fore-wing's loading, so it refuses ``tables`` (wings evaluated element by element).
     """
+    convected = options.slipstream == "convected"
+    if convected and tables is not None:
+        raise ValueError(
+            'ModelOptions.slipstream = "convected" needs whole wings (it follows the fore-wing\'s '
+            "span-integrated loading); wings evaluated element by element (span-wise twist) "
+            'allow: slipstream = "mean"'
+        )
     if tables is None:
         nodes_f, consts_f = wing_tables(insect.fore, options.n_blade, insect.air_density)
         nodes_h, consts_h = wing_tables(insect.hind, options.n_blade, insect.air_density)
@@ -349,12 +360,17 @@ def run_kernel(
     mode = {"none": cycle.MODE_NONE, "isolated": cycle.MODE_ISOLATED, "coupled": cycle.MODE_COUPLED}
     history = np.empty((batch if keep_history else 0, 2, n_time, 5))
     freestream = freestream_components(speed, beta, flight_path_angle)
+    if not convected:
+        phases = np.empty((0, 2, n_time))
+    elif phases is None:
+        phases = np.broadcast_to(2.0 * np.pi * np.arange(n_time) / n_time, (batch, 2, n_time))
+    phases = np.ascontiguousarray(phases, dtype=float)
     args = (
         angles[0], weights[0], angles[1], weights[1], frequency, beta, sweep,
         freestream, nodes_f, consts_f, nodes_h, consts_h, insect.air_density, mode[options.induction],
         inflow_switched_off(freestream, options), options.interference, options.spin == "total", options.tolerance,
         options.max_evaluations, out, inflow, history, *cycle.fourier_tables(n_time),
-        *coefficient_tables(insect),
+        *coefficient_tables(insect), convected, phases, insect.root_spacing, insect.root_drop,
     )  # fmt: skip
     if batch >= SERIAL_BELOW:
         cycle.tandem_cycle(*args)
@@ -442,6 +458,15 @@ def _performance(
     )
 
 
+def grid_phases(wing_params: np.ndarray, n_time: int) -> np.ndarray:
+    """Phases ϑ_k = 2πft_k [rad] of the motion-following grid (docs/model.md §3.5), (B, n_time),
+    of a batch of one wing's (B, 14) parameters in Hz/rad/- (``kinematics.grid_phases``)."""
+    s = 2.0 * np.pi * np.arange(n_time) / n_time
+    crowding = np.minimum(wing_params[:, 10], MAX_SWEEP_SHAPE) ** 2
+    reversal = 0.5 * np.pi - wing_params[:, 7]
+    return phase_grid.py_func(s[None, :], reversal[:, None], crowding[:, None])[0]
+
+
 def _parametric_inputs(physical: np.ndarray, n_time: int):
     batch = physical.shape[0]
     angles, weights, frequency, beta, sweep = (
@@ -451,6 +476,7 @@ def _parametric_inputs(physical: np.ndarray, n_time: int):
         np.empty((batch, 2)),
         np.empty((batch, 2)),
     )
+    phases = np.empty((batch, 2, n_time))
     for w in range(2):
         params = np.ascontiguousarray(
             wing_params_radians(physical[:, w * N_PER_WING : (w + 1) * N_PER_WING])
@@ -467,7 +493,8 @@ def _parametric_inputs(physical: np.ndarray, n_time: int):
         frequency[:, w] = params[:, 0]
         beta[:, w] = params[:, 13]
         sweep[:, w] = params[:, 1]
-    return angles, weights, frequency, beta, sweep
+        phases[:, w] = grid_phases(params, n_time)
+    return angles, weights, frequency, beta, sweep, phases
 
 
 def evaluate(
@@ -520,6 +547,8 @@ def evaluate(
     v, p_avail, gamma = validate_conditions(
         speed, available_power, flight_path_angle, batch, insect
     )
-    angles, weights, frequency, beta, sweep = _parametric_inputs(physical, options.n_time)
-    out, _, _ = run_kernel(angles, weights, frequency, beta, sweep, v, gamma, insect, options)
+    angles, weights, frequency, beta, sweep, phases = _parametric_inputs(physical, options.n_time)
+    out, _, _ = run_kernel(
+        angles, weights, frequency, beta, sweep, v, gamma, insect, options, phases=phases
+    )
     return _performance(out, v, gamma, p_avail, insect, options)

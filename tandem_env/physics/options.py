@@ -14,6 +14,7 @@ PowerConvention = Literal["absolute", "elastic", "aerodynamic"]
 ThrustSplit = Literal["sign", "body"]
 Spin = Literal["pitch", "total"]
 HoverInflow = Literal["momentum", "none"]
+Slipstream = Literal["mean", "convected"]
 
 
 #: Below this free-stream speed normal to a wing's stroke plane, |V·sin(β + γ)| [m/s], the wing
@@ -81,6 +82,13 @@ class ModelOptions:
     ``"momentum"`` the momentum inflow of ``induction`` as at any speed; ``"none"`` no induced
     velocity on that wing (Eqs. 20-21 read literally: the inflow v_z·(1 + a) is zero where
     v_z = 0). At V_n ≠ 0 both are the same."""
+    slipstream: Slipstream = "mean"
+    """How the hind-wing sees the fore-wing's slipstream under ``induction="coupled"``
+    (docs/model.md §5.7): ``"mean"`` the fore-wing's cycle-mean induced velocity, the same at
+    every instant (blind to the fore/hind phase); ``"convected"`` the fore-wing's wake as it
+    varies over the cycle, following its instantaneous normal loading, convected from the
+    fore- to the hind-wing's stroke plane (``Dragonfly.root_spacing``, ``root_drop``) with a
+    delay. Both have the same cycle mean; the fore-wing is the same under both."""
     tolerance: float = 1e-4
     """Relative tolerance of the per-annulus inflow solve [-]."""
     max_evaluations: int = 30
@@ -101,6 +109,7 @@ class ModelOptions:
         _check_choice("thrust_split", self.thrust_split, ThrustSplit)
         _check_choice("spin", self.spin, Spin)
         _check_choice("hover_inflow", self.hover_inflow, HoverInflow)
+        _check_choice("slipstream", self.slipstream, Slipstream)
         if not (_is_real(self.interference) and 0.0 <= self.interference <= 2.0):
             raise ValueError(f"ModelOptions.interference = {self.interference!r}; allowed: 0 to 2")
         if not (_is_real(self.tolerance) and 1e-12 <= self.tolerance <= 1e-1):

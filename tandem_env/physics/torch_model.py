@@ -158,9 +158,12 @@ def _condition(value: Any, checked: np.ndarray, like: torch.Tensor) -> torch.Ten
 
 
 # --- kinematics (kinematics.py) and frames (blade.fill_frame_coefficients) ----------------------
-def _angle_history(params: torch.Tensor, n_time: int) -> tuple[list[torch.Tensor], torch.Tensor]:
-    """φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈ (each (B, n_time)) and dτ/ds of one wing's (B, 14) parameters
-    in Hz/rad/- on the motion-following grid (``kinematics.fill_angle_history``)."""
+def _angle_history(
+    params: torch.Tensor, n_time: int
+) -> tuple[list[torch.Tensor], torch.Tensor, torch.Tensor]:
+    """φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈ (each (B, n_time)), dτ/ds and the phases τ [rad] of one
+    wing's (B, 14) parameters in Hz/rad/- on the motion-following grid
+    (``kinematics.fill_angle_history``, ``model.grid_phases``)."""
     col = [params[:, i : i + 1] for i in range(N_PER_WING)]
     freq, amp_phi, amp_th, amp_eta, off_phi, off_th, off_eta = col[:7]
     ph_phi, ph_th, ph_eta, shape_k, harmonic, shape_c = col[7:13]
@@ -195,7 +198,7 @@ def _angle_history(params: torch.Tensor, n_time: int) -> tuple[list[torch.Tensor
     eta = scale * tz + off_eta
     deta = omega * scale * shape_c * cy * sech2
     ddeta = omega * omega * scale * shape_c * sech2 * (-sy - 2.0 * shape_c * cy * cy * tz)
-    return [phi, dphi, ddphi, th, dth, ddth, eta, deta, ddeta], weight
+    return [phi, dphi, ddphi, th, dth, ddth, eta, deta, ddeta], weight, tau
 
 
 def _cross(a, b):
@@ -376,6 +379,66 @@ def _span_integrals(frame, nodes, constants, vt, vn, rotation, extra):
     )
 
 
+def _shed_load(frame, nodes, constants, vt, vn, width):
+    """Per sample, the span integral of the circulatory and viscous element forces along the
+    stroke-plane normal [N]: the force the wing sheds into its wake (``cycle.wing_cycle``'s
+    ``out_load``: the element force less its added mass, Eq. 12)."""
+    u, v, fc, fn = _element_state(frame, nodes, constants, vt, vn)
+    _, _, bu, bv, _, ecz, _, enz, decx, decz, denx, denz, spin, _ = frame
+    r, _, m11, m22 = nodes
+    du = r * bu + vt * decx + vn * decz
+    dv = r * bv + vt * denx + vn * denz
+    fc = fc - m22 * v * spin + m11 * du
+    fn = fn + m11 * u * spin + m22 * dv
+    return (width * (fc * ecz + fn * enz)).sum(1)
+
+
+# --- the convected slipstream (cycle.slipstream_delay, cycle.convected_wake) --------------------
+def _disc_inflow(inflow, wing: _Wing):
+    """``cycle.disc_inflow``: the mean induced velocity over the swept disc (B,) [m/s]."""
+    area = (wing.r * wing.width)[0, :, 0]
+    return (inflow * area).sum(-1) / area.sum()
+
+
+def _slipstream_delay(inflow_fore, fore: _Wing, vn_hind, beta_fore, beta_hind, insect):
+    """``cycle.slipstream_delay``: the wake's travel time to the hind-wing's plane (B,) [s]."""
+    along = _disc_inflow(inflow_fore, fore) * torch.cos(beta_fore - beta_hind)
+    speed = torch.maximum(vn_hind + along, 0.5 * along)
+    distance = torch.clamp(
+        insect.root_spacing * torch.sin(beta_hind) + insect.root_drop * torch.cos(beta_hind),
+        min=0.0,
+    )
+    moving = speed > 0.0
+    return torch.where(moving, distance / torch.where(moving, speed, 1.0), 0.0)
+
+
+def _convected_wake(load, weight, phase_fore, phase_hind, delay, inflow_fore, fore: _Wing,
+                    sweep_fore, vt, vn, interference):  # fmt: skip
+    """``cycle.convected_wake``: C_hf·Δv at the hind-wing's samples (B, n_time) [m/s]."""
+    n = load.shape[-1]
+    k_disc = 4.0 * fore.rho * sweep_fore * (fore.r * fore.width).sum()
+    mean = (load * weight).sum(-1, keepdim=True) / n
+    rms = torch.sqrt(((load - mean) ** 2 * weight).sum(-1) / n)
+    v_disc = _disc_inflow(inflow_fore, fore)
+    w = vn + v_disc
+    speed = torch.sqrt(vt * vt + w * w)
+    flowing = speed > 0.0
+    mass_flow = torch.where(flowing, speed + v_disc * w / torch.where(flowing, speed, 1.0), 0.0)
+    mass_flow = torch.maximum(mass_flow, torch.sqrt(rms / k_disc))
+    live = (k_disc > 0.0) & (mass_flow > 0.0)
+    scale = torch.where(live, interference / torch.where(live, k_disc * mass_flow, 1.0), 0.0)
+    n_modes = (n - 1) // 2
+    m = torch.arange(1, n_modes + 1, dtype=load.dtype, device=load.device)
+    cutoff = n_modes / weight.max(-1, keepdim=True).values
+    sigma = torch.exp(-cycle.WAKE_FILTER * (m / cutoff) ** 16)
+    f = (load - mean) * weight
+    angle = phase_fore[:, :, None] * m
+    a = (f[:, :, None] * torch.cos(angle)).sum(1) * (2.0 / n) * sigma * scale[:, None]
+    b = (f[:, :, None] * torch.sin(angle)).sum(1) * (2.0 / n) * sigma * scale[:, None]
+    angle = (phase_hind - delay[:, None])[:, :, None] * m
+    return (a[:, None, :] * torch.cos(angle) + b[:, None, :] * torch.sin(angle)).sum(-1)
+
+
 @cache
 def _compiled(function: Callable) -> Callable:
     """``function`` compiled by ``torch.compile`` (shapes dynamic: the solve's active set
@@ -502,13 +565,17 @@ def _search(coefs, k_area, vt, vn0, lo, start, mask):
     return _attach_root(root, ok, coefs, k_area, vt, vn0)
 
 
-def _solve_inflow(wing: _Wing, vt, vn0, sweep_amplitude, solve, tolerance, max_evaluations):
+def _solve_inflow(
+    wing: _Wing, vt, vn0, sweep_amplitude, solve, tolerance, max_evaluations, wake=None
+):
     """Induced velocity v_i (B, n_blade) [m/s], force sweeps (B, n_blade) and converged
     (B, n_blade) of every annulus (``induction.solve_annulus_samples``; ``solve`` (B,): the
-    strokes whose wing solves its inflow at all)."""
+    strokes whose wing solves its inflow at all; ``wake`` (B, n_time) or None: the part of the
+    upstream inflow that varies over the cycle [m/s], in the sweeps only)."""
     vt_b = vt[:, None]
     k_area = (4.0 * wing.rho * sweep_amplitude[:, None] * wing.r[..., 0]).expand_as(vn0)
-    f0, s0 = wing.sweep_and_slope(vt[:, None, None], vn0[:, :, None])
+    vn_start = vn0[:, :, None] if wake is None else vn0[:, :, None] + wake[:, None, :]
+    f0, s0 = wing.sweep_and_slope(vt[:, None, None], vn_start)
     trivial = (f0 <= 0.0) | (k_area <= 0.0) | ~solve[:, None]
     zeros = torch.zeros_like(f0)
     ones = torch.ones_like(f0)
@@ -560,9 +627,10 @@ def _solve_inflow(wing: _Wing, vt, vn0, sweep_amplitude, solve, tolerance, max_e
         v = torch.where(active, torch.where(open_, v_a, v_b), v)
         # sweep only the annuli still solving (the others keep their values)
         rows, cols = torch.nonzero(active, as_tuple=True)
-        fv_part, sv_part = wing.sweep_and_slope_at(
-            rows, cols, vt[rows, None], (vn0 + v)[rows, cols, None]
-        )
+        vn_part = (vn0 + v)[rows, cols, None]
+        if wake is not None:
+            vn_part = vn_part + wake[rows]
+        fv_part, sv_part = wing.sweep_and_slope_at(rows, cols, vt[rows, None], vn_part)
         fv = torch.zeros_like(f0).index_put((rows, cols), fv_part)
         evaluations = evaluations + active.to(torch.int64)
         hv = (fv - _momentum(v, k_area, vt_b, vn0)[0]).detach()
@@ -683,22 +751,27 @@ def acute_angle(along: torch.Tensor, across: torch.Tensor) -> torch.Tensor:
     return torch.where(still, 0.0, angle)
 
 
-def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options):
+def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options, wake=None):
     """Per-wing cycle means (a dict of (B,) tensors keyed like ``cycle``'s W_ columns, ``FZ``
-    for ``W_FZ``, …) and the inflow per annulus (B, n_blade) (``cycle.wing_cycle``)."""
+    for ``W_FZ``, …) and the inflow per annulus (B, n_blade) (``cycle.wing_cycle``; ``wake``
+    (B, n_time) or None: the part of the upstream inflow that varies over the cycle [m/s])."""
     if options.induction == "none":
         v_i = torch.zeros_like(vn0)
         evaluations = torch.zeros_like(vn0, dtype=torch.int64)
         converged = torch.ones_like(vn0, dtype=torch.bool)
     else:
         v_i, evaluations, converged = _solve_inflow(
-            wing, vt, vn0, sweep_amplitude, solve, options.tolerance, options.max_evaluations
-        )
+            wing, vt, vn0, sweep_amplitude, solve, options.tolerance, options.max_evaluations,
+            wake,
+        )  # fmt: skip
     f = wing.f
     core = _compiled(_span_integrals) if wing.compiled else _span_integrals
+    vn_final = (vn0 + v_i)[:, :, None]
+    if wake is not None:
+        vn_final = vn_final + wake[:, None, :]
     span_fc, span_fn, span_power, span_aoa = core(
         tuple(f[key] for key in _SWEEP_KEYS), wing.nodes(), wing.constants(),
-        vt[:, None, None], (vn0 + v_i)[:, :, None],
+        vt[:, None, None], vn_final,
         (f["AU"], f["AV"], f["DSPIN"], frequency[:, None, None]),
         (wing.width, wing.inertia_a, wing.damping, wing.mu1, wing.mu2),
     )  # fmt: skip
@@ -816,10 +889,11 @@ def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, com
     )
     wings = []
     inflow_fore = None
+    fore = {}
     for index, geometry in enumerate((insect.fore, insect.hind)):
         params = strokes[:, index * N_PER_WING : (index + 1) * N_PER_WING] * scale
         frequency, sweep_amplitude, beta = params[:, 0], params[:, 1], params[:, 13]
-        angles, weight = _angle_history(params, options.n_time)
+        angles, weight, phase = _angle_history(params, options.n_time)
         frame = _frame(angles, weight, beta, options.spin == "total")
         nodes, consts = wing_tables(geometry, options.n_blade, insect.air_density)
         wing = _Wing(frame, nodes, consts, insect.air_density, strokes, compiled)
@@ -834,9 +908,30 @@ def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, com
             else torch.zeros_like(vn, dtype=torch.bool)
         )
         vn0 = vn[:, None].expand(-1, nodes.shape[0])
-        if index == 1 and options.induction == "coupled":
+        coupled = options.induction == "coupled"
+        convected = coupled and options.slipstream == "convected"
+        wake = None
+        if index == 1 and coupled:
             vn0 = vn0 + torch.where(off[:, None], 0.0, options.interference * inflow_fore)
-        out, inflow = _wing_cycle(wing, frequency, sweep_amplitude, vt, vn0, ~off, options)
+        if index == 1 and convected:
+            # the convected slipstream (docs/model.md §5.7; cycle.tandem_stroke)
+            delay = _slipstream_delay(inflow_fore, fore["wing"], vn, fore["beta"], beta, insect)
+            wake = _convected_wake(
+                fore["load"], fore["weight"], fore["phase"], phase,
+                2.0 * math.pi * frequency * delay, inflow_fore, fore["wing"],
+                fore["sweep"], fore["vt"], fore["vn"], options.interference,
+            )  # fmt: skip
+            wake = torch.where((off | fore["off"])[:, None], 0.0, wake)
+        out, inflow = _wing_cycle(wing, frequency, sweep_amplitude, vt, vn0, ~off, options, wake)
+        if index == 0 and convected:
+            load = _shed_load(
+                tuple(wing.f[key] for key in _SWEEP_KEYS), wing.nodes(), wing.constants(),
+                vt[:, None, None], (vn0 + inflow)[:, :, None], wing.width,
+            )  # fmt: skip
+            fore = {
+                "wing": wing, "load": load, "weight": weight, "phase": phase, "beta": beta,
+                "sweep": sweep_amplitude, "vt": vt, "vn": vn, "off": off,
+            }  # fmt: skip
         inflow_fore = inflow
         wings.append(out)
     return _performance(wings, speed, gamma, available_power, insect, options)

@@ -36,6 +36,7 @@ def _option_sets() -> list[te.ModelOptions]:
     split = ("sign", "body")
     spin = ("pitch", "total")
     hover = ("momentum", "none")
+    slipstream = ("mean", "convected")
     sets = []
     for i in range(25):
         extra: dict = {}
@@ -52,6 +53,7 @@ def _option_sets() -> list[te.ModelOptions]:
                 thrust_split=split[i % 2],
                 spin=spin[(i // 2) % 2],
                 hover_inflow=hover[(i // 4) % 2],
+                slipstream=slipstream[(i // 3) % 2],
                 **extra,
             )
         )
@@ -89,11 +91,16 @@ def test_option_sets_cover_every_value():
         ("thrust_split", te.physics.options.ThrustSplit),
         ("spin", te.physics.options.Spin),
         ("hover_inflow", te.physics.options.HoverInflow),
+        ("slipstream", te.physics.options.Slipstream),
     ):
         from typing import get_args
 
         assert {getattr(o, name) for o in OPTION_SETS} == set(get_args(kind)), name
     assert len(OPTION_SETS) == 25
+    # the convected slipstream acts under coupled induction only: covered there, in hover and
+    # forward flight, with an odd n_time
+    convected = [o for o in OPTION_SETS if o.slipstream == "convected" and o.induction == "coupled"]
+    assert len(convected) >= 3 and any(o.n_time % 2 for o in convected)
 
 
 @pytest.mark.parametrize("index", range(len(OPTION_SETS)))
@@ -296,3 +303,28 @@ def test_cuda_gradient_equals_cpu_gradient():
     _, gpu = torch_model.value_and_grad(strokes.cuda(), "power", 1.0)
     assert gpu.device.type == "cuda"
     np.testing.assert_allclose(gpu.cpu().numpy(), cpu.numpy(), rtol=1e-8, atol=1e-14)
+
+
+def test_gradients_under_the_convected_slipstream():
+    """Autograd through the convected slipstream (docs/model.md §5.7: the fore-wing's shed
+    loading, its Fourier series and the delay) against central differences of the numba model."""
+    rng = np.random.default_rng(4)
+    strokes = te.normalised_to_physical(rng.uniform(-0.9, 0.9, (1, 28)))
+    options = te.ModelOptions(slipstream="convected")
+    speed = 0.9
+    x = torch.tensor(strokes, requires_grad=True)
+    result = te.evaluate_torch(x, speed, options=options)
+    mean = te.evaluate(strokes, speed)
+    assert abs(result.hind_lift_to_weight.detach()[0].item() - mean.hind_lift_to_weight[0]) > 1e-3
+    columns = np.flatnonzero(~DISCRETE)
+    step = 1e-6 * (UPPER - LOWER)[columns]
+    probes = np.repeat(strokes, 2 * columns.size, axis=0)
+    probes[0::2, columns] += np.diag(step)
+    probes[1::2, columns] -= np.diag(step)
+    numba = te.evaluate(probes, speed, options=options)
+    for name in ("lift_to_weight", "power", "hind_inflow"):
+        (grad,) = torch.autograd.grad(getattr(result, name)[0], x, retain_graph=True)
+        values = getattr(numba, name)
+        central = (values[0::2] - values[1::2]) / (2.0 * step)
+        error = _relative_norm(grad[0, columns].numpy(), central)
+        assert error <= 1e-4, f"d {name}/d stroke: relative error {error:.3g}"
