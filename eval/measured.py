@@ -542,7 +542,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     source = Path(args.kinematics)
     out = Path(args.out)
     try:
-        output_directory(out)  # before any work: a file or a read-only folder is refused now
+        output_directory(args.out)  # before any work: a file or a read-only folder is refused now
     except ValueError as exc:
         parser.error(str(exc))
     # The model's warnings (a jump in a series, radians given as degrees, a flipped pitch)

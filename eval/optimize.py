@@ -19,7 +19,7 @@ from agents.methods import available_methods
 from agents.optimiser import MAX_BATCH
 from agents.polish import POLISH_DEFAULTS, POLISH_METHODS
 from agents.polish import describe as describe_certificate
-from agents.records import MAX_BUDGET, SUMMARY_NAME, RecordStore
+from agents.records import MAX_BUDGET, SUMMARY_NAME, RecordStore, StoreWriteError
 from agents.tasks import TaskSpec, available_tasks, get_task
 from eval.studies.readings import reading_by_name
 from eval.studies.runner import (
@@ -31,7 +31,6 @@ from eval.studies.runner import (
     run_jobs,
 )
 from tandem_env.envs.config import EXECUTION_KWARGS
-from tandem_env.io.files import output_directory
 from tandem_env.io.keyvalue import parse_pairs
 from tandem_env.physics import BACKENDS
 from tandem_env.physics.backends import check_backend
@@ -119,7 +118,7 @@ def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T |
     for an unreachable scheduler or failed jobs, 130 for an interrupt (records are kept)."""
     try:
         return call()
-    except (SchedulerUnreachable, JobsFailed) as error:
+    except (SchedulerUnreachable, JobsFailed, StoreWriteError) as error:
         print(f"{parser.prog}: error: {error}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
@@ -274,8 +273,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     try:
         # Checked before any work: a file is refused; a read-only folder only if there is
         # something to compute (a rerun whose records are all stored just reports them).
-        writable = output_directory(args.out, write=False)
         store = RecordStore(args.out)
+        writable = store.check(write=False)
         scheduler = None if args.scheduler is None else parse_scheduler(args.scheduler)
         env_kwargs = parse_pairs(args.env_kwargs, "--env-kwargs")
         given = backend_kwargs(args)
@@ -315,8 +314,9 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             method_config=method_config,
         )
         jobs = [p.job for p in prepared]
+        writable = store.check(write=False, jobs=jobs)  # and each record's path
         if not writable and not have_records(store.directory, jobs):
-            output_directory(args.out)  # raises, naming the folder and why
+            store.check(jobs=jobs)  # raises, naming the folder and why
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     if not args.quiet:
@@ -335,7 +335,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     finally:
         # over what is stored (read once), also after a failure
         if writable and store.directory.exists():
-            store.write_summary()
+            try:
+                store.write_summary()
+            except StoreWriteError as error:
+                print(f"{parser.prog}: error: {error}", file=sys.stderr)
+                summary = 1
         elif not writable:
             print(
                 f"{store.directory} cannot be written: every seed is stored there, "

@@ -548,7 +548,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     if not 0 <= args.figure_episode < args.episodes:
         parser.error(f"--figure-episode {args.figure_episode}; allowed: 0 to {args.episodes - 1}")
     try:
-        output_directory(args.out)
+        output_directory(args.out, folders=("optima", "optima/records"))
         if args.figure is not None:
             figure = Path(args.figure)
             if figure.is_dir():

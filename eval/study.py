@@ -24,7 +24,6 @@ from eval.studies.claims import FLIP_THRESHOLD, VerdictCount
 from eval.studies.presets import PRESETS, get_preset
 from eval.studies.runner import executor_spec, have_records
 from eval.studies.suite import expand, run_studies
-from tandem_env.io.files import output_directory
 
 NAME = "study"
 HELP = "reproduce the paper's figures: speed/power sweeps, kinematics, wing shape, report"
@@ -159,8 +158,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         scheduler = executor_spec(args.scheduler, args.workers)
         # Checked before any work: a file is refused, a read-only folder unless everything
         # is stored already (then the run only reports that).
-        writable = output_directory(args.out, write=False)
-        RecordStore(args.out)
+        store = RecordStore(args.out)
+        writable = store.check(write=False)
         plan = StudyPlan(
             get_preset(args.preset),
             methods,
@@ -191,8 +190,9 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             jobs = [job for name in expand([args.study]) for job in STUDIES[name].jobs(plan)]
             title = f"study {args.study} ({', '.join(expand([args.study]))})"
         unique = list({job.key: job for job in jobs}.values())
+        writable = store.check(write=False, jobs=unique)  # and each record's path
         if not writable and (args.study == readings.NAME or not have_records(args.out, unique)):
-            output_directory(args.out)  # raises, naming the folder and why
+            store.check(jobs=unique)  # raises, naming the folder and why
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     if not writable:
