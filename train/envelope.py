@@ -24,6 +24,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+try:  # the shared wrapper of the command lines; importing tandem_env checks numba's environment
+    from tandem_env.io.command import command_line
+except ValueError as error:
+    print(f"python -m train.envelope: error: {error}", file=sys.stderr)
+    raise SystemExit(2) from None
 from tandem_env.io.files import output_directory, write_csv_atomic
 
 #: Columns of envelope.csv.
@@ -141,6 +146,7 @@ def evaluate_envelope(
     return rows
 
 
+@command_line
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="tandem-envelope"
