@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from . import cycle
-from .checks import is_real, real_array
+from .checks import count, flag, is_real, real_array
 from .insect import DRAGONFLY, Dragonfly, Wing
 from .kinematics import spectral_derivatives
 from .model import (
@@ -242,15 +242,8 @@ class MeasuredWing:
         ``stroke_plane_angle`` in degrees (else radians). Sampled at ``n_samples`` points
         t = i/(n·f); the series must have fewer than n/2 harmonics (Nyquist).
         """
-        if (
-            isinstance(n_samples, bool)
-            or not isinstance(n_samples, (int, np.integer))
-            or not MIN_SAMPLES <= n_samples <= MAX_SAMPLES
-        ):
-            raise ValueError(
-                f"from_fourier: n_samples = {n_samples!r}; allowed: an integer >= {MIN_SAMPLES} "
-                f"and <= {MAX_SAMPLES}"
-            )
+        n_samples = count(n_samples, "from_fourier: n_samples", MIN_SAMPLES, MAX_SAMPLES)
+        degrees = flag(degrees, "from_fourier: degrees")
         unit = "deg" if degrees else "rad"
         if pitch_stations is None:
             pitch_series = [_fourier_series("pitch", pitch, unit)]
@@ -328,6 +321,7 @@ class MeasuredWing:
         ``stroke_plane_angle`` in degrees (else radians). ``pitch``: (n,) or (n, k) with
         ``pitch_stations``.
         """
+        degrees = flag(degrees, "from_samples: degrees")
         t = _series("time", time)
         freq = _real("frequency", frequency)
         if not (math.isfinite(freq) and freq > 0.0):
