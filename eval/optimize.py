@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 import textwrap
+import warnings
 from collections.abc import Callable
 from typing import TypeVar
 
@@ -21,6 +22,7 @@ from agents.polish import POLISH_DEFAULTS, POLISH_METHODS
 from agents.polish import describe as describe_certificate
 from agents.records import MAX_BUDGET, SUMMARY_NAME, RecordStore, StoreWriteError
 from agents.tasks import TaskSpec, available_tasks, get_task
+from eval.studies.paper_reading import Reading
 from eval.studies.readings import reading_by_name
 from eval.studies.runner import (
     JobsFailed,
@@ -126,6 +128,30 @@ def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T |
         return 130
 
 
+def _check_reading_applies(
+    name: str, reading: Reading, task: TaskSpec, objective: str | None
+) -> None:
+    """A reading whose horizontal objective has no horizontal objective to replace here changes
+    nothing of that: refused if it is all the reading changes (the run would be the default's
+    under another name), said with a warning if the reading's model options still apply."""
+    if reading.horizontal_objective == "horizontal":
+        return
+    given = objective if objective is not None else task.default_objective
+    if given == "horizontal":
+        return
+    where = f"--task {task.name}" + (f" --objective {given}" if task.objective_kwarg else "")
+    what = (
+        f"its objective {reading.horizontal_objective} replaces only the horizontal one "
+        f"(--task accelerate --objective horizontal), not {given} ({where})"
+    )
+    if not reading.env_kwargs():
+        raise ValueError(
+            f"--reading {name} changes nothing here: {what}; allowed: a reading that changes "
+            "the model, or --objective horizontal"
+        )
+    warnings.warn(f"--reading {name}: {what}; its model options apply", UserWarning, stacklevel=2)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     tasks = _tasks()
     parser.add_argument(
@@ -215,7 +241,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="run under a reading of the paper's open decisions (eval/studies/readings.py): "
         "paper (the reading that reproduces the most claims, docs/reproduction.md), a single "
         "such as hover-none, or singles joined by '+'; sets its model options as env "
-        "keywords and, for --objective horizontal, its F̄_h objective",
+        "keywords and, for --objective horizontal, its F̄_h objective (a reading that changes only that objective is refused for any other "
+        "objective; one that also changes the model runs with a warning)",
     )
     add_scheduler_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress display")
@@ -291,6 +318,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                     "--env-kwargs, not both"
                 )
             env_kwargs.update(reading.env_kwargs())
+            _check_reading_applies(args.reading, reading, task, objective)
             if objective is not None:
                 objective = reading.objective(objective)
         method_config = parse_pairs(args.method_config, "--method-config")

@@ -642,3 +642,77 @@ def test_ctrl_c_on_a_local_dask_run_prints_one_line(tmp_path: Path) -> None:
     assert run.returncode == 130
     assert "Traceback" not in err and "ERROR" not in err, err
     assert err.count("interrupted; the finished records are stored") == 1
+
+
+# --- readings and method flags -----------------------------------------------------------------
+def test_aliases_combine_like_singles() -> None:
+    from eval.studies.readings import reading_by_name
+
+    assert reading_by_name("paper+body").name == "hover-none+Fh-literal+body"
+    assert reading_by_name("paper").changes() == reading_by_name("hover-none+Fh-literal").changes()
+    with pytest.raises(ValueError, match=r"unknown 'nosuch'; allowed: paper, default, body"):
+        reading_by_name("paper+nosuch")
+    with pytest.raises(ValueError, match=r"'paper\+Fh-literal' is 'hover-none\+Fh-literal\+Fh-lit"):
+        reading_by_name("paper+Fh-literal")  # a single twice, said as what it stands for
+    with pytest.raises(ValueError, match=r"reading '\+': no name"):
+        reading_by_name("+")
+
+
+def test_a_reading_that_changes_nothing_for_the_task_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "r"
+    status, err = _exit_status(
+        [*OPTIMIZE, "--seeds", "0", "--reading", "Fh-literal", "--out", str(out)], capsys
+    )
+    assert status == 2 and "--reading Fh-literal changes nothing here" in err
+    accelerate = ["optimize", "--task", "accelerate", "--power", "60", "--method", "pso",
+                  "--budget", "8", "--seeds", "0", "--objective", "vertical", "--reading", "Fh-literal",
+                  "--out", str(out)]  # fmt: skip
+    status, err = _exit_status(accelerate, capsys)
+    assert status == 2 and "not vertical (--task accelerate --objective vertical)" in err
+    assert not out.exists()
+
+
+def test_a_reading_that_changes_part_of_what_it_says_warns(
+    tmp_path: Path, monkeypatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from eval import optimize
+
+    def stop(*args, **kwargs):  # everything was checked: stop before the run
+        raise SystemExit(0)
+
+    monkeypatch.setattr(optimize, "run_reporting", stop)
+    with pytest.raises(SystemExit):
+        main([*OPTIMIZE, "--seeds", "0", "--reading", "paper", "--out", str(tmp_path), "--quiet"])
+    err = capsys.readouterr().err
+    assert "UserWarning: --reading paper: its objective horizontal_literal" in err
+
+
+@pytest.mark.parametrize(
+    ("value", "match"),
+    [
+        ("abc", r"argument --continuation: 'abc' is not a number; allowed: a share"),
+        ("1e-9", r"--continuation 1e-09: a continued cmaes job \(1 of its 8000 evaluations"),
+        ("0.01", r"--continuation 0.01: .*smaller than one CMA-ES population"),
+        ("2", r"continuation share = 2.0; allowed: a number in \(0, 1\]"),
+    ],
+)
+def test_a_continuation_share_no_job_can_run_is_refused_up_front(
+    value: str, match: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["study", "readings", "--preset", "quick", "--continuation", value,
+            "--out", str(tmp_path / "r")]  # fmt: skip
+    status, err = _exit_status(argv, capsys)
+    assert status == 2 and re.search(match, err), err
+    assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("option", ["--method-config", "--env-kwargs"])
+def test_an_option_without_a_value_is_refused(
+    option: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    status, err = _exit_status(
+        [*OPTIMIZE, "--seeds", "0", option, "popsize=", "--out", str(tmp_path)], capsys
+    )
+    assert status == 2 and f"{option} 'popsize=': no value after '='" in err
