@@ -716,3 +716,56 @@ def test_an_option_without_a_value_is_refused(
         [*OPTIMIZE, "--seeds", "0", option, "popsize=", "--out", str(tmp_path)], capsys
     )
     assert status == 2 and f"{option} 'popsize=': no value after '='" in err
+
+
+# --- measured kinematics ------------------------------------------------------------------------
+def test_pitch_without_stations_or_columns_is_named() -> None:
+    n = 16
+    sweep = 0.5 * np.cos(2 * np.pi * np.arange(n) / n)
+    with pytest.raises(ValueError, match=r"MeasuredWing.pitch has shape \(16, 0\), no columns"):
+        MeasuredWing(sweep, 0 * sweep, np.zeros((n, 0)), 40.0, 0.5, pitch_stations=[])
+    with pytest.raises(ValueError, match=r"no columns"):
+        MeasuredWing.from_samples(np.arange(n) / (n * 40.0), sweep, 0 * sweep, np.zeros((n, 0)),
+                                  30.0, frequency=40.0, pitch_stations=[])  # fmt: skip
+
+
+def test_a_sweep_its_samples_do_not_resolve_is_warned_about(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A step smoothed over 3 samples jumps by no more than a quarter of its variation between
+    two samples (no jump), yet its rate is set by the sampling: P/m of thousands of W/kg."""
+    from tandem_env.physics.measured import UNRESOLVED_SHARE, unresolved_share
+
+    def step(phase: np.ndarray) -> np.ndarray:
+        square = np.where(np.cos(phase[:-1]) > 0, 40.0, -40.0)
+        smooth = np.convolve(np.tile(square, 3), np.ones(3) / 3, "same")[64:128]
+        return np.append(smooth, smooth[0])
+
+    rows = _cycle(64, step)
+    path = _csv_case(tmp_path, "time,sweep,elevation,pitch", rows, n_samples=64)
+    assert main(["measured", str(path), "--out", str(tmp_path / "out")]) == 0
+    err = capsys.readouterr().err
+    assert re.search(
+        r"MeasuredWing.sweep: 1\d% of its mean-square rate lies in harmonics above", err
+    )
+    # the criterion: a resolved motion has almost none of its rate there
+    phase = 2 * np.pi * np.arange(64) / 64
+    triangle = np.arcsin(np.cos(phase))
+    assert unresolved_share(np.cos(phase))[0] < 1e-20
+    assert unresolved_share(triangle)[0] < 0.05 < UNRESOLVED_SHARE
+    assert unresolved_share(np.sign(np.cos(phase)))[0] > 0.5
+
+
+@pytest.mark.parametrize("time", [True, False], ids=["with time", "without time"])
+def test_radians_in_a_csv_declared_as_degrees_are_warned_about(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], time: bool
+) -> None:
+    rows = [",".join([*r.split(",")[:2], "0", repr(0.5 * float(r.split(",")[3]) / 30)])
+            for r in _cycle(64, lambda p: 0.6 * np.cos(p))]  # fmt: skip
+    header = "time,sweep,elevation,pitch"
+    if not time:  # one open cycle of samples, no time column
+        rows, header = [r.split(",", 1)[1] for r in rows[:-1]], "sweep,elevation,pitch"
+    path = _csv_case(tmp_path, header, rows, n_samples=64)
+    assert main(["measured", str(path), "--out", str(tmp_path / "out")]) == 0
+    err = capsys.readouterr().err
+    assert "from_samples: with degrees=True the sweep and pitch never exceed" in err
