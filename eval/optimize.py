@@ -117,11 +117,20 @@ INTERRUPTED = "the finished records are stored; the same command resumes from th
 
 def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T | int:
     """``call()``, or the exit status of how it stopped (optimize and study): 1 with the message
-    for an unreachable scheduler or failed jobs, 130 for an interrupt (records are kept)."""
+    for an unreachable scheduler, failed jobs or a file that cannot be written (a full disk, a
+    folder made read-only: the store is as it was), 130 for an interrupt (records are kept)."""
     try:
         return call()
     except (SchedulerUnreachable, JobsFailed, StoreWriteError) as error:
         print(f"{parser.prog}: error: {error}", file=sys.stderr)
+        return 1
+    except OSError as error:  # a table, figure or report the run writes after its records
+        where = f"{error.filename}: " if error.filename else ""
+        print(
+            f"{parser.prog}: error: {where}{error.strerror or error}; {INTERRUPTED} once that "
+            "is fixed",
+            file=sys.stderr,
+        )
         return 1
     except KeyboardInterrupt:
         print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)

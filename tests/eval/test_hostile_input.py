@@ -268,6 +268,22 @@ def test_a_read_only_out_is_refused_before_any_work(
 
 
 @needs_permissions
+def test_a_read_only_records_folder_in_a_writable_out_is_refused_before_any_work(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    records = tmp_path / "records"
+    records.mkdir()
+    records.chmod(0o555)
+    try:
+        argv = [*OPTIMIZE, "--seeds", "0", "--out", str(tmp_path), "--quiet"]
+        status, err = _exit_status(argv, capsys)
+        assert status == 2 and f"cannot write into {records}" in err
+    finally:
+        records.chmod(0o755)
+    assert not any(records.iterdir())
+
+
+@needs_permissions
 def test_a_rerun_with_nothing_to_compute_works_in_a_read_only_folder(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
