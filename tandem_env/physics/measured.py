@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from . import cycle
-from .checks import count, flag, is_real, real_array
+from .checks import count, flag, is_real, real_array, shown
 from .insect import DRAGONFLY, Dragonfly, Wing
 from .kinematics import spectral_derivatives
 from .model import (
@@ -287,7 +287,8 @@ class MeasuredWing:
                 size = max([abs(mean), *(abs(a) for a, _ in harmonics)])
                 if size > 2.0 * math.pi:
                     raise ValueError(
-                        f"from_fourier: {name} has a mean or amplitude of {size:g} rad; allowed: "
+                        f"from_fourier: {name} has a mean or amplitude of {shown(size, 2 * math.pi)} "
+                        "rad; allowed: "
                         "at most 2π rad; these look like degrees: pass degrees=True"
                     )
         to_rad = np.deg2rad if degrees else np.asarray
