@@ -166,7 +166,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--model", choices=("best", "final"), default="best")
     args = parser.parse_args(argv)
     try:
-        output_directory(args.out)  # before loading the policy
+        output_directory(args.out, folders=("records",), files=("envelope.csv",))  # before loading
         rows = evaluate_envelope(args.run, args.out, conditions=args.conditions, which=args.model)
     except ValueError as error:
         parser.error(str(error))

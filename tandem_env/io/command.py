@@ -12,6 +12,8 @@ scripts, ``python -m train``, ``python -m train.envelope``). Around the command 
 * ends quietly when the reader of standard output goes away (``| head``): Python's own recipe
   (the ``signal`` module's note on SIGPIPE) points standard output at the null device, so the
   interpreter's last flush does not raise again, and exits with status 1;
+* ends a command that fails on the machine (an ``OSError`` left over by the command: a disk
+  that fills, a folder made read-only) with one line naming the file and the reason, status 1;
 * turns a bad numba setting of the environment (:func:`check_numba_environment`, also made
   where :mod:`tandem_env.physics` imports numba) into one line and exit status 2.
 
@@ -86,8 +88,16 @@ def _writable_streams() -> None:
 
 
 def _program() -> str:
-    name = os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0] else "python"
-    return name if name.startswith("tandem-") else "python"
+    """The command as typed: ``tandem-study``, ``python -m eval``, ``python -m train.envelope``."""
+    path = sys.argv[0] if sys.argv and sys.argv[0] else ""
+    name, folder = os.path.basename(path), os.path.basename(os.path.dirname(path))
+    if name.startswith("tandem-"):
+        return name
+    if name == "__main__.py":
+        return f"python -m {folder}"
+    if name.endswith(".py"):
+        return f"python -m {folder}.{name[:-3]}"
+    return "python"
 
 
 def run_command(main: Callable[[], int | None], program: str | None = None) -> int:
@@ -113,6 +123,16 @@ def run_command(main: Callable[[], int | None], program: str | None = None) -> i
             sys.stdout = open(os.devnull, "w", encoding="utf-8")
         finally:
             os.close(devnull)
+        return 1
+    except OSError as error:
+        # The machine, not the input (a disk that fills, a folder made read-only during the
+        # run): every file is written atomically, so what is on disk is whole; say what failed.
+        where = f"{error.filename}: " if error.filename else ""
+        print(
+            f"{program or _program()}: error: {where}{error.strerror or error}; files already "
+            "written are kept whole: fix that and run the same command again",
+            file=sys.stderr,
+        )
         return 1
     finally:
         sys.stderr = stderr

@@ -128,3 +128,21 @@ def test_a_quiet_stream_drops_what_it_cannot_write() -> None:
     assert stream.write("progress") == len("progress")
     stream.flush()
     assert stream.write("more") == 4  # silenced for good, no exception
+
+
+def test_a_machine_failure_left_over_by_a_command_is_one_line(tmp_path: Path) -> None:
+    """An OSError no command caught (a disk that fills while a table is written) names the
+    file and the reason, status 1, no traceback."""
+    script = (
+        "import errno, os, sys\n"
+        "from tandem_env.io.command import run_command\n"
+        "def main():\n"
+        "    raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), 'out/table.csv')\n"
+        "sys.exit(run_command(main, 'python -m eval compare'))\n"
+    )
+    done = _run(["-c", script], capture_output=True, text=True)
+    assert done.returncode == 1
+    assert done.stderr.strip() == (
+        "python -m eval compare: error: out/table.csv: No space left on device; files already "
+        "written are kept whole: fix that and run the same command again"
+    )
