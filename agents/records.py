@@ -26,6 +26,7 @@ import json
 import math
 import os
 import platform
+import re
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -38,7 +39,13 @@ import numpy as np
 import tandem_env
 from agents.tasks import Condition, available_tasks, get_task
 from tandem_env.envs.config import EXECUTION_KWARGS
-from tandem_env.io.files import read_json, to_jsonable, write_csv_atomic, write_json_atomic
+from tandem_env.io.files import (
+    output_directory,
+    read_json,
+    to_jsonable,
+    write_csv_atomic,
+    write_json_atomic,
+)
 
 __all__ = [
     "OLD_SCHEMAS",
@@ -52,8 +59,10 @@ __all__ = [
     "Record",
     "RecordChecksumError",
     "RecordError",
+    "RecordMismatchError",
     "RecordStore",
     "RecordWarning",
+    "StoreWriteError",
     "load_records",
     "package_versions",
     "summary_rows",
@@ -153,8 +162,31 @@ class RecordChecksumError(RecordError):
     """A record whose checksum does not match its contents (edited by hand or damaged)."""
 
 
+class RecordMismatchError(RecordError):
+    """A record whose key is not its job's hash, or whose file is named by another key: edited
+    or moved by hand (its checksum may have been made again over the edit)."""
+
+
 class OutdatedRecordError(RecordError):
     """A record of an earlier format (:data:`OLD_SCHEMAS`): its job is to be recomputed."""
+
+
+class StoreWriteError(OSError):
+    """A store's file could not be written (a full disk, a folder made read-only, a directory
+    in a file's place): the file is as it was (writes are atomic), the records already stored
+    are kept, and the same command resumes from them once the cause is fixed."""
+
+    def __init__(self, path: Path, error: OSError) -> None:
+        reason = error.strerror or str(error)
+        super().__init__(
+            error.errno,
+            f"cannot write {path} ({reason}); it is left as it was and the records already "
+            "stored are kept: fix that and run the same command again to resume",
+        )
+        self.path = path
+
+    def __str__(self) -> str:
+        return str(self.strerror)
 
 
 class RecordWarning(UserWarning):
@@ -296,7 +328,11 @@ class Job:
     def key(self) -> str:
         """Configuration hash: the job's :meth:`configuration`, the tandem_env version and the
         record format."""
-        payload = {**self.configuration(), "tandem_env": tandem_env.__version__, "record": SCHEMA}
+        return self.key_at(tandem_env.__version__)
+
+    def key_at(self, version: str) -> str:
+        """:attr:`key` as tandem_env ``version`` computed it (a record made by that version)."""
+        payload = {**self.configuration(), "tandem_env": version, "record": SCHEMA}
         text = json.dumps(payload, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:20]
 
@@ -367,6 +403,14 @@ class Record:
                 f"record evaluations = {evaluations!r}; allowed: an integer from 0 to its "
                 f"budget {self.job.budget}"
             )
+        for name in ("objective", "reward", "search_reward"):
+            # A NaN is no result: it would pass every comparison silently (max, median, rank).
+            value = results[name]
+            if isinstance(value, bool) or not isinstance(value, int | float) or math.isnan(value):
+                raise RecordError(
+                    f"record {name} = {value!r}; allowed: a number (not NaN; -inf marks an "
+                    "infeasible reward)"
+                )
 
     # --- the job's fields -----------------------------------------------------------------------
     @property
@@ -492,6 +536,20 @@ class Record:
                 f"checksum {_short(data['checksum'])} does not match the record's contents: "
                 "edited by hand or damaged; it is not used"
             )
+        # The key is the hash of the job it holds (as the version that wrote it computed it):
+        # a record whose job was edited, or whose key was, is not its job's record, even with
+        # a checksum made again over the edit.
+        version = record.results["versions"]
+        version = version.get("tandem_env") if isinstance(version, Mapping) else None
+        keys = {record.job.key} | (
+            {record.job.key_at(version)} if isinstance(version, str) else set()
+        )
+        if record.key not in keys:
+            raise RecordMismatchError(
+                f"key {_short(record.key)} is not the hash of the job it holds "
+                f"({record.job.label()}: key {record.job.key}); the key or the job was edited, "
+                "it is not used"
+            )
         return record
 
     @classmethod
@@ -549,6 +607,21 @@ class Record:
         return [e for e, _ in self.history], [b for _, b in self.history]
 
 
+#: A store's file name for a record: its key (:attr:`Job.key`, 20 hex digits).
+_KEY_NAME = re.compile(r"[0-9a-f]{20}")
+
+
+def _check_name(path: Path, record: Record) -> Record:
+    """``record`` if ``path`` is named by its key, as a store names them (``<key>.json``), or by
+    no key at all; RecordError for one moved or copied to another job's name."""
+    if _KEY_NAME.fullmatch(path.stem) and path.stem != record.key:
+        raise RecordMismatchError(
+            f"{path}: holds the record of key {record.key} ({record.label()}), not of the key "
+            f"{path.stem} it is named by: moved or copied by hand; it is not used"
+        )
+    return record
+
+
 def _short(value: Any, limit: int = 60) -> str:
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
@@ -561,12 +634,24 @@ class RecordStore:
     """
 
     def __init__(self, directory: str | os.PathLike[str]) -> None:
+        self._given = os.fspath(directory)  # as given: Path("") would be the current folder
         self.directory = Path(directory)
         for path in (self.directory, self.directory / RECORDS_DIR):
             if path.exists() and not path.is_dir():
                 raise ValueError(
                     f"{path} is a file; allowed: a directory for the records (created if missing)"
                 )
+
+    def check(self, option: str = "--out", *, write: bool = True, jobs: Iterable[Job] = ()) -> bool:
+        """Check every path the store writes before any work (:func:`output_directory`): the
+        folder, its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError
+        naming the path and what is allowed, or (without ``write``) False if it cannot be
+        written now."""
+        records = [f"{RECORDS_DIR}/{job.key}.json" for job in jobs]
+        return output_directory(
+            self._given, option, write=write, folders=(RECORDS_DIR,),
+            files=(SUMMARY_NAME, *records),
+        )  # fmt: skip
 
     def path(self, key: str) -> Path:
         """Where the record with configuration hash ``key`` is stored."""
@@ -607,7 +692,11 @@ class RecordStore:
         job's record only after :meth:`load` found none valid under its key.
         """
         path = self.path(record.key)
-        write_json_atomic(path, record.to_dict())
+        data = record.to_dict()
+        try:
+            write_json_atomic(path, data)
+        except OSError as error:
+            raise StoreWriteError(path, error) from None
         return path
 
     def records(self) -> list[Record]:
@@ -616,7 +705,7 @@ class RecordStore:
         found = []
         for path in sorted((self.directory / RECORDS_DIR).glob("*.json")):
             try:
-                found.append(Record.load(path))
+                found.append(_check_name(path, Record.load(path)))
             except (OSError, RecordError) as error:
                 _warn(f"{error}; left out")
         return sorted(found, key=_summary_order)
@@ -636,7 +725,11 @@ class RecordStore:
     def write_summary(self) -> Path:
         """Rewrite ``DIR/summary.csv`` over every record in the store (read once); its path."""
         path = self.directory / SUMMARY_NAME
-        write_summary(path, self.records())
+        records = self.records()
+        try:
+            write_summary(path, records)
+        except OSError as error:
+            raise StoreWriteError(path, error) from None
         return path
 
 
@@ -685,9 +778,9 @@ def load_records(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
             if schema != SCHEMA:
                 continue
             try:
-                records.append(Record.from_dict(data))
-            except RecordChecksumError as error:
-                _warn(f"{path}: {error}; left out")
+                records.append(_check_name(path, Record.from_dict(data)))
+            except (RecordChecksumError, RecordMismatchError) as error:
+                _warn(f"{path}: {str(error).removeprefix(f'{path}: ')}; left out")
                 continue
             except RecordError as error:
                 raise RecordError(f"{path}: malformed record: {error}") from None

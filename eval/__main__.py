@@ -18,6 +18,11 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import ModuleType
 
+try:  # the shared wrapper of the command lines; importing tandem_env checks numba's environment
+    from tandem_env.io.command import command_line
+except ValueError as error:
+    print(f"python -m eval: error: {error}", file=sys.stderr)
+    raise SystemExit(2) from None
 from tandem_env.io.progress_bar import warnings_as_lines
 
 #: Modules providing the subcommands, in the order ``--help`` lists them.
@@ -74,6 +79,7 @@ def build_parser(
     return parser
 
 
+@command_line
 def main(argv: Sequence[str] | None = None) -> int:
     """Parse ``argv`` (default ``sys.argv[1:]``) and run the subcommand; its exit status."""
     parser = build_parser(prog=_prog("python -m eval") if argv is None else "python -m eval")
@@ -86,6 +92,7 @@ def _script(module_name: str) -> Callable[[], int]:
     """The console script of one subcommand: ``tandem-<name> ARGS`` is ``python -m eval <name>
     ARGS``, with its own name in the usage line."""
 
+    @command_line
     def script() -> int:
         module = importlib.import_module(module_name)
         parser = argparse.ArgumentParser(

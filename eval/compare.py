@@ -507,7 +507,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     out = Path(args.out) if args.out is not None else default_out(args.dirs)
     try:
-        output_directory(out)  # before reading any record
+        output_directory(out if args.out is None else args.out)  # before reading any record
         rows = compare(args.dirs, out, args.format)
     except ValueError as error:
         parser.error(str(error))

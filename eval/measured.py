@@ -327,13 +327,15 @@ def _measured_wing(
                 time, *(angles[a] for a in ANGLES), beta, frequency=frequency,
                 degrees=degrees, pitch_stations=stations,
             )  # fmt: skip
-        to_rad = np.deg2rad if degrees else np.asarray
-        return MeasuredWing(
-            *(to_rad(angles[a]) for a in ANGLES),
-            frequency=frequency,
-            stroke_plane_angle=math.radians(beta) if degrees else beta,
-            pitch_stations=stations,
-        )
+        # No time column: the samples are one open cycle, t_i = i/(n f). One constructor for
+        # both, so a table without times gets the same checks and warnings (radians given as
+        # degrees) as one with them.
+        n = len(angles[ANGLES[0]])
+        time = np.arange(n) / (n * frequency) if frequency > 0 else np.arange(n, dtype=float)
+        return MeasuredWing.from_samples(
+            time, *(angles[a] for a in ANGLES), beta, frequency=frequency,
+            degrees=degrees, pitch_stations=stations,
+        )  # fmt: skip
     except SpecError:
         raise
     except ValueError as exc:
@@ -542,7 +544,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     source = Path(args.kinematics)
     out = Path(args.out)
     try:
-        output_directory(out)  # before any work: a file or a read-only folder is refused now
+        output_directory(args.out)  # before any work: a file or a read-only folder is refused now
     except ValueError as exc:
         parser.error(str(exc))
     # The model's warnings (a jump in a series, radians given as degrees, a flipped pitch)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 import textwrap
+import warnings
 from collections.abc import Callable
 from typing import TypeVar
 
@@ -19,8 +20,9 @@ from agents.methods import available_methods
 from agents.optimiser import MAX_BATCH
 from agents.polish import POLISH_DEFAULTS, POLISH_METHODS
 from agents.polish import describe as describe_certificate
-from agents.records import MAX_BUDGET, SUMMARY_NAME, RecordStore
+from agents.records import MAX_BUDGET, SUMMARY_NAME, RecordStore, StoreWriteError
 from agents.tasks import TaskSpec, available_tasks, get_task
+from eval.studies.paper_reading import Reading
 from eval.studies.readings import reading_by_name
 from eval.studies.runner import (
     JobsFailed,
@@ -31,7 +33,6 @@ from eval.studies.runner import (
     run_jobs,
 )
 from tandem_env.envs.config import EXECUTION_KWARGS
-from tandem_env.io.files import output_directory
 from tandem_env.io.keyvalue import parse_pairs
 from tandem_env.physics import BACKENDS
 from tandem_env.physics.backends import check_backend
@@ -118,15 +119,48 @@ INTERRUPTED = "the finished records are stored; the same command resumes from th
 
 def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T | int:
     """``call()``, or the exit status of how it stopped (optimize and study): 1 with the message
-    for an unreachable scheduler or failed jobs, 130 for an interrupt (records are kept)."""
+    for an unreachable scheduler, failed jobs or a file that cannot be written (a full disk, a
+    folder made read-only: the store is as it was), 130 for an interrupt (records are kept)."""
     try:
         return call()
-    except (SchedulerUnreachable, JobsFailed) as error:
+    except (SchedulerUnreachable, JobsFailed, StoreWriteError) as error:
         print(f"{parser.prog}: error: {error}", file=sys.stderr)
+        return 1
+    except OSError as error:  # a table, figure or report the run writes after its records
+        where = f"{error.filename}: " if error.filename else ""
+        print(
+            f"{parser.prog}: error: {where}{error.strerror or error}; {INTERRUPTED} once that "
+            "is fixed",
+            file=sys.stderr,
+        )
         return 1
     except KeyboardInterrupt:
         print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
         return 130
+
+
+def _check_reading_applies(
+    name: str, reading: Reading, task: TaskSpec, objective: str | None
+) -> None:
+    """A reading whose horizontal objective has no horizontal objective to replace here changes
+    nothing of that: refused if it is all the reading changes (the run would be the default's
+    under another name), said with a warning if the reading's model options still apply."""
+    if reading.horizontal_objective == "horizontal":
+        return
+    given = objective if objective is not None else task.default_objective
+    if given == "horizontal":
+        return
+    where = f"--task {task.name}" + (f" --objective {given}" if task.objective_kwarg else "")
+    what = (
+        f"its objective {reading.horizontal_objective} replaces only the horizontal one "
+        f"(--task accelerate --objective horizontal), not {given} ({where})"
+    )
+    if not reading.env_kwargs():
+        raise ValueError(
+            f"--reading {name} changes nothing here: {what}; allowed: a reading that changes "
+            "the model, or --objective horizontal"
+        )
+    warnings.warn(f"--reading {name}: {what}; its model options apply", UserWarning, stacklevel=2)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -218,7 +252,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="run under a reading of the paper's open decisions (eval/studies/readings.py): "
         "paper (the reading that reproduces the most claims, docs/reproduction.md), a single "
         "such as hover-none, or singles joined by '+'; sets its model options as env "
-        "keywords and, for --objective horizontal, its F̄_h objective",
+        "keywords and, for --objective horizontal, its F̄_h objective (a reading that changes only that objective is refused for any other "
+        "objective; one that also changes the model runs with a warning)",
     )
     add_scheduler_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress display")
@@ -276,8 +311,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     try:
         # Checked before any work: a file is refused; a read-only folder only if there is
         # something to compute (a rerun whose records are all stored just reports them).
-        writable = output_directory(args.out, write=False)
         store = RecordStore(args.out)
+        writable = store.check(write=False)
         scheduler = None if args.scheduler is None else parse_scheduler(args.scheduler)
         env_kwargs = parse_pairs(args.env_kwargs, "--env-kwargs")
         given = backend_kwargs(args)
@@ -294,6 +329,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                     "--env-kwargs, not both"
                 )
             env_kwargs.update(reading.env_kwargs())
+            _check_reading_applies(args.reading, reading, task, objective)
             if objective is not None:
                 objective = reading.objective(objective)
         method_config = parse_pairs(args.method_config, "--method-config")
@@ -317,8 +353,9 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             method_config=method_config,
         )
         jobs = [p.job for p in prepared]
+        writable = store.check(write=False, jobs=jobs)  # and each record's path
         if not writable and not have_records(store.directory, jobs):
-            output_directory(args.out)  # raises, naming the folder and why
+            store.check(jobs=jobs)  # raises, naming the folder and why
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     if not args.quiet:
@@ -337,7 +374,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     finally:
         # over what is stored (read once), also after a failure
         if writable and store.directory.exists():
-            store.write_summary()
+            try:
+                store.write_summary()
+            except StoreWriteError as error:
+                print(f"{parser.prog}: error: {error}", file=sys.stderr)
+                summary = 1
         elif not writable:
             print(
                 f"{store.directory} cannot be written: every seed is stored there, "

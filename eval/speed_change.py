@@ -34,6 +34,7 @@ import tandem_env  # noqa: F401  (registers the ids)
 from tandem_env.envs.registration import SPEED_CHANGE_ID
 from tandem_env.envs.speed_change import LEVEL_FLIGHT_ENVELOPE, Flight, SpeedChangeConfig
 from tandem_env.io.files import output_directory, write_csv_atomic
+from tandem_env.physics.checks import shown
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
 __all__ = [
@@ -532,7 +533,7 @@ def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> str:
     method = default_optimiser() if args.optimiser is None else args.optimiser
     if len(set(args.grid)) != len(args.grid):
         raise ValueError(
-            f"--grid {' '.join(f'{v:g}' for v in args.grid)}: allowed: distinct speeds"
+            f"--grid {' '.join(shown(v, *args.grid) for v in args.grid)}: allowed: distinct speeds"
         )
     kwargs = level_kwargs(config)
     for speed in args.grid:
@@ -540,7 +541,7 @@ def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> str:
             prepare(method, "level", speed, args.optima_budget, [0], env_kwargs=kwargs)
         except ValueError as error:
             raise ValueError(
-                f"the level-flight optimum at --grid speed {speed:g} m/s (--optimiser {method}, "
+                f"the level-flight optimum at --grid speed {shown(speed, *args.grid)} m/s (--optimiser {method}, "
                 f"--optima-budget {args.optima_budget}): {error}"
             ) from None
     return method
@@ -556,7 +557,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     if not 0 <= args.figure_episode < args.episodes:
         parser.error(f"--figure-episode {args.figure_episode}; allowed: 0 to {args.episodes - 1}")
     try:
-        output_directory(args.out)
+        output_directory(args.out, folders=("optima", "optima/records"))
         if args.figure is not None:
             figure = Path(args.figure)
             if figure.is_dir():

@@ -9,6 +9,7 @@ import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 
+from agents.harness import prepare_job
 from agents.methods import get_method
 from agents.records import Job, RecordStore
 from eval.figures import FORMATS
@@ -24,7 +25,7 @@ from eval.studies.claims import FLIP_THRESHOLD, VerdictCount
 from eval.studies.presets import PRESETS, get_preset
 from eval.studies.runner import executor_spec, have_records
 from eval.studies.suite import expand, run_studies
-from tandem_env.io.files import output_directory
+from tandem_env.physics import N_PARAMETERS
 
 NAME = "study"
 HELP = "reproduce the paper's figures: speed/power sweeps, kinematics, wing shape, report"
@@ -140,11 +141,41 @@ def _continuation(text: str) -> readings.Continuation | None:
     if text.strip().lower() == "none":
         return None
     try:
-        return readings.Continuation(share=float(text))
+        share = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a number; allowed: a share of the budget in (0, 1], or none to run "
+            "every reading in full"
+        ) from None
+    try:
+        return readings.Continuation(share=share)
     except ValueError as error:
         raise argparse.ArgumentTypeError(
             f"{error} (got {text!r}; or none to run every reading in full)"
         ) from None
+
+
+def _check_continuation(plan: StudyPlan, continuation: readings.Continuation) -> None:
+    """Prepare the continued job of every configuration the default's jobs have (method,
+    budget, settings) as the harness will, before any work: a share whose continued budget no
+    method can run (below one population, or a part without evaluations) is refused now, not
+    by every continued job after the default's phase has run. ValueError naming the share."""
+    jobs = {
+        (j.method, j.budget, j.method_config): j
+        for j in readings.reading_jobs(plan, readings.DEFAULT)
+    }
+    placeholder = [[0.0] * N_PARAMETERS]  # the default's optima are not known yet
+    for job in jobs.values():
+        continued = continuation.job(job, placeholder)
+        try:
+            prepare_job(continued)
+        except ValueError as error:
+            raise ValueError(
+                f"--continuation {continuation.share:g}: a continued {job.method} job "
+                f"({continued.budget} of its {job.budget} evaluations, from the default's "
+                f"optimum) cannot run: {error}; allowed: a share (and method) whose continued "
+                "jobs run, or --continuation none to run every reading in full"
+            ) from None
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
@@ -159,8 +190,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         scheduler = executor_spec(args.scheduler, args.workers)
         # Checked before any work: a file is refused, a read-only folder unless everything
         # is stored already (then the run only reports that).
-        writable = output_directory(args.out, write=False)
-        RecordStore(args.out)
+        store = RecordStore(args.out)
+        writable = store.check(write=False)
         plan = StudyPlan(
             get_preset(args.preset),
             methods,
@@ -173,6 +204,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         for method in plan.methods:  # an unknown method or bad setting, before any job
             get_method(method, dict(plan.method_config(method)))
         chosen = readings.single_readings(args.reading if args.study == readings.NAME else None)
+        if args.study == readings.NAME and args.continuation is not None:
+            _check_continuation(plan, args.continuation)
         if args.study == readings.NAME and args.continuation is not None:
             jobs = readings.reading_jobs(plan, readings.DEFAULT)
             title = (
@@ -191,8 +224,9 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             jobs = [job for name in expand([args.study]) for job in STUDIES[name].jobs(plan)]
             title = f"study {args.study} ({', '.join(expand([args.study]))})"
         unique = list({job.key: job for job in jobs}.values())
+        writable = store.check(write=False, jobs=unique)  # and each record's path
         if not writable and (args.study == readings.NAME or not have_records(args.out, unique)):
-            output_directory(args.out)  # raises, naming the folder and why
+            store.check(jobs=unique)  # raises, naming the folder and why
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     if not writable:

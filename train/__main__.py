@@ -17,6 +17,11 @@ from dataclasses import MISSING, fields
 from pathlib import Path
 from typing import Any
 
+try:  # the shared wrapper of the command lines; importing tandem_env checks numba's environment
+    from tandem_env.io.command import command_line
+except ValueError as error:
+    print(f"python -m train: error: {error}", file=sys.stderr)
+    raise SystemExit(2) from None
 from tandem_env.io.keyvalue import parse_pairs
 from tandem_env.io.progress_bar import warnings_as_lines
 from train.config import ALGOS, DEVICES, TrainConfig
@@ -109,6 +114,7 @@ def config_from_args(args: argparse.Namespace) -> TrainConfig:
     return TrainConfig(**values)
 
 
+@command_line
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)

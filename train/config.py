@@ -22,7 +22,7 @@ from typing import Any, Literal, get_args
 import yaml
 
 from tandem_env.envs.registration import check_env_id
-from tandem_env.io.files import to_jsonable
+from tandem_env.io.files import output_directory, to_jsonable
 from tandem_env.physics.checks import is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
@@ -451,6 +451,8 @@ class TrainConfig:
             if not isinstance(value, Mapping):
                 raise ValueError(f"{name} = {value!r}; allowed: a mapping of keyword -> value")
             object.__setattr__(self, name, MappingProxyType(dict(value)))
+        # a file, a dangling link or an empty name: said here, not as errno text when a run starts
+        output_directory(self.log_folder, "log_folder (-f)", write=False)
         object.__setattr__(self, "log_folder", Path(self.log_folder))
         for name in ("run_dir", "hyperparams_file"):
             value = getattr(self, name)

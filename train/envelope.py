@@ -24,6 +24,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+try:  # the shared wrapper of the command lines; importing tandem_env checks numba's environment
+    from tandem_env.io.command import command_line
+except ValueError as error:
+    print(f"python -m train.envelope: error: {error}", file=sys.stderr)
+    raise SystemExit(2) from None
 from tandem_env.io.files import output_directory, write_csv_atomic
 
 #: Columns of envelope.csv.
@@ -141,6 +146,7 @@ def evaluate_envelope(
     return rows
 
 
+@command_line
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="tandem-envelope"
@@ -160,7 +166,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--model", choices=("best", "final"), default="best")
     args = parser.parse_args(argv)
     try:
-        output_directory(args.out)  # before loading the policy
+        output_directory(args.out, folders=("records",), files=("envelope.csv",))  # before loading
         rows = evaluate_envelope(args.run, args.out, conditions=args.conditions, which=args.model)
     except ValueError as error:
         parser.error(str(error))

@@ -285,21 +285,28 @@ def single_readings(names: Sequence[str] | None = None) -> tuple[Reading, ...]:
 def reading_by_name(name: str) -> Reading:
     """The reading ``name``: a single (:data:`SINGLES`), singles joined by ``+`` (their
     combination, as the study derives them, e.g. ``hover-none+Fh-literal``) or an alias of
-    :data:`ALIASES` (``paper``). Raises ValueError naming what is allowed."""
-    if name in ALIASES:
-        name = ALIASES[name]
+    :data:`ALIASES` (``paper``), an alias also inside a combination (``paper+body``). Raises
+    ValueError naming what is allowed."""
+    given = name
     known = {r.name: r for r in SINGLES}
-    parts = name.split("+")
-    unknown = [part for part in parts if part not in known]
-    if unknown or not name:
+    allowed = f"{', '.join([*ALIASES, *known])}, or these joined by '+'"
+    if not isinstance(name, str) or not name.strip("+ "):
+        raise ValueError(f"reading {given!r}: no name; allowed: {allowed}")
+    # Each part is a single or an alias, which stands for its singles.
+    parts = [single for part in name.split("+") for single in ALIASES.get(part, part).split("+")]
+    unknown = [part for part in name.split("+") if part not in known and part not in ALIASES]
+    if unknown:
         raise ValueError(
-            f"reading {name!r}: unknown {', '.join(map(repr, unknown)) or 'name'}; allowed: "
-            f"{', '.join([*ALIASES, *known])}, or singles joined by '+'"
+            f"reading {given!r}: unknown {', '.join(map(repr, unknown))}; allowed: {allowed}"
         )
+    name = "+".join(parts)
     if len(parts) == 1:
         return known[name]
     if len(set(parts)) != len(parts) or DEFAULT.name in parts:
-        raise ValueError(f"reading {name!r}: allowed: distinct singles other than the default")
+        raise ValueError(
+            f"reading {given!r} is {name!r}; allowed: distinct singles other than the default "
+            f"({allowed})"
+        )
     return combine([known[part] for part in parts], name)
 
 

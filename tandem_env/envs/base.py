@@ -38,6 +38,8 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from ..physics import N_PARAMETERS, PARAMETER_NAMES, Result, evaluate, normalised_to_physical
+from ..physics.checks import count
+from ..physics.model import MAX_BATCH_STROKES
 from .config import FlightConfig, PenaltyConfig
 from .declaration import Scores, TaskDeclaration
 from .validate import (
@@ -385,7 +387,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
     """n sub-envs of a task in ONE batched model call per step (see the module docstring).
 
     Args:
-        num_envs: Number of sub-envs n (>= 1).
+        num_envs: Number of sub-envs n (1 to ``MAX_BATCH_STROKES``, the model's largest batch).
         render_mode: None, "rgb_array" (``render()`` returns one frame per sub-env) or "human"
             (a window showing sub-env 0, redrawn at each step).
         autoreset_mode: ``AutoresetMode`` or its value ("NextStep", "SameStep", "Disabled").
@@ -409,8 +411,9 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         config: FlightConfig | None = None,
         **kwargs: Any,
     ) -> None:
-        if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
-            raise ValueError(f"num_envs = {num_envs!r}; allowed: an integer >= 1")
+        # Every vector env's n enters here (gym.make_vec, training, the speed-change episodes):
+        # one batch of strokes per step, so the model's batch limit is its limit.
+        count(num_envs, "num_envs", 1, MAX_BATCH_STROKES, "sub-envs: one model batch per step")
         try:
             mode = AutoresetMode(autoreset_mode)
         except ValueError as error:

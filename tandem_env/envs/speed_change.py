@@ -18,6 +18,7 @@ import numpy as np
 from gymnasium import spaces
 
 from ..physics import SPEED_LIMITS, ModelOptions, stroke_history
+from ..physics.checks import shown
 from .base import (
     Columns,
     EnvGenerators,
@@ -135,7 +136,8 @@ def _inside(
 ) -> None:
     if not envelope[0] <= value <= envelope[1]:
         raise ValueError(
-            f"{owner}.{name} = {value:g} m/s; allowed: a speed inside {owner}.{envelope_name} = "
+            f"{owner}.{name} = {shown(value, *envelope)} m/s; allowed: a speed inside "
+            f"{owner}.{envelope_name} = "
             f"({envelope[0]:g}, {envelope[1]:g}) m/s (for other speeds widen {envelope_name})"
         )
 

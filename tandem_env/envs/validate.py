@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..physics import N_PARAMETERS, PARAMETER_NAMES
-from ..physics.checks import is_integer, is_real, real_array
+from ..physics.checks import is_integer, is_real, real_array, shown
 
 __all__ = [
     "RENDER_MODES",
@@ -119,7 +119,8 @@ def action_values(arr: np.ndarray, clip: bool) -> np.ndarray:
     if outside.any():
         row, col = np.argwhere(outside)[0]
         raise ValueError(
-            f"action {row}: {PARAMETER_NAMES[col]} = {flat[row, col]:g} is outside the action "
+            f"action {row}: {PARAMETER_NAMES[col]} = {shown(flat[row, col], -1, 1)} is outside "
+            "the action "
             "space; allowed: [-1, 1] (make the env with clip_actions=True to clip instead)"
         )
     return arr

@@ -19,10 +19,13 @@ from __future__ import annotations
 import contextlib
 import csv
 import dataclasses
+import errno
 import io
 import json
 import os
+import stat
 import tempfile
+import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -31,6 +34,7 @@ import numpy as np
 
 __all__ = [
     "atomic_path",
+    "new_file_mode",
     "output_directory",
     "read_json",
     "to_jsonable",
@@ -87,21 +91,69 @@ def _json_key(key: Any) -> str:
 
 
 def output_directory(
-    path: str | os.PathLike[str], option: str = "--out", *, write: bool = True
+    path: str | os.PathLike[str],
+    option: str = "--out",
+    *,
+    write: bool = True,
+    folders: Sequence[str] = (),
+    files: Sequence[str] = (),
 ) -> bool:
     """Check ``path`` as an output folder before any work; whether it can be written now.
 
-    The folder need not exist (it is created by the first write). Raises ValueError naming
-    ``option`` and the path if ``path`` or one of its parents is a file, and, with ``write``,
-    if the folder (or, for a new one, its nearest existing parent) cannot be written; without
-    ``write`` (a rerun that may have nothing to write) returns False instead. Writability is
-    tried with a temporary file, so permissions, ACLs and read-only mounts all count.
+    The folder need not exist (it is created by the first write). ``folders`` and ``files``
+    name what the command writes inside it (a store's ``records``, its ``summary.csv``): each
+    is checked too, not only the top folder. Raises ValueError naming ``option``, the path and
+    what is allowed for an empty path, a path (or a parent) that is a file, a symlink that
+    points nowhere or into a loop, a file to be written that is a directory, and, with
+    ``write``, a folder (or, for a new one, its nearest existing parent) that cannot be
+    written; without ``write`` (a rerun that may have nothing to write) returns False instead.
+    Writability is tried with a temporary file, so permissions, ACLs, read-only mounts and a
+    full disk all count.
     """
-    path = Path(path)
-    existing = path
+    text = os.fspath(path)
+    if not text:
+        raise ValueError(
+            f"{option} '': an empty path; allowed: a directory path (. for the current folder)"
+        )
+    path = Path(text)
+    writable = True
+    for folder in (path, *(path / name for name in folders)):
+        writable = _check_folder(folder, option, path, write) and writable
+    for name in files:
+        target = path / name
+        _check_link(target, option, path)
+        if target.is_dir():
+            raise ValueError(
+                f"{option} {str(path)!r}: {target} is a directory; allowed: a file the command "
+                "writes (remove or rename the directory)"
+            )
+    return writable
+
+
+def _check_link(target: Path, option: str, path: Path) -> None:
+    """ValueError for a symlink that resolves to nothing (dangling) or into a loop."""
+    if not target.is_symlink():
+        return
     try:
-        while not existing.exists() and existing.parent != existing:
+        target.stat()
+    except OSError as error:
+        what = (
+            "a symlink loop"
+            if error.errno == errno.ELOOP
+            else (f"a dangling symlink (to {os.readlink(target)!r})")
+        )
+        raise ValueError(
+            f"{option} {str(path)!r}: {target} is {what}; allowed: a directory this user can "
+            "write, or a symlink to one"
+        ) from None
+
+
+def _check_folder(folder: Path, option: str, path: Path, write: bool) -> bool:
+    existing = folder
+    try:
+        while not os.path.lexists(existing) and existing.parent != existing:
             existing = existing.parent
+        _check_link(existing, option, path)
         is_dir = existing.is_dir()
     except OSError as error:
         raise ValueError(
@@ -110,7 +162,8 @@ def output_directory(
         ) from None
     if not is_dir:
         raise ValueError(
-            f"{option} {str(path)!r}: {existing} is a file; allowed: a directory (created if missing)"
+            f"{option} {str(path)!r}: {existing} is a file; allowed: a directory (created if "
+            "missing)"
         )
     try:
         fd, name = tempfile.mkstemp(prefix=".write-check.", dir=existing)
@@ -127,6 +180,30 @@ def output_directory(
     return True
 
 
+def new_file_mode() -> int:
+    """The mode a newly created file gets under the process's umask (``0o666 & ~umask``)."""
+    return 0o666 & ~_umask()
+
+
+def _umask() -> int:
+    # Read without changing it where the platform says it (Linux >= 4.7); otherwise set and
+    # restore it under a lock, the one way the os module offers.
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    with _UMASK_LOCK:
+        mask = os.umask(0o022)
+        os.umask(mask)
+    return mask
+
+
+_UMASK_LOCK = threading.Lock()
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success it replaces ``path`` atomically.
@@ -134,7 +211,9 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     The temporary name keeps ``path``'s suffix (so ``savefig`` infers the format), the parent
     directories are created, the file is fsynced before the rename and the directory after it.
     If the block raises, the temporary file is removed and ``path`` is untouched. The new file
-    keeps an existing file's mode, else gets an ordinary 0644 (not mkstemp's private 0600).
+    keeps an existing file's mode where that lets its owner read and write it, else gets a new
+    file's mode under the umask (:func:`new_file_mode`; not mkstemp's private 0600), so a file
+    made unreadable (mode 000) is replaced by a readable one.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -145,7 +224,7 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     tmp = Path(tmp_name)
     try:
         yield tmp
-        os.chmod(tmp, path.stat().st_mode & 0o7777 if path.exists() else 0o644)
+        os.chmod(tmp, _replacement_mode(path))
         with open(tmp, "ab") as handle:
             os.fsync(handle.fileno())
         os.replace(tmp, path)
@@ -153,6 +232,15 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         tmp.unlink(missing_ok=True)
         raise
     _fsync_directory(path.parent)
+
+
+def _replacement_mode(path: Path) -> int:
+    try:
+        mode = stat.S_IMODE(path.stat().st_mode)
+    except OSError:  # no file yet (or none that can be looked at)
+        return new_file_mode()
+    owner = stat.S_IRUSR | stat.S_IWUSR
+    return mode if mode & owner == owner else new_file_mode()
 
 
 def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:

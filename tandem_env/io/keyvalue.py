@@ -43,5 +43,11 @@ def parse_pairs(items: Iterable[str] | None, option: str) -> dict[str, Any]:
             raise ValueError(f"{option} {item!r}: {key!r} is not a valid keyword name")
         if key in out:
             raise ValueError(f"{option}: {key!r} is given twice")
+        if not text.strip():
+            # an empty value would be None, i.e. "the default", said by leaving nothing out
+            raise ValueError(
+                f"{option} {item!r}: no value after {item[cut]!r}; allowed: {key}{item[cut]}VALUE "
+                f"({key}=None for none, or leave {key} out for its default)"
+            )
         out[key] = parse_value(text)
     return out

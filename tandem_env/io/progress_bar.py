@@ -17,10 +17,11 @@ import contextlib
 import sys
 import warnings
 from collections.abc import Callable, Iterator
+from typing import Any, TextIO
 
 from tqdm.auto import tqdm
 
-__all__ = ["ProgressBar", "Reporter", "warnings_as_lines"]
+__all__ = ["ProgressBar", "QuietStream", "Reporter", "warnings_as_lines"]
 
 #: A search's progress callback: (iteration, evaluations so far, best reward so far).
 Reporter = Callable[[int, int, float], None]
@@ -32,6 +33,47 @@ STARTING = "first iteration…"
 # No rate or time left until the first report (tqdm's default format less those two).
 _WAITING_FORMAT = "{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]"
 _reported = False  # whether any bar of this process has had a report (the model is compiled)
+
+
+class QuietStream:
+    """A text stream for diagnostics (progress, warnings, notes) whose failure never stops the
+    work: a write that fails (its reader went away, a full disk behind a redirection, a closed
+    file) silences it for good instead of raising into the computation, so a job is never
+    lost to its display. ``stream`` None means standard error as it is at each write."""
+
+    def __init__(self, stream: TextIO | None = None) -> None:
+        self._stream = stream
+        self._failed = False
+
+    def _target(self) -> TextIO | None:
+        return None if self._failed else (self._stream or sys.stderr)
+
+    def write(self, text: str) -> int:
+        stream = self._target()
+        if stream is not None:
+            try:
+                return stream.write(text)
+            except (OSError, ValueError):  # EPIPE, EBADF, ENOSPC; ValueError: closed file
+                self._failed = True
+        return len(text)
+
+    def flush(self) -> None:
+        stream = self._target()
+        if stream is not None:
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                self._failed = True
+
+    def isatty(self) -> bool:
+        stream = self._target()
+        try:
+            return bool(stream is not None and stream.isatty())
+        except (OSError, ValueError):
+            return False
+
+    def __getattr__(self, name: str) -> Any:  # encoding, errors, fileno, ... of the stream
+        return getattr(self._stream or sys.stderr, name)
 
 
 class ProgressBar:
@@ -60,7 +102,7 @@ class ProgressBar:
                 desc=description,
                 unit="eval",
                 unit_scale=True,
-                file=sys.stderr,
+                file=QuietStream(),
                 dynamic_ncols=True,
                 mininterval=0.5,
                 leave=True,
@@ -116,7 +158,7 @@ def warnings_as_lines() -> Iterator[None]:
 
     def show(message, category, filename, lineno, file=None, line=None) -> None:
         text = " ".join(str(message).split())
-        tqdm.write(f"{category.__name__}: {text}", file=sys.stderr)
+        tqdm.write(f"{category.__name__}: {text}", file=QuietStream())
 
     warnings.showwarning = show
     try:

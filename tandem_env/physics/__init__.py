@@ -2,6 +2,12 @@
 
 import os as _os
 
+from ..io.command import check_numba_environment as _check_numba_environment
+
+# numba reads its environment as it is imported and fails deep inside for a bad value: say
+# which variable and what is allowed instead (EnvironmentSettingError, a ValueError).
+_check_numba_environment()
+
 import numba as _numba
 
 # numba's default OpenMP layer spins its threads: on a shared or oversubscribed CPU (CI, several

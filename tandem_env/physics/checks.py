@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["finite_real", "is_integer", "is_real", "real_array"]
+__all__ = ["count", "finite_real", "flag", "is_integer", "is_real", "real_array", "shown"]
 
 
 def is_real(value: Any) -> bool:
@@ -26,6 +26,47 @@ def is_real(value: Any) -> bool:
 def is_integer(value: Any) -> bool:
     """An integer (Python or NumPy); not a bool."""
     return isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_)
+
+
+def flag(value: Any, name: str) -> bool:
+    """``value`` as a bool if it is True or False (Python or NumPy), else a ``ValueError``.
+
+    Truthiness would take ``"no"`` or ``"false"`` (non-empty strings) for True, and 0 or 1 for
+    a choice the caller may have meant otherwise: a switch is given as a boolean.
+    """
+    if isinstance(value, bool | np.bool_):
+        return bool(value)
+    what = "a string" if isinstance(value, str | bytes) else f"a {type(value).__name__}"
+    raise ValueError(f"{name} = {_short(value)} is {what}; allowed: True or False")
+
+
+def count(value: Any, name: str, low: int = 1, high: int | None = None, what: str = "") -> int:
+    """``value`` as an int if it is an integer (Python or NumPy, not a bool) in [low, high],
+    else a ``ValueError`` naming ``name``, the value and the range (``what``: its meaning)."""
+    if not is_integer(value) or value < low or (high is not None and value > high):
+        upper = f" and <= {high}" if high is not None else ""
+        meaning = f" ({what})" if what else ""
+        raise ValueError(f"{name} = {_short(value)}; allowed: an integer >= {low}{upper}{meaning}")
+    return int(value)
+
+
+def shown(value: Any, *bounds: float) -> str:
+    """``value`` as a message shows it next to the ``bounds`` it is compared with.
+
+    Six significant digits (``%g``), or as many more as it takes to tell it from each bound it
+    differs from: 45.00001 next to a limit of 45 reads ``45.00001``, not ``45``, so a message
+    never shows a refused value equal to its limit. Up to the shortest form that round-trips
+    (``repr``), which tells any two different floats apart.
+    """
+    if not is_real(value):
+        return _short(value)
+    number = float(value)
+    others = [float(b) for b in bounds if float(b) != number]
+    for digits in range(6, 17):
+        text = f"{number:.{digits}g}"
+        if all(text != f"{b:.{digits}g}" for b in others):
+            return text
+    return repr(number)
 
 
 def _describe(value: Any) -> str:
@@ -105,7 +146,7 @@ def finite_real(value: Any, name: str, low: float, high: float, unit: str = "") 
     unit = f" {unit}" if unit else ""
     if not is_real(value) or not math.isfinite(value) or not low <= value <= high:
         raise ValueError(
-            f"{name} = {_short(value)}{unit}; allowed: a finite number from {low:g} to "
-            f"{high:g}{unit}"
+            f"{name} = {shown(value, low, high)}{unit}; allowed: a finite number from {low:g} "
+            f"to {high:g}{unit}"
         )
     return float(value)

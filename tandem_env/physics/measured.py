@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from . import cycle
-from .checks import is_real, real_array
+from .checks import count, flag, is_real, real_array, shown
 from .insect import DRAGONFLY, Dragonfly, Wing
 from .kinematics import spectral_derivatives
 from .model import (
@@ -63,6 +63,11 @@ TIME_TOLERANCE = 1e-3
 #: variation over the cycle (the cycle closed) has a jump; :class:`MeasuredWing` warns [-].
 #: A sampled sinusoid's largest step is at most 0.19 of it (8 samples; less with more).
 JUMP_FRACTION = 0.25
+#: A series with more than this share of its mean-square rate in the upper half of the
+#: harmonics its samples resolve (:func:`unresolved_share`) is not resolved by them;
+#: :class:`MeasuredWing` warns [-]. A triangle-wave sweep has 0.03, a step smoothed over 3
+#: samples 0.12, 0.5° of noise on a 30° sweep in 64 samples 0.14.
+UNRESOLVED_SHARE = 0.1
 #: With ``degrees=True``, a sweep and pitch that never leave ±this [deg] look like radians
 #: given as degrees (a stroke of a few degrees); the constructors warn.
 RADIANS_AS_DEGREES = 2.0 * math.pi
@@ -88,6 +93,10 @@ def _series(name: str, value: Any, ndim: tuple[int, ...] = (1,)) -> np.ndarray:
     )
     if arr.ndim not in ndim:
         raise ValueError(f"MeasuredWing.{name} has shape {arr.shape}; allowed: {shapes}")
+    if arr.ndim == 2 and arr.shape[1] == 0:
+        raise ValueError(
+            f"MeasuredWing.{name} has shape {arr.shape}, no columns; allowed: {shapes} with k >= 1"
+        )
     bad = ~np.isfinite(arr)
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0])
@@ -161,7 +170,8 @@ class MeasuredWing:
             )
         self._check_radians(sweep, elevation, pitch)
         for name, arr in (("sweep", sweep), ("elevation", elevation), ("pitch", pitch)):
-            _warn_jumps(name, arr)
+            if not _warn_jumps(name, arr):
+                _warn_unresolved(name, arr)
         for name, value in (
             ("sweep", sweep),
             ("elevation", elevation),
@@ -242,15 +252,8 @@ class MeasuredWing:
         ``stroke_plane_angle`` in degrees (else radians). Sampled at ``n_samples`` points
         t = i/(n·f); the series must have fewer than n/2 harmonics (Nyquist).
         """
-        if (
-            isinstance(n_samples, bool)
-            or not isinstance(n_samples, (int, np.integer))
-            or not MIN_SAMPLES <= n_samples <= MAX_SAMPLES
-        ):
-            raise ValueError(
-                f"from_fourier: n_samples = {n_samples!r}; allowed: an integer >= {MIN_SAMPLES} "
-                f"and <= {MAX_SAMPLES}"
-            )
+        n_samples = count(n_samples, "from_fourier: n_samples", MIN_SAMPLES, MAX_SAMPLES)
+        degrees = flag(degrees, "from_fourier: degrees")
         unit = "deg" if degrees else "rad"
         if pitch_stations is None:
             pitch_series = [_fourier_series("pitch", pitch, unit)]
@@ -284,7 +287,8 @@ class MeasuredWing:
                 size = max([abs(mean), *(abs(a) for a, _ in harmonics)])
                 if size > 2.0 * math.pi:
                     raise ValueError(
-                        f"from_fourier: {name} has a mean or amplitude of {size:g} rad; allowed: "
+                        f"from_fourier: {name} has a mean or amplitude of {shown(size, 2 * math.pi)} "
+                        "rad; allowed: "
                         "at most 2π rad; these look like degrees: pass degrees=True"
                     )
         to_rad = np.deg2rad if degrees else np.asarray
@@ -328,6 +332,7 @@ class MeasuredWing:
         ``stroke_plane_angle`` in degrees (else radians). ``pitch``: (n,) or (n, k) with
         ``pitch_stations``.
         """
+        degrees = flag(degrees, "from_samples: degrees")
         t = _series("time", time)
         freq = _real("frequency", frequency)
         if not (math.isfinite(freq) and freq > 0.0):
@@ -456,8 +461,8 @@ class MeasuredWing:
         return float(np.sum(dphi * s) / norm) if norm > 0.0 else 0.0
 
 
-def _warn_jumps(name: str, series: np.ndarray) -> None:
-    """Warn if a periodic series (n,) or (n, k) [rad] jumps between two samples.
+def _warn_jumps(name: str, series: np.ndarray) -> bool:
+    """Warn if a periodic series (n,) or (n, k) [rad] jumps between two samples; whether it did.
 
     A jump (an angle wrapped by 360°, a sign flip, a gap, the cycle not closing) has no
     derivative: spectral differentiation turns it into huge rates, so the power (∝ rate³) and
@@ -477,6 +482,47 @@ def _warn_jumps(name: str, series: np.ndarray) -> None:
             f"{(i + 1) % series.shape[0]} ({largest[j] / variation[j]:.0%} of its whole variation "
             "over the cycle): the derivatives, forces and power of a discontinuous series are "
             "meaningless; unwrap angles (np.unwrap), fill gaps and give exactly one cycle",
+            UserWarning,
+            stacklevel=4,
+        )
+    return bool(bad.size)
+
+
+def unresolved_share(series: np.ndarray) -> np.ndarray:
+    """The share of a periodic series' mean-square rate in harmonics above n/4 [-], per column.
+
+    n samples resolve harmonics up to n/2; by Parseval the mean square of the rate dX/dt is
+    the sum over harmonics k of k²·|c_k|² (times (2πf)²). A motion its samples resolve has its
+    rate in the lower harmonics and almost none in the upper half of the band (a sinusoid 0, a
+    triangle-wave sweep 0.03); a step, a feature a few samples wide or sample-to-sample noise
+    puts a large share there, and then the rate, the forces and the power (∝ rate³) follow the
+    sampling, not the motion. (n, k) -> (k,); (n,) -> (1,).
+    """
+    columns = series.reshape(series.shape[0], -1)
+    n = columns.shape[0]
+    coefficients = np.fft.rfft(columns, axis=0)[1:]
+    k = np.arange(1, coefficients.shape[0] + 1)[:, None]
+    if n % 2 == 0:  # the Nyquist harmonic is counted once, not twice
+        coefficients[-1] *= 0.5
+    energy = k**2 * np.abs(coefficients) ** 2
+    total = energy.sum(axis=0)
+    upper = energy[k[:, 0] > n / 4].sum(axis=0)
+    return np.divide(upper, total, out=np.zeros_like(total), where=total > 0)
+
+
+def _warn_unresolved(name: str, series: np.ndarray) -> None:
+    """Warn if the samples do not resolve a series' rate (:func:`unresolved_share`)."""
+    share = unresolved_share(series)
+    bad = np.flatnonzero(share > UNRESOLVED_SHARE)
+    if bad.size:
+        j = int(bad[0])
+        where = f"{name}[:, {j}]" if series.ndim == 2 else name
+        warnings.warn(
+            f"MeasuredWing.{where}: {share[j]:.0%} of its mean-square rate lies in harmonics "
+            f"above n/4 = {series.shape[0] / 4:g} (allowed: at most {UNRESOLVED_SHARE:.0%}): its "
+            "samples do not resolve it (a step, a feature a few samples wide, or noise), so its "
+            "rates, forces and power follow the sampling, not the motion; smooth it or give it "
+            "with more samples (or as a Fourier series)",
             UserWarning,
             stacklevel=4,
         )

@@ -14,7 +14,7 @@ from functools import lru_cache
 import numpy as np
 
 from . import cycle
-from .checks import real_array
+from .checks import real_array, shown
 from .coefficients import PaperCoefficients
 from .insect import DRAGONFLY, Dragonfly, Wing
 from .kinematics import MAX_SWEEP_SHAPE, fill_angle_history, phase_grid, wing_params_radians
@@ -270,7 +270,7 @@ def _broadcast_condition(
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         where = name if np.ndim(value) == 0 else f"{name}[{i}]"
-        raise ValueError(f"{where} = {float(arr[i]):g} {unit}; allowed: {allowed}")
+        raise ValueError(f"{where} = {shown(arr[i], low, high)} {unit}; allowed: {allowed}")
     return arr
 
 

@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .checks import is_real, real_array
+from .checks import is_real, real_array, shown
 
 
 class Parameter(NamedTuple):
@@ -200,7 +200,8 @@ def validate_physical(strokes: np.ndarray | list | tuple, atol: float = 1e-9) ->
     if outside.any():
         row, col = _first_bad(outside)
         raise ValueError(
-            f"stroke {row}: {PARAMETER_NAMES[col]} = {arr[row, col]:g} {PARAMETER_UNITS[col]} is "
+            f"stroke {row}: {PARAMETER_NAMES[col]} = "
+            f"{shown(arr[row, col], LOWER[col], UPPER[col])} {PARAMETER_UNITS[col]} is "
             f"outside Table 4: allowed {LOWER[col]:g} to {UPPER[col]:g} {PARAMETER_UNITS[col]}"
         )
     harmonic = arr[:, DISCRETE]
@@ -232,7 +233,8 @@ def normalised_to_physical(action: np.ndarray | list | tuple) -> np.ndarray:
     if outside.any():
         row, col = _first_bad(outside)
         raise ValueError(
-            f"action {row}: {PARAMETER_NAMES[col]} = {arr[row, col]:g} is outside [-1, 1]; "
+            f"action {row}: {PARAMETER_NAMES[col]} = {shown(arr[row, col], -1, 1)} is outside "
+            "[-1, 1]; "
             "allowed: numbers in [-1, 1] (clip first if that is what you want)"
         )
     arr = np.clip(arr, -1.0, 1.0)

@@ -37,6 +37,7 @@ import numpy as np
 import torch
 
 from . import cycle
+from .checks import count, flag
 from .coefficients import PaperCoefficients
 from .insect import DRAGONFLY, Dragonfly
 from .kinematics import MAX_SWEEP_SHAPE
@@ -97,6 +98,9 @@ def resolve_device(device: Any) -> torch.device:
         raise ValueError(f"device = {device!r} is not a torch device; allowed: {allowed}") from None
     if dev.type not in DEVICE_TYPES:
         raise ValueError(f"device = {device!r}; allowed: {allowed}")
+    if dev.type == "cpu" and dev.index not in (None, 0):
+        # torch takes any index for the CPU and runs on the one CPU device: cpu:1 is no device
+        raise ValueError(f"device = {device!r}: there is one CPU device; allowed: {allowed}")
     if dev.type == "cuda":
         if not torch.cuda.is_available():
             raise ValueError(
@@ -998,16 +1002,16 @@ def evaluate_torch(
     v, p_avail, gamma = (
         _condition(value, arr, strokes) for value, arr in zip(given, checked, strict=True)
     )
+    compiled = flag(compiled, "compiled")
     if chunk_size is None:
         chunk_size = CHUNK_SIZE[strokes.device.type]
-    if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
-        raise ValueError(f"chunk_size = {chunk_size!r}; allowed: a positive integer")
+    chunk_size = count(chunk_size, "chunk_size", what="strokes evaluated at once")
     parts = []
     for i in range(0, batch, chunk_size):
         part = slice(i, i + chunk_size)
         parts.append(
             _evaluate_chunk(
-                strokes[part], v[part], gamma[part], p_avail[part], insect, options, bool(compiled)
+                strokes[part], v[part], gamma[part], p_avail[part], insect, options, compiled
             )
         )
     values = {key: torch.cat([part[key] for part in parts]) for key in parts[0]}
@@ -1067,12 +1071,38 @@ def value_and_grad(
     The column of the discrete N (``elevation_harmonic``) is not a derivative (N ∈ {1, 2}).
     ``kwargs`` go to :func:`evaluate_torch`.
     """
-    x = strokes.detach().clone().requires_grad_(True)
+    if isinstance(metric, str):
+        if metric not in RESULT_FIELDS:
+            raise ValueError(
+                f"metric = {metric!r} is not a Result field; allowed: one of "
+                f"{', '.join(RESULT_FIELDS)}, or a function of the TorchResult"
+            )
+    elif not callable(metric):
+        raise ValueError(
+            f"metric = {metric!r}; allowed: a Result field name or a function of the TorchResult"
+        )
+    x = _check_strokes(strokes).detach().clone().reshape(strokes.shape).requires_grad_(True)
     with torch.enable_grad():
         result = evaluate_torch(x, speed, available_power, **kwargs)
         values = getattr(result, metric) if isinstance(metric, str) else metric(result)
+        _check_metric_values(values, f"metric {metric!r}", result.efficiency.shape[0])
         (gradient,) = torch.autograd.grad(values.sum(), x)
     return values.detach(), gradient
+
+
+def _check_metric_values(values: Any, name: str, batch: int) -> None:
+    """ValueError unless ``values`` is a (batch,) floating tensor that depends on the strokes
+    (a bool or integer field such as ``induction_converged`` has no derivative)."""
+    if not isinstance(values, torch.Tensor) or values.shape != (batch,):
+        shape = tuple(values.shape) if isinstance(values, torch.Tensor) else type(values).__name__
+        raise ValueError(
+            f"{name} gives {shape}; allowed: a ({batch},) tensor, one value per stroke"
+        )
+    if not values.is_floating_point() or not values.requires_grad:
+        raise ValueError(
+            f"{name} gives {values.dtype} values that do not depend on the strokes; allowed: a "
+            "floating-point metric computed from the result (not a flag or a count)"
+        )
 
 
 def normalised_jacobian(
@@ -1096,6 +1126,16 @@ def normalised_jacobian(
     its own stroke only, so the gradient of a batch sum is every stroke's gradient).
     ``kwargs`` go to :func:`evaluate_torch`.
     """
+    if (
+        isinstance(metrics, str)
+        or not isinstance(metrics, Sequence)
+        or not metrics
+        or not all(callable(metric) for metric in metrics)
+    ):
+        raise ValueError(
+            f"metrics = {metrics!r}; allowed: a non-empty sequence of functions of the "
+            "TorchResult, each returning (B,) values"
+        )
     normalised_to_physical(actions)  # the numpy checks (shape, finite, inside [-1, 1])
     dev = resolve_device(device)
     a = torch.as_tensor(np.atleast_2d(np.asarray(actions, dtype=np.float64)), device=dev)
@@ -1109,6 +1149,8 @@ def normalised_jacobian(
             torch.where(discrete, harmonic, continuous), speed, available_power, **kwargs
         )
         values = [metric(result) for metric in metrics]
+        for k, value in enumerate(values):
+            _check_metric_values(value, f"metrics[{k}]", a.shape[0])
         rows = [
             torch.autograd.grad(value.sum(), a, retain_graph=i + 1 < len(values))[0]
             for i, value in enumerate(values)

@@ -268,6 +268,22 @@ def test_a_read_only_out_is_refused_before_any_work(
 
 
 @needs_permissions
+def test_a_read_only_records_folder_in_a_writable_out_is_refused_before_any_work(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    records = tmp_path / "records"
+    records.mkdir()
+    records.chmod(0o555)
+    try:
+        argv = [*OPTIMIZE, "--seeds", "0", "--out", str(tmp_path), "--quiet"]
+        status, err = _exit_status(argv, capsys)
+        assert status == 2 and f"cannot write into {records}" in err
+    finally:
+        records.chmod(0o755)
+    assert not any(records.iterdir())
+
+
+@needs_permissions
 def test_a_rerun_with_nothing_to_compute_works_in_a_read_only_folder(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -642,3 +658,130 @@ def test_ctrl_c_on_a_local_dask_run_prints_one_line(tmp_path: Path) -> None:
     assert run.returncode == 130
     assert "Traceback" not in err and "ERROR" not in err, err
     assert err.count("interrupted; the finished records are stored") == 1
+
+
+# --- readings and method flags -----------------------------------------------------------------
+def test_aliases_combine_like_singles() -> None:
+    from eval.studies.readings import reading_by_name
+
+    assert reading_by_name("paper+body").name == "hover-none+Fh-literal+body"
+    assert reading_by_name("paper").changes() == reading_by_name("hover-none+Fh-literal").changes()
+    with pytest.raises(ValueError, match=r"unknown 'nosuch'; allowed: paper, default, body"):
+        reading_by_name("paper+nosuch")
+    with pytest.raises(ValueError, match=r"'paper\+Fh-literal' is 'hover-none\+Fh-literal\+Fh-lit"):
+        reading_by_name("paper+Fh-literal")  # a single twice, said as what it stands for
+    with pytest.raises(ValueError, match=r"reading '\+': no name"):
+        reading_by_name("+")
+
+
+def test_a_reading_that_changes_nothing_for_the_task_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "r"
+    status, err = _exit_status(
+        [*OPTIMIZE, "--seeds", "0", "--reading", "Fh-literal", "--out", str(out)], capsys
+    )
+    assert status == 2 and "--reading Fh-literal changes nothing here" in err
+    accelerate = ["optimize", "--task", "accelerate", "--power", "60", "--method", "pso",
+                  "--budget", "8", "--seeds", "0", "--objective", "vertical", "--reading", "Fh-literal",
+                  "--out", str(out)]  # fmt: skip
+    status, err = _exit_status(accelerate, capsys)
+    assert status == 2 and "not vertical (--task accelerate --objective vertical)" in err
+    assert not out.exists()
+
+
+def test_a_reading_that_changes_part_of_what_it_says_warns(
+    tmp_path: Path, monkeypatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from eval import optimize
+
+    def stop(*args, **kwargs):  # everything was checked: stop before the run
+        raise SystemExit(0)
+
+    monkeypatch.setattr(optimize, "run_reporting", stop)
+    with pytest.raises(SystemExit):
+        main([*OPTIMIZE, "--seeds", "0", "--reading", "paper", "--out", str(tmp_path), "--quiet"])
+    err = capsys.readouterr().err
+    assert "UserWarning: --reading paper: its objective horizontal_literal" in err
+
+
+@pytest.mark.parametrize(
+    ("value", "match"),
+    [
+        ("abc", r"argument --continuation: 'abc' is not a number; allowed: a share"),
+        ("1e-9", r"--continuation 1e-09: a continued cmaes job \(1 of its 8000 evaluations"),
+        ("0.01", r"--continuation 0.01: .*smaller than one CMA-ES population"),
+        ("2", r"continuation share = 2.0; allowed: a number in \(0, 1\]"),
+    ],
+)
+def test_a_continuation_share_no_job_can_run_is_refused_up_front(
+    value: str, match: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["study", "readings", "--preset", "quick", "--continuation", value,
+            "--out", str(tmp_path / "r")]  # fmt: skip
+    status, err = _exit_status(argv, capsys)
+    assert status == 2 and re.search(match, err), err
+    assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("option", ["--method-config", "--env-kwargs"])
+def test_an_option_without_a_value_is_refused(
+    option: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    status, err = _exit_status(
+        [*OPTIMIZE, "--seeds", "0", option, "popsize=", "--out", str(tmp_path)], capsys
+    )
+    assert status == 2 and f"{option} 'popsize=': no value after '='" in err
+
+
+# --- measured kinematics ------------------------------------------------------------------------
+def test_pitch_without_stations_or_columns_is_named() -> None:
+    n = 16
+    sweep = 0.5 * np.cos(2 * np.pi * np.arange(n) / n)
+    with pytest.raises(ValueError, match=r"MeasuredWing.pitch has shape \(16, 0\), no columns"):
+        MeasuredWing(sweep, 0 * sweep, np.zeros((n, 0)), 40.0, 0.5, pitch_stations=[])
+    with pytest.raises(ValueError, match=r"no columns"):
+        MeasuredWing.from_samples(np.arange(n) / (n * 40.0), sweep, 0 * sweep, np.zeros((n, 0)),
+                                  30.0, frequency=40.0, pitch_stations=[])  # fmt: skip
+
+
+def test_a_sweep_its_samples_do_not_resolve_is_warned_about(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A step smoothed over 3 samples jumps by no more than a quarter of its variation between
+    two samples (no jump), yet its rate is set by the sampling: P/m of thousands of W/kg."""
+    from tandem_env.physics.measured import UNRESOLVED_SHARE, unresolved_share
+
+    def step(phase: np.ndarray) -> np.ndarray:
+        square = np.where(np.cos(phase[:-1]) > 0, 40.0, -40.0)
+        smooth = np.convolve(np.tile(square, 3), np.ones(3) / 3, "same")[64:128]
+        return np.append(smooth, smooth[0])
+
+    rows = _cycle(64, step)
+    path = _csv_case(tmp_path, "time,sweep,elevation,pitch", rows, n_samples=64)
+    assert main(["measured", str(path), "--out", str(tmp_path / "out")]) == 0
+    err = capsys.readouterr().err
+    assert re.search(
+        r"MeasuredWing.sweep: 1\d% of its mean-square rate lies in harmonics above", err
+    )
+    # the criterion: a resolved motion has almost none of its rate there
+    phase = 2 * np.pi * np.arange(64) / 64
+    triangle = np.arcsin(np.cos(phase))
+    assert unresolved_share(np.cos(phase))[0] < 1e-20
+    assert unresolved_share(triangle)[0] < 0.05 < UNRESOLVED_SHARE
+    assert unresolved_share(np.sign(np.cos(phase)))[0] > 0.5
+
+
+@pytest.mark.parametrize("time", [True, False], ids=["with time", "without time"])
+def test_radians_in_a_csv_declared_as_degrees_are_warned_about(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], time: bool
+) -> None:
+    rows = [",".join([*r.split(",")[:2], "0", repr(0.5 * float(r.split(",")[3]) / 30)])
+            for r in _cycle(64, lambda p: 0.6 * np.cos(p))]  # fmt: skip
+    header = "time,sweep,elevation,pitch"
+    if not time:  # one open cycle of samples, no time column
+        rows, header = [r.split(",", 1)[1] for r in rows[:-1]], "sweep,elevation,pitch"
+    path = _csv_case(tmp_path, header, rows, n_samples=64)
+    assert main(["measured", str(path), "--out", str(tmp_path / "out")]) == 0
+    err = capsys.readouterr().err
+    assert "from_samples: with degrees=True the sweep and pitch never exceed" in err

@@ -4,7 +4,13 @@ of an earlier format) are recomputed, never mixed in."""
 
 from __future__ import annotations
 
+import errno
+import hashlib
 import json
+import math
+import os
+import re
+import stat
 import warnings
 from pathlib import Path
 
@@ -325,3 +331,148 @@ def test_a_record_file_nested_too_deeply_is_left_out_not_a_crash(tmp_path: Path)
     assert [r.key for r in records] == [job.key]
     with pytest.raises(RecordError, match=f"{deep}: cannot read JSON: JSON nested too deeply"):
         load_records([tmp_path])
+
+
+# --- store contents against names ----------------------------------------------------------------
+def _reseal(path: Path, edit) -> None:
+    """Edit a record file and make its checksum again, as a careful hand would."""
+    data = json.loads(path.read_text())
+    edit(data)
+    payload = {k: data[k] for k in ("schema", "key", "job", "results")}  # as docs/harness.md
+    text = json.dumps(payload, sort_keys=True, separators=(",", ":"))
+    data["checksum"] = hashlib.sha256(text.encode()).hexdigest()
+    path.write_text(json.dumps(data))
+
+
+def test_a_resealed_record_moved_to_another_key_is_not_counted(tmp_path: Path) -> None:
+    a, b = _job(seed=0), _job(seed=1)
+    run_jobs([a], tmp_path, progress=False)
+    store = RecordStore(tmp_path)
+    moved = store.path(b.key)
+    moved.write_bytes(store.path(a.key).read_bytes())
+    # the job says seed 1, the key is still seed 0's: the key is not the hash of the job
+    _reseal(moved, lambda d: d["job"].update(seed=1))
+    with pytest.raises(RecordError, match=r"key .* is not the hash of the job it holds"):
+        Record.load(moved)
+    with pytest.warns(RecordWarning, match="not the hash of the job it holds.*left out"):
+        assert [r.seed for r in load_records([tmp_path])] == [0]
+    # the key says seed 1 too, the job still seed 0: same check, from the other side
+    moved.write_bytes(store.path(a.key).read_bytes())
+    _reseal(moved, lambda d: d.update(key=b.key))
+    with pytest.warns(RecordWarning, match="not the hash of the job it holds.*left out"):
+        assert [r.seed for r in load_records([tmp_path])] == [0]
+    # a copy, unchanged, under another key's name: compare and the summary leave it out
+    moved.write_bytes(store.path(a.key).read_bytes())
+    with pytest.warns(RecordWarning, match=f"{moved}: holds the record of key {a.key}.*left out"):
+        assert [r.seed for r in load_records([tmp_path])] == [0]
+    with pytest.warns(RecordWarning, match="moved or copied by hand"):
+        assert [r.seed for r in store.records()] == [0]
+
+
+def test_a_resealed_record_with_a_nan_objective_is_recomputed(tmp_path: Path, monkeypatch) -> None:
+    job = _job()
+    run_jobs([job], tmp_path, progress=False)
+    path = RecordStore(tmp_path).path(job.key)
+    _reseal(path, lambda d: d["results"].update(objective=float("nan")))
+    with pytest.raises(RecordError, match=r"objective = nan; allowed: a number \(not NaN"):
+        Record.load(path)
+    calls = _count_calls(monkeypatch)
+    with pytest.warns(RecordWarning, match="corrupt record .*objective = nan"):
+        run_jobs([job], tmp_path, progress=False)
+    assert calls == [job] and math.isfinite(Record.load(path).objective)
+
+
+# --- file-system faults ----------------------------------------------------------------------------
+OPTIMIZE = ["optimize", "--task", "level", "--speed", "2", "--method", "pso", "--budget", "16",
+            "--swarm-size", "8", "--env-kwargs", "n_blade=6", "n_time=32", "--quiet", "--seeds",
+            "0"]  # fmt: skip
+
+
+def _refused(argv: list[str], capsys) -> str:
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and "Traceback" not in err
+    return err.strip().splitlines()[-1]
+
+
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (lambda out: (out / "records").symlink_to(out / "gone"), r"records is a dangling symlink"),
+        (lambda out: (out / "records").symlink_to(out / "records"), r"records is a symlink loop"),
+        (lambda out: (out / "summary.csv").mkdir(), r"summary.csv is a directory"),
+        (lambda out: (out / "records").write_text(""), r"records is a file"),
+    ],
+)
+def test_every_path_the_store_writes_is_checked_up_front(
+    tmp_path: Path, capsys, make, match: str
+) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    make(out)
+    assert re.search(match, _refused([*OPTIMIZE, "--out", str(out)], capsys))
+    assert not list(out.glob("records/*.json"))  # before any work
+
+
+def test_a_record_path_that_is_a_directory_is_refused_up_front(tmp_path: Path, capsys) -> None:
+    (tmp_path / "records" / _job().key).with_suffix(".json").mkdir(parents=True)
+    line = _refused([*OPTIMIZE, "--out", str(tmp_path)], capsys)
+    assert f"{_job().key}.json is a directory" in line
+
+
+@pytest.mark.parametrize("target", ["loop", "dangling", ""])
+def test_out_that_is_a_bad_symlink_or_empty_is_refused(tmp_path: Path, capsys, target) -> None:
+    out = tmp_path / "out"
+    if target == "loop":
+        out.symlink_to(out)
+    elif target == "dangling":
+        out.symlink_to(tmp_path / "nowhere")
+    line = _refused([*OPTIMIZE, "--out", str(out) if target else ""], capsys)
+    want = {"loop": "is a symlink loop", "dangling": "is a dangling symlink", "": "an empty path"}
+    assert want[target] in line
+    assert not (Path.cwd() / "summary.csv").exists() or target  # '' wrote nothing here
+
+
+def test_a_full_disk_during_the_run_keeps_the_store_and_resumes(
+    tmp_path: Path, monkeypatch, capsys
+) -> None:
+    from agents import records as records_module
+    from tandem_env.io import files
+
+    a, b = _job(seed=0), _job(seed=1)
+    run_jobs([a], tmp_path, progress=False)
+    before = {p.name: p.read_bytes() for p in (tmp_path / "records").iterdir()}
+
+    def full(path, obj, **kwargs):  # the project's own writer, as on a full disk
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(records_module, "write_json_atomic", full)
+    argv = [*OPTIMIZE[:-1], "0", "1", "--out", str(tmp_path)]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert "No space left on device" in err and "run the same command again" in err
+    after = {p.name: p.read_bytes() for p in (tmp_path / "records").iterdir()}
+    assert after == before  # as it was: no partial file, no temporary left
+    monkeypatch.setattr(records_module, "write_json_atomic", files.write_json_atomic)
+    assert main(argv) == 0  # fixed: the same command resumes
+    assert RecordStore(tmp_path).load(b) is not None
+
+
+def test_rewritten_files_get_a_readable_mode_under_the_umask(tmp_path: Path) -> None:
+    from tandem_env.io.files import new_file_mode, write_json_atomic
+
+    path = tmp_path / "r.json"
+    previous = os.umask(0o077)
+    try:
+        assert new_file_mode() == 0o600
+        write_json_atomic(path, {})
+        assert stat.S_IMODE(path.stat().st_mode) == 0o600  # the umask, not a fixed 0644
+        path.chmod(0o000)  # unreadable: a rewrite must not inherit that
+        write_json_atomic(path, {})
+        assert stat.S_IMODE(path.stat().st_mode) == 0o600
+    finally:
+        os.umask(previous)
+    write_json_atomic(path, {})
+    assert stat.S_IMODE(path.stat().st_mode) == 0o600  # a readable mode is kept

@@ -228,3 +228,86 @@ def test_training_settings_accept_numpy_integers() -> None:
         TrainConfig(algo="ppo", env_id=LEVEL, seed=True)
     with pytest.raises(ValueError, match=r"^n_timesteps = '100'; allowed: an integer >= 1"):
         TrainConfig(algo="ppo", env_id=LEVEL, n_timesteps="100")
+
+
+# --- numbers shown rounded into range ------------------------------------------------------------
+def test_a_value_just_outside_a_limit_is_shown_with_the_digits_that_make_it_so() -> None:
+    from tandem_env.physics.checks import shown
+
+    stroke = STROKE.copy()
+    stroke[0] = UPPER[0] + 1e-5  # fore_frequency 45.00001 Hz: %g would print 45
+    with pytest.raises(ValueError, match=r"= 45\.00001 Hz is outside Table 4: allowed 30 to 45"):
+        te.validate_physical(stroke)
+    with pytest.raises(ValueError, match=r"speed = 20\.0000000001 m/s; allowed"):
+        te.evaluate(STROKE, 20.0000000001)
+    action = np.zeros(28)
+    action[3] = 1.0 + 1e-7
+    with pytest.raises(ValueError, match=r"= 1\.0000001 is outside"):
+        te.normalised_to_physical(action)
+    # the helper: %g where that tells the value from its bounds, more digits where not
+    assert shown(37.5, 30, 45) == "37.5" and shown(45, 30, 45) == "45"
+    assert shown(45.00001, 30, 45) == "45.00001"
+    assert float(shown(1 + 2**-52, 1)) != 1.0  # down to the last bit
+
+
+# --- type laxity -------------------------------------------------------------------------------
+def test_switches_are_booleans_and_counts_are_any_integer() -> None:
+    torch = pytest.importorskip("torch")
+    from tandem_env.physics.torch_model import evaluate_torch, resolve_device
+
+    strokes = torch.tensor(STROKE)
+    with pytest.raises(ValueError, match=r"compiled = 'no' is a string; allowed: True or False"):
+        evaluate_torch(strokes, compiled="no")
+    with pytest.raises(ValueError, match=r"compiled = 1 is a int; allowed: True or False"):
+        evaluate_torch(strokes, compiled=1)
+    with pytest.raises(ValueError, match=r"chunk_size = True; allowed: an integer >= 1"):
+        evaluate_torch(strokes, chunk_size=True)
+    evaluate_torch(strokes, chunk_size=np.int64(2), compiled=np.False_)  # NumPy's are fine
+    with pytest.raises(ValueError, match=r"device = 'cpu:1': there is one CPU device"):
+        resolve_device("cpu:1")
+    with pytest.raises(ValueError, match=r"device = 'cpu:1'"):
+        te.evaluate(STROKE, 1.0, backend="torch", device="cpu:1")
+    assert str(resolve_device("cpu:0")) == "cpu:0"
+
+
+@pytest.mark.parametrize("degrees", ["yes", 1, None])
+def test_measured_angle_units_are_a_boolean(degrees) -> None:
+    with pytest.raises(ValueError, match=r"from_fourier: degrees = .*; allowed: True or False"):
+        te.MeasuredWing.from_fourier(
+            frequency=40, sweep=(0.0, [(30.0, 0.0)]), elevation=(0.0, []),
+            pitch=(90.0, [(40.0, 90.0)]), stroke_plane_angle=60.0, degrees=degrees,
+        )  # fmt: skip
+    n = 64
+    t = np.arange(n) / (n * 40.0)
+    with pytest.raises(ValueError, match=r"from_samples: degrees = .*; allowed: True or False"):
+        te.MeasuredWing.from_samples(t, t, t, t, 60.0, frequency=40.0, degrees=degrees)
+
+
+# --- raw errors from the torch helpers -----------------------------------------------------------
+def test_the_torch_helpers_name_what_a_metric_may_be() -> None:
+    torch = pytest.importorskip("torch")
+    from tandem_env.physics.torch_model import normalised_jacobian, value_and_grad
+
+    strokes = torch.tensor(STROKE)
+    with pytest.raises(ValueError, match=r"metric = 'foo' is not a Result field; allowed: .*power"):
+        value_and_grad(strokes, "foo")
+    with pytest.raises(ValueError, match=r"'induction_converged' gives torch.bool values"):
+        value_and_grad(strokes, "induction_converged")
+    with pytest.raises(ValueError, match=r"gives \(\); allowed: a \(1,\) tensor"):
+        value_and_grad(strokes, lambda r: r.power.sum())
+    for metrics in ([], "efficiency", [None]):
+        with pytest.raises(ValueError, match=r"metrics = .*; allowed: a non-empty sequence"):
+            normalised_jacobian(np.zeros((2, 28)), metrics)
+    values, gradient = value_and_grad(strokes, "power_per_mass")
+    assert values.shape == (1,) and gradient.shape == (28,)
+
+
+# --- limits applied wherever they enter ----------------------------------------------------------
+@pytest.mark.parametrize("num_envs", [10_001, 10**9, True, 0])
+def test_the_batch_limit_holds_for_every_vector_env(num_envs) -> None:
+    from tandem_env.physics.model import MAX_BATCH_STROKES
+
+    with pytest.raises(ValueError, match=rf"num_envs = .*<= {MAX_BATCH_STROKES}"):
+        gym.make_vec(LEVEL, num_envs=num_envs)
+    with pytest.raises(ValueError, match=rf"num_envs = .*<= {MAX_BATCH_STROKES}"):
+        gym.make_vec("TandemWing/SpeedChange-v0", num_envs=num_envs)

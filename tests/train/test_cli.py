@@ -220,3 +220,19 @@ def test_envelope_refuses_a_file_as_out_before_loading_the_policy(
     err = capsys.readouterr().err
     assert info.value.code == 2 and f"{blocker} is a file; allowed: a directory" in err
     assert "Traceback" not in err
+
+
+@pytest.mark.parametrize(
+    ("folder", "match"),
+    [("file", r"log_folder \(-f\) '.*file': .*file is a file; allowed: a directory"),
+     ("", r"log_folder \(-f\) '': an empty path"),
+     ("dangling", r"is a dangling symlink")],
+)  # fmt: skip
+def test_a_log_folder_that_cannot_be_one_is_named_not_errno_text(
+    tmp_path: Path, folder: str, match: str
+) -> None:
+    (tmp_path / "file").write_text("")
+    (tmp_path / "dangling").symlink_to(tmp_path / "nowhere")
+    log_folder = str(tmp_path / folder) if folder else ""
+    with pytest.raises(ValueError, match=match):
+        TrainConfig(algo="ppo", env_id=LEVEL_FLIGHT_ID, log_folder=log_folder)

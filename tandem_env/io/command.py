@@ -1,0 +1,150 @@
+"""What every command line of the project shares around its ``main``: streams and environment.
+
+:func:`run_command` is the one wrapper of the entry points (``python -m eval``, its console
+scripts, ``python -m train``, ``python -m train.envelope``). Around the command it
+
+* lets standard output and standard error carry any character: a stream whose encoding cannot
+  write one (``PYTHONIOENCODING=ascii``: the η and the macron of ``--help``) writes it as a
+  backslash escape instead of ending in a UnicodeEncodeError;
+* gives a stream that is closed (``2>&-``, Python's ``sys.stderr is None``) a null device, and
+  makes standard error a :class:`~tandem_env.io.progress_bar.QuietStream`: diagnostics that
+  cannot be written (a reader that went away) are dropped and the work goes on;
+* ends quietly when the reader of standard output goes away (``| head``): Python's own recipe
+  (the ``signal`` module's note on SIGPIPE) points standard output at the null device, so the
+  interpreter's last flush does not raise again, and exits with status 1;
+* ends a command that fails on the machine (an ``OSError`` left over by the command: a disk
+  that fills, a folder made read-only) with one line naming the file and the reason, status 1;
+* turns a bad numba setting of the environment (:func:`check_numba_environment`, also made
+  where :mod:`tandem_env.physics` imports numba) into one line and exit status 2.
+
+The progress bar writes through a :class:`~tandem_env.io.progress_bar.QuietStream` of its own,
+so a record is never lost to a failing standard error outside these commands either.
+"""
+
+from __future__ import annotations
+
+import functools
+import io
+import os
+import sys
+from collections.abc import Callable, Mapping
+from typing import ParamSpec
+
+from .progress_bar import QuietStream
+
+P = ParamSpec("P")
+
+__all__ = [
+    "NUMBA_THREADING_LAYERS",
+    "EnvironmentSettingError",
+    "check_numba_environment",
+    "command_line",
+    "run_command",
+]
+
+#: The values of ``NUMBA_THREADING_LAYER`` numba knows (its documentation, "Selecting a
+#: threading layer"): the three layers and the three kinds of safety that choose among them.
+NUMBA_THREADING_LAYERS = ("default", "safe", "forksafe", "threadsafe", "tbb", "omp", "workqueue")
+
+
+class EnvironmentSettingError(ValueError):
+    """An environment variable the project's dependencies read holds a value they cannot use."""
+
+
+def check_numba_environment(environ: Mapping[str, str] | None = None) -> None:
+    """Check the numba variables of ``environ`` (default ``os.environ``) before numba reads them.
+
+    numba raises from deep inside its import for ``NUMBA_NUM_THREADS=0`` and for an unknown
+    ``NUMBA_THREADING_LAYER``; this says which variable, its value and what is allowed.
+    Raises :class:`EnvironmentSettingError`. Unset variables are numba's defaults.
+    """
+    environ = os.environ if environ is None else environ
+    threads = environ.get("NUMBA_NUM_THREADS")
+    if threads is not None and threads.strip():
+        try:
+            count = int(threads)
+        except ValueError:
+            count = 0
+        if count < 1:
+            raise EnvironmentSettingError(
+                f"environment NUMBA_NUM_THREADS={threads!r}; allowed: a whole number >= 1 of "
+                "numba threads, or unset (numba's default: one per CPU)"
+            )
+    layer = environ.get("NUMBA_THREADING_LAYER")
+    if layer is not None and layer.strip() and layer.strip().lower() not in NUMBA_THREADING_LAYERS:
+        raise EnvironmentSettingError(
+            f"environment NUMBA_THREADING_LAYER={layer!r}; allowed: "
+            f"{', '.join(NUMBA_THREADING_LAYERS)}, or unset"
+        )
+
+
+def _writable_streams() -> None:
+    for name in ("stdout", "stderr"):
+        stream = getattr(sys, name)
+        if stream is None:  # closed when Python started (2>&-)
+            setattr(sys, name, open(os.devnull, "w", encoding="utf-8"))
+        elif isinstance(stream, io.TextIOWrapper):
+            stream.reconfigure(errors="backslashreplace")
+
+
+def _program() -> str:
+    """The command as typed: ``tandem-study``, ``python -m eval``, ``python -m train.envelope``."""
+    path = sys.argv[0] if sys.argv and sys.argv[0] else ""
+    name, folder = os.path.basename(path), os.path.basename(os.path.dirname(path))
+    if name.startswith("tandem-"):
+        return name
+    if name == "__main__.py":
+        return f"python -m {folder}"
+    if name.endswith(".py"):
+        return f"python -m {folder}.{name[:-3]}"
+    return "python"
+
+
+def run_command(main: Callable[[], int | None], program: str | None = None) -> int:
+    """Run a command line's ``main()`` with the shared handling of the module docstring; its
+    exit status. ``program`` names the command in an error line (default the script's name)."""
+    _writable_streams()
+    stderr = sys.stderr
+    sys.stderr = QuietStream(stderr)  # type: ignore[assignment]
+    try:
+        check_numba_environment()
+        status = int(main() or 0)
+        sys.stdout.flush()  # here, where a reader that went away is handled, not at exit
+        return status
+    except EnvironmentSettingError as error:
+        print(f"{program or _program()}: error: {error}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:
+        # The reader of standard output went away: nothing more can be said there.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(devnull, sys.stdout.fileno())
+        except (OSError, ValueError):  # no file descriptor behind it
+            sys.stdout = open(os.devnull, "w", encoding="utf-8")
+        finally:
+            os.close(devnull)
+        return 1
+    except OSError as error:
+        # The machine, not the input (a disk that fills, a folder made read-only during the
+        # run): every file is written atomically, so what is on disk is whole; say what failed.
+        where = f"{error.filename}: " if error.filename else ""
+        print(
+            f"{program or _program()}: error: {where}{error.strerror or error}; files already "
+            "written are kept whole: fix that and run the same command again",
+            file=sys.stderr,
+        )
+        return 1
+    finally:
+        sys.stderr = stderr
+
+
+def command_line(main: Callable[P, int | None]) -> Callable[P, int]:
+    """Decorate an entry point's ``main(argv)`` with :func:`run_command` (one home for every
+    command line: ``python -m eval`` and its console scripts, ``python -m train``,
+    ``python -m train.envelope``)."""
+
+    @functools.wraps(main)
+    def wrapped(*args: P.args, **kwargs: P.kwargs) -> int:
+        return run_command(lambda: main(*args, **kwargs))
+
+    return wrapped
