@@ -28,6 +28,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "eval.measured",
     "eval.speed_change",
     "eval.numbers",
+    "eval.crosscheck",
 )
 
 
