@@ -107,14 +107,11 @@ def _pair(ps: Any, motion: WingMotion, name: str, run: Run, origin: np.ndarray) 
     )
 
 
-def solve(run: Run) -> dict[str, Any]:
-    """Run the solver on ``run``; each present pair's cycle-mean forces [N] in the project's
-    earth axes (``vertical``, ``forward``, ``lateral``), the vertical and forward force at each
-    step of the last beat [N], and the wall time [s]."""
+def build(run: Run) -> tuple[Any, Any, list[str]]:
+    """The solver's problem of ``run``, its operating point and the names of its Airplanes (the
+    pairs, fore first)."""
     import pterasoftware as ps
 
-    start = time.perf_counter()
-    forward, up = earth_axes(run.stroke_plane_angle)
     pairs = []
     if run.fore is not None:
         pairs.append(("fore", run.fore, np.zeros(3)))
@@ -140,6 +137,18 @@ def solve(run: Run) -> dict[str, Any]:
         num_cycles=run.resolution.beats,
     )
     problem = ps.problems.UnsteadyProblem(movement=movement, only_final_results=True)
+    return problem, operating_point, [name for name, _, _ in pairs]
+
+
+def solve(run: Run) -> dict[str, Any]:
+    """Run the solver on ``run``; each present pair's cycle-mean forces [N] in the project's
+    earth axes (``vertical``, ``forward``, ``lateral``), the vertical and forward force at each
+    step of the last beat [N], and the wall time [s]."""
+    import pterasoftware as ps
+
+    start = time.perf_counter()
+    forward, up = earth_axes(run.stroke_plane_angle)
+    problem, operating_point, names = build(run)
     solver = ps.unsteady_ring_vortex_lattice_method.UnsteadyRingVortexLatticeMethodSolver(problem)
     with warnings.catch_warnings():
         # The project runs numba on its work-queue threading layer on purpose
@@ -149,7 +158,7 @@ def solve(run: Run) -> dict[str, Any]:
     to_geometry = np.asarray(operating_point.T_pas_W_CgP1_to_GP1_CgP1)[:3, :3]
     lateral = np.array([0.0, 1.0, 0.0])
     out: dict[str, Any] = {}
-    for index, (name, _, _) in enumerate(pairs):
+    for index, name in enumerate(names):
         mean = to_geometry @ np.asarray(problem.finalMeanForces_W[index], dtype=float)
         history = np.array(
             [
