@@ -201,10 +201,17 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
             fontsize=9,
         )
         left.legend(fontsize=7, ncol=2)
-        resolutions = list(dict.fromkeys((r["steps_per_beat"], r["panels"]) for r in mine))
+        # Coarsest first: by panels, then by time steps.
+        resolutions = sorted(
+            dict.fromkeys((r["steps_per_beat"], r["panels"]) for r in mine),
+            key=lambda sp: (math.prod(int(n) for n in sp[1].split("x")), sp[0]),
+        )
         if len(resolutions) > 1:
             for j, lag in enumerate(dict.fromkeys(r["lag_deg"] for r in mine)):
-                series = [r for r in mine if r["lag_deg"] == lag]
+                series = sorted(
+                    (r for r in mine if r["lag_deg"] == lag),
+                    key=lambda r: resolutions.index((r["steps_per_beat"], r["panels"])),
+                )
                 x = [resolutions.index((r["steps_per_beat"], r["panels"])) for r in series]
                 for pair, marker in (("hind", "o-"), ("fore", "s--")):
                     right.plot(
