@@ -34,6 +34,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "eval.speed_change",
     "eval.numbers",
     "eval.show",
+    "eval.crosscheck",
 )
 
 

@@ -1,0 +1,260 @@
+"""The cross-check's comparison: the model's side, the table (CSV and Markdown) and the figure.
+
+Each pair's cycle-mean vertical force changes because the other pair is there:
+
+* the vortex-lattice solver (UVLM): tandem − that pair alone, at each lag;
+* the model ("ours"): for each slipstream reading (``ModelOptions.slipstream``), coupled −
+  ``induction="isolated"``, the stroke's hind-wing phases shifted by the lag. A pair's vertical
+  force is its ``fore_``/``hind_lift_to_weight`` × m·g.
+
+Both are given in percent of the pair's force without the other pair.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, get_args
+
+import numpy as np
+
+from tandem_env.io.files import atomic_path, write_csv_atomic, write_text_atomic
+from tandem_env.physics import Dragonfly, ModelOptions, evaluate
+from tandem_env.physics.options import Slipstream
+
+from .case import PAIRS, Case, Resolution, Run, shifted_stroke
+
+#: The model's slipstream readings, each compared with the solver.
+READINGS: tuple[str, ...] = tuple(get_args(Slipstream))
+#: The files a cross-check writes into ``--out``.
+TABLE_CSV = "crosscheck.csv"
+TABLE_MD = "crosscheck.md"
+FIGURE = "crosscheck.png"
+
+
+def case_insect(insect: Dragonfly, case: Case) -> Dragonfly:
+    """``insect`` with the case's root spacing and drop (the model's geometry of the tandem)."""
+    return replace(insect, root_spacing=case.spacing, root_drop=case.drop)
+
+
+def ours(case: Case, insect: Dragonfly) -> dict[str, Any]:
+    """The model's vertical force of each pair [N], isolated and per reading, at each lag:
+    ``{"isolated": {"fore": (L,), "hind": (L,)}, reading: {...}}``."""
+    strokes = np.array([shifted_stroke(np.asarray(case.stroke), lag) for lag in case.lags])
+    flyer = case_insect(insect, case)
+    out: dict[str, Any] = {}
+    for name, options in [("isolated", ModelOptions(induction="isolated"))] + [
+        (reading, ModelOptions(slipstream=reading)) for reading in READINGS
+    ]:
+        result = evaluate(strokes, case.speed, insect=flyer, options=options)
+        out[name] = {
+            pair: getattr(result, f"{pair}_lift_to_weight") * flyer.weight for pair in PAIRS
+        }
+    return out
+
+
+def _percent(value: float, reference: float) -> float:
+    return 100.0 * (value - reference) / reference if reference != 0.0 else math.nan
+
+
+@dataclass(frozen=True)
+class Planned:
+    """A case at one resolution, with its runs and its clearance at each lag [m]."""
+
+    case: Case
+    resolution: Resolution
+    runs: Mapping[str, Run]
+    clearance: Mapping[float, Mapping[str, float]]
+
+
+def rows(
+    planned: Sequence[Planned], results: Mapping[Run, Mapping[str, Any]], insect: Dragonfly
+) -> list[dict[str, Any]]:
+    """One row per case, resolution and lag (forces in mN, changes in %)."""
+    out = []
+    model = {}
+    for plan in planned:
+        if plan.case not in model:
+            model[plan.case] = ours(plan.case, insect)
+        mine = model[plan.case]
+        alone = {pair: results[plan.runs[pair]][pair] for pair in PAIRS}
+        for index, lag in enumerate(plan.case.lags):
+            tandem = results[plan.runs[f"tandem {lag:g}"]]
+            row: dict[str, Any] = {
+                "speed_m_s": plan.case.speed,
+                "spacing_mm": round(1e3 * plan.case.spacing, 3),
+                "drop_mm": round(1e3 * plan.case.drop, 3),
+                "lag_deg": lag,
+                "steps_per_beat": plan.resolution.steps_per_beat,
+                "panels": plan.resolution.panels,
+                "beats": plan.resolution.beats,
+                "clearance_mm": round(1e3 * plan.clearance[lag]["pairs"], 2),
+            }
+            for pair in PAIRS:
+                row[f"uvlm_{pair}_alone_mN"] = 1e3 * alone[pair]["vertical"]
+                row[f"uvlm_{pair}_tandem_mN"] = 1e3 * tandem[pair]["vertical"]
+            for pair in PAIRS:
+                row[f"uvlm_{pair}_change_pct"] = _percent(
+                    tandem[pair]["vertical"], alone[pair]["vertical"]
+                )
+            for pair in PAIRS:
+                row[f"ours_isolated_{pair}_mN"] = 1e3 * float(mine["isolated"][pair][index])
+            for reading in READINGS:
+                for pair in PAIRS:
+                    row[f"ours_{reading}_{pair}_change_pct"] = _percent(
+                        float(mine[reading][pair][index]), float(mine["isolated"][pair][index])
+                    )
+            row["uvlm_tandem_wall_s"] = round(tandem["wall_time"], 1)
+            out.append(row)
+    return out
+
+
+def markdown(table: Sequence[Mapping[str, Any]]) -> str:
+    """The rows as a Markdown table: vertical-force changes [%] of each pair."""
+    head = ["V [m/s]", "d [mm]", "h [mm]", "lag [deg]", "steps/beat", "panels", "clearance [mm]"]
+    head += ["UVLM hind", "UVLM fore"]
+    head += [f"ours {r} {p}" for r in READINGS for p in ("hind", "fore")]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for row in table:
+        cells = [
+            f"{row['speed_m_s']:g}",
+            f"{row['spacing_mm']:g}",
+            f"{row['drop_mm']:g}",
+            f"{row['lag_deg']:g}",
+            str(row["steps_per_beat"]),
+            row["panels"],
+            f"{row['clearance_mm']:.2f}",
+            f"{row['uvlm_hind_change_pct']:+.1f} %",
+            f"{row['uvlm_fore_change_pct']:+.1f} %",
+        ]
+        cells += [
+            f"{row[f'ours_{r}_{p}_change_pct']:+.1f} %" for r in READINGS for p in ("hind", "fore")
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def write_table(out_dir: Path, table: Sequence[Mapping[str, Any]]) -> tuple[Path, Path]:
+    write_csv_atomic(out_dir / TABLE_CSV, table)
+    intro = (
+        "Change of each pair's cycle-mean vertical force due to the other pair, in % of the "
+        "pair's force without it: UVLM tandem − alone; ours each slipstream reading − "
+        "isolated. Columns of every force: crosscheck.csv.\n\n"
+    )
+    write_text_atomic(out_dir / TABLE_MD, intro + markdown(table))
+    return out_dir / TABLE_CSV, out_dir / TABLE_MD
+
+
+def _key(row: Mapping[str, Any]) -> tuple[float, float, float]:
+    return (row["speed_m_s"], row["spacing_mm"], row["drop_mm"])
+
+
+def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolution) -> Path:
+    """Per case, the changes against the lag at ``base`` resolution (left) and the solver's
+    hind- and fore-wing change at each resolution run (right: its convergence)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cases = list(dict.fromkeys(_key(r) for r in table))
+    fig, axes = plt.subplots(
+        len(cases), 2, figsize=(11, 3.6 * len(cases)), squeeze=False, width_ratios=(2, 1)
+    )
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for (left, right), key in zip(axes, cases, strict=True):
+        mine = [r for r in table if _key(r) == key]
+        main = [
+            r
+            for r in mine
+            if (r["steps_per_beat"], r["panels"], r["beats"])
+            == (base.steps_per_beat, base.panels, base.beats)
+        ] or mine
+        lags = [r["lag_deg"] for r in main]
+        for pair, style, fill in (("hind", "-", "C0"), ("fore", "--", "none")):
+            left.plot(
+                lags,
+                [r[f"uvlm_{pair}_change_pct"] for r in main],
+                "o" + style,
+                color="k",
+                markerfacecolor="k" if fill != "none" else "white",
+                label=f"UVLM {pair}",
+            )
+            for i, reading in enumerate(READINGS):
+                left.plot(
+                    lags,
+                    [r[f"ours_{reading}_{pair}_change_pct"] for r in main],
+                    ("x" if pair == "hind" else "+") + style,
+                    color=colours[(i + 1) % len(colours)],
+                    label=f"ours ({reading}) {pair}",
+                )
+        left.axhline(0.0, color="0.7", lw=0.8)
+        left.set_xticks(lags)
+        left.set_xlabel("lag: hind-wing phase shift [deg]")
+        left.set_ylabel("vertical force change [%]")
+        first = main[0]
+        left.set_title(
+            f"V = {key[0]:g} m/s, d = {key[1]:g} mm, h = {key[2]:g} mm "
+            f"({first['steps_per_beat']} steps/beat, {first['panels']} panels)",
+            fontsize=9,
+        )
+        left.legend(fontsize=7, ncol=2)
+        # Coarsest first: by panels, then by time steps.
+        resolutions = sorted(
+            dict.fromkeys((r["steps_per_beat"], r["panels"]) for r in mine),
+            key=lambda sp: (math.prod(int(n) for n in sp[1].split("x")), sp[0]),
+        )
+        if len(resolutions) > 1:
+            for j, lag in enumerate(dict.fromkeys(r["lag_deg"] for r in mine)):
+                series = sorted(
+                    (r for r in mine if r["lag_deg"] == lag),
+                    key=lambda r: resolutions.index((r["steps_per_beat"], r["panels"])),
+                )
+                x = [resolutions.index((r["steps_per_beat"], r["panels"])) for r in series]
+                for pair, marker in (("hind", "o-"), ("fore", "s--")):
+                    right.plot(
+                        x,
+                        [r[f"uvlm_{pair}_change_pct"] for r in series],
+                        marker,
+                        color=colours[j % len(colours)],
+                        label=f"{pair}, lag {lag:g}",
+                    )
+            right.set_xticks(range(len(resolutions)))
+            right.set_xticklabels([f"{s}/beat\n{p}" for s, p in resolutions], fontsize=7)
+            right.set_ylabel("UVLM change [%]")
+            right.legend(fontsize=6)
+            right.set_title("UVLM convergence (steps per beat, panels)", fontsize=9)
+        else:
+            right.axis("off")
+            right.text(
+                0.0,
+                0.5,
+                f"UVLM at one resolution:\n{first['steps_per_beat']} steps per beat,\n"
+                f"{first['panels']} panels per wing,\n{first['beats']} beats\n\n"
+                "(--convergence runs it\nat 3 more)",
+                fontsize=9,
+                va="center",
+            )
+    fig.tight_layout()
+    path = out_dir / FIGURE
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120)
+    plt.close(fig)
+    return path
+
+
+__all__ = [
+    "FIGURE",
+    "READINGS",
+    "TABLE_CSV",
+    "TABLE_MD",
+    "Planned",
+    "case_insect",
+    "markdown",
+    "ours",
+    "rows",
+    "write_figure",
+    "write_table",
+]
