@@ -534,7 +534,7 @@ def _run_model(plan: TrainPlan, venv: VecEnv) -> BaseAlgorithm:
             venv,
             seed=config.seed,
             tensorboard_log=tensorboard,
-            verbose=config.verbose,
+            verbose=config.model_verbose,
             device=config.device,
         )
     with _loading(plan.checkpoint.model):
@@ -543,7 +543,7 @@ def _run_model(plan: TrainPlan, venv: VecEnv) -> BaseAlgorithm:
             env=venv,
             device=config.device,
             tensorboard_log=None if tensorboard is None else str(tensorboard),
-            verbose=config.verbose,
+            verbose=config.model_verbose,
         )
     if config.algo == "sac":
         with _loading(plan.checkpoint.replay_buffer):

@@ -18,7 +18,15 @@ from .coefficients import (
     TabulatedCoefficients,
     coefficient_model,
 )
-from .insect import DRAGONFLY, PLANFORMS, Dragonfly, Wing
+from .insect import (
+    DRAGONFLY,
+    PLANFORMS,
+    Dragonfly,
+    Wing,
+    describe_insect,
+    insect_mapping,
+    load_insect,
+)
 from .measured import MeasuredWing, evaluate_measured
 from .model import (
     AVAILABLE_POWER_LIMITS,
@@ -70,8 +78,11 @@ __all__ = [
     "Wing",
     "WingStroke",
     "coefficient_model",
+    "describe_insect",
     "evaluate",
     "evaluate_measured",
+    "insect_mapping",
+    "load_insect",
     "normalised_to_physical",
     "physical_to_normalised",
     "strokes_to_dicts",

@@ -220,3 +220,12 @@ def test_envelope_refuses_a_file_as_out_before_loading_the_policy(
     err = capsys.readouterr().err
     assert info.value.code == 2 and f"{blocker} is a file; allowed: a directory" in err
     assert "Traceback" not in err
+
+
+def test_sb3_log_table_is_off_by_default_and_a_flag_away() -> None:
+    base = ["--algo", "ppo", "--env", LEVEL_FLIGHT_ID]
+    quiet = config_from_args(build_parser().parse_args(base))
+    assert not quiet.log_table and quiet.verbose == 1 and quiet.model_verbose == 0
+    table = config_from_args(build_parser().parse_args([*base, "--log-table"]))
+    assert table.log_table and table.model_verbose == 1
+    assert config_from_args(build_parser().parse_args([*base, "--verbose", "2"])).model_verbose == 2
