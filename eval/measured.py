@@ -17,7 +17,7 @@ import math
 import sys
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -26,15 +26,14 @@ import numpy as np
 from tandem_env.io.datafile import DataFileError, read_text, read_yaml
 from tandem_env.io.files import output_directory, write_text_atomic
 from tandem_env.physics import (
-    DRAGONFLY,
     Dragonfly,
     MeasuredWing,
     ModelOptions,
     Result,
     StrokeHistory,
-    Wing,
     measured_history,
 )
+from tandem_env.physics.insect import load_insect
 from tandem_env.physics.measured import FOURIER_SAMPLES, MAX_SAMPLES
 
 NAME = "measured"
@@ -112,28 +111,15 @@ def _number(value: Any, where: str, unit: str) -> float:
     return float(value)
 
 
-def _wing(base: Wing, spec: Any, where: str) -> Wing:
-    spec = _mapping(spec, where)
-    allowed = tuple(f.name for f in fields(Wing))
-    _take(spec, allowed, where)
-    if "real_edges" in spec:
-        spec["real_edges"] = tuple(tuple(edge) for edge in spec["real_edges"])
-    try:
-        return replace(base, **spec)
-    except (TypeError, ValueError) as exc:
-        raise SpecError(f"{where}: {exc}") from None
-
-
 def _insect(spec: Any) -> Dragonfly:
-    spec = _mapping(spec, "insect")
-    allowed = tuple(f.name for f in fields(Dragonfly))
-    _take(spec, allowed, "insect")
-    fore = _wing(DRAGONFLY.fore, spec.pop("fore", None), "insect.fore")
-    hind = _wing(DRAGONFLY.hind, spec.pop("hind", None), "insect.hind")
+    """The file's insect: what differs from the paper's specimen (the one reader of an insect,
+    :func:`tandem_env.physics.insect.load_insect`, as ``--insect`` and the env keyword)."""
     try:
-        return replace(DRAGONFLY, fore=fore, hind=hind, **spec)
-    except (TypeError, ValueError) as exc:
-        raise SpecError(f"insect: {exc}") from None
+        return load_insect(_mapping(spec, "insect"))
+    except SpecError:
+        raise
+    except ValueError as exc:
+        raise SpecError(str(exc)) from None
 
 
 def _options(spec: Any) -> ModelOptions:
