@@ -420,7 +420,7 @@ def describe_insect(insect: InsectSource) -> str:
     """One line naming the insect: the paper's specimen, or what differs from it (SI units)."""
     changes = insect_mapping(load_insect(insect))
     if not changes:
-        return "the paper's specimen (Sympetrum sanguineum, Wakeling 1997; tear-drop wings)"
+        return "the paper's specimen (Sympetrum sanguineum, Wakeling 1997)"
 
     def flat(mapping: Mapping[str, Any], prefix: str = "") -> list[str]:
         items = []
