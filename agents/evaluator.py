@@ -26,6 +26,7 @@ import numpy as np
 from agents.optimiser import Tallied, Tally
 from agents.selection import BestStroke
 from agents.tasks import Condition, TaskSpec
+from tandem_env.envs.base import as_action_type
 
 __all__ = [
     "BudgetExceededError",
@@ -130,8 +131,12 @@ class VectorEnvEvaluator(Tallied):
 
     # --- evaluation ----------------------------------------------------------------------------
     def evaluate_batch(self, actions: np.ndarray) -> EvaluatedBatch:
-        """Evaluate a batch (n, dim) in one vector-env step; rewards, objectives, feasibility."""
-        actions = np.asarray(actions, dtype=np.float64)
+        """Evaluate a batch (n, dim) in one vector-env step; rewards, objectives, feasibility.
+
+        The actions are evaluated as the action type carries them (float32,
+        :func:`~tandem_env.envs.base.as_action_type`): the strokes kept as best are the ones
+        an agent's action would fly."""
+        actions = as_action_type(actions)
         if actions.ndim != 2 or actions.shape[0] < 1:
             raise ValueError(f"actions must have shape (n, dim) with n >= 1; got {actions.shape}")
         n = actions.shape[0]

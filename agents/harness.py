@@ -65,6 +65,7 @@ from agents.records import (
     package_versions,
 )
 from agents.tasks import Condition, TaskSpec, get_task
+from tandem_env.envs.base import as_action_type
 from tandem_env.io.files import to_jsonable
 from tandem_env.io.progress_bar import ProgressBar, Reporter
 
@@ -311,6 +312,9 @@ def run_job(
             else:
                 parts.append(_initial_part(prepared, part_budget, stroke))
     chosen = max(parts, key=lambda part: (part.feasible, part.reward))
+    # as the action type carries it (the evaluator and the polish evaluate no other strokes:
+    # a no-op for theirs), so the record's stroke stepped as a float32 action is this stroke
+    chosen = replace(chosen, action=as_action_type(chosen.action))
     evaluations = sum(part.evaluations for part in parts)
     if evaluations > budget:  # every part counts its own; never over its share
         raise RuntimeError(f"search and polish used {evaluations} > budget {budget}")
@@ -432,7 +436,7 @@ def _initial_part(prepared: PreparedJob, budget: int, stroke: np.ndarray | None)
     if objective is None and budget >= 1:
         # an allowance too small to polish: the stroke is reported as given, evaluated once
         # so that its feasibility is known
-        batch = problem.evaluate(np.asarray(stroke, dtype=np.float64)[None, :])
+        batch = problem.evaluate(np.asarray(result.stroke, dtype=np.float64)[None, :])
         objective, feasible = float(batch.objective[0]), bool(batch.feasible[0])
         evaluations += 1
     reward = float(objective) if objective is not None and feasible else -math.inf

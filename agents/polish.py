@@ -22,7 +22,9 @@ are not model evaluations: their wall cost is measured in docs/harness.md, "Loca
 Every model evaluation counts against the polish's allowance (its share of the run's budget);
 the allowance is never exceeded. The result is the best of the optimiser's points (not the
 perturbed points of the differences) that the task calls feasible (its exact test), if it
-beats the start; otherwise the start is kept and
+beats the start, cast to the env's action type (float32; the optimiser holds one float32 step
+inside every constraint, :func:`float32_margin`, so the cast keeps it feasible, and the
+objective reported is the cast stroke's); otherwise the start is kept and
 the certificate says why. The :class:`Certificate` reports the gain, the evaluations and
 iterations used, whether the optimiser converged, the first-order optimality (KKT) residual
 at the reported stroke and the constraints active there.
@@ -54,6 +56,7 @@ from scipy.optimize import (
 )
 
 from agents.tasks import Condition, TaskSpec
+from tandem_env.envs.base import ACTION_DTYPE, as_action_type
 from tandem_env.physics import PARAMETER_NAMES, normalised_to_physical
 
 __all__ = [
@@ -119,7 +122,10 @@ class PolishConfig:
     margin : float
         The optimiser holds every constraint at margin >= ``margin`` [-] (normalised, as
         ``Constraint.margin``), so its optimum passes the task's exact feasibility test
-        (a stroke on the boundary can miss it by rounding); 0 to 1e-4.
+        (a stroke on the boundary can miss it by rounding); 0 to 1e-4. One float32 step of
+        every coordinate is held on top (:func:`float32_margin`), and the reported stroke is
+        the optimum cast to the action type (float32), so it stays feasible when stepped
+        through the env as an agent's action.
     active : float
         A constraint (or bound) within ``active`` [-] of its limit counts as active in the
         certificate, 0 to 1e-2.
@@ -611,6 +617,8 @@ class _Run:
         self.gradients: dict[bytes, Gradient] = {}
         self.best: tuple[float, np.ndarray] | None = None
         self.names: tuple[str, ...] = ()
+        self.margin: np.ndarray | float = 0.0
+        """(m,) the margin held inside each constraint (:func:`float32_margin`)."""
 
     def full(self, z: np.ndarray) -> np.ndarray:
         x = self.start.copy()
@@ -703,11 +711,11 @@ def polish(
     z0 = x0[run.free]
     first = run.gradient(z0)
     before = first.objective
+    run.margin = margin = float32_margin(first.jacobian, config.margin)
     if not first.feasible and not infeasible_start:
         # the search's stroke is where the polish starts; one that fails the task's test has
         # no feasible neighbourhood guaranteed: keep it and say so.
         return _keep(run, x0, before, config, "failed: the start is infeasible", 0, None, "", False)
-    margin = config.margin
 
     def fun(z: np.ndarray) -> float:
         return -run.value(z)[0]
@@ -783,10 +791,33 @@ def polish(
             run, x0, before, config, status, iterations, converged, message, first.feasible
         )
     after, x_best = run.best
+    # reported as the action type carries it (the margin keeps it feasible there): the
+    # certificate's check evaluates the rounded stroke, whose objective is reported
+    x_best = as_action_type(x_best)
     gain = (after - before) / abs(before) if before != 0.0 and first.feasible else None
-    return _finish(
+    result = _finish(
         run, x_best, before, after, gain, config, "improved", iterations, converged, message
     )
+    if not result.feasible:  # the margin is a first-order bound: say so if it ever falls short
+        status = "failed: the optimum is infeasible as a float32 action"
+        certificate = replace(
+            result.certificate,
+            status=status,
+            gain=0.0 if first.feasible else None,
+            objective_after=before,
+        )
+        return PolishResult(x0, before, certificate, feasible=first.feasible)
+    return result
+
+
+def float32_margin(jacobian: np.ndarray, margin: float) -> np.ndarray:
+    """(m,) the margin the polish holds inside each constraint [-]: ``margin`` plus one float32
+    step (``np.finfo(float32).eps``, twice the largest rounding of a value in [-1, 1]) of
+    every free coordinate, Σ_j |∂g_i/∂x_j|·eps from the start's Jacobian (m, k). A stroke that
+    far inside stays feasible when it is cast to the action type (float32), to first order with
+    a factor of 2 to spare; its cost in objective is the constraint's multiplier times it."""
+    step = float(np.finfo(ACTION_DTYPE).eps)
+    return margin + step * np.abs(np.asarray(jacobian, dtype=np.float64)).sum(axis=1)
 
 
 def _check(run: _Run, x: np.ndarray, config: PolishConfig) -> tuple[float | None, tuple[str, ...]]:
@@ -797,7 +828,7 @@ def _check(run: _Run, x: np.ndarray, config: PolishConfig) -> tuple[float | None
         return None, ()
     residual, on_constraint, on_bound = kkt_residual(
         grad.objective_gradient,
-        grad.margins - config.margin,
+        grad.margins - run.margin,
         grad.jacobian,
         x[run.free],
         config.active,
@@ -819,6 +850,7 @@ def _keep(
     feasible: bool = True,
 ) -> PolishResult:
     """The search's stroke stays: no gain, a failure, or an infeasible start."""
+    run.margin = config.margin  # the start was not held inside the float32 step
     gain = 0.0 if feasible else None
     result = _finish(run, x0, before, before, gain, config, status, iterations, converged, message)
     return replace(result, feasible=feasible)
@@ -840,10 +872,17 @@ def _finish(
     back for it is released from the allowance first)."""
     run.allowance += run.gradient_function.cost
     kkt, active = _check(run, x, config)
+    feasible = True
+    found = run.values.get(x.tobytes())  # x as evaluated by the check
+    if found is not None and status == "improved":
+        after, feasible = found[0], found[2]
+        if gain is not None:
+            gain = (after - before) / abs(before)
     return PolishResult(
         x,
         after,
-        Certificate(
+        feasible=feasible,
+        certificate=Certificate(
             method=config.method,
             status=status,
             gain=gain,

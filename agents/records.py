@@ -38,7 +38,7 @@ import numpy as np
 
 import tandem_env
 from agents.tasks import Condition, available_tasks, get_task
-from tandem_env.envs.config import EXECUTION_KWARGS
+from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
 from tandem_env.io.files import (
     output_directory,
     read_json,
@@ -226,8 +226,9 @@ def _check_count(name: str, value: Any, low: int, allowed: str, high: int | None
 
 
 def _pairs(value: Any) -> tuple[tuple[str, Any], ...]:
-    # Sorted by name, lists as tuples (nested too: e.g. the polish's initial strokes): the same
-    # settings give one hashable Job, whatever their order.
+    # Sorted by name, lists as tuples and mappings read-only (nested too: e.g. the polish's
+    # initial strokes, the insect's fields): the same settings give one hashable Job, whatever
+    # their order.
     items = value.items() if isinstance(value, Mapping) else value
     return tuple(sorted((str(k), _frozen(v)) for k, v in items))
 
@@ -235,7 +236,44 @@ def _pairs(value: Any) -> tuple[tuple[str, Any], ...]:
 def _frozen(value: Any) -> Any:
     if isinstance(value, list | tuple):
         return tuple(_frozen(v) for v in value)
+    if isinstance(value, Mapping):
+        return FrozenMapping({str(k): _frozen(v) for k, v in value.items()})
     return value
+
+
+class FrozenMapping(Mapping[str, Any]):
+    """A read-only, hashable mapping: a job's nested keyword value (the insect's fields, a
+    penalty). It is a ``Mapping``, so the env takes it and JSON writes it as an object."""
+
+    def __init__(self, items: Mapping[str, Any]) -> None:
+        self._items = dict(items)
+
+    def __getitem__(self, key: str) -> Any:
+        return self._items[key]
+
+    def __iter__(self) -> Any:
+        return iter(self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __hash__(self) -> int:
+        return hash(tuple(sorted(self._items.items())))
+
+    def __repr__(self) -> str:
+        return repr(self._items)
+
+
+def _canonical_env_kwargs(value: Any) -> Any:
+    """The job's env keywords with ``insect`` in its canonical form (what differs from the
+    paper's specimen, :func:`~tandem_env.envs.config.insect_keyword`; left out for the specimen
+    itself, so a default run's key is what it always was)."""
+    items = dict(value.items() if isinstance(value, Mapping) else value)
+    if "insect" in items:
+        insect = insect_keyword(items.pop("insect"))
+        if insect is not None:
+            items["insect"] = insect
+    return items
 
 
 @dataclass(frozen=True)
@@ -253,8 +291,9 @@ class Job:
     """Model evaluations."""
     seed: int
     env_kwargs: tuple[tuple[str, Any], ...] = ()
-    """Env keywords besides the condition (objective, planform, model options), sorted by name;
-    a mapping is accepted."""
+    """Env keywords besides the condition (objective, planform, model options, insect), sorted
+    by name; a mapping is accepted. ``insect`` (an object, a mapping or a YAML file) is kept as
+    the mapping of what differs from the paper's specimen, and left out for the specimen."""
     method_config: tuple[tuple[str, Any], ...] = ()
     """Method settings (e.g. ``swarm_size``), sorted by name; a mapping is accepted."""
     preset: str = ""
@@ -282,7 +321,7 @@ class Job:
         object.__setattr__(self, "condition", float(self.condition))
         object.__setattr__(self, "budget", int(self.budget))
         object.__setattr__(self, "seed", int(self.seed))
-        object.__setattr__(self, "env_kwargs", _pairs(self.env_kwargs))
+        object.__setattr__(self, "env_kwargs", _pairs(_canonical_env_kwargs(self.env_kwargs)))
         object.__setattr__(self, "method_config", _pairs(self.method_config))
 
     @classmethod
@@ -599,6 +638,9 @@ class Record:
         stroke = [float(self.stroke[name]) for name in tandem_env.PARAMETER_NAMES]
         row.update(zip(tandem_env.PARAMETER_NAMES, stroke, strict=True))
         row["at_bounds"] = tandem_env.describe_bounds(stroke)
+        insect = self.job.env("insect")
+        if insect is not None:  # what differs from the paper's specimen (JSON in the CSV)
+            row["insect"] = to_jsonable(insect)
         row["key"] = self.key
         return row
 

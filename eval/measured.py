@@ -10,33 +10,30 @@ documented in docs/measured.md; ``examples/`` has complete files.
 from __future__ import annotations
 
 import argparse
-import collections.abc
 import csv
 import io
 import json
 import math
-import re
 import sys
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
+from tandem_env.io.datafile import DataFileError, read_text, read_yaml
 from tandem_env.io.files import output_directory, write_text_atomic
 from tandem_env.physics import (
-    DRAGONFLY,
     Dragonfly,
     MeasuredWing,
     ModelOptions,
     Result,
     StrokeHistory,
-    Wing,
     measured_history,
 )
+from tandem_env.physics.insect import load_insect
 from tandem_env.physics.measured import FOURIER_SAMPLES, MAX_SAMPLES
 
 NAME = "measured"
@@ -69,58 +66,11 @@ class SpecError(ValueError):
     """A bad field in a kinematics file; the message names the field and what is allowed."""
 
 
-class _Loader(yaml.SafeLoader):
-    """YAML's safe loader (plain data only) with two fixes for hand-written kinematics files.
-
-    * YAML 1.2 numbers: PyYAML reads YAML 1.1, where ``1e-4`` and ``34e0`` (no dot, or no sign
-      in the exponent) are strings; they are floats here, as in YAML 1.2 and every spreadsheet.
-    * Duplicate keys are refused, naming the key and its line (YAML 1.1 loaders keep the
-      last one silently, so a pasted second ``speed:`` would win without a word).
-    """
-
-    def construct_mapping(self, node: yaml.Node, deep: bool = False) -> dict[Any, Any]:
-        if isinstance(node, yaml.MappingNode):
-            seen: dict[Any, int] = {}
-            for key_node, _ in node.value:
-                key = self.construct_object(key_node, deep=True)
-                if not isinstance(key, collections.abc.Hashable):
-                    continue  # reported by the base class
-                line = key_node.start_mark.line + 1
-                if key in seen:
-                    raise yaml.constructor.ConstructorError(
-                        None,
-                        None,
-                        f"duplicate key {key!r} on lines {seen[key]} and {line}; allowed: each "
-                        "key once per mapping",
-                        key_node.start_mark,
-                    )
-                seen[key] = line
-        return super().construct_mapping(node, deep=deep)
-
-
-_Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$"),
-    list("-+.0123456789"),
-)
-
-
 def _text(path: Path, where: str) -> str:
-    """A file's text: UTF-8 (a BOM allowed), no NUL bytes; errors say what the file is."""
     try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise SpecError(f"{where} {str(path)!r} cannot be read ({exc.strerror or exc})") from None
-    if data.startswith((b"\xff\xfe", b"\xfe\xff")) or b"\x00" in data[:4096]:
-        kind = "UTF-16 text" if data.startswith((b"\xff\xfe", b"\xfe\xff")) else "binary data"
-        raise SpecError(f"{where} {str(path)!r} holds {kind}; allowed: UTF-8 text")
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise SpecError(
-            f"{where} {str(path)!r} is not UTF-8 text (byte {exc.start}: "
-            f"{data[exc.start : exc.start + 1]!r}); allowed: UTF-8 text (save it as UTF-8)"
-        ) from None
+        return read_text(path, where)
+    except DataFileError as error:
+        raise SpecError(str(error)) from None
 
 
 @dataclass(frozen=True)
@@ -161,28 +111,15 @@ def _number(value: Any, where: str, unit: str) -> float:
     return float(value)
 
 
-def _wing(base: Wing, spec: Any, where: str) -> Wing:
-    spec = _mapping(spec, where)
-    allowed = tuple(f.name for f in fields(Wing))
-    _take(spec, allowed, where)
-    if "real_edges" in spec:
-        spec["real_edges"] = tuple(tuple(edge) for edge in spec["real_edges"])
-    try:
-        return replace(base, **spec)
-    except (TypeError, ValueError) as exc:
-        raise SpecError(f"{where}: {exc}") from None
-
-
 def _insect(spec: Any) -> Dragonfly:
-    spec = _mapping(spec, "insect")
-    allowed = tuple(f.name for f in fields(Dragonfly))
-    _take(spec, allowed, "insect")
-    fore = _wing(DRAGONFLY.fore, spec.pop("fore", None), "insect.fore")
-    hind = _wing(DRAGONFLY.hind, spec.pop("hind", None), "insect.hind")
+    """The file's insect: what differs from the paper's specimen (the one reader of an insect,
+    :func:`tandem_env.physics.insect.load_insect`, as ``--insect`` and the env keyword)."""
     try:
-        return replace(DRAGONFLY, fore=fore, hind=hind, **spec)
-    except (TypeError, ValueError) as exc:
-        raise SpecError(f"insect: {exc}") from None
+        return load_insect(_mapping(spec, "insect"))
+    except SpecError:
+        raise
+    except ValueError as exc:
+        raise SpecError(str(exc)) from None
 
 
 def _options(spec: Any) -> ModelOptions:
@@ -348,18 +285,14 @@ def load_case(path: str | Path) -> MeasuredCase:
     if not path.is_file():
         raise SpecError(f"{str(path)!r}: no such file")
     try:
-        spec = yaml.load(_text(path, "kinematics file"), Loader=_Loader)  # safe: plain data
-    except yaml.YAMLError as exc:
-        raise SpecError(f"{str(path)!r} is not valid YAML: {exc}") from None
-    except RecursionError:
-        raise SpecError(
-            f"{str(path)!r} nests too deeply; allowed: the format of docs/measured.md"
-        ) from None
-    if spec is None:
-        raise SpecError(
-            f"{str(path)!r} is empty; allowed: a mapping with flight, kinematics (fore, hind) "
-            "and optionally insect, options, description (docs/measured.md)"
+        spec = read_yaml(
+            path,
+            "kinematics file",
+            "a mapping with flight, kinematics (fore, hind) and optionally insect, options, "
+            "description (docs/measured.md)",
         )
+    except DataFileError as error:
+        raise SpecError(str(error)) from None
     spec = _mapping(spec, str(path))
     _take(spec, ("description", "insect", "flight", "options", "kinematics"), "file")
     flight = _mapping(spec.get("flight"), "flight")

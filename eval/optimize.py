@@ -13,7 +13,7 @@ import sys
 import textwrap
 import warnings
 from collections.abc import Callable
-from typing import TypeVar
+from typing import Any, TypeVar
 
 from agents.harness import prepare
 from agents.methods import available_methods
@@ -32,10 +32,11 @@ from eval.studies.runner import (
     parse_scheduler,
     run_jobs,
 )
-from tandem_env.envs.config import EXECUTION_KWARGS
+from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
 from tandem_env.io.keyvalue import parse_pairs
 from tandem_env.physics import BACKENDS
 from tandem_env.physics.backends import check_backend
+from tandem_env.physics.insect import describe_insect
 
 
 def _tasks() -> list[TaskSpec]:
@@ -237,6 +238,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)"
         ),
     )
+    add_insect_argument(parser)
     add_backend_arguments(parser)
     parser.add_argument(
         "--polish",
@@ -257,6 +259,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_scheduler_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress display")
+
+
+def add_insect_argument(parser: argparse.ArgumentParser) -> None:
+    """``--insect FILE`` (shared with ``study``): the insect every job flies."""
+    parser.add_argument(
+        "--insect",
+        metavar="FILE",
+        help="YAML file of the insect: the fields that differ from the paper's specimen "
+        "(body_mass, fore: {length, mean_chord, mass, planform, coefficients}, hind: {...}; "
+        "docs/envs.md, e.g. examples/aeshna_cyanea.yaml); part of each record's key",
+    )
+
+
+def insect_kwargs(args: argparse.Namespace, env_kwargs: dict[str, Any]) -> dict[str, Any]:
+    """The env keyword of ``--insect`` (none for the paper's specimen), read and checked here,
+    before any work: ValueError naming the file, the key or value and what is allowed."""
+    if args.insect is None:
+        return {}
+    if "insect" in env_kwargs:
+        raise ValueError("give --insect FILE or --env-kwargs insect=..., not both")
+    insect = insect_keyword(args.insect)
+    return {} if insect is None else {"insect": insect}
 
 
 def add_backend_arguments(parser: argparse.ArgumentParser) -> None:
@@ -319,6 +343,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         if given and set(EXECUTION_KWARGS) & set(env_kwargs):
             raise ValueError("give --backend/--device or --env-kwargs backend=/device=, not both")
         env_kwargs.update(given)
+        env_kwargs.update(insect_kwargs(args, env_kwargs))
         objective = args.objective
         if args.reading is not None:
             reading = reading_by_name(args.reading)
@@ -364,6 +389,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             f"-> {store.directory}",
             file=sys.stderr,
         )
+        if "insect" in prepared[0].env_kwargs:
+            print(f"insect: {describe_insect(prepared[0].env_kwargs['insect'])}", file=sys.stderr)
     try:
         summary = run_reporting(
             parser,

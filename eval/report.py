@@ -18,6 +18,7 @@ from eval.studies.readings_result import HEADLINES, ReadingResult, reading_dir
 from eval.studies.tables import PINNED_SHARE, pinned_parameters
 from tandem_env import BOUND_TOLERANCE, PARAMETER_NAMES
 from tandem_env.io.files import write_text_atomic
+from tandem_env.physics.insect import describe_insect
 
 UNDERSTOOD = {
     "thrust_split": (
@@ -131,6 +132,11 @@ def agreement_rules() -> list[str]:
     ]
 
 
+def _insect_line(plan: StudyPlan) -> str:
+    """Which insect every job of the plan flies (``--insect``)."""
+    return f"- insect: {describe_insect(plan.insect)}"
+
+
 def _settings(plan: StudyPlan) -> list[str]:
     p = plan.preset
     search = plan.reading.search
@@ -154,6 +160,7 @@ def _settings(plan: StudyPlan) -> list[str]:
             f"defaults otherwise): {plan.reading.description}"
         )
         + (f", env kwargs {dict(p.env_kwargs)}" if p.env_kwargs else ""),
+        _insect_line(plan),
         "- statistics over the feasible seeds of each condition; *best seed* = the seed with the "
         "best objective",
     ]
@@ -318,6 +325,7 @@ def render_readings(
         "# Readings of the paper: which reading reproduces which claim",
         "",
         *_settings(plan)[:3],
+        _insect_line(plan),
         "- every reading runs the four paper studies (speed, power, kinematics, wing shape) with "
         "these settings; a job two readings share runs once",
         "",

@@ -15,6 +15,7 @@ from agents.records import Job, RecordStore
 from eval.figures import FORMATS
 from eval.optimize import (
     add_backend_arguments,
+    add_insect_argument,
     add_scheduler_argument,
     backend_kwargs,
     run_reporting,
@@ -26,6 +27,7 @@ from eval.studies.presets import PRESETS, get_preset
 from eval.studies.runner import executor_spec, have_records
 from eval.studies.suite import expand, run_studies
 from tandem_env.physics import N_PARAMETERS
+from tandem_env.physics.insect import DRAGONFLY, describe_insect, load_insect
 
 NAME = "study"
 HELP = "reproduce the paper's figures: speed/power sweeps, kinematics, wing shape, report"
@@ -99,6 +101,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="harness method: cmaes, pso, random, policy:RUN_DIR, ...; repeat to run several "
         "side by side (default: the preset's method)",
     )
+    add_insect_argument(parser)
     add_backend_arguments(parser)
     add_scheduler_argument(parser)
     parser.add_argument(
@@ -197,6 +200,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             methods,
             figure_format=args.format,
             execution=tuple(backend_kwargs(args).items()),
+            insect=DRAGONFLY if args.insect is None else load_insect(args.insect),
             reading=readings.reading_by_name(args.reading[0])
             if args.reading and args.study != readings.NAME
             else readings.DEFAULT,
@@ -243,6 +247,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         return 0
     if not args.quiet:
         print(_announce(title, plan, unique, args.out), file=sys.stderr)
+        if plan.insect != DRAGONFLY:
+            print(f"insect: {describe_insect(plan.insect)}", file=sys.stderr)
     if args.study == readings.NAME:
         return _run_readings(args, parser, plan, scheduler, chosen)
     result = run_reporting(

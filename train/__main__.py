@@ -75,6 +75,9 @@ OPTIONS: tuple[Option, ...] = (
     _option("save_freq", "--save-freq", type=int,
             help="env steps between checkpoints (<= 0: none, no resume; default %(default)s)"),
     _option("log_interval", "--log-interval", type=int, help="SB3 log_interval"),
+    _option("log_table", "--log-table", action="store_true",
+            help="print SB3's statistics table at every log dump (default: off, the progress "
+            "bar and the final lines only; TensorBoard gets the same numbers)"),
     _option("progress_bar", "--no-progress", action="store_false", help="hide the progress bar"),
     _option("progress_bar", "-P", "--progress", action="store_true",
             help="show a progress bar (default)"),
@@ -102,6 +105,12 @@ def build_parser() -> argparse.ArgumentParser:
     for name, flags, settings in OPTIONS:
         group = exclusive if name in EXCLUSIVE else parser
         group.add_argument(*flags, dest=name, default=defaults.get(name), **settings)
+    # Short for --env-kwargs insect=FILE (TrainConfig reads it into env_kwargs).
+    parser.add_argument(
+        "--insect",
+        metavar="FILE",
+        help="YAML file of the insect (what differs from the paper's specimen; docs/envs.md)",
+    )
     return parser
 
 
@@ -111,6 +120,11 @@ def config_from_args(args: argparse.Namespace) -> TrainConfig:
     values = {name: getattr(args, name) for name, _, _ in OPTIONS}
     for name in ("env_kwargs", "hyperparams"):
         values[name] = parse_pairs(values[name], f"--{name.replace('_', '-')}")
+    insect = getattr(args, "insect", None)
+    if insect is not None:
+        if "insect" in values["env_kwargs"]:
+            raise ValueError("give --insect FILE or --env-kwargs insect=..., not both")
+        values["env_kwargs"]["insect"] = insect  # TrainConfig reads it (insect_keyword)
     return TrainConfig(**values)
 
 

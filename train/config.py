@@ -21,6 +21,7 @@ from typing import Any, Literal, get_args
 
 import yaml
 
+from tandem_env.envs.config import insect_keyword
 from tandem_env.envs.registration import check_env_id
 from tandem_env.io.files import output_directory, to_jsonable
 from tandem_env.physics.checks import is_integer, is_real
@@ -418,6 +419,9 @@ class TrainConfig:
     log_interval: int | None = None
     """SB3's log_interval; None picks one that dumps every few thousand steps (SAC counts it
     in episodes, and every env step ends n_envs of them)."""
+    log_table: bool = False
+    """Print SB3's table of training statistics at every log dump (stdout). Off by default: it
+    breaks into the progress bar every rollout, and TensorBoard gets the same numbers."""
 
     def __post_init__(self) -> None:
         check_algo(self.algo)
@@ -440,6 +444,8 @@ class TrainConfig:
             if not is_integer(value):
                 raise ValueError(f"{name} = {value!r}; allowed: an integer (<= 0 disables)")
             object.__setattr__(self, name, int(value))
+        if not isinstance(self.log_table, bool):
+            raise ValueError(f"log_table = {self.log_table!r}; allowed: True or False")
         if self.log_interval is not None:
             if not is_integer(self.log_interval) or self.log_interval < 1:
                 raise ValueError(
@@ -450,7 +456,13 @@ class TrainConfig:
             value = getattr(self, name)
             if not isinstance(value, Mapping):
                 raise ValueError(f"{name} = {value!r}; allowed: a mapping of keyword -> value")
-            object.__setattr__(self, name, MappingProxyType(dict(value)))
+            value = dict(value)
+            if name == "env_kwargs" and "insect" in value:
+                # what differs from the paper's specimen, read now (a file, before any work)
+                insect = insect_keyword(value.pop("insect"))
+                if insect is not None:
+                    value["insect"] = insect
+            object.__setattr__(self, name, MappingProxyType(value))
         # a file, a dangling link or an empty name: said here, not as errno text when a run starts
         output_directory(self.log_folder, "log_folder (-f)", write=False)
         object.__setattr__(self, "log_folder", Path(self.log_folder))
@@ -464,6 +476,12 @@ class TrainConfig:
             )
         if self.device not in DEVICES:
             raise ValueError(f"device = {self.device!r}; allowed: {', '.join(map(repr, DEVICES))}")
+
+    @property
+    def model_verbose(self) -> int:
+        """The SB3 model's ``verbose``: its log table is printed only with ``log_table`` (or
+        ``verbose`` 2); this run's own messages follow ``verbose``."""
+        return self.verbose if self.log_table or self.verbose >= 2 else 0
 
     def hyperparameters(self) -> Hyperparams:
         """The resolved hyperparameters of this run."""
@@ -497,6 +515,7 @@ class TrainConfig:
             "torch_threads": self.torch_threads,
             "device": self.device,
             "log_interval": self.log_interval,
+            "log_table": self.log_table,
         }
 
 

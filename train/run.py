@@ -402,7 +402,7 @@ def _run_model(plan: TrainPlan, venv: VecEnv) -> BaseAlgorithm:
             venv,
             seed=config.seed,
             tensorboard_log=tensorboard,
-            verbose=config.verbose,
+            verbose=config.model_verbose,
             device=config.device,
         )
     model = load_checkpoint(
@@ -413,7 +413,7 @@ def _run_model(plan: TrainPlan, venv: VecEnv) -> BaseAlgorithm:
         seed=config.seed,
         device=config.device,
         tensorboard_log=tensorboard,
-        verbose=config.verbose,
+        verbose=config.model_verbose,
     )
     # A resumed segment is reproducible given its checkpoint (RNG states are not saved).
     model.set_random_seed(config.seed + model.num_timesteps)

@@ -24,6 +24,7 @@ from eval.studies.tables import summary_rows, tidy_rows
 from tandem_env import PARAMETER_NAMES
 from tandem_env.envs.config import EXECUTION_KWARGS
 from tandem_env.io.files import write_csv_atomic, write_json_atomic
+from tandem_env.physics.insect import DRAGONFLY, Dragonfly
 
 
 @dataclass(frozen=True)
@@ -46,6 +47,9 @@ class StudyPlan:
     execution: tuple[tuple[str, Any], ...] = ()
     """Env keywords of every job that choose only how the model is computed (``backend``,
     ``device``: :data:`~tandem_env.envs.config.EXECUTION_KWARGS`); left out of the record keys."""
+    insect: Dragonfly = DRAGONFLY
+    """The insect every job flies (``--insect``); the paper's specimen adds no env keyword, so
+    its jobs and keys are those of a plan without one. The studies set each series' planform."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.preset, Preset):
@@ -67,6 +71,8 @@ class StudyPlan:
             raise ValueError(
                 f"StudyPlan.figure_format = {self.figure_format!r}; allowed: {', '.join(FORMATS)}"
             )
+        if not isinstance(self.insect, Dragonfly):
+            raise ValueError(f"StudyPlan.insect = {self.insect!r}; allowed: a tandem_env.Dragonfly")
         if not isinstance(self.reading, Reading):
             raise ValueError(f"StudyPlan.reading = {self.reading!r}; allowed: a Reading")
         if self.reading.search is not None:
@@ -122,6 +128,8 @@ class StudyPlan:
         kwargs: dict[str, Any] = dict(self.preset.env_kwargs)
         kwargs.update(self.reading.env_kwargs())
         kwargs.update(self.execution)
+        if self.insect != DRAGONFLY:
+            kwargs["insect"] = self.insect  # the job keeps what differs from the specimen
         kwargs["planform"] = planform
         if objective is not None:
             kwargs["objective"] = self.reading.objective(objective)

@@ -65,9 +65,22 @@ _HARMONIC = {name for name in PARAMETER_NAMES if name.endswith("_elevation_harmo
 _FIRST = np.zeros(1, dtype=np.intp)
 
 
+#: The action space's dtype: what an agent's action (an SB3 policy's output) carries.
+ACTION_DTYPE = np.float32
+
+
 def action_space() -> spaces.Box:
     """Box(-1, 1, (28,), float32): the normalised stroke, fore-wing first (Table 4 order)."""
-    return spaces.Box(-1.0, 1.0, (N_PARAMETERS,), dtype=np.float32)
+    return spaces.Box(-1.0, 1.0, (N_PARAMETERS,), dtype=ACTION_DTYPE)
+
+
+def as_action_type(strokes: Any) -> np.ndarray:
+    """Normalised strokes (any shape) as the action type carries them: rounded to
+    :data:`ACTION_DTYPE`, returned as float64. A stroke the harness searches, polishes and
+    reports is one of these, so stepping it through the env as a float32 action evaluates the
+    same stroke, and its feasibility is what was reported (an optimum on a constraint's edge
+    is not pushed off it by the cast)."""
+    return np.asarray(strokes, dtype=np.float64).astype(ACTION_DTYPE).astype(np.float64)
 
 
 def fly(

@@ -22,6 +22,7 @@ import numpy as np
 from ..physics import PLANFORMS, SPEED_LIMITS, Dragonfly, ModelOptions
 from ..physics.backends import check_backend
 from ..physics.checks import is_real as _is_real
+from ..physics.insect import insect_mapping, load_insect
 from .declaration import TaskCondition, TaskDeclaration, TaskObjectives, check_declarations
 from .validate import check_interval, check_real
 
@@ -50,6 +51,15 @@ EXECUTION_KWARGS: tuple[str, ...] = ("backend", "device")
 #: Model options that must be real numbers (checked here, because ``ModelOptions`` would raise
 #: a bare ``TypeError`` from ``math.isfinite`` on a string).
 _REAL_MODEL_OPTIONS = ("interference", "tolerance")
+
+
+def insect_keyword(value: Any) -> dict[str, Any] | None:
+    """The ``insect`` env keyword in its canonical form: the mapping of what differs from the
+    paper's specimen (:func:`~tandem_env.physics.insect.insect_mapping`), or None for the
+    specimen itself, so that the default insect leaves a record's key as it was and one insect
+    given as an object, a mapping or a file is one key. ValueError names a bad key or value."""
+    changes = insect_mapping(load_insect(value))
+    return changes or None
 
 
 def _as_keywords(error: ValueError, task: str, owner: str, given: Mapping[str, str]) -> ValueError:
@@ -165,7 +175,10 @@ class FlightConfig:
     """Options every flight environment shares (the model, the penalty, the action handling)."""
 
     insect: Dragonfly = field(default_factory=Dragonfly)
-    """The insect (wings, planform, masses, air); default the paper's specimen, tear-drop wings."""
+    """The insect (wings, planform, masses, air); default the paper's specimen, tear-drop wings.
+    A mapping of the fields that differ from it, or a YAML file's path holding one, is read
+    into a :class:`~tandem_env.physics.Dragonfly` (:func:`~tandem_env.physics.insect.load_insect`,
+    docs/envs.md)."""
     options: ModelOptions = field(default_factory=_default_options)
     """Model resolution, inflow coupling and conventions (``thrust_split`` among them)."""
     penalty: PenaltyConfig = field(default_factory=PenaltyConfig)
@@ -203,10 +216,7 @@ class FlightConfig:
 
     def __post_init__(self) -> None:
         owner = type(self).__name__
-        if not isinstance(self.insect, Dragonfly):
-            raise ValueError(
-                f"{owner}.insect = {self.insect!r}; allowed: a tandem_env.Dragonfly instance"
-            )
+        object.__setattr__(self, "insect", load_insect(self.insect, f"{owner}.insect"))
         if not isinstance(self.options, ModelOptions):
             raise ValueError(
                 f"{owner}.options = {self.options!r}; allowed: a tandem_env.ModelOptions instance"
@@ -285,6 +295,8 @@ class FlightConfig:
     def from_kwargs(cls, **kwargs: Any) -> FlightConfig:
         """Build the config from flat keyword arguments (the ``gym.make`` kwargs).
 
+        ``insect`` is a :class:`~tandem_env.physics.Dragonfly`, a mapping of the fields that
+        differ from the paper's specimen, or a YAML file's path (:func:`insect_keyword`).
         Besides the dataclass fields this accepts ``planform`` ("tear-drop" | "real") and
         ``rotational_coefficient`` (C_r of both wings [-], Table 3), applied to ``insect``; the
         :class:`~tandem_env.physics.ModelOptions` fields (``n_time``,
@@ -309,9 +321,7 @@ class FlightConfig:
             )
         kwargs = dict(kwargs)
         insect = kwargs.pop("insect", None)
-        insect = Dragonfly() if insect is None else insect
-        if not isinstance(insect, Dragonfly):
-            raise ValueError(f"{cls.name}: insect = {insect!r}; allowed: a tandem_env.Dragonfly")
+        insect = Dragonfly() if insect is None else load_insect(insect, f"{cls.name}: insect")
         if "planform" in kwargs:
             planform = kwargs.pop("planform")
             if planform not in PLANFORMS:

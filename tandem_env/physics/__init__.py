@@ -24,7 +24,15 @@ from .coefficients import (
     TabulatedCoefficients,
     coefficient_model,
 )
-from .insect import DRAGONFLY, PLANFORMS, Dragonfly, Wing
+from .insect import (
+    DRAGONFLY,
+    PLANFORMS,
+    Dragonfly,
+    Wing,
+    describe_insect,
+    insect_mapping,
+    load_insect,
+)
 from .measured import MeasuredWing, evaluate_measured
 from .model import (
     AVAILABLE_POWER_LIMITS,
@@ -82,8 +90,11 @@ __all__ = [
     "bound_sides",
     "coefficient_model",
     "describe_bounds",
+    "describe_insect",
     "evaluate",
     "evaluate_measured",
+    "insect_mapping",
+    "load_insect",
     "normalised_to_physical",
     "physical_to_normalised",
     "strokes_to_dicts",

@@ -365,3 +365,13 @@ def force_coefficients(u, v, table):
     """(C_L, C_D) of a non-paper model at α = atan2(|v|, u) ∈ [0, π] (see the module docstring)."""
     cl, cd, _, _ = coefficients_and_rates(np.arctan2(abs(v), u), table)
     return cl, cd
+
+
+def coefficient_spec(model: CoefficientModel) -> dict[str, Any]:
+    """The mapping :func:`coefficient_model` builds ``model`` from: ``{"model": name, …fields}``
+    (plain data: tuples as lists), e.g. for a YAML file or a record."""
+    spec: dict[str, Any] = {"model": model.name}
+    for f in fields(model):
+        value = getattr(model, f.name)
+        spec[f.name] = list(value) if isinstance(value, tuple) else value
+    return spec

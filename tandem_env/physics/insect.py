@@ -3,23 +3,35 @@
 Defaults are the paper's specimen (Faisal & Filippone 2016, Tables 1 and 3), Wakeling (1997)
 *Sympetrum sanguineum* male "SSan2"; values the paper does not give follow docs/model.md §1.
 Planforms are the tear-drop of Eq. 1 and the real dragonfly wing of Eq. 2 / Table 2.
+
+Another insect enters as a mapping of the fields that differ from the specimen (YAML or a dict,
+SI units, wings nested under ``fore`` / ``hind``): :func:`load_insect` reads one (a mapping, a
+YAML file or a :class:`Dragonfly`), :func:`insect_mapping` writes an insect back as its
+canonical mapping (only what differs, so the specimen is ``{}``), :func:`describe_insect` says
+it in one line. Every field of :class:`Dragonfly` and :class:`Wing` is a key, read from the
+dataclasses (a field added there is a key without a change here).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
-from typing import Literal
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields, replace
+from typing import Any, Literal, Union
 
 import numpy as np
 
+from ..io.datafile import DataFileError, read_yaml
 from .checks import is_integer, is_real
 from .coefficients import (
     PAPER_COEFFICIENTS,
     CoefficientModel,
     PaperCoefficients,
     SinusoidalFit,
+    TabulatedCoefficients,
     coefficient_model,
+    coefficient_spec,
 )
 
 Planform = Literal["tear-drop", "real"]
@@ -306,3 +318,133 @@ class Dragonfly:
 
 DRAGONFLY = Dragonfly()
 """The paper's specimen with tear-drop wings (the default insect)."""
+
+
+# --- an insect as data (YAML files, env keywords, record keys) --------------------------------
+InsectSource = Union[Dragonfly, Mapping[str, Any], str, os.PathLike]  # noqa: UP007
+"""What :func:`load_insect` takes: an insect, a mapping of its fields, or a YAML file's path."""
+
+#: What an insect mapping holds, for messages.
+INSECT_FORMAT = (
+    "a mapping of Dragonfly fields (SI units), the wings' under fore: and hind: "
+    "(docs/envs.md, Another insect)"
+)
+
+
+def _plain_tuple(value: Any) -> Any:
+    """Lists (as YAML and JSON give them) as tuples, the dataclasses' sequence type."""
+    if isinstance(value, list | tuple):
+        return tuple(_plain_tuple(v) for v in value)
+    return value
+
+
+def _with_fields(base: Any, spec: Any, where: str) -> Any:
+    """``base`` (a Dragonfly or a Wing) with the fields ``spec`` gives; a field holding a
+    :class:`Wing` takes a nested mapping. Errors name the key (``where.key``) and what is
+    allowed."""
+    if not isinstance(spec, Mapping):
+        kind = type(base).__name__
+        raise ValueError(f"{where} = {spec!r}; allowed: a mapping of {kind} fields (SI units)")
+    allowed = tuple(f.name for f in fields(base))
+    changes: dict[str, Any] = {}
+    for key, value in spec.items():
+        if key not in allowed:
+            raise ValueError(
+                f"{where}.{key}: unknown field; allowed: {', '.join(allowed)} (docs/envs.md)"
+            )
+        current = getattr(base, key)
+        if isinstance(current, Wing):
+            changes[key] = _with_fields(current, value, f"{where}.{key}")
+        elif isinstance(value, Mapping) and key == "coefficients":
+            changes[key] = dict(value)  # Wing converts it (coefficient_model)
+        elif isinstance(current, float) and isinstance(value, int) and not isinstance(value, bool):
+            changes[key] = float(value)  # one canonical form: 1 and 1.0 are one insect
+        else:
+            changes[key] = _plain_tuple(value)
+    try:
+        return replace(base, **changes)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{where}: {error}") from None
+
+
+def load_insect(source: InsectSource, where: str = "insect") -> Dragonfly:
+    """The insect ``source`` describes: a :class:`Dragonfly` (returned as it is), a mapping of
+    the fields that differ from the paper's specimen (:data:`DRAGONFLY`), or the path of a YAML
+    file holding such a mapping (read with the safe loader).
+
+    Raises ValueError naming the key or value and what is allowed (an unknown key lists the
+    fields), before any model call.
+    """
+    if isinstance(source, Dragonfly):
+        return source
+    allowed = (
+        f"allowed: a tandem_env.Dragonfly, {INSECT_FORMAT}, or the path of a YAML file holding one"
+    )
+    if isinstance(source, str | os.PathLike):
+        path = os.fspath(source)
+        if not os.path.isfile(path):
+            raise ValueError(f"{where} = {path!r}: no such file; {allowed}")
+        try:
+            return _with_fields(DRAGONFLY, read_yaml(path, f"{where} file", INSECT_FORMAT), where)
+        except ValueError as error:  # DataFileError names the file already
+            if isinstance(error, DataFileError):
+                raise ValueError(str(error)) from None
+            raise ValueError(f"{where} file {path!r}: {error}") from None
+    if not isinstance(source, Mapping):
+        raise ValueError(f"{where} = {source!r}; {allowed}")
+    return _with_fields(DRAGONFLY, source, where)
+
+
+def _field_value(value: Any) -> Any:
+    """A field's value as plain data (tuples as lists, a coefficient model as its mapping)."""
+    if isinstance(value, PaperCoefficients | SinusoidalFit | TabulatedCoefficients):
+        return coefficient_spec(value)
+    if isinstance(value, tuple):
+        return [_field_value(v) for v in value]
+    return value
+
+
+def _differences(obj: Any, base: Any) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for f in fields(obj):
+        value, reference = getattr(obj, f.name), getattr(base, f.name)
+        if value == reference:
+            continue
+        if isinstance(value, Wing):
+            out[f.name] = _differences(value, reference)
+        else:
+            out[f.name] = _field_value(value)
+    return out
+
+
+def insect_mapping(insect: Dragonfly) -> dict[str, Any]:
+    """The canonical mapping of ``insect``: the fields that differ from the paper's specimen,
+    as plain data (``{}`` for the specimen itself); :func:`load_insect` of it gives ``insect``
+    back. Record keys hold it (a study's default insect leaves every key as it was)."""
+    if not isinstance(insect, Dragonfly):
+        raise ValueError(f"insect = {insect!r}; allowed: a tandem_env.Dragonfly")
+    return _differences(insect, DRAGONFLY)
+
+
+def describe_insect(insect: InsectSource) -> str:
+    """One line naming the insect: the paper's specimen, or what differs from it (SI units)."""
+    changes = insect_mapping(load_insect(insect))
+    if not changes:
+        return "the paper's specimen (Sympetrum sanguineum, Wakeling 1997)"
+
+    def flat(mapping: Mapping[str, Any], prefix: str = "") -> list[str]:
+        items = []
+        for key, value in mapping.items():
+            if isinstance(value, Mapping) and key != "coefficients":
+                items += flat(value, f"{prefix}{key}.")
+            elif isinstance(value, Mapping):
+                items.append(f"{prefix}{key} = {value['model']}")
+            elif isinstance(value, float):
+                items.append(f"{prefix}{key} = {value:.4g}")
+            elif isinstance(value, list):
+                items.append(f"{prefix}{key} = (given)")
+            else:
+                items.append(f"{prefix}{key} = {value}")
+        return items
+
+    return "the paper's specimen but " + ", ".join(flat(changes)) + " (SI units)"

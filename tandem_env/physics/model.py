@@ -16,6 +16,7 @@ import numpy as np
 from . import cycle
 from .checks import real_array, shown
 from .coefficients import PaperCoefficients
+from .first_use import compile_notice
 from .insect import DRAGONFLY, Dragonfly, Wing
 from .kinematics import MAX_SWEEP_SHAPE, fill_angle_history, phase_grid, wing_params_radians
 from .options import HOVER_NORMAL_SPEED, ModelOptions
@@ -372,11 +373,12 @@ def run_kernel(
         options.max_evaluations, out, inflow, history, *cycle.fourier_tables(n_time),
         *coefficient_tables(insect), convected, phases, insect.root_spacing, insect.root_drop,
     )  # fmt: skip
-    if batch >= SERIAL_BELOW:
-        cycle.tandem_cycle(*args)
-    else:
-        for b in range(batch):
-            cycle.tandem_stroke(b, *args)
+    with compile_notice():  # the first call compiles the kernels: say so once
+        if batch >= SERIAL_BELOW:
+            cycle.tandem_cycle(*args)
+        else:
+            for b in range(batch):
+                cycle.tandem_stroke(b, *args)
     return out, inflow, history
 
 

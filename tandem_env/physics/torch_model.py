@@ -1068,8 +1068,8 @@ def value_and_grad(
     :class:`TorchResult` returning (B,) values. Returns ((B,) values, (B, 28) d(metric)/d(stroke)
     in the strokes' units, per Hz, per degree, …), from one backward pass: each stroke's metric
     depends on its own stroke only, so the gradient of the batch sum is every stroke's gradient.
-    The column of the discrete N (``elevation_harmonic``) is not a derivative (N ∈ {1, 2}).
-    ``kwargs`` go to :func:`evaluate_torch`.
+    The column of each discrete N (``elevation_harmonic``, N ∈ {1, 2}) is 0: N takes no
+    step of a derivative's size. ``kwargs`` go to :func:`evaluate_torch`.
     """
     if isinstance(metric, str):
         if metric not in RESULT_FIELDS:
@@ -1087,6 +1087,8 @@ def value_and_grad(
         values = getattr(result, metric) if isinstance(metric, str) else metric(result)
         _check_metric_values(values, f"metric {metric!r}", result.efficiency.shape[0])
         (gradient,) = torch.autograd.grad(values.sum(), x)
+    # the model's formula in N has a slope, but N is discrete: not a direction to move in
+    gradient[..., torch.as_tensor(DISCRETE, device=gradient.device)] = 0.0
     return values.detach(), gradient
 
 
@@ -1156,5 +1158,6 @@ def normalised_jacobian(
             for i, value in enumerate(values)
         ]
     jacobian = torch.stack(rows, dim=1).detach().cpu().numpy()
+    jacobian[:, :, DISCRETE] = 0.0  # N is a step of a: 0 already, stated here
     stacked = torch.stack([value.detach() for value in values], dim=1).cpu().numpy()
     return to_numpy_result(result), stacked, jacobian

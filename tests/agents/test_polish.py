@@ -35,6 +35,12 @@ FREE = tuple(j for j in range(DIM) if j not in FIXED)
 TARGET, CAP = 0.6, 7.8
 X_STAR = 0.3  # (26·0.6 − 7.8)/26 below the target on every free coordinate
 F_STAR = -len(FREE) * (TARGET - X_STAR) ** 2
+# The polish holds one float32 step of every coordinate inside the constraint (|∂g/∂x_j| = 1)
+# and reports float32 values: the optimum of the cap lowered by that margin, within the cast.
+MARGIN = 1e-9 + len(FREE) * float(np.finfo(np.float32).eps)
+X_MARGIN = X_STAR - MARGIN / len(FREE)
+F_MARGIN = -len(FREE) * (TARGET - X_MARGIN) ** 2
+ROUNDING = len(FREE) * 2 * (TARGET - X_MARGIN) * 2.0**-25  # |Δf| of half a float32 step
 
 
 class Counted:
@@ -70,11 +76,14 @@ def test_reaches_the_known_constrained_optimum_and_certifies_it():
     result = polish(problem(evaluate), start(), 5_000, PolishConfig())
     c = result.certificate
     assert c.status == "improved" and c.converged
-    np.testing.assert_allclose(result.stroke[list(FREE)], X_STAR, atol=1e-6)
+    assert PolishConfig().margin == 1e-9
+    assert F_STAR - F_MARGIN == pytest.approx(2 * 0.3 * MARGIN, rel=1e-3)  # λ·margin: ~2e-6
+    np.testing.assert_allclose(result.stroke[list(FREE)], X_MARGIN, atol=1e-6)
+    np.testing.assert_array_equal(result.stroke, result.stroke.astype(np.float32))
     np.testing.assert_array_equal(result.stroke[list(FIXED)], 0.5)  # N stays fixed
-    assert result.objective == pytest.approx(F_STAR, abs=1e-7)
+    assert result.objective == pytest.approx(F_MARGIN, abs=ROUNDING + 1e-9)
     f_start = -len(FREE) * TARGET**2
-    assert c.gain == pytest.approx((F_STAR - f_start) / abs(f_start), abs=1e-7)
+    assert c.gain == pytest.approx((F_MARGIN - f_start) / abs(f_start), abs=ROUNDING)
     assert c.kkt_residual < 1e-6
     assert c.active_constraints == ("sum",)
     # the reported stroke satisfies the constraint (held at the margin inside it)

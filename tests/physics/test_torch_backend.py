@@ -223,7 +223,13 @@ def test_value_and_grad_helper():
     result = te.evaluate_torch(x, 1.0)
     (expected,) = torch.autograd.grad(result.power_per_mass.sum(), x)
     assert torch.equal(values, result.power_per_mass.detach())
-    assert torch.allclose(grad, expected, rtol=1e-12, atol=0.0)
+    discrete = torch.as_tensor(DISCRETE)
+    assert torch.all(grad[:, discrete] == 0.0)  # N is discrete: its column is 0, as documented
+    assert torch.all(expected[:, discrete] != 0.0)  # (the formula's slope in N is not)
+    assert torch.allclose(grad[:, ~discrete], expected[:, ~discrete], rtol=1e-12, atol=0.0)
+    actions = np.zeros((2, 28))
+    _, _, jacobian = torch_model.normalised_jacobian(actions, [lambda r: r.power_per_mass], 1.0)
+    assert np.all(jacobian[:, :, DISCRETE] == 0.0)
 
 
 # --- bad input and the import ----------------------------------------------------------------

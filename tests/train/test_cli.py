@@ -236,3 +236,12 @@ def test_a_log_folder_that_cannot_be_one_is_named_not_errno_text(
     log_folder = str(tmp_path / folder) if folder else ""
     with pytest.raises(ValueError, match=match):
         TrainConfig(algo="ppo", env_id=LEVEL_FLIGHT_ID, log_folder=log_folder)
+
+
+def test_sb3_log_table_is_off_by_default_and_a_flag_away() -> None:
+    base = ["--algo", "ppo", "--env", LEVEL_FLIGHT_ID]
+    quiet = config_from_args(build_parser().parse_args(base))
+    assert not quiet.log_table and quiet.verbose == 1 and quiet.model_verbose == 0
+    table = config_from_args(build_parser().parse_args([*base, "--log-table"]))
+    assert table.log_table and table.model_verbose == 1
+    assert config_from_args(build_parser().parse_args([*base, "--verbose", "2"])).model_verbose == 2
