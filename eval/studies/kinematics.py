@@ -236,13 +236,38 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             ),
         ),
     ]
+    phase = phase_dependences(plan)
     found = C.study_claims(
-        rows, plan.methods, lambda r, m, i: _claims(plan, r, m, i), options=plan.model_options
+        rows,
+        plan.methods,
+        lambda r, m, i: _claims(plan, r, m, i, phase),
+        options=plan.model_options,
     )
     return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
-def _claims(plan: StudyPlan, rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim]:
+def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
+    """What K1-K3 are about: the fore/hind phase at the flight speed of their optimisations
+    (level at ``kinematics_speed`` and ``phase_speed``, accelerating at the env's speed)."""
+    p = plan.preset
+    level = plan.jobs("level", [p.kinematics_speed, p.phase_speed], seeds=p.seeds[:1])
+    accel = plan.jobs(
+        "accelerate", [p.kinematics_power], objective=p.kinematics_objective, seeds=p.seeds[:1]
+    )
+    speeds = [flight_of(job)[1] for job in (level[0], level[1], accel[0])]
+    return {
+        cid: (C.Dependence(C.PHASE, speed),)
+        for cid, speed in zip(("K1", "K2", "K3"), speeds, strict=True)
+    }
+
+
+def _claims(
+    plan: StudyPlan,
+    rows: list[dict[str, Any]],
+    method: str,
+    index: int,
+    phase: Mapping[str, tuple[C.Dependence, ...]],
+) -> list[C.Claim]:
     p = plan.preset
     level = dict(method=method, task="level", planform="tear-drop")
     accel = dict(
@@ -257,13 +282,6 @@ def _claims(plan: StudyPlan, rows: list[dict[str, Any]], method: str, index: int
     lv_pitch = spread(select(rows, condition=p.kinematics_speed, **level), "pitch_amplitude")
     ac_pitch = spread(select(rows, condition=p.kinematics_power, **accel), "pitch_amplitude")
 
-    # K1-K3 are about the fore/hind phase, at the flight speed of their optimisations
-    (accel_job, *_) = plan.jobs(
-        "accelerate", [p.kinematics_power], objective=p.kinematics_objective
-    )
-    level_phase = (C.Dependence(C.PHASE, p.kinematics_speed),)
-    lead_phase = (C.Dependence(C.PHASE, p.phase_speed),)
-    accel_phase = (C.Dependence(C.PHASE, flight_of(accel_job)[1]),)
     make = C.ClaimBuilder(NAME, method, index)
     level_at, accel_at = f"{p.kinematics_speed:g} m/s", f"{p.kinematics_power:g} W/kg"
     pitch = "pitch amplitude η_m is larger in accelerating than in level flight"
@@ -278,7 +296,7 @@ def _claims(plan: StudyPlan, rows: list[dict[str, Any]], method: str, index: int
             f"level flight ({level_at}): fore- and hind-wing flap out of phase (|ΔΦ|)",
             "out of phase",
             **C.spread_row("phase", lv_abs, lambda v: C.phase(v, in_phase=False), unit="deg"),
-            depends_on=level_phase,
+            depends_on=phase["K1"],
         ),
         make.claim(
             "K2",
@@ -288,7 +306,7 @@ def _claims(plan: StudyPlan, rows: list[dict[str, Any]], method: str, index: int
             **C.spread_row(
                 "angle", lead, lambda v: C.angle(v, PAPER_PHASE_LEAD), unit="deg", note=noisy
             ),
-            depends_on=lead_phase,
+            depends_on=phase["K2"],
         ),
         make.claim(
             "K3",
@@ -296,7 +314,7 @@ def _claims(plan: StudyPlan, rows: list[dict[str, Any]], method: str, index: int
             f"accelerating flight ({accel_at}): the wings flap in phase (|ΔΦ|)",
             "in phase",
             **C.spread_row("phase", ac_abs, lambda v: C.phase(v, in_phase=True), unit="deg"),
-            depends_on=accel_phase,
+            depends_on=phase["K3"],
         ),
         make.claim(
             "K4",

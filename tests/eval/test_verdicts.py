@@ -185,3 +185,18 @@ def test_claims_about_the_phase_are_not_identifiable_under_a_phase_blind_model()
 def test_a_dependence_names_what_is_allowed() -> None:
     with pytest.raises(ValueError, match=r"Dependence.quantity = 'lag'; allowed: fore/hind phase"):
         C.Dependence("lag")
+
+
+def test_the_phase_claims_are_about_the_phase_at_their_optimisations_speeds() -> None:
+    """K1 and K2 at their level-flight speeds, K3 at the accelerating env's speed (hover), where
+    ``hover_inflow="none"`` leaves no slipstream to carry the phase even when convected."""
+    from eval.studies import kinematics
+    from eval.studies.base import StudyPlan
+    from eval.studies.presets import TINY
+
+    found = kinematics.phase_dependences(StudyPlan(TINY))
+    speeds = {cid: d.speed for cid, (d,) in found.items()}
+    assert speeds == {"K1": TINY.kinematics_speed, "K2": TINY.phase_speed, "K3": 0.0}
+    hover_none = ModelOptions(slipstream="convected", hover_inflow="none")
+    assert [d.resolved(hover_none) for (d,) in found.values()] == [True, True, False]
+    assert not any(d.resolved(ModelOptions()) for (d,) in found.values())
