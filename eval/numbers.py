@@ -738,9 +738,10 @@ def render_readings_paper(data: dict[str, Any]) -> str:
     best = max(int(r["agree"]) for r in rows)
     head = " | ".join(title for title, _ in READINGS_COLUMNS)
     lines = [
-        f"| reading | changes from the default | agree | differ | undecided | no data | {head} |",
-        "|---|---|---|---|---|---|" + "---|" * len(READINGS_COLUMNS),
-        "| paper | | | | | | "
+        f"| reading | changes from the default | agree | differ | undecided | not identifiable | "
+        f"no data | {head} |",
+        "|---|---|---|---|---|---|---|" + "---|" * len(READINGS_COLUMNS),
+        "| paper | | | | | | | "
         + " | ".join(
             " / ".join(paper.get(HEADLINES[c][0], "–") for c in columns)
             for _, columns in READINGS_COLUMNS
@@ -754,12 +755,23 @@ def render_readings_paper(data: dict[str, Any]) -> str:
         ]
         lines.append(
             f"| {mark}`{r['reading']}`{mark} | {r['changes']} | {mark}{r['agree']}{mark} | "
-            f"{r['differ']} | {r['undecided']} | {r['no_data']} | {' | '.join(numbers)} |"
+            f"{r['differ']} | {r['undecided']} | {r.get('not_identifiable', '–')} | "
+            f"{r['no_data']} | {' | '.join(numbers)} |"
         )
+    counted = all("not_identifiable" in r for r in rows)
     lines += [
         "",
         f"{len(data['claims'])} claims; verdicts on the median over the seeds, undecided where "
-        "the bootstrap over seeds leaves it open (docs/reproduction.md, *Agreement rules*).",
+        "the bootstrap over seeds leaves it open, not identifiable where the model does not "
+        "depend on what the claim is about (docs/reproduction.md, *Agreement rules*)."
+        + (
+            ""
+            if counted
+            else " This run was analysed before the identifiability rule (– in its column): "
+            "its agree, differ and undecided counts include verdicts on the fore/hind phase "
+            "claims K1-K3, which the model does not depend on under any of its readings (all "
+            "with the mean slipstream)."
+        ),
         f"Combination rule: {data['combination_rule']}.",
         "",
         "The invocations into the run's folder that optimised (a job stored by an earlier "

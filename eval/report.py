@@ -13,7 +13,13 @@ from pathlib import Path
 from typing import Any
 
 from eval.studies.base import StudyOutput, StudyPlan
-from eval.studies.claims import CONFIDENCE_RULE, RULES, Claim, VerdictCount
+from eval.studies.claims import (
+    CONFIDENCE_RULE,
+    IDENTIFIABILITY_RULE,
+    RULES,
+    Claim,
+    VerdictCount,
+)
 from eval.studies.readings_result import HEADLINES, ReadingResult, reading_dir
 from eval.studies.tables import PINNED_SHARE, pinned_parameters
 from tandem_env import BOUND_TOLERANCE, PARAMETER_NAMES
@@ -56,9 +62,13 @@ UNDERSTOOD = {
         "(not explained; candidates in docs/reproduction.md)."
     ),
     "phase": (
-        "**Phases.** The weaving phase Φ_φ of each wing is free over ±180° (Table 4); the "
-        "fore/hind difference is a property of the optimum only where the objective depends "
-        "on it strongly, so with few seeds the median ΔΦ is noisy."
+        "**Phases.** The weaving phase Φ_φ of each wing is free over ±180° (Table 4). Under the "
+        'default mean slipstream (`slipstream="mean"`) the model does not depend on the '
+        "fore/hind phase at all (docs/model.md §5.3, §5.7): every lag is an optimum, the lag a "
+        "seed reports is what its search left, and K1-K3 are not identifiable. Under "
+        '`slipstream="convected"` the hind-wing sees the fore-wing\'s wake over the cycle and '
+        "the lag matters; even there the fore/hind difference is a property of the optimum only "
+        "where the objective depends on it strongly, so with few seeds the median ΔΦ is noisy."
     ),
 }
 
@@ -114,12 +124,16 @@ def verdict_summary(claims: Sequence[Claim]) -> list[str]:
     lines = []
     for best, name in ((False, "the median"), (True, "the best seed")):
         counts = VerdictCount.of(claims, best=best)
-        undecided = [c.id for c in claims if (c.best_verdict if best else c.verdict) == "undecided"]
+
+        def ids(verdict: str, best: bool = best) -> str:
+            found = [c.id for c in claims if (c.best_verdict if best else c.verdict) == verdict]
+            return f" ({', '.join(found)})" if found else ""
+
         lines.append(
             f"- on {name}: {counts.agree} of {counts.decided} decided claims agree; "
-            f"{counts.undecided} undecided"
-            + (f" ({', '.join(undecided)})" if undecided else "")
-            + f", {counts.no_data} without data"
+            f"{counts.undecided} undecided{ids('undecided')}, "
+            f"{counts.not_identifiable} not identifiable{ids('not identifiable')}, "
+            f"{counts.no_data} without data"
         )
     return lines
 
@@ -129,6 +143,7 @@ def agreement_rules() -> list[str]:
     return [
         *[f"- `{name}`: {text}" for name, text in RULES.items()],
         f"- confidence: {CONFIDENCE_RULE}.",
+        f"- identifiability: {IDENTIFIABILITY_RULE}.",
     ]
 
 
@@ -331,10 +346,9 @@ def render_readings(
         "",
         "## Readings",
         "",
-        "| reading | changes from the default | agree | differ | undecided | no data | "
-        + " | ".join(f"{k}" for k in heads)
-        + " |",
-        "|---|---|---|---|---|---|" + "---|" * len(heads),
+        "| reading | changes from the default | agree | differ | undecided | not identifiable "
+        "| no data | " + " | ".join(f"{k}" for k in heads) + " |",
+        "|---|---|---|---|---|---|---|" + "---|" * len(heads),
     ]
     for r in results:
         head = r.headline()
@@ -346,6 +360,7 @@ def render_readings(
                     str(r.agree),
                     str(r.differ),
                     str(r.undecided),
+                    str(r.not_identifiable),
                     str(r.no_data),
                     *(_num(head[k]) for k in heads),
                 )
@@ -368,7 +383,8 @@ def render_readings(
             if r.agree == best.agree and r is not best
         )
         + f": {best.agree} of {n_claims} claims agree "
-        f"({best.differ} differ, {best.undecided} undecided, {best.no_data} without data); "
+        f"({best.differ} differ, {best.undecided} undecided, {best.not_identifiable} not "
+        f"identifiable, {best.no_data} without data); "
         "the default: "
         f"{default.agree}. Goal: {READINGS_GOAL} or more of {n_claims}"
         + (" (reached)." if best.agree >= READINGS_GOAL else " (not reached)."),
@@ -378,7 +394,8 @@ def render_readings(
         "## Which decision moves which claim",
         "",
         "Claims whose verdict (on the median) differs from the default's (+ now agrees, − no "
-        "longer agrees, · between differs, undecided and no data), with our statistic under the "
+        "longer agrees, · between differs, undecided, not identifiable and no data), with our "
+        "statistic under the "
         "default → under the reading. "
         "`*` marks a flip where both medians lie inside the other's inter-quartile range over "
         "seeds: within the seed-to-seed spread, i.e. possibly search noise.",

@@ -38,7 +38,9 @@ write, per study, the records (JSON), a tidy CSV, a summary CSV and paper-style 
 --format svg or pdf), and DIR/report.md: every claim of the paper beside ours (median [IQR]
 over seeds, best seed) with an explicit agreement rule, judged on the median and on the best
 seed; a verdict that a bootstrap over the seeds flips in more than
-{100 * FLIP_THRESHOLD:.0f} % of resamples is "undecided".
+{100 * FLIP_THRESHOLD:.0f} % of resamples is "undecided"; a claim about what the model does
+not depend on under the options run (the fore/hind phase, K1-K3, under the default mean
+slipstream) is "not identifiable".
 
 Studies:
   speed        level flight at each speed, optimised for efficiency (Figs. 4-6)

@@ -21,8 +21,8 @@ from eval.studies.paper_reading import DEFAULT, Reading
 from eval.studies.presets import Preset
 from eval.studies.runner import RECORDS_DIR, Job
 from eval.studies.tables import summary_rows, tidy_rows
-from tandem_env import PARAMETER_NAMES
-from tandem_env.envs.config import EXECUTION_KWARGS
+from tandem_env import PARAMETER_NAMES, ModelOptions
+from tandem_env.envs.config import EXECUTION_KWARGS, MODEL_OPTION_KWARGS
 from tandem_env.io.files import write_csv_atomic, write_json_atomic
 from tandem_env.physics.insect import DRAGONFLY, Dragonfly
 
@@ -91,6 +91,15 @@ class StudyPlan:
                 f"StudyPlan.reading {self.reading.name!r} sets {clash}, which preset "
                 f"{self.preset.name!r} sets too; allowed: a reading of other options"
             )
+
+    @property
+    def model_options(self) -> ModelOptions:
+        """The model options every job runs with: the preset's and the reading's env keywords
+        over the defaults (as the env builds them, ``FlightConfig.from_kwargs``)."""
+        kwargs = {**dict(self.preset.env_kwargs), **self.reading.env_kwargs()}
+        return ModelOptions(
+            **{MODEL_OPTION_KWARGS[k]: v for k, v in kwargs.items() if k in MODEL_OPTION_KWARGS}
+        )
 
     def figure(self, folder: Path, stem: str) -> Path:
         """The path of the figure ``stem`` in ``folder``, in the plan's format."""

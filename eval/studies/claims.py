@@ -21,6 +21,11 @@ Every claim is judged on both, by the same rule.
 Confidence (:data:`CONFIDENCE_RULE`, :func:`with_confidence`): each verdict is recomputed on
 bootstrap resamples of the seeds; one that flips in more than :data:`FLIP_THRESHOLD` of them
 is *undecided*: the seeds run do not decide it.
+
+Identifiability (:data:`IDENTIFIABILITY_RULE`, :func:`identifiable`): a claim declares what of
+the model it is about (:class:`Dependence`, e.g. the fore/hind phase); where the model, under
+the options the study ran, does not depend on it (:data:`QUANTITIES`), every value of it is an
+optimum, so the claim is *not identifiable* instead of agreeing or differing, and counted apart.
 """
 
 from __future__ import annotations
@@ -34,8 +39,9 @@ import numpy as np
 from scipy.stats import spearmanr
 
 from eval.studies.tables import Spread
+from tandem_env import ModelOptions
 
-Verdict = Literal["agrees", "differs", "undecided", "not run", "no data"]
+Verdict = Literal["agrees", "differs", "undecided", "not identifiable", "not run", "no data"]
 Rule = Literal["number", "range", "trend", "follows", "location", "angle", "phase", "compare"]
 
 RELATIVE_TOLERANCE = 0.20
@@ -59,6 +65,22 @@ CONFIDENCE_RULE = (
     "verdict shows the share of resamples that flip it"
 )
 
+#: The fore/hind phase (Fig. 11): what the paper's phase claims are about.
+PHASE = "fore/hind phase"
+#: What a claim may be about that a reading of the model can lack: the quantity, and whether
+#: the model under the options, at the flight speed [m/s] (None: forward flight), depends on it.
+QUANTITIES: dict[str, Callable[[ModelOptions, float | None], bool]] = {
+    PHASE: lambda options, speed: options.phase_resolved(speed),
+}
+IDENTIFIABILITY_RULE = (
+    "a claim about a quantity the model does not depend on under the options run is **not "
+    "identifiable**: every value of that quantity is an optimum, so what the seeds report is "
+    "what the search left; it gets no agree/differ verdict and is counted apart. The "
+    f"{PHASE} (K1-K3) is such a quantity except under the convected slipstream "
+    "(`slipstream='convected'` with coupled induction and C_hf > 0, and not in hover under "
+    "`hover_inflow='none'`; `ModelOptions.phase_resolved`, docs/model.md §5.7)"
+)
+
 RULES: dict[str, str] = {
     "number": "median within ±20 % of the paper",
     "range": "median inside the paper's range widened by 20 %",
@@ -69,6 +91,26 @@ RULES: dict[str, str] = {
     "phase": "in phase: median |ΔΦ| < 15°; out of phase: ≥ 15°",
     "compare": "the claimed order holds between medians at every condition",
 }
+
+
+@dataclass(frozen=True)
+class Dependence:
+    """What of the model a claim is about: a quantity of :data:`QUANTITIES`, at the flight
+    speed of the claim's optimisations."""
+
+    quantity: str
+    speed: float | None = None
+    """The flight speed V [m/s] of the claim's optimisations; None: forward flight (V > 0)."""
+
+    def __post_init__(self) -> None:
+        if self.quantity not in QUANTITIES:
+            raise ValueError(
+                f"Dependence.quantity = {self.quantity!r}; allowed: {', '.join(QUANTITIES)}"
+            )
+
+    def resolved(self, options: ModelOptions) -> bool:
+        """Whether the model under ``options`` depends on the quantity at this speed."""
+        return QUANTITIES[self.quantity](options, self.speed)
 
 
 @dataclass(frozen=True)
@@ -106,6 +148,11 @@ class Claim:
     """Extra numbers behind the verdict (e.g. the monotonic fraction, n feasible)."""
     note: str = ""
     """Why a difference is understood, when it is."""
+    depends_on: tuple[Dependence, ...] = ()
+    """What of the model the claim is about, where a reading can lack it (:func:`identifiable`)."""
+    lacks: tuple[str, ...] = ()
+    """The quantities of ``depends_on`` the model did not depend on in the run: the verdicts
+    are then ``"not identifiable"`` (:func:`identifiable`)."""
 
     def __post_init__(self) -> None:
         if self.leaning is None:
@@ -115,7 +162,10 @@ class Claim:
 
     def verdict_text(self, best: bool = False) -> str:
         """The verdict with its confidence, e.g. ``agrees (flips 4 %)`` or
-        ``undecided (leans differs, flips 35 %)``."""
+        ``undecided (leans differs, flips 35 %)``, or ``not identifiable (the model does not
+        depend on the fore/hind phase)``."""
+        if self.lacks:
+            return f"not identifiable (the model does not depend on the {', '.join(self.lacks)})"
         if best:
             return _judgement_text(self.best_verdict, self.best_leaning, self.best_flips)
         return _judgement_text(self.verdict, self.leaning, self.flips)
@@ -160,13 +210,15 @@ def claim_id(base: str, method_index: int, method: str) -> str:
 
 @dataclass(frozen=True)
 class VerdictCount:
-    """How many of some claims agree, differ, are undecided (the bootstrap flips them) or
-    have no verdict (no data, not run)."""
+    """How many of some claims agree, differ, are undecided (the bootstrap flips them), are
+    not identifiable (the model does not depend on what they are about) or have no verdict
+    (no data, not run)."""
 
     agree: int
     differ: int
     undecided: int
     no_data: int
+    not_identifiable: int = 0
 
     @property
     def decided(self) -> int:
@@ -178,13 +230,15 @@ class VerdictCount:
         verdicts = [c.best_verdict if best else c.verdict for c in claims]
         agree, differ = verdicts.count("agrees"), verdicts.count("differs")
         undecided = verdicts.count("undecided")
-        return cls(agree, differ, undecided, len(verdicts) - agree - differ - undecided)
+        unknowable = verdicts.count("not identifiable")
+        rest = len(verdicts) - agree - differ - undecided - unknowable
+        return cls(agree, differ, undecided, rest, unknowable)
 
     def text(self) -> str:
-        """``3 agree, 2 differ, 4 undecided, 1 no data``."""
+        """``3 agree, 2 differ, 4 undecided, 3 not identifiable, 1 no data``."""
         return (
             f"{self.agree} agree, {self.differ} differ, {self.undecided} undecided, "
-            f"{self.no_data} no data"
+            f"{self.not_identifiable} not identifiable, {self.no_data} no data"
         )
 
 
@@ -450,17 +504,49 @@ def with_confidence(
     return out
 
 
+def identifiable(claims: Iterable[Claim], options: ModelOptions) -> list[Claim]:
+    """The claims with the verdicts :data:`IDENTIFIABILITY_RULE` gives under ``options`` (the
+    model options the study's optimisations ran with): a claim about a quantity the model does
+    not depend on (:attr:`Claim.depends_on`) is ``"not identifiable"`` on the median and on the
+    best seed, without a confidence (its statistics stay, as what the search left)."""
+    out = []
+    for c in claims:
+        lacks = tuple(d.quantity for d in c.depends_on if not d.resolved(options))
+        if not lacks:
+            out.append(c)
+            continue
+        out.append(
+            replace(
+                c,
+                verdict="not identifiable",
+                best_verdict="not identifiable",
+                leaning="not identifiable",
+                best_leaning="not identifiable",
+                flips=math.nan,
+                best_flips=math.nan,
+                lacks=tuple(dict.fromkeys(lacks)),
+            )
+        )
+    return out
+
+
 def study_claims(
     rows: Sequence[Mapping[str, Any]],
     methods: Sequence[str],
     claims_of: Callable[[Rows, str, int], list[Claim]],
+    *,
+    options: ModelOptions,
 ) -> list[Claim]:
     """Every method's claims (``claims_of(rows, method, index)``) with their confidence, each
-    method's bootstrap over its own rows."""
-    return [
-        c
-        for i, m in enumerate(methods)
-        for c in with_confidence(
-            lambda r, m=m, i=i: claims_of(r, m, i), [r for r in rows if r["method"] == m]
-        )
-    ]
+    method's bootstrap over its own rows, and identifiable under ``options``, the model options
+    the rows' optimisations ran with (:func:`identifiable`)."""
+    return identifiable(
+        [
+            c
+            for i, m in enumerate(methods)
+            for c in with_confidence(
+                lambda r, m=m, i=i: claims_of(r, m, i), [r for r in rows if r["method"] == m]
+            )
+        ],
+        options,
+    )

@@ -56,16 +56,21 @@ def jobs(plan: StudyPlan) -> list[Job]:
     ]
 
 
-def history_of(record: Record, n_samples: int = HISTORY_SAMPLES):
-    """The record's best stroke over one cycle, with the env's own insect and model options."""
-    task = get_task(record.task)
+def flight_of(job: Job) -> tuple[Any, float, float]:
+    """The env config of ``job`` and its flight speed [m/s] and available power [W/kg]."""
+    task = get_task(job.task)
     env_id = task.env_id
-    kwargs = {**dict(record.job.env_kwargs), task.condition_kwarg: record.job.condition}
+    kwargs = {**dict(job.env_kwargs), task.condition_kwarg: job.condition}
     cfg = registration.config_class(env_id).from_kwargs(**kwargs)
     # The task's condition sets one model input; its config fixes the other (task core).
     core = registration.core_class(env_id)(cfg)
     speeds, powers = core.flight_conditions(np.array([cfg.fixed_condition]))
-    speed, power = float(speeds[0]), float(powers[0])
+    return cfg, float(speeds[0]), float(powers[0])
+
+
+def history_of(record: Record, n_samples: int = HISTORY_SAMPLES):
+    """The record's best stroke over one cycle, with the env's own insect and model options."""
+    cfg, speed, power = flight_of(record.job)
     stroke = np.array([float(record.stroke[name]) for name in PARAMETER_NAMES])
     return stroke_history(
         stroke, speed, power, insect=cfg.insect, options=cfg.options, n_samples=n_samples
@@ -231,11 +236,38 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             ),
         ),
     ]
-    found = C.study_claims(rows, plan.methods, lambda r, m, i: _claims(plan, r, m, i))
+    phase = phase_dependences(plan)
+    found = C.study_claims(
+        rows,
+        plan.methods,
+        lambda r, m, i: _claims(plan, r, m, i, phase),
+        options=plan.model_options,
+    )
     return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
-def _claims(plan: StudyPlan, rows: list[dict[str, Any]], method: str, index: int) -> list[C.Claim]:
+def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
+    """What K1-K3 are about: the fore/hind phase at the flight speed of their optimisations
+    (level at ``kinematics_speed`` and ``phase_speed``, accelerating at the env's speed)."""
+    p = plan.preset
+    level = plan.jobs("level", [p.kinematics_speed, p.phase_speed], seeds=p.seeds[:1])
+    accel = plan.jobs(
+        "accelerate", [p.kinematics_power], objective=p.kinematics_objective, seeds=p.seeds[:1]
+    )
+    speeds = [flight_of(job)[1] for job in (level[0], level[1], accel[0])]
+    return {
+        cid: (C.Dependence(C.PHASE, speed),)
+        for cid, speed in zip(("K1", "K2", "K3"), speeds, strict=True)
+    }
+
+
+def _claims(
+    plan: StudyPlan,
+    rows: list[dict[str, Any]],
+    method: str,
+    index: int,
+    phase: Mapping[str, tuple[C.Dependence, ...]],
+) -> list[C.Claim]:
     p = plan.preset
     level = dict(method=method, task="level", planform="tear-drop")
     accel = dict(
@@ -264,6 +296,7 @@ def _claims(plan: StudyPlan, rows: list[dict[str, Any]], method: str, index: int
             f"level flight ({level_at}): fore- and hind-wing flap out of phase (|ΔΦ|)",
             "out of phase",
             **C.spread_row("phase", lv_abs, lambda v: C.phase(v, in_phase=False), unit="deg"),
+            depends_on=phase["K1"],
         ),
         make.claim(
             "K2",
@@ -273,6 +306,7 @@ def _claims(plan: StudyPlan, rows: list[dict[str, Any]], method: str, index: int
             **C.spread_row(
                 "angle", lead, lambda v: C.angle(v, PAPER_PHASE_LEAD), unit="deg", note=noisy
             ),
+            depends_on=phase["K2"],
         ),
         make.claim(
             "K3",
@@ -280,6 +314,7 @@ def _claims(plan: StudyPlan, rows: list[dict[str, Any]], method: str, index: int
             f"accelerating flight ({accel_at}): the wings flap in phase (|ΔΦ|)",
             "in phase",
             **C.spread_row("phase", ac_abs, lambda v: C.phase(v, in_phase=True), unit="deg"),
+            depends_on=phase["K3"],
         ),
         make.claim(
             "K4",

@@ -163,7 +163,9 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             ),
         ),
     ]
-    found = C.study_claims(rows, plan.methods, lambda r, m, i: _claims(r, m, i, h_obj))
+    found = C.study_claims(
+        rows, plan.methods, lambda r, m, i: _claims(r, m, i, h_obj), options=plan.model_options
+    )
     return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 

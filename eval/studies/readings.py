@@ -125,6 +125,13 @@ SINGLES: tuple[Reading, ...] = (
         "(twice the induced velocity at the disk) instead of the disk value",
         options={"interference": 2.0},
     ),
+    Reading(
+        "convected",
+        'slipstream="convected" (§5.7): the hind-wing sees the fore-wing\'s wake as it varies '
+        "over the cycle, convected over the fore/hind spacing, instead of its cycle mean; the "
+        "only reading under which the model depends on the fore/hind phase (K1-K3 get verdicts)",
+        options={"slipstream": "convected"},
+    ),
 )
 
 #: Named readings. ``paper``: the reading with the most agreeing claims (13 of 26, 4 undecided,
@@ -146,6 +153,7 @@ CSV_COLUMNS: tuple[str, ...] = (
     "agree",
     "differ",
     "undecided",
+    "not_identifiable",
     "no_data",
     *HEADLINES,
     "description",
@@ -816,6 +824,7 @@ def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
             "agree": r.agree,
             "differ": r.differ,
             "undecided": r.undecided,
+            "not_identifiable": r.not_identifiable,
             "no_data": r.no_data,
             **{k: _round(v) for k, v in r.headline().items()},
             "description": r.reading.description,

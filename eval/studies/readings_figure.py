@@ -2,8 +2,8 @@
 
 One row per claim (paper order), one column per reading; a cell shows the claim's verdict on
 the median by colour and by glyph, so no colour vision is needed (Okabe & Ito's palette): blue
-✓ agrees, vermillion ✗ differs, yellow ? undecided (the bootstrap over seeds flips it), grey –
-no data. Column labels carry the reading's counts of agreeing and undecided claims; a black
+✓ agrees, vermillion ✗ differs, yellow ? undecided (the bootstrap over seeds flips it), pale ∅
+not identifiable (the model does not depend on what the claim is about), grey – no data. Column labels carry the reading's counts of agreeing and undecided claims; a black
 frame flags a verdict that changed from the first (default) reading; a black line separates
 the single readings from the combinations derived from them.
 """
@@ -28,6 +28,7 @@ VERDICT_STYLE: dict[str, tuple[str, str, str]] = {
     "agrees": (PALETTE[0], "✓", "white"),
     "differs": (PALETTE[1], "✗", "white"),
     "undecided": (PALETTE[6], "?", "black"),
+    "not identifiable": ("#e6e6e6", "∅", "black"),
     "no data": ("#bbbbbb", "–", "black"),
 }
 _CODE = {verdict: k for k, verdict in enumerate(VERDICT_STYLE)}

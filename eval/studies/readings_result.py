@@ -50,6 +50,12 @@ class ReadingResult:
         return VerdictCount.of(self.claims).undecided
 
     @property
+    def not_identifiable(self) -> int:
+        """Claims about a quantity the model does not depend on under the reading
+        (:func:`eval.studies.claims.identifiable`)."""
+        return VerdictCount.of(self.claims).not_identifiable
+
+    @property
     def no_data(self) -> int:
         return VerdictCount.of(self.claims).no_data
 

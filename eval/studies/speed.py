@@ -130,7 +130,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             ),
         ),
     ]
-    found = C.study_claims(rows, plan.methods, _claims)
+    found = C.study_claims(rows, plan.methods, _claims, options=plan.model_options)
     return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 

@@ -119,6 +119,29 @@ class ModelOptions:
                 f"ModelOptions.max_evaluations = {self.max_evaluations!r}; allowed: an integer 2 to 1000"
             )
 
+    def phase_resolved(self, speed: float | None = None) -> bool:
+        """Whether the model's results depend on the fore/hind phase (docs/model.md §5.7).
+
+        Only the hind-wing's view of the fore-wing's wake can carry the phase between the pairs
+        (the two pairs meet nowhere else in the model): it does under ``slipstream="convected"``
+        with ``induction="coupled"`` and C_hf > 0. The mean slipstream is the same at every
+        instant, ``"isolated"`` and ``"none"`` have no slipstream, C_hf = 0 hides it, and so
+        does ``hover_inflow="none"`` in hover, where no wing has an induced velocity (all
+        tested in ``tests/physics/test_slipstream.py``).
+
+        Parameters
+        ----------
+        speed : float or None
+            The flight speed V [m/s] the question is asked at; below ``HOVER_NORMAL_SPEED``
+            it is hover. None: a speed above it (forward flight).
+        """
+        if self.induction != "coupled" or self.interference == 0.0:
+            return False
+        hovering = speed is not None and abs(speed) < HOVER_NORMAL_SPEED
+        if hovering and self.hover_inflow == "none":
+            return False
+        return self.slipstream == "convected"
+
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 

@@ -64,6 +64,27 @@ def test_every_single_reading_changes_one_decision_and_builds_envs() -> None:
             assert config.insect.hind.rotational_coefficient == reading.rotational_coefficient
 
 
+def test_the_convected_reading_is_the_one_single_reading_that_resolves_the_phase() -> None:
+    """The readings study has the convected slipstream as a single reading, and only under it
+    does the model depend on the fore/hind phase (so K1-K3 get verdicts)."""
+    convected = readings.reading_by_name("convected")
+    assert convected in readings.SINGLES
+    assert convected.changes() == {"slipstream": "convected"}
+    assert convected.env_kwargs() == {"slipstream": "convected"}
+    resolving = [
+        r.name
+        for r in readings.SINGLES
+        if StudyPlan(TINY, reading=r).model_options.phase_resolved()
+    ]
+    assert resolving == ["convected"]
+    # a combination with a reading that hides the slipstream is blind again
+    blind = readings.reading_by_name("convected+Chf=0")
+    assert not StudyPlan(TINY, reading=blind).model_options.phase_resolved()
+    # the plan's options are the preset's env keywords with the reading's over them
+    options = StudyPlan(TINY, reading=convected).model_options
+    assert (options.slipstream, options.n_time, options.n_blade) == ("convected", 32, 6)
+
+
 def test_default_reading_gives_the_all_suite_jobs_key_for_key() -> None:
     plan = StudyPlan(TINY)
     suite = [job for study in PAPER_STUDIES.values() for job in study.jobs(plan)]
@@ -154,7 +175,7 @@ def test_tiny_run_writes_everything_and_a_rerun_computes_nothing(
     from eval.__main__ import main
 
     plan = StudyPlan(TINY)
-    chosen = readings.single_readings(["spin-total"])
+    chosen = readings.single_readings(["convected"])
     first = readings.run_readings(
         plan, tmp_path, readings=chosen, progress=False, continuation=None
     )
@@ -166,20 +187,26 @@ def test_tiny_run_writes_everything_and_a_rerun_computes_nothing(
         assert (tmp_path / reading.name / "records").resolve() == (tmp_path / "records").resolve()
     with open(tmp_path / "readings.csv", newline="", encoding="utf-8") as handle:
         rows = list(csv.DictReader(handle))
-    assert [r["reading"] for r in rows] == ["default", "spin-total"]
+    assert [r["reading"] for r in rows] == ["default", "convected"]
     assert tuple(rows[0]) == readings.CSV_COLUMNS
     n_claims = len(first.results[0].claims)
-    counts = ("agree", "differ", "undecided", "no_data")
+    counts = ("agree", "differ", "undecided", "not_identifiable", "no_data")
     assert all(sum(int(r[k]) for k in counts) == n_claims for r in rows)
+    # the phase claims (K1-K3) get no verdict under the default's mean slipstream, and real
+    # ones under the convected slipstream
+    assert [int(r["not_identifiable"]) for r in rows] == [3, 0]
+    moved = {c.id: c for c in first.results[1].claims}
+    assert all(moved[cid].verdict != "not identifiable" for cid in ("K1", "K2", "K3"))
     report = (tmp_path / "report.md").read_text(encoding="utf-8")
-    assert "## Which decision moves which claim" in report and "`spin-total`" in report
+    assert "## Which decision moves which claim" in report and "`convected`" in report
+    assert "| not identifiable |" in report
 
     # The same study from the command line: every record is reused, the verdicts are the same.
     calls: list[runner.Job] = []
     monkeypatch.setattr(runner, "_harness_run", lambda job: calls.append(job))
     monkeypatch.setitem(PRESETS, TINY.name, TINY)
     argv = ["study", "readings", "--preset", "tiny", "--out", str(tmp_path), "--quiet"]
-    assert main([*argv, "--reading", "spin-total", "--continuation", "none"]) == 0
+    assert main([*argv, "--reading", "convected", "--continuation", "none"]) == 0
     out = capsys.readouterr().out
     assert calls == []
     for r in first.results:
@@ -188,7 +215,7 @@ def test_tiny_run_writes_everything_and_a_rerun_computes_nothing(
     # The cost estimate for another preset reads the measured records.
     readings_time.main(["--measured", str(tmp_path), "--preset", "quick"])
     out = capsys.readouterr().out
-    assert "spin-total" in out and "h serial" in out
+    assert "convected" in out and "h serial" in out
 
 
 def test_cli_names_an_unknown_reading(capsys: pytest.CaptureFixture) -> None:

@@ -92,6 +92,12 @@ def test_every_study_writes_records_csv_figures_and_report(study_dir: Path) -> N
     table = _report_rows(study_dir / "report.md")
     for cid in ("S1", "S7", "S8", "P1a", "P1b", "P3", "P6b", "K1", "K2", "K3", "K4", "W1", "W4"):
         assert cid in table, cid
+    # the default's mean slipstream does not depend on the fore/hind phase: no verdict on it
+    blind = "not identifiable (the model does not depend on the fore/hind phase)"
+    for cid in ("K1", "K2", "K3"):
+        assert table[cid]["verdict: median"] == table[cid]["verdict: best seed"] == blind
+    assert not table["K4"]["verdict: median"].startswith("not identifiable")
+    assert "not identifiable (K1, K2, K3)" in report
     # Every figure is linked from the report with a path relative to it.
     for png in study_dir.glob("*/fig*.png"):
         assert f"]({png.relative_to(study_dir).as_posix()})" in report

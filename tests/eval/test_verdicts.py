@@ -7,10 +7,12 @@ import math
 from typing import Any
 
 import numpy as np
+import pytest
 
 from eval import report
 from eval.studies import claims as C
 from eval.studies.tables import spread
+from tandem_env import ModelOptions
 
 PAPER = 10.0  # the number rule's ±20 % band is [8, 12]
 
@@ -103,15 +105,98 @@ def test_no_data_is_not_resampled_and_counts_apart() -> None:
     ]
     counts = C.VerdictCount.of(claims)
     assert (counts.agree, counts.differ, counts.undecided, counts.no_data) == (0, 1, 1, 1)
-    assert counts.text() == "0 agree, 1 differ, 1 undecided, 1 no data"
+    assert counts.text() == "0 agree, 1 differ, 1 undecided, 0 not identifiable, 1 no data"
     lines = report.verdict_summary(claims)
-    assert (
-        lines[0] == "- on the median: 0 of 1 decided claims agree; 1 undecided (X1), 1 without data"
+    assert lines[0] == (
+        "- on the median: 0 of 1 decided claims agree; 1 undecided (X1), 0 not identifiable, "
+        "1 without data"
     )
     assert "flips in more than 20 %" in "\n".join(report.agreement_rules())
 
 
 def test_study_claims_bootstrap_each_method_on_its_own_rows() -> None:
     rows = _rows([20.0, 21.0, 22.0]) + _rows([9.9, 10.0, 10.1], method="pso")
-    out = C.study_claims(rows, ("cmaes", "pso"), _number_claims)
+    out = C.study_claims(rows, ("cmaes", "pso"), _number_claims, options=ModelOptions())
     assert [(c.id, c.verdict) for c in out] == [("X1", "differs"), ("X1/pso", "agrees")]
+
+
+# --- identifiability: no verdict on what the model does not depend on -------------------------
+def _phase_claims(rows: list[dict[str, Any]], method: str = "cmaes", index: int = 0):
+    """X1 about the fore/hind phase in forward flight, X2 in hover, X3 about nothing lacking."""
+    make = C.ClaimBuilder("test", method, index)
+    s = spread([r for r in rows if r["method"] == method], "x")
+    return [
+        make.claim(
+            cid,
+            "Fig. 0",
+            "x is about 10",
+            "≈ 10",
+            **C.number_row(s, PAPER),
+            depends_on=depends,
+        )
+        for cid, depends in (
+            ("X1", (C.Dependence(C.PHASE),)),
+            ("X2", (C.Dependence(C.PHASE, 0.0),)),
+            ("X3", ()),
+        )
+    ]
+
+
+def test_claims_about_the_phase_are_not_identifiable_under_a_phase_blind_model() -> None:
+    rows = _rows([9.9, 10.0, 10.1])  # agrees, far from the threshold
+    blind = [
+        ModelOptions(),
+        ModelOptions(slipstream="convected", induction="isolated"),
+        ModelOptions(slipstream="convected", induction="none"),
+        ModelOptions(slipstream="convected", interference=0.0),
+    ]
+    text = "not identifiable (the model does not depend on the fore/hind phase)"
+    for options in blind:
+        x1, x2, x3 = C.study_claims(rows, ("cmaes",), _phase_claims, options=options)
+        for c in (x1, x2):
+            assert (c.verdict, c.best_verdict) == ("not identifiable",) * 2, options
+            assert c.verdict_text() == c.verdict_text(best=True) == text
+            assert math.isnan(c.flips) and c.lacks == (C.PHASE,)
+            assert c.median == x3.median  # the statistic stays, as what the search left
+        assert x3.verdict == "agrees" and x3.lacks == ()
+        counts = C.VerdictCount.of([x1, x2, x3])
+        assert (counts.agree, counts.not_identifiable, counts.decided, counts.no_data) == (
+            1,
+            2,
+            1,
+            0,
+        )
+        lines = report.verdict_summary([x1, x2, x3])
+        assert "1 of 1 decided claims agree" in lines[0]
+        assert "2 not identifiable (X1, X2), 0 without data" in lines[0]
+        assert text in report.claims_table([x1, x2, x3])
+    # The convected slipstream carries the phase: real verdicts, in hover too...
+    convected = ModelOptions(slipstream="convected")
+    out = C.study_claims(rows, ("cmaes",), _phase_claims, options=convected)
+    assert [c.verdict for c in out] == ["agrees"] * 3
+    assert out[0].verdict_text() == "agrees (flips 0 %)"
+    # ... except in hover when no wing has an induced velocity there.
+    hover_none = ModelOptions(slipstream="convected", hover_inflow="none")
+    out = C.study_claims(rows, ("cmaes",), _phase_claims, options=hover_none)
+    assert [c.verdict for c in out] == ["agrees", "not identifiable", "agrees"]
+    assert "identifiability: " in "\n".join(report.agreement_rules())
+
+
+def test_a_dependence_names_what_is_allowed() -> None:
+    with pytest.raises(ValueError, match=r"Dependence.quantity = 'lag'; allowed: fore/hind phase"):
+        C.Dependence("lag")
+
+
+def test_the_phase_claims_are_about_the_phase_at_their_optimisations_speeds() -> None:
+    """K1 and K2 at their level-flight speeds, K3 at the accelerating env's speed (hover), where
+    ``hover_inflow="none"`` leaves no slipstream to carry the phase even when convected."""
+    from eval.studies import kinematics
+    from eval.studies.base import StudyPlan
+    from eval.studies.presets import TINY
+
+    found = kinematics.phase_dependences(StudyPlan(TINY))
+    speeds = {cid: d.speed for cid, (d,) in found.items()}
+    assert speeds == {"K1": TINY.kinematics_speed, "K2": TINY.phase_speed, "K3": 0.0}
+    hover_none = ModelOptions(slipstream="convected", hover_inflow="none")
+    assert [d.resolved(hover_none) for (d,) in found.values()] == [True, True, False]
+    assert not any(d.resolved(ModelOptions()) for (d,) in found.values())

@@ -86,6 +86,44 @@ def test_convected_reading_sees_a_hind_time_shift(speed):
     assert np.all(change[felt] > 1e-4), change
 
 
+@pytest.mark.parametrize(
+    ("options", "speed"),
+    [
+        (MEAN, 1.5),
+        (CONVECTED, 1.5),
+        (CONVECTED, 0.0),
+        (replace(CONVECTED, induction="isolated"), 1.5),
+        (replace(CONVECTED, induction="none"), 1.5),
+        (replace(CONVECTED, interference=0.0), 1.5),
+        (replace(CONVECTED, interference=2.0), 1.5),
+        (replace(CONVECTED, hover_inflow="none"), 0.0),
+        (replace(CONVECTED, hover_inflow="none"), 1.5),
+        (replace(MEAN, hover_inflow="none"), 0.0),
+    ],
+    ids=[
+        "mean",
+        "convected",
+        "convected-hover",
+        "isolated",
+        "none",
+        "Chf=0",
+        "Chf=2",
+        "hover-none-hover",
+        "hover-none-forward",
+        "mean-hover-none-hover",
+    ],
+)
+def test_phase_resolved_says_whether_a_hind_time_shift_changes_anything(options, speed):
+    """``ModelOptions.phase_resolved`` (what the report's verdicts on the fore/hind phase rest
+    on) is True exactly where delaying the hind-wing by 90° moves its forces beyond rounding."""
+    strokes = _random_strokes(11)
+    base = te.evaluate(strokes, speed, options=options).hind_lift_to_weight
+    moved = te.evaluate(shift_hind(strokes, 90.0), speed, options=options).hind_lift_to_weight
+    change = float(np.max(np.abs(moved - base)))
+    assert (change > 1e-6) == options.phase_resolved(speed), (change, options)
+    assert change > 1e-4 or change < 1e-10, change  # no case near the threshold
+
+
 def test_hind_vertical_force_varies_with_the_lag_beyond_the_time_grid_error():
     """At the issue's stroke (V = 1 m/s), the hind-wing's cycle-mean vertical force over lags
     0-315° varies by far more than the time grid's error, shown by refinement (128 → 256)."""
