@@ -216,14 +216,15 @@ def steady_optima(
     """Level-flight optima at ``speeds`` [m/s] for the env's insect and model options.
 
     Each is one harness job (``budget`` model evaluations, ``seed``) on the ``level`` task, run
-    by the studies' runner (:func:`eval.studies.runner.run_jobs`: serially, or on Dask with
+    by the studies' runner (:func:`agents.runner.run_jobs`: serially, or on Dask with
     ``scheduler``) into the record store ``cache_dir`` (a temporary one if None), where a
     stored record of the same configuration is reused.
     """
     import tempfile
 
-    from agents.records import Job, RecordStore
-    from eval.studies.runner import run_jobs
+    from agents.jobs import Job
+    from agents.runner import run_jobs
+    from agents.store import RecordStore
 
     method = default_optimiser() if method is None else method
     kwargs = level_kwargs(config)
@@ -526,7 +527,7 @@ def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> str:
     """Validate --optimiser, --optima-budget, --grid and --scheduler before any optimisation
     (ValueError naming the option and what is allowed); returns the optimiser."""
     from agents.harness import prepare
-    from eval.studies.runner import parse_scheduler
+    from agents.runner import parse_scheduler
 
     if args.scheduler is not None:
         parse_scheduler(args.scheduler)

@@ -25,10 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
+from agents.runner import load_records, parse_scheduler, run_jobs
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, get_preset
-from eval.studies.runner import load_records, parse_scheduler, run_jobs
 
 WORKERS: tuple[int, ...] = (1, 2, 4, 8, 16, 32, 64, 128)
 
