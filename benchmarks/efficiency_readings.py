@@ -45,7 +45,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.harness import PreparedJob, prepare
-from agents.runner import load_records, run_jobs
+from agents.runner import run_jobs
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import (
     DEFAULT,
@@ -304,8 +304,7 @@ def main() -> int:
     wall = time.perf_counter() - start
     rows = []
     for case, group in prepared.items():
-        stored = load_records(args.out, [p.job for p in group])
-        rows.append(summarise(case, [stored[p.job] for p in group]))
+        rows.append(summarise(case, [summary.records[p.job.key] for p in group]))
     print(table(rows))
     meta = _meta(load_before, wall, args.scheduler) | {
         "runs": summary.total,
