@@ -206,7 +206,7 @@ class VectorEnvEvaluator(Tallied):
 
 @dataclass(frozen=True)
 class Reevaluation:
-    """One fresh single-env step of a stroke: what the record reports."""
+    """One single-env step of a stroke, after a reset: what the record reports."""
 
     reward: float
     info: dict[str, Any]
@@ -220,20 +220,26 @@ def reevaluate(
     env_kwargs: Mapping[str, Any],
     seed: int,
     action: np.ndarray,
+    env: gym.Env | None = None,
 ) -> Reevaluation:
-    """Evaluate ``action`` once more in a freshly made single env of the task.
+    """Evaluate ``action`` once more in a single env of the task, reset with ``seed``.
 
     The single env and the vector env share one batched core, so this gives the same reward
-    as during the search; doing it in a fresh env makes the record independent of any state
-    the search left behind.
+    as during the search; doing it in a single env of its own (not the search's vector env)
+    makes the record independent of any state the search left behind. ``env`` is that env made
+    with ``env_kwargs`` when the caller has one (the harness's job env; the polish only reads
+    its core), else one is made here and closed.
     """
-    env = gym.make(task.env_id, disable_env_checker=True, **env_kwargs)
+    own = env is None
+    if env is None:
+        env = gym.make(task.env_id, disable_env_checker=True, **env_kwargs)
     try:
         env.reset(seed=seed, options={task.reset_option: condition.value})
         _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
         return Reevaluation(float(reward), dict(info), env_config_dict(env))
     finally:
-        env.close()
+        if own:
+            env.close()
 
 
 def env_config_dict(env: gym.Env) -> dict[str, Any] | None:

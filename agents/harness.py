@@ -6,13 +6,13 @@
 
     records = run("pso", "level", 1.5, budget=12_000, seeds=[0, 1, 2])
 
-A :class:`~agents.records.Job` is one run's configuration. :func:`prepare_job` validates it
+A :class:`~agents.jobs.Job` is one run's configuration. :func:`prepare_job` validates it
 against the task and method registries (task, condition, env keywords, method settings,
 budget against the method) and resolves it into a :class:`PreparedJob`, once, before any
 evaluation; :func:`prepare` builds and validates the jobs of one call (one per seed) from
 user-level arguments. :func:`run_job` runs one job and returns its
 :class:`~agents.records.Record`; it writes nothing. Storing records (and resuming from them)
-is the runner's job (:func:`eval.studies.runner.run_jobs`, used by ``python -m eval
+is the runner's job (:func:`agents.runner.run_jobs`, used by ``python -m eval
 optimize`` and the studies): the one writer of a record store. :func:`run` runs the jobs of
 one :func:`prepare` call here, one after another, and returns their records.
 
@@ -20,7 +20,8 @@ In :func:`run_job` the method searches the task's normalised action box [-1, 1]^
 job's budget of model evaluations, every batch through the task's native vector env (one
 batched model call per iteration; fitness = the env's reward, the penalised objective an RL
 agent sees). The reported stroke (the one selection rule, :mod:`agents.selection`) is then
-re-evaluated in a fresh single env, and the record's results come from that re-evaluation.
+re-evaluated in the job's single env (reset with the job's seed; the search steps its own
+vector env), and the record's results come from that re-evaluation.
 Before the re-evaluation the best feasible stroke is polished by a constrained local optimiser
 (:mod:`agents.polish`; on by default for ``cmaes`` and ``pso``): its evaluations count in the
 job's budget (the search gets the budget less the polish's share) and its certificate is the
@@ -29,10 +30,11 @@ results' ``certificate``.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 import warnings
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -42,11 +44,13 @@ from threadpoolctl import threadpool_limits
 
 import tandem_env
 from agents.evaluator import Reevaluation, VectorEnvEvaluator, reevaluate
+from agents.jobs import Job
 from agents.methods import Method, SearchContext, SearchOutcome, get_method
 from agents.polish import (
     AutogradGradient,
     Certificate,
     PolishConfig,
+    Problem,
     polish,
     split_settings,
     task_problem,
@@ -60,7 +64,6 @@ from agents.records import (
     SELECTION_METHOD,
     SELECTION_POLISHED,
     STARTS,
-    Job,
     Record,
     package_versions,
 )
@@ -220,7 +223,7 @@ def prepare(
         The study preset the runs belong to (part of each job and so of its record's key).
 
     Raises ValueError saying what is wrong and what is allowed; the configuration is validated
-    once (:func:`prepare_job`), the seeds each by :class:`~agents.records.Job`.
+    once (:func:`prepare_job`), the seeds each by :class:`~agents.jobs.Job`.
     """
     spec = get_task(task)
     kwargs = dict(env_kwargs or {})
@@ -273,7 +276,7 @@ def run(
     The arguments and ``options`` (``objective``, ``env_kwargs``, ``method_config``,
     ``preset``) are those of :func:`prepare`; ``progress`` shows a progress bar per seed on
     stderr. Nothing is stored: to keep records (and resume), give the jobs to the runner,
-    :func:`eval.studies.runner.run_jobs`.
+    :func:`agents.runner.run_jobs`.
     """
     return [
         run_job(job, progress=progress)
@@ -286,16 +289,32 @@ def run_job(
 ) -> Record:
     """Run one job: search (and polish), re-evaluate the reported stroke, build its record.
 
-    A plain :class:`~agents.records.Job` is validated first (:func:`prepare_job`); a
+    A plain :class:`~agents.jobs.Job` is validated first (:func:`prepare_job`); a
     :class:`PreparedJob` is run as it is. The budget is split into parts (:func:`_plan`), one
     per search (the ``starts`` setting) and one per initial stroke (``initial``): each search
     is the method with its own seed, polished; each initial stroke is polished directly. The
     record reports the best feasible stroke of all parts (:data:`~agents.records.STARTS` lists
     each). The search's progress goes to ``reporter`` when given, else to a progress bar of its
-    own if ``progress``. Writes nothing.
+    own if ``progress``. Writes nothing. The job makes one single env of its task, whose core
+    every polish evaluates and in which the reported stroke is re-evaluated (reset with the
+    job's seed), and one vector env per search (:class:`~agents.evaluator.VectorEnvEvaluator`).
     """
     prepared = prepare_job(job) if isinstance(job, Job) else job
     start = time.perf_counter()
+    env = gym.make(prepared.task.env_id, disable_env_checker=True, **prepared.env_kwargs)
+    try:
+        return _run_prepared(prepared, env, start, reporter, progress)
+    finally:
+        env.close()
+
+
+def _run_prepared(
+    prepared: PreparedJob, env: gym.Env, start: float, reporter: Reporter | None, progress: bool
+) -> Record:
+    """:func:`run_job` in the job's single env ``env``, started at ``start`` [s]."""
+    problem = functools.cache(
+        lambda: task_problem(prepared.task, prepared.condition, prepared.env_kwargs, env)
+    )
     budget = prepared.job.budget
     bar = ProgressBar(budget, prepared.job.label(), progress and reporter is None)
     report = bar.update if reporter is None else reporter
@@ -308,9 +327,9 @@ def run_job(
         for index, (kind, part_budget, stroke) in enumerate(_plan(prepared.polish, budget)):
             offset = sum(part.evaluations for part in parts)
             if kind == "search":
-                parts.append(_search_part(prepared, index, part_budget, offset, report))
+                parts.append(_search_part(prepared, index, part_budget, offset, report, problem))
             else:
-                parts.append(_initial_part(prepared, part_budget, stroke))
+                parts.append(_initial_part(prepared, part_budget, stroke, problem()))
     chosen = max(parts, key=lambda part: (part.feasible, part.reward))
     # as the action type carries it (the evaluator and the polish evaluate no other strokes:
     # a no-op for theirs), so the record's stroke stepped as a float32 action is this stroke
@@ -319,7 +338,12 @@ def run_job(
     if evaluations > budget:  # every part counts its own; never over its share
         raise RuntimeError(f"search and polish used {evaluations} > budget {budget}")
     again = reevaluate(
-        prepared.task, prepared.condition, prepared.env_kwargs, prepared.job.seed, chosen.action
+        prepared.task,
+        prepared.condition,
+        prepared.env_kwargs,
+        prepared.job.seed,
+        chosen.action,
+        env,
     )
     if not chosen.feasible and chosen.kind == "initial":
         # an infeasible initial stroke has no search reward: its reward is the re-evaluation's
@@ -390,7 +414,12 @@ def _part_seed(seed: int, index: int) -> int:
 
 
 def _search_part(
-    prepared: PreparedJob, index: int, budget: int, offset: int, report: Reporter
+    prepared: PreparedJob,
+    index: int,
+    budget: int,
+    offset: int,
+    report: Reporter,
+    problem: Callable[[], Problem],
 ) -> _Part:
     """One search on ``budget`` evaluations (less the polish's share), then its polish."""
     seed = _part_seed(prepared.job.seed, index)
@@ -402,7 +431,7 @@ def _search_part(
     outcome, evaluator = _search(prepared, seed, budget - reserve, shifted)
     action, reward, selection = _select(outcome, evaluator)
     action, reward, selection, certificate = _polish(
-        prepared, action, reward, selection, budget - outcome.evaluations, reserve
+        prepared, action, reward, selection, budget - outcome.evaluations, reserve, problem
     )
     feasible = selection in (SELECTION_BEST_FEASIBLE, SELECTION_POLISHED)
     return _Part(
@@ -418,10 +447,11 @@ def _search_part(
     )
 
 
-def _initial_part(prepared: PreparedJob, budget: int, stroke: np.ndarray | None) -> _Part:
+def _initial_part(
+    prepared: PreparedJob, budget: int, stroke: np.ndarray | None, problem: Problem
+) -> _Part:
     """One initial stroke polished on ``budget`` evaluations (it may start infeasible)."""
     assert stroke is not None
-    problem = task_problem(prepared.task, prepared.condition, prepared.env_kwargs)
     result = polish(
         problem,
         stroke,
@@ -489,6 +519,7 @@ def _polish(
     selection: str,
     allowance: int,
     reserve: int,
+    job_problem: Callable[[], Problem],
 ) -> tuple[np.ndarray, float, str, Certificate]:
     """The polished stroke (or the search's, when the polish is off, cannot start or does not
     gain), its reward, the selection and the certificate."""
@@ -503,7 +534,7 @@ def _polish(
         if selection == SELECTION_METHOD:
             status = "not applicable: the method evaluates through its own envs"
         return action, reward, selection, Certificate(method=config.method, status=status)
-    problem = task_problem(prepared.task, prepared.condition, prepared.env_kwargs)
+    problem = job_problem()
     result = polish(problem, action, allowance, config, _gradient(prepared, problem))
     if not result.improved:
         return action, reward, selection, result.certificate

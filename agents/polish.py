@@ -322,7 +322,9 @@ class Problem:
             object.__setattr__(self, "parameter_names", tuple(f"x{j}" for j in range(self.dim)))
 
 
-def task_problem(task: TaskSpec, condition: Condition, env_kwargs: Mapping[str, Any]) -> Problem:
+def task_problem(
+    task: TaskSpec, condition: Condition, env_kwargs: Mapping[str, Any], env: gym.Env | None = None
+) -> Problem:
     """The polish problem of a harness task: its env's batched core at ``condition``.
 
     Objective and feasibility come from the env's core (``env.unwrapped.core.step``: one
@@ -330,12 +332,17 @@ def task_problem(task: TaskSpec, condition: Condition, env_kwargs: Mapping[str, 
     declaration's constraints (``Constraint.margin``), so the polish optimises exactly what the
     env rewards under the constraints it penalises; the continuous coordinates are those that
     are not ``task.discrete_actions``. ``differentiate`` is the same through the torch backend
-    by autograd (imported when called; the env's insect, options and device).
+    by autograd (imported when called; the env's insect, options and device). ``env``, the
+    task's single env made with ``env_kwargs`` when the caller has one (the harness's job env),
+    is used instead of making one (and left open).
     """
-    env = gym.make(task.env_id, disable_env_checker=True, **dict(env_kwargs))
+    given = env
+    if env is None:
+        env = gym.make(task.env_id, disable_env_checker=True, **dict(env_kwargs))
     core = getattr(env.unwrapped, "core", None)
     dim = int(env.action_space.shape[0])
-    env.close()
+    if given is None:
+        env.close()
     constraints = getattr(getattr(core, "declaration", None), "constraints", None)
     if not constraints or any(c.margin is None for c in constraints):
         raise ValueError(f"{task.env_id}: its task declares no constraint margins; cannot polish")

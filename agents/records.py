@@ -1,22 +1,12 @@
-"""Harness records and the one store they are kept in.
+"""Harness records: what one job found, in one format every method and reader shares.
 
-A :class:`Job` is the configuration of one harness run (one method, task, condition, budget and
-seed, with its env keywords, method settings and study preset); its :attr:`Job.key` hashes all
-of that (but the model's backend and device, which do not change results) plus the
-``tandem_env`` version and the record format. A :class:`Record` is what the
-run found, whichever method ran (PSO, CMA-ES, random search, a trained policy), so that
-``python -m eval compare`` and the studies read one format. It holds three things, each once:
-its job, the job's key and one mapping of results (:data:`RESULTS`; a later stage of the run
-adds its own key to it), and its file carries a checksum of all three, so a record edited by
-hand or damaged is detected.
-
-A :class:`RecordStore` keeps records as ``DIR/records/<key>.json``, each written atomically
-(:func:`tandem_env.io.files.write_json_atomic`). The runner (:func:`eval.studies.runner.run_jobs`)
-is the one writer: ``python -m eval optimize`` and the studies run their jobs through it, so a
-record is found by its configuration: another budget, seed or model option is another file, a
-killed run resumes from the records already there, and a file that is not a valid record of
-its job (corrupt, edited, of an older format, of another job) is recomputed with a
-:class:`RecordWarning`. The schema with units is documented in ``docs/harness.md``.
+A :class:`Record` is what the run of one :class:`~agents.jobs.Job` found, whichever method ran
+(PSO, CMA-ES, random search, a trained policy), so that ``python -m eval compare`` and the
+studies read one format. It holds three things, each once: its job, the job's key and one
+mapping of results (:data:`RESULTS`; a later stage of the run adds its own key to it), and its
+file carries a checksum of all three, so a record edited by hand or damaged is detected. The
+records are kept in a :class:`~agents.store.RecordStore`, written by the runner alone
+(:func:`agents.runner.run_jobs`). The schema with units is documented in ``docs/harness.md``.
 """
 
 from __future__ import annotations
@@ -26,63 +16,30 @@ import json
 import math
 import os
 import platform
-import re
-import warnings
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import metadata
-from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 import tandem_env
-from agents.tasks import Condition, available_tasks, get_task
-from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
-from tandem_env.io.files import (
-    output_directory,
-    read_json,
-    to_jsonable,
-    write_csv_atomic,
-    write_json_atomic,
-)
+from agents.jobs import OLD_SCHEMAS, SCHEMA, Job
+from agents.tasks import Condition
+from tandem_env.io.files import read_json, to_jsonable
 
 __all__ = [
-    "OLD_SCHEMAS",
-    "RECORDS_DIR",
+    "CERTIFICATE",
     "RESULTS",
-    "SCHEMA",
+    "STARTS",
     "SUMMARY_METRICS",
-    "SUMMARY_NAME",
-    "Job",
     "OutdatedRecordError",
     "Record",
     "RecordChecksumError",
     "RecordError",
     "RecordMismatchError",
-    "RecordStore",
     "RecordWarning",
-    "StoreWriteError",
-    "load_records",
     "package_versions",
-    "summary_rows",
-    "write_summary",
 ]
 
-#: Identifies record files (and their version) among other JSON files.
-SCHEMA = "tandem_env.harness-record/5"
-"""Record format; /2 added ``selection`` (records report the best feasible stroke seen), /3
-``key`` and ``job``, /4 holds the job, key and results once each plus a checksum, /5 the
-results' ``certificate`` (the local polish, ``agents.polish``); a run split into parts
-(``starts``, ``initial``) adds the results' ``starts`` (optional: a one-part run's record is
-unchanged)."""
-#: Earlier formats: recognised, never read as results (their jobs are recomputed).
-OLD_SCHEMAS = (
-    "tandem_env.harness-record/1",
-    "tandem_env.harness-record/2",
-    "tandem_env.harness-record/3",
-    "tandem_env.harness-record/4",
-)
 #: The record's ``selection``: which of the strokes a search evaluated it reports.
 SELECTION_BEST_FEASIBLE = "best feasible stroke seen"
 SELECTION_BEST_REWARD = "best reward seen (no feasible stroke)"
@@ -90,10 +47,6 @@ SELECTION_METHOD = "the method's stroke"
 SELECTION_POLISHED = "best feasible stroke seen, polished"
 SELECTION_INITIAL = "an initial stroke (not improved by the polish)"
 SELECTION_INITIAL_POLISHED = "an initial stroke, polished"
-#: A store's records folder, ``DIR/records``.
-RECORDS_DIR = "records"
-#: A store's CSV summary over its records, ``DIR/summary.csv``.
-SUMMARY_NAME = "summary.csv"
 
 #: The keys every record's results hold, with their meaning and units (docs/harness.md).
 #: Further keys (e.g. a stage run after the search) are kept and checksummed as they are.
@@ -171,24 +124,6 @@ class OutdatedRecordError(RecordError):
     """A record of an earlier format (:data:`OLD_SCHEMAS`): its job is to be recomputed."""
 
 
-class StoreWriteError(OSError):
-    """A store's file could not be written (a full disk, a folder made read-only, a directory
-    in a file's place): the file is as it was (writes are atomic), the records already stored
-    are kept, and the same command resumes from them once the cause is fixed."""
-
-    def __init__(self, path: Path, error: OSError) -> None:
-        reason = error.strerror or str(error)
-        super().__init__(
-            error.errno,
-            f"cannot write {path} ({reason}); it is left as it was and the records already "
-            "stored are kept: fix that and run the same command again to resume",
-        )
-        self.path = path
-
-    def __str__(self) -> str:
-        return str(self.strerror)
-
-
 class RecordWarning(UserWarning):
     """A stored record that is corrupt, or replaced by a record of another configuration."""
 
@@ -209,187 +144,6 @@ def package_versions() -> dict[str, str]:
     return versions
 
 
-#: The largest budget of one job [model evaluations]: 10⁸, over 6 000 times the paper's
-#: budgets; a larger one would run for days and outgrow the memory of the methods' per-iteration
-#: tables (PSO's inertia schedule alone: 8 bytes per iteration).
-MAX_BUDGET = 10**8
-
-
-def _check_count(name: str, value: Any, low: int, allowed: str, high: int | None = None) -> None:
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, int | np.integer)
-        or value < low
-        or (high is not None and value > high)
-    ):
-        raise ValueError(f"{name} = {value!r}; allowed: {allowed}")
-
-
-def _pairs(value: Any) -> tuple[tuple[str, Any], ...]:
-    # Sorted by name, lists as tuples and mappings read-only (nested too: e.g. the polish's
-    # initial strokes, the insect's fields): the same settings give one hashable Job, whatever
-    # their order.
-    items = value.items() if isinstance(value, Mapping) else value
-    return tuple(sorted((str(k), _frozen(v)) for k, v in items))
-
-
-def _frozen(value: Any) -> Any:
-    if isinstance(value, list | tuple):
-        return tuple(_frozen(v) for v in value)
-    if isinstance(value, Mapping):
-        return FrozenMapping({str(k): _frozen(v) for k, v in value.items()})
-    return value
-
-
-class FrozenMapping(Mapping[str, Any]):
-    """A read-only, hashable mapping: a job's nested keyword value (the insect's fields, a
-    penalty). It is a ``Mapping``, so the env takes it and JSON writes it as an object."""
-
-    def __init__(self, items: Mapping[str, Any]) -> None:
-        self._items = dict(items)
-
-    def __getitem__(self, key: str) -> Any:
-        return self._items[key]
-
-    def __iter__(self) -> Any:
-        return iter(self._items)
-
-    def __len__(self) -> int:
-        return len(self._items)
-
-    def __hash__(self) -> int:
-        return hash(tuple(sorted(self._items.items())))
-
-    def __repr__(self) -> str:
-        return repr(self._items)
-
-
-def _canonical_env_kwargs(value: Any) -> Any:
-    """The job's env keywords with ``insect`` in its canonical form (what differs from the
-    paper's specimen, :func:`~tandem_env.envs.config.insect_keyword`; left out for the specimen
-    itself, so a default run's key is what it always was)."""
-    items = dict(value.items() if isinstance(value, Mapping) else value)
-    if "insect" in items:
-        insect = insect_keyword(items.pop("insect"))
-        if insect is not None:
-            items["insect"] = insect
-    return items
-
-
-@dataclass(frozen=True)
-class Job:
-    """One harness run (one seed) and everything that decides its result."""
-
-    method: str
-    """Harness method spec, e.g. ``"pso"``, ``"random"``, ``"policy:runs/ppo"``."""
-    task: str
-    """Task name, ``"level"`` or ``"accelerate"`` (or a registered task)."""
-    condition: float
-    """The task's condition in its declared unit, e.g. flight speed [m/s] (level) or available
-    power [W/kg] (accelerate)."""
-    budget: int
-    """Model evaluations."""
-    seed: int
-    env_kwargs: tuple[tuple[str, Any], ...] = ()
-    """Env keywords besides the condition (objective, planform, model options, insect), sorted
-    by name; a mapping is accepted. ``insect`` (an object, a mapping or a YAML file) is kept as
-    the mapping of what differs from the paper's specimen, and left out for the specimen."""
-    method_config: tuple[tuple[str, Any], ...] = ()
-    """Method settings (e.g. ``swarm_size``), sorted by name; a mapping is accepted."""
-    preset: str = ""
-    """The study preset the job belongs to (part of the key, so presets never share records);
-    empty for a run outside the studies (``python -m eval optimize``)."""
-
-    def __post_init__(self) -> None:
-        # The one structural check of a job, where it is made (the CLI, a study, a record file):
-        # the harness's prepare_job adds what needs the task and method registries.
-        for name in ("method", "task", "preset"):
-            value = getattr(self, name)
-            if not isinstance(value, str) or (name != "preset" and not value):
-                raise ValueError(f"job {name} = {value!r}; allowed: a non-empty name")
-        if (
-            isinstance(self.condition, bool)
-            or not isinstance(self.condition, int | float | np.integer | np.floating)
-            or not math.isfinite(self.condition)
-        ):
-            raise ValueError(f"condition = {self.condition!r}; allowed: a finite number")
-        _check_count(
-            "budget", self.budget, 1, f"an integer from 1 to {MAX_BUDGET:,} (model evaluations)",
-            MAX_BUDGET,
-        )  # fmt: skip
-        _check_count("seed", self.seed, 0, "integers >= 0")
-        object.__setattr__(self, "condition", float(self.condition))
-        object.__setattr__(self, "budget", int(self.budget))
-        object.__setattr__(self, "seed", int(self.seed))
-        object.__setattr__(self, "env_kwargs", _pairs(_canonical_env_kwargs(self.env_kwargs)))
-        object.__setattr__(self, "method_config", _pairs(self.method_config))
-
-    @classmethod
-    def from_dict(cls, data: Any) -> Job:
-        """Inverse of :meth:`to_dict`; raises :class:`RecordError` for anything else."""
-        if not isinstance(data, Mapping):
-            raise RecordError(f"job = {data!r}; allowed: a JSON object (Job.to_dict)")
-        allowed = set(cls.__dataclass_fields__)
-        unknown = sorted(set(data) - allowed)
-        if unknown:
-            raise RecordError(f"job has unknown field(s) {unknown}; allowed: {sorted(allowed)}")
-        try:
-            return cls(**data)
-        except (TypeError, ValueError) as error:
-            raise RecordError(f"malformed job: {error}") from None
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain-JSON form (keyword pairs become objects): what a record stores as ``job``."""
-        return to_jsonable(
-            {
-                "method": self.method,
-                "task": self.task,
-                "condition": self.condition,
-                "budget": self.budget,
-                "seed": self.seed,
-                "env_kwargs": dict(self.env_kwargs),
-                "method_config": dict(self.method_config),
-                "preset": self.preset,
-            }
-        )
-
-    def configuration(self) -> dict[str, Any]:
-        """What decides the job's result: :meth:`to_dict` without the env keywords that choose
-        only how the model is computed (``backend``, ``device``: ``EXECUTION_KWARGS``), so a
-        torch run reuses a numba run's record and the other way round."""
-        data = self.to_dict()
-        data["env_kwargs"] = {
-            k: v for k, v in data["env_kwargs"].items() if k not in EXECUTION_KWARGS
-        }
-        return data
-
-    @property
-    def key(self) -> str:
-        """Configuration hash: the job's :meth:`configuration`, the tandem_env version and the
-        record format."""
-        return self.key_at(tandem_env.__version__)
-
-    def key_at(self, version: str) -> str:
-        """:attr:`key` as tandem_env ``version`` computed it (a record made by that version)."""
-        payload = {**self.configuration(), "tandem_env": version, "record": SCHEMA}
-        text = json.dumps(payload, sort_keys=True)
-        return hashlib.sha256(text.encode()).hexdigest()[:20]
-
-    def env(self, name: str, default: Any = None) -> Any:
-        """One env keyword (``objective``, ``planform``, ...) or ``default``."""
-        return dict(self.env_kwargs).get(name, default)
-
-    def label(self) -> str:
-        """Short human label, e.g. ``pso level V=1.5 seed 0``."""
-        # The condition's command-line symbol (V, P) from the task's declaration.
-        known = self.task in available_tasks()
-        symbol = get_task(self.task).condition_metavar if known else "condition"
-        extra = [str(v) for k, v in self.env_kwargs if k in ("objective", "planform")]
-        return " ".join(
-            [self.method, self.task, *extra, f"{symbol}={self.condition:g}", f"seed {self.seed}"]
-        )
-
-
 def _result(name: str, doc: str) -> property:
     # One accessor per results key, documented from RESULTS (one home for the schema).
     return property(lambda self: self.results[name], doc=doc)
@@ -405,7 +159,7 @@ class Record:
     """What one :class:`Job` found: the job, its key and one mapping of results.
 
     Every number describing the stroke comes from the final re-evaluation of the reported
-    stroke (a fresh single-env step), not from the search. The results' keys and units are
+    stroke (a single-env step after the search), not from the search. The results' keys and units are
     :data:`RESULTS`; each has an attribute of that name (``record.objective``), and the job's
     fields read through (``record.method``, ``record.seed``, ...).
     """
@@ -564,8 +318,12 @@ class Record:
         expected = {"schema", "key", "checksum", "job", "results"}
         if set(data) != expected:
             raise RecordError(f"record fields {sorted(data)}; allowed: exactly {sorted(expected)}")
+        try:
+            job = Job.from_dict(data["job"])
+        except ValueError as error:
+            raise RecordError(str(error)) from None
         record = cls(
-            job=Job.from_dict(data["job"]),
+            job=job,
             key=data["key"],
             results=data["results"],
             schema=schema,
@@ -649,181 +407,6 @@ class Record:
         return [e for e, _ in self.history], [b for _, b in self.history]
 
 
-#: A store's file name for a record: its key (:attr:`Job.key`, 20 hex digits).
-_KEY_NAME = re.compile(r"[0-9a-f]{20}")
-
-
-def _check_name(path: Path, record: Record) -> Record:
-    """``record`` if ``path`` is named by its key, as a store names them (``<key>.json``), or by
-    no key at all; RecordError for one moved or copied to another job's name."""
-    if _KEY_NAME.fullmatch(path.stem) and path.stem != record.key:
-        raise RecordMismatchError(
-            f"{path}: holds the record of key {record.key} ({record.label()}), not of the key "
-            f"{path.stem} it is named by: moved or copied by hand; it is not used"
-        )
-    return record
-
-
 def _short(value: Any, limit: int = 60) -> str:
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
-
-
-class RecordStore:
-    """Records keyed by configuration: ``DIR/records/<key>.json``, written atomically.
-
-    Raises ValueError when ``directory`` (or its ``records``) exists and is not a directory.
-    """
-
-    def __init__(self, directory: str | os.PathLike[str]) -> None:
-        self._given = os.fspath(directory)  # as given: Path("") would be the current folder
-        self.directory = Path(directory)
-        for path in (self.directory, self.directory / RECORDS_DIR):
-            if path.exists() and not path.is_dir():
-                raise ValueError(
-                    f"{path} is a file; allowed: a directory for the records (created if missing)"
-                )
-
-    def check(self, option: str = "--out", *, write: bool = True, jobs: Iterable[Job] = ()) -> bool:
-        """Check every path the store writes before any work (:func:`output_directory`): the
-        folder, its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError
-        naming the path and what is allowed, or (without ``write``) False if it cannot be
-        written now."""
-        records = [f"{RECORDS_DIR}/{job.key}.json" for job in jobs]
-        return output_directory(
-            self._given, option, write=write, folders=(RECORDS_DIR,),
-            files=(SUMMARY_NAME, *records),
-        )  # fmt: skip
-
-    def path(self, key: str) -> Path:
-        """Where the record with configuration hash ``key`` is stored."""
-        return self.directory / RECORDS_DIR / f"{key}.json"
-
-    def load(self, job: Job) -> Record | None:
-        """The stored record of ``job``, or None if it has not run with this configuration.
-
-        A file that is not a valid record of ``job`` (corrupt, failing its checksum, of an
-        earlier format, or holding another job: a file copied by hand or a truncated-hash
-        collision) is reported with a :class:`RecordWarning` and treated as missing, so the job
-        runs again and its record replaces the file.
-        """
-        path = self.path(job.key)
-        if not path.exists():
-            return None
-        try:
-            record = Record.load(path)
-        except OutdatedRecordError as error:
-            _warn(f"{error}; {job.label()} is recomputed")
-            return None
-        except (OSError, RecordError) as error:
-            reason = str(error).removeprefix(f"{path}: ")
-            _warn(f"{path}: corrupt record ({reason}); {job.label()} runs again")
-            return None
-        if record.key != job.key or record.job.configuration() != job.configuration():
-            _warn(
-                f"{path}: holds {record.label()} (job {record.job.to_dict()}), not "
-                f"{job.label()}; it runs again and its record replaces the file"
-            )
-            return None
-        return record
-
-    def save(self, record: Record) -> Path:
-        """Write ``record`` as ``records/<record.key>.json`` atomically; returns the path.
-
-        Nothing is read back: the one writer (:func:`eval.studies.runner.run_jobs`) saves a
-        job's record only after :meth:`load` found none valid under its key.
-        """
-        path = self.path(record.key)
-        data = record.to_dict()
-        try:
-            write_json_atomic(path, data)
-        except OSError as error:
-            raise StoreWriteError(path, error) from None
-        return path
-
-    def records(self) -> list[Record]:
-        """Every valid record in the store, ordered as :func:`summary_rows` orders them; the
-        others are left out with a :class:`RecordWarning`."""
-        found = []
-        for path in sorted((self.directory / RECORDS_DIR).glob("*.json")):
-            try:
-                found.append(_check_name(path, Record.load(path)))
-            except (OSError, RecordError) as error:
-                _warn(f"{error}; left out")
-        return sorted(found, key=_summary_order)
-
-    def outdated(self) -> list[Path]:
-        """The store's files holding records of an earlier format (:data:`OLD_SCHEMAS`)."""
-        found = []
-        for path in sorted((self.directory / RECORDS_DIR).glob("*.json")):
-            try:
-                data = read_json(path)
-            except (OSError, ValueError):
-                continue  # reported by load() when its job asks for it
-            if isinstance(data, dict) and data.get("schema") in OLD_SCHEMAS:
-                found.append(path)
-        return found
-
-    def write_summary(self) -> Path:
-        """Rewrite ``DIR/summary.csv`` over every record in the store (read once); its path."""
-        path = self.directory / SUMMARY_NAME
-        records = self.records()
-        try:
-            write_summary(path, records)
-        except OSError as error:
-            raise StoreWriteError(path, error) from None
-        return path
-
-
-def _warn(message: str) -> None:
-    warnings.warn(message, RecordWarning, stacklevel=3)
-
-
-def _summary_order(r: Record) -> tuple[Any, ...]:
-    return (r.task, r.objective_name, r.condition.value, r.method, r.budget, r.seed, r.key)
-
-
-def summary_rows(records: Iterable[Record]) -> list[dict[str, Any]]:
-    """CSV rows of ``records``, sorted by task, objective, condition, method, budget and seed."""
-    return [r.summary_row() for r in sorted(records, key=_summary_order)]
-
-
-def write_summary(path: str | os.PathLike[str], records: Sequence[Record]) -> None:
-    """Write the CSV summary of ``records`` atomically."""
-    write_csv_atomic(path, summary_rows(records))
-
-
-def load_records(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
-    """Every record in the given files and directories (searched recursively for ``*.json``).
-
-    Finds the records of stores (``DIR/records/*.json``) and of study directories alike. JSON
-    files that are not records (another schema) are skipped; a record of an earlier format or
-    one failing its checksum is left out with a :class:`RecordWarning` (never mixed in); a file
-    that cannot be read, or claims the record schema but is malformed, raises
-    :class:`RecordError` naming it.
-    """
-    records: list[Record] = []
-    for base in map(Path, paths):
-        if not base.exists():
-            raise ValueError(f"{base}: no such file or directory")
-        files = sorted(base.rglob("*.json")) if base.is_dir() else [base]
-        for path in files:
-            try:
-                data = read_json(path)
-            except (OSError, ValueError) as error:
-                raise RecordError(f"{path}: cannot read JSON: {error}") from None
-            schema = data.get("schema") if isinstance(data, dict) else None
-            if schema in OLD_SCHEMAS:
-                _warn(f"{path}: a record of the earlier format {schema!r}; left out (rerun "
-                      "the command that wrote it to recompute it)")  # fmt: skip
-                continue
-            if schema != SCHEMA:
-                continue
-            try:
-                records.append(_check_name(path, Record.from_dict(data)))
-            except (RecordChecksumError, RecordMismatchError) as error:
-                _warn(f"{path}: {str(error).removeprefix(f'{path}: ')}; left out")
-                continue
-            except RecordError as error:
-                raise RecordError(f"{path}: malformed record: {error}") from None
-    return records

@@ -45,6 +45,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.harness import PreparedJob, prepare
+from agents.runner import run_jobs
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import (
     DEFAULT,
@@ -55,7 +56,6 @@ from eval.studies.paper_reading import (
 )
 from eval.studies.presets import get_preset
 from eval.studies.readings import SINGLES, run_readings
-from eval.studies.runner import load_records, run_jobs
 from tandem_env import DRAGONFLY
 from tandem_env.io.files import read_json, write_json_atomic
 
@@ -304,8 +304,7 @@ def main() -> int:
     wall = time.perf_counter() - start
     rows = []
     for case, group in prepared.items():
-        stored = load_records(args.out, [p.job for p in group])
-        rows.append(summarise(case, [stored[p.job] for p in group]))
+        rows.append(summarise(case, [summary.records[p.job.key] for p in group]))
     print(table(rows))
     meta = _meta(load_before, wall, args.scheduler) | {
         "runs": summary.total,

@@ -22,7 +22,7 @@ from scipy.optimize import nnls
 
 from agents.harness import prepare_job
 from agents.polish import CentralDifferences, float32_margin, task_problem
-from agents.records import RecordStore
+from agents.store import RecordStore
 
 ACTIVE = 1e-6
 

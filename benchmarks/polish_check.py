@@ -24,7 +24,8 @@ import numpy as np
 from scipy.optimize import minimize
 
 import tandem_env  # noqa: F401 (registers the envs)
-from agents.records import Record, load_records
+from agents.records import Record
+from agents.store import load_records
 from agents.tasks import get_task
 from tandem_env.physics import normalised_to_physical
 from tandem_env.physics.stroke import DISCRETE

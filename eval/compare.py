@@ -26,7 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.records import Record, load_records
+from agents.records import Record
+from agents.store import load_records
 from eval.figures import DPI, FORMATS, figure_path, method_label, series_style
 from tandem_env.io.files import atomic_path, output_directory, write_csv_atomic, write_text_atomic
 

@@ -119,7 +119,7 @@ def run_command(command: Sequence[str], environment: dict[str, str] | None = Non
 
 def run_optimize(row: ComparisonRow, method: str, seeds: Sequence[int]) -> list[dict[str, Any]]:
     """Run the documented command in a fresh folder; one ``{seed, objective, ...}`` per seed."""
-    from agents.records import load_records
+    from agents.store import load_records
 
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
         run_command([*optimize_command(row, method, seeds), "--out", out])
@@ -403,7 +403,7 @@ OPTIMUM_METRICS: tuple[str, ...] = (
 def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str, Any]]:
     """The steady schedule's level-flight optima as ``eval speed-change`` makes them (its
     defaults: optimiser, budget, seed), one ``{speed, objective, feasible, ...}`` per speed."""
-    from agents.records import load_records
+    from agents.store import load_records
     from eval import speed_change
     from tandem_env.envs.speed_change import SpeedChangeConfig
 

@@ -1,6 +1,6 @@
 """``python -m eval optimize``: run one method on one condition for several seeds.
 
-Each seed is one job of the resumable runner (:func:`eval.studies.runner.run_jobs`): its
+Each seed is one job of the resumable runner (:func:`agents.runner.run_jobs`): its
 record is stored in ``--out`` as ``records/<key>.json`` (atomically, as the seed finishes; a
 seed already stored with the same configuration is not run again), on this machine or on a
 Dask cluster (``--scheduler``), and ``summary.csv`` there is rewritten over every record.
@@ -16,22 +16,23 @@ from collections.abc import Callable
 from typing import Any, TypeVar
 
 from agents.harness import prepare
+from agents.jobs import MAX_BUDGET
 from agents.methods import available_methods
 from agents.optimiser import MAX_BATCH
 from agents.polish import POLISH_DEFAULTS, POLISH_METHODS
 from agents.polish import describe as describe_certificate
-from agents.records import MAX_BUDGET, SUMMARY_NAME, RecordStore, StoreWriteError
-from agents.tasks import TaskSpec, available_tasks, get_task
-from eval.studies.paper_reading import Reading
-from eval.studies.readings import reading_by_name
-from eval.studies.runner import (
+from agents.runner import (
     JobsFailed,
+    RunSummary,
     SchedulerUnreachable,
     have_records,
-    load_records,
     parse_scheduler,
     run_jobs,
 )
+from agents.store import SUMMARY_NAME, RecordStore, StoreWriteError
+from agents.tasks import TaskSpec, available_tasks, get_task
+from eval.studies.paper_reading import Reading
+from eval.studies.readings import reading_by_name
 from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
 from tandem_env.io.keyvalue import parse_pairs
 from tandem_env.physics import BACKENDS
@@ -391,6 +392,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         )
         if "insect" in prepared[0].env_kwargs:
             print(f"insect: {describe_insect(prepared[0].env_kwargs['insect'])}", file=sys.stderr)
+    summary: RunSummary | int | None = None
     try:
         summary = run_reporting(
             parser,
@@ -399,10 +401,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             ),
         )
     finally:
-        # over what is stored (read once), also after a failure
+        # over what is stored (each file read at most once: not the records the runner hands
+        # back), also after a failure
         if writable and store.directory.exists():
             try:
-                store.write_summary()
+                store.write_summary(summary.records if isinstance(summary, RunSummary) else None)
             except StoreWriteError as error:
                 print(f"{parser.prog}: error: {error}", file=sys.stderr)
                 summary = 1
@@ -412,9 +415,9 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                 f"{SUMMARY_NAME} is left as it is",
                 file=sys.stderr,
             )
-    if isinstance(summary, int):
-        return summary
-    for record in load_records(store.directory, jobs).values():
+    if not isinstance(summary, RunSummary):
+        return 1 if summary is None else summary
+    for record in (summary.records[job.key] for job in jobs):
         metrics = record.metrics
         power = metrics.get("power_per_mass")
         print(

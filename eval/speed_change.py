@@ -216,22 +216,22 @@ def steady_optima(
     """Level-flight optima at ``speeds`` [m/s] for the env's insect and model options.
 
     Each is one harness job (``budget`` model evaluations, ``seed``) on the ``level`` task, run
-    by the studies' runner (:func:`eval.studies.runner.run_jobs`: serially, or on Dask with
-    ``scheduler``) into the record store ``cache_dir`` (a temporary one if None), where a
-    stored record of the same configuration is reused.
+    by the runner (:func:`agents.runner.run_jobs`: serially, or on Dask with ``scheduler``)
+    into the record store ``cache_dir`` (a temporary one if None), where a stored record of the
+    same configuration is reused; the runner hands the records back.
     """
     import tempfile
 
-    from agents.records import Job, RecordStore
-    from eval.studies.runner import run_jobs
+    from agents.jobs import Job
+    from agents.runner import run_jobs
 
     method = default_optimiser() if method is None else method
     kwargs = level_kwargs(config)
     jobs = [Job(method, "level", float(v), budget, seed, env_kwargs=kwargs) for v in speeds]
     with tempfile.TemporaryDirectory() as scratch:
-        store = RecordStore(scratch if cache_dir is None else cache_dir)
-        run_jobs(jobs, store.directory, scheduler=scheduler, progress=progress)
-        records = [store.load(job) for job in jobs]
+        where = scratch if cache_dir is None else cache_dir
+        summary = run_jobs(jobs, where, scheduler=scheduler, progress=progress)
+    records = [summary.records.get(job.key) for job in jobs]
     actions = []
     for speed, record in zip(speeds, records, strict=True):
         if record is None:  # run_jobs raises when a job fails; a missing record is a bug
@@ -526,7 +526,7 @@ def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> str:
     """Validate --optimiser, --optima-budget, --grid and --scheduler before any optimisation
     (ValueError naming the option and what is allowed); returns the optimiser."""
     from agents.harness import prepare
-    from eval.studies.runner import parse_scheduler
+    from agents.runner import parse_scheduler
 
     if args.scheduler is not None:
         parse_scheduler(args.scheduler)

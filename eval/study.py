@@ -10,8 +10,10 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from agents.harness import prepare_job
+from agents.jobs import Job
 from agents.methods import get_method
-from agents.records import Job, RecordStore
+from agents.runner import executor_spec, have_records
+from agents.store import RecordStore
 from eval.figures import FORMATS
 from eval.optimize import (
     add_backend_arguments,
@@ -24,7 +26,6 @@ from eval.studies import STUDIES, readings
 from eval.studies.base import StudyPlan
 from eval.studies.claims import FLIP_THRESHOLD, VerdictCount
 from eval.studies.presets import PRESETS, get_preset
-from eval.studies.runner import executor_spec, have_records
 from eval.studies.suite import expand, run_studies
 from tandem_env.physics import N_PARAMETERS
 from tandem_env.physics.insect import DRAGONFLY, describe_insect, load_insect

@@ -96,9 +96,13 @@ def evaluate_envelope(
     which: str = "best",
     progress: bool = False,
 ) -> list[dict[str, Any]]:
-    """Record the run's policy at each condition (default the sweep); write envelope.csv."""
-    from agents.harness import run
-    from agents.records import RecordStore
+    """Record the run's policy at each condition (default the sweep); write envelope.csv.
+
+    One job per condition, run and stored by the runner (:func:`agents.runner.run_jobs`, the
+    one writer of the records), here, one after another; a rerun replaces the records (the run
+    folder may hold a newer model under the same name)."""
+    from agents.harness import prepare
+    from agents.runner import run_jobs
     from train.policies import CONDITION_KWARGS, TrainedPolicy, TrainingMismatchWarning
 
     policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
@@ -107,12 +111,11 @@ def evaluate_envelope(
     env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in CONDITION_KWARGS}
     values = tuple(conditions) if conditions is not None else sweep_conditions(task)
     out = Path(out_dir)
-    rows = []
-    for value in values:
-        with warnings.catch_warnings():
-            # Said once, for every condition, by the trained_at column (and main's note).
-            warnings.simplefilter("ignore", TrainingMismatchWarning)
-            record = run(
+    with warnings.catch_warnings():
+        # Said once, for every condition, by the trained_at column (and main's note).
+        warnings.simplefilter("ignore", TrainingMismatchWarning)
+        jobs = [
+            prepare(
                 f"policy:{run_dir}",
                 task,
                 float(value),
@@ -120,10 +123,13 @@ def evaluate_envelope(
                 seeds=[0],
                 env_kwargs=env_kwargs,
                 method_config={"model": which},
-                progress=progress,
             )[0]
-        store = RecordStore(out)  # one record per condition; a rerun replaces them
-        store.save(record)
+            for value in values
+        ]
+        records = run_jobs(jobs, out, progress=progress, rerun=True).records
+    rows = []
+    for value, job in zip(values, jobs, strict=True):
+        record = records[job.job.key]
         metrics = record.metrics
         rows.append(
             {

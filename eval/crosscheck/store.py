@@ -3,13 +3,13 @@
 A record is ``OUT/runs/<key>.json``, the key hashing the run's every number, the record format
 and the solver's version (:meth:`~eval.crosscheck.case.Run.key`), so a rerun reuses what is
 there, a killed run resumes, and another resolution, stroke or solver version is another
-file. The harness's :class:`~agents.records.RecordStore` keeps optimisation jobs (a method, a
+file. The harness's :class:`~agents.store.RecordStore` keeps optimisation jobs (a method, a
 task, a budget and a seed) and their searched strokes; a solver run has none of those, so it
 has this record kind, written as that store writes its records: atomically
 (:func:`~tandem_env.io.files.write_json_atomic`) by the one process that holds the folder's
 lock, and checked against a checksum when read back.
 
-Runs go where the studies' jobs go (``--scheduler``, :mod:`eval.studies.runner`): one after
+Runs go where the studies' jobs go (``--scheduler``, :mod:`agents.runner`): one after
 another here, or on Dask, ``local:N`` or a running scheduler, each worker with one numba
 thread; this process writes each record as its run finishes.
 """
@@ -182,7 +182,7 @@ def run_all(
     elif todo:
         from distributed import as_completed
 
-        from eval.studies.runner import dask_client
+        from agents.runner import dask_client
 
         with dask_client(scheduler, quiet=not progress) as client:
             # The tandem runs first: they take longest, so the workers stay busy to the end.

@@ -13,13 +13,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from agents.jobs import Job
 from agents.methods import preset_batch_setting
 from agents.records import Record
+from agents.store import RECORDS_DIR
 from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim
 from eval.studies.paper_reading import DEFAULT, Reading
 from eval.studies.presets import Preset
-from eval.studies.runner import RECORDS_DIR, Job
 from eval.studies.tables import summary_rows, tidy_rows
 from tandem_env import PARAMETER_NAMES, ModelOptions
 from tandem_env.envs.config import EXECUTION_KWARGS, MODEL_OPTION_KWARGS

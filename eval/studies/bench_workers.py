@@ -25,10 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
+from agents.runner import parse_scheduler, run_jobs
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, get_preset
-from eval.studies.runner import load_records, parse_scheduler, run_jobs
 
 WORKERS: tuple[int, ...] = (1, 2, 4, 8, 16, 32, 64, 128)
 
@@ -62,23 +62,23 @@ def main(argv: Sequence[str] | None = None) -> None:
     evaluations = sum(j.budget for j in jobs)
     print(f"preset {args.preset}: {len(jobs)} optimisations, {evaluations} evaluations")
     root = Path(tempfile.mkdtemp(prefix="bench_workers_"))
-    serial_dir = None
+    serial = None
     try:
         for attempt in range(args.repeat):
             for scheduler in (None, args.scheduler):
                 out = root / f"{scheduler or 'serial'}-{attempt}".replace(":", "_").replace("/", "")
                 start = time.perf_counter()
-                run_jobs(jobs, out, scheduler=scheduler, progress=False)
+                summary = run_jobs(jobs, out, scheduler=scheduler, progress=False)
                 seconds = time.perf_counter() - start
                 print(
                     f"{scheduler or 'serial'}: {seconds:.1f} s = {evaluations / seconds:.0f} "
                     "evaluations/s",
                     flush=True,
                 )
-                serial_dir = serial_dir or out
-        assert serial_dir is not None
+                serial = serial or summary
+        assert serial is not None
         ordered = sorted(jobs, key=lambda j: -j.budget)  # the runner's order
-        times = load_records(serial_dir, ordered)
+        times = {j: serial.records[j.key] for j in ordered}
         durations = [times[j].wall_time for j in ordered]
         for task in sorted({j.task for j in jobs}):
             own = [times[j].wall_time for j in jobs if j.task == task]

@@ -29,12 +29,12 @@ from typing import Any
 
 import numpy as np
 
+from agents.jobs import Job
 from agents.polish import split_settings as polish_settings
 from agents.records import Record
 from eval import figures
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
 from eval.studies.presets import PRESETS
-from eval.studies.runner import Job
 from tandem_env.io.files import write_csv_atomic, write_text_atomic
 
 NAME = "convergence"

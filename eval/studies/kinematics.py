@@ -21,13 +21,13 @@ from typing import Any
 
 import numpy as np
 
+from agents.jobs import Job
 from agents.records import Record
 from agents.tasks import get_task
 from eval import figures
 from eval import kinematics_figures as kf
 from eval.studies import claims as C
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
-from eval.studies.runner import Job
 from eval.studies.tables import circular_median, select, spread, table4_bounds
 from tandem_env import PARAMETER_NAMES, stroke_history
 from tandem_env.envs import registration

@@ -15,11 +15,11 @@ from typing import Any
 
 import numpy as np
 
+from agents.jobs import Job
 from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
-from eval.studies.runner import Job
 from eval.studies.tables import Spread, by_condition, select
 
 NAME = "power"

@@ -48,14 +48,16 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from agents.jobs import Job
 from agents.polish import INITIAL_SHARE_RANGE
+from agents.runner import RunSummary, load_records, run_jobs
+from agents.store import RECORDS_DIR
 from eval import report
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading, combine
 from eval.studies.readings_figure import matrix_figure
 from eval.studies.readings_result import HEADLINES, ReadingResult, reading_dir
-from eval.studies.runner import RECORDS_DIR, Job, RunSummary, load_records, run_jobs
 from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
 
 NAME = "readings"

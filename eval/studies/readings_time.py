@@ -21,12 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
+from agents.runner import load_records
 from eval.studies.base import StudyPlan
 from eval.studies.bench_workers import makespan
 from eval.studies.paper_reading import Reading
 from eval.studies.presets import PRESETS, TINY, get_preset
 from eval.studies.readings import MANIFEST, reading_jobs
-from eval.studies.runner import load_records
 from tandem_env.io.files import read_json
 
 WORKERS: tuple[int, ...] = (1, 2, 8, 32)

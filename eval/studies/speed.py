@@ -10,11 +10,11 @@ import math
 from collections.abc import Mapping
 from pathlib import Path
 
+from agents.jobs import Job
 from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
-from eval.studies.runner import Job
 from eval.studies.tables import Spread, by_condition, table4_bounds
 
 NAME = "speed"

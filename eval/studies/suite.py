@@ -8,16 +8,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from agents.runner import RunSummary, executor_spec, have_records, load_records, run_jobs
 from eval import report
 from eval.studies import PAPER_STUDIES, STUDIES
 from eval.studies.base import StudyOutput, StudyPlan
-from eval.studies.runner import (
-    RunSummary,
-    executor_spec,
-    have_records,
-    load_records,
-    run_jobs,
-)
 from tandem_env.io.files import write_json_atomic
 
 
@@ -57,7 +51,7 @@ def run_studies(
 
     All their jobs go into one run (shared optimisations run once) on ``scheduler`` (None:
     serially here; ``"local:N"``; a Dask scheduler's address; see
-    :func:`eval.studies.runner.run_jobs`); ``workers=N > 1`` is short for
+    :func:`agents.runner.run_jobs`); ``workers=N > 1`` is short for
     ``scheduler="local:N"``. Finished jobs from an earlier, killed or partial run with the same
     configuration are reused. The report covers every paper study whose records are all
     present, so running ``speed`` and then ``power`` into one directory gives one report with

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from agents.jobs import Job
 from agents.records import Record
-from eval.studies.runner import Job
 from tandem_env import LOWER, PARAMETER_NAMES, TABLE_4, UPPER, bound_sides, describe_bounds
 from tandem_env.physics.stroke import UNBOUNDED
 

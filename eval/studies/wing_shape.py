@@ -15,12 +15,12 @@ from typing import Any
 
 import numpy as np
 
+from agents.jobs import Job
 from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
 from eval.studies.power import attainable, paper_attainable, series_jobs
-from eval.studies.runner import Job
 from eval.studies.speed import PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY
 from eval.studies.tables import Spread, by_condition
 from tandem_env import Dragonfly

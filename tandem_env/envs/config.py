@@ -46,7 +46,7 @@ MODEL_OPTION_KWARGS: dict[str, str] = {
 }
 #: ``gym.make`` kwargs that choose how the model is computed, not what it computes (the torch
 #: backend equals the numba kernel within 1e-8, docs/model.md §12.1): a record's key leaves them
-#: out (:attr:`agents.records.Job.key`), so a run on one backend reuses another's records.
+#: out (:attr:`agents.jobs.Job.key`), so a run on one backend reuses another's records.
 EXECUTION_KWARGS: tuple[str, ...] = ("backend", "device")
 #: Model options that must be real numbers (checked here, because ``ModelOptions`` would raise
 #: a bare ``TypeError`` from ``math.isfinite`` on a string).

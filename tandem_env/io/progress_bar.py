@@ -1,7 +1,7 @@
 """Progress of long work on stderr (tqdm): one bar class for a search and for a set of jobs.
 
 A search reports ``(iteration, evaluations, best)`` after every iteration (:data:`Reporter`);
-the job runner (``eval.studies.runner``) moves one bar over the evaluations of all its jobs
+the job runner (``agents.runner``) moves one bar over the evaluations of all its jobs
 as they run (serially) or finish (on a Dask cluster), with the jobs done in its status. The
 bar's rate and time left are in evaluations either way.
 

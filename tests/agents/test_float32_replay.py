@@ -17,10 +17,11 @@ import numpy as np
 import pytest
 
 import tandem_env  # noqa: F401 - registers the envs
-from agents.records import Record, RecordStore
+from agents.records import Record
+from agents.runner import run_jobs
+from agents.store import RecordStore
 from eval.studies.base import StudyPlan
 from eval.studies.presets import QUICK
-from eval.studies.runner import run_jobs
 
 
 def replay(record: Record) -> dict:

@@ -26,6 +26,7 @@ import pytest
 import tandem_env
 from agents import harness
 from agents.evaluator import BudgetExceededError, VectorEnvEvaluator
+from agents.jobs import SCHEMA, Job
 from agents.methods import (
     PROVIDERS,
     AskTellMethod,
@@ -36,9 +37,10 @@ from agents.methods import (
     register_method,
 )
 from agents.pso import PSOConfig
-from agents.records import SCHEMA, Job, Record, RecordStore, load_records
+from agents.records import Record
+from agents.runner import run_jobs
+from agents.store import RecordStore, load_records
 from agents.tasks import LEVEL, get_task
-from eval.studies.runner import run_jobs
 
 sys.path.insert(0, str(Path(__file__).parent))
 from analytic_envs import ACTION_LOG, DIM, optimum, register_analytic

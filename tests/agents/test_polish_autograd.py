@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from agents.polish import AutogradGradient, CentralDifferences, task_problem
-from agents.records import load_records
+from agents.store import load_records
 from agents.tasks import ACCELERATE, LEVEL
 from eval.__main__ import main
 

@@ -14,7 +14,7 @@ import pytest
 from agents.harness import run
 from agents.methods import available_methods, get_method, preset_batch_setting, register_optimiser
 from agents.optimiser import LOWER, UPPER, AskTellOptimiser, FloatArray, SeedLike, check_int
-from agents.records import load_records
+from agents.store import load_records
 
 sys.path.insert(0, str(Path(__file__).parent))
 from analytic_envs import ACTION_LOG, DIM, optimum, register_analytic

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import agents.harness
-from agents.records import load_records
+from agents.store import load_records
 from eval import speed_change as module
 from eval.__main__ import main
 from eval.speed_change import (

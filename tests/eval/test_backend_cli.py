@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.records import Job, load_records
+from agents.jobs import Job
+from agents.store import load_records
 from eval.__main__ import main
 from eval.compare import series_key
 from eval.studies.base import StudyPlan

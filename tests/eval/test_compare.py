@@ -9,7 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from agents.records import Job, Record, RecordStore
+from agents.jobs import Job
+from agents.records import Record
+from agents.store import RecordStore
 from eval import compare as compare_module
 from eval import figures
 from eval.__main__ import build_parser, main

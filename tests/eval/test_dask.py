@@ -21,10 +21,11 @@ from pathlib import Path
 
 import pytest
 
-from eval.studies import runner
+from agents import runner
+from agents.jobs import Job
+from agents.runner import JobsFailed, parse_scheduler, run_jobs
 from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, TINY
-from eval.studies.runner import Job, JobsFailed, parse_scheduler, run_jobs
 from eval.studies.suite import run_studies
 
 distributed = pytest.importorskip("distributed")

@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.records import Record, load_records
+from agents.records import Record
+from agents.store import load_records
 from eval import compare as compare_module
 from eval.__main__ import SUBCOMMANDS, build_parser, main
 from tandem_env import PARAMETER_NAMES, describe_bounds

@@ -25,11 +25,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from agents import runner
+from agents.runner import SchedulerUnreachable, dask_client, parse_scheduler
 from eval.__main__ import main
 from eval.measured import SpecError, load_case
-from eval.studies import runner
 from eval.studies.presets import PRESETS, TINY
-from eval.studies.runner import SchedulerUnreachable, dask_client, parse_scheduler
 from tandem_env.io.files import output_directory
 from tandem_env.io.progress_bar import COMPILING, STARTING, ProgressBar
 from tandem_env.physics.measured import MAX_SAMPLES, MeasuredWing

@@ -13,7 +13,8 @@ import gymnasium as gym
 import pytest
 
 import tandem_env  # noqa: F401 - registers the envs
-from agents.records import Job, RecordStore
+from agents.jobs import Job
+from agents.store import RecordStore
 from eval.__main__ import main
 from eval.studies.base import StudyPlan
 from eval.studies.presets import TINY

@@ -10,7 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from eval.studies import PAPER_STUDIES, claims, readings, readings_time, runner
+from agents import runner
+from eval.studies import PAPER_STUDIES, claims, readings, readings_time
 from eval.studies.base import StudyOutput, StudyPlan
 from eval.studies.paper_reading import DEFAULT, Reading, combine
 from eval.studies.presets import PRESETS, TINY

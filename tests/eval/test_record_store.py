@@ -16,23 +16,15 @@ from pathlib import Path
 
 import pytest
 
-from agents import harness
+from agents import harness, runner
 from agents.harness import PreparedJob
-from agents.records import (
-    OLD_SCHEMAS,
-    SCHEMA,
-    Job,
-    Record,
-    RecordError,
-    RecordStore,
-    RecordWarning,
-    load_records,
-)
+from agents.jobs import OLD_SCHEMAS, SCHEMA, Job
+from agents.records import Record, RecordError, RecordWarning
+from agents.runner import JobsFailed, run_jobs
+from agents.store import RecordStore, load_records
 from eval.__main__ import main
-from eval.studies import runner
 from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, TINY
-from eval.studies.runner import JobsFailed, run_jobs
 
 SMALL = {"env_kwargs": {"n_blade": 6, "n_time": 32}, "method_config": {"swarm_size": 8}}
 
@@ -437,7 +429,7 @@ def test_out_that_is_a_bad_symlink_or_empty_is_refused(tmp_path: Path, capsys, t
 def test_a_full_disk_during_the_run_keeps_the_store_and_resumes(
     tmp_path: Path, monkeypatch, capsys
 ) -> None:
-    from agents import records as records_module
+    from agents import store as store_module
     from tandem_env.io import files
 
     a, b = _job(seed=0), _job(seed=1)
@@ -447,7 +439,7 @@ def test_a_full_disk_during_the_run_keeps_the_store_and_resumes(
     def full(path, obj, **kwargs):  # the project's own writer, as on a full disk
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
-    monkeypatch.setattr(records_module, "write_json_atomic", full)
+    monkeypatch.setattr(store_module, "write_json_atomic", full)
     argv = [*OPTIMIZE[:-1], "0", "1", "--out", str(tmp_path)]
     assert main(argv) == 1
     err = capsys.readouterr().err
@@ -455,7 +447,7 @@ def test_a_full_disk_during_the_run_keeps_the_store_and_resumes(
     assert "No space left on device" in err and "run the same command again" in err
     after = {p.name: p.read_bytes() for p in (tmp_path / "records").iterdir()}
     assert after == before  # as it was: no partial file, no temporary left
-    monkeypatch.setattr(records_module, "write_json_atomic", files.write_json_atomic)
+    monkeypatch.setattr(store_module, "write_json_atomic", files.write_json_atomic)
     assert main(argv) == 0  # fixed: the same command resumes
     assert RecordStore(tmp_path).load(b) is not None
 
@@ -476,3 +468,37 @@ def test_rewritten_files_get_a_readable_mode_under_the_umask(tmp_path: Path) -> 
         os.umask(previous)
     write_json_atomic(path, {})
     assert stat.S_IMODE(path.stat().st_mode) == 0o600  # a readable mode is kept
+
+
+def test_the_runner_hands_back_each_record_read_at_most_once(tmp_path: Path, monkeypatch) -> None:
+    """A job's record comes back from run_jobs as saved (a reused one as checked, once), and
+    the store's summary reads only the files it was not handed; rerun replaces a record."""
+    from agents import records as records_module
+
+    reads: list[str] = []
+    original_load = records_module.Record.load.__func__
+
+    def counting_load(cls, path):
+        reads.append(Path(path).stem)
+        return original_load(cls, path)
+
+    monkeypatch.setattr(records_module.Record, "load", classmethod(counting_load))
+    calls = _count_calls(monkeypatch)
+    a, b = _job(seed=0), _job(seed=1)
+    first = run_jobs([a], tmp_path, progress=False)
+    assert reads == [] and calls == [a]  # run now: saved, handed back, not read back
+    assert first.records[a.key] == RecordStore(tmp_path).load(a)
+    reads.clear()
+    second = run_jobs([a, b], tmp_path, progress=False)
+    assert (second.reused, second.ran) == (1, 1) and calls == [a, b]
+    assert reads == [a.key]  # the reused record, checked once; b's is not read back
+    assert second.records[a.key] == first.records[a.key] and set(second.records) == {a.key, b.key}
+    reads.clear()
+    RecordStore(tmp_path).write_summary(second.records)
+    assert reads == []  # every file of the store was handed over
+    RecordStore(tmp_path).write_summary({a.key: second.records[a.key]})
+    assert reads == [b.key]
+    reads.clear()
+    again = run_jobs([a], tmp_path, progress=False, rerun=True)
+    assert (again.reused, again.ran) == (0, 1) and calls == [a, b, a] and reads == []
+    assert RecordStore(tmp_path).load(a) == again.records[a.key]  # the file is the new record

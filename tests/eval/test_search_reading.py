@@ -7,6 +7,7 @@ from __future__ import annotations
 import pytest
 
 from agents.harness import prepare_job
+from agents.jobs import Job
 from eval.studies import PAPER_STUDIES, readings
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import (
@@ -18,7 +19,6 @@ from eval.studies.paper_reading import (
     combine,
 )
 from eval.studies.presets import PAPER, TINY
-from eval.studies.runner import Job
 
 
 def _suite(plan: StudyPlan) -> list[Job]:

@@ -10,7 +10,7 @@ import pytest
 from matplotlib import animation
 from PIL import Image
 
-from agents.records import load_records
+from agents.store import load_records
 from eval.__main__ import main
 from eval.show import default_out
 

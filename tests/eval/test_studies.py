@@ -12,8 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from agents import runner
 from agents.harness import run
-from eval.studies import STUDIES, claims, convergence, runner
+from eval.studies import STUDIES, claims, convergence
 from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, TINY, ConvergenceSpec, Preset
 from eval.studies.suite import run_studies

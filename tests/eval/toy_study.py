@@ -12,9 +12,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
+from agents.jobs import Job
 from agents.records import Record
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
-from eval.studies.runner import Job
 from tandem_env.io.files import write_csv_atomic
 
 NAME = "toy"

@@ -1,9 +1,9 @@
-"""Run a set of harness jobs once each, resumably, in this process or on a Dask cluster.
+"""The runner: a set of harness jobs run once each, resumably, here or on a Dask cluster.
 
-A :class:`~agents.records.Job` is one harness run: one method, task, condition, budget and
+A :class:`~agents.jobs.Job` is one harness run: one method, task, condition, budget and
 seed, with its env keywords, method settings and preset. Its key hashes all of that plus the
 package version, and its record is kept in the output directory's
-:class:`~agents.records.RecordStore` as ``DIR/records/<key>.json``. So
+:class:`~agents.store.RecordStore` as ``DIR/records/<key>.json``. So
 
 * a killed run resumes: a job whose record is stored (and names the same job) is not run
   again;
@@ -29,9 +29,11 @@ Where the jobs run (``scheduler``, ``--scheduler`` on the command line):
 Every job to run is validated once, here, before any of them runs
 (:func:`agents.harness.prepare_job`; a job already prepared, as ``python -m eval optimize``
 prepares its seeds, is not validated again), and the workers are sent the prepared jobs. This
-process is the one writer of the records: it writes each as its job finishes (workers need no
-shared filesystem), one progress bar counts the evaluations of the finished jobs, a worker that dies
-has its jobs rerun by Dask, and a job that raises is reported with its key and traceback
+process is the one writer of the records (``python -m eval optimize``, the studies and
+``python -m train.envelope`` all submit their jobs here): it writes each as its job finishes
+(workers need no shared filesystem) and hands it back in the :class:`RunSummary` without
+reading it again, one progress bar counts the evaluations of the finished jobs, a worker that
+dies has its jobs rerun by Dask, and a job that raises is reported with its key and traceback
 after the other jobs have finished (:class:`JobsFailed`).
 """
 
@@ -49,21 +51,21 @@ import threading
 import time
 import traceback
 import warnings
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from agents.harness import PreparedJob, prepare_job, run_job
-from agents.records import RECORDS_DIR, Job, Record, RecordStore, RecordWarning
+from agents.jobs import Job
+from agents.records import Record, RecordWarning
+from agents.store import RECORDS_DIR, RecordStore
 from tandem_env.io.progress_bar import ProgressBar, Reporter
 
 if TYPE_CHECKING:
     from distributed import Client
 
 __all__ = [
-    "RECORDS_DIR",
-    "Job",
     "JobFailure",
     "JobsFailed",
     "RunSummary",
@@ -204,6 +206,9 @@ class RunSummary:
     """Where the jobs ran: ``serial``, ``local:N`` or the scheduler's address."""
     failures: tuple[JobFailure, ...] = field(default=())
     """Jobs that raised."""
+    records: Mapping[str, Record] = field(default_factory=dict, repr=False, compare=False)
+    """The record of every job that has one, by key: those reused (read once, to check them)
+    and those run now (as saved, not read back)."""
 
     def to_dict(self) -> dict[str, Any]:
         """The run as the manifests record it."""
@@ -479,6 +484,7 @@ def run_jobs(
     *,
     scheduler: str | None = None,
     progress: bool = True,
+    rerun: bool = False,
 ) -> RunSummary:
     """Run every job that has no valid stored record yet; duplicates run once.
 
@@ -490,13 +496,19 @@ def run_jobs(
     as its job finishes, by this function alone. Raises :class:`JobsFailed` (after every other
     job has finished) if any job was rejected or raised, :class:`SchedulerUnreachable` if the
     scheduler does not answer, ValueError for a bad ``scheduler`` or an ``out_dir`` that is a
-    file.
+    file. ``rerun`` runs every job again, its record replacing the stored one (a trained
+    policy's run folder may hold a newer model under the same name). The summary's
+    ``records`` are the jobs' records, each read at most once.
     """
     executor = "serial" if scheduler is None else parse_scheduler(scheduler)
     start = time.perf_counter()
     store = RecordStore(out_dir)
     given = {_job_of(job).key: job for job in jobs}
-    missing = [job for job in given.values() if store.load(_job_of(job)) is None]
+    records: dict[str, Record] = {}
+    for key, job in given.items():
+        if not rerun and (record := store.load(_job_of(job))) is not None:
+            records[key] = record
+    missing = [job for key, job in given.items() if key not in records]
     failures: list[JobFailure] = []
     todo: list[PreparedJob] = []
     for job in missing:  # validated once, all before any runs; a rejected job is a failure
@@ -505,7 +517,7 @@ def run_jobs(
         except Exception as error:
             failures.append(_failure(_job_of(job), error, error.__traceback__))
     todo.sort(key=lambda p: -p.job.budget)
-    if todo and (old := [p for p in store.outdated() if p.stem not in given]):
+    if todo and (old := store.outdated(skip=given)):
         # Their keys hash the earlier format, so no job finds them: say so once (one at a
         # job's own key was reported by store.load).
         warnings.warn(
@@ -530,6 +542,7 @@ def run_jobs(
                 )
             else:
                 store.save(outcome)
+                records[job.key] = outcome
             display.finished(job, outcome)
     summary = RunSummary(
         total=len(given),
@@ -538,6 +551,7 @@ def run_jobs(
         wall_time=time.perf_counter() - start,
         executor=executor,
         failures=tuple(sorted(failures, key=lambda f: f.key)),
+        records=records,
     )
     if failures:
         raise JobsFailed(summary)

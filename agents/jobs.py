@@ -1,0 +1,223 @@
+"""A job: the configuration of one harness run, and the key its record is stored under.
+
+A :class:`Job` is one method, task, condition, budget and seed, with its env keywords, method
+settings and study preset; its :attr:`Job.key` hashes all of that (but the model's backend and
+device, which do not change results) plus the ``tandem_env`` version and the record format
+(:data:`SCHEMA`). Jobs are run by the runner (:func:`agents.runner.run_jobs`), the one writer
+of a record store (:class:`agents.store.RecordStore`), which keeps each job's record as
+``DIR/records/<key>.json``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+import tandem_env
+from agents.tasks import available_tasks, get_task
+from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
+from tandem_env.io.files import to_jsonable
+
+__all__ = ["MAX_BUDGET", "OLD_SCHEMAS", "SCHEMA", "FrozenMapping", "Job"]
+
+#: Identifies record files (and their version) among other JSON files.
+SCHEMA = "tandem_env.harness-record/5"
+"""Record format; /2 added ``selection`` (records report the best feasible stroke seen), /3
+``key`` and ``job``, /4 holds the job, key and results once each plus a checksum, /5 the
+results' ``certificate`` (the local polish, ``agents.polish``); a run split into parts
+(``starts``, ``initial``) adds the results' ``starts`` (optional: a one-part run's record is
+unchanged)."""
+#: Earlier formats: recognised, never read as results (their jobs are recomputed).
+OLD_SCHEMAS = (
+    "tandem_env.harness-record/1",
+    "tandem_env.harness-record/2",
+    "tandem_env.harness-record/3",
+    "tandem_env.harness-record/4",
+)
+
+#: The largest budget of one job [model evaluations]: 10⁸, over 6 000 times the paper's
+#: budgets; a larger one would run for days and outgrow the memory of the methods' per-iteration
+#: tables (PSO's inertia schedule alone: 8 bytes per iteration).
+MAX_BUDGET = 10**8
+
+
+def _check_count(name: str, value: Any, low: int, allowed: str, high: int | None = None) -> None:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | np.integer)
+        or value < low
+        or (high is not None and value > high)
+    ):
+        raise ValueError(f"{name} = {value!r}; allowed: {allowed}")
+
+
+def _pairs(value: Any) -> tuple[tuple[str, Any], ...]:
+    # Sorted by name, lists as tuples and mappings read-only (nested too: e.g. the polish's
+    # initial strokes, the insect's fields): the same settings give one hashable Job, whatever
+    # their order.
+    items = value.items() if isinstance(value, Mapping) else value
+    return tuple(sorted((str(k), _frozen(v)) for k, v in items))
+
+
+def _frozen(value: Any) -> Any:
+    if isinstance(value, list | tuple):
+        return tuple(_frozen(v) for v in value)
+    if isinstance(value, Mapping):
+        return FrozenMapping({str(k): _frozen(v) for k, v in value.items()})
+    return value
+
+
+class FrozenMapping(Mapping[str, Any]):
+    """A read-only, hashable mapping: a job's nested keyword value (the insect's fields, a
+    penalty). It is a ``Mapping``, so the env takes it and JSON writes it as an object."""
+
+    def __init__(self, items: Mapping[str, Any]) -> None:
+        self._items = dict(items)
+
+    def __getitem__(self, key: str) -> Any:
+        return self._items[key]
+
+    def __iter__(self) -> Any:
+        return iter(self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __hash__(self) -> int:
+        return hash(tuple(sorted(self._items.items())))
+
+    def __repr__(self) -> str:
+        return repr(self._items)
+
+
+def _canonical_env_kwargs(value: Any) -> Any:
+    """The job's env keywords with ``insect`` in its canonical form (what differs from the
+    paper's specimen, :func:`~tandem_env.envs.config.insect_keyword`; left out for the specimen
+    itself, so a default run's key is what it always was)."""
+    items = dict(value.items() if isinstance(value, Mapping) else value)
+    if "insect" in items:
+        insect = insect_keyword(items.pop("insect"))
+        if insect is not None:
+            items["insect"] = insect
+    return items
+
+
+@dataclass(frozen=True)
+class Job:
+    """One harness run (one seed) and everything that decides its result."""
+
+    method: str
+    """Harness method spec, e.g. ``"pso"``, ``"random"``, ``"policy:runs/ppo"``."""
+    task: str
+    """Task name, ``"level"`` or ``"accelerate"`` (or a registered task)."""
+    condition: float
+    """The task's condition in its declared unit, e.g. flight speed [m/s] (level) or available
+    power [W/kg] (accelerate)."""
+    budget: int
+    """Model evaluations."""
+    seed: int
+    env_kwargs: tuple[tuple[str, Any], ...] = ()
+    """Env keywords besides the condition (objective, planform, model options, insect), sorted
+    by name; a mapping is accepted. ``insect`` (an object, a mapping or a YAML file) is kept as
+    the mapping of what differs from the paper's specimen, and left out for the specimen."""
+    method_config: tuple[tuple[str, Any], ...] = ()
+    """Method settings (e.g. ``swarm_size``), sorted by name; a mapping is accepted."""
+    preset: str = ""
+    """The study preset the job belongs to (part of the key, so presets never share records);
+    empty for a run outside the studies (``python -m eval optimize``)."""
+
+    def __post_init__(self) -> None:
+        # The one structural check of a job, where it is made (the CLI, a study, a record file):
+        # the harness's prepare_job adds what needs the task and method registries.
+        for name in ("method", "task", "preset"):
+            value = getattr(self, name)
+            if not isinstance(value, str) or (name != "preset" and not value):
+                raise ValueError(f"job {name} = {value!r}; allowed: a non-empty name")
+        if (
+            isinstance(self.condition, bool)
+            or not isinstance(self.condition, int | float | np.integer | np.floating)
+            or not math.isfinite(self.condition)
+        ):
+            raise ValueError(f"condition = {self.condition!r}; allowed: a finite number")
+        _check_count(
+            "budget", self.budget, 1, f"an integer from 1 to {MAX_BUDGET:,} (model evaluations)",
+            MAX_BUDGET,
+        )  # fmt: skip
+        _check_count("seed", self.seed, 0, "integers >= 0")
+        object.__setattr__(self, "condition", float(self.condition))
+        object.__setattr__(self, "budget", int(self.budget))
+        object.__setattr__(self, "seed", int(self.seed))
+        object.__setattr__(self, "env_kwargs", _pairs(_canonical_env_kwargs(self.env_kwargs)))
+        object.__setattr__(self, "method_config", _pairs(self.method_config))
+
+    @classmethod
+    def from_dict(cls, data: Any) -> Job:
+        """Inverse of :meth:`to_dict`; raises ValueError for anything else (a record file
+        reports it as a :class:`~agents.records.RecordError`)."""
+        if not isinstance(data, Mapping):
+            raise ValueError(f"job = {data!r}; allowed: a JSON object (Job.to_dict)")
+        allowed = set(cls.__dataclass_fields__)
+        unknown = sorted(set(data) - allowed)
+        if unknown:
+            raise ValueError(f"job has unknown field(s) {unknown}; allowed: {sorted(allowed)}")
+        try:
+            return cls(**data)
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"malformed job: {error}") from None
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-JSON form (keyword pairs become objects): what a record stores as ``job``."""
+        return to_jsonable(
+            {
+                "method": self.method,
+                "task": self.task,
+                "condition": self.condition,
+                "budget": self.budget,
+                "seed": self.seed,
+                "env_kwargs": dict(self.env_kwargs),
+                "method_config": dict(self.method_config),
+                "preset": self.preset,
+            }
+        )
+
+    def configuration(self) -> dict[str, Any]:
+        """What decides the job's result: :meth:`to_dict` without the env keywords that choose
+        only how the model is computed (``backend``, ``device``: ``EXECUTION_KWARGS``), so a
+        torch run reuses a numba run's record and the other way round."""
+        data = self.to_dict()
+        data["env_kwargs"] = {
+            k: v for k, v in data["env_kwargs"].items() if k not in EXECUTION_KWARGS
+        }
+        return data
+
+    @property
+    def key(self) -> str:
+        """Configuration hash: the job's :meth:`configuration`, the tandem_env version and the
+        record format."""
+        return self.key_at(tandem_env.__version__)
+
+    def key_at(self, version: str) -> str:
+        """:attr:`key` as tandem_env ``version`` computed it (a record made by that version)."""
+        payload = {**self.configuration(), "tandem_env": version, "record": SCHEMA}
+        text = json.dumps(payload, sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+    def env(self, name: str, default: Any = None) -> Any:
+        """One env keyword (``objective``, ``planform``, ...) or ``default``."""
+        return dict(self.env_kwargs).get(name, default)
+
+    def label(self) -> str:
+        """Short human label, e.g. ``pso level V=1.5 seed 0``."""
+        # The condition's command-line symbol (V, P) from the task's declaration.
+        known = self.task in available_tasks()
+        symbol = get_task(self.task).condition_metavar if known else "condition"
+        extra = [str(v) for k, v in self.env_kwargs if k in ("objective", "planform")]
+        return " ".join(
+            [self.method, self.task, *extra, f"{symbol}={self.condition:g}", f"seed {self.seed}"]
+        )

@@ -1,0 +1,251 @@
+"""The record store: a job's record kept as ``DIR/records/<key>.json``, found by its job.
+
+A :class:`RecordStore` keeps :class:`~agents.records.Record` s as ``DIR/records/<key>.json``
+(:attr:`agents.jobs.Job.key`), each written atomically
+(:func:`tandem_env.io.files.write_json_atomic`). The runner (:func:`agents.runner.run_jobs`) is
+the one writer: ``python -m eval optimize``, the studies and ``python -m train.envelope`` run
+their jobs through it, so a record is found by its configuration: another budget, seed or model
+option is another file, a killed run resumes from the records already there, and a file that is
+not a valid record of its job (corrupt, edited, of an older format, of another job) is
+recomputed with a :class:`~agents.records.RecordWarning`. ``DIR/summary.csv`` is the CSV
+summary over every record of a store.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import warnings
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from agents.jobs import OLD_SCHEMAS, SCHEMA, Job
+from agents.records import (
+    OutdatedRecordError,
+    Record,
+    RecordChecksumError,
+    RecordError,
+    RecordMismatchError,
+    RecordWarning,
+)
+from tandem_env.io.files import output_directory, read_json, write_csv_atomic, write_json_atomic
+
+__all__ = [
+    "RECORDS_DIR",
+    "SUMMARY_NAME",
+    "RecordStore",
+    "StoreWriteError",
+    "load_records",
+    "summary_rows",
+    "write_summary",
+]
+
+#: A store's records folder, ``DIR/records``.
+RECORDS_DIR = "records"
+#: A store's CSV summary over its records, ``DIR/summary.csv``.
+SUMMARY_NAME = "summary.csv"
+
+
+class StoreWriteError(OSError):
+    """A store's file could not be written (a full disk, a folder made read-only, a directory
+    in a file's place): the file is as it was (writes are atomic), the records already stored
+    are kept, and the same command resumes from them once the cause is fixed."""
+
+    def __init__(self, path: Path, error: OSError) -> None:
+        reason = error.strerror or str(error)
+        super().__init__(
+            error.errno,
+            f"cannot write {path} ({reason}); it is left as it was and the records already "
+            "stored are kept: fix that and run the same command again to resume",
+        )
+        self.path = path
+
+    def __str__(self) -> str:
+        return str(self.strerror)
+
+
+#: A store's file name for a record: its key (:attr:`Job.key`, 20 hex digits).
+_KEY_NAME = re.compile(r"[0-9a-f]{20}")
+
+
+def _check_name(path: Path, record: Record) -> Record:
+    """``record`` if ``path`` is named by its key, as a store names them (``<key>.json``), or by
+    no key at all; RecordError for one moved or copied to another job's name."""
+    if _KEY_NAME.fullmatch(path.stem) and path.stem != record.key:
+        raise RecordMismatchError(
+            f"{path}: holds the record of key {record.key} ({record.label()}), not of the key "
+            f"{path.stem} it is named by: moved or copied by hand; it is not used"
+        )
+    return record
+
+
+class RecordStore:
+    """Records keyed by configuration: ``DIR/records/<key>.json``, written atomically.
+
+    Raises ValueError when ``directory`` (or its ``records``) exists and is not a directory.
+    """
+
+    def __init__(self, directory: str | os.PathLike[str]) -> None:
+        self._given = os.fspath(directory)  # as given: Path("") would be the current folder
+        self.directory = Path(directory)
+        for path in (self.directory, self.directory / RECORDS_DIR):
+            if path.exists() and not path.is_dir():
+                raise ValueError(
+                    f"{path} is a file; allowed: a directory for the records (created if missing)"
+                )
+
+    def check(self, option: str = "--out", *, write: bool = True, jobs: Iterable[Job] = ()) -> bool:
+        """Check every path the store writes before any work (:func:`output_directory`): the
+        folder, its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError
+        naming the path and what is allowed, or (without ``write``) False if it cannot be
+        written now."""
+        records = [f"{RECORDS_DIR}/{job.key}.json" for job in jobs]
+        return output_directory(
+            self._given, option, write=write, folders=(RECORDS_DIR,),
+            files=(SUMMARY_NAME, *records),
+        )  # fmt: skip
+
+    def path(self, key: str) -> Path:
+        """Where the record with configuration hash ``key`` is stored."""
+        return self.directory / RECORDS_DIR / f"{key}.json"
+
+    def load(self, job: Job) -> Record | None:
+        """The stored record of ``job``, or None if it has not run with this configuration.
+
+        A file that is not a valid record of ``job`` (corrupt, failing its checksum, of an
+        earlier format, or holding another job: a file copied by hand or a truncated-hash
+        collision) is reported with a :class:`RecordWarning` and treated as missing, so the job
+        runs again and its record replaces the file.
+        """
+        path = self.path(job.key)
+        if not path.exists():
+            return None
+        try:
+            record = Record.load(path)
+        except OutdatedRecordError as error:
+            _warn(f"{error}; {job.label()} is recomputed")
+            return None
+        except (OSError, RecordError) as error:
+            reason = str(error).removeprefix(f"{path}: ")
+            _warn(f"{path}: corrupt record ({reason}); {job.label()} runs again")
+            return None
+        if record.key != job.key or record.job.configuration() != job.configuration():
+            _warn(
+                f"{path}: holds {record.label()} (job {record.job.to_dict()}), not "
+                f"{job.label()}; it runs again and its record replaces the file"
+            )
+            return None
+        return record
+
+    def save(self, record: Record) -> Path:
+        """Write ``record`` as ``records/<record.key>.json`` atomically; returns the path.
+
+        Nothing is read back: the one writer (:func:`agents.runner.run_jobs`) saves a
+        job's record only after :meth:`load` found none valid under its key.
+        """
+        path = self.path(record.key)
+        data = record.to_dict()
+        try:
+            write_json_atomic(path, data)
+        except OSError as error:
+            raise StoreWriteError(path, error) from None
+        return path
+
+    def records(self, known: Mapping[str, Record] | None = None) -> list[Record]:
+        """Every valid record in the store, ordered as :func:`summary_rows` orders them; the
+        others are left out with a :class:`RecordWarning`. ``known`` (key -> record: those the
+        runner just saved or checked, :attr:`agents.runner.RunSummary.records`) are taken as
+        they are; only the other files are read."""
+        known = known or {}
+        found = []
+        for path in sorted((self.directory / RECORDS_DIR).glob("*.json")):
+            if (record := known.get(path.stem)) is not None and record.key == path.stem:
+                found.append(record)
+                continue
+            try:
+                found.append(_check_name(path, Record.load(path)))
+            except (OSError, RecordError) as error:
+                _warn(f"{error}; left out")
+        return sorted(found, key=_summary_order)
+
+    def outdated(self, skip: Iterable[str] = ()) -> list[Path]:
+        """The store's files holding records of an earlier format (:data:`OLD_SCHEMAS`), but
+        those of the keys ``skip`` (not read: :meth:`load` has read them)."""
+        skip = set(skip)
+        found = []
+        for path in sorted((self.directory / RECORDS_DIR).glob("*.json")):
+            if path.stem in skip:
+                continue
+            try:
+                data = read_json(path)
+            except (OSError, ValueError):
+                continue  # reported by load() when its job asks for it
+            if isinstance(data, dict) and data.get("schema") in OLD_SCHEMAS:
+                found.append(path)
+        return found
+
+    def write_summary(self, known: Mapping[str, Record] | None = None) -> Path:
+        """Rewrite ``DIR/summary.csv`` over every record in the store (each file read at most
+        once, none of ``known``: :meth:`records`); its path."""
+        path = self.directory / SUMMARY_NAME
+        records = self.records(known)
+        try:
+            write_summary(path, records)
+        except OSError as error:
+            raise StoreWriteError(path, error) from None
+        return path
+
+
+def _warn(message: str) -> None:
+    warnings.warn(message, RecordWarning, stacklevel=3)
+
+
+def _summary_order(r: Record) -> tuple[Any, ...]:
+    return (r.task, r.objective_name, r.condition.value, r.method, r.budget, r.seed, r.key)
+
+
+def summary_rows(records: Iterable[Record]) -> list[dict[str, Any]]:
+    """CSV rows of ``records``, sorted by task, objective, condition, method, budget and seed."""
+    return [r.summary_row() for r in sorted(records, key=_summary_order)]
+
+
+def write_summary(path: str | os.PathLike[str], records: Sequence[Record]) -> None:
+    """Write the CSV summary of ``records`` atomically."""
+    write_csv_atomic(path, summary_rows(records))
+
+
+def load_records(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
+    """Every record in the given files and directories (searched recursively for ``*.json``).
+
+    Finds the records of stores (``DIR/records/*.json``) and of study directories alike. JSON
+    files that are not records (another schema) are skipped; a record of an earlier format or
+    one failing its checksum is left out with a :class:`RecordWarning` (never mixed in); a file
+    that cannot be read, or claims the record schema but is malformed, raises
+    :class:`RecordError` naming it.
+    """
+    records: list[Record] = []
+    for base in map(Path, paths):
+        if not base.exists():
+            raise ValueError(f"{base}: no such file or directory")
+        files = sorted(base.rglob("*.json")) if base.is_dir() else [base]
+        for path in files:
+            try:
+                data = read_json(path)
+            except (OSError, ValueError) as error:
+                raise RecordError(f"{path}: cannot read JSON: {error}") from None
+            schema = data.get("schema") if isinstance(data, dict) else None
+            if schema in OLD_SCHEMAS:
+                _warn(f"{path}: a record of the earlier format {schema!r}; left out (rerun "
+                      "the command that wrote it to recompute it)")  # fmt: skip
+                continue
+            if schema != SCHEMA:
+                continue
+            try:
+                records.append(_check_name(path, Record.from_dict(data)))
+            except (RecordChecksumError, RecordMismatchError) as error:
+                _warn(f"{path}: {str(error).removeprefix(f'{path}: ')}; left out")
+                continue
+            except RecordError as error:
+                raise RecordError(f"{path}: malformed record: {error}") from None
+    return records
