@@ -21,7 +21,9 @@ is the text after a colon in the method spec (``"policy:runs/ppo"`` -> ``"runs/p
 without one) and ``config`` the method's settings. Names listed in :data:`PROVIDERS` are
 registered lazily by importing their provider module the first time they are asked for: the
 training package registers ``"ppo"``, ``"sac"`` and ``"policy"`` from ``train.policies``, so
-``agents`` never imports ``train`` (or Stable-Baselines3) unless such a method is used.
+``agents`` never imports ``train`` (or Stable-Baselines3) unless such a method is used. An
+installed package adds its own the same way through a ``tandem_env.optimisers`` entry point
+(:func:`providers`).
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ __all__ = [
     "available_methods",
     "get_method",
     "preset_batch_setting",
+    "providers",
     "register_method",
     "register_optimiser",
 ]
@@ -287,20 +290,36 @@ def register_method(name: str, factory: MethodFactory, *, replace: bool = False)
     _REGISTRY[name] = factory
 
 
+#: The entry-point group of out-of-tree methods: each entry point's name is a method name, its
+#: value the module that registers it when imported (as :data:`PROVIDERS`), e.g. in a plug-in's
+#: pyproject.toml ``[project.entry-points."tandem_env.optimisers"]`` ``hill-climb = "my_opt"``.
+OPTIMISER_ENTRY_POINTS = "tandem_env.optimisers"
+
+
+def providers() -> dict[str, str]:
+    """Method name -> the module that registers it on first use: the installed
+    ``tandem_env.optimisers`` entry points (read now), then :data:`PROVIDERS`."""
+    from importlib.metadata import entry_points
+
+    plugged = {p.name: p.module for p in entry_points(group=OPTIMISER_ENTRY_POINTS)}
+    return {**plugged, **PROVIDERS}
+
+
 def available_methods() -> tuple[str, ...]:
     """Registered method names plus those a provider module would register on first use."""
-    return tuple(dict.fromkeys([*_REGISTRY, *PROVIDERS]))
+    return tuple(dict.fromkeys([*_REGISTRY, *providers()]))
 
 
 def _factory(name: str) -> MethodFactory:
     if name in _REGISTRY:
         return _REGISTRY[name]
-    if name not in PROVIDERS:
+    known = providers()
+    if name not in known:
         raise ValueError(
             f"unknown method {name!r}; allowed: {', '.join(available_methods())} "
             "('policy' as policy:RUN_DIR)"
         )
-    module = PROVIDERS[name]
+    module = known[name]
     try:
         importlib.import_module(module)
     except ModuleNotFoundError as error:
@@ -310,13 +329,13 @@ def _factory(name: str) -> MethodFactory:
         if error.name not in {".".join(parts[: i + 1]) for i in range(len(parts))}:
             raise
         raise NotImplementedError(
-            f"method {name!r} is provided by train/ (module {module}), which is not available "
-            f"yet: {error}"
+            f"method {name!r} is provided by module {module}, which is not available: {error}"
         ) from error
     if name not in _REGISTRY:
         raise NotImplementedError(
-            f"method {name!r} is provided by train/ (module {module}), but importing it did "
-            f"not register {name!r} (it should call agents.methods.register_method)"
+            f"method {name!r} is provided by module {module}, but importing it did not "
+            f"register {name!r} (it should call agents.methods.register_optimiser or "
+            "register_method)"
         )
     return _REGISTRY[name]
 

@@ -6,9 +6,9 @@ which it reads and never copies: the condition's one name (constructor keyword, 
 ``info`` key, record name), its unit, the objectives the env offers. The tasks of this
 package's envs (``"level"``, ``"accelerate"``) are built from their configs' declarations
 (:meth:`TaskSpec.from_env`, for every id with a task in
-``tandem_env.envs.registration.ENTRIES``), so adding a task touches nothing here; tests
-register analytic tasks the same way (:func:`register_task`), so every method runs through one
-code path.
+``tandem_env.envs.registration.ENTRIES``, read when asked), so adding a task touches nothing
+here; tests register analytic tasks by hand (:func:`register_task`), and every method runs
+through one code path.
 """
 
 from __future__ import annotations
@@ -217,47 +217,51 @@ class TaskSpec:
         return f"{self.name}-{self.objective_choice(env_kwargs)}"
 
 
-#: The registered tasks: those of every env entry with a task (built from its declaration
-#: when first asked for) and those registered with :func:`register_task`.
-_TASKS: dict[str, TaskSpec] = {}
+#: Tasks registered by hand (:func:`register_task`: a spec not read from an env config, such as
+#: the tests' analytic functions). The tasks of env entries are not kept: they are read from
+#: ``registration.task_env_ids()`` and the env configs' declarations on every call.
+REGISTERED_TASKS: dict[str, TaskSpec] = {}
 
 
-def _declared() -> dict[str, TaskSpec]:
-    """``_TASKS``, with a spec for every env entry with a task (``registration.add_entry``)."""
-    for name, env_id in registration.TASK_ENV_IDS.items():
-        if name not in _TASKS:
-            _TASKS[name] = TaskSpec.from_env(name, env_id)
-    return _TASKS
+def _tasks() -> dict[str, TaskSpec]:
+    """Every task now: one per env entry with a task (derived from its declaration), then
+    those registered by hand."""
+    derived = {
+        name: TaskSpec.from_env(name, env_id)
+        for name, env_id in registration.task_env_ids().items()
+    }
+    return {**derived, **REGISTERED_TASKS}
 
 
 #: The paper's two tasks (the studies name them).
-LEVEL: TaskSpec = _declared()["level"]
-ACCELERATE: TaskSpec = _declared()["accelerate"]
+LEVEL: TaskSpec = TaskSpec.from_env("level", registration.LEVEL_FLIGHT_ID)
+ACCELERATE: TaskSpec = TaskSpec.from_env("accelerate", registration.ACCELERATE_ID)
 
 
 def register_task(spec: TaskSpec, *, replace: bool = False) -> None:
-    """Make ``spec`` available to :func:`get_task` under ``spec.name``."""
+    """Make ``spec`` available to :func:`get_task` under ``spec.name`` (a task of an env entry
+    is registered with ``registration.add_entry`` instead)."""
     if not isinstance(spec, TaskSpec):
         raise ValueError(f"spec = {spec!r}; allowed: a TaskSpec")
-    if spec.name in _TASKS and not replace and _TASKS[spec.name] != spec:
+    known = _tasks().get(spec.name)
+    if known is not None and not replace and known != spec:
         raise ValueError(
             f"task {spec.name!r} is already registered; pass replace=True to replace it"
         )
-    _TASKS[spec.name] = spec
+    REGISTERED_TASKS[spec.name] = spec
 
 
 def available_tasks() -> tuple[str, ...]:
     """Names of the registered tasks."""
-    return tuple(_declared())
+    return tuple(_tasks())
 
 
 def get_task(task: str | TaskSpec) -> TaskSpec:
     """The spec of a task name (or ``task`` itself if it already is a spec)."""
     if isinstance(task, TaskSpec):
         return task
+    tasks = _tasks()
     try:
-        return _declared()[task]
+        return tasks[task]
     except (KeyError, TypeError):
-        raise ValueError(
-            f"unknown task {task!r}; allowed: {', '.join(map(repr, _TASKS))}"
-        ) from None
+        raise ValueError(f"unknown task {task!r}; allowed: {', '.join(map(repr, tasks))}") from None

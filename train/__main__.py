@@ -171,8 +171,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"objective {best.get('objective', float('nan')):.4g}, feasible {best.get('feasible')}"
     )
     for row in result.final_evaluation:
+        # A task's info may leave its condition out (a model input such as a cruise speed).
+        where = f" at {row[condition_key]:g}" if condition_key in row else ""
         print(
-            f"  final deterministic policy at {row[condition_key]:g}: reward {row['reward']:.4g}, "
+            f"  final deterministic policy{where}: reward {row['reward']:.4g}, "
             f"objective {row['objective']:.4g}, feasible {row['feasible']}"
         )
     return 0

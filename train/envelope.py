@@ -103,12 +103,13 @@ def evaluate_envelope(
     folder may hold a newer model under the same name)."""
     from agents.harness import prepare
     from agents.runner import run_jobs
-    from train.policies import CONDITION_KWARGS, TrainedPolicy, TrainingMismatchWarning
+    from tandem_env.envs.registration import condition_keywords
+    from train.policies import TrainedPolicy, TrainingMismatchWarning
 
     policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
     task = task_of(policy.env_id)
     # The harness sets the condition itself; every other training option is kept.
-    env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in CONDITION_KWARGS}
+    env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
     values = tuple(conditions) if conditions is not None else sweep_conditions(task)
     out = Path(out_dir)
     with warnings.catch_warnings():

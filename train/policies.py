@@ -70,9 +70,6 @@ __all__ = [
 WhichModel = Literal["best", "final"]
 WHICH_MODELS: tuple[str, ...] = get_args(WhichModel)
 
-#: Env keywords that set the condition; they may differ between training and evaluation.
-CONDITION_KWARGS: tuple[str, ...] = condition_keywords()
-
 CITATIONS: dict[str, str] = {
     "ppo": (
         "PPO (Schulman et al. 2017, arXiv:1707.06347), Stable-Baselines3 implementation "
@@ -331,8 +328,10 @@ class PolicyMethod:
 
 
 def _warn_on_differences(policy: TrainedPolicy, context: SearchContext) -> None:
-    trained = {k: v for k, v in policy.env_kwargs.items() if k not in CONDITION_KWARGS}
-    asked = {k: v for k, v in context.env_kwargs.items() if k not in CONDITION_KWARGS}
+    # The condition's keywords may differ between training and evaluation.
+    condition = condition_keywords()
+    trained = {k: v for k, v in policy.env_kwargs.items() if k not in condition}
+    asked = {k: v for k, v in context.env_kwargs.items() if k not in condition}
     if plain(trained) != plain(asked):
         warnings.warn(
             f"{policy.run_dir} was trained with env options {trained}, evaluated with {asked}",

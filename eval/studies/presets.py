@@ -35,6 +35,10 @@ _PER_JOB_KWARGS: frozenset[str] = frozenset(
 )
 
 
+#: The field of :class:`Preset` that budgets each task the studies run (the paper's two).
+BUDGET_FIELDS: dict[str, str] = {"level": "level_budget", "accelerate": "accelerate_budget"}
+
+
 def _fail(name: str, value: Any, allowed: str) -> None:
     raise ValueError(f"Preset.{name} = {value!r}; allowed: {allowed}")
 
@@ -184,7 +188,7 @@ class Preset:
             _fail("swarm_size", self.swarm_size, "an integer >= 2")
         if self.swarm_size < 2:
             _fail("swarm_size", self.swarm_size, "an integer >= 2")
-        for name in ("level_budget", "accelerate_budget"):
+        for name in BUDGET_FIELDS.values():
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < self.swarm_size:
                 _fail(name, value, f"an integer >= swarm_size ({self.swarm_size}) evaluations")
@@ -216,9 +220,21 @@ class Preset:
                 "distinct (name, value) pairs; the condition and objective are set per job",
             )
 
+    @property
+    def budgets(self) -> dict[str, int]:
+        """Evaluations per optimisation, per task: the tasks a study runs (:data:`BUDGET_FIELDS`)."""
+        return {task: getattr(self, name) for task, name in BUDGET_FIELDS.items()}
+
     def budget(self, task: str) -> int:
-        """Evaluations per optimisation of ``task`` ("level" or "accelerate")."""
-        return self.level_budget if task == "level" else self.accelerate_budget
+        """Evaluations per optimisation of ``task``; ValueError for a task the preset does not
+        budget."""
+        budgets = self.budgets
+        if task not in budgets:
+            raise ValueError(
+                f"Preset {self.name!r} has no budget for task {task!r}; allowed: "
+                f"{', '.join(map(repr, budgets))}"
+            )
+        return budgets[task]
 
 
 QUICK = Preset(

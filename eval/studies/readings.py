@@ -24,7 +24,7 @@ continued and in full (``continuation_check.csv``); the singles, where a reading
 check falls short (:func:`full_tasks`) runs in full; the combinations. A reading of the search
 itself (``Reading.search``) always runs in full.
 
-All jobs of a phase go into one :func:`~eval.studies.runner.run_jobs` call, so a job two
+All jobs of a phase go into one :func:`~agents.runner.run_jobs` call, so a job two
 readings share (the same env keywords: e.g. every job but the horizontal accelerating ones of
 the F̄_h reading, or any job of a reading that restates a default) runs once, and the default's
 jobs are the ``all`` suite's own. Records are written as jobs finish; a killed run resumes in
@@ -710,7 +710,7 @@ def run_readings(
     check on the singles.
 
     ``plan`` gives the preset and methods (its own reading is ignored). ``scheduler`` as for
-    :func:`eval.studies.runner.run_jobs`. Raises ValueError if ``readings`` does not start with
+    :func:`agents.runner.run_jobs`. Raises ValueError if ``readings`` does not start with
     the default reading or repeats a name.
     """
     start = time.perf_counter()

@@ -20,10 +20,11 @@ from .declaration import Constraint, TaskCondition, TaskDeclaration, TaskObjecti
 from .level_flight import LEVEL_FLIGHT, LevelFlightConfig, LevelFlightEnv, LevelFlightVectorEnv
 from .registration import (
     ACCELERATE_ID,
-    ENV_IDS,
     LEVEL_FLIGHT_ID,
     SPEED_CHANGE_ID,
+    add_entry,
     check_env_id,
+    env_ids,
     register_envs,
 )
 from .speed_change import (
@@ -37,7 +38,6 @@ from .speed_change import (
 __all__ = [
     "ACCELERATE",
     "ACCELERATE_ID",
-    "ENV_IDS",
     "LEVEL_FLIGHT",
     "LEVEL_FLIGHT_ID",
     "SPEED_CHANGE",
@@ -61,7 +61,9 @@ __all__ = [
     "TaskCondition",
     "TaskDeclaration",
     "TaskObjectives",
+    "add_entry",
     "check_env_id",
+    "env_ids",
     "make_sb3_vec_env",
     "register_envs",
 ]

@@ -29,20 +29,14 @@ from .validate import check_interval, check_real
 #: Flight speeds an env accepts [m/s]: the model's own limits.
 MODEL_SPEED_LIMITS: tuple[float, float] = SPEED_LIMITS
 
+#: ``ModelOptions`` fields whose ``gym.make`` keyword differs from the field's name: ``power``
+#: was Accelerate's old condition name, so the power accounting is ``power_convention`` there.
+_RENAMED_MODEL_OPTIONS: dict[str, str] = {"power": "power_convention"}
 #: ``gym.make`` kwargs that become fields of :class:`~tandem_env.physics.ModelOptions`, mapped to
-#: the field's name there (``power_convention``: ``power`` was Accelerate's old condition name).
+#: the field's name there: every field, read from the dataclass (a new option is an env keyword
+#: with nothing to add here), under its own name but for :data:`_RENAMED_MODEL_OPTIONS`.
 MODEL_OPTION_KWARGS: dict[str, str] = {
-    "n_time": "n_time",
-    "n_blade": "n_blade",
-    "induction": "induction",
-    "interference": "interference",
-    "power_convention": "power",
-    "thrust_split": "thrust_split",
-    "spin": "spin",
-    "hover_inflow": "hover_inflow",
-    "slipstream": "slipstream",
-    "tolerance": "tolerance",
-    "max_evaluations": "max_evaluations",
+    _RENAMED_MODEL_OPTIONS.get(f.name, f.name): f.name for f in fields(ModelOptions)
 }
 #: ``gym.make`` kwargs that choose how the model is computed, not what it computes (the torch
 #: backend equals the numba kernel within 1e-8, docs/model.md §12.1): a record's key leaves them
@@ -298,12 +292,9 @@ class FlightConfig:
         ``insect`` is a :class:`~tandem_env.physics.Dragonfly`, a mapping of the fields that
         differ from the paper's specimen, or a YAML file's path (:func:`insect_keyword`).
         Besides the dataclass fields this accepts ``planform`` ("tear-drop" | "real") and
-        ``rotational_coefficient`` (C_r of both wings [-], Table 3), applied to ``insect``; the
-        :class:`~tandem_env.physics.ModelOptions` fields (``n_time``,
-        ``n_blade``, ``induction``, ``interference``, ``power_convention`` (its ``power``),
-        ``thrust_split``, ``spin``, ``hover_inflow``, ``slipstream``, ``tolerance``,
-        ``max_evaluations``),
-        applied over ``options``; and ``penalty_weight`` / ``penalty_offset``, applied over
+        ``rotational_coefficient`` (C_r of both wings [-], Table 3), applied to ``insect``; every
+        :class:`~tandem_env.physics.ModelOptions` field (:data:`MODEL_OPTION_KWARGS`: its
+        ``power`` as ``power_convention``), applied over ``options``; and ``penalty_weight`` / ``penalty_offset``, applied over
         ``penalty``. A condition's old keyword (``power`` for ``available_power``) is refused
         naming the new one.
         """

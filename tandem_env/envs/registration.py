@@ -6,6 +6,7 @@ Entry points are strings, so registering imports neither the env classes' depend
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -42,32 +43,65 @@ class EnvEntry:
         return f"{self.module}:{self.env}VectorEnv"
 
 
-#: Every env id this package registers. Adding a task is its module (declaration, config, core,
-#: vector env, single env) and one line here.
+#: Every env id registered through :func:`add_entry`: this package's own (these three lines),
+#: then those of plug-ins (``tandem_env.tasks`` entry points) and tests. Adding a task is its
+#: module (declaration, config, core, vector env, single env) and one line here, or one
+#: :func:`add_entry` call, or one entry point. Everything below reads it when called.
 ENTRIES: dict[str, EnvEntry] = {
     LEVEL_FLIGHT_ID: EnvEntry("tandem_env.envs.level_flight", "LevelFlight", task="level"),
     ACCELERATE_ID: EnvEntry("tandem_env.envs.accelerate", "Accelerate", task="accelerate"),
     SPEED_CHANGE_ID: EnvEntry("tandem_env.envs.speed_change", "SpeedChange"),
 }
-#: This package's own ids (``check_env_id``: the ids the SB3 adapter and training accept).
-ENV_IDS: tuple[str, ...] = tuple(ENTRIES)
-#: Harness task name -> the env id it runs, for the ids with a task (:func:`add_entry` adds).
-TASK_ENV_IDS: dict[str, str] = {e.task: i for i, e in ENTRIES.items() if e.task is not None}
+#: This package's own ids, which :func:`remove_entry` keeps.
+_OWN_IDS: frozenset[str] = frozenset(ENTRIES)
+#: The entry-point group of out-of-tree tasks: each entry point's name is a Gymnasium env id,
+#: its object an :class:`EnvEntry`, e.g. in a plug-in's pyproject.toml
+#: ``[project.entry-points."tandem_env.tasks"]`` ``"Mine/Cruise-v0" = "my_tasks:CRUISE_ENTRY"``.
+TASK_ENTRY_POINTS = "tandem_env.tasks"
+
+
+def env_ids() -> tuple[str, ...]:
+    """The tandem-wing env ids now: every :data:`ENTRIES` id still in Gymnasium's registry, this
+    package's first (the ids the SB3 adapter and training accept, :func:`check_env_id`)."""
+    from gymnasium.envs.registration import registry
+
+    return tuple(env_id for env_id in ENTRIES if env_id in registry)
+
+
+def task_env_ids() -> dict[str, str]:
+    """Harness task name -> the env id it runs, for the ids of :func:`env_ids` with a task."""
+    return {e.task: i for i in env_ids() if (e := ENTRIES[i]).task is not None}
 
 
 def check_env_id(env_id: object, name: str = "env_id") -> str:
-    """``env_id`` if it is one of :data:`ENV_IDS`; else a ValueError listing them."""
-    if not isinstance(env_id, str) or env_id not in ENV_IDS:
+    """``env_id`` if it is one of :func:`env_ids` (read now); else a ValueError listing them."""
+    allowed = env_ids()
+    if not isinstance(env_id, str) or env_id not in allowed:
         raise ValueError(
-            f"{name} = {env_id!r} is not a tandem-wing env; allowed: {', '.join(ENV_IDS)}"
+            f"{name} = {env_id!r} is not a tandem-wing env; allowed: {', '.join(allowed)}"
         )
     return env_id
 
 
 def register_envs() -> None:
-    """Register every id (idempotent: a reload does not re-register or warn)."""
-    for env_id, entry in ENTRIES.items():
+    """Register every id of :data:`ENTRIES` and of the installed ``tandem_env.tasks`` entry
+    points (idempotent: a reload does not re-register or warn).
+
+    An entry point that cannot be loaded, or is not an :class:`EnvEntry`, is skipped with a
+    warning naming it, so one broken plug-in does not stop ``import tandem_env``.
+    """
+    from importlib.metadata import entry_points
+
+    for env_id, entry in list(ENTRIES.items()):
         add_entry(env_id, entry)
+    for point in entry_points(group=TASK_ENTRY_POINTS):
+        try:
+            add_entry(point.name, point.load())
+        except Exception as error:  # a plug-in's own failure: report it, keep the others
+            warnings.warn(
+                f"{TASK_ENTRY_POINTS} entry point {point.name} = {point.value} skipped: {error}",
+                stacklevel=2,
+            )
 
 
 def add_entry(env_id: str, entry: EnvEntry) -> None:
@@ -81,15 +115,29 @@ def add_entry(env_id: str, entry: EnvEntry) -> None:
     known = ENTRIES.get(env_id)
     if known is not None and known != entry:
         raise ValueError(f"env id {env_id!r} is already registered as {known!r}")
-    ENTRIES[env_id] = entry
     if entry.task is not None:
-        TASK_ENV_IDS[entry.task] = env_id
+        runs = task_env_ids().get(entry.task, env_id)
+        if runs != env_id:
+            raise ValueError(f"task {entry.task!r} already runs {runs}; allowed: a new name")
+    ENTRIES[env_id] = entry
     if env_id not in registry:
         # No max_episode_steps: the one-cycle episodes terminate after their step and
         # SpeedChange truncates itself after max_cycles, so a TimeLimit would only duplicate it.
         register(
             id=env_id, entry_point=entry.entry_point, vector_entry_point=entry.vector_entry_point
         )
+
+
+def remove_entry(env_id: str) -> None:
+    """Undo :func:`add_entry` for an id added after import (a test's toy task, a plug-in being
+    unloaded): it leaves :data:`ENTRIES` and Gymnasium's registry. This package's own ids stay."""
+    from gymnasium.envs.registration import registry
+
+    if env_id in _OWN_IDS or env_id not in ENTRIES:
+        added = [i for i in ENTRIES if i not in _OWN_IDS]
+        raise ValueError(f"env id {env_id!r}; allowed: an id added by add_entry: {added}")
+    del ENTRIES[env_id]
+    registry.pop(env_id, None)
 
 
 def config_class(env_id: str) -> type[Any]:
@@ -131,10 +179,10 @@ def core_class(env_id: str) -> type[Any]:
 
 
 def condition_keywords() -> tuple[str, ...]:
-    """Every keyword that sets a declared condition (fixed value or range) of this package's
-    envs, e.g. ``("speed", "speed_range", "available_power", "available_power_range")``."""
+    """Every keyword that sets a declared condition (fixed value or range) of the registered
+    envs (:func:`env_ids`, read now), e.g. ``("speed", "speed_range", "available_power", "available_power_range")``."""
     keywords: list[str] = []
-    for env_id in ENTRIES:
+    for env_id in env_ids():
         declared = getattr(config_class(env_id), "CONDITION", None)
         if declared is not None:
             keywords += [declared.keyword, declared.range_keyword]

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import sys
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar, Literal
@@ -20,10 +21,16 @@ import pytest
 from gymnasium.envs.registration import registry
 from gymnasium.utils.env_checker import check_env
 
-import agents.tasks as tasks
 from agents.harness import run
 from agents.records import Record
-from agents.tasks import ACCELERATE, LEVEL, STROKE_DISCRETE, TaskSpec, get_task
+from agents.tasks import (
+    ACCELERATE,
+    LEVEL,
+    STROKE_DISCRETE,
+    TaskSpec,
+    available_tasks,
+    get_task,
+)
 from tandem_env.envs import (
     ACCELERATE_ID,
     LEVEL_FLIGHT_ID,
@@ -37,26 +44,28 @@ from tandem_env.envs import (
     registration,
 )
 from tandem_env.envs.declaration import POWER_CAP
-from tandem_env.envs.registration import add_entry, config_class
+from tandem_env.envs.registration import (
+    add_entry,
+    check_env_id,
+    config_class,
+    env_ids,
+    remove_entry,
+)
 
 sys.path.insert(0, str(Path(__file__).parent))
 from toy_task import TOY_ENTRY, TOY_ID, CruiseConfig
 
 
 @pytest.fixture()
-def toy(monkeypatch: pytest.MonkeyPatch) -> TaskSpec:
+def toy() -> Iterator[TaskSpec]:
     """The toy task, registered in one line; unregistered afterwards."""
-    monkeypatch.setattr(registration, "ENTRIES", dict(registration.ENTRIES))
-    monkeypatch.setattr(registration, "TASK_ENV_IDS", dict(registration.TASK_ENV_IDS))
-    monkeypatch.setattr(tasks, "_TASKS", dict(tasks._TASKS))
-    monkeypatch.setitem(registry, TOY_ID, registry.get(TOY_ID))  # restored (or removed) after
-    registry.pop(TOY_ID)
     add_entry(TOY_ID, TOY_ENTRY)  # the one registration line
-    return get_task("cruise-toy")
+    yield get_task("cruise-toy")
+    remove_entry(TOY_ID)
 
 
 def test_the_package_tasks_are_read_from_the_env_declarations() -> None:
-    assert registration.TASK_ENV_IDS == {"level": LEVEL_FLIGHT_ID, "accelerate": ACCELERATE_ID}
+    assert registration.task_env_ids() == {"level": LEVEL_FLIGHT_ID, "accelerate": ACCELERATE_ID}
     assert (LEVEL.condition_name, LEVEL.condition_unit) == ("speed", "m/s")
     assert (LEVEL.condition_kwarg, LEVEL.reset_option) == ("speed", "speed")
     assert dict(LEVEL.objectives) == {"efficiency": "efficiency"}
@@ -79,6 +88,42 @@ def test_the_package_tasks_are_read_from_the_env_declarations() -> None:
     assert LEVEL.declaration is LevelFlightConfig.DECLARATION
     assert ACCELERATE.declaration is AccelerateConfig.DECLARATION
     assert AccelerateConfig.CONDITION is ACCELERATE.declaration.condition
+
+
+def test_the_registries_are_read_when_asked() -> None:
+    """A task added after import is an env id, a harness task and a training env at once, and
+    gone again once removed: nothing keeps a copy."""
+    from eval.studies.presets import QUICK
+    from train.config import TrainConfig
+
+    own = (LEVEL_FLIGHT_ID, ACCELERATE_ID, SPEED_CHANGE_ID)
+    assert env_ids() == own and "cruise-toy" not in available_tasks()
+    add_entry(TOY_ID, TOY_ENTRY)
+    try:
+        assert env_ids() == (*own, TOY_ID) and check_env_id(TOY_ID) == TOY_ID
+        assert get_task("cruise-toy").declaration is CruiseConfig.DECLARATION
+        assert registration.task_env_ids()["cruise-toy"] == TOY_ID
+        assert "cruise_speed" in registration.condition_keywords()
+        assert TrainConfig(algo="ppo", env_id=TOY_ID).env_id == TOY_ID
+        with pytest.raises(ValueError, match="task 'cruise-toy' already runs TandemToy/Cruise"):
+            add_entry("TandemToy/Other-v0", TOY_ENTRY)
+        # A study preset budgets the tasks it runs and names them for any other.
+        assert QUICK.budgets == {"level": 8_000, "accelerate": 4_000}
+        with pytest.raises(
+            ValueError,
+            match="Preset 'quick' has no budget for task 'cruise-toy'; allowed: "
+            "'level', 'accelerate'",
+        ):
+            QUICK.budget("cruise-toy")
+    finally:
+        remove_entry(TOY_ID)
+    assert env_ids() == own and TOY_ID not in registry
+    with pytest.raises(ValueError, match=r"unknown task 'cruise-toy'; allowed: 'level', 'acc"):
+        get_task("cruise-toy")
+    with pytest.raises(ValueError, match="is not a tandem-wing env"):
+        check_env_id(TOY_ID)
+    with pytest.raises(ValueError, match="allowed: an id added by add_entry"):
+        remove_entry(LEVEL_FLIGHT_ID)
 
 
 def test_the_specimen_power_is_derived_from_the_insect() -> None:

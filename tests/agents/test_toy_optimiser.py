@@ -1,67 +1,26 @@
-"""A new optimiser is one file plus one registration line: this file declares a toy one (a
-hill climber with a shrinking step) and runs it through the harness and ``eval optimize``."""
+"""A new optimiser is one file plus one registration line: ``toy_optimiser.py`` declares a toy
+one (a hill climber with a shrinking step); this runs it through the harness, ``eval optimize``
+and, as an installed plug-in would load it, a ``tandem_env.optimisers`` entry point."""
 
 from __future__ import annotations
 
+import subprocess
 import sys
-from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
 
 from agents.harness import run
-from agents.methods import available_methods, get_method, preset_batch_setting, register_optimiser
-from agents.optimiser import LOWER, UPPER, AskTellOptimiser, FloatArray, SeedLike, check_int
+from agents.methods import available_methods, get_method, preset_batch_setting
 from agents.store import load_records
 
 sys.path.insert(0, str(Path(__file__).parent))
 from analytic_envs import ACTION_LOG, DIM, optimum, register_analytic
+from plugin import PLUGIN_DIR, install_entry_points
+from toy_optimiser import HillClimbConfig
 
 register_analytic()
-
-
-@dataclass(frozen=True, kw_only=True)
-class HillClimbConfig:
-    """A (1, λ) hill climber: ``batch_size`` Gaussian steps of size ``step`` around the best point
-    so far; the step halves after a batch that found nothing better."""
-
-    max_evaluations: int
-    batch_size: int = 16
-    step: float = 0.5
-
-    def __post_init__(self) -> None:
-        check_int("max_evaluations", self.max_evaluations, minimum=1)
-        check_int("batch_size", self.batch_size, minimum=1)
-
-    citation = "toy hill climber (tests/agents/test_toy_optimiser.py)"
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"algorithm": "hill-climb", **asdict(self), "citation": self.citation}
-
-    def build(self, dim: int, seed: SeedLike = None) -> HillClimb:
-        return HillClimb(dim, self, seed)
-
-
-class HillClimb(AskTellOptimiser):
-    def __init__(self, dim: int, config: HillClimbConfig, seed: SeedLike = None) -> None:
-        super().__init__(dim, config.batch_size, config, seed)
-        self._centre = np.zeros(dim)
-        self._step = config.step
-
-    def _propose(self, n: int) -> FloatArray:
-        steps = self._rng.normal(0.0, self._step, (n, self.dim))
-        return np.clip(self._centre + steps, LOWER, UPPER)
-
-    def _observe(self, X: FloatArray, fitness: FloatArray) -> None:
-        if fitness.max() > self.best_fitness:  # the base class counts the batch after this
-            self._centre = X[np.argmax(fitness)]
-        else:
-            self._step /= 2.0
-
-
-register_optimiser("hill-climb", HillClimbConfig, batch="batch_size")  # the one line
 
 
 def test_the_toy_is_a_method_with_its_configs_settings() -> None:
@@ -99,3 +58,20 @@ def test_the_toy_runs_through_eval_optimize(tmp_path: Path) -> None:
     records = load_records([out])
     assert sorted(r.seed for r in records) == [0, 1]
     assert all(r.evaluations == 160 and r.config["method"]["step"] == 0.3 for r in records)
+
+
+def test_an_entry_point_registers_the_toy(tmp_path: Path) -> None:
+    """An installed plug-in's ``tandem_env.optimisers`` entry point names the module that
+    registers its method: a fresh interpreter offers and builds it with no import of its own."""
+    env = install_entry_points(tmp_path, "tandem_env.optimisers", {"hill-climb": "toy_optimiser"})
+    code = (
+        "from agents.methods import available_methods, get_method\n"
+        "assert 'hill-climb' in available_methods(), available_methods()\n"
+        "print(get_method('hill-climb', {'swarm_size': 8}).config(100))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr
+    assert "HillClimbConfig(max_evaluations=100, batch_size=8, step=0.5)" in done.stdout
+    assert str(PLUGIN_DIR) in env["PYTHONPATH"]

@@ -1,9 +1,11 @@
 """A toy task in ONE file, as a plug-in would add one: cruise at speed V_c with most thrust surplus.
 
 Its declaration (condition ``cruise_speed``, one objective, two constraints, a sweep), its
-config, its batched core, its vector env and its single env; registered with one line,
-``add_entry(TOY_ID, TOY_ENTRY)`` (tests/agents/test_task_declaration.py). Nothing in
-``tandem_env``, ``agents`` or ``eval`` names it.
+config, its batched core, its vector env and its single env; registered with one line: in a
+process, ``add_entry(TOY_ID, TOY_ENTRY)`` (tests/agents/test_task_declaration.py); installed,
+the ``tandem_env.tasks`` entry point ``TandemToy/Cruise-v0 = toy_task:TOY_ENTRY``, with which
+``python -m train`` trains it (tests/train/test_cli.py). Nothing in ``tandem_env``,
+``agents``, ``train`` or ``eval`` names it.
 """
 
 from __future__ import annotations

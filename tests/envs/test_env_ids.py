@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode
 
-from tandem_env.envs import ENV_IDS, check_env_id, make_sb3_vec_env
+from tandem_env.envs import check_env_id, env_ids, make_sb3_vec_env
 
 VALID = r"allowed: TandemWing/LevelFlight-v0, TandemWing/Accelerate-v0, TandemWing/SpeedChange-v0$"
 
@@ -34,7 +34,7 @@ def test_train_and_envelope_list_the_ids(capsys: pytest.CaptureFixture[str]) -> 
         ValueError, match="allowed: TandemWing/LevelFlight-v0, TandemWing/Accelerate-v0"
     ):
         task_of("Foo-v0")  # the harness's (one-cycle) tasks
-    assert ENV_IDS == (
+    assert env_ids() == (
         "TandemWing/LevelFlight-v0",
         "TandemWing/Accelerate-v0",
         "TandemWing/SpeedChange-v0",
@@ -43,6 +43,6 @@ def test_train_and_envelope_list_the_ids(capsys: pytest.CaptureFixture[str]) -> 
 
 @pytest.mark.parametrize("mode", list(AutoresetMode))
 def test_vector_env_reports_its_autoreset_mode(mode: AutoresetMode) -> None:
-    envs = gym.make_vec(ENV_IDS[0], num_envs=np.int64(2), autoreset_mode=mode.value)
+    envs = gym.make_vec(env_ids()[0], num_envs=np.int64(2), autoreset_mode=mode.value)
     assert envs.metadata["autoreset_mode"] is mode
     assert type(envs).metadata["autoreset_mode"] is AutoresetMode.NEXT_STEP  # class default

@@ -1,8 +1,9 @@
 """The torch backend (``torch_model``) against the numba kernel: values, gradients, bad input.
 
-Equality: every ``Result`` field within 1e-8 relative (denominator floored at 1e-6) under 25
-option sets that cover every ``ModelOptions`` value, both planforms, hover and forward flight
-(V from 0 to 2 m/s), climbing and descending. Gradients: autograd against central differences
+Equality: every ``Result`` field within 1e-8 relative (denominator floored at 1e-6) under
+option sets generated from ``ModelOptions``' fields (every pair of two options' values, every
+``Literal`` value and numeric alternative among them), both planforms, hover and forward
+flight (V from 0 to 2 m/s), climbing and descending. Gradients: autograd against central differences
 of the numba model (relative norm 1e-4, the discrete N excluded).
 """
 
@@ -11,6 +12,8 @@ from __future__ import annotations
 import subprocess
 import sys
 from dataclasses import fields
+from itertools import combinations, product
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +21,9 @@ import pytest
 import tandem_env as te
 from tandem_env.physics.model import _METADATA, Result
 from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
+
+sys.path.insert(0, str(Path(__file__).parent))
+from option_cases import all_pairs, alternatives, levels
 
 torch = pytest.importorskip("torch")
 from tandem_env.physics import torch_model  # noqa: E402
@@ -28,36 +34,29 @@ RELATIVE = 1e-8
 FLOOR = 1e-6
 
 
+#: Values the equality test adds to the toy option test's: an odd n_time, a finer blade grid,
+#: a tight tolerance and caps the inflow solve hits.
+TORCH_VALUES = {
+    "n_time": (63,),
+    "n_blade": (10,),
+    "tolerance": (1e-7,),
+    "interference": (0.6,),
+    "max_evaluations": (3,),
+}
+#: The convected slipstream acts under coupled induction only: always meet there, in hover and
+#: forward flight (every case has both), at an odd and an even n_time, with the literal hover.
+TOGETHER = (
+    {"induction": "coupled", "slipstream": "convected", "n_time": 63},
+    {"induction": "coupled", "slipstream": "convected", "n_time": 128},
+    {"induction": "coupled", "slipstream": "convected", "hover_inflow": "none"},
+)
+
+
 def _option_sets() -> list[te.ModelOptions]:
-    """25 option sets: every value of every choice, with the resolution, tolerance and cap of
-    the inflow solve varied as well (including a cap the solve hits)."""
-    induction = ("coupled", "isolated", "none")
-    power = ("absolute", "elastic", "aerodynamic")
-    split = ("sign", "body")
-    spin = ("pitch", "total")
-    hover = ("momentum", "none")
-    slipstream = ("mean", "convected")
-    sets = []
-    for i in range(25):
-        extra: dict = {}
-        if i % 5 == 1:
-            extra.update(n_time=63, n_blade=10)
-        if i % 7 == 2:
-            extra.update(tolerance=1e-7, interference=0.6)
-        if i % 8 == 3:
-            extra.update(max_evaluations=3)
-        sets.append(
-            te.ModelOptions(
-                induction=induction[i % 3],
-                power=power[(i // 3) % 3],
-                thrust_split=split[i % 2],
-                spin=spin[(i // 2) % 2],
-                hover_inflow=hover[(i // 4) % 2],
-                slipstream=slipstream[(i // 3) % 2],
-                **extra,
-            )
-        )
-    return sets
+    """Every pair of values of two options (tests/physics/option_cases.py: every value of every
+    ``Literal`` option, the toy option test's numeric alternatives, :data:`TORCH_VALUES`), in
+    sets built from the options' types: a new option or value is tested here untouched."""
+    return [te.ModelOptions(**row) for row in all_pairs(levels(TORCH_VALUES), TOGETHER)]
 
 
 OPTION_SETS = _option_sets()
@@ -84,21 +83,14 @@ def _assert_equal(expected: Result, got: Result) -> None:
             assert error.max() <= RELATIVE, f"{name}: relative difference {error.max():.3g}"
 
 
-def test_option_sets_cover_every_value():
-    for name, kind in (
-        ("induction", te.physics.options.Induction),
-        ("power", te.physics.options.PowerConvention),
-        ("thrust_split", te.physics.options.ThrustSplit),
-        ("spin", te.physics.options.Spin),
-        ("hover_inflow", te.physics.options.HoverInflow),
-        ("slipstream", te.physics.options.Slipstream),
-    ):
-        from typing import get_args
-
-        assert {getattr(o, name) for o in OPTION_SETS} == set(get_args(kind)), name
-    assert len(OPTION_SETS) == 25
-    # the convected slipstream acts under coupled induction only: covered there, in hover and
-    # forward flight, with an odd n_time
+def test_option_sets_cover_every_pair_of_values():
+    values = levels(TORCH_VALUES)
+    for a, b in combinations(values, 2):
+        met = {(getattr(o, a), getattr(o, b)) for o in OPTION_SETS}
+        assert met == set(product(values[a], values[b])), (a, b)
+    for name, value in alternatives():  # the toy option test's, on both backends here
+        assert any(getattr(o, name) == value for o in OPTION_SETS), (name, value)
+    assert len(OPTION_SETS) <= 25  # pairs, not the product (the run time stays)
     convected = [o for o in OPTION_SETS if o.slipstream == "convected" and o.induction == "coupled"]
     assert len(convected) >= 3 and any(o.n_time % 2 for o in convected)
 

@@ -6,41 +6,34 @@ line, or without any effect on a ``Result``, fails here:
 * every field has one row in the table, with its default and (for a choice) exactly its
   allowed values;
 * changing the field to each other allowed value changes some ``Result`` field on a batch of
-  random Table 4 strokes, half of them in hover (V = 0) and half at 1.5 m/s.
+  random Table 4 strokes, half of them in hover (V = 0) and half at 1.5 m/s;
+* the field is an env keyword (``MODEL_OPTION_KWARGS``, read from the dataclass).
+
+The values come from tests/physics/option_cases.py (a choice's from its ``Literal``, a numeric
+option's from ``NUMERIC_ALTERNATIVES``); the torch equality test
+(tests/physics/test_torch_backend.py) generates its option sets from the same source, so each
+value here is also checked on both backends.
 """
 
 from __future__ import annotations
 
 import re
-import typing
+import sys
 from dataclasses import fields, replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tandem_env.envs.config import MODEL_OPTION_KWARGS
 from tandem_env.physics import ModelOptions, evaluate, normalised_to_physical
 from tandem_env.physics.model import Result
 
+sys.path.insert(0, str(Path(__file__).parent))
+from option_cases import FIELDS, alternatives, choices
+
 ROOT = Path(__file__).resolve().parents[2]
 HEADER = "| option | default | allowed | section |"
-#: A second allowed value of each numeric option (a choice's values come from its Literal). A
-#: new numeric option needs one here: the test says so.
-NUMERIC_ALTERNATIVES = {
-    "n_time": 64,
-    "n_blade": 12,
-    "interference": 0.5,
-    "tolerance": 1e-2,
-    "max_evaluations": 2,
-    "constraint_tolerance": 0.1,
-}
-HINTS = typing.get_type_hints(ModelOptions)
-FIELDS = [f.name for f in fields(ModelOptions)]
-
-
-def _choices(name: str) -> tuple[object, ...] | None:
-    hint = HINTS[name]
-    return typing.get_args(hint) if typing.get_origin(hint) is typing.Literal else None
 
 
 def docs_table() -> dict[str, tuple[str, str]]:
@@ -69,9 +62,9 @@ def test_every_option_has_its_docs_line() -> None:
             assert default == f'`"{value}"`', name
         else:
             assert float(default) == value, name
-        choices = _choices(name)
-        if choices is not None:
-            assert set(re.findall(r'`"([^"]+)"`', allowed)) == set(choices), name
+        values = choices(name)
+        if values is not None:
+            assert set(re.findall(r'`"([^"]+)"`', allowed)) == set(values), name
 
 
 def _strokes() -> tuple[np.ndarray, np.ndarray]:
@@ -87,31 +80,28 @@ def _arrays(result: Result) -> dict[str, np.ndarray]:
     }
 
 
-def _alternatives() -> list[tuple[str, object]]:
-    defaults = ModelOptions()
-    out = []
-    for name in FIELDS:
-        choices = _choices(name)
-        if choices is None:
-            out.append((name, NUMERIC_ALTERNATIVES.get(name)))
-        else:
-            out.extend((name, c) for c in choices if c != getattr(defaults, name))
-    return out
-
-
 @pytest.fixture(scope="module")
 def reference() -> dict[str, np.ndarray]:
     strokes, speed = _strokes()
     return _arrays(evaluate(strokes, speed))
 
 
-@pytest.mark.parametrize(("name", "value"), _alternatives())
+@pytest.mark.parametrize(("name", "value"), alternatives())
 def test_every_option_changes_a_result(
     name: str, value: object, reference: dict[str, np.ndarray]
 ) -> None:
-    assert value is not None, f"ModelOptions.{name}: add a second allowed value above"
+    assert value is not None, (
+        f"ModelOptions.{name}: add a second allowed value to NUMERIC_ALTERNATIVES "
+        "(tests/physics/option_cases.py)"
+    )
     strokes, speed = _strokes()
     changed = _arrays(evaluate(strokes, speed, options=replace(ModelOptions(), **{name: value})))
     assert changed.keys() == reference.keys()
     moved = [k for k in reference if not np.array_equal(reference[k], changed[k])]
     assert moved, f"ModelOptions.{name} = {value!r} changes no Result field"
+
+
+def test_every_option_is_an_env_keyword() -> None:
+    """A field needs nothing in the envs: ``gym.make`` takes it (``power`` as
+    ``power_convention``), so records and studies can set it."""
+    assert sorted(MODEL_OPTION_KWARGS.values()) == sorted(FIELDS)

@@ -245,3 +245,29 @@ def test_sb3_log_table_is_off_by_default_and_a_flag_away() -> None:
     table = config_from_args(build_parser().parse_args([*base, "--log-table"]))
     assert table.log_table and table.model_verbose == 1
     assert config_from_args(build_parser().parse_args([*base, "--verbose", "2"])).model_verbose == 2
+
+
+def test_a_plugged_in_task_trains_without_a_patch(tmp_path: Path) -> None:
+    """The toy task (tests/agents/toy_task.py, one file) with one registration line, the
+    ``tandem_env.tasks`` entry point of an installed plug-in: ``python -m train`` takes its id,
+    as the harness and ``eval optimize`` do, and writes the run folder."""
+    sys.path.insert(0, str(REPO / "tests" / "agents"))
+    from plugin import install_entry_points
+    from toy_task import TOY_ID
+
+    env = install_entry_points(
+        tmp_path / "site", "tandem_env.tasks", {TOY_ID: "toy_task:TOY_ENTRY"}
+    )
+    command = [sys.executable, "-m", "train", "--algo", "ppo", "--env", TOY_ID]
+    command += ["--timesteps", "32", "--n-envs", "4", "--env-kwargs", "n_time=16", "n_blade=4"]
+    command += ["--hyperparams", "n_steps=8", "batch_size=16", "n_epochs=1"]
+    command += ["--eval-freq", "0", "--save-freq", "0", "--no-tensorboard", "--no-progress"]
+    command += ["--log-dir", str(tmp_path / "logs")]
+    done = subprocess.run(
+        command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr
+    layout = RunLayout(tmp_path / "logs" / "ppo" / "TandemToy-Cruise-v0_1", TOY_ID)
+    assert layout.final_model.is_file() and layout.result_file.is_file()
+    args = yaml.safe_load(layout.args_file.read_text())
+    assert args["env"] == TOY_ID and args["env_kwargs"] == {"n_time": 16, "n_blade": 4}

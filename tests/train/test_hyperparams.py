@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 import yaml
 
-from tandem_env.envs.registration import ENV_IDS
+from tandem_env.envs.registration import env_ids
 from tandem_env.io.keyvalue import parse_pairs, parse_value
 from train.config import (
     ALGOS,
@@ -24,7 +24,7 @@ def test_yml_has_default_and_both_env_ids(algo: str) -> None:
     with (HYPERPARAMS_DIR / f"{algo}.yml").open() as stream:
         entries = yaml.safe_load(stream)  # what rl_zoo3 uses
     assert "default" in entries
-    for env_id in ENV_IDS:
+    for env_id in env_ids():
         assert env_id in entries
     for name, entry in entries.items():
         # The zoo's own keys, as the zoo spells them.
@@ -42,7 +42,7 @@ def test_entries_build_models(algo: str) -> None:
     from tandem_env.envs.sb3 import make_sb3_vec_env
     from train.run import build_model
 
-    for env_id in ENV_IDS:
+    for env_id in env_ids():
         hp = resolve_hyperparams(load_entry(algo, env_id), n_envs=2)
         venv = make_sb3_vec_env(env_id, n_envs=2, seed=0)
         model = build_model(algo, hp, venv, seed=0, tensorboard_log=None, verbose=0, device="cpu")
@@ -64,7 +64,7 @@ def test_entries_build_models(algo: str) -> None:
 def test_a_network_beyond_the_size_limit_is_refused_before_it_is_built(
     arch: list | dict, refused: bool
 ) -> None:
-    entry = load_entry("ppo", ENV_IDS[0])
+    entry = load_entry("ppo", env_ids()[0])
     overrides = {"policy_kwargs": f"dict(net_arch={arch!r})"}
     assert (network_parameters(arch) > MAX_NETWORK_PARAMETERS) is refused
     if refused:
@@ -109,7 +109,7 @@ def test_policy_kwargs_strings_are_restricted() -> None:
 
 
 def test_schedules_and_overrides() -> None:
-    entry = load_entry("ppo", ENV_IDS[0])
+    entry = load_entry("ppo", env_ids()[0])
     hp = resolve_hyperparams(entry, {"learning_rate": "lin_1e-3"}, n_envs=8, n_timesteps=64)
     assert hp.n_envs == 8 and hp.n_timesteps == 64
     schedule = hp.model_kwargs["learning_rate"]
@@ -120,11 +120,11 @@ def test_schedules_and_overrides() -> None:
 
 def test_train_config_validates() -> None:
     with pytest.raises(ValueError, match="allowed: ppo, sac"):
-        TrainConfig(algo="dqn", env_id=ENV_IDS[0])  # type: ignore[arg-type]
+        TrainConfig(algo="dqn", env_id=env_ids()[0])  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="n_timesteps"):
-        TrainConfig(algo="ppo", env_id=ENV_IDS[0], n_timesteps=0)
+        TrainConfig(algo="ppo", env_id=env_ids()[0], n_timesteps=0)
     with pytest.raises(ValueError, match="not both"):
-        TrainConfig(algo="ppo", env_id=ENV_IDS[0], resume=True, run_dir="logs/x")
+        TrainConfig(algo="ppo", env_id=env_ids()[0], resume=True, run_dir="logs/x")
 
 
 @pytest.mark.parametrize(
@@ -150,7 +150,7 @@ def test_hyperparameters_out_of_range_are_named(override: dict, match: str) -> N
 def test_sac_entropy_auto_and_the_shipped_entries_pass_the_ranges() -> None:
     assert resolve_hyperparams({"n_timesteps": 64, "ent_coef": "auto_0.1"})
     for algo in ALGOS:
-        for env_id in ENV_IDS:
+        for env_id in env_ids():
             assert resolve_hyperparams(load_entry(algo, env_id)).n_timesteps >= 1
 
 
@@ -166,9 +166,9 @@ def test_a_hyperparameter_file_that_is_not_yaml_is_named(tmp_path, text: bytes, 
     path = tmp_path / "conf.yml"
     path.write_bytes(text)
     with pytest.raises(ValueError, match=rf"hyperparameter file {path} {match}"):
-        load_entry("ppo", ENV_IDS[0], path)
+        load_entry("ppo", env_ids()[0], path)
 
 
 def test_verbose_beyond_debug_is_refused() -> None:
     with pytest.raises(ValueError, match="verbose = 9; allowed: 0 quiet, 1 info, 2 debug"):
-        TrainConfig(algo="ppo", env_id=ENV_IDS[0], verbose=9)
+        TrainConfig(algo="ppo", env_id=env_ids()[0], verbose=9)

@@ -1,0 +1,59 @@
+"""A toy optimiser in ONE file, as a plug-in would add one: a hill climber with a shrinking step.
+
+Its frozen config (the settings are its fields) and its ask/tell class, registered by the one
+``register_optimiser`` line at the end when this module is imported: by a test
+(tests/agents/test_toy_optimiser.py) or by the ``tandem_env.optimisers`` entry point of an
+installed plug-in. Nothing in ``agents`` or ``eval`` names it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from agents.methods import register_optimiser
+from agents.optimiser import LOWER, UPPER, AskTellOptimiser, FloatArray, SeedLike, check_int
+
+
+@dataclass(frozen=True, kw_only=True)
+class HillClimbConfig:
+    """A (1, λ) hill climber: ``batch_size`` Gaussian steps of size ``step`` around the best point
+    so far; the step halves after a batch that found nothing better."""
+
+    max_evaluations: int
+    batch_size: int = 16
+    step: float = 0.5
+
+    def __post_init__(self) -> None:
+        check_int("max_evaluations", self.max_evaluations, minimum=1)
+        check_int("batch_size", self.batch_size, minimum=1)
+
+    citation = "toy hill climber (tests/agents/toy_optimiser.py)"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"algorithm": "hill-climb", **asdict(self), "citation": self.citation}
+
+    def build(self, dim: int, seed: SeedLike = None) -> HillClimb:
+        return HillClimb(dim, self, seed)
+
+
+class HillClimb(AskTellOptimiser):
+    def __init__(self, dim: int, config: HillClimbConfig, seed: SeedLike = None) -> None:
+        super().__init__(dim, config.batch_size, config, seed)
+        self._centre = np.zeros(dim)
+        self._step = config.step
+
+    def _propose(self, n: int) -> FloatArray:
+        steps = self._rng.normal(0.0, self._step, (n, self.dim))
+        return np.clip(self._centre + steps, LOWER, UPPER)
+
+    def _observe(self, X: FloatArray, fitness: FloatArray) -> None:
+        if fitness.max() > self.best_fitness:  # the base class counts the batch after this
+            self._centre = X[np.argmax(fitness)]
+        else:
+            self._step /= 2.0
+
+
+register_optimiser("hill-climb", HillClimbConfig, batch="batch_size")  # the one line
