@@ -392,10 +392,12 @@ class Record:
         for name in SUMMARY_METRICS:
             if name in self.metrics:
                 row[name] = self.metrics[name]
-        # the stroke itself (Table 4 units), and which of its parameters sit at a Table 4 bound
-        stroke = [float(self.stroke[name]) for name in tandem_env.PARAMETER_NAMES]
-        row.update(zip(tandem_env.PARAMETER_NAMES, stroke, strict=True))
-        row["at_bounds"] = tandem_env.describe_bounds(stroke)
+        # The stroke itself (Table 4 units), and which of its parameters sit at a Table 4 bound;
+        # a task of another action (a plug-in, the analytic test tasks) has no Table 4 stroke.
+        if set(tandem_env.PARAMETER_NAMES) <= set(self.stroke):
+            stroke = [float(self.stroke[name]) for name in tandem_env.PARAMETER_NAMES]
+            row.update(zip(tandem_env.PARAMETER_NAMES, stroke, strict=True))
+            row["at_bounds"] = tandem_env.describe_bounds(stroke)
         insect = self.job.env("insect")
         if insect is not None:  # what differs from the paper's specimen (JSON in the CSV)
             row["insect"] = to_jsonable(insect)
