@@ -728,8 +728,8 @@ def _invocation_line(invocation: dict[str, Any]) -> str:
 def render_readings_paper(data: dict[str, Any]) -> str:
     """The readings table (the paper's numbers first, the best count in bold), the run's
     phases, the combination rule and the continuation's bias check with what ran in full."""
-    from eval.report import check_table
-    from eval.studies.readings_result import HEADLINES
+    from eval.studies.readings.report import check_table
+    from eval.studies.readings.result import HEADLINES
 
     paper = {c["id"]: c["paper"] for c in data["claims"]}
     rows = data["rows"]
