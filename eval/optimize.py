@@ -252,7 +252,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--reading",
         metavar="NAME",
-        help="run under a reading of the paper's open decisions (eval/studies/readings.py): "
+        help="run under a reading of the paper's open decisions (eval/studies/readings/): "
         "paper (the reading that reproduces the most claims, docs/reproduction.md), a single "
         "such as hover-none, or singles joined by '+'; sets its model options as env "
         "keywords and, for --objective horizontal, its F̄_h objective (a reading that changes only that objective is refused for any other "

@@ -6,7 +6,6 @@ times are in ``manifest.json``.
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -20,7 +19,6 @@ from eval.studies.claims import (
     Claim,
     VerdictCount,
 )
-from eval.studies.readings_result import HEADLINES, ReadingResult, reading_dir
 from eval.studies.tables import PINNED_SHARE, pinned_parameters
 from tandem_env import BOUND_TOLERANCE, PARAMETER_NAMES
 from tandem_env.io.files import write_text_atomic
@@ -87,7 +85,7 @@ def _cell(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
 
-def _row(cells: Sequence[str]) -> str:
+def table_row(cells: Sequence[str]) -> str:
     """One Markdown table row, each cell escaped."""
     return "| " + " | ".join(_cell(x) for x in cells) + " |"
 
@@ -101,7 +99,7 @@ def claims_table(claims: Sequence[Claim]) -> str:
     ]
     for c in claims:
         lines.append(
-            _row(
+            table_row(
                 (
                     c.id,
                     c.figure,
@@ -147,12 +145,12 @@ def agreement_rules() -> list[str]:
     ]
 
 
-def _insect_line(plan: StudyPlan) -> str:
+def insect_line(plan: StudyPlan) -> str:
     """Which insect every job of the plan flies (``--insect``)."""
     return f"- insect: {describe_insect(plan.insect)}"
 
 
-def _settings(plan: StudyPlan) -> list[str]:
+def settings_lines(plan: StudyPlan) -> list[str]:
     p = plan.preset
     search = plan.reading.search
     if search is None:
@@ -175,7 +173,7 @@ def _settings(plan: StudyPlan) -> list[str]:
             f"defaults otherwise): {plan.reading.description}"
         )
         + (f", env kwargs {dict(p.env_kwargs)}" if p.env_kwargs else ""),
-        _insect_line(plan),
+        insect_line(plan),
         "- statistics over the feasible seeds of each condition; *best seed* = the seed with the "
         "best objective",
     ]
@@ -189,7 +187,7 @@ def render(
     parts = [
         '# Reproduction report: Faisal & Filippone, "Aerodynamic Model for Tandem Flapping Wings"',
         "",
-        *_settings(plan),
+        *settings_lines(plan),
         "",
         "## Agreement rules",
         "",
@@ -222,7 +220,9 @@ def render(
     parts += ["## Figures", "", FIGURE_KEY, ""]
     for o in outputs:
         parts += [f"### {o.title}", ""]
-        files = ", ".join(f"[`{_rel(f, base)}`]({_rel(f, base)})" for f in o.files)
+        files = ", ".join(
+            f"[`{relative_path(f, base)}`]({relative_path(f, base)})" for f in o.files
+        )
         parts += [f"Data: {files}", ""]
         for caption, path in o.figures:
             parts += [figure_markdown(caption, path, base), ""]
@@ -260,11 +260,11 @@ def pinned_section(rows: Sequence[Mapping[str, Any]]) -> list[str]:
 def figure_markdown(caption: str, path: Path, base: Path) -> str:
     """A figure in the report: embedded (PNG, SVG), or linked where Markdown viewers cannot
     show it (PDF)."""
-    target = _rel(path, base)
+    target = relative_path(path, base)
     return f"[{caption} (PDF)]({target})" if path.suffix == ".pdf" else f"![{caption}]({target})"
 
 
-def _rel(path: Path, base: Path) -> str:
+def relative_path(path: Path, base: Path) -> str:
     return Path(os.path.relpath(path, base)).as_posix()
 
 
@@ -273,253 +273,4 @@ def write_report(
 ) -> Path:
     """Write ``path`` (atomically) and return it."""
     write_text_atomic(path, render(plan, outputs, all_studies, path.parent))
-    return path
-
-
-# --- the readings study -------------------------------------------------------------------------
-#: Goal of issue 14: a reading under which this many of the paper's claims agree.
-READINGS_GOAL = 16
-
-
-def _num(value: float) -> str:
-    return "–" if math.isnan(value) else f"{value:.3g}"
-
-
-def _delta(value: float) -> str:
-    return "–" if math.isnan(value) else f"{value:+.3g}"
-
-
-def _within_spread(a: Claim, b: Claim) -> bool:
-    """Whether each claim's median lies inside the other's inter-quartile range over seeds
-    (a verdict flip between them is then within the seed-to-seed spread)."""
-    values = (a.median, a.q25, a.q75, b.median, b.q25, b.q75)
-    if any(math.isnan(v) for v in values):
-        return False
-    return a.q25 <= b.median <= a.q75 and b.q25 <= a.median <= b.q75
-
-
-def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
-    """One line per claim whose verdict differs from the default's: the change and the
-    statistic before and after (``*``: the two medians lie in each other's seed IQR)."""
-    mine = {c.id: c for c in other.claims}
-    lines = []
-    for before in default.claims:
-        after = mine.get(before.id)
-        if after is None or after.verdict == before.verdict:
-            continue
-        sign = "+" if after.verdict == "agrees" else ("−" if before.verdict == "agrees" else "·")
-        noise = "*" if _within_spread(before, after) else ""
-        lines.append(
-            f"{sign}{before.id}{noise} ({before.verdict} → {after.verdict}: "
-            f"{_num(before.median)} → {_num(after.median)} {after.unit})".replace(" )", ")")
-        )
-    return lines
-
-
-def render_readings(
-    plan: StudyPlan,
-    results: Sequence[ReadingResult],
-    rule: str,
-    table: Path,
-    figure: Path,
-    base: Path,
-    check: Sequence[Mapping[str, Any]] = (),
-    continuation: Any = None,
-    full: Mapping[str, Mapping[str, str]] | None = None,
-) -> str:
-    """The readings study's report: the table of readings, the best one, which decision moves
-    which claim and by how much, the matrix figure; how the readings continued from the
-    default's optima (``continuation``: an ``eval.studies.readings.Continuation`` or None), the
-    measured bias of that (``check``: ``readings.check_summary`` rows) and the tasks that ran
-    in full for it (``full``: ``readings.full_tasks``)."""
-    default = results[0]
-    best = max(results, key=lambda r: r.agree)
-    n_claims = len(default.claims)
-    heads = list(HEADLINES)
-    parts = [
-        "# Readings of the paper: which reading reproduces which claim",
-        "",
-        *_settings(plan)[:3],
-        _insect_line(plan),
-        "- every reading runs the four paper studies (speed, power, kinematics, wing shape) with "
-        "these settings; a job two readings share runs once",
-        "",
-        "## Readings",
-        "",
-        "| reading | changes from the default | agree | differ | undecided | not identifiable "
-        "| no data | " + " | ".join(f"{k}" for k in heads) + " |",
-        "|---|---|---|---|---|---|---|" + "---|" * len(heads),
-    ]
-    for r in results:
-        head = r.headline()
-        parts.append(
-            _row(
-                (
-                    f"`{r.reading.name}`",
-                    r.reading.describe_changes(),
-                    str(r.agree),
-                    str(r.differ),
-                    str(r.undecided),
-                    str(r.not_identifiable),
-                    str(r.no_data),
-                    *(_num(head[k]) for k in heads),
-                )
-            )
-        )
-    parts += [
-        "",
-        "Headline columns: " + "; ".join(f"{k}: {text}" for k, (_, text) in HEADLINES.items()),
-        "",
-        f"Combination rule (combinations derived from the singles' results, not chosen by "
-        f"hand): {rule}.",
-        "",
-        *_continuation_section(continuation, check, full or {}),
-        "## Best reading",
-        "",
-        f"`{best.reading.name}`"
-        + "".join(
-            f", tied with `{r.reading.name}`"
-            for r in results
-            if r.agree == best.agree and r is not best
-        )
-        + f": {best.agree} of {n_claims} claims agree "
-        f"({best.differ} differ, {best.undecided} undecided, {best.not_identifiable} not "
-        f"identifiable, {best.no_data} without data); "
-        "the default: "
-        f"{default.agree}. Goal: {READINGS_GOAL} or more of {n_claims}"
-        + (" (reached)." if best.agree >= READINGS_GOAL else " (not reached)."),
-        "",
-        f"{best.reading.description}.",
-        "",
-        "## Which decision moves which claim",
-        "",
-        "Claims whose verdict (on the median) differs from the default's (+ now agrees, − no "
-        "longer agrees, · between differs, undecided, not identifiable and no data), with our "
-        "statistic under the "
-        "default → under the reading. "
-        "`*` marks a flip where both medians lie inside the other's inter-quartile range over "
-        "seeds: within the seed-to-seed spread, i.e. possibly search noise.",
-        "",
-        "| reading | claims moved | Δ agree | " + " | ".join(f"Δ {k}" for k in heads) + " |",
-        "|---|---|---|" + "---|" * len(heads),
-    ]
-    base_head = default.headline()
-    for r in results[1:]:
-        head = r.headline()
-        moves = reading_moves(default, r)
-        parts.append(
-            _row(
-                (
-                    f"`{r.reading.name}`",
-                    "; ".join(moves) or "none",
-                    f"{r.agree - default.agree:+d}",
-                    *(_delta(head[k] - base_head[k]) for k in heads),
-                )
-            )
-        )
-    parts += [
-        "",
-        "## Claims × readings",
-        "",
-        figure_markdown("claims × readings matrix", figure, base),
-        "",
-        f"Data: [`{_rel(table, base)}`]({_rel(table, base)}). Each reading's full report "
-        "(paper vs ours, figures): "
-        + ", ".join(
-            f"[`{r.reading.name}`]({_rel(reading_dir(base, r.reading) / 'report.md', base)})"
-            for r in results
-        )
-        + ".",
-        "",
-        "## Readings in full",
-        "",
-        *[f"- `{r.reading.name}`: {r.reading.description}" for r in results],
-        "",
-        "## Agreement rules",
-        "",
-        *agreement_rules(),
-        "",
-    ]
-    return "\n".join(parts)
-
-
-def _continuation_section(
-    continuation: Any, check: Sequence[Mapping[str, Any]], full: Mapping[str, Mapping[str, str]]
-) -> list[str]:
-    """The report's account of the continuation, its measured bias and what ran in full."""
-    if continuation is None:
-        return ["Every reading ran in full (no continuation).", ""]
-    lines = [
-        "## Continuation and its bias",
-        "",
-        f"The default reading ran in full; every other single reading's job that differs from "
-        f"the default's continued from the default's optimum of the same job: "
-        f"{100 * continuation.share:g} % of the budget, {100 * continuation.initial_share:g} % "
-        f"of that for polishing that stroke under the reading and the rest for "
-        f"{continuation.starts} short search(es) of the method, each polished; the best "
-        "feasible stroke is reported. A combination continued likewise from the optima of its "
-        "parts. Bias check, first: the "
-        f"{', '.join(f'`{name}`' for name in continuation.check_studies)} studies' jobs at seeds "
-        f"{', '.join(map(str, continuation.check_seeds))} of every single reading also ran "
-        "in full (continuation_check.csv); difference = (continued − full) / |full|. A single "
-        "reading's task whose check falls short (median below "
-        f"{100 * continuation.full_median:+g} %, one pair below "
-        f"{100 * continuation.full_lowest:+g} %, or a continued optimum infeasible where the full "
-        "run's is feasible) then ran in full.",
-        "",
-    ]
-    if not check:
-        return [*lines, "No checked pairs (no single reading besides the default).", ""]
-    return [*lines, *check_table(check, full), ""]
-
-
-def check_table(
-    check: Sequence[Mapping[str, Any]], full: Mapping[str, Mapping[str, str]]
-) -> list[str]:
-    """The continuation's bias check as a Markdown table: one row per reading and task
-    (``readings.check_summary``) with whether it ran in full and why (``readings.full_tasks``),
-    the overall row in bold."""
-    lines = [
-        "| reading | task | pairs | median | lowest | highest | within 0.5 % or above | "
-        "infeasible | runs |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for row in check:
-        overall = row["reading"] == "all"
-        why = full.get(row["reading"], {}).get(row["task"])
-        lines.append(
-            _row(
-                (
-                    "**all**" if overall else f"`{row['reading']}`",
-                    "" if overall else row["task"],
-                    str(row["pairs"]),
-                    f"{100 * row['median']:+.2f} %",
-                    f"{100 * row['lowest']:+.2f} %",
-                    f"{100 * row['highest']:+.2f} %",
-                    f"{row['within_0.5%']} of {row['pairs']}",
-                    str(row["infeasible"]),
-                    "" if overall else (f"in full ({why})" if why else "continued"),
-                )
-            )
-        )
-    return lines
-
-
-def write_readings_report(
-    path: Path,
-    plan: StudyPlan,
-    results: Sequence[ReadingResult],
-    rule: str,
-    table: Path,
-    figure: Path,
-    check: Sequence[Mapping[str, Any]] = (),
-    continuation: Any = None,
-    full: Mapping[str, Mapping[str, str]] | None = None,
-) -> Path:
-    """Write the readings study's report to ``path`` (atomically) and return it; ``check``,
-    ``continuation`` and ``full`` as for :func:`render_readings`."""
-    text = render_readings(
-        plan, results, rule, table, figure, path.parent, check, continuation, full
-    )
-    write_text_atomic(path, text)
     return path

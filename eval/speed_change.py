@@ -1,6 +1,7 @@
 """``python -m eval speed-change``: policies flown through whole ``TandemWing/SpeedChange-v0`` episodes.
 
-Baselines (each a :class:`Policy`, given the batch of observations and episode states):
+Baselines (each a :class:`~eval.speed_change_policies.Policy`, given the batch of observations
+and episode states):
 
 * ``random``: uniform random strokes, a new one every cycle;
 * ``steady``: the level-flight optimum at the grid speed nearest the episode's target, played
@@ -25,14 +26,15 @@ import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
 import tandem_env  # noqa: F401  (registers the ids)
+from eval.speed_change_policies import Policy, RandomPolicy, SB3Policy, SteadyPolicy
 from tandem_env.envs.registration import SPEED_CHANGE_ID
-from tandem_env.envs.speed_change import LEVEL_FLIGHT_ENVELOPE, Flight, SpeedChangeConfig
+from tandem_env.envs.speed_change import LEVEL_FLIGHT_ENVELOPE, SpeedChangeConfig
 from tandem_env.io.files import output_directory, write_csv_atomic
 from tandem_env.physics.checks import shown
 from tandem_env.physics.model import MAX_BATCH_STROKES
@@ -91,83 +93,6 @@ REWARD_PARTS: tuple[str, ...] = (
 TARGET_WITHIN = 0.05
 FIRST_SEED = 1000
 """Default first evaluation seed (training runs use small seeds)."""
-
-
-# --- policies ----------------------------------------------------------------------------------
-class Policy(Protocol):
-    """Chooses the next stroke of B episodes from their observations and states."""
-
-    name: str
-
-    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
-        """(B, 28) normalised strokes in [-1, 1]."""
-        ...
-
-
-@dataclass
-class RandomPolicy:
-    """Uniform random strokes, a fresh one each cycle, from a seeded generator."""
-
-    seed: int = 0
-    name: str = "random"
-    _rng: np.random.Generator = field(init=False, repr=False)
-
-    def __post_init__(self) -> None:
-        self._rng = np.random.default_rng(self.seed)
-
-    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
-        return self._rng.uniform(-1.0, 1.0, (observations.shape[0], 28))
-
-
-@dataclass(frozen=True)
-class SteadyPolicy:
-    """The level-flight optimum at the grid speed nearest each episode's target, every cycle."""
-
-    speeds: np.ndarray
-    """(G,) grid speeds [m/s]."""
-    actions: np.ndarray
-    """(G, 28) normalised level-flight optimum at each grid speed."""
-    name: str = "steady"
-
-    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
-        nearest = np.argmin(np.abs(flight.target_speed[:, None] - self.speeds[None, :]), axis=1)
-        return self.actions[nearest]
-
-
-@dataclass(frozen=True)
-class SB3Policy:
-    """A Stable-Baselines3 model's deterministic action (clipped to the action box)."""
-
-    model: Any
-    name: str
-
-    @classmethod
-    def load(cls, run_dir: str | os.PathLike[str], name: str, which: str = "final") -> SB3Policy:
-        """The model of a ``python -m train`` run folder (``which``: "final" or "best"), named
-        ``"<name> (<steps>k steps)"``."""
-        from train.policies import TrainedPolicy
-
-        policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
-        if policy.algo != name:
-            raise ValueError(
-                f"--{name} {run_dir} is a {policy.algo.upper()} run; allowed: a "
-                f"{name.upper()} run (or give it with --{policy.algo})"
-            )
-        if policy.env_id != SPEED_CHANGE_ID:
-            raise ValueError(
-                f"{run_dir} was trained on {policy.env_id}; allowed: a run on {SPEED_CHANGE_ID}"
-            )
-        if policy.normalizer_path is not None:
-            raise ValueError(
-                f"{run_dir} normalised its observations (VecNormalize); allowed here: runs with "
-                "normalize: false, as in train/hyperparams"
-            )
-        steps = int(policy.model.num_timesteps)
-        return cls(policy.model, f"{name} ({steps / 1000:.0f}k steps)")
-
-    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
-        actions, _ = self.model.predict(observations, deterministic=True)
-        return np.clip(actions, -1.0, 1.0)
 
 
 # --- the level-flight optima, through the harness ---------------------------------------------

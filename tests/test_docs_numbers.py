@@ -1,6 +1,6 @@
 """The numbers README and docs quote are the stored measurements, and the measurements are true.
 
-``python -m eval numbers`` measures and writes them (eval/numbers.py). Here: every marked region
+``python -m eval numbers`` measures and writes them (eval/numbers/). Here: every marked region
 of every document equals its rendering from ``docs/numbers/*.json`` (no hand edit, no stale
 text), every measurement has a region, and the deterministic numbers are rerun at their stated
 settings against the stored ones: seed 0 of each comparison row by its documented command, the

@@ -7,7 +7,10 @@ the layers below it, never one above; ``tandem_env.io`` imports nothing of the p
 imports none of Gymnasium, SB3, torch (but for its optional torch backend, ``torch_model``) or
 matplotlib, and agents none of SB3, torch or
 matplotlib; and no chain of imports between the project's modules leads back to where it
-started. Every import counts: at module level, inside a function (lazy) or under
+started. Inside ``eval`` the floors of :data:`EVAL_FLOORS` point one way too: the studies'
+vocabulary (records, presets, readings of the paper, tables, claims) <- figures and the study
+plan <- the report <- the studies (plans and their report sections) <- the commands. Every
+import counts: at module level, inside a function (lazy) or under
 ``TYPE_CHECKING``. ``benchmarks/`` and ``examples/`` are scripts on top and may import anything.
 
 The checker is tested on a small synthetic tree first, so that a bad import would fail it.
@@ -41,6 +44,25 @@ FORBIDDEN: dict[str, frozenset[str]] = {
     # (tests/physics/test_torch_backend.py checks that importing tandem_env does not)
     "tandem_env.physics.torch_model": frozenset({"gymnasium", "stable_baselines3", "matplotlib"}),
     "agents": frozenset({"stable_baselines3", "torch", "matplotlib"}),
+}
+#: The floors inside ``eval`` (the longest matching prefix wins), lowest first
+#: (docs/architecture.md): a module imports its own floor and those below it.
+EVAL_FLOORS: dict[str, int] = {
+    # the studies' vocabulary: jobs and records, presets, readings, tables, claims
+    "eval.studies.presets": 0,
+    "eval.studies.paper_reading": 0,
+    "eval.studies.tables": 0,
+    "eval.studies.claims": 0,
+    # figures, and the plan and output a study works with
+    "eval.figures": 1,
+    "eval.kinematics_figures": 1,
+    "eval.studies.base": 1,
+    # the report's generic parts
+    "eval.report": 2,
+    # the studies: one plan (and its report section) each, the suite, the registry
+    "eval.studies": 3,
+    # the commands
+    "eval": 4,
 }
 PACKAGES = ("tandem_env", "agents", "train", "eval")
 
@@ -124,6 +146,9 @@ def layering_violations(graph: Mapping[str, Mapping[str, set[str]]]) -> list[str
                 continue
             if LAYERS[theirs] > LAYERS[own] or (own == "tandem_env.io" and theirs != own):
                 problems.append(f"{name} imports {target} ({theirs} is above {own})")
+            mine, its = _layer_of(name, EVAL_FLOORS), _layer_of(target, EVAL_FLOORS)
+            if mine is not None and its is not None and EVAL_FLOORS[its] > EVAL_FLOORS[mine]:
+                problems.append(f"{name} imports {target} ({its} is above {mine} in eval)")
         rule = _layer_of(name, FORBIDDEN)
         for package in sorted(deps["external"] & FORBIDDEN.get(rule or "", frozenset())):
             problems.append(f"{name} imports {package}, which {rule} must not")
@@ -190,14 +215,20 @@ GOOD = {
     "train/__init__.py": "",
     "train/run.py": "from agents import harness\n",
     "eval/__init__.py": "",
-    "eval/cli.py": "def main():\n    from train.run import x\n",
+    "eval/cli.py": "def main():\n    from train.run import x\nfrom eval.studies import speed\n",
+    "eval/figures.py": "from eval.studies.tables import Spread\n",
+    "eval/report.py": "from eval.studies import claims\n",
+    "eval/studies/__init__.py": "",
+    "eval/studies/tables.py": "",
+    "eval/studies/claims.py": "from .tables import Spread\n",
+    "eval/studies/speed.py": "from eval import figures, report\n",
 }
 
 
 def test_the_checker_passes_a_good_tree(tmp_path: Path) -> None:
     graph = import_graph(_tree(tmp_path, GOOD))
     assert graph["tandem_env.envs.flight"]["project"] == {"tandem_env.physics.model"}
-    assert graph["eval.cli"]["project"] == {"train.run"}  # a lazy import counts
+    assert graph["eval.cli"]["project"] == {"train.run", "eval.studies.speed"}  # lazy counts
     assert graph["train.run"]["project"] == {"agents.harness"}  # `from P import module`
     assert layering_violations(graph) == []
     assert import_cycles(graph) == []
@@ -227,6 +258,22 @@ def test_the_checker_passes_a_good_tree(tmp_path: Path) -> None:
             "from tandem_env.physics import model\n",
             "tandem_env.io.files imports tandem_env.physics.model "
             "(tandem_env.physics is above tandem_env.io)",
+        ),
+        (
+            "eval/report.py",
+            "from eval.studies import speed\n",
+            "eval.report imports eval.studies.speed (eval.studies is above eval.report in eval)",
+        ),
+        (
+            "eval/figures.py",
+            "if False:\n    from eval import report\n",
+            "eval.figures imports eval.report (eval.report is above eval.figures in eval)",
+        ),
+        (
+            "eval/studies/claims.py",
+            "def f():\n    from eval.figures import x\n",
+            "eval.studies.claims imports eval.figures "
+            "(eval.figures is above eval.studies.claims in eval)",
         ),
     ],
 )

@@ -1,17 +1,24 @@
-"""Run studies: gather their jobs, run the missing ones once, analyse, write the report."""
+"""Run studies: gather their jobs, run the missing ones once, analyse, write the report; the
+paper's studies as a campaign of the command line (:data:`SUITE`)."""
 
 from __future__ import annotations
 
+import argparse
 import os
+import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from agents.jobs import Job
 from agents.runner import RunSummary, executor_spec, have_records, load_records, run_jobs
 from eval import report
 from eval.studies import PAPER_STUDIES, STUDIES
 from eval.studies.base import StudyOutput, StudyPlan
+from eval.studies.claims import VerdictCount
+from eval.studies.paper_reading import DEFAULT, Reading
+from eval.studies.readings.plan import reading_by_name
 from tandem_env.io.files import write_json_atomic
 
 
@@ -93,3 +100,74 @@ def run_studies(
             },
         )
     return SuiteResult(outputs, summary, report_path, time.perf_counter() - start)
+
+
+class SuiteCampaign:
+    """The paper's studies on the command line (``all`` or one study; the report covers every
+    paper study whose records are present)."""
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """``all`` and every registered study (:data:`eval.studies.STUDIES`, read now)."""
+        return ("all", *STUDIES)
+
+    description = """\
+  speed        level flight at each speed, optimised for efficiency (Figs. 4-6)
+  power        accelerating flight at each available power, F̄_v and F̄_h (Figs. 7-8)
+  kinematics   tip paths, φ, η, phase, angle of attack of the optimised strokes (Figs. 9-13)
+  wing-shape   tear-drop vs real planform (Figs. 14-16)
+  all          the four above (one pool; shared optimisations run once)
+  convergence  the budget study (PSO and CMA-ES) the presets' methods and budgets come from"""
+    default_out = os.path.join("results", "study")
+    reading_help = (
+        "all and each paper study: run it under this one reading (paper, a single, or singles "
+        "joined by '+'; docs/reproduction.md, Readings)"
+    )
+    refuse_read_only = False
+
+    def add_arguments(self, parser: argparse.ArgumentParser) -> None:
+        """No options of its own."""
+
+    def misused(self, args: argparse.Namespace) -> str | None:
+        return None
+
+    def reading(self, args: argparse.Namespace) -> Reading:
+        if not args.reading:
+            return DEFAULT
+        if len(args.reading) > 1:
+            raise ValueError(f"study {args.study!r} runs under one --reading, got {args.reading}")
+        return reading_by_name(args.reading[0])
+
+    def first_jobs(self, args: argparse.Namespace, plan: StudyPlan) -> tuple[list[Job], str]:
+        names = expand([args.study])
+        jobs = [job for name in names for job in STUDIES[name].jobs(plan)]
+        return jobs, f"study {args.study} ({', '.join(names)})"
+
+    def run(self, args: argparse.Namespace, plan: StudyPlan, scheduler: str | None) -> SuiteResult:
+        return run_studies(
+            [args.study], plan, args.out, scheduler=scheduler, progress=not args.quiet
+        )
+
+    def summarise(self, args: argparse.Namespace, result: SuiteResult) -> None:
+        run = result.run
+        print(
+            f"{run.total} optimisations: {run.ran} run, {run.reused} reused from {args.out} "
+            f"({run.executor}); {result.wall_time:.1f} s",
+            file=sys.stderr,
+        )
+        for output in result.outputs:
+            claims = (
+                f"; claims on the median: {VerdictCount.of(output.claims).text()}; on the best "
+                f"seed: {VerdictCount.of(output.claims, best=True).text()}"
+                if output.claims
+                else ""
+            )
+            print(
+                f"{output.name}: {len(output.rows)} records, {len(output.figures)} figures{claims}"
+            )
+        if result.report is not None:
+            print(f"report: {result.report}")
+
+
+#: The paper studies' campaign (:data:`eval.studies.campaigns.CAMPAIGNS`).
+SUITE = SuiteCampaign()

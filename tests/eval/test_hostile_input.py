@@ -559,7 +559,7 @@ def test_study_says_what_it_will_run(
 ) -> None:
     """Before the first job: the studies, optimisations, seeds, budgets and the work left."""
     monkeypatch.setitem(PRESETS, TINY.name, TINY)
-    monkeypatch.setattr("eval.study.run_studies", lambda *a, **k: (_ for _ in ()).throw(
+    monkeypatch.setattr("eval.studies.suite.run_studies", lambda *a, **k: (_ for _ in ()).throw(
         KeyboardInterrupt))  # fmt: skip
     assert main(["study", "speed", "--preset", "tiny", "--out", str(tmp_path)]) == 130
     err = capsys.readouterr().err
@@ -595,8 +595,7 @@ def test_the_readings_rule_never_says_no_gainer_when_there_is_one() -> None:
     from eval.studies import claims
     from eval.studies.base import StudyOutput
     from eval.studies.paper_reading import DEFAULT, Reading
-    from eval.studies.readings import combinations
-    from eval.studies.readings_result import ReadingResult
+    from eval.studies.readings import ReadingResult, combinations
 
     def result(reading: Reading, agree: int) -> ReadingResult:
         found = [

@@ -11,12 +11,12 @@ from pathlib import Path
 import pytest
 
 from agents import runner
-from eval.studies import PAPER_STUDIES, claims, readings, readings_time
+from eval.studies import PAPER_STUDIES, claims, readings
 from eval.studies.base import StudyOutput, StudyPlan
 from eval.studies.paper_reading import DEFAULT, Reading, combine
 from eval.studies.presets import PRESETS, TINY
-from eval.studies.readings import combinations, reading_jobs
-from eval.studies.readings_result import ReadingResult
+from eval.studies.readings import ReadingResult, combinations, reading_jobs
+from eval.studies.readings import timing as readings_time
 
 
 def _keys(jobs: list[runner.Job]) -> set[str]:

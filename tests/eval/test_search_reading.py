@@ -169,12 +169,12 @@ def test_the_readings_study_runs_a_search_reading() -> None:
 
 
 def test_a_search_readings_report_and_csv_row_name_its_search() -> None:
-    from eval.report import _settings
-    from eval.studies.readings_result import ReadingResult
+    from eval.report import settings_lines
+    from eval.studies.readings import ReadingResult
 
     small = PAPER_SEARCHES[0]  # PSO 20 × 50: not the paper preset's swarm or budgets
     plan = readings.reading_plan(StudyPlan(PAPER), small)
-    budgets = _settings(plan)[1]
+    budgets = settings_lines(plan)[1]
     assert "budgets 1000 (level) and 1000 (accelerating)" in budgets
     assert budgets.endswith(f"search of the reading: {small.search.describe()}")
     assert "PSO swarm" not in budgets  # the preset's swarm, which the search replaces

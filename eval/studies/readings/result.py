@@ -1,7 +1,6 @@
 """One reading's analysed studies (:class:`ReadingResult`), the headline numbers of
-readings.csv and a reading's output folder: what the readings study (:mod:`eval.studies.readings`)
-computes and the report (:mod:`eval.report`) renders, kept apart from both so that neither
-imports the other."""
+readings.csv and a reading's output folder: what the readings study's run computes and its
+report section renders (:mod:`eval.studies.readings`)."""
 
 from __future__ import annotations
 

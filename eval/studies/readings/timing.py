@@ -1,6 +1,6 @@
 """Estimate what the readings study costs at another preset, from a measured run's records.
 
-    python -m eval.studies.readings_time [--measured results/readings] [--preset paper]
+    python -m eval.studies.readings.timing [--measured results/readings] [--preset paper]
 
 Reads ``DIR/readings_manifest.json`` of a finished readings run (its preset and readings, the
 derived combinations included) and every record's ``wall_time``. Per reading and task it takes

@@ -1,0 +1,49 @@
+"""The resolution study at the defaults (deterministic: the test reruns it)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from eval.numbers.framework import (
+    Benchmark,
+)
+
+CONVERGENCE = Benchmark(("benchmarks/convergence.py", "--resolutions", "128x24"))
+CONVERGENCE_BOUND_PERCENT = 0.5
+"""The defaults' bound on the error of forces and power against the refined run [%] (§11.4)."""
+CONVERGENCE_COLUMNS: tuple[tuple[str, str], ...] = (
+    ("lift_to_weight", "L/W"),
+    ("thrust", "T"),
+    ("drag", "D"),
+    ("power", "P"),
+)
+
+
+def render_convergence(data: dict[str, Any]) -> str:
+    rows = sorted(data["rows"], key=lambda r: (r["speed"] == 0.0, r["speed"]))  # hover last
+
+    def cell(error: dict[str, float]) -> str:
+        text = f"{error['median']:.1g} % / {error['max']:.2g} %"
+        if error["max"] > CONVERGENCE_BOUND_PERCENT:  # the few strokes beyond it: how few
+            text += f" (p95 {error['p95']:.2g} %)"
+        return text
+
+    lines = [
+        "| V [m/s] | "
+        + " | ".join(f"{title} median / max" for _, title in CONVERGENCE_COLUMNS)
+        + " |",
+        "|---" * (1 + len(CONVERGENCE_COLUMNS)) + "|",
+    ]
+    for r in rows:
+        speed = "0 (hover)" if r["speed"] == 0.0 else f"{r['speed']:.1f}"
+        cells = " | ".join(cell(r["error_percent"][name]) for name, _ in CONVERGENCE_COLUMNS)
+        lines.append(f"| {speed} | {cells} |")
+    lines += [
+        "",
+        f"{data['strokes']} random strokes (seed {data['seed']}), n_time = {rows[0]['n_time']}, "
+        f"n_blade = {rows[0]['n_blade']} against {4 * rows[0]['n_time']} and "
+        f"{4 * rows[0]['n_blade']}; written by `python -m eval numbers --only convergence` from:",
+        "",
+        f"    {data['command']}",
+    ]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,155 @@
+"""The readings study at the paper preset (docs/reproduction.md, "Readings"): its stored
+outputs, collected after the long run."""
+
+from __future__ import annotations
+
+import csv
+import shutil
+from pathlib import Path
+from typing import Any
+
+from eval.numbers.framework import (
+    ROOT,
+)
+
+READINGS_PAPER_OUT = Path("results") / "readings-paper"
+READINGS_PAPER_COMMAND = (
+    f"python -m eval study readings --preset paper --scheduler local:2 --out {READINGS_PAPER_OUT}"
+)
+#: The run's small outputs kept where the docs include them: run's file -> the docs' copy.
+READINGS_PAPER_FILES: dict[str, Path] = {
+    "readings.csv": ROOT / "docs" / "readings" / "paper_readings.csv",
+    "continuation_check.csv": ROOT / "docs" / "readings" / "paper_continuation_check.csv",
+    "readings_manifest.json": ROOT / "docs" / "readings" / "paper_readings_manifest.json",
+    "readings_matrix.png": ROOT / "docs" / "figures" / "readings_paper_matrix.png",
+}
+#: The headline columns of the readings table: (title, readings.csv columns).
+READINGS_COLUMNS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("η_max [%]", ("eta_max_pct",)),
+    ("F̄_v 50 / 90", ("Fv_50", "Fv_90")),
+    ("F̄_h 50 / 90", ("Fh_50", "Fh_90")),
+    ("F̄_a 50 / 90", ("Fa_50", "Fa_90")),
+)
+
+
+def measure_readings_paper() -> dict[str, Any]:
+    """Collect the finished paper-preset readings run in :data:`READINGS_PAPER_OUT` (it takes
+    1-2 h on 2 cores: run :data:`READINGS_PAPER_COMMAND` first) and copy its small outputs
+    into the docs (:data:`READINGS_PAPER_FILES`)."""
+    from eval.studies.readings import MANIFEST
+    from tandem_env.io.files import atomic_path, read_json
+
+    out = READINGS_PAPER_OUT
+    if not (out / MANIFEST).is_file():
+        raise SystemExit(f"{out} holds no finished readings run; run `{READINGS_PAPER_COMMAND}`")
+    manifest = read_json(out / MANIFEST)
+    if manifest.get("preset") != "paper" or "invocations" not in manifest:
+        raise SystemExit(
+            f"{out / MANIFEST} is not a paper-preset readings run of this version (preset "
+            f"{manifest.get('preset')!r}); run `{READINGS_PAPER_COMMAND}`"
+        )
+    with open(out / "readings.csv", newline="", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    for name, copy in READINGS_PAPER_FILES.items():
+        copy.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(copy) as tmp:
+            shutil.copyfile(out / name, tmp)
+    keep = ("invocations", "continuation", "continuation_check", "run_in_full")
+    return {
+        "command": READINGS_PAPER_COMMAND,
+        "rows": rows,
+        "claims": manifest["claims"],
+        "combination_rule": manifest["combination_rule"],
+        **{key: manifest[key] for key in keep},
+    }
+
+
+def _duration(seconds: float) -> str:
+    minutes, rest = divmod(round(seconds), 60)
+    return f"{minutes} min {rest:02d} s" if minutes else f"{rest} s"
+
+
+def _invocation_line(invocation: dict[str, Any]) -> str:
+    """One invocation of a readings run: when, where, and each phase's work and time."""
+    where = (
+        f", {invocation['cpus']} CPUs, load average (1 min) "
+        + " → ".join(str(x) for x in invocation["load_average_1min"])
+        if "cpus" in invocation
+        else ""
+    )
+    phases = "; ".join(
+        f"{p['name']} {p['jobs']} optimisations ({p['ran']} run, {p['reused']} reused) in "
+        f"{_duration(p['wall_time_s'])}"
+        for p in invocation["phases"]
+    )
+    finished = invocation["finished"] or "finished before invocations were recorded"
+    return f"- {finished}{where}: {phases}; {_duration(invocation['wall_time_s'])} in all."
+
+
+def render_readings_paper(data: dict[str, Any]) -> str:
+    """The readings table (the paper's numbers first, the best count in bold), the run's
+    phases, the combination rule and the continuation's bias check with what ran in full."""
+    from eval.studies.readings.report import check_table
+    from eval.studies.readings.result import HEADLINES
+
+    paper = {c["id"]: c["paper"] for c in data["claims"]}
+    rows = data["rows"]
+    worked = [inv for inv in data["invocations"] if any(p["ran"] for p in inv["phases"])]
+    reused = [inv for inv in data["invocations"] if inv not in worked]
+    best = max(int(r["agree"]) for r in rows)
+    head = " | ".join(title for title, _ in READINGS_COLUMNS)
+    lines = [
+        f"| reading | changes from the default | agree | differ | undecided | not identifiable | "
+        f"no data | {head} |",
+        "|---|---|---|---|---|---|---|" + "---|" * len(READINGS_COLUMNS),
+        "| paper | | | | | | | "
+        + " | ".join(
+            " / ".join(paper.get(HEADLINES[c][0], "–") for c in columns)
+            for _, columns in READINGS_COLUMNS
+        )
+        + " |",
+    ]
+    for r in rows:
+        mark = "**" if int(r["agree"]) == best else ""
+        numbers = [
+            " / ".join(f"{float(r[c]):.3g}" for c in columns) for _, columns in READINGS_COLUMNS
+        ]
+        lines.append(
+            f"| {mark}`{r['reading']}`{mark} | {r['changes']} | {mark}{r['agree']}{mark} | "
+            f"{r['differ']} | {r['undecided']} | {r.get('not_identifiable', '–')} | "
+            f"{r['no_data']} | {' | '.join(numbers)} |"
+        )
+    counted = all("not_identifiable" in r for r in rows)
+    lines += [
+        "",
+        f"{len(data['claims'])} claims; verdicts on the median over the seeds, undecided where "
+        "the bootstrap over seeds leaves it open, not identifiable where the model does not "
+        "depend on what the claim is about (docs/reproduction.md, *Agreement rules*)."
+        + (
+            ""
+            if counted
+            else " This run was analysed before the identifiability rule (– in its column): "
+            "its agree, differ and undecided counts include verdicts on the fore/hind phase "
+            "claims K1-K3, which the model does not depend on under any of its readings (all "
+            "with the mean slipstream)."
+        ),
+        f"Combination rule: {data['combination_rule']}.",
+        "",
+        "The invocations into the run's folder that optimised (a job stored by an earlier "
+        "invocation is reused):",
+        "",
+        *[_invocation_line(inv) for inv in worked],
+        "",
+        f"{len(reused)} more invocation(s) reused every job and only analysed and redrew "
+        f"the outputs ({', '.join(_duration(inv['wall_time_s']) for inv in reused) or 'none'}).",
+        "",
+        "Bias check of the continuation (difference = (continued − full) / |full| of the "
+        "reported objective, per job; a single reading's task that falls short ran in full):",
+        "",
+        *check_table(data["continuation_check"], data["run_in_full"]),
+        "",
+        "Collected from the run's own outputs by `python -m eval numbers --only readings-paper` "
+        f"(after `{data['command']}`; its readings.csv, manifest, bias check and matrix are "
+        "copied to docs/readings/ and docs/figures/).",
+    ]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,116 @@
+"""SpeedChange's random and steady baselines (deterministic given the optima)."""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Sequence
+from typing import Any
+
+from eval.numbers.framework import (
+    machine_line,
+    spaced,
+)
+
+SPEED_CHANGE_EPISODES = 32
+SPEED_CHANGE_COMMAND = f"python -m eval speed-change --episodes {SPEED_CHANGE_EPISODES}"
+#: The optima's metrics the table shows: info keys of a level-flight step (docs/envs.md).
+OPTIMUM_METRICS: tuple[str, ...] = (
+    "efficiency",
+    "power_per_mass",
+    "lift_to_weight",
+    "thrust",
+    "drag",
+)
+
+
+def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str, Any]]:
+    """The steady schedule's level-flight optima as ``eval speed-change`` makes them (its
+    defaults: optimiser, budget, seed), one ``{speed, objective, feasible, ...}`` per speed."""
+    from agents.store import load_records
+    from eval import speed_change
+    from tandem_env.envs.speed_change import SpeedChangeConfig
+
+    config = SpeedChangeConfig.from_kwargs()
+    with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as store:
+        speed_change.steady_optima(
+            config,
+            speeds=speed_change.STEADY_GRID if speeds is None else speeds,
+            cache_dir=store,
+            progress=False,
+        )
+        records = sorted(load_records([store]), key=lambda r: r.job.condition)
+    return [
+        {
+            "speed": r.job.condition,
+            "method": r.method,
+            "budget": r.budget,
+            "seed": r.seed,
+            "objective": r.objective,
+            "feasible": bool(r.feasible),
+            **{name: r.metrics[name] for name in OPTIMUM_METRICS},
+            "normalised_stroke": list(r.normalised_stroke),
+        }
+        for r in records
+    ]
+
+
+def speed_change_rows(optima: Sequence[dict[str, Any]], first_seed: int) -> list[dict[str, Any]]:
+    """``summary_rows`` of the random and steady policies over the evaluation episodes, the
+    steady one playing ``optima``."""
+    import numpy as np
+
+    from eval import speed_change
+
+    steady = speed_change.SteadyPolicy(
+        np.array([o["speed"] for o in optima], dtype=np.float64),
+        np.array([o["normalised_stroke"] for o in optima], dtype=np.float64),
+    )
+    seeds = range(first_seed, first_seed + SPEED_CHANGE_EPISODES)
+    episodes = [
+        speed_change.episode_metrics(log)
+        for policy in (speed_change.RandomPolicy(seed=0), steady)
+        for log in speed_change.run_episodes(policy, list(seeds))
+    ]
+    return speed_change.summary_rows(episodes)
+
+
+def measure_speed_change() -> dict[str, Any]:
+    from eval import speed_change
+
+    optima = speed_change_optima()
+    return {
+        "command": SPEED_CHANGE_COMMAND,
+        "first_seed": speed_change.FIRST_SEED,
+        "optima": optima,
+        "rows": speed_change_rows(optima, speed_change.FIRST_SEED),
+    }
+
+
+def render_speed_change(data: dict[str, Any]) -> str:
+    from eval.speed_change import markdown_table
+
+    optima = data["optima"]
+    first = optima[0]
+    random = next(r for r in data["rows"] if r["policy"] == "random")
+    lines = [
+        markdown_table(data["rows"]).rstrip("\n"),
+        "",
+        f"Random strokes end their episodes after {random['flight_time_mean_s']:.2f} s on "
+        f"average. The steady schedule's level-flight optima ({first['method']}, "
+        f"{spaced(first['budget'])} evaluations, seed {first['seed']}; "
+        f"{sum(o['feasible'] for o in optima)} of {len(optima)} level-feasible):",
+        "",
+        "| V [m/s] | η | P/m [W/kg] | L/W | T − D [mN] | feasible |",
+        "|---|---|---|---|---|---|",
+        *(
+            f"| {o['speed']:g} | {o['efficiency']:.3f} | {o['power_per_mass']:.1f} | "
+            f"{o['lift_to_weight']:.3f} | {1e3 * (o['thrust'] - o['drag']):+.3f} | "
+            f"{'yes' if o['feasible'] else 'no'} |"
+            for o in optima
+        ),
+        "",
+        machine_line(data, "speed-change"),
+        "",
+        f"    {data['command']}",
+    ]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,403 @@
+"""Running the readings study's plan phase by phase, analysing each reading and writing its
+outputs: readings.csv, the matrix figure, report.md and the manifest
+(:mod:`eval.studies.readings`)."""
+
+from __future__ import annotations
+
+import math
+import os
+import statistics
+import sys
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from agents.jobs import Job
+from agents.runner import RunSummary, load_records, run_jobs
+from agents.store import RECORDS_DIR
+from eval import report
+from eval.studies import PAPER_STUDIES
+from eval.studies.base import StudyPlan
+from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading
+from eval.studies.readings.figure import matrix_figure
+from eval.studies.readings.plan import (
+    CHECK_CSV,
+    CSV_COLUMNS,
+    MANIFEST,
+    PHASES,
+    SINGLES,
+    Continuation,
+    ReadingsResult,
+    check_jobs,
+    combinations,
+    full_tasks,
+    optima_of,
+    reading_plan,
+    study_jobs,
+)
+from eval.studies.readings.report import write_readings_report
+from eval.studies.readings.result import ReadingResult, reading_dir
+from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
+
+
+def analyse_reading(
+    plan: StudyPlan,
+    reading: Reading,
+    out_dir: Path,
+    jobs: Mapping[str, list[Job]] | None = None,
+) -> ReadingResult:
+    """Analyse the four studies under ``reading`` (every record present) into its folder;
+    ``jobs`` are each study's jobs (:func:`study_jobs`; the studies' own by default).
+
+    The folder gets a relative link ``records -> ../records`` so the study indexes' record
+    paths resolve, and its own ``report.md``.
+    """
+    p = reading_plan(plan, reading)
+    where = reading_dir(out_dir, reading)
+    where.mkdir(parents=True, exist_ok=True)
+    link = where / RECORDS_DIR
+    if not link.exists() and not link.is_symlink():
+        try:
+            link.symlink_to(Path("..") / RECORDS_DIR, target_is_directory=True)
+        except OSError:  # no symlinks here (e.g. some Windows setups): the index paths dangle
+            pass
+    jobs = study_jobs(plan, reading) if jobs is None else jobs
+    outputs = tuple(
+        study.analyse(p, load_records(out_dir, jobs[name]), where)
+        for name, study in PAPER_STUDIES.items()
+    )
+    report.write_report(where / "report.md", p, outputs, list(PAPER_STUDIES))
+    return ReadingResult(reading, outputs)
+
+
+def _phase(
+    plan: StudyPlan,
+    jobs: Mapping[str, Mapping[str, list[Job]]],
+    readings: Sequence[Reading],
+    out_dir: Path,
+    scheduler: str | None,
+    progress: bool,
+) -> tuple[list[ReadingResult], RunSummary]:
+    """Run the jobs of ``readings`` (``jobs``: reading -> study -> jobs, :func:`study_jobs`) in
+    one call, and analyse the readings."""
+    todo = [job for r in readings for group in jobs[r.name].values() for job in group]
+    summary = run_jobs(todo, out_dir, scheduler=scheduler, progress=progress)
+    results = []
+    for reading in readings:
+        if progress:
+            print(f"analysing reading {reading.name}", file=sys.stderr)
+        results.append(analyse_reading(plan, reading, out_dir, jobs[reading.name]))
+    return results, summary
+
+
+#: The columns of continuation_check.csv, in order.
+CHECK_COLUMNS: tuple[str, ...] = (
+    "reading",
+    "task",
+    "objective",
+    "condition",
+    "seed",
+    "budget_full",
+    "budget_continued",
+    "objective_full",
+    "objective_continued",
+    "feasible_full",
+    "feasible_continued",
+    "difference",
+    "chosen",
+)
+
+
+def check_rows(out_dir: Path, checks: Sequence[tuple[Reading, Job, Job]]) -> list[dict[str, Any]]:
+    """One row per checked job: the continued and the full optimum (``difference`` =
+    (continued − full) / |full| [-]) and which part the continued run reported."""
+    continued = load_records(out_dir, [c for _, c, _ in checks])
+    full = load_records(out_dir, [f for _, _, f in checks])
+    rows = []
+    for reading, c, f in checks:
+        rc, rf = continued[c].results, full[f].results
+        oc, of = float(rc["objective"]), float(rf["objective"])
+        rows.append(
+            {
+                "reading": reading.name,
+                "task": f.task,
+                "objective": rf["objective_name"],
+                "condition": f.condition,
+                "seed": f.seed,
+                "budget_full": f.budget,
+                "budget_continued": c.budget,
+                "objective_full": of,
+                "objective_continued": oc,
+                "feasible_full": bool(rf["feasible"]),
+                "feasible_continued": bool(rc["feasible"]),
+                "difference": (oc - of) / abs(of) if of else math.nan,
+                "chosen": rc["selection"],
+            }
+        )
+    return rows
+
+
+def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Per reading and task, and over all (last): the continuation's bias on the checked jobs
+    (both feasible): pairs, median, lowest and highest relative difference, how many continued
+    optima are within 0.5 % of the full run's or above it, the pairs with either infeasible, and
+    those with only the continued one infeasible."""
+    groups: dict[tuple[str, str], list[Mapping[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault((row["reading"], row["task"]), []).append(row)
+    if rows:  # the overall row last
+        groups[("all", "all")] = list(rows)
+    out = []
+    for (reading, task), members in groups.items():
+        values = [
+            float(r["difference"])
+            for r in members
+            if r["feasible_full"] and r["feasible_continued"]
+        ]
+        out.append(
+            {
+                "reading": reading,
+                "task": task,
+                "pairs": len(values),
+                "median": statistics.median(values) if values else math.nan,
+                "lowest": min(values, default=math.nan),
+                "highest": max(values, default=math.nan),
+                "within_0.5%": sum(v >= -0.005 for v in values),
+                "infeasible": len(members) - len(values),
+                "infeasible_continued": sum(
+                    bool(r["feasible_full"]) and not r["feasible_continued"] for r in members
+                ),
+            }
+        )
+    return out
+
+
+def _check_preset(out_dir: Path, plan: StudyPlan) -> Mapping[str, Any] | None:
+    """The manifest ``out_dir`` holds (None if none); say so (stderr) when it is another
+    preset's readings, which are replaced."""
+    try:
+        before = read_json(out_dir / MANIFEST)
+    except (FileNotFoundError, ValueError):
+        return None
+    if not isinstance(before, Mapping):
+        return None
+    if before.get("preset") not in (None, plan.preset.name):
+        print(
+            f"note: {out_dir} holds the {before['preset']!r} preset's readings; its readings.csv, "
+            f"matrix and report are replaced by the {plan.preset.name!r} preset's (the records "
+            "of both stay: they are keyed by preset). Use --out for a separate folder.",
+            file=sys.stderr,
+        )
+    return before
+
+
+def _load() -> float | None:
+    """The 1-minute load average (None where the system has none)."""
+    return round(os.getloadavg()[0], 2) if hasattr(os, "getloadavg") else None
+
+
+def _invocations(
+    before: Mapping[str, Any] | None, plan: StudyPlan, this: dict[str, Any]
+) -> list[dict[str, Any]]:
+    """Every invocation into the folder at this preset, ``this`` last: a resumed run (or one
+    that only redraws the outputs) keeps the work and times of those before it. A manifest
+    written before invocations were recorded (no ``invocations``) gives its one run, with the
+    phases named in order."""
+    if before is None or before.get("preset") != plan.preset.name:
+        return [this]
+    earlier = list(before.get("invocations", ()))
+    if not earlier and "phases" in before:
+        names = ("singles", "combinations") if before.get("continuation") is None else PHASES
+        earlier = [
+            {
+                "finished": None,
+                "phases": [
+                    {"name": name, **phase}
+                    for name, phase in zip(names, before["phases"], strict=False)
+                ],
+                "wall_time_s": before.get("wall_time_s"),
+            }
+        ]
+    return [*earlier, this]
+
+
+def run_readings(
+    plan: StudyPlan,
+    out_dir: str | os.PathLike[str],
+    *,
+    readings: Sequence[Reading] = SINGLES,
+    derive: bool = True,
+    scheduler: str | None = None,
+    progress: bool = True,
+    continuation: Continuation | None = Continuation(),
+) -> ReadingsResult:
+    """Run the readings study into ``out_dir``: the ``readings`` (singles; the default first),
+    then, if ``derive``, the combinations their results point to (:func:`combinations`).
+
+    With ``continuation`` (the default; None runs every reading in full) the default reading
+    runs first and the others continue from its optima (:class:`Continuation`), with the bias
+    check on the singles.
+
+    ``plan`` gives the preset and methods (its own reading is ignored). ``scheduler`` as for
+    :func:`agents.runner.run_jobs`. Raises ValueError if ``readings`` does not start with
+    the default reading or repeats a name.
+    """
+    start = time.perf_counter()
+    out = Path(out_dir)
+    readings = tuple(readings)
+    if not readings or readings[0] != DEFAULT:
+        raise ValueError(
+            f"readings = {[r.name for r in readings]}; allowed: the default reading first, "
+            "then others (their claims are compared with the default's)"
+        )
+    names = [r.name for r in readings]
+    if len(set(names)) != len(names):
+        raise ValueError(f"readings = {names}; allowed: distinct names")
+    before = _check_preset(out, plan)
+    load_before = _load()
+    runs: list[RunSummary] = []
+    rows: list[dict[str, Any]] = []  # the bias check's, one per checked job
+    full: dict[str, dict[str, str]] = {}
+    if continuation is None:
+        jobs = {r.name: study_jobs(plan, r) for r in readings}
+        singles, first = _phase(plan, jobs, readings, out, scheduler, progress)
+        runs.append(first)
+    else:
+        # the default first: the others start from its optima
+        jobs = {DEFAULT.name: study_jobs(plan, DEFAULT)}
+        default, first = _phase(plan, jobs, readings[:1], out, scheduler, progress)
+        optima = optima_of(out, jobs)
+        # the bias check, then each single reading: a task the check fails runs in full
+        others = readings[1:]
+        checks = [(r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)]
+        check = run_jobs(
+            list(dict.fromkeys(job for _, c, f in checks for job in (c, f))),
+            out,
+            scheduler=scheduler,
+            progress=progress,
+        )
+        rows = check_rows(out, checks) if checks else []
+        full = full_tasks(check_summary(rows), continuation)
+        jobs |= {
+            r.name: study_jobs(plan, r, continuation, optima, full.get(r.name, {})) for r in others
+        }
+        rest, second = _phase(plan, jobs, others, out, scheduler, progress)
+        singles = default + rest
+        runs += [first, check, second]
+    words = "not derived (derive=False)"
+    results = list(singles)
+    if derive:
+        derived, words = combinations(singles[0], singles)
+        derived = [r for r in derived if r.name not in names]
+        if derived:
+            if continuation is not None:
+                optima = optima_of(out, jobs)
+                jobs |= {r.name: study_jobs(plan, r, continuation, optima) for r in derived}
+            else:
+                jobs |= {r.name: study_jobs(plan, r) for r in derived}
+            more, third = _phase(plan, jobs, derived, out, scheduler, progress)
+            results += more
+            runs.append(third)
+    if rows:
+        write_csv_atomic(out / CHECK_CSV, rows)
+    summary = check_summary(rows)
+    files = write_outputs(plan, results, words, out, summary, continuation, full)
+    wall = time.perf_counter() - start
+    phases = (("singles", "combinations") if continuation is None else PHASES)[: len(runs)]
+    this = {
+        "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        "cpus": os.cpu_count(),
+        "load_average_1min": [load_before, _load()],
+        "phases": [{"name": name, **run.to_dict()} for name, run in zip(phases, runs, strict=True)],
+        "wall_time_s": round(wall, 1),
+    }
+    write_json_atomic(
+        out / MANIFEST,
+        {
+            "preset": plan.preset.name,
+            "methods": list(plan.methods),
+            "claims": [
+                {"id": c.id, "statement": c.statement, "paper": c.paper} for c in results[0].claims
+            ],
+            "readings": [
+                {
+                    "name": r.reading.name,
+                    "changes": r.reading.changes(),
+                    "agree": r.agree,
+                    "verdicts": r.verdicts(),
+                }
+                for r in results
+            ],
+            "combination_rule": words,
+            "continuation": None if continuation is None else asdict(continuation),
+            "continuation_check": summary,
+            "run_in_full": full,
+            "invocations": _invocations(before, plan, this),
+        },
+    )
+    return ReadingsResult(tuple(results), tuple(runs), words, tuple(files), wall, phases)
+
+
+def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
+    """One row per reading (:data:`CSV_COLUMNS`)."""
+    rows = []
+    for r in results:
+        options = r.reading.model_options
+        c_r = r.reading.rotational_coefficient
+        row: dict[str, Any] = {
+            "reading": r.reading.name,
+            "kind": "combination" if r.reading.derived_from else "single",
+            "changes": r.reading.describe_changes(),
+            **{name: getattr(options, name) for name in DECISION_OPTIONS},
+            "rotational_coefficient": math.pi if c_r is None else float(c_r),
+            "horizontal_objective": r.reading.horizontal_objective,
+            "search": "" if r.reading.search is None else r.reading.search.describe(),
+            "agree": r.agree,
+            "differ": r.differ,
+            "undecided": r.undecided,
+            "not_identifiable": r.not_identifiable,
+            "no_data": r.no_data,
+            **{k: _round(v) for k, v in r.headline().items()},
+            "description": r.reading.description,
+        }
+        rows.append({k: row[k] for k in CSV_COLUMNS})
+    return rows
+
+
+def _round(value: float) -> float:
+    return value if math.isnan(value) else float(f"{value:.4g}")
+
+
+def write_outputs(
+    plan: StudyPlan,
+    results: Sequence[ReadingResult],
+    rule: str,
+    out_dir: Path,
+    check: Sequence[Mapping[str, Any]] = (),
+    continuation: Continuation | None = None,
+    full: Mapping[str, Mapping[str, str]] | None = None,
+) -> list[Path]:
+    """readings.csv, readings_matrix.<format> and report.md (with the continuation, its bias
+    check, ``check``: :func:`check_summary`, and the tasks run in full for it, ``full``:
+    :func:`full_tasks`)."""
+    csv_path = out_dir / "readings.csv"
+    write_csv_atomic(csv_path, csv_rows(results))
+    claims = results[0].claims
+    columns = [
+        (r.reading.name, [r.verdicts().get(c.id, "no data") for c in claims]) for r in results
+    ]
+    figure = matrix_figure(
+        [c.id for c in claims],
+        [c.statement for c in claims],
+        columns,
+        plan.figure(out_dir, "readings_matrix"),
+        f"Paper claims under each reading ({plan.preset.name} preset, {', '.join(plan.methods)})",
+        split=next((k for k, r in enumerate(results) if r.reading.derived_from), None),
+    )
+    report_path = write_readings_report(
+        out_dir / "report.md", plan, results, rule, csv_path, figure, check, continuation, full
+    )
+    return [csv_path, figure, report_path]
