@@ -72,6 +72,15 @@ class QuietStream:
         except (OSError, ValueError):
             return False
 
+    def __eq__(self, other: object) -> bool:
+        # Two quiet streams over the same stream are one file to tqdm, whose ``write`` clears
+        # and redraws only the bars writing to a file equal to its own (a warning line is then
+        # printed above an open bar, not run into it).
+        return isinstance(other, QuietStream) and other._stream is self._stream
+
+    def __hash__(self) -> int:
+        return hash((QuietStream, id(self._stream)))
+
     def __getattr__(self, name: str) -> Any:  # encoding, errors, fileno, ... of the stream
         return getattr(self._stream or sys.stderr, name)
 
