@@ -32,6 +32,9 @@ READINGS: tuple[str, ...] = tuple(get_args(Slipstream))
 TABLE_CSV = "crosscheck.csv"
 TABLE_MD = "crosscheck.md"
 FIGURE = "crosscheck.png"
+#: The vortex lattice's series (dark grey: black marks the paper's own statements in the
+#: project's figures; the readings take the Okabe-Ito hues of ``eval.figures.PALETTE``).
+UVLM_COLOUR = "0.25"
 
 
 def case_insect(insect: Dragonfly, case: Case) -> Dragonfly:
@@ -159,11 +162,12 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from eval.figures import DPI, PALETTE
+
     cases = list(dict.fromkeys(_key(r) for r in table))
     fig, axes = plt.subplots(
         len(cases), 2, figsize=(11, 3.6 * len(cases)), squeeze=False, width_ratios=(2, 1)
     )
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for (left, right), key in zip(axes, cases, strict=True):
         mine = [r for r in table if _key(r) == key]
         main = [
@@ -173,13 +177,13 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
             == (base.steps_per_beat, base.panels, base.beats)
         ] or mine
         lags = [r["lag_deg"] for r in main]
-        for pair, style, fill in (("hind", "-", "C0"), ("fore", "--", "none")):
+        for pair, style, filled in (("hind", "-", True), ("fore", "--", False)):
             left.plot(
                 lags,
                 [r[f"uvlm_{pair}_change_pct"] for r in main],
                 "o" + style,
-                color="k",
-                markerfacecolor="k" if fill != "none" else "white",
+                color=UVLM_COLOUR,
+                markerfacecolor=UVLM_COLOUR if filled else "white",
                 label=f"UVLM {pair}",
             )
             for i, reading in enumerate(READINGS):
@@ -187,7 +191,7 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
                     lags,
                     [r[f"ours_{reading}_{pair}_change_pct"] for r in main],
                     ("x" if pair == "hind" else "+") + style,
-                    color=colours[(i + 1) % len(colours)],
+                    color=PALETTE[i],
                     label=f"ours ({reading}) {pair}",
                 )
         left.axhline(0.0, color="0.7", lw=0.8)
@@ -218,7 +222,7 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
                         x,
                         [r[f"uvlm_{pair}_change_pct"] for r in series],
                         marker,
-                        color=colours[j % len(colours)],
+                        color=PALETTE[j % len(PALETTE)],
                         label=f"{pair}, lag {lag:g}",
                     )
             right.set_xticks(range(len(resolutions)))
@@ -240,7 +244,7 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
     fig.tight_layout()
     path = out_dir / FIGURE
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=120)
+        fig.savefig(tmp, dpi=DPI)
     plt.close(fig)
     return path
 

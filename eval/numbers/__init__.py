@@ -18,8 +18,8 @@ commands, date, machine and load), and the Markdown is rendered from that file a
 
 * ``python -m eval numbers --only NAME ...`` reruns only those (:data:`MEASUREMENTS` lists
   them: the comparison of methods, the benchmarks of the model, the torch port and the envs,
-  SpeedChange's random and steady baselines, readings of the model on random strokes and
-  the resolution study of the defaults).
+  SpeedChange's random and steady baselines, the quick preset's time, readings of the model on
+  random strokes and the resolution study of the defaults).
 
 This package is a small framework (:mod:`eval.numbers.framework`: where numbers live, the
 machine, the documented commands) and one module per measurement. Adding a number is one
@@ -41,7 +41,9 @@ from pathlib import Path
 from eval.numbers import (
     comparison,
     convergence,
+    crosscheck_lag_study,
     power_conventions,
+    quick_preset,
     readings_paper,
     rotational_coefficient,
     speed_change,
@@ -108,6 +110,15 @@ MEASUREMENTS: dict[str, Measurement] = {
             power_conventions.render_power_conventions,
         ),
         Measurement("convergence", CONVERGENCE.run, convergence.render_convergence),
+        Measurement(
+            "quick-preset", quick_preset.measure_quick_preset, quick_preset.render_quick_preset
+        ),
+        Measurement(
+            "crosscheck-lag-study",
+            crosscheck_lag_study.measure_crosscheck_lag_study,
+            crosscheck_lag_study.render_crosscheck_lag_study,
+            on_request=True,
+        ),
         Measurement(
             "readings-paper",
             readings_paper.measure_readings_paper,

@@ -1,0 +1,177 @@
+"""The cross-check's lag study (docs/crosscheck.md, "Findings"): the stored outputs of the
+documented ``python -m eval crosscheck --grid lag-study`` run, collected after it finished, and
+what they say about each slipstream reading: the sign of the hind-wing's change at every grid
+point, and the lag of its largest loss against the vortex lattice's."""
+
+from __future__ import annotations
+
+import csv
+import math
+import shutil
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from eval.numbers.framework import ROOT
+
+LAG_STUDY_OUT = Path("results") / "crosscheck-lag-study"
+LAG_STUDY_COMMAND = (
+    f"python -m eval crosscheck --grid lag-study --scheduler local:2 --out {LAG_STUDY_OUT}"
+)
+#: The run's small outputs kept where the docs include them: run's file -> the docs' copy.
+LAG_STUDY_FILES: dict[str, Path] = {
+    "crosscheck.csv": ROOT / "docs" / "crosscheck" / "lag_study.csv",
+    "crosscheck.png": ROOT / "docs" / "figures" / "crosscheck_lag_study.png",
+}
+#: The CSV's columns the rendering reads (numbers; the rest are kept in the docs' copy).
+NUMERIC = ("speed_m_s", "spacing_mm", "drop_mm", "lag_deg", "clearance_mm")
+
+
+def measure_crosscheck_lag_study() -> dict[str, Any]:
+    """Collect the finished lag study in :data:`LAG_STUDY_OUT` (about an hour on 2 idle cores:
+    run :data:`LAG_STUDY_COMMAND` first) and copy its table and figure into the docs."""
+    from tandem_env.io.files import atomic_path
+
+    table = LAG_STUDY_OUT / "crosscheck.csv"
+    if not table.is_file():
+        raise SystemExit(f"{LAG_STUDY_OUT} holds no finished lag study; run `{LAG_STUDY_COMMAND}`")
+    with open(table, newline="", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    cases = {case_of(row) for row in rows}
+    if len(cases) != 4 or len(rows) != 32:
+        raise SystemExit(
+            f"{table} has {len(rows)} rows in {len(cases)} cases, not the lag study's 32 in 4; "
+            f"run `{LAG_STUDY_COMMAND}`"
+        )
+    for name, copy in LAG_STUDY_FILES.items():
+        copy.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(copy) as tmp:
+            shutil.copyfile(LAG_STUDY_OUT / name, tmp)
+    return {"command": LAG_STUDY_COMMAND, "rows": rows}
+
+
+def case_of(row: Mapping[str, Any]) -> tuple[float, float, float]:
+    """(speed [m/s], spacing [mm], drop [mm]) of a row."""
+    return (float(row["speed_m_s"]), float(row["spacing_mm"]), float(row["drop_mm"]))
+
+
+def readings(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """The model's slipstream readings the table holds, in its column order."""
+    prefix, suffix = "ours_", "_hind_change_pct"
+    return [
+        c[len(prefix) : -len(suffix)]
+        for c in rows[0]
+        if c.startswith(prefix) and c.endswith(suffix)
+    ]
+
+
+def largest_loss_lag(lags: Sequence[float], changes: Sequence[float]) -> float | None:
+    """The lag [deg] of the most negative change, or None where every lag gives the same."""
+    if max(changes) - min(changes) < 1e-9:
+        return None
+    return lags[min(range(len(changes)), key=changes.__getitem__)]
+
+
+def lag_distance(a: float, b: float) -> float:
+    """Distance between two lags on the circle [deg], 0 to 180."""
+    return abs((a - b + 180.0) % 360.0 - 180.0)
+
+
+def first_harmonic_phase(lags: Sequence[float], changes: Sequence[float]) -> float:
+    """The lag [deg] at which the first harmonic of the change over the lag is lowest (the
+    equally spaced lags' discrete Fourier coefficient), robust to one noisy point."""
+    c = sum(v * math.cos(math.radians(g)) for g, v in zip(lags, changes, strict=True))
+    s = sum(v * math.sin(math.radians(g)) for g, v in zip(lags, changes, strict=True))
+    return (math.degrees(math.atan2(s, c)) + 180.0) % 360.0
+
+
+def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Per case and per reading: the sign agreement with the UVLM, the lag of the largest loss
+    and its first harmonic's phase, against the UVLM's."""
+    out = []
+    for case in dict.fromkeys(case_of(r) for r in rows):
+        mine = sorted((r for r in rows if case_of(r) == case), key=lambda r: float(r["lag_deg"]))
+        lags = [float(r["lag_deg"]) for r in mine]
+        uvlm = [float(r["uvlm_hind_change_pct"]) for r in mine]
+        entry: dict[str, Any] = {
+            "case": case,
+            "lags": lags,
+            "uvlm": uvlm,
+            "uvlm_fore": [float(r["uvlm_fore_change_pct"]) for r in mine],
+            "uvlm_loss_lag": largest_loss_lag(lags, uvlm),
+            "uvlm_phase": first_harmonic_phase(lags, uvlm),
+            "readings": {},
+        }
+        for reading in readings(rows):
+            ours = [float(r[f"ours_{reading}_hind_change_pct"]) for r in mine]
+            loss = largest_loss_lag(lags, ours)
+            entry["readings"][reading] = {
+                "changes": ours,
+                "same_sign": sum((a < 0) == (b < 0) for a, b in zip(ours, uvlm, strict=True)),
+                "loss_lag": loss,
+                "loss_lag_off": None
+                if loss is None
+                else lag_distance(loss, entry["uvlm_loss_lag"]),
+                "phase_off": None
+                if loss is None
+                else lag_distance(first_harmonic_phase(lags, ours), entry["uvlm_phase"]),
+            }
+        out.append(entry)
+    return out
+
+
+def case_label(case: tuple[float, float, float]) -> str:
+    speed, spacing, _ = case
+    return f"V = {speed:g} m/s, d = {spacing:g} mm"
+
+
+def render_crosscheck_lag_study(data: dict[str, Any]) -> str:
+    rows = data["rows"]
+    entries = summary(rows)
+    names = readings(rows)
+    lags = entries[0]["lags"]
+    lines = [
+        f"Written by `{data['command']}` (its `crosscheck.csv`, copied to "
+        "[`docs/crosscheck/lag_study.csv`](crosscheck/lag_study.csv)). The hind-wing's change "
+        "of vertical force due to the fore-wing [%], at each lag ΔΦ (+: the hind-wing leads); "
+        "the mean reading gives one value at every lag:",
+        "",
+    ]
+    head = ["lag ΔΦ"]
+    for e in entries:
+        head += [f"{case_label(e['case'])}: UVLM", *names]
+    lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for i, lag in enumerate(lags):
+        cells = [f"{lag:g}°"]
+        for e in entries:
+            cells.append(f"{e['uvlm'][i]:+.1f}")
+            cells += [f"{e['readings'][n]['changes'][i]:+.1f}" for n in names]
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        "Against the UVLM, case by case: the lags (of 8) where a reading has the UVLM's sign of "
+        "the hind-wing change, and the lag of its largest hind-wing loss (the first harmonic's "
+        "lowest point in brackets) and how far it lies from the UVLM's:",
+        "",
+        "| case | UVLM: hind, largest loss at | UVLM: fore | "
+        + " | ".join(f"`{n}`: same sign, largest loss at (off)" for n in names)
+        + " |",
+        "|" + "---|" * (3 + len(names)),
+    ]
+    for e in entries:
+        cells = [
+            case_label(e["case"]),
+            f"{min(e['uvlm']):+.1f} to {max(e['uvlm']):+.1f} %, "
+            f"{e['uvlm_loss_lag']:g}° ({e['uvlm_phase']:.0f}°)",
+            f"{min(e['uvlm_fore']):+.1f} to {max(e['uvlm_fore']):+.1f} %",
+        ]
+        for n in names:
+            r = e["readings"][n]
+            where = (
+                "any lag (none depends on it)"
+                if r["loss_lag"] is None
+                else f"{r['loss_lag']:g}° ({r['loss_lag_off']:g}° off; harmonic {r['phase_off']:.0f}° off)"
+            )
+            cells.append(f"{r['same_sign']}/8, {where}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"

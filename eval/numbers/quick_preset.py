@@ -1,0 +1,51 @@
+"""The quick preset's cost (README "Reproduce the paper", docs/reproduction.md "Presets and
+what they cost"): the documented ``python -m eval study all`` run into an empty folder, timed
+as a whole process, with its jobs and model evaluations read back from the records it wrote.
+
+It is the one figure the documents give for the quick preset's time; every other mention
+points here."""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from eval.numbers.framework import machine_line, run_command, spaced
+
+QUICK_PRESET_COMMAND: tuple[str, ...] = ("python", "-m", "eval", "study", "all")
+"""The documented command (quick preset, CMA-ES, serially); ``--out`` and ``--quiet`` are
+added, and ``--no-cache`` so that no stored job from an earlier run shortens it."""
+
+
+def measure_quick_preset() -> dict[str, Any]:
+    """Run the quick preset into an empty folder: wall time [s], jobs, model evaluations."""
+    from agents.store import RecordStore
+
+    with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
+        start = time.perf_counter()
+        run_command([*QUICK_PRESET_COMMAND, "--out", out, "--quiet", "--no-cache"])
+        wall = time.perf_counter() - start
+        records = RecordStore(Path(out)).records()
+    return {
+        "command": " ".join(QUICK_PRESET_COMMAND),
+        "wall_s": round(wall, 1),
+        "jobs": len(records),
+        "evaluations": int(sum(r.evaluations for r in records)),
+    }
+
+
+def minutes(seconds: float) -> str:
+    """``seconds`` as the documents write a duration (4 min 35 s)."""
+    whole = round(seconds)
+    return f"{whole // 60} min {whole % 60} s" if whole >= 60 else f"{whole} s"
+
+
+def render_quick_preset(data: dict[str, Any]) -> str:
+    return (
+        f"`{data['command']}` (the quick preset: CMA-ES, serially, {data['jobs']} "
+        f"optimisations, {spaced(data['evaluations'])} model evaluations, into an empty folder "
+        f"with the record cache off) took **{minutes(data['wall_s'])}** wall clock. "
+        f"{machine_line(data, 'quick-preset')}\n"
+    )
