@@ -18,8 +18,8 @@ commands, date, machine and load), and the Markdown is rendered from that file a
 
 * ``python -m eval numbers --only NAME ...`` reruns only those (:data:`MEASUREMENTS` lists
   them: the comparison of methods, the benchmarks of the model, the torch port and the envs,
-  SpeedChange's random and steady baselines, readings of the model on random strokes and
-  the resolution study of the defaults).
+  SpeedChange's random and steady baselines, readings of the model on random strokes, the
+  resolution study of the defaults and the optimum of a second species).
 
 This package is a small framework (:mod:`eval.numbers.framework`: where numbers live, the
 machine, the documented commands) and one module per measurement. Adding a number is one
@@ -44,6 +44,7 @@ from eval.numbers import (
     power_conventions,
     readings_paper,
     rotational_coefficient,
+    second_species,
     speed_change,
     throughput,
 )
@@ -108,6 +109,11 @@ MEASUREMENTS: dict[str, Measurement] = {
             power_conventions.render_power_conventions,
         ),
         Measurement("convergence", CONVERGENCE.run, convergence.render_convergence),
+        Measurement(
+            "second-species",
+            second_species.measure_second_species,
+            second_species.render_second_species,
+        ),
         Measurement(
             "readings-paper",
             readings_paper.measure_readings_paper,
