@@ -269,7 +269,7 @@ def add_insect_argument(parser: argparse.ArgumentParser) -> None:
         metavar="FILE",
         help="YAML file of the insect: the fields that differ from the paper's specimen "
         "(body_mass, fore: {length, mean_chord, mass, planform, coefficients}, hind: {...}; "
-        "docs/envs.md, e.g. examples/aeshna_cyanea.yaml); part of each record's key",
+        "docs/envs.md, e.g. examples/orthetrum_cancellatum.yaml); part of each record's key",
     )
 
 

@@ -3,10 +3,10 @@
 ``python -m eval numbers`` measures and writes them (eval/numbers/). Here: every marked region
 of every document equals its rendering from ``docs/numbers/*.json`` (no hand edit, no stale
 text), every measurement has a region, and the deterministic numbers are rerun at their stated
-settings against the stored ones: seed 0 of each comparison row by its documented command, the
-SpeedChange random and steady baselines from the stored optima, one of those optima, and
-the model's readings on random strokes (docs/model.md §1.3, §6.3) and the resolution study of
-the defaults (§11.4).
+settings against the stored ones: seed 0 of each comparison row and of the second species by
+its documented command, the SpeedChange random and steady baselines from the stored optima, one
+of those optima, and the model's readings on random strokes (docs/model.md §1.3, §6.3) and the
+resolution study of the defaults (§11.4).
 Timings (the benchmarks' regions) are only checked to be their stored rendering.
 The optima (the comparison's seed 0, the SpeedChange optimum) reproduce bit for bit whatever the
 load and thread counts, but only with the CPU's BLAS kernel and the package versions that
@@ -67,6 +67,26 @@ def test_comparison_seed0_reproduces(row: numbers.ComparisonRow, method: str) ->
         "(rerun `python -m eval numbers`)"
     )
     assert fresh["feasible"] == old["feasible"]
+
+
+@pytest.mark.slow
+def test_second_species_seed0_reproduces() -> None:
+    """Seed 0 of the second species' documented command (docs/envs.md, "A second species"), run
+    again: the same optimum, and the record holds the example file's insect."""
+    from eval.numbers import second_species
+    from tandem_env.physics.insect import insect_mapping, load_insect
+
+    label, insect = second_species.SPECIES_INSECTS[-1]
+    stored = next(r for r in numbers.load("second-species")["rows"] if r["label"] == label)
+    (fresh,) = second_species.run_species(insect, [0])
+    (old,) = [s for s in stored["seeds"] if s["seed"] == 0]
+    assert math.isclose(fresh["objective"], old["objective"], rel_tol=1e-9), (
+        f"{stored['command']}: seed 0 gives {fresh['objective']!r}, docs say {old['objective']!r} "
+        "(rerun `python -m eval numbers --only second-species`)"
+    )
+    assert fresh["feasible"] == old["feasible"]
+    expected = insect_mapping(load_insect(numbers.ROOT / second_species.SPECIES_FILE))
+    assert fresh["insect"] == expected == old["insect"]
 
 
 def assert_same_rows(fresh: list[dict], stored: list[dict], what: str) -> None:

@@ -19,7 +19,8 @@ commands, date, machine and load), and the Markdown is rendered from that file a
 * ``python -m eval numbers --only NAME ...`` reruns only those (:data:`MEASUREMENTS` lists
   them: the comparison of methods, the benchmarks of the model, the torch port and the envs,
   SpeedChange's random and steady baselines, the quick preset's time, readings of the model on
-  random strokes and the resolution study of the defaults).
+  random strokes, the resolution study of the defaults, the optimum of a second species and,
+  on request, the cross-check's lag study and the readings study at the paper preset).
 
 This package is a small framework (:mod:`eval.numbers.framework`: where numbers live, the
 machine, the documented commands) and one module per measurement. Adding a number is one
@@ -46,6 +47,7 @@ from eval.numbers import (
     quick_preset,
     readings_paper,
     rotational_coefficient,
+    second_species,
     speed_change,
     throughput,
 )
@@ -112,6 +114,11 @@ MEASUREMENTS: dict[str, Measurement] = {
         Measurement("convergence", CONVERGENCE.run, convergence.render_convergence),
         Measurement(
             "quick-preset", quick_preset.measure_quick_preset, quick_preset.render_quick_preset
+        ),
+        Measurement(
+            "second-species",
+            second_species.measure_second_species,
+            second_species.render_second_species,
         ),
         Measurement(
             "crosscheck-lag-study",
