@@ -34,7 +34,7 @@ import numpy as np
 import tandem_env  # noqa: F401  (registers the ids)
 from eval.speed_change_policies import Policy, RandomPolicy, SB3Policy, SteadyPolicy
 from tandem_env.envs.registration import SPEED_CHANGE_ID
-from tandem_env.envs.speed_change import LEVEL_FLIGHT_ENVELOPE, SpeedChangeConfig
+from tandem_env.envs.speed_change_config import LEVEL_FLIGHT_ENVELOPE, SpeedChangeConfig
 from tandem_env.io.files import output_directory, write_csv_atomic
 from tandem_env.physics.checks import shown
 from tandem_env.physics.model import MAX_BATCH_STROKES

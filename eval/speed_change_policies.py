@@ -64,7 +64,7 @@ class SB3Policy:
     def load(cls, run_dir: str | os.PathLike[str], name: str, which: str = "final") -> SB3Policy:
         """The model of a ``python -m train`` run folder (``which``: "final" or "best"), named
         ``"<name> (<steps>k steps)"``."""
-        from train.policies import TrainedPolicy
+        from train.trained_policy import TrainedPolicy
 
         policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
         if policy.algo != name:

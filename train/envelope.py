@@ -104,7 +104,7 @@ def evaluate_envelope(
     from agents.harness import prepare
     from agents.runner import run_jobs
     from tandem_env.envs.registration import condition_keywords
-    from train.policies import TrainedPolicy, TrainingMismatchWarning
+    from train.trained_policy import TrainedPolicy, TrainingMismatchWarning
 
     policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
     task = task_of(policy.env_id)
@@ -187,7 +187,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     outside = [row for row in rows if not row["trained_at"]]
     if outside:
         from agents.tasks import get_task
-        from train.policies import TrainedPolicy
+        from train.trained_policy import TrainedPolicy
 
         policy = TrainedPolicy.load(args.run, args.model)
         seen = policy.training_conditions

@@ -19,37 +19,40 @@ provider :mod:`agents.methods` imports on first use, so ``agents`` imports SB3 o
     for PSO and random search too, so records compare like for like). The final policy's own metrics are in the record's method
     config under ``final_policy``.
 
-Functions for use outside the harness: :func:`policy_stroke` (a run's deterministic stroke at
-a condition) and :func:`train_and_propose` (train within a budget, return the chosen stroke).
+For use outside the harness: :func:`train_and_propose` (train within a budget, return the
+chosen stroke); a trained run's own stroke at a condition is
+:func:`train.trained_policy.policy_stroke`, over :class:`~train.trained_policy.TrainedPolicy`.
 """
 
 from __future__ import annotations
 
-import math
 import sys
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any, Literal, get_args
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from stable_baselines3.common.base_class import BaseAlgorithm
-from stable_baselines3.common.vec_env import VecEnv
 from tqdm.auto import tqdm
 
 from agents.methods import Method, SearchContext, SearchOutcome
 from agents.selection import is_better
-from tandem_env.envs.registration import check_env_id, condition_keywords, config_class
-from tandem_env.envs.sb3 import make_sb3_vec_env
+from tandem_env.envs.registration import condition_keywords
 from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import is_integer
-from train.checkpoint import load_policy_model
-from train.config import ALGOS, check_algo, plain, resolve_hyperparams
-from train.layout import RunLayout, env_name, read_normalizer, read_run_yaml, resolve_run_dir
+from train.config import ALGOS, check_algo, plain
+from train.layout import RunLayout, read_run_yaml, resolve_run_dir
 from train.run import learn_in_memory
-from train.vec import ConditionGrid, StrokeRecorder, option_key
+from train.trained_policy import (
+    WHICH_MODELS,
+    RunFiles,
+    TrainedPolicy,
+    TrainingMismatchWarning,
+    WhichModel,
+)
+from train.vec import StrokeRecorder
 
 if TYPE_CHECKING:
     from agents.tasks import TaskSpec
@@ -57,18 +60,11 @@ if TYPE_CHECKING:
 __all__ = [
     "CITATIONS",
     "PolicyMethod",
-    "TrainedPolicy",
     "TrainingMethod",
-    "TrainingMismatchWarning",
-    "WhichModel",
     "policy_factory",
-    "policy_stroke",
     "train_and_propose",
     "training_factory",
 ]
-
-WhichModel = Literal["best", "final"]
-WHICH_MODELS: tuple[str, ...] = get_args(WhichModel)
 
 CITATIONS: dict[str, str] = {
     "ppo": (
@@ -85,201 +81,6 @@ CITATIONS: dict[str, str] = {
 # The budget notices this process has printed (PolicySearch._announce_budget).
 _ANNOUNCED: set[tuple[Any, ...]] = set()
 _TRAINING_SETTINGS = ("n_envs", "conf_file", "torch_threads", "log_dir")
-
-
-class TrainingMismatchWarning(RuntimeWarning):
-    """A policy is asked at a condition, or with env options, it was not trained with."""
-
-
-# --- a trained run ---------------------------------------------------------------------------
-@dataclass(frozen=True)
-class RunFiles:
-    """What a run folder of ``python -m train`` holds for loading its policy: its settings read
-    and checked (the model itself is checked by loading it, :meth:`TrainedPolicy.load`)."""
-
-    run_dir: Path
-    algo: str
-    env_id: str
-    entry: Mapping[str, Any]
-    """The run's hyperparameters (``config.yml``)."""
-    env_kwargs: dict[str, Any]
-    model_path: Path
-    normalizer_path: Path | None
-
-    @classmethod
-    def read(cls, run_dir: str | Path, which: WhichModel = "best") -> RunFiles:
-        """The files of ``run_dir`` (or of the latest run it names); ValueError naming the
-        folder or file and what is wrong: a missing file, an args.yml naming an algo or env
-        other than its own (its folder is named after the env), hyperparameters that do not
-        resolve (:func:`~train.config.resolve_hyperparams`: n_envs, the network's size)."""
-        if which not in WHICH_MODELS:
-            raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
-        run_dir = resolve_run_dir(run_dir)
-        args_files = sorted(run_dir.glob("*/args.yml")) if run_dir.is_dir() else []
-        if len(args_files) != 1:
-            raise ValueError(
-                f"{run_dir} is not a training run folder (expected one <env>/args.yml, found "
-                f"{len(args_files)}); allowed: a folder written by python -m train, e.g. "
-                "logs/sac/TandemWing-LevelFlight-v0_1, or logs/sac/TandemWing-LevelFlight-v0 "
-                "for the latest run there"
-            )
-        args = read_run_yaml(args_files[0])
-        try:
-            algo = check_algo(str(args.get("algo")))
-        except ValueError as error:
-            raise ValueError(f"{args_files[0]}: {error}") from None
-        env_id = args.get("env")
-        if not isinstance(env_id, str) or env_name(env_id) != args_files[0].parent.name:
-            raise ValueError(
-                f"{args_files[0]}: env = {env_id!r}, but the file sits in the settings folder "
-                f"of {args_files[0].parent.name}; allowed: the env the run was trained on"
-            )
-        check_env_id(env_id, f"{args_files[0]}: env")
-        layout = RunLayout(run_dir, env_id)
-        entry = read_run_yaml(layout.config_file) if layout.config_file.is_file() else {}
-        env_kwargs = {**(entry.get("env_kwargs") or {}), **(args.get("env_kwargs") or {})}
-        path = layout.best_model if which == "best" else layout.final_model
-        normalizer: Path | None = None
-        if entry.get("normalize"):
-            normalizer = layout.vecnormalize
-            best_stats = run_dir / "best_model_vecnormalize.pkl"
-            if which == "best" and best_stats.is_file():
-                normalizer = best_stats
-        if which == "best" and not path.is_file():
-            path = layout.final_model
-        if not path.is_file():
-            raise ValueError(f"{run_dir}: no model file {path.name} (did the run finish?)")
-        if not layout.config_file.is_file():
-            raise ValueError(
-                f"{run_dir}: no {layout.config_file.relative_to(run_dir)}; the policy is rebuilt "
-                "from the run's hyperparameters (its model file is not unpickled), so the run "
-                "folder needs them. Allowed: a folder written by python -m train"
-            )
-        try:
-            resolve_hyperparams(entry, n_timesteps=1)
-        except ValueError as error:
-            raise ValueError(f"{layout.config_file}: {error}") from None
-        return cls(run_dir, algo, env_id, entry, env_kwargs, path, normalizer)
-
-    def check_env(self, env_id: str) -> None:
-        """ValueError unless the run was trained on ``env_id``."""
-        if self.env_id != env_id:
-            raise ValueError(
-                f"{self.run_dir} was trained on {self.env_id}; this task's env is {env_id}; "
-                "allowed: a run of the same env"
-            )
-
-
-@dataclass(frozen=True, eq=False)
-class TrainedPolicy:
-    """A model saved by ``python -m train``, with what it needs to observe a condition."""
-
-    files: RunFiles
-    """The run folder's files the model was loaded from."""
-    model: BaseAlgorithm
-    which: WhichModel
-
-    @classmethod
-    def load(cls, run_dir: str | Path, which: WhichModel = "best") -> TrainedPolicy:
-        """Load ``best_model.zip`` (``which="best"``, falling back to the final model when the
-        run had no evaluations) or the final ``<env>.zip`` of a run folder."""
-        return cls.from_files(RunFiles.read(run_dir, which), which)
-
-    @classmethod
-    def from_files(cls, files: RunFiles, which: WhichModel = "best") -> TrainedPolicy:
-        """The policy of checked ``files``: its model loaded without unpickling anything
-        (:func:`~train.checkpoint.load_policy_model`), its normalisation statistics read with
-        their classes only; ValueError naming the file at fault."""
-        model = load_policy_model(
-            files.algo, files.model_path, files.entry, files.env_id, files.env_kwargs
-        )
-        if files.normalizer_path is not None:
-            read_normalizer(files.normalizer_path)
-        return cls(files=files, model=model, which=which)
-
-    @property
-    def run_dir(self) -> Path:
-        return self.files.run_dir
-
-    @property
-    def algo(self) -> str:
-        return self.files.algo
-
-    @property
-    def env_id(self) -> str:
-        return self.files.env_id
-
-    @property
-    def env_kwargs(self) -> Mapping[str, Any]:
-        """The env options it was trained with (``args.yml`` and the yml entry's
-        ``env_kwargs``)."""
-        return MappingProxyType(self.files.env_kwargs)
-
-    @property
-    def model_path(self) -> Path:
-        return self.files.model_path
-
-    @property
-    def normalizer_path(self) -> Path | None:
-        """VecNormalize statistics applied to observations, if the run normalised them."""
-        return self.files.normalizer_path
-
-    def _observing_env(self, conditions: Sequence[float]) -> VecEnv:
-        # The training env's own observation path: reset at each condition through the env's
-        # reset option, so the normalisation over the envelope is the one the policy learned.
-        base = make_sb3_vec_env(self.env_id, n_envs=len(conditions), seed=0, **self.env_kwargs)
-        venv: VecEnv = ConditionGrid(base, option_key(base), conditions)
-        if self.normalizer_path is not None:
-            normalizer = read_normalizer(self.normalizer_path)
-            normalizer.set_venv(venv)
-            venv = normalizer
-            venv.training = False
-            venv.norm_reward = False
-        return venv
-
-    def strokes(self, conditions: Sequence[float]) -> np.ndarray:
-        """The deterministic normalised strokes (n, 28) in [-1, 1] at ``conditions``."""
-        values = [float(c) for c in conditions]
-        if not values:
-            raise ValueError("conditions is empty; allowed: one or more conditions")
-        venv = self._observing_env(values)
-        try:
-            observations = venv.reset()
-        finally:
-            venv.close()
-        actions, _ = self.model.predict(observations, deterministic=True)
-        # SAC's rescaling can land a float32 ulp outside the box; the env refuses that.
-        return np.clip(np.asarray(actions, dtype=np.float64), -1.0, 1.0)
-
-    @property
-    def training_conditions(self) -> tuple[float, float] | float | None:
-        """The condition range it was trained on, or the fixed condition (None if unknown)."""
-        declared = getattr(config_class(self.env_id), "CONDITION", None)
-        if declared is None:
-            return None
-        if self.env_kwargs.get(declared.range_keyword) is not None:
-            low, high = self.env_kwargs[declared.range_keyword]
-            return float(low), float(high)
-        if self.env_kwargs.get(declared.keyword) is not None:
-            return float(self.env_kwargs[declared.keyword])
-        return None
-
-    def trained_at(self, value: float) -> bool:
-        """Whether ``value`` is a condition the policy saw in training (inside its sampled
-        range, or its fixed condition); True when the training condition is unknown."""
-        seen = self.training_conditions
-        if isinstance(seen, tuple):
-            return seen[0] - 1e-9 <= value <= seen[1] + 1e-9
-        return seen is None or math.isclose(seen, value)
-
-    @property
-    def num_timesteps(self) -> int:
-        return int(self.model.num_timesteps)
-
-
-def policy_stroke(run_dir: str | Path, condition: float, which: WhichModel = "best") -> np.ndarray:
-    """The trained run's deterministic normalised stroke (28,) at ``condition``."""
-    return TrainedPolicy.load(run_dir, which).strokes([condition])[0]
 
 
 # --- harness methods ---------------------------------------------------------------------------

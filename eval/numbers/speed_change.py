@@ -28,7 +28,7 @@ def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str,
     defaults: optimiser, budget, seed), one ``{speed, objective, feasible, ...}`` per speed."""
     from agents.store import load_records
     from eval import speed_change
-    from tandem_env.envs.speed_change import SpeedChangeConfig
+    from tandem_env.envs.speed_change_config import SpeedChangeConfig
 
     config = SpeedChangeConfig.from_kwargs()
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as store:

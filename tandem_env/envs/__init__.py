@@ -3,7 +3,8 @@
 Ids ``TandemWing/LevelFlight-v0``, ``TandemWing/Accelerate-v0`` (one wing-beat per episode)
 and ``TandemWing/SpeedChange-v0`` (many wing-beats) are registered by ``import tandem_env``;
 each is one module (``level_flight``, ``accelerate``, ``speed_change``: declaration, config,
-batched core, vector env, single env) over the shared machinery of ``base``.
+batched core, vector env, single env; SpeedChange's declaration and config sit in
+``speed_change_config``) over the shared machinery of ``base``.
 The SB3 adapter (``TandemVecEnv``, ``make_sb3_vec_env``) lives in :mod:`tandem_env.envs.sb3`
 and is imported only when asked for, so that importing the envs does not import
 Stable-Baselines3 (or torch).
@@ -27,13 +28,8 @@ from .registration import (
     env_ids,
     register_envs,
 )
-from .speed_change import (
-    SPEED_CHANGE,
-    SpeedChangeConfig,
-    SpeedChangeEnv,
-    SpeedChangeReward,
-    SpeedChangeVectorEnv,
-)
+from .speed_change import SpeedChangeEnv, SpeedChangeVectorEnv
+from .speed_change_config import SPEED_CHANGE, SpeedChangeConfig, SpeedChangeReward
 
 __all__ = [
     "ACCELERATE",

@@ -7,13 +7,16 @@ A task module (:mod:`~tandem_env.envs.level_flight`, :mod:`~tandem_env.envs.acce
   batched model call, rewards and infos for B strokes; nothing here imports Gymnasium for it;
 * the **vector env** (:class:`FlightVectorEnv`): n sub-envs stepped by ONE model call, equal to
   :class:`gymnasium.vector.SyncVectorEnv` over n single envs in every autoreset mode;
-* the **single env** (:class:`FlightEnv`): the vector env at B = 1, so the two cannot drift
-  apart (the model itself is bit-identical per stroke at any batch size).
+* the **single env** (:class:`FlightEnv`): the vector env at B = 1, driven through the vector
+  env's public primitives (``start``, ``step_checked``, ``observations``, ``started``,
+  ``frame``), so the two cannot drift apart (the model itself is bit-identical per stroke at
+  any batch size).
 
 An action is validated once, where an env receives it (``step`` of either env, or
 :meth:`FlightVectorEnv.step_envs` for the SB3 adapter). Infos are built as *columns* (name ->
 (B,) array, ``"stroke"`` a nested dict) and turned into per-env dicts or Gymnasium's masked dict
-of arrays by the helpers below, without a Python loop over metrics per env.
+of arrays by the helpers of :mod:`~tandem_env.envs.columns`, without a Python loop over metrics
+per env. Rendering (the frame of a sub-env, the window) is :mod:`~tandem_env.envs.render`'s.
 
 Autoreset of the vector env (default ``NEXT_STEP``, Gymnasium's default): after a step that
 ends an episode, the *next* ``step`` resets those sub-envs instead of stepping them (their
@@ -26,7 +29,6 @@ raises :class:`gymnasium.error.ResetNeeded` in every env.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -37,11 +39,14 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from ..physics import N_PARAMETERS, PARAMETER_NAMES, Result, evaluate, normalised_to_physical
+from ..physics import N_PARAMETERS, Result, evaluate, normalised_to_physical
 from ..physics.checks import count
 from ..physics.model import MAX_BATCH_STROKES
-from .config import FlightConfig, PenaltyConfig
-from .declaration import Scores, TaskDeclaration
+from .columns import Columns, add_columns, row, take_columns
+from .config import FlightConfig
+from .declaration import TaskDeclaration
+from .render import Frame, LastStep, RenderWindow, frame_for
+from .step_batch import StepBatch
 from .validate import (
     RENDER_MODES,
     action_array,
@@ -54,14 +59,11 @@ from .validate import (
 
 RENDER_FPS = 4
 
-Columns = dict[str, Any]
-"""Info columns: name -> (B,) array, or a nested dict of columns (``"stroke"``)."""
 EnvGenerators = Callable[[int], np.random.Generator]
 """``rng(k)``: the generator of the k-th sub-env being reset."""
 EnvOptions = Sequence[Mapping[str, Any] | None]
 """The reset options of each sub-env being reset."""
 
-_HARMONIC = {name for name in PARAMETER_NAMES if name.endswith("_elevation_harmonic")}
 _FIRST = np.zeros(1, dtype=np.intp)
 
 
@@ -105,76 +107,6 @@ def fly(
 
 
 # --- the batched core ----------------------------------------------------------------------------
-@dataclass(frozen=True)
-class StepBatch:
-    """B evaluated strokes: what ``step`` returns and records, before it is split per env."""
-
-    physical: np.ndarray
-    """(B, 28) physical strokes (Table 4 units)."""
-    result: Result
-    """The model's full result, (B,) arrays."""
-    objective: np.ndarray
-    """(B,) the task's objective [-]."""
-    scores: Scores
-    """The task's constraint violations and feasibility (its declaration's constraints)."""
-    penalty: np.ndarray
-    """(B,) reward lost to the constraints [reward units] (exactly 0 when feasible)."""
-    reward: np.ndarray
-    """(B,) objective − penalty."""
-
-    @classmethod
-    def scored(
-        cls,
-        physical: np.ndarray,
-        result: Result,
-        objective: np.ndarray,
-        scores: Scores,
-        penalty: PenaltyConfig,
-    ) -> StepBatch:
-        """The batch of a task's objective and constraints, its reward penalised by the env's
-        ``penalty`` (exactly the objective where feasible)."""
-        lost = penalty.penalty(scores.total, scores.feasible)
-        return cls(physical, result, objective, scores, lost, objective - lost)
-
-    def __len__(self) -> int:
-        return int(self.reward.shape[0])
-
-    @property
-    def feasible(self) -> np.ndarray:
-        """(B,) bool, every constraint of the task met."""
-        return self.scores.feasible
-
-    @property
-    def terminated(self) -> np.ndarray:
-        """(B,) bool, all True: a one-cycle episode ends with its stroke."""
-        return np.ones(len(self), dtype=np.bool_)
-
-    @property
-    def truncated(self) -> np.ndarray:
-        """(B,) bool, all False: a one-cycle episode is never cut short."""
-        return np.zeros(len(self), dtype=np.bool_)
-
-    def info_columns(self) -> Columns:
-        """Every metric of the model, the task's constraints and reward terms, the stroke."""
-        columns: Columns = {}
-        for name, values in self.result.as_dict().items():
-            columns[name] = (
-                values if values.dtype == bool else values.astype(np.float64, copy=False)
-            )
-        columns.update(self.scores.violations)
-        columns["objective"] = self.objective
-        columns["constraint_violation"] = self.scores.total
-        columns["penalty"] = self.penalty
-        columns["feasible"] = self.scores.feasible
-        stroke: Columns = {}
-        for j, name in enumerate(PARAMETER_NAMES):
-            column = self.physical[:, j]
-            # N is an integer parameter; strokes_to_dicts reports it as int, and so do we.
-            stroke[name] = column.astype(int) if name in _HARMONIC else column.copy()
-        columns["stroke"] = stroke
-        return columns
-
-
 class FlightCore:
     """The batched core of a one-cycle task: draw conditions, observe them, score strokes.
 
@@ -257,125 +189,6 @@ class FlightCore:
             self.declaration.score(result, self.config),
             self.config.penalty,
         )
-
-
-# --- columns -> per-env dicts / Gymnasium vector infos -------------------------------------------
-def row(columns: Columns, index: int) -> dict[str, Any]:
-    """One env's info dict: plain Python floats, bools and ints (nested dicts stay dicts)."""
-    return {
-        key: row(value, index) if isinstance(value, dict) else value[index].item()
-        for key, value in columns.items()
-    }
-
-
-def take_columns(columns: Columns, index: np.ndarray) -> Columns:
-    """The rows ``index`` of info columns (nested dicts too)."""
-    return {
-        key: take_columns(value, index) if isinstance(value, dict) else value[index]
-        for key, value in columns.items()
-    }
-
-
-def rows(columns: Columns, count: int) -> list[dict[str, Any]]:
-    """All ``count`` info dicts at once (``tolist`` per column, not per value)."""
-    keys = list(columns)
-    lists = [
-        rows(columns[key], count) if isinstance(columns[key], dict) else columns[key].tolist()
-        for key in keys
-    ]
-    if not keys:
-        return [{} for _ in range(count)]
-    return [dict(zip(keys, values, strict=True)) for values in zip(*lists, strict=True)]
-
-
-def add_columns(
-    infos: dict[str, Any], columns: Columns, index: np.ndarray, num_envs: int
-) -> dict[str, Any]:
-    """Scatter columns for envs ``index`` into Gymnasium's vector info dict, with ``_key`` masks.
-
-    Reproduces ``VectorEnv._add_info`` applied env by env (same keys, dtypes and masks), so
-    the native vector env's infos equal SyncVectorEnv's.
-    """
-    for key, values in columns.items():
-        if isinstance(values, dict):
-            array = add_columns(infos.get(key, {}), values, index, num_envs)
-        else:
-            array = infos.get(key)
-            if array is None:
-                array = np.zeros(num_envs, dtype=values.dtype)
-            array[index] = values
-        mask = infos.get(f"_{key}")
-        if mask is None:
-            mask = np.zeros(num_envs, dtype=np.bool_)
-        mask[index] = True
-        infos[key], infos[f"_{key}"] = array, mask
-    return infos
-
-
-# --- rendering -------------------------------------------------------------------------------------
-@dataclass
-class LastStep:
-    """What the picture of a sub-env shows: its last evaluated step, or None."""
-
-    batch: Any
-    index: int
-
-
-def frame_for(core: FlightCore, title: str, condition: float | None, last: LastStep | None) -> Any:
-    """The render frame of one one-cycle env (imports matplotlib lazily)."""
-    from .render import Frame, history_of, metrics_line
-
-    cfg = core.config
-    if last is not None:
-        # The condition the stroke was evaluated in (a same-step autoreset may have moved on).
-        speed = float(last.batch.result.speed[last.index])
-        power = float(last.batch.result.available_power[last.index])
-    elif condition is not None:
-        speed, power = (float(v[0]) for v in core.flight_conditions(np.array([condition])))
-    else:
-        return Frame(title=f"{title}  {cfg.describe()}", subtitle="not reset yet", history=None)
-    heading = f"{title}  V = {speed:.3g} m/s, P_avail = {power:.3g} W/kg"
-    if last is None:
-        return Frame(title=heading, subtitle="no stroke evaluated since reset", history=None)
-    info = row(
-        {k: v for k, v in last.batch.info_columns().items() if not isinstance(v, dict)}, last.index
-    )
-    keyword = cfg.OBJECTIVES.keyword if cfg.OBJECTIVES is not None else None
-    label = "η" if keyword is None else f"F̄ ({getattr(cfg, keyword)})"
-    return Frame(
-        title=heading,
-        subtitle=metrics_line(float(last.batch.reward[last.index]), info, label),
-        history=history_of(last.batch.physical[last.index], speed, power, cfg.insect, cfg.options),
-    )
-
-
-class RenderWindow:
-    """The human-mode window of an env (single or vector): opened at its first render, closed by
-    ``close``, never pickled (a pyplot window cannot be; a copy opens its own at its next render).
-    Matplotlib is imported only when something is rendered."""
-
-    _window: Any = None
-
-    def _show(self, frame: Any) -> np.ndarray | None:
-        """``frame`` as an RGB array (``render_mode="rgb_array"``) or in the window (``"human"``)."""
-        from .render import HumanWindow, to_rgb_array
-
-        if self.render_mode == "rgb_array":  # type: ignore[attr-defined]
-            return to_rgb_array(frame)
-        if self._window is None:
-            self._window = HumanWindow(self.metadata["render_fps"])  # type: ignore[attr-defined]
-        self._window.show(frame)
-        return None
-
-    def _close_window(self) -> None:
-        if self._window is not None:
-            self._window.close()
-            self._window = None
-
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        state["_window"] = None
-        return state
 
 
 def build_config(
@@ -481,6 +294,11 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         """(n, ...) current observation of each sub-env (a copy)."""
         return self._observations.copy()
 
+    @property
+    def started(self) -> np.ndarray:
+        """(n,) bool, whether each sub-env has been reset at least once (a copy)."""
+        return self._started.copy()
+
     # --- primitives shared with the single env and the SB3 adapter --------------------------------
     def start(self, index: np.ndarray, rng: EnvGenerators, options: EnvOptions) -> Columns:
         """Start new episodes in sub-envs ``index`` drawing from ``rng(k)`` (the generator of
@@ -515,10 +333,12 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         call; (batch, observations after it). The SB3 adapter steps through it."""
         index = np.asarray(index, dtype=np.intp)
         arr = check_actions(actions, (index.size, N_PARAMETERS), self.config.clip_actions)
-        return self._step(index, arr)
+        return self.step_checked(index, arr)
 
-    def _step(self, index: np.ndarray, actions: np.ndarray) -> tuple[Any, np.ndarray]:
-        """Step sub-envs ``index`` with validated normalised actions."""
+    def step_checked(self, index: np.ndarray, actions: np.ndarray) -> tuple[Any, np.ndarray]:
+        """Step sub-envs ``index`` with normalised actions (len(index), 28) their caller has
+        already validated (``validate.check_actions`` or ``action_values``: the single env
+        checks its one action in its own shape); (batch, observations after it)."""
         if not self._started[index].all():
             raise ResetNeeded("call reset() before step()")
         if self._ended[index].any():
@@ -551,8 +371,8 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         values = self._values[index]
         return self.core.step(physical, values), self._observations[index]
 
-    def _frame(self, i: int, title: str) -> Any:
-        """The render frame of sub-env ``i``."""
+    def frame(self, i: int, title: str) -> Frame:
+        """The render frame of sub-env ``i`` under ``title`` (drawn by ``render``)."""
         value = None if not self._started[i] else float(self._values[i])
         return frame_for(self.core, title, value, self._last[i])
 
@@ -604,7 +424,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         infos: dict[str, Any] = {}
 
         def fly_envs(index: np.ndarray) -> tuple[Any, np.ndarray]:
-            batch, final = self._step(index, action_values(actions[index], clip))
+            batch, final = self.step_checked(index, action_values(actions[index], clip))
             rewards[index] = batch.reward
             terminations[index] = batch.terminated
             truncations[index] = batch.truncated
@@ -659,9 +479,9 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         title = self.spec.id if self.spec is not None else type(self).__name__
         if self.render_mode == "rgb_array":
             return tuple(
-                self._show(self._frame(i, f"{title} [env {i}]")) for i in range(self.num_envs)
+                self._show(self.frame(i, f"{title} [env {i}]")) for i in range(self.num_envs)
             )  # type: ignore[return-value]
-        self._show(self._frame(0, f"{title} [env 0]"))
+        self._show(self.frame(0, f"{title} [env 0]"))
         return None
 
     def close_extras(self, **kwargs: Any) -> None:
@@ -686,6 +506,10 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
     config_class: ClassVar[type[FlightConfig]] = FlightConfig
     title: ClassVar[str] = "Flight"
     """Name in render titles when the env was not made by ``gym.make`` (no spec)."""
+    vector_env: FlightVectorEnv
+    """The vector env this env steps: its ``vector_class`` with ``num_envs=1``, autoreset
+    disabled (driven through its public ``start``, ``step_checked``, ``observations``,
+    ``started``, ``conditions`` and ``frame``)."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -695,30 +519,32 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
         self, render_mode: str | None = None, *, config: FlightConfig | None = None, **kwargs: Any
     ) -> None:
         self.render_mode = check_render_mode(render_mode)
-        self.batch = self.vector_class(1, None, AutoresetMode.DISABLED, config=config, **kwargs)
-        self.config = self.batch.config
-        self.core = self.batch.core
+        self.vector_env = self.vector_class(
+            1, None, AutoresetMode.DISABLED, config=config, **kwargs
+        )
+        self.config = self.vector_env.config
+        self.core = self.vector_env.core
         self.action_space = action_space()
-        self.observation_space = self.batch.single_observation_space
+        self.observation_space = self.vector_env.single_observation_space
         self._window: Any = None
 
     @property
     def condition(self) -> float | None:
         """The current episode's condition (its declared unit), or None before the first reset."""
-        return float(self.batch.conditions[0]) if self.batch._started[0] else None
+        return float(self.vector_env.conditions[0]) if self.vector_env.started[0] else None
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
-        columns = self.batch.start(_FIRST, lambda _: self.np_random, [options])
+        columns = self.vector_env.start(_FIRST, lambda _: self.np_random, [options])
         if self.render_mode == "human":
             self.render()
-        return self.batch._observations[0].copy(), row(columns, 0)
+        return self.vector_env.observations[0], row(columns, 0)
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         arr = check_actions(action, (N_PARAMETERS,), self.config.clip_actions)
-        batch, observations = self.batch._step(_FIRST, arr[None, :])
+        batch, observations = self.vector_env.step_checked(_FIRST, arr[None, :])
         if self.render_mode == "human":
             self.render()
         return (
@@ -737,7 +563,7 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
             )
             return None
         title = self.spec.id if self.spec is not None else self.title
-        return self._show(self.batch._frame(0, title))
+        return self._show(self.vector_env.frame(0, title))
 
     def close(self) -> None:
         self._close_window()

@@ -2,22 +2,25 @@
 
 ``rgb_array`` frames are drawn on a private Agg canvas (no pyplot, so no global backend switch
 and no interference with the user's figures); ``human`` mode shows the same drawing in a pyplot
-window that is updated in place. Matplotlib is imported only when something is rendered.
+window that is updated in place. The envs' side of it is here too: what a sub-env shows
+(:class:`LastStep`, :func:`frame_for`) and the window an env owns (:class:`RenderWindow`).
+Matplotlib is imported only when something is rendered, so importing the envs does not.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
 from ..physics import Dragonfly, ModelOptions, stroke_history
+from .columns import row
+from .config import FlightConfig
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
     from ..physics import StrokeHistory
 
@@ -129,6 +132,9 @@ def draw(figure: Figure, frame: Frame) -> tuple[Axes, list[Axes]]:
 
 def to_rgb_array(frame: Frame) -> np.ndarray:
     """The frame as an (H, W, 3) uint8 image, drawn off-screen with Agg."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
     width, height = FRAME_SIZE
     figure = Figure(figsize=(width / FRAME_DPI, height / FRAME_DPI), dpi=FRAME_DPI)
     canvas = FigureCanvasAgg(figure)
@@ -190,3 +196,75 @@ def metrics_line(reward: float, info: dict[str, Any], objective_label: str) -> s
         else f"infeasible (violation {info['constraint_violation']:.3g})",
     ]
     return " | ".join(parts)
+
+
+# --- the envs' side: what a sub-env shows, and the window an env owns ---------------------------
+@dataclass
+class LastStep:
+    """What the picture of a sub-env shows: its last evaluated step, or None."""
+
+    batch: Any
+    index: int
+
+
+class OneCycleCore(Protocol):
+    """What :func:`frame_for` reads of a one-cycle task's core (``base.FlightCore``)."""
+
+    config: FlightConfig
+
+    def flight_conditions(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+def frame_for(
+    core: OneCycleCore, title: str, condition: float | None, last: LastStep | None
+) -> Frame:
+    """The render frame of one one-cycle env."""
+    cfg = core.config
+    if last is not None:
+        # The condition the stroke was evaluated in (a same-step autoreset may have moved on).
+        speed = float(last.batch.result.speed[last.index])
+        power = float(last.batch.result.available_power[last.index])
+    elif condition is not None:
+        speed, power = (float(v[0]) for v in core.flight_conditions(np.array([condition])))
+    else:
+        return Frame(title=f"{title}  {cfg.describe()}", subtitle="not reset yet", history=None)
+    heading = f"{title}  V = {speed:.3g} m/s, P_avail = {power:.3g} W/kg"
+    if last is None:
+        return Frame(title=heading, subtitle="no stroke evaluated since reset", history=None)
+    info = row(
+        {k: v for k, v in last.batch.info_columns().items() if not isinstance(v, dict)}, last.index
+    )
+    keyword = cfg.OBJECTIVES.keyword if cfg.OBJECTIVES is not None else None
+    label = "η" if keyword is None else f"F̄ ({getattr(cfg, keyword)})"
+    return Frame(
+        title=heading,
+        subtitle=metrics_line(float(last.batch.reward[last.index]), info, label),
+        history=history_of(last.batch.physical[last.index], speed, power, cfg.insect, cfg.options),
+    )
+
+
+class RenderWindow:
+    """The human-mode window of an env (single or vector): opened at its first render, closed by
+    ``close``, never pickled (a pyplot window cannot be; a copy opens its own at its next render).
+    Matplotlib is imported only when something is rendered."""
+
+    _window: Any = None
+
+    def _show(self, frame: Frame) -> np.ndarray | None:
+        """``frame`` as an RGB array (``render_mode="rgb_array"``) or in the window (``"human"``)."""
+        if self.render_mode == "rgb_array":  # type: ignore[attr-defined]
+            return to_rgb_array(frame)
+        if self._window is None:
+            self._window = HumanWindow(self.metadata["render_fps"])  # type: ignore[attr-defined]
+        self._window.show(frame)
+        return None
+
+    def _close_window(self) -> None:
+        if self._window is not None:
+            self._window.close()
+            self._window = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_window"] = None
+        return state

@@ -28,7 +28,8 @@ import numpy as np
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
 
-from .base import FlightVectorEnv, rows
+from .base import FlightVectorEnv
+from .columns import rows
 from .registration import check_env_id
 
 

@@ -1,303 +1,31 @@
 """``TandemWing/SpeedChange-v0``: change speed and hold altitude over many wing-beats.
 
-The task in one place: its declaration (:data:`SPEED_CHANGE`: the power cap of level flight),
-its config and reward weights, its batched core (episode states, observations, one cycle for B
-envs: ONE :func:`tandem_env.evaluate` call, each stroke at its own speed and flight-path angle,
-then each body advanced by :mod:`tandem_env.envs.dynamics`), the vector env and the single env
-(the vector env at B = 1, :mod:`tandem_env.envs.base`). One step is one wing-beat cycle chosen
+The task's batched core (episode states, observations, one cycle for B envs: ONE
+:func:`tandem_env.evaluate` call, each stroke at its own speed and flight-path angle, then each
+body advanced by :mod:`tandem_env.envs.dynamics`), its vector env and its single env (the
+vector env at B = 1, :mod:`tandem_env.envs.base`), over its declaration (:data:`SPEED_CHANGE`:
+the power cap of level flight), config and reward weights in
+:mod:`~tandem_env.envs.speed_change_config`. One step is one wing-beat cycle chosen
 from the current state; the episode lasts up to ``max_cycles`` cycles.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields
-from typing import Any, ClassVar
+from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
-from ..physics import SPEED_LIMITS, ModelOptions, stroke_history
-from ..physics.checks import shown
-from .base import (
-    Columns,
-    EnvGenerators,
-    EnvOptions,
-    FlightEnv,
-    FlightVectorEnv,
-    LastStep,
-    StepBatch,
-    fly,
-    row,
-)
-from .config import FlightConfig
-from .declaration import POWER_CAP, TaskDeclaration
+from ..physics import SPEED_LIMITS, stroke_history
+from .base import EnvGenerators, EnvOptions, FlightEnv, FlightVectorEnv, fly
+from .columns import Columns, row
 from .dynamics import advance, cycle_time, flight_path, net_force
-from .level_flight import LEVEL_FLIGHT
-from .validate import check_count, check_interval, check_real, option_value, reset_options
-
-#: Speeds the episode's start and target are drawn from by default [m/s]: the level-flight
-#: envelope (``LEVEL_FLIGHT.condition.envelope``), where a steady level stroke exists.
-LEVEL_FLIGHT_ENVELOPE: tuple[float, float] = LEVEL_FLIGHT.condition.envelope  # type: ignore[union-attr]
-#: Most cycles an episode may last [-] (about 4.5 h of flight at 30 Hz): the cycle counters
-#: are int64 and the observation divides by it.
-MAX_CYCLES = 500_000
-
-#: Fastest forward (and vertical) speed a SpeedChange episode may reach [m/s]: the top of the
-#: default ``forward_speed_band``. One step holds the wings' cycle-mean force, evaluated at the
-#: cycle's start, over the whole cycle (a zero-order hold, explicit in the velocity). The force
-#: grows with V, and above this speed that step is no longer resolved: at 4 m/s some strokes
-#: already reverse the flight in one cycle, and at 19.9 m/s most do (19.9 -> -29 m/s). So the
-#: config refuses a band beyond it rather than report such steps as ordinary ones.
-MAX_BAND_SPEED: float = 3.0
-
-SPEED_CHANGE = TaskDeclaration(
-    name="SpeedChange",
-    summary="Multi-cycle flight: reach a target speed and hold altitude, one stroke per wing-beat.",
-    # No single condition: two speeds (start and target) share one envelope (speed_envelope),
-    # a range defaults to the whole envelope, and the harness does not run multi-cycle episodes.
-    constraints=(POWER_CAP,),
-)
-
-
-@dataclass(frozen=True)
-class SpeedChangeReward:
-    """Weights of the reward's terms, each with the unit given.
-
-    Per cycle k of duration Δt_k [s], with u, h the state before and u', h' after the cycle and
-    u* the target speed::
-
-        reward_progress    = progress    · (|u − u*| − |u' − u*|)     speed error removed [m/s]
-        reward_speed       = −speed      · |u' − u*| · Δt              speed error × time [m]
-        reward_altitude    = −altitude   · |h'| · Δt                   altitude error × time [m·s]
-        reward_energy      = −energy     · P · Δt                      energy spent [J]
-        reward_termination = −termination · (cycles not flown)         only when terminated
-
-    Progress credits each stroke at once with the speed it gained towards u* (and charges
-    overshoot); over an episode it sums to the initial minus the final speed error. The speed,
-    altitude and energy terms are time integrals, so reaching u* sooner, holding altitude and
-    flying efficiently all pay. A weight of 0 switches a term off.
-    """
-
-    progress: float = 1.0
-    """Per m/s of speed error removed [1/(m/s)]."""
-    speed: float = 1.0
-    """Per metre of speed error × time [1/m] (1 (m/s)·s of error costs 1)."""
-    altitude: float = 2.0
-    """Per metre-second of altitude error [1/(m·s)]."""
-    energy: float = 50.0
-    """Per joule spent by the wings [1/J]: level flight at 40 W/kg for 1.3 s costs about 0.3."""
-    termination: float = 0.2
-    """Per cycle not flown when the episode terminates early [reward units per cycle]. With the
-    default weights the speed, altitude and energy terms of a cycle inside the default bands
-    cost at most (2.75 m/s · 1 + 0.5 m · 2 + 90 W/kg · 121.9 mg · 50)/30 Hz ≈ 0.14 (power within
-    the cap; :meth:`SpeedChangeConfig.max_cycle_cost`), so leaving the bands early does not
-    pay (progress sums to at most the speed error over any stretch of flight)."""
-
-    TERMS: ClassVar[tuple[str, ...]] = ("progress", "speed", "altitude", "energy", "termination")
-    UNITS: ClassVar[dict[str, str]] = {
-        "progress": "1/(m/s)",
-        "speed": "1/m",
-        "altitude": "1/(m·s)",
-        "energy": "1/J",
-        "termination": "per cycle not flown",
-    }
-
-    def __post_init__(self) -> None:
-        for name in self.TERMS:
-            value = check_real(
-                "SpeedChangeReward", name, getattr(self, name), f"[{self.UNITS[name]}]", 0.0, 1e9
-            )
-            object.__setattr__(self, name, value)
-
-    @classmethod
-    def build(cls, value: Any) -> SpeedChangeReward:
-        """A reward from a ``SpeedChangeReward``, a mapping of some terms to weights, or None."""
-        if value is None:
-            return cls()
-        if isinstance(value, cls):
-            return value
-        if isinstance(value, Mapping):
-            unknown = sorted(set(value) - set(cls.TERMS))
-            if unknown:
-                raise ValueError(
-                    f"SpeedChange: unknown reward term(s) {', '.join(map(repr, unknown))}; "
-                    f"allowed: {', '.join(cls.TERMS)} (weights >= 0)"
-                )
-            return cls(**value)
-        raise ValueError(
-            f"SpeedChange: reward = {value!r}; allowed: a SpeedChangeReward or a dict of weights "
-            f"for the terms {', '.join(cls.TERMS)}"
-        )
-
-
-def _inside(
-    owner: str, name: str, value: float, envelope_name: str, envelope: tuple[float, float]
-) -> None:
-    if not envelope[0] <= value <= envelope[1]:
-        raise ValueError(
-            f"{owner}.{name} = {shown(value, *envelope)} m/s; allowed: a speed inside "
-            f"{owner}.{envelope_name} = "
-            f"({envelope[0]:g}, {envelope[1]:g}) m/s (for other speeds widen {envelope_name})"
-        )
-
-
-def _speed_option(owner: str, config: Any, name: str, envelope: tuple[float, float]) -> None:
-    """A fixed ``{name}`` or a sampled ``{name}_range`` inside the envelope (default: all of it)."""
-    fixed, sampled = getattr(config, name), getattr(config, f"{name}_range")
-    if fixed is not None and sampled is not None:
-        raise ValueError(
-            f"{owner}: {name} = {fixed!r} and {name}_range = {sampled!r} are both given; "
-            f"allowed: a fixed {name} or a sampled {name}_range, not both"
-        )
-    if fixed is not None:
-        value = check_real(owner, name, fixed, "m/s", *SPEED_LIMITS)
-        _inside(owner, name, value, "speed_envelope", envelope)
-        object.__setattr__(config, name, value)
-        return
-    given = envelope if sampled is None else sampled
-    low, high = check_interval(owner, f"{name}_range", given, "m/s", SPEED_LIMITS)
-    _inside(owner, f"{name}_range low", low, "speed_envelope", envelope)
-    _inside(owner, f"{name}_range high", high, "speed_envelope", envelope)
-    object.__setattr__(config, f"{name}_range", (low, high))
-
-
-def _body_split_options() -> ModelOptions:
-    return ModelOptions(thrust_split="body")
-
-
-@dataclass(frozen=True, kw_only=True)
-class SpeedChangeConfig(FlightConfig):
-    """Change speed and hold altitude over many wing-beats (see ``SpeedChangeEnv``).
-
-    Start speed u₀ and target speed u* are each fixed (``start_speed``, ``target_speed``) or
-    drawn uniformly at every reset from ``start_speed_range`` / ``target_speed_range``, which
-    default to the whole ``speed_envelope`` (the level-flight envelope, 0.25-2.0 m/s).
-    """
-
-    options: ModelOptions = field(default_factory=_body_split_options)
-    """Model options; default ``thrust_split="body"``, so that the reported T − D and L − W
-    are exactly the net forces of the dynamics (wings + body drag + weight)."""
-    start_speed: float | None = None
-    """Fixed forward speed at reset u₀ [m/s] (else drawn from ``start_speed_range``)."""
-    start_speed_range: tuple[float, float] | None = None
-    """(low, high) [m/s] u₀ is drawn from; default ``speed_envelope``."""
-    target_speed: float | None = None
-    """Fixed target forward speed u* [m/s] (else drawn from ``target_speed_range``)."""
-    target_speed_range: tuple[float, float] | None = None
-    """(low, high) [m/s] u* is drawn from; default ``speed_envelope``."""
-    speed_envelope: tuple[float, float] = LEVEL_FLIGHT_ENVELOPE
-    """(low, high) [m/s]: start and target speeds must lie inside; the target's observation is
-    normalised over it. Default the level-flight envelope, 0.25-2.0 m/s."""
-    max_cycles: int = 48
-    """Wing-beat cycles per episode before truncation [-]: 48 cycles of 22-33 ms (30-45 Hz)
-    are 1.1-1.6 s of flight."""
-    altitude_band: float = 0.5
-    """|h| [m] beyond which the episode terminates (h: altitude relative to the start)."""
-    forward_speed_band: tuple[float, float] = (0.0, MAX_BAND_SPEED)
-    """(low, high) [m/s]: a forward speed u outside terminates the episode; the observation of u
-    is normalised over it. The low end may not be below 0: the model covers forward flight only
-    (|γ| ≤ 90°); the high end not above :data:`MAX_BAND_SPEED` (3 m/s), where one cycle's step
-    stops being resolved."""
-    vertical_speed_scale: float = 2.0
-    """|w| [m/s] mapped to ±1 in the observation (clipped beyond; w is not bounded)."""
-    reward: SpeedChangeReward = field(default_factory=SpeedChangeReward)
-    """Weights of the reward's terms (``gym.make`` accepts a dict of some of them)."""
-
-    DECLARATION: ClassVar[TaskDeclaration] = SPEED_CHANGE
-    # The condition the training tools vary per evaluation env: the target speed.
-    condition_key: ClassVar[str] = "target_speed"
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        owner = type(self).__name__
-        envelope = check_interval(owner, "speed_envelope", self.speed_envelope, "m/s", SPEED_LIMITS)
-        object.__setattr__(self, "speed_envelope", envelope)
-        _speed_option(owner, self, "start_speed", envelope)
-        _speed_option(owner, self, "target_speed", envelope)
-        cycles = check_count(
-            owner, "max_cycles", self.max_cycles, 1, MAX_CYCLES, "wing-beat cycles per episode"
-        )
-        object.__setattr__(self, "max_cycles", cycles)
-        object.__setattr__(
-            self,
-            "altitude_band",
-            check_real(owner, "altitude_band", self.altitude_band, "m", 1e-6, 1e3),
-        )
-        band = check_interval(
-            owner, "forward_speed_band", self.forward_speed_band, "m/s", SPEED_LIMITS
-        )
-        if band[1] > MAX_BAND_SPEED:
-            raise ValueError(
-                f"{owner}.forward_speed_band = {self.forward_speed_band!r} m/s; allowed: a band "
-                f"within 0 to {MAX_BAND_SPEED:g} m/s (MAX_BAND_SPEED: beyond it one wing-beat's "
-                "step, the cycle-mean force held over the cycle, is not resolved and can reverse "
-                "the flight)"
-            )
-        _inside(owner, "speed_envelope low", envelope[0], "forward_speed_band", band)
-        _inside(owner, "speed_envelope high", envelope[1], "forward_speed_band", band)
-        object.__setattr__(self, "forward_speed_band", band)
-        object.__setattr__(
-            self,
-            "vertical_speed_scale",
-            check_real(owner, "vertical_speed_scale", self.vertical_speed_scale, "m/s", 1e-6, 1e3),
-        )
-        object.__setattr__(self, "reward", SpeedChangeReward.build(self.reward))
-
-    @classmethod
-    def from_kwargs(cls, **kwargs: Any) -> FlightConfig:
-        """As :meth:`FlightConfig.from_kwargs`, with ``thrust_split="body"`` unless given."""
-        if "options" not in kwargs:
-            kwargs["options"] = _body_split_options()
-        return super().from_kwargs(**kwargs)
-
-    # --- the condition the training tools vary: the target speed -----------------------------
-    @property
-    def envelope(self) -> tuple[float, float]:
-        return self.speed_envelope
-
-    @property
-    def condition_range(self) -> tuple[float, float] | None:
-        return self.target_speed_range
-
-    @property
-    def fixed_condition(self) -> float | None:
-        return self.target_speed
-
-    @property
-    def available_power(self) -> float:
-        """The power cap [W/kg]: the insect's maximum (90 W/kg), as in level flight."""
-        return self.insect.max_power_per_mass
-
-    def max_cycle_cost(self) -> float:
-        """Largest speed, altitude and energy cost of one cycle flown inside the bands with power
-        within the cap [reward units].
-
-        The slowest cycle lasts 1/30 Hz (Table 4's lowest frequency); the speed error is at most
-        the forward band's width past the envelope, the altitude error the band. The
-        termination weight should exceed this, so that ending an episode early never pays.
-        """
-        from ..physics import LOWER, PARAMETER_NAMES
-
-        slowest = 1.0 / LOWER[PARAMETER_NAMES.index("fore_frequency")]
-        band = self.forward_speed_band
-        env = self.speed_envelope
-        speed_error = max(band[1] - env[0], env[1] - band[0])
-        power = self.available_power * self.insect.body_mass
-        w = self.reward
-        return slowest * (
-            w.speed * speed_error + w.altitude * self.altitude_band + w.energy * power
-        )
-
-    def describe(self) -> str:
-        def part(name: str) -> str:
-            fixed, sampled = getattr(self, name), getattr(self, f"{name}_range")
-            if fixed is not None:
-                return f"{fixed:g} m/s"
-            return f"U({sampled[0]:g}, {sampled[1]:g}) m/s"
-
-        return f"u0 = {part('start_speed')} -> u* = {part('target_speed')}"
-
+from .render import HISTORY_SAMPLES, Frame, LastStep
+from .speed_change_config import MAX_BAND_SPEED, SPEED_CHANGE, SpeedChangeConfig
+from .step_batch import StepBatch
+from .validate import option_value, reset_options
 
 #: What each observation entry is, in order (each mapped to [-1, 1], see ``observe``).
 OBSERVATION_NAMES: tuple[str, ...] = (
@@ -367,7 +95,7 @@ class CycleBatch:
     energy: np.ndarray
     terms: dict[str, np.ndarray]
     """``reward_progress``, ``reward_speed``, ``reward_altitude``, ``reward_energy``,
-    ``reward_termination`` (:class:`~tandem_env.envs.speed_change.SpeedChangeReward`)."""
+    ``reward_termination`` (:class:`~tandem_env.envs.speed_change_config.SpeedChangeReward`)."""
     left_altitude_band: np.ndarray
     left_speed_band: np.ndarray
     terminated: np.ndarray
@@ -560,10 +288,8 @@ class SpeedChangeCore:
 
 def frame_for(
     core: SpeedChangeCore, title: str, flight: Flight | None, index: int, last: LastStep | None
-) -> Any:
-    """The render frame of episode ``index`` of ``flight`` (imports matplotlib lazily)."""
-    from .render import HISTORY_SAMPLES, Frame
-
+) -> Frame:
+    """The render frame of episode ``index`` of ``flight``."""
     cfg = core.config
     if flight is None:
         return Frame(title=f"{title}  {cfg.describe()}", subtitle="not reset yet", history=None)
@@ -636,7 +362,7 @@ class SpeedChangeVectorEnv(FlightVectorEnv):
         self._observations[index] = observations
         return batch, observations
 
-    def _frame(self, i: int, title: str) -> Any:
+    def frame(self, i: int, title: str) -> Frame:
         flight = self._flight if self._started[i] else None
         return frame_for(self.core, title, flight, i, self._last[i])
 
@@ -676,7 +402,7 @@ class SpeedChangeEnv(FlightEnv):
     ## Rewards
 
     ``reward = objective − penalty``, ``objective`` the sum of the weighted terms
-    (:class:`~tandem_env.envs.speed_change.SpeedChangeReward`; u, h before and u', h'
+    (:class:`~tandem_env.envs.speed_change_config.SpeedChangeReward`; u, h before and u', h'
     after the cycle): progress w_progress·(|u − u*| − |u' − u*|) [1/(m/s)], speed error
     −w_speed·|u' − u*|·Δt [1/m], altitude error −w_altitude·|h'|·Δt [1/(m·s)], energy
     −w_energy·P·Δt [1/J], and −w_termination·(cycles not flown) on termination; ``penalty`` the
@@ -704,7 +430,7 @@ class SpeedChangeEnv(FlightEnv):
     ## Arguments
 
     ``gym.make("TandemWing/SpeedChange-v0", **kwargs)``, see
-    :class:`~tandem_env.envs.speed_change.SpeedChangeConfig`: ``start_speed``,
+    :class:`~tandem_env.envs.speed_change_config.SpeedChangeConfig`: ``start_speed``,
     ``start_speed_range``, ``target_speed``, ``target_speed_range``, ``speed_envelope``,
     ``max_cycles``, ``altitude_band``, ``forward_speed_band``, ``vertical_speed_scale``,
     ``reward`` (a dict of weights), and every model, penalty and action option of the other envs
@@ -716,10 +442,11 @@ class SpeedChangeEnv(FlightEnv):
     """
 
     vector_class = SpeedChangeVectorEnv
+    vector_env: SpeedChangeVectorEnv
     config: SpeedChangeConfig
     title = "SpeedChange"
 
     @property
     def flight(self) -> Flight | None:
         """The current episode's state (B = 1 arrays), or None before the first reset."""
-        return self.batch.flight if self.batch._started[0] else None
+        return self.vector_env.flight if self.vector_env.started[0] else None

@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+import ast
 import pickle
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.error import ResetNeeded
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
-from tandem_env.envs import AccelerateVectorEnv, LevelFlightVectorEnv
+from tandem_env.envs import AccelerateVectorEnv, LevelFlightEnv, LevelFlightVectorEnv
 from tandem_env.envs import base as task_module
 
 LEVEL = "TandemWing/LevelFlight-v0"
@@ -129,6 +132,41 @@ def test_per_env_generators_match_sync_vector_env() -> None:
     assert native.np_random_seed == sync.np_random_seed == (4, 5, 6)
     states = [g.bit_generator.state for g in native.np_random]
     assert states == [g.bit_generator.state for g in sync.np_random]
+
+
+def test_started_and_step_checked_are_the_sub_envs_own() -> None:
+    """The public primitives the single env drives: ``started`` marks the sub-envs reset so
+    far, ``step_checked`` steps only those and refuses the others as ``step`` does."""
+    envs = LevelFlightVectorEnv(3, autoreset_mode=AutoresetMode.DISABLED, speed=1.0)
+    np.testing.assert_array_equal(envs.started, [False, False, False])
+    mask = np.array([True, False, True])
+    envs.reset(seed=0, options={"reset_mask": mask})
+    np.testing.assert_array_equal(envs.started, mask)
+    envs.started[:] = True  # a copy: the env's own state is not handed out
+    np.testing.assert_array_equal(envs.started, mask)
+    actions = actions_for(2, 0).astype(np.float64)
+    batch, observations = envs.step_checked(np.array([0, 2]), actions)
+    assert len(batch) == 2 and observations.shape == (2, 1)
+    with pytest.raises(ResetNeeded, match="reset"):
+        envs.step_checked(np.array([1]), actions[:1])
+
+
+def test_the_single_env_drives_only_public_members_of_its_vector_env() -> None:
+    """No module of the envs (the single env above all) reaches into ``vector_env._...``."""
+    env_dir = Path(task_module.__file__).parent
+    reached = []
+    for path in sorted(env_dir.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if (
+                isinstance(node, ast.Attribute)
+                and node.attr.startswith("_")
+                and isinstance(node.value, ast.Attribute)
+                and node.value.attr == "vector_env"
+            ):
+                reached.append(f"{path.name}:{node.lineno} vector_env.{node.attr}")
+    assert reached == []
+    env = LevelFlightEnv(speed=1.0)
+    assert isinstance(env.vector_env, LevelFlightVectorEnv) and not hasattr(env, "batch")
 
 
 def test_stepping_n_envs_is_one_batched_model_call(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -11,7 +11,8 @@ import pytest
 import tandem_env as te
 from tandem_env.envs import SPEED_CHANGE_ID, SpeedChangeEnv
 from tandem_env.envs.dynamics import advance, body_drag, cycle_time, flight_path, net_force
-from tandem_env.envs.speed_change import Flight, SpeedChangeConfig, SpeedChangeCore
+from tandem_env.envs.speed_change import Flight, SpeedChangeCore
+from tandem_env.envs.speed_change_config import SpeedChangeConfig
 from tandem_env.physics.stroke import N_PER_WING, TABLE_4
 
 BETA = [
@@ -218,7 +219,7 @@ def test_body_drag_opposes_the_velocity() -> None:
 
 def test_an_envelope_where_one_step_is_not_resolved_is_refused() -> None:
     """A widened band let one step reverse the flight (19.9 -> -29 m/s); it is refused."""
-    from tandem_env.envs.speed_change import MAX_BAND_SPEED
+    from tandem_env.envs.speed_change_config import MAX_BAND_SPEED
 
     wide = {"speed_envelope": (0.25, 20.0), "forward_speed_band": (0.0, 20.0)}
     with pytest.raises(

@@ -18,8 +18,8 @@ from tandem_env.envs.registration import LEVEL_FLIGHT_ID
 from tandem_env.envs.sb3 import make_sb3_vec_env
 from train.config import TrainConfig
 from train.layout import RunLayout
-from train.policies import TrainedPolicy
 from train.run import learn_in_memory, train
+from train.trained_policy import TrainedPolicy
 
 SPEED = 1.5
 REPO = Path(__file__).resolve().parents[2]

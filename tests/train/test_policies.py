@@ -13,8 +13,8 @@ from agents.records import Record
 from tandem_env.envs.registration import LEVEL_FLIGHT_ID
 from train.config import TrainConfig
 from train.envelope import evaluate_envelope
-from train.policies import TrainedPolicy, policy_stroke
 from train.run import train
+from train.trained_policy import TrainedPolicy, policy_stroke
 
 
 @pytest.fixture(scope="module")

@@ -312,7 +312,7 @@ class _Touch:
 def test_a_policy_is_loaded_without_unpickling_its_model_file(
     finished_run: Path, tmp_path: Path
 ) -> None:
-    from train.policies import TrainedPolicy
+    from train.trained_policy import TrainedPolicy
 
     layout = _copy(finished_run, tmp_path)
     marker = tmp_path / "executed"
