@@ -35,6 +35,18 @@ process is the one writer of the records (``python -m eval optimize``, the studi
 reading it again, one progress bar counts the evaluations of the finished jobs, a worker that
 dies has its jobs rerun by Dask, and a job that raises is reported with its key and traceback
 after the other jobs have finished (:class:`JobsFailed`).
+
+The record cache (``cache``, on by default; ``--no-cache`` on the command line) is a store
+shared by every output folder (:func:`agents.store.cache_directory`): a job with no record in
+``--out`` but one in the cache is not run, its record is copied into ``--out`` (and counted as
+reused, "from the cache"), and every record computed (or found in ``--out`` alone) is written to
+the cache too. An entry that is not a valid record of its job is ignored with a
+:class:`~agents.records.RecordWarning` and recomputed. A job whose method takes a path
+(``policy:RUN_DIR``) is never cached: its result depends on files its key does not hash.
+
+A command of several phases (the readings study) says its whole cost up front and at each
+phase's start through one :class:`CommandProgress` passed to each of its :func:`run_jobs`
+calls.
 """
 
 from __future__ import annotations
@@ -59,22 +71,27 @@ from typing import TYPE_CHECKING, Any
 from agents.harness import PreparedJob, prepare_job, run_job
 from agents.jobs import Job
 from agents.records import Record, RecordWarning
-from agents.store import RECORDS_DIR, RecordStore
-from tandem_env.io.progress_bar import ProgressBar, Reporter
+from agents.store import RECORDS_DIR, RecordStore, StoreWriteError, cache_directory
+from tandem_env.io.progress_bar import ProgressBar, QuietStream, Reporter
 
 if TYPE_CHECKING:
     from distributed import Client
 
 __all__ = [
+    "CacheOption",
+    "CommandProgress",
     "JobFailure",
     "JobsFailed",
+    "Phase",
     "RunSummary",
     "SchedulerUnreachable",
     "dask_client",
     "executor_spec",
+    "find_records",
     "have_records",
-    "load_records",
+    "job_records",
     "parse_scheduler",
+    "record_cache",
     "run_jobs",
 ]
 
@@ -197,7 +214,7 @@ class RunSummary:
     total: int
     """Distinct jobs asked for."""
     reused: int
-    """Jobs whose records already existed (resumed)."""
+    """Jobs whose records already existed (resumed), in ``--out`` or the record cache."""
     ran: int
     """Jobs run now (including failed ones)."""
     wall_time: float
@@ -209,6 +226,8 @@ class RunSummary:
     records: Mapping[str, Record] = field(default_factory=dict, repr=False, compare=False)
     """The record of every job that has one, by key: those reused (read once, to check them)
     and those run now (as saved, not read back)."""
+    cached: int = 0
+    """Of the reused jobs, those whose records came from the record cache."""
 
     def to_dict(self) -> dict[str, Any]:
         """The run as the manifests record it."""
@@ -216,9 +235,20 @@ class RunSummary:
             "jobs": self.total,
             "ran": self.ran,
             "reused": self.reused,
+            "cached": self.cached,
             "executor": self.executor,
             "wall_time_s": round(self.wall_time, 1),
         }
+
+    def describe(self, out_dir: str | os.PathLike[str]) -> str:
+        """``N run, M reused from OUT`` (with those reused from the cache), as the commands'
+        last lines say it."""
+        parts = [f"{self.ran} run"]
+        if self.reused > self.cached or not self.cached:
+            parts.append(f"{self.reused - self.cached} reused from {out_dir}")
+        if self.cached:
+            parts.append(f"{self.cached} reused from the cache")
+        return ", ".join(parts)
 
 
 class JobsFailed(RuntimeError):
@@ -478,6 +508,222 @@ class _Display:
         self.bar.close()
 
 
+@dataclass(frozen=True)
+class Phase:
+    """One phase of a command of several (:class:`CommandProgress`): its jobs as known now."""
+
+    name: str
+    jobs: tuple[Job, ...]
+    provisional: frozenset[str] = frozenset()
+    """Keys of jobs that stand in for ones an earlier phase's results decide (their budgets are
+    right, their keys not final: a continued job's start): counted as to run."""
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 1:
+        return "under 1 s"
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 90 * 60:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+class CommandProgress:
+    """The whole cost of a command of several phases, each a :func:`run_jobs` call: its jobs,
+    how many are stored in ``--out`` or the record cache and how many run, their model
+    evaluations and the time left, said on one line before any work (:meth:`announce`) and
+    again at each phase's start (:meth:`start`), on stderr (nothing when not ``enabled``).
+
+    The time left is the evaluations left at the rate this command has measured so far (the
+    jobs it ran, over the wall time they took, compilation included); before its first job
+    finishes it says "estimating". A phase whose jobs follow from an earlier one's results is
+    planned with stand-ins (:class:`Phase`) and re-planned (:meth:`plan`) when it starts;
+    ``later`` says what no plan can count yet (the readings study's combinations). ``detail``
+    follows the title on the first line (the preset and methods).
+    """
+
+    def __init__(
+        self,
+        title: str,
+        out_dir: str | os.PathLike[str],
+        *,
+        cache: CacheOption = True,
+        enabled: bool = True,
+        detail: str = "",
+    ) -> None:
+        self.title = title
+        self.name = title.partition(" (")[0]
+        """The title less its parenthesis, as the phase lines name the command."""
+        self.detail = detail
+        self.out_dir = out_dir
+        self._store = RecordStore(out_dir)
+        self._cache = record_cache(cache)
+        self.enabled = enabled
+        self._phases: dict[str, Phase] = {}
+        self._later = ""
+        self._done: set[str] = set()
+        self._evaluations = 0
+        self._seconds = 0.0
+        self.lines: list[str] = []
+        """Every line said, in order (what a test or a log reads)."""
+
+    def plan(self, phases: Iterable[Phase], later: str | None = None) -> None:
+        """Set these phases' jobs (a phase of the same name is replaced, a new one added after
+        the others); ``later`` replaces what is said of the work no phase counts yet."""
+        for phase in phases:
+            self._phases[phase.name] = phase
+        if later is not None:
+            self._later = later
+
+    def counts(self) -> dict[str, int]:
+        """The command's jobs (each key once) by state: ``done`` (run by this command),
+        ``stored`` (in ``--out``), ``cached`` (in the record cache), ``todo`` (to run; also
+        every stand-in), with ``evaluations`` (all jobs) and ``todo_evaluations``."""
+        jobs: dict[str, tuple[Job, bool]] = {}
+        for phase in self._phases.values():
+            for job in phase.jobs:
+                provisional = job.key in phase.provisional
+                if job.key not in jobs or not provisional:
+                    jobs[job.key] = (job, provisional)
+        counts = dict.fromkeys(("done", "stored", "cached", "todo"), 0)
+        counts |= {"evaluations": 0, "todo_evaluations": 0}
+        for key, (job, provisional) in jobs.items():
+            counts["evaluations"] += job.budget
+            if key in self._done:
+                state = "done"
+            elif provisional:
+                state = "todo"
+            elif self._store.path(key).exists():
+                state = "stored"
+            elif self._cache is not None and _cacheable(job) and self._cache.path(key).exists():
+                state = "cached"
+            else:
+                state = "todo"
+            counts[state] += 1
+            if state == "todo":
+                counts["todo_evaluations"] += job.budget
+        return counts
+
+    def time_left(self, evaluations: int) -> str:
+        """``evaluations`` at the rate measured so far, in words."""
+        if evaluations == 0:
+            return "none"
+        if self._evaluations == 0 or self._seconds <= 0:
+            return "estimating (from the speed of the first jobs to finish)"
+        rate = self._evaluations / self._seconds
+        return (
+            f"about {_duration(evaluations / rate)} (at the {rate:,.0f} evaluations/s "
+            "measured so far)"
+        )
+
+    def _jobs(self) -> dict[str, Job]:
+        return {job.key: job for phase in self._phases.values() for job in phase.jobs}
+
+    def _left(self, c: Mapping[str, int]) -> str:
+        text = f"{c['todo']} to run ({c['todo_evaluations']:,} evaluations)"
+        if self._later:
+            text += f"; then {self._later}"
+        return f"{text}; time left: {self.time_left(c['todo_evaluations'])}"
+
+    def _say(self, line: str) -> None:
+        self.lines.append(line)
+        if self.enabled:
+            stream = QuietStream()
+            stream.write(line + "\n")
+            stream.flush()
+
+    def announce(self) -> None:
+        """The first line: the whole command before any work (its phases, jobs, seeds, budgets,
+        what is stored in ``--out`` or the cache, what runs, and the time left)."""
+        c = self.counts()
+        jobs = self._jobs().values()
+        seeds = sorted({job.seed for job in jobs})
+        budgets = " / ".join(f"{b:,}" for b in sorted({job.budget for job in jobs}))
+        count = len(self._phases)
+        phases = f"{count} phases ({', '.join(self._phases)}): " if count > 1 else ""
+        self._say(
+            f"{self.title}: {self.detail + '; ' if self.detail else ''}{phases}"
+            f"{len(jobs)} optimisations over seeds {seeds}, budgets {budgets} model evaluations "
+            f"each ({c['evaluations']:,} in all); {c['stored']} stored in {self.out_dir}, "
+            f"{c['cached']} in the record cache, {self._left(c)}"
+        )
+
+    def start(self, name: str) -> None:
+        """The line at the start of phase ``name`` (after :meth:`plan` gave its jobs); none for
+        the first phase, which the first line has just announced."""
+        names = list(self._phases)
+        place = names.index(name) + 1 if name in names else len(names)
+        if place == 1:
+            return
+        c = self.counts()
+        finished = c["done"] + c["stored"] + c["cached"]
+        self._say(
+            f"phase {place}/{len(names)} ({name}) of the {self.name}: "
+            f"{len(self._jobs())} optimisations ({c['evaluations']:,} evaluations), "
+            f"{finished} done or stored, {self._left(c)}"
+        )
+
+    def ran(self, job: Job, seconds: float) -> None:
+        """A job :func:`run_jobs` finished, after ``seconds`` of wall time since the previous
+        one (or the call's start) [s]."""
+        self._done.add(job.key)
+        self._evaluations += job.budget
+        self._seconds += seconds
+
+
+CacheOption = bool | str | os.PathLike[str] | None
+"""The record cache a call uses: True its folder (:func:`agents.store.cache_directory`), a path
+another folder, False or None none."""
+
+
+def record_cache(cache: CacheOption = True) -> RecordStore | None:
+    """The record cache as a store (None when off); ValueError if its folder is a file."""
+    if cache is None or cache is False:
+        return None
+    directory = cache_directory() if cache is True else cache
+    try:
+        return RecordStore(directory)
+    except ValueError as error:
+        raise ValueError(f"record cache: {error} (or turn the cache off: --no-cache)") from None
+
+
+def _cacheable(job: Job) -> bool:
+    # A method that takes a path (policy:RUN_DIR) reads files its key does not hash.
+    return ":" not in job.method
+
+
+class _Cache:
+    """The record cache of one :func:`run_jobs` call: read through the store's checks, written
+    through its atomic save; a cache that cannot be written is said once and then left alone
+    (the records are in ``--out``)."""
+
+    def __init__(self, store: RecordStore | None) -> None:
+        self.store = store
+
+    def load(self, job: Job) -> Record | None:
+        if self.store is None or not _cacheable(job):
+            return None
+        return self.store.load(job)
+
+    def save(self, record: Record, *, unless_present: bool = False) -> None:
+        store = self.store
+        if store is None or not _cacheable(record.job):
+            return
+        if unless_present and store.path(record.key).exists():
+            return
+        try:
+            store.save(record)
+        except (StoreWriteError, ValueError) as error:
+            self.store = None
+            warnings.warn(
+                f"the record cache is not written ({error}); the records are in the output "
+                "folder (--no-cache turns the cache off)",
+                RecordWarning,
+                stacklevel=3,
+            )
+
+
 def run_jobs(
     jobs: Iterable[Job | PreparedJob],
     out_dir: str | os.PathLike[str],
@@ -485,6 +731,8 @@ def run_jobs(
     scheduler: str | None = None,
     progress: bool = True,
     rerun: bool = False,
+    cache: CacheOption = True,
+    command: CommandProgress | None = None,
 ) -> RunSummary:
     """Run every job that has no valid stored record yet; duplicates run once.
 
@@ -495,19 +743,33 @@ def run_jobs(
     they start largest budget first, so the workers stay busy to the end. Each record is stored
     as its job finishes, by this function alone. Raises :class:`JobsFailed` (after every other
     job has finished) if any job was rejected or raised, :class:`SchedulerUnreachable` if the
-    scheduler does not answer, ValueError for a bad ``scheduler`` or an ``out_dir`` that is a
-    file. ``rerun`` runs every job again, its record replacing the stored one (a trained
-    policy's run folder may hold a newer model under the same name). The summary's
+    scheduler does not answer, ValueError for a bad ``scheduler`` or an ``out_dir`` (or cache
+    folder) that is a file. ``rerun`` runs every job again, its record replacing the stored one
+    (a trained policy's run folder may hold a newer model under the same name). The summary's
     ``records`` are the jobs' records, each read at most once.
+
+    ``cache`` is the record cache (module docstring; :data:`CacheOption`): a job with no record
+    in ``out_dir`` takes the cache's, copied into ``out_dir``; every record computed is written
+    to both. ``command`` is the whole command's progress (:class:`CommandProgress`), told of
+    every job this call finishes.
     """
     executor = "serial" if scheduler is None else parse_scheduler(scheduler)
     start = time.perf_counter()
     store = RecordStore(out_dir)
+    shared = _Cache(record_cache(cache))
     given = {_job_of(job).key: job for job in jobs}
     records: dict[str, Record] = {}
+    cached = 0
     for key, job in given.items():
-        if not rerun and (record := store.load(_job_of(job))) is not None:
+        if rerun:
+            continue
+        if (record := store.load(_job_of(job))) is not None:
             records[key] = record
+            shared.save(record, unless_present=True)  # a store made before the cache feeds it
+        elif (record := shared.load(_job_of(job))) is not None:
+            store.save(record)  # the store's one atomic write: a copy, checksum and all
+            records[key] = record
+            cached += 1
     missing = [job for key, job in given.items() if key not in records]
     failures: list[JobFailure] = []
     todo: list[PreparedJob] = []
@@ -533,6 +795,7 @@ def run_jobs(
         display = _Display([p.job for p in todo], progress and bool(todo))
         stack.callback(display.close)
         outcomes = _run_serially(todo, display) if client is None else _run_on_dask(client, todo)
+        running = time.perf_counter()
         for job, outcome in outcomes:
             if isinstance(outcome, JobFailure):
                 failures.append(outcome)
@@ -542,8 +805,13 @@ def run_jobs(
                 )
             else:
                 store.save(outcome)
+                shared.save(outcome)
                 records[job.key] = outcome
             display.finished(job, outcome)
+            now = time.perf_counter()
+            if command is not None and isinstance(outcome, Record):
+                command.ran(job, now - running)
+            running = now
     summary = RunSummary(
         total=len(given),
         reused=len(given) - len(missing),
@@ -552,6 +820,7 @@ def run_jobs(
         executor=executor,
         failures=tuple(sorted(failures, key=lambda f: f.key)),
         records=records,
+        cached=cached,
     )
     if failures:
         raise JobsFailed(summary)
@@ -562,8 +831,9 @@ def _job_of(job: Job | PreparedJob) -> Job:
     return job.job if isinstance(job, PreparedJob) else job
 
 
-def load_records(out_dir: str | os.PathLike[str], jobs: Iterable[Job]) -> dict[Job, Record]:
-    """The records of ``jobs`` (all must have run); raises naming the first missing one."""
+def job_records(out_dir: str | os.PathLike[str], jobs: Iterable[Job]) -> dict[Job, Record]:
+    """The records of ``jobs`` in the store ``out_dir`` (all must have run); raises naming the
+    first missing one."""
     store = RecordStore(out_dir)
     found: dict[Job, Record] = {}
     for job in jobs:
@@ -574,6 +844,28 @@ def load_records(out_dir: str | os.PathLike[str], jobs: Iterable[Job]) -> dict[J
                 f"{Path(out_dir) / RECORDS_DIR}; run the study"
             )
         found[job] = record
+    return found
+
+
+def find_records(
+    out_dir: str | os.PathLike[str], jobs: Iterable[Job], cache: CacheOption = True
+) -> dict[Job, Record] | None:
+    """The records of ``jobs`` as :func:`run_jobs` would find them (``out_dir`` first, then the
+    record cache), writing nothing and warning of nothing; None if any is missing (a plan
+    that looks ahead: those jobs still have to run)."""
+    stores = [RecordStore(out_dir)]
+    if (shared := record_cache(cache)) is not None:
+        stores.append(shared)
+    found: dict[Job, Record] = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RecordWarning)  # said by run_jobs, when it runs them
+        for job in jobs:
+            for store in stores if _cacheable(job) else stores[:1]:
+                if store.path(job.key).exists() and (record := store.load(job)) is not None:
+                    found[job] = record
+                    break
+            else:
+                return None
     return found
 
 

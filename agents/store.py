@@ -9,6 +9,11 @@ option is another file, a killed run resumes from the records already there, and
 not a valid record of its job (corrupt, edited, of an older format, of another job) is
 recomputed with a :class:`~agents.records.RecordWarning`. ``DIR/summary.csv`` is the CSV
 summary over every record of a store.
+
+The record cache is a store too, shared by every output folder of a user
+(:func:`cache_directory`; docs/harness.md, "The record cache"): the runner copies a job's
+record from it into ``--out`` instead of running the job again, and writes every record it
+computes into both, with the same atomic writes.
 """
 
 from __future__ import annotations
@@ -32,11 +37,13 @@ from agents.records import (
 from tandem_env.io.files import output_directory, read_json, write_csv_atomic, write_json_atomic
 
 __all__ = [
+    "CACHE_ENV",
     "RECORDS_DIR",
     "SUMMARY_NAME",
     "RecordStore",
     "StoreWriteError",
-    "load_records",
+    "cache_directory",
+    "read_record_files",
     "summary_rows",
     "write_summary",
 ]
@@ -45,6 +52,21 @@ __all__ = [
 RECORDS_DIR = "records"
 #: A store's CSV summary over its records, ``DIR/summary.csv``.
 SUMMARY_NAME = "summary.csv"
+#: The environment variable that moves the record cache (:func:`cache_directory`).
+CACHE_ENV = "TANDEM_CACHE_DIR"
+
+
+def cache_directory() -> Path:
+    """The record cache's folder, a store shared by every output folder (read at each call):
+    ``$TANDEM_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/tandem_env``, else
+    ``~/.cache/tandem_env``; its records are ``<folder>/records/<key>.json``."""
+    given = os.environ.get(CACHE_ENV)
+    if given:
+        return Path(given).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME", "")
+    if not os.path.isabs(base):  # unset, empty or relative: the XDG spec says ignore it
+        base = os.path.join("~", ".cache")
+    return Path(base).expanduser() / "tandem_env"
 
 
 class StoreWriteError(OSError):
@@ -215,7 +237,7 @@ def write_summary(path: str | os.PathLike[str], records: Sequence[Record]) -> No
     write_csv_atomic(path, summary_rows(records))
 
 
-def load_records(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
+def read_record_files(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
     """Every record in the given files and directories (searched recursively for ``*.json``).
 
     Finds the records of stores (``DIR/records/*.json``) and of study directories alike. JSON

@@ -25,7 +25,7 @@ from scipy.optimize import minimize
 
 import tandem_env  # noqa: F401 (registers the envs)
 from agents.records import Record
-from agents.store import load_records
+from agents.store import read_record_files
 from agents.tasks import get_task
 from tandem_env.physics import normalised_to_physical
 from tandem_env.physics.stroke import DISCRETE
@@ -89,7 +89,7 @@ def main() -> int:
     parser.add_argument("stores", nargs="+")
     args = parser.parse_args()
     groups: dict[tuple, list[tuple[Record, float]]] = defaultdict(list)
-    for record in sorted(load_records(args.stores), key=lambda r: r.seed):
+    for record in sorted(read_record_files(args.stores), key=lambda r: r.seed):
         before, after, violation, iterations = fresh_polish(record)
         gain = 100.0 * (after / before - 1.0)
         print(

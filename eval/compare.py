@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from agents.records import Record
-from agents.store import load_records
+from agents.store import read_record_files
 from eval.figures import DPI, FORMATS, figure_path, method_label, series_style
 from tandem_env.io.files import atomic_path, output_directory, write_csv_atomic, write_text_atomic
 
@@ -469,7 +469,7 @@ def compare(
     """Load the records under ``directories`` and write table and plot (``figure_format``,
     :data:`eval.figures.FORMATS`) into ``out``."""
     plot_path = figure_path(Path(out), PLOT_STEM, figure_format)  # a bad format fails first
-    records = load_records(directories)
+    records = read_record_files(directories)
     if not records:
         raise ValueError(
             f"no harness records found in {', '.join(map(str, directories))} (JSON files "

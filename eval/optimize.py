@@ -259,6 +259,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "objective; one that also changes the model runs with a warning)",
     )
     add_scheduler_argument(parser)
+    add_cache_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress display")
 
 
@@ -316,6 +317,18 @@ def add_scheduler_argument(parser: argparse.ArgumentParser) -> None:
         help="run the optimisations on Dask: local:N (N worker processes started here, one "
         "numba thread each) or the address of a running scheduler, e.g. tcp://HOST:8786 "
         "(docs/scaling.md); default: one after another in this process",
+    )
+
+
+def add_cache_argument(parser: argparse.ArgumentParser) -> None:
+    """``--no-cache`` (shared with ``study`` and ``speed-change``): sets ``args.cache``."""
+    parser.add_argument(
+        "--no-cache",
+        dest="cache",
+        action="store_false",
+        help="do not use the record cache shared by every output folder (by default a job "
+        "whose record is there is copied into --out, not run, and every record computed is "
+        "added to it; where it is and how to clear it: docs/harness.md, The record cache)",
     )
 
 
@@ -397,7 +410,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         summary = run_reporting(
             parser,
             lambda: run_jobs(
-                prepared, store.directory, scheduler=scheduler, progress=not args.quiet
+                prepared,
+                store.directory,
+                scheduler=scheduler,
+                progress=not args.quiet,
+                cache=args.cache,
             ),
         )
     finally:
@@ -428,8 +445,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         )
         print(f"  {describe_certificate(record.certificate)}")
     print(
-        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.ran} run, "
-        f"{summary.reused} reused from {store.directory}",
+        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.describe(store.directory)}",
         file=sys.stderr,
     )
     return 0

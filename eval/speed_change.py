@@ -137,13 +137,15 @@ def steady_optima(
     cache_dir: str | os.PathLike[str] | None = None,
     scheduler: str | None = None,
     progress: bool = True,
+    record_cache: bool = True,
 ) -> SteadyPolicy:
     """Level-flight optima at ``speeds`` [m/s] for the env's insect and model options.
 
     Each is one harness job (``budget`` model evaluations, ``seed``) on the ``level`` task, run
     by the runner (:func:`agents.runner.run_jobs`: serially, or on Dask with ``scheduler``)
     into the record store ``cache_dir`` (a temporary one if None), where a stored record of the
-    same configuration is reused; the runner hands the records back.
+    same configuration is reused, as is one in the record cache unless ``record_cache`` is
+    False (``--no-cache``); the runner hands the records back.
     """
     import tempfile
 
@@ -155,7 +157,7 @@ def steady_optima(
     jobs = [Job(method, "level", float(v), budget, seed, env_kwargs=kwargs) for v in speeds]
     with tempfile.TemporaryDirectory() as scratch:
         where = scratch if cache_dir is None else cache_dir
-        summary = run_jobs(jobs, where, scheduler=scheduler, progress=progress)
+        summary = run_jobs(jobs, where, scheduler=scheduler, progress=progress, cache=record_cache)
     records = [summary.records.get(job.key) for job in jobs]
     actions = []
     for speed, record in zip(speeds, records, strict=True):
@@ -444,6 +446,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='where the optima run: none (here, serially; default), "local:N" or a Dask '
         "scheduler address (as for python -m eval study)",
     )
+    from eval.optimize import add_cache_argument
+
+    add_cache_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
@@ -515,6 +520,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             cache_dir=args.out / "optima",
             scheduler=args.scheduler,
             progress=not args.quiet,
+            record_cache=args.cache,
         ),
     )
     if isinstance(steady, int):

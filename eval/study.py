@@ -5,16 +5,15 @@ from __future__ import annotations
 import argparse
 import sys
 import textwrap
-from collections.abc import Sequence
 from pathlib import Path
 
-from agents.jobs import Job
 from agents.methods import get_method
-from agents.runner import executor_spec, have_records
+from agents.runner import CommandProgress, executor_spec, have_records
 from agents.store import RecordStore
 from eval.figures import FORMATS
 from eval.optimize import (
     add_backend_arguments,
+    add_cache_argument,
     add_insect_argument,
     add_scheduler_argument,
     backend_kwargs,
@@ -55,7 +54,11 @@ Presets:
     + """
 
 A killed run resumes: finished optimisations are recognised by their configuration hash and
-not run again; a changed configuration never reuses old records.
+not run again; a changed configuration never reuses old records. An optimisation another
+output folder has run is copied from the record cache instead of run (--no-cache: not).
+The first line gives the whole command's optimisations, what is stored and what runs, its
+model evaluations and the time left; a command of several phases says it again at each
+phase's start.
 
 The optimisations run here, one after another (default), or on Dask: --scheduler local:N
 starts N worker processes here, --scheduler tcp://HOST:PORT uses a running Dask scheduler
@@ -97,6 +100,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_insect_argument(parser)
     add_backend_arguments(parser)
     add_scheduler_argument(parser)
+    add_cache_argument(parser)
     parser.add_argument(
         "--workers",
         type=int,
@@ -152,6 +156,15 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         writable = store.check(write=False, jobs=unique)  # and each record's path
         if not writable and (campaign.refuse_read_only or not have_records(args.out, unique)):
             store.check(jobs=unique)  # raises, naming the folder and why
+        command = CommandProgress(
+            title,
+            args.out,
+            cache=args.cache,
+            enabled=not args.quiet,
+            detail=f"preset {plan.preset.name}, method {', '.join(plan.methods)}",
+        )
+        if writable:
+            campaign.plan_phases(args, plan, command)
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     if not writable:
@@ -166,26 +179,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             file=sys.stderr,
         )
         return 0
-    if not args.quiet:
-        print(_announce(title, plan, unique, args.out), file=sys.stderr)
-        if plan.insect != DRAGONFLY:
-            print(f"insect: {describe_insect(plan.insect)}", file=sys.stderr)
-    result = run_reporting(parser, lambda: campaign.run(args, plan, scheduler))
+    command.announce()  # the first line (said unless --quiet)
+    if not args.quiet and plan.insect != DRAGONFLY:
+        print(f"insect: {describe_insect(plan.insect)}", file=sys.stderr)
+    result = run_reporting(parser, lambda: campaign.run(args, plan, scheduler, command))
     if isinstance(result, int):
         return result
     campaign.summarise(args, result)
     return 0
-
-
-def _announce(title: str, plan: StudyPlan, jobs: Sequence[Job], out: str) -> str:
-    """What a study run will do, before it starts: optimisations, seeds, budgets, work left."""
-    store = RecordStore(out)
-    todo = [job for job in jobs if not store.path(job.key).exists()]
-    seeds = sorted({job.seed for job in jobs})
-    budgets = " / ".join(f"{b:,}" for b in sorted({job.budget for job in jobs}))
-    return (
-        f"{title}: preset {plan.preset.name}, method {', '.join(plan.methods)}; "
-        f"{len(jobs)} optimisations over seeds {seeds}, budgets {budgets} model evaluations "
-        f"each; {len(jobs) - len(todo)} stored in {out}, {len(todo)} to run "
-        f"({sum(job.budget for job in todo):,} evaluations; the progress bar gives the time left)"
-    )

@@ -59,11 +59,12 @@ def optimize_command(row: ComparisonRow, method: str, seeds: Sequence[int]) -> l
 
 def run_optimize(row: ComparisonRow, method: str, seeds: Sequence[int]) -> list[dict[str, Any]]:
     """Run the documented command in a fresh folder; one ``{seed, objective, ...}`` per seed."""
-    from agents.store import load_records
+    from agents.store import read_record_files
 
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
-        run_command([*optimize_command(row, method, seeds), "--out", out])
-        records = sorted(load_records([out]), key=lambda r: r.seed)
+        # --no-cache: measured now (its wall times too), not copied from an earlier run
+        run_command([*optimize_command(row, method, seeds), "--out", out, "--no-cache"])
+        records = sorted(read_record_files([out]), key=lambda r: r.seed)
     if [r.seed for r in records] != list(seeds):
         raise RuntimeError(f"expected records of seeds {list(seeds)}, found {records!r}")
     return [

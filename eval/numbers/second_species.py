@@ -58,11 +58,12 @@ def species_command(insect: Sequence[str], seeds: Sequence[int]) -> list[str]:
 def run_species(insect: Sequence[str], seeds: Sequence[int]) -> list[dict[str, Any]]:
     """Run the documented command in a fresh folder; one summary row per seed (the record's
     objective, metrics, 28 stroke parameters, ``at_bounds`` and ``insect``)."""
-    from agents.store import load_records
+    from agents.store import read_record_files
 
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
-        run_command([*species_command(insect, seeds), "--out", out])
-        records = sorted(load_records([out]), key=lambda r: r.seed)
+        # --no-cache: computed now, not copied from an earlier run's records
+        run_command([*species_command(insect, seeds), "--out", out, "--no-cache"])
+        records = sorted(read_record_files([out]), key=lambda r: r.seed)
     if [r.seed for r in records] != list(seeds):
         raise RuntimeError(f"expected records of seeds {list(seeds)}, found {records!r}")
     return [{**r.summary_row(), "feasible": bool(r.feasible)} for r in records]

@@ -26,7 +26,7 @@ OPTIMUM_METRICS: tuple[str, ...] = (
 def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str, Any]]:
     """The steady schedule's level-flight optima as ``eval speed-change`` makes them (its
     defaults: optimiser, budget, seed), one ``{speed, objective, feasible, ...}`` per speed."""
-    from agents.store import load_records
+    from agents.store import read_record_files
     from eval import speed_change
     from tandem_env.envs.speed_change_config import SpeedChangeConfig
 
@@ -38,7 +38,7 @@ def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str,
             cache_dir=store,
             progress=False,
         )
-        records = sorted(load_records([store]), key=lambda r: r.job.condition)
+        records = sorted(read_record_files([store]), key=lambda r: r.job.condition)
     return [
         {
             "speed": r.job.condition,

@@ -68,7 +68,7 @@ def main(argv: Sequence[str] | None = None) -> None:
             for scheduler in (None, args.scheduler):
                 out = root / f"{scheduler or 'serial'}-{attempt}".replace(":", "_").replace("/", "")
                 start = time.perf_counter()
-                summary = run_jobs(jobs, out, scheduler=scheduler, progress=False)
+                summary = run_jobs(jobs, out, scheduler=scheduler, progress=False, cache=False)
                 seconds = time.perf_counter() - start
                 print(
                     f"{scheduler or 'serial'}: {seconds:.1f} s = {evaluations / seconds:.0f} "

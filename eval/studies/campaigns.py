@@ -1,6 +1,8 @@
 """What ``python -m eval study NAME`` runs: a campaign, behind one protocol (:class:`Campaign`):
-its options, the plan's reading, the jobs of its first phase (checked and announced before any
-work), the run (jobs, analysis, report) and the lines that sum it up.
+its options, the plan's reading, the jobs of its first phase (checked before any work), its
+phases as known before any work (the whole command's cost, announced on the first line and
+updated at each phase's start: :class:`agents.runner.CommandProgress`), the run (jobs,
+analysis, report) and the lines that sum it up.
 
 :func:`campaigns` maps every study name the command offers to its campaign: ``all`` and each
 study of :data:`eval.studies.STUDIES` (read when called, so a study registered there is
@@ -15,6 +17,7 @@ import argparse
 from typing import Any, Protocol
 
 from agents.jobs import Job
+from agents.runner import CommandProgress
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import Reading
 from eval.studies.readings.campaign import READINGS
@@ -51,8 +54,21 @@ class Campaign(Protocol):
         """Check its options against ``plan`` (ValueError, before any work) and return the jobs
         of its first phase and the title that announces them."""
 
-    def run(self, args: argparse.Namespace, plan: StudyPlan, scheduler: str | None) -> Any:
-        """Run it into ``args.out`` and return its result."""
+    def plan_phases(
+        self, args: argparse.Namespace, plan: StudyPlan, command: CommandProgress
+    ) -> None:
+        """Give ``command`` its phases as far as they are known before any work
+        (:meth:`~agents.runner.CommandProgress.plan`)."""
+
+    def run(
+        self,
+        args: argparse.Namespace,
+        plan: StudyPlan,
+        scheduler: str | None,
+        command: CommandProgress,
+    ) -> Any:
+        """Run it into ``args.out`` (record cache ``args.cache``), telling ``command`` of each
+        phase, and return its result."""
 
     def summarise(self, args: argparse.Namespace, result: Any) -> None:
         """Print what the run did (stderr) and found (stdout)."""

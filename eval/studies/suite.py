@@ -12,7 +12,16 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from agents.jobs import Job
-from agents.runner import RunSummary, executor_spec, have_records, load_records, run_jobs
+from agents.runner import (
+    CacheOption,
+    CommandProgress,
+    Phase,
+    RunSummary,
+    executor_spec,
+    have_records,
+    job_records,
+    run_jobs,
+)
 from eval import report
 from eval.studies import PAPER_STUDIES, STUDIES
 from eval.studies.base import StudyOutput, StudyPlan
@@ -53,6 +62,8 @@ def run_studies(
     scheduler: str | None = None,
     workers: int = 1,
     progress: bool = True,
+    cache: CacheOption = True,
+    command: CommandProgress | None = None,
 ) -> SuiteResult:
     """Run the studies ``names`` (or ``["all"]``) into ``out_dir``.
 
@@ -62,20 +73,23 @@ def run_studies(
     ``scheduler="local:N"``. Finished jobs from an earlier, killed or partial run with the same
     configuration are reused. The report covers every paper study whose records are all
     present, so running ``speed`` and then ``power`` into one directory gives one report with
-    both.
+    both. ``cache`` is the record cache and ``command`` the command's progress, as for
+    :func:`~agents.runner.run_jobs`.
     """
     start = time.perf_counter()
     out = Path(out_dir)
     scheduler = executor_spec(scheduler, workers)
     studies = [STUDIES[n] for n in expand(names)]
     jobs = [job for study in studies for job in study.jobs(plan)]
-    summary = run_jobs(jobs, out, scheduler=scheduler, progress=progress)
-    outputs = [study.analyse(plan, load_records(out, study.jobs(plan)), out) for study in studies]
+    summary = run_jobs(
+        jobs, out, scheduler=scheduler, progress=progress, cache=cache, command=command
+    )
+    outputs = [study.analyse(plan, job_records(out, study.jobs(plan)), out) for study in studies]
 
     done = {o.name: o for o in outputs}
     for name, study in PAPER_STUDIES.items():
         if name not in done and have_records(out, study.jobs(plan)):
-            done[name] = study.analyse(plan, load_records(out, study.jobs(plan)), out)
+            done[name] = study.analyse(plan, job_records(out, study.jobs(plan)), out)
     report_path = None
     if any(name in PAPER_STUDIES for name in done):
         wall = time.perf_counter() - start
@@ -143,16 +157,35 @@ class SuiteCampaign:
         jobs = [job for name in names for job in STUDIES[name].jobs(plan)]
         return jobs, f"study {args.study} ({', '.join(names)})"
 
-    def run(self, args: argparse.Namespace, plan: StudyPlan, scheduler: str | None) -> SuiteResult:
+    def plan_phases(
+        self, args: argparse.Namespace, plan: StudyPlan, command: CommandProgress
+    ) -> None:
+        """One phase: every job of the studies asked for, in one pool."""
+        jobs, _ = self.first_jobs(args, plan)
+        command.plan([Phase(args.study, tuple(jobs))])
+
+    def run(
+        self,
+        args: argparse.Namespace,
+        plan: StudyPlan,
+        scheduler: str | None,
+        command: CommandProgress,
+    ) -> SuiteResult:
         return run_studies(
-            [args.study], plan, args.out, scheduler=scheduler, progress=not args.quiet
+            [args.study],
+            plan,
+            args.out,
+            scheduler=scheduler,
+            progress=not args.quiet,
+            cache=args.cache,
+            command=command,
         )
 
     def summarise(self, args: argparse.Namespace, result: SuiteResult) -> None:
         run = result.run
         print(
-            f"{run.total} optimisations: {run.ran} run, {run.reused} reused from {args.out} "
-            f"({run.executor}); {result.wall_time:.1f} s",
+            f"{run.total} optimisations: {run.describe(args.out)} ({run.executor}); "
+            f"{result.wall_time:.1f} s",
             file=sys.stderr,
         )
         for output in result.outputs:

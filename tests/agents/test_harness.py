@@ -39,7 +39,7 @@ from agents.methods import (
 from agents.pso import PSOConfig
 from agents.records import Record
 from agents.runner import run_jobs
-from agents.store import RecordStore, load_records
+from agents.store import RecordStore, read_record_files
 from agents.tasks import LEVEL, get_task
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -335,7 +335,7 @@ def test_level_json_round_trip_and_files(level_records) -> None:
         data = json.loads((out / "records" / f"{record.key}.json").read_text())
         assert data["schema"] == SCHEMA
         assert Record.from_dict(data) == record
-    assert sorted(load_records([out]), key=lambda r: r.seed) == records
+    assert sorted(read_record_files([out]), key=lambda r: r.seed) == records
     summary = (out / "summary.csv").read_text().splitlines()
     assert summary[0].startswith("method,task,objective_name,condition,condition_value")
     assert len(summary) == 3

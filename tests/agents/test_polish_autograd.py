@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from agents.polish import AutogradGradient, CentralDifferences, task_problem
-from agents.store import load_records
+from agents.store import read_record_files
 from agents.tasks import ACCELERATE, LEVEL
 from eval.__main__ import main
 
@@ -78,7 +78,7 @@ def test_a_torch_polish_through_eval_optimize_certifies_autograd(tmp_path):
     argv += ["--backend", "torch", "--method-config", "polish_iterations=3"]
     argv += ["--env-kwargs", "n_time=32", "n_blade=8"]
     assert main(argv) == 0
-    (record,) = load_records([tmp_path])
+    (record,) = read_record_files([tmp_path])
     certificate = record.certificate
     assert certificate["gradient"] == "autograd", certificate
     assert certificate["status"] in ("improved", "no gain"), certificate

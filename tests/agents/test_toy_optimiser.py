@@ -13,7 +13,7 @@ import pytest
 
 from agents.harness import run
 from agents.methods import available_methods, get_method, preset_batch_setting
-from agents.store import load_records
+from agents.store import read_record_files
 
 sys.path.insert(0, str(Path(__file__).parent))
 from analytic_envs import ACTION_LOG, DIM, optimum, register_analytic
@@ -55,7 +55,7 @@ def test_the_toy_runs_through_eval_optimize(tmp_path: Path) -> None:
     argv = ["optimize", "--task", "sphere", "--shift", "0.3", "--method", "hill-climb"]
     argv += ["--budget", "160", "--seeds", "0", "1", "--out", str(out), "--quiet"]
     assert main([*argv, "--method-config", "step=0.3"]) == 0
-    records = load_records([out])
+    records = read_record_files([out])
     assert sorted(r.seed for r in records) == [0, 1]
     assert all(r.evaluations == 160 and r.config["method"]["step"] == 0.3 for r in records)
 

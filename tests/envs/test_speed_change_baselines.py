@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import agents.harness
-from agents.store import load_records
+from agents.store import read_record_files
 from eval import speed_change as module
 from eval.__main__ import main
 from eval.speed_change import (
@@ -36,7 +36,7 @@ def test_steady_optima_come_from_the_harness_and_are_cached(
         config, speeds=(0.5, 1.5), method="pso", budget=40, cache_dir=tmp_path, progress=False
     )
     assert policy.actions.shape == (2, 28) and np.all(np.abs(policy.actions) <= 1.0)
-    records = load_records([tmp_path])
+    records = read_record_files([tmp_path])
     assert sorted(r.condition.value for r in records) == [0.5, 1.5]
     assert all(r.task == "level" and r.budget == 40 for r in records)
     assert all(r.config["env"]["options"]["thrust_split"] == "body" for r in records)

@@ -137,7 +137,10 @@ def test_killed_worker_gives_the_serial_report(
 
     def client_run() -> None:
         try:
-            done["result"] = run_studies(["speed"], plan, out, scheduler=cluster.address)
+            # computed again on Dask, not copied from the record cache the serial run filled
+            done["result"] = run_studies(
+                ["speed"], plan, out, scheduler=cluster.address, cache=False
+            )
         except BaseException as error:  # reported by the main thread
             done["error"] = error
 

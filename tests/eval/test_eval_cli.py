@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from agents.records import Record
-from agents.store import load_records
+from agents.store import read_record_files
 from eval import compare as compare_module
 from eval.__main__ import SUBCOMMANDS, build_parser, main
 from tandem_env import PARAMETER_NAMES, describe_bounds
@@ -36,13 +36,13 @@ def results(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def _stored(out: Path, method: str, seed: int) -> Path:
     """The store's file of a record, found by its configuration."""
-    (record,) = [r for r in load_records([out]) if (r.method, r.seed) == (method, seed)]
+    (record,) = [r for r in read_record_files([out]) if (r.method, r.seed) == (method, seed)]
     return out / "records" / f"{record.key}.json"
 
 
 def test_optimize_writes_one_record_per_seed_and_a_summary(results: Path) -> None:
     assert sorted(p.name for p in results.iterdir()) == ["records", "summary.csv"]
-    records = sorted(load_records([results]), key=lambda r: (r.method, r.seed))
+    records = sorted(read_record_files([results]), key=lambda r: (r.method, r.seed))
     # One file per seed, named by its key, and no temporary files.
     assert sorted(p.name for p in (results / "records").iterdir()) == sorted(
         f"{r.key}.json" for r in records
@@ -70,7 +70,7 @@ def test_optimize_writes_one_record_per_seed_and_a_summary(results: Path) -> Non
 
 def test_optimize_is_deterministic(results: Path, tmp_path: Path) -> None:
     assert optimize(tmp_path, "--method", "pso", "--seeds", "1") == 0
-    (again,) = load_records([tmp_path])
+    (again,) = read_record_files([tmp_path])
     first = Record.load(_stored(results, "pso", 1))
     assert again.key == first.key  # the same configuration
     assert again.history == first.history
@@ -86,7 +86,7 @@ def test_optimize_passes_env_kwargs_and_method_config(tmp_path: Path) -> None:
         "--method-config", "swarm_size=4", "boundary=reflect", "velocity_clamp=0.25",
     ]  # fmt: skip
     assert main(argv) == 0
-    (record,) = load_records([tmp_path])
+    (record,) = read_record_files([tmp_path])
     assert record.task == "accelerate" and record.objective_name == "excess_horizontal"
     assert record.condition.to_dict() == {"name": "available_power", "value": 70.0, "unit": "W/kg"}
     assert {**dict(record.job.env_kwargs), "available_power": record.job.condition} == {
@@ -144,7 +144,7 @@ def test_compare_writes_table_and_plot(results: Path, tmp_path: Path) -> None:
     with open(out / "comparison.csv", newline="") as handle:
         rows = list(csv.DictReader(handle))
     assert [(r["method"], r["seeds"]) for r in rows] == [("pso", "3"), ("random", "2")]
-    pso = [r for r in load_records([results]) if r.method == "pso"]
+    pso = [r for r in read_record_files([results]) if r.method == "pso"]
     objective = [r.objective for r in pso]
     if any(r.feasible for r in pso):
         assert float(rows[0]["objective_median"]) == pytest.approx(np.median(objective))

@@ -566,8 +566,9 @@ def test_study_says_what_it_will_run(
     jobs = len(TINY.speeds) * len(TINY.seeds)
     assert (
         f"study speed (speed): preset tiny, method {TINY.method}; {jobs} optimisations over "
-        f"seeds {list(TINY.seeds)}, budgets {TINY.level_budget:,} model evaluations each; 0 "
-        f"stored in {tmp_path}, {jobs} to run ({jobs * TINY.level_budget:,} evaluations"
+        f"seeds {list(TINY.seeds)}, budgets {TINY.level_budget:,} model evaluations each "
+        f"({jobs * TINY.level_budget:,} in all); 0 stored in {tmp_path}, 0 in the record "
+        f"cache, {jobs} to run ({jobs * TINY.level_budget:,} evaluations); time left: estimating"
     ) in err
     assert "interrupted" in err
 

@@ -21,7 +21,7 @@ from agents.harness import PreparedJob
 from agents.jobs import OLD_SCHEMAS, SCHEMA, Job
 from agents.records import Record, RecordError, RecordWarning
 from agents.runner import JobsFailed, run_jobs
-from agents.store import RecordStore, load_records
+from agents.store import RecordStore, read_record_files
 from eval.__main__ import main
 from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, TINY
@@ -86,13 +86,15 @@ def test_prepared_and_plain_jobs_share_one_store(tmp_path: Path, monkeypatch) ->
     # Another budget is another record, beside the first (the old file names lost one).
     second = _run_prepared(tmp_path, 24)
     assert second.key != first.key
-    assert sorted(r.budget for r in load_records([tmp_path])) == [16, 24]
+    assert sorted(r.budget for r in read_record_files([tmp_path])) == [16, 24]
     RecordStore(tmp_path).write_summary()
     rows = (tmp_path / "summary.csv").read_text().splitlines()
     assert len(rows) == 3 and rows[0].endswith(",key")
 
 
 def test_corrupt_record_is_reported_and_recomputed(tmp_path: Path, monkeypatch) -> None:
+    # The store's own check (cache=False: the record cache would restore the record instead,
+    # tests/agents/test_record_cache.py).
     job = _job()
     run_jobs([job], tmp_path, progress=False)
     path = RecordStore(tmp_path).path(job.key)
@@ -100,7 +102,7 @@ def test_corrupt_record_is_reported_and_recomputed(tmp_path: Path, monkeypatch) 
     path.write_text('{"schema": "tandem_env.harness-rec')  # a half-written file, by hand
     calls = _count_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=f"{path}: corrupt record .* runs again"):
-        summary = run_jobs([job], tmp_path, progress=False)
+        summary = run_jobs([job], tmp_path, progress=False, cache=False)
     assert summary.ran == 1 and calls == [job]
     again = Record.load(path)
     assert again.normalised_stroke == good.normalised_stroke
@@ -197,12 +199,12 @@ def test_older_records_are_recomputed_never_mixed_in(tmp_path: Path, monkeypatch
     old.update(method="pso", task="level", seed=0, budget=16, config={})
     path.write_text(json.dumps(old))
     with pytest.warns(RecordWarning, match="left out"):
-        assert load_records([tmp_path]) == []
+        assert read_record_files([tmp_path]) == []
     with pytest.raises(RecordError, match=r"earlier format .* rerun the command"):
         Record.load(path)
     calls = _count_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=f"{path}: a record of the earlier format .* recomputed"):
-        summary = run_jobs([job], tmp_path, progress=False)
+        summary = run_jobs([job], tmp_path, progress=False, cache=False)
     assert summary.ran == 1 and calls == [job]
     assert Record.load(path).schema == SCHEMA
     # Where it really lies, under the key the earlier format hashed: no job finds it, and the
@@ -210,7 +212,7 @@ def test_older_records_are_recomputed_never_mixed_in(tmp_path: Path, monkeypatch
     path.with_name("0123456789abcdef0123.json").write_text(json.dumps(old))
     path.unlink()
     with pytest.warns(RecordWarning, match=r"1 record file\(s\) of an earlier format .* not used"):
-        run_jobs([job], tmp_path, progress=False)
+        run_jobs([job], tmp_path, progress=False, cache=False)
 
 
 def test_a_job_is_validated_once_on_the_optimize_path(tmp_path: Path, monkeypatch) -> None:
@@ -247,10 +249,10 @@ def test_a_record_edited_by_hand_is_detected_and_recomputed(tmp_path: Path, monk
     with pytest.raises(RecordError, match=r"checksum .* edited by hand or damaged"):
         Record.load(path)
     with pytest.warns(RecordWarning, match="checksum .* left out"):
-        assert load_records([tmp_path]) == []  # compare does not report it
+        assert read_record_files([tmp_path]) == []  # compare does not report it
     calls = _count_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=f"{path}: corrupt record .*checksum.* runs again"):
-        summary = run_jobs([job], tmp_path, progress=False)
+        summary = run_jobs([job], tmp_path, progress=False, cache=False)
     assert summary.ran == 1 and calls == [job]
     again = Record.load(path)  # recomputed: the computed result, not the edited one
     assert again.objective == good.objective and again.normalised_stroke == good.normalised_stroke
@@ -322,7 +324,7 @@ def test_a_record_file_nested_too_deeply_is_left_out_not_a_crash(tmp_path: Path)
         records = RecordStore(tmp_path).records()
     assert [r.key for r in records] == [job.key]
     with pytest.raises(RecordError, match=f"{deep}: cannot read JSON: JSON nested too deeply"):
-        load_records([tmp_path])
+        read_record_files([tmp_path])
 
 
 # --- store contents against names ----------------------------------------------------------------
@@ -347,16 +349,16 @@ def test_a_resealed_record_moved_to_another_key_is_not_counted(tmp_path: Path) -
     with pytest.raises(RecordError, match=r"key .* is not the hash of the job it holds"):
         Record.load(moved)
     with pytest.warns(RecordWarning, match="not the hash of the job it holds.*left out"):
-        assert [r.seed for r in load_records([tmp_path])] == [0]
+        assert [r.seed for r in read_record_files([tmp_path])] == [0]
     # the key says seed 1 too, the job still seed 0: same check, from the other side
     moved.write_bytes(store.path(a.key).read_bytes())
     _reseal(moved, lambda d: d.update(key=b.key))
     with pytest.warns(RecordWarning, match="not the hash of the job it holds.*left out"):
-        assert [r.seed for r in load_records([tmp_path])] == [0]
+        assert [r.seed for r in read_record_files([tmp_path])] == [0]
     # a copy, unchanged, under another key's name: compare and the summary leave it out
     moved.write_bytes(store.path(a.key).read_bytes())
     with pytest.warns(RecordWarning, match=f"{moved}: holds the record of key {a.key}.*left out"):
-        assert [r.seed for r in load_records([tmp_path])] == [0]
+        assert [r.seed for r in read_record_files([tmp_path])] == [0]
     with pytest.warns(RecordWarning, match="moved or copied by hand"):
         assert [r.seed for r in store.records()] == [0]
 
@@ -370,7 +372,7 @@ def test_a_resealed_record_with_a_nan_objective_is_recomputed(tmp_path: Path, mo
         Record.load(path)
     calls = _count_calls(monkeypatch)
     with pytest.warns(RecordWarning, match="corrupt record .*objective = nan"):
-        run_jobs([job], tmp_path, progress=False)
+        run_jobs([job], tmp_path, progress=False, cache=False)
     assert calls == [job] and math.isfinite(Record.load(path).objective)
 
 

@@ -10,7 +10,7 @@ import pytest
 from matplotlib import animation
 from PIL import Image
 
-from agents.store import load_records
+from agents.store import read_record_files
 from eval.__main__ import main
 from eval.show import default_out
 
@@ -21,7 +21,7 @@ def record_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     argv = ["optimize", "--task", "level", "--speed", "1.5", "--budget", "12", "--seeds", "0",
             "--method", "random", "--out", str(out), "--quiet"]  # fmt: skip
     assert main(argv) == 0
-    (record,) = load_records([out])
+    (record,) = read_record_files([out])
     return out / "records" / f"{record.key}.json"
 
 

@@ -159,8 +159,8 @@ def test_resume_skips_finished_jobs(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     assert len(calls) == n and again.run.reused == again.run.total
     # A run killed part-way: one record missing -> exactly that job runs again.
     victim = next((tmp_path / "records").glob("*.json"))
-    victim.unlink()
-    third = run_studies(["power"], plan, tmp_path, workers=1, progress=False)
+    victim.unlink()  # (and not in the record cache, which would restore it)
+    third = run_studies(["power"], plan, tmp_path, workers=1, progress=False, cache=False)
     assert len(calls) == n + 1 and third.run.ran == 1
     # Another study sharing jobs reuses them: kinematics' accelerating stroke at 90 W/kg.
     before = len(calls)
@@ -193,7 +193,8 @@ def test_changed_configuration_is_not_mixed(
 def test_pool_gives_the_serial_numbers(tmp_path: Path) -> None:
     plan = StudyPlan(TINY)
     run_studies(["speed"], plan, tmp_path / "serial", workers=1, progress=False)
-    run_studies(["speed"], plan, tmp_path / "pool", workers=2, progress=False)
+    # computed again, not copied from the record cache
+    run_studies(["speed"], plan, tmp_path / "pool", workers=2, progress=False, cache=False)
     serial = _read_csv(tmp_path / "serial" / "speed" / "speed.csv")
     pooled = _read_csv(tmp_path / "pool" / "speed" / "speed.csv")
     drop = {"wall_time_s"}

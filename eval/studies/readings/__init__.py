@@ -53,6 +53,7 @@ from eval.studies.readings.plan import (
     combinations,
     continued_from,
     full_tasks,
+    optima_from,
     optima_of,
     reading_by_name,
     reading_jobs,
@@ -63,10 +64,12 @@ from eval.studies.readings.plan import (
 from eval.studies.readings.result import HEADLINES, ReadingResult, reading_dir
 from eval.studies.readings.run import (
     CHECK_COLUMNS,
+    COMBINATIONS_LATER,
     analyse_reading,
     check_rows,
     check_summary,
     csv_rows,
+    planned_phases,
     run_readings,
     write_outputs,
 )
@@ -75,6 +78,7 @@ __all__ = [
     "ALIASES",
     "CHECK_COLUMNS",
     "CHECK_CSV",
+    "COMBINATIONS_LATER",
     "CSV_COLUMNS",
     "DEFAULT_OUT",
     "HEADLINES",
@@ -94,7 +98,9 @@ __all__ = [
     "continued_from",
     "csv_rows",
     "full_tasks",
+    "optima_from",
     "optima_of",
+    "planned_phases",
     "reading_by_name",
     "reading_dir",
     "reading_jobs",

@@ -9,6 +9,7 @@ import sys
 
 from agents.harness import prepare_job
 from agents.jobs import Job
+from agents.runner import CommandProgress
 from eval.studies.base import StudyPlan
 from eval.studies.claims import VerdictCount
 from eval.studies.paper_reading import DEFAULT, Reading
@@ -21,7 +22,7 @@ from eval.studies.readings.plan import (
     reading_jobs,
     single_readings,
 )
-from eval.studies.readings.run import run_readings
+from eval.studies.readings.run import COMBINATIONS_LATER, planned_phases, run_readings
 from tandem_env.physics import N_PARAMETERS
 
 
@@ -103,20 +104,33 @@ class ReadingsCampaign:
         chosen = single_readings(args.reading)
         if args.continuation is None:
             jobs = [job for r in chosen for job in reading_jobs(plan, r)]
-            return jobs, (
-                f"readings study, first phase (the default and {len(chosen) - 1} single "
-                "readings; the combinations their results point to follow)"
+            count = len(chosen) - 1
+            return (
+                jobs,
+                f"readings study (the default and {count} single reading{'s' * (count != 1)})",
             )
         check_continuation(plan, args.continuation)
         return reading_jobs(plan, DEFAULT), (
-            f"readings study, first phase (the default reading in full; then the bias "
-            f"check, and {len(chosen) - 1} single readings continue from its optima on "
-            f"{args.continuation.share:g} of the budget, a task the check fails in full; "
-            "then the combinations their results point to)"
+            f"readings study (the default in full; {len(chosen) - 1} single reading"
+            f"{'s' * (len(chosen) != 2)} continuing from its optima on "
+            f"{args.continuation.share:g} of the budget, a task the bias check fails in full)"
         )
 
+    def plan_phases(
+        self, args: argparse.Namespace, plan: StudyPlan, command: CommandProgress
+    ) -> None:
+        """The phases before the combinations (:func:`planned_phases`), then those."""
+        phases = planned_phases(
+            plan, args.out, single_readings(args.reading), args.continuation, args.cache
+        )
+        command.plan(phases, later=COMBINATIONS_LATER)
+
     def run(
-        self, args: argparse.Namespace, plan: StudyPlan, scheduler: str | None
+        self,
+        args: argparse.Namespace,
+        plan: StudyPlan,
+        scheduler: str | None,
+        command: CommandProgress,
     ) -> ReadingsResult:
         return run_readings(
             plan,
@@ -125,13 +139,15 @@ class ReadingsCampaign:
             scheduler=scheduler,
             progress=not args.quiet,
             continuation=args.continuation,
+            cache=args.cache,
+            command=command,
         )
 
     def summarise(self, args: argparse.Namespace, result: ReadingsResult) -> None:
         for phase, run in zip(result.phases, result.runs, strict=True):
             print(
-                f"{phase}: {run.total} optimisations: {run.ran} run, {run.reused} reused from "
-                f"{args.out} ({run.executor}); {run.wall_time:.1f} s",
+                f"{phase}: {run.total} optimisations: {run.describe(args.out)} "
+                f"({run.executor}); {run.wall_time:.1f} s",
                 file=sys.stderr,
             )
         for r in result.results:

@@ -13,7 +13,8 @@ from typing import Any
 
 from agents.jobs import Job
 from agents.polish import INITIAL_SHARE_RANGE
-from agents.runner import RunSummary, load_records
+from agents.records import Record
+from agents.runner import RunSummary, job_records
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading, combine
@@ -349,7 +350,14 @@ def optima_of(
     """:data:`Optima` of the readings in ``jobs`` (reading -> study -> jobs, every record
     present in ``out_dir``)."""
     flat = [job for by_study in jobs.values() for group in by_study.values() for job in group]
-    records = load_records(out_dir, flat)
+    return optima_from(job_records(out_dir, flat), jobs)
+
+
+def optima_from(
+    records: Mapping[Job, Record], jobs: Mapping[str, Mapping[str, list[Job]]]
+) -> dict[str, dict[str, list[list[float]]]]:
+    """:data:`Optima` of the readings in ``jobs`` (reading -> study -> jobs) from their
+    ``records`` (job -> record, every job's present)."""
     return {
         reading: {
             study: [list(records[job].results["normalised_stroke"]) for job in group]

@@ -16,7 +16,16 @@ from pathlib import Path
 from typing import Any
 
 from agents.jobs import Job
-from agents.runner import RunSummary, load_records, run_jobs
+from agents.records import Record
+from agents.runner import (
+    CacheOption,
+    CommandProgress,
+    Phase,
+    RunSummary,
+    find_records,
+    job_records,
+    run_jobs,
+)
 from agents.store import RECORDS_DIR
 from eval import report
 from eval.studies import PAPER_STUDIES
@@ -34,6 +43,7 @@ from eval.studies.readings.plan import (
     check_jobs,
     combinations,
     full_tasks,
+    optima_from,
     optima_of,
     reading_plan,
     study_jobs,
@@ -41,6 +51,7 @@ from eval.studies.readings.plan import (
 from eval.studies.readings.report import write_readings_report
 from eval.studies.readings.result import ReadingResult, reading_dir
 from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
+from tandem_env.physics import N_PARAMETERS
 
 
 def analyse_reading(
@@ -66,7 +77,7 @@ def analyse_reading(
             pass
     jobs = study_jobs(plan, reading) if jobs is None else jobs
     outputs = tuple(
-        study.analyse(p, load_records(out_dir, jobs[name]), where)
+        study.analyse(p, job_records(out_dir, jobs[name]), where)
         for name, study in PAPER_STUDIES.items()
     )
     report.write_report(where / "report.md", p, outputs, list(PAPER_STUDIES))
@@ -80,11 +91,15 @@ def _phase(
     out_dir: Path,
     scheduler: str | None,
     progress: bool,
+    cache: CacheOption = True,
+    command: CommandProgress | None = None,
 ) -> tuple[list[ReadingResult], RunSummary]:
     """Run the jobs of ``readings`` (``jobs``: reading -> study -> jobs, :func:`study_jobs`) in
     one call, and analyse the readings."""
     todo = [job for r in readings for group in jobs[r.name].values() for job in group]
-    summary = run_jobs(todo, out_dir, scheduler=scheduler, progress=progress)
+    summary = run_jobs(
+        todo, out_dir, scheduler=scheduler, progress=progress, cache=cache, command=command
+    )
     results = []
     for reading in readings:
         if progress:
@@ -114,11 +129,17 @@ CHECK_COLUMNS: tuple[str, ...] = (
 def check_rows(out_dir: Path, checks: Sequence[tuple[Reading, Job, Job]]) -> list[dict[str, Any]]:
     """One row per checked job: the continued and the full optimum (``difference`` =
     (continued − full) / |full| [-]) and which part the continued run reported."""
-    continued = load_records(out_dir, [c for _, c, _ in checks])
-    full = load_records(out_dir, [f for _, _, f in checks])
+    records = job_records(out_dir, [job for _, c, f in checks for job in (c, f)])
+    return check_rows_from(records, checks)
+
+
+def check_rows_from(
+    records: Mapping[Job, Record], checks: Sequence[tuple[Reading, Job, Job]]
+) -> list[dict[str, Any]]:
+    """:func:`check_rows` from the checked jobs' ``records`` (job -> record)."""
     rows = []
     for reading, c, f in checks:
-        rc, rf = continued[c].results, full[f].results
+        rc, rf = records[c].results, records[f].results
         oc, of = float(rc["objective"]), float(rf["objective"])
         rows.append(
             {
@@ -224,6 +245,62 @@ def _invocations(
     return [*earlier, this]
 
 
+#: What the readings study's plan cannot count before its singles are analysed.
+COMBINATIONS_LATER = "the combinations the singles' results point to (counted once known)"
+
+
+def _flat(jobs: Mapping[str, Sequence[Job]]) -> list[Job]:
+    return [job for group in jobs.values() for job in group]
+
+
+def planned_phases(
+    plan: StudyPlan,
+    out_dir: str | os.PathLike[str],
+    readings: Sequence[Reading] = SINGLES,
+    continuation: Continuation | None = Continuation(),
+    cache: CacheOption = True,
+) -> list[Phase]:
+    """The phases of :func:`run_readings` before the combinations, as far as the records in
+    ``out_dir`` and the record cache decide them now (nothing is written or run).
+
+    A phase whose jobs continue from optima not found yet gets stand-ins at the right budgets
+    (:class:`~agents.runner.Phase`, their keys provisional); before the bias check has run, the
+    singles are planned as if no task ran in full.
+    """
+    if continuation is None:
+        jobs = [job for r in readings for job in _flat(study_jobs(plan, r))]
+        return [Phase("singles", tuple(jobs))]
+    default = {DEFAULT.name: study_jobs(plan, DEFAULT)}
+    phases = [Phase(PHASES[0], tuple(_flat(default[DEFAULT.name])))]
+    found = find_records(out_dir, phases[0].jobs, cache)
+    if found is None:  # stand-in optima: the jobs' budgets are right, their keys not final
+        optima: dict[str, dict[str, list[list[float]]]] = {
+            DEFAULT.name: {
+                name: [[0.0] * N_PARAMETERS] * len(group)
+                for name, group in default[DEFAULT.name].items()
+            }
+        }
+    else:
+        optima = optima_from(found, default)
+    others = readings[1:]
+    checks = [(r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)]
+    check = list(dict.fromkeys(job for _, c, f in checks for job in (c, f)))
+    stand_ins = frozenset(c.key for _, c, _ in checks) if found is None else frozenset()
+    phases.append(Phase(PHASES[1], tuple(check), stand_ins))
+    full: dict[str, dict[str, str]] = {}
+    if found is not None and checks and (done := find_records(out_dir, check, cache)):
+        full = full_tasks(check_summary(check_rows_from(done, checks)), continuation)
+    singles = [
+        job
+        for r in others
+        for job in _flat(study_jobs(plan, r, continuation, optima, full.get(r.name, {})))
+    ]
+    own = {job.key for r in others for job in _flat(study_jobs(plan, r))}
+    stand_ins = frozenset(j.key for j in singles if j.key not in own) if found is None else None
+    phases.append(Phase(PHASES[2], tuple(singles), stand_ins or frozenset()))
+    return phases
+
+
 def run_readings(
     plan: StudyPlan,
     out_dir: str | os.PathLike[str],
@@ -233,6 +310,8 @@ def run_readings(
     scheduler: str | None = None,
     progress: bool = True,
     continuation: Continuation | None = Continuation(),
+    cache: CacheOption = True,
+    command: CommandProgress | None = None,
 ) -> ReadingsResult:
     """Run the readings study into ``out_dir``: the ``readings`` (singles; the default first),
     then, if ``derive``, the combinations their results point to (:func:`combinations`).
@@ -241,9 +320,11 @@ def run_readings(
     runs first and the others continue from its optima (:class:`Continuation`), with the bias
     check on the singles.
 
-    ``plan`` gives the preset and methods (its own reading is ignored). ``scheduler`` as for
-    :func:`agents.runner.run_jobs`. Raises ValueError if ``readings`` does not start with
-    the default reading or repeats a name.
+    ``plan`` gives the preset and methods (its own reading is ignored). ``scheduler`` and
+    ``cache`` (the record cache) as for :func:`agents.runner.run_jobs`. ``command`` (the
+    command's progress, :class:`~agents.runner.CommandProgress`) is re-planned
+    (:func:`planned_phases`) and told at each phase's start. Raises ValueError if ``readings``
+    does not start with the default reading or repeats a name.
     """
     start = time.perf_counter()
     out = Path(out_dir)
@@ -261,30 +342,43 @@ def run_readings(
     runs: list[RunSummary] = []
     rows: list[dict[str, Any]] = []  # the bias check's, one per checked job
     full: dict[str, dict[str, str]] = {}
+
+    def starting(phase: str) -> None:
+        # The whole command again, from what the records decide now.
+        if command is not None:
+            command.plan(planned_phases(plan, out, readings, continuation, cache))
+            command.start(phase)
+
     if continuation is None:
         jobs = {r.name: study_jobs(plan, r) for r in readings}
-        singles, first = _phase(plan, jobs, readings, out, scheduler, progress)
+        starting("singles")
+        singles, first = _phase(plan, jobs, readings, out, scheduler, progress, cache, command)
         runs.append(first)
     else:
         # the default first: the others start from its optima
         jobs = {DEFAULT.name: study_jobs(plan, DEFAULT)}
-        default, first = _phase(plan, jobs, readings[:1], out, scheduler, progress)
+        starting(PHASES[0])
+        default, first = _phase(plan, jobs, readings[:1], out, scheduler, progress, cache, command)
         optima = optima_of(out, jobs)
         # the bias check, then each single reading: a task the check fails runs in full
         others = readings[1:]
         checks = [(r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)]
+        starting(PHASES[1])
         check = run_jobs(
             list(dict.fromkeys(job for _, c, f in checks for job in (c, f))),
             out,
             scheduler=scheduler,
             progress=progress,
+            cache=cache,
+            command=command,
         )
         rows = check_rows(out, checks) if checks else []
         full = full_tasks(check_summary(rows), continuation)
         jobs |= {
             r.name: study_jobs(plan, r, continuation, optima, full.get(r.name, {})) for r in others
         }
-        rest, second = _phase(plan, jobs, others, out, scheduler, progress)
+        starting(PHASES[2])
+        rest, second = _phase(plan, jobs, others, out, scheduler, progress, cache, command)
         singles = default + rest
         runs += [first, check, second]
     words = "not derived (derive=False)"
@@ -292,13 +386,19 @@ def run_readings(
     if derive:
         derived, words = combinations(singles[0], singles)
         derived = [r for r in derived if r.name not in names]
+        if command is not None:
+            command.plan([], later="")  # the combinations are known now
         if derived:
             if continuation is not None:
                 optima = optima_of(out, jobs)
                 jobs |= {r.name: study_jobs(plan, r, continuation, optima) for r in derived}
             else:
                 jobs |= {r.name: study_jobs(plan, r) for r in derived}
-            more, third = _phase(plan, jobs, derived, out, scheduler, progress)
+            if command is not None:
+                more_jobs = [job for r in derived for job in _flat(jobs[r.name])]
+                command.plan([Phase(PHASES[3], tuple(more_jobs))])
+                command.start(PHASES[3])
+            more, third = _phase(plan, jobs, derived, out, scheduler, progress, cache, command)
             results += more
             runs.append(third)
     if rows:

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.runner import load_records
+from agents.runner import job_records
 from eval.studies.base import StudyPlan
 from eval.studies.bench_workers import makespan
 from eval.studies.paper_reading import Reading
@@ -51,7 +51,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     print(f"measured: {args.measured} ({measured.preset.name}); estimated: {args.preset}")
     for reading in manifest_readings(manifest["readings"]):
         jobs = list({j.key: j for j in reading_jobs(measured, reading)}.values())
-        records = load_records(args.measured, jobs)
+        records = job_records(args.measured, jobs)
         per_eval = {
             task: float(
                 np.median([records[j].wall_time / j.budget for j in jobs if j.task == task])
