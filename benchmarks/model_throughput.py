@@ -126,10 +126,12 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     print("* force sweeps over the cycle needed by a stroke's slowest annulus, mean over the batch")
     print()
     print("where the time goes at batch 1024 (coupled), ms per call (best wall, best CPU):")
-    angles, weights, frequency, beta, sweep = model._parametric_inputs(strokes, options.n_time)
+    angles, weights, frequency, beta, sweep, phases = model.parametric_kernel_inputs(
+        strokes, options.n_time
+    )
     parts = {
         "validate strokes": lambda: te.validate_physical(strokes),
-        "kinematics (angles, analytic rates)": lambda: model._parametric_inputs(
+        "kinematics (angles, analytic rates)": lambda: model.parametric_kernel_inputs(
             strokes, options.n_time
         ),
         "cycle without inflow (frames, forces, power, means)": lambda: model.run_kernel(
@@ -142,6 +144,7 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
             np.zeros_like(speeds),
             te.DRAGONFLY,
             te.ModelOptions(induction="none"),
+            phases=phases,
         ),
         "cycle with coupled inflow": lambda: model.run_kernel(
             angles,
@@ -153,6 +156,7 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
             np.zeros_like(speeds),
             te.DRAGONFLY,
             options,
+            phases=phases,
         ),
         "whole evaluate()": lambda: te.evaluate(strokes, speeds),
     }

@@ -18,11 +18,11 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import ModuleType
 
-try:  # the shared wrapper of the command lines; importing tandem_env checks numba's environment
+from train.entry import exit_on_bad_environment
+
+# importing tandem_env checks numba's environment: a bad setting is one line and status 2
+with exit_on_bad_environment("python -m eval"):
     from tandem_env.io.command import command_line
-except ValueError as error:
-    print(f"python -m eval: error: {error}", file=sys.stderr)
-    raise SystemExit(2) from None
 from tandem_env.io.progress_bar import warnings_as_lines
 
 #: Modules providing the subcommands, in the order ``--help`` lists them.

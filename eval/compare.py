@@ -34,8 +34,8 @@ from tandem_env.io.files import atomic_path, output_directory, write_csv_atomic,
 __all__ = [
     "Row",
     "compare",
+    "comparison_markdown",
     "convergence_curve",
-    "markdown_table",
     "plot_convergence",
     "table_rows",
 ]
@@ -299,7 +299,7 @@ def _fmt(value: float, digits: int = 4) -> str:
     return "n/a" if not math.isfinite(value) else f"{value:.{digits}g}"
 
 
-def markdown_table(rows: Sequence[Row]) -> str:
+def comparison_markdown(rows: Sequence[Row]) -> str:
     """The rows as a Markdown table (objective values to 4 significant digits)."""
     header = (
         "| task | objective | condition | method | budget | seeds | median | IQR (25-75 %) "
@@ -478,7 +478,7 @@ def compare(
     out = Path(out)
     rows = table_rows(records)
     write_csv_atomic(out / TABLE_CSV, [r.to_dict() for r in rows])
-    write_text_atomic(out / TABLE_MD, markdown_table(rows))
+    write_text_atomic(out / TABLE_MD, comparison_markdown(rows))
     plot_convergence(records, plot_path)
     return rows
 
@@ -512,6 +512,6 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         rows = compare(args.dirs, out, args.format)
     except ValueError as error:
         parser.error(str(error))
-    sys.stdout.write(markdown_table(rows))
+    sys.stdout.write(comparison_markdown(rows))
     print(f"wrote {out / TABLE_CSV}, {TABLE_MD} and {PLOT_STEM}.{args.format}", file=sys.stderr)
     return 0

@@ -46,9 +46,9 @@ __all__ = [
     "SB3Policy",
     "SteadyPolicy",
     "episode_metrics",
+    "policy_summary_rows",
     "run_episodes",
     "steady_optima",
-    "summary_rows",
 ]
 
 NAME = "speed-change"
@@ -282,7 +282,7 @@ def episode_metrics(log: EpisodeLog) -> dict[str, Any]:
     }
 
 
-def summary_rows(episodes: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+def policy_summary_rows(episodes: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """One row per policy: means (and the return's standard deviation) over its episodes."""
     out = []
     for policy in dict.fromkeys(e["policy"] for e in episodes):
@@ -321,8 +321,8 @@ def summary_rows(episodes: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
-def markdown_table(rows: Sequence[Mapping[str, Any]]) -> str:
-    """The docs table of :func:`summary_rows`."""
+def policy_summary_markdown(rows: Sequence[Mapping[str, Any]]) -> str:
+    """The docs table of :func:`policy_summary_rows`."""
     lines = [
         "| policy | mean return (± std) | ended early | reached u* ± 5 % | median time to reach [s] "
         "| final \\|u − u*\\| [m/s] | energy per metre [mJ/m] | mean \\|h\\| [mm] | mean P/m [W/kg] |",
@@ -532,11 +532,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         logs = run_episodes(policy, seeds)
         episodes.extend(episode_metrics(log) for log in logs)
         shown.append(logs[args.figure_episode])
-    rows = summary_rows(episodes)
+    rows = policy_summary_rows(episodes)
     args.out.mkdir(parents=True, exist_ok=True)
     write_csv_atomic(args.out / "episodes.csv", episodes)
     write_csv_atomic(args.out / "summary.csv", rows)
-    table = markdown_table(rows)
+    table = policy_summary_markdown(rows)
     (args.out / "summary.md").write_text(table)
     print(table)
     if args.figure is not None:

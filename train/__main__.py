@@ -17,11 +17,11 @@ from dataclasses import MISSING, fields
 from pathlib import Path
 from typing import Any
 
-try:  # the shared wrapper of the command lines; importing tandem_env checks numba's environment
+from train.entry import exit_on_bad_environment
+
+# importing tandem_env checks numba's environment: a bad setting is one line and status 2
+with exit_on_bad_environment("python -m train"):
     from tandem_env.io.command import command_line
-except ValueError as error:
-    print(f"python -m train: error: {error}", file=sys.stderr)
-    raise SystemExit(2) from None
 from tandem_env.io.keyvalue import parse_pairs
 from tandem_env.io.progress_bar import warnings_as_lines
 from train.config import ALGOS, DEVICES, TrainConfig

@@ -24,11 +24,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-try:  # the shared wrapper of the command lines; importing tandem_env checks numba's environment
+from train.entry import exit_on_bad_environment
+
+# importing tandem_env checks numba's environment: a bad setting is one line and status 2
+with exit_on_bad_environment("python -m train.envelope"):
     from tandem_env.io.command import command_line
-except ValueError as error:
-    print(f"python -m train.envelope: error: {error}", file=sys.stderr)
-    raise SystemExit(2) from None
 from tandem_env.io.files import output_directory, write_csv_atomic
 
 #: Columns of envelope.csv.

@@ -55,7 +55,7 @@ def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str,
 
 
 def speed_change_rows(optima: Sequence[dict[str, Any]], first_seed: int) -> list[dict[str, Any]]:
-    """``summary_rows`` of the random and steady policies over the evaluation episodes, the
+    """``policy_summary_rows`` of the random and steady policies over the evaluation episodes, the
     steady one playing ``optima``."""
     import numpy as np
 
@@ -71,7 +71,7 @@ def speed_change_rows(optima: Sequence[dict[str, Any]], first_seed: int) -> list
         for policy in (speed_change.RandomPolicy(seed=0), steady)
         for log in speed_change.run_episodes(policy, list(seeds))
     ]
-    return speed_change.summary_rows(episodes)
+    return speed_change.policy_summary_rows(episodes)
 
 
 def measure_speed_change() -> dict[str, Any]:
@@ -87,13 +87,13 @@ def measure_speed_change() -> dict[str, Any]:
 
 
 def render_speed_change(data: dict[str, Any]) -> str:
-    from eval.speed_change import markdown_table
+    from eval.speed_change import policy_summary_markdown
 
     optima = data["optima"]
     first = optima[0]
     random = next(r for r in data["rows"] if r["policy"] == "random")
     lines = [
-        markdown_table(data["rows"]).rstrip("\n"),
+        policy_summary_markdown(data["rows"]).rstrip("\n"),
         "",
         f"Random strokes end their episodes after {random['flight_time_mean_s']:.2f} s on "
         f"average. The steady schedule's level-flight optima ({first['method']}, "

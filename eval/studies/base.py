@@ -21,7 +21,7 @@ from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim
 from eval.studies.paper_reading import DEFAULT, Reading
 from eval.studies.presets import Preset
-from eval.studies.tables import summary_rows, tidy_rows
+from eval.studies.tables import spread_summary_rows, tidy_rows
 from tandem_env import PARAMETER_NAMES, ModelOptions
 from tandem_env.envs.config import EXECUTION_KWARGS, MODEL_OPTION_KWARGS
 from tandem_env.io.files import write_csv_atomic, write_json_atomic
@@ -202,5 +202,5 @@ def write_tables(
     write_csv_atomic(paths[1], rows)
     # the study's quantities, then the 28 stroke parameters (each with its ``pinned`` flag)
     extra = [n for n in PARAMETER_NAMES if n not in quantities]
-    write_csv_atomic(paths[2], summary_rows(rows, [*quantities, *extra]))
+    write_csv_atomic(paths[2], spread_summary_rows(rows, [*quantities, *extra]))
     return rows, paths

@@ -225,7 +225,7 @@ def checkpoint_rows(
     return list({row["budget"]: row for row in out}.values())
 
 
-def markdown_table(rows: list[dict[str, Any]]) -> str:
+def checkpoints_markdown(rows: list[dict[str, Any]]) -> str:
     """The checkpoint table as Markdown (what docs/reproduction.md shows)."""
     lines = [
         "| condition | method | budget | median | IQR | min - max | spread | median / final |",
@@ -271,7 +271,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
     path = out_dir / NAME / "convergence_checkpoints.csv"
     write_csv_atomic(path, table)
     markdown = out_dir / NAME / "convergence_checkpoints.md"
-    write_text_atomic(markdown, markdown_table(table))
+    write_text_atomic(markdown, checkpoints_markdown(table))
     files += [path, markdown]
     fig = figures.convergence_figure(panels, plan.figure(out_dir / NAME, "convergence"))
     caption = f"{' and '.join(methods(plan))} best-so-far over evaluations"

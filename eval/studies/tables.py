@@ -270,7 +270,7 @@ def by_condition(
     return {c: spread(select(chosen, condition=c), quantity) for c in conditions}
 
 
-def summary_rows(
+def spread_summary_rows(
     rows: Sequence[Mapping[str, Any]], quantities: Sequence[str]
 ) -> list[dict[str, Any]]:
     """Per series, condition and quantity: n, n_feasible, median, q25, q75, best, best_seed and

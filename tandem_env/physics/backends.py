@@ -1,6 +1,6 @@
 """``evaluate`` with a choice of implementation: the numba kernel or the torch port.
 
-:func:`evaluate` is :func:`model.evaluate` (the numba kernel) plus ``backend`` and ``device``;
+:func:`evaluate` is :func:`model.evaluate_numba` (the numba kernel) plus ``backend`` and ``device``;
 ``backend="torch"`` runs ``torch_model`` (imported only then) and returns the same numpy
 ``Result``. It lives here rather than in ``model``, which ``torch_model`` builds on, so that no
 import leads back to where it started (tests/test_layering.py).
@@ -33,7 +33,7 @@ def evaluate(
     backend: str = "numba",
     device: Any = None,
 ) -> Result:
-    """Evaluate one wing-beat cycle of each stroke in a batch (:func:`model.evaluate`'s
+    """Evaluate one wing-beat cycle of each stroke in a batch (:func:`model.evaluate_numba`'s
     arguments, units and ``Result``).
 
     ``backend``: ``"numba"`` (the compiled kernel) or ``"torch"`` (``torch_model``, float64,
@@ -47,7 +47,7 @@ def evaluate(
 
         return evaluate_numpy(strokes, speed, available_power, device=device, **kwargs)
     check_backend(backend, device)
-    return model.evaluate(strokes, speed, available_power, **kwargs)
+    return model.evaluate_numba(strokes, speed, available_power, **kwargs)
 
 
 def check_backend(backend: Any, device: Any = None) -> tuple[str, str | None]:

@@ -40,7 +40,7 @@ from .blade import (
     fill_frame_coefficients,
     relative_velocity,
 )
-from .induction import N_SAMPLE, S_FC, S_FN, S_U, S_V, normal_force_sweep, solve_annulus_samples
+from .induction import N_SAMPLE, S_FC, S_FN, S_U, S_V, sweep_annulus
 from .kinematics import fill_angle_history
 
 # Blade-element node table columns.
@@ -284,7 +284,6 @@ def wing_cycle(
         for c in range(N_COEF):
             coef_by_column[c, k] = coef[k, c]
     frame = coef_by_column.T
-    fluctuation = np.zeros(n_time)
     for j in range(n_r):
         r = nodes[j, N_R]
         chord = nodes[j, N_CHORD]
@@ -292,36 +291,13 @@ def wing_cycle(
         m11 = nodes[j, N_M11]
         m22 = nodes[j, N_M22]
         v_upstream = v_normal + v_external[j]
-        v_induced = 0.0
-        # Either way ``samples`` ends up holding the element forces at the annulus's final
-        # inflow: the solver ends on a swept point, so its last sweep is reused, not redone.
-        if wake is not None:
-            for k in range(n_time):
-                fluctuation[k] = wake[k]
-        if solve_inflow and wake is None:
-            v_induced, evals, ok = solve_annulus_samples(
-                frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
-                sweep_amplitude, tolerance, max_evaluations, samples, table,
-            )  # fmt: skip
-            converged = converged and ok
-            max_evals = max(max_evals, evals)
-        elif solve_inflow:
-            v_induced, evals, ok = solve_annulus_samples(
-                frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
-                sweep_amplitude, tolerance, max_evaluations, samples, table, fluctuation,
-            )  # fmt: skip
-            converged = converged and ok
-            max_evals = max(max_evals, evals)
-        elif wake is None:
-            normal_force_sweep(
-                frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
-                samples, table,
-            )  # fmt: skip
-        else:
-            normal_force_sweep(
-                frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
-                samples, table, fluctuation,
-            )  # fmt: skip
+        # ``samples`` ends up holding the element forces at the annulus's final inflow
+        v_induced, evals, ok = sweep_annulus(
+            frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
+            solve_inflow, sweep_amplitude, tolerance, max_evaluations, samples, table, wake,
+        )  # fmt: skip
+        converged = converged and ok
+        max_evals = max(max_evals, evals)
         out_inflow[j] = v_induced
         area += chord * width
         inflow_mean += chord * width * v_induced

@@ -1,9 +1,10 @@
 """Time histories of one stroke over its wing-beat cycle (for the kinematics figures, Figs. 9-13).
 
-The histories come from the same compiled cycle as :func:`~tandem_env.physics.model.evaluate`
-(the inflow is solved the same way), sampled on a uniform time grid so that curves can be
-plotted and compared directly: :func:`stroke_history` for a 28-parameter stroke,
-:func:`measured_history` for a pair of :class:`~tandem_env.physics.measured.MeasuredWing`.
+The histories come from the same compiled cycle as
+:func:`~tandem_env.physics.model.evaluate_numba` (the inflow is solved the same way), sampled on
+a uniform time grid so that curves can be plotted and compared directly: :func:`stroke_history`
+for a 28-parameter stroke, :func:`measured_history` for a pair of
+:class:`~tandem_env.physics.measured.MeasuredWing`.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from .model import (
     DEFAULT_OPTIONS,
     Result,
     coefficient_tables,
-    evaluate,
+    evaluate_numba,
     freestream_components,
     inflow_switched_off,
     validate_conditions,
@@ -86,7 +87,8 @@ class StrokeHistory:
     fore: WingHistory
     hind: WingHistory
     result: Result
-    """The cycle means of :func:`evaluate` (or :func:`evaluate_measured`) for this stroke (B = 1)."""
+    """The cycle means of :func:`evaluate_numba` (or :func:`evaluate_measured`) for this stroke
+    (B = 1)."""
 
 
 def _tip_path(angles: np.ndarray, beta: float, side: int = 1) -> np.ndarray:
@@ -121,7 +123,7 @@ def stroke_history(
     inclined by ``flight_path_angle`` γ [rad, + climbing]; forces in earth axes.
 
     The histories have ``n_samples`` uniform samples per cycle; ``result`` is exactly
-    :func:`evaluate` of the stroke (on its motion-following grid). ``side = -1`` evaluates the
+    :func:`evaluate_numba` of the stroke (on its motion-following grid). ``side = -1`` evaluates the
     mirror image (the left wings), for the symmetry checks.
     """
     physical = validate_physical(stroke)
@@ -148,7 +150,9 @@ def stroke_history(
         frequency[0, w] = params[0, 0]
         beta[0, w] = params[0, 13]
         sweep[0, w] = params[0, 1]
-    result = evaluate(physical, v, p_avail, flight_path_angle=gamma, insect=insect, options=options)
+    result = evaluate_numba(
+        physical, v, p_avail, flight_path_angle=gamma, insect=insect, options=options
+    )
     return _histories(
         angles, weights, frequency, beta, sweep, v, gamma, result, insect, options, side
     )

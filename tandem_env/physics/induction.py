@@ -364,6 +364,49 @@ def solve_annulus_samples(
 
 
 @njit(cache=True)
+def sweep_annulus(
+    coef,
+    r,
+    chord,
+    m11,
+    m22,
+    rho,
+    ct,
+    cd0,
+    cd90,
+    cr,
+    v_tangential,
+    v_normal0,
+    solve,
+    sweep_amplitude,
+    tolerance,
+    max_iterations,
+    samples,
+    table=None,
+    wake=None,
+):
+    """One annulus of the compiled cycle (``cycle.wing_cycle``) at its final inflow; returns
+    (v_i [m/s], force sweeps of the solve, converged).
+
+    ``solve``: the inflow is solved (:func:`solve_annulus_samples`); else v_i = 0 and one force
+    sweep at ``v_normal0`` (:func:`normal_force_sweep`), returned as (0, 0, True): no solve, so
+    no sweep of one. Either way ``samples`` is left holding the sweep at the returned v_i (the
+    solve ends on a swept point, so its last sweep is reused, not redone). ``table`` and
+    ``wake`` as for :func:`solve_annulus_samples`; ``None`` is compiled exactly as without them.
+    """
+    if solve:
+        return solve_annulus_samples(
+            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0,
+            sweep_amplitude, tolerance, max_iterations, samples, table, wake,
+        )  # fmt: skip
+    normal_force_sweep(
+        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0, samples,
+        table, wake,
+    )  # fmt: skip
+    return 0.0, 0, True
+
+
+@njit(cache=True)
 def solve_annulus(
     coef,
     r,

@@ -1,9 +1,11 @@
 """The batched entry point: strokes (B, 28) and a flight condition -> performance (B,).
 
-``evaluate`` is the one function every layer above (environments, PSO, sweeps) calls. It runs
-the whole batch in one compiled, parallel call (no Python loop over strokes) and returns a
-:class:`Result` of (B,) arrays whose metric names are the ones the environments put in ``info``.
-Flight performance follows Eqs. 17 and 22-27 as docs/model.md §7 decides.
+:func:`evaluate_numba` evaluates the model on the compiled numba kernel; every layer above
+(environments, PSO, sweeps) calls it through ``tandem_env.evaluate`` (``backends``, which also
+offers the torch port). It runs the whole batch in one compiled, parallel call (no Python loop
+over strokes) and returns a :class:`Result` of (B,) arrays whose metric names are the ones the
+environments put in ``info``. Flight performance follows Eqs. 17 and 22-27 as docs/model.md §7
+decides.
 """
 
 from __future__ import annotations
@@ -330,7 +332,7 @@ def run_kernel(
     tables: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
     phases: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Run the compiled cycle on prepared angle histories (the step below :func:`evaluate`).
+    """Run the compiled cycle on prepared angle histories (the step below :func:`evaluate_numba`).
 
     ``angles``/``weights``: per wing, (B, n_time, 9) angle histories and (B, n_time) quadrature
     weights; ``frequency``, ``beta``, ``sweep``: (B, 2) [Hz, rad, rad]; ``speed`` (B,) [m/s];
@@ -469,7 +471,17 @@ def grid_phases(wing_params: np.ndarray, n_time: int) -> np.ndarray:
     return phase_grid.py_func(s[None, :], reversal[:, None], crowding[:, None])[0]
 
 
-def _parametric_inputs(physical: np.ndarray, n_time: int):
+def parametric_kernel_inputs(
+    physical: np.ndarray, n_time: int
+) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The compiled kernel's inputs of a batch of physical strokes (B, 28) in Table 4 units
+    (validated: ``stroke.validate_physical``), on ``n_time`` samples of the motion-following grid:
+    ``angles``, ``weights``, ``frequency``, ``beta``, ``sweep`` as :func:`run_kernel` takes them
+    (per wing (B, n_time, 9) angle histories (φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈) and (B, n_time)
+    quadrature weights, ``kinematics.fill_angle_history``; (B, 2) [Hz, rad, rad]) and
+    ``phases`` (B, 2, n_time) [rad] (:func:`grid_phases`).
+    The step of :func:`evaluate_numba` between validation and :func:`run_kernel`.
+    """
     batch = physical.shape[0]
     angles, weights, frequency, beta, sweep = (
         [],
@@ -499,7 +511,7 @@ def _parametric_inputs(physical: np.ndarray, n_time: int):
     return angles, weights, frequency, beta, sweep, phases
 
 
-def evaluate(
+def evaluate_numba(
     strokes: np.ndarray,
     speed: float | np.ndarray = 0.0,
     available_power: float | np.ndarray | None = None,
@@ -508,7 +520,8 @@ def evaluate(
     insect: Dragonfly = DRAGONFLY,
     options: ModelOptions = DEFAULT_OPTIONS,
 ) -> Result:
-    """Evaluate one wing-beat cycle of each stroke in a batch.
+    """Evaluate one wing-beat cycle of each stroke in a batch on the compiled numba kernel
+    (``tandem_env.evaluate``'s default backend, :func:`~tandem_env.physics.backends.evaluate`).
 
     Parameters
     ----------
@@ -549,7 +562,9 @@ def evaluate(
     v, p_avail, gamma = validate_conditions(
         speed, available_power, flight_path_angle, batch, insect
     )
-    angles, weights, frequency, beta, sweep, phases = _parametric_inputs(physical, options.n_time)
+    angles, weights, frequency, beta, sweep, phases = parametric_kernel_inputs(
+        physical, options.n_time
+    )
     out, _, _ = run_kernel(
         angles, weights, frequency, beta, sweep, v, gamma, insect, options, phases=phases
     )

@@ -1,7 +1,7 @@
 """The model in PyTorch: the numba kernel's cycle (``cycle``), differentiable and on any device.
 
-:func:`evaluate_torch` evaluates the same model as :func:`model.evaluate` (docs/model.md, every
-``ModelOptions`` value, both planforms, the paper's force coefficients), vectorised over the
+:func:`evaluate_torch` evaluates the same model as :func:`model.evaluate_numba` (docs/model.md,
+every ``ModelOptions`` value, both planforms, the paper's force coefficients), vectorised over the
 batch and the blade elements instead of looping over them, and returns a :class:`TorchResult`
 of tensors with the :class:`~tandem_env.physics.model.Result` field names, differentiable by
 autograd with respect to the strokes and to speed, flight-path angle and available power where

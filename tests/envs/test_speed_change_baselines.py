@@ -17,9 +17,9 @@ from eval.speed_change import (
     RandomPolicy,
     SteadyPolicy,
     episode_metrics,
+    policy_summary_rows,
     run_episodes,
     steady_optima,
-    summary_rows,
 )
 from tandem_env.envs import SpeedChangeConfig
 
@@ -94,7 +94,7 @@ def test_episode_metrics() -> None:
     assert m["mean_abs_altitude_mm"] == pytest.approx(4.0)
     assert m["return"] == pytest.approx(-0.6) and m["cycles"] == 3
     assert m["final_speed_error_m_s"] == pytest.approx(0.1)
-    row = summary_rows([m, {**m, "time_to_target_s": float("nan"), "return": -1.6}])[0]
+    row = policy_summary_rows([m, {**m, "time_to_target_s": float("nan"), "return": -1.6}])[0]
     assert row["reached_share"] == 0.5 and row["time_to_target_median_s"] == 0.06
     assert row["return_mean"] == pytest.approx(-1.1) and row["return_std"] == pytest.approx(0.5)
 

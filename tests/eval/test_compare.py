@@ -127,7 +127,7 @@ def test_records_of_different_configurations_are_never_merged(
     ]
     assert [r.objective_median for r in rows] == pytest.approx([0.25, 0.205, 0.305])
     assert rows[1].settings == "planform=real; tandem_env=test"
-    markdown = compare_module.markdown_table(rows)
+    markdown = compare_module.comparison_markdown(rows)
     assert "| pso (n_time=64, planform=real) |" in markdown
     assert "spread = (max - min) / |median|" in markdown
     # Another budget is another row too.
@@ -232,7 +232,7 @@ def test_certificate_columns_are_the_records_medians() -> None:
     (row,) = compare_module.table_rows(certified)
     assert row.polish_gain_median == pytest.approx(0.03)
     assert row.kkt_residual_median == pytest.approx(0.5 * (1e-6 + 1e-2))  # unknown left out
-    assert "+3.00 %" in compare_module.markdown_table([row])
+    assert "+3.00 %" in compare_module.comparison_markdown([row])
     # records without a certificate (older formats, no polish): no numbers, not zeros
     (row,) = compare_module.table_rows(runs)
     assert math.isnan(row.polish_gain_median) and math.isnan(row.kkt_residual_median)

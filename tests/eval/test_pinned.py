@@ -12,7 +12,7 @@ from eval.studies.tables import (
     PINNED_SHARE,
     pinned,
     pinned_parameters,
-    summary_rows,
+    spread_summary_rows,
     table4_bounds,
 )
 from tandem_env import LOWER, PARAMETER_NAMES, UPPER
@@ -72,7 +72,9 @@ def test_bounds_of_the_parameter_panels() -> None:
 
 def test_summary_and_report_flag_pinned_parameters() -> None:
     rows = [_row(0, **AT_30), _row(1, **AT_30), _row(2)]
-    summary = summary_rows(rows, ["sweep_amplitude", "fore_sweep_amplitude", "fore_frequency"])
+    summary = spread_summary_rows(
+        rows, ["sweep_amplitude", "fore_sweep_amplitude", "fore_frequency"]
+    )
     assert [r["pinned"] for r in summary] == ["lower", "lower", ""]
     found = pinned_parameters([*rows, *rows])  # the same records in two studies count once
     assert [(r["parameter"], r["bound"], r["value"]) for r in found] == [
