@@ -42,6 +42,7 @@ from ..physics.checks import count
 from ..physics.model import MAX_BATCH_STROKES
 from .config import FlightConfig, PenaltyConfig
 from .declaration import Scores, TaskDeclaration
+from .problem import FlightProblem
 from .validate import (
     RENDER_MODES,
     action_array,
@@ -67,11 +68,14 @@ _FIRST = np.zeros(1, dtype=np.intp)
 
 #: The action space's dtype: what an agent's action (an SB3 policy's output) carries.
 ACTION_DTYPE = np.float32
+#: The action box's bounds, every coordinate: the normalised stroke's range, which
+#: ``physics.normalised_to_physical`` maps onto Table 4's bounds.
+ACTION_LOW, ACTION_HIGH = -1.0, 1.0
 
 
 def action_space() -> spaces.Box:
     """Box(-1, 1, (28,), float32): the normalised stroke, fore-wing first (Table 4 order)."""
-    return spaces.Box(-1.0, 1.0, (N_PARAMETERS,), dtype=ACTION_DTYPE)
+    return spaces.Box(ACTION_LOW, ACTION_HIGH, (N_PARAMETERS,), dtype=ACTION_DTYPE)
 
 
 def as_action_type(strokes: Any) -> np.ndarray:
@@ -257,6 +261,11 @@ class FlightCore:
             self.declaration.score(result, self.config),
             self.config.penalty,
         )
+
+    def problem(self) -> FlightProblem:
+        """The task as an optimisation problem over the action box, evaluated through
+        :meth:`step` at conditions given with each call (:mod:`tandem_env.envs.problem`)."""
+        return FlightProblem(self, ACTION_LOW, ACTION_HIGH)
 
 
 # --- columns -> per-env dicts / Gymnasium vector infos -------------------------------------------
@@ -481,6 +490,17 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         """(n, ...) current observation of each sub-env (a copy)."""
         return self._observations.copy()
 
+    def problem(self) -> FlightProblem:
+        """The task as an optimisation problem (:mod:`tandem_env.envs.problem`): bounds,
+        constraints, batched evaluation at explicit conditions. A one-cycle task's only: a
+        sequential task's core has no one-stroke problem (TypeError)."""
+        if not isinstance(self.core, FlightCore):
+            raise TypeError(
+                f"{self!r}: {type(self.core).__name__} poses no one-stroke problem; allowed: a "
+                "one-cycle task (a FlightCore)"
+            )
+        return self.core.problem()
+
     # --- primitives shared with the single env and the SB3 adapter --------------------------------
     def start(self, index: np.ndarray, rng: EnvGenerators, options: EnvOptions) -> Columns:
         """Start new episodes in sub-envs ``index`` drawing from ``rng(k)`` (the generator of
@@ -701,6 +721,10 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
         self.action_space = action_space()
         self.observation_space = self.batch.single_observation_space
         self._window: Any = None
+
+    def problem(self) -> FlightProblem:
+        """The task as an optimisation problem, its vector env's (:meth:`FlightVectorEnv.problem`)."""
+        return self.batch.problem()
 
     @property
     def condition(self) -> float | None:
