@@ -56,8 +56,6 @@ import numpy as np
 from cmaes import CMAwM
 
 from agents.optimiser import (
-    LOWER,
-    UPPER,
     AskTellOptimiser,
     FloatArray,
     SeedLike,
@@ -65,6 +63,7 @@ from agents.optimiser import (
     check_real,
     store_plain,
 )
+from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
 
 __all__ = ["CMAES", "CMAESConfig", "Restarts", "default_popsize", "discrete_levels"]
 
@@ -238,7 +237,7 @@ class CMAES(AskTellOptimiser):
             )
         super().__init__(dim, popsize, config, seed)
         self._popsize0 = popsize
-        self._bounds = np.tile([LOWER, UPPER], (dim, 1)).astype(float)
+        self._bounds = np.tile([ACTION_LOW, ACTION_HIGH], (dim, 1)).astype(float)
         self._steps = np.zeros(dim)  # CMAwM: > 0 marks a discrete coordinate and its spacing
         for index, levels in config.discrete:
             values = discrete_levels(levels)

@@ -25,7 +25,9 @@ vector env), and the record's results come from that re-evaluation.
 Before the re-evaluation the best feasible stroke is polished by a constrained local optimiser
 (:mod:`agents.polish`; on by default for ``cmaes`` and ``pso``): its evaluations count in the
 job's budget (the search gets the budget less the polish's share) and its certificate is the
-results' ``certificate``.
+results' ``certificate``. The budget's parts (several searches, initial strokes), each
+searched and polished, are :mod:`agents.parts`; this module validates a job, runs its parts
+and builds the record.
 """
 
 from __future__ import annotations
@@ -34,8 +36,8 @@ import functools
 import math
 import time
 import warnings
-from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field, replace
+from collections.abc import Iterable, Mapping
+from dataclasses import replace
 from typing import Any
 
 import gymnasium as gym
@@ -43,61 +45,26 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 import tandem_env
-from agents.evaluator import Reevaluation, VectorEnvEvaluator, reevaluate
+from agents.evaluator import Reevaluation, reevaluate
 from agents.jobs import Job
-from agents.methods import Method, SearchContext, SearchOutcome, get_method
-from agents.polish import (
-    AutogradGradient,
-    Certificate,
-    PolishConfig,
-    Problem,
-    polish,
-    split_settings,
-    task_problem,
+from agents.methods import Method, get_method
+from agents.parts import (
+    Part,
+    PreparedJob,
+    gradient_cost,
+    initial_part,
+    plan_parts,
+    search_history,
+    search_part,
 )
-from agents.records import (
-    CERTIFICATE,
-    SELECTION_BEST_FEASIBLE,
-    SELECTION_BEST_REWARD,
-    SELECTION_INITIAL,
-    SELECTION_INITIAL_POLISHED,
-    SELECTION_METHOD,
-    SELECTION_POLISHED,
-    STARTS,
-    Record,
-    package_versions,
-)
-from agents.tasks import Condition, TaskSpec, get_task
-from tandem_env.envs.base import as_action_type
+from agents.polish import env_problem, polishable, split_settings, task_problem
+from agents.records import CERTIFICATE, STARTS, Record, package_versions
+from agents.tasks import TaskSpec, get_task
+from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW, as_action_type
 from tandem_env.io.files import to_jsonable
 from tandem_env.io.progress_bar import ProgressBar, Reporter
 
 __all__ = ["PreparedJob", "prepare", "prepare_job", "run", "run_job"]
-
-
-@dataclass(frozen=True, eq=False)
-class PreparedJob:
-    """A validated job, resolved into what running it needs (:func:`prepare_job`)."""
-
-    job: Job
-    method: Method
-    task: TaskSpec
-    condition: Condition
-    env_kwargs: Mapping[str, Any]
-    """Env constructor keywords, including the condition (and objective) keyword."""
-    objective_name: str
-    """The ``info`` metric the task maximises under these keywords."""
-    dim: int
-    """Dimension of the action box."""
-    polish: PolishConfig = field(default_factory=lambda: PolishConfig(method="none"))
-    """The local polish after the search (its settings are the ``polish*`` method settings)."""
-
-    def describe(self) -> str:
-        """E.g. ``pso on level (efficiency) at speed = 1.5 m/s, budget 12000 evaluations``."""
-        return (
-            f"{self.job.method} on {self.task.name} ({self.objective_name}) at "
-            f"{self.condition.describe()}, budget {self.job.budget} evaluations"
-        )
 
 
 def prepare_job(
@@ -132,19 +99,17 @@ def prepare_job(
         if not (
             isinstance(space, gym.spaces.Box)
             and len(space.shape) == 1
-            and np.all(space.low == -1.0)
-            and np.all(space.high == 1.0)
+            and np.all(space.low == ACTION_LOW)
+            and np.all(space.high == ACTION_HIGH)
         ):
             raise ValueError(f"{spec.env_id}: action space {space}; allowed: Box(-1, 1, (d,))")
         dim = int(space.shape[0])
-        # The polish needs the task's constraints (its env core's ``constraints``).
-        core = getattr(env.unwrapped, "core", None)
-        declared = getattr(getattr(core, "declaration", None), "constraints", None)
-        polishable = bool(declared) and all(c.margin is not None for c in declared)
+        # The polish needs the task's constraints with margins (the env's problem view).
+        can_polish = polishable(env_problem(env))
     finally:
         env.close()
     polish_config, own_config = split_settings(job.method, dict(job.method_config))
-    if polish_config.enabled and not polishable:
+    if polish_config.enabled and not can_polish:
         given = dict(job.method_config)
         if "polish" in given or "initial" in given:
             raise ValueError(
@@ -158,7 +123,7 @@ def prepare_job(
         raise ValueError(
             f"initial stroke of length {wrong[0]}; allowed: {dim} values (the action box)"
         )
-    plan = _plan(polish_config, job.budget)
+    plan = plan_parts(polish_config, job.budget)
     if any(part_budget < 1 for _, part_budget, _ in plan):
         raise ValueError(
             f"budget {job.budget} leaves a part of the run without evaluations ({len(plan)} "
@@ -167,7 +132,7 @@ def prepare_job(
         )
     # The smallest search part and what its polish keeps back decide what the method can run.
     part = min(part_budget for kind, part_budget, _ in plan if kind == "search")
-    reserve = polish_config.reserve(part, _gradient_cost(dim, spec))
+    reserve = polish_config.reserve(part, gradient_cost(dim, spec))
     method_obj = get_method(job.method, own_config) if method is None else method
     # Optional hook: a method that can tell before searching that it cannot run this budget on
     # this box (a budget smaller than one CMA-ES population) says so here, not mid-run.
@@ -290,14 +255,15 @@ def run_job(
     """Run one job: search (and polish), re-evaluate the reported stroke, build its record.
 
     A plain :class:`~agents.jobs.Job` is validated first (:func:`prepare_job`); a
-    :class:`PreparedJob` is run as it is. The budget is split into parts (:func:`_plan`), one
-    per search (the ``starts`` setting) and one per initial stroke (``initial``): each search
-    is the method with its own seed, polished; each initial stroke is polished directly. The
-    record reports the best feasible stroke of all parts (:data:`~agents.records.STARTS` lists
-    each). The search's progress goes to ``reporter`` when given, else to a progress bar of its
-    own if ``progress``. Writes nothing. The job makes one single env of its task, whose core
-    every polish evaluates and in which the reported stroke is re-evaluated (reset with the
-    job's seed), and one vector env per search (:class:`~agents.evaluator.VectorEnvEvaluator`).
+    :class:`PreparedJob` is run as it is. The budget is split into parts
+    (:mod:`agents.parts`), one per search (the ``starts`` setting) and one per initial stroke
+    (``initial``): each search is the method with its own seed, polished; each initial stroke
+    is polished directly. The record reports the best feasible stroke of all parts
+    (:data:`~agents.records.STARTS` lists each). The search's progress goes to ``reporter``
+    when given, else to a progress bar of its own if ``progress``. Writes nothing. The job
+    makes one single env of its task, whose problem view (``env.problem()``) every polish
+    evaluates and in which the reported stroke is re-evaluated (reset with the job's seed), and
+    one vector env per search (:class:`~agents.evaluator.VectorEnvEvaluator`).
     """
     prepared = prepare_job(job) if isinstance(job, Job) else job
     start = time.perf_counter()
@@ -318,18 +284,18 @@ def _run_prepared(
     budget = prepared.job.budget
     bar = ProgressBar(budget, prepared.job.label(), progress and reporter is None)
     report = bar.update if reporter is None else reporter
-    parts: list[_Part] = []
+    parts: list[Part] = []
     # The search's and the polish's linear algebra is on matrices of the stroke's size (d = 28):
     # BLAS threads only cost there (CMA-ES seed 0 at 60 W/kg: 6.9-7.3 s with the default
     # threads, 5.5 s with one, on the idle 2-core machine) and make the optimum depend on the
     # machine's thread count. The model's own threads (numba) are not BLAS threads.
     with bar, threadpool_limits(limits=1, user_api="blas"):
-        for index, (kind, part_budget, stroke) in enumerate(_plan(prepared.polish, budget)):
+        for index, (kind, part_budget, stroke) in enumerate(plan_parts(prepared.polish, budget)):
             offset = sum(part.evaluations for part in parts)
             if kind == "search":
-                parts.append(_search_part(prepared, index, part_budget, offset, report, problem))
+                parts.append(search_part(prepared, index, part_budget, offset, report, problem))
             else:
-                parts.append(_initial_part(prepared, part_budget, stroke, problem()))
+                parts.append(initial_part(prepared, part_budget, stroke, problem()))
     chosen = max(parts, key=lambda part: (part.feasible, part.reward))
     # as the action type carries it (the evaluator and the polish evaluate no other strokes:
     # a no-op for theirs), so the record's stroke stepped as a float32 action is this stroke
@@ -348,7 +314,7 @@ def _run_prepared(
     if not chosen.feasible and chosen.kind == "initial":
         # an infeasible initial stroke has no search reward: its reward is the re-evaluation's
         chosen = replace(chosen, reward=again.reward)
-    results = _results(prepared, chosen, _history(parts), again)
+    results = _results(prepared, chosen, search_history(parts), again)
     results["evaluations"] = int(evaluations)
     results[CERTIFICATE] = chosen.certificate.to_dict()
     if len(parts) > 1:
@@ -357,241 +323,8 @@ def _run_prepared(
     return Record(job=prepared.job, key=prepared.job.key, results=results)
 
 
-@dataclass(frozen=True)
-class _Part:
-    """What one part of a run's budget found: a search (polished) or a polished initial stroke."""
-
-    kind: str
-    seed: int
-    action: np.ndarray
-    reward: float
-    """Its reward as the search or the polish saw it (the objective where it is feasible)."""
-    feasible: bool
-    selection: str
-    certificate: Certificate
-    evaluations: int
-    outcome: SearchOutcome | None = None
-
-    def summary(self) -> dict[str, Any]:
-        """The part's line in the record's ``starts``."""
-        return {
-            "kind": self.kind,
-            "seed": self.seed,
-            "evaluations": self.evaluations,
-            "reward": self.reward,
-            "feasible": self.feasible,
-            "selection": self.selection,
-            "polish": self.certificate.status,
-            "gain": self.certificate.gain,
-        }
-
-
-def _plan(config: PolishConfig, budget: int) -> list[tuple[str, int, np.ndarray | None]]:
-    """A run's parts: (kind, budget, initial stroke), initial strokes first. The budget is
-    split evenly over the parts, or ``initial_share`` of it over the initial strokes and the
-    rest over the searches; a group's remainder goes to its last part."""
-    initial = [("initial", np.asarray(s)) for s in config.initial]
-    searches: list[tuple[str, np.ndarray | None]] = [("search", None)] * config.starts
-    if config.initial_share is None:
-        groups = [(initial + searches, budget)]
-    else:
-        first = round(config.initial_share * budget)
-        groups = [(initial, first), (searches, budget - first)]
-    plan = []
-    for parts, total in groups:
-        share, rest = divmod(total, len(parts))
-        for k, (kind, stroke) in enumerate(parts):
-            plan.append((kind, share + (rest if k == len(parts) - 1 else 0), stroke))
-    return plan
-
-
-def _part_seed(seed: int, index: int) -> int:
-    """The seed of the search in part ``index`` of a run (initial strokes first): the job's own
-    for part 0 (so one start is the plain run), independent streams of it for the others."""
-    if index == 0:
-        return seed
-    return int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
-
-
-def _search_part(
-    prepared: PreparedJob,
-    index: int,
-    budget: int,
-    offset: int,
-    report: Reporter,
-    problem: Callable[[], Problem],
-) -> _Part:
-    """One search on ``budget`` evaluations (less the polish's share), then its polish."""
-    seed = _part_seed(prepared.job.seed, index)
-    reserve = _reserve(prepared, budget)
-
-    def shifted(iteration: int, evaluations: int, best: float) -> None:
-        report(iteration, offset + evaluations, best)
-
-    outcome, evaluator = _search(prepared, seed, budget - reserve, shifted)
-    action, reward, selection = _select(outcome, evaluator)
-    action, reward, selection, certificate = _polish(
-        prepared, action, reward, selection, budget - outcome.evaluations, reserve, problem
-    )
-    feasible = selection in (SELECTION_BEST_FEASIBLE, SELECTION_POLISHED)
-    return _Part(
-        "search",
-        seed,
-        action,
-        reward,
-        feasible,
-        selection,
-        certificate,
-        outcome.evaluations + certificate.evaluations,
-        outcome,
-    )
-
-
-def _initial_part(
-    prepared: PreparedJob, budget: int, stroke: np.ndarray | None, problem: Problem
-) -> _Part:
-    """One initial stroke polished on ``budget`` evaluations (it may start infeasible)."""
-    assert stroke is not None
-    result = polish(
-        problem,
-        stroke,
-        budget,
-        prepared.polish,
-        _gradient(prepared, problem),
-        infeasible_start=True,
-    )
-    certificate = result.certificate
-    evaluations = certificate.evaluations
-    objective, feasible = certificate.objective_after, result.feasible
-    if objective is None and budget >= 1:
-        # an allowance too small to polish: the stroke is reported as given, evaluated once
-        # so that its feasibility is known
-        batch = problem.evaluate(np.asarray(result.stroke, dtype=np.float64)[None, :])
-        objective, feasible = float(batch.objective[0]), bool(batch.feasible[0])
-        evaluations += 1
-    reward = float(objective) if objective is not None and feasible else -math.inf
-    selection = SELECTION_INITIAL_POLISHED if result.improved else SELECTION_INITIAL
-    return _Part(
-        "initial",
-        prepared.job.seed,
-        result.stroke,
-        reward,
-        feasible and objective is not None,
-        selection,
-        certificate,
-        evaluations,
-    )
-
-
-def _reserve(prepared: PreparedJob, budget: int) -> int:
-    """Evaluations of a search part's ``budget`` kept for its polish."""
-    return prepared.polish.reserve(budget, _gradient_cost(prepared.dim, prepared.task))
-
-
-def _gradient_cost(dim: int, task: TaskSpec) -> int:
-    """Model evaluations of one central-difference gradient: the point and two neighbours per
-    continuous coordinate."""
-    return 1 + 2 * (dim - len(task.discrete_actions))
-
-
-def _gradient(prepared: PreparedJob, problem: Any) -> AutogradGradient | None:
-    # the torch backend differentiates: one model evaluation per gradient instead of 2k + 1
-    return AutogradGradient(problem) if prepared.env_kwargs.get("backend") == "torch" else None
-
-
-def _history(parts: list[_Part]) -> list[tuple[int, float]]:
-    """The searches' (evaluations, best reward so far) one after another, over the whole run."""
-    history: list[tuple[int, float]] = []
-    offset, best = 0, -math.inf
-    for part in parts:
-        if part.outcome is not None:
-            for evaluations, value in part.outcome.history:
-                best = max(best, value)
-                history.append((offset + evaluations, best))
-        offset += part.evaluations
-    return history
-
-
-def _polish(
-    prepared: PreparedJob,
-    action: np.ndarray,
-    reward: float,
-    selection: str,
-    allowance: int,
-    reserve: int,
-    job_problem: Callable[[], Problem],
-) -> tuple[np.ndarray, float, str, Certificate]:
-    """The polished stroke (or the search's, when the polish is off, cannot start or does not
-    gain), its reward, the selection and the certificate."""
-    config = prepared.polish
-    if not config.enabled:
-        return action, reward, selection, Certificate.off()
-    if reserve == 0:
-        status = "not applicable: the budget's polish share is below two gradients"
-        return action, reward, selection, Certificate(method=config.method, status=status)
-    if selection != SELECTION_BEST_FEASIBLE:
-        status = "not applicable: no feasible stroke to start from"
-        if selection == SELECTION_METHOD:
-            status = "not applicable: the method evaluates through its own envs"
-        return action, reward, selection, Certificate(method=config.method, status=status)
-    problem = job_problem()
-    result = polish(problem, action, allowance, config, _gradient(prepared, problem))
-    if not result.improved:
-        return action, reward, selection, result.certificate
-    # accepted strokes pass the task's feasibility test, so their reward is their objective
-    return result.stroke, result.objective, SELECTION_POLISHED, result.certificate
-
-
-def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator) -> tuple[np.ndarray, float, str]:
-    """The stroke a record reports: the best feasible stroke the search evaluated, if any
-    (the selection rule, :mod:`agents.selection`), else the method's best-reward stroke."""
-    if evaluator.evaluations < outcome.evaluations:
-        # the method evaluated (some) strokes through its own envs (SB3): it chooses, by the
-        # same rule (train/policies.py)
-        return outcome.best_action, outcome.best_reward, SELECTION_METHOD
-    best_feasible = evaluator.best_feasible
-    if best_feasible is None:
-        return outcome.best_action, outcome.best_reward, SELECTION_BEST_REWARD
-    action, reward = best_feasible
-    return action, reward, SELECTION_BEST_FEASIBLE
-
-
-def _search(
-    prepared: PreparedJob, seed: int, budget: int, report: Reporter
-) -> tuple[SearchOutcome, VectorEnvEvaluator]:
-    """The method's search (seed ``seed``, ``budget`` evaluations) through the budgeted
-    vector-env evaluator, checked."""
-    job = prepared.job
-    with VectorEnvEvaluator(
-        prepared.task, prepared.condition, prepared.env_kwargs, seed, budget, report
-    ) as evaluator:
-        context = SearchContext(
-            task=prepared.task,
-            condition=prepared.condition,
-            env_id=prepared.task.env_id,
-            env_kwargs=prepared.env_kwargs,
-            budget=budget,
-            seed=seed,
-            dim=prepared.dim,
-            evaluator=evaluator,
-            _reporter=report,
-        )
-        outcome = prepared.method.search(context)
-    if not evaluator.evaluations <= outcome.evaluations <= budget:
-        raise RuntimeError(
-            f"{job.method} reported {outcome.evaluations} evaluations; it made "
-            f"{evaluator.evaluations} through the harness and its budget is {budget}"
-        )
-    if outcome.best_action.shape != (prepared.dim,):
-        raise RuntimeError(
-            f"{job.method} returned a stroke of shape {outcome.best_action.shape}; "
-            f"the action space has dimension {prepared.dim}"
-        )
-    return outcome, evaluator
-
-
 def _results(
-    prepared: PreparedJob, chosen: _Part, history: list[tuple[int, float]], again: Reevaluation
+    prepared: PreparedJob, chosen: Part, history: list[tuple[int, float]], again: Reevaluation
 ) -> dict[str, Any]:
     """The record's results (:data:`agents.records.RESULTS`) from the re-evaluation."""
     action, search_reward, selection = chosen.action, chosen.reward, chosen.selection
@@ -628,7 +361,7 @@ def _results(
     }
 
 
-def _method_settings(prepared: PreparedJob, chosen: _Part) -> dict[str, Any]:
+def _method_settings(prepared: PreparedJob, chosen: Part) -> dict[str, Any]:
     """The method's settings as its (chosen) search reports them; for a polished initial stroke
     the method did not run there, so the method's name only."""
     if chosen.outcome is not None:

@@ -20,9 +20,6 @@ from tandem_env.physics.model import MAX_BATCH_STROKES
 FloatArray = NDArray[np.float64]
 SeedLike = int | np.random.SeedSequence | None
 
-LOWER = -1.0
-UPPER = 1.0
-
 
 #: The most points of one ask/tell round (a PSO swarm, a random-search batch) [-]: one batched
 #: model evaluation (``MAX_BATCH_STROKES``); the batch is allocated when the optimiser is built,

@@ -8,13 +8,10 @@ the normalised box [-1, 1] as bounds, with the task's constraints as constraints
 margins of the task declaration's ``Constraint.margin``, the constraints the reward penalises), not as a
 penalty.
 
-Gradients come from a :class:`GradientFunction`; the default, :class:`CentralDifferences`,
-evaluates the point and its 2k perturbations (k free parameters; 53 strokes for the 26
-continuous ones) in ONE batched model call, so the objective's gradient and the constraints'
-Jacobian come from the same batch. With the torch backend (env keyword ``backend="torch"``),
-:class:`AutogradGradient` takes them by autograd from ONE model evaluation instead
-(``tandem_env.physics.torch_model.normalised_jacobian``): that is the one seam, and the
-certificate names the gradient used.
+This module is the driver (:func:`polish`, its :class:`Certificate`, the KKT check). The
+problem it optimises (read from the env's public problem view, ``env.problem()``) and the
+gradient functions are in :mod:`agents.polish_gradients`, its settings in
+:mod:`agents.polish_config`; their public names are imported from here too.
 
 The budget counts model evaluations (strokes evaluated, not wall time): a central-difference
 gradient costs 2k + 1 of them, an autograd gradient one (its forward pass; the backward passes
@@ -40,11 +37,10 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
-from typing import Any, Protocol
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from scipy.optimize import (
     BFGS,
@@ -55,11 +51,31 @@ from scipy.optimize import (
     nnls,
 )
 
-from agents.tasks import Condition, TaskSpec
+from agents.polish_config import (
+    INITIAL_SHARE_RANGE,
+    MAX_STARTS,
+    POLISH_DEFAULTS,
+    POLISH_METHODS,
+    POLISH_SETTINGS,
+    PolishConfig,
+    split_settings,
+)
+from agents.polish_gradients import (
+    AutogradGradient,
+    BatchEvaluation,
+    CentralDifferences,
+    Gradient,
+    GradientFunction,
+    Problem,
+    env_problem,
+    polishable,
+    task_problem,
+)
 from tandem_env.envs.base import ACTION_DTYPE, as_action_type
-from tandem_env.physics import PARAMETER_NAMES, normalised_to_physical
 
 __all__ = [
+    "INITIAL_SHARE_RANGE",
+    "MAX_STARTS",
     "POLISH_DEFAULTS",
     "POLISH_METHODS",
     "POLISH_SETTINGS",
@@ -73,418 +89,14 @@ __all__ = [
     "PolishResult",
     "Problem",
     "describe",
+    "env_problem",
+    "float32_margin",
     "kkt_residual",
     "polish",
+    "polishable",
     "split_settings",
     "task_problem",
 ]
-
-#: Local optimisers the polish offers ("none": no polish).
-POLISH_METHODS: tuple[str, ...] = ("none", "slsqp", "trust-constr")
-#: The polish each search method gets when none is given (others: none).
-POLISH_DEFAULTS: Mapping[str, str] = {"cmaes": "slsqp", "pso": "slsqp"}
-#: Method settings (``method_config`` keys, ``--method-config``) that configure the polish.
-POLISH_SETTINGS: Mapping[str, str] = {
-    "polish": "method",
-    "polish_share": "share",
-    "polish_step": "step",
-    "polish_tolerance": "tolerance",
-    "polish_iterations": "max_iterations",
-    "starts": "starts",
-    "initial": "initial",
-    "initial_share": "initial_share",
-}
-#: Most independent searches one run may split its budget into (``starts``).
-MAX_STARTS = 64
-#: Allowed ``initial_share``: the initial strokes' fraction of a run's budget, low and high.
-INITIAL_SHARE_RANGE = (0.05, 0.95)
-
-
-@dataclass(frozen=True)
-class PolishConfig:
-    """Settings of the local polish (validated here, where they enter).
-
-    Parameters
-    ----------
-    method : {"slsqp", "trust-constr", "none"}
-        The scipy optimiser (``minimize(method=...)``); ``"none"`` turns the polish off.
-    share : float
-        Fraction of the run's budget reserved for the polish, in [0.01, 0.9]: the search gets
-        the rest. Chosen by measurement (docs/harness.md, "Local polish").
-    step : float
-        Central-difference step in normalised units, in [1e-8, 1e-2] (1e-5 by default:
-        gradients agree to ~1e-7 relative between 1e-4 and 1e-5).
-    tolerance : float
-        The optimiser's stopping tolerance (SLSQP ``ftol``; trust-constr ``gtol``/``xtol``),
-        in [1e-14, 1e-2].
-    max_iterations : int
-        Optimiser iterations at most, 1 to 10 000.
-    margin : float
-        The optimiser holds every constraint at margin >= ``margin`` [-] (normalised, as
-        ``Constraint.margin``), so its optimum passes the task's exact feasibility test
-        (a stroke on the boundary can miss it by rounding); 0 to 1e-4. One float32 step of
-        every coordinate is held on top (:func:`float32_margin`), and the reported stroke is
-        the optimum cast to the action type (float32), so it stays feasible when stepped
-        through the env as an agent's action.
-    active : float
-        A constraint (or bound) within ``active`` [-] of its limit counts as active in the
-        certificate, 0 to 1e-2.
-    starts : int
-        Independent searches the run's budget is split into, 1 to :data:`MAX_STARTS`; each is
-        the method with its own seed on an equal part of the budget, polished (``share`` of
-        its part), and the run reports the best (docs/harness.md, "Starts and initial
-        strokes"). 1 by default: more did not reproduce better (docs/harness.md,
-        "Reproducibility check").
-    initial : tuple of strokes
-        Normalised strokes (each a sequence of the action box's dimension, values in [-1, 1])
-        that are polished directly, each on an equal part of the budget beside the searches:
-        a warm start, e.g. the optimum of a neighbouring model reading (continuation). A start
-        may be infeasible; the polish then moves it onto the constraints.
-    initial_share : float or None
-        Fraction of the run's budget the initial strokes get together (split evenly among
-        them), in [0.05, 0.95], the searches sharing the rest; None: every part (initial
-        strokes and searches) gets an equal share.
-    """
-
-    method: str = "slsqp"
-    share: float = 0.4
-    step: float = 1e-5
-    tolerance: float = 1e-10
-    max_iterations: int = 200
-    margin: float = 1e-9
-    active: float = 1e-6
-    starts: int = 1
-    initial: tuple[tuple[float, ...], ...] = ()
-    initial_share: float | None = None
-
-    def __post_init__(self) -> None:
-        if self.method not in POLISH_METHODS:
-            raise ValueError(
-                f"polish = {self.method!r}; allowed: {', '.join(map(repr, POLISH_METHODS))}"
-            )
-        for name, low, high in (
-            ("share", 0.01, 0.9),
-            ("step", 1e-8, 1e-2),
-            ("tolerance", 1e-14, 1e-2),
-            ("margin", 0.0, 1e-4),
-            ("active", 0.0, 1e-2),
-        ):
-            value = getattr(self, name)
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, int | float | np.floating | np.integer)
-                or not math.isfinite(value)
-                or not low <= value <= high
-            ):
-                raise ValueError(
-                    f"polish {name} = {value!r}; allowed: a number in [{low:g}, {high:g}]"
-                )
-            object.__setattr__(self, name, float(value))
-        n = self.max_iterations
-        if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 1 <= n <= 10_000:
-            raise ValueError(f"polish max_iterations = {n!r}; allowed: an integer in [1, 10000]")
-        object.__setattr__(self, "max_iterations", int(n))
-        k = self.starts
-        if isinstance(k, bool) or not isinstance(k, int | np.integer) or not 1 <= k <= MAX_STARTS:
-            raise ValueError(f"starts = {k!r}; allowed: an integer in [1, {MAX_STARTS}]")
-        object.__setattr__(self, "starts", int(k))
-        object.__setattr__(self, "initial", _strokes(self.initial))
-        share = self.initial_share
-        if share is not None:
-            if (
-                isinstance(share, bool)
-                or not isinstance(share, int | float | np.floating | np.integer)
-                or not math.isfinite(share)
-                or not INITIAL_SHARE_RANGE[0] <= share <= INITIAL_SHARE_RANGE[1]
-            ):
-                low, high = INITIAL_SHARE_RANGE
-                raise ValueError(
-                    f"initial_share = {share!r}; allowed: a number in [{low:g}, {high:g}], or none"
-                )
-            if not self.initial:
-                raise ValueError("initial_share without initial strokes; allowed: with initial")
-            object.__setattr__(self, "initial_share", float(share))
-        if self.initial and not self.enabled:
-            raise ValueError(
-                "initial strokes are polished, but polish = 'none'; allowed: "
-                "initial with polish 'slsqp' or 'trust-constr'"
-            )
-
-    @property
-    def enabled(self) -> bool:
-        return self.method != "none"
-
-    def reserve(self, budget: int, gradient_cost: int) -> int:
-        """Evaluations of a run's ``budget`` kept for the polish: ``share`` of it, or 0 when
-        the polish is off or that share is below two gradients (``gradient_cost`` model
-        evaluations each: the polish could not take one step and check it)."""
-        reserve = round(self.share * budget) if self.enabled else 0
-        return reserve if reserve >= 2 * gradient_cost else 0
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "method": self.method,
-            "share": self.share,
-            "step": self.step,
-            "tolerance": self.tolerance,
-            "max_iterations": self.max_iterations,
-            "margin": self.margin,
-            "active": self.active,
-            "starts": self.starts,
-            "initial": [list(stroke) for stroke in self.initial],
-            "initial_share": self.initial_share,
-        }
-
-
-def _strokes(value: Any) -> tuple[tuple[float, ...], ...]:
-    """``initial`` as a tuple of strokes of finite values in [-1, 1] (equal lengths)."""
-    allowed = "a list of strokes, each a list of numbers in [-1, 1] of the action box's size"
-    if isinstance(value, str | bytes) or not isinstance(value, list | tuple):
-        raise ValueError(f"initial = {value!r}; allowed: {allowed}")
-    strokes = []
-    for stroke in value:
-        if isinstance(stroke, str | bytes) or not isinstance(stroke, list | tuple | np.ndarray):
-            raise ValueError(f"initial stroke {stroke!r}; allowed: {allowed}")
-        numbers = []
-        for v in stroke:
-            if (
-                isinstance(v, bool)
-                or not isinstance(v, int | float | np.floating | np.integer)
-                or not math.isfinite(v)
-                or not -1.0 <= v <= 1.0
-            ):
-                raise ValueError(f"initial stroke value {v!r}; allowed: {allowed}")
-            numbers.append(float(v))
-        strokes.append(tuple(numbers))
-    if len({len(s) for s in strokes}) > 1:
-        raise ValueError(
-            f"initial strokes of lengths {sorted({len(s) for s in strokes})}; allowed: {allowed}"
-        )
-    return tuple(strokes)
-
-
-def split_settings(
-    method: str, method_config: Mapping[str, Any]
-) -> tuple[PolishConfig, dict[str, Any]]:
-    """The polish settings among a method's settings, and the rest (the method's own).
-
-    ``method`` is the method spec; its name (before any ``:``) picks the default polish
-    (:data:`POLISH_DEFAULTS`). Raises ValueError for an unknown polish or a setting out of
-    range, naming it.
-    """
-    name = method.partition(":")[0]
-    own = {k: v for k, v in method_config.items() if k not in POLISH_SETTINGS}
-    given = {POLISH_SETTINGS[k]: v for k, v in method_config.items() if k in POLISH_SETTINGS}
-    given.setdefault("method", POLISH_DEFAULTS.get(name, "none"))
-    return PolishConfig(**given), own
-
-
-# --- the problem -------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class BatchEvaluation:
-    """What one batched model call gives for n strokes."""
-
-    objective: np.ndarray
-    """(n,) the task's objective, maximised [objective units]."""
-    margins: np.ndarray
-    """(n, m) signed constraint margins, >= 0 where a constraint holds [-]."""
-    feasible: np.ndarray
-    """(n,) bool, the task's exact feasibility test."""
-    names: tuple[str, ...]
-    """The m constraints' names."""
-
-
-BatchFunction = Callable[[np.ndarray], BatchEvaluation]
-"""Evaluates normalised strokes (n, dim) in one model call."""
-
-DifferentiateFunction = Callable[[np.ndarray], tuple[BatchEvaluation, np.ndarray, np.ndarray]]
-"""Evaluates normalised strokes (n, dim) in one differentiable model call: the evaluation, the
-objective's gradient (n, dim) and the margins' Jacobian (n, m, dim) w.r.t. every coordinate."""
-
-
-@dataclass(frozen=True)
-class Problem:
-    """A maximisation over the box [-1, 1]^dim with constraints, some coordinates fixed."""
-
-    evaluate: BatchFunction
-    dim: int
-    free: tuple[int, ...]
-    """The coordinates the polish moves (the others stay at the start's values)."""
-    parameter_names: tuple[str, ...] = ()
-    """Names of the dim coordinates (for the certificate's active bounds); default x0, x1..."""
-    differentiate: DifferentiateFunction | None = None
-    """The same evaluation with derivatives (autograd), or None where the model has none."""
-
-    def __post_init__(self) -> None:
-        if not self.free or any(not 0 <= j < self.dim for j in self.free):
-            raise ValueError(f"free = {self.free!r}; allowed: indices in [0, {self.dim})")
-        if not self.parameter_names:
-            object.__setattr__(self, "parameter_names", tuple(f"x{j}" for j in range(self.dim)))
-
-
-def task_problem(
-    task: TaskSpec, condition: Condition, env_kwargs: Mapping[str, Any], env: gym.Env | None = None
-) -> Problem:
-    """The polish problem of a harness task: its env's batched core at ``condition``.
-
-    Objective and feasibility come from the env's core (``env.unwrapped.core.step``: one
-    batched model call, scored by the task's declaration), the constraint margins from the
-    declaration's constraints (``Constraint.margin``), so the polish optimises exactly what the
-    env rewards under the constraints it penalises; the continuous coordinates are those that
-    are not ``task.discrete_actions``. ``differentiate`` is the same through the torch backend
-    by autograd (imported when called; the env's insect, options and device). ``env``, the
-    task's single env made with ``env_kwargs`` when the caller has one (the harness's job env),
-    is used instead of making one (and left open).
-    """
-    given = env
-    if env is None:
-        env = gym.make(task.env_id, disable_env_checker=True, **dict(env_kwargs))
-    core = getattr(env.unwrapped, "core", None)
-    dim = int(env.action_space.shape[0])
-    if given is None:
-        env.close()
-    constraints = getattr(getattr(core, "declaration", None), "constraints", None)
-    if not constraints or any(c.margin is None for c in constraints):
-        raise ValueError(f"{task.env_id}: its task declares no constraint margins; cannot polish")
-    names = tuple(c.name for c in constraints)
-
-    def evaluate(actions: np.ndarray) -> BatchEvaluation:
-        actions = np.asarray(actions, dtype=np.float64)
-        batch = core.step(
-            normalised_to_physical(actions), np.full(actions.shape[0], condition.value)
-        )
-        margins = np.column_stack([c.margin(batch.result, core.config) for c in constraints])
-        return BatchEvaluation(
-            objective=np.asarray(batch.objective, dtype=np.float64),
-            margins=margins,
-            feasible=np.asarray(batch.feasible, dtype=bool),
-            names=names,
-        )
-
-    def differentiate(actions: np.ndarray) -> tuple[BatchEvaluation, np.ndarray, np.ndarray]:
-        from tandem_env.physics import torch_model  # torch only when the polish differentiates
-
-        actions = np.atleast_2d(np.asarray(actions, dtype=np.float64))
-        config = core.config
-        speed, power = core.flight_conditions(np.full(actions.shape[0], condition.value))
-        metric = config.objective_metric
-        functions = [lambda result: getattr(result, metric)]
-        functions += [lambda result, c=c: c.margin(result, config) for c in constraints]
-        result, values, jacobian = torch_model.normalised_jacobian(
-            actions,
-            functions,
-            speed,
-            power,
-            insect=config.insect,
-            options=config.options,
-            device=config.device,
-        )
-        batch = BatchEvaluation(
-            objective=values[:, 0],
-            margins=values[:, 1:],
-            feasible=np.asarray(core.declaration.score(result, config).feasible, dtype=bool),
-            names=names,
-        )
-        return batch, jacobian[:, 0], jacobian[:, 1:]
-
-    discrete = {i for i, _ in task.discrete_actions}
-    parameters = PARAMETER_NAMES if dim == len(PARAMETER_NAMES) else ()
-    free = tuple(j for j in range(dim) if j not in discrete)
-    return Problem(evaluate, dim, free, parameters, differentiate)
-
-
-# --- gradients ----------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Gradient:
-    """Value and first derivatives at one point, w.r.t. the free coordinates."""
-
-    objective: float
-    margins: np.ndarray
-    """(m,)"""
-    feasible: bool
-    objective_gradient: np.ndarray
-    """(k,) d objective / d x_free."""
-    jacobian: np.ndarray
-    """(m, k) d margins / d x_free."""
-    names: tuple[str, ...]
-
-
-class GradientFunction(Protocol):
-    """``gradient(x) -> Gradient`` at the full point x (dim,); ``cost`` model evaluations per
-    call (counted in the budget); ``name`` for the certificate. The seam for an autograd
-    gradient."""
-
-    cost: int
-    name: str
-
-    def __call__(self, x: np.ndarray) -> Gradient: ...
-
-
-@dataclass(frozen=True)
-class CentralDifferences:
-    """Central differences of a :class:`Problem`: x and x ± h e_j for every free j in ONE call.
-
-    At a bound the step is cut to stay inside [-1, 1] (a one-sided difference there).
-    """
-
-    problem: Problem
-    step: float = 1e-5
-    cost: int = field(init=False)
-    name: str = field(init=False, default="central differences")
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "cost", 1 + 2 * len(self.problem.free))
-
-    def __call__(self, x: np.ndarray) -> Gradient:
-        free = np.asarray(self.problem.free)
-        k = free.size
-        points = np.repeat(np.asarray(x, dtype=np.float64)[None, :], 1 + 2 * k, axis=0)
-        rows = np.arange(k)
-        up = np.minimum(points[0, free] + self.step, 1.0)
-        down = np.maximum(points[0, free] - self.step, -1.0)
-        points[1 + rows, free] = up
-        points[1 + k + rows, free] = down
-        batch = self.problem.evaluate(points)
-        width = up - down
-        d_obj = (batch.objective[1 : 1 + k] - batch.objective[1 + k :]) / width
-        d_margins = (batch.margins[1 : 1 + k] - batch.margins[1 + k :]) / width[:, None]
-        return Gradient(
-            objective=float(batch.objective[0]),
-            margins=batch.margins[0].copy(),
-            feasible=bool(batch.feasible[0]),
-            objective_gradient=d_obj,
-            jacobian=d_margins.T.copy(),
-            names=batch.names,
-        )
-
-
-@dataclass(frozen=True)
-class AutogradGradient:
-    """The gradient of a :class:`Problem` by autograd: value, objective gradient and margin
-    Jacobian from ONE differentiable model evaluation (``problem.differentiate``, the torch
-    backend), so ``cost`` is 1 model evaluation."""
-
-    problem: Problem
-    cost: int = field(init=False, default=1)
-    name: str = field(init=False, default="autograd")
-
-    def __post_init__(self) -> None:
-        if self.problem.differentiate is None:
-            raise ValueError("AutogradGradient: the problem has no differentiate function")
-
-    def __call__(self, x: np.ndarray) -> Gradient:
-        free = np.asarray(self.problem.free)
-        differentiate = self.problem.differentiate
-        assert differentiate is not None  # checked in __post_init__
-        batch, d_obj, d_margins = differentiate(np.asarray(x, dtype=np.float64)[None, :])
-        return Gradient(
-            objective=float(batch.objective[0]),
-            margins=batch.margins[0].copy(),
-            feasible=bool(batch.feasible[0]),
-            objective_gradient=d_obj[0, free].copy(),
-            jacobian=d_margins[0][:, free].copy(),
-            names=batch.names,
-        )
 
 
 # --- first-order optimality ----------------------------------------------------------------------

@@ -36,9 +36,7 @@ from typing import Any, Literal, get_args
 import numpy as np
 
 from agents.optimiser import (
-    LOWER,
     MAX_BATCH,
-    UPPER,
     AskTellOptimiser,
     FloatArray,
     SeedLike,
@@ -46,6 +44,7 @@ from agents.optimiser import (
     check_real,
     store_plain,
 )
+from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
 
 __all__ = ["PSO", "Boundary", "Inertia", "PSOConfig"]
 
@@ -60,7 +59,7 @@ LINEAR_W_START = 0.9
 LINEAR_W_END = 0.4
 LINEAR_C = 2.0
 
-_BOX_WIDTH = UPPER - LOWER
+_BOX_WIDTH = ACTION_HIGH - ACTION_LOW
 
 _CITATIONS: dict[str, str] = {
     "constriction": (
@@ -213,7 +212,7 @@ class PSO(AskTellOptimiser):
         self._boundary = config.boundary
         self._schedule = config.inertia_schedule(-(-config.max_evaluations // n))  # iterations
         self._schedule.setflags(write=False)
-        self._x = self._rng.uniform(LOWER, UPPER, (n, d))
+        self._x = self._rng.uniform(ACTION_LOW, ACTION_HIGH, (n, d))
         self._v = self._rng.uniform(-self._vmax, self._vmax, (n, d))
         self._pbest_x = self._x.copy()
         self._pbest_f = np.full(n, -np.inf)
@@ -250,18 +249,18 @@ class PSO(AskTellOptimiser):
 
     def _confine(self, x: FloatArray, v: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Bring positions that left the box back inside, adjusting their velocities."""
-        low, high = x < LOWER, x > UPPER
+        low, high = x < ACTION_LOW, x > ACTION_HIGH
         # Landing exactly on a wall (e.g. -1 + vmax = 1 with the full-width clamp) also counts
         # as a hit, so a particle resting on a wall never keeps an outward velocity.
-        hit = (x <= LOWER) | (x >= UPPER)
+        hit = (x <= ACTION_LOW) | (x >= ACTION_HIGH)
         if self._boundary == "clip":
             v[hit] = 0.0
         else:
             # One mirror suffices: |v| <= box width, so x + v is at most one width outside.
-            x = np.where(high, 2.0 * UPPER - x, np.where(low, 2.0 * LOWER - x, x))
+            x = np.where(high, 2.0 * ACTION_HIGH - x, np.where(low, 2.0 * ACTION_LOW - x, x))
             v[hit] *= -1.0
         # For "reflect" this only guards against round-off at the walls.
-        np.clip(x, LOWER, UPPER, out=x)
+        np.clip(x, ACTION_LOW, ACTION_HIGH, out=x)
         return x, v
 
     def _observe(self, X: FloatArray, fitness: FloatArray) -> None:

@@ -6,15 +6,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from agents.optimiser import (
-    LOWER,
     MAX_BATCH,
-    UPPER,
     AskTellOptimiser,
     FloatArray,
     SeedLike,
     check_int,
     store_plain,
 )
+from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
 
 __all__ = ["RandomSearch", "RandomSearchConfig"]
 
@@ -77,7 +76,7 @@ class RandomSearch(AskTellOptimiser):
         super().__init__(dim, config.batch_size, config, seed)
 
     def _propose(self, n: int) -> FloatArray:
-        return self._rng.uniform(LOWER, UPPER, (n, self.dim))
+        return self._rng.uniform(ACTION_LOW, ACTION_HIGH, (n, self.dim))
 
     def _observe(self, X: FloatArray, fitness: FloatArray) -> None:
         # Nothing to learn: the base class already tracks the best point and the history.

@@ -45,6 +45,7 @@ from ..physics.model import MAX_BATCH_STROKES
 from .columns import Columns, add_columns, row, take_columns
 from .config import FlightConfig
 from .declaration import TaskDeclaration
+from .problem import FlightProblem
 from .render import Frame, LastStep, RenderWindow, frame_for
 from .step_batch import StepBatch
 from .validate import (
@@ -69,11 +70,14 @@ _FIRST = np.zeros(1, dtype=np.intp)
 
 #: The action space's dtype: what an agent's action (an SB3 policy's output) carries.
 ACTION_DTYPE = np.float32
+#: The action box's bounds, every coordinate: the normalised stroke's range, which
+#: ``physics.normalised_to_physical`` maps onto Table 4's bounds.
+ACTION_LOW, ACTION_HIGH = -1.0, 1.0
 
 
 def action_space() -> spaces.Box:
     """Box(-1, 1, (28,), float32): the normalised stroke, fore-wing first (Table 4 order)."""
-    return spaces.Box(-1.0, 1.0, (N_PARAMETERS,), dtype=ACTION_DTYPE)
+    return spaces.Box(ACTION_LOW, ACTION_HIGH, (N_PARAMETERS,), dtype=ACTION_DTYPE)
 
 
 def as_action_type(strokes: Any) -> np.ndarray:
@@ -190,6 +194,11 @@ class FlightCore:
             self.config.penalty,
         )
 
+    def problem(self) -> FlightProblem:
+        """The task as an optimisation problem over the action box, evaluated through
+        :meth:`step` at conditions given with each call (:mod:`tandem_env.envs.problem`)."""
+        return FlightProblem(self, ACTION_LOW, ACTION_HIGH)
+
 
 def build_config(
     config_class: type[FlightConfig], config: FlightConfig | None, kwargs: dict[str, Any]
@@ -293,6 +302,17 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
     def observations(self) -> np.ndarray:
         """(n, ...) current observation of each sub-env (a copy)."""
         return self._observations.copy()
+
+    def problem(self) -> FlightProblem:
+        """The task as an optimisation problem (:mod:`tandem_env.envs.problem`): bounds,
+        constraints, batched evaluation at explicit conditions. A one-cycle task's only: a
+        sequential task's core has no one-stroke problem (TypeError)."""
+        if not isinstance(self.core, FlightCore):
+            raise TypeError(
+                f"{self!r}: {type(self.core).__name__} poses no one-stroke problem; allowed: a "
+                "one-cycle task (a FlightCore)"
+            )
+        return self.core.problem()
 
     @property
     def started(self) -> np.ndarray:
@@ -527,6 +547,10 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
         self.action_space = action_space()
         self.observation_space = self.vector_env.single_observation_space
         self._window: Any = None
+
+    def problem(self) -> FlightProblem:
+        """The task as an optimisation problem, its vector env's (:meth:`FlightVectorEnv.problem`)."""
+        return self.vector_env.problem()
 
     @property
     def condition(self) -> float | None:

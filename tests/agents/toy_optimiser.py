@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 
 from agents.methods import register_optimiser
-from agents.optimiser import LOWER, UPPER, AskTellOptimiser, FloatArray, SeedLike, check_int
+from agents.optimiser import AskTellOptimiser, FloatArray, SeedLike, check_int
+from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -47,7 +48,7 @@ class HillClimb(AskTellOptimiser):
 
     def _propose(self, n: int) -> FloatArray:
         steps = self._rng.normal(0.0, self._step, (n, self.dim))
-        return np.clip(self._centre + steps, LOWER, UPPER)
+        return np.clip(self._centre + steps, ACTION_LOW, ACTION_HIGH)
 
     def _observe(self, X: FloatArray, fitness: FloatArray) -> None:
         if fitness.max() > self.best_fitness:  # the base class counts the batch after this

@@ -1,0 +1,305 @@
+"""A harness run's budget in parts, each searched and polished (``agents.harness`` runs them).
+
+:func:`plan_parts` splits a job's budget into parts: one per search (the ``starts`` setting)
+and one per initial stroke (``initial``), evenly or by ``initial_share``. :func:`search_part`
+runs the method with its own seed on its part through the budgeted vector-env evaluator
+(:class:`~agents.evaluator.VectorEnvEvaluator`), selects its stroke (the one selection rule,
+:mod:`agents.selection`) and polishes it (:mod:`agents.polish`) on what the search left of the
+part; :func:`initial_part` polishes an initial stroke directly. Each returns a :class:`Part`:
+what it found and the evaluations it used.
+
+:class:`PreparedJob` is the validated job they run on (built by
+:func:`agents.harness.prepare_job`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from agents.evaluator import VectorEnvEvaluator
+from agents.jobs import Job
+from agents.methods import Method, SearchContext, SearchOutcome
+from agents.polish import AutogradGradient, Certificate, PolishConfig, Problem, polish
+from agents.records import (
+    SELECTION_BEST_FEASIBLE,
+    SELECTION_BEST_REWARD,
+    SELECTION_INITIAL,
+    SELECTION_INITIAL_POLISHED,
+    SELECTION_METHOD,
+    SELECTION_POLISHED,
+)
+from agents.tasks import Condition, TaskSpec
+from tandem_env.io.progress_bar import Reporter
+
+__all__ = [
+    "Part",
+    "PreparedJob",
+    "gradient_cost",
+    "initial_part",
+    "plan_parts",
+    "search_history",
+    "search_part",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class PreparedJob:
+    """A validated job, resolved into what running it needs (:func:`agents.harness.prepare_job`)."""
+
+    job: Job
+    method: Method
+    task: TaskSpec
+    condition: Condition
+    env_kwargs: Mapping[str, Any]
+    """Env constructor keywords, including the condition (and objective) keyword."""
+    objective_name: str
+    """The ``info`` metric the task maximises under these keywords."""
+    dim: int
+    """Dimension of the action box."""
+    polish: PolishConfig = field(default_factory=lambda: PolishConfig(method="none"))
+    """The local polish after the search (its settings are the ``polish*`` method settings)."""
+
+    def describe(self) -> str:
+        """E.g. ``pso on level (efficiency) at speed = 1.5 m/s, budget 12000 evaluations``."""
+        return (
+            f"{self.job.method} on {self.task.name} ({self.objective_name}) at "
+            f"{self.condition.describe()}, budget {self.job.budget} evaluations"
+        )
+
+
+@dataclass(frozen=True)
+class Part:
+    """What one part of a run's budget found: a search (polished) or a polished initial stroke."""
+
+    kind: str
+    seed: int
+    action: np.ndarray
+    reward: float
+    """Its reward as the search or the polish saw it (the objective where it is feasible)."""
+    feasible: bool
+    selection: str
+    certificate: Certificate
+    evaluations: int
+    outcome: SearchOutcome | None = None
+
+    def summary(self) -> dict[str, Any]:
+        """The part's line in the record's ``starts``."""
+        return {
+            "kind": self.kind,
+            "seed": self.seed,
+            "evaluations": self.evaluations,
+            "reward": self.reward,
+            "feasible": self.feasible,
+            "selection": self.selection,
+            "polish": self.certificate.status,
+            "gain": self.certificate.gain,
+        }
+
+
+def plan_parts(config: PolishConfig, budget: int) -> list[tuple[str, int, np.ndarray | None]]:
+    """A run's parts: (kind, budget, initial stroke), initial strokes first. The budget is
+    split evenly over the parts, or ``initial_share`` of it over the initial strokes and the
+    rest over the searches; a group's remainder goes to its last part."""
+    initial = [("initial", np.asarray(s)) for s in config.initial]
+    searches: list[tuple[str, np.ndarray | None]] = [("search", None)] * config.starts
+    if config.initial_share is None:
+        groups = [(initial + searches, budget)]
+    else:
+        first = round(config.initial_share * budget)
+        groups = [(initial, first), (searches, budget - first)]
+    plan = []
+    for parts, total in groups:
+        share, rest = divmod(total, len(parts))
+        for k, (kind, stroke) in enumerate(parts):
+            plan.append((kind, share + (rest if k == len(parts) - 1 else 0), stroke))
+    return plan
+
+
+def _part_seed(seed: int, index: int) -> int:
+    """The seed of the search in part ``index`` of a run (initial strokes first): the job's own
+    for part 0 (so one start is the plain run), independent streams of it for the others."""
+    if index == 0:
+        return seed
+    return int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
+
+
+def search_part(
+    prepared: PreparedJob,
+    index: int,
+    budget: int,
+    offset: int,
+    report: Reporter,
+    problem: Callable[[], Problem],
+) -> Part:
+    """One search on ``budget`` evaluations (less the polish's share), then its polish."""
+    seed = _part_seed(prepared.job.seed, index)
+    reserve = _reserve(prepared, budget)
+
+    def shifted(iteration: int, evaluations: int, best: float) -> None:
+        report(iteration, offset + evaluations, best)
+
+    outcome, evaluator = _search(prepared, seed, budget - reserve, shifted)
+    action, reward, selection = _select(outcome, evaluator)
+    action, reward, selection, certificate = _polish(
+        prepared, action, reward, selection, budget - outcome.evaluations, reserve, problem
+    )
+    feasible = selection in (SELECTION_BEST_FEASIBLE, SELECTION_POLISHED)
+    return Part(
+        "search",
+        seed,
+        action,
+        reward,
+        feasible,
+        selection,
+        certificate,
+        outcome.evaluations + certificate.evaluations,
+        outcome,
+    )
+
+
+def initial_part(
+    prepared: PreparedJob, budget: int, stroke: np.ndarray | None, problem: Problem
+) -> Part:
+    """One initial stroke polished on ``budget`` evaluations (it may start infeasible)."""
+    assert stroke is not None
+    result = polish(
+        problem,
+        stroke,
+        budget,
+        prepared.polish,
+        _gradient(prepared, problem),
+        infeasible_start=True,
+    )
+    certificate = result.certificate
+    evaluations = certificate.evaluations
+    objective, feasible = certificate.objective_after, result.feasible
+    if objective is None and budget >= 1:
+        # an allowance too small to polish: the stroke is reported as given, evaluated once
+        # so that its feasibility is known
+        batch = problem.evaluate(np.asarray(result.stroke, dtype=np.float64)[None, :])
+        objective, feasible = float(batch.objective[0]), bool(batch.feasible[0])
+        evaluations += 1
+    reward = float(objective) if objective is not None and feasible else -math.inf
+    selection = SELECTION_INITIAL_POLISHED if result.improved else SELECTION_INITIAL
+    return Part(
+        "initial",
+        prepared.job.seed,
+        result.stroke,
+        reward,
+        feasible and objective is not None,
+        selection,
+        certificate,
+        evaluations,
+    )
+
+
+def _reserve(prepared: PreparedJob, budget: int) -> int:
+    """Evaluations of a search part's ``budget`` kept for its polish."""
+    return prepared.polish.reserve(budget, gradient_cost(prepared.dim, prepared.task))
+
+
+def gradient_cost(dim: int, task: TaskSpec) -> int:
+    """Model evaluations of one central-difference gradient: the point and two neighbours per
+    continuous coordinate."""
+    return 1 + 2 * (dim - len(task.discrete_actions))
+
+
+def _gradient(prepared: PreparedJob, problem: Any) -> AutogradGradient | None:
+    # the torch backend differentiates: one model evaluation per gradient instead of 2k + 1
+    return AutogradGradient(problem) if prepared.env_kwargs.get("backend") == "torch" else None
+
+
+def search_history(parts: list[Part]) -> list[tuple[int, float]]:
+    """The searches' (evaluations, best reward so far) one after another, over the whole run."""
+    history: list[tuple[int, float]] = []
+    offset, best = 0, -math.inf
+    for part in parts:
+        if part.outcome is not None:
+            for evaluations, value in part.outcome.history:
+                best = max(best, value)
+                history.append((offset + evaluations, best))
+        offset += part.evaluations
+    return history
+
+
+def _polish(
+    prepared: PreparedJob,
+    action: np.ndarray,
+    reward: float,
+    selection: str,
+    allowance: int,
+    reserve: int,
+    job_problem: Callable[[], Problem],
+) -> tuple[np.ndarray, float, str, Certificate]:
+    """The polished stroke (or the search's, when the polish is off, cannot start or does not
+    gain), its reward, the selection and the certificate."""
+    config = prepared.polish
+    if not config.enabled:
+        return action, reward, selection, Certificate.off()
+    if reserve == 0:
+        status = "not applicable: the budget's polish share is below two gradients"
+        return action, reward, selection, Certificate(method=config.method, status=status)
+    if selection != SELECTION_BEST_FEASIBLE:
+        status = "not applicable: no feasible stroke to start from"
+        if selection == SELECTION_METHOD:
+            status = "not applicable: the method evaluates through its own envs"
+        return action, reward, selection, Certificate(method=config.method, status=status)
+    problem = job_problem()
+    result = polish(problem, action, allowance, config, _gradient(prepared, problem))
+    if not result.improved:
+        return action, reward, selection, result.certificate
+    # accepted strokes pass the task's feasibility test, so their reward is their objective
+    return result.stroke, result.objective, SELECTION_POLISHED, result.certificate
+
+
+def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator) -> tuple[np.ndarray, float, str]:
+    """The stroke a record reports: the best feasible stroke the search evaluated, if any
+    (the selection rule, :mod:`agents.selection`), else the method's best-reward stroke."""
+    if evaluator.evaluations < outcome.evaluations:
+        # the method evaluated (some) strokes through its own envs (SB3): it chooses, by the
+        # same rule (train/policies.py)
+        return outcome.best_action, outcome.best_reward, SELECTION_METHOD
+    best_feasible = evaluator.best_feasible
+    if best_feasible is None:
+        return outcome.best_action, outcome.best_reward, SELECTION_BEST_REWARD
+    action, reward = best_feasible
+    return action, reward, SELECTION_BEST_FEASIBLE
+
+
+def _search(
+    prepared: PreparedJob, seed: int, budget: int, report: Reporter
+) -> tuple[SearchOutcome, VectorEnvEvaluator]:
+    """The method's search (seed ``seed``, ``budget`` evaluations) through the budgeted
+    vector-env evaluator, checked."""
+    job = prepared.job
+    with VectorEnvEvaluator(
+        prepared.task, prepared.condition, prepared.env_kwargs, seed, budget, report
+    ) as evaluator:
+        context = SearchContext(
+            task=prepared.task,
+            condition=prepared.condition,
+            env_id=prepared.task.env_id,
+            env_kwargs=prepared.env_kwargs,
+            budget=budget,
+            seed=seed,
+            dim=prepared.dim,
+            evaluator=evaluator,
+            _reporter=report,
+        )
+        outcome = prepared.method.search(context)
+    if not evaluator.evaluations <= outcome.evaluations <= budget:
+        raise RuntimeError(
+            f"{job.method} reported {outcome.evaluations} evaluations; it made "
+            f"{evaluator.evaluations} through the harness and its budget is {budget}"
+        )
+    if outcome.best_action.shape != (prepared.dim,):
+        raise RuntimeError(
+            f"{job.method} returned a stroke of shape {outcome.best_action.shape}; "
+            f"the action space has dimension {prepared.dim}"
+        )
+    return outcome, evaluator

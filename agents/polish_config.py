@@ -1,0 +1,225 @@
+"""The local polish's settings: which optimiser, its share of a run's budget, its tolerances,
+and how a run's budget is split into searches and initial strokes (validated here, where they
+enter: ``--polish``, the ``polish*`` method settings, ``starts``, ``initial``).
+
+:func:`split_settings` takes the polish's settings out of a method's settings; the polish
+itself is :mod:`agents.polish`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "INITIAL_SHARE_RANGE",
+    "MAX_STARTS",
+    "POLISH_DEFAULTS",
+    "POLISH_METHODS",
+    "POLISH_SETTINGS",
+    "PolishConfig",
+    "split_settings",
+]
+
+#: Local optimisers the polish offers ("none": no polish).
+POLISH_METHODS: tuple[str, ...] = ("none", "slsqp", "trust-constr")
+#: The polish each search method gets when none is given (others: none).
+POLISH_DEFAULTS: Mapping[str, str] = {"cmaes": "slsqp", "pso": "slsqp"}
+#: Method settings (``method_config`` keys, ``--method-config``) that configure the polish.
+POLISH_SETTINGS: Mapping[str, str] = {
+    "polish": "method",
+    "polish_share": "share",
+    "polish_step": "step",
+    "polish_tolerance": "tolerance",
+    "polish_iterations": "max_iterations",
+    "starts": "starts",
+    "initial": "initial",
+    "initial_share": "initial_share",
+}
+#: Most independent searches one run may split its budget into (``starts``).
+MAX_STARTS = 64
+#: Allowed ``initial_share``: the initial strokes' fraction of a run's budget, low and high.
+INITIAL_SHARE_RANGE = (0.05, 0.95)
+
+
+@dataclass(frozen=True)
+class PolishConfig:
+    """Settings of the local polish (validated here, where they enter).
+
+    Parameters
+    ----------
+    method : {"slsqp", "trust-constr", "none"}
+        The scipy optimiser (``minimize(method=...)``); ``"none"`` turns the polish off.
+    share : float
+        Fraction of the run's budget reserved for the polish, in [0.01, 0.9]: the search gets
+        the rest. Chosen by measurement (docs/harness.md, "Local polish").
+    step : float
+        Central-difference step in normalised units, in [1e-8, 1e-2] (1e-5 by default:
+        gradients agree to ~1e-7 relative between 1e-4 and 1e-5).
+    tolerance : float
+        The optimiser's stopping tolerance (SLSQP ``ftol``; trust-constr ``gtol``/``xtol``),
+        in [1e-14, 1e-2].
+    max_iterations : int
+        Optimiser iterations at most, 1 to 10 000.
+    margin : float
+        The optimiser holds every constraint at margin >= ``margin`` [-] (normalised, as
+        ``Constraint.margin``), so its optimum passes the task's exact feasibility test
+        (a stroke on the boundary can miss it by rounding); 0 to 1e-4. One float32 step of
+        every coordinate is held on top (:func:`float32_margin`), and the reported stroke is
+        the optimum cast to the action type (float32), so it stays feasible when stepped
+        through the env as an agent's action.
+    active : float
+        A constraint (or bound) within ``active`` [-] of its limit counts as active in the
+        certificate, 0 to 1e-2.
+    starts : int
+        Independent searches the run's budget is split into, 1 to :data:`MAX_STARTS`; each is
+        the method with its own seed on an equal part of the budget, polished (``share`` of
+        its part), and the run reports the best (docs/harness.md, "Starts and initial
+        strokes"). 1 by default: more did not reproduce better (docs/harness.md,
+        "Reproducibility check").
+    initial : tuple of strokes
+        Normalised strokes (each a sequence of the action box's dimension, values in [-1, 1])
+        that are polished directly, each on an equal part of the budget beside the searches:
+        a warm start, e.g. the optimum of a neighbouring model reading (continuation). A start
+        may be infeasible; the polish then moves it onto the constraints.
+    initial_share : float or None
+        Fraction of the run's budget the initial strokes get together (split evenly among
+        them), in [0.05, 0.95], the searches sharing the rest; None: every part (initial
+        strokes and searches) gets an equal share.
+    """
+
+    method: str = "slsqp"
+    share: float = 0.4
+    step: float = 1e-5
+    tolerance: float = 1e-10
+    max_iterations: int = 200
+    margin: float = 1e-9
+    active: float = 1e-6
+    starts: int = 1
+    initial: tuple[tuple[float, ...], ...] = ()
+    initial_share: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.method not in POLISH_METHODS:
+            raise ValueError(
+                f"polish = {self.method!r}; allowed: {', '.join(map(repr, POLISH_METHODS))}"
+            )
+        for name, low, high in (
+            ("share", 0.01, 0.9),
+            ("step", 1e-8, 1e-2),
+            ("tolerance", 1e-14, 1e-2),
+            ("margin", 0.0, 1e-4),
+            ("active", 0.0, 1e-2),
+        ):
+            value = getattr(self, name)
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int | float | np.floating | np.integer)
+                or not math.isfinite(value)
+                or not low <= value <= high
+            ):
+                raise ValueError(
+                    f"polish {name} = {value!r}; allowed: a number in [{low:g}, {high:g}]"
+                )
+            object.__setattr__(self, name, float(value))
+        n = self.max_iterations
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 1 <= n <= 10_000:
+            raise ValueError(f"polish max_iterations = {n!r}; allowed: an integer in [1, 10000]")
+        object.__setattr__(self, "max_iterations", int(n))
+        k = self.starts
+        if isinstance(k, bool) or not isinstance(k, int | np.integer) or not 1 <= k <= MAX_STARTS:
+            raise ValueError(f"starts = {k!r}; allowed: an integer in [1, {MAX_STARTS}]")
+        object.__setattr__(self, "starts", int(k))
+        object.__setattr__(self, "initial", _strokes(self.initial))
+        share = self.initial_share
+        if share is not None:
+            if (
+                isinstance(share, bool)
+                or not isinstance(share, int | float | np.floating | np.integer)
+                or not math.isfinite(share)
+                or not INITIAL_SHARE_RANGE[0] <= share <= INITIAL_SHARE_RANGE[1]
+            ):
+                low, high = INITIAL_SHARE_RANGE
+                raise ValueError(
+                    f"initial_share = {share!r}; allowed: a number in [{low:g}, {high:g}], or none"
+                )
+            if not self.initial:
+                raise ValueError("initial_share without initial strokes; allowed: with initial")
+            object.__setattr__(self, "initial_share", float(share))
+        if self.initial and not self.enabled:
+            raise ValueError(
+                "initial strokes are polished, but polish = 'none'; allowed: "
+                "initial with polish 'slsqp' or 'trust-constr'"
+            )
+
+    @property
+    def enabled(self) -> bool:
+        return self.method != "none"
+
+    def reserve(self, budget: int, gradient_cost: int) -> int:
+        """Evaluations of a run's ``budget`` kept for the polish: ``share`` of it, or 0 when
+        the polish is off or that share is below two gradients (``gradient_cost`` model
+        evaluations each: the polish could not take one step and check it)."""
+        reserve = round(self.share * budget) if self.enabled else 0
+        return reserve if reserve >= 2 * gradient_cost else 0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "method": self.method,
+            "share": self.share,
+            "step": self.step,
+            "tolerance": self.tolerance,
+            "max_iterations": self.max_iterations,
+            "margin": self.margin,
+            "active": self.active,
+            "starts": self.starts,
+            "initial": [list(stroke) for stroke in self.initial],
+            "initial_share": self.initial_share,
+        }
+
+
+def _strokes(value: Any) -> tuple[tuple[float, ...], ...]:
+    """``initial`` as a tuple of strokes of finite values in [-1, 1] (equal lengths)."""
+    allowed = "a list of strokes, each a list of numbers in [-1, 1] of the action box's size"
+    if isinstance(value, str | bytes) or not isinstance(value, list | tuple):
+        raise ValueError(f"initial = {value!r}; allowed: {allowed}")
+    strokes = []
+    for stroke in value:
+        if isinstance(stroke, str | bytes) or not isinstance(stroke, list | tuple | np.ndarray):
+            raise ValueError(f"initial stroke {stroke!r}; allowed: {allowed}")
+        numbers = []
+        for v in stroke:
+            if (
+                isinstance(v, bool)
+                or not isinstance(v, int | float | np.floating | np.integer)
+                or not math.isfinite(v)
+                or not -1.0 <= v <= 1.0
+            ):
+                raise ValueError(f"initial stroke value {v!r}; allowed: {allowed}")
+            numbers.append(float(v))
+        strokes.append(tuple(numbers))
+    if len({len(s) for s in strokes}) > 1:
+        raise ValueError(
+            f"initial strokes of lengths {sorted({len(s) for s in strokes})}; allowed: {allowed}"
+        )
+    return tuple(strokes)
+
+
+def split_settings(
+    method: str, method_config: Mapping[str, Any]
+) -> tuple[PolishConfig, dict[str, Any]]:
+    """The polish settings among a method's settings, and the rest (the method's own).
+
+    ``method`` is the method spec; its name (before any ``:``) picks the default polish
+    (:data:`POLISH_DEFAULTS`). Raises ValueError for an unknown polish or a setting out of
+    range, naming it.
+    """
+    name = method.partition(":")[0]
+    own = {k: v for k, v in method_config.items() if k not in POLISH_SETTINGS}
+    given = {POLISH_SETTINGS[k]: v for k, v in method_config.items() if k in POLISH_SETTINGS}
+    given.setdefault("method", POLISH_DEFAULTS.get(name, "none"))
+    return PolishConfig(**given), own

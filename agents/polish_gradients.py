@@ -1,0 +1,230 @@
+"""What the local polish optimises and how it takes derivatives: the :class:`Problem` (a
+maximisation over the box [-1, 1]^dim with constraints, some coordinates fixed), a harness
+task's problem read from its env's public problem view (:func:`task_problem`, over
+``tandem_env.envs.problem.FlightProblem``), and the gradient functions.
+
+The default gradient, :class:`CentralDifferences`, evaluates the point and its 2k perturbations
+(k free parameters; 53 strokes for the 26 continuous ones) in ONE batched model call, so the
+objective's gradient and the constraints' Jacobian come from the same batch. With the torch
+backend (env keyword ``backend="torch"``), :class:`AutogradGradient` takes them by autograd from
+ONE model evaluation instead (``FlightProblem.differentiate``): that is the one seam, and the
+certificate names the gradient used. A gradient function's ``cost`` is the model evaluations it
+counts against the polish's allowance.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import gymnasium as gym
+import numpy as np
+
+from agents.tasks import Condition, TaskSpec
+from tandem_env.envs.problem import FlightProblem
+
+__all__ = [
+    "AutogradGradient",
+    "BatchEvaluation",
+    "CentralDifferences",
+    "Gradient",
+    "GradientFunction",
+    "Problem",
+    "env_problem",
+    "polishable",
+    "task_problem",
+]
+
+
+@dataclass(frozen=True)
+class BatchEvaluation:
+    """What one batched model call gives for n strokes."""
+
+    objective: np.ndarray
+    """(n,) the task's objective, maximised [objective units]."""
+    margins: np.ndarray
+    """(n, m) signed constraint margins, >= 0 where a constraint holds [-]."""
+    feasible: np.ndarray
+    """(n,) bool, the task's exact feasibility test."""
+    names: tuple[str, ...]
+    """The m constraints' names."""
+
+
+BatchFunction = Callable[[np.ndarray], BatchEvaluation]
+"""Evaluates normalised strokes (n, dim) in one model call."""
+
+DifferentiateFunction = Callable[[np.ndarray], tuple[BatchEvaluation, np.ndarray, np.ndarray]]
+"""Evaluates normalised strokes (n, dim) in one differentiable model call: the evaluation, the
+objective's gradient (n, dim) and the margins' Jacobian (n, m, dim) w.r.t. every coordinate."""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A maximisation over the box [-1, 1]^dim with constraints, some coordinates fixed."""
+
+    evaluate: BatchFunction
+    dim: int
+    free: tuple[int, ...]
+    """The coordinates the polish moves (the others stay at the start's values)."""
+    parameter_names: tuple[str, ...] = ()
+    """Names of the dim coordinates (for the certificate's active bounds); default x0, x1..."""
+    differentiate: DifferentiateFunction | None = None
+    """The same evaluation with derivatives (autograd), or None where the model has none."""
+
+    def __post_init__(self) -> None:
+        if not self.free or any(not 0 <= j < self.dim for j in self.free):
+            raise ValueError(f"free = {self.free!r}; allowed: indices in [0, {self.dim})")
+        if not self.parameter_names:
+            object.__setattr__(self, "parameter_names", tuple(f"x{j}" for j in range(self.dim)))
+
+
+def env_problem(env: gym.Env) -> FlightProblem | None:
+    """The optimisation problem ``env`` offers (its public ``problem()``, through Gymnasium's
+    wrappers: ``tandem_env.envs.problem``), or None for an env without one (an analytic test
+    env)."""
+    view = getattr(env.unwrapped, "problem", None)
+    return view() if callable(view) else None
+
+
+def polishable(problem: FlightProblem | None) -> bool:
+    """A task the polish can run on: one with constraints, each with a signed margin."""
+    return problem is not None and bool(problem.constraints) and problem.has_margins
+
+
+def task_problem(
+    task: TaskSpec, condition: Condition, env_kwargs: Mapping[str, Any], env: gym.Env | None = None
+) -> Problem:
+    """The polish problem of a harness task: its env's problem view at ``condition``.
+
+    Objective, constraint margins and feasibility come from the env's
+    :class:`~tandem_env.envs.problem.FlightProblem` (:func:`env_problem`): ONE batched model
+    call through the env's core, scored by the task's declaration, the margins its
+    constraints' (``Constraint.margin``), so the polish optimises exactly what the env rewards
+    under the constraints it penalises; the continuous coordinates are those that are not
+    ``task.discrete_actions``. ``differentiate`` is the same by autograd on the torch backend
+    (``FlightProblem.differentiate``: the env's insect, options and device). ``env``, the
+    task's single env made with ``env_kwargs`` when the caller has one (the harness's job env),
+    is used instead of making one (and left open).
+    """
+    given = env
+    if env is None:
+        env = gym.make(task.env_id, disable_env_checker=True, **dict(env_kwargs))
+    try:
+        view = env_problem(env)
+    finally:
+        if given is None:
+            env.close()
+    if view is None or not polishable(view):
+        raise ValueError(f"{task.env_id}: its task declares no constraint margins; cannot polish")
+    names = view.constraint_names
+
+    def evaluate(actions: np.ndarray) -> BatchEvaluation:
+        found = view.evaluate(actions, condition.value)
+        assert found.margins is not None  # polishable: every constraint has a margin
+        return BatchEvaluation(found.objective, found.margins, found.feasible, names)
+
+    def differentiate(actions: np.ndarray) -> tuple[BatchEvaluation, np.ndarray, np.ndarray]:
+        found = view.differentiate(actions, condition.value)
+        value = found.evaluation
+        assert value.margins is not None
+        batch = BatchEvaluation(value.objective, value.margins, value.feasible, names)
+        return batch, found.objective_gradient, found.margin_jacobian
+
+    discrete = {i for i, _ in task.discrete_actions}
+    free = tuple(j for j in range(view.dim) if j not in discrete)
+    return Problem(evaluate, view.dim, free, view.parameter_names, differentiate)
+
+
+# --- gradients ----------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Gradient:
+    """Value and first derivatives at one point, w.r.t. the free coordinates."""
+
+    objective: float
+    margins: np.ndarray
+    """(m,)"""
+    feasible: bool
+    objective_gradient: np.ndarray
+    """(k,) d objective / d x_free."""
+    jacobian: np.ndarray
+    """(m, k) d margins / d x_free."""
+    names: tuple[str, ...]
+
+
+class GradientFunction(Protocol):
+    """``gradient(x) -> Gradient`` at the full point x (dim,); ``cost`` model evaluations per
+    call (counted in the budget); ``name`` for the certificate. The seam for an autograd
+    gradient."""
+
+    cost: int
+    name: str
+
+    def __call__(self, x: np.ndarray) -> Gradient: ...
+
+
+@dataclass(frozen=True)
+class CentralDifferences:
+    """Central differences of a :class:`Problem`: x and x ± h e_j for every free j in ONE call.
+
+    At a bound the step is cut to stay inside [-1, 1] (a one-sided difference there).
+    """
+
+    problem: Problem
+    step: float = 1e-5
+    cost: int = field(init=False)
+    name: str = field(init=False, default="central differences")
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "cost", 1 + 2 * len(self.problem.free))
+
+    def __call__(self, x: np.ndarray) -> Gradient:
+        free = np.asarray(self.problem.free)
+        k = free.size
+        points = np.repeat(np.asarray(x, dtype=np.float64)[None, :], 1 + 2 * k, axis=0)
+        rows = np.arange(k)
+        up = np.minimum(points[0, free] + self.step, 1.0)
+        down = np.maximum(points[0, free] - self.step, -1.0)
+        points[1 + rows, free] = up
+        points[1 + k + rows, free] = down
+        batch = self.problem.evaluate(points)
+        width = up - down
+        d_obj = (batch.objective[1 : 1 + k] - batch.objective[1 + k :]) / width
+        d_margins = (batch.margins[1 : 1 + k] - batch.margins[1 + k :]) / width[:, None]
+        return Gradient(
+            objective=float(batch.objective[0]),
+            margins=batch.margins[0].copy(),
+            feasible=bool(batch.feasible[0]),
+            objective_gradient=d_obj,
+            jacobian=d_margins.T.copy(),
+            names=batch.names,
+        )
+
+
+@dataclass(frozen=True)
+class AutogradGradient:
+    """The gradient of a :class:`Problem` by autograd: value, objective gradient and margin
+    Jacobian from ONE differentiable model evaluation (``problem.differentiate``, the torch
+    backend), so ``cost`` is 1 model evaluation."""
+
+    problem: Problem
+    cost: int = field(init=False, default=1)
+    name: str = field(init=False, default="autograd")
+
+    def __post_init__(self) -> None:
+        if self.problem.differentiate is None:
+            raise ValueError("AutogradGradient: the problem has no differentiate function")
+
+    def __call__(self, x: np.ndarray) -> Gradient:
+        free = np.asarray(self.problem.free)
+        differentiate = self.problem.differentiate
+        assert differentiate is not None  # checked in __post_init__
+        batch, d_obj, d_margins = differentiate(np.asarray(x, dtype=np.float64)[None, :])
+        return Gradient(
+            objective=float(batch.objective[0]),
+            margins=batch.margins[0].copy(),
+            feasible=bool(batch.feasible[0]),
+            objective_gradient=d_obj[0, free].copy(),
+            jacobian=d_margins[0][:, free].copy(),
+            names=batch.names,
+        )

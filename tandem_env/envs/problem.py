@@ -1,0 +1,281 @@
+"""The optimisation problem a one-cycle task poses: a public view of its batched core.
+
+An optimiser that is not an episode-stepping agent (the harness's local polish,
+``agents.polish``; an amortised policy, a network mapping a flight condition to a stroke)
+needs the task as a problem, not as an env: the box the strokes live in, the constraints and
+how feasibility is decided, and a batched evaluation at conditions it chooses.
+:class:`FlightProblem` is that view. Every one-cycle env offers it (``env.problem()``, the
+single and the vector env alike; ``env.unwrapped.problem()`` through Gymnasium's wrappers).
+
+It evaluates through the core's own ``step`` (ONE batched model call, scored by the task's
+declaration), so it scores a stroke exactly as the env rewards it; the condition (the task's
+declared one: flight speed for level flight, available power for accelerating flight) is an
+argument of every evaluation, never the env's episode state, and each stroke of a batch may
+have its own.
+
+::
+
+    problem = gym.make("TandemWing/LevelFlight-v0").unwrapped.problem()
+    evaluation = problem.evaluate(actions, 1.5)  # (B, 28) in [-1, 1], at V = 1.5 m/s
+    evaluation.objective, evaluation.margins, evaluation.feasible
+
+Nothing here imports Gymnasium; torch only in :meth:`FlightProblem.differentiate`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from ..physics import N_PARAMETERS, PARAMETER_NAMES, Result, normalised_to_physical
+from ..physics.stroke import DISCRETE, LOWER, UPPER
+from .config import FlightConfig
+from .declaration import Constraint, TaskCondition, TaskDeclaration
+
+__all__ = ["FlightProblem", "ProblemEvaluation", "ProblemGradient"]
+
+
+class ScoredStrokes(Protocol):
+    """What the problem reads of a core's step (``tandem_env.envs.base.StepBatch``)."""
+
+    @property
+    def result(self) -> Result: ...
+
+    @property
+    def objective(self) -> np.ndarray: ...
+
+    @property
+    def feasible(self) -> np.ndarray: ...
+
+
+class OneCycleCore(Protocol):
+    """What the problem reads of a one-cycle task's core (``tandem_env.envs.base.FlightCore``)."""
+
+    @property
+    def config(self) -> FlightConfig: ...
+
+    @property
+    def declaration(self) -> TaskDeclaration: ...
+
+    def flight_conditions(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def step(self, physical: np.ndarray, values: np.ndarray) -> ScoredStrokes: ...
+
+
+@dataclass(frozen=True)
+class ProblemEvaluation:
+    """B strokes evaluated at their conditions in ONE model call."""
+
+    objective: np.ndarray
+    """(B,) the task's objective, maximised [the objective's unit]."""
+    margins: np.ndarray | None
+    """(B, m) each constraint's signed margin [-], >= 0 where it holds
+    (:attr:`FlightProblem.constraints` order); None for a task with a constraint that declares
+    no margin (:attr:`FlightProblem.has_margins`)."""
+    feasible: np.ndarray
+    """(B,) bool: the task's exact feasibility test, every constraint's violation exactly 0
+    (what the env's ``info["feasible"]`` reports)."""
+    result: Result
+    """The model's full result, (B,) arrays."""
+
+
+@dataclass(frozen=True)
+class ProblemGradient:
+    """B strokes evaluated with first derivatives w.r.t. the normalised coordinates."""
+
+    evaluation: ProblemEvaluation
+    objective_gradient: np.ndarray
+    """(B, 28) d objective / d action (0 in the discrete coordinates, N being a step)."""
+    margin_jacobian: np.ndarray
+    """(B, m, 28) d margins / d action."""
+
+
+class FlightProblem:
+    """Maximise a one-cycle task's objective over the normalised stroke box, subject to its
+    declared constraints, at a flight condition given with each evaluation.
+
+    * **Bounds.** A stroke is an action: 28 normalised coordinates in
+      [:attr:`normalised_low`, :attr:`normalised_high`] (the env's action box), mapped
+      linearly onto Table 4's physical bounds [:attr:`physical_low`, :attr:`physical_high`]
+      (``tandem_env.physics.normalised_to_physical``), except the :attr:`discrete` ones (each
+      wing's harmonic N: 1 on the box's lower half, 2 on its upper half).
+    * **Constraints.** The task declaration's :attr:`constraints`, in order: each has a
+      violation (>= 0, exactly 0 where it holds) and, where declared, a signed margin [-]
+      (>= 0 where it holds, smooth across the boundary, ``max(0, −margin)`` the violation on
+      the reward's scale). A stroke is feasible when every violation is exactly 0; the margins
+      are what a gradient-based optimiser holds >= 0.
+    * **Evaluation.** :meth:`evaluate` (B strokes, their conditions) -> objective, margins,
+      feasibility, in ONE model call through the core's ``step``; :meth:`differentiate` the
+      same with derivatives, by autograd on the torch backend.
+
+    Built by the env's core (``FlightCore.problem()``) with the env's action box; the config
+    (insect, model options, backend, device) is the env's.
+    """
+
+    def __init__(self, core: OneCycleCore, normalised_low: float, normalised_high: float) -> None:
+        self._core = core
+        self._low = np.full(N_PARAMETERS, float(normalised_low))
+        self._high = np.full(N_PARAMETERS, float(normalised_high))
+
+    # --- what the problem is -----------------------------------------------------------------
+    @property
+    def config(self) -> FlightConfig:
+        """The env's config: insect, model options, backend, device, objective choice."""
+        return self._core.config
+
+    @property
+    def declaration(self) -> TaskDeclaration:
+        """The task's declaration (condition, objectives, constraints)."""
+        return self._core.declaration
+
+    @property
+    def condition(self) -> TaskCondition:
+        """The declared condition every evaluation takes: its keyword, unit, the model's limits,
+        the paper's envelope and sweep."""
+        return self.config.declared_condition
+
+    @property
+    def objective_metric(self) -> str:
+        """The :class:`~tandem_env.physics.Result` field maximised, e.g. ``"efficiency"``."""
+        return self.config.objective_metric
+
+    @property
+    def dim(self) -> int:
+        """Number of action coordinates (28)."""
+        return N_PARAMETERS
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Names of the coordinates, fore-wing first (Table 4 order)."""
+        return PARAMETER_NAMES
+
+    @property
+    def normalised_low(self) -> np.ndarray:
+        """(28,) lower bounds of the normalised coordinates (the action box's)."""
+        return self._low.copy()
+
+    @property
+    def normalised_high(self) -> np.ndarray:
+        """(28,) upper bounds of the normalised coordinates (the action box's)."""
+        return self._high.copy()
+
+    @property
+    def physical_low(self) -> np.ndarray:
+        """(28,) Table 4 lower bounds [Hz, deg, -], what :attr:`normalised_low` maps to."""
+        return LOWER.copy()
+
+    @property
+    def physical_high(self) -> np.ndarray:
+        """(28,) Table 4 upper bounds [Hz, deg, -], what :attr:`normalised_high` maps to."""
+        return UPPER.copy()
+
+    @property
+    def discrete(self) -> np.ndarray:
+        """(28,) bool: the discrete coordinates (each wing's harmonic N)."""
+        return DISCRETE.copy()
+
+    @property
+    def constraints(self) -> tuple[Constraint, ...]:
+        """The task's constraints (its declaration's), in the margins' column order."""
+        return self.declaration.constraints
+
+    @property
+    def constraint_names(self) -> tuple[str, ...]:
+        """Each constraint's name (its violation's ``info`` key), in column order."""
+        return tuple(c.name for c in self.constraints)
+
+    @property
+    def has_margins(self) -> bool:
+        """Every constraint declares a signed margin (what :meth:`differentiate` and a
+        gradient-based optimiser need); a task without constraints has none to declare."""
+        return all(c.margin is not None for c in self.constraints)
+
+    # --- evaluation ---------------------------------------------------------------------------
+    def evaluate(self, actions: np.ndarray, conditions: Any) -> ProblemEvaluation:
+        """Evaluate B normalised strokes ``actions`` (B, 28), in the box, at ``conditions`` (one
+        value for all or (B,) values, the declared condition's unit) in ONE model call, scored
+        as the env scores a step. Raises ValueError for a bad shape, a stroke outside the box or
+        a condition the model refuses."""
+        strokes = self._actions(actions)
+        values = self._conditions(conditions, strokes.shape[0])
+        batch = self._core.step(normalised_to_physical(strokes), values)
+        return ProblemEvaluation(
+            objective=np.asarray(batch.objective, dtype=np.float64),
+            margins=self._margins(batch.result),
+            feasible=np.asarray(batch.feasible, dtype=bool),
+            result=batch.result,
+        )
+
+    def differentiate(self, actions: np.ndarray, conditions: Any) -> ProblemGradient:
+        """:meth:`evaluate` with the objective's gradient and the margins' Jacobian w.r.t. the
+        normalised coordinates, by autograd from ONE evaluation on the torch backend
+        (``tandem_env.physics.torch_model.normalised_jacobian``, imported here: it needs torch),
+        with the env's insect, model options and device. Raises ValueError where a constraint
+        declares no margin."""
+        from ..physics import torch_model  # torch only when something differentiates
+
+        if not self.has_margins:
+            missing = [c.name for c in self.constraints if c.margin is None]
+            raise ValueError(
+                f"{self.declaration.name}: constraints {missing} declare no margin; allowed: "
+                "differentiate a task whose every constraint has one (Constraint.margin)"
+            )
+        strokes = self._actions(actions)
+        config = self.config
+        speed, power = self._core.flight_conditions(self._conditions(conditions, strokes.shape[0]))
+        metric = config.objective_metric
+        functions = [lambda result: getattr(result, metric)]
+        functions += [lambda result, c=c: c.margin(result, config) for c in self.constraints]
+        result, values, jacobian = torch_model.normalised_jacobian(
+            strokes,
+            functions,
+            speed,
+            power,
+            insect=config.insect,
+            options=config.options,
+            device=config.device,
+        )
+        evaluation = ProblemEvaluation(
+            objective=values[:, 0],
+            margins=values[:, 1:],
+            feasible=np.asarray(self.declaration.score(result, config).feasible, dtype=bool),
+            result=result,
+        )
+        return ProblemGradient(evaluation, jacobian[:, 0], jacobian[:, 1:])
+
+    # --- checks -------------------------------------------------------------------------------
+    def _margins(self, result: Result) -> np.ndarray | None:
+        """(B, m) the constraints' margins on ``result``; None where one declares none."""
+        if not self.has_margins:
+            return None
+        if not self.constraints:
+            return np.zeros((result.power.shape[0], 0))
+        return np.column_stack([c.margin(result, self.config) for c in self.constraints])
+
+    def _actions(self, actions: np.ndarray) -> np.ndarray:
+        strokes = np.asarray(actions, dtype=np.float64)
+        if strokes.ndim != 2 or strokes.shape[1] != N_PARAMETERS:
+            raise ValueError(
+                f"actions of shape {strokes.shape}; allowed: (B, {N_PARAMETERS}) normalised strokes"
+            )
+        return strokes
+
+    def _conditions(self, conditions: Any, count: int) -> np.ndarray:
+        values = np.asarray(conditions, dtype=np.float64)
+        if values.ndim == 0:
+            return np.full(count, float(values))
+        if values.shape != (count,):
+            raise ValueError(
+                f"conditions of shape {values.shape} for {count} strokes; allowed: one "
+                f"{self.condition.keyword} [{self.condition.unit}] or one per stroke ({count},)"
+            )
+        return values
+
+    def __repr__(self) -> str:
+        return (
+            f"FlightProblem({self.declaration.name}: maximise {self.objective_metric} at "
+            f"{self.condition.keyword} [{self.condition.unit}] s.t. "
+            f"{', '.join(self.constraint_names) or 'nothing'})"
+        )
