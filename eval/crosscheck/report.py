@@ -196,7 +196,7 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
                 )
         left.axhline(0.0, color="0.7", lw=0.8)
         left.set_xticks(lags)
-        left.set_xlabel("lag: hind-wing phase shift [deg]")
+        left.set_xlabel("lag ΔΦ: the hind-wing's phase lead [deg]")
         left.set_ylabel("vertical force change [%]")
         first = main[0]
         left.set_title(
@@ -204,7 +204,6 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
             f"({first['steps_per_beat']} steps/beat, {first['panels']} panels)",
             fontsize=9,
         )
-        left.legend(fontsize=7, ncol=2)
         # Coarsest first: by panels, then by time steps.
         resolutions = sorted(
             dict.fromkeys((r["steps_per_beat"], r["panels"]) for r in mine),
@@ -241,7 +240,11 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
                 fontsize=9,
                 va="center",
             )
-    fig.tight_layout()
+    # One legend above the panels, off the data (every panel has the same series).
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    legend_height = 0.5  # [inch]
+    fig.legend(handles, labels, loc="upper center", ncol=3, fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - legend_height / fig.get_figheight()))
     path = out_dir / FIGURE
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=DPI)
