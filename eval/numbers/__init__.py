@@ -18,9 +18,10 @@ commands, date, machine and load), and the Markdown is rendered from that file a
 
 * ``python -m eval numbers --only NAME ...`` reruns only those (:data:`MEASUREMENTS` lists
   them: the comparison of methods, the benchmarks of the model, the torch port and the envs,
-  SpeedChange's random and steady baselines, the quick preset's time, readings of the model on
-  random strokes, the resolution study of the defaults, the optimum of a second species and,
-  on request, the cross-check's lag study and the readings study at the paper preset).
+  SpeedChange's random and steady baselines, the quick preset's and a training run's time,
+  readings of the model on random strokes, the resolution study of the defaults, the optimum
+  of a second species and, on request, the cross-check's lag study and the readings study at
+  the paper preset).
 
 This package is a small framework (:mod:`eval.numbers.framework`: where numbers live, the
 machine, the documented commands) and one module per measurement. Adding a number is one
@@ -50,6 +51,7 @@ from eval.numbers import (
     second_species,
     speed_change,
     throughput,
+    training_time,
 )
 from eval.numbers.comparison import (
     COMPARISON_METHODS,
@@ -114,6 +116,11 @@ MEASUREMENTS: dict[str, Measurement] = {
         Measurement("convergence", CONVERGENCE.run, convergence.render_convergence),
         Measurement(
             "quick-preset", quick_preset.measure_quick_preset, quick_preset.render_quick_preset
+        ),
+        Measurement(
+            "training-time",
+            training_time.measure_training_time,
+            training_time.render_training_time,
         ),
         Measurement(
             "second-species",

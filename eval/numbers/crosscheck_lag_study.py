@@ -1,7 +1,8 @@
 """The cross-check's lag study (docs/crosscheck.md, "Findings"): the stored outputs of the
-documented ``python -m eval crosscheck --grid lag-study`` run, collected after it finished, and
-what they say about each slipstream reading: the sign of the hind-wing's change at every grid
-point, and the lag of its largest loss against the vortex lattice's."""
+documented ``python -m eval crosscheck --grid lag-study`` run and of its convergence run at one
+case, collected after they finished, and what they say about each slipstream reading: the sign
+of the hind-wing's change at every grid point, and the lag of its largest loss against the
+vortex lattice's."""
 
 from __future__ import annotations
 
@@ -17,6 +18,10 @@ from eval.numbers.framework import ROOT
 LAG_STUDY_OUT = Path("results") / "crosscheck-lag-study"
 LAG_STUDY_COMMAND = (
     f"python -m eval crosscheck --grid lag-study --scheduler local:2 --out {LAG_STUDY_OUT}"
+)
+CONVERGENCE_OUT = Path("results") / "crosscheck-convergence"
+CONVERGENCE_COMMAND = (
+    f"python -m eval crosscheck --convergence --lags 0 --scheduler local:2 --out {CONVERGENCE_OUT}"
 )
 #: The run's small outputs kept where the docs include them: run's file -> the docs' copy.
 LAG_STUDY_FILES: dict[str, Path] = {
@@ -37,6 +42,11 @@ def measure_crosscheck_lag_study() -> dict[str, Any]:
         raise SystemExit(f"{LAG_STUDY_OUT} holds no finished lag study; run `{LAG_STUDY_COMMAND}`")
     with open(table, newline="", encoding="utf-8") as handle:
         rows = list(csv.DictReader(handle))
+    convergence_table = CONVERGENCE_OUT / "crosscheck.csv"
+    if not convergence_table.is_file():
+        raise SystemExit(f"{CONVERGENCE_OUT} holds no convergence run; run `{CONVERGENCE_COMMAND}`")
+    with open(convergence_table, newline="", encoding="utf-8") as handle:
+        convergence = list(csv.DictReader(handle))
     cases = {case_of(row) for row in rows}
     if len(cases) != 4 or len(rows) != 32:
         raise SystemExit(
@@ -47,7 +57,12 @@ def measure_crosscheck_lag_study() -> dict[str, Any]:
         copy.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(copy) as tmp:
             shutil.copyfile(LAG_STUDY_OUT / name, tmp)
-    return {"command": LAG_STUDY_COMMAND, "rows": rows}
+    return {
+        "command": LAG_STUDY_COMMAND,
+        "rows": rows,
+        "convergence_command": CONVERGENCE_COMMAND,
+        "convergence": convergence,
+    }
 
 
 def case_of(row: Mapping[str, Any]) -> tuple[float, float, float]:
@@ -174,4 +189,20 @@ def render_crosscheck_lag_study(data: dict[str, Any]) -> str:
             )
             cells.append(f"{r['same_sign']}/8, {where}")
         lines.append("| " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        f"The UVLM's convergence at one case (V = 1 m/s, lag 0°, the dragonfly's spacing), "
+        f"`{data['convergence_command']}`: the change of each pair's vertical force at each "
+        "resolution run (3 beats each; the loads from the last):",
+        "",
+        "| steps per beat | panels (chordwise x spanwise) | UVLM hind | UVLM fore | tandem run [s] |",
+        "|---|---|---|---|---|",
+    ]
+    for row in data["convergence"]:
+        lines.append(
+            f"| {row['steps_per_beat']} | {row['panels']} | "
+            f"{float(row['uvlm_hind_change_pct']):+.1f} % | "
+            f"{float(row['uvlm_fore_change_pct']):+.1f} % | "
+            f"{float(row['uvlm_tandem_wall_s']):.0f} |"
+        )
     return "\n".join(lines) + "\n"

@@ -148,13 +148,20 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         return {k: b for k, (_, b) in groups.items()}
 
     # Each panel shows the statistic its claim judges: the median of |ΔΦ| (K1, K3), the
-    # circular median of ΔΦ (K2), the medians of η_m (K4).
+    # circular median of ΔΦ (K2), the medians of η_m (K4). Where the model does not depend on
+    # the fore/hind phase, K1-K3 are not identifiable and the figure says the medians are not
+    # judged (claims.IDENTIFIABILITY_RULE).
+    judged = (
+        "judged"
+        if plan.model_options.phase_resolved()
+        else "not judged: the model does not depend on ΔΦ"
+    )
     phase_panels = (
         kf.GroupPanel(
             "(c) |ΔΦ| (K1, K3; feasible seeds)",
             values(abs_phase),
             "|ΔΦ| [deg]",
-            statistic_label="median |ΔΦ| (judged)",
+            statistic_label=f"median |ΔΦ| ({judged})",
             best=bests(abs_phase),
             paper={accel_at: PAPER_IN_PHASE},
             paper_label="paper: in phase (ΔΦ = 0°)",
@@ -166,7 +173,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             values(lead),
             "ΔΦ = Φ_hind − Φ_fore [deg]",
             statistic=circular_median,
-            statistic_label="circular median (judged)",
+            statistic_label=f"circular median ({judged})",
             best=bests(lead),
             paper={lead_at: PAPER_PHASE_LEAD},
             paper_label=f"paper: hind leads by ≈ {PAPER_PHASE_LEAD:g}°",

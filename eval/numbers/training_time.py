@@ -1,0 +1,46 @@
+"""The README's first training command's cost (README "Train PPO and SAC stroke policies"):
+``python -m train`` with PPO on level flight for 200 000 steps, run into an empty log folder
+and timed as a whole process."""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from typing import Any
+
+from eval.numbers.framework import machine_line, run_command
+from eval.numbers.quick_preset import minutes
+
+TRAINING_COMMAND: tuple[str, ...] = (
+    "python",
+    "-m",
+    "train",
+    "--algo",
+    "ppo",
+    "--env",
+    "TandemWing/LevelFlight-v0",
+    "--timesteps",
+    "200000",
+    "--seed",
+    "0",
+    "--env-kwargs",
+    "speed=1.5",
+)
+"""The README's command; ``-f`` (an empty log folder) is added."""
+
+
+def measure_training_time() -> dict[str, Any]:
+    """Run the README's PPO command into an empty log folder: wall time [s]."""
+    with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as logs:
+        start = time.perf_counter()
+        run_command([*TRAINING_COMMAND, "-f", logs])
+        wall = time.perf_counter() - start
+    return {"command": " ".join(TRAINING_COMMAND), "wall_s": round(wall, 1)}
+
+
+def render_training_time(data: dict[str, Any]) -> str:
+    return (
+        f"`{data['command']}` took **{minutes(data['wall_s'])}** wall clock into an empty log "
+        f"folder (training, its periodic evaluations and checkpoints). "
+        f"{machine_line(data, 'training-time')}\n"
+    )
