@@ -93,6 +93,7 @@ __all__ = [
     "parse_scheduler",
     "record_cache",
     "run_jobs",
+    "set_worker_numba_threads",
 ]
 
 #: Seconds to wait for a Dask scheduler to answer before giving up [s].
@@ -277,17 +278,24 @@ def _harness_run(job: PreparedJob) -> Record:
     return run_job(job, _REPORTER.get())
 
 
-def _on_worker(job: PreparedJob) -> Record:
-    """What a Dask worker runs: the harness call, with one numba thread per job.
+def set_worker_numba_threads() -> None:
+    """On a Dask worker, before its job: one numba thread for the calling thread's job.
 
     numba's thread count is per calling thread; a worker runs as many jobs at once as it has
     threads, so one numba thread each keeps a node's cores from being oversubscribed. A worker
-    started with ``NUMBA_NUM_THREADS`` set keeps numba's default (that many) instead.
+    started with ``NUMBA_NUM_THREADS`` set keeps numba's default (that many) instead. The
+    runner's jobs and the crosscheck's solver runs (``eval.crosscheck.store``) both call it.
     """
     if "NUMBA_NUM_THREADS" not in os.environ:
         import numba
 
         numba.set_num_threads(1)
+
+
+def _on_worker(job: PreparedJob) -> Record:
+    """What a Dask worker runs: the harness call, with one numba thread per job
+    (:func:`set_worker_numba_threads`)."""
+    set_worker_numba_threads()
     return _harness_run(job)
 
 
