@@ -207,10 +207,13 @@ def prepare(
     seed_list = list(seeds)
     if not seed_list:
         raise ValueError("seeds is empty; allowed: one or more integers >= 0")
-    name = method if isinstance(method, str) else getattr(method, "name", "")
-    method_obj = get_method(method, split_settings(name, dict(method_config or {}))[1])
+    # A method given by name is resolved, its settings checked, with the job (prepare_job).
+    method_obj = None
+    if not isinstance(method, str):
+        own = split_settings(getattr(method, "name", ""), dict(method_config or {}))[1]
+        method_obj = get_method(method, own)
     first = Job(
-        method=method if isinstance(method, str) else method_obj.name,
+        method=method if method_obj is None else method_obj.name,
         task=spec.name,
         condition=condition,
         budget=budget,

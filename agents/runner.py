@@ -71,7 +71,13 @@ from typing import TYPE_CHECKING, Any
 from agents.harness import PreparedJob, prepare_job, run_job
 from agents.jobs import Job
 from agents.records import Record, RecordWarning
-from agents.store import RECORDS_DIR, RecordStore, StoreWriteError, cache_directory
+from agents.store import (
+    RECORDS_DIR,
+    SUMMARY_NAME,
+    RecordStore,
+    StoreWriteError,
+    cache_directory,
+)
 from tandem_env.io.progress_bar import ProgressBar, QuietStream, Reporter
 
 if TYPE_CHECKING:
@@ -82,6 +88,7 @@ __all__ = [
     "CommandProgress",
     "JobFailure",
     "JobsFailed",
+    "OutputNotWritable",
     "Phase",
     "RunSummary",
     "SchedulerUnreachable",
@@ -93,6 +100,7 @@ __all__ = [
     "parse_scheduler",
     "record_cache",
     "run_jobs",
+    "set_worker_numba_threads",
 ]
 
 #: Seconds to wait for a Dask scheduler to answer before giving up [s].
@@ -251,6 +259,11 @@ class RunSummary:
         return ", ".join(parts)
 
 
+class OutputNotWritable(ValueError):
+    """The output folder is a file (or under one), or cannot be written while some jobs have no
+    record there: nothing ran (:func:`run_jobs` with ``summary_csv``)."""
+
+
 class JobsFailed(RuntimeError):
     """Some jobs raised; the others finished and their records are stored."""
 
@@ -277,17 +290,24 @@ def _harness_run(job: PreparedJob) -> Record:
     return run_job(job, _REPORTER.get())
 
 
-def _on_worker(job: PreparedJob) -> Record:
-    """What a Dask worker runs: the harness call, with one numba thread per job.
+def set_worker_numba_threads() -> None:
+    """On a Dask worker, before its job: one numba thread for the calling thread's job.
 
     numba's thread count is per calling thread; a worker runs as many jobs at once as it has
     threads, so one numba thread each keeps a node's cores from being oversubscribed. A worker
-    started with ``NUMBA_NUM_THREADS`` set keeps numba's default (that many) instead.
+    started with ``NUMBA_NUM_THREADS`` set keeps numba's default (that many) instead. The
+    runner's jobs and the crosscheck's solver runs (``eval.crosscheck.store``) both call it.
     """
     if "NUMBA_NUM_THREADS" not in os.environ:
         import numba
 
         numba.set_num_threads(1)
+
+
+def _on_worker(job: PreparedJob) -> Record:
+    """What a Dask worker runs: the harness call, with one numba thread per job
+    (:func:`set_worker_numba_threads`)."""
+    set_worker_numba_threads()
     return _harness_run(job)
 
 
@@ -720,7 +740,7 @@ class _Cache:
                 f"the record cache is not written ({error}); the records are in the output "
                 "folder (--no-cache turns the cache off)",
                 RecordWarning,
-                stacklevel=3,
+                stacklevel=4,
             )
 
 
@@ -733,6 +753,7 @@ def run_jobs(
     rerun: bool = False,
     cache: CacheOption = True,
     command: CommandProgress | None = None,
+    summary_csv: bool = False,
 ) -> RunSummary:
     """Run every job that has no valid stored record yet; duplicates run once.
 
@@ -752,20 +773,86 @@ def run_jobs(
     in ``out_dir`` takes the cache's, copied into ``out_dir``; every record computed is written
     to both. ``command`` is the whole command's progress (:class:`CommandProgress`), told of
     every job this call finishes.
+
+    ``summary_csv`` (``python -m eval optimize``) also keeps ``out_dir``'s ``summary.csv``
+    over every record there, rewritten when the call ends (also after a failure or an
+    interrupt; :meth:`~agents.store.RecordStore.write_summary`, the records of this call
+    not read again). The store's paths are checked first, once its records are read and before
+    any other work: :class:`OutputNotWritable` naming the path and what is allowed for a file
+    where a folder goes, or a folder that cannot be written while a job has no record there;
+    one that cannot be written but holds every job is used as it is, its summary left as it
+    is (said on stderr).
     """
     executor = "serial" if scheduler is None else parse_scheduler(scheduler)
     start = time.perf_counter()
-    store = RecordStore(out_dir)
+    try:
+        store = RecordStore(out_dir)
+    except ValueError as error:
+        if not summary_csv:
+            raise
+        raise OutputNotWritable(str(error)) from None
     shared = _Cache(record_cache(cache))
     given = {_job_of(job).key: job for job in jobs}
     records: dict[str, Record] = {}
+    for key, job in given.items():
+        if not rerun and (record := store.load(_job_of(job))) is not None:
+            records[key] = record
+    writable = not summary_csv or _check_output(store, given, records)
+    try:
+        return _run(given, records, store, shared, executor, start, progress, command, rerun)
+    finally:
+        if summary_csv:
+            _write_summary(store, records, writable)
+
+
+def _check_output(
+    store: RecordStore, given: Mapping[str, Job | PreparedJob], stored: Mapping[str, Record]
+) -> bool:
+    """Whether ``store`` can be written (its folder, records, summary and the jobs' record
+    files); :class:`OutputNotWritable` naming the path and why if it cannot and a job is not
+    ``stored`` there."""
+    jobs = [_job_of(job) for job in given.values()]
+    try:
+        writable = store.check(write=False, jobs=jobs)
+        if not writable and set(given) - set(stored):
+            store.check(jobs=jobs)  # raises, naming the folder and why
+    except ValueError as error:
+        raise OutputNotWritable(str(error)) from None
+    return writable
+
+
+def _write_summary(store: RecordStore, records: Mapping[str, Record], writable: bool) -> None:
+    """Rewrite ``store``'s summary over every record there (``records`` not read again), or say
+    why it is left as it is."""
+    if writable and store.directory.exists():
+        store.write_summary(records)
+    elif not writable:
+        print(
+            f"{store.directory} cannot be written: every seed is stored there, "
+            f"{SUMMARY_NAME} is left as it is",
+            file=sys.stderr,
+        )
+
+
+def _run(
+    given: Mapping[str, Job | PreparedJob],
+    records: dict[str, Record],
+    store: RecordStore,
+    shared: _Cache,
+    executor: str,
+    start: float,
+    progress: bool,
+    command: CommandProgress | None,
+    rerun: bool,
+) -> RunSummary:
+    """:func:`run_jobs` once the stored ``records`` are read: the record cache's copied, the
+    others run; ``records`` gains every record found or made."""
     cached = 0
     for key, job in given.items():
         if rerun:
-            continue
-        if (record := store.load(_job_of(job))) is not None:
-            records[key] = record
-            shared.save(record, unless_present=True)  # a store made before the cache feeds it
+            break
+        if key in records:
+            shared.save(records[key], unless_present=True)  # a store made before the cache feeds it
         elif (record := shared.load(_job_of(job))) is not None:
             store.save(record)  # the store's one atomic write: a copy, checksum and all
             records[key] = record
@@ -786,11 +873,11 @@ def run_jobs(
             f"{len(old)} record file(s) of an earlier format in {old[0].parent} (e.g. "
             f"{old[0].name}) are not used: the jobs they held run again in this format",
             RecordWarning,
-            stacklevel=2,
+            stacklevel=3,
         )
     with contextlib.ExitStack() as stack:
         client = None
-        if todo and scheduler is not None:
+        if todo and executor != "serial":
             client = stack.enter_context(dask_client(executor, quiet=not progress))
         display = _Display([p.job for p in todo], progress and bool(todo))
         stack.callback(display.close)

@@ -4,8 +4,8 @@
 
 For every harness record in the given stores this runs its own SLSQP (scipy ``minimize``,
 ``ftol`` 1e-10) from the record's normalised stroke over the 26 continuous parameters, N fixed,
-the task's constraints (the signed margins of the env's task core, ``constraints``) as
-constraints, gradients by central differences (step 1e-5) in one batched model call each. It
+the task's constraints (their signed margins, from the env's public problem view
+``env.problem()``, ``tandem_env/envs/problem.py``) as constraints, gradients by central differences (step 1e-5) in one batched model call each. It
 shares no code with ``agents/polish.py`` on purpose: it checks that module's work. Prints per
 record the objective, the fresh polish's gain [%] and its final constraint violation, then per
 condition: how many seeds gain < 0.5 %, the best of the first and second half of the seeds and
@@ -27,7 +27,6 @@ import tandem_env  # noqa: F401 (registers the envs)
 from agents.records import Record
 from agents.store import read_record_files
 from agents.tasks import get_task
-from tandem_env.physics import normalised_to_physical
 from tandem_env.physics.stroke import DISCRETE
 
 STEP = 1e-5
@@ -39,8 +38,7 @@ def fresh_polish(record: Record) -> tuple[float, float, float, int]:
     value = record.condition.value
     kwargs = {**dict(record.job.env_kwargs), get_task(record.task).condition_kwarg: value}
     env = gym.make(record.env_id, disable_env_checker=True, **kwargs)
-    core = env.unwrapped.core
-    constraints = core.declaration.constraints
+    problem = env.unwrapped.problem()
     env.close()
     x0 = np.array(record.normalised_stroke)
     free = np.flatnonzero(~DISCRETE)
@@ -48,9 +46,8 @@ def fresh_polish(record: Record) -> tuple[float, float, float, int]:
     def batch(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x = np.repeat(x0[None, :], z.shape[0], axis=0)
         x[:, free] = np.clip(z, -1.0, 1.0)
-        out = core.step(normalised_to_physical(x), np.full(z.shape[0], value))
-        margins = [c.margin(out.result, core.config) for c in constraints]
-        return out.objective, np.column_stack(margins)
+        evaluation = problem.evaluate(x, value)
+        return evaluation.objective, evaluation.margins
 
     def derivatives(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         k = z.size

@@ -13,9 +13,11 @@ import sys
 import textwrap
 import warnings
 from collections.abc import Callable
-from typing import Any, TypeVar
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TypeVar
 
-from agents.harness import prepare
+from agents.harness import PreparedJob, prepare
 from agents.jobs import MAX_BUDGET
 from agents.methods import available_methods
 from agents.optimiser import MAX_BATCH
@@ -23,13 +25,12 @@ from agents.polish import POLISH_DEFAULTS, POLISH_METHODS
 from agents.polish import describe as describe_certificate
 from agents.runner import (
     JobsFailed,
-    RunSummary,
+    OutputNotWritable,
     SchedulerUnreachable,
-    have_records,
     parse_scheduler,
     run_jobs,
 )
-from agents.store import SUMMARY_NAME, RecordStore, StoreWriteError
+from agents.store import StoreWriteError
 from agents.tasks import TaskSpec, available_tasks, get_task
 from eval.studies.paper_reading import Reading
 from eval.studies.readings import reading_by_name
@@ -119,16 +120,27 @@ T = TypeVar("T")
 INTERRUPTED = "the finished records are stored; the same command resumes from them"
 
 
+#: How a run can stop that :func:`stopped` reports (optimize and study).
+STOPS = (SchedulerUnreachable, JobsFailed, StoreWriteError, OSError, KeyboardInterrupt)
+
+
 def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T | int:
-    """``call()``, or the exit status of how it stopped (optimize and study): 1 with the message
-    for an unreachable scheduler, failed jobs or a file that cannot be written (a full disk, a
-    folder made read-only: the store is as it was), 130 for an interrupt (records are kept)."""
+    """``call()``, or the exit status of how it stopped (:func:`stopped`)."""
     try:
         return call()
-    except (SchedulerUnreachable, JobsFailed, StoreWriteError) as error:
+    except STOPS as error:
+        return stopped(parser, error)
+
+
+def stopped(parser: argparse.ArgumentParser, error: BaseException) -> int:
+    """The exit status of a run stopped by ``error`` (one of :data:`STOPS`), said on stderr: 1
+    with the message for an unreachable scheduler, failed jobs or a file that cannot be written
+    (a full disk, a folder made read-only: the store is as it was), 130 for an interrupt
+    (records are kept)."""
+    if isinstance(error, SchedulerUnreachable | JobsFailed | StoreWriteError):
         print(f"{parser.prog}: error: {error}", file=sys.stderr)
         return 1
-    except OSError as error:  # a table, figure or report the run writes after its records
+    if isinstance(error, OSError):  # a table, figure or report the run writes after its records
         where = f"{error.filename}: " if error.filename else ""
         print(
             f"{parser.prog}: error: {where}{error.strerror or error}; {INTERRUPTED} once that "
@@ -136,9 +148,8 @@ def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T |
             file=sys.stderr,
         )
         return 1
-    except KeyboardInterrupt:
-        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
-        return 130
+    print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
+    return 130
 
 
 def _check_reading_applies(
@@ -274,17 +285,6 @@ def add_insect_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def insect_kwargs(args: argparse.Namespace, env_kwargs: dict[str, Any]) -> dict[str, Any]:
-    """The env keyword of ``--insect`` (none for the paper's specimen), read and checked here,
-    before any work: ValueError naming the file, the key or value and what is allowed."""
-    if args.insect is None:
-        return {}
-    if "insect" in env_kwargs:
-        raise ValueError("give --insect FILE or --env-kwargs insect=..., not both")
-    insect = insect_keyword(args.insect)
-    return {} if insect is None else {"insect": insect}
-
-
 def add_backend_arguments(parser: argparse.ArgumentParser) -> None:
     """``--backend`` and ``--device`` (shared with ``study``): env keywords of every job."""
     parser.add_argument(
@@ -332,46 +332,78 @@ def add_cache_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    task = get_task(args.task)
+@dataclass(frozen=True)
+class OptimizePlan:
+    """One ``python -m eval optimize`` command, parsed and validated once from its arguments
+    (:func:`plan_command`): the seeds' jobs, validated (:func:`agents.harness.prepare`), where
+    their records go and how they run. :func:`main` hands it to the runner in one call."""
+
+    jobs: tuple[PreparedJob, ...]
+    """One per seed, in the order given."""
+    out: str
+    """``--out`` as given (an empty one is the runner's to refuse, not the current folder):
+    the record store, its ``summary.csv`` kept by the runner."""
+    scheduler: str | None
+    """``--scheduler`` normalised (:func:`agents.runner.parse_scheduler`); None: here, one job
+    after another."""
+    progress: bool
+    cache: bool
+    """Whether the record cache is used (``--no-cache`` turns it off)."""
+
+    def describe(self) -> str:
+        """The line said before any work: the run, its seeds and where its records go."""
+        first = self.jobs[0]
+        seeds = [p.job.seed for p in self.jobs]
+        return f"{first.describe()}, seeds {seeds} -> {Path(self.out)}"
+
+
+def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> OptimizePlan:
+    """The command's :class:`OptimizePlan`; the usage error (exit status 2) naming what is wrong
+    and what is allowed, before any work."""
+    tasks = _tasks()
+    task = next(t for t in tasks if t.name == args.task)  # one of them: argparse's choices
     condition = getattr(args, task.condition_kwarg)
     if condition is None:
-        given = [_flag(t) for t in _tasks() if getattr(args, t.condition_kwarg, None) is not None]
+        given = [_flag(t) for t in tasks if getattr(args, t.condition_kwarg, None) is not None]
         parser.error(
             f"--task {task.name} takes {_usage(task)}, not {' '.join(dict.fromkeys(given))}"
         )
     if task.objective_kwarg is None and args.objective is not None:
-        choosers = [t.name for t in _tasks() if t.objective_kwarg is not None]
+        choosers = [t.name for t in tasks if t.objective_kwarg is not None]
         parser.error(
             f"--objective is for --task {' or '.join(choosers)}; {task.name} maximises "
             f"{task.default_objective}"
         )
     try:
-        # Checked before any work: a file is refused; a read-only folder only if there is
-        # something to compute (a rerun whose records are all stored just reports them).
-        store = RecordStore(args.out)
-        writable = store.check(write=False)
-        scheduler = None if args.scheduler is None else parse_scheduler(args.scheduler)
-        env_kwargs = parse_pairs(args.env_kwargs, "--env-kwargs")
-        given = backend_kwargs(args)
-        if given and set(EXECUTION_KWARGS) & set(env_kwargs):
-            raise ValueError("give --backend/--device or --env-kwargs backend=/device=, not both")
-        env_kwargs.update(given)
-        env_kwargs.update(insect_kwargs(args, env_kwargs))
-        objective = args.objective
+        # What the arguments mean, from this command's floor down: the reading, then the
+        # options the physics and the I/O parse, then the jobs. The output folder is the
+        # runner's to check (run_jobs, summary_csv): it alone knows, once it has read the
+        # stored records, whether a folder that cannot be written holds everything.
+        objective, reading_kwargs = args.objective, {}
         if args.reading is not None:
             reading = reading_by_name(args.reading)
-            clash = sorted(set(env_kwargs) & set(reading.env_kwargs()))
-            if clash:
-                raise ValueError(
-                    f"--reading {args.reading} sets {clash}; give them there or in "
-                    "--env-kwargs, not both"
-                )
-            env_kwargs.update(reading.env_kwargs())
+            reading_kwargs = reading.env_kwargs()
             _check_reading_applies(args.reading, reading, task, objective)
             if objective is not None:
                 objective = reading.objective(objective)
+        given = backend_kwargs(args)
+        env_kwargs = parse_pairs(args.env_kwargs, "--env-kwargs")
         method_config = parse_pairs(args.method_config, "--method-config")
+        if given and set(EXECUTION_KWARGS) & set(env_kwargs):
+            raise ValueError("give --backend/--device or --env-kwargs backend=/device=, not both")
+        env_kwargs.update(given)
+        if args.insect is not None:
+            if "insect" in env_kwargs:
+                raise ValueError("give --insect FILE or --env-kwargs insect=..., not both")
+            if (insect := insect_keyword(args.insect)) is not None:
+                env_kwargs["insect"] = insect
+        clash = sorted(set(env_kwargs) & set(reading_kwargs))
+        if clash:
+            raise ValueError(
+                f"--reading {args.reading} sets {clash}; give them there or in "
+                "--env-kwargs, not both"
+            )
+        env_kwargs.update(reading_kwargs)
         if args.swarm_size is not None:
             if "swarm_size" in method_config:
                 raise ValueError("give --swarm-size or --method-config swarm_size=N, not both")
@@ -381,7 +413,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                 raise ValueError("give --polish or --method-config polish=..., not both")
             method_config["polish"] = args.polish
         # Validated once, here (the runner does not validate a prepared job again).
-        prepared = prepare(
+        jobs = prepare(
             args.method,
             task,
             condition,
@@ -391,50 +423,32 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             env_kwargs=env_kwargs,
             method_config=method_config,
         )
-        jobs = [p.job for p in prepared]
-        writable = store.check(write=False, jobs=jobs)  # and each record's path
-        if not writable and not have_records(store.directory, jobs):
-            store.check(jobs=jobs)  # raises, naming the folder and why
+        scheduler = None if args.scheduler is None else parse_scheduler(args.scheduler)
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
-    if not args.quiet:
-        print(
-            f"optimize: {prepared[0].describe()}, seeds {[p.job.seed for p in prepared]} "
-            f"-> {store.directory}",
-            file=sys.stderr,
-        )
-        if "insect" in prepared[0].env_kwargs:
-            print(f"insect: {describe_insect(prepared[0].env_kwargs['insect'])}", file=sys.stderr)
-    summary: RunSummary | int | None = None
+    return OptimizePlan(tuple(jobs), args.out, scheduler, not args.quiet, args.cache)
+
+
+def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    plan = plan_command(args, parser)
+    if plan.progress:
+        print(f"optimize: {plan.describe()}", file=sys.stderr)
+        if "insect" in plan.jobs[0].env_kwargs:
+            print(f"insect: {describe_insect(plan.jobs[0].env_kwargs['insect'])}", file=sys.stderr)
     try:
-        summary = run_reporting(
-            parser,
-            lambda: run_jobs(
-                prepared,
-                store.directory,
-                scheduler=scheduler,
-                progress=not args.quiet,
-                cache=args.cache,
-            ),
+        summary = run_jobs(
+            plan.jobs,
+            plan.out,
+            scheduler=plan.scheduler,
+            progress=plan.progress,
+            cache=plan.cache,
+            summary_csv=True,
         )
-    finally:
-        # over what is stored (each file read at most once: not the records the runner hands
-        # back), also after a failure
-        if writable and store.directory.exists():
-            try:
-                store.write_summary(summary.records if isinstance(summary, RunSummary) else None)
-            except StoreWriteError as error:
-                print(f"{parser.prog}: error: {error}", file=sys.stderr)
-                summary = 1
-        elif not writable:
-            print(
-                f"{store.directory} cannot be written: every seed is stored there, "
-                f"{SUMMARY_NAME} is left as it is",
-                file=sys.stderr,
-            )
-    if not isinstance(summary, RunSummary):
-        return 1 if summary is None else summary
-    for record in (summary.records[job.key] for job in jobs):
+    except OutputNotWritable as error:  # nothing ran
+        parser.error(str(error))
+    except STOPS as error:
+        return stopped(parser, error)
+    for record in (summary.records[p.job.key] for p in plan.jobs):
         metrics = record.metrics
         power = metrics.get("power_per_mass")
         print(
@@ -445,7 +459,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         )
         print(f"  {describe_certificate(record.certificate)}")
     print(
-        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.describe(store.directory)}",
+        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.describe(Path(plan.out))}",
         file=sys.stderr,
     )
     return 0

@@ -117,10 +117,9 @@ def locked(out_dir: str | os.PathLike[str]) -> Iterator[None]:
 
 def _solve_on_worker(run: Run) -> dict[str, Any]:
     """What a Dask worker runs: one solve with one numba thread (one run per core)."""
-    if "NUMBA_NUM_THREADS" not in os.environ:
-        import numba
+    from agents.runner import set_worker_numba_threads
 
-        numba.set_num_threads(1)
+    set_worker_numba_threads()
     from .uvlm import solve
 
     return solve(run)

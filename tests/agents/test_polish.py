@@ -27,7 +27,6 @@ from agents.polish import (
     split_settings,
 )
 from agents.records import SELECTION_POLISHED, Record
-from tandem_env.physics import normalised_to_physical
 
 DIM = 28
 FIXED = (11, 25)
@@ -193,15 +192,14 @@ def test_task_constraints_are_the_penalised_ones():
     actions = rng.uniform(-1.0, 1.0, (256, DIM))
     for env_id, value in (("TandemWing/LevelFlight-v0", 1.5), ("TandemWing/Accelerate-v0", 60.0)):
         env = gym.make(env_id, disable_env_checker=True)
-        core = env.unwrapped.core
-        batch = core.step(normalised_to_physical(actions), np.full(256, value))
-        margins = np.column_stack(
-            [c.margin(batch.result, core.config) for c in core.declaration.constraints]
-        )
+        problem = env.unwrapped.problem()
+        evaluation = problem.evaluate(actions, value)
+        violation = problem.declaration.score(evaluation.result, problem.config).total
+        margins = evaluation.margins
         np.testing.assert_allclose(
-            np.maximum(0.0, -margins).sum(axis=1), batch.scores.total, rtol=1e-12, atol=1e-15
+            np.maximum(0.0, -margins).sum(axis=1), violation, rtol=1e-12, atol=1e-15
         )
-        np.testing.assert_array_equal(np.all(margins >= 0.0, axis=1), batch.feasible)
+        np.testing.assert_array_equal(np.all(margins >= 0.0, axis=1), evaluation.feasible)
         env.close()
 
 

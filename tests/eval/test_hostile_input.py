@@ -698,7 +698,7 @@ def test_a_reading_that_changes_part_of_what_it_says_warns(
     def stop(*args, **kwargs):  # everything was checked: stop before the run
         raise SystemExit(0)
 
-    monkeypatch.setattr(optimize, "run_reporting", stop)
+    monkeypatch.setattr(optimize, "run_jobs", stop)
     with pytest.raises(SystemExit):
         main([*OPTIMIZE, "--seeds", "0", "--reading", "paper", "--out", str(tmp_path), "--quiet"])
     err = capsys.readouterr().err

@@ -504,3 +504,30 @@ def test_the_runner_hands_back_each_record_read_at_most_once(tmp_path: Path, mon
     again = run_jobs([a], tmp_path, progress=False, rerun=True)
     assert (again.reused, again.ran) == (0, 1) and calls == [a, b, a] and reads == []
     assert RecordStore(tmp_path).load(a) == again.records[a.key]  # the file is the new record
+
+
+def test_an_out_that_cannot_be_written_is_used_only_if_it_holds_every_seed(
+    tmp_path: Path, monkeypatch, capsys
+) -> None:
+    # The runner decides, once it has read the stored records: a folder that cannot be written
+    # (here: said so by the store's check, as a read-only folder is, whoever runs the test) is
+    # refused if a seed has no record there, and used as it is if every seed has one.
+    assert main([*OPTIMIZE, "--out", str(tmp_path)]) == 0
+    summary = (tmp_path / "summary.csv").read_bytes()
+    capsys.readouterr()
+
+    def read_only(store, option="--out", *, write=True, jobs=()):
+        if write:
+            raise ValueError(f"{option} {store.directory}: cannot write into it")
+        return False
+
+    monkeypatch.setattr(RecordStore, "check", read_only)
+    ran = []
+    monkeypatch.setattr(runner, "_harness_run", lambda job: ran.append(job))
+    assert main([*OPTIMIZE, "--out", str(tmp_path)]) == 0
+    captured = capsys.readouterr()
+    assert "pso seed 0" in captured.out and "summary.csv is left as it is" in captured.err
+    assert (tmp_path / "summary.csv").read_bytes() == summary and ran == []
+    line = _refused([*OPTIMIZE[:-1], "1", "--out", str(tmp_path)], capsys)
+    assert f"--out {tmp_path}: cannot write into it" in line and ran == []
+    assert sorted(p.name for p in (tmp_path / "records").iterdir()) == [_job().key + ".json"]
