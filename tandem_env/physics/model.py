@@ -10,8 +10,10 @@ decides.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, fields
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
@@ -23,6 +25,7 @@ from .insect import DRAGONFLY, Dragonfly, Wing
 from .kinematics import MAX_SWEEP_SHAPE, fill_angle_history, phase_grid, wing_params_radians
 from .options import HOVER_NORMAL_SPEED, ModelOptions
 from .stroke import N_PER_WING, validate_physical
+from .xp import NUMPY, ArrayNamespace
 
 DEFAULT_OPTIONS = ModelOptions()
 
@@ -392,74 +395,104 @@ def _performance(
     insect: Dragonfly,
     options: ModelOptions,
 ) -> Result:
+    """The :class:`Result` of the compiled kernel's per-wing cycle means ``out``
+    (B, 2, N_WING_OUT): :func:`flight_performance` on numpy."""
+
+    def means(key: str) -> np.ndarray:
+        return out[:, :, getattr(cycle, f"W_{key}")]
+
+    values = flight_performance(
+        means, speed, flight_path_angle, available_power, insect, options, NUMPY
+    )
+    return Result(**values, options=options, planform=insect.planform)
+
+
+def flight_performance(
+    means: Callable[[str], Any],
+    speed: Any,
+    flight_path_angle: Any,
+    available_power: Any,
+    insect: Dragonfly,
+    options: ModelOptions,
+    xp: ArrayNamespace,
+) -> dict[str, Any]:
+    """The flight performance of a batch (Eqs. 17 and 22-27, docs/model.md §7), every
+    :class:`Result` array field by name, in the array namespace ``xp`` (numpy or torch).
+
+    ``means(key)``: the (B, 2) per-wing cycle means (fore, hind) of one wing of each pair, keyed
+    by the kernel's ``cycle.W_<key>`` column names (``"FZ"``, ``"FX"``, ``"THRUST"``, ``"DRAG"``
+    [N], ``"P_AERO"``, ``"P_INER"``, ``"P_ELASTIC"``, ``"P_AERO_POSITIVE"`` [W], ``"AOA"``
+    [rad], ``"CONVERGED"``, ``"EVALS"``, ``"INFLOW"`` [m/s]); ``speed`` [m/s],
+    ``flight_path_angle`` [rad] and ``available_power`` [W/kg] (B,).
+    """
     n_w = insect.wings_per_pair
     weight = insect.weight
-    fz = out[:, :, cycle.W_FZ] * n_w
-    fx = out[:, :, cycle.W_FX] * n_w
-    lift = fz.sum(axis=1)
+    fz = means("FZ") * n_w
+    fx = means("FX") * n_w
+    lift = fz.sum(1)
     # the wings' own rearward ("drag") forces D_f + D_h, whatever the thrust/drag reading
-    wing_drag = n_w * out[:, :, cycle.W_DRAG].sum(axis=1)
+    wing_drag = n_w * means("DRAG").sum(1)
     if options.thrust_split == "sign":
-        thrust = n_w * out[:, :, cycle.W_THRUST].sum(axis=1)
+        thrust = n_w * means("THRUST").sum(1)
         drag = wing_drag
     else:
-        thrust = fx.sum(axis=1)
+        thrust = fx.sum(1)
         # The body's parasite drag acts against its velocity, along the flight path: its
         # horizontal part is D and its vertical part counts against the lift.
         body_drag = 0.5 * insect.air_density * speed**2 * insect.body_drag_area
-        drag = body_drag * np.cos(flight_path_angle)
-        lift = lift - body_drag * np.sin(flight_path_angle)
-    aero = n_w * out[:, :, cycle.W_P_AERO]
-    inertial = n_w * out[:, :, cycle.W_P_INER]
+        drag = body_drag * xp.cos(flight_path_angle)
+        lift = lift - body_drag * xp.sin(flight_path_angle)
+    aero = n_w * means("P_AERO")
+    inertial = n_w * means("P_INER")
     if options.power == "absolute":
         wing_power = aero + inertial
     elif options.power == "elastic":
-        wing_power = n_w * out[:, :, cycle.W_P_ELASTIC]
+        wing_power = n_w * means("P_ELASTIC")
     else:
-        wing_power = n_w * out[:, :, cycle.W_P_AERO_POSITIVE]
-    power = wing_power.sum(axis=1)
-    power_per_mass = power / insect.body_mass
-    with np.errstate(divide="ignore", invalid="ignore"):
-        efficiency = np.where(power > 0.0, np.maximum(thrust, 0.0) * speed / power, 0.0)
+        wing_power = n_w * means("P_AERO_POSITIVE")
+    power = wing_power.sum(1)
+    powered = power > 0.0
+    # the inner where keeps 0/0 out of the values and out of autograd's backward pass
+    efficiency = xp.where(
+        powered, xp.clip_min(thrust, 0.0) * speed / xp.where(powered, power, 1.0), 0.0
+    )
     lift_to_weight = lift / weight
     excess_vertical = lift_to_weight - 1.0
     excess_horizontal = (thrust - drag) / weight
-    aoa = np.rad2deg(out[:, :, cycle.W_AOA])
-    return Result(
-        lift_to_weight=lift_to_weight,
-        thrust=thrust,
-        drag=drag,
-        power=power,
-        power_per_mass=power_per_mass,
-        efficiency=efficiency,
-        excess_vertical=excess_vertical,
-        excess_horizontal=excess_horizontal,
-        excess_total=np.hypot(excess_vertical, excess_horizontal),
-        excess_horizontal_literal=wing_drag / weight,
-        mean_angle_of_attack=aoa.mean(axis=1),
-        efficiency_above_one=efficiency > 1.0,
-        induction_converged=np.all(out[:, :, cycle.W_CONVERGED] > 0.5, axis=1),
-        induction_evaluations=out[:, :, cycle.W_EVALS].max(axis=1).astype(np.int64),
-        fore_lift_to_weight=fz[:, 0] / weight,
-        hind_lift_to_weight=fz[:, 1] / weight,
-        fore_horizontal_force=fx[:, 0],
-        hind_horizontal_force=fx[:, 1],
-        fore_power=wing_power[:, 0],
-        hind_power=wing_power[:, 1],
-        fore_aero_power=aero[:, 0],
-        hind_aero_power=aero[:, 1],
-        fore_inertial_power=inertial[:, 0],
-        hind_inertial_power=inertial[:, 1],
-        fore_mean_angle_of_attack=aoa[:, 0],
-        hind_mean_angle_of_attack=aoa[:, 1],
-        fore_inflow=out[:, 0, cycle.W_INFLOW],
-        hind_inflow=out[:, 1, cycle.W_INFLOW],
-        speed=speed,
-        flight_path_angle=flight_path_angle,
-        available_power=available_power,
-        options=options,
-        planform=insect.planform,
-    )
+    aoa = xp.rad2deg(means("AOA"))
+    return {
+        "lift_to_weight": lift_to_weight,
+        "thrust": thrust,
+        "drag": drag,
+        "power": power,
+        "power_per_mass": power / insect.body_mass,
+        "efficiency": efficiency,
+        "excess_vertical": excess_vertical,
+        "excess_horizontal": excess_horizontal,
+        "excess_total": xp.hypot(excess_vertical, excess_horizontal),
+        "excess_horizontal_literal": wing_drag / weight,
+        "mean_angle_of_attack": aoa.mean(1),
+        "efficiency_above_one": efficiency > 1.0,
+        "induction_converged": xp.all_along(means("CONVERGED") > 0.5, 1),
+        "induction_evaluations": xp.as_int64(xp.max_along(means("EVALS"), 1)),
+        "fore_lift_to_weight": fz[:, 0] / weight,
+        "hind_lift_to_weight": fz[:, 1] / weight,
+        "fore_horizontal_force": fx[:, 0],
+        "hind_horizontal_force": fx[:, 1],
+        "fore_power": wing_power[:, 0],
+        "hind_power": wing_power[:, 1],
+        "fore_aero_power": aero[:, 0],
+        "hind_aero_power": aero[:, 1],
+        "fore_inertial_power": inertial[:, 0],
+        "hind_inertial_power": inertial[:, 1],
+        "fore_mean_angle_of_attack": aoa[:, 0],
+        "hind_mean_angle_of_attack": aoa[:, 1],
+        "fore_inflow": means("INFLOW")[:, 0],
+        "hind_inflow": means("INFLOW")[:, 1],
+        "speed": speed,
+        "flight_path_angle": flight_path_angle,
+        "available_power": available_power,
+    }
 
 
 def grid_phases(wing_params: np.ndarray, n_time: int) -> np.ndarray:

@@ -15,7 +15,8 @@ rounding (docs/model.md §12.1):
   keeps its value while the others go on (no fixed iteration count);
 * the exact positive-part integrals of ``cycle.mean_positive_part`` (zero crossings of the
   trigonometric interpolant by the same safeguarded Newton);
-* the performance step of ``model._performance`` (Eqs. 17-27).
+* the performance step (Eqs. 17-27) is not mirrored but shared: ``model.flight_performance``,
+  written once over an array namespace (``xp``), runs on tensors here.
 
 Derivatives. Autograd differentiates the solve as the numba kernel computes it: through every
 force sweep and slope the outer iteration used. The inner scalar solves (the force model
@@ -45,6 +46,7 @@ from .model import (
     _METADATA,
     DEFAULT_OPTIONS,
     Result,
+    flight_performance,
     validate_conditions,
     wing_tables,
 )
@@ -58,6 +60,23 @@ from .stroke import (
     UPPER,
     normalised_to_physical,
     validate_physical,
+)
+from .xp import ArrayNamespace
+
+#: torch's :class:`~tandem_env.physics.xp.ArrayNamespace`: the shared model code on tensors.
+TORCH = ArrayNamespace(
+    name="torch",
+    sin=torch.sin,
+    cos=torch.cos,
+    abs=torch.abs,
+    hypot=torch.hypot,
+    rad2deg=torch.rad2deg,
+    where=torch.where,
+    clip_min=lambda x, low: torch.clamp(x, min=low),
+    all_along=lambda x, axis: torch.all(x, dim=axis),
+    max_along=lambda x, axis: torch.amax(x, dim=axis),
+    as_int64=lambda x: x.to(torch.int64),
+    zeros_bool=lambda x: torch.zeros_like(x, dtype=torch.bool),
 )
 
 #: Floating dtypes the backend computes in (float64 is the default and the one tested to 1e-8).
@@ -807,83 +826,6 @@ def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options
     return out, v_i
 
 
-# --- the performance step (model._performance, Eqs. 17-27) ------------------------------------
-def _performance(wings, speed, gamma, available_power, insect: Dragonfly, options: ModelOptions):
-    """``model._performance`` on tensors: every quantity it reports, by ``Result`` field name."""
-    n_w = insect.wings_per_pair
-    weight = insect.weight
-    fore, hind = wings
-
-    def pair(key):
-        return torch.stack([fore[key], hind[key]], dim=1)
-
-    fz = pair("FZ") * n_w
-    fx = pair("FX") * n_w
-    lift = fz.sum(1)
-    wing_drag = n_w * pair("DRAG").sum(1)
-    if options.thrust_split == "sign":
-        thrust = n_w * pair("THRUST").sum(1)
-        drag = wing_drag
-    else:
-        thrust = fx.sum(1)
-        body_drag = 0.5 * insect.air_density * speed**2 * insect.body_drag_area
-        drag = body_drag * torch.cos(gamma)
-        lift = lift - body_drag * torch.sin(gamma)
-    aero = n_w * pair("P_AERO")
-    inertial = n_w * pair("P_INER")
-    if options.power == "absolute":
-        wing_power = aero + inertial
-    elif options.power == "elastic":
-        wing_power = n_w * pair("P_ELASTIC")
-    else:
-        wing_power = n_w * pair("P_AERO_POSITIVE")
-    power = wing_power.sum(1)
-    power_per_mass = power / insect.body_mass
-    powered = power > 0.0
-    efficiency = torch.where(
-        powered,
-        torch.clamp(thrust, min=0.0) * speed / torch.where(powered, power, torch.ones_like(power)),
-        0.0,
-    )
-    lift_to_weight = lift / weight
-    excess_vertical = lift_to_weight - 1.0
-    excess_horizontal = (thrust - drag) / weight
-    aoa = torch.rad2deg(pair("AOA"))
-    return {
-        "lift_to_weight": lift_to_weight,
-        "thrust": thrust,
-        "drag": drag,
-        "power": power,
-        "power_per_mass": power_per_mass,
-        "efficiency": efficiency,
-        "excess_vertical": excess_vertical,
-        "excess_horizontal": excess_horizontal,
-        "excess_total": torch.hypot(excess_vertical, excess_horizontal),
-        "excess_horizontal_literal": wing_drag / weight,
-        "mean_angle_of_attack": aoa.mean(1),
-        "efficiency_above_one": efficiency > 1.0,
-        "induction_converged": fore["CONVERGED"] & hind["CONVERGED"],
-        "induction_evaluations": torch.maximum(fore["EVALS"], hind["EVALS"]),
-        "fore_lift_to_weight": fz[:, 0] / weight,
-        "hind_lift_to_weight": fz[:, 1] / weight,
-        "fore_horizontal_force": fx[:, 0],
-        "hind_horizontal_force": fx[:, 1],
-        "fore_power": wing_power[:, 0],
-        "hind_power": wing_power[:, 1],
-        "fore_aero_power": aero[:, 0],
-        "hind_aero_power": aero[:, 1],
-        "fore_inertial_power": inertial[:, 0],
-        "hind_inertial_power": inertial[:, 1],
-        "fore_mean_angle_of_attack": aoa[:, 0],
-        "hind_mean_angle_of_attack": aoa[:, 1],
-        "fore_inflow": fore["INFLOW"],
-        "hind_inflow": hind["INFLOW"],
-        "speed": speed,
-        "flight_path_angle": gamma,
-        "available_power": available_power,
-    }
-
-
 def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, compiled):
     # degrees to radians as kinematics.wing_params_radians (built in float64, then cast)
     scale = torch.as_tensor(
@@ -938,7 +880,12 @@ def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, com
             }  # fmt: skip
         inflow_fore = inflow
         wings.append(out)
-    return _performance(wings, speed, gamma, available_power, insect, options)
+    fore, hind = wings
+
+    def means(key: str) -> torch.Tensor:
+        return torch.stack([fore[key], hind[key]], dim=1)
+
+    return flight_performance(means, speed, gamma, available_power, insect, options, TORCH)
 
 
 def evaluate_torch(
