@@ -280,37 +280,48 @@ def _broadcast_condition(
     return arr
 
 
+def stroke_plane_speeds(
+    speed: Any, beta: Any, flight_path_angle: Any, xp: ArrayNamespace = NUMPY
+) -> tuple[Any, Any]:
+    """The body's velocity in a wing's stroke-plane axes, (V_t, V_n) [m/s], in the array
+    namespace ``xp`` (numpy or torch); the arguments broadcast against each other.
+
+    The body moves at ``speed`` V [m/s] along its flight path, inclined by the flight-path angle
+    γ [rad] (+ climbing) to the horizontal; ``beta`` is the wing's stroke-plane angle β [rad]
+    from the horizontal (earth axes, docs/model.md "Conventions"). With x_s = (cos β, 0, −sin β)
+    and z_s = (sin β, 0, cos β) in earth axes and the velocity V·(cos γ, 0, sin γ):
+    V_t = V·cos(β + γ), V_n = V·sin(β + γ). Only β + γ, the stroke plane's angle to the path,
+    enters the flow; β alone sets the projection of the forces onto earth axes.
+    """
+    angle = beta + flight_path_angle
+    return speed * xp.cos(angle), speed * xp.sin(angle)
+
+
 def freestream_components(
     speed: np.ndarray, beta: np.ndarray, flight_path_angle: np.ndarray
 ) -> np.ndarray:
-    """The body's velocity in each wing's stroke-plane axes, (V_t, V_n) [m/s], shape (B, 2, 2).
-
-    The body moves at ``speed`` V [m/s] along its flight path, inclined by the flight-path angle
-    γ [rad] (+ climbing) to the horizontal; ``beta`` (B, 2) is each wing's stroke-plane angle β
-    [rad] from the horizontal (earth axes, docs/model.md "Conventions"). With
-    x_s = (cos β, 0, −sin β) and z_s = (sin β, 0, cos β) in earth axes and the velocity
-    V·(cos γ, 0, sin γ): V_t = V·cos(β + γ), V_n = V·sin(β + γ). Only β + γ, the stroke plane's
-    angle to the path, enters the flow; β alone sets the projection of the forces onto earth axes.
-    """
-    angle = beta + flight_path_angle[:, None]
-    out = np.empty((beta.shape[0], 2, 2))
-    out[:, :, 0] = speed[:, None] * np.cos(angle)
-    out[:, :, 1] = speed[:, None] * np.sin(angle)
-    return out
+    """(V_t, V_n) [m/s] of both wings (:func:`stroke_plane_speeds`) as the kernel takes them,
+    shape (B, 2, 2), of ``speed`` (B,) [m/s], ``beta`` (B, 2) and ``flight_path_angle`` (B,)
+    [rad]."""
+    tangential, normal = stroke_plane_speeds(speed[:, None], beta, flight_path_angle[:, None])
+    return np.stack([tangential, normal], axis=-1)
 
 
-def inflow_switched_off(freestream: np.ndarray, options: ModelOptions) -> np.ndarray:
-    """(B, 2) bool: the wings that have no induced velocity whatever ``options.induction``.
+def inflow_switched_off(
+    normal_speed: Any, options: ModelOptions, xp: ArrayNamespace = NUMPY
+) -> Any:
+    """Bool, shaped like ``normal_speed``: the wings that have no induced velocity whatever
+    ``options.induction``, in the array namespace ``xp`` (numpy or torch).
 
     With ``hover_inflow="none"`` these are the wings whose free stream has no component normal
     to their stroke plane, |V_n| < :data:`~tandem_env.physics.options.HOVER_NORMAL_SPEED`
     [m/s] (in practice V = 0): the paper's inflow v_z·(1 + a) (Eqs. 20-21) read literally is
-    zero there (docs/model.md §5.5). ``freestream``: (B, 2, 2) from
-    :func:`freestream_components`. With ``"momentum"`` (the default) none.
+    zero there (docs/model.md §5.5). ``normal_speed``: V_n [m/s] (:func:`stroke_plane_speeds`).
+    With ``"momentum"`` (the default) none.
     """
     if options.hover_inflow == "momentum":
-        return np.zeros(freestream.shape[:2], dtype=bool)
-    return np.abs(freestream[:, :, 1]) < HOVER_NORMAL_SPEED
+        return xp.zeros_bool(normal_speed)
+    return xp.abs(normal_speed) < HOVER_NORMAL_SPEED
 
 
 def coefficient_tables(insect: Dragonfly) -> tuple[np.ndarray | None, np.ndarray | None]:
@@ -374,7 +385,7 @@ def run_kernel(
     args = (
         angles[0], weights[0], angles[1], weights[1], frequency, beta, sweep,
         freestream, nodes_f, consts_f, nodes_h, consts_h, insect.air_density, mode[options.induction],
-        inflow_switched_off(freestream, options), options.interference, options.spin == "total", options.tolerance,
+        inflow_switched_off(freestream[:, :, 1], options), options.interference, options.spin == "total", options.tolerance,
         options.max_evaluations, out, inflow, history, *cycle.fourier_tables(n_time),
         *coefficient_tables(insect), convected, phases, insect.root_spacing, insect.root_drop,
     )  # fmt: skip

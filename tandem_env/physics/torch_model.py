@@ -47,10 +47,12 @@ from .model import (
     DEFAULT_OPTIONS,
     Result,
     flight_performance,
+    inflow_switched_off,
+    stroke_plane_speeds,
     validate_conditions,
     wing_tables,
 )
-from .options import HOVER_NORMAL_SPEED, ModelOptions
+from .options import ModelOptions
 from .stroke import (
     ANGULAR,
     DISCRETE,
@@ -843,16 +845,8 @@ def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, com
         frame = _frame(angles, weight, beta, options.spin == "total")
         nodes, consts = wing_tables(geometry, options.n_blade, insect.air_density)
         wing = _Wing(frame, nodes, consts, insect.air_density, strokes, compiled)
-        # the free stream in the stroke plane (model.freestream_components) and the hover mask
-        # (model.inflow_switched_off)
-        angle = beta + gamma
-        vt = speed * torch.cos(angle)
-        vn = speed * torch.sin(angle)
-        off = (
-            (vn.detach().abs() < HOVER_NORMAL_SPEED)
-            if options.hover_inflow == "none"
-            else torch.zeros_like(vn, dtype=torch.bool)
-        )
+        vt, vn = stroke_plane_speeds(speed, beta, gamma, TORCH)
+        off = inflow_switched_off(vn, options, TORCH)
         vn0 = vn[:, None].expand(-1, nodes.shape[0])
         coupled = options.induction == "coupled"
         convected = coupled and options.slipstream == "convected"
