@@ -22,7 +22,7 @@ from .checks import real_array, shown
 from .coefficients import PaperCoefficients
 from .first_use import compile_notice
 from .insect import DRAGONFLY, Dragonfly, Wing
-from .kinematics import MAX_SWEEP_SHAPE, fill_angle_history, phase_grid, wing_params_radians
+from .kinematics import fill_angle_history, motion_grid, wing_params_radians
 from .options import HOVER_NORMAL_SPEED, ModelOptions
 from .stroke import N_PER_WING, validate_physical
 from .xp import NUMPY, ArrayNamespace
@@ -465,7 +465,7 @@ def flight_performance(
     powered = power > 0.0
     # the inner where keeps 0/0 out of the values and out of autograd's backward pass
     efficiency = xp.where(
-        powered, xp.clip_min(thrust, 0.0) * speed / xp.where(powered, power, 1.0), 0.0
+        powered, xp.maximum(thrust, 0.0) * speed / xp.where(powered, power, 1.0), 0.0
     )
     lift_to_weight = lift / weight
     excess_vertical = lift_to_weight - 1.0
@@ -508,11 +508,8 @@ def flight_performance(
 
 def grid_phases(wing_params: np.ndarray, n_time: int) -> np.ndarray:
     """Phases ϑ_k = 2πft_k [rad] of the motion-following grid (docs/model.md §3.5), (B, n_time),
-    of a batch of one wing's (B, 14) parameters in Hz/rad/- (``kinematics.grid_phases``)."""
-    s = 2.0 * np.pi * np.arange(n_time) / n_time
-    crowding = np.minimum(wing_params[:, 10], MAX_SWEEP_SHAPE) ** 2
-    reversal = 0.5 * np.pi - wing_params[:, 7]
-    return phase_grid.py_func(s[None, :], reversal[:, None], crowding[:, None])[0]
+    of a batch of one wing's (B, 14) parameters in Hz/rad/- (``kinematics.motion_grid``)."""
+    return motion_grid(wing_params, n_time)[0]
 
 
 def parametric_kernel_inputs(

@@ -8,15 +8,16 @@ autograd with respect to the strokes and to speed, flight-path angle and availab
 those are tensors. It follows the numba kernel decision by decision, so that the two agree to
 rounding (docs/model.md §12.1):
 
-* the kinematics and the motion-following grid (``kinematics``), the frame rates and element
-  forces (``blade``, Eqs. 6-16), the node tables of :func:`model.wing_tables`;
+* the frame rates and element forces (``blade``, Eqs. 6-16), the node tables of :func:`model.wing_tables`;
 * the per-annulus safeguarded Newton inflow solve of ``induction.solve_annulus_samples``, every
   annulus with its own iterate, bracket and stopping rule: a converged annulus is masked and
   keeps its value while the others go on (no fixed iteration count);
 * the exact positive-part integrals of ``cycle.mean_positive_part`` (zero crossings of the
   trigonometric interpolant by the same safeguarded Newton);
-* the performance step (Eqs. 17-27) is not mirrored but shared: ``model.flight_performance``,
-  written once over an array namespace (``xp``), runs on tensors here.
+* the kinematics (Eqs. 3-5) and the motion-following grid, the free stream and the performance
+  step (Eqs. 17-27) are not mirrored but shared: ``kinematics.batched_angle_history``,
+  ``model.stroke_plane_speeds``, ``model.inflow_switched_off`` and ``model.flight_performance``,
+  written once over an array namespace (``xp``), run on tensors here.
 
 Derivatives. Autograd differentiates the solve as the numba kernel computes it: through every
 force sweep and slope the outer iteration used. The inner scalar solves (the force model
@@ -41,7 +42,7 @@ from . import cycle
 from .checks import count, flag
 from .coefficients import PaperCoefficients
 from .insect import DRAGONFLY, Dragonfly
-from .kinematics import MAX_SWEEP_SHAPE
+from .kinematics import batched_angle_history
 from .model import (
     _METADATA,
     DEFAULT_OPTIONS,
@@ -70,15 +71,20 @@ TORCH = ArrayNamespace(
     name="torch",
     sin=torch.sin,
     cos=torch.cos,
+    arcsin=torch.asin,
+    tanh=torch.tanh,
+    sqrt=torch.sqrt,
     abs=torch.abs,
     hypot=torch.hypot,
     rad2deg=torch.rad2deg,
     where=torch.where,
-    clip_min=lambda x, low: torch.clamp(x, min=low),
+    maximum=lambda x, low: torch.clamp(x, min=low),
+    minimum=lambda x, high: torch.clamp(x, max=high),
     all_along=lambda x, axis: torch.all(x, dim=axis),
     max_along=lambda x, axis: torch.amax(x, dim=axis),
     as_int64=lambda x: x.to(torch.int64),
     zeros_bool=lambda x: torch.zeros_like(x, dtype=torch.bool),
+    arange_like=lambda n, x: torch.arange(n, dtype=x.dtype, device=x.device),
 )
 
 #: Floating dtypes the backend computes in (float64 is the default and the one tested to 1e-8).
@@ -182,50 +188,7 @@ def _condition(value: Any, checked: np.ndarray, like: torch.Tensor) -> torch.Ten
     return torch.as_tensor(checked, dtype=like.dtype, device=like.device)
 
 
-# --- kinematics (kinematics.py) and frames (blade.fill_frame_coefficients) ----------------------
-def _angle_history(
-    params: torch.Tensor, n_time: int
-) -> tuple[list[torch.Tensor], torch.Tensor, torch.Tensor]:
-    """φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈ (each (B, n_time)), dτ/ds and the phases τ [rad] of one
-    wing's (B, 14) parameters in Hz/rad/- on the motion-following grid
-    (``kinematics.fill_angle_history``, ``model.grid_phases``)."""
-    col = [params[:, i : i + 1] for i in range(N_PER_WING)]
-    freq, amp_phi, amp_th, amp_eta, off_phi, off_th, off_eta = col[:7]
-    ph_phi, ph_th, ph_eta, shape_k, harmonic, shape_c = col[7:13]
-    k = torch.clamp(shape_k, max=MAX_SWEEP_SHAPE)
-    crowding = k * k
-    reversal = 0.5 * math.pi - ph_phi
-    s = 2.0 * math.pi * torch.arange(n_time, dtype=params.dtype, device=params.device) / n_time
-    d = 2.0 * (s - reversal)
-    tau = s - 0.5 * crowding * torch.sin(d)
-    weight = 1.0 - crowding * torch.cos(d)
-    omega = 2.0 * math.pi * freq
-    # weaving, Eq. 3
-    x = tau + ph_phi
-    sx, cx = torch.sin(x), torch.cos(x)
-    scale = amp_phi / torch.asin(k)
-    q = 1.0 - k * k * sx * sx
-    root = torch.sqrt(q)
-    phi = scale * torch.asin(k * sx) + off_phi
-    dphi = omega * scale * k * cx / root
-    ddphi = omega * omega * scale * k * (k * k - 1.0) * sx / (q * root)
-    # flapping, Eq. 4
-    x = harmonic * tau + ph_th
-    th = amp_th * torch.cos(x) + off_th
-    dth = -omega * harmonic * amp_th * torch.sin(x)
-    ddth = -omega * omega * harmonic * harmonic * amp_th * torch.cos(x)
-    # pitching, Eq. 5
-    y = tau + ph_eta
-    sy, cy = torch.sin(y), torch.cos(y)
-    tz = torch.tanh(shape_c * sy)
-    sech2 = 1.0 - tz * tz
-    scale = amp_eta / torch.tanh(shape_c)
-    eta = scale * tz + off_eta
-    deta = omega * scale * shape_c * cy * sech2
-    ddeta = omega * omega * scale * shape_c * sech2 * (-sy - 2.0 * shape_c * cy * cy * tz)
-    return [phi, dphi, ddphi, th, dth, ddth, eta, deta, ddeta], weight, tau
-
-
+# --- frames (blade.fill_frame_coefficients) ------------------------------------------------------
 def _cross(a, b):
     return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
 
@@ -841,7 +804,7 @@ def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, com
     for index, geometry in enumerate((insect.fore, insect.hind)):
         params = strokes[:, index * N_PER_WING : (index + 1) * N_PER_WING] * scale
         frequency, sweep_amplitude, beta = params[:, 0], params[:, 1], params[:, 13]
-        angles, weight, phase = _angle_history(params, options.n_time)
+        angles, weight, phase = batched_angle_history(params, options.n_time, TORCH)
         frame = _frame(angles, weight, beta, options.spin == "total")
         nodes, consts = wing_tables(geometry, options.n_blade, insect.air_density)
         wing = _Wing(frame, nodes, consts, insect.air_density, strokes, compiled)

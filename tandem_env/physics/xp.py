@@ -1,16 +1,22 @@
 """Array namespaces: the few operations in which numpy and torch differ, so that the model code
-outside the compiled kernel (the free stream, the hover mask, the flight performance of
-``model``) is written once for both backends (docs/model.md §10).
+outside the compiled kernel (the angle histories of ``kinematics``, the free stream, the hover
+mask and the flight performance of ``model``) is written once for both backends (docs/model.md
+§10).
 
 :data:`NUMPY` is numpy's; the torch backend builds its own :class:`ArrayNamespace` from torch in
-``torch_model`` (this module imports no torch). Everything else the shared code needs works on
-both array types as it is: arithmetic, comparisons, ``&``, indexing, ``.sum(1)``, ``.mean(1)``.
+``torch_model`` (this module imports no torch). Its functions carry numpy's names where numpy has
+one (``sin``, ``arcsin``, ``minimum``, …), so a numba-compiled elementwise function, which calls
+``np.<name>``, runs on either array type through :func:`on_namespace`. Everything else the shared
+code needs works on both array types as it is: arithmetic, comparisons, indexing, ``.sum(1)``,
+``.mean(1)``.
 """
 
 from __future__ import annotations
 
+import types
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cache
 from typing import Any
 
 import numpy as np
@@ -23,13 +29,18 @@ class ArrayNamespace:
     name: str
     sin: Callable[[Any], Any]
     cos: Callable[[Any], Any]
+    arcsin: Callable[[Any], Any]
+    tanh: Callable[[Any], Any]
+    sqrt: Callable[[Any], Any]
     abs: Callable[[Any], Any]
     hypot: Callable[[Any, Any], Any]
     rad2deg: Callable[[Any], Any]
     where: Callable[[Any, Any, Any], Any]
     """where(condition, x, y): x where condition, else y (y may be a Python number)."""
-    clip_min: Callable[[Any, float], Any]
-    """clip_min(x, low) = max(x, low) elementwise."""
+    maximum: Callable[[Any, float], Any]
+    """maximum(x, low): max(x, low) elementwise, ``low`` a Python number."""
+    minimum: Callable[[Any, float], Any]
+    """minimum(x, high): min(x, high) elementwise, ``high`` a Python number."""
     all_along: Callable[[Any, int], Any]
     """all_along(x, axis): logical and along an axis."""
     max_along: Callable[[Any, int], Any]
@@ -37,19 +48,41 @@ class ArrayNamespace:
     as_int64: Callable[[Any], Any]
     zeros_bool: Callable[[Any], Any]
     """zeros_bool(x): False everywhere, x's shape (and device)."""
+    arange_like: Callable[[int, Any], Any]
+    """arange_like(n, x): 0, 1, …, n − 1 in x's floating dtype (and on its device)."""
 
 
 NUMPY = ArrayNamespace(
     name="numpy",
     sin=np.sin,
     cos=np.cos,
+    arcsin=np.arcsin,
+    tanh=np.tanh,
+    sqrt=np.sqrt,
     abs=np.abs,
     hypot=np.hypot,
     rad2deg=np.rad2deg,
     where=np.where,
-    clip_min=np.maximum,
+    maximum=np.maximum,
+    minimum=np.minimum,
     all_along=lambda x, axis: np.all(x, axis=axis),
     max_along=lambda x, axis: np.max(x, axis=axis),
     as_int64=lambda x: x.astype(np.int64),
     zeros_bool=lambda x: np.zeros(x.shape, dtype=bool),
+    arange_like=lambda n, x: np.arange(n, dtype=x.dtype),
 )
+
+
+@cache
+def on_namespace(kernel: Callable, xp: ArrayNamespace) -> Callable:
+    """The pure-Python body of a numba-compiled elementwise function (its ``py_func``) with the
+    name ``np`` in it bound to ``xp``: the same formulas, compiled for numba's scalars, run on
+    broadcast numpy or torch arrays. The function may call only ``np.<name>`` that ``xp`` has."""
+    body = getattr(kernel, "py_func", kernel)
+    return types.FunctionType(
+        body.__code__,
+        {**body.__globals__, "np": xp},
+        body.__name__,
+        body.__defaults__,
+        body.__closure__,
+    )
