@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from .stroke import ANGULAR, N_PER_WING
 from .xp import NUMPY, ArrayNamespace, on_namespace
 
 MAX_SWEEP_SHAPE = 1.0 - 1e-4
@@ -166,12 +167,16 @@ def batched_angle_history(
     return [*phi, *theta, *eta], weight, tau
 
 
-def wing_params_radians(wing_physical: np.ndarray) -> np.ndarray:
-    """Convert (…, 14) Table 4 parameters (Hz, deg, -) of one wing to (Hz, rad, -)."""
-    out = np.array(wing_physical, dtype=float, copy=True)
-    angular = np.array([1, 2, 3, 4, 5, 6, 7, 8, 9, 13])
-    out[..., angular] = np.deg2rad(out[..., angular])
-    return out
+#: Per parameter of one wing: π/180 for an angle in degrees (``stroke.ANGULAR``), else 1.
+RADIANS_PER_UNIT = np.where(ANGULAR[:N_PER_WING], np.pi / 180.0, 1.0)
+
+
+def wing_params_radians(wing_physical: Any, xp: ArrayNamespace = NUMPY) -> Any:
+    """Convert (…, 14) Table 4 parameters (Hz, deg, -) of one wing to (Hz, rad, -), a new array
+    in the array namespace ``xp`` (numpy or torch)."""
+    if xp is NUMPY:
+        wing_physical = np.asarray(wing_physical, dtype=float)
+    return wing_physical * xp.constant_like(RADIANS_PER_UNIT, wing_physical)
 
 
 def angle_histories(

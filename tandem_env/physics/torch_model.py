@@ -42,7 +42,7 @@ from . import cycle
 from .checks import count, flag
 from .coefficients import PaperCoefficients
 from .insect import DRAGONFLY, Dragonfly
-from .kinematics import batched_angle_history
+from .kinematics import batched_angle_history, wing_params_radians
 from .model import (
     _METADATA,
     DEFAULT_OPTIONS,
@@ -55,12 +55,10 @@ from .model import (
 )
 from .options import ModelOptions
 from .stroke import (
-    ANGULAR,
     DISCRETE,
-    LOWER,
     N_PARAMETERS,
     N_PER_WING,
-    UPPER,
+    map_normalised,
     normalised_to_physical,
     validate_physical,
 )
@@ -85,6 +83,7 @@ TORCH = ArrayNamespace(
     as_int64=lambda x: x.to(torch.int64),
     zeros_bool=lambda x: torch.zeros_like(x, dtype=torch.bool),
     arange_like=lambda n, x: torch.arange(n, dtype=x.dtype, device=x.device),
+    constant_like=lambda a, x: torch.as_tensor(a, dtype=x.dtype, device=x.device),
 )
 
 #: Floating dtypes the backend computes in (float64 is the default and the one tested to 1e-8).
@@ -792,17 +791,13 @@ def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options
 
 
 def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, compiled):
-    # degrees to radians as kinematics.wing_params_radians (built in float64, then cast)
-    scale = torch.as_tensor(
-        np.where(ANGULAR[:N_PER_WING], np.pi / 180.0, 1.0),
-        dtype=strokes.dtype,
-        device=strokes.device,
-    )
     wings = []
     inflow_fore = None
     fore = {}
     for index, geometry in enumerate((insect.fore, insect.hind)):
-        params = strokes[:, index * N_PER_WING : (index + 1) * N_PER_WING] * scale
+        params = wing_params_radians(
+            strokes[:, index * N_PER_WING : (index + 1) * N_PER_WING], TORCH
+        )
         frequency, sweep_amplitude, beta = params[:, 0], params[:, 1], params[:, 13]
         angles, weight, phase = batched_angle_history(params, options.n_time, TORCH)
         frame = _frame(angles, weight, beta, options.spin == "total")
@@ -1023,9 +1018,9 @@ def normalised_jacobian(
     """Metrics of normalised strokes and their Jacobian w.r.t. the normalised coordinates, from
     ONE :func:`evaluate_torch` call (float64, on ``device``; None: the CPU).
 
-    ``actions``: (B, 28) normalised strokes in [-1, 1] (:func:`stroke.normalised_to_physical`'s
-    map, from the same Table 4 bounds, here in torch so autograd goes through it: linear per
-    coordinate, N a step, so its column is 0). ``metrics``: functions of the
+    ``actions``: (B, 28) normalised strokes in [-1, 1] (:func:`stroke.map_normalised`, the map
+    of :func:`stroke.normalised_to_physical`, here on tensors so autograd goes through it: linear
+    per coordinate, N a step, so its column is 0). ``metrics``: functions of the
     :class:`TorchResult` returning (B,) tensors (array-agnostic arithmetic on its fields).
     Returns the numpy :class:`Result`, the (B, m) metric values and their (B, m, 28) Jacobian,
     one backward pass per metric through the one forward graph (each stroke's metrics depend on
@@ -1046,14 +1041,8 @@ def normalised_jacobian(
     dev = resolve_device(device)
     a = torch.as_tensor(np.atleast_2d(np.asarray(actions, dtype=np.float64)), device=dev)
     a = a.clamp(-1.0, 1.0).requires_grad_(True)
-    low, high = (torch.as_tensor(bound, device=dev) for bound in (LOWER, UPPER))
-    discrete = torch.as_tensor(DISCRETE, device=dev)
     with torch.enable_grad():
-        continuous = low + 0.5 * (a + 1.0) * (high - low)
-        harmonic = torch.where(a < 0.0, 1.0, 2.0).to(a.dtype)
-        result = evaluate_torch(
-            torch.where(discrete, harmonic, continuous), speed, available_power, **kwargs
-        )
+        result = evaluate_torch(map_normalised(a, TORCH), speed, available_power, **kwargs)
         values = [metric(result) for metric in metrics]
         for k, value in enumerate(values):
             _check_metric_values(value, f"metrics[{k}]", a.shape[0])

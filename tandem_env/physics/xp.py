@@ -50,6 +50,9 @@ class ArrayNamespace:
     """zeros_bool(x): False everywhere, x's shape (and device)."""
     arange_like: Callable[[int, Any], Any]
     """arange_like(n, x): 0, 1, …, n − 1 in x's floating dtype (and on its device)."""
+    constant_like: Callable[[np.ndarray, Any], Any]
+    """constant_like(a, x): a numpy constant ``a`` as an array to combine with x (on torch: a
+    tensor in x's dtype on x's device; on numpy: ``a`` itself)."""
 
 
 NUMPY = ArrayNamespace(
@@ -70,6 +73,7 @@ NUMPY = ArrayNamespace(
     as_int64=lambda x: x.astype(np.int64),
     zeros_bool=lambda x: np.zeros(x.shape, dtype=bool),
     arange_like=lambda n, x: np.arange(n, dtype=x.dtype),
+    constant_like=lambda a, x: a,
 )
 
 
