@@ -217,6 +217,15 @@ MAX_FLIGHT_PATH_ANGLE = 0.5 * np.pi
 MAX_BATCH_STROKES = 10_000
 
 
+def check_model_inputs(insect: Any, options: Any) -> None:
+    """ValueError unless ``insect`` is a Dragonfly and ``options`` a ModelOptions (both
+    backends' evaluation checks these first)."""
+    if not isinstance(insect, Dragonfly):
+        raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
+    if not isinstance(options, ModelOptions):
+        raise ValueError(f"options must be a ModelOptions; got {type(options).__name__}")
+
+
 def validate_conditions(
     speed: float | np.ndarray | None,
     available_power: float | np.ndarray | None,
@@ -594,10 +603,7 @@ def evaluate_numba(
     ValueError
         For strokes outside Table 4, non-finite values, wrong shapes, or a bad condition.
     """
-    if not isinstance(insect, Dragonfly):
-        raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
-    if not isinstance(options, ModelOptions):
-        raise ValueError(f"options must be a ModelOptions; got {type(options).__name__}")
+    check_model_inputs(insect, options)
     physical = validate_physical(strokes)
     batch = physical.shape[0]
     v, p_avail, gamma = validate_conditions(

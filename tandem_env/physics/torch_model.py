@@ -47,6 +47,7 @@ from .model import (
     _METADATA,
     DEFAULT_OPTIONS,
     Result,
+    check_model_inputs,
     flight_performance,
     inflow_switched_off,
     stroke_plane_speeds,
@@ -878,10 +879,7 @@ def evaluate_torch(
         ``Result``'s fields as (B,) tensors on the strokes' device (bool and int64 where
         ``Result`` has them); ``.to_numpy()`` gives the ``Result``.
     """
-    if not isinstance(insect, Dragonfly):
-        raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
-    if not isinstance(options, ModelOptions):
-        raise ValueError(f"options must be a ModelOptions; got {type(options).__name__}")
+    check_model_inputs(insect, options)
     for name, wing in (("fore", insect.fore), ("hind", insect.hind)):
         if not isinstance(wing.coefficients, PaperCoefficients):
             raise ValueError(
