@@ -67,16 +67,7 @@ from .xp import ArrayNamespace
 
 #: torch's :class:`~tandem_env.physics.xp.ArrayNamespace`: the shared model code on tensors.
 TORCH = ArrayNamespace(
-    name="torch",
-    sin=torch.sin,
-    cos=torch.cos,
-    arcsin=torch.asin,
-    tanh=torch.tanh,
-    sqrt=torch.sqrt,
-    abs=torch.abs,
-    hypot=torch.hypot,
-    rad2deg=torch.rad2deg,
-    where=torch.where,
+    module=torch,
     maximum=lambda x, low: torch.clamp(x, min=low),
     minimum=lambda x, high: torch.clamp(x, max=high),
     all_along=lambda x, axis: torch.all(x, dim=axis),

@@ -4,11 +4,10 @@ mask and the flight performance of ``model``) is written once for both backends 
 §10).
 
 :data:`NUMPY` is numpy's; the torch backend builds its own :class:`ArrayNamespace` from torch in
-``torch_model`` (this module imports no torch). Its functions carry numpy's names where numpy has
-one (``sin``, ``arcsin``, ``minimum``, …), so a numba-compiled elementwise function, which calls
-``np.<name>``, runs on either array type through :func:`on_namespace`. Everything else the shared
-code needs works on both array types as it is: arithmetic, comparisons, indexing, ``.sum(1)``,
-``.mean(1)``.
+``torch_model`` (this module imports no torch). Its functions carry numpy's names, so a
+numba-compiled elementwise function, which calls ``np.<name>``, runs on either array type through
+:func:`on_namespace`. Everything else the shared code needs works on both array types as it is:
+arithmetic, comparisons, indexing, ``.sum(1)``, ``.mean(1)``.
 """
 
 from __future__ import annotations
@@ -24,48 +23,37 @@ import numpy as np
 
 @dataclass(frozen=True)
 class ArrayNamespace:
-    """The elementwise and reducing operations the shared model code calls by name."""
+    """An array module (numpy or torch) and the few operations in which the two differ.
 
-    name: str
-    sin: Callable[[Any], Any]
-    cos: Callable[[Any], Any]
-    arcsin: Callable[[Any], Any]
-    tanh: Callable[[Any], Any]
-    sqrt: Callable[[Any], Any]
-    abs: Callable[[Any], Any]
-    hypot: Callable[[Any, Any], Any]
-    rad2deg: Callable[[Any], Any]
-    where: Callable[[Any, Any, Any], Any]
-    """where(condition, x, y): x where condition, else y (y may be a Python number)."""
+    Any other name is the module's own: ``sin``, ``cos``, ``arcsin``, ``tanh``, ``sqrt``,
+    ``abs``, ``hypot``, ``rad2deg`` and ``where`` (``where(condition, x, y)``, y may be a
+    Python number) mean the same in both.
+    """
+
+    module: Any
     maximum: Callable[[Any, float], Any]
-    """maximum(x, low): max(x, low) elementwise, ``low`` a Python number."""
+    """maximum(x, low): max(x, low) elementwise, ``low`` a Python number (so ``minimum``)."""
     minimum: Callable[[Any, float], Any]
-    """minimum(x, high): min(x, high) elementwise, ``high`` a Python number."""
     all_along: Callable[[Any, int], Any]
-    """all_along(x, axis): logical and along an axis."""
+    """all_along(x, axis): logical and along an axis (so ``max_along``: values only)."""
     max_along: Callable[[Any, int], Any]
-    """max_along(x, axis): the largest value along an axis (values only)."""
     as_int64: Callable[[Any], Any]
     zeros_bool: Callable[[Any], Any]
     """zeros_bool(x): False everywhere, x's shape (and device)."""
     arange_like: Callable[[int, Any], Any]
     """arange_like(n, x): 0, 1, …, n − 1 in x's floating dtype (and on its device)."""
     constant_like: Callable[[np.ndarray, Any], Any]
-    """constant_like(a, x): a numpy constant ``a`` as an array to combine with x (on torch: a
-    tensor in x's dtype on x's device; on numpy: ``a`` itself)."""
+    """constant_like(a, x): a numpy constant ``a`` to combine with x (numpy: ``a`` itself;
+    torch: a tensor in x's dtype on x's device)."""
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__"):  # no module lookups while copying or unpickling
+            raise AttributeError(name)
+        return getattr(self.module, name)
 
 
 NUMPY = ArrayNamespace(
-    name="numpy",
-    sin=np.sin,
-    cos=np.cos,
-    arcsin=np.arcsin,
-    tanh=np.tanh,
-    sqrt=np.sqrt,
-    abs=np.abs,
-    hypot=np.hypot,
-    rad2deg=np.rad2deg,
-    where=np.where,
+    module=np,
     maximum=np.maximum,
     minimum=np.minimum,
     all_along=lambda x, axis: np.all(x, axis=axis),
