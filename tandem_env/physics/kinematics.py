@@ -1,9 +1,9 @@
 """Wing kinematics (Eqs. 3-5) with exact first and second time derivatives, and the time grid.
 
 All angles are in radians and derivatives are with respect to physical time [rad/s, rad/s²].
-The functions are numba-compiled for scalars; :func:`batched_angle_history` runs the same
-functions elementwise on numpy or torch arrays (``xp.on_namespace``), the torch backend's
-kinematics; :func:`angle_histories` is the numpy entry point.
+The functions are numba-compiled for scalars (:func:`fill_angle_history`, one wing's cycle);
+:func:`batched_angle_history` runs the same functions elementwise on whole numpy or torch arrays
+(``xp.on_namespace``): the torch backend's kinematics.
 
 Time grid (docs/model.md §3). The cycle phase τ = 2πft is not sampled uniformly: with K → 1 the
 weaving angle becomes a triangle wave whose acceleration is a narrow spike at the reversals, and
@@ -177,38 +177,6 @@ def wing_params_radians(wing_physical: Any, xp: ArrayNamespace = NUMPY) -> Any:
     if xp is NUMPY:
         wing_physical = np.asarray(wing_physical, dtype=float)
     return wing_physical * xp.constant_like(RADIANS_PER_UNIT, wing_physical)
-
-
-def angle_histories(
-    wing_physical: np.ndarray, n_time: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Angles on the time grid for a batch of one wing's strokes.
-
-    Parameters
-    ----------
-    wing_physical : (B, 14) array
-        One wing's Table 4 parameters (Hz, deg, -).
-    n_time : int
-        Samples per cycle.
-
-    Returns
-    -------
-    angles : (B, n_time, 9) array
-        φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈ [rad, rad/s, rad/s²].
-    weight : (B, n_time) array
-        dτ/ds at each sample (cycle mean = mean of g·weight).
-    cycle_fraction : (B, n_time) array
-        t/T at each sample [-].
-    """
-    params = wing_params_radians(np.atleast_2d(wing_physical))
-    batch = params.shape[0]
-    angles = np.empty((batch, n_time, 9))
-    weight = np.empty((batch, n_time))
-    tau = np.empty((batch, n_time))
-    for b in range(batch):
-        grid_phases(params[b], n_time, tau[b], weight[b])
-        fill_angles(params[b], tau[b], angles[b])
-    return angles, weight, tau / (2.0 * np.pi)
 
 
 def spectral_derivatives(series: np.ndarray, frequency: float) -> np.ndarray:

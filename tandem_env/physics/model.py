@@ -364,7 +364,7 @@ def run_kernel(
     F_x, F_z, F_y [N] and P_aero, P_iner [W] of one wing (B, 2, n_time, 5). ``tables``
     replaces the insect's (nodes, constants) of the fore- and hind-wing (:func:`wing_tables`),
     e.g. by single blade elements. ``phases``: (B, 2, n_time) each wing's sample phases
-    ϑ = 2πft [rad] (:func:`grid_phases`), read by ``options.slipstream="convected"`` only;
+    ϑ = 2πft [rad] (``kinematics.motion_grid``), read by ``options.slipstream="convected"`` only;
     ``None``: uniform samples 2πk/n_time (measured kinematics). The convected slipstream follows
     the whole fore-wing's loading, so it refuses ``tables`` (wings evaluated element by element).
     """
@@ -515,12 +515,6 @@ def flight_performance(
     }
 
 
-def grid_phases(wing_params: np.ndarray, n_time: int) -> np.ndarray:
-    """Phases ϑ_k = 2πft_k [rad] of the motion-following grid (docs/model.md §3.5), (B, n_time),
-    of a batch of one wing's (B, 14) parameters in Hz/rad/- (``kinematics.motion_grid``)."""
-    return motion_grid(wing_params, n_time)[0]
-
-
 def parametric_kernel_inputs(
     physical: np.ndarray, n_time: int
 ) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -529,7 +523,7 @@ def parametric_kernel_inputs(
     ``angles``, ``weights``, ``frequency``, ``beta``, ``sweep`` as :func:`run_kernel` takes them
     (per wing (B, n_time, 9) angle histories (φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈) and (B, n_time)
     quadrature weights, ``kinematics.fill_angle_history``; (B, 2) [Hz, rad, rad]) and
-    ``phases`` (B, 2, n_time) [rad] (:func:`grid_phases`).
+    ``phases`` (B, 2, n_time) [rad] (``kinematics.motion_grid``).
     The step of :func:`evaluate_numba` between validation and :func:`run_kernel`.
     """
     batch = physical.shape[0]
@@ -557,7 +551,7 @@ def parametric_kernel_inputs(
         frequency[:, w] = params[:, 0]
         beta[:, w] = params[:, 13]
         sweep[:, w] = params[:, 1]
-        phases[:, w] = grid_phases(params, n_time)
+        phases[:, w] = motion_grid(params, n_time)[0]
     return angles, weights, frequency, beta, sweep, phases
 
 
