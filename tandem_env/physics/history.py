@@ -269,7 +269,7 @@ def _total_inflow(
     if (
         w == 1
         and options.induction == "coupled"
-        and not inflow_switched_off(freestream, options)[0, 1]
+        and not inflow_switched_off(freestream[0, 1, 1], options)
     ):
         return inflow[0, w] + options.interference * inflow[0, 0]
     return inflow[0, w] + 0.0

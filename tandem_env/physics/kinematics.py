@@ -1,8 +1,9 @@
 """Wing kinematics (Eqs. 3-5) with exact first and second time derivatives, and the time grid.
 
 All angles are in radians and derivatives are with respect to physical time [rad/s, rad/s²].
-The functions are numba-compiled for scalars and also work elementwise on numpy arrays
-through ``.py_func``; :func:`angle_histories` is the vectorised entry point.
+The functions are numba-compiled for scalars (:func:`fill_angle_history`, one wing's cycle);
+:func:`batched_angle_history` runs the same functions elementwise on whole numpy or torch arrays
+(``xp.on_namespace``): the torch backend's kinematics.
 
 Time grid (docs/model.md §3). The cycle phase τ = 2πft is not sampled uniformly: with K → 1 the
 weaving angle becomes a triangle wave whose acceleration is a narrow spike at the reversals, and
@@ -18,9 +19,13 @@ and moves φ by at most 0.39 % of the peak-to-peak sweep 2φ_m (0.78 % of φ_m).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit
+
+from .stroke import ANGULAR, N_PER_WING
+from .xp import NUMPY, ArrayNamespace, on_namespace
 
 MAX_SWEEP_SHAPE = 1.0 - 1e-4
 """Cap on K: at K = 1 exactly φ̈ is infinite at the reversals (docs/model.md §3)."""
@@ -36,7 +41,7 @@ def weaving(tau, omega, amplitude, offset, phase, shape):
     φ = φ_m/asin(K)·asin(K·sin x) + φ_0 with x = τ + Φ_φ, τ = ωt, ω = 2πf [rad/s].
     Returns (φ [rad], φ̇ [rad/s], φ̈ [rad/s²]).
     """
-    k = min(shape, MAX_SWEEP_SHAPE)
+    k = np.minimum(shape, MAX_SWEEP_SHAPE)
     x = tau + phase
     sx = np.sin(x)
     cx = np.cos(x)
@@ -136,44 +141,42 @@ def fill_angle_history(wing_params, n_time, out_angles, out_weight):
     fill_angles(wing_params, tau, out_angles)
 
 
-def wing_params_radians(wing_physical: np.ndarray) -> np.ndarray:
-    """Convert (…, 14) Table 4 parameters (Hz, deg, -) of one wing to (Hz, rad, -)."""
-    out = np.array(wing_physical, dtype=float, copy=True)
-    angular = np.array([1, 2, 3, 4, 5, 6, 7, 8, 9, 13])
-    out[..., angular] = np.deg2rad(out[..., angular])
-    return out
+def motion_grid(params: Any, n_time: int, xp: ArrayNamespace = NUMPY) -> tuple[Any, Any]:
+    """Phases τ_k [rad] and weights dτ/ds of the motion-following grid, each (B, n_time), of a
+    batch of one wing's (B, 14) parameters in Hz/rad/- (the arrays :func:`grid_phases` fills),
+    in the array namespace ``xp`` (numpy or torch)."""
+    s = 2.0 * math.pi * xp.arange_like(n_time, params) / n_time
+    k_shape = xp.minimum(params[:, 10:11], MAX_SWEEP_SHAPE)
+    reversal = 0.5 * math.pi - params[:, 7:8]
+    return on_namespace(phase_grid, xp)(s, reversal, k_shape * k_shape)
 
 
-def angle_histories(
-    wing_physical: np.ndarray, n_time: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Angles on the time grid for a batch of one wing's strokes.
+def batched_angle_history(
+    params: Any, n_time: int, xp: ArrayNamespace = NUMPY
+) -> tuple[list[Any], Any, Any]:
+    """φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈ (each (B, n_time)), dτ/ds and the phases τ [rad] of a batch
+    of one wing's (B, 14) parameters in Hz/rad/- on the motion-following grid, in the array
+    namespace ``xp``: :func:`fill_angle_history`'s formulas (:func:`weaving`, :func:`flapping`,
+    :func:`pitching`, :func:`phase_grid`) on whole arrays, differentiable on torch."""
+    tau, weight = motion_grid(params, n_time, xp)
+    col = [params[:, i : i + 1] for i in range(params.shape[1])]
+    omega = 2.0 * math.pi * col[0]
+    phi = on_namespace(weaving, xp)(tau, omega, col[1], col[4], col[7], col[10])
+    theta = on_namespace(flapping, xp)(tau, omega, col[2], col[5], col[8], col[11])
+    eta = on_namespace(pitching, xp)(tau, omega, col[3], col[6], col[9], col[12])
+    return [*phi, *theta, *eta], weight, tau
 
-    Parameters
-    ----------
-    wing_physical : (B, 14) array
-        One wing's Table 4 parameters (Hz, deg, -).
-    n_time : int
-        Samples per cycle.
 
-    Returns
-    -------
-    angles : (B, n_time, 9) array
-        φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈ [rad, rad/s, rad/s²].
-    weight : (B, n_time) array
-        dτ/ds at each sample (cycle mean = mean of g·weight).
-    cycle_fraction : (B, n_time) array
-        t/T at each sample [-].
-    """
-    params = wing_params_radians(np.atleast_2d(wing_physical))
-    batch = params.shape[0]
-    angles = np.empty((batch, n_time, 9))
-    weight = np.empty((batch, n_time))
-    tau = np.empty((batch, n_time))
-    for b in range(batch):
-        grid_phases(params[b], n_time, tau[b], weight[b])
-        fill_angles(params[b], tau[b], angles[b])
-    return angles, weight, tau / (2.0 * np.pi)
+#: Per parameter of one wing: π/180 for an angle in degrees (``stroke.ANGULAR``), else 1.
+RADIANS_PER_UNIT = np.where(ANGULAR[:N_PER_WING], np.pi / 180.0, 1.0)
+
+
+def wing_params_radians(wing_physical: Any, xp: ArrayNamespace = NUMPY) -> Any:
+    """Convert (…, 14) Table 4 parameters (Hz, deg, -) of one wing to (Hz, rad, -), a new array
+    in the array namespace ``xp`` (numpy or torch)."""
+    if xp is NUMPY:
+        wing_physical = np.asarray(wing_physical, dtype=float)
+    return wing_physical * xp.constant_like(RADIANS_PER_UNIT, wing_physical)
 
 
 def spectral_derivatives(series: np.ndarray, frequency: float) -> np.ndarray:

@@ -10,8 +10,10 @@ decides.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, fields
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
@@ -20,9 +22,10 @@ from .checks import real_array, shown
 from .coefficients import PaperCoefficients
 from .first_use import compile_notice
 from .insect import DRAGONFLY, Dragonfly, Wing
-from .kinematics import MAX_SWEEP_SHAPE, fill_angle_history, phase_grid, wing_params_radians
+from .kinematics import fill_angle_history, motion_grid, wing_params_radians
 from .options import HOVER_NORMAL_SPEED, ModelOptions
 from .stroke import N_PER_WING, validate_physical
+from .xp import NUMPY, ArrayNamespace
 
 DEFAULT_OPTIONS = ModelOptions()
 
@@ -214,6 +217,15 @@ MAX_FLIGHT_PATH_ANGLE = 0.5 * np.pi
 MAX_BATCH_STROKES = 10_000
 
 
+def check_model_inputs(insect: Any, options: Any) -> None:
+    """ValueError unless ``insect`` is a Dragonfly and ``options`` a ModelOptions (both
+    backends' evaluation checks these first)."""
+    if not isinstance(insect, Dragonfly):
+        raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
+    if not isinstance(options, ModelOptions):
+        raise ValueError(f"options must be a ModelOptions; got {type(options).__name__}")
+
+
 def validate_conditions(
     speed: float | np.ndarray | None,
     available_power: float | np.ndarray | None,
@@ -277,37 +289,48 @@ def _broadcast_condition(
     return arr
 
 
+def stroke_plane_speeds(
+    speed: Any, beta: Any, flight_path_angle: Any, xp: ArrayNamespace = NUMPY
+) -> tuple[Any, Any]:
+    """The body's velocity in a wing's stroke-plane axes, (V_t, V_n) [m/s], in the array
+    namespace ``xp`` (numpy or torch); the arguments broadcast against each other.
+
+    The body moves at ``speed`` V [m/s] along its flight path, inclined by the flight-path angle
+    γ [rad] (+ climbing) to the horizontal; ``beta`` is the wing's stroke-plane angle β [rad]
+    from the horizontal (earth axes, docs/model.md "Conventions"). With x_s = (cos β, 0, −sin β)
+    and z_s = (sin β, 0, cos β) in earth axes and the velocity V·(cos γ, 0, sin γ):
+    V_t = V·cos(β + γ), V_n = V·sin(β + γ). Only β + γ, the stroke plane's angle to the path,
+    enters the flow; β alone sets the projection of the forces onto earth axes.
+    """
+    angle = beta + flight_path_angle
+    return speed * xp.cos(angle), speed * xp.sin(angle)
+
+
 def freestream_components(
     speed: np.ndarray, beta: np.ndarray, flight_path_angle: np.ndarray
 ) -> np.ndarray:
-    """The body's velocity in each wing's stroke-plane axes, (V_t, V_n) [m/s], shape (B, 2, 2).
-
-    The body moves at ``speed`` V [m/s] along its flight path, inclined by the flight-path angle
-    γ [rad] (+ climbing) to the horizontal; ``beta`` (B, 2) is each wing's stroke-plane angle β
-    [rad] from the horizontal (earth axes, docs/model.md "Conventions"). With
-    x_s = (cos β, 0, −sin β) and z_s = (sin β, 0, cos β) in earth axes and the velocity
-    V·(cos γ, 0, sin γ): V_t = V·cos(β + γ), V_n = V·sin(β + γ). Only β + γ, the stroke plane's
-    angle to the path, enters the flow; β alone sets the projection of the forces onto earth axes.
-    """
-    angle = beta + flight_path_angle[:, None]
-    out = np.empty((beta.shape[0], 2, 2))
-    out[:, :, 0] = speed[:, None] * np.cos(angle)
-    out[:, :, 1] = speed[:, None] * np.sin(angle)
-    return out
+    """(V_t, V_n) [m/s] of both wings (:func:`stroke_plane_speeds`) as the kernel takes them,
+    shape (B, 2, 2), of ``speed`` (B,) [m/s], ``beta`` (B, 2) and ``flight_path_angle`` (B,)
+    [rad]."""
+    tangential, normal = stroke_plane_speeds(speed[:, None], beta, flight_path_angle[:, None])
+    return np.stack([tangential, normal], axis=-1)
 
 
-def inflow_switched_off(freestream: np.ndarray, options: ModelOptions) -> np.ndarray:
-    """(B, 2) bool: the wings that have no induced velocity whatever ``options.induction``.
+def inflow_switched_off(
+    normal_speed: Any, options: ModelOptions, xp: ArrayNamespace = NUMPY
+) -> Any:
+    """Bool, shaped like ``normal_speed``: the wings that have no induced velocity whatever
+    ``options.induction``, in the array namespace ``xp`` (numpy or torch).
 
     With ``hover_inflow="none"`` these are the wings whose free stream has no component normal
     to their stroke plane, |V_n| < :data:`~tandem_env.physics.options.HOVER_NORMAL_SPEED`
     [m/s] (in practice V = 0): the paper's inflow v_z·(1 + a) (Eqs. 20-21) read literally is
-    zero there (docs/model.md §5.5). ``freestream``: (B, 2, 2) from
-    :func:`freestream_components`. With ``"momentum"`` (the default) none.
+    zero there (docs/model.md §5.5). ``normal_speed``: V_n [m/s] (:func:`stroke_plane_speeds`).
+    With ``"momentum"`` (the default) none.
     """
     if options.hover_inflow == "momentum":
-        return np.zeros(freestream.shape[:2], dtype=bool)
-    return np.abs(freestream[:, :, 1]) < HOVER_NORMAL_SPEED
+        return xp.zeros_bool(normal_speed)
+    return xp.abs(normal_speed) < HOVER_NORMAL_SPEED
 
 
 def coefficient_tables(insect: Dragonfly) -> tuple[np.ndarray | None, np.ndarray | None]:
@@ -341,7 +364,7 @@ def run_kernel(
     F_x, F_z, F_y [N] and P_aero, P_iner [W] of one wing (B, 2, n_time, 5). ``tables``
     replaces the insect's (nodes, constants) of the fore- and hind-wing (:func:`wing_tables`),
     e.g. by single blade elements. ``phases``: (B, 2, n_time) each wing's sample phases
-    ϑ = 2πft [rad] (:func:`grid_phases`), read by ``options.slipstream="convected"`` only;
+    ϑ = 2πft [rad] (``kinematics.motion_grid``), read by ``options.slipstream="convected"`` only;
     ``None``: uniform samples 2πk/n_time (measured kinematics). The convected slipstream follows
     the whole fore-wing's loading, so it refuses ``tables`` (wings evaluated element by element).
     """
@@ -371,7 +394,7 @@ def run_kernel(
     args = (
         angles[0], weights[0], angles[1], weights[1], frequency, beta, sweep,
         freestream, nodes_f, consts_f, nodes_h, consts_h, insect.air_density, mode[options.induction],
-        inflow_switched_off(freestream, options), options.interference, options.spin == "total", options.tolerance,
+        inflow_switched_off(freestream[:, :, 1], options), options.interference, options.spin == "total", options.tolerance,
         options.max_evaluations, out, inflow, history, *cycle.fourier_tables(n_time),
         *coefficient_tables(insect), convected, phases, insect.root_spacing, insect.root_drop,
     )  # fmt: skip
@@ -392,83 +415,104 @@ def _performance(
     insect: Dragonfly,
     options: ModelOptions,
 ) -> Result:
+    """The :class:`Result` of the compiled kernel's per-wing cycle means ``out``
+    (B, 2, N_WING_OUT): :func:`flight_performance` on numpy."""
+
+    def means(key: str) -> np.ndarray:
+        return out[:, :, getattr(cycle, f"W_{key}")]
+
+    values = flight_performance(
+        means, speed, flight_path_angle, available_power, insect, options, NUMPY
+    )
+    return Result(**values, options=options, planform=insect.planform)
+
+
+def flight_performance(
+    means: Callable[[str], Any],
+    speed: Any,
+    flight_path_angle: Any,
+    available_power: Any,
+    insect: Dragonfly,
+    options: ModelOptions,
+    xp: ArrayNamespace,
+) -> dict[str, Any]:
+    """The flight performance of a batch (Eqs. 17 and 22-27, docs/model.md §7), every
+    :class:`Result` array field by name, in the array namespace ``xp`` (numpy or torch).
+
+    ``means(key)``: the (B, 2) per-wing cycle means (fore, hind) of one wing of each pair, keyed
+    by the kernel's ``cycle.W_<key>`` column names (``"FZ"``, ``"FX"``, ``"THRUST"``, ``"DRAG"``
+    [N], ``"P_AERO"``, ``"P_INER"``, ``"P_ELASTIC"``, ``"P_AERO_POSITIVE"`` [W], ``"AOA"``
+    [rad], ``"CONVERGED"``, ``"EVALS"``, ``"INFLOW"`` [m/s]); ``speed`` [m/s],
+    ``flight_path_angle`` [rad] and ``available_power`` [W/kg] (B,).
+    """
     n_w = insect.wings_per_pair
     weight = insect.weight
-    fz = out[:, :, cycle.W_FZ] * n_w
-    fx = out[:, :, cycle.W_FX] * n_w
-    lift = fz.sum(axis=1)
+    fz = means("FZ") * n_w
+    fx = means("FX") * n_w
+    lift = fz.sum(1)
     # the wings' own rearward ("drag") forces D_f + D_h, whatever the thrust/drag reading
-    wing_drag = n_w * out[:, :, cycle.W_DRAG].sum(axis=1)
+    wing_drag = n_w * means("DRAG").sum(1)
     if options.thrust_split == "sign":
-        thrust = n_w * out[:, :, cycle.W_THRUST].sum(axis=1)
+        thrust = n_w * means("THRUST").sum(1)
         drag = wing_drag
     else:
-        thrust = fx.sum(axis=1)
+        thrust = fx.sum(1)
         # The body's parasite drag acts against its velocity, along the flight path: its
         # horizontal part is D and its vertical part counts against the lift.
         body_drag = 0.5 * insect.air_density * speed**2 * insect.body_drag_area
-        drag = body_drag * np.cos(flight_path_angle)
-        lift = lift - body_drag * np.sin(flight_path_angle)
-    aero = n_w * out[:, :, cycle.W_P_AERO]
-    inertial = n_w * out[:, :, cycle.W_P_INER]
+        drag = body_drag * xp.cos(flight_path_angle)
+        lift = lift - body_drag * xp.sin(flight_path_angle)
+    aero = n_w * means("P_AERO")
+    inertial = n_w * means("P_INER")
     if options.power == "absolute":
         wing_power = aero + inertial
     elif options.power == "elastic":
-        wing_power = n_w * out[:, :, cycle.W_P_ELASTIC]
+        wing_power = n_w * means("P_ELASTIC")
     else:
-        wing_power = n_w * out[:, :, cycle.W_P_AERO_POSITIVE]
-    power = wing_power.sum(axis=1)
-    power_per_mass = power / insect.body_mass
-    with np.errstate(divide="ignore", invalid="ignore"):
-        efficiency = np.where(power > 0.0, np.maximum(thrust, 0.0) * speed / power, 0.0)
+        wing_power = n_w * means("P_AERO_POSITIVE")
+    power = wing_power.sum(1)
+    powered = power > 0.0
+    # the inner where keeps 0/0 out of the values and out of autograd's backward pass
+    efficiency = xp.where(
+        powered, xp.maximum(thrust, 0.0) * speed / xp.where(powered, power, 1.0), 0.0
+    )
     lift_to_weight = lift / weight
     excess_vertical = lift_to_weight - 1.0
     excess_horizontal = (thrust - drag) / weight
-    aoa = np.rad2deg(out[:, :, cycle.W_AOA])
-    return Result(
-        lift_to_weight=lift_to_weight,
-        thrust=thrust,
-        drag=drag,
-        power=power,
-        power_per_mass=power_per_mass,
-        efficiency=efficiency,
-        excess_vertical=excess_vertical,
-        excess_horizontal=excess_horizontal,
-        excess_total=np.hypot(excess_vertical, excess_horizontal),
-        excess_horizontal_literal=wing_drag / weight,
-        mean_angle_of_attack=aoa.mean(axis=1),
-        efficiency_above_one=efficiency > 1.0,
-        induction_converged=np.all(out[:, :, cycle.W_CONVERGED] > 0.5, axis=1),
-        induction_evaluations=out[:, :, cycle.W_EVALS].max(axis=1).astype(np.int64),
-        fore_lift_to_weight=fz[:, 0] / weight,
-        hind_lift_to_weight=fz[:, 1] / weight,
-        fore_horizontal_force=fx[:, 0],
-        hind_horizontal_force=fx[:, 1],
-        fore_power=wing_power[:, 0],
-        hind_power=wing_power[:, 1],
-        fore_aero_power=aero[:, 0],
-        hind_aero_power=aero[:, 1],
-        fore_inertial_power=inertial[:, 0],
-        hind_inertial_power=inertial[:, 1],
-        fore_mean_angle_of_attack=aoa[:, 0],
-        hind_mean_angle_of_attack=aoa[:, 1],
-        fore_inflow=out[:, 0, cycle.W_INFLOW],
-        hind_inflow=out[:, 1, cycle.W_INFLOW],
-        speed=speed,
-        flight_path_angle=flight_path_angle,
-        available_power=available_power,
-        options=options,
-        planform=insect.planform,
-    )
-
-
-def grid_phases(wing_params: np.ndarray, n_time: int) -> np.ndarray:
-    """Phases ϑ_k = 2πft_k [rad] of the motion-following grid (docs/model.md §3.5), (B, n_time),
-    of a batch of one wing's (B, 14) parameters in Hz/rad/- (``kinematics.grid_phases``)."""
-    s = 2.0 * np.pi * np.arange(n_time) / n_time
-    crowding = np.minimum(wing_params[:, 10], MAX_SWEEP_SHAPE) ** 2
-    reversal = 0.5 * np.pi - wing_params[:, 7]
-    return phase_grid.py_func(s[None, :], reversal[:, None], crowding[:, None])[0]
+    aoa = xp.rad2deg(means("AOA"))
+    return {
+        "lift_to_weight": lift_to_weight,
+        "thrust": thrust,
+        "drag": drag,
+        "power": power,
+        "power_per_mass": power / insect.body_mass,
+        "efficiency": efficiency,
+        "excess_vertical": excess_vertical,
+        "excess_horizontal": excess_horizontal,
+        "excess_total": xp.hypot(excess_vertical, excess_horizontal),
+        "excess_horizontal_literal": wing_drag / weight,
+        "mean_angle_of_attack": aoa.mean(1),
+        "efficiency_above_one": efficiency > 1.0,
+        "induction_converged": xp.all_along(means("CONVERGED") > 0.5, 1),
+        "induction_evaluations": xp.as_int64(xp.max_along(means("EVALS"), 1)),
+        "fore_lift_to_weight": fz[:, 0] / weight,
+        "hind_lift_to_weight": fz[:, 1] / weight,
+        "fore_horizontal_force": fx[:, 0],
+        "hind_horizontal_force": fx[:, 1],
+        "fore_power": wing_power[:, 0],
+        "hind_power": wing_power[:, 1],
+        "fore_aero_power": aero[:, 0],
+        "hind_aero_power": aero[:, 1],
+        "fore_inertial_power": inertial[:, 0],
+        "hind_inertial_power": inertial[:, 1],
+        "fore_mean_angle_of_attack": aoa[:, 0],
+        "hind_mean_angle_of_attack": aoa[:, 1],
+        "fore_inflow": means("INFLOW")[:, 0],
+        "hind_inflow": means("INFLOW")[:, 1],
+        "speed": speed,
+        "flight_path_angle": flight_path_angle,
+        "available_power": available_power,
+    }
 
 
 def parametric_kernel_inputs(
@@ -479,7 +523,7 @@ def parametric_kernel_inputs(
     ``angles``, ``weights``, ``frequency``, ``beta``, ``sweep`` as :func:`run_kernel` takes them
     (per wing (B, n_time, 9) angle histories (φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈) and (B, n_time)
     quadrature weights, ``kinematics.fill_angle_history``; (B, 2) [Hz, rad, rad]) and
-    ``phases`` (B, 2, n_time) [rad] (:func:`grid_phases`).
+    ``phases`` (B, 2, n_time) [rad] (``kinematics.motion_grid``).
     The step of :func:`evaluate_numba` between validation and :func:`run_kernel`.
     """
     batch = physical.shape[0]
@@ -507,7 +551,7 @@ def parametric_kernel_inputs(
         frequency[:, w] = params[:, 0]
         beta[:, w] = params[:, 13]
         sweep[:, w] = params[:, 1]
-        phases[:, w] = grid_phases(params, n_time)
+        phases[:, w] = motion_grid(params, n_time)[0]
     return angles, weights, frequency, beta, sweep, phases
 
 
@@ -553,10 +597,7 @@ def evaluate_numba(
     ValueError
         For strokes outside Table 4, non-finite values, wrong shapes, or a bad condition.
     """
-    if not isinstance(insect, Dragonfly):
-        raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
-    if not isinstance(options, ModelOptions):
-        raise ValueError(f"options must be a ModelOptions; got {type(options).__name__}")
+    check_model_inputs(insect, options)
     physical = validate_physical(strokes)
     batch = physical.shape[0]
     v, p_avail, gamma = validate_conditions(

@@ -12,11 +12,12 @@ optimiser uses exactly this map (``normalised_to_physical``).
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from .checks import is_real, real_array, shown
+from .xp import NUMPY, ArrayNamespace
 
 
 class Parameter(NamedTuple):
@@ -237,10 +238,18 @@ def normalised_to_physical(action: np.ndarray | list | tuple) -> np.ndarray:
             "[-1, 1]; "
             "allowed: numbers in [-1, 1] (clip first if that is what you want)"
         )
-    arr = np.clip(arr, -1.0, 1.0)
-    physical = LOWER + 0.5 * (arr + 1.0) * (UPPER - LOWER)
-    physical[:, DISCRETE] = np.where(arr[:, DISCRETE] < 0.0, 1.0, 2.0)
+    physical = map_normalised(np.clip(arr, -1.0, 1.0))
     return physical[0] if single else physical
+
+
+def map_normalised(action: Any, xp: ArrayNamespace = NUMPY) -> Any:
+    """The map of :func:`normalised_to_physical` without its checks, on a (B, 28) array of
+    ``action`` in [-1, 1] in the array namespace ``xp`` (numpy or torch, differentiable there):
+    x = low + (a + 1)/2·(high − low), N = 1 where a < 0, else 2."""
+    low, high = xp.constant_like(LOWER, action), xp.constant_like(UPPER, action)
+    continuous = low + 0.5 * (action + 1.0) * (high - low)
+    harmonic = xp.where(action < 0.0, 1.0, 2.0)
+    return xp.where(xp.constant_like(DISCRETE, action) > 0.5, harmonic, continuous)
 
 
 def physical_to_normalised(strokes: np.ndarray | list | tuple) -> np.ndarray:

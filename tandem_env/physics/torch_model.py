@@ -8,14 +8,16 @@ autograd with respect to the strokes and to speed, flight-path angle and availab
 those are tensors. It follows the numba kernel decision by decision, so that the two agree to
 rounding (docs/model.md §12.1):
 
-* the kinematics and the motion-following grid (``kinematics``), the frame rates and element
-  forces (``blade``, Eqs. 6-16), the node tables of :func:`model.wing_tables`;
+* the frame rates and element forces (``blade``, Eqs. 6-16), the node tables of :func:`model.wing_tables`;
 * the per-annulus safeguarded Newton inflow solve of ``induction.solve_annulus_samples``, every
   annulus with its own iterate, bracket and stopping rule: a converged annulus is masked and
   keeps its value while the others go on (no fixed iteration count);
 * the exact positive-part integrals of ``cycle.mean_positive_part`` (zero crossings of the
   trigonometric interpolant by the same safeguarded Newton);
-* the performance step of ``model._performance`` (Eqs. 17-27).
+* the kinematics (Eqs. 3-5) and the motion-following grid, the free stream and the performance
+  step (Eqs. 17-27) are not mirrored but shared: ``kinematics.batched_angle_history``,
+  ``model.stroke_plane_speeds``, ``model.inflow_switched_off`` and ``model.flight_performance``,
+  written once over an array namespace (``xp``), run on tensors here.
 
 Derivatives. Autograd differentiates the solve as the numba kernel computes it: through every
 force sweep and slope the outer iteration used. The inner scalar solves (the force model
@@ -40,24 +42,40 @@ from . import cycle
 from .checks import count, flag
 from .coefficients import PaperCoefficients
 from .insect import DRAGONFLY, Dragonfly
-from .kinematics import MAX_SWEEP_SHAPE
+from .kinematics import batched_angle_history, wing_params_radians
 from .model import (
     _METADATA,
     DEFAULT_OPTIONS,
     Result,
+    check_model_inputs,
+    flight_performance,
+    inflow_switched_off,
+    stroke_plane_speeds,
     validate_conditions,
     wing_tables,
 )
-from .options import HOVER_NORMAL_SPEED, ModelOptions
+from .options import ModelOptions
 from .stroke import (
-    ANGULAR,
     DISCRETE,
-    LOWER,
     N_PARAMETERS,
     N_PER_WING,
-    UPPER,
+    map_normalised,
     normalised_to_physical,
     validate_physical,
+)
+from .xp import ArrayNamespace
+
+#: torch's :class:`~tandem_env.physics.xp.ArrayNamespace`: the shared model code on tensors.
+TORCH = ArrayNamespace(
+    module=torch,
+    maximum=lambda x, low: torch.clamp(x, min=low),
+    minimum=lambda x, high: torch.clamp(x, max=high),
+    all_along=lambda x, axis: torch.all(x, dim=axis),
+    max_along=lambda x, axis: torch.amax(x, dim=axis),
+    as_int64=lambda x: x.to(torch.int64),
+    zeros_bool=lambda x: torch.zeros_like(x, dtype=torch.bool),
+    arange_like=lambda n, x: torch.arange(n, dtype=x.dtype, device=x.device),
+    constant_like=lambda a, x: torch.as_tensor(a, dtype=x.dtype, device=x.device),
 )
 
 #: Floating dtypes the backend computes in (float64 is the default and the one tested to 1e-8).
@@ -161,50 +179,7 @@ def _condition(value: Any, checked: np.ndarray, like: torch.Tensor) -> torch.Ten
     return torch.as_tensor(checked, dtype=like.dtype, device=like.device)
 
 
-# --- kinematics (kinematics.py) and frames (blade.fill_frame_coefficients) ----------------------
-def _angle_history(
-    params: torch.Tensor, n_time: int
-) -> tuple[list[torch.Tensor], torch.Tensor, torch.Tensor]:
-    """φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈ (each (B, n_time)), dτ/ds and the phases τ [rad] of one
-    wing's (B, 14) parameters in Hz/rad/- on the motion-following grid
-    (``kinematics.fill_angle_history``, ``model.grid_phases``)."""
-    col = [params[:, i : i + 1] for i in range(N_PER_WING)]
-    freq, amp_phi, amp_th, amp_eta, off_phi, off_th, off_eta = col[:7]
-    ph_phi, ph_th, ph_eta, shape_k, harmonic, shape_c = col[7:13]
-    k = torch.clamp(shape_k, max=MAX_SWEEP_SHAPE)
-    crowding = k * k
-    reversal = 0.5 * math.pi - ph_phi
-    s = 2.0 * math.pi * torch.arange(n_time, dtype=params.dtype, device=params.device) / n_time
-    d = 2.0 * (s - reversal)
-    tau = s - 0.5 * crowding * torch.sin(d)
-    weight = 1.0 - crowding * torch.cos(d)
-    omega = 2.0 * math.pi * freq
-    # weaving, Eq. 3
-    x = tau + ph_phi
-    sx, cx = torch.sin(x), torch.cos(x)
-    scale = amp_phi / torch.asin(k)
-    q = 1.0 - k * k * sx * sx
-    root = torch.sqrt(q)
-    phi = scale * torch.asin(k * sx) + off_phi
-    dphi = omega * scale * k * cx / root
-    ddphi = omega * omega * scale * k * (k * k - 1.0) * sx / (q * root)
-    # flapping, Eq. 4
-    x = harmonic * tau + ph_th
-    th = amp_th * torch.cos(x) + off_th
-    dth = -omega * harmonic * amp_th * torch.sin(x)
-    ddth = -omega * omega * harmonic * harmonic * amp_th * torch.cos(x)
-    # pitching, Eq. 5
-    y = tau + ph_eta
-    sy, cy = torch.sin(y), torch.cos(y)
-    tz = torch.tanh(shape_c * sy)
-    sech2 = 1.0 - tz * tz
-    scale = amp_eta / torch.tanh(shape_c)
-    eta = scale * tz + off_eta
-    deta = omega * scale * shape_c * cy * sech2
-    ddeta = omega * omega * scale * shape_c * sech2 * (-sy - 2.0 * shape_c * cy * cy * tz)
-    return [phi, dphi, ddphi, th, dth, ddth, eta, deta, ddeta], weight, tau
-
-
+# --- frames (blade.fill_frame_coefficients) ------------------------------------------------------
 def _cross(a, b):
     return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
 
@@ -807,110 +782,21 @@ def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options
     return out, v_i
 
 
-# --- the performance step (model._performance, Eqs. 17-27) ------------------------------------
-def _performance(wings, speed, gamma, available_power, insect: Dragonfly, options: ModelOptions):
-    """``model._performance`` on tensors: every quantity it reports, by ``Result`` field name."""
-    n_w = insect.wings_per_pair
-    weight = insect.weight
-    fore, hind = wings
-
-    def pair(key):
-        return torch.stack([fore[key], hind[key]], dim=1)
-
-    fz = pair("FZ") * n_w
-    fx = pair("FX") * n_w
-    lift = fz.sum(1)
-    wing_drag = n_w * pair("DRAG").sum(1)
-    if options.thrust_split == "sign":
-        thrust = n_w * pair("THRUST").sum(1)
-        drag = wing_drag
-    else:
-        thrust = fx.sum(1)
-        body_drag = 0.5 * insect.air_density * speed**2 * insect.body_drag_area
-        drag = body_drag * torch.cos(gamma)
-        lift = lift - body_drag * torch.sin(gamma)
-    aero = n_w * pair("P_AERO")
-    inertial = n_w * pair("P_INER")
-    if options.power == "absolute":
-        wing_power = aero + inertial
-    elif options.power == "elastic":
-        wing_power = n_w * pair("P_ELASTIC")
-    else:
-        wing_power = n_w * pair("P_AERO_POSITIVE")
-    power = wing_power.sum(1)
-    power_per_mass = power / insect.body_mass
-    powered = power > 0.0
-    efficiency = torch.where(
-        powered,
-        torch.clamp(thrust, min=0.0) * speed / torch.where(powered, power, torch.ones_like(power)),
-        0.0,
-    )
-    lift_to_weight = lift / weight
-    excess_vertical = lift_to_weight - 1.0
-    excess_horizontal = (thrust - drag) / weight
-    aoa = torch.rad2deg(pair("AOA"))
-    return {
-        "lift_to_weight": lift_to_weight,
-        "thrust": thrust,
-        "drag": drag,
-        "power": power,
-        "power_per_mass": power_per_mass,
-        "efficiency": efficiency,
-        "excess_vertical": excess_vertical,
-        "excess_horizontal": excess_horizontal,
-        "excess_total": torch.hypot(excess_vertical, excess_horizontal),
-        "excess_horizontal_literal": wing_drag / weight,
-        "mean_angle_of_attack": aoa.mean(1),
-        "efficiency_above_one": efficiency > 1.0,
-        "induction_converged": fore["CONVERGED"] & hind["CONVERGED"],
-        "induction_evaluations": torch.maximum(fore["EVALS"], hind["EVALS"]),
-        "fore_lift_to_weight": fz[:, 0] / weight,
-        "hind_lift_to_weight": fz[:, 1] / weight,
-        "fore_horizontal_force": fx[:, 0],
-        "hind_horizontal_force": fx[:, 1],
-        "fore_power": wing_power[:, 0],
-        "hind_power": wing_power[:, 1],
-        "fore_aero_power": aero[:, 0],
-        "hind_aero_power": aero[:, 1],
-        "fore_inertial_power": inertial[:, 0],
-        "hind_inertial_power": inertial[:, 1],
-        "fore_mean_angle_of_attack": aoa[:, 0],
-        "hind_mean_angle_of_attack": aoa[:, 1],
-        "fore_inflow": fore["INFLOW"],
-        "hind_inflow": hind["INFLOW"],
-        "speed": speed,
-        "flight_path_angle": gamma,
-        "available_power": available_power,
-    }
-
-
 def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, compiled):
-    # degrees to radians as kinematics.wing_params_radians (built in float64, then cast)
-    scale = torch.as_tensor(
-        np.where(ANGULAR[:N_PER_WING], np.pi / 180.0, 1.0),
-        dtype=strokes.dtype,
-        device=strokes.device,
-    )
     wings = []
     inflow_fore = None
     fore = {}
     for index, geometry in enumerate((insect.fore, insect.hind)):
-        params = strokes[:, index * N_PER_WING : (index + 1) * N_PER_WING] * scale
+        params = wing_params_radians(
+            strokes[:, index * N_PER_WING : (index + 1) * N_PER_WING], TORCH
+        )
         frequency, sweep_amplitude, beta = params[:, 0], params[:, 1], params[:, 13]
-        angles, weight, phase = _angle_history(params, options.n_time)
+        angles, weight, phase = batched_angle_history(params, options.n_time, TORCH)
         frame = _frame(angles, weight, beta, options.spin == "total")
         nodes, consts = wing_tables(geometry, options.n_blade, insect.air_density)
         wing = _Wing(frame, nodes, consts, insect.air_density, strokes, compiled)
-        # the free stream in the stroke plane (model.freestream_components) and the hover mask
-        # (model.inflow_switched_off)
-        angle = beta + gamma
-        vt = speed * torch.cos(angle)
-        vn = speed * torch.sin(angle)
-        off = (
-            (vn.detach().abs() < HOVER_NORMAL_SPEED)
-            if options.hover_inflow == "none"
-            else torch.zeros_like(vn, dtype=torch.bool)
-        )
+        vt, vn = stroke_plane_speeds(speed, beta, gamma, TORCH)
+        off = inflow_switched_off(vn, options, TORCH)
         vn0 = vn[:, None].expand(-1, nodes.shape[0])
         coupled = options.induction == "coupled"
         convected = coupled and options.slipstream == "convected"
@@ -938,7 +824,12 @@ def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, com
             }  # fmt: skip
         inflow_fore = inflow
         wings.append(out)
-    return _performance(wings, speed, gamma, available_power, insect, options)
+    fore, hind = wings
+
+    def means(key: str) -> torch.Tensor:
+        return torch.stack([fore[key], hind[key]], dim=1)
+
+    return flight_performance(means, speed, gamma, available_power, insect, options, TORCH)
 
 
 def evaluate_torch(
@@ -979,10 +870,7 @@ def evaluate_torch(
         ``Result``'s fields as (B,) tensors on the strokes' device (bool and int64 where
         ``Result`` has them); ``.to_numpy()`` gives the ``Result``.
     """
-    if not isinstance(insect, Dragonfly):
-        raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
-    if not isinstance(options, ModelOptions):
-        raise ValueError(f"options must be a ModelOptions; got {type(options).__name__}")
+    check_model_inputs(insect, options)
     for name, wing in (("fore", insect.fore), ("hind", insect.hind)):
         if not isinstance(wing.coefficients, PaperCoefficients):
             raise ValueError(
@@ -1119,9 +1007,9 @@ def normalised_jacobian(
     """Metrics of normalised strokes and their Jacobian w.r.t. the normalised coordinates, from
     ONE :func:`evaluate_torch` call (float64, on ``device``; None: the CPU).
 
-    ``actions``: (B, 28) normalised strokes in [-1, 1] (:func:`stroke.normalised_to_physical`'s
-    map, from the same Table 4 bounds, here in torch so autograd goes through it: linear per
-    coordinate, N a step, so its column is 0). ``metrics``: functions of the
+    ``actions``: (B, 28) normalised strokes in [-1, 1] (:func:`stroke.map_normalised`, the map
+    of :func:`stroke.normalised_to_physical`, here on tensors so autograd goes through it: linear
+    per coordinate, N a step, so its column is 0). ``metrics``: functions of the
     :class:`TorchResult` returning (B,) tensors (array-agnostic arithmetic on its fields).
     Returns the numpy :class:`Result`, the (B, m) metric values and their (B, m, 28) Jacobian,
     one backward pass per metric through the one forward graph (each stroke's metrics depend on
@@ -1142,14 +1030,8 @@ def normalised_jacobian(
     dev = resolve_device(device)
     a = torch.as_tensor(np.atleast_2d(np.asarray(actions, dtype=np.float64)), device=dev)
     a = a.clamp(-1.0, 1.0).requires_grad_(True)
-    low, high = (torch.as_tensor(bound, device=dev) for bound in (LOWER, UPPER))
-    discrete = torch.as_tensor(DISCRETE, device=dev)
     with torch.enable_grad():
-        continuous = low + 0.5 * (a + 1.0) * (high - low)
-        harmonic = torch.where(a < 0.0, 1.0, 2.0).to(a.dtype)
-        result = evaluate_torch(
-            torch.where(discrete, harmonic, continuous), speed, available_power, **kwargs
-        )
+        result = evaluate_torch(map_normalised(a, TORCH), speed, available_power, **kwargs)
         values = [metric(result) for metric in metrics]
         for k, value in enumerate(values):
             _check_metric_values(value, f"metrics[{k}]", a.shape[0])

@@ -8,11 +8,14 @@ import pytest
 import tandem_env as te
 from tandem_env import MeasuredWing, ModelOptions, evaluate, evaluate_measured
 from tandem_env.physics import blade
+from tandem_env.physics.cycle import fill_angle_batch
 from tandem_env.physics.kinematics import (
     MAX_SWEEP_SHAPE,
-    angle_histories,
+    batched_angle_history,
     fill_angles,
+    grid_phases,
     measured_angle_history,
+    motion_grid,
     wing_params_radians,
 )
 
@@ -146,9 +149,12 @@ def test_sweep_shape_cap_changes_the_triangle_wave_by_less_than_half_a_percent_o
 def test_motion_following_grid_integrates_exactly(sweep_shape: float) -> None:
     physical = te.normalised_to_physical(np.random.default_rng(3).uniform(-1, 1, 28))[:14]
     physical[10] = sweep_shape
-    angles, weight, fraction = angle_histories(physical[None, :], 64)
+    angles = np.empty((1, 64, 9))
+    weight = np.empty((1, 64))
+    fill_angle_batch(wing_params_radians(physical[None, :]), 64, angles, weight)
+    tau = motion_grid(wing_params_radians(physical[None, :]), 64)[0]
     assert weight.mean() == pytest.approx(1.0, rel=1e-12)
-    assert np.all(np.diff(fraction[0]) > 0) and np.all(weight > 0)
+    assert np.all(np.diff(tau[0]) > 0) and np.all(weight > 0)
     # mean of φ over the cycle is φ_0; of θ is θ_0 (odd parts average out)
     assert np.mean(angles[0, :, 0] * weight[0]) == pytest.approx(np.deg2rad(physical[4]), abs=1e-12)
     assert np.mean(angles[0, :, 3] * weight[0]) == pytest.approx(np.deg2rad(physical[5]), abs=1e-12)
@@ -156,6 +162,29 @@ def test_motion_following_grid_integrates_exactly(sweep_shape: float) -> None:
     assert np.mean(angles[0, :, 1] * weight[0]) == pytest.approx(
         0.0, abs=1e-9 * np.abs(angles[0, :, 1]).max()
     )
+
+
+@pytest.mark.parametrize("n_time", [63, 128])
+def test_batched_angle_history_is_the_compiled_one_on_whole_arrays(n_time: int) -> None:
+    """The angle history written once over an array namespace (the torch backend's kinematics)
+    equals the compiled per-sample loop, extremes of K and C_η included: to rounding only, since
+    numpy's vectorised arcsin and tanh are not libm's."""
+    physical = te.normalised_to_physical(np.random.default_rng(5).uniform(-1, 1, (40, 28)))[:, :14]
+    physical[:5, 10] = [1.0, 0.999, 0.01, 0.5, 1.0]
+    physical[:5, 12] = [5.0, 0.01, 5.0, 0.01, 0.01]
+    params = wing_params_radians(physical)
+    angles = np.empty((physical.shape[0], n_time, 9))
+    weight = np.empty((physical.shape[0], n_time))
+    fill_angle_batch(params, n_time, angles, weight)  # the compiled kernel's, per sample
+    got, got_weight, tau = batched_angle_history(params, n_time)
+    np.testing.assert_array_equal(got_weight, weight)
+    want_tau = np.empty(n_time)
+    for b in range(physical.shape[0]):
+        grid_phases(params[b], n_time, want_tau, np.empty(n_time))
+        np.testing.assert_array_equal(tau[b], want_tau)
+    for column in range(9):
+        want = angles[:, :, column]
+        np.testing.assert_allclose(got[column], want, rtol=0, atol=1e-13 * np.abs(want).max())
 
 
 def test_spectral_derivatives_of_measured_series() -> None:

@@ -15,6 +15,7 @@ import pytest
 
 import tandem_env as te
 from tandem_env.physics import cycle, model
+from tandem_env.physics.kinematics import motion_grid
 from tandem_env.physics.options import ModelOptions
 
 MEAN = ModelOptions()
@@ -218,7 +219,7 @@ def test_convected_wake_is_the_shifted_linearised_momentum_fluctuation():
     params = np.zeros((2, 14))
     params[:, 10] = (0.9, 0.3)  # K: the two grids crowd differently
     params[:, 7] = (0.4, -1.1)  # Φ_φ: and at other reversals
-    phases = model.grid_phases(params, n)
+    phases = motion_grid(params, n)[0]
     s = 2.0 * np.pi * np.arange(n) / n
     weight = 1.0 - params[0, 10] ** 2 * np.cos(2.0 * (s - (0.5 * np.pi - params[0, 7])))
 

@@ -1,0 +1,80 @@
+"""Array namespaces: the few operations in which numpy and torch differ, so that the model code
+outside the compiled kernel (the angle histories of ``kinematics``, the free stream, the hover
+mask and the flight performance of ``model``) is written once for both backends (docs/model.md
+§10).
+
+:data:`NUMPY` is numpy's; the torch backend builds its own :class:`ArrayNamespace` from torch in
+``torch_model`` (this module imports no torch). Its functions carry numpy's names, so a
+numba-compiled elementwise function, which calls ``np.<name>``, runs on either array type through
+:func:`on_namespace`. Everything else the shared code needs works on both array types as it is:
+arithmetic, comparisons, indexing, ``.sum(1)``, ``.mean(1)``.
+"""
+
+from __future__ import annotations
+
+import types
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cache
+from typing import Any
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ArrayNamespace:
+    """An array module (numpy or torch) and the few operations in which the two differ.
+
+    Any other name is the module's own: ``sin``, ``cos``, ``arcsin``, ``tanh``, ``sqrt``,
+    ``abs``, ``hypot``, ``rad2deg`` and ``where`` (``where(condition, x, y)``, y may be a
+    Python number) mean the same in both.
+    """
+
+    module: Any
+    maximum: Callable[[Any, float], Any]
+    """maximum(x, low): max(x, low) elementwise, ``low`` a Python number (so ``minimum``)."""
+    minimum: Callable[[Any, float], Any]
+    all_along: Callable[[Any, int], Any]
+    """all_along(x, axis): logical and along an axis (so ``max_along``: values only)."""
+    max_along: Callable[[Any, int], Any]
+    as_int64: Callable[[Any], Any]
+    zeros_bool: Callable[[Any], Any]
+    """zeros_bool(x): False everywhere, x's shape (and device)."""
+    arange_like: Callable[[int, Any], Any]
+    """arange_like(n, x): 0, 1, …, n − 1 in x's floating dtype (and on its device)."""
+    constant_like: Callable[[np.ndarray, Any], Any]
+    """constant_like(a, x): a numpy constant ``a`` to combine with x (numpy: ``a`` itself;
+    torch: a tensor in x's dtype on x's device)."""
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__"):  # no module lookups while copying or unpickling
+            raise AttributeError(name)
+        return getattr(self.module, name)
+
+
+NUMPY = ArrayNamespace(
+    module=np,
+    maximum=np.maximum,
+    minimum=np.minimum,
+    all_along=lambda x, axis: np.all(x, axis=axis),
+    max_along=lambda x, axis: np.max(x, axis=axis),
+    as_int64=lambda x: x.astype(np.int64),
+    zeros_bool=lambda x: np.zeros(x.shape, dtype=bool),
+    arange_like=lambda n, x: np.arange(n, dtype=x.dtype),
+    constant_like=lambda a, x: a,
+)
+
+
+@cache
+def on_namespace(kernel: Callable, xp: ArrayNamespace) -> Callable:
+    """The pure-Python body of a numba-compiled elementwise function (its ``py_func``) with the
+    name ``np`` in it bound to ``xp``: the same formulas, compiled for numba's scalars, run on
+    broadcast numpy or torch arrays. The function may call only ``np.<name>`` that ``xp`` has."""
+    body = getattr(kernel, "py_func", kernel)
+    return types.FunctionType(
+        body.__code__,
+        {**body.__globals__, "np": xp},
+        body.__name__,
+        body.__defaults__,
+        body.__closure__,
+    )
