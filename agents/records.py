@@ -24,6 +24,7 @@ from typing import Any
 import tandem_env
 from agents.jobs import OLD_SCHEMAS, SCHEMA, Job
 from agents.tasks import Condition
+from tandem_env.envs.reference import record_score
 from tandem_env.io.files import read_json, to_jsonable
 
 __all__ = [
@@ -254,6 +255,20 @@ class Record:
         return dict(self.results.get(CERTIFICATE, {}))
 
     @property
+    def score(self) -> float:
+        """The normalised score of the reported stroke against the reference optimum at its
+        condition [-] (100 = the reference; :func:`tandem_env.envs.reference.record_score`):
+        NaN where the reference table does not apply (another model, insect or condition)."""
+        return record_score(
+            self.env_id,
+            self.results["env"],
+            self.job.condition,
+            self.objective,
+            self.feasible,
+            float(self.metrics.get("constraint_violation", math.nan)),
+        )
+
+    @property
     def normalised_stroke(self) -> tuple[float, ...]:
         """The stroke as the 28 normalised action values in [-1, 1]."""
         return tuple(self.results["normalised_stroke"])
@@ -387,6 +402,7 @@ class Record:
             "objective": self.objective,
             "reward": self.reward,
             "feasible": self.feasible,
+            "score": self.score,
             "wall_time_s": self.wall_time,
         }
         for name in SUMMARY_METRICS:

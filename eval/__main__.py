@@ -32,6 +32,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "eval.study",
     "eval.measured",
     "eval.speed_change",
+    "eval.reference",
     "eval.numbers",
     "eval.show",
     "eval.crosscheck",

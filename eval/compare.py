@@ -126,6 +126,10 @@ class Row:
     NaN where no seed was polished."""
     kkt_residual_median: float = math.nan
     """Median first-order optimality residual of the reported strokes [-] (NaN: none known)."""
+    score_median: float = math.nan
+    """Median over the seeds of the normalised score (100 = the reference optimum; ≤ 0 for a
+    stroke that does not fly; :attr:`agents.records.Record.score`) [-]; NaN where the
+    reference table does not apply."""
 
     @property
     def objective_iqr(self) -> float:
@@ -155,6 +159,7 @@ class Row:
             "wall_time_median_s": self.wall_time_median_s,
             "polish_gain_median": self.polish_gain_median,
             "kkt_residual_median": self.kkt_residual_median,
+            "score_median": self.score_median,
         }
 
 
@@ -284,14 +289,18 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
                     wall_time_median_s=float(np.median([r.wall_time for r in runs])),
                     polish_gain_median=_certificate_median(runs, "gain"),
                     kkt_residual_median=_certificate_median(runs, "kkt_residual"),
+                    score_median=_median_known([r.score for r in runs]),
                 )
             )
     return rows
 
 
 def _certificate_median(runs: Sequence[Record], name: str) -> float:
-    values = [r.certificate.get(name) for r in runs]
-    known = [float(v) for v in values if v is not None]
+    return _median_known([r.certificate.get(name) for r in runs])
+
+
+def _median_known(values: Sequence[float | None]) -> float:
+    known = [float(v) for v in values if v is not None and not math.isnan(float(v))]
     return float(np.median(known)) if known else math.nan
 
 
@@ -304,7 +313,7 @@ def comparison_markdown(rows: Sequence[Row]) -> str:
     header = (
         "| task | objective | condition | method | budget | seeds | median | IQR (25-75 %) "
         "| spread | best | median of feasible | median reward | feasible | median evaluations "
-        "| median wall time [s] | median polish gain | median KKT residual |"
+        "| median wall time [s] | median polish gain | median KKT residual | median score |"
     )
     lines = [header, "|" + "---|" * header.count(" | ") + "---|"]
     for r in rows:
@@ -328,10 +337,13 @@ def comparison_markdown(rows: Sequence[Row]) -> str:
                 if math.isnan(r.polish_gain_median)
                 else f"{100 * r.polish_gain_median:+.2f} %"
             )
-            + f" | {_fmt(r.kkt_residual_median, 2)} |"
+            + f" | {_fmt(r.kkt_residual_median, 2)} | {_fmt(r.score_median, 4)} |"
         )
     notes = [
         "spread = (max - min) / |median| of the objective over the seeds.",
+        "score = 100 · objective / the reference optimum at the condition for a stroke that "
+        "flies, -100 · min(1, violation) for one that does not (docs/reference.md); n/a where "
+        "the reference does not apply.",
     ]
     if any(r.distinct for r in rows):
         notes.append("In brackets: the settings that tell a row from the others of its condition.")

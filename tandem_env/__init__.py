@@ -12,6 +12,11 @@ from .envs.registration import register_envs as _register_envs
 
 _register_envs()
 
+# The reference optima and the normalised score (docs/reference.md).
+from .envs.reference import normalised_score, reference  # noqa: E402  (after the ids' registration)
+
+__all__ += ["normalised_score", "reference"]
+
 
 def __getattr__(name: str):
     """``evaluate_torch`` and ``TorchResult`` (the torch backend), imported on first use."""

@@ -1,8 +1,9 @@
 """Callbacks of a training run: physical metrics to TensorBoard, and an EvalCallback that resumes.
 
 SB3's own logger only knows rewards; here every vector step's ``info`` dicts (the model's
-metrics of each evaluated stroke) are averaged into ``physics/*`` scalars, and the best stroke
-seen so far (from :class:`~train.vec.StrokeRecorder`) is logged beside them.
+metrics of each evaluated stroke, with its normalised score against the reference optimum,
+docs/reference.md) are averaged into ``physics/*`` scalars, and the best stroke seen so far
+(from :class:`~train.vec.StrokeRecorder`) is logged beside them.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ LOGGED_METRICS: tuple[str, ...] = (
     "power_per_mass",
     "constraint_violation",
     "feasible",
+    "score",
 )
 
 
@@ -38,7 +40,8 @@ class PhysicsLogger(BaseCallback):
     def _on_step(self) -> bool:
         infos = self.locals.get("infos") or ()
         for name in LOGGED_METRICS:
-            values = [info[name] for info in infos if name in info]
+            # NaN: a metric the step does not define (the score where no reference applies)
+            values = [info[name] for info in infos if name in info and info[name] == info[name]]
             if values:
                 self.logger.record_mean(f"physics/{name}", float(np.mean(values)))
         if self.recorder.best_info is not None:
@@ -47,6 +50,9 @@ class PhysicsLogger(BaseCallback):
             self.logger.record(
                 "physics/best_objective", float(self.recorder.best_info["objective"])
             )
+            best_score = float(self.recorder.best_info.get("score", np.nan))
+            if not np.isnan(best_score):
+                self.logger.record("physics/best_score", best_score)
         self.logger.record("physics/evaluations", self.recorder.evaluations)
         return True
 

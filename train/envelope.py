@@ -10,7 +10,8 @@ gathers them::
         --env-kwargs "speed_range=(0.25, 2.0)" -n 300000
     python -m train.envelope --run logs/sac/TandemWing-LevelFlight-v0_1 --out results/envelope-sac
 
-writes ``results/envelope-sac/envelope.csv`` (condition, objective, efficiency, feasible,
+writes ``results/envelope-sac/envelope.csv`` (condition, objective, feasible, the normalised
+score against the reference optimum (docs/reference.md), efficiency,
 evaluations spent, ...) and the records in ``results/envelope-sac/records/``.
 """
 
@@ -40,6 +41,7 @@ COLUMNS: tuple[str, ...] = (
     "objective",
     "reward",
     "feasible",
+    "score",
     "efficiency",
     "lift_to_weight",
     "power_per_mass",
@@ -141,6 +143,7 @@ def evaluate_envelope(
                 "objective": record.objective,
                 "reward": record.reward,
                 "feasible": record.feasible,
+                "score": record.score,
                 **{k: metrics.get(k) for k in COLUMNS if k in metrics},
                 "trained_at": policy.trained_at(float(value)),
                 "evaluations": record.evaluations,
@@ -181,6 +184,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(
             f"{row['condition']} = {row['condition_value']:g} {row['condition_unit']}: "
             f"{row['objective_name']} = {row['objective']:.4g}, feasible {row['feasible']}, "
+            f"score {row['score']:.1f}, "
             f"{row['evaluations']} evaluation(s)"
             + ("" if row["trained_at"] else " (outside training)")
         )

@@ -20,8 +20,8 @@ commands, date, machine and load), and the Markdown is rendered from that file a
   them: the comparison of methods, the benchmarks of the model, the torch port and the envs,
   SpeedChange's random and steady baselines, the quick preset's and a training run's time,
   readings of the model on random strokes, the resolution study of the defaults, the optimum
-  of a second species and, on request, the cross-check's lag study and the readings study at
-  the paper preset).
+  of a second species, the reference optima as packaged and, on request, the cross-check's
+  lag study and the readings study at the paper preset).
 
 This package is a small framework (:mod:`eval.numbers.framework`: where numbers live, the
 machine, the documented commands) and one module per measurement. Adding a number is one
@@ -47,6 +47,7 @@ from eval.numbers import (
     power_conventions,
     quick_preset,
     readings_paper,
+    reference_table,
     rotational_coefficient,
     second_species,
     speed_change,
@@ -126,6 +127,11 @@ MEASUREMENTS: dict[str, Measurement] = {
             "second-species",
             second_species.measure_second_species,
             second_species.render_second_species,
+        ),
+        Measurement(
+            "reference-table",
+            reference_table.measure_reference_table,
+            reference_table.render_reference_table,
         ),
         Measurement(
             "crosscheck-lag-study",

@@ -46,6 +46,7 @@ from .columns import Columns, add_columns, row, take_columns
 from .config import FlightConfig
 from .declaration import TaskDeclaration
 from .problem import FlightProblem
+from .reference import ConfigReference
 from .render import Frame, LastStep, RenderWindow, frame_for
 from .step_batch import StepBatch
 from .validate import (
@@ -127,6 +128,8 @@ class FlightCore:
         condition = config.declared_condition
         self._options = (condition.keyword,)
         self._renamed = condition.renamed()
+        self.reference = ConfigReference(config)
+        """The reference optima this config's strokes are scored against (or none)."""
 
     @property
     def declaration(self) -> TaskDeclaration:
@@ -186,12 +189,15 @@ class FlightCore:
         batched model call, and score it by the task's declaration."""
         speed, power = self.flight_conditions(values)
         result = fly(self.config, physical, speed, power)
+        objective = getattr(result, self.config.objective_metric)
+        scores = self.declaration.score(result, self.config)
         return StepBatch.scored(
             physical,
             result,
-            getattr(result, self.config.objective_metric),
-            self.declaration.score(result, self.config),
+            objective,
+            scores,
             self.config.penalty,
+            self.reference.score(values, objective, scores.feasible, scores.total),
         )
 
     def problem(self) -> FlightProblem:

@@ -35,6 +35,10 @@ class StepBatch:
     """(B,) reward lost to the constraints [reward units] (exactly 0 when feasible)."""
     reward: np.ndarray
     """(B,) objective − penalty."""
+    score: np.ndarray | None
+    """(B,) the normalised score [-]: 100 at the reference optimum, ≤ 0 where infeasible, NaN
+    outside the reference grid; None where the reference table does not describe the env
+    (:mod:`tandem_env.envs.reference`)."""
 
     @classmethod
     def scored(
@@ -44,11 +48,13 @@ class StepBatch:
         objective: np.ndarray,
         scores: Scores,
         penalty: PenaltyConfig,
+        score: np.ndarray | None = None,
     ) -> StepBatch:
         """The batch of a task's objective and constraints, its reward penalised by the env's
-        ``penalty`` (exactly the objective where feasible)."""
+        ``penalty`` (exactly the objective where feasible), with the strokes' normalised
+        ``score`` where a reference applies."""
         lost = penalty.penalty(scores.total, scores.feasible)
-        return cls(physical, result, objective, scores, lost, objective - lost)
+        return cls(physical, result, objective, scores, lost, objective - lost, score)
 
     def __len__(self) -> int:
         return int(self.reward.shape[0])
@@ -80,6 +86,8 @@ class StepBatch:
         columns["constraint_violation"] = self.scores.total
         columns["penalty"] = self.penalty
         columns["feasible"] = self.scores.feasible
+        if self.score is not None:
+            columns["score"] = self.score
         stroke: Columns = {}
         for j, name in enumerate(PARAMETER_NAMES):
             column = self.physical[:, j]

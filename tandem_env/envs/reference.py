@@ -1,0 +1,339 @@
+"""Reference optima and normalised scores: how good a stroke is, against the best one known.
+
+The reference table (``tandem_env/data/reference_optima.json``, made by ``python -m eval
+reference``) holds, for each task, objective and planform, the certified optimum (the harness's
+CMA-ES with its polish, the best of several seeds, each with its certificate) at every condition
+of :data:`REFERENCE_GRID`:
+
+* level flight (``TandemWing/LevelFlight-v0``, η = T·V/P): V = 0.25 to 2 m/s in steps of
+  0.125, the task's envelope (below it the env needs a wider ``speed_envelope``, and in hover
+  η = 0 for every stroke: there is nothing to normalise by);
+* accelerating flight (``TandemWing/Accelerate-v0``; F̄_v, F̄_h and F̄_a: the objectives
+  ``vertical``, ``horizontal``, ``resultant``): P_avail = 50 to 90 W/kg in steps of 5;
+* both planforms (tear-drop and real).
+
+It was made with the defaults: the model options, the insect of each planform and the task's
+constraint settings, hashed together per series (:func:`problem_fingerprint`). A series applies
+to an env whose fingerprint is the same; ``tests/envs/test_reference.py`` fails when the
+defaults no longer match the file (the table is then regenerated, ``python -m eval
+reference``).
+
+:func:`reference` is the reference objective at any condition inside the grid, linear between
+grid points (the optima vary smoothly with the condition on the grid's scale: docs/reference.md
+shows them), and a ValueError naming the grid outside it. :func:`normalised_score` is the
+score of a stroke (D4RL-style, 100 = the reference):
+
+* a feasible stroke scores ``100 · objective / reference``;
+* an infeasible one scores ``-100 · min(1, v)``, with v the sum of the task's normalised
+  constraint violations (``info["constraint_violation"]``): ≤ 0, closer to 0 the nearer the
+  stroke is to flying;
+* outside the grid the score is NaN; an env whose fingerprint differs from the table's has none
+  (its info has no ``score``; a record's is NaN).
+
+For a policy meant for the whole envelope, the grid is split into training and held-out
+conditions (:func:`training_conditions`, :func:`held_out_conditions`: every other point).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass
+from importlib import resources
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from tandem_env.envs.config import EXECUTION_KWARGS, FlightConfig
+from tandem_env.envs.registration import ACCELERATE_ID, LEVEL_FLIGHT_ID, config_class
+from tandem_env.io.files import to_jsonable
+from tandem_env.physics.insect import PLANFORMS
+
+__all__ = [
+    "REFERENCE_FORMAT",
+    "REFERENCE_GRID",
+    "ReferenceSeries",
+    "ReferenceTable",
+    "held_out_conditions",
+    "load_reference_table",
+    "normalised_score",
+    "problem_fingerprint",
+    "record_score",
+    "reference",
+    "reference_series",
+    "training_conditions",
+]
+
+#: Identifies the reference table's format.
+REFERENCE_FORMAT = "tandem_env.reference-optima/1"
+
+
+def _grid(low: float, high: float, step: float) -> tuple[float, ...]:
+    count = round((high - low) / step)
+    return tuple(round(low + i * step, 9) for i in range(count + 1))
+
+
+#: The conditions of the table, per env id: (objectives, conditions [the condition's unit]).
+REFERENCE_GRID: Mapping[str, tuple[tuple[str, ...], tuple[float, ...]]] = {
+    LEVEL_FLIGHT_ID: (("efficiency",), _grid(0.25, 2.0, 0.125)),
+    ACCELERATE_ID: (("vertical", "horizontal", "resultant"), _grid(50.0, 90.0, 5.0)),
+}
+
+
+def held_out_conditions(env_id: str) -> tuple[float, ...]:
+    """The grid's held-out conditions of ``env_id``: every other point, from the second
+    (level flight: V = 0.375, 0.625, ..., 1.875 m/s; accelerating flight: P_avail = 55, 65,
+    75, 85 W/kg). A policy for the whole envelope is trained at the others
+    (:func:`training_conditions`, the envelope's ends among them) and judged at these."""
+    return REFERENCE_GRID[env_id][1][1::2]
+
+
+def training_conditions(env_id: str) -> tuple[float, ...]:
+    """The grid's training conditions of ``env_id``: those :func:`held_out_conditions` leaves."""
+    return REFERENCE_GRID[env_id][1][0::2]
+
+
+# Fields of a config that do not change the problem a reference solves: how the model is
+# computed, how actions are read, how infeasible strokes are penalised (the reference is the
+# best feasible objective, whatever the search's penalty), and the condition (per grid point).
+_NOT_THE_PROBLEM = (*EXECUTION_KWARGS, "clip_actions", "penalty")
+
+
+def problem_fingerprint(config: FlightConfig) -> str:
+    """The hash of what decides a task's optimum at a given condition: the model options, the
+    insect (its planform included) and the task's other settings (constraint tolerance, the
+    accelerating flight's speed), not the condition, the objective or how the model runs."""
+    return config_fingerprint(type(config), to_jsonable(config))
+
+
+def config_fingerprint(config_type: type[FlightConfig], data: Mapping[str, Any]) -> str:
+    """:func:`problem_fingerprint` of a config as JSON (``to_jsonable(config)``, what a harness
+    record keeps as its ``env``)."""
+    condition = config_type.CONDITION
+    assert condition is not None, config_type
+    dropped = {
+        *_NOT_THE_PROBLEM,
+        "description",
+        "objective",
+        condition.keyword,
+        condition.range_keyword,
+        condition.envelope_keyword,
+    }
+    kept = {k: v for k, v in data.items() if k not in dropped}
+    text = json.dumps({"task": config_type.name, **kept}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+def default_fingerprint(env_id: str, planform: str) -> str:
+    """:func:`problem_fingerprint` of ``env_id``'s default config with ``planform``'s wings."""
+    return problem_fingerprint(config_class(env_id).from_kwargs(planform=planform))
+
+
+@dataclass(frozen=True)
+class ReferenceSeries:
+    """The reference optima of one task, objective and planform over its grid."""
+
+    env_id: str
+    objective: str
+    planform: str
+    fingerprint: str
+    """:func:`problem_fingerprint` of the configs the optima were found with."""
+    conditions: tuple[float, ...]
+    """The grid [the condition's unit], increasing."""
+    objectives: tuple[float, ...]
+    """The best feasible objective at each condition [the objective's unit]."""
+    points: tuple[Mapping[str, Any], ...]
+    """Per condition: the stroke (normalised), every seed's objective and the certificate."""
+
+    def at(self, condition: ArrayLike) -> NDArray[np.float64]:
+        """The reference objective at ``condition`` (linear between grid points; NaN outside)."""
+        value = np.asarray(condition, dtype=float)
+        inside = (value >= self.conditions[0]) & (value <= self.conditions[-1])
+        return np.where(inside, np.interp(value, self.conditions, self.objectives), np.nan)
+
+
+@dataclass(frozen=True)
+class ReferenceTable:
+    """The whole table: every series and how it was made."""
+
+    series: tuple[ReferenceSeries, ...]
+    provenance: Mapping[str, Any]
+    """The command, package versions, date, budgets and seeds it was made with."""
+
+    def get(self, env_id: str, objective: str, planform: str) -> ReferenceSeries:
+        """The series of ``env_id``, ``objective`` and ``planform``; ValueError naming what the
+        table holds otherwise."""
+        for series in self.series:
+            if (series.env_id, series.objective, series.planform) == (env_id, objective, planform):
+                return series
+        held = sorted({(s.env_id, s.objective) for s in self.series})
+        raise ValueError(
+            f"no reference for {env_id} objective {objective!r} planform {planform!r}; allowed: "
+            + "; ".join(f"{e} {o!r}" for e, o in held)
+            + f", planform one of {', '.join(map(repr, PLANFORMS))}"
+        )
+
+    def find(self, env_id: str, objective: str, fingerprint: str) -> ReferenceSeries | None:
+        """The series of ``env_id`` and ``objective`` made with the problem ``fingerprint``
+        (:func:`problem_fingerprint`; it tells the planforms apart), or None."""
+        for series in self.series:
+            if (series.env_id, series.objective, series.fingerprint) == (
+                env_id,
+                objective,
+                fingerprint,
+            ):
+                return series
+        return None
+
+    @classmethod
+    def from_dict(cls, data: Any) -> ReferenceTable:
+        if not isinstance(data, Mapping) or data.get("format") != REFERENCE_FORMAT:
+            raise ValueError(f"not a reference table of format {REFERENCE_FORMAT!r}")
+        series = []
+        for entry in data["series"]:
+            points = tuple(entry["points"])
+            series.append(
+                ReferenceSeries(
+                    env_id=entry["env_id"],
+                    objective=entry["objective"],
+                    planform=entry["planform"],
+                    fingerprint=entry["fingerprint"],
+                    conditions=tuple(float(p["condition"]) for p in points),
+                    objectives=tuple(float(p["objective"]) for p in points),
+                    points=points,
+                )
+            )
+        return cls(tuple(series), dict(data["provenance"]))
+
+
+def reference_path() -> Any:
+    """The packaged reference table (a :mod:`importlib.resources` traversable)."""
+    return resources.files("tandem_env").joinpath("data", "reference_optima.json")
+
+
+@functools.cache
+def load_reference_table() -> ReferenceTable:
+    """The packaged reference table, read once (plain JSON)."""
+    return ReferenceTable.from_dict(json.loads(reference_path().read_text(encoding="utf-8")))
+
+
+def _objective(env_id: str, objective: str | None) -> str:
+    declared = config_class(env_id).OBJECTIVES
+    if declared is None:
+        raise ValueError(f"{env_id} declares no objectives; no reference")
+    return declared.default if objective is None else objective
+
+
+def reference_series(
+    env_id: str, *, objective: str | None = None, planform: str = "tear-drop"
+) -> ReferenceSeries:
+    """The table's series for ``env_id`` (``objective`` None: the env's default objective)."""
+    if env_id not in REFERENCE_GRID:
+        raise ValueError(
+            f"no reference for {env_id!r}; allowed: {', '.join(map(repr, REFERENCE_GRID))}"
+        )
+    return load_reference_table().get(env_id, _objective(env_id, objective), planform)
+
+
+def reference(
+    env_id: str,
+    condition: ArrayLike,
+    *,
+    objective: str | None = None,
+    planform: str = "tear-drop",
+) -> float | NDArray[np.float64]:
+    """The reference objective at ``condition`` [the task's condition unit] of the default
+    model: linear between the grid's points; ValueError naming the grid outside it.
+
+    ``objective`` None is the env's default objective (level flight: η; accelerating flight:
+    F̄_v, ``"vertical"``).
+    """
+    series = reference_series(env_id, objective=objective, planform=planform)
+    values = series.at(condition)
+    if np.isnan(values).any():
+        low, high = series.conditions[0], series.conditions[-1]
+        raise ValueError(
+            f"condition = {condition!r} is outside the reference grid of {env_id} "
+            f"({low:g} to {high:g}); allowed: a value in [{low:g}, {high:g}]"
+        )
+    return float(values) if values.ndim == 0 else values
+
+
+def normalised_score(
+    reference_objective: ArrayLike,
+    objective: ArrayLike,
+    feasible: ArrayLike,
+    violation: ArrayLike,
+) -> NDArray[np.float64]:
+    """The normalised score (B,) of strokes [-100 to 100 and above; 100 = the reference]:
+    ``100 · objective / reference`` where feasible, else ``-100 · min(1, violation)``; NaN
+    where the reference is NaN or not positive (module docstring)."""
+    ref = np.asarray(reference_objective, dtype=float)
+    obj = np.asarray(objective, dtype=float)
+    flies = np.asarray(feasible, dtype=bool)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = 100.0 * obj / ref
+    infeasible = -100.0 * np.minimum(1.0, np.asarray(violation, dtype=float))
+    score = np.where(flies, ratio, infeasible)
+    return np.where(ref > 0, score, np.nan)
+
+
+def _applicable(config_type: type[FlightConfig], data: Mapping[str, Any]) -> ReferenceSeries | None:
+    """The table's series for a config given as JSON, or None (no table, another problem)."""
+    env_id = next((e for e in REFERENCE_GRID if config_class(e) is config_type), None)
+    objectives = config_type.OBJECTIVES
+    if env_id is None or objectives is None:
+        return None
+    objective = objectives.default if objectives.keyword is None else data.get(objectives.keyword)
+    try:
+        table = load_reference_table()
+    except FileNotFoundError:
+        return None
+    return table.find(env_id, str(objective), config_fingerprint(config_type, data))
+
+
+def record_score(
+    env_id: str,
+    env: Mapping[str, Any],
+    condition: float,
+    objective: float,
+    feasible: bool,
+    violation: float,
+) -> float:
+    """The normalised score of a stroke flown by the env of ``env_id`` configured as ``env``
+    (``to_jsonable(config)``, a harness record's ``env``) at ``condition``; NaN where the
+    table does not apply."""
+    if env_id not in REFERENCE_GRID:
+        return float("nan")
+    series = _applicable(config_class(env_id), env)
+    if series is None:
+        return float("nan")
+    return float(normalised_score(series.at(condition), objective, feasible, violation))
+
+
+class ConfigReference:
+    """The reference of one env config, or none: what its vector env scores its steps against.
+
+    The table's series applies when the config's :func:`problem_fingerprint` is the series';
+    otherwise (other model options, insect or tolerances, or no table) there is no score.
+    """
+
+    def __init__(self, config: FlightConfig) -> None:
+        self.series = _applicable(type(config), to_jsonable(config))
+
+    def score(
+        self,
+        condition: ArrayLike,
+        objective: ArrayLike,
+        feasible: ArrayLike,
+        violation: ArrayLike,
+    ) -> NDArray[np.float64] | None:
+        """The normalised scores (B,) of strokes flown at ``condition`` (B,) (NaN outside the
+        grid); None where the table does not apply (the info then has no ``score``, rather
+        than a NaN that would make equal steps compare unequal)."""
+        if self.series is None:
+            return None
+        return normalised_score(self.series.at(condition), objective, feasible, violation)
