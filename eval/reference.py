@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import os
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -30,10 +31,10 @@ from eval.optimize import add_cache_argument, add_scheduler_argument, stopped
 from tandem_env.envs.reference import (
     REFERENCE_FORMAT,
     REFERENCE_GRID,
-    default_fingerprint,
+    config_fingerprint,
     reference_path,
 )
-from tandem_env.io.command import command_line
+from tandem_env.envs.registration import config_class
 from tandem_env.io.files import write_json_atomic
 from tandem_env.physics.insect import PLANFORMS
 
@@ -112,9 +113,16 @@ def build_table(
 ) -> dict[str, Any]:
     """The reference table (format :data:`REFERENCE_FORMAT`) from the jobs' records."""
     series: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
+    fingerprints: dict[tuple[str, str, str], set[str]] = {}
     for (env_id, objective, planform, _), prepared in jobs.items():
-        point = _point([records[p.job.key] for p in prepared])
-        series.setdefault((env_id, objective, planform), []).append(point)
+        found = [records[p.job.key] for p in prepared]
+        series.setdefault((env_id, objective, planform), []).append(_point(found))
+        fingerprints.setdefault((env_id, objective, planform), set()).update(
+            config_fingerprint(config_class(env_id), r.results["env"]) for r in found
+        )
+    for key, seen in fingerprints.items():
+        if len(seen) != 1:  # the plan gives every job of a series the same env keywords
+            raise ValueError(f"the records of {key} were made with {len(seen)} configurations")
     return {
         "format": REFERENCE_FORMAT,
         "provenance": dict(provenance),
@@ -123,7 +131,7 @@ def build_table(
                 "env_id": env_id,
                 "objective": objective,
                 "planform": planform,
-                "fingerprint": default_fingerprint(env_id, planform),
+                "fingerprint": next(iter(fingerprints[env_id, objective, planform])),
                 "points": sorted(points, key=lambda p: p["condition"]),
             }
             for (env_id, objective, planform), points in series.items()
@@ -149,10 +157,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
-def _provenance(jobs: Iterable[PreparedJob]) -> dict[str, Any]:
+def provenance(jobs: Iterable[PreparedJob]) -> dict[str, Any]:
     seeds = sorted({p.job.seed for p in jobs})
     return {
-        "command": command_line(),
+        # where it ran (--scheduler, --out) does not change the table
+        "command": f"python -m eval {NAME}",
         "date": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
         "versions": package_versions(),
         "method": METHOD,
@@ -166,6 +175,12 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     table_path = Path(args.table) if args.table is not None else Path(str(reference_path()))
     if table_path.is_dir():
         parser.error(f"--table {table_path} is a folder; allowed: a JSON file's path")
+    if not table_path.parent.is_dir() or not os.access(table_path.parent, os.W_OK):
+        parser.error(
+            f"--table {table_path}: its folder {table_path.parent} does not exist or cannot be "
+            "written; allowed: a file in a writable folder (an installed package's table: give "
+            "--table PATH)"
+        )
     jobs = plan()
     flat = [p for prepared in jobs.values() for p in prepared]
     if not args.quiet:
@@ -188,7 +203,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         parser.error(str(error))
     except STOPS as error:
         return stopped(parser, error)
-    table = build_table(jobs, summary.records, _provenance(flat))
+    table = build_table(jobs, summary.records, provenance(flat))
     write_json_atomic(table_path, table)
     _report(table, Path(args.out))
     print(

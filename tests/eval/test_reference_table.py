@@ -1,0 +1,86 @@
+"""``python -m eval reference``: the plan of the reference table, its selection rule and its
+refusals (the full table is checked as data by tests/envs/test_reference.py)."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+
+from agents.runner import run_jobs
+from eval.reference import BUDGETS, SEEDS, build_table, plan, provenance
+from eval.reference_report import reference_markdown, write_reference_figure
+from tandem_env.envs import ACCELERATE_ID, LEVEL_FLIGHT_ID
+from tandem_env.envs.reference import (
+    REFERENCE_FORMAT,
+    REFERENCE_GRID,
+    ReferenceTable,
+    default_fingerprint,
+)
+
+SMALL = {"n_time": 32, "n_blade": 8}
+
+
+def test_the_plan_is_one_job_per_point_objective_planform_and_seed():
+    jobs = plan()
+    points = sum(len(objectives) * 2 * len(grid) for objectives, grid in REFERENCE_GRID.values())
+    assert len(jobs) == points == 84
+    for (env_id, objective, planform, condition), prepared in jobs.items():
+        assert [p.job.seed for p in prepared] == list(SEEDS)
+        first = prepared[0].job
+        assert first.method == "cmaes" and first.budget == BUDGETS[env_id]
+        assert first.condition == condition and first.env("planform") == planform
+        assert first.preset == "reference"
+        if env_id == ACCELERATE_ID:
+            assert first.env("objective") == objective
+
+
+def test_a_small_table_keeps_the_best_seed_and_says_how_it_was_made(tmp_path):
+    grid = {LEVEL_FLIGHT_ID: (("efficiency",), (1.0, 2.0))}
+    jobs = plan(seeds=(0, 1), budgets={LEVEL_FLIGHT_ID: 120}, grid=grid, env_kwargs=SMALL)
+    flat = [p for prepared in jobs.values() for p in prepared]
+    records = run_jobs(flat, tmp_path, progress=False, cache=False).records
+    table = build_table(jobs, records, provenance(flat))
+    assert table["provenance"]["seeds"] == [0, 1]
+    assert table["format"] == REFERENCE_FORMAT
+    parsed = ReferenceTable.from_dict(json.loads(json.dumps(table)))
+    assert len(parsed.series) == 2  # both planforms
+    for series in parsed.series:
+        # made with another resolution: not the defaults' fingerprint, so no env uses it
+        assert series.fingerprint != default_fingerprint(LEVEL_FLIGHT_ID, series.planform)
+        for point in series.points:
+            seeds = [records[p.job.key] for p in jobs[LEVEL_FLIGHT_ID, "efficiency",
+                                                      series.planform, point["condition"]]]  # fmt: skip
+            feasible = [r.objective for r in seeds if r.feasible]
+            if feasible:
+                assert point["feasible"] and point["objective"] == max(feasible)
+            else:
+                assert not point["feasible"] and math.isnan(point["objective"])
+            assert len(point["seed_objectives"]) == 2
+    text = reference_markdown(table)
+    assert "| V [m/s] | efficiency, tear-drop | seeds | efficiency, real | seeds |" in text
+    write_reference_figure(table, tmp_path / "reference.png")
+    assert (tmp_path / "reference.png").stat().st_size > 0
+
+
+def test_the_command_refuses_a_table_path_it_cannot_write_before_any_work(tmp_path):
+    for table, said in ((tmp_path, "is a folder"), (tmp_path / "no" / "t.json", "does not exist")):
+        done = subprocess.run(
+            [sys.executable, "-m", "eval", "reference", "--out", str(tmp_path / "o"),
+             "--table", str(table), "--quiet"],
+            capture_output=True, text=True, timeout=120,
+        )  # fmt: skip
+        assert done.returncode == 2, done.stderr
+        assert said in done.stderr
+        assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("env_id", [LEVEL_FLIGHT_ID, ACCELERATE_ID])
+def test_every_grid_condition_is_inside_its_tasks_limits(env_id):
+    from tandem_env.envs.registration import config_class
+
+    low, high = config_class(env_id).CONDITION.limits
+    assert all(low <= c <= high for c in REFERENCE_GRID[env_id][1])
