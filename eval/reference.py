@@ -23,11 +23,10 @@ from typing import Any
 
 from agents.harness import PreparedJob, prepare
 from agents.records import Record, package_versions
-from agents.runner import JobsFailed, OutputNotWritable, SchedulerUnreachable, run_jobs
+from agents.runner import OutputNotWritable, run_jobs
 from agents.selection import best_index
-from agents.store import StoreWriteError
 from agents.tasks import TaskSpec, available_tasks, get_task
-from eval.optimize import add_cache_argument, add_scheduler_argument, stopped
+from eval.optimize import STOPS, add_cache_argument, add_scheduler_argument, stopped
 from tandem_env.envs.reference import (
     REFERENCE_FORMAT,
     REFERENCE_GRID,
@@ -54,8 +53,6 @@ SEEDS: tuple[int, ...] = (0, 1, 2, 3)
 PRESET = "reference"
 #: Where the records and the figure go by default.
 DEFAULT_OUT = Path("results") / "reference"
-
-STOPS = (JobsFailed, SchedulerUnreachable, StoreWriteError, KeyboardInterrupt)
 
 
 def _task(env_id: str) -> TaskSpec:
