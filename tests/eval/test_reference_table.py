@@ -11,7 +11,17 @@ import sys
 import pytest
 
 from agents.runner import run_jobs
-from eval.reference import BUDGETS, SEEDS, build_table, plan, provenance
+from eval.reference import (
+    BUDGETS,
+    SEEDS,
+    best_objectives,
+    build_table,
+    continuation,
+    gather,
+    plan,
+    provenance,
+    round_gains,
+)
 from eval.reference_report import reference_markdown, write_reference_figure
 from tandem_env.envs import ACCELERATE_ID, LEVEL_FLIGHT_ID
 from tandem_env.envs.reference import (
@@ -22,6 +32,11 @@ from tandem_env.envs.reference import (
 )
 
 SMALL = {"n_time": 32, "n_blade": 8}
+
+
+def _key(prepared):
+    job = prepared.job
+    return (LEVEL_FLIGHT_ID, "efficiency", job.env("planform"), job.condition)
 
 
 def test_the_plan_is_one_job_per_point_objective_planform_and_seed():
@@ -38,13 +53,33 @@ def test_the_plan_is_one_job_per_point_objective_planform_and_seed():
             assert first.env("objective") == objective
 
 
-def test_a_small_table_keeps_the_best_seed_and_says_how_it_was_made(tmp_path):
-    grid = {LEVEL_FLIGHT_ID: (("efficiency",), (1.0, 2.0))}
-    jobs = plan(seeds=(0, 1), budgets={LEVEL_FLIGHT_ID: 120}, grid=grid, env_kwargs=SMALL)
+def test_a_small_table_keeps_the_best_stroke_and_says_how_it_was_made(tmp_path):
+    grid = {LEVEL_FLIGHT_ID: (("efficiency",), (1.0, 1.125, 1.25))}
+    jobs = plan(seeds=(0, 1), budgets={LEVEL_FLIGHT_ID: 480}, grid=grid, env_kwargs=SMALL)
     flat = [p for prepared in jobs.values() for p in prepared]
-    records = run_jobs(flat, tmp_path, progress=False, cache=False).records
-    table = build_table(jobs, records, provenance(flat))
+    records = dict(run_jobs(flat, tmp_path, progress=False, cache=False).records)
+    before = best_objectives(gather(jobs, [], records))
+    continued = continuation(jobs, gather(jobs, [], records))
+    for (*_, condition), job in continued.items():
+        # warm starts: this point's best and its neighbours' (2 at the ends, 3 inside)
+        initial = dict(job.job.method_config)["initial"]
+        assert len(initial) <= (3 if condition == 1.125 else 2)
+        own = max(
+            (r for r in gather(jobs, [], records)[_key(job)] if r.feasible),
+            key=lambda r: r.objective,
+            default=None,
+        )
+        if own is not None:
+            assert list(own.normalised_stroke) in [list(x) for x in initial]
+        assert job.job.budget == 240 and job.job.condition == condition
+    records |= run_jobs(list(continued.values()), tmp_path, progress=False, cache=False).records
+    after = best_objectives(gather(jobs, [continued], records))
+    gains = round_gains(before, after)
+    assert 0 <= gains["points_raised"] <= len(jobs)
+    every = [*flat, *continued.values()]
+    table = build_table(jobs, [continued], records, provenance(every, records, [{"round": 1, **gains}]))
     assert table["provenance"]["seeds"] == [0, 1]
+    assert table["provenance"]["optimisations"] == 18
     assert table["format"] == REFERENCE_FORMAT
     parsed = ReferenceTable.from_dict(json.loads(json.dumps(table)))
     assert len(parsed.series) == 2  # both planforms
@@ -54,6 +89,8 @@ def test_a_small_table_keeps_the_best_seed_and_says_how_it_was_made(tmp_path):
         for point in series.points:
             seeds = [records[p.job.key] for p in jobs[LEVEL_FLIGHT_ID, "efficiency",
                                                       series.planform, point["condition"]]]  # fmt: skip
+            seeds.append(records[continued[LEVEL_FLIGHT_ID, "efficiency", series.planform,
+                                               point["condition"]].job.key])  # fmt: skip
             feasible = [r.objective for r in seeds if r.feasible]
             if feasible:
                 assert point["feasible"] and point["objective"] == max(feasible)
