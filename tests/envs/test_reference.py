@@ -170,3 +170,18 @@ def test_accelerating_optima_grow_with_the_power_and_the_resultant_bounds_its_pa
         assert np.all(np.diff(values) >= 0.0), (objective, values)
     assert np.all(best["resultant"] >= best["vertical"])
     assert np.all(best["resultant"] >= best["horizontal"])
+
+
+def test_the_documented_table_is_the_packaged_one():
+    # docs/reference.md renders docs/numbers/reference-table.json (python -m eval numbers
+    # --only reference-table copies the package's table there): a stale copy fails here
+    import json
+    from pathlib import Path
+
+    from tandem_env.envs.reference import reference_path
+
+    stored = Path(__file__).resolve().parents[2] / "docs" / "numbers" / "reference-table.json"
+    documented = json.loads(stored.read_text(encoding="utf-8"))
+    packaged = json.loads(reference_path().read_text(encoding="utf-8"))
+    assert documented["series"] == packaged["series"]
+    assert documented["provenance"] == packaged["provenance"]
