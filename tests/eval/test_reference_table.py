@@ -77,7 +77,9 @@ def test_a_small_table_keeps_the_best_stroke_and_says_how_it_was_made(tmp_path):
     gains = round_gains(before, after)
     assert 0 <= gains["points_raised"] <= len(jobs)
     every = [*flat, *continued.values()]
-    table = build_table(jobs, [continued], records, provenance(every, records, [{"round": 1, **gains}]))
+    table = build_table(
+        jobs, [continued], records, provenance(every, records, [{"round": 1, **gains}])
+    )
     assert table["provenance"]["seeds"] == [0, 1]
     assert table["provenance"]["optimisations"] == 18
     assert table["format"] == REFERENCE_FORMAT
@@ -121,3 +123,34 @@ def test_every_grid_condition_is_inside_its_tasks_limits(env_id):
 
     low, high = config_class(env_id).CONDITION.limits
     assert all(low <= c <= high for c in REFERENCE_GRID[env_id][1])
+
+
+def test_records_summaries_and_comparisons_carry_the_score(tmp_path):
+    import numpy as np
+
+    import tandem_env
+    from agents.harness import prepare
+    from eval.compare import comparison_markdown, table_rows
+    from tandem_env.envs.reference import normalised_score
+
+    default = prepare("random", "level", 1.3, 8, [0, 1], method_config={"batch_size": 4})
+    coarse = prepare(
+        "random", "level", 1.3, 8, [0], env_kwargs=SMALL, method_config={"batch_size": 4}
+    )
+    records = run_jobs([*default, *coarse], tmp_path, progress=False, cache=False).records
+    for prepared in default:
+        record = records[prepared.job.key]
+        expected = normalised_score(
+            tandem_env.reference(LEVEL_FLIGHT_ID, 1.3),
+            record.objective,
+            record.feasible,
+            record.metrics["constraint_violation"],
+        )
+        assert record.score == float(expected)
+        assert record.summary_row()["score"] == record.score
+    assert math.isnan(records[coarse[0].job.key].score)  # another resolution: no reference
+    rows = {r.settings: r for r in table_rows(list(records.values()))}
+    scored = [r for r in rows.values() if not math.isnan(r.score_median)]
+    assert len(scored) == 1 and scored[0].seeds == 2
+    assert scored[0].score_median == float(np.median([records[p.job.key].score for p in default]))
+    assert "median score |" in comparison_markdown(list(rows.values()))
