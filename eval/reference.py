@@ -196,13 +196,19 @@ def best_objectives(found: Mapping[PointKey, Sequence[Record]]) -> dict[PointKey
     return values
 
 
+#: A round "raises" a point when it gains more than this [%] (smaller gains are the polish's
+#: last digits, not a better optimum).
+RAISED_PERCENT = 0.1
+
+
 def round_gains(
     before: Mapping[PointKey, float], after: Mapping[PointKey, float]
 ) -> dict[str, Any]:
-    """How much a continuation round raised the points: how many, the largest and median
-    relative gain [%] (what says whether the table has converged)."""
+    """How much a continuation round raised the points: how many by more than
+    :data:`RAISED_PERCENT`, the largest and the median relative gain [%] (what says whether
+    the table has converged)."""
     gains = [100 * (after[k] / before[k] - 1) for k in before if before[k] > 0]
-    raised = [g for g in gains if g > 0]
+    raised = [g for g in gains if g > RAISED_PERCENT]
     return {
         "points_raised": len(raised),
         "largest_gain_percent": round(max(gains, default=0.0), 3),
@@ -307,11 +313,12 @@ def provenance(
     jobs: Iterable[PreparedJob],
     records: Mapping[str, Record],
     convergence: Sequence[Mapping[str, Any]] = (),
+    seeds: Sequence[int] = SEEDS,
 ) -> dict[str, Any]:
     """How the table was made: the command, date, versions, method, budgets, seeds, and the
-    optimisations' summed wall time [s] (each as its record says, wherever it ran)."""
+    optimisations' summed wall time [s] (each as its record says, wherever it ran); ``seeds``
+    are the search's."""
     jobs = list(jobs)
-    seeds = sorted({p.job.seed for p in jobs})
     return {
         # where it ran (--scheduler, --out) does not change the table
         "command": f"python -m eval {NAME}",
@@ -319,11 +326,11 @@ def provenance(
         "versions": {**package_versions(), "tandem_env": tandem_env.__version__},
         "method": METHOD,
         "budgets": dict(BUDGETS),
-        "seeds": seeds,
+        "seeds": list(seeds),
         "optimisations": len(jobs),
         "optimisation_seconds": round(sum(records[p.job.key].wall_time for p in jobs), 1),
         "continuation": (
-            f"{len(convergence)} round(s), each on {CONTINUATION_SHARE:g} of the budget, "
+            f"{len(convergence)} rounds, each on {CONTINUATION_SHARE:g} of the budget, "
             f"{CONTINUATION_INITIAL_SHARE:g} of that for the warm starts (this point's, its "
             "neighbours' and, accelerating, the other objectives' best strokes)"
         ),

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from eval.reference import RAISED_PERCENT
 from tandem_env.envs.registration import config_class
 from tandem_env.io.files import write_text_atomic
 
@@ -56,12 +57,13 @@ def reference_markdown(table: Mapping[str, Any]) -> str:
     parts.append(
         f"Made by `{provenance['command']}` on {provenance['date']} (tandem_env "
         f"{provenance['versions']['tandem_env']}): {provenance['method']}, seeds "
-        f"{provenance['seeds']}, budgets {budgets} evaluations, then a continuation on "
+        f"{provenance['seeds']}, budgets {budgets} evaluations, then continuation: "
         f"{provenance['continuation']}; {provenance['optimisations']} optimisations, "
         f"{hours:.2f} h of one core's time in all (their records' wall times summed). "
         + " ".join(
-            f"Continuation round {c['round']} raised {c['points_raised']} of the points, by at "
-            f"most {c['largest_gain_percent']:.2f} % (median {c['median_gain_percent']:.2f} %)."
+            f"Continuation round {c['round']} raised {c['points_raised']} of the points by more "
+            f"than {RAISED_PERCENT:g} %, by at most {c['largest_gain_percent']:.2f} % (median "
+            f"{c['median_gain_percent']:.3f} %)."
             for c in provenance["convergence"]
         )
         + "\n"

@@ -78,7 +78,10 @@ def test_a_small_table_keeps_the_best_stroke_and_says_how_it_was_made(tmp_path):
     assert 0 <= gains["points_raised"] <= len(jobs)
     every = [*flat, *continued.values()]
     table = build_table(
-        jobs, [continued], records, provenance(every, records, [{"round": 1, **gains}])
+        jobs,
+        [continued],
+        records,
+        provenance(every, records, [{"round": 1, **gains}], seeds=(0, 1)),
     )
     assert table["provenance"]["seeds"] == [0, 1]
     assert table["provenance"]["optimisations"] == 18
