@@ -11,6 +11,7 @@ hour on 2 cores. The figure (score against speed, every seed) is written beside 
 from __future__ import annotations
 
 import csv
+import shlex
 import statistics
 import tempfile
 import time
@@ -30,7 +31,7 @@ FIGURE = Path("docs") / "figures" / "rl_baselines_scores.png"
 _ONE_CORE = {"OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
-def train_command(algo: str, steps: int, seed: int) -> list[str]:
+def train_command(algo: str, steps: int | str, seed: int | str) -> list[str]:
     """The documented envelope training command of ``algo`` (``-f`` is added)."""
     return ["python", "-m", "train", "--algo", algo, "--env", ENV_ID, "--seed", str(seed),
             "-n", str(steps), "--env-kwargs", ENVELOPE, "--no-progress", "--no-tensorboard",
@@ -102,15 +103,16 @@ def render_rl_baselines(data: dict[str, Any]) -> str:
             continue
         median, worst, flies, seconds = _summary(runs)
         lines.append(
-            f"| {algo.upper()} | {runs[0]['steps']:,} | {len(runs)} | {median:.1f} | "
-            f"{worst:.1f} | {100 * flies:.0f} % | {seconds:.0f} s |"
+            # + 0.0: a median that rounds to -0.0 (an infeasible stroke's) reads as 0.0
+            f"| {algo.upper()} | {runs[0]['steps']:,} | {len(runs)} | {round(median, 1) + 0.0:.1f} | "
+            f"{round(worst, 1) + 0.0:.1f} | {100 * flies:.0f} % | {seconds:.0f} s |"
         )
     held = ", ".join(f"{c:g}" for c in data["runs"][0]["conditions"])
     return (
         "\n".join(lines)
         + f"\n\nScores at the held-out speeds V = {held} m/s (one stroke per policy and speed; "
         "100 = the reference optimum, ≤ 0 = does not fly), over every seed and speed; "
-        f"`{' '.join(train_command('ALGO', 0, 0))}` with each algorithm's steps and seeds "
+        f"`{shlex.join(train_command('ALGO', 'STEPS', 'SEED'))}` with the steps above and seeds "
         f"{list(SEEDS)}, then `python -m train.envelope --conditions ...`. "
         f"{machine_line(data, 'rl-baselines')}\n"
     )
@@ -137,6 +139,6 @@ def write_figure(data: dict[str, Any], path: Path) -> None:
     ax.set_ylabel("normalised score [-]")
     ax.set_title("Level flight: envelope policies against the reference optima")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=7, loc="upper right")
     path.parent.mkdir(parents=True, exist_ok=True)
     save(fig, path)
