@@ -45,6 +45,7 @@ from agents.runner import OutputNotWritable, run_jobs
 from agents.selection import best_index
 from agents.tasks import TaskSpec, available_tasks, get_task
 from eval.optimize import STOPS, add_cache_argument, add_scheduler_argument, stopped
+from eval.reference_report import write_reference_figure, write_reference_markdown
 from tandem_env.envs.reference import (
     REFERENCE_FORMAT,
     REFERENCE_GRID,
@@ -335,6 +336,7 @@ def provenance(
             "neighbours' and, accelerating, the other objectives' best strokes)"
         ),
         "convergence": [dict(c) for c in convergence],
+        "raised_percent": RAISED_PERCENT,
         "selection": (
             "per point, the best of its seeds and continuation (and, accelerating, of every "
             "stroke found at a lower or equal P_avail for any objective): feasible first, then "
@@ -421,8 +423,6 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
 def _report(table: Mapping[str, Any], out: Path) -> None:
     """The table as Markdown (``OUT/reference.md``) and a figure (``OUT/reference.png``)."""
-    from eval.reference_report import write_reference_figure, write_reference_markdown
-
     write_reference_markdown(table, out / "reference.md")
     write_reference_figure(table, out / "reference.png")
     for series in table["series"]:

@@ -7,7 +7,6 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from eval.reference import RAISED_PERCENT
 from tandem_env.envs.registration import config_class
 from tandem_env.io.files import write_text_atomic
 
@@ -62,7 +61,7 @@ def reference_markdown(table: Mapping[str, Any]) -> str:
         f"{hours:.2f} h of one core's time in all (their records' wall times summed). "
         + " ".join(
             f"Continuation round {c['round']} raised {c['points_raised']} of the points by more "
-            f"than {RAISED_PERCENT:g} %, by at most {c['largest_gain_percent']:.2f} % (median "
+            f"than {provenance['raised_percent']:g} %, by at most {c['largest_gain_percent']:.2f} % (median "
             f"{c['median_gain_percent']:.3f} %)."
             for c in provenance["convergence"]
         )
