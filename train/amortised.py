@@ -214,9 +214,9 @@ class Settings:
     """Adam steps of the regression on the training optima (full batch) [-]."""
     regression_lr: float = 3e-3
     """Adam's learning rate in the regression [-]."""
-    finetune_steps: int = 300
+    finetune_steps: int = 600
     """Adam steps of the fine-tuning by the objective's gradient (0: none) [-]."""
-    finetune_lr: float = 3e-3
+    finetune_lr: float = 1e-3
     """Adam's learning rate in the fine-tuning [-]."""
     batch: int = 16
     """Conditions per fine-tuning step (one batched model evaluation) [-]."""
@@ -228,7 +228,7 @@ class Settings:
     fractions: the level flight's tolerance is 0.02)."""
     anchor: float = 0.1
     """Weight of the regression loss on the training targets during the fine-tuning [-]."""
-    features: int = 16
+    features: int = 32
     """Gaussian radial features of the observation before the MLP (0: the observation
     itself) [-] (:class:`RadialFeatures`)."""
     finetune_n_time: int | None = None

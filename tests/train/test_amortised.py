@@ -322,3 +322,33 @@ def test_targets_are_checked() -> None:
     with pytest.raises(ValueError, match="allowed: K >= 1 increasing conditions"):
         Targets(np.array([1.0, 0.5]), np.zeros((2, 28)), np.ones(2))
     assert len(CONTINUOUS) == 26
+
+
+# --- the held-out evaluation -------------------------------------------------------------------
+def test_held_out_evaluation_reports_gaps_and_times(
+    tiny_run: Path, synthetic_table: ReferenceSeries
+) -> None:
+    from train.amortised_eval import evaluate_held_out, format_report
+
+    report = evaluate_held_out(tiny_run, conditions=[0.5, 1.5], repeats=2)
+    [first, second] = report["rows"]
+    assert (first["condition"], second["condition"]) == (0.5, 1.5)
+    for row in report["rows"]:
+        expected = 100.0 * row["objective"] / row["reference"] if row["feasible"] else None
+        if expected is not None:
+            assert row["gap"] == pytest.approx(100.0 - expected)
+        else:
+            assert row["gap"] >= 100.0
+    summary = report["summary"]
+    assert summary["count"] == 2 and summary["stroke_seconds"] > 0
+    assert summary["worst_gap"] == max(first["gap"], second["gap"])
+    assert "time to a stroke" in format_report(report)
+
+
+def test_held_out_evaluation_refuses_a_large_polish(tiny_run: Path) -> None:
+    from train.amortised_eval import evaluate_held_out
+
+    with pytest.raises(
+        ValueError, match=r"polish = 501; allowed: an integer from 0 \(none\) to 500"
+    ):
+        evaluate_held_out(tiny_run, polish_budget=501)
