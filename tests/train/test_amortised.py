@@ -352,3 +352,15 @@ def test_held_out_evaluation_refuses_a_large_polish(tiny_run: Path) -> None:
         ValueError, match=r"polish = 501; allowed: an integer from 0 \(none\) to 500"
     ):
         evaluate_held_out(tiny_run, polish_budget=501)
+
+
+def test_a_run_folder_that_holds_files_is_refused(
+    synthetic_table: ReferenceSeries, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    taken = tmp_path / "run"
+    taken.mkdir()
+    (taken / "notes.txt").write_text("mine")
+    with pytest.raises(SystemExit):
+        main(["--algo", "amortised", "--env", LEVEL_FLIGHT_ID, "--run-dir", str(taken)])
+    assert "not an empty folder" in capsys.readouterr().err
+    assert sorted(p.name for p in taken.iterdir()) == ["notes.txt"]
