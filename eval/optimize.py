@@ -17,19 +17,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
+from agents.dask_cluster import SchedulerUnreachable, parse_scheduler
 from agents.harness import PreparedJob, prepare
 from agents.jobs import MAX_BUDGET
 from agents.methods import available_methods
 from agents.optimiser import MAX_BATCH
 from agents.polish import POLISH_DEFAULTS, POLISH_METHODS
 from agents.polish import describe as describe_certificate
-from agents.runner import (
-    JobsFailed,
-    OutputNotWritable,
-    SchedulerUnreachable,
-    parse_scheduler,
-    run_jobs,
-)
+from agents.runner import JobsFailed, OutputNotWritable, run_jobs
 from agents.store import StoreWriteError
 from agents.tasks import TaskSpec, available_tasks, get_task
 from eval.studies.paper_reading import Reading
@@ -344,7 +339,7 @@ class OptimizePlan:
     """``--out`` as given (an empty one is the runner's to refuse, not the current folder):
     the record store, its ``summary.csv`` kept by the runner."""
     scheduler: str | None
-    """``--scheduler`` normalised (:func:`agents.runner.parse_scheduler`); None: here, one job
+    """``--scheduler`` normalised (:func:`agents.dask_cluster.parse_scheduler`); None: here, one job
     after another."""
     progress: bool
     cache: bool

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from eval.reference import RAISED_PERCENT
 from tandem_env.envs.registration import config_class
 from tandem_env.io.files import write_text_atomic
 
@@ -31,7 +32,7 @@ def _spread(point: Mapping[str, Any]) -> str:
 
 def reference_markdown(table: Mapping[str, Any]) -> str:
     """One table per task: the optimum of each objective and planform at each condition, with
-    the range of the seeds' feasible optima (how many seeds found a feasible stroke)."""
+    the range of the search's seeds' feasible optima (how many seeds found a feasible stroke)."""
     by_env: dict[str, list[Mapping[str, Any]]] = {}
     for series in table["series"]:
         by_env.setdefault(series["env_id"], []).append(series)
@@ -49,10 +50,23 @@ def reference_markdown(table: Mapping[str, Any]) -> str:
             rows.append("| " + " | ".join(cells) + " |")
         parts.append(f"**{env_id}**\n\n{head} |\n{rule}\n" + "\n".join(rows) + "\n")
     provenance = table["provenance"]
+    budgets = ", ".join(
+        f"{env_id.split('/')[-1]} {budget:,}" for env_id, budget in provenance["budgets"].items()
+    )
+    hours = provenance["optimisation_seconds"] / 3600
     parts.append(
-        f"Made by `{provenance['command']}` on {provenance['date']}: {provenance['method']}, "
-        f"seeds {provenance['seeds']}, budgets {provenance['budgets']}; tandem_env "
-        f"{provenance['versions'].get('tandem_env', '?')}.\n"
+        f"Made by `{provenance['command']}` on {provenance['date']} (tandem_env "
+        f"{provenance['versions']['tandem_env']}): {provenance['method']}, seeds "
+        f"{provenance['seeds']}, budgets {budgets} evaluations, then continuation: "
+        f"{provenance['continuation']}; {provenance['optimisations']} optimisations, "
+        f"{hours:.2f} h of one core's time in all (their records' wall times summed). "
+        + " ".join(
+            f"Continuation round {c['round']} raised {c['points_raised']} of the points by more "
+            f"than {RAISED_PERCENT:g} %, by at most {c['largest_gain_percent']:.2f} % (median "
+            f"{c['median_gain_percent']:.3f} %)."
+            for c in provenance["convergence"]
+        )
+        + "\n"
     )
     return "\n".join(parts)
 

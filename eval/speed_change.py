@@ -455,8 +455,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> str:
     """Validate --optimiser, --optima-budget, --grid and --scheduler before any optimisation
     (ValueError naming the option and what is allowed); returns the optimiser."""
+    from agents.dask_cluster import parse_scheduler
     from agents.harness import prepare
-    from agents.runner import parse_scheduler
 
     if args.scheduler is not None:
         parse_scheduler(args.scheduler)

@@ -7,8 +7,10 @@ import sys
 import textwrap
 from pathlib import Path
 
+from agents.dask_cluster import executor_spec
 from agents.methods import get_method
-from agents.runner import CommandProgress, executor_spec, have_records
+from agents.progress import CommandProgress
+from agents.runner import have_records
 from agents.store import RecordStore
 from eval.figures import FORMATS
 from eval.optimize import (

@@ -249,7 +249,7 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, Resolution, list[Case], l
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from agents.runner import SchedulerUnreachable, parse_scheduler
+    from agents.dask_cluster import SchedulerUnreachable, parse_scheduler
 
     from . import report
     from .store import RunsFailed, RunStore, locked, run_all

@@ -9,7 +9,7 @@ has this record kind, written as that store writes its records: atomically
 (:func:`~tandem_env.io.files.write_json_atomic`) by the one process that holds the folder's
 lock, and checked against a checksum when read back.
 
-Runs go where the studies' jobs go (``--scheduler``, :mod:`agents.runner`): one after
+Runs go where the studies' jobs go (``--scheduler``, :mod:`agents.dask_cluster`): one after
 another here, or on Dask, ``local:N`` or a running scheduler, each worker with one numba
 thread; this process writes each record as its run finishes.
 """
@@ -117,7 +117,7 @@ def locked(out_dir: str | os.PathLike[str]) -> Iterator[None]:
 
 def _solve_on_worker(run: Run) -> dict[str, Any]:
     """What a Dask worker runs: one solve with one numba thread (one run per core)."""
-    from agents.runner import set_worker_numba_threads
+    from agents.dask_cluster import set_worker_numba_threads
 
     set_worker_numba_threads()
     from .uvlm import solve
@@ -181,7 +181,7 @@ def run_all(
     elif todo:
         from distributed import as_completed
 
-        from agents.runner import dask_client
+        from agents.dask_cluster import dask_client
 
         with dask_client(scheduler, quiet=not progress) as client:
             # The tandem runs first: they take longest, so the workers stay busy to the end.

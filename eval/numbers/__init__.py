@@ -20,8 +20,9 @@ commands, date, machine and load), and the Markdown is rendered from that file a
   them: the comparison of methods, the benchmarks of the model, the torch port and the envs,
   SpeedChange's random and steady baselines, the quick preset's and a training run's time,
   readings of the model on random strokes, the resolution study of the defaults, the optimum
-  of a second species, the reference optima as packaged and, on request, the cross-check's
-  lag study and the readings study at the paper preset).
+  of a second species, the reference optima as packaged and, on request, the PPO and SAC
+  envelope policies' scores, the cross-check's lag study and the readings study at the paper
+  preset).
 
 This package is a small framework (:mod:`eval.numbers.framework`: where numbers live, the
 machine, the documented commands) and one module per measurement. Adding a number is one
@@ -48,6 +49,7 @@ from eval.numbers import (
     quick_preset,
     readings_paper,
     reference_table,
+    rl_baselines,
     rotational_coefficient,
     second_species,
     speed_change,
@@ -132,6 +134,12 @@ MEASUREMENTS: dict[str, Measurement] = {
             "reference-table",
             reference_table.measure_reference_table,
             reference_table.render_reference_table,
+        ),
+        Measurement(
+            "rl-baselines",
+            rl_baselines.measure_rl_baselines,
+            rl_baselines.render_rl_baselines,
+            on_request=True,
         ),
         Measurement(
             "crosscheck-lag-study",

@@ -25,7 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.runner import parse_scheduler, run_jobs
+from agents.dask_cluster import parse_scheduler
+from agents.runner import run_jobs
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, get_preset

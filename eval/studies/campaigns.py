@@ -1,7 +1,7 @@
 """What ``python -m eval study NAME`` runs: a campaign, behind one protocol (:class:`Campaign`):
 its options, the plan's reading, the jobs of its first phase (checked before any work), its
 phases as known before any work (the whole command's cost, announced on the first line and
-updated at each phase's start: :class:`agents.runner.CommandProgress`), the run (jobs,
+updated at each phase's start: :class:`agents.progress.CommandProgress`), the run (jobs,
 analysis, report) and the lines that sum it up.
 
 :func:`campaigns` maps every study name the command offers to its campaign: ``all`` and each
@@ -17,7 +17,7 @@ import argparse
 from typing import Any, Protocol
 
 from agents.jobs import Job
-from agents.runner import CommandProgress
+from agents.progress import CommandProgress
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import Reading
 from eval.studies.readings.campaign import READINGS
@@ -58,7 +58,7 @@ class Campaign(Protocol):
         self, args: argparse.Namespace, plan: StudyPlan, command: CommandProgress
     ) -> None:
         """Give ``command`` its phases as far as they are known before any work
-        (:meth:`~agents.runner.CommandProgress.plan`)."""
+        (:meth:`~agents.progress.CommandProgress.plan`)."""
 
     def run(
         self,

@@ -11,17 +11,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from agents.dask_cluster import executor_spec
 from agents.jobs import Job
-from agents.runner import (
-    CacheOption,
-    CommandProgress,
-    Phase,
-    RunSummary,
-    executor_spec,
-    have_records,
-    job_records,
-    run_jobs,
-)
+from agents.progress import CommandProgress, Phase
+from agents.record_cache import CacheOption
+from agents.runner import RunSummary, have_records, job_records, run_jobs
 from eval import report
 from eval.studies import PAPER_STUDIES, STUDIES
 from eval.studies.base import StudyOutput, StudyPlan

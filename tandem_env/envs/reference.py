@@ -57,6 +57,8 @@ __all__ = [
     "REFERENCE_GRID",
     "ReferenceSeries",
     "ReferenceTable",
+    "config_fingerprint",
+    "default_fingerprint",
     "held_out_conditions",
     "load_reference_table",
     "normalised_score",

@@ -16,8 +16,10 @@ import pytest
 from agents import runner
 from agents.harness import PreparedJob
 from agents.jobs import Job
+from agents.progress import CommandProgress, Phase
+from agents.record_cache import cacheable
 from agents.records import Record, RecordWarning
-from agents.runner import CommandProgress, Phase, run_jobs
+from agents.runner import run_jobs
 from agents.store import CACHE_ENV, RecordStore, cache_directory
 from eval.__main__ import main
 
@@ -169,8 +171,8 @@ def test_concurrent_writers_of_one_entry_never_leave_a_partial_file(
 
 def test_a_method_that_reads_a_path_is_never_cached() -> None:
     # policy:RUN_DIR's result depends on the files in RUN_DIR, which the key does not hash.
-    assert not runner._cacheable(Job("policy:runs/ppo", "level", 2.0, 16, 0))
-    assert runner._cacheable(_job())
+    assert not cacheable(Job("policy:runs/ppo", "level", 2.0, 16, 0))
+    assert cacheable(_job())
 
 
 def test_a_cache_that_cannot_be_used_is_said(

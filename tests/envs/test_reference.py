@@ -65,22 +65,25 @@ def test_every_stored_optimum_flies_and_replays_to_its_objective(env_id, objecti
     kwargs = {"planform": planform}
     if config_class(env_id).OBJECTIVES.keyword is not None:
         kwargs["objective"] = objective
-    env = gym.make_vec(
-        env_id, num_envs=len(series.points), vectorization_mode="vector_entry_point", **kwargs
-    )
-    env.reset(seed=0, options={keyword: np.array(series.conditions)})
-    strokes = np.array([p["normalised_stroke"] for p in series.points], dtype=np.float32)
-    _, reward, _, _, info = env.step(strokes)
+    env = gym.make(env_id, **kwargs)
+    steps = []
+    for point in series.points:
+        env.reset(seed=0, options={keyword: point["condition"]})
+        stroke = np.array(point["normalised_stroke"], dtype=np.float32)  # the action type
+        _, reward, _, _, info = env.step(stroke)
+        steps.append((reward, info))
+    reward = np.array([r for r, _ in steps])
+    info = {k: np.array([i[k] for _, i in steps]) for k in ("feasible", "objective", "score")}
     assert all(p["feasible"] for p in series.points)
     assert info["feasible"].all()
     np.testing.assert_allclose(info["objective"], series.objectives, rtol=1e-6)
     # so the env scores each optimum 100 (and a feasible stroke's reward is its objective)
     np.testing.assert_allclose(info["score"], 100.0, rtol=1e-6)
     np.testing.assert_allclose(reward, series.objectives, rtol=1e-6)
-    # no seed found more than the optimum kept, and at least one other seed came near it
+    # the optimum kept is the best of what was found for the point
     for point in series.points:
-        found = [v for v in point["seed_objectives"] if v is not None]
-        assert max(found) == point["objective"]
+        found = [v for v in (*point["seed_objectives"], *point["continued_objectives"]) if v]
+        assert max(found) <= point["objective"]
 
 
 def test_reference_is_linear_between_grid_points_and_exact_on_them():
@@ -149,3 +152,36 @@ def test_the_split_alternates_and_trains_at_the_envelope_ends():
         assert not set(train) & set(held)
         assert train[0] == grid[0] and train[-1] == grid[-1]
     assert held_out_conditions(ACCELERATE_ID) == (55.0, 65.0, 75.0, 85.0)
+
+
+@pytest.mark.parametrize("planform", PLANFORMS)
+def test_accelerating_optima_grow_with_the_power_and_the_resultant_bounds_its_parts(planform):
+    # A stroke that flies at P_avail flies, with the same forces, at any higher P_avail (the
+    # power only caps P/m), so the best known F̄ cannot fall as the power rises; and
+    # F̄_a = |(F̄_v, F̄_h)| >= each part for the same stroke, so the best F̄_a is at least the
+    # best F̄_v and the best F̄_h at the same power.
+    best = {
+        objective: np.array(
+            reference_series(ACCELERATE_ID, objective=objective, planform=planform).objectives
+        )
+        for objective in ("vertical", "horizontal", "resultant")
+    }
+    for objective, values in best.items():
+        assert np.all(np.diff(values) >= 0.0), (objective, values)
+    assert np.all(best["resultant"] >= best["vertical"])
+    assert np.all(best["resultant"] >= best["horizontal"])
+
+
+def test_the_documented_table_is_the_packaged_one():
+    # docs/reference.md renders docs/numbers/reference-table.json (python -m eval numbers
+    # --only reference-table copies the package's table there): a stale copy fails here
+    import json
+    from pathlib import Path
+
+    from tandem_env.envs.reference import reference_path
+
+    stored = Path(__file__).resolve().parents[2] / "docs" / "numbers" / "reference-table.json"
+    documented = json.loads(stored.read_text(encoding="utf-8"))
+    packaged = json.loads(reference_path().read_text(encoding="utf-8"))
+    assert documented["series"] == packaged["series"]
+    assert documented["provenance"] == packaged["provenance"]

@@ -21,9 +21,10 @@ from pathlib import Path
 
 import pytest
 
-from agents import runner
+from agents import dask_cluster
+from agents.dask_cluster import parse_scheduler
 from agents.jobs import Job
-from agents.runner import JobsFailed, parse_scheduler, run_jobs
+from agents.runner import JobsFailed, run_jobs
 from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, TINY
 from eval.studies.suite import run_studies
@@ -206,7 +207,7 @@ def test_unreachable_scheduler_fails_fast_naming_it(
     seconds = time.monotonic() - start
     err = capsys.readouterr().err
     assert "no Dask scheduler answers at tcp://127.0.0.1:1" in err and "dask scheduler" in err
-    assert seconds < runner.CONNECT_TIMEOUT  # refused at once, not retried until the timeout
+    assert seconds < dask_cluster.CONNECT_TIMEOUT  # refused at once, not retried until the timeout
     assert not (tmp_path / "records").exists()
 
 
@@ -236,14 +237,14 @@ def test_scheduler_values_are_normalised() -> None:
     assert parse_scheduler("tcp://10.0.0.5:8786") == "tcp://10.0.0.5:8786"
     assert parse_scheduler("node17:8786") == "tcp://node17:8786"
     assert parse_scheduler("tcp://[::1]:08786") == "tcp://[::1]:8786"
-    assert runner.executor_spec(None, 3) == "local:3"
-    assert runner.executor_spec(None, 1) is None
+    assert dask_cluster.executor_spec(None, 3) == "local:3"
+    assert dask_cluster.executor_spec(None, 1) is None
     with pytest.raises(ValueError, match="give one"):
-        runner.executor_spec("local:2", 2)
+        dask_cluster.executor_spec("local:2", 2)
 
 
 def test_local_cluster_workers_use_one_numba_thread() -> None:
-    with runner.dask_client("local:1", quiet=True) as client:
+    with dask_cluster.dask_client("local:1", quiet=True) as client:
         (threads,) = client.run(lambda: os.environ.get("NUMBA_NUM_THREADS")).values()
         (nthreads,) = client.nthreads().values()
     assert threads == "1" and nthreads == 1

@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents import runner
-from agents.runner import SchedulerUnreachable, dask_client, parse_scheduler
+from agents import dask_cluster
+from agents.dask_cluster import SchedulerUnreachable, dask_client, parse_scheduler
 from eval.__main__ import main
 from eval.measured import SpecError, load_case
 from eval.studies.presets import PRESETS, TINY
@@ -173,7 +173,7 @@ def test_a_port_that_is_no_dask_scheduler_is_reported_within_the_timeout(
     """A silent port (or an HTTP server, which waits for a request) used to hang the client
     for minutes, an HTTP or SSH answer made it allocate exabytes: now both are reported after
     at most the connect timeout."""
-    monkeypatch.setattr(runner, "CONNECT_TIMEOUT", 0.5)
+    monkeypatch.setattr(dask_cluster, "CONNECT_TIMEOUT", 0.5)
     port = server(greeting, http)
     start = time.monotonic()
     with pytest.raises(SchedulerUnreachable, match=match), dask_client(f"127.0.0.1:{port}"):
@@ -187,7 +187,7 @@ def test_a_silent_port_ends_optimize_with_status_1(
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    monkeypatch.setattr(runner, "CONNECT_TIMEOUT", 0.5)
+    monkeypatch.setattr(dask_cluster, "CONNECT_TIMEOUT", 0.5)
     port = server(None, False)
     argv = [*OPTIMIZE, "--seeds", "0", "--out", str(tmp_path), "--quiet"]
     assert main([*argv, "--scheduler", f"127.0.0.1:{port}"]) == 1

@@ -9,7 +9,7 @@ import sys
 
 from agents.harness import prepare_job
 from agents.jobs import Job
-from agents.runner import CommandProgress
+from agents.progress import CommandProgress
 from eval.studies.base import StudyPlan
 from eval.studies.claims import VerdictCount
 from eval.studies.paper_reading import DEFAULT, Reading

@@ -16,16 +16,10 @@ from pathlib import Path
 from typing import Any
 
 from agents.jobs import Job
+from agents.progress import CommandProgress, Phase
+from agents.record_cache import CacheOption
 from agents.records import Record
-from agents.runner import (
-    CacheOption,
-    CommandProgress,
-    Phase,
-    RunSummary,
-    find_records,
-    job_records,
-    run_jobs,
-)
+from agents.runner import RunSummary, find_records, job_records, run_jobs
 from agents.store import RECORDS_DIR
 from eval import report
 from eval.studies import PAPER_STUDIES
@@ -264,7 +258,7 @@ def planned_phases(
     ``out_dir`` and the record cache decide them now (nothing is written or run).
 
     A phase whose jobs continue from optima not found yet gets stand-ins at the right budgets
-    (:class:`~agents.runner.Phase`, their keys provisional); before the bias check has run, the
+    (:class:`~agents.progress.Phase`, their keys provisional); before the bias check has run, the
     singles are planned as if no task ran in full.
     """
     if continuation is None:
@@ -322,7 +316,7 @@ def run_readings(
 
     ``plan`` gives the preset and methods (its own reading is ignored). ``scheduler`` and
     ``cache`` (the record cache) as for :func:`agents.runner.run_jobs`. ``command`` (the
-    command's progress, :class:`~agents.runner.CommandProgress`) is re-planned
+    command's progress, :class:`~agents.progress.CommandProgress`) is re-planned
     (:func:`planned_phases`) and told at each phase's start. Raises ValueError if ``readings``
     does not start with the default reading or repeats a name.
     """

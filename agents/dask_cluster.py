@@ -1,0 +1,281 @@
+"""Reaching a Dask scheduler: where the runner's jobs run, parsed, checked and connected to.
+
+Where the jobs run (``scheduler``, ``--scheduler`` on the command line;
+:func:`agents.runner.run_jobs`):
+
+``None``
+    in this process, one after another, with numba's default threads (the default: it needs
+    no cluster, and on 2 cores it is as fast as two one-thread processes);
+``"local:N"``
+    a Dask ``LocalCluster`` started here with N worker processes of one thread each, each
+    with ``NUMBA_NUM_THREADS=1``; closed at the end;
+``"tcp://HOST:PORT"`` (or ``"HOST:PORT"``)
+    a running Dask scheduler and its workers (``dask scheduler``, ``dask worker``,
+    dask-jobqueue on SLURM/PBS; docs/scaling.md). Every worker needs this project importable
+    (the same environment on every node).
+
+Dask itself is imported only here, and only when a client is made (:func:`dask_client`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import signal
+import socket
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from distributed import Client
+
+__all__ = [
+    "CONNECT_TIMEOUT",
+    "MAX_LOCAL_WORKERS",
+    "PORTS",
+    "SCHEME",
+    "SchedulerUnreachable",
+    "dask_client",
+    "executor_spec",
+    "parse_scheduler",
+    "set_worker_numba_threads",
+]
+
+#: Seconds to wait for a Dask scheduler to answer before giving up [s].
+CONNECT_TIMEOUT = 10.0
+#: Most worker processes ``local:N`` starts on this machine [-].
+MAX_LOCAL_WORKERS = 1024
+#: TCP ports a scheduler address may name [-].
+PORTS = (1, 65535)
+#: The one transport the runner connects to (Dask's tls:// needs certificates it does not take).
+SCHEME = "tcp"
+_ALLOWED = (
+    f"local:N (N = 1 to {MAX_LOCAL_WORKERS} worker processes started here) or the address of a "
+    f"running Dask scheduler, {SCHEME}://HOST:PORT or HOST:PORT with PORT {PORTS[0]} to "
+    f"{PORTS[1]}, e.g. {SCHEME}://HOST:8786"
+)
+#: A host name or IPv4 address of a scheduler address (RFC 1123 lengths; '_' as resolvers allow).
+_HOST = re.compile(
+    r"(?=.{1,253}$)[A-Za-z0-9_](?:[A-Za-z0-9_-]{0,61}[A-Za-z0-9_])?"
+    r"(?:\.[A-Za-z0-9_](?:[A-Za-z0-9_-]{0,61}[A-Za-z0-9_])?)*\.?"
+)
+# The largest first frame a Dask scheduler's handshake can plausibly have [bytes] (_probe).
+_HANDSHAKE_BYTES = 1 << 24
+
+
+def _short(text: str, limit: int = 40) -> str:
+    return text if len(text) <= limit else f"{text[:limit]}…"
+
+
+class SchedulerUnreachable(ConnectionError):
+    """No Dask scheduler answers at the address given."""
+
+
+def parse_scheduler(text: str) -> str:
+    """Validate a ``--scheduler`` value; returns it normalised (``HOST:PORT`` -> ``tcp://...``).
+
+    Raises ValueError naming the value and what is allowed.
+    """
+    if not isinstance(text, str):
+        raise ValueError(f"scheduler = {text!r}; allowed: a string, {_ALLOWED}")
+    text = text.strip()
+    if text.startswith("local:"):
+        count = text.partition(":")[2]
+        if not count.isdigit() or not 1 <= int(count) <= MAX_LOCAL_WORKERS:
+            raise ValueError(
+                f"--scheduler {text!r}: local:N needs a whole number N of worker processes from "
+                f"1 to {MAX_LOCAL_WORKERS}; allowed: {_ALLOWED}"
+            )
+        return f"local:{int(count)}"
+    scheme, _, rest = text.rpartition("://")
+    if scheme and scheme != SCHEME:
+        raise ValueError(
+            f"--scheduler {text!r}: the scheme {scheme + '://'!r} is not supported; allowed: "
+            f"{_ALLOWED}"
+        )
+    match = re.fullmatch(r"(\[[0-9a-fA-F:]+\]|[^\s/:\[\]]+):(\d{1,6})", rest)
+    if match is None:
+        raise ValueError(f"--scheduler {text!r}; allowed: {_ALLOWED}")
+    host, port = match.groups()
+    if not host.startswith("[") and not _HOST.fullmatch(host):
+        # The resolver refuses other names with a codec error ("label too long") or a NUL.
+        raise ValueError(
+            f"--scheduler {text!r}: {_short(host)!r} is not a host name (letters, digits, '-', "
+            f"'.', '_'; labels of 1 to 63, at most 253 in all) nor an IP address; allowed: "
+            f"{_ALLOWED}"
+        )
+    if not PORTS[0] <= int(port) <= PORTS[1]:
+        raise ValueError(
+            f"--scheduler {text!r}: port {int(port)} is outside {PORTS[0]} to {PORTS[1]}; "
+            f"allowed: {_ALLOWED}"
+        )
+    return f"{SCHEME}://{host}:{int(port)}"
+
+
+def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
+    """The executor from ``scheduler`` and the shorthand ``workers=N`` (N > 1 means ``local:N``).
+
+    ``workers=1`` (the default) leaves ``scheduler`` as given (None: serially, here).
+    """
+    if (
+        isinstance(workers, bool)
+        or not isinstance(workers, int)
+        or not 1 <= workers <= MAX_LOCAL_WORKERS
+    ):
+        raise ValueError(
+            f"workers = {workers!r}; allowed: an integer from 1 to {MAX_LOCAL_WORKERS} (N > 1 "
+            "means local:N)"
+        )
+    if workers == 1:
+        return None if scheduler is None else parse_scheduler(scheduler)
+    if scheduler is not None:
+        raise ValueError(
+            f"workers = {workers} and scheduler = {scheduler!r}; give one (workers N is local:N)"
+        )
+    return f"local:{workers}"
+
+
+def set_worker_numba_threads() -> None:
+    """On a Dask worker, before its job: one numba thread for the calling thread's job.
+
+    numba's thread count is per calling thread; a worker runs as many jobs at once as it has
+    threads, so one numba thread each keeps a node's cores from being oversubscribed. A worker
+    started with ``NUMBA_NUM_THREADS`` set keeps numba's default (that many) instead. The
+    runner's jobs and the crosscheck's solver runs (``eval.crosscheck.store``) both call it.
+    """
+    if "NUMBA_NUM_THREADS" not in os.environ:
+        import numba
+
+        numba.set_num_threads(1)
+
+
+def _probe(address: str) -> None:
+    """Check that a Dask scheduler answers at ``address`` within :data:`CONNECT_TIMEOUT`.
+
+    Fails fast (connection refused) where the Dask client would retry until its timeout, and
+    bounds what the client cannot: a Dask scheduler speaks first (its handshake, framed by an
+    8-byte little-endian length), so a port that accepts but stays silent (an HTTP server
+    waits for a request) is reported after the timeout instead of hanging the client, and one
+    that answers with something else (its first bytes read as an absurd frame length) instead
+    of making the client allocate that length.
+    """
+    host, port = address.removeprefix(f"{SCHEME}://").rsplit(":", 1)
+    deadline = time.monotonic() + CONNECT_TIMEOUT
+    advice = (
+        "start one with `dask scheduler` and workers with `dask worker ADDRESS` "
+        "(docs/scaling.md), or run here with --scheduler local:N"
+    )
+    try:
+        conn = socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT)
+    except OSError as error:  # refused, unknown host, or no answer to connect (TimeoutError)
+        raise SchedulerUnreachable(
+            f"no Dask scheduler answers at {address} ({error.strerror or error}); {advice}"
+        ) from None
+    head = b""
+    with conn:
+        try:
+            while len(head) < 8:
+                conn.settimeout(max(deadline - time.monotonic(), 1e-3))
+                chunk = conn.recv(8 - len(head))
+                if not chunk:
+                    break
+                head += chunk
+        except TimeoutError:
+            raise SchedulerUnreachable(
+                f"{address} accepts connections but sent no Dask handshake within "
+                f"{CONNECT_TIMEOUT:g} s: not a Dask scheduler (or a stalled one); {advice}"
+            ) from None
+        except OSError as error:
+            raise SchedulerUnreachable(
+                f"{address} dropped the connection ({error.strerror or error}) before a Dask "
+                f"handshake: not a Dask scheduler; {advice}"
+            ) from None
+    if len(head) < 8:
+        raise SchedulerUnreachable(
+            f"{address} accepted the connection and closed it without a Dask handshake: not a "
+            f"Dask scheduler; {advice}"
+        )
+    if not 0 < int.from_bytes(head, "little") <= _HANDSHAKE_BYTES:
+        raise SchedulerUnreachable(
+            f"{address} answers, but not with the Dask protocol (first bytes {head!r}): not a "
+            f"Dask scheduler; {advice}"
+        )
+
+
+@contextlib.contextmanager
+def _workers_ignore_interrupts() -> Iterator[None]:
+    """Start worker processes that ignore Ctrl-C (SIGINT), so only this process handles it.
+
+    A Ctrl-C in a terminal goes to the whole process group: the local workers would die at once
+    and their nannies log tracebacks while this process closes the cluster in order. A process
+    started while SIGINT is ignored inherits that (POSIX; Python then leaves it ignored).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+@contextlib.contextmanager
+def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
+    """A client of ``scheduler`` (``local:N`` or an address), closed (with its cluster) at exit.
+
+    Raises :class:`SchedulerUnreachable` naming the address if no scheduler answers within
+    :data:`CONNECT_TIMEOUT` seconds.
+    """
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    spec = parse_scheduler(scheduler)
+    with contextlib.ExitStack() as stack:
+        if spec.startswith("local:"):
+            with _workers_ignore_interrupts():
+                cluster = LocalCluster(
+                    n_workers=int(spec.partition(":")[2]),
+                    threads_per_worker=1,
+                    processes=True,
+                    host="127.0.0.1",
+                    dashboard_address="127.0.0.1:0",  # a free port (the dashboard needs bokeh)
+                    # One numba thread per worker process (a job per core; see
+                    # set_worker_numba_threads).
+                    env={"NUMBA_NUM_THREADS": "1"},
+                    # The runner reports every failed job itself (key and traceback) and
+                    # Dask reruns a dead worker's jobs: the cluster's own ERROR logs are noise
+                    # then, e.g. a busy worker's heartbeat to a scheduler closed by Ctrl-C.
+                    silence_logs=logging.CRITICAL,
+                )
+            stack.enter_context(cluster)
+            client = stack.enter_context(Client(cluster))
+        else:
+            _probe(spec)
+            try:
+                client = stack.enter_context(Client(spec, timeout=CONNECT_TIMEOUT))
+            except OSError as error:
+                raise SchedulerUnreachable(
+                    f"cannot connect to the Dask scheduler at {spec}: {error}"
+                ) from None
+        if not quiet:
+            workers = len(client.scheduler_info().get("workers", {}))
+            where = f"Dask scheduler {client.scheduler.address}, {workers} workers"
+            if workers == 0:
+                where += " (jobs wait until workers connect)"
+            if dashboard_link := _dashboard(client):
+                where += f", dashboard {dashboard_link}"
+            print(where, file=sys.stderr)
+        yield client
+
+
+def _dashboard(client: Client) -> str | None:
+    try:
+        return client.dashboard_link if client.scheduler_info().get("services") else None
+    except Exception:  # no dashboard service (bokeh missing)
+        return None

@@ -1,0 +1,184 @@
+"""A command's whole cost over its phases, each a :func:`~agents.runner.run_jobs` call.
+
+A command of several phases (the readings study) says its whole cost up front and at each
+phase's start through one :class:`CommandProgress` passed to each of its
+:func:`~agents.runner.run_jobs` calls.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+from agents.jobs import Job
+from agents.record_cache import CacheOption, cacheable, record_cache
+from agents.store import RecordStore
+from tandem_env.io.progress_bar import QuietStream
+
+__all__ = ["CommandProgress", "Phase"]
+
+
+@dataclass(frozen=True)
+class Phase:
+    """One phase of a command of several (:class:`CommandProgress`): its jobs as known now."""
+
+    name: str
+    jobs: tuple[Job, ...]
+    provisional: frozenset[str] = frozenset()
+    """Keys of jobs that stand in for ones an earlier phase's results decide (their budgets are
+    right, their keys not final: a continued job's start): counted as to run."""
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 1:
+        return "under 1 s"
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 90 * 60:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+class CommandProgress:
+    """The whole cost of a command of several phases, each a :func:`~agents.runner.run_jobs`
+    call: its jobs, how many are stored in ``--out`` or the record cache and how many run,
+    their model evaluations and the time left, said on one line before any work
+    (:meth:`announce`) and again at each phase's start (:meth:`start`), on stderr (nothing
+    when not ``enabled``).
+
+    The time left is the evaluations left at the rate this command has measured so far (the
+    jobs it ran, over the wall time they took, compilation included); before its first job
+    finishes it says "estimating". A phase whose jobs follow from an earlier one's results is
+    planned with stand-ins (:class:`Phase`) and re-planned (:meth:`plan`) when it starts;
+    ``later`` says what no plan can count yet (the readings study's combinations). ``detail``
+    follows the title on the first line (the preset and methods).
+    """
+
+    def __init__(
+        self,
+        title: str,
+        out_dir: str | os.PathLike[str],
+        *,
+        cache: CacheOption = True,
+        enabled: bool = True,
+        detail: str = "",
+    ) -> None:
+        self.title = title
+        self.name = title.partition(" (")[0]
+        """The title less its parenthesis, as the phase lines name the command."""
+        self.detail = detail
+        self.out_dir = out_dir
+        self._store = RecordStore(out_dir)
+        self._cache = record_cache(cache)
+        self.enabled = enabled
+        self._phases: dict[str, Phase] = {}
+        self._later = ""
+        self._done: set[str] = set()
+        self._evaluations = 0
+        self._seconds = 0.0
+        self.lines: list[str] = []
+        """Every line said, in order (what a test or a log reads)."""
+
+    def plan(self, phases: Iterable[Phase], later: str | None = None) -> None:
+        """Set these phases' jobs (a phase of the same name is replaced, a new one added after
+        the others); ``later`` replaces what is said of the work no phase counts yet."""
+        for phase in phases:
+            self._phases[phase.name] = phase
+        if later is not None:
+            self._later = later
+
+    def counts(self) -> dict[str, int]:
+        """The command's jobs (each key once) by state: ``done`` (run by this command),
+        ``stored`` (in ``--out``), ``cached`` (in the record cache), ``todo`` (to run; also
+        every stand-in), with ``evaluations`` (all jobs) and ``todo_evaluations``."""
+        jobs: dict[str, tuple[Job, bool]] = {}
+        for phase in self._phases.values():
+            for job in phase.jobs:
+                provisional = job.key in phase.provisional
+                if job.key not in jobs or not provisional:
+                    jobs[job.key] = (job, provisional)
+        counts = dict.fromkeys(("done", "stored", "cached", "todo"), 0)
+        counts |= {"evaluations": 0, "todo_evaluations": 0}
+        for key, (job, provisional) in jobs.items():
+            counts["evaluations"] += job.budget
+            if key in self._done:
+                state = "done"
+            elif provisional:
+                state = "todo"
+            elif self._store.path(key).exists():
+                state = "stored"
+            elif self._cache is not None and cacheable(job) and self._cache.path(key).exists():
+                state = "cached"
+            else:
+                state = "todo"
+            counts[state] += 1
+            if state == "todo":
+                counts["todo_evaluations"] += job.budget
+        return counts
+
+    def time_left(self, evaluations: int) -> str:
+        """``evaluations`` at the rate measured so far, in words."""
+        if evaluations == 0:
+            return "none"
+        if self._evaluations == 0 or self._seconds <= 0:
+            return "estimating (from the speed of the first jobs to finish)"
+        rate = self._evaluations / self._seconds
+        return (
+            f"about {_duration(evaluations / rate)} (at the {rate:,.0f} evaluations/s "
+            "measured so far)"
+        )
+
+    def _jobs(self) -> dict[str, Job]:
+        return {job.key: job for phase in self._phases.values() for job in phase.jobs}
+
+    def _left(self, c: Mapping[str, int]) -> str:
+        text = f"{c['todo']} to run ({c['todo_evaluations']:,} evaluations)"
+        if self._later:
+            text += f"; then {self._later}"
+        return f"{text}; time left: {self.time_left(c['todo_evaluations'])}"
+
+    def _say(self, line: str) -> None:
+        self.lines.append(line)
+        if self.enabled:
+            stream = QuietStream()
+            stream.write(line + "\n")
+            stream.flush()
+
+    def announce(self) -> None:
+        """The first line: the whole command before any work (its phases, jobs, seeds, budgets,
+        what is stored in ``--out`` or the cache, what runs, and the time left)."""
+        c = self.counts()
+        jobs = self._jobs().values()
+        seeds = sorted({job.seed for job in jobs})
+        budgets = " / ".join(f"{b:,}" for b in sorted({job.budget for job in jobs}))
+        count = len(self._phases)
+        phases = f"{count} phases ({', '.join(self._phases)}): " if count > 1 else ""
+        self._say(
+            f"{self.title}: {self.detail + '; ' if self.detail else ''}{phases}"
+            f"{len(jobs)} optimisations over seeds {seeds}, budgets {budgets} model evaluations "
+            f"each ({c['evaluations']:,} in all); {c['stored']} stored in {self.out_dir}, "
+            f"{c['cached']} in the record cache, {self._left(c)}"
+        )
+
+    def start(self, name: str) -> None:
+        """The line at the start of phase ``name`` (after :meth:`plan` gave its jobs); none for
+        the first phase, which the first line has just announced."""
+        names = list(self._phases)
+        place = names.index(name) + 1 if name in names else len(names)
+        if place == 1:
+            return
+        c = self.counts()
+        finished = c["done"] + c["stored"] + c["cached"]
+        self._say(
+            f"phase {place}/{len(names)} ({name}) of the {self.name}: "
+            f"{len(self._jobs())} optimisations ({c['evaluations']:,} evaluations), "
+            f"{finished} done or stored, {self._left(c)}"
+        )
+
+    def ran(self, job: Job, seconds: float) -> None:
+        """A job :func:`~agents.runner.run_jobs` finished, after ``seconds`` of wall time since
+        the previous one (or the call's start) [s]."""
+        self._done.add(job.key)
+        self._evaluations += job.budget
+        self._seconds += seconds

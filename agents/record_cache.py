@@ -1,0 +1,75 @@
+"""The record cache: one store of records shared by every output folder.
+
+The record cache (``cache``, on by default; ``--no-cache`` on the command line) is a store
+shared by every output folder (:func:`agents.store.cache_directory`): a job with no record in
+``--out`` but one in the cache is not run, its record is copied into ``--out`` (and counted as
+reused, "from the cache"), and every record computed (or found in ``--out`` alone) is written to
+the cache too (:func:`agents.runner.run_jobs`, through a :class:`CacheWriter`). An entry that is
+not a valid record of its job is ignored with a :class:`~agents.records.RecordWarning` and
+recomputed. A job whose method takes a path (``policy:RUN_DIR``) is never cached
+(:func:`cacheable`): its result depends on files its key does not hash.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+
+from agents.jobs import Job
+from agents.records import Record, RecordWarning
+from agents.store import RecordStore, StoreWriteError, cache_directory
+
+__all__ = ["CacheOption", "CacheWriter", "cacheable", "record_cache"]
+
+
+CacheOption = bool | str | os.PathLike[str] | None
+"""The record cache a call uses: True its folder (:func:`agents.store.cache_directory`), a path
+another folder, False or None none."""
+
+
+def record_cache(cache: CacheOption = True) -> RecordStore | None:
+    """The record cache as a store (None when off); ValueError if its folder is a file."""
+    if cache is None or cache is False:
+        return None
+    directory = cache_directory() if cache is True else cache
+    try:
+        return RecordStore(directory)
+    except ValueError as error:
+        raise ValueError(f"record cache: {error} (or turn the cache off: --no-cache)") from None
+
+
+def cacheable(job: Job) -> bool:
+    """Whether ``job``'s record may be kept in the record cache."""
+    # A method that takes a path (policy:RUN_DIR) reads files its key does not hash.
+    return ":" not in job.method
+
+
+class CacheWriter:
+    """The record cache of one :func:`~agents.runner.run_jobs` call: read through the store's
+    checks, written through its atomic save; a cache that cannot be written is said once and
+    then left alone (the records are in ``--out``)."""
+
+    def __init__(self, store: RecordStore | None) -> None:
+        self.store = store
+
+    def load(self, job: Job) -> Record | None:
+        if self.store is None or not cacheable(job):
+            return None
+        return self.store.load(job)
+
+    def save(self, record: Record, *, unless_present: bool = False) -> None:
+        store = self.store
+        if store is None or not cacheable(record.job):
+            return
+        if unless_present and store.path(record.key).exists():
+            return
+        try:
+            store.save(record)
+        except (StoreWriteError, ValueError) as error:
+            self.store = None
+            warnings.warn(
+                f"the record cache is not written ({error}); the records are in the output "
+                "folder (--no-cache turns the cache off)",
+                RecordWarning,
+                stacklevel=4,
+            )

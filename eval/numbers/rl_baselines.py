@@ -1,0 +1,144 @@
+"""PPO and SAC envelope policies against the reference optima (docs/training.md, "Scores at
+the held-out conditions"): for each algorithm and seed, one policy trained over level flight's
+whole envelope by the documented ``python -m train`` command (the shipped hyperparameters of
+``train/hyperparams``, not tuned further), then asked through ``python -m train.envelope`` for
+its stroke at each held-out condition (:func:`tandem_env.envs.reference.held_out_conditions`),
+scored against the reference table (``score``: 100 = the certified optimum).
+
+On request only (``--only rl-baselines``): ten training runs, two at a time, about half an
+hour on 2 cores. The figure (score against speed, every seed) is written beside the table."""
+
+from __future__ import annotations
+
+import csv
+import shlex
+import statistics
+import tempfile
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+from eval.numbers.framework import ROOT, machine_line, run_command
+
+ENV_ID = "TandemWing/LevelFlight-v0"
+#: (algo, training steps): the documented envelope run's 300 k for PPO; SAC's tuned 100 k.
+ALGOS: tuple[tuple[str, int], ...] = (("ppo", 300_000), ("sac", 100_000))
+SEEDS: tuple[int, ...] = (0, 1, 2, 3, 4)
+ENVELOPE = "speed_range=(0.25, 2.0)"
+FIGURE = Path("docs") / "figures" / "rl_baselines_scores.png"
+# One core per training run, two at a time (torch and numba would each take both otherwise).
+_ONE_CORE = {"OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+def train_command(algo: str, steps: int | str, seed: int | str) -> list[str]:
+    """The documented envelope training command of ``algo`` (``-f`` is added)."""
+    return ["python", "-m", "train", "--algo", algo, "--env", ENV_ID, "--seed", str(seed),
+            "-n", str(steps), "--env-kwargs", ENVELOPE, "--no-progress", "--no-tensorboard",
+            "--torch-threads", "1"]  # fmt: skip
+
+
+def _one(algo: str, steps: int, seed: int, folder: Path) -> dict[str, Any]:
+    from tandem_env.envs.reference import held_out_conditions
+
+    logs = folder / f"{algo}-{seed}"
+    start = time.perf_counter()
+    run_command([*train_command(algo, steps, seed), "-f", str(logs)], _ONE_CORE)
+    seconds = time.perf_counter() - start
+    run = logs / algo / ENV_ID.replace("/", "-")
+    out = folder / f"envelope-{algo}-{seed}"
+    conditions = [str(c) for c in held_out_conditions(ENV_ID)]
+    run_command(
+        ["python", "-m", "train.envelope", "--run", str(run), "--out", str(out),
+         "--conditions", *conditions],
+        _ONE_CORE,
+    )  # fmt: skip
+    with open(out / "envelope.csv", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    return {
+        "algo": algo,
+        "seed": seed,
+        "steps": steps,
+        "train_s": round(seconds, 1),
+        "conditions": [float(r["condition_value"]) for r in rows],
+        "scores": [float(r["score"]) for r in rows],
+        "feasible": [r["feasible"] == "True" for r in rows],
+    }
+
+
+def measure_rl_baselines() -> dict[str, Any]:
+    """Train and score every (algo, seed), two runs at a time."""
+    with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as tmp:
+        folder = Path(tmp)
+        tasks = [(algo, steps, seed) for algo, steps in ALGOS for seed in SEEDS]
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            runs = list(pool.map(lambda t: _one(*t, folder), tasks))
+    data = {"env_id": ENV_ID, "envelope": ENVELOPE, "runs": runs}
+    write_figure(data, ROOT / FIGURE)
+    return data
+
+
+def _summary(runs: list[dict[str, Any]]) -> tuple[float, float, float, float]:
+    """Median and worst score over every (seed, condition), the share feasible, the median
+    training time [s]."""
+    scores = [s for r in runs for s in r["scores"]]
+    feasible = [f for r in runs for f in r["feasible"]]
+    return (
+        statistics.median(scores),
+        min(scores),
+        sum(feasible) / len(feasible),
+        statistics.median(r["train_s"] for r in runs),
+    )
+
+
+def render_rl_baselines(data: dict[str, Any]) -> str:
+    lines = [
+        "| policy | training steps | seeds | median score | worst score | strokes that fly | "
+        "training time (median, 1 core) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for algo, _ in ALGOS:
+        runs = [r for r in data["runs"] if r["algo"] == algo]
+        if not runs:
+            continue
+        median, worst, flies, seconds = _summary(runs)
+        lines.append(
+            # + 0.0: a median that rounds to -0.0 (an infeasible stroke's) reads as 0.0
+            f"| {algo.upper()} | {runs[0]['steps']:,} | {len(runs)} | {round(median, 1) + 0.0:.1f} | "
+            f"{round(worst, 1) + 0.0:.1f} | {100 * flies:.0f} % | {seconds:.0f} s |"
+        )
+    held = ", ".join(f"{c:g}" for c in data["runs"][0]["conditions"])
+    return (
+        "\n".join(lines)
+        + f"\n\nScores at the held-out speeds V = {held} m/s (one stroke per policy and speed; "
+        "100 = the reference optimum, ≤ 0 = does not fly), over every seed and speed; "
+        f"`{shlex.join(train_command('ALGO', 'STEPS', 'SEED'))}` with the steps above and seeds "
+        f"{list(SEEDS)}, then `python -m train.envelope --conditions ...`. "
+        f"{machine_line(data, 'rl-baselines')}\n"
+    )
+
+
+def write_figure(data: dict[str, Any], path: Path) -> None:
+    """Score against speed: one thin line per seed, the median thick, per algorithm."""
+    import matplotlib.pyplot as plt
+
+    from eval.figures import save
+
+    colours = {"ppo": "#0072B2", "sac": "#D55E00"}
+    fig, ax = plt.subplots(figsize=(6.0, 3.8))
+    for algo, _ in ALGOS:
+        runs = [r for r in data["runs"] if r["algo"] == algo]
+        for r in runs:
+            ax.plot(r["conditions"], r["scores"], color=colours[algo], alpha=0.3, lw=0.8)
+        medians = [statistics.median(col) for col in zip(*(r["scores"] for r in runs), strict=True)]
+        ax.plot(runs[0]["conditions"], medians, color=colours[algo], lw=2.2, marker="o",
+                label=f"{algo.upper()} (median of {len(runs)} seeds; thin: each seed)")  # fmt: skip
+    ax.axhline(100.0, color="0.3", ls="--", lw=1.0, label="reference optimum (100)")
+    ax.axhline(0.0, color="0.6", lw=0.8)
+    ax.set_xlabel("flight speed V [m/s] (held-out conditions)")
+    ax.set_ylabel("normalised score [-]")
+    ax.set_title("Level flight: envelope policies against the reference optima")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper right")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    save(fig, path)
