@@ -6,6 +6,10 @@ Examples::
     python -m train --algo ppo --env TandemWing/LevelFlight-v0 --env-kwargs "speed_range=(0.25,2.0)"
     python -m train --algo sac --env TandemWing/LevelFlight-v0 --resume      # latest run
     python -m train --algo sac --env TandemWing/LevelFlight-v0 --run-dir logs/sac/TandemWing-LevelFlight-v0_3
+    python -m train --algo amortised --env TandemWing/Accelerate-v0 --env-kwargs objective=horizontal
+
+``--algo amortised`` trains one network from the condition to a stroke on the reference optima
+(``train.amortised``, docs/training.md "Amortised policy"); its settings are --hyperparams.
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ with exit_on_bad_environment("python -m train"):
     from tandem_env.io.command import command_line
 from tandem_env.io.keyvalue import parse_pairs
 from tandem_env.io.progress_bar import warnings_as_lines
-from train.config import ALGOS, DEVICES, TrainConfig
+from train.config import DEVICES, TRAINERS, TrainConfig
 from train.layout import RunComplete
 
 EPILOG = """\
@@ -52,7 +56,8 @@ def _option(field: str, *flags: str, **settings: Any) -> Option:
 #: The command line, in ``-h`` order. Each option's default is its field's in
 #: :class:`TrainConfig` (a help text shows it as ``%(default)s``).
 OPTIONS: tuple[Option, ...] = (
-    _option("algo", "--algo", required=True, choices=ALGOS, help="RL algorithm"),
+    _option("algo", "--algo", required=True, choices=TRAINERS,
+            help="RL algorithm, or amortised (a network from condition to stroke)"),
     _option("env_id", "--env", required=True, metavar="ENV",
             help="env id, e.g. TandemWing/LevelFlight-v0"),
     _option("n_timesteps", "-n", "--n-timesteps", "--timesteps", type=int,
@@ -132,6 +137,8 @@ def config_from_args(args: argparse.Namespace) -> TrainConfig:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.algo == "amortised":
+        return _amortised(parser, args)
     try:
         config = config_from_args(args)
         from train.run import train
@@ -176,6 +183,87 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(
             f"  final deterministic policy{where}: reward {row['reward']:.4g}, "
             f"objective {row['objective']:.4g}, feasible {row['feasible']}"
+        )
+    return 0
+
+
+#: Options of the RL path (:class:`TrainConfig`) an amortised run has no use for.
+RL_ONLY = (
+    ("n_timesteps", "-n"),
+    ("n_envs", "--n-envs"),
+    ("hyperparams_file", "--conf-file"),
+    ("resume", "--resume"),
+    ("eval_freq", "--eval-freq"),
+    ("save_freq", "--save-freq"),
+    ("log_interval", "--log-interval"),
+    ("log_table", "--log-table"),
+    ("tensorboard", "--no-tensorboard"),
+    ("torch_threads", "--torch-threads"),
+    ("device", "--device"),
+)
+
+
+def _amortised(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    """``--algo amortised``: every input checked before any computation, then
+    :func:`train.amortised.train_run`."""
+    defaults = {f.name: f.default for f in fields(TrainConfig) if f.default is not MISSING}
+    try:
+        given = [flag for name, flag in RL_ONLY if getattr(args, name) != defaults.get(name)]
+        if given:
+            raise ValueError(
+                f"{', '.join(given)}: option(s) of ppo and sac, not of --algo amortised; allowed "
+                "with amortised: --env, --seed, --env-kwargs, --hyperparams (its settings, "
+                "train.amortised.Settings), -f/--log-folder, --run-dir, --verbose"
+            )
+        if args.insect is not None:
+            raise ValueError(
+                f"--insect {args.insect}: the reference table describes the paper's insects "
+                "only; allowed with amortised: planform=tear-drop or planform=real"
+            )
+        from tandem_env.envs.reference import REFERENCE_GRID
+        from tandem_env.io.files import output_directory
+        from tandem_env.physics.checks import is_integer
+        from train.amortised import Settings, check_env_kwargs, train_run
+        from train.config import MAX_SEED
+
+        if args.env_id not in REFERENCE_GRID:
+            from tandem_env.envs.registration import check_env_id
+
+            check_env_id(args.env_id, "--env")
+        env_kwargs = parse_pairs(args.env_kwargs, "--env-kwargs")
+        overrides = parse_pairs(args.hyperparams, "--hyperparams")
+        seed = args.seed
+        if not is_integer(seed) or not 0 <= seed <= MAX_SEED:
+            raise ValueError(f"seed = {seed!r}; allowed: an integer from 0 to 2**32 - 1")
+        Settings.from_mapping(overrides)
+        check_env_kwargs(args.env_id, env_kwargs)
+        output_directory(args.log_folder, "log_folder (-f)", write=False)
+        with warnings_as_lines():
+            result = train_run(
+                args.env_id,
+                env_kwargs,
+                overrides,
+                int(seed),
+                Path(args.log_folder),
+                run_dir=None if args.run_dir is None else Path(args.run_dir),
+                verbose=args.verbose,
+            )
+    except ValueError as error:
+        parser.error(str(error))
+    except OSError as error:
+        print(f"{parser.prog}: error: {error}", file=sys.stderr)
+        return 1
+    summary = result.summary
+    print(f"run folder: {result.run_dir}")
+    print(
+        f"trained in {summary['wall_time']:.1f} s (regression {summary['regression_seconds']:.1f} "
+        f"s, fine-tuning {summary['finetune_seconds']:.1f} s, {summary['num_timesteps']} strokes "
+        "evaluated)"
+    )
+    for row in summary["training_evaluation"]:
+        print(
+            f"  at training condition {row['condition']:g}: objective {row['objective']:.4g} "
+            f"(reference {row['reference']:.4g}), feasible {row['feasible']}"
         )
     return 0
 

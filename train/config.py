@@ -28,7 +28,11 @@ from tandem_env.physics.checks import is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
 Algo = Literal["ppo", "sac"]
+#: The Stable-Baselines3 algorithms (``python -m train``'s RL path, :class:`TrainConfig`).
 ALGOS: tuple[str, ...] = get_args(Algo)
+#: Every ``--algo`` of ``python -m train``: the RL algorithms and ``amortised``, one network
+#: from the condition to a stroke trained on the reference optima (``train.amortised``).
+TRAINERS: tuple[str, ...] = (*ALGOS, "amortised")
 Device = Literal["cpu", "cuda", "auto"]
 DEVICES: tuple[str, ...] = get_args(Device)
 

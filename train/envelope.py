@@ -12,7 +12,8 @@ gathers them::
 
 writes ``results/envelope-sac/envelope.csv`` (condition, objective, feasible, the normalised
 score against the reference optimum (docs/reference.md), efficiency,
-evaluations spent, ...) and the records in ``results/envelope-sac/records/``.
+evaluations spent, ...) and the records in ``results/envelope-sac/records/``. An amortised run
+(``python -m train --algo amortised``) is evaluated the same way.
 """
 
 from __future__ import annotations
@@ -106,9 +107,9 @@ def evaluate_envelope(
     from agents.harness import prepare
     from agents.runner import run_jobs
     from tandem_env.envs.registration import condition_keywords
-    from train.trained_policy import TrainedPolicy, TrainingMismatchWarning
+    from train.trained_policy import TrainingMismatchWarning, load_policy
 
-    policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
+    policy = load_policy(run_dir, which)  # type: ignore[arg-type]
     task = task_of(policy.env_id)
     # The harness sets the condition itself; every other training option is kept.
     env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
@@ -191,9 +192,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     outside = [row for row in rows if not row["trained_at"]]
     if outside:
         from agents.tasks import get_task
-        from train.trained_policy import TrainedPolicy
+        from train.trained_policy import load_policy
 
-        policy = TrainedPolicy.load(args.run, args.model)
+        policy = load_policy(args.run, args.model)
         seen = policy.training_conditions
         declared = get_task(task_of(policy.env_id)).declaration.condition
         ranged = "a range" if declared is None else declared.range_keyword

@@ -4,7 +4,8 @@ Two kinds of method, registered with the harness when this module is imported (i
 provider :mod:`agents.methods` imports on first use, so ``agents`` imports SB3 only when asked):
 
 ``policy:RUN_DIR``
-    A policy trained by ``python -m train``. Asked deterministically for its stroke at the
+    A policy trained by ``python -m train`` (ppo, sac, or amortised: one network from the
+    condition to a stroke, :mod:`train.amortised`). Asked deterministically for its stroke at the
     condition (one forward pass), which the harness evaluates once: **1 evaluation**, any
     larger budget is left unused. ``model=best`` (default: ``best_model.zip``, the best
     deterministic evaluation during training) or ``model=final`` (``<env>.zip``). ``RUN_DIR``
@@ -42,15 +43,15 @@ from agents.selection import is_better
 from tandem_env.envs.registration import condition_keywords
 from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import is_integer
+from train.amortised import CITATION as AMORTISED_CITATION
 from train.config import ALGOS, check_algo, plain
 from train.layout import RunLayout, read_run_yaml, resolve_run_dir
 from train.run import learn_in_memory
 from train.trained_policy import (
     WHICH_MODELS,
-    RunFiles,
-    TrainedPolicy,
     TrainingMismatchWarning,
     WhichModel,
+    load_policy,
 )
 from train.vec import StrokeRecorder
 
@@ -75,6 +76,7 @@ CITATIONS: dict[str, str] = {
         "SAC (Haarnoja et al. 2018, ICML / arXiv:1812.05905), Stable-Baselines3 implementation "
         "(Raffin et al. 2021, JMLR 22(268))"
     ),
+    "amortised": AMORTISED_CITATION,
 }
 
 # Settings of the training methods that are not hyperparameter overrides.
@@ -99,13 +101,11 @@ class PolicyMethod:
         """The harness's check before any work: the run folder holds a policy of this task's
         env, and its files load (the same load as :meth:`search`'s, so that a damaged or
         tampered folder is refused here, not as a failed job)."""
-        files = RunFiles.read(self.run_dir, self.which)
-        files.check_env(task.env_id)
-        TrainedPolicy.from_files(files, self.which)
+        load_policy(self.run_dir, self.which).check_env(task.env_id)
 
     def search(self, context: SearchContext) -> SearchOutcome:
-        policy = TrainedPolicy.load(self.run_dir, self.which)
-        policy.files.check_env(context.env_id)
+        policy = load_policy(self.run_dir, self.which)
+        policy.check_env(context.env_id)
         _warn_on_differences(policy, context)
         action = policy.strokes([context.condition.value])[0]
         reward = float(context.evaluate(action[None, :])[0])
@@ -128,7 +128,7 @@ class PolicyMethod:
         )
 
 
-def _warn_on_differences(policy: TrainedPolicy, context: SearchContext) -> None:
+def _warn_on_differences(policy: Any, context: SearchContext) -> None:
     # The condition's keywords may differ between training and evaluation.
     condition = condition_keywords()
     trained = {k: v for k, v in policy.env_kwargs.items() if k not in condition}

@@ -4,7 +4,11 @@
 normalisation statistics); :class:`TrainedPolicy` loads the model without unpickling anything
 and observes a condition the way the training env did; :func:`policy_stroke` is the one-line
 use. The harness method ``policy:RUN_DIR`` (:mod:`train.policies`) and the envelope
-(:mod:`train.envelope`) are built on it.
+(:mod:`train.envelope`) are built on it. :func:`load_policy` loads either kind of run folder:
+an RL run as a :class:`TrainedPolicy`, an amortised run (``--algo amortised``) as a
+:class:`train.amortised.AmortisedPolicy`, which answers the same questions (``strokes``,
+``check_env``, ``env_id``, ``env_kwargs``, ``algo``, ``model_path``, ``num_timesteps``,
+``training_conditions``, ``trained_at``, ``run_dir``).
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ __all__ = [
     "TrainedPolicy",
     "TrainingMismatchWarning",
     "WhichModel",
+    "load_policy",
     "policy_stroke",
 ]
 
@@ -154,6 +159,10 @@ class TrainedPolicy:
     def run_dir(self) -> Path:
         return self.files.run_dir
 
+    def check_env(self, env_id: str) -> None:
+        """ValueError unless the run was trained on ``env_id``."""
+        self.files.check_env(env_id)
+
     @property
     def algo(self) -> str:
         return self.files.algo
@@ -230,6 +239,20 @@ class TrainedPolicy:
         return int(self.model.num_timesteps)
 
 
+def load_policy(run_dir: str | Path, which: WhichModel = "best") -> Any:
+    """The policy of a run folder of ``python -m train`` (or of the latest run it names): a
+    :class:`TrainedPolicy` for ppo and sac, a :class:`train.amortised.AmortisedPolicy` for an
+    amortised run (one weights file: ``which`` best and final are the same)."""
+    from train.amortised import is_amortised_run
+    from train.amortised import load_policy as load_amortised
+
+    if which not in WHICH_MODELS:
+        raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
+    if is_amortised_run(run_dir):
+        return load_amortised(run_dir)
+    return TrainedPolicy.load(run_dir, which)
+
+
 def policy_stroke(run_dir: str | Path, condition: float, which: WhichModel = "best") -> np.ndarray:
     """The trained run's deterministic normalised stroke (28,) at ``condition``."""
-    return TrainedPolicy.load(run_dir, which).strokes([condition])[0]
+    return load_policy(run_dir, which).strokes([condition])[0]

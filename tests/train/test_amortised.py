@@ -1,0 +1,366 @@
+"""The amortised stroke policy (train.amortised): the canonical targets' invariance, the
+regression, the run folder, the harness method, the envelope and the refusals.
+
+Fast: tiny networks, the fine-tuning at n_time = 32, n_blade = 8, and a synthetic reference
+table (the packaged one is not read, so nothing here depends on its numbers).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import torch
+import yaml
+
+import tandem_env.envs.reference as reference_module
+from agents.harness import run
+from tandem_env.envs.reference import (
+    REFERENCE_GRID,
+    ReferenceSeries,
+    ReferenceTable,
+    default_fingerprint,
+    held_out_conditions,
+    training_conditions,
+)
+from tandem_env.envs.registration import ACCELERATE_ID, LEVEL_FLIGHT_ID
+from tandem_env.physics.stroke import normalised_to_physical, physical_to_normalised
+from train import amortised
+from train.__main__ import main
+from train.amortised import (
+    CANONICAL_SWEEP_PHASE,
+    CONTINUOUS,
+    PHASES,
+    Settings,
+    Targets,
+    canonicalise,
+    check_env_kwargs,
+    delay,
+    load_policy,
+    make_problem,
+    reference_targets,
+    train_policy,
+)
+from train.envelope import evaluate_envelope
+from train.trained_policy import load_policy as load_any_policy
+
+TINY = {"n_time": 32, "n_blade": 8}
+#: A tiny training: the regression to convergence, two fine-tuning steps at low resolution.
+TINY_SETTINGS = {
+    "hidden": [16, 16],
+    "regression_steps": 1500,
+    "regression_lr": 1e-2,
+    "finetune_steps": 2,
+    "batch": 2,
+    "finetune_n_time": 32,
+    "finetune_n_blade": 8,
+}
+
+
+def _strokes(seed: int, count: int) -> np.ndarray:
+    return np.random.default_rng(seed).uniform(-1.0, 1.0, (count, 28))
+
+
+def _synthetic_series(env_id: str = LEVEL_FLIGHT_ID) -> ReferenceSeries:
+    """A series over the env's grid: smooth strokes at the training conditions, NaN strokes at
+    the held-out ones (reading them would fail)."""
+    objectives, conditions = REFERENCE_GRID[env_id]
+    base = np.random.default_rng(3).uniform(-0.7, 0.7, 28)
+    base[[11, 25]] = [-0.5, 0.5]
+    held = set(held_out_conditions(env_id))
+    points = []
+    for k, c in enumerate(conditions):
+        stroke = base.copy()
+        stroke[[0, 1, 3, 8, 16, 22]] += 0.2 * np.sin(k / 3.0)
+        if c in held:
+            stroke[:] = np.nan
+        points.append(
+            {
+                "condition": c,
+                "objective": 0.3 + 0.01 * k,
+                "feasible": True,
+                "normalised_stroke": stroke.tolist(),
+            }
+        )
+    return ReferenceSeries(
+        env_id=env_id,
+        objective=objectives[0],
+        planform="tear-drop",
+        fingerprint=default_fingerprint(env_id, "tear-drop"),
+        conditions=tuple(conditions),
+        objectives=tuple(p["objective"] for p in points),
+        points=tuple(points),
+    )
+
+
+@pytest.fixture
+def synthetic_table(monkeypatch: pytest.MonkeyPatch) -> ReferenceSeries:
+    series = _synthetic_series()
+    table = ReferenceTable((series,), {"command": "test"})
+    monkeypatch.setattr(reference_module, "load_reference_table", lambda: table)
+    return series
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A run folder written by ``python -m train --algo amortised`` on the synthetic table."""
+    series = _synthetic_series()
+    table = ReferenceTable((series,), {"command": "test"})
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(reference_module, "load_reference_table", lambda: table)
+        folder = tmp_path_factory.mktemp("logs")
+        pairs = [f"{k}={v}" for k, v in TINY_SETTINGS.items()]
+        command = ["--algo", "amortised", "--env", LEVEL_FLIGHT_ID, "--seed", "1"]
+        status = main([*command, "-f", str(folder), "--hyperparams", *pairs, "--verbose", "0"])
+    assert status == 0
+    [run_dir] = (folder / "amortised").iterdir()
+    return run_dir
+
+
+# --- the canonical targets ----------------------------------------------------------------------
+@pytest.mark.parametrize("pairs_independent", [True, False])
+def test_canonical_strokes_fly_exactly_as_the_originals(pairs_independent: bool) -> None:
+    """The model's invariance the targets rely on: delaying each pair by whole time-grid steps
+    (the hind pair on its own under the default mean slipstream) changes the objective and
+    the constraint margins by rounding only (1e-9 relative)."""
+    problem = make_problem(LEVEL_FLIGHT_ID, {}, **TINY)
+    actions = _strokes(0, 8)
+    speeds = np.linspace(0.3, 1.9, 8)
+    physical = normalised_to_physical(actions)
+    canonical = canonicalise(physical, TINY["n_time"], pairs_independent=pairs_independent)
+    before = problem.evaluate(actions, speeds)
+    after = problem.evaluate(np.clip(physical_to_normalised(canonical), -1, 1), speeds)
+    np.testing.assert_allclose(after.objective, before.objective, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(after.margins, before.margins, rtol=1e-9, atol=1e-11)
+    np.testing.assert_array_equal(after.feasible, before.feasible)
+    step = 360.0 / TINY["n_time"]
+    assert np.all(np.abs(canonical[:, 7] - CANONICAL_SWEEP_PHASE) <= step / 2 + 1e-9)
+    if pairs_independent:
+        assert np.all(np.abs(canonical[:, 21] - CANONICAL_SWEEP_PHASE) <= step / 2 + 1e-9)
+    else:  # one common delay of both pairs
+        shift = physical[:, 7] - canonical[:, 7]
+        wrapped = (physical[:, 21] - canonical[:, 21] - shift + 180.0) % 360.0 - 180.0
+        np.testing.assert_allclose(wrapped, 0.0, atol=1e-9)
+
+
+def test_a_delay_moves_the_elevation_phase_by_n_times_the_delay() -> None:
+    physical = normalised_to_physical(_strokes(1, 2))
+    physical[:, 11], physical[:, 25] = 2, 1
+    out = delay(physical, 10.0, -20.0)
+    wrap = lambda a: (a + 180.0) % 360.0 - 180.0  # noqa: E731
+    np.testing.assert_allclose(wrap(physical[:, 8] - out[:, 8]), 20.0, atol=1e-9)
+    np.testing.assert_allclose(wrap(physical[:, 22] - out[:, 22]), -20.0, atol=1e-9)
+    np.testing.assert_allclose(wrap(physical[:, 9] - out[:, 9]), 10.0, atol=1e-9)
+    untouched = [j for j in range(28) if j not in PHASES]
+    np.testing.assert_array_equal(out[:, untouched], physical[:, untouched])
+
+
+def test_the_targets_are_the_training_conditions_only(synthetic_table: ReferenceSeries) -> None:
+    targets = reference_targets(synthetic_table, 32, pairs_independent=True)
+    np.testing.assert_allclose(targets.conditions, training_conditions(LEVEL_FLIGHT_ID))
+    assert np.all(np.isfinite(targets.strokes))  # the held-out points' NaN were never read
+
+
+# --- training ---------------------------------------------------------------------------------
+def test_regression_reproduces_the_training_targets(synthetic_table: ReferenceSeries) -> None:
+    targets = reference_targets(synthetic_table, 32, pairs_independent=True)
+    settings = Settings(**{**TINY_SETTINGS, "finetune_steps": 0})
+    policy, training = train_policy(LEVEL_FLIGHT_ID, {}, targets, settings, seed=0)
+    strokes = policy.strokes(targets.conditions)
+    difference = strokes - targets.strokes
+    phases = list(PHASES)
+    difference[:, phases] = (difference[:, phases] + 1.0) % 2.0 - 1.0
+    assert np.max(np.abs(difference)) < 0.02, training.regression_loss
+    np.testing.assert_array_equal(strokes[:, [11, 25]], targets.strokes[:, [11, 25]])
+    # N between the training conditions: the nearest one's
+    middle = 0.5 * (targets.conditions[0] + targets.conditions[1]) - 1e-6
+    assert policy.strokes([middle])[0, 11] == targets.strokes[0, 11]
+
+
+def test_training_is_deterministic_for_a_seed(synthetic_table: ReferenceSeries) -> None:
+    targets = reference_targets(synthetic_table, 32, pairs_independent=True)
+    settings = Settings(**{**TINY_SETTINGS, "regression_steps": 50})
+    a, _ = train_policy(LEVEL_FLIGHT_ID, {}, targets, settings, seed=4)
+    b, _ = train_policy(LEVEL_FLIGHT_ID, {}, targets, settings, seed=4)
+    conditions = [0.3, 1.1, 1.9]
+    np.testing.assert_array_equal(a.strokes(conditions), b.strokes(conditions))
+    assert a.num_timesteps == settings.finetune_steps * settings.batch
+
+
+def test_fine_tuning_moves_the_network(synthetic_table: ReferenceSeries) -> None:
+    targets = reference_targets(synthetic_table, 32, pairs_independent=True)
+    base = {**TINY_SETTINGS, "regression_steps": 50}
+    still, _ = train_policy(
+        LEVEL_FLIGHT_ID, {}, targets, Settings(**{**base, "finetune_steps": 0}), seed=2
+    )
+    moved, training = train_policy(LEVEL_FLIGHT_ID, {}, targets, Settings(**base), seed=2)
+    assert len(training.history) == 2
+    assert not np.array_equal(still.strokes([1.0]), moved.strokes([1.0]))
+
+
+# --- the run folder ----------------------------------------------------------------------------
+def test_run_folder_round_trips(tiny_run: Path) -> None:
+    policy = load_policy(tiny_run)
+    name = "TandemWing-LevelFlight-v0"
+    state = torch.load(tiny_run / f"{name}.pt", weights_only=True)
+    assert all(isinstance(v, torch.Tensor) for v in state.values())
+    args = yaml.safe_load((tiny_run / name / "args.yml").read_text())
+    assert args["algo"] == "amortised" and args["env"] == LEVEL_FLIGHT_ID and args["seed"] == 1
+    config = yaml.safe_load((tiny_run / name / "config.yml").read_text())
+    assert config["hidden"] == [16, 16] and config["finetune_n_time"] == 32
+    result = json.loads((tiny_run / "result.json").read_text())
+    assert result["num_timesteps"] == 4 and len(result["training_evaluation"]) == 8
+    # the same network rebuilt from the state_dict gives the same strokes
+    features = json.loads((tiny_run / "policy.json").read_text())["features"]
+    assert features == Settings().features
+    rebuilt = amortised.build_network([16, 16], features)
+    rebuilt.load_state_dict(state)
+    with torch.no_grad():
+        z = rebuilt(torch.as_tensor(policy.observe([0.7]), dtype=torch.float64))
+    direct = policy.assemble(torch.tanh(z), np.array([0.7])).numpy()
+    np.testing.assert_array_equal(np.clip(direct, -1, 1), policy.strokes([0.7]))
+    again = load_any_policy(tiny_run)
+    np.testing.assert_array_equal(again.strokes([0.3, 1.5]), policy.strokes([0.3, 1.5]))
+    assert again.algo == "amortised" and again.training_conditions == (0.25, 2.0)
+    assert np.all(np.abs(policy.strokes(np.linspace(0.25, 2.0, 9))) <= 1.0)
+
+
+def test_policy_method_gives_a_record(tiny_run: Path) -> None:
+    [record] = run(f"policy:{tiny_run}", "level", 0.8, budget=3, seeds=[0], progress=False)
+    assert record.evaluations == 1
+    np.testing.assert_allclose(
+        record.normalised_stroke, load_policy(tiny_run).strokes([0.8])[0], atol=1e-6
+    )
+    assert record.config["method"]["algo"] == "amortised"
+    assert "amortized optimization" in record.config["method"]["citation"]
+
+
+def test_envelope_evaluates_an_amortised_run(tiny_run: Path, tmp_path: Path) -> None:
+    rows = evaluate_envelope(tiny_run, tmp_path, conditions=[0.5, 1.5])
+    assert [row["condition_value"] for row in rows] == [0.5, 1.5]
+    assert all(row["trained_at"] and row["evaluations"] == 1 for row in rows)
+    assert (tmp_path / "envelope.csv").is_file()
+
+
+# --- refusals ----------------------------------------------------------------------------------
+def test_an_env_without_a_reference_table_is_refused() -> None:
+    with pytest.raises(ValueError, match=r"SpeedChange-v0.*no reference table.*allowed: "):
+        check_env_kwargs("TandemWing/SpeedChange-v0", {})
+
+
+@pytest.mark.parametrize(
+    ("env_kwargs", "match"),
+    [
+        ({"n_time": 64}, r"change the problem.*options.*allowed: the default"),
+        ({"speed": 1.0}, r"\['speed'\].*allowed: none of speed, speed_range"),
+        ({"planform": "round"}, r"planform = 'round'; allowed: 'tear-drop', 'real'"),
+    ],
+)
+def test_env_options_the_table_does_not_describe_are_refused(
+    synthetic_table: ReferenceSeries, env_kwargs: dict[str, Any], match: str
+) -> None:
+    with pytest.raises(ValueError, match=match):
+        check_env_kwargs(LEVEL_FLIGHT_ID, env_kwargs)
+
+
+def test_a_series_the_table_lacks_is_refused(synthetic_table: ReferenceSeries) -> None:
+    with pytest.raises(ValueError, match=r"no reference for .*planform 'real'.*allowed"):
+        check_env_kwargs(LEVEL_FLIGHT_ID, {"planform": "real"})
+
+
+@pytest.mark.parametrize(
+    ("values", "match"),
+    [
+        ({"hidden": [0]}, r"hidden = \[0\]; allowed: 1 to 8 layer widths"),
+        ({"batch": 0}, r"batch = 0; allowed: an integer from 1"),
+        ({"finetune_lr": -1.0}, r"finetune_lr = -1.0; allowed: a number above 0"),
+        ({"finetune_n_time": 3}, r"finetune_n_time = 3; allowed: None .* from 8"),
+        ({"epochs": 3}, r"unknown amortised setting\(s\) \['epochs'\]; allowed: hidden"),
+    ],
+)
+def test_bad_settings_are_refused(values: dict[str, Any], match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        Settings.from_mapping(values)
+
+
+@pytest.mark.parametrize(
+    ("extra", "match"),
+    [
+        (["--n-envs", "4"], r"--n-envs: option\(s\) of ppo and sac.*allowed with amortised"),
+        (["--hyperparams", "batch=0"], r"batch = 0; allowed"),
+        (["--env-kwargs", "n_blade=12"], r"change the problem the reference table describes"),
+        (["--seed", "-1"], r"seed = -1; allowed"),
+    ],
+)
+def test_the_command_refuses_bad_input_before_any_work(
+    synthetic_table: ReferenceSeries,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    extra: list[str],
+    match: str,
+) -> None:
+    with pytest.raises(SystemExit) as stop:
+        main(["--algo", "amortised", "--env", LEVEL_FLIGHT_ID, "-f", str(tmp_path), *extra])
+    assert stop.value.code == 2
+    assert pytest.importorskip("re").search(match, capsys.readouterr().err)
+    assert not (tmp_path / "amortised").exists()
+
+
+def test_the_command_names_the_envs_with_a_table(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit):
+        main(["--algo", "amortised", "--env", "TandemWing/SpeedChange-v0", "-f", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert "no reference table" in err and LEVEL_FLIGHT_ID in err and ACCELERATE_ID in err
+
+
+def test_targets_are_checked() -> None:
+    with pytest.raises(ValueError, match="allowed: K >= 1 increasing conditions"):
+        Targets(np.array([1.0, 0.5]), np.zeros((2, 28)), np.ones(2))
+    assert len(CONTINUOUS) == 26
+
+
+# --- the held-out evaluation -------------------------------------------------------------------
+def test_held_out_evaluation_reports_gaps_and_times(
+    tiny_run: Path, synthetic_table: ReferenceSeries
+) -> None:
+    from train.amortised_eval import evaluate_held_out, format_report
+
+    report = evaluate_held_out(tiny_run, conditions=[0.5, 1.5], repeats=2)
+    [first, second] = report["rows"]
+    assert (first["condition"], second["condition"]) == (0.5, 1.5)
+    for row in report["rows"]:
+        expected = 100.0 * row["objective"] / row["reference"] if row["feasible"] else None
+        if expected is not None:
+            assert row["gap"] == pytest.approx(100.0 - expected)
+        else:
+            assert row["gap"] >= 100.0
+    summary = report["summary"]
+    assert summary["count"] == 2 and summary["stroke_seconds"] > 0
+    assert summary["worst_gap"] == max(first["gap"], second["gap"])
+    assert "time to a stroke" in format_report(report)
+
+
+def test_held_out_evaluation_refuses_a_large_polish(tiny_run: Path) -> None:
+    from train.amortised_eval import evaluate_held_out
+
+    with pytest.raises(
+        ValueError, match=r"polish = 501; allowed: an integer from 0 \(none\) to 500"
+    ):
+        evaluate_held_out(tiny_run, polish_budget=501)
+
+
+def test_a_run_folder_that_holds_files_is_refused(
+    synthetic_table: ReferenceSeries, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    taken = tmp_path / "run"
+    taken.mkdir()
+    (taken / "notes.txt").write_text("mine")
+    with pytest.raises(SystemExit):
+        main(["--algo", "amortised", "--env", LEVEL_FLIGHT_ID, "--run-dir", str(taken)])
+    assert "not an empty folder" in capsys.readouterr().err
+    assert sorted(p.name for p in taken.iterdir()) == ["notes.txt"]

@@ -1,0 +1,354 @@
+"""``python -m train.amortised_eval``: an amortised policy judged at the held-out conditions.
+
+::
+
+    python -m train.amortised_eval --run logs/amortised/TandemWing-LevelFlight-v0_1 \\
+        --polish 500 --records results/reference/records --out held_out.json
+
+At each held-out condition of the reference grid (``held_out_conditions(env_id)``: the
+training never saw their optima) the policy's stroke (one forward pass) is evaluated by the
+env's problem view at the run's env options (the env's default resolution): feasibility, the
+objective [the objective's unit], the normalised score against the table's optimum there
+(``normalised_score``: 100 = the optimum) and the gap, ``100 − score`` [% of the optimum; 100
+or more for an infeasible stroke]. The summary gives the feasible share, the median and the
+worst gap, and the time to a stroke: one forward pass for one condition [s] (the median of
+repeats; and of one pass for all of them) beside the optimiser's time to a certified optimum: the wall time of the records of
+the table's search at that condition (``--records``: the harness records of ``python -m eval
+reference``; the best record's, and the sum over every record there: seeds and continuation
+rounds) and, with ``--cmaes-budget N``, a fresh
+CMA-ES run of N evaluations at the first held-out condition measured in this process.
+
+``--polish N`` (N <= 500 model evaluations) warm-starts the harness's local polish
+(``agents.polish.polish``, SLSQP, autograd gradients: one model evaluation each) from the
+policy's stroke, an infeasible one too, and reports the gap after it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from train.entry import exit_on_bad_environment
+
+with exit_on_bad_environment("python -m train.amortised_eval"):
+    from tandem_env.io.command import command_line
+
+import numpy as np
+
+#: The most evaluations the warm-started polish may spend per condition [-].
+MAX_POLISH = 500
+
+
+def record_times(
+    records: str | Path, env_id: str, metric: str, planform: str, condition: float
+) -> tuple[float, float, int] | None:
+    """(wall time of the best feasible record [s], sum over the records [s], records) of the
+    harness records in ``records`` at ``condition`` (the table's: its seeds and its
+    continuation rounds); None where there are none."""
+    found = []
+    for path in sorted(Path(records).glob("*.json")):
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+            job, results = data["job"], data["results"]
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+        if (
+            results.get("env_id") == env_id
+            and results.get("objective_name") == metric
+            and (job.get("env_kwargs") or {}).get("planform", "tear-drop") == planform
+            and abs(float(job.get("condition", np.nan)) - condition) < 1e-9
+        ):
+            found.append(results)
+    if not found:
+        return None
+    feasible = [r for r in found if r.get("feasible")] or found
+    best = max(feasible, key=lambda r: float(r["objective"]))
+    return float(best["wall_time"]), float(sum(r["wall_time"] for r in found)), len(found)
+
+
+def evaluate_held_out(
+    run_dir: str | Path,
+    *,
+    polish_budget: int = 0,
+    records: str | Path | None = None,
+    cmaes_budget: int = 0,
+    conditions: Sequence[float] | None = None,
+    repeats: int = 20,
+) -> dict[str, Any]:
+    """The held-out evaluation of an amortised run (module docstring): ``{"rows": [...],
+    "summary": {...}}``. ValueError for a bad budget, before any work."""
+    from tandem_env.envs.reference import held_out_conditions, normalised_score
+    from tandem_env.physics.checks import is_integer
+    from train.amortised import check_env_kwargs, load_policy, make_problem
+
+    if not is_integer(polish_budget) or not 0 <= polish_budget <= MAX_POLISH:
+        raise ValueError(
+            f"polish = {polish_budget!r}; allowed: an integer from 0 (none) to {MAX_POLISH}"
+        )
+    if not is_integer(cmaes_budget) or not 0 <= cmaes_budget <= 10**6:
+        raise ValueError(f"cmaes budget = {cmaes_budget!r}; allowed: an integer from 0 (none)")
+    policy = load_policy(run_dir)
+    env_id, env_kwargs = policy.env_id, dict(policy.env_kwargs)
+    series = check_env_kwargs(env_id, env_kwargs)
+    values = np.asarray(
+        held_out_conditions(env_id) if conditions is None else conditions, dtype=np.float64
+    )
+    problem = make_problem(env_id, env_kwargs)
+    strokes = policy.strokes(values)
+    found = problem.evaluate(strokes, values)
+    scores = problem.declaration.score(found.result, problem.config)
+    reference = series.at(values)
+    score = normalised_score(reference, found.objective, found.feasible, scores.total)
+    # the time to a stroke: one forward pass (observation, network, assembly) per condition
+    single = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        policy.strokes(values[:1])
+        single.append(time.perf_counter() - start)
+    batched = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        policy.strokes(values)
+        batched.append(time.perf_counter() - start)
+    rows: list[dict[str, Any]] = []
+    for k, value in enumerate(values):
+        rows.append(
+            {
+                "condition": float(value),
+                "reference": float(reference[k]),
+                "objective": float(found.objective[k]),
+                "feasible": bool(found.feasible[k]),
+                "violation": float(scores.total[k]),
+                "score": float(score[k]),
+                "gap": float(100.0 - score[k]),
+            }
+        )
+    metric = problem.objective_metric
+    if records is not None:
+        for row in rows:
+            times = record_times(records, env_id, metric, series.planform, row["condition"])
+            if times is not None:
+                row["optimiser_wall_time"], row["optimiser_wall_time_seeds"], row["seeds"] = times
+    if polish_budget:
+        _polish_rows(rows, strokes, policy, polish_budget, series, problem)
+    summary = _summary(rows, polish_budget)
+    summary.update(
+        {
+            "run_dir": str(policy.run_dir),
+            "env_id": env_id,
+            "env_kwargs": env_kwargs,
+            "objective": series.objective,
+            "planform": series.planform,
+            "conditions": "held-out" if conditions is None else "given",
+            "stroke_seconds": statistics.median(single),
+            "batch_seconds": statistics.median(batched),
+            "batch": int(values.size),
+        }
+    )
+    timed = [r["optimiser_wall_time"] for r in rows if "optimiser_wall_time" in r]
+    if timed:
+        summary["optimiser_seconds_median"] = statistics.median(timed)
+        summary["optimiser_seconds_seeds_median"] = statistics.median(
+            r["optimiser_wall_time_seeds"] for r in rows if "optimiser_wall_time" in r
+        )
+    if cmaes_budget:
+        summary.update(_fresh_cmaes(env_id, env_kwargs, float(values[0]), cmaes_budget, series))
+    return {"rows": rows, "summary": summary}
+
+
+def _polish_rows(
+    rows: list[dict[str, Any]],
+    strokes: np.ndarray,
+    policy: Any,
+    budget: int,
+    series: Any,
+    problem: Any,
+) -> None:
+    from agents.polish import AutogradGradient, PolishConfig, polish, task_problem
+    from agents.tasks import get_task
+    from tandem_env.envs.reference import normalised_score
+    from train.envelope import task_of
+
+    task = get_task(task_of(policy.env_id))
+    for row, start in zip(rows, strokes, strict=True):
+        began = time.perf_counter()
+        view = task_problem(task, task.condition(row["condition"]), dict(policy.env_kwargs))
+        result = polish(
+            view,
+            np.clip(start, -1.0, 1.0),
+            budget,
+            PolishConfig(),
+            AutogradGradient(view),
+            infeasible_start=True,
+        )
+        seconds = time.perf_counter() - began
+        after = problem.evaluate(result.stroke[None, :], row["condition"])
+        total = problem.declaration.score(after.result, problem.config).total
+        score = float(
+            normalised_score(series.at(row["condition"]), after.objective, after.feasible, total)[0]
+        )
+        row.update(
+            {
+                "polished_objective": float(after.objective[0]),
+                "polished_feasible": bool(after.feasible[0]),
+                "polished_score": score,
+                "polished_gap": 100.0 - score,
+                "polish_evaluations": int(result.certificate.evaluations or 0),
+                "polish_seconds": seconds,
+            }
+        )
+
+
+def _summary(rows: list[dict[str, Any]], polish_budget: int) -> dict[str, Any]:
+    gaps = [r["gap"] for r in rows]
+    out: dict[str, Any] = {
+        "feasible": sum(r["feasible"] for r in rows),
+        "count": len(rows),
+        "median_gap": statistics.median(gaps),
+        "worst_gap": max(gaps),
+    }
+    if polish_budget:
+        polished = [r["polished_gap"] for r in rows]
+        out.update(
+            {
+                "polish_budget": polish_budget,
+                "polished_feasible": sum(r["polished_feasible"] for r in rows),
+                "polished_median_gap": statistics.median(polished),
+                "polished_worst_gap": max(polished),
+                "polish_seconds_median": statistics.median(r["polish_seconds"] for r in rows),
+            }
+        )
+    return out
+
+
+def _fresh_cmaes(
+    env_id: str, env_kwargs: Mapping[str, Any], condition: float, budget: int, series: Any
+) -> dict[str, Any]:
+    """A CMA-ES run (the harness's, its default polish included) of ``budget`` evaluations at
+    ``condition``, timed here."""
+    from agents.harness import run
+    from train.envelope import task_of
+
+    start = time.perf_counter()
+    [record] = run(
+        "cmaes",
+        task_of(env_id),
+        condition,
+        budget,
+        [0],
+        progress=False,
+        env_kwargs=dict(env_kwargs),
+    )
+    seconds = time.perf_counter() - start
+    reference = float(series.at(condition))
+    return {
+        "cmaes_condition": condition,
+        "cmaes_budget": budget,
+        "cmaes_seconds": seconds,
+        "cmaes_feasible": bool(record.feasible),
+        "cmaes_gap": 100.0 - 100.0 * float(record.objective) / reference
+        if record.feasible
+        else None,
+    }
+
+
+def format_report(report: Mapping[str, Any]) -> str:
+    """The evaluation as lines of text."""
+    s = report["summary"]
+    lines = []
+    for row in report["rows"]:
+        text = (
+            f"  {row['condition']:g}: objective {row['objective']:.4g} (optimum "
+            f"{row['reference']:.4g}), feasible {row['feasible']}, gap {row['gap']:.2f} %"
+        )
+        if "polished_gap" in row:
+            text += (
+                f"; polished ({row['polish_evaluations']} evaluations, "
+                f"{row['polish_seconds']:.1f} s): gap {row['polished_gap']:.2f} %, feasible "
+                f"{row['polished_feasible']}"
+            )
+        if "optimiser_wall_time" in row:
+            text += (
+                f"; optimiser {row['optimiser_wall_time']:.1f} s (best seed), "
+                f"{row['optimiser_wall_time_seeds']:.1f} s ({row['seeds']} records)"
+            )
+        lines.append(text)
+    lines.append(
+        f"{s['env_id']} {s['objective']} {s['planform']}, {s['count']} {s['conditions']} "
+        f"conditions: feasible {s['feasible']}/{s['count']}, gap to the optimum median "
+        f"{s['median_gap']:.2f} %, worst {s['worst_gap']:.2f} %"
+    )
+    if "polished_median_gap" in s:
+        lines.append(
+            f"after a warm-started polish of <= {s['polish_budget']} evaluations: feasible "
+            f"{s['polished_feasible']}/{s['count']}, gap median {s['polished_median_gap']:.2f} "
+            f"%, worst {s['polished_worst_gap']:.2f} % ({s['polish_seconds_median']:.1f} s "
+            "median per condition)"
+        )
+    timing = (
+        f"time to a stroke: {1e3 * s['stroke_seconds']:.2f} ms (one forward pass), "
+        f"{1e3 * s['batch_seconds']:.2f} ms for all {s['batch']}"
+    )
+    if "optimiser_seconds_median" in s:
+        timing += (
+            f"; the optimiser's records: {s['optimiser_seconds_median']:.1f} s (best seed, "
+            f"median), {s['optimiser_seconds_seeds_median']:.1f} s over all its records (median)"
+        )
+    lines.append(timing)
+    if "cmaes_seconds" in s:
+        gap = s["cmaes_gap"]
+        lines.append(
+            f"a fresh CMA-ES run of {s['cmaes_budget']} evaluations at {s['cmaes_condition']:g}: "
+            f"{s['cmaes_seconds']:.1f} s, gap " + ("infeasible" if gap is None else f"{gap:.2f} %")
+        )
+    return "\n".join(lines)
+
+
+@command_line
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m train.amortised_eval",
+        description="Judge an amortised policy at the reference grid's held-out conditions.",
+    )
+    parser.add_argument(
+        "--run", required=True, help="run folder of python -m train --algo amortised"
+    )
+    parser.add_argument(
+        "--polish", type=int, default=0, metavar="N",
+        help=f"warm-started polish of at most N evaluations per condition (<= {MAX_POLISH})",
+    )  # fmt: skip
+    parser.add_argument("--records", help="harness records of the reference run (wall times)")
+    parser.add_argument(
+        "--cmaes-budget", type=int, default=0, metavar="N",
+        help="time a fresh CMA-ES run of N evaluations at the first held-out condition",
+    )  # fmt: skip
+    parser.add_argument("--out", help="write the report as JSON to this file")
+    args = parser.parse_args(argv)
+    try:
+        if args.records is not None and not Path(args.records).is_dir():
+            raise ValueError(f"--records {args.records} is not a folder; allowed: a records folder")
+        report = evaluate_held_out(
+            args.run,
+            polish_budget=args.polish,
+            records=args.records,
+            cmaes_budget=args.cmaes_budget,
+        )
+    except ValueError as error:
+        parser.error(str(error))
+    print(format_report(report))
+    if args.out:
+        from tandem_env.io.files import write_json_atomic
+
+        write_json_atomic(args.out, report)
+        print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
