@@ -85,7 +85,8 @@ def evaluate_held_out(
     "summary": {...}}``. ValueError for a bad budget, before any work."""
     from tandem_env.envs.reference import held_out_conditions, normalised_score
     from tandem_env.physics.checks import is_integer
-    from train.amortised import check_env_kwargs, load_policy, make_problem
+    from train.amortised import check_env_kwargs, make_problem
+    from train.amortised_policy import load_policy
 
     if not is_integer(polish_budget) or not 0 <= polish_budget <= MAX_POLISH:
         raise ValueError(

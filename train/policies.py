@@ -43,7 +43,7 @@ from agents.selection import is_better
 from tandem_env.envs.registration import condition_keywords
 from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import is_integer
-from train.amortised import CITATION as AMORTISED_CITATION
+from train.amortised_policy import CITATION as AMORTISED_CITATION
 from train.config import ALGOS, check_algo, plain
 from train.layout import RunLayout, read_run_yaml, resolve_run_dir
 from train.run import learn_in_memory

@@ -6,7 +6,7 @@ and observes a condition the way the training env did; :func:`policy_stroke` is 
 use. The harness method ``policy:RUN_DIR`` (:mod:`train.policies`) and the envelope
 (:mod:`train.envelope`) are built on it. :func:`load_policy` loads either kind of run folder:
 an RL run as a :class:`TrainedPolicy`, an amortised run (``--algo amortised``) as a
-:class:`train.amortised.AmortisedPolicy`, which answers the same questions (``strokes``,
+:class:`train.amortised_policy.AmortisedPolicy`, which answers the same questions (``strokes``,
 ``check_env``, ``env_id``, ``env_kwargs``, ``algo``, ``model_path``, ``num_timesteps``,
 ``training_conditions``, ``trained_at``, ``run_dir``).
 """
@@ -241,10 +241,10 @@ class TrainedPolicy:
 
 def load_policy(run_dir: str | Path, which: WhichModel = "best") -> Any:
     """The policy of a run folder of ``python -m train`` (or of the latest run it names): a
-    :class:`TrainedPolicy` for ppo and sac, a :class:`train.amortised.AmortisedPolicy` for an
+    :class:`TrainedPolicy` for ppo and sac, a :class:`train.amortised_policy.AmortisedPolicy` for an
     amortised run (one weights file: ``which`` best and final are the same)."""
-    from train.amortised import is_amortised_run
-    from train.amortised import load_policy as load_amortised
+    from train.amortised_policy import is_amortised_run
+    from train.amortised_policy import load_policy as load_amortised
 
     if which not in WHICH_MODELS:
         raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")

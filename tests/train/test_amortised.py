@@ -28,21 +28,18 @@ from tandem_env.envs.reference import (
 )
 from tandem_env.envs.registration import ACCELERATE_ID, LEVEL_FLIGHT_ID
 from tandem_env.physics.stroke import normalised_to_physical, physical_to_normalised
-from train import amortised
+from train import amortised_policy
 from train.__main__ import main
-from train.amortised import (
+from train.amortised import Settings, check_env_kwargs, make_problem, train_policy
+from train.amortised_policy import (
     CANONICAL_SWEEP_PHASE,
     CONTINUOUS,
     PHASES,
-    Settings,
     Targets,
     canonicalise,
-    check_env_kwargs,
     delay,
     load_policy,
-    make_problem,
     reference_targets,
-    train_policy,
 )
 from train.envelope import evaluate_envelope
 from train.trained_policy import load_policy as load_any_policy
@@ -216,7 +213,7 @@ def test_run_folder_round_trips(tiny_run: Path) -> None:
     # the same network rebuilt from the state_dict gives the same strokes
     features = json.loads((tiny_run / "policy.json").read_text())["features"]
     assert features == Settings().features
-    rebuilt = amortised.build_network([16, 16], features)
+    rebuilt = amortised_policy.build_network([16, 16], features)
     rebuilt.load_state_dict(state)
     with torch.no_grad():
         z = rebuilt(torch.as_tensor(policy.observe([0.7]), dtype=torch.float64))

@@ -1,0 +1,482 @@
+"""The amortised stroke policy itself: its map from the condition to a stroke, its canonical
+targets and its run folder (trained by :mod:`train.amortised`).
+
+**The map.** Input: the env's observation, the condition c [the condition's unit: m/s for level
+flight, W/kg for accelerating flight] normalised from the env's envelope to [-1, 1] (float32,
+as the env observes it). Output: a normalised stroke (28,) in [-1, 1], the env's action:
+
+* the 26 continuous coordinates from an MLP: the observation's Gaussian radial features
+  (``features`` of :class:`~train.amortised.Settings`; :class:`RadialFeatures`: a gradient
+  step at one condition then moves mostly the strokes near it), tanh hidden layers
+  (``hidden``) and a tanh output u ∈ (-1, 1)^26. A coordinate that is not a phase is u itself. A phase (each
+  wing's sweep, elevation and pitch phase, Table 4: -180° to 180° on both wings, so ±1 is one
+  angle) is ``wrap(centre + u)`` [normalised: 1 = 180°], ``wrap`` onto [-1, 1), with a fixed
+  ``centre`` per phase (the circular mean of the training targets' phase; the canonical value
+  for a canonicalised one): the output then moves continuously around the circle, and the
+  optima's phases near ±180° do not sit on the output's edge.
+* the two discrete coordinates (indices 11 and 25, each wing's elevation harmonic N ∈ {1, 2},
+  -0.5 for 1 and +0.5 for 2) are not learned: they are those of the optimum at the training
+  condition nearest to c (the lower one on a tie). N is a step of the action (its gradient is
+  0), so neither regression nor fine-tuning could move it; between two training conditions
+  whose optima differ in N the switch sits at the midpoint.
+
+**Canonical targets** (:func:`canonicalise`). The model has a symmetry the targets need not
+carry: every angle of a wing is a function of τ + Φ (its elevation of N·τ + Φ_θ) over one cycle
+of its own (docs/model.md §3.2, §3.6), so delaying a wing's motion by Δ (its sweep and pitch
+phases by Δ, its elevation phase by N·Δ, wrapped) changes nothing but where the cycle starts.
+A common delay of both pairs changes nothing in any model reading; under the mean slipstream
+(the default, ``ModelOptions.phase_resolved()`` False) the pairs meet only through cycle means,
+so each pair may be delayed on its own (docs/model.md §5.7). The targets are delayed so that
+the fore-wing's sweep phase, and where the pairs are independent the hind-wing's too, sits at
+:data:`CANONICAL_SWEEP_PHASE` (0°): optima found with arbitrary phase offsets become one smooth
+family over the conditions. The delay is a whole number of time-grid steps (360°/n_time: 2.8125°
+at the default n_time = 128), so the canonical sweep phase lies within half a step of 0°: the
+motion-following time grid (docs/model.md §3.5) is sampled at fixed s_k = 2πk/n_time and
+follows the sweep phase, so a delay by whole steps samples the same points of the same motion
+and the objective is unchanged to rounding (measured: 1e-14 relative; ``tests/train/
+test_amortised.py`` holds it to 1e-9), while an arbitrary delay moves it by the grid's
+discretisation error (measured: about 5e-6 relative at n_time = 128).
+
+**A run folder** (zoo-style, :class:`~train.layout.RunLayout`, ``logs/amortised/<env>_<n>/``)::
+
+    <env>.pt                 the network's weights: a torch state_dict (torch.load(weights_only=True))
+    policy.json              what the forward pass needs besides: sizes, phase centres, the
+                             envelope, the harmonic per training condition, the series' identity
+    result.json              training summary: losses, timings, strokes evaluated, provenance
+    <env>/args.yml           the command's arguments (made_by: python -m train)
+    <env>/config.yml         the training settings (:class:`~train.amortised.Settings`)
+
+every file written atomically (``tandem_env.io.files``) and read with safe loaders (JSON,
+``yaml.safe_load`` through :func:`train.layout.read_run_yaml`, weights only).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tandem_env.io.files import read_json, to_jsonable
+from tandem_env.physics.stroke import (
+    DISCRETE,
+    HARMONIC_INDEX,
+    N_PARAMETERS,
+    N_PER_WING,
+    normalised_to_physical,
+    physical_to_normalised,
+)
+from train.layout import RunLayout, env_name, read_run_yaml, resolve_run_dir
+
+__all__ = [
+    "ALGO",
+    "CANONICAL_SWEEP_PHASE",
+    "CONTINUOUS",
+    "PHASES",
+    "TARGET_LIMIT",
+    "AmortisedPolicy",
+    "Targets",
+    "build_network",
+    "canonicalise",
+    "delay",
+    "is_amortised_run",
+    "load_policy",
+    "reference_targets",
+]
+
+#: The ``--algo`` of an amortised run (its run folders: ``logs/amortised/<env>_<n>/``).
+ALGO = "amortised"
+#: Where the canonical targets put each canonicalised sweep phase [deg] (within half a time-grid
+#: step, :func:`canonicalise`).
+CANONICAL_SWEEP_PHASE = 0.0
+#: The most a regression target lies from 0 in a normalised coordinate [-]: targets at a bound
+#: are held this far inside (0.005 % of the parameter's range), where tanh can reach them.
+TARGET_LIMIT = 0.9999
+#: Format of ``policy.json``.
+POLICY_FORMAT = "tandem_env.amortised-policy/1"
+#: The file of the weights in the run folder: ``<env>.pt``.
+WEIGHTS_SUFFIX = ".pt"
+POLICY_FILE = "policy.json"
+
+#: Per wing, indices of the sweep, elevation and pitch phases and of N within its 14.
+_SWEEP, _ELEVATION, _PITCH = 7, 8, 9
+#: The 26 continuous coordinates the network outputs, in action order.
+CONTINUOUS: tuple[int, ...] = tuple(j for j in range(N_PARAMETERS) if not DISCRETE[j])
+#: The six phase coordinates of the action.
+PHASES: tuple[int, ...] = tuple(
+    w + k for w in (0, N_PER_WING) for k in (_SWEEP, _ELEVATION, _PITCH)
+)
+HARMONICS: tuple[int, ...] = (HARMONIC_INDEX, N_PER_WING + HARMONIC_INDEX)
+CITATION = (
+    "amortised optimisation (Amos 2023, 'Tutorial on amortized optimization', Found. Trends "
+    "Mach. Learn. 16(5)): an MLP regressed on the reference optima at the training conditions "
+    "and fine-tuned by the autograd gradient of the penalised objective"
+)
+
+
+# --- canonical strokes -------------------------------------------------------------------------
+def _wrap_degrees(angle: np.ndarray) -> np.ndarray:
+    return (np.asarray(angle, dtype=np.float64) + 180.0) % 360.0 - 180.0
+
+
+def delay(physical: np.ndarray, fore: Any, hind: Any) -> np.ndarray:
+    """Physical strokes (B, 28) [Table 4 units] with each pair's motion delayed by ``fore`` and
+    ``hind`` [deg of its own cycle, scalars or (B,)]: its sweep and pitch phases less Δ, its
+    elevation phase less N·Δ, wrapped onto [-180°, 180°)."""
+    out = np.array(physical, dtype=np.float64, copy=True)
+    for base, shift in ((0, fore), (N_PER_WING, hind)):
+        d = np.broadcast_to(np.asarray(shift, dtype=np.float64), out.shape[:1])
+        out[:, base + _SWEEP] = _wrap_degrees(out[:, base + _SWEEP] - d)
+        out[:, base + _PITCH] = _wrap_degrees(out[:, base + _PITCH] - d)
+        harmonic = out[:, base + HARMONIC_INDEX]
+        out[:, base + _ELEVATION] = _wrap_degrees(out[:, base + _ELEVATION] - harmonic * d)
+    return out
+
+
+def canonicalise(physical: np.ndarray, n_time: int, *, pairs_independent: bool) -> np.ndarray:
+    """The strokes (B, 28) [Table 4 units] delayed by whole time-grid steps (360°/``n_time``)
+    so that the fore-wing's sweep phase lies within half a step of
+    :data:`CANONICAL_SWEEP_PHASE`; ``pairs_independent`` (the model is not phase-resolved,
+    ``ModelOptions.phase_resolved()`` False: the default mean slipstream) delays the hind pair
+    on its own the same way, else by the fore pair's delay. The model's results are unchanged
+    to rounding (module docstring)."""
+    strokes = np.array(physical, dtype=np.float64, ndmin=2)
+    step = 360.0 / int(n_time)
+
+    def steps(phase: np.ndarray) -> np.ndarray:
+        return np.round(_wrap_degrees(phase - CANONICAL_SWEEP_PHASE) / step) * step
+
+    fore = steps(strokes[:, _SWEEP])
+    hind = steps(strokes[:, N_PER_WING + _SWEEP]) if pairs_independent else fore
+    return delay(strokes, fore, hind)
+
+
+def _wrap_normalised(x: np.ndarray) -> np.ndarray:
+    return (np.asarray(x, dtype=np.float64) + 1.0) % 2.0 - 1.0
+
+
+@dataclass(frozen=True)
+class Targets:
+    """The regression's targets: optima at the training conditions, canonicalised."""
+
+    conditions: np.ndarray
+    """(K,) training conditions, increasing [the condition's unit]."""
+    strokes: np.ndarray
+    """(K, 28) canonical normalised optima."""
+    objectives: np.ndarray
+    """(K,) their objectives [the objective's unit] (the reference at each)."""
+
+    def __post_init__(self) -> None:
+        conditions = np.asarray(self.conditions, dtype=np.float64)
+        strokes = np.asarray(self.strokes, dtype=np.float64)
+        objectives = np.asarray(self.objectives, dtype=np.float64)
+        k = conditions.shape[0] if conditions.ndim == 1 else -1
+        if (
+            k < 1
+            or strokes.shape != (k, N_PARAMETERS)
+            or objectives.shape != (k,)
+            or not np.all(np.diff(conditions) > 0)
+            or not np.all(np.isfinite(strokes))
+            or not np.all(np.abs(strokes) <= 1.0)
+        ):
+            raise ValueError(
+                f"targets: conditions {conditions.shape}, strokes {strokes.shape}, objectives "
+                f"{objectives.shape}; allowed: K >= 1 increasing conditions, (K, 28) strokes in "
+                "[-1, 1], (K,) objectives"
+            )
+        object.__setattr__(self, "conditions", conditions)
+        object.__setattr__(self, "strokes", strokes)
+        object.__setattr__(self, "objectives", objectives)
+
+
+def reference_targets(series: Any, n_time: int, *, pairs_independent: bool) -> Targets:
+    """The canonical optima of a reference series at its env's training conditions only
+    (``training_conditions``; the held-out ones are never read)."""
+    from tandem_env.envs.reference import training_conditions
+
+    wanted = training_conditions(series.env_id)
+    rows = [
+        (c, point)
+        for c, point in zip(series.conditions, series.points, strict=True)
+        if any(math.isclose(c, w, rel_tol=0, abs_tol=1e-9) for w in wanted)
+    ]
+    if len(rows) != len(wanted):
+        raise ValueError(
+            f"the reference series of {series.env_id} holds {len(rows)} of the {len(wanted)} "
+            "training conditions; allowed: a complete table (python -m eval reference)"
+        )
+    strokes = np.array([point["normalised_stroke"] for _, point in rows], dtype=np.float64)
+    canonical = canonicalise(
+        normalised_to_physical(np.clip(strokes, -1.0, 1.0)),
+        n_time,
+        pairs_independent=pairs_independent,
+    )
+    return Targets(
+        conditions=np.array([c for c, _ in rows]),
+        strokes=np.clip(physical_to_normalised(canonical), -1.0, 1.0),
+        objectives=np.array([float(point["objective"]) for _, point in rows]),
+    )
+
+
+# --- the network and the policy ------------------------------------------------------------------
+class RadialFeatures:
+    """Fixed Gaussian bumps of the observation x ∈ [-1, 1]: ``exp(−((x − μ_k)/σ)²/2)`` at
+    ``count`` centres μ_k evenly over [-1, 1], σ their spacing. A gradient step for one
+    condition then moves mostly the strokes of the conditions near it (what the per-condition
+    optima need: they are not one smooth family), while the map stays smooth."""
+
+    def __new__(cls, count: int) -> Any:
+        import torch
+
+        class _Radial(torch.nn.Module):
+            def __init__(self) -> None:
+                super().__init__()
+                self.register_buffer(
+                    "centres", torch.linspace(-1.0, 1.0, count, dtype=torch.float64)
+                )
+                self.width = 2.0 / max(1, count - 1)
+
+            def forward(self, x: Any) -> Any:
+                return torch.exp(-0.5 * ((x - self.centres) / self.width) ** 2)
+
+        return _Radial()
+
+
+def build_network(hidden: Sequence[int], features: int = 0) -> Any:
+    """The MLP 1 -> (``features`` > 0: :class:`RadialFeatures`) -> hidden (tanh) -> 26
+    (linear: z, the output u = tanh z is taken by :class:`AmortisedPolicy`), float64."""
+    import torch
+
+    layers: list[Any] = []
+    width = 1
+    if features:
+        layers.append(RadialFeatures(features))
+        width = features
+    for h in hidden:
+        layers += [torch.nn.Linear(width, h), torch.nn.Tanh()]
+        width = h
+    layers.append(torch.nn.Linear(width, len(CONTINUOUS)))
+    return torch.nn.Sequential(*layers).double()
+
+
+@dataclass(frozen=True, eq=False)
+class AmortisedPolicy:
+    """A trained amortised policy: the network and what its forward pass needs besides."""
+
+    network: Any
+    """The torch MLP (observation (B, 1) -> z (B, 26), u = tanh z)."""
+    env_id: str
+    env_kwargs: Mapping[str, Any]
+    envelope: tuple[float, float]
+    """The env's observation envelope [the condition's unit]."""
+    centres: np.ndarray
+    """(26,) each output's centre [normalised]: 0 but for the phases (module docstring)."""
+    harmonic_conditions: np.ndarray
+    """(K,) the training conditions [the condition's unit] ..."""
+    harmonics: np.ndarray
+    """(K, 2) ... and their optima's N coordinates (-0.5 for N = 1, 0.5 for N = 2)."""
+    run_dir: Path | None = None
+    num_timesteps: int = 0
+    """Strokes evaluated in training (the fine-tuning's model evaluations)."""
+    algo: str = ALGO
+    which: str = "final"
+
+    # --- forward pass ---------------------------------------------------------------------
+    def observe(self, conditions: Sequence[float] | np.ndarray) -> np.ndarray:
+        """(n, 1) float32 observations of ``conditions``, as the env observes them."""
+        values = np.asarray(conditions, dtype=np.float64).reshape(-1)
+        low, high = self.envelope
+        scaled = 2.0 * (values - low) / (high - low)
+        return np.clip(scaled - 1.0, -1.0, 1.0).astype(np.float32)[:, None]
+
+    def harmonics_at(self, conditions: np.ndarray) -> np.ndarray:
+        """(n, 2) N coordinates: the nearest training condition's (the lower on a tie)."""
+        distance = np.abs(np.asarray(conditions)[:, None] - self.harmonic_conditions[None, :])
+        return self.harmonics[np.argmin(distance, axis=1)]
+
+    def forward(self, conditions: np.ndarray) -> Any:
+        """(n, 28) normalised strokes as a float64 tensor, differentiable w.r.t. the weights."""
+        import torch
+
+        obs = torch.as_tensor(self.observe(conditions), dtype=torch.float64)
+        u = torch.tanh(self.network(obs))
+        return self.assemble(u, np.asarray(conditions, dtype=np.float64).reshape(-1))
+
+    def assemble(self, u: Any, conditions: np.ndarray) -> Any:
+        import torch
+
+        centres = torch.as_tensor(self.centres, dtype=torch.float64)
+        phase = torch.as_tensor(_phase_mask(), dtype=torch.bool)
+        shifted = torch.remainder(u + centres + 1.0, 2.0) - 1.0
+        continuous = torch.where(phase, shifted, u)
+        out = torch.zeros((u.shape[0], N_PARAMETERS), dtype=torch.float64)
+        out[:, list(CONTINUOUS)] = continuous
+        out[:, list(HARMONICS)] = torch.as_tensor(self.harmonics_at(conditions))
+        return out
+
+    def strokes(self, conditions: Sequence[float]) -> np.ndarray:
+        """The normalised strokes (n, 28) in [-1, 1] at ``conditions`` (one forward pass)."""
+        import torch
+
+        values = np.asarray([float(c) for c in conditions], dtype=np.float64)
+        if values.size == 0:
+            raise ValueError("conditions is empty; allowed: one or more conditions")
+        if not np.all(np.isfinite(values)):
+            raise ValueError(f"conditions = {list(values)!r}; allowed: finite numbers")
+        with torch.no_grad():
+            out = self.forward(values).numpy()
+        return np.clip(out, -1.0, 1.0)
+
+    # --- what the harness and the envelope read ---------------------------------------------
+    @property
+    def model_path(self) -> Path:
+        base = Path(".") if self.run_dir is None else self.run_dir
+        return base / f"{env_name(self.env_id)}{WEIGHTS_SUFFIX}"
+
+    @property
+    def training_conditions(self) -> tuple[float, float]:
+        """The range of conditions it was trained over [the condition's unit]."""
+        return float(self.harmonic_conditions[0]), float(self.harmonic_conditions[-1])
+
+    def trained_at(self, value: float) -> bool:
+        low, high = self.training_conditions
+        return low - 1e-9 <= value <= high + 1e-9
+
+    def check_env(self, env_id: str) -> None:
+        if self.env_id != env_id:
+            raise ValueError(
+                f"{self.run_dir} was trained on {self.env_id}; this task's env is {env_id}; "
+                "allowed: a run of the same env"
+            )
+
+    @property
+    def citation(self) -> str:
+        return CITATION
+
+    def policy_data(self) -> dict[str, Any]:
+        """``policy.json``'s content (the weights are beside it)."""
+        return {
+            "format": POLICY_FORMAT,
+            "env_id": self.env_id,
+            "env_kwargs": to_jsonable(dict(self.env_kwargs)),
+            "hidden": [m.out_features for m in self.network if hasattr(m, "out_features")][:-1],
+            "features": int(getattr(self.network[0], "centres", torch_empty()).numel()),
+            "envelope": list(self.envelope),
+            "centres": self.centres.tolist(),
+            "harmonic_conditions": self.harmonic_conditions.tolist(),
+            "harmonics": self.harmonics.tolist(),
+            "num_timesteps": int(self.num_timesteps),
+            "continuous": list(CONTINUOUS),
+            "phases": list(PHASES),
+            "canonical_sweep_phase": CANONICAL_SWEEP_PHASE,
+        }
+
+
+def torch_empty() -> Any:
+    import torch
+
+    return torch.empty(0)
+
+
+def _phase_mask() -> np.ndarray:
+    return np.array([j in PHASES for j in CONTINUOUS])
+
+
+def output_centres(targets: Targets, canonical: Sequence[int]) -> np.ndarray:
+    """(26,) output centres: the circular mean of the targets' phase (the canonical value for
+    the ``canonical`` phases), 0 for the other coordinates."""
+    centres = np.zeros(len(CONTINUOUS))
+    for k, j in enumerate(CONTINUOUS):
+        if j not in PHASES:
+            continue
+        if j in canonical:
+            centres[k] = CANONICAL_SWEEP_PHASE / 180.0
+        else:
+            angle = np.pi * targets.strokes[:, j]
+            centres[k] = math.atan2(np.sin(angle).mean(), np.cos(angle).mean()) / np.pi
+    return centres
+
+
+def regression_outputs(targets: Targets, centres: np.ndarray) -> np.ndarray:
+    """(K, 26) what the tanh outputs are fitted to: each continuous target, its phases relative
+    to their centres (wrapped), all within :data:`TARGET_LIMIT`."""
+    u = targets.strokes[:, list(CONTINUOUS)].copy()
+    mask = _phase_mask()
+    u[:, mask] = _wrap_normalised(u[:, mask] - centres[mask])
+    return np.clip(u, -TARGET_LIMIT, TARGET_LIMIT)
+
+
+def is_amortised_run(run_dir: str | Path) -> bool:
+    """Whether ``run_dir`` (or the latest run it names) holds an amortised run: its one
+    ``<env>/args.yml`` says ``algo: amortised``."""
+    folder = resolve_run_dir(run_dir)
+    found = sorted(folder.glob("*/args.yml")) if folder.is_dir() else []
+    if len(found) != 1:
+        return False
+    try:
+        return read_run_yaml(found[0]).get("algo") == ALGO
+    except ValueError:
+        return False
+
+
+def load_policy(run_dir: str | Path) -> AmortisedPolicy:
+    """The policy of an amortised run folder (or of the latest run it names): its weights
+    read with ``torch.load(weights_only=True)``, ``policy.json`` as JSON; ValueError naming
+    the file at fault."""
+    import torch
+
+    folder = resolve_run_dir(run_dir)
+    found = sorted(folder.glob("*/args.yml")) if folder.is_dir() else []
+    if len(found) != 1:
+        raise ValueError(
+            f"{folder} is not a training run folder (expected one <env>/args.yml, found "
+            f"{len(found)}); allowed: a folder written by python -m train --algo amortised"
+        )
+    args = read_run_yaml(found[0])
+    env_id = args.get("env")
+    if args.get("algo") != ALGO or not isinstance(env_id, str):
+        raise ValueError(f"{found[0]}: algo = {args.get('algo')!r}; allowed: {ALGO!r}")
+    if env_name(env_id) != found[0].parent.name:
+        raise ValueError(
+            f"{found[0]}: env = {env_id!r}, but the file sits in the settings folder of "
+            f"{found[0].parent.name}; allowed: the env the run was trained on"
+        )
+    layout = RunLayout(folder, env_id)
+    path = folder / POLICY_FILE
+    if not path.is_file():
+        raise ValueError(f"{folder}: no {POLICY_FILE} (did the run finish?)")
+    data = read_json(path)
+    if not isinstance(data, dict) or data.get("format") != POLICY_FORMAT:
+        raise ValueError(f"{path}: not a policy file of format {POLICY_FORMAT!r}")
+    weights = folder / f"{layout.name}{WEIGHTS_SUFFIX}"
+    if not weights.is_file():
+        raise ValueError(f"{folder}: no weights file {weights.name} (did the run finish?)")
+    try:
+        hidden = [int(h) for h in data["hidden"]]
+        network = build_network(hidden, int(data.get("features", 0)))
+        state = torch.load(weights, map_location="cpu", weights_only=True)
+        network.load_state_dict(state)
+        policy = AmortisedPolicy(
+            network=network.eval(),
+            env_id=env_id,
+            env_kwargs=dict(data["env_kwargs"]),
+            envelope=(float(data["envelope"][0]), float(data["envelope"][1])),
+            centres=np.asarray(data["centres"], dtype=np.float64),
+            harmonic_conditions=np.asarray(data["harmonic_conditions"], dtype=np.float64),
+            harmonics=np.asarray(data["harmonics"], dtype=np.float64),
+            run_dir=folder,
+            num_timesteps=int(data["num_timesteps"]),
+        )
+    except (KeyError, TypeError, ValueError, RuntimeError) as error:
+        raise ValueError(
+            f"{folder}: its policy files do not load ({type(error).__name__}: {error})"
+        ) from None
+    if policy.centres.shape != (len(CONTINUOUS),) or policy.harmonics.shape != (
+        policy.harmonic_conditions.shape[0],
+        2,
+    ):
+        raise ValueError(f"{path}: centres or harmonics of the wrong shape")
+    return policy
