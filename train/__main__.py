@@ -28,7 +28,7 @@ with exit_on_bad_environment("python -m train"):
     from tandem_env.io.command import command_line
 from tandem_env.io.keyvalue import parse_pairs
 from tandem_env.io.progress_bar import warnings_as_lines
-from train.config import DEVICES, TRAINERS, TrainConfig
+from train.config import AMORTISED, DEVICES, TRAINERS, TrainConfig
 from train.layout import RunComplete
 
 EPILOG = """\
@@ -137,7 +137,7 @@ def config_from_args(args: argparse.Namespace) -> TrainConfig:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if args.algo == "amortised":
+    if args.algo == AMORTISED:
         return _amortised(parser, args)
     try:
         config = config_from_args(args)

@@ -69,6 +69,7 @@ from tandem_env.physics.stroke import (
     normalised_to_physical,
     physical_to_normalised,
 )
+from train.config import AMORTISED
 from train.layout import RunLayout, env_name, read_run_yaml, resolve_run_dir
 
 __all__ = [
@@ -88,7 +89,7 @@ __all__ = [
 ]
 
 #: The ``--algo`` of an amortised run (its run folders: ``logs/amortised/<env>_<n>/``).
-ALGO = "amortised"
+ALGO = AMORTISED
 #: Where the canonical targets put each canonicalised sweep phase [deg] (within half a time-grid
 #: step, :func:`canonicalise`).
 CANONICAL_SWEEP_PHASE = 0.0

@@ -32,7 +32,8 @@ Algo = Literal["ppo", "sac"]
 ALGOS: tuple[str, ...] = get_args(Algo)
 #: Every ``--algo`` of ``python -m train``: the RL algorithms and ``amortised``, one network
 #: from the condition to a stroke trained on the reference optima (``train.amortised``).
-TRAINERS: tuple[str, ...] = (*ALGOS, "amortised")
+AMORTISED = "amortised"
+TRAINERS: tuple[str, ...] = (*ALGOS, AMORTISED)
 Device = Literal["cpu", "cuda", "auto"]
 DEVICES: tuple[str, ...] = get_args(Device)
 
