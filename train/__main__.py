@@ -260,6 +260,11 @@ def _amortised(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int
         f"s, fine-tuning {summary['finetune_seconds']:.1f} s, {summary['num_timesteps']} strokes "
         "evaluated)"
     )
+    for branch in summary["branches"]:
+        print(
+            f"  branch N={branch['N']} from {branch['serves_from']:g} to {branch['serves_to']:g} "
+            f"(training conditions {', '.join(f'{c:g}' for c in branch['training_conditions'])})"
+        )
     for row in summary["training_evaluation"]:
         print(
             f"  at training condition {row['condition']:g}: objective {row['objective']:.4g} "

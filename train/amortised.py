@@ -12,34 +12,48 @@ The policy (the map, its canonical targets, its run folder and how it is loaded)
 :mod:`train.amortised_policy`; this module trains it.
 
 **Training** (:func:`train_policy`), deterministic for a seed (torch and numpy seeded, one torch
-thread, float64):
+thread, float64), on the canonical optima of the reference table (``tandem_env.envs.reference``)
+at the grid's TRAINING conditions only (``training_conditions(env_id)``: every other grid
+point, the envelope's ends among them):
 
-(a) regression: the MLP's outputs before the output tanh (z, u = tanh z) are fitted (mean
+(a) branches (:func:`branch_segments`): neighbouring training optima belong to one branch when
+    they share N and the stroke midway between them, flown at the midway condition, is within
+    :attr:`Settings.branch_tolerance` of their mean objective and violates no constraint
+    margin by more (one batched model evaluation). Within a basin the midway stroke is nearly
+    optimal (0.2-0.3 % short, margins -0.006 in level flight); across a basin change it is
+    far off (36-69 % short, margins -0.58 to -0.85), so the split does not hinge on the
+    tolerance. Each branch is an MLP of its own, with a domain from its first to its last
+    training condition, reaching :attr:`Settings.branch_reach` of the way into the gap to a
+    neighbouring branch's (so both cover the middle of the gap; not further, for a branch
+    continued deep into a neighbouring basin is pulled away from its own optima);
+(b) regression: each branch's outputs before the output tanh (z, u = tanh z) are fitted (mean
     squared error on z, full batch, Adam, :attr:`Settings.regression_steps` steps) to atanh
-    of the canonical optima of the reference table (``tandem_env.envs.reference``) at the
-    grid's TRAINING conditions only (``training_conditions(env_id)``: every other grid point,
-    the envelope's ends among them); targets at a bound are held :data:`TARGET_LIMIT` inside
-    it (tanh reaches ±1 only at infinity), and fitting z keeps their gradient from
-    vanishing in the saturated tanh;
-(b) fine-tuning by the objective's gradient: :attr:`Settings.finetune_steps` Adam steps, each on
-    :attr:`Settings.batch` conditions drawn uniformly over the training conditions' range,
-    maximising the mean of ``J / ref(c)`` with ``J = objective − w · Σ_i max(0, δ − margin_i)``
-    [objective units], the env's exact (L1) penalty of its reward (``w`` =
-    :attr:`Settings.penalty_weight`, the env's default 10) held :attr:`Settings.safety_margin`
-    δ inside every constraint's signed margin (``Constraint.margin``, [-], >= 0 where it holds)
-    so that the strokes of a held-out condition, between the fitted ones, stay feasible;
-    ``ref(c)`` [objective units] is the table's optimum interpolated over the training
-    conditions only (so every condition weighs alike). The gradient w.r.t. the stroke is the
+    of its canonical optima, and to its end optima at its domain's ends (a constant
+    continuation, so a branch of one training condition starts flat); targets at a bound are
+    held :data:`TARGET_LIMIT` inside it (tanh reaches ±1 only at infinity), and fitting z
+    keeps their gradient from vanishing in the saturated tanh;
+(c) fine-tuning by the objective's gradient: :attr:`Settings.finetune_steps` Adam steps, each on
+    :attr:`Settings.batch` conditions per branch drawn uniformly over its domain (stratified:
+    one draw in each of ``batch`` equal parts), maximising the mean of ``J / ref(c)`` with
+    ``J = objective − w · Σ_i max(0, δ − margin_i)`` [objective units], the env's exact (L1)
+    penalty of its reward (``w`` = :attr:`Settings.penalty_weight`, the env's default 10)
+    held :attr:`Settings.safety_margin` δ inside every constraint's signed margin
+    (``Constraint.margin``, [-], >= 0 where it holds) so that the strokes between the
+    sampled ones stay feasible; ``ref(c)`` [objective units] is the table's optimum
+    interpolated over the training conditions only. The gradient w.r.t. the stroke is the
     env's problem view's autograd gradient (``FlightProblem.differentiate``, the torch model,
-    ONE model evaluation per batch), carried through the network by the chain rule. A
-    regression term on the training targets (weight :attr:`Settings.anchor`) keeps the
-    network near the certified optima while it climbs. The learning rate decays to 0 over the
-    steps (cosine); the conditions of a step are stratified (one draw in each of ``batch``
-    equal parts of the range).
+    ONE model evaluation for all branches' strokes of a step), carried through the networks
+    by the chain rule. A regression term on the training targets (weight
+    :attr:`Settings.anchor`) keeps each branch near its certified optima while it climbs.
+    The learning rate decays to 0 over the steps (cosine);
+(d) hand-overs (:func:`_switches`): where two neighbouring branches' domains overlap, both
+    branches' strokes are flown on :data:`SWITCH_SAMPLES` conditions and the hand-over is put
+    where the summed penalised objective of the two is largest.
 
-The default training (5 000 regression steps, 600 fine-tuning steps of 16 conditions at the
-default resolution) takes about 3 minutes on the 2-core machine; the measured held-out results
-are in docs/training.md, "Amortised policy".
+The default training (5 000 regression steps, 600 fine-tuning steps of 16 conditions per
+branch at the default resolution) takes about 3.5 minutes for one branch (accelerating flight)
+and 9.5 for level flight's four on one core of the 2-core machine; the measured held-out
+results are in docs/training.md, "Amortised policy".
 
 The run folder is written by :func:`save_run` (:mod:`train.amortised_policy` lists its files).
 
@@ -53,6 +67,7 @@ input), unknown or out-of-range settings.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import math
 import time
 from collections.abc import Iterator, Mapping
@@ -73,14 +88,16 @@ from tandem_env.physics.checks import is_integer, is_real
 from train.amortised_policy import (
     ALGO,
     HARMONICS,
+    PHASES,
     POLICY_FILE,
     WEIGHTS_SUFFIX,
     AmortisedPolicy,
     Targets,
-    build_network,
+    build_networks,
     output_centres,
     reference_targets,
     regression_outputs,
+    wrap_normalised,
 )
 from train.layout import MADE_BY, RunLayout
 
@@ -110,16 +127,24 @@ class Settings:
     finetune_lr: float = 1e-3
     """Adam's learning rate in the fine-tuning [-]."""
     batch: int = 16
-    """Conditions per fine-tuning step (one batched model evaluation) [-]."""
+    """Conditions per branch and fine-tuning step (all in one batched model evaluation) [-]."""
     penalty_weight: float = 10.0
     """w of the fine-tuning's penalty [objective units per unit of margin] (the env's default
     ``penalty_weight``)."""
     safety_margin: float = 1e-3
     """δ: the fine-tuning penalises every constraint margin below it [-] (margins are
     fractions: the level flight's tolerance is 0.02)."""
-    anchor: float = 0.1
+    anchor: float = 30.0
     """Weight of the regression loss on the training targets during the fine-tuning [-]."""
-    features: int = 32
+    branch_reach: float = 0.6
+    """How far each branch's domain reaches into the gap to a neighbouring branch's training
+    condition, as a fraction of the gap [-] (above 0.5, so that both branches cover its
+    middle, where they hand over)."""
+    branch_tolerance: float = 0.1
+    """Two neighbouring training optima share a branch when the stroke midway between them
+    loses at most this fraction of their mean objective and violates no margin by more
+    (:func:`branch_segments`) [-]."""
+    features: int = 0
     """Gaussian radial features of the observation before the MLP (0: the observation
     itself) [-] (:class:`RadialFeatures`)."""
     finetune_n_time: int | None = None
@@ -158,6 +183,8 @@ class Settings:
             ("penalty_weight", 0.0, 1e6, True),
             ("safety_margin", 0.0, 0.1, False),
             ("anchor", 0.0, 1e6, False),
+            ("branch_tolerance", 0.0, 1.0, False),
+            ("branch_reach", 0.5, 1.0, True),
         ):
             value = getattr(self, name)
             ok = is_real(value) and math.isfinite(value) and low <= value <= high
@@ -186,6 +213,12 @@ class Settings:
 
     def to_dict(self) -> dict[str, Any]:
         return to_jsonable(asdict(self))
+
+
+#: Strokes interpolated between two neighbouring optima of a branch for its regression [-].
+INTERPOLATED = 3
+#: Conditions per gap between two branches on which their hand-over is chosen [-].
+SWITCH_SAMPLES = 17
 
 
 # --- the problem and its reference -------------------------------------------------------------
@@ -291,8 +324,63 @@ class Training:
     regression_loss: float = math.nan
     regression_seconds: float = 0.0
     finetune_seconds: float = 0.0
+    branches: list[dict[str, Any]] = field(default_factory=list)
+    """Per branch: its training conditions, its domain and where it hands over."""
     history: list[dict[str, float]] = field(default_factory=list)
     """Per fine-tuning step: mean score-like J/ref, feasible share, loss."""
+
+
+def between(first: np.ndarray, second: np.ndarray, fraction: Any = 0.5) -> np.ndarray:
+    """The normalised strokes ``fraction`` of the way from ``first`` to ``second`` (B, 28):
+    each phase the short way round the circle, the N coordinates the first's."""
+    mask = np.zeros(first.shape[-1], dtype=bool)
+    mask[list(PHASES)] = True
+    step = np.where(mask, wrap_normalised(second - first), second - first)
+    middle = np.where(mask, wrap_normalised(first + fraction * step), first + fraction * step)
+    middle[..., list(HARMONICS)] = first[..., list(HARMONICS)]
+    return np.clip(middle, -1.0, 1.0)
+
+
+def branch_segments(problem: Any, targets: Targets, tolerance: float) -> list[tuple[int, int]]:
+    """The training conditions split into branches ``[(first, stop), ...]`` (index ranges):
+    two neighbouring optima lie on one branch when they share N and the stroke midway between
+    them (:func:`between`), flown at the midway condition, is within ``tolerance`` of the
+    mean of their objectives and violates no constraint margin by more than ``tolerance``
+    (margins are fractions). One batched model evaluation; no held-out optimum is read."""
+    k = targets.conditions.size
+    if k == 1:
+        return [(0, 1)]
+    first, second = targets.strokes[:-1], targets.strokes[1:]
+    found = problem.evaluate(
+        between(first, second), 0.5 * (targets.conditions[:-1] + targets.conditions[1:])
+    )
+    expected = 0.5 * (targets.objectives[:-1] + targets.objectives[1:])
+    joined = (
+        np.all(first[:, list(HARMONICS)] == second[:, list(HARMONICS)], axis=1)
+        & (found.objective >= expected - tolerance * np.abs(expected))
+        & (np.min(found.margins, axis=1) >= -tolerance)
+    )
+    cuts = [0, *(int(i) + 1 for i in np.flatnonzero(~joined)), k]
+    return list(itertools.pairwise(cuts))
+
+
+def _switches(policy: AmortisedPolicy, problem: Any, penalty_weight: float) -> np.ndarray:
+    """Where each branch hands over to the next: where their domains overlap (inside the gap
+    between their training conditions), at the cut that maximises the summed penalised
+    objective (objective − w·Σ max(0, −margin), the env's reward) of the two branches'
+    strokes on :data:`SWITCH_SAMPLES` conditions there."""
+    switches = []
+    for branch in range(policy.n_branches - 1):
+        grid = np.linspace(policy.domains[branch + 1, 0], policy.domains[branch, 1], SWITCH_SAMPLES)
+        both = np.concatenate([grid, grid])
+        found = problem.evaluate(
+            policy.strokes_of(both, np.repeat([branch, branch + 1], grid.size)), both
+        )
+        value = found.objective - penalty_weight * np.sum(np.maximum(0.0, -found.margins), axis=1)
+        own, next_ = value[: grid.size], value[grid.size :]
+        cut = 1 + int(np.argmax([own[:k].sum() + next_[k:].sum() for k in range(1, grid.size)]))
+        switches.append(0.5 * (grid[cut - 1] + grid[cut]))
+    return np.asarray(switches, dtype=np.float64)
 
 
 def train_policy(
@@ -304,9 +392,10 @@ def train_policy(
     *,
     progress: Any = None,
 ) -> tuple[AmortisedPolicy, Training]:
-    """Train an amortised policy on ``targets`` (module docstring: (a) regression, (b)
-    fine-tuning through ``env_id``'s problem view with ``env_kwargs``). ``progress``: called
-    as ``progress(step, total, row)`` after each fine-tuning step."""
+    """Train an amortised policy on ``targets`` (module docstring: (a) branches, (b)
+    regression, (c) fine-tuning through ``env_id``'s problem view with ``env_kwargs``, (d)
+    hand-overs). ``progress``: called as ``progress(step, total, row)`` after each
+    fine-tuning step."""
     import torch
 
     problem = make_problem(
@@ -324,54 +413,103 @@ def train_policy(
     config = problem.config
     canonical = [7, 21] if not config.options.phase_resolved() else [7]
     centres = output_centres(targets, canonical)
+    conditions = targets.conditions
+    k = conditions.size
+    segments = branch_segments(problem, targets, settings.branch_tolerance)
+    # each branch is fitted and fine-tuned from the training condition before its first to
+    # the one after its last: the gap to a neighbouring branch is covered by both
+    reach = settings.branch_reach
+    domains = [
+        (
+            conditions[a] - reach * (conditions[a] - conditions[max(a - 1, 0)]),
+            conditions[b - 1] + reach * (conditions[min(b, k - 1)] - conditions[b - 1]),
+        )
+        for a, b in segments
+    ]
+    owner = np.concatenate([np.full(b - a, i) for i, (a, b) in enumerate(segments)])
     record = Training()
     with _torch_state(seed):
-        network = build_network(settings.hidden, settings.features)
+        network = build_networks(settings.hidden, settings.features, len(segments))
         policy = AmortisedPolicy(
             network=network,
             env_id=env_id,
             env_kwargs=dict(env_kwargs),
             envelope=tuple(float(v) for v in config.envelope),  # type: ignore[arg-type]
             centres=centres,
-            harmonic_conditions=targets.conditions.copy(),
-            harmonics=np.where(targets.strokes[:, list(HARMONICS)] < 0, -0.5, 0.5),
+            trained_range=(float(conditions[0]), float(conditions[-1])),
+            switches=np.full(len(segments) - 1, np.nan),
+            harmonics=np.where(
+                targets.strokes[[a for a, _ in segments]][:, list(HARMONICS)] < 0, -0.5, 0.5
+            ),
+            domains=np.array(domains, dtype=np.float64).reshape(-1, 2),
         )
-        obs = torch.as_tensor(policy.observe(targets.conditions), dtype=torch.float64)
-        # fitted before the output's tanh (z = atanh u): no saturated gradient at a bound
-        goal = torch.as_tensor(np.arctanh(regression_outputs(targets, centres)))
+        goal = np.arctanh(regression_outputs(targets.strokes, centres))
+        # the regression also holds, on each branch, the strokes interpolated between its
+        # neighbouring optima (within a basin they fly nearly as well: docstring, (a)) and its
+        # end optima at its domain's ends (a constant continuation, so that a branch of one
+        # training condition starts flat over its domain)
+        fit_conditions, fit_branches, fit_goals = [conditions], [owner], [goal]
+        fractions = np.arange(1, INTERPOLATED + 1) / (INTERPOLATED + 1)
+        for i, ((a, b), (low, high)) in enumerate(zip(segments, domains, strict=True)):
+            for j in range(a, b - 1):
+                strokes = between(
+                    np.repeat(targets.strokes[j : j + 1], fractions.size, axis=0),
+                    np.repeat(targets.strokes[j + 1 : j + 2], fractions.size, axis=0),
+                    fractions[:, None],
+                )
+                span = conditions[j + 1] - conditions[j]
+                fit_conditions.append(conditions[j] + fractions * span)
+                fit_branches.append(np.full(fractions.size, i))
+                fit_goals.append(np.arctanh(regression_outputs(strokes, centres)))
+            for end, index in ((low, a), (high, b - 1)):
+                if end != conditions[index]:
+                    fit_conditions.append(np.array([end]))
+                    fit_branches.append(np.array([i]))
+                    fit_goals.append(goal[index : index + 1])
+        fit_at = np.concatenate(fit_conditions)
+        fit_of = np.concatenate(fit_branches)
+        fit_goal = torch.as_tensor(np.concatenate(fit_goals))
+        own_goal = torch.as_tensor(goal)
 
-        def regression_loss() -> Any:
-            return torch.mean((network(obs) - goal) ** 2)
+        def fit_loss() -> Any:
+            return torch.mean((policy.pre_activations(fit_at, fit_of) - fit_goal) ** 2)
+
+        def anchor_loss() -> Any:
+            return torch.mean((policy.pre_activations(conditions, owner) - own_goal) ** 2)
 
         start = time.perf_counter()
         optimiser = torch.optim.Adam(network.parameters(), lr=settings.regression_lr)
         for _ in range(settings.regression_steps):
             optimiser.zero_grad()
-            loss = regression_loss()
+            loss = fit_loss()
             loss.backward()
             optimiser.step()
         with torch.no_grad():
-            record.regression_loss = float(regression_loss())
+            record.regression_loss = float(anchor_loss())
         record.regression_seconds = time.perf_counter() - start
 
         start = time.perf_counter()
         rng = np.random.default_rng(seed)
-        low, high = float(targets.conditions[0]), float(targets.conditions[-1])
         optimiser = torch.optim.Adam(network.parameters(), lr=settings.finetune_lr)
         schedule = torch.optim.lr_scheduler.CosineAnnealingLR(
             optimiser, max(1, settings.finetune_steps)
         )
         evaluated = 0
         strata = np.arange(settings.batch) / settings.batch
+        branch_of = np.repeat(np.arange(len(segments)), settings.batch)
+        lows = np.repeat([low for low, _ in domains], settings.batch)
+        spans = np.repeat([high - low for low, high in domains], settings.batch)
         for step in range(settings.finetune_steps):
-            # uniform over [low, high], one draw in each of batch equal strata (less variance)
-            draws = strata + rng.uniform(0.0, 1.0 / settings.batch, settings.batch)
-            conditions = low + (high - low) * draws
-            ref = np.interp(conditions, targets.conditions, targets.objectives)
+            # uniform over each branch's domain, one draw in each of batch equal strata
+            draws = np.tile(strata, len(segments)) + rng.uniform(
+                0.0, 1.0 / settings.batch, branch_of.size
+            )
+            sampled = lows + spans * draws
+            ref = np.interp(sampled, conditions, targets.objectives)
             optimiser.zero_grad()
-            actions = policy.forward(conditions)
-            found = problem.differentiate(actions.detach().numpy(), conditions)
-            evaluated += settings.batch
+            actions = policy.forward(sampled, branch_of)
+            found = problem.differentiate(actions.detach().numpy(), sampled)
+            evaluated += sampled.size
             margins = found.evaluation.margins
             short = margins < settings.safety_margin
             value = found.evaluation.objective - settings.penalty_weight * np.sum(
@@ -385,7 +523,7 @@ def train_policy(
             actions.backward(d_loss)
             anchor = 0.0
             if settings.anchor > 0:
-                term = settings.anchor * regression_loss()
+                term = settings.anchor * anchor_loss()
                 term.backward()
                 anchor = float(term.detach())
             optimiser.step()
@@ -400,7 +538,23 @@ def train_policy(
             if progress is not None:
                 progress(step + 1, settings.finetune_steps, row)
         record.finetune_seconds = time.perf_counter() - start
-    policy = _with(policy, num_timesteps=evaluated)
+    policy = _with(
+        policy,
+        num_timesteps=evaluated,
+        switches=_switches(policy, problem, settings.penalty_weight),
+    )
+    record.branches = [
+        {
+            "training_conditions": conditions[a:b].tolist(),
+            "domain": [float(low), float(high)],
+            "serves_from": float(policy.switches[i - 1]) if i else float(conditions[0]),
+            "serves_to": float(policy.switches[i])
+            if i < len(segments) - 1
+            else float(conditions[-1]),
+            "N": [1 if n < 0 else 2 for n in policy.harmonics[i]],
+        }
+        for i, ((a, b), (low, high)) in enumerate(zip(segments, domains, strict=True))
+    ]
     return policy, record
 
 
@@ -523,6 +677,7 @@ def train_run(
                 conditions, found.objective, found.feasible, targets.objectives, strict=True
             )
         ],
+        "branches": training.branches,
         "history": training.history,
         "versions": _versions(),
     }

@@ -1,24 +1,30 @@
 """The amortised stroke policy itself: its map from the condition to a stroke, its canonical
 targets and its run folder (trained by :mod:`train.amortised`).
 
-**The map.** Input: the env's observation, the condition c [the condition's unit: m/s for level
-flight, W/kg for accelerating flight] normalised from the env's envelope to [-1, 1] (float32,
-as the env observes it). Output: a normalised stroke (28,) in [-1, 1], the env's action:
+**The map.** Input: the condition c [the condition's unit: m/s for level flight, W/kg for
+accelerating flight]. Output: a normalised stroke (28,) in [-1, 1], the env's action.
 
-* the 26 continuous coordinates from an MLP: the observation's Gaussian radial features
-  (``features`` of :class:`~train.amortised.Settings`; :class:`RadialFeatures`: a gradient
-  step at one condition then moves mostly the strokes near it), tanh hidden layers
-  (``hidden``) and a tanh output u ∈ (-1, 1)^26. A coordinate that is not a phase is u itself. A phase (each
-  wing's sweep, elevation and pitch phase, Table 4: -180° to 180° on both wings, so ±1 is one
-  angle) is ``wrap(centre + u)`` [normalised: 1 = 180°], ``wrap`` onto [-1, 1), with a fixed
-  ``centre`` per phase (the circular mean of the training targets' phase; the canonical value
-  for a canonicalised one): the output then moves continuously around the circle, and the
-  optima's phases near ±180° do not sit on the output's edge.
-* the two discrete coordinates (indices 11 and 25, each wing's elevation harmonic N ∈ {1, 2},
-  -0.5 for 1 and +0.5 for 2) are not learned: they are those of the optimum at the training
-  condition nearest to c (the lower one on a tie). N is a step of the action (its gradient is
-  0), so neither regression nor fine-tuning could move it; between two training conditions
-  whose optima differ in N the switch sits at the midpoint.
+* **Branches.** The optima are not one smooth family over the conditions: in level flight
+  they lie in a few basins, and between two basins most coordinates and N jump. The policy
+  has one MLP per branch (a run of neighbouring training conditions whose optima belong
+  together, :func:`train.amortised.branch_segments`) and hand-over conditions
+  (``switches``) between neighbouring branches; a condition is served by the branch whose
+  span holds it (:meth:`AmortisedPolicy.branch_at`), so one forward pass of one branch gives
+  the stroke.
+* The 26 continuous coordinates from the branch's MLP: the condition mapped from the branch's
+  domain to [-1, 1] (:meth:`AmortisedPolicy.inputs`; or, with
+  ``features`` of :class:`~train.amortised.Settings` > 0, its Gaussian radial features,
+  :class:`RadialFeatures`), tanh hidden layers (``hidden``) and a tanh output u ∈ (-1, 1)^26.
+  A coordinate that is not a phase is u itself. A phase (each wing's sweep, elevation and
+  pitch phase, Table 4: -180° to 180° on both wings, so ±1 is one angle) is
+  ``wrap(centre + u)`` [normalised: 1 = 180°], ``wrap`` onto [-1, 1), with a fixed ``centre``
+  per phase (the circular mean of the training targets' phase; the canonical value for a
+  canonicalised one): the output then moves continuously around the circle, and the optima's
+  phases near ±180° do not sit on the output's edge.
+* The two discrete coordinates (indices 11 and 25, each wing's elevation harmonic N ∈ {1, 2},
+  -0.5 for 1 and +0.5 for 2) are not learned: they are the branch's (every optimum of a
+  branch has the same N). N is a step of the action (its gradient is 0), so neither
+  regression nor fine-tuning could move it.
 
 **Canonical targets** (:func:`canonicalise`). The model has a symmetry the targets need not
 carry: every angle of a wing is a function of τ + Φ (its elevation of N·τ + Φ_θ) over one cycle
@@ -39,9 +45,9 @@ discretisation error (measured: about 5e-6 relative at n_time = 128).
 
 **A run folder** (zoo-style, :class:`~train.layout.RunLayout`, ``logs/amortised/<env>_<n>/``)::
 
-    <env>.pt                 the network's weights: a torch state_dict (torch.load(weights_only=True))
+    <env>.pt                 the branches' weights: a torch state_dict (torch.load(weights_only=True))
     policy.json              what the forward pass needs besides: sizes, phase centres, the
-                             envelope, the harmonic per training condition, the series' identity
+                             envelope, the hand-overs and each branch's N
     result.json              training summary: losses, timings, strokes evaluated, provenance
     <env>/args.yml           the command's arguments (made_by: python -m train)
     <env>/config.yml         the training settings (:class:`~train.amortised.Settings`)
@@ -81,6 +87,7 @@ __all__ = [
     "AmortisedPolicy",
     "Targets",
     "build_network",
+    "build_networks",
     "canonicalise",
     "delay",
     "is_amortised_run",
@@ -97,7 +104,7 @@ CANONICAL_SWEEP_PHASE = 0.0
 #: are held this far inside (0.005 % of the parameter's range), where tanh can reach them.
 TARGET_LIMIT = 0.9999
 #: Format of ``policy.json``.
-POLICY_FORMAT = "tandem_env.amortised-policy/1"
+POLICY_FORMAT = "tandem_env.amortised-policy/2"
 #: The file of the weights in the run folder: ``<env>.pt``.
 WEIGHTS_SUFFIX = ".pt"
 POLICY_FILE = "policy.json"
@@ -113,8 +120,8 @@ PHASES: tuple[int, ...] = tuple(
 HARMONICS: tuple[int, ...] = (HARMONIC_INDEX, N_PER_WING + HARMONIC_INDEX)
 CITATION = (
     "amortised optimisation (Amos 2023, 'Tutorial on amortized optimization', Found. Trends "
-    "Mach. Learn. 16(5)): an MLP regressed on the reference optima at the training conditions "
-    "and fine-tuned by the autograd gradient of the penalised objective"
+    "Mach. Learn. 16(5)): one MLP per branch of the reference optima, regressed on them at the "
+    "training conditions and fine-tuned by the autograd gradient of the penalised objective"
 )
 
 
@@ -155,7 +162,7 @@ def canonicalise(physical: np.ndarray, n_time: int, *, pairs_independent: bool) 
     return delay(strokes, fore, hind)
 
 
-def _wrap_normalised(x: np.ndarray) -> np.ndarray:
+def wrap_normalised(x: np.ndarray) -> np.ndarray:
     return (np.asarray(x, dtype=np.float64) + 1.0) % 2.0 - 1.0
 
 
@@ -247,7 +254,7 @@ class RadialFeatures:
 
 
 def build_network(hidden: Sequence[int], features: int = 0) -> Any:
-    """The MLP 1 -> (``features`` > 0: :class:`RadialFeatures`) -> hidden (tanh) -> 26
+    """One branch's MLP 1 -> (``features`` > 0: :class:`RadialFeatures`) -> hidden (tanh) -> 26
     (linear: z, the output u = tanh z is taken by :class:`AmortisedPolicy`), float64."""
     import torch
 
@@ -263,22 +270,36 @@ def build_network(hidden: Sequence[int], features: int = 0) -> Any:
     return torch.nn.Sequential(*layers).double()
 
 
+def build_networks(hidden: Sequence[int], features: int, branches: int) -> Any:
+    """The policy's network: one :func:`build_network` per branch (a ``torch.nn.ModuleList``;
+    its ``state_dict`` is the weights file)."""
+    import torch
+
+    return torch.nn.ModuleList([build_network(hidden, features) for _ in range(branches)])
+
+
 @dataclass(frozen=True, eq=False)
 class AmortisedPolicy:
     """A trained amortised policy: the network and what its forward pass needs besides."""
 
     network: Any
-    """The torch MLP (observation (B, 1) -> z (B, 26), u = tanh z)."""
+    """The branches' torch MLPs (a ``ModuleList``; input (B, 1) -> z (B, 26), u = tanh z)."""
     env_id: str
     env_kwargs: Mapping[str, Any]
     envelope: tuple[float, float]
     """The env's observation envelope [the condition's unit]."""
     centres: np.ndarray
     """(26,) each output's centre [normalised]: 0 but for the phases (module docstring)."""
-    harmonic_conditions: np.ndarray
-    """(K,) the training conditions [the condition's unit] ..."""
+    trained_range: tuple[float, float]
+    """The first and last training condition [the condition's unit]."""
+    switches: np.ndarray
+    """(n_branches - 1,) increasing conditions [the condition's unit] where one branch hands
+    over to the next: branch b serves ``switches[b-1] <= c < switches[b]``."""
     harmonics: np.ndarray
-    """(K, 2) ... and their optima's N coordinates (-0.5 for N = 1, 0.5 for N = 2)."""
+    """(n_branches, 2) each branch's N coordinates (-0.5 for N = 1, 0.5 for N = 2)."""
+    domains: np.ndarray
+    """(n_branches, 2) the conditions each branch was trained over [the condition's unit]:
+    its network's input range (:meth:`inputs`)."""
     run_dir: Path | None = None
     num_timesteps: int = 0
     """Strokes evaluated in training (the fine-tuning's model evaluations)."""
@@ -286,27 +307,54 @@ class AmortisedPolicy:
     which: str = "final"
 
     # --- forward pass ---------------------------------------------------------------------
-    def observe(self, conditions: Sequence[float] | np.ndarray) -> np.ndarray:
-        """(n, 1) float32 observations of ``conditions``, as the env observes them."""
+    def inputs(self, conditions: np.ndarray, branches: np.ndarray) -> np.ndarray:
+        """(n, 1) each condition as its branch's network reads it: mapped from the branch's
+        domain to [-1, 1] (clipped), so every branch has its whole input range over the
+        conditions it learns, however narrow [-]."""
         values = np.asarray(conditions, dtype=np.float64).reshape(-1)
-        low, high = self.envelope
-        scaled = 2.0 * (values - low) / (high - low)
-        return np.clip(scaled - 1.0, -1.0, 1.0).astype(np.float32)[:, None]
+        low, high = self.domains[np.asarray(branches).reshape(-1)].T
+        scaled = 2.0 * (values - low) / np.maximum(high - low, 1e-12) - 1.0
+        return np.clip(scaled, -1.0, 1.0)[:, None]
 
-    def harmonics_at(self, conditions: np.ndarray) -> np.ndarray:
-        """(n, 2) N coordinates: the nearest training condition's (the lower on a tie)."""
-        distance = np.abs(np.asarray(conditions)[:, None] - self.harmonic_conditions[None, :])
-        return self.harmonics[np.argmin(distance, axis=1)]
+    @property
+    def n_branches(self) -> int:
+        return len(self.network)
 
-    def forward(self, conditions: np.ndarray) -> Any:
-        """(n, 28) normalised strokes as a float64 tensor, differentiable w.r.t. the weights."""
+    def branch_at(self, conditions: np.ndarray) -> np.ndarray:
+        """(n,) the branch that serves each condition (module docstring)."""
+        return np.searchsorted(self.switches, np.asarray(conditions, dtype=np.float64), "right")
+
+    def pre_activations(self, conditions: np.ndarray, branches: np.ndarray) -> Any:
+        """(n, 26) z of each condition's branch (u = tanh z), differentiable."""
         import torch
 
-        obs = torch.as_tensor(self.observe(conditions), dtype=torch.float64)
-        u = torch.tanh(self.network(obs))
-        return self.assemble(u, np.asarray(conditions, dtype=np.float64).reshape(-1))
+        values = np.asarray(conditions, dtype=np.float64).reshape(-1)
+        chosen = np.asarray(branches).reshape(-1)
+        obs = torch.as_tensor(self.inputs(values, chosen), dtype=torch.float64)
+        z = torch.zeros((values.size, len(CONTINUOUS)), dtype=torch.float64)
+        for b in np.unique(chosen):
+            rows = torch.as_tensor(np.flatnonzero(chosen == b))
+            z = z.index_put((rows,), self.network[int(b)](obs[rows]))
+        return z
 
-    def assemble(self, u: Any, conditions: np.ndarray) -> Any:
+    def forward(self, conditions: np.ndarray, branches: np.ndarray | None = None) -> Any:
+        """(n, 28) normalised strokes as a float64 tensor, differentiable w.r.t. the weights:
+        each condition's stroke from its branch (``branches``, default :meth:`branch_at`)."""
+        import torch
+
+        values = np.asarray(conditions, dtype=np.float64).reshape(-1)
+        chosen = self.branch_at(values) if branches is None else np.asarray(branches).reshape(-1)
+        return self.assemble(torch.tanh(self.pre_activations(values, chosen)), chosen)
+
+    def strokes_of(self, conditions: np.ndarray, branches: np.ndarray) -> np.ndarray:
+        """(n, 28) normalised strokes in [-1, 1] of the given ``branches`` (no gradient)."""
+        import torch
+
+        with torch.no_grad():
+            return np.clip(self.forward(conditions, branches).numpy(), -1.0, 1.0)
+
+    def assemble(self, u: Any, branches: np.ndarray) -> Any:
+        """(n, 28) strokes from the tanh outputs ``u`` (n, 26) of the ``branches`` (n,)."""
         import torch
 
         centres = torch.as_tensor(self.centres, dtype=torch.float64)
@@ -315,7 +363,7 @@ class AmortisedPolicy:
         continuous = torch.where(phase, shifted, u)
         out = torch.zeros((u.shape[0], N_PARAMETERS), dtype=torch.float64)
         out[:, list(CONTINUOUS)] = continuous
-        out[:, list(HARMONICS)] = torch.as_tensor(self.harmonics_at(conditions))
+        out[:, list(HARMONICS)] = torch.as_tensor(self.harmonics[np.asarray(branches)])
         return out
 
     def strokes(self, conditions: Sequence[float]) -> np.ndarray:
@@ -340,7 +388,7 @@ class AmortisedPolicy:
     @property
     def training_conditions(self) -> tuple[float, float]:
         """The range of conditions it was trained over [the condition's unit]."""
-        return float(self.harmonic_conditions[0]), float(self.harmonic_conditions[-1])
+        return self.trained_range
 
     def trained_at(self, value: float) -> bool:
         low, high = self.training_conditions
@@ -363,11 +411,13 @@ class AmortisedPolicy:
             "format": POLICY_FORMAT,
             "env_id": self.env_id,
             "env_kwargs": to_jsonable(dict(self.env_kwargs)),
-            "hidden": [m.out_features for m in self.network if hasattr(m, "out_features")][:-1],
-            "features": int(getattr(self.network[0], "centres", torch_empty()).numel()),
+            "hidden": [m.out_features for m in self.network[0] if hasattr(m, "out_features")][:-1],
+            "features": int(getattr(self.network[0][0], "centres", torch_empty()).numel()),
             "envelope": list(self.envelope),
             "centres": self.centres.tolist(),
-            "harmonic_conditions": self.harmonic_conditions.tolist(),
+            "trained_range": list(self.trained_range),
+            "switches": self.switches.tolist(),
+            "domains": self.domains.tolist(),
             "harmonics": self.harmonics.tolist(),
             "num_timesteps": int(self.num_timesteps),
             "continuous": list(CONTINUOUS),
@@ -401,12 +451,13 @@ def output_centres(targets: Targets, canonical: Sequence[int]) -> np.ndarray:
     return centres
 
 
-def regression_outputs(targets: Targets, centres: np.ndarray) -> np.ndarray:
-    """(K, 26) what the tanh outputs are fitted to: each continuous target, its phases relative
-    to their centres (wrapped), all within :data:`TARGET_LIMIT`."""
-    u = targets.strokes[:, list(CONTINUOUS)].copy()
+def regression_outputs(strokes: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """(K, 26) what the tanh outputs are fitted to for normalised ``strokes`` (K, 28): each
+    continuous coordinate, its phases relative to their centres (wrapped), all within
+    :data:`TARGET_LIMIT`."""
+    u = np.asarray(strokes, dtype=np.float64)[:, list(CONTINUOUS)].copy()
     mask = _phase_mask()
-    u[:, mask] = _wrap_normalised(u[:, mask] - centres[mask])
+    u[:, mask] = wrap_normalised(u[:, mask] - centres[mask])
     return np.clip(u, -TARGET_LIMIT, TARGET_LIMIT)
 
 
@@ -451,13 +502,18 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
         raise ValueError(f"{folder}: no {POLICY_FILE} (did the run finish?)")
     data = read_json(path)
     if not isinstance(data, dict) or data.get("format") != POLICY_FORMAT:
-        raise ValueError(f"{path}: not a policy file of format {POLICY_FORMAT!r}")
+        raise ValueError(
+            f"{path}: format {data.get('format') if isinstance(data, dict) else None!r}; "
+            f"allowed: {POLICY_FORMAT!r} (a run of an earlier version: train it again, "
+            "python -m train --algo amortised, minutes)"
+        )
     weights = folder / f"{layout.name}{WEIGHTS_SUFFIX}"
     if not weights.is_file():
         raise ValueError(f"{folder}: no weights file {weights.name} (did the run finish?)")
     try:
         hidden = [int(h) for h in data["hidden"]]
-        network = build_network(hidden, int(data.get("features", 0)))
+        harmonics = np.asarray(data["harmonics"], dtype=np.float64)
+        network = build_networks(hidden, int(data.get("features", 0)), len(harmonics))
         state = torch.load(weights, map_location="cpu", weights_only=True)
         network.load_state_dict(state)
         policy = AmortisedPolicy(
@@ -466,8 +522,10 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
             env_kwargs=dict(data["env_kwargs"]),
             envelope=(float(data["envelope"][0]), float(data["envelope"][1])),
             centres=np.asarray(data["centres"], dtype=np.float64),
-            harmonic_conditions=np.asarray(data["harmonic_conditions"], dtype=np.float64),
-            harmonics=np.asarray(data["harmonics"], dtype=np.float64),
+            trained_range=(float(data["trained_range"][0]), float(data["trained_range"][1])),
+            switches=np.asarray(data["switches"], dtype=np.float64).reshape(-1),
+            harmonics=harmonics,
+            domains=np.asarray(data["domains"], dtype=np.float64),
             run_dir=folder,
             num_timesteps=int(data["num_timesteps"]),
         )
@@ -475,9 +533,12 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
         raise ValueError(
             f"{folder}: its policy files do not load ({type(error).__name__}: {error})"
         ) from None
-    if policy.centres.shape != (len(CONTINUOUS),) or policy.harmonics.shape != (
-        policy.harmonic_conditions.shape[0],
-        2,
+    if (
+        policy.centres.shape != (len(CONTINUOUS),)
+        or policy.harmonics.shape != (policy.n_branches, 2)
+        or policy.switches.shape != (policy.n_branches - 1,)
+        or policy.domains.shape != (policy.n_branches, 2)
+        or not np.all(np.diff(policy.switches) > 0)
     ):
-        raise ValueError(f"{path}: centres or harmonics of the wrong shape")
+        raise ValueError(f"{path}: centres, harmonics or switches of the wrong shape")
     return policy

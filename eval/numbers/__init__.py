@@ -42,6 +42,7 @@ import sys
 from pathlib import Path
 
 from eval.numbers import (
+    amortised_scores,
     comparison,
     convergence,
     crosscheck_lag_study,
@@ -139,6 +140,12 @@ MEASUREMENTS: dict[str, Measurement] = {
             "rl-baselines",
             rl_baselines.measure_rl_baselines,
             rl_baselines.render_rl_baselines,
+            on_request=True,
+        ),
+        Measurement(
+            "amortised-scores",
+            amortised_scores.measure_amortised_scores,
+            amortised_scores.render_amortised_scores,
             on_request=True,
         ),
         Measurement(

@@ -39,13 +39,19 @@ def train_command(algo: str, steps: int | str, seed: int | str) -> list[str]:
 
 
 def _one(algo: str, steps: int, seed: int, folder: Path) -> dict[str, Any]:
+    return score_run(train_command(algo, steps, seed), algo, steps, seed, folder)
+
+
+def score_run(command: list[str], algo: str, steps: int, seed: int, folder: Path) -> dict[str, Any]:
+    """Train by ``command`` (``-f`` is added), then score its stroke at each held-out
+    condition through ``python -m train.envelope``."""
     from tandem_env.envs.reference import held_out_conditions
 
     logs = folder / f"{algo}-{seed}"
     start = time.perf_counter()
-    run_command([*train_command(algo, steps, seed), "-f", str(logs)], _ONE_CORE)
+    run_command([*command, "-f", str(logs)], _ONE_CORE)
     seconds = time.perf_counter() - start
-    run = logs / algo / ENV_ID.replace("/", "-")
+    run = logs / algo / ENV_ID.replace("/", "-")  # the latest run of the env
     out = folder / f"envelope-{algo}-{seed}"
     conditions = [str(c) for c in held_out_conditions(ENV_ID)]
     run_command(
@@ -73,12 +79,11 @@ def measure_rl_baselines() -> dict[str, Any]:
         tasks = [(algo, steps, seed) for algo, steps in ALGOS for seed in SEEDS]
         with ThreadPoolExecutor(max_workers=2) as pool:
             runs = list(pool.map(lambda t: _one(*t, folder), tasks))
-    data = {"env_id": ENV_ID, "envelope": ENVELOPE, "runs": runs}
-    write_figure(data, ROOT / FIGURE)
-    return data
+    write_figure(ROOT / FIGURE, {"rl-baselines": runs})
+    return {"env_id": ENV_ID, "envelope": ENVELOPE, "runs": runs}
 
 
-def _summary(runs: list[dict[str, Any]]) -> tuple[float, float, float, float]:
+def summary(runs: list[dict[str, Any]]) -> tuple[float, float, float, float]:
     """Median and worst score over every (seed, condition), the share feasible, the median
     training time [s]."""
     scores = [s for r in runs for s in r["scores"]]
@@ -101,7 +106,7 @@ def render_rl_baselines(data: dict[str, Any]) -> str:
         runs = [r for r in data["runs"] if r["algo"] == algo]
         if not runs:
             continue
-        median, worst, flies, seconds = _summary(runs)
+        median, worst, flies, seconds = summary(runs)
         lines.append(
             # + 0.0: a median that rounds to -0.0 (an infeasible stroke's) reads as 0.0
             f"| {algo.upper()} | {runs[0]['steps']:,} | {len(runs)} | {round(median, 1) + 0.0:.1f} | "
@@ -118,27 +123,38 @@ def render_rl_baselines(data: dict[str, Any]) -> str:
     )
 
 
-def write_figure(data: dict[str, Any], path: Path) -> None:
-    """Score against speed: one thin line per seed, the median thick, per algorithm."""
+def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
+    """Score against speed: one thin line per seed, the median thick, per policy: PPO's and
+    SAC's (``rl-baselines``) and the amortised policy's (``amortised-scores``), the ``fresh``
+    runs of a measurement just made, the other's as stored (if it is)."""
     import matplotlib.pyplot as plt
 
     from eval.figures import save
+    from eval.numbers.framework import json_path, load
 
-    colours = {"ppo": "#0072B2", "sac": "#D55E00"}
+    colours = {"ppo": "#0072B2", "sac": "#D55E00", "amortised": "#009E73"}
+    runs_of = {
+        name: load(name)["runs"] for name in ("rl-baselines", "amortised-scores")
+        if json_path(name).is_file()
+    }  # fmt: skip
+    runs_of.update(fresh)
     fig, ax = plt.subplots(figsize=(6.0, 3.8))
-    for algo, _ in ALGOS:
-        runs = [r for r in data["runs"] if r["algo"] == algo]
+    for algo in colours:
+        runs = [r for stored in runs_of.values() for r in stored if r["algo"] == algo]
+        if not runs:
+            continue
         for r in runs:
             ax.plot(r["conditions"], r["scores"], color=colours[algo], alpha=0.3, lw=0.8)
         medians = [statistics.median(col) for col in zip(*(r["scores"] for r in runs), strict=True)]
+        label = algo.upper() if algo != "amortised" else "amortised policy"
         ax.plot(runs[0]["conditions"], medians, color=colours[algo], lw=2.2, marker="o",
-                label=f"{algo.upper()} (median of {len(runs)} seeds; thin: each seed)")  # fmt: skip
+                label=f"{label} (median of {len(runs)} seeds; thin: each seed)")  # fmt: skip
     ax.axhline(100.0, color="0.3", ls="--", lw=1.0, label="reference optimum (100)")
     ax.axhline(0.0, color="0.6", lw=0.8)
     ax.set_xlabel("flight speed V [m/s] (held-out conditions)")
     ax.set_ylabel("normalised score [-]")
     ax.set_title("Level flight: envelope policies against the reference optima")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(fontsize=7, loc="lower right")
     path.parent.mkdir(parents=True, exist_ok=True)
     save(fig, path)

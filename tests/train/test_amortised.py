@@ -30,7 +30,14 @@ from tandem_env.envs.registration import ACCELERATE_ID, LEVEL_FLIGHT_ID
 from tandem_env.physics.stroke import normalised_to_physical, physical_to_normalised
 from train import amortised_policy
 from train.__main__ import main
-from train.amortised import Settings, check_env_kwargs, make_problem, train_policy
+from train.amortised import (
+    Settings,
+    between,
+    branch_segments,
+    check_env_kwargs,
+    make_problem,
+    train_policy,
+)
 from train.amortised_policy import (
     CANONICAL_SWEEP_PHASE,
     CONTINUOUS,
@@ -172,9 +179,15 @@ def test_regression_reproduces_the_training_targets(synthetic_table: ReferenceSe
     difference[:, phases] = (difference[:, phases] + 1.0) % 2.0 - 1.0
     assert np.max(np.abs(difference)) < 0.02, training.regression_loss
     np.testing.assert_array_equal(strokes[:, [11, 25]], targets.strokes[:, [11, 25]])
-    # N between the training conditions: the nearest one's
-    middle = 0.5 * (targets.conditions[0] + targets.conditions[1]) - 1e-6
-    assert policy.strokes([middle])[0, 11] == targets.strokes[0, 11]
+    # every training condition is served by its own branch; N between them: the branch's
+    assert [b["training_conditions"] for b in training.branches] == [
+        list(targets.conditions[policy.branch_at(targets.conditions) == i])
+        for i in range(policy.n_branches)
+    ]
+    middle = np.linspace(targets.conditions[0], targets.conditions[-1], 41)
+    np.testing.assert_array_equal(
+        policy.strokes(middle)[:, [11, 25]], policy.harmonics[policy.branch_at(middle)]
+    )
 
 
 def test_training_is_deterministic_for_a_seed(synthetic_table: ReferenceSeries) -> None:
@@ -184,7 +197,7 @@ def test_training_is_deterministic_for_a_seed(synthetic_table: ReferenceSeries) 
     b, _ = train_policy(LEVEL_FLIGHT_ID, {}, targets, settings, seed=4)
     conditions = [0.3, 1.1, 1.9]
     np.testing.assert_array_equal(a.strokes(conditions), b.strokes(conditions))
-    assert a.num_timesteps == settings.finetune_steps * settings.batch
+    assert a.num_timesteps == settings.finetune_steps * settings.batch * a.n_branches
 
 
 def test_fine_tuning_moves_the_network(synthetic_table: ReferenceSeries) -> None:
@@ -198,6 +211,60 @@ def test_fine_tuning_moves_the_network(synthetic_table: ReferenceSeries) -> None
     assert not np.array_equal(still.strokes([1.0]), moved.strokes([1.0]))
 
 
+class _Found:
+    def __init__(self, objective: np.ndarray, margins: np.ndarray) -> None:
+        self.objective, self.margins = objective, margins
+
+
+class _MidwayProblem:
+    """Stands in for the problem view: the objectives and margins of the midway strokes."""
+
+    def __init__(self, objective: list[float], margin: list[float]) -> None:
+        self.objective, self.margin = np.array(objective), np.array(margin)
+        self.asked: list[np.ndarray] = []
+
+    def evaluate(self, strokes: np.ndarray, conditions: np.ndarray) -> _Found:
+        self.asked.append(conditions)
+        return _Found(self.objective, np.column_stack([self.margin, np.ones_like(self.margin)]))
+
+
+def test_between_goes_the_short_way_round_and_keeps_n() -> None:
+    first, second = np.zeros((1, 28)), np.zeros((1, 28))
+    first[0, [0, 7, 11]], second[0, [0, 7, 11]] = [0.2, 0.9, -0.5], [0.6, -0.9, 0.5]
+    middle = between(first, second)[0]
+    assert middle[0] == pytest.approx(0.4)  # a plain coordinate: the mean
+    assert abs(middle[7]) == pytest.approx(1.0)  # 162° and -162°: halfway is 180°, not 0°
+    assert middle[11] == -0.5  # N: the first's
+
+
+def test_branches_split_where_the_midway_stroke_fails() -> None:
+    conditions = np.array([0.25, 0.5, 0.75, 1.0, 1.25])
+    strokes = np.zeros((5, 28))
+    strokes[:, [11, 25]] = -0.5
+    strokes[4, 11] = 0.5  # N changes between the last two
+    targets = Targets(conditions, strokes, np.full(5, 0.4))
+    # the midway strokes: fine, 15 % short, a margin 0.2 violated, fine (but N differs)
+    problem = _MidwayProblem([0.399, 0.34, 0.4, 0.4], [0.0, 0.0, -0.2, 0.0])
+    segments = branch_segments(problem, targets, tolerance=0.1)
+    assert segments == [(0, 2), (2, 3), (3, 4), (4, 5)]
+    np.testing.assert_allclose(problem.asked[0], [0.375, 0.625, 0.875, 1.125])
+    assert branch_segments(problem, targets, tolerance=0.25) == [(0, 4), (4, 5)]
+
+
+def test_each_branch_keeps_its_training_conditions_and_hands_over_between(
+    synthetic_table: ReferenceSeries,
+) -> None:
+    targets = reference_targets(synthetic_table, 32, pairs_independent=True)
+    settings = Settings(**{**TINY_SETTINGS, "regression_steps": 50, "branch_tolerance": 1.0})
+    policy, training = train_policy(LEVEL_FLIGHT_ID, {}, targets, settings, seed=0)
+    assert policy.n_branches == len(training.branches) >= 1
+    for i, branch in enumerate(training.branches):
+        own = np.array(branch["training_conditions"])
+        assert np.all(policy.branch_at(own) == i)
+        assert branch["serves_from"] <= own[0] <= own[-1] <= branch["serves_to"]
+    assert np.all(np.diff(policy.switches) > 0)
+
+
 # --- the run folder ----------------------------------------------------------------------------
 def test_run_folder_round_trips(tiny_run: Path) -> None:
     policy = load_policy(tiny_run)
@@ -209,15 +276,17 @@ def test_run_folder_round_trips(tiny_run: Path) -> None:
     config = yaml.safe_load((tiny_run / name / "config.yml").read_text())
     assert config["hidden"] == [16, 16] and config["finetune_n_time"] == 32
     result = json.loads((tiny_run / "result.json").read_text())
-    assert result["num_timesteps"] == 4 and len(result["training_evaluation"]) == 8
+    branches = len(result["branches"])
+    assert result["num_timesteps"] == 4 * branches and len(result["training_evaluation"]) == 8
     # the same network rebuilt from the state_dict gives the same strokes
     features = json.loads((tiny_run / "policy.json").read_text())["features"]
     assert features == Settings().features
-    rebuilt = amortised_policy.build_network([16, 16], features)
+    rebuilt = amortised_policy.build_networks([16, 16], features, branches)
     rebuilt.load_state_dict(state)
+    [branch] = policy.branch_at(np.array([0.7]))
     with torch.no_grad():
-        z = rebuilt(torch.as_tensor(policy.observe([0.7]), dtype=torch.float64))
-    direct = policy.assemble(torch.tanh(z), np.array([0.7])).numpy()
+        z = rebuilt[branch](torch.as_tensor(policy.inputs([0.7], [branch])))
+    direct = policy.assemble(torch.tanh(z), np.array([branch])).numpy()
     np.testing.assert_array_equal(np.clip(direct, -1, 1), policy.strokes([0.7]))
     again = load_any_policy(tiny_run)
     np.testing.assert_array_equal(again.strokes([0.3, 1.5]), policy.strokes([0.3, 1.5]))
