@@ -138,7 +138,7 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
         if json_path(name).is_file()
     }  # fmt: skip
     runs_of.update(fresh)
-    fig, ax = plt.subplots(figsize=(6.0, 3.8))
+    fig, ax = plt.subplots(figsize=(6.0, 4.6))
     for algo in colours:
         runs = [r for stored in runs_of.values() for r in stored if r["algo"] == algo]
         if not runs:
@@ -155,6 +155,7 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     ax.set_ylabel("normalised score [-]")
     ax.set_title("Level flight: envelope policies against the reference optima")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="lower right")
+    # below the axes: inside, it would hide the low scores
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
     path.parent.mkdir(parents=True, exist_ok=True)
     save(fig, path)
