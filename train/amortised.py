@@ -416,8 +416,8 @@ def train_policy(
     conditions = targets.conditions
     k = conditions.size
     segments = branch_segments(problem, targets, settings.branch_tolerance)
-    # each branch is fitted and fine-tuned from the training condition before its first to
-    # the one after its last: the gap to a neighbouring branch is covered by both
+    # each branch is fitted and fine-tuned from its first to its last training condition and
+    # branch_reach into each gap to a neighbour: the middle of a gap is covered by both
     reach = settings.branch_reach
     domains = [
         (
