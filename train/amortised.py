@@ -16,22 +16,15 @@ thread, float64), on the canonical optima of the reference table (``tandem_env.e
 at the grid's TRAINING conditions only (``training_conditions(env_id)``: every other grid
 point, the envelope's ends among them):
 
-(a) branches (:func:`branch_segments`): neighbouring training optima belong to one branch when
-    they share N and the stroke midway between them, flown at the midway condition, is within
-    :attr:`Settings.branch_tolerance` of their mean objective and violates no constraint
-    margin by more (one batched model evaluation). Within a basin the midway stroke is nearly
-    optimal (0.2-0.3 % short, margins -0.006 in level flight); across a basin change it is
-    far off (36-69 % short, margins -0.58 to -0.85), so the split does not hinge on the
-    tolerance. Each branch is an MLP of its own, with a domain from its first to its last
-    training condition, reaching :attr:`Settings.branch_reach` of the way into the gap to a
-    neighbouring branch's (so both cover the middle of the gap; not further, for a branch
-    continued deep into a neighbouring basin is pulled away from its own optima);
+(a) branches (:mod:`train.amortised_branches`, which states the rule): runs of neighbouring
+    training optima that belong together, each an MLP of its own over its domain (its
+    training conditions and :attr:`Settings.branch_reach` into each gap to a neighbour);
 (b) regression: each branch's outputs before the output tanh (z, u = tanh z) are fitted (mean
     squared error on z, full batch, Adam, :attr:`Settings.regression_steps` steps) to atanh
-    of its canonical optima, and to its end optima at its domain's ends (a constant
-    continuation, so a branch of one training condition starts flat); targets at a bound are
-    held :data:`TARGET_LIMIT` inside it (tanh reaches ±1 only at infinity), and fitting z
-    keeps their gradient from vanishing in the saturated tanh;
+    of its canonical optima, of the strokes interpolated between them and of its end optima
+    held to its domain's ends (``regression_points``); targets at a bound are held
+    ``TARGET_LIMIT`` inside it (tanh reaches ±1 only at infinity), and fitting z keeps their
+    gradient from vanishing in the saturated tanh;
 (c) fine-tuning by the objective's gradient: :attr:`Settings.finetune_steps` Adam steps, each on
     :attr:`Settings.batch` conditions per branch drawn uniformly over its domain (stratified:
     one draw in each of ``batch`` equal parts), maximising the mean of ``J / ref(c)`` with
@@ -46,9 +39,8 @@ point, the envelope's ends among them):
     by the chain rule. A regression term on the training targets (weight
     :attr:`Settings.anchor`) keeps each branch near its certified optima while it climbs.
     The learning rate decays to 0 over the steps (cosine);
-(d) hand-overs (:func:`_switches`): where two neighbouring branches' domains overlap, both
-    branches' strokes are flown on :data:`SWITCH_SAMPLES` conditions and the hand-over is put
-    where the summed penalised objective of the two is largest.
+(d) hand-overs (``hand_overs``): where two neighbouring branches overlap, at the condition
+    that maximises their summed penalised objective.
 
 The default training (5 000 regression steps, 600 fine-tuning steps of 16 conditions per
 branch at the default resolution) takes about 3.5 minutes for one branch (accelerating flight)
@@ -67,11 +59,10 @@ input), unknown or out-of-range settings.
 from __future__ import annotations
 
 import contextlib
-import itertools
 import math
 import time
 from collections.abc import Iterator, Mapping
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -85,10 +76,15 @@ from tandem_env.io.files import (
     write_text_atomic,
 )
 from tandem_env.physics.checks import is_integer, is_real
+from train.amortised_branches import (
+    branch_domains,
+    branch_segments,
+    hand_overs,
+    regression_points,
+)
 from train.amortised_policy import (
     ALGO,
     HARMONICS,
-    PHASES,
     POLICY_FILE,
     WEIGHTS_SUFFIX,
     AmortisedPolicy,
@@ -96,8 +92,6 @@ from train.amortised_policy import (
     build_networks,
     output_centres,
     reference_targets,
-    regression_outputs,
-    wrap_normalised,
 )
 from train.layout import MADE_BY, RunLayout
 
@@ -143,7 +137,7 @@ class Settings:
     branch_tolerance: float = 0.1
     """Two neighbouring training optima share a branch when the stroke midway between them
     loses at most this fraction of their mean objective and violates no margin by more
-    (:func:`branch_segments`) [-]."""
+    (:func:`~train.amortised_branches.branch_segments`) [-]."""
     features: int = 0
     """Gaussian radial features of the observation before the MLP (0: the observation
     itself) [-] (:class:`RadialFeatures`)."""
@@ -213,12 +207,6 @@ class Settings:
 
     def to_dict(self) -> dict[str, Any]:
         return to_jsonable(asdict(self))
-
-
-#: Strokes interpolated between two neighbouring optima of a branch for its regression [-].
-INTERPOLATED = 3
-#: Conditions per gap between two branches on which their hand-over is chosen [-].
-SWITCH_SAMPLES = 17
 
 
 # --- the problem and its reference -------------------------------------------------------------
@@ -330,59 +318,6 @@ class Training:
     """Per fine-tuning step: mean score-like J/ref, feasible share, loss."""
 
 
-def between(first: np.ndarray, second: np.ndarray, fraction: Any = 0.5) -> np.ndarray:
-    """The normalised strokes ``fraction`` of the way from ``first`` to ``second`` (B, 28):
-    each phase the short way round the circle, the N coordinates the first's."""
-    mask = np.zeros(first.shape[-1], dtype=bool)
-    mask[list(PHASES)] = True
-    step = np.where(mask, wrap_normalised(second - first), second - first)
-    middle = np.where(mask, wrap_normalised(first + fraction * step), first + fraction * step)
-    middle[..., list(HARMONICS)] = first[..., list(HARMONICS)]
-    return np.clip(middle, -1.0, 1.0)
-
-
-def branch_segments(problem: Any, targets: Targets, tolerance: float) -> list[tuple[int, int]]:
-    """The training conditions split into branches ``[(first, stop), ...]`` (index ranges):
-    two neighbouring optima lie on one branch when they share N and the stroke midway between
-    them (:func:`between`), flown at the midway condition, is within ``tolerance`` of the
-    mean of their objectives and violates no constraint margin by more than ``tolerance``
-    (margins are fractions). One batched model evaluation; no held-out optimum is read."""
-    k = targets.conditions.size
-    if k == 1:
-        return [(0, 1)]
-    first, second = targets.strokes[:-1], targets.strokes[1:]
-    found = problem.evaluate(
-        between(first, second), 0.5 * (targets.conditions[:-1] + targets.conditions[1:])
-    )
-    expected = 0.5 * (targets.objectives[:-1] + targets.objectives[1:])
-    joined = (
-        np.all(first[:, list(HARMONICS)] == second[:, list(HARMONICS)], axis=1)
-        & (found.objective >= expected - tolerance * np.abs(expected))
-        & (np.min(found.margins, axis=1) >= -tolerance)
-    )
-    cuts = [0, *(int(i) + 1 for i in np.flatnonzero(~joined)), k]
-    return list(itertools.pairwise(cuts))
-
-
-def _switches(policy: AmortisedPolicy, problem: Any, penalty_weight: float) -> np.ndarray:
-    """Where each branch hands over to the next: where their domains overlap (inside the gap
-    between their training conditions), at the cut that maximises the summed penalised
-    objective (objective − w·Σ max(0, −margin), the env's reward) of the two branches'
-    strokes on :data:`SWITCH_SAMPLES` conditions there."""
-    switches = []
-    for branch in range(policy.n_branches - 1):
-        grid = np.linspace(policy.domains[branch + 1, 0], policy.domains[branch, 1], SWITCH_SAMPLES)
-        both = np.concatenate([grid, grid])
-        found = problem.evaluate(
-            policy.strokes_of(both, np.repeat([branch, branch + 1], grid.size)), both
-        )
-        value = found.objective - penalty_weight * np.sum(np.maximum(0.0, -found.margins), axis=1)
-        own, next_ = value[: grid.size], value[grid.size :]
-        cut = 1 + int(np.argmax([own[:k].sum() + next_[k:].sum() for k in range(1, grid.size)]))
-        switches.append(0.5 * (grid[cut - 1] + grid[cut]))
-    return np.asarray(switches, dtype=np.float64)
-
-
 def train_policy(
     env_id: str,
     env_kwargs: Mapping[str, Any],
@@ -414,18 +349,8 @@ def train_policy(
     canonical = [7, 21] if not config.options.phase_resolved() else [7]
     centres = output_centres(targets, canonical)
     conditions = targets.conditions
-    k = conditions.size
     segments = branch_segments(problem, targets, settings.branch_tolerance)
-    # each branch is fitted and fine-tuned from its first to its last training condition and
-    # branch_reach into each gap to a neighbour: the middle of a gap is covered by both
-    reach = settings.branch_reach
-    domains = [
-        (
-            conditions[a] - reach * (conditions[a] - conditions[max(a - 1, 0)]),
-            conditions[b - 1] + reach * (conditions[min(b, k - 1)] - conditions[b - 1]),
-        )
-        for a, b in segments
-    ]
+    domains = branch_domains(conditions, segments, settings.branch_reach)
     owner = np.concatenate([np.full(b - a, i) for i, (a, b) in enumerate(segments)])
     record = Training()
     with _torch_state(seed):
@@ -434,42 +359,16 @@ def train_policy(
             network=network,
             env_id=env_id,
             env_kwargs=dict(env_kwargs),
-            envelope=tuple(float(v) for v in config.envelope),  # type: ignore[arg-type]
             centres=centres,
-            trained_range=(float(conditions[0]), float(conditions[-1])),
             switches=np.full(len(segments) - 1, np.nan),
             harmonics=np.where(
                 targets.strokes[[a for a, _ in segments]][:, list(HARMONICS)] < 0, -0.5, 0.5
             ),
-            domains=np.array(domains, dtype=np.float64).reshape(-1, 2),
+            domains=domains,
         )
-        goal = np.arctanh(regression_outputs(targets.strokes, centres))
-        # the regression also holds, on each branch, the strokes interpolated between its
-        # neighbouring optima (within a basin they fly nearly as well: docstring, (a)) and its
-        # end optima at its domain's ends (a constant continuation, so that a branch of one
-        # training condition starts flat over its domain)
-        fit_conditions, fit_branches, fit_goals = [conditions], [owner], [goal]
-        fractions = np.arange(1, INTERPOLATED + 1) / (INTERPOLATED + 1)
-        for i, ((a, b), (low, high)) in enumerate(zip(segments, domains, strict=True)):
-            for j in range(a, b - 1):
-                strokes = between(
-                    np.repeat(targets.strokes[j : j + 1], fractions.size, axis=0),
-                    np.repeat(targets.strokes[j + 1 : j + 2], fractions.size, axis=0),
-                    fractions[:, None],
-                )
-                span = conditions[j + 1] - conditions[j]
-                fit_conditions.append(conditions[j] + fractions * span)
-                fit_branches.append(np.full(fractions.size, i))
-                fit_goals.append(np.arctanh(regression_outputs(strokes, centres)))
-            for end, index in ((low, a), (high, b - 1)):
-                if end != conditions[index]:
-                    fit_conditions.append(np.array([end]))
-                    fit_branches.append(np.array([i]))
-                    fit_goals.append(goal[index : index + 1])
-        fit_at = np.concatenate(fit_conditions)
-        fit_of = np.concatenate(fit_branches)
-        fit_goal = torch.as_tensor(np.concatenate(fit_goals))
-        own_goal = torch.as_tensor(goal)
+        fit_at, fit_of, fit_goals = regression_points(targets, segments, domains, centres)
+        fit_goal = torch.as_tensor(fit_goals)
+        own_goal = torch.as_tensor(fit_goals[: conditions.size])  # the optima come first
 
         def fit_loss() -> Any:
             return torch.mean((policy.pre_activations(fit_at, fit_of) - fit_goal) ** 2)
@@ -538,10 +437,10 @@ def train_policy(
             if progress is not None:
                 progress(step + 1, settings.finetune_steps, row)
         record.finetune_seconds = time.perf_counter() - start
-    policy = _with(
+    policy = replace(
         policy,
         num_timesteps=evaluated,
-        switches=_switches(policy, problem, settings.penalty_weight),
+        switches=hand_overs(policy, problem, settings.penalty_weight),
     )
     record.branches = [
         {
@@ -556,12 +455,6 @@ def train_policy(
         for i, ((a, b), (low, high)) in enumerate(zip(segments, domains, strict=True))
     ]
     return policy, record
-
-
-def _with(policy: AmortisedPolicy, **changes: Any) -> AmortisedPolicy:
-    from dataclasses import replace
-
-    return replace(policy, **changes)
 
 
 # --- run folders -------------------------------------------------------------------------------
@@ -646,7 +539,7 @@ def train_run(
     else:
         run_dir.mkdir(parents=True, exist_ok=True)
         layout = RunLayout(run_dir, env_id)
-    policy = _with(policy, run_dir=layout.run_dir)
+    policy = replace(policy, run_dir=layout.run_dir)
     # the final policy at the training conditions, at the env's resolution
     conditions = np.asarray(training_conditions(env_id))
     found = problem.evaluate(policy.strokes(conditions), conditions)

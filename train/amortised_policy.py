@@ -47,7 +47,7 @@ discretisation error (measured: about 5e-6 relative at n_time = 128).
 
     <env>.pt                 the branches' weights: a torch state_dict (torch.load(weights_only=True))
     policy.json              what the forward pass needs besides: sizes, phase centres, the
-                             envelope, the hand-overs and each branch's N
+                             branches' domains, the hand-overs and each branch's N
     result.json              training summary: losses, timings, strokes evaluated, provenance
     <env>/args.yml           the command's arguments (made_by: python -m train)
     <env>/config.yml         the training settings (:class:`~train.amortised.Settings`)
@@ -286,12 +286,8 @@ class AmortisedPolicy:
     """The branches' torch MLPs (a ``ModuleList``; input (B, 1) -> z (B, 26), u = tanh z)."""
     env_id: str
     env_kwargs: Mapping[str, Any]
-    envelope: tuple[float, float]
-    """The env's observation envelope [the condition's unit]."""
     centres: np.ndarray
     """(26,) each output's centre [normalised]: 0 but for the phases (module docstring)."""
-    trained_range: tuple[float, float]
-    """The first and last training condition [the condition's unit]."""
     switches: np.ndarray
     """(n_branches - 1,) increasing conditions [the condition's unit] where one branch hands
     over to the next: branch b serves ``switches[b-1] <= c < switches[b]``."""
@@ -387,8 +383,9 @@ class AmortisedPolicy:
 
     @property
     def training_conditions(self) -> tuple[float, float]:
-        """The range of conditions it was trained over [the condition's unit]."""
-        return self.trained_range
+        """The range of conditions it was trained over [the condition's unit]: the first
+        branch's start to the last one's end (the first and last training conditions)."""
+        return float(self.domains[0, 0]), float(self.domains[-1, 1])
 
     def trained_at(self, value: float) -> bool:
         low, high = self.training_conditions
@@ -413,9 +410,7 @@ class AmortisedPolicy:
             "env_kwargs": to_jsonable(dict(self.env_kwargs)),
             "hidden": [m.out_features for m in self.network[0] if hasattr(m, "out_features")][:-1],
             "features": int(getattr(self.network[0][0], "centres", torch_empty()).numel()),
-            "envelope": list(self.envelope),
             "centres": self.centres.tolist(),
-            "trained_range": list(self.trained_range),
             "switches": self.switches.tolist(),
             "domains": self.domains.tolist(),
             "harmonics": self.harmonics.tolist(),
@@ -520,9 +515,7 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
             network=network.eval(),
             env_id=env_id,
             env_kwargs=dict(data["env_kwargs"]),
-            envelope=(float(data["envelope"][0]), float(data["envelope"][1])),
             centres=np.asarray(data["centres"], dtype=np.float64),
-            trained_range=(float(data["trained_range"][0]), float(data["trained_range"][1])),
             switches=np.asarray(data["switches"], dtype=np.float64).reshape(-1),
             harmonics=harmonics,
             domains=np.asarray(data["domains"], dtype=np.float64),

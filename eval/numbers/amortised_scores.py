@@ -16,7 +16,15 @@ from pathlib import Path
 from typing import Any
 
 from eval.numbers.framework import ROOT, machine_line
-from eval.numbers.rl_baselines import ENV_ID, FIGURE, SEEDS, score_run, summary, write_figure
+from eval.numbers.rl_baselines import (
+    ENV_ID,
+    FIGURE,
+    SEEDS,
+    TABLE_HEAD,
+    score_run,
+    summary,
+    write_figure,
+)
 
 ALGO = "amortised"
 
@@ -42,9 +50,7 @@ def measure_amortised_scores() -> dict[str, Any]:
 def render_amortised_scores(data: dict[str, Any]) -> str:
     median, worst, flies, seconds = summary(data["runs"])
     return (
-        "| policy | training | seeds | median score | worst score | strokes that fly | "
-        "training time (median, 1 core) |\n"
-        "|---|---|---|---|---|---|---|\n"
+        TABLE_HEAD.format(training="training") + "\n"
         f"| amortised | regression + 600 gradient steps | {len(data['runs'])} | "
         f"{round(median, 1) + 0.0:.1f} | {round(worst, 1) + 0.0:.1f} | {100 * flies:.0f} % | "
         f"{seconds:.0f} s |\n\n"

@@ -83,6 +83,13 @@ def measure_rl_baselines() -> dict[str, Any]:
     return {"env_id": ENV_ID, "envelope": ENVELOPE, "runs": runs}
 
 
+#: The scores table's head (the policies' tables share it; ``training``: that column's name).
+TABLE_HEAD = (
+    "| policy | {training} | seeds | median score | worst score | strokes that fly | "
+    "training time (median, 1 core) |\n|---|---|---|---|---|---|---|"
+)
+
+
 def summary(runs: list[dict[str, Any]]) -> tuple[float, float, float, float]:
     """Median and worst score over every (seed, condition), the share feasible, the median
     training time [s]."""
@@ -97,11 +104,7 @@ def summary(runs: list[dict[str, Any]]) -> tuple[float, float, float, float]:
 
 
 def render_rl_baselines(data: dict[str, Any]) -> str:
-    lines = [
-        "| policy | training steps | seeds | median score | worst score | strokes that fly | "
-        "training time (median, 1 core) |",
-        "|---|---|---|---|---|---|---|",
-    ]
+    lines = [TABLE_HEAD.format(training="training steps")]
     for algo, _ in ALGOS:
         runs = [r for r in data["runs"] if r["algo"] == algo]
         if not runs:

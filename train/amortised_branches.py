@@ -1,0 +1,154 @@
+"""The branches of an amortised policy: which training optima belong together, the conditions
+each branch learns over, its regression targets and where one branch hands over to the next
+(steps (a), (b) and (d) of :mod:`train.amortised`'s training).
+
+In level flight the reference optima lie in a few basins, and between two basins most stroke
+coordinates and N jump; one smooth map's strokes between two basins fly in neither. So the
+policy (:class:`train.amortised_policy.AmortisedPolicy`) has one network per branch, a run of
+neighbouring training conditions whose optima belong together.
+
+**The rule** (:func:`branch_segments`): two neighbouring training optima share a branch when
+they have the same N and the stroke midway between them, flown at the midway condition, is
+within ``branch_tolerance`` (:class:`train.amortised.Settings`) of their mean objective and
+violates no constraint margin by more (one batched model evaluation). Within a basin the
+midway stroke is nearly optimal (0.2-0.3 % short, margins -0.006 in level flight); across a
+basin change it is far off (36-69 % short, margins -0.58 to -0.85), so the split does not hinge
+on the tolerance. A branch learns from its first to its last training condition and
+``branch_reach`` of the way into each gap to a neighbouring branch's (:func:`branch_domains`):
+both then cover the middle of the gap, and not further, for a branch continued deep into a
+neighbouring basin is pulled away from its own optima.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any
+
+import numpy as np
+
+from train.amortised_policy import (
+    HARMONICS,
+    PHASES,
+    AmortisedPolicy,
+    Targets,
+    regression_outputs,
+    wrap_normalised,
+)
+
+__all__ = [
+    "INTERPOLATED",
+    "SWITCH_SAMPLES",
+    "between",
+    "branch_domains",
+    "branch_segments",
+    "hand_overs",
+    "regression_points",
+]
+
+#: Strokes interpolated between two neighbouring optima of a branch for its regression [-].
+INTERPOLATED = 3
+#: Conditions per gap between two branches on which their hand-over is chosen [-].
+SWITCH_SAMPLES = 17
+
+
+def between(first: np.ndarray, second: np.ndarray, fraction: Any = 0.5) -> np.ndarray:
+    """The normalised strokes ``fraction`` of the way from ``first`` to ``second`` (B, 28):
+    each phase the short way round the circle, the N coordinates the first's."""
+    mask = np.zeros(first.shape[-1], dtype=bool)
+    mask[list(PHASES)] = True
+    step = np.where(mask, wrap_normalised(second - first), second - first)
+    middle = np.where(mask, wrap_normalised(first + fraction * step), first + fraction * step)
+    middle[..., list(HARMONICS)] = first[..., list(HARMONICS)]
+    return np.clip(middle, -1.0, 1.0)
+
+
+def branch_segments(problem: Any, targets: Targets, tolerance: float) -> list[tuple[int, int]]:
+    """The training conditions split into branches ``[(first, stop), ...]`` (index ranges):
+    two neighbouring optima lie on one branch when they share N and the stroke midway between
+    them (:func:`between`), flown at the midway condition, is within ``tolerance`` of the
+    mean of their objectives and violates no constraint margin by more than ``tolerance``
+    (margins are fractions). One batched model evaluation; no held-out optimum is read."""
+    k = targets.conditions.size
+    if k == 1:
+        return [(0, 1)]
+    first, second = targets.strokes[:-1], targets.strokes[1:]
+    found = problem.evaluate(
+        between(first, second), 0.5 * (targets.conditions[:-1] + targets.conditions[1:])
+    )
+    expected = 0.5 * (targets.objectives[:-1] + targets.objectives[1:])
+    joined = (
+        np.all(first[:, list(HARMONICS)] == second[:, list(HARMONICS)], axis=1)
+        & (found.objective >= expected - tolerance * np.abs(expected))
+        & (np.min(found.margins, axis=1) >= -tolerance)
+    )
+    cuts = [0, *(int(i) + 1 for i in np.flatnonzero(~joined)), k]
+    return list(itertools.pairwise(cuts))
+
+
+def branch_domains(
+    conditions: np.ndarray, segments: list[tuple[int, int]], reach: float
+) -> np.ndarray:
+    """(n_branches, 2) the conditions each branch learns over [the condition's unit]: from its
+    first to its last training condition, and ``reach`` of the way into each gap to a
+    neighbouring branch's (the middle of a gap is then covered by both)."""
+    last = conditions.size - 1
+    return np.array(
+        [
+            (
+                conditions[a] - reach * (conditions[a] - conditions[max(a - 1, 0)]),
+                conditions[b - 1] + reach * (conditions[min(b, last)] - conditions[b - 1]),
+            )
+            for a, b in segments
+        ],
+        dtype=np.float64,
+    ).reshape(-1, 2)
+
+
+def regression_points(
+    targets: Targets, segments: list[tuple[int, int]], domains: np.ndarray, centres: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What each branch's regression fits (conditions (n,), branches (n,), atanh of the tanh
+    outputs (n, 26)): its optima; the :data:`INTERPOLATED` strokes between each two
+    neighbouring ones (within a basin they fly nearly as well); and its end optima at its
+    domain's ends (a constant continuation, so a branch of one training condition starts flat
+    over its domain)."""
+    conditions = targets.conditions
+    goal = np.arctanh(regression_outputs(targets.strokes, centres))
+    owner = [np.full(b - a, i) for i, (a, b) in enumerate(segments)]
+    at, of, goals = [conditions], owner, [goal]
+    fractions = np.arange(1, INTERPOLATED + 1) / (INTERPOLATED + 1)
+    for i, ((a, b), (low, high)) in enumerate(zip(segments, domains, strict=True)):
+        for j in range(a, b - 1):
+            strokes = between(
+                np.repeat(targets.strokes[j : j + 1], fractions.size, axis=0),
+                np.repeat(targets.strokes[j + 1 : j + 2], fractions.size, axis=0),
+                fractions[:, None],
+            )
+            at.append(conditions[j] + fractions * (conditions[j + 1] - conditions[j]))
+            of.append(np.full(fractions.size, i))
+            goals.append(np.arctanh(regression_outputs(strokes, centres)))
+        for end, index in ((low, a), (high, b - 1)):
+            if end != conditions[index]:
+                at.append(np.array([end]))
+                of.append(np.array([i]))
+                goals.append(goal[index : index + 1])
+    return np.concatenate(at), np.concatenate(of), np.concatenate(goals)
+
+
+def hand_overs(policy: AmortisedPolicy, problem: Any, penalty_weight: float) -> np.ndarray:
+    """Where each branch hands over to the next: where their domains overlap (inside the gap
+    between their training conditions), at the cut that maximises the summed penalised
+    objective (objective − w·Σ max(0, −margin), the env's reward) of the two branches'
+    strokes on :data:`SWITCH_SAMPLES` conditions there."""
+    switches = []
+    for branch in range(policy.n_branches - 1):
+        grid = np.linspace(policy.domains[branch + 1, 0], policy.domains[branch, 1], SWITCH_SAMPLES)
+        both = np.concatenate([grid, grid])
+        found = problem.evaluate(
+            policy.strokes_of(both, np.repeat([branch, branch + 1], grid.size)), both
+        )
+        value = found.objective - penalty_weight * np.sum(np.maximum(0.0, -found.margins), axis=1)
+        own, next_ = value[: grid.size], value[grid.size :]
+        cut = 1 + int(np.argmax([own[:k].sum() + next_[k:].sum() for k in range(1, grid.size)]))
+        switches.append(0.5 * (grid[cut - 1] + grid[cut]))
+    return np.asarray(switches, dtype=np.float64)
