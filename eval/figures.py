@@ -22,7 +22,7 @@ import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path, PurePath
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import matplotlib
 
@@ -35,8 +35,22 @@ from matplotlib.patches import Patch
 
 from tandem_env.io.files import atomic_path
 
-if TYPE_CHECKING:  # annotations only: eval.studies imports this module
-    from eval.studies.tables import Spread
+
+class SpreadView(Protocol):
+    """What a sweep panel reads of one quantity at one condition over seeds (the studies'
+    ``eval.studies.tables.Spread`` has it; a protocol, for the studies import this module)."""
+
+    @property
+    def values(self) -> tuple[float, ...]: ...
+    @property
+    def median(self) -> float: ...
+    @property
+    def q25(self) -> float: ...
+    @property
+    def q75(self) -> float: ...
+    @property
+    def best(self) -> float: ...
+
 
 #: Resolution of every PNG the project writes (studies, compare, speed-change) [dots per inch].
 DPI = 200
@@ -141,10 +155,10 @@ def figure_path(folder: Path, stem: str, fmt: str = FORMATS[0]) -> Path:
 
 @dataclass(frozen=True)
 class Series:
-    """One line of a sweep panel: {condition: Spread} with a label."""
+    """One line of a sweep panel: {condition: SpreadView} with a label."""
 
     label: str
-    points: Mapping[float, Spread]
+    points: Mapping[float, SpreadView]
     scale: float = 1.0
     """Multiplies every value (e.g. 100 for a percentage)."""
     method: str = ""

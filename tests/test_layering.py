@@ -58,7 +58,7 @@ EVAL_FLOORS: dict[str, int] = {
     "eval.kinematics_figures": 1,
     "eval.studies.base": 1,
     # the report's generic parts
-    "eval.report": 2,
+    "eval.studies.report": 2,
     # the studies: one plan (and its report section) each, the suite, the registry
     "eval.studies": 3,
     # the commands
@@ -193,6 +193,24 @@ def import_cycles(graph: Mapping[str, Mapping[str, set[str]]]) -> list[list[str]
 # --- the checker on a synthetic tree ------------------------------------------------------------
 
 
+def two_way_parts(graph: Mapping[str, Mapping[str, set[str]]], package: str) -> list[str]:
+    """Pairs of ``package``'s direct parts (its modules and sub-packages, each taken whole)
+    that import each other, ``"a <-> b"``: inside a package the parts point one way too."""
+
+    def part(name: str) -> str | None:
+        if not name.startswith(package + "."):
+            return None
+        return ".".join(name.split(".")[: package.count(".") + 2])
+
+    edges = {
+        (part(name), part(target))
+        for name, imports in graph.items()
+        for target in imports["project"]
+        if part(name) and part(target) and part(name) != part(target)
+    }
+    return sorted(f"{a} <-> {b}" for a, b in edges if (b, a) in edges and str(a) < str(b))
+
+
 def _tree(root: Path, files: Mapping[str, str]) -> Path:
     for relative, text in files.items():
         path = root / relative
@@ -217,11 +235,11 @@ GOOD = {
     "eval/__init__.py": "",
     "eval/cli.py": "def main():\n    from train.run import x\nfrom eval.studies import speed\n",
     "eval/figures.py": "from eval.studies.tables import Spread\n",
-    "eval/report.py": "from eval.studies import claims\n",
+    "eval/studies/report.py": "from eval.studies import claims\n",
     "eval/studies/__init__.py": "",
     "eval/studies/tables.py": "",
     "eval/studies/claims.py": "from .tables import Spread\n",
-    "eval/studies/speed.py": "from eval import figures, report\n",
+    "eval/studies/speed.py": "from eval import figures\nfrom eval.studies import report\n",
 }
 
 
@@ -260,14 +278,16 @@ def test_the_checker_passes_a_good_tree(tmp_path: Path) -> None:
             "(tandem_env.physics is above tandem_env.io)",
         ),
         (
-            "eval/report.py",
+            "eval/studies/report.py",
             "from eval.studies import speed\n",
-            "eval.report imports eval.studies.speed (eval.studies is above eval.report in eval)",
+            "eval.studies.report imports eval.studies.speed "
+            "(eval.studies is above eval.studies.report in eval)",
         ),
         (
             "eval/figures.py",
-            "if False:\n    from eval import report\n",
-            "eval.figures imports eval.report (eval.report is above eval.figures in eval)",
+            "if False:\n    from eval.studies import report\n",
+            "eval.figures imports eval.studies.report "
+            "(eval.studies.report is above eval.figures in eval)",
         ),
         (
             "eval/studies/claims.py",
@@ -282,6 +302,14 @@ def test_the_checker_finds_an_import_that_points_up(
 ) -> None:
     graph = import_graph(_tree(tmp_path, {**GOOD, path: text}))
     assert expected in layering_violations(graph)
+
+
+def test_the_checker_finds_parts_of_a_package_that_import_each_other(tmp_path: Path) -> None:
+    graph = import_graph(_tree(tmp_path, GOOD))
+    # eval.figures imports eval.studies.tables and eval.studies.speed imports eval.figures
+    assert two_way_parts(graph, "eval") == ["eval.figures <-> eval.studies"]
+    one_way = {**GOOD, "eval/figures.py": ""}
+    assert two_way_parts(import_graph(_tree(tmp_path / "one", one_way)), "eval") == []
 
 
 def test_the_checker_finds_a_cycle(tmp_path: Path) -> None:
@@ -306,3 +334,8 @@ def test_no_import_points_up_a_layer() -> None:
 
 def test_no_import_cycles() -> None:
     assert import_cycles(import_graph(ROOT)) == []
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_the_parts_of_each_package_import_one_way(package: str) -> None:
+    assert two_way_parts(import_graph(ROOT), package) == []

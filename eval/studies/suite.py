@@ -16,8 +16,7 @@ from agents.jobs import Job
 from agents.progress import CommandProgress, Phase
 from agents.record_cache import CacheOption
 from agents.runner import RunSummary, have_records, job_records, run_jobs
-from eval import report
-from eval.studies import PAPER_STUDIES, STUDIES
+from eval.studies import PAPER_STUDIES, STUDIES, report
 from eval.studies.base import StudyOutput, StudyPlan
 from eval.studies.claims import VerdictCount
 from eval.studies.paper_reading import DEFAULT, Reading

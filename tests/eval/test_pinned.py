@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from eval import report
+from eval.studies import report
 from eval.studies.tables import (
     PINNED_SHARE,
     pinned,

@@ -169,8 +169,8 @@ def test_the_readings_study_runs_a_search_reading() -> None:
 
 
 def test_a_search_readings_report_and_csv_row_name_its_search() -> None:
-    from eval.report import settings_lines
     from eval.studies.readings import ReadingResult
+    from eval.studies.report import settings_lines
 
     small = PAPER_SEARCHES[0]  # PSO 20 × 50: not the paper preset's swarm or budgets
     plan = readings.reading_plan(StudyPlan(PAPER), small)

@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from eval import report
 from eval.studies import claims as C
+from eval.studies import report
 from eval.studies.tables import spread
 from tandem_env import ModelOptions
 

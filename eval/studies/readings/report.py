@@ -1,6 +1,6 @@
 """The readings study's report section: the table of readings, the best one, which decision
 moves which claim, the continuation and its bias check (:mod:`eval.studies.readings`), written
-with the generic report's pieces (:mod:`eval.report`)."""
+with the generic report's pieces (:mod:`eval.studies.report`)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,10 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from eval.report import (
+from eval.studies.base import StudyPlan
+from eval.studies.claims import Claim
+from eval.studies.readings.result import HEADLINES, ReadingResult, reading_dir
+from eval.studies.report import (
     agreement_rules,
     figure_markdown,
     insect_line,
@@ -17,9 +20,6 @@ from eval.report import (
     settings_lines,
     table_row,
 )
-from eval.studies.base import StudyPlan
-from eval.studies.claims import Claim
-from eval.studies.readings.result import HEADLINES, ReadingResult, reading_dir
 from tandem_env.io.files import write_text_atomic
 
 #: Goal of issue 14: a reading under which this many of the paper's claims agree.

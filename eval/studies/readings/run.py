@@ -21,8 +21,7 @@ from agents.record_cache import CacheOption
 from agents.records import Record
 from agents.runner import RunSummary, find_records, job_records, run_jobs
 from agents.store import RECORDS_DIR
-from eval import report
-from eval.studies import PAPER_STUDIES
+from eval.studies import PAPER_STUDIES, report
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading
 from eval.studies.readings.figure import matrix_figure
