@@ -4,8 +4,8 @@ the held-out conditions"): for each seed, one policy trained by the documented
 ``python -m train.envelope`` for its stroke at each held-out condition, scored against the
 reference table exactly as the RL policies are (:mod:`eval.numbers.rl_baselines`).
 
-On request only (``--only amortised-scores``): five training runs, two at a time, about 25
-minutes on 2 cores. It redraws the shared figure with the stored RL runs."""
+On request only (``--only amortised-scores``): five training runs, two at a time, about half
+an hour on 2 cores. It redraws the shared figure with the stored RL runs."""
 
 from __future__ import annotations
 

@@ -38,10 +38,6 @@ def train_command(algo: str, steps: int | str, seed: int | str) -> list[str]:
             "--torch-threads", "1"]  # fmt: skip
 
 
-def _one(algo: str, steps: int, seed: int, folder: Path) -> dict[str, Any]:
-    return score_run(train_command(algo, steps, seed), algo, steps, seed, folder)
-
-
 def score_run(command: list[str], algo: str, steps: int, seed: int, folder: Path) -> dict[str, Any]:
     """Train by ``command`` (``-f`` is added), then score its stroke at each held-out
     condition through ``python -m train.envelope``."""
@@ -78,7 +74,7 @@ def measure_rl_baselines() -> dict[str, Any]:
         folder = Path(tmp)
         tasks = [(algo, steps, seed) for algo, steps in ALGOS for seed in SEEDS]
         with ThreadPoolExecutor(max_workers=2) as pool:
-            runs = list(pool.map(lambda t: _one(*t, folder), tasks))
+            runs = list(pool.map(lambda t: score_run(train_command(*t), *t, folder), tasks))
     write_figure(ROOT / FIGURE, {"rl-baselines": runs})
     return {"env_id": ENV_ID, "envelope": ENVELOPE, "runs": runs}
 
@@ -132,10 +128,10 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     runs of a measurement just made, the other's as stored (if it is)."""
     import matplotlib.pyplot as plt
 
-    from eval.figures import save
+    from eval.figures import PALETTE, save
     from eval.numbers.framework import json_path, load
 
-    colours = {"ppo": "#0072B2", "sac": "#D55E00", "amortised": "#009E73"}
+    colours = dict(zip(("ppo", "sac", "amortised"), PALETTE, strict=False))
     runs_of = {
         name: load(name)["runs"] for name in ("rl-baselines", "amortised-scores")
         if json_path(name).is_file()
