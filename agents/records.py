@@ -14,7 +14,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import os
 import platform
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -25,7 +24,7 @@ import tandem_env
 from agents.jobs import OLD_SCHEMAS, SCHEMA, Job
 from agents.tasks import Condition
 from tandem_env.envs.reference import record_score
-from tandem_env.io.files import read_json, to_jsonable
+from tandem_env.io.files import to_jsonable
 
 __all__ = [
     "CERTIFICATE",
@@ -363,19 +362,6 @@ class Record:
                 "it is not used"
             )
         return record
-
-    @classmethod
-    def load(cls, path: str | os.PathLike[str]) -> Record:
-        """Read a record file; :class:`RecordError` naming the file for anything but a valid
-        record (OSError if it cannot be opened)."""
-        try:
-            data = read_json(path)
-        except ValueError as error:  # not UTF-8, not JSON, truncated
-            raise RecordError(f"{path}: not a record file, cannot read JSON ({error})") from None
-        try:
-            return cls.from_dict(data)
-        except RecordError as error:
-            raise type(error)(f"{path}: {error}") from None
 
     def label(self) -> str:
         """Short human label, e.g. ``pso level efficiency speed=1.5 seed 0, budget 12000``."""

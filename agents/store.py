@@ -43,6 +43,7 @@ __all__ = [
     "RecordStore",
     "StoreWriteError",
     "cache_directory",
+    "read_record",
     "read_record_files",
     "summary_rows",
     "write_summary",
@@ -89,6 +90,20 @@ class StoreWriteError(OSError):
 
 #: A store's file name for a record: its key (:attr:`Job.key`, 20 hex digits).
 _KEY_NAME = re.compile(r"[0-9a-f]{20}")
+
+
+def read_record(path: str | os.PathLike[str]) -> Record:
+    """The record in a record file; :class:`~agents.records.RecordError` naming the file for
+    anything but a valid record (OSError if it cannot be opened). The files are the store's:
+    the record's format is :meth:`Record.from_dict <agents.records.Record.from_dict>`'s."""
+    try:
+        data = read_json(path)
+    except ValueError as error:  # not UTF-8, not JSON, truncated
+        raise RecordError(f"{path}: not a record file, cannot read JSON ({error})") from None
+    try:
+        return Record.from_dict(data)
+    except RecordError as error:
+        raise type(error)(f"{path}: {error}") from None
 
 
 def _check_name(path: Path, record: Record) -> Record:
@@ -144,7 +159,7 @@ class RecordStore:
         if not path.exists():
             return None
         try:
-            record = Record.load(path)
+            record = read_record(path)
         except OutdatedRecordError as error:
             _warn(f"{error}; {job.label()} is recomputed")
             return None
@@ -186,7 +201,7 @@ class RecordStore:
                 found.append(record)
                 continue
             try:
-                found.append(_check_name(path, Record.load(path)))
+                found.append(_check_name(path, read_record(path)))
             except (OSError, RecordError) as error:
                 _warn(f"{error}; left out")
         return sorted(found, key=_summary_order)

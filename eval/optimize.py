@@ -15,7 +15,7 @@ import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 from agents.dask_cluster import SchedulerUnreachable, parse_scheduler
 from agents.harness import PreparedJob, prepare
@@ -30,9 +30,9 @@ from agents.tasks import TaskSpec, available_tasks, get_task
 from eval.studies.paper_reading import Reading
 from eval.studies.readings import reading_by_name
 from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
-from tandem_env.io.keyvalue import parse_pairs
+from tandem_env.io.command import checked_by
+from tandem_env.io.keyvalue import KeyValuePairs
 from tandem_env.physics import BACKENDS
-from tandem_env.physics.backends import check_backend
 from tandem_env.physics.insect import describe_insect
 
 
@@ -228,7 +228,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--method-config",
         nargs="+",
-        default=[],
+        action=KeyValuePairs,
+        default={},
         metavar="KEY=VALUE",
         help=(
             "method settings, e.g. velocity_clamp=0.2 boundary=reflect "
@@ -238,14 +239,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--env-kwargs",
         nargs="+",
-        default=[],
+        action=KeyValuePairs,
+        default={},
         metavar="KEY=VALUE",
         help=(
             "env options, e.g. thrust_split=body penalty_weight=20 planform=real n_time=256 "
             "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)"
         ),
     )
-    add_insect_argument(parser)
+    add_insect_argument(parser, insect_keyword)
     add_backend_arguments(parser)
     parser.add_argument(
         "--polish",
@@ -269,11 +271,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress display")
 
 
-def add_insect_argument(parser: argparse.ArgumentParser) -> None:
-    """``--insect FILE`` (shared with ``study``): the insect every job flies."""
+def add_insect_argument(parser: argparse.ArgumentParser, read: Callable[[str], Any]) -> None:
+    """``--insect FILE`` (shared with ``study``): the insect every job flies, read from its
+    file by ``read`` when the command line is parsed (the usage error names a bad file)."""
     parser.add_argument(
         "--insect",
         metavar="FILE",
+        action=checked_by(read),
         help="YAML file of the insect: the fields that differ from the paper's specimen "
         "(body_mass, fore: {length, mean_chord, mass, planform, coefficients}, hind: {...}; "
         "docs/envs.md, e.g. examples/orthetrum_cancellatum.yaml); part of each record's key",
@@ -296,12 +300,10 @@ def add_backend_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def backend_kwargs(args: argparse.Namespace) -> dict[str, str]:
-    """The env keywords of ``--backend`` / ``--device`` (none when neither is given), checked
-    here, before any work: ValueError naming the value and what is allowed."""
-    if args.backend is None and args.device is None:
-        return {}
-    backend, device = check_backend(args.backend or BACKENDS[0], args.device)
-    return {"backend": backend} | ({} if device is None else {"device": device})
+    """The env keywords of ``--backend`` / ``--device`` as given (none when neither is); the
+    backend's rule checks them with the rest of the env's options, before any work."""
+    given = {"backend": args.backend, "device": args.device}
+    return {key: value for key, value in given.items() if value is not None}
 
 
 def add_scheduler_argument(parser: argparse.ArgumentParser) -> None:
@@ -309,6 +311,7 @@ def add_scheduler_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--scheduler",
         metavar="WHERE",
+        action=checked_by(parse_scheduler),
         help="run the optimisations on Dask: local:N (N worker processes started here, one "
         "numba thread each) or the address of a running scheduler, e.g. tcp://HOST:8786 "
         "(docs/scaling.md); default: one after another in this process",
@@ -370,35 +373,20 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> O
             f"{task.default_objective}"
         )
     try:
-        # What the arguments mean, from this command's floor down: the reading, then the
-        # options the physics and the I/O parse, then the jobs. The output folder is the
-        # runner's to check (run_jobs, summary_csv): it alone knows, once it has read the
-        # stored records, whether a folder that cannot be written holds everything.
-        objective, reading_kwargs = args.objective, {}
-        if args.reading is not None:
-            reading = reading_by_name(args.reading)
-            reading_kwargs = reading.env_kwargs()
-            _check_reading_applies(args.reading, reading, task, objective)
-            if objective is not None:
-                objective = reading.objective(objective)
+        # What the arguments mean: the env options and method settings (checked and parsed
+        # with the command line: pairs, insect, scheduler), then the reading's, then the jobs,
+        # validated by the harness. The output folder is the runner's to check (run_jobs,
+        # summary_csv): it alone knows, once it has read the stored records, whether a
+        # folder that cannot be written holds everything.
         given = backend_kwargs(args)
-        env_kwargs = parse_pairs(args.env_kwargs, "--env-kwargs")
-        method_config = parse_pairs(args.method_config, "--method-config")
+        env_kwargs, method_config = dict(args.env_kwargs), dict(args.method_config)
         if given and set(EXECUTION_KWARGS) & set(env_kwargs):
             raise ValueError("give --backend/--device or --env-kwargs backend=/device=, not both")
         env_kwargs.update(given)
-        if args.insect is not None:
+        if args.insect is not None:  # the paper's specimen is None (insect_keyword)
             if "insect" in env_kwargs:
                 raise ValueError("give --insect FILE or --env-kwargs insect=..., not both")
-            if (insect := insect_keyword(args.insect)) is not None:
-                env_kwargs["insect"] = insect
-        clash = sorted(set(env_kwargs) & set(reading_kwargs))
-        if clash:
-            raise ValueError(
-                f"--reading {args.reading} sets {clash}; give them there or in "
-                "--env-kwargs, not both"
-            )
-        env_kwargs.update(reading_kwargs)
+            env_kwargs["insect"] = args.insect
         if args.swarm_size is not None:
             if "swarm_size" in method_config:
                 raise ValueError("give --swarm-size or --method-config swarm_size=N, not both")
@@ -407,6 +395,20 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> O
             if "polish" in method_config and method_config["polish"] != args.polish:
                 raise ValueError("give --polish or --method-config polish=..., not both")
             method_config["polish"] = args.polish
+        objective, reading_kwargs = args.objective, {}
+        if args.reading is not None:
+            reading = reading_by_name(args.reading)
+            reading_kwargs = reading.env_kwargs()
+            _check_reading_applies(args.reading, reading, task, objective)
+            if objective is not None:
+                objective = reading.objective(objective)
+        clash = sorted(set(env_kwargs) & set(reading_kwargs))
+        if clash:
+            raise ValueError(
+                f"--reading {args.reading} sets {clash}; give them there or in "
+                "--env-kwargs, not both"
+            )
+        env_kwargs.update(reading_kwargs)
         # Validated once, here (the runner does not validate a prepared job again).
         jobs = prepare(
             args.method,
@@ -418,10 +420,9 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> O
             env_kwargs=env_kwargs,
             method_config=method_config,
         )
-        scheduler = None if args.scheduler is None else parse_scheduler(args.scheduler)
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
-    return OptimizePlan(tuple(jobs), args.out, scheduler, not args.quiet, args.cache)
+    return OptimizePlan(tuple(jobs), args.out, args.scheduler, not args.quiet, args.cache)
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from agents.records import Record, RecordError
+from agents.store import read_record
 from tandem_env.io.files import atomic_path, output_directory
 
 NAME = "show"
@@ -51,7 +52,7 @@ def load_record(path: Path) -> Record:
     if not path.is_file():
         raise ValueError(f"record {path}: not a file (give one records/<key>.json file)")
     try:
-        return Record.load(path)
+        return read_record(path)
     except OSError as error:
         raise ValueError(f"record {path}: cannot read it ({error.strerror or error})") from None
     except RecordError as error:

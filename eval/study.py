@@ -99,7 +99,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="harness method: cmaes, pso, random, policy:RUN_DIR, ...; repeat to run several "
         "side by side (default: the preset's method)",
     )
-    add_insect_argument(parser)
+    add_insect_argument(parser, load_insect)
     add_backend_arguments(parser)
     add_scheduler_argument(parser)
     add_cache_argument(parser)
@@ -148,7 +148,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             methods,
             figure_format=args.format,
             execution=tuple(backend_kwargs(args).items()),
-            insect=DRAGONFLY if args.insect is None else load_insect(args.insect),
+            insect=DRAGONFLY if args.insect is None else args.insect,
             reading=campaign.reading(args),
         )
         for method in plan.methods:  # an unknown method or bad setting, before any job

@@ -25,6 +25,8 @@ from eval.studies.tables import spread_summary_rows, tidy_rows
 from tandem_env import PARAMETER_NAMES, ModelOptions
 from tandem_env.envs.config import EXECUTION_KWARGS, MODEL_OPTION_KWARGS
 from tandem_env.io.files import write_csv_atomic, write_json_atomic
+from tandem_env.physics import BACKENDS
+from tandem_env.physics.backends import check_backend
 from tandem_env.physics.insect import DRAGONFLY, Dragonfly
 
 
@@ -85,6 +87,11 @@ class StudyPlan:
                 f"StudyPlan.execution = {self.execution!r}; allowed: keywords among "
                 f"{', '.join(EXECUTION_KWARGS)}"
             )
+        if execution:  # the backend's rule: a device only with torch, one that is there
+            backend, device = check_backend(
+                execution.get("backend", BACKENDS[0]), execution.get("device")
+            )
+            execution = {"backend": backend} | ({} if device is None else {"device": device})
         object.__setattr__(self, "execution", tuple(sorted(execution.items())))
         clash = sorted({k for k, _ in self.preset.env_kwargs} & set(self.reading.env_kwargs()))
         if clash:

@@ -23,12 +23,13 @@ so a record is never lost to a failing standard error outside these commands eit
 
 from __future__ import annotations
 
+import argparse
 import functools
 import io
 import os
 import sys
 from collections.abc import Callable, Mapping
-from typing import ParamSpec
+from typing import Any, ParamSpec
 
 from .progress_bar import QuietStream
 
@@ -38,6 +39,7 @@ __all__ = [
     "NUMBA_THREADING_LAYERS",
     "EnvironmentSettingError",
     "check_numba_environment",
+    "checked_by",
     "command_line",
     "run_command",
 ]
@@ -148,3 +150,27 @@ def command_line(main: Callable[P, int | None]) -> Callable[P, int]:
         return run_command(lambda: main(*args, **kwargs))
 
     return wrapped
+
+
+def checked_by(convert: Callable[[Any], Any]) -> type[argparse.Action]:
+    """An argparse action that converts an option's value with ``convert`` when the command
+    line is parsed, so a command receives its options checked and in their final form; a
+    ValueError (naming the value and what is allowed) is the usage error, exit status 2,
+    prefixed with the option where it does not name it already."""
+
+    class Checked(argparse.Action):
+        def __call__(
+            self,
+            parser: argparse.ArgumentParser,
+            namespace: argparse.Namespace,
+            values: Any,
+            option_string: str | None = None,
+        ) -> None:
+            try:
+                setattr(namespace, self.dest, convert(values))
+            except ValueError as error:
+                text, option = str(error), option_string or self.dest
+                parser.error(text if option in text else f"{option}: {text}")
+
+    Checked.__name__ = f"checked_by_{getattr(convert, '__name__', 'convert')}"
+    return Checked

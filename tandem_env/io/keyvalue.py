@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import argparse
 import ast
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import yaml
@@ -51,3 +52,21 @@ def parse_pairs(items: Iterable[str] | None, option: str) -> dict[str, Any]:
             )
         out[key] = parse_value(text)
     return out
+
+
+class KeyValuePairs(argparse.Action):
+    """``--option KEY=VALUE ...`` parsed when the command line is (:func:`parse_pairs`): the
+    option's value is the dict, or the usage error (exit status 2) naming the bad pair."""
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: str | Sequence[Any] | None,
+        option_string: str | None = None,
+    ) -> None:
+        items = [values] if isinstance(values, str) else list(values or ())
+        try:
+            setattr(namespace, self.dest, parse_pairs(items, option_string or self.dest))
+        except ValueError as error:
+            parser.error(str(error))  # the message names the option and the pair

@@ -20,7 +20,7 @@ from agents.progress import CommandProgress, Phase
 from agents.record_cache import cacheable
 from agents.records import Record, RecordWarning
 from agents.runner import run_jobs
-from agents.store import CACHE_ENV, RecordStore, cache_directory
+from agents.store import CACHE_ENV, RecordStore, cache_directory, read_record
 from eval.__main__ import main
 
 SMALL = {"env_kwargs": {"n_blade": 6, "n_time": 32}, "method_config": {"swarm_size": 8}}
@@ -114,7 +114,7 @@ def test_a_damaged_cache_entry_is_ignored_with_a_warning_and_recomputed(
 ) -> None:
     job, other = _job(0), _job(1)
     run_jobs([job, other], tmp_path / "a", progress=False)
-    good = Record.load(tmp_path / "a" / "records" / f"{job.key}.json")
+    good = read_record(tmp_path / "a" / "records" / f"{job.key}.json")
     entry = RecordStore(record_cache).path(job.key)
     if damage == "truncated":
         entry.write_text(entry.read_text()[:100])
@@ -128,9 +128,9 @@ def test_a_damaged_cache_entry_is_ignored_with_a_warning_and_recomputed(
     with pytest.warns(RecordWarning, match=str(entry)):
         summary = run_jobs([job], tmp_path / "b", progress=False)
     assert (summary.ran, summary.cached, calls) == (1, 0, [job])  # never trusted
-    again = Record.load(tmp_path / "b" / "records" / f"{job.key}.json")
+    again = read_record(tmp_path / "b" / "records" / f"{job.key}.json")
     assert again.objective == good.objective and again.normalised_stroke == good.normalised_stroke
-    assert Record.load(entry).checksum == again.checksum  # the entry is replaced
+    assert read_record(entry).checksum == again.checksum  # the entry is replaced
 
 
 def test_concurrent_writers_of_one_entry_never_leave_a_partial_file(
@@ -140,7 +140,7 @@ def test_concurrent_writers_of_one_entry_never_leave_a_partial_file(
     atomic replace: a reader sees the complete record at every moment, and no temporary file
     is left."""
     run_jobs([_job()], tmp_path / "a", progress=False)
-    record = Record.load(RecordStore(record_cache).path(_job().key))
+    record = read_record(RecordStore(record_cache).path(_job().key))
     cache = RecordStore(record_cache)
     stop = threading.Event()
     seen: list[object] = []
@@ -152,7 +152,7 @@ def test_concurrent_writers_of_one_entry_never_leave_a_partial_file(
     def read() -> None:
         while not stop.is_set():
             try:
-                seen.append(Record.load(cache.path(record.key)).checksum)
+                seen.append(read_record(cache.path(record.key)).checksum)
             except Exception as error:  # a partial file would fail to parse or to check
                 seen.append(error)
 

@@ -22,7 +22,7 @@ from gymnasium.envs.registration import registry
 from gymnasium.utils.env_checker import check_env
 
 from agents.harness import run
-from agents.records import Record
+from agents.store import read_record
 from agents.tasks import (
     ACCELERATE,
     LEVEL,
@@ -213,7 +213,7 @@ def test_eval_optimize_takes_the_new_condition(toy: TaskSpec, tmp_path, capsys) 
     argv += ["--env-kwargs", "n_time=16", "n_blade=4"]
     assert main(argv) == 0
     (path,) = (out / "records").glob("*.json")
-    record = Record.load(path)
+    record = read_record(path)
     assert record.condition.to_dict() == {"name": "cruise_speed", "value": 0.8, "unit": "m/s"}
     for wrong, message in (
         (["--speed", "1"], "--task cruise-toy takes --cruise-speed V_c [m/s], not --speed"),

@@ -12,8 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.records import Record
-from agents.store import read_record_files
+from agents.store import read_record, read_record_files
 from eval import compare as compare_module
 from eval.__main__ import SUBCOMMANDS, build_parser, main
 from tandem_env import PARAMETER_NAMES, describe_bounds
@@ -71,7 +70,7 @@ def test_optimize_writes_one_record_per_seed_and_a_summary(results: Path) -> Non
 def test_optimize_is_deterministic(results: Path, tmp_path: Path) -> None:
     assert optimize(tmp_path, "--method", "pso", "--seeds", "1") == 0
     (again,) = read_record_files([tmp_path])
-    first = Record.load(_stored(results, "pso", 1))
+    first = read_record(_stored(results, "pso", 1))
     assert again.key == first.key  # the same configuration
     assert again.history == first.history
     assert again.normalised_stroke == first.normalised_stroke
@@ -161,8 +160,8 @@ def test_compare_writes_table_and_plot(results: Path, tmp_path: Path) -> None:
 
 
 def test_convergence_curve_on_mixed_grids(results: Path) -> None:
-    a = Record.load(_stored(results, "pso", 0))
-    b = Record.load(_stored(results, "pso", 1))
+    a = read_record(_stored(results, "pso", 0))
+    b = read_record(_stored(results, "pso", 1))
     b = replace(b, results={**b.results, "history": [[6, -3.0], [12, -1.0]]})
     x, q25, median, q75 = compare_module.convergence_curve([a, b])
     assert x.tolist() == [4, 6, 8, 12]

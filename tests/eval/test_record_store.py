@@ -21,7 +21,7 @@ from agents.harness import PreparedJob
 from agents.jobs import OLD_SCHEMAS, SCHEMA, Job
 from agents.records import Record, RecordError, RecordWarning
 from agents.runner import JobsFailed, run_jobs
-from agents.store import RecordStore, read_record_files
+from agents.store import RecordStore, read_record, read_record_files
 from eval.__main__ import main
 from eval.studies.base import StudyPlan
 from eval.studies.presets import PRESETS, TINY
@@ -98,13 +98,13 @@ def test_corrupt_record_is_reported_and_recomputed(tmp_path: Path, monkeypatch) 
     job = _job()
     run_jobs([job], tmp_path, progress=False)
     path = RecordStore(tmp_path).path(job.key)
-    good = Record.load(path)
+    good = read_record(path)
     path.write_text('{"schema": "tandem_env.harness-rec')  # a half-written file, by hand
     calls = _count_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=f"{path}: corrupt record .* runs again"):
         summary = run_jobs([job], tmp_path, progress=False, cache=False)
     assert summary.ran == 1 and calls == [job]
-    again = Record.load(path)
+    again = read_record(path)
     assert again.normalised_stroke == good.normalised_stroke
 
 
@@ -193,7 +193,7 @@ def test_older_records_are_recomputed_never_mixed_in(tmp_path: Path, monkeypatch
     job = _job()
     run_jobs([job], tmp_path, progress=False)
     path = RecordStore(tmp_path).path(job.key)
-    good = Record.load(path)
+    good = read_record(path)
     # The previous format held the configuration three times and no checksum.
     old = {"schema": OLD_SCHEMAS[-1], "key": job.key, "job": job.to_dict(), **good.results}
     old.update(method="pso", task="level", seed=0, budget=16, config={})
@@ -201,12 +201,12 @@ def test_older_records_are_recomputed_never_mixed_in(tmp_path: Path, monkeypatch
     with pytest.warns(RecordWarning, match="left out"):
         assert read_record_files([tmp_path]) == []
     with pytest.raises(RecordError, match=r"earlier format .* rerun the command"):
-        Record.load(path)
+        read_record(path)
     calls = _count_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=f"{path}: a record of the earlier format .* recomputed"):
         summary = run_jobs([job], tmp_path, progress=False, cache=False)
     assert summary.ran == 1 and calls == [job]
-    assert Record.load(path).schema == SCHEMA
+    assert read_record(path).schema == SCHEMA
     # Where it really lies, under the key the earlier format hashed: no job finds it, and the
     # runner says once that the store holds it.
     path.with_name("0123456789abcdef0123.json").write_text(json.dumps(old))
@@ -241,27 +241,27 @@ def test_a_record_edited_by_hand_is_detected_and_recomputed(tmp_path: Path, monk
     job = _job()
     run_jobs([job], tmp_path, progress=False)
     path = RecordStore(tmp_path).path(job.key)
-    good = Record.load(path)
+    good = read_record(path)
     data = json.loads(path.read_text())
     assert data["checksum"] == good.checksum and len(data["checksum"]) == 64
     data["results"]["objective"] = good.objective + 0.1  # a "better" result, by hand
     path.write_text(json.dumps(data))
     with pytest.raises(RecordError, match=r"checksum .* edited by hand or damaged"):
-        Record.load(path)
+        read_record(path)
     with pytest.warns(RecordWarning, match="checksum .* left out"):
         assert read_record_files([tmp_path]) == []  # compare does not report it
     calls = _count_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=f"{path}: corrupt record .*checksum.* runs again"):
         summary = run_jobs([job], tmp_path, progress=False, cache=False)
     assert summary.ran == 1 and calls == [job]
-    again = Record.load(path)  # recomputed: the computed result, not the edited one
+    again = read_record(path)  # recomputed: the computed result, not the edited one
     assert again.objective == good.objective and again.normalised_stroke == good.normalised_stroke
     # Editing the job inside the file is caught the same way.
     data = json.loads(path.read_text())
     data["job"]["seed"] = 5
     path.write_text(json.dumps(data))
     with pytest.raises(RecordError, match="checksum"):
-        Record.load(path)
+        read_record(path)
 
 
 @pytest.mark.parametrize(
@@ -308,18 +308,18 @@ def test_truncated_or_binary_record_files_give_a_clear_error(tmp_path: Path) -> 
         bad = tmp_path / f"{name}.json"
         bad.write_bytes(content)
         with pytest.raises(RecordError, match=f"{bad}: not a record file, cannot read JSON"):
-            Record.load(bad)
+            read_record(bad)
 
 
 def test_a_record_file_nested_too_deeply_is_left_out_not_a_crash(tmp_path: Path) -> None:
-    """``[[[...]]]`` 10⁵ deep made the JSON decoder raise RecursionError: Record.load crashed
+    """``[[[...]]]`` 10⁵ deep made the JSON decoder raise RecursionError: the record reader crashed
     and RecordStore.records() with it, so one such file hid every good record beside it."""
     job = _job()
     run_jobs([job], tmp_path, progress=False)
     deep = tmp_path / "records" / "deep.json"
     deep.write_bytes(b"[" * 100_000 + b"]" * 100_000)
     with pytest.raises(RecordError, match=f"{deep}: not a record file, .*nested too deeply"):
-        Record.load(deep)
+        read_record(deep)
     with pytest.warns(RecordWarning, match="nested too deeply"):
         records = RecordStore(tmp_path).records()
     assert [r.key for r in records] == [job.key]
@@ -347,7 +347,7 @@ def test_a_resealed_record_moved_to_another_key_is_not_counted(tmp_path: Path) -
     # the job says seed 1, the key is still seed 0's: the key is not the hash of the job
     _reseal(moved, lambda d: d["job"].update(seed=1))
     with pytest.raises(RecordError, match=r"key .* is not the hash of the job it holds"):
-        Record.load(moved)
+        read_record(moved)
     with pytest.warns(RecordWarning, match="not the hash of the job it holds.*left out"):
         assert [r.seed for r in read_record_files([tmp_path])] == [0]
     # the key says seed 1 too, the job still seed 0: same check, from the other side
@@ -369,11 +369,11 @@ def test_a_resealed_record_with_a_nan_objective_is_recomputed(tmp_path: Path, mo
     path = RecordStore(tmp_path).path(job.key)
     _reseal(path, lambda d: d["results"].update(objective=float("nan")))
     with pytest.raises(RecordError, match=r"objective = nan; allowed: a number \(not NaN"):
-        Record.load(path)
+        read_record(path)
     calls = _count_calls(monkeypatch)
     with pytest.warns(RecordWarning, match="corrupt record .*objective = nan"):
         run_jobs([job], tmp_path, progress=False, cache=False)
-    assert calls == [job] and math.isfinite(Record.load(path).objective)
+    assert calls == [job] and math.isfinite(read_record(path).objective)
 
 
 # --- file-system faults ----------------------------------------------------------------------------
@@ -475,16 +475,16 @@ def test_rewritten_files_get_a_readable_mode_under_the_umask(tmp_path: Path) -> 
 def test_the_runner_hands_back_each_record_read_at_most_once(tmp_path: Path, monkeypatch) -> None:
     """A job's record comes back from run_jobs as saved (a reused one as checked, once), and
     the store's summary reads only the files it was not handed; rerun replaces a record."""
-    from agents import records as records_module
+    from agents import store as store_module
 
     reads: list[str] = []
-    original_load = records_module.Record.load.__func__
+    original_read = store_module.read_record
 
-    def counting_load(cls, path):
+    def counting_read(path):
         reads.append(Path(path).stem)
-        return original_load(cls, path)
+        return original_read(path)
 
-    monkeypatch.setattr(records_module.Record, "load", classmethod(counting_load))
+    monkeypatch.setattr(store_module, "read_record", counting_read)
     calls = _count_calls(monkeypatch)
     a, b = _job(seed=0), _job(seed=1)
     first = run_jobs([a], tmp_path, progress=False)
