@@ -21,8 +21,8 @@ commands, date, machine and load), and the Markdown is rendered from that file a
   SpeedChange's random and steady baselines, the quick preset's and a training run's time,
   readings of the model on random strokes, the resolution study of the defaults, the optimum
   of a second species, the reference optima as packaged and, on request, the PPO and SAC
-  envelope policies' scores, the cross-check's lag study and the readings study at the paper
-  preset).
+  envelope policies' scores, the amortised policy's, the README's headline of both, the
+  cross-check's lag study and the readings study at the paper preset).
 
 This package is a small framework (:mod:`eval.numbers.framework`: where numbers live, the
 machine, the documented commands) and one module per measurement. Adding a number is one
@@ -46,6 +46,7 @@ from eval.numbers import (
     comparison,
     convergence,
     crosscheck_lag_study,
+    envelope_headline,
     power_conventions,
     quick_preset,
     readings_paper,
@@ -146,6 +147,12 @@ MEASUREMENTS: dict[str, Measurement] = {
             "amortised-scores",
             amortised_scores.measure_amortised_scores,
             amortised_scores.render_amortised_scores,
+            on_request=True,
+        ),
+        Measurement(
+            "envelope-headline",
+            envelope_headline.measure_envelope_headline,
+            envelope_headline.render_envelope_headline,
             on_request=True,
         ),
         Measurement(

@@ -1,12 +1,15 @@
 """PPO and SAC envelope policies against the reference optima (docs/training.md, "Scores at
-the held-out conditions"): for each algorithm and seed, one policy trained over level flight's
-whole envelope by the documented ``python -m train`` command (the shipped hyperparameters of
-``train/hyperparams``, not tuned further), then asked through ``python -m train.envelope`` for
-its stroke at each held-out condition (:func:`tandem_env.envs.reference.held_out_conditions`),
-scored against the reference table (``score``: 100 = the certified optimum).
+the held-out conditions"): for each algorithm, hyperparameters and seed, one policy trained
+over level flight's whole envelope by the documented ``python -m train`` command, then asked
+through ``python -m train.envelope`` for its stroke at each held-out condition
+(:func:`tandem_env.envs.reference.held_out_conditions`), scored against the reference table
+(``score``: 100 = the certified optimum). Two sets of hyperparameters per algorithm: the
+shipped ones (``train/hyperparams/<algo>.yml``, tuned at V = 1.5 m/s) and those tuned for the
+envelope by ``python -m train.tune`` (``train/hyperparams/envelope/<algo>.yml``, each file
+saying how it was made).
 
-On request only (``--only rl-baselines``): ten training runs, two at a time, about half an
-hour on 2 cores. The figure (score against speed, every seed) is written beside the table."""
+On request only (``--only rl-baselines``): twenty training runs, two at a time, about 45 min on
+2 cores. The figure (score against speed, every seed) is written beside the table."""
 
 from __future__ import annotations
 
@@ -31,24 +34,38 @@ FIGURE = Path("docs") / "figures" / "rl_baselines_scores.png"
 _ONE_CORE = {"OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
-def train_command(algo: str, steps: int | str, seed: int | str) -> list[str]:
-    """The documented envelope training command of ``algo`` (``-f`` is added)."""
+#: The hyperparameters each algorithm is trained with: the shipped file's (None: the default
+#: ``train/hyperparams/<algo>.yml``) and the envelope's tuned file.
+HYPERPARAMETERS: dict[str, str | None] = {
+    "shipped": None,
+    "tuned": "train/hyperparams/envelope/{algo}.yml",
+}
+
+
+def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str) -> list[str]:
+    """The documented envelope training command of ``algo`` with the ``hyperparams`` of
+    :data:`HYPERPARAMETERS` (``-f`` is added)."""
+    conf = HYPERPARAMETERS[hyperparams]
     return ["python", "-m", "train", "--algo", algo, "--env", ENV_ID, "--seed", str(seed),
             "-n", str(steps), "--env-kwargs", ENVELOPE, "--no-progress", "--no-tensorboard",
-            "--torch-threads", "1"]  # fmt: skip
+            "--torch-threads", "1",
+            *(() if conf is None else ("--conf-file", conf.format(algo=algo)))]  # fmt: skip
 
 
-def score_run(command: list[str], algo: str, steps: int, seed: int, folder: Path) -> dict[str, Any]:
+def score_run(
+    command: list[str], algo: str, steps: int, seed: int, folder: Path, variant: str = ""
+) -> dict[str, Any]:
     """Train by ``command`` (``-f`` is added), then score its stroke at each held-out
-    condition through ``python -m train.envelope``."""
+    condition through ``python -m train.envelope``; ``variant`` tells runs of one ``algo``
+    apart (the hyperparameters)."""
     from tandem_env.envs.reference import held_out_conditions
 
-    logs = folder / f"{algo}-{seed}"
+    logs = folder / f"{algo}{variant and '-' + variant}-{seed}"
     start = time.perf_counter()
     run_command([*command, "-f", str(logs)], _ONE_CORE)
     seconds = time.perf_counter() - start
     run = logs / algo / ENV_ID.replace("/", "-")  # the latest run of the env
-    out = folder / f"envelope-{algo}-{seed}"
+    out = folder / f"envelope-{logs.name}"
     conditions = [str(c) for c in held_out_conditions(ENV_ID)]
     run_command(
         ["python", "-m", "train.envelope", "--run", str(run), "--out", str(out),
@@ -59,6 +76,7 @@ def score_run(command: list[str], algo: str, steps: int, seed: int, folder: Path
         rows = list(csv.DictReader(handle))
     return {
         "algo": algo,
+        **({"hyperparams": variant} if variant else {}),
         "seed": seed,
         "steps": steps,
         "train_s": round(seconds, 1),
@@ -72,9 +90,12 @@ def measure_rl_baselines() -> dict[str, Any]:
     """Train and score every (algo, seed), two runs at a time."""
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as tmp:
         folder = Path(tmp)
-        tasks = [(algo, steps, seed) for algo, steps in ALGOS for seed in SEEDS]
+        tasks = [(algo, steps, seed, hp) for hp in HYPERPARAMETERS for algo, steps in ALGOS
+                 for seed in SEEDS]  # fmt: skip
         with ThreadPoolExecutor(max_workers=2) as pool:
-            runs = list(pool.map(lambda t: score_run(train_command(*t), *t, folder), tasks))
+            runs = list(
+                pool.map(lambda t: score_run(train_command(*t), *t[:3], folder, t[3]), tasks)
+            )
     write_figure(ROOT / FIGURE, {"rl-baselines": runs})
     return {"env_id": ENV_ID, "envelope": ENVELOPE, "runs": runs}
 
@@ -102,30 +123,38 @@ def summary(runs: list[dict[str, Any]]) -> tuple[float, float, float, float]:
 def render_rl_baselines(data: dict[str, Any]) -> str:
     lines = [TABLE_HEAD.format(training="training steps")]
     for algo, _ in ALGOS:
-        runs = [r for r in data["runs"] if r["algo"] == algo]
-        if not runs:
-            continue
-        median, worst, flies, seconds = summary(runs)
-        lines.append(
-            # + 0.0: a median that rounds to -0.0 (an infeasible stroke's) reads as 0.0
-            f"| {algo.upper()} | {runs[0]['steps']:,} | {len(runs)} | {round(median, 1) + 0.0:.1f} | "
-            f"{round(worst, 1) + 0.0:.1f} | {100 * flies:.0f} % | {seconds:.0f} s |"
-        )
+        for hp in HYPERPARAMETERS:
+            runs = [
+                r
+                for r in data["runs"]
+                if (r["algo"], r.get("hyperparams", "shipped")) == (algo, hp)
+            ]
+            if not runs:
+                continue
+            median, worst, flies, seconds = summary(runs)
+            name = f"{algo.upper()}, {hp} hyperparameters"
+            lines.append(
+                # + 0.0: a median that rounds to -0.0 (an infeasible stroke's) reads as 0.0
+                f"| {name} | {runs[0]['steps']:,} | {len(runs)} | {round(median, 1) + 0.0:.1f} | "
+                f"{round(worst, 1) + 0.0:.1f} | {100 * flies:.0f} % | {seconds:.0f} s |"
+            )
     held = ", ".join(f"{c:g}" for c in data["runs"][0]["conditions"])
     return (
         "\n".join(lines)
         + f"\n\nScores at the held-out speeds V = {held} m/s (one stroke per policy and speed; "
         "100 = the reference optimum, ≤ 0 = does not fly), over every seed and speed; "
-        f"`{shlex.join(train_command('ALGO', 'STEPS', 'SEED'))}` with the steps above and seeds "
-        f"{list(SEEDS)}, then `python -m train.envelope --conditions ...`. "
+        f"`{shlex.join(train_command('ALGO', 'STEPS', 'SEED', 'shipped'))}` with the steps above "
+        f"and seeds {list(SEEDS)} (tuned: `--conf-file train/hyperparams/envelope/ALGO.yml` "
+        "added), then `python -m train.envelope --conditions ...`. "
         f"{machine_line(data, 'rl-baselines')}\n"
     )
 
 
 def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     """Score against speed: one thin line per seed, the median thick, per policy: PPO's and
-    SAC's (``rl-baselines``) and the amortised policy's (``amortised-scores``), the ``fresh``
-    runs of a measurement just made, the other's as stored (if it is)."""
+    SAC's with the envelope's tuned hyperparameters (the shipped ones' median dashed) from
+    ``rl-baselines``, and the amortised policy's (``amortised-scores``); the ``fresh`` runs of
+    a measurement just made, the other's as stored (if it is)."""
     import matplotlib.pyplot as plt
 
     from eval.figures import PALETTE, save
@@ -137,17 +166,24 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
         if json_path(name).is_file()
     }  # fmt: skip
     runs_of.update(fresh)
-    fig, ax = plt.subplots(figsize=(6.0, 4.6))
+    fig, ax = plt.subplots(figsize=(6.0, 4.8))
     for algo in colours:
-        runs = [r for stored in runs_of.values() for r in stored if r["algo"] == algo]
-        if not runs:
-            continue
-        for r in runs:
-            ax.plot(r["conditions"], r["scores"], color=colours[algo], alpha=0.3, lw=0.8)
-        medians = [statistics.median(col) for col in zip(*(r["scores"] for r in runs), strict=True)]
-        label = algo.upper() if algo != "amortised" else "amortised policy"
-        ax.plot(runs[0]["conditions"], medians, color=colours[algo], lw=2.2, marker="o",
-                label=f"{label} (median of {len(runs)} seeds; thin: each seed)")  # fmt: skip
+        for hp in ("tuned", "shipped") if algo != "amortised" else ("",):
+            runs = [r for stored in runs_of.values() for r in stored
+                    if r["algo"] == algo and r.get("hyperparams", "shipped" if hp else "") == hp]  # fmt: skip
+            if not runs:
+                continue
+            shipped = hp == "shipped"  # the reference for what tuning bought: its median only
+            if not shipped:
+                for r in runs:
+                    ax.plot(r["conditions"], r["scores"], color=colours[algo], alpha=0.3, lw=0.8)
+            columns = zip(*(r["scores"] for r in runs), strict=True)
+            medians = [statistics.median(col) for col in columns]
+            label = f"{algo.upper()}, {hp} hyperparameters" if hp else "amortised policy"
+            ax.plot(runs[0]["conditions"], medians, color=colours[algo], lw=1.4 if shipped else 2.2,
+                    ls="--" if shipped else "-", marker="o", ms=3 if shipped else 5,
+                    label=f"{label} (median of {len(runs)} seeds" + ("" if shipped else "; thin: each")
+                    + ")")  # fmt: skip
     ax.axhline(100.0, color="0.3", ls="--", lw=1.0, label="reference optimum (100)")
     ax.axhline(0.0, color="0.6", lw=0.8)
     ax.set_xlabel("flight speed V [m/s] (held-out conditions)")

@@ -66,6 +66,7 @@ __all__ = [
     "record_score",
     "reference",
     "reference_series",
+    "score_strokes",
     "training_conditions",
 ]
 
@@ -339,3 +340,15 @@ class ConfigReference:
         if self.series is None:
             return None
         return normalised_score(self.series.at(condition), objective, feasible, violation)
+
+
+def score_strokes(problem: Any, strokes: ArrayLike, conditions: ArrayLike) -> NDArray[np.float64]:
+    """The normalised scores (B,) of normalised strokes (B, 28) flown at ``conditions`` (B,) by
+    an env's problem view (``env.unwrapped.problem()``); NaN where the table does not apply."""
+    values = np.asarray(conditions, dtype=np.float64)
+    found = problem.evaluate(np.asarray(strokes, dtype=np.float64), values)
+    violation = problem.declaration.score(found.result, problem.config).total
+    score = ConfigReference(problem.config).score(
+        values, found.objective, found.feasible, violation
+    )
+    return np.full(values.shape, np.nan) if score is None else score

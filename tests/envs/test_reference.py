@@ -185,3 +185,24 @@ def test_the_documented_table_is_the_packaged_one():
     packaged = json.loads(reference_path().read_text(encoding="utf-8"))
     assert documented["series"] == packaged["series"]
     assert documented["provenance"] == packaged["provenance"]
+
+
+def test_score_strokes_scores_the_optima_100_and_agrees_with_the_env():
+    from tandem_env.envs.reference import score_strokes
+
+    series = reference_series(LEVEL_FLIGHT_ID)
+    env = gym.make(LEVEL_FLIGHT_ID)
+    problem = env.unwrapped.problem()
+    strokes = np.array([p["normalised_stroke"] for p in series.points])
+    conditions = np.array(series.conditions)
+    np.testing.assert_allclose(score_strokes(problem, strokes, conditions), 100.0, rtol=1e-6)
+    # a random stroke: what the env's step says of it
+    rng = np.random.default_rng(0)
+    stroke = rng.uniform(-1.0, 1.0, size=(1, strokes.shape[1]))
+    env.reset(seed=0, options={"speed": 1.125})
+    _, _, _, _, info = env.step(stroke[0].astype(np.float32))
+    found = score_strokes(problem, stroke.astype(np.float32), [1.125])
+    assert found[0] == pytest.approx(info["score"], rel=1e-9, abs=1e-9)
+    # another problem (another resolution) has no table: NaN, not a score against it
+    other = gym.make(LEVEL_FLIGHT_ID, n_time=32).unwrapped.problem()
+    assert np.isnan(score_strokes(other, strokes[:1], conditions[:1])).all()

@@ -16,7 +16,13 @@ from tandem_env.io.command import EnvironmentSettingError, check_numba_environme
 from tandem_env.io.progress_bar import QuietStream
 
 ROOT = Path(__file__).resolve().parents[2]
-ENTRY_POINTS = (["eval", "optimize"], ["train"], ["train.envelope"])
+ENTRY_POINTS = (
+    ["eval", "optimize"],
+    ["train"],
+    ["train.envelope"],
+    ["train.amortised_eval"],
+    ["train.tune"],
+)
 OPTIMIZE = ["-m", "eval", "optimize", "--task", "level", "--speed", "1", "--method", "random",
             "--budget", "4", "--env-kwargs", "n_blade=6", "n_time=32", "--seeds", "0"]  # fmt: skip
 

@@ -1,0 +1,399 @@
+"""``python -m train.tune``: tune PPO's or SAC's hyperparameters for a policy over an envelope.
+
+Optuna's TPE sampler (seeded) proposes overrides of the shipped zoo entry
+(``train/hyperparams/<algo>.yml``) from :data:`SEARCH_SPACES`; the first trial is the shipped
+entry itself, so the result is never worse than it on the tuning objective. Each trial trains
+one policy by the same code as ``python -m train`` (``--steps`` env steps, one seed, the given
+env options, e.g. ``speed_range=(0.25, 2.0)`` for the whole envelope), then asks it for its
+deterministic stroke at the reference grid's *training* conditions
+(:func:`tandem_env.envs.reference.training_conditions`; the held-out ones are never seen) and
+scores each (100 = the reference optimum, <= 0 = does not fly). The trial's value is the median
+score.
+
+The study is kept in ``--out`` in Optuna's journal file (``study.journal``): a killed run
+resumes with the same command (finished trials are kept, the interrupted one is run again).
+After every trial ``trials.csv`` (one row per finished trial: its value, the scores and
+the overrides) and ``<algo>.yml`` (the best trial's entry in zoo format, the file's provenance
+in its comments; give it to ``python -m train --conf-file``) are rewritten atomically.
+
+The budget is ``--trials`` x ``--steps`` env steps (and the trials' wall time, printed).
+Needs the ``tune`` extra (``pip install -e ".[tune]"``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import hashlib
+import platform
+import shlex
+import statistics
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from train.entry import exit_on_bad_environment
+
+# importing tandem_env checks numba's environment: a bad setting is one line and status 2
+with exit_on_bad_environment("python -m train.tune"):
+    from tandem_env.io.command import command_line
+from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
+from tandem_env.io.keyvalue import KeyValuePairs
+
+#: What Optuna proposes per algorithm: name -> (kind, choices or (low, high)). "log" and
+#: "float" are ranges; "choice" a list. Every choice here is a value the shipped entry could
+#: hold (the shipped value is among them: the first trial is the shipped entry).
+SEARCH_SPACES: Mapping[str, Mapping[str, tuple[str, Any]]] = {
+    "ppo": {
+        "learning_rate": ("log", (3e-4, 1e-2)),
+        "lr_schedule": ("choice", ("linear", "constant")),
+        "n_steps": ("choice", (2, 4, 8)),
+        "batch_size": ("choice", (256, 512, 1024)),
+        "n_epochs": ("choice", (5, 10, 20)),
+        "clip_range": ("choice", (0.1, 0.2, 0.3)),
+        "ent_coef": ("choice", (0.0, 1e-3, 1e-2)),
+        "width": ("choice", (64, 128, 256)),
+        "log_std_init": ("float", (-2.0, 0.0)),
+    },
+    "sac": {
+        "learning_rate": ("log", (1e-4, 3e-3)),
+        "batch_size": ("choice", (128, 256, 512)),
+        "gradient_steps": ("choice", (2, 4, 8)),
+        "tau": ("choice", (0.005, 0.01, 0.02)),
+        "buffer_size": ("choice", (20_000, 50_000, 100_000)),
+        "learning_starts": ("choice", (1024, 4096)),
+        "width": ("choice", (64, 128, 256)),
+    },
+}
+
+#: The shipped entry (``train/hyperparams/<algo>.yml``, level flight) in the search space's
+#: terms: the first trial (tests check it resolves to the shipped file's hyperparameters).
+SHIPPED: Mapping[str, Mapping[str, Any]] = {
+    "ppo": {
+        "learning_rate": 3e-3,
+        "lr_schedule": "linear",
+        "n_steps": 4,
+        "batch_size": 512,
+        "n_epochs": 20,
+        "clip_range": 0.2,
+        "ent_coef": 0.0,
+        "width": 64,
+        "log_std_init": -1.0,
+    },
+    "sac": {
+        "learning_rate": 1e-3,
+        "batch_size": 256,
+        "gradient_steps": 8,
+        "tau": 0.005,
+        "buffer_size": 50_000,
+        "learning_starts": 1024,
+        "width": 128,
+    },
+}
+
+#: Most trials and env steps per trial one command accepts.
+MAX_TRIALS = 1000
+MAX_STEPS = 10_000_000
+
+
+def overrides(algo: str, params: Mapping[str, Any]) -> dict[str, Any]:
+    """The ``--hyperparams`` overrides of a point of :data:`SEARCH_SPACES` (zoo terms: a
+    ``lin_`` learning rate decays linearly to 0; ``policy_kwargs`` as the zoo's text)."""
+    out = {k: v for k, v in params.items() if k not in ("lr_schedule", "width", "log_std_init")}
+    width = int(params["width"])
+    if algo == "ppo":
+        rate = float(params["learning_rate"])
+        out["learning_rate"] = f"lin_{rate:.6g}" if params["lr_schedule"] == "linear" else rate
+        out["policy_kwargs"] = (
+            f"dict(net_arch=dict(pi=[{width}, {width}], vf=[{width}, {width}]), "
+            f"log_std_init={float(params['log_std_init']):.6g})"
+        )
+    else:
+        out["policy_kwargs"] = f"dict(net_arch=[{width}, {width}])"
+    return out
+
+
+@dataclass(frozen=True)
+class TuneConfig:
+    """One tuning command, checked once, when it is made (ValueError naming the value and what
+    is allowed, before any training)."""
+
+    algo: str
+    env_id: str
+    env_kwargs: Mapping[str, Any]
+    trials: int
+    steps: int
+    seed: int
+    out: Path
+
+    @property
+    def study_name(self) -> str:
+        """The study's name in its journal: what the trials' values depend on (a folder
+        holding a study of other settings is refused, not continued)."""
+        options = hashlib.sha256(repr(sorted(self.env_kwargs.items())).encode()).hexdigest()[:8]
+        return f"{self.algo}-{self.env_id}-{self.steps}-seed{self.seed}-env{options}"
+
+    def command(self) -> str:
+        """The command line that makes this study."""
+        words = ["python", "-m", "train.tune", "--algo", self.algo, "--env", self.env_id,
+                 "--trials", str(self.trials), "--steps", str(self.steps), "--seed",
+                 str(self.seed), "--out", str(self.out)]  # fmt: skip
+        if self.env_kwargs:
+            words += ["--env-kwargs", *(f"{k}={v!r}" for k, v in self.env_kwargs.items())]
+        return shlex.join(words)
+
+    def __post_init__(self) -> None:
+        import gymnasium as gym
+
+        from tandem_env.envs.reference import REFERENCE_GRID
+        from tandem_env.envs.registration import check_env_id
+        from tandem_env.physics.checks import is_integer
+
+        if self.algo not in SEARCH_SPACES:
+            raise ValueError(f"algo = {self.algo!r}; allowed: {', '.join(SEARCH_SPACES)}")
+        check_env_id(self.env_id, "--env")
+        if self.env_id not in REFERENCE_GRID:
+            raise ValueError(
+                f"--env {self.env_id}: no reference table to score the trials against; "
+                f"allowed: {', '.join(REFERENCE_GRID)}"
+            )
+        for option, value, high in (("--trials", self.trials, MAX_TRIALS),
+                                    ("--steps", self.steps, MAX_STEPS)):  # fmt: skip
+            if not is_integer(value) or not 1 <= value <= high:
+                raise ValueError(f"{option} {value!r}; allowed: an integer from 1 to {high:,}")
+        if not is_integer(self.seed) or self.seed < 0:
+            raise ValueError(f"--seed {self.seed!r}; allowed: an integer >= 0")
+        gym.make(self.env_id, disable_env_checker=True, **self.env_kwargs).close()  # its options
+
+
+def _sample(trial: Any, algo: str) -> dict[str, Any]:
+    params: dict[str, Any] = {}
+    for name, (kind, values) in SEARCH_SPACES[algo].items():
+        if kind == "choice":
+            params[name] = trial.suggest_categorical(name, list(values))
+        else:
+            params[name] = trial.suggest_float(name, *values, log=kind == "log")
+    return params
+
+
+def score_policy(policy: Any, conditions: Sequence[float]) -> np.ndarray:
+    """The normalised scores (n,) of a trained policy's deterministic strokes at
+    ``conditions``, flown by its env (the training options but the condition)."""
+    from tandem_env.envs.reference import score_strokes
+    from tandem_env.envs.registration import condition_keywords
+    from train.amortised import make_problem
+
+    env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
+    problem = make_problem(policy.env_id, env_kwargs)
+    values = np.asarray(conditions, dtype=np.float64)
+    return score_strokes(problem, policy.strokes(values), values)
+
+
+def run_trial(config: TuneConfig, params: Mapping[str, Any], folder: Path) -> dict[str, Any]:
+    """Train one policy with ``params`` into ``folder`` and score it at the training
+    conditions: ``{"value": median score, "scores": [...], "seconds": ...}``."""
+    from tandem_env.envs.reference import training_conditions
+    from train.config import TrainConfig
+    from train.run import train
+    from train.trained_policy import TrainedPolicy
+
+    start = time.perf_counter()
+    result = train(
+        TrainConfig(
+            algo=config.algo,  # type: ignore[arg-type]
+            env_id=config.env_id,
+            n_timesteps=config.steps,
+            seed=config.seed,
+            env_kwargs=dict(config.env_kwargs),
+            hyperparams=overrides(config.algo, params),
+            log_folder=folder,
+            progress_bar=False,
+            tensorboard=False,
+            verbose=0,
+        )
+    )
+    assert result.run_dir is not None  # a run with files
+    scores = score_policy(
+        TrainedPolicy.load(result.run_dir, "best"), training_conditions(config.env_id)
+    )
+    return {
+        "value": float(statistics.median(scores.tolist())),
+        "scores": [round(float(s), 2) for s in scores],
+        "seconds": round(time.perf_counter() - start, 1),
+    }
+
+
+def _rows(study: Any) -> list[dict[str, Any]]:
+    import optuna
+
+    rows = []
+    for trial in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,)):
+        rows.append(
+            {
+                "trial": trial.number,
+                "median_score": round(float(trial.value), 3),
+                "scores": " ".join(map(str, trial.user_attrs.get("scores", ()))),
+                "seconds": trial.user_attrs.get("seconds"),
+                **trial.params,
+            }
+        )
+    return rows
+
+
+def best_entry_text(config: TuneConfig, study: Any) -> str:
+    """The best trial's zoo-format file: the shipped entry of ``config.env_id`` with the
+    trial's overrides, and where it came from in comments."""
+    import optuna
+    import yaml
+
+    from train.config import load_entry
+
+    best = study.best_trial
+    entry = dict(load_entry(config.algo, config.env_id))
+    entry.update(overrides(config.algo, best.params))
+    env_kwargs = ", ".join(f"{k}={v!r}" for k, v in config.env_kwargs.items())
+    finished = len(_rows(study))
+    head = [
+        f"# {config.algo.upper()} for {config.env_id} with {env_kwargs or 'its defaults'}, tuned by",
+        f"#   {config.command()}",
+        f"# Optuna {optuna.__version__} TPE over train.tune.SEARCH_SPACES; {finished} trials of "
+        f"{config.steps:,} env steps, seed {config.seed}; the first is the shipped entry.",
+        f"# Best: trial {best.number}, median score {best.value:.1f} at the training conditions "
+        f"(scores {' '.join(map(str, best.user_attrs.get('scores', ())))}).",
+        f"# Written {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC on "
+        f"{platform.machine()}, Python {platform.python_version()}. Use: python -m train "
+        f"--conf-file THIS_FILE ...",
+    ]
+    body = yaml.safe_dump({config.env_id: entry}, sort_keys=False, default_flow_style=False)
+    return "\n".join(head) + "\n" + body
+
+
+def open_study(config: TuneConfig) -> Any:
+    """The Optuna study of ``config`` in ``config.out`` (made, or loaded to continue it);
+    ValueError naming the folder for one that cannot be written or holds a study of other
+    settings, before any training."""
+    import optuna
+
+    output_directory(config.out, files=("study.journal", "trials.csv", f"{config.algo}.yml"))
+    config.out.mkdir(parents=True, exist_ok=True)  # the journal is opened, not written whole
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    storage = optuna.storages.JournalStorage(
+        optuna.storages.journal.JournalFileBackend(str(config.out / "study.journal"))
+    )
+    name = config.study_name
+    others = sorted(set(optuna.get_all_study_names(storage)) - {name})
+    if others:
+        raise ValueError(
+            f"--out {config.out} holds the study {others[0]!r} of other settings (algo, env, "
+            f"steps, seed or env options); allowed: those settings to continue it, or another "
+            "--out"
+        )
+    # Seeded by the trials already run too: a resumed study must not propose its first
+    # random trials again.
+    before = (
+        len(optuna.load_study(study_name=name, storage=storage).trials)
+        if name in optuna.get_all_study_names(storage)
+        else 0
+    )
+    sampler = optuna.samplers.TPESampler(seed=config.seed + before, n_startup_trials=5)
+    study = optuna.create_study(
+        study_name=name, storage=storage, sampler=sampler, direction="maximize", load_if_exists=True
+    )
+    if not study.get_trials(deepcopy=False):
+        study.enqueue_trial(dict(SHIPPED[config.algo]))
+    return study
+
+
+def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = None) -> Any:
+    """Run the study of ``config`` (:func:`open_study`, unless given) up to ``config.trials``
+    finished trials (module docstring); returns the Optuna study."""
+    study = open_study(config) if study is None else study
+
+    def objective(trial: Any) -> float:
+        params = _sample(trial, config.algo)
+        with tempfile.TemporaryDirectory(prefix="tandem-tune-") as folder:
+            found = run_trial(config, params, Path(folder))
+        for key in ("scores", "seconds"):
+            trial.set_user_attr(key, found[key])
+        say(
+            f"trial {trial.number}: median score {found['value']:.1f} in {found['seconds']:.0f} s ({params})"
+        )
+        return found["value"]
+
+    def write(study: Any, _trial: Any) -> None:
+        write_csv_atomic(config.out / "trials.csv", _rows(study))
+        write_text_atomic(config.out / f"{config.algo}.yml", best_entry_text(config, study))
+
+    done = len(_rows(study))
+    left = config.trials - done
+    say(
+        f"tune {config.algo} on {config.env_id}: {left} of {config.trials} trials left, "
+        f"{config.steps:,} env steps each -> {config.out}"
+    )
+    if left > 0:
+        study.optimize(objective, n_trials=left, callbacks=[write])
+    if _rows(study):
+        write(study, None)
+    return study
+
+
+@command_line
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m train.tune",
+        description=__doc__.split("\n\n")[0].split(": ", 1)[1],
+        epilog="example: python -m train.tune --algo ppo --trials 12 --steps 100000 "
+        "--env-kwargs 'speed_range=(0.25, 2.0)' --out results/tune-ppo",
+    )
+    parser.add_argument("--algo", required=True, choices=tuple(SEARCH_SPACES))
+    parser.add_argument(
+        "--env", default="TandemWing/LevelFlight-v0", help="env id (default %(default)s)"
+    )
+    parser.add_argument(
+        "--env-kwargs",
+        nargs="+",
+        action=KeyValuePairs,
+        default={},
+        metavar="KEY=VALUE",
+        help="env options of every trial, e.g. 'speed_range=(0.25, 2.0)' (the whole envelope)",
+    )
+    parser.add_argument("--trials", type=int, required=True, help="finished trials wanted")
+    parser.add_argument("--steps", type=int, required=True, help="env steps per trial")
+    parser.add_argument("--seed", type=int, default=0, help="training and sampler seed")
+    parser.add_argument("--out", required=True, type=Path, help="the study's folder")
+    args = parser.parse_args(argv)
+    try:
+        import optuna  # noqa: F401
+    except ImportError:
+        parser.error('needs Optuna: pip install -e ".[tune]"')
+    try:
+        config = TuneConfig(
+            args.algo,
+            args.env,
+            dict(args.env_kwargs),
+            args.trials,
+            args.steps,
+            args.seed,
+            args.out,
+        )
+        study = open_study(config)
+    except ValueError as error:
+        parser.error(str(error))
+    start = time.perf_counter()
+    study = tune(config, study=study)
+    best = study.best_trial
+    print(
+        f"best: trial {best.number}, median score {best.value:.1f}; "
+        f"{time.perf_counter() - start:.0f} s this run; wrote {config.out / (config.algo + '.yml')}"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
