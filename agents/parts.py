@@ -32,6 +32,7 @@ from agents.records import (
     SELECTION_INITIAL_POLISHED,
     SELECTION_METHOD,
     SELECTION_POLISHED,
+    SELECTION_REWARD_POLISHED,
 )
 from agents.tasks import Condition, TaskSpec
 from tandem_env.io.progress_bar import Reporter
@@ -148,7 +149,7 @@ def search_part(
     action, reward, selection, certificate = _polish(
         prepared, action, reward, selection, budget - outcome.evaluations, reserve, problem
     )
-    feasible = selection in (SELECTION_BEST_FEASIBLE, SELECTION_POLISHED)
+    feasible = selection in (SELECTION_BEST_FEASIBLE, SELECTION_POLISHED, SELECTION_REWARD_POLISHED)
     return Part(
         "search",
         seed,
@@ -244,17 +245,23 @@ def _polish(
     if reserve == 0:
         status = "not applicable: the budget's polish share is below two gradients"
         return action, reward, selection, Certificate(method=config.method, status=status)
-    if selection != SELECTION_BEST_FEASIBLE:
-        status = "not applicable: no feasible stroke to start from"
-        if selection == SELECTION_METHOD:
-            status = "not applicable: the method evaluates through its own envs"
+    if selection == SELECTION_METHOD:
+        status = "not applicable: the method evaluates through its own envs"
         return action, reward, selection, Certificate(method=config.method, status=status)
+    # A search that saw no feasible stroke hands over its best-reward one, and the polish starts
+    # there all the same, as from an initial stroke: a policy's stroke a hair outside a margin,
+    # or a short search's, is moved onto the constraints.
+    infeasible = selection == SELECTION_BEST_REWARD
     problem = job_problem()
-    result = polish(problem, action, allowance, config, _gradient(prepared, problem))
+    result = polish(
+        problem, action, allowance, config, _gradient(prepared, problem),
+        infeasible_start=infeasible,
+    )  # fmt: skip
     if not result.improved:
         return action, reward, selection, result.certificate
     # accepted strokes pass the task's feasibility test, so their reward is their objective
-    return result.stroke, result.objective, SELECTION_POLISHED, result.certificate
+    polished = SELECTION_REWARD_POLISHED if infeasible else SELECTION_POLISHED
+    return result.stroke, result.objective, polished, result.certificate
 
 
 def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator) -> tuple[np.ndarray, float, str]:

@@ -314,6 +314,12 @@ def polish(
         raise ValueError(f"start has shape {x0.shape} or leaves [-1, 1]; allowed: ({problem.dim},)")
     if isinstance(budget, bool) or not isinstance(budget, int | np.integer) or budget < 0:
         raise ValueError(f"polish budget = {budget!r}; allowed: an integer >= 0")
+    # The coordinates the polish does not move (the discrete ones) are held as the action type
+    # carries them from the start: the stroke it evaluates last is then the one it reports
+    # (a start that is no float32 action, e.g. a policy's, would otherwise differ there).
+    fixed = np.ones(problem.dim, dtype=bool)
+    fixed[np.asarray(problem.free)] = False
+    x0 = np.where(fixed, as_action_type(x0), x0)
     grad_fn = gradient if gradient is not None else CentralDifferences(problem, config.step)
     if budget < 2 * grad_fn.cost:
         return PolishResult(

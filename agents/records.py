@@ -45,6 +45,7 @@ SELECTION_BEST_FEASIBLE = "best feasible stroke seen"
 SELECTION_BEST_REWARD = "best reward seen (no feasible stroke)"
 SELECTION_METHOD = "the method's stroke"
 SELECTION_POLISHED = "best feasible stroke seen, polished"
+SELECTION_REWARD_POLISHED = "best reward seen (no feasible stroke), polished onto the constraints"
 SELECTION_INITIAL = "an initial stroke (not improved by the polish)"
 SELECTION_INITIAL_POLISHED = "an initial stroke, polished"
 

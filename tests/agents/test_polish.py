@@ -26,7 +26,7 @@ from agents.polish import (
     polish,
     split_settings,
 )
-from agents.records import SELECTION_POLISHED, Record
+from agents.records import SELECTION_POLISHED, SELECTION_REWARD_POLISHED, Record
 
 DIM = 28
 FIXED = (11, 25)
@@ -229,3 +229,19 @@ def test_harness_polish_counts_in_the_budget_and_certifies_the_record():
         assert polished.objective > c["objective_before"]
     else:  # the search's stroke is kept and the record says so
         assert polished.objective == c["objective_before"]
+
+
+def test_a_search_that_saw_no_feasible_stroke_is_polished_onto_the_constraints(recwarn):
+    # random search at V = 1 m/s, seed 1: none of its 1 600 strokes flies (most random strokes
+    # miss the weight by far); the polish starts from its best-reward stroke all the same
+    (record,) = run(
+        "random", "level", 1.0, 2_000, [1], progress=False,
+        method_config={"polish": "slsqp", "swarm_size": 20},
+    )  # fmt: skip
+    c = record.certificate
+    assert record.selection == SELECTION_REWARD_POLISHED and c["status"] == "improved"
+    assert c["gain"] is None  # no feasible objective before to compare with
+    # the re-evaluation in the env (the stroke as a float32 action) flies, with the polish's value
+    assert record.feasible and record.evaluations <= record.budget == 2_000
+    assert record.objective == c["objective_after"]
+    assert not [w for w in recwarn if "differs from the search" in str(w.message)]
