@@ -198,6 +198,41 @@ def test_module_entry_point_help() -> None:
     assert "--swarm-size N" in done.stdout and "examples:" in done.stdout
 
 
+def test_options_are_parsed_and_checked_as_the_command_line_is() -> None:
+    """KEY=VALUE lists arrive as dicts, a converted option in its final form, and a bad value is
+    the usage error (exit status 2) naming the option once."""
+    import argparse
+
+    from tandem_env.io.command import checked_by
+    from tandem_env.io.keyvalue import KeyValuePairs
+
+    def positive(text: str) -> float:
+        if float(text) <= 0:
+            raise ValueError(f"value {text!r}; allowed: a number > 0")
+        return float(text)
+
+    def named(text: str) -> str:
+        raise ValueError(f"--named {text!r}; allowed: nothing")
+
+    parser = argparse.ArgumentParser(prog="p", exit_on_error=False)
+    parser.add_argument("--env-kwargs", nargs="+", action=KeyValuePairs, default={})
+    parser.add_argument("--size", action=checked_by(positive))
+    parser.add_argument("--named", action=checked_by(named))
+    args = parser.parse_args(["--env-kwargs", "speed_range=(0.25, 2.0)", "n=3", "--size", "2"])
+    assert args.env_kwargs == {"speed_range": (0.25, 2.0), "n": 3} and args.size == 2.0
+    assert parser.parse_args([]).env_kwargs == {} and parser.parse_args([]).size is None
+    errors = []
+    parser.error = lambda message: errors.append(message)  # type: ignore[method-assign]
+    parser.parse_args(["--size", "-1"])
+    parser.parse_args(["--named", "x"])
+    parser.parse_args(["--env-kwargs", "n=1", "n=2"])
+    assert errors == [
+        "--size: value '-1'; allowed: a number > 0",  # prefixed: the message did not name it
+        "--named 'x'; allowed: nothing",  # named already: as it is
+        "--env-kwargs: 'n' is given twice",
+    ]
+
+
 def test_eval_and_train_parse_key_values_the_same_way() -> None:
     """One parser for every command: a tuple is a tuple in `python -m eval` as in `python -m train`."""
     from tandem_env.io.keyvalue import parse_pairs
