@@ -173,6 +173,8 @@ def test_a_port_that_is_no_dask_scheduler_is_reported_within_the_timeout(
     """A silent port (or an HTTP server, which waits for a request) used to hang the client
     for minutes, an HTTP or SSH answer made it allocate exabytes: now both are reported after
     at most the connect timeout."""
+    import distributed  # noqa: F401 - imported before the clock starts: seconds on a busy machine
+
     monkeypatch.setattr(dask_cluster, "CONNECT_TIMEOUT", 0.5)
     port = server(greeting, http)
     start = time.monotonic()
