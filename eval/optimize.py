@@ -31,7 +31,7 @@ from eval.studies.paper_reading import Reading
 from eval.studies.readings import reading_by_name
 from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
 from tandem_env.io.command import checked_by
-from tandem_env.io.keyvalue import KeyValuePairs
+from tandem_env.io.keyvalue import add_pairs_argument
 from tandem_env.physics import BACKENDS
 from tandem_env.physics.insect import describe_insect
 
@@ -225,27 +225,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"strokes per iteration: PSO particles / random-search batch (default 40, at most "
         f"{MAX_BATCH:,})",
     )
-    parser.add_argument(
+    add_pairs_argument(
+        parser,
         "--method-config",
-        nargs="+",
-        action=KeyValuePairs,
-        default={},
-        metavar="KEY=VALUE",
-        help=(
-            "method settings, e.g. velocity_clamp=0.2 boundary=reflect "
-            "inertia=linear-decreasing (values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)"
-        ),
+        "method settings, e.g. velocity_clamp=0.2 boundary=reflect inertia=linear-decreasing "
+        "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)",
     )
-    parser.add_argument(
+    add_pairs_argument(
+        parser,
         "--env-kwargs",
-        nargs="+",
-        action=KeyValuePairs,
-        default={},
-        metavar="KEY=VALUE",
-        help=(
-            "env options, e.g. thrust_split=body penalty_weight=20 planform=real n_time=256 "
-            "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)"
-        ),
+        "env options, e.g. thrust_split=body penalty_weight=20 planform=real n_time=256 "
+        "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)",
     )
     add_insect_argument(parser, insect_keyword)
     add_backend_arguments(parser)

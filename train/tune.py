@@ -44,7 +44,7 @@ from train.entry import exit_on_bad_environment
 with exit_on_bad_environment("python -m train.tune"):
     from tandem_env.io.command import command_line
 from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
-from tandem_env.io.keyvalue import KeyValuePairs
+from tandem_env.io.keyvalue import add_pairs_argument
 
 #: What Optuna proposes per algorithm: name -> (kind, choices or (low, high)). "log" and
 #: "float" are ranges; "choice" a list. Every choice here is a value the shipped entry could
@@ -287,20 +287,16 @@ def open_study(config: TuneConfig) -> Any:
         optuna.storages.journal.JournalFileBackend(str(config.out / "study.journal"))
     )
     name = config.study_name
-    others = sorted(set(optuna.get_all_study_names(storage)) - {name})
-    if others:
+    names = set(optuna.get_all_study_names(storage))
+    if names - {name}:
         raise ValueError(
-            f"--out {config.out} holds the study {others[0]!r} of other settings (algo, env, "
-            f"steps, seed or env options); allowed: those settings to continue it, or another "
-            "--out"
+            f"--out {config.out} holds the study {sorted(names - {name})[0]!r} of other settings "
+            "(algo, env, steps, seed or env options); allowed: those settings to continue it, "
+            "or another --out"
         )
     # Seeded by the trials already run too: a resumed study must not propose its first
     # random trials again.
-    before = (
-        len(optuna.load_study(study_name=name, storage=storage).trials)
-        if name in optuna.get_all_study_names(storage)
-        else 0
-    )
+    before = len(optuna.load_study(study_name=name, storage=storage).trials) if names else 0
     sampler = optuna.samplers.TPESampler(seed=config.seed + before, n_startup_trials=5)
     study = optuna.create_study(
         study_name=name, storage=storage, sampler=sampler, direction="maximize", load_if_exists=True
@@ -355,13 +351,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--env", default="TandemWing/LevelFlight-v0", help="env id (default %(default)s)"
     )
-    parser.add_argument(
+    add_pairs_argument(
+        parser,
         "--env-kwargs",
-        nargs="+",
-        action=KeyValuePairs,
-        default={},
-        metavar="KEY=VALUE",
-        help="env options of every trial, e.g. 'speed_range=(0.25, 2.0)' (the whole envelope)",
+        "env options of every trial, e.g. 'speed_range=(0.25, 2.0)' (the whole envelope)",
     )
     parser.add_argument("--trials", type=int, required=True, help="finished trials wanted")
     parser.add_argument("--steps", type=int, required=True, help="env steps per trial")

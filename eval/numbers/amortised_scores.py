@@ -22,6 +22,7 @@ from eval.numbers.rl_baselines import (
     SEEDS,
     TABLE_HEAD,
     score_run,
+    score_text,
     summary,
     write_figure,
 )
@@ -52,7 +53,7 @@ def render_amortised_scores(data: dict[str, Any]) -> str:
     return (
         TABLE_HEAD.format(training="training") + "\n"
         f"| amortised | regression + 600 gradient steps | {len(data['runs'])} | "
-        f"{round(median, 1) + 0.0:.1f} | {round(worst, 1) + 0.0:.1f} | {100 * flies:.0f} % | "
+        f"{score_text(median)} | {score_text(worst)} | {100 * flies:.0f} % | "
         f"{seconds:.0f} s |\n\n"
         f"The same held-out speeds and scoring; `{shlex.join(train_command('SEED'))}` with seeds "
         f"{list(SEEDS)}, then `python -m train.envelope --conditions ...`. "

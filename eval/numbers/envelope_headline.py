@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 from eval.numbers.framework import load
-from eval.numbers.rl_baselines import summary
+from eval.numbers.rl_baselines import runs_of, score_text, summary
 
 #: (measurement, algo, hyperparameters: "" for the amortised policy)
 POLICIES = (
@@ -25,8 +25,7 @@ def measure_envelope_headline() -> dict[str, Any]:
     stored = {name: load(name) for name in {p[0] for p in POLICIES}}
     rows = []
     for name, algo, hp in POLICIES:
-        runs = [r for r in stored[name]["runs"]
-                if r["algo"] == algo and r.get("hyperparams", "shipped" if hp else "") == hp]  # fmt: skip
+        runs = runs_of(stored[name]["runs"], algo, hp)
         median, worst, flies, _ = summary(runs)
         rows.append({"algo": algo, "hyperparams": hp, "seeds": len(runs), "median": median,
                      "worst": worst, "flies": flies})  # fmt: skip
@@ -35,20 +34,17 @@ def measure_envelope_headline() -> dict[str, Any]:
 
 
 def render_envelope_headline(data: dict[str, Any]) -> str:
-    def score(value: float) -> str:
-        # + 0.0: a median that rounds to -0.0 (an infeasible stroke's) reads as 0.0
-        return f"{round(value, 1) + 0.0:.1f}"
-
     def rl(hp: str) -> str:
         rows = [r for r in data["policies"] if r["hyperparams"] == hp]
         return ", ".join(
-            f"{r['algo'].upper()} {score(r['median'])} ({100 * r['flies']:.0f} % fly)" for r in rows
+            f"{r['algo'].upper()} {score_text(r['median'])} ({100 * r['flies']:.0f} % fly)"
+            for r in rows
         )
 
     (amortised,) = [r for r in data["policies"] if r["algo"] == "amortised"]
     return (
         f"At level flight's held-out speeds the amortised policy's strokes score a median of "
-        f"**{score(amortised['median'])}** (worst {score(amortised['worst'])}, "
+        f"**{score_text(amortised['median'])}** (worst {score_text(amortised['worst'])}, "
         f"{100 * amortised['flies']:.0f} % fly; 100 = the reference optimum, ≤ 0 = does not "
         f"fly); envelope policies of PPO and SAC with hyperparameters tuned for the envelope "
         f"score {rl('tuned')}, with the shipped ones {rl('shipped')}; "

@@ -120,23 +120,30 @@ def summary(runs: list[dict[str, Any]]) -> tuple[float, float, float, float]:
     )
 
 
+def runs_of(runs: list[dict[str, Any]], algo: str, hyperparams: str = "") -> list[dict[str, Any]]:
+    """The runs of ``algo`` trained with ``hyperparams`` (a key of :data:`HYPERPARAMETERS`;
+    "" for a policy that has none, the amortised one)."""
+    return [r for r in runs if r["algo"] == algo and r.get("hyperparams", "") == hyperparams]
+
+
+def score_text(value: float) -> str:
+    """A score as the tables write it (one decimal)."""
+    # + 0.0: a median that rounds to -0.0 (an infeasible stroke's) reads as 0.0
+    return f"{round(value, 1) + 0.0:.1f}"
+
+
 def render_rl_baselines(data: dict[str, Any]) -> str:
     lines = [TABLE_HEAD.format(training="training steps")]
     for algo, _ in ALGOS:
         for hp in HYPERPARAMETERS:
-            runs = [
-                r
-                for r in data["runs"]
-                if (r["algo"], r.get("hyperparams", "shipped")) == (algo, hp)
-            ]
+            runs = runs_of(data["runs"], algo, hp)
             if not runs:
                 continue
             median, worst, flies, seconds = summary(runs)
-            name = f"{algo.upper()}, {hp} hyperparameters"
             lines.append(
-                # + 0.0: a median that rounds to -0.0 (an infeasible stroke's) reads as 0.0
-                f"| {name} | {runs[0]['steps']:,} | {len(runs)} | {round(median, 1) + 0.0:.1f} | "
-                f"{round(worst, 1) + 0.0:.1f} | {100 * flies:.0f} % | {seconds:.0f} s |"
+                f"| {algo.upper()}, {hp} hyperparameters | {runs[0]['steps']:,} | {len(runs)} | "
+                f"{score_text(median)} | {score_text(worst)} | {100 * flies:.0f} % | "
+                f"{seconds:.0f} s |"
             )
     held = ", ".join(f"{c:g}" for c in data["runs"][0]["conditions"])
     return (
@@ -144,8 +151,8 @@ def render_rl_baselines(data: dict[str, Any]) -> str:
         + f"\n\nScores at the held-out speeds V = {held} m/s (one stroke per policy and speed; "
         "100 = the reference optimum, ≤ 0 = does not fly), over every seed and speed; "
         f"`{shlex.join(train_command('ALGO', 'STEPS', 'SEED', 'shipped'))}` with the steps above "
-        f"and seeds {list(SEEDS)} (tuned: `--conf-file train/hyperparams/envelope/ALGO.yml` "
-        "added), then `python -m train.envelope --conditions ...`. "
+        f"and seeds {list(SEEDS)} (tuned: `--conf-file "
+        f"{HYPERPARAMETERS['tuned'].format(algo='ALGO')}` added), then `python -m train.envelope --conditions ...`. "
         f"{machine_line(data, 'rl-baselines')}\n"
     )
 
@@ -161,16 +168,15 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     from eval.numbers.framework import json_path, load
 
     colours = dict(zip(("ppo", "sac", "amortised"), PALETTE, strict=False))
-    runs_of = {
+    stored = {
         name: load(name)["runs"] for name in ("rl-baselines", "amortised-scores")
         if json_path(name).is_file()
     }  # fmt: skip
-    runs_of.update(fresh)
+    every = [r for runs in {**stored, **fresh}.values() for r in runs]
     fig, ax = plt.subplots(figsize=(6.0, 4.8))
     for algo in colours:
         for hp in ("tuned", "shipped") if algo != "amortised" else ("",):
-            runs = [r for stored in runs_of.values() for r in stored
-                    if r["algo"] == algo and r.get("hyperparams", "shipped" if hp else "") == hp]  # fmt: skip
+            runs = runs_of(every, algo, hp)
             if not runs:
                 continue
             shipped = hp == "shipped"  # the reference for what tuning bought: its median only

@@ -70,3 +70,11 @@ class KeyValuePairs(argparse.Action):
             setattr(namespace, self.dest, parse_pairs(items, option_string or self.dest))
         except ValueError as error:
             parser.error(str(error))  # the message names the option and the pair
+
+
+def add_pairs_argument(parser: argparse.ArgumentParser, option: str, help: str) -> None:
+    """``option KEY=VALUE ...`` on ``parser``: a dict once the command line is parsed
+    (:class:`KeyValuePairs`), ``{}`` when the option is not given."""
+    parser.add_argument(
+        option, nargs="+", action=KeyValuePairs, default={}, metavar="KEY=VALUE", help=help
+    )
