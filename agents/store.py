@@ -18,6 +18,7 @@ computes into both, with the same atomic writes.
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import warnings
@@ -34,7 +35,7 @@ from agents.records import (
     RecordMismatchError,
     RecordWarning,
 )
-from tandem_env.io.files import output_directory, read_json, write_csv_atomic, write_json_atomic
+from tandem_env.io.files import output_directory, write_csv_atomic, write_json_atomic
 
 __all__ = [
     "CACHE_ENV",
@@ -96,14 +97,25 @@ def read_record(path: str | os.PathLike[str]) -> Record:
     """The record in a record file; :class:`~agents.records.RecordError` naming the file for
     anything but a valid record (OSError if it cannot be opened). The files are the store's:
     the record's format is :meth:`Record.from_dict <agents.records.Record.from_dict>`'s."""
-    try:
-        data = read_json(path)
-    except ValueError as error:  # not UTF-8, not JSON, truncated
-        raise RecordError(f"{path}: not a record file, cannot read JSON ({error})") from None
+    data = _read_json(path)
     try:
         return Record.from_dict(data)
     except RecordError as error:
         raise type(error)(f"{path}: {error}") from None
+
+
+def _read_json(path: str | os.PathLike[str]) -> Any:
+    """The JSON in one of the store's files; RecordError naming the file for one that is not
+    UTF-8 JSON (OSError if it cannot be opened). The store reads its files itself: one message
+    for a damaged file, wherever the store meets it."""
+    with open(path, encoding="utf-8") as handle:
+        try:
+            return json.load(handle)
+        except ValueError as error:  # not UTF-8, not JSON, truncated
+            reason = str(error)
+        except RecursionError:  # the decoder recurses per nesting level: a hand-made file
+            reason = "JSON nested too deeply to read"
+    raise RecordError(f"{path}: not a record file, cannot read JSON ({reason})")
 
 
 def _check_name(path: Path, record: Record) -> Record:
@@ -215,8 +227,8 @@ class RecordStore:
             if path.stem in skip:
                 continue
             try:
-                data = read_json(path)
-            except (OSError, ValueError):
+                data = _read_json(path)
+            except (OSError, RecordError):
                 continue  # reported by load() when its job asks for it
             if isinstance(data, dict) and data.get("schema") in OLD_SCHEMAS:
                 found.append(path)
@@ -268,8 +280,8 @@ def read_record_files(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
         files = sorted(base.rglob("*.json")) if base.is_dir() else [base]
         for path in files:
             try:
-                data = read_json(path)
-            except (OSError, ValueError) as error:
+                data = _read_json(path)
+            except OSError as error:
                 raise RecordError(f"{path}: cannot read JSON: {error}") from None
             schema = data.get("schema") if isinstance(data, dict) else None
             if schema in OLD_SCHEMAS:
