@@ -400,9 +400,12 @@ def _convected_wake(load, weight, phase_fore, phase_hind, delay, inflow_fore, fo
     rms = torch.sqrt(((load - mean) ** 2 * weight).sum(-1) / n)
     v_disc = _disc_inflow(inflow_fore, fore)
     w = vn + v_disc
-    speed = torch.sqrt(vt * vt + w * w)
-    flowing = speed > 0.0
-    mass_flow = torch.where(flowing, speed + v_disc * w / torch.where(flowing, speed, 1.0), 0.0)
+    speed_squared = vt * vt + w * w
+    flowing = speed_squared > 0.0
+    # sqrt's slope is infinite at 0 (in hover, vt = 0 where w changes sign): the still samples
+    # take no root, or their zero slope times it would make the whole gradient NaN
+    speed = torch.sqrt(torch.where(flowing, speed_squared, 1.0))
+    mass_flow = torch.where(flowing, speed + v_disc * w / speed, 0.0)
     mass_flow = torch.maximum(mass_flow, torch.sqrt(rms / k_disc))
     live = (k_disc > 0.0) & (mass_flow > 0.0)
     scale = torch.where(live, interference / torch.where(live, k_disc * mass_flow, 1.0), 0.0)

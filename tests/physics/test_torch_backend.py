@@ -326,3 +326,31 @@ def test_gradients_under_the_convected_slipstream():
         central = (values[0::2] - values[1::2]) / (2.0 * step)
         error = _relative_norm(grad[0, columns].numpy(), central)
         assert error <= 1e-4, f"d {name}/d stroke: relative error {error:.3g}"
+
+
+def test_convected_slipstream_gradients_in_hover_where_the_fore_wing_has_no_inflow():
+    """In hover (tangential speed 0) a fore-wing with no induced velocity sends the hind-wing a
+    wake whose through-flow speed is 0 at every sample: the square root there once had an
+    infinite slope, and 0·∞ made every entry of the stroke's gradient NaN (12 of these 64)."""
+    rng = np.random.default_rng(0)
+    strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (64, 28)))
+    options = te.ModelOptions(slipstream="convected")
+    x = torch.tensor(strokes, requires_grad=True)
+    result = te.evaluate_torch(x, 0.0, options=options)
+    (gradient,) = torch.autograd.grad(result.power.sum(), x, retain_graph=True)
+    still = np.flatnonzero(result.fore_inflow.detach().numpy() == 0.0)
+    assert still.size >= 5  # the case this test is about occurs
+    assert torch.isfinite(gradient).all()
+    columns = np.flatnonzero(~DISCRETE)
+    step = 1e-6 * (UPPER - LOWER)[columns]
+    for b in still[:2]:
+        probes = np.repeat(strokes[b : b + 1], 2 * columns.size, axis=0)
+        probes[0::2, columns] += np.diag(step)
+        probes[1::2, columns] -= np.diag(step)
+        numba = te.evaluate(probes, 0.0, options=options)
+        for name in ("lift_to_weight", "power"):
+            (grad,) = torch.autograd.grad(getattr(result, name)[b], x, retain_graph=True)
+            values = getattr(numba, name)
+            central = (values[0::2] - values[1::2]) / (2.0 * step)
+            error = _relative_norm(grad[b, columns].numpy(), central)
+            assert error <= 1e-4, f"stroke {b}, d {name}/d stroke: relative error {error:.3g}"
