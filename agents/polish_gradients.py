@@ -14,6 +14,7 @@ counts against the polish's allowance.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -97,24 +98,19 @@ def task_problem(
 ) -> Problem:
     """The polish problem of a harness task: its env's problem view at ``condition``.
 
-    Objective, constraint margins and feasibility come from the env's
-    :class:`~tandem_env.envs.problem.FlightProblem` (:func:`env_problem`): ONE batched model
-    call through the env's core, scored by the task's declaration, the margins its
-    constraints' (``Constraint.margin``), so the polish optimises exactly what the env rewards
-    under the constraints it penalises; the continuous coordinates are those that are not
-    ``task.discrete_actions``. ``differentiate`` is the same by autograd on the torch backend
-    (``FlightProblem.differentiate``: the env's insect, options and device). ``env``, the
-    task's single env made with ``env_kwargs`` when the caller has one (the harness's job env),
-    is used instead of making one (and left open).
+    Objective, constraint margins (``Constraint.margin``) and feasibility come from the env's
+    :class:`~tandem_env.envs.problem.FlightProblem` (:func:`env_problem`) in ONE batched model
+    call, so the polish optimises exactly what the env rewards under the constraints it
+    penalises; the free coordinates are those not in ``task.discrete_actions``.
+    ``differentiate`` is the same by autograd on the torch backend. ``env``, the task's single
+    env made with ``env_kwargs`` when the caller has one (the harness's job env), is used
+    instead of making one (and left open).
     """
-    given = env
-    if env is None:
-        env = gym.make(task.env_id, disable_env_checker=True, **dict(env_kwargs))
-    try:
+    with contextlib.ExitStack() as stack:
+        if env is None:
+            env = gym.make(task.env_id, disable_env_checker=True, **dict(env_kwargs))
+            stack.callback(env.close)
         view = env_problem(env)
-    finally:
-        if given is None:
-            env.close()
     if view is None or not polishable(view):
         raise ValueError(f"{task.env_id}: its task declares no constraint margins; cannot polish")
     names = view.constraint_names
