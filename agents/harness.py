@@ -88,7 +88,7 @@ def prepare_job(
         env = gym.make(spec.env_id, disable_env_checker=True, **kwargs)
     except gym.error.Error as error:
         raise ValueError(f"cannot make {spec.env_id}: {error}") from error
-    try:
+    with env:
         space = env.action_space
         if not (
             isinstance(space, gym.spaces.Box)
@@ -100,8 +100,6 @@ def prepare_job(
         dim = int(space.shape[0])
         # The polish needs the task's constraints with margins (the env's problem view).
         can_polish = polishable(env_problem(env))
-    finally:
-        env.close()
     polish_config, own_config = split_settings(job.method, dict(job.method_config))
     if polish_config.enabled and not can_polish:
         given = dict(job.method_config)

@@ -1,15 +1,10 @@
 """What the local polish optimises and how it takes derivatives: the :class:`Problem` (a
 maximisation over the box [-1, 1]^dim with constraints, some coordinates fixed), a harness
-task's problem read from its env's public problem view (:func:`task_problem`, over
-``tandem_env.envs.problem.FlightProblem``), and the gradient functions.
-
-The default gradient, :class:`CentralDifferences`, evaluates the point and its 2k perturbations
-(k free parameters; 53 strokes for the 26 continuous ones) in ONE batched model call, so the
-objective's gradient and the constraints' Jacobian come from the same batch. With the torch
-backend (env keyword ``backend="torch"``), :class:`AutogradGradient` takes them by autograd from
-ONE model evaluation instead (``FlightProblem.differentiate``): that is the one seam, and the
-certificate names the gradient used. A gradient function's ``cost`` is the model evaluations it
-counts against the polish's allowance.
+task's problem read from its env's public problem view (:func:`task_problem`), and the
+gradient functions: :class:`CentralDifferences` (the point and its 2k perturbations in ONE
+batched model call) and, on the torch backend, :class:`AutogradGradient` (ONE model
+evaluation, ``FlightProblem.differentiate``). A gradient function's ``cost`` is the model
+evaluations it counts against the polish's allowance (docs/harness.md, "Local polish").
 """
 
 from __future__ import annotations
