@@ -1,36 +1,24 @@
 """CMA-ES with IPOP / BIPOP restarts over the normalised box [-1, 1]^d, on the ``cmaes`` package.
 
 The evolution strategy is the package's CMA-ES with margin (``cmaes.CMAwM``, Hamano et al.
-2022): the standard CMA-ES (Hansen 2016) on the continuous coordinates, with a margin that
-keeps a discrete coordinate from fixing on one value for good. It is used through its public
-API only (``ask``, ``tell``, ``should_stop``, ``population_size``, ``generation``). This module
-adds what the package leaves to its caller:
+2022), used through its public API only (``ask``, ``tell``, ``should_stop``,
+``population_size``, ``generation``). This module adds what the package leaves to its caller,
+each rule described with its reasons in docs/harness.md, "CMA-ES":
 
-* **Box and discrete coordinates.** Every coordinate lives in [-1, 1] (the package's bounds: a
-  candidate outside is drawn again up to ``resampling`` times, then clipped). ``discrete =
-  ((index, levels), ...)``: coordinate ``index`` takes the centres of ``levels`` equal bins of
-  [-1, 1], ``-1 + (2 i + 1) / levels``. For the harmonic N of ``tandem_env``'s stroke map that
-  is {-0.5, +0.5}, where ``physical_to_normalised`` puts N = 1 and N = 2: every evaluated
-  stroke has an integer N and nothing is rounded behind the optimiser's back.
-* **One population = one batch.** ``ask()`` is called λ times and the λ points go to the
-  objective in one batched call (one ask/tell round of :class:`~agents.optimiser.AskTellOptimiser`).
-* **Restarts** (``restarts``), each from a new uniform random mean: ``"none"`` runs one CMA-ES
-  to the end of the budget; ``"ipop"`` (Auger & Hansen 2005) doubles the population;
-  ``"bipop"`` (Hansen 2009) interlaces large restarts (``λ_def · 2^k`` after k of them,
-  ``sigma0``) with small ones (``λ = ⌊λ_def · (2^k)^(U²)⌋``, ``σ = sigma0 · 10^(−2 U')``, U, U'
-  uniform on [0, 1)), the regime that has used fewer evaluations running next (the first run
-  counts as small, as in pycma's ``fmin``).
-* **Stagnation** (the restart trigger), checked every ``CHECK_EVERY`` generations: the package's
-  ``should_stop()``, or Hansen's (2009) test: over the last L = max(``patience``, 20 % of the
-  run's generations) generations (``patience`` defaults to ``120 + ⌈30 d / λ⌉``), the median of
-  the newest 30 % of the generation-best fitness, and of the generation-median fitness, are no
-  better than the oldest 30 %'s by more than ``tolerance · |oldest|``. Per generation, not the
-  best so far: a run whose step size has blown up keeps its old best but stops producing good
-  generations.
+* **Box and discrete coordinates.** ``discrete = ((index, levels), ...)``: coordinate
+  ``index`` takes the bin centres :func:`discrete_levels` (for the harmonic N: {-0.5, +0.5},
+  where ``physical_to_normalised`` puts N = 1 and N = 2).
+* **One population = one batch** (one ask/tell round of
+  :class:`~agents.optimiser.AskTellOptimiser`).
+* **Restarts** (``restarts``), each from a new uniform random mean: ``"none"``, ``"ipop"``
+  (Auger & Hansen 2005: the population doubles) or ``"bipop"`` (Hansen 2009: large restarts,
+  ``λ_def · 2^k`` and ``sigma0``, interlaced with small ones, ``λ = ⌊λ_def · (2^k)^(U²)⌋``,
+  ``σ = sigma0 · 10^(−2 U')``; the regime that has used fewer evaluations runs next).
+* **Stagnation**, checked every ``CHECK_EVERY`` generations: ``should_stop()``, or Hansen's
+  (2009) test on the medians of the generation-best and generation-median fitness over the
+  last L = max(``patience``, 20 % of the run's generations) generations (:meth:`CMAES._stop`).
 * **Budget.** Whole populations are drawn and the rules look only at what was evaluated, so a
   run with budget B is exactly the first B evaluations of any longer run with the same seed.
-  When the budget ends inside a population, its first ``n`` points are evaluated and the run
-  ends there (no ``tell``). A budget smaller than the first population is an error.
 
 References
 ----------
@@ -105,37 +93,25 @@ def discrete_levels(levels: int) -> FloatArray:
 
 @dataclass(frozen=True, kw_only=True)
 class CMAESConfig:
-    """Configuration of :class:`CMAES` (defaults chosen by measurement: docs/harness.md).
-
-    Parameters
-    ----------
-    max_evaluations : int
-        Points evaluated (>= 1); the last population is truncated to fit.
-    popsize : int or None
-        Population of the first run (>= 4); None uses :func:`default_popsize` of the dimension.
-    sigma0 : float
-        Initial step size [box units; the box is 2 wide], in (0, 2].
-    restarts : {"none", "ipop", "bipop"}
-        Restart schedule (module docstring).
-    patience : int or None
-        Shortest stagnation history [generations] (>= 1); None: ``120 + ⌈30 d / λ⌉`` per run.
-    tolerance : float
-        Relative rise of the history's median (best) fitness that counts as progress (>= 0).
-    resampling : int
-        Draws of a candidate outside the box before it is clipped (the package's
-        ``n_max_resampling``, >= 0).
-    discrete : tuple of (int, int)
-        ``(index, levels)`` of each discrete coordinate: distinct indices >= 0, levels >= 2.
-    """
+    """Configuration of :class:`CMAES` (defaults chosen by measurement: docs/harness.md)."""
 
     max_evaluations: int
+    """Points evaluated (>= 1); the last population is truncated to fit."""
     popsize: int | None = None
+    """Population of the first run (>= 4); None uses :func:`default_popsize` of the dimension."""
     sigma0: float = 0.5
+    """Initial step size [box units; the box is 2 wide], in (0, 2]."""
     restarts: Restarts = "bipop"
+    """Restart schedule (module docstring)."""
     patience: int | None = None
+    """Shortest stagnation history [generations] (>= 1); None: ``120 + ⌈30 d / λ⌉`` per run."""
     tolerance: float = 1e-4
+    """Relative rise of the history's median (best) fitness that counts as progress (>= 0)."""
     resampling: int = 100
+    """Draws of a candidate outside the box before it is clipped (the package's
+    ``n_max_resampling``, >= 0)."""
     discrete: tuple[tuple[int, int], ...] = ()
+    """``(index, levels)`` of each discrete coordinate: distinct indices >= 0, levels >= 2."""
 
     def __post_init__(self) -> None:
         check_int("max_evaluations", self.max_evaluations, minimum=1)
@@ -291,7 +267,9 @@ class CMAES(AskTellOptimiser):
                 self._restart(stop)
 
     def _stop(self) -> str | None:
-        """Why the current run should end now, or None (module docstring, Stagnation)."""
+        """Why the current run should end now, or None: the newest 30 % of the window's
+        generations no better than the oldest 30 % by more than ``tolerance · |oldest|``, in
+        the median of both histories (docs/harness.md, "CMA-ES")."""
         if self._es.should_stop():
             return "should_stop"
         length = min(max(self._patience, math.ceil(0.2 * len(self._best))), 20_000)

@@ -1,18 +1,10 @@
 """Reaching a Dask scheduler: where the runner's jobs run, parsed, checked and connected to.
 
-Where the jobs run (``scheduler``, ``--scheduler`` on the command line;
-:func:`agents.runner.run_jobs`):
-
-``None``
-    in this process, one after another, with numba's default threads (the default: it needs
-    no cluster, and on 2 cores it is as fast as two one-thread processes);
-``"local:N"``
-    a Dask ``LocalCluster`` started here with N worker processes of one thread each, each
-    with ``NUMBA_NUM_THREADS=1``; closed at the end;
-``"tcp://HOST:PORT"`` (or ``"HOST:PORT"``)
-    a running Dask scheduler and its workers (``dask scheduler``, ``dask worker``,
-    dask-jobqueue on SLURM/PBS; docs/scaling.md). Every worker needs this project importable
-    (the same environment on every node).
+Where the jobs run (``scheduler``, ``--scheduler``; :func:`agents.runner.run_jobs`; each form
+in docs/scaling.md): ``None``, in this process, one after another (the default);
+``"local:N"``, a Dask ``LocalCluster`` started here with N worker processes of one thread (and
+one numba thread) each, closed at the end; ``"tcp://HOST:PORT"`` (or ``"HOST:PORT"``), a
+running Dask scheduler and its workers, each of which needs this project importable.
 
 Dask itself is imported only here, and only when a client is made (:func:`dask_client`).
 """
@@ -245,9 +237,7 @@ def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
                     processes=True,
                     host="127.0.0.1",
                     dashboard_address="127.0.0.1:0",  # a free port (the dashboard needs bokeh)
-                    # One numba thread per worker process (a job per core; see
-                    # set_worker_numba_threads).
-                    env={"NUMBA_NUM_THREADS": "1"},
+                    env={"NUMBA_NUM_THREADS": "1"},  # a job per core: set_worker_numba_threads
                     # The runner reports every failed job itself (key and traceback) and
                     # Dask reruns a dead worker's jobs: the cluster's own ERROR logs are noise
                     # then, e.g. a busy worker's heartbeat to a scheduler closed by Ctrl-C.

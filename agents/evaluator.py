@@ -1,19 +1,16 @@
 """Evaluating batches of normalised actions through a task's native vector env.
 
-The harness never calls the model directly while searching: every batch of candidate strokes
-(a PSO swarm, a random-search batch) is one ``step`` of the task's batched vector env, so a
-particle's fitness is exactly the reward an RL agent would be given for that action (the
-penalised objective), and one stroke evaluated is one env step is one unit of budget.
-
-The vector envs are made with ``gym.make_vec(id, num_envs=n,
-vectorization_mode="vector_entry_point", autoreset_mode="Disabled", **env_kwargs)``: every
-step evaluates all n actions in one batched model call, and each batch is preceded by an
-explicit ``reset`` with the condition as reset option (episodes are one step long). A vector env
-is made per distinct batch size (a truncated last batch gets its own), and kept for reuse.
+Every batch of candidate strokes (a PSO swarm, a random-search batch) is one ``step`` of the
+task's batched vector env (``gym.make_vec(..., vectorization_mode="vector_entry_point",
+autoreset_mode="Disabled")``, one per distinct batch size, each step after a ``reset`` with the
+condition), so a particle's fitness is exactly the reward an RL agent would be given for that
+action, and one stroke evaluated is one env step is one unit of budget (docs/harness.md, "How a
+run evaluates strokes").
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import time
 from collections.abc import Callable, Mapping
@@ -36,7 +33,6 @@ __all__ = [
     "reevaluate",
 ]
 
-#: Called after every batch with (iteration, evaluations, best reward so far).
 BatchCallback = Callable[[int, int, float], None]
 
 
@@ -59,23 +55,12 @@ class EvaluatedBatch:
 class VectorEnvEvaluator(Tallied):
     """Budgeted, batched fitness through the task's native vector env.
 
-    Parameters
-    ----------
-    task : TaskSpec
-        The task (env id, how the condition is set).
-    condition : Condition
-        The condition every episode is reset with.
-    env_kwargs : mapping
-        Constructor keywords of the env, including the condition keyword.
-    seed : int
-        Seeds the vector envs at their first reset (sub-env i gets ``seed + i``).
-    budget : int
-        Maximum number of actions evaluated; asking for more raises BudgetExceededError.
-    on_batch : callable, optional
-        Called after every batch with (iteration, evaluations, best reward so far).
-
-    Calling the evaluator with actions (n, dim) returns their rewards (n,) and updates the
-    evaluation count, the best action and the history of (evaluations, best reward so far).
+    The envs are made with ``env_kwargs`` (the condition keyword included) and reset with
+    ``condition``; ``seed`` seeds their first reset (sub-env i gets ``seed + i``). More than
+    ``budget`` actions evaluated raises :class:`BudgetExceededError`; ``on_batch`` is called
+    after every batch with (iteration, evaluations, best reward so far). Calling the
+    evaluator with actions (n, dim) returns their rewards (n,) and updates the evaluation
+    count, the best action and the history of (evaluations, best reward so far).
     """
 
     def __init__(
@@ -191,11 +176,6 @@ class VectorEnvEvaluator(Tallied):
         return self._tally.best_value
 
     @property
-    def best_action(self) -> np.ndarray | None:
-        """Action of the best reward so far (a copy), or None."""
-        return self._tally.best_point
-
-    @property
     def best_feasible(self) -> tuple[np.ndarray, float] | None:
         """(action, reward) of the best feasible stroke so far (a copy), or None if none was
         (by the selection rule, :mod:`agents.selection`)."""
@@ -227,19 +207,16 @@ def reevaluate(
     The single env and the vector env share one batched core, so this gives the same reward
     as during the search; doing it in a single env of its own (not the search's vector env)
     makes the record independent of any state the search left behind. ``env`` is that env made
-    with ``env_kwargs`` when the caller has one (the harness's job env; the polish only reads
-    its core), else one is made here and closed.
+    with ``env_kwargs`` when the caller has one (the harness's job env), else one is made here
+    and closed.
     """
-    own = env is None
-    if env is None:
-        env = gym.make(task.env_id, disable_env_checker=True, **env_kwargs)
-    try:
+    with contextlib.ExitStack() as stack:
+        if env is None:
+            env = gym.make(task.env_id, disable_env_checker=True, **env_kwargs)
+            stack.callback(env.close)
         env.reset(seed=seed, options={task.reset_option: condition.value})
         _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
         return Reevaluation(float(reward), dict(info), env_config_dict(env))
-    finally:
-        if own:
-            env.close()
 
 
 def env_config_dict(env: gym.Env) -> dict[str, Any] | None:

@@ -7,27 +7,21 @@
     records = run("pso", "level", 1.5, budget=12_000, seeds=[0, 1, 2])
 
 A :class:`~agents.jobs.Job` is one run's configuration. :func:`prepare_job` validates it
-against the task and method registries (task, condition, env keywords, method settings,
-budget against the method) and resolves it into a :class:`PreparedJob`, once, before any
-evaluation; :func:`prepare` builds and validates the jobs of one call (one per seed) from
-user-level arguments. :func:`run_job` runs one job and returns its
-:class:`~agents.records.Record`; it writes nothing. Storing records (and resuming from them)
-is the runner's job (:func:`agents.runner.run_jobs`, used by ``python -m eval
-optimize`` and the studies): the one writer of a record store. :func:`run` runs the jobs of
-one :func:`prepare` call here, one after another, and returns their records.
+against the task and method registries and resolves it into a :class:`PreparedJob`, once,
+before any evaluation; :func:`prepare` builds and validates the jobs of one call (one per
+seed) from user-level arguments. :func:`run_job` runs one job and returns its
+:class:`~agents.records.Record`; it writes nothing: storing records (and resuming from them)
+is the runner's job (:func:`agents.runner.run_jobs`). :func:`run` runs the jobs of one
+:func:`prepare` call here and returns their records.
 
 In :func:`run_job` the method searches the task's normalised action box [-1, 1]^28 with the
-job's budget of model evaluations, every batch through the task's native vector env (one
-batched model call per iteration; fitness = the env's reward, the penalised objective an RL
-agent sees). The reported stroke (the one selection rule, :mod:`agents.selection`) is then
-re-evaluated in the job's single env (reset with the job's seed; the search steps its own
-vector env), and the record's results come from that re-evaluation.
-Before the re-evaluation the best feasible stroke is polished by a constrained local optimiser
-(:mod:`agents.polish`; on by default for ``cmaes`` and ``pso``): its evaluations count in the
-job's budget (the search gets the budget less the polish's share) and its certificate is the
-results' ``certificate``. The budget's parts (several searches, initial strokes), each
-searched and polished, are :mod:`agents.parts`; this module validates a job, runs its parts
-and builds the record.
+job's budget of model evaluations, every batch through the task's native vector env (fitness
+= the env's reward, the penalised objective an RL agent sees). The reported stroke (the one
+selection rule, :mod:`agents.selection`), polished by a constrained local optimiser
+(:mod:`agents.polish`; on by default for ``cmaes`` and ``pso``, its evaluations counted in
+the budget, its certificate the results' ``certificate``), is then re-evaluated in the job's
+single env (reset with the job's seed), and the record's results come from that
+re-evaluation. The budget's parts (several searches, initial strokes) are :mod:`agents.parts`.
 """
 
 from __future__ import annotations
@@ -94,7 +88,7 @@ def prepare_job(
         env = gym.make(spec.env_id, disable_env_checker=True, **kwargs)
     except gym.error.Error as error:
         raise ValueError(f"cannot make {spec.env_id}: {error}") from error
-    try:
+    with env:
         space = env.action_space
         if not (
             isinstance(space, gym.spaces.Box)
@@ -106,8 +100,6 @@ def prepare_job(
         dim = int(space.shape[0])
         # The polish needs the task's constraints with margins (the env's problem view).
         can_polish = polishable(env_problem(env))
-    finally:
-        env.close()
     polish_config, own_config = split_settings(job.method, dict(job.method_config))
     if polish_config.enabled and not can_polish:
         given = dict(job.method_config)
@@ -165,27 +157,16 @@ def prepare(
 ) -> list[PreparedJob]:
     """The validated jobs of one method on one task and condition, one per seed.
 
-    Parameters
-    ----------
-    method : str or Method
-        ``"pso"``, ``"cmaes"``, ``"random"``, or any registered method (``"ppo"``, ``"sac"``,
-        ``"policy:RUN_DIR"`` once ``train`` provides them); see :mod:`agents.methods`.
-    task : str or TaskSpec
-        ``"level"`` or ``"accelerate"`` (or a registered/own :class:`TaskSpec`).
-    condition : float
-        Flight speed V [m/s] for level flight, available power [W/kg] for accelerating flight.
-    budget : int
-        Model evaluations per seed (one env step = one stroke evaluated = one unit).
-    seeds : iterable of int
-        One independent run, and one record, per seed.
-    objective : str, optional
-        Accelerating flight: ``"vertical"`` (default), ``"horizontal"`` or ``"resultant"``.
-    env_kwargs : mapping, optional
-        Further env keywords (model options, penalty, planform, ...), as for ``gym.make``.
-    method_config : mapping, optional
-        Method settings, e.g. ``{"swarm_size": 40, "velocity_clamp": 0.2}`` for PSO.
-    preset : str
-        The study preset the runs belong to (part of each job and so of its record's key).
+    ``method`` is ``"pso"``, ``"cmaes"``, ``"random"`` or any registered method (``"ppo"``,
+    ``"sac"``, ``"policy:RUN_DIR"`` once ``train`` provides them; :mod:`agents.methods`);
+    ``task`` ``"level"`` or ``"accelerate"`` (or a registered/own :class:`TaskSpec`);
+    ``condition`` the flight speed V [m/s] for level flight, the available power [W/kg] for
+    accelerating flight; ``budget`` the model evaluations per seed (one env step = one stroke
+    evaluated); one independent run, and one record, per seed. ``objective`` (accelerating
+    flight): ``"vertical"`` (default), ``"horizontal"`` or ``"resultant"``; ``env_kwargs``
+    further env keywords (model options, penalty, planform, ...), as for ``gym.make``;
+    ``method_config`` the method's settings, e.g. ``{"swarm_size": 40}`` for PSO; ``preset``
+    the study preset the runs belong to (part of each job and so of its record's key).
 
     Raises ValueError saying what is wrong and what is allowed; the configuration is validated
     once (:func:`prepare_job`), the seeds each by :class:`~agents.jobs.Job`.
@@ -241,10 +222,8 @@ def run(
 ) -> list[Record]:
     """Run ``method`` on ``task`` at ``condition`` for each seed, here; one record per seed.
 
-    The arguments and ``options`` (``objective``, ``env_kwargs``, ``method_config``,
-    ``preset``) are those of :func:`prepare`; ``progress`` shows a progress bar per seed on
-    stderr. Nothing is stored: to keep records (and resume), give the jobs to the runner,
-    :func:`agents.runner.run_jobs`.
+    The arguments and ``options`` are :func:`prepare`'s; ``progress`` shows a progress bar per
+    seed on stderr. Nothing is stored (the runner stores: :func:`agents.runner.run_jobs`).
     """
     return [
         run_job(job, progress=progress)
@@ -257,24 +236,17 @@ def run_job(
 ) -> Record:
     """Run one job: search (and polish), re-evaluate the reported stroke, build its record.
 
-    A plain :class:`~agents.jobs.Job` is validated first (:func:`prepare_job`); a
-    :class:`PreparedJob` is run as it is. The budget is split into parts
-    (:mod:`agents.parts`), one per search (the ``starts`` setting) and one per initial stroke
-    (``initial``): each search is the method with its own seed, polished; each initial stroke
-    is polished directly. The record reports the best feasible stroke of all parts
-    (:data:`~agents.records.STARTS` lists each). The search's progress goes to ``reporter``
-    when given, else to a progress bar of its own if ``progress``. Writes nothing. The job
-    makes one single env of its task, whose problem view (``env.problem()``) every polish
-    evaluates and in which the reported stroke is re-evaluated (reset with the job's seed), and
-    one vector env per search (:class:`~agents.evaluator.VectorEnvEvaluator`).
+    A plain :class:`~agents.jobs.Job` is validated first (:func:`prepare_job`). The budget is
+    split into parts (:mod:`agents.parts`; the ``starts`` and ``initial`` settings) and the
+    record reports the best feasible stroke of all parts (:data:`~agents.records.STARTS`
+    lists each). Progress goes to ``reporter`` when given, else to a progress bar of its own
+    if ``progress``. Writes nothing. One single env of the task serves every polish (its
+    ``env.problem()``) and the re-evaluation.
     """
     prepared = prepare_job(job) if isinstance(job, Job) else job
     start = time.perf_counter()
-    env = gym.make(prepared.task.env_id, disable_env_checker=True, **prepared.env_kwargs)
-    try:
+    with gym.make(prepared.task.env_id, disable_env_checker=True, **prepared.env_kwargs) as env:
         return _run_prepared(prepared, env, start, reporter, progress)
-    finally:
-        env.close()
 
 
 def _run_prepared(

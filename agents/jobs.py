@@ -3,9 +3,7 @@
 A :class:`Job` is one method, task, condition, budget and seed, with its env keywords, method
 settings and study preset; its :attr:`Job.key` hashes all of that (but the model's backend and
 device, which do not change results) plus the ``tandem_env`` version and the record format
-(:data:`SCHEMA`). Jobs are run by the runner (:func:`agents.runner.run_jobs`), the one writer
-of a record store (:class:`agents.store.RecordStore`), which keeps each job's record as
-``DIR/records/<key>.json``.
+(:data:`SCHEMA`). Jobs are run by :func:`agents.runner.run_jobs`.
 """
 
 from __future__ import annotations
@@ -14,15 +12,14 @@ import hashlib
 import json
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
-
-import numpy as np
 
 import tandem_env
 from agents.tasks import available_tasks, get_task
 from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
 from tandem_env.io.files import to_jsonable
+from tandem_env.physics.checks import is_integer, is_real
 
 __all__ = ["MAX_BUDGET", "OLD_SCHEMAS", "SCHEMA", "FrozenMapping", "Job"]
 
@@ -48,12 +45,7 @@ MAX_BUDGET = 10**8
 
 
 def _check_count(name: str, value: Any, low: int, allowed: str, high: int | None = None) -> None:
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, int | np.integer)
-        or value < low
-        or (high is not None and value > high)
-    ):
+    if not is_integer(value) or value < low or (high is not None and value > high):
         raise ValueError(f"{name} = {value!r}; allowed: {allowed}")
 
 
@@ -139,11 +131,7 @@ class Job:
             value = getattr(self, name)
             if not isinstance(value, str) or (name != "preset" and not value):
                 raise ValueError(f"job {name} = {value!r}; allowed: a non-empty name")
-        if (
-            isinstance(self.condition, bool)
-            or not isinstance(self.condition, int | float | np.integer | np.floating)
-            or not math.isfinite(self.condition)
-        ):
+        if not is_real(self.condition) or not math.isfinite(self.condition):
             raise ValueError(f"condition = {self.condition!r}; allowed: a finite number")
         _check_count(
             "budget", self.budget, 1, f"an integer from 1 to {MAX_BUDGET:,} (model evaluations)",
@@ -173,18 +161,10 @@ class Job:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-JSON form (keyword pairs become objects): what a record stores as ``job``."""
-        return to_jsonable(
-            {
-                "method": self.method,
-                "task": self.task,
-                "condition": self.condition,
-                "budget": self.budget,
-                "seed": self.seed,
-                "env_kwargs": dict(self.env_kwargs),
-                "method_config": dict(self.method_config),
-                "preset": self.preset,
-            }
-        )
+        data = {f.name: getattr(self, f.name) for f in fields(self)}
+        data["env_kwargs"] = dict(self.env_kwargs)
+        data["method_config"] = dict(self.method_config)
+        return to_jsonable(data)
 
     def configuration(self) -> dict[str, Any]:
         """What decides the job's result: :meth:`to_dict` without the env keywords that choose

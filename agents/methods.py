@@ -2,28 +2,18 @@
 
 A method is anything with a ``name`` and a ``search(context) -> SearchOutcome``. The harness
 gives it a :class:`SearchContext` (the task, the condition, the budget, the seed, a batched
-fitness through the task's vector env) and records what it returns. Two kinds fit:
+fitness through the task's vector env) and records what it returns. Black-box optimisers call
+``context.evaluate(actions)`` once per iteration with the whole batch; learners (PPO, SAC, a
+trained policy) build their own envs from ``context.env_id`` and ``context.env_kwargs`` and
+report their own evaluations and history.
 
-* black-box optimisers (PSO, CMA-ES, random search) call ``context.evaluate(actions)`` once per
-  iteration with the whole batch; the evaluator counts the budget and keeps the history;
-* learners (PPO, SAC, a trained policy) build their own envs from ``context.env_id`` and
-  ``context.env_kwargs``, report their own evaluations (env steps) and history, and return the
-  stroke they would play (``context.report`` drives the progress bar).
-
-Extension point
----------------
-An ask/tell optimiser (a frozen config dataclass with ``max_evaluations``, ``citation``,
-``to_dict()`` and ``build(dim, seed)``, and an :class:`~agents.optimiser.AskTellOptimiser`) is
-registered with one line, ``register_optimiser(name, ConfigClass, batch="...")``, as the
-built-in ones are at the end of this module; its settings are its config's fields. Any other
-method: ``register_method(name, factory)`` with ``factory(argument, config) -> Method``: ``argument``
-is the text after a colon in the method spec (``"policy:runs/ppo"`` -> ``"runs/ppo"``, None
-without one) and ``config`` the method's settings. Names listed in :data:`PROVIDERS` are
-registered lazily by importing their provider module the first time they are asked for: the
-training package registers ``"ppo"``, ``"sac"`` and ``"policy"`` from ``train.policies``, so
-``agents`` never imports ``train`` (or Stable-Baselines3) unless such a method is used. An
-installed package adds its own the same way through a ``tandem_env.optimisers`` entry point
-(:func:`providers`).
+The extension point (docs/harness.md, "Methods: protocol and registry"): an ask/tell optimiser
+is registered with one line, ``register_optimiser(name, ConfigClass, batch="...")``, as the
+built-in ones are at the end of this module; any other method with
+``register_method(name, factory)``. Names in :data:`PROVIDERS` (the training package's
+``"ppo"``, ``"sac"`` and ``"policy"``), or in a ``tandem_env.optimisers`` entry point of an
+installed package (:func:`providers`), are registered by importing their module the first time
+they are asked for, so ``agents`` never imports ``train`` unless such a method is used.
 """
 
 from __future__ import annotations
@@ -60,36 +50,22 @@ __all__ = [
 
 @dataclass(frozen=True, eq=False)
 class SearchContext:
-    """What a method is given for one seed.
-
-    Attributes
-    ----------
-    task : TaskSpec
-        The task (env id, condition keyword, objectives).
-    condition : Condition
-        The fixed condition of every episode (e.g. speed = 1.5 m/s).
-    env_id : str
-        Gymnasium id of the task's env.
-    env_kwargs : mapping
-        Constructor keywords that make the env of this run (they include the condition).
-    budget : int
-        Maximum number of model evaluations (= env steps = strokes evaluated).
-    seed : int
-        The run's seed; equal seeds must give identical runs.
-    dim : int
-        Dimension of the action box [-1, 1]^dim.
-    evaluator : VectorEnvEvaluator
-        The batched fitness; use :meth:`evaluate`.
-    """
+    """What a method is given for one seed."""
 
     task: TaskSpec
     condition: Condition
+    """The fixed condition of every episode (e.g. speed = 1.5 m/s)."""
     env_id: str
     env_kwargs: Mapping[str, Any]
+    """Constructor keywords that make the env of this run (they include the condition)."""
     budget: int
+    """Maximum number of model evaluations (= env steps = strokes evaluated)."""
     seed: int
+    """The run's seed; equal seeds must give identical runs."""
     dim: int
+    """Dimension of the action box [-1, 1]^dim."""
     evaluator: VectorEnvEvaluator
+    """The batched fitness; use :meth:`evaluate`."""
     _reporter: Callable[[int, int, float], None] | None = field(default=None, repr=False)
 
     def evaluate(self, actions: np.ndarray) -> np.ndarray:
@@ -113,27 +89,18 @@ class SearchContext:
 
 @dataclass(frozen=True, eq=False)
 class SearchOutcome:
-    """What a method found.
-
-    Attributes
-    ----------
-    best_action : ndarray (dim,)
-        The normalised stroke to record (it is re-evaluated by the harness).
-    best_reward : float
-        Its reward as the method saw it [reward units].
-    evaluations : int
-        Model evaluations (env steps) used, <= the budget.
-    history : tuple of (int, float)
-        (evaluations, best reward so far) pairs, evaluations increasing.
-    config : dict
-        The method's configuration as used (JSON-ready), including a ``citation``.
-    """
+    """What a method found."""
 
     best_action: np.ndarray
+    """The normalised stroke (dim,) to record (it is re-evaluated by the harness)."""
     best_reward: float
+    """Its reward as the method saw it [reward units]."""
     evaluations: int
+    """Model evaluations (env steps) used, <= the budget."""
     history: tuple[tuple[int, float], ...]
+    """(evaluations, best reward so far) pairs, evaluations increasing."""
     config: dict[str, Any]
+    """The method's configuration as used (JSON-ready), including a ``citation``."""
 
     def __post_init__(self) -> None:
         action = np.array(self.best_action, dtype=np.float64)

@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.selection import BestStroke
+from tandem_env.physics.checks import is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
 FloatArray = NDArray[np.float64]
@@ -31,22 +32,14 @@ def check_int(name: str, value: object, *, minimum: int, maximum: int | None = N
     """Raise ValueError unless ``value`` is an integer (not a bool) ``>= minimum`` (and
     ``<= maximum`` where given)."""
     # bool is an int subclass; True as a swarm size is always a bug, never an intent.
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, int | np.integer)
-        or value < minimum
-        or (maximum is not None and value > maximum)
-    ):
+    if not is_integer(value) or value < minimum or (maximum is not None and value > maximum):
         most = "" if maximum is None else f" and <= {maximum:,}"
         raise ValueError(f"{name} must be an integer >= {minimum}{most}, got {value!r}")
 
 
 def store_plain(instance: object, ints: tuple[str, ...], floats: tuple[str, ...] = ()) -> None:
-    """Replace validated numpy scalars on a frozen dataclass by Python int / float.
-
-    numpy scalars are accepted as settings (sweeps often come from numpy arrays), but stored
-    plain so every ``to_dict()`` is JSON-ready and reprs stay readable.
-    """
+    """Replace validated numpy scalars on a frozen dataclass by Python int / float: accepted as
+    settings (sweeps come from arrays), stored plain so ``to_dict()`` is JSON-ready."""
     for names, kind in ((ints, int), (floats, float)):
         for name in names:
             value = getattr(instance, name)
@@ -57,8 +50,7 @@ def store_plain(instance: object, ints: tuple[str, ...], floats: tuple[str, ...]
 def check_real(name: str, value: object, *, low: float, high: float, low_inclusive: bool) -> None:
     """Raise ValueError unless ``value`` is a finite real number in the stated interval."""
     ok = (
-        not isinstance(value, bool)
-        and isinstance(value, int | float | np.integer | np.floating)
+        is_real(value)
         and math.isfinite(value)
         and (value >= low if low_inclusive else value > low)
         and value <= high
@@ -152,18 +144,9 @@ class AskTellOptimiser(Tallied, ABC):
     """Base class for batched ask/tell maximisers over [-1, 1]^dim.
 
     Subclasses implement :meth:`_propose` (the next batch) and :meth:`_observe` (learn from its
-    fitness); budget, best-so-far tracking and history live here.
-
-    Parameters
-    ----------
-    dim : int
-        Dimension of the search box.
-    batch_size : int
-        Points per full ask/tell round.
-    config : OptimiserConfig
-        Configuration; its ``max_evaluations`` bounds the run and its ``to_dict()`` is recorded.
-    seed : int, SeedSequence or None
-        Seed for ``numpy.random.default_rng``; equal seeds give identical runs.
+    fitness); budget, best-so-far tracking and history live here. ``batch_size`` is the points
+    of a full round, ``config.max_evaluations`` bounds the run (its ``to_dict()`` is
+    recorded), ``seed`` seeds ``numpy.random.default_rng``: equal seeds give identical runs.
     """
 
     def __init__(self, dim: int, batch_size: int, config: OptimiserConfig, seed: SeedLike) -> None:
@@ -192,11 +175,8 @@ class AskTellOptimiser(Tallied, ABC):
         return max(0, min(self._batch(), self._config.max_evaluations - self.evaluations))
 
     def ask(self) -> FloatArray:
-        """Next batch of points to evaluate, shape (n, dim), inside [-1, 1]^dim.
-
-        ``n`` is the full batch size except possibly on the last round, which is truncated so
-        the evaluation budget is never exceeded.
-        """
+        """Next batch of points (n, dim) inside [-1, 1]^dim: a full batch, but for a last round
+        truncated so the evaluation budget is never exceeded."""
         if self._pending is not None:
             raise RuntimeError("ask() called again before tell(); tell the pending batch first")
         n = self._next_size()
@@ -208,15 +188,8 @@ class AskTellOptimiser(Tallied, ABC):
         return self._pending.copy()
 
     def tell(self, X: ArrayLike, fitness: ArrayLike) -> None:
-        """Report the fitness (to be maximised) of the batch returned by the last :meth:`ask`.
-
-        Parameters
-        ----------
-        X : array_like of shape (n, dim)
-            The batch exactly as returned by :meth:`ask`.
-        fitness : array_like of shape (n,)
-            Fitness values; NaN counts as the worst possible value (-inf).
-        """
+        """Report the fitness (n,) (to be maximised; NaN counts as -inf) of the batch X
+        (n, dim) exactly as the last :meth:`ask` returned it."""
         if self._pending is None:
             raise RuntimeError("tell() called without a preceding ask()")
         X = np.asarray(X, dtype=float)

@@ -1,15 +1,11 @@
 """A harness run's budget in parts, each searched and polished (``agents.harness`` runs them).
 
 :func:`plan_parts` splits a job's budget into parts: one per search (the ``starts`` setting)
-and one per initial stroke (``initial``), evenly or by ``initial_share``. :func:`search_part`
-runs the method with its own seed on its part through the budgeted vector-env evaluator
-(:class:`~agents.evaluator.VectorEnvEvaluator`), selects its stroke (the one selection rule,
-:mod:`agents.selection`) and polishes it (:mod:`agents.polish`) on what the search left of the
-part; :func:`initial_part` polishes an initial stroke directly. Each returns a :class:`Part`:
-what it found and the evaluations it used.
-
-:class:`PreparedJob` is the validated job they run on (built by
-:func:`agents.harness.prepare_job`).
+and one per initial stroke (``initial``). :func:`search_part` runs the method with its own
+seed on its part, selects its stroke (the one selection rule, :mod:`agents.selection`) and
+polishes it (:mod:`agents.polish`) on what the search left; :func:`initial_part` polishes an
+initial stroke directly. Each returns a :class:`Part`. :class:`PreparedJob` is the validated
+job they run on (:func:`agents.harness.prepare_job`).
 """
 
 from __future__ import annotations
@@ -139,7 +135,7 @@ def search_part(
 ) -> Part:
     """One search on ``budget`` evaluations (less the polish's share), then its polish."""
     seed = _part_seed(prepared.job.seed, index)
-    reserve = _reserve(prepared, budget)
+    reserve = prepared.polish.reserve(budget, gradient_cost(prepared.dim, prepared.task))
 
     def shifted(iteration: int, evaluations: int, best: float) -> None:
         report(iteration, offset + evaluations, best)
@@ -197,11 +193,6 @@ def initial_part(
         certificate,
         evaluations,
     )
-
-
-def _reserve(prepared: PreparedJob, budget: int) -> int:
-    """Evaluations of a search part's ``budget`` kept for its polish."""
-    return prepared.polish.reserve(budget, gradient_cost(prepared.dim, prepared.task))
 
 
 def gradient_cost(dim: int, task: TaskSpec) -> int:

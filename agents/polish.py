@@ -1,30 +1,22 @@
 """Local polish: a constrained local optimiser from a search's best feasible stroke.
 
-A population search (CMA-ES, PSO) stops somewhere on the slope of the basin it found: its
-reported stroke is its last good point, not the top of the basin. The polish climbs the rest
-of the way with a gradient-based constrained optimiser (scipy's SLSQP, or trust-constr) over
-the continuous stroke parameters, the discrete ones (each wing's harmonic N) held fixed, in
-the normalised box [-1, 1] as bounds, with the task's constraints as constraints (the signed
-margins of the task declaration's ``Constraint.margin``, the constraints the reward penalises), not as a
+A population search (CMA-ES, PSO) stops somewhere on the slope of the basin it found. The
+polish climbs the rest of the way with scipy's SLSQP (or trust-constr) over the continuous
+stroke parameters (each wing's harmonic N held fixed), the box [-1, 1] as bounds and the
+task's constraints as constraints (the signed margins of ``Constraint.margin``), not as a
 penalty.
 
-This module is the driver (:func:`polish`, its :class:`Certificate`, the KKT check). The
-problem it optimises (read from the env's public problem view, ``env.problem()``) and the
-gradient functions are in :mod:`agents.polish_gradients`, its settings in
-:mod:`agents.polish_config`; their public names are imported from here too.
+This module is the driver (:func:`polish`, its :class:`Certificate`, the KKT check); the
+problem (the env's public problem view, ``env.problem()``) and the gradient functions are in
+:mod:`agents.polish_gradients`, its settings in :mod:`agents.polish_config`; their public
+names are imported from here too.
 
 The budget counts model evaluations (strokes evaluated, not wall time): a central-difference
-gradient costs 2k + 1 of them, an autograd gradient one (its forward pass; the backward passes
-are not model evaluations: their wall cost is measured in docs/harness.md, "Local polish").
-Every model evaluation counts against the polish's allowance (its share of the run's budget);
-the allowance is never exceeded. The result is the best of the optimiser's points (not the
-perturbed points of the differences) that the task calls feasible (its exact test), if it
-beats the start, cast to the env's action type (float32; the optimiser holds one float32 step
-inside every constraint, :func:`float32_margin`, so the cast keeps it feasible, and the
-objective reported is the cast stroke's); otherwise the start is kept and
-the certificate says why. The :class:`Certificate` reports the gain, the evaluations and
-iterations used, whether the optimiser converged, the first-order optimality (KKT) residual
-at the reported stroke and the constraints active there.
+gradient costs 2k + 1, an autograd gradient one (its backward passes' wall cost is measured
+in docs/harness.md, "Local polish"); the polish's allowance is never exceeded. The result is
+the best of the optimiser's own points that the task calls feasible, if it beats the start,
+cast to the env's action type (float32; :func:`float32_margin` keeps the cast feasible);
+otherwise the start is kept and the certificate says why.
 
 ::
 
@@ -38,7 +30,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -72,6 +64,7 @@ from agents.polish_gradients import (
     task_problem,
 )
 from tandem_env.envs.base import ACTION_DTYPE, as_action_type
+from tandem_env.physics.checks import is_integer
 
 __all__ = [
     "INITIAL_SHARE_RANGE",
@@ -125,11 +118,9 @@ def kkt_residual(
     on_constraint = margins <= active
     upper = x_free >= 1.0 - active
     lower = x_free <= -1.0 + active
-    columns = [jacobian[on_constraint].T]
     eye = np.eye(g.size)
-    columns.append(-eye[:, upper])  # c = 1 - x_j >= 0
-    columns.append(eye[:, lower])  # c = x_j + 1 >= 0
-    a = np.concatenate(columns, axis=1)
+    # the active bounds as constraints: c = 1 - x_j >= 0 (upper), c = x_j + 1 >= 0 (lower)
+    a = np.concatenate([jacobian[on_constraint].T, -eye[:, upper], eye[:, lower]], axis=1)
     if a.shape[1] == 0:
         return 1.0, on_constraint, upper | lower
     # min ||A λ - (-∇f)||, λ >= 0; scaled by ||∇f|| so the residual is relative.
@@ -170,31 +161,12 @@ class Certificate:
     or ``"autograd"``); empty when the polish did not run."""
 
     def to_dict(self) -> dict[str, Any]:
-        out = {
-            "method": self.method,
-            "status": self.status,
-            "gain": self.gain,
-            "objective_before": self.objective_before,
-            "objective_after": self.objective_after,
-            "evaluations": self.evaluations,
-            "allowance": self.allowance,
-            "iterations": self.iterations,
-            "converged": self.converged,
-            "message": self.message,
-            "kkt_residual": self.kkt_residual,
-            "active_constraints": list(self.active_constraints),
-            "gradient": self.gradient,
-        }
+        out = asdict(self)
+        out["active_constraints"] = list(self.active_constraints)
         # JSON has no inf/nan: an undefined residual is null.
         if out["kkt_residual"] is not None and not math.isfinite(out["kkt_residual"]):
             out["kkt_residual"] = None
         return out
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> Certificate:
-        kwargs = dict(data)
-        kwargs["active_constraints"] = tuple(kwargs.get("active_constraints", ()))
-        return cls(**kwargs)
 
     @classmethod
     def off(cls, status: str = "off") -> Certificate:
@@ -224,9 +196,15 @@ class _Run:
     """The bookkeeping of one polish: budget, cache by point, best feasible point seen."""
 
     def __init__(
-        self, problem: Problem, start: np.ndarray, allowance: int, gradient: GradientFunction
+        self,
+        problem: Problem,
+        start: np.ndarray,
+        allowance: int,
+        gradient: GradientFunction,
+        config: PolishConfig,
     ) -> None:
         self.problem = problem
+        self.config = config
         self.start = start
         self.free = np.asarray(problem.free)
         self.allowance = allowance
@@ -235,7 +213,6 @@ class _Run:
         self.values: dict[bytes, tuple[float, np.ndarray, bool]] = {}
         self.gradients: dict[bytes, Gradient] = {}
         self.best: tuple[float, np.ndarray] | None = None
-        self.names: tuple[str, ...] = ()
         self.margin: np.ndarray | float = 0.0
         """(m,) the margin held inside each constraint (:func:`float32_margin`)."""
 
@@ -263,7 +240,6 @@ class _Run:
         if key not in self.values:
             self._spend(1)
             batch = self.problem.evaluate(x[None, :])
-            self.names = batch.names
             found = (float(batch.objective[0]), batch.margins[0].copy(), bool(batch.feasible[0]))
             self.values[key] = found
             self._offer(found[0], found[2], x)
@@ -275,7 +251,6 @@ class _Run:
         if key not in self.gradients:
             self._spend(self.gradient_function.cost)
             grad = self.gradient_function(x)
-            self.names = grad.names
             self.gradients[key] = grad
             self.values[key] = (grad.objective, grad.margins, grad.feasible)
             # Only the point itself is a candidate, not its perturbed neighbours: one of those
@@ -312,7 +287,7 @@ def polish(
     x0 = np.asarray(start, dtype=np.float64)
     if x0.shape != (problem.dim,) or not np.all(np.abs(x0) <= 1.0):
         raise ValueError(f"start has shape {x0.shape} or leaves [-1, 1]; allowed: ({problem.dim},)")
-    if isinstance(budget, bool) or not isinstance(budget, int | np.integer) or budget < 0:
+    if not is_integer(budget) or budget < 0:
         raise ValueError(f"polish budget = {budget!r}; allowed: an integer >= 0")
     # The coordinates the polish does not move (the discrete ones) are held as the action type
     # carries them from the start: the stroke it evaluates last is then the one it reports
@@ -321,18 +296,11 @@ def polish(
     fixed[np.asarray(problem.free)] = False
     x0 = np.where(fixed, as_action_type(x0), x0)
     grad_fn = gradient if gradient is not None else CentralDifferences(problem, config.step)
+    template = Certificate(method=config.method, status="", gradient=grad_fn.name)
     if budget < 2 * grad_fn.cost:
-        return PolishResult(
-            x0,
-            math.nan,
-            Certificate(
-                method=config.method,
-                status=f"failed: allowance {budget} < two gradients ({2 * grad_fn.cost})",
-                allowance=int(budget),
-                gradient=grad_fn.name,
-            ),
-        )
-    run = _Run(problem, x0, int(budget) - grad_fn.cost, grad_fn)
+        status = f"failed: allowance {budget} < two gradients ({2 * grad_fn.cost})"
+        return PolishResult(x0, math.nan, replace(template, status=status, allowance=int(budget)))
+    run = _Run(problem, x0, int(budget) - grad_fn.cost, grad_fn, config)
     z0 = x0[run.free]
     first = run.gradient(z0)
     before = first.objective
@@ -340,7 +308,8 @@ def polish(
     if not first.feasible and not infeasible_start:
         # the search's stroke is where the polish starts; one that fails the task's test has
         # no feasible neighbourhood guaranteed: keep it and say so.
-        return _keep(run, x0, before, config, "failed: the start is infeasible", 0, None, "", False)
+        failed = replace(template, status="failed: the start is infeasible")
+        return _keep(run, x0, before, failed, False)
 
     def fun(z: np.ndarray) -> float:
         return -run.value(z)[0]
@@ -367,32 +336,26 @@ def polish(
         # values outside the bounds it clips; the outcome is in the certificate either way
         warnings.simplefilter("ignore")
         try:
+            common = {"jac": jac, "bounds": bounds, "callback": count}
             if config.method == "slsqp":
                 outcome = minimize(
                     fun,
                     z0,
-                    jac=jac,
                     method="SLSQP",
-                    bounds=bounds,
                     constraints=[{"type": "ineq", "fun": cons, "jac": cons_jac}],
                     options={"ftol": config.tolerance, "maxiter": config.max_iterations},
-                    callback=count,
+                    **common,
                 )
             else:
+                tolerances = {"gtol": config.tolerance, "xtol": config.tolerance}
                 outcome = minimize(
                     fun,
                     z0,
-                    jac=jac,
                     hess=BFGS(),
                     method="trust-constr",
-                    bounds=bounds,
                     constraints=[NonlinearConstraint(cons, 0.0, np.inf, jac=cons_jac, hess=BFGS())],
-                    options={
-                        "gtol": config.tolerance,
-                        "xtol": config.tolerance,
-                        "maxiter": config.max_iterations,
-                    },
-                    callback=count,
+                    options={**tolerances, "maxiter": config.max_iterations},
+                    **common,
                 )
         except _OutOfBudget:
             failure = "allowance used up"
@@ -406,23 +369,23 @@ def polish(
             run.value(np.asarray(outcome.x))
         except _OutOfBudget:
             pass
-    converged = None if outcome is None else bool(outcome.success)
-    message = failure if outcome is None else str(outcome.message)
+    template = replace(
+        template,
+        iterations=iterations,
+        converged=None if outcome is None else bool(outcome.success),
+        message=failure if outcome is None else str(outcome.message),
+    )
     if run.best is None or (first.feasible and run.best[0] <= before):
         status = "no gain" if not failure.startswith("failed") else failure
         if not first.feasible and not failure.startswith("failed"):
             status = "failed: no feasible point from the infeasible start"
-        return _keep(
-            run, x0, before, config, status, iterations, converged, message, first.feasible
-        )
+        return _keep(run, x0, before, replace(template, status=status), first.feasible)
     after, x_best = run.best
     # reported as the action type carries it (the margin keeps it feasible there): the
     # certificate's check evaluates the rounded stroke, whose objective is reported
     x_best = as_action_type(x_best)
     gain = (after - before) / abs(before) if before != 0.0 and first.feasible else None
-    result = _finish(
-        run, x_best, before, after, gain, config, "improved", iterations, converged, message
-    )
+    result = _finish(run, x_best, before, after, gain, replace(template, status="improved"))
     if not result.feasible:  # the margin is a first-order bound: say so if it ever falls short
         status = "failed: the optimum is infeasible as a float32 action"
         certificate = replace(
@@ -445,7 +408,7 @@ def float32_margin(jacobian: np.ndarray, margin: float) -> np.ndarray:
     return margin + step * np.abs(np.asarray(jacobian, dtype=np.float64)).sum(axis=1)
 
 
-def _check(run: _Run, x: np.ndarray, config: PolishConfig) -> tuple[float | None, tuple[str, ...]]:
+def _check(run: _Run, x: np.ndarray) -> tuple[float | None, tuple[str, ...]]:
     """KKT residual and active constraints at x (one more gradient unless cached)."""
     try:
         grad = run.gradient(x[run.free])
@@ -456,7 +419,7 @@ def _check(run: _Run, x: np.ndarray, config: PolishConfig) -> tuple[float | None
         grad.margins - run.margin,
         grad.jacobian,
         x[run.free],
-        config.active,
+        run.config.active,
     )
     names: list[str] = [n for n, a in zip(grad.names, on_constraint, strict=True) if a]
     names += [f"bound:{run.problem.parameter_names[j]}" for j in run.free[on_bound]]
@@ -464,65 +427,38 @@ def _check(run: _Run, x: np.ndarray, config: PolishConfig) -> tuple[float | None
 
 
 def _keep(
-    run: _Run,
-    x0: np.ndarray,
-    before: float,
-    config: PolishConfig,
-    status: str,
-    iterations: int,
-    converged: bool | None,
-    message: str,
-    feasible: bool = True,
+    run: _Run, x0: np.ndarray, before: float, template: Certificate, feasible: bool
 ) -> PolishResult:
     """The search's stroke stays: no gain, a failure, or an infeasible start."""
-    run.margin = config.margin  # the start was not held inside the float32 step
+    run.margin = run.config.margin  # the start was not held inside the float32 step
     gain = 0.0 if feasible else None
-    result = _finish(run, x0, before, before, gain, config, status, iterations, converged, message)
-    return replace(result, feasible=feasible)
+    return replace(_finish(run, x0, before, before, gain, template), feasible=feasible)
 
 
 def _finish(
-    run: _Run,
-    x: np.ndarray,
-    before: float,
-    after: float,
-    gain: float | None,
-    config: PolishConfig,
-    status: str,
-    iterations: int,
-    converged: bool | None,
-    message: str,
+    run: _Run, x: np.ndarray, before: float, after: float, gain: float | None, template: Certificate
 ) -> PolishResult:
-    """The reported stroke x and its certificate, with the KKT check at x (the gradient kept
-    back for it is released from the allowance first)."""
+    """The reported stroke x and its certificate (``template`` completed), with the KKT check at
+    x (the gradient kept back for it is released from the allowance first)."""
     run.allowance += run.gradient_function.cost
-    kkt, active = _check(run, x, config)
+    kkt, active = _check(run, x)
     feasible = True
     found = run.values.get(x.tobytes())  # x as evaluated by the check
-    if found is not None and status == "improved":
+    if found is not None and template.status == "improved":
         after, feasible = found[0], found[2]
         if gain is not None:
             gain = (after - before) / abs(before)
-    return PolishResult(
-        x,
-        after,
-        feasible=feasible,
-        certificate=Certificate(
-            method=config.method,
-            status=status,
-            gain=gain,
-            objective_before=before,
-            objective_after=after,
-            evaluations=run.used,
-            allowance=run.allowance,
-            iterations=iterations,
-            converged=converged,
-            message=message,
-            kkt_residual=kkt,
-            active_constraints=active,
-            gradient=run.gradient_function.name,
-        ),
+    certificate = replace(
+        template,
+        gain=gain,
+        objective_before=before,
+        objective_after=after,
+        evaluations=run.used,
+        allowance=run.allowance,
+        kkt_residual=kkt,
+        active_constraints=active,
     )
+    return PolishResult(x, after, certificate, feasible=feasible)
 
 
 def describe(certificate: Mapping[str, Any] | Certificate) -> str:

@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
+
+from tandem_env.physics.checks import is_integer, is_real
 
 __all__ = [
     "INITIAL_SHARE_RANGE",
@@ -48,60 +50,43 @@ INITIAL_SHARE_RANGE = (0.05, 0.95)
 
 @dataclass(frozen=True)
 class PolishConfig:
-    """Settings of the local polish (validated here, where they enter).
-
-    Parameters
-    ----------
-    method : {"slsqp", "trust-constr", "none"}
-        The scipy optimiser (``minimize(method=...)``); ``"none"`` turns the polish off.
-    share : float
-        Fraction of the run's budget reserved for the polish, in [0.01, 0.9]: the search gets
-        the rest. Chosen by measurement (docs/harness.md, "Local polish").
-    step : float
-        Central-difference step in normalised units, in [1e-8, 1e-2] (1e-5 by default:
-        gradients agree to ~1e-7 relative between 1e-4 and 1e-5).
-    tolerance : float
-        The optimiser's stopping tolerance (SLSQP ``ftol``; trust-constr ``gtol``/``xtol``),
-        in [1e-14, 1e-2].
-    max_iterations : int
-        Optimiser iterations at most, 1 to 10 000.
-    margin : float
-        The optimiser holds every constraint at margin >= ``margin`` [-] (normalised, as
-        ``Constraint.margin``), so its optimum passes the task's exact feasibility test
-        (a stroke on the boundary can miss it by rounding); 0 to 1e-4. One float32 step of
-        every coordinate is held on top (:func:`float32_margin`), and the reported stroke is
-        the optimum cast to the action type (float32), so it stays feasible when stepped
-        through the env as an agent's action.
-    active : float
-        A constraint (or bound) within ``active`` [-] of its limit counts as active in the
-        certificate, 0 to 1e-2.
-    starts : int
-        Independent searches the run's budget is split into, 1 to :data:`MAX_STARTS`; each is
-        the method with its own seed on an equal part of the budget, polished (``share`` of
-        its part), and the run reports the best (docs/harness.md, "Starts and initial
-        strokes"). 1 by default: more did not reproduce better (docs/harness.md,
-        "Reproducibility check").
-    initial : tuple of strokes
-        Normalised strokes (each a sequence of the action box's dimension, values in [-1, 1])
-        that are polished directly, each on an equal part of the budget beside the searches:
-        a warm start, e.g. the optimum of a neighbouring model reading (continuation). A start
-        may be infeasible; the polish then moves it onto the constraints.
-    initial_share : float or None
-        Fraction of the run's budget the initial strokes get together (split evenly among
-        them), in [0.05, 0.95], the searches sharing the rest; None: every part (initial
-        strokes and searches) gets an equal share.
-    """
+    """Settings of the local polish (validated here, where they enter)."""
 
     method: str = "slsqp"
+    """The scipy optimiser (``minimize(method=...)``, :data:`POLISH_METHODS`); ``"none"``
+    turns the polish off."""
     share: float = 0.4
+    """Fraction of the run's budget reserved for the polish, in [0.01, 0.9]: the search gets
+    the rest. Chosen by measurement (docs/harness.md, "Local polish")."""
     step: float = 1e-5
+    """Central-difference step in normalised units, in [1e-8, 1e-2] (gradients agree to ~1e-7
+    relative between 1e-4 and 1e-5)."""
     tolerance: float = 1e-10
+    """Stopping tolerance (SLSQP ``ftol``; trust-constr ``gtol``/``xtol``), in [1e-14, 1e-2]."""
     max_iterations: int = 200
+    """Optimiser iterations at most, 1 to 10 000."""
     margin: float = 1e-9
+    """Every constraint is held at margin >= ``margin`` [-] (normalised, as
+    ``Constraint.margin``), 0 to 1e-4, so the optimum passes the task's exact feasibility test
+    (a stroke on the boundary can miss it by rounding). One float32 step of every coordinate
+    is held on top (:func:`float32_margin`), and the reported stroke is the optimum cast to the
+    action type (float32), so it stays feasible when stepped through the env as an action."""
     active: float = 1e-6
+    """A constraint (or bound) within ``active`` [-] of its limit counts as active in the
+    certificate, 0 to 1e-2."""
     starts: int = 1
+    """Independent searches the run's budget is split into, 1 to :data:`MAX_STARTS`; each is
+    the method with its own seed on an equal part of the budget, polished (``share`` of its
+    part), and the run reports the best (docs/harness.md, "Starts and initial strokes"). 1 by
+    default: more did not reproduce better (docs/harness.md, "Reproducibility check")."""
     initial: tuple[tuple[float, ...], ...] = ()
+    """Normalised strokes (each of the action box's dimension, values in [-1, 1]) polished
+    directly, each on an equal part of the budget beside the searches: a warm start, e.g. the
+    optimum of a neighbouring model reading (continuation). A start may be infeasible; the
+    polish then moves it onto the constraints."""
     initial_share: float | None = None
+    """Fraction of the run's budget the initial strokes get together (split evenly), in
+    [0.05, 0.95], the searches sharing the rest; None: every part gets an equal share."""
 
     def __post_init__(self) -> None:
         if self.method not in POLISH_METHODS:
@@ -116,33 +101,23 @@ class PolishConfig:
             ("active", 0.0, 1e-2),
         ):
             value = getattr(self, name)
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, int | float | np.floating | np.integer)
-                or not math.isfinite(value)
-                or not low <= value <= high
-            ):
+            if not _number_in(value, low, high):
                 raise ValueError(
                     f"polish {name} = {value!r}; allowed: a number in [{low:g}, {high:g}]"
                 )
             object.__setattr__(self, name, float(value))
-        n = self.max_iterations
-        if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 1 <= n <= 10_000:
-            raise ValueError(f"polish max_iterations = {n!r}; allowed: an integer in [1, 10000]")
-        object.__setattr__(self, "max_iterations", int(n))
-        k = self.starts
-        if isinstance(k, bool) or not isinstance(k, int | np.integer) or not 1 <= k <= MAX_STARTS:
-            raise ValueError(f"starts = {k!r}; allowed: an integer in [1, {MAX_STARTS}]")
-        object.__setattr__(self, "starts", int(k))
+        for name, text, high in (
+            ("max_iterations", "polish max_iterations", 10_000),
+            ("starts", "starts", MAX_STARTS),
+        ):
+            n = getattr(self, name)
+            if not is_integer(n) or not 1 <= n <= high:
+                raise ValueError(f"{text} = {n!r}; allowed: an integer in [1, {high}]")
+            object.__setattr__(self, name, int(n))
         object.__setattr__(self, "initial", _strokes(self.initial))
         share = self.initial_share
         if share is not None:
-            if (
-                isinstance(share, bool)
-                or not isinstance(share, int | float | np.floating | np.integer)
-                or not math.isfinite(share)
-                or not INITIAL_SHARE_RANGE[0] <= share <= INITIAL_SHARE_RANGE[1]
-            ):
+            if not _number_in(share, *INITIAL_SHARE_RANGE):
                 low, high = INITIAL_SHARE_RANGE
                 raise ValueError(
                     f"initial_share = {share!r}; allowed: a number in [{low:g}, {high:g}], or none"
@@ -168,18 +143,12 @@ class PolishConfig:
         return reserve if reserve >= 2 * gradient_cost else 0
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "method": self.method,
-            "share": self.share,
-            "step": self.step,
-            "tolerance": self.tolerance,
-            "max_iterations": self.max_iterations,
-            "margin": self.margin,
-            "active": self.active,
-            "starts": self.starts,
-            "initial": [list(stroke) for stroke in self.initial],
-            "initial_share": self.initial_share,
-        }
+        return {**asdict(self), "initial": [list(stroke) for stroke in self.initial]}
+
+
+def _number_in(value: Any, low: float, high: float) -> bool:
+    """Whether ``value`` is a finite real number (not a bool) in [low, high]."""
+    return is_real(value) and math.isfinite(value) and low <= value <= high
 
 
 def _strokes(value: Any) -> tuple[tuple[float, ...], ...]:
@@ -191,17 +160,10 @@ def _strokes(value: Any) -> tuple[tuple[float, ...], ...]:
     for stroke in value:
         if isinstance(stroke, str | bytes) or not isinstance(stroke, list | tuple | np.ndarray):
             raise ValueError(f"initial stroke {stroke!r}; allowed: {allowed}")
-        numbers = []
         for v in stroke:
-            if (
-                isinstance(v, bool)
-                or not isinstance(v, int | float | np.floating | np.integer)
-                or not math.isfinite(v)
-                or not -1.0 <= v <= 1.0
-            ):
+            if not _number_in(v, -1.0, 1.0):
                 raise ValueError(f"initial stroke value {v!r}; allowed: {allowed}")
-            numbers.append(float(v))
-        strokes.append(tuple(numbers))
+        strokes.append(tuple(float(v) for v in stroke))
     if len({len(s) for s in strokes}) > 1:
         raise ValueError(
             f"initial strokes of lengths {sorted({len(s) for s in strokes})}; allowed: {allowed}"

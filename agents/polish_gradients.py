@@ -1,19 +1,15 @@
 """What the local polish optimises and how it takes derivatives: the :class:`Problem` (a
 maximisation over the box [-1, 1]^dim with constraints, some coordinates fixed), a harness
-task's problem read from its env's public problem view (:func:`task_problem`, over
-``tandem_env.envs.problem.FlightProblem``), and the gradient functions.
-
-The default gradient, :class:`CentralDifferences`, evaluates the point and its 2k perturbations
-(k free parameters; 53 strokes for the 26 continuous ones) in ONE batched model call, so the
-objective's gradient and the constraints' Jacobian come from the same batch. With the torch
-backend (env keyword ``backend="torch"``), :class:`AutogradGradient` takes them by autograd from
-ONE model evaluation instead (``FlightProblem.differentiate``): that is the one seam, and the
-certificate names the gradient used. A gradient function's ``cost`` is the model evaluations it
-counts against the polish's allowance.
+task's problem read from its env's public problem view (:func:`task_problem`), and the
+gradient functions: :class:`CentralDifferences` (the point and its 2k perturbations in ONE
+batched model call) and, on the torch backend, :class:`AutogradGradient` (ONE model
+evaluation, ``FlightProblem.differentiate``). A gradient function's ``cost`` is the model
+evaluations it counts against the polish's allowance (docs/harness.md, "Local polish").
 """
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -97,24 +93,19 @@ def task_problem(
 ) -> Problem:
     """The polish problem of a harness task: its env's problem view at ``condition``.
 
-    Objective, constraint margins and feasibility come from the env's
-    :class:`~tandem_env.envs.problem.FlightProblem` (:func:`env_problem`): ONE batched model
-    call through the env's core, scored by the task's declaration, the margins its
-    constraints' (``Constraint.margin``), so the polish optimises exactly what the env rewards
-    under the constraints it penalises; the continuous coordinates are those that are not
-    ``task.discrete_actions``. ``differentiate`` is the same by autograd on the torch backend
-    (``FlightProblem.differentiate``: the env's insect, options and device). ``env``, the
-    task's single env made with ``env_kwargs`` when the caller has one (the harness's job env),
-    is used instead of making one (and left open).
+    Objective, constraint margins (``Constraint.margin``) and feasibility come from the env's
+    :class:`~tandem_env.envs.problem.FlightProblem` (:func:`env_problem`) in ONE batched model
+    call, so the polish optimises exactly what the env rewards under the constraints it
+    penalises; the free coordinates are those not in ``task.discrete_actions``.
+    ``differentiate`` is the same by autograd on the torch backend. ``env``, the task's single
+    env made with ``env_kwargs`` when the caller has one (the harness's job env), is used
+    instead of making one (and left open).
     """
-    given = env
-    if env is None:
-        env = gym.make(task.env_id, disable_env_checker=True, **dict(env_kwargs))
-    try:
+    with contextlib.ExitStack() as stack:
+        if env is None:
+            env = gym.make(task.env_id, disable_env_checker=True, **dict(env_kwargs))
+            stack.callback(env.close)
         view = env_problem(env)
-    finally:
-        if given is None:
-            env.close()
     if view is None or not polishable(view):
         raise ValueError(f"{task.env_id}: its task declares no constraint margins; cannot polish")
     names = view.constraint_names

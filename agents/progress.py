@@ -1,9 +1,5 @@
-"""A command's whole cost over its phases, each a :func:`~agents.runner.run_jobs` call.
-
-A command of several phases (the readings study) says its whole cost up front and at each
-phase's start through one :class:`CommandProgress` passed to each of its
-:func:`~agents.runner.run_jobs` calls.
-"""
+"""A command's whole cost over its phases (the readings study's), each a
+:func:`~agents.runner.run_jobs` call given one :class:`CommandProgress`."""
 
 from __future__ import annotations
 

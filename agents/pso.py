@@ -77,33 +77,24 @@ _CITATIONS: dict[str, str] = {
 
 @dataclass(frozen=True, kw_only=True)
 class PSOConfig:
-    """Configuration of :class:`PSO`.
-
-    Parameters
-    ----------
-    max_evaluations : int
-        Particle evaluations (>= 1; the initial swarm counts); the last iteration is truncated
-        to fit.
-    swarm_size : int
-        Number of particles (>= 2).
-    inertia : {"constriction", "linear-decreasing"}
-        Parameter set; see the module docstring.
-    cognitive, social : float or None
-        Override c1 / c2 (>= 0); None uses the value of the chosen parameter set.
-    velocity_clamp : float
-        Maximum |v| per dimension as a fraction of the box width 2, in (0, 1].
-    boundary : {"clip", "reflect"}
-        "clip" puts a particle that leaves the box on the wall and zeroes that velocity
-        component; "reflect" mirrors the position back inside and reverses the component.
-    """
+    """Configuration of :class:`PSO`."""
 
     max_evaluations: int
+    """Particle evaluations (>= 1; the initial swarm counts); the last iteration is truncated
+    to fit."""
     swarm_size: int = 40
+    """Number of particles (>= 2)."""
     inertia: Inertia = "constriction"
+    """Parameter set; see the module docstring."""
     cognitive: float | None = None
+    """Override of c1 (>= 0); None uses the value of the chosen parameter set."""
     social: float | None = None
+    """Override of c2 (>= 0); None uses the value of the chosen parameter set."""
     velocity_clamp: float = 0.5
+    """Maximum |v| per dimension as a fraction of the box width 2, in (0, 1]."""
     boundary: Boundary = "clip"
+    """``"clip"`` puts a particle that leaves the box on the wall and zeroes that velocity
+    component; ``"reflect"`` mirrors the position back inside and reverses the component."""
 
     def __post_init__(self) -> None:
         check_int("swarm_size", self.swarm_size, minimum=2, maximum=MAX_BATCH)
@@ -152,11 +143,8 @@ class PSOConfig:
         return f"{_CITATIONS[self.inertia]}: {weight}, c1 = {self.c1}, c2 = {self.c2}{note}"
 
     def inertia_schedule(self, iterations: int) -> FloatArray:
-        """Inertia weight of each velocity update in a run of ``iterations`` iterations.
-
-        A run of ``n`` iterations has ``n - 1`` velocity updates (the first iteration evaluates
-        the initial swarm).
-        """
+        """Inertia weight of each of the ``iterations - 1`` velocity updates of a run (the first
+        iteration evaluates the initial swarm)."""
         n_updates = max(iterations - 1, 0)
         if self.inertia == "constriction":
             return np.full(n_updates, CONSTRICTION_W)
@@ -185,22 +173,9 @@ class PSOConfig:
 
 
 class PSO(AskTellOptimiser):
-    """Global-best particle swarm maximiser with an ask/tell interface.
-
-    Parameters
-    ----------
-    dim : int
-        Dimension of the search box [-1, 1]^dim.
-    config : PSOConfig
-        Swarm parameters and budget.
-    seed : int, SeedSequence or None
-        Seed for ``numpy.random.default_rng``; equal seeds give identical runs.
-
-    Notes
-    -----
-    Initial positions are uniform in the box and initial velocities uniform in +-vmax. All
-    per-iteration work is vectorised over the swarm.
-    """
+    """Global-best particle swarm maximiser over [-1, 1]^dim (ask/tell:
+    :class:`~agents.optimiser.AskTellOptimiser`). Initial positions are uniform in the box and
+    initial velocities uniform in +-vmax; each iteration is vectorised over the swarm."""
 
     def __init__(self, dim: int, config: PSOConfig, seed: SeedLike = None) -> None:
         if not isinstance(config, PSOConfig):

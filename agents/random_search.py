@@ -20,18 +20,12 @@ __all__ = ["RandomSearch", "RandomSearchConfig"]
 
 @dataclass(frozen=True, kw_only=True)
 class RandomSearchConfig:
-    """Configuration of :class:`RandomSearch`.
-
-    Parameters
-    ----------
-    max_evaluations : int
-        Points evaluated (>= 1); the last batch is truncated to fit.
-    batch_size : int
-        Points per ask (>= 1); 40 matches the default PSO swarm so per-iteration costs compare.
-    """
+    """Configuration of :class:`RandomSearch`."""
 
     max_evaluations: int
+    """Points evaluated (>= 1); the last batch is truncated to fit."""
     batch_size: int = 40
+    """Points per ask (>= 1); 40 matches the default PSO swarm so per-iteration costs compare."""
 
     def __post_init__(self) -> None:
         check_int("max_evaluations", self.max_evaluations, minimum=1)
@@ -58,17 +52,8 @@ class RandomSearchConfig:
 
 
 class RandomSearch(AskTellOptimiser):
-    """Random-search maximiser with the same ask/tell interface as :class:`agents.pso.PSO`.
-
-    Parameters
-    ----------
-    dim : int
-        Dimension of the search box [-1, 1]^dim.
-    config : RandomSearchConfig
-        Batch size and budget.
-    seed : int, SeedSequence or None
-        Seed for ``numpy.random.default_rng``; equal seeds give identical runs.
-    """
+    """Random-search maximiser over [-1, 1]^dim (ask/tell:
+    :class:`~agents.optimiser.AskTellOptimiser`)."""
 
     def __init__(self, dim: int, config: RandomSearchConfig, seed: SeedLike = None) -> None:
         if not isinstance(config, RandomSearchConfig):
@@ -79,5 +64,4 @@ class RandomSearch(AskTellOptimiser):
         return self._rng.uniform(ACTION_LOW, ACTION_HIGH, (n, self.dim))
 
     def _observe(self, X: FloatArray, fitness: FloatArray) -> None:
-        # Nothing to learn: the base class already tracks the best point and the history.
-        pass
+        """Nothing to learn: the base class tracks the best point and the history."""

@@ -1,13 +1,10 @@
 """The record cache: one store of records shared by every output folder.
 
-The record cache (``cache``, on by default; ``--no-cache`` on the command line) is a store
-shared by every output folder (:func:`agents.store.cache_directory`): a job with no record in
-``--out`` but one in the cache is not run, its record is copied into ``--out`` (and counted as
-reused, "from the cache"), and every record computed (or found in ``--out`` alone) is written to
-the cache too (:func:`agents.runner.run_jobs`, through a :class:`CacheWriter`). An entry that is
-not a valid record of its job is ignored with a :class:`~agents.records.RecordWarning` and
-recomputed. A job whose method takes a path (``policy:RUN_DIR``) is never cached
-(:func:`cacheable`): its result depends on files its key does not hash.
+Its rules (where it is, what the runner does with it, what it never holds, how to turn it off)
+are in docs/harness.md, "The record cache": a job with no record in ``--out`` takes the
+cache's, and every record computed is written to the cache too (:func:`agents.runner.run_jobs`,
+through a :class:`CacheWriter`). A job whose method takes a path (``policy:RUN_DIR``) is never
+cached (:func:`cacheable`): its result depends on files its key does not hash.
 """
 
 from __future__ import annotations

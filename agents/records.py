@@ -1,12 +1,12 @@
 """Harness records: what one job found, in one format every method and reader shares.
 
-A :class:`Record` is what the run of one :class:`~agents.jobs.Job` found, whichever method ran
-(PSO, CMA-ES, random search, a trained policy), so that ``python -m eval compare`` and the
-studies read one format. It holds three things, each once: its job, the job's key and one
-mapping of results (:data:`RESULTS`; a later stage of the run adds its own key to it), and its
-file carries a checksum of all three, so a record edited by hand or damaged is detected. The
-records are kept in a :class:`~agents.store.RecordStore`, written by the runner alone
-(:func:`agents.runner.run_jobs`). The schema with units is documented in ``docs/harness.md``.
+A :class:`Record` is what the run of one :class:`~agents.jobs.Job` found, whichever method ran,
+so that ``python -m eval compare`` and the studies read one format. It holds its job, the job's
+key and one mapping of results (:data:`RESULTS`; a later stage of the run adds its own key to
+it), each once, and its file carries a checksum of all three, so a record edited by hand or
+damaged is detected. The records are kept in a :class:`~agents.store.RecordStore`, written by
+the runner alone (:func:`agents.runner.run_jobs`). The schema with units is documented in
+``docs/harness.md``.
 """
 
 from __future__ import annotations
@@ -150,6 +150,11 @@ def _result(name: str, doc: str) -> property:
     return property(lambda self: self.results[name], doc=doc)
 
 
+def _job_field(name: str, doc: str) -> property:
+    # The job's fields read through the record (``record.seed`` is ``record.job.seed``).
+    return property(lambda self: getattr(self.job, name), doc=doc)
+
+
 def _checksum(payload: Mapping[str, Any]) -> str:
     text = json.dumps(payload, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()
@@ -207,25 +212,10 @@ class Record:
                 )
 
     # --- the job's fields -----------------------------------------------------------------------
-    @property
-    def method(self) -> str:
-        """Method spec, e.g. ``"pso"``, ``"cmaes"``, ``"policy:runs/ppo"``."""
-        return self.job.method
-
-    @property
-    def task(self) -> str:
-        """Task name, e.g. ``"level"`` or ``"accelerate"``."""
-        return self.job.task
-
-    @property
-    def seed(self) -> int:
-        """Seed of the method (and of the envs' first reset)."""
-        return self.job.seed
-
-    @property
-    def budget(self) -> int:
-        """Allowed model evaluations (= env steps = strokes evaluated)."""
-        return self.job.budget
+    method = _job_field("method", 'Method spec, e.g. ``"pso"``, ``"policy:runs/ppo"``.')
+    task = _job_field("task", 'Task name, e.g. ``"level"`` or ``"accelerate"``.')
+    seed = _job_field("seed", "Seed of the method (and of the envs' first reset).")
+    budget = _job_field("budget", "Allowed model evaluations (= env steps = strokes evaluated).")
 
     @property
     def condition(self) -> Condition:
@@ -406,10 +396,6 @@ class Record:
             row["insect"] = to_jsonable(insect)
         row["key"] = self.key
         return row
-
-    def best_so_far(self) -> tuple[list[int], list[float]]:
-        """The history as (evaluations, best reward so far) lists, e.g. for plotting."""
-        return [e for e, _ in self.history], [b for _, b in self.history]
 
 
 def _short(value: Any, limit: int = 60) -> str:

@@ -1,40 +1,18 @@
 """The runner: a set of harness jobs run once each, resumably, here or on a Dask cluster.
 
-A :class:`~agents.jobs.Job` is one harness run: one method, task, condition, budget and
-seed, with its env keywords, method settings and preset. Its key hashes all of that plus the
-package version, and its record is kept in the output directory's
-:class:`~agents.store.RecordStore` as ``DIR/records/<key>.json``. So
-
-* a killed run resumes: a job whose record is stored (and names the same job) is not run
-  again;
-* a changed configuration (budget, seeds, env keywords, model options, preset, package version)
-  gives new keys, so old records are never mixed in: analyses load exactly the records of the
-  jobs they ask for, and stale files in the directory are ignored;
-* the same command gives the same numbers: every job is seeded and runs alone, so neither the
-  order, the executor nor the number of workers changes a result.
-
-Where the jobs run (``scheduler``, ``--scheduler`` on the command line) is
-:mod:`agents.dask_cluster`'s: here, one after another (the default), on a ``LocalCluster``
-(``"local:N"``) or on a running Dask scheduler and its workers (an address).
+Each job's record is kept in the output directory's :class:`~agents.store.RecordStore` under
+the job's key, the hash of its whole configuration and the package version, so a killed run
+resumes, a changed configuration never mixes in old records, and neither the order, the
+executor nor the number of workers changes a result (docs/harness.md, "The record and the
+store"). Where the jobs run is :mod:`agents.dask_cluster`'s.
 
 Every job to run is validated once, here, before any of them runs
-(:func:`agents.harness.prepare_job`; a job already prepared, as ``python -m eval optimize``
-prepares its seeds, is not validated again), and the workers are sent the prepared jobs. This
-process is the one writer of the records (``python -m eval optimize``, the studies and
-``python -m train.envelope`` all submit their jobs here): it writes each as its job finishes
-(workers need no shared filesystem) and hands it back in the :class:`RunSummary` without
-reading it again, one progress bar counts the evaluations of the finished jobs, a worker that
-dies has its jobs rerun by Dask, and a job that raises is reported with its key and traceback
-after the other jobs have finished (:class:`JobsFailed`).
-
-The record cache (``cache``, on by default; ``--no-cache`` on the command line; its rules in
-:mod:`agents.record_cache`) is a store shared by every output folder: a job with no record in
-``--out`` but one in the cache is not run, its record copied into ``--out``, and every record
-computed is written to the cache too.
-
-A command of several phases (the readings study) says its whole cost up front and at each
-phase's start through one :class:`~agents.progress.CommandProgress` passed to each of its
-:func:`run_jobs` calls.
+(:func:`agents.harness.prepare_job`; a job already prepared is not validated again). This
+process is the one writer of the records: it writes each as its job finishes (workers need no
+shared filesystem), one progress bar counts the evaluations of the finished jobs, a worker
+that dies has its jobs rerun by Dask, and a job that raises is reported with its key and
+traceback after the other jobs have finished (:class:`JobsFailed`). The record cache is
+:mod:`agents.record_cache`'s, a command's progress over several calls :mod:`agents.progress`'s.
 """
 
 from __future__ import annotations
@@ -280,33 +258,28 @@ def run_jobs(
 ) -> RunSummary:
     """Run every job that has no valid stored record yet; duplicates run once.
 
-    ``scheduler`` chooses where (:mod:`agents.dask_cluster`): None runs them here, one after
-    another; ``"local:N"`` or a scheduler address runs them on Dask. The jobs to run are
-    validated first, all of them before any runs (a :class:`~agents.harness.PreparedJob` is
-    validated already; a job :func:`~agents.harness.prepare_job` rejects is a failure and does
-    not run); they start largest budget first, so the workers stay busy to the end. Each record
-    is stored as its job finishes, by this function alone. Raises :class:`JobsFailed` (after
-    every other job has finished) if any job was rejected or raised,
-    :class:`~agents.dask_cluster.SchedulerUnreachable` if the scheduler does not answer,
-    ValueError for a bad ``scheduler`` or an ``out_dir`` (or cache folder) that is a file.
-    ``rerun`` runs every job again, its record replacing the stored one (a trained policy's run
-    folder may hold a newer model under the same name). The summary's ``records`` are the jobs'
-    records, each read at most once.
+    ``scheduler`` chooses where (None: here, one after another; :mod:`agents.dask_cluster`).
+    The jobs to run are validated first (a job :func:`~agents.harness.prepare_job` rejects is
+    a failure and does not run) and start largest budget first, so the workers stay busy to
+    the end. Raises :class:`JobsFailed` (after every other job has finished) if any job was
+    rejected or raised, :class:`~agents.dask_cluster.SchedulerUnreachable` if the scheduler
+    does not answer, ValueError for a bad ``scheduler`` or an ``out_dir`` (or cache folder)
+    that is a file. ``rerun`` runs every job again, its record replacing the stored one (a
+    trained policy's run folder may hold a newer model under the same name). The summary's
+    ``records`` are the jobs' records, each read at most once.
 
-    ``cache`` is the record cache (:mod:`agents.record_cache`;
-    :data:`~agents.record_cache.CacheOption`): a job with no record in ``out_dir`` takes the
-    cache's, copied into ``out_dir``; every record computed is written to both. ``command`` is
-    the whole command's progress (:class:`~agents.progress.CommandProgress`), told of every job
-    this call finishes.
+    ``cache`` is the record cache (:data:`~agents.record_cache.CacheOption`): a job with no
+    record in ``out_dir`` takes the cache's, copied into ``out_dir``; every record computed is
+    written to both. ``command`` (:class:`~agents.progress.CommandProgress`) is told of every
+    job this call finishes.
 
     ``summary_csv`` (``python -m eval optimize``) also keeps ``out_dir``'s ``summary.csv``
     over every record there, rewritten when the call ends (also after a failure or an
-    interrupt; :meth:`~agents.store.RecordStore.write_summary`, the records of this call
-    not read again). The store's paths are checked first, once its records are read and before
-    any other work: :class:`OutputNotWritable` naming the path and what is allowed for a file
-    where a folder goes, or a folder that cannot be written while a job has no record there;
-    one that cannot be written but holds every job is used as it is, its summary left as it
-    is (said on stderr).
+    interrupt). The store's paths are checked once its records are read, before any other
+    work: :class:`OutputNotWritable` naming the path and what is allowed for a file where a
+    folder goes, or a folder that cannot be written while a job has no record there; one
+    that cannot be written but holds every job is used as it is, its summary left as it is
+    (said on stderr).
     """
     executor = "serial" if scheduler is None else parse_scheduler(scheduler)
     start = time.perf_counter()

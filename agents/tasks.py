@@ -2,13 +2,10 @@
 
 A :class:`TaskSpec` is a name, a Gymnasium id (whose ``vector_entry_point`` the harness
 evaluates batches through) and the env config's :class:`~tandem_env.envs.TaskDeclaration`,
-which it reads and never copies: the condition's one name (constructor keyword, reset option,
-``info`` key, record name), its unit, the objectives the env offers. The tasks of this
-package's envs (``"level"``, ``"accelerate"``) are built from their configs' declarations
-(:meth:`TaskSpec.from_env`, for every id with a task in
-``tandem_env.envs.registration.ENTRIES``, read when asked), so adding a task touches nothing
-here; tests register analytic tasks by hand (:func:`register_task`), and every method runs
-through one code path.
+which it reads and never copies. The tasks of this package's envs (``"level"``,
+``"accelerate"``) are built from their configs' declarations (:meth:`TaskSpec.from_env`, for
+every id with a task in ``tandem_env.envs.registration.ENTRIES``, read when asked), so adding a
+task touches nothing here; tests register analytic tasks by hand (:func:`register_task`).
 """
 
 from __future__ import annotations
@@ -67,29 +64,21 @@ class Condition:
 
 @dataclass(frozen=True)
 class TaskSpec:
-    """How the harness runs one task: a name, an env id and the env's task declaration.
-
-    Parameters
-    ----------
-    name : str
-        Short name used on the command line and in record file names (lower case).
-    env_id : str
-        Registered Gymnasium id; it must have a ``vector_entry_point`` whose vector env accepts
-        ``autoreset_mode="Disabled"`` and the keyword arguments of the single env, and whose
-        step ``info`` reports the condition under its keyword (checked when present).
-    declaration : TaskDeclaration
-        The env's declaration (its config's ``DECLARATION``), with a condition and objectives.
-    discrete_actions : tuple of (int, int)
-        (index, levels) of each discrete action coordinate: it takes ``levels`` values, value i
-        on the i-th of ``levels`` equal bins of [-1, 1]. Methods that know discrete variables
-        (CMA-ES) search those coordinates on the bin centres; the others search them as
-        continuous and the env's map decides.
-    """
+    """How the harness runs one task: a name, an env id and the env's task declaration."""
 
     name: str
+    """Short name used on the command line and in record file names (lower case)."""
     env_id: str
+    """Registered Gymnasium id; it must have a ``vector_entry_point`` whose vector env accepts
+    ``autoreset_mode="Disabled"`` and the keyword arguments of the single env, and whose step
+    ``info`` reports the condition under its keyword (checked when present)."""
     declaration: TaskDeclaration
+    """The env's declaration (its config's ``DECLARATION``), with a condition and objectives."""
     discrete_actions: tuple[tuple[int, int], ...] = field(default=())
+    """(index, levels) of each discrete action coordinate: it takes ``levels`` values, value i
+    on the i-th of ``levels`` equal bins of [-1, 1]. Methods that know discrete variables
+    (CMA-ES) search those coordinates on the bin centres; the others search them as
+    continuous and the env's map decides."""
 
     @classmethod
     def from_env(cls, name: str, env_id: str) -> TaskSpec:
@@ -176,10 +165,6 @@ class TaskSpec:
         return self.declared_objectives.keyword
 
     @property
-    def objective_unit(self) -> str:
-        return self.declared_objectives.unit
-
-    @property
     def description(self) -> str:
         """One line for ``--help`` and docs."""
         return self.declaration.summary
@@ -194,27 +179,17 @@ class TaskSpec:
             )
         return Condition(self.condition_name, float(value), self.condition_unit)
 
-    def objective_choice(self, env_kwargs: Mapping[str, Any]) -> str:
-        """The objective the env will use with ``env_kwargs``."""
+    def objective_metric(self, env_kwargs: Mapping[str, Any]) -> str:
+        """The ``info`` metric the env maximises with ``env_kwargs``, e.g. ``"efficiency"``."""
         if self.objective_kwarg is None:
-            return self.default_objective
+            return self.objectives[self.default_objective]
         choice = env_kwargs.get(self.objective_kwarg, self.default_objective)
         if choice not in self.objectives:
             raise ValueError(
                 f"{self.name}: {self.objective_kwarg} = {choice!r}; allowed: "
                 f"{', '.join(map(repr, self.objectives))}"
             )
-        return str(choice)
-
-    def objective_metric(self, env_kwargs: Mapping[str, Any]) -> str:
-        """The ``info`` metric the env maximises with ``env_kwargs``, e.g. ``"efficiency"``."""
-        return self.objectives[self.objective_choice(env_kwargs)]
-
-    def slug(self, env_kwargs: Mapping[str, Any]) -> str:
-        """Task label for file names: the name, plus the objective when there is a choice."""
-        if self.objective_kwarg is None:
-            return self.name
-        return f"{self.name}-{self.objective_choice(env_kwargs)}"
+        return self.objectives[choice]
 
 
 #: Tasks registered by hand (:func:`register_task`: a spec not read from an env config, such as
