@@ -1,20 +1,9 @@
-"""``python -m eval speed-change``: policies flown through whole ``TandemWing/SpeedChange-v0`` episodes.
+"""``python -m eval speed-change``: policies flown through whole ``TandemWing/SpeedChange-v0``
+episodes (the policies and what is written: :data:`DESCRIPTION`).
 
-Baselines (each a :class:`~eval.speed_change_policies.Policy`, given the batch of observations
-and episode states):
-
-* ``random``: uniform random strokes, a new one every cycle;
-* ``steady``: the level-flight optimum at the grid speed nearest the episode's target, played
-  every cycle. The optima come from the harness (:func:`steady_optima`: harness jobs on the
-  ``level`` task with the SpeedChange env's insect and model options, so with its
-  ``thrust_split="body"`` a level-feasible stroke is one whose net force of the dynamics is
-  within ±2 % of W), stored by configuration under ``--out`` and reused;
-* ``ppo``, ``sac``: models trained by ``python -m train --algo ppo|sac --env
-  TandemWing/SpeedChange-v0`` (deterministic actions).
-
-Every policy flies the same episodes: the native vector env reset with the fixed evaluation
-seeds (sub-env i with seed ``first_seed + i``, hence the same start and target speeds), one
-batched model call per cycle for all episodes.
+Every policy (a :class:`~eval.speed_change_policies.Policy`) flies the same episodes: the native
+vector env reset with the fixed evaluation seeds, one batched model call per cycle for all
+episodes. The steady schedule's level-flight optima are harness jobs (:func:`steady_optima`).
 """
 
 from __future__ import annotations
@@ -35,7 +24,7 @@ import tandem_env  # noqa: F401  (registers the ids)
 from eval.speed_change_policies import Policy, RandomPolicy, SB3Policy, SteadyPolicy
 from tandem_env.envs.registration import SPEED_CHANGE_ID
 from tandem_env.envs.speed_change_config import LEVEL_FLIGHT_ENVELOPE, SpeedChangeConfig
-from tandem_env.io.files import output_directory, write_csv_atomic
+from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
 from tandem_env.physics.checks import shown
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
@@ -440,26 +429,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=0,
         help="which evaluation episode the figure shows (index, default 0)",
     )
-    parser.add_argument(
-        "--scheduler",
-        default=None,
-        help='where the optima run: none (here, serially; default), "local:N" or a Dask '
-        "scheduler address (as for python -m eval study)",
-    )
-    from eval.optimize import add_cache_argument
+    from eval.optimize import add_cache_argument, add_scheduler_argument
 
+    add_scheduler_argument(parser)
     add_cache_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
 def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> str:
-    """Validate --optimiser, --optima-budget, --grid and --scheduler before any optimisation
-    (ValueError naming the option and what is allowed); returns the optimiser."""
-    from agents.dask_cluster import parse_scheduler
+    """Validate --optimiser, --optima-budget and --grid before any optimisation (ValueError
+    naming the option and what is allowed); returns the optimiser."""
     from agents.harness import prepare
 
-    if args.scheduler is not None:
-        parse_scheduler(args.scheduler)
     method = default_optimiser() if args.optimiser is None else args.optimiser
     if len(set(args.grid)) != len(args.grid):
         raise ValueError(
@@ -533,11 +514,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         episodes.extend(episode_metrics(log) for log in logs)
         shown.append(logs[args.figure_episode])
     rows = policy_summary_rows(episodes)
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_csv_atomic(args.out / "episodes.csv", episodes)
+    write_csv_atomic(args.out / "episodes.csv", episodes)  # atomically, the folder created
     write_csv_atomic(args.out / "summary.csv", rows)
     table = policy_summary_markdown(rows)
-    (args.out / "summary.md").write_text(table)
+    write_text_atomic(args.out / "summary.md", table)
     print(table)
     if args.figure is not None:
         plot_episode(shown, args.figure)
