@@ -379,14 +379,8 @@ def convergence_figure(
             with np.errstate(all="ignore"):
                 lo, med, hi = np.nanpercentile(shown, [25, 50, 75], axis=0)
             ax.fill_between(evaluations, lo, hi, color=color, alpha=0.2, linewidth=0)
-            ax.plot(
-                evaluations,
-                med,
-                "-",
-                color=color,
-                lw=2,
-                label=f"{method_label(method)}: median (IQR)",
-            )
+            label = f"{method_label(method)}: median (IQR)"
+            ax.plot(evaluations, med, "-", color=color, lw=2, label=label)
             later = shown[:, evaluations >= 0.05 * evaluations[-1]]
             if np.isfinite(later).any():
                 lows.append(np.nanmin(later))

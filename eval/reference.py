@@ -26,6 +26,7 @@ import numpy as np
 
 import tandem_env
 from agents.harness import PreparedJob, prepare
+from agents.jobs import Job
 from agents.progress import CommandProgress, Phase
 from agents.records import Record, package_versions
 from agents.runner import OutputNotWritable, run_jobs
@@ -116,6 +117,14 @@ def _best(records: Sequence[Record], env_id: str, objective: str) -> Record:
     return records[best_index([r.feasible for r in records], values)]
 
 
+def _round_job(job: Job, index: int) -> Job:
+    """The point of ``job`` (its first seed's) in continuation round ``index``, but for the warm
+    starts: on :data:`CONTINUATION_SHARE` of the budget, seeded with the round's number."""
+    return replace(
+        job, budget=max(1, round(CONTINUATION_SHARE * job.budget)), seed=job.seed + index
+    )
+
+
 def continuation(
     jobs: Mapping[PointKey, Sequence[PreparedJob]],
     found: Mapping[PointKey, Sequence[Record]],
@@ -140,13 +149,13 @@ def continuation(
         strokes = list(
             dict.fromkeys(tuple(best[k].normalised_stroke) for k in sources if k in best)
         )
-        job = prepared[0].job
+        job = _round_job(prepared[0].job, index)
         continued[key] = prepare(
             METHOD,
             _task(env_id),
             condition,
-            max(1, round(CONTINUATION_SHARE * job.budget)),
-            [job.seed + index],
+            job.budget,
+            [job.seed],
             env_kwargs=dict(job.env_kwargs),
             method_config={
                 "initial": [list(stroke) for stroke in strokes],
@@ -349,14 +358,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     )
     phases = [Phase("search", tuple(p.job for p in flat))]
     for index in range(ROUNDS):
-        stand_ins = tuple(
-            replace(
-                p[0].job,
-                budget=max(1, round(CONTINUATION_SHARE * p[0].job.budget)),
-                seed=p[0].job.seed + index,
-            )
-            for p in jobs.values()
-        )
+        stand_ins = tuple(_round_job(p[0].job, index) for p in jobs.values())
         phases.append(
             Phase(f"continuation {index + 1}", stand_ins, frozenset(j.key for j in stand_ins))
         )

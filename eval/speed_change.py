@@ -85,11 +85,8 @@ FIRST_SEED = 1000
 
 
 # --- the level-flight optima, through the harness ---------------------------------------------
-def default_optimiser() -> str:
-    """The harness's best optimiser available: "cmaes" if registered, else "pso"."""
-    from agents.methods import available_methods
-
-    return "cmaes" if "cmaes" in available_methods() else "pso"
+#: The harness method of the level-flight optima (registered with the harness, as pso is).
+DEFAULT_OPTIMISER = "cmaes"
 
 
 def level_kwargs(config: SpeedChangeConfig) -> dict[str, Any]:
@@ -141,17 +138,15 @@ def steady_optima(
     from agents.jobs import Job
     from agents.runner import run_jobs
 
-    method = default_optimiser() if method is None else method
+    method = DEFAULT_OPTIMISER if method is None else method
     kwargs = level_kwargs(config)
     jobs = [Job(method, "level", float(v), budget, seed, env_kwargs=kwargs) for v in speeds]
     with tempfile.TemporaryDirectory() as scratch:
         where = scratch if cache_dir is None else cache_dir
         summary = run_jobs(jobs, where, scheduler=scheduler, progress=progress, cache=record_cache)
-    records = [summary.records.get(job.key) for job in jobs]
     actions = []
-    for speed, record in zip(speeds, records, strict=True):
-        if record is None:  # run_jobs raises when a job fails; a missing record is a bug
-            raise RuntimeError(f"no level-flight record at {speed:g} m/s after running it")
+    for speed, job in zip(speeds, jobs, strict=True):
+        record = summary.records[job.key]  # every job's: run_jobs raises when one fails
         if not record.feasible:
             print(
                 f"steady: the {method} optimum at {speed:g} m/s is not level-feasible "
@@ -392,9 +387,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--optimiser",
-        default=None,
-        help='harness method for the level-flight optima (default "cmaes" if registered, '
-        'else "pso")',
+        default=DEFAULT_OPTIMISER,
+        help=f"harness method for the level-flight optima (default {DEFAULT_OPTIMISER})",
     )
     parser.add_argument(
         "--optima-budget",
@@ -436,12 +430,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
-def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> str:
+def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> None:
     """Validate --optimiser, --optima-budget and --grid before any optimisation (ValueError
-    naming the option and what is allowed); returns the optimiser."""
+    naming the option and what is allowed)."""
     from agents.harness import prepare
 
-    method = default_optimiser() if args.optimiser is None else args.optimiser
     if len(set(args.grid)) != len(args.grid):
         raise ValueError(
             f"--grid {' '.join(shown(v, *args.grid) for v in args.grid)}: allowed: distinct speeds"
@@ -449,13 +442,12 @@ def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> str:
     kwargs = level_kwargs(config)
     for speed in args.grid:
         try:  # the harness's own checks: method, budget, speed within the level task's range
-            prepare(method, "level", speed, args.optima_budget, [0], env_kwargs=kwargs)
+            prepare(args.optimiser, "level", speed, args.optima_budget, [0], env_kwargs=kwargs)
         except ValueError as error:
             raise ValueError(
-                f"the level-flight optimum at --grid speed {shown(speed, *args.grid)} m/s (--optimiser {method}, "
-                f"--optima-budget {args.optima_budget}): {error}"
+                f"the level-flight optimum at --grid speed {shown(speed, *args.grid)} m/s "
+                f"(--optimiser {args.optimiser}, --optima-budget {args.optima_budget}): {error}"
             ) from None
-    return method
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
@@ -484,7 +476,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                 )
             output_directory(figure.parent, "--figure")
         config = SpeedChangeConfig.from_kwargs()
-        method = _check_optima(args, config)
+        _check_optima(args, config)
         policies: list[Any] = [RandomPolicy(seed=0)]
         for name in ("ppo", "sac"):
             for run_dir in getattr(args, name):
@@ -496,7 +488,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         lambda: steady_optima(
             config,  # type: ignore[arg-type]
             speeds=args.grid,
-            method=method,
+            method=args.optimiser,
             budget=args.optima_budget,
             cache_dir=args.out / "optima",
             scheduler=args.scheduler,
