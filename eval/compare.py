@@ -261,8 +261,9 @@ def _median_known(values: Sequence[float | None]) -> float:
     return float(np.median(known)) if known else math.nan
 
 
-def _fmt(value: float, digits: int = 4) -> str:
-    return "n/a" if not math.isfinite(value) else f"{value:.{digits}g}"
+def _fmt(value: float, spec: str = ".4g", scale: float = 1.0, unit: str = "") -> str:
+    """``scale * value`` formatted by ``spec``, with ``unit``; "n/a" where it is not finite."""
+    return f"{scale * value:{spec}}{unit}" if math.isfinite(value) else "n/a"
 
 
 def comparison_markdown(rows: Sequence[Row]) -> str:
@@ -277,8 +278,8 @@ def comparison_markdown(rows: Sequence[Row]) -> str:
         if r.feasible_share > 0:
             objective = (
                 f"{_fmt(r.objective_median)} | {_fmt(r.objective_q25)}-"
-                f"{_fmt(r.objective_q75)} ({_fmt(r.objective_iqr, 3)}) | "
-                f"{_percent(r.objective_spread)} | "
+                f"{_fmt(r.objective_q75)} ({_fmt(r.objective_iqr, '.3g')}) | "
+                f"{_fmt(r.objective_spread, '.3g', 100, ' %')} | "
                 f"{_fmt(r.objective_best)} | {_fmt(r.objective_median_feasible)}"
             )
         else:
@@ -288,13 +289,8 @@ def comparison_markdown(rows: Sequence[Row]) -> str:
             f"| {r.task} | {r.objective_name} | {r.condition} = {r.condition_value:g} "
             f"{r.condition_unit} | {_cell(method)} | {r.budget} | {r.seeds} | {objective} | "
             f"{_fmt(r.reward_median)} | {r.feasible_share:.0%} | {r.evaluations_median:g} | "
-            f"{r.wall_time_median_s:.3g} | "
-            + (
-                "n/a"
-                if math.isnan(r.polish_gain_median)
-                else f"{100 * r.polish_gain_median:+.2f} %"
-            )
-            + f" | {_fmt(r.kkt_residual_median, 2)} | {_fmt(r.score_median, 4)} |"
+            f"{r.wall_time_median_s:.3g} | {_fmt(r.polish_gain_median, '+.2f', 100, ' %')} | "
+            f"{_fmt(r.kkt_residual_median, '.2g')} | {_fmt(r.score_median)} |"
         )
     notes = [
         "spread = (max - min) / |median| of the objective over the seeds.",
@@ -305,10 +301,6 @@ def comparison_markdown(rows: Sequence[Row]) -> str:
     if any(r.distinct for r in rows):
         notes.append("In brackets: the settings that tell a row from the others of its condition.")
     return "\n".join(lines) + "\n\n" + "\n".join(notes) + "\n"
-
-
-def _percent(value: float) -> str:
-    return "n/a" if not math.isfinite(value) else f"{100 * value:.3g} %"
 
 
 def _cell(text: str) -> str:
