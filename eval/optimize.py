@@ -428,8 +428,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except STOPS as error:
         return stopped(parser, error)
     for record in (summary.records[p.job.key] for p in plan.jobs):
-        metrics = record.metrics
-        power = metrics.get("power_per_mass")
+        power = record.metrics.get("power_per_mass")
         print(
             f"{record.method} seed {record.seed}: {record.objective_name} = "
             f"{record.objective:.5g}, reward = {record.reward:.5g}, feasible = {record.feasible}"
