@@ -134,16 +134,12 @@ def _series(value: Any, where: str) -> tuple[float, list[tuple[float, float]]]:
     if not isinstance(harmonics, (list, tuple)):
         raise SpecError(f"{where}.harmonics = {harmonics!r}; allowed: [[amplitude, phase], ...]")
     pairs = []
-    for k, pair in enumerate(harmonics, start=1):
+    for k, pair in enumerate(harmonics):
+        at = f"{where}.harmonics[{k}]"
         if not isinstance(pair, (list, tuple)) or len(pair) != 2:
-            raise SpecError(
-                f"{where}.harmonics[{k - 1}] = {pair!r}; allowed: [amplitude, phase] of harmonic {k}"
-            )
+            raise SpecError(f"{at} = {pair!r}; allowed: [amplitude, phase] of harmonic {k + 1}")
         pairs.append(
-            (
-                _number(pair[0], f"{where}.harmonics[{k - 1}][0]", "amplitude"),
-                _number(pair[1], f"{where}.harmonics[{k - 1}][1]", "phase"),
-            )
+            (_number(pair[0], f"{at}[0]", "amplitude"), _number(pair[1], f"{at}[1]", "phase"))
         )
     return mean, pairs
 
@@ -155,38 +151,39 @@ def _read_csv(path: Path, where: str) -> dict[str, np.ndarray]:
         text = read_text(path, f"{where}.csv")
     except DataFileError as error:
         raise SpecError(str(error)) from None
+    table = f"{where}.csv {str(path)!r}"  # how every message names the file
     reader = csv.reader(io.StringIO(text, newline=""))
     try:
         rows = [row for row in reader if row and not row[0].lstrip().startswith("#")]
     except csv.Error as exc:
-        raise SpecError(f"{where}.csv {str(path)!r}: not CSV ({exc})") from None
+        raise SpecError(f"{table}: not CSV ({exc})") from None
     if len(rows) < 2:
-        raise SpecError(f"{where}.csv {str(path)!r}: needs a header row and samples")
+        raise SpecError(f"{table}: needs a header row and samples")
     if len(rows) - 1 > MAX_SAMPLES + 1:  # before parsing a huge file (a closed cycle: + 1)
         raise SpecError(
-            f"{where}.csv {str(path)!r} has {len(rows) - 1} samples; allowed: at most "
-            f"{MAX_SAMPLES} per cycle (resample it)"
+            f"{table} has {len(rows) - 1} samples; allowed: at most {MAX_SAMPLES} per cycle "
+            "(resample it)"
         )
     header = [h.strip() for h in rows[0]]
     repeated = sorted({h for h in header if header.count(h) > 1})
     if repeated:
         raise SpecError(
-            f"{where}.csv {str(path)!r}: column {repeated[0]!r} appears "
-            f"{header.count(repeated[0])} times in the header; allowed: distinct column names"
+            f"{table}: column {repeated[0]!r} appears {header.count(repeated[0])} times in the "
+            "header; allowed: distinct column names"
         )
     data: dict[str, list[float]] = {h: [] for h in header}
     for line, row in enumerate(rows[1:], start=2):
         if len(row) != len(header):
             raise SpecError(
-                f"{where}.csv {str(path)!r} row {line} has {len(row)} values and the header "
-                f"{len(header)}; allowed: one value per column"
+                f"{table} row {line} has {len(row)} values and the header {len(header)}; "
+                "allowed: one value per column"
             )
         for h, cell in zip(header, row, strict=True):
             try:
                 data[h].append(float(cell))
             except ValueError:
                 raise SpecError(
-                    f"{where}.csv {str(path)!r} row {line}, column {h!r}: {cell!r} is not a number"
+                    f"{table} row {line}, column {h!r}: {cell!r} is not a number"
                 ) from None
     return {h: np.asarray(v) for h, v in data.items()}
 
