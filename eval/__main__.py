@@ -39,10 +39,6 @@ SUBCOMMANDS: tuple[str, ...] = (
 )
 
 
-def _load(names: Sequence[str]) -> list[ModuleType]:
-    return [importlib.import_module(name) for name in names]
-
-
 def _texts(module: ModuleType) -> dict[str, object]:
     """The description and epilog of a subcommand's parser (the same under either program)."""
     # A module whose help depends on what is registered builds it now: description().
@@ -65,7 +61,8 @@ def build_parser(
     modules: Sequence[ModuleType] | None = None, prog: str = "python -m eval"
 ) -> argparse.ArgumentParser:
     """The top-level parser with one sub-parser per subcommand module."""
-    modules = _load(SUBCOMMANDS) if modules is None else modules
+    if modules is None:
+        modules = [importlib.import_module(name) for name in SUBCOMMANDS]
     parser = argparse.ArgumentParser(
         prog=prog,
         description=(

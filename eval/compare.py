@@ -1,15 +1,6 @@
-"""``python -m eval compare``: tables and convergence plots across harness records.
-
-Records are grouped by task, objective and condition (one plot panel each) and, within a
-group, by the rest of their job's configuration: method, budget, env keywords (planform, model
-options, ...), method settings, preset and ``tandem_env`` version (one table row and one curve
-each; only the seeds differ within a row). Records of different configurations are never
-merged, and one that is found twice (the same record file in two folders given) counts once.
-The table gives the median, inter-quartile range and spread of the re-evaluated objective over
-seeds, the feasible share and the median evaluations and wall time; the plot the median
-best-so-far reward of the search against evaluations with the inter-quartile band over seeds,
-and the reported (polished) objective as a marker at the evaluations spent, joined to the end
-of the search's curve by the polish's dotted segment.
+"""``python -m eval compare``: tables and convergence plots across harness records, grouped
+by task, objective and condition (a panel each) and by the rest of their job's configuration (a
+row and a curve each; only the seeds differ within one). What it writes: :data:`DESCRIPTION`.
 """
 
 from __future__ import annotations
@@ -20,7 +11,7 @@ import sys
 import textwrap
 from collections import defaultdict
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -87,14 +78,10 @@ TABLE_MD = "comparison.md"
 PLOT_STEM = "convergence"
 
 
-def plural(n: int, noun: str) -> str:
-    """``1 seed``, ``2 seeds``."""
-    return f"{n} {noun}{'' if n == 1 else 's'}"
-
-
 @dataclass(frozen=True)
 class Row:
-    """One configuration on one task/objective/condition, over its seeds."""
+    """One configuration on one task/objective/condition, over its seeds. Its fields but
+    :attr:`distinct` are the columns of ``comparison.csv``, in this order."""
 
     task: str
     objective_name: str
@@ -112,9 +99,10 @@ class Row:
     objective_median: float
     objective_q25: float
     objective_q75: float
-    objective_best: float
+    objective_iqr: float
     objective_spread: float
     """(max - min) / |median| of the objective over the seeds [-] (NaN if none feasible)."""
+    objective_best: float
     objective_median_feasible: float
     """Median objective over the feasible seeds (NaN if none)."""
     reward_median: float
@@ -131,36 +119,11 @@ class Row:
     stroke that does not fly; :attr:`agents.records.Record.score`) [-]; NaN where the
     reference table does not apply."""
 
-    @property
-    def objective_iqr(self) -> float:
-        return self.objective_q75 - self.objective_q25
-
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "task": self.task,
-            "objective_name": self.objective_name,
-            "condition": self.condition,
-            "condition_value": self.condition_value,
-            "condition_unit": self.condition_unit,
-            "method": self.method,
-            "budget": self.budget,
-            "settings": self.settings,
-            "seeds": self.seeds,
-            "objective_median": self.objective_median,
-            "objective_q25": self.objective_q25,
-            "objective_q75": self.objective_q75,
-            "objective_iqr": self.objective_iqr,
-            "objective_spread": self.objective_spread,
-            "objective_best": self.objective_best,
-            "objective_median_feasible": self.objective_median_feasible,
-            "reward_median": self.reward_median,
-            "feasible_share": self.feasible_share,
-            "evaluations_median": self.evaluations_median,
-            "wall_time_median_s": self.wall_time_median_s,
-            "polish_gain_median": self.polish_gain_median,
-            "kkt_residual_median": self.kkt_residual_median,
-            "score_median": self.score_median,
-        }
+        """The row's ``comparison.csv`` columns."""
+        columns = asdict(self)
+        del columns["distinct"]
+        return columns
 
 
 PanelKey = tuple[str, str, str, float, str]
@@ -188,10 +151,6 @@ def series_key(record: Record) -> SeriesKey:
 
 def _text(value: Any) -> str:
     return ",".join(map(_text, value)) if isinstance(value, list | tuple) else f"{value}"
-
-
-def _settings(pairs: Sequence[tuple[str, str]]) -> str:
-    return "; ".join(f"{k}={v}" for k, v in pairs)
 
 
 def distinct_settings(keys: Sequence[SeriesKey]) -> dict[SeriesKey, str]:
@@ -225,13 +184,12 @@ def group(
     seen: dict[str, Record] = {}
     for record in records:
         if record.key in seen:  # one configuration and seed: the same run, found twice
-            if quiet:
-                continue
-            print(
-                f"compare: {record.label()} (key {record.key}) found twice; the first found "
-                "is counted",
-                file=sys.stderr,
-            )
+            if not quiet:
+                print(
+                    f"compare: {record.label()} (key {record.key}) found twice; the first "
+                    "found is counted",
+                    file=sys.stderr,
+                )
             continue
         seen[record.key] = record
         out[panel_key(record)][series_key(record)].append(record)
@@ -274,29 +232,28 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
                     condition_unit=unit,
                     method=method,
                     budget=budget,
-                    settings=_settings(pairs),
+                    settings="; ".join(f"{k}={v}" for k, v in pairs),
                     distinct=distinct[skey],
                     seeds=len(runs),
                     objective_median=float(median),
                     objective_q25=float(q25),
                     objective_q75=float(q75),
-                    objective_best=best,
+                    objective_iqr=float(q75) - float(q25),
                     objective_spread=spread,
+                    objective_best=best,
                     objective_median_feasible=median_feasible,
                     reward_median=float(np.median([r.reward for r in runs])),
                     feasible_share=float(np.mean(feasible)),
                     evaluations_median=float(np.median([r.evaluations for r in runs])),
                     wall_time_median_s=float(np.median([r.wall_time for r in runs])),
-                    polish_gain_median=_certificate_median(runs, "gain"),
-                    kkt_residual_median=_certificate_median(runs, "kkt_residual"),
+                    polish_gain_median=_median_known([r.certificate.get("gain") for r in runs]),
+                    kkt_residual_median=_median_known(
+                        [r.certificate.get("kkt_residual") for r in runs]
+                    ),
                     score_median=_median_known([r.score for r in runs]),
                 )
             )
     return rows
-
-
-def _certificate_median(runs: Sequence[Record], name: str) -> float:
-    return _median_known([r.certificate.get(name) for r in runs])
 
 
 def _median_known(values: Sequence[float | None]) -> float:
@@ -304,8 +261,9 @@ def _median_known(values: Sequence[float | None]) -> float:
     return float(np.median(known)) if known else math.nan
 
 
-def _fmt(value: float, digits: int = 4) -> str:
-    return "n/a" if not math.isfinite(value) else f"{value:.{digits}g}"
+def _fmt(value: float, spec: str = ".4g", scale: float = 1.0, unit: str = "") -> str:
+    """``scale * value`` formatted by ``spec``, with ``unit``; "n/a" where it is not finite."""
+    return f"{scale * value:{spec}}{unit}" if math.isfinite(value) else "n/a"
 
 
 def comparison_markdown(rows: Sequence[Row]) -> str:
@@ -320,8 +278,8 @@ def comparison_markdown(rows: Sequence[Row]) -> str:
         if r.feasible_share > 0:
             objective = (
                 f"{_fmt(r.objective_median)} | {_fmt(r.objective_q25)}-"
-                f"{_fmt(r.objective_q75)} ({_fmt(r.objective_iqr, 3)}) | "
-                f"{_percent(r.objective_spread)} | "
+                f"{_fmt(r.objective_q75)} ({_fmt(r.objective_iqr, '.3g')}) | "
+                f"{_fmt(r.objective_spread, '.3g', 100, ' %')} | "
                 f"{_fmt(r.objective_best)} | {_fmt(r.objective_median_feasible)}"
             )
         else:
@@ -331,13 +289,8 @@ def comparison_markdown(rows: Sequence[Row]) -> str:
             f"| {r.task} | {r.objective_name} | {r.condition} = {r.condition_value:g} "
             f"{r.condition_unit} | {_cell(method)} | {r.budget} | {r.seeds} | {objective} | "
             f"{_fmt(r.reward_median)} | {r.feasible_share:.0%} | {r.evaluations_median:g} | "
-            f"{r.wall_time_median_s:.3g} | "
-            + (
-                "n/a"
-                if math.isnan(r.polish_gain_median)
-                else f"{100 * r.polish_gain_median:+.2f} %"
-            )
-            + f" | {_fmt(r.kkt_residual_median, 2)} | {_fmt(r.score_median, 4)} |"
+            f"{r.wall_time_median_s:.3g} | {_fmt(r.polish_gain_median, '+.2f', 100, ' %')} | "
+            f"{_fmt(r.kkt_residual_median, '.2g')} | {_fmt(r.score_median)} |"
         )
     notes = [
         "spread = (max - min) / |median| of the objective over the seeds.",
@@ -348,10 +301,6 @@ def comparison_markdown(rows: Sequence[Row]) -> str:
     if any(r.distinct for r in rows):
         notes.append("In brackets: the settings that tell a row from the others of its condition.")
     return "\n".join(lines) + "\n\n" + "\n".join(notes) + "\n"
-
-
-def _percent(value: float) -> str:
-    return "n/a" if not math.isfinite(value) else f"{100 * value:.3g} %"
 
 
 def _cell(text: str) -> str:
@@ -425,7 +374,7 @@ def convergence_figure(records: Sequence[Record]) -> Any:
             variant[method] += 1
             x, q25, median, q75 = convergence_curve(runs)
             label = ", ".join(p for p in (method_label(method), distinct[skey]) if p)
-            label += f" ({plural(len(runs), 'seed')})"
+            label += f" ({len(runs)} seed{'s' * (len(runs) != 1)})"
             ax.plot(x, median, drawstyle="steps-post", color=colour, ls=style["ls"], label=label)
             ax.fill_between(x, q25, q75, step="post", alpha=0.2, color=colour, lw=0)
             feasible = [r.objective for r in runs if r.feasible]

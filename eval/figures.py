@@ -1,17 +1,10 @@
 """Paper-style figures of the studies (matplotlib, Agg; PNG, SVG or PDF: :data:`FORMATS`).
 
-Every sweep figure shows the spread over seeds the same way: the median over feasible seeds as
-a line, the inter-quartile range as a band, each feasible seed as a small dot and the best seed
-(best objective) as a star. What the paper states in its text is drawn the same way in every
-figure: its numbers are black markers (one marker per quantity, named in the legend), a
-condition it names (e.g. "peaks at 1.5 m/s") is a black dotted vertical line, and a trend it
-states only in words is quoted in the legend ("paper: ..."). A value we derive from a paper's
-statement (e.g. its relative gain applied to our own median) is an open diamond whose legend
-says how it was derived, never "paper". A panel of a stroke parameter draws its Table 4 bounds
-as grey dashed lines. Legends sit outside the axes, so they cover nothing, and list only what
-is drawn. Colours are Okabe & Ito's colour-blind-safe palette (:data:`PALETTE`), fixed per
-method and variant (:func:`series_style`), so a series keeps its colour when another is added
-and the two series of a pair (F̄_v and F̄_h, tear-drop and real wing) differ in hue.
+Every sweep figure draws the spread over seeds, the paper's statements and the values derived
+from them the same way (docs/reproduction.md, "Every figure shows ..."): :func:`draw_series`,
+:func:`draw_paper`, :func:`draw_bounds`. Legends sit outside the axes. Colours are Okabe & Ito's
+colour-blind-safe palette (:data:`PALETTE`), fixed per method and variant
+(:func:`series_style`), so a series keeps its colour when another is added.
 
 The kinematics figures (Figs. 9-13) are in :mod:`eval.kinematics_figures`.
 """
@@ -74,16 +67,6 @@ LINE_HUES: tuple[str, ...] = PALETTE[:6]
 #: blue -> orange for CMA-ES, vermillion -> sky blue for PSO, so the defaults' pairs never share
 #: a hue with each other.
 VARIANT_HUE_STEP = 4
-#: Fixed colour of each method family (the spec's name before ':'); other specs get a colour
-#: from their name's checksum, so no colour depends on which other series a figure has.
-METHOD_COLORS: dict[str, str] = {
-    "cmaes": PALETTE[0],
-    "pso": PALETTE[1],
-    "random": PALETTE[2],
-    "policy": PALETTE[3],
-    "ppo": PALETTE[4],
-    "sac": PALETTE[5],
-}
 #: Readable names of the method families for legends.
 METHOD_NAMES: dict[str, str] = {
     "cmaes": "CMA-ES",
@@ -93,6 +76,10 @@ METHOD_NAMES: dict[str, str] = {
     "ppo": "PPO",
     "sac": "SAC",
 }
+#: Fixed colour of each method family (the spec's name before ':'): the palette in the order
+#: above (CMA-ES blue, PSO vermillion, ...); other specs get a colour from their name's
+#: checksum, so no colour depends on which other series a figure has.
+METHOD_COLORS: dict[str, str] = dict(zip(METHOD_NAMES, PALETTE, strict=False))
 #: Line style of a series' variant (0: e.g. F̄_v or the tear-drop; 1: F̄_h or the real wing).
 VARIANT_LINES: tuple[str, ...] = ("-", "--", ":")
 #: The fore- and hind-wing in the kinematics figures.
@@ -392,14 +379,8 @@ def convergence_figure(
             with np.errstate(all="ignore"):
                 lo, med, hi = np.nanpercentile(shown, [25, 50, 75], axis=0)
             ax.fill_between(evaluations, lo, hi, color=color, alpha=0.2, linewidth=0)
-            ax.plot(
-                evaluations,
-                med,
-                "-",
-                color=color,
-                lw=2,
-                label=f"{method_label(method)}: median (IQR)",
-            )
+            label = f"{method_label(method)}: median (IQR)"
+            ax.plot(evaluations, med, "-", color=color, lw=2, label=label)
             later = shown[:, evaluations >= 0.05 * evaluations[-1]]
             if np.isfinite(later).any():
                 lows.append(np.nanmin(later))

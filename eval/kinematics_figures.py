@@ -218,20 +218,18 @@ def cycle_figure(
     return figures.save(fig, path)
 
 
+#: The panels of Fig. 13: (quantity of a :class:`Trace`'s wing, axis label).
+FLOW_PANELS: tuple[tuple[str, str], ...] = (
+    ("angle_of_attack", "angle of attack [deg]"),
+    ("relative_speed", "relative speed at 0.75R [m/s]"),
+)
+
+
 def flow_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
     """Angle of attack and relative speed at 0.75 R over the cycle (Fig. 13); the dotted line
     is the paper's end of the down-stroke (t/T = 0.5: the paper's cycles start with it)."""
     fig, axes = plt.subplots(2, 1, figsize=(8.4, 5.2), sharex=True)
-    for k, (ax, (quantity, ylabel)) in enumerate(
-        zip(
-            axes,
-            (
-                ("angle_of_attack", "angle of attack [deg]"),
-                ("relative_speed", "relative speed at 0.75R [m/s]"),
-            ),
-            strict=True,
-        )
-    ):
+    for k, (ax, (quantity, ylabel)) in enumerate(zip(axes, FLOW_PANELS, strict=True)):
         _plot_wings(ax, traces, quantity)
         _mark_downstroke(ax, label=k == 0)
         ax.set_ylabel(ylabel)

@@ -1,10 +1,6 @@
-"""``python -m eval measured KINEMATICS.yaml``: a filmed insect's kinematics in, forces out.
-
-The YAML file gives the insect (geometry, masses, planform, force coefficients), both wing pairs'
-kinematics (Fourier series or sampled CSV columns) and the flight condition; the command prints
-L/W, thrust, drag, power and P/m per wing pair and in total, and writes a JSON record (inputs,
-cycle means, per-sample histories) and a figure of the force and power histories. The format is
-documented in docs/measured.md; ``examples/`` has complete files.
+"""``python -m eval measured KINEMATICS.yaml``: a filmed insect's kinematics in, forces out
+(the file and what is written: :data:`DESCRIPTION`, docs/measured.md; complete files in
+``examples/``).
 """
 
 from __future__ import annotations
@@ -66,13 +62,6 @@ class SpecError(ValueError):
     """A bad field in a kinematics file; the message names the field and what is allowed."""
 
 
-def _text(path: Path, where: str) -> str:
-    try:
-        return read_text(path, where)
-    except DataFileError as error:
-        raise SpecError(str(error)) from None
-
-
 @dataclass(frozen=True)
 class MeasuredCase:
     """One measured flight: both wing pairs, the insect and the flight condition."""
@@ -116,9 +105,7 @@ def _insect(spec: Any) -> Dragonfly:
     :func:`tandem_env.physics.insect.load_insect`, as ``--insect`` and the env keyword)."""
     try:
         return load_insect(_mapping(spec, "insect"))
-    except SpecError:
-        raise
-    except ValueError as exc:
+    except ValueError as exc:  # a SpecError's message is kept as it is
         raise SpecError(str(exc)) from None
 
 
@@ -147,16 +134,12 @@ def _series(value: Any, where: str) -> tuple[float, list[tuple[float, float]]]:
     if not isinstance(harmonics, (list, tuple)):
         raise SpecError(f"{where}.harmonics = {harmonics!r}; allowed: [[amplitude, phase], ...]")
     pairs = []
-    for k, pair in enumerate(harmonics, start=1):
+    for k, pair in enumerate(harmonics):
+        at = f"{where}.harmonics[{k}]"
         if not isinstance(pair, (list, tuple)) or len(pair) != 2:
-            raise SpecError(
-                f"{where}.harmonics[{k - 1}] = {pair!r}; allowed: [amplitude, phase] of harmonic {k}"
-            )
+            raise SpecError(f"{at} = {pair!r}; allowed: [amplitude, phase] of harmonic {k + 1}")
         pairs.append(
-            (
-                _number(pair[0], f"{where}.harmonics[{k - 1}][0]", "amplitude"),
-                _number(pair[1], f"{where}.harmonics[{k - 1}][1]", "phase"),
-            )
+            (_number(pair[0], f"{at}[0]", "amplitude"), _number(pair[1], f"{at}[1]", "phase"))
         )
     return mean, pairs
 
@@ -164,39 +147,43 @@ def _series(value: Any, where: str) -> tuple[float, list[tuple[float, float]]]:
 def _read_csv(path: Path, where: str) -> dict[str, np.ndarray]:
     if not path.is_file():
         raise SpecError(f"{where}.csv = {str(path)!r}: no such file")
-    text = _text(path, f"{where}.csv")
+    try:
+        text = read_text(path, f"{where}.csv")
+    except DataFileError as error:
+        raise SpecError(str(error)) from None
+    table = f"{where}.csv {str(path)!r}"  # how every message names the file
     reader = csv.reader(io.StringIO(text, newline=""))
     try:
         rows = [row for row in reader if row and not row[0].lstrip().startswith("#")]
     except csv.Error as exc:
-        raise SpecError(f"{where}.csv {str(path)!r}: not CSV ({exc})") from None
+        raise SpecError(f"{table}: not CSV ({exc})") from None
     if len(rows) < 2:
-        raise SpecError(f"{where}.csv {str(path)!r}: needs a header row and samples")
+        raise SpecError(f"{table}: needs a header row and samples")
     if len(rows) - 1 > MAX_SAMPLES + 1:  # before parsing a huge file (a closed cycle: + 1)
         raise SpecError(
-            f"{where}.csv {str(path)!r} has {len(rows) - 1} samples; allowed: at most "
-            f"{MAX_SAMPLES} per cycle (resample it)"
+            f"{table} has {len(rows) - 1} samples; allowed: at most {MAX_SAMPLES} per cycle "
+            "(resample it)"
         )
     header = [h.strip() for h in rows[0]]
     repeated = sorted({h for h in header if header.count(h) > 1})
     if repeated:
         raise SpecError(
-            f"{where}.csv {str(path)!r}: column {repeated[0]!r} appears "
-            f"{header.count(repeated[0])} times in the header; allowed: distinct column names"
+            f"{table}: column {repeated[0]!r} appears {header.count(repeated[0])} times in the "
+            "header; allowed: distinct column names"
         )
     data: dict[str, list[float]] = {h: [] for h in header}
     for line, row in enumerate(rows[1:], start=2):
         if len(row) != len(header):
             raise SpecError(
-                f"{where}.csv {str(path)!r} row {line} has {len(row)} values and the header "
-                f"{len(header)}; allowed: one value per column"
+                f"{table} row {line} has {len(row)} values and the header {len(header)}; "
+                "allowed: one value per column"
             )
         for h, cell in zip(header, row, strict=True):
             try:
                 data[h].append(float(cell))
             except ValueError:
                 raise SpecError(
-                    f"{where}.csv {str(path)!r} row {line}, column {h!r}: {cell!r} is not a number"
+                    f"{table} row {line}, column {h!r}: {cell!r} is not a number"
                 ) from None
     return {h: np.asarray(v) for h, v in data.items()}
 
@@ -250,29 +237,25 @@ def _measured_wing(
         data = _read_csv(folder / str(spec["csv"]), where)
         columns = _mapping(spec.get("columns"), f"{where}.columns")
         _take(columns, ("time", *ANGLES), f"{where}.columns")
-        angles = {}
+        angles = []
         for angle in ANGLES:
             name = columns.get(angle, angle)
             where_col = f"{where}.columns.{angle}"
             if isinstance(name, list):
-                angles[angle] = np.stack([_column(data, n, where_col) for n in name], axis=1)
+                angles.append(np.stack([_column(data, n, where_col) for n in name], axis=1))
             else:
-                angles[angle] = _column(data, name, where_col)
+                angles.append(_column(data, name, where_col))
         if "time" in columns or "time" in data:
             time = _column(data, columns.get("time", "time"), f"{where}.columns.time")
-            return MeasuredWing.from_samples(
-                time, *(angles[a] for a in ANGLES), beta, frequency=frequency,
-                degrees=degrees, pitch_stations=stations,
-            )  # fmt: skip
-        # No time column: the samples are one open cycle, t_i = i/(n f). One constructor for
-        # both, so a table without times gets the same checks and warnings (radians given as
-        # degrees) as one with them.
-        n = len(angles[ANGLES[0]])
-        time = np.arange(n) / (n * frequency) if frequency > 0 else np.arange(n, dtype=float)
+        else:
+            # No time column: the samples are one open cycle, t_i = i/(n f). One constructor for
+            # both, so a table without times gets the same checks and warnings (radians given as
+            # degrees) as one with them.
+            n = len(angles[0])
+            time = np.arange(n) / (n * frequency) if frequency > 0 else np.arange(n, dtype=float)
         return MeasuredWing.from_samples(
-            time, *(angles[a] for a in ANGLES), beta, frequency=frequency,
-            degrees=degrees, pitch_stations=stations,
-        )  # fmt: skip
+            time, *angles, beta, frequency=frequency, degrees=degrees, pitch_stations=stations
+        )
     except SpecError:
         raise
     except ValueError as exc:
@@ -320,22 +303,6 @@ def load_case(path: str | Path) -> MeasuredCase:
         insect=_insect(spec.get("insect")),
         options=_options(spec.get("options")),
     )
-
-
-def run_case(case: MeasuredCase) -> StrokeHistory:
-    """The histories and cycle means (``.result``) of a case."""
-    try:
-        return measured_history(
-            case.fore,
-            case.hind,
-            case.speed,
-            case.available_power,
-            flight_path_angle=case.flight_path_angle,
-            insect=case.insect,
-            options=case.options,
-        )
-    except ValueError as exc:
-        raise SpecError(str(exc)) from None
 
 
 def summary(history: StrokeHistory, insect: Dragonfly) -> dict[str, dict[str, float]]:
@@ -486,8 +453,16 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         warnings.simplefilter("always")
         try:
             case = load_case(source)
-            history = run_case(case)
-        except SpecError as exc:
+            history = measured_history(
+                case.fore,
+                case.hind,
+                case.speed,
+                case.available_power,
+                flight_path_angle=case.flight_path_angle,
+                insect=case.insect,
+                options=case.options,
+            )
+        except ValueError as exc:  # a bad field (SpecError) or a stroke the model refuses
             parser.error(f"{source}: {exc}")
     for warning in caught:
         print(f"{parser.prog}: warning: {source}: {warning.message}", file=sys.stderr)

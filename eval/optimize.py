@@ -40,16 +40,6 @@ def _tasks() -> list[TaskSpec]:
     return [get_task(name) for name in available_tasks()]
 
 
-def _flag(task: TaskSpec) -> str:
-    """The command-line option of a task's condition, from its keyword (``--speed``)."""
-    return task.condition_flag
-
-
-def _usage(task: TaskSpec) -> str:
-    """``--speed V`` [m/s]: how a task's condition is given."""
-    return f"{_flag(task)} {task.condition_metavar} [{task.condition_unit}]"
-
-
 def _tasks_text(width: int = 92) -> str:
     """The "Tasks and conditions" paragraph of ``--help``, from the tasks' declarations."""
     lines = []
@@ -58,7 +48,7 @@ def _tasks_text(width: int = 92) -> str:
         if task.declaration is not None:
             low, high = task.declared_condition.envelope
             what += f" ({low:g}-{high:g})"
-        text = f"{_flag(task)} {task.condition_metavar}  {what}; {task.description}"
+        text = f"{task.condition_flag} {task.condition_metavar}  {what}; {task.description}"
         if task.objective_kwarg is not None:
             choices = ", ".join(task.objectives)
             text += f" --objective: {choices} (default {task.default_objective})."
@@ -180,7 +170,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     condition = parser.add_mutually_exclusive_group(required=True)
     by_flag: dict[str, list[TaskSpec]] = {}
     for task in tasks:
-        by_flag.setdefault(_flag(task), []).append(task)
+        by_flag.setdefault(task.condition_flag, []).append(task)
     for flag, owners in by_flag.items():
         condition.add_argument(
             flag,
@@ -352,9 +342,12 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> O
     task = next(t for t in tasks if t.name == args.task)  # one of them: argparse's choices
     condition = getattr(args, task.condition_kwarg)
     if condition is None:
-        given = [_flag(t) for t in tasks if getattr(args, t.condition_kwarg, None) is not None]
+        given = [
+            t.condition_flag for t in tasks if getattr(args, t.condition_kwarg, None) is not None
+        ]
         parser.error(
-            f"--task {task.name} takes {_usage(task)}, not {' '.join(dict.fromkeys(given))}"
+            f"--task {task.name} takes {task.condition_flag} {task.condition_metavar} "
+            f"[{task.condition_unit}], not {' '.join(dict.fromkeys(given))}"
         )
     if task.objective_kwarg is None and args.objective is not None:
         choosers = [t.name for t in tasks if t.objective_kwarg is not None]
@@ -435,8 +428,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except STOPS as error:
         return stopped(parser, error)
     for record in (summary.records[p.job.key] for p in plan.jobs):
-        metrics = record.metrics
-        power = metrics.get("power_per_mass")
+        power = record.metrics.get("power_per_mass")
         print(
             f"{record.method} seed {record.seed}: {record.objective_name} = "
             f"{record.objective:.5g}, reward = {record.reward:.5g}, feasible = {record.feasible}"

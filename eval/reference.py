@@ -2,26 +2,12 @@
 
 Two phases of harness jobs, run by the resumable runner (:func:`agents.runner.run_jobs`:
 records in ``--out``, here or on Dask with ``--scheduler``, a killed run resumes; one line says
-the whole cost first, :class:`agents.progress.CommandProgress`):
-
-1. *search*: one job per grid point, objective, planform and seed
-   (:data:`tandem_env.envs.reference.REFERENCE_GRID`; CMA-ES with its polish, :data:`BUDGETS`,
-   seeds :data:`SEEDS`);
-2. *continuation*, :data:`ROUNDS` rounds (:func:`continuation`): per point, one job on half
-   the budget that polishes, as warm starts, the best strokes so far at this point, at its
-   grid neighbours and, for accelerating flight, for the other objectives, beside a short
-   search of its own. A point's optimum then does not rest on one search's luck, neighbouring
-   optima agree, and how much the last round still raised the points (the table's
-   ``convergence``) says how settled they are.
-
-Per point, the best stroke by the harness's one rule (:mod:`agents.selection`: feasible first,
-then the higher objective) among its seeds, its continuation rounds and, for a task whose feasible set
-grows with the condition (:data:`NESTED_TASKS`), every stroke found at a lower or equal
-condition for any objective, is written to the packaged table
-``tandem_env/data/reference_optima.json`` (or ``--table``) with its stroke, where it came from,
-every seed's objective, its certificate and the provenance (the command, package versions,
-date, budgets, seeds, the summed optimisation time and each series' fingerprint). A figure and
-a Markdown table of the optima go to ``--out``. docs/reference.md says how the table is used.
+the whole cost first, :class:`agents.progress.CommandProgress`): the *search* (:func:`plan`: per
+point of :data:`tandem_env.envs.reference.REFERENCE_GRID`, objective, planform and seed), then
+:data:`ROUNDS` rounds of *continuation* (:func:`continuation`). Per point, the best stroke
+competing for it (:func:`_pool`) is written with its provenance to the packaged table
+``tandem_env/data/reference_optima.json`` (or ``--table``, :func:`build_table`), a figure and a
+Markdown table of the optima to ``--out``. The method and the table: docs/reference.md.
 """
 
 from __future__ import annotations
@@ -32,6 +18,7 @@ import os
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import replace
+from itertools import product
 from pathlib import Path
 from typing import Any
 
@@ -39,13 +26,14 @@ import numpy as np
 
 import tandem_env
 from agents.harness import PreparedJob, prepare
+from agents.jobs import Job
 from agents.progress import CommandProgress, Phase
 from agents.records import Record, package_versions
 from agents.runner import OutputNotWritable, run_jobs
 from agents.selection import best_index
 from agents.tasks import TaskSpec, available_tasks, get_task
 from eval.optimize import STOPS, add_cache_argument, add_scheduler_argument, stopped
-from eval.reference_report import write_reference_figure, write_reference_markdown
+from eval.reference_report import reference_markdown, write_reference_figure
 from tandem_env.envs.reference import (
     REFERENCE_FORMAT,
     REFERENCE_GRID,
@@ -53,7 +41,7 @@ from tandem_env.envs.reference import (
     reference_path,
 )
 from tandem_env.envs.registration import config_class
-from tandem_env.io.files import write_json_atomic
+from tandem_env.io.files import write_json_atomic, write_text_atomic
 from tandem_env.physics.insect import PLANFORMS
 
 NAME = "reference"
@@ -88,19 +76,17 @@ def plan(
     jobs: dict[tuple[str, str, str, float], list[PreparedJob]] = {}
     for env_id, (objectives, conditions) in grid.items():
         task = _task(env_id)
-        for objective in objectives:
-            for planform in PLANFORMS:
-                for condition in conditions:
-                    jobs[env_id, objective, planform, condition] = prepare(
-                        METHOD,
-                        task,
-                        condition,
-                        budgets[env_id],
-                        seeds,
-                        objective=objective if task.objective_kwarg else None,
-                        env_kwargs={"planform": planform, **(env_kwargs or {})},
-                        preset=PRESET,
-                    )
+        for objective, planform, condition in product(objectives, PLANFORMS, conditions):
+            jobs[env_id, objective, planform, condition] = prepare(
+                METHOD,
+                task,
+                condition,
+                budgets[env_id],
+                seeds,
+                objective=objective if task.objective_kwarg else None,
+                env_kwargs={"planform": planform, **(env_kwargs or {})},
+                preset=PRESET,
+            )
     return jobs
 
 
@@ -118,21 +104,25 @@ CONTINUATION_INITIAL_SHARE = 0.75
 ROUNDS = 5
 
 
-def _metric(env_id: str, objective: str) -> str:
-    objectives = config_class(env_id).OBJECTIVES
-    assert objectives is not None
-    return str(objectives.metrics[objective])
-
-
 def _value(record: Record, env_id: str, objective: str) -> float:
     """The record's stroke's value of ``objective`` (its own objective or another metric)."""
-    return float(record.metrics[_metric(env_id, objective)])
+    objectives = config_class(env_id).OBJECTIVES
+    assert objectives is not None
+    return float(record.metrics[str(objectives.metrics[objective])])
 
 
 def _best(records: Sequence[Record], env_id: str, objective: str) -> Record:
     """The best stroke for ``objective`` by the harness's rule (feasible first, then higher)."""
     values = [_value(r, env_id, objective) for r in records]
     return records[best_index([r.feasible for r in records], values)]
+
+
+def _round_job(job: Job, index: int) -> Job:
+    """The point of ``job`` (its first seed's) in continuation round ``index``, but for the warm
+    starts: on :data:`CONTINUATION_SHARE` of the budget, seeded with the round's number."""
+    return replace(
+        job, budget=max(1, round(CONTINUATION_SHARE * job.budget)), seed=job.seed + index
+    )
 
 
 def continuation(
@@ -159,13 +149,13 @@ def continuation(
         strokes = list(
             dict.fromkeys(tuple(best[k].normalised_stroke) for k in sources if k in best)
         )
-        job = prepared[0].job
+        job = _round_job(prepared[0].job, index)
         continued[key] = prepare(
             METHOD,
             _task(env_id),
             condition,
-            max(1, round(CONTINUATION_SHARE * job.budget)),
-            [job.seed + index],
+            job.budget,
+            [job.seed],
             env_kwargs=dict(job.env_kwargs),
             method_config={
                 "initial": [list(stroke) for stroke in strokes],
@@ -368,14 +358,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     )
     phases = [Phase("search", tuple(p.job for p in flat))]
     for index in range(ROUNDS):
-        stand_ins = tuple(
-            replace(
-                p[0].job,
-                budget=max(1, round(CONTINUATION_SHARE * p[0].job.budget)),
-                seed=p[0].job.seed + index,
-            )
-            for p in jobs.values()
-        )
+        stand_ins = tuple(_round_job(p[0].job, index) for p in jobs.values())
         phases.append(
             Phase(f"continuation {index + 1}", stand_ins, frozenset(j.key for j in stand_ins))
         )
@@ -423,7 +406,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
 def _report(table: Mapping[str, Any], out: Path) -> None:
     """The table as Markdown (``OUT/reference.md``) and a figure (``OUT/reference.png``)."""
-    write_reference_markdown(table, out / "reference.md")
+    write_text_atomic(out / "reference.md", reference_markdown(table))
     write_reference_figure(table, out / "reference.png")
     for series in table["series"]:
         weak = [p for p in series["points"] if not p["feasible"]]

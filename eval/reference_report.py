@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import Any
 
 from tandem_env.envs.registration import config_class
-from tandem_env.io.files import write_text_atomic
 
 # Okabe-Ito colours, one per objective (readable in colour-blind vision and in grey).
 _COLOURS = {"efficiency": "#0072B2", "vertical": "#0072B2", "horizontal": "#D55E00",
@@ -70,10 +69,6 @@ def reference_markdown(table: Mapping[str, Any]) -> str:
     return "\n".join(parts)
 
 
-def write_reference_markdown(table: Mapping[str, Any], path: Path) -> None:
-    write_text_atomic(path, reference_markdown(table))
-
-
 def write_reference_figure(table: Mapping[str, Any], path: Path) -> None:
     """The optima against the condition: one panel per task, a line per objective and
     planform (solid tear-drop, dashed real), every seed's feasible optimum as a faint dot."""
@@ -106,5 +101,4 @@ def write_reference_figure(table: Mapping[str, Any], path: Path) -> None:
         ax.set_title(env_id.split("/")[-1])
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    save(fig, path)
+    save(fig, path)  # atomically, its folder created

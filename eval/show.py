@@ -1,10 +1,8 @@
-"""``python -m eval show RECORD``: a record's stroke drawn and animated.
+"""``python -m eval show RECORD``: a record's stroke drawn and animated (:data:`DESCRIPTION`).
 
-The picture is the envs' render frame (:mod:`tandem_env.envs.render`: wing-tip paths in side
-view and the φ, θ, η histories of both wings) of the record's stroke, computed by the same model
-with the record's own insect and model options (:func:`eval.studies.kinematics.history_of`).
-The animation moves each wing over its cycle on that picture: the wing (base to tip) and its
-tip in the side view, a cursor on the histories.
+The picture is the envs' render frame (:mod:`tandem_env.envs.render`) of the record's stroke,
+computed by the same model with the record's own insect and model options
+(:func:`eval.studies.kinematics.history_of`).
 """
 
 from __future__ import annotations

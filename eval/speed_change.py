@@ -1,20 +1,9 @@
-"""``python -m eval speed-change``: policies flown through whole ``TandemWing/SpeedChange-v0`` episodes.
+"""``python -m eval speed-change``: policies flown through whole ``TandemWing/SpeedChange-v0``
+episodes (the policies and what is written: :data:`DESCRIPTION`).
 
-Baselines (each a :class:`~eval.speed_change_policies.Policy`, given the batch of observations
-and episode states):
-
-* ``random``: uniform random strokes, a new one every cycle;
-* ``steady``: the level-flight optimum at the grid speed nearest the episode's target, played
-  every cycle. The optima come from the harness (:func:`steady_optima`: harness jobs on the
-  ``level`` task with the SpeedChange env's insect and model options, so with its
-  ``thrust_split="body"`` a level-feasible stroke is one whose net force of the dynamics is
-  within ±2 % of W), stored by configuration under ``--out`` and reused;
-* ``ppo``, ``sac``: models trained by ``python -m train --algo ppo|sac --env
-  TandemWing/SpeedChange-v0`` (deterministic actions).
-
-Every policy flies the same episodes: the native vector env reset with the fixed evaluation
-seeds (sub-env i with seed ``first_seed + i``, hence the same start and target speeds), one
-batched model call per cycle for all episodes.
+Every policy (a :class:`~eval.speed_change_policies.Policy`) flies the same episodes: the native
+vector env reset with the fixed evaluation seeds, one batched model call per cycle for all
+episodes. The steady schedule's level-flight optima are harness jobs (:func:`steady_optima`).
 """
 
 from __future__ import annotations
@@ -35,7 +24,7 @@ import tandem_env  # noqa: F401  (registers the ids)
 from eval.speed_change_policies import Policy, RandomPolicy, SB3Policy, SteadyPolicy
 from tandem_env.envs.registration import SPEED_CHANGE_ID
 from tandem_env.envs.speed_change_config import LEVEL_FLIGHT_ENVELOPE, SpeedChangeConfig
-from tandem_env.io.files import output_directory, write_csv_atomic
+from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
 from tandem_env.physics.checks import shown
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
@@ -96,11 +85,8 @@ FIRST_SEED = 1000
 
 
 # --- the level-flight optima, through the harness ---------------------------------------------
-def default_optimiser() -> str:
-    """The harness's best optimiser available: "cmaes" if registered, else "pso"."""
-    from agents.methods import available_methods
-
-    return "cmaes" if "cmaes" in available_methods() else "pso"
+#: The harness method of the level-flight optima (registered with the harness, as pso is).
+DEFAULT_OPTIMISER = "cmaes"
 
 
 def level_kwargs(config: SpeedChangeConfig) -> dict[str, Any]:
@@ -152,17 +138,15 @@ def steady_optima(
     from agents.jobs import Job
     from agents.runner import run_jobs
 
-    method = default_optimiser() if method is None else method
+    method = DEFAULT_OPTIMISER if method is None else method
     kwargs = level_kwargs(config)
     jobs = [Job(method, "level", float(v), budget, seed, env_kwargs=kwargs) for v in speeds]
     with tempfile.TemporaryDirectory() as scratch:
         where = scratch if cache_dir is None else cache_dir
         summary = run_jobs(jobs, where, scheduler=scheduler, progress=progress, cache=record_cache)
-    records = [summary.records.get(job.key) for job in jobs]
     actions = []
-    for speed, record in zip(speeds, records, strict=True):
-        if record is None:  # run_jobs raises when a job fails; a missing record is a bug
-            raise RuntimeError(f"no level-flight record at {speed:g} m/s after running it")
+    for speed, job in zip(speeds, jobs, strict=True):
+        record = summary.records[job.key]  # every job's: run_jobs raises when one fails
         if not record.feasible:
             print(
                 f"steady: the {method} optimum at {speed:g} m/s is not level-feasible "
@@ -403,9 +387,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--optimiser",
-        default=None,
-        help='harness method for the level-flight optima (default "cmaes" if registered, '
-        'else "pso")',
+        default=DEFAULT_OPTIMISER,
+        help=f"harness method for the level-flight optima (default {DEFAULT_OPTIMISER})",
     )
     parser.add_argument(
         "--optima-budget",
@@ -440,27 +423,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=0,
         help="which evaluation episode the figure shows (index, default 0)",
     )
-    parser.add_argument(
-        "--scheduler",
-        default=None,
-        help='where the optima run: none (here, serially; default), "local:N" or a Dask '
-        "scheduler address (as for python -m eval study)",
-    )
-    from eval.optimize import add_cache_argument
+    from eval.optimize import add_cache_argument, add_scheduler_argument
 
+    add_scheduler_argument(parser)
     add_cache_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
-def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> str:
-    """Validate --optimiser, --optima-budget, --grid and --scheduler before any optimisation
-    (ValueError naming the option and what is allowed); returns the optimiser."""
-    from agents.dask_cluster import parse_scheduler
+def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> None:
+    """Validate --optimiser, --optima-budget and --grid before any optimisation (ValueError
+    naming the option and what is allowed)."""
     from agents.harness import prepare
 
-    if args.scheduler is not None:
-        parse_scheduler(args.scheduler)
-    method = default_optimiser() if args.optimiser is None else args.optimiser
     if len(set(args.grid)) != len(args.grid):
         raise ValueError(
             f"--grid {' '.join(shown(v, *args.grid) for v in args.grid)}: allowed: distinct speeds"
@@ -468,13 +442,12 @@ def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> str:
     kwargs = level_kwargs(config)
     for speed in args.grid:
         try:  # the harness's own checks: method, budget, speed within the level task's range
-            prepare(method, "level", speed, args.optima_budget, [0], env_kwargs=kwargs)
+            prepare(args.optimiser, "level", speed, args.optima_budget, [0], env_kwargs=kwargs)
         except ValueError as error:
             raise ValueError(
-                f"the level-flight optimum at --grid speed {shown(speed, *args.grid)} m/s (--optimiser {method}, "
-                f"--optima-budget {args.optima_budget}): {error}"
+                f"the level-flight optimum at --grid speed {shown(speed, *args.grid)} m/s "
+                f"(--optimiser {args.optimiser}, --optima-budget {args.optima_budget}): {error}"
             ) from None
-    return method
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
@@ -503,7 +476,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                 )
             output_directory(figure.parent, "--figure")
         config = SpeedChangeConfig.from_kwargs()
-        method = _check_optima(args, config)
+        _check_optima(args, config)
         policies: list[Any] = [RandomPolicy(seed=0)]
         for name in ("ppo", "sac"):
             for run_dir in getattr(args, name):
@@ -515,7 +488,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         lambda: steady_optima(
             config,  # type: ignore[arg-type]
             speeds=args.grid,
-            method=method,
+            method=args.optimiser,
             budget=args.optima_budget,
             cache_dir=args.out / "optima",
             scheduler=args.scheduler,
@@ -533,11 +506,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         episodes.extend(episode_metrics(log) for log in logs)
         shown.append(logs[args.figure_episode])
     rows = policy_summary_rows(episodes)
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_csv_atomic(args.out / "episodes.csv", episodes)
+    write_csv_atomic(args.out / "episodes.csv", episodes)  # atomically, the folder created
     write_csv_atomic(args.out / "summary.csv", rows)
     table = policy_summary_markdown(rows)
-    (args.out / "summary.md").write_text(table)
+    write_text_atomic(args.out / "summary.md", table)
     print(table)
     if args.figure is not None:
         plot_episode(shown, args.figure)

@@ -170,14 +170,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     if not writable:
+        report = Path(args.out) / "report.md"
         print(
             f"all {len(unique)} optimisations are stored in {args.out}, which cannot be written: "
             "nothing to run, and its figures and report are left as they are"
-            + (
-                f" ({Path(args.out) / 'report.md'})"
-                if (Path(args.out) / "report.md").exists()
-                else ""
-            ),
+            + (f" ({report})" if report.exists() else ""),
             file=sys.stderr,
         )
         return 0
