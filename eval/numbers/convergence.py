@@ -4,9 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from eval.numbers.framework import (
-    Benchmark,
-)
+from eval.numbers.framework import Benchmark, Measurement
 
 CONVERGENCE = Benchmark(("benchmarks/convergence.py", "--resolutions", "128x24"))
 CONVERGENCE_BOUND_PERCENT = 0.5
@@ -19,7 +17,7 @@ CONVERGENCE_COLUMNS: tuple[tuple[str, str], ...] = (
 )
 
 
-def render_convergence(data: dict[str, Any]) -> str:
+def render(data: dict[str, Any]) -> str:
     rows = sorted(data["rows"], key=lambda r: (r["speed"] == 0.0, r["speed"]))  # hover last
 
     def cell(error: dict[str, float]) -> str:
@@ -47,3 +45,6 @@ def render_convergence(data: dict[str, Any]) -> str:
         f"    {data['command']}",
     ]
     return "\n".join(lines) + "\n"
+
+
+MEASUREMENT = Measurement("convergence", CONVERGENCE.run, render)

@@ -6,14 +6,12 @@ vortex lattice's."""
 
 from __future__ import annotations
 
-import csv
 import math
-import shutil
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import ROOT
+from eval.numbers.framework import ROOT, Measurement, copy_outputs, read_rows
 
 LAG_STUDY_OUT = Path("results") / "crosscheck-lag-study"
 LAG_STUDY_COMMAND = (
@@ -32,36 +30,27 @@ LAG_STUDY_FILES: dict[str, Path] = {
 NUMERIC = ("speed_m_s", "spacing_mm", "drop_mm", "lag_deg", "clearance_mm")
 
 
-def measure_crosscheck_lag_study() -> dict[str, Any]:
+def measure() -> dict[str, Any]:
     """Collect the finished lag study in :data:`LAG_STUDY_OUT` (about an hour on 2 idle cores:
     run :data:`LAG_STUDY_COMMAND` first) and copy its table and figure into the docs."""
-    from tandem_env.io.files import atomic_path
-
     table = LAG_STUDY_OUT / "crosscheck.csv"
     if not table.is_file():
         raise SystemExit(f"{LAG_STUDY_OUT} holds no finished lag study; run `{LAG_STUDY_COMMAND}`")
-    with open(table, newline="", encoding="utf-8") as handle:
-        rows = list(csv.DictReader(handle))
-    convergence_table = CONVERGENCE_OUT / "crosscheck.csv"
-    if not convergence_table.is_file():
+    rows = read_rows(table)
+    if not (CONVERGENCE_OUT / "crosscheck.csv").is_file():
         raise SystemExit(f"{CONVERGENCE_OUT} holds no convergence run; run `{CONVERGENCE_COMMAND}`")
-    with open(convergence_table, newline="", encoding="utf-8") as handle:
-        convergence = list(csv.DictReader(handle))
     cases = {case_of(row) for row in rows}
     if len(cases) != 4 or len(rows) != 32:
         raise SystemExit(
             f"{table} has {len(rows)} rows in {len(cases)} cases, not the lag study's 32 in 4; "
             f"run `{LAG_STUDY_COMMAND}`"
         )
-    for name, copy in LAG_STUDY_FILES.items():
-        copy.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(copy) as tmp:
-            shutil.copyfile(LAG_STUDY_OUT / name, tmp)
+    copy_outputs(LAG_STUDY_OUT, LAG_STUDY_FILES)
     return {
         "command": LAG_STUDY_COMMAND,
         "rows": rows,
         "convergence_command": CONVERGENCE_COMMAND,
-        "convergence": convergence,
+        "convergence": read_rows(CONVERGENCE_OUT / "crosscheck.csv"),
     }
 
 
@@ -140,7 +129,7 @@ def case_label(case: tuple[float, float, float]) -> str:
     return f"V = {speed:g} m/s, d = {spacing:g} mm"
 
 
-def render_crosscheck_lag_study(data: dict[str, Any]) -> str:
+def render(data: dict[str, Any]) -> str:
     rows = data["rows"]
     entries = summary(rows)
     names = readings(rows)
@@ -206,3 +195,6 @@ def render_crosscheck_lag_study(data: dict[str, Any]) -> str:
             f"{float(row['uvlm_tandem_wall_s']):.0f} |"
         )
     return "\n".join(lines) + "\n"
+
+
+MEASUREMENT = Measurement("crosscheck-lag-study", measure, render, on_request=True)

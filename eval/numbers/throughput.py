@@ -6,24 +6,12 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
-from eval.numbers.framework import (
-    Benchmark,
-    machine_line,
-    spaced,
-)
+from eval.numbers.framework import Benchmark, Measurement, footer, spaced
 
 MODEL_THROUGHPUT = Benchmark(("benchmarks/model_throughput.py",))
 INFLOW_SOLVE = Benchmark(("benchmarks/inflow_solve.py",))
 ENV_THROUGHPUT = Benchmark(("benchmarks/env_throughput.py",))
-_TORCH = (
-    "benchmarks/model_throughput.py",
-    "--backend",
-    "torch",
-    "--threads",
-    "1",
-    "--repeats",
-    "3",
-)
+_TORCH = "benchmarks/model_throughput.py --backend torch --threads 1 --repeats 3".split()
 _ONE_THREAD = (("OMP_NUM_THREADS", "1"),)
 TORCH_EAGER = Benchmark(
     (*_TORCH, "--batches", "1", "64", "1024", "--induction", "coupled", "none", "--gradient"),
@@ -50,13 +38,10 @@ def render_model_throughput(data: dict[str, Any]) -> str:
         "|---" * (1 + len(inductions)) + "|",
     ]
     for batch in batches:
-        cells = []
-        for induction in inductions:
-            r = rates[batch, induction]
-            cells.append(
-                f"{spaced(r['evaluations_per_s'])} ({r['ms_per_call']:.2f} ms, "
-                f"{r['inflow_sweeps']:.1f})"
-            )
+        cells = [
+            f"{spaced(r['evaluations_per_s'])} ({r['ms_per_call']:.2f} ms, {r['inflow_sweeps']:.1f})"
+            for r in (rates[batch, induction] for induction in inductions)
+        ]
         lines.append(f"| {batch} | " + " | ".join(cells) + " |")
     lines += [
         "",
@@ -69,10 +54,7 @@ def render_model_throughput(data: dict[str, Any]) -> str:
         "| one coupled `evaluate` at batch 1024 | wall [ms] | CPU, all threads [ms] |",
         "|---|---|---|",
         *(f"| {b['part']} | {b['wall_ms']:.1f} | {b['cpu_ms']:.1f} |" for b in data["breakdown"]),
-        "",
-        machine_line(data, "model-throughput"),
-        "",
-        f"    {data['command']}",
+        *footer(data, "model-throughput", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
@@ -121,10 +103,7 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
         "medians of the per-round ratios of time per call.",
         "Force sweeps per fore-wing annulus (own inflow, 200 random strokes, the solver called "
         f"directly): {sweeps}.",
-        "",
-        machine_line(data, "inflow-cost"),
-        "",
-        f"    {data['command']}",
+        *footer(data, "inflow-cost", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
@@ -149,10 +128,7 @@ def render_env_throughput(data: dict[str, Any]) -> str:
         f"per step of n = {n} strokes or per single-env episode): " + "; ".join(overheads) + ".",
         f"{data['seconds']:g} s per measurement after a warm-up call; the vector envs count the "
         "strokes evaluated, not the reset steps.",
-        "",
-        machine_line(data, "env-throughput"),
-        "",
-        f"    {data['command']}",
+        *footer(data, "env-throughput", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
@@ -198,10 +174,14 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
         f"{g['autograd_ms_per_stroke_batch_64']:.1f} ms per stroke at batch 64 "
         f"({g['central_difference_ms'] / g['autograd_ms_per_stroke_batch_64']:.1f} × the central "
         "difference's rate).",
-        "",
-        machine_line(data, "torch-throughput"),
-        "",
-        f"    {data['eager']['command']}",
-        f"    {data['compiled']['command']}",
+        *footer(data, "torch-throughput", data["eager"]["command"], data["compiled"]["command"]),
     ]
     return "\n".join(lines) + "\n"
+
+
+MEASUREMENTS = (
+    Measurement("model-throughput", MODEL_THROUGHPUT.run, render_model_throughput),
+    Measurement("inflow-cost", INFLOW_SOLVE.run, render_inflow_cost),
+    Measurement("torch-throughput", measure_torch_throughput, render_torch_throughput),
+    Measurement("env-throughput", ENV_THROUGHPUT.run, render_env_throughput),
+)
