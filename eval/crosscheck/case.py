@@ -185,11 +185,9 @@ def shifted_stroke(stroke: np.ndarray, lag: float) -> np.ndarray:
 def check_family(stroke: np.ndarray) -> np.ndarray:
     """The (28,) ``stroke`` if the mapping supports it; ValueError naming the value otherwise.
 
-    Supported: a Table 4 stroke whose sweep and pitch are sinusoidal (K, C_η ≤ :data:`MAX_SHAPE`),
-    whose elevation stays within :data:`MAX_ELEVATION` of the stroke plane, whose sweep and
-    pitch stay within ±90° (the solver's range of an angle), with the same frequency and
-    stroke-plane angle on both pairs (one free stream sets both planes' tilt, and the run's
-    length is a whole number of both beats)."""
+    Supported: a Table 4 stroke within :data:`MAX_SHAPE`, :data:`MAX_ELEVATION` and
+    :data:`MAX_ANGLE`, with the same frequency and stroke-plane angle on both pairs (one free
+    stream sets both planes' tilt, and the run's length is a whole number of both beats)."""
     arr = validate_physical(stroke)
     if arr.shape[0] != 1:
         raise ValueError(f"one stroke of 28 parameters; got shape {np.shape(stroke)}")

@@ -147,12 +147,9 @@ def _key(row: Mapping[str, Any]) -> tuple[float, float, float]:
 def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolution) -> Path:
     """Per case, the changes against the lag at ``base`` resolution (left) and the solver's
     hind- and fore-wing change at each resolution run (right: its convergence)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from eval.figures import DPI, PALETTE
+    from eval.figures import DPI, PALETTE  # which also selects the Agg backend
 
     cases = list(dict.fromkeys(_key(r) for r in table))
     fig, axes = plt.subplots(

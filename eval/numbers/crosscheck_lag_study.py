@@ -11,7 +11,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import ROOT, Measurement, copy_outputs, read_rows
+from eval.numbers.framework import ROOT, Measurement, copy_outputs, read_rows, table_head, table_row
 
 LAG_STUDY_OUT = Path("results") / "crosscheck-lag-study"
 LAG_STUDY_COMMAND = (
@@ -26,8 +26,6 @@ LAG_STUDY_FILES: dict[str, Path] = {
     "crosscheck.csv": ROOT / "docs" / "crosscheck" / "lag_study.csv",
     "crosscheck.png": ROOT / "docs" / "figures" / "crosscheck_lag_study.png",
 }
-#: The CSV's columns the rendering reads (numbers; the rest are kept in the docs' copy).
-NUMERIC = ("speed_m_s", "spacing_mm", "drop_mm", "lag_deg", "clearance_mm")
 
 
 def measure() -> dict[str, Any]:
@@ -144,23 +142,21 @@ def render(data: dict[str, Any]) -> str:
     head = ["lag ΔΦ"]
     for e in entries:
         head += [f"{case_label(e['case'])}: UVLM", *names]
-    lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += table_head(*head)
     for i, lag in enumerate(lags):
         cells = [f"{lag:g}°"]
         for e in entries:
             cells.append(f"{e['uvlm'][i]:+.1f}")
             cells += [f"{e['readings'][n]['changes'][i]:+.1f}" for n in names]
-        lines.append("| " + " | ".join(cells) + " |")
+        lines.append(table_row(*cells))
+    compared = [f"`{n}`: same sign, largest loss at (off)" for n in names]
     lines += [
         "",
         "Against the UVLM, case by case: the lags (of 8) where a reading has the UVLM's sign of "
         "the hind-wing change, and the lag of its largest hind-wing loss (the first harmonic's "
         "lowest point in brackets) and how far it lies from the UVLM's:",
         "",
-        "| case | UVLM: hind, largest loss at | UVLM: fore | "
-        + " | ".join(f"`{n}`: same sign, largest loss at (off)" for n in names)
-        + " |",
-        "|" + "---|" * (3 + len(names)),
+        *table_head("case", "UVLM: hind, largest loss at", "UVLM: fore", *compared),
     ]
     for e in entries:
         cells = [
@@ -177,7 +173,7 @@ def render(data: dict[str, Any]) -> str:
                 else f"{r['loss_lag']:g}° ({r['loss_lag_off']:g}° off; harmonic {r['phase_off']:.0f}° off)"
             )
             cells.append(f"{r['same_sign']}/8, {where}")
-        lines.append("| " + " | ".join(cells) + " |")
+        lines.append(table_row(*cells))
     lines += [
         "",
         f"The UVLM's convergence at one case (V = 1 m/s, lag 0°, the dragonfly's spacing), "
