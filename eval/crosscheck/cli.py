@@ -69,7 +69,7 @@ def _one_case(insect: Dragonfly) -> list[tuple[float, float]]:
 
 def _study(insect: Dragonfly) -> list[tuple[float, float]]:
     second = SECOND_SPACING_CHORDS * insect.fore.mean_chord
-    return [*((v, insect.root_spacing) for v in STUDY_SPEEDS), (1.0, second)]
+    return [*((speed, insect.root_spacing) for speed in STUDY_SPEEDS), (1.0, second)]
 
 
 GRIDS: dict[str, Grid] = {
@@ -223,7 +223,7 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, Resolution, list[Case], l
         "beats": args.beats,
     }
     resolution = replace(grid.resolution, **{k: v for k, v in given.items() if v is not None})
-    insect = DRAGONFLY.with_planform(args.planform)
+    insect = DRAGONFLY.with_planform(args.planform)  # type: ignore[arg-type]
     stroke = _stroke(args.stroke)
     lags = None if args.lags is None else tuple(dict.fromkeys(float(a) for a in args.lags))
     cases = grid.cases(insect, stroke, lags)

@@ -109,6 +109,14 @@ def spaced(value: float, digits: int = 0) -> str:
     return f"{value:,.{digits}f}".replace(",", " ")
 
 
+def minutes(seconds: float, padded: bool = False) -> str:
+    """``seconds`` as the documents write a duration: 4 min 5 s (``padded``: 4 min 05 s)."""
+    whole, rest = divmod(round(seconds), 60)
+    if not whole:
+        return f"{rest} s"
+    return f"{whole} min {rest:02d} s" if padded else f"{whole} min {rest} s"
+
+
 RANDOM_STROKES = 1000
 """Random Table 4 strokes (uniform in the normalised box, seed 0) of the model's readings."""
 

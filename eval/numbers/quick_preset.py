@@ -11,7 +11,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import Measurement, machine_line, run_command, spaced
+from eval.numbers.framework import Measurement, machine_line, minutes, run_command, spaced
 
 QUICK_PRESET_COMMAND: tuple[str, ...] = ("python", "-m", "eval", "study", "all")
 """The documented command (quick preset, CMA-ES, serially); ``--out`` and ``--quiet`` are
@@ -31,12 +31,6 @@ def measure() -> dict[str, Any]:
         "jobs": len(records),
         "evaluations": int(sum(r.evaluations for r in records)),
     }
-
-
-def minutes(seconds: float) -> str:
-    """``seconds`` as the documents write a duration (4 min 35 s)."""
-    whole = round(seconds)
-    return f"{whole // 60} min {whole % 60} s" if whole >= 60 else f"{whole} s"
 
 
 def render(data: dict[str, Any]) -> str:

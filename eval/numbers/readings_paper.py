@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import ROOT, Measurement, copy_outputs, read_rows
+from eval.numbers.framework import ROOT, Measurement, copy_outputs, minutes, read_rows
 
 READINGS_PAPER_OUT = Path("results") / "readings-paper"
 READINGS_PAPER_COMMAND = (
@@ -55,11 +55,6 @@ def measure() -> dict[str, Any]:
     }
 
 
-def _duration(seconds: float) -> str:
-    minutes, rest = divmod(round(seconds), 60)
-    return f"{minutes} min {rest:02d} s" if minutes else f"{rest} s"
-
-
 def _invocation_line(invocation: dict[str, Any]) -> str:
     """One invocation of a readings run: when, where, and each phase's work and time."""
     where = (
@@ -70,11 +65,13 @@ def _invocation_line(invocation: dict[str, Any]) -> str:
     )
     phases = "; ".join(
         f"{p['name']} {p['jobs']} optimisations ({p['ran']} run, {p['reused']} reused) in "
-        f"{_duration(p['wall_time_s'])}"
+        f"{minutes(p['wall_time_s'], padded=True)}"
         for p in invocation["phases"]
     )
     finished = invocation["finished"] or "finished before invocations were recorded"
-    return f"- {finished}{where}: {phases}; {_duration(invocation['wall_time_s'])} in all."
+    return (
+        f"- {finished}{where}: {phases}; {minutes(invocation['wall_time_s'], padded=True)} in all."
+    )
 
 
 def render(data: dict[str, Any]) -> str:
@@ -132,7 +129,7 @@ def render(data: dict[str, Any]) -> str:
         *[_invocation_line(inv) for inv in worked],
         "",
         f"{len(reused)} more invocation(s) reused every job and only analysed and redrew "
-        f"the outputs ({', '.join(_duration(inv['wall_time_s']) for inv in reused) or 'none'}).",
+        f"the outputs ({', '.join(minutes(inv['wall_time_s'], padded=True) for inv in reused) or 'none'}).",
         "",
         "Bias check of the continuation (difference = (continued − full) / |full| of the "
         "reported objective, per job; a single reading's task that falls short ran in full):",

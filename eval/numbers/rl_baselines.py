@@ -191,8 +191,7 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     ax.grid(alpha=0.3)
     # below the axes: inside, it would hide the low scores
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    save(fig, path)
+    save(fig, path)  # atomically, its folder made if need be
 
 
 MEASUREMENT = Measurement("rl-baselines", measure, render, on_request=True)

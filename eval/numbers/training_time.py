@@ -7,8 +7,7 @@ from __future__ import annotations
 import tempfile
 from typing import Any
 
-from eval.numbers.framework import Measurement, machine_line, run_command
-from eval.numbers.quick_preset import minutes
+from eval.numbers.framework import Measurement, machine_line, minutes, run_command
 
 TRAINING_COMMAND: tuple[str, ...] = tuple(
     "python -m train --algo ppo --env TandemWing/LevelFlight-v0 --timesteps 200000 --seed 0 "
