@@ -23,7 +23,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
-from tandem_env.physics import DRAGONFLY, PARAMETER_NAMES, Dragonfly, Wing, validate_physical
+from tandem_env.physics import PARAMETER_NAMES, Dragonfly, Wing, validate_physical
 
 #: Record format of one solver run (``OUT/runs/<key>.json``).
 RUN_FORMAT = "tandem_env.crosscheck-run/1"
@@ -55,8 +55,6 @@ STATIONS = (0.0, 0.3, 0.55, 0.75, 0.9, 0.98)
 ROOT_OFFSET = 2.0e-3
 #: The two pairs' keys, fore first.
 PAIRS = ("fore", "hind")
-#: What a run is: one pair alone or both.
-KINDS = ("fore", "hind", "tandem")
 
 #: Samples of the clearance check: instants per beat, points along the span and the chord.
 _CLEARANCE_SAMPLES = (96, 48, 12)
@@ -84,17 +82,15 @@ class Resolution:
 
     def __post_init__(self) -> None:
         limits = {
-            "steps_per_beat": (4, 256),
-            "chordwise": (1, 16),
-            "spanwise": (len(STATIONS) - 1, 64),
-            "beats": (2, 8),
+            "steps_per_beat": ("--steps-per-beat", 4, 256),
+            "chordwise": ("--panels (chordwise)", 1, 16),
+            "spanwise": ("--panels (spanwise)", len(STATIONS) - 1, 64),
+            "beats": ("--beats", 2, 8),
         }
-        for name, (low, high) in limits.items():
+        for name, (option, low, high) in limits.items():
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-                raise ValueError(
-                    f"{_OPTION[name]} {value!r}; allowed: a whole number {low} to {high}"
-                )
+                raise ValueError(f"{option} {value!r}; allowed: a whole number {low} to {high}")
 
     @property
     def panels(self) -> str:
@@ -127,14 +123,6 @@ class Resolution:
         return (self, *(replace(self, steps_per_beat=s) for s in steps), finer)
 
 
-_OPTION = {
-    "steps_per_beat": "--steps-per-beat",
-    "chordwise": "--panels (chordwise)",
-    "spanwise": "--panels (spanwise)",
-    "beats": "--beats",
-}
-
-
 def parse_panels(text: str) -> tuple[int, int]:
     """``"CxS"`` (chordwise x spanwise panels per wing) as two integers; ValueError otherwise."""
     parts = str(text).lower().split("x")
@@ -160,14 +148,12 @@ class WingMotion:
 
     def angles(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(φ, η) [rad] at times ``t`` [s]."""
-        out = []
-        for amplitude, base, phase in (self.sweep, self.pitch):
-            out.append(
-                np.radians(
-                    base + amplitude * np.sin(2 * np.pi * self.frequency * t + np.radians(phase))
-                )
-            )
-        return out[0], out[1]
+        beat = 2 * np.pi * self.frequency * t
+        sweep, pitch = (
+            np.radians(base + amplitude * np.sin(beat + np.radians(phase)))
+            for amplitude, base, phase in (self.sweep, self.pitch)
+        )
+        return sweep, pitch
 
 
 def wing_motion(wing: Wing, stroke: np.ndarray, pair: str, lag: float = 0.0) -> WingMotion:
@@ -199,11 +185,9 @@ def shifted_stroke(stroke: np.ndarray, lag: float) -> np.ndarray:
 def check_family(stroke: np.ndarray) -> np.ndarray:
     """The (28,) ``stroke`` if the mapping supports it; ValueError naming the value otherwise.
 
-    Supported: a Table 4 stroke whose sweep and pitch are sinusoidal (K, C_η ≤ :data:`MAX_SHAPE`),
-    whose elevation stays within :data:`MAX_ELEVATION` of the stroke plane, whose sweep and
-    pitch stay within ±90° (the solver's range of an angle), with the same frequency and
-    stroke-plane angle on both pairs (one free stream sets both planes' tilt, and the run's
-    length is a whole number of both beats)."""
+    Supported: a Table 4 stroke within :data:`MAX_SHAPE`, :data:`MAX_ELEVATION` and
+    :data:`MAX_ANGLE`, with the same frequency and stroke-plane angle on both pairs (one free
+    stream sets both planes' tilt, and the run's length is a whole number of both beats)."""
     arr = validate_physical(stroke)
     if arr.shape[0] != 1:
         raise ValueError(f"one stroke of 28 parameters; got shape {np.shape(stroke)}")
@@ -406,12 +390,8 @@ def wing_surface(
     x = along.ravel()
     y = np.repeat(span * motion.length, n_chord)
     phi, eta = motion.angles(np.asarray(t, dtype=float))
-    ce, se, cp, sp = (
-        np.cos(eta)[:, None],
-        np.sin(eta)[:, None],
-        np.cos(phi)[:, None],
-        np.sin(phi)[:, None],
-    )
+    ce, se = np.cos(eta)[:, None], np.sin(eta)[:, None]
+    cp, sp = np.cos(phi)[:, None], np.sin(phi)[:, None]
     # R_X(φ)·R_Y(η)·(x, y, 0)
     px = ce * x
     py = cp * y + sp * se * x
@@ -466,33 +446,3 @@ def check_geometry(case: Case, insect: Dragonfly) -> dict[float, dict[str, float
                 "or pitch amplitudes)"
             )
     return found
-
-
-def dragonfly(planform: str = "tear-drop") -> Dragonfly:
-    """The paper's specimen with ``planform`` (its root spacing and drop included)."""
-    return DRAGONFLY.with_planform(planform)  # type: ignore[arg-type]
-
-
-__all__ = [
-    "KINDS",
-    "MAX_ELEVATION",
-    "MAX_SHAPE",
-    "MIN_CLEARANCE",
-    "PAIRS",
-    "RUN_FORMAT",
-    "STATIONS",
-    "Case",
-    "Resolution",
-    "Run",
-    "WingMotion",
-    "base_stroke",
-    "case_runs",
-    "check_family",
-    "check_geometry",
-    "clearances",
-    "earth_axes",
-    "hind_position",
-    "parse_panels",
-    "shifted_stroke",
-    "wing_motion",
-]

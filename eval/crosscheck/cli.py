@@ -1,10 +1,5 @@
-"""``python -m eval crosscheck``: the tandem interaction against a free-wake vortex-lattice solver.
-
-Validates everything first (the stroke's family, the resolution, the wings' clearance at every
-lag, the scheduler, the output folder, then whether the ``uvlm`` extra is installed), then runs
-each case's solver runs (fore alone, hind alone, the tandem at each lag) resumably, evaluates
-the model's side and writes the table and the figure (docs/crosscheck.md).
-"""
+"""``python -m eval crosscheck``: the tandem interaction against a free-wake vortex-lattice solver
+(what it runs and refuses: :data:`DESCRIPTION`, docs/crosscheck.md)."""
 
 from __future__ import annotations
 
@@ -12,13 +7,13 @@ import argparse
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from tandem_env.io.files import output_directory
-from tandem_env.physics import PLANFORMS, Dragonfly
+from tandem_env.physics import DRAGONFLY, PLANFORMS, Dragonfly
 
 from .case import (
     Case,
@@ -27,7 +22,6 @@ from .case import (
     case_runs,
     check_family,
     check_geometry,
-    dragonfly,
     parse_panels,
 )
 
@@ -41,11 +35,22 @@ DEFAULT_OUT = Path("results") / "crosscheck"
 
 @dataclass(frozen=True)
 class Grid:
-    """A named set of cases (``--grid``) and the resolution it runs at unless told."""
+    """A named set of cases (``--grid``): their lags [deg] and (speed [m/s], root spacing [m])
+    unless told, each at the insect's root drop, and the resolution they run at."""
 
     description: str
-    cases: Callable[[Dragonfly, np.ndarray, tuple[float, ...] | None], list[Case]]
+    lags: tuple[float, ...]
+    conditions: Callable[[Dragonfly], list[tuple[float, float]]]
     resolution: Resolution = field(default_factory=Resolution)
+
+    def cases(
+        self, insect: Dragonfly, stroke: np.ndarray, lags: tuple[float, ...] | None
+    ) -> list[Case]:
+        """The grid's cases of ``stroke`` for ``insect``, at ``lags`` if given."""
+        return [
+            Case(tuple(stroke), speed, spacing, insect.root_drop, lags or self.lags)
+            for speed, spacing in self.conditions(insect)
+        ]
 
 
 #: The study's lags [deg]: 0 to 315 in steps of 45.
@@ -58,37 +63,32 @@ SECOND_SPACING_CHORDS = 2.0
 SINGLE_LAGS = (0.0, 90.0, 180.0)
 
 
-def _single(insect: Dragonfly, stroke: np.ndarray, lags: tuple[float, ...] | None) -> list[Case]:
-    return [Case(tuple(stroke), 1.0, insect.root_spacing, insect.root_drop, lags or SINGLE_LAGS)]
+def _one_case(insect: Dragonfly) -> list[tuple[float, float]]:
+    return [(1.0, insect.root_spacing)]
 
 
-def _study(insect: Dragonfly, stroke: np.ndarray, lags: tuple[float, ...] | None) -> list[Case]:
-    lags = lags or STUDY_LAGS
-    cases = [
-        Case(tuple(stroke), v, insect.root_spacing, insect.root_drop, lags) for v in STUDY_SPEEDS
-    ]
+def _study(insect: Dragonfly) -> list[tuple[float, float]]:
     second = SECOND_SPACING_CHORDS * insect.fore.mean_chord
-    return [*cases, Case(tuple(stroke), 1.0, second, insect.root_drop, lags)]
-
-
-def _tiny(insect: Dragonfly, stroke: np.ndarray, lags: tuple[float, ...] | None) -> list[Case]:
-    return [Case(tuple(stroke), 1.0, insect.root_spacing, insect.root_drop, lags or (90.0,))]
+    return [*((speed, insect.root_spacing) for speed in STUDY_SPEEDS), (1.0, second)]
 
 
 GRIDS: dict[str, Grid] = {
     "single": Grid(
         "one case: V = 1 m/s at the dragonfly's root spacing and drop, lags 0, 90, 180 deg",
-        _single,
+        SINGLE_LAGS,
+        _one_case,
     ),
     "lag-study": Grid(
         "lags 0-315 deg in 45 deg steps at V = 0.5, 1, 2 m/s at the dragonfly's spacing, and "
         f"at {SECOND_SPACING_CHORDS:g} fore-wing chords at V = 1 m/s",
+        STUDY_LAGS,
         _study,
     ),
     "tiny": Grid(
         "a coarse smoke test (under a minute): V = 1 m/s, lag 90 deg, 8 steps per beat, 2x5 "
         "panels, 2 beats",
-        _tiny,
+        (90.0,),
+        _one_case,
         Resolution(steps_per_beat=8, chordwise=2, spanwise=5, beats=2),
     ),
 }
@@ -215,15 +215,15 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, Resolution, list[Case], l
         bad = [a for a in args.lags if not -360.0 <= a <= 360.0]
         if bad:
             raise ValueError(f"--lags {bad[0]:g}; allowed: -360 to 360 deg")
-    panels = parse_panels(args.panels) if args.panels is not None else None
-    base = grid.resolution
-    resolution = Resolution(
-        steps_per_beat=base.steps_per_beat if args.steps_per_beat is None else args.steps_per_beat,
-        chordwise=base.chordwise if panels is None else panels[0],
-        spanwise=base.spanwise if panels is None else panels[1],
-        beats=base.beats if args.beats is None else args.beats,
-    )
-    insect = dragonfly(args.planform)
+    chordwise, spanwise = (None, None) if args.panels is None else parse_panels(args.panels)
+    given = {
+        "steps_per_beat": args.steps_per_beat,
+        "chordwise": chordwise,
+        "spanwise": spanwise,
+        "beats": args.beats,
+    }
+    resolution = replace(grid.resolution, **{k: v for k, v in given.items() if v is not None})
+    insect = DRAGONFLY.with_planform(args.planform)  # type: ignore[arg-type]
     stroke = _stroke(args.stroke)
     lags = None if args.lags is None else tuple(dict.fromkeys(float(a) for a in args.lags))
     cases = grid.cases(insect, stroke, lags)
@@ -262,18 +262,16 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         clearance = {case: check_geometry(case, insect) for case in cases}
     except ValueError as error:
         parser.error(str(error))
-    if (missing := missing_extra()) is not None:
-        print(f"{parser.prog}: error: {missing}", file=sys.stderr)
-        return 2
     version = solver_version()
-    assert version is not None
+    if version is None:
+        print(f"{parser.prog}: error: {missing_extra()}", file=sys.stderr)
+        return 2
     start = time.perf_counter()
-    planned = []
-    for index, case in enumerate(cases):
-        for each in resolutions if index == 0 else resolutions[:1]:
-            planned.append(
-                report.Planned(case, each, case_runs(case, insect, each), clearance[case])
-            )
+    planned = [
+        report.Planned(case, each, case_runs(case, insect, each), clearance[case])
+        for index, case in enumerate(cases)
+        for each in (resolutions if index == 0 else resolutions[:1])
+    ]
     try:
         with locked(args.out):
             store = RunStore(args.out, version)

@@ -1,13 +1,9 @@
 """The cross-check's comparison: the model's side, the table (CSV and Markdown) and the figure.
 
-Each pair's cycle-mean vertical force changes because the other pair is there:
-
-* the vortex-lattice solver (UVLM): tandem − that pair alone, at each lag;
-* the model ("ours"): for each slipstream reading (``ModelOptions.slipstream``), coupled −
-  ``induction="isolated"``, the stroke's hind-wing phases shifted by the lag. A pair's vertical
-  force is its ``fore_``/``hind_lift_to_weight`` × m·g.
-
-Both are given in percent of the pair's force without the other pair.
+Each pair's cycle-mean vertical force changes because the other pair is there, in percent of
+its force without it: the vortex-lattice solver's (UVLM) tandem − that pair alone, and the
+model's ("ours") coupled − ``induction="isolated"`` for each slipstream reading, the hind-wing's
+phases shifted by the lag (docs/crosscheck.md).
 """
 
 from __future__ import annotations
@@ -37,16 +33,12 @@ FIGURE = "crosscheck.png"
 UVLM_COLOUR = "0.25"
 
 
-def case_insect(insect: Dragonfly, case: Case) -> Dragonfly:
-    """``insect`` with the case's root spacing and drop (the model's geometry of the tandem)."""
-    return replace(insect, root_spacing=case.spacing, root_drop=case.drop)
-
-
 def ours(case: Case, insect: Dragonfly) -> dict[str, Any]:
     """The model's vertical force of each pair [N], isolated and per reading, at each lag:
     ``{"isolated": {"fore": (L,), "hind": (L,)}, reading: {...}}``."""
     strokes = np.array([shifted_stroke(np.asarray(case.stroke), lag) for lag in case.lags])
-    flyer = case_insect(insect, case)
+    # the model's geometry of the tandem: the case's root spacing and drop
+    flyer = replace(insect, root_spacing=case.spacing, root_drop=case.drop)
     out: dict[str, Any] = {}
     for name, options in [("isolated", ModelOptions(induction="isolated"))] + [
         (reading, ModelOptions(slipstream=reading)) for reading in READINGS
@@ -77,10 +69,8 @@ def rows(
 ) -> list[dict[str, Any]]:
     """One row per case, resolution and lag (forces in mN, changes in %)."""
     out = []
-    model = {}
+    model = {case: ours(case, insect) for case in dict.fromkeys(p.case for p in planned)}
     for plan in planned:
-        if plan.case not in model:
-            model[plan.case] = ours(plan.case, insect)
         mine = model[plan.case]
         alone = {pair: results[plan.runs[pair]][pair] for pair in PAIRS}
         for index, lag in enumerate(plan.case.lags):
@@ -157,12 +147,9 @@ def _key(row: Mapping[str, Any]) -> tuple[float, float, float]:
 def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolution) -> Path:
     """Per case, the changes against the lag at ``base`` resolution (left) and the solver's
     hind- and fore-wing change at each resolution run (right: its convergence)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from eval.figures import DPI, PALETTE
+    from eval.figures import DPI, PALETTE  # which also selects the Agg backend
 
     cases = list(dict.fromkeys(_key(r) for r in table))
     fig, axes = plt.subplots(
@@ -250,18 +237,3 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
         fig.savefig(tmp, dpi=DPI)
     plt.close(fig)
     return path
-
-
-__all__ = [
-    "FIGURE",
-    "READINGS",
-    "TABLE_CSV",
-    "TABLE_MD",
-    "Planned",
-    "case_insect",
-    "markdown",
-    "ours",
-    "rows",
-    "write_figure",
-    "write_table",
-]

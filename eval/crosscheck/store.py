@@ -1,17 +1,10 @@
 """The cross-check's runs: one JSON record per solver run, run once, in parallel, resumably.
 
-A record is ``OUT/runs/<key>.json``, the key hashing the run's every number, the record format
-and the solver's version (:meth:`~eval.crosscheck.case.Run.key`), so a rerun reuses what is
-there, a killed run resumes, and another resolution, stroke or solver version is another
-file. The harness's :class:`~agents.store.RecordStore` keeps optimisation jobs (a method, a
-task, a budget and a seed) and their searched strokes; a solver run has none of those, so it
-has this record kind, written as that store writes its records: atomically
-(:func:`~tandem_env.io.files.write_json_atomic`) by the one process that holds the folder's
-lock, and checked against a checksum when read back.
-
-Runs go where the studies' jobs go (``--scheduler``, :mod:`agents.dask_cluster`): one after
-another here, or on Dask, ``local:N`` or a running scheduler, each worker with one numba
-thread; this process writes each record as its run finishes.
+A record is ``OUT/runs/<key>.json`` (the key: :meth:`~eval.crosscheck.case.Run.key`), written
+atomically by the one process that holds the folder's lock and checked against a checksum when
+read back; why it is not a :class:`~agents.store.RecordStore` record: docs/crosscheck.md, "What
+it writes". Runs go where the studies' jobs go (``--scheduler``, :mod:`agents.dask_cluster`),
+each Dask worker with one numba thread; this process writes each record as its run finishes.
 """
 
 from __future__ import annotations
@@ -135,44 +128,37 @@ def run_all(
     """The result of every run in ``runs``: stored ones read back, the others solved (here one
     after another, or on Dask) and stored as each finishes. Raises :class:`RunsFailed` after
     every other run has finished if any raised."""
-    results: dict[Run, dict[str, Any]] = {}
-    todo = []
-    for run in dict.fromkeys(runs):
-        found = store.load(run)
-        if found is None:
-            todo.append(run)
-        else:
-            results[run] = found
-    if progress and runs:
+    unique = list(dict.fromkeys(runs))
+    results = {run: found for run in unique if (found := store.load(run)) is not None}
+    todo = [run for run in unique if run not in results]
+    if progress and unique:
         print(
-            f"{len(dict.fromkeys(runs))} solver runs: {len(results)} stored, {len(todo)} to run",
+            f"{len(unique)} solver runs: {len(results)} stored, {len(todo)} to run",
             file=sys.stderr,
         )
     failures: list[str] = []
     start = time.perf_counter()
 
     def finished(run: Run, outcome: dict[str, Any] | BaseException) -> None:
-        done = len(results) + len(failures) + 1
         if isinstance(outcome, BaseException):
             failures.append(f"--- {run.label()}: {type(outcome).__name__}: {outcome}")
+            what = "failed"
         else:
             store.save(run, outcome)
             results[run] = outcome
+            what = f"{outcome['wall_time']:.0f} s"
         if progress:
-            what = (
-                "failed" if isinstance(outcome, BaseException) else f"{outcome['wall_time']:.0f} s"
-            )
             print(
-                f"[{done}/{len(dict.fromkeys(runs))}] {run.label()}: {what} "
+                f"[{len(results) + len(failures)}/{len(unique)}] {run.label()}: {what} "
                 f"({time.perf_counter() - start:.0f} s so far)",
                 file=sys.stderr,
             )
 
     if todo and scheduler is None:
+        from .uvlm import solve
+
         for run in todo:
             try:
-                from .uvlm import solve
-
                 outcome: dict[str, Any] | BaseException = solve(run)
             except Exception as error:
                 outcome = error

@@ -81,27 +81,24 @@ def _pair(ps: Any, motion: WingMotion, name: str, run: Run, origin: np.ndarray) 
     )
     airplane = ps.geometry.airplane.Airplane(wings=[wing], name=name, Cg_GP1_CgP1=tuple(origin))
     period = 1.0 / motion.frequency
-    movements = []
+    section_movement = ps.movements.wing_cross_section_movement.WingCrossSectionMovement
     # The root lies off the mid-plane, so the solver splits the wing into a right and a left
     # one; the same parameters on each give mirrored motion.
-    for each in airplane.wings:
-        movements.append(
-            ps.movements.wing_movement.WingMovement(
-                base_wing=each,
-                wing_cross_section_movements=[
-                    ps.movements.wing_cross_section_movement.WingCrossSectionMovement(
-                        base_wing_cross_section=s
-                    )
-                    for s in each.wing_cross_sections
-                ],
-                ampAngles_Gs_to_Wn_ixyz=(motion.sweep[0], motion.pitch[0], 0.0),
-                periodAngles_Gs_to_Wn_ixyz=(period, period, 0.0),
-                spacingAngles_Gs_to_Wn_ixyz=("sine", "sine", "sine"),
-                phaseAngles_Gs_to_Wn_ixyz=(motion.sweep[2], motion.pitch[2], 0.0),
-                # The wing pitches and sweeps about its root's mid-chord.
-                rotationPointOffset_Gs_Ler=(chords[0] / 2, 0.0, 0.0),
-            )
+    movements = [
+        ps.movements.wing_movement.WingMovement(
+            base_wing=each,
+            wing_cross_section_movements=[
+                section_movement(base_wing_cross_section=s) for s in each.wing_cross_sections
+            ],
+            ampAngles_Gs_to_Wn_ixyz=(motion.sweep[0], motion.pitch[0], 0.0),
+            periodAngles_Gs_to_Wn_ixyz=(period, period, 0.0),
+            spacingAngles_Gs_to_Wn_ixyz=("sine", "sine", "sine"),
+            phaseAngles_Gs_to_Wn_ixyz=(motion.sweep[2], motion.pitch[2], 0.0),
+            # The wing pitches and sweeps about its root's mid-chord.
+            rotationPointOffset_Gs_Ler=(chords[0] / 2, 0.0, 0.0),
         )
+        for each in airplane.wings
+    ]
     return airplane, ps.movements.airplane_movement.AirplaneMovement(
         base_airplane=airplane, wing_movements=movements
     )
@@ -112,17 +109,14 @@ def build(run: Run) -> tuple[Any, Any, list[str]]:
     pairs, fore first)."""
     import pterasoftware as ps
 
-    pairs = []
-    if run.fore is not None:
-        pairs.append(("fore", run.fore, np.zeros(3)))
-    if run.hind is not None:
-        # The first Airplane's origin is the problem's origin: the hind pair alone sits there.
-        origin = (
-            np.zeros(3)
-            if run.fore is None
-            else hind_position(run.spacing, run.drop, run.stroke_plane_angle)
-        )
-        pairs.append(("hind", run.hind, origin))
+    # The first Airplane's origin is the problem's origin: the hind pair alone sits there.
+    hind_origin = (
+        np.zeros(3)
+        if run.fore is None
+        else hind_position(run.spacing, run.drop, run.stroke_plane_angle)
+    )
+    candidates = (("fore", run.fore, np.zeros(3)), ("hind", run.hind, hind_origin))
+    pairs = [(name, motion, origin) for name, motion, origin in candidates if motion is not None]
     built = [_pair(ps, motion, name, run, origin) for name, motion, origin in pairs]
     operating_point = ps.operating_point.OperatingPoint(
         rho=run.air_density, vCg__E=run.speed, alpha=run.stroke_plane_angle - 90.0, beta=0.0

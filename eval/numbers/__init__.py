@@ -17,21 +17,17 @@ commands, date, machine and load), and the Markdown is rendered from that file a
   settings against the stored value.
 
 * ``python -m eval numbers --only NAME ...`` reruns only those (:data:`MEASUREMENTS` lists
-  them: the comparison of methods, the benchmarks of the model, the torch port and the envs,
-  SpeedChange's random and steady baselines, the quick preset's and a training run's time,
-  readings of the model on random strokes, the resolution study of the defaults, the optimum
-  of a second species, the reference optima as packaged and, on request, the PPO and SAC
-  envelope policies' scores, the amortised policy's, the README's headline of both, the
-  cross-check's lag study and the readings study at the paper preset).
+  them; the ``on_request`` ones collect a long run's outputs and are measured only when named).
 
 This package is a small framework (:mod:`eval.numbers.framework`: where numbers live, the
 machine, the documented commands) and one module per measurement. Adding a number is one
-module with its ``measure() -> dict`` and pure ``render(dict) -> str``, its
-:class:`~eval.numbers.framework.Measurement` line in :data:`MEASUREMENTS`, and one region in a
-document. A benchmark is measured by running its documented command with ``--json``
-(:class:`~eval.numbers.framework.Benchmark`). Timings are not deterministic: they are
-shown with the machine (CPU model, cores), date and load average before and after they were
-taken, the documents read their ratios within one run, and the test does not compare them.
+module with its ``measure() -> dict``, pure ``render(dict) -> str`` and their
+:class:`~eval.numbers.framework.Measurement` (``MEASUREMENT``), that module in
+:data:`MEASUREMENTS`, and one region in a document. A benchmark is measured by running its
+documented command with ``--json`` (:class:`~eval.numbers.framework.Benchmark`). Timings are
+not deterministic: they are shown with the machine (CPU model, cores), date and load average
+before and after they were taken, the documents read their ratios within one run, and the test
+does not compare them.
 """
 
 from __future__ import annotations
@@ -58,12 +54,7 @@ from eval.numbers import (
     throughput,
     training_time,
 )
-from eval.numbers.comparison import (
-    COMPARISON_METHODS,
-    COMPARISON_ROWS,
-    ComparisonRow,
-    run_optimize,
-)
+from eval.numbers.comparison import COMPARISON_METHODS, COMPARISON_ROWS, ComparisonRow, run_optimize
 from eval.numbers.convergence import CONVERGENCE
 from eval.numbers.framework import (
     DOCUMENTS,
@@ -77,11 +68,7 @@ from eval.numbers.framework import (
     save,
 )
 from eval.numbers.readings_paper import READINGS_PAPER_FILES
-from eval.numbers.speed_change import (
-    SPEED_CHANGE_COMMAND,
-    speed_change_optima,
-    speed_change_rows,
-)
+from eval.numbers.speed_change import SPEED_CHANGE_COMMAND, speed_change_optima, speed_change_rows
 
 NAME = "numbers"
 HELP = "rerun the measurements README and docs quote, and write them into the documents"
@@ -90,83 +77,21 @@ HELP = "rerun the measurements README and docs quote, and write them into the do
 MEASUREMENTS: dict[str, Measurement] = {
     m.name: m
     for m in (
-        Measurement("comparison", comparison.measure_comparison, comparison.render_comparison),
-        Measurement(
-            "model-throughput",
-            throughput.MODEL_THROUGHPUT.run,
-            throughput.render_model_throughput,
-        ),
-        Measurement("inflow-cost", throughput.INFLOW_SOLVE.run, throughput.render_inflow_cost),
-        Measurement(
-            "torch-throughput",
-            throughput.measure_torch_throughput,
-            throughput.render_torch_throughput,
-        ),
-        Measurement(
-            "env-throughput", throughput.ENV_THROUGHPUT.run, throughput.render_env_throughput
-        ),
-        Measurement(
-            "speed-change", speed_change.measure_speed_change, speed_change.render_speed_change
-        ),
-        Measurement(
-            "rotational-coefficient",
-            rotational_coefficient.measure_rotational_coefficient,
-            rotational_coefficient.render_rotational_coefficient,
-        ),
-        Measurement(
-            "power-conventions",
-            power_conventions.measure_power_conventions,
-            power_conventions.render_power_conventions,
-        ),
-        Measurement("convergence", CONVERGENCE.run, convergence.render_convergence),
-        Measurement(
-            "quick-preset", quick_preset.measure_quick_preset, quick_preset.render_quick_preset
-        ),
-        Measurement(
-            "training-time",
-            training_time.measure_training_time,
-            training_time.render_training_time,
-        ),
-        Measurement(
-            "second-species",
-            second_species.measure_second_species,
-            second_species.render_second_species,
-        ),
-        Measurement(
-            "reference-table",
-            reference_table.measure_reference_table,
-            reference_table.render_reference_table,
-        ),
-        Measurement(
-            "rl-baselines",
-            rl_baselines.measure_rl_baselines,
-            rl_baselines.render_rl_baselines,
-            on_request=True,
-        ),
-        Measurement(
-            "amortised-scores",
-            amortised_scores.measure_amortised_scores,
-            amortised_scores.render_amortised_scores,
-            on_request=True,
-        ),
-        Measurement(
-            "envelope-headline",
-            envelope_headline.measure_envelope_headline,
-            envelope_headline.render_envelope_headline,
-            on_request=True,
-        ),
-        Measurement(
-            "crosscheck-lag-study",
-            crosscheck_lag_study.measure_crosscheck_lag_study,
-            crosscheck_lag_study.render_crosscheck_lag_study,
-            on_request=True,
-        ),
-        Measurement(
-            "readings-paper",
-            readings_paper.measure_readings_paper,
-            readings_paper.render_readings_paper,
-            on_request=True,
-        ),
+        comparison.MEASUREMENT,
+        *throughput.MEASUREMENTS,
+        speed_change.MEASUREMENT,
+        rotational_coefficient.MEASUREMENT,
+        power_conventions.MEASUREMENT,
+        convergence.MEASUREMENT,
+        quick_preset.MEASUREMENT,
+        training_time.MEASUREMENT,
+        second_species.MEASUREMENT,
+        reference_table.MEASUREMENT,
+        rl_baselines.MEASUREMENT,
+        amortised_scores.MEASUREMENT,
+        envelope_headline.MEASUREMENT,
+        crosscheck_lag_study.MEASUREMENT,
+        readings_paper.MEASUREMENT,
     )
 }
 

@@ -15,7 +15,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import ROOT, machine_line
+from eval.numbers.framework import ROOT, Measurement, machine_line
 from eval.numbers.rl_baselines import (
     ENV_ID,
     FIGURE,
@@ -36,7 +36,7 @@ def train_command(seed: int | str) -> list[str]:
             "--verbose", "0"]  # fmt: skip
 
 
-def measure_amortised_scores() -> dict[str, Any]:
+def measure() -> dict[str, Any]:
     """Train and score every seed, two runs at a time."""
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as tmp:
         folder = Path(tmp)
@@ -48,7 +48,7 @@ def measure_amortised_scores() -> dict[str, Any]:
     return {"env_id": ENV_ID, "runs": runs}
 
 
-def render_amortised_scores(data: dict[str, Any]) -> str:
+def render(data: dict[str, Any]) -> str:
     median, worst, flies, seconds = summary(data["runs"])
     return (
         TABLE_HEAD.format(training="training") + "\n"
@@ -59,3 +59,6 @@ def render_amortised_scores(data: dict[str, Any]) -> str:
         f"{list(SEEDS)}, then `python -m train.envelope --conditions ...`. "
         f"{machine_line(data, 'amortised-scores')}\n"
     )
+
+
+MEASUREMENT = Measurement("amortised-scores", measure, render, on_request=True)

@@ -3,17 +3,12 @@
 
 from __future__ import annotations
 
-import statistics
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from eval.compare import relative_spread
-from eval.numbers.framework import (
-    machine_line,
-    run_command,
-)
+from eval.numbers.framework import OPTIMIZE, Measurement, machine_line, run_seeds, seed_cells
 
 
 @dataclass(frozen=True)
@@ -44,29 +39,11 @@ COMPARISON_SEEDS: tuple[int, ...] = (0, 1, 2, 3)
 
 def optimize_command(row: ComparisonRow, method: str, seeds: Sequence[int]) -> list[str]:
     """The documented command (without ``--out``) for one row and method."""
-    return [
-        "python",
-        "-m",
-        "eval",
-        "optimize",
-        *row.arguments,
-        "--method",
-        method,
-        "--seeds",
-        *map(str, seeds),
-    ]
+    return [*OPTIMIZE, *row.arguments, "--method", method, "--seeds", *map(str, seeds)]
 
 
 def run_optimize(row: ComparisonRow, method: str, seeds: Sequence[int]) -> list[dict[str, Any]]:
     """Run the documented command in a fresh folder; one ``{seed, objective, ...}`` per seed."""
-    from agents.store import read_record_files
-
-    with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
-        # --no-cache: measured now (its wall times too), not copied from an earlier run
-        run_command([*optimize_command(row, method, seeds), "--out", out, "--no-cache"])
-        records = sorted(read_record_files([out]), key=lambda r: r.seed)
-    if [r.seed for r in records] != list(seeds):
-        raise RuntimeError(f"expected records of seeds {list(seeds)}, found {records!r}")
     return [
         {
             "seed": r.seed,
@@ -75,41 +52,40 @@ def run_optimize(row: ComparisonRow, method: str, seeds: Sequence[int]) -> list[
             "evaluations": r.evaluations,
             "wall_time_s": r.wall_time,
         }
-        for r in records
+        for r in run_seeds(optimize_command(row, method, seeds), seeds)
     ]
 
 
-def measure_comparison() -> dict[str, Any]:
-    rows = []
-    for row in COMPARISON_ROWS:
-        for method in COMPARISON_METHODS:
-            seeds = run_optimize(row, method, COMPARISON_SEEDS)
-            rows.append(
-                {
-                    "label": row.label,
-                    "symbol": row.symbol,
-                    "method": method,
-                    "command": " ".join(optimize_command(row, method, COMPARISON_SEEDS)),
-                    "seeds": seeds,
-                }
-            )
+def measure() -> dict[str, Any]:
+    rows = [
+        {
+            "label": row.label,
+            "symbol": row.symbol,
+            "method": method,
+            "command": " ".join(optimize_command(row, method, COMPARISON_SEEDS)),
+            "seeds": run_optimize(row, method, COMPARISON_SEEDS),
+        }
+        for row in COMPARISON_ROWS
+        for method in COMPARISON_METHODS
+    ]
     return {"rows": rows}
 
 
-def render_comparison(data: dict[str, Any]) -> str:
+def render(data: dict[str, Any]) -> str:
     lines = [
         "| condition | method | objective, seeds 0-3 | median | spread | all feasible | time per seed |",
         "|---|---|---|---|---|---|---|",
     ]
     for row in data["rows"]:
-        values = [s["objective"] for s in row["seeds"]]
-        times = [s["wall_time_s"] for s in row["seeds"]]
+        objectives, median, feasible, times = seed_cells(row["seeds"])
+        spread = relative_spread([s["objective"] for s in row["seeds"]])
         lines.append(
-            f"| {row['label']} ({row['symbol']}) | `{row['method']}` | "
-            f"{', '.join(f'{v:.4f}' for v in values)} | **{statistics.median(values):.3f}** | "
-            f"{100 * relative_spread(values):.1f} % | {'yes' if all(s['feasible'] for s in row['seeds']) else 'no'} | "
-            f"{min(times):.1f}-{max(times):.1f} s |"
+            f"| {row['label']} ({row['symbol']}) | `{row['method']}` | {objectives} | {median} | "
+            f"{100 * spread:.1f} % | {feasible} | {times} |"
         )
     lines += ["", machine_line(data, "comparison"), "", "Each row's command:", ""]
     lines += [f"    {row['command']}" for row in data["rows"]]
     return "\n".join(lines) + "\n"
+
+
+MEASUREMENT = Measurement("comparison", measure, render)

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from eval.numbers.framework import (
-    Benchmark,
-)
+from eval.numbers.framework import Benchmark, Measurement, table_head, table_row
 
 CONVERGENCE = Benchmark(("benchmarks/convergence.py", "--resolutions", "128x24"))
 CONVERGENCE_BOUND_PERCENT = 0.5
@@ -19,7 +17,7 @@ CONVERGENCE_COLUMNS: tuple[tuple[str, str], ...] = (
 )
 
 
-def render_convergence(data: dict[str, Any]) -> str:
+def render(data: dict[str, Any]) -> str:
     rows = sorted(data["rows"], key=lambda r: (r["speed"] == 0.0, r["speed"]))  # hover last
 
     def cell(error: dict[str, float]) -> str:
@@ -28,16 +26,11 @@ def render_convergence(data: dict[str, Any]) -> str:
             text += f" (p95 {error['p95']:.2g} %)"
         return text
 
-    lines = [
-        "| V [m/s] | "
-        + " | ".join(f"{title} median / max" for _, title in CONVERGENCE_COLUMNS)
-        + " |",
-        "|---" * (1 + len(CONVERGENCE_COLUMNS)) + "|",
-    ]
+    lines = table_head("V [m/s]", *(f"{title} median / max" for _, title in CONVERGENCE_COLUMNS))
     for r in rows:
         speed = "0 (hover)" if r["speed"] == 0.0 else f"{r['speed']:.1f}"
-        cells = " | ".join(cell(r["error_percent"][name]) for name, _ in CONVERGENCE_COLUMNS)
-        lines.append(f"| {speed} | {cells} |")
+        cells = (cell(r["error_percent"][name]) for name, _ in CONVERGENCE_COLUMNS)
+        lines.append(table_row(speed, *cells))
     lines += [
         "",
         f"{data['strokes']} random strokes (seed {data['seed']}), n_time = {rows[0]['n_time']}, "
@@ -47,3 +40,6 @@ def render_convergence(data: dict[str, Any]) -> str:
         f"    {data['command']}",
     ]
     return "\n".join(lines) + "\n"
+
+
+MEASUREMENT = Measurement("convergence", CONVERGENCE.run, render)

@@ -6,14 +6,12 @@ vortex lattice's."""
 
 from __future__ import annotations
 
-import csv
 import math
-import shutil
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import ROOT
+from eval.numbers.framework import ROOT, Measurement, copy_outputs, read_rows, table_head, table_row
 
 LAG_STUDY_OUT = Path("results") / "crosscheck-lag-study"
 LAG_STUDY_COMMAND = (
@@ -28,40 +26,29 @@ LAG_STUDY_FILES: dict[str, Path] = {
     "crosscheck.csv": ROOT / "docs" / "crosscheck" / "lag_study.csv",
     "crosscheck.png": ROOT / "docs" / "figures" / "crosscheck_lag_study.png",
 }
-#: The CSV's columns the rendering reads (numbers; the rest are kept in the docs' copy).
-NUMERIC = ("speed_m_s", "spacing_mm", "drop_mm", "lag_deg", "clearance_mm")
 
 
-def measure_crosscheck_lag_study() -> dict[str, Any]:
+def measure() -> dict[str, Any]:
     """Collect the finished lag study in :data:`LAG_STUDY_OUT` (about an hour on 2 idle cores:
     run :data:`LAG_STUDY_COMMAND` first) and copy its table and figure into the docs."""
-    from tandem_env.io.files import atomic_path
-
     table = LAG_STUDY_OUT / "crosscheck.csv"
     if not table.is_file():
         raise SystemExit(f"{LAG_STUDY_OUT} holds no finished lag study; run `{LAG_STUDY_COMMAND}`")
-    with open(table, newline="", encoding="utf-8") as handle:
-        rows = list(csv.DictReader(handle))
-    convergence_table = CONVERGENCE_OUT / "crosscheck.csv"
-    if not convergence_table.is_file():
+    rows = read_rows(table)
+    if not (CONVERGENCE_OUT / "crosscheck.csv").is_file():
         raise SystemExit(f"{CONVERGENCE_OUT} holds no convergence run; run `{CONVERGENCE_COMMAND}`")
-    with open(convergence_table, newline="", encoding="utf-8") as handle:
-        convergence = list(csv.DictReader(handle))
     cases = {case_of(row) for row in rows}
     if len(cases) != 4 or len(rows) != 32:
         raise SystemExit(
             f"{table} has {len(rows)} rows in {len(cases)} cases, not the lag study's 32 in 4; "
             f"run `{LAG_STUDY_COMMAND}`"
         )
-    for name, copy in LAG_STUDY_FILES.items():
-        copy.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(copy) as tmp:
-            shutil.copyfile(LAG_STUDY_OUT / name, tmp)
+    copy_outputs(LAG_STUDY_OUT, LAG_STUDY_FILES)
     return {
         "command": LAG_STUDY_COMMAND,
         "rows": rows,
         "convergence_command": CONVERGENCE_COMMAND,
-        "convergence": convergence,
+        "convergence": read_rows(CONVERGENCE_OUT / "crosscheck.csv"),
     }
 
 
@@ -140,7 +127,7 @@ def case_label(case: tuple[float, float, float]) -> str:
     return f"V = {speed:g} m/s, d = {spacing:g} mm"
 
 
-def render_crosscheck_lag_study(data: dict[str, Any]) -> str:
+def render(data: dict[str, Any]) -> str:
     rows = data["rows"]
     entries = summary(rows)
     names = readings(rows)
@@ -155,23 +142,21 @@ def render_crosscheck_lag_study(data: dict[str, Any]) -> str:
     head = ["lag ΔΦ"]
     for e in entries:
         head += [f"{case_label(e['case'])}: UVLM", *names]
-    lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += table_head(*head)
     for i, lag in enumerate(lags):
         cells = [f"{lag:g}°"]
         for e in entries:
             cells.append(f"{e['uvlm'][i]:+.1f}")
             cells += [f"{e['readings'][n]['changes'][i]:+.1f}" for n in names]
-        lines.append("| " + " | ".join(cells) + " |")
+        lines.append(table_row(*cells))
+    compared = [f"`{n}`: same sign, largest loss at (off)" for n in names]
     lines += [
         "",
         "Against the UVLM, case by case: the lags (of 8) where a reading has the UVLM's sign of "
         "the hind-wing change, and the lag of its largest hind-wing loss (the first harmonic's "
         "lowest point in brackets) and how far it lies from the UVLM's:",
         "",
-        "| case | UVLM: hind, largest loss at | UVLM: fore | "
-        + " | ".join(f"`{n}`: same sign, largest loss at (off)" for n in names)
-        + " |",
-        "|" + "---|" * (3 + len(names)),
+        *table_head("case", "UVLM: hind, largest loss at", "UVLM: fore", *compared),
     ]
     for e in entries:
         cells = [
@@ -188,7 +173,7 @@ def render_crosscheck_lag_study(data: dict[str, Any]) -> str:
                 else f"{r['loss_lag']:g}° ({r['loss_lag_off']:g}° off; harmonic {r['phase_off']:.0f}° off)"
             )
             cells.append(f"{r['same_sign']}/8, {where}")
-        lines.append("| " + " | ".join(cells) + " |")
+        lines.append(table_row(*cells))
     lines += [
         "",
         f"The UVLM's convergence at one case (V = 1 m/s, lag 0°, the dragonfly's spacing), "
@@ -206,3 +191,6 @@ def render_crosscheck_lag_study(data: dict[str, Any]) -> str:
             f"{float(row['uvlm_tandem_wall_s']):.0f} |"
         )
     return "\n".join(lines) + "\n"
+
+
+MEASUREMENT = Measurement("crosscheck-lag-study", measure, render, on_request=True)

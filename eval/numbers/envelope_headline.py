@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from eval.numbers.framework import load
+from eval.numbers.framework import Measurement, load
 from eval.numbers.rl_baselines import runs_of, score_text, summary
 
 #: (measurement, algo, hyperparameters: "" for the amortised policy)
@@ -21,7 +21,7 @@ POLICIES = (
 )
 
 
-def measure_envelope_headline() -> dict[str, Any]:
+def measure() -> dict[str, Any]:
     stored = {name: load(name) for name in {p[0] for p in POLICIES}}
     rows = []
     for name, algo, hp in POLICIES:
@@ -33,7 +33,7 @@ def measure_envelope_headline() -> dict[str, Any]:
     return {"policies": rows, "measured": dates}
 
 
-def render_envelope_headline(data: dict[str, Any]) -> str:
+def render(data: dict[str, Any]) -> str:
     def rl(hp: str) -> str:
         rows = [r for r in data["policies"] if r["hyperparams"] == hp]
         return ", ".join(
@@ -52,3 +52,6 @@ def render_envelope_headline(data: dict[str, Any]) -> str:
         'conditions"; regenerate with `python -m eval numbers --only envelope-headline` after '
         "`rl-baselines` and `amortised-scores`).\n"
     )
+
+
+MEASUREMENT = Measurement("envelope-headline", measure, render, on_request=True)

@@ -5,14 +5,18 @@ against, and the helpers the measurements share."""
 
 from __future__ import annotations
 
+import csv
 import datetime as dt
 import json
 import os
 import platform
 import re
+import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
+import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,10 +30,12 @@ REGION = re.compile(
 )
 
 
-def run_command(command: Sequence[str], environment: dict[str, str] | None = None) -> None:
+def run_command(command: Sequence[str], environment: dict[str, str] | None = None) -> float:
     """Run a documented ``python ...`` command from the repository root with this interpreter
-    (``environment``: variables set for it); a failure raises with the end of its stderr."""
+    (``environment``: variables set for it); its wall time [s]. A failure raises with the end
+    of its stderr."""
     command = [sys.executable, *command[1:]] if command[0] == "python" else list(command)
+    start = time.perf_counter()
     done = subprocess.run(
         command,
         cwd=ROOT,
@@ -40,6 +46,37 @@ def run_command(command: Sequence[str], environment: dict[str, str] | None = Non
     )
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(command)} exited {done.returncode}:\n{done.stderr[-2000:]}")
+    return time.perf_counter() - start
+
+
+OPTIMIZE: tuple[str, ...] = ("python", "-m", "eval", "optimize")
+"""The documented optimisation command, before its options."""
+
+
+def run_seeds(command: Sequence[str], seeds: Sequence[int]) -> list[Any]:
+    """Run a documented ``eval optimize`` command into a fresh folder with the record cache off
+    (measured now, its wall times too, not copied from an earlier run); its records, by seed."""
+    from agents.store import read_record_files
+
+    with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
+        run_command([*command, "--out", out, "--no-cache"])
+        records = sorted(read_record_files([out]), key=lambda r: r.seed)
+    if [r.seed for r in records] != list(seeds):
+        raise RuntimeError(f"expected records of seeds {list(seeds)}, found {records!r}")
+    return records
+
+
+def seed_cells(seeds: Sequence[dict[str, Any]]) -> tuple[str, str, str, str]:
+    """The table cells of one command's seeds: each objective, their median (bold), whether all
+    are feasible, and the range of the wall times per seed."""
+    values = [s["objective"] for s in seeds]
+    times = [s["wall_time_s"] for s in seeds]
+    return (
+        ", ".join(f"{v:.4f}" for v in values),
+        f"**{statistics.median(values):.3f}**",
+        "yes" if all(s["feasible"] for s in seeds) else "no",
+        f"{min(times):.1f}-{max(times):.1f} s",
+    )
 
 
 # --- benchmarks: documented commands run with --json (timings: shown, never compared) ---------
@@ -70,6 +107,14 @@ class Benchmark:
 def spaced(value: float, digits: int = 0) -> str:
     """``value`` with thin groups of thousands as the documents write them (12 000)."""
     return f"{value:,.{digits}f}".replace(",", " ")
+
+
+def minutes(seconds: float, padded: bool = False) -> str:
+    """``seconds`` as the documents write a duration: 4 min 5 s (``padded``: 4 min 05 s)."""
+    whole, rest = divmod(round(seconds), 60)
+    if not whole:
+        return f"{rest} s"
+    return f"{whole} min {rest:02d} s" if padded else f"{whole} min {rest} s"
 
 
 RANDOM_STROKES = 1000
@@ -133,6 +178,36 @@ def machine_line(data: dict[str, Any], name: str) -> str:
     )
 
 
+def table_row(*cells: object) -> str:
+    """One row of a Markdown table."""
+    return "| " + " | ".join(map(str, cells)) + " |"
+
+
+def table_head(*titles: str) -> list[str]:
+    """A Markdown table's heading row and the rule under it, as wide as the titles."""
+    return [table_row(*titles), "|---" * len(titles) + "|"]
+
+
+def footer(data: dict[str, Any], name: str, *commands: str) -> list[str]:
+    """The lines that close a region: :func:`machine_line` and the commands that measured it."""
+    return ["", machine_line(data, name), "", *(f"    {command}" for command in commands)]
+
+
+def read_rows(path: Path) -> list[dict[str, str]]:
+    """The rows of a CSV file a run wrote, as text."""
+    with open(path, newline="", encoding="utf-8") as handle:
+        return list(csv.DictReader(handle))
+
+
+def copy_outputs(run: Path, copies: dict[str, Path]) -> None:
+    """Copy a finished run's small outputs (its file name -> the docs' copy), atomically."""
+    from tandem_env.io.files import atomic_path
+
+    for name, copy in copies.items():
+        with atomic_path(copy) as tmp:
+            shutil.copyfile(run / name, tmp)
+
+
 def json_path(name: str) -> Path:
     return NUMBERS_DIR / f"{name}.json"
 
@@ -142,11 +217,9 @@ def load(name: str) -> dict[str, Any]:
 
 
 def save(name: str, data: dict[str, Any]) -> None:
-    from tandem_env.io.files import atomic_path
+    from tandem_env.io.files import write_text_atomic
 
-    NUMBERS_DIR.mkdir(parents=True, exist_ok=True)
-    with atomic_path(json_path(name)) as tmp:
-        Path(tmp).write_text(json.dumps(data, indent=1, ensure_ascii=False) + "\n", "utf-8")
+    write_text_atomic(json_path(name), json.dumps(data, indent=1, ensure_ascii=False) + "\n")
 
 
 def regions(text: str) -> Iterable[re.Match[str]]:

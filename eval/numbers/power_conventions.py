@@ -6,17 +6,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from eval.numbers.framework import (
-    RANDOM_STROKES,
-    random_strokes,
-    spaced,
-)
+from eval.numbers.framework import RANDOM_STROKES, Measurement, random_strokes, spaced
 
 POWER_SPEEDS: tuple[float, ...] = (0.0, 1.0, 2.0)
 """Flight speeds [m/s] of the power-conventions reading."""
 
 
-def measure_power_conventions() -> dict[str, Any]:
+def measure() -> dict[str, Any]:
     """The ``"aerodynamic"`` power over the ``"absolute"`` and ``"elastic"`` ones on the random
     strokes (docs/model.md §6.3)."""
     import numpy as np
@@ -41,7 +37,7 @@ def measure_power_conventions() -> dict[str, Any]:
     return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}
 
 
-def render_power_conventions(data: dict[str, Any]) -> str:
+def render(data: dict[str, Any]) -> str:
     rows = data["rows"]
 
     def listed(values: Sequence[str]) -> str:
@@ -58,3 +54,6 @@ def render_power_conventions(data: dict[str, Any]) -> str:
         "of the strokes "
         "(written by `python -m eval numbers --only power-conventions`).\n"
     )
+
+
+MEASUREMENT = Measurement("power-conventions", measure, render)

@@ -8,25 +8,22 @@ points here."""
 from __future__ import annotations
 
 import tempfile
-import time
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import machine_line, run_command, spaced
+from eval.numbers.framework import Measurement, machine_line, minutes, run_command, spaced
 
 QUICK_PRESET_COMMAND: tuple[str, ...] = ("python", "-m", "eval", "study", "all")
 """The documented command (quick preset, CMA-ES, serially); ``--out`` and ``--quiet`` are
 added, and ``--no-cache`` so that no stored job from an earlier run shortens it."""
 
 
-def measure_quick_preset() -> dict[str, Any]:
+def measure() -> dict[str, Any]:
     """Run the quick preset into an empty folder: wall time [s], jobs, model evaluations."""
     from agents.store import RecordStore
 
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
-        start = time.perf_counter()
-        run_command([*QUICK_PRESET_COMMAND, "--out", out, "--quiet", "--no-cache"])
-        wall = time.perf_counter() - start
+        wall = run_command([*QUICK_PRESET_COMMAND, "--out", out, "--quiet", "--no-cache"])
         records = RecordStore(Path(out)).records()
     return {
         "command": " ".join(QUICK_PRESET_COMMAND),
@@ -36,16 +33,13 @@ def measure_quick_preset() -> dict[str, Any]:
     }
 
 
-def minutes(seconds: float) -> str:
-    """``seconds`` as the documents write a duration (4 min 35 s)."""
-    whole = round(seconds)
-    return f"{whole // 60} min {whole % 60} s" if whole >= 60 else f"{whole} s"
-
-
-def render_quick_preset(data: dict[str, Any]) -> str:
+def render(data: dict[str, Any]) -> str:
     return (
         f"`{data['command']}` (the quick preset: CMA-ES, serially, {data['jobs']} "
         f"optimisations, {spaced(data['evaluations'])} model evaluations, into an empty folder "
         f"with the record cache off) took **{minutes(data['wall_s'])}** wall clock. "
         f"{machine_line(data, 'quick-preset')}\n"
     )
+
+
+MEASUREMENT = Measurement("quick-preset", measure, render)

@@ -3,14 +3,10 @@ outputs, collected after the long run."""
 
 from __future__ import annotations
 
-import csv
-import shutil
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import (
-    ROOT,
-)
+from eval.numbers.framework import ROOT, Measurement, copy_outputs, minutes, read_rows
 
 READINGS_PAPER_OUT = Path("results") / "readings-paper"
 READINGS_PAPER_COMMAND = (
@@ -32,12 +28,12 @@ READINGS_COLUMNS: tuple[tuple[str, tuple[str, ...]], ...] = (
 )
 
 
-def measure_readings_paper() -> dict[str, Any]:
+def measure() -> dict[str, Any]:
     """Collect the finished paper-preset readings run in :data:`READINGS_PAPER_OUT` (it takes
     1-2 h on 2 cores: run :data:`READINGS_PAPER_COMMAND` first) and copy its small outputs
     into the docs (:data:`READINGS_PAPER_FILES`)."""
     from eval.studies.readings import MANIFEST
-    from tandem_env.io.files import atomic_path, read_json
+    from tandem_env.io.files import read_json
 
     out = READINGS_PAPER_OUT
     if not (out / MANIFEST).is_file():
@@ -48,25 +44,15 @@ def measure_readings_paper() -> dict[str, Any]:
             f"{out / MANIFEST} is not a paper-preset readings run of this version (preset "
             f"{manifest.get('preset')!r}); run `{READINGS_PAPER_COMMAND}`"
         )
-    with open(out / "readings.csv", newline="", encoding="utf-8") as handle:
-        rows = list(csv.DictReader(handle))
-    for name, copy in READINGS_PAPER_FILES.items():
-        copy.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(copy) as tmp:
-            shutil.copyfile(out / name, tmp)
+    copy_outputs(out, READINGS_PAPER_FILES)
     keep = ("invocations", "continuation", "continuation_check", "run_in_full")
     return {
         "command": READINGS_PAPER_COMMAND,
-        "rows": rows,
+        "rows": read_rows(out / "readings.csv"),
         "claims": manifest["claims"],
         "combination_rule": manifest["combination_rule"],
         **{key: manifest[key] for key in keep},
     }
-
-
-def _duration(seconds: float) -> str:
-    minutes, rest = divmod(round(seconds), 60)
-    return f"{minutes} min {rest:02d} s" if minutes else f"{rest} s"
 
 
 def _invocation_line(invocation: dict[str, Any]) -> str:
@@ -79,14 +65,16 @@ def _invocation_line(invocation: dict[str, Any]) -> str:
     )
     phases = "; ".join(
         f"{p['name']} {p['jobs']} optimisations ({p['ran']} run, {p['reused']} reused) in "
-        f"{_duration(p['wall_time_s'])}"
+        f"{minutes(p['wall_time_s'], padded=True)}"
         for p in invocation["phases"]
     )
     finished = invocation["finished"] or "finished before invocations were recorded"
-    return f"- {finished}{where}: {phases}; {_duration(invocation['wall_time_s'])} in all."
+    return (
+        f"- {finished}{where}: {phases}; {minutes(invocation['wall_time_s'], padded=True)} in all."
+    )
 
 
-def render_readings_paper(data: dict[str, Any]) -> str:
+def render(data: dict[str, Any]) -> str:
     """The readings table (the paper's numbers first, the best count in bold), the run's
     phases, the combination rule and the continuation's bias check with what ran in full."""
     from eval.studies.readings.report import check_table
@@ -141,7 +129,7 @@ def render_readings_paper(data: dict[str, Any]) -> str:
         *[_invocation_line(inv) for inv in worked],
         "",
         f"{len(reused)} more invocation(s) reused every job and only analysed and redrew "
-        f"the outputs ({', '.join(_duration(inv['wall_time_s']) for inv in reused) or 'none'}).",
+        f"the outputs ({', '.join(minutes(inv['wall_time_s'], padded=True) for inv in reused) or 'none'}).",
         "",
         "Bias check of the continuation (difference = (continued − full) / |full| of the "
         "reported objective, per job; a single reading's task that falls short ran in full):",
@@ -153,3 +141,6 @@ def render_readings_paper(data: dict[str, Any]) -> str:
         "copied to docs/readings/ and docs/figures/).",
     ]
     return "\n".join(lines) + "\n"
+
+
+MEASUREMENT = Measurement("readings-paper", measure, render, on_request=True)

@@ -1,28 +1,23 @@
 """PPO and SAC envelope policies against the reference optima (docs/training.md, "Scores at
-the held-out conditions"): for each algorithm, hyperparameters and seed, one policy trained
-over level flight's whole envelope by the documented ``python -m train`` command, then asked
-through ``python -m train.envelope`` for its stroke at each held-out condition
-(:func:`tandem_env.envs.reference.held_out_conditions`), scored against the reference table
-(``score``: 100 = the certified optimum). Two sets of hyperparameters per algorithm: the
-shipped ones (``train/hyperparams/<algo>.yml``, tuned at V = 1.5 m/s) and those tuned for the
-envelope by ``python -m train.tune`` (``train/hyperparams/envelope/<algo>.yml``, each file
-saying how it was made).
+the held-out conditions"): for each algorithm, set of hyperparameters (:data:`HYPERPARAMETERS`)
+and seed, one policy trained over level flight's whole envelope by the documented ``python -m
+train`` command, then asked through ``python -m train.envelope`` for its stroke at each
+held-out condition (:func:`tandem_env.envs.reference.held_out_conditions`), scored against the
+reference table (``score``: 100 = the certified optimum).
 
 On request only (``--only rl-baselines``): twenty training runs, two at a time, about 45 min on
 2 cores. The figure (score against speed, every seed) is written beside the table."""
 
 from __future__ import annotations
 
-import csv
 import shlex
 import statistics
 import tempfile
-import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import ROOT, machine_line, run_command
+from eval.numbers.framework import ROOT, Measurement, machine_line, read_rows, run_command
 
 ENV_ID = "TandemWing/LevelFlight-v0"
 #: (algo, training steps): the documented envelope run's 300 k for PPO; SAC's tuned 100 k.
@@ -35,7 +30,8 @@ _ONE_CORE = {"OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1", "MKL_NUM_THREADS"
 
 
 #: The hyperparameters each algorithm is trained with: the shipped file's (None: the default
-#: ``train/hyperparams/<algo>.yml``) and the envelope's tuned file.
+#: ``train/hyperparams/<algo>.yml``, tuned at V = 1.5 m/s) and the envelope's, tuned by
+#: ``python -m train.tune`` (each file says how it was made).
 HYPERPARAMETERS: dict[str, str | None] = {
     "shipped": None,
     "tuned": "train/hyperparams/envelope/{algo}.yml",
@@ -61,9 +57,7 @@ def score_run(
     from tandem_env.envs.reference import held_out_conditions
 
     logs = folder / f"{algo}{variant and '-' + variant}-{seed}"
-    start = time.perf_counter()
-    run_command([*command, "-f", str(logs)], _ONE_CORE)
-    seconds = time.perf_counter() - start
+    seconds = run_command([*command, "-f", str(logs)], _ONE_CORE)
     run = logs / algo / ENV_ID.replace("/", "-")  # the latest run of the env
     out = folder / f"envelope-{logs.name}"
     conditions = [str(c) for c in held_out_conditions(ENV_ID)]
@@ -72,8 +66,7 @@ def score_run(
          "--conditions", *conditions],
         _ONE_CORE,
     )  # fmt: skip
-    with open(out / "envelope.csv", encoding="utf-8") as handle:
-        rows = list(csv.DictReader(handle))
+    rows = read_rows(out / "envelope.csv")
     return {
         "algo": algo,
         **({"hyperparams": variant} if variant else {}),
@@ -86,7 +79,7 @@ def score_run(
     }
 
 
-def measure_rl_baselines() -> dict[str, Any]:
+def measure() -> dict[str, Any]:
     """Train and score every (algo, seed), two runs at a time."""
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as tmp:
         folder = Path(tmp)
@@ -132,7 +125,7 @@ def score_text(value: float) -> str:
     return f"{round(value, 1) + 0.0:.1f}"
 
 
-def render_rl_baselines(data: dict[str, Any]) -> str:
+def render(data: dict[str, Any]) -> str:
     lines = [TABLE_HEAD.format(training="training steps")]
     for algo, _ in ALGOS:
         for hp in HYPERPARAMETERS:
@@ -198,5 +191,7 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     ax.grid(alpha=0.3)
     # below the axes: inside, it would hide the low scores
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    save(fig, path)
+    save(fig, path)  # atomically, its folder made if need be
+
+
+MEASUREMENT = Measurement("rl-baselines", measure, render, on_request=True)

@@ -5,17 +5,13 @@ from __future__ import annotations
 
 from typing import Any
 
-from eval.numbers.framework import (
-    RANDOM_STROKES,
-    random_strokes,
-    spaced,
-)
+from eval.numbers.framework import RANDOM_STROKES, Measurement, random_strokes, spaced
 
 ROTATION_SPEEDS: tuple[float, ...] = (0.0, 1.5)
 """Flight speeds [m/s] of the rotational-coefficient reading (hover and 1.5 m/s)."""
 
 
-def measure_rotational_coefficient() -> dict[str, Any]:
+def measure() -> dict[str, Any]:
     """L/W with the paper's C_r = π over L/W with π/2 (both wings), for the random strokes that
     lift at least half the weight with π (docs/model.md §1.3)."""
     import math
@@ -50,7 +46,7 @@ def measure_rotational_coefficient() -> dict[str, Any]:
     return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}
 
 
-def render_rotational_coefficient(data: dict[str, Any]) -> str:
+def render(data: dict[str, Any]) -> str:
     hover, forward = data["rows"]
     return (
         f"On {spaced(data['random_strokes'])} random Table 4 strokes (seed {data['seed']}, "
@@ -62,3 +58,6 @@ def render_rotational_coefficient(data: dict[str, Any]) -> str:
         "`evaluate` with `rotational_coefficient` replaced on both wings, written by `python -m "
         "eval numbers --only rotational-coefficient`).\n"
     )
+
+
+MEASUREMENT = Measurement("rotational-coefficient", measure, render)

@@ -4,12 +4,10 @@ over seeds, with the best seed's stroke."""
 
 from __future__ import annotations
 
-import statistics
-import tempfile
 from collections.abc import Sequence
 from typing import Any
 
-from eval.numbers.framework import machine_line, run_command
+from eval.numbers.framework import OPTIMIZE, Measurement, machine_line, run_seeds, seed_cells
 
 SPECIES_FILE = "examples/orthetrum_cancellatum.yaml"
 SPECIES_ARGUMENTS: tuple[str, ...] = (
@@ -49,36 +47,25 @@ def _columns() -> list[tuple[str, str, str]]:
 
 def species_command(insect: Sequence[str], seeds: Sequence[int]) -> list[str]:
     """The documented command (without ``--out``) for one insect."""
-    return [
-        "python", "-m", "eval", "optimize", *insect, *SPECIES_ARGUMENTS,
-        "--seeds", *map(str, seeds),
-    ]  # fmt: skip
+    return [*OPTIMIZE, *insect, *SPECIES_ARGUMENTS, "--seeds", *map(str, seeds)]
 
 
 def run_species(insect: Sequence[str], seeds: Sequence[int]) -> list[dict[str, Any]]:
     """Run the documented command in a fresh folder; one summary row per seed (the record's
     objective, metrics, 28 stroke parameters, ``at_bounds`` and ``insect``)."""
-    from agents.store import read_record_files
-
-    with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
-        # --no-cache: computed now, not copied from an earlier run's records
-        run_command([*species_command(insect, seeds), "--out", out, "--no-cache"])
-        records = sorted(read_record_files([out]), key=lambda r: r.seed)
-    if [r.seed for r in records] != list(seeds):
-        raise RuntimeError(f"expected records of seeds {list(seeds)}, found {records!r}")
+    records = run_seeds(species_command(insect, seeds), seeds)
     return [{**r.summary_row(), "feasible": bool(r.feasible)} for r in records]
 
 
-def measure_second_species() -> dict[str, Any]:
-    rows = []
-    for label, insect in SPECIES_INSECTS:
-        rows.append(
-            {
-                "label": label,
-                "command": " ".join(species_command(insect, SPECIES_SEEDS)),
-                "seeds": run_species(insect, SPECIES_SEEDS),
-            }
-        )
+def measure() -> dict[str, Any]:
+    rows = [
+        {
+            "label": label,
+            "command": " ".join(species_command(insect, SPECIES_SEEDS)),
+            "seeds": run_species(insect, SPECIES_SEEDS),
+        }
+        for label, insect in SPECIES_INSECTS
+    ]
     return {"rows": rows}
 
 
@@ -88,7 +75,7 @@ def _stroke_cell(best: dict[str, Any], name: str, form: str) -> str:
     return " / ".join(form.format(best[f"{wing}_{name}"]) for wing in ("fore", "hind"))
 
 
-def render_second_species(data: dict[str, Any]) -> str:
+def render(data: dict[str, Any]) -> str:
     columns = _columns()
     headings = " | ".join(title for _, title, _ in columns)
     lines = [
@@ -97,16 +84,11 @@ def render_second_species(data: dict[str, Any]) -> str:
         "|---|---|---|---|" + "---|" * len(columns) + "---|",
     ]
     for row in data["rows"]:
-        seeds = row["seeds"]
-        values = [s["objective"] for s in seeds]
-        times = [s["wall_time_s"] for s in seeds]
-        best = max(seeds, key=lambda s: s["objective"])
+        objectives, median, feasible, times = seed_cells(row["seeds"])
+        best = max(row["seeds"], key=lambda s: s["objective"])
         cells = " | ".join(_stroke_cell(best, name, form) for name, _, form in columns)
         lines.append(
-            f"| {row['label']} | {', '.join(f'{v:.4f}' for v in values)} | "
-            f"**{statistics.median(values):.3f}** | "
-            f"{'yes' if all(s['feasible'] for s in seeds) else 'no'} | {cells} | "
-            f"{min(times):.1f}-{max(times):.1f} s |"
+            f"| {row['label']} | {objectives} | {median} | {feasible} | {cells} | {times} |"
         )
     lines += [
         "",
@@ -126,3 +108,6 @@ def render_second_species(data: dict[str, Any]) -> str:
     ]
     lines += [f"    {row['command']}" for row in data["rows"]]
     return "\n".join(lines) + "\n"
+
+
+MEASUREMENT = Measurement("second-species", measure, render)

@@ -6,10 +6,7 @@ import tempfile
 from collections.abc import Sequence
 from typing import Any
 
-from eval.numbers.framework import (
-    machine_line,
-    spaced,
-)
+from eval.numbers.framework import Measurement, footer, spaced
 
 SPEED_CHANGE_EPISODES = 32
 SPEED_CHANGE_COMMAND = f"python -m eval speed-change --episodes {SPEED_CHANGE_EPISODES}"
@@ -74,7 +71,7 @@ def speed_change_rows(optima: Sequence[dict[str, Any]], first_seed: int) -> list
     return speed_change.policy_summary_rows(episodes)
 
 
-def measure_speed_change() -> dict[str, Any]:
+def measure() -> dict[str, Any]:
     from eval import speed_change
 
     optima = speed_change_optima()
@@ -86,7 +83,7 @@ def measure_speed_change() -> dict[str, Any]:
     }
 
 
-def render_speed_change(data: dict[str, Any]) -> str:
+def render(data: dict[str, Any]) -> str:
     from eval.speed_change import policy_summary_markdown
 
     optima = data["optima"]
@@ -108,9 +105,9 @@ def render_speed_change(data: dict[str, Any]) -> str:
             f"{'yes' if o['feasible'] else 'no'} |"
             for o in optima
         ),
-        "",
-        machine_line(data, "speed-change"),
-        "",
-        f"    {data['command']}",
+        *footer(data, "speed-change", data["command"]),
     ]
     return "\n".join(lines) + "\n"
+
+
+MEASUREMENT = Measurement("speed-change", measure, render)

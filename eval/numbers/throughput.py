@@ -6,24 +6,12 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
-from eval.numbers.framework import (
-    Benchmark,
-    machine_line,
-    spaced,
-)
+from eval.numbers.framework import Benchmark, Measurement, footer, spaced, table_head, table_row
 
 MODEL_THROUGHPUT = Benchmark(("benchmarks/model_throughput.py",))
 INFLOW_SOLVE = Benchmark(("benchmarks/inflow_solve.py",))
 ENV_THROUGHPUT = Benchmark(("benchmarks/env_throughput.py",))
-_TORCH = (
-    "benchmarks/model_throughput.py",
-    "--backend",
-    "torch",
-    "--threads",
-    "1",
-    "--repeats",
-    "3",
-)
+_TORCH = "benchmarks/model_throughput.py --backend torch --threads 1 --repeats 3".split()
 _ONE_THREAD = (("OMP_NUM_THREADS", "1"),)
 TORCH_EAGER = Benchmark(
     (*_TORCH, "--batches", "1", "64", "1024", "--induction", "coupled", "none", "--gradient"),
@@ -43,21 +31,15 @@ def render_model_throughput(data: dict[str, Any]) -> str:
     rates = by_case(data["rates"])
     batches = sorted({batch for batch, _ in rates})
     inductions = [i for i in INDUCTIONS if any((b, i) in rates for b in batches)]
-    lines = [
-        "| batch | "
-        + " | ".join(f"`{i}`: evaluations/s (ms per call, sweeps)" for i in inductions)
-        + " |",
-        "|---" * (1 + len(inductions)) + "|",
-    ]
+    lines = table_head(
+        "batch", *(f"`{i}`: evaluations/s (ms per call, sweeps)" for i in inductions)
+    )
     for batch in batches:
-        cells = []
-        for induction in inductions:
-            r = rates[batch, induction]
-            cells.append(
-                f"{spaced(r['evaluations_per_s'])} ({r['ms_per_call']:.2f} ms, "
-                f"{r['inflow_sweeps']:.1f})"
-            )
-        lines.append(f"| {batch} | " + " | ".join(cells) + " |")
+        cells = [
+            f"{spaced(r['evaluations_per_s'])} ({r['ms_per_call']:.2f} ms, {r['inflow_sweeps']:.1f})"
+            for r in (rates[batch, induction] for induction in inductions)
+        ]
+        lines.append(table_row(batch, *cells))
     lines += [
         "",
         "Best of "
@@ -69,10 +51,7 @@ def render_model_throughput(data: dict[str, Any]) -> str:
         "| one coupled `evaluate` at batch 1024 | wall [ms] | CPU, all threads [ms] |",
         "|---|---|---|",
         *(f"| {b['part']} | {b['wall_ms']:.1f} | {b['cpu_ms']:.1f} |" for b in data["breakdown"]),
-        "",
-        machine_line(data, "model-throughput"),
-        "",
-        f"    {data['command']}",
+        *footer(data, "model-throughput", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
@@ -80,12 +59,12 @@ def render_model_throughput(data: dict[str, Any]) -> str:
 def render_inflow_cost(data: dict[str, Any]) -> str:
     rates = by_case(data["rates"])
     ratios = {r["batch"]: r for r in data["ratios"]}
-    lines = [
-        "| batch | "
-        + " | ".join(f"`{i}`: evaluations/s, best / median round" for i in INDUCTIONS)
-        + " | coupled / none, wall: median (range) | coupled / none, CPU: median (range) |",
-        "|---" * (3 + len(INDUCTIONS)) + "|",
-    ]
+    lines = table_head(
+        "batch",
+        *(f"`{i}`: evaluations/s, best / median round" for i in INDUCTIONS),
+        "coupled / none, wall: median (range)",
+        "coupled / none, CPU: median (range)",
+    )
     for batch in sorted(ratios):
         cells = [
             f"{spaced(rates[batch, i]['best_per_s'])} / {spaced(rates[batch, i]['median_per_s'])}"
@@ -96,7 +75,7 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
             f"{r[kind + '_median']:.2f} ({r[kind + '_range'][0]:.2f}-{r[kind + '_range'][1]:.2f})"
             for kind in ("wall", "cpu")
         ]
-        lines.append(f"| {batch} | " + " | ".join(cells) + " |")
+        lines.append(table_row(batch, *cells))
     sweeps = "; ".join(
         f"V = {s['speed']:g} m/s: {100 * s['solved_share']:.0f} % of the annuli need a solve, "
         f"{s['mean_sweeps']:.2f} sweeps on average (at most {s['max_sweeps']})"
@@ -121,10 +100,7 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
         "medians of the per-round ratios of time per call.",
         "Force sweeps per fore-wing annulus (own inflow, 200 random strokes, the solver called "
         f"directly): {sweeps}.",
-        "",
-        machine_line(data, "inflow-cost"),
-        "",
-        f"    {data['command']}",
+        *footer(data, "inflow-cost", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
@@ -149,10 +125,7 @@ def render_env_throughput(data: dict[str, Any]) -> str:
         f"per step of n = {n} strokes or per single-env episode): " + "; ".join(overheads) + ".",
         f"{data['seconds']:g} s per measurement after a warm-up call; the vector envs count the "
         "strokes evaluated, not the reset steps.",
-        "",
-        machine_line(data, "env-throughput"),
-        "",
-        f"    {data['command']}",
+        *footer(data, "env-throughput", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
@@ -173,13 +146,9 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
         r = rates[key]
         return f"{spaced(r['evaluations_per_s'])} /s ({r['torch_over_numba']:.2g} × numba)"
 
-    lines = [
-        "| batch | " + " | ".join(title for title, _, _ in columns) + " |",
-        "|---" * (1 + len(columns)) + "|",
-    ]
+    lines = table_head("batch", *(title for title, _, _ in columns))
     lines += [
-        f"| {batch} | " + " | ".join(cell(rates, (batch, i)) for _, rates, i in columns) + " |"
-        for batch in batches
+        table_row(batch, *(cell(rates, (batch, i)) for _, rates, i in columns)) for batch in batches
     ]
     g = data["eager"]["gradient"]
     run = data["eager"]
@@ -198,10 +167,14 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
         f"{g['autograd_ms_per_stroke_batch_64']:.1f} ms per stroke at batch 64 "
         f"({g['central_difference_ms'] / g['autograd_ms_per_stroke_batch_64']:.1f} × the central "
         "difference's rate).",
-        "",
-        machine_line(data, "torch-throughput"),
-        "",
-        f"    {data['eager']['command']}",
-        f"    {data['compiled']['command']}",
+        *footer(data, "torch-throughput", data["eager"]["command"], data["compiled"]["command"]),
     ]
     return "\n".join(lines) + "\n"
+
+
+MEASUREMENTS = (
+    Measurement("model-throughput", MODEL_THROUGHPUT.run, render_model_throughput),
+    Measurement("inflow-cost", INFLOW_SOLVE.run, render_inflow_cost),
+    Measurement("torch-throughput", measure_torch_throughput, render_torch_throughput),
+    Measurement("env-throughput", ENV_THROUGHPUT.run, render_env_throughput),
+)
