@@ -416,14 +416,14 @@ def train_policy(
         num_timesteps=evaluated,
         switches=hand_overs(policy, problem, settings.penalty_weight),
     )
+    # each branch serves from one edge to the next: the first condition, the hand-overs, the last
+    edges = [float(conditions[0]), *map(float, policy.switches), float(conditions[-1])]
     record.branches = [
         {
             "training_conditions": conditions[a:b].tolist(),
             "domain": [float(low), float(high)],
-            "serves_from": float(policy.switches[i - 1]) if i else float(conditions[0]),
-            "serves_to": float(policy.switches[i])
-            if i < len(segments) - 1
-            else float(conditions[-1]),
+            "serves_from": edges[i],
+            "serves_to": edges[i + 1],
             "N": [1 if n < 0 else 2 for n in policy.harmonics[i]],
         }
         for i, ((a, b), (low, high)) in enumerate(zip(segments, domains, strict=True))

@@ -134,7 +134,8 @@ def _policy_value(node: ast.expr, text: str) -> Any:
             if isinstance(items, list | tuple):
                 return list(items) if name == "list" else tuple(items)
     elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Load):
-        module = _POLICY_KWARGS_MODULES.get(_dotted(node.value) or "")
+        # a chain of plain names unparses as itself; anything else names no module here
+        module = _POLICY_KWARGS_MODULES.get(ast.unparse(node.value))
         if module is not None:
             import importlib
 
@@ -144,16 +145,6 @@ def _policy_value(node: ast.expr, text: str) -> Any:
     raise ValueError(
         f"policy_kwargs = {text!r} uses {ast.unparse(node)!r}; {_POLICY_KWARGS_ALLOWED}"
     )
-
-
-def _dotted(node: ast.expr) -> str | None:
-    """``a.b.c`` as text if ``node`` is a chain of plain names, else None."""
-    if isinstance(node, ast.Name):
-        return node.id
-    if isinstance(node, ast.Attribute):
-        head = _dotted(node.value)
-        return None if head is None else f"{head}.{node.attr}"
-    return None
 
 
 # --- hyperparameter files ----------------------------------------------------------------------

@@ -158,9 +158,9 @@ def plan_run(config: TrainConfig) -> TrainPlan:
     else:
         layout = None
     # A folder that is not ours was refused above, before the lock file is made in it.
-    lock = RunLock(layout.run_dir) if layout is not None and layout.run_dir.is_dir() else None
-    if lock is not None:
-        lock.acquire()
+    lock = None
+    if layout is not None and layout.run_dir.is_dir():
+        lock = RunLock(layout.run_dir).acquire()
     try:
         return _plan_locked(config, layout, lock)
     except BaseException:
@@ -171,10 +171,8 @@ def plan_run(config: TrainConfig) -> TrainPlan:
 
 def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | None) -> TrainPlan:
     resume = config.resume  # the merge below turns a resume into a run of a given folder
-    saved = None
     if layout is not None and layout.args_file.is_file():
-        saved = read_run_yaml(layout.args_file)
-        config = _merge_saved(config, saved, layout)
+        config = _merge_saved(config, read_run_yaml(layout.args_file), layout)
     checkpoint = None
     if layout is not None:
         checkpoint = _latest_usable_checkpoint(config, layout)
