@@ -36,7 +36,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnv
 
 from tandem_env.io.files import atomic_path
-from train.config import MAX_TIMESTEPS, Hyperparams, resolve_hyperparams
+from train.config import MAX_TIMESTEPS, Hyperparams
 from train.layout import Checkpoint, RunLayout
 from train.vec import make_training_env
 
@@ -258,12 +258,11 @@ def load_model(
 
 
 def load_policy_model(
-    algo: str, path: Path, entry: Mapping[str, Any], env_id: str, env_kwargs: Mapping[str, Any]
+    algo: str, path: Path, hp: Hyperparams, env_id: str, env_kwargs: Mapping[str, Any]
 ) -> BaseAlgorithm:
     """The model saved at ``path`` for prediction, on the CPU (:func:`load_model`), rebuilt from
-    the run's hyperparameters ``entry`` (its config.yml) on a copy of its env."""
+    the run's hyperparameters ``hp`` (its config.yml) on a copy of its env."""
     # The run's own n_envs, so that the rebuilt model is the saved one (PPO's rollout size).
-    hp = resolve_hyperparams(entry, n_timesteps=1)
     venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs, monitor_file=None, normalize=None)
     return load_model(algo, path, hp, venv, seed=0)
 

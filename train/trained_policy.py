@@ -108,10 +108,10 @@ class TrainedPolicy:
                 "folder needs them. Allowed: a folder written by python -m train"
             )
         try:
-            resolve_hyperparams(entry, n_timesteps=1)
+            hp = resolve_hyperparams(entry, n_timesteps=1)
         except ValueError as error:
             raise ValueError(f"{layout.config_file}: {error}") from None
-        model = load_policy_model(algo, path, entry, env_id, env_kwargs)
+        model = load_policy_model(algo, path, hp, env_id, env_kwargs)
         if normalizer is not None:
             read_normalizer(normalizer)
         return cls(
