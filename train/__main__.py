@@ -206,9 +206,8 @@ RL_ONLY = (
 def _amortised(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     """``--algo amortised``: every input checked before any computation, then
     :func:`train.amortised.train_run`."""
-    defaults = {f.name: f.default for f in fields(TrainConfig) if f.default is not MISSING}
     try:
-        given = [flag for name, flag in RL_ONLY if getattr(args, name) != defaults.get(name)]
+        given = [flag for name, flag in RL_ONLY if getattr(args, name) != parser.get_default(name)]
         if given:
             raise ValueError(
                 f"{', '.join(given)}: option(s) of ppo and sac, not of --algo amortised; allowed "

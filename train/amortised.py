@@ -67,13 +67,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from tandem_env.io.files import (
     atomic_path,
     to_jsonable,
     write_json_atomic,
-    write_text_atomic,
 )
 from tandem_env.physics.checks import is_integer, is_real
 from train.amortised_branches import (
@@ -83,7 +81,6 @@ from train.amortised_branches import (
     regression_points,
 )
 from train.amortised_policy import (
-    ALGO,
     HARMONICS,
     POLICY_FILE,
     WEIGHTS_SUFFIX,
@@ -93,16 +90,8 @@ from train.amortised_policy import (
     output_centres,
     reference_targets,
 )
+from train.config import AMORTISED, write_yaml
 from train.layout import MADE_BY, RunLayout
-
-__all__ = [
-    "Settings",
-    "check_env_kwargs",
-    "make_problem",
-    "save_run",
-    "train_policy",
-    "train_run",
-]
 
 
 # --- settings ----------------------------------------------------------------------------------
@@ -253,8 +242,9 @@ def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
         return series
     # which is it: a series the table lacks, or options that change the problem?
     table.get(env_id, str(objective), planform)  # raises naming what the table holds
+    keyword = config_type.OBJECTIVES.keyword
     default = config_type.from_kwargs(
-        planform=planform, **_objective_kwargs(config_type, objective)
+        planform=planform, **({} if keyword is None else {keyword: objective})
     )
     changed = sorted(
         k
@@ -267,11 +257,6 @@ def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
         "model options, insect and tolerances, with planform ('tear-drop' or 'real'), the "
         "objective, penalty_weight, penalty_offset, backend and device"
     )
-
-
-def _objective_kwargs(config_type: type, objective: str) -> dict[str, Any]:
-    keyword = config_type.OBJECTIVES.keyword
-    return {} if keyword is None else {keyword: objective}
 
 
 def make_problem(env_id: str, env_kwargs: Mapping[str, Any], **options: Any) -> Any:
@@ -333,17 +318,9 @@ def train_policy(
     fine-tuning step."""
     import torch
 
+    resolution = {"n_time": settings.finetune_n_time, "n_blade": settings.finetune_n_blade}
     problem = make_problem(
-        env_id,
-        env_kwargs,
-        **{
-            k: v
-            for k, v in (
-                ("n_time", settings.finetune_n_time),
-                ("n_blade", settings.finetune_n_blade),
-            )
-            if v is not None
-        },
+        env_id, env_kwargs, **{k: v for k, v in resolution.items() if v is not None}
     )
     config = problem.config
     canonical = [7, 21] if not config.options.phase_resolved() else [7]
@@ -370,9 +347,6 @@ def train_policy(
         fit_goal = torch.as_tensor(fit_goals)
         own_goal = torch.as_tensor(fit_goals[: conditions.size])  # the optima come first
 
-        def fit_loss() -> Any:
-            return torch.mean((policy.pre_activations(fit_at, fit_of) - fit_goal) ** 2)
-
         def anchor_loss() -> Any:
             return torch.mean((policy.pre_activations(conditions, owner) - own_goal) ** 2)
 
@@ -380,7 +354,7 @@ def train_policy(
         optimiser = torch.optim.Adam(network.parameters(), lr=settings.regression_lr)
         for _ in range(settings.regression_steps):
             optimiser.zero_grad()
-            loss = fit_loss()
+            loss = torch.mean((policy.pre_activations(fit_at, fit_of) - fit_goal) ** 2)
             loss.backward()
             optimiser.step()
         with torch.no_grad():
@@ -442,14 +416,14 @@ def train_policy(
         num_timesteps=evaluated,
         switches=hand_overs(policy, problem, settings.penalty_weight),
     )
+    # each branch serves from one edge to the next: the first condition, the hand-overs, the last
+    edges = [float(conditions[0]), *map(float, policy.switches), float(conditions[-1])]
     record.branches = [
         {
             "training_conditions": conditions[a:b].tolist(),
             "domain": [float(low), float(high)],
-            "serves_from": float(policy.switches[i - 1]) if i else float(conditions[0]),
-            "serves_to": float(policy.switches[i])
-            if i < len(segments) - 1
-            else float(conditions[-1]),
+            "serves_from": edges[i],
+            "serves_to": edges[i + 1],
             "N": [1 if n < 0 else 2 for n in policy.harmonics[i]],
         }
         for i, ((a, b), (low, high)) in enumerate(zip(segments, domains, strict=True))
@@ -458,10 +432,6 @@ def train_policy(
 
 
 # --- run folders -------------------------------------------------------------------------------
-def _write_yaml(path: Path, data: Mapping[str, Any]) -> None:
-    write_text_atomic(path, yaml.safe_dump(to_jsonable(dict(data)), sort_keys=True))
-
-
 def save_run(
     layout: RunLayout,
     policy: AmortisedPolicy,
@@ -473,8 +443,8 @@ def save_run(
     ``result.json`` last (a folder with it is complete)."""
     import torch
 
-    _write_yaml(layout.config_file, settings.to_dict())
-    _write_yaml(layout.args_file, {"made_by": MADE_BY, "algo": ALGO, **dict(args)})
+    write_yaml(layout.config_file, settings.to_dict())
+    write_yaml(layout.args_file, {"made_by": MADE_BY, "algo": AMORTISED, **dict(args)})
     write_json_atomic(layout.run_dir / POLICY_FILE, policy.policy_data())
     with atomic_path(layout.run_dir / f"{layout.name}{WEIGHTS_SUFFIX}") as tmp:
         torch.save(policy.network.state_dict(), tmp)
@@ -506,6 +476,7 @@ def train_run(
     """Check everything, train on the reference table's training optima, write the run folder
     (``log_folder/amortised/<env>_<n>/``, or ``run_dir``: a new or empty folder), and evaluate
     the final policy at the training conditions (default model) for the summary."""
+    from agents.records import package_versions
     from tandem_env.envs.reference import load_reference_table, training_conditions
 
     settings = Settings.from_mapping(overrides)
@@ -535,7 +506,7 @@ def train_run(
     policy, training = train_policy(env_id, env_kwargs, targets, settings, seed, progress=report)
     wall = time.perf_counter() - start
     if run_dir is None:
-        layout = RunLayout.new(log_folder, ALGO, env_id)
+        layout = RunLayout.new(log_folder, AMORTISED, env_id)
     else:
         run_dir.mkdir(parents=True, exist_ok=True)
         layout = RunLayout(run_dir, env_id)
@@ -545,7 +516,7 @@ def train_run(
     found = problem.evaluate(policy.strokes(conditions), conditions)
     table = load_reference_table()
     summary = {
-        "algo": ALGO,
+        "algo": AMORTISED,
         "env_id": env_id,
         "seed": seed,
         "wall_time": wall,
@@ -572,7 +543,7 @@ def train_run(
         ],
         "branches": training.branches,
         "history": training.history,
-        "versions": _versions(),
+        "versions": package_versions(),
     }
     save_run(
         layout,
@@ -590,9 +561,3 @@ def train_run(
         summary,
     )
     return RunResult(layout.run_dir, policy, training, summary)
-
-
-def _versions() -> dict[str, str]:
-    from agents.records import package_versions
-
-    return package_versions()

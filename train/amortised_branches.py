@@ -35,16 +35,6 @@ from train.amortised_policy import (
     wrap_normalised,
 )
 
-__all__ = [
-    "INTERPOLATED",
-    "SWITCH_SAMPLES",
-    "between",
-    "branch_domains",
-    "branch_segments",
-    "hand_overs",
-    "regression_points",
-]
-
 #: Strokes interpolated between two neighbouring optima of a branch for its regression [-].
 INTERPOLATED = 3
 #: Conditions per gap between two branches on which their hand-over is chosen [-].
@@ -63,11 +53,9 @@ def between(first: np.ndarray, second: np.ndarray, fraction: Any = 0.5) -> np.nd
 
 
 def branch_segments(problem: Any, targets: Targets, tolerance: float) -> list[tuple[int, int]]:
-    """The training conditions split into branches ``[(first, stop), ...]`` (index ranges):
-    two neighbouring optima lie on one branch when they share N and the stroke midway between
-    them (:func:`between`), flown at the midway condition, is within ``tolerance`` of the
-    mean of their objectives and violates no constraint margin by more than ``tolerance``
-    (margins are fractions). One batched model evaluation; no held-out optimum is read."""
+    """The training conditions split into branches ``[(first, stop), ...]`` (index ranges) by
+    the rule of the module docstring (``tolerance``: ``branch_tolerance``, the midway stroke by
+    :func:`between`); no held-out optimum is read."""
     k = targets.conditions.size
     if k == 1:
         return [(0, 1)]
@@ -88,9 +76,8 @@ def branch_segments(problem: Any, targets: Targets, tolerance: float) -> list[tu
 def branch_domains(
     conditions: np.ndarray, segments: list[tuple[int, int]], reach: float
 ) -> np.ndarray:
-    """(n_branches, 2) the conditions each branch learns over [the condition's unit]: from its
-    first to its last training condition, and ``reach`` of the way into each gap to a
-    neighbouring branch's (the middle of a gap is then covered by both)."""
+    """(n_branches, 2) the conditions each branch learns over [the condition's unit] (module
+    docstring; ``reach``: ``branch_reach``)."""
     last = conditions.size - 1
     return np.array(
         [

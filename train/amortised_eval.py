@@ -107,29 +107,24 @@ def evaluate_held_out(
     reference = series.at(values)
     score = normalised_score(reference, found.objective, found.feasible, scores.total)
     # the time to a stroke: one forward pass (observation, network, assembly) per condition
-    single = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        policy.strokes(values[:1])
-        single.append(time.perf_counter() - start)
-    batched = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        policy.strokes(values)
-        batched.append(time.perf_counter() - start)
-    rows: list[dict[str, Any]] = []
-    for k, value in enumerate(values):
-        rows.append(
-            {
-                "condition": float(value),
-                "reference": float(reference[k]),
-                "objective": float(found.objective[k]),
-                "feasible": bool(found.feasible[k]),
-                "violation": float(scores.total[k]),
-                "score": float(score[k]),
-                "gap": float(100.0 - score[k]),
-            }
-        )
+    single, batched = [], []
+    for times, batch in ((single, values[:1]), (batched, values)):
+        for _ in range(repeats):
+            start = time.perf_counter()
+            policy.strokes(batch)
+            times.append(time.perf_counter() - start)
+    rows = [
+        {
+            "condition": float(value),
+            "reference": float(reference[k]),
+            "objective": float(found.objective[k]),
+            "feasible": bool(found.feasible[k]),
+            "violation": float(scores.total[k]),
+            "score": float(score[k]),
+            "gap": float(100.0 - score[k]),
+        }
+        for k, value in enumerate(values)
+    ]
     metric = problem.objective_metric
     if records is not None:
         for row in rows:

@@ -4,13 +4,10 @@ targets and its run folder (trained by :mod:`train.amortised`).
 **The map.** Input: the condition c [the condition's unit: m/s for level flight, W/kg for
 accelerating flight]. Output: a normalised stroke (28,) in [-1, 1], the env's action.
 
-* **Branches.** The optima are not one smooth family over the conditions: in level flight
-  they lie in a few basins, and between two basins most coordinates and N jump. The policy
-  has one MLP per branch (a run of neighbouring training conditions whose optima belong
-  together, :func:`train.amortised.branch_segments`) and hand-over conditions
-  (``switches``) between neighbouring branches; a condition is served by the branch whose
-  span holds it (:meth:`AmortisedPolicy.branch_at`), so one forward pass of one branch gives
-  the stroke.
+* **Branches** (:mod:`train.amortised_branches`, which says why and how they are split). The
+  policy has one MLP per branch and hand-over conditions (``switches``) between neighbouring
+  branches; a condition is served by the branch whose span holds it
+  (:meth:`AmortisedPolicy.branch_at`), so one forward pass of one branch gives the stroke.
 * The 26 continuous coordinates from the branch's MLP: the condition mapped from the branch's
   domain to [-1, 1] (:meth:`AmortisedPolicy.inputs`; or, with
   ``features`` of :class:`~train.amortised.Settings` > 0, its Gaussian radial features,
@@ -76,27 +73,8 @@ from tandem_env.physics.stroke import (
     physical_to_normalised,
 )
 from train.config import AMORTISED
-from train.layout import RunLayout, env_name, read_run_yaml, resolve_run_dir
+from train.layout import RunLayout, check_args_env, env_name, read_run_args, resolve_run_dir
 
-__all__ = [
-    "ALGO",
-    "CANONICAL_SWEEP_PHASE",
-    "CONTINUOUS",
-    "PHASES",
-    "TARGET_LIMIT",
-    "AmortisedPolicy",
-    "Targets",
-    "build_network",
-    "build_networks",
-    "canonicalise",
-    "delay",
-    "is_amortised_run",
-    "load_policy",
-    "reference_targets",
-]
-
-#: The ``--algo`` of an amortised run (its run folders: ``logs/amortised/<env>_<n>/``).
-ALGO = AMORTISED
 #: Where the canonical targets put each canonicalised sweep phase [deg] (within half a time-grid
 #: step, :func:`canonicalise`).
 CANONICAL_SWEEP_PHASE = 0.0
@@ -118,6 +96,8 @@ PHASES: tuple[int, ...] = tuple(
     w + k for w in (0, N_PER_WING) for k in (_SWEEP, _ELEVATION, _PITCH)
 )
 HARMONICS: tuple[int, ...] = (HARMONIC_INDEX, N_PER_WING + HARMONIC_INDEX)
+#: (26,) which of the network's outputs are phases.
+_PHASE_MASK = np.array([j in PHASES for j in CONTINUOUS])
 CITATION = (
     "amortised optimisation (Amos 2023, 'Tutorial on amortized optimization', Found. Trends "
     "Mach. Learn. 16(5)): one MLP per branch of the reference optima, regressed on them at the "
@@ -145,12 +125,9 @@ def delay(physical: np.ndarray, fore: Any, hind: Any) -> np.ndarray:
 
 
 def canonicalise(physical: np.ndarray, n_time: int, *, pairs_independent: bool) -> np.ndarray:
-    """The strokes (B, 28) [Table 4 units] delayed by whole time-grid steps (360°/``n_time``)
-    so that the fore-wing's sweep phase lies within half a step of
-    :data:`CANONICAL_SWEEP_PHASE`; ``pairs_independent`` (the model is not phase-resolved,
-    ``ModelOptions.phase_resolved()`` False: the default mean slipstream) delays the hind pair
-    on its own the same way, else by the fore pair's delay. The model's results are unchanged
-    to rounding (module docstring)."""
+    """The strokes (B, 28) [Table 4 units] made canonical (module docstring, **Canonical
+    targets**); ``pairs_independent``: the model is not phase-resolved, so the hind pair is
+    delayed on its own, else by the fore pair's delay."""
     strokes = np.array(physical, dtype=np.float64, ndmin=2)
     step = 360.0 / int(n_time)
 
@@ -299,8 +276,7 @@ class AmortisedPolicy:
     run_dir: Path | None = None
     num_timesteps: int = 0
     """Strokes evaluated in training (the fine-tuning's model evaluations)."""
-    algo: str = ALGO
-    which: str = "final"
+    algo: str = AMORTISED
 
     # --- forward pass ---------------------------------------------------------------------
     def inputs(self, conditions: np.ndarray, branches: np.ndarray) -> np.ndarray:
@@ -354,7 +330,7 @@ class AmortisedPolicy:
         import torch
 
         centres = torch.as_tensor(self.centres, dtype=torch.float64)
-        phase = torch.as_tensor(_phase_mask(), dtype=torch.bool)
+        phase = torch.as_tensor(_PHASE_MASK, dtype=torch.bool)
         shifted = torch.remainder(u + centres + 1.0, 2.0) - 1.0
         continuous = torch.where(phase, shifted, u)
         out = torch.zeros((u.shape[0], N_PARAMETERS), dtype=torch.float64)
@@ -409,7 +385,7 @@ class AmortisedPolicy:
             "env_id": self.env_id,
             "env_kwargs": to_jsonable(dict(self.env_kwargs)),
             "hidden": [m.out_features for m in self.network[0] if hasattr(m, "out_features")][:-1],
-            "features": int(getattr(self.network[0][0], "centres", torch_empty()).numel()),
+            "features": len(getattr(self.network[0][0], "centres", ())),
             "centres": self.centres.tolist(),
             "switches": self.switches.tolist(),
             "domains": self.domains.tolist(),
@@ -419,16 +395,6 @@ class AmortisedPolicy:
             "phases": list(PHASES),
             "canonical_sweep_phase": CANONICAL_SWEEP_PHASE,
         }
-
-
-def torch_empty() -> Any:
-    import torch
-
-    return torch.empty(0)
-
-
-def _phase_mask() -> np.ndarray:
-    return np.array([j in PHASES for j in CONTINUOUS])
 
 
 def output_centres(targets: Targets, canonical: Sequence[int]) -> np.ndarray:
@@ -451,7 +417,7 @@ def regression_outputs(strokes: np.ndarray, centres: np.ndarray) -> np.ndarray:
     continuous coordinate, its phases relative to their centres (wrapped), all within
     :data:`TARGET_LIMIT`."""
     u = np.asarray(strokes, dtype=np.float64)[:, list(CONTINUOUS)].copy()
-    mask = _phase_mask()
+    mask = _PHASE_MASK
     u[:, mask] = wrap_normalised(u[:, mask] - centres[mask])
     return np.clip(u, -TARGET_LIMIT, TARGET_LIMIT)
 
@@ -459,14 +425,11 @@ def regression_outputs(strokes: np.ndarray, centres: np.ndarray) -> np.ndarray:
 def is_amortised_run(run_dir: str | Path) -> bool:
     """Whether ``run_dir`` (or the latest run it names) holds an amortised run: its one
     ``<env>/args.yml`` says ``algo: amortised``."""
-    folder = resolve_run_dir(run_dir)
-    found = sorted(folder.glob("*/args.yml")) if folder.is_dir() else []
-    if len(found) != 1:
-        return False
     try:
-        return read_run_yaml(found[0]).get("algo") == ALGO
+        _, args = read_run_args(resolve_run_dir(run_dir), "")
     except ValueError:
         return False
+    return args.get("algo") == AMORTISED
 
 
 def load_policy(run_dir: str | Path) -> AmortisedPolicy:
@@ -476,21 +439,10 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     import torch
 
     folder = resolve_run_dir(run_dir)
-    found = sorted(folder.glob("*/args.yml")) if folder.is_dir() else []
-    if len(found) != 1:
-        raise ValueError(
-            f"{folder} is not a training run folder (expected one <env>/args.yml, found "
-            f"{len(found)}); allowed: a folder written by python -m train --algo amortised"
-        )
-    args = read_run_yaml(found[0])
-    env_id = args.get("env")
-    if args.get("algo") != ALGO or not isinstance(env_id, str):
-        raise ValueError(f"{found[0]}: algo = {args.get('algo')!r}; allowed: {ALGO!r}")
-    if env_name(env_id) != found[0].parent.name:
-        raise ValueError(
-            f"{found[0]}: env = {env_id!r}, but the file sits in the settings folder of "
-            f"{found[0].parent.name}; allowed: the env the run was trained on"
-        )
+    args_file, args = read_run_args(folder, "a folder written by python -m train --algo amortised")
+    if args.get("algo") != AMORTISED or not isinstance(args.get("env"), str):
+        raise ValueError(f"{args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}")
+    env_id = check_args_env(args_file, args["env"])
     layout = RunLayout(folder, env_id)
     path = folder / POLICY_FILE
     if not path.is_file():

@@ -44,13 +44,12 @@ class PhysicsLogger(BaseCallback):
             values = [info[name] for info in infos if name in info and info[name] == info[name]]
             if values:
                 self.logger.record_mean(f"physics/{name}", float(np.mean(values)))
-        if self.recorder.best_info is not None:
+        best = self.recorder.best_info
+        if best is not None:
             self.logger.record("physics/best_reward", self.recorder.max_reward)
-            self.logger.record("physics/best_feasible", float(self.recorder.best_info["feasible"]))
-            self.logger.record(
-                "physics/best_objective", float(self.recorder.best_info["objective"])
-            )
-            best_score = float(self.recorder.best_info.get("score", np.nan))
+            self.logger.record("physics/best_feasible", float(best["feasible"]))
+            self.logger.record("physics/best_objective", float(best["objective"]))
+            best_score = float(best.get("score", np.nan))
             if not np.isnan(best_score):
                 self.logger.record("physics/best_score", best_score)
         self.logger.record("physics/evaluations", self.recorder.evaluations)

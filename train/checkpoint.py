@@ -5,9 +5,9 @@ SB3's ``load`` unpickles (cloudpickle) the objects stored in a model zip's ``dat
 loader of a run folder (``--resume``, ``policy:RUN_DIR``, ``python -m train.envelope``,
 ``python -m eval speed-change --ppo/--sac``) goes through :func:`load_model` instead:
 
-1. the zip's ``data`` JSON is parsed as JSON (:func:`read_saved_state`): of SB3's own entries
-   only :data:`RESTORED` plain values are read; serialized (pickled) entries are never decoded,
-   and one SB3 does not write is refused;
+1. the zip's ``data`` JSON is parsed as JSON (:func:`read_num_timesteps`): of SB3's own
+   entries only the counter ``num_timesteps`` is read; serialized (pickled) entries are never
+   decoded, and one SB3 does not write is refused;
 2. the model is rebuilt from the run's ``config.yml`` on the run's env (:func:`build_model`);
 3. the weights and optimiser states, every ``.pth`` member, are read with
    ``torch.load(weights_only=True)`` (:func:`read_weights`) and put in place with SB3's
@@ -23,8 +23,7 @@ import io
 import json
 import warnings
 import zipfile
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -37,7 +36,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnv
 
 from tandem_env.io.files import atomic_path
-from train.config import MAX_TIMESTEPS, Hyperparams, resolve_hyperparams
+from train.config import MAX_TIMESTEPS, Hyperparams
 from train.layout import Checkpoint, RunLayout
 from train.vec import make_training_env
 
@@ -73,8 +72,9 @@ def build_model(
 
 # --- the model zip ---------------------------------------------------------------------------
 #: The entries SB3 (2.x) writes into the ``data`` JSON of a PPO or SAC model. None of them is
-#: decoded (the model is rebuilt from ``config.yml``) except the plain :data:`RESTORED` ones; a
-#: serialized entry of any other name is refused, as only a tampered file has one.
+#: decoded (the model is rebuilt from ``config.yml``) but the plain counter ``num_timesteps``
+#: (:func:`read_num_timesteps`); a serialized entry of any other name is refused, as only a
+#: tampered file has one.
 SB3_ENTRIES = frozenset(
     {
         "policy_class", "verbose", "policy_kwargs", "num_timesteps", "_total_timesteps",
@@ -91,25 +91,10 @@ SB3_ENTRIES = frozenset(
         "batch_norm_stats_target",
     }
 )  # fmt: skip
-#: The entries of ``data`` a loaded model takes over: counters, each a plain integer >= 0.
-#: ``num_timesteps`` continues the step count (a public attribute). SB3's two log counters,
-#: ``_n_updates`` and ``_episode_num``, are private and have no public setter, so a resumed
-#: run's logged update count and SAC's episode-based log schedule restart (docs/training.md);
-#: training itself does not read them. Everything else that training uses is rebuilt from
-#: ``config.yml``, or set by ``learn`` before its first use (the schedules' progress, the
-#: last observation: SB3's ``load`` with an env resets it too).
-RESTORED = ("num_timesteps",)
 #: The largest ``data`` JSON read [bytes]; SB3's is a few kB plus the last observations.
 MAX_DATA_BYTES = 64 * 2**20
 
 _ALLOWED_MODEL = "Allowed: a model saved by python -m train with the run's config.yml"
-
-
-@dataclass(frozen=True)
-class SavedState:
-    """The :data:`RESTORED` counters of a model zip."""
-
-    num_timesteps: int
 
 
 def _model_error(path: Path, what: str) -> ValueError:
@@ -125,11 +110,18 @@ def _open_zip(path: Path) -> zipfile.ZipFile:
         raise ValueError(f"{path} cannot be read ({error.strerror})") from None
 
 
-def read_saved_state(path: Path) -> SavedState:
-    """The :data:`RESTORED` counters of the model zip at ``path``, its ``data`` parsed as JSON
-    and nothing decoded; ValueError naming the file for a zip without ``data``, JSON that is not
-    an object, a serialized entry SB3 does not write, or a counter that is not an integer from 0
-    (``num_timesteps`` at most ``MAX_TIMESTEPS``)."""
+def read_num_timesteps(path: Path) -> int:
+    """The step count ``num_timesteps`` of the model zip at ``path``, the one entry of its
+    ``data`` a loaded model takes over (a public attribute), parsed as JSON and nothing decoded;
+    ValueError naming the file for a zip without ``data``, JSON that is not an object, a
+    serialized entry SB3 does not write, or a count that is not an integer from 0 to
+    ``MAX_TIMESTEPS``.
+
+    SB3's two log counters, ``_n_updates`` and ``_episode_num``, are private and have no public
+    setter, so a resumed run's logged update count and SAC's episode-based log schedule restart
+    (docs/training.md); training itself does not read them. Everything else that training uses
+    is rebuilt from ``config.yml``, or set by ``learn`` before its first use (the schedules'
+    progress, the last observation: SB3's ``load`` with an env resets it too)."""
     with _open_zip(path) as archive:
         try:
             info = archive.getinfo("data")
@@ -154,15 +146,12 @@ def read_saved_state(path: Path) -> SavedState:
             path,
             f"its data holds serialized (pickled) entries SB3 does not write: {', '.join(foreign)}",
         )
-    values = {}
-    for key in RESTORED:
-        value = data.get(key, 0)
-        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_TIMESTEPS:
-            raise _model_error(
-                path, f"its {key} = {value!r}; allowed: an integer from 0 to {MAX_TIMESTEPS:,}"
-            )
-        values[key] = value
-    return SavedState(values["num_timesteps"])
+    value = data.get("num_timesteps", 0)
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_TIMESTEPS:
+        raise _model_error(
+            path, f"its num_timesteps = {value!r}; allowed: an integer from 0 to {MAX_TIMESTEPS:,}"
+        )
+    return value
 
 
 #: The ``.pth`` member of a model zip that holds torch variables (SAC's entropy coefficient)
@@ -243,7 +232,7 @@ def load_model(
     and given the file's weights, optimiser states and counters; nothing in the file is
     unpickled (see the module docstring). ValueError naming the file if it is not such a model
     or its weights do not fit the rebuilt one (a changed ``net_arch``, another env)."""
-    state = read_saved_state(path)
+    num_timesteps = read_num_timesteps(path)
     params, variables = read_weights(path)
     model = build_model(
         algo, hp, venv, seed=seed, tensorboard_log=tensorboard_log, verbose=verbose, device=device
@@ -264,17 +253,16 @@ def load_model(
             f"{path}: its weights do not load into a {algo.upper()} model built from the run's "
             f"config.yml ({type(error).__name__}: {reason[:400]}). {_ALLOWED_MODEL}"
         ) from None
-    model.num_timesteps = state.num_timesteps
+    model.num_timesteps = num_timesteps
     return model
 
 
 def load_policy_model(
-    algo: str, path: Path, entry: Mapping[str, Any], env_id: str, env_kwargs: Mapping[str, Any]
+    algo: str, path: Path, hp: Hyperparams, env_id: str, env_kwargs: Mapping[str, Any]
 ) -> BaseAlgorithm:
     """The model saved at ``path`` for prediction, on the CPU (:func:`load_model`), rebuilt from
-    the run's hyperparameters ``entry`` (its config.yml) on a copy of its env."""
+    the run's hyperparameters ``hp`` (its config.yml) on a copy of its env."""
     # The run's own n_envs, so that the rebuilt model is the saved one (PPO's rollout size).
-    hp = resolve_hyperparams(entry, n_timesteps=1)
     venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs, monitor_file=None, normalize=None)
     return load_model(algo, path, hp, venv, seed=0)
 
@@ -440,14 +428,12 @@ def save_checkpoint(model: BaseAlgorithm, layout: RunLayout) -> Checkpoint:
     even if the process is killed while saving."""
     checkpoint = layout.checkpoint(model.num_timesteps)
     if getattr(model, "replay_buffer", None) is not None:
-        _save_atomic(checkpoint.replay_buffer, lambda p: save_replay_buffer(model, p))
+        with atomic_path(checkpoint.replay_buffer) as tmp:
+            save_replay_buffer(model, tmp)
     normalizer = model.get_vec_normalize_env()
     if normalizer is not None:
-        _save_atomic(checkpoint.vecnormalize, lambda p: normalizer.save(str(p)))
-    _save_atomic(checkpoint.model, model.save)
+        with atomic_path(checkpoint.vecnormalize) as tmp:
+            normalizer.save(str(tmp))
+    with atomic_path(checkpoint.model) as tmp:
+        model.save(tmp)
     return checkpoint
-
-
-def _save_atomic(path: Path, save: Callable[[Path], Any]) -> None:
-    with atomic_path(path) as tmp:
-        save(tmp)

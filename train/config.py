@@ -23,7 +23,7 @@ import yaml
 
 from tandem_env.envs.config import insect_keyword
 from tandem_env.envs.registration import check_env_id
-from tandem_env.io.files import output_directory, to_jsonable
+from tandem_env.io.files import output_directory, to_jsonable, write_text_atomic
 from tandem_env.physics.checks import is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
@@ -134,7 +134,8 @@ def _policy_value(node: ast.expr, text: str) -> Any:
             if isinstance(items, list | tuple):
                 return list(items) if name == "list" else tuple(items)
     elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Load):
-        module = _POLICY_KWARGS_MODULES.get(_dotted(node.value) or "")
+        # a chain of plain names unparses as itself; anything else names no module here
+        module = _POLICY_KWARGS_MODULES.get(ast.unparse(node.value))
         if module is not None:
             import importlib
 
@@ -146,23 +147,7 @@ def _policy_value(node: ast.expr, text: str) -> Any:
     )
 
 
-def _dotted(node: ast.expr) -> str | None:
-    """``a.b.c`` as text if ``node`` is a chain of plain names, else None."""
-    if isinstance(node, ast.Name):
-        return node.id
-    if isinstance(node, ast.Attribute):
-        head = _dotted(node.value)
-        return None if head is None else f"{head}.{node.attr}"
-    return None
-
-
 # --- hyperparameter files ----------------------------------------------------------------------
-def hyperparams_path(algo: str, path: str | Path | None = None) -> Path:
-    """The zoo file of ``algo``: ``path`` if given, else ``train/hyperparams/<algo>.yml``."""
-    check_algo(algo)
-    return Path(path) if path is not None else HYPERPARAMS_DIR / f"{algo}.yml"
-
-
 def load_hyperparams_file(path: str | Path) -> dict[str, dict[str, Any]]:
     """Every entry of a zoo hyperparameter file (env id -> settings)."""
     path = Path(path)
@@ -187,8 +172,10 @@ def load_hyperparams_file(path: str | Path) -> dict[str, dict[str, Any]]:
 
 
 def load_entry(algo: str, env_id: str, path: str | Path | None = None) -> dict[str, Any]:
-    """The entry for ``env_id`` (else ``default``) of ``algo``'s hyperparameter file, as the zoo."""
-    file = hyperparams_path(algo, path)
+    """The entry for ``env_id`` (else ``default``) of ``algo``'s hyperparameter file (``path``,
+    default ``train/hyperparams/<algo>.yml``), as the zoo."""
+    check_algo(algo)
+    file = Path(path) if path is not None else HYPERPARAMS_DIR / f"{algo}.yml"
     entries = load_hyperparams_file(file)
     if env_id in entries:
         return dict(entries[env_id])
@@ -321,9 +308,7 @@ def _layer_sizes(arch: Any) -> bool:
 
 def _positive_int(name: str, value: Any) -> int:
     # YAML reads 1e5 as a float (the zoo writes !!float 1e5); accept integral floats.
-    if not is_real(value) or not math.isfinite(value):
-        raise ValueError(f"{name} = {value!r}; allowed: an integer >= 1")
-    if int(value) != value or value < 1:
+    if not is_real(value) or not math.isfinite(value) or int(value) != value or value < 1:
         raise ValueError(f"{name} = {value!r}; allowed: an integer >= 1")
     most = {"n_envs": MAX_ENVS, "n_timesteps": MAX_TIMESTEPS}.get(name)
     if most is not None and value > most:
@@ -529,8 +514,16 @@ def plain(value: Any) -> Any:
     (:func:`tandem_env.io.files.to_jsonable`: string keys, tuples as lists, which ``yaml.safe_dump``
     needs, numpy scalars as Python numbers); anything it cannot convert is kept, for
     ``yaml.safe_dump`` to accept or refuse."""
-    return to_jsonable(value, default=_as_is)
+    return to_jsonable(value, default=lambda kept: kept)
 
 
-def _as_is(value: Any) -> Any:
-    return value
+def write_yaml(path: Path, data: Mapping[str, Any]) -> None:
+    """Write a run folder's ``data`` (:func:`plain`) as YAML to ``path``, atomically."""
+    try:
+        text = yaml.safe_dump(plain(dict(data)), sort_keys=True)
+    except yaml.representer.RepresenterError as error:
+        raise ValueError(
+            f"cannot write {path.name}: {error.args[-1]!r} is not a YAML value; allowed in "
+            "env_kwargs / hyperparams of a run with files: numbers, strings, booleans, lists"
+        ) from error
+    write_text_atomic(path, text)

@@ -16,8 +16,6 @@ import contextlib
 import sys
 from collections.abc import Iterator
 
-__all__ = ["exit_on_bad_environment"]
-
 
 @contextlib.contextmanager
 def exit_on_bad_environment(program: str) -> Iterator[None]:

@@ -1,22 +1,7 @@
-"""Where a run's files live: the rl-baselines3-zoo folder layout, and finding checkpoints.
-
-::
-
-    logs/<algo>/<env>_<n>/                  e.g. logs/sac/TandemWing-LevelFlight-v0_1/
-        <env>.zip                           final model
-        best_model.zip                      best deterministic evaluation (EvalCallback)
-        evaluations.npz                     EvalCallback's timesteps / results / ep_lengths
-        rl_model_<N>_steps.zip              checkpoints (the last two kept) ...
-        rl_model_replay_buffer_<N>_steps.npz    ... with the SAC replay buffer (arrays)
-        rl_model_vecnormalize_<N>_steps.pkl     ... and VecNormalize statistics if used
-        <k>.monitor.csv                     episodes (one per stroke) of training segment k
-        result.json                         summary: best stroke seen, final evaluation, timing
-        tb/<ALGO>_1/                        TensorBoard events
-        <env>/config.yml, args.yml          hyperparameters and arguments (zoo's params folder)
-        <env>/vecnormalize.pkl              final VecNormalize statistics if used
-        best_model_vecnormalize.pkl         ... and those of best_model.zip
-
-``<env>`` is the env id with ``/`` replaced by ``-`` (the zoo's ``EnvironmentName``).
+"""Where a run's files live: the rl-baselines3-zoo folder layout
+(``logs/<algo>/<env>_<n>/``, each file listed in docs/training.md, "The run folder"), and
+finding checkpoints. ``<env>`` is the env id with ``/`` replaced by ``-`` (the zoo's
+``EnvironmentName``).
 
 rl-baselines3-zoo writes the same layout into the same folders (``logs/<algo>/<env>_<n>/``,
 ``rl_model_<N>_steps.zip``, ``<env>/args.yml``), so a run of this project is recognised by the
@@ -192,6 +177,29 @@ def read_run_yaml(path: Path) -> dict[str, Any]:
     return parse_run_yaml(text, path)
 
 
+def read_run_args(run_dir: Path, allowed: str) -> tuple[Path, dict[str, Any]]:
+    """The one ``<env>/args.yml`` of ``run_dir`` and its settings; ValueError naming the folder
+    and ``allowed`` (the folders the caller takes) if it holds none or several."""
+    found = sorted(run_dir.glob("*/args.yml")) if run_dir.is_dir() else []
+    if len(found) != 1:
+        raise ValueError(
+            f"{run_dir} is not a training run folder (expected one <env>/args.yml, found "
+            f"{len(found)}); allowed: {allowed}"
+        )
+    return found[0], read_run_yaml(found[0])
+
+
+def check_args_env(args_file: Path, env_id: Any) -> str:
+    """The ``env`` of ``args_file``; ValueError unless it is the env its settings folder is
+    named after."""
+    if not isinstance(env_id, str) or env_name(env_id) != args_file.parent.name:
+        raise ValueError(
+            f"{args_file}: env = {env_id!r}, but the file sits in the settings folder of "
+            f"{args_file.parent.name}; allowed: the env the run was trained on"
+        )
+    return env_id
+
+
 def env_name(env_id: str) -> str:
     """The env id as a folder name: ``TandemWing/LevelFlight-v0`` -> ``TandemWing-LevelFlight-v0``."""
     return env_id.replace("/", "-")
@@ -251,12 +259,12 @@ class Checkpoint:
         object), so a file cut short by a kill or a full disk is found before it is loaded. A
         replay buffer only in the pickled format of earlier versions is not loaded: it says so.
         """
-        needed = [(self.model, _model_damage)]
+        needed = [(self.model, _MODEL_ZIP)]
         if replay_buffer:
-            needed.append((self.replay_buffer, _buffer_damage))
+            needed.append((self.replay_buffer, _BUFFER_ZIP))
         if vecnormalize:
-            needed.append((self.vecnormalize, _pickle_damage))
-        for path, check in needed:
+            needed.append((self.vecnormalize, None))  # a pickle
+        for path, zip_members in needed:
             if (
                 path == self.replay_buffer
                 and not path.exists()
@@ -270,7 +278,10 @@ class Checkpoint:
                 return f"{path.name} is missing"
             if path.stat().st_size == 0:
                 return f"{path.name} is empty"
-            problem = check(path)
+            if zip_members is None:
+                problem = _pickle_damage(path)
+            else:
+                problem = _zip_damage(path, *zip_members)
             if problem is not None:
                 return f"{path.name} is damaged ({problem})"
         return None
@@ -279,10 +290,10 @@ class Checkpoint:
         return (self.model, self.replay_buffer, self.vecnormalize, self.legacy_replay_buffer)
 
 
-#: Members every SB3 model zip has (``save_to_zip_file``).
-_MODEL_MEMBERS = frozenset({"data", "_stable_baselines3_version"})
-#: Members every replay buffer ``.npz`` has (:data:`train.checkpoint.REPLAY_COUNTERS`).
-_BUFFER_MEMBERS = frozenset({"pos.npy", "full.npy"})
+#: The members every SB3 model zip has (``save_to_zip_file``) and every replay buffer ``.npz``
+#: (:data:`train.checkpoint.REPLAY_COUNTERS`), and what such a file is called.
+_MODEL_ZIP = (frozenset({"data", "_stable_baselines3_version"}), "model file")
+_BUFFER_ZIP = (frozenset({"pos.npy", "full.npy"}), "replay buffer file")
 
 
 def _zip_damage(path: Path, members: frozenset[str], what: str) -> str | None:
@@ -297,14 +308,6 @@ def _zip_damage(path: Path, members: frozenset[str], what: str) -> str | None:
     if missing:
         return f"not a complete {what}: no {', '.join(sorted(missing))}"
     return None if bad is None else f"member {bad} fails its CRC check"
-
-
-def _model_damage(path: Path) -> str | None:
-    return _zip_damage(path, _MODEL_MEMBERS, "model file")
-
-
-def _buffer_damage(path: Path) -> str | None:
-    return _zip_damage(path, _BUFFER_MEMBERS, "replay buffer file")
 
 
 def _pickle_damage(path: Path) -> str | None:
@@ -396,14 +399,12 @@ class RunLayout:
             return f"{self.args_file} is not UTF-8 text"
         except (OSError, ValueError) as error:
             return str(error)
-        if isinstance(args, dict) and args.get("made_by") == MADE_BY:
+        if args.get("made_by") == MADE_BY:
             return None
-        if isinstance(args, dict) and _LEGACY_KEY in args and "!!python" not in text:
+        if _LEGACY_KEY in args and "!!python" not in text:
             return None
         looks_like = ""
-        if "!!python/object/apply:collections.OrderedDict" in text or (
-            isinstance(args, dict) and "trained_agent" in args
-        ):
+        if "!!python/object/apply:collections.OrderedDict" in text or "trained_agent" in args:
             looks_like = (
                 " (it looks like an rl-baselines3-zoo run: rl_zoo3.train writes the same layout)"
             )

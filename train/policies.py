@@ -1,24 +1,11 @@
 """Stable-Baselines3 models as harness methods: a trained policy, and training within a budget.
 
-Two kinds of method, registered with the harness when this module is imported (it is the
-provider :mod:`agents.methods` imports on first use, so ``agents`` imports SB3 only when asked):
-
-``policy:RUN_DIR``
-    A policy trained by ``python -m train`` (ppo, sac, or amortised: one network from the
-    condition to a stroke, :mod:`train.amortised`). Asked deterministically for its stroke at the
-    condition (one forward pass), which the harness evaluates once: **1 evaluation**, any
-    larger budget is left unused. ``model=best`` (default: ``best_model.zip``, the best
-    deterministic evaluation during training) or ``model=final`` (``<env>.zip``). ``RUN_DIR``
-    without its run number (``logs/ppo/TandemWing-LevelFlight-v0``) is the latest run there.
-``ppo`` / ``sac``
-    Trained from scratch at the harness's condition with the zoo hyperparameters of
-    ``train/hyperparams/<algo>.yml``. The budget counts env steps (one env step = one stroke =
-    one model evaluation): training gets ``budget - 1`` of them, rounded down to whole learn
-    iterations, and the last evaluation is the final deterministic policy's stroke. The
-    result is the **best stroke seen** among everything training evaluated and that final
-    deterministic stroke: feasible strokes first, then the highest reward (the harness's rule
-    for PSO and random search too, so records compare like for like). The final policy's own metrics are in the record's method
-    config under ``final_policy``.
+Two kinds of method (docs/training.md, "Through the harness"), registered with the harness when
+this module is imported (it is the provider :mod:`agents.methods` imports on first use, so
+``agents`` imports SB3 only when asked): ``policy:RUN_DIR``, a policy trained by ``python -m
+train`` (ppo, sac or amortised) asked once for its deterministic stroke (**1 evaluation**); and
+``ppo`` / ``sac``, trained at the harness's condition within its budget of env steps, the
+result being the **best stroke seen** by the harness's selection rule (:mod:`agents.selection`).
 
 For use outside the harness: :func:`train_and_propose` (train within a budget, return the
 chosen stroke); a trained run's own stroke at a condition is
@@ -44,9 +31,16 @@ from tandem_env.envs.registration import condition_keywords
 from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import is_integer
 from train.amortised_policy import CITATION as AMORTISED_CITATION
-from train.config import ALGOS, check_algo, plain
+from train.config import (
+    ALGOS,
+    TrainConfig,
+    check_algo,
+    load_entry,
+    plain,
+    resolve_hyperparams,
+)
 from train.layout import RunLayout, read_run_yaml, resolve_run_dir
-from train.run import learn_in_memory
+from train.run import budget_steps, learn_in_memory, step_granularity, train
 from train.trained_policy import (
     WHICH_MODELS,
     TrainingMismatchWarning,
@@ -57,15 +51,6 @@ from train.vec import StrokeRecorder
 
 if TYPE_CHECKING:
     from agents.tasks import TaskSpec
-
-__all__ = [
-    "CITATIONS",
-    "PolicyMethod",
-    "TrainingMethod",
-    "policy_factory",
-    "train_and_propose",
-    "training_factory",
-]
 
 CITATIONS: dict[str, str] = {
     "ppo": (
@@ -79,9 +64,9 @@ CITATIONS: dict[str, str] = {
     "amortised": AMORTISED_CITATION,
 }
 
-# Settings of the training methods that are not hyperparameter overrides.
-# The budget notices this process has printed (PolicySearch._announce_budget).
+# The budget notices this process has printed (TrainingMethod._announce_budget).
 _ANNOUNCED: set[tuple[Any, ...]] = set()
+# Settings of the training methods that are not hyperparameter overrides.
 _TRAINING_SETTINGS = ("n_envs", "conf_file", "torch_threads", "log_dir")
 
 
@@ -245,26 +230,24 @@ class TrainingMethod:
     def check(self, budget: int, dim: int, task: TaskSpec) -> None:
         """The harness's check before any work: the yml entry and the overrides resolve, and
         the budget holds one whole iteration (:func:`~train.run.budget_steps` raises)."""
-        from train.config import load_entry
-        from train.run import budget_steps
+        self._training_steps(task.env_id, budget)
 
-        entry = load_entry(self.algo, task.env_id, self.conf_file)
-        budget_steps(self.algo, entry, self.overrides, self.n_envs, budget - 1)
+    def _training_steps(self, env_id: str, budget: int) -> int:
+        """The env steps training gets: ``budget - 1`` (the last evaluation is the final
+        policy's) rounded down to whole iterations (:func:`~train.run.budget_steps`)."""
+        entry = load_entry(self.algo, env_id, self.conf_file)
+        return budget_steps(self.algo, entry, self.overrides, self.n_envs, budget - 1)
 
     def _announce_budget(self, context: SearchContext) -> int:
         """Say (stderr, one line) when training cannot use the whole budget; returns the
-        evaluations left unused. SB3 learns in whole iterations, so the training steps are
-        ``budget - 1`` rounded down to one (:func:`~train.run.budget_steps`)."""
-        from train.config import load_entry, resolve_hyperparams
-        from train.run import budget_steps, step_granularity
-
-        entry = load_entry(self.algo, context.env_id, self.conf_file)
-        steps = budget_steps(self.algo, entry, self.overrides, self.n_envs, context.budget - 1)
+        evaluations left unused. SB3 learns in whole iterations (:meth:`_training_steps`)."""
+        steps = self._training_steps(context.env_id, context.budget)
         unused = context.budget - (steps + 1)
         # Once per process and setting, not once per seed: the seeds of a run share it.
         said = (self.algo, context.env_id, context.budget, self.n_envs, repr(self.overrides))
         if unused > 0 and said not in _ANNOUNCED:
             _ANNOUNCED.add(said)
+            entry = load_entry(self.algo, context.env_id, self.conf_file)
             hp = resolve_hyperparams(entry, self.overrides, n_envs=self.n_envs, n_timesteps=1)
             unit = step_granularity(self.algo, hp)
             tqdm.write(
@@ -314,11 +297,7 @@ class TrainingMethod:
         )
 
     def _learn_with_files(self, context: SearchContext) -> _Training:
-        from train.config import TrainConfig, load_entry
-        from train.run import budget_steps, train
-
-        entry = load_entry(self.algo, context.env_id, self.conf_file)
-        steps = budget_steps(self.algo, entry, self.overrides, self.n_envs, context.budget - 1)
+        steps = self._training_steps(context.env_id, context.budget)
         result = train(
             TrainConfig(
                 algo=self.algo,  # type: ignore[arg-type]

@@ -20,14 +20,13 @@ from typing import Any
 
 import numpy as np
 import torch
-import yaml
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize, sync_envs_normalization
 
 from agents.selection import best_index
 from tandem_env.envs.registration import check_env_id
-from tandem_env.io.files import write_json_atomic, write_text_atomic
+from tandem_env.io.files import write_json_atomic
 from train.callbacks import PhysicsLogger, ResumableEvalCallback, SaveVecNormalize
 from train.checkpoint import (
     RunCheckpoint,
@@ -37,7 +36,14 @@ from train.checkpoint import (
     prune_checkpoints,
     save_checkpoint,
 )
-from train.config import Hyperparams, TrainConfig, load_entry, plain, resolve_hyperparams
+from train.config import (
+    Hyperparams,
+    TrainConfig,
+    load_entry,
+    plain,
+    resolve_hyperparams,
+    write_yaml,
+)
 from train.layout import (
     Checkpoint,
     RunComplete,
@@ -98,10 +104,8 @@ def step_granularity(algo: str, hp: Hyperparams) -> int:
     if algo == "ppo":
         return int(hp.model_kwargs.get("n_steps", 2048)) * hp.n_envs
     train_freq = hp.model_kwargs.get("train_freq", 1)
+    # Every episode is one step, so "episode" frequencies count the same vector steps.
     steps = train_freq[0] if isinstance(train_freq, tuple) else train_freq
-    if isinstance(train_freq, tuple) and train_freq[1] != "step":
-        # Every episode is one step, so "episode" frequencies count the same vector steps.
-        steps = train_freq[0]
     return int(steps) * hp.n_envs
 
 
@@ -111,18 +115,6 @@ def default_log_interval(algo: str, n_envs: int) -> int:
     if algo == "ppo":
         return 1
     return n_envs * max(1, round(SAC_LOG_EVERY / n_envs))
-
-
-# --- files ---------------------------------------------------------------------------------
-def write_yaml(path: Path, data: Mapping[str, Any]) -> None:
-    try:
-        text = yaml.safe_dump(plain(dict(data)), sort_keys=True)
-    except yaml.representer.RepresenterError as error:
-        raise ValueError(
-            f"cannot write {path.name}: {error.args[-1]!r} is not a YAML value; allowed in "
-            "env_kwargs / hyperparams of a run with files: numbers, strings, booleans, lists"
-        ) from error
-    write_text_atomic(path, text)
 
 
 # --- the run ---------------------------------------------------------------------------------
@@ -166,9 +158,9 @@ def plan_run(config: TrainConfig) -> TrainPlan:
     else:
         layout = None
     # A folder that is not ours was refused above, before the lock file is made in it.
-    lock = RunLock(layout.run_dir) if layout is not None and layout.run_dir.is_dir() else None
-    if lock is not None:
-        lock.acquire()
+    lock = None
+    if layout is not None and layout.run_dir.is_dir():
+        lock = RunLock(layout.run_dir).acquire()
     try:
         return _plan_locked(config, layout, lock)
     except BaseException:
@@ -179,10 +171,8 @@ def plan_run(config: TrainConfig) -> TrainPlan:
 
 def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | None) -> TrainPlan:
     resume = config.resume  # the merge below turns a resume into a run of a given folder
-    saved = None
     if layout is not None and layout.args_file.is_file():
-        saved = read_run_yaml(layout.args_file)
-        config = _merge_saved(config, saved, layout)
+        config = _merge_saved(config, read_run_yaml(layout.args_file), layout)
     checkpoint = None
     if layout is not None:
         checkpoint = _latest_usable_checkpoint(config, layout)
@@ -199,13 +189,13 @@ def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | 
                 "or killed before the first); allowed: start a new run"
             )
 
-    if checkpoint is not None and layout is not None and not layout.config_file.is_file():
-        # Resuming from the current yml instead would mix two runs' hyperparameters unsaid.
-        raise ValueError(
-            f"{layout.config_file} is missing: the hyperparameters the run started with cannot "
-            "be restored; allowed: a run folder with its config.yml (or a new run)"
-        )
     if checkpoint is not None and layout is not None:
+        if not layout.config_file.is_file():
+            # Resuming from the current yml instead would mix two runs' hyperparameters unsaid.
+            raise ValueError(
+                f"{layout.config_file} is missing: the hyperparameters the run started with "
+                "cannot be restored; allowed: a run folder with its config.yml (or a new run)"
+            )
         # A resumed run keeps the hyperparameters it started with, whatever the yml says now.
         entry = read_run_yaml(layout.config_file)
         try:
@@ -394,27 +384,15 @@ def _run_envs(plan: TrainPlan) -> tuple[VecEnv, StrokeRecorder, VecEnv]:
 def _run_model(plan: TrainPlan, venv: VecEnv) -> BaseAlgorithm:
     """A new model, or the checkpoint's (with SAC's replay buffer) for a resumed run."""
     config = plan.config
-    tensorboard = plan.layout.tensorboard if config.tensorboard else None
+    settings: dict[str, Any] = {
+        "seed": config.seed,
+        "tensorboard_log": plan.layout.tensorboard if config.tensorboard else None,
+        "verbose": config.model_verbose,
+        "device": config.device,
+    }
     if plan.checkpoint is None:
-        return build_model(
-            config.algo,
-            plan.hp,
-            venv,
-            seed=config.seed,
-            tensorboard_log=tensorboard,
-            verbose=config.model_verbose,
-            device=config.device,
-        )
-    model = load_checkpoint(
-        config.algo,
-        plan.checkpoint,
-        plan.hp,
-        venv,
-        seed=config.seed,
-        device=config.device,
-        tensorboard_log=tensorboard,
-        verbose=config.model_verbose,
-    )
+        return build_model(config.algo, plan.hp, venv, **settings)
+    model = load_checkpoint(config.algo, plan.checkpoint, plan.hp, venv, **settings)
     # A resumed segment is reproducible given its checkpoint (RNG states are not saved).
     model.set_random_seed(config.seed + model.num_timesteps)
     return model

@@ -1,8 +1,8 @@
 """A policy trained by ``python -m train``, loaded from its run folder and asked for strokes.
 
-:class:`RunFiles` reads and checks what a run folder holds (its settings, its model file, its
-normalisation statistics); :class:`TrainedPolicy` loads the model without unpickling anything
-and observes a condition the way the training env did; :func:`policy_stroke` is the one-line
+:class:`TrainedPolicy` reads and checks what a run folder holds (its settings, its model file,
+its normalisation statistics), loads the model without unpickling anything and observes a
+condition the way the training env did; :func:`policy_stroke` is the one-line
 use. The harness method ``policy:RUN_DIR`` (:mod:`train.policies`) and the envelope
 (:mod:`train.envelope`) are built on it. :func:`load_policy` loads either kind of run folder:
 an RL run as a :class:`TrainedPolicy`, an amortised run (``--algo amortised``) as a
@@ -28,18 +28,15 @@ from tandem_env.envs.registration import check_env_id, config_class
 from tandem_env.envs.sb3 import make_sb3_vec_env
 from train.checkpoint import load_policy_model
 from train.config import check_algo, resolve_hyperparams
-from train.layout import RunLayout, env_name, read_normalizer, read_run_yaml, resolve_run_dir
+from train.layout import (
+    RunLayout,
+    check_args_env,
+    read_normalizer,
+    read_run_args,
+    read_run_yaml,
+    resolve_run_dir,
+)
 from train.vec import ConditionGrid, option_key
-
-__all__ = [
-    "WHICH_MODELS",
-    "RunFiles",
-    "TrainedPolicy",
-    "TrainingMismatchWarning",
-    "WhichModel",
-    "load_policy",
-    "policy_stroke",
-]
 
 WhichModel = Literal["best", "final"]
 WHICH_MODELS: tuple[str, ...] = get_args(WhichModel)
@@ -50,49 +47,46 @@ class TrainingMismatchWarning(RuntimeWarning):
 
 
 # --- a trained run ---------------------------------------------------------------------------
-@dataclass(frozen=True)
-class RunFiles:
-    """What a run folder of ``python -m train`` holds for loading its policy: its settings read
-    and checked (the model itself is checked by loading it, :meth:`TrainedPolicy.load`)."""
+@dataclass(frozen=True, eq=False)
+class TrainedPolicy:
+    """A model saved by ``python -m train``, with what it needs to observe a condition: the
+    run folder's settings read and checked, the model loaded without unpickling anything."""
 
     run_dir: Path
     algo: str
     env_id: str
     entry: Mapping[str, Any]
     """The run's hyperparameters (``config.yml``)."""
-    env_kwargs: dict[str, Any]
+    env_kwargs: Mapping[str, Any]
+    """The env options it was trained with (``args.yml`` and the yml entry's ``env_kwargs``)."""
     model_path: Path
     normalizer_path: Path | None
+    """VecNormalize statistics applied to observations, if the run normalised them."""
+    model: BaseAlgorithm
 
     @classmethod
-    def read(cls, run_dir: str | Path, which: WhichModel = "best") -> RunFiles:
-        """The files of ``run_dir`` (or of the latest run it names); ValueError naming the
-        folder or file and what is wrong: a missing file, an args.yml naming an algo or env
-        other than its own (its folder is named after the env), hyperparameters that do not
-        resolve (:func:`~train.config.resolve_hyperparams`: n_envs, the network's size)."""
+    def load(cls, run_dir: str | Path, which: WhichModel = "best") -> TrainedPolicy:
+        """Load ``best_model.zip`` (``which="best"``, falling back to the final model when the
+        run had no evaluations) or the final ``<env>.zip`` of ``run_dir`` (or of the latest run
+        it names). ValueError naming the folder or file and what is wrong: a missing file, an
+        args.yml naming an algo or env other than its own (its folder is named after the env),
+        hyperparameters that do not resolve (:func:`~train.config.resolve_hyperparams`: n_envs,
+        the network's size), a model or normalisation file that does not load
+        (:func:`~train.checkpoint.load_policy_model`, :func:`~train.layout.read_normalizer`)."""
         if which not in WHICH_MODELS:
             raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
         run_dir = resolve_run_dir(run_dir)
-        args_files = sorted(run_dir.glob("*/args.yml")) if run_dir.is_dir() else []
-        if len(args_files) != 1:
-            raise ValueError(
-                f"{run_dir} is not a training run folder (expected one <env>/args.yml, found "
-                f"{len(args_files)}); allowed: a folder written by python -m train, e.g. "
-                "logs/sac/TandemWing-LevelFlight-v0_1, or logs/sac/TandemWing-LevelFlight-v0 "
-                "for the latest run there"
-            )
-        args = read_run_yaml(args_files[0])
+        args_file, args = read_run_args(
+            run_dir,
+            "a folder written by python -m train, e.g. logs/sac/TandemWing-LevelFlight-v0_1, or "
+            "logs/sac/TandemWing-LevelFlight-v0 for the latest run there",
+        )
         try:
             algo = check_algo(str(args.get("algo")))
         except ValueError as error:
-            raise ValueError(f"{args_files[0]}: {error}") from None
-        env_id = args.get("env")
-        if not isinstance(env_id, str) or env_name(env_id) != args_files[0].parent.name:
-            raise ValueError(
-                f"{args_files[0]}: env = {env_id!r}, but the file sits in the settings folder "
-                f"of {args_files[0].parent.name}; allowed: the env the run was trained on"
-            )
-        check_env_id(env_id, f"{args_files[0]}: env")
+            raise ValueError(f"{args_file}: {error}") from None
+        env_id = check_args_env(args_file, args.get("env"))
+        check_env_id(env_id, f"{args_file}: env")
         layout = RunLayout(run_dir, env_id)
         entry = read_run_yaml(layout.config_file) if layout.config_file.is_file() else {}
         env_kwargs = {**(entry.get("env_kwargs") or {}), **(args.get("env_kwargs") or {})}
@@ -114,10 +108,22 @@ class RunFiles:
                 "folder needs them. Allowed: a folder written by python -m train"
             )
         try:
-            resolve_hyperparams(entry, n_timesteps=1)
+            hp = resolve_hyperparams(entry, n_timesteps=1)
         except ValueError as error:
             raise ValueError(f"{layout.config_file}: {error}") from None
-        return cls(run_dir, algo, env_id, entry, env_kwargs, path, normalizer)
+        model = load_policy_model(algo, path, hp, env_id, env_kwargs)
+        if normalizer is not None:
+            read_normalizer(normalizer)
+        return cls(
+            run_dir,
+            algo,
+            env_id,
+            entry,
+            MappingProxyType(env_kwargs),
+            path,
+            normalizer,
+            model,
+        )
 
     def check_env(self, env_id: str) -> None:
         """ValueError unless the run was trained on ``env_id``."""
@@ -126,65 +132,6 @@ class RunFiles:
                 f"{self.run_dir} was trained on {self.env_id}; this task's env is {env_id}; "
                 "allowed: a run of the same env"
             )
-
-
-@dataclass(frozen=True, eq=False)
-class TrainedPolicy:
-    """A model saved by ``python -m train``, with what it needs to observe a condition."""
-
-    files: RunFiles
-    """The run folder's files the model was loaded from."""
-    model: BaseAlgorithm
-    which: WhichModel
-
-    @classmethod
-    def load(cls, run_dir: str | Path, which: WhichModel = "best") -> TrainedPolicy:
-        """Load ``best_model.zip`` (``which="best"``, falling back to the final model when the
-        run had no evaluations) or the final ``<env>.zip`` of a run folder."""
-        return cls.from_files(RunFiles.read(run_dir, which), which)
-
-    @classmethod
-    def from_files(cls, files: RunFiles, which: WhichModel = "best") -> TrainedPolicy:
-        """The policy of checked ``files``: its model loaded without unpickling anything
-        (:func:`~train.checkpoint.load_policy_model`), its normalisation statistics read with
-        their classes only; ValueError naming the file at fault."""
-        model = load_policy_model(
-            files.algo, files.model_path, files.entry, files.env_id, files.env_kwargs
-        )
-        if files.normalizer_path is not None:
-            read_normalizer(files.normalizer_path)
-        return cls(files=files, model=model, which=which)
-
-    @property
-    def run_dir(self) -> Path:
-        return self.files.run_dir
-
-    def check_env(self, env_id: str) -> None:
-        """ValueError unless the run was trained on ``env_id``."""
-        self.files.check_env(env_id)
-
-    @property
-    def algo(self) -> str:
-        return self.files.algo
-
-    @property
-    def env_id(self) -> str:
-        return self.files.env_id
-
-    @property
-    def env_kwargs(self) -> Mapping[str, Any]:
-        """The env options it was trained with (``args.yml`` and the yml entry's
-        ``env_kwargs``)."""
-        return MappingProxyType(self.files.env_kwargs)
-
-    @property
-    def model_path(self) -> Path:
-        return self.files.model_path
-
-    @property
-    def normalizer_path(self) -> Path | None:
-        """VecNormalize statistics applied to observations, if the run normalised them."""
-        return self.files.normalizer_path
 
     def _observing_env(self, conditions: Sequence[float]) -> VecEnv:
         # The training env's own observation path: reset at each condition through the env's

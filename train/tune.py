@@ -10,14 +10,10 @@ deterministic stroke at the reference grid's *training* conditions
 scores each (100 = the reference optimum, <= 0 = does not fly). The trial's value is the median
 score.
 
-The study is kept in ``--out`` in Optuna's journal file (``study.journal``): a killed run
-resumes with the same command (finished trials are kept, the interrupted one is run again).
-After every trial ``trials.csv`` (one row per finished trial: its value, the scores and
-the overrides) and ``<algo>.yml`` (the best trial's entry in zoo format, the file's provenance
-in its comments; give it to ``python -m train --conf-file``) are rewritten atomically.
-
-The budget is ``--trials`` x ``--steps`` env steps (and the trials' wall time, printed).
-Needs the ``tune`` extra (``pip install -e ".[tune]"``).
+The study's files in ``--out`` (``study.journal``: a killed run resumes with the same command;
+``trials.csv``; ``<algo>.yml``, the best trial's entry for ``python -m train --conf-file``) and
+the shipped results: docs/training.md, "Tuning for the envelope". The budget is ``--trials`` x
+``--steps`` env steps. Needs the ``tune`` extra (``pip install -e ".[tune]"``).
 """
 
 from __future__ import annotations
@@ -232,18 +228,16 @@ def run_trial(config: TuneConfig, params: Mapping[str, Any], folder: Path) -> di
 def _rows(study: Any) -> list[dict[str, Any]]:
     import optuna
 
-    rows = []
-    for trial in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,)):
-        rows.append(
-            {
-                "trial": trial.number,
-                "median_score": round(float(trial.value), 3),
-                "scores": " ".join(map(str, trial.user_attrs.get("scores", ()))),
-                "seconds": trial.user_attrs.get("seconds"),
-                **trial.params,
-            }
-        )
-    return rows
+    return [
+        {
+            "trial": trial.number,
+            "median_score": round(float(trial.value), 3),
+            "scores": " ".join(map(str, trial.user_attrs.get("scores", ()))),
+            "seconds": trial.user_attrs.get("seconds"),
+            **trial.params,
+        }
+        for trial in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
+    ]
 
 
 def best_entry_text(config: TuneConfig, study: Any) -> str:

@@ -135,11 +135,6 @@ def option_key(venv: VecEnv) -> str:
     return adapter(venv).vector_env.core.option_key
 
 
-def condition_range(venv: VecEnv) -> tuple[float, float] | None:
-    """The range the training env samples its condition from, or None if it is fixed."""
-    return adapter(venv).config.condition_range
-
-
 def evaluation_conditions(env_id: str, env_kwargs: Mapping[str, Any]) -> tuple[float, ...]:
     """The conditions a deterministic evaluation scores: the fixed one, or the points of the
     config's declared sweep (``CONDITION.sweep``) in the sampled range (its ends and midpoint if

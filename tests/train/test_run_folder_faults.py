@@ -1,9 +1,10 @@
 """A faulty run folder is refused when the command is prepared, not inside a job: one line
 naming the file and what is allowed, exit status 2, no traceback, nothing written.
 
-Every loader of a run folder goes through the same checks (:class:`train.trained_policy.RunFiles`
-for its settings, :func:`train.checkpoint.load_model` for a model file), so each fault is
-tried with ``policy:RUN_DIR``, ``python -m train.envelope`` and ``--resume``.
+Every loader of a run folder goes through the same checks
+(:meth:`train.trained_policy.TrainedPolicy.load` for its settings,
+:func:`train.checkpoint.load_model` for a model file), so each fault is tried with
+``policy:RUN_DIR``, ``python -m train.envelope`` and ``--resume``.
 """
 
 from __future__ import annotations
