@@ -21,14 +21,15 @@ import math
 import pytest
 
 from eval import numbers
+from eval.numbers import comparison, convergence, framework, readings_paper, speed_change
 
 
 def test_every_region_is_its_rendering() -> None:
     rendered = numbers.rendered_all()
     seen = set()
-    for path in numbers.DOCUMENTS:
+    for path in framework.DOCUMENTS:
         text = path.read_text(encoding="utf-8")
-        for match in numbers.regions(text):
+        for match in framework.regions(text):
             name = match["name"]
             assert name in rendered, f"{path.name}: unknown numbers region {name!r}"
             assert match["body"] == rendered[name], (
@@ -47,15 +48,15 @@ def test_render_document_rejects_unknown_region() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("row", numbers.COMPARISON_ROWS, ids=lambda r: r.label.split(",")[0])
-@pytest.mark.parametrize("method", numbers.COMPARISON_METHODS)
-def test_comparison_seed0_reproduces(row: numbers.ComparisonRow, method: str) -> None:
+@pytest.mark.parametrize("row", comparison.COMPARISON_ROWS, ids=lambda r: r.label.split(",")[0])
+@pytest.mark.parametrize("method", comparison.COMPARISON_METHODS)
+def test_comparison_seed0_reproduces(row: comparison.ComparisonRow, method: str) -> None:
     stored = next(
         r
-        for r in numbers.load("comparison")["rows"]
+        for r in framework.load("comparison")["rows"]
         if r["label"] == row.label and r["method"] == method
     )
-    (fresh,) = numbers.run_optimize(row, method, [0])
+    (fresh,) = comparison.run_optimize(row, method, [0])
     (old,) = [s for s in stored["seeds"] if s["seed"] == 0]
     # Bit for bit on the machine and installed packages that measured it, whatever the load and
     # the thread counts (numba's prange has no cross-thread sums; the harness runs BLAS on one
@@ -77,7 +78,7 @@ def test_second_species_seed0_reproduces() -> None:
     from tandem_env.physics.insect import insect_mapping, load_insect
 
     label, insect = second_species.SPECIES_INSECTS[-1]
-    stored = next(r for r in numbers.load("second-species")["rows"] if r["label"] == label)
+    stored = next(r for r in framework.load("second-species")["rows"] if r["label"] == label)
     (fresh,) = second_species.run_species(insect, [0])
     (old,) = [s for s in stored["seeds"] if s["seed"] == 0]
     assert math.isclose(fresh["objective"], old["objective"], rel_tol=1e-9), (
@@ -85,7 +86,7 @@ def test_second_species_seed0_reproduces() -> None:
         "(rerun `python -m eval numbers --only second-species`)"
     )
     assert fresh["feasible"] == old["feasible"]
-    expected = insect_mapping(load_insect(numbers.ROOT / second_species.SPECIES_FILE))
+    expected = insect_mapping(load_insect(framework.ROOT / second_species.SPECIES_FILE))
     assert fresh["insect"] == expected == old["insect"]
 
 
@@ -109,17 +110,17 @@ def assert_same_rows(fresh: list[dict], stored: list[dict], what: str) -> None:
 def test_speed_change_baselines_reproduce() -> None:
     """The random and steady rows, flown again from the stored optima (one batched model call
     per cycle for the 32 episodes): the env, the dynamics and the metrics are deterministic."""
-    stored = numbers.load("speed-change")
-    fresh = numbers.speed_change_rows(stored["optima"], stored["first_seed"])
-    assert_same_rows(fresh, stored["rows"], numbers.SPEED_CHANGE_COMMAND)
+    stored = framework.load("speed-change")
+    fresh = speed_change.speed_change_rows(stored["optima"], stored["first_seed"])
+    assert_same_rows(fresh, stored["rows"], speed_change.SPEED_CHANGE_COMMAND)
 
 
 @pytest.mark.slow
 def test_speed_change_optimum_reproduces() -> None:
     """One of the steady schedule's optima (the 1.5 m/s one), rerun as ``eval speed-change``
     makes it, gives the stored stroke."""
-    stored = next(o for o in numbers.load("speed-change")["optima"] if o["speed"] == 1.5)
-    (fresh,) = numbers.speed_change_optima([1.5])
+    stored = next(o for o in framework.load("speed-change")["optima"] if o["speed"] == 1.5)
+    (fresh,) = speed_change.speed_change_optima([1.5])
     assert (fresh["method"], fresh["budget"], fresh["seed"]) == (
         stored["method"],
         stored["budget"],
@@ -135,7 +136,7 @@ def test_speed_change_optimum_reproduces() -> None:
 @pytest.mark.parametrize("name", ["rotational-coefficient", "power-conventions"])
 def test_model_readings_reproduce(name: str) -> None:
     """The readings of the model on random strokes (docs/model.md §1.3, §6.3), measured again."""
-    stored = numbers.load(name)
+    stored = framework.load(name)
     fresh = numbers.MEASUREMENTS[name].measure()
     assert fresh.keys() == stored.keys() - {"machine_before", "machine_after"}
     assert fresh["rows"] == [
@@ -149,8 +150,8 @@ def test_model_readings_reproduce(name: str) -> None:
 def test_convergence_reproduces() -> None:
     """The resolution study of the defaults (docs/model.md §11.4), its command rerun; the
     throughput it also prints is a timing and not compared."""
-    stored = numbers.load("convergence")
-    fresh = numbers.CONVERGENCE.run()
+    stored = framework.load("convergence")
+    fresh = convergence.CONVERGENCE.run()
     assert [(r["n_time"], r["n_blade"], r["speed"]) for r in fresh["rows"]] == [
         (r["n_time"], r["n_blade"], r["speed"]) for r in stored["rows"]
     ]
@@ -167,8 +168,8 @@ def test_the_readings_runs_copies_in_the_docs_are_its_collected_outputs() -> Non
     collected: the table's rows are the copied readings.csv's, the bias check the manifest's."""
     import csv
 
-    data = numbers.load("readings-paper")
-    copies = numbers.READINGS_PAPER_FILES
+    data = framework.load("readings-paper")
+    copies = readings_paper.READINGS_PAPER_FILES
     with open(copies["readings.csv"], newline="", encoding="utf-8") as handle:
         assert list(csv.DictReader(handle)) == data["rows"]
     manifest = json.loads(copies["readings_manifest.json"].read_text(encoding="utf-8"))
@@ -183,7 +184,7 @@ def test_the_paper_reading_is_the_stored_runs_strict_best() -> None:
     from eval.studies.readings import ALIASES, reading_by_name
     from tandem_env.physics.options import PRESETS, ModelOptions
 
-    rows = numbers.load("readings-paper")["rows"]
+    rows = framework.load("readings-paper")["rows"]
     agree = {r["reading"]: int(r["agree"]) for r in rows}
     best = ALIASES["paper"]
     assert all(count < agree[best] for name, count in agree.items() if name != best)

@@ -54,8 +54,6 @@ from eval.numbers import (
     throughput,
     training_time,
 )
-from eval.numbers.comparison import COMPARISON_METHODS, COMPARISON_ROWS, ComparisonRow, run_optimize
-from eval.numbers.convergence import CONVERGENCE
 from eval.numbers.framework import (
     DOCUMENTS,
     REGION,
@@ -64,11 +62,8 @@ from eval.numbers.framework import (
     json_path,
     load,
     machine,
-    regions,
     save,
 )
-from eval.numbers.readings_paper import READINGS_PAPER_FILES
-from eval.numbers.speed_change import SPEED_CHANGE_COMMAND, speed_change_optima, speed_change_rows
 
 NAME = "numbers"
 HELP = "rerun the measurements README and docs quote, and write them into the documents"
@@ -158,24 +153,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
 
 __all__ = [
-    "COMPARISON_METHODS",
-    "COMPARISON_ROWS",
-    "CONVERGENCE",
-    "DOCUMENTS",
     "HELP",
     "MEASUREMENTS",
     "NAME",
-    "READINGS_PAPER_FILES",
-    "SPEED_CHANGE_COMMAND",
-    "ComparisonRow",
-    "Measurement",
     "add_arguments",
-    "load",
     "main",
-    "regions",
     "render_document",
     "rendered_all",
-    "run_optimize",
-    "speed_change_optima",
-    "speed_change_rows",
 ]
