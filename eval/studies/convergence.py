@@ -51,40 +51,31 @@ def _with(job: Job, settings: tuple[tuple[str, object], ...]) -> Job:
     return replace(job, method_config=(*job.method_config, *settings))
 
 
+def _spec_jobs(plan: StudyPlan, **given: Any) -> list[Job]:
+    """``plan``'s jobs at the spec's level and accelerating (F̄_v) conditions, the spec's seeds."""
+    spec = plan.preset.convergence
+    return [
+        *plan.jobs("level", [spec.speed], seeds=spec.seeds, **given),
+        *plan.jobs("accelerate", [spec.power], objective="vertical", seeds=spec.seeds, **given),
+    ]
+
+
 def long_jobs(plan: StudyPlan) -> list[Job]:
     """The long runs, one per method, condition and seed, without a polish."""
-    spec = plan.preset.convergence
     side_by_side = StudyPlan(plan.preset, methods(plan), execution=plan.execution)
-    return [
-        _with(job, (("polish", "none"),))
-        for job in (
-            *side_by_side.jobs("level", [spec.speed], budget=spec.budget, seeds=spec.seeds),
-            *side_by_side.jobs(
-                "accelerate",
-                [spec.power],
-                objective="vertical",
-                budget=spec.budget,
-                seeds=spec.seeds,
-            ),
-        )
-    ]
+    budget = plan.preset.convergence.budget
+    return [_with(job, (("polish", "none"),)) for job in _spec_jobs(side_by_side, budget=budget)]
 
 
 def split_jobs(plan: StudyPlan) -> dict[float, list[Job]]:
     """Per polish share: the preset's method at its budgets, both conditions, the spec's seeds."""
-    spec = plan.preset.convergence
     one = StudyPlan(plan.preset, (plan.preset.method,))
-    out = {}
-    for share in spec.polish_shares:
-        settings = split_settings(plan.preset.method, float(share))
-        out[float(share)] = [
-            _with(job, settings)
-            for job in (
-                *one.jobs("level", [spec.speed], seeds=spec.seeds),
-                *one.jobs("accelerate", [spec.power], objective="vertical", seeds=spec.seeds),
-            )
+    return {
+        float(share): [
+            _with(job, split_settings(plan.preset.method, float(share))) for job in _spec_jobs(one)
         ]
-    return out
+        for share in plan.preset.convergence.polish_shares
+    }
 
 
 def split_settings(method: str, share: float) -> tuple[tuple[str, object], ...]:
@@ -142,30 +133,36 @@ def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, An
     runs = sorted(runs, key=lambda r: r.seed)
     values = np.array([r.objective if r.feasible else np.nan for r in runs], dtype=float)
     half = len(runs) // 2
-    first = float(np.nanmax(values[:half])) if half and np.isfinite(values[:half]).any() else np.nan
-    second = (
-        float(np.nanmax(values[half:])) if half and np.isfinite(values[half:]).any() else np.nan
-    )
-    gains = [r.certificate.get("gain") for r in runs]
-    known = [g for g in gains if g is not None]
+    first, second = (_best(part) if half else math.nan for part in (values[:half], values[half:]))
+    known = [g for g in (r.certificate.get("gain") for r in runs) if g is not None]
     finite = values[np.isfinite(values)]
+    median, low, high = (
+        (float(np.median(finite)), float(finite.min()), float(finite.max()))
+        if finite.size
+        else (math.nan,) * 3
+    )
     return {
         "condition": label,
         "polish_share": share,
         "budget": runs[0].budget if runs else 0,
         "seeds": len(runs),
         "feasible": int(np.isfinite(values).sum()),
-        "median": float(np.median(finite)) if finite.size else float("nan"),
-        "min": float(finite.min()) if finite.size else float("nan"),
-        "max": float(finite.max()) if finite.size else float("nan"),
+        "median": median,
+        "min": low,
+        "max": high,
         "best_first_half": first,
         "best_second_half": second,
         "halves_apart": abs(first - second) / max(first, second)
         if np.isfinite(first) and np.isfinite(second) and max(first, second) > 0
-        else float("nan"),
-        "polish_gain_median": float(np.median(known)) if known else float("nan"),
+        else math.nan,
+        "polish_gain_median": float(np.median(known)) if known else math.nan,
         "polish_converged": sum(bool(r.certificate.get("converged")) for r in runs),
     }
+
+
+def _best(values: np.ndarray) -> float:
+    """The largest finite value (NaN for none)."""
+    return float(np.nanmax(values)) if np.isfinite(values).any() else math.nan
 
 
 def splits_markdown(rows: list[dict[str, Any]]) -> str:

@@ -88,21 +88,18 @@ def attainable(
         values = [math.hypot(v[s]["objective_value"], h[s]["objective_value"]) for s in seeds]
         n = len(select(rows, objective="vertical", **pick))
         best = math.hypot(vertical[power].best, horizontal_series[power].best)
-        if values:
-            q25, med, q75 = np.percentile(values, [25.0, 50.0, 75.0])
-            out[power] = Spread(
-                tuple(values),
-                tuple(seeds),
-                float(med),
-                float(q25),
-                float(q75),
-                best,
-                None,
-                n,
-                len(values),
-            )
-        else:
-            out[power] = Spread((), (), math.nan, math.nan, math.nan, best, None, n, 0)
+        q25, med, q75 = np.percentile(values, [25.0, 50.0, 75.0]) if values else [math.nan] * 3
+        out[power] = Spread(
+            tuple(values),
+            tuple(seeds),
+            float(med),
+            float(q25),
+            float(q75),
+            best,
+            None,
+            n,
+            len(values),
+        )
     return out
 
 

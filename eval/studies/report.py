@@ -180,9 +180,12 @@ def settings_lines(plan: StudyPlan) -> list[str]:
     return lines
 
 
-def render(
-    plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str], base: Path
-) -> str:
+def write_report(
+    path: Path, plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str]
+) -> Path:
+    """Write the report to ``path`` (atomically) and return it: the settings, the rules, every
+    claim beside ours, the pinned parameters, the studies not run and the figures."""
+    base = path.parent
     claims = [c for o in outputs for c in o.claims]
     parts = [
         '# Reproduction report: Faisal & Filippone, "Aerodynamic Model for Tandem Flapping Wings"',
@@ -224,9 +227,10 @@ def render(
             f"[`{relative_path(f, base)}`]({relative_path(f, base)})" for f in o.files
         )
         parts += [f"Data: {files}", ""]
-        for caption, path in o.figures:
-            parts += [figure_markdown(caption, path, base), ""]
-    return "\n".join(parts)
+        for caption, figure in o.figures:
+            parts += [figure_markdown(caption, figure, base), ""]
+    write_text_atomic(path, "\n".join(parts))
+    return path
 
 
 def pinned_section(rows: Sequence[Mapping[str, Any]]) -> list[str]:
@@ -266,11 +270,3 @@ def figure_markdown(caption: str, path: Path, base: Path) -> str:
 
 def relative_path(path: Path, base: Path) -> str:
     return Path(os.path.relpath(path, base)).as_posix()
-
-
-def write_report(
-    path: Path, plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str]
-) -> Path:
-    """Write ``path`` (atomically) and return it."""
-    write_text_atomic(path, render(plan, outputs, all_studies, path.parent))
-    return path

@@ -61,22 +61,24 @@ def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
     return lines
 
 
-def render_readings(
+def write_readings_report(
+    path: Path,
     plan: StudyPlan,
     results: Sequence[ReadingResult],
     rule: str,
     table: Path,
     figure: Path,
-    base: Path,
     check: Sequence[Mapping[str, Any]] = (),
     continuation: Any = None,
     full: Mapping[str, Mapping[str, str]] | None = None,
-) -> str:
-    """The readings study's report: the table of readings, the best one, which decision moves
-    which claim and by how much, the matrix figure; how the readings continued from the
-    default's optima (``continuation``: an ``eval.studies.readings.Continuation`` or None), the
-    measured bias of that (``check``: ``readings.check_summary`` rows) and the tasks that ran
-    in full for it (``full``: ``readings.full_tasks``)."""
+) -> Path:
+    """Write the readings study's report to ``path`` (atomically) and return it: the table of
+    readings, the best one, which decision moves which claim and by how much, the matrix
+    figure; how the readings continued from the default's optima (``continuation``: an
+    ``eval.studies.readings.Continuation`` or None), the measured bias of that (``check``:
+    ``readings.check_summary`` rows) and the tasks that ran in full for it (``full``:
+    ``readings.full_tasks``)."""
+    base = path.parent
     default = results[0]
     best = max(results, key=lambda r: r.agree)
     n_claims = len(default.claims)
@@ -185,7 +187,8 @@ def render_readings(
         *agreement_rules(),
         "",
     ]
-    return "\n".join(parts)
+    write_text_atomic(path, "\n".join(parts))
+    return path
 
 
 def _continuation_section(
@@ -248,23 +251,3 @@ def check_table(
             )
         )
     return lines
-
-
-def write_readings_report(
-    path: Path,
-    plan: StudyPlan,
-    results: Sequence[ReadingResult],
-    rule: str,
-    table: Path,
-    figure: Path,
-    check: Sequence[Mapping[str, Any]] = (),
-    continuation: Any = None,
-    full: Mapping[str, Mapping[str, str]] | None = None,
-) -> Path:
-    """Write the readings study's report to ``path`` (atomically) and return it; ``check``,
-    ``continuation`` and ``full`` as for :func:`render_readings`."""
-    text = render_readings(
-        plan, results, rule, table, figure, path.parent, check, continuation, full
-    )
-    write_text_atomic(path, text)
-    return path
