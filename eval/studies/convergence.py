@@ -1,22 +1,13 @@
 """Budget study: best-so-far against evaluations, PSO and CMA-ES side by side.
 
-Each method of the preset's :class:`~eval.studies.presets.ConvergenceSpec` (PSO and CMA-ES
-with their default settings), plus any method the study is run with, runs with a long budget
-at one level condition (η at 1.5 m/s) and one accelerating condition (F̄_v at 60 W/kg), several
-seeds each. Both methods have the prefix property (a run with budget B is exactly the first B
-evaluations of a longer run with the same seed), so each run's history gives the best reward
-that every smaller budget would have reached. The table lists, per condition, method and
-checkpoint budget, the median over seeds, the IQR, min and max, the spread (max − min) /
-median and the median as a fraction of the longest run's median; the presets' methods and
-budgets are chosen from it (docs/reproduction.md). The long runs have no local polish (a
-polish at the end would break the prefix property).
-
-v3 adds the budget splits (``ConvergenceSpec.polish_shares``): the preset's method at the
-preset's own budgets, each share of the budget kept for the local polish (0: none), judged by
-what a record reports, the best feasible objective, not by the penalised reward: the median
-over seeds, the best of the first and of the second half of the seeds (disjoint seed sets) and
-how far apart they are, the share of feasible seeds, the median polish gain and how many
-polishes converged (``convergence_splits.csv``/``.md``).
+Each method of the preset's :class:`~eval.studies.presets.ConvergenceSpec`, plus any method the
+study is run with, runs with a long budget and no polish at one level (η) and one accelerating
+(F̄_v) condition, several seeds each. Both methods have the prefix property (a run with budget B
+is exactly the first B evaluations of a longer run with the same seed), so each run's history
+gives the best reward every smaller budget would have reached (:func:`checkpoint_rows`); the
+presets' methods and budgets are chosen from it (docs/reproduction.md). v3 adds the budget
+splits between search and polish at the preset's own budgets, judged by what the records
+report (:func:`split_rows`, ``ConvergenceSpec.polish_shares``).
 """
 
 from __future__ import annotations

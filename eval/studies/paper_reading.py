@@ -309,19 +309,8 @@ class Reading:
         changed = self.changes()
         changed.pop("horizontal_objective", None)
         changed.pop("search", None)
-        out = {}
-        for key, value in changed.items():
-            if key == "rotational_coefficient":
-                out[key] = value
-            elif key in _KWARG_OF:
-                out[_KWARG_OF[key]] = value
-            else:
-                raise ValueError(
-                    f"Reading {self.name!r}: option {key!r} has no env keyword "
-                    f"(tandem_env.envs.config.MODEL_OPTION_KWARGS); allowed: "
-                    f"{', '.join(sorted(_KWARG_OF))}"
-                )
-        return out
+        # every option has its env keyword (MODEL_OPTION_KWARGS); C_r is one by its own name
+        return {_KWARG_OF.get(key, key): value for key, value in changed.items()}
 
     def objective(self, objective: str) -> str:
         """The accelerating objective a study's ``objective`` becomes under this reading."""

@@ -223,10 +223,7 @@ def write_report(
     parts += ["## Figures", "", FIGURE_KEY, ""]
     for o in outputs:
         parts += [f"### {o.title}", ""]
-        files = ", ".join(
-            f"[`{relative_path(f, base)}`]({relative_path(f, base)})" for f in o.files
-        )
-        parts += [f"Data: {files}", ""]
+        parts += [f"Data: {', '.join(file_link(f, base) for f in o.files)}", ""]
         for caption, figure in o.figures:
             parts += [figure_markdown(caption, figure, base), ""]
     write_text_atomic(path, "\n".join(parts))
@@ -266,6 +263,11 @@ def figure_markdown(caption: str, path: Path, base: Path) -> str:
     show it (PDF)."""
     target = relative_path(path, base)
     return f"[{caption} (PDF)]({target})" if path.suffix == ".pdf" else f"![{caption}]({target})"
+
+
+def file_link(path: Path, base: Path) -> str:
+    """A Markdown link to ``path``, named by its path relative to ``base``."""
+    return f"[`{relative_path(path, base)}`]({relative_path(path, base)})"
 
 
 def relative_path(path: Path, base: Path) -> str:

@@ -15,6 +15,7 @@ from eval.studies.readings.result import HEADLINES, ReadingResult, reading_dir
 from eval.studies.report import (
     agreement_rules,
     figure_markdown,
+    file_link,
     insect_line,
     relative_path,
     settings_lines,
@@ -26,20 +27,13 @@ from tandem_env.io.files import write_text_atomic
 READINGS_GOAL = 16
 
 
-def _num(value: float) -> str:
-    return "–" if math.isnan(value) else f"{value:.3g}"
-
-
-def _delta(value: float) -> str:
-    return "–" if math.isnan(value) else f"{value:+.3g}"
+def _num(value: float, fmt: str = ".3g") -> str:
+    return "–" if math.isnan(value) else f"{value:{fmt}}"
 
 
 def _within_spread(a: Claim, b: Claim) -> bool:
     """Whether each claim's median lies inside the other's inter-quartile range over seeds
-    (a verdict flip between them is then within the seed-to-seed spread)."""
-    values = (a.median, a.q25, a.q75, b.median, b.q25, b.q75)
-    if any(math.isnan(v) for v in values):
-        return False
+    (a verdict flip between them is then within the seed-to-seed spread; False with a NaN)."""
     return a.q25 <= b.median <= a.q75 and b.q25 <= a.median <= b.q75
 
 
@@ -160,7 +154,7 @@ def write_readings_report(
                     f"`{r.reading.name}`",
                     "; ".join(moves) or "none",
                     f"{r.agree - default.agree:+d}",
-                    *(_delta(head[k] - base_head[k]) for k in heads),
+                    *(_num(head[k] - base_head[k], "+.3g") for k in heads),
                 )
             )
         )
@@ -170,7 +164,7 @@ def write_readings_report(
         "",
         figure_markdown("claims × readings matrix", figure, base),
         "",
-        f"Data: [`{relative_path(table, base)}`]({relative_path(table, base)}). Each reading's full report "
+        f"Data: {file_link(table, base)}. Each reading's full report "
         "(paper vs ours, figures): "
         + ", ".join(
             f"[`{r.reading.name}`]({relative_path(reading_dir(base, r.reading) / 'report.md', base)})"
