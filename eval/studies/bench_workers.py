@@ -3,14 +3,10 @@
     python -m eval.studies.bench_workers [--preset quick] [--scheduler local:2] [--repeat 1]
 
 Runs every optimisation of ``study all`` for the preset into fresh temporary directories,
-serially (this process, numba's default threads) and on ``--scheduler`` (default ``local:2``:
-two worker processes, one numba thread each), alternating ``--repeat`` times, and prints the
-wall time of each run. From the serial run's records (their ``wall_time``, one job each) it
-then prints the job-length distribution and the speed-up W workers can give at best: the jobs
-are started largest budget first (as the runner does) and each goes to the worker free first,
-so the run takes as long as the busiest worker (its makespan), not total / W. The same bound
-is printed for every preset, its job lengths estimated from the measured seconds per
-evaluation of each task. The numbers are in docs/scaling.md.
+serially and on ``--scheduler``, alternating ``--repeat`` times, and prints each run's wall
+time; then, from the serial run's records, the job-length distribution and the best speed-up W
+workers can give (:func:`makespan`), measured for the preset and estimated for every preset.
+What it measures and the numbers: docs/scaling.md, "Measured".
 """
 
 from __future__ import annotations

@@ -272,17 +272,16 @@ def in_range(value: float, low: float, high: float) -> bool | None:
     )
 
 
-def _finite(conditions: Sequence[float], values: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-    x, y = np.asarray(conditions, float), np.asarray(values, float)
-    keep = np.isfinite(y)
-    return x[keep], y[keep]
+def _finite(x: Sequence[float], y: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs of ``x`` and ``y`` where both are finite."""
+    xa, ya = np.asarray(x, float), np.asarray(y, float)
+    keep = np.isfinite(xa) & np.isfinite(ya)
+    return xa[keep], ya[keep]
 
 
 def rho(x: Sequence[float], y: Sequence[float]) -> float:
     """Spearman's ρ of finite pairs (NaN with fewer than 3 pairs or a constant series)."""
     xa, ya = _finite(x, y)
-    keep = np.isfinite(xa)
-    xa, ya = xa[keep], ya[keep]
     if xa.size < 3 or np.ptp(ya) == 0.0 or np.ptp(xa) == 0.0:
         return math.nan
     return float(spearmanr(xa, ya).statistic)

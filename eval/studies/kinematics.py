@@ -123,12 +123,12 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         "accelerating": at("pitch_amplitude", p.kinematics_power, accel),
     }
 
-    def values(groups: dict[str, Spread]) -> dict[str, list[float]]:
-        """The feasible seeds' values, as the claims take them."""
-        return {k: list(s.values) for k, s in groups.items()}
-
-    def bests(groups: dict[str, Spread]) -> dict[str, float]:
-        return {k: s.best for k, s in groups.items()}
+    def panel(title: str, groups: dict[str, Spread], ylabel: str, **marks: Any) -> kf.GroupPanel:
+        """The feasible seeds' values of each group, as the claims take them, and its best."""
+        values = {k: list(s.values) for k, s in groups.items()}
+        return kf.GroupPanel(
+            title, values, ylabel, best={k: s.best for k, s in groups.items()}, **marks
+        )
 
     # Each panel shows the statistic its claim judges: the median of |ΔΦ| (K1, K3), the
     # circular median of ΔΦ (K2), the medians of η_m (K4). Where the model does not depend on
@@ -140,24 +140,22 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         else "not judged: the model does not depend on ΔΦ"
     )
     phase_panels = (
-        kf.GroupPanel(
+        panel(
             "(c) |ΔΦ| (K1, K3; feasible seeds)",
-            values(abs_phase),
+            abs_phase,
             "|ΔΦ| [deg]",
             statistic_label=f"median |ΔΦ| ({judged})",
-            best=bests(abs_phase),
             paper={accel_at: PAPER_IN_PHASE},
             paper_label="paper: in phase (ΔΦ = 0°)",
             band=(0.0, C.IN_PHASE, f"in phase: |ΔΦ| < {C.IN_PHASE:g}°"),
             ylim=(-8.0, 185.0),  # room for the paper's 0° cross
         ),
-        kf.GroupPanel(
+        panel(
             f"(d) ΔΦ at {p.phase_speed:g} m/s (K2; > 0: hind leads)",
-            values(lead),
+            lead,
             "ΔΦ = Φ_hind − Φ_fore [deg]",
             statistic=circular_median,
             statistic_label=f"circular median ({judged})",
-            best=bests(lead),
             paper={lead_at: PAPER_PHASE_LEAD},
             paper_label=f"paper: hind leads by ≈ {PAPER_PHASE_LEAD:g}°",
             band=(
@@ -168,12 +166,11 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             ylim=(-180.0, 180.0),
         ),
     )
-    pitch_panel = kf.GroupPanel(
+    pitch_panel = panel(
         "(c) pitch amplitude η_m (K4; feasible seeds)",
-        values(pitch),
+        pitch,
         "η_m, mean of both wings [deg]",
         statistic_label="median (judged)",
-        best=bests(pitch),
         paper_note="paper: larger in accelerating flight",
         bounds=table4_bounds("pitch_amplitude"),
     )

@@ -32,6 +32,7 @@ from eval.studies.readings.plan import (
     PHASES,
     SINGLES,
     Continuation,
+    Optima,
     ReadingsResult,
     check_jobs,
     combinations,
@@ -313,7 +314,7 @@ def run_readings(
             command.plan(planned_phases(plan, out, readings, continuation, cache))
             command.start(phase)
 
-    def run(todo: list[Job]) -> None:
+    def run_phase(todo: list[Job]) -> None:
         runs.append(
             run_jobs(
                 todo, out, scheduler=scheduler, progress=progress, cache=cache, command=command
@@ -322,7 +323,7 @@ def run_readings(
 
     def run_and_analyse(chosen: Sequence[Reading]) -> list[ReadingResult]:
         """Run the jobs of ``chosen`` in one call, and analyse those readings."""
-        run([job for r in chosen for job in _flat(jobs[r.name])])
+        run_phase([job for r in chosen for job in _flat(jobs[r.name])])
         results = []
         for reading in chosen:
             if progress:
@@ -330,7 +331,7 @@ def run_readings(
             results.append(analyse_reading(plan, reading, out, jobs[reading.name]))
         return results
 
-    optima = None
+    optima: Optima | None = None  # the optima the readings continue from
     if continuation is None:
         jobs = {r.name: study_jobs(plan, r) for r in readings}
         starting("singles")
@@ -346,7 +347,7 @@ def run_readings(
         checks = [(r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)]
         starting(PHASES[1])
         checked = list(dict.fromkeys(job for _, c, f in checks for job in (c, f)))
-        run(checked)
+        run_phase(checked)
         rows = check_rows(job_records(out, checked), checks) if checks else []
         full = full_tasks(check_summary(rows), continuation)
         jobs |= {
