@@ -92,17 +92,13 @@ def write_readings_report(
         "|---|---|---|---|---|---|---|" + "---|" * len(heads),
     ]
     for r in results:
-        head = r.headline()
+        head, c = r.headline(), r.counts
         parts.append(
             table_row(
                 (
                     f"`{r.reading.name}`",
                     r.reading.describe_changes(),
-                    str(r.agree),
-                    str(r.differ),
-                    str(r.undecided),
-                    str(r.not_identifiable),
-                    str(r.no_data),
+                    *map(str, (c.agree, c.differ, c.undecided, c.not_identifiable, c.no_data)),
                     *(_num(head[k]) for k in heads),
                 )
             )
@@ -124,8 +120,8 @@ def write_readings_report(
             if r.agree == best.agree and r is not best
         )
         + f": {best.agree} of {n_claims} claims agree "
-        f"({best.differ} differ, {best.undecided} undecided, {best.not_identifiable} not "
-        f"identifiable, {best.no_data} without data); "
+        f"({best.differ} differ, {best.counts.undecided} undecided, "
+        f"{best.counts.not_identifiable} not identifiable, {best.counts.no_data} without data); "
         "the default: "
         f"{default.agree}. Goal: {READINGS_GOAL} or more of {n_claims}"
         + (" (reached)." if best.agree >= READINGS_GOAL else " (not reached)."),

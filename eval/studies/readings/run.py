@@ -425,11 +425,7 @@ def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
             "rotational_coefficient": math.pi if c_r is None else float(c_r),
             "horizontal_objective": r.reading.horizontal_objective,
             "search": "" if r.reading.search is None else r.reading.search.describe(),
-            "agree": r.agree,
-            "differ": r.differ,
-            "undecided": r.undecided,
-            "not_identifiable": r.not_identifiable,
-            "no_data": r.no_data,
+            **asdict(r.counts),  # agree, differ, undecided, not_identifiable, no_data
             **{k: _round(v) for k, v in r.headline().items()},
             "description": r.reading.description,
         }
