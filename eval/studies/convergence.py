@@ -251,16 +251,14 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             runs = [records[j] for j in group if j.task == task and j in records]
             if runs:
                 splits.append(split_rows(label, share, runs))
-    split_csv = out_dir / NAME / "convergence_splits.csv"
-    write_csv_atomic(split_csv, splits)
-    split_md = out_dir / NAME / "convergence_splits.md"
-    write_text_atomic(split_md, splits_markdown(splits))
-    files += [split_csv, split_md]
-    path = out_dir / NAME / "convergence_checkpoints.csv"
-    write_csv_atomic(path, table)
-    markdown = out_dir / NAME / "convergence_checkpoints.md"
-    write_text_atomic(markdown, checkpoints_markdown(table))
-    files += [path, markdown]
+    for stem, entries, markdown in (
+        ("convergence_splits", splits, splits_markdown),
+        ("convergence_checkpoints", table, checkpoints_markdown),
+    ):
+        csv_path, md_path = (out_dir / NAME / f"{stem}.{ext}" for ext in ("csv", "md"))
+        write_csv_atomic(csv_path, entries)
+        write_text_atomic(md_path, markdown(entries))
+        files += [csv_path, md_path]
     fig = figures.convergence_figure(panels, plan.figure(out_dir / NAME, "convergence"))
     caption = f"{' and '.join(methods(plan))} best-so-far over evaluations"
     return StudyOutput(NAME, TITLE, rows, [(caption, fig)], [], files)

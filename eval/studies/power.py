@@ -114,18 +114,13 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
     xlabel = "available power P/m [W/kg]"
     h_obj = plan.reading.horizontal_objective
     label = figures.method_label
-    fv = [
-        figures.Series(f"F̄_v, {label(m)}", excess(rows, m, "tear-drop", "vertical"), method=m)
-        for m in plan.methods
-    ]
-    fh = [
+    # F̄_v and F̄_h of each method side by side (F̄_h its variant 1: figures.series_style)
+    forces = [
         figures.Series(
-            f"F̄_h, {label(m)}",
-            excess(rows, m, "tear-drop", "horizontal", h_obj),
-            method=m,
-            variant=1,
+            f"{name}, {label(m)}", excess(rows, m, "tear-drop", axis, h_obj), method=m, variant=k
         )
         for m in plan.methods
+        for k, (name, axis) in enumerate((("F̄_v", "vertical"), ("F̄_h", "horizontal")))
     ]
     fa = [
         figures.Series(label(m), attainable(rows, m, "tear-drop", h_obj), method=m)
@@ -138,7 +133,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
                 [
                     figures.Panel(
                         "specific excess force F̄ [-]",
-                        [s for pair in zip(fv, fh, strict=True) for s in pair],
+                        forces,
                         paper=[
                             *((p, v, "paper F̄_v") for p, v in PAPER_VERTICAL.items()),
                             *((p, v, "paper F̄_h") for p, v in PAPER_HORIZONTAL.items()),
