@@ -3,14 +3,10 @@
     python -m eval.studies.bench_workers [--preset quick] [--scheduler local:2] [--repeat 1]
 
 Runs every optimisation of ``study all`` for the preset into fresh temporary directories,
-serially (this process, numba's default threads) and on ``--scheduler`` (default ``local:2``:
-two worker processes, one numba thread each), alternating ``--repeat`` times, and prints the
-wall time of each run. From the serial run's records (their ``wall_time``, one job each) it
-then prints the job-length distribution and the speed-up W workers can give at best: the jobs
-are started largest budget first (as the runner does) and each goes to the worker free first,
-so the run takes as long as the busiest worker (its makespan), not total / W. The same bound
-is printed for every preset, its job lengths estimated from the measured seconds per
-evaluation of each task. The numbers are in docs/scaling.md.
+serially and on ``--scheduler``, alternating ``--repeat`` times, and prints each run's wall
+time; then, from the serial run's records, the job-length distribution and the best speed-up W
+workers can give (:func:`makespan`), measured for the preset and estimated for every preset.
+What it measures and the numbers: docs/scaling.md, "Measured".
 """
 
 from __future__ import annotations
@@ -20,12 +16,14 @@ import heapq
 import shutil
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 
 from agents.dask_cluster import parse_scheduler
+from agents.jobs import Job
+from agents.records import Record
 from agents.runner import run_jobs
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import StudyPlan
@@ -41,6 +39,21 @@ def makespan(durations: Sequence[float], workers: int) -> float:
     for duration in durations:
         heapq.heappush(free, heapq.heappop(free) + duration)
     return max(free)
+
+
+def seconds_per_evaluation(records: Mapping[Job, Record]) -> dict[str, float]:
+    """Per task (sorted): the median seconds per model evaluation of the jobs' records [s]."""
+    return {
+        task: float(
+            np.median([r.wall_time / j.budget for j, r in records.items() if j.task == task])
+        )
+        for task in sorted({j.task for j in records})
+    }
+
+
+def _suite_jobs(plan: StudyPlan) -> list[Job]:
+    """Every optimisation of ``study all`` under ``plan``, each once."""
+    return list({j.key: j for s in PAPER_STUDIES.values() for j in s.jobs(plan)}.values())
 
 
 def _speedups(name: str, durations: Sequence[float]) -> None:
@@ -59,7 +72,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--repeat", type=int, default=1, help="runs of each mode (alternating)")
     args = parser.parse_args(argv)
     plan = StudyPlan(get_preset(args.preset))
-    jobs = list({j.key: j for s in PAPER_STUDIES.values() for j in s.jobs(plan)}.values())
+    jobs = _suite_jobs(plan)
     evaluations = sum(j.budget for j in jobs)
     print(f"preset {args.preset}: {len(jobs)} optimisations, {evaluations} evaluations")
     root = Path(tempfile.mkdtemp(prefix="bench_workers_"))
@@ -89,19 +102,11 @@ def main(argv: Sequence[str] | None = None) -> None:
                 f"{task} ({len(own)} jobs, budget {sorted(budget)}): job length [s] min "
                 f"{q[0]:.2f}, quartiles {q[1]:.2f} / {q[2]:.2f} / {q[3]:.2f}, max {q[4]:.2f}"
             )
-        per_eval = {
-            task: float(np.median([times[j].wall_time / j.budget for j in jobs if j.task == task]))
-            for task in {j.task for j in jobs}
-        }
+        per_eval = seconds_per_evaluation(times)
         print(f"measured: {durations and sum(durations):.1f} s of jobs (serial)")
         _speedups(f"{args.preset} (measured)", durations)
         for name, preset in PRESETS.items():
-            others = sorted(
-                {
-                    j.key: j for s in PAPER_STUDIES.values() for j in s.jobs(StudyPlan(preset))
-                }.values(),
-                key=lambda j: -j.budget,
-            )
+            others = sorted(_suite_jobs(StudyPlan(preset)), key=lambda j: -j.budget)
             _speedups(f"{name} (estimated)", [per_eval[j.task] * j.budget for j in others])
     finally:
         shutil.rmtree(root, ignore_errors=True)

@@ -1,18 +1,8 @@
 """The paper's claims (docs/model.md §9) as checkable rows, and the rules that decide agreement.
 
-Agreement rules (stated in every report):
-
-* ``number``: our median over seeds lies within ±20 % of the paper's number.
-* ``range``: our median lies inside the paper's range widened by 20 % of its ends.
-* ``trend``: Spearman's ρ between the condition and the per-condition medians is ≥ 0.5 in the
-  claimed direction (ρ ≤ −0.5 for "falls"); the monotonic fraction (steps in the claimed
-  direction / steps) is reported beside it.
-* ``follows``: Spearman's ρ between two quantities' per-condition medians is ≥ 0.5.
-* ``location``: the condition of the extremum of the per-condition medians is within one
-  sweep step (±0.25 m/s) of the paper's.
-* ``angle``: our median phase lies within ±15° of the paper's.
-* ``phase``: "in phase" means a median |ΔΦ| < 15°, "out of phase" ≥ 15°.
-* ``compare``: the claimed order holds between the medians at every condition compared.
+Agreement rules: :data:`RULES`, stated in every report. ``trend`` reports the monotonic
+fraction (steps in the claimed direction / steps) beside ρ; ``location``'s tolerance is one step
+of the paper's speed sweep.
 
 "best" is the same statistic computed from the best seed of each condition (the seed with
 the best objective), i.e. what a "take the best of N runs" protocol, like the paper's, gives.
@@ -203,11 +193,6 @@ def decide(leaning: Verdict, flips: float) -> Verdict:
     return leaning
 
 
-def claim_id(base: str, method_index: int, method: str) -> str:
-    """A claim's id: ``base`` for the first method of a study, ``base/method`` for the others."""
-    return base if method_index == 0 else f"{base}/{method}"
-
-
 @dataclass(frozen=True)
 class VerdictCount:
     """How many of some claims agree, differ, are undecided (the bootstrap flips them), are
@@ -255,11 +240,6 @@ def judge(value: float, test: Callable[[float], Any] | None) -> bool | None:
     return None if ok is None else bool(ok)
 
 
-def spread_fields(s: Spread) -> dict[str, float]:
-    """A spread's median, quartiles and best seed as :class:`Claim` fields."""
-    return {"median": s.median, "q25": s.q25, "q75": s.q75, "best": s.best}
-
-
 def seeds_feasible(s: Spread) -> str:
     """How many of the seeds were feasible, e.g. ``"3/5 seeds feasible"``."""
     return f"{s.n_feasible}/{s.n} seeds feasible"
@@ -286,22 +266,22 @@ def angle(value: float, paper: float) -> bool | None:
 
 
 def in_range(value: float, low: float, high: float) -> bool | None:
-    if math.isnan(value):
-        return None
-    return (1.0 - RELATIVE_TOLERANCE) * low <= value <= (1.0 + RELATIVE_TOLERANCE) * high
+    """Inside [low, high] widened by 20 % of its ends (None for NaN)."""
+    return judge(
+        value, lambda v: (1 - RELATIVE_TOLERANCE) * low <= v <= (1 + RELATIVE_TOLERANCE) * high
+    )
 
 
-def _finite(conditions: Sequence[float], values: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-    x, y = np.asarray(conditions, float), np.asarray(values, float)
-    keep = np.isfinite(y)
-    return x[keep], y[keep]
+def _finite(x: Sequence[float], y: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs of ``x`` and ``y`` where both are finite."""
+    xa, ya = np.asarray(x, float), np.asarray(y, float)
+    keep = np.isfinite(xa) & np.isfinite(ya)
+    return xa[keep], ya[keep]
 
 
 def rho(x: Sequence[float], y: Sequence[float]) -> float:
     """Spearman's ρ of finite pairs (NaN with fewer than 3 pairs or a constant series)."""
     xa, ya = _finite(x, y)
-    keep = np.isfinite(xa)
-    xa, ya = xa[keep], ya[keep]
     if xa.size < 3 or np.ptp(ya) == 0.0 or np.ptp(xa) == 0.0:
         return math.nan
     return float(spearmanr(xa, ya).statistic)
@@ -355,9 +335,10 @@ def location(
 # --- claim builders: a row's rule, statistics and test as ClaimBuilder.claim's arguments ------
 @dataclass(frozen=True)
 class ClaimBuilder:
-    """Builds one study's claims for one method: the id gets the method's suffix
-    (:func:`claim_id`); the verdicts on the median and on the best seed come from one ``test``
-    of the rule applied to each (None, NaN or no test: no data)."""
+    """Builds one study's claims for one method: the id gets the method's suffix (``S7`` for
+    the study's first method, ``S7/random`` for the others); the verdicts on the median and on
+    the best seed come from one ``test`` of the rule applied to each (None, NaN or no test: no
+    data)."""
 
     study: str
     method: str
@@ -380,7 +361,7 @@ class ClaimBuilder:
         e.g. ``claim(..., **trend_row(series, +1))``."""
         median, best = fields.get("median", math.nan), fields.get("best", math.nan)
         return Claim(
-            id=claim_id(cid, self.index, self.method),
+            id=cid if self.index == 0 else f"{cid}/{self.method}",
             study=self.study,
             figure=figure,
             statement=statement,
@@ -414,7 +395,8 @@ def spread_row(
     """A row of one spread over seeds: its median, quartiles and best seed (``test`` judges
     the median and the best), and how many seeds were feasible as the detail (``fields``
     override any of these)."""
-    return {"rule": rule, "test": test, **spread_fields(s), "detail": seeds_feasible(s), **fields}
+    stats = {"median": s.median, "q25": s.q25, "q75": s.q75, "best": s.best}
+    return {"rule": rule, "test": test, **stats, "detail": seeds_feasible(s), **fields}
 
 
 def number_row(s: Spread, paper: float, **fields: Any) -> dict[str, Any]:
@@ -509,24 +491,22 @@ def identifiable(claims: Iterable[Claim], options: ModelOptions) -> list[Claim]:
     model options the study's optimisations ran with): a claim about a quantity the model does
     not depend on (:attr:`Claim.depends_on`) is ``"not identifiable"`` on the median and on the
     best seed, without a confidence (its statistics stay, as what the search left)."""
+    unknowable: Verdict = "not identifiable"
     out = []
     for c in claims:
-        lacks = tuple(d.quantity for d in c.depends_on if not d.resolved(options))
-        if not lacks:
-            out.append(c)
-            continue
-        out.append(
-            replace(
+        lacks = tuple(dict.fromkeys(d.quantity for d in c.depends_on if not d.resolved(options)))
+        if lacks:
+            c = replace(
                 c,
-                verdict="not identifiable",
-                best_verdict="not identifiable",
-                leaning="not identifiable",
-                best_leaning="not identifiable",
+                verdict=unknowable,
+                best_verdict=unknowable,
+                leaning=unknowable,
+                best_leaning=unknowable,
                 flips=math.nan,
                 best_flips=math.nan,
-                lacks=tuple(dict.fromkeys(lacks)),
+                lacks=lacks,
             )
-        )
+        out.append(c)
     return out
 
 

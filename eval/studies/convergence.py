@@ -1,22 +1,13 @@
 """Budget study: best-so-far against evaluations, PSO and CMA-ES side by side.
 
-Each method of the preset's :class:`~eval.studies.presets.ConvergenceSpec` (PSO and CMA-ES
-with their default settings), plus any method the study is run with, runs with a long budget
-at one level condition (η at 1.5 m/s) and one accelerating condition (F̄_v at 60 W/kg), several
-seeds each. Both methods have the prefix property (a run with budget B is exactly the first B
-evaluations of a longer run with the same seed), so each run's history gives the best reward
-that every smaller budget would have reached. The table lists, per condition, method and
-checkpoint budget, the median over seeds, the IQR, min and max, the spread (max − min) /
-median and the median as a fraction of the longest run's median; the presets' methods and
-budgets are chosen from it (docs/reproduction.md). The long runs have no local polish (a
-polish at the end would break the prefix property).
-
-v3 adds the budget splits (``ConvergenceSpec.polish_shares``): the preset's method at the
-preset's own budgets, each share of the budget kept for the local polish (0: none), judged by
-what a record reports, the best feasible objective, not by the penalised reward: the median
-over seeds, the best of the first and of the second half of the seeds (disjoint seed sets) and
-how far apart they are, the share of feasible seeds, the median polish gain and how many
-polishes converged (``convergence_splits.csv``/``.md``).
+Each method of the preset's :class:`~eval.studies.presets.ConvergenceSpec`, plus any method the
+study is run with, runs with a long budget and no polish at one level (η) and one accelerating
+(F̄_v) condition, several seeds each. Both methods have the prefix property (a run with budget B
+is exactly the first B evaluations of a longer run with the same seed), so each run's history
+gives the best reward every smaller budget would have reached (:func:`checkpoint_rows`); the
+presets' methods and budgets are chosen from it (docs/reproduction.md). v3 adds the budget
+splits between search and polish at the preset's own budgets, judged by what the records
+report (:func:`split_rows`, ``ConvergenceSpec.polish_shares``).
 """
 
 from __future__ import annotations
@@ -51,40 +42,31 @@ def _with(job: Job, settings: tuple[tuple[str, object], ...]) -> Job:
     return replace(job, method_config=(*job.method_config, *settings))
 
 
+def _spec_jobs(plan: StudyPlan, **given: Any) -> list[Job]:
+    """``plan``'s jobs at the spec's level and accelerating (F̄_v) conditions, the spec's seeds."""
+    spec = plan.preset.convergence
+    return [
+        *plan.jobs("level", [spec.speed], seeds=spec.seeds, **given),
+        *plan.jobs("accelerate", [spec.power], objective="vertical", seeds=spec.seeds, **given),
+    ]
+
+
 def long_jobs(plan: StudyPlan) -> list[Job]:
     """The long runs, one per method, condition and seed, without a polish."""
-    spec = plan.preset.convergence
     side_by_side = StudyPlan(plan.preset, methods(plan), execution=plan.execution)
-    return [
-        _with(job, (("polish", "none"),))
-        for job in (
-            *side_by_side.jobs("level", [spec.speed], budget=spec.budget, seeds=spec.seeds),
-            *side_by_side.jobs(
-                "accelerate",
-                [spec.power],
-                objective="vertical",
-                budget=spec.budget,
-                seeds=spec.seeds,
-            ),
-        )
-    ]
+    budget = plan.preset.convergence.budget
+    return [_with(job, (("polish", "none"),)) for job in _spec_jobs(side_by_side, budget=budget)]
 
 
 def split_jobs(plan: StudyPlan) -> dict[float, list[Job]]:
     """Per polish share: the preset's method at its budgets, both conditions, the spec's seeds."""
-    spec = plan.preset.convergence
     one = StudyPlan(plan.preset, (plan.preset.method,))
-    out = {}
-    for share in spec.polish_shares:
-        settings = split_settings(plan.preset.method, float(share))
-        out[float(share)] = [
-            _with(job, settings)
-            for job in (
-                *one.jobs("level", [spec.speed], seeds=spec.seeds),
-                *one.jobs("accelerate", [spec.power], objective="vertical", seeds=spec.seeds),
-            )
+    return {
+        float(share): [
+            _with(job, split_settings(plan.preset.method, float(share))) for job in _spec_jobs(one)
         ]
-    return out
+        for share in plan.preset.convergence.polish_shares
+    }
 
 
 def split_settings(method: str, share: float) -> tuple[tuple[str, object], ...]:
@@ -142,30 +124,36 @@ def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, An
     runs = sorted(runs, key=lambda r: r.seed)
     values = np.array([r.objective if r.feasible else np.nan for r in runs], dtype=float)
     half = len(runs) // 2
-    first = float(np.nanmax(values[:half])) if half and np.isfinite(values[:half]).any() else np.nan
-    second = (
-        float(np.nanmax(values[half:])) if half and np.isfinite(values[half:]).any() else np.nan
-    )
-    gains = [r.certificate.get("gain") for r in runs]
-    known = [g for g in gains if g is not None]
+    first, second = (_best(part) if half else math.nan for part in (values[:half], values[half:]))
+    known = [g for g in (r.certificate.get("gain") for r in runs) if g is not None]
     finite = values[np.isfinite(values)]
+    median, low, high = (
+        (float(np.median(finite)), float(finite.min()), float(finite.max()))
+        if finite.size
+        else (math.nan,) * 3
+    )
     return {
         "condition": label,
         "polish_share": share,
         "budget": runs[0].budget if runs else 0,
         "seeds": len(runs),
         "feasible": int(np.isfinite(values).sum()),
-        "median": float(np.median(finite)) if finite.size else float("nan"),
-        "min": float(finite.min()) if finite.size else float("nan"),
-        "max": float(finite.max()) if finite.size else float("nan"),
+        "median": median,
+        "min": low,
+        "max": high,
         "best_first_half": first,
         "best_second_half": second,
         "halves_apart": abs(first - second) / max(first, second)
         if np.isfinite(first) and np.isfinite(second) and max(first, second) > 0
-        else float("nan"),
-        "polish_gain_median": float(np.median(known)) if known else float("nan"),
+        else math.nan,
+        "polish_gain_median": float(np.median(known)) if known else math.nan,
         "polish_converged": sum(bool(r.certificate.get("converged")) for r in runs),
     }
+
+
+def _best(values: np.ndarray) -> float:
+    """The largest finite value (NaN for none)."""
+    return float(np.nanmax(values)) if np.isfinite(values).any() else math.nan
 
 
 def splits_markdown(rows: list[dict[str, Any]]) -> str:
@@ -263,16 +251,14 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             runs = [records[j] for j in group if j.task == task and j in records]
             if runs:
                 splits.append(split_rows(label, share, runs))
-    split_csv = out_dir / NAME / "convergence_splits.csv"
-    write_csv_atomic(split_csv, splits)
-    split_md = out_dir / NAME / "convergence_splits.md"
-    write_text_atomic(split_md, splits_markdown(splits))
-    files += [split_csv, split_md]
-    path = out_dir / NAME / "convergence_checkpoints.csv"
-    write_csv_atomic(path, table)
-    markdown = out_dir / NAME / "convergence_checkpoints.md"
-    write_text_atomic(markdown, checkpoints_markdown(table))
-    files += [path, markdown]
+    for stem, entries, markdown in (
+        ("convergence_splits", splits, splits_markdown),
+        ("convergence_checkpoints", table, checkpoints_markdown),
+    ):
+        csv_path, md_path = (out_dir / NAME / f"{stem}.{ext}" for ext in ("csv", "md"))
+        write_csv_atomic(csv_path, entries)
+        write_text_atomic(md_path, markdown(entries))
+        files += [csv_path, md_path]
     fig = figures.convergence_figure(panels, plan.figure(out_dir / NAME, "convergence"))
     caption = f"{' and '.join(methods(plan))} best-so-far over evaluations"
     return StudyOutput(NAME, TITLE, rows, [(caption, fig)], [], files)

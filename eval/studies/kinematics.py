@@ -28,7 +28,7 @@ from eval import figures
 from eval import kinematics_figures as kf
 from eval.studies import claims as C
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
-from eval.studies.tables import circular_median, select, spread, table4_bounds
+from eval.studies.tables import Spread, circular_median, select, spread, table4_bounds
 from tandem_env import PARAMETER_NAMES, stroke_history
 from tandem_env.envs import registration
 
@@ -46,6 +46,8 @@ QUANTITIES = (
 PAPER_PHASE_LEAD = 30.0  # deg: hind-wing leads at 2 m/s (Fig. 11)
 PAPER_IN_PHASE = 0.0  # deg: "the wings flap in-phase" in accelerating flight (Fig. 11b)
 HISTORY_SAMPLES = 120
+#: The quantities of a wing's history each trace carries (``kinematics_figures.Trace``).
+TRACED = ("tip_path", "sweep", "pitch", "angle_of_attack", "relative_speed")
 
 
 def jobs(plan: StudyPlan) -> list[Job]:
@@ -87,22 +89,10 @@ def traces(
     out = []
     for row in sorted(chosen, key=lambda r: r["seed"]):
         h = history_of(by_key[row["key"]])
-        wings = []
-        for wing in (h.fore, h.hind):
-            wings.append(
-                {
-                    "tip_path": wing.tip_path,
-                    "sweep": wing.sweep,
-                    "pitch": wing.pitch,
-                    "angle_of_attack": wing.angle_of_attack,
-                    "relative_speed": wing.relative_speed,
-                }
-            )
+        fore, hind = ({name: getattr(wing, name) for name in TRACED} for wing in (h.fore, h.hind))
         best = row["seed"] == best_seed
         suffix = " (best)" if best else ("" if row["feasible"] else " (infeasible)")
-        out.append(
-            kf.Trace(f"seed {row['seed']}{suffix}", best, h.fore.cycle_fraction, wings[0], wings[1])
-        )
+        out.append(kf.Trace(f"seed {row['seed']}{suffix}", best, h.fore.cycle_fraction, fore, hind))
     return out
 
 
@@ -110,42 +100,35 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
     rows, files = write_tables(NAME, records, out_dir, QUANTITIES)
     p = plan.preset
     method = plan.methods[0]
-    level = dict(method=method, task="level", planform="tear-drop")
-    accel = dict(
-        method=method,
-        task="accelerate",
-        planform="tear-drop",
-        objective=plan.reading.objective(p.kinematics_objective),  # the job's (StudyPlan.jobs)
-    )
+    level, accel = _series(plan, method)
     lv = traces(records, rows, condition=p.kinematics_speed, **level)
     ac = traces(records, rows, condition=p.kinematics_power, **accel)
     level_name = f"level flight, V = {p.kinematics_speed:g} m/s"
     accel_name = f"accelerating ({p.kinematics_objective}), {p.kinematics_power:g} W/kg"
     study_dir = out_dir / NAME
 
-    def group(quantity: str, condition: float, where: dict[str, Any]) -> tuple[list[float], float]:
-        """The feasible seeds' values and the best seed's, as the claims take them."""
-        chosen = select(rows, condition=condition, **where)
-        return [r[quantity] for r in chosen if r["feasible"]], spread(chosen, quantity).best
+    def at(quantity: str, condition: float, where: dict[str, Any]) -> Spread:
+        return spread(select(rows, condition=condition, **where), quantity)
 
     level_at = f"level {p.kinematics_speed:g} m/s"
     accel_at = f"accel. {p.kinematics_power:g} W/kg"
     lead_at = f"level {p.phase_speed:g} m/s"
     abs_phase = {
-        level_at: group("phase_difference_abs", p.kinematics_speed, level),
-        accel_at: group("phase_difference_abs", p.kinematics_power, accel),
+        level_at: at("phase_difference_abs", p.kinematics_speed, level),
+        accel_at: at("phase_difference_abs", p.kinematics_power, accel),
     }
-    lead = {lead_at: group("phase_difference", p.phase_speed, level)}
+    lead = {lead_at: at("phase_difference", p.phase_speed, level)}
     pitch = {
-        "level": group("pitch_amplitude", p.kinematics_speed, level),
-        "accelerating": group("pitch_amplitude", p.kinematics_power, accel),
+        "level": at("pitch_amplitude", p.kinematics_speed, level),
+        "accelerating": at("pitch_amplitude", p.kinematics_power, accel),
     }
 
-    def values(groups: dict[str, tuple[list[float], float]]) -> dict[str, list[float]]:
-        return {k: v for k, (v, _) in groups.items()}
-
-    def bests(groups: dict[str, tuple[list[float], float]]) -> dict[str, float]:
-        return {k: b for k, (_, b) in groups.items()}
+    def panel(title: str, groups: dict[str, Spread], ylabel: str, **marks: Any) -> kf.GroupPanel:
+        """The feasible seeds' values of each group, as the claims take them, and its best."""
+        values = {k: list(s.values) for k, s in groups.items()}
+        return kf.GroupPanel(
+            title, values, ylabel, best={k: s.best for k, s in groups.items()}, **marks
+        )
 
     # Each panel shows the statistic its claim judges: the median of |ΔΦ| (K1, K3), the
     # circular median of ΔΦ (K2), the medians of η_m (K4). Where the model does not depend on
@@ -157,24 +140,22 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         else "not judged: the model does not depend on ΔΦ"
     )
     phase_panels = (
-        kf.GroupPanel(
+        panel(
             "(c) |ΔΦ| (K1, K3; feasible seeds)",
-            values(abs_phase),
+            abs_phase,
             "|ΔΦ| [deg]",
             statistic_label=f"median |ΔΦ| ({judged})",
-            best=bests(abs_phase),
             paper={accel_at: PAPER_IN_PHASE},
             paper_label="paper: in phase (ΔΦ = 0°)",
             band=(0.0, C.IN_PHASE, f"in phase: |ΔΦ| < {C.IN_PHASE:g}°"),
             ylim=(-8.0, 185.0),  # room for the paper's 0° cross
         ),
-        kf.GroupPanel(
+        panel(
             f"(d) ΔΦ at {p.phase_speed:g} m/s (K2; > 0: hind leads)",
-            values(lead),
+            lead,
             "ΔΦ = Φ_hind − Φ_fore [deg]",
             statistic=circular_median,
             statistic_label=f"circular median ({judged})",
-            best=bests(lead),
             paper={lead_at: PAPER_PHASE_LEAD},
             paper_label=f"paper: hind leads by ≈ {PAPER_PHASE_LEAD:g}°",
             band=(
@@ -185,12 +166,11 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             ylim=(-180.0, 180.0),
         ),
     )
-    pitch_panel = kf.GroupPanel(
+    pitch_panel = panel(
         "(c) pitch amplitude η_m (K4; feasible seeds)",
-        values(pitch),
+        pitch,
         "η_m, mean of both wings [deg]",
         statistic_label="median (judged)",
-        best=bests(pitch),
         paper_note="paper: larger in accelerating flight",
         bounds=table4_bounds("pitch_amplitude"),
     )
@@ -268,6 +248,14 @@ def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
     }
 
 
+def _series(plan: StudyPlan, method: str) -> tuple[dict[str, Any], dict[str, Any]]:
+    """What picks ``method``'s level and accelerating series (:func:`tables.select`), the
+    accelerating one with the objective of its jobs (``StudyPlan.jobs``)."""
+    level = dict(method=method, task="level", planform="tear-drop")
+    objective = plan.reading.objective(plan.preset.kinematics_objective)
+    return level, dict(level, task="accelerate", objective=objective)
+
+
 def _claims(
     plan: StudyPlan,
     rows: list[dict[str, Any]],
@@ -276,13 +264,7 @@ def _claims(
     phase: Mapping[str, tuple[C.Dependence, ...]],
 ) -> list[C.Claim]:
     p = plan.preset
-    level = dict(method=method, task="level", planform="tear-drop")
-    accel = dict(
-        method=method,
-        task="accelerate",
-        planform="tear-drop",
-        objective=plan.reading.objective(p.kinematics_objective),  # the job's (StudyPlan.jobs)
-    )
+    level, accel = _series(plan, method)
     lv_abs = spread(select(rows, condition=p.kinematics_speed, **level), "phase_difference_abs")
     lead = spread(select(rows, condition=p.phase_speed, **level), "phase_difference")
     ac_abs = spread(select(rows, condition=p.kinematics_power, **accel), "phase_difference_abs")

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 from agents.methods import get_method, preset_batch_setting
@@ -101,9 +101,8 @@ class Search:
                 f"Search.method = {method!r}; allowed: a harness method name without ':' "
                 "such as 'pso' or 'cmaes'"
             )
-        for name in ("swarm_size", "iterations"):
+        for name, low in (("swarm_size", 2), ("iterations", 1)):
             value = getattr(self, name)
-            low = 2 if name == "swarm_size" else 1
             if value is not None and not (_is_count(value) and value >= low):
                 raise ValueError(f"Search.{name} = {value!r}; allowed: None or an integer >= {low}")
         if self.iterations is not None and self.swarm_size is None:
@@ -170,13 +169,7 @@ class Search:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain form (pairs become dicts); ``Search(**d)`` rebuilds it."""
-        return {
-            "method": self.method,
-            "swarm_size": self.swarm_size,
-            "iterations": self.iterations,
-            "budgets": dict(self.budgets),
-            "settings": dict(self.settings),
-        }
+        return {**asdict(self), "budgets": dict(self.budgets), "settings": dict(self.settings)}
 
     def describe(self) -> str:
         """``pso 40×50 (2000 evaluations), polish=none``."""
@@ -309,19 +302,8 @@ class Reading:
         changed = self.changes()
         changed.pop("horizontal_objective", None)
         changed.pop("search", None)
-        out = {}
-        for key, value in changed.items():
-            if key == "rotational_coefficient":
-                out[key] = value
-            elif key in _KWARG_OF:
-                out[_KWARG_OF[key]] = value
-            else:
-                raise ValueError(
-                    f"Reading {self.name!r}: option {key!r} has no env keyword "
-                    f"(tandem_env.envs.config.MODEL_OPTION_KWARGS); allowed: "
-                    f"{', '.join(sorted(_KWARG_OF))}"
-                )
-        return out
+        # every option has its env keyword (MODEL_OPTION_KWARGS); C_r is one by its own name
+        return {_KWARG_OF.get(key, key): value for key, value in changed.items()}
 
     def objective(self, objective: str) -> str:
         """The accelerating objective a study's ``objective`` becomes under this reading."""

@@ -1,16 +1,10 @@
 """Study presets: which conditions, seeds, method and budgets a study run uses (frozen, validated).
 
 ``quick`` finishes in a few minutes on a 2-core machine; ``paper`` is the full study of the
-paper's figures. Method and budgets come from the measured convergence study (``python -m eval
-study convergence --preset paper``: PSO and CMA-ES, 8 seeds × 60 000 evaluations, see
-docs/reproduction.md). CMA-ES beats PSO at every budget from 2 000 evaluations on, in median
-and spread, in both tasks, so both presets use it. ``paper`` takes for level flight at 1.5
-m/s the smallest checkpoint at which the CMA-ES median reaches 90 % of its 60 000-evaluation
-median (16 000, 95 %: the first CMA-ES runs have settled, 16 000-40 000 give 0.444-0.451), and
-for accelerating flight at 60 W/kg 12 000 (97 %; spread 9.1 % against 13.5 % at 8 000, the
-90 % checkpoint), and fits in 30 min on 2 cores. ``quick`` takes
-what fits in about two minutes (8 000 and 4 000: 74 % and 79 % of those medians). ``tiny``
-exists for the tests only (it is not offered on the command line)."""
+paper's figures; ``tiny`` exists for the tests only (it is not offered on the command line).
+Method and budgets come from the measured convergence study (``python -m eval study convergence
+--preset paper``): the checkpoints chosen and why are in docs/reproduction.md, "Method and
+budget: the convergence study"."""
 
 from __future__ import annotations
 
@@ -37,6 +31,11 @@ _PER_JOB_KWARGS: frozenset[str] = frozenset(
 
 #: The field of :class:`Preset` that budgets each task the studies run (the paper's two).
 BUDGET_FIELDS: dict[str, str] = {"level": "level_budget", "accelerate": "accelerate_budget"}
+
+
+def _is_int(value: Any, low: int) -> bool:
+    """Whether ``value`` is an integer (not a bool) >= ``low``."""
+    return isinstance(value, int) and not isinstance(value, bool) and value >= low
 
 
 def _fail(name: str, value: Any, allowed: str) -> None:
@@ -97,7 +96,7 @@ class ConvergenceSpec:
     what the records report (the best feasible objective), over ``seeds``."""
 
     def __post_init__(self) -> None:
-        if isinstance(self.budget, bool) or not isinstance(self.budget, int) or self.budget < 2:
+        if not _is_int(self.budget, 2):
             raise ValueError(f"ConvergenceSpec.budget = {self.budget!r}; allowed: an integer >= 2")
         if not self.seeds or len(set(self.seeds)) != len(self.seeds):
             raise ValueError(
@@ -179,18 +178,16 @@ class Preset:
         seeds_ok = (
             isinstance(self.seeds, tuple)
             and len(self.seeds) > 0
-            and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in self.seeds)
+            and all(_is_int(s, 0) for s in self.seeds)
             and len(set(self.seeds)) == len(self.seeds)
         )
         if not seeds_ok:
             _fail("seeds", self.seeds, "a non-empty tuple of distinct integers >= 0")
-        if isinstance(self.swarm_size, bool) or not isinstance(self.swarm_size, int):
-            _fail("swarm_size", self.swarm_size, "an integer >= 2")
-        if self.swarm_size < 2:
+        if not _is_int(self.swarm_size, 2):
             _fail("swarm_size", self.swarm_size, "an integer >= 2")
         for name in BUDGET_FIELDS.values():
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < self.swarm_size:
+            if not _is_int(value, self.swarm_size):
                 _fail(name, value, f"an integer >= swarm_size ({self.swarm_size}) evaluations")
         _check_values("speeds", self.speeds, _SPEED)
         _check_values("shape_speeds", self.shape_speeds, _SPEED)

@@ -180,9 +180,12 @@ def settings_lines(plan: StudyPlan) -> list[str]:
     return lines
 
 
-def render(
-    plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str], base: Path
-) -> str:
+def write_report(
+    path: Path, plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str]
+) -> Path:
+    """Write the report to ``path`` (atomically) and return it: the settings, the rules, every
+    claim beside ours, the pinned parameters, the studies not run and the figures."""
+    base = path.parent
     claims = [c for o in outputs for c in o.claims]
     parts = [
         '# Reproduction report: Faisal & Filippone, "Aerodynamic Model for Tandem Flapping Wings"',
@@ -220,13 +223,11 @@ def render(
     parts += ["## Figures", "", FIGURE_KEY, ""]
     for o in outputs:
         parts += [f"### {o.title}", ""]
-        files = ", ".join(
-            f"[`{relative_path(f, base)}`]({relative_path(f, base)})" for f in o.files
-        )
-        parts += [f"Data: {files}", ""]
-        for caption, path in o.figures:
-            parts += [figure_markdown(caption, path, base), ""]
-    return "\n".join(parts)
+        parts += [f"Data: {', '.join(file_link(f, base) for f in o.files)}", ""]
+        for caption, figure in o.figures:
+            parts += [figure_markdown(caption, figure, base), ""]
+    write_text_atomic(path, "\n".join(parts))
+    return path
 
 
 def pinned_section(rows: Sequence[Mapping[str, Any]]) -> list[str]:
@@ -264,13 +265,10 @@ def figure_markdown(caption: str, path: Path, base: Path) -> str:
     return f"[{caption} (PDF)]({target})" if path.suffix == ".pdf" else f"![{caption}]({target})"
 
 
+def file_link(path: Path, base: Path) -> str:
+    """A Markdown link to ``path``, named by its path relative to ``base``."""
+    return f"[`{relative_path(path, base)}`]({relative_path(path, base)})"
+
+
 def relative_path(path: Path, base: Path) -> str:
     return Path(os.path.relpath(path, base)).as_posix()
-
-
-def write_report(
-    path: Path, plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str]
-) -> Path:
-    """Write ``path`` (atomically) and return it."""
-    write_text_atomic(path, render(plan, outputs, all_studies, path.parent))
-    return path

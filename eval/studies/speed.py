@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 from agents.jobs import Job
 from agents.records import Record
@@ -47,88 +48,72 @@ def jobs(plan: StudyPlan) -> list[Job]:
 
 def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
     rows, files = write_tables(NAME, records, out_dir, QUANTITIES)
-    where = {"task": "level", "planform": "tear-drop"}
 
-    def series(quantity: str) -> list[figures.Series]:
-        return [
+    def panel(ylabel: str, quantity: str, **paper: Any) -> figures.Panel:
+        """``quantity`` over speeds, one series per method, within its Table 4 bounds if any."""
+        series = [
             figures.Series(
-                figures.method_label(m), by_condition(rows, quantity, method=m, **where), method=m
+                figures.method_label(m),
+                by_condition(rows, quantity, method=m, task="level", planform="tear-drop"),
+                method=m,
             )
             for m in plan.methods
         ]
+        return figures.Panel(ylabel, series, bounds=table4_bounds(quantity), **paper)
 
-    study_dir = out_dir / NAME
-    xlabel = "flight speed V [m/s]"
-    figs = [
+    # The paper states these trends in words only, no numbers.
+    falls, follows = "paper: falls with V", "paper: follows the power"
+    level = "level flight, optimised at each speed"
+    specs = (
         (
             "Fig. 4: thrust ratio, mean angle of attack and stroke-plane angle in level flight",
-            figures.sweep_figure(
-                [
-                    # The paper states these trends in words only, no numbers.
-                    figures.Panel(
-                        "thrust ratio T/W [-]",
-                        series("thrust_ratio"),
-                        paper_note="paper: falls with V",
-                    ),
-                    figures.Panel(
-                        "mean angle of attack [deg]",
-                        series("mean_angle_of_attack"),
-                        paper_note="paper: falls with V",
-                    ),
-                    figures.Panel(
-                        "stroke-plane angle β [deg]",
-                        series("stroke_plane_angle"),
-                        bounds=table4_bounds("stroke_plane_angle"),
-                        paper_note="paper: rises with V",
-                    ),
-                ],
-                xlabel,
-                "Fig. 4: level flight, optimised at each speed",
-                plan.figure(study_dir, "fig4_thrust_aoa_stroke_plane"),
-            ),
+            "fig4_thrust_aoa_stroke_plane",
+            f"Fig. 4: {level}",
+            [
+                panel("thrust ratio T/W [-]", "thrust_ratio", paper_note=falls),
+                panel("mean angle of attack [deg]", "mean_angle_of_attack", paper_note=falls),
+                panel(
+                    "stroke-plane angle β [deg]",
+                    "stroke_plane_angle",
+                    paper_note="paper: rises with V",
+                ),
+            ],
         ),
         (
             "Fig. 5: power per mass, frequency and weaving amplitude in level flight",
-            figures.sweep_figure(
-                [
-                    figures.Panel(
-                        "power P/m [W/kg]",
-                        series("power_per_mass"),
-                        paper_at=[(PAPER_BEST_SPEED, "paper: minimum power")],
-                    ),
-                    figures.Panel(
-                        "frequency f [Hz]",
-                        series("frequency"),
-                        bounds=table4_bounds("frequency"),
-                        paper_note="paper: follows the power",
-                    ),
-                    figures.Panel(
-                        "weaving amplitude φ_m [deg]",
-                        series("sweep_amplitude"),
-                        bounds=table4_bounds("sweep_amplitude"),
-                        paper_note="paper: follows the power",
-                    ),
-                ],
-                xlabel,
-                "Fig. 5: level flight, optimised at each speed",
-                plan.figure(study_dir, "fig5_power_frequency_sweep"),
-            ),
+            "fig5_power_frequency_sweep",
+            f"Fig. 5: {level}",
+            [
+                panel(
+                    "power P/m [W/kg]",
+                    "power_per_mass",
+                    paper_at=[(PAPER_BEST_SPEED, "paper: minimum power")],
+                ),
+                panel("frequency f [Hz]", "frequency", paper_note=follows),
+                panel("weaving amplitude φ_m [deg]", "sweep_amplitude", paper_note=follows),
+            ],
         ),
         (
             "Fig. 6: level-flight efficiency",
-            figures.sweep_figure(
-                [
-                    figures.Panel(
-                        "efficiency η [%]",
-                        series("efficiency_pct"),
-                        paper=[(PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY)],
-                    )
-                ],
-                xlabel,
-                f"Fig. 6: level-flight efficiency (thrust_split = {_thrust_split(records)})",
-                plan.figure(study_dir, "fig6_efficiency"),
-            ),
+            "fig6_efficiency",
+            f"Fig. 6: level-flight efficiency (thrust_split = {_thrust_split(records)})",
+            [
+                panel(
+                    "efficiency η [%]",
+                    "efficiency_pct",
+                    paper=[(PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY)],
+                )
+            ],
         ),
+    )
+    figs = [
+        (
+            caption,
+            figures.sweep_figure(
+                panels, "flight speed V [m/s]", title, plan.figure(out_dir / NAME, stem)
+            ),
+        )
+        for caption, stem, title, panels in specs
     ]
     found = C.study_claims(rows, plan.methods, _claims, options=plan.model_options)
     return StudyOutput(NAME, TITLE, rows, figs, found, files)

@@ -97,13 +97,8 @@ def pinned(rows: Sequence[Mapping[str, Any]], quantity: str) -> str:
     return ""
 
 
-def wrap_degrees(angle: float) -> float:
-    """``angle`` wrapped to (−180, 180] [deg]."""
-    wrapped = (angle + 180.0) % 360.0 - 180.0
-    return 180.0 if wrapped == -180.0 else wrapped
-
-
 def _wrap(angles: np.ndarray) -> np.ndarray:
+    """``angles`` wrapped to (−180, 180] [deg]."""
     wrapped = (np.asarray(angles, float) + 180.0) % 360.0 - 180.0
     return np.where(wrapped == -180.0, 180.0, wrapped)
 
@@ -131,7 +126,7 @@ def circular_median(angles: Sequence[float]) -> float:
     sin, cos = float(np.sin(radians).mean()), float(np.cos(radians).mean())
     if math.hypot(sin, cos) < 1e-9:  # spread evenly round the circle: no direction stands out
         return float(tied[0])
-    return wrap_degrees(math.degrees(math.atan2(sin, cos)))
+    return float(_wrap(math.degrees(math.atan2(sin, cos))))
 
 
 def circular_quartiles(angles: Sequence[float], median: float) -> tuple[float, float]:
@@ -153,6 +148,7 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
     """The tidy row of one optimisation: identity, feasibility, metrics, stroke summary, the 28
     stroke parameters (Table 4 units) and ``at_bounds`` (:func:`tandem_env.describe_bounds`)."""
     m, s = record.metrics, record.stroke
+    phase_difference = float(_wrap(float(s["hind_sweep_phase"]) - float(s["fore_sweep_phase"])))
     mean = lambda name: 0.5 * (float(s[f"fore_{name}"]) + float(s[f"hind_{name}"]))  # noqa: E731
     row: dict[str, Any] = {
         "method": job.method,
@@ -181,12 +177,8 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
         "frequency": mean("frequency"),
         "sweep_amplitude": mean("sweep_amplitude"),
         "pitch_amplitude": mean("pitch_amplitude"),
-        "phase_difference": wrap_degrees(
-            float(s["hind_sweep_phase"]) - float(s["fore_sweep_phase"])
-        ),
-        "phase_difference_abs": abs(
-            wrap_degrees(float(s["hind_sweep_phase"]) - float(s["fore_sweep_phase"]))
-        ),
+        "phase_difference": phase_difference,
+        "phase_difference_abs": abs(phase_difference),
         "induction_converged": bool(m.get("induction_converged", True)),
         "wall_time_s": float(record.wall_time),
         "key": job.key,
@@ -221,12 +213,11 @@ class Spread:
     """Seeds run."""
     n_feasible: int
 
-    def describe(self, fmt: str = ".3g", scale: float = 1.0) -> str:
-        """``median [q25, q75]`` (NaN-safe), values multiplied by ``scale``."""
+    def describe(self) -> str:
+        """``median [q25, q75]`` to 3 significant digits (NaN-safe)."""
         if math.isnan(self.median):
             return "no feasible seed"
-        m, lo, hi = (scale * v for v in (self.median, self.q25, self.q75))
-        return f"{m:{fmt}} [{lo:{fmt}}, {hi:{fmt}}]"
+        return f"{self.median:.3g} [{self.q25:.3g}, {self.q75:.3g}]"
 
 
 def spread(rows: Sequence[Mapping[str, Any]], quantity: str) -> Spread:
@@ -270,18 +261,23 @@ def by_condition(
     return {c: spread(select(chosen, condition=c), quantity) for c in conditions}
 
 
+def _by_condition(
+    rows: Iterable[Mapping[str, Any]],
+) -> list[tuple[tuple[Any, ...], list[Mapping[str, Any]]]]:
+    """The rows grouped by series (:data:`SERIES_KEYS`, as text) and condition, in that order."""
+    groups: dict[tuple[Any, ...], list[Mapping[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault((*(str(r[k]) for k in SERIES_KEYS), float(r["condition"])), []).append(r)
+    return sorted(groups.items())
+
+
 def spread_summary_rows(
     rows: Sequence[Mapping[str, Any]], quantities: Sequence[str]
 ) -> list[dict[str, Any]]:
     """Per series, condition and quantity: n, n_feasible, median, q25, q75, best, best_seed and
     ``pinned`` (:func:`pinned`: the Table 4 bound a stroke quantity is pinned at, or empty)."""
-    groups: dict[tuple, list[Mapping[str, Any]]] = {}
-    for r in rows:
-        groups.setdefault((*(r[k] for k in SERIES_KEYS), float(r["condition"])), []).append(r)
     out = []
-    for key, members in sorted(
-        groups.items(), key=lambda kv: (*tuple(map(str, kv[0][:-1])), kv[0][-1])
-    ):
+    for key, members in _by_condition(rows):
         for quantity in quantities:
             s = spread(members, quantity)
             out.append(
@@ -308,19 +304,17 @@ def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]
     condition: the series' columns, condition and unit, parameter, ``bound`` ("lower" or
     "upper"), its ``value`` [Table 4 units] and ``share`` of the feasible seeds at it. A row
     seen twice (the same record key, e.g. in two studies) counts once."""
-    unique = list({r["key"]: r for r in rows}.values())
-    groups: dict[tuple, list[Mapping[str, Any]]] = {}
-    for r in unique:
-        groups.setdefault((*(str(r[k]) for k in SERIES_KEYS), float(r["condition"])), []).append(r)
     out = []
-    for key, members in sorted(groups.items()):
+    for key, members in _by_condition(list({r["key"]: r for r in rows}.values())):
         feasible = [r for r in members if r["feasible"]]
+        if not feasible:  # nothing is pinned (:func:`pinned`)
+            continue
+        at = bound_sides(np.array([[float(r[n]) for n in PARAMETER_NAMES] for r in feasible]))
         for index, name in enumerate(PARAMETER_NAMES):
             side = pinned(members, name)
             if not side:
                 continue
             sign = -1 if side == "lower" else 1
-            at = bound_sides(np.array([[float(r[n]) for n in PARAMETER_NAMES] for r in feasible]))
             out.append(
                 {
                     **dict(zip(SERIES_KEYS, key[:-1], strict=True)),

@@ -9,7 +9,7 @@ speed and power sweeps' own, so they run once.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -73,28 +73,23 @@ def planform_outlines(n: int = 200) -> list[tuple[str, np.ndarray, np.ndarray, n
 def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
     rows, files = write_tables(NAME, records, out_dir, QUANTITIES)
     study_dir = out_dir / NAME
-    variant = figures.PLANFORM_VARIANT
-    eff = [
-        figures.Series(
-            _label(m, planform),
-            by_condition(rows, "efficiency_pct", method=m, task="level", planform=planform),
-            method=m,
-            variant=variant[planform],
-        )
-        for m in plan.methods
-        for planform in PLANFORMS
-    ]
     h_obj = plan.reading.horizontal_objective
-    acc = [
-        figures.Series(
-            _label(m, planform),
-            attainable(rows, m, planform, h_obj),
-            method=m,
-            variant=variant[planform],
-        )
-        for m in plan.methods
-        for planform in PLANFORMS
-    ]
+
+    def by_planform(points: Callable[[str, str], Mapping[float, Spread]]) -> list[figures.Series]:
+        """One series per method and planform of ``points(method, planform)``."""
+        return [
+            figures.Series(
+                _label(m, planform),
+                points(m, planform),
+                method=m,
+                variant=figures.PLANFORM_VARIANT[planform],
+            )
+            for m in plan.methods
+            for planform in PLANFORMS
+        ]
+
+    eff = by_planform(lambda m, planform: _efficiency(rows, m, planform))
+    acc = by_planform(lambda m, planform: attainable(rows, m, planform, h_obj))
     figs = [
         (
             "Fig. 14: tear-drop and real wing planforms",
@@ -153,8 +148,7 @@ def _paper_gain(rows: list[dict[str, Any]], method: str) -> list[tuple[float, fl
     wing's η): our tear-drop median η at 2 m/s × (1 + 12 %), where the paper's real wing would
     sit relative to our tear-drop (W2 judges the same ratio of medians); none without that
     median."""
-    tear = by_condition(rows, "efficiency_pct", method=method, task="level", planform="tear-drop")
-    at = tear.get(2.0)
+    at = _efficiency(rows, method, "tear-drop").get(2.0)
     if at is None or not math.isfinite(at.median):
         return []
     factor = 1.0 + PAPER_GAIN_AT_2 / 100.0
@@ -163,6 +157,11 @@ def _paper_gain(rows: list[dict[str, Any]], method: str) -> list[tuple[float, fl
         f"+{PAPER_GAIN_AT_2:g} % at 2 m/s)"
     )
     return [(2.0, at.median * factor, label)]
+
+
+def _efficiency(rows: list[dict[str, Any]], method: str, planform: str) -> dict[float, Spread]:
+    """η [%] over speeds of ``method`` with ``planform``."""
+    return by_condition(rows, "efficiency_pct", method=method, task="level", planform=planform)
 
 
 def _label(method: str, planform: str) -> str:
@@ -182,10 +181,7 @@ def _claims(
     rows: list[dict[str, Any]], method: str, index: int, h_obj: str = "horizontal"
 ) -> list[C.Claim]:
     make = C.ClaimBuilder(NAME, method, index)
-    eff = {
-        pf: by_condition(rows, "efficiency_pct", method=method, task="level", planform=pf)
-        for pf in PLANFORMS
-    }
+    eff = {pf: _efficiency(rows, method, pf) for pf in PLANFORMS}
     acc = {pf: attainable(rows, method, pf, h_obj) for pf in PLANFORMS}
     every_speed = "the real wing is more efficient than the tear-drop at every speed"
     every_power = "the real wing attains slightly more F̄_a at every power"

@@ -102,17 +102,13 @@ class ReadingsCampaign:
 
     def first_jobs(self, args: argparse.Namespace, plan: StudyPlan) -> tuple[list[Job], str]:
         chosen = single_readings(args.reading)
+        singles = f"{len(chosen) - 1} single reading{'s' * (len(chosen) != 2)}"
         if args.continuation is None:
             jobs = [job for r in chosen for job in reading_jobs(plan, r)]
-            count = len(chosen) - 1
-            return (
-                jobs,
-                f"readings study (the default and {count} single reading{'s' * (count != 1)})",
-            )
+            return jobs, f"readings study (the default and {singles})"
         check_continuation(plan, args.continuation)
         return reading_jobs(plan, DEFAULT), (
-            f"readings study (the default in full; {len(chosen) - 1} single reading"
-            f"{'s' * (len(chosen) != 2)} continuing from its optima on "
+            f"readings study (the default in full; {singles} continuing from its optima on "
             f"{args.continuation.share:g} of the budget, a task the bias check fails in full)"
         )
 

@@ -248,8 +248,7 @@ def single_readings(names: Sequence[str] | None = None) -> tuple[Reading, ...]:
         raise ValueError(
             f"unknown reading(s) {', '.join(map(repr, unknown))}; allowed: {', '.join(known)}"
         )
-    chosen = [DEFAULT] + [known[n] for n in dict.fromkeys(names) if n != DEFAULT.name]
-    return tuple(chosen)
+    return (DEFAULT, *(known[n] for n in dict.fromkeys(names) if n != DEFAULT.name))
 
 
 def reading_by_name(name: str) -> Reading:

@@ -15,6 +15,7 @@ from eval.studies.readings.result import HEADLINES, ReadingResult, reading_dir
 from eval.studies.report import (
     agreement_rules,
     figure_markdown,
+    file_link,
     insect_line,
     relative_path,
     settings_lines,
@@ -26,20 +27,13 @@ from tandem_env.io.files import write_text_atomic
 READINGS_GOAL = 16
 
 
-def _num(value: float) -> str:
-    return "–" if math.isnan(value) else f"{value:.3g}"
-
-
-def _delta(value: float) -> str:
-    return "–" if math.isnan(value) else f"{value:+.3g}"
+def _num(value: float, fmt: str = ".3g") -> str:
+    return "–" if math.isnan(value) else f"{value:{fmt}}"
 
 
 def _within_spread(a: Claim, b: Claim) -> bool:
     """Whether each claim's median lies inside the other's inter-quartile range over seeds
-    (a verdict flip between them is then within the seed-to-seed spread)."""
-    values = (a.median, a.q25, a.q75, b.median, b.q25, b.q75)
-    if any(math.isnan(v) for v in values):
-        return False
+    (a verdict flip between them is then within the seed-to-seed spread; False with a NaN)."""
     return a.q25 <= b.median <= a.q75 and b.q25 <= a.median <= b.q75
 
 
@@ -61,22 +55,24 @@ def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
     return lines
 
 
-def render_readings(
+def write_readings_report(
+    path: Path,
     plan: StudyPlan,
     results: Sequence[ReadingResult],
     rule: str,
     table: Path,
     figure: Path,
-    base: Path,
     check: Sequence[Mapping[str, Any]] = (),
     continuation: Any = None,
     full: Mapping[str, Mapping[str, str]] | None = None,
-) -> str:
-    """The readings study's report: the table of readings, the best one, which decision moves
-    which claim and by how much, the matrix figure; how the readings continued from the
-    default's optima (``continuation``: an ``eval.studies.readings.Continuation`` or None), the
-    measured bias of that (``check``: ``readings.check_summary`` rows) and the tasks that ran
-    in full for it (``full``: ``readings.full_tasks``)."""
+) -> Path:
+    """Write the readings study's report to ``path`` (atomically) and return it: the table of
+    readings, the best one, which decision moves which claim and by how much, the matrix
+    figure; how the readings continued from the default's optima (``continuation``: an
+    ``eval.studies.readings.Continuation`` or None), the measured bias of that (``check``:
+    ``readings.check_summary`` rows) and the tasks that ran in full for it (``full``:
+    ``readings.full_tasks``)."""
+    base = path.parent
     default = results[0]
     best = max(results, key=lambda r: r.agree)
     n_claims = len(default.claims)
@@ -96,17 +92,13 @@ def render_readings(
         "|---|---|---|---|---|---|---|" + "---|" * len(heads),
     ]
     for r in results:
-        head = r.headline()
+        head, c = r.headline(), r.counts
         parts.append(
             table_row(
                 (
                     f"`{r.reading.name}`",
                     r.reading.describe_changes(),
-                    str(r.agree),
-                    str(r.differ),
-                    str(r.undecided),
-                    str(r.not_identifiable),
-                    str(r.no_data),
+                    *map(str, (c.agree, c.differ, c.undecided, c.not_identifiable, c.no_data)),
                     *(_num(head[k]) for k in heads),
                 )
             )
@@ -128,8 +120,8 @@ def render_readings(
             if r.agree == best.agree and r is not best
         )
         + f": {best.agree} of {n_claims} claims agree "
-        f"({best.differ} differ, {best.undecided} undecided, {best.not_identifiable} not "
-        f"identifiable, {best.no_data} without data); "
+        f"({best.differ} differ, {best.counts.undecided} undecided, "
+        f"{best.counts.not_identifiable} not identifiable, {best.counts.no_data} without data); "
         "the default: "
         f"{default.agree}. Goal: {READINGS_GOAL} or more of {n_claims}"
         + (" (reached)." if best.agree >= READINGS_GOAL else " (not reached)."),
@@ -158,7 +150,7 @@ def render_readings(
                     f"`{r.reading.name}`",
                     "; ".join(moves) or "none",
                     f"{r.agree - default.agree:+d}",
-                    *(_delta(head[k] - base_head[k]) for k in heads),
+                    *(_num(head[k] - base_head[k], "+.3g") for k in heads),
                 )
             )
         )
@@ -168,7 +160,7 @@ def render_readings(
         "",
         figure_markdown("claims × readings matrix", figure, base),
         "",
-        f"Data: [`{relative_path(table, base)}`]({relative_path(table, base)}). Each reading's full report "
+        f"Data: {file_link(table, base)}. Each reading's full report "
         "(paper vs ours, figures): "
         + ", ".join(
             f"[`{r.reading.name}`]({relative_path(reading_dir(base, r.reading) / 'report.md', base)})"
@@ -185,7 +177,8 @@ def render_readings(
         *agreement_rules(),
         "",
     ]
-    return "\n".join(parts)
+    write_text_atomic(path, "\n".join(parts))
+    return path
 
 
 def _continuation_section(
@@ -248,23 +241,3 @@ def check_table(
             )
         )
     return lines
-
-
-def write_readings_report(
-    path: Path,
-    plan: StudyPlan,
-    results: Sequence[ReadingResult],
-    rule: str,
-    table: Path,
-    figure: Path,
-    check: Sequence[Mapping[str, Any]] = (),
-    continuation: Any = None,
-    full: Mapping[str, Mapping[str, str]] | None = None,
-) -> Path:
-    """Write the readings study's report to ``path`` (atomically) and return it; ``check``,
-    ``continuation`` and ``full`` as for :func:`render_readings`."""
-    text = render_readings(
-        plan, results, rule, table, figure, path.parent, check, continuation, full
-    )
-    write_text_atomic(path, text)
-    return path

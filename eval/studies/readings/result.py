@@ -36,27 +36,18 @@ class ReadingResult:
         return [c for o in self.outputs for c in o.claims]
 
     @property
+    def counts(self) -> VerdictCount:
+        """How many of its claims agree, differ, are undecided, not identifiable or without
+        data, on the median (:class:`~eval.studies.claims.VerdictCount`)."""
+        return VerdictCount.of(self.claims)
+
+    @property
     def agree(self) -> int:
-        return VerdictCount.of(self.claims).agree
+        return self.counts.agree
 
     @property
     def differ(self) -> int:
-        return VerdictCount.of(self.claims).differ
-
-    @property
-    def undecided(self) -> int:
-        """Claims whose verdict on the median the bootstrap over seeds leaves undecided."""
-        return VerdictCount.of(self.claims).undecided
-
-    @property
-    def not_identifiable(self) -> int:
-        """Claims about a quantity the model does not depend on under the reading
-        (:func:`eval.studies.claims.identifiable`)."""
-        return VerdictCount.of(self.claims).not_identifiable
-
-    @property
-    def no_data(self) -> int:
-        return VerdictCount.of(self.claims).no_data
+        return self.counts.differ
 
     def verdicts(self) -> dict[str, str]:
         return {c.id: c.verdict for c in self.claims}

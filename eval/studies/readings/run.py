@@ -32,6 +32,7 @@ from eval.studies.readings.plan import (
     PHASES,
     SINGLES,
     Continuation,
+    Optima,
     ReadingsResult,
     check_jobs,
     combinations,
@@ -77,30 +78,6 @@ def analyse_reading(
     return ReadingResult(reading, outputs)
 
 
-def _phase(
-    plan: StudyPlan,
-    jobs: Mapping[str, Mapping[str, list[Job]]],
-    readings: Sequence[Reading],
-    out_dir: Path,
-    scheduler: str | None,
-    progress: bool,
-    cache: CacheOption = True,
-    command: CommandProgress | None = None,
-) -> tuple[list[ReadingResult], RunSummary]:
-    """Run the jobs of ``readings`` (``jobs``: reading -> study -> jobs, :func:`study_jobs`) in
-    one call, and analyse the readings."""
-    todo = [job for r in readings for group in jobs[r.name].values() for job in group]
-    summary = run_jobs(
-        todo, out_dir, scheduler=scheduler, progress=progress, cache=cache, command=command
-    )
-    results = []
-    for reading in readings:
-        if progress:
-            print(f"analysing reading {reading.name}", file=sys.stderr)
-        results.append(analyse_reading(plan, reading, out_dir, jobs[reading.name]))
-    return results, summary
-
-
 #: The columns of continuation_check.csv, in order.
 CHECK_COLUMNS: tuple[str, ...] = (
     "reading",
@@ -119,17 +96,12 @@ CHECK_COLUMNS: tuple[str, ...] = (
 )
 
 
-def check_rows(out_dir: Path, checks: Sequence[tuple[Reading, Job, Job]]) -> list[dict[str, Any]]:
-    """One row per checked job: the continued and the full optimum (``difference`` =
-    (continued − full) / |full| [-]) and which part the continued run reported."""
-    records = job_records(out_dir, [job for _, c, f in checks for job in (c, f)])
-    return check_rows_from(records, checks)
-
-
-def check_rows_from(
+def check_rows(
     records: Mapping[Job, Record], checks: Sequence[tuple[Reading, Job, Job]]
 ) -> list[dict[str, Any]]:
-    """:func:`check_rows` from the checked jobs' ``records`` (job -> record)."""
+    """One row per checked job, from the checked jobs' ``records`` (job -> record): the
+    continued and the full optimum (``difference`` = (continued − full) / |full| [-]) and which
+    part the continued run reported."""
     rows = []
     for reading, c, f in checks:
         rc, rf = records[c].results, records[f].results
@@ -282,7 +254,7 @@ def planned_phases(
     phases.append(Phase(PHASES[1], tuple(check), stand_ins))
     full: dict[str, dict[str, str]] = {}
     if found is not None and checks and (done := find_records(out_dir, check, cache)):
-        full = full_tasks(check_summary(check_rows_from(done, checks)), continuation)
+        full = full_tasks(check_summary(check_rows(done, checks)), continuation)
     singles = [
         job
         for r in others
@@ -342,38 +314,47 @@ def run_readings(
             command.plan(planned_phases(plan, out, readings, continuation, cache))
             command.start(phase)
 
+    def run_phase(todo: list[Job]) -> None:
+        runs.append(
+            run_jobs(
+                todo, out, scheduler=scheduler, progress=progress, cache=cache, command=command
+            )
+        )
+
+    def run_and_analyse(chosen: Sequence[Reading]) -> list[ReadingResult]:
+        """Run the jobs of ``chosen`` in one call, and analyse those readings."""
+        run_phase([job for r in chosen for job in _flat(jobs[r.name])])
+        results = []
+        for reading in chosen:
+            if progress:
+                print(f"analysing reading {reading.name}", file=sys.stderr)
+            results.append(analyse_reading(plan, reading, out, jobs[reading.name]))
+        return results
+
+    optima: Optima | None = None  # the optima the readings continue from
     if continuation is None:
         jobs = {r.name: study_jobs(plan, r) for r in readings}
         starting("singles")
-        singles, first = _phase(plan, jobs, readings, out, scheduler, progress, cache, command)
-        runs.append(first)
+        singles = run_and_analyse(readings)
     else:
         # the default first: the others start from its optima
         jobs = {DEFAULT.name: study_jobs(plan, DEFAULT)}
         starting(PHASES[0])
-        default, first = _phase(plan, jobs, readings[:1], out, scheduler, progress, cache, command)
+        default = run_and_analyse(readings[:1])
         optima = optima_of(out, jobs)
         # the bias check, then each single reading: a task the check fails runs in full
         others = readings[1:]
         checks = [(r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)]
         starting(PHASES[1])
-        check = run_jobs(
-            list(dict.fromkeys(job for _, c, f in checks for job in (c, f))),
-            out,
-            scheduler=scheduler,
-            progress=progress,
-            cache=cache,
-            command=command,
-        )
-        rows = check_rows(out, checks) if checks else []
+        checked = list(dict.fromkeys(job for _, c, f in checks for job in (c, f)))
+        run_phase(checked)
+        rows = check_rows(job_records(out, checked), checks) if checks else []
         full = full_tasks(check_summary(rows), continuation)
         jobs |= {
             r.name: study_jobs(plan, r, continuation, optima, full.get(r.name, {})) for r in others
         }
         starting(PHASES[2])
-        rest, second = _phase(plan, jobs, others, out, scheduler, progress, cache, command)
-        singles = default + rest
-        runs += [first, check, second]
+        singles = default + run_and_analyse(others)
     words = "not derived (derive=False)"
     results = list(singles)
     if derive:
@@ -384,16 +365,12 @@ def run_readings(
         if derived:
             if continuation is not None:
                 optima = optima_of(out, jobs)
-                jobs |= {r.name: study_jobs(plan, r, continuation, optima) for r in derived}
-            else:
-                jobs |= {r.name: study_jobs(plan, r) for r in derived}
+            jobs |= {r.name: study_jobs(plan, r, continuation, optima) for r in derived}
             if command is not None:
                 more_jobs = [job for r in derived for job in _flat(jobs[r.name])]
                 command.plan([Phase(PHASES[3], tuple(more_jobs))])
                 command.start(PHASES[3])
-            more, third = _phase(plan, jobs, derived, out, scheduler, progress, cache, command)
-            results += more
-            runs.append(third)
+            results += run_and_analyse(derived)
     if rows:
         write_csv_atomic(out / CHECK_CSV, rows)
     summary = check_summary(rows)
@@ -448,11 +425,7 @@ def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
             "rotational_coefficient": math.pi if c_r is None else float(c_r),
             "horizontal_objective": r.reading.horizontal_objective,
             "search": "" if r.reading.search is None else r.reading.search.describe(),
-            "agree": r.agree,
-            "differ": r.differ,
-            "undecided": r.undecided,
-            "not_identifiable": r.not_identifiable,
-            "no_data": r.no_data,
+            **asdict(r.counts),  # agree, differ, undecided, not_identifiable, no_data
             **{k: _round(v) for k, v in r.headline().items()},
             "description": r.reading.description,
         }

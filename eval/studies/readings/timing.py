@@ -19,11 +19,9 @@ import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
-
 from agents.runner import job_records
 from eval.studies.base import StudyPlan
-from eval.studies.bench_workers import makespan
+from eval.studies.bench_workers import makespan, seconds_per_evaluation
 from eval.studies.paper_reading import Reading
 from eval.studies.presets import PRESETS, TINY, get_preset
 from eval.studies.readings import MANIFEST, reading_jobs
@@ -52,12 +50,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     for reading in manifest_readings(manifest["readings"]):
         jobs = list({j.key: j for j in reading_jobs(measured, reading)}.values())
         records = job_records(args.measured, jobs)
-        per_eval = {
-            task: float(
-                np.median([records[j].wall_time / j.budget for j in jobs if j.task == task])
-            )
-            for task in sorted({j.task for j in jobs})
-        }
+        per_eval = seconds_per_evaluation(records)
         spent = sum(r.wall_time for r in records.values())
         new = [j for j in reading_jobs(target, reading) if j.key not in seen]
         new = list({j.key: j for j in new}.values())
