@@ -26,7 +26,6 @@ policy's stroke, an infeasible one too, and reports the gap after it.
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import sys
 import time
@@ -50,26 +49,22 @@ def record_times(
 ) -> tuple[float, float, int] | None:
     """(wall time of the best feasible record [s], sum over the records [s], records) of the
     harness records in ``records`` at ``condition`` (the table's: its seeds and its
-    continuation rounds); None where there are none."""
-    found = []
-    for path in sorted(Path(records).glob("*.json")):
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-            job, results = data["job"], data["results"]
-        except (OSError, ValueError, KeyError, TypeError):
-            continue
-        if (
-            results.get("env_id") == env_id
-            and results.get("objective_name") == metric
-            and (job.get("env_kwargs") or {}).get("planform", "tear-drop") == planform
-            and abs(float(job.get("condition", np.nan)) - condition) < 1e-9
-        ):
-            found.append(results)
+    continuation rounds; read by the store, :func:`agents.store.read_record_files`); None where
+    there are none."""
+    from agents.store import read_record_files
+
+    found = [
+        record
+        for record in read_record_files([records])
+        if record.results.get("env_id") == env_id
+        and record.objective_name == metric
+        and dict(record.job.env_kwargs).get("planform", "tear-drop") == planform
+        and abs(record.job.condition - condition) < 1e-9
+    ]
     if not found:
         return None
-    feasible = [r for r in found if r.get("feasible")] or found
-    best = max(feasible, key=lambda r: float(r["objective"]))
-    return float(best["wall_time"]), float(sum(r["wall_time"] for r in found)), len(found)
+    best = max([r for r in found if r.feasible] or found, key=lambda r: r.objective)
+    return best.wall_time, sum(r.wall_time for r in found), len(found)
 
 
 def evaluate_held_out(

@@ -18,6 +18,7 @@ import yaml
 
 import tandem_env.envs.reference as reference_module
 from agents.harness import run
+from agents.records import RecordError
 from tandem_env.envs.reference import (
     REFERENCE_GRID,
     ReferenceSeries,
@@ -424,3 +425,32 @@ def test_a_run_folder_that_holds_files_is_refused(
         main(["--algo", "amortised", "--env", LEVEL_FLIGHT_ID, "--run-dir", str(taken)])
     assert "not an empty folder" in capsys.readouterr().err
     assert sorted(p.name for p in taken.iterdir()) == ["notes.txt"]
+
+
+def test_record_times_reads_the_tables_records_through_the_store(tmp_path: Path) -> None:
+    """The optimiser's time to an optimum at a condition: the best feasible record's wall time,
+    the sum and the count over the records there (other conditions and planforms left out),
+    the records read and checked by the store; a damaged record is named, not skipped."""
+    from agents.jobs import Job
+    from agents.runner import run_jobs
+    from train.amortised_eval import record_times
+
+    small = {"env_kwargs": {"n_time": 16, "n_blade": 4}}
+    jobs = [
+        Job("random", "level", v, 8, seed, **small) for v, seed in ((1.0, 0), (1.0, 1), (1.5, 0))
+    ]
+    jobs.append(
+        Job("random", "level", 1.0, 8, 0, env_kwargs={**small["env_kwargs"], "planform": "real"})
+    )
+    records = run_jobs(jobs, tmp_path, progress=False).records
+    at_one = [records[job.key] for job in jobs[:2]]
+    best = max([r for r in at_one if r.feasible] or at_one, key=lambda r: r.objective)
+    found = record_times(tmp_path / "records", LEVEL_FLIGHT_ID, "efficiency", "tear-drop", 1.0)
+    assert found == (best.wall_time, sum(r.wall_time for r in at_one), 2)
+    assert (
+        record_times(tmp_path / "records", LEVEL_FLIGHT_ID, "efficiency", "tear-drop", 0.5) is None
+    )
+    damaged = tmp_path / "records" / f"{jobs[0].key}.json"
+    damaged.write_text(damaged.read_text(encoding="utf-8")[:-20], encoding="utf-8")
+    with pytest.raises(RecordError, match=f"{damaged}: not a record file"):
+        record_times(tmp_path / "records", LEVEL_FLIGHT_ID, "efficiency", "tear-drop", 1.0)
