@@ -23,6 +23,9 @@ from typing import Any
 
 import yaml
 
+from tandem_env.io.files import read_json
+from tandem_env.physics.checks import is_real
+
 CHECKPOINT_PREFIX = "rl_model"
 #: The ``made_by`` entry of ``args.yml`` that marks a run folder written by ``python -m train``.
 MADE_BY = "tandem-env python -m train"
@@ -175,6 +178,36 @@ def read_run_yaml(path: Path) -> dict[str, Any]:
     except OSError as error:
         raise ValueError(f"{path} cannot be read ({error.strerror})") from None
     return parse_run_yaml(text, path)
+
+
+def read_result_segments(path: Path) -> tuple[dict[str, Any], ...]:
+    """The training segments of a run's ``result.json`` (each run of ``python -m train`` on the
+    folder adds one), read before a resume trains: () where there is none; ValueError naming
+    the file for one this project did not write as it is."""
+
+    def readable(segment: Any) -> bool:
+        return (
+            isinstance(segment, dict)
+            and is_real(segment.get("wall_time_s"))
+            and "best_reward" in segment
+            and (segment["best_reward"] is None or is_real(segment["best_reward"]))
+            and isinstance(segment.get("best_info") or {}, dict)
+        )
+
+    if not path.is_file():
+        return ()
+    try:
+        segments = read_json(path)["segments"]
+        readable_file = isinstance(segments, list) and all(map(readable, segments))
+    except (OSError, ValueError, KeyError, TypeError):
+        readable_file = False
+    if not readable_file:
+        raise ValueError(
+            f"{path}: not the run's result.json as python -m train writes it (its training "
+            "segments cannot be read); it is left untouched. Allowed: that file, or none (move "
+            "it away: the resumed run's summary then starts from its own segment)"
+        )
+    return tuple(segments)
 
 
 def read_run_args(run_dir: Path, allowed: str) -> tuple[Path, dict[str, Any]]:

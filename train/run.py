@@ -8,7 +8,6 @@ the harness's ``ppo`` / ``sac`` methods use (no files, a budget of env steps).
 from __future__ import annotations
 
 import contextlib
-import json
 import math
 import os
 import time
@@ -50,6 +49,7 @@ from train.layout import (
     RunLayout,
     RunLock,
     read_normalizer,
+    read_result_segments,
     read_run_yaml,
 )
 from train.vec import (
@@ -131,6 +131,8 @@ class TrainPlan:
     """Env steps of one learn iteration (see :func:`step_granularity`)."""
     lock: RunLock
     """The run folder's lock, held from the plan to the end of the run (:func:`train`)."""
+    segments: tuple[Mapping[str, Any], ...] = ()
+    """The earlier runs' segments of the folder's ``result.json``, which a resume extends."""
 
 
 def whole_iterations(n_timesteps: int, unit: int) -> int:
@@ -219,17 +221,19 @@ def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | 
             )
     env_kwargs = {**hp.env_kwargs, **config.env_kwargs}
     _check_env(config.env_id, env_kwargs)
+    segments: tuple[Mapping[str, Any], ...] = ()
     if checkpoint is not None:  # the files a resume loads, read as it will read them
         check_checkpoint(config.algo, checkpoint, hp, config.env_id, env_kwargs)
         if hp.normalize is not None:
             read_normalizer(checkpoint.vecnormalize)
+        segments = read_result_segments(layout.result_file)  # type: ignore[union-attr]
     if layout is None:
         layout = RunLayout.new(config.log_folder, config.algo, config.env_id)
     layout.run_dir.mkdir(parents=True, exist_ok=True)
     if lock is None:  # a new folder (this process made it, or --run-dir of an absent one)
         lock = RunLock(layout.run_dir).acquire()
     _check_writable(layout)
-    return TrainPlan(config, hp, env_kwargs, layout, checkpoint, target, unit, lock)
+    return TrainPlan(config, hp, env_kwargs, layout, checkpoint, target, unit, lock, segments)
 
 
 def _check_writable(layout: RunLayout) -> None:
@@ -351,7 +355,7 @@ def _train_planned(plan: TrainPlan) -> TrainResult:
         final_evaluation=final,
         history=tuple(recorder.history),
     )
-    _write_result(layout, result, hp)
+    _write_result(layout, result, hp, plan.segments)
     return result
 
 
@@ -480,11 +484,15 @@ def _best_segment(segments: Sequence[Mapping[str, Any]]) -> Mapping[str, Any]:
     return segments[best_index(feasible, rewards)]
 
 
-def _write_result(layout: RunLayout, result: TrainResult, hp: Hyperparams) -> None:
-    previous: dict[str, Any] = {}
-    if result.resumed_from is not None and layout.result_file.is_file():
-        previous = json.loads(layout.result_file.read_text())
-    segments = list(previous.get("segments", []))
+def _write_result(
+    layout: RunLayout,
+    result: TrainResult,
+    hp: Hyperparams,
+    previous: Sequence[Mapping[str, Any]],
+) -> None:
+    """Write ``result.json``: the earlier segments (``previous``, read by the plan) and this
+    run's."""
+    segments = list(previous)
     segments.append(
         {
             "resumed_from": result.resumed_from,

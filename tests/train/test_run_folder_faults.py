@@ -94,7 +94,15 @@ def _yaml(name: str, key: str, value: str) -> Callable[[RunLayout], None]:
     return write
 
 
+def _result_json(text: str) -> Callable[[RunLayout], None]:
+    def write(layout: RunLayout) -> None:
+        layout.result_file.write_text(text, encoding="utf-8")
+
+    return write
+
+
 MODEL = r"(best_model|rl_model_128_steps)\.zip"
+RESULT = r"result\.json: not the run's result\.json as python -m train writes it"
 #: fault -> (writer, what the policy loaders say, what a resume says).
 FAULTS: dict[str, tuple[Callable[[RunLayout], None], str, str]] = {
     "not a zip": (
@@ -144,6 +152,13 @@ FAULTS: dict[str, tuple[Callable[[RunLayout], None], str, str]] = {
         _yaml("config.yml", "n_envs", "100000000"),
         r"config\.yml: n_envs = 100000000; allowed: an integer from 1 to 10,000",
         r"config\.yml: n_envs = 100000000; allowed: an integer from 1 to 10,000",
+    ),
+    # the resumed run extends result.json's segments: read before it trains, not after
+    "result.json cut short": (_result_json('{"segments": ['), "", RESULT),
+    "result.json segments without rewards": (
+        _result_json('{"segments": [{"wall_time_s": 1.0}]}'),
+        "",
+        RESULT,
     ),
     "args.yml naming another env": (
         _yaml("args.yml", "env", "TandemWing/SpeedChange-v0"),
