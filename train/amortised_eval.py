@@ -31,7 +31,7 @@ import sys
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from train.entry import exit_on_bad_environment
 
@@ -40,22 +40,22 @@ with exit_on_bad_environment("python -m train.amortised_eval"):
 
 import numpy as np
 
+if TYPE_CHECKING:
+    from agents.records import Record
+
 #: The most evaluations the warm-started polish may spend per condition [-].
 MAX_POLISH = 500
 
 
 def record_times(
-    records: str | Path, env_id: str, metric: str, planform: str, condition: float
+    records: Sequence[Record], env_id: str, metric: str, planform: str, condition: float
 ) -> tuple[float, float, int] | None:
     """(wall time of the best feasible record [s], sum over the records [s], records) of the
-    harness records in ``records`` at ``condition`` (the table's: its seeds and its
-    continuation rounds; read by the store, :func:`agents.store.read_record_files`); None where
-    there are none."""
-    from agents.store import read_record_files
-
+    harness ``records`` at ``condition`` (the table's: its seeds and its continuation rounds,
+    read by the store, :func:`agents.store.read_record_files`); None where there are none."""
     found = [
         record
-        for record in read_record_files([records])
+        for record in records
         if record.results.get("env_id") == env_id
         and record.objective_name == metric
         and dict(record.job.env_kwargs).get("planform", "tear-drop") == planform
@@ -122,8 +122,11 @@ def evaluate_held_out(
     ]
     metric = problem.objective_metric
     if records is not None:
+        from agents.store import read_record_files
+
+        stored = read_record_files([records])  # once for every condition
         for row in rows:
-            times = record_times(records, env_id, metric, series.planform, row["condition"])
+            times = record_times(stored, env_id, metric, series.planform, row["condition"])
             if times is not None:
                 row["optimiser_wall_time"], row["optimiser_wall_time_seeds"], row["seeds"] = times
     if polish_budget:

@@ -433,6 +433,7 @@ def test_record_times_reads_the_tables_records_through_the_store(tmp_path: Path)
     the records read and checked by the store; a damaged record is named, not skipped."""
     from agents.jobs import Job
     from agents.runner import run_jobs
+    from agents.store import read_record_files
     from train.amortised_eval import record_times
 
     small = {"env_kwargs": {"n_time": 16, "n_blade": 4}}
@@ -445,12 +446,11 @@ def test_record_times_reads_the_tables_records_through_the_store(tmp_path: Path)
     records = run_jobs(jobs, tmp_path, progress=False).records
     at_one = [records[job.key] for job in jobs[:2]]
     best = max([r for r in at_one if r.feasible] or at_one, key=lambda r: r.objective)
-    found = record_times(tmp_path / "records", LEVEL_FLIGHT_ID, "efficiency", "tear-drop", 1.0)
+    stored = read_record_files([tmp_path / "records"])
+    found = record_times(stored, LEVEL_FLIGHT_ID, "efficiency", "tear-drop", 1.0)
     assert found == (best.wall_time, sum(r.wall_time for r in at_one), 2)
-    assert (
-        record_times(tmp_path / "records", LEVEL_FLIGHT_ID, "efficiency", "tear-drop", 0.5) is None
-    )
+    assert record_times(stored, LEVEL_FLIGHT_ID, "efficiency", "tear-drop", 0.5) is None
     damaged = tmp_path / "records" / f"{jobs[0].key}.json"
     damaged.write_text(damaged.read_text(encoding="utf-8")[:-20], encoding="utf-8")
     with pytest.raises(RecordError, match=f"{damaged}: not a record file"):
-        record_times(tmp_path / "records", LEVEL_FLIGHT_ID, "efficiency", "tear-drop", 1.0)
+        read_record_files([tmp_path / "records"])  # as evaluate_held_out reads them
