@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -35,61 +34,51 @@ DEFAULT_OUT = Path("results") / "crosscheck"
 
 @dataclass(frozen=True)
 class Grid:
-    """A named set of cases (``--grid``): their lags [deg] and (speed [m/s], root spacing [m])
-    unless told, each at the insect's root drop, and the resolution they run at."""
+    """A named set of cases (``--grid``): their lags [deg], their speeds [m/s] at the insect's
+    root spacing and, if ``wide_spacing`` is given, one more at V = 1 m/s and that many fore-wing
+    mean chords apart, each at the insect's root drop, and the resolution they run at."""
 
     description: str
     lags: tuple[float, ...]
-    conditions: Callable[[Dragonfly], list[tuple[float, float]]]
+    speeds: tuple[float, ...] = (1.0,)
+    wide_spacing: float | None = None
     resolution: Resolution = field(default_factory=Resolution)
 
     def cases(
         self, insect: Dragonfly, stroke: np.ndarray, lags: tuple[float, ...] | None
     ) -> list[Case]:
         """The grid's cases of ``stroke`` for ``insect``, at ``lags`` if given."""
+        conditions = [(speed, insect.root_spacing) for speed in self.speeds]
+        if self.wide_spacing is not None:
+            conditions.append((1.0, self.wide_spacing * insect.fore.mean_chord))
         return [
             Case(tuple(stroke), speed, spacing, insect.root_drop, lags or self.lags)
-            for speed, spacing in self.conditions(insect)
+            for speed, spacing in conditions
         ]
 
 
 #: The study's lags [deg]: 0 to 315 in steps of 45.
 STUDY_LAGS = tuple(float(a) for a in range(0, 360, 45))
-#: The study's speeds at the dragonfly's root spacing [m/s].
-STUDY_SPEEDS = (0.5, 1.0, 2.0)
 #: The study's second root spacing, in fore-wing mean chords (the dragonfly's 8.8 mm is 1.5).
 SECOND_SPACING_CHORDS = 2.0
-#: The single case's lags [deg]: the issue's exploratory runs.
-SINGLE_LAGS = (0.0, 90.0, 180.0)
-
-
-def _one_case(insect: Dragonfly) -> list[tuple[float, float]]:
-    return [(1.0, insect.root_spacing)]
-
-
-def _study(insect: Dragonfly) -> list[tuple[float, float]]:
-    second = SECOND_SPACING_CHORDS * insect.fore.mean_chord
-    return [*((speed, insect.root_spacing) for speed in STUDY_SPEEDS), (1.0, second)]
-
 
 GRIDS: dict[str, Grid] = {
     "single": Grid(
         "one case: V = 1 m/s at the dragonfly's root spacing and drop, lags 0, 90, 180 deg",
-        SINGLE_LAGS,
-        _one_case,
+        (0.0, 90.0, 180.0),  # the issue's exploratory runs
     ),
     "lag-study": Grid(
         "lags 0-315 deg in 45 deg steps at V = 0.5, 1, 2 m/s at the dragonfly's spacing, and "
         f"at {SECOND_SPACING_CHORDS:g} fore-wing chords at V = 1 m/s",
         STUDY_LAGS,
-        _study,
+        speeds=(0.5, 1.0, 2.0),
+        wide_spacing=SECOND_SPACING_CHORDS,
     ),
     "tiny": Grid(
         "a coarse smoke test (under a minute): V = 1 m/s, lag 90 deg, 8 steps per beat, 2x5 "
         "panels, 2 beats",
         (90.0,),
-        _one_case,
-        Resolution(steps_per_beat=8, chordwise=2, spanwise=5, beats=2),
+        resolution=Resolution(steps_per_beat=8, chordwise=2, spanwise=5, beats=2),
     ),
 }
 
@@ -205,12 +194,17 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, Resolution, list[Case], l
     """The insect, base resolution, cases and resolutions of the first case; ValueError naming
     the first bad value."""
     grid = GRIDS[args.grid]
-    if args.grid != "single":
-        given = [f"--{n}" for n in ("speed", "spacing", "drop") if getattr(args, n) is not None]
-        if given:
-            raise ValueError(
-                f"{' and '.join(given)} apply to --grid single; --grid {args.grid} sets its own"
-            )
+    # --speed [m/s], --spacing and --drop [mm] given, in the Case's units [m/s, m]
+    where = {
+        name: value if name == "speed" else 1e-3 * value
+        for name in ("speed", "spacing", "drop")
+        if (value := getattr(args, name)) is not None
+    }
+    if where and args.grid != "single":
+        raise ValueError(
+            f"{' and '.join(f'--{n}' for n in where)} apply to --grid single; --grid {args.grid} "
+            "sets its own"
+        )
     if args.lags is not None:
         bad = [a for a in args.lags if not -360.0 <= a <= 360.0]
         if bad:
@@ -227,23 +221,21 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, Resolution, list[Case], l
     stroke = _stroke(args.stroke)
     lags = None if args.lags is None else tuple(dict.fromkeys(float(a) for a in args.lags))
     cases = grid.cases(insect, stroke, lags)
-    if args.grid == "single":
+    if where:
         from tandem_env.physics import SPEED_LIMITS
 
-        speed = cases[0].speed if args.speed is None else args.speed
-        if not SPEED_LIMITS[0] < speed <= SPEED_LIMITS[1]:
+        case = replace(cases[0], **where)
+        if not SPEED_LIMITS[0] < case.speed <= SPEED_LIMITS[1]:
             raise ValueError(
-                f"--speed {speed:g}; allowed: above {SPEED_LIMITS[0]:g} (the solver needs a free "
-                f"stream) to {SPEED_LIMITS[1]:g} m/s"
+                f"--speed {case.speed:g}; allowed: above {SPEED_LIMITS[0]:g} (the solver needs a "
+                f"free stream) to {SPEED_LIMITS[1]:g} m/s"
             )
-        spacing = cases[0].spacing if args.spacing is None else 1e-3 * args.spacing
-        drop = cases[0].drop if args.drop is None else 1e-3 * args.drop
-        if not 0.0 <= spacing <= 0.1 or not -0.1 <= drop <= 0.1:
+        if not 0.0 <= case.spacing <= 0.1 or not -0.1 <= case.drop <= 0.1:
             raise ValueError(
-                f"--spacing {1e3 * spacing:g} mm, --drop {1e3 * drop:g} mm; allowed: spacing 0 to "
-                "100 mm, drop -100 to 100 mm"
+                f"--spacing {1e3 * case.spacing:g} mm, --drop {1e3 * case.drop:g} mm; allowed: "
+                "spacing 0 to 100 mm, drop -100 to 100 mm"
             )
-        cases = [Case(cases[0].stroke, speed, spacing, drop, cases[0].lags)]
+        cases = [case]
     resolutions = list(resolution.refined()) if args.convergence else [resolution]
     return insect, resolution, cases, resolutions
 
