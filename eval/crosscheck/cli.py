@@ -15,6 +15,7 @@ from tandem_env.io.files import output_directory
 from tandem_env.physics import DRAGONFLY, PLANFORMS, Dragonfly
 
 from .case import (
+    MIN_CLEARANCE,
     Case,
     Resolution,
     base_stroke,
@@ -23,11 +24,12 @@ from .case import (
     check_geometry,
     parse_panels,
 )
+from .uvlm import INSTALL
 
 NAME = "crosscheck"
 HELP = (
     "the fore/hind interaction against a free-wake vortex-lattice solver (Ptera Software; "
-    'pip install -e ".[uvlm]")'
+    f"{INSTALL})"
 )
 DEFAULT_OUT = Path("results") / "crosscheck"
 
@@ -83,9 +85,9 @@ GRIDS: dict[str, Grid] = {
 }
 
 DESCRIPTION = (
-    """\
+    f"""\
 Cross-check the model's fore/hind interaction against Ptera Software's free-wake unsteady
-vortex-lattice solver (the uvlm extra: pip install -e ".[uvlm]", Python >= 3.11). For each
+vortex-lattice solver (the uvlm extra: {INSTALL}, Python >= 3.11). For each
 case it runs the fore pair alone, the hind pair alone and the tandem at each lag (the
 hind-wing's phases shifted), and compares each pair's cycle-mean vertical force change due to
 the other pair: UVLM tandem - alone, and the model's each slipstream reading - isolated.
@@ -94,7 +96,7 @@ Strokes: the base case (Table 1 wings, f = 37 Hz, sweep +-35 deg, pitch +-50 deg
 sweep by 90 deg, beta = 15 deg) with --stroke NAME=VALUE changes (Table 4 names and units).
 Refused before any work: strokes outside the family the mapping supports (sinusoidal sweep
 and pitch, elevation at Table 4's least, equal frequencies and stroke planes), wings that
-come within 1 mm of each other at any lag, and a missing extra (exit status 2).
+come within {1e3 * MIN_CLEARANCE:g} mm of each other at any lag, and a missing extra (exit status 2).
 
 Grids (--grid):
 """
@@ -245,7 +247,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
     from . import report
     from .store import RunsFailed, RunStore, locked, run_all
-    from .uvlm import missing_extra, solver_version
+    from .uvlm import MISSING_EXTRA, solver_version
 
     try:
         insect, resolution, cases, resolutions = plan(args)
@@ -256,7 +258,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         parser.error(str(error))
     version = solver_version()
     if version is None:
-        print(f"{parser.prog}: error: {missing_extra()}", file=sys.stderr)
+        print(f"{parser.prog}: error: {MISSING_EXTRA}", file=sys.stderr)
         return 2
     start = time.perf_counter()
     planned = [

@@ -17,9 +17,13 @@ import numpy as np
 
 from .case import STATIONS, Run, WingMotion, earth_axes, hind_position
 
-#: The extra's distribution and the command that installs it.
+#: The extra's distribution, the command that installs it and what a command without it says.
 DISTRIBUTION = "pterasoftware"
 INSTALL = 'pip install -e ".[uvlm]"'
+MISSING_EXTRA = (
+    f"the cross-check needs Ptera Software ({DISTRIBUTION}), which is not installed: "
+    f"{INSTALL} (Python >= 3.11)"
+)
 #: The aerofoil of every section: symmetric, so the panels' mean surface is the flat plate of
 #: the blade-element model.
 AIRFOIL = "naca0012"
@@ -31,16 +35,6 @@ def solver_version() -> str | None:
         return metadata.version(DISTRIBUTION)
     except metadata.PackageNotFoundError:
         return None
-
-
-def missing_extra() -> str | None:
-    """One line saying how to install the extra, or None when it is installed."""
-    if solver_version() is not None:
-        return None
-    return (
-        f"the cross-check needs Ptera Software ({DISTRIBUTION}), which is not installed: "
-        f"{INSTALL} (Python >= 3.11)"
-    )
 
 
 def _pair(ps: Any, motion: WingMotion, name: str, run: Run, origin: np.ndarray) -> tuple[Any, Any]:
