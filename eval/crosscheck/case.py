@@ -314,12 +314,9 @@ class Run:
     resolution: Resolution
     root_offset: float = ROOT_OFFSET
 
-    def to_dict(self) -> dict:
-        return asdict(self)
-
     def key(self, solver_version: str) -> str:
         text = json.dumps(
-            {"format": RUN_FORMAT, "solver": solver_version, "run": self.to_dict()}, sort_keys=True
+            {"format": RUN_FORMAT, "solver": solver_version, "run": asdict(self)}, sort_keys=True
         )
         return hashlib.sha256(text.encode()).hexdigest()[:20]
 

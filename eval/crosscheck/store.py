@@ -19,6 +19,7 @@ import time
 import traceback
 import warnings
 from collections.abc import Iterator, Sequence
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -80,7 +81,7 @@ class RunStore:
             "format": RUN_FORMAT,
             "key": run.key(self.solver_version),
             "solver": self.solver_version,
-            "run": run.to_dict(),
+            "run": asdict(run),
             "result": result,
         }
         # Through JSON first, so the checksum is of what a reader gets back.
