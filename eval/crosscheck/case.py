@@ -123,12 +123,13 @@ class Resolution:
         return (self, *(replace(self, steps_per_beat=s) for s in steps), finer)
 
 
-def parse_panels(text: str) -> tuple[int, int]:
-    """``"CxS"`` (chordwise x spanwise panels per wing) as two integers; ValueError otherwise."""
+def parse_panels(text: str) -> dict[str, int]:
+    """``"CxS"`` (chordwise x spanwise panels per wing) as the :class:`Resolution`'s
+    ``chordwise`` and ``spanwise``; ValueError otherwise."""
     parts = str(text).lower().split("x")
     if len(parts) != 2 or not all(p.strip().isdigit() for p in parts):
         raise ValueError(f"--panels {text!r}; allowed: CxS, chordwise by spanwise panels, e.g. 4x8")
-    return int(parts[0]), int(parts[1])
+    return {"chordwise": int(parts[0]), "spanwise": int(parts[1])}
 
 
 @dataclass(frozen=True)

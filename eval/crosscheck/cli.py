@@ -211,13 +211,8 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, Resolution, list[Case], l
         bad = [a for a in args.lags if not -360.0 <= a <= 360.0]
         if bad:
             raise ValueError(f"--lags {bad[0]:g}; allowed: -360 to 360 deg")
-    chordwise, spanwise = (None, None) if args.panels is None else parse_panels(args.panels)
-    given = {
-        "steps_per_beat": args.steps_per_beat,
-        "chordwise": chordwise,
-        "spanwise": spanwise,
-        "beats": args.beats,
-    }
+    given = {"steps_per_beat": args.steps_per_beat, "beats": args.beats}
+    given |= {} if args.panels is None else parse_panels(args.panels)
     resolution = replace(grid.resolution, **{k: v for k, v in given.items() if v is not None})
     insect = DRAGONFLY.with_planform(args.planform)  # type: ignore[arg-type]
     stroke = _stroke(args.stroke)
