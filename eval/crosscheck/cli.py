@@ -192,9 +192,9 @@ def _stroke(items: list[str]) -> np.ndarray:
     return check_family(base_stroke(**overrides))
 
 
-def plan(args: argparse.Namespace) -> tuple[Dragonfly, Resolution, list[Case], list[Resolution]]:
-    """The insect, base resolution, cases and resolutions of the first case; ValueError naming
-    the first bad value."""
+def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resolution]]:
+    """The insect, the cases and the resolutions (the base one first; only the first case runs
+    at the others); ValueError naming the first bad value."""
     grid = GRIDS[args.grid]
     # --speed [m/s], --spacing and --drop [mm] given, in the Case's units [m/s, m]
     where = {
@@ -234,7 +234,7 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, Resolution, list[Case], l
             )
         cases = [case]
     resolutions = list(resolution.refined()) if args.convergence else [resolution]
-    return insect, resolution, cases, resolutions
+    return insect, cases, resolutions
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
@@ -245,7 +245,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from .uvlm import MISSING_EXTRA, solver_version
 
     try:
-        insect, resolution, cases, resolutions = plan(args)
+        insect, cases, resolutions = plan(args)
         scheduler = None if args.scheduler is None else parse_scheduler(args.scheduler)
         output_directory(args.out)
         clearance = {case: check_geometry(case, insect) for case in cases}
@@ -268,7 +268,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             results = run_all(runs, store, scheduler=scheduler, progress=not args.quiet)
             table = report.rows(planned, results, insect)
             csv_path, md_path = report.write_table(args.out, table)
-            figure = report.write_figure(args.out, table, resolution)
+            figure = report.write_figure(args.out, table, resolutions[0])
     except ValueError as error:
         parser.error(str(error))
     except (RunsFailed, SchedulerUnreachable) as error:
