@@ -96,6 +96,8 @@ PHASES: tuple[int, ...] = tuple(
     w + k for w in (0, N_PER_WING) for k in (_SWEEP, _ELEVATION, _PITCH)
 )
 HARMONICS: tuple[int, ...] = (HARMONIC_INDEX, N_PER_WING + HARMONIC_INDEX)
+#: The policy's arrays ``policy.json`` holds, in its order.
+_ARRAYS = ("centres", "switches", "domains", "harmonics")
 #: (26,) which of the network's outputs are phases.
 _PHASE_MASK = np.array([j in PHASES for j in CONTINUOUS])
 CITATION = (
@@ -155,9 +157,9 @@ class Targets:
     """(K,) their objectives [the objective's unit] (the reference at each)."""
 
     def __post_init__(self) -> None:
-        conditions = np.asarray(self.conditions, dtype=np.float64)
-        strokes = np.asarray(self.strokes, dtype=np.float64)
-        objectives = np.asarray(self.objectives, dtype=np.float64)
+        for name in ("conditions", "strokes", "objectives"):
+            object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=np.float64))
+        conditions, strokes, objectives = self.conditions, self.strokes, self.objectives
         k = conditions.shape[0] if conditions.ndim == 1 else -1
         if (
             k < 1
@@ -172,9 +174,6 @@ class Targets:
                 f"{objectives.shape}; allowed: K >= 1 increasing conditions, (K, 28) strokes in "
                 "[-1, 1], (K,) objectives"
             )
-        object.__setattr__(self, "conditions", conditions)
-        object.__setattr__(self, "strokes", strokes)
-        object.__setattr__(self, "objectives", objectives)
 
 
 def reference_targets(series: Any, n_time: int, *, pairs_independent: bool) -> Targets:
@@ -318,8 +317,9 @@ class AmortisedPolicy:
         chosen = self.branch_at(values) if branches is None else np.asarray(branches).reshape(-1)
         return self.assemble(torch.tanh(self.pre_activations(values, chosen)), chosen)
 
-    def strokes_of(self, conditions: np.ndarray, branches: np.ndarray) -> np.ndarray:
-        """(n, 28) normalised strokes in [-1, 1] of the given ``branches`` (no gradient)."""
+    def strokes_of(self, conditions: np.ndarray, branches: np.ndarray | None = None) -> np.ndarray:
+        """(n, 28) normalised strokes in [-1, 1] of the given ``branches`` (default: each
+        condition's, :meth:`branch_at`), no gradient."""
         import torch
 
         with torch.no_grad():
@@ -340,16 +340,12 @@ class AmortisedPolicy:
 
     def strokes(self, conditions: Sequence[float]) -> np.ndarray:
         """The normalised strokes (n, 28) in [-1, 1] at ``conditions`` (one forward pass)."""
-        import torch
-
         values = np.asarray([float(c) for c in conditions], dtype=np.float64)
         if values.size == 0:
             raise ValueError("conditions is empty; allowed: one or more conditions")
         if not np.all(np.isfinite(values)):
             raise ValueError(f"conditions = {list(values)!r}; allowed: finite numbers")
-        with torch.no_grad():
-            out = self.forward(values).numpy()
-        return np.clip(out, -1.0, 1.0)
+        return self.strokes_of(values)
 
     # --- what the harness and the envelope read ---------------------------------------------
     @property
@@ -386,10 +382,7 @@ class AmortisedPolicy:
             "env_kwargs": to_jsonable(dict(self.env_kwargs)),
             "hidden": [m.out_features for m in self.network[0] if hasattr(m, "out_features")][:-1],
             "features": len(getattr(self.network[0][0], "centres", ())),
-            "centres": self.centres.tolist(),
-            "switches": self.switches.tolist(),
-            "domains": self.domains.tolist(),
-            "harmonics": self.harmonics.tolist(),
+            **{name: getattr(self, name).tolist() for name in _ARRAYS},
             "num_timesteps": int(self.num_timesteps),
             "continuous": list(CONTINUOUS),
             "phases": list(PHASES),
@@ -440,7 +433,7 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
 
     folder = resolve_run_dir(run_dir)
     args_file, args = read_run_args(folder, "a folder written by python -m train --algo amortised")
-    if args.get("algo") != AMORTISED or not isinstance(args.get("env"), str):
+    if args.get("algo") != AMORTISED:
         raise ValueError(f"{args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}")
     env_id = check_args_env(args_file, args["env"])
     layout = RunLayout(folder, env_id)
@@ -458,32 +451,24 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     if not weights.is_file():
         raise ValueError(f"{folder}: no weights file {weights.name} (did the run finish?)")
     try:
-        hidden = [int(h) for h in data["hidden"]]
-        harmonics = np.asarray(data["harmonics"], dtype=np.float64)
-        network = build_networks(hidden, int(data.get("features", 0)), len(harmonics))
-        state = torch.load(weights, map_location="cpu", weights_only=True)
-        network.load_state_dict(state)
+        arrays = {name: np.asarray(data[name], dtype=np.float64) for name in _ARRAYS}
+        n = len(arrays["harmonics"])
+        network = build_networks([int(h) for h in data["hidden"]], int(data.get("features", 0)), n)
+        network.load_state_dict(torch.load(weights, map_location="cpu", weights_only=True))
         policy = AmortisedPolicy(
             network=network.eval(),
             env_id=env_id,
             env_kwargs=dict(data["env_kwargs"]),
-            centres=np.asarray(data["centres"], dtype=np.float64),
-            switches=np.asarray(data["switches"], dtype=np.float64).reshape(-1),
-            harmonics=harmonics,
-            domains=np.asarray(data["domains"], dtype=np.float64),
             run_dir=folder,
             num_timesteps=int(data["num_timesteps"]),
+            **arrays,
         )
     except (KeyError, TypeError, ValueError, RuntimeError) as error:
         raise ValueError(
             f"{folder}: its policy files do not load ({type(error).__name__}: {error})"
         ) from None
-    if (
-        policy.centres.shape != (len(CONTINUOUS),)
-        or policy.harmonics.shape != (policy.n_branches, 2)
-        or policy.switches.shape != (policy.n_branches - 1,)
-        or policy.domains.shape != (policy.n_branches, 2)
-        or not np.all(np.diff(policy.switches) > 0)
-    ):
+    shapes = dict(zip(_ARRAYS, [(len(CONTINUOUS),), (n - 1,), (n, 2), (n, 2)], strict=True))
+    wrong = any(arrays[name].shape != shape for name, shape in shapes.items())
+    if wrong or not np.all(np.diff(policy.switches) > 0):
         raise ValueError(f"{path}: centres, harmonics or switches of the wrong shape")
     return policy
