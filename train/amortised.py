@@ -265,18 +265,17 @@ def make_problem(env_id: str, env_kwargs: Mapping[str, Any], **options: Any) -> 
 # --- training ----------------------------------------------------------------------------------
 @contextlib.contextmanager
 def _torch_state(seed: int) -> Iterator[None]:
-    """One torch thread and the seed, restored afterwards."""
+    """One torch thread and the seed, both restored afterwards."""
     import torch
 
     threads = torch.get_num_threads()
-    rng = torch.random.get_rng_state()
     torch.set_num_threads(1)
-    torch.manual_seed(seed)
     try:
-        yield
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(seed)
+            yield
     finally:
         torch.set_num_threads(threads)
-        torch.random.set_rng_state(rng)
 
 
 @dataclass
@@ -317,7 +316,6 @@ def train_policy(
     conditions = targets.conditions
     segments = branch_segments(problem, targets, settings.branch_tolerance)
     domains = branch_domains(conditions, segments, settings.branch_reach)
-    owner = np.concatenate([np.full(b - a, i) for i, (a, b) in enumerate(segments)])
     record = Training()
     with _torch_state(seed):
         network = build_networks(settings.hidden, settings.features, len(segments))
@@ -334,20 +332,21 @@ def train_policy(
         )
         fit_at, fit_of, fit_goals = regression_points(targets, segments, domains, centres)
         fit_goal = torch.as_tensor(fit_goals)
-        own_goal = torch.as_tensor(fit_goals[: conditions.size])  # the optima come first
 
-        def anchor_loss() -> Any:
-            return torch.mean((policy.pre_activations(conditions, owner) - own_goal) ** 2)
+        def fit_loss(count: int | None = None) -> Any:
+            # z's mean squared error on the first count points (the training optima come first)
+            z = policy.pre_activations(fit_at[:count], fit_of[:count])
+            return torch.mean((z - fit_goal[:count]) ** 2)
 
         start = time.perf_counter()
         optimiser = torch.optim.Adam(network.parameters(), lr=settings.regression_lr)
         for _ in range(settings.regression_steps):
             optimiser.zero_grad()
-            loss = torch.mean((policy.pre_activations(fit_at, fit_of) - fit_goal) ** 2)
+            loss = fit_loss()
             loss.backward()
             optimiser.step()
         with torch.no_grad():
-            record.regression_loss = float(anchor_loss())
+            record.regression_loss = float(fit_loss(conditions.size))
         record.regression_seconds = time.perf_counter() - start
 
         start = time.perf_counter()
@@ -385,7 +384,7 @@ def train_policy(
             actions.backward(d_loss)
             anchor = 0.0
             if settings.anchor > 0:
-                term = settings.anchor * anchor_loss()
+                term = settings.anchor * fit_loss(conditions.size)
                 term.backward()
                 anchor = float(term.detach())
             optimiser.step()

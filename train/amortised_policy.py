@@ -73,7 +73,7 @@ from tandem_env.physics.stroke import (
     physical_to_normalised,
 )
 from train.config import AMORTISED
-from train.layout import RunLayout, check_args_env, env_name, read_run_args, resolve_run_dir
+from train.layout import check_args_env, env_name, read_run_args, resolve_run_dir
 
 #: Where the canonical targets put each canonicalised sweep phase [deg] (within half a time-grid
 #: step, :func:`canonicalise`).
@@ -436,7 +436,6 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     if args.get("algo") != AMORTISED:
         raise ValueError(f"{args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}")
     env_id = check_args_env(args_file, args["env"])
-    layout = RunLayout(folder, env_id)
     path = folder / POLICY_FILE
     if not path.is_file():
         raise ValueError(f"{folder}: no {POLICY_FILE} (did the run finish?)")
@@ -447,7 +446,7 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
             f"allowed: {POLICY_FORMAT!r} (a run of an earlier version: train it again, "
             "python -m train --algo amortised, minutes)"
         )
-    weights = folder / f"{layout.name}{WEIGHTS_SUFFIX}"
+    weights = folder / f"{env_name(env_id)}{WEIGHTS_SUFFIX}"
     if not weights.is_file():
         raise ValueError(f"{folder}: no weights file {weights.name} (did the run finish?)")
     try:
