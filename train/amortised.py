@@ -445,8 +445,6 @@ class RunResult:
     """What ``python -m train --algo amortised`` prints."""
 
     run_dir: Path
-    policy: AmortisedPolicy
-    training: Training
     summary: Mapping[str, Any]
 
 
@@ -459,7 +457,6 @@ def train_run(
     *,
     run_dir: Path | None = None,
     verbose: int = 1,
-    argv: Mapping[str, Any] | None = None,
 ) -> RunResult:
     """Check everything, train on the reference table's training optima, write the run folder
     (``log_folder/amortised/<env>_<n>/``, or ``run_dir``: a new or empty folder), and evaluate
@@ -512,11 +509,7 @@ def train_run(
         "regression_seconds": training.regression_seconds,
         "finetune_seconds": training.finetune_seconds,
         "num_timesteps": policy.num_timesteps,
-        "series": {
-            "objective": series.objective,
-            "planform": series.planform,
-            "fingerprint": series.fingerprint,
-        },
+        "series": {key: getattr(series, key) for key in ("objective", "planform", "fingerprint")},
         "reference_provenance": to_jsonable(dict(table.provenance)),
         "training_evaluation": [
             {
@@ -544,8 +537,7 @@ def train_run(
             "hyperparams": to_jsonable(dict(overrides)),
             "log_folder": str(log_folder),
             "run_dir": None if run_dir is None else str(run_dir),
-            **dict(argv or {}),
         },
         summary,
     )
-    return RunResult(layout.run_dir, policy, training, summary)
+    return RunResult(layout.run_dir, summary)

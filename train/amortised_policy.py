@@ -98,8 +98,9 @@ PHASES: tuple[int, ...] = tuple(
 HARMONICS: tuple[int, ...] = (HARMONIC_INDEX, N_PER_WING + HARMONIC_INDEX)
 #: The policy's arrays ``policy.json`` holds, in its order.
 _ARRAYS = ("centres", "switches", "domains", "harmonics")
-#: (26,) which of the network's outputs are phases.
-_PHASE_MASK = np.array([j in PHASES for j in CONTINUOUS])
+#: (28,) which of the action's coordinates are phases, and (26,) which of the network's outputs.
+PHASE_MASK = np.isin(np.arange(N_PARAMETERS), PHASES)
+_OUTPUT_PHASES = PHASE_MASK[list(CONTINUOUS)]
 CITATION = (
     "amortised optimisation (Amos 2023, 'Tutorial on amortized optimization', Found. Trends "
     "Mach. Learn. 16(5)): one MLP per branch of the reference optima, regressed on them at the "
@@ -330,7 +331,7 @@ class AmortisedPolicy:
         import torch
 
         centres = torch.as_tensor(self.centres, dtype=torch.float64)
-        phase = torch.as_tensor(_PHASE_MASK, dtype=torch.bool)
+        phase = torch.as_tensor(_OUTPUT_PHASES, dtype=torch.bool)
         shifted = torch.remainder(u + centres + 1.0, 2.0) - 1.0
         continuous = torch.where(phase, shifted, u)
         out = torch.zeros((u.shape[0], N_PARAMETERS), dtype=torch.float64)
@@ -370,10 +371,6 @@ class AmortisedPolicy:
                 "allowed: a run of the same env"
             )
 
-    @property
-    def citation(self) -> str:
-        return CITATION
-
     def policy_data(self) -> dict[str, Any]:
         """``policy.json``'s content (the weights are beside it)."""
         return {
@@ -410,8 +407,7 @@ def regression_outputs(strokes: np.ndarray, centres: np.ndarray) -> np.ndarray:
     continuous coordinate, its phases relative to their centres (wrapped), all within
     :data:`TARGET_LIMIT`."""
     u = np.asarray(strokes, dtype=np.float64)[:, list(CONTINUOUS)].copy()
-    mask = _PHASE_MASK
-    u[:, mask] = wrap_normalised(u[:, mask] - centres[mask])
+    u[:, _OUTPUT_PHASES] = wrap_normalised(u[:, _OUTPUT_PHASES] - centres[_OUTPUT_PHASES])
     return np.clip(u, -TARGET_LIMIT, TARGET_LIMIT)
 
 
