@@ -311,8 +311,7 @@ def train_policy(
         env_id, env_kwargs, **{k: v for k, v in resolution.items() if v is not None}
     )
     config = problem.config
-    canonical = [7, 21] if not config.options.phase_resolved() else [7]
-    centres = output_centres(targets, canonical)
+    centres = output_centres(targets, pairs_independent=not config.options.phase_resolved())
     conditions = targets.conditions
     segments = branch_segments(problem, targets, settings.branch_tolerance)
     domains = branch_domains(conditions, segments, settings.branch_reach)

@@ -387,9 +387,11 @@ class AmortisedPolicy:
         }
 
 
-def output_centres(targets: Targets, canonical: Sequence[int]) -> np.ndarray:
+def output_centres(targets: Targets, *, pairs_independent: bool) -> np.ndarray:
     """(26,) output centres: the circular mean of the targets' phase (the canonical value for
-    the ``canonical`` phases), 0 for the other coordinates."""
+    the sweep phases :func:`canonicalise` set, as ``pairs_independent``), 0 for the other
+    coordinates."""
+    canonical = (_SWEEP, N_PER_WING + _SWEEP) if pairs_independent else (_SWEEP,)
     centres = np.zeros(len(CONTINUOUS))
     for k, j in enumerate(CONTINUOUS):
         if j not in PHASES:
