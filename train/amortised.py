@@ -95,44 +95,50 @@ from train.layout import MADE_BY, RunLayout
 
 
 # --- settings ----------------------------------------------------------------------------------
+def _allowed(low: float, high: float, *, above: bool = False) -> dict[str, Any]:
+    """A setting's allowed values, checked by :class:`Settings`: ``low`` (excluded if
+    ``above``) to ``high``; an ``int | None`` setting may also be None."""
+    return {"range": (low, high), "above": above}
+
+
 @dataclass(frozen=True)
 class Settings:
     """How an amortised policy is trained (``--hyperparams key=value``; ``config.yml``)."""
 
     hidden: tuple[int, ...] = (64, 64)
     """Widths of the MLP's hidden layers (tanh) [-]."""
-    regression_steps: int = 5000
+    regression_steps: int = field(default=5000, metadata=_allowed(0, 10**6))
     """Adam steps of the regression on the training optima (full batch) [-]."""
-    regression_lr: float = 3e-3
+    regression_lr: float = field(default=3e-3, metadata=_allowed(0.0, 1.0, above=True))
     """Adam's learning rate in the regression [-]."""
-    finetune_steps: int = 600
+    finetune_steps: int = field(default=600, metadata=_allowed(0, 10**6))
     """Adam steps of the fine-tuning by the objective's gradient (0: none) [-]."""
-    finetune_lr: float = 1e-3
+    finetune_lr: float = field(default=1e-3, metadata=_allowed(0.0, 1.0, above=True))
     """Adam's learning rate in the fine-tuning [-]."""
-    batch: int = 16
+    batch: int = field(default=16, metadata=_allowed(1, 4096))
     """Conditions per branch and fine-tuning step (all in one batched model evaluation) [-]."""
-    penalty_weight: float = 10.0
+    penalty_weight: float = field(default=10.0, metadata=_allowed(0.0, 1e6, above=True))
     """w of the fine-tuning's penalty [objective units per unit of margin] (the env's default
     ``penalty_weight``)."""
-    safety_margin: float = 1e-3
+    safety_margin: float = field(default=1e-3, metadata=_allowed(0.0, 0.1))
     """δ: the fine-tuning penalises every constraint margin below it [-] (margins are
     fractions: the level flight's tolerance is 0.02)."""
-    anchor: float = 30.0
+    anchor: float = field(default=30.0, metadata=_allowed(0.0, 1e6))
     """Weight of the regression loss on the training targets during the fine-tuning [-]."""
-    branch_reach: float = 0.6
+    branch_reach: float = field(default=0.6, metadata=_allowed(0.5, 1.0, above=True))
     """How far each branch's domain reaches into the gap to a neighbouring branch's training
     condition, as a fraction of the gap [-] (above 0.5, so that both branches cover its
     middle, where they hand over)."""
-    branch_tolerance: float = 0.1
+    branch_tolerance: float = field(default=0.1, metadata=_allowed(0.0, 1.0))
     """Two neighbouring training optima share a branch when the stroke midway between them
     loses at most this fraction of their mean objective and violates no margin by more
     (:func:`~train.amortised_branches.branch_segments`) [-]."""
-    features: int = 0
+    features: int = field(default=0, metadata=_allowed(0, 1024))
     """Gaussian radial features of the observation before the MLP (0: the observation
     itself) [-] (:class:`RadialFeatures`)."""
-    finetune_n_time: int | None = None
+    finetune_n_time: int | None = field(default=None, metadata=_allowed(8, 4096))
     """Time samples of the fine-tuning's model (None: the env's, default 128) [-]."""
-    finetune_n_blade: int | None = None
+    finetune_n_blade: int | None = field(default=None, metadata=_allowed(2, 512))
     """Blade elements of the fine-tuning's model (None: the env's, default 24) [-]."""
 
     def __post_init__(self) -> None:
@@ -150,39 +156,22 @@ class Settings:
                 "1 to 4096, e.g. [64, 64]"
             )
         object.__setattr__(self, "hidden", tuple(int(h) for h in hidden))
-        for name, low, high in (
-            ("features", 0, 1024),
-            ("regression_steps", 0, 10**6),
-            ("finetune_steps", 0, 10**6),
-            ("batch", 1, 4096),
-        ):
-            value = getattr(self, name)
-            if not is_integer(value) or not low <= value <= high:
-                raise ValueError(f"{name} = {value!r}; allowed: an integer from {low} to {high:,}")
-            object.__setattr__(self, name, int(value))
-        for name, low, high, open_low in (
-            ("regression_lr", 0.0, 1.0, True),
-            ("finetune_lr", 0.0, 1.0, True),
-            ("penalty_weight", 0.0, 1e6, True),
-            ("safety_margin", 0.0, 0.1, False),
-            ("anchor", 0.0, 1e6, False),
-            ("branch_tolerance", 0.0, 1.0, False),
-            ("branch_reach", 0.5, 1.0, True),
-        ):
-            value = getattr(self, name)
-            ok = is_real(value) and math.isfinite(value) and low <= value <= high
-            if not ok or (open_low and value == low):
-                bound = f"above {low:g}" if open_low else f"from {low:g}"
-                raise ValueError(f"{name} = {value!r}; allowed: a number {bound} to {high:g}")
-            object.__setattr__(self, name, float(value))
-        for name, low, high in (("finetune_n_time", 8, 4096), ("finetune_n_blade", 2, 512)):
-            value = getattr(self, name)
-            if value is not None and (not is_integer(value) or not low <= value <= high):
-                raise ValueError(
-                    f"{name} = {value!r}; allowed: None (the env's) or an integer from {low} to "
-                    f"{high}"
-                )
-            if value is not None:
+        for spec in fields(self)[1:]:
+            name, value, (low, high) = spec.name, getattr(self, spec.name), spec.metadata["range"]
+            if spec.type == "float":
+                ok = is_real(value) and math.isfinite(value) and low <= value <= high
+                if not ok or (spec.metadata["above"] and value == low):
+                    bound = f"above {low:g}" if spec.metadata["above"] else f"from {low:g}"
+                    raise ValueError(f"{name} = {value!r}; allowed: a number {bound} to {high:g}")
+                object.__setattr__(self, name, float(value))
+            elif value is not None or spec.type == "int":
+                if not is_integer(value) or not low <= value <= high:
+                    allowed = (
+                        f"an integer from {low} to {high:,}"
+                        if spec.type == "int"
+                        else f"None (the env's) or an integer from {low} to {high}"
+                    )
+                    raise ValueError(f"{name} = {value!r}; allowed: {allowed}")
                 object.__setattr__(self, name, int(value))
 
     @classmethod
@@ -276,18 +265,17 @@ def make_problem(env_id: str, env_kwargs: Mapping[str, Any], **options: Any) -> 
 # --- training ----------------------------------------------------------------------------------
 @contextlib.contextmanager
 def _torch_state(seed: int) -> Iterator[None]:
-    """One torch thread and the seed, restored afterwards."""
+    """One torch thread and the seed, both restored afterwards."""
     import torch
 
     threads = torch.get_num_threads()
-    rng = torch.random.get_rng_state()
     torch.set_num_threads(1)
-    torch.manual_seed(seed)
     try:
-        yield
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(seed)
+            yield
     finally:
         torch.set_num_threads(threads)
-        torch.random.set_rng_state(rng)
 
 
 @dataclass
@@ -323,12 +311,10 @@ def train_policy(
         env_id, env_kwargs, **{k: v for k, v in resolution.items() if v is not None}
     )
     config = problem.config
-    canonical = [7, 21] if not config.options.phase_resolved() else [7]
-    centres = output_centres(targets, canonical)
+    centres = output_centres(targets, pairs_independent=not config.options.phase_resolved())
     conditions = targets.conditions
     segments = branch_segments(problem, targets, settings.branch_tolerance)
     domains = branch_domains(conditions, segments, settings.branch_reach)
-    owner = np.concatenate([np.full(b - a, i) for i, (a, b) in enumerate(segments)])
     record = Training()
     with _torch_state(seed):
         network = build_networks(settings.hidden, settings.features, len(segments))
@@ -345,20 +331,21 @@ def train_policy(
         )
         fit_at, fit_of, fit_goals = regression_points(targets, segments, domains, centres)
         fit_goal = torch.as_tensor(fit_goals)
-        own_goal = torch.as_tensor(fit_goals[: conditions.size])  # the optima come first
 
-        def anchor_loss() -> Any:
-            return torch.mean((policy.pre_activations(conditions, owner) - own_goal) ** 2)
+        def fit_loss(count: int | None = None) -> Any:
+            # z's mean squared error on the first count points (the training optima come first)
+            z = policy.pre_activations(fit_at[:count], fit_of[:count])
+            return torch.mean((z - fit_goal[:count]) ** 2)
 
         start = time.perf_counter()
         optimiser = torch.optim.Adam(network.parameters(), lr=settings.regression_lr)
         for _ in range(settings.regression_steps):
             optimiser.zero_grad()
-            loss = torch.mean((policy.pre_activations(fit_at, fit_of) - fit_goal) ** 2)
+            loss = fit_loss()
             loss.backward()
             optimiser.step()
         with torch.no_grad():
-            record.regression_loss = float(anchor_loss())
+            record.regression_loss = float(fit_loss(conditions.size))
         record.regression_seconds = time.perf_counter() - start
 
         start = time.perf_counter()
@@ -396,7 +383,7 @@ def train_policy(
             actions.backward(d_loss)
             anchor = 0.0
             if settings.anchor > 0:
-                term = settings.anchor * anchor_loss()
+                term = settings.anchor * fit_loss(conditions.size)
                 term.backward()
                 anchor = float(term.detach())
             optimiser.step()
@@ -457,8 +444,6 @@ class RunResult:
     """What ``python -m train --algo amortised`` prints."""
 
     run_dir: Path
-    policy: AmortisedPolicy
-    training: Training
     summary: Mapping[str, Any]
 
 
@@ -471,7 +456,6 @@ def train_run(
     *,
     run_dir: Path | None = None,
     verbose: int = 1,
-    argv: Mapping[str, Any] | None = None,
 ) -> RunResult:
     """Check everything, train on the reference table's training optima, write the run folder
     (``log_folder/amortised/<env>_<n>/``, or ``run_dir``: a new or empty folder), and evaluate
@@ -524,11 +508,7 @@ def train_run(
         "regression_seconds": training.regression_seconds,
         "finetune_seconds": training.finetune_seconds,
         "num_timesteps": policy.num_timesteps,
-        "series": {
-            "objective": series.objective,
-            "planform": series.planform,
-            "fingerprint": series.fingerprint,
-        },
+        "series": {key: getattr(series, key) for key in ("objective", "planform", "fingerprint")},
         "reference_provenance": to_jsonable(dict(table.provenance)),
         "training_evaluation": [
             {
@@ -556,8 +536,7 @@ def train_run(
             "hyperparams": to_jsonable(dict(overrides)),
             "log_folder": str(log_folder),
             "run_dir": None if run_dir is None else str(run_dir),
-            **dict(argv or {}),
         },
         summary,
     )
-    return RunResult(layout.run_dir, policy, training, summary)
+    return RunResult(layout.run_dir, summary)

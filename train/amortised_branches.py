@@ -28,7 +28,7 @@ import numpy as np
 
 from train.amortised_policy import (
     HARMONICS,
-    PHASES,
+    PHASE_MASK,
     AmortisedPolicy,
     Targets,
     regression_outputs,
@@ -44,10 +44,8 @@ SWITCH_SAMPLES = 17
 def between(first: np.ndarray, second: np.ndarray, fraction: Any = 0.5) -> np.ndarray:
     """The normalised strokes ``fraction`` of the way from ``first`` to ``second`` (B, 28):
     each phase the short way round the circle, the N coordinates the first's."""
-    mask = np.zeros(first.shape[-1], dtype=bool)
-    mask[list(PHASES)] = True
-    step = np.where(mask, wrap_normalised(second - first), second - first)
-    middle = np.where(mask, wrap_normalised(first + fraction * step), first + fraction * step)
+    step = np.where(PHASE_MASK, wrap_normalised(second - first), second - first)
+    middle = np.where(PHASE_MASK, wrap_normalised(first + fraction * step), first + fraction * step)
     middle[..., list(HARMONICS)] = first[..., list(HARMONICS)]
     return np.clip(middle, -1.0, 1.0)
 
@@ -106,11 +104,8 @@ def regression_points(
     fractions = np.arange(1, INTERPOLATED + 1) / (INTERPOLATED + 1)
     for i, ((a, b), (low, high)) in enumerate(zip(segments, domains, strict=True)):
         for j in range(a, b - 1):
-            strokes = between(
-                np.repeat(targets.strokes[j : j + 1], fractions.size, axis=0),
-                np.repeat(targets.strokes[j + 1 : j + 2], fractions.size, axis=0),
-                fractions[:, None],
-            )
+            pair = targets.strokes[j : j + 2]
+            strokes = between(pair[:1], pair[1:], fractions[:, None])  # (fractions, 28)
             at.append(conditions[j] + fractions * (conditions[j + 1] - conditions[j]))
             of.append(np.full(fractions.size, i))
             goals.append(np.arctanh(regression_outputs(strokes, centres)))

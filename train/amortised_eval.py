@@ -40,6 +40,8 @@ with exit_on_bad_environment("python -m train.amortised_eval"):
 
 import numpy as np
 
+from agents.selection import best_index
+
 if TYPE_CHECKING:
     from agents.records import Record
 
@@ -50,20 +52,21 @@ MAX_POLISH = 500
 def record_times(
     records: Sequence[Record], env_id: str, metric: str, planform: str, condition: float
 ) -> tuple[float, float, int] | None:
-    """(wall time of the best feasible record [s], sum over the records [s], records) of the
-    harness ``records`` at ``condition`` (the table's: its seeds and its continuation rounds,
-    read by the store, :func:`agents.store.read_record_files`); None where there are none."""
+    """(wall time of the best record by the selection rule [s], sum over the records [s],
+    records) of the harness ``records`` at ``condition`` (the table's: its seeds and its
+    continuation rounds, read by the store, :func:`agents.store.read_record_files`); None where
+    there are none."""
     found = [
         record
         for record in records
         if record.results.get("env_id") == env_id
         and record.objective_name == metric
-        and dict(record.job.env_kwargs).get("planform", "tear-drop") == planform
+        and record.job.env("planform", "tear-drop") == planform
         and abs(record.job.condition - condition) < 1e-9
     ]
     if not found:
         return None
-    best = max([r for r in found if r.feasible] or found, key=lambda r: r.objective)
+    best = found[best_index([r.feasible for r in found], [r.objective for r in found])]
     return best.wall_time, sum(r.wall_time for r in found), len(found)
 
 

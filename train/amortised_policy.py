@@ -73,7 +73,7 @@ from tandem_env.physics.stroke import (
     physical_to_normalised,
 )
 from train.config import AMORTISED
-from train.layout import RunLayout, check_args_env, env_name, read_run_args, resolve_run_dir
+from train.layout import check_args_env, env_name, read_run_args, resolve_run_dir
 
 #: Where the canonical targets put each canonicalised sweep phase [deg] (within half a time-grid
 #: step, :func:`canonicalise`).
@@ -96,8 +96,11 @@ PHASES: tuple[int, ...] = tuple(
     w + k for w in (0, N_PER_WING) for k in (_SWEEP, _ELEVATION, _PITCH)
 )
 HARMONICS: tuple[int, ...] = (HARMONIC_INDEX, N_PER_WING + HARMONIC_INDEX)
-#: (26,) which of the network's outputs are phases.
-_PHASE_MASK = np.array([j in PHASES for j in CONTINUOUS])
+#: The policy's arrays ``policy.json`` holds, in its order.
+_ARRAYS = ("centres", "switches", "domains", "harmonics")
+#: (28,) which of the action's coordinates are phases, and (26,) which of the network's outputs.
+PHASE_MASK = np.isin(np.arange(N_PARAMETERS), PHASES)
+_OUTPUT_PHASES = PHASE_MASK[list(CONTINUOUS)]
 CITATION = (
     "amortised optimisation (Amos 2023, 'Tutorial on amortized optimization', Found. Trends "
     "Mach. Learn. 16(5)): one MLP per branch of the reference optima, regressed on them at the "
@@ -155,9 +158,9 @@ class Targets:
     """(K,) their objectives [the objective's unit] (the reference at each)."""
 
     def __post_init__(self) -> None:
-        conditions = np.asarray(self.conditions, dtype=np.float64)
-        strokes = np.asarray(self.strokes, dtype=np.float64)
-        objectives = np.asarray(self.objectives, dtype=np.float64)
+        for name in ("conditions", "strokes", "objectives"):
+            object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=np.float64))
+        conditions, strokes, objectives = self.conditions, self.strokes, self.objectives
         k = conditions.shape[0] if conditions.ndim == 1 else -1
         if (
             k < 1
@@ -172,9 +175,6 @@ class Targets:
                 f"{objectives.shape}; allowed: K >= 1 increasing conditions, (K, 28) strokes in "
                 "[-1, 1], (K,) objectives"
             )
-        object.__setattr__(self, "conditions", conditions)
-        object.__setattr__(self, "strokes", strokes)
-        object.__setattr__(self, "objectives", objectives)
 
 
 def reference_targets(series: Any, n_time: int, *, pairs_independent: bool) -> Targets:
@@ -318,8 +318,9 @@ class AmortisedPolicy:
         chosen = self.branch_at(values) if branches is None else np.asarray(branches).reshape(-1)
         return self.assemble(torch.tanh(self.pre_activations(values, chosen)), chosen)
 
-    def strokes_of(self, conditions: np.ndarray, branches: np.ndarray) -> np.ndarray:
-        """(n, 28) normalised strokes in [-1, 1] of the given ``branches`` (no gradient)."""
+    def strokes_of(self, conditions: np.ndarray, branches: np.ndarray | None = None) -> np.ndarray:
+        """(n, 28) normalised strokes in [-1, 1] of the given ``branches`` (default: each
+        condition's, :meth:`branch_at`), no gradient."""
         import torch
 
         with torch.no_grad():
@@ -330,7 +331,7 @@ class AmortisedPolicy:
         import torch
 
         centres = torch.as_tensor(self.centres, dtype=torch.float64)
-        phase = torch.as_tensor(_PHASE_MASK, dtype=torch.bool)
+        phase = torch.as_tensor(_OUTPUT_PHASES, dtype=torch.bool)
         shifted = torch.remainder(u + centres + 1.0, 2.0) - 1.0
         continuous = torch.where(phase, shifted, u)
         out = torch.zeros((u.shape[0], N_PARAMETERS), dtype=torch.float64)
@@ -340,16 +341,12 @@ class AmortisedPolicy:
 
     def strokes(self, conditions: Sequence[float]) -> np.ndarray:
         """The normalised strokes (n, 28) in [-1, 1] at ``conditions`` (one forward pass)."""
-        import torch
-
         values = np.asarray([float(c) for c in conditions], dtype=np.float64)
         if values.size == 0:
             raise ValueError("conditions is empty; allowed: one or more conditions")
         if not np.all(np.isfinite(values)):
             raise ValueError(f"conditions = {list(values)!r}; allowed: finite numbers")
-        with torch.no_grad():
-            out = self.forward(values).numpy()
-        return np.clip(out, -1.0, 1.0)
+        return self.strokes_of(values)
 
     # --- what the harness and the envelope read ---------------------------------------------
     @property
@@ -374,10 +371,6 @@ class AmortisedPolicy:
                 "allowed: a run of the same env"
             )
 
-    @property
-    def citation(self) -> str:
-        return CITATION
-
     def policy_data(self) -> dict[str, Any]:
         """``policy.json``'s content (the weights are beside it)."""
         return {
@@ -386,10 +379,7 @@ class AmortisedPolicy:
             "env_kwargs": to_jsonable(dict(self.env_kwargs)),
             "hidden": [m.out_features for m in self.network[0] if hasattr(m, "out_features")][:-1],
             "features": len(getattr(self.network[0][0], "centres", ())),
-            "centres": self.centres.tolist(),
-            "switches": self.switches.tolist(),
-            "domains": self.domains.tolist(),
-            "harmonics": self.harmonics.tolist(),
+            **{name: getattr(self, name).tolist() for name in _ARRAYS},
             "num_timesteps": int(self.num_timesteps),
             "continuous": list(CONTINUOUS),
             "phases": list(PHASES),
@@ -397,9 +387,11 @@ class AmortisedPolicy:
         }
 
 
-def output_centres(targets: Targets, canonical: Sequence[int]) -> np.ndarray:
+def output_centres(targets: Targets, *, pairs_independent: bool) -> np.ndarray:
     """(26,) output centres: the circular mean of the targets' phase (the canonical value for
-    the ``canonical`` phases), 0 for the other coordinates."""
+    the sweep phases :func:`canonicalise` set, as ``pairs_independent``), 0 for the other
+    coordinates."""
+    canonical = (_SWEEP, N_PER_WING + _SWEEP) if pairs_independent else (_SWEEP,)
     centres = np.zeros(len(CONTINUOUS))
     for k, j in enumerate(CONTINUOUS):
         if j not in PHASES:
@@ -417,8 +409,7 @@ def regression_outputs(strokes: np.ndarray, centres: np.ndarray) -> np.ndarray:
     continuous coordinate, its phases relative to their centres (wrapped), all within
     :data:`TARGET_LIMIT`."""
     u = np.asarray(strokes, dtype=np.float64)[:, list(CONTINUOUS)].copy()
-    mask = _PHASE_MASK
-    u[:, mask] = wrap_normalised(u[:, mask] - centres[mask])
+    u[:, _OUTPUT_PHASES] = wrap_normalised(u[:, _OUTPUT_PHASES] - centres[_OUTPUT_PHASES])
     return np.clip(u, -TARGET_LIMIT, TARGET_LIMIT)
 
 
@@ -440,10 +431,9 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
 
     folder = resolve_run_dir(run_dir)
     args_file, args = read_run_args(folder, "a folder written by python -m train --algo amortised")
-    if args.get("algo") != AMORTISED or not isinstance(args.get("env"), str):
+    if args.get("algo") != AMORTISED:
         raise ValueError(f"{args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}")
     env_id = check_args_env(args_file, args["env"])
-    layout = RunLayout(folder, env_id)
     path = folder / POLICY_FILE
     if not path.is_file():
         raise ValueError(f"{folder}: no {POLICY_FILE} (did the run finish?)")
@@ -454,36 +444,28 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
             f"allowed: {POLICY_FORMAT!r} (a run of an earlier version: train it again, "
             "python -m train --algo amortised, minutes)"
         )
-    weights = folder / f"{layout.name}{WEIGHTS_SUFFIX}"
+    weights = folder / f"{env_name(env_id)}{WEIGHTS_SUFFIX}"
     if not weights.is_file():
         raise ValueError(f"{folder}: no weights file {weights.name} (did the run finish?)")
     try:
-        hidden = [int(h) for h in data["hidden"]]
-        harmonics = np.asarray(data["harmonics"], dtype=np.float64)
-        network = build_networks(hidden, int(data.get("features", 0)), len(harmonics))
-        state = torch.load(weights, map_location="cpu", weights_only=True)
-        network.load_state_dict(state)
+        arrays = {name: np.asarray(data[name], dtype=np.float64) for name in _ARRAYS}
+        n = len(arrays["harmonics"])
+        network = build_networks([int(h) for h in data["hidden"]], int(data.get("features", 0)), n)
+        network.load_state_dict(torch.load(weights, map_location="cpu", weights_only=True))
         policy = AmortisedPolicy(
             network=network.eval(),
             env_id=env_id,
             env_kwargs=dict(data["env_kwargs"]),
-            centres=np.asarray(data["centres"], dtype=np.float64),
-            switches=np.asarray(data["switches"], dtype=np.float64).reshape(-1),
-            harmonics=harmonics,
-            domains=np.asarray(data["domains"], dtype=np.float64),
             run_dir=folder,
             num_timesteps=int(data["num_timesteps"]),
+            **arrays,
         )
     except (KeyError, TypeError, ValueError, RuntimeError) as error:
         raise ValueError(
             f"{folder}: its policy files do not load ({type(error).__name__}: {error})"
         ) from None
-    if (
-        policy.centres.shape != (len(CONTINUOUS),)
-        or policy.harmonics.shape != (policy.n_branches, 2)
-        or policy.switches.shape != (policy.n_branches - 1,)
-        or policy.domains.shape != (policy.n_branches, 2)
-        or not np.all(np.diff(policy.switches) > 0)
-    ):
+    shapes = dict(zip(_ARRAYS, [(len(CONTINUOUS),), (n - 1,), (n, 2), (n, 2)], strict=True))
+    wrong = any(arrays[name].shape != shape for name, shape in shapes.items())
+    if wrong or not np.all(np.diff(policy.switches) > 0):
         raise ValueError(f"{path}: centres, harmonics or switches of the wrong shape")
     return policy

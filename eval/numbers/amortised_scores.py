@@ -10,22 +10,10 @@ an hour on 2 cores. It redraws the shared figure with the stored RL runs."""
 from __future__ import annotations
 
 import shlex
-import tempfile
-from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import ROOT, Measurement, machine_line
-from eval.numbers.rl_baselines import (
-    ENV_ID,
-    FIGURE,
-    SEEDS,
-    TABLE_HEAD,
-    score_run,
-    score_text,
-    summary,
-    write_figure,
-)
+from eval.numbers.framework import Measurement, machine_line
+from eval.numbers.rl_baselines import ENV_ID, SEEDS, score_runs, score_table
 
 ALGO = "amortised"
 
@@ -38,23 +26,13 @@ def train_command(seed: int | str) -> list[str]:
 
 def measure() -> dict[str, Any]:
     """Train and score every seed, two runs at a time."""
-    with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as tmp:
-        folder = Path(tmp)
-        with ThreadPoolExecutor(max_workers=2) as pool:
-            runs = list(
-                pool.map(lambda seed: score_run(train_command(seed), ALGO, 0, seed, folder), SEEDS)
-            )
-    write_figure(ROOT / FIGURE, {"amortised-scores": runs})
-    return {"env_id": ENV_ID, "runs": runs}
+    tasks = [(train_command(seed), ALGO, 0, seed, "") for seed in SEEDS]
+    return {"env_id": ENV_ID, "runs": score_runs("amortised-scores", tasks)}
 
 
 def render(data: dict[str, Any]) -> str:
-    median, worst, flies, seconds = summary(data["runs"])
     return (
-        TABLE_HEAD.format(training="training") + "\n"
-        f"| amortised | regression + 600 gradient steps | {len(data['runs'])} | "
-        f"{score_text(median)} | {score_text(worst)} | {100 * flies:.0f} % | "
-        f"{seconds:.0f} s |\n\n"
+        score_table("training", [(ALGO, "regression + 600 gradient steps", data["runs"])]) + "\n\n"
         f"The same held-out speeds and scoring; `{shlex.join(train_command('SEED'))}` with seeds "
         f"{list(SEEDS)}, then `python -m train.envelope --conditions ...`. "
         f"{machine_line(data, 'amortised-scores')}\n"

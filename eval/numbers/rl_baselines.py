@@ -17,7 +17,15 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import ROOT, Measurement, machine_line, read_rows, run_command
+from eval.numbers.framework import (
+    ROOT,
+    Measurement,
+    machine_line,
+    read_rows,
+    run_command,
+    table_head,
+    table_row,
+)
 
 ENV_ID = "TandemWing/LevelFlight-v0"
 #: (algo, training steps): the documented envelope run's 300 k for PPO; SAC's tuned 100 k.
@@ -81,23 +89,23 @@ def score_run(
 
 def measure() -> dict[str, Any]:
     """Train and score every (algo, seed), two runs at a time."""
+    tasks = [
+        (train_command(algo, steps, seed, hp), algo, steps, seed, hp)
+        for hp in HYPERPARAMETERS
+        for algo, steps in ALGOS
+        for seed in SEEDS
+    ]
+    return {"env_id": ENV_ID, "envelope": ENVELOPE, "runs": score_runs("rl-baselines", tasks)}
+
+
+def score_runs(name: str, tasks: list[tuple[list[str], str, int, int, str]]) -> list[Any]:
+    """:func:`score_run` of each (command, algo, steps, seed, variant), two at a time in a
+    fresh folder; the figure is redrawn with them as measurement ``name``'s runs."""
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as tmp:
-        folder = Path(tmp)
-        tasks = [(algo, steps, seed, hp) for hp in HYPERPARAMETERS for algo, steps in ALGOS
-                 for seed in SEEDS]  # fmt: skip
         with ThreadPoolExecutor(max_workers=2) as pool:
-            runs = list(
-                pool.map(lambda t: score_run(train_command(*t), *t[:3], folder, t[3]), tasks)
-            )
-    write_figure(ROOT / FIGURE, {"rl-baselines": runs})
-    return {"env_id": ENV_ID, "envelope": ENVELOPE, "runs": runs}
-
-
-#: The scores table's head (the policies' tables share it; ``training``: that column's name).
-TABLE_HEAD = (
-    "| policy | {training} | seeds | median score | worst score | strokes that fly | "
-    "training time (median, 1 core) |\n|---|---|---|---|---|---|---|"
-)
+            runs = list(pool.map(lambda t: score_run(*t[:4], Path(tmp), t[4]), tasks))
+    write_figure(ROOT / FIGURE, {name: runs})
+    return runs
 
 
 def summary(runs: list[dict[str, Any]]) -> tuple[float, float, float, float]:
@@ -125,22 +133,28 @@ def score_text(value: float) -> str:
     return f"{round(value, 1) + 0.0:.1f}"
 
 
+def score_table(training: str, rows: list[tuple[str, str, list[dict[str, Any]]]]) -> str:
+    """The scores table the policies' tables share: a row per (policy, its ``training`` column,
+    its runs), the :func:`summary` of the runs."""
+    scores = ("seeds", "median score", "worst score", "strokes that fly")
+    lines = table_head("policy", training, *scores, "training time (median, 1 core)")
+    for policy, trained, runs in rows:
+        median, worst, flies, seconds = summary(runs)
+        cells = (len(runs), score_text(median), score_text(worst), f"{100 * flies:.0f} %")
+        lines.append(table_row(policy, trained, *cells, f"{seconds:.0f} s"))
+    return "\n".join(lines)
+
+
 def render(data: dict[str, Any]) -> str:
-    lines = [TABLE_HEAD.format(training="training steps")]
-    for algo, _ in ALGOS:
-        for hp in HYPERPARAMETERS:
-            runs = runs_of(data["runs"], algo, hp)
-            if not runs:
-                continue
-            median, worst, flies, seconds = summary(runs)
-            lines.append(
-                f"| {algo.upper()}, {hp} hyperparameters | {runs[0]['steps']:,} | {len(runs)} | "
-                f"{score_text(median)} | {score_text(worst)} | {100 * flies:.0f} % | "
-                f"{seconds:.0f} s |"
-            )
+    rows = [
+        (f"{algo.upper()}, {hp} hyperparameters", f"{runs[0]['steps']:,}", runs)
+        for algo, _ in ALGOS
+        for hp in HYPERPARAMETERS
+        if (runs := runs_of(data["runs"], algo, hp))
+    ]
     held = ", ".join(f"{c:g}" for c in data["runs"][0]["conditions"])
     return (
-        "\n".join(lines)
+        score_table("training steps", rows)
         + f"\n\nScores at the held-out speeds V = {held} m/s (one stroke per policy and speed; "
         "100 = the reference optimum, ≤ 0 = does not fly), over every seed and speed; "
         f"`{shlex.join(train_command('ALGO', 'STEPS', 'SEED', 'shipped'))}` with the steps above "
