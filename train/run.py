@@ -30,8 +30,8 @@ from train.callbacks import PhysicsLogger, ResumableEvalCallback, SaveVecNormali
 from train.checkpoint import (
     RunCheckpoint,
     build_model,
-    check_checkpoint,
     load_checkpoint,
+    load_on_copy,
     prune_checkpoints,
     save_checkpoint,
 )
@@ -223,7 +223,7 @@ def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | 
     _check_env(config.env_id, env_kwargs)
     segments: tuple[Mapping[str, Any], ...] = ()
     if checkpoint is not None:  # the files a resume loads, read as it will read them
-        check_checkpoint(config.algo, checkpoint, hp, config.env_id, env_kwargs)
+        load_on_copy(config.algo, checkpoint, hp, config.env_id, env_kwargs).get_env().close()
         if hp.normalize is not None:
             read_normalizer(checkpoint.vecnormalize)
         segments = read_result_segments(layout.result_file)  # type: ignore[union-attr]
