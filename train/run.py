@@ -173,11 +173,15 @@ def plan_run(config: TrainConfig) -> TrainPlan:
 
 def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | None) -> TrainPlan:
     resume = config.resume  # the merge below turns a resume into a run of a given folder
-    if layout is not None and layout.args_file.is_file():
-        config = _merge_saved(config, read_run_yaml(layout.args_file), layout)
     checkpoint = None
+    entry = None  # config.yml: the hyperparameters the run started with
     if layout is not None:
-        checkpoint = _latest_usable_checkpoint(config, layout)
+        if layout.args_file.is_file():
+            config = _merge_saved(config, read_run_yaml(layout.args_file), layout)
+        if layout.config_file.is_file():
+            entry = read_run_yaml(layout.config_file)
+        normalize = entry is not None and bool(entry.get("normalize"))
+        checkpoint = _latest_usable_checkpoint(config, layout, normalize)
         damaged = [c.model.name for c in layout.checkpoints()]
         if checkpoint is None and damaged:
             raise ValueError(
@@ -192,14 +196,13 @@ def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | 
             )
 
     if checkpoint is not None and layout is not None:
-        if not layout.config_file.is_file():
+        if entry is None:
             # Resuming from the current yml instead would mix two runs' hyperparameters unsaid.
             raise ValueError(
                 f"{layout.config_file} is missing: the hyperparameters the run started with "
                 "cannot be restored; allowed: a run folder with its config.yml (or a new run)"
             )
         # A resumed run keeps the hyperparameters it started with, whatever the yml says now.
-        entry = read_run_yaml(layout.config_file)
         try:
             hp = resolve_hyperparams(entry, n_timesteps=config.n_timesteps)
         except ValueError as error:
@@ -276,13 +279,12 @@ def _merge_saved(config: TrainConfig, saved: Mapping[str, Any], layout: RunLayou
     )
 
 
-def _latest_usable_checkpoint(config: TrainConfig, layout: RunLayout) -> Checkpoint | None:
-    needs_buffer = config.algo == "sac"
-    normalize = None
-    if layout.config_file.is_file():
-        normalize = read_run_yaml(layout.config_file).get("normalize")
+def _latest_usable_checkpoint(
+    config: TrainConfig, layout: RunLayout, normalize: bool
+) -> Checkpoint | None:
+    """The newest intact checkpoint (``normalize``: the run saves VecNormalize statistics)."""
     for checkpoint in reversed(layout.checkpoints()):
-        problem = checkpoint.damage(replay_buffer=needs_buffer, vecnormalize=bool(normalize))
+        problem = checkpoint.damage(replay_buffer=config.algo == "sac", vecnormalize=normalize)
         if problem is None:
             return checkpoint
         warnings.warn(
