@@ -24,7 +24,7 @@ import yaml
 from tandem_env.envs.config import insect_keyword
 from tandem_env.envs.registration import check_env_id
 from tandem_env.io.files import output_directory, to_jsonable, write_text_atomic
-from tandem_env.physics.checks import is_integer, is_real
+from tandem_env.physics.checks import count, is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
 Algo = Literal["ppo", "sac"]
@@ -421,10 +421,7 @@ class TrainConfig:
             if value is not None:
                 object.__setattr__(self, name, _positive_int(name, value))
         for name, low in (("seed", 0), ("verbose", 0), ("torch_threads", 1)):
-            value = getattr(self, name)
-            if not is_integer(value) or value < low:
-                raise ValueError(f"{name} = {value!r}; allowed: an integer >= {low}")
-            object.__setattr__(self, name, int(value))
+            object.__setattr__(self, name, count(getattr(self, name), name, low))
         if self.verbose > 2:
             raise ValueError(f"verbose = {self.verbose!r}; allowed: 0 quiet, 1 info, 2 debug")
         if self.seed > MAX_SEED:

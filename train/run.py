@@ -520,16 +520,16 @@ def _write_result(
 
 
 # --- the harness's lean variant ----------------------------------------------------------------
-def budget_steps(
+def budget_hyperparams(
     algo: str,
     entry: Mapping[str, Any],
     overrides: Mapping[str, Any] | None,
     n_envs: int | None,
     budget: int,
-) -> int:
-    """The env steps a budget allows: rounded down to whole learn iterations (PPO:
-    n_steps·n_envs, SAC: train_freq·n_envs), because SB3 never stops inside one and the
-    budget is a hard limit."""
+) -> Hyperparams:
+    """The hyperparameters of a run within ``budget`` env steps: ``n_timesteps`` is the budget
+    rounded down to whole learn iterations (PPO: n_steps·n_envs, SAC: train_freq·n_envs),
+    because SB3 never stops inside one and the budget is a hard limit."""
     hp = resolve_hyperparams(entry, overrides, n_envs=n_envs, n_timesteps=1)
     unit = step_granularity(algo, hp)
     steps = (budget // unit) * unit
@@ -538,7 +538,7 @@ def budget_steps(
             f"budget {budget} is below one {algo.upper()} iteration ({unit} env steps with "
             f"n_envs = {hp.n_envs}); allowed: a budget >= {unit}, or a smaller n_envs"
         )
-    return steps
+    return resolve_hyperparams(entry, overrides, n_envs=n_envs, n_timesteps=steps)
 
 
 def learn_in_memory(
@@ -554,11 +554,11 @@ def learn_in_memory(
     on_step: Callable[[StrokeRecorder], None] | None = None,
     threads: int = 1,
 ) -> tuple[BaseAlgorithm, StrokeRecorder, Hyperparams]:
-    """Train ``algo`` for at most ``budget`` env steps (see :func:`budget_steps`), no files;
+    """Train ``algo`` for at most ``budget`` env steps (see :func:`budget_hyperparams`), no files;
     returns (model, recorder, hp)."""
-    entry = load_entry(algo, env_id, hyperparams_file)
-    steps = budget_steps(algo, entry, overrides, n_envs, budget)
-    hp = resolve_hyperparams(entry, overrides, n_envs=n_envs, n_timesteps=steps)
+    hp = budget_hyperparams(
+        algo, load_entry(algo, env_id, hyperparams_file), overrides, n_envs, budget
+    )
     env_kwargs = {**hp.env_kwargs, **env_kwargs}
     with torch_threads(threads):
         venv, recorder = make_training_env(
@@ -570,11 +570,9 @@ def learn_in_memory(
             normalize=hp.normalize,
             on_step=on_step,
         )
-        model = build_model(
-            algo, hp, venv, seed=seed, tensorboard_log=None, verbose=0, device="cpu"
-        )
+        model = build_model(algo, hp, venv, seed=seed)
         model.learn(
-            steps,
+            hp.n_timesteps,
             log_interval=default_log_interval(algo, hp.n_envs),
             progress_bar=False,
         )
