@@ -13,7 +13,7 @@ from __future__ import annotations
 import ast
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from itertools import pairwise
 from pathlib import Path
 from types import MappingProxyType
@@ -478,32 +478,18 @@ class TrainConfig:
         )
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain-YAML form (``args.yml``), marked as written by this project (``made_by``)."""
+        """Plain-YAML form (``args.yml``): every field (:func:`plain`), under its zoo name where
+        it has one (:data:`ARGS_KEYS`), marked as written by this project (``made_by``)."""
         from train.layout import MADE_BY
 
-        return {
-            "made_by": MADE_BY,
-            "algo": self.algo,
-            "env": self.env_id,
-            "n_timesteps": self.n_timesteps,
-            "seed": self.seed,
-            "n_envs": self.n_envs,
-            "env_kwargs": plain(dict(self.env_kwargs)),
-            "hyperparams": plain(dict(self.hyperparams)),
-            "conf_file": None if self.hyperparams_file is None else str(self.hyperparams_file),
-            "log_folder": str(self.log_folder),
-            "run_dir": None if self.run_dir is None else str(self.run_dir),
-            "resume": self.resume,
-            "eval_freq": self.eval_freq,
-            "save_freq": self.save_freq,
-            "progress": self.progress_bar,
-            "tensorboard": self.tensorboard,
-            "verbose": self.verbose,
-            "torch_threads": self.torch_threads,
-            "device": self.device,
-            "log_interval": self.log_interval,
-            "log_table": self.log_table,
+        settings = {
+            ARGS_KEYS.get(f.name, f.name): plain(getattr(self, f.name)) for f in fields(self)
         }
+        return {"made_by": MADE_BY, **settings}
+
+
+#: The ``args.yml`` keys of the :class:`TrainConfig` fields the zoo names otherwise.
+ARGS_KEYS = {"env_id": "env", "hyperparams_file": "conf_file", "progress_bar": "progress"}
 
 
 def plain(value: Any) -> Any:
