@@ -129,8 +129,6 @@ class TrainPlan:
     """Env steps the run ends at: n_timesteps rounded up to whole learn iterations."""
     unit: int
     """Env steps of one learn iteration (see :func:`step_granularity`)."""
-    lock: RunLock
-    """The run folder's lock, held from the plan to the end of the run (:func:`train`)."""
     segments: tuple[Mapping[str, Any], ...] = ()
     """The earlier runs' segments of the folder's ``result.json``, which a resume extends."""
 
@@ -141,12 +139,12 @@ def whole_iterations(n_timesteps: int, unit: int) -> int:
     return -(-n_timesteps // unit) * unit
 
 
-def plan_run(config: TrainConfig) -> TrainPlan:
+def plan_run(config: TrainConfig, held: contextlib.ExitStack) -> TrainPlan:
     """Where the run goes and what it resumes from; validates everything before any work.
 
     The run folder is locked (:class:`~train.layout.RunLock`) before its files are read, so a
-    second command on the same run is refused instead of training beside the first; the
-    caller releases ``plan.lock`` (:func:`train` does when the run ends)."""
+    second command on the same run is refused instead of training beside the first; ``held``
+    holds the lock, to the end of the run (:func:`train`), or releases it if the plan fails."""
     if config.resume:
         layout = RunLayout.latest(config.log_folder, config.algo, config.env_id)
     elif config.run_dir is not None:
@@ -160,18 +158,9 @@ def plan_run(config: TrainConfig) -> TrainPlan:
     else:
         layout = None
     # A folder that is not ours was refused above, before the lock file is made in it.
-    lock = None
-    if layout is not None and layout.run_dir.is_dir():
-        lock = RunLock(layout.run_dir).acquire()
-    try:
-        return _plan_locked(config, layout, lock)
-    except BaseException:
-        if lock is not None:
-            lock.release()
-        raise
-
-
-def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | None) -> TrainPlan:
+    locked = layout is not None and layout.run_dir.is_dir()
+    if layout is not None and locked:
+        held.enter_context(RunLock(layout.run_dir))
     resume = config.resume  # the merge below turns a resume into a run of a given folder
     checkpoint = None
     entry = None  # config.yml: the hyperparameters the run started with
@@ -233,10 +222,10 @@ def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | 
     if layout is None:
         layout = RunLayout.new(config.log_folder, config.algo, config.env_id)
     layout.run_dir.mkdir(parents=True, exist_ok=True)
-    if lock is None:  # a new folder (this process made it, or --run-dir of an absent one)
-        lock = RunLock(layout.run_dir).acquire()
+    if not locked:  # a new folder (this process made it, or --run-dir of an absent one)
+        held.enter_context(RunLock(layout.run_dir))
     _check_writable(layout)
-    return TrainPlan(config, hp, env_kwargs, layout, checkpoint, target, unit, lock, segments)
+    return TrainPlan(config, hp, env_kwargs, layout, checkpoint, target, unit, segments)
 
 
 def _check_writable(layout: RunLayout) -> None:
@@ -310,11 +299,8 @@ def _check_env(env_id: str, env_kwargs: Mapping[str, Any]) -> None:
 
 def train(config: TrainConfig) -> TrainResult:
     """Run (or resume) one training run with files; see :mod:`train.layout` for the folder."""
-    plan = plan_run(config)
-    try:
-        return _train_planned(plan)
-    finally:
-        plan.lock.release()
+    with contextlib.ExitStack() as held:
+        return _train_planned(plan_run(config, held))
 
 
 def _train_planned(plan: TrainPlan) -> TrainResult:
