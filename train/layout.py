@@ -369,6 +369,11 @@ class RunLayout:
         return self.run_dir / "best_model.zip"
 
     @property
+    def best_vecnormalize(self) -> Path:
+        """The VecNormalize statistics ``best_model.zip`` was evaluated with."""
+        return self.run_dir / "best_model_vecnormalize.pkl"
+
+    @property
     def evaluations(self) -> Path:
         return self.run_dir / "evaluations.npz"
 

@@ -158,9 +158,10 @@ def plan_run(config: TrainConfig, held: contextlib.ExitStack) -> TrainPlan:
     else:
         layout = None
     # A folder that is not ours was refused above, before the lock file is made in it.
-    locked = layout is not None and layout.run_dir.is_dir()
-    if layout is not None and locked:
+    locked = False
+    if layout is not None and layout.run_dir.is_dir():
         held.enter_context(RunLock(layout.run_dir))
+        locked = True
     resume = config.resume  # the merge below turns a resume into a run of a given folder
     checkpoint = None
     entry = None  # config.yml: the hyperparameters the run started with
@@ -215,7 +216,8 @@ def plan_run(config: TrainConfig, held: contextlib.ExitStack) -> TrainPlan:
     _check_env(config.env_id, env_kwargs)
     segments: tuple[Mapping[str, Any], ...] = ()
     if checkpoint is not None:  # the files a resume loads, read as it will read them
-        load_on_copy(config.algo, checkpoint, hp, config.env_id, env_kwargs).get_env().close()
+        checked = load_on_copy(config.algo, checkpoint, hp, config.env_id, env_kwargs)
+        checked.get_env().close()  # type: ignore[union-attr]
         if hp.normalize is not None:
             read_normalizer(checkpoint.vecnormalize)
         segments = read_result_segments(layout.result_file)  # type: ignore[union-attr]
@@ -411,9 +413,7 @@ def _run_callbacks(
                 deterministic=True,
                 verbose=config.verbose,
                 callback_on_new_best=(
-                    None
-                    if hp.normalize is None
-                    else SaveVecNormalize(layout.run_dir / "best_model_vecnormalize.pkl")
+                    None if hp.normalize is None else SaveVecNormalize(layout.best_vecnormalize)
                 ),
                 resume_from_step=None if plan.checkpoint is None else start_step,
             )

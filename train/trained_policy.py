@@ -93,10 +93,8 @@ class TrainedPolicy:
         path = layout.best_model if which == "best" else layout.final_model
         normalizer: Path | None = None
         if entry.get("normalize"):
-            normalizer = layout.vecnormalize
-            best_stats = run_dir / "best_model_vecnormalize.pkl"
-            if which == "best" and best_stats.is_file():
-                normalizer = best_stats
+            best = which == "best" and layout.best_vecnormalize.is_file()
+            normalizer = layout.best_vecnormalize if best else layout.vecnormalize
         if which == "best" and not path.is_file():
             path = layout.final_model
         if not path.is_file():
