@@ -447,7 +447,7 @@ def _say_plan(plan: TrainPlan) -> None:
     hp, layout = plan.hp, plan.layout
     if plan.target != hp.n_timesteps:
         what = (
-            f"n_steps {hp.model_kwargs.get('n_steps', 2048)} x n_envs {hp.n_envs}"
+            f"n_steps {plan.unit // hp.n_envs} x n_envs {hp.n_envs}"  # step_granularity's
             if plan.config.algo == "ppo"
             else f"train_freq x n_envs {hp.n_envs}"
         )
