@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import MISSING, fields
 from pathlib import Path
 from typing import Any
@@ -137,14 +137,16 @@ def config_from_args(args: argparse.Namespace) -> TrainConfig:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if args.algo == AMORTISED:
-        return _amortised(parser, args)
+    result: Any
     try:
-        config = config_from_args(args)
-        from train.run import train
+        if args.algo == AMORTISED:
+            result = _train_amortised(parser, args)
+        else:
+            config = config_from_args(args)
+            from train.run import train
 
-        with warnings_as_lines():
-            result = train(config)
+            with warnings_as_lines():
+                result = train(config)
     except RunComplete as done:
         print(done)
         return 0
@@ -154,6 +156,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{parser.prog}: error: {error}", file=sys.stderr)
         return 1
     print(f"run folder: {result.run_dir}")
+    if args.algo == AMORTISED:
+        return _say_amortised(result.summary)
     from tandem_env.envs.registration import config_class
 
     # The info key of the env's observed condition (speed, available_power, target_speed).
@@ -203,57 +207,51 @@ RL_ONLY = (
 )
 
 
-def _amortised(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+def _train_amortised(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Any:
     """``--algo amortised``: every input checked before any computation, then
     :func:`train.amortised.train_run`."""
-    try:
-        given = [flag for name, flag in RL_ONLY if getattr(args, name) != parser.get_default(name)]
-        if given:
-            raise ValueError(
-                f"{', '.join(given)}: option(s) of ppo and sac, not of --algo amortised; allowed "
-                "with amortised: --env, --seed, --env-kwargs, --hyperparams (its settings, "
-                "train.amortised.Settings), -f/--log-folder, --run-dir, --verbose"
-            )
-        if args.insect is not None:
-            raise ValueError(
-                f"--insect {args.insect}: the reference table describes the paper's insects "
-                "only; allowed with amortised: planform=tear-drop or planform=real"
-            )
-        from tandem_env.envs.reference import REFERENCE_GRID
-        from tandem_env.io.files import output_directory
-        from tandem_env.physics.checks import is_integer
-        from train.amortised import Settings, check_env_kwargs, train_run
-        from train.config import MAX_SEED
+    given = [flag for name, flag in RL_ONLY if getattr(args, name) != parser.get_default(name)]
+    if given:
+        raise ValueError(
+            f"{', '.join(given)}: option(s) of ppo and sac, not of --algo amortised; allowed "
+            "with amortised: --env, --seed, --env-kwargs, --hyperparams (its settings, "
+            "train.amortised.Settings), -f/--log-folder, --run-dir, --verbose"
+        )
+    if args.insect is not None:
+        raise ValueError(
+            f"--insect {args.insect}: the reference table describes the paper's insects "
+            "only; allowed with amortised: planform=tear-drop or planform=real"
+        )
+    from tandem_env.envs.reference import REFERENCE_GRID
+    from tandem_env.io.files import output_directory
+    from train.amortised import Settings, check_env_kwargs, train_run
+    from train.config import MAX_SEED
 
-        if args.env_id not in REFERENCE_GRID:
-            from tandem_env.envs.registration import check_env_id
+    if args.env_id not in REFERENCE_GRID:
+        from tandem_env.envs.registration import check_env_id
 
-            check_env_id(args.env_id, "--env")
-        env_kwargs = parse_pairs(args.env_kwargs, "--env-kwargs")
-        overrides = parse_pairs(args.hyperparams, "--hyperparams")
-        seed = args.seed
-        if not is_integer(seed) or not 0 <= seed <= MAX_SEED:
-            raise ValueError(f"seed = {seed!r}; allowed: an integer from 0 to 2**32 - 1")
-        Settings.from_mapping(overrides)
-        check_env_kwargs(args.env_id, env_kwargs)
-        output_directory(args.log_folder, "log_folder (-f)", write=False)
-        with warnings_as_lines():
-            result = train_run(
-                args.env_id,
-                env_kwargs,
-                overrides,
-                int(seed),
-                Path(args.log_folder),
-                run_dir=None if args.run_dir is None else Path(args.run_dir),
-                verbose=args.verbose,
-            )
-    except ValueError as error:
-        parser.error(str(error))
-    except OSError as error:
-        print(f"{parser.prog}: error: {error}", file=sys.stderr)
-        return 1
-    summary = result.summary
-    print(f"run folder: {result.run_dir}")
+        check_env_id(args.env_id, "--env")
+    env_kwargs = parse_pairs(args.env_kwargs, "--env-kwargs")
+    overrides = parse_pairs(args.hyperparams, "--hyperparams")
+    if not 0 <= args.seed <= MAX_SEED:  # an int (argparse)
+        raise ValueError(f"seed = {args.seed!r}; allowed: an integer from 0 to 2**32 - 1")
+    Settings.from_mapping(overrides)
+    check_env_kwargs(args.env_id, env_kwargs)
+    output_directory(args.log_folder, "log_folder (-f)", write=False)
+    with warnings_as_lines():
+        return train_run(
+            args.env_id,
+            env_kwargs,
+            overrides,
+            args.seed,
+            Path(args.log_folder),
+            run_dir=None if args.run_dir is None else Path(args.run_dir),
+            verbose=args.verbose,
+        )
+
+
+def _say_amortised(summary: Mapping[str, Any]) -> int:
+    """What an amortised run ended with (stdout), after its run folder."""
     print(
         f"trained in {summary['wall_time']:.1f} s (regression {summary['regression_seconds']:.1f} "
         f"s, fine-tuning {summary['finetune_seconds']:.1f} s, {summary['num_timesteps']} strokes "

@@ -49,9 +49,9 @@ def build_model(
     venv: VecEnv,
     *,
     seed: int,
-    tensorboard_log: Path | None,
-    verbose: int,
-    device: str,
+    tensorboard_log: Path | None = None,
+    verbose: int = 0,
+    device: str = "cpu",
 ) -> BaseAlgorithm:
     """A new SB3 model of ``algo`` on ``venv`` with the resolved hyperparameters."""
     cls = ALGORITHMS[algo]
@@ -218,25 +218,16 @@ def _set_variables(model: BaseAlgorithm, variables: Mapping[str, Any]) -> None:
 
 
 def load_model(
-    algo: str,
-    path: Path,
-    hp: Hyperparams,
-    venv: VecEnv,
-    *,
-    seed: int,
-    device: str = "cpu",
-    tensorboard_log: Path | None = None,
-    verbose: int = 0,
+    algo: str, path: Path, hp: Hyperparams, venv: VecEnv, **settings: Any
 ) -> BaseAlgorithm:
     """The model saved at ``path``, rebuilt from ``hp`` (the run's ``config.yml``) on ``venv``
-    and given the file's weights, optimiser states and counters; nothing in the file is
-    unpickled (see the module docstring). ValueError naming the file if it is not such a model
-    or its weights do not fit the rebuilt one (a changed ``net_arch``, another env)."""
+    (``settings``: :func:`build_model`'s) and given the file's weights, optimiser states and
+    counters; nothing in the file is unpickled (see the module docstring). ValueError naming the
+    file if it is not such a model or its weights do not fit the rebuilt one (a changed
+    ``net_arch``, another env)."""
     num_timesteps = read_num_timesteps(path)
     params, variables = read_weights(path)
-    model = build_model(
-        algo, hp, venv, seed=seed, tensorboard_log=tensorboard_log, verbose=verbose, device=device
-    )
+    model = build_model(algo, hp, venv, **settings)
     expected = sorted(model.get_parameters())
     if sorted(params) != expected:
         raise _model_error(
@@ -245,7 +236,7 @@ def load_model(
             f"the run's config.yml has {', '.join(expected)}",
         )
     try:
-        model.set_parameters(params, exact_match=True, device=device)
+        model.set_parameters(params, exact_match=True)  # a dict: its tensors, no device move
         _set_variables(model, variables)
     except (RuntimeError, ValueError, KeyError, TypeError, IndexError) as error:
         reason = " ".join(str(error).split())
@@ -255,16 +246,6 @@ def load_model(
         ) from None
     model.num_timesteps = num_timesteps
     return model
-
-
-def load_policy_model(
-    algo: str, path: Path, hp: Hyperparams, env_id: str, env_kwargs: Mapping[str, Any]
-) -> BaseAlgorithm:
-    """The model saved at ``path`` for prediction, on the CPU (:func:`load_model`), rebuilt from
-    the run's hyperparameters ``hp`` (its config.yml) on a copy of its env."""
-    # The run's own n_envs, so that the rebuilt model is the saved one (PPO's rollout size).
-    venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs, monitor_file=None, normalize=None)
-    return load_model(algo, path, hp, venv, seed=0)
 
 
 # --- the replay buffer -----------------------------------------------------------------------
@@ -336,28 +317,11 @@ def load_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
 
 # --- checkpoints -----------------------------------------------------------------------------
 def load_checkpoint(
-    algo: str,
-    checkpoint: Checkpoint,
-    hp: Hyperparams,
-    venv: VecEnv,
-    *,
-    seed: int,
-    device: str = "cpu",
-    tensorboard_log: Path | None = None,
-    verbose: int = 0,
+    algo: str, checkpoint: Checkpoint, hp: Hyperparams, venv: VecEnv, **settings: Any
 ) -> BaseAlgorithm:
     """The checkpoint's model (:func:`load_model`) with SAC's replay buffer; ValueError naming
     the file at fault, also when the model's step count is not the one in its name."""
-    model = load_model(
-        algo,
-        checkpoint.model,
-        hp,
-        venv,
-        seed=seed,
-        device=device,
-        tensorboard_log=tensorboard_log,
-        verbose=verbose,
-    )
+    model = load_model(algo, checkpoint.model, hp, venv, **settings)
     if model.num_timesteps != checkpoint.step:
         raise _model_error(
             checkpoint.model,
@@ -368,20 +332,25 @@ def load_checkpoint(
     return model
 
 
-def check_checkpoint(
+def load_on_copy(
     algo: str,
-    checkpoint: Checkpoint,
+    saved: Path | Checkpoint,
     hp: Hyperparams,
     env_id: str,
     env_kwargs: Mapping[str, Any],
-) -> None:
-    """Everything :func:`load_checkpoint` checks, on a throwaway copy of the env (no files):
-    so that a resume refuses a checkpoint before any work."""
+) -> BaseAlgorithm:
+    """A model file (:func:`load_model`) or a checkpoint (:func:`load_checkpoint`) loaded on
+    the CPU on a throwaway copy of the run's env (no files): a policy to ask for strokes, or
+    the check that lets a resume refuse a checkpoint before any work."""
+    # The run's own n_envs, so that the rebuilt model is the saved one (PPO's rollout size).
     venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs, monitor_file=None, normalize=None)
     try:
-        load_checkpoint(algo, checkpoint, hp, venv, seed=0)
-    finally:
+        if isinstance(saved, Checkpoint):
+            return load_checkpoint(algo, saved, hp, venv, seed=0)
+        return load_model(algo, saved, hp, venv, seed=0)
+    except BaseException:
         venv.close()
+        raise
 
 
 class RunCheckpoint(BaseCallback):

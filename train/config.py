@@ -13,7 +13,7 @@ from __future__ import annotations
 import ast
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from itertools import pairwise
 from pathlib import Path
 from types import MappingProxyType
@@ -24,7 +24,7 @@ import yaml
 from tandem_env.envs.config import insect_keyword
 from tandem_env.envs.registration import check_env_id
 from tandem_env.io.files import output_directory, to_jsonable, write_text_atomic
-from tandem_env.physics.checks import is_integer, is_real
+from tandem_env.physics.checks import count, is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
 Algo = Literal["ppo", "sac"]
@@ -421,10 +421,7 @@ class TrainConfig:
             if value is not None:
                 object.__setattr__(self, name, _positive_int(name, value))
         for name, low in (("seed", 0), ("verbose", 0), ("torch_threads", 1)):
-            value = getattr(self, name)
-            if not is_integer(value) or value < low:
-                raise ValueError(f"{name} = {value!r}; allowed: an integer >= {low}")
-            object.__setattr__(self, name, int(value))
+            object.__setattr__(self, name, count(getattr(self, name), name, low))
         if self.verbose > 2:
             raise ValueError(f"verbose = {self.verbose!r}; allowed: 0 quiet, 1 info, 2 debug")
         if self.seed > MAX_SEED:
@@ -481,32 +478,18 @@ class TrainConfig:
         )
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain-YAML form (``args.yml``), marked as written by this project (``made_by``)."""
+        """Plain-YAML form (``args.yml``): every field (:func:`plain`), under its zoo name where
+        it has one (:data:`ARGS_KEYS`), marked as written by this project (``made_by``)."""
         from train.layout import MADE_BY
 
-        return {
-            "made_by": MADE_BY,
-            "algo": self.algo,
-            "env": self.env_id,
-            "n_timesteps": self.n_timesteps,
-            "seed": self.seed,
-            "n_envs": self.n_envs,
-            "env_kwargs": plain(dict(self.env_kwargs)),
-            "hyperparams": plain(dict(self.hyperparams)),
-            "conf_file": None if self.hyperparams_file is None else str(self.hyperparams_file),
-            "log_folder": str(self.log_folder),
-            "run_dir": None if self.run_dir is None else str(self.run_dir),
-            "resume": self.resume,
-            "eval_freq": self.eval_freq,
-            "save_freq": self.save_freq,
-            "progress": self.progress_bar,
-            "tensorboard": self.tensorboard,
-            "verbose": self.verbose,
-            "torch_threads": self.torch_threads,
-            "device": self.device,
-            "log_interval": self.log_interval,
-            "log_table": self.log_table,
+        settings = {
+            ARGS_KEYS.get(f.name, f.name): plain(getattr(self, f.name)) for f in fields(self)
         }
+        return {"made_by": MADE_BY, **settings}
+
+
+#: The ``args.yml`` keys of the :class:`TrainConfig` fields the zoo names otherwise.
+ARGS_KEYS = {"env_id": "env", "hyperparams_file": "conf_file", "progress_bar": "progress"}
 
 
 def plain(value: Any) -> Any:

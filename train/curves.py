@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -20,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tandem_env.io.files import atomic_path, read_json
 from train.layout import RunLayout
 
 
@@ -69,7 +69,7 @@ def read_run(run_dir: str | Path) -> Curves:
             eval_reward = data["results"].mean(axis=1)
     wall = None
     if layout.result_file.is_file():
-        wall = json.loads(layout.result_file.read_text()).get("wall_time_s")
+        wall = read_json(layout.result_file).get("wall_time_s")
     return Curves(
         run_dir.name, np.arange(1, len(reward) + 1), reward, best, eval_steps, eval_reward, wall
     )
@@ -127,8 +127,8 @@ def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out)
+    with atomic_path(out) as tmp:  # its folder made, and no half-written PNG if killed
+        fig.savefig(tmp)
     plt.close(fig)
     return out
 

@@ -275,13 +275,8 @@ class Checkpoint:
     """The pickled buffer of earlier versions: never loaded (a pickle can run code)."""
 
     def complete(self, *, replay_buffer: bool, vecnormalize: bool) -> bool:
-        """All files a faithful resume needs are there."""
-        needed = [self.model]
-        if replay_buffer:
-            needed.append(self.replay_buffer)
-        if vecnormalize:
-            needed.append(self.vecnormalize)
-        return all(p.is_file() and p.stat().st_size > 0 for p in needed)
+        """All files a faithful resume needs are there and intact (:meth:`damage`)."""
+        return self.damage(replay_buffer=replay_buffer, vecnormalize=vecnormalize) is None
 
     def damage(self, *, replay_buffer: bool, vecnormalize: bool) -> str | None:
         """None if every file a resume needs is there and intact, else what is wrong, in words.
@@ -372,6 +367,11 @@ class RunLayout:
     @property
     def best_model(self) -> Path:
         return self.run_dir / "best_model.zip"
+
+    @property
+    def best_vecnormalize(self) -> Path:
+        """The VecNormalize statistics ``best_model.zip`` was evaluated with."""
+        return self.run_dir / "best_model_vecnormalize.pkl"
 
     @property
     def evaluations(self) -> Path:

@@ -29,18 +29,11 @@ from agents.methods import Method, SearchContext, SearchOutcome
 from agents.selection import is_better
 from tandem_env.envs.registration import condition_keywords
 from tandem_env.io.files import to_jsonable
-from tandem_env.physics.checks import is_integer
+from tandem_env.physics.checks import count
 from train.amortised_policy import CITATION as AMORTISED_CITATION
-from train.config import (
-    ALGOS,
-    TrainConfig,
-    check_algo,
-    load_entry,
-    plain,
-    resolve_hyperparams,
-)
+from train.config import ALGOS, Hyperparams, TrainConfig, check_algo, load_entry, plain
 from train.layout import RunLayout, read_run_yaml, resolve_run_dir
-from train.run import budget_steps, learn_in_memory, step_granularity, train
+from train.run import budget_hyperparams, learn_in_memory, step_granularity, train
 from train.trained_policy import (
     WHICH_MODELS,
     TrainingMismatchWarning,
@@ -157,15 +150,12 @@ class TrainingMethod:
                 "steps) is the only budget"
             )
         object.__setattr__(self, "overrides", MappingProxyType(dict(self.overrides)))
-        for name, low in (("n_envs", 1), ("torch_threads", 1)):
-            value = getattr(self, name)
-            if value is None and name == "n_envs":
-                continue
-            if not is_integer(value) or value < low:
-                raise ValueError(
-                    f"method {self.algo!r}: {name} = {value!r}; allowed: an integer >= {low}"
-                )
-            object.__setattr__(self, name, int(value))
+        method = f"method {self.algo!r}"
+        if self.n_envs is not None:  # None: the yml's
+            object.__setattr__(self, "n_envs", count(self.n_envs, f"{method}: n_envs"))
+        object.__setattr__(
+            self, "torch_threads", count(self.torch_threads, f"{method}: torch_threads")
+        )
         for name in ("conf_file", "log_dir"):
             value = getattr(self, name)
             if value is not None and not isinstance(value, str | Path):
@@ -182,11 +172,12 @@ class TrainingMethod:
                 "plus one evaluation of the final deterministic policy)"
             )
 
-        unused = self._announce_budget(context)
+        hp = self._hyperparams(context.env_id, context.budget)
+        unused = self._announce_budget(context, hp)
         if self.log_dir is None:
             training = self._learn(context)
         else:
-            training = self._learn_with_files(context)
+            training = self._learn_with_files(context, hp.n_timesteps)
         evaluations = training.steps + 1
         final_reward = training.final_reward
         # the selection rule (agents.selection); on a tie the stroke seen in training stays
@@ -229,26 +220,25 @@ class TrainingMethod:
 
     def check(self, budget: int, dim: int, task: TaskSpec) -> None:
         """The harness's check before any work: the yml entry and the overrides resolve, and
-        the budget holds one whole iteration (:func:`~train.run.budget_steps` raises)."""
-        self._training_steps(task.env_id, budget)
+        the budget holds one whole iteration (:func:`~train.run.budget_hyperparams` raises)."""
+        self._hyperparams(task.env_id, budget)
 
-    def _training_steps(self, env_id: str, budget: int) -> int:
-        """The env steps training gets: ``budget - 1`` (the last evaluation is the final
-        policy's) rounded down to whole iterations (:func:`~train.run.budget_steps`)."""
+    def _hyperparams(self, env_id: str, budget: int) -> Hyperparams:
+        """The hyperparameters of training within ``budget``: its env steps (``n_timesteps``)
+        are ``budget - 1`` (the last evaluation is the final policy's) rounded down to whole
+        iterations (:func:`~train.run.budget_hyperparams`)."""
         entry = load_entry(self.algo, env_id, self.conf_file)
-        return budget_steps(self.algo, entry, self.overrides, self.n_envs, budget - 1)
+        return budget_hyperparams(self.algo, entry, self.overrides, self.n_envs, budget - 1)
 
-    def _announce_budget(self, context: SearchContext) -> int:
-        """Say (stderr, one line) when training cannot use the whole budget; returns the
-        evaluations left unused. SB3 learns in whole iterations (:meth:`_training_steps`)."""
-        steps = self._training_steps(context.env_id, context.budget)
+    def _announce_budget(self, context: SearchContext, hp: Hyperparams) -> int:
+        """Say (stderr, one line) when training (``hp``, :meth:`_hyperparams`) cannot use the
+        whole budget; returns the evaluations left unused. SB3 learns in whole iterations."""
+        steps = hp.n_timesteps
         unused = context.budget - (steps + 1)
         # Once per process and setting, not once per seed: the seeds of a run share it.
         said = (self.algo, context.env_id, context.budget, self.n_envs, repr(self.overrides))
         if unused > 0 and said not in _ANNOUNCED:
             _ANNOUNCED.add(said)
-            entry = load_entry(self.algo, context.env_id, self.conf_file)
-            hp = resolve_hyperparams(entry, self.overrides, n_envs=self.n_envs, n_timesteps=1)
             unit = step_granularity(self.algo, hp)
             tqdm.write(
                 f"{self.algo}: budget {context.budget} -> {steps} training steps (whole "
@@ -296,8 +286,7 @@ class TrainingMethod:
             final_feasible=bool(final.feasible[0]),
         )
 
-    def _learn_with_files(self, context: SearchContext) -> _Training:
-        steps = self._training_steps(context.env_id, context.budget)
+    def _learn_with_files(self, context: SearchContext, steps: int) -> _Training:
         result = train(
             TrainConfig(
                 algo=self.algo,  # type: ignore[arg-type]

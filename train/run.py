@@ -30,8 +30,8 @@ from train.callbacks import PhysicsLogger, ResumableEvalCallback, SaveVecNormali
 from train.checkpoint import (
     RunCheckpoint,
     build_model,
-    check_checkpoint,
     load_checkpoint,
+    load_on_copy,
     prune_checkpoints,
     save_checkpoint,
 )
@@ -129,8 +129,6 @@ class TrainPlan:
     """Env steps the run ends at: n_timesteps rounded up to whole learn iterations."""
     unit: int
     """Env steps of one learn iteration (see :func:`step_granularity`)."""
-    lock: RunLock
-    """The run folder's lock, held from the plan to the end of the run (:func:`train`)."""
     segments: tuple[Mapping[str, Any], ...] = ()
     """The earlier runs' segments of the folder's ``result.json``, which a resume extends."""
 
@@ -141,12 +139,12 @@ def whole_iterations(n_timesteps: int, unit: int) -> int:
     return -(-n_timesteps // unit) * unit
 
 
-def plan_run(config: TrainConfig) -> TrainPlan:
+def plan_run(config: TrainConfig, held: contextlib.ExitStack) -> TrainPlan:
     """Where the run goes and what it resumes from; validates everything before any work.
 
     The run folder is locked (:class:`~train.layout.RunLock`) before its files are read, so a
-    second command on the same run is refused instead of training beside the first; the
-    caller releases ``plan.lock`` (:func:`train` does when the run ends)."""
+    second command on the same run is refused instead of training beside the first; ``held``
+    holds the lock, to the end of the run (:func:`train`), or releases it if the plan fails."""
     if config.resume:
         layout = RunLayout.latest(config.log_folder, config.algo, config.env_id)
     elif config.run_dir is not None:
@@ -160,24 +158,20 @@ def plan_run(config: TrainConfig) -> TrainPlan:
     else:
         layout = None
     # A folder that is not ours was refused above, before the lock file is made in it.
-    lock = None
+    locked = False
     if layout is not None and layout.run_dir.is_dir():
-        lock = RunLock(layout.run_dir).acquire()
-    try:
-        return _plan_locked(config, layout, lock)
-    except BaseException:
-        if lock is not None:
-            lock.release()
-        raise
-
-
-def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | None) -> TrainPlan:
+        held.enter_context(RunLock(layout.run_dir))
+        locked = True
     resume = config.resume  # the merge below turns a resume into a run of a given folder
-    if layout is not None and layout.args_file.is_file():
-        config = _merge_saved(config, read_run_yaml(layout.args_file), layout)
     checkpoint = None
+    entry = None  # config.yml: the hyperparameters the run started with
     if layout is not None:
-        checkpoint = _latest_usable_checkpoint(config, layout)
+        if layout.args_file.is_file():
+            config = _merge_saved(config, read_run_yaml(layout.args_file), layout)
+        if layout.config_file.is_file():
+            entry = read_run_yaml(layout.config_file)
+        normalize = entry is not None and bool(entry.get("normalize"))
+        checkpoint = _latest_usable_checkpoint(config, layout, normalize)
         damaged = [c.model.name for c in layout.checkpoints()]
         if checkpoint is None and damaged:
             raise ValueError(
@@ -192,14 +186,13 @@ def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | 
             )
 
     if checkpoint is not None and layout is not None:
-        if not layout.config_file.is_file():
+        if entry is None:
             # Resuming from the current yml instead would mix two runs' hyperparameters unsaid.
             raise ValueError(
                 f"{layout.config_file} is missing: the hyperparameters the run started with "
                 "cannot be restored; allowed: a run folder with its config.yml (or a new run)"
             )
         # A resumed run keeps the hyperparameters it started with, whatever the yml says now.
-        entry = read_run_yaml(layout.config_file)
         try:
             hp = resolve_hyperparams(entry, n_timesteps=config.n_timesteps)
         except ValueError as error:
@@ -223,17 +216,18 @@ def _plan_locked(config: TrainConfig, layout: RunLayout | None, lock: RunLock | 
     _check_env(config.env_id, env_kwargs)
     segments: tuple[Mapping[str, Any], ...] = ()
     if checkpoint is not None:  # the files a resume loads, read as it will read them
-        check_checkpoint(config.algo, checkpoint, hp, config.env_id, env_kwargs)
+        checked = load_on_copy(config.algo, checkpoint, hp, config.env_id, env_kwargs)
+        checked.get_env().close()  # type: ignore[union-attr]
         if hp.normalize is not None:
             read_normalizer(checkpoint.vecnormalize)
         segments = read_result_segments(layout.result_file)  # type: ignore[union-attr]
     if layout is None:
         layout = RunLayout.new(config.log_folder, config.algo, config.env_id)
     layout.run_dir.mkdir(parents=True, exist_ok=True)
-    if lock is None:  # a new folder (this process made it, or --run-dir of an absent one)
-        lock = RunLock(layout.run_dir).acquire()
+    if not locked:  # a new folder (this process made it, or --run-dir of an absent one)
+        held.enter_context(RunLock(layout.run_dir))
     _check_writable(layout)
-    return TrainPlan(config, hp, env_kwargs, layout, checkpoint, target, unit, lock, segments)
+    return TrainPlan(config, hp, env_kwargs, layout, checkpoint, target, unit, segments)
 
 
 def _check_writable(layout: RunLayout) -> None:
@@ -276,13 +270,12 @@ def _merge_saved(config: TrainConfig, saved: Mapping[str, Any], layout: RunLayou
     )
 
 
-def _latest_usable_checkpoint(config: TrainConfig, layout: RunLayout) -> Checkpoint | None:
-    needs_buffer = config.algo == "sac"
-    normalize = None
-    if layout.config_file.is_file():
-        normalize = read_run_yaml(layout.config_file).get("normalize")
+def _latest_usable_checkpoint(
+    config: TrainConfig, layout: RunLayout, normalize: bool
+) -> Checkpoint | None:
+    """The newest intact checkpoint (``normalize``: the run saves VecNormalize statistics)."""
     for checkpoint in reversed(layout.checkpoints()):
-        problem = checkpoint.damage(replay_buffer=needs_buffer, vecnormalize=bool(normalize))
+        problem = checkpoint.damage(replay_buffer=config.algo == "sac", vecnormalize=normalize)
         if problem is None:
             return checkpoint
         warnings.warn(
@@ -308,11 +301,8 @@ def _check_env(env_id: str, env_kwargs: Mapping[str, Any]) -> None:
 
 def train(config: TrainConfig) -> TrainResult:
     """Run (or resume) one training run with files; see :mod:`train.layout` for the folder."""
-    plan = plan_run(config)
-    try:
-        return _train_planned(plan)
-    finally:
-        plan.lock.release()
+    with contextlib.ExitStack() as held:
+        return _train_planned(plan_run(config, held))
 
 
 def _train_planned(plan: TrainPlan) -> TrainResult:
@@ -423,9 +413,7 @@ def _run_callbacks(
                 deterministic=True,
                 verbose=config.verbose,
                 callback_on_new_best=(
-                    None
-                    if hp.normalize is None
-                    else SaveVecNormalize(layout.run_dir / "best_model_vecnormalize.pkl")
+                    None if hp.normalize is None else SaveVecNormalize(layout.best_vecnormalize)
                 ),
                 resume_from_step=None if plan.checkpoint is None else start_step,
             )
@@ -459,7 +447,7 @@ def _say_plan(plan: TrainPlan) -> None:
     hp, layout = plan.hp, plan.layout
     if plan.target != hp.n_timesteps:
         what = (
-            f"n_steps {hp.model_kwargs.get('n_steps', 2048)} x n_envs {hp.n_envs}"
+            f"n_steps {plan.unit // hp.n_envs} x n_envs {hp.n_envs}"  # step_granularity's
             if plan.config.algo == "ppo"
             else f"train_freq x n_envs {hp.n_envs}"
         )
@@ -518,16 +506,16 @@ def _write_result(
 
 
 # --- the harness's lean variant ----------------------------------------------------------------
-def budget_steps(
+def budget_hyperparams(
     algo: str,
     entry: Mapping[str, Any],
     overrides: Mapping[str, Any] | None,
     n_envs: int | None,
     budget: int,
-) -> int:
-    """The env steps a budget allows: rounded down to whole learn iterations (PPO:
-    n_steps·n_envs, SAC: train_freq·n_envs), because SB3 never stops inside one and the
-    budget is a hard limit."""
+) -> Hyperparams:
+    """The hyperparameters of a run within ``budget`` env steps: ``n_timesteps`` is the budget
+    rounded down to whole learn iterations (PPO: n_steps·n_envs, SAC: train_freq·n_envs),
+    because SB3 never stops inside one and the budget is a hard limit."""
     hp = resolve_hyperparams(entry, overrides, n_envs=n_envs, n_timesteps=1)
     unit = step_granularity(algo, hp)
     steps = (budget // unit) * unit
@@ -536,7 +524,7 @@ def budget_steps(
             f"budget {budget} is below one {algo.upper()} iteration ({unit} env steps with "
             f"n_envs = {hp.n_envs}); allowed: a budget >= {unit}, or a smaller n_envs"
         )
-    return steps
+    return resolve_hyperparams(entry, overrides, n_envs=n_envs, n_timesteps=steps)
 
 
 def learn_in_memory(
@@ -552,11 +540,11 @@ def learn_in_memory(
     on_step: Callable[[StrokeRecorder], None] | None = None,
     threads: int = 1,
 ) -> tuple[BaseAlgorithm, StrokeRecorder, Hyperparams]:
-    """Train ``algo`` for at most ``budget`` env steps (see :func:`budget_steps`), no files;
+    """Train ``algo`` for at most ``budget`` env steps (see :func:`budget_hyperparams`), no files;
     returns (model, recorder, hp)."""
-    entry = load_entry(algo, env_id, hyperparams_file)
-    steps = budget_steps(algo, entry, overrides, n_envs, budget)
-    hp = resolve_hyperparams(entry, overrides, n_envs=n_envs, n_timesteps=steps)
+    hp = budget_hyperparams(
+        algo, load_entry(algo, env_id, hyperparams_file), overrides, n_envs, budget
+    )
     env_kwargs = {**hp.env_kwargs, **env_kwargs}
     with torch_threads(threads):
         venv, recorder = make_training_env(
@@ -568,11 +556,9 @@ def learn_in_memory(
             normalize=hp.normalize,
             on_step=on_step,
         )
-        model = build_model(
-            algo, hp, venv, seed=seed, tensorboard_log=None, verbose=0, device="cpu"
-        )
+        model = build_model(algo, hp, venv, seed=seed)
         model.learn(
-            steps,
+            hp.n_timesteps,
             log_interval=default_log_interval(algo, hp.n_envs),
             progress_bar=False,
         )

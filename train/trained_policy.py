@@ -26,7 +26,7 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from tandem_env.envs.registration import check_env_id, config_class
 from tandem_env.envs.sb3 import make_sb3_vec_env
-from train.checkpoint import load_policy_model
+from train.checkpoint import load_on_copy
 from train.config import check_algo, resolve_hyperparams
 from train.layout import (
     RunLayout,
@@ -72,7 +72,7 @@ class TrainedPolicy:
         args.yml naming an algo or env other than its own (its folder is named after the env),
         hyperparameters that do not resolve (:func:`~train.config.resolve_hyperparams`: n_envs,
         the network's size), a model or normalisation file that does not load
-        (:func:`~train.checkpoint.load_policy_model`, :func:`~train.layout.read_normalizer`)."""
+        (:func:`~train.checkpoint.load_on_copy`, :func:`~train.layout.read_normalizer`)."""
         if which not in WHICH_MODELS:
             raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
         run_dir = resolve_run_dir(run_dir)
@@ -93,10 +93,8 @@ class TrainedPolicy:
         path = layout.best_model if which == "best" else layout.final_model
         normalizer: Path | None = None
         if entry.get("normalize"):
-            normalizer = layout.vecnormalize
-            best_stats = run_dir / "best_model_vecnormalize.pkl"
-            if which == "best" and best_stats.is_file():
-                normalizer = best_stats
+            best = which == "best" and layout.best_vecnormalize.is_file()
+            normalizer = layout.best_vecnormalize if best else layout.vecnormalize
         if which == "best" and not path.is_file():
             path = layout.final_model
         if not path.is_file():
@@ -111,7 +109,7 @@ class TrainedPolicy:
             hp = resolve_hyperparams(entry, n_timesteps=1)
         except ValueError as error:
             raise ValueError(f"{layout.config_file}: {error}") from None
-        model = load_policy_model(algo, path, hp, env_id, env_kwargs)
+        model = load_on_copy(algo, path, hp, env_id, env_kwargs)
         if normalizer is not None:
             read_normalizer(normalizer)
         return cls(
