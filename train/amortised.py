@@ -91,7 +91,7 @@ from train.amortised_policy import (
     reference_targets,
 )
 from train.config import AMORTISED, write_yaml
-from train.layout import MADE_BY, RunLayout
+from train.layout import LOCK_FILE, MADE_BY, RunLayout, RunLock
 
 
 # --- settings ----------------------------------------------------------------------------------
@@ -447,6 +447,17 @@ class RunResult:
     summary: Mapping[str, Any]
 
 
+def _check_empty(run_dir: Path) -> None:
+    """ValueError unless ``run_dir`` is absent or an empty folder (its lock file aside)."""
+    if run_dir.exists() and (
+        not run_dir.is_dir() or any(p.name != LOCK_FILE for p in run_dir.iterdir())
+    ):
+        raise ValueError(
+            f"run_dir = {run_dir}: not an empty folder; an amortised run is not resumed "
+            "(it trains in minutes). Allowed: a new or empty folder"
+        )
+
+
 def train_run(
     env_id: str,
     env_kwargs: Mapping[str, Any],
@@ -467,11 +478,7 @@ def train_run(
     series = check_env_kwargs(env_id, env_kwargs)
     if run_dir is not None:
         run_dir = Path(run_dir)
-        if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
-            raise ValueError(
-                f"run_dir = {run_dir}: not an empty folder; an amortised run is not resumed "
-                "(it trains in minutes). Allowed: a new or empty folder"
-            )
+        _check_empty(run_dir)
     problem = make_problem(env_id, env_kwargs)
     n_time = settings.finetune_n_time or problem.config.options.n_time
     targets = reference_targets(
@@ -486,57 +493,67 @@ def train_run(
                 flush=True,
             )
 
-    start = time.perf_counter()
-    policy, training = train_policy(env_id, env_kwargs, targets, settings, seed, progress=report)
-    wall = time.perf_counter() - start
-    if run_dir is None:
-        layout = RunLayout.new(log_folder, AMORTISED, env_id)
-    else:
-        run_dir.mkdir(parents=True, exist_ok=True)
-        layout = RunLayout(run_dir, env_id)
-    policy = replace(policy, run_dir=layout.run_dir)
-    # the final policy at the training conditions, at the env's resolution
-    conditions = np.asarray(training_conditions(env_id))
-    found = problem.evaluate(policy.strokes(conditions), conditions)
-    table = load_reference_table()
-    summary = {
-        "algo": AMORTISED,
-        "env_id": env_id,
-        "seed": seed,
-        "wall_time": wall,
-        "regression_loss": training.regression_loss,
-        "regression_seconds": training.regression_seconds,
-        "finetune_seconds": training.finetune_seconds,
-        "num_timesteps": policy.num_timesteps,
-        "series": {key: getattr(series, key) for key in ("objective", "planform", "fingerprint")},
-        "reference_provenance": to_jsonable(dict(table.provenance)),
-        "training_evaluation": [
-            {
-                "condition": float(c),
-                "objective": float(o),
-                "feasible": bool(f),
-                "reference": float(r),
-            }
-            for c, o, f, r in zip(
-                conditions, found.objective, found.feasible, targets.objectives, strict=True
-            )
-        ],
-        "branches": training.branches,
-        "history": training.history,
-        "versions": package_versions(),
-    }
-    save_run(
-        layout,
-        policy,
-        settings,
-        {
-            "env": env_id,
+    with contextlib.ExitStack() as held:
+        if run_dir is not None:
+            # Claimed before the minutes of training: a second command on the same folder is
+            # refused now, not left to overwrite this one's files when both finish.
+            run_dir.mkdir(parents=True, exist_ok=True)
+            held.enter_context(RunLock(run_dir))
+            _check_empty(run_dir)
+        start = time.perf_counter()
+        policy, training = train_policy(
+            env_id, env_kwargs, targets, settings, seed, progress=report
+        )
+        wall = time.perf_counter() - start
+        if run_dir is None:
+            layout = RunLayout.new(log_folder, AMORTISED, env_id)
+        else:
+            layout = RunLayout(run_dir, env_id)
+        policy = replace(policy, run_dir=layout.run_dir)
+        # the final policy at the training conditions, at the env's resolution
+        conditions = np.asarray(training_conditions(env_id))
+        found = problem.evaluate(policy.strokes(conditions), conditions)
+        table = load_reference_table()
+        summary = {
+            "algo": AMORTISED,
+            "env_id": env_id,
             "seed": seed,
-            "env_kwargs": to_jsonable(dict(env_kwargs)),
-            "hyperparams": to_jsonable(dict(overrides)),
-            "log_folder": str(log_folder),
-            "run_dir": None if run_dir is None else str(run_dir),
-        },
-        summary,
-    )
-    return RunResult(layout.run_dir, summary)
+            "wall_time": wall,
+            "regression_loss": training.regression_loss,
+            "regression_seconds": training.regression_seconds,
+            "finetune_seconds": training.finetune_seconds,
+            "num_timesteps": policy.num_timesteps,
+            "series": {
+                key: getattr(series, key) for key in ("objective", "planform", "fingerprint")
+            },
+            "reference_provenance": to_jsonable(dict(table.provenance)),
+            "training_evaluation": [
+                {
+                    "condition": float(c),
+                    "objective": float(o),
+                    "feasible": bool(f),
+                    "reference": float(r),
+                }
+                for c, o, f, r in zip(
+                    conditions, found.objective, found.feasible, targets.objectives, strict=True
+                )
+            ],
+            "branches": training.branches,
+            "history": training.history,
+            "versions": package_versions(),
+        }
+        save_run(
+            layout,
+            policy,
+            settings,
+            {
+                "env": env_id,
+                "seed": seed,
+                "env_kwargs": to_jsonable(dict(env_kwargs)),
+                "hyperparams": to_jsonable(dict(overrides)),
+                "log_folder": str(log_folder),
+                "run_dir": None if run_dir is None else str(run_dir),
+            },
+            summary,
+        )
+        return RunResult(layout.run_dir, summary)

@@ -427,6 +427,28 @@ def test_a_run_folder_that_holds_files_is_refused(
     assert sorted(p.name for p in taken.iterdir()) == ["notes.txt"]
 
 
+def test_a_run_folder_another_command_trains_in_is_refused_before_training(
+    synthetic_table: ReferenceSeries, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Two commands given one empty --run-dir: the second finds the first's lock and stops
+    before it trains, instead of both training and the later one overwriting the other's files."""
+    from train.layout import RunLock
+
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    pairs = [f"{k}={v}" for k, v in TINY_SETTINGS.items()]
+    command = ["--algo", "amortised", "--env", LEVEL_FLIGHT_ID, "--run-dir", str(run_dir)]
+    with RunLock(run_dir), pytest.raises(SystemExit):
+        main([*command, "--hyperparams", *pairs])
+    captured = capsys.readouterr()
+    assert "is in use: another python -m train" in captured.err
+    assert "fine-tuning step" not in captured.out
+    assert sorted(p.name for p in run_dir.iterdir()) == [".train.lock"]
+    # once the other command has finished, the folder (its lock file aside) is empty: it trains
+    assert main([*command, "--hyperparams", *pairs, "--verbose", "0"]) == 0
+    assert (run_dir / "policy.json").is_file()
+
+
 def test_record_times_reads_the_tables_records_through_the_store(tmp_path: Path) -> None:
     """The optimiser's time to an optimum at a condition: the best feasible record's wall time,
     the sum and the count over the records there (other conditions and planforms left out),
