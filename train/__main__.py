@@ -225,7 +225,7 @@ def _train_amortised(parser: argparse.ArgumentParser, args: argparse.Namespace) 
     from tandem_env.envs.reference import REFERENCE_GRID
     from tandem_env.io.files import output_directory
     from train.amortised import Settings, check_env_kwargs, train_run
-    from train.config import MAX_SEED
+    from train.config import check_seed
 
     if args.env_id not in REFERENCE_GRID:
         from tandem_env.envs.registration import check_env_id
@@ -233,8 +233,7 @@ def _train_amortised(parser: argparse.ArgumentParser, args: argparse.Namespace) 
         check_env_id(args.env_id, "--env")
     env_kwargs = parse_pairs(args.env_kwargs, "--env-kwargs")
     overrides = parse_pairs(args.hyperparams, "--hyperparams")
-    if not 0 <= args.seed <= MAX_SEED:  # an int (argparse)
-        raise ValueError(f"seed = {args.seed!r}; allowed: an integer from 0 to 2**32 - 1")
+    check_seed(args.seed)
     Settings.from_mapping(overrides)
     check_env_kwargs(args.env_id, env_kwargs)
     output_directory(args.log_folder, "log_folder (-f)", write=False)

@@ -371,6 +371,14 @@ MAX_TIMESTEPS = 10**12
 MAX_SEED = 2**32 - 1
 
 
+def check_seed(value: Any, name: str = "seed") -> int:
+    """``value`` as a training seed [-]; ValueError naming ``name`` unless it is an integer from 0
+    to :data:`MAX_SEED`."""
+    if not is_integer(value) or not 0 <= value <= MAX_SEED:
+        raise ValueError(f"{name} = {value!r}; allowed: an integer from 0 to 2**32 - 1")
+    return int(value)
+
+
 @dataclass(frozen=True, kw_only=True)
 class TrainConfig:
     """Everything one training run is made from (the command line, as data).
@@ -420,12 +428,11 @@ class TrainConfig:
             value = getattr(self, name)
             if value is not None:
                 object.__setattr__(self, name, _positive_int(name, value))
-        for name, low in (("seed", 0), ("verbose", 0), ("torch_threads", 1)):
+        object.__setattr__(self, "seed", check_seed(self.seed))
+        for name, low in (("verbose", 0), ("torch_threads", 1)):
             object.__setattr__(self, name, count(getattr(self, name), name, low))
         if self.verbose > 2:
             raise ValueError(f"verbose = {self.verbose!r}; allowed: 0 quiet, 1 info, 2 debug")
-        if self.seed > MAX_SEED:
-            raise ValueError(f"seed = {self.seed!r}; allowed: an integer from 0 to 2**32 - 1")
         for name in ("eval_freq", "save_freq"):
             value = getattr(self, name)
             if not is_integer(value):

@@ -163,8 +163,9 @@ class TuneConfig:
                                     ("--steps", self.steps, MAX_STEPS)):  # fmt: skip
             if not is_integer(value) or not 1 <= value <= high:
                 raise ValueError(f"{option} {value!r}; allowed: an integer from 1 to {high:,}")
-        if not is_integer(self.seed) or self.seed < 0:
-            raise ValueError(f"--seed {self.seed!r}; allowed: an integer >= 0")
+        from train.config import check_seed
+
+        check_seed(self.seed, "--seed")
         gym.make(self.env_id, disable_env_checker=True, **self.env_kwargs).close()  # its options
 
 
@@ -291,7 +292,7 @@ def open_study(config: TuneConfig) -> Any:
     # Seeded by the trials already run too: a resumed study must not propose its first
     # random trials again.
     before = len(optuna.load_study(study_name=name, storage=storage).trials) if names else 0
-    sampler = optuna.samplers.TPESampler(seed=config.seed + before, n_startup_trials=5)
+    sampler = optuna.samplers.TPESampler(seed=(config.seed + before) % 2**32, n_startup_trials=5)
     study = optuna.create_study(
         study_name=name, storage=storage, sampler=sampler, direction="maximize", load_if_exists=True
     )

@@ -224,7 +224,9 @@ def test_training_settings_accept_numpy_integers() -> None:
     assert (config.n_timesteps, config.n_envs, config.seed, config.save_freq) == (100, 4, 3, 64)
     assert all(type(v) is int for v in (config.seed, config.eval_freq, config.log_interval))
     assert TrainingMethod("ppo", n_envs=np.int64(8)).n_envs == 8
-    with pytest.raises(ValueError, match=r"^seed = True; allowed: an integer >= 0"):
+    with pytest.raises(
+        ValueError, match=r"^seed = True; allowed: an integer from 0 to 2\*\*32 - 1"
+    ):
         TrainConfig(algo="ppo", env_id=LEVEL, seed=True)
     with pytest.raises(ValueError, match=r"^n_timesteps = '100'; allowed: an integer >= 1"):
         TrainConfig(algo="ppo", env_id=LEVEL, n_timesteps="100")

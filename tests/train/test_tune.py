@@ -61,7 +61,8 @@ def test_every_value_of_the_search_space_is_a_valid_entry(algo):
         ({"env_id": "TandemWing/SpeedChange-v0"}, "no reference table"),
         ({"trials": 0}, "--trials 0; allowed: an integer from 1 to"),
         ({"steps": 0}, "--steps 0; allowed: an integer from 1 to"),
-        ({"seed": -1}, "--seed -1; allowed: an integer >= 0"),
+        ({"seed": -1}, "--seed = -1; allowed: an integer from 0 to 2"),
+        ({"seed": 2**32}, "--seed = 4294967296; allowed: an integer from 0 to 2"),
         ({"env_kwargs": {"wingspan": 3}}, "unknown argument.*'wingspan'"),
     ],
 )
