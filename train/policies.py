@@ -31,7 +31,15 @@ from tandem_env.envs.registration import condition_keywords
 from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import count
 from train.amortised_policy import CITATION as AMORTISED_CITATION
-from train.config import ALGOS, Hyperparams, TrainConfig, check_algo, load_entry, plain
+from train.config import (
+    ALGOS,
+    Hyperparams,
+    TrainConfig,
+    check_algo,
+    load_entry,
+    plain,
+    resolve_hyperparams,
+)
 from train.layout import RunLayout, read_run_yaml, resolve_run_dir
 from train.run import budget_hyperparams, learn_in_memory, step_granularity, train
 from train.trained_policy import (
@@ -316,7 +324,7 @@ class TrainingMethod:
             history=list(result.history),
             steps=result.num_timesteps,
             hyperparams=saved,
-            n_envs=int(saved["n_envs"]),
+            n_envs=resolve_hyperparams(saved).n_envs,  # an entry may leave n_envs out
             final_action=np.clip(np.asarray(final["action"], dtype=np.float64), -1.0, 1.0),
             # float64 as the harness re-evaluates it (the adapter's reward is float32)
             final_reward=float(final["objective"] - final["penalty"]),

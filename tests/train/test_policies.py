@@ -149,3 +149,21 @@ def test_training_method_with_log_dir_writes_a_reusable_run(tmp_path: Path) -> N
     final = record.config["method"]["final_policy"]
     [again] = run(f"policy:{run_dir}", "level", 1.5, budget=1, seeds=[0], progress=False)
     assert again.reward == final["reward"]  # the saved final model plays the same stroke
+
+
+def test_training_method_with_log_dir_takes_a_conf_file_entry_without_n_envs(
+    tmp_path: Path,
+) -> None:
+    """A zoo entry may leave n_envs out (one env, as rl_zoo3 reads it); the run's record says
+    the one env it trained with."""
+    conf = tmp_path / "ppo.yml"
+    conf.write_text(
+        "TandemWing/LevelFlight-v0:\n  n_timesteps: 1000\n  policy: MlpPolicy\n"
+        "  n_steps: 64\n  batch_size: 64\n  n_epochs: 1\n"
+    )
+    settings = {"conf_file": str(conf), "log_dir": str(tmp_path / "logs")}
+    [record] = run(
+        "ppo", "level", 1.5, budget=128, seeds=[4], method_config=settings, progress=False
+    )
+    assert record.config["method"]["n_envs"] == 1
+    assert "n_envs" not in record.config["method"]["hyperparams"]
