@@ -91,7 +91,7 @@ from train.amortised_policy import (
     reference_targets,
 )
 from train.config import AMORTISED, write_yaml
-from train.layout import LOCK_FILE, MADE_BY, RunLayout, RunLock
+from train.layout import LOCK_FILE, MADE_BY, RunLayout, run_lock
 
 
 # --- settings ----------------------------------------------------------------------------------
@@ -498,7 +498,7 @@ def train_run(
             # Claimed before the minutes of training: a second command on the same folder is
             # refused now, not left to overwrite this one's files when both finish.
             run_dir.mkdir(parents=True, exist_ok=True)
-            held.enter_context(RunLock(run_dir))
+            held.enter_context(run_lock(run_dir))
             _check_empty(run_dir)
         start = time.perf_counter()
         policy, training = train_policy(

@@ -11,7 +11,6 @@ folder is not one, and ``python -m train`` never resumes in, or writes into, suc
 
 from __future__ import annotations
 
-import fcntl
 import os
 import pickle
 import pickletools
@@ -23,7 +22,7 @@ from typing import Any
 
 import yaml
 
-from tandem_env.io.files import read_json
+from tandem_env.io.files import FolderLock, read_json
 from tandem_env.physics.checks import is_real
 
 CHECKPOINT_PREFIX = "rl_model"
@@ -516,53 +515,15 @@ def resolve_run_dir(path: str | os.PathLike[str]) -> Path:
     return path.parent / f"{path.name}_{n}" if n else path
 
 
-class RunInUse(ValueError):
-    """Another process holds the run folder's lock (it is training there)."""
-
-
-class RunLock:
-    """The exclusive lock of a run folder, held while ``python -m train`` writes there.
-
-    An ``flock`` on ``<run>/.train.lock``: the kernel releases it when the holder exits, however
-    it exits, so a killed run leaves no stale lock (the file stays and is reused). The holder's
-    pid is written into the file for the refusal's message. Use as a context manager.
-    """
-
-    def __init__(self, run_dir: Path) -> None:
-        self.path = Path(run_dir) / LOCK_FILE
-        self._fd: int | None = None
-
-    def acquire(self) -> RunLock:
-        try:
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        except OSError as error:
-            raise ValueError(
-                f"{self.path.parent} is not writable ({error.strerror}); a run folder must be "
-                "writable to train in it. Allowed: a folder you can write, or a new run"
-            ) from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            holder = os.read(fd, 32).decode(errors="replace").strip() or "unknown"
-            os.close(fd)
-            raise RunInUse(
-                f"{self.path.parent} is in use: another python -m train (pid {holder}) is "
-                f"training there and holds {self.path.name}; nothing was changed. Allowed: wait "
-                "for it to finish, or resume another run"
-            ) from None
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()}\n".encode())
-        self._fd = fd
-        return self
-
-    def release(self) -> None:
-        if self._fd is not None:
-            fcntl.flock(self._fd, fcntl.LOCK_UN)
-            os.close(self._fd)
-            self._fd = None
-
-    def __enter__(self) -> RunLock:
-        return self.acquire() if self._fd is None else self
-
-    def __exit__(self, *exc: object) -> None:
-        self.release()
+def run_lock(run_dir: Path) -> FolderLock:
+    """The exclusive lock of a run folder (``<run>/.train.lock``), held while ``python -m train``
+    writes there; see :class:`tandem_env.io.files.FolderLock`."""
+    return FolderLock(
+        run_dir,
+        LOCK_FILE,
+        lambda pid: (
+            f"{run_dir} is in use: another python -m train (pid {pid}) is training there "
+            f"and holds {LOCK_FILE}; nothing was changed. Allowed: wait for it to finish, or resume "
+            "another run"
+        ),
+    )

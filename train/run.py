@@ -47,10 +47,10 @@ from train.layout import (
     Checkpoint,
     RunComplete,
     RunLayout,
-    RunLock,
     read_normalizer,
     read_result_segments,
     read_run_yaml,
+    run_lock,
 )
 from train.vec import (
     StrokeRecorder,
@@ -142,7 +142,7 @@ def whole_iterations(n_timesteps: int, unit: int) -> int:
 def plan_run(config: TrainConfig, held: contextlib.ExitStack) -> TrainPlan:
     """Where the run goes and what it resumes from; validates everything before any work.
 
-    The run folder is locked (:class:`~train.layout.RunLock`) before its files are read, so a
+    The run folder is locked (:class:`~train.layout.run_lock`) before its files are read, so a
     second command on the same run is refused instead of training beside the first; ``held``
     holds the lock, to the end of the run (:func:`train`), or releases it if the plan fails."""
     if config.resume:
@@ -160,7 +160,7 @@ def plan_run(config: TrainConfig, held: contextlib.ExitStack) -> TrainPlan:
     # A folder that is not ours was refused above, before the lock file is made in it.
     locked = False
     if layout is not None and layout.run_dir.is_dir():
-        held.enter_context(RunLock(layout.run_dir))
+        held.enter_context(run_lock(layout.run_dir))
         locked = True
     resume = config.resume  # the merge below turns a resume into a run of a given folder
     checkpoint = None
@@ -225,7 +225,7 @@ def plan_run(config: TrainConfig, held: contextlib.ExitStack) -> TrainPlan:
         layout = RunLayout.new(config.log_folder, config.algo, config.env_id)
     layout.run_dir.mkdir(parents=True, exist_ok=True)
     if not locked:  # a new folder (this process made it, or --run-dir of an absent one)
-        held.enter_context(RunLock(layout.run_dir))
+        held.enter_context(run_lock(layout.run_dir))
     _check_writable(layout)
     return TrainPlan(config, hp, env_kwargs, layout, checkpoint, target, unit, segments)
 

@@ -9,8 +9,6 @@ each Dask worker with one numba thread; this process writes each record as its r
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import hashlib
 import json
 import os
@@ -18,12 +16,12 @@ import sys
 import time
 import traceback
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from tandem_env.io.files import read_json, write_json_atomic
+from tandem_env.io.files import FolderLock, read_json, write_json_atomic
 
 from .case import RUN_FORMAT, Run
 
@@ -89,24 +87,19 @@ class RunStore:
         write_json_atomic(self.path(run), {**body, "checksum": _checksum(body)})
 
 
-@contextlib.contextmanager
-def locked(out_dir: str | os.PathLike[str]) -> Iterator[None]:
-    """Hold ``OUT/.crosscheck.lock`` (the kernel frees it when this process ends); ValueError
-    naming the folder if another process holds it."""
+def locked(out_dir: str | os.PathLike[str]) -> FolderLock:
+    """The lock of ``OUT/.crosscheck.lock`` (made if absent), held while a command writes there;
+    :class:`~tandem_env.io.files.FolderInUse` naming the folder if another process holds it."""
     directory = Path(out_dir)
     directory.mkdir(parents=True, exist_ok=True)
-    fd = os.open(directory / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise ValueError(
-                f"--out {str(directory)!r}: another cross-check is writing there; allowed: one "
-                "command per folder at a time (wait for it, or give another --out)"
-            ) from None
-        yield
-    finally:
-        os.close(fd)
+    return FolderLock(
+        directory,
+        LOCK_FILE,
+        lambda pid: (
+            f"--out {str(directory)!r}: another cross-check (pid {pid}) is writing there; "
+            "allowed: one command per folder at a time (wait for it, or give another --out)"
+        ),
+    )
 
 
 def _solve_on_worker(run: Run) -> dict[str, Any]:

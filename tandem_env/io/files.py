@@ -20,6 +20,7 @@ import contextlib
 import csv
 import dataclasses
 import errno
+import fcntl
 import io
 import json
 import os
@@ -33,6 +34,8 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "FolderInUse",
+    "FolderLock",
     "atomic_path",
     "new_file_mode",
     "output_directory",
@@ -232,6 +235,57 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         tmp.unlink(missing_ok=True)
         raise
     _fsync_directory(path.parent)
+
+
+class FolderInUse(ValueError):
+    """Another process holds the folder's lock (:class:`FolderLock`)."""
+
+
+class FolderLock:
+    """The exclusive lock of a folder that one command writes in, held as a context manager.
+
+    An ``flock`` on ``folder/name``: the kernel releases it when the holder exits, however it
+    exits, so a killed command leaves no stale lock (the file stays and is reused). The holder
+    writes its pid into the file; another process's :meth:`acquire` raises :class:`FolderInUse`
+    with ``busy(pid)`` as its message, and ValueError naming the folder if it cannot open the
+    file there.
+    """
+
+    def __init__(self, folder: str | os.PathLike[str], name: str, busy: Callable[[str], str]):
+        self.path = Path(folder) / name
+        self._busy = busy
+        self._fd: int | None = None
+
+    def acquire(self) -> FolderLock:
+        try:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as error:
+            raise ValueError(
+                f"{self.path.parent} is not writable ({error.strerror}); allowed: a folder you "
+                "can write"
+            ) from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            holder = os.read(fd, 32).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise FolderInUse(self._busy(holder)) from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        self._fd = fd
+        return self
+
+    def release(self) -> None:
+        if self._fd is not None:
+            fcntl.flock(self._fd, fcntl.LOCK_UN)
+            os.close(self._fd)
+            self._fd = None
+
+    def __enter__(self) -> FolderLock:
+        return self.acquire() if self._fd is None else self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
 
 
 def _replacement_mode(path: Path) -> int:

@@ -5,6 +5,7 @@ model's side and the run records. The solver's own runs: test_crosscheck_uvlm.py
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -28,7 +29,7 @@ from eval.crosscheck.case import (
 )
 from eval.crosscheck.cli import STUDY_LAGS
 from eval.crosscheck.report import ours
-from eval.crosscheck.store import RunRecordWarning, RunStore
+from eval.crosscheck.store import RunRecordWarning, RunStore, locked
 from tandem_env.physics import DRAGONFLY, PARAMETER_NAMES
 from tandem_env.physics.kinematics import pitching, weaving
 
@@ -90,6 +91,23 @@ def test_a_missing_extra_is_one_line_and_exit_2(
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and 'pip install -e ".[uvlm]"' in err[0]
     assert not (tmp_path / "out" / "runs").exists()
+
+
+def test_a_second_command_on_the_same_folder_is_refused_before_any_run(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture, tmp_path: Path
+) -> None:
+    def solve(run: object) -> None:
+        raise AssertionError("a run was started")
+
+    monkeypatch.setattr(uvlm, "solver_version", lambda: "0.0")  # with the extra or without
+    monkeypatch.setattr(uvlm, "solve", solve)
+    out = tmp_path / "out"
+    with locked(out), pytest.raises(SystemExit) as stop:
+        main(["crosscheck", "--grid", "tiny", "--out", str(out)])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert f"another cross-check (pid {os.getpid()}) is writing there" in err
+    assert sorted(p.name for p in out.iterdir()) == [".crosscheck.lock"]
 
 
 def test_sinusoidal_family_limit_keeps_the_waveforms_within_0_15_percent() -> None:

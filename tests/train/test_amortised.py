@@ -432,13 +432,13 @@ def test_a_run_folder_another_command_trains_in_is_refused_before_training(
 ) -> None:
     """Two commands given one empty --run-dir: the second finds the first's lock and stops
     before it trains, instead of both training and the later one overwriting the other's files."""
-    from train.layout import RunLock
+    from train.layout import run_lock
 
     run_dir = tmp_path / "run"
     run_dir.mkdir()
     pairs = [f"{k}={v}" for k, v in TINY_SETTINGS.items()]
     command = ["--algo", "amortised", "--env", LEVEL_FLIGHT_ID, "--run-dir", str(run_dir)]
-    with RunLock(run_dir), pytest.raises(SystemExit):
+    with run_lock(run_dir), pytest.raises(SystemExit):
         main([*command, "--hyperparams", *pairs])
     captured = capsys.readouterr()
     assert "is in use: another python -m train" in captured.err

@@ -21,16 +21,16 @@ import pytest
 import yaml
 
 from tandem_env.envs.registration import LEVEL_FLIGHT_ID
+from tandem_env.io.files import FolderInUse
 from tandem_env.io.progress_bar import ProgressBar, warnings_as_lines
 from train.__main__ import main
 from train.layout import (
     LOCK_FILE,
-    RunInUse,
     RunLayout,
-    RunLock,
     parse_run_yaml,
     read_run_yaml,
     resolve_run_dir,
+    run_lock,
 )
 
 REPO = Path(__file__).resolve().parents[2]
@@ -225,13 +225,13 @@ def test_a_second_command_on_a_run_in_use_is_refused(
 ) -> None:
     layout = _copy(finished_run, tmp_path)
     files = _files(layout.run_dir)
-    with RunLock(layout.run_dir):
+    with run_lock(layout.run_dir):
         err = _refused([*COMMON, "--resume", "-f", str(tmp_path), "-n", "192"], capsys)
         assert f"{layout.run_dir} is in use: another python -m train (pid {os.getpid()})" in err
-        with pytest.raises(RunInUse):
-            RunLock(layout.run_dir).acquire()
+        with pytest.raises(FolderInUse):
+            run_lock(layout.run_dir).acquire()
     assert _files(layout.run_dir) == files
-    RunLock(layout.run_dir).acquire().release()  # released on exit of the block
+    run_lock(layout.run_dir).acquire().release()  # released on exit of the block
 
 
 def test_the_lock_of_a_killed_process_is_not_stale(tmp_path: Path) -> None:
@@ -239,8 +239,8 @@ def test_the_lock_of_a_killed_process_is_not_stale(tmp_path: Path) -> None:
         [
             sys.executable,
             "-c",
-            "import sys, time; from train.layout import RunLock; "
-            f"RunLock({str(tmp_path)!r}).acquire(); print('held', flush=True); time.sleep(60)",
+            "import sys, time; from train.layout import run_lock; "
+            f"run_lock({str(tmp_path)!r}).acquire(); print('held', flush=True); time.sleep(60)",
         ],
         cwd=REPO,
         stdout=subprocess.PIPE,
@@ -248,12 +248,12 @@ def test_the_lock_of_a_killed_process_is_not_stale(tmp_path: Path) -> None:
     )
     try:
         assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
-        with pytest.raises(RunInUse, match=f"pid {holder.pid}"):
-            RunLock(tmp_path).acquire()
+        with pytest.raises(FolderInUse, match=f"pid {holder.pid}"):
+            run_lock(tmp_path).acquire()
     finally:
         holder.kill()
         holder.wait()
-    with RunLock(tmp_path):  # the kernel released the killed holder's lock
+    with run_lock(tmp_path):  # the kernel released the killed holder's lock
         assert (tmp_path / LOCK_FILE).read_text().strip() == str(os.getpid())
 
 
