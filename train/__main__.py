@@ -223,25 +223,17 @@ def _train_amortised(parser: argparse.ArgumentParser, args: argparse.Namespace) 
             "only; allowed with amortised: planform=tear-drop or planform=real"
         )
     from tandem_env.envs.reference import REFERENCE_GRID
-    from tandem_env.io.files import output_directory
-    from train.amortised import Settings, check_env_kwargs, train_run
-    from train.config import check_seed
+    from train.amortised import train_run
 
     if args.env_id not in REFERENCE_GRID:
         from tandem_env.envs.registration import check_env_id
 
         check_env_id(args.env_id, "--env")
-    env_kwargs = parse_pairs(args.env_kwargs, "--env-kwargs")
-    overrides = parse_pairs(args.hyperparams, "--hyperparams")
-    check_seed(args.seed)
-    Settings.from_mapping(overrides)
-    check_env_kwargs(args.env_id, env_kwargs)
-    output_directory(args.log_folder, "log_folder (-f)", write=False)
-    with warnings_as_lines():
+    with warnings_as_lines():  # train_run checks the rest before it trains
         return train_run(
             args.env_id,
-            env_kwargs,
-            overrides,
+            parse_pairs(args.env_kwargs, "--env-kwargs"),
+            parse_pairs(args.hyperparams, "--hyperparams"),
             args.seed,
             Path(args.log_folder),
             run_dir=None if args.run_dir is None else Path(args.run_dir),

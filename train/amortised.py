@@ -70,6 +70,7 @@ import numpy as np
 
 from tandem_env.io.files import (
     atomic_path,
+    output_directory,
     to_jsonable,
     write_json_atomic,
 )
@@ -90,7 +91,7 @@ from train.amortised_policy import (
     output_centres,
     reference_targets,
 )
-from train.config import AMORTISED, write_yaml
+from train.config import AMORTISED, check_seed, write_yaml
 from train.layout import LOCK_FILE, MADE_BY, RunLayout, run_lock
 
 
@@ -476,6 +477,8 @@ def train_run(
 
     settings = Settings.from_mapping(overrides)
     series = check_env_kwargs(env_id, env_kwargs)
+    check_seed(seed)
+    output_directory(log_folder, "log_folder (-f)", write=False)
     if run_dir is not None:
         run_dir = Path(run_dir)
         _check_empty(run_dir)
