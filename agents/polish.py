@@ -43,52 +43,25 @@ from scipy.optimize import (
     nnls,
 )
 
-from agents.polish_config import (
-    INITIAL_SHARE_RANGE,
-    MAX_STARTS,
-    POLISH_DEFAULTS,
-    POLISH_METHODS,
-    POLISH_SETTINGS,
-    PolishConfig,
-    split_settings,
-)
-from agents.polish_gradients import (
-    AutogradGradient,
-    BatchEvaluation,
-    CentralDifferences,
-    Gradient,
-    GradientFunction,
-    Problem,
-    env_problem,
-    polishable,
-    task_problem,
-)
+from agents.polish_config import *  # noqa: F403  (the polish's settings, see __all__)
+from agents.polish_config import PolishConfig
+from agents.polish_config import __all__ as _config_names
+from agents.polish_gradients import *  # noqa: F403  (its problem and gradients, see __all__)
+from agents.polish_gradients import CentralDifferences, Gradient, GradientFunction, Problem
+from agents.polish_gradients import __all__ as _gradient_names
 from tandem_env.envs.base import ACTION_DTYPE, as_action_type
 from tandem_env.physics.checks import is_integer
 
+# The public names of the settings and gradient modules are this module's too.
 __all__ = [
-    "INITIAL_SHARE_RANGE",
-    "MAX_STARTS",
-    "POLISH_DEFAULTS",
-    "POLISH_METHODS",
-    "POLISH_SETTINGS",
-    "AutogradGradient",
-    "BatchEvaluation",
-    "CentralDifferences",
     "Certificate",
-    "Gradient",
-    "GradientFunction",
-    "PolishConfig",
     "PolishResult",
-    "Problem",
     "describe",
-    "env_problem",
     "float32_margin",
     "kkt_residual",
     "polish",
-    "polishable",
-    "split_settings",
-    "task_problem",
+    *_config_names,
+    *_gradient_names,
 ]
 
 
@@ -336,27 +309,18 @@ def polish(
         # values outside the bounds it clips; the outcome is in the certificate either way
         warnings.simplefilter("ignore")
         try:
-            common = {"jac": jac, "bounds": bounds, "callback": count}
+            # each optimiser's own form of the constraints and of the stopping tolerance
             if config.method == "slsqp":
-                outcome = minimize(
-                    fun,
-                    z0,
-                    method="SLSQP",
-                    constraints=[{"type": "ineq", "fun": cons, "jac": cons_jac}],
-                    options={"ftol": config.tolerance, "maxiter": config.max_iterations},
-                    **common,
-                )
+                constraint: Any = {"type": "ineq", "fun": cons, "jac": cons_jac}
+                own = {"method": "SLSQP", "options": {"ftol": config.tolerance}}
             else:
+                constraint = NonlinearConstraint(cons, 0.0, np.inf, jac=cons_jac, hess=BFGS())
                 tolerances = {"gtol": config.tolerance, "xtol": config.tolerance}
-                outcome = minimize(
-                    fun,
-                    z0,
-                    hess=BFGS(),
-                    method="trust-constr",
-                    constraints=[NonlinearConstraint(cons, 0.0, np.inf, jac=cons_jac, hess=BFGS())],
-                    options={**tolerances, "maxiter": config.max_iterations},
-                    **common,
-                )
+                own = {"method": "trust-constr", "hess": BFGS(), "options": tolerances}
+            own["options"]["maxiter"] = config.max_iterations
+            outcome = minimize(
+                fun, z0, jac=jac, bounds=bounds, callback=count, constraints=[constraint], **own
+            )
         except _OutOfBudget:
             failure = "allowance used up"
         except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
