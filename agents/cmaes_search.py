@@ -226,8 +226,7 @@ class CMAES(AskTellOptimiser):
         self._run = RunInfo(regime, popsize, float(sigma), start)  # type: ignore[arg-type]
         self._best: list[float] = []  # best fitness of each generation told
         self._median: list[float] = []  # ... and its median
-        patience = self._config.patience
-        self._patience = patience or 120 + math.ceil(30 * self.dim / popsize)
+        self._patience = self._config.patience or 120 + math.ceil(30 * self.dim / popsize)
 
     def _batch(self) -> int:
         return self._es.population_size

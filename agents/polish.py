@@ -27,6 +27,7 @@ otherwise the start is kept and the certificate says why.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import warnings
 from collections.abc import Mapping
@@ -265,9 +266,7 @@ def polish(
     # The coordinates the polish does not move (the discrete ones) are held as the action type
     # carries them from the start: the stroke it evaluates last is then the one it reports
     # (a start that is no float32 action, e.g. a policy's, would otherwise differ there).
-    fixed = np.ones(problem.dim, dtype=bool)
-    fixed[np.asarray(problem.free)] = False
-    x0 = np.where(fixed, as_action_type(x0), x0)
+    x0 = np.where(np.isin(np.arange(problem.dim), problem.free), x0, as_action_type(x0))
     grad_fn = gradient if gradient is not None else CentralDifferences(problem, config.step)
     template = Certificate(method=config.method, status="", gradient=grad_fn.name)
     if budget < 2 * grad_fn.cost:
@@ -329,10 +328,8 @@ def polish(
     if outcome is not None:
         iterations = int(outcome.get("nit", iterations))
         # the optimiser's last point, for the certificate (it is feasible only if it says so)
-        try:
+        with contextlib.suppress(_OutOfBudget):
             run.value(np.asarray(outcome.x))
-        except _OutOfBudget:
-            pass
     template = replace(
         template,
         iterations=iterations,
