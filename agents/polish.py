@@ -143,8 +143,8 @@ class Certificate:
         return out
 
     @classmethod
-    def off(cls, status: str = "off") -> Certificate:
-        return cls(method="none", status=status)
+    def off(cls) -> Certificate:
+        return cls(method="none", status="off")
 
 
 @dataclass(frozen=True)

@@ -143,14 +143,14 @@ class RecordStore:
                     f"{path} is a file; allowed: a directory for the records (created if missing)"
                 )
 
-    def check(self, option: str = "--out", *, write: bool = True, jobs: Iterable[Job] = ()) -> bool:
+    def check(self, *, write: bool = True, jobs: Iterable[Job] = ()) -> bool:
         """Check every path the store writes before any work (:func:`output_directory`): the
         folder, its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError
         naming the path and what is allowed, or (without ``write``) False if it cannot be
         written now."""
         records = [f"{RECORDS_DIR}/{job.key}.json" for job in jobs]
         return output_directory(
-            self._given, option, write=write, folders=(RECORDS_DIR,),
+            self._given, "--out", write=write, folders=(RECORDS_DIR,),
             files=(SUMMARY_NAME, *records),
         )  # fmt: skip
 
