@@ -48,8 +48,9 @@ from agents.optimiser import (
     FloatArray,
     SeedLike,
     check_int,
-    check_real,
-    store_plain,
+    check_settings,
+    integer_setting,
+    real_setting,
 )
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
 
@@ -95,35 +96,28 @@ def discrete_levels(levels: int) -> FloatArray:
 class CMAESConfig:
     """Configuration of :class:`CMAES` (defaults chosen by measurement: docs/harness.md)."""
 
-    max_evaluations: int
+    max_evaluations: int = integer_setting(1)
     """Points evaluated (>= 1); the last population is truncated to fit."""
-    popsize: int | None = None
+    popsize: int | None = integer_setting(MIN_POPSIZE, default=None)
     """Population of the first run (>= 4); None uses :func:`default_popsize` of the dimension."""
-    sigma0: float = 0.5
+    sigma0: float = real_setting(0.0, MAX_SIGMA0, low_inclusive=False, default=0.5)
     """Initial step size [box units; the box is 2 wide], in (0, 2]."""
     restarts: Restarts = "bipop"
     """Restart schedule (module docstring)."""
-    patience: int | None = None
+    patience: int | None = integer_setting(1, default=None)
     """Shortest stagnation history [generations] (>= 1); None: ``120 + ⌈30 d / λ⌉`` per run."""
-    tolerance: float = 1e-4
+    tolerance: float = real_setting(0.0, math.inf, low_inclusive=True, default=1e-4)
     """Relative rise of the history's median (best) fitness that counts as progress (>= 0)."""
-    resampling: int = 100
+    resampling: int = integer_setting(0, default=100)
     """Draws of a candidate outside the box before it is clipped (the package's
     ``n_max_resampling``, >= 0)."""
     discrete: tuple[tuple[int, int], ...] = ()
     """``(index, levels)`` of each discrete coordinate: distinct indices >= 0, levels >= 2."""
 
     def __post_init__(self) -> None:
-        check_int("max_evaluations", self.max_evaluations, minimum=1)
-        if self.popsize is not None:
-            check_int("popsize", self.popsize, minimum=MIN_POPSIZE)
-        check_real("sigma0", self.sigma0, low=0.0, high=MAX_SIGMA0, low_inclusive=False)
+        check_settings(self)
         if self.restarts not in _SCHEDULES:
             raise ValueError(f"restarts must be one of {get_args(Restarts)}, got {self.restarts!r}")
-        if self.patience is not None:
-            check_int("patience", self.patience, minimum=1)
-        check_real("tolerance", self.tolerance, low=0.0, high=math.inf, low_inclusive=True)
-        check_int("resampling", self.resampling, minimum=0)
         allowed = "a tuple of distinct (index >= 0, levels >= 2) pairs"
         try:
             pairs = tuple(tuple(pair) for pair in self.discrete)
@@ -137,11 +131,6 @@ class CMAESConfig:
         if len({i for i, _ in pairs}) != len(pairs):
             raise ValueError(f"discrete must be {allowed}; index repeated in {self.discrete!r}")
         object.__setattr__(self, "discrete", tuple((int(i), int(k)) for i, k in pairs))
-        store_plain(
-            self,
-            ints=("max_evaluations", "popsize", "patience", "resampling"),
-            floats=("sigma0", "tolerance"),
-        )
 
     @property
     def citation(self) -> str:
@@ -237,8 +226,7 @@ class CMAES(AskTellOptimiser):
         self._run = RunInfo(regime, popsize, float(sigma), start)  # type: ignore[arg-type]
         self._best: list[float] = []  # best fitness of each generation told
         self._median: list[float] = []  # ... and its median
-        patience = self._config.patience
-        self._patience = patience or 120 + math.ceil(30 * self.dim / popsize)
+        self._patience = self._config.patience or 120 + math.ceil(30 * self.dim / popsize)
 
     def _batch(self) -> int:
         return self._es.population_size

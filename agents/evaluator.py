@@ -10,7 +10,6 @@ run evaluates strokes").
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import time
 from collections.abc import Callable, Mapping
@@ -195,28 +194,18 @@ class Reevaluation:
 
 
 def reevaluate(
-    task: TaskSpec,
-    condition: Condition,
-    env_kwargs: Mapping[str, Any],
-    seed: int,
-    action: np.ndarray,
-    env: gym.Env | None = None,
+    env: gym.Env, task: TaskSpec, condition: Condition, seed: int, action: np.ndarray
 ) -> Reevaluation:
-    """Evaluate ``action`` once more in a single env of the task, reset with ``seed``.
+    """Evaluate ``action`` once more in ``env``, a single env of the task (the harness's job
+    env), reset with ``seed``.
 
     The single env and the vector env share one batched core, so this gives the same reward
     as during the search; doing it in a single env of its own (not the search's vector env)
-    makes the record independent of any state the search left behind. ``env`` is that env made
-    with ``env_kwargs`` when the caller has one (the harness's job env), else one is made here
-    and closed.
+    makes the record independent of any state the search left behind.
     """
-    with contextlib.ExitStack() as stack:
-        if env is None:
-            env = gym.make(task.env_id, disable_env_checker=True, **env_kwargs)
-            stack.callback(env.close)
-        env.reset(seed=seed, options={task.reset_option: condition.value})
-        _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
-        return Reevaluation(float(reward), dict(info), env_config_dict(env))
+    env.reset(seed=seed, options={task.reset_option: condition.value})
+    _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
+    return Reevaluation(float(reward), dict(info), env_config_dict(env))
 
 
 def env_config_dict(env: gym.Env) -> dict[str, Any] | None:

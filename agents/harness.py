@@ -278,14 +278,7 @@ def _run_prepared(
     evaluations = sum(part.evaluations for part in parts)
     if evaluations > budget:  # every part counts its own; never over its share
         raise RuntimeError(f"search and polish used {evaluations} > budget {budget}")
-    again = reevaluate(
-        prepared.task,
-        prepared.condition,
-        prepared.env_kwargs,
-        prepared.job.seed,
-        chosen.action,
-        env,
-    )
+    again = reevaluate(env, prepared.task, prepared.condition, prepared.job.seed, chosen.action)
     if not chosen.feasible and chosen.kind == "initial":
         # an infeasible initial stroke has no search reward: its reward is the re-evaluation's
         chosen = replace(chosen, reward=again.reward)

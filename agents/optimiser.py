@@ -7,8 +7,10 @@ budget, best-so-far bookkeeping and history, and the checks of their settings.
 
 from __future__ import annotations
 
+import functools
 import math
 from abc import ABC, abstractmethod
+from dataclasses import MISSING, field, fields
 from typing import Any, Protocol
 
 import numpy as np
@@ -37,16 +39,6 @@ def check_int(name: str, value: object, *, minimum: int, maximum: int | None = N
         raise ValueError(f"{name} must be an integer >= {minimum}{most}, got {value!r}")
 
 
-def store_plain(instance: object, ints: tuple[str, ...], floats: tuple[str, ...] = ()) -> None:
-    """Replace validated numpy scalars on a frozen dataclass by Python int / float: accepted as
-    settings (sweeps come from arrays), stored plain so ``to_dict()`` is JSON-ready."""
-    for names, kind in ((ints, int), (floats, float)):
-        for name in names:
-            value = getattr(instance, name)
-            if value is not None:
-                object.__setattr__(instance, name, kind(value))
-
-
 def check_real(name: str, value: object, *, low: float, high: float, low_inclusive: bool) -> None:
     """Raise ValueError unless ``value`` is a finite real number in the stated interval."""
     ok = (
@@ -61,6 +53,32 @@ def check_real(name: str, value: object, *, low: float, high: float, low_inclusi
         raise ValueError(
             f"{name} must be a finite number in {opening}{low}, {high}{closing}, got {value!r}"
         )
+
+
+def integer_setting(minimum: int, maximum: int | None = None, *, default: Any = MISSING) -> Any:
+    """A config field holding an integer ``>= minimum`` (and ``<= maximum``), checked by
+    :func:`check_settings` (:func:`check_int`); a None ``default`` also allows None."""
+    check = functools.partial(check_int, minimum=minimum, maximum=maximum)
+    return field(default=default, metadata={"check": check, "plain": int})
+
+
+def real_setting(low: float, high: float, *, low_inclusive: bool, default: Any = MISSING) -> Any:
+    """A config field holding a finite number in the interval, checked by
+    :func:`check_settings` (:func:`check_real`); a None ``default`` also allows None."""
+    check = functools.partial(check_real, low=low, high=high, low_inclusive=low_inclusive)
+    return field(default=default, metadata={"check": check, "plain": float})
+
+
+def check_settings(config: Any) -> None:
+    """Check every field of the frozen dataclass ``config`` declared by :func:`integer_setting`
+    or :func:`real_setting` (ValueError naming it), and store it as a Python int / float:
+    numpy scalars are accepted (sweeps come from arrays), stored plain so ``to_dict()`` is
+    JSON-ready."""
+    for spec in fields(config):
+        value = getattr(config, spec.name)
+        if "check" in spec.metadata and not (value is None and spec.default is None):
+            spec.metadata["check"](spec.name, value)
+            object.__setattr__(config, spec.name, spec.metadata["plain"](value))
 
 
 class Tally:

@@ -86,16 +86,9 @@ class Part:
 
     def summary(self) -> dict[str, Any]:
         """The part's line in the record's ``starts``."""
-        return {
-            "kind": self.kind,
-            "seed": self.seed,
-            "evaluations": self.evaluations,
-            "reward": self.reward,
-            "feasible": self.feasible,
-            "selection": self.selection,
-            "polish": self.certificate.status,
-            "gain": self.certificate.gain,
-        }
+        own = ("kind", "seed", "evaluations", "reward", "feasible", "selection")
+        row = {name: getattr(self, name) for name in own}
+        return row | {"polish": self.certificate.status, "gain": self.certificate.gain}
 
 
 def plan_parts(config: PolishConfig, budget: int) -> list[tuple[str, int, np.ndarray | None]]:

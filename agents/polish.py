@@ -27,6 +27,7 @@ otherwise the start is kept and the certificate says why.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import warnings
 from collections.abc import Mapping
@@ -43,52 +44,25 @@ from scipy.optimize import (
     nnls,
 )
 
-from agents.polish_config import (
-    INITIAL_SHARE_RANGE,
-    MAX_STARTS,
-    POLISH_DEFAULTS,
-    POLISH_METHODS,
-    POLISH_SETTINGS,
-    PolishConfig,
-    split_settings,
-)
-from agents.polish_gradients import (
-    AutogradGradient,
-    BatchEvaluation,
-    CentralDifferences,
-    Gradient,
-    GradientFunction,
-    Problem,
-    env_problem,
-    polishable,
-    task_problem,
-)
+from agents.polish_config import *  # noqa: F403  (the polish's settings, see __all__)
+from agents.polish_config import PolishConfig
+from agents.polish_config import __all__ as _config_names
+from agents.polish_gradients import *  # noqa: F403  (its problem and gradients, see __all__)
+from agents.polish_gradients import CentralDifferences, Gradient, GradientFunction, Problem
+from agents.polish_gradients import __all__ as _gradient_names
 from tandem_env.envs.base import ACTION_DTYPE, as_action_type
 from tandem_env.physics.checks import is_integer
 
+# The public names of the settings and gradient modules are this module's too.
 __all__ = [
-    "INITIAL_SHARE_RANGE",
-    "MAX_STARTS",
-    "POLISH_DEFAULTS",
-    "POLISH_METHODS",
-    "POLISH_SETTINGS",
-    "AutogradGradient",
-    "BatchEvaluation",
-    "CentralDifferences",
     "Certificate",
-    "Gradient",
-    "GradientFunction",
-    "PolishConfig",
     "PolishResult",
-    "Problem",
     "describe",
-    "env_problem",
     "float32_margin",
     "kkt_residual",
     "polish",
-    "polishable",
-    "split_settings",
-    "task_problem",
+    *_config_names,
+    *_gradient_names,
 ]
 
 
@@ -169,8 +143,8 @@ class Certificate:
         return out
 
     @classmethod
-    def off(cls, status: str = "off") -> Certificate:
-        return cls(method="none", status=status)
+    def off(cls) -> Certificate:
+        return cls(method="none", status="off")
 
 
 @dataclass(frozen=True)
@@ -292,9 +266,7 @@ def polish(
     # The coordinates the polish does not move (the discrete ones) are held as the action type
     # carries them from the start: the stroke it evaluates last is then the one it reports
     # (a start that is no float32 action, e.g. a policy's, would otherwise differ there).
-    fixed = np.ones(problem.dim, dtype=bool)
-    fixed[np.asarray(problem.free)] = False
-    x0 = np.where(fixed, as_action_type(x0), x0)
+    x0 = np.where(np.isin(np.arange(problem.dim), problem.free), x0, as_action_type(x0))
     grad_fn = gradient if gradient is not None else CentralDifferences(problem, config.step)
     template = Certificate(method=config.method, status="", gradient=grad_fn.name)
     if budget < 2 * grad_fn.cost:
@@ -336,27 +308,18 @@ def polish(
         # values outside the bounds it clips; the outcome is in the certificate either way
         warnings.simplefilter("ignore")
         try:
-            common = {"jac": jac, "bounds": bounds, "callback": count}
+            # each optimiser's own form of the constraints and of the stopping tolerance
             if config.method == "slsqp":
-                outcome = minimize(
-                    fun,
-                    z0,
-                    method="SLSQP",
-                    constraints=[{"type": "ineq", "fun": cons, "jac": cons_jac}],
-                    options={"ftol": config.tolerance, "maxiter": config.max_iterations},
-                    **common,
-                )
+                constraint: Any = {"type": "ineq", "fun": cons, "jac": cons_jac}
+                own = {"method": "SLSQP", "options": {"ftol": config.tolerance}}
             else:
+                constraint = NonlinearConstraint(cons, 0.0, np.inf, jac=cons_jac, hess=BFGS())
                 tolerances = {"gtol": config.tolerance, "xtol": config.tolerance}
-                outcome = minimize(
-                    fun,
-                    z0,
-                    hess=BFGS(),
-                    method="trust-constr",
-                    constraints=[NonlinearConstraint(cons, 0.0, np.inf, jac=cons_jac, hess=BFGS())],
-                    options={**tolerances, "maxiter": config.max_iterations},
-                    **common,
-                )
+                own = {"method": "trust-constr", "hess": BFGS(), "options": tolerances}
+            own["options"]["maxiter"] = config.max_iterations
+            outcome = minimize(
+                fun, z0, jac=jac, bounds=bounds, callback=count, constraints=[constraint], **own
+            )
         except _OutOfBudget:
             failure = "allowance used up"
         except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
@@ -365,10 +328,8 @@ def polish(
     if outcome is not None:
         iterations = int(outcome.get("nit", iterations))
         # the optimiser's last point, for the certificate (it is feasible only if it says so)
-        try:
+        with contextlib.suppress(_OutOfBudget):
             run.value(np.asarray(outcome.x))
-        except _OutOfBudget:
-            pass
     template = replace(
         template,
         iterations=iterations,

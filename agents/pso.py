@@ -40,9 +40,9 @@ from agents.optimiser import (
     AskTellOptimiser,
     FloatArray,
     SeedLike,
-    check_int,
-    check_real,
-    store_plain,
+    check_settings,
+    integer_setting,
+    real_setting,
 )
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
 
@@ -79,25 +79,25 @@ _CITATIONS: dict[str, str] = {
 class PSOConfig:
     """Configuration of :class:`PSO`."""
 
-    max_evaluations: int
+    max_evaluations: int = integer_setting(1)
     """Particle evaluations (>= 1; the initial swarm counts); the last iteration is truncated
     to fit."""
-    swarm_size: int = 40
+    swarm_size: int = integer_setting(2, MAX_BATCH, default=40)
     """Number of particles (>= 2)."""
     inertia: Inertia = "constriction"
     """Parameter set; see the module docstring."""
-    cognitive: float | None = None
+    cognitive: float | None = real_setting(0.0, math.inf, low_inclusive=True, default=None)
     """Override of c1 (>= 0); None uses the value of the chosen parameter set."""
-    social: float | None = None
+    social: float | None = real_setting(0.0, math.inf, low_inclusive=True, default=None)
     """Override of c2 (>= 0); None uses the value of the chosen parameter set."""
-    velocity_clamp: float = 0.5
+    velocity_clamp: float = real_setting(0.0, 1.0, low_inclusive=False, default=0.5)
     """Maximum |v| per dimension as a fraction of the box width 2, in (0, 1]."""
     boundary: Boundary = "clip"
     """``"clip"`` puts a particle that leaves the box on the wall and zeroes that velocity
     component; ``"reflect"`` mirrors the position back inside and reverses the component."""
 
     def __post_init__(self) -> None:
-        check_int("swarm_size", self.swarm_size, minimum=2, maximum=MAX_BATCH)
+        check_settings(self)
         if self.inertia not in get_args(Inertia):
             raise ValueError(f"inertia must be one of {get_args(Inertia)}, got {self.inertia!r}")
         if self.boundary not in get_args(Boundary):
@@ -105,17 +105,6 @@ class PSOConfig:
                 f"boundary must be one of {get_args(Boundary)} (wrap-around is not supported), "
                 f"got {self.boundary!r}"
             )
-        for name in ("cognitive", "social"):
-            value = getattr(self, name)
-            if value is not None:
-                check_real(name, value, low=0.0, high=math.inf, low_inclusive=True)
-        check_real("velocity_clamp", self.velocity_clamp, low=0.0, high=1.0, low_inclusive=False)
-        check_int("max_evaluations", self.max_evaluations, minimum=1)
-        store_plain(
-            self,
-            ints=("swarm_size", "max_evaluations"),
-            floats=("cognitive", "social", "velocity_clamp"),
-        )
 
     @property
     def c1(self) -> float:

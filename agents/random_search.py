@@ -10,8 +10,8 @@ from agents.optimiser import (
     AskTellOptimiser,
     FloatArray,
     SeedLike,
-    check_int,
-    store_plain,
+    check_settings,
+    integer_setting,
 )
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
 
@@ -22,15 +22,13 @@ __all__ = ["RandomSearch", "RandomSearchConfig"]
 class RandomSearchConfig:
     """Configuration of :class:`RandomSearch`."""
 
-    max_evaluations: int
+    max_evaluations: int = integer_setting(1)
     """Points evaluated (>= 1); the last batch is truncated to fit."""
-    batch_size: int = 40
+    batch_size: int = integer_setting(1, MAX_BATCH, default=40)
     """Points per ask (>= 1); 40 matches the default PSO swarm so per-iteration costs compare."""
 
     def __post_init__(self) -> None:
-        check_int("max_evaluations", self.max_evaluations, minimum=1)
-        check_int("batch_size", self.batch_size, minimum=1, maximum=MAX_BATCH)
-        store_plain(self, ints=("batch_size", "max_evaluations"))
+        check_settings(self)
 
     @property
     def citation(self) -> str:

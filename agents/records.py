@@ -97,6 +97,10 @@ SUMMARY_METRICS: tuple[str, ...] = (
     "induction_converged",
 )
 
+#: The CSV summary's columns read from the record's attribute of the same name, after its
+#: identity and condition (:meth:`Record.summary_row`).
+_SUMMARY_RESULTS = ("seed", "budget", "evaluations", "objective", "reward", "feasible", "score")
+
 # Record key -> distribution name on the package index.
 _PACKAGES = {
     "numpy": "numpy",
@@ -145,9 +149,9 @@ def package_versions() -> dict[str, str]:
     return versions
 
 
-def _result(name: str, doc: str) -> property:
+def _result(name: str) -> property:
     # One accessor per results key, documented from RESULTS (one home for the schema).
-    return property(lambda self: self.results[name], doc=doc)
+    return property(lambda self: self.results[name], doc=RESULTS[name])
 
 
 def _job_field(name: str, doc: str) -> property:
@@ -224,18 +228,18 @@ class Record:
         return Condition(r["condition_name"], self.job.condition, r["condition_unit"])
 
     # --- the results --------------------------------------------------------------------------
-    env_id = _result("env_id", RESULTS["env_id"])
-    objective_name = _result("objective_name", RESULTS["objective_name"])
-    evaluations = _result("evaluations", RESULTS["evaluations"])
-    objective = _result("objective", RESULTS["objective"])
-    reward = _result("reward", RESULTS["reward"])
-    search_reward = _result("search_reward", RESULTS["search_reward"])
-    feasible = _result("feasible", RESULTS["feasible"])
-    selection = _result("selection", RESULTS["selection"])
-    stroke = _result("stroke", RESULTS["stroke"])
-    metrics = _result("metrics", RESULTS["metrics"])
-    wall_time = _result("wall_time", RESULTS["wall_time"])
-    versions = _result("versions", RESULTS["versions"])
+    env_id = _result("env_id")
+    objective_name = _result("objective_name")
+    evaluations = _result("evaluations")
+    objective = _result("objective")
+    reward = _result("reward")
+    search_reward = _result("search_reward")
+    feasible = _result("feasible")
+    selection = _result("selection")
+    stroke = _result("stroke")
+    metrics = _result("metrics")
+    wall_time = _result("wall_time")
+    versions = _result("versions")
 
     @property
     def certificate(self) -> dict[str, Any]:
@@ -366,22 +370,11 @@ class Record:
     def summary_row(self) -> dict[str, Any]:
         """One flat CSV row: identity, result, headline metrics, the 28 stroke parameters and
         ``at_bounds`` (those at a Table 4 bound, :func:`tandem_env.describe_bounds`)."""
-        row: dict[str, Any] = {
-            "method": self.method,
-            "task": self.task,
-            "objective_name": self.objective_name,
-            "condition": self.condition.name,
-            "condition_value": self.condition.value,
-            "condition_unit": self.condition.unit,
-            "seed": self.seed,
-            "budget": self.budget,
-            "evaluations": self.evaluations,
-            "objective": self.objective,
-            "reward": self.reward,
-            "feasible": self.feasible,
-            "score": self.score,
-            "wall_time_s": self.wall_time,
-        }
+        c = self.condition
+        row = {name: getattr(self, name) for name in ("method", "task", "objective_name")}
+        row |= {"condition": c.name, "condition_value": c.value, "condition_unit": c.unit}
+        row |= {name: getattr(self, name) for name in _SUMMARY_RESULTS}
+        row["wall_time_s"] = self.wall_time
         for name in SUMMARY_METRICS:
             if name in self.metrics:
                 row[name] = self.metrics[name]

@@ -46,7 +46,6 @@ __all__ = [
     "cache_directory",
     "read_record",
     "read_record_files",
-    "summary_rows",
     "write_summary",
 ]
 
@@ -144,14 +143,14 @@ class RecordStore:
                     f"{path} is a file; allowed: a directory for the records (created if missing)"
                 )
 
-    def check(self, option: str = "--out", *, write: bool = True, jobs: Iterable[Job] = ()) -> bool:
+    def check(self, *, write: bool = True, jobs: Iterable[Job] = ()) -> bool:
         """Check every path the store writes before any work (:func:`output_directory`): the
         folder, its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError
         naming the path and what is allowed, or (without ``write``) False if it cannot be
         written now."""
         records = [f"{RECORDS_DIR}/{job.key}.json" for job in jobs]
         return output_directory(
-            self._given, option, write=write, folders=(RECORDS_DIR,),
+            self._given, "--out", write=write, folders=(RECORDS_DIR,),
             files=(SUMMARY_NAME, *records),
         )  # fmt: skip
 
@@ -202,7 +201,7 @@ class RecordStore:
         return path
 
     def records(self, known: Mapping[str, Record] | None = None) -> list[Record]:
-        """Every valid record in the store, ordered as :func:`summary_rows` orders them; the
+        """Every valid record in the store, in the summary's order (:func:`write_summary`); the
         others are left out with a :class:`RecordWarning`. ``known`` (key -> record: those the
         runner just saved or checked, :attr:`agents.runner.RunSummary.records`) are taken as
         they are; only the other files are read."""
@@ -254,14 +253,10 @@ def _summary_order(r: Record) -> tuple[Any, ...]:
     return (r.task, r.objective_name, r.condition.value, r.method, r.budget, r.seed, r.key)
 
 
-def summary_rows(records: Iterable[Record]) -> list[dict[str, Any]]:
-    """CSV rows of ``records``, sorted by task, objective, condition, method, budget and seed."""
-    return [r.summary_row() for r in sorted(records, key=_summary_order)]
-
-
 def write_summary(path: str | os.PathLike[str], records: Sequence[Record]) -> None:
-    """Write the CSV summary of ``records`` atomically."""
-    write_csv_atomic(path, summary_rows(records))
+    """Write the CSV summary of ``records`` atomically: a row each (:meth:`Record.summary_row`),
+    sorted by task, objective, condition, method, budget and seed."""
+    write_csv_atomic(path, [r.summary_row() for r in sorted(records, key=_summary_order)])
 
 
 def read_record_files(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
