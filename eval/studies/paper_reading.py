@@ -54,18 +54,19 @@ def _is_count(value: Any) -> bool:
     return isinstance(value, int) and not isinstance(value, bool) and value >= 1
 
 
-def _pairs(value: Any, what: str) -> tuple[tuple[str, Any], ...]:
-    """``value`` (pairs or a mapping) as sorted (name, value) pairs with distinct names."""
+def _pairs(value: Any, where: str) -> tuple[tuple[str, Any], ...]:
+    """``value`` (pairs or a mapping) as sorted (name, value) pairs with distinct names;
+    ``where`` names the field in the error (e.g. ``"Search.settings"``)."""
     items = value.items() if isinstance(value, Mapping) else value
     try:
         pairs = tuple(sorted((k, v) for k, v in items))
     except (TypeError, ValueError):
         raise ValueError(
-            f"Search.{what} = {value!r}; allowed: (name, value) pairs or a mapping"
+            f"{where} = {value!r}; allowed: (name, value) pairs or a mapping"
         ) from None
     names = [k for k, _ in pairs]
     if not all(isinstance(k, str) and k for k in names) or len(set(names)) != len(names):
-        raise ValueError(f"Search.{what} = {value!r}; allowed: each name once, as text")
+        raise ValueError(f"{where} = {value!r}; allowed: each name once, as text")
     return pairs
 
 
@@ -110,7 +111,7 @@ class Search:
                 f"Search.iterations = {self.iterations!r} without swarm_size; allowed: both "
                 "(budget = swarm_size × iterations) or neither"
             )
-        budgets = _pairs(self.budgets, "budgets")
+        budgets = _pairs(self.budgets, "Search.budgets")
         tasks = available_tasks()
         for task, value in budgets:
             if task not in tasks or not _is_count(value):
@@ -123,7 +124,7 @@ class Search:
                 f"Search.budgets = {dict(budgets)!r} and iterations = {self.iterations!r}; "
                 "allowed: one of the two"
             )
-        settings = _pairs(self.settings, "settings")
+        settings = _pairs(self.settings, "Search.settings")
         given = {k for k, _ in settings}
         budget_keys = sorted(given & {"iterations", "max_evaluations", "budget"})
         if budget_keys:
@@ -210,13 +211,8 @@ class Reading:
             _fail(self.name, "name", self.name, "a name usable as a folder name (no / \\ : * ?)")
         if not isinstance(self.description, str) or not self.description.strip():
             _fail(self.name, "description", self.description, "a one-line description")
-        items = self.options.items() if isinstance(self.options, Mapping) else self.options
-        try:
-            pairs = tuple(sorted((str(k), v) for k, v in items))
-        except (TypeError, ValueError):
-            _fail(self.name, "options", self.options, "(name, value) pairs or a mapping")
-        names = [k for k, _ in pairs]
-        for key in names:
+        pairs = _pairs(self.options, f"Reading {self.name!r}: options")
+        for key, _ in pairs:
             if key not in DECISION_OPTIONS:
                 _fail(
                     self.name,
@@ -224,8 +220,6 @@ class Reading:
                     key,
                     f"ModelOptions fields that are modelling decisions: {', '.join(DECISION_OPTIONS)}",
                 )
-        if len(set(names)) != len(names):
-            _fail(self.name, "options", self.options, "each option once")
         object.__setattr__(self, "options", pairs)
         try:
             ModelOptions(**dict(pairs))
