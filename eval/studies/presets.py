@@ -186,7 +186,8 @@ class Preset:
         )
         _check_values("kinematics_power", (self.kinematics_power,), _POWER)
         if self.kinematics_objective not in STUDIED_OBJECTIVES:
-            _fail("kinematics_objective", self.kinematics_objective, "'vertical' or 'horizontal'")
+            allowed = " or ".join(map(repr, STUDIED_OBJECTIVES))
+            _fail("kinematics_objective", self.kinematics_objective, allowed)
         if not is_name(self.method):
             _fail("method", self.method, "a harness method name such as 'cmaes' or 'pso'")
         if not isinstance(self.convergence, ConvergenceSpec):
