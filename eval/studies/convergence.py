@@ -86,19 +86,10 @@ def jobs(plan: StudyPlan) -> list[Job]:
     return list(dict.fromkeys([*long_jobs(plan), *splits]))
 
 
-def curves(
-    records: Mapping[Job, Record], task: str, method: str, budget: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """(evaluations (n,), best reward so far (seeds, n)) of the long runs (``budget``
-    evaluations, no polish) on a common evaluation grid."""
-    chosen = sorted(
-        (
-            r
-            for j, r in records.items()
-            if j.task == task and j.method == method and j.budget == budget and _long(j)
-        ),
-        key=lambda r: r.seed,
-    )
+def curves(runs: Sequence[Record]) -> tuple[np.ndarray, np.ndarray]:
+    """(evaluations (n,), best reward so far (seeds, n)) of ``runs`` (the long runs of one
+    method and condition, :func:`long_jobs`) on a common evaluation grid."""
+    chosen = sorted(runs, key=lambda r: r.seed)
     grid = np.array(sorted({e for r in chosen for e, _ in r.history}), dtype=float)
     values = np.empty((len(chosen), grid.size))
     for i, record in enumerate(chosen):
@@ -107,12 +98,6 @@ def curves(
         idx = np.searchsorted(e, grid, side="right") - 1
         values[i] = np.where(idx >= 0, b[np.clip(idx, 0, None)], -np.inf)
     return grid, values
-
-
-def _long(job: Job) -> bool:
-    return ("polish", "none") in job.method_config and not any(
-        k == "polish_share" for k, _ in job.method_config
-    )
 
 
 def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, Any]:
@@ -232,10 +217,12 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         "accelerate": f"accelerating, {spec.power:g} W/kg (F̄_v)",
     }
     panels, table = [], []
+    long = long_jobs(plan)
     for task, label in labels.items():
         series = []
         for method in methods(plan):
-            grid, values = curves(records, task, method, spec.budget)
+            own = [j for j in long if j.task == task and j.method == method and j in records]
+            grid, values = curves([records[j] for j in own])
             series.append((method, grid, values))
             table += checkpoint_rows(label, method, grid, values)
         budgets = [(p.name, p.budget(task)) for p in PRESETS.values()]
