@@ -17,7 +17,6 @@ is a reading the studies can run like any other (:data:`PAPER_SEARCHES`, docs/ef
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any
@@ -25,6 +24,7 @@ from typing import Any
 from agents.methods import get_method, preset_batch_setting
 from agents.polish import split_settings
 from agents.tasks import available_tasks
+from eval.studies.presets import is_int, is_number
 from tandem_env import Dragonfly, ModelOptions
 from tandem_env.envs import ACCELERATE
 from tandem_env.envs.config import MODEL_OPTION_KWARGS
@@ -48,10 +48,6 @@ _KWARG_OF = {option: kwarg for kwarg, option in MODEL_OPTION_KWARGS.items()}
 
 def _fail(name: str, field_name: str, value: Any, allowed: str) -> None:
     raise ValueError(f"Reading {name!r}: {field_name} = {value!r}; allowed: {allowed}")
-
-
-def _is_count(value: Any) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and value >= 1
 
 
 def _pairs(value: Any, where: str) -> tuple[tuple[str, Any], ...]:
@@ -104,7 +100,7 @@ class Search:
             )
         for name, low in (("swarm_size", 2), ("iterations", 1)):
             value = getattr(self, name)
-            if value is not None and not (_is_count(value) and value >= low):
+            if value is not None and not is_int(value, low):
                 raise ValueError(f"Search.{name} = {value!r}; allowed: None or an integer >= {low}")
         if self.iterations is not None and self.swarm_size is None:
             raise ValueError(
@@ -114,7 +110,7 @@ class Search:
         budgets = _pairs(self.budgets, "Search.budgets")
         tasks = available_tasks()
         for task, value in budgets:
-            if task not in tasks or not _is_count(value):
+            if task not in tasks or not is_int(value, 1):
                 raise ValueError(
                     f"Search.budgets[{task!r}] = {value!r}; allowed: tasks {', '.join(tasks)} "
                     "with an integer >= 1 (model evaluations)"
@@ -226,12 +222,7 @@ class Reading:
         except (TypeError, ValueError) as error:
             raise ValueError(f"Reading {self.name!r}: {error}") from None
         c_r = self.rotational_coefficient
-        if c_r is not None and (
-            isinstance(c_r, bool)
-            or not isinstance(c_r, int | float)
-            or not math.isfinite(c_r)
-            or c_r < 0
-        ):
+        if c_r is not None and not (is_number(c_r) and c_r >= 0):
             _fail(self.name, "rotational_coefficient", c_r, "None or a finite number >= 0")
         if self.horizontal_objective not in HORIZONTAL_OBJECTIVES:
             _fail(

@@ -34,12 +34,12 @@ _PER_JOB_KWARGS: frozenset[str] = frozenset(
 BUDGET_FIELDS: dict[str, str] = {"level": "level_budget", "accelerate": "accelerate_budget"}
 
 
-def _is_int(value: Any, low: int) -> bool:
+def is_int(value: Any, low: int) -> bool:
     """Whether ``value`` is an integer (not a bool) >= ``low``."""
     return isinstance(value, int) and not isinstance(value, bool) and value >= low
 
 
-def _is_number(value: Any) -> bool:
+def is_number(value: Any) -> bool:
     """Whether ``value`` is a finite int or float (not a bool)."""
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
@@ -67,7 +67,7 @@ def _check_values(name: str, values: Any, condition: TaskCondition) -> None:
     """``values`` must be distinct, increasing and inside the env's default envelope (the
     conditions it accepts without widening its observation envelope)."""
     limits, unit = condition.envelope, condition.unit
-    inside = lambda v: _is_number(v) and limits[0] <= v <= limits[1]  # noqa: E731
+    inside = lambda v: is_number(v) and limits[0] <= v <= limits[1]  # noqa: E731
     if not distinct(values, inside) or list(values) != sorted(values):
         _fail(
             name,
@@ -109,14 +109,14 @@ class ConvergenceSpec:
 
     def __post_init__(self) -> None:
         owner = "ConvergenceSpec"
-        if not _is_int(self.budget, 2):
+        if not is_int(self.budget, 2):
             _fail("budget", self.budget, "an integer >= 2", owner)
-        if not distinct(self.seeds, lambda s: _is_int(s, 0)):
+        if not distinct(self.seeds, lambda s: is_int(s, 0)):
             _fail("seeds", self.seeds, "distinct integers >= 0", owner)
         if not distinct(self.methods, is_name):
             _fail("methods", self.methods, "distinct method names such as ('pso', 'cmaes')", owner)
         if not distinct(
-            self.polish_shares, lambda v: _is_number(v) and (v == 0 or 0.01 <= v <= 0.9)
+            self.polish_shares, lambda v: is_number(v) and (v == 0 or 0.01 <= v <= 0.9)
         ):
             allowed = "distinct numbers, each 0 (no polish) or in [0.01, 0.9]"
             _fail("polish_shares", self.polish_shares, allowed, owner)
@@ -167,13 +167,13 @@ class Preset:
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.isidentifier():
             _fail("name", self.name, "an identifier such as 'quick'")
-        if not distinct(self.seeds, lambda s: _is_int(s, 0)):
+        if not distinct(self.seeds, lambda s: is_int(s, 0)):
             _fail("seeds", self.seeds, "a non-empty tuple of distinct integers >= 0")
-        if not _is_int(self.swarm_size, 2):
+        if not is_int(self.swarm_size, 2):
             _fail("swarm_size", self.swarm_size, "an integer >= 2")
         for name in BUDGET_FIELDS.values():
             value = getattr(self, name)
-            if not _is_int(value, self.swarm_size):
+            if not is_int(value, self.swarm_size):
                 _fail(name, value, f"an integer >= swarm_size ({self.swarm_size}) evaluations")
         _check_values("speeds", self.speeds, _SPEED)
         _check_values("shape_speeds", self.shape_speeds, _SPEED)
