@@ -24,7 +24,7 @@ from typing import Any
 from agents.methods import get_method, preset_batch_setting
 from agents.polish import split_settings
 from agents.tasks import available_tasks
-from eval.studies.presets import is_int, is_number
+from eval.studies.presets import is_int, is_name, is_number
 from tandem_env import Dragonfly, ModelOptions
 from tandem_env.envs import ACCELERATE
 from tandem_env.envs.config import MODEL_OPTION_KWARGS
@@ -93,7 +93,7 @@ class Search:
 
     def __post_init__(self) -> None:
         method = self.method
-        if not isinstance(method, str) or not method or ":" in method or method != method.strip():
+        if not is_name(method) or ":" in method:
             raise ValueError(
                 f"Search.method = {method!r}; allowed: a harness method name without ':' "
                 "such as 'pso' or 'cmaes'"
@@ -201,7 +201,7 @@ class Reading:
     """The single readings a combination was derived from (empty for a single reading)."""
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not self.name or self.name != self.name.strip():
+        if not is_name(self.name):
             _fail(str(self.name), "name", self.name, "a non-empty name without outer spaces")
         if any(c in self.name for c in '/\\:*?"<>|'):
             _fail(self.name, "name", self.name, "a name usable as a folder name (no / \\ : * ?)")
