@@ -20,7 +20,7 @@ from agents.store import RECORDS_DIR
 from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim
 from eval.studies.paper_reading import DEFAULT, Reading
-from eval.studies.presets import Preset
+from eval.studies.presets import Preset, distinct, is_name
 from eval.studies.tables import spread_summary_rows, tidy_rows
 from tandem_env import PARAMETER_NAMES, ModelOptions
 from tandem_env.envs.config import EXECUTION_KWARGS, MODEL_OPTION_KWARGS
@@ -59,13 +59,7 @@ class StudyPlan:
             raise ValueError(f"StudyPlan.preset = {self.preset!r}; allowed: a Preset")
         if self.methods is None:
             object.__setattr__(self, "methods", (self.preset.method,))
-        ok = (
-            isinstance(self.methods, tuple)
-            and self.methods
-            and all(isinstance(m, str) and m.strip() == m and m for m in self.methods)
-            and len(set(self.methods)) == len(self.methods)
-        )
-        if not ok:
+        if not distinct(self.methods, is_name):
             raise ValueError(
                 f"StudyPlan.methods = {self.methods!r}; allowed: distinct method specs such as "
                 "('pso',), ('pso', 'random') or ('pso', 'policy:runs/ppo')"

@@ -26,6 +26,7 @@ from agents.records import Record
 from eval import figures
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
 from eval.studies.presets import PRESETS
+from eval.studies.report import Column, markdown_table
 from tandem_env.io.files import write_csv_atomic, write_text_atomic
 
 NAME = "convergence"
@@ -85,19 +86,10 @@ def jobs(plan: StudyPlan) -> list[Job]:
     return list(dict.fromkeys([*long_jobs(plan), *splits]))
 
 
-def curves(
-    records: Mapping[Job, Record], task: str, method: str, budget: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """(evaluations (n,), best reward so far (seeds, n)) of the long runs (``budget``
-    evaluations, no polish) on a common evaluation grid."""
-    chosen = sorted(
-        (
-            r
-            for j, r in records.items()
-            if j.task == task and j.method == method and j.budget == budget and _long(j)
-        ),
-        key=lambda r: r.seed,
-    )
+def curves(runs: Sequence[Record]) -> tuple[np.ndarray, np.ndarray]:
+    """(evaluations (n,), best reward so far (seeds, n)) of ``runs`` (the long runs of one
+    method and condition, :func:`long_jobs`) on a common evaluation grid."""
+    chosen = sorted(runs, key=lambda r: r.seed)
     grid = np.array(sorted({e for r in chosen for e, _ in r.history}), dtype=float)
     values = np.empty((len(chosen), grid.size))
     for i, record in enumerate(chosen):
@@ -106,12 +98,6 @@ def curves(
         idx = np.searchsorted(e, grid, side="right") - 1
         values[i] = np.where(idx >= 0, b[np.clip(idx, 0, None)], -np.inf)
     return grid, values
-
-
-def _long(job: Job) -> bool:
-    return ("polish", "none") in job.method_config and not any(
-        k == "polish_share" for k, _ in job.method_config
-    )
 
 
 def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, Any]:
@@ -156,30 +142,6 @@ def _best(values: np.ndarray) -> float:
     return float(np.nanmax(values)) if np.isfinite(values).any() else math.nan
 
 
-def splits_markdown(rows: list[dict[str, Any]]) -> str:
-    """The splits table as Markdown."""
-    lines = [
-        "| condition | polish share | budget | seeds | feasible | median | min - max "
-        "| best of halves | apart | median polish gain | polish converged |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for r in rows:
-        lines.append(
-            f"| {r['condition']} | {r['polish_share']:g} | {r['budget']} | {r['seeds']} | "
-            f"{r['feasible']} | {r['median']:.4f} | {r['min']:.4f} - {r['max']:.4f} | "
-            f"{r['best_first_half']:.4f} / {r['best_second_half']:.4f} | "
-            f"{100 * r['halves_apart']:.2f} % | "
-            + (
-                "–"
-                if math.isnan(r["polish_gain_median"])
-                else f"{100 * r['polish_gain_median']:+.2f} %"
-            )
-            + " | "
-            f"{r['polish_converged']} |"
-        )
-    return "\n".join(lines) + "\n"
-
-
 def checkpoint_rows(
     label: str, method: str, grid: np.ndarray, values: np.ndarray
 ) -> list[dict[str, Any]]:
@@ -213,20 +175,38 @@ def checkpoint_rows(
     return list({row["budget"]: row for row in out}.values())
 
 
-def checkpoints_markdown(rows: list[dict[str, Any]]) -> str:
-    """The checkpoint table as Markdown (what docs/reproduction.md shows)."""
-    lines = [
-        "| condition | method | budget | median | IQR | min - max | spread | median / final |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for r in rows:
-        budget = f"{r['budget']:,}".replace(",", " ")
-        lines.append(
-            f"| {r['condition']} | {r['method']} | {budget} | {r['median']:.3f} | "
-            f"{r['q25']:.3f} - {r['q75']:.3f} | {r['min']:.3f} - {r['max']:.3f} | "
-            f"{100 * r['spread']:.1f} % | {100 * r['fraction_of_final_median']:.0f} % |"
-        )
-    return "\n".join(lines) + "\n"
+#: The splits table's columns (Markdown; :func:`split_rows` gives its rows).
+SPLIT_COLUMNS: tuple[Column, ...] = (
+    ("condition", "{condition}".format_map),
+    ("polish share", "{polish_share:g}".format_map),
+    ("budget", "{budget}".format_map),
+    ("seeds", "{seeds}".format_map),
+    ("feasible", "{feasible}".format_map),
+    ("median", "{median:.4f}".format_map),
+    ("min - max", "{min:.4f} - {max:.4f}".format_map),
+    ("best of halves", "{best_first_half:.4f} / {best_second_half:.4f}".format_map),
+    ("apart", lambda row: f"{100 * row['halves_apart']:.2f} %"),
+    (
+        "median polish gain",
+        lambda row: (
+            "–"
+            if math.isnan(row["polish_gain_median"])
+            else f"{100 * row['polish_gain_median']:+.2f} %"
+        ),
+    ),
+    ("polish converged", "{polish_converged}".format_map),
+)
+#: The checkpoint table's columns (what docs/reproduction.md shows; :func:`checkpoint_rows`).
+CHECKPOINT_COLUMNS: tuple[Column, ...] = (
+    ("condition", "{condition}".format_map),
+    ("method", "{method}".format_map),
+    ("budget", lambda row: f"{row['budget']:,}".replace(",", " ")),
+    ("median", "{median:.3f}".format_map),
+    ("IQR", "{q25:.3f} - {q75:.3f}".format_map),
+    ("min - max", "{min:.3f} - {max:.3f}".format_map),
+    ("spread", lambda row: f"{100 * row['spread']:.1f} %"),
+    ("median / final", lambda row: f"{100 * row['fraction_of_final_median']:.0f} %"),
+)
 
 
 def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
@@ -237,10 +217,12 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         "accelerate": f"accelerating, {spec.power:g} W/kg (F̄_v)",
     }
     panels, table = [], []
+    long = long_jobs(plan)
     for task, label in labels.items():
         series = []
         for method in methods(plan):
-            grid, values = curves(records, task, method, spec.budget)
+            own = [j for j in long if j.task == task and j.method == method and j in records]
+            grid, values = curves([records[j] for j in own])
             series.append((method, grid, values))
             table += checkpoint_rows(label, method, grid, values)
         budgets = [(p.name, p.budget(task)) for p in PRESETS.values()]
@@ -251,13 +233,13 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             runs = [records[j] for j in group if j.task == task and j in records]
             if runs:
                 splits.append(split_rows(label, share, runs))
-    for stem, entries, markdown in (
-        ("convergence_splits", splits, splits_markdown),
-        ("convergence_checkpoints", table, checkpoints_markdown),
+    for stem, entries, columns in (
+        ("convergence_splits", splits, SPLIT_COLUMNS),
+        ("convergence_checkpoints", table, CHECKPOINT_COLUMNS),
     ):
         csv_path, md_path = (out_dir / NAME / f"{stem}.{ext}" for ext in ("csv", "md"))
         write_csv_atomic(csv_path, entries)
-        write_text_atomic(md_path, markdown(entries))
+        write_text_atomic(md_path, "\n".join(markdown_table(columns, entries)) + "\n")
         files += [csv_path, md_path]
     fig = figures.convergence_figure(panels, plan.figure(out_dir / NAME, "convergence"))
     caption = f"{' and '.join(methods(plan))} best-so-far over evaluations"

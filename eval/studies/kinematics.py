@@ -107,21 +107,10 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
     accel_name = f"accelerating ({p.kinematics_objective}), {p.kinematics_power:g} W/kg"
     study_dir = out_dir / NAME
 
-    def at(quantity: str, condition: float, where: dict[str, Any]) -> Spread:
-        return spread(select(rows, condition=condition, **where), quantity)
-
+    lv_abs, ac_abs, lead, lv_pitch, ac_pitch = _judged(plan, rows, method)
     level_at = f"level {p.kinematics_speed:g} m/s"
     accel_at = f"accel. {p.kinematics_power:g} W/kg"
     lead_at = f"level {p.phase_speed:g} m/s"
-    abs_phase = {
-        level_at: at("phase_difference_abs", p.kinematics_speed, level),
-        accel_at: at("phase_difference_abs", p.kinematics_power, accel),
-    }
-    lead = {lead_at: at("phase_difference", p.phase_speed, level)}
-    pitch = {
-        "level": at("pitch_amplitude", p.kinematics_speed, level),
-        "accelerating": at("pitch_amplitude", p.kinematics_power, accel),
-    }
 
     def panel(title: str, groups: dict[str, Spread], ylabel: str, **marks: Any) -> kf.GroupPanel:
         """The feasible seeds' values of each group, as the claims take them, and its best."""
@@ -142,7 +131,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
     phase_panels = (
         panel(
             "(c) |ΔΦ| (K1, K3; feasible seeds)",
-            abs_phase,
+            {level_at: lv_abs, accel_at: ac_abs},
             "|ΔΦ| [deg]",
             statistic_label=f"median |ΔΦ| ({judged})",
             paper={accel_at: PAPER_IN_PHASE},
@@ -152,7 +141,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         ),
         panel(
             f"(d) ΔΦ at {p.phase_speed:g} m/s (K2; > 0: hind leads)",
-            lead,
+            {lead_at: lead},
             "ΔΦ = Φ_hind − Φ_fore [deg]",
             statistic=circular_median,
             statistic_label=f"circular median ({judged})",
@@ -168,7 +157,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
     )
     pitch_panel = panel(
         "(c) pitch amplitude η_m (K4; feasible seeds)",
-        pitch,
+        {"level": lv_pitch, "accelerating": ac_pitch},
         "η_m, mean of both wings [deg]",
         statistic_label="median (judged)",
         paper_note="paper: larger in accelerating flight",
@@ -248,6 +237,22 @@ def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
     }
 
 
+def _judged(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> tuple[Spread, ...]:
+    """What K1-K4 judge and Figs. 11c-d and 12c show, over ``method``'s seeds: |ΔΦ| at the
+    level and at the accelerating condition, ΔΦ at ``phase_speed``, η_m at the level and at
+    the accelerating condition."""
+    p = plan.preset
+    level, accel = _series(plan, method)
+    picks = (
+        (level, p.kinematics_speed, "phase_difference_abs"),
+        (accel, p.kinematics_power, "phase_difference_abs"),
+        (level, p.phase_speed, "phase_difference"),
+        (level, p.kinematics_speed, "pitch_amplitude"),
+        (accel, p.kinematics_power, "pitch_amplitude"),
+    )
+    return tuple(spread(select(rows, condition=c, **where), q) for where, c, q in picks)
+
+
 def _series(plan: StudyPlan, method: str) -> tuple[dict[str, Any], dict[str, Any]]:
     """What picks ``method``'s level and accelerating series (:func:`tables.select`), the
     accelerating one with the objective of its jobs (``StudyPlan.jobs``)."""
@@ -264,12 +269,7 @@ def _claims(
     phase: Mapping[str, tuple[C.Dependence, ...]],
 ) -> list[C.Claim]:
     p = plan.preset
-    level, accel = _series(plan, method)
-    lv_abs = spread(select(rows, condition=p.kinematics_speed, **level), "phase_difference_abs")
-    lead = spread(select(rows, condition=p.phase_speed, **level), "phase_difference")
-    ac_abs = spread(select(rows, condition=p.kinematics_power, **accel), "phase_difference_abs")
-    lv_pitch = spread(select(rows, condition=p.kinematics_speed, **level), "pitch_amplitude")
-    ac_pitch = spread(select(rows, condition=p.kinematics_power, **accel), "pitch_amplitude")
+    lv_abs, ac_abs, lead, lv_pitch, ac_pitch = _judged(plan, rows, method)
 
     make = C.ClaimBuilder(NAME, method, index)
     level_at, accel_at = f"{p.kinematics_speed:g} m/s", f"{p.kinematics_power:g} W/kg"

@@ -17,7 +17,6 @@ is a reading the studies can run like any other (:data:`PAPER_SEARCHES`, docs/ef
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any
@@ -25,6 +24,7 @@ from typing import Any
 from agents.methods import get_method, preset_batch_setting
 from agents.polish import split_settings
 from agents.tasks import available_tasks
+from eval.studies.presets import is_int, is_name, is_number
 from tandem_env import Dragonfly, ModelOptions
 from tandem_env.envs import ACCELERATE
 from tandem_env.envs.config import MODEL_OPTION_KWARGS
@@ -50,22 +50,19 @@ def _fail(name: str, field_name: str, value: Any, allowed: str) -> None:
     raise ValueError(f"Reading {name!r}: {field_name} = {value!r}; allowed: {allowed}")
 
 
-def _is_count(value: Any) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and value >= 1
-
-
-def _pairs(value: Any, what: str) -> tuple[tuple[str, Any], ...]:
-    """``value`` (pairs or a mapping) as sorted (name, value) pairs with distinct names."""
+def _pairs(value: Any, where: str) -> tuple[tuple[str, Any], ...]:
+    """``value`` (pairs or a mapping) as sorted (name, value) pairs with distinct names;
+    ``where`` names the field in the error (e.g. ``"Search.settings"``)."""
     items = value.items() if isinstance(value, Mapping) else value
     try:
         pairs = tuple(sorted((k, v) for k, v in items))
     except (TypeError, ValueError):
         raise ValueError(
-            f"Search.{what} = {value!r}; allowed: (name, value) pairs or a mapping"
+            f"{where} = {value!r}; allowed: (name, value) pairs or a mapping"
         ) from None
     names = [k for k, _ in pairs]
     if not all(isinstance(k, str) and k for k in names) or len(set(names)) != len(names):
-        raise ValueError(f"Search.{what} = {value!r}; allowed: each name once, as text")
+        raise ValueError(f"{where} = {value!r}; allowed: each name once, as text")
     return pairs
 
 
@@ -96,24 +93,24 @@ class Search:
 
     def __post_init__(self) -> None:
         method = self.method
-        if not isinstance(method, str) or not method or ":" in method or method != method.strip():
+        if not is_name(method) or ":" in method:
             raise ValueError(
                 f"Search.method = {method!r}; allowed: a harness method name without ':' "
                 "such as 'pso' or 'cmaes'"
             )
         for name, low in (("swarm_size", 2), ("iterations", 1)):
             value = getattr(self, name)
-            if value is not None and not (_is_count(value) and value >= low):
+            if value is not None and not is_int(value, low):
                 raise ValueError(f"Search.{name} = {value!r}; allowed: None or an integer >= {low}")
         if self.iterations is not None and self.swarm_size is None:
             raise ValueError(
                 f"Search.iterations = {self.iterations!r} without swarm_size; allowed: both "
                 "(budget = swarm_size × iterations) or neither"
             )
-        budgets = _pairs(self.budgets, "budgets")
+        budgets = _pairs(self.budgets, "Search.budgets")
         tasks = available_tasks()
         for task, value in budgets:
-            if task not in tasks or not _is_count(value):
+            if task not in tasks or not is_int(value, 1):
                 raise ValueError(
                     f"Search.budgets[{task!r}] = {value!r}; allowed: tasks {', '.join(tasks)} "
                     "with an integer >= 1 (model evaluations)"
@@ -123,7 +120,7 @@ class Search:
                 f"Search.budgets = {dict(budgets)!r} and iterations = {self.iterations!r}; "
                 "allowed: one of the two"
             )
-        settings = _pairs(self.settings, "settings")
+        settings = _pairs(self.settings, "Search.settings")
         given = {k for k, _ in settings}
         budget_keys = sorted(given & {"iterations", "max_evaluations", "budget"})
         if budget_keys:
@@ -204,19 +201,14 @@ class Reading:
     """The single readings a combination was derived from (empty for a single reading)."""
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not self.name or self.name != self.name.strip():
+        if not is_name(self.name):
             _fail(str(self.name), "name", self.name, "a non-empty name without outer spaces")
         if any(c in self.name for c in '/\\:*?"<>|'):
             _fail(self.name, "name", self.name, "a name usable as a folder name (no / \\ : * ?)")
         if not isinstance(self.description, str) or not self.description.strip():
             _fail(self.name, "description", self.description, "a one-line description")
-        items = self.options.items() if isinstance(self.options, Mapping) else self.options
-        try:
-            pairs = tuple(sorted((str(k), v) for k, v in items))
-        except (TypeError, ValueError):
-            _fail(self.name, "options", self.options, "(name, value) pairs or a mapping")
-        names = [k for k, _ in pairs]
-        for key in names:
+        pairs = _pairs(self.options, f"Reading {self.name!r}: options")
+        for key, _ in pairs:
             if key not in DECISION_OPTIONS:
                 _fail(
                     self.name,
@@ -224,20 +216,13 @@ class Reading:
                     key,
                     f"ModelOptions fields that are modelling decisions: {', '.join(DECISION_OPTIONS)}",
                 )
-        if len(set(names)) != len(names):
-            _fail(self.name, "options", self.options, "each option once")
         object.__setattr__(self, "options", pairs)
         try:
             ModelOptions(**dict(pairs))
         except (TypeError, ValueError) as error:
             raise ValueError(f"Reading {self.name!r}: {error}") from None
         c_r = self.rotational_coefficient
-        if c_r is not None and (
-            isinstance(c_r, bool)
-            or not isinstance(c_r, int | float)
-            or not math.isfinite(c_r)
-            or c_r < 0
-        ):
+        if c_r is not None and not (is_number(c_r) and c_r >= 0):
             _fail(self.name, "rotational_coefficient", c_r, "None or a finite number >= 0")
         if self.horizontal_objective not in HORIZONTAL_OBJECTIVES:
             _fail(

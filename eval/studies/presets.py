@@ -9,6 +9,7 @@ budget: the convergence study"."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -33,30 +34,41 @@ _PER_JOB_KWARGS: frozenset[str] = frozenset(
 BUDGET_FIELDS: dict[str, str] = {"level": "level_budget", "accelerate": "accelerate_budget"}
 
 
-def _is_int(value: Any, low: int) -> bool:
+def is_int(value: Any, low: int) -> bool:
     """Whether ``value`` is an integer (not a bool) >= ``low``."""
     return isinstance(value, int) and not isinstance(value, bool) and value >= low
 
 
-def _fail(name: str, value: Any, allowed: str) -> None:
-    raise ValueError(f"Preset.{name} = {value!r}; allowed: {allowed}")
+def is_number(value: Any) -> bool:
+    """Whether ``value`` is a finite int or float (not a bool)."""
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def is_name(value: Any) -> bool:
+    """Whether ``value`` is a non-empty text without outer spaces (a method name or spec)."""
+    return isinstance(value, str) and bool(value) and value == value.strip()
+
+
+def distinct(values: Any, item: Callable[[Any], bool]) -> bool:
+    """Whether ``values`` is a non-empty tuple of distinct items that each pass ``item``."""
+    return (
+        isinstance(values, tuple)
+        and len(values) > 0
+        and all(map(item, values))
+        and len(set(values)) == len(values)
+    )
+
+
+def _fail(name: str, value: Any, allowed: str, owner: str = "Preset") -> None:
+    raise ValueError(f"{owner}.{name} = {value!r}; allowed: {allowed}")
 
 
 def _check_values(name: str, values: Any, condition: TaskCondition) -> None:
     """``values`` must be distinct, increasing and inside the env's default envelope (the
     conditions it accepts without widening its observation envelope)."""
     limits, unit = condition.envelope, condition.unit
-    ok = (
-        isinstance(values, tuple)
-        and len(values) > 0
-        and all(
-            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-            for v in values
-        )
-        and len(set(values)) == len(values)
-        and list(values) == sorted(values)
-    )
-    if not ok or not all(limits[0] <= v <= limits[1] for v in values):
+    inside = lambda v: is_number(v) and limits[0] <= v <= limits[1]  # noqa: E731
+    if not distinct(values, inside) or list(values) != sorted(values):
         _fail(
             name,
             values,
@@ -96,38 +108,18 @@ class ConvergenceSpec:
     what the records report (the best feasible objective), over ``seeds``."""
 
     def __post_init__(self) -> None:
-        if not _is_int(self.budget, 2):
-            raise ValueError(f"ConvergenceSpec.budget = {self.budget!r}; allowed: an integer >= 2")
-        if not self.seeds or len(set(self.seeds)) != len(self.seeds):
-            raise ValueError(
-                f"ConvergenceSpec.seeds = {self.seeds!r}; allowed: distinct integers >= 0"
-            )
-        if (
-            not isinstance(self.methods, tuple)
-            or not self.methods
-            or len(set(self.methods)) != len(self.methods)
-            or not all(isinstance(m, str) and m for m in self.methods)
+        owner = "ConvergenceSpec"
+        if not is_int(self.budget, 2):
+            _fail("budget", self.budget, "an integer >= 2", owner)
+        if not distinct(self.seeds, lambda s: is_int(s, 0)):
+            _fail("seeds", self.seeds, "distinct integers >= 0", owner)
+        if not distinct(self.methods, is_name):
+            _fail("methods", self.methods, "distinct method names such as ('pso', 'cmaes')", owner)
+        if not distinct(
+            self.polish_shares, lambda v: is_number(v) and (v == 0 or 0.01 <= v <= 0.9)
         ):
-            raise ValueError(
-                f"ConvergenceSpec.methods = {self.methods!r}; allowed: distinct method names "
-                "such as ('pso', 'cmaes')"
-            )
-        shares = self.polish_shares
-        if (
-            not isinstance(shares, tuple)
-            or not shares
-            or len(set(shares)) != len(shares)
-            or not all(
-                isinstance(v, int | float)
-                and not isinstance(v, bool)
-                and (v == 0 or 0.01 <= v <= 0.9)
-                for v in shares
-            )
-        ):
-            raise ValueError(
-                f"ConvergenceSpec.polish_shares = {shares!r}; allowed: distinct numbers, each 0 "
-                "(no polish) or in [0.01, 0.9]"
-            )
+            allowed = "distinct numbers, each 0 (no polish) or in [0.01, 0.9]"
+            _fail("polish_shares", self.polish_shares, allowed, owner)
         _check_values("convergence speed", (self.speed,), _SPEED)
         _check_values("convergence power", (self.power,), _POWER)
 
@@ -175,19 +167,13 @@ class Preset:
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.isidentifier():
             _fail("name", self.name, "an identifier such as 'quick'")
-        seeds_ok = (
-            isinstance(self.seeds, tuple)
-            and len(self.seeds) > 0
-            and all(_is_int(s, 0) for s in self.seeds)
-            and len(set(self.seeds)) == len(self.seeds)
-        )
-        if not seeds_ok:
+        if not distinct(self.seeds, lambda s: is_int(s, 0)):
             _fail("seeds", self.seeds, "a non-empty tuple of distinct integers >= 0")
-        if not _is_int(self.swarm_size, 2):
+        if not is_int(self.swarm_size, 2):
             _fail("swarm_size", self.swarm_size, "an integer >= 2")
         for name in BUDGET_FIELDS.values():
             value = getattr(self, name)
-            if not _is_int(value, self.swarm_size):
+            if not is_int(value, self.swarm_size):
                 _fail(name, value, f"an integer >= swarm_size ({self.swarm_size}) evaluations")
         _check_values("speeds", self.speeds, _SPEED)
         _check_values("shape_speeds", self.shape_speeds, _SPEED)
@@ -200,12 +186,9 @@ class Preset:
         )
         _check_values("kinematics_power", (self.kinematics_power,), _POWER)
         if self.kinematics_objective not in STUDIED_OBJECTIVES:
-            _fail("kinematics_objective", self.kinematics_objective, "'vertical' or 'horizontal'")
-        if (
-            not isinstance(self.method, str)
-            or not self.method
-            or self.method != self.method.strip()
-        ):
+            allowed = " or ".join(map(repr, STUDIED_OBJECTIVES))
+            _fail("kinematics_objective", self.kinematics_objective, allowed)
+        if not is_name(self.method):
             _fail("method", self.method, "a harness method name such as 'cmaes' or 'pso'")
         if not isinstance(self.convergence, ConvergenceSpec):
             _fail("convergence", self.convergence, "a ConvergenceSpec")

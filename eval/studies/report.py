@@ -7,7 +7,8 @@ times are in ``manifest.json``.
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from operator import attrgetter
 from pathlib import Path
 from typing import Any
 
@@ -90,30 +91,33 @@ def table_row(cells: Sequence[str]) -> str:
     return "| " + " | ".join(_cell(x) for x in cells) + " |"
 
 
+#: A column of a Markdown table: its title and its cell's text in a row.
+Column = tuple[str, Callable[[Any], str]]
+
+
+def markdown_table(columns: Sequence[Column], rows: Iterable[Any]) -> list[str]:
+    """A Markdown table (lines): the titles, the rule under them and one line per row."""
+    cells = [[cell(row) for _, cell in columns] for row in rows]
+    return [table_row([t for t, _ in columns]), "|" + "---|" * len(columns), *map(table_row, cells)]
+
+
+#: The paper-vs-ours table's columns, one row per claim.
+CLAIM_COLUMNS: tuple[Column, ...] = (
+    ("id", attrgetter("id")),
+    ("figure", attrgetter("figure")),
+    ("claim", attrgetter("statement")),
+    ("paper", attrgetter("paper")),
+    ("ours: median [IQR]", Claim.ours),
+    ("best seed", Claim.best_text),
+    ("rule", attrgetter("rule")),
+    ("verdict: median", Claim.verdict_text),
+    ("verdict: best seed", lambda c: c.verdict_text(best=True)),
+)
+
+
 def claims_table(claims: Sequence[Claim]) -> str:
     """The paper-vs-ours Markdown table, one row per claim."""
-    lines = [
-        "| id | figure | claim | paper | ours: median [IQR] | best seed | rule | "
-        "verdict: median | verdict: best seed |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for c in claims:
-        lines.append(
-            table_row(
-                (
-                    c.id,
-                    c.figure,
-                    c.statement,
-                    c.paper,
-                    c.ours(),
-                    c.best_text(),
-                    c.rule,
-                    c.verdict_text(),
-                    c.verdict_text(best=True),
-                )
-            )
-        )
-    return "\n".join(lines)
+    return "\n".join(markdown_table(CLAIM_COLUMNS, claims))
 
 
 def verdict_summary(claims: Sequence[Claim]) -> list[str]:

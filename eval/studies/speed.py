@@ -96,7 +96,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         (
             "Fig. 6: level-flight efficiency",
             "fig6_efficiency",
-            f"Fig. 6: level-flight efficiency (thrust_split = {_thrust_split(records)})",
+            f"Fig. 6: level-flight efficiency (thrust_split = {plan.model_options.thrust_split})",
             [
                 panel(
                     "efficiency η [%]",
@@ -117,11 +117,6 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
     ]
     found = C.study_claims(rows, plan.methods, _claims, options=plan.model_options)
     return StudyOutput(NAME, TITLE, rows, figs, found, files)
-
-
-def _thrust_split(records: Mapping[Job, Record]) -> str:
-    splits = {r.config["env"]["options"]["thrust_split"] for r in records.values()}
-    return ", ".join(sorted(splits))
 
 
 def _claims(rows: list[dict], method: str, index: int) -> list[C.Claim]:

@@ -72,17 +72,19 @@ def run_studies(
     start = time.perf_counter()
     out = Path(out_dir)
     scheduler = executor_spec(scheduler, workers)
-    studies = [STUDIES[n] for n in expand(names)]
-    jobs = [job for study in studies for job in study.jobs(plan)]
+    asked = expand(names)
+    # each study's jobs, built once: the asked ones first, then the other paper studies
+    jobs_of = {name: STUDIES[name].jobs(plan) for name in dict.fromkeys([*asked, *PAPER_STUDIES])}
+    jobs = [job for name in asked for job in jobs_of[name]]
     summary = run_jobs(
         jobs, out, scheduler=scheduler, progress=progress, cache=cache, command=command
     )
-    outputs = [study.analyse(plan, job_records(out, study.jobs(plan)), out) for study in studies]
-
-    done = {o.name: o for o in outputs}
-    for name, study in PAPER_STUDIES.items():
-        if name not in done and have_records(out, study.jobs(plan)):
-            done[name] = study.analyse(plan, job_records(out, study.jobs(plan)), out)
+    done: dict[
+        str, StudyOutput
+    ] = {}  # the studies asked, and every other paper study whose records are all present
+    for name, own in jobs_of.items():
+        if name in asked or have_records(out, own):
+            done[name] = STUDIES[name].analyse(plan, job_records(out, own), out)
     report_path = None
     if any(name in PAPER_STUDIES for name in done):
         wall = time.perf_counter() - start
@@ -98,15 +100,15 @@ def run_studies(
                 "preset": plan.preset.name,
                 "methods": list(plan.methods),
                 "studies": [n for n in PAPER_STUDIES if n in done],
-                "jobs": sorted({j.key for n in done for j in STUDIES[n].jobs(plan)}),
+                "jobs": sorted({j.key for n in done for j in jobs_of[n]}),
                 "last_run": {
-                    "studies": [s.NAME for s in studies],
+                    "studies": asked,
                     **summary.to_dict(),
                     "wall_time_s": round(wall, 1),  # the whole call's, analysis included
                 },
             },
         )
-    return SuiteResult(outputs, summary, report_path, time.perf_counter() - start)
+    return SuiteResult([done[n] for n in asked], summary, report_path, time.perf_counter() - start)
 
 
 class SuiteCampaign:
