@@ -29,10 +29,10 @@ from agents.harness import PreparedJob, prepare
 from agents.jobs import Job
 from agents.progress import CommandProgress, Phase
 from agents.records import Record, package_versions
-from agents.runner import OutputNotWritable, run_jobs
+from agents.runner import run_jobs
 from agents.selection import best_index
 from agents.tasks import TaskSpec, available_tasks, get_task
-from eval.optimize import STOPS, add_cache_argument, add_scheduler_argument, stopped
+from eval.optimize import add_run_arguments, run_reporting
 from eval.reference_report import reference_markdown, write_reference_figure
 from tandem_env.envs.reference import (
     REFERENCE_FORMAT,
@@ -295,8 +295,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="where the table goes (default: the packaged tandem_env/data/reference_optima.json)",
     )
-    add_scheduler_argument(parser)
-    add_cache_argument(parser)
+    add_run_arguments(parser, "--scheduler", "--no-cache")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -374,7 +373,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     }
     rounds: list[dict[PointKey, PreparedJob]] = []
     convergence = []
-    try:
+
+    def run_phases() -> dict[str, Record]:
         records = dict(run_jobs(flat, **run).records)
         for index in range(ROUNDS):
             before = best_objectives(gather(jobs, rounds, records))
@@ -392,10 +392,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                     f"by at most {gains['largest_gain_percent']:.2f} %",
                     file=sys.stderr,
                 )
-    except OutputNotWritable as error:
-        parser.error(str(error))
-    except STOPS as error:
-        return stopped(parser, error)
+        return records
+
+    records = run_reporting(parser, run_phases)
+    if isinstance(records, int):
+        return records
     every = [*flat, *(p for r in rounds for p in r.values())]
     table = build_table(jobs, rounds, records, provenance(every, records, convergence))
     write_json_atomic(table_path, table)

@@ -423,10 +423,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=0,
         help="which evaluation episode the figure shows (index, default 0)",
     )
-    from eval.optimize import add_cache_argument, add_scheduler_argument
+    from eval.optimize import add_run_arguments
 
-    add_scheduler_argument(parser)
-    add_cache_argument(parser)
+    add_run_arguments(parser, "--scheduler", "--no-cache")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
