@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 import tandem_env
-from agents.harness import PreparedJob, prepare
+from agents.harness import PreparedJob, prepare, prepare_job
 from agents.jobs import Job
 from agents.progress import CommandProgress, Phase
 from agents.records import Record, package_versions
@@ -149,20 +149,12 @@ def continuation(
         strokes = list(
             dict.fromkeys(tuple(best[k].normalised_stroke) for k in sources if k in best)
         )
-        job = _round_job(prepared[0].job, index)
-        continued[key] = prepare(
-            METHOD,
-            _task(env_id),
-            condition,
-            job.budget,
-            [job.seed],
-            env_kwargs=dict(job.env_kwargs),
-            method_config={
-                "initial": [list(stroke) for stroke in strokes],
-                "initial_share": CONTINUATION_INITIAL_SHARE,
-            },
-            preset=PRESET,
-        )[0]
+        warm_starts = {
+            "initial": [list(stroke) for stroke in strokes],
+            "initial_share": CONTINUATION_INITIAL_SHARE,
+        }
+        job = replace(_round_job(prepared[0].job, index), method_config=warm_starts)
+        continued[key] = prepare_job(job)
     return continued
 
 
