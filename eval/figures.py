@@ -341,10 +341,9 @@ def planform_figure(
         wing, _, planform = label.partition(", ")
         ax = axes[0] if wing == "fore" else axes[1]
         # the hues and line styles of the planforms' series in Figs. 15-16 (of CMA-ES, blue)
-        variant = PLANFORM_VARIANT.get(planform, 2)
-        color, ls = variant_color(PALETTE[0], variant), VARIANT_LINES[variant]
-        ax.plot(r, upper, color=color, ls=ls, label=f"{planform} wing")
-        ax.plot(r, lower, color=color, ls=ls)
+        style = series_style("cmaes", PLANFORM_VARIANT.get(planform, 2))
+        ax.plot(r, upper, label=f"{planform} wing", **style)
+        ax.plot(r, lower, **style)
     for ax, wing in zip(axes, ("fore-wing", "hind-wing"), strict=True):
         ax.set_title(wing, fontsize=9)
         ax.set_ylabel("chordwise [mm]")

@@ -31,7 +31,7 @@ from agents.progress import CommandProgress, Phase
 from agents.records import Record, package_versions
 from agents.runner import run_jobs
 from agents.selection import best_index
-from agents.tasks import TaskSpec, available_tasks, get_task
+from agents.tasks import get_task
 from eval.optimize import add_run_arguments, run_reporting
 from eval.reference_report import reference_markdown, write_reference_figure
 from tandem_env.envs.reference import (
@@ -62,10 +62,6 @@ PRESET = "reference"
 DEFAULT_OUT = Path("results") / "reference"
 
 
-def _task(env_id: str) -> TaskSpec:
-    return next(get_task(n) for n in available_tasks() if get_task(n).env_id == env_id)
-
-
 def plan(
     seeds: Sequence[int] = SEEDS,
     budgets: Mapping[str, int] = BUDGETS,
@@ -73,9 +69,11 @@ def plan(
     env_kwargs: Mapping[str, Any] | None = None,
 ) -> dict[tuple[str, str, str, float], list[PreparedJob]]:
     """The jobs of the table: per (env id, objective, planform, condition), one per seed."""
+    from train.envelope import task_of  # the harness task of an env id
+
     jobs: dict[tuple[str, str, str, float], list[PreparedJob]] = {}
     for env_id, (objectives, conditions) in grid.items():
-        task = _task(env_id)
+        task = get_task(task_of(env_id))
         for objective, planform, condition in product(objectives, PLANFORMS, conditions):
             jobs[env_id, objective, planform, condition] = prepare(
                 METHOD,
