@@ -19,15 +19,14 @@ import numpy as np
 
 from agents.records import Record
 from agents.store import read_record_files
-from eval.figures import DPI, FORMATS, figure_path, method_label, series_style
-from tandem_env.io.files import atomic_path, output_directory, write_csv_atomic, write_text_atomic
+from eval.figures import FORMATS, figure_path, method_label, save, series_style
+from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
 
 __all__ = [
     "Row",
     "compare",
     "comparison_markdown",
     "convergence_curve",
-    "plot_convergence",
     "table_rows",
 ]
 
@@ -330,19 +329,6 @@ def convergence_curve(
     return grid, q25, median, q75
 
 
-def plot_convergence(records: Sequence[Record], path: Path) -> None:
-    """Write the convergence figure (:func:`convergence_figure`) atomically, in the format of
-    ``path``'s suffix."""
-    import matplotlib.pyplot as plt
-
-    fig = convergence_figure(records)
-    try:
-        with atomic_path(path) as tmp:  # a killed run never leaves half a figure
-            fig.savefig(tmp, dpi=DPI, format=path.suffix.lstrip("."))
-    finally:
-        plt.close(fig)
-
-
 def convergence_figure(records: Sequence[Record]) -> Any:
     """The convergence figure: one panel per task/objective/condition.
 
@@ -440,7 +426,7 @@ def compare(
     rows = table_rows(records)
     write_csv_atomic(out / TABLE_CSV, [r.to_dict() for r in rows])
     write_text_atomic(out / TABLE_MD, comparison_markdown(rows))
-    plot_convergence(records, plot_path)
+    save(convergence_figure(records), plot_path, crop=False)
     return rows
 
 

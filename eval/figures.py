@@ -305,19 +305,22 @@ def draw_paper(ax: Axes, panel: Panel) -> list[tuple[Any, str]]:
     return entries
 
 
-def save(fig: plt.Figure, path: Path) -> Path:
+def save(fig: plt.Figure, path: Path, crop: bool = True) -> Path:
     """Write ``fig`` to ``path`` (atomically; format from the suffix, :data:`FORMATS`; PNG at
-    :data:`DPI`), close it and return ``path``."""
+    :data:`DPI`; ``crop``: laid out and cropped to what is drawn, else at the figure's own size
+    and layout), close it and return ``path``."""
     fmt = path.suffix.lstrip(".")
     if fmt not in FORMATS:
         plt.close(fig)
         raise ValueError(f"figure {path}: format {fmt!r}; allowed: {', '.join(FORMATS)}")
-    fig.tight_layout()
+    if crop:
+        fig.tight_layout()
     try:
         with atomic_path(path) as tmp:  # a killed run never leaves half a figure
             # Vector formats carry no timestamp (metadata), so a rerun writes the same file.
             metadata = {"png": None, "svg": {"Date": None}, "pdf": {"CreationDate": None}}[fmt]
-            fig.savefig(tmp, dpi=DPI, format=fmt, bbox_inches="tight", metadata=metadata)
+            bbox = "tight" if crop else None
+            fig.savefig(tmp, dpi=DPI, format=fmt, bbox_inches=bbox, metadata=metadata)
     finally:
         plt.close(fig)
     return path
@@ -338,10 +341,9 @@ def planform_figure(
         wing, _, planform = label.partition(", ")
         ax = axes[0] if wing == "fore" else axes[1]
         # the hues and line styles of the planforms' series in Figs. 15-16 (of CMA-ES, blue)
-        variant = PLANFORM_VARIANT.get(planform, 2)
-        color, ls = variant_color(PALETTE[0], variant), VARIANT_LINES[variant]
-        ax.plot(r, upper, color=color, ls=ls, label=f"{planform} wing")
-        ax.plot(r, lower, color=color, ls=ls)
+        style = series_style("cmaes", PLANFORM_VARIANT.get(planform, 2))
+        ax.plot(r, upper, label=f"{planform} wing", **style)
+        ax.plot(r, lower, **style)
     for ax, wing in zip(axes, ("fore-wing", "hind-wing"), strict=True):
         ax.set_title(wing, fontsize=9)
         ax.set_ylabel("chordwise [mm]")

@@ -174,14 +174,21 @@ def draw_groups(ax: Axes, panel: GroupPanel) -> None:
 PAPER_DOWNSTROKE_END = 0.5
 
 
-def _mark_downstroke(ax: Axes, label: bool) -> None:
+def _cycle_panel(
+    ax: Axes, traces: Sequence[Trace], quantity: str, ylabel: str, first: bool
+) -> None:
+    """``quantity`` of both wings over the cycle (:func:`_plot_wings`) with the paper's end of
+    the down-stroke (named in the legend of the ``first`` panel)."""
+    _plot_wings(ax, traces, quantity)
     ax.axvline(
         PAPER_DOWNSTROKE_END,
         color="k",
         ls=":",
         lw=1.0,
-        label="paper: down-stroke ends (t/T = 0.5)" if label else None,
+        label="paper: down-stroke ends (t/T = 0.5)" if first else None,
     )
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3)
 
 
 def cycle_figure(
@@ -199,12 +206,9 @@ def cycle_figure(
     fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 4.4))
     axes = np.atleast_1d(axes)
     for k, (ax, (name, traces)) in enumerate(zip(axes, rows, strict=False)):
-        _plot_wings(ax, traces, quantity)
-        _mark_downstroke(ax, label=k == 0)
+        _cycle_panel(ax, traces, quantity, ylabel, first=k == 0)
         ax.set_title(name, fontsize=9)
         ax.set_xlabel("cycle t/T [-]")
-        ax.set_ylabel(ylabel)
-        ax.grid(alpha=0.3)
         if k == 0:
             handles, labels = ax.get_legend_handles_labels()
             legend(
@@ -230,10 +234,7 @@ def flow_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
     is the paper's end of the down-stroke (t/T = 0.5: the paper's cycles start with it)."""
     fig, axes = plt.subplots(2, 1, figsize=(8.4, 5.2), sharex=True)
     for k, (ax, (quantity, ylabel)) in enumerate(zip(axes, FLOW_PANELS, strict=True)):
-        _plot_wings(ax, traces, quantity)
-        _mark_downstroke(ax, label=k == 0)
-        ax.set_ylabel(ylabel)
-        ax.grid(alpha=0.3)
+        _cycle_panel(ax, traces, quantity, ylabel, first=k == 0)
     axes[0].legend(
         fontsize=7,
         title="bold: best seed",

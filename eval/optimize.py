@@ -105,27 +105,20 @@ T = TypeVar("T")
 INTERRUPTED = "the finished records are stored; the same command resumes from them"
 
 
-#: How a run can stop that :func:`stopped` reports (optimize and study).
-STOPS = (SchedulerUnreachable, JobsFailed, StoreWriteError, OSError, KeyboardInterrupt)
-
-
 def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T | int:
-    """``call()``, or the exit status of how it stopped (:func:`stopped`)."""
+    """``call()`` (the jobs of optimize, study, reference or speed-change), or the exit status
+    of how it stopped, said on stderr: the usage error (2) for an output folder the runner
+    refuses before any job; 1 with the message for an unreachable scheduler, failed jobs or a
+    file that cannot be written (a full disk, a folder made read-only: the store is as it was);
+    130 for an interrupt (records are kept)."""
     try:
         return call()
-    except STOPS as error:
-        return stopped(parser, error)
-
-
-def stopped(parser: argparse.ArgumentParser, error: BaseException) -> int:
-    """The exit status of a run stopped by ``error`` (one of :data:`STOPS`), said on stderr: 1
-    with the message for an unreachable scheduler, failed jobs or a file that cannot be written
-    (a full disk, a folder made read-only: the store is as it was), 130 for an interrupt
-    (records are kept)."""
-    if isinstance(error, SchedulerUnreachable | JobsFailed | StoreWriteError):
+    except OutputNotWritable as error:  # nothing ran
+        parser.error(str(error))
+    except (SchedulerUnreachable, JobsFailed, StoreWriteError) as error:
         print(f"{parser.prog}: error: {error}", file=sys.stderr)
         return 1
-    if isinstance(error, OSError):  # a table, figure or report the run writes after its records
+    except OSError as error:  # a table, figure or report the run writes after its records
         where = f"{error.filename}: " if error.filename else ""
         print(
             f"{parser.prog}: error: {where}{error.strerror or error}; {INTERRUPTED} once that "
@@ -133,8 +126,9 @@ def stopped(parser: argparse.ArgumentParser, error: BaseException) -> int:
             file=sys.stderr,
         )
         return 1
-    print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
-    return 130
+    except KeyboardInterrupt:
+        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
+        return 130
 
 
 def _check_reading_applies(
@@ -228,7 +222,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)",
     )
     add_insect_argument(parser, insect_keyword)
-    add_backend_arguments(parser)
+    add_run_arguments(parser, "--backend", "--device")
     parser.add_argument(
         "--polish",
         choices=POLISH_METHODS,
@@ -246,8 +240,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "keywords and, for --objective horizontal, its F̄_h objective (a reading that changes only that objective is refused for any other "
         "objective; one that also changes the model runs with a warning)",
     )
-    add_scheduler_argument(parser)
-    add_cache_argument(parser)
+    add_run_arguments(parser, "--scheduler", "--no-cache")
     parser.add_argument("--quiet", action="store_true", help="no progress display")
 
 
@@ -264,19 +257,40 @@ def add_insect_argument(parser: argparse.ArgumentParser, read: Callable[[str], A
     )
 
 
-def add_backend_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--backend`` and ``--device`` (shared with ``study``): env keywords of every job."""
-    parser.add_argument(
-        "--backend",
-        choices=BACKENDS,
-        help="the model's implementation (env keyword backend; default numba): the results "
+#: The options of every command that runs jobs (optimize, study, reference, speed-change): the
+#: argparse keywords of each (``--backend``/``--device``: env keywords of every job,
+#: :func:`backend_kwargs`; ``--no-cache`` sets ``args.cache``).
+RUN_OPTIONS: dict[str, dict[str, Any]] = {
+    "--backend": {
+        "choices": BACKENDS,
+        "help": "the model's implementation (env keyword backend; default numba): the results "
         "agree within 1e-8, so records are shared between backends (docs/harness.md)",
-    )
-    parser.add_argument(
-        "--device",
-        metavar="DEVICE",
-        help="torch device of --backend torch: cpu (default), cuda, cuda:N",
-    )
+    },
+    "--device": {
+        "metavar": "DEVICE",
+        "help": "torch device of --backend torch: cpu (default), cuda, cuda:N",
+    },
+    "--scheduler": {
+        "metavar": "WHERE",
+        "action": checked_by(parse_scheduler),
+        "help": "run the optimisations on Dask: local:N (N worker processes started here, one "
+        "numba thread each) or the address of a running scheduler, e.g. tcp://HOST:8786 "
+        "(docs/scaling.md); default: one after another in this process",
+    },
+    "--no-cache": {
+        "dest": "cache",
+        "action": "store_false",
+        "help": "do not use the record cache shared by every output folder (by default a job "
+        "whose record is there is copied into --out, not run, and every record computed is "
+        "added to it; where it is and how to clear it: docs/harness.md, The record cache)",
+    },
+}
+
+
+def add_run_arguments(parser: argparse.ArgumentParser, *flags: str) -> None:
+    """The options ``flags`` of :data:`RUN_OPTIONS`, in that order."""
+    for flag in flags:
+        parser.add_argument(flag, **RUN_OPTIONS[flag])
 
 
 def backend_kwargs(args: argparse.Namespace) -> dict[str, str]:
@@ -284,30 +298,6 @@ def backend_kwargs(args: argparse.Namespace) -> dict[str, str]:
     backend's rule checks them with the rest of the env's options, before any work."""
     given = {"backend": args.backend, "device": args.device}
     return {key: value for key, value in given.items() if value is not None}
-
-
-def add_scheduler_argument(parser: argparse.ArgumentParser) -> None:
-    """``--scheduler`` (shared with ``study``)."""
-    parser.add_argument(
-        "--scheduler",
-        metavar="WHERE",
-        action=checked_by(parse_scheduler),
-        help="run the optimisations on Dask: local:N (N worker processes started here, one "
-        "numba thread each) or the address of a running scheduler, e.g. tcp://HOST:8786 "
-        "(docs/scaling.md); default: one after another in this process",
-    )
-
-
-def add_cache_argument(parser: argparse.ArgumentParser) -> None:
-    """``--no-cache`` (shared with ``study`` and ``speed-change``): sets ``args.cache``."""
-    parser.add_argument(
-        "--no-cache",
-        dest="cache",
-        action="store_false",
-        help="do not use the record cache shared by every output folder (by default a job "
-        "whose record is there is copied into --out, not run, and every record computed is "
-        "added to it; where it is and how to clear it: docs/harness.md, The record cache)",
-    )
 
 
 @dataclass(frozen=True)
@@ -414,19 +404,19 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         print(f"optimize: {plan.describe()}", file=sys.stderr)
         if "insect" in plan.jobs[0].env_kwargs:
             print(f"insect: {describe_insect(plan.jobs[0].env_kwargs['insect'])}", file=sys.stderr)
-    try:
-        summary = run_jobs(
+    summary = run_reporting(
+        parser,
+        lambda: run_jobs(
             plan.jobs,
             plan.out,
             scheduler=plan.scheduler,
             progress=plan.progress,
             cache=plan.cache,
             summary_csv=True,
-        )
-    except OutputNotWritable as error:  # nothing ran
-        parser.error(str(error))
-    except STOPS as error:
-        return stopped(parser, error)
+        ),
+    )
+    if isinstance(summary, int):
+        return summary
     for record in (summary.records[p.job.key] for p in plan.jobs):
         power = record.metrics.get("power_per_mass")
         print(

@@ -25,14 +25,14 @@ from typing import Any
 import numpy as np
 
 import tandem_env
-from agents.harness import PreparedJob, prepare
+from agents.harness import PreparedJob, prepare, prepare_job
 from agents.jobs import Job
 from agents.progress import CommandProgress, Phase
 from agents.records import Record, package_versions
-from agents.runner import OutputNotWritable, run_jobs
+from agents.runner import run_jobs
 from agents.selection import best_index
-from agents.tasks import TaskSpec, available_tasks, get_task
-from eval.optimize import STOPS, add_cache_argument, add_scheduler_argument, stopped
+from agents.tasks import get_task
+from eval.optimize import add_run_arguments, run_reporting
 from eval.reference_report import reference_markdown, write_reference_figure
 from tandem_env.envs.reference import (
     REFERENCE_FORMAT,
@@ -62,10 +62,6 @@ PRESET = "reference"
 DEFAULT_OUT = Path("results") / "reference"
 
 
-def _task(env_id: str) -> TaskSpec:
-    return next(get_task(n) for n in available_tasks() if get_task(n).env_id == env_id)
-
-
 def plan(
     seeds: Sequence[int] = SEEDS,
     budgets: Mapping[str, int] = BUDGETS,
@@ -73,9 +69,11 @@ def plan(
     env_kwargs: Mapping[str, Any] | None = None,
 ) -> dict[tuple[str, str, str, float], list[PreparedJob]]:
     """The jobs of the table: per (env id, objective, planform, condition), one per seed."""
+    from train.envelope import task_of  # the harness task of an env id
+
     jobs: dict[tuple[str, str, str, float], list[PreparedJob]] = {}
     for env_id, (objectives, conditions) in grid.items():
-        task = _task(env_id)
+        task = get_task(task_of(env_id))
         for objective, planform, condition in product(objectives, PLANFORMS, conditions):
             jobs[env_id, objective, planform, condition] = prepare(
                 METHOD,
@@ -149,20 +147,12 @@ def continuation(
         strokes = list(
             dict.fromkeys(tuple(best[k].normalised_stroke) for k in sources if k in best)
         )
-        job = _round_job(prepared[0].job, index)
-        continued[key] = prepare(
-            METHOD,
-            _task(env_id),
-            condition,
-            job.budget,
-            [job.seed],
-            env_kwargs=dict(job.env_kwargs),
-            method_config={
-                "initial": [list(stroke) for stroke in strokes],
-                "initial_share": CONTINUATION_INITIAL_SHARE,
-            },
-            preset=PRESET,
-        )[0]
+        warm_starts = {
+            "initial": [list(stroke) for stroke in strokes],
+            "initial_share": CONTINUATION_INITIAL_SHARE,
+        }
+        job = replace(_round_job(prepared[0].job, index), method_config=warm_starts)
+        continued[key] = prepare_job(job)
     return continued
 
 
@@ -295,8 +285,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="where the table goes (default: the packaged tandem_env/data/reference_optima.json)",
     )
-    add_scheduler_argument(parser)
-    add_cache_argument(parser)
+    add_run_arguments(parser, "--scheduler", "--no-cache")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -374,7 +363,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     }
     rounds: list[dict[PointKey, PreparedJob]] = []
     convergence = []
-    try:
+
+    def run_phases() -> dict[str, Record]:
         records = dict(run_jobs(flat, **run).records)
         for index in range(ROUNDS):
             before = best_objectives(gather(jobs, rounds, records))
@@ -392,10 +382,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                     f"by at most {gains['largest_gain_percent']:.2f} %",
                     file=sys.stderr,
                 )
-    except OutputNotWritable as error:
-        parser.error(str(error))
-    except STOPS as error:
-        return stopped(parser, error)
+        return records
+
+    records = run_reporting(parser, run_phases)
+    if isinstance(records, int):
+        return records
     every = [*flat, *(p for r in rounds for p in r.values())]
     table = build_table(jobs, rounds, records, provenance(every, records, convergence))
     write_json_atomic(table_path, table)

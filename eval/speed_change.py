@@ -21,6 +21,7 @@ import gymnasium as gym
 import numpy as np
 
 import tandem_env  # noqa: F401  (registers the ids)
+from agents.records import Record
 from eval.speed_change_policies import Policy, RandomPolicy, SB3Policy, SteadyPolicy
 from tandem_env.envs.registration import SPEED_CHANGE_ID
 from tandem_env.envs.speed_change_config import LEVEL_FLIGHT_ENVELOPE, SpeedChangeConfig
@@ -113,7 +114,7 @@ def level_kwargs(config: SpeedChangeConfig) -> dict[str, Any]:
     return kwargs
 
 
-def steady_optima(
+def optima_records(
     config: SpeedChangeConfig,
     *,
     speeds: Sequence[float] = STEADY_GRID,
@@ -124,8 +125,9 @@ def steady_optima(
     scheduler: str | None = None,
     progress: bool = True,
     record_cache: bool = True,
-) -> SteadyPolicy:
-    """Level-flight optima at ``speeds`` [m/s] for the env's insect and model options.
+) -> list[Record]:
+    """The records of the level-flight optima at ``speeds`` [m/s] for the env's insect and
+    model options, in that order (one infeasible is said on stderr).
 
     Each is one harness job (``budget`` model evaluations, ``seed``) on the ``level`` task, run
     by the runner (:func:`agents.runner.run_jobs`: serially, or on Dask with ``scheduler``)
@@ -144,17 +146,25 @@ def steady_optima(
     with tempfile.TemporaryDirectory() as scratch:
         where = scratch if cache_dir is None else cache_dir
         summary = run_jobs(jobs, where, scheduler=scheduler, progress=progress, cache=record_cache)
-    actions = []
-    for speed, job in zip(speeds, jobs, strict=True):
-        record = summary.records[job.key]  # every job's: run_jobs raises when one fails
+    records = [summary.records[job.key] for job in jobs]  # every job's: else run_jobs raises
+    for speed, record in zip(speeds, records, strict=True):
         if not record.feasible:
             print(
                 f"steady: the {method} optimum at {speed:g} m/s is not level-feasible "
                 f"(budget {budget}); it is used anyway",
                 file=sys.stderr,
             )
-        actions.append(np.asarray(record.normalised_stroke, dtype=np.float64))
-    return SteadyPolicy(np.asarray(speeds, dtype=np.float64), np.stack(actions))
+    return records
+
+
+def steady_optima(config: SpeedChangeConfig, **run: Any) -> SteadyPolicy:
+    """The steady schedule: the level-flight optima of :func:`optima_records` (``run``: its
+    keyword arguments) at their speeds."""
+    records = optima_records(config, **run)
+    return SteadyPolicy(
+        np.array([r.job.condition for r in records], dtype=np.float64),
+        np.array([r.normalised_stroke for r in records], dtype=np.float64),
+    )
 
 
 #: The most evaluation episodes [-]: they are flown as one vector env, one model call of that
@@ -423,10 +433,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=0,
         help="which evaluation episode the figure shows (index, default 0)",
     )
-    from eval.optimize import add_cache_argument, add_scheduler_argument
+    from eval.optimize import add_run_arguments
 
-    add_scheduler_argument(parser)
-    add_cache_argument(parser)
+    add_run_arguments(parser, "--scheduler", "--no-cache")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
 

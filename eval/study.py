@@ -13,14 +13,7 @@ from agents.progress import CommandProgress
 from agents.runner import have_records
 from agents.store import RecordStore
 from eval.figures import FORMATS
-from eval.optimize import (
-    add_backend_arguments,
-    add_cache_argument,
-    add_insect_argument,
-    add_scheduler_argument,
-    backend_kwargs,
-    run_reporting,
-)
+from eval.optimize import add_insect_argument, add_run_arguments, backend_kwargs, run_reporting
 from eval.studies.base import StudyPlan
 from eval.studies.campaigns import CAMPAIGNS, campaigns
 from eval.studies.claims import FLIP_THRESHOLD
@@ -100,9 +93,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "side by side (default: the preset's method)",
     )
     add_insect_argument(parser, load_insect)
-    add_backend_arguments(parser)
-    add_scheduler_argument(parser)
-    add_cache_argument(parser)
+    add_run_arguments(parser, "--backend", "--device", "--scheduler", "--no-cache")
     parser.add_argument(
         "--workers",
         type=int,

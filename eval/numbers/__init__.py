@@ -22,8 +22,8 @@ commands, date, machine and load), and the Markdown is rendered from that file a
 This package is a small framework (:mod:`eval.numbers.framework`: where numbers live, the
 machine, the documented commands) and one module per measurement. Adding a number is one
 module with its ``measure() -> dict``, pure ``render(dict) -> str`` and their
-:class:`~eval.numbers.framework.Measurement` (``MEASUREMENT``), that module in
-:data:`MEASUREMENTS`, and one region in a document. A benchmark is measured by running its
+:class:`~eval.numbers.framework.Measurement` (``MEASUREMENT``; :data:`MEASUREMENTS` finds it in
+the package), and one region in a document. A benchmark is measured by running its
 documented command with ``--json`` (:class:`~eval.numbers.framework.Benchmark`). Timings are
 not deterministic: they are shown with the machine (CPU model, cores), date and load average
 before and after they were taken, the documents read their ratios within one run, and the test
@@ -33,27 +33,13 @@ does not compare them.
 from __future__ import annotations
 
 import argparse
+import importlib
+import pkgutil
 import re
 import sys
 from pathlib import Path
+from types import ModuleType
 
-from eval.numbers import (
-    amortised_scores,
-    comparison,
-    convergence,
-    crosscheck_lag_study,
-    envelope_headline,
-    power_conventions,
-    quick_preset,
-    readings_paper,
-    reference_table,
-    rl_baselines,
-    rotational_coefficient,
-    second_species,
-    speed_change,
-    throughput,
-    training_time,
-)
 from eval.numbers.framework import (
     DOCUMENTS,
     REGION,
@@ -69,25 +55,17 @@ NAME = "numbers"
 HELP = "rerun the measurements README and docs quote, and write them into the documents"
 
 
+def _measurement_modules() -> list[ModuleType]:
+    """Every module of this package but the framework: one per measurement (or set of them)."""
+    names = [m.name for m in pkgutil.iter_modules(__path__) if m.name != "framework"]
+    return [importlib.import_module(f"{__name__}.{name}") for name in names]
+
+
+#: Every measurement by name: each module's ``MEASUREMENT`` (or its ``MEASUREMENTS``).
 MEASUREMENTS: dict[str, Measurement] = {
     m.name: m
-    for m in (
-        comparison.MEASUREMENT,
-        *throughput.MEASUREMENTS,
-        speed_change.MEASUREMENT,
-        rotational_coefficient.MEASUREMENT,
-        power_conventions.MEASUREMENT,
-        convergence.MEASUREMENT,
-        quick_preset.MEASUREMENT,
-        training_time.MEASUREMENT,
-        second_species.MEASUREMENT,
-        reference_table.MEASUREMENT,
-        rl_baselines.MEASUREMENT,
-        amortised_scores.MEASUREMENT,
-        envelope_headline.MEASUREMENT,
-        crosscheck_lag_study.MEASUREMENT,
-        readings_paper.MEASUREMENT,
-    )
+    for module in _measurement_modules()
+    for m in getattr(module, "MEASUREMENTS", None) or (module.MEASUREMENT,)
 }
 
 

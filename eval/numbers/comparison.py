@@ -8,7 +8,13 @@ from dataclasses import dataclass
 from typing import Any
 
 from eval.compare import relative_spread
-from eval.numbers.framework import OPTIMIZE, Measurement, machine_line, run_seeds, seed_cells
+from eval.numbers.framework import (
+    Measurement,
+    footer,
+    optimize_command,
+    run_seeds,
+    seed_cells,
+)
 
 
 @dataclass(frozen=True)
@@ -37,9 +43,8 @@ COMPARISON_METHODS: tuple[str, ...] = ("cmaes", "pso")
 COMPARISON_SEEDS: tuple[int, ...] = (0, 1, 2, 3)
 
 
-def optimize_command(row: ComparisonRow, method: str, seeds: Sequence[int]) -> list[str]:
-    """The documented command (without ``--out``) for one row and method."""
-    return [*OPTIMIZE, *row.arguments, "--method", method, "--seeds", *map(str, seeds)]
+def _arguments(row: ComparisonRow, method: str) -> tuple[str, ...]:
+    return (*row.arguments, "--method", method)
 
 
 def run_optimize(row: ComparisonRow, method: str, seeds: Sequence[int]) -> list[dict[str, Any]]:
@@ -52,7 +57,7 @@ def run_optimize(row: ComparisonRow, method: str, seeds: Sequence[int]) -> list[
             "evaluations": r.evaluations,
             "wall_time_s": r.wall_time,
         }
-        for r in run_seeds(optimize_command(row, method, seeds), seeds)
+        for r in run_seeds(_arguments(row, method), seeds)
     ]
 
 
@@ -62,7 +67,7 @@ def measure() -> dict[str, Any]:
             "label": row.label,
             "symbol": row.symbol,
             "method": method,
-            "command": " ".join(optimize_command(row, method, COMPARISON_SEEDS)),
+            "command": optimize_command(_arguments(row, method), COMPARISON_SEEDS),
             "seeds": run_optimize(row, method, COMPARISON_SEEDS),
         }
         for row in COMPARISON_ROWS
@@ -83,8 +88,8 @@ def render(data: dict[str, Any]) -> str:
             f"| {row['label']} ({row['symbol']}) | `{row['method']}` | {objectives} | {median} | "
             f"{100 * spread:.1f} % | {feasible} | {times} |"
         )
-    lines += ["", machine_line(data, "comparison"), "", "Each row's command:", ""]
-    lines += [f"    {row['command']}" for row in data["rows"]]
+    commands = (row["command"] for row in data["rows"])
+    lines += footer(data, "comparison", *commands, heading="Each row's command:")
     return "\n".join(lines) + "\n"
 
 

@@ -53,12 +53,19 @@ OPTIMIZE: tuple[str, ...] = ("python", "-m", "eval", "optimize")
 """The documented optimisation command, before its options."""
 
 
-def run_seeds(command: Sequence[str], seeds: Sequence[int]) -> list[Any]:
-    """Run a documented ``eval optimize`` command into a fresh folder with the record cache off
-    (measured now, its wall times too, not copied from an earlier run); its records, by seed."""
+def optimize_command(arguments: Sequence[str], seeds: Sequence[int]) -> str:
+    """The documented ``eval optimize`` command of ``arguments`` over ``seeds`` (no ``--out``)."""
+    return " ".join([*OPTIMIZE, *arguments, "--seeds", *map(str, seeds)])
+
+
+def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
+    """Run the documented ``eval optimize`` command (:func:`optimize_command`) into a fresh folder
+    with the record cache off (measured now, its wall times too, not copied from an earlier
+    run); its records, by seed."""
     from agents.store import read_record_files
 
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
+        command = optimize_command(arguments, seeds).split()
         run_command([*command, "--out", out, "--no-cache"])
         records = sorted(read_record_files([out]), key=lambda r: r.seed)
     if [r.seed for r in records] != list(seeds):
@@ -188,9 +195,11 @@ def table_head(*titles: str) -> list[str]:
     return [table_row(*titles), "|---" * len(titles) + "|"]
 
 
-def footer(data: dict[str, Any], name: str, *commands: str) -> list[str]:
-    """The lines that close a region: :func:`machine_line` and the commands that measured it."""
-    return ["", machine_line(data, name), "", *(f"    {command}" for command in commands)]
+def footer(data: dict[str, Any], name: str, *commands: str, heading: str = "") -> list[str]:
+    """The lines that close a region: :func:`machine_line`, then ``heading`` (if any) and the
+    commands that measured it."""
+    headed = [heading, ""] if heading else []
+    return ["", machine_line(data, name), "", *headed, *(f"    {command}" for command in commands)]
 
 
 def read_rows(path: Path) -> list[dict[str, str]]:

@@ -7,7 +7,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from eval.numbers.framework import OPTIMIZE, Measurement, machine_line, run_seeds, seed_cells
+from eval.numbers.framework import (
+    Measurement,
+    footer,
+    optimize_command,
+    run_seeds,
+    seed_cells,
+)
 
 SPECIES_FILE = "examples/orthetrum_cancellatum.yaml"
 SPECIES_ARGUMENTS: tuple[str, ...] = (
@@ -45,15 +51,10 @@ def _columns() -> list[tuple[str, str, str]]:
     return [*SPECIES_METRICS, *parameters]
 
 
-def species_command(insect: Sequence[str], seeds: Sequence[int]) -> list[str]:
-    """The documented command (without ``--out``) for one insect."""
-    return [*OPTIMIZE, *insect, *SPECIES_ARGUMENTS, "--seeds", *map(str, seeds)]
-
-
 def run_species(insect: Sequence[str], seeds: Sequence[int]) -> list[dict[str, Any]]:
     """Run the documented command in a fresh folder; one summary row per seed (the record's
     objective, metrics, 28 stroke parameters, ``at_bounds`` and ``insect``)."""
-    records = run_seeds(species_command(insect, seeds), seeds)
+    records = run_seeds((*insect, *SPECIES_ARGUMENTS), seeds)
     return [{**r.summary_row(), "feasible": bool(r.feasible)} for r in records]
 
 
@@ -61,7 +62,7 @@ def measure() -> dict[str, Any]:
     rows = [
         {
             "label": label,
-            "command": " ".join(species_command(insect, SPECIES_SEEDS)),
+            "command": optimize_command((*insect, *SPECIES_ARGUMENTS), SPECIES_SEEDS),
             "seeds": run_species(insect, SPECIES_SEEDS),
         }
         for label, insect in SPECIES_INSECTS
@@ -100,13 +101,9 @@ def render(data: dict[str, Any]) -> str:
             for row in data["rows"]
         )
         + ".",
-        "",
-        machine_line(data, "second-species"),
-        "",
-        "Each row's command:",
-        "",
     ]
-    lines += [f"    {row['command']}" for row in data["rows"]]
+    commands = (row["command"] for row in data["rows"])
+    lines += footer(data, "second-species", *commands, heading="Each row's command:")
     return "\n".join(lines) + "\n"
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import tempfile
 from collections.abc import Sequence
 from typing import Any
 
@@ -23,19 +22,14 @@ OPTIMUM_METRICS: tuple[str, ...] = (
 def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str, Any]]:
     """The steady schedule's level-flight optima as ``eval speed-change`` makes them (its
     defaults: optimiser, budget, seed), one ``{speed, objective, feasible, ...}`` per speed."""
-    from agents.store import read_record_files
     from eval import speed_change
     from tandem_env.envs.speed_change_config import SpeedChangeConfig
 
-    config = SpeedChangeConfig.from_kwargs()
-    with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as store:
-        speed_change.steady_optima(
-            config,
-            speeds=speed_change.STEADY_GRID if speeds is None else speeds,
-            cache_dir=store,
-            progress=False,
-        )
-        records = sorted(read_record_files([store]), key=lambda r: r.job.condition)
+    records = speed_change.optima_records(
+        SpeedChangeConfig.from_kwargs(),
+        speeds=speed_change.STEADY_GRID if speeds is None else speeds,
+        progress=False,
+    )
     return [
         {
             "speed": r.job.condition,
@@ -47,7 +41,7 @@ def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str,
             **{name: r.metrics[name] for name in OPTIMUM_METRICS},
             "normalised_stroke": list(r.normalised_stroke),
         }
-        for r in records
+        for r in sorted(records, key=lambda r: r.job.condition)
     ]
 
 
