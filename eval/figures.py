@@ -316,8 +316,9 @@ def save(fig: plt.Figure, path: Path, crop: bool = True) -> Path:
     if crop:
         fig.tight_layout()
     try:
-        with atomic_path(path) as tmp:  # a killed run never leaves half a figure
-            # Vector formats carry no timestamp (metadata), so a rerun writes the same file.
+        # A killed run never leaves half a figure. A rerun writes the same file: vector formats
+        # carry no timestamp (metadata), and SVG's element ids hash a fixed salt, not a random one.
+        with atomic_path(path) as tmp, plt.rc_context({"svg.hashsalt": "tandem_env"}):
             metadata = {"png": None, "svg": {"Date": None}, "pdf": {"CreationDate": None}}[fmt]
             bbox = "tight" if crop else None
             fig.savefig(tmp, dpi=DPI, format=fmt, bbox_inches=bbox, metadata=metadata)

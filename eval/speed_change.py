@@ -25,7 +25,12 @@ from agents.records import Record
 from eval.speed_change_policies import Policy, RandomPolicy, SB3Policy, SteadyPolicy
 from tandem_env.envs.registration import SPEED_CHANGE_ID
 from tandem_env.envs.speed_change_config import LEVEL_FLIGHT_ENVELOPE, SpeedChangeConfig
-from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
+from tandem_env.io.files import (
+    atomic_path,
+    output_directory,
+    write_csv_atomic,
+    write_text_atomic,
+)
 from tandem_env.physics.checks import shown
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
@@ -383,8 +388,8 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
         fontsize=10,
     )
     figure.tight_layout()
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(path)
+    with atomic_path(path) as tmp:  # a killed run never leaves half a figure
+        figure.savefig(tmp)
 
 
 # --- the command -------------------------------------------------------------------------------

@@ -191,6 +191,10 @@ def test_figures_are_written_in_each_format(tmp_path: Path, fmt: str) -> None:
     path = figures.save(fig, figures.figure_path(tmp_path, "f", fmt))
     head = path.read_bytes()[:8]
     assert {"png": b"\x89PNG", "svg": b"<?xml", "pdf": b"%PDF"}[fmt] in head
+    # a rerun writes the same file: no timestamp, and SVG's element ids from a fixed salt
+    again = plt.figure()
+    again.add_subplot().plot([0, 1], [0, 1])
+    assert figures.save(again, tmp_path / f"again.{fmt}").read_bytes() == path.read_bytes()
 
 
 def test_an_unknown_format_is_refused(tmp_path: Path) -> None:
