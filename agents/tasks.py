@@ -32,6 +32,7 @@ __all__ = [
     "available_tasks",
     "get_task",
     "register_task",
+    "task_of",
 ]
 
 _NAME = re.compile(r"^[a-z][a-z0-9_-]*$")
@@ -240,3 +241,14 @@ def get_task(task: str | TaskSpec) -> TaskSpec:
         return tasks[task]
     except (KeyError, TypeError):
         raise ValueError(f"unknown task {task!r}; allowed: {', '.join(map(repr, tasks))}") from None
+
+
+def task_of(env_id: str) -> str:
+    """The name of the registered task whose env is ``env_id``; ValueError naming the env ids the
+    tasks run if none does."""
+    tasks = _tasks()
+    for name, spec in tasks.items():
+        if spec.env_id == env_id:
+            return name
+    allowed = ", ".join(spec.env_id for spec in tasks.values())
+    raise ValueError(f"no harness task runs {env_id}; allowed: {allowed}")

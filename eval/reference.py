@@ -69,7 +69,7 @@ def plan(
     env_kwargs: Mapping[str, Any] | None = None,
 ) -> dict[tuple[str, str, str, float], list[PreparedJob]]:
     """The jobs of the table: per (env id, objective, planform, condition), one per seed."""
-    from train.envelope import task_of  # the harness task of an env id
+    from agents.tasks import task_of
 
     jobs: dict[tuple[str, str, str, float], list[PreparedJob]] = {}
     for env_id, (objectives, conditions) in grid.items():

@@ -168,9 +168,8 @@ def _polish_rows(
     problem: Any,
 ) -> None:
     from agents.polish import AutogradGradient, PolishConfig, polish, task_problem
-    from agents.tasks import get_task
+    from agents.tasks import get_task, task_of
     from tandem_env.envs.reference import normalised_score
-    from train.envelope import task_of
 
     task = get_task(task_of(policy.env_id))
     for row, start in zip(rows, strokes, strict=True):
@@ -230,7 +229,7 @@ def _fresh_cmaes(
     """A CMA-ES run (the harness's, its default polish included) of ``budget`` evaluations at
     ``condition``, timed here."""
     from agents.harness import run
-    from train.envelope import task_of
+    from agents.tasks import task_of
 
     start = time.perf_counter()
     [record] = run(

@@ -57,17 +57,6 @@ COLUMNS: tuple[str, ...] = (
 )
 
 
-def task_of(env_id: str) -> str:
-    """The harness task name of a training env id."""
-    from agents.tasks import available_tasks, get_task
-
-    for name in available_tasks():
-        if get_task(name).env_id == env_id:
-            return name
-    allowed = ", ".join(get_task(name).env_id for name in available_tasks())
-    raise ValueError(f"no harness task runs {env_id}; allowed: {allowed}")
-
-
 def sweep_conditions(task: str) -> tuple[float, ...]:
     """The task's declared sweep (its env config's ``CONDITION.sweep``)."""
     from agents.tasks import get_task
@@ -106,6 +95,7 @@ def evaluate_envelope(
     folder may hold a newer model under the same name)."""
     from agents.harness import prepare
     from agents.runner import run_jobs
+    from agents.tasks import task_of
     from tandem_env.envs.registration import condition_keywords
     from train.trained_policy import TrainingMismatchWarning, load_policy
 
@@ -191,7 +181,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     outside = [row for row in rows if not row["trained_at"]]
     if outside:
-        from agents.tasks import get_task
+        from agents.tasks import get_task, task_of
         from train.trained_policy import load_policy
 
         policy = load_policy(args.run, args.model)

@@ -21,9 +21,9 @@ def test_check_env_id_lists_the_ids(bad) -> None:
 
 
 def test_train_and_envelope_list_the_ids(capsys: pytest.CaptureFixture[str]) -> None:
+    from agents.tasks import task_of
     from train.__main__ import main
     from train.config import TrainConfig
-    from train.envelope import task_of
 
     with pytest.raises(ValueError, match=f"^env = 'Foo-v0' is not a tandem-wing env; {VALID}"):
         TrainConfig(algo="ppo", env_id="Foo-v0")
