@@ -9,7 +9,7 @@ import os
 import statistics
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict
 from datetime import datetime, timezone
 from pathlib import Path
@@ -39,6 +39,7 @@ from eval.studies.readings.plan import (
     full_tasks,
     optima_from,
     optima_of,
+    reading_jobs,
     reading_plan,
     study_jobs,
 )
@@ -52,7 +53,7 @@ def analyse_reading(
     plan: StudyPlan,
     reading: Reading,
     out_dir: Path,
-    jobs: Mapping[str, list[Job]] | None = None,
+    jobs: Mapping[str, Sequence[Job]] | None = None,
 ) -> ReadingResult:
     """Analyse the four studies under ``reading`` (every record present) into its folder;
     ``jobs`` are each study's jobs (:func:`study_jobs`; the studies' own by default).
@@ -213,9 +214,67 @@ def _invocations(
 #: What the readings study's plan cannot count before its singles are analysed.
 COMBINATIONS_LATER = "the combinations the singles' results point to (counted once known)"
 
+ByReading = Mapping[Reading, Mapping[str, Sequence[Job]]]
+"""Readings and each one's jobs by study name (:func:`study_jobs`)."""
 
-def _flat(jobs: Mapping[str, Sequence[Job]]) -> list[Job]:
-    return [job for group in jobs.values() for job in group]
+
+def _flat(jobs: Iterable[Mapping[str, Sequence[Job]]]) -> tuple[Job, ...]:
+    return tuple(job for by_study in jobs for group in by_study.values() for job in group)
+
+
+def _phases(
+    plan: StudyPlan,
+    readings: Sequence[Reading],
+    continuation: Continuation | None,
+    records: Callable[[Sequence[Job]], Mapping[Job, Record] | None],
+    each: Callable[[Phase, ByReading], None],
+) -> tuple[dict[str, dict[str, list[Job]]], list[dict[str, Any]], dict[str, dict[str, str]]]:
+    """The phases of :func:`run_readings` before the combinations, in order: each goes to
+    ``each`` with the readings whose jobs it completes (the run runs it there, the plan only
+    collects it); then ``records`` gives its records if the next phases depend on them (None
+    when some are missing: those phases get stand-ins at the right budgets,
+    :class:`~agents.progress.Phase`, their keys provisional, and the singles are planned as if no
+    task ran in full). Returns every reading's jobs (reading name -> study -> jobs), the bias
+    check's rows (:func:`check_rows`) and the tasks run in full (:func:`full_tasks`)."""
+    if continuation is None:
+        jobs = {r.name: study_jobs(plan, r) for r in readings}
+        each(Phase("singles", _flat(jobs.values())), {r: jobs[r.name] for r in readings})
+        return jobs, [], {}
+    # the default first: the others start from its optima
+    jobs = {DEFAULT.name: study_jobs(plan, DEFAULT)}
+    default = Phase(PHASES[0], _flat(jobs.values()))
+    each(default, {DEFAULT: jobs[DEFAULT.name]})
+    found = records(default.jobs)
+    if found is None:  # stand-in optima: the jobs' budgets are right, their keys not final
+        optima: Optima = {
+            DEFAULT.name: {
+                name: [[0.0] * N_PARAMETERS] * len(group)
+                for name, group in jobs[DEFAULT.name].items()
+            }
+        }
+    else:
+        optima = optima_from(found, jobs)
+    # the bias check, then each single reading: a task the check fails runs in full
+    others = readings[1:]
+    checks = [(r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)]
+    check = Phase(
+        PHASES[1],
+        tuple(dict.fromkeys(job for _, c, f in checks for job in (c, f))),
+        frozenset(c.key for _, c, _ in checks) if found is None else frozenset(),
+    )
+    each(check, {})
+    rows: list[dict[str, Any]] = []  # one per checked job
+    if found is not None and checks and (done := records(check.jobs)):
+        rows = check_rows(done, checks)
+    full = full_tasks(check_summary(rows), continuation)
+    jobs |= {
+        r.name: study_jobs(plan, r, continuation, optima, full.get(r.name, {})) for r in others
+    }
+    singles = _flat(jobs[r.name] for r in others)
+    own = {job.key for r in others for job in reading_jobs(plan, r)}
+    stand_ins = frozenset(j.key for j in singles if j.key not in own) if found is None else None
+    each(Phase(PHASES[2], singles, stand_ins or frozenset()), {r: jobs[r.name] for r in others})
+    return jobs, rows, full
 
 
 def planned_phases(
@@ -226,43 +285,16 @@ def planned_phases(
     cache: CacheOption = True,
 ) -> list[Phase]:
     """The phases of :func:`run_readings` before the combinations, as far as the records in
-    ``out_dir`` and the record cache decide them now (nothing is written or run).
-
-    A phase whose jobs continue from optima not found yet gets stand-ins at the right budgets
-    (:class:`~agents.progress.Phase`, their keys provisional); before the bias check has run, the
-    singles are planned as if no task ran in full.
-    """
-    if continuation is None:
-        jobs = [job for r in readings for job in _flat(study_jobs(plan, r))]
-        return [Phase("singles", tuple(jobs))]
-    default = {DEFAULT.name: study_jobs(plan, DEFAULT)}
-    phases = [Phase(PHASES[0], tuple(_flat(default[DEFAULT.name])))]
-    found = find_records(out_dir, phases[0].jobs, cache)
-    if found is None:  # stand-in optima: the jobs' budgets are right, their keys not final
-        optima: dict[str, dict[str, list[list[float]]]] = {
-            DEFAULT.name: {
-                name: [[0.0] * N_PARAMETERS] * len(group)
-                for name, group in default[DEFAULT.name].items()
-            }
-        }
-    else:
-        optima = optima_from(found, default)
-    others = readings[1:]
-    checks = [(r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)]
-    check = list(dict.fromkeys(job for _, c, f in checks for job in (c, f)))
-    stand_ins = frozenset(c.key for _, c, _ in checks) if found is None else frozenset()
-    phases.append(Phase(PHASES[1], tuple(check), stand_ins))
-    full: dict[str, dict[str, str]] = {}
-    if found is not None and checks and (done := find_records(out_dir, check, cache)):
-        full = full_tasks(check_summary(check_rows(done, checks)), continuation)
-    singles = [
-        job
-        for r in others
-        for job in _flat(study_jobs(plan, r, continuation, optima, full.get(r.name, {})))
-    ]
-    own = {job.key for r in others for job in _flat(study_jobs(plan, r))}
-    stand_ins = frozenset(j.key for j in singles if j.key not in own) if found is None else None
-    phases.append(Phase(PHASES[2], tuple(singles), stand_ins or frozenset()))
+    ``out_dir`` and the record cache decide them now (nothing is written or run; stand-ins
+    where they do not: :func:`_phases`)."""
+    phases: list[Phase] = []
+    _phases(
+        plan,
+        readings,
+        continuation,
+        lambda jobs: find_records(out_dir, jobs, cache),
+        lambda phase, _: phases.append(phase),
+    )
     return phases
 
 
@@ -305,78 +337,56 @@ def run_readings(
     before = _check_preset(out, plan)
     load_before = _load()
     runs: list[RunSummary] = []
-    rows: list[dict[str, Any]] = []  # the bias check's, one per checked job
-    full: dict[str, dict[str, str]] = {}
+    phases: list[str] = []
+    results: list[ReadingResult] = []
 
-    def starting(phase: str) -> None:
+    def run_phase(phase: Phase, chosen: ByReading) -> None:
+        """Run the phase's jobs in one call, and analyse the readings ``chosen``."""
+        runs.append(
+            run_jobs(
+                phase.jobs,
+                out,
+                scheduler=scheduler,
+                progress=progress,
+                cache=cache,
+                command=command,
+            )
+        )
+        phases.append(phase.name)
+        for reading, jobs in chosen.items():
+            if progress:
+                print(f"analysing reading {reading.name}", file=sys.stderr)
+            results.append(analyse_reading(plan, reading, out, jobs))
+
+    def replan_and_run(phase: Phase, chosen: ByReading) -> None:
         # The whole command again, from what the records decide now.
         if command is not None:
             command.plan(planned_phases(plan, out, readings, continuation, cache))
-            command.start(phase)
+            command.start(phase.name)
+        run_phase(phase, chosen)
 
-    def run_phase(todo: list[Job]) -> None:
-        runs.append(
-            run_jobs(
-                todo, out, scheduler=scheduler, progress=progress, cache=cache, command=command
-            )
-        )
-
-    def run_and_analyse(chosen: Sequence[Reading]) -> list[ReadingResult]:
-        """Run the jobs of ``chosen`` in one call, and analyse those readings."""
-        run_phase([job for r in chosen for job in _flat(jobs[r.name])])
-        results = []
-        for reading in chosen:
-            if progress:
-                print(f"analysing reading {reading.name}", file=sys.stderr)
-            results.append(analyse_reading(plan, reading, out, jobs[reading.name]))
-        return results
-
-    optima: Optima | None = None  # the optima the readings continue from
-    if continuation is None:
-        jobs = {r.name: study_jobs(plan, r) for r in readings}
-        starting("singles")
-        singles = run_and_analyse(readings)
-    else:
-        # the default first: the others start from its optima
-        jobs = {DEFAULT.name: study_jobs(plan, DEFAULT)}
-        starting(PHASES[0])
-        default = run_and_analyse(readings[:1])
-        optima = optima_of(out, jobs)
-        # the bias check, then each single reading: a task the check fails runs in full
-        others = readings[1:]
-        checks = [(r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)]
-        starting(PHASES[1])
-        checked = list(dict.fromkeys(job for _, c, f in checks for job in (c, f)))
-        run_phase(checked)
-        rows = check_rows(job_records(out, checked), checks) if checks else []
-        full = full_tasks(check_summary(rows), continuation)
-        jobs |= {
-            r.name: study_jobs(plan, r, continuation, optima, full.get(r.name, {})) for r in others
-        }
-        starting(PHASES[2])
-        singles = default + run_and_analyse(others)
+    jobs, rows, full = _phases(
+        plan, readings, continuation, lambda todo: job_records(out, todo), replan_and_run
+    )
     words = "not derived (derive=False)"
-    results = list(singles)
     if derive:
-        derived, words = combinations(singles[0], singles)
+        derived, words = combinations(results[0], results)
         derived = [r for r in derived if r.name not in names]
         if command is not None:
             command.plan([], later="")  # the combinations are known now
         if derived:
-            if continuation is not None:
-                optima = optima_of(out, jobs)
+            optima = None if continuation is None else optima_of(out, jobs)
             jobs |= {r.name: study_jobs(plan, r, continuation, optima) for r in derived}
+            phase = Phase(PHASES[3], _flat(jobs[r.name] for r in derived))
             if command is not None:
-                more_jobs = [job for r in derived for job in _flat(jobs[r.name])]
-                command.plan([Phase(PHASES[3], tuple(more_jobs))])
-                command.start(PHASES[3])
-            results += run_and_analyse(derived)
+                command.plan([phase])
+                command.start(phase.name)
+            run_phase(phase, {r: jobs[r.name] for r in derived})
     if rows:
         write_csv_atomic(out / CHECK_CSV, rows)
     summary = check_summary(rows)
     files = write_outputs(plan, results, words, out, summary, continuation, full)
     wall = time.perf_counter() - start
-    phases = (("singles", "combinations") if continuation is None else PHASES)[: len(runs)]
     this = {
         "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "cpus": os.cpu_count(),
@@ -408,7 +418,7 @@ def run_readings(
             "invocations": _invocations(before, plan, this),
         },
     )
-    return ReadingsResult(tuple(results), tuple(runs), words, tuple(files), wall, phases)
+    return ReadingsResult(tuple(results), tuple(runs), words, tuple(files), wall, tuple(phases))
 
 
 def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
