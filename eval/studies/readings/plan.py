@@ -18,7 +18,7 @@ from agents.runner import RunSummary, job_records
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading, combine
-from eval.studies.readings.result import HEADLINES, ReadingResult
+from eval.studies.readings.result import COUNTS, HEADLINES, ReadingResult
 
 NAME = "readings"
 TITLE = "Readings of the paper against its claims"
@@ -112,11 +112,7 @@ CSV_COLUMNS: tuple[str, ...] = (
     "rotational_coefficient",
     "horizontal_objective",
     "search",
-    "agree",
-    "differ",
-    "undecided",
-    "not_identifiable",
-    "no_data",
+    *COUNTS,
     *HEADLINES,
     "description",
 )

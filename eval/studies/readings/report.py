@@ -11,7 +11,7 @@ from typing import Any
 
 from eval.studies.base import StudyPlan
 from eval.studies.claims import Claim
-from eval.studies.readings.result import HEADLINES, ReadingResult, reading_dir
+from eval.studies.readings.result import COUNTS, HEADLINES, ReadingResult, reading_dir
 from eval.studies.report import (
     agreement_rules,
     figure_markdown,
@@ -77,6 +77,7 @@ def write_readings_report(
     best = max(results, key=lambda r: r.agree)
     n_claims = len(default.claims)
     heads = list(HEADLINES)
+    titles = ("reading", "changes from the default", *COUNTS.values(), *heads)
     parts = [
         "# Readings of the paper: which reading reproduces which claim",
         "",
@@ -87,9 +88,8 @@ def write_readings_report(
         "",
         "## Readings",
         "",
-        "| reading | changes from the default | agree | differ | undecided | not identifiable "
-        "| no data | " + " | ".join(f"{k}" for k in heads) + " |",
-        "|---|---|---|---|---|---|---|" + "---|" * len(heads),
+        table_row(titles),
+        "|---" * len(titles) + "|",
     ]
     for r in results:
         head, c = r.headline(), r.counts
@@ -98,7 +98,7 @@ def write_readings_report(
                 (
                     f"`{r.reading.name}`",
                     r.reading.describe_changes(),
-                    *map(str, (c.agree, c.differ, c.undecided, c.not_identifiable, c.no_data)),
+                    *(str(getattr(c, k)) for k in COUNTS),
                     *(_num(head[k]) for k in heads),
                 )
             )

@@ -12,6 +12,7 @@ import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict
 from datetime import datetime, timezone
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -257,14 +258,11 @@ def _phases(
     # the bias check, then each single reading: a task the check fails runs in full
     others = readings[1:]
     checks = [(r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)]
-    check = Phase(
-        PHASES[1],
-        tuple(dict.fromkeys(job for _, c, f in checks for job in (c, f))),
-        frozenset(c.key for _, c, _ in checks) if found is None else frozenset(),
-    )
-    each(check, {})
+    check = tuple(dict.fromkeys(job for _, c, f in checks for job in (c, f)))
+    stand_ins = frozenset(c.key for _, c, _ in checks) if found is None else frozenset()
+    each(Phase(PHASES[1], check, stand_ins), {})
     rows: list[dict[str, Any]] = []  # one per checked job
-    if found is not None and checks and (done := records(check.jobs)):
+    if found is not None and checks and (done := records(check)):
         rows = check_rows(done, checks)
     full = full_tasks(check_summary(rows), continuation)
     jobs |= {
@@ -288,13 +286,8 @@ def planned_phases(
     ``out_dir`` and the record cache decide them now (nothing is written or run; stand-ins
     where they do not: :func:`_phases`)."""
     phases: list[Phase] = []
-    _phases(
-        plan,
-        readings,
-        continuation,
-        lambda jobs: find_records(out_dir, jobs, cache),
-        lambda phase, _: phases.append(phase),
-    )
+    records = partial(find_records, out_dir, cache=cache)
+    _phases(plan, readings, continuation, records, lambda phase, _: phases.append(phase))
     return phases
 
 
@@ -323,7 +316,7 @@ def run_readings(
     (:func:`planned_phases`) and told at each phase's start. Raises ValueError if ``readings``
     does not start with the default reading or repeats a name.
     """
-    start = time.perf_counter()
+    started = time.perf_counter()
     out = Path(out_dir)
     readings = tuple(readings)
     if not readings or readings[0] != DEFAULT:
@@ -336,38 +329,27 @@ def run_readings(
         raise ValueError(f"readings = {names}; allowed: distinct names")
     before = _check_preset(out, plan)
     load_before = _load()
-    runs: list[RunSummary] = []
-    phases: list[str] = []
+    runs: dict[str, RunSummary] = {}  # by phase name
     results: list[ReadingResult] = []
 
     def run_phase(phase: Phase, chosen: ByReading) -> None:
         """Run the phase's jobs in one call, and analyse the readings ``chosen``."""
-        runs.append(
-            run_jobs(
-                phase.jobs,
-                out,
-                scheduler=scheduler,
-                progress=progress,
-                cache=cache,
-                command=command,
-            )
+        runs[phase.name] = run_jobs(
+            phase.jobs, out, scheduler=scheduler, progress=progress, cache=cache, command=command
         )
-        phases.append(phase.name)
         for reading, jobs in chosen.items():
             if progress:
                 print(f"analysing reading {reading.name}", file=sys.stderr)
             results.append(analyse_reading(plan, reading, out, jobs))
 
-    def replan_and_run(phase: Phase, chosen: ByReading) -> None:
+    def start(phase: Phase, chosen: ByReading) -> None:
         # The whole command again, from what the records decide now.
         if command is not None:
             command.plan(planned_phases(plan, out, readings, continuation, cache))
             command.start(phase.name)
         run_phase(phase, chosen)
 
-    jobs, rows, full = _phases(
-        plan, readings, continuation, lambda todo: job_records(out, todo), replan_and_run
-    )
+    jobs, rows, full = _phases(plan, readings, continuation, partial(job_records, out), start)
     words = "not derived (derive=False)"
     if derive:
         derived, words = combinations(results[0], results)
@@ -386,12 +368,12 @@ def run_readings(
         write_csv_atomic(out / CHECK_CSV, rows)
     summary = check_summary(rows)
     files = write_outputs(plan, results, words, out, summary, continuation, full)
-    wall = time.perf_counter() - start
+    wall = time.perf_counter() - started
     this = {
         "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "cpus": os.cpu_count(),
         "load_average_1min": [load_before, _load()],
-        "phases": [{"name": name, **run.to_dict()} for name, run in zip(phases, runs, strict=True)],
+        "phases": [{"name": name, **run.to_dict()} for name, run in runs.items()],
         "wall_time_s": round(wall, 1),
     }
     write_json_atomic(
@@ -418,7 +400,9 @@ def run_readings(
             "invocations": _invocations(before, plan, this),
         },
     )
-    return ReadingsResult(tuple(results), tuple(runs), words, tuple(files), wall, tuple(phases))
+    return ReadingsResult(
+        tuple(results), tuple(runs.values()), words, tuple(files), wall, tuple(runs)
+    )
 
 
 def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
@@ -435,7 +419,7 @@ def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
             "rotational_coefficient": math.pi if c_r is None else float(c_r),
             "horizontal_objective": r.reading.horizontal_objective,
             "search": "" if r.reading.search is None else r.reading.search.describe(),
-            **asdict(r.counts),  # agree, differ, undecided, not_identifiable, no_data
+            **asdict(r.counts),
             **{k: _round(v) for k, v in r.headline().items()},
             "description": r.reading.description,
         }
