@@ -88,7 +88,8 @@ def render(data: dict[str, Any]) -> str:
     heads = [title for title, _ in READINGS_COLUMNS]
     lines = [
         *table_head("reading", "changes from the default", *COUNTS.values(), *heads),
-        "| paper | | | | | | | "
+        "| paper | "
+        + "| " * (1 + len(COUNTS))
         + " | ".join(
             " / ".join(paper.get(HEADLINES[c][0], "–") for c in columns)
             for _, columns in READINGS_COLUMNS

@@ -26,7 +26,7 @@ DEFAULT_OUT = os.path.join("results", "readings")
 MANIFEST = "readings_manifest.json"
 CHECK_CSV = "continuation_check.csv"
 #: The phases of a run with the continuation: the default in full, the continuation's bias
-#: check, the singles, the combinations.
+#: check, the singles, the combinations; without it, the last two.
 PHASES = ("default", "check", "singles", "combinations")
 
 #: The single readings: the default, then each open decision changed alone (docs/model.md).
@@ -225,8 +225,7 @@ class ReadingsResult:
     wall_time: float
     """Seconds for the whole call [s]."""
     phases: tuple[str, ...] = ()
-    """The phases' names, one per run: ``singles`` and ``combinations``; with the
-    continuation ``default`` first."""
+    """The phases' names (:data:`PHASES`), one per run."""
 
     @property
     def best(self) -> ReadingResult:

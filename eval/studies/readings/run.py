@@ -198,7 +198,7 @@ def _invocations(
         return [this]
     earlier = list(before.get("invocations", ()))
     if not earlier and "phases" in before:
-        names = ("singles", "combinations") if before.get("continuation") is None else PHASES
+        names = PHASES[2:] if before.get("continuation") is None else PHASES
         earlier = [
             {
                 "finished": None,
@@ -239,7 +239,7 @@ def _phases(
     check's rows (:func:`check_rows`) and the tasks run in full (:func:`full_tasks`)."""
     if continuation is None:
         jobs = {r.name: study_jobs(plan, r) for r in readings}
-        each(Phase("singles", _flat(jobs.values())), {r: jobs[r.name] for r in readings})
+        each(Phase(PHASES[2], _flat(jobs.values())), {r: jobs[r.name] for r in readings})
         return jobs, [], {}
     # the default first: the others start from its optima
     jobs = {DEFAULT.name: study_jobs(plan, DEFAULT)}
