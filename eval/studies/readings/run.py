@@ -51,13 +51,10 @@ from tandem_env.physics import N_PARAMETERS
 
 
 def analyse_reading(
-    plan: StudyPlan,
-    reading: Reading,
-    out_dir: Path,
-    jobs: Mapping[str, Sequence[Job]] | None = None,
+    plan: StudyPlan, reading: Reading, out_dir: Path, jobs: Mapping[str, Sequence[Job]]
 ) -> ReadingResult:
     """Analyse the four studies under ``reading`` (every record present) into its folder;
-    ``jobs`` are each study's jobs (:func:`study_jobs`; the studies' own by default).
+    ``jobs`` are each study's jobs (:func:`study_jobs`).
 
     The folder gets a relative link ``records -> ../records`` so the study indexes' record
     paths resolve, and its own ``report.md``.
@@ -71,7 +68,6 @@ def analyse_reading(
             link.symlink_to(Path("..") / RECORDS_DIR, target_is_directory=True)
         except OSError:  # no symlinks here (e.g. some Windows setups): the index paths dangle
             pass
-    jobs = study_jobs(plan, reading) if jobs is None else jobs
     outputs = tuple(
         study.analyse(p, job_records(out_dir, jobs[name]), where)
         for name, study in PAPER_STUDIES.items()
@@ -163,53 +159,37 @@ def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
-def _check_preset(out_dir: Path, plan: StudyPlan) -> Mapping[str, Any] | None:
-    """The manifest ``out_dir`` holds (None if none); say so (stderr) when it is another
-    preset's readings, which are replaced."""
+def _earlier_invocations(out_dir: Path, plan: StudyPlan) -> list[dict[str, Any]]:
+    """The invocations into ``out_dir`` at this preset its manifest records: a resumed run (or
+    one that only redraws the outputs) keeps their work and times. A manifest written before
+    invocations were recorded (no ``invocations``) gives its one run, with the phases named in
+    order. Says so (stderr) when ``out_dir`` holds another preset's readings, which are
+    replaced."""
     try:
         before = read_json(out_dir / MANIFEST)
     except (FileNotFoundError, ValueError):
-        return None
-    if not isinstance(before, Mapping):
-        return None
-    if before.get("preset") not in (None, plan.preset.name):
+        return []
+    if not isinstance(before, Mapping) or before.get("preset") is None:
+        return []
+    if before["preset"] != plan.preset.name:
         print(
             f"note: {out_dir} holds the {before['preset']!r} preset's readings; its readings.csv, "
             f"matrix and report are replaced by the {plan.preset.name!r} preset's (the records "
             "of both stay: they are keyed by preset). Use --out for a separate folder.",
             file=sys.stderr,
         )
-    return before
+        return []
+    earlier = list(before.get("invocations", ()))
+    if earlier or "phases" not in before:
+        return earlier
+    names = PHASES[2:] if before.get("continuation") is None else PHASES
+    phases = [{"name": name, **phase} for name, phase in zip(names, before["phases"], strict=False)]
+    return [{"finished": None, "phases": phases, "wall_time_s": before.get("wall_time_s")}]
 
 
 def _load() -> float | None:
     """The 1-minute load average (None where the system has none)."""
     return round(os.getloadavg()[0], 2) if hasattr(os, "getloadavg") else None
-
-
-def _invocations(
-    before: Mapping[str, Any] | None, plan: StudyPlan, this: dict[str, Any]
-) -> list[dict[str, Any]]:
-    """Every invocation into the folder at this preset, ``this`` last: a resumed run (or one
-    that only redraws the outputs) keeps the work and times of those before it. A manifest
-    written before invocations were recorded (no ``invocations``) gives its one run, with the
-    phases named in order."""
-    if before is None or before.get("preset") != plan.preset.name:
-        return [this]
-    earlier = list(before.get("invocations", ()))
-    if not earlier and "phases" in before:
-        names = PHASES[2:] if before.get("continuation") is None else PHASES
-        earlier = [
-            {
-                "finished": None,
-                "phases": [
-                    {"name": name, **phase}
-                    for name, phase in zip(names, before["phases"], strict=False)
-                ],
-                "wall_time_s": before.get("wall_time_s"),
-            }
-        ]
-    return [*earlier, this]
 
 
 #: What the readings study's plan cannot count before its singles are analysed.
@@ -327,7 +307,7 @@ def run_readings(
     names = [r.name for r in readings]
     if len(set(names)) != len(names):
         raise ValueError(f"readings = {names}; allowed: distinct names")
-    before = _check_preset(out, plan)
+    earlier = _earlier_invocations(out, plan)
     load_before = _load()
     runs: dict[str, RunSummary] = {}  # by phase name
     results: list[ReadingResult] = []
@@ -397,7 +377,7 @@ def run_readings(
             "continuation": None if continuation is None else asdict(continuation),
             "continuation_check": summary,
             "run_in_full": full,
-            "invocations": _invocations(before, plan, this),
+            "invocations": [*earlier, this],
         },
     )
     return ReadingsResult(
