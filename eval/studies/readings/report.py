@@ -5,7 +5,7 @@ with the generic report's pieces (:mod:`eval.studies.report`)."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -76,8 +76,7 @@ def write_readings_report(
     default = results[0]
     best = max(results, key=lambda r: r.agree)
     n_claims = len(default.claims)
-    heads = list(HEADLINES)
-    titles = ("reading", "changes from the default", *COUNTS.values(), *heads)
+    base_head = default.headline()
     parts = [
         "# Readings of the paper: which reading reproduces which claim",
         "",
@@ -88,22 +87,18 @@ def write_readings_report(
         "",
         "## Readings",
         "",
-        table_row(titles),
-        "|---" * len(titles) + "|",
-    ]
-    for r in results:
-        head, c = r.headline(), r.counts
-        parts.append(
-            table_row(
+        *_table(
+            ("reading", "changes from the default", *COUNTS.values(), *HEADLINES),
+            [
                 (
                     f"`{r.reading.name}`",
                     r.reading.describe_changes(),
-                    *(str(getattr(c, k)) for k in COUNTS),
-                    *(_num(head[k]) for k in heads),
+                    *(str(getattr(r.counts, k)) for k in COUNTS),
+                    *map(_num, r.headline().values()),
                 )
-            )
-        )
-    parts += [
+                for r in results
+            ],
+        ),
         "",
         "Headline columns: " + "; ".join(f"{k}: {text}" for k, (_, text) in HEADLINES.items()),
         "",
@@ -137,24 +132,18 @@ def write_readings_report(
         "`*` marks a flip where both medians lie inside the other's inter-quartile range over "
         "seeds: within the seed-to-seed spread, i.e. possibly search noise.",
         "",
-        "| reading | claims moved | Δ agree | " + " | ".join(f"Δ {k}" for k in heads) + " |",
-        "|---|---|---|" + "---|" * len(heads),
-    ]
-    base_head = default.headline()
-    for r in results[1:]:
-        head = r.headline()
-        moves = reading_moves(default, r)
-        parts.append(
-            table_row(
+        *_table(
+            ("reading", "claims moved", "Δ agree", *(f"Δ {k}" for k in HEADLINES)),
+            [
                 (
                     f"`{r.reading.name}`",
-                    "; ".join(moves) or "none",
+                    "; ".join(reading_moves(default, r)) or "none",
                     f"{r.agree - default.agree:+d}",
-                    *(_num(head[k] - base_head[k], "+.3g") for k in heads),
+                    *(_num(v - base_head[k], "+.3g") for k, v in r.headline().items()),
                 )
-            )
-        )
-    parts += [
+                for r in results[1:]
+            ],
+        ),
         "",
         "## Claims × readings",
         "",
@@ -217,27 +206,29 @@ def check_table(
     """The continuation's bias check as a Markdown table: one row per reading and task
     (``readings.check_summary``) with whether it ran in full and why (``readings.full_tasks``),
     the overall row in bold."""
-    lines = [
-        "| reading | task | pairs | median | lowest | highest | within 0.5 % or above | "
-        "infeasible | runs |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
+    rows = []
     for row in check:
         overall = row["reading"] == "all"
         why = full.get(row["reading"], {}).get(row["task"])
-        lines.append(
-            table_row(
-                (
-                    "**all**" if overall else f"`{row['reading']}`",
-                    "" if overall else row["task"],
-                    str(row["pairs"]),
-                    f"{100 * row['median']:+.2f} %",
-                    f"{100 * row['lowest']:+.2f} %",
-                    f"{100 * row['highest']:+.2f} %",
-                    f"{row['within_0.5%']} of {row['pairs']}",
-                    str(row["infeasible"]),
-                    "" if overall else (f"in full ({why})" if why else "continued"),
-                )
+        rows.append(
+            (
+                "**all**" if overall else f"`{row['reading']}`",
+                "" if overall else row["task"],
+                str(row["pairs"]),
+                f"{100 * row['median']:+.2f} %",
+                f"{100 * row['lowest']:+.2f} %",
+                f"{100 * row['highest']:+.2f} %",
+                f"{row['within_0.5%']} of {row['pairs']}",
+                str(row["infeasible"]),
+                "" if overall else (f"in full ({why})" if why else "continued"),
             )
         )
-    return lines
+    titles = (
+        "reading, task, pairs, median, lowest, highest, within 0.5 % or above, infeasible, runs"
+    )
+    return _table(titles.split(", "), rows)
+
+
+def _table(titles: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]:
+    """A Markdown table: the titles, the rule under them and one line per row."""
+    return [table_row(titles), "|---" * len(titles) + "|", *map(table_row, rows)]
