@@ -453,7 +453,7 @@ def combinations(
         ]
     out: list[Reading] = []
     for group in groups:
-        reading = combine([g.reading for g in group], _combined_name(group))
+        reading = combine([g.reading for g in group], "+".join(g.reading.name for g in group))
         if all(r.changes() != reading.changes() for r in out):
             out.append(reading)
     if out:
@@ -466,7 +466,3 @@ def combinations(
             "single run here can join it (none, or each changes the same option)"
         )
     return out, words
-
-
-def _combined_name(results: Sequence[ReadingResult]) -> str:
-    return "+".join(r.reading.name for r in results)

@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import Any
 
 from eval.studies.base import StudyPlan
-from eval.studies.claims import Claim
 from eval.studies.readings.result import COUNTS, HEADLINES, ReadingResult, reading_dir
 from eval.studies.report import (
     agreement_rules,
@@ -31,15 +30,10 @@ def _num(value: float, fmt: str = ".3g") -> str:
     return "–" if math.isnan(value) else f"{value:{fmt}}"
 
 
-def _within_spread(a: Claim, b: Claim) -> bool:
-    """Whether each claim's median lies inside the other's inter-quartile range over seeds
-    (a verdict flip between them is then within the seed-to-seed spread; False with a NaN)."""
-    return a.q25 <= b.median <= a.q75 and b.q25 <= a.median <= b.q75
-
-
 def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
     """One line per claim whose verdict differs from the default's: the change and the
-    statistic before and after (``*``: the two medians lie in each other's seed IQR)."""
+    statistic before and after (``*``: the two medians lie in each other's inter-quartile range
+    over seeds, so the flip is within the seed-to-seed spread; not with a NaN)."""
     mine = {c.id: c for c in other.claims}
     lines = []
     for before in default.claims:
@@ -47,7 +41,10 @@ def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
         if after is None or after.verdict == before.verdict:
             continue
         sign = "+" if after.verdict == "agrees" else ("−" if before.verdict == "agrees" else "·")
-        noise = "*" if _within_spread(before, after) else ""
+        spread = (
+            before.q25 <= after.median <= before.q75 and after.q25 <= before.median <= after.q75
+        )
+        noise = "*" if spread else ""
         lines.append(
             f"{sign}{before.id}{noise} ({before.verdict} → {after.verdict}: "
             f"{_num(before.median)} → {_num(after.median)} {after.unit})".replace(" )", ")")

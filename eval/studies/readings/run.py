@@ -400,15 +400,11 @@ def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
             "horizontal_objective": r.reading.horizontal_objective,
             "search": "" if r.reading.search is None else r.reading.search.describe(),
             **asdict(r.counts),
-            **{k: _round(v) for k, v in r.headline().items()},
+            **{k: v if math.isnan(v) else float(f"{v:.4g}") for k, v in r.headline().items()},
             "description": r.reading.description,
         }
         rows.append({k: row[k] for k in CSV_COLUMNS})
     return rows
-
-
-def _round(value: float) -> float:
-    return value if math.isnan(value) else float(f"{value:.4g}")
 
 
 def write_outputs(
