@@ -5,20 +5,21 @@ with the generic report's pieces (:mod:`eval.studies.report`)."""
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from eval.studies.base import StudyPlan
 from eval.studies.readings.result import COUNTS, HEADLINES, ReadingResult, reading_dir
 from eval.studies.report import (
+    Column,
     agreement_rules,
     figure_markdown,
     file_link,
     insect_line,
+    markdown_table,
     relative_path,
     settings_lines,
-    table_row,
 )
 from tandem_env.io.files import write_text_atomic
 
@@ -28,6 +29,15 @@ READINGS_GOAL = 16
 
 def _num(value: float, fmt: str = ".3g") -> str:
     return "–" if math.isnan(value) else f"{value:{fmt}}"
+
+
+#: The readings table's columns, one row per reading.
+READING_COLUMNS: tuple[Column, ...] = (
+    ("reading", lambda r: f"`{r.reading.name}`"),
+    ("changes from the default", lambda r: r.reading.describe_changes()),
+    *((title, lambda r, k=k: str(getattr(r.counts, k))) for k, title in COUNTS.items()),
+    *((k, lambda r, k=k: _num(r.headline()[k])) for k in HEADLINES),
+)
 
 
 def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
@@ -84,18 +94,7 @@ def write_readings_report(
         "",
         "## Readings",
         "",
-        *_table(
-            ("reading", "changes from the default", *COUNTS.values(), *HEADLINES),
-            [
-                (
-                    f"`{r.reading.name}`",
-                    r.reading.describe_changes(),
-                    *(str(getattr(r.counts, k)) for k in COUNTS),
-                    *map(_num, r.headline().values()),
-                )
-                for r in results
-            ],
-        ),
+        *markdown_table(READING_COLUMNS, results),
         "",
         "Headline columns: " + "; ".join(f"{k}: {text}" for k, (_, text) in HEADLINES.items()),
         "",
@@ -129,17 +128,17 @@ def write_readings_report(
         "`*` marks a flip where both medians lie inside the other's inter-quartile range over "
         "seeds: within the seed-to-seed spread, i.e. possibly search noise.",
         "",
-        *_table(
-            ("reading", "claims moved", "Δ agree", *(f"Δ {k}" for k in HEADLINES)),
+        *markdown_table(
             [
-                (
-                    f"`{r.reading.name}`",
-                    "; ".join(reading_moves(default, r)) or "none",
-                    f"{r.agree - default.agree:+d}",
-                    *(_num(v - base_head[k], "+.3g") for k, v in r.headline().items()),
-                )
-                for r in results[1:]
+                READING_COLUMNS[0],
+                ("claims moved", lambda r: "; ".join(reading_moves(default, r)) or "none"),
+                ("Δ agree", lambda r: f"{r.agree - default.agree:+d}"),
+                *(
+                    (f"Δ {k}", lambda r, k=k: _num(r.headline()[k] - base_head[k], "+.3g"))
+                    for k in HEADLINES
+                ),
             ],
+            results[1:],
         ),
         "",
         "## Claims × readings",
@@ -203,29 +202,21 @@ def check_table(
     """The continuation's bias check as a Markdown table: one row per reading and task
     (``readings.check_summary``) with whether it ran in full and why (``readings.full_tasks``),
     the overall row in bold."""
-    rows = []
-    for row in check:
-        overall = row["reading"] == "all"
+
+    def runs(row: Mapping[str, Any]) -> str:
         why = full.get(row["reading"], {}).get(row["task"])
-        rows.append(
-            (
-                "**all**" if overall else f"`{row['reading']}`",
-                "" if overall else row["task"],
-                str(row["pairs"]),
-                f"{100 * row['median']:+.2f} %",
-                f"{100 * row['lowest']:+.2f} %",
-                f"{100 * row['highest']:+.2f} %",
-                f"{row['within_0.5%']} of {row['pairs']}",
-                str(row["infeasible"]),
-                "" if overall else (f"in full ({why})" if why else "continued"),
-            )
-        )
-    titles = (
-        "reading, task, pairs, median, lowest, highest, within 0.5 % or above, infeasible, runs"
-    )
-    return _table(titles.split(", "), rows)
+        return "" if row["reading"] == "all" else (f"in full ({why})" if why else "continued")
 
+    def percent(key: str) -> Column:
+        return key, lambda row: f"{100 * row[key]:+.2f} %"
 
-def _table(titles: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]:
-    """A Markdown table: the titles, the rule under them and one line per row."""
-    return [table_row(titles), "|---" * len(titles) + "|", *map(table_row, rows)]
+    columns: list[Column] = [
+        ("reading", lambda row: "**all**" if row["reading"] == "all" else f"`{row['reading']}`"),
+        ("task", lambda row: "" if row["reading"] == "all" else row["task"]),
+        ("pairs", lambda row: str(row["pairs"])),
+        *map(percent, ("median", "lowest", "highest")),
+        ("within 0.5 % or above", lambda row: f"{row['within_0.5%']} of {row['pairs']}"),
+        ("infeasible", lambda row: str(row["infeasible"])),
+        ("runs", runs),
+    ]
+    return markdown_table(columns, check)

@@ -416,9 +416,8 @@ def write_outputs(
     continuation: Continuation | None = None,
     full: Mapping[str, Mapping[str, str]] | None = None,
 ) -> list[Path]:
-    """readings.csv, readings_matrix.<format> and report.md (with the continuation, its bias
-    check, ``check``: :func:`check_summary`, and the tasks run in full for it, ``full``:
-    :func:`full_tasks`)."""
+    """readings.csv, readings_matrix.<format> and report.md (:func:`write_readings_report`
+    says what ``check``, ``continuation`` and ``full`` are)."""
     csv_path = out_dir / "readings.csv"
     write_csv_atomic(csv_path, csv_rows(results))
     claims = results[0].claims
