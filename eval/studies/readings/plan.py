@@ -18,6 +18,7 @@ from agents.runner import RunSummary, job_records
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading, combine
+from eval.studies.presets import is_int, is_number
 from eval.studies.readings.result import COUNTS, HEADLINES, ReadingResult
 
 NAME = "readings"
@@ -166,19 +167,10 @@ class Continuation:
         }
         for name, (inside, allowed) in numbers.items():
             value = getattr(self, name)
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, int | float)
-                or not math.isfinite(value)
-                or not inside(value)
-            ):
+            if not is_number(value) or not inside(value):
                 raise ValueError(f"continuation {name} = {value!r}; allowed: {allowed}")
             object.__setattr__(self, name, float(value))
-        if (
-            isinstance(self.starts, bool)
-            or not isinstance(self.starts, int)
-            or not 1 <= self.starts <= 8
-        ):
+        if not is_int(self.starts, 1) or self.starts > 8:
             raise ValueError(
                 f"continuation starts = {self.starts!r}; allowed: an integer in [1, 8]"
             )
@@ -190,7 +182,7 @@ class Continuation:
             )
         object.__setattr__(self, "check_studies", studies)
         seeds = tuple(self.check_seeds)
-        if any(isinstance(x, bool) or not isinstance(x, int) or x < 0 for x in seeds):
+        if not all(is_int(seed, 0) for seed in seeds):
             raise ValueError(
                 f"continuation check_seeds = {self.check_seeds!r}; allowed: integers >= 0"
             )
