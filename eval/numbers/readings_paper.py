@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import ROOT, Measurement, copy_outputs, minutes, read_rows
+from eval.numbers.framework import ROOT, Measurement, copy_outputs, minutes, read_rows, table_head
 
 READINGS_PAPER_OUT = Path("results") / "readings-paper"
 READINGS_PAPER_COMMAND = (
@@ -78,19 +78,18 @@ def render(data: dict[str, Any]) -> str:
     """The readings table (the paper's numbers first, the best count in bold), the run's
     phases, the combination rule and the continuation's bias check with what ran in full."""
     from eval.studies.readings.report import check_table
-    from eval.studies.readings.result import HEADLINES
+    from eval.studies.readings.result import COUNTS, HEADLINES
 
     paper = {c["id"]: c["paper"] for c in data["claims"]}
     rows = data["rows"]
     worked = [inv for inv in data["invocations"] if any(p["ran"] for p in inv["phases"])]
     reused = [inv for inv in data["invocations"] if inv not in worked]
     best = max(int(r["agree"]) for r in rows)
-    head = " | ".join(title for title, _ in READINGS_COLUMNS)
+    heads = [title for title, _ in READINGS_COLUMNS]
     lines = [
-        f"| reading | changes from the default | agree | differ | undecided | not identifiable | "
-        f"no data | {head} |",
-        "|---|---|---|---|---|---|---|" + "---|" * len(READINGS_COLUMNS),
-        "| paper | | | | | | | "
+        *table_head("reading", "changes from the default", *COUNTS.values(), *heads),
+        "| paper | "
+        + "| " * (1 + len(COUNTS))
         + " | ".join(
             " / ".join(paper.get(HEADLINES[c][0], "–") for c in columns)
             for _, columns in READINGS_COLUMNS
@@ -102,10 +101,12 @@ def render(data: dict[str, Any]) -> str:
         numbers = [
             " / ".join(f"{float(r[c]):.3g}" for c in columns) for _, columns in READINGS_COLUMNS
         ]
+        counts = " | ".join(
+            r.get(k, "–") for k in list(COUNTS)[1:]
+        )  # older runs: no not_identifiable
         lines.append(
             f"| {mark}`{r['reading']}`{mark} | {r['changes']} | {mark}{r['agree']}{mark} | "
-            f"{r['differ']} | {r['undecided']} | {r.get('not_identifiable', '–')} | "
-            f"{r['no_data']} | {' | '.join(numbers)} |"
+            f"{counts} | {' | '.join(numbers)} |"
         )
     counted = all("not_identifiable" in r for r in rows)
     lines += [

@@ -66,11 +66,10 @@ def matrix_figure(
                 ax.add_patch(
                     Rectangle((j - 0.45, i - 0.42), 0.9, 0.84, fill=False, ec="black", lw=1.3)
                 )
-    labels = []
-    for name, verdicts in columns:
-        agree = sum(v == "agrees" for v in verdicts)
-        undecided = sum(v == "undecided" for v in verdicts)
-        labels.append(f"{name} ({agree} ✓, {undecided} ?)")
+    labels = [
+        f"{name} ({verdicts.count('agrees')} ✓, {verdicts.count('undecided')} ?)"
+        for name, verdicts in columns
+    ]
     ax.set_xticks(range(n_cols), labels, rotation=60, ha="right", fontsize=7)
     ax.set_yticks(
         range(n_rows),

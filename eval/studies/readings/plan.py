@@ -18,7 +18,8 @@ from agents.runner import RunSummary, job_records
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading, combine
-from eval.studies.readings.result import HEADLINES, ReadingResult
+from eval.studies.presets import is_int, is_number
+from eval.studies.readings.result import COUNTS, HEADLINES, ReadingResult
 
 NAME = "readings"
 TITLE = "Readings of the paper against its claims"
@@ -26,7 +27,7 @@ DEFAULT_OUT = os.path.join("results", "readings")
 MANIFEST = "readings_manifest.json"
 CHECK_CSV = "continuation_check.csv"
 #: The phases of a run with the continuation: the default in full, the continuation's bias
-#: check, the singles, the combinations.
+#: check, the singles, the combinations; without it, the last two.
 PHASES = ("default", "check", "singles", "combinations")
 
 #: The single readings: the default, then each open decision changed alone (docs/model.md).
@@ -112,11 +113,7 @@ CSV_COLUMNS: tuple[str, ...] = (
     "rotational_coefficient",
     "horizontal_objective",
     "search",
-    "agree",
-    "differ",
-    "undecided",
-    "not_identifiable",
-    "no_data",
+    *COUNTS,
     *HEADLINES,
     "description",
 )
@@ -170,19 +167,10 @@ class Continuation:
         }
         for name, (inside, allowed) in numbers.items():
             value = getattr(self, name)
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, int | float)
-                or not math.isfinite(value)
-                or not inside(value)
-            ):
+            if not is_number(value) or not inside(value):
                 raise ValueError(f"continuation {name} = {value!r}; allowed: {allowed}")
             object.__setattr__(self, name, float(value))
-        if (
-            isinstance(self.starts, bool)
-            or not isinstance(self.starts, int)
-            or not 1 <= self.starts <= 8
-        ):
+        if not is_int(self.starts, 1) or self.starts > 8:
             raise ValueError(
                 f"continuation starts = {self.starts!r}; allowed: an integer in [1, 8]"
             )
@@ -194,7 +182,7 @@ class Continuation:
             )
         object.__setattr__(self, "check_studies", studies)
         seeds = tuple(self.check_seeds)
-        if any(isinstance(x, bool) or not isinstance(x, int) or x < 0 for x in seeds):
+        if not all(is_int(seed, 0) for seed in seeds):
             raise ValueError(
                 f"continuation check_seeds = {self.check_seeds!r}; allowed: integers >= 0"
             )
@@ -229,8 +217,7 @@ class ReadingsResult:
     wall_time: float
     """Seconds for the whole call [s]."""
     phases: tuple[str, ...] = ()
-    """The phases' names, one per run: ``singles`` and ``combinations``; with the
-    continuation ``default`` first."""
+    """The phases' names (:data:`PHASES`), one per run."""
 
     @property
     def best(self) -> ReadingResult:
@@ -458,7 +445,7 @@ def combinations(
         ]
     out: list[Reading] = []
     for group in groups:
-        reading = combine([g.reading for g in group], _combined_name(group))
+        reading = combine([g.reading for g in group], "+".join(g.reading.name for g in group))
         if all(r.changes() != reading.changes() for r in out):
             out.append(reading)
     if out:
@@ -471,7 +458,3 @@ def combinations(
             "single run here can join it (none, or each changes the same option)"
         )
     return out, words
-
-
-def _combined_name(results: Sequence[ReadingResult]) -> str:
-    return "+".join(r.reading.name for r in results)

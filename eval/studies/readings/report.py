@@ -10,16 +10,16 @@ from pathlib import Path
 from typing import Any
 
 from eval.studies.base import StudyPlan
-from eval.studies.claims import Claim
-from eval.studies.readings.result import HEADLINES, ReadingResult, reading_dir
+from eval.studies.readings.result import COUNTS, HEADLINES, ReadingResult, reading_dir
 from eval.studies.report import (
+    Column,
     agreement_rules,
     figure_markdown,
     file_link,
     insect_line,
+    markdown_table,
     relative_path,
     settings_lines,
-    table_row,
 )
 from tandem_env.io.files import write_text_atomic
 
@@ -31,15 +31,19 @@ def _num(value: float, fmt: str = ".3g") -> str:
     return "–" if math.isnan(value) else f"{value:{fmt}}"
 
 
-def _within_spread(a: Claim, b: Claim) -> bool:
-    """Whether each claim's median lies inside the other's inter-quartile range over seeds
-    (a verdict flip between them is then within the seed-to-seed spread; False with a NaN)."""
-    return a.q25 <= b.median <= a.q75 and b.q25 <= a.median <= b.q75
+#: The readings table's columns, one row per reading.
+READING_COLUMNS: tuple[Column, ...] = (
+    ("reading", lambda r: f"`{r.reading.name}`"),
+    ("changes from the default", lambda r: r.reading.describe_changes()),
+    *((title, lambda r, k=k: str(getattr(r.counts, k))) for k, title in COUNTS.items()),
+    *((k, lambda r, k=k: _num(r.headline()[k])) for k in HEADLINES),
+)
 
 
 def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
     """One line per claim whose verdict differs from the default's: the change and the
-    statistic before and after (``*``: the two medians lie in each other's seed IQR)."""
+    statistic before and after (``*``: the two medians lie in each other's inter-quartile range
+    over seeds, so the flip is within the seed-to-seed spread; not with a NaN)."""
     mine = {c.id: c for c in other.claims}
     lines = []
     for before in default.claims:
@@ -47,7 +51,10 @@ def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
         if after is None or after.verdict == before.verdict:
             continue
         sign = "+" if after.verdict == "agrees" else ("−" if before.verdict == "agrees" else "·")
-        noise = "*" if _within_spread(before, after) else ""
+        spread = (
+            before.q25 <= after.median <= before.q75 and after.q25 <= before.median <= after.q75
+        )
+        noise = "*" if spread else ""
         lines.append(
             f"{sign}{before.id}{noise} ({before.verdict} → {after.verdict}: "
             f"{_num(before.median)} → {_num(after.median)} {after.unit})".replace(" )", ")")
@@ -76,7 +83,7 @@ def write_readings_report(
     default = results[0]
     best = max(results, key=lambda r: r.agree)
     n_claims = len(default.claims)
-    heads = list(HEADLINES)
+    base_head = default.headline()
     parts = [
         "# Readings of the paper: which reading reproduces which claim",
         "",
@@ -87,23 +94,7 @@ def write_readings_report(
         "",
         "## Readings",
         "",
-        "| reading | changes from the default | agree | differ | undecided | not identifiable "
-        "| no data | " + " | ".join(f"{k}" for k in heads) + " |",
-        "|---|---|---|---|---|---|---|" + "---|" * len(heads),
-    ]
-    for r in results:
-        head, c = r.headline(), r.counts
-        parts.append(
-            table_row(
-                (
-                    f"`{r.reading.name}`",
-                    r.reading.describe_changes(),
-                    *map(str, (c.agree, c.differ, c.undecided, c.not_identifiable, c.no_data)),
-                    *(_num(head[k]) for k in heads),
-                )
-            )
-        )
-    parts += [
+        *markdown_table(READING_COLUMNS, results),
         "",
         "Headline columns: " + "; ".join(f"{k}: {text}" for k, (_, text) in HEADLINES.items()),
         "",
@@ -137,24 +128,18 @@ def write_readings_report(
         "`*` marks a flip where both medians lie inside the other's inter-quartile range over "
         "seeds: within the seed-to-seed spread, i.e. possibly search noise.",
         "",
-        "| reading | claims moved | Δ agree | " + " | ".join(f"Δ {k}" for k in heads) + " |",
-        "|---|---|---|" + "---|" * len(heads),
-    ]
-    base_head = default.headline()
-    for r in results[1:]:
-        head = r.headline()
-        moves = reading_moves(default, r)
-        parts.append(
-            table_row(
-                (
-                    f"`{r.reading.name}`",
-                    "; ".join(moves) or "none",
-                    f"{r.agree - default.agree:+d}",
-                    *(_num(head[k] - base_head[k], "+.3g") for k in heads),
-                )
-            )
-        )
-    parts += [
+        *markdown_table(
+            [
+                READING_COLUMNS[0],
+                ("claims moved", lambda r: "; ".join(reading_moves(default, r)) or "none"),
+                ("Δ agree", lambda r: f"{r.agree - default.agree:+d}"),
+                *(
+                    (f"Δ {k}", lambda r, k=k: _num(r.headline()[k] - base_head[k], "+.3g"))
+                    for k in HEADLINES
+                ),
+            ],
+            results[1:],
+        ),
         "",
         "## Claims × readings",
         "",
@@ -217,27 +202,21 @@ def check_table(
     """The continuation's bias check as a Markdown table: one row per reading and task
     (``readings.check_summary``) with whether it ran in full and why (``readings.full_tasks``),
     the overall row in bold."""
-    lines = [
-        "| reading | task | pairs | median | lowest | highest | within 0.5 % or above | "
-        "infeasible | runs |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for row in check:
-        overall = row["reading"] == "all"
+
+    def runs(row: Mapping[str, Any]) -> str:
         why = full.get(row["reading"], {}).get(row["task"])
-        lines.append(
-            table_row(
-                (
-                    "**all**" if overall else f"`{row['reading']}`",
-                    "" if overall else row["task"],
-                    str(row["pairs"]),
-                    f"{100 * row['median']:+.2f} %",
-                    f"{100 * row['lowest']:+.2f} %",
-                    f"{100 * row['highest']:+.2f} %",
-                    f"{row['within_0.5%']} of {row['pairs']}",
-                    str(row["infeasible"]),
-                    "" if overall else (f"in full ({why})" if why else "continued"),
-                )
-            )
-        )
-    return lines
+        return "" if row["reading"] == "all" else (f"in full ({why})" if why else "continued")
+
+    def percent(key: str) -> Column:
+        return key, lambda row: f"{100 * row[key]:+.2f} %"
+
+    columns: list[Column] = [
+        ("reading", lambda row: "**all**" if row["reading"] == "all" else f"`{row['reading']}`"),
+        ("task", lambda row: "" if row["reading"] == "all" else row["task"]),
+        ("pairs", lambda row: str(row["pairs"])),
+        *map(percent, ("median", "lowest", "highest")),
+        ("within 0.5 % or above", lambda row: f"{row['within_0.5%']} of {row['pairs']}"),
+        ("infeasible", lambda row: str(row["infeasible"])),
+        ("runs", runs),
+    ]
+    return markdown_table(columns, check)

@@ -12,6 +12,12 @@ from eval.studies.base import StudyOutput
 from eval.studies.claims import Claim, VerdictCount
 from eval.studies.paper_reading import Reading
 
+#: The verdict counts of readings.csv and the readings tables, in their order
+#: (:class:`~eval.studies.claims.VerdictCount` fields): column -> table title.
+COUNTS = {
+    k: k.replace("_", " ") for k in ("agree", "differ", "undecided", "not_identifiable", "no_data")
+}
+
 #: Headline numbers of readings.csv: column -> (claim id whose median it is, description).
 HEADLINES: dict[str, tuple[str, str]] = {
     "eta_max_pct": ("S7", "highest median level-flight efficiency over speeds [%]"),

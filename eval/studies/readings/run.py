@@ -9,9 +9,10 @@ import os
 import statistics
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict
 from datetime import datetime, timezone
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +40,7 @@ from eval.studies.readings.plan import (
     full_tasks,
     optima_from,
     optima_of,
+    reading_jobs,
     reading_plan,
     study_jobs,
 )
@@ -49,13 +51,10 @@ from tandem_env.physics import N_PARAMETERS
 
 
 def analyse_reading(
-    plan: StudyPlan,
-    reading: Reading,
-    out_dir: Path,
-    jobs: Mapping[str, list[Job]] | None = None,
+    plan: StudyPlan, reading: Reading, out_dir: Path, jobs: Mapping[str, Sequence[Job]]
 ) -> ReadingResult:
     """Analyse the four studies under ``reading`` (every record present) into its folder;
-    ``jobs`` are each study's jobs (:func:`study_jobs`; the studies' own by default).
+    ``jobs`` are each study's jobs (:func:`study_jobs`).
 
     The folder gets a relative link ``records -> ../records`` so the study indexes' record
     paths resolve, and its own ``report.md``.
@@ -69,7 +68,6 @@ def analyse_reading(
             link.symlink_to(Path("..") / RECORDS_DIR, target_is_directory=True)
         except OSError:  # no symlinks here (e.g. some Windows setups): the index paths dangle
             pass
-    jobs = study_jobs(plan, reading) if jobs is None else jobs
     outputs = tuple(
         study.analyse(p, job_records(out_dir, jobs[name]), where)
         for name, study in PAPER_STUDIES.items()
@@ -161,23 +159,32 @@ def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
-def _check_preset(out_dir: Path, plan: StudyPlan) -> Mapping[str, Any] | None:
-    """The manifest ``out_dir`` holds (None if none); say so (stderr) when it is another
-    preset's readings, which are replaced."""
+def _earlier_invocations(out_dir: Path, plan: StudyPlan) -> list[dict[str, Any]]:
+    """The invocations into ``out_dir`` at this preset its manifest records: a resumed run (or
+    one that only redraws the outputs) keeps their work and times. A manifest written before
+    invocations were recorded (no ``invocations``) gives its one run, with the phases named in
+    order. Says so (stderr) when ``out_dir`` holds another preset's readings, which are
+    replaced."""
     try:
         before = read_json(out_dir / MANIFEST)
     except (FileNotFoundError, ValueError):
-        return None
-    if not isinstance(before, Mapping):
-        return None
-    if before.get("preset") not in (None, plan.preset.name):
+        return []
+    if not isinstance(before, Mapping) or before.get("preset") is None:
+        return []
+    if before["preset"] != plan.preset.name:
         print(
             f"note: {out_dir} holds the {before['preset']!r} preset's readings; its readings.csv, "
             f"matrix and report are replaced by the {plan.preset.name!r} preset's (the records "
             "of both stay: they are keyed by preset). Use --out for a separate folder.",
             file=sys.stderr,
         )
-    return before
+        return []
+    earlier = list(before.get("invocations", ()))
+    if earlier or "phases" not in before:
+        return earlier
+    names = PHASES[2:] if before.get("continuation") is None else PHASES
+    phases = [{"name": name, **phase} for name, phase in zip(names, before["phases"], strict=False)]
+    return [{"finished": None, "phases": phases, "wall_time_s": before.get("wall_time_s")}]
 
 
 def _load() -> float | None:
@@ -185,37 +192,67 @@ def _load() -> float | None:
     return round(os.getloadavg()[0], 2) if hasattr(os, "getloadavg") else None
 
 
-def _invocations(
-    before: Mapping[str, Any] | None, plan: StudyPlan, this: dict[str, Any]
-) -> list[dict[str, Any]]:
-    """Every invocation into the folder at this preset, ``this`` last: a resumed run (or one
-    that only redraws the outputs) keeps the work and times of those before it. A manifest
-    written before invocations were recorded (no ``invocations``) gives its one run, with the
-    phases named in order."""
-    if before is None or before.get("preset") != plan.preset.name:
-        return [this]
-    earlier = list(before.get("invocations", ()))
-    if not earlier and "phases" in before:
-        names = ("singles", "combinations") if before.get("continuation") is None else PHASES
-        earlier = [
-            {
-                "finished": None,
-                "phases": [
-                    {"name": name, **phase}
-                    for name, phase in zip(names, before["phases"], strict=False)
-                ],
-                "wall_time_s": before.get("wall_time_s"),
-            }
-        ]
-    return [*earlier, this]
-
-
 #: What the readings study's plan cannot count before its singles are analysed.
 COMBINATIONS_LATER = "the combinations the singles' results point to (counted once known)"
 
+ByReading = Mapping[Reading, Mapping[str, Sequence[Job]]]
+"""Readings and each one's jobs by study name (:func:`study_jobs`)."""
 
-def _flat(jobs: Mapping[str, Sequence[Job]]) -> list[Job]:
-    return [job for group in jobs.values() for job in group]
+
+def _flat(jobs: Iterable[Mapping[str, Sequence[Job]]]) -> tuple[Job, ...]:
+    return tuple(job for by_study in jobs for group in by_study.values() for job in group)
+
+
+def _phases(
+    plan: StudyPlan,
+    readings: Sequence[Reading],
+    continuation: Continuation | None,
+    records: Callable[[Sequence[Job]], Mapping[Job, Record] | None],
+    each: Callable[[Phase, ByReading], None],
+) -> tuple[dict[str, dict[str, list[Job]]], list[dict[str, Any]], dict[str, dict[str, str]]]:
+    """The phases of :func:`run_readings` before the combinations, in order: each goes to
+    ``each`` with the readings whose jobs it completes (the run runs it there, the plan only
+    collects it); then ``records`` gives its records if the next phases depend on them (None
+    when some are missing: those phases get stand-ins at the right budgets,
+    :class:`~agents.progress.Phase`, their keys provisional, and the singles are planned as if no
+    task ran in full). Returns every reading's jobs (reading name -> study -> jobs), the bias
+    check's rows (:func:`check_rows`) and the tasks run in full (:func:`full_tasks`)."""
+    if continuation is None:
+        jobs = {r.name: study_jobs(plan, r) for r in readings}
+        each(Phase(PHASES[2], _flat(jobs.values())), {r: jobs[r.name] for r in readings})
+        return jobs, [], {}
+    # the default first: the others start from its optima
+    jobs = {DEFAULT.name: study_jobs(plan, DEFAULT)}
+    default = Phase(PHASES[0], _flat(jobs.values()))
+    each(default, {DEFAULT: jobs[DEFAULT.name]})
+    found = records(default.jobs)
+    if found is None:  # stand-in optima: the jobs' budgets are right, their keys not final
+        optima: Optima = {
+            DEFAULT.name: {
+                name: [[0.0] * N_PARAMETERS] * len(group)
+                for name, group in jobs[DEFAULT.name].items()
+            }
+        }
+    else:
+        optima = optima_from(found, jobs)
+    # the bias check, then each single reading: a task the check fails runs in full
+    others = readings[1:]
+    checks = [(r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)]
+    check = tuple(dict.fromkeys(job for _, c, f in checks for job in (c, f)))
+    stand_ins = frozenset(c.key for _, c, _ in checks) if found is None else frozenset()
+    each(Phase(PHASES[1], check, stand_ins), {})
+    rows: list[dict[str, Any]] = []  # one per checked job
+    if found is not None and checks and (done := records(check)):
+        rows = check_rows(done, checks)
+    full = full_tasks(check_summary(rows), continuation)
+    jobs |= {
+        r.name: study_jobs(plan, r, continuation, optima, full.get(r.name, {})) for r in others
+    }
+    singles = _flat(jobs[r.name] for r in others)
+    own = {job.key for r in others for job in reading_jobs(plan, r)}
+    stand_ins = frozenset(j.key for j in singles if j.key not in own) if found is None else None
+    each(Phase(PHASES[2], singles, stand_ins or frozenset()), {r: jobs[r.name] for r in others})
+    return jobs, rows, full
 
 
 def planned_phases(
@@ -226,43 +263,11 @@ def planned_phases(
     cache: CacheOption = True,
 ) -> list[Phase]:
     """The phases of :func:`run_readings` before the combinations, as far as the records in
-    ``out_dir`` and the record cache decide them now (nothing is written or run).
-
-    A phase whose jobs continue from optima not found yet gets stand-ins at the right budgets
-    (:class:`~agents.progress.Phase`, their keys provisional); before the bias check has run, the
-    singles are planned as if no task ran in full.
-    """
-    if continuation is None:
-        jobs = [job for r in readings for job in _flat(study_jobs(plan, r))]
-        return [Phase("singles", tuple(jobs))]
-    default = {DEFAULT.name: study_jobs(plan, DEFAULT)}
-    phases = [Phase(PHASES[0], tuple(_flat(default[DEFAULT.name])))]
-    found = find_records(out_dir, phases[0].jobs, cache)
-    if found is None:  # stand-in optima: the jobs' budgets are right, their keys not final
-        optima: dict[str, dict[str, list[list[float]]]] = {
-            DEFAULT.name: {
-                name: [[0.0] * N_PARAMETERS] * len(group)
-                for name, group in default[DEFAULT.name].items()
-            }
-        }
-    else:
-        optima = optima_from(found, default)
-    others = readings[1:]
-    checks = [(r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)]
-    check = list(dict.fromkeys(job for _, c, f in checks for job in (c, f)))
-    stand_ins = frozenset(c.key for _, c, _ in checks) if found is None else frozenset()
-    phases.append(Phase(PHASES[1], tuple(check), stand_ins))
-    full: dict[str, dict[str, str]] = {}
-    if found is not None and checks and (done := find_records(out_dir, check, cache)):
-        full = full_tasks(check_summary(check_rows(done, checks)), continuation)
-    singles = [
-        job
-        for r in others
-        for job in _flat(study_jobs(plan, r, continuation, optima, full.get(r.name, {})))
-    ]
-    own = {job.key for r in others for job in _flat(study_jobs(plan, r))}
-    stand_ins = frozenset(j.key for j in singles if j.key not in own) if found is None else None
-    phases.append(Phase(PHASES[2], tuple(singles), stand_ins or frozenset()))
+    ``out_dir`` and the record cache decide them now (nothing is written or run; stand-ins
+    where they do not: :func:`_phases`)."""
+    phases: list[Phase] = []
+    records = partial(find_records, out_dir, cache=cache)
+    _phases(plan, readings, continuation, records, lambda phase, _: phases.append(phase))
     return phases
 
 
@@ -291,7 +296,7 @@ def run_readings(
     (:func:`planned_phases`) and told at each phase's start. Raises ValueError if ``readings``
     does not start with the default reading or repeats a name.
     """
-    start = time.perf_counter()
+    started = time.perf_counter()
     out = Path(out_dir)
     readings = tuple(readings)
     if not readings or readings[0] != DEFAULT:
@@ -302,86 +307,53 @@ def run_readings(
     names = [r.name for r in readings]
     if len(set(names)) != len(names):
         raise ValueError(f"readings = {names}; allowed: distinct names")
-    before = _check_preset(out, plan)
+    earlier = _earlier_invocations(out, plan)
     load_before = _load()
-    runs: list[RunSummary] = []
-    rows: list[dict[str, Any]] = []  # the bias check's, one per checked job
-    full: dict[str, dict[str, str]] = {}
+    runs: dict[str, RunSummary] = {}  # by phase name
+    results: list[ReadingResult] = []
 
-    def starting(phase: str) -> None:
+    def run_phase(phase: Phase, chosen: ByReading) -> None:
+        """Run the phase's jobs in one call, and analyse the readings ``chosen``."""
+        runs[phase.name] = run_jobs(
+            phase.jobs, out, scheduler=scheduler, progress=progress, cache=cache, command=command
+        )
+        for reading, jobs in chosen.items():
+            if progress:
+                print(f"analysing reading {reading.name}", file=sys.stderr)
+            results.append(analyse_reading(plan, reading, out, jobs))
+
+    def start(phase: Phase, chosen: ByReading) -> None:
         # The whole command again, from what the records decide now.
         if command is not None:
             command.plan(planned_phases(plan, out, readings, continuation, cache))
-            command.start(phase)
+            command.start(phase.name)
+        run_phase(phase, chosen)
 
-    def run_phase(todo: list[Job]) -> None:
-        runs.append(
-            run_jobs(
-                todo, out, scheduler=scheduler, progress=progress, cache=cache, command=command
-            )
-        )
-
-    def run_and_analyse(chosen: Sequence[Reading]) -> list[ReadingResult]:
-        """Run the jobs of ``chosen`` in one call, and analyse those readings."""
-        run_phase([job for r in chosen for job in _flat(jobs[r.name])])
-        results = []
-        for reading in chosen:
-            if progress:
-                print(f"analysing reading {reading.name}", file=sys.stderr)
-            results.append(analyse_reading(plan, reading, out, jobs[reading.name]))
-        return results
-
-    optima: Optima | None = None  # the optima the readings continue from
-    if continuation is None:
-        jobs = {r.name: study_jobs(plan, r) for r in readings}
-        starting("singles")
-        singles = run_and_analyse(readings)
-    else:
-        # the default first: the others start from its optima
-        jobs = {DEFAULT.name: study_jobs(plan, DEFAULT)}
-        starting(PHASES[0])
-        default = run_and_analyse(readings[:1])
-        optima = optima_of(out, jobs)
-        # the bias check, then each single reading: a task the check fails runs in full
-        others = readings[1:]
-        checks = [(r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)]
-        starting(PHASES[1])
-        checked = list(dict.fromkeys(job for _, c, f in checks for job in (c, f)))
-        run_phase(checked)
-        rows = check_rows(job_records(out, checked), checks) if checks else []
-        full = full_tasks(check_summary(rows), continuation)
-        jobs |= {
-            r.name: study_jobs(plan, r, continuation, optima, full.get(r.name, {})) for r in others
-        }
-        starting(PHASES[2])
-        singles = default + run_and_analyse(others)
+    jobs, rows, full = _phases(plan, readings, continuation, partial(job_records, out), start)
     words = "not derived (derive=False)"
-    results = list(singles)
     if derive:
-        derived, words = combinations(singles[0], singles)
+        derived, words = combinations(results[0], results)
         derived = [r for r in derived if r.name not in names]
         if command is not None:
             command.plan([], later="")  # the combinations are known now
         if derived:
-            if continuation is not None:
-                optima = optima_of(out, jobs)
+            optima = None if continuation is None else optima_of(out, jobs)
             jobs |= {r.name: study_jobs(plan, r, continuation, optima) for r in derived}
+            phase = Phase(PHASES[3], _flat(jobs[r.name] for r in derived))
             if command is not None:
-                more_jobs = [job for r in derived for job in _flat(jobs[r.name])]
-                command.plan([Phase(PHASES[3], tuple(more_jobs))])
-                command.start(PHASES[3])
-            results += run_and_analyse(derived)
+                command.plan([phase])
+                command.start(phase.name)
+            run_phase(phase, {r: jobs[r.name] for r in derived})
     if rows:
         write_csv_atomic(out / CHECK_CSV, rows)
     summary = check_summary(rows)
     files = write_outputs(plan, results, words, out, summary, continuation, full)
-    wall = time.perf_counter() - start
-    phases = (("singles", "combinations") if continuation is None else PHASES)[: len(runs)]
+    wall = time.perf_counter() - started
     this = {
         "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "cpus": os.cpu_count(),
         "load_average_1min": [load_before, _load()],
-        "phases": [{"name": name, **run.to_dict()} for name, run in zip(phases, runs, strict=True)],
+        "phases": [{"name": name, **run.to_dict()} for name, run in runs.items()],
         "wall_time_s": round(wall, 1),
     }
     write_json_atomic(
@@ -405,10 +377,12 @@ def run_readings(
             "continuation": None if continuation is None else asdict(continuation),
             "continuation_check": summary,
             "run_in_full": full,
-            "invocations": _invocations(before, plan, this),
+            "invocations": [*earlier, this],
         },
     )
-    return ReadingsResult(tuple(results), tuple(runs), words, tuple(files), wall, phases)
+    return ReadingsResult(
+        tuple(results), tuple(runs.values()), words, tuple(files), wall, tuple(runs)
+    )
 
 
 def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
@@ -425,16 +399,12 @@ def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
             "rotational_coefficient": math.pi if c_r is None else float(c_r),
             "horizontal_objective": r.reading.horizontal_objective,
             "search": "" if r.reading.search is None else r.reading.search.describe(),
-            **asdict(r.counts),  # agree, differ, undecided, not_identifiable, no_data
-            **{k: _round(v) for k, v in r.headline().items()},
+            **asdict(r.counts),
+            **{k: v if math.isnan(v) else float(f"{v:.4g}") for k, v in r.headline().items()},
             "description": r.reading.description,
         }
         rows.append({k: row[k] for k in CSV_COLUMNS})
     return rows
-
-
-def _round(value: float) -> float:
-    return value if math.isnan(value) else float(f"{value:.4g}")
 
 
 def write_outputs(
@@ -446,9 +416,8 @@ def write_outputs(
     continuation: Continuation | None = None,
     full: Mapping[str, Mapping[str, str]] | None = None,
 ) -> list[Path]:
-    """readings.csv, readings_matrix.<format> and report.md (with the continuation, its bias
-    check, ``check``: :func:`check_summary`, and the tasks run in full for it, ``full``:
-    :func:`full_tasks`)."""
+    """readings.csv, readings_matrix.<format> and report.md (:func:`write_readings_report`
+    says what ``check``, ``continuation`` and ``full`` are)."""
     csv_path = out_dir / "readings.csv"
     write_csv_atomic(csv_path, csv_rows(results))
     claims = results[0].claims

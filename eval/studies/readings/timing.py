@@ -30,11 +30,6 @@ from tandem_env.io.files import read_json
 WORKERS: tuple[int, ...] = (1, 2, 8, 32)
 
 
-def manifest_readings(entries: Sequence[dict]) -> list[Reading]:
-    """The readings a manifest lists (rebuilt from their changes)."""
-    return [Reading.from_changes(e["name"], "as measured", e["changes"]) for e in entries]
-
-
 def main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--measured", default="results/readings", metavar="DIR")
@@ -47,15 +42,15 @@ def main(argv: Sequence[str] | None = None) -> None:
     seen: set[str] = set()
     durations: list[tuple[int, float]] = []
     print(f"measured: {args.measured} ({measured.preset.name}); estimated: {args.preset}")
-    for reading in manifest_readings(manifest["readings"]):
-        jobs = list({j.key: j for j in reading_jobs(measured, reading)}.values())
-        records = job_records(args.measured, jobs)
+    for entry in manifest["readings"]:  # each reading rebuilt from its changes
+        reading = Reading.from_changes(entry["name"], "as measured", entry["changes"])
+        jobs = {j.key: j for j in reading_jobs(measured, reading)}
+        records = job_records(args.measured, jobs.values())
         per_eval = seconds_per_evaluation(records)
         spent = sum(r.wall_time for r in records.values())
-        new = [j for j in reading_jobs(target, reading) if j.key not in seen]
-        new = list({j.key: j for j in new}.values())
-        seen.update(j.key for j in new)
-        estimate = [(j.budget, per_eval[j.task] * j.budget) for j in new]
+        new = {j.key: j for j in reading_jobs(target, reading) if j.key not in seen}
+        seen.update(new)
+        estimate = [(j.budget, per_eval[j.task] * j.budget) for j in new.values()]
         durations += estimate
         rates = ", ".join(f"{t} {1e3 * v:.2f} ms/eval" for t, v in per_eval.items())
         print(
