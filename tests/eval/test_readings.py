@@ -313,7 +313,9 @@ def test_bad_continuation_is_refused(kwargs: dict, match: str) -> None:
         readings.Continuation(**kwargs)
 
 
-def test_tiny_run_with_continuation_checks_its_bias(tmp_path: Path) -> None:
+def test_tiny_run_with_continuation_checks_its_bias(
+    tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
     plan = StudyPlan(TINY)
     chosen = readings.single_readings(["hover-none"])
     continuation = readings.Continuation(share=1.0)
@@ -346,6 +348,10 @@ def test_tiny_run_with_continuation_checks_its_bias(tmp_path: Path) -> None:
     assert all(p["ran"] == 0 for p in second["phases"]) and second["cpus"] >= 1
     verdicts = {r["name"]: r["verdicts"] for r in manifest["readings"]}
     assert verdicts["hover-none"] == result.results[1].verdicts()
+    # the cost estimate reads the continued jobs' records, which the run analysed
+    readings_time.main(["--measured", str(tmp_path), "--preset", "quick"])
+    out = capsys.readouterr().out
+    assert "hover-none: measured" in out and "h serial" in out
 
 
 def test_a_task_whose_check_falls_short_runs_in_full() -> None:

@@ -3,10 +3,11 @@
     python -m eval.studies.readings.timing [--measured results/readings] [--preset paper]
 
 Reads ``DIR/readings_manifest.json`` of a finished readings run (its preset and readings, the
-derived combinations included) and every record's ``wall_time``. Per reading and task it takes
-the median seconds per model evaluation of the measured jobs; each job of ``--preset`` under
-the same readings (a job two readings share counted once) is then estimated as that rate times
-its budget. Printed: the measured and estimated job-seconds per reading, the serial total, and
+derived combinations included) and the ``wall_time`` of every record a reading's studies
+analysed (their indexes, ``DIR/<reading>/<study>/records.json``: the jobs that ran, continued
+or not). Per reading and task it takes the median seconds per model evaluation of those jobs;
+each job of ``--preset`` under the same readings run in full (a job two readings share counted
+once; with the continuation a run costs less) is then estimated as that rate times its budget. Printed: the measured and estimated job-seconds per reading, the serial total, and
 the wall time W workers need at best (jobs started largest budget first, each to the worker
 free first: :func:`eval.studies.bench_workers.makespan`). An estimate, not a measurement: the
 rates carry the measured run's machine and load, and a larger budget's later iterations cost
@@ -19,15 +20,30 @@ import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
-from agents.runner import job_records
+from agents.jobs import Job
+from agents.records import Record
+from agents.store import RECORDS_DIR, read_record_files
+from eval.studies import PAPER_STUDIES
 from eval.studies.base import StudyPlan
 from eval.studies.bench_workers import makespan, seconds_per_evaluation
 from eval.studies.paper_reading import Reading
 from eval.studies.presets import PRESETS, TINY, get_preset
 from eval.studies.readings import MANIFEST, reading_jobs
+from eval.studies.readings.result import reading_dir
 from tandem_env.io.files import read_json
 
 WORKERS: tuple[int, ...] = (1, 2, 8, 32)
+
+
+def analysed_records(out_dir: Path, reading: Reading) -> dict[Job, Record]:
+    """The records that ``reading``'s studies analysed in the readings run ``out_dir``."""
+    keys = [
+        entry["key"]
+        for name in PAPER_STUDIES
+        for entry in read_json(reading_dir(out_dir, reading) / name / "records.json")
+    ]
+    paths = [out_dir / RECORDS_DIR / f"{key}.json" for key in dict.fromkeys(keys)]
+    return {record.job: record for record in read_record_files(paths)}
 
 
 def main(argv: Sequence[str] | None = None) -> None:
@@ -44,8 +60,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     print(f"measured: {args.measured} ({measured.preset.name}); estimated: {args.preset}")
     for entry in manifest["readings"]:  # each reading rebuilt from its changes
         reading = Reading.from_changes(entry["name"], "as measured", entry["changes"])
-        jobs = {j.key: j for j in reading_jobs(measured, reading)}
-        records = job_records(args.measured, jobs.values())
+        records = analysed_records(Path(args.measured), reading)
         per_eval = seconds_per_evaluation(records)
         spent = sum(r.wall_time for r in records.values())
         new = {j.key: j for j in reading_jobs(target, reading) if j.key not in seen}
