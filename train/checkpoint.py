@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import io
 import json
+import sys
 import warnings
 import zipfile
 from collections.abc import Mapping
@@ -33,6 +34,7 @@ from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.buffers import ReplayBuffer
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.logger import HumanOutputFormat, Logger
 from stable_baselines3.common.vec_env import VecEnv
 
 from tandem_env.io.files import atomic_path
@@ -56,7 +58,7 @@ def build_model(
     """A new SB3 model of ``algo`` on ``venv`` with the resolved hyperparameters."""
     cls = ALGORITHMS[algo]
     try:
-        return cls(
+        model = cls(
             hp.policy,
             venv,
             seed=seed,
@@ -68,6 +70,11 @@ def build_model(
         )
     except TypeError as error:
         raise ValueError(f"{algo.upper()} rejected a hyperparameter: {error}") from error
+    if tensorboard_log is None:
+        # SB3's own logger would make an empty SB3-<time> folder in the temp dir at each
+        # learn(); this one writes what that one would (the table on stdout at verbose >= 1).
+        model.set_logger(Logger(None, [HumanOutputFormat(sys.stdout)] if verbose >= 1 else []))
+    return model
 
 
 # --- the model zip ---------------------------------------------------------------------------

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -167,3 +168,16 @@ def test_training_method_with_log_dir_takes_a_conf_file_entry_without_n_envs(
     )
     assert record.config["method"]["n_envs"] == 1
     assert "n_envs" not in record.config["method"]["hyperparams"]
+
+
+def test_training_leaves_nothing_in_the_temp_dir(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Without TensorBoard, SB3's default logger would make an empty SB3-<time> folder in the
+    temp dir at every learn(): one per harness run, thousands over a sweep."""
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temp))
+    settings = {"n_envs": 16, "n_steps": 4, "batch_size": 64}
+    run("ppo", "level", 1.5, budget=128, seeds=[0], method_config=settings, progress=False)
+    assert list(temp.glob("SB3-*")) == []
