@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from eval.numbers.framework import Benchmark, Measurement, table_head, table_row
+from eval.numbers.framework import Benchmark, Measurement
+from eval.studies.report import table_head, table_row
 
 CONVERGENCE = Benchmark(("benchmarks/convergence.py", "--resolutions", "128x24"))
 CONVERGENCE_BOUND_PERCENT = 0.5
@@ -26,11 +27,11 @@ def render(data: dict[str, Any]) -> str:
             text += f" (p95 {error['p95']:.2g} %)"
         return text
 
-    lines = table_head("V [m/s]", *(f"{title} median / max" for _, title in CONVERGENCE_COLUMNS))
+    lines = table_head(["V [m/s]", *(f"{title} median / max" for _, title in CONVERGENCE_COLUMNS)])
     for r in rows:
         speed = "0 (hover)" if r["speed"] == 0.0 else f"{r['speed']:.1f}"
         cells = (cell(r["error_percent"][name]) for name, _ in CONVERGENCE_COLUMNS)
-        lines.append(table_row(speed, *cells))
+        lines.append(table_row([speed, *cells]))
     lines += [
         "",
         f"{data['strokes']} random strokes (seed {data['seed']}), n_time = {rows[0]['n_time']}, "

@@ -11,7 +11,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import ROOT, Measurement, copy_outputs, read_rows, table_head, table_row
+from eval.numbers.framework import ROOT, Measurement, copy_outputs, read_rows
+from eval.studies.report import table_head, table_row
 
 LAG_STUDY_OUT = Path("results") / "crosscheck-lag-study"
 LAG_STUDY_COMMAND = (
@@ -142,13 +143,13 @@ def render(data: dict[str, Any]) -> str:
     head = ["lag ΔΦ"]
     for e in entries:
         head += [f"{case_label(e['case'])}: UVLM", *names]
-    lines += table_head(*head)
+    lines += table_head(head)
     for i, lag in enumerate(lags):
         cells = [f"{lag:g}°"]
         for e in entries:
             cells.append(f"{e['uvlm'][i]:+.1f}")
             cells += [f"{e['readings'][n]['changes'][i]:+.1f}" for n in names]
-        lines.append(table_row(*cells))
+        lines.append(table_row(cells))
     compared = [f"`{n}`: same sign, largest loss at (off)" for n in names]
     lines += [
         "",
@@ -156,7 +157,7 @@ def render(data: dict[str, Any]) -> str:
         "the hind-wing change, and the lag of its largest hind-wing loss (the first harmonic's "
         "lowest point in brackets) and how far it lies from the UVLM's:",
         "",
-        *table_head("case", "UVLM: hind, largest loss at", "UVLM: fore", *compared),
+        *table_head(["case", "UVLM: hind, largest loss at", "UVLM: fore", *compared]),
     ]
     for e in entries:
         cells = [
@@ -173,7 +174,7 @@ def render(data: dict[str, Any]) -> str:
                 else f"{r['loss_lag']:g}° ({r['loss_lag_off']:g}° off; harmonic {r['phase_off']:.0f}° off)"
             )
             cells.append(f"{r['same_sign']}/8, {where}")
-        lines.append(table_row(*cells))
+        lines.append(table_row(cells))
     lines += [
         "",
         f"The UVLM's convergence at one case (V = 1 m/s, lag 0°, the dragonfly's spacing), "

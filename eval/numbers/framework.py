@@ -185,16 +185,6 @@ def machine_line(data: dict[str, Any], name: str) -> str:
     )
 
 
-def table_row(*cells: object) -> str:
-    """One row of a Markdown table."""
-    return "| " + " | ".join(map(str, cells)) + " |"
-
-
-def table_head(*titles: str) -> list[str]:
-    """A Markdown table's heading row and the rule under it, as wide as the titles."""
-    return [table_row(*titles), "|---" * len(titles) + "|"]
-
-
 def footer(data: dict[str, Any], name: str, *commands: str, heading: str = "") -> list[str]:
     """The lines that close a region: :func:`machine_line`, then ``heading`` (if any) and the
     commands that measured it."""

@@ -6,7 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import ROOT, Measurement, copy_outputs, minutes, read_rows, table_head
+from eval.numbers.framework import ROOT, Measurement, copy_outputs, minutes, read_rows
+from eval.studies.report import table_head
 
 READINGS_PAPER_OUT = Path("results") / "readings-paper"
 READINGS_PAPER_COMMAND = (
@@ -87,7 +88,7 @@ def render(data: dict[str, Any]) -> str:
     best = max(int(r["agree"]) for r in rows)
     heads = [title for title, _ in READINGS_COLUMNS]
     lines = [
-        *table_head("reading", "changes from the default", *COUNTS.values(), *heads),
+        *table_head(["reading", "changes from the default", *COUNTS.values(), *heads]),
         "| paper | "
         + "| " * (1 + len(COUNTS))
         + " | ".join(

@@ -23,9 +23,8 @@ from eval.numbers.framework import (
     machine_line,
     read_rows,
     run_command,
-    table_head,
-    table_row,
 )
+from eval.studies.report import table_head, table_row
 
 ENV_ID = "TandemWing/LevelFlight-v0"
 #: (algo, training steps): the documented envelope run's 300 k for PPO; SAC's tuned 100 k.
@@ -137,11 +136,11 @@ def score_table(training: str, rows: list[tuple[str, str, list[dict[str, Any]]]]
     """The scores table the policies' tables share: a row per (policy, its ``training`` column,
     its runs), the :func:`summary` of the runs."""
     scores = ("seeds", "median score", "worst score", "strokes that fly")
-    lines = table_head("policy", training, *scores, "training time (median, 1 core)")
+    lines = table_head(["policy", training, *scores, "training time (median, 1 core)"])
     for policy, trained, runs in rows:
         median, worst, flies, seconds = summary(runs)
         cells = (len(runs), score_text(median), score_text(worst), f"{100 * flies:.0f} %")
-        lines.append(table_row(policy, trained, *cells, f"{seconds:.0f} s"))
+        lines.append(table_row([policy, trained, *cells, f"{seconds:.0f} s"]))
     return "\n".join(lines)
 
 

@@ -6,7 +6,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
-from eval.numbers.framework import Benchmark, Measurement, footer, spaced, table_head, table_row
+from eval.numbers.framework import Benchmark, Measurement, footer, spaced
+from eval.studies.report import table_head, table_row
 
 MODEL_THROUGHPUT = Benchmark(("benchmarks/model_throughput.py",))
 INFLOW_SOLVE = Benchmark(("benchmarks/inflow_solve.py",))
@@ -32,14 +33,14 @@ def render_model_throughput(data: dict[str, Any]) -> str:
     batches = sorted({batch for batch, _ in rates})
     inductions = [i for i in INDUCTIONS if any((b, i) in rates for b in batches)]
     lines = table_head(
-        "batch", *(f"`{i}`: evaluations/s (ms per call, sweeps)" for i in inductions)
+        ["batch", *(f"`{i}`: evaluations/s (ms per call, sweeps)" for i in inductions)]
     )
     for batch in batches:
         cells = [
             f"{spaced(r['evaluations_per_s'])} ({r['ms_per_call']:.2f} ms, {r['inflow_sweeps']:.1f})"
             for r in (rates[batch, induction] for induction in inductions)
         ]
-        lines.append(table_row(batch, *cells))
+        lines.append(table_row([batch, *cells]))
     lines += [
         "",
         "Best of "
@@ -60,10 +61,12 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
     rates = by_case(data["rates"])
     ratios = {r["batch"]: r for r in data["ratios"]}
     lines = table_head(
-        "batch",
-        *(f"`{i}`: evaluations/s, best / median round" for i in INDUCTIONS),
-        "coupled / none, wall: median (range)",
-        "coupled / none, CPU: median (range)",
+        [
+            "batch",
+            *(f"`{i}`: evaluations/s, best / median round" for i in INDUCTIONS),
+            "coupled / none, wall: median (range)",
+            "coupled / none, CPU: median (range)",
+        ]
     )
     for batch in sorted(ratios):
         cells = [
@@ -75,7 +78,7 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
             f"{r[kind + '_median']:.2f} ({r[kind + '_range'][0]:.2f}-{r[kind + '_range'][1]:.2f})"
             for kind in ("wall", "cpu")
         ]
-        lines.append(table_row(batch, *cells))
+        lines.append(table_row([batch, *cells]))
     sweeps = "; ".join(
         f"V = {s['speed']:g} m/s: {100 * s['solved_share']:.0f} % of the annuli need a solve, "
         f"{s['mean_sweeps']:.2f} sweeps on average (at most {s['max_sweeps']})"
@@ -146,9 +149,10 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
         r = rates[key]
         return f"{spaced(r['evaluations_per_s'])} /s ({r['torch_over_numba']:.2g} × numba)"
 
-    lines = table_head("batch", *(title for title, _, _ in columns))
+    lines = table_head(["batch", *(title for title, _, _ in columns)])
     lines += [
-        table_row(batch, *(cell(rates, (batch, i)) for _, rates, i in columns)) for batch in batches
+        table_row([batch, *(cell(rates, (batch, i)) for _, rates, i in columns)])
+        for batch in batches
     ]
     g = data["eager"]["gradient"]
     run = data["eager"]

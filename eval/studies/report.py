@@ -86,9 +86,14 @@ def _cell(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
 
-def table_row(cells: Sequence[str]) -> str:
-    """One Markdown table row, each cell escaped."""
-    return "| " + " | ".join(_cell(x) for x in cells) + " |"
+def table_row(cells: Iterable[object]) -> str:
+    """One Markdown table row, each cell as text, escaped."""
+    return "| " + " | ".join(_cell(str(x)) for x in cells) + " |"
+
+
+def table_head(titles: Sequence[str]) -> list[str]:
+    """A Markdown table's heading row and the rule under it, as wide as the titles."""
+    return [table_row(titles), "|" + "---|" * len(titles)]
 
 
 #: A column of a Markdown table: its title and its cell's text in a row.
@@ -98,7 +103,7 @@ Column = tuple[str, Callable[[Any], str]]
 def markdown_table(columns: Sequence[Column], rows: Iterable[Any]) -> list[str]:
     """A Markdown table (lines): the titles, the rule under them and one line per row."""
     cells = [[cell(row) for _, cell in columns] for row in rows]
-    return [table_row([t for t, _ in columns]), "|" + "---|" * len(columns), *map(table_row, cells)]
+    return [*table_head([t for t, _ in columns]), *map(table_row, cells)]
 
 
 #: The paper-vs-ours table's columns, one row per claim.
