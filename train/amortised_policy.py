@@ -73,7 +73,7 @@ from tandem_env.physics.stroke import (
     physical_to_normalised,
 )
 from train.config import AMORTISED
-from train.layout import check_args_env, env_name, read_run_args, resolve_run_dir
+from train.layout import RunPolicy, check_args_env, env_name, read_run_args, resolve_run_dir
 
 #: Where the canonical targets put each canonicalised sweep phase [deg] (within half a time-grid
 #: step, :func:`canonicalise`).
@@ -256,7 +256,7 @@ def build_networks(hidden: Sequence[int], features: int, branches: int) -> Any:
 
 
 @dataclass(frozen=True, eq=False)
-class AmortisedPolicy:
+class AmortisedPolicy(RunPolicy):
     """A trained amortised policy: the network and what its forward pass needs besides."""
 
     network: Any
@@ -359,17 +359,6 @@ class AmortisedPolicy:
         """The range of conditions it was trained over [the condition's unit]: the first
         branch's start to the last one's end (the first and last training conditions)."""
         return float(self.domains[0, 0]), float(self.domains[-1, 1])
-
-    def trained_at(self, value: float) -> bool:
-        low, high = self.training_conditions
-        return low - 1e-9 <= value <= high + 1e-9
-
-    def check_env(self, env_id: str) -> None:
-        if self.env_id != env_id:
-            raise ValueError(
-                f"{self.run_dir} was trained on {self.env_id}; this task's env is {env_id}; "
-                "allowed: a run of the same env"
-            )
 
     def policy_data(self) -> dict[str, Any]:
         """``policy.json``'s content (the weights are beside it)."""

@@ -11,6 +11,7 @@ folder is not one, and ``python -m train`` never resumes in, or writes into, suc
 
 from __future__ import annotations
 
+import math
 import os
 import pickle
 import pickletools
@@ -230,6 +231,33 @@ def check_args_env(args_file: Path, env_id: Any) -> str:
             f"{args_file.parent.name}; allowed: the env the run was trained on"
         )
     return env_id
+
+
+class RunPolicy:
+    """What every trained policy (:class:`train.trained_policy.TrainedPolicy`,
+    :class:`train.amortised_policy.AmortisedPolicy`) answers about its run."""
+
+    run_dir: Path | None
+    env_id: str
+    training_conditions: tuple[float, float] | float | None
+    """The condition range it was trained on, or its fixed condition (None if unknown) [the
+    condition's unit]."""
+
+    def check_env(self, env_id: str) -> None:
+        """ValueError unless the run was trained on ``env_id``."""
+        if self.env_id != env_id:
+            raise ValueError(
+                f"{self.run_dir} was trained on {self.env_id}; this task's env is {env_id}; "
+                "allowed: a run of the same env"
+            )
+
+    def trained_at(self, value: float) -> bool:
+        """Whether ``value`` is a condition the policy saw in training (inside its range, or
+        its fixed condition); True when the training condition is unknown."""
+        seen = self.training_conditions
+        if isinstance(seen, tuple):
+            return seen[0] - 1e-9 <= value <= seen[1] + 1e-9
+        return seen is None or math.isclose(seen, value)
 
 
 def env_name(env_id: str) -> str:

@@ -13,7 +13,6 @@ an RL run as a :class:`TrainedPolicy`, an amortised run (``--algo amortised``) a
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,6 +29,7 @@ from train.checkpoint import load_on_copy
 from train.config import check_algo, resolve_hyperparams
 from train.layout import (
     RunLayout,
+    RunPolicy,
     check_args_env,
     read_normalizer,
     read_run_args,
@@ -48,7 +48,7 @@ class TrainingMismatchWarning(RuntimeWarning):
 
 # --- a trained run ---------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
-class TrainedPolicy:
+class TrainedPolicy(RunPolicy):
     """A model saved by ``python -m train``, with what it needs to observe a condition: the
     run folder's settings read and checked, the model loaded without unpickling anything."""
 
@@ -123,14 +123,6 @@ class TrainedPolicy:
             model,
         )
 
-    def check_env(self, env_id: str) -> None:
-        """ValueError unless the run was trained on ``env_id``."""
-        if self.env_id != env_id:
-            raise ValueError(
-                f"{self.run_dir} was trained on {self.env_id}; this task's env is {env_id}; "
-                "allowed: a run of the same env"
-            )
-
     def _observing_env(self, conditions: Sequence[float]) -> VecEnv:
         # The training env's own observation path: reset at each condition through the env's
         # reset option, so the normalisation over the envelope is the one the policy learned.
@@ -160,7 +152,7 @@ class TrainedPolicy:
 
     @property
     def training_conditions(self) -> tuple[float, float] | float | None:
-        """The condition range it was trained on, or the fixed condition (None if unknown)."""
+        """From the env options it was trained with (:class:`~train.layout.RunPolicy`)."""
         declared = getattr(config_class(self.env_id), "CONDITION", None)
         if declared is None:
             return None
@@ -170,14 +162,6 @@ class TrainedPolicy:
         if self.env_kwargs.get(declared.keyword) is not None:
             return float(self.env_kwargs[declared.keyword])
         return None
-
-    def trained_at(self, value: float) -> bool:
-        """Whether ``value`` is a condition the policy saw in training (inside its sampled
-        range, or its fixed condition); True when the training condition is unknown."""
-        seen = self.training_conditions
-        if isinstance(seen, tuple):
-            return seen[0] - 1e-9 <= value <= seen[1] + 1e-9
-        return seen is None or math.isclose(seen, value)
 
     @property
     def num_timesteps(self) -> int:
