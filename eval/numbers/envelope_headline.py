@@ -9,20 +9,11 @@ from __future__ import annotations
 from typing import Any
 
 from eval.numbers.framework import Measurement, load
-from eval.numbers.rl_baselines import runs_of, score_text, summary
-
-#: (measurement, algo, hyperparameters: "" for the amortised policy)
-POLICIES = (
-    ("amortised-scores", "amortised", ""),
-    ("rl-baselines", "ppo", "tuned"),
-    ("rl-baselines", "sac", "tuned"),
-    ("rl-baselines", "ppo", "shipped"),
-    ("rl-baselines", "sac", "shipped"),
-)
+from eval.numbers.rl_baselines import POLICIES, runs_of, score_text, summary
 
 
 def measure() -> dict[str, Any]:
-    stored = {name: load(name) for name in {p[0] for p in POLICIES}}
+    stored = {name: load(name) for name in dict.fromkeys(p[0] for p in POLICIES)}
     rows = []
     for name, algo, hp in POLICIES:
         runs = runs_of(stored[name]["runs"], algo, hp)

@@ -44,6 +44,17 @@ HYPERPARAMETERS: dict[str, str | None] = {
     "tuned": "train/hyperparams/envelope/{algo}.yml",
 }
 
+#: Every envelope policy the figure and the README headline (:mod:`eval.numbers.
+#: envelope_headline`) show, in the figure's drawing and legend order: (the measurement that
+#: stores its runs, algo, a key of :data:`HYPERPARAMETERS`: "" for the amortised policy).
+POLICIES: tuple[tuple[str, str, str], ...] = (
+    ("rl-baselines", "ppo", "tuned"),
+    ("rl-baselines", "ppo", "shipped"),
+    ("rl-baselines", "sac", "tuned"),
+    ("rl-baselines", "sac", "shipped"),
+    ("amortised-scores", "amortised", ""),
+)
+
 
 def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str) -> list[str]:
     """The documented envelope training command of ``algo`` with the ``hyperparams`` of
@@ -173,29 +184,28 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     from eval.figures import PALETTE, save
     from eval.numbers.framework import json_path, load
 
-    colours = dict(zip(("ppo", "sac", "amortised"), PALETTE, strict=False))
+    colours = dict(zip(dict.fromkeys(algo for _, algo, _ in POLICIES), PALETTE, strict=False))
     stored = {
-        name: load(name)["runs"] for name in ("rl-baselines", "amortised-scores")
+        name: load(name)["runs"] for name in dict.fromkeys(name for name, _, _ in POLICIES)
         if json_path(name).is_file()
     }  # fmt: skip
-    every = [r for runs in {**stored, **fresh}.values() for r in runs]
+    measured = {**stored, **fresh}
     fig, ax = plt.subplots(figsize=(6.0, 4.8))
-    for algo in colours:
-        for hp in ("tuned", "shipped") if algo != "amortised" else ("",):
-            runs = runs_of(every, algo, hp)
-            if not runs:
-                continue
-            shipped = hp == "shipped"  # the reference for what tuning bought: its median only
-            if not shipped:
-                for r in runs:
-                    ax.plot(r["conditions"], r["scores"], color=colours[algo], alpha=0.3, lw=0.8)
-            columns = zip(*(r["scores"] for r in runs), strict=True)
-            medians = [statistics.median(col) for col in columns]
-            label = f"{algo.upper()}, {hp} hyperparameters" if hp else "amortised policy"
-            ax.plot(runs[0]["conditions"], medians, color=colours[algo], lw=1.4 if shipped else 2.2,
-                    ls="--" if shipped else "-", marker="o", ms=3 if shipped else 5,
-                    label=f"{label} (median of {len(runs)} seeds" + ("" if shipped else "; thin: each")
-                    + ")")  # fmt: skip
+    for name, algo, hp in POLICIES:
+        runs = runs_of(measured.get(name, []), algo, hp)
+        if not runs:
+            continue
+        shipped = hp == "shipped"  # the reference for what tuning bought: its median only
+        if not shipped:
+            for r in runs:
+                ax.plot(r["conditions"], r["scores"], color=colours[algo], alpha=0.3, lw=0.8)
+        columns = zip(*(r["scores"] for r in runs), strict=True)
+        medians = [statistics.median(col) for col in columns]
+        label = f"{algo.upper()}, {hp} hyperparameters" if hp else "amortised policy"
+        ax.plot(runs[0]["conditions"], medians, color=colours[algo], lw=1.4 if shipped else 2.2,
+                ls="--" if shipped else "-", marker="o", ms=3 if shipped else 5,
+                label=f"{label} (median of {len(runs)} seeds" + ("" if shipped else "; thin: each")
+                + ")")  # fmt: skip
     ax.axhline(100.0, color="0.3", ls="--", lw=1.0, label="reference optimum (100)")
     ax.axhline(0.0, color="0.6", lw=0.8)
     ax.set_xlabel("flight speed V [m/s] (held-out conditions)")
