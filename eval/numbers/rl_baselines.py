@@ -48,10 +48,7 @@ HYPERPARAMETERS: dict[str, str | None] = {
 #: envelope_headline`) show, in the figure's drawing and legend order: (the measurement that
 #: stores its runs, algo, a key of :data:`HYPERPARAMETERS`: "" for the amortised policy).
 POLICIES: tuple[tuple[str, str, str], ...] = (
-    ("rl-baselines", "ppo", "tuned"),
-    ("rl-baselines", "ppo", "shipped"),
-    ("rl-baselines", "sac", "tuned"),
-    ("rl-baselines", "sac", "shipped"),
+    *(("rl-baselines", algo, hp) for algo, _ in ALGOS for hp in ("tuned", "shipped")),
     ("amortised-scores", "amortised", ""),
 )
 
