@@ -187,7 +187,7 @@ class Job:
         """Short human label, e.g. ``pso level V=1.5 seed 0``."""
         # The condition's command-line symbol (V, P) from the task's declaration.
         known = self.task in available_tasks()
-        symbol = get_task(self.task).condition_metavar if known else "condition"
+        symbol = get_task(self.task).declared_condition.metavar if known else "condition"
         extra = [str(v) for k, v in self.env_kwargs if k in ("objective", "planform")]
         return " ".join(
             [self.method, self.task, *extra, f"{symbol}={self.condition:g}", f"seed {self.seed}"]
