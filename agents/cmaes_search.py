@@ -47,12 +47,12 @@ from agents.optimiser import (
     AskTellOptimiser,
     FloatArray,
     SeedLike,
-    check_int,
     check_settings,
     integer_setting,
     real_setting,
 )
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
+from tandem_env.physics.checks import count
 
 __all__ = ["CMAES", "CMAESConfig", "Restarts", "default_popsize", "discrete_levels"]
 
@@ -126,8 +126,8 @@ class CMAESConfig:
         for pair in pairs:
             if len(pair) != 2:
                 raise ValueError(f"discrete must be {allowed}, got the entry {pair!r}")
-            check_int("discrete index", pair[0], minimum=0)
-            check_int("discrete levels", pair[1], minimum=2)
+            count(pair[0], "discrete index", low=0)
+            count(pair[1], "discrete levels", low=2)
         if len({i for i, _ in pairs}) != len(pairs):
             raise ValueError(f"discrete must be {allowed}; index repeated in {self.discrete!r}")
         object.__setattr__(self, "discrete", tuple((int(i), int(k)) for i, k in pairs))
@@ -186,7 +186,7 @@ class CMAES(AskTellOptimiser):
     def __init__(self, dim: int, config: CMAESConfig, seed: SeedLike = None) -> None:
         if not isinstance(config, CMAESConfig):
             raise TypeError(f"config must be a CMAESConfig, got {type(config).__name__}")
-        check_int("dim", dim, minimum=1)
+        count(dim, "dim")
         popsize = config.popsize or default_popsize(dim)
         if config.max_evaluations < popsize:
             raise ValueError(

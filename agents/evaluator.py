@@ -97,7 +97,9 @@ class VectorEnvEvaluator(Tallied):
             )
             # The seed only matters for sampled conditions (none here), but a seeded first
             # reset keeps every generator the env owns reproducible too.
-            env.reset(seed=self.seed, options={self.task.reset_option: self.condition.value})
+            env.reset(
+                seed=self.seed, options={self.task.declared_condition.keyword: self.condition.value}
+            )
             self._envs[n] = env
         return env
 
@@ -131,7 +133,7 @@ class VectorEnvEvaluator(Tallied):
             )
         start = time.perf_counter()
         env = self._env(n)
-        env.reset(options={self.task.reset_option: self.condition.value})
+        env.reset(options={self.task.declared_condition.keyword: self.condition.value})
         _, rewards, _, _, infos = env.step(actions)
         self.step_time += time.perf_counter() - start
         self._check_condition(infos, n)
@@ -203,7 +205,7 @@ def reevaluate(
     as during the search; doing it in a single env of its own (not the search's vector env)
     makes the record independent of any state the search left behind.
     """
-    env.reset(seed=seed, options={task.reset_option: condition.value})
+    env.reset(seed=seed, options={task.declared_condition.keyword: condition.value})
     _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
     return Reevaluation(float(reward), dict(info), env_config_dict(env))
 

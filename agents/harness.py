@@ -80,10 +80,10 @@ def prepare_job(
     if clash:
         raise ValueError(
             f"env_kwargs {clash} are set by the harness for task {spec.name!r}; give the "
-            f"condition ({spec.condition_name} [{spec.condition_unit}]) as the condition argument"
+            f"condition ({cond.name} [{cond.unit}]) as the condition argument"
         )
     objective_name = spec.objective_metric(kwargs)
-    kwargs[spec.condition_kwarg] = cond.value
+    kwargs[cond.name] = cond.value
     try:
         env = gym.make(spec.env_id, disable_env_checker=True, **kwargs)
     except gym.error.Error as error:
@@ -174,17 +174,16 @@ def prepare(
     spec = get_task(task)
     kwargs = dict(env_kwargs or {})
     if objective is not None:
-        if spec.objective_kwarg is None:
+        keyword = spec.declared_objectives.keyword
+        if keyword is None:
             raise ValueError(
-                f"task {spec.name!r} has one objective ({spec.default_objective}); "
+                f"task {spec.name!r} has one objective ({spec.declared_objectives.default}); "
                 "objective cannot be chosen"
             )
-        given = kwargs.get(spec.objective_kwarg)
+        given = kwargs.get(keyword)
         if given is not None and given != objective:
-            raise ValueError(
-                f"objective = {objective!r} but env_kwargs[{spec.objective_kwarg!r}] = {given!r}"
-            )
-        kwargs[spec.objective_kwarg] = objective
+            raise ValueError(f"objective = {objective!r} but env_kwargs[{keyword!r}] = {given!r}")
+        kwargs[keyword] = objective
     seed_list = list(seeds)
     if not seed_list:
         raise ValueError("seeds is empty; allowed: one or more integers >= 0")

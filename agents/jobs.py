@@ -19,7 +19,7 @@ import tandem_env
 from agents.tasks import available_tasks, get_task
 from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
 from tandem_env.io.files import to_jsonable
-from tandem_env.physics.checks import is_integer, is_real
+from tandem_env.physics.checks import count, is_real
 
 __all__ = ["MAX_BUDGET", "OLD_SCHEMAS", "SCHEMA", "FrozenMapping", "Job"]
 
@@ -42,11 +42,6 @@ OLD_SCHEMAS = (
 #: budgets; a larger one would run for days and outgrow the memory of the methods' per-iteration
 #: tables (PSO's inertia schedule alone: 8 bytes per iteration).
 MAX_BUDGET = 10**8
-
-
-def _check_count(name: str, value: Any, low: int, allowed: str, high: int | None = None) -> None:
-    if not is_integer(value) or value < low or (high is not None and value > high):
-        raise ValueError(f"{name} = {value!r}; allowed: {allowed}")
 
 
 def _pairs(value: Any) -> tuple[tuple[str, Any], ...]:
@@ -133,14 +128,10 @@ class Job:
                 raise ValueError(f"job {name} = {value!r}; allowed: a non-empty name")
         if not is_real(self.condition) or not math.isfinite(self.condition):
             raise ValueError(f"condition = {self.condition!r}; allowed: a finite number")
-        _check_count(
-            "budget", self.budget, 1, f"an integer from 1 to {MAX_BUDGET:,} (model evaluations)",
-            MAX_BUDGET,
-        )  # fmt: skip
-        _check_count("seed", self.seed, 0, "integers >= 0")
+        budget = count(self.budget, "budget", high=MAX_BUDGET, what="model evaluations")
         object.__setattr__(self, "condition", float(self.condition))
-        object.__setattr__(self, "budget", int(self.budget))
-        object.__setattr__(self, "seed", int(self.seed))
+        object.__setattr__(self, "budget", budget)
+        object.__setattr__(self, "seed", count(self.seed, "seed", low=0))
         object.__setattr__(self, "env_kwargs", _pairs(_canonical_env_kwargs(self.env_kwargs)))
         object.__setattr__(self, "method_config", _pairs(self.method_config))
 
@@ -196,7 +187,7 @@ class Job:
         """Short human label, e.g. ``pso level V=1.5 seed 0``."""
         # The condition's command-line symbol (V, P) from the task's declaration.
         known = self.task in available_tasks()
-        symbol = get_task(self.task).condition_metavar if known else "condition"
+        symbol = get_task(self.task).declared_condition.metavar if known else "condition"
         extra = [str(v) for k, v in self.env_kwargs if k in ("objective", "planform")]
         return " ".join(
             [self.method, self.task, *extra, f"{symbol}={self.condition:g}", f"seed {self.seed}"]

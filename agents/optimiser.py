@@ -8,7 +8,6 @@ budget, best-so-far bookkeeping and history, and the checks of their settings.
 from __future__ import annotations
 
 import functools
-import math
 from abc import ABC, abstractmethod
 from dataclasses import MISSING, field, fields
 from typing import Any, Protocol
@@ -17,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.selection import BestStroke
-from tandem_env.physics.checks import is_integer, is_real
+from tandem_env.physics.checks import count, finite_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
 FloatArray = NDArray[np.float64]
@@ -30,43 +29,20 @@ SeedLike = int | np.random.SeedSequence | None
 MAX_BATCH = MAX_BATCH_STROKES
 
 
-def check_int(name: str, value: object, *, minimum: int, maximum: int | None = None) -> None:
-    """Raise ValueError unless ``value`` is an integer (not a bool) ``>= minimum`` (and
-    ``<= maximum`` where given)."""
-    # bool is an int subclass; True as a swarm size is always a bug, never an intent.
-    if not is_integer(value) or value < minimum or (maximum is not None and value > maximum):
-        most = "" if maximum is None else f" and <= {maximum:,}"
-        raise ValueError(f"{name} must be an integer >= {minimum}{most}, got {value!r}")
-
-
-def check_real(name: str, value: object, *, low: float, high: float, low_inclusive: bool) -> None:
-    """Raise ValueError unless ``value`` is a finite real number in the stated interval."""
-    ok = (
-        is_real(value)
-        and math.isfinite(value)
-        and (value >= low if low_inclusive else value > low)
-        and value <= high
-    )
-    if not ok:
-        opening = "[" if low_inclusive else "("
-        closing = "]" if math.isfinite(high) else ")"
-        raise ValueError(
-            f"{name} must be a finite number in {opening}{low}, {high}{closing}, got {value!r}"
-        )
-
-
 def integer_setting(minimum: int, maximum: int | None = None, *, default: Any = MISSING) -> Any:
     """A config field holding an integer ``>= minimum`` (and ``<= maximum``), checked by
-    :func:`check_settings` (:func:`check_int`); a None ``default`` also allows None."""
-    check = functools.partial(check_int, minimum=minimum, maximum=maximum)
-    return field(default=default, metadata={"check": check, "plain": int})
+    :func:`check_settings` (:func:`~tandem_env.physics.checks.count`); a None ``default``
+    also allows None."""
+    check = functools.partial(count, low=minimum, high=maximum)
+    return field(default=default, metadata={"check": check})
 
 
 def real_setting(low: float, high: float, *, low_inclusive: bool, default: Any = MISSING) -> Any:
     """A config field holding a finite number in the interval, checked by
-    :func:`check_settings` (:func:`check_real`); a None ``default`` also allows None."""
-    check = functools.partial(check_real, low=low, high=high, low_inclusive=low_inclusive)
-    return field(default=default, metadata={"check": check, "plain": float})
+    :func:`check_settings` (:func:`~tandem_env.physics.checks.finite_real`); a None
+    ``default`` also allows None."""
+    check = functools.partial(finite_real, low=low, high=high, above=not low_inclusive)
+    return field(default=default, metadata={"check": check})
 
 
 def check_settings(config: Any) -> None:
@@ -77,8 +53,7 @@ def check_settings(config: Any) -> None:
     for spec in fields(config):
         value = getattr(config, spec.name)
         if "check" in spec.metadata and not (value is None and spec.default is None):
-            spec.metadata["check"](spec.name, value)
-            object.__setattr__(config, spec.name, spec.metadata["plain"](value))
+            object.__setattr__(config, spec.name, spec.metadata["check"](value, spec.name))
 
 
 class Tally:
@@ -168,8 +143,7 @@ class AskTellOptimiser(Tallied, ABC):
     """
 
     def __init__(self, dim: int, batch_size: int, config: OptimiserConfig, seed: SeedLike) -> None:
-        check_int("dim", dim, minimum=1)
-        self._dim = int(dim)
+        self._dim = count(dim, "dim")
         self._full_batch = int(batch_size)
         self._config = config
         self._rng = np.random.default_rng(seed)

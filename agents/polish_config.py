@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from tandem_env.physics.checks import is_integer, is_real
+from tandem_env.physics.checks import count, finite_real, is_real
 
 __all__ = [
     "INITIAL_SHARE_RANGE",
@@ -100,31 +100,19 @@ class PolishConfig:
             ("margin", 0.0, 1e-4),
             ("active", 0.0, 1e-2),
         ):
-            value = getattr(self, name)
-            if not _number_in(value, low, high):
-                raise ValueError(
-                    f"polish {name} = {value!r}; allowed: a number in [{low:g}, {high:g}]"
-                )
-            object.__setattr__(self, name, float(value))
+            value = finite_real(getattr(self, name), f"polish {name}", low, high)
+            object.__setattr__(self, name, value)
         for name, text, high in (
             ("max_iterations", "polish max_iterations", 10_000),
             ("starts", "starts", MAX_STARTS),
         ):
-            n = getattr(self, name)
-            if not is_integer(n) or not 1 <= n <= high:
-                raise ValueError(f"{text} = {n!r}; allowed: an integer in [1, {high}]")
-            object.__setattr__(self, name, int(n))
+            object.__setattr__(self, name, count(getattr(self, name), text, high=high))
         object.__setattr__(self, "initial", _strokes(self.initial))
-        share = self.initial_share
-        if share is not None:
-            if not _number_in(share, *INITIAL_SHARE_RANGE):
-                low, high = INITIAL_SHARE_RANGE
-                raise ValueError(
-                    f"initial_share = {share!r}; allowed: a number in [{low:g}, {high:g}], or none"
-                )
+        if self.initial_share is not None:
+            share = finite_real(self.initial_share, "initial_share", *INITIAL_SHARE_RANGE)
             if not self.initial:
                 raise ValueError("initial_share without initial strokes; allowed: with initial")
-            object.__setattr__(self, "initial_share", float(share))
+            object.__setattr__(self, "initial_share", share)
         if self.initial and not self.enabled:
             raise ValueError(
                 "initial strokes are polished, but polish = 'none'; allowed: "
@@ -146,11 +134,6 @@ class PolishConfig:
         return {**asdict(self), "initial": [list(stroke) for stroke in self.initial]}
 
 
-def _number_in(value: Any, low: float, high: float) -> bool:
-    """Whether ``value`` is a finite real number (not a bool) in [low, high]."""
-    return is_real(value) and math.isfinite(value) and low <= value <= high
-
-
 def _strokes(value: Any) -> tuple[tuple[float, ...], ...]:
     """``initial`` as a tuple of strokes of finite values in [-1, 1] (equal lengths)."""
     allowed = "a list of strokes, each a list of numbers in [-1, 1] of the action box's size"
@@ -161,7 +144,7 @@ def _strokes(value: Any) -> tuple[tuple[float, ...], ...]:
         if isinstance(stroke, str | bytes) or not isinstance(stroke, list | tuple | np.ndarray):
             raise ValueError(f"initial stroke {stroke!r}; allowed: {allowed}")
         for v in stroke:
-            if not _number_in(v, -1.0, 1.0):
+            if not (is_real(v) and math.isfinite(v) and -1.0 <= v <= 1.0):
                 raise ValueError(f"initial stroke value {v!r}; allowed: {allowed}")
         strokes.append(tuple(float(v) for v in stroke))
     if len({len(s) for s in strokes}) > 1:

@@ -121,76 +121,39 @@ class TaskSpec:
         return self.declaration.objectives  # type: ignore[return-value]
 
     @property
-    def condition_name(self) -> str:
-        """The condition's one name: env keyword, reset option, ``info`` key, record name."""
-        return self.declared_condition.keyword
-
-    condition_kwarg = reset_option = condition_name
-
-    @property
     def condition_flag(self) -> str:
         """The condition's command-line option, e.g. ``"--speed"`` or ``"--power"``."""
         return "--" + self.declared_condition.option.replace("_", "-")
-
-    @property
-    def condition_unit(self) -> str:
-        return self.declared_condition.unit
-
-    @property
-    def condition_label(self) -> str:
-        """The condition in words, e.g. ``"flight speed"``."""
-        return self.declared_condition.label
-
-    @property
-    def condition_metavar(self) -> str:
-        """Placeholder of the condition's value on a command line, e.g. ``"V"``."""
-        return self.declared_condition.metavar
 
     @property
     def forbidden_kwargs(self) -> tuple[str, ...]:
         """Env kwargs the harness refuses (they would fight the condition it sets)."""
         return self.declared_condition.keyword, self.declared_condition.range_keyword
 
-    @property
-    def objectives(self) -> Mapping[str, str]:
-        """Objective choice -> the ``info`` metric it maximises."""
-        return self.declared_objectives.metrics
-
-    @property
-    def default_objective(self) -> str:
-        return self.declared_objectives.default
-
-    @property
-    def objective_kwarg(self) -> str | None:
-        """Constructor keyword selecting the objective, or None if the task has only one."""
-        return self.declared_objectives.keyword
-
-    @property
-    def description(self) -> str:
-        """One line for ``--help`` and docs."""
-        return self.declaration.summary
-
     def condition(self, value: float) -> Condition:
-        """The recorded condition for ``value`` [condition_unit] (range checks are the env's)."""
+        """The recorded condition for ``value`` [the declared unit] (range checks are the
+        env's)."""
+        declared = self.declared_condition
         # NumPy numbers are real numbers too; strings (also "1.5") and booleans are not.
         if not is_real(value):
             raise ValueError(
-                f"{self.name}: condition {self.condition_name} = {value!r}; allowed: a "
-                f"number [{self.condition_unit}]"
+                f"{self.name}: condition {declared.keyword} = {value!r}; allowed: a "
+                f"number [{declared.unit}]"
             )
-        return Condition(self.condition_name, float(value), self.condition_unit)
+        return Condition(declared.keyword, float(value), declared.unit)
 
     def objective_metric(self, env_kwargs: Mapping[str, Any]) -> str:
         """The ``info`` metric the env maximises with ``env_kwargs``, e.g. ``"efficiency"``."""
-        if self.objective_kwarg is None:
-            return self.objectives[self.default_objective]
-        choice = env_kwargs.get(self.objective_kwarg, self.default_objective)
-        if choice not in self.objectives:
+        declared = self.declared_objectives
+        if declared.keyword is None:
+            return declared.metrics[declared.default]
+        choice = env_kwargs.get(declared.keyword, declared.default)
+        if choice not in declared.metrics:
             raise ValueError(
-                f"{self.name}: {self.objective_kwarg} = {choice!r}; allowed: "
-                f"{', '.join(map(repr, self.objectives))}"
+                f"{self.name}: {declared.keyword} = {choice!r}; allowed: "
+                f"{', '.join(map(repr, declared.metrics))}"
             )
-        return self.objectives[choice]
+        return declared.metrics[choice]
 
 
 #: Tasks registered by hand (:func:`register_task`: a spec not read from an env config, such as

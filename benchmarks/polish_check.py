@@ -36,7 +36,8 @@ GAIN_LIMIT = 0.5  # [%]
 def fresh_polish(record: Record) -> tuple[float, float, float, int]:
     """(objective before, after, worst constraint violation after, iterations)."""
     value = record.condition.value
-    kwargs = {**dict(record.job.env_kwargs), get_task(record.task).condition_kwarg: value}
+    keyword = get_task(record.task).declared_condition.keyword
+    kwargs = {**dict(record.job.env_kwargs), keyword: value}
     env = gym.make(record.env_id, disable_env_checker=True, **kwargs)
     problem = env.unwrapped.problem()
     env.close()

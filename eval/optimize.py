@@ -44,14 +44,13 @@ def _tasks_text(width: int = 92) -> str:
     """The "Tasks and conditions" paragraph of ``--help``, from the tasks' declarations."""
     lines = []
     for task in _tasks():
-        what = f"{task.condition_label} [{task.condition_unit}]"
-        if task.declaration is not None:
-            low, high = task.declared_condition.envelope
-            what += f" ({low:g}-{high:g})"
-        text = f"{task.condition_flag} {task.condition_metavar}  {what}; {task.description}"
-        if task.objective_kwarg is not None:
-            choices = ", ".join(task.objectives)
-            text += f" --objective: {choices} (default {task.default_objective})."
+        condition, objectives = task.declared_condition, task.declared_objectives
+        low, high = condition.envelope
+        what = f"{condition.label} [{condition.unit}] ({low:g}-{high:g})"
+        text = f"{task.condition_flag} {condition.metavar}  {what}; {task.declaration.summary}"
+        if objectives.keyword is not None:
+            choices = ", ".join(objectives.metrics)
+            text += f" --objective: {choices} (default {objectives.default})."
         lines.append(
             textwrap.fill(
                 text, width, initial_indent=f"  {task.name:<11} ", subsequent_indent=" " * 14
@@ -139,10 +138,11 @@ def _check_reading_applies(
     under another name), said with a warning if the reading's model options still apply."""
     if reading.horizontal_objective == "horizontal":
         return
-    given = objective if objective is not None else task.default_objective
+    objectives = task.declared_objectives
+    given = objective if objective is not None else objectives.default
     if given == "horizontal":
         return
-    where = f"--task {task.name}" + (f" --objective {given}" if task.objective_kwarg else "")
+    where = f"--task {task.name}" + (f" --objective {given}" if objectives.keyword else "")
     what = (
         f"its objective {reading.horizontal_objective} replaces only the horizontal one "
         f"(--task accelerate --objective horizontal), not {given} ({where})"
@@ -166,19 +166,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     for task in tasks:
         by_flag.setdefault(task.condition_flag, []).append(task)
     for flag, owners in by_flag.items():
+        declared = {t.name: t.declared_condition for t in owners}
+        first = declared[owners[0].name]
         condition.add_argument(
             flag,
             type=float,
-            dest=owners[0].condition_kwarg,
-            metavar=owners[0].condition_metavar,
-            help="; ".join(f"{t.name}: {t.condition_label} [{t.condition_unit}]" for t in owners),
+            dest=first.keyword,
+            metavar=first.metavar,
+            help="; ".join(f"{name}: {c.label} [{c.unit}]" for name, c in declared.items()),
         )
-    choosers = [t for t in tasks if t.objective_kwarg is not None]
+    choosers = [t for t in tasks if t.declared_objectives.keyword is not None]
     parser.add_argument(
         "--objective",
-        choices=tuple(dict.fromkeys(c for t in choosers for c in t.objectives)),
+        choices=tuple(dict.fromkeys(c for t in choosers for c in t.declared_objectives.metrics)),
         help="; ".join(
-            f"{t.name} only: the objective maximised (default {t.default_objective})"
+            f"{t.name} only: the objective maximised (default {t.declared_objectives.default})"
             for t in choosers
         ),
     )
@@ -330,20 +332,23 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> O
     and what is allowed, before any work."""
     tasks = _tasks()
     task = next(t for t in tasks if t.name == args.task)  # one of them: argparse's choices
-    condition = getattr(args, task.condition_kwarg)
+    declared = task.declared_condition
+    condition = getattr(args, declared.keyword)
     if condition is None:
         given = [
-            t.condition_flag for t in tasks if getattr(args, t.condition_kwarg, None) is not None
+            t.condition_flag
+            for t in tasks
+            if getattr(args, t.declared_condition.keyword, None) is not None
         ]
         parser.error(
-            f"--task {task.name} takes {task.condition_flag} {task.condition_metavar} "
-            f"[{task.condition_unit}], not {' '.join(dict.fromkeys(given))}"
+            f"--task {task.name} takes {task.condition_flag} {declared.metavar} "
+            f"[{declared.unit}], not {' '.join(dict.fromkeys(given))}"
         )
-    if task.objective_kwarg is None and args.objective is not None:
-        choosers = [t.name for t in tasks if t.objective_kwarg is not None]
+    if task.declared_objectives.keyword is None and args.objective is not None:
+        choosers = [t.name for t in tasks if t.declared_objectives.keyword is not None]
         parser.error(
             f"--objective is for --task {' or '.join(choosers)}; {task.name} maximises "
-            f"{task.default_objective}"
+            f"{task.declared_objectives.default}"
         )
     try:
         # What the arguments mean: the env options and method settings (checked and parsed

@@ -81,7 +81,7 @@ def plan(
                 condition,
                 budgets[env_id],
                 seeds,
-                objective=objective if task.objective_kwarg else None,
+                objective=objective if task.declared_objectives.keyword else None,
                 env_kwargs={"planform": planform, **(env_kwargs or {})},
                 preset=PRESET,
             )

@@ -62,7 +62,7 @@ def flight_of(job: Job) -> tuple[Any, float, float]:
     """The env config of ``job`` and its flight speed [m/s] and available power [W/kg]."""
     task = get_task(job.task)
     env_id = task.env_id
-    kwargs = {**dict(job.env_kwargs), task.condition_kwarg: job.condition}
+    kwargs = {**dict(job.env_kwargs), task.declared_condition.keyword: job.condition}
     cfg = registration.config_class(env_id).from_kwargs(**kwargs)
     # The task's condition sets one model input; its config fixes the other (task core).
     core = registration.core_class(env_id)(cfg)

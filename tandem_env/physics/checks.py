@@ -141,12 +141,21 @@ def real_array(value: Any, name: str, allowed: str) -> np.ndarray:
     raise ValueError(f"{detail}; allowed: {allowed}")
 
 
-def finite_real(value: Any, name: str, low: float, high: float, unit: str = "") -> float:
-    """A scalar real number in [low, high] as a float, or a ``ValueError`` naming it."""
+def finite_real(
+    value: Any, name: str, low: float, high: float, unit: str = "", *, above: bool = False
+) -> float:
+    """A scalar real number in [low, high] as a float, or a ``ValueError`` naming it; ``above``:
+    in (low, high] (``low`` itself refused, e.g. a step size that must be positive)."""
     unit = f" {unit}" if unit else ""
-    if not is_real(value) or not math.isfinite(value) or not low <= value <= high:
+    if (
+        not is_real(value)
+        or not math.isfinite(value)
+        or not (low < value if above else low <= value)
+        or value > high
+    ):
+        lowest = f"above {low:g} and up to" if above else f"from {low:g} to"
         raise ValueError(
-            f"{name} = {shown(value, low, high)}{unit}; allowed: a finite number from {low:g} "
-            f"to {high:g}{unit}"
+            f"{name} = {shown(value, low, high)}{unit}; allowed: a finite number {lowest} "
+            f"{high:g}{unit}"
         )
     return float(value)

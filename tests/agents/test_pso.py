@@ -337,23 +337,29 @@ def test_citation_names_variant_and_constants() -> None:
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"swarm_size": 1}, "swarm_size must be an integer >= 2"),
-        ({"swarm_size": True}, "swarm_size must be an integer >= 2"),
-        ({"swarm_size": 10.0}, "swarm_size must be an integer"),
+        ({"swarm_size": 1}, "swarm_size = 1; allowed: an integer >= 2"),
+        ({"swarm_size": True}, "swarm_size = True; allowed: an integer >= 2"),
+        ({"swarm_size": 10.0}, "swarm_size = 10.0; allowed: an integer"),
         # allocated when the optimiser is built: refused before any memory is asked for
-        ({"swarm_size": 10**9}, r"swarm_size must be an integer >= 2 and <= 10,000, got 10+$"),
+        ({"swarm_size": 10**9}, r"swarm_size = 10+; allowed: an integer >= 2 and <= 10000$"),
         (
             {"inertia": "adaptive"},
             r"inertia must be one of \('constriction', 'linear-decreasing'\)",
         ),
         ({"boundary": "wrap"}, "wrap-around is not supported"),
-        ({"velocity_clamp": 0.0}, r"velocity_clamp must be a finite number in \(0.0, 1.0\]"),
-        ({"velocity_clamp": 1.5}, r"velocity_clamp must be a finite number in \(0.0, 1.0\]"),
-        ({"velocity_clamp": math.nan}, "velocity_clamp must be a finite number"),
-        ({"cognitive": -0.1}, r"cognitive must be a finite number in \[0.0, inf\)"),
-        ({"social": math.inf}, "social must be a finite number"),
-        ({"max_evaluations": 0}, "max_evaluations must be an integer >= 1"),
-        ({"max_evaluations": 2.5}, "max_evaluations must be an integer >= 1"),
+        (
+            {"velocity_clamp": 0.0},
+            r"velocity_clamp = 0; allowed: a finite number above 0 and up to 1$",
+        ),
+        (
+            {"velocity_clamp": 1.5},
+            r"velocity_clamp = 1.5; allowed: a finite number above 0 and up to 1$",
+        ),
+        ({"velocity_clamp": math.nan}, "velocity_clamp = nan; allowed: a finite number"),
+        ({"cognitive": -0.1}, r"cognitive = -0.1; allowed: a finite number from 0 to inf$"),
+        ({"social": math.inf}, "social = inf; allowed: a finite number"),
+        ({"max_evaluations": 0}, "max_evaluations = 0; allowed: an integer >= 1"),
+        ({"max_evaluations": 2.5}, "max_evaluations = 2.5; allowed: an integer >= 1"),
     ],
 )
 def test_bad_config_raises_helpful_error(kwargs: dict[str, object], message: str) -> None:
@@ -365,7 +371,7 @@ def test_bad_config_raises_helpful_error(kwargs: dict[str, object], message: str
 def test_missing_budget_and_bad_dim_raise() -> None:
     with pytest.raises(TypeError, match="max_evaluations"):
         PSOConfig()  # type: ignore[call-arg]
-    with pytest.raises(ValueError, match="dim must be an integer >= 1"):
+    with pytest.raises(ValueError, match="dim = 0; allowed: an integer >= 1"):
         PSO(0, PSOConfig(max_evaluations=40))
     with pytest.raises(TypeError, match="PSOConfig"):
         PSO(3, RandomSearchConfig(max_evaluations=40))  # type: ignore[arg-type]

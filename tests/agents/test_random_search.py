@@ -93,10 +93,13 @@ def test_tell_requires_the_asked_batch() -> None:
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"batch_size": 0, "max_evaluations": 1}, "batch_size must be an integer >= 1"),
-        ({"batch_size": 2.0, "max_evaluations": 1}, "batch_size must be an integer >= 1"),
-        ({"batch_size": 2**63, "max_evaluations": 1}, r"batch_size .* <= 10,000, got 9223"),
-        ({"max_evaluations": -5}, "max_evaluations must be an integer >= 1"),
+        ({"batch_size": 0, "max_evaluations": 1}, "batch_size = 0; allowed: an integer >= 1"),
+        ({"batch_size": 2.0, "max_evaluations": 1}, "batch_size = 2.0; allowed: an integer >= 1"),
+        (
+            {"batch_size": 2**63, "max_evaluations": 1},
+            r"batch_size = 9223372036854775808; allowed: .* <= 10000$",
+        ),
+        ({"max_evaluations": -5}, "max_evaluations = -5; allowed: an integer >= 1"),
     ],
 )
 def test_bad_config_raises_helpful_error(kwargs: dict[str, object], message: str) -> None:

@@ -27,6 +27,7 @@ from agents.tasks import (
     ACCELERATE,
     LEVEL,
     STROKE_DISCRETE,
+    Condition,
     TaskSpec,
     available_tasks,
     get_task,
@@ -66,21 +67,24 @@ def toy() -> Iterator[TaskSpec]:
 
 def test_the_package_tasks_are_read_from_the_env_declarations() -> None:
     assert registration.task_env_ids() == {"level": LEVEL_FLIGHT_ID, "accelerate": ACCELERATE_ID}
-    assert (LEVEL.condition_name, LEVEL.condition_unit) == ("speed", "m/s")
-    assert (LEVEL.condition_kwarg, LEVEL.reset_option) == ("speed", "speed")
-    assert dict(LEVEL.objectives) == {"efficiency": "efficiency"}
-    assert (LEVEL.objective_kwarg, LEVEL.forbidden_kwargs) == (None, ("speed", "speed_range"))
+    level, accelerate = LEVEL.declared_condition, ACCELERATE.declared_condition
+    assert (level.keyword, level.unit) == ("speed", "m/s")
+    assert LEVEL.condition(1.5) == Condition("speed", 1.5, "m/s")
+    assert dict(LEVEL.declared_objectives.metrics) == {"efficiency": "efficiency"}
+    assert LEVEL.declared_objectives.keyword is None
+    assert LEVEL.forbidden_kwargs == ("speed", "speed_range")
     # One name for Accelerate's condition: keyword, reset option, info key, record name.
-    assert (ACCELERATE.condition_name, ACCELERATE.condition_unit) == ("available_power", "W/kg")
-    assert ACCELERATE.condition_kwarg == ACCELERATE.reset_option == "available_power"
+    assert (accelerate.keyword, accelerate.unit) == ("available_power", "W/kg")
+    assert ACCELERATE.condition(2.0) == Condition("available_power", 2.0, "W/kg")
     assert ACCELERATE.condition_flag == "--power"  # the command line keeps --power
-    assert dict(ACCELERATE.objectives) == {
+    assert dict(ACCELERATE.declared_objectives.metrics) == {
         "vertical": "excess_vertical",
         "horizontal": "excess_horizontal",
         "resultant": "excess_total",
         "horizontal_literal": "excess_horizontal_literal",
     }
-    assert (ACCELERATE.default_objective, ACCELERATE.objective_kwarg) == ("vertical", "objective")
+    objectives = ACCELERATE.declared_objectives
+    assert (objectives.default, objectives.keyword) == ("vertical", "objective")
     assert ACCELERATE.forbidden_kwargs == ("available_power", "available_power_range")
     assert LEVEL.discrete_actions == ACCELERATE.discrete_actions == STROKE_DISCRETE
     assert config_class(LEVEL_FLIGHT_ID) is LevelFlightConfig
@@ -185,7 +189,7 @@ def test_the_toy_task_passes_the_env_checker_in_both_front_ends(toy: TaskSpec) -
 
 
 def test_a_new_task_runs_through_the_harness(toy: TaskSpec) -> None:
-    assert (toy.condition_name, toy.condition_kwarg, toy.reset_option) == ("cruise_speed",) * 3
+    assert toy.declared_condition.keyword == toy.condition(1.0).name == "cruise_speed"
     assert toy.forbidden_kwargs == ("cruise_speed", "cruise_speed_range")
     assert toy.discrete_actions == STROKE_DISCRETE  # a flight env: its actions are strokes
     assert toy.declaration is CruiseConfig.DECLARATION

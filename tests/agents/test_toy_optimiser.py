@@ -30,7 +30,7 @@ def test_the_toy_is_a_method_with_its_configs_settings() -> None:
     assert method.config(100) == HillClimbConfig(max_evaluations=100, batch_size=8, step=0.25)
     with pytest.raises(ValueError, match=r"unknown setting\(s\) \['steps'\]; allowed: batch_size"):
         get_method("hill-climb", {"steps": 1})
-    with pytest.raises(ValueError, match=r"batch_size must be an integer >= 1, got 0"):
+    with pytest.raises(ValueError, match=r"batch_size = 0; allowed: an integer >= 1$"):
         get_method("hill-climb", {"batch_size": 0})
 
 

@@ -14,8 +14,9 @@ from typing import Any
 import numpy as np
 
 from agents.methods import register_optimiser
-from agents.optimiser import AskTellOptimiser, FloatArray, SeedLike, check_int
+from agents.optimiser import AskTellOptimiser, FloatArray, SeedLike
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
+from tandem_env.physics.checks import count
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -28,8 +29,8 @@ class HillClimbConfig:
     step: float = 0.5
 
     def __post_init__(self) -> None:
-        check_int("max_evaluations", self.max_evaluations, minimum=1)
-        check_int("batch_size", self.batch_size, minimum=1)
+        count(self.max_evaluations, "max_evaluations")
+        count(self.batch_size, "batch_size")
 
     citation = "toy hill climber (tests/agents/toy_optimiser.py)"
 

@@ -52,7 +52,9 @@ def test_feasible_stroke_is_rewarded_with_exactly_its_literal_excess_force(
 
 
 def test_every_objective_is_a_harness_objective() -> None:
-    assert set(ACCELERATE_TASK.objectives) == set(AccelerateConfig.DECLARATION.objectives.choices)
+    assert set(ACCELERATE_TASK.declared_objectives.metrics) == set(
+        AccelerateConfig.DECLARATION.objectives.choices
+    )
     (plan,) = harness.prepare("random", "accelerate", 70.0, 10, [0], objective="horizontal_literal")
     assert plan.objective_name == "excess_horizontal_literal"
     assert plan.env_kwargs == {"objective": "horizontal_literal", "available_power": 70.0}

@@ -488,7 +488,7 @@ def test_radians_declared_as_degrees_are_warned_about(
         (["--grid", "nan"], r"--grid speed nan m/s"),
         (["--grid", "1", "1"], r"--grid 1 1: allowed: distinct speeds"),
         (["--grid", "x"], r"argument --grid: invalid float value: 'x'"),
-        (["--optima-budget", "0"], r"budget = 0; allowed: an integer from 1 to 100,000,000"),
+        (["--optima-budget", "0"], r"budget = 0; allowed: an integer >= 1 and <= 100000000"),
         (["--optima-budget", str(2**63)], r"budget = 9223372036854775808; allowed: an integer"),
         (["--optima-budget", "-5"], r"budget = -5; allowed"),
         (["--optimiser", "nosuch"], r"unknown method 'nosuch'; allowed: pso"),

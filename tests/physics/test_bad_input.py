@@ -252,6 +252,26 @@ def test_a_value_just_outside_a_limit_is_shown_with_the_digits_that_make_it_so()
     assert float(shown(1 + 2**-52, 1)) != 1.0  # down to the last bit
 
 
+@pytest.mark.parametrize(
+    ("above", "value", "message"),
+    [
+        (False, -0.5, "step = -0.5; allowed: a finite number from 0 to 2"),
+        (True, 0.0, "step = 0; allowed: a finite number above 0 and up to 2"),
+        (True, 2.5, "step = 2.5; allowed: a finite number above 0 and up to 2"),
+        (True, np.nan, "step = nan; allowed: a finite number above 0 and up to 2"),
+    ],
+)
+def test_a_real_setting_names_its_range_and_whether_the_low_end_is_allowed(
+    above: bool, value: float, message: str
+) -> None:
+    from tandem_env.physics.checks import finite_real
+
+    with pytest.raises(ValueError, match=rf"^{message}$"):
+        finite_real(value, "step", 0.0, 2.0, above=above)
+    assert finite_real(0.0, "step", 0.0, 2.0) == 0.0  # the low end itself, unless ``above``
+    assert finite_real(np.float32(2.0), "step", 0.0, 2.0, above=True) == 2.0
+
+
 # --- type laxity -------------------------------------------------------------------------------
 def test_switches_are_booleans_and_counts_are_any_integer() -> None:
     torch = pytest.importorskip("torch")
