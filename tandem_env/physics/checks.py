@@ -44,7 +44,7 @@ def count(value: Any, name: str, low: int = 1, high: int | None = None, what: st
     """``value`` as an int if it is an integer (Python or NumPy, not a bool) in [low, high],
     else a ``ValueError`` naming ``name``, the value and the range (``what``: its meaning)."""
     if not is_integer(value) or value < low or (high is not None and value > high):
-        upper = f" and <= {high}" if high is not None else ""
+        upper = f" and <= {high:,}" if high is not None else ""
         meaning = f" ({what})" if what else ""
         raise ValueError(f"{name} = {_short(value)}; allowed: an integer >= {low}{upper}{meaning}")
     return int(value)

@@ -234,9 +234,9 @@ def test_a_method_running_its_own_loop_plugs_in() -> None:
     [
         ({"task": "hover"}, "unknown task 'hover'; allowed: 'level', 'accelerate'"),
         ({"condition": 5.0}, "speed"),
-        ({"budget": 0}, "budget = 0; allowed: an integer >= 1 and <= 100000000"),
+        ({"budget": 0}, "budget = 0; allowed: an integer >= 1 and <= 100,000,000"),
         # refused before a method sizes its tables by it (PSO's inertia schedule: TiB)
-        ({"budget": 10**8 + 1}, "budget = 100000001; allowed: an integer >= 1 and <= 100000000"),
+        ({"budget": 10**8 + 1}, "budget = 100000001; allowed: an integer >= 1 and <= 100,000,000"),
         ({"budget": 2**63}, "budget = 9223372036854775808; allowed"),
         ({"seeds": []}, "seeds is empty"),
         ({"seeds": [1, 1]}, "repeat"),

@@ -341,7 +341,7 @@ def test_citation_names_variant_and_constants() -> None:
         ({"swarm_size": True}, "swarm_size = True; allowed: an integer >= 2"),
         ({"swarm_size": 10.0}, "swarm_size = 10.0; allowed: an integer"),
         # allocated when the optimiser is built: refused before any memory is asked for
-        ({"swarm_size": 10**9}, r"swarm_size = 10+; allowed: an integer >= 2 and <= 10000$"),
+        ({"swarm_size": 10**9}, r"swarm_size = 10+; allowed: an integer >= 2 and <= 10,000$"),
         (
             {"inertia": "adaptive"},
             r"inertia must be one of \('constriction', 'linear-decreasing'\)",

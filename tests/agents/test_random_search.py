@@ -97,7 +97,7 @@ def test_tell_requires_the_asked_batch() -> None:
         ({"batch_size": 2.0, "max_evaluations": 1}, "batch_size = 2.0; allowed: an integer >= 1"),
         (
             {"batch_size": 2**63, "max_evaluations": 1},
-            r"batch_size = 9223372036854775808; allowed: .* <= 10000$",
+            r"batch_size = 9223372036854775808; allowed: .* <= 10,000$",
         ),
         ({"max_evaluations": -5}, "max_evaluations = -5; allowed: an integer >= 1"),
     ],

@@ -435,7 +435,7 @@ def test_a_repeated_csv_column_is_named(tmp_path: Path) -> None:
 
 def test_sample_counts_are_bounded_before_any_table(tmp_path: Path) -> None:
     big = HOVER.replace("degrees: true ", "degrees: true\n  n_samples: 100000000 ")
-    with pytest.raises(SpecError, match=rf"n_samples = 100000000; allowed: .*<= {MAX_SAMPLES}"):
+    with pytest.raises(SpecError, match=rf"n_samples = 100000000; allowed: .*<= {MAX_SAMPLES:,}"):
         load_case(_case(tmp_path, big))
     n = 3 * MAX_SAMPLES
     path = _csv_case(tmp_path, "time,sweep,elevation,pitch", _cycle(n, lambda p: 40 * np.cos(p)))
@@ -488,7 +488,7 @@ def test_radians_declared_as_degrees_are_warned_about(
         (["--grid", "nan"], r"--grid speed nan m/s"),
         (["--grid", "1", "1"], r"--grid 1 1: allowed: distinct speeds"),
         (["--grid", "x"], r"argument --grid: invalid float value: 'x'"),
-        (["--optima-budget", "0"], r"budget = 0; allowed: an integer >= 1 and <= 100000000"),
+        (["--optima-budget", "0"], r"budget = 0; allowed: an integer >= 1 and <= 100,000,000"),
         (["--optima-budget", str(2**63)], r"budget = 9223372036854775808; allowed: an integer"),
         (["--optima-budget", "-5"], r"budget = -5; allowed"),
         (["--optimiser", "nosuch"], r"unknown method 'nosuch'; allowed: pso"),

@@ -329,7 +329,7 @@ def test_the_torch_helpers_name_what_a_metric_may_be() -> None:
 def test_the_batch_limit_holds_for_every_vector_env(num_envs) -> None:
     from tandem_env.physics.model import MAX_BATCH_STROKES
 
-    with pytest.raises(ValueError, match=rf"num_envs = .*<= {MAX_BATCH_STROKES}"):
+    with pytest.raises(ValueError, match=rf"num_envs = .*<= {MAX_BATCH_STROKES:,}"):
         gym.make_vec(LEVEL, num_envs=num_envs)
-    with pytest.raises(ValueError, match=rf"num_envs = .*<= {MAX_BATCH_STROKES}"):
+    with pytest.raises(ValueError, match=rf"num_envs = .*<= {MAX_BATCH_STROKES:,}"):
         gym.make_vec("TandemWing/SpeedChange-v0", num_envs=num_envs)
