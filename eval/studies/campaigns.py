@@ -1,8 +1,6 @@
-"""What ``python -m eval study NAME`` runs: a campaign, behind one protocol (:class:`Campaign`):
-its options, the plan's reading, the jobs of its first phase (checked before any work), its
-phases as known before any work (the whole command's cost, announced on the first line and
-updated at each phase's start: :class:`agents.progress.CommandProgress`), the run (jobs,
-analysis, report) and the lines that sum it up.
+"""What ``python -m eval study NAME`` runs: a campaign, behind one protocol (:class:`Campaign`;
+its phases give the whole command's cost, announced on the first line and updated at each
+phase's start: :class:`agents.progress.CommandProgress`).
 
 :func:`campaigns` maps every study name the command offers to its campaign: ``all`` and each
 study of :data:`eval.studies.STUDIES` (read when called, so a study registered there is

@@ -36,15 +36,11 @@ class SuiteResult:
 
 def expand(names: Sequence[str]) -> list[str]:
     """``all`` -> the paper's studies; otherwise the names, validated, duplicates dropped."""
-    out: list[str] = []
-    for name in names:
-        chosen = list(PAPER_STUDIES) if name == "all" else [name]
-        for n in chosen:
-            if n not in STUDIES:
-                raise ValueError(f"unknown study {n!r}; allowed: all, {', '.join(STUDIES)}")
-            if n not in out:
-                out.append(n)
-    return out
+    chosen = [n for name in names for n in (PAPER_STUDIES if name == "all" else [name])]
+    for name in chosen:
+        if name not in STUDIES:
+            raise ValueError(f"unknown study {name!r}; allowed: all, {', '.join(STUDIES)}")
+    return list(dict.fromkeys(chosen))
 
 
 def run_studies(
@@ -79,27 +75,25 @@ def run_studies(
     summary = run_jobs(
         jobs, out, scheduler=scheduler, progress=progress, cache=cache, command=command
     )
-    done: dict[
-        str, StudyOutput
-    ] = {}  # the studies asked, and every other paper study whose records are all present
-    for name, own in jobs_of.items():
-        if name in asked or have_records(out, own):
-            done[name] = STUDIES[name].analyse(plan, job_records(out, own), out)
+    # the studies asked, and every other paper study whose records are all present
+    done = {
+        name: STUDIES[name].analyse(plan, job_records(out, own), out)
+        for name, own in jobs_of.items()
+        if name in asked or have_records(out, own)
+    }
+    paper = [name for name in PAPER_STUDIES if name in done]
     report_path = None
-    if any(name in PAPER_STUDIES for name in done):
+    if paper:
         wall = time.perf_counter() - start
         report_path = report.write_report(
-            out / "report.md",
-            plan,
-            [done[n] for n in PAPER_STUDIES if n in done],
-            list(PAPER_STUDIES),
+            out / "report.md", plan, [done[n] for n in paper], list(PAPER_STUDIES)
         )
         write_json_atomic(
             out / "manifest.json",
             {
                 "preset": plan.preset.name,
                 "methods": list(plan.methods),
-                "studies": [n for n in PAPER_STUDIES if n in done],
+                "studies": paper,
                 "jobs": sorted({j.key for n in done for j in jobs_of[n]}),
                 "last_run": {
                     "studies": asked,
