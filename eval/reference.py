@@ -28,8 +28,9 @@ import tandem_env
 from agents.harness import PreparedJob, prepare, prepare_job
 from agents.jobs import Job
 from agents.progress import CommandProgress, Phase
+from agents.record_cache import CacheOption
 from agents.records import Record, package_versions
-from agents.runner import run_jobs
+from agents.runner import find_records, run_jobs
 from agents.selection import best_index
 from agents.tasks import get_task
 from eval.optimize import add_run_arguments, run_reporting
@@ -154,6 +155,29 @@ def continuation(
         job = replace(_round_job(prepared[0].job, index), method_config=warm_starts)
         continued[key] = prepare_job(job)
     return continued
+
+
+def planned_phases(
+    jobs: Mapping[PointKey, Sequence[PreparedJob]], out_dir: Path, cache: CacheOption
+) -> list[Phase]:
+    """The search and the continuation rounds. Each round's jobs follow from the optima before
+    it: they are the real ones as far as the records in ``out_dir`` and the record cache decide
+    them (a rerun or a resumed table), stand-ins of the same budgets after that, so the first
+    line says the whole cost."""
+    phases = [Phase("search", tuple(p.job for prepared in jobs.values() for p in prepared))]
+    records: dict[str, Record] | None = {}
+    rounds: list[dict[PointKey, PreparedJob]] = []
+    for index in range(ROUNDS):
+        found = None if records is None else find_records(out_dir, phases[-1].jobs, cache)
+        records = None if found is None else records | {j.key: r for j, r in found.items()}
+        name = f"continuation {index + 1}"
+        if records is None:
+            stand_ins = tuple(_round_job(p[0].job, index) for p in jobs.values())
+            phases.append(Phase(name, stand_ins, frozenset(j.key for j in stand_ins)))
+        else:
+            rounds.append(continuation(jobs, gather(jobs, rounds, records), index))
+            phases.append(Phase(name, tuple(p.job for p in rounds[-1].values())))
+    return phases
 
 
 def _pool(found: Mapping[PointKey, Sequence[Record]], key: PointKey) -> list[Record]:
@@ -336,8 +360,6 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         )
     jobs = plan()
     flat = [p for prepared in jobs.values() for p in prepared]
-    # Each continuation round's jobs follow from the optima before it: planned with stand-ins
-    # of the same budgets until then, so the first line says the whole cost.
     command = CommandProgress(
         f"{NAME} (the reference table -> {table_path})",
         args.out,
@@ -345,13 +367,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         enabled=not args.quiet,
         detail=f"{METHOD}, {len(jobs)} grid points",
     )
-    phases = [Phase("search", tuple(p.job for p in flat))]
-    for index in range(ROUNDS):
-        stand_ins = tuple(_round_job(p[0].job, index) for p in jobs.values())
-        phases.append(
-            Phase(f"continuation {index + 1}", stand_ins, frozenset(j.key for j in stand_ins))
-        )
-    command.plan(phases)
+    command.plan(planned_phases(jobs, args.out, args.cache))
     command.announce()
     run = {
         "out_dir": args.out,

@@ -13,12 +13,14 @@ import pytest
 from agents.runner import run_jobs
 from eval.reference import (
     BUDGETS,
+    ROUNDS,
     SEEDS,
     best_objectives,
     build_table,
     continuation,
     gather,
     plan,
+    planned_phases,
     provenance,
     round_gains,
 )
@@ -73,6 +75,15 @@ def test_a_small_table_keeps_the_best_stroke_and_says_how_it_was_made(tmp_path):
             assert list(own.normalised_stroke) in [list(x) for x in initial]
         assert job.job.budget == 240 and job.job.condition == condition
     records |= run_jobs(list(continued.values()), tmp_path, progress=False, cache=False).records
+    # The plan a rerun announces: the rounds the stored optima decide are the real jobs (the
+    # second round's from the first round's records), stand-ins of the same budgets after them.
+    phases = planned_phases(jobs, tmp_path, cache=False)
+    assert [p.job for p in continued.values()] == list(phases[1].jobs)
+    assert not phases[1].provisional and not phases[2].provisional
+    assert len(phases) == 1 + ROUNDS and phases[2].jobs != phases[1].jobs
+    for phase in phases[3:]:
+        assert phase.provisional == {job.key for job in phase.jobs}
+        assert [job.budget for job in phase.jobs] == [job.budget for job in phases[1].jobs]
     after = best_objectives(gather(jobs, [continued], records))
     gains = round_gains(before, after)
     assert 0 <= gains["points_raised"] <= len(jobs)
