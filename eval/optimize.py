@@ -104,30 +104,39 @@ T = TypeVar("T")
 INTERRUPTED = "the finished records are stored; the same command resumes from them"
 
 
-def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T | int:
-    """``call()`` (the jobs of optimize, study, reference or speed-change), or the exit status
-    of how it stopped, said on stderr: the usage error (2) for an output folder the runner
-    refuses before any job; 1 with the message for an unreachable scheduler, failed jobs or a
-    file that cannot be written (a full disk, a folder made read-only: the store is as it was);
-    130 for an interrupt (records are kept)."""
-    try:
-        return call()
-    except OutputNotWritable as error:  # nothing ran
+#: How a run of jobs stops before its end (:func:`stop_status` says which way).
+RUN_STOPS = (OutputNotWritable, SchedulerUnreachable, JobsFailed, OSError, KeyboardInterrupt)
+
+
+def stop_status(parser: argparse.ArgumentParser, error: BaseException) -> int:
+    """The exit status of a run of jobs (optimize, study, reference or speed-change) stopped by
+    ``error`` (one of :data:`RUN_STOPS`), said on stderr: the usage error (2) for an output
+    folder the runner refuses before any job; 1 with the message for an unreachable scheduler,
+    failed jobs or a file that cannot be written (a full disk, a folder made read-only: the
+    store is as it was); 130 for an interrupt (records are kept)."""
+    if isinstance(error, OutputNotWritable):  # nothing ran
         parser.error(str(error))
-    except (SchedulerUnreachable, JobsFailed, StoreWriteError) as error:
-        print(f"{parser.prog}: error: {error}", file=sys.stderr)
-        return 1
-    except OSError as error:  # a table, figure or report the run writes after its records
-        where = f"{error.filename}: " if error.filename else ""
-        print(
-            f"{parser.prog}: error: {where}{error.strerror or error}; {INTERRUPTED} once that "
-            "is fixed",
-            file=sys.stderr,
-        )
-        return 1
-    except KeyboardInterrupt:
+    if isinstance(error, KeyboardInterrupt):
         print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
         return 130
+    if isinstance(error, SchedulerUnreachable | JobsFailed | StoreWriteError):
+        print(f"{parser.prog}: error: {error}", file=sys.stderr)
+        return 1
+    # any other OSError: a table, figure or report the run writes after its records
+    where = f"{error.filename}: " if getattr(error, "filename", None) else ""
+    reason = getattr(error, "strerror", None) or error
+    print(
+        f"{parser.prog}: error: {where}{reason}; {INTERRUPTED} once that is fixed", file=sys.stderr
+    )
+    return 1
+
+
+def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T | int:
+    """``call()``, or the exit status of how it stopped (:func:`stop_status`)."""
+    try:
+        return call()
+    except RUN_STOPS as error:
+        return stop_status(parser, error)
 
 
 def _check_reading_applies(
@@ -409,19 +418,17 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         print(f"optimize: {plan.describe()}", file=sys.stderr)
         if "insect" in plan.jobs[0].env_kwargs:
             print(f"insect: {describe_insect(plan.jobs[0].env_kwargs['insect'])}", file=sys.stderr)
-    summary = run_reporting(
-        parser,
-        lambda: run_jobs(
+    try:
+        summary = run_jobs(
             plan.jobs,
             plan.out,
             scheduler=plan.scheduler,
             progress=plan.progress,
             cache=plan.cache,
             summary_csv=True,
-        ),
-    )
-    if isinstance(summary, int):
-        return summary
+        )
+    except RUN_STOPS as error:
+        return stop_status(parser, error)
     for record in (summary.records[p.job.key] for p in plan.jobs):
         power = record.metrics.get("power_per_mass")
         print(
