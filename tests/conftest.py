@@ -20,6 +20,17 @@ def session_record_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[P
         yield folder
 
 
+@pytest.fixture(scope="session", autouse=True)
+def sb3_log_folder(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """Where SB3's own logger writes when a test trains a model SB3 built or loaded itself (the
+    project's models log through their own logger, train.checkpoint.build_model): SB3's default
+    is a new SB3-<time> folder in the system's temp dir at every learn()."""
+    folder = tmp_path_factory.mktemp("sb3-logs")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("SB3_LOGDIR", str(folder))
+        yield folder
+
+
 @pytest.fixture(autouse=True)
 def record_cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> Path:
     """Each test's own record cache, empty at its start, shared by its output folders as the

@@ -178,6 +178,7 @@ def test_training_leaves_nothing_in_the_temp_dir(
     temp = tmp_path / "temp"
     temp.mkdir()
     monkeypatch.setattr(tempfile, "tempdir", str(temp))
+    monkeypatch.delenv("SB3_LOGDIR", raising=False)  # the suite's (tests/conftest.py)
     settings = {"n_envs": 16, "n_steps": 4, "batch_size": 64}
     run("ppo", "level", 1.5, budget=128, seeds=[0], method_config=settings, progress=False)
     assert list(temp.glob("SB3-*")) == []
