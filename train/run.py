@@ -142,7 +142,7 @@ def whole_iterations(n_timesteps: int, unit: int) -> int:
 def plan_run(config: TrainConfig, held: contextlib.ExitStack) -> TrainPlan:
     """Where the run goes and what it resumes from; validates everything before any work.
 
-    The run folder is locked (:class:`~train.layout.run_lock`) before its files are read, so a
+    The run folder is locked (:func:`~train.layout.run_lock`) before its files are read, so a
     second command on the same run is refused instead of training beside the first; ``held``
     holds the lock, to the end of the run (:func:`train`), or releases it if the plan fails."""
     if config.resume:
