@@ -29,6 +29,9 @@ from tandem_env.physics import BACKENDS
 from tandem_env.physics.backends import check_backend
 from tandem_env.physics.insect import DRAGONFLY, Dragonfly
 
+#: A study's index of the records it analysed, ``DIR/<study>/records.json`` (:func:`write_tables`).
+INDEX_FILE = "records.json"
+
 
 @dataclass(frozen=True)
 class StudyPlan:
@@ -181,8 +184,9 @@ def write_tables(
     out_dir: Path,
     quantities: Sequence[str],
 ) -> tuple[list[dict[str, Any]], list[Path]]:
-    """Write ``DIR/<name>/records.json`` (index), ``<name>.csv`` (tidy) and ``<name>_summary.csv``
-    (the ``quantities`` and the 28 stroke parameters per series and condition)."""
+    """Write ``DIR/<name>/records.json`` (index, :data:`INDEX_FILE`), ``<name>.csv`` (tidy) and
+    ``<name>_summary.csv`` (the ``quantities`` and the 28 stroke parameters per series and
+    condition)."""
     study_dir = out_dir / name
     rows = tidy_rows(records)
     index = [
@@ -195,7 +199,7 @@ def write_tables(
         for job in sorted(records, key=lambda j: j.label())
     ]
     paths = [
-        study_dir / "records.json",
+        study_dir / INDEX_FILE,
         study_dir / f"{name}.csv",
         study_dir / f"{name}_summary.csv",
     ]

@@ -24,7 +24,7 @@ from agents.jobs import Job
 from agents.records import Record
 from agents.store import RECORDS_DIR, read_record_files
 from eval.studies import PAPER_STUDIES
-from eval.studies.base import StudyPlan
+from eval.studies.base import INDEX_FILE, StudyPlan
 from eval.studies.bench_workers import makespan, seconds_per_evaluation
 from eval.studies.paper_reading import Reading
 from eval.studies.presets import PRESETS, TINY, get_preset
@@ -40,7 +40,7 @@ def analysed_records(out_dir: Path, reading: Reading) -> dict[Job, Record]:
     keys = [
         entry["key"]
         for name in PAPER_STUDIES
-        for entry in read_json(reading_dir(out_dir, reading) / name / "records.json")
+        for entry in read_json(reading_dir(out_dir, reading) / name / INDEX_FILE)
     ]
     paths = [out_dir / RECORDS_DIR / f"{key}.json" for key in dict.fromkeys(keys)]
     return {record.job: record for record in read_record_files(paths)}
