@@ -116,19 +116,19 @@ def stop_status(parser: argparse.ArgumentParser, error: BaseException) -> int:
     store is as it was); 130 for an interrupt (records are kept)."""
     if isinstance(error, OutputNotWritable):  # nothing ran
         parser.error(str(error))
-    if isinstance(error, KeyboardInterrupt):
-        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
-        return 130
     if isinstance(error, SchedulerUnreachable | JobsFailed | StoreWriteError):
         print(f"{parser.prog}: error: {error}", file=sys.stderr)
         return 1
-    # any other OSError: a table, figure or report the run writes after its records
-    where = f"{error.filename}: " if getattr(error, "filename", None) else ""
-    reason = getattr(error, "strerror", None) or error
-    print(
-        f"{parser.prog}: error: {where}{reason}; {INTERRUPTED} once that is fixed", file=sys.stderr
-    )
-    return 1
+    if isinstance(error, OSError):  # a table, figure or report the run writes after its records
+        where = f"{error.filename}: " if error.filename else ""
+        print(
+            f"{parser.prog}: error: {where}{error.strerror or error}; {INTERRUPTED} once that "
+            "is fixed",
+            file=sys.stderr,
+        )
+        return 1
+    print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
+    return 130
 
 
 def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T | int:
