@@ -45,9 +45,11 @@ from eval.numbers.framework import (
     REGION,
     ROOT,
     Measurement,
+    blas_kernel,
     json_path,
     load,
     machine,
+    measure_other_kernels,
     save,
 )
 
@@ -124,6 +126,12 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             print(f"measuring {name} ...", file=sys.stderr, flush=True)
             before = machine()
             data = MEASUREMENTS[name].measure()
+            if MEASUREMENTS[name].blas_dependent:
+                kernels = {
+                    "blas_kernel": blas_kernel(),
+                    "other_kernels": measure_other_kernels(name),
+                }
+                data = {**data, **kernels}
             save(name, {**data, "machine_before": before, "machine_after": machine()})
     for path in write_documents(rendered_all()):
         print(f"updated {path.relative_to(ROOT)}")

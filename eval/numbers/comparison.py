@@ -10,7 +10,10 @@ from typing import Any
 from eval.compare import relative_spread
 from eval.numbers.framework import (
     Measurement,
+    agreed,
     footer,
+    kernel_views,
+    kernels_line,
     optimize_command,
     run_seeds,
     seed_cells,
@@ -81,16 +84,19 @@ def render(data: dict[str, Any]) -> str:
         "| condition | method | objective, seeds 0-3 | median | spread | all feasible | time per seed |",
         "|---|---|---|---|---|---|---|",
     ]
-    for row in data["rows"]:
-        objectives, median, feasible, times = seed_cells(row["seeds"])
-        spread = relative_spread([s["objective"] for s in row["seeds"]])
+    views = list(kernel_views(data).values())
+    for i, row in enumerate(data["rows"]):
+        by_kernel = [view["rows"][i]["seeds"] for view in views]
+        objectives, median, feasible, times = seed_cells(by_kernel)
+        spreads = [100 * relative_spread([s["objective"] for s in seeds]) for seeds in by_kernel]
         lines.append(
             f"| {row['label']} ({row['symbol']}) | `{row['method']}` | {objectives} | {median} | "
-            f"{100 * spread:.1f} % | {feasible} | {times} |"
+            f"{agreed(spreads, '{:.1f}')} % | {feasible} | {times} |"
         )
+    lines += ["", kernels_line(data)]
     commands = (row["command"] for row in data["rows"])
     lines += footer(data, "comparison", *commands, heading="Each row's command:")
     return "\n".join(lines) + "\n"
 
 
-MEASUREMENT = Measurement("comparison", measure, render)
+MEASUREMENT = Measurement("comparison", measure, render, blas_dependent=True)

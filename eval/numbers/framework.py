@@ -73,17 +73,114 @@ def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
     return records
 
 
-def seed_cells(seeds: Sequence[dict[str, Any]]) -> tuple[str, str, str, str]:
-    """The table cells of one command's seeds: each objective, their median (bold), whether all
-    are feasible, and the range of the wall times per seed."""
-    values = [s["objective"] for s in seeds]
+def seed_cells(by_kernel: Sequence[Sequence[dict[str, Any]]]) -> tuple[str, str, str, str]:
+    """The table cells of one command's seeds, measured under each BLAS kernel (the machine's
+    own first, :func:`kernel_views`): each seed's objective and their median (bold) at the
+    digits every kernel gives (:func:`agreed`), whether all are feasible under every kernel,
+    and the range of the own kernel's wall times per seed."""
+    seeds = by_kernel[0]
     times = [s["wall_time_s"] for s in seeds]
+    objectives = [[s["objective"] for s in kernel] for kernel in by_kernel]
     return (
-        ", ".join(f"{v:.4f}" for v in values),
-        f"**{statistics.median(values):.3f}**",
-        "yes" if all(s["feasible"] for s in seeds) else "no",
+        ", ".join(agreed(values, "{:.4f}") for values in zip(*objectives, strict=True)),
+        f"**{agreed([statistics.median(v) for v in objectives], '{:.3f}')}**",
+        "yes" if all(s["feasible"] for kernel in by_kernel for s in kernel) else "no",
         f"{min(times):.1f}-{max(times):.1f} s",
     )
+
+
+# --- BLAS kernels: the optimisations' last digits are the machine's ---------------------------
+#: OpenBLAS kernels (``OPENBLAS_CORETYPE``) an optimisation's numbers are measured under besides
+#: the machine's own: the generic AVX and AVX2 kernels, which every x86-64 CPU the project runs
+#: on can execute. Another kernel changes the last bits of the linear algebra (CMA-ES's
+#: eigendecomposition, the polish's QP); the searches turn that into other digits, at times
+#: into another local optimum (docs/harness.md, "Machine-dependent digits").
+OTHER_BLAS_KERNELS: tuple[str, ...] = ("Sandybridge", "Haswell")
+
+
+def blas_kernel() -> str:
+    """The kernel numpy's BLAS runs here: OpenBLAS's core type (``SkylakeX``, ``Haswell``, ...,
+    as threadpoolctl reports it; ``OPENBLAS_CORETYPE`` chooses it), else the library's name."""
+    import numpy  # noqa: F401  (threadpoolctl sees the BLAS of the modules already loaded)
+    from threadpoolctl import threadpool_info
+
+    for library in threadpool_info():
+        if library["user_api"] == "blas":
+            return str(library.get("architecture") or library["internal_api"])
+    return "none"
+
+
+def measure_other_kernels(name: str) -> dict[str, dict[str, Any]]:
+    """Measurement ``name`` measured again in a fresh process under each of
+    :data:`OTHER_BLAS_KERNELS` that differs from the machine's own, by kernel (empty where
+    numpy's BLAS is not OpenBLAS: its kernel cannot be chosen)."""
+    own = blas_kernel()
+    from threadpoolctl import threadpool_info
+
+    if not any(lib["internal_api"] == "openblas" for lib in threadpool_info()):
+        return {}
+    script = (
+        "import json, sys; from eval.numbers import MEASUREMENTS; "
+        "json.dump(MEASUREMENTS[sys.argv[1]].measure(), sys.stdout)"
+    )
+    measured = {}
+    for kernel in OTHER_BLAS_KERNELS:
+        if kernel.lower() == own.lower():
+            continue
+        done = subprocess.run(
+            [sys.executable, "-c", script, name],
+            cwd=ROOT,
+            env={**os.environ, "OPENBLAS_CORETYPE": kernel},
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        if done.returncode != 0:
+            raise RuntimeError(
+                f"{name} under {kernel} exited {done.returncode}:\n{done.stderr[-2000:]}"
+            )
+        measured[kernel] = json.loads(done.stdout)
+    return measured
+
+
+def kernel_views(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """A BLAS-dependent measurement's data as measured under each kernel, the machine's own
+    (``blas_kernel``) first; a measurement without kernels is its own single view."""
+    own = {k: v for k, v in data.items() if k != "other_kernels"}
+    return {data.get("blas_kernel", "unknown"): own, **data.get("other_kernels", {})}
+
+
+def for_kernel(data: dict[str, Any], kernel: str) -> dict[str, Any] | None:
+    """The data measured under ``kernel`` (case-insensitive), or None where it was not."""
+    return next((v for k, v in kernel_views(data).items() if k.lower() == kernel.lower()), None)
+
+
+def kernels_line(data: dict[str, Any]) -> str:
+    """The sentence under a BLAS-dependent table: which kernels measured it, and what a range
+    in it means."""
+    own, *others = kernel_views(data)
+    kernels = ", ".join([f"{own} (the measuring machine's own)", *others])
+    return (
+        f"Measured under the BLAS kernels {kernels}; a cell a–b is a number that differs between "
+        'them, the others are the same under each (docs/harness.md, "Machine-dependent digits").'
+    )
+
+
+def agreed(values: Sequence[float], form: str) -> str:
+    """``values`` (one number measured under several BLAS kernels) as the documents show it:
+    ``form`` of them where every kernel gives the same text, else their range, ``min–max``."""
+    texts = {form.format(v) for v in values}
+    if len(texts) == 1:
+        return texts.pop()
+    return f"{form.format(min(values))}–{form.format(max(values))}"
+
+
+def within_shown(value: float, values: Sequence[float], form: str) -> bool:
+    """Whether ``value``, measured under a kernel that was not, is what the documents show of
+    ``values`` (:func:`agreed`): the same text, or inside the shown range."""
+    shown = agreed(values, form)
+    low, _, high = shown.partition("–")
+    return float(low) <= float(form.format(value)) <= float(high or low)
 
 
 # --- benchmarks: documented commands run with --json (timings: shown, never compared) ---------
@@ -147,6 +244,10 @@ class Measurement:
     render: Callable[[dict[str, Any]], str]
     on_request: bool = False
     """Measured only when named in ``--only``: it collects a long study's outputs (run first)."""
+    blas_dependent: bool = False
+    """Its numbers come from optimisations, whose last digits depend on the BLAS kernel: also
+    measured under :data:`OTHER_BLAS_KERNELS` (``other_kernels`` in its JSON), and rendered at
+    the digits every kernel gives (:func:`agreed`)."""
 
 
 def cpu_model() -> str:

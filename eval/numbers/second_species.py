@@ -9,7 +9,10 @@ from typing import Any
 
 from eval.numbers.framework import (
     Measurement,
+    agreed,
     footer,
+    kernel_views,
+    kernels_line,
     optimize_command,
     run_seeds,
     seed_cells,
@@ -70,10 +73,25 @@ def measure() -> dict[str, Any]:
     return {"rows": rows}
 
 
-def _stroke_cell(best: dict[str, Any], name: str, form: str) -> str:
+def _stroke_cell(bests: Sequence[dict[str, Any]], name: str, form: str) -> str:
+    """The best seed's ``name`` (fore / hind for a stroke parameter), at the digits every BLAS
+    kernel's best seed gives."""
     if name not in SPECIES_PARAMETERS:
-        return form.format(best[name])
-    return " / ".join(form.format(best[f"{wing}_{name}"]) for wing in ("fore", "hind"))
+        return agreed([best[name] for best in bests], form)
+    return " / ".join(
+        agreed([best[f"{wing}_{name}"] for best in bests], form) for wing in ("fore", "hind")
+    )
+
+
+def _bounds_text(rows: Sequence[dict[str, Any]]) -> str:
+    """The best seed's parameters at a bound (``at_bounds``, ``name=side; ...``) under every
+    BLAS kernel (``rows``: one condition's row per kernel), then those at a bound under some."""
+    best = [max(row["seeds"], key=lambda s: s["objective"])["at_bounds"] for row in rows]
+    each = [[item for item in text.split("; ") if item] for text in best]
+    common = [item for item in each[0] if all(item in other for other in each)]
+    some = sorted({item for items in each for item in items} - set(common))
+    tail = f" (under some kernels also {'; '.join(some)})" if some else ""
+    return "; ".join(common) + tail
 
 
 def render(data: dict[str, Any]) -> str:
@@ -84,10 +102,12 @@ def render(data: dict[str, Any]) -> str:
         f"| best seed: {headings} | time per seed |",
         "|---|---|---|---|" + "---|" * len(columns) + "---|",
     ]
-    for row in data["rows"]:
-        objectives, median, feasible, times = seed_cells(row["seeds"])
-        best = max(row["seeds"], key=lambda s: s["objective"])
-        cells = " | ".join(_stroke_cell(best, name, form) for name, _, form in columns)
+    views = list(kernel_views(data).values())
+    for i, row in enumerate(data["rows"]):
+        by_kernel = [view["rows"][i]["seeds"] for view in views]
+        objectives, median, feasible, times = seed_cells(by_kernel)
+        bests = [max(seeds, key=lambda s: s["objective"]) for seeds in by_kernel]
+        cells = " | ".join(_stroke_cell(bests, name, form) for name, _, form in columns)
         lines.append(
             f"| {row['label']} | {objectives} | {median} | {feasible} | {cells} | {times} |"
         )
@@ -97,14 +117,16 @@ def render(data: dict[str, Any]) -> str:
         "the weaving, flapping and pitching amplitudes, β_m the stroke-plane inclination. The "
         "best seed's parameters at a Table 4 bound: "
         + "; ".join(
-            f"{row['label']}: {max(row['seeds'], key=lambda s: s['objective'])['at_bounds']}"
-            for row in data["rows"]
+            f"{row['label']}: {_bounds_text([view['rows'][i] for view in views])}"
+            for i, row in enumerate(data["rows"])
         )
         + ".",
+        "",
+        kernels_line(data),
     ]
     commands = (row["command"] for row in data["rows"])
     lines += footer(data, "second-species", *commands, heading="Each row's command:")
     return "\n".join(lines) + "\n"
 
 
-MEASUREMENT = Measurement("second-species", measure, render)
+MEASUREMENT = Measurement("second-species", measure, render, blas_dependent=True)

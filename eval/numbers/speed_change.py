@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from eval.numbers.framework import Measurement, footer, spaced
+from eval.numbers.framework import Measurement, agreed, footer, kernel_views, kernels_line, spaced
 
 SPEED_CHANGE_EPISODES = 32
 SPEED_CHANGE_COMMAND = f"python -m eval speed-change --episodes {SPEED_CHANGE_EPISODES}"
@@ -94,14 +94,18 @@ def render(data: dict[str, Any]) -> str:
         "| V [m/s] | η | P/m [W/kg] | L/W | T − D [mN] | feasible |",
         "|---|---|---|---|---|---|",
         *(
-            f"| {o['speed']:g} | {o['efficiency']:.3f} | {o['power_per_mass']:.1f} | "
-            f"{o['lift_to_weight']:.3f} | {1e3 * (o['thrust'] - o['drag']):+.3f} | "
-            f"{'yes' if o['feasible'] else 'no'} |"
-            for o in optima
+            f"| {o[0]['speed']:g} | {agreed([k['efficiency'] for k in o], '{:.3f}')} | "
+            f"{agreed([k['power_per_mass'] for k in o], '{:.1f}')} | "
+            f"{agreed([k['lift_to_weight'] for k in o], '{:.3f}')} | "
+            f"{agreed([1e3 * (k['thrust'] - k['drag']) for k in o], '{:+.3f}')} | "
+            f"{'yes' if all(k['feasible'] for k in o) else 'no'} |"
+            for o in zip(*(view["optima"] for view in kernel_views(data).values()), strict=True)
         ),
+        "",
+        kernels_line(data),
         *footer(data, "speed-change", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
 
-MEASUREMENT = Measurement("speed-change", measure, render)
+MEASUREMENT = Measurement("speed-change", measure, render, blas_dependent=True)
