@@ -95,6 +95,14 @@ DERIVED_MARKER: dict[str, Any] = {"marker": "D", "ms": 7, "mew": 1.5, "mfc": "no
 #: The Table 4 bounds of a stroke parameter's panel.
 BOUND_STYLE: dict[str, Any] = {"color": "0.45", "ls": "--", "lw": 1.0, "zorder": 1}
 BOUND_LABEL = "Table 4 bounds"
+#: Appended to the axis label of a quantity that averages the fore and hind pairs (the tidy
+#: rows' means, ``eval.studies.tables.QUANTITIES``), so no figure averages them unsaid.
+PAIR_MEAN = "(mean of fore and hind pairs)"
+
+
+def pair_mean(label: str) -> str:
+    """``label`` on two lines, the second saying the pairs are averaged (:data:`PAIR_MEAN`)."""
+    return f"{label}\n{PAIR_MEAN}"
 
 
 def method_label(spec: str) -> str:

@@ -71,9 +71,13 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             f"Fig. 4: {level}",
             [
                 panel("thrust ratio T/W [-]", "thrust_ratio", paper_note=falls),
-                panel("mean angle of attack [deg]", "mean_angle_of_attack", paper_note=falls),
                 panel(
-                    "stroke-plane angle β [deg]",
+                    figures.pair_mean("mean angle of attack [deg]"),
+                    "mean_angle_of_attack",
+                    paper_note=falls,
+                ),
+                panel(
+                    figures.pair_mean("stroke-plane angle β [deg]"),
                     "stroke_plane_angle",
                     paper_note="paper: rises with V",
                 ),
@@ -89,8 +93,12 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
                     "power_per_mass",
                     paper_at=[(PAPER_BEST_SPEED, "paper: minimum power")],
                 ),
-                panel("frequency f [Hz]", "frequency", paper_note=follows),
-                panel("weaving amplitude φ_m [deg]", "sweep_amplitude", paper_note=follows),
+                panel(figures.pair_mean("frequency f [Hz]"), "frequency", paper_note=follows),
+                panel(
+                    figures.pair_mean("weaving amplitude φ_m [deg]"),
+                    "sweep_amplitude",
+                    paper_note=follows,
+                ),
             ],
         ),
         (
