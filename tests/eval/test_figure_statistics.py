@@ -4,6 +4,7 @@ wing and list only drawn series, fixed colour-blind-safe colours, the figure for
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -13,7 +14,7 @@ from matplotlib.patches import FancyArrowPatch
 
 from eval import figures
 from eval import kinematics_figures as kf
-from eval.studies import wing_shape
+from eval.studies import power, speed, wing_shape
 from eval.studies.base import StudyPlan
 from eval.studies.presets import TINY
 from eval.studies.tables import Spread, circular_median, circular_quartiles, spread
@@ -273,3 +274,25 @@ def test_planforms_are_drawn_at_equal_aspect(kept: list[plt.Figure], tmp_path: P
         box = ax.get_window_extent()
         # 1 mm spans as many pixels along the span as along the chord
         assert (box.width / (x1 - x0)) == pytest.approx(box.height / (y1 - y0), rel=1e-3)
+
+
+def _ylabels(figs: list[plt.Figure]) -> dict[str, list[str]]:
+    """{"Fig. 4": [y-label per panel], ...} of the figures drawn."""
+    return {f.get_suptitle().split(":")[0]: [ax.get_ylabel() for ax in f.axes] for f in figs}
+
+
+def test_sweep_labels_say_what_is_averaged_and_give_the_excess_force_one_unit(
+    kept: list[plt.Figure], tmp_path: Path
+) -> None:
+    for study in (speed, power, wing_shape):  # no records: the figures' axes, without data
+        study.analyse(StudyPlan(TINY), {}, tmp_path)
+    labels = _ylabels(kept)
+    # Figs. 4-5: the means of the fore and hind pairs say so, the totals (T/W, P/m) do not.
+    averaged = ("mean angle of attack", "stroke-plane angle", "frequency", "weaving amplitude")
+    for label in labels["Fig. 4"] + labels["Fig. 5"]:
+        assert (figures.PAIR_MEAN in label) == label.startswith(averaged), label
+    # Figs. 7, 8, 16: F̄ (a force over the body weight) has one unit.
+    excess = [label for fig in ("Fig. 7", "Fig. 8", "Fig. 16") for label in labels[fig]]
+    assert len(excess) == 3 and all("F̄" in label for label in excess)
+    assert {re.findall(r"\[[^]]*\]", label)[-1] for label in excess} == {power.EXCESS_UNIT}
+
