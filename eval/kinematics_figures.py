@@ -79,8 +79,10 @@ def draw_direction(ax: Axes, path: np.ndarray) -> list[tuple[np.ndarray, np.ndar
 
 
 def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
-    """Wing-tip paths relative to the wing base, side view (x forward, z up), per wing."""
-    fig, axes = plt.subplots(1, 2, figsize=(7.5, 3.8))
+    """Wing-tip paths relative to the wing base, side view (x forward, z up), per wing; both
+    panels on the same axes limits and scale (1 x/R is as long as 1 z/R), so the fore- and
+    hind-wing's paths compare by eye."""
+    fig, axes = plt.subplots(1, 2, figsize=(7.5, 3.8), sharex=True, sharey=True)
     for ax, wing in zip(axes, ("fore", "hind"), strict=True):
         for i, trace in enumerate(traces):
             tip = getattr(trace, wing)["tip_path"]
@@ -100,7 +102,8 @@ def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
             ax.plot([], [], "o", color="k", ms=5, label=START_LABEL)
             ax.plot([], [], "k+", ms=10, label="wing base")
         ax.set_xlabel("x/R (forward) [-]")
-        ax.set_aspect("equal", adjustable="datalim")
+        # the box adjusts, not the limits: limits shared by both panels stay the same
+        ax.set_aspect("equal", adjustable="box")
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("z/R (up) [-]")
     axes[1].legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)

@@ -296,3 +296,21 @@ def test_sweep_labels_say_what_is_averaged_and_give_the_excess_force_one_unit(
     assert len(excess) == 3 and all("F̄" in label for label in excess)
     assert {re.findall(r"\[[^]]*\]", label)[-1] for label in excess} == {power.EXCESS_UNIT}
 
+
+def test_tip_paths_of_both_wings_share_limits_and_scale(
+    kept: list[plt.Figure], tmp_path: Path
+) -> None:
+    t = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    fore = np.stack([np.cos(t), np.zeros_like(t), 0.3 * np.sin(t)], 1)
+    hind = np.stack([0.4 * np.cos(t) + 0.5, np.zeros_like(t), 2.0 * np.sin(t)], 1)
+    trace = kf.Trace("seed 0 (best)", True, t / (2 * np.pi), {"tip_path": fore}, {"tip_path": hind})
+    kf.tip_path_figure([trace], "Fig. 9", tmp_path / "f.png")
+    fig = kept[0]
+    fig.canvas.draw()
+    ax_fore, ax_hind = fig.axes
+    assert ax_fore.get_xlim() == ax_hind.get_xlim() and ax_fore.get_ylim() == ax_hind.get_ylim()
+    (x0, x1), (y0, y1) = ax_fore.get_xlim(), ax_fore.get_ylim()
+    assert x0 <= -1.0 and x1 >= 1.0 and y0 <= -2.0 and y1 >= 2.0  # both paths in view
+    for ax in (ax_fore, ax_hind):  # 1 x/R is as long as 1 z/R
+        box = ax.get_window_extent()
+        assert box.width / (x1 - x0) == pytest.approx(box.height / (y1 - y0), rel=1e-3)
