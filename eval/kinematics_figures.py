@@ -232,13 +232,17 @@ FLOW_PANELS: tuple[tuple[str, str], ...] = (
 )
 
 
-def flow_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
+def flow_figure(traces: Sequence[Trace], title: str, path: Path, note: str = "") -> Path:
     """Angle of attack and relative speed at 0.75 R over the cycle (Fig. 13); the dotted line
-    is the paper's end of the down-stroke (t/T = 0.5: the paper's cycles start with it)."""
+    is the paper's end of the down-stroke (t/T = 0.5: the paper's cycles start with it);
+    ``note``: a last legend line (e.g. which strokes' weaving is a triangle wave)."""
     fig, axes = plt.subplots(2, 1, figsize=(8.4, 5.2), sharex=True)
     for k, (ax, (quantity, ylabel)) in enumerate(zip(axes, FLOW_PANELS, strict=True)):
         _cycle_panel(ax, traces, quantity, ylabel, first=k == 0)
+    handles, labels = axes[0].get_legend_handles_labels()
+    notes = [text_entry(note)] if note else []
     axes[0].legend(
+        *zip(*[*zip(handles, labels, strict=True), *notes], strict=True),
         fontsize=7,
         title="bold: best seed",
         title_fontsize=6,

@@ -14,10 +14,11 @@ from matplotlib.patches import FancyArrowPatch
 
 from eval import figures
 from eval import kinematics_figures as kf
-from eval.studies import power, speed, wing_shape
+from eval.studies import kinematics, power, speed, wing_shape
 from eval.studies.base import StudyPlan
 from eval.studies.presets import TINY
 from eval.studies.tables import Spread, circular_median, circular_quartiles, spread
+from tandem_env import LOWER, PARAMETER_NAMES, UPPER, stroke_history
 
 
 @pytest.mark.parametrize(
@@ -314,3 +315,29 @@ def test_tip_paths_of_both_wings_share_limits_and_scale(
     for ax in (ax_fore, ax_hind):  # 1 x/R is as long as 1 z/R
         box = ax.get_window_extent()
         assert box.width / (x1 - x0) == pytest.approx(box.height / (y1 - y0), rel=1e-3)
+
+
+def test_fig13_names_the_triangle_waves_whose_speed_steps(
+    kept: list[plt.Figure], tmp_path: Path
+) -> None:
+    # The fore-wing's weaving shape K at its upper bound 1 (a triangle wave): φ̇ reverses
+    # within one sample, so its relative speed steps there; K = 0.5 (smooth) does not.
+    stroke = dict(zip(PARAMETER_NAMES, (0.5 * (LOWER + UPPER)).tolist(), strict=True))
+    stroke.update(fore_sweep_shape=1.0, hind_sweep_shape=0.5)
+    stroke.update(fore_elevation_harmonic=1.0, hind_elevation_harmonic=1.0)
+    h = stroke_history(np.array(list(stroke.values())), 1.25, n_samples=120)
+
+    def largest_step(speed: np.ndarray) -> float:
+        """The largest change between neighbouring samples, as a share of the range."""
+        return float(np.abs(np.diff(np.r_[speed, speed[:1]])).max() / np.ptp(speed))
+
+    assert largest_step(h.fore.relative_speed) > 0.5
+    assert largest_step(h.hind.relative_speed) < 0.1
+    # Fig. 13's legend names the wing and seed, and only where K sits at the bound.
+    note = kinematics.triangle_note([{"seed": 3, **stroke}])
+    assert "fore-wing of seed 3" in note and "hind" not in note
+    assert kinematics.triangle_note([{"seed": 3, **stroke, "fore_sweep_shape": 0.9}]) == ""
+    fore, hind = ({k: getattr(w, k) for k in kinematics.TRACED} for w in (h.fore, h.hind))
+    trace = kf.Trace("seed 3 (best)", True, h.fore.cycle_fraction, fore, hind)
+    kf.flow_figure([trace], "Fig. 13", tmp_path / "f.png", note)
+    assert note in _legend_texts(kept[0].axes[0])
