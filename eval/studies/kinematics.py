@@ -179,7 +179,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
     pitch_panel = panel(
         "(c) pitch amplitude η_m (K4; feasible seeds)",
         {"level": lv_pitch, "accelerating": ac_pitch},
-        "η_m, mean of both wings [deg]",
+        figures.pair_mean("η_m [deg]"),
         statistic_label="median (judged)",
         paper_note="paper: larger in accelerating flight",
         bounds=table4_bounds("pitch_amplitude"),

@@ -11,6 +11,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 from matplotlib.patches import FancyArrowPatch
+from matplotlib.text import Text
 
 from eval import figures
 from eval import kinematics_figures as kf
@@ -341,3 +342,49 @@ def test_fig13_names_the_triangle_waves_whose_speed_steps(
     trace = kf.Trace("seed 3 (best)", True, h.fore.cycle_fraction, fore, hind)
     kf.flow_figure([trace], "Fig. 13", tmp_path / "f.png", note)
     assert note in _legend_texts(kept[0].axes[0])
+
+
+def _printed_font_sizes(fig: plt.Figure, width_mm: float) -> list[float]:
+    """Each visible text's size [pt] once the figure, cropped as ``figures.save`` crops it
+    (tight, with the save's padding), is printed ``width_mm`` wide."""
+    if fig.get_layout_engine() is None:
+        fig.tight_layout()  # as figures.save lays it out
+    fig.canvas.draw()
+    cropped = fig.get_tightbbox(fig.canvas.get_renderer()).width  # [in]
+    printed = width_mm / 25.4 / (cropped + 2 * plt.rcParams["savefig.pad_inches"])
+    texts = [t for t in fig.findobj(Text) if t.get_visible() and t.get_text().strip()]
+    return [t.get_fontsize() * printed for t in texts]
+
+
+@pytest.mark.parametrize("n_extras", [2, 1])  # Fig. 11 (c, d), Fig. 12 (c)
+def test_figs_11_12_are_readable_in_a_journal_column(
+    kept: list[plt.Figure], tmp_path: Path, n_extras: int
+) -> None:
+    # Printed 85 mm wide (a journal's single column), every text is at least 7 pt: the
+    # figure is no wider than the column once cropped, its texts no smaller.
+    t = np.linspace(0.0, 1.0, 60, endpoint=False)
+    wave = {"sweep": 40.0 * np.sin(2 * np.pi * t)}
+    traces = [kf.Trace(f"seed {k}" + (" (best)" if k == 0 else ""), k == 0, t, wave, wave)
+              for k in range(3)]  # fmt: skip
+    long = "circular median (not judged: the model does not depend on ΔΦ)"
+    extras = [
+        kf.GroupPanel(
+            f"({'cd'[k]}) ΔΦ at 2 m/s (K2; > 0: hind leads)",
+            {"level 1.25 m/s": [36.0, 40.0, 22.0], "accel. 60 W/kg": [124.0, 78.0, 52.0]},
+            "ΔΦ = Φ_hind − Φ_fore [deg]",
+            statistic_label=long,
+            paper={"level 1.25 m/s": 30.0},
+            paper_label="paper: hind leads by ≈ 30°",
+            band=(15.0, 45.0, "paper ± 15° (rule)"),
+            paper_note="paper: larger in accelerating flight",
+            bounds=(1.0, 90.0),
+        )
+        for k in range(n_extras)
+    ]
+    rows = [("(a) level flight, V = 1.25 m/s", traces),
+            ("(b) accelerating (vertical), 60 W/kg", traces)]  # fmt: skip
+    kf.cycle_figure(rows, "sweep", "weaving angle φ [deg]", "Fig. 11: title", tmp_path / "f.png",
+                    extras=extras)  # fmt: skip
+    sizes = _printed_font_sizes(kept[0], kf.COLUMN_WIDTH_MM)
+    assert len(sizes) > 20  # titles, labels, ticks, legends
+    assert min(sizes) >= kf.COLUMN_FONT_PT - 1e-9
