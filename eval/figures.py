@@ -11,6 +11,7 @@ The kinematics figures (Figs. 9-13) are in :mod:`eval.kinematics_figures`.
 
 from __future__ import annotations
 
+import textwrap
 import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -95,6 +96,14 @@ DERIVED_MARKER: dict[str, Any] = {"marker": "D", "ms": 7, "mew": 1.5, "mfc": "no
 #: The Table 4 bounds of a stroke parameter's panel.
 BOUND_STYLE: dict[str, Any] = {"color": "0.45", "ls": "--", "lw": 1.0, "zorder": 1}
 BOUND_LABEL = "Table 4 bounds"
+#: Appended to the axis label of a quantity that averages the fore and hind pairs (the tidy
+#: rows' means, ``eval.studies.tables.QUANTITIES``), so no figure averages them unsaid.
+PAIR_MEAN = "(mean of fore and hind pairs)"
+
+
+def pair_mean(label: str) -> str:
+    """``label`` on two lines, the second saying the pairs are averaged (:data:`PAIR_MEAN`)."""
+    return f"{label}\n{PAIR_MEAN}"
 
 
 def method_label(spec: str) -> str:
@@ -210,14 +219,24 @@ def draw_series(ax: Axes, series: Series) -> tuple | None:
 
 
 def legend(
-    ax: Axes, entries: Sequence[tuple[Any, str]], below: bool = False, **kwargs: Any
+    ax: Axes,
+    entries: Sequence[tuple[Any, str]],
+    below: bool = False,
+    wrap: int = 0,
+    gap: float = 4.0,
+    **kwargs: Any,
 ) -> None:
-    """A legend of ``entries`` (handle, label) outside ``ax``: to its right, or below it."""
+    """A legend of ``entries`` (handle, label) outside ``ax``: to its right, or below it,
+    ``gap`` font sizes under the axes (4: clear of two lines of tick labels, or one and an
+    axis label, whatever the axes' height); ``wrap``: labels broken into lines of at most
+    this many characters (0: not)."""
     if not entries:
         return
     handles, labels = zip(*entries, strict=True)
+    if wrap:
+        labels = tuple(textwrap.fill(label, wrap) for label in labels)
     where = (
-        {"loc": "upper center", "bbox_to_anchor": (0.5, -0.2)}
+        {"loc": "upper center", "bbox_to_anchor": (0.5, 0.0), "borderaxespad": gap}
         if below
         else {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
     )
@@ -313,7 +332,7 @@ def save(fig: plt.Figure, path: Path, crop: bool = True) -> Path:
     if fmt not in FORMATS:
         plt.close(fig)
         raise ValueError(f"figure {path}: format {fmt!r}; allowed: {', '.join(FORMATS)}")
-    if crop:
+    if crop and fig.get_layout_engine() is None:  # a figure with its own layout keeps it
         fig.tight_layout()
     try:
         # A killed run never leaves half a figure. A rerun writes the same file: vector formats

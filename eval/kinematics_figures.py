@@ -4,6 +4,7 @@ wings over the cycle with per-seed group panels (Figs. 11-12), flow at the wing 
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -79,8 +80,10 @@ def draw_direction(ax: Axes, path: np.ndarray) -> list[tuple[np.ndarray, np.ndar
 
 
 def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
-    """Wing-tip paths relative to the wing base, side view (x forward, z up), per wing."""
-    fig, axes = plt.subplots(1, 2, figsize=(7.5, 3.8))
+    """Wing-tip paths relative to the wing base, side view (x forward, z up), per wing; both
+    panels on the same axes limits and scale (1 x/R is as long as 1 z/R), so the fore- and
+    hind-wing's paths compare by eye."""
+    fig, axes = plt.subplots(1, 2, figsize=(7.5, 3.8), sharex=True, sharey=True)
     for ax, wing in zip(axes, ("fore", "hind"), strict=True):
         for i, trace in enumerate(traces):
             tip = getattr(trace, wing)["tip_path"]
@@ -100,7 +103,8 @@ def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
             ax.plot([], [], "o", color="k", ms=5, label=START_LABEL)
             ax.plot([], [], "k+", ms=10, label="wing base")
         ax.set_xlabel("x/R (forward) [-]")
-        ax.set_aspect("equal", adjustable="datalim")
+        # the box adjusts, not the limits: limits shared by both panels stay the same
+        ax.set_aspect("equal", adjustable="box")
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("z/R (up) [-]")
     axes[1].legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)
@@ -135,8 +139,9 @@ class GroupPanel:
     """What the paper states in words only (a legend line)."""
 
 
-def draw_groups(ax: Axes, panel: GroupPanel) -> None:
-    """Draw one :class:`GroupPanel` with its legend (outside the axes, right)."""
+def draw_groups(ax: Axes, panel: GroupPanel, wrap: int = 0) -> None:
+    """Draw one :class:`GroupPanel` with its legend (below the axes; ``wrap``: its labels
+    and the title broken into lines of at most this many characters, 0: not)."""
     names = list(panel.groups)
     entries: list[tuple[Any, str]] = []
     if panel.band is not None:
@@ -163,11 +168,14 @@ def draw_groups(ax: Axes, panel: GroupPanel) -> None:
     ax.set_xlim(-0.5, len(names) - 0.5)
     if panel.ylim is not None:
         ax.set_ylim(*panel.ylim)
-    ax.set_xticks(range(len(names)), [n.replace(" ", "\n", 1) for n in names], fontsize=7)
+    # a group's name on two lines; on a line per word where the panel is narrow (``wrap``)
+    ticks = [n.replace(" ", "\n", -1 if wrap else 1) for n in names]
+    ax.set_xticks(range(len(names)), ticks, fontsize=7)
     ax.set_ylabel(panel.ylabel)
-    ax.set_title(panel.title, fontsize=9)
+    ax.set_title(textwrap.fill(panel.title, wrap) if wrap else panel.title)
     ax.grid(alpha=0.3)
-    legend(ax, entries, below=True)
+    lines = max((t.count("\n") + 1 for t in ticks), default=1)
+    legend(ax, entries, below=True, wrap=wrap, gap=1.6 + 1.2 * lines)  # below the ticks
 
 
 #: The paper's division of the cycle (Fig. 12 text): the down-stroke is 0 < t/T < 0.5.
@@ -191,6 +199,22 @@ def _cycle_panel(
     ax.grid(alpha=0.3)
 
 
+#: Width of a journal's single column [mm]: Figs. 11-12 are drawn for it.
+COLUMN_WIDTH_MM = 85.0
+#: Smallest text size a figure drawn for :data:`COLUMN_WIDTH_MM` has, printed at that width [pt].
+COLUMN_FONT_PT = 7.0
+#: The text sizes of a single-column figure: every text at :data:`COLUMN_FONT_PT`, the title
+#: a point larger.
+COLUMN_RC: dict[str, Any] = {
+    **{key: COLUMN_FONT_PT for key in ("font.size", "axes.titlesize", "axes.labelsize",
+                                       "xtick.labelsize", "ytick.labelsize", "legend.fontsize")},
+    "figure.titlesize": COLUMN_FONT_PT + 1,
+}  # fmt: skip
+#: Characters per line of a single-column figure's panel titles and legends (two panels
+#: side by side at :data:`COLUMN_FONT_PT`).
+COLUMN_WRAP = 22
+
+
 def cycle_figure(
     rows: Sequence[tuple[str, Sequence[Trace]]],
     quantity: str,
@@ -199,26 +223,37 @@ def cycle_figure(
     path: Path,
     extras: Sequence[GroupPanel] = (),
 ) -> Path:
-    """One panel per flight mode: ``quantity`` of fore (solid) and hind (dashed) over t/T,
-    then one :class:`GroupPanel` per ``extras`` (e.g. Fig. 11c's phase differences, Fig. 12c's
-    pitch amplitudes)."""
-    n = len(rows) + len(extras)
-    fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 4.4))
-    axes = np.atleast_1d(axes)
-    for k, (ax, (name, traces)) in enumerate(zip(axes, rows, strict=False)):
-        _cycle_panel(ax, traces, quantity, ylabel, first=k == 0)
-        ax.set_title(name, fontsize=9)
-        ax.set_xlabel("cycle t/T [-]")
-        if k == 0:
-            handles, labels = ax.get_legend_handles_labels()
-            legend(
-                ax,
-                [*zip(handles, labels, strict=True), text_entry("bold: best seed")],
-                below=True,
-            )
-    for ax, extra in zip(axes[len(rows) :], extras, strict=True):
-        draw_groups(ax, extra)
-    fig.suptitle(title, fontsize=10)
+    """``quantity`` of fore (solid) and hind (dashed) over t/T, one panel per flight mode side
+    by side (the same y-axis), then below them one :class:`GroupPanel` per ``extras`` (e.g.
+    Fig. 11c's phase differences, Fig. 12c's pitch amplitudes).
+
+    Drawn for a journal column (:data:`COLUMN_WIDTH_MM` wide, text at :data:`COLUMN_FONT_PT`,
+    :data:`COLUMN_RC`): titles and legends are wrapped to a panel's width, each legend below
+    its panels, so the cropped figure is no wider than the column."""
+    with plt.rc_context(COLUMN_RC):
+        parts = [len(part) for part in (rows, extras) if part]
+        # constrained: it lays out each row's subfigure with its legend below it
+        # the saved figure adds a margin on each side (``figures.save``: cropped, padded)
+        width = COLUMN_WIDTH_MM / 25.4 - 2 * plt.rcParams["savefig.pad_inches"]
+        fig = plt.figure(figsize=(width, 3.4 * len(parts)), layout="constrained")
+        subfigs = np.atleast_1d(fig.subfigures(len(parts), 1))
+        if rows:
+            axes = np.atleast_1d(subfigs[0].subplots(1, len(rows), sharey=True))
+            for k, (ax, (name, traces)) in enumerate(zip(axes, rows, strict=True)):
+                _cycle_panel(ax, traces, quantity, ylabel if k == 0 else "", first=k == 0)
+                ax.set_title(textwrap.fill(name, COLUMN_WRAP))
+                ax.set_xlabel("cycle t/T [-]")
+                ax.set_xticks([0.0, 0.5, 1.0])
+            # one legend for the row, below it
+            handles, labels = axes[0].get_legend_handles_labels()
+            entries = [*zip(handles, labels, strict=True), text_entry("bold: best seed")]
+            subfigs[0].legend(*zip(*entries, strict=True), loc="outside lower center",
+                              ncols=2, frameon=False)  # fmt: skip
+        if extras:
+            axes = np.atleast_1d(subfigs[-1].subplots(1, len(extras)))
+            for ax, extra in zip(axes, extras, strict=True):
+                draw_groups(ax, extra, wrap=COLUMN_WRAP)
+        fig.suptitle(title)
     return figures.save(fig, path)
 
 
@@ -229,13 +264,17 @@ FLOW_PANELS: tuple[tuple[str, str], ...] = (
 )
 
 
-def flow_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
+def flow_figure(traces: Sequence[Trace], title: str, path: Path, note: str = "") -> Path:
     """Angle of attack and relative speed at 0.75 R over the cycle (Fig. 13); the dotted line
-    is the paper's end of the down-stroke (t/T = 0.5: the paper's cycles start with it)."""
+    is the paper's end of the down-stroke (t/T = 0.5: the paper's cycles start with it);
+    ``note``: a last legend line (e.g. which strokes' weaving is a triangle wave)."""
     fig, axes = plt.subplots(2, 1, figsize=(8.4, 5.2), sharex=True)
     for k, (ax, (quantity, ylabel)) in enumerate(zip(axes, FLOW_PANELS, strict=True)):
         _cycle_panel(ax, traces, quantity, ylabel, first=k == 0)
+    handles, labels = axes[0].get_legend_handles_labels()
+    notes = [text_entry(note)] if note else []
     axes[0].legend(
+        *zip(*[*zip(handles, labels, strict=True), *notes], strict=True),
         fontsize=7,
         title="bold: best seed",
         title_fontsize=6,

@@ -28,7 +28,7 @@ from typing import Any, Literal
 import numpy as np
 from scipy.stats import spearmanr
 
-from eval.studies.tables import Spread
+from eval.studies.tables import Spread, pinned, spread, table4_bounds
 from tandem_env import ModelOptions
 
 Verdict = Literal["agrees", "differs", "undecided", "not identifiable", "not run", "no data"]
@@ -71,11 +71,17 @@ IDENTIFIABILITY_RULE = (
     "`hover_inflow='none'`; `ModelOptions.phase_resolved`, docs/model.md §5.7)"
 )
 
+#: A stroke parameter that one bound holds at every condition does not move with the
+#: condition; its ρ would be undefined (a constant) or the noise within the bound's tolerance.
+HELD_RULE = (
+    "a stroke parameter pinned at the same Table 4 bound at every condition (at least 3; "
+    "pinned as in the summary CSVs) does not move: its ρ is 0"
+)
 RULES: dict[str, str] = {
     "number": "median within ±20 % of the paper",
     "range": "median inside the paper's range widened by 20 %",
-    "trend": "Spearman ρ(condition, medians) ≥ 0.5 in the claimed direction",
-    "follows": "Spearman ρ between the two quantities' medians ≥ 0.5",
+    "trend": f"Spearman ρ(condition, medians) ≥ 0.5 in the claimed direction; {HELD_RULE}",
+    "follows": f"Spearman ρ between the two quantities' medians ≥ 0.5; {HELD_RULE}",
     "location": "extremum of the medians within ±0.25 m/s of the paper's",
     "angle": "median within ±15° of the paper's",
     "phase": "in phase: median |ΔΦ| < 15°; out of phase: ≥ 15°",
@@ -374,10 +380,43 @@ class ClaimBuilder:
 
 
 def trend_row(series: Mapping[float, Spread], direction: int, **fields: Any) -> dict[str, Any]:
-    """``trend``: ρ between the condition and the medians (and the best seeds)."""
+    """``trend``: ρ between the condition and the medians (and the best seeds); ``fields``
+    override any of these (e.g. :func:`held_at_bound`'s)."""
     r, r_best, _, detail = trend(series, direction)
     test = trend_test(direction)
-    return dict(rule="trend", test=test, median=r, best=r_best, unit="(ρ)", detail=detail, **fields)
+    row = dict(rule="trend", test=test, median=r, best=r_best, unit="(ρ)", detail=detail)
+    return {**row, **fields}
+
+
+def held_at_bound(rows: Sequence[Mapping[str, Any]], quantity: str) -> dict[str, Any]:
+    """What :data:`HELD_RULE` changes in a ``trend`` or ``follows`` row of stroke parameter
+    ``quantity`` over the rows' conditions (one series): ρ = 0 for the medians (``median``)
+    where one Table 4 bound holds it at every condition (``tables.pinned`` over the feasible
+    seeds), and for the best seeds (``best``) where it holds each condition's best seed; a
+    ``detail`` and ``note`` that name the bound. Empty where no bound holds either, and below
+    3 conditions (too few for a ρ, :func:`rho`)."""
+    conditions = sorted({float(r["condition"]) for r in rows})
+    bounds = table4_bounds(quantity)
+    if len(conditions) < 3 or bounds is None:
+        return {}
+    sides: dict[str, set[str]] = {"median": set(), "best": set()}
+    for c in conditions:
+        members = [r for r in rows if float(r["condition"]) == c]
+        top = spread(members, quantity).best_seed
+        sides["median"].add(pinned(members, quantity))
+        sides["best"].add(pinned([r for r in members if r["seed"] == top], quantity))
+    held = {k: side.pop() for k, side in sides.items() if len(side) == 1 and "" not in side}
+    if not held:
+        return {}
+    side = held.get("median", held.get("best", ""))
+    value = bounds[0] if side == "lower" else bounds[1]
+    on = " and ".join({"median": "the medians", "best": "the best seeds"}[k] for k in held)
+    return {
+        **dict.fromkeys(held, 0.0),
+        "detail": f"{on} at the {side} Table 4 bound ({value:g}) at every condition: ρ = 0",
+        "note": f"the optimum presses against Table 4's {side} bound at every condition: the "
+        "bound, not the condition, sets the parameter, so it follows no trend (differs)",
+    }
 
 
 def location_row(

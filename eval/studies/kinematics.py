@@ -29,7 +29,7 @@ from eval import kinematics_figures as kf
 from eval.studies import claims as C
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
 from eval.studies.tables import Spread, circular_median, select, spread, table4_bounds
-from tandem_env import PARAMETER_NAMES, stroke_history
+from tandem_env import PARAMETER_NAMES, bound_sides, stroke_history
 from tandem_env.envs import registration
 
 NAME = "kinematics"
@@ -48,6 +48,27 @@ PAPER_IN_PHASE = 0.0  # deg: "the wings flap in-phase" in accelerating flight (F
 HISTORY_SAMPLES = 120
 #: The quantities of a wing's history each trace carries (``kinematics_figures.Trace``).
 TRACED = ("tip_path", "sweep", "pitch", "angle_of_attack", "relative_speed")
+
+
+def triangle_note(rows: list[dict[str, Any]]) -> str:
+    """Fig. 13's legend line on the strokes (``rows``, one per seed) whose weaving is a
+    triangle wave: shape K at its Table 4 upper bound 1 (``tandem_env.bound_sides``; the
+    model caps it at 1 − 10⁻⁴, docs/model.md §3.4). Such a wing's φ̇ is constant along each
+    half-stroke and reverses within one of the figure's samples, so its relative speed (and
+    angle of attack) steps at each reversal: the kinematics, not the plot. "" where none is."""
+    shape = {w: PARAMETER_NAMES.index(f"{w}_sweep_shape") for w in ("fore", "hind")}
+    found = []
+    for row in sorted(rows, key=lambda r: r["seed"]):
+        sides = bound_sides([float(row[name]) for name in PARAMETER_NAMES])
+        wings = [w for w, k in shape.items() if sides[k] == 1]
+        if wings:
+            found.append(f"{' and '.join(wings)}-wing of seed {row['seed']}")
+    if not found:
+        return ""
+    return (
+        f"K = 1, a triangle-wave φ: {'; '.join(found)}.\nIts φ̇ reverses at once, so its "
+        "speed steps at each reversal"
+    )
 
 
 def jobs(plan: StudyPlan) -> list[Job]:
@@ -158,7 +179,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
     pitch_panel = panel(
         "(c) pitch amplitude η_m (K4; feasible seeds)",
         {"level": lv_pitch, "accelerating": ac_pitch},
-        "η_m, mean of both wings [deg]",
+        figures.pair_mean("η_m [deg]"),
         statistic_label="median (judged)",
         paper_note="paper: larger in accelerating flight",
         bounds=table4_bounds("pitch_amplitude"),
@@ -204,11 +225,14 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             ),
         ),
         (
-            "Fig. 13: angle of attack and relative speed over the cycle, level flight",
+            "Fig. 13: angle of attack and relative speed over the cycle, level flight (a wing "
+            "whose weaving shape K sits at its bound 1 sweeps at a constant rate between "
+            "reversals: its speed steps at each reversal; the legend names it)",
             kf.flow_figure(
                 lv,
                 f"Fig. 13: flow at the wing, {level_name}",
                 plan.figure(study_dir, "fig13_flow_level"),
+                triangle_note(select(rows, condition=p.kinematics_speed, **level)),
             ),
         ),
     ]

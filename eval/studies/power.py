@@ -38,6 +38,15 @@ PAPER_VERTICAL = {50.0: 2.7, 90.0: 4.4}
 PAPER_HORIZONTAL = {50.0: 2.4, 90.0: 3.5}
 PAPER_ATTAINABLE = {50.0: 3.6, 90.0: 5.6}
 PAPER_RATIO = (10.0, 20.0)  # % by which F̄_v exceeds F̄_h
+#: F̄'s unit in every figure (Figs. 7, 8, 16): an excess force over the body weight W = m·g
+#: (docs/model.md §7.6), a ratio; numerically the acceleration it gives in units of g.
+EXCESS_UNIT = "[-]"
+
+
+def excess_label(name: str) -> str:
+    """The axis label of an excess force ``name`` (e.g. ``"attainable F̄_a"``): what it is
+    divided by and its unit, :data:`EXCESS_UNIT`."""
+    return f"{name} = F/W {EXCESS_UNIT}"
 
 
 def jobs(plan: StudyPlan) -> list[Job]:
@@ -132,7 +141,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             figures.sweep_figure(
                 [
                     figures.Panel(
-                        "specific excess force F̄ [-]",
+                        excess_label("specific excess force F̄"),
                         forces,
                         paper=[
                             *((p, v, "paper F̄_v") for p, v in PAPER_VERTICAL.items()),
@@ -148,7 +157,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         (
             "Fig. 8: attainable specific excess force against available power",
             figures.sweep_figure(
-                [figures.Panel("attainable F̄_a [g]", fa, paper=paper_attainable())],
+                [figures.Panel(excess_label("attainable F̄_a"), fa, paper=paper_attainable())],
                 xlabel,
                 "Fig. 8: F̄_a = sqrt(F̄_v² + F̄_h²) (Eq. 27), V = 0",
                 plan.figure(study_dir, "fig8_attainable"),
@@ -203,7 +212,7 @@ def _claims(
             )
             for cid, label, series in (("P4", "F̄_v", vertical), ("P5", "F̄_h", horizontal))
         ),
-        *_number_claims(make, "P6", "attainable F̄_a [g]", "Fig. 8", fa, PAPER_ATTAINABLE),
+        *_number_claims(make, "P6", "attainable F̄_a", "Fig. 8", fa, PAPER_ATTAINABLE),
     ]
 
 

@@ -16,7 +16,7 @@ from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
-from eval.studies.tables import Spread, by_condition, table4_bounds
+from eval.studies.tables import Spread, by_condition, select, table4_bounds
 
 NAME = "speed"
 TITLE = "Level flight: speed sweep (Figs. 4-6)"
@@ -71,9 +71,13 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             f"Fig. 4: {level}",
             [
                 panel("thrust ratio T/W [-]", "thrust_ratio", paper_note=falls),
-                panel("mean angle of attack [deg]", "mean_angle_of_attack", paper_note=falls),
                 panel(
-                    "stroke-plane angle β [deg]",
+                    figures.pair_mean("mean angle of attack [deg]"),
+                    "mean_angle_of_attack",
+                    paper_note=falls,
+                ),
+                panel(
+                    figures.pair_mean("stroke-plane angle β [deg]"),
                     "stroke_plane_angle",
                     paper_note="paper: rises with V",
                 ),
@@ -89,8 +93,12 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
                     "power_per_mass",
                     paper_at=[(PAPER_BEST_SPEED, "paper: minimum power")],
                 ),
-                panel("frequency f [Hz]", "frequency", paper_note=follows),
-                panel("weaving amplitude φ_m [deg]", "sweep_amplitude", paper_note=follows),
+                panel(figures.pair_mean("frequency f [Hz]"), "frequency", paper_note=follows),
+                panel(
+                    figures.pair_mean("weaving amplitude φ_m [deg]"),
+                    "sweep_amplitude",
+                    paper_note=follows,
+                ),
             ],
         ),
         (
@@ -120,7 +128,9 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
 
 
 def _claims(rows: list[dict], method: str, index: int) -> list[C.Claim]:
-    get = lambda q: by_condition(rows, q, method=method, task="level", planform="tear-drop")  # noqa: E731
+    series = select(rows, method=method, task="level", planform="tear-drop")
+    get = lambda q: by_condition(series, q)  # noqa: E731
+    held = lambda q: C.held_at_bound(series, q)  # noqa: E731 (a parameter at a bound: ρ = 0)
     make = C.ClaimBuilder(NAME, method, index)
     power, eff = get("power_per_mass"), get("efficiency_pct")
     trends = [
@@ -129,7 +139,7 @@ def _claims(rows: list[dict], method: str, index: int) -> list[C.Claim]:
             "Fig. 4",
             statement,
             "rises" if sign > 0 else "falls",
-            **C.trend_row(get(quantity), sign),
+            **C.trend_row(get(quantity), sign, **held(quantity)),
         )
         for cid, quantity, sign, statement in (
             ("S1", "stroke_plane_angle", +1, "stroke-plane angle rises with V"),
@@ -147,8 +157,13 @@ def _claims(rows: list[dict], method: str, index: int) -> list[C.Claim]:
             "1.5 m/s",
             **C.location_row(power, PAPER_BEST_SPEED, "min", note=not_minimised),
         ),
-        _follows(make, "S5", "frequency f", power, get("frequency")),
-        _follows(make, "S6", "weaving amplitude φ_m", power, get("sweep_amplitude")),
+        *(
+            _follows(make, cid, label, power, get(quantity), held(quantity))
+            for cid, label, quantity in (
+                ("S5", "frequency f", "frequency"),
+                ("S6", "weaving amplitude φ_m", "sweep_amplitude"),
+            )
+        ),
         _peak_efficiency(make, eff),
         make.claim(
             "S8",
@@ -166,8 +181,11 @@ def _follows(
     label: str,
     power: Mapping[float, Spread],
     other: Mapping[float, Spread],
+    held: Mapping[str, Any],
 ) -> C.Claim:
-    """``follows``: ρ between the power's and ``other``'s medians (and best seeds) over speeds."""
+    """``follows``: ρ between the power's and ``other``'s medians (and best seeds) over speeds;
+    0 where a Table 4 bound holds ``other`` (``held``: :func:`claims.held_at_bound`), which
+    then does not follow the power: differs."""
     common = [v for v in power if v in other]
     r = C.rho([power[v].median for v in common], [other[v].median for v in common])
     r_best = C.rho([power[v].best for v in common], [other[v].best for v in common])
@@ -179,9 +197,7 @@ def _follows(
         "follows P",
         rule="follows",
         test=C.trend_test(+1),
-        median=r,
-        best=r_best,
-        unit="(ρ)",
+        **{"median": r, "best": r_best, "unit": "(ρ)", **held},
     )
 
 

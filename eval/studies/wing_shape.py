@@ -20,7 +20,7 @@ from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
-from eval.studies.power import attainable, paper_attainable, series_jobs
+from eval.studies.power import attainable, excess_label, paper_attainable, series_jobs
 from eval.studies.speed import PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY
 from eval.studies.tables import Spread, by_condition
 from tandem_env import Dragonfly
@@ -123,7 +123,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             figures.sweep_figure(
                 [
                     figures.Panel(
-                        "attainable F̄_a [g]",
+                        excess_label("attainable F̄_a"),
                         acc,
                         # The paper's F̄_a (Fig. 8) is the tear-drop's; Fig. 16's text gives
                         # the real wing only relative to it.

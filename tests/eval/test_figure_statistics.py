@@ -4,19 +4,22 @@ wing and list only drawn series, fixed colour-blind-safe colours, the figure for
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 from matplotlib.patches import FancyArrowPatch
+from matplotlib.text import Text
 
 from eval import figures
 from eval import kinematics_figures as kf
-from eval.studies import wing_shape
+from eval.studies import kinematics, power, speed, wing_shape
 from eval.studies.base import StudyPlan
 from eval.studies.presets import TINY
 from eval.studies.tables import Spread, circular_median, circular_quartiles, spread
+from tandem_env import LOWER, PARAMETER_NAMES, UPPER, stroke_history
 
 
 @pytest.mark.parametrize(
@@ -273,3 +276,115 @@ def test_planforms_are_drawn_at_equal_aspect(kept: list[plt.Figure], tmp_path: P
         box = ax.get_window_extent()
         # 1 mm spans as many pixels along the span as along the chord
         assert (box.width / (x1 - x0)) == pytest.approx(box.height / (y1 - y0), rel=1e-3)
+
+
+def _ylabels(figs: list[plt.Figure]) -> dict[str, list[str]]:
+    """{"Fig. 4": [y-label per panel], ...} of the figures drawn."""
+    return {f.get_suptitle().split(":")[0]: [ax.get_ylabel() for ax in f.axes] for f in figs}
+
+
+def test_sweep_labels_say_what_is_averaged_and_give_the_excess_force_one_unit(
+    kept: list[plt.Figure], tmp_path: Path
+) -> None:
+    for study in (speed, power, wing_shape):  # no records: the figures' axes, without data
+        study.analyse(StudyPlan(TINY), {}, tmp_path)
+    labels = _ylabels(kept)
+    # Figs. 4-5: the means of the fore and hind pairs say so, the totals (T/W, P/m) do not.
+    averaged = ("mean angle of attack", "stroke-plane angle", "frequency", "weaving amplitude")
+    for label in labels["Fig. 4"] + labels["Fig. 5"]:
+        assert (figures.PAIR_MEAN in label) == label.startswith(averaged), label
+    # Figs. 7, 8, 16: F̄ (a force over the body weight) has one unit.
+    excess = [label for fig in ("Fig. 7", "Fig. 8", "Fig. 16") for label in labels[fig]]
+    assert len(excess) == 3 and all("F̄" in label for label in excess)
+    assert {re.findall(r"\[[^]]*\]", label)[-1] for label in excess} == {power.EXCESS_UNIT}
+
+
+def test_tip_paths_of_both_wings_share_limits_and_scale(
+    kept: list[plt.Figure], tmp_path: Path
+) -> None:
+    t = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    fore = np.stack([np.cos(t), np.zeros_like(t), 0.3 * np.sin(t)], 1)
+    hind = np.stack([0.4 * np.cos(t) + 0.5, np.zeros_like(t), 2.0 * np.sin(t)], 1)
+    trace = kf.Trace("seed 0 (best)", True, t / (2 * np.pi), {"tip_path": fore}, {"tip_path": hind})
+    kf.tip_path_figure([trace], "Fig. 9", tmp_path / "f.png")
+    fig = kept[0]
+    fig.canvas.draw()
+    ax_fore, ax_hind = fig.axes
+    assert ax_fore.get_xlim() == ax_hind.get_xlim() and ax_fore.get_ylim() == ax_hind.get_ylim()
+    (x0, x1), (y0, y1) = ax_fore.get_xlim(), ax_fore.get_ylim()
+    assert x0 <= -1.0 and x1 >= 1.0 and y0 <= -2.0 and y1 >= 2.0  # both paths in view
+    for ax in (ax_fore, ax_hind):  # 1 x/R is as long as 1 z/R
+        box = ax.get_window_extent()
+        assert box.width / (x1 - x0) == pytest.approx(box.height / (y1 - y0), rel=1e-3)
+
+
+def test_fig13_names_the_triangle_waves_whose_speed_steps(
+    kept: list[plt.Figure], tmp_path: Path
+) -> None:
+    # The fore-wing's weaving shape K at its upper bound 1 (a triangle wave): φ̇ reverses
+    # within one sample, so its relative speed steps there; K = 0.5 (smooth) does not.
+    stroke = dict(zip(PARAMETER_NAMES, (0.5 * (LOWER + UPPER)).tolist(), strict=True))
+    stroke.update(fore_sweep_shape=1.0, hind_sweep_shape=0.5)
+    stroke.update(fore_elevation_harmonic=1.0, hind_elevation_harmonic=1.0)
+    h = stroke_history(np.array(list(stroke.values())), 1.25, n_samples=120)
+
+    def largest_step(speed: np.ndarray) -> float:
+        """The largest change between neighbouring samples, as a share of the range."""
+        return float(np.abs(np.diff(np.r_[speed, speed[:1]])).max() / np.ptp(speed))
+
+    assert largest_step(h.fore.relative_speed) > 0.5
+    assert largest_step(h.hind.relative_speed) < 0.1
+    # Fig. 13's legend names the wing and seed, and only where K sits at the bound.
+    note = kinematics.triangle_note([{"seed": 3, **stroke}])
+    assert "fore-wing of seed 3" in note and "hind" not in note
+    assert kinematics.triangle_note([{"seed": 3, **stroke, "fore_sweep_shape": 0.9}]) == ""
+    fore, hind = ({k: getattr(w, k) for k in kinematics.TRACED} for w in (h.fore, h.hind))
+    trace = kf.Trace("seed 3 (best)", True, h.fore.cycle_fraction, fore, hind)
+    kf.flow_figure([trace], "Fig. 13", tmp_path / "f.png", note)
+    assert note in _legend_texts(kept[0].axes[0])
+
+
+def _printed_font_sizes(fig: plt.Figure, width_mm: float) -> list[float]:
+    """Each visible text's size [pt] once the figure, cropped as ``figures.save`` crops it
+    (tight, with the save's padding), is printed ``width_mm`` wide."""
+    if fig.get_layout_engine() is None:
+        fig.tight_layout()  # as figures.save lays it out
+    fig.canvas.draw()
+    cropped = fig.get_tightbbox(fig.canvas.get_renderer()).width  # [in]
+    printed = width_mm / 25.4 / (cropped + 2 * plt.rcParams["savefig.pad_inches"])
+    texts = [t for t in fig.findobj(Text) if t.get_visible() and t.get_text().strip()]
+    return [t.get_fontsize() * printed for t in texts]
+
+
+@pytest.mark.parametrize("n_extras", [2, 1])  # Fig. 11 (c, d), Fig. 12 (c)
+def test_figs_11_12_are_readable_in_a_journal_column(
+    kept: list[plt.Figure], tmp_path: Path, n_extras: int
+) -> None:
+    # Printed 85 mm wide (a journal's single column), every text is at least 7 pt: the
+    # figure is no wider than the column once cropped, its texts no smaller.
+    t = np.linspace(0.0, 1.0, 60, endpoint=False)
+    wave = {"sweep": 40.0 * np.sin(2 * np.pi * t)}
+    traces = [kf.Trace(f"seed {k}" + (" (best)" if k == 0 else ""), k == 0, t, wave, wave)
+              for k in range(3)]  # fmt: skip
+    long = "circular median (not judged: the model does not depend on ΔΦ)"
+    extras = [
+        kf.GroupPanel(
+            f"({'cd'[k]}) ΔΦ at 2 m/s (K2; > 0: hind leads)",
+            {"level 1.25 m/s": [36.0, 40.0, 22.0], "accel. 60 W/kg": [124.0, 78.0, 52.0]},
+            "ΔΦ = Φ_hind − Φ_fore [deg]",
+            statistic_label=long,
+            paper={"level 1.25 m/s": 30.0},
+            paper_label="paper: hind leads by ≈ 30°",
+            band=(15.0, 45.0, "paper ± 15° (rule)"),
+            paper_note="paper: larger in accelerating flight",
+            bounds=(1.0, 90.0),
+        )
+        for k in range(n_extras)
+    ]
+    rows = [("(a) level flight, V = 1.25 m/s", traces),
+            ("(b) accelerating (vertical), 60 W/kg", traces)]  # fmt: skip
+    kf.cycle_figure(rows, "sweep", "weaving angle φ [deg]", "Fig. 11: title", tmp_path / "f.png",
+                    extras=extras)  # fmt: skip
+    sizes = _printed_font_sizes(kept[0], kf.COLUMN_WIDTH_MM)
+    assert len(sizes) > 20  # titles, labels, ticks, legends
+    assert min(sizes) >= kf.COLUMN_FONT_PT - 1e-9

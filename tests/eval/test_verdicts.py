@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from eval.studies import claims as C
-from eval.studies import report
+from eval.studies import report, speed
 from eval.studies.tables import spread
-from tandem_env import ModelOptions
+from tandem_env import LOWER, PARAMETER_NAMES, UPPER, ModelOptions
 
 PAPER = 10.0  # the number rule's ±20 % band is [8, 12]
 
@@ -200,3 +200,49 @@ def test_the_phase_claims_are_about_the_phase_at_their_optimisations_speeds() ->
     hover_none = ModelOptions(slipstream="convected", hover_inflow="none")
     assert [d.resolved(hover_none) for (d,) in found.values()] == [True, True, False]
     assert not any(d.resolved(ModelOptions()) for (d,) in found.values())
+
+
+def _level_rows(sweep: dict[float, float], beta: float = 15.0) -> list[dict[str, Any]]:
+    """Level-flight rows of 3 seeds per speed: P/m and f rise with V (f follows P), φ_m of both
+    wings ``sweep[V]`` (a little seed noise inside the bound's tolerance), β of both wings."""
+    rows = []
+    for v, phi in sweep.items():
+        for seed in range(3):
+            stroke = dict(zip(PARAMETER_NAMES, (0.5 * (LOWER + UPPER)).tolist(), strict=True))
+            for wing in ("fore", "hind"):
+                stroke[f"{wing}_sweep_amplitude"] = phi + 0.01 * seed
+                stroke[f"{wing}_stroke_plane_angle"] = beta
+            rows.append({
+                "method": "cmaes", "task": "level", "planform": "tear-drop", "condition": v,
+                "seed": seed, "feasible": True, "objective_value": 0.1 * seed,
+                "efficiency_pct": 10.0 + v, "thrust_ratio": 1.0 / v, "mean_angle_of_attack": 30 - v,
+                "power_per_mass": 30.0 + 10.0 * v + seed, "frequency": 30.0 + 5.0 * v,
+                "sweep_amplitude": phi + 0.01 * seed, "stroke_plane_angle": beta, **stroke,
+            })  # fmt: skip
+    return rows
+
+
+def _speed_claims(rows: list[dict[str, Any]]) -> dict[str, C.Claim]:
+    found = C.study_claims(rows, ["cmaes"], speed._claims, options=ModelOptions())
+    return {c.id: c for c in found}
+
+
+def test_a_parameter_held_at_its_bound_at_every_speed_follows_no_trend() -> None:
+    # φ_m at its lower bound (30°) at every speed, the paper's "follows the power" (S6): the
+    # bound, not the power, sets it, so it differs (ρ = 0), decided, and the note says why.
+    low = float(LOWER[PARAMETER_NAMES.index("fore_sweep_amplitude")])
+    speeds = (0.5, 1.0, 1.5, 2.0, 2.5)
+    claims = _speed_claims(_level_rows(dict.fromkeys(speeds, low), beta=5.0))
+    s6 = claims["S6"]
+    assert (s6.verdict, s6.best_verdict) == ("differs", "differs")
+    assert (s6.median, s6.best, s6.flips, s6.best_flips) == (0.0, 0.0, 0.0, 0.0)
+    assert "lower Table 4 bound (30)" in s6.detail and "bound, not the condition" in s6.note
+    # β at its lower bound (5°) does not rise with V either (S1, a trend), f follows P (S5).
+    assert (claims["S1"].verdict, claims["S1"].median) == ("differs", 0.0)
+    assert (claims["S5"].verdict, claims["S5"].detail) == ("agrees", "")
+    # φ_m off its bound and rising with P follows it; at the bound at two of three speeds, or
+    # at two speeds only, the rule does not apply (ρ of what was found, or too few for one).
+    assert _speed_claims(_level_rows({v: 35.0 + 5 * v for v in speeds}))["S6"].verdict == "agrees"
+    partly = _speed_claims(_level_rows({0.5: low, 1.0: low, 1.5: 50.0}))["S6"]
+    assert partly.detail == "" and partly.median == pytest.approx(0.866, abs=1e-3)
+    assert _speed_claims(_level_rows({0.5: low, 1.0: low}))["S6"].verdict == "no data"

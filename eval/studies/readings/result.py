@@ -11,6 +11,7 @@ from pathlib import Path
 from eval.studies.base import StudyOutput
 from eval.studies.claims import Claim, VerdictCount
 from eval.studies.paper_reading import Reading
+from eval.studies.power import EXCESS_UNIT
 
 #: The verdict counts of readings.csv and the readings tables, in their order
 #: (:class:`~eval.studies.claims.VerdictCount` fields): column -> table title.
@@ -21,12 +22,12 @@ COUNTS = {
 #: Headline numbers of readings.csv: column -> (claim id whose median it is, description).
 HEADLINES: dict[str, tuple[str, str]] = {
     "eta_max_pct": ("S7", "highest median level-flight efficiency over speeds [%]"),
-    "Fv_50": ("P1a", "median F̄_v at 50 W/kg [-]"),
-    "Fv_90": ("P1b", "median F̄_v at 90 W/kg [-]"),
-    "Fh_50": ("P2a", "median F̄_h at 50 W/kg [-]"),
-    "Fh_90": ("P2b", "median F̄_h at 90 W/kg [-]"),
-    "Fa_50": ("P6a", "median F̄_a at 50 W/kg [g]"),
-    "Fa_90": ("P6b", "median F̄_a at 90 W/kg [g]"),
+    "Fv_50": ("P1a", f"median F̄_v at 50 W/kg {EXCESS_UNIT}"),
+    "Fv_90": ("P1b", f"median F̄_v at 90 W/kg {EXCESS_UNIT}"),
+    "Fh_50": ("P2a", f"median F̄_h at 50 W/kg {EXCESS_UNIT}"),
+    "Fh_90": ("P2b", f"median F̄_h at 90 W/kg {EXCESS_UNIT}"),
+    "Fa_50": ("P6a", f"median F̄_a at 50 W/kg {EXCESS_UNIT}"),
+    "Fa_90": ("P6b", f"median F̄_a at 90 W/kg {EXCESS_UNIT}"),
 }
 
 
