@@ -276,23 +276,29 @@ _REPLAY_ERRORS = (AssertionError, KeyError, IndexError, TypeError, ValueError, A
 
 def _check_journal_lines(path: Path) -> None:
     """ValueError naming the journal unless every line is a JSON object with an integer
-    ``op_code`` (Optuna's journal format); a last line without its newline is a write a kill
-    cut short, skipped by Optuna as by this check."""
+    ``op_code`` (Optuna's journal format) ending in a newline. A last line cut short by a kill
+    is refused too, with the way out: Optuna's reader skips it, but its next write would be
+    appended to it and damage the journal for good."""
     if not path.exists():
         return
     try:
-        lines = path.read_text(encoding="utf-8").split("\n")[:-1]  # the last: cut short or ""
+        *lines, cut = path.read_text(encoding="utf-8").split("\n")
         whole = all(
             isinstance(op := json.loads(line), dict) and type(op.get("op_code")) is int
             for line in lines
         )
     except (OSError, ValueError, RecursionError):  # not UTF-8 or not JSON (or nested too deep)
         whole = False
-    if not whole:
+    if not whole or cut:
+        why = (
+            "its last line is cut short (a write a kill interrupted?): remove that line to "
+            "continue the study"
+            if whole
+            else "a line is not one of its JSON operations: damaged or edited"
+        )
         raise ValueError(
-            f"{path}: not an Optuna journal (a line is not one of its JSON operations: damaged "
-            "or edited); it is left untouched. Allowed: the journal python -m train.tune wrote, "
-            "or another --out"
+            f"{path}: not an Optuna journal as python -m train.tune writes it ({why}); it is "
+            "left untouched. Allowed: that journal, or another --out"
         )
 
 

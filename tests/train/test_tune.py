@@ -241,16 +241,22 @@ def test_a_damaged_journal_is_refused_naming_it(tmp_path, damage):
     with journal.open("ab") as handle:
         handle.write(damage if isinstance(damage, bytes) else damage.encode())
     before = journal.read_bytes()
-    with pytest.raises(ValueError, match=rf"^{journal}: (not an Optuna journal|its operations)"):
+    with pytest.raises(ValueError, match=rf"^{journal}: (not an Optuna journal as|its operations)"):
         open_study(config)
     assert journal.read_bytes() == before
 
 
 @needs_optuna
-def test_a_write_a_kill_cut_short_is_skipped_as_optuna_skips_it(tmp_path):
+def test_a_write_a_kill_cut_short_is_named_with_the_way_out(tmp_path):
+    """Optuna's reader skips a last line without its newline, but its next write would be
+    appended to it: refused, saying which line to remove; without it the study continues."""
     from train.tune import open_study
 
     config = _journal_with(tmp_path, dict(SHIPPED["ppo"]), 80.0, SCORES)
-    with (config.out / "study.journal").open("a", encoding="utf-8") as handle:
-        handle.write('{"op_code": 5, "trial_id"')  # no newline: cut short
+    journal = config.out / "study.journal"
+    whole = journal.read_text(encoding="utf-8")
+    journal.write_text(whole + '{"op_code": 5, "trial_id"', encoding="utf-8")
+    with pytest.raises(ValueError, match=r"its last line is cut short .*remove that line"):
+        open_study(config)
+    journal.write_text(whole, encoding="utf-8")
     assert len(open_study(config).trials) == 1
