@@ -524,6 +524,8 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     :func:`_read_weights`); ValueError naming the file at fault."""
     import torch
 
+    from tandem_env.envs.reference import REFERENCE_GRID
+
     folder = resolve_run_dir(run_dir)
     args_file, args = read_run_args(folder, "a folder written by python -m train --algo amortised")
     if args.get("algo") != AMORTISED:
@@ -532,6 +534,11 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
             f"python -m train --algo amortised (its {POLICY_FILE} and weights) that this loads"
         )
     env_id = check_args_env(args_file, args.get("env"))
+    if env_id not in REFERENCE_GRID:
+        raise ValueError(
+            f"{args_file}: env = {env_id!r}; allowed: an env an amortised policy is trained for, "
+            f"{', '.join(REFERENCE_GRID)}"
+        )
     path = folder / POLICY_FILE
     if not path.is_file():
         raise ValueError(f"{folder}: no {POLICY_FILE} (did the run finish?)")

@@ -603,6 +603,18 @@ def test_an_args_file_naming_another_algorithm_is_refused_clearly(
             loader(run_dir)
 
 
+def test_an_args_file_naming_an_env_without_a_table_is_refused(
+    tiny_run: Path, tmp_path: Path
+) -> None:
+    run_dir = _copy(tiny_run, tmp_path)
+    name = "TandemWing-SpeedChange-v0"
+    (run_dir / "TandemWing-LevelFlight-v0").rename(run_dir / name)
+    args_file = run_dir / name / "args.yml"
+    args_file.write_text(args_file.read_text().replace("LevelFlight", "SpeedChange"))
+    with pytest.raises(ValueError, match=rf"^{args_file}: env = .*SpeedChange.*; allowed: an env"):
+        load_policy(run_dir)
+
+
 def test_held_out_evaluation_checks_its_out_before_any_work(
     tiny_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
