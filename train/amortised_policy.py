@@ -416,8 +416,8 @@ def is_amortised_run(run_dir: str | Path) -> bool:
 
 def _refuse(path: Path, what: str) -> ValueError:
     return ValueError(
-        f"{path}: {what}; it is not loaded (allowed: the file python -m train --algo amortised "
-        "wrote there)"
+        f"{path}: {what}; it is not loaded (not as python -m train --algo amortised wrote it: "
+        "damaged or edited; train the run again, minutes)"
     )
 
 
