@@ -454,9 +454,9 @@ def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
         arrays = {name: real_array(data[name], name, "numbers") for name in _ARRAYS}
     except (TypeError, ValueError) as error:
         raise _refuse(path, str(error)) from None
-    n = len(arrays["harmonics"])
-    most = len(training_conditions(env_id))
     centres, switches, domains, harmonics = (arrays[name] for name in _ARRAYS)
+    n = harmonics.shape[0] if harmonics.ndim else 0
+    most = len(training_conditions(env_id))
     shapes = [(len(CONTINUOUS),), (n - 1,), (n, 2), (n, 2)]
     if not 1 <= n <= most or [a.shape for a in arrays.values()] != shapes:
         raise _refuse(

@@ -522,6 +522,7 @@ def _set(index: tuple[int, ...], value: float) -> Any:
         ({"switches": lambda s: [v + 5.0 for v in s]}, r"switches not increasing inside both"),
         ({"centres": _set((0,), 3.0)}, r"centres outside \[-1, 1\]"),
         ({"centres": lambda c: c[:-1]}, r"shapes \[\(25,\).*allowed: \(26,\)"),
+        ({"harmonics": 0.5}, r"shapes \[.*\(\)\]; allowed: \(26,\)"),
         ({"centres": _set((0,), "0")}, r"centres\[0\] = '0' is a string"),
         ({"env_kwargs": {"wingspan": 3}}, r"unknown argument\(s\) 'wingspan'"),
         ({"env_kwargs": [1]}, r"env_kwargs = \[1\]; allowed: a mapping"),
