@@ -4,8 +4,9 @@ line, no traceback) or a documented behaviour, before any computation where it c
 Classes: scheduler values and ports that are not Dask schedulers (loopback servers only, each
 bounded in time); output folders that are files or cannot be written; measured-kinematics files
 that are not UTF-8, repeat a key or a column, are too long, jump, or give radians as degrees;
-bad options of ``speed-change`` and ``study``; the rough edges (progress before the first
-report, the readings rule's words, the budget notice once per setting).
+bad options of ``speed-change`` and ``study``; records ``show`` cannot draw (a stroke or env
+keywords the model refuses) and ``crosscheck --out ''``; the rough edges (progress before the
+first report, the readings rule's words, the budget notice once per setting).
 """
 
 from __future__ import annotations
