@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 from agents.records import Record, RecordError
 from agents.store import read_record
@@ -57,20 +58,36 @@ def load_record(path: Path) -> Record:
         raise ValueError(str(error).splitlines()[0]) from None
 
 
+def record_history(record: Record, path: Path, frames: int = DEFAULT_FRAMES) -> Any:
+    """The record's stroke over one cycle (``frames`` samples), by the model with the record's
+    own env keywords; ValueError in one line naming ``path`` for a record the model refuses (a
+    stroke outside Table 4, a value that is not a finite number, a parameter missing, env
+    keywords that are unknown or out of range): the model's own checks, before any drawing."""
+    from eval.studies.kinematics import history_of
+
+    try:
+        return history_of(record, frames)
+    except KeyError as error:
+        reason = f"its stroke has no parameter {error}"
+    except (TypeError, ValueError) as error:
+        reason = str(error).splitlines()[0]
+    raise ValueError(f"record {path}: cannot show it: {reason}")
+
+
 def show(
     record: Record,
+    history: Any,
     out: Path,
     fmt: str = "gif",
-    frames: int = DEFAULT_FRAMES,
     fps: int = DEFAULT_FPS,
 ) -> tuple[Path, Path]:
-    """Write ``out/<key>.png`` and the animation ``out/<key>.<fmt>`` (atomically); their paths."""
+    """Write ``out/<key>.png`` and the animation ``out/<key>.<fmt>`` (atomically) of the
+    record's ``history`` (:func:`record_history`); their paths."""
     from matplotlib import animation
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     from eval.figures import DPI
-    from eval.studies.kinematics import history_of
     from tandem_env.envs.render import (
         FRAME_DPI,
         FRAME_SIZE,
@@ -80,7 +97,6 @@ def show(
         metrics_line,
     )
 
-    history = history_of(record, frames)
     frame = Frame(
         title=record.label(),
         subtitle=metrics_line(record.reward, record.metrics, record.objective_name),
@@ -159,8 +175,9 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         record = load_record(path)
         out = Path(args.out) if args.out is not None else default_out(path)
         output_directory(out)
+        history = record_history(record, path, args.frames)
     except ValueError as error:
         parser.error(str(error))
-    picture, movie = show(record, out, args.format, args.frames, args.fps)
+    picture, movie = show(record, history, out, args.format, args.fps)
     print(f"wrote {picture} and {movie}", file=sys.stderr)
     return 0

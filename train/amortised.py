@@ -192,8 +192,30 @@ class Settings:
 def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     """The reference series (``tandem_env.envs.reference.ReferenceSeries``) the env of
     ``env_id`` with ``env_kwargs`` is trained on; ValueError naming the value and what is
-    allowed where the table does not describe that problem (module docstring). Nothing is
-    evaluated."""
+    allowed for a condition keyword (the condition is the policy's input) or where the table
+    does not describe that problem (:func:`table_series`). Nothing is evaluated."""
+    from tandem_env.envs.registration import config_class
+
+    series = table_series(env_id, env_kwargs)
+    declared = config_class(env_id).CONDITION
+    condition_words = (declared.keyword, declared.range_keyword, declared.envelope_keyword)
+    given = sorted(set(env_kwargs) & set(condition_words))
+    if given:
+        raise ValueError(
+            f"env_kwargs {given}: the condition is the amortised policy's input, set per "
+            f"stroke; allowed: none of {', '.join(condition_words)}"
+        )
+    return series
+
+
+def table_series(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
+    """The reference series that scores the env of ``env_id`` with ``env_kwargs`` (its problem
+    fingerprint's); ValueError naming the value and what is allowed for an env without a table,
+    a series the table does not hold (objective, planform), and env options that change the
+    problem the table describes (model options, insect, tolerances; those that do not are the
+    penalty, backend, device and the condition's keywords). What ``python -m train --algo
+    amortised`` and ``python -m train.tune`` (whose trials are scored against the table) check
+    before any work; nothing is evaluated."""
     from tandem_env.envs.reference import (
         REFERENCE_GRID,
         load_reference_table,
@@ -205,18 +227,10 @@ def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     check_env_id(env_id, "env")
     if env_id not in REFERENCE_GRID:
         raise ValueError(
-            f"env = {env_id!r} has no reference table to train an amortised policy on; "
-            f"allowed: {', '.join(map(repr, REFERENCE_GRID))}"
+            f"env = {env_id!r} has no reference table; allowed: "
+            f"{', '.join(map(repr, REFERENCE_GRID))}"
         )
     config_type = config_class(env_id)
-    declared = config_type.CONDITION
-    condition_words = (declared.keyword, declared.range_keyword, declared.envelope_keyword)
-    given = sorted(set(env_kwargs) & set(condition_words))
-    if given:
-        raise ValueError(
-            f"env_kwargs {given}: the condition is the amortised policy's input, set per "
-            f"stroke; allowed: none of {', '.join(condition_words)}"
-        )
     config = config_type.from_kwargs(**dict(env_kwargs))
     objective = config_type.OBJECTIVES.choice(config)
     try:
@@ -224,7 +238,8 @@ def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     except FileNotFoundError:
         raise ValueError(
             f"the reference table {reference_path()} is missing; an amortised policy is "
-            "trained on it. Allowed: make it with python -m eval reference"
+            "trained on it and the tuner scores against it. Allowed: make it with python -m "
+            "eval reference"
         ) from None
     planform = config.planform
     series = table.find(env_id, str(objective), problem_fingerprint(config))
@@ -236,16 +251,19 @@ def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     default = config_type.from_kwargs(
         planform=planform, **({} if keyword is None else {keyword: objective})
     )
+    declared = config_type.CONDITION
+    kept = ("penalty", "backend", "device", declared.keyword, declared.range_keyword)
     changed = sorted(
         k
         for k, v in to_jsonable(config).items()
-        if to_jsonable(default).get(k) != v and k not in ("penalty", "backend", "device")
+        if to_jsonable(default).get(k) != v and k not in kept
     )
     raise ValueError(
         f"env_kwargs {dict(env_kwargs)!r} change the problem the reference table describes "
         f"(differing from the default: {', '.join(changed) or 'the model'}); allowed: the default "
         "model options, insect and tolerances, with planform ('tear-drop' or 'real'), the "
-        "objective, penalty_weight, penalty_offset, backend and device"
+        "objective, penalty_weight, penalty_offset, backend and device (and the condition's "
+        "keywords, where the command takes them)"
     )
 
 

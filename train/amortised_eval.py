@@ -328,7 +328,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         if args.records is not None and not Path(args.records).is_dir():
-            raise ValueError(f"--records {args.records} is not a folder; allowed: a records folder")
+            raise ValueError(
+                f"--records {args.records} is not a folder; allowed: the records folder of "
+                "python -m eval reference --out DIR (DIR/records), or no --records (the "
+                "optimiser's times are then left out)"
+            )
+        if args.out is not None:  # checked now, not after the evaluation
+            from tandem_env.io.files import output_directory
+
+            if args.out and Path(args.out).is_dir():
+                raise ValueError(f"--out {args.out!r} is a folder; allowed: a file name")
+            output_directory(args.out and Path(args.out).parent, "--out")
         report = evaluate_held_out(
             args.run,
             polish_budget=args.polish,
@@ -338,7 +348,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as error:
         parser.error(str(error))
     print(format_report(report))
-    if args.out:
+    if args.out is not None:
         from tandem_env.io.files import write_json_atomic
 
         write_json_atomic(args.out, report)

@@ -404,57 +404,156 @@ def regression_outputs(strokes: np.ndarray, centres: np.ndarray) -> np.ndarray:
 
 def is_amortised_run(run_dir: str | Path) -> bool:
     """Whether ``run_dir`` (or the latest run it names) holds an amortised run: its one
-    ``<env>/args.yml`` says ``algo: amortised``."""
+    ``<env>/args.yml`` says ``algo: amortised``, or it holds a ``policy.json`` (only an
+    amortised run writes one: :func:`load_policy` then says what its args.yml gets wrong)."""
+    folder = resolve_run_dir(run_dir)
     try:
-        _, args = read_run_args(resolve_run_dir(run_dir), "")
+        _, args = read_run_args(folder, "")
     except ValueError:
         return False
-    return args.get("algo") == AMORTISED
+    return args.get("algo") == AMORTISED or (folder / POLICY_FILE).is_file()
 
 
-def load_policy(run_dir: str | Path) -> AmortisedPolicy:
-    """The policy of an amortised run folder (or of the latest run it names): its weights
-    read with ``torch.load(weights_only=True)``, ``policy.json`` as JSON; ValueError naming
-    the file at fault."""
-    import torch
+def _refuse(path: Path, what: str) -> ValueError:
+    return ValueError(
+        f"{path}: {what}; it is not loaded (not as python -m train --algo amortised wrote it: "
+        "damaged or edited; train the run again, minutes)"
+    )
 
-    folder = resolve_run_dir(run_dir)
-    args_file, args = read_run_args(folder, "a folder written by python -m train --algo amortised")
-    if args.get("algo") != AMORTISED:
-        raise ValueError(f"{args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}")
-    env_id = check_args_env(args_file, args["env"])
-    path = folder / POLICY_FILE
-    if not path.is_file():
-        raise ValueError(f"{folder}: no {POLICY_FILE} (did the run finish?)")
-    data = read_json(path)
+
+def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
+    """``policy.json``'s ``data`` checked before anything is built (:func:`load_policy`): the
+    network's sizes within training's limits (:class:`~train.amortised.Settings`, their one
+    home), the arrays finite and of consistent shapes, each branch's domain an increasing range
+    inside the env's reference grid, the hand-overs increasing and inside both neighbours'
+    domains, N of each branch 1 or 2, and the counts whole numbers >= 0; ValueError naming
+    ``path`` otherwise."""
+    from tandem_env.envs.reference import REFERENCE_GRID, training_conditions
+    from tandem_env.envs.registration import config_class
+    from tandem_env.physics.checks import count, real_array
+    from train.amortised import Settings
+
     if not isinstance(data, dict) or data.get("format") != POLICY_FORMAT:
         raise ValueError(
             f"{path}: format {data.get('format') if isinstance(data, dict) else None!r}; "
             f"allowed: {POLICY_FORMAT!r} (a run of an earlier version: train it again, "
             "python -m train --algo amortised, minutes)"
         )
+    needed = ("env_id", "env_kwargs", "hidden", "features", "num_timesteps", *_ARRAYS)
+    missing = [key for key in needed if key not in data]
+    if missing:
+        raise _refuse(path, f"no {', '.join(missing)}")
+    if data["env_id"] != env_id:
+        raise _refuse(path, f"env_id = {data['env_id']!r}, but its args.yml says {env_id!r}")
+    try:
+        sizes = Settings(hidden=data["hidden"], features=data["features"])
+        steps = count(data["num_timesteps"], "num_timesteps", low=0)
+        if not isinstance(data["env_kwargs"], dict):
+            raise ValueError(f"env_kwargs = {data['env_kwargs']!r}; allowed: a mapping")
+        config_class(env_id).from_kwargs(**data["env_kwargs"])  # its names, types and ranges
+        arrays = {name: real_array(data[name], name, "numbers") for name in _ARRAYS}
+    except (TypeError, ValueError) as error:
+        raise _refuse(path, str(error)) from None
+    centres, switches, domains, harmonics = (arrays[name] for name in _ARRAYS)
+    n = harmonics.shape[0] if harmonics.ndim else 0
+    most = len(training_conditions(env_id))
+    shapes = [(len(CONTINUOUS),), (n - 1,), (n, 2), (n, 2)]
+    if not 1 <= n <= most or [a.shape for a in arrays.values()] != shapes:
+        raise _refuse(
+            path,
+            f"centres, switches, domains and harmonics of shapes "
+            f"{[a.shape for a in arrays.values()]}; allowed: (26,), (n-1,), (n, 2), (n, 2) for "
+            f"n from 1 to {most} branches",
+        )
+    grid = REFERENCE_GRID[env_id][1]
+    checks = (
+        ("not finite", not all(np.all(np.isfinite(a)) for a in arrays.values())),
+        ("centres outside [-1, 1]", np.any(np.abs(centres) > 1.0)),
+        ("harmonics other than -0.5 (N = 1) and 0.5 (N = 2)", np.any(np.abs(harmonics) != 0.5)),
+        (
+            f"domains not increasing ranges inside the grid's {grid[0]:g} to {grid[-1]:g}",
+            np.any(domains[:, 0] >= domains[:, 1])
+            or np.any(np.diff(domains, axis=0) <= 0)
+            or domains.min() < grid[0] - 1e-9
+            or domains.max() > grid[-1] + 1e-9,
+        ),
+        (
+            "switches not increasing inside both neighbouring branches' domains",
+            np.any(switches < domains[1:, 0]) or np.any(switches > domains[:-1, 1]),
+        ),
+    )
+    for what, wrong in checks:
+        if wrong:
+            raise _refuse(path, f"its arrays are {what}")
+    return {**arrays, "sizes": sizes, "num_timesteps": steps, "env_kwargs": data["env_kwargs"]}
+
+
+def _read_weights(weights: Path, expected: Mapping[str, tuple[int, ...]]) -> Any:
+    """The state_dict in ``weights``, read with ``torch.load(weights_only=True)`` and checked
+    against the ``expected`` names and shapes (the network ``policy.json`` describes) and for
+    finite values; ValueError naming the file, in one line, otherwise (a tampered file is not
+    run: the weights-only unpickler builds tensors and containers only)."""
+    import pickle
+
+    import torch
+
+    try:
+        state = torch.load(weights, map_location="cpu", weights_only=True)
+    except (pickle.UnpicklingError, RuntimeError, EOFError, OSError, ValueError) as error:
+        raise _refuse(
+            weights,
+            f"not a state_dict that torch.load(weights_only=True) reads ({type(error).__name__}; "
+            "damaged or tampered), nothing in it was run",
+        ) from None
+    shapes = (
+        {k: tuple(v.shape) for k, v in state.items() if isinstance(v, torch.Tensor)}
+        if isinstance(state, dict)
+        else None
+    )
+    if shapes is None or len(shapes) != len(state) or shapes != dict(expected):
+        raise _refuse(weights, f"its tensors do not match the network {POLICY_FILE} describes")
+    if not all(bool(torch.isfinite(v).all()) for v in state.values()):
+        raise _refuse(weights, "weights that are not finite")
+    return state
+
+
+def load_policy(run_dir: str | Path) -> AmortisedPolicy:
+    """The policy of an amortised run folder (or of the latest run it names), all of it checked
+    before the network is built: its ``args.yml`` (the algorithm and env), ``policy.json``
+    (JSON, :func:`_policy_fields`) and the weights (``torch.load(weights_only=True)``,
+    :func:`_read_weights`); ValueError naming the file at fault."""
+    import torch
+
+    from tandem_env.envs.reference import REFERENCE_GRID
+
+    folder = resolve_run_dir(run_dir)
+    args_file, args = read_run_args(folder, "a folder written by python -m train --algo amortised")
+    if args.get("algo") != AMORTISED:
+        raise ValueError(
+            f"{args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}, the run of "
+            f"python -m train --algo amortised (its {POLICY_FILE} and weights) that this loads"
+        )
+    env_id = check_args_env(args_file, args.get("env"))
+    if env_id not in REFERENCE_GRID:
+        raise ValueError(
+            f"{args_file}: env = {env_id!r}; allowed: an env an amortised policy is trained for, "
+            f"{', '.join(REFERENCE_GRID)}"
+        )
+    path = folder / POLICY_FILE
+    if not path.is_file():
+        raise ValueError(f"{folder}: no {POLICY_FILE} (did the run finish?)")
+    try:
+        data = read_json(path)
+    except (OSError, ValueError) as error:
+        raise _refuse(path, f"not readable JSON ({error})") from None
+    fields_ = _policy_fields(path, data, env_id)
     weights = folder / f"{env_name(env_id)}{WEIGHTS_SUFFIX}"
     if not weights.is_file():
         raise ValueError(f"{folder}: no weights file {weights.name} (did the run finish?)")
-    try:
-        arrays = {name: np.asarray(data[name], dtype=np.float64) for name in _ARRAYS}
-        n = len(arrays["harmonics"])
-        network = build_networks([int(h) for h in data["hidden"]], int(data.get("features", 0)), n)
-        network.load_state_dict(torch.load(weights, map_location="cpu", weights_only=True))
-        policy = AmortisedPolicy(
-            network=network.eval(),
-            env_id=env_id,
-            env_kwargs=dict(data["env_kwargs"]),
-            run_dir=folder,
-            num_timesteps=int(data["num_timesteps"]),
-            **arrays,
-        )
-    except (KeyError, TypeError, ValueError, RuntimeError) as error:
-        raise ValueError(
-            f"{folder}: its policy files do not load ({type(error).__name__}: {error})"
-        ) from None
-    shapes = dict(zip(_ARRAYS, [(len(CONTINUOUS),), (n - 1,), (n, 2), (n, 2)], strict=True))
-    wrong = any(arrays[name].shape != shape for name, shape in shapes.items())
-    if wrong or not np.all(np.diff(policy.switches) > 0):
-        raise ValueError(f"{path}: centres, harmonics or switches of the wrong shape")
-    return policy
+    sizes, n = fields_.pop("sizes"), len(fields_["harmonics"])
+    with torch.device("meta"):  # the names and shapes only: nothing is allocated
+        skeleton = build_networks(sizes.hidden, sizes.features, n)
+    state = _read_weights(weights, {k: tuple(v.shape) for k, v in skeleton.state_dict().items()})
+    network = build_networks(sizes.hidden, sizes.features, n)
+    network.load_state_dict(state)
+    return AmortisedPolicy(network=network.eval(), env_id=env_id, run_dir=folder, **fields_)

@@ -21,6 +21,8 @@ from __future__ import annotations
 import argparse
 import datetime
 import hashlib
+import json
+import math
 import platform
 import shlex
 import statistics
@@ -147,18 +149,16 @@ class TuneConfig:
     def __post_init__(self) -> None:
         import gymnasium as gym
 
-        from tandem_env.envs.reference import REFERENCE_GRID
         from tandem_env.envs.registration import check_env_id
         from tandem_env.physics.checks import is_integer
+        from train.amortised import table_series
 
         if self.algo not in SEARCH_SPACES:
             raise ValueError(f"algo = {self.algo!r}; allowed: {', '.join(SEARCH_SPACES)}")
         check_env_id(self.env_id, "--env")
-        if self.env_id not in REFERENCE_GRID:
-            raise ValueError(
-                f"--env {self.env_id}: no reference table to score the trials against; "
-                f"allowed: {', '.join(REFERENCE_GRID)}"
-            )
+        # the trials are scored against the reference table: an env it does not describe
+        # (n_time=64, another insect) would train a whole trial to a NaN score
+        table_series(self.env_id, self.env_kwargs)
         for option, value, high in (("--trials", self.trials, MAX_TRIALS),
                                     ("--steps", self.steps, MAX_STEPS)):  # fmt: skip
             if not is_integer(value) or not 1 <= value <= high:
@@ -269,30 +269,127 @@ def best_entry_text(config: TuneConfig, study: Any) -> str:
     return "\n".join(head) + "\n" + body
 
 
+#: The Optuna errors replaying a damaged journal raises (it asserts on unknown operations and
+#: looks up studies and trials by id).
+_REPLAY_ERRORS = (AssertionError, KeyError, IndexError, TypeError, ValueError, AttributeError)
+
+
+def _check_journal_lines(path: Path) -> None:
+    """ValueError naming the journal unless every line is a JSON object with an integer
+    ``op_code`` (Optuna's journal format) ending in a newline. A last line cut short by a kill
+    is refused too, with the way out: Optuna's reader skips it, but its next write would be
+    appended to it and damage the journal for good."""
+    if not path.exists():
+        return
+    try:
+        *lines, cut = path.read_text(encoding="utf-8").split("\n")
+        whole = all(
+            isinstance(op := json.loads(line), dict) and type(op.get("op_code")) is int
+            for line in lines
+        )
+    except (OSError, ValueError, RecursionError):  # not UTF-8 or not JSON (or nested too deep)
+        whole = False
+    if not whole or cut:
+        why = (
+            "its last line is cut short (a write a kill interrupted?): remove that line to "
+            "continue the study"
+            if whole
+            else "a line is not one of its JSON operations: damaged or edited"
+        )
+        raise ValueError(
+            f"{path}: not an Optuna journal as python -m train.tune writes it ({why}); it is "
+            "left untouched. Allowed: that journal, or another --out"
+        )
+
+
+def foreign_trial(algo: str, n_conditions: int, trial: Any) -> str | None:
+    """None if the finished ``trial`` is one this tuner's objective recorded, else why not.
+
+    The check is consistency, not a signature: the trial's parameters are exactly
+    :data:`SEARCH_SPACES`'s for ``algo``, each one of its choices or inside its range; its
+    value is finite and is the median of the scores the objective recorded with it (user
+    attribute ``scores``: one per training condition, ``n_conditions``, each rounded to 0.01,
+    so the median is within 0.005 of the value). A trial of another study or tool appended to
+    the journal, or a value edited by hand, fails it. Whoever can rewrite the journal
+    consistently can as well write ``<algo>.yml`` itself, so a key kept beside them would add
+    nothing."""
+    from tandem_env.physics.checks import is_real
+
+    space = SEARCH_SPACES[algo]
+    if set(trial.params) != set(space):
+        return f"its parameters {sorted(trial.params)} are not the search space's"
+    for name, (kind, values) in space.items():
+        value = trial.params[name]
+        inside = (
+            value in values
+            if kind == "choice"
+            else is_real(value) and values[0] <= value <= values[1]
+        )
+        if not inside:
+            return f"{name} = {value!r} is outside the search space ({values})"
+    scores = trial.user_attrs.get("scores")
+    if not (
+        is_real(trial.value)
+        and math.isfinite(trial.value)
+        and isinstance(scores, list)
+        and len(scores) == n_conditions
+        and all(is_real(x) and math.isfinite(x) for x in scores)
+        and abs(statistics.median(scores) - trial.value) <= 0.005 + 1e-9
+    ):
+        return (
+            f"its value {trial.value!r} is not the median of {n_conditions} finite scores it "
+            f"recorded ({scores!r})"
+        )
+    return None
+
+
 def open_study(config: TuneConfig) -> Any:
     """The Optuna study of ``config`` in ``config.out`` (made, or loaded to continue it);
-    ValueError naming the folder for one that cannot be written or holds a study of other
-    settings, before any training."""
+    ValueError naming the folder or its journal, before any training, for one that cannot be
+    written, holds a study of other settings, is not a readable journal, or holds a finished
+    trial this tuner did not record (:func:`foreign_trial`)."""
     import optuna
+
+    from tandem_env.envs.reference import training_conditions
 
     output_directory(config.out, files=("study.journal", "trials.csv", f"{config.algo}.yml"))
     config.out.mkdir(parents=True, exist_ok=True)  # the journal is opened, not written whole
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    storage = optuna.storages.JournalStorage(
-        optuna.storages.journal.JournalFileBackend(str(config.out / "study.journal"))
-    )
+    journal = config.out / "study.journal"
+    _check_journal_lines(journal)
     name = config.study_name
-    names = set(optuna.get_all_study_names(storage))
+    try:
+        storage = optuna.storages.JournalStorage(
+            optuna.storages.journal.JournalFileBackend(str(journal))
+        )
+        names = set(optuna.get_all_study_names(storage))
+        trials = optuna.load_study(study_name=name, storage=storage).trials if name in names else []
+    except _REPLAY_ERRORS as error:
+        raise ValueError(
+            f"{journal}: its operations do not replay ({type(error).__name__}: damaged or "
+            "edited); it is left untouched. Allowed: the journal python -m train.tune wrote, "
+            "or another --out"
+        ) from None
     if names - {name}:
         raise ValueError(
             f"--out {config.out} holds the study {sorted(names - {name})[0]!r} of other settings "
             "(algo, env, steps, seed or env options); allowed: those settings to continue it, "
             "or another --out"
         )
+    finished = [t for t in trials if t.state == optuna.trial.TrialState.COMPLETE]
+    for trial in finished:
+        why = foreign_trial(config.algo, len(training_conditions(config.env_id)), trial)
+        if why is not None:
+            raise ValueError(
+                f"{journal}: trial {trial.number} is not one this tuner recorded: {why}; the "
+                "journal is left untouched. Allowed: the journal python -m train.tune wrote, or "
+                "another --out"
+            )
     # Seeded by the trials already run too: a resumed study must not propose its first
     # random trials again.
-    before = len(optuna.load_study(study_name=name, storage=storage).trials) if names else 0
-    sampler = optuna.samplers.TPESampler(seed=(config.seed + before) % 2**32, n_startup_trials=5)
+    sampler = optuna.samplers.TPESampler(
+        seed=(config.seed + len(trials)) % 2**32, n_startup_trials=5
+    )
     study = optuna.create_study(
         study_name=name, storage=storage, sampler=sampler, direction="maximize", load_if_exists=True
     )

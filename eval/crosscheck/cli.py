@@ -172,7 +172,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "another in this process",
     )
     parser.add_argument(
-        "--out", type=Path, default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT})"
+        "--out", default=str(DEFAULT_OUT), help=f"output folder (default {DEFAULT_OUT})"
     )
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
 
@@ -247,7 +247,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     try:
         insect, cases, resolutions = plan(args)
         scheduler = None if args.scheduler is None else parse_scheduler(args.scheduler)
-        output_directory(args.out)
+        output_directory(args.out)  # the text given: Path('') would be the current folder
+        args.out = Path(args.out)
         clearance = {case: check_geometry(case, insect) for case in cases}
     except ValueError as error:
         parser.error(str(error))

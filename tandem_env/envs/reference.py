@@ -39,6 +39,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import resources
@@ -50,7 +51,9 @@ from numpy.typing import ArrayLike, NDArray
 from tandem_env.envs.config import EXECUTION_KWARGS, FlightConfig
 from tandem_env.envs.registration import ACCELERATE_ID, LEVEL_FLIGHT_ID, config_class
 from tandem_env.io.files import to_jsonable
+from tandem_env.physics.checks import is_real, real_array
 from tandem_env.physics.insect import PLANFORMS
+from tandem_env.physics.stroke import N_PARAMETERS
 
 __all__ = [
     "REFERENCE_FORMAT",
@@ -192,24 +195,89 @@ class ReferenceTable:
         return None
 
     @classmethod
-    def from_dict(cls, data: Any) -> ReferenceTable:
+    def from_dict(cls, data: Any, *, complete: bool = False) -> ReferenceTable:
+        """The table in ``data`` (the file's JSON), its contents checked once here: ValueError
+        for an unknown task, objective or planform, a repeated series, conditions that are not
+        increasing points of the task's grid, a feasible point whose objective is not finite and
+        positive, or a stroke that is not 28 finite numbers in [-1, 1]. ``complete``: every
+        series of :data:`REFERENCE_GRID` (both planforms) over its whole grid, every point
+        feasible (the packaged table)."""
         if not isinstance(data, Mapping) or data.get("format") != REFERENCE_FORMAT:
             raise ValueError(f"not a reference table of format {REFERENCE_FORMAT!r}")
-        series = []
-        for entry in data["series"]:
-            points = tuple(entry["points"])
-            series.append(
-                ReferenceSeries(
-                    env_id=entry["env_id"],
-                    objective=entry["objective"],
-                    planform=entry["planform"],
-                    fingerprint=entry["fingerprint"],
-                    conditions=tuple(float(p["condition"]) for p in points),
-                    objectives=tuple(float(p["objective"]) for p in points),
-                    points=points,
-                )
+        try:
+            series = tuple(_series(entry) for entry in data["series"])
+            provenance = dict(data["provenance"])
+        except (KeyError, TypeError, ValueError) as error:
+            what = f"no {error}" if isinstance(error, KeyError) else str(error)
+            raise ValueError(f"{what}; allowed: a table python -m eval reference writes") from None
+        names = [(s.env_id, s.objective, s.planform) for s in series]
+        wanted = {(e, o, p) for e, (objectives, _) in REFERENCE_GRID.items()
+                  for o in objectives for p in PLANFORMS}  # fmt: skip
+        missing = sorted(wanted - set(names)) if complete else []
+        if len(set(names)) != len(names) or missing:
+            raise ValueError(
+                f"series {', '.join(map(' '.join, missing)) or 'repeated'}: missing or repeated; "
+                "allowed: one series per task, objective and planform"
+                + (", all of them" if complete else "")
             )
-        return cls(tuple(series), dict(data["provenance"]))
+        for entry in series:
+            grid = REFERENCE_GRID[entry.env_id][1]
+            if complete and (
+                entry.conditions != grid or not all(p["feasible"] is True for p in entry.points)
+            ):
+                raise ValueError(
+                    f"{entry.env_id} {entry.objective} {entry.planform}: conditions "
+                    f"{list(entry.conditions)}, not a feasible optimum at every point of the "
+                    f"grid {list(grid)}"
+                )
+        return cls(series, provenance)
+
+
+def _series(entry: Any) -> ReferenceSeries:
+    """One series of the table's JSON, checked (:meth:`ReferenceTable.from_dict`)."""
+    env_id, objective, planform = entry["env_id"], entry["objective"], entry["planform"]
+    name = f"{env_id} {objective} {planform}"
+    if env_id not in REFERENCE_GRID or objective not in REFERENCE_GRID[env_id][0]:
+        raise ValueError(f"series {name}: not a task and objective of the grid")
+    if planform not in PLANFORMS or not isinstance(entry["fingerprint"], str):
+        raise ValueError(f"series {name}: planform or fingerprint {entry['fingerprint']!r}")
+    points = tuple(entry["points"])
+    grid = REFERENCE_GRID[env_id][1]
+    conditions = tuple(p["condition"] for p in points)
+    if (
+        not points
+        or not all(is_real(c) and any(abs(c - g) < 1e-9 for g in grid) for c in conditions)
+        or not np.all(np.diff(conditions) > 0)
+    ):
+        raise ValueError(
+            f"series {name}: conditions {list(conditions)}; allowed: increasing points of the "
+            f"grid {list(grid)}"
+        )
+    for point in points:
+        where = f"series {name} at {point['condition']:g}"
+        feasible, value = point["feasible"], point["objective"]
+        if not isinstance(feasible, bool) or (
+            feasible and not (is_real(value) and math.isfinite(value) and value > 0)
+        ):
+            raise ValueError(
+                f"{where}: objective {value!r}, feasible {feasible!r}; allowed: feasible true or "
+                "false, and a finite objective above 0 where feasible"
+            )
+        stroke = real_array(point["normalised_stroke"], f"{where}: normalised_stroke", "numbers")
+        if stroke.shape != (N_PARAMETERS,) or not np.all(np.abs(stroke) <= 1.0):
+            raise ValueError(
+                f"{where}: normalised_stroke of shape {stroke.shape}; allowed: 28 finite numbers "
+                "in [-1, 1]"
+            )
+    return ReferenceSeries(
+        env_id=env_id,
+        objective=objective,
+        planform=planform,
+        fingerprint=entry["fingerprint"],
+        conditions=tuple(float(c) for c in conditions),
+        objectives=tuple(float(p["objective"]) if p["feasible"] else math.nan for p in points),
+        points=points,
+    )
 
 
 def reference_path() -> Any:
@@ -219,8 +287,18 @@ def reference_path() -> Any:
 
 @functools.cache
 def load_reference_table() -> ReferenceTable:
-    """The packaged reference table, read once (plain JSON)."""
-    return ReferenceTable.from_dict(json.loads(reference_path().read_text(encoding="utf-8")))
+    """The packaged reference table, read once (plain JSON) and checked once
+    (:meth:`ReferenceTable.from_dict`, ``complete``); ValueError naming the file for one that
+    is not UTF-8 JSON or not a complete table (FileNotFoundError if there is none)."""
+    path = reference_path()
+    try:  # FileNotFoundError passes: the callers say how to make the table
+        return ReferenceTable.from_dict(json.loads(path.read_text(encoding="utf-8")), complete=True)
+    except (ValueError, RecursionError) as error:  # RecursionError: JSON nested too deeply
+        reason = str(error) if isinstance(error, ValueError) else "JSON nested too deeply"
+        raise ValueError(
+            f"{path}: not a readable reference table ({reason}); allowed: the table python -m "
+            "eval reference writes (or the packaged one, reinstalled)"
+        ) from None
 
 
 def _objective(env_id: str, objective: str | None) -> str:
@@ -255,11 +333,12 @@ def reference(
     F̄_v, ``"vertical"``).
     """
     series = reference_series(env_id, objective=objective, planform=planform)
-    values = series.at(condition)
+    given = real_array(condition, "condition", "finite real numbers [the condition's unit]")
+    values = series.at(given)
     if np.isnan(values).any():
         low, high = series.conditions[0], series.conditions[-1]
         raise ValueError(
-            f"condition = {condition!r} is outside the reference grid of {env_id} "
+            f"condition = {condition!r} is not finite or outside the reference grid of {env_id} "
             f"({low:g} to {high:g}); allowed: a value in [{low:g}, {high:g}]"
         )
     return float(values) if values.ndim == 0 else values
@@ -273,14 +352,31 @@ def normalised_score(
 ) -> NDArray[np.float64]:
     """The normalised score (B,) of strokes [-100 to 100 and above; 100 = the reference]:
     ``100 · objective / reference`` where feasible, else ``-100 · min(1, violation)``; NaN
-    where the reference is NaN or not positive (module docstring)."""
-    ref = np.asarray(reference_objective, dtype=float)
-    obj = np.asarray(objective, dtype=float)
-    flies = np.asarray(feasible, dtype=bool)
+    where the reference is NaN or not positive (module docstring).
+
+    ValueError, before any score, for what no stroke can be: ``feasible`` not booleans (``"no"``
+    is not False), a reference that is infinite, a violation that is negative or NaN (a sum of
+    violations is >= 0; +inf is a stroke far from flying, -100), and a feasible stroke whose
+    objective is not finite (an infeasible one's objective is not read)."""
+    ref = real_array(reference_objective, "reference", "real numbers (NaN: none)")
+    obj = real_array(objective, "objective", "real numbers [the objective's unit]")
+    given = np.asarray(feasible)
+    if given.dtype != np.bool_:
+        raise ValueError(f"feasible = {feasible!r}; allowed: booleans (True or False)")
+    excess = real_array(violation, "violation", "real numbers >= 0")
+    flies = np.broadcast_to(given, np.broadcast_shapes(given.shape, obj.shape, excess.shape))
+    problems = (  # what a score reads: the objective where feasible, the violation where not
+        ("reference", ref, np.isinf(ref), "finite or NaN (none)"),
+        ("violation", excess, (excess < 0) | (~flies & np.isnan(excess)), "numbers >= 0"),
+        ("objective", obj, flies & ~np.isfinite(obj), "finite where the stroke is feasible"),
+    )
+    for name, values, bad, allowed in problems:
+        if np.any(bad):
+            shown = np.broadcast_to(values, bad.shape)[bad][0]
+            raise ValueError(f"{name} = {float(shown)!r}; allowed: {allowed}")
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = 100.0 * obj / ref
-    infeasible = -100.0 * np.minimum(1.0, np.asarray(violation, dtype=float))
-    score = np.where(flies, ratio, infeasible)
+    score = np.where(flies, ratio, -100.0 * np.minimum(1.0, excess))
     return np.where(ref > 0, score, np.nan)
 
 

@@ -4,8 +4,9 @@ line, no traceback) or a documented behaviour, before any computation where it c
 Classes: scheduler values and ports that are not Dask schedulers (loopback servers only, each
 bounded in time); output folders that are files or cannot be written; measured-kinematics files
 that are not UTF-8, repeat a key or a column, are too long, jump, or give radians as degrees;
-bad options of ``speed-change`` and ``study``; the rough edges (progress before the first
-report, the readings rule's words, the budget notice once per setting).
+bad options of ``speed-change`` and ``study``; records ``show`` cannot draw (a stroke or env
+keywords the model refuses) and ``crosscheck --out ''``; the rough edges (progress before the
+first report, the readings rule's words, the budget notice once per setting).
 """
 
 from __future__ import annotations
@@ -787,3 +788,72 @@ def test_radians_in_a_csv_declared_as_degrees_are_warned_about(
     assert main(["measured", str(path), "--out", str(tmp_path / "out")]) == 0
     err = capsys.readouterr().err
     assert "from_samples: with degrees=True the sweep and pitch never exceed" in err
+
+
+# --- eval show and eval crosscheck ----------------------------------------------------------------
+@pytest.fixture(scope="module")
+def record_data(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """A record of a tiny optimize run, as its file holds it."""
+    out = tmp_path_factory.mktemp("results")
+    assert main([*OPTIMIZE, "--seeds", "0", "--out", str(out), "--quiet"]) == 0
+    [path] = (out / "records").iterdir()
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def _stroke(name: str, value: object) -> Callable[[dict], None]:
+    def change(data: dict) -> None:
+        if value is None:
+            del data["results"]["stroke"][name]
+        else:
+            data["results"]["stroke"][name] = value
+
+    return change
+
+
+def _env(**env_kwargs: object) -> Callable[[dict], None]:
+    return lambda data: data["job"]["env_kwargs"].update(env_kwargs)
+
+
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        (_stroke("fore_frequency", 500.0), r"fore_frequency = 500 Hz is outside Table 4"),
+        (_stroke("hind_pitch_phase", float("nan")), r"hind_pitch_phase = nan is not finite"),
+        (_stroke("fore_frequency", None), r"its stroke has no parameter 'fore_frequency'"),
+        (_env(n_time=10**8), r"n_time = 100000000; allowed: an integer 8 to"),
+        (_env(wingspan=3), r"unknown argument\(s\) 'wingspan'"),
+    ],
+)
+def test_show_refuses_a_record_the_model_refuses_in_one_line(
+    record_data: dict,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    change: Callable[[dict], None],
+    match: str,
+) -> None:
+    """A record whose checksum and key were made again over the edit (a store reads it) but
+    whose stroke or env keywords the model refuses: one line naming the file, nothing written."""
+    from agents.jobs import Job
+    from agents.records import Record
+
+    data = json.loads(json.dumps(record_data))
+    change(data)
+    job = Job.from_dict(data["job"])
+    record = Record(job=job, key=job.key, results=data["results"], schema=data["schema"])
+    path = tmp_path / "records" / f"{job.key}.json"
+    path.parent.mkdir()
+    path.write_text(json.dumps(record.to_dict()), encoding="utf-8")
+    status, err = _exit_status(["show", str(path), "--frames", "8"], capsys)
+    line = err.strip().splitlines()[-1]
+    assert status == 2 and line.startswith(f"python -m eval show: error: record {path}: ")
+    assert re.search(match, line)
+    assert not (tmp_path / "show").exists()
+
+
+def test_crosscheck_refuses_an_empty_out(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)  # Path('') is the current folder: nothing may land there
+    status, err = _exit_status(["crosscheck", "--grid", "tiny", "--out", ""], capsys)
+    assert status == 2 and "--out '': an empty path" in err
+    assert not any(tmp_path.iterdir())

@@ -476,3 +476,157 @@ def test_record_times_reads_the_tables_records_through_the_store(tmp_path: Path)
     damaged.write_text(damaged.read_text(encoding="utf-8")[:-20], encoding="utf-8")
     with pytest.raises(RecordError, match=f"{damaged}: not a record file"):
         read_record_files([tmp_path / "records"])  # as evaluate_held_out reads them
+
+
+# --- a hostile run folder ----------------------------------------------------------------------
+def _copy(tiny_run: Path, tmp_path: Path) -> Path:
+    import shutil
+
+    return Path(shutil.copytree(tiny_run, tmp_path / tiny_run.name))
+
+
+def _edit_policy(run_dir: Path, **changes: Any) -> Path:
+    path = run_dir / "policy.json"
+    data = json.loads(path.read_text(encoding="utf-8"))
+    for key, change in changes.items():
+        data[key] = change(data[key]) if callable(change) else change
+    path.write_text(json.dumps(data), encoding="utf-8")  # NaN and Infinity as Python writes them
+    return path
+
+
+def _set(index: tuple[int, ...], value: float) -> Any:
+    def change(values: Any) -> Any:
+        array = np.array(values, dtype=object)
+        array[index] = value
+        return array.tolist()
+
+    return change
+
+
+@pytest.mark.parametrize(
+    ("changes", "match"),
+    [
+        # the size limits of training (Settings, their one home), before anything is allocated
+        ({"hidden": [40000, 40000]}, r"hidden = \[40000, 40000\]; allowed: 1 to 8 layer widths"),
+        ({"features": 10**10}, r"features = 10000000000; allowed: an integer from 0 to 1,024"),
+        ({"hidden": "64"}, r"hidden = '64'; allowed"),
+        ({"num_timesteps": float("inf")}, r"num_timesteps = inf; allowed: an integer >= 0"),
+        ({"num_timesteps": -5}, r"num_timesteps = -5; allowed: an integer >= 0"),
+        ({"centres": _set((8,), float("nan"))}, r"its arrays are not finite"),
+        ({"harmonics": _set((0, 0), float("nan"))}, r"its arrays are not finite"),
+        ({"domains": _set((0, 1), float("nan"))}, r"its arrays are not finite"),
+        ({"switches": _set((0,), float("nan"))}, r"its arrays are not finite"),
+        ({"harmonics": _set((0, 1), 7.0)}, r"harmonics other than -0.5 \(N = 1\) and 0.5"),
+        ({"domains": lambda d: [[b, a] for a, b in d]}, r"domains not increasing ranges inside"),
+        ({"domains": _set((0, 0), -50.0)}, r"domains not increasing ranges inside the grid"),
+        ({"switches": lambda s: [v + 5.0 for v in s]}, r"switches not increasing inside both"),
+        ({"centres": _set((0,), 3.0)}, r"centres outside \[-1, 1\]"),
+        ({"centres": lambda c: c[:-1]}, r"shapes \[\(25,\).*allowed: \(26,\)"),
+        ({"harmonics": 0.5}, r"shapes \[.*\(\)\]; allowed: \(26,\)"),
+        ({"centres": _set((0,), "0")}, r"centres\[0\] = '0' is a string"),
+        ({"env_kwargs": {"wingspan": 3}}, r"unknown argument\(s\) 'wingspan'"),
+        ({"env_kwargs": [1]}, r"env_kwargs = \[1\]; allowed: a mapping"),
+        ({"env_id": "TandemWing/Accelerate-v0"}, r"env_id = .*Accelerate.*args.yml says"),
+        ({"format": "x"}, r"format 'x'; allowed: 'tandem_env.amortised-policy/2'"),
+    ],
+)
+def test_a_bad_policy_file_is_refused_naming_it_before_any_work(
+    tiny_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, changes: dict, match: str
+) -> None:
+    run_dir = _copy(tiny_run, tmp_path)
+    path = _edit_policy(run_dir, **changes)
+    # nothing is built: a network of the refused sizes would allocate gigabytes
+    monkeypatch.setattr(amortised_policy, "build_networks", None)
+    with pytest.raises(ValueError, match=match) as info:
+        load_policy(run_dir)
+    assert str(info.value).startswith(f"{path}: ") and "\n" not in str(info.value)
+
+
+def test_a_policy_file_without_a_field_or_not_json_is_refused_naming_it(
+    tiny_run: Path, tmp_path: Path
+) -> None:
+    run_dir = _copy(tiny_run, tmp_path)
+    path = run_dir / "policy.json"
+    data = json.loads(path.read_text(encoding="utf-8"))
+    del data["domains"]
+    for text in (json.dumps(data), "{not json", "[" * 100_000):
+        path.write_text(text, encoding="utf-8")
+        with pytest.raises(ValueError, match=rf"^{path}: (no domains|not readable JSON)"):
+            load_policy(run_dir)
+
+
+@pytest.mark.parametrize(
+    ("damage", "match"),
+    [
+        ("pickle", r"not a state_dict that torch.load\(weights_only=True\) reads"),
+        ("garbage", r"not a state_dict that torch.load\(weights_only=True\) reads"),
+        ("shape", r"its tensors do not match the network policy.json describes"),
+        ("nan", r"weights that are not finite"),
+    ],
+)
+def test_a_tampered_weights_file_is_refused_in_one_line(
+    tiny_run: Path, tmp_path: Path, damage: str, match: str
+) -> None:
+    import pickle
+
+    run_dir = _copy(tiny_run, tmp_path)
+    weights = run_dir / "TandemWing-LevelFlight-v0.pt"
+    state = torch.load(weights, weights_only=True)
+    if damage == "pickle":  # a payload that would run code if unpickled
+        torch.save({"x": _Payload()}, weights, pickle_module=pickle)
+    elif damage == "garbage":
+        weights.write_bytes(b"PK\x03\x04" + b"\x00" * 64)
+    else:
+        key = next(iter(state))
+        state[key] = torch.zeros(3) if damage == "shape" else state[key] * np.nan
+        torch.save(state, weights)
+    with pytest.raises(ValueError, match=match) as info:
+        load_policy(run_dir)
+    message = str(info.value)
+    assert message.startswith(f"{weights}: ") and "\n" not in message
+    assert "weights_only=False" not in message
+
+
+class _Payload:
+    def __reduce__(self) -> Any:
+        return (print, ("ran",))
+
+
+def test_an_args_file_naming_another_algorithm_is_refused_clearly(
+    tiny_run: Path, tmp_path: Path
+) -> None:
+    run_dir = _copy(tiny_run, tmp_path)
+    args_file = run_dir / "TandemWing-LevelFlight-v0" / "args.yml"
+    args_file.write_text(args_file.read_text().replace("algo: amortised", "algo: ppo"))
+    # through the loader of every run folder too: the policy.json says it is an amortised run
+    for loader in (load_policy, load_any_policy):
+        with pytest.raises(ValueError, match=rf"^{args_file}: algo = 'ppo'; allowed: 'amortised'"):
+            loader(run_dir)
+
+
+def test_an_args_file_naming_an_env_without_a_table_is_refused(
+    tiny_run: Path, tmp_path: Path
+) -> None:
+    run_dir = _copy(tiny_run, tmp_path)
+    name = "TandemWing-SpeedChange-v0"
+    (run_dir / "TandemWing-LevelFlight-v0").rename(run_dir / name)
+    args_file = run_dir / name / "args.yml"
+    args_file.write_text(args_file.read_text().replace("LevelFlight", "SpeedChange"))
+    with pytest.raises(ValueError, match=rf"^{args_file}: env = .*SpeedChange.*; allowed: an env"):
+        load_policy(run_dir)
+
+
+def test_held_out_evaluation_checks_its_out_before_any_work(
+    tiny_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from train.amortised_eval import main as evaluate
+
+    for out, match in ((tmp_path, "is a folder; allowed: a file name"),
+                       (tmp_path / "file" / "report.json", "is a file; allowed: a directory"),
+                       ("", "an empty path")):  # fmt: skip
+        (tmp_path / "file").write_text("")
+        with pytest.raises(SystemExit) as stop:
+            evaluate(["--run", str(tiny_run), "--out", str(out)])
+        err = capsys.readouterr()
+        assert stop.value.code == 2 and match in err.err and "Traceback" not in err.err
+        assert err.out == ""  # no evaluation ran

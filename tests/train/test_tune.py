@@ -140,3 +140,123 @@ def test_a_folder_holding_a_study_of_other_settings_is_refused(tmp_path):
         open_study(TuneConfig("ppo", ENV, ENVELOPE, trials=1, steps=2048, seed=0, out=out))
     # the same settings continue it
     open_study(TuneConfig("ppo", ENV, ENVELOPE, trials=2, steps=1024, seed=0, out=out))
+
+
+# --- a hostile journal and env options the table does not cover ----------------------------------
+def test_env_options_the_table_does_not_cover_are_refused_as_by_amortised_training(tmp_path):
+    """The trials are scored against the reference table: n_time=64 would train a whole trial to
+    a NaN score. The check is train.amortised.table_series, the amortised training's own."""
+    from train.amortised import check_env_kwargs
+
+    with pytest.raises(ValueError) as amortised:
+        check_env_kwargs(ENV, {"n_time": 64})
+    with pytest.raises(ValueError) as tuned:
+        TuneConfig("ppo", ENV, {**ENVELOPE, "n_time": 64}, 1, 1024, 0, tmp_path / "study")
+    assert "change the problem the reference table describes" in str(amortised.value)
+    together = "'speed_range': (0.25, 2.0), 'n_time': 64"
+    assert str(tuned.value) == str(amortised.value).replace("'n_time': 64", together)
+    assert not (tmp_path / "study").exists()
+
+
+def _journal_with(tmp_path, params, value, scores, distributions=None):
+    """A study journal of the tiny config holding one finished trial made by hand."""
+    import optuna
+
+    config = TuneConfig("ppo", ENV, ENVELOPE, trials=1, steps=1024, seed=0, out=tmp_path / "s")
+    config.out.mkdir()
+    storage = optuna.storages.JournalStorage(
+        optuna.storages.journal.JournalFileBackend(str(config.out / "study.journal"))
+    )
+    study = optuna.create_study(study_name=config.study_name, storage=storage,
+                                direction="maximize")  # fmt: skip
+    if distributions is None:
+        distributions = {
+            name: optuna.distributions.CategoricalDistribution(values)
+            if kind == "choice"
+            else optuna.distributions.FloatDistribution(*values, log=kind == "log")
+            for name, (kind, values) in SEARCH_SPACES["ppo"].items()
+        }
+    study.add_trial(
+        optuna.trial.create_trial(params=params, distributions=distributions, value=value,
+                                  user_attrs={"scores": scores, "seconds": 1.0})
+    )  # fmt: skip
+    return config
+
+
+SCORES = [50.0, 60.0, 70.0, 80.0, 80.0, 90.0, 95.0, 99.0]  # median 80
+
+
+@needs_optuna
+@pytest.mark.parametrize(
+    ("params", "value", "scores", "match"),
+    [
+        # a forged best: a value its own scores do not give
+        (SHIPPED["ppo"], 250.0, SCORES, r"its value 250.0 is not the median of 8 finite scores"),
+        (SHIPPED["ppo"], 80.0, SCORES[:3], r"its value 80.0 is not the median of 8 finite"),
+        (SHIPPED["ppo"], 80.0, [*SCORES[:7], float("nan")], r"is not the median of 8 finite"),
+        (SHIPPED["ppo"], float("inf"), SCORES, r"its value inf is not the median"),
+        # a trial of another search space
+        ({"x": 1.0}, 80.0, SCORES, r"its parameters \['x'\] are not the search space's"),
+        ({**SHIPPED["ppo"], "n_steps": 3}, 80.0, SCORES, r"n_steps = 3 is outside the search"),
+    ],
+)
+def test_a_foreign_or_forged_trial_in_the_journal_is_refused(tmp_path, params, value, scores,
+                                                             match):  # fmt: skip
+    import optuna
+
+    from train.tune import open_study
+
+    distributions = None
+    if set(params) != set(SHIPPED["ppo"]) or params.get("n_steps") == 3:
+        distributions = {
+            k: optuna.distributions.CategoricalDistribution((v, 2, 4, 8)) for k, v in params.items()
+        }
+    config = _journal_with(tmp_path, dict(params), value, scores, distributions)
+    journal = config.out / "study.journal"
+    before = journal.read_bytes()
+    with pytest.raises(ValueError, match=match) as info:
+        open_study(config)
+    assert str(info.value).startswith(f"{journal}: trial 0 is not one this tuner recorded")
+    assert journal.read_bytes() == before
+
+
+@needs_optuna
+def test_a_trial_the_objective_recorded_is_accepted(tmp_path):
+    from train.tune import open_study
+
+    config = _journal_with(tmp_path, dict(SHIPPED["ppo"]), 80.004, SCORES)
+    assert open_study(config).best_trial.value == pytest.approx(80.004)
+
+
+@needs_optuna
+@pytest.mark.parametrize(
+    "damage",
+    ["{not json\n", '{"op_code": 99}\n', "[1]\n", b"\xff\xfe\n", '{"op_code": 4, "x": 1}\n'],
+)
+def test_a_damaged_journal_is_refused_naming_it(tmp_path, damage):
+    from train.tune import open_study
+
+    config = _journal_with(tmp_path, dict(SHIPPED["ppo"]), 80.0, SCORES)
+    journal = config.out / "study.journal"
+    with journal.open("ab") as handle:
+        handle.write(damage if isinstance(damage, bytes) else damage.encode())
+    before = journal.read_bytes()
+    with pytest.raises(ValueError, match=rf"^{journal}: (not an Optuna journal as|its operations)"):
+        open_study(config)
+    assert journal.read_bytes() == before
+
+
+@needs_optuna
+def test_a_write_a_kill_cut_short_is_named_with_the_way_out(tmp_path):
+    """Optuna's reader skips a last line without its newline, but its next write would be
+    appended to it: refused, saying which line to remove; without it the study continues."""
+    from train.tune import open_study
+
+    config = _journal_with(tmp_path, dict(SHIPPED["ppo"]), 80.0, SCORES)
+    journal = config.out / "study.journal"
+    whole = journal.read_text(encoding="utf-8")
+    journal.write_text(whole + '{"op_code": 5, "trial_id"', encoding="utf-8")
+    with pytest.raises(ValueError, match=r"its last line is cut short .*remove that line"):
+        open_study(config)
+    journal.write_text(whole, encoding="utf-8")
+    assert len(open_study(config).trials) == 1
