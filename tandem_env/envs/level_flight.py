@@ -137,8 +137,10 @@ class LevelFlightEnv(FlightEnv):
     ``Box(-1, 1, (28,), float32)``: the 14 stroke parameters of each wing (fore-wing first,
     ``f, φ_m, θ_m, η_m, φ_0, θ_0, η_0, Φ_φ, Φ_θ, Φ_η, K, N, C_η, β_m``), each mapped linearly
     onto its Table 4 range by :func:`tandem_env.normalised_to_physical` (N = 1 below 0, else 2).
-    Non-finite actions raise ``ValueError``; so do values outside [-1, 1] unless the env was
-    made with ``clip_actions=True``.
+    Non-finite actions raise ``ValueError``; so do values outside [-1, 1] (a stroke outside
+    Table 4 is not silently replaced by another) unless the env was made with
+    ``clip_actions=True``, which clips them: recommended for clients that do not clip their
+    policy's actions to the space (SB3, the zoo and CleanRL do; skrl does not).
 
     ## Observation Space
 

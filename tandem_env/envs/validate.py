@@ -120,8 +120,9 @@ def action_values(arr: np.ndarray, clip: bool) -> np.ndarray:
         row, col = np.argwhere(outside)[0]
         raise ValueError(
             f"action {row}: {PARAMETER_NAMES[col]} = {shown(flat[row, col], -1, 1)} is outside "
-            "the action "
-            "space; allowed: [-1, 1] (make the env with clip_actions=True to clip instead)"
+            "the action space; allowed: [-1, 1]. A client that does not clip its policy's "
+            "actions to the space (skrl, a hand-written loop) should make the env with "
+            "clip_actions=True, which clips them"
         )
     return arr
 
