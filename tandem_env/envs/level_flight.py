@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
+from gymnasium.vector import VectorEnv
 
 from ..physics import SPEED_LIMITS, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
@@ -113,7 +114,8 @@ class LevelFlightCore(FlightCore):
         return values.copy(), np.full(values.shape, self.config.available_power)
 
 
-class LevelFlightVectorEnv(FlightVectorEnv):
+# VectorEnv among the direct bases too: skrl tells a vector env by its class's direct bases.
+class LevelFlightVectorEnv(FlightVectorEnv, VectorEnv):
     """n :class:`LevelFlightEnv` in one batched model call (:class:`~tandem_env.envs.base.FlightVectorEnv`)."""
 
     config_class = LevelFlightConfig
