@@ -10,17 +10,21 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..physics import N_PARAMETERS, PARAMETER_NAMES
 from ..physics.checks import is_integer, is_real, real_array, shown
 
+if TYPE_CHECKING:
+    from .config import FlightConfig
+
 __all__ = [
     "RENDER_MODES",
     "action_array",
     "action_values",
+    "build_config",
     "check_actions",
     "check_count",
     "check_interval",
@@ -157,3 +161,20 @@ def option_value(
             f"{high:g} {unit}"
         )
     return float(value)
+
+
+def build_config(
+    config_class: type[FlightConfig], config: FlightConfig | None, kwargs: dict[str, Any]
+) -> FlightConfig:
+    """The env's config: ``config`` as given, or built from the ``gym.make`` kwargs."""
+    if config is None:
+        return config_class.from_kwargs(**kwargs)
+    if kwargs:
+        raise ValueError(
+            f"give either config= or keyword options, not both; got config and {sorted(kwargs)}"
+        )
+    if not isinstance(config, config_class):
+        raise ValueError(
+            f"config = {config!r}; allowed: a {config_class.__name__} (or keyword options)"
+        )
+    return config
