@@ -10,15 +10,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from ..physics import N_PARAMETERS, PARAMETER_NAMES
 from ..physics.checks import is_integer, is_real, real_array, shown
 
-if TYPE_CHECKING:
-    from .config import FlightConfig
+#: A task's config class (``FlightConfig`` or a subclass; not imported: config.py imports this).
+Config = TypeVar("Config")
 
 __all__ = [
     "RENDER_MODES",
@@ -164,11 +164,12 @@ def option_value(
 
 
 def build_config(
-    config_class: type[FlightConfig], config: FlightConfig | None, kwargs: dict[str, Any]
-) -> FlightConfig:
-    """The env's config: ``config`` as given, or built from the ``gym.make`` kwargs."""
+    config_class: type[Config], config: Config | None, kwargs: dict[str, Any]
+) -> Config:
+    """The env's config: ``config`` as given, or built from the ``gym.make`` kwargs
+    (``config_class.from_kwargs``)."""
     if config is None:
-        return config_class.from_kwargs(**kwargs)
+        return config_class.from_kwargs(**kwargs)  # type: ignore[attr-defined, no-any-return]
     if kwargs:
         raise ValueError(
             f"give either config= or keyword options, not both; got config and {sorted(kwargs)}"
