@@ -210,7 +210,7 @@ def test_every_native_vector_env_names_gymnasiums_vector_env_among_its_direct_ba
     ``type(env).__bases__``) recognise every registered vector env, made as Gymnasium makes it."""
     from tandem_env.envs.registration import ENTRIES
 
-    for env_id in ENTRIES:
+    for env_id in [i for i in ENTRIES if i.startswith("TandemWing/")]:  # this package's
         envs = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
         assert gym.vector.VectorEnv in type(envs).__bases__, (env_id, type(envs).__bases__)
         assert isinstance(envs, gym.vector.VectorEnv) and envs.num_envs == 2
