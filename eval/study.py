@@ -17,7 +17,7 @@ from eval.optimize import add_insect_argument, add_run_arguments, backend_kwargs
 from eval.studies.base import StudyPlan
 from eval.studies.campaigns import CAMPAIGNS, campaigns
 from eval.studies.claims import FLIP_THRESHOLD
-from eval.studies.presets import PRESETS, get_preset
+from eval.studies.presets import OVERRIDES, PRESETS, get_preset, overridden
 from tandem_env.physics.insect import DRAGONFLY, describe_insect, load_insect
 
 NAME = "study"
@@ -82,6 +82,33 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--preset", choices=tuple(PRESETS), default="quick", help="conditions, seeds, budgets"
     )
+    helps = {
+        "speeds": (
+            "V",
+            float,
+            "the level-flight sweep [m/s] (speed and wing-shape studies, readings)",
+        ),
+        "powers": (
+            "P",
+            float,
+            "the available-power sweep [W/kg] (power and wing-shape studies, readings)",
+        ),
+        "seeds": ("SEED", int, "the seeds of every optimisation (convergence study: its runs)"),
+    }
+    for option, (metavar, kind, text) in helps.items():
+        parser.add_argument(
+            f"--{option}",
+            type=kind,
+            nargs="+",
+            metavar=metavar,
+            help=f"{text}; default the preset's",
+        )
+    parser.add_argument(
+        "--budget",
+        type=int,
+        metavar="N",
+        help="model evaluations per optimisation, every task; default the preset's",
+    )
     parser.add_argument(
         "--out", default=None, metavar="DIR", help=f"output directory ({_default_out()})"
     )
@@ -134,14 +161,20 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         # is stored already (then the run only reports that).
         store = RecordStore(args.out)
         writable = store.check(write=False)
+        given = {option: getattr(args, option) for option in OVERRIDES}
         plan = StudyPlan(
-            get_preset(args.preset),
+            overridden(get_preset(args.preset), **given),
             methods,
             figure_format=args.format,
             execution=tuple(backend_kwargs(args).items()),
             insect=DRAGONFLY if args.insect is None else args.insect,
             reading=campaign.reading(args),
         )
+        if args.budget is not None and plan.reading.search is not None:
+            raise ValueError(
+                f"--budget {args.budget}: the reading {plan.reading.name!r} runs its own search "
+                f"({plan.reading.search.describe()}); allowed: --budget or that reading"
+            )
         for method in plan.methods:  # an unknown method or bad setting, before any job
             get_method(method, dict(plan.method_config(method)))
         jobs, title = campaign.first_jobs(args, plan)

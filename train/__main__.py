@@ -29,7 +29,7 @@ with exit_on_bad_environment("python -m train"):
 from tandem_env.io.keyvalue import parse_pairs
 from tandem_env.io.progress_bar import warnings_as_lines
 from train.config import AMORTISED, DEVICES, TRAINERS, TrainConfig
-from train.layout import RunComplete
+from train.layout import Interrupted, RunComplete
 
 EPILOG = """\
 Values of --env-kwargs / --hyperparams are Python literals or YAML scalars: speed=1.5,
@@ -147,9 +147,17 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             with warnings_as_lines():
                 result = train(config)
+    except Interrupted as stop:  # Ctrl-C in training: a checkpoint was saved
+        print(f"{parser.prog}: {stop}", file=sys.stderr)
+        return 130
     except RunComplete as done:
         print(done)
         return 0
+    except KeyboardInterrupt:  # outside the training steps (those stop with Interrupted)
+        print(
+            f"{parser.prog}: interrupted; a run continues from its last checkpoint", file=sys.stderr
+        )
+        return 130
     except ValueError as error:
         parser.error(str(error))
     except OSError as error:  # a disk that fills or a folder made read-only during the run

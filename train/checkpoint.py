@@ -19,12 +19,15 @@ A SAC replay buffer is saved as arrays in an ``.npz`` (:func:`save_replay_buffer
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
+import signal
 import sys
+import threading
 import warnings
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -413,3 +416,53 @@ def save_checkpoint(model: BaseAlgorithm, layout: RunLayout) -> Checkpoint:
     with atomic_path(checkpoint.model) as tmp:
         model.save(tmp)
     return checkpoint
+
+
+class StopOnInterrupt(BaseCallback):
+    """Ctrl-C (SIGINT) while :meth:`catching` stops ``learn`` at the next env step instead of
+    raising KeyboardInterrupt wherever it lands (a traceback, an open progress bar, the steps
+    since the last checkpoint lost); :meth:`save` then checkpoints the last whole iteration.
+
+    The step count goes back to the last rollout's end (:attr:`boundary`): the weights are those
+    trained on the rollouts up to it, and the steps of the unfinished rollout, which nothing
+    learnt from (SAC: whose last transition SB3 does not store), are collected again on resume.
+    A second Ctrl-C raises KeyboardInterrupt at once."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.requested = False
+        self.boundary = 0
+
+    def _init_callback(self) -> None:
+        self.boundary = self.model.num_timesteps
+
+    def _on_rollout_end(self) -> None:
+        self.boundary = self.model.num_timesteps
+
+    def _on_step(self) -> bool:
+        return not self.requested
+
+    def _request(self, signum: int, frame: object) -> None:
+        self.requested = True
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    @contextlib.contextmanager
+    def catching(self) -> Iterator[None]:
+        """Catch SIGINT within the block (in the main thread, unless SIGINT is ignored: a
+        background job's), restoring the previous handler afterwards."""
+        previous = signal.getsignal(signal.SIGINT)
+        if threading.current_thread() is not threading.main_thread() or previous == signal.SIG_IGN:
+            yield
+            return
+        signal.signal(signal.SIGINT, self._request)
+        try:
+            yield
+        finally:
+            signal.signal(signal.SIGINT, previous)
+
+    def save(self, layout: RunLayout, keep: int) -> Checkpoint:
+        """The checkpoint of the last whole iteration, the ``keep`` newest kept."""
+        self.model.num_timesteps = self.boundary
+        checkpoint = save_checkpoint(self.model, layout)
+        prune_checkpoints(layout, keep)
+        return checkpoint

@@ -289,6 +289,19 @@ class RunComplete(Exception):
         )
 
 
+class Interrupted(Exception):
+    """Training stopped by Ctrl-C with a checkpoint saved
+    (:class:`train.checkpoint.StopOnInterrupt`); ``python -m train`` prints the message and
+    exits with status 130."""
+
+    def __init__(self, checkpoint: Checkpoint, resume: str) -> None:
+        self.checkpoint = checkpoint
+        super().__init__(
+            f"interrupted: checkpoint at step {checkpoint.step} saved as {checkpoint.model}; "
+            f"continue with: {resume}"
+        )
+
+
 @dataclass(frozen=True)
 class Checkpoint:
     """One checkpoint: the model after ``step`` env steps and its companions."""

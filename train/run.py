@@ -29,6 +29,7 @@ from tandem_env.io.files import write_json_atomic
 from train.callbacks import PhysicsLogger, ResumableEvalCallback, SaveVecNormalize
 from train.checkpoint import (
     RunCheckpoint,
+    StopOnInterrupt,
     build_model,
     load_checkpoint,
     load_on_copy,
@@ -45,6 +46,7 @@ from train.config import (
 )
 from train.layout import (
     Checkpoint,
+    Interrupted,
     RunComplete,
     RunLayout,
     read_normalizer,
@@ -319,17 +321,25 @@ def _train_planned(plan: TrainPlan) -> TrainResult:
         venv, recorder, eval_env = _run_envs(plan)
         model = _run_model(plan, venv)
         start_step = model.num_timesteps
-        callbacks = CallbackList(_run_callbacks(plan, recorder, eval_env, start_step))
+        stop = StopOnInterrupt()
+        callbacks = CallbackList([*_run_callbacks(plan, recorder, eval_env, start_step), stop])
         started = time.perf_counter()
-        model.learn(
-            plan.target - start_step,
-            callback=callbacks,
-            log_interval=config.log_interval or default_log_interval(config.algo, hp.n_envs),
-            tb_log_name=config.algo.upper(),
-            reset_num_timesteps=plan.checkpoint is None,
-            progress_bar=config.progress_bar,
-        )
+        with stop.catching():
+            model.learn(
+                plan.target - start_step,
+                callback=callbacks,
+                log_interval=config.log_interval or default_log_interval(config.algo, hp.n_envs),
+                tb_log_name=config.algo.upper(),
+                reset_num_timesteps=plan.checkpoint is None,
+                progress_bar=config.progress_bar,
+            )
         wall_time = time.perf_counter() - started
+        if stop.requested:
+            checkpoint = stop.save(layout, KEEP_CHECKPOINTS)
+            venv.close()
+            eval_env.close()
+            resume = f"python -m train --algo {config.algo} --env {config.env_id} --run-dir"
+            raise Interrupted(checkpoint, f"{resume} {layout.run_dir}")
         final = _save_and_evaluate(plan, model, venv, eval_env)
 
     result = TrainResult(

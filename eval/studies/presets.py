@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from tandem_env.envs import AccelerateConfig, LevelFlightConfig, TaskCondition
@@ -273,6 +273,45 @@ TINY = Preset(
     swarm_size=8,
     env_kwargs=(("n_blade", 6), ("n_time", 32)),
 )
+
+
+#: The preset fields each ``python -m eval study`` option sets: the sweeps of a condition (the
+#: wing-shape study's too), the seeds (the convergence study's too), every task's budget.
+OVERRIDES: dict[str, tuple[str, ...]] = {
+    "speeds": ("speeds", "shape_speeds"),
+    "powers": ("powers", "shape_powers"),
+    "seeds": ("seeds", "convergence.seeds"),
+    "budget": tuple(BUDGET_FIELDS.values()),
+}
+
+
+def overridden(preset: Preset, **given: Any) -> Preset:
+    """``preset`` with the values ``given`` on the command line (keys of :data:`OVERRIDES`;
+    None: the preset's), checked by the preset's own checks; ValueError naming the option.
+    The description says what was changed (the report prints it)."""
+    changed = []
+    for option, value in given.items():
+        if value is None:
+            continue
+        values = {
+            name: tuple(value) if isinstance(value, list) else value for name in OVERRIDES[option]
+        }
+        try:
+            if "convergence.seeds" in values:
+                values["convergence"] = replace(
+                    preset.convergence, seeds=values.pop("convergence.seeds")
+                )
+            preset = replace(preset, **values)
+        except ValueError as error:
+            raise ValueError(f"--{option}: {error}") from None
+        shown = " ".join(f"{v:g}" for v in value) if isinstance(value, list) else f"{value}"
+        changed.append(f"--{option} {shown}")
+    if not changed:
+        return preset
+    return replace(
+        preset,
+        description=f"{preset.description}; changed on the command line: {', '.join(changed)}",
+    )
 
 
 def get_preset(name: str) -> Preset:

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
+from gymnasium.vector import VectorEnv
 
 from ..physics import AVAILABLE_POWER_LIMITS, DRAGONFLY, SPEED_LIMITS, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
@@ -137,7 +138,8 @@ class AccelerateCore(FlightCore):
         return np.full(values.shape, self.config.speed), values.copy()
 
 
-class AccelerateVectorEnv(FlightVectorEnv):
+# VectorEnv among the direct bases too: skrl tells a vector env by its class's direct bases.
+class AccelerateVectorEnv(FlightVectorEnv, VectorEnv):
     """n :class:`AccelerateEnv` in one batched model call (:class:`~tandem_env.envs.base.FlightVectorEnv`)."""
 
     config_class = AccelerateConfig

@@ -53,6 +53,7 @@ from .validate import (
     RENDER_MODES,
     action_array,
     action_values,
+    build_config,
     check_actions,
     check_render_mode,
     option_value,
@@ -206,23 +207,6 @@ class FlightCore:
         return FlightProblem(self, ACTION_LOW, ACTION_HIGH)
 
 
-def build_config(
-    config_class: type[FlightConfig], config: FlightConfig | None, kwargs: dict[str, Any]
-) -> FlightConfig:
-    """The env's config: ``config`` as given, or built from the ``gym.make`` kwargs."""
-    if config is None:
-        return config_class.from_kwargs(**kwargs)
-    if kwargs:
-        raise ValueError(
-            f"give either config= or keyword options, not both; got config and {sorted(kwargs)}"
-        )
-    if not isinstance(config, config_class):
-        raise ValueError(
-            f"config = {config!r}; allowed: a {config_class.__name__} (or keyword options)"
-        )
-    return config
-
-
 # --- the vector env --------------------------------------------------------------------------------
 class FlightVectorEnv(RenderWindow, VectorEnv):
     """n sub-envs of a task in ONE batched model call per step (see the module docstring).
@@ -354,6 +338,17 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
             per_env = list(options)
         return self.start(index, lambda k: self._rng(int(index[k])), per_env)
 
+    def autoreset(self, index: np.ndarray) -> Columns:
+        """Start new episodes in the ended sub-envs ``index`` within the step that ended them
+        (the same-step mode, SB3's adapter): unseeded, no options, their reset info columns. Each
+        still shows the stroke just flown until its next step, as a frame drawn after the step
+        is drawn after this reset."""
+        pictures = [self._last[i] for i in index]
+        columns = self.reset_envs(index, [None] * index.size, None)
+        for i, picture in zip(index, pictures, strict=True):
+            self._last[i] = picture
+        return columns
+
     def step_envs(self, index: np.ndarray, actions: Any) -> tuple[Any, np.ndarray]:
         """Validate and evaluate the actions (len(index), 28) of sub-envs ``index`` in one model
         call; (batch, observations after it). The SB3 adapter steps through it."""
@@ -479,10 +474,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
                 infos["final_obs"], infos["_final_obs"] = final_obs, ended.copy()
                 infos["final_info"] = add_columns({}, take_columns(columns, done), done, n)
                 infos["_final_info"] = ended.copy()
-                add_columns(infos, self.reset_envs(done, [None] * done.size, None), done, n)
-                # The stroke just evaluated stays the picture until the next step.
-                for i in done:
-                    self._last[i] = LastStep(batch, int(i))
+                add_columns(infos, self.autoreset(done), done, n)
         else:
             if self._ended.any():
                 raise RuntimeError(

@@ -8,13 +8,14 @@ B = 1, :mod:`tandem_env.envs.base`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, get_args, get_type_hints
 
 import numpy as np
+from gymnasium.vector import VectorEnv
 
-from ..physics import SPEED_LIMITS, Result
+from ..physics import SPEED_LIMITS, ModelOptions, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
-from .config import FlightConfig, normalise_condition
+from .config import MODEL_OPTION_KWARGS, FlightConfig, normalise_condition
 from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
 from .validate import check_real
 
@@ -113,7 +114,8 @@ class LevelFlightCore(FlightCore):
         return values.copy(), np.full(values.shape, self.config.available_power)
 
 
-class LevelFlightVectorEnv(FlightVectorEnv):
+# VectorEnv among the direct bases too: skrl tells a vector env by its class's direct bases.
+class LevelFlightVectorEnv(FlightVectorEnv, VectorEnv):
     """n :class:`LevelFlightEnv` in one batched model call (:class:`~tandem_env.envs.base.FlightVectorEnv`)."""
 
     config_class = LevelFlightConfig
@@ -137,8 +139,10 @@ class LevelFlightEnv(FlightEnv):
     ``Box(-1, 1, (28,), float32)``: the 14 stroke parameters of each wing (fore-wing first,
     ``f, φ_m, θ_m, η_m, φ_0, θ_0, η_0, Φ_φ, Φ_θ, Φ_η, K, N, C_η, β_m``), each mapped linearly
     onto its Table 4 range by :func:`tandem_env.normalised_to_physical` (N = 1 below 0, else 2).
-    Non-finite actions raise ``ValueError``; so do values outside [-1, 1] unless the env was
-    made with ``clip_actions=True``.
+    Non-finite actions raise ``ValueError``; so do values outside [-1, 1] (a stroke outside
+    Table 4 is not silently replaced by another) unless the env was made with
+    ``clip_actions=True``, which clips them: recommended for clients that do not clip their
+    policy's actions to the space (SB3, the zoo and CleanRL do; skrl does not).
 
     ## Observation Space
 
@@ -174,10 +178,8 @@ class LevelFlightEnv(FlightEnv):
 
     ``gym.make("TandemWing/LevelFlight-v0", **kwargs)``, see :class:`LevelFlightConfig` and
     :meth:`FlightConfig.from_kwargs`: ``speed``, ``speed_range``, ``speed_envelope``,
-    ``constraint_tolerance``, ``insect``, ``planform`` ("tear-drop" | "real"), ``options`` or its fields (``n_time``,
-    ``n_blade``, ``induction`` ("coupled" | "isolated" | "none"), ``interference``,
-    ``power_convention`` ("absolute" | "elastic" | "aerodynamic"), ``thrust_split`` ("sign" |
-    "body"), ``spin``, ``hover_inflow`` ("momentum" | "none"), ``tolerance``, ``max_evaluations``), ``penalty`` or
+    ``constraint_tolerance``, ``insect``, ``planform`` ("tear-drop" | "real"), ``options`` or its
+    fields ({model_options}), ``penalty`` or
     ``penalty_weight`` / ``penalty_offset``, ``clip_actions``, ``render_mode``
     ("rgb_array" | "human"). Invalid values raise ``ValueError`` at construction.
 
@@ -189,3 +191,22 @@ class LevelFlightEnv(FlightEnv):
     vector_class = LevelFlightVectorEnv
     config: LevelFlightConfig
     title = "LevelFlight"
+
+
+def model_option_keywords() -> str:
+    """The ``gym.make`` keywords of the model options (:data:`MODEL_OPTION_KWARGS`, every
+    :class:`~tandem_env.physics.ModelOptions` field), each with its choices if it has some, as
+    the env docstrings list them."""
+    hints = get_type_hints(ModelOptions)
+    shown = []
+    for keyword, name in MODEL_OPTION_KWARGS.items():
+        choices = " | ".join(f'"{c}"' for c in get_args(hints[name]))
+        shown.append(f"``{keyword}``" + (f" ({choices})" if choices else ""))
+    return ", ".join(shown)
+
+
+# Generated, so that the list cannot leave out an option (python -OO drops docstrings).
+if LevelFlightEnv.__doc__:
+    LevelFlightEnv.__doc__ = LevelFlightEnv.__doc__.replace(
+        "{model_options}", model_option_keywords()
+    )

@@ -99,7 +99,7 @@ class TandemVecEnv(VecEnv):
         for i in ended:
             infos[i]["terminal_observation"] = final[i].copy()
         if ended.size:
-            columns = self.vector_env.reset_envs(ended, [None] * ended.size, None)
+            columns = self.vector_env.autoreset(ended)  # frames still show the strokes flown
             for i, info in zip(ended, rows(columns, ended.size), strict=True):
                 self.reset_infos[i] = info
         self._observations = self.vector_env.observations

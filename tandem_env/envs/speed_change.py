@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 from gymnasium import spaces
+from gymnasium.vector import VectorEnv
 
 from ..physics import SPEED_LIMITS, stroke_history
 from .base import EnvGenerators, EnvOptions, FlightEnv, FlightVectorEnv, fly
@@ -319,7 +320,8 @@ def frame_for(
     return Frame(title=heading, subtitle=subtitle, history=history)
 
 
-class SpeedChangeVectorEnv(FlightVectorEnv):
+# VectorEnv among the direct bases too: skrl tells a vector env by its class's direct bases.
+class SpeedChangeVectorEnv(FlightVectorEnv, VectorEnv):
     """n :class:`SpeedChangeEnv` in one batched model call per step.
 
     Args: as :class:`~tandem_env.envs.base.FlightVectorEnv` (``num_envs``, ``render_mode``,

@@ -10,17 +10,21 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from ..physics import N_PARAMETERS, PARAMETER_NAMES
 from ..physics.checks import is_integer, is_real, real_array, shown
 
+#: A task's config class (``FlightConfig`` or a subclass; not imported: config.py imports this).
+Config = TypeVar("Config")
+
 __all__ = [
     "RENDER_MODES",
     "action_array",
     "action_values",
+    "build_config",
     "check_actions",
     "check_count",
     "check_interval",
@@ -120,8 +124,9 @@ def action_values(arr: np.ndarray, clip: bool) -> np.ndarray:
         row, col = np.argwhere(outside)[0]
         raise ValueError(
             f"action {row}: {PARAMETER_NAMES[col]} = {shown(flat[row, col], -1, 1)} is outside "
-            "the action "
-            "space; allowed: [-1, 1] (make the env with clip_actions=True to clip instead)"
+            "the action space; allowed: [-1, 1]. A client that does not clip its policy's "
+            "actions to the space (skrl, a hand-written loop) should make the env with "
+            "clip_actions=True, which clips them"
         )
     return arr
 
@@ -156,3 +161,21 @@ def option_value(
             f"{high:g} {unit}"
         )
     return float(value)
+
+
+def build_config(
+    config_class: type[Config], config: Config | None, kwargs: dict[str, Any]
+) -> Config:
+    """The env's config: ``config`` as given, or built from the ``gym.make`` kwargs
+    (``config_class.from_kwargs``)."""
+    if config is None:
+        return config_class.from_kwargs(**kwargs)  # type: ignore[attr-defined, no-any-return]
+    if kwargs:
+        raise ValueError(
+            f"give either config= or keyword options, not both; got config and {sorted(kwargs)}"
+        )
+    if not isinstance(config, config_class):
+        raise ValueError(
+            f"config = {config!r}; allowed: a {config_class.__name__} (or keyword options)"
+        )
+    return config

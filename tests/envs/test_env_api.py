@@ -263,3 +263,28 @@ def _step_once(env_id: str) -> dict:
     env = gym.make(env_id)
     env.reset(seed=0)
     return env.step(np.zeros(28))[4]
+
+
+def test_a_docstring_that_lists_the_model_options_lists_every_one() -> None:
+    """Checked on each registered env class's docstring as Python holds it (written or
+    generated), so a new ``ModelOptions`` field is caught: a docstring that names two or more
+    model-option keywords (``n_time``) lists them, and then names every one of them; one
+    that mentions a single option (``thrust_split``) refers to another's list."""
+    from gymnasium.envs.registration import load_env_creator
+
+    from tandem_env.envs.config import MODEL_OPTION_KWARGS
+    from tandem_env.envs.registration import ENTRIES
+
+    listing = 0
+    for env_id in ENTRIES:
+        spec = gym.spec(env_id)
+        for entry_point in (spec.entry_point, spec.vector_entry_point):
+            doc = load_env_creator(entry_point).__doc__ or ""
+            named = {k for k in MODEL_OPTION_KWARGS if f"``{k}``" in doc}
+            if len(named) > 1:
+                listing += 1
+                assert named == set(MODEL_OPTION_KWARGS), (
+                    entry_point,
+                    set(MODEL_OPTION_KWARGS) - named,
+                )
+    assert listing >= 1  # LevelFlightEnv's

@@ -62,3 +62,27 @@ def test_render_without_a_mode_warns_and_returns_none() -> None:
     env.reset()
     with pytest.warns(UserWarning, match="without a render mode"):
         assert env.render() is None
+
+
+def _coloured(frame: np.ndarray) -> int:
+    """Pixels of the stroke's coloured lines (the empty picture is grey on white)."""
+    return int(np.count_nonzero(np.ptp(frame.astype(int), axis=2) > 60))
+
+
+def test_frames_after_sb3s_reset_inside_the_step_show_the_stroke_just_flown(
+    level_feasible_action,
+) -> None:
+    """SB3's VecEnv resets an ended episode inside ``step`` (every step, here), and video
+    recorders (rl-zoo3, SB3's VecVideoRecorder) draw after it: the frame is of the stroke
+    flown, not an empty "no stroke" picture, until the next step."""
+    from tandem_env.envs.sb3 import make_sb3_vec_env
+
+    venv = make_sb3_vec_env(LEVEL, n_envs=2, seed=0, render_mode="rgb_array")
+    venv.reset()
+    empty = venv.get_images()
+    venv.step(np.stack([level_feasible_action] * 2).astype(np.float32))
+    flown = venv.get_images()
+    for before, after in zip(empty, flown, strict=True):
+        assert _coloured(after) > 10 * max(_coloured(before), 1)
+    assert venv.render().shape[2] == 3  # SB3's tiled picture of them
+    venv.close()

@@ -36,10 +36,14 @@ def test_out_of_range_actions_raise_unless_clipped() -> None:
     action[0], action[27] = 1.5, -3.0
     env = gym.make(LEVEL)
     env.reset()
-    with pytest.raises(
-        ValueError, match=r"outside the action space; allowed: \[-1, 1\].*clip_actions=True"
-    ):
+    # Refused by default, and the message recommends the option to clients that do not clip.
+    advice = r"outside the action space; allowed: \[-1, 1\]\. A client that does not clip .*clip_actions=True"
+    with pytest.raises(ValueError, match=advice):
         env.step(action)
+    vector = gym.make_vec(LEVEL, num_envs=2, vectorization_mode="vector_entry_point")
+    vector.reset(seed=0)
+    with pytest.raises(ValueError, match=advice):
+        vector.step(np.stack([np.zeros(28), np.full(28, 1.2)]))
     clipping = gym.make(LEVEL, clip_actions=True)
     clipping.reset()
     _, _, _, _, info = clipping.step(action)

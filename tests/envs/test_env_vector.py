@@ -203,3 +203,17 @@ def test_vector_env_pickles_and_renders(same) -> None:
     frames = envs.render()
     assert len(frames) == 2 and frames[0].shape == before[0].shape
     envs.close()
+
+
+def test_every_native_vector_env_names_gymnasiums_vector_env_among_its_direct_bases() -> None:
+    """Libraries that tell a vector env by its class's direct bases (skrl's ``wrap_env`` reads
+    ``type(env).__bases__``) recognise every registered vector env, made as Gymnasium makes it."""
+    from tandem_env.envs.registration import ENTRIES
+
+    for env_id in [i for i in ENTRIES if i.startswith("TandemWing/")]:  # this package's
+        envs = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
+        assert gym.vector.VectorEnv in type(envs).__bases__, (env_id, type(envs).__bases__)
+        assert isinstance(envs, gym.vector.VectorEnv) and envs.num_envs == 2
+        assert envs.single_action_space == gym.spaces.Box(-1.0, 1.0, (28,), np.float32)
+        assert envs.metadata["autoreset_mode"] is AutoresetMode.NEXT_STEP
+        envs.close()

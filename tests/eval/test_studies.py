@@ -419,3 +419,36 @@ def test_convergence_splits_report_what_the_records_report(study_dir: Path) -> N
     assert (study_dir / "convergence" / "convergence_splits.md").read_text().count("\n") == len(
         rows
     ) + 2
+
+
+def test_cli_study_takes_speeds_powers_seeds_and_budget(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture
+) -> None:
+    """--speeds/--powers/--seeds/--budget replace the preset's values, checked by its checks
+    (one usage error naming the option, before any file), and reach the records and report."""
+    from eval.__main__ import main
+
+    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    out = tmp_path / "s"
+    for option, values, said in (
+        ("--speeds", ["3"], "--speeds: Preset.speeds = (3.0,); allowed: a non-empty, increasing"),
+        ("--speeds", ["2", "1"], "--speeds: Preset.speeds = (2.0, 1.0)"),
+        ("--powers", ["40"], "--powers: Preset.powers = (40.0,)"),
+        ("--seeds", ["0", "0"], "--seeds: ConvergenceSpec.seeds = (0, 0); allowed: distinct"),
+        ("--budget", ["4"], "--budget: Preset.level_budget = 4; allowed: an integer >= swarm_size"),
+    ):
+        with pytest.raises(SystemExit) as stop:
+            main(["study", "speed", "--preset", "tiny", "--out", str(out), option, *values])
+        assert stop.value.code == 2 and said in capsys.readouterr().err
+    assert not out.exists()
+
+    argv = ["study", "speed", "--preset", "tiny", "--out", str(out), "--quiet"]
+    assert main([*argv, "--speeds", "2", "--seeds", "1", "--budget", "24"]) == 0
+    index = json.loads((out / "speed" / "records.json").read_text())
+    jobs = [entry["job"] for entry in index]
+    assert [(j["condition"], j["seed"], j["budget"], j["preset"]) for j in jobs] == [
+        (2.0, 1, 24, "tiny")
+    ]
+    report = (out / "report.md").read_text()
+    assert "changed on the command line: --speeds 2, --seeds 1, --budget 24" in report
+    assert "seeds [1]; budgets 24 (level) and 24 (accelerating)" in report

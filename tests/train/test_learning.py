@@ -203,3 +203,58 @@ def _fields(config: TrainConfig) -> dict:
     from dataclasses import fields
 
     return {f.name: getattr(config, f.name) for f in fields(config)}
+
+
+def test_ctrl_c_saves_a_checkpoint_says_one_line_and_the_run_resumes(tmp_path: Path) -> None:
+    """Ctrl-C (SIGINT to the process group, as a terminal sends it) stops at the next step,
+    saves a checkpoint at the last whole iteration and exits with 130: no traceback, no tqdm
+    error at exit, and a resume continues from that checkpoint."""
+    command = [sys.executable, "-m", "train", "--algo", "sac", "--env", LEVEL_FLIGHT_ID,
+               "-n", "1000000", "--n-envs", "16", "--seed", "3", "--save-freq", "256",
+               "--eval-freq", "0", "--hyperparams", "learning_starts=64", "gradient_steps=1",
+               "-f", str(tmp_path), "--verbose", "0"]  # fmt: skip  # the progress bar is on
+    layout = RunLayout(tmp_path / "sac" / "TandemWing-LevelFlight-v0_1", LEVEL_FLIGHT_ID)
+    process = subprocess.Popen(
+        command,
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # as a terminal's
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and not layout.checkpoints():
+            assert process.poll() is None, process.communicate()
+            time.sleep(0.2)
+        assert layout.checkpoints(), "no checkpoint before the deadline"
+        os.killpg(process.pid, signal.SIGINT)
+        out, err = process.communicate(timeout=120)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    assert process.returncode == 130, (out, err)
+    assert "Traceback" not in err and "meta_path" not in err, err
+    said = [line for line in err.splitlines() if "interrupted" in line]
+    assert len(said) == 1 and f"--run-dir {layout.run_dir}" in said[0], err
+    last = layout.checkpoints()[-1]
+    assert last.complete(replay_buffer=True, vecnormalize=False)
+    assert str(last.model) in said[0] and last.step % 16 == 0
+    assert not layout.final_model.exists()
+    # The buffer holds exactly the transitions up to the checkpoint's step.
+    with np.load(last.replay_buffer, allow_pickle=False) as buffer:
+        assert buffer["pos"] * 16 == last.step
+
+    config = TrainConfig(
+        algo="sac",
+        env_id=LEVEL_FLIGHT_ID,
+        n_timesteps=last.step + 32,
+        log_folder=tmp_path,
+        run_dir=layout.run_dir,
+        progress_bar=False,
+        verbose=0,
+    )
+    result = train(config)
+    assert result.resumed_from == last.step and result.num_timesteps == last.step + 32
