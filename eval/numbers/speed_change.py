@@ -21,7 +21,8 @@ OPTIMUM_METRICS: tuple[str, ...] = (
 
 def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str, Any]]:
     """The steady schedule's level-flight optima as ``eval speed-change`` makes them (its
-    defaults: optimiser, budget, seed), one ``{speed, objective, feasible, ...}`` per speed."""
+    defaults: optimiser, budget, seed), one ``{speed, objective, feasible, ...}`` per speed,
+    computed now (the record cache off: a cached optimum may come from another BLAS kernel)."""
     from eval import speed_change
     from tandem_env.envs.speed_change_config import SpeedChangeConfig
 
@@ -29,6 +30,7 @@ def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str,
         SpeedChangeConfig.from_kwargs(),
         speeds=speed_change.STEADY_GRID if speeds is None else speeds,
         progress=False,
+        record_cache=False,
     )
     return [
         {
