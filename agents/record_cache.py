@@ -11,10 +11,18 @@ from __future__ import annotations
 
 import os
 import warnings
+from pathlib import Path
 
 from agents.jobs import Job
 from agents.records import Record, RecordWarning
-from agents.store import RecordStore, StoreWriteError, cache_directory
+from agents.store import (
+    CACHE_ENV,
+    RECORDS_DIR,
+    RecordStore,
+    StoreWriteError,
+    cache_directory,
+    unsafe_path,
+)
 
 __all__ = ["CacheOption", "CacheWriter", "cacheable", "record_cache"]
 
@@ -25,14 +33,34 @@ another folder, False or None none."""
 
 
 def record_cache(cache: CacheOption = True) -> RecordStore | None:
-    """The record cache as a store (None when off); ValueError if its folder is a file."""
+    """The record cache as a store whose files must be the user's own (``strict``), or None:
+    when off, or (said in one :class:`RecordWarning` line) when its folder cannot be trusted
+    or used: a file, or a folder (or its ``records``) that :func:`~agents.store.unsafe_path`
+    refuses, owned by another user or writable by others, as ssh refuses such keys."""
     if cache is None or cache is False:
         return None
-    directory = cache_directory() if cache is True else cache
+    directory = Path(cache_directory() if cache is True else cache)
     try:
-        return RecordStore(directory)
-    except ValueError as error:
-        raise ValueError(f"record cache: {error} (or turn the cache off: --no-cache)") from None
+        store = RecordStore(directory, strict=True)
+        why = next(
+            (
+                reason
+                for path in (directory, directory / RECORDS_DIR)
+                if path.exists() and (reason := unsafe_path(path, path.stat())) is not None
+            ),
+            None,
+        )
+    except (ValueError, OSError) as error:
+        why = str(error)
+    if why is None:
+        return store
+    warnings.warn(
+        f"the record cache is not used: {why} (its folder must be a folder of your own that "
+        f"only you can write: set {CACHE_ENV} to one, or turn the cache off: --no-cache)",
+        RecordWarning,
+        stacklevel=3,
+    )
+    return None
 
 
 def cacheable(job: Job) -> bool:

@@ -1,0 +1,150 @@
+"""Stored records checked against the physics before they are reused.
+
+A record's checksum tells damage from a record, not a forged record from a computed one: anyone
+who can write a store (``--out``, the record cache) can edit the results and make the checksum
+again. So the runner (:func:`agents.runner.run_jobs`) serves no stored record without stepping
+its stroke once more: :func:`refuted` re-evaluates every reused record's stroke, in one vector
+env step per task and env configuration (the flight envs take each sub-env's condition at its
+reset), and compares what the record says the stroke gave (:data:`CHECKED`) with what it gives.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from agents.jobs import Job
+from agents.parts import PreparedJob
+from agents.tasks import TaskSpec, get_task
+from tandem_env.io.files import to_jsonable
+
+__all__ = ["ATOL", "CHECKED", "RTOL", "refuted", "stepped_results"]
+
+#: The results a record's stroke decides, compared with their re-evaluation.
+CHECKED = ("reward", "objective", "feasible", "stroke", "metrics")
+#: How closely each number must agree: |stored - recomputed| <= ATOL + RTOL |recomputed|. The
+#: same backend reproduces a record bit for bit; numba and torch, which share records, agree
+#: within 1e-8 (docs/harness.md).
+RTOL, ATOL = 1e-7, 1e-8
+
+
+def stepped_results(reward: float, info: Mapping[str, Any], action: Sequence[float]) -> dict:
+    """The record's results that one env step of its stroke decides (:data:`CHECKED`): the
+    harness's record (:func:`agents.harness.run_job`) and this check read a step one way."""
+    info = dict(info)
+    stroke = info.pop("stroke", None)
+    if stroke is None:  # a task of another action (a plug-in) names its values a0, a1, ...
+        stroke = {f"a{j}": float(v) for j, v in enumerate(action)}
+    return {
+        "reward": float(reward),
+        "objective": float(info.get("objective", reward)),
+        "feasible": bool(info.get("feasible", True)),
+        "stroke": to_jsonable(stroke),
+        "metrics": to_jsonable(info),
+    }
+
+
+def refuted(found: Mapping[str, Any], jobs: Mapping[str, Job | PreparedJob]) -> dict[str, str]:
+    """Key -> why, for each record of ``found`` (key -> :class:`~agents.records.Record`) whose
+    results its stroke does not give, re-evaluated in the env of its job in ``jobs`` (that job's
+    backend and device); a record that cannot be re-evaluated is refuted too (its job runs
+    again, and says why it cannot)."""
+    groups: dict[Any, list[str]] = {}
+    for key in found:
+        job = jobs[key]
+        plain = job.job if isinstance(job, PreparedJob) else job
+        groups.setdefault((plain.task, plain.env_kwargs), []).append(key)
+    why: dict[str, str] = {}
+    for keys in groups.values():
+        job = jobs[keys[0]]
+        spec = job.task if isinstance(job, PreparedJob) else get_task(job.task)
+        plain = job.job if isinstance(job, PreparedJob) else job
+        records = [found[key] for key in keys]
+        try:
+            steps = _step(spec, dict(plain.env_kwargs), records)
+        except (ValueError, RuntimeError, gym.error.Error) as error:
+            why.update({key: f"it cannot be re-evaluated ({error})" for key in keys})
+            continue
+        for key, record, step in zip(keys, records, steps, strict=True):
+            difference = _difference({k: record.results[k] for k in CHECKED}, step)
+            if difference is not None:
+                why[key] = f"its results are not what its stroke gives: {difference}"
+    return why
+
+
+def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Any]) -> list[dict]:
+    """The stepped results of each record's stroke, at its job's condition and seed: one step of
+    one vector env where it takes a condition per sub-env, else one per condition."""
+    keyword = spec.declared_condition.keyword
+    actions = np.asarray([r.normalised_stroke for r in records], dtype=np.float64)
+    values = [spec.condition(r.job.condition).value for r in records]
+    seeds = [r.job.seed for r in records]
+    out: list[dict | None] = [None] * len(records)
+    make = {"vectorization_mode": "vector_entry_point", "autoreset_mode": "Disabled"}
+    env = gym.make_vec(spec.env_id, num_envs=len(records), **make, **kwargs)
+    with contextlib.closing(env):
+        if callable(reset_envs := getattr(env.unwrapped, "reset_envs", None)):
+            reset_envs(np.arange(len(records)), seeds, [{keyword: v} for v in values])
+            rounds = [(None, range(len(records)))]
+        else:  # a plug-in's vector env: every sub-env at one condition, a step per condition
+            rounds = [
+                (v, [i for i, w in enumerate(values) if w == v]) for v in dict.fromkeys(values)
+            ]
+        for value, rows in rounds:
+            if value is not None:
+                env.reset(seed=seeds, options={keyword: value})
+            _, rewards, _, _, infos = env.step(actions)
+            for i in rows:
+                out[i] = stepped_results(rewards[i], _row(infos, i), actions[i])
+    return [step for step in out if step is not None]
+
+
+def _row(infos: Mapping[str, Any], i: int) -> dict[str, Any]:
+    """Sub-env ``i``'s info from a vector env's info columns (their ``_name`` masks left out)."""
+    return {
+        name: _row(value, i) if isinstance(value, Mapping) else value[i]
+        for name, value in infos.items()
+        if not name.startswith("_")
+    }
+
+
+def _difference(stored: Any, recomputed: Any, where: str = "") -> str | None:
+    """The first value of ``stored`` that ``recomputed`` does not match (:data:`RTOL`,
+    :data:`ATOL`), in words; None if all do."""
+    if isinstance(stored, Mapping) and isinstance(recomputed, Mapping):
+        if set(stored) != set(recomputed):
+            extra = sorted(set(stored) ^ set(recomputed))
+            return f"{where or 'results'} differ in their entries {extra}"
+        for name in stored:
+            found = _difference(stored[name], recomputed[name], f"{where}.{name}".lstrip("."))
+            if found is not None:
+                return found
+        return None
+    if isinstance(stored, list) and isinstance(recomputed, list) and len(stored) == len(recomputed):
+        for j, (a, b) in enumerate(zip(stored, recomputed, strict=True)):
+            if (found := _difference(a, b, f"{where}[{j}]")) is not None:
+                return found
+        return None
+    if _close(stored, recomputed):
+        return None
+    return f"{where} = {stored!r}, re-evaluated {recomputed!r}"
+
+
+def _close(a: Any, b: Any) -> bool:
+    numbers = (int, float)
+    if (
+        isinstance(a, bool)
+        or isinstance(b, bool)
+        or not (isinstance(a, numbers) and isinstance(b, numbers))
+    ):
+        return type(a) is type(b) and a == b
+    if math.isnan(a) or math.isnan(b):
+        return math.isnan(a) and math.isnan(b)
+    if math.isinf(a) or math.isinf(b):
+        return a == b
+    return abs(a - b) <= ATOL + RTOL * abs(b)
