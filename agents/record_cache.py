@@ -3,8 +3,10 @@
 Its rules (where it is, what the runner does with it, what it never holds, how to turn it off)
 are in docs/harness.md, "The record cache": a job with no record in ``--out`` takes the
 cache's, and every record computed is written to the cache too (:func:`agents.runner.run_jobs`,
-through a :class:`CacheWriter`). A job whose method takes a path (``policy:RUN_DIR``) is never
-cached (:func:`cacheable`): its result depends on files its key does not hash.
+through a :class:`CacheWriter`). The folder and its files must be the user's own, writable by no
+one else (:func:`record_cache`, :func:`agents.store.unsafe_path`), and what it serves is
+re-evaluated first (:mod:`agents.verify`). A job whose method takes a path (``policy:RUN_DIR``)
+is never cached (:func:`cacheable`): its result depends on files outside the output folder.
 """
 
 from __future__ import annotations
@@ -65,7 +67,7 @@ def record_cache(cache: CacheOption = True) -> RecordStore | None:
 
 def cacheable(job: Job) -> bool:
     """Whether ``job``'s record may be kept in the record cache."""
-    # A method that takes a path (policy:RUN_DIR) reads files its key does not hash.
+    # A method that takes a path (policy:RUN_DIR) reads files relative to where it runs.
     return ":" not in job.method
 
 

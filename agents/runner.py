@@ -275,7 +275,9 @@ def run_jobs(
 
     ``cache`` is the record cache (:data:`~agents.record_cache.CacheOption`): a job with no
     record in ``out_dir`` takes the cache's, copied into ``out_dir``; every record computed is
-    written to both. ``command`` (:class:`~agents.progress.CommandProgress`) is told of every
+    written to both. A record reused from either is re-evaluated first
+    (:func:`agents.verify.refuted`); one whose results its stroke does not give is said in a
+    :class:`~agents.records.RecordWarning` naming its file, and its job runs again. ``command`` (:class:`~agents.progress.CommandProgress`) is told of every
     job this call finishes.
 
     ``summary_csv`` (``python -m eval optimize``) also keeps ``out_dir``'s ``summary.csv``
