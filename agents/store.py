@@ -222,6 +222,8 @@ class RecordStore:
         path = self.path(record.key)
         data = record.to_dict()
         try:
+            if self.strict and path.exists() and unsafe_path(path, path.stat()) is not None:
+                path.unlink()  # the atomic write would pass its mode on to the new record
             write_json_atomic(path, data)
         except OSError as error:
             raise StoreWriteError(path, error) from None

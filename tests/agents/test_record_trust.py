@@ -138,7 +138,7 @@ def test_a_cache_entry_others_can_write_is_not_trusted(
     calls = _count_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=rf"{entry} is writable by others.*not trusted"):
         assert run_jobs([job], tmp_path / "b", progress=False).cached == 0
-    assert calls == [job]
+    assert calls == [job] and entry.stat().st_mode & 0o022 == 0  # replaced by one of our own
     # --out is the user's own choice of folder: its files are not judged by their owner
     (tmp_path / "b" / "records" / f"{job.key}.json").chmod(0o666)
     assert run_jobs([job], tmp_path / "b", progress=False).reused == 1
@@ -155,7 +155,7 @@ def test_a_cache_folder_or_entry_of_another_user_is_not_trusted(
     calls = _count_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=rf"{entry} is owned by uid 12345, not by you"):
         assert run_jobs([job], tmp_path / "b", progress=False).cached == 0
-    assert calls == [job]
+    assert calls == [job] and entry.stat().st_mode & 0o022 == 0  # replaced by one of our own
     os.chown(record_cache, 12345, -1)
     with pytest.warns(RecordWarning, match=rf"{record_cache} is owned by uid 12345"):
         assert run_jobs([job], tmp_path / "c", progress=False).cached == 0
