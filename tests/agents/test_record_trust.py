@@ -155,7 +155,7 @@ def test_a_cache_folder_or_entry_of_another_user_is_not_trusted(
     calls = _count_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=rf"{entry} is owned by uid 12345, not by you"):
         assert run_jobs([job], tmp_path / "b", progress=False).cached == 0
-    assert calls == [job] and entry.stat().st_mode & 0o022 == 0  # replaced by one of our own
+    assert calls == [job] and entry.stat().st_uid == os.geteuid()  # replaced by one of ours
     os.chown(record_cache, 12345, -1)
     with pytest.warns(RecordWarning, match=rf"{record_cache} is owned by uid 12345"):
         assert run_jobs([job], tmp_path / "c", progress=False).cached == 0
