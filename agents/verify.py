@@ -31,6 +31,8 @@ CHECKED = ("reward", "objective", "feasible", "stroke", "metrics")
 #: same backend reproduces a record bit for bit; numba and torch, which share records, agree
 #: within 1e-8 (docs/harness.md).
 RTOL, ATOL = 1e-7, 1e-8
+#: The most records re-evaluated in one step (the model takes up to 10 000 strokes a batch).
+_BATCH = 1024
 
 
 def stepped_results(reward: float, info: Mapping[str, Any], action: Sequence[float]) -> dict:
@@ -54,21 +56,28 @@ def refuted(found: Mapping[str, Any], jobs: Mapping[str, Job | PreparedJob]) -> 
     results its stroke does not give, re-evaluated in the env of its job in ``jobs`` (that job's
     backend and device); a record that cannot be re-evaluated is refuted too (its job runs
     again, and says why it cannot)."""
-    groups: dict[Any, list[str]] = {}
+    groups: dict[Any, list[list[str]]] = {}  # task and env keywords -> batches of keys
     for key in found:
         job = jobs[key]
         plain = job.job if isinstance(job, PreparedJob) else job
-        groups.setdefault((plain.task, plain.env_kwargs), []).append(key)
+        batches = groups.setdefault((plain.task, plain.env_kwargs), [[]])
+        if len(batches[-1]) == _BATCH:
+            batches.append([])
+        batches[-1].append(key)
     why: dict[str, str] = {}
-    for keys in groups.values():
+    for keys in (batch for batches in groups.values() for batch in batches):
         job = jobs[keys[0]]
-        spec = job.task if isinstance(job, PreparedJob) else get_task(job.task)
         plain = job.job if isinstance(job, PreparedJob) else job
         records = [found[key] for key in keys]
         try:
+            spec = job.task if isinstance(job, PreparedJob) else get_task(job.task)
             steps = _step(spec, dict(plain.env_kwargs), records)
-        except (ValueError, RuntimeError, gym.error.Error) as error:
-            why.update({key: f"it cannot be re-evaluated ({error})" for key in keys})
+        except (ValueError, TypeError, IndexError, RuntimeError, gym.error.Error) as error:
+            if len(keys) == 1:
+                why[keys[0]] = f"it cannot be re-evaluated ({error})"
+            else:  # one record's stroke (out of the box, of another length) fails them all
+                for key in keys:
+                    why.update(refuted({key: found[key]}, {key: jobs[key]}))
             continue
         for key, record, step in zip(keys, records, steps, strict=True):
             difference = _difference({k: record.results[k] for k in CHECKED}, step)

@@ -108,6 +108,10 @@ def test_records_reused_at_once_are_checked_in_one_model_step(
     edited = Record(jobs[0], key, {**summary.records[key].results, "normalised_stroke": stroke})
     why = refuted({key: edited}, {key: jobs[0]})
     assert list(why) == [key] and "re-evaluated" in why[key]
+    # A stroke that cannot be stepped (outside the action box) is refuted alone, not its batch.
+    outside = Record(jobs[0], key, {**edited.results, "normalised_stroke": [5.0] * len(stroke)})
+    why = refuted({**summary.records, key: outside}, {j.key: j for j in jobs})
+    assert list(why) == [key] and "cannot be re-evaluated" in why[key]
 
 
 def test_a_cache_folder_others_can_write_is_not_used(
