@@ -450,8 +450,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             + f", {record.evaluations} evaluations, {record.wall_time:.1f} s"
         )
         print(f"  {describe_certificate(record.certificate)}")
+    hint = " (--rerun runs them again)" if summary.reused else ""
     print(
-        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.describe(Path(plan.out))}",
+        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.describe(Path(plan.out))}"
+        + hint,
         file=sys.stderr,
     )
     return 0

@@ -229,7 +229,7 @@ def test_rerun_computes_again_and_says_so(
     assert main(argv) == 0 and len(calls) == 1
     capsys.readouterr()
     assert main([*argv, "--no-cache"]) == 0 and len(calls) == 1  # --out holds it: reused
-    assert f"0 run, 1 reused from {out}" in capsys.readouterr().err
+    assert f"0 run, 1 reused from {out} (--rerun runs them again)" in capsys.readouterr().err
     before = read_record_files([out])[0]
     assert main([*argv, "--rerun"]) == 0 and len(calls) == 2
     assert f"1 run again (--rerun: 1 record(s) in {out} replaced)" in capsys.readouterr().err
