@@ -20,6 +20,7 @@ import numpy as np
 
 from agents.jobs import Job
 from agents.parts import PreparedJob
+from agents.records import Record
 from agents.tasks import TaskSpec, get_task
 from tandem_env.io.files import to_jsonable
 
@@ -51,11 +52,11 @@ def stepped_results(reward: float, info: Mapping[str, Any], action: Sequence[flo
     }
 
 
-def refuted(found: Mapping[str, Any], jobs: Mapping[str, Job | PreparedJob]) -> dict[str, str]:
-    """Key -> why, for each record of ``found`` (key -> :class:`~agents.records.Record`) whose
-    results its stroke does not give, re-evaluated in the env of its job in ``jobs`` (that job's
-    backend and device); a record that cannot be re-evaluated is refuted too (its job runs
-    again, and says why it cannot)."""
+def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) -> dict[str, str]:
+    """Key -> why, for each record of ``found`` (key -> record) whose results its stroke does
+    not give, re-evaluated in the env of its job in ``jobs`` (that job's backend and device); a
+    record that cannot be re-evaluated is refuted too (its job runs again, and says why it
+    cannot)."""
     groups: dict[Any, list[list[str]]] = {}  # task and env keywords -> batches of keys
     for key in found:
         job = jobs[key]
@@ -86,7 +87,7 @@ def refuted(found: Mapping[str, Any], jobs: Mapping[str, Job | PreparedJob]) -> 
     return why
 
 
-def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Any]) -> list[dict]:
+def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Record]) -> list[dict]:
     """The stepped results of each record's stroke, at its job's condition and seed: one step of
     one vector env where it takes a condition per sub-env, else one per condition."""
     keyword = spec.declared_condition.keyword
