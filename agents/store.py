@@ -156,7 +156,7 @@ class RecordStore:
 
     Raises ValueError when ``directory`` (or its ``records``) exists and is not a directory.
     ``strict`` (the record cache, shared): a record file that :func:`unsafe_path` refuses is
-    not trusted (:meth:`load`).
+    not trusted (:meth:`load`), and :meth:`save` writes folders and files that it accepts.
     """
 
     def __init__(self, directory: str | os.PathLike[str], *, strict: bool = False) -> None:
@@ -222,9 +222,12 @@ class RecordStore:
         path = self.path(record.key)
         data = record.to_dict()
         try:
-            if self.strict and path.exists() and unsafe_path(path, path.stat()) is not None:
-                path.unlink()  # the atomic write would pass its mode on to the new record
+            if self.strict:  # the user's alone (unsafe_path), whatever the umask
+                self.directory.mkdir(mode=0o700, parents=True, exist_ok=True)
+                path.parent.mkdir(mode=0o700, exist_ok=True)
             write_json_atomic(path, data)
+            if self.strict:  # a new file, ours; not the mode of the one it replaced
+                path.chmod(stat.S_IMODE(path.stat().st_mode) & ~(stat.S_IWGRP | stat.S_IWOTH))
         except OSError as error:
             raise StoreWriteError(path, error) from None
         return path

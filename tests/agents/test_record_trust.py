@@ -148,6 +148,23 @@ def test_a_cache_entry_others_can_write_is_not_trusted(
     assert run_jobs([job], tmp_path / "b", progress=False).reused == 1
 
 
+def test_the_cache_it_writes_is_the_users_alone_whatever_the_umask(tmp_path: Path) -> None:
+    """A group-writable umask (002, common with a group per user) would make every folder and
+    entry the cache writes one it refuses to read."""
+    cache = tmp_path / "fresh" / "cache"
+    previous = os.umask(0o002)
+    try:
+        assert run_jobs([_job()], tmp_path / "a", progress=False, cache=cache).ran == 1
+    finally:
+        os.umask(previous)
+    entry = RecordStore(cache).path(_job().key)
+    for path in (cache, entry.parent, entry):
+        assert path.stat().st_mode & 0o022 == 0, path
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RecordWarning)
+        assert run_jobs([_job()], tmp_path / "b", progress=False, cache=cache).cached == 1
+
+
 @pytest.mark.skipif(os.geteuid() != 0, reason="giving a file to another user needs root")
 def test_a_cache_folder_or_entry_of_another_user_is_not_trusted(
     tmp_path: Path, record_cache: Path, monkeypatch: pytest.MonkeyPatch
