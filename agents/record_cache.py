@@ -36,33 +36,36 @@ another folder, False or None none."""
 
 def record_cache(cache: CacheOption = True) -> RecordStore | None:
     """The record cache as a store whose files must be the user's own (``strict``), or None:
-    when off, or (said in one :class:`RecordWarning` line) when its folder cannot be trusted
-    or used: a file, or a folder (or its ``records``) that :func:`~agents.store.unsafe_path`
-    refuses, owned by another user or writable by others, as ssh refuses such keys."""
+    when off, or (said once per process, in one :class:`RecordWarning` line) when its folder
+    cannot be used or trusted: not a folder, or a folder (or its ``records``) that
+    :func:`~agents.store.unsafe_path` refuses, owned by another user or writable by others, as
+    ssh refuses such keys."""
     if cache is None or cache is False:
         return None
     directory = Path(cache_directory() if cache is True else cache)
-    try:
-        store = RecordStore(directory, strict=True)
-        why = next(
-            (
-                reason
-                for path in (directory, directory / RECORDS_DIR)
-                if path.exists() and (reason := unsafe_path(path, path.stat())) is not None
-            ),
-            None,
-        )
-    except (ValueError, OSError) as error:
-        why = str(error)
-    if why is None:
-        return store
-    warnings.warn(
-        f"the record cache is not used: {why} (its folder must be a folder of your own that "
-        f"only you can write: set {CACHE_ENV} to one, or turn the cache off: --no-cache)",
-        RecordWarning,
-        stacklevel=3,
+    why = None
+    for path in (directory, directory / RECORDS_DIR):
+        try:
+            if path.exists():
+                why = unsafe_path(path, path.stat()) if path.is_dir() else f"{path} is not a folder"
+        except OSError as error:
+            why = f"{path}: {error.strerror or error}"
+        if why is not None:
+            break
+    else:
+        return RecordStore(directory, strict=True)
+    message = (
+        f"the record cache is not used: {why} (allowed: a folder of your own that only you can "
+        f"write; set {CACHE_ENV} to one, or turn the cache off: --no-cache)"
     )
+    if message not in _SAID:  # once, not once per phase of a command
+        _SAID.add(message)
+        warnings.warn(message, RecordWarning, stacklevel=3)
     return None
+
+
+#: The warnings :func:`record_cache` has given in this process.
+_SAID: set[str] = set()
 
 
 def cacheable(job: Job) -> bool:

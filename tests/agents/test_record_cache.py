@@ -182,7 +182,9 @@ def test_a_cache_that_cannot_be_used_is_said(
     afile.write_text("")
     monkeypatch.setenv(CACHE_ENV, str(afile))
     # one warning, and the run goes on without the cache (tests/agents/test_record_trust.py)
-    with pytest.warns(RecordWarning, match=r"record cache is not used: .*cache-file is a file"):
+    with pytest.warns(
+        RecordWarning, match=r"record cache is not used: .*cache-file is not a folder"
+    ):
         assert run_jobs([_job()], tmp_path / "a", progress=False).ran == 1
     assert afile.read_text() == ""
 

@@ -231,7 +231,7 @@ def test_a_cache_folder_that_is_a_file_is_said_in_one_line(
             "--seeds", "0", "--out", str(tmp_path / "out")]  # fmt: skip
     assert main(argv) == 0  # computed, without the cache
     err = capsys.readouterr().err
-    assert f"RecordWarning: the record cache is not used: {afile} is a file" in err
+    assert f"RecordWarning: the record cache is not used: {afile} is not a folder" in err
     assert "Traceback" not in err and afile.read_text() == ""
 
 
