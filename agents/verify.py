@@ -5,7 +5,8 @@ who can write a store (``--out``, the record cache) can edit the results and mak
 again. So the runner (:func:`agents.runner.run_jobs`) serves no stored record without stepping
 its stroke once more: :func:`refuted` re-evaluates every reused record's stroke, in one vector
 env step per task and env configuration (the flight envs take each sub-env's condition at its
-reset), and compares what the record says the stroke gave (:data:`CHECKED`) with what it gives.
+reset; another task's records one by one, as the harness made them), and compares what the
+record says the stroke gave (:data:`CHECKED`) with what it gives.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from agents.evaluator import reevaluate
 from agents.jobs import Job
 from agents.parts import PreparedJob
 from agents.records import Record
@@ -89,29 +91,30 @@ def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) 
 
 def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Record]) -> list[dict]:
     """The stepped results of each record's stroke, at its job's condition and seed: one step of
-    one vector env where it takes a condition per sub-env, else one per condition."""
+    one vector env of the task where it takes a condition per sub-env (the flight envs), else
+    the harness's own re-evaluation in a single env per record (a plug-in's task)."""
     keyword = spec.declared_condition.keyword
     actions = np.asarray([r.normalised_stroke for r in records], dtype=np.float64)
-    values = [spec.condition(r.job.condition).value for r in records]
-    seeds = [r.job.seed for r in records]
-    out: list[dict | None] = [None] * len(records)
     make = {"vectorization_mode": "vector_entry_point", "autoreset_mode": "Disabled"}
     env = gym.make_vec(spec.env_id, num_envs=len(records), **make, **kwargs)
     with contextlib.closing(env):
         if callable(reset_envs := getattr(env.unwrapped, "reset_envs", None)):
-            reset_envs(np.arange(len(records)), seeds, [{keyword: v} for v in values])
-            rounds = [(None, range(len(records)))]
-        else:  # a plug-in's vector env: every sub-env at one condition, a step per condition
-            rounds = [
-                (v, [i for i, w in enumerate(values) if w == v]) for v in dict.fromkeys(values)
-            ]
-        for value, rows in rounds:
-            if value is not None:
-                env.reset(seed=seeds, options={keyword: value})
+            options = [{keyword: spec.condition(r.job.condition).value} for r in records]
+            reset_envs(np.arange(len(records)), [r.job.seed for r in records], options)
             _, rewards, _, _, infos = env.step(actions)
-            for i in rows:
-                out[i] = stepped_results(rewards[i], _row(infos, i), actions[i])
-    return [step for step in out if step is not None]
+            return [
+                stepped_results(rewards[i], _row(infos, i), actions[i]) for i in range(len(records))
+            ]
+    return [_single(spec, kwargs, r, a) for r, a in zip(records, actions, strict=True)]
+
+
+def _single(spec: TaskSpec, kwargs: dict[str, Any], record: Record, action: np.ndarray) -> dict:
+    """A record's stroke re-evaluated as :func:`agents.harness.run_job` evaluated it."""
+    condition = spec.condition(record.job.condition)
+    made = {**kwargs, condition.name: condition.value}
+    with gym.make(spec.env_id, disable_env_checker=True, **made) as env:
+        again = reevaluate(env, spec, condition, record.job.seed, action)
+    return stepped_results(again.reward, again.info, action)
 
 
 def _row(infos: Mapping[str, Any], i: int) -> dict[str, Any]:

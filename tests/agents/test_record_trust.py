@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 import threading
 import warnings
 from pathlib import Path
@@ -25,6 +26,9 @@ from agents.runner import run_jobs
 from agents.store import CACHE_ENV, RecordStore, read_record, read_record_files
 from agents.verify import refuted
 from eval.__main__ import main
+
+sys.path.insert(0, str(Path(__file__).parent))
+from analytic_envs import register_analytic
 
 SMALL = {"env_kwargs": {"n_blade": 6, "n_time": 32}, "method_config": {"swarm_size": 8}}
 
@@ -112,6 +116,24 @@ def test_records_reused_at_once_are_checked_in_one_model_step(
     outside = Record(jobs[0], key, {**edited.results, "normalised_stroke": [5.0] * len(stroke)})
     why = refuted({**summary.records, key: outside}, {j.key: j for j in jobs})
     assert list(why) == [key] and "cannot be re-evaluated" in why[key]
+
+
+def test_a_plugin_tasks_records_are_checked_as_the_harness_made_them(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A task whose vector env takes one condition for all sub-envs (tests/agents/analytic_envs)
+    has its records re-evaluated one by one in its single env, as the harness made them."""
+    register_analytic()
+    job = Job("random", "sphere", 0.3, 8, 0, method_config={"batch_size": 4})
+    run_jobs([job], tmp_path / "a", progress=False)
+    calls = _count_calls(monkeypatch)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RecordWarning)
+        assert run_jobs([job], tmp_path / "a", progress=False).reused == 1 and calls == []
+    entry = RecordStore(tmp_path / "a").path(job.key)
+    _forge(entry, objective=0.0, reward=0.0)  # the sphere's maximum, claimed
+    with pytest.warns(RecordWarning, match=rf"{entry}: its results are not what its stroke"):
+        assert run_jobs([job], tmp_path / "a", progress=False).ran == 1 and calls == [job]
 
 
 def test_a_cache_folder_others_can_write_is_not_used(
