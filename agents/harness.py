@@ -54,6 +54,7 @@ from agents.parts import (
 from agents.polish import env_problem, polishable, split_settings, task_problem
 from agents.records import CERTIFICATE, STARTS, Record, package_versions
 from agents.tasks import TaskSpec, get_task
+from agents.verify import stepped_results
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW, as_action_type
 from tandem_env.io.files import to_jsonable
 from tandem_env.io.progress_bar import ProgressBar, Reporter
@@ -302,24 +303,16 @@ def _results(
             RuntimeWarning,
             stacklevel=3,
         )
-    info = dict(again.info)
-    stroke = info.pop("stroke", None)
-    if stroke is None:
-        stroke = {f"a{j}": float(v) for j, v in enumerate(action)}
     return {
         "env_id": prepared.task.env_id,
         "objective_name": prepared.objective_name,
         "condition_name": prepared.condition.name,
         "condition_unit": prepared.condition.unit,
         "evaluations": chosen.evaluations,
-        "objective": float(info.get("objective", again.reward)),
-        "reward": again.reward,
+        **stepped_results(again.reward, again.info, action),  # what a reuse checks again
         "search_reward": search_reward,
-        "feasible": bool(info.get("feasible", True)),
         "selection": selection,
-        "stroke": to_jsonable(stroke),
         "normalised_stroke": action.tolist(),
-        "metrics": to_jsonable(info),
         "history": [[int(e), float(b)] for e, b in history],
         "wall_time": 0.0,
         "method_settings": to_jsonable(_method_settings(prepared, chosen)),

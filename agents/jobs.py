@@ -21,7 +21,7 @@ from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
 from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import count, is_real
 
-__all__ = ["MAX_BUDGET", "OLD_SCHEMAS", "SCHEMA", "FrozenMapping", "Job"]
+__all__ = ["MAX_BUDGET", "OLD_SCHEMAS", "SCHEMA", "FrozenMapping", "Job", "method_identity"]
 
 #: Identifies record files (and their version) among other JSON files.
 SCHEMA = "tandem_env.harness-record/5"
@@ -95,6 +95,24 @@ def _canonical_env_kwargs(value: Any) -> Any:
     return items
 
 
+def method_identity(spec: str, config: Mapping[str, Any]) -> str:
+    """The identity of the files the method ``spec`` (with settings ``config``) reads: its
+    ``identity()`` (``policy:RUN_DIR``: a digest of the trained run), asked only of a method that
+    takes a path (``name:ARGUMENT``); empty for the others, and for a method that cannot be made
+    (the harness refuses its job, saying why)."""
+    if ":" not in spec:
+        return ""
+    from agents.methods import get_method
+    from agents.polish_config import split_settings
+
+    try:
+        method = get_method(spec, split_settings(spec, dict(config))[1])
+        identity = getattr(method, "identity", None)
+        return str(identity()) if callable(identity) else ""
+    except (ValueError, TypeError, NotImplementedError, OSError):
+        return ""
+
+
 @dataclass(frozen=True)
 class Job:
     """One harness run (one seed) and everything that decides its result."""
@@ -118,6 +136,11 @@ class Job:
     preset: str = ""
     """The study preset the job belongs to (part of the key, so presets never share records);
     empty for a run outside the studies (``python -m eval optimize``)."""
+    method_identity: str | None = None
+    """What the files a method reads hold (``policy:RUN_DIR``: a digest of the trained run), so
+    that a newer run is another job under another key; when not given, asked of the method (its
+    optional ``identity()``, :func:`method_identity`). Empty for a method that reads no files,
+    and then left out of the job's dict and key (those keys are what they always were)."""
 
     def __post_init__(self) -> None:
         # The one structural check of a job, where it is made (the CLI, a study, a record file):
@@ -134,6 +157,9 @@ class Job:
         object.__setattr__(self, "seed", count(self.seed, "seed", low=0))
         object.__setattr__(self, "env_kwargs", _pairs(_canonical_env_kwargs(self.env_kwargs)))
         object.__setattr__(self, "method_config", _pairs(self.method_config))
+        if self.method_identity is None:
+            identity = method_identity(self.method, dict(self.method_config))
+            object.__setattr__(self, "method_identity", identity)
 
     @classmethod
     def from_dict(cls, data: Any) -> Job:
@@ -145,8 +171,8 @@ class Job:
         unknown = sorted(set(data) - allowed)
         if unknown:
             raise ValueError(f"job has unknown field(s) {unknown}; allowed: {sorted(allowed)}")
-        try:
-            return cls(**data)
+        try:  # a record's job holds the identity its method had (none: none)
+            return cls(**{"method_identity": "", **data})
         except (TypeError, ValueError) as error:
             raise ValueError(f"malformed job: {error}") from None
 
@@ -155,6 +181,8 @@ class Job:
         data = {f.name: getattr(self, f.name) for f in fields(self)}
         data["env_kwargs"] = dict(self.env_kwargs)
         data["method_config"] = dict(self.method_config)
+        if not self.method_identity:
+            del data["method_identity"]
         return to_jsonable(data)
 
     def configuration(self) -> dict[str, Any]:

@@ -37,6 +37,7 @@ __all__ = [
     "RecordError",
     "RecordMismatchError",
     "RecordWarning",
+    "UnsafeFileError",
     "package_versions",
 ]
 
@@ -123,6 +124,11 @@ class RecordChecksumError(RecordError):
 class RecordMismatchError(RecordError):
     """A record whose key is not its job's hash, or whose file is named by another key: edited
     or moved by hand (its checksum may have been made again over the edit)."""
+
+
+class UnsafeFileError(RecordError):
+    """A file not read or not trusted: not a regular file (a named pipe), or one of the record
+    cache owned by another user or writable by others (:func:`agents.store.unsafe_path`)."""
 
 
 class OutdatedRecordError(RecordError):

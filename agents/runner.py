@@ -37,6 +37,7 @@ from agents.progress import CommandProgress
 from agents.record_cache import CacheOption, CacheWriter, cacheable, record_cache
 from agents.records import Record, RecordWarning
 from agents.store import RECORDS_DIR, SUMMARY_NAME, RecordStore
+from agents.verify import refuted
 from tandem_env.io.progress_bar import ProgressBar, Reporter
 
 if TYPE_CHECKING:
@@ -94,6 +95,8 @@ class RunSummary:
     and those run now (as saved, not read back)."""
     cached: int = 0
     """Of the reused jobs, those whose records came from the record cache."""
+    replaced: int = 0
+    """Of the jobs run, those whose record in ``--out`` was replaced (``rerun``)."""
 
     def to_dict(self) -> dict[str, Any]:
         """The run as the manifests record it."""
@@ -110,6 +113,8 @@ class RunSummary:
         """``N run, M reused from OUT`` (with those reused from the cache), as the commands'
         last lines say it."""
         parts = [f"{self.ran} run"]
+        if self.replaced:
+            parts[0] += f" again (--rerun: {self.replaced} record(s) in {out_dir} replaced)"
         if self.reused > self.cached or not self.cached:
             parts.append(f"{self.reused - self.cached} reused from {out_dir}")
         if self.cached:
@@ -270,7 +275,9 @@ def run_jobs(
 
     ``cache`` is the record cache (:data:`~agents.record_cache.CacheOption`): a job with no
     record in ``out_dir`` takes the cache's, copied into ``out_dir``; every record computed is
-    written to both. ``command`` (:class:`~agents.progress.CommandProgress`) is told of every
+    written to both. A record reused from either is re-evaluated first
+    (:func:`agents.verify.refuted`); one whose results its stroke does not give is said in a
+    :class:`~agents.records.RecordWarning` naming its file, and its job runs again. ``command`` (:class:`~agents.progress.CommandProgress`) is told of every
     job this call finishes.
 
     ``summary_csv`` (``python -m eval optimize``) also keeps ``out_dir``'s ``summary.csv``
@@ -291,13 +298,27 @@ def run_jobs(
         raise OutputNotWritable(str(error)) from None
     shared = CacheWriter(record_cache(cache))
     given = {_job_of(job).key: job for job in jobs}
-    records: dict[str, Record] = {}
+    records: dict[str, Record] = {}  # those in out_dir, then those copied from the cache
+    cached: dict[str, Record] = {}
     for key, job in given.items():
-        if not rerun and (record := store.load(_job_of(job))) is not None:
+        if rerun:
+            break
+        if (record := store.load(_job_of(job))) is not None:
             records[key] = record
+        elif (record := shared.load(_job_of(job))) is not None:
+            cached[key] = record
+    for key, why in refuted({**records, **cached}, given).items():
+        # never served: said, its job run again, its file replaced by the new record
+        stored = records.pop(key, None) is not None
+        cached.pop(key, None)
+        path = store.path(key) if stored or shared.store is None else shared.store.path(key)
+        message = f"{path}: {why}; it is not used and its job runs again"
+        warnings.warn(message, RecordWarning, stacklevel=2)
+    replaced = sum(store.path(key).exists() for key in given) if rerun else 0
     writable = not summary_csv or _check_output(store, given, records)
     try:
-        return _run(given, records, store, shared, executor, start, progress, command, rerun)
+        return _run(given, records, cached, store, shared, executor, start, progress, command,
+                    replaced)  # fmt: skip
     finally:
         if summary_csv:
             _write_summary(store, records, writable)
@@ -335,26 +356,22 @@ def _write_summary(store: RecordStore, records: Mapping[str, Record], writable: 
 def _run(
     given: Mapping[str, Job | PreparedJob],
     records: dict[str, Record],
+    cached: Mapping[str, Record],
     store: RecordStore,
     shared: CacheWriter,
     executor: str,
     start: float,
     progress: bool,
     command: CommandProgress | None,
-    rerun: bool,
+    replaced: int,
 ) -> RunSummary:
-    """:func:`run_jobs` once the stored ``records`` are read: the record cache's copied, the
-    others run; ``records`` gains every record found or made."""
-    cached = 0
-    for key, job in given.items():
-        if rerun:
-            break
-        if key in records:
-            shared.save(records[key], unless_present=True)  # a store made before the cache feeds it
-        elif (record := shared.load(_job_of(job))) is not None:
-            store.save(record)  # the store's one atomic write: a copy, checksum and all
-            records[key] = record
-            cached += 1
+    """:func:`run_jobs` once the stored ``records`` and the ``cached`` ones are read and
+    checked: the cache's copied, the others run; ``records`` gains every record found or made."""
+    for record in records.values():
+        shared.save(record, unless_present=True)  # a store made before the cache feeds it
+    for key, record in cached.items():
+        store.save(record)  # the store's one atomic write: a copy, checksum and all
+        records[key] = record
     missing = [job for key, job in given.items() if key not in records]
     failures: list[JobFailure] = []
     todo: list[PreparedJob] = []
@@ -405,7 +422,8 @@ def _run(
         executor=executor,
         failures=tuple(sorted(failures, key=lambda f: f.key)),
         records=records,
-        cached=cached,
+        cached=len(cached),
+        replaced=replaced,
     )
     if failures:
         raise JobsFailed(summary)

@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import stat
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -34,6 +35,7 @@ from agents.records import (
     RecordError,
     RecordMismatchError,
     RecordWarning,
+    UnsafeFileError,
 )
 from tandem_env.io.files import output_directory, write_csv_atomic, write_json_atomic
 
@@ -92,22 +94,43 @@ class StoreWriteError(OSError):
 _KEY_NAME = re.compile(r"[0-9a-f]{20}")
 
 
-def read_record(path: str | os.PathLike[str]) -> Record:
+def read_record(path: str | os.PathLike[str], *, strict: bool = False) -> Record:
     """The record in a record file; :class:`~agents.records.RecordError` naming the file for
-    anything but a valid record (OSError if it cannot be opened). The files are the store's:
-    the record's format is :meth:`Record.from_dict <agents.records.Record.from_dict>`'s."""
-    data = _read_json(path)
+    anything but a valid record (OSError if it cannot be opened; ``strict``:
+    :func:`unsafe_path`'s refusals too). The files are the store's: the record's format is
+    :meth:`Record.from_dict <agents.records.Record.from_dict>`'s."""
+    data = _read_json(path, strict=strict)
     try:
         return Record.from_dict(data)
     except RecordError as error:
         raise type(error)(f"{path}: {error}") from None
 
 
-def _read_json(path: str | os.PathLike[str]) -> Any:
+def unsafe_path(path: str | os.PathLike[str], status: os.stat_result) -> str | None:
+    """Why a file or folder of status ``status`` is not to be trusted, as ssh judges its keys:
+    owned by another user (nor root), or writable by its group or by others; None if it is
+    safe. Such a file may hold anything anyone wrote."""
+    if status.st_uid not in (os.geteuid(), 0):
+        return f"{path} is owned by uid {status.st_uid}, not by you (uid {os.geteuid()})"
+    if status.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return f"{path} is writable by others (mode {stat.filemode(status.st_mode)})"
+    return None
+
+
+def _read_json(path: str | os.PathLike[str], *, strict: bool = False) -> Any:
     """The JSON in one of the store's files; RecordError naming the file for one that is not
-    UTF-8 JSON (OSError if it cannot be opened). The store reads its files itself: one message
-    for a damaged file, wherever the store meets it."""
-    with open(path, encoding="utf-8") as handle:
+    UTF-8 JSON, :class:`~agents.records.UnsafeFileError` for one that is not a regular file
+    (a named pipe, a device: opened without blocking, never read) or, if ``strict``, that
+    :func:`unsafe_path` refuses (OSError if it cannot be opened). The store reads its files
+    itself: one message for a damaged file, wherever the store meets it."""
+    # O_NONBLOCK: opening a named pipe would wait for a writer; fstat judges what was opened.
+    descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    with open(descriptor, encoding="utf-8") as handle:
+        status = os.fstat(descriptor)
+        if not stat.S_ISREG(status.st_mode):
+            raise UnsafeFileError(f"{path} is not a regular file; it is not read")
+        if strict and (why := unsafe_path(path, status)) is not None:
+            raise UnsafeFileError(f"{why}; it is not trusted")
         try:
             return json.load(handle)
         except ValueError as error:  # not UTF-8, not JSON, truncated
@@ -132,11 +155,14 @@ class RecordStore:
     """Records keyed by configuration: ``DIR/records/<key>.json``, written atomically.
 
     Raises ValueError when ``directory`` (or its ``records``) exists and is not a directory.
+    ``strict`` (the record cache, shared): a record file that :func:`unsafe_path` refuses is
+    not trusted (:meth:`load`), and :meth:`save` writes folders and files that it accepts.
     """
 
-    def __init__(self, directory: str | os.PathLike[str]) -> None:
+    def __init__(self, directory: str | os.PathLike[str], *, strict: bool = False) -> None:
         self._given = os.fspath(directory)  # as given: Path("") would be the current folder
         self.directory = Path(directory)
+        self.strict = strict
         for path in (self.directory, self.directory / RECORDS_DIR):
             if path.exists() and not path.is_dir():
                 raise ValueError(
@@ -163,15 +189,16 @@ class RecordStore:
 
         A file that is not a valid record of ``job`` (corrupt, failing its checksum, of an
         earlier format, or holding another job: a file copied by hand or a truncated-hash
-        collision) is reported with a :class:`RecordWarning` and treated as missing, so the job
-        runs again and its record replaces the file.
+        collision), not a regular file, or not trusted (``strict``) is reported with a
+        :class:`RecordWarning` and treated as missing, so the job runs again and its record
+        replaces the file.
         """
         path = self.path(job.key)
         if not path.exists():
             return None
         try:
-            record = read_record(path)
-        except OutdatedRecordError as error:
+            record = read_record(path, strict=self.strict)
+        except (OutdatedRecordError, UnsafeFileError) as error:
             _warn(f"{error}; {job.label()} is recomputed")
             return None
         except (OSError, RecordError) as error:
@@ -195,7 +222,12 @@ class RecordStore:
         path = self.path(record.key)
         data = record.to_dict()
         try:
+            if self.strict:  # the user's alone (unsafe_path), whatever the umask
+                self.directory.mkdir(mode=0o700, parents=True, exist_ok=True)
+                path.parent.mkdir(mode=0o700, exist_ok=True)
             write_json_atomic(path, data)
+            if self.strict:  # a new file, ours; not the mode of the one it replaced
+                path.chmod(stat.S_IMODE(path.stat().st_mode) & ~(stat.S_IWGRP | stat.S_IWOTH))
         except OSError as error:
             raise StoreWriteError(path, error) from None
         return path
@@ -212,7 +244,7 @@ class RecordStore:
                 found.append(record)
                 continue
             try:
-                found.append(_check_name(path, read_record(path)))
+                found.append(_check_name(path, read_record(path, strict=self.strict)))
             except (OSError, RecordError) as error:
                 _warn(f"{error}; left out")
         return sorted(found, key=_summary_order)
@@ -226,7 +258,7 @@ class RecordStore:
             if path.stem in skip:
                 continue
             try:
-                data = _read_json(path)
+                data = _read_json(path, strict=self.strict)
             except (OSError, RecordError):
                 continue  # reported by load() when its job asks for it
             if isinstance(data, dict) and data.get("schema") in OLD_SCHEMAS:

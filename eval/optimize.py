@@ -251,7 +251,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "keywords and, for --objective horizontal, its F̄_h objective (a reading that changes only that objective is refused for any other "
         "objective; one that also changes the model runs with a warning)",
     )
-    add_run_arguments(parser, "--scheduler", "--no-cache")
+    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
     parser.add_argument("--quiet", action="store_true", help="no progress display")
 
 
@@ -293,7 +293,14 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
         "action": "store_false",
         "help": "do not use the record cache shared by every output folder (by default a job "
         "whose record is there is copied into --out, not run, and every record computed is "
-        "added to it; where it is and how to clear it: docs/harness.md, The record cache)",
+        "added to it; where it is and how to clear it: docs/harness.md, The record cache); a "
+        "record already in --out is still reused (eval optimize --rerun computes it again)",
+    },
+    "--rerun": {
+        "action": "store_true",
+        "help": "run every job again even where --out or the record cache holds its record; "
+        "the new records replace the old ones (each file written atomically), said in the "
+        "last line",
     },
 }
 
@@ -328,6 +335,8 @@ class OptimizePlan:
     progress: bool
     cache: bool
     """Whether the record cache is used (``--no-cache`` turns it off)."""
+    rerun: bool = False
+    """``--rerun``: every job runs again, its new record replacing any stored one."""
 
     def describe(self) -> str:
         """The line said before any work: the run, its seeds and where its records go."""
@@ -409,7 +418,9 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> O
         )
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
-    return OptimizePlan(tuple(jobs), args.out, args.scheduler, not args.quiet, args.cache)
+    return OptimizePlan(
+        tuple(jobs), args.out, args.scheduler, not args.quiet, args.cache, args.rerun
+    )
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
@@ -425,6 +436,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             scheduler=plan.scheduler,
             progress=plan.progress,
             cache=plan.cache,
+            rerun=plan.rerun,
             summary_csv=True,
         )
     except RUN_STOPS as error:
@@ -438,8 +450,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             + f", {record.evaluations} evaluations, {record.wall_time:.1f} s"
         )
         print(f"  {describe_certificate(record.certificate)}")
+    hint = " (--rerun runs them again)" if summary.reused else ""
     print(
-        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.describe(Path(plan.out))}",
+        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.describe(Path(plan.out))}"
+        + hint,
         file=sys.stderr,
     )
     return 0

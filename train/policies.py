@@ -14,6 +14,8 @@ chosen stroke); a trained run's own stroke at a condition is
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import sys
 import warnings
 from collections.abc import Mapping
@@ -71,6 +73,23 @@ _ANNOUNCED: set[tuple[Any, ...]] = set()
 _TRAINING_SETTINGS = ("n_envs", "conf_file", "torch_threads", "log_dir")
 
 
+# The suffixes of the files a run's policy is read from (train.layout.RunLayout, and an amortised
+# run's weights and policy.json): what PolicyMethod.identity hashes.
+_POLICY_SUFFIXES = (".zip", ".pkl", ".pt", ".json", ".yml")
+
+
+@functools.lru_cache(maxsize=256)
+def _file_digest(path: Path, size: int, mtime_ns: int) -> str:
+    with path.open("rb") as handle:
+        return hashlib.file_digest(handle, "sha256").hexdigest()
+
+
+def _digest_of(path: Path) -> str:
+    """SHA-256 of a file's bytes, read once per process while its size and time stay."""
+    status = path.stat()
+    return _file_digest(path.resolve(), status.st_size, status.st_mtime_ns)
+
+
 # --- harness methods ---------------------------------------------------------------------------
 @dataclass(frozen=True)
 class PolicyMethod:
@@ -82,6 +101,18 @@ class PolicyMethod:
     @property
     def name(self) -> str:
         return f"policy:{self.run_dir}"
+
+    def identity(self) -> str:
+        """The trained run this method asks, as part of its jobs' keys (:class:`agents.jobs.Job`):
+        a digest of the run folder's name and of the files a policy is read from (models,
+        normalisation, weights, settings), so that a newer run, or one trained again in place,
+        is another job and never served the older run's record."""
+        run_dir = resolve_run_dir(self.run_dir)
+        digest = hashlib.sha256(run_dir.name.encode())
+        for path in sorted(run_dir.glob("*")) + sorted(run_dir.glob("*/*")):
+            if path.suffix in _POLICY_SUFFIXES and path.is_file():
+                digest.update(f"{path.relative_to(run_dir)}:{_digest_of(path)}".encode())
+        return digest.hexdigest()[:20]
 
     def check(self, budget: int, dim: int, task: TaskSpec) -> None:
         """The harness's check before any work: the run folder holds a policy of this task's

@@ -480,9 +480,9 @@ def test_the_runner_hands_back_each_record_read_at_most_once(tmp_path: Path, mon
     reads: list[str] = []
     original_read = store_module.read_record
 
-    def counting_read(path):
+    def counting_read(path, **options):
         reads.append(Path(path).stem)
-        return original_read(path)
+        return original_read(path, **options)
 
     monkeypatch.setattr(store_module, "read_record", counting_read)
     calls = _count_calls(monkeypatch)

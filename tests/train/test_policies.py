@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -60,6 +61,24 @@ def test_policy_method_records_its_stroke_with_one_evaluation(
     assert record.config["method"]["model"] == "best"
     assert record.metrics["speed"] == 1.0
     assert Record.from_dict(record.to_dict()) == record
+
+
+def test_a_newer_run_into_the_same_out_is_another_job(
+    envelope_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``policy:logs/ppo/<env>`` names the latest run: after a newer one, the same command into
+    the same --out runs it, not the older run's record (the run's identity is in the key)."""
+    from eval.__main__ import main
+
+    logs = tmp_path / "logs" / "ppo"
+    shutil.copytree(envelope_run, logs / f"{envelope_run.name.rsplit('_', 1)[0]}_1")
+    spec = f"policy:{logs / envelope_run.name.rsplit('_', 1)[0]}"
+    argv = ["optimize", "--task", "level", "--speed", "1", "--method", spec, "--budget", "1",
+            "--seeds", "0", "--quiet", "--out", str(tmp_path / "out")]  # fmt: skip
+    assert main(argv) == 0 and "1 seed: 1 run" in capsys.readouterr().err
+    assert main(argv) == 0 and "0 run, 1 reused" in capsys.readouterr().err
+    shutil.copytree(envelope_run, logs / f"{envelope_run.name.rsplit('_', 1)[0]}_2")  # newer
+    assert main(argv) == 0 and "1 seed: 1 run" in capsys.readouterr().err
 
 
 def test_policy_strokes_depend_on_the_condition(envelope_run: Path) -> None:

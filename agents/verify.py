@@ -1,0 +1,163 @@
+"""Stored records checked against the physics before they are reused.
+
+A record's checksum tells damage from a record, not a forged record from a computed one: anyone
+who can write a store (``--out``, the record cache) can edit the results and make the checksum
+again. So the runner (:func:`agents.runner.run_jobs`) serves no stored record without stepping
+its stroke once more: :func:`refuted` re-evaluates every reused record's stroke, in one vector
+env step per task and env configuration (the flight envs take each sub-env's condition at its
+reset; another task's records one by one, as the harness made them), and compares what the
+record says the stroke gave (:data:`CHECKED`) with what it gives.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from agents.evaluator import reevaluate
+from agents.jobs import Job
+from agents.parts import PreparedJob
+from agents.records import Record
+from agents.tasks import TaskSpec, get_task
+from tandem_env.io.files import to_jsonable
+
+__all__ = ["ATOL", "CHECKED", "RTOL", "refuted", "stepped_results"]
+
+#: The results a record's stroke decides, compared with their re-evaluation.
+CHECKED = ("reward", "objective", "feasible", "stroke", "metrics")
+#: How closely each number must agree: |stored - recomputed| <= ATOL + RTOL |recomputed|. The
+#: same backend reproduces a record bit for bit; numba and torch, which share records, agree
+#: within 1e-8 (docs/harness.md).
+RTOL, ATOL = 1e-7, 1e-8
+#: The most records re-evaluated in one step (the model takes up to 10 000 strokes a batch).
+_BATCH = 1024
+
+
+def stepped_results(reward: float, info: Mapping[str, Any], action: Sequence[float]) -> dict:
+    """The record's results that one env step of its stroke decides (:data:`CHECKED`): the
+    harness's record (:func:`agents.harness.run_job`) and this check read a step one way."""
+    info = dict(info)
+    stroke = info.pop("stroke", None)
+    if stroke is None:  # a task of another action (a plug-in) names its values a0, a1, ...
+        stroke = {f"a{j}": float(v) for j, v in enumerate(action)}
+    return {
+        "reward": float(reward),
+        "objective": float(info.get("objective", reward)),
+        "feasible": bool(info.get("feasible", True)),
+        "stroke": to_jsonable(stroke),
+        "metrics": to_jsonable(info),
+    }
+
+
+def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) -> dict[str, str]:
+    """Key -> why, for each record of ``found`` (key -> record) whose results its stroke does
+    not give, re-evaluated in the env of its job in ``jobs`` (that job's backend and device); a
+    record that cannot be re-evaluated is refuted too (its job runs again, and says why it
+    cannot)."""
+    groups: dict[Any, list[list[str]]] = {}  # task and env keywords -> batches of keys
+    for key in found:
+        job = jobs[key]
+        plain = job.job if isinstance(job, PreparedJob) else job
+        batches = groups.setdefault((plain.task, plain.env_kwargs), [[]])
+        if len(batches[-1]) == _BATCH:
+            batches.append([])
+        batches[-1].append(key)
+    why: dict[str, str] = {}
+    for keys in (batch for batches in groups.values() for batch in batches):
+        job = jobs[keys[0]]
+        plain = job.job if isinstance(job, PreparedJob) else job
+        records = [found[key] for key in keys]
+        try:
+            spec = job.task if isinstance(job, PreparedJob) else get_task(job.task)
+            steps = _step(spec, dict(plain.env_kwargs), records)
+        except (ValueError, TypeError, IndexError, RuntimeError, gym.error.Error) as error:
+            if len(keys) == 1:
+                why[keys[0]] = f"it cannot be re-evaluated ({error})"
+            else:  # one record's stroke (out of the box, of another length) fails them all
+                for key in keys:
+                    why.update(refuted({key: found[key]}, {key: jobs[key]}))
+            continue
+        for key, record, step in zip(keys, records, steps, strict=True):
+            difference = _difference({k: record.results[k] for k in CHECKED}, step)
+            if difference is not None:
+                why[key] = f"its results are not what its stroke gives: {difference}"
+    return why
+
+
+def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Record]) -> list[dict]:
+    """The stepped results of each record's stroke, at its job's condition and seed: one step of
+    one vector env of the task where it takes a condition per sub-env (the flight envs), else
+    the harness's own re-evaluation in a single env per record (a plug-in's task)."""
+    keyword = spec.declared_condition.keyword
+    actions = np.asarray([r.normalised_stroke for r in records], dtype=np.float64)
+    make = {"vectorization_mode": "vector_entry_point", "autoreset_mode": "Disabled"}
+    env = gym.make_vec(spec.env_id, num_envs=len(records), **make, **kwargs)
+    with contextlib.closing(env):
+        if callable(reset_envs := getattr(env.unwrapped, "reset_envs", None)):
+            options = [{keyword: spec.condition(r.job.condition).value} for r in records]
+            reset_envs(np.arange(len(records)), [r.job.seed for r in records], options)
+            _, rewards, _, _, infos = env.step(actions)
+            return [
+                stepped_results(rewards[i], _row(infos, i), actions[i]) for i in range(len(records))
+            ]
+    return [_single(spec, kwargs, r, a) for r, a in zip(records, actions, strict=True)]
+
+
+def _single(spec: TaskSpec, kwargs: dict[str, Any], record: Record, action: np.ndarray) -> dict:
+    """A record's stroke re-evaluated as :func:`agents.harness.run_job` evaluated it."""
+    condition = spec.condition(record.job.condition)
+    made = {**kwargs, condition.name: condition.value}
+    with gym.make(spec.env_id, disable_env_checker=True, **made) as env:
+        again = reevaluate(env, spec, condition, record.job.seed, action)
+    return stepped_results(again.reward, again.info, action)
+
+
+def _row(infos: Mapping[str, Any], i: int) -> dict[str, Any]:
+    """Sub-env ``i``'s info from a vector env's info columns (their ``_name`` masks left out)."""
+    return {
+        name: _row(value, i) if isinstance(value, Mapping) else value[i]
+        for name, value in infos.items()
+        if not name.startswith("_")
+    }
+
+
+def _difference(stored: Any, recomputed: Any, where: str = "") -> str | None:
+    """The first value of ``stored`` that ``recomputed`` does not match (:data:`RTOL`,
+    :data:`ATOL`), in words; None if all do."""
+    if isinstance(stored, Mapping) and isinstance(recomputed, Mapping):
+        if set(stored) != set(recomputed):
+            extra = sorted(set(stored) ^ set(recomputed))
+            return f"{where or 'results'} differ in their entries {extra}"
+        for name in stored:
+            found = _difference(stored[name], recomputed[name], f"{where}.{name}".lstrip("."))
+            if found is not None:
+                return found
+        return None
+    if isinstance(stored, list) and isinstance(recomputed, list) and len(stored) == len(recomputed):
+        for j, (a, b) in enumerate(zip(stored, recomputed, strict=True)):
+            if (found := _difference(a, b, f"{where}[{j}]")) is not None:
+                return found
+        return None
+    if _close(stored, recomputed):
+        return None
+    return f"{where} = {stored!r}, re-evaluated {recomputed!r}"
+
+
+def _close(a: Any, b: Any) -> bool:
+    numbers = (int, float)
+    if (
+        isinstance(a, bool)
+        or isinstance(b, bool)
+        or not (isinstance(a, numbers) and isinstance(b, numbers))
+    ):
+        return type(a) is type(b) and a == b
+    if math.isnan(a) or math.isnan(b):
+        return math.isnan(a) and math.isnan(b)
+    if math.isinf(a) or math.isinf(b):
+        return a == b
+    return abs(a - b) <= ATOL + RTOL * abs(b)
