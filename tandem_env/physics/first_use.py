@@ -1,8 +1,8 @@
 """The one message of the model's first use: numba compiles its kernels then.
 
-The first model call of a process on a cold numba cache compiles the kernels (about 30 s on a
-2-core machine; numba caches them beside the sources, so later processes load them in about a
-second). :func:`compile_notice` wraps a model call: if the first one is still running after
+The first model call of a process on a cold numba cache compiles the kernels (30-60 s on a
+2-core machine, README "First use"; numba caches them beside the sources, so later processes load
+them in about a second; a call with other argument types compiles its own once more). :func:`compile_notice` wraps a model call: if the first one is still running after
 :data:`NOTICE_AFTER` seconds (so a warm cache, which loads in less, stays silent), the
 ``tandem_env`` logger says once per process, at level WARNING, that the model is compiling and
 how long that takes. Silence it with ``logging.getLogger("tandem_env").setLevel(logging.ERROR)``.
@@ -21,8 +21,8 @@ LOGGER = logging.getLogger("tandem_env")
 #: Seconds a first model call may take before the notice (a warm cache loads in less) [s].
 NOTICE_AFTER = 3.0
 COMPILE_MESSAGE = (
-    "tandem_env: compiling the model's kernels on first use (numba; about 30 s, once: they "
-    "are cached for later runs)"
+    "tandem_env: compiling the model's kernels on first use (numba; 30-60 s on 2 cores, once "
+    "per code path: they are cached for later runs)"
 )
 
 _state = {"first_call_done": False, "announced": False}
