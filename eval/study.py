@@ -18,7 +18,7 @@ from eval.studies.base import StudyPlan
 from eval.studies.campaigns import CAMPAIGNS, campaigns
 from eval.studies.claims import FLIP_THRESHOLD
 from eval.studies.presets import PRESETS, get_preset
-from tandem_env.physics.insect import DRAGONFLY, describe_insect, load_insect
+from tandem_env.physics.insect import DRAGONFLY, describe_insect
 
 NAME = "study"
 HELP = "reproduce the paper's figures: speed/power sweeps, kinematics, wing shape, report"
@@ -92,7 +92,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="harness method: cmaes, pso, random, policy:RUN_DIR, ...; repeat to run several "
         "side by side (default: the preset's method)",
     )
-    add_insect_argument(parser, load_insect)
+    add_insect_argument(parser)
     add_run_arguments(parser, "--backend", "--device", "--scheduler", "--no-cache")
     parser.add_argument(
         "--workers",

@@ -70,7 +70,7 @@ def test_one_insect_is_one_key_and_another_is_another() -> None:
     "text, message",
     [
         ("fore: {lenght: 0.03}\n", r"insect\.fore\.lenght: unknown field; allowed: mean_chord"),
-        ("body_mass: -1\n", r"Dragonfly\.body_mass = -1\.0 kg is not physical"),
+        ("body_mass: -1\n", r"Dragonfly\.body_mass = -1 kg; allowed: 0 < body_mass"),
     ],
 )
 def test_cli_refuses_a_bad_insect_in_one_line(tmp_path: Path, capsys, text: str, message: str):
