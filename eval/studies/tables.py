@@ -17,7 +17,16 @@ import numpy as np
 
 from agents.jobs import Job
 from agents.records import Record
-from tandem_env import LOWER, PARAMETER_NAMES, TABLE_4, UPPER, bound_sides, describe_bounds
+from tandem_env import (
+    LOWER,
+    PARAMETER_NAMES,
+    TABLE_4,
+    TABLE_4_BOUNDS,
+    UPPER,
+    StrokeBounds,
+    bound_sides,
+    describe_bounds,
+)
 from tandem_env.physics.stroke import UNBOUNDED
 
 #: Columns that identify a series (one line in a figure).
@@ -185,7 +194,10 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
     }
     stroke = [float(s[name]) for name in PARAMETER_NAMES]  # Table 4 units
     row.update(zip(PARAMETER_NAMES, stroke, strict=True))
-    row["at_bounds"] = describe_bounds(stroke)
+    bounds = record.config["env"]["insect"].get("stroke_bounds")  # only where not Table 4's
+    row["at_bounds"] = describe_bounds(
+        stroke, TABLE_4_BOUNDS if bounds is None else StrokeBounds(**bounds)
+    )
     return row
 
 

@@ -33,6 +33,7 @@ from .coefficients import (
     coefficient_model,
     coefficient_spec,
 )
+from .stroke import PARAMETER_NAMES, TABLE_4_BOUNDS, StrokeBounds
 
 Planform = Literal["tear-drop", "real"]
 PLANFORMS: tuple[str, ...] = ("tear-drop", "real")
@@ -336,10 +337,20 @@ class Dragonfly:
     root_drop: float = 9.0e-3
     """How far the hind-wing root sits below the fore-wing root, normal to the body axis [m]:
     enough to keep the model's flat stroke planes apart (docs/model.md §1.7)."""
+    stroke_bounds: StrokeBounds = TABLE_4_BOUNDS
+    """The bounds of this flyer's 28 stroke parameters [Hz, deg, -]: the box its strokes are
+    searched in (the env's action map, the optimisers' box) and :func:`tandem_env.evaluate`
+    checks. Table 4's unless set; in a mapping or file, the parameters that differ
+    (``stroke_bounds: {fore_frequency: [15, 25]}``, :meth:`StrokeBounds.with_changes`)."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.fore, Wing) or not isinstance(self.hind, Wing):
             raise ValueError("Dragonfly.fore and Dragonfly.hind must be Wing instances")
+        if not isinstance(self.stroke_bounds, StrokeBounds):
+            raise ValueError(
+                f"Dragonfly.stroke_bounds = {self.stroke_bounds!r}; allowed: a StrokeBounds "
+                "(in a mapping or file: {name: [low, high]} of the parameters that differ)"
+            )
         _check_limits(self, DRAGONFLY_LIMITS)
         if not is_integer(self.wings_per_pair) or self.wings_per_pair not in (1, 2):
             raise ValueError(f"Dragonfly.wings_per_pair = {self.wings_per_pair!r}; allowed: 1 or 2")
@@ -351,6 +362,16 @@ class Dragonfly:
                 f"than Dragonfly.body_mass = {self.body_mass:.4g} kg; allowed: wings lighter than "
                 "the whole insect (body_mass is the total mass, wings included)"
             )
+
+    def to_dict(self) -> dict[str, Any]:
+        """The fields as JSON takes them (``tandem_env.io.files.to_jsonable``), without
+        ``stroke_bounds`` where they are Table 4's: a flyer that keeps the paper's bounds has
+        the JSON, the fingerprints and the reference scores it had before they could be set."""
+        return {
+            f.name: getattr(self, f.name)
+            for f in fields(self)
+            if f.name != "stroke_bounds" or self.stroke_bounds != TABLE_4_BOUNDS
+        }
 
     @property
     def weight(self) -> float:
@@ -425,6 +446,8 @@ def _with_fields(base: Any, spec: Any, where: str) -> Any:
         current = getattr(base, key)
         if isinstance(current, Wing):
             changes[key] = _with_fields(current, value, f"{where}.{key}")
+        elif isinstance(current, StrokeBounds) and not isinstance(value, StrokeBounds):
+            changes[key] = current.with_changes(value, f"{where}.{key}")
         elif isinstance(value, Mapping) and key == "coefficients":
             changes[key] = dict(value)  # Wing converts it (coefficient_model)
         elif isinstance(current, float) and isinstance(value, int) and not isinstance(value, bool):
@@ -482,6 +505,8 @@ def _differences(obj: Any, base: Any) -> dict[str, Any]:
             continue
         if isinstance(value, Wing):
             out[f.name] = _differences(value, reference)
+        elif isinstance(value, StrokeBounds):
+            out[f.name] = value.changes(reference)
         else:
             out[f.name] = _field_value(value)
     return out
@@ -511,6 +536,8 @@ def describe_insect(insect: InsectSource) -> str:
                 items.append(f"{prefix}{key} = {value['model']}")
             elif isinstance(value, float):
                 items.append(f"{prefix}{key} = {value:.4g}")
+            elif key in PARAMETER_NAMES:  # a stroke bound
+                items.append(f"{prefix}{key} = {value[0]:g} to {value[1]:g}")
             elif isinstance(value, list):
                 items.append(f"{prefix}{key} = (given)")
             else:
