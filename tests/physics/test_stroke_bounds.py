@@ -153,3 +153,17 @@ def test_stroke_bounds_are_a_value() -> None:
     assert bounds == TABLE_4_BOUNDS and hash(bounds) == hash(TABLE_4_BOUNDS)
     with pytest.raises(ValueError, match=r"StrokeBounds\.lower has shape"):
         StrokeBounds(tuple(LOWER[:27]), tuple(UPPER))
+
+
+def test_a_studys_pinned_parameters_are_at_the_flyers_bounds() -> None:
+    from eval.studies.tables import pinned, row_bounds
+
+    stroke = te.normalised_to_physical(np.zeros(28))
+    stroke[[F_FORE, F_HIND]] = 30.0  # Table 4's lower bound, the slow flyer's upper one
+    row = {"feasible": True, **dict(zip(PARAMETER_NAMES, stroke.tolist(), strict=True))}
+    assert pinned([row], "frequency") == "lower"
+    own = {**row, "stroke_bounds": SLOW["stroke_bounds"]}
+    assert row_bounds(own) == load_insect(SLOW).stroke_bounds
+    assert pinned([own], "frequency") == "upper"
+    as_csv = {**row, "stroke_bounds": '{"fore_frequency": [20, 30], "hind_frequency": [20, 30]}'}
+    assert pinned([as_csv], "frequency") == "upper"
