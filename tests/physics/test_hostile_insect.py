@@ -98,6 +98,13 @@ def test_merge_keys_are_read(tmp_path: Path) -> None:
         ({"body_mass": "heavy"}, r"Dragonfly\.body_mass = 'heavy'; allowed: 0 < body_mass"),
         ({"muscle_specific_power": 1e5}, r"muscle_specific_power = 100000 W/kg; allowed: 0 <"),
         ({"root_drop": -1e-3}, r"Dragonfly\.root_drop = -0\.001 m; allowed: 0 <= root_drop"),
+        ({"hind": {"coefficients": {"model": "table", "alpha": [0, 45, 90], "lift": [0, 1e9, 0],
+                                    "drag": [0.1, 1, 2]}}},
+         r"insect\.hind: TabulatedCoefficients gives C_L = 1e\+09 at α = 45°; allowed: -10 <= "),
+        ({"fore": {"coefficients": {"model": "sinusoidal", "lift_offset": 0, "lift_amplitude": 1,
+                                    "lift_rate": 2, "lift_phase": 0, "drag_offset": 60,
+                                    "drag_amplitude": 1, "drag_rate": 2, "drag_phase": 0}}},
+         r"SinusoidalFit gives C_D = 59 at α = 0°; allowed: 0 <= C_D <= 10"),
         ({"fore": {"mass": 1e-4}}, r"the 4 wings weigh 0\.0002017 kg, not less than "
          r"Dragonfly\.body_mass = 0\.0001219 kg"),
     ],
