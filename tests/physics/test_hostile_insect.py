@@ -45,7 +45,10 @@ def test_an_alias_bomb_in_an_insect_file_or_on_the_command_line_is_refused(
     tmp_path: Path,
 ) -> None:
     path = tmp_path / "bomb.yaml"
-    path.write_text(_alias_bomb(), encoding="utf-8")
+    # under a field the insect reads (converting it used to expand all 10^9 items and hang)
+    levels = ["&a0 [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]"]
+    levels += [f"&a{i} [" + ", ".join([f"*a{i - 1}"] * 10) + "]" for i in range(1, 9)]
+    path.write_text(f"fore:\n  real_edges: [{', '.join(levels)}]\n", encoding="utf-8")
     with pytest.raises(ValueError, match=r"bomb\.yaml' is refused: it expands to more than"):
         load_insect(path)
     # a command-line value that is no YAML it may read stays the text it is (then no such file)
