@@ -25,7 +25,7 @@ def parse_value(text: str) -> Any:
         pass
     try:
         value = parse_yaml(text, BoundedLoader)  # an alias bomb is refused, not expanded
-    except yaml.YAMLError:
+    except (yaml.YAMLError, RecursionError):  # not YAML it may read: the text itself
         return text
     return text if value is None and text.strip() not in ("", "null", "~", "None") else value
 
