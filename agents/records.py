@@ -381,11 +381,10 @@ class Record:
         # The stroke itself (Table 4 units), and which of its parameters sit at a bound of the
         # insect's (Table 4's unless it sets its own); a task of another action (a plug-in, the
         # analytic test tasks) has no such stroke.
+        insect = self.job.env("insect")
         if set(tandem_env.PARAMETER_NAMES) <= set(self.stroke):
             stroke = [float(self.stroke[name]) for name in tandem_env.PARAMETER_NAMES]
             row.update(zip(tandem_env.PARAMETER_NAMES, stroke, strict=True))
-        insect = self.job.env("insect")
-        if "at_bounds" not in row and set(tandem_env.PARAMETER_NAMES) <= set(self.stroke):
             bounds = tandem_env.load_insect(insect or {}).stroke_bounds  # the flyer's own
             row["at_bounds"] = tandem_env.describe_bounds(stroke, bounds)
         if insect is not None:  # what differs from the paper's specimen (JSON in the CSV)
