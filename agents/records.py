@@ -384,13 +384,15 @@ class Record:
         for name in SUMMARY_METRICS:
             if name in self.metrics:
                 row[name] = self.metrics[name]
-        # The stroke itself (Table 4 units), and which of its parameters sit at a Table 4 bound;
-        # a task of another action (a plug-in, the analytic test tasks) has no Table 4 stroke.
+        # The stroke itself (Table 4 units), and which of its parameters sit at a bound of the
+        # insect's (Table 4's unless it sets its own); a task of another action (a plug-in, the
+        # analytic test tasks) has no such stroke.
+        insect = self.job.env("insect")
         if set(tandem_env.PARAMETER_NAMES) <= set(self.stroke):
             stroke = [float(self.stroke[name]) for name in tandem_env.PARAMETER_NAMES]
             row.update(zip(tandem_env.PARAMETER_NAMES, stroke, strict=True))
-            row["at_bounds"] = tandem_env.describe_bounds(stroke)
-        insect = self.job.env("insect")
+            bounds = tandem_env.load_insect(insect or {}).stroke_bounds  # the flyer's own
+            row["at_bounds"] = tandem_env.describe_bounds(stroke, bounds)
         if insect is not None:  # what differs from the paper's specimen (JSON in the CSV)
             row["insect"] = to_jsonable(insect)
         row["key"] = self.key

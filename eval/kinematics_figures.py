@@ -134,7 +134,7 @@ class GroupPanel:
     """(low, high, label): a range the rule names, e.g. (0, 15, "in phase: |ΔΦ| < 15°")."""
     ylim: tuple[float, float] | None = None
     bounds: tuple[float, float] | None = None
-    """The Table 4 (low, high) of the stroke parameter drawn (``tables.table4_bounds``)."""
+    """The insect's (low, high) bounds of the stroke parameter drawn (``tables.table4_bounds``)."""
     paper_note: str = ""
     """What the paper states in words only (a legend line)."""
 

@@ -33,7 +33,7 @@ from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
 from tandem_env.io.command import checked_by
 from tandem_env.io.keyvalue import add_pairs_argument
 from tandem_env.physics import BACKENDS
-from tandem_env.physics.insect import describe_insect
+from tandem_env.physics.insect import describe_insect, load_insect
 
 
 def _tasks() -> list[TaskSpec]:
@@ -232,7 +232,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "env options, e.g. thrust_split=body penalty_weight=20 planform=real n_time=256 "
         "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)",
     )
-    add_insect_argument(parser, insect_keyword)
+    add_insect_argument(parser)
     add_run_arguments(parser, "--backend", "--device")
     parser.add_argument(
         "--polish",
@@ -255,13 +255,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress display")
 
 
-def add_insect_argument(parser: argparse.ArgumentParser, read: Callable[[str], Any]) -> None:
-    """``--insect FILE`` (shared with ``study``): the insect every job flies, read from its
-    file by ``read`` when the command line is parsed (the usage error names a bad file)."""
+def add_insect_argument(parser: argparse.ArgumentParser) -> None:
+    """``--insect FILE`` (shared with ``study``): the insect every job flies, a ``Dragonfly``
+    read from its file when the command line is parsed (the usage error names a bad file)."""
     parser.add_argument(
         "--insect",
         metavar="FILE",
-        action=checked_by(read),
+        action=checked_by(load_insect),
         help="YAML file of the insect: the fields that differ from the paper's specimen "
         "(body_mass, fore: {length, mean_chord, mass, planform, coefficients}, hind: {...}; "
         "docs/envs.md, e.g. examples/orthetrum_cancellatum.yaml); part of each record's key",
@@ -379,10 +379,11 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> O
         if given and set(EXECUTION_KWARGS) & set(env_kwargs):
             raise ValueError("give --backend/--device or --env-kwargs backend=/device=, not both")
         env_kwargs.update(given)
-        if args.insect is not None:  # the paper's specimen is None (insect_keyword)
+        if args.insect is not None:  # given, even if it is the paper's specimen
             if "insect" in env_kwargs:
                 raise ValueError("give --insect FILE or --env-kwargs insect=..., not both")
-            env_kwargs["insect"] = args.insect
+            if insect_keyword(args.insect) is not None:  # the specimen leaves keys as they were
+                env_kwargs["insect"] = insect_keyword(args.insect)
         if args.swarm_size is not None:
             if "swarm_size" in method_config:
                 raise ValueError("give --swarm-size or --method-config swarm_size=N, not both")

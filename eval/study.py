@@ -18,7 +18,7 @@ from eval.studies.base import StudyPlan
 from eval.studies.campaigns import CAMPAIGNS, campaigns
 from eval.studies.claims import FLIP_THRESHOLD
 from eval.studies.presets import OVERRIDES, PRESETS, get_preset, overridden
-from tandem_env.physics.insect import DRAGONFLY, describe_insect, load_insect
+from tandem_env.physics.insect import DRAGONFLY, describe_insect
 
 NAME = "study"
 HELP = "reproduce the paper's figures: speed/power sweeps, kinematics, wing shape, report"
@@ -119,7 +119,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="harness method: cmaes, pso, random, policy:RUN_DIR, ...; repeat to run several "
         "side by side (default: the preset's method)",
     )
-    add_insect_argument(parser, load_insect)
+    add_insect_argument(parser)
     add_run_arguments(parser, "--backend", "--device", "--scheduler", "--no-cache")
     parser.add_argument(
         "--workers",

@@ -23,7 +23,13 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
-from tandem_env.physics import PARAMETER_NAMES, Dragonfly, Wing, validate_physical
+from tandem_env.physics import (
+    PARAMETER_NAMES,
+    TABLE_4_BOUNDS,
+    Dragonfly,
+    Wing,
+    validate_physical,
+)
 
 #: Record format of one solver run (``OUT/runs/<key>.json``).
 RUN_FORMAT = "tandem_env.crosscheck-run/1"
@@ -189,7 +195,7 @@ def check_family(stroke: np.ndarray) -> np.ndarray:
     Supported: a Table 4 stroke within :data:`MAX_SHAPE`, :data:`MAX_ELEVATION` and
     :data:`MAX_ANGLE`, with the same frequency and stroke-plane angle on both pairs (one free
     stream sets both planes' tilt, and the run's length is a whole number of both beats)."""
-    arr = validate_physical(stroke)
+    arr = validate_physical(stroke, bounds=TABLE_4_BOUNDS)  # the specimen's strokes
     if arr.shape[0] != 1:
         raise ValueError(f"one stroke of 28 parameters; got shape {np.shape(stroke)}")
     p = dict(zip(PARAMETER_NAMES, arr[0], strict=True))

@@ -182,7 +182,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         figures.pair_mean("η_m [deg]"),
         statistic_label="median (judged)",
         paper_note="paper: larger in accelerating flight",
-        bounds=table4_bounds("pitch_amplitude"),
+        bounds=table4_bounds("pitch_amplitude", plan.insect.stroke_bounds),
     )
     figs = [
         (

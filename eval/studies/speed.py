@@ -59,7 +59,9 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             )
             for m in plan.methods
         ]
-        return figures.Panel(ylabel, series, bounds=table4_bounds(quantity), **paper)
+        return figures.Panel(
+            ylabel, series, bounds=table4_bounds(quantity, plan.insect.stroke_bounds), **paper
+        )
 
     # The paper states these trends in words only, no numbers.
     falls, follows = "paper: falls with V", "paper: follows the power"

@@ -8,6 +8,7 @@ value at the seed with the best objective, not the largest value of each quantit
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -17,7 +18,14 @@ import numpy as np
 
 from agents.jobs import Job
 from agents.records import Record
-from tandem_env import LOWER, PARAMETER_NAMES, TABLE_4, UPPER, bound_sides, describe_bounds
+from tandem_env import (
+    PARAMETER_NAMES,
+    TABLE_4,
+    TABLE_4_BOUNDS,
+    StrokeBounds,
+    bound_sides,
+    describe_bounds,
+)
 from tandem_env.physics.stroke import UNBOUNDED
 
 #: Columns that identify a series (one line in a figure).
@@ -72,13 +80,25 @@ PARAMETERS_OF: dict[str, tuple[str, ...]] = {
 PINNED_SHARE = 0.5
 
 
-def table4_bounds(quantity: str) -> tuple[float, float] | None:
-    """The Table 4 (low, high) of a stroke quantity (:data:`PARAMETERS_OF`), when its
-    parameters share one range and can sit at a bound; else None."""
+def table4_bounds(
+    quantity: str, bounds: StrokeBounds = TABLE_4_BOUNDS
+) -> tuple[float, float] | None:
+    """The (low, high) of a stroke quantity (:data:`PARAMETERS_OF`) in ``bounds`` (an insect's
+    ``stroke_bounds``, default Table 4's), when its parameters share one range and can sit at
+    a bound; else None."""
     names = PARAMETERS_OF.get(quantity, ())
     index = [PARAMETER_NAMES.index(n) for n in names]
-    ranges = {(float(LOWER[i]), float(UPPER[i])) for i in index if not UNBOUNDED[i]}
+    ranges = {(bounds.lower[i], bounds.upper[i]) for i in index if not UNBOUNDED[i]}
     return ranges.pop() if len(ranges) == 1 and len(index) == len(names) else None
+
+
+def row_bounds(row: Mapping[str, Any]) -> StrokeBounds:
+    """The stroke bounds of a row's insect: Table 4's unless the row gives its own
+    (``stroke_bounds``: the parameters that differ, a mapping or its JSON text)."""
+    own = row.get("stroke_bounds")
+    if not own:
+        return TABLE_4_BOUNDS
+    return TABLE_4_BOUNDS.with_changes(json.loads(own) if isinstance(own, str) else own)
 
 
 def pinned(rows: Sequence[Mapping[str, Any]], quantity: str) -> str:
@@ -89,12 +109,18 @@ def pinned(rows: Sequence[Mapping[str, Any]], quantity: str) -> str:
     feasible = [r for r in rows if r["feasible"]]
     if not names or not feasible:
         return ""
-    strokes = np.array([[float(r[n]) for n in PARAMETER_NAMES] for r in feasible])
-    sides = bound_sides(strokes)[:, [PARAMETER_NAMES.index(n) for n in names]]
+    sides = _sides(feasible)[:, [PARAMETER_NAMES.index(n) for n in names]]
     for side, word in ((-1, "lower"), (1, "upper")):
         if all(np.mean(sides[:, k] == side) > PINNED_SHARE for k in range(len(names))):
             return word
     return ""
+
+
+def _sides(rows: Sequence[Mapping[str, Any]]) -> np.ndarray:
+    """(len(rows), 28) :func:`tandem_env.bound_sides` of each row's stroke, at its own bounds."""
+    return np.array(
+        [bound_sides([float(r[n]) for n in PARAMETER_NAMES], row_bounds(r)) for r in rows]
+    )
 
 
 def _wrap(angles: np.ndarray) -> np.ndarray:
@@ -185,7 +211,11 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
     }
     stroke = [float(s[name]) for name in PARAMETER_NAMES]  # Table 4 units
     row.update(zip(PARAMETER_NAMES, stroke, strict=True))
-    row["at_bounds"] = describe_bounds(stroke)
+    own = record.config["env"]["insect"].get("stroke_bounds")  # only where not Table 4's
+    bounds = TABLE_4_BOUNDS if own is None else StrokeBounds(**own)
+    row["at_bounds"] = describe_bounds(stroke, bounds)
+    if own is not None:  # the insect's own bounds, what pinned() measures against
+        row["stroke_bounds"] = bounds.changes()
     return row
 
 
@@ -309,7 +339,7 @@ def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]
         feasible = [r for r in members if r["feasible"]]
         if not feasible:  # nothing is pinned (:func:`pinned`)
             continue
-        at = bound_sides(np.array([[float(r[n]) for n in PARAMETER_NAMES] for r in feasible]))
+        at, bounds = _sides(feasible), row_bounds(feasible[0])  # a series flies one insect
         for index, name in enumerate(PARAMETER_NAMES):
             side = pinned(members, name)
             if not side:
@@ -322,7 +352,7 @@ def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]
                     "condition_unit": members[0]["condition_unit"],
                     "parameter": name,
                     "bound": side,
-                    "value": float(LOWER[index] if sign < 0 else UPPER[index]),
+                    "value": (bounds.lower if sign < 0 else bounds.upper)[index],
                     "share": float(np.mean(at[:, index] == sign)),
                 }
             )

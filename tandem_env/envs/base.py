@@ -364,7 +364,8 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
             raise ResetNeeded("call reset() before step()")
         if self._ended[index].any():
             raise ResetNeeded("the episode has ended; call reset() before step()")
-        batch, observations = self._fly(index, normalised_to_physical(actions))
+        bounds = self.config.insect.stroke_bounds  # the flyer's own (Table 4 by default)
+        batch, observations = self._fly(index, normalised_to_physical(actions, bounds))
         self._ended[index] = batch.terminated | batch.truncated
         for k, i in enumerate(index):
             self._last[i] = LastStep(batch, k)

@@ -30,7 +30,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from ..physics import N_PARAMETERS, PARAMETER_NAMES, Result, normalised_to_physical
-from ..physics.stroke import DISCRETE, LOWER, UPPER
+from ..physics.stroke import DISCRETE, TABLE_4_BOUNDS
 from .config import FlightConfig
 from .declaration import Constraint, TaskCondition, TaskDeclaration
 
@@ -98,7 +98,8 @@ class FlightProblem:
 
     * **Bounds.** A stroke is an action: 28 normalised coordinates in
       [:attr:`normalised_low`, :attr:`normalised_high`] (the env's action box), mapped
-      linearly onto Table 4's physical bounds [:attr:`physical_low`, :attr:`physical_high`]
+      linearly onto the insect's stroke bounds [:attr:`physical_low`, :attr:`physical_high`]
+      (``insect.stroke_bounds``: Table 4's unless it sets its own)
       (``tandem_env.physics.normalised_to_physical``), except the :attr:`discrete` ones (each
       wing's harmonic N: 1 on the box's lower half, 2 on its upper half).
     * **Constraints.** The task declaration's :attr:`constraints`, in order: each has a
@@ -163,13 +164,15 @@ class FlightProblem:
 
     @property
     def physical_low(self) -> np.ndarray:
-        """(28,) Table 4 lower bounds [Hz, deg, -], what :attr:`normalised_low` maps to."""
-        return LOWER.copy()
+        """(28,) the insect's lower stroke bounds [Hz, deg, -] (Table 4's unless it sets its
+        own), what :attr:`normalised_low` maps to."""
+        return np.array(self.config.insect.stroke_bounds.lower)
 
     @property
     def physical_high(self) -> np.ndarray:
-        """(28,) Table 4 upper bounds [Hz, deg, -], what :attr:`normalised_high` maps to."""
-        return UPPER.copy()
+        """(28,) the insect's upper stroke bounds [Hz, deg, -], what :attr:`normalised_high`
+        maps to."""
+        return np.array(self.config.insect.stroke_bounds.upper)
 
     @property
     def discrete(self) -> np.ndarray:
@@ -200,7 +203,8 @@ class FlightProblem:
         a condition the model refuses."""
         strokes = self._actions(actions)
         values = self._conditions(conditions, strokes.shape[0])
-        batch = self._core.step(normalised_to_physical(strokes), values)
+        bounds = self.config.insect.stroke_bounds
+        batch = self._core.step(normalised_to_physical(strokes, bounds), values)
         return ProblemEvaluation(
             objective=np.asarray(batch.objective, dtype=np.float64),
             margins=self._margins(batch.result),
@@ -213,9 +217,17 @@ class FlightProblem:
         normalised coordinates, by autograd from ONE evaluation on the torch backend
         (``tandem_env.physics.torch_model.normalised_jacobian``, imported here: it needs torch),
         with the env's insect, model options and device. Raises ValueError where a constraint
-        declares no margin."""
+        declares no margin, or for an insect with its own stroke bounds (the torch map is
+        Table 4's; finite differences on the numba backend serve it)."""
         from ..physics import torch_model  # torch only when something differentiates
 
+        if self.config.insect.stroke_bounds != TABLE_4_BOUNDS:
+            raise ValueError(
+                f"{self.declaration.name}: differentiate maps actions onto Table 4's bounds "
+                "(torch_model.normalised_jacobian), not this insect's own stroke_bounds; "
+                "allowed: an insect with Table 4's bounds, or finite differences (the numba "
+                "backend's polish)"
+            )
         if not self.has_margins:
             missing = [c.name for c in self.constraints if c.margin is None]
             raise ValueError(

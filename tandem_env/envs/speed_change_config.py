@@ -13,8 +13,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-from ..physics import SPEED_LIMITS, ModelOptions
+from ..physics import PARAMETER_NAMES, SPEED_LIMITS, ModelOptions
 from ..physics.checks import shown
+from ..physics.stroke import WING_NAMES
 from .config import FlightConfig
 from .declaration import POWER_CAP, TaskDeclaration
 from .level_flight import LEVEL_FLIGHT
@@ -257,13 +258,13 @@ class SpeedChangeConfig(FlightConfig):
         """Largest speed, altitude and energy cost of one cycle flown inside the bands with power
         within the cap [reward units].
 
-        The slowest cycle lasts 1/30 Hz (Table 4's lowest frequency); the speed error is at most
+        The slowest cycle lasts 1/f at the insect's lowest frequency (Table 4's 30 Hz unless its
+        ``stroke_bounds`` say otherwise); the speed error is at most
         the forward band's width past the envelope, the altitude error the band. The
         termination weight should exceed this, so that ending an episode early never pays.
         """
-        from ..physics import LOWER, PARAMETER_NAMES
-
-        slowest = 1.0 / LOWER[PARAMETER_NAMES.index("fore_frequency")]
+        lowest = self.insect.stroke_bounds.lower
+        slowest = 1.0 / min(lowest[PARAMETER_NAMES.index(f"{w}_frequency")] for w in WING_NAMES)
         band = self.forward_speed_band
         env = self.speed_envelope
         speed_error = max(band[1] - env[0], env[1] - band[0])

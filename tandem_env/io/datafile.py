@@ -4,6 +4,12 @@
 allowed; :func:`read_yaml` parses with :class:`DataLoader`, YAML's safe loader (it never builds
 Python objects) with two fixes for hand-written files. Errors are :class:`DataFileError`, a
 ``ValueError`` whose message names the file and the fault.
+
+Every YAML text the project reads goes through :func:`parse_yaml` and a loader derived from
+:class:`BoundedLoader`, which refuses a text longer than :data:`MAX_YAML_CHARS` and a document
+that expands to more than :data:`MAX_YAML_NODES` values, an alias counted as every value it
+repeats: an alias bomb (a few lines that expand to 10⁹ items) is refused after reading its few
+lines, before anything is built.
 """
 
 from __future__ import annotations
@@ -16,26 +22,111 @@ from typing import Any
 
 import yaml
 
-__all__ = ["DataFileError", "DataLoader", "read_text", "read_yaml"]
+__all__ = [
+    "MAX_YAML_CHARS",
+    "MAX_YAML_NODES",
+    "BoundedLoader",
+    "DataFileError",
+    "DataLoader",
+    "parse_yaml",
+    "read_text",
+    "read_yaml",
+]
+
+#: Most characters a YAML text may hold: 16 MiB, far above any insect, kinematics or run file
+#: (a 4096-sample kinematics table with 20 pitch columns is under 2 MB).
+MAX_YAML_CHARS = 16 * 2**20
+#: Most values (scalars, sequences, mappings) a YAML document may expand to, each alias counted
+#: as the whole value it repeats; 10⁶ is ten times the largest table a data file holds.
+MAX_YAML_NODES = 1_000_000
+_MERGE = "tag:yaml.org,2002:merge"
 
 
 class DataFileError(ValueError):
     """A data file that cannot be read or parsed; the message names the file and the fault."""
 
 
-class DataLoader(yaml.SafeLoader):
+class YAMLTooLarge(yaml.YAMLError):
+    """A YAML text or document beyond :data:`MAX_YAML_CHARS` / :data:`MAX_YAML_NODES`."""
+
+
+class BoundedLoader(yaml.SafeLoader):
+    """YAML's safe loader that refuses a document expanding to more than
+    :data:`MAX_YAML_NODES` values (aliases counted as what they repeat) before building it."""
+
+    def compose_document(self) -> yaml.Node:
+        node = super().compose_document()
+        _expanded_size(node)
+        return node
+
+
+def _expanded_size(root: yaml.Node) -> int:
+    """How many values ``root`` expands to, each alias counted in full; memoised per node, so
+    it costs one visit of each distinct node however many times aliases repeat it.
+    :class:`YAMLTooLarge` beyond :data:`MAX_YAML_NODES`, or for a node that holds itself."""
+    sizes: dict[int, int] = {}
+    open_nodes: set[int] = set()
+
+    def size(node: yaml.Node) -> int:
+        key = id(node)
+        if key in sizes:
+            return sizes[key]
+        if key in open_nodes:
+            raise YAMLTooLarge(f"an alias refers to a value that holds it (line {_line(node)})")
+        open_nodes.add(key)
+        children: list[yaml.Node] = []
+        if isinstance(node, yaml.SequenceNode):
+            children = list(node.value)
+        elif isinstance(node, yaml.MappingNode):
+            children = [item for pair in node.value for item in pair]
+        total = 1
+        for child in children:
+            total += size(child)
+            if total > MAX_YAML_NODES:
+                raise YAMLTooLarge(
+                    f"it expands to more than {MAX_YAML_NODES:,} values (aliases counted as "
+                    f"what they repeat; line {_line(node)}); allowed: at most {MAX_YAML_NODES:,}"
+                )
+        open_nodes.discard(key)
+        sizes[key] = total
+        return total
+
+    return size(root)
+
+
+def _line(node: yaml.Node) -> int:
+    return node.start_mark.line + 1 if node.start_mark is not None else 0
+
+
+def parse_yaml(text: str, loader: type[BoundedLoader]) -> Any:
+    """The plain data of a YAML ``text``, read with ``loader`` (a :class:`BoundedLoader`):
+    :class:`YAMLTooLarge` (a ``yaml.YAMLError``) for a text beyond :data:`MAX_YAML_CHARS` or a
+    document beyond :data:`MAX_YAML_NODES` values, other YAML errors as the loader raises them."""
+    if not (isinstance(loader, type) and issubclass(loader, BoundedLoader)):
+        raise TypeError(f"loader = {loader!r}; allowed: a subclass of BoundedLoader")
+    if len(text) > MAX_YAML_CHARS:
+        raise YAMLTooLarge(
+            f"it holds {len(text):,} characters; allowed: at most {MAX_YAML_CHARS:,}"
+        )
+    return yaml.load(text, Loader=loader)  # a safe loader: plain data only
+
+
+class DataLoader(BoundedLoader):
     """YAML's safe loader (plain data only) with two fixes for hand-written data files.
 
     * YAML 1.2 numbers: PyYAML reads YAML 1.1, where ``1e-4`` and ``34e0`` (no dot, or no sign
       in the exponent) are strings; they are floats here, as in YAML 1.2 and every spreadsheet.
     * Duplicate keys are refused, naming the key and its line (YAML 1.1 loaders keep the
-      last one silently, so a pasted second ``speed:`` would win without a word).
+      last one silently, so a pasted second ``speed:`` would win without a word). A key
+      merged in (``<<: *anchor``) and given again beside it is an override, not a duplicate.
     """
 
     def construct_mapping(self, node: yaml.Node, deep: bool = False) -> dict[Any, Any]:
         if isinstance(node, yaml.MappingNode):
             seen: dict[Any, int] = {}
             for key_node, _ in node.value:
+                if key_node.tag == _MERGE:
+                    continue  # the merge key has no value of its own: the base class merges
                 key = self.construct_object(key_node, deep=True)
                 if not isinstance(key, collections.abc.Hashable):
                     continue  # reported by the base class
@@ -87,8 +178,15 @@ def read_yaml(path: str | os.PathLike[str], where: str, allowed: str) -> Any:
     path = Path(path)
     if not path.is_file():
         raise DataFileError(f"{where} {str(path)!r}: no such file")
+    if path.stat().st_size > 4 * MAX_YAML_CHARS:  # a UTF-8 character is at most 4 bytes
+        raise DataFileError(
+            f"{where} {str(path)!r} holds {path.stat().st_size:,} bytes; allowed: a YAML text "
+            f"of at most {MAX_YAML_CHARS:,} characters"
+        )
     try:
-        data = yaml.load(read_text(path, where), Loader=DataLoader)  # safe: plain data
+        data = parse_yaml(read_text(path, where), DataLoader)
+    except YAMLTooLarge as exc:
+        raise DataFileError(f"{where} {str(path)!r} is refused: {exc}") from None
     except yaml.YAMLError as exc:
         raise DataFileError(f"{str(path)!r} is not valid YAML: {exc}") from None
     except RecursionError:

@@ -9,6 +9,8 @@ from typing import Any
 
 import yaml
 
+from .datafile import BoundedLoader, parse_yaml
+
 
 def parse_value(text: str) -> Any:
     """A command-line value: a Python literal if it is one (``0.1``, ``(0.25, 2.0)``,
@@ -22,8 +24,8 @@ def parse_value(text: str) -> Any:
     except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
         pass
     try:
-        value = yaml.safe_load(text)
-    except yaml.YAMLError:
+        value = parse_yaml(text, BoundedLoader)  # an alias bomb is refused, not expanded
+    except (yaml.YAMLError, RecursionError):  # not YAML it may read: the text itself
         return text
     return text if value is None and text.strip() not in ("", "null", "~", "None") else value
 

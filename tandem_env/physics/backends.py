@@ -16,6 +16,7 @@ from . import model
 from .insect import DRAGONFLY, Dragonfly
 from .model import DEFAULT_OPTIONS, Result
 from .options import ModelOptions
+from .stroke import validate_physical
 
 #: The implementations of :func:`evaluate`: the compiled numba kernel (default) and the torch
 #: port (``torch_model``, on any torch device; docs/model.md §12.1).
@@ -40,7 +41,11 @@ def evaluate(
     equal to the kernel to 1e-8); ``device``: the torch device (``"cpu"``, ``"cuda"``,
     ``"cuda:1"``; default the CPU), only with ``backend="torch"``. An unknown backend, a device
     with the numba backend, or a device that is not available raises ValueError naming it.
+    A stroke outside the insect's ``stroke_bounds`` (Table 4's unless it sets its own) raises
+    ValueError naming the parameter, its value and the bounds.
     """
+    if isinstance(insect, Dragonfly):  # else the backend names the bad insect
+        validate_physical(strokes, bounds=insect.stroke_bounds)
     kwargs = dict(flight_path_angle=flight_path_angle, insect=insect, options=options)
     if backend == "torch":
         from .torch_model import evaluate_numpy

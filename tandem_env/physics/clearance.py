@@ -84,7 +84,7 @@ def wing_clearance(
             )
     if not isinstance(insect, Dragonfly):
         raise ValueError(f"insect must be a Dragonfly; got {type(insect).__name__}")
-    physical = validate_physical(strokes)
+    physical = validate_physical(strokes, bounds=insect.stroke_bounds)
     fraction = np.linspace(0.0, 1.0, n_span)
     roots = (np.zeros(3), np.array([-insect.root_spacing, 0.0, -insect.root_drop]))
     out = np.empty(physical.shape[0])

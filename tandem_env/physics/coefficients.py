@@ -46,6 +46,23 @@ TABLE = 2.0  # over 0-180°
 LEADING_EDGE_TABLE = 3.0  # over 0-90° from the leading edge, folded like FIT
 
 
+#: Largest |C_L| and C_D a model may give [-]: measured plates and insect wings stay below 4
+#: (C_D(90°) ≈ 3.5 at most); 10 refuses a slip of units or sign, not a measurement.
+MAX_COEFFICIENT = 10.0
+
+
+def _check_curves(owner: str, lift: np.ndarray, drag: np.ndarray, alpha: np.ndarray) -> None:
+    """ValueError naming the angle where |C_L| or C_D leaves [0, :data:`MAX_COEFFICIENT`]."""
+    for name, values, low in (("C_L", lift, -MAX_COEFFICIENT), ("C_D", drag, 0.0)):
+        bad = np.flatnonzero((values < low) | (values > MAX_COEFFICIENT))
+        if bad.size:
+            i = int(bad[0])
+            raise ValueError(
+                f"{owner} gives {name} = {values[i]:.4g} at α = {alpha[i]:g}°; allowed: "
+                f"{low:g} <= {name} <= {MAX_COEFFICIENT:g} (measured wings stay below 4)"
+            )
+
+
 def _real(owner: str, name: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ValueError(f"{owner}.{name} = {value!r}; allowed: a finite number")
@@ -128,6 +145,7 @@ class SinusoidalFit:
                 f"SinusoidalFit gives C_D < 0 between 0° and 90° (min {self.drag(lead).min():.3g}); "
                 "allowed: drag_offset − drag_amplitude·cos(…) >= 0 everywhere"
             )
+        _check_curves("SinusoidalFit", self.lift(lead), self.drag(lead), lead)
 
     @classmethod
     def dickinson_1999(cls) -> SinusoidalFit:
@@ -234,6 +252,7 @@ class TabulatedCoefficients:
             )
         if min(drag) < 0.0:
             raise ValueError(f"{owner}.drag has C_D = {min(drag)} < 0; allowed: C_D >= 0")
+        _check_curves(owner, np.asarray(lift), np.asarray(drag), a)
         object.__setattr__(self, "alpha", alpha)
         object.__setattr__(self, "lift", lift)
         object.__setattr__(self, "drag", drag)

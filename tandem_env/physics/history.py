@@ -126,7 +126,8 @@ def stroke_history(
     :func:`evaluate_numba` of the stroke (on its motion-following grid). ``side = -1`` evaluates the
     mirror image (the left wings), for the symmetry checks.
     """
-    physical = validate_physical(stroke)
+    bounds = insect.stroke_bounds if isinstance(insect, Dragonfly) else None  # else named below
+    physical = validate_physical(stroke, bounds=bounds)
     if physical.shape[0] != 1:
         raise ValueError(f"stroke_history takes one stroke of shape (28,); got {np.shape(stroke)}")
     _check_side(n_samples, side)

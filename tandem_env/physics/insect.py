@@ -18,12 +18,12 @@ import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
-from typing import Any, Literal, Union
+from typing import Any, Literal, NamedTuple, Union
 
 import numpy as np
 
 from ..io.datafile import DataFileError, read_yaml
-from .checks import is_integer, is_real
+from .checks import is_integer, is_real, shown
 from .coefficients import (
     PAPER_COEFFICIENTS,
     CoefficientModel,
@@ -33,6 +33,7 @@ from .coefficients import (
     coefficient_model,
     coefficient_spec,
 )
+from .stroke import PARAMETER_NAMES, TABLE_4_BOUNDS, StrokeBounds
 
 Planform = Literal["tear-drop", "real"]
 PLANFORMS: tuple[str, ...] = ("tear-drop", "real")
@@ -52,15 +53,97 @@ REAL_WING_EDGES: dict[str, tuple[tuple[float, ...], tuple[float, ...]]] = {
 }
 
 
-def _check_positive(
-    owner: str, name: str, value: float, unit: str, allow_zero: bool = False
-) -> None:
-    ok = is_real(value) and math.isfinite(value) and (value >= 0.0 if allow_zero else value > 0.0)
-    if not ok:
-        bound = ">= 0" if allow_zero else "> 0"
-        raise ValueError(
-            f"{owner}.{name} = {value!r} {unit} is not physical: it must be finite and {bound}"
+class Limit(NamedTuple):
+    """The range a field of :class:`Wing` or :class:`Dragonfly` may take, and why."""
+
+    low: float
+    high: float
+    unit: str
+    why: str
+    open_low: bool = False
+    """True: the value must exceed ``low`` (a length or a mass cannot be 0)."""
+
+
+#: The range of each number of a wing (:class:`Wing`), one home for the checks and messages.
+#: The model is for insects and flapping MAVs: wings up to 1 m long; a wing's thickness is
+#: further limited to a tenth of its mean chord (:data:`MAX_THICKNESS_RATIO`).
+WING_LIMITS: dict[str, Limit] = {
+    "mean_chord": Limit(0.0, 1.0, "m", "an insect's or a flapping MAV's wing", True),
+    "length": Limit(0.0, 1.0, "m", "an insect's or a flapping MAV's wing", True),
+    "drag_coefficient_0": Limit(0.0, 1.0, "", "a plate edge-on: 0.1-0.3 at insect scale"),
+    "drag_coefficient_90": Limit(0.0, 5.0, "", "a plate broadside: 1.2-3.5"),
+    "rotational_coefficient": Limit(0.0, 10.0, "", "π in theory (docs/model.md §1)"),
+    "mass": Limit(0.0, 1.0, "kg", "a wing of at most 1 m"),
+    "thickness": Limit(0.0, 1.0, "m", "a thin plate"),
+    "damping_linear": Limit(0.0, 10.0, "", "0.2 in Berman & Wang 2007"),
+    "damping_quadratic": Limit(0.0, 10.0, "", "0.2 in Berman & Wang 2007"),
+}
+#: The range of each number of the insect (:class:`Dragonfly`).
+DRAGONFLY_LIMITS: dict[str, Limit] = {
+    "body_mass": Limit(0.0, 10.0, "kg", "an insect or a flapping MAV", True),
+    "gravity": Limit(0.0, 30.0, "m/s²", "Mars 3.7, the Earth 9.81, Jupiter 24.8", True),
+    "air_density": Limit(0.0, 100.0, "kg/m³", "Mars 0.02, sea level 1.225, Venus 65", True),
+    "body_drag_area": Limit(0.0, 1.0, "m²", "a body of at most 1 m across"),
+    "flight_muscle_ratio": Limit(0.0, 1.0, "", "a share of the body mass", True),
+    "muscle_specific_power": Limit(0.0, 1000.0, "W/kg", "insect flight muscle: 50-250", True),
+    "root_spacing": Limit(0.0, 1.0, "m", "a body of at most 1 m"),
+    "root_drop": Limit(0.0, 1.0, "m", "a body of at most 1 m"),
+}
+#: Thickest wing, as a share of its mean chord [-]: the blade elements are thin plates (the
+#: specimen's is 3.5 µm on a 5.88 mm chord, 0.06 %).
+MAX_THICKNESS_RATIO = 0.1
+#: Most coefficients of each edge of the real planform: Eq. 2 is a quintic (Table 2).
+MAX_EDGE_COEFFICIENTS = 6
+
+
+def _check_limits(owner: Any, limits: Mapping[str, Limit]) -> None:
+    """ValueError naming the first field of ``owner`` outside its :class:`Limit`, its value
+    and the allowed range, in the order of ``limits``."""
+    for name, limit in limits.items():
+        value = getattr(owner, name)
+        high = limit.high
+        why = limit.why
+        if name == "thickness" and is_real(owner.mean_chord):
+            high = min(high, MAX_THICKNESS_RATIO * owner.mean_chord)
+            why = f"a thin plate: at most {MAX_THICKNESS_RATIO:g} of the mean chord"
+        ok = is_real(value) and math.isfinite(value) and value <= high
+        ok = ok and (value > limit.low if limit.open_low else value >= limit.low)
+        if not ok:
+            shown_value = (
+                f"{shown(value, limit.low, high)} {limit.unit}".rstrip()
+                if is_real(value)
+                else repr(value)
+            )
+            low_side = f"{limit.low:g} <" if limit.open_low else f"{limit.low:g} <="
+            raise ValueError(
+                f"{type(owner).__name__}.{name} = {shown_value}"
+                + f"; allowed: {low_side} {name} <= {high:g} {limit.unit}".rstrip()
+                + f" ({why})"
+            )
+
+
+def _edges(value: Any) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
+    """``real_edges`` as a pair of tuples of floats, or ValueError naming what is allowed."""
+    if value is None:
+        return None
+    allowed = (
+        f"allowed: None or (upper, lower), two sequences of 1 to {MAX_EDGE_COEFFICIENTS} finite "
+        "numbers each (Eq. 2's coefficients, ascending powers of r/R)"
+    )
+    if not (
+        isinstance(value, list | tuple | np.ndarray)
+        and len(value) == 2
+        and all(
+            isinstance(edge, list | tuple | np.ndarray)
+            and 1 <= len(edge) <= MAX_EDGE_COEFFICIENTS
+            and all(is_real(c) and math.isfinite(c) for c in edge)
+            for edge in value
         )
+    ):
+        text = " ".join(repr(value).split())
+        raise ValueError(f"Wing.real_edges = {text[:80]}; {allowed}")
+    upper, lower = (tuple(float(c) for c in edge) for edge in value)
+    return upper, lower
 
 
 def helmbold_lift_slope(aspect_ratio: float, section_slope: float = 2.0 * math.pi) -> float:
@@ -111,18 +194,10 @@ class Wing:
     (``"dickinson1999"``) or a mapping ``{"model": …}`` is converted on construction."""
 
     def __post_init__(self) -> None:
-        owner = "Wing"
         object.__setattr__(self, "coefficients", coefficient_model(self.coefficients))
-        _check_positive(owner, "mean_chord", self.mean_chord, "m")
-        _check_positive(owner, "length", self.length, "m")
-        _check_positive(owner, "drag_coefficient_0", self.drag_coefficient_0, "", allow_zero=True)
-        _check_positive(owner, "drag_coefficient_90", self.drag_coefficient_90, "", allow_zero=True)
-        _check_positive(owner, "rotational_coefficient", self.rotational_coefficient, "", True)
-        _check_positive(owner, "mass", self.mass, "kg", allow_zero=True)
-        _check_positive(owner, "thickness", self.thickness, "m", allow_zero=True)
-        _check_positive(owner, "damping_linear", self.damping_linear, "", allow_zero=True)
-        _check_positive(owner, "damping_quadratic", self.damping_quadratic, "", allow_zero=True)
-        if self.planform not in PLANFORMS:
+        _check_limits(self, WING_LIMITS)
+        object.__setattr__(self, "real_edges", _edges(self.real_edges))
+        if not isinstance(self.planform, str) or self.planform not in PLANFORMS:
             raise ValueError(f"Wing.planform = {self.planform!r}; allowed: {PLANFORMS}")
         if self.mean_chord >= self.length:
             raise ValueError(
@@ -130,7 +205,7 @@ class Wing:
                 "a blade-element wing must be longer than it is wide"
             )
         if self.planform == "real":
-            if self.real_edges is None or len(self.real_edges) != 2:
+            if self.real_edges is None:
                 raise ValueError(
                     "Wing.real_edges must give (upper, lower) coefficients for planform='real'"
                 )
@@ -262,25 +337,41 @@ class Dragonfly:
     root_drop: float = 9.0e-3
     """How far the hind-wing root sits below the fore-wing root, normal to the body axis [m]:
     enough to keep the model's flat stroke planes apart (docs/model.md §1.7)."""
+    stroke_bounds: StrokeBounds = TABLE_4_BOUNDS
+    """The bounds of this flyer's 28 stroke parameters [Hz, deg, -]: the box its strokes are
+    searched in (the env's action map, the optimisers' box) and :func:`tandem_env.evaluate`
+    checks. Table 4's unless set; in a mapping or file, the parameters that differ
+    (``stroke_bounds: {fore_frequency: [15, 25]}``, :meth:`StrokeBounds.with_changes`)."""
 
     def __post_init__(self) -> None:
-        owner = "Dragonfly"
         if not isinstance(self.fore, Wing) or not isinstance(self.hind, Wing):
             raise ValueError("Dragonfly.fore and Dragonfly.hind must be Wing instances")
-        _check_positive(owner, "body_mass", self.body_mass, "kg")
-        _check_positive(owner, "gravity", self.gravity, "m/s²")
-        _check_positive(owner, "air_density", self.air_density, "kg/m³")
-        _check_positive(owner, "body_drag_area", self.body_drag_area, "m²", allow_zero=True)
-        _check_positive(owner, "muscle_specific_power", self.muscle_specific_power, "W/kg")
-        _check_positive(owner, "root_spacing", self.root_spacing, "m", allow_zero=True)
-        _check_positive(owner, "root_drop", self.root_drop, "m", allow_zero=True)
-        if not (is_real(self.flight_muscle_ratio) and 0.0 < self.flight_muscle_ratio <= 1.0):
+        if not isinstance(self.stroke_bounds, StrokeBounds):
             raise ValueError(
-                f"Dragonfly.flight_muscle_ratio = {self.flight_muscle_ratio!r}; allowed: 0 < ratio <= 1"
+                f"Dragonfly.stroke_bounds = {self.stroke_bounds!r}; allowed: a StrokeBounds "
+                "(in a mapping or file: {name: [low, high]} of the parameters that differ)"
             )
+        _check_limits(self, DRAGONFLY_LIMITS)
         if not is_integer(self.wings_per_pair) or self.wings_per_pair not in (1, 2):
             raise ValueError(f"Dragonfly.wings_per_pair = {self.wings_per_pair!r}; allowed: 1 or 2")
         object.__setattr__(self, "wings_per_pair", int(self.wings_per_pair))
+        wings = self.wings_per_pair * (self.fore.mass + self.hind.mass)
+        if wings >= self.body_mass:
+            raise ValueError(
+                f"Dragonfly: the {2 * self.wings_per_pair} wings weigh {wings:.4g} kg, not less "
+                f"than Dragonfly.body_mass = {self.body_mass:.4g} kg; allowed: wings lighter than "
+                "the whole insect (body_mass is the total mass, wings included)"
+            )
+
+    def to_dict(self) -> dict[str, Any]:
+        """The fields as JSON takes them (``tandem_env.io.files.to_jsonable``), without
+        ``stroke_bounds`` where they are Table 4's: a flyer that keeps the paper's bounds has
+        the JSON, the fingerprints and the reference scores it had before they could be set."""
+        return {
+            f.name: getattr(self, f.name)
+            for f in fields(self)
+            if f.name != "stroke_bounds" or self.stroke_bounds != TABLE_4_BOUNDS
+        }
 
     @property
     def weight(self) -> float:
@@ -355,6 +446,8 @@ def _with_fields(base: Any, spec: Any, where: str) -> Any:
         current = getattr(base, key)
         if isinstance(current, Wing):
             changes[key] = _with_fields(current, value, f"{where}.{key}")
+        elif isinstance(current, StrokeBounds) and not isinstance(value, StrokeBounds):
+            changes[key] = current.with_changes(value, f"{where}.{key}")
         elif isinstance(value, Mapping) and key == "coefficients":
             changes[key] = dict(value)  # Wing converts it (coefficient_model)
         elif isinstance(current, float) and isinstance(value, int) and not isinstance(value, bool):
@@ -412,6 +505,8 @@ def _differences(obj: Any, base: Any) -> dict[str, Any]:
             continue
         if isinstance(value, Wing):
             out[f.name] = _differences(value, reference)
+        elif isinstance(value, StrokeBounds):
+            out[f.name] = value.changes(reference)
         else:
             out[f.name] = _field_value(value)
     return out
@@ -441,6 +536,8 @@ def describe_insect(insect: InsectSource) -> str:
                 items.append(f"{prefix}{key} = {value['model']}")
             elif isinstance(value, float):
                 items.append(f"{prefix}{key} = {value:.4g}")
+            elif key in PARAMETER_NAMES:  # a stroke bound
+                items.append(f"{prefix}{key} = {value[0]:g} to {value[1]:g}")
             elif isinstance(value, list):
                 items.append(f"{prefix}{key} = (given)")
             else:

@@ -63,11 +63,17 @@ TIME_TOLERANCE = 1e-3
 #: variation over the cycle (the cycle closed) has a jump; :class:`MeasuredWing` warns [-].
 #: A sampled sinusoid's largest step is at most 0.19 of it (8 samples; less with more).
 JUMP_FRACTION = 0.25
-#: A series with more than this share of its mean-square rate in the upper half of the
-#: harmonics its samples resolve (:func:`unresolved_share`) is not resolved by them;
-#: :class:`MeasuredWing` warns [-]. A triangle-wave sweep has 0.03, a step smoothed over 3
-#: samples 0.12, 0.5° of noise on a 30° sweep in 64 samples 0.14.
+#: A series with more than this share of its mean-square rate above the harmonics a smooth wing
+#: motion has (:func:`unresolved_share`) is not smooth; :class:`MeasuredWing` warns [-]. A
+#: triangle-wave sweep has 0.04-0.05, the sharpest pitch of Table 4 (C_η = 5) 0.03, a step smoothed
+#: over 3 of 64 samples 0.29, over 1/64 of the cycle at any sampling 0.7.
 UNRESOLVED_SHARE = 0.1
+#: The harmonics a smooth wing motion lives in [-]: Table 4's sharpest waveforms, the triangle
+#: sweep (K = 1) and the near-square pitch (C_η = 5), keep 96-97 % of their mean-square rate in
+#: the first 10. Above them a series' rate is that of a step, however finely it is sampled:
+#: ramped over 1/64 of the cycle it is 20 times a sinusoid's, and the power (∝ rate³) is
+#: thousands of times the smooth stroke's.
+SMOOTH_HARMONICS = 10
 #: With ``degrees=True``, a sweep and pitch that never leave ±this [deg] look like radians
 #: given as degrees (a stroke of a few degrees); the constructors warn.
 RADIANS_AS_DEGREES = 2.0 * math.pi
@@ -488,15 +494,23 @@ def _warn_jumps(name: str, series: np.ndarray) -> bool:
     return bool(bad.size)
 
 
-def unresolved_share(series: np.ndarray) -> np.ndarray:
-    """The share of a periodic series' mean-square rate in harmonics above n/4 [-], per column.
+def smooth_band(n_samples: int) -> float:
+    """The highest harmonic a smooth series of ``n_samples`` per cycle has its rate in
+    (:func:`unresolved_share`): n/4, the lower half of what the samples resolve, and at most
+    :data:`SMOOTH_HARMONICS`, what a wing's motion holds however finely it is sampled."""
+    return min(n_samples / 4, SMOOTH_HARMONICS)
 
-    n samples resolve harmonics up to n/2; by Parseval the mean square of the rate dX/dt is
-    the sum over harmonics k of k²·|c_k|² (times (2πf)²). A motion its samples resolve has its
-    rate in the lower harmonics and almost none in the upper half of the band (a sinusoid 0, a
-    triangle-wave sweep 0.03); a step, a feature a few samples wide or sample-to-sample noise
-    puts a large share there, and then the rate, the forces and the power (∝ rate³) follow the
-    sampling, not the motion. (n, k) -> (k,); (n,) -> (1,).
+
+def unresolved_share(series: np.ndarray) -> np.ndarray:
+    """The share of a periodic series' mean-square rate above :func:`smooth_band` [-], per
+    column.
+
+    By Parseval the mean square of the rate dX/dt is the sum over harmonics k of k²·|c_k|²
+    (times (2πf)²). A smooth motion has its rate in the first few harmonics (a sinusoid 0, a
+    triangle-wave sweep 0.04-0.05 above the 10th); a step, a feature a few samples wide or
+    sample-to-sample noise puts a large share above them, and then the rate, the forces and
+    the power (∝ rate³) follow the step or the sampling, not a wing's motion.
+    (n, k) -> (k,); (n,) -> (1,).
     """
     columns = series.reshape(series.shape[0], -1)
     n = columns.shape[0]
@@ -506,7 +520,7 @@ def unresolved_share(series: np.ndarray) -> np.ndarray:
         coefficients[-1] *= 0.5
     energy = k**2 * np.abs(coefficients) ** 2
     total = energy.sum(axis=0)
-    upper = energy[k[:, 0] > n / 4].sum(axis=0)
+    upper = energy[k[:, 0] > smooth_band(n)].sum(axis=0)
     return np.divide(upper, total, out=np.zeros_like(total), where=total > 0)
 
 
@@ -519,10 +533,12 @@ def _warn_unresolved(name: str, series: np.ndarray) -> None:
         where = f"{name}[:, {j}]" if series.ndim == 2 else name
         warnings.warn(
             f"MeasuredWing.{where}: {share[j]:.0%} of its mean-square rate lies in harmonics "
-            f"above n/4 = {series.shape[0] / 4:g} (allowed: at most {UNRESOLVED_SHARE:.0%}): its "
-            "samples do not resolve it (a step, a feature a few samples wide, or noise), so its "
-            "rates, forces and power follow the sampling, not the motion; smooth it or give it "
-            "with more samples (or as a Fourier series)",
+            f"above {smooth_band(series.shape[0]):g} (allowed: at most {UNRESOLVED_SHARE:.0%}; "
+            f"n/4 of its {series.shape[0]} samples, at most {SMOOTH_HARMONICS}, where a smooth "
+            "wing motion has its rate): it is not smooth (a step, a feature a few samples wide, "
+            "or noise), so its rates, forces and power follow the step or the sampling, not a "
+            "wing's motion; give smooth, periodic kinematics (e.g. a Fourier series of at most "
+            f"{SMOOTH_HARMONICS} harmonics)",
             UserWarning,
             stacklevel=4,
         )

@@ -765,13 +765,13 @@ def test_a_sweep_its_samples_do_not_resolve_is_warned_about(
     assert main(["measured", str(path), "--out", str(tmp_path / "out")]) == 0
     err = capsys.readouterr().err
     assert re.search(
-        r"MeasuredWing.sweep: 1\d% of its mean-square rate lies in harmonics above", err
+        r"MeasuredWing.sweep: \d+% of its mean-square rate lies in harmonics above", err
     )
     # the criterion: a resolved motion has almost none of its rate there
     phase = 2 * np.pi * np.arange(64) / 64
     triangle = np.arcsin(np.cos(phase))
     assert unresolved_share(np.cos(phase))[0] < 1e-20
-    assert unresolved_share(triangle)[0] < 0.05 < UNRESOLVED_SHARE
+    assert unresolved_share(triangle)[0] < 0.06 < UNRESOLVED_SHARE  # 0.05 above harmonic 10
     assert unresolved_share(np.sign(np.cos(phase)))[0] > 0.5
 
 

@@ -96,10 +96,11 @@ def test_atol_must_be_a_small_number(atol) -> None:
 def test_atol_still_works() -> None:
     above = STROKE.copy()
     above[0] = UPPER[0] + 0.5 * ATOL_MAX
-    te.validate_physical(above, atol=ATOL_MAX)
-    te.validate_physical(above, atol=np.float32(ATOL_MAX))
+    table_4 = te.TABLE_4_BOUNDS  # a flyer's bounds; the default is the model's wider limits
+    te.validate_physical(above, atol=ATOL_MAX, bounds=table_4)
+    te.validate_physical(above, atol=np.float32(ATOL_MAX), bounds=table_4)
     with pytest.raises(ValueError, match="outside Table 4"):
-        te.validate_physical(above)
+        te.validate_physical(above, bounds=table_4)
 
 
 # --- flight conditions -----------------------------------------------------------------------
@@ -239,7 +240,7 @@ def test_a_value_just_outside_a_limit_is_shown_with_the_digits_that_make_it_so()
     stroke = STROKE.copy()
     stroke[0] = UPPER[0] + 1e-5  # fore_frequency 45.00001 Hz: %g would print 45
     with pytest.raises(ValueError, match=r"= 45\.00001 Hz is outside Table 4: allowed 30 to 45"):
-        te.validate_physical(stroke)
+        te.validate_physical(stroke, bounds=te.TABLE_4_BOUNDS)
     with pytest.raises(ValueError, match=r"speed = 20\.0000000001 m/s; allowed"):
         te.evaluate(STROKE, 20.0000000001)
     action = np.zeros(28)

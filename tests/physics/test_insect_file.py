@@ -69,7 +69,7 @@ def test_example_file(tmp_path: Path) -> None:
         ({"bodymass": 1e-4}, r"^insect\.bodymass: unknown field; allowed: fore, hind, body_mass"),
         ({"fore": {"lenght": 0.03}}, r"^insect\.fore\.lenght: unknown field; allowed: mean_chord"),
         ({"fore": 3}, r"^insect\.fore = 3; allowed: a mapping of Wing fields"),
-        ({"body_mass": -1.0}, r"Dragonfly\.body_mass = -1\.0 kg is not physical"),
+        ({"body_mass": -1.0}, r"Dragonfly\.body_mass = -1 kg; allowed: 0 < body_mass <= 10 kg"),
         ({"body_mass": "heavy"}, r"Dragonfly\.body_mass = 'heavy'"),
         ({"fore": {"planform": "round"}}, r"Wing\.planform = 'round'; allowed"),
         ({"fore": {"coefficients": "dickson"}}, r"coefficients\.model = 'dickson'"),
