@@ -11,7 +11,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import Measurement, machine_line, minutes, run_command, spaced
+from eval.numbers.framework import Measurement, at_load, machine_line, minutes, run_command, spaced
 
 QUICK_PRESET_COMMAND: tuple[str, ...] = ("python", "-m", "eval", "study", "all")
 """The documented command (quick preset, CMA-ES, serially); ``--out`` and ``--quiet`` are
@@ -37,7 +37,7 @@ def render(data: dict[str, Any]) -> str:
     return (
         f"`{data['command']}` (the quick preset: CMA-ES, serially, {data['jobs']} "
         f"optimisations, {spaced(data['evaluations'])} model evaluations, into an empty folder "
-        f"with the record cache off) took **{minutes(data['wall_s'])}** wall clock. "
+        f"with the record cache off) took **{minutes(data['wall_s'])}** wall clock {at_load(data)} (longer on a busier machine). "
         f"{machine_line(data, 'quick-preset')}\n"
     )
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import tempfile
 from typing import Any
 
-from eval.numbers.framework import Measurement, machine_line, minutes, run_command
+from eval.numbers.framework import Measurement, at_load, machine_line, minutes, run_command
 
 TRAINING_COMMAND: tuple[str, ...] = tuple(
     "python -m train --algo ppo --env TandemWing/LevelFlight-v0 --timesteps 200000 --seed 0 "
@@ -25,8 +25,9 @@ def measure() -> dict[str, Any]:
 
 def render(data: dict[str, Any]) -> str:
     return (
-        f"`{data['command']}` took **{minutes(data['wall_s'])}** wall clock into an empty log "
-        f"folder (training, its periodic evaluations and checkpoints). "
+        f"`{data['command']}` took **{minutes(data['wall_s'])}** wall clock {at_load(data)} into an "
+        f"empty log folder (training, its periodic evaluations and checkpoints; longer on a "
+        f"busier machine). "
         f"{machine_line(data, 'training-time')}\n"
     )
 
