@@ -47,7 +47,7 @@ from agents.methods import register_optimiser
 from agents.optimiser import (
     AskTellOptimiser,
     FloatArray,
-    OptimiserSettings,
+    OptimiserConfig,
     SeedLike,
     integer_setting,
     real_setting,
@@ -94,7 +94,7 @@ def discrete_levels(levels: int) -> FloatArray:
 
 
 @dataclass(frozen=True, kw_only=True)
-class CMAESConfig(OptimiserSettings):
+class CMAESConfig(OptimiserConfig):
     """Configuration of :class:`CMAES` (defaults chosen by measurement: docs/harness.md)."""
 
     algorithm = "cmaes"

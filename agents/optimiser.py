@@ -10,7 +10,7 @@ from __future__ import annotations
 import functools
 from abc import ABC, abstractmethod
 from dataclasses import MISSING, field, fields
-from typing import Any, ClassVar, Protocol
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -118,28 +118,15 @@ class Tallied:
         return list(self._tally.history)
 
 
-class OptimiserConfig(Protocol):
-    """What an optimiser's configuration provides (a frozen dataclass of its settings)."""
+class OptimiserConfig:
+    """Base of an optimiser's configuration, a frozen dataclass of its settings with a
+    ``max_evaluations`` field (the harness's budget): the checks (:func:`check_settings`), the
+    record (:meth:`to_dict`) and :meth:`build` follow from its fields. A subclass names its
+    ``algorithm`` and gives a ``citation``; its optimiser class names the subclass
+    (``class PSO(AskTellOptimiser, settings=PSOConfig)``)."""
 
-    @property
-    def max_evaluations(self) -> int:
-        """Points to evaluate in all (the harness's budget)."""
-        ...
-
-    @property
-    def citation(self) -> str: ...
-
-    def to_dict(self) -> dict[str, Any]: ...
-
-    def build(self, dim: int, seed: SeedLike = None) -> AskTellOptimiser: ...
-
-
-class OptimiserSettings:
-    """Base of an optimiser's configuration, a frozen dataclass of its settings: the checks
-    (:func:`check_settings`), the record (:meth:`to_dict`) and :meth:`build` follow from its
-    fields. A subclass names its ``algorithm`` and gives a ``citation``; its optimiser class
-    names the subclass (``class PSO(AskTellOptimiser, settings=PSOConfig)``)."""
-
+    max_evaluations: int
+    citation: str
     algorithm: ClassVar[str]
     """The record's name of the algorithm."""
     optimiser: ClassVar[type[AskTellOptimiser]]
@@ -157,7 +144,7 @@ class OptimiserSettings:
         """JSON-ready record: the algorithm, every setting, :meth:`in_use` and the citation."""
         settings = {spec.name: getattr(self, spec.name) for spec in fields(self)}  # type: ignore[arg-type]
         record = {"algorithm": self.algorithm, **settings, **self.in_use()}
-        return to_jsonable({**record, "citation": self.citation})  # type: ignore[attr-defined]
+        return to_jsonable({**record, "citation": self.citation})
 
     def build(self, dim: int, seed: SeedLike = None) -> AskTellOptimiser:
         """A fresh optimiser of ``dim`` dimensions for this configuration, seeded by ``seed``."""
@@ -173,7 +160,7 @@ class AskTellOptimiser(Tallied, ABC):
     recorded), ``seed`` seeds ``numpy.random.default_rng``: equal seeds give identical runs.
     """
 
-    def __init_subclass__(cls, settings: type[OptimiserSettings] | None = None, **kw: Any) -> None:
+    def __init_subclass__(cls, settings: type[OptimiserConfig] | None = None, **kw: Any) -> None:
         # ``class PSO(AskTellOptimiser, settings=PSOConfig)``: what PSOConfig.build makes
         super().__init_subclass__(**kw)
         if settings is not None:

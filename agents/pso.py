@@ -40,7 +40,7 @@ from agents.optimiser import (
     MAX_BATCH,
     AskTellOptimiser,
     FloatArray,
-    OptimiserSettings,
+    OptimiserConfig,
     SeedLike,
     integer_setting,
     real_setting,
@@ -77,7 +77,7 @@ _CITATIONS: dict[str, str] = {
 
 
 @dataclass(frozen=True, kw_only=True)
-class PSOConfig(OptimiserSettings):
+class PSOConfig(OptimiserConfig):
     """Configuration of :class:`PSO`."""
 
     algorithm = "pso"

@@ -9,7 +9,7 @@ from agents.optimiser import (
     MAX_BATCH,
     AskTellOptimiser,
     FloatArray,
-    OptimiserSettings,
+    OptimiserConfig,
     SeedLike,
     integer_setting,
 )
@@ -19,7 +19,7 @@ __all__ = ["RandomSearch", "RandomSearchConfig"]
 
 
 @dataclass(frozen=True, kw_only=True)
-class RandomSearchConfig(OptimiserSettings):
+class RandomSearchConfig(OptimiserConfig):
     """Configuration of :class:`RandomSearch`."""
 
     algorithm = "random-search"

@@ -16,7 +16,7 @@ from agents.methods import register_optimiser
 from agents.optimiser import (
     AskTellOptimiser,
     FloatArray,
-    OptimiserSettings,
+    OptimiserConfig,
     SeedLike,
     integer_setting,
 )
@@ -24,10 +24,10 @@ from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
 
 
 @dataclass(frozen=True, kw_only=True)
-class HillClimbConfig(OptimiserSettings):
+class HillClimbConfig(OptimiserConfig):
     """A (1, λ) hill climber: ``batch_size`` Gaussian steps of size ``step`` around the best point
     so far; the step halves after a batch that found nothing better. Its checks, record
-    (``to_dict``) and ``build`` come from its fields (``OptimiserSettings``)."""
+    (``to_dict``) and ``build`` come from its fields (``OptimiserConfig``)."""
 
     algorithm = "hill-climb"
     citation = "toy hill climber (tests/agents/toy_optimiser.py)"
