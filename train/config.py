@@ -17,7 +17,7 @@ from dataclasses import MISSING, dataclass, field, fields
 from itertools import pairwise
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Literal, get_args
+from typing import Any
 
 import yaml
 
@@ -27,15 +27,13 @@ from tandem_env.io.files import output_directory, to_jsonable, write_text_atomic
 from tandem_env.physics.checks import count, is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
-Algo = Literal["ppo", "sac"]
 #: The Stable-Baselines3 algorithms (``python -m train``'s RL path, :class:`TrainConfig`).
-ALGOS: tuple[str, ...] = get_args(Algo)
+ALGOS = ("ppo", "sac")
 #: Every ``--algo`` of ``python -m train``: the RL algorithms and ``amortised``, one network
 #: from the condition to a stroke trained on the reference optima (``train.amortised``).
 AMORTISED = "amortised"
 TRAINERS: tuple[str, ...] = (*ALGOS, AMORTISED)
-Device = Literal["cpu", "cuda", "auto"]
-DEVICES: tuple[str, ...] = get_args(Device)
+DEVICES = ("cpu", "cuda", "auto")
 
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 
@@ -450,8 +448,10 @@ class TrainConfig:
     """Torch device of the model."""
 
     def __post_init__(self) -> None:
-        if self.algo not in TRAINERS:
-            raise ValueError(f"algo = {self.algo!r}; allowed: {', '.join(TRAINERS)}")
+        for spec in fields(self):  # the fields with choices: algo, device
+            value, allowed = getattr(self, spec.name), spec.metadata.get("choices")
+            if allowed and value not in allowed:
+                raise ValueError(f"{spec.name} = {value!r}; allowed: {', '.join(allowed)}")
         check_env_id(self.env_id, "env")
         for name in ("n_timesteps", "n_envs"):
             value = getattr(self, name)
@@ -497,8 +497,6 @@ class TrainConfig:
             raise ValueError(
                 "give resume=True (the latest run in log_folder) or run_dir (that run), not both"
             )
-        if self.device not in DEVICES:
-            raise ValueError(f"device = {self.device!r}; allowed: {', '.join(map(repr, DEVICES))}")
         if self.algo == AMORTISED:
             self._check_amortised()
 

@@ -19,7 +19,7 @@ import numpy as np
 import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
-from stable_baselines3.common.vec_env import VecEnv, VecNormalize, sync_envs_normalization
+from stable_baselines3.common.vec_env import VecNormalize, sync_envs_normalization
 
 from agents.selection import best_index
 from tandem_env.io.files import write_json_atomic
@@ -92,47 +92,112 @@ def default_log_interval(algo: str, n_envs: int) -> int:
 
 # --- the run ---------------------------------------------------------------------------------
 def train(config: TrainConfig) -> TrainResult:
-    """Run (or resume) one training run with files (:class:`~train.run_folder.RunFolder`): the
-    folder and everything the run needs checked, then the envs, the model, learning, and the
-    final model, evaluation and ``result.json`` saved."""
+    """Run (or resume) one training run with files: the folder with every check before any work
+    (:meth:`RunFolder.open <train.run_folder.RunFolder.open>`), the envs, the model, learning
+    with evaluations and checkpoints, then the final model, its evaluation and ``result.json``."""
     with contextlib.ExitStack() as held:
+        # the plan: which folder, from which checkpoint, with which settings
         run = RunFolder.open(config, held)
-        config, hp, layout = run.config, run.hp, run.layout
+        config, hp, layout, checkpoint = run.config, run.hp, run.layout, run.checkpoint
         assert hp is not None
         if config.verbose:
-            _say_plan(run)
+            run.say_plan()
         run.start(hp.saved)
         with torch_threads(config.torch_threads):
-            venv, recorder, eval_env = _run_envs(run)
-            model = _run_model(run, venv)
+            # the envs: training (its Monitor file, normalisation resumed or new), evaluation
+            venv, recorder = make_training_env(
+                config.env_id,
+                hp.n_envs,
+                config.seed,
+                run.env_kwargs,
+                monitor_file=layout.next_monitor_file(),
+                normalize=None,
+            )
+            if hp.normalize is not None and checkpoint is not None:
+                normalizer = run.normaliser()
+                normalizer.set_venv(venv)
+                venv, normalizer.training = normalizer, True
+            elif hp.normalize is not None:
+                venv = VecNormalize(venv, **dict(hp.normalize))
+            eval_env = make_evaluation_env(
+                config.env_id, run.env_kwargs, config.seed + 10_000, normalize=hp.normalize
+            )
+            # the model: new, or the checkpoint's (with SAC's replay buffer)
+            settings: dict[str, Any] = {
+                "seed": config.seed,
+                "tensorboard_log": layout.tensorboard if config.tensorboard else None,
+                "verbose": config.model_verbose,
+                "device": config.device,
+            }
+            if checkpoint is None:
+                model = build_model(config.algo, hp, venv, **settings)
+            else:
+                model = load_checkpoint(config.algo, checkpoint, hp, venv, **settings)
+                # A resumed segment is reproducible given its checkpoint (RNG states are not
+                # saved).
+                model.set_random_seed(config.seed + model.num_timesteps)
             start_step = model.num_timesteps
+            # learning, with physics logs, checkpoints and evaluations; Ctrl-C saves a checkpoint
             stop = StopOnInterrupt()
-            callbacks = CallbackList([*_run_callbacks(run, recorder, eval_env, start_step), stop])
+            callbacks: list[BaseCallback] = [PhysicsLogger(recorder)]
+            if config.save_freq > 0:
+                callbacks.append(
+                    RunCheckpoint(
+                        layout, config.save_freq, KEEP_CHECKPOINTS, verbose=config.verbose
+                    )
+                )
+            if config.eval_freq > 0:
+                best = None if hp.normalize is None else SaveVecNormalize(layout.best_vecnormalize)
+                callbacks.append(
+                    ResumableEvalCallback(
+                        eval_env,
+                        n_eval_episodes=eval_env.num_envs,
+                        eval_freq=max(config.eval_freq // hp.n_envs, 1),
+                        best_model_save_path=str(layout.run_dir),
+                        log_path=str(layout.run_dir),
+                        deterministic=True,
+                        verbose=config.verbose,
+                        callback_on_new_best=best,
+                        resume_from_step=None if checkpoint is None else start_step,
+                    )
+                )
             started = time.perf_counter()
             with stop.catching():
                 model.learn(
                     run.target - start_step,
-                    callback=callbacks,
+                    callback=CallbackList([*callbacks, stop]),
                     log_interval=config.log_interval
                     or default_log_interval(config.algo, hp.n_envs),
                     tb_log_name=config.algo.upper(),
-                    reset_num_timesteps=run.checkpoint is None,
+                    reset_num_timesteps=checkpoint is None,
                     progress_bar=config.progress_bar,
                 )
             wall_time = time.perf_counter() - started
             if stop.requested:
-                checkpoint = stop.save(layout, KEEP_CHECKPOINTS)
+                saved = stop.save(layout, KEEP_CHECKPOINTS)
                 venv.close()
                 eval_env.close()
-                raise run.interrupted(checkpoint)
-            final = _save_and_evaluate(run, model, venv, eval_env)
+                raise run.interrupted(saved)
+            # the final model (normalisation statistics, a last checkpoint) and its evaluation
+            model.save(layout.final_model)
+            if hp.normalize is not None:
+                normalizer = model.get_vec_normalize_env()
+                assert normalizer is not None
+                normalizer.save(str(layout.vecnormalize))
+                sync_envs_normalization(venv, eval_env)
+            if config.save_freq > 0:
+                save_checkpoint(model, layout)
+                prune_checkpoints(layout, KEEP_CHECKPOINTS)
+            final = evaluate_deterministic(model, eval_env)
+            venv.close()
+            eval_env.close()
         result = TrainResult(
             algo=config.algo,
             env_id=config.env_id,
             run_dir=layout.run_dir,
             num_timesteps=int(model.num_timesteps),
             wall_time=wall_time,
-            resumed_from=None if run.checkpoint is None else run.checkpoint.step,
+            resumed_from=None if checkpoint is None else checkpoint.step,
             best_reward=recorder.best_reward,
             best_action=recorder.best_action,
             best_info=recorder.best_info,
@@ -141,121 +206,6 @@ def train(config: TrainConfig) -> TrainResult:
         )
         _write_result(layout, result, hp, run.segments)
         return result
-
-
-def _run_envs(run: RunFolder) -> tuple[VecEnv, StrokeRecorder, VecEnv]:
-    """The training env (Monitor file, normalisation resumed from the checkpoint or new) with
-    its stroke recorder, and the evaluation env."""
-    config, hp = run.config, run.hp
-    venv, recorder = make_training_env(
-        config.env_id,
-        hp.n_envs,
-        config.seed,
-        run.env_kwargs,
-        monitor_file=run.layout.next_monitor_file(),
-        normalize=None,
-    )
-    if hp.normalize is not None:
-        if run.checkpoint is not None:
-            normalizer = run.normaliser()
-            normalizer.set_venv(venv)
-            venv = normalizer
-            venv.training = True
-        else:
-            venv = VecNormalize(venv, **dict(hp.normalize))
-    eval_env = make_evaluation_env(
-        config.env_id, run.env_kwargs, config.seed + 10_000, normalize=hp.normalize
-    )
-    return venv, recorder, eval_env
-
-
-def _run_model(run: RunFolder, venv: VecEnv) -> BaseAlgorithm:
-    """A new model, or the checkpoint's (with SAC's replay buffer) for a resumed run."""
-    config = run.config
-    settings: dict[str, Any] = {
-        "seed": config.seed,
-        "tensorboard_log": run.layout.tensorboard if config.tensorboard else None,
-        "verbose": config.model_verbose,
-        "device": config.device,
-    }
-    if run.checkpoint is None:
-        return build_model(config.algo, run.hp, venv, **settings)
-    model = load_checkpoint(config.algo, run.checkpoint, run.hp, venv, **settings)
-    # A resumed segment is reproducible given its checkpoint (RNG states are not saved).
-    model.set_random_seed(config.seed + model.num_timesteps)
-    return model
-
-
-def _run_callbacks(
-    run: RunFolder, recorder: StrokeRecorder, eval_env: VecEnv, start_step: int
-) -> list[BaseCallback]:
-    """Physics logging, checkpoints every ``save_freq`` and evaluations every ``eval_freq``."""
-    config, hp, layout = run.config, run.hp, run.layout
-    callbacks: list[BaseCallback] = [PhysicsLogger(recorder)]
-    if config.save_freq > 0:
-        callbacks.append(
-            RunCheckpoint(layout, config.save_freq, KEEP_CHECKPOINTS, verbose=config.verbose)
-        )
-    if config.eval_freq > 0:
-        callbacks.append(
-            ResumableEvalCallback(
-                eval_env,
-                n_eval_episodes=eval_env.num_envs,
-                eval_freq=max(config.eval_freq // hp.n_envs, 1),
-                best_model_save_path=str(layout.run_dir),
-                log_path=str(layout.run_dir),
-                deterministic=True,
-                verbose=config.verbose,
-                callback_on_new_best=(
-                    None if hp.normalize is None else SaveVecNormalize(layout.best_vecnormalize)
-                ),
-                resume_from_step=None if run.checkpoint is None else start_step,
-            )
-        )
-    return callbacks
-
-
-def _save_and_evaluate(
-    run: RunFolder, model: BaseAlgorithm, venv: VecEnv, eval_env: VecEnv
-) -> list[dict[str, Any]]:
-    """Save the final model (normalisation statistics, a last checkpoint), then evaluate its
-    deterministic policy at every evaluation condition; closes both envs."""
-    config, layout = run.config, run.layout
-    model.save(layout.final_model)
-    if run.hp.normalize is not None:
-        normalizer = model.get_vec_normalize_env()
-        assert normalizer is not None
-        normalizer.save(str(layout.vecnormalize))
-        sync_envs_normalization(venv, eval_env)
-    if config.save_freq > 0:
-        save_checkpoint(model, layout)
-        prune_checkpoints(layout, KEEP_CHECKPOINTS)
-    final = evaluate_deterministic(model, eval_env)
-    venv.close()
-    eval_env.close()
-    return final
-
-
-def _say_plan(run: RunFolder) -> None:
-    """What this command is about to do, before any work (stdout, ``verbose >= 1``)."""
-    hp, layout = run.hp, run.layout
-    if run.target != hp.n_timesteps:
-        what = (
-            f"n_steps {run.unit // hp.n_envs} x n_envs {hp.n_envs}"  # step_granularity's
-            if run.config.algo == "ppo"
-            else f"train_freq x n_envs {hp.n_envs}"
-        )
-        print(
-            f"n_timesteps {hp.n_timesteps} is not a whole number of {run.config.algo.upper()} "
-            f"iterations ({run.unit} env steps = {what}); training runs to {run.target}"
-        )
-    if run.checkpoint is not None:
-        print(
-            f"resuming {layout.run_dir} from checkpoint {run.checkpoint.model.name} "
-            f"(step {run.checkpoint.step} of {run.target})"
-        )
-    elif layout.args_file.is_file():
-        print(f"{layout.run_dir} has no complete checkpoint: starting it again from step 0")
 
 
 def _best_segment(segments: Sequence[Mapping[str, Any]]) -> Mapping[str, Any]:

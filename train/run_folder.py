@@ -111,7 +111,7 @@ class RunFolder:
             if layout.config_file.is_file():
                 entry = read_run_yaml(layout.config_file)
             normalize = entry is not None and bool(entry.get("normalize"))
-            checkpoint = _latest_usable_checkpoint(config, layout, normalize)
+            checkpoint = _latest_usable_checkpoint(layout, config.algo == "sac", normalize)
             damaged = [c.model.name for c in layout.checkpoints()]
             if checkpoint is None and damaged:
                 raise ValueError(
@@ -187,6 +187,28 @@ class RunFolder:
         assert self.checkpoint is not None
         return read_normalizer(self.checkpoint.vecnormalize)
 
+    def say_plan(self) -> None:
+        """What this command is about to do, before any work (stdout)."""
+        hp, layout, algo = self.hp, self.layout, self.config.algo
+        assert hp is not None
+        if self.target != hp.n_timesteps:
+            what = (
+                f"n_steps {self.unit // hp.n_envs} x n_envs {hp.n_envs}"  # step_granularity's
+                if algo == "ppo"
+                else f"train_freq x n_envs {hp.n_envs}"
+            )
+            print(
+                f"n_timesteps {hp.n_timesteps} is not a whole number of {algo.upper()} "
+                f"iterations ({self.unit} env steps = {what}); training runs to {self.target}"
+            )
+        if self.checkpoint is not None:
+            print(
+                f"resuming {layout.run_dir} from checkpoint {self.checkpoint.model.name} "
+                f"(step {self.checkpoint.step} of {self.target})"
+            )
+        elif layout.args_file.is_file():
+            print(f"{layout.run_dir} has no complete checkpoint: starting it again from step 0")
+
     def interrupted(self, checkpoint: Checkpoint) -> Interrupted:
         """What Ctrl-C in training raises once ``checkpoint`` is saved: it says how to go on."""
         config = self.config
@@ -249,11 +271,11 @@ def _merge_saved(config: TrainConfig, saved: Mapping[str, Any], layout: RunLayou
 
 
 def _latest_usable_checkpoint(
-    config: TrainConfig, layout: RunLayout, normalize: bool
+    layout: RunLayout, replay_buffer: bool, normalize: bool
 ) -> Checkpoint | None:
-    """The newest intact checkpoint (``normalize``: the run saves VecNormalize statistics)."""
+    """The newest intact checkpoint (with its replay buffer, its VecNormalize statistics)."""
     for checkpoint in reversed(layout.checkpoints()):
-        problem = checkpoint.damage(replay_buffer=config.algo == "sac", vecnormalize=normalize)
+        problem = checkpoint.damage(replay_buffer=replay_buffer, vecnormalize=normalize)
         if problem is None:
             return checkpoint
         warnings.warn(
