@@ -89,7 +89,10 @@ def build_parser() -> argparse.ArgumentParser:
         if spec.type == "bool":
             if "off" in spec.metadata:  # a switch that is on by default
                 group.add_argument(
-                    spec.metadata["off"], dest=spec.name, action="store_false", help=help_text
+                    spec.metadata["off"],
+                    dest=spec.name,
+                    action="store_false",
+                    help=f"off: {help_text}",
                 )
                 help_text = "(the default)"
             settings["action"] = "store_true"

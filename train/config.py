@@ -436,9 +436,9 @@ class TrainConfig:
     progress_bar: bool = option(
         "-P", "--progress", default=True, off="--no-progress", amortised=True
     )
-    """A progress bar: on by default, --no-progress hides it."""
+    """A progress bar (on by default)."""
     tensorboard: bool = option(default=True, off="--no-tensorboard")
-    """TensorBoard logs in <run>/tb/: on by default, --no-tensorboard writes none."""
+    """TensorBoard logs in <run>/tb/ (on by default)."""
     verbose: int = option("--verbose", default=1, amortised=True)
     """0 quiet, 1 info, 2 debug."""
     torch_threads: int = option("--torch-threads", default=1)
