@@ -68,17 +68,8 @@ from typing import Any
 
 import numpy as np
 
-from tandem_env.io.files import (
-    atomic_path,
-    to_jsonable,
-    write_json_atomic,
-)
-from train.amortised_branches import (
-    branch_domains,
-    branch_segments,
-    hand_overs,
-    regression_points,
-)
+from tandem_env.io.files import atomic_path, to_jsonable, write_json_atomic
+from train.amortised_branches import branch_domains, branch_segments, hand_overs, regression_points
 from train.amortised_policy import (
     HARMONICS,
     POLICY_FILE,

@@ -35,12 +35,7 @@ from train.checkpoint import (
 from train.config import Hyperparams, TrainConfig, load_entry, resolve_hyperparams
 from train.layout import RunLayout
 from train.run_folder import RunFolder, step_granularity
-from train.vec import (
-    StrokeRecorder,
-    evaluate_deterministic,
-    make_evaluation_env,
-    make_training_env,
-)
+from train.vec import StrokeRecorder, evaluate_deterministic, make_evaluation_env, make_training_env
 
 #: Checkpoints kept in a run folder (older ones are deleted: a SAC replay buffer is ~40 MB).
 KEEP_CHECKPOINTS = 2
