@@ -29,7 +29,6 @@ from train.checkpoint import (
     StopOnInterrupt,
     build_model,
     load_checkpoint,
-    prune_checkpoints,
     save_checkpoint,
 )
 from train.config import Hyperparams, TrainConfig, load_entry, resolve_hyperparams
@@ -181,8 +180,7 @@ def train(config: TrainConfig) -> TrainResult:
                 normalizer.save(str(layout.vecnormalize))
                 sync_envs_normalization(venv, eval_env)
             if config.save_freq > 0:
-                save_checkpoint(model, layout)
-                prune_checkpoints(layout, KEEP_CHECKPOINTS)
+                save_checkpoint(model, layout, KEEP_CHECKPOINTS)
             final = evaluate_deterministic(model, eval_env)
             venv.close()
             eval_env.close()
