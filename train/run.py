@@ -32,7 +32,7 @@ from train.checkpoint import (
     save_checkpoint,
 )
 from train.config import Hyperparams, TrainConfig, load_entry, resolve_hyperparams
-from train.layout import RunLayout
+from train.layout import Interrupted, RunLayout
 from train.run_folder import RunFolder, step_granularity
 from train.vec import StrokeRecorder, evaluate_deterministic, make_evaluation_env, make_training_env
 
@@ -171,7 +171,8 @@ def train(config: TrainConfig) -> TrainResult:
                 saved = stop.save(layout, KEEP_CHECKPOINTS)
                 venv.close()
                 eval_env.close()
-                raise run.interrupted(saved)
+                resume = f"python -m train --algo {config.algo} --env {config.env_id} --run-dir"
+                raise Interrupted(saved, f"{resume} {layout.run_dir}")
             # the final model (normalisation statistics, a last checkpoint) and its evaluation
             model.save(layout.final_model)
             if hp.normalize is not None:

@@ -24,7 +24,6 @@ from train.config import AMORTISED, Hyperparams, TrainConfig, plain, resolve_hyp
 from train.layout import (
     LOCK_FILE,
     Checkpoint,
-    Interrupted,
     RunComplete,
     RunLayout,
     read_normalizer,
@@ -208,15 +207,6 @@ class RunFolder:
             )
         elif layout.args_file.is_file():
             print(f"{layout.run_dir} has no complete checkpoint: starting it again from step 0")
-
-    def interrupted(self, checkpoint: Checkpoint) -> Interrupted:
-        """What Ctrl-C in training raises once ``checkpoint`` is saved: it says how to go on."""
-        config = self.config
-        return Interrupted(
-            checkpoint,
-            f"python -m train --algo {config.algo} --env {config.env_id} --run-dir "
-            f"{self.layout.run_dir}",
-        )
 
 
 def _check_claimable(layout: RunLayout, amortised: bool) -> None:
