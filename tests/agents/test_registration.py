@@ -10,7 +10,7 @@ import pytest
 
 from agents.cmaes_search import CMAESConfig
 from agents.jobs import Job
-from agents.methods import available_methods, get_method
+from agents.methods import available_methods, get_method, providers
 from agents.pso import PSOConfig
 from agents.random_search import RandomSearchConfig
 
@@ -153,6 +153,14 @@ def test_one_registry_names_every_method() -> None:
     """The built-in optimisers, the training package's methods and plug-ins share one registry;
     a built-in optimiser's settings are its config's fields."""
     assert {"pso", "random", "cmaes", "ppo", "sac", "policy"} <= set(available_methods())
+    # the built-in optimisers come as a plug-in's do: named by the module that registers them
+    modules = {
+        "pso": "agents.pso",
+        "random": "agents.random_search",
+        "cmaes": "agents.cmaes_search",
+    }
+    assert {name: providers()[name] for name in modules} == modules
+    assert providers()["ppo"] == "train.policies"
     method = get_method("random", {"batch_size": 5})
     assert method.config(12).to_dict()["batch_size"] == 5  # type: ignore[attr-defined]
     with pytest.raises(ValueError, match="unknown setting"):
