@@ -43,11 +43,12 @@ from typing import Any, Literal, get_args
 import numpy as np
 from cmaes import CMAwM
 
+from agents.methods import register_optimiser
 from agents.optimiser import (
     AskTellOptimiser,
     FloatArray,
+    OptimiserConfig,
     SeedLike,
-    check_settings,
     integer_setting,
     real_setting,
 )
@@ -93,8 +94,10 @@ def discrete_levels(levels: int) -> FloatArray:
 
 
 @dataclass(frozen=True, kw_only=True)
-class CMAESConfig:
+class CMAESConfig(OptimiserConfig):
     """Configuration of :class:`CMAES` (defaults chosen by measurement: docs/harness.md)."""
+
+    algorithm = "cmaes"
 
     max_evaluations: int = integer_setting(1)
     """Points evaluated (>= 1); the last population is truncated to fit."""
@@ -115,7 +118,7 @@ class CMAESConfig:
     """``(index, levels)`` of each discrete coordinate: distinct indices >= 0, levels >= 2."""
 
     def __post_init__(self) -> None:
-        check_settings(self)
+        super().__post_init__()
         if self.restarts not in _SCHEDULES:
             raise ValueError(f"restarts must be one of {get_args(Restarts)}, got {self.restarts!r}")
         allowed = "a tuple of distinct (index >= 0, levels >= 2) pairs"
@@ -141,25 +144,16 @@ class CMAESConfig:
             f"(Nomura & Shibata 2024, arXiv:2402.01373); {_SCHEDULES[self.restarts]}"
         )
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready record of every setting, the rules in use and the citation."""
+    def in_use(self) -> dict[str, Any]:
+        """The record's rules in use: population and patience, the bounds, the package."""
+        popsize = f"{POPSIZE_MULTIPLE} (4 + floor(3 ln d))" if self.popsize is None else "given"
         return {
-            "algorithm": "cmaes",
-            **asdict(self),
-            "discrete": [list(pair) for pair in self.discrete],
-            "popsize_rule": f"{POPSIZE_MULTIPLE} (4 + floor(3 ln d))"
-            if self.popsize is None
-            else "given",
+            "popsize_rule": popsize,
             "patience_rule": "120 + ceil(30 d / popsize)" if self.patience is None else "given",
             "popsize_factor": POPSIZE_FACTOR,
             "bounds": "redraw up to `resampling` times, then clip onto [-1, 1] (cmaes)",
             "package": f"cmaes {version('cmaes')}",
-            "citation": self.citation,
         }
-
-    def build(self, dim: int, seed: SeedLike = None) -> CMAES:
-        """A fresh :class:`CMAES` for this configuration."""
-        return CMAES(dim, self, seed)
 
 
 @dataclass
@@ -176,7 +170,7 @@ class RunInfo:
     stop: str = "budget"  # why it ended: "stagnation", "should_stop" or "budget"
 
 
-class CMAES(AskTellOptimiser):
+class CMAES(AskTellOptimiser, settings=CMAESConfig):
     """CMA-ES maximiser with restarts and discrete coordinates, ask/tell over [-1, 1]^dim.
 
     ``seed`` seeds ``numpy.random.default_rng``, which draws every run's mean, the BIPOP
@@ -295,3 +289,12 @@ class CMAES(AskTellOptimiser):
     def record(self) -> dict[str, Any]:
         """The configuration record with every run (regime, population, σ0, evaluations...)."""
         return {**super().record(), "runs": [asdict(run) for run in self.runs]}
+
+
+register_optimiser(
+    "cmaes",
+    CMAESConfig,
+    batch="popsize",
+    from_task={"discrete": lambda task: task.discrete_actions},
+    preset_batch=False,  # its default population, 26 at d = 28, is measured (docs/harness.md)
+)

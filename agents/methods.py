@@ -7,17 +7,19 @@ fitness through the task's vector env) and records what it returns. Black-box op
 trained policy) build their own envs from ``context.env_id`` and ``context.env_kwargs`` and
 report their own evaluations and history.
 
-The extension point (docs/harness.md, "Methods: protocol and registry"): an ask/tell optimiser
-is registered with one line, ``register_optimiser(name, ConfigClass, batch="...")``, as the
-built-in ones are at the end of this module; any other method with
-``register_method(name, factory)``. Names in :data:`PROVIDERS` (the training package's
-``"ppo"``, ``"sac"`` and ``"policy"``), or in a ``tandem_env.optimisers`` entry point of an
-installed package (:func:`providers`), are registered by importing their module the first time
-they are asked for, so ``agents`` never imports ``train`` unless such a method is used.
+The extension point (docs/harness.md, "Methods: protocol and registry") is one path for every
+method: its module registers it when imported, an ask/tell optimiser with one line,
+``register_optimiser(name, ConfigClass, batch="...")`` (as ``agents.pso`` does), any other
+method with ``register_method(name, factory)``; and the method's name points at that module,
+in :data:`PROVIDERS` (this project's methods: the optimisers of ``agents``, the training
+package's ``"ppo"``, ``"sac"`` and ``"policy"``) or in a ``tandem_env.optimisers`` entry point
+of an installed package (:func:`providers`). The module is imported the first time the name is
+asked for, so ``agents`` never imports ``train`` unless such a method is used.
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
@@ -25,11 +27,8 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from agents.cmaes_search import CMAESConfig
 from agents.evaluator import EvaluatedBatch, VectorEnvEvaluator
 from agents.optimiser import OptimiserConfig
-from agents.pso import PSOConfig
-from agents.random_search import RandomSearchConfig
 from agents.tasks import Condition, TaskSpec
 
 __all__ = [
@@ -231,15 +230,22 @@ def register_optimiser(
 
 def preset_batch_setting(method: str) -> str | None:
     """The setting of ``method`` (a spec) that a study's preset swarm size sets, or None."""
-    return _PRESET_BATCH.get(method.partition(":")[0])
+    name = method.partition(":")[0]
+    if name not in _REGISTRY and name in providers():
+        with contextlib.suppress(NotImplementedError):  # a provider that is not there: none
+            _factory(name)  # registers it (and its batch setting)
+    return _PRESET_BATCH.get(name)
 
 
 # --- the registry ------------------------------------------------------------------------------
 _REGISTRY: dict[str, MethodFactory] = {}
 
-#: Method names registered on first use by importing a provider module (which must call
-#: :func:`register_method` for them). The RL methods live with the training code.
+#: This project's methods: name -> the module that registers it when imported (as an entry
+#: point names a plug-in's). The RL methods live with the training code.
 PROVIDERS: dict[str, str] = {
+    "pso": "agents.pso",
+    "random": "agents.random_search",
+    "cmaes": "agents.cmaes_search",
     "ppo": "train.policies",
     "sac": "train.policies",
     "policy": "train.policies",
@@ -264,17 +270,17 @@ OPTIMISER_ENTRY_POINTS = "tandem_env.optimisers"
 
 
 def providers() -> dict[str, str]:
-    """Method name -> the module that registers it on first use: the installed
-    ``tandem_env.optimisers`` entry points (read now), then :data:`PROVIDERS`."""
+    """Method name -> the module that registers it on first use: :data:`PROVIDERS`, then the
+    installed ``tandem_env.optimisers`` entry points (read now) of the names it leaves."""
     from importlib.metadata import entry_points
 
     plugged = {p.name: p.module for p in entry_points(group=OPTIMISER_ENTRY_POINTS)}
-    return {**plugged, **PROVIDERS}
+    return {**PROVIDERS, **{k: v for k, v in plugged.items() if k not in PROVIDERS}}
 
 
 def available_methods() -> tuple[str, ...]:
     """Registered method names plus those a provider module would register on first use."""
-    return tuple(dict.fromkeys([*_REGISTRY, *providers()]))
+    return tuple(dict.fromkeys([*providers(), *_REGISTRY]))
 
 
 def _factory(name: str) -> MethodFactory:
@@ -323,14 +329,3 @@ def get_method(spec: str | Method, config: Mapping[str, Any] | None = None) -> M
     if sep and not argument:
         raise ValueError(f"method {spec!r}: empty argument after ':'")
     return _factory(name)(argument if sep else None, dict(config or {}))
-
-
-register_optimiser("pso", PSOConfig, batch="swarm_size")
-register_optimiser("random", RandomSearchConfig, batch="batch_size")
-register_optimiser(
-    "cmaes",
-    CMAESConfig,
-    batch="popsize",
-    from_task={"discrete": lambda task: task.discrete_actions},
-    preset_batch=False,  # its default population, 26 at d = 28, is measured (docs/harness.md)
-)

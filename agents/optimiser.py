@@ -10,12 +10,13 @@ from __future__ import annotations
 import functools
 from abc import ABC, abstractmethod
 from dataclasses import MISSING, field, fields
-from typing import Any, Protocol
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.selection import BestStroke
+from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import count, finite_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
@@ -117,20 +118,37 @@ class Tallied:
         return list(self._tally.history)
 
 
-class OptimiserConfig(Protocol):
-    """What an optimiser's configuration provides (a frozen dataclass of its settings)."""
+class OptimiserConfig:
+    """Base of an optimiser's configuration, a frozen dataclass of its settings with a
+    ``max_evaluations`` field (the harness's budget): the checks (:func:`check_settings`), the
+    record (:meth:`to_dict`) and :meth:`build` follow from its fields. A subclass names its
+    ``algorithm`` and gives a ``citation``; its optimiser class names the subclass
+    (``class PSO(AskTellOptimiser, settings=PSOConfig)``)."""
 
-    @property
-    def max_evaluations(self) -> int:
-        """Points to evaluate in all (the harness's budget)."""
-        ...
+    max_evaluations: int
+    citation: str
+    algorithm: ClassVar[str]
+    """The record's name of the algorithm."""
+    optimiser: ClassVar[type[AskTellOptimiser]]
+    """The ask/tell class :meth:`build` makes (set by its ``settings=`` class keyword)."""
 
-    @property
-    def citation(self) -> str: ...
+    def __post_init__(self) -> None:
+        check_settings(self)
 
-    def to_dict(self) -> dict[str, Any]: ...
+    def in_use(self) -> dict[str, Any]:
+        """What the record adds to (or puts in place of) the settings: the constants and rules
+        in use. None by default."""
+        return {}
 
-    def build(self, dim: int, seed: SeedLike = None) -> AskTellOptimiser: ...
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready record: the algorithm, every setting, :meth:`in_use` and the citation."""
+        settings = {spec.name: getattr(self, spec.name) for spec in fields(self)}  # type: ignore[arg-type]
+        record = {"algorithm": self.algorithm, **settings, **self.in_use()}
+        return to_jsonable({**record, "citation": self.citation})
+
+    def build(self, dim: int, seed: SeedLike = None) -> AskTellOptimiser:
+        """A fresh optimiser of ``dim`` dimensions for this configuration, seeded by ``seed``."""
+        return self.optimiser(dim, self, seed)  # type: ignore[call-arg]
 
 
 class AskTellOptimiser(Tallied, ABC):
@@ -141,6 +159,12 @@ class AskTellOptimiser(Tallied, ABC):
     of a full round, ``config.max_evaluations`` bounds the run (its ``to_dict()`` is
     recorded), ``seed`` seeds ``numpy.random.default_rng``: equal seeds give identical runs.
     """
+
+    def __init_subclass__(cls, settings: type[OptimiserConfig] | None = None, **kw: Any) -> None:
+        # ``class PSO(AskTellOptimiser, settings=PSOConfig)``: what PSOConfig.build makes
+        super().__init_subclass__(**kw)
+        if settings is not None:
+            settings.optimiser = cls
 
     def __init__(self, dim: int, batch_size: int, config: OptimiserConfig, seed: SeedLike) -> None:
         self._dim = count(dim, "dim")

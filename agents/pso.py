@@ -35,12 +35,13 @@ from typing import Any, Literal, get_args
 
 import numpy as np
 
+from agents.methods import register_optimiser
 from agents.optimiser import (
     MAX_BATCH,
     AskTellOptimiser,
     FloatArray,
+    OptimiserConfig,
     SeedLike,
-    check_settings,
     integer_setting,
     real_setting,
 )
@@ -76,8 +77,10 @@ _CITATIONS: dict[str, str] = {
 
 
 @dataclass(frozen=True, kw_only=True)
-class PSOConfig:
+class PSOConfig(OptimiserConfig):
     """Configuration of :class:`PSO`."""
+
+    algorithm = "pso"
 
     max_evaluations: int = integer_setting(1)
     """Particle evaluations (>= 1; the initial swarm counts); the last iteration is truncated
@@ -97,7 +100,7 @@ class PSOConfig:
     component; ``"reflect"`` mirrors the position back inside and reverses the component."""
 
     def __post_init__(self) -> None:
-        check_settings(self)
+        super().__post_init__()
         if self.inertia not in get_args(Inertia):
             raise ValueError(f"inertia must be one of {get_args(Inertia)}, got {self.inertia!r}")
         if self.boundary not in get_args(Boundary):
@@ -139,29 +142,14 @@ class PSOConfig:
             return np.full(n_updates, CONSTRICTION_W)
         return np.linspace(LINEAR_W_START, LINEAR_W_END, n_updates)
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready record of every setting, the constants in use and the citation."""
-        return {
-            "algorithm": "pso",
-            "swarm_size": self.swarm_size,
-            "inertia": self.inertia,
-            "inertia_weight": (
-                CONSTRICTION_W if self.inertia == "constriction" else [LINEAR_W_START, LINEAR_W_END]
-            ),
-            "cognitive": self.c1,
-            "social": self.c2,
-            "velocity_clamp": self.velocity_clamp,
-            "boundary": self.boundary,
-            "max_evaluations": self.max_evaluations,
-            "citation": self.citation,
-        }
-
-    def build(self, dim: int, seed: SeedLike = None) -> PSO:
-        """A fresh :class:`PSO` for this configuration."""
-        return PSO(dim, self, seed)
+    def in_use(self) -> dict[str, Any]:
+        """The record's constants in use: the inertia weight(s) and the coefficients c1, c2."""
+        linear = [LINEAR_W_START, LINEAR_W_END]
+        weight = CONSTRICTION_W if self.inertia == "constriction" else linear
+        return {"inertia_weight": weight, "cognitive": self.c1, "social": self.c2}
 
 
-class PSO(AskTellOptimiser):
+class PSO(AskTellOptimiser, settings=PSOConfig):
     """Global-best particle swarm maximiser over [-1, 1]^dim (ask/tell:
     :class:`~agents.optimiser.AskTellOptimiser`). Initial positions are uniform in the box and
     initial velocities uniform in +-vmax; each iteration is vectorised over the swarm."""
@@ -236,3 +224,6 @@ class PSO(AskTellOptimiser):
         self._pbest_x[:n][improved] = X[improved]
         self._pbest_f[:n][improved] = fitness[improved]
         self._gbest = int(np.argmax(self._pbest_f))
+
+
+register_optimiser("pso", PSOConfig, batch="swarm_size")

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
+from agents.methods import register_optimiser
 from agents.optimiser import (
     MAX_BATCH,
     AskTellOptimiser,
     FloatArray,
+    OptimiserConfig,
     SeedLike,
-    check_settings,
     integer_setting,
 )
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
@@ -19,37 +19,23 @@ __all__ = ["RandomSearch", "RandomSearchConfig"]
 
 
 @dataclass(frozen=True, kw_only=True)
-class RandomSearchConfig:
+class RandomSearchConfig(OptimiserConfig):
     """Configuration of :class:`RandomSearch`."""
+
+    algorithm = "random-search"
 
     max_evaluations: int = integer_setting(1)
     """Points evaluated (>= 1); the last batch is truncated to fit."""
     batch_size: int = integer_setting(1, MAX_BATCH, default=40)
     """Points per ask (>= 1); 40 matches the default PSO swarm so per-iteration costs compare."""
 
-    def __post_init__(self) -> None:
-        check_settings(self)
-
     @property
     def citation(self) -> str:
         """What the baseline is."""
         return "uniform random search over [-1, 1]^d (i.i.d. samples, no adaptation; baseline)"
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready record of every setting and the citation."""
-        return {
-            "algorithm": "random-search",
-            "batch_size": self.batch_size,
-            "max_evaluations": self.max_evaluations,
-            "citation": self.citation,
-        }
 
-    def build(self, dim: int, seed: SeedLike = None) -> RandomSearch:
-        """A fresh :class:`RandomSearch` for this configuration."""
-        return RandomSearch(dim, self, seed)
-
-
-class RandomSearch(AskTellOptimiser):
+class RandomSearch(AskTellOptimiser, settings=RandomSearchConfig):
     """Random-search maximiser over [-1, 1]^dim (ask/tell:
     :class:`~agents.optimiser.AskTellOptimiser`)."""
 
@@ -63,3 +49,6 @@ class RandomSearch(AskTellOptimiser):
 
     def _observe(self, X: FloatArray, fitness: FloatArray) -> None:
         """Nothing to learn: the base class tracks the best point and the history."""
+
+
+register_optimiser("random", RandomSearchConfig, batch="batch_size")

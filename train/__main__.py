@@ -15,7 +15,11 @@ Examples::
 from __future__ import annotations
 
 import argparse
+import ast
+import inspect
+import itertools
 import sys
+import textwrap
 from collections.abc import Mapping, Sequence
 from dataclasses import MISSING, fields
 from pathlib import Path
@@ -28,7 +32,7 @@ with exit_on_bad_environment("python -m train"):
     from tandem_env.io.command import command_line
 from tandem_env.io.keyvalue import parse_pairs
 from tandem_env.io.progress_bar import warnings_as_lines
-from train.config import AMORTISED, DEVICES, TRAINERS, TrainConfig
+from train.config import AMORTISED, TrainConfig
 from train.layout import Interrupted, RunComplete
 
 EPILOG = """\
@@ -45,71 +49,67 @@ one and the run says so.
 """
 
 
-Option = tuple[str, tuple[str, ...], dict[str, Any]]
-
-
-def _option(field: str, *flags: str, **settings: Any) -> Option:
-    """One option: the :class:`TrainConfig` field it sets, its flags, its argparse settings."""
-    return field, flags, settings
-
-
-#: The command line, in ``-h`` order. Each option's default is its field's in
-#: :class:`TrainConfig` (a help text shows it as ``%(default)s``).
-OPTIONS: tuple[Option, ...] = (
-    _option("algo", "--algo", required=True, choices=TRAINERS,
-            help="RL algorithm, or amortised (a network from condition to stroke)"),
-    _option("env_id", "--env", required=True, metavar="ENV",
-            help="env id, e.g. TandemWing/LevelFlight-v0"),
-    _option("n_timesteps", "-n", "--n-timesteps", "--timesteps", type=int,
-            help="total env steps (strokes evaluated); default the yml's n_timesteps"),
-    _option("seed", "--seed", type=int, help="seed of the model and envs (default %(default)s)"),
-    _option("n_envs", "--n-envs", type=int, help="parallel envs; default the yml's"),
-    _option("env_kwargs", "--env-kwargs", nargs="+", metavar="KEY=VALUE", help="env options"),
-    _option("hyperparams", "-params", "--hyperparams", nargs="+", metavar="KEY=VALUE",
-            help="override hyperparameters of the yml entry"),
-    _option("hyperparams_file", "-conf", "--conf-file", metavar="CONF_FILE",
-            help="zoo-format hyperparameter file (default train/hyperparams/<algo>.yml)"),
-    _option("log_folder", "-f", "--log-folder", "--log-dir",
-            help="log folder; runs go to <folder>/<algo>/<env>_<n>/ (default %(default)s)"),
-    _option("resume", "--resume", action="store_true",
-            help="continue the latest run of this algo and env from its last checkpoint"),
-    _option("run_dir", "--run-dir",
-            help="use this run folder; a checkpoint there is resumed automatically"),
-    _option("eval_freq", "--eval-freq", type=int,
-            help="env steps between deterministic evaluations (<= 0: none; default %(default)s)"),
-    _option("save_freq", "--save-freq", type=int,
-            help="env steps between checkpoints (<= 0: none, no resume; default %(default)s)"),
-    _option("log_interval", "--log-interval", type=int, help="SB3 log_interval"),
-    _option("log_table", "--log-table", action="store_true",
-            help="print SB3's statistics table at every log dump (default: off, the progress "
-            "bar and the final lines only; TensorBoard gets the same numbers)"),
-    _option("progress_bar", "--no-progress", action="store_false", help="hide the progress bar"),
-    _option("progress_bar", "-P", "--progress", action="store_true",
-            help="show a progress bar (default)"),
-    _option("tensorboard", "--no-tensorboard", action="store_false",
-            help="do not write TensorBoard logs (default: <run>/tb/)"),
-    _option("verbose", "--verbose", type=int, help="0 quiet, 1 info (default), 2 debug"),
-    _option("torch_threads", "--torch-threads", type=int,
-            help="torch threads (default %(default)s: faster on 2 cores, see docs/training.md)"),
-    _option("device", "--device", choices=DEVICES),
-)  # fmt: skip
-
 #: Options that exclude each other: the latest run, or a given one.
 EXCLUSIVE = ("resume", "run_dir")
 
 
+def field_docs(cls: type) -> dict[str, str]:
+    """The docstring under each field of the dataclass ``cls``, read from its source, one line
+    each (the help of ``python -m train``'s options)."""
+    body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0].body  # type: ignore[attr-defined]
+    return {
+        node.target.id: " ".join(doc.value.value.split())
+        for node, doc in itertools.pairwise(body)
+        if isinstance(node, ast.AnnAssign)
+        and isinstance(node.target, ast.Name)
+        and isinstance(doc, ast.Expr)
+        and isinstance(doc.value, ast.Constant)
+    }
+
+
 def build_parser() -> argparse.ArgumentParser:
+    """The command line: one option per :class:`TrainConfig` field (its flags and settings from
+    :func:`train.config.option`, its help from the field's docstring), plus ``--insect``."""
     parser = argparse.ArgumentParser(
         prog="tandem-train" if Path(sys.argv[0]).name == "tandem-train" else "python -m train",
         description="Train PPO or SAC (Stable-Baselines3) on a TandemWing env through the batched vector env.",
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    defaults = {f.name: f.default for f in fields(TrainConfig) if f.default is not MISSING}
     exclusive = parser.add_mutually_exclusive_group()
-    for name, flags, settings in OPTIONS:
-        group = exclusive if name in EXCLUSIVE else parser
-        group.add_argument(*flags, dest=name, default=defaults.get(name), **settings)
+    docs = field_docs(TrainConfig)
+    for spec in fields(TrainConfig):
+        group = exclusive if spec.name in EXCLUSIVE else parser
+        settings = {
+            k: v for k, v in spec.metadata.items() if k not in ("flags", "off", "amortised")
+        }
+        help_text = docs[spec.name].replace("%", "%%")
+        if not any(spec.default is v for v in (None, True, False, MISSING)):
+            help_text = help_text.removesuffix(".") + " (default %(default)s)"
+        if spec.type == "bool":
+            if "off" in spec.metadata:  # a switch that is on by default
+                group.add_argument(
+                    spec.metadata["off"],
+                    dest=spec.name,
+                    action="store_false",
+                    help=f"off: {help_text}",
+                )
+                help_text = "(the default)"
+            settings["action"] = "store_true"
+        elif spec.type.startswith("Mapping"):
+            settings.update(nargs="+", metavar="KEY=VALUE")
+        elif spec.type.startswith("int"):
+            settings["type"] = int
+        if spec.metadata["flags"]:
+            default = None if spec.default is MISSING else spec.default
+            group.add_argument(
+                *spec.metadata["flags"],
+                dest=spec.name,
+                default=default,
+                required=spec.default is MISSING and spec.default_factory is MISSING,
+                help=help_text,
+                **settings,
+            )
     # Short for --env-kwargs insect=FILE (TrainConfig reads it into env_kwargs).
     parser.add_argument(
         "--insect",
@@ -120,13 +120,20 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def config_from_args(args: argparse.Namespace) -> TrainConfig:
+    """The :class:`TrainConfig` of parsed arguments (``--env-kwargs``/``--hyperparams`` pairs
+    parsed, ``--insect`` put into the env options)."""
     import tandem_env  # noqa: F401 - registers the ids before the config checks the env
 
-    values = {name: getattr(args, name) for name, _, _ in OPTIONS}
+    values = {spec.name: getattr(args, spec.name) for spec in fields(TrainConfig)}
     for name in ("env_kwargs", "hyperparams"):
         values[name] = parse_pairs(values[name], f"--{name.replace('_', '-')}")
     insect = getattr(args, "insect", None)
     if insect is not None:
+        if args.algo == AMORTISED:
+            raise ValueError(
+                f"--insect {insect}: the reference table describes the paper's insects "
+                "only; allowed with amortised: planform=tear-drop or planform=real"
+            )
         if "insect" in values["env_kwargs"]:
             raise ValueError("give --insect FILE or --env-kwargs insect=..., not both")
         values["env_kwargs"]["insect"] = insect  # TrainConfig reads it (insect_keyword)
@@ -139,13 +146,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     result: Any
     try:
-        if args.algo == AMORTISED:
-            result = _train_amortised(parser, args)
-        else:
-            config = config_from_args(args)
-            from train.run import train
+        config = config_from_args(args)
+        with warnings_as_lines():  # every input was checked before any training
+            if config.algo == AMORTISED:
+                from train.amortised import train_run
 
-            with warnings_as_lines():
+                result = train_run(config)
+            else:
+                from train.run import train
+
                 result = train(config)
     except Interrupted as stop:  # Ctrl-C in training: a checkpoint was saved
         print(f"{parser.prog}: {stop}", file=sys.stderr)
@@ -197,56 +206,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"objective {row['objective']:.4g}, feasible {row['feasible']}"
         )
     return 0
-
-
-#: Options of the RL path (:class:`TrainConfig`) an amortised run has no use for.
-RL_ONLY = (
-    ("n_timesteps", "-n"),
-    ("n_envs", "--n-envs"),
-    ("hyperparams_file", "--conf-file"),
-    ("resume", "--resume"),
-    ("eval_freq", "--eval-freq"),
-    ("save_freq", "--save-freq"),
-    ("log_interval", "--log-interval"),
-    ("log_table", "--log-table"),
-    ("tensorboard", "--no-tensorboard"),
-    ("torch_threads", "--torch-threads"),
-    ("device", "--device"),
-)
-
-
-def _train_amortised(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Any:
-    """``--algo amortised``: every input checked before any computation, then
-    :func:`train.amortised.train_run`."""
-    given = [flag for name, flag in RL_ONLY if getattr(args, name) != parser.get_default(name)]
-    if given:
-        raise ValueError(
-            f"{', '.join(given)}: option(s) of ppo and sac, not of --algo amortised; allowed "
-            "with amortised: --env, --seed, --env-kwargs, --hyperparams (its settings, "
-            "train.amortised.Settings), -f/--log-folder, --run-dir, --verbose"
-        )
-    if args.insect is not None:
-        raise ValueError(
-            f"--insect {args.insect}: the reference table describes the paper's insects "
-            "only; allowed with amortised: planform=tear-drop or planform=real"
-        )
-    from tandem_env.envs.reference import REFERENCE_GRID
-    from train.amortised import train_run
-
-    if args.env_id not in REFERENCE_GRID:
-        from tandem_env.envs.registration import check_env_id
-
-        check_env_id(args.env_id, "--env")
-    with warnings_as_lines():  # train_run checks the rest before it trains
-        return train_run(
-            args.env_id,
-            parse_pairs(args.env_kwargs, "--env-kwargs"),
-            parse_pairs(args.hyperparams, "--hyperparams"),
-            args.seed,
-            Path(args.log_folder),
-            run_dir=None if args.run_dir is None else Path(args.run_dir),
-            verbose=args.verbose,
-        )
 
 
 def _say_amortised(summary: Mapping[str, Any]) -> int:

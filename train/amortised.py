@@ -47,7 +47,7 @@ branch at the default resolution) takes about 3.5 minutes for one branch (accele
 and 9.5 for level flight's four on one core of the 2-core machine; the measured held-out
 results are in docs/training.md, "Amortised policy".
 
-The run folder is written by :func:`save_run` (:mod:`train.amortised_policy` lists its files).
+The run folder is written by :func:`train_run` (:mod:`train.amortised_policy` lists its files).
 
 Refused before any computation, with the value and what is allowed: an env without a
 reference table, a series the table does not hold (objective, planform), env options that
@@ -62,25 +62,14 @@ import contextlib
 import math
 import time
 from collections.abc import Iterator, Mapping
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from tandem_env.io.files import (
-    atomic_path,
-    output_directory,
-    to_jsonable,
-    write_json_atomic,
-)
-from tandem_env.physics.checks import is_integer, is_real
-from train.amortised_branches import (
-    branch_domains,
-    branch_segments,
-    hand_overs,
-    regression_points,
-)
+from tandem_env.io.files import atomic_path, to_jsonable, write_json_atomic
+from train.amortised_branches import branch_domains, branch_segments, hand_overs, regression_points
 from train.amortised_policy import (
     HARMONICS,
     POLICY_FILE,
@@ -91,101 +80,9 @@ from train.amortised_policy import (
     output_centres,
     reference_targets,
 )
-from train.config import AMORTISED, check_seed, write_yaml
-from train.layout import LOCK_FILE, MADE_BY, RunLayout, run_lock
-
-
-# --- settings ----------------------------------------------------------------------------------
-def _allowed(low: float, high: float, *, above: bool = False) -> dict[str, Any]:
-    """A setting's allowed values, checked by :class:`Settings`: ``low`` (excluded if
-    ``above``) to ``high``; an ``int | None`` setting may also be None."""
-    return {"range": (low, high), "above": above}
-
-
-@dataclass(frozen=True)
-class Settings:
-    """How an amortised policy is trained (``--hyperparams key=value``; ``config.yml``)."""
-
-    hidden: tuple[int, ...] = (64, 64)
-    """Widths of the MLP's hidden layers (tanh) [-]."""
-    regression_steps: int = field(default=5000, metadata=_allowed(0, 10**6))
-    """Adam steps of the regression on the training optima (full batch) [-]."""
-    regression_lr: float = field(default=3e-3, metadata=_allowed(0.0, 1.0, above=True))
-    """Adam's learning rate in the regression [-]."""
-    finetune_steps: int = field(default=600, metadata=_allowed(0, 10**6))
-    """Adam steps of the fine-tuning by the objective's gradient (0: none) [-]."""
-    finetune_lr: float = field(default=1e-3, metadata=_allowed(0.0, 1.0, above=True))
-    """Adam's learning rate in the fine-tuning [-]."""
-    batch: int = field(default=16, metadata=_allowed(1, 4096))
-    """Conditions per branch and fine-tuning step (all in one batched model evaluation) [-]."""
-    penalty_weight: float = field(default=10.0, metadata=_allowed(0.0, 1e6, above=True))
-    """w of the fine-tuning's penalty [objective units per unit of margin] (the env's default
-    ``penalty_weight``)."""
-    safety_margin: float = field(default=1e-3, metadata=_allowed(0.0, 0.1))
-    """δ: the fine-tuning penalises every constraint margin below it [-] (margins are
-    fractions: the level flight's tolerance is 0.02)."""
-    anchor: float = field(default=30.0, metadata=_allowed(0.0, 1e6))
-    """Weight of the regression loss on the training targets during the fine-tuning [-]."""
-    branch_reach: float = field(default=0.6, metadata=_allowed(0.5, 1.0, above=True))
-    """How far each branch's domain reaches into the gap to a neighbouring branch's training
-    condition, as a fraction of the gap [-] (above 0.5, so that both branches cover its
-    middle, where they hand over)."""
-    branch_tolerance: float = field(default=0.1, metadata=_allowed(0.0, 1.0))
-    """Two neighbouring training optima share a branch when the stroke midway between them
-    loses at most this fraction of their mean objective and violates no margin by more
-    (:func:`~train.amortised_branches.branch_segments`) [-]."""
-    features: int = field(default=0, metadata=_allowed(0, 1024))
-    """Gaussian radial features of the observation before the MLP (0: the observation
-    itself) [-] (:class:`RadialFeatures`)."""
-    finetune_n_time: int | None = field(default=None, metadata=_allowed(8, 4096))
-    """Time samples of the fine-tuning's model (None: the env's, default 128) [-]."""
-    finetune_n_blade: int | None = field(default=None, metadata=_allowed(2, 512))
-    """Blade elements of the fine-tuning's model (None: the env's, default 24) [-]."""
-
-    def __post_init__(self) -> None:
-        hidden = self.hidden
-        if isinstance(hidden, int | np.integer) and not isinstance(hidden, bool):
-            hidden = (hidden,)
-        if (
-            not isinstance(hidden, list | tuple)
-            or not hidden
-            or not all(is_integer(h) and 1 <= h <= 4096 for h in hidden)
-            or len(hidden) > 8
-        ):
-            raise ValueError(
-                f"hidden = {self.hidden!r}; allowed: 1 to 8 layer widths, each an integer from "
-                "1 to 4096, e.g. [64, 64]"
-            )
-        object.__setattr__(self, "hidden", tuple(int(h) for h in hidden))
-        for spec in fields(self)[1:]:
-            name, value, (low, high) = spec.name, getattr(self, spec.name), spec.metadata["range"]
-            if spec.type == "float":
-                ok = is_real(value) and math.isfinite(value) and low <= value <= high
-                if not ok or (spec.metadata["above"] and value == low):
-                    bound = f"above {low:g}" if spec.metadata["above"] else f"from {low:g}"
-                    raise ValueError(f"{name} = {value!r}; allowed: a number {bound} to {high:g}")
-                object.__setattr__(self, name, float(value))
-            elif value is not None or spec.type == "int":
-                if not is_integer(value) or not low <= value <= high:
-                    allowed = (
-                        f"an integer from {low} to {high:,}"
-                        if spec.type == "int"
-                        else f"None (the env's) or an integer from {low} to {high}"
-                    )
-                    raise ValueError(f"{name} = {value!r}; allowed: {allowed}")
-                object.__setattr__(self, name, int(value))
-
-    @classmethod
-    def from_mapping(cls, values: Mapping[str, Any]) -> Settings:
-        """Settings from ``key=value`` overrides; ValueError naming an unknown key."""
-        names = [f.name for f in fields(cls)]
-        unknown = sorted(set(values) - set(names))
-        if unknown:
-            raise ValueError(f"unknown amortised setting(s) {unknown}; allowed: {', '.join(names)}")
-        return cls(**dict(values))
-
-    def to_dict(self) -> dict[str, Any]:
-        return to_jsonable(asdict(self))
+from train.amortised_settings import Settings
+from train.config import AMORTISED, TrainConfig
+from train.run_folder import RunFolder
 
 
 # --- the problem and its reference -------------------------------------------------------------
@@ -437,26 +334,6 @@ def train_policy(
     return policy, record
 
 
-# --- run folders -------------------------------------------------------------------------------
-def save_run(
-    layout: RunLayout,
-    policy: AmortisedPolicy,
-    settings: Settings,
-    args: Mapping[str, Any],
-    result: Mapping[str, Any],
-) -> None:
-    """Write the run folder (module docstring), each file atomically; the weights last but one,
-    ``result.json`` last (a folder with it is complete)."""
-    import torch
-
-    write_yaml(layout.config_file, settings.to_dict())
-    write_yaml(layout.args_file, {"made_by": MADE_BY, "algo": AMORTISED, **dict(args)})
-    write_json_atomic(layout.run_dir / POLICY_FILE, policy.policy_data())
-    with atomic_path(layout.run_dir / f"{layout.name}{WEIGHTS_SUFFIX}") as tmp:
-        torch.save(policy.network.state_dict(), tmp)
-    write_json_atomic(layout.result_file, result)
-
-
 # --- the command's trainer ---------------------------------------------------------------------
 @dataclass(frozen=True)
 class RunResult:
@@ -466,48 +343,23 @@ class RunResult:
     summary: Mapping[str, Any]
 
 
-def _check_empty(run_dir: Path) -> None:
-    """ValueError unless ``run_dir`` is absent or an empty folder (its lock file aside)."""
-    if run_dir.exists() and (
-        not run_dir.is_dir() or any(p.name != LOCK_FILE for p in run_dir.iterdir())
-    ):
-        raise ValueError(
-            f"run_dir = {run_dir}: not an empty folder; an amortised run is not resumed "
-            "(it trains in minutes). Allowed: a new or empty folder"
-        )
+def train_run(config: TrainConfig) -> RunResult:
+    """``python -m train --algo amortised``: check everything, train on the reference table's
+    training optima, write the run folder (:class:`~train.run_folder.RunFolder`: a new one in
+    ``log_folder/amortised/``, or ``run_dir``, a new or empty folder; the files are
+    :mod:`train.amortised_policy`'s, each written atomically, ``result.json`` last), and
+    evaluate the final policy at the training conditions (default model) for the summary."""
+    import torch
 
-
-def train_run(
-    env_id: str,
-    env_kwargs: Mapping[str, Any],
-    overrides: Mapping[str, Any],
-    seed: int,
-    log_folder: Path,
-    *,
-    run_dir: Path | None = None,
-    verbose: int = 1,
-) -> RunResult:
-    """Check everything, train on the reference table's training optima, write the run folder
-    (``log_folder/amortised/<env>_<n>/``, or ``run_dir``: a new or empty folder), and evaluate
-    the final policy at the training conditions (default model) for the summary."""
     from agents.records import package_versions
     from tandem_env.envs.reference import load_reference_table, training_conditions
 
-    settings = Settings.from_mapping(overrides)
+    env_id, env_kwargs, seed = config.env_id, config.env_kwargs, config.seed
+    settings = Settings.from_mapping(config.hyperparams)
     series = check_env_kwargs(env_id, env_kwargs)
-    check_seed(seed)
-    output_directory(log_folder, "log_folder (-f)", write=False)
-    if run_dir is not None:
-        run_dir = Path(run_dir)
-        _check_empty(run_dir)
-    problem = make_problem(env_id, env_kwargs)
-    n_time = settings.finetune_n_time or problem.config.options.n_time
-    targets = reference_targets(
-        series, n_time, pairs_independent=not problem.config.options.phase_resolved()
-    )
 
     def report(step: int, total: int, row: Mapping[str, float]) -> None:
-        if verbose and (step % 25 == 0 or step == total):
+        if config.verbose and (step % 25 == 0 or step == total):
             print(
                 f"fine-tuning step {step}/{total}: mean J/ref {row['relative_value']:.4f}, "
                 f"feasible {row['feasible']:.2f}",
@@ -515,22 +367,20 @@ def train_run(
             )
 
     with contextlib.ExitStack() as held:
-        if run_dir is not None:
-            # Claimed before the minutes of training: a second command on the same folder is
-            # refused now, not left to overwrite this one's files when both finish.
-            run_dir.mkdir(parents=True, exist_ok=True)
-            held.enter_context(run_lock(run_dir))
-            _check_empty(run_dir)
+        # Claimed before the minutes of training: a second command on the same folder is
+        # refused now, not left to overwrite this one's files when both finish.
+        run = RunFolder.open(config, held)
+        problem = make_problem(env_id, env_kwargs)
+        n_time = settings.finetune_n_time or problem.config.options.n_time
+        targets = reference_targets(
+            series, n_time, pairs_independent=not problem.config.options.phase_resolved()
+        )
         start = time.perf_counter()
         policy, training = train_policy(
             env_id, env_kwargs, targets, settings, seed, progress=report
         )
         wall = time.perf_counter() - start
-        if run_dir is None:
-            layout = RunLayout.new(log_folder, AMORTISED, env_id)
-        else:
-            layout = RunLayout(run_dir, env_id)
-        policy = replace(policy, run_dir=layout.run_dir)
+        policy = replace(policy, run_dir=run.layout.run_dir)
         # the final policy at the training conditions, at the env's resolution
         conditions = np.asarray(training_conditions(env_id))
         found = problem.evaluate(policy.strokes(conditions), conditions)
@@ -563,18 +413,9 @@ def train_run(
             "history": training.history,
             "versions": package_versions(),
         }
-        save_run(
-            layout,
-            policy,
-            settings,
-            {
-                "env": env_id,
-                "seed": seed,
-                "env_kwargs": to_jsonable(dict(env_kwargs)),
-                "hyperparams": to_jsonable(dict(overrides)),
-                "log_folder": str(log_folder),
-                "run_dir": None if run_dir is None else str(run_dir),
-            },
-            summary,
-        )
-        return RunResult(layout.run_dir, summary)
+        run.start(settings.to_dict())
+        write_json_atomic(run.layout.run_dir / POLICY_FILE, policy.policy_data())
+        with atomic_path(run.layout.run_dir / f"{run.layout.name}{WEIGHTS_SUFFIX}") as tmp:
+            torch.save(policy.network.state_dict(), tmp)
+        write_json_atomic(run.layout.result_file, summary)
+        return RunResult(run.layout.run_dir, summary)

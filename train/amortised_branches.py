@@ -9,7 +9,7 @@ neighbouring training conditions whose optima belong together.
 
 **The rule** (:func:`branch_segments`): two neighbouring training optima share a branch when
 they have the same N and the stroke midway between them, flown at the midway condition, is
-within ``branch_tolerance`` (:class:`train.amortised.Settings`) of their mean objective and
+within ``branch_tolerance`` (:class:`train.amortised_settings.Settings`) of their mean objective and
 violates no constraint margin by more (one batched model evaluation). Within a basin the
 midway stroke is nearly optimal (0.2-0.3 % short, margins -0.006 in level flight); across a
 basin change it is far off (36-69 % short, margins -0.58 to -0.85), so the split does not hinge

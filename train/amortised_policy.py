@@ -10,7 +10,7 @@ accelerating flight]. Output: a normalised stroke (28,) in [-1, 1], the env's ac
   (:meth:`AmortisedPolicy.branch_at`), so one forward pass of one branch gives the stroke.
 * The 26 continuous coordinates from the branch's MLP: the condition mapped from the branch's
   domain to [-1, 1] (:meth:`AmortisedPolicy.inputs`; or, with
-  ``features`` of :class:`~train.amortised.Settings` > 0, its Gaussian radial features,
+  ``features`` of :class:`~train.amortised_settings.Settings` > 0, its Gaussian radial features,
   :class:`RadialFeatures`), tanh hidden layers (``hidden``) and a tanh output u ∈ (-1, 1)^26.
   A coordinate that is not a phase is u itself. A phase (each wing's sweep, elevation and
   pitch phase, Table 4: -180° to 180° on both wings, so ±1 is one angle) is
@@ -47,7 +47,7 @@ discretisation error (measured: about 5e-6 relative at n_time = 128).
                              branches' domains, the hand-overs and each branch's N
     result.json              training summary: losses, timings, strokes evaluated, provenance
     <env>/args.yml           the command's arguments (made_by: python -m train)
-    <env>/config.yml         the training settings (:class:`~train.amortised.Settings`)
+    <env>/config.yml         the training settings (:class:`~train.amortised_settings.Settings`)
 
 every file written atomically (``tandem_env.io.files``) and read with safe loaders (JSON,
 ``yaml.safe_load`` through :func:`train.layout.read_run_yaml`, weights only).
@@ -423,7 +423,7 @@ def _refuse(path: Path, what: str) -> ValueError:
 
 def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
     """``policy.json``'s ``data`` checked before anything is built (:func:`load_policy`): the
-    network's sizes within training's limits (:class:`~train.amortised.Settings`, their one
+    network's sizes within training's limits (:class:`~train.amortised_settings.Settings`, their one
     home), the arrays finite and of consistent shapes, each branch's domain an increasing range
     inside the env's reference grid, the hand-overs increasing and inside both neighbours'
     domains, N of each branch 1 or 2, and the counts whole numbers >= 0; ValueError naming
@@ -431,7 +431,7 @@ def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
     from tandem_env.envs.reference import REFERENCE_GRID, training_conditions
     from tandem_env.envs.registration import config_class
     from tandem_env.physics.checks import count, real_array
-    from train.amortised import Settings
+    from train.amortised_settings import Settings
 
     if not isinstance(data, dict) or data.get("format") != POLICY_FORMAT:
         raise ValueError(

@@ -388,23 +388,17 @@ class RunCheckpoint(BaseCallback):
     def _on_rollout_end(self) -> None:
         step = self.model.num_timesteps
         if step >= self._next:
-            checkpoint = save_checkpoint(self.model, self.layout)
-            prune_checkpoints(self.layout, self.keep)
+            checkpoint = save_checkpoint(self.model, self.layout, self.keep)
             self._next = (step // self.save_freq + 1) * self.save_freq
             if self.verbose >= 2:
                 print(f"Saved checkpoint {checkpoint.model}")
 
 
-def prune_checkpoints(layout: RunLayout, keep: int) -> None:
-    for checkpoint in layout.checkpoints()[:-keep]:
-        for path in checkpoint.paths():
-            path.unlink(missing_ok=True)
-
-
-def save_checkpoint(model: BaseAlgorithm, layout: RunLayout) -> Checkpoint:
-    """Checkpoint at the model's current step. Each file is written under a temporary name and
-    renamed, companions first and the model last, so a model file means a complete checkpoint
-    even if the process is killed while saving."""
+def save_checkpoint(model: BaseAlgorithm, layout: RunLayout, keep: int | None = None) -> Checkpoint:
+    """Checkpoint at the model's current step, then only the ``keep`` newest kept (None: all).
+    Each file is written under a temporary name and renamed, companions first and the model
+    last, so a model file means a complete checkpoint even if the process is killed while
+    saving."""
     checkpoint = layout.checkpoint(model.num_timesteps)
     if getattr(model, "replay_buffer", None) is not None:
         with atomic_path(checkpoint.replay_buffer) as tmp:
@@ -415,6 +409,9 @@ def save_checkpoint(model: BaseAlgorithm, layout: RunLayout) -> Checkpoint:
             normalizer.save(str(tmp))
     with atomic_path(checkpoint.model) as tmp:
         model.save(tmp)
+    for old in layout.checkpoints()[: -keep if keep else 0]:
+        for path in old.paths():
+            path.unlink(missing_ok=True)
     return checkpoint
 
 
@@ -463,6 +460,4 @@ class StopOnInterrupt(BaseCallback):
     def save(self, layout: RunLayout, keep: int) -> Checkpoint:
         """The checkpoint of the last whole iteration, the ``keep`` newest kept."""
         self.model.num_timesteps = self.boundary
-        checkpoint = save_checkpoint(self.model, layout)
-        prune_checkpoints(layout, keep)
-        return checkpoint
+        return save_checkpoint(self.model, layout, keep)

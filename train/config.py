@@ -13,11 +13,11 @@ from __future__ import annotations
 import ast
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import MISSING, dataclass, field, fields
 from itertools import pairwise
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Literal, get_args
+from typing import Any
 
 import yaml
 
@@ -27,15 +27,13 @@ from tandem_env.io.files import output_directory, to_jsonable, write_text_atomic
 from tandem_env.physics.checks import count, is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
-Algo = Literal["ppo", "sac"]
 #: The Stable-Baselines3 algorithms (``python -m train``'s RL path, :class:`TrainConfig`).
-ALGOS: tuple[str, ...] = get_args(Algo)
+ALGOS = ("ppo", "sac")
 #: Every ``--algo`` of ``python -m train``: the RL algorithms and ``amortised``, one network
 #: from the condition to a stroke trained on the reference optima (``train.amortised``).
 AMORTISED = "amortised"
 TRAINERS: tuple[str, ...] = (*ALGOS, AMORTISED)
-Device = Literal["cpu", "cuda", "auto"]
-DEVICES: tuple[str, ...] = get_args(Device)
+DEVICES = ("cpu", "cuda", "auto")
 
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 
@@ -379,50 +377,81 @@ def check_seed(value: Any, name: str = "seed") -> int:
     return int(value)
 
 
+def option(*flags: str, default: Any = MISSING, factory: Any = MISSING, **settings: Any) -> Any:
+    """A :class:`TrainConfig` field and its ``python -m train`` option: ``flags`` (a bool field
+    is a switch; ``off``: the flag that turns a True default off), ``amortised=True`` where
+    ``--algo amortised`` takes it too, and argparse ``settings`` (choices, metavar). The
+    option's help is the field's docstring (``train.__main__.build_parser``)."""
+    return field(default=default, default_factory=factory, metadata={"flags": flags, **settings})
+
+
 @dataclass(frozen=True, kw_only=True)
 class TrainConfig:
-    """Everything one training run is made from (the command line, as data).
+    """Everything one training run is made from (the command line, as data: each field is an
+    option of ``python -m train``, its docstring the option's help).
 
     ``n_envs``, ``n_timesteps`` None take the hyperparameter file's values; ``hyperparams``
     and ``env_kwargs`` override the file's entry key by key.
     """
 
-    algo: Algo
-    env_id: str
-    n_timesteps: int | None = None
-    seed: int = 0
-    n_envs: int | None = None
-    env_kwargs: Mapping[str, Any] = field(default_factory=dict)
-    hyperparams: Mapping[str, Any] = field(default_factory=dict)
-    hyperparams_file: Path | None = None
-    """A zoo-format .yml to use instead of ``train/hyperparams/<algo>.yml``."""
-    log_folder: Path = Path("logs")
-    """Runs go to ``log_folder/<algo>/<env>_<n>/`` (the zoo's ``-f``)."""
-    run_dir: Path | None = None
-    """Use this run folder instead of a new one; an existing checkpoint there is resumed."""
-    resume: bool = False
-    """Resume the latest run of this algo and env in ``log_folder`` from its last checkpoint."""
-    eval_freq: int = 10_000
-    """Env steps between deterministic evaluations (EvalCallback); <= 0 disables them."""
-    save_freq: int = 20_000
-    """Env steps between checkpoints; <= 0 disables them (and so resuming)."""
-    progress_bar: bool = True
-    tensorboard: bool = True
-    verbose: int = 1
-    torch_threads: int = 1
-    """Torch intra-op threads. 1 by default: on 2 cores, torch's second thread fights the
-    model's numba threads and small-MLP updates get up to 10x slower (docs/training.md)."""
-    device: Device = "cpu"
-    """Torch device of the model: ``"cpu"``, ``"cuda"`` or ``"auto"``."""
-    log_interval: int | None = None
-    """SB3's log_interval; None picks one that dumps every few thousand steps (SAC counts it
-    in episodes, and every env step ends n_envs of them)."""
-    log_table: bool = False
-    """Print SB3's table of training statistics at every log dump (stdout). Off by default: it
-    breaks into the progress bar every rollout, and TensorBoard gets the same numbers."""
+    algo: str = option("--algo", choices=TRAINERS, amortised=True)
+    """RL algorithm, or amortised (a network from condition to stroke)."""
+    env_id: str = option("--env", metavar="ENV", amortised=True)
+    """Env id, e.g. TandemWing/LevelFlight-v0."""
+    n_timesteps: int | None = option("-n", "--n-timesteps", "--timesteps", default=None)
+    """Total env steps (strokes evaluated); default the yml's n_timesteps."""
+    seed: int = option("--seed", default=0, amortised=True)
+    """Seed of the model and envs."""
+    n_envs: int | None = option("--n-envs", default=None)
+    """Parallel envs; default the yml's."""
+    env_kwargs: Mapping[str, Any] = option("--env-kwargs", factory=dict, amortised=True)
+    """Env options."""
+    hyperparams: Mapping[str, Any] = option(
+        "-params", "--hyperparams", factory=dict, amortised=True
+    )
+    """Override hyperparameters of the yml entry (amortised: its settings,
+    train.amortised_settings.Settings)."""
+    hyperparams_file: Path | None = option(
+        "-conf", "--conf-file", default=None, metavar="CONF_FILE"
+    )
+    """Zoo-format hyperparameter file (default train/hyperparams/<algo>.yml)."""
+    log_folder: Path = option(
+        "-f", "--log-folder", "--log-dir", default=Path("logs"), amortised=True
+    )
+    """Log folder; runs go to <folder>/<algo>/<env>_<n>/ (the zoo's layout)."""
+    resume: bool = option("--resume", default=False)
+    """Continue the latest run of this algo and env from its last checkpoint."""
+    run_dir: Path | None = option("--run-dir", default=None, amortised=True)
+    """Use this run folder; a checkpoint there is resumed automatically."""
+    eval_freq: int = option("--eval-freq", default=10_000)
+    """Env steps between deterministic evaluations (<= 0: none)."""
+    save_freq: int = option("--save-freq", default=20_000)
+    """Env steps between checkpoints (<= 0: none, and no resume)."""
+    log_interval: int | None = option("--log-interval", default=None)
+    """SB3's log_interval; default one that dumps every few thousand steps (SAC counts it in
+    episodes, and every env step ends n_envs of them)."""
+    log_table: bool = option("--log-table", default=False)
+    """Print SB3's statistics table at every log dump (default: off, the progress bar and the
+    final lines only; TensorBoard gets the same numbers)."""
+    progress_bar: bool = option(
+        "-P", "--progress", default=True, off="--no-progress", amortised=True
+    )
+    """A progress bar (on by default)."""
+    tensorboard: bool = option(default=True, off="--no-tensorboard")
+    """TensorBoard logs in <run>/tb/ (on by default)."""
+    verbose: int = option("--verbose", default=1, amortised=True)
+    """0 quiet, 1 info, 2 debug."""
+    torch_threads: int = option("--torch-threads", default=1)
+    """Torch threads: faster on 2 cores, where torch's second thread fights the model's numba
+    threads and small-MLP updates get up to 10x slower (docs/training.md)."""
+    device: str = option("--device", default="cpu", choices=DEVICES)
+    """Torch device of the model."""
 
     def __post_init__(self) -> None:
-        check_algo(self.algo)
+        for spec in fields(self):  # the fields with choices: algo, device
+            value, allowed = getattr(self, spec.name), spec.metadata.get("choices")
+            if allowed and value not in allowed:
+                raise ValueError(f"{spec.name} = {value!r}; allowed: {', '.join(allowed)}")
         check_env_id(self.env_id, "env")
         for name in ("n_timesteps", "n_envs"):
             value = getattr(self, name)
@@ -468,8 +497,27 @@ class TrainConfig:
             raise ValueError(
                 "give resume=True (the latest run in log_folder) or run_dir (that run), not both"
             )
-        if self.device not in DEVICES:
-            raise ValueError(f"device = {self.device!r}; allowed: {', '.join(map(repr, DEVICES))}")
+        if self.algo == AMORTISED:
+            self._check_amortised()
+
+    def _check_amortised(self) -> None:
+        """An amortised run takes the options marked ``amortised`` only: any other one given
+        (not its default) is refused, naming its flag."""
+
+        def flag(spec: Any) -> str:
+            return next(f for f in (*spec.metadata["flags"], spec.metadata.get("off")) if "--" in f)
+
+        given = [
+            flag(f)
+            for f in fields(self)
+            if not f.metadata.get("amortised") and getattr(self, f.name) != f.default
+        ]
+        if given:
+            allowed = [flag(f) for f in fields(self) if f.metadata.get("amortised")]
+            raise ValueError(
+                f"{', '.join(given)}: option(s) of ppo and sac, not of --algo amortised; allowed "
+                f"with amortised: {', '.join(allowed)}"
+            )
 
     @property
     def model_verbose(self) -> int:

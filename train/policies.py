@@ -44,12 +44,7 @@ from train.config import (
 )
 from train.layout import RunLayout, read_run_yaml, resolve_run_dir
 from train.run import budget_hyperparams, learn_in_memory, step_granularity, train
-from train.trained_policy import (
-    WHICH_MODELS,
-    TrainingMismatchWarning,
-    WhichModel,
-    load_policy,
-)
+from train.trained_policy import WHICH_MODELS, TrainingMismatchWarning, WhichModel, load_policy
 from train.vec import StrokeRecorder
 
 if TYPE_CHECKING:

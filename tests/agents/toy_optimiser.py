@@ -8,40 +8,36 @@ installed plug-in. Nothing in ``agents`` or ``eval`` names it.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
 from agents.methods import register_optimiser
-from agents.optimiser import AskTellOptimiser, FloatArray, SeedLike
+from agents.optimiser import (
+    AskTellOptimiser,
+    FloatArray,
+    OptimiserConfig,
+    SeedLike,
+    integer_setting,
+)
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
-from tandem_env.physics.checks import count
 
 
 @dataclass(frozen=True, kw_only=True)
-class HillClimbConfig:
+class HillClimbConfig(OptimiserConfig):
     """A (1, λ) hill climber: ``batch_size`` Gaussian steps of size ``step`` around the best point
-    so far; the step halves after a batch that found nothing better."""
+    so far; the step halves after a batch that found nothing better. Its checks, record
+    (``to_dict``) and ``build`` come from its fields (``OptimiserConfig``)."""
 
-    max_evaluations: int
-    batch_size: int = 16
-    step: float = 0.5
-
-    def __post_init__(self) -> None:
-        count(self.max_evaluations, "max_evaluations")
-        count(self.batch_size, "batch_size")
-
+    algorithm = "hill-climb"
     citation = "toy hill climber (tests/agents/toy_optimiser.py)"
 
-    def to_dict(self) -> dict[str, Any]:
-        return {"algorithm": "hill-climb", **asdict(self), "citation": self.citation}
-
-    def build(self, dim: int, seed: SeedLike = None) -> HillClimb:
-        return HillClimb(dim, self, seed)
+    max_evaluations: int = integer_setting(1)
+    batch_size: int = integer_setting(1, default=16)
+    step: float = 0.5
 
 
-class HillClimb(AskTellOptimiser):
+class HillClimb(AskTellOptimiser, settings=HillClimbConfig):
     def __init__(self, dim: int, config: HillClimbConfig, seed: SeedLike = None) -> None:
         super().__init__(dim, config.batch_size, config, seed)
         self._centre = np.zeros(dim)

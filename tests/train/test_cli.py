@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from tandem_env.envs.registration import LEVEL_FLIGHT_ID
-from train.__main__ import OPTIONS, build_parser, config_from_args, main
+from train.__main__ import build_parser, config_from_args, main
 from train.config import TrainConfig
 from train.layout import RunLayout
 from train.run import train
@@ -144,15 +144,17 @@ def test_normalised_run_saves_its_statistics(tmp_path: Path) -> None:
 def test_cli_defaults_are_the_configs() -> None:
     # Every option sets a TrainConfig field, and an option left out keeps the field's default.
     names = {f.name for f in fields(TrainConfig)}
-    assert {name for name, _, _ in OPTIONS} == names
-    args = build_parser().parse_args(["--algo", "sac", "--env", LEVEL_FLIGHT_ID])
+    parser = build_parser()
+    assert {action.dest for action in parser._actions} == {*names, "help", "insect"}
+    args = parser.parse_args(["--algo", "sac", "--env", LEVEL_FLIGHT_ID])
     config = config_from_args(args)
     for f in fields(TrainConfig):
         if f.default is not MISSING:
             assert getattr(config, f.name) == f.default, f.name
     assert config.env_kwargs == {} and config.hyperparams == {}
     help_text = " ".join(build_parser().format_help().split())
-    assert "(<= 0: none; default 10000)" in help_text and "(default logs)" in help_text
+    # the help is each field's docstring, with its default
+    assert "evaluations (<= 0: none) (default 10000)" in help_text and "(default logs)" in help_text
 
 
 def test_cli_rejects_bad_arguments(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
