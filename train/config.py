@@ -23,6 +23,7 @@ import yaml
 
 from tandem_env.envs.config import insect_keyword
 from tandem_env.envs.registration import check_env_id
+from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import output_directory, to_jsonable, write_text_atomic
 from tandem_env.physics.checks import count, is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
@@ -152,14 +153,14 @@ def load_hyperparams_file(path: str | Path) -> dict[str, dict[str, Any]]:
     if not path.is_file():
         raise ValueError(f"hyperparameter file {path} does not exist; allowed: a zoo-format .yml")
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+        data = parse_yaml(path.read_text(encoding="utf-8"), BoundedLoader)
     except UnicodeDecodeError as error:
         raise ValueError(
             f"hyperparameter file {path} is not UTF-8 text (byte {error.start}); allowed: a "
             "zoo-format .yml"
         ) from None
     except (yaml.YAMLError, RecursionError) as error:
-        # safe_load: a Python tag (the zoo's files have none) is refused, not built
+        # a safe loader: a Python tag (the zoo's files have none) is refused, not built
         raise ValueError(
             f"hyperparameter file {path} is not plain YAML ({' '.join(str(error).split())}); "
             "allowed: a zoo-format .yml"

@@ -23,6 +23,7 @@ from typing import Any
 
 import yaml
 
+from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import FolderLock, read_json
 from tandem_env.physics.checks import is_real
 
@@ -96,8 +97,9 @@ def read_normalizer(path: Path) -> Any:
 
 
 # --- the YAML of a run folder ---------------------------------------------------------------
-class RunFileLoader(yaml.SafeLoader):
-    """``yaml.SafeLoader`` plus the two Python tags rl_zoo3 writes (``yaml.dump`` of its
+class RunFileLoader(BoundedLoader):
+    """YAML's safe loader, bounded in what a document may expand to (:class:`BoundedLoader`),
+    plus the two Python tags rl_zoo3 writes (``yaml.dump`` of its
     ``OrderedDict`` of arguments and hyperparameters, and of tuples such as ``train_freq``):
     ``!!python/object/apply:collections.OrderedDict`` becomes a dict and ``!!python/tuple`` a
     tuple. Every other tag is refused (:class:`ForbiddenTag`) before anything is built."""
@@ -147,7 +149,7 @@ def parse_run_yaml(text: str, path: Path) -> dict[str, Any]:
     :class:`RunFileLoader`; ValueError naming the file for a refused tag, YAML that does not
     parse, or a document that is not a mapping."""
     try:
-        data = yaml.load(text, Loader=RunFileLoader)
+        data = parse_yaml(text, RunFileLoader)
     except ForbiddenTag as error:
         line = f" (line {error.problem_mark.line + 1})" if error.problem_mark else ""
         raise ValueError(

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 import yaml
 
@@ -172,3 +174,19 @@ def test_a_hyperparameter_file_that_is_not_yaml_is_named(tmp_path, text: bytes, 
 def test_verbose_beyond_debug_is_refused() -> None:
     with pytest.raises(ValueError, match="verbose = 9; allowed: 0 quiet, 1 info, 2 debug"):
         TrainConfig(algo="ppo", env_id=env_ids()[0], verbose=9)
+
+
+def test_an_alias_bomb_in_a_run_folder_or_hyperparameter_file_is_refused(tmp_path: Path) -> None:
+    """The run folder's YAML and a zoo hyperparameter file are read with the bounded loader: a
+    few lines that expand to 10**9 items are refused naming the file, not built."""
+    from train.config import load_hyperparams_file
+    from train.layout import parse_run_yaml
+
+    lines = ["a0: &a0 [x, x, x, x, x, x, x, x, x, x]"]
+    lines += [f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 10) + "]" for i in range(1, 9)]
+    bomb = tmp_path / "args.yml"
+    bomb.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(ValueError, match=r"args\.yml is not readable YAML.*expands to more than"):
+        parse_run_yaml(bomb.read_text(encoding="utf-8"), bomb)
+    with pytest.raises(ValueError, match=r"args\.yml is not plain YAML.*expands to more than"):
+        load_hyperparams_file(bomb)
