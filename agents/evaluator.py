@@ -23,6 +23,7 @@ from agents.optimiser import Tallied, Tally
 from agents.selection import BestStroke
 from agents.tasks import Condition, TaskSpec
 from tandem_env.envs.base import as_action_type
+from tandem_env.io.files import to_jsonable
 
 __all__ = [
     "BudgetExceededError",
@@ -211,11 +212,13 @@ def reevaluate(
 
 
 def env_config_dict(env: gym.Env) -> dict[str, Any] | None:
-    """The env's ``config`` dataclass as a plain dict, or None if it has none."""
+    """The env's ``config`` dataclass as plain JSON (``to_jsonable``: through each part's own
+    ``to_dict``, so an insect with Table 4's stroke bounds reads as before they were a field),
+    or None if it has none."""
     config = getattr(env.unwrapped, "config", None)
     if config is None or not dataclasses.is_dataclass(config):
         return None
-    out = dataclasses.asdict(config)
+    out = to_jsonable(config)
     describe = getattr(config, "describe", None)
     if callable(describe):
         out["description"] = describe()
