@@ -165,17 +165,24 @@ def relative_velocity(coef, k, r, v_tangential, v_normal):
 
 
 @njit(cache=True)
-def element_force(u, v, du, dv, spin, chord, m11, m22, rho, ct, cd0, cd90, cr, table=None):
+def element_force(u, v, du, dv, spin, section, table=None):
     """Aerodynamic force per unit span (F_c, F_n) [N/m] on one blade element (Eqs. 11-14).
 
     Circulatory + added mass + viscous; the wing's own inertia is not an aerodynamic force
-    (docs/model.md §4.9). ``table``: the wing's force-coefficient model (``coefficients``;
-    omitted or ``[PAPER]``: the paper's C_t·sin 2α and C_d(0)cos²α + C_d(π/2)sin²α from ``ct``,
-    ``cd0``, ``cd90``); any other model replaces them by its C_L(α), C_D(α):
-    Γ_t = −½·c·|U|·C_L·sign(v), F_V = −½ρc·C_D·|U|·(u, v).
+    (docs/model.md §4.9). ``section``: the element and its wing's coefficients
+    (:class:`~tandem_env.physics.bundle.Section`). ``table``: the wing's force-coefficient model
+    (``coefficients``; omitted or ``[PAPER]``: the paper's C_t·sin 2α and
+    C_d(0)cos²α + C_d(π/2)sin²α from ``section``'s ``ct``, ``cd0``, ``cd90``); any other model
+    replaces them by its C_L(α), C_D(α): Γ_t = −½·c·|U|·C_L·sign(v), F_V = −½ρc·C_D·|U|·(u, v).
     """
+    chord = section.chord
+    m11 = section.m11
+    m22 = section.m22
+    rho = section.rho
+    cd0 = section.cd0
+    cd90 = section.cd90
     speed2 = u * u + v * v
-    gamma = 0.5 * cr * spin * chord * chord
+    gamma = 0.5 * section.cr * spin * chord * chord
     fc = m22 * v * spin - m11 * du
     fn = -m11 * u * spin - m22 * dv
     if speed2 > 0.0:
@@ -184,7 +191,7 @@ def element_force(u, v, du, dv, spin, chord, m11, m22, rho, ct, cd0, cd90, cr, t
         if table is not None:
             paper = table[0] == PAPER
         if paper:
-            gamma -= ct * chord * u * v / speed
+            gamma -= section.ct * chord * u * v / speed
             drag = 0.5 * rho * chord * (cd0 * u * u + cd90 * v * v) / speed
         else:
             lift_coefficient, drag_coefficient = force_coefficients(u, v, table)
@@ -199,16 +206,17 @@ def element_force(u, v, du, dv, spin, chord, m11, m22, rho, ct, cd0, cd90, cr, t
 
 
 @njit(cache=True)
-def element_moment(u, v, spin, dspin, m11, m22, inertia_a, damping, frequency, mu1, mu2):
-    """Aerodynamic pitching moment per unit span about the mid-chord axis [N·m/m].
+def element_moment(u, v, spin, dspin, section, frequency):
+    """Aerodynamic pitching moment per unit span about the mid-chord axis [N·m/m] of the
+    element ``section`` at flapping frequency ``frequency`` [Hz].
 
     Munk moment, added inertia and rotational damping (Berman & Wang 2007); the circulatory
     and viscous forces act at the pitch axis (docs/model.md §4).
     """
     return (
-        (m11 - m22) * u * v
-        - inertia_a * dspin
-        - damping * (mu1 * frequency + mu2 * abs(spin)) * spin
+        (section.m11 - section.m22) * u * v
+        - section.inertia_a * dspin
+        - section.damping * (section.mu1 * frequency + section.mu2 * abs(spin)) * spin
     )
 
 

@@ -39,6 +39,7 @@ import numpy as np
 import torch
 
 from . import cycle
+from .bundle import Section
 from .checks import count, flag
 from .coefficients import PaperCoefficients
 from .insect import DRAGONFLY, Dragonfly
@@ -229,41 +230,28 @@ def _frame(angles: list[torch.Tensor], weight: torch.Tensor, beta: torch.Tensor,
 
 
 # --- element forces and the force sweep (blade.element_force, induction.normal_force_*) ---------
+#: :class:`Section`'s per-element fields (the node table's; the others are the wing's).
+_ELEMENT_FIELDS = ("r", "chord", "width", "m11", "m22", "inertia_a", "damping")
 #: The frame coefficients a force sweep and its slope read.
 _SWEEP_KEYS = ("AU", "AV", "BU", "BV", "ECX", "ECZ", "ENX", "ENZ", "DECX", "DECZ", "DENX", "DENZ",
                "SPIN", "WEIGHT")  # fmt: skip
 
 
 class _Wing:
-    """One wing's frame (each (B, 1, n_time)), nodes (each (1, n_blade, 1)) and constants."""
+    """One wing's frame (each (B, 1, n_time)) and its blade elements: ``section``, the numba
+    kernel's :class:`~tandem_env.physics.bundle.Section` with the node-table fields as
+    (n_blade, 1) tensors (``cycle.section_at`` of every annulus at once)."""
 
     def __init__(
         self, frame: dict, nodes: np.ndarray, consts: np.ndarray, rho: float, like, compiled
     ):
         self.compiled = compiled
         self.f = {key: value[:, None, :] for key, value in frame.items()}
-        node = torch.tensor(nodes, dtype=like.dtype, device=like.device)[None, :, :, None]
-        self.r = node[:, :, cycle.N_R]
-        self.chord = node[:, :, cycle.N_CHORD]
-        self.width = node[:, :, cycle.N_WIDTH]
-        self.m11 = node[:, :, cycle.N_M11]
-        self.m22 = node[:, :, cycle.N_M22]
-        self.inertia_a = node[:, :, cycle.N_IA]
-        self.damping = node[:, :, cycle.N_DAMP]
+        node = torch.tensor(nodes, dtype=like.dtype, device=like.device)[:, :, None]
         c = [float(v) for v in consts]
-        self.ct, self.cd0, self.cd90, self.cr = (
-            c[cycle.K_CT], c[cycle.K_CD0], c[cycle.K_CD90], c[cycle.K_CR]
-        )  # fmt: skip
-        self.mu1, self.mu2 = c[cycle.K_MU1], c[cycle.K_MU2]
+        self.section = cycle.section_at.py_func(node, slice(None), c, rho)
         self.i_span, self.i_pitch = c[cycle.K_I_SPAN], c[cycle.K_I_PITCH]
-        self.rho = rho
         self.n_time = frame["AU"].shape[1]
-
-    def constants(self) -> tuple[float, ...]:
-        return (self.ct, self.cd0, self.cd90, self.cr, self.rho)
-
-    def nodes(self) -> tuple[torch.Tensor, ...]:
-        return (self.r, self.chord, self.m11, self.m22)
 
     def sweep_and_slope(self, vt: torch.Tensor, vn: torch.Tensor):
         """F̄_n [N/m] and dF̄_n/dv_n [N·s/m²] at normal inflow ``vn`` with ``vt``, both shaped
@@ -271,22 +259,22 @@ class _Wing:
         last axis (``induction.normal_force_sweep`` and ``normal_force_slope``)."""
         core = _compiled(_sweep_and_slope) if self.compiled else _sweep_and_slope
         frame = tuple(self.f[key] for key in _SWEEP_KEYS)
-        return core(frame, self.nodes(), self.constants(), vt, vn)
+        return core(frame, self.section, vt, vn)
 
     def sweep_and_slope_at(self, rows: torch.Tensor, cols: torch.Tensor, vt, vn):
         """:meth:`sweep_and_slope` of the listed (stroke, annulus) pairs only (the inflow
         solve's active annuli), ``vt`` and ``vn`` (n, 1): results (n,)."""
         core = _compiled(_sweep_and_slope_at) if self.compiled else _sweep_and_slope_at
         frame = tuple(self.f[key] for key in _SWEEP_KEYS)
-        return core(frame, self.nodes(), self.constants(), vt, vn, rows, cols)
+        return core(frame, self.section, vt, vn, rows, cols)
 
 
-def _element_state(frame, nodes, constants, vt, vn):
+def _element_state(frame, section: Section, vt, vn):
     """The relative velocity (u, v) [m/s] of every element and sample (``blade.relative_velocity``)
     and the element force (F_c, F_n) [N/m] (``blade.element_force``, the paper's coefficients)."""
     au, av, bu, bv, ecx, ecz, enx, enz, decx, decz, denx, denz, spin, _ = frame
-    r, chord, m11, m22 = nodes
-    ct, cd0, cd90, cr, rho = constants
+    r, chord, m11, m22 = section.r, section.chord, section.m11, section.m22
+    ct, cd0, cd90, cr, rho = section.ct, section.cd0, section.cd90, section.cr, section.rho
     u = r * au + vt * ecx + vn * ecz
     v = r * av + vt * enx + vn * enz
     du = r * bu + vt * decx + vn * decz
@@ -302,12 +290,12 @@ def _element_state(frame, nodes, constants, vt, vn):
     return u, v, fc, fn
 
 
-def _sweep_and_slope(frame, nodes, constants, vt, vn):
+def _sweep_and_slope(frame, section: Section, vt, vn):
     """Cycle-mean normal force and its exact slope (``induction.normal_force_rate``) of a sweep."""
-    u, v, fc, fn = _element_state(frame, nodes, constants, vt, vn)
+    u, v, fc, fn = _element_state(frame, section, vt, vn)
     _, _, _, _, _, a, _, b, _, c, _, d, spin, weight = frame
-    _, chord, m11, m22 = nodes
-    ct, cd0, cd90, _, rho = constants
+    chord, m11, m22 = section.chord, section.m11, section.m22
+    ct, cd0, cd90, rho = section.ct, section.cd0, section.cd90, section.rho
     n_time = weight.shape[-1]
     mean = ((fc * a + fn * b) * weight).sum(-1) / n_time
     rate = (m22 - m11) * a * b * spin - m11 * a * c - m22 * b * d
@@ -327,28 +315,28 @@ def _sweep_and_slope(frame, nodes, constants, vt, vn):
     return mean, (rate * weight).sum(-1) / n_time
 
 
-def _sweep_and_slope_at(frame, nodes, constants, vt, vn, rows, cols):
+def _sweep_and_slope_at(frame, section: Section, vt, vn, rows, cols):
     """:func:`_sweep_and_slope` of the (stroke ``rows``, annulus ``cols``) pairs: the gathers
     sit inside the function, so that a compiled version reads the frame in place."""
     frame = tuple(t[rows, 0] for t in frame)
-    nodes = tuple(t[0, cols] for t in nodes)
-    return _sweep_and_slope(frame, nodes, constants, vt, vn)
+    section = section._replace(**{name: getattr(section, name)[cols] for name in _ELEMENT_FIELDS})
+    return _sweep_and_slope(frame, section, vt, vn)
 
 
-def _span_integrals(frame, nodes, constants, vt, vn, rotation, extra):
+def _span_integrals(frame, section: Section, vt, vn, rotation):
     """Per sample, the span integrals of F_c, F_n [N], of the power delivered to the air P_aero
     [W] and of the chord-weighted acute angle of attack [m²·rad] at the solved inflow
     (``cycle.wing_cycle``'s final pass); ``rotation``: (AU, AV, DSPIN, frequency) with
-    frequency (B, 1, 1) [Hz], ``extra``: (width, inertia_a, damping, mu1, mu2)."""
-    u, v, fc, fn = _element_state(frame, nodes, constants, vt, vn)
+    frequency (B, 1, 1) [Hz]."""
+    u, v, fc, fn = _element_state(frame, section, vt, vn)
     spin = frame[12]
-    r, chord, m11, m22 = nodes
+    r, chord, m11, m22 = section.r, section.chord, section.m11, section.m22
     au, av, dspin, frequency = rotation
-    width, inertia_a, damping, mu1, mu2 = extra
+    width = section.width
     moment = (
         (m11 - m22) * u * v
-        - inertia_a * dspin
-        - damping * (mu1 * frequency + mu2 * spin.abs()) * spin
+        - section.inertia_a * dspin
+        - section.damping * (section.mu1 * frequency + section.mu2 * spin.abs()) * spin
     )
     return (
         (width * fc).sum(1),
@@ -358,13 +346,13 @@ def _span_integrals(frame, nodes, constants, vt, vn, rotation, extra):
     )
 
 
-def _shed_load(frame, nodes, constants, vt, vn, width):
+def _shed_load(frame, section: Section, vt, vn):
     """Per sample, the span integral of the circulatory and viscous element forces along the
     stroke-plane normal [N]: the force the wing sheds into its wake (``cycle.wing_cycle``'s
     ``out_load``: the element force less its added mass, Eq. 12)."""
-    u, v, fc, fn = _element_state(frame, nodes, constants, vt, vn)
+    u, v, fc, fn = _element_state(frame, section, vt, vn)
     _, _, bu, bv, _, ecz, _, enz, decx, decz, denx, denz, spin, _ = frame
-    r, _, m11, m22 = nodes
+    r, m11, m22, width = section.r, section.m11, section.m22, section.width
     du = r * bu + vt * decx + vn * decz
     dv = r * bv + vt * denx + vn * denz
     fc = fc - m22 * v * spin + m11 * du
@@ -375,7 +363,7 @@ def _shed_load(frame, nodes, constants, vt, vn, width):
 # --- the convected slipstream (cycle.slipstream_delay, cycle.convected_wake) --------------------
 def _disc_inflow(inflow, wing: _Wing):
     """``cycle.disc_inflow``: the mean induced velocity over the swept disc (B,) [m/s]."""
-    area = (wing.r * wing.width)[0, :, 0]
+    area = (wing.section.r * wing.section.width)[:, 0]
     return (inflow * area).sum(-1) / area.sum()
 
 
@@ -395,7 +383,7 @@ def _convected_wake(load, weight, phase_fore, phase_hind, delay, inflow_fore, fo
                     sweep_fore, vt, vn, interference):  # fmt: skip
     """``cycle.convected_wake``: C_hf·Δv at the hind-wing's samples (B, n_time) [m/s]."""
     n = load.shape[-1]
-    k_disc = 4.0 * fore.rho * sweep_fore * (fore.r * fore.width).sum()
+    k_disc = 4.0 * fore.section.rho * sweep_fore * (fore.section.r * fore.section.width).sum()
     mean = (load * weight).sum(-1, keepdim=True) / n
     rms = torch.sqrt(((load - mean) ** 2 * weight).sum(-1) / n)
     v_disc = _disc_inflow(inflow_fore, fore)
@@ -555,7 +543,9 @@ def _solve_inflow(
     strokes whose wing solves its inflow at all; ``wake`` (B, n_time) or None: the part of the
     upstream inflow that varies over the cycle [m/s], in the sweeps only)."""
     vt_b = vt[:, None]
-    k_area = (4.0 * wing.rho * sweep_amplitude[:, None] * wing.r[..., 0]).expand_as(vn0)
+    k_area = (4.0 * wing.section.rho * sweep_amplitude[:, None] * wing.section.r[..., 0]).expand_as(
+        vn0
+    )
     vn_start = vn0[:, :, None] if wake is None else vn0[:, :, None] + wake[:, None, :]
     f0, s0 = wing.sweep_and_slope(vt[:, None, None], vn_start)
     trivial = (f0 <= 0.0) | (k_area <= 0.0) | ~solve[:, None]
@@ -752,12 +742,10 @@ def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options
     if wake is not None:
         vn_final = vn_final + wake[:, None, :]
     span_fc, span_fn, span_power, span_aoa = core(
-        tuple(f[key] for key in _SWEEP_KEYS), wing.nodes(), wing.constants(),
-        vt[:, None, None], vn_final,
+        tuple(f[key] for key in _SWEEP_KEYS), wing.section, vt[:, None, None], vn_final,
         (f["AU"], f["AV"], f["DSPIN"], frequency[:, None, None]),
-        (wing.width, wing.inertia_a, wing.damping, wing.mu1, wing.mu2),
     )  # fmt: skip
-    chord, width = wing.chord, wing.width
+    chord, width = wing.section.chord, wing.section.width
     g = {k: value[:, 0, :] for k, value in f.items()}
     n_time = wing.n_time
     fx = span_fc * g["ECXE"] + span_fn * g["ENXE"]
@@ -818,8 +806,8 @@ def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, com
         out, inflow = _wing_cycle(wing, frequency, sweep_amplitude, vt, vn0, ~off, options, wake)
         if index == 0 and convected:
             load = _shed_load(
-                tuple(wing.f[key] for key in _SWEEP_KEYS), wing.nodes(), wing.constants(),
-                vt[:, None, None], (vn0 + inflow)[:, :, None], wing.width,
+                tuple(wing.f[key] for key in _SWEEP_KEYS), wing.section, vt[:, None, None],
+                (vn0 + inflow)[:, :, None],
             )  # fmt: skip
             fore = {
                 "wing": wing, "load": load, "weight": weight, "phase": phase, "beta": beta,
