@@ -37,6 +37,7 @@ import numpy as np
 from numba import njit
 
 from .coefficients import PAPER, force_coefficients
+from .xp import BRANCH_FREE, select
 
 # Columns of the per-sample frame coefficients (one row per time sample).
 C_AU = 0  # ė_s·e_c            [1/s]   chordwise flapping velocity per unit radius
@@ -164,7 +165,7 @@ def relative_velocity(coef, k, r, v_tangential, v_normal):
     return u, v, du, dv
 
 
-@njit(cache=True)
+@njit(cache=True, error_model=BRANCH_FREE)
 def element_force(u, v, du, dv, spin, section, table=None):
     """Aerodynamic force per unit span (F_c, F_n) [N/m] on one blade element (Eqs. 11-14).
 
@@ -182,24 +183,24 @@ def element_force(u, v, du, dv, spin, section, table=None):
     cd0 = section.cd0
     cd90 = section.cd90
     speed2 = u * u + v * v
+    moving = speed2 > 0.0  # a still element has no translational circulation and no drag
+    speed = np.sqrt(select(moving, speed2, 1.0))
     gamma = 0.5 * section.cr * spin * chord * chord
     fc = m22 * v * spin - m11 * du
     fn = -m11 * u * spin - m22 * dv
-    if speed2 > 0.0:
-        speed = np.sqrt(speed2)
-        paper = True
-        if table is not None:
-            paper = table[0] == PAPER
-        if paper:
-            gamma -= section.ct * chord * u * v / speed
-            drag = 0.5 * rho * chord * (cd0 * u * u + cd90 * v * v) / speed
-        else:
-            lift_coefficient, drag_coefficient = force_coefficients(u, v, table)
-            side = 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0)
-            gamma -= 0.5 * chord * speed * lift_coefficient * side
-            drag = 0.5 * rho * chord * drag_coefficient * speed
-        fc -= drag * u
-        fn -= drag * v
+    paper = True
+    if table is not None:
+        paper = table[0] == PAPER
+    if paper:
+        gamma -= select(moving, section.ct * chord * u * v / speed, 0.0)
+        drag = select(moving, 0.5 * rho * chord * (cd0 * u * u + cd90 * v * v) / speed, 0.0)
+    else:  # numba only: the torch backend takes the paper's coefficients
+        lift_coefficient, drag_coefficient = force_coefficients(u, v, table)
+        side = 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0)
+        gamma -= select(moving, 0.5 * chord * speed * lift_coefficient * side, 0.0)
+        drag = select(moving, 0.5 * rho * chord * drag_coefficient * speed, 0.0)
+    fc -= drag * u
+    fn -= drag * v
     fc -= rho * gamma * v
     fn += rho * gamma * u
     return fc, fn
@@ -221,6 +222,25 @@ def element_moment(u, v, spin, dspin, section, frequency):
 
 
 @njit(cache=True)
+def element_power(coef, k, fc, fn, moment, section):
+    """Power per unit span the element ``section`` delivers to the air at sample k [W/m]: minus
+    its aerodynamic force (F_c, F_n) [N/m] times its flapping velocity r·ė_s, minus its moment
+    [N·m/m] times its rotation rate Ω (``coef``, ``k`` as for :func:`relative_velocity`)."""
+    return -(section.r * (fc * coef[k, C_AU] + fn * coef[k, C_AV]) + moment * coef[k, C_SPIN])
+
+
+@njit(cache=True)
+def shed_force(coef, k, u, v, du, dv, fc, fn, section):
+    """The part of the element force (F_c, F_n) [N/m] at relative velocity (u, v, u̇, v̇) that the
+    wing sheds into its wake, along the stroke-plane normal z_s [N/m]: the force less its added
+    mass (Eq. 12), which is not shed (docs/model.md §5.7)."""
+    spin = coef[k, C_SPIN]
+    shed_c = fc - section.m22 * v * spin + section.m11 * du
+    shed_n = fn + section.m11 * u * spin + section.m22 * dv
+    return shed_c * coef[k, C_ECZ] + shed_n * coef[k, C_ENZ]
+
+
+@njit(cache=True, error_model=BRANCH_FREE)
 def acute_angle(along, across):
     """atan(|across| / |along|) ∈ [0, π/2] [rad], to 2e-8 rad without a libm call.
 
@@ -229,14 +249,12 @@ def acute_angle(along, across):
     """
     x = abs(along)
     y = abs(across)
-    if x == 0.0 and y == 0.0:
-        return 0.0
+    still = (x == 0.0) & (y == 0.0)
     swap = y > x
-    z = x / y if swap else y / x  # z in [0, 1]
-    offset = 0.0
-    if z > 0.41421356237309503:  # tan(π/8): reduce with atan z = π/4 + atan((z − 1)/(z + 1))
-        z = (z - 1.0) / (z + 1.0)
-        offset = 0.7853981633974483
+    z = select(swap, x, y) / select(still, 1.0, select(swap, y, x))  # z in [0, 1]
+    # reduce with atan z = π/4 + atan((z − 1)/(z + 1)) above tan(π/8)
+    reduce = z > 0.41421356237309503
+    z = select(reduce, (z - 1.0) / (z + 1.0), z)
     z2 = z * z
     # odd Taylor series of atan to z¹⁵: |error| < 2e-8 rad for |z| <= tan(π/8)
     poly = z * (
@@ -255,5 +273,5 @@ def acute_angle(along, across):
             )
         )
     )
-    angle = offset + poly
-    return 1.5707963267948966 - angle if swap else angle
+    angle = select(reduce, 0.7853981633974483 + poly, poly)
+    return select(still, 0.0, select(swap, 1.5707963267948966 - angle, angle))

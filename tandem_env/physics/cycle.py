@@ -20,16 +20,12 @@ import numpy as np
 from numba import njit, prange
 
 from .blade import (
-    C_AU,
-    C_AV,
     C_DSPIN,
     C_ECXE,
     C_ECY,
-    C_ECZ,
     C_ECZE,
     C_ENXE,
     C_ENY,
-    C_ENZ,
     C_ENZE,
     C_KIN,
     C_SPIN,
@@ -37,8 +33,10 @@ from .blade import (
     N_COEF,
     acute_angle,
     element_moment,
+    element_power,
     fill_frame_coefficients,
     relative_velocity,
+    shed_force,
 )
 from .bundle import Section, WingStroke
 from .induction import N_SAMPLE, S_FC, S_FN, S_U, S_V, sweep_annulus
@@ -288,8 +286,6 @@ def wing_cycle(
         r = section.r
         chord = section.chord
         width = section.width
-        m11 = section.m11
-        m22 = section.m22
         v_upstream = v_normal + v_external[j]
         # ``samples`` ends up holding the element forces at the annulus's final inflow
         v_induced, evals, ok = sweep_annulus(
@@ -310,20 +306,18 @@ def wing_cycle(
             moment = element_moment(u, v, spin, frame[k, C_DSPIN], section, frequency)
             span[0, k] += width * fc
             span[1, k] += width * fn
-            # power delivered to the air: −(force on wing)·(flapping velocity r·ė_s) − M·Ω
-            span[2, k] -= width * (r * (fc * frame[k, C_AU] + fn * frame[k, C_AV]) + moment * spin)
+            span[2, k] += width * element_power(frame, k, fc, fn, moment, section)
             span[3, k] += chord * width * acute_angle(u, v)
         if out_load is not None:
             if j == 0:
                 for k in range(n_time):
                     out_load[k] = 0.0
             for k in range(n_time):
-                # the element force less its added mass (Eq. 12), which is not shed
                 _, _, du, dv = relative_velocity(frame, k, r, v_tangential, v_upstream + v_induced)
-                spin = frame[k, C_SPIN]
-                fc = samples[S_FC, k] - m22 * samples[S_V, k] * spin + m11 * du
-                fn = samples[S_FN, k] + m11 * samples[S_U, k] * spin + m22 * dv
-                out_load[k] += width * (fc * frame[k, C_ECZ] + fn * frame[k, C_ENZ])
+                out_load[k] += width * shed_force(
+                    frame, k, samples[S_U, k], samples[S_V, k], du, dv, samples[S_FC, k],
+                    samples[S_FN, k], section,
+                )  # fmt: skip
     aoa = 0.0
     for k in range(n_time):
         span_fc = span[0, k]

@@ -32,6 +32,7 @@ from numba import njit
 
 from .blade import C_DECZ, C_DENZ, C_ECZ, C_ENZ, C_SPIN, C_WEIGHT, element_force, relative_velocity
 from .coefficients import PAPER, coefficients_and_rates
+from .xp import BRANCH_FREE, select
 
 #: Rows of the per-sample record a force sweep leaves, (N_SAMPLE, n_time): element force
 #: (F_c, F_n) [N/m] and relative velocity (u, v) [m/s] at the swept inflow, and scratch for the
@@ -51,7 +52,7 @@ def _added_mass_rate(a, b, c, d, spin, m11, m22):
     return (m22 - m11) * a * b * spin - m11 * a * c - m22 * b * d
 
 
-@njit(cache=True)
+@njit(cache=True, error_model=BRANCH_FREE)
 def normal_force_rate(u, v, a, b, c, d, spin, section):
     """d/dv_n of the element's force along the stroke-plane normal, F_c·a + F_n·b [N·s/m²]
     (``section``: :class:`~tandem_env.physics.bundle.Section`).
@@ -71,19 +72,19 @@ def normal_force_rate(u, v, a, b, c, d, spin, section):
     cd90 = section.cd90
     rate = _added_mass_rate(a, b, c, d, spin, section.m11, section.m22)
     speed2 = u * u + v * v
-    if speed2 > 0.0:
-        inv = 1.0 / np.sqrt(speed2)
-        along = u * a + v * b  # p
-        across = u * b - v * a  # q
-        dspeed = along * inv  # d|U|/dv_n
-        uv = u * v * inv
-        # Γ_t = −C_t·c·uv/|U|, D = ½ρc·(C_d0·u² + C_d90·v²)/|U|
-        duv = (a * v + u * b - uv * dspeed) * inv
-        k = 0.5 * rho * chord
-        drag = k * (cd0 * u * u + cd90 * v * v) * inv
-        ddrag = (2.0 * k * (cd0 * u * a + cd90 * v * b) - drag * dspeed) * inv
-        rate -= rho * section.ct * chord * duv * across + ddrag * along + drag * (a * a + b * b)
-    return rate
+    moving = speed2 > 0.0  # a still element: no translational circulation, no drag
+    inv = 1.0 / np.sqrt(select(moving, speed2, 1.0))
+    along = u * a + v * b  # p
+    across = u * b - v * a  # q
+    dspeed = along * inv  # d|U|/dv_n
+    uv = u * v * inv
+    # Γ_t = −C_t·c·uv/|U|, D = ½ρc·(C_d0·u² + C_d90·v²)/|U|
+    duv = (a * v + u * b - uv * dspeed) * inv
+    k = 0.5 * rho * chord
+    drag = k * (cd0 * u * u + cd90 * v * v) * inv
+    ddrag = (2.0 * k * (cd0 * u * a + cd90 * v * b) - drag * dspeed) * inv
+    viscous = rho * section.ct * chord * duv * across + ddrag * along + drag * (a * a + b * b)
+    return rate - select(moving, viscous, 0.0)
 
 
 @njit(cache=True)
@@ -189,26 +190,30 @@ def mean_normal_force(coef, section, v_tangential, v_normal, table=None):
     return normal_force_sweep(coef, section, v_tangential, v_normal, samples, table)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model=BRANCH_FREE)
 def _momentum(v, k_area, v_tangential, v_normal0):
-    """m(v) = k·v·sqrt(V_t² + (V_n' + v)²) and dm/dv."""
+    """m(v) = k·v·sqrt(V_t² + (V_n' + v)²) and dm/dv (0 where the root vanishes)."""
     w = v_normal0 + v
-    root = np.sqrt(v_tangential * v_tangential + w * w)
-    if root == 0.0:
-        return 0.0, 0.0
-    return k_area * v * root, k_area * (root + v * w / root)
+    root2 = v_tangential * v_tangential + w * w
+    flowing = root2 > 0.0
+    root = np.sqrt(select(flowing, root2, 1.0))
+    return select(flowing, k_area * v * root, 0.0), select(
+        flowing, k_area * (root + v * w / root), 0.0
+    )
 
 
 @njit(cache=True)
-def _model_residual(v, x0, c0, c1, c2, c3, k_area, vt, vn0):
-    """Force model c0 + c1·d + c2·d² + c3·d³ (d = v − x0) minus m(v), and its derivative."""
+def _model_residual(v, model, k_area, vt, vn0):
+    """Force model c0 + c1·d + c2·d² + c3·d³ (d = v − x0, ``model`` = (x0, c0, c1, c2, c3))
+    minus m(v), and its derivative."""
+    x0, c0, c1, c2, c3 = model
     d = v - x0
     m, dm = _momentum(v, k_area, vt, vn0)
     return c0 + d * (c1 + d * (c2 + d * c3)) - m, c1 + d * (2.0 * c2 + 3.0 * d * c3) - dm
 
 
 @njit(cache=True)
-def _solve_model(x0, c0, c1, c2, c3, k_area, vt, vn0, lo, hi):
+def _solve_model(model, k_area, vt, vn0, lo, hi):
     """Root of the force model minus m(v) in [lo, hi] by safeguarded Newton (no force sweeps).
 
     The residual must be positive at lo and non-positive at hi.
@@ -217,7 +222,7 @@ def _solve_model(x0, c0, c1, c2, c3, k_area, vt, vn0, lo, hi):
     a = lo
     b = hi
     for _ in range(60):
-        q, dq = _model_residual(v, x0, c0, c1, c2, c3, k_area, vt, vn0)
+        q, dq = _model_residual(v, model, k_area, vt, vn0)
         if q > 0.0:
             a = v
         else:
@@ -235,16 +240,16 @@ def _solve_model(x0, c0, c1, c2, c3, k_area, vt, vn0, lo, hi):
 
 
 @njit(cache=True)
-def _search_upwards(x0, c0, c1, c2, c3, k_area, vt, vn0, lo, start):
+def _search_upwards(model, k_area, vt, vn0, lo, start):
     """Root of the model minus m(v) above lo, bracketed by doubling from ``start``; −1 if the
     model has no sign change there."""
-    if _model_residual(lo, x0, c0, c1, c2, c3, k_area, vt, vn0)[0] <= 0.0:
+    if _model_residual(lo, model, k_area, vt, vn0)[0] <= 0.0:
         return -1.0
     a = lo
     b = max(start, 2.0 * lo, 1e-6)
     for _ in range(64):
-        if _model_residual(b, x0, c0, c1, c2, c3, k_area, vt, vn0)[0] <= 0.0:
-            return _solve_model(x0, c0, c1, c2, c3, k_area, vt, vn0, a, b)
+        if _model_residual(b, model, k_area, vt, vn0)[0] <= 0.0:
+            return _solve_model(model, k_area, vt, vn0, a, b)
         a = b
         b *= 2.0
     return -1.0
@@ -281,7 +286,7 @@ def solve_annulus_samples(
     if f0 <= 0.0 or k_area <= 0.0:
         return 0.0, 1, True
     s0 = normal_force_slope(coef, section, samples, table)
-    v_hover = _search_upwards(0.0, f0, 0.0, 0.0, 0.0, k_area, vt, vn0, 0.0, 1.0)
+    v_hover = _search_upwards((0.0, f0, 0.0, 0.0, 0.0), k_area, vt, vn0, 0.0, 1.0)
     f_tol = tolerance * f0
     x_tol = tolerance * max(v_hover, 1e-9)
     # bracket h(lo) > 0 >= h(hi), with F̄_n and its slope at both ends; hi unknown at first
@@ -294,7 +299,9 @@ def solve_annulus_samples(
     v = 0.0
     while evaluations < max_iterations:
         if hi == np.inf:
-            v = _search_upwards(lo, f_lo, s_lo, 0.5 * curvature, 0.0, k_area, vt, vn0, lo, v_hover)
+            v = _search_upwards(
+                (lo, f_lo, s_lo, 0.5 * curvature, 0.0), k_area, vt, vn0, lo, v_hover
+            )
             if evaluations == 1 and s_lo > 0.0:
                 # a force that rises with inflow (α > 45° moving towards 45°) must bend down
                 # again beyond the root: its tangent may overshoot far, so trust it only up to
@@ -307,7 +314,7 @@ def solve_annulus_samples(
             secant = (f_hi - f_lo) / w
             c2 = (3.0 * secant - 2.0 * s_lo - s_hi) / w
             c3 = (s_lo + s_hi - 2.0 * secant) / (w * w)
-            v_model = _solve_model(lo, f_lo, s_lo, c2, c3, k_area, vt, vn0, lo, hi)
+            v_model = _solve_model((lo, f_lo, s_lo, c2, c3), k_area, vt, vn0, lo, hi)
             # steps that stop shrinking (each under half the one before last) mean the model
             # is poor here: bisect instead
             if lo < v_model < hi and abs(v_model - v) <= 0.5 * step_before:

@@ -8,14 +8,19 @@ autograd with respect to the strokes and to speed, flight-path angle and availab
 those are tensors. It follows the numba kernel decision by decision, so that the two agree to
 rounding (docs/model.md §12.1):
 
-* the frame rates and element forces (``blade``, Eqs. 6-16), the node tables of :func:`model.wing_tables`;
-* the per-annulus safeguarded Newton inflow solve of ``induction.solve_annulus_samples``, every
-  annulus with its own iterate, bracket and stopping rule: a converged annulus is masked and
-  keeps its value while the others go on (no fixed iteration count);
-* the exact positive-part integrals of ``cycle.mean_positive_part`` (zero crossings of the
-  trigonometric interpolant by the same safeguarded Newton);
+* the pointwise formulae are the kernel's own, run on tensors (``xp.on_namespace``): the
+  element's relative velocity, force, moment, power, shed force and acute angle of attack
+  (``blade``, Eqs. 9-16), the slope of its normal force, the momentum side and the solve's
+  model residual (``induction``), and the blade elements (``cycle.section_at``, a
+  ``bundle.Section`` of tensors from the node tables of :func:`model.wing_tables`);
+* mirrored here: the frame rates (``blade.fill_frame_coefficients``); the per-annulus
+  safeguarded Newton inflow solve of ``induction.solve_annulus_samples``, every annulus with its
+  own iterate, bracket and stopping rule: a converged annulus is masked and keeps its value
+  while the others go on (no fixed iteration count); the exact positive-part integrals of
+  ``cycle.mean_positive_part`` (zero crossings of the trigonometric interpolant by the same
+  safeguarded Newton); the convected wake's transforms;
 * the kinematics (Eqs. 3-5) and the motion-following grid, the free stream and the performance
-  step (Eqs. 17-27) are not mirrored but shared: ``kinematics.batched_angle_history``,
+  step (Eqs. 17-27) are shared too: ``kinematics.batched_angle_history``,
   ``model.stroke_plane_speeds``, ``model.inflow_switched_off`` and ``model.flight_performance``,
   written once over an array namespace (``xp``), run on tensors here.
 
@@ -38,7 +43,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from . import cycle
+from . import blade, cycle, induction
 from .bundle import Section
 from .checks import count, flag
 from .coefficients import PaperCoefficients
@@ -64,7 +69,7 @@ from .stroke import (
     normalised_to_physical,
     validate_physical,
 )
-from .xp import ArrayNamespace
+from .xp import ArrayNamespace, on_namespace
 
 #: torch's :class:`~tandem_env.physics.xp.ArrayNamespace`: the shared model code on tensors.
 TORCH = ArrayNamespace(
@@ -223,30 +228,39 @@ def _frame(angles: list[torch.Tensor], weight: torch.Tensor, beta: torch.Tensor,
         "ECX": ec[0], "ECZ": ec[2], "ENX": en[0], "ENZ": en[2],
         "DECX": dec[0], "DECZ": dec[2], "DENX": den[0], "DENZ": den[2],
         "SPIN": spin, "DSPIN": dspin, "WEIGHT": weight.expand_as(spin),
+        "ECY": ec[1], "ENY": en[1],
         "ECXE": ec[0] * cb + ec[2] * sb, "ENXE": en[0] * cb + en[2] * sb,
         "ECZE": -ec[0] * sb + ec[2] * cb, "ENZE": -en[0] * sb + en[2] * cb,
         "KIN": des[0] * dd[0] + des[1] * dd[1] + des[2] * dd[2],
     }  # fmt: skip
 
 
-# --- element forces and the force sweep (blade.element_force, induction.normal_force_*) ---------
+# --- the force sweep (induction.normal_force_sweep, _slope) and the span integrals --------------
 #: :class:`Section`'s per-element fields (the node table's; the others are the wing's).
 _ELEMENT_FIELDS = ("r", "chord", "width", "m11", "m22", "inertia_a", "damping")
-#: The frame coefficients a force sweep and its slope read.
-_SWEEP_KEYS = ("AU", "AV", "BU", "BV", "ECX", "ECZ", "ENX", "ENZ", "DECX", "DECZ", "DENX", "DENZ",
-               "SPIN", "WEIGHT")  # fmt: skip
+#: The frame's columns by name, in ``blade``'s order (``"AU"`` is column ``blade.C_AU``, …).
+_COLUMNS = tuple(
+    name[2:] for name in sorted((n for n in vars(blade) if n[:2] == "C_"), key=vars(blade).get)
+)
+
+
+def _on_tensors(kernel: Callable) -> Callable:
+    """A compiled elementwise formula of the numba kernel on tensors (``xp.on_namespace``)."""
+    return on_namespace(kernel, TORCH)
 
 
 class _Wing:
-    """One wing's frame (each (B, 1, n_time)) and its blade elements: ``section``, the numba
-    kernel's :class:`~tandem_env.physics.bundle.Section` with the node-table fields as
-    (n_blade, 1) tensors (``cycle.section_at`` of every annulus at once)."""
+    """One wing's frame, ``frame`` (N_COEF, B, 1, n_time) in ``blade``'s column order (``f``:
+    the same by name), and its blade elements: ``section``, the numba kernel's
+    :class:`~tandem_env.physics.bundle.Section` with the node-table fields as (n_blade, 1)
+    tensors (``cycle.section_at`` of every annulus at once)."""
 
     def __init__(
         self, frame: dict, nodes: np.ndarray, consts: np.ndarray, rho: float, like, compiled
     ):
         self.compiled = compiled
-        self.f = {key: value[:, None, :] for key, value in frame.items()}
+        self.frame = torch.stack([frame[name] for name in _COLUMNS])[:, :, None, :]
+        self.f = dict(zip(_COLUMNS, self.frame, strict=True))
         node = torch.tensor(nodes, dtype=like.dtype, device=like.device)[:, :, None]
         c = [float(v) for v in consts]
         self.section = cycle.section_at.py_func(node, slice(None), c, rho)
@@ -258,106 +272,70 @@ class _Wing:
         like the nodes ((B, n_blade, 1) or (n, 1)); results have the nodes' shape without the
         last axis (``induction.normal_force_sweep`` and ``normal_force_slope``)."""
         core = _compiled(_sweep_and_slope) if self.compiled else _sweep_and_slope
-        frame = tuple(self.f[key] for key in _SWEEP_KEYS)
-        return core(frame, self.section, vt, vn)
+        return core(self.frame, self.section, vt, vn)
 
     def sweep_and_slope_at(self, rows: torch.Tensor, cols: torch.Tensor, vt, vn):
         """:meth:`sweep_and_slope` of the listed (stroke, annulus) pairs only (the inflow
         solve's active annuli), ``vt`` and ``vn`` (n, 1): results (n,)."""
         core = _compiled(_sweep_and_slope_at) if self.compiled else _sweep_and_slope_at
-        frame = tuple(self.f[key] for key in _SWEEP_KEYS)
-        return core(frame, self.section, vt, vn, rows, cols)
+        return core(self.frame, self.section, vt, vn, rows, cols)
 
 
 def _element_state(frame, section: Section, vt, vn):
-    """The relative velocity (u, v) [m/s] of every element and sample (``blade.relative_velocity``)
-    and the element force (F_c, F_n) [N/m] (``blade.element_force``, the paper's coefficients)."""
-    au, av, bu, bv, ecx, ecz, enx, enz, decx, decz, denx, denz, spin, _ = frame
-    r, chord, m11, m22 = section.r, section.chord, section.m11, section.m22
-    ct, cd0, cd90, cr, rho = section.ct, section.cd0, section.cd90, section.cr, section.rho
-    u = r * au + vt * ecx + vn * ecz
-    v = r * av + vt * enx + vn * enz
-    du = r * bu + vt * decx + vn * decz
-    dv = r * bv + vt * denx + vn * denz
-    speed2 = u * u + v * v
-    moving = speed2 > 0.0
-    speed = torch.sqrt(torch.where(moving, speed2, torch.ones_like(speed2)))
-    gamma = 0.5 * cr * spin * chord * chord
-    gamma = gamma - torch.where(moving, ct * chord * u * v / speed, 0.0)
-    drag = torch.where(moving, 0.5 * rho * chord * (cd0 * u * u + cd90 * v * v) / speed, 0.0)
-    fc = m22 * v * spin - m11 * du - drag * u - rho * gamma * v
-    fn = -m11 * u * spin - m22 * dv - drag * v + rho * gamma * u
-    return u, v, fc, fn
+    """The frame as the kernel's formulas index it (``coef[k, C_*]`` with k = ``...``), the
+    relative velocity (u, v, u̇, v̇) [m/s, m/s²] of every element and sample
+    (``blade.relative_velocity``) and the element force (F_c, F_n) [N/m]
+    (``blade.element_force``, the paper's coefficients)."""
+    coef = frame.movedim(0, -1)
+    u, v, du, dv = _on_tensors(blade.relative_velocity)(coef, ..., section.r, vt, vn)
+    fc, fn = _on_tensors(blade.element_force)(u, v, du, dv, frame[blade.C_SPIN], section)
+    return coef, (u, v, du, dv), (fc, fn)
 
 
 def _sweep_and_slope(frame, section: Section, vt, vn):
     """Cycle-mean normal force and its exact slope (``induction.normal_force_rate``) of a sweep."""
-    u, v, fc, fn = _element_state(frame, section, vt, vn)
-    _, _, _, _, _, a, _, b, _, c, _, d, spin, weight = frame
-    chord, m11, m22 = section.chord, section.m11, section.m22
-    ct, cd0, cd90, rho = section.ct, section.cd0, section.cd90, section.rho
+    _, (u, v, _, _), (fc, fn) = _element_state(frame, section, vt, vn)
+    a, b = frame[blade.C_ECZ], frame[blade.C_ENZ]
+    weight = frame[blade.C_WEIGHT]
     n_time = weight.shape[-1]
     mean = ((fc * a + fn * b) * weight).sum(-1) / n_time
-    rate = (m22 - m11) * a * b * spin - m11 * a * c - m22 * b * d
-    speed2 = u * u + v * v
-    moving = speed2 > 0.0
-    inv = 1.0 / torch.sqrt(torch.where(moving, speed2, torch.ones_like(speed2)))
-    along = u * a + v * b
-    across = u * b - v * a
-    dspeed = along * inv
-    uv = u * v * inv
-    duv = (a * v + u * b - uv * dspeed) * inv
-    k = 0.5 * rho * chord
-    drag = k * (cd0 * u * u + cd90 * v * v) * inv
-    ddrag = (2.0 * k * (cd0 * u * a + cd90 * v * b) - drag * dspeed) * inv
-    viscous = rho * ct * chord * duv * across + ddrag * along + drag * (a * a + b * b)
-    rate = rate - torch.where(moving, viscous, 0.0)
+    rate = _on_tensors(induction.normal_force_rate)(
+        u, v, a, b, frame[blade.C_DECZ], frame[blade.C_DENZ], frame[blade.C_SPIN], section
+    )
     return mean, (rate * weight).sum(-1) / n_time
 
 
 def _sweep_and_slope_at(frame, section: Section, vt, vn, rows, cols):
     """:func:`_sweep_and_slope` of the (stroke ``rows``, annulus ``cols``) pairs: the gathers
     sit inside the function, so that a compiled version reads the frame in place."""
-    frame = tuple(t[rows, 0] for t in frame)
     section = section._replace(**{name: getattr(section, name)[cols] for name in _ELEMENT_FIELDS})
-    return _sweep_and_slope(frame, section, vt, vn)
+    return _sweep_and_slope(frame[:, rows, 0], section, vt, vn)
 
 
-def _span_integrals(frame, section: Section, vt, vn, rotation):
+def _span_integrals(frame, section: Section, vt, vn, frequency):
     """Per sample, the span integrals of F_c, F_n [N], of the power delivered to the air P_aero
     [W] and of the chord-weighted acute angle of attack [m²·rad] at the solved inflow
-    (``cycle.wing_cycle``'s final pass); ``rotation``: (AU, AV, DSPIN, frequency) with
-    frequency (B, 1, 1) [Hz]."""
-    u, v, fc, fn = _element_state(frame, section, vt, vn)
-    spin = frame[12]
-    r, chord, m11, m22 = section.r, section.chord, section.m11, section.m22
-    au, av, dspin, frequency = rotation
-    width = section.width
-    moment = (
-        (m11 - m22) * u * v
-        - section.inertia_a * dspin
-        - section.damping * (section.mu1 * frequency + section.mu2 * spin.abs()) * spin
+    (``cycle.wing_cycle``'s final pass); ``frequency`` (B, 1, 1) [Hz]."""
+    coef, (u, v, _, _), (fc, fn) = _element_state(frame, section, vt, vn)
+    moment = _on_tensors(blade.element_moment)(
+        u, v, frame[blade.C_SPIN], frame[blade.C_DSPIN], section, frequency
     )
+    width = section.width
+    power = _on_tensors(blade.element_power)(coef, ..., fc, fn, moment, section)
     return (
         (width * fc).sum(1),
         (width * fn).sum(1),
-        -(width * (r * (fc * au + fn * av) + moment * spin)).sum(1),
-        (chord * width * acute_angle(u, v)).sum(1),
+        (width * power).sum(1),
+        (section.chord * width * _on_tensors(blade.acute_angle)(u, v)).sum(1),
     )
 
 
 def _shed_load(frame, section: Section, vt, vn):
     """Per sample, the span integral of the circulatory and viscous element forces along the
-    stroke-plane normal [N]: the force the wing sheds into its wake (``cycle.wing_cycle``'s
-    ``out_load``: the element force less its added mass, Eq. 12)."""
-    u, v, fc, fn = _element_state(frame, section, vt, vn)
-    _, _, bu, bv, _, ecz, _, enz, decx, decz, denx, denz, spin, _ = frame
-    r, m11, m22, width = section.r, section.m11, section.m22, section.width
-    du = r * bu + vt * decx + vn * decz
-    dv = r * bv + vt * denx + vn * denz
-    fc = fc - m22 * v * spin + m11 * du
-    fn = fn + m11 * u * spin + m22 * dv
-    return (width * (fc * ecz + fn * enz)).sum(1)
+    stroke-plane normal [N]: the force the wing sheds into its wake (``blade.shed_force``)."""
+    coef, velocity, force = _element_state(frame, section, vt, vn)
+    shed = _on_tensors(blade.shed_force)(coef, ..., *velocity, *force, section)
+    return (section.width * shed).sum(1)
 
 
 # --- the convected slipstream (cycle.slipstream_delay, cycle.convected_wake) --------------------
@@ -417,22 +395,9 @@ def _compiled(function: Callable) -> Callable:
 
 
 # --- the inflow solve (induction.solve_annulus_samples), every annulus at once -----------------
-def _momentum(v, k_area, vt, vn0):
-    """m(v) = k·v·sqrt(V_t² + (V_n' + v)²) and dm/dv (0 where the root vanishes)."""
-    w = vn0 + v
-    root2 = vt * vt + w * w
-    nonzero = root2 > 0.0
-    root = torch.sqrt(torch.where(nonzero, root2, torch.ones_like(root2)))
-    m = torch.where(nonzero, k_area * v * root, 0.0)
-    dm = torch.where(nonzero, k_area * (root + v * w / root), 0.0)
-    return m, dm
-
-
-def _model_residual(v, coefs, k_area, vt, vn0):
-    x0, c0, c1, c2, c3 = coefs
-    d = v - x0
-    m, dm = _momentum(v, k_area, vt, vn0)
-    return c0 + d * (c1 + d * (c2 + d * c3)) - m, c1 + d * (2.0 * c2 + 3.0 * d * c3) - dm
+#: The momentum side m(v), dm/dv and the force model minus it (``induction``), on tensors.
+_momentum = _on_tensors(induction._momentum)
+_model_residual = _on_tensors(induction._model_residual)
 
 
 def _newton_in_bracket(coefs, k_area, vt, vn0, lo, hi):
@@ -698,31 +663,6 @@ def mean_positive_part(g: torch.Tensor) -> torch.Tensor:
     return torch.where(count > 0, torch.clamp(total, min=0.0) / _TWO_PI, out)
 
 
-_ACUTE_SERIES = (-1.0 / 11.0, 1.0 / 9.0, -1.0 / 7.0, 1.0 / 5.0, -1.0 / 3.0)
-
-
-def acute_angle(along: torch.Tensor, across: torch.Tensor) -> torch.Tensor:
-    """atan(|across|/|along|) ∈ [0, π/2] [rad] by ``blade.acute_angle``'s polynomial (the same
-    2e-8 rad approximation, so the mean angle of attack agrees to rounding)."""
-    x, y = along.abs(), across.abs()
-    still = (x == 0.0) & (y == 0.0)
-    swap = y > x
-    num = torch.where(swap, x, y)
-    den = torch.where(still, torch.ones_like(x), torch.where(swap, y, x))
-    z = num / den
-    reduce = z > 0.41421356237309503
-    z = torch.where(reduce, (z - 1.0) / (z + 1.0), z)
-    offset = reduce.to(z.dtype) * 0.7853981633974483
-    z2 = z * z
-    # odd Taylor series of atan to z¹⁵ by Horner, in blade.acute_angle's order of operations
-    poly = 1.0 / 13.0 - z2 / 15.0
-    for coefficient in _ACUTE_SERIES:
-        poly = coefficient + z2 * poly
-    angle = offset + z * (1.0 + z2 * poly)
-    angle = torch.where(swap, 1.5707963267948966 - angle, angle)
-    return torch.where(still, 0.0, angle)
-
-
 def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options, wake=None):
     """Per-wing cycle means (a dict of (B,) tensors keyed like ``cycle``'s W_ columns, ``FZ``
     for ``W_FZ``, …) and the inflow per annulus (B, n_blade) (``cycle.wing_cycle``; ``wake``
@@ -742,9 +682,8 @@ def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options
     if wake is not None:
         vn_final = vn_final + wake[:, None, :]
     span_fc, span_fn, span_power, span_aoa = core(
-        tuple(f[key] for key in _SWEEP_KEYS), wing.section, vt[:, None, None], vn_final,
-        (f["AU"], f["AV"], f["DSPIN"], frequency[:, None, None]),
-    )  # fmt: skip
+        wing.frame, wing.section, vt[:, None, None], vn_final, frequency[:, None, None]
+    )
     chord, width = wing.section.chord, wing.section.width
     g = {k: value[:, 0, :] for k, value in f.items()}
     n_time = wing.n_time
@@ -806,9 +745,8 @@ def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, com
         out, inflow = _wing_cycle(wing, frequency, sweep_amplitude, vt, vn0, ~off, options, wake)
         if index == 0 and convected:
             load = _shed_load(
-                tuple(wing.f[key] for key in _SWEEP_KEYS), wing.section, vt[:, None, None],
-                (vn0 + inflow)[:, :, None],
-            )  # fmt: skip
+                wing.frame, wing.section, vt[:, None, None], (vn0 + inflow)[:, :, None]
+            )
             fore = {
                 "wing": wing, "load": load, "weight": weight, "phase": phase, "beta": beta,
                 "sweep": sweep_amplitude, "vt": vt, "vn": vn, "off": off,
