@@ -77,77 +77,92 @@ def fill_frame_coefficients(angles, weight, beta, spin_total, side, out):
     ``angles``: (n, 9) φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈; ``weight``: (n,) quadrature weights;
     ``beta``: stroke-plane angle [rad]; ``spin_total``: use ω·e_s instead of η̇ for Ω;
     ``side``: +1 right wing, −1 its mirror image (the left wing; used by the symmetry tests).
+    Writes ``out`` (n, N_COEF): :func:`frame_columns` of every sample.
     """
     cb = np.cos(beta)
     sb = np.sin(beta)
     for k in range(angles.shape[0]):
-        phi = angles[k, 0]
-        dphi = angles[k, 1]
-        ddphi = angles[k, 2]
-        th = angles[k, 3]
-        dth = angles[k, 4]
-        ddth = angles[k, 5]
-        eta = angles[k, 6]
-        deta = angles[k, 7]
-        ddeta = angles[k, 8]
-        cf = np.cos(phi)
-        sf = np.sin(phi)
-        ct = np.cos(th)
-        st = np.sin(th)
-        ce = np.cos(eta)
-        se = np.sin(eta)
-        # frame vectors in stroke-plane axes
-        es0, es1, es2 = ct * sf, ct * cf, st
-        ec0, ec1, ec2 = se * cf - st * ce * sf, -se * sf - st * ce * cf, ct * ce
-        en0, en1, en2 = ce * cf + st * se * sf, -ce * sf + st * se * cf, -ct * se
-        # angular velocity and acceleration
-        w0 = dth * cf + deta * es0
-        w1 = -dth * sf + deta * es1
-        w2 = -dphi + deta * es2
-        des0, des1, des2 = _cross(w0, w1, w2, es0, es1, es2)
-        dec0, dec1, dec2 = _cross(w0, w1, w2, ec0, ec1, ec2)
-        den0, den1, den2 = _cross(w0, w1, w2, en0, en1, en2)
-        a0 = ddth * cf - dth * dphi * sf + ddeta * es0 + deta * des0
-        a1 = -ddth * sf - dth * dphi * cf + ddeta * es1 + deta * des1
-        a2 = -ddphi + ddeta * es2 + deta * des2
-        x0, x1, x2 = _cross(a0, a1, a2, es0, es1, es2)
-        y0, y1, y2 = _cross(w0, w1, w2, des0, des1, des2)
-        dd0, dd1, dd2 = x0 + y0, x1 + y1, x2 + y2
-        if spin_total:
-            spin = w0 * es0 + w1 * es1 + w2 * es2
-            dspin = a0 * es0 + a1 * es1 + a2 * es2  # ω·ė_s = 0
-        else:
-            spin = deta
-            dspin = ddeta
-        if side < 0:
-            # Mirror through the x-z plane: polar vectors flip y; e_n = e_s × e_c, an axial
-            # combination, flips x and z; the spin about the span changes sign.
-            es1, des1, dd1, ec1, dec1 = -es1, -des1, -dd1, -ec1, -dec1
-            en0, en2, den0, den2 = -en0, -en2, -den0, -den2
-            spin, dspin = -spin, -dspin
-        out[k, C_AU] = des0 * ec0 + des1 * ec1 + des2 * ec2
-        out[k, C_AV] = des0 * en0 + des1 * en1 + des2 * en2
-        out[k, C_BU] = dd0 * ec0 + dd1 * ec1 + dd2 * ec2 + des0 * dec0 + des1 * dec1 + des2 * dec2
-        out[k, C_BV] = dd0 * en0 + dd1 * en1 + dd2 * en2 + des0 * den0 + des1 * den1 + des2 * den2
-        out[k, C_ECX] = ec0
-        out[k, C_ECZ] = ec2
-        out[k, C_ENX] = en0
-        out[k, C_ENZ] = en2
-        out[k, C_DECX] = dec0
-        out[k, C_DECZ] = dec2
-        out[k, C_DENX] = den0
-        out[k, C_DENZ] = den2
-        out[k, C_SPIN] = spin
-        out[k, C_DSPIN] = dspin
-        out[k, C_WEIGHT] = weight[k]
+        columns = frame_columns(angles, k, weight, cb, sb, spin_total, side)
+        for c in range(N_COEF):
+            out[k, c] = columns[c]
+
+
+@njit(cache=True)
+def frame_columns(angles, k, weight, cb, sb, spin_total, side):
+    """The frame coefficients of sample k, a tuple in column order (C_AU … C_ENY): ``angles``
+    [k, :] φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈ [rad, rad/s, rad/s²], ``weight`` [k] its quadrature
+    weight, ``cb``, ``sb`` cos β, sin β of the stroke-plane angle, ``spin_total`` and ``side``
+    as for :func:`fill_frame_coefficients` (on tensors, k = ``...``: every sample at once).
+    """
+    phi = angles[k, 0]
+    dphi = angles[k, 1]
+    ddphi = angles[k, 2]
+    th = angles[k, 3]
+    dth = angles[k, 4]
+    ddth = angles[k, 5]
+    eta = angles[k, 6]
+    deta = angles[k, 7]
+    ddeta = angles[k, 8]
+    cf = np.cos(phi)
+    sf = np.sin(phi)
+    ct = np.cos(th)
+    st = np.sin(th)
+    ce = np.cos(eta)
+    se = np.sin(eta)
+    # frame vectors in stroke-plane axes
+    es0, es1, es2 = ct * sf, ct * cf, st
+    ec0, ec1, ec2 = se * cf - st * ce * sf, -se * sf - st * ce * cf, ct * ce
+    en0, en1, en2 = ce * cf + st * se * sf, -ce * sf + st * se * cf, -ct * se
+    # angular velocity and acceleration
+    w0 = dth * cf + deta * es0
+    w1 = -dth * sf + deta * es1
+    w2 = -dphi + deta * es2
+    des0, des1, des2 = _cross(w0, w1, w2, es0, es1, es2)
+    dec0, dec1, dec2 = _cross(w0, w1, w2, ec0, ec1, ec2)
+    den0, den1, den2 = _cross(w0, w1, w2, en0, en1, en2)
+    a0 = ddth * cf - dth * dphi * sf + ddeta * es0 + deta * des0
+    a1 = -ddth * sf - dth * dphi * cf + ddeta * es1 + deta * des1
+    a2 = -ddphi + ddeta * es2 + deta * des2
+    x0, x1, x2 = _cross(a0, a1, a2, es0, es1, es2)
+    y0, y1, y2 = _cross(w0, w1, w2, des0, des1, des2)
+    dd0, dd1, dd2 = x0 + y0, x1 + y1, x2 + y2
+    if spin_total:
+        spin = w0 * es0 + w1 * es1 + w2 * es2
+        dspin = a0 * es0 + a1 * es1 + a2 * es2  # ω·ė_s = 0
+    else:
+        spin = deta
+        dspin = ddeta
+    if side < 0:
+        # Mirror through the x-z plane: polar vectors flip y; e_n = e_s × e_c, an axial
+        # combination, flips x and z; the spin about the span changes sign.
+        es1, des1, dd1, ec1, dec1 = -es1, -des1, -dd1, -ec1, -dec1
+        en0, en2, den0, den2 = -en0, -en2, -den0, -den2
+        spin, dspin = -spin, -dspin
+    return (
+        des0 * ec0 + des1 * ec1 + des2 * ec2,  # C_AU
+        des0 * en0 + des1 * en1 + des2 * en2,  # C_AV
+        dd0 * ec0 + dd1 * ec1 + dd2 * ec2 + des0 * dec0 + des1 * dec1 + des2 * dec2,  # C_BU
+        dd0 * en0 + dd1 * en1 + dd2 * en2 + des0 * den0 + des1 * den1 + des2 * den2,  # C_BV
+        ec0,  # C_ECX
+        ec2,  # C_ECZ
+        en0,  # C_ENX
+        en2,  # C_ENZ
+        dec0,  # C_DECX
+        dec2,  # C_DECZ
+        den0,  # C_DENX
+        den2,  # C_DENZ
+        spin,  # C_SPIN
+        dspin,  # C_DSPIN
+        weight[k],  # C_WEIGHT
         # earth axes: X = cos β·x_s + sin β·z_s, Z = −sin β·x_s + cos β·z_s, Y = y_s
-        out[k, C_ECXE] = ec0 * cb + ec2 * sb
-        out[k, C_ENXE] = en0 * cb + en2 * sb
-        out[k, C_ECZE] = -ec0 * sb + ec2 * cb
-        out[k, C_ENZE] = -en0 * sb + en2 * cb
-        out[k, C_KIN] = des0 * dd0 + des1 * dd1 + des2 * dd2
-        out[k, C_ECY] = ec1
-        out[k, C_ENY] = en1
+        ec0 * cb + ec2 * sb,  # C_ECXE
+        en0 * cb + en2 * sb,  # C_ENXE
+        -ec0 * sb + ec2 * cb,  # C_ECZE
+        -en0 * sb + en2 * cb,  # C_ENZE
+        des0 * dd0 + des1 * dd1 + des2 * dd2,  # C_KIN
+        ec1,  # C_ECY
+        en1,  # C_ENY
+    )
 
 
 @njit(cache=True)

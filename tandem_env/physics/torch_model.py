@@ -9,16 +9,17 @@ those are tensors. It follows the numba kernel decision by decision, so that the
 rounding (docs/model.md §12.1):
 
 * the pointwise formulae are the kernel's own, run on tensors (``xp.on_namespace``): the
-  element's relative velocity, force, moment, power, shed force and acute angle of attack
-  (``blade``, Eqs. 9-16), the slope of its normal force, the momentum side and the solve's
-  model residual (``induction``), and the blade elements (``cycle.section_at``, a
-  ``bundle.Section`` of tensors from the node tables of :func:`model.wing_tables`);
-* mirrored here: the frame rates (``blade.fill_frame_coefficients``); the per-annulus
-  safeguarded Newton inflow solve of ``induction.solve_annulus_samples``, every annulus with its
-  own iterate, bracket and stopping rule: a converged annulus is masked and keeps its value
-  while the others go on (no fixed iteration count); the exact positive-part integrals of
-  ``cycle.mean_positive_part`` (zero crossings of the trigonometric interpolant by the same
-  safeguarded Newton); the convected wake's transforms;
+  frame coefficients of every sample (``blade.frame_columns``), the element's relative
+  velocity, force, moment, power, shed force and acute angle of attack (``blade``, Eqs.
+  6-16), the slope of its normal force, the momentum side and the solve's model residual
+  (``induction``), and the blade elements (``cycle.section_at``, a ``bundle.Section`` of
+  tensors from the node tables of :func:`model.wing_tables`);
+* mirrored here: the per-annulus safeguarded Newton inflow solve of
+  ``induction.solve_annulus_samples``, every annulus with its own iterate, bracket and stopping
+  rule: a converged annulus is masked and keeps its value while the others go on (no fixed
+  iteration count); the exact positive-part integrals of ``cycle.mean_positive_part`` (zero
+  crossings of the trigonometric interpolant by the same safeguarded Newton); the convected
+  wake's transforms;
 * the kinematics (Eqs. 3-5) and the motion-following grid, the free stream and the performance
   step (Eqs. 17-27) are shared too: ``kinematics.batched_angle_history``,
   ``model.stroke_plane_speeds``, ``model.inflow_switched_off`` and ``model.flight_performance``,
@@ -186,53 +187,14 @@ def _condition(value: Any, checked: np.ndarray, like: torch.Tensor) -> torch.Ten
 
 
 # --- frames (blade.fill_frame_coefficients) ------------------------------------------------------
-def _cross(a, b):
-    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
-
-
 def _frame(angles: list[torch.Tensor], weight: torch.Tensor, beta: torch.Tensor, spin_total: bool):
-    """The per-sample frame coefficients of ``blade.fill_frame_coefficients`` (right wing) as a
-    dict of (B, n_time) tensors keyed by the ``blade`` column names (``AU`` for ``C_AU``, …)."""
-    phi, dphi, ddphi, th, dth, ddth, eta, deta, ddeta = angles
-    cb, sb = torch.cos(beta)[:, None], torch.sin(beta)[:, None]
-    cf, sf = torch.cos(phi), torch.sin(phi)
-    ct, st = torch.cos(th), torch.sin(th)
-    ce, se = torch.cos(eta), torch.sin(eta)
-    es = (ct * sf, ct * cf, st)
-    ec = (se * cf - st * ce * sf, -se * sf - st * ce * cf, ct * ce)
-    en = (ce * cf + st * se * sf, -ce * sf + st * se * cf, -ct * se)
-    w = (dth * cf + deta * es[0], -dth * sf + deta * es[1], -dphi + deta * es[2])
-    des = _cross(w, es)
-    dec = _cross(w, ec)
-    den = _cross(w, en)
-    a = (
-        ddth * cf - dth * dphi * sf + ddeta * es[0] + deta * des[0],
-        -ddth * sf - dth * dphi * cf + ddeta * es[1] + deta * des[1],
-        -ddphi + ddeta * es[2] + deta * des[2],
-    )
-    x = _cross(a, es)
-    y = _cross(w, des)
-    dd = (x[0] + y[0], x[1] + y[1], x[2] + y[2])
-    if spin_total:
-        spin = w[0] * es[0] + w[1] * es[1] + w[2] * es[2]
-        dspin = a[0] * es[0] + a[1] * es[1] + a[2] * es[2]  # ω·ė_s = 0
-    else:
-        spin, dspin = deta, ddeta
-    return {
-        "AU": des[0] * ec[0] + des[1] * ec[1] + des[2] * ec[2],
-        "AV": des[0] * en[0] + des[1] * en[1] + des[2] * en[2],
-        "BU": dd[0] * ec[0] + dd[1] * ec[1] + dd[2] * ec[2]
-        + des[0] * dec[0] + des[1] * dec[1] + des[2] * dec[2],
-        "BV": dd[0] * en[0] + dd[1] * en[1] + dd[2] * en[2]
-        + des[0] * den[0] + des[1] * den[1] + des[2] * den[2],
-        "ECX": ec[0], "ECZ": ec[2], "ENX": en[0], "ENZ": en[2],
-        "DECX": dec[0], "DECZ": dec[2], "DENX": den[0], "DENZ": den[2],
-        "SPIN": spin, "DSPIN": dspin, "WEIGHT": weight.expand_as(spin),
-        "ECY": ec[1], "ENY": en[1],
-        "ECXE": ec[0] * cb + ec[2] * sb, "ENXE": en[0] * cb + en[2] * sb,
-        "ECZE": -ec[0] * sb + ec[2] * cb, "ENZE": -en[0] * sb + en[2] * cb,
-        "KIN": des[0] * dd[0] + des[1] * dd[1] + des[2] * dd[2],
-    }  # fmt: skip
+    """The per-sample frame coefficients of the right wing (``blade.frame_columns`` of every
+    sample at once), (N_COEF, B, n_time) in ``blade``'s column order."""
+    columns = _on_tensors(blade.frame_columns)(
+        torch.stack(angles, -1), ..., weight, torch.cos(beta)[:, None], torch.sin(beta)[:, None],
+        spin_total, 1,
+    )  # fmt: skip
+    return torch.stack(torch.broadcast_tensors(*columns))
 
 
 # --- the force sweep (induction.normal_force_sweep, _slope) and the span integrals --------------
@@ -256,16 +218,16 @@ class _Wing:
     tensors (``cycle.section_at`` of every annulus at once)."""
 
     def __init__(
-        self, frame: dict, nodes: np.ndarray, consts: np.ndarray, rho: float, like, compiled
+        self, frame: torch.Tensor, nodes: np.ndarray, consts: np.ndarray, rho: float, like, compiled
     ):
         self.compiled = compiled
-        self.frame = torch.stack([frame[name] for name in _COLUMNS])[:, :, None, :]
+        self.frame = frame[:, :, None, :]
         self.f = dict(zip(_COLUMNS, self.frame, strict=True))
         node = torch.tensor(nodes, dtype=like.dtype, device=like.device)[:, :, None]
         c = [float(v) for v in consts]
         self.section = cycle.section_at.py_func(node, slice(None), c, rho)
         self.i_span, self.i_pitch = c[cycle.K_I_SPAN], c[cycle.K_I_PITCH]
-        self.n_time = frame["AU"].shape[1]
+        self.n_time = frame.shape[-1]
 
     def sweep_and_slope(self, vt: torch.Tensor, vn: torch.Tensor):
         """F̄_n [N/m] and dF̄_n/dv_n [N·s/m²] at normal inflow ``vn`` with ``vt``, both shaped
