@@ -41,6 +41,7 @@ from .blade import (
 from .bundle import Section, WingStroke
 from .induction import N_SAMPLE, S_FC, S_FN, S_U, S_V, sweep_annulus
 from .kinematics import fill_angle_history
+from .xp import BRANCH_FREE, select
 
 # Blade-element node table columns.
 N_R = 0  # radius r [m]
@@ -339,27 +340,28 @@ def wing_cycle(
     out[W_INFLOW] = inflow_mean / area if area > 0.0 else 0.0
 
 
-@njit(cache=True)
-def slipstream_delay(
-    inflow_fore, nodes_fore, normal_speed_hind, beta_fore, beta_hind, root_spacing, root_drop
-):
+@njit(cache=True, error_model=BRANCH_FREE)
+def slipstream_delay(disc_inflow_fore, normal_speed_hind, beta_fore, beta_hind, roots):
     """Time t_d [s] the fore-wing's wake takes to reach the hind-wing's stroke plane (§5.7).
 
     The wake leaves the fore-wing's root at the free stream plus the fore-wing's induced
-    velocity v̄ (the mean over its swept disc, ∫v_i·r·dr / ∫r·dr, along −z_s of the fore-wing)
-    and crosses the distance from the fore-wing's root to the hind-wing's stroke plane,
-    h_n = d·sin β_h + D·cos β_h (d ``root_spacing`` aft, D ``root_drop`` below [m]), at the flow
+    velocity v̄ (``disc_inflow_fore`` [m/s], the mean over its swept disc, ∫v_i·r·dr / ∫r·dr:
+    :func:`disc_inflow`, along −z_s of the fore-wing) and crosses the distance from the
+    fore-wing's root to the hind-wing's stroke plane, h_n = d·sin β_h + D·cos β_h (d
+    ``roots.root_spacing`` aft, D ``roots.root_drop`` below [m]: the ``Settings`` or the
+    ``Dragonfly``; β [rad]), at the flow
     speed normal to that plane, U = V_n,h + v̄·cos(β_f − β_h) (``normal_speed_hind`` V_n,h
     [m/s]), bounded below by v̄·cos(β_f − β_h)/2 where the free stream opposes the wake (the
     vortex-ring state, where momentum theory no longer holds): t_d = h_n / U. Zero where the
     fore-wing induces nothing (its wake is then zero too).
     """
-    along = disc_inflow(inflow_fore, nodes_fore) * np.cos(beta_fore - beta_hind)
-    speed = max(normal_speed_hind + along, 0.5 * along)
-    distance = max(root_spacing * np.sin(beta_hind) + root_drop * np.cos(beta_hind), 0.0)
-    if not speed > 0.0:
-        return 0.0
-    return distance / speed
+    along = disc_inflow_fore * np.cos(beta_fore - beta_hind)
+    ahead = normal_speed_hind + along
+    speed = select(0.5 * along > ahead, 0.5 * along, ahead)
+    normal = roots.root_spacing * np.sin(beta_hind) + roots.root_drop * np.cos(beta_hind)
+    distance = select(0.0 > normal, 0.0, normal)
+    moving = speed > 0.0
+    return select(moving, distance / select(moving, speed, 1.0), 0.0)
 
 
 #: Strength of the exponential filter on the convected wake's harmonics, exp(−36·(m/m_c)^16)
@@ -532,8 +534,8 @@ def tandem_stroke(b, fore, hind, settings, outputs):
     solve = mode != MODE_NONE and not hind.inflow_off[b]
     if convect:
         delay = slipstream_delay(
-            out_inflow[b, 0], fore.nodes, hind_wing.v_normal, fore.beta[b], hind.beta[b],
-            settings.root_spacing, settings.root_drop,
+            disc_inflow(out_inflow[b, 0], fore.nodes), hind_wing.v_normal, fore.beta[b],
+            hind.beta[b], settings,
         )  # fmt: skip
         convected_wake(
             load, fore_wing, hind_wing.phase, 2.0 * np.pi * hind_wing.frequency * delay,

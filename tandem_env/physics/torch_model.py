@@ -12,7 +12,7 @@ rounding (docs/model.md §12.1):
   frame coefficients of every sample (``blade.frame_columns``), the element's relative
   velocity, force, moment, power, shed force and acute angle of attack (``blade``, Eqs.
   6-16), the slope of its normal force, the momentum side and the solve's model residual
-  (``induction``), and the blade elements (``cycle.section_at``, a ``bundle.Section`` of
+  (``induction``), the convected wake's delay (``cycle.slipstream_delay``), and the blade elements (``cycle.section_at``, a ``bundle.Section`` of
   tensors from the node tables of :func:`model.wing_tables`);
 * mirrored here: the per-annulus safeguarded Newton inflow solve of
   ``induction.solve_annulus_samples``, every annulus with its own iterate, bracket and stopping
@@ -300,23 +300,11 @@ def _shed_load(frame, section: Section, vt, vn):
     return (section.width * shed).sum(1)
 
 
-# --- the convected slipstream (cycle.slipstream_delay, cycle.convected_wake) --------------------
+# --- the convected slipstream (cycle.disc_inflow, cycle.convected_wake) -------------------------
 def _disc_inflow(inflow, wing: _Wing):
     """``cycle.disc_inflow``: the mean induced velocity over the swept disc (B,) [m/s]."""
     area = (wing.section.r * wing.section.width)[:, 0]
     return (inflow * area).sum(-1) / area.sum()
-
-
-def _slipstream_delay(inflow_fore, fore: _Wing, vn_hind, beta_fore, beta_hind, insect):
-    """``cycle.slipstream_delay``: the wake's travel time to the hind-wing's plane (B,) [s]."""
-    along = _disc_inflow(inflow_fore, fore) * torch.cos(beta_fore - beta_hind)
-    speed = torch.maximum(vn_hind + along, 0.5 * along)
-    distance = torch.clamp(
-        insect.root_spacing * torch.sin(beta_hind) + insect.root_drop * torch.cos(beta_hind),
-        min=0.0,
-    )
-    moving = speed > 0.0
-    return torch.where(moving, distance / torch.where(moving, speed, 1.0), 0.0)
 
 
 def _convected_wake(load, weight, phase_fore, phase_hind, delay, inflow_fore, fore: _Wing,
@@ -697,7 +685,9 @@ def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, com
             vn0 = vn0 + torch.where(off[:, None], 0.0, options.interference * inflow_fore)
         if index == 1 and convected:
             # the convected slipstream (docs/model.md §5.7; cycle.tandem_stroke)
-            delay = _slipstream_delay(inflow_fore, fore["wing"], vn, fore["beta"], beta, insect)
+            delay = _on_tensors(cycle.slipstream_delay)(
+                _disc_inflow(inflow_fore, fore["wing"]), vn, fore["beta"], beta, insect
+            )
             wake = _convected_wake(
                 fore["load"], fore["weight"], fore["phase"], phase,
                 2.0 * math.pi * frequency * delay, inflow_fore, fore["wing"],
