@@ -255,6 +255,26 @@ def shed_force(coef, k, u, v, du, dv, fc, fn, section):
     return shed_c * coef[k, C_ECZ] + shed_n * coef[k, C_ENZ]
 
 
+@njit(cache=True)
+def earth_forces(coef, k, span_c, span_n):
+    """A wing's force at sample k in earth axes, (F_x forward, F_z up, F_y lateral) [N] (Eq. 16),
+    of the span integrals ``span_c``, ``span_n`` of its chordwise and chord-normal element forces
+    [N] (``coef``, ``k`` as for :func:`relative_velocity`)."""
+    return (
+        span_c * coef[k, C_ECXE] + span_n * coef[k, C_ENXE],
+        span_c * coef[k, C_ECZE] + span_n * coef[k, C_ENZE],
+        span_c * coef[k, C_ECY] + span_n * coef[k, C_ENY],
+    )
+
+
+@njit(cache=True)
+def inertial_power(coef, k, span_inertia, pitch_inertia):
+    """P_iner of a wing at sample k [W]: d/dt of its kinetic energy, the flapping of the pitch
+    axis (``span_inertia`` ∫m'r² dr) plus the rotation about it (``pitch_inertia`` ∫m'c²/12 dr)
+    [kg·m²] (docs/model.md §6.2)."""
+    return span_inertia * coef[k, C_KIN] + pitch_inertia * coef[k, C_SPIN] * coef[k, C_DSPIN]
+
+
 @njit(cache=True, error_model=BRANCH_FREE)
 def acute_angle(along, across):
     """atan(|across| / |along|) ∈ [0, π/2] [rad], to 2e-8 rad without a libm call.

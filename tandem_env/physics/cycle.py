@@ -21,20 +21,15 @@ from numba import njit, prange
 
 from .blade import (
     C_DSPIN,
-    C_ECXE,
-    C_ECY,
-    C_ECZE,
-    C_ENXE,
-    C_ENY,
-    C_ENZE,
-    C_KIN,
     C_SPIN,
     C_WEIGHT,
     N_COEF,
     acute_angle,
+    earth_forces,
     element_moment,
     element_power,
     fill_frame_coefficients,
+    inertial_power,
     relative_velocity,
     shed_force,
 )
@@ -321,17 +316,12 @@ def wing_cycle(
                 )  # fmt: skip
     aoa = 0.0
     for k in range(n_time):
-        span_fc = span[0, k]
-        span_fn = span[1, k]
-        histories[k, 0] = span_fc * frame[k, C_ECXE] + span_fn * frame[k, C_ENXE]
-        histories[k, 1] = span_fc * frame[k, C_ECZE] + span_fn * frame[k, C_ENZE]
-        histories[k, 2] = span_fc * frame[k, C_ECY] + span_fn * frame[k, C_ENY]
+        fx, fz, fy = earth_forces(frame, k, span[0, k], span[1, k])
+        histories[k, 0] = fx
+        histories[k, 1] = fz
+        histories[k, 2] = fy
         histories[k, 3] = span[2, k]
-        # d/dt of the wing's kinetic energy: flapping of the pitch axis plus rotation about it
-        histories[k, 4] = (
-            consts[K_I_SPAN] * frame[k, C_KIN]
-            + consts[K_I_PITCH] * frame[k, C_SPIN] * frame[k, C_DSPIN]
-        )
+        histories[k, 4] = inertial_power(frame, k, consts[K_I_SPAN], consts[K_I_PITCH])
         aoa += span[3, k] * frame[k, C_WEIGHT]
     cycle_means(histories, coef_by_column[C_WEIGHT], out, settings.cos_table, settings.sin_table)
     out[W_AOA] = aoa / (area * n_time) if area > 0.0 else 0.0

@@ -10,10 +10,11 @@ rounding (docs/model.md §12.1):
 
 * the pointwise formulae are the kernel's own, run on tensors (``xp.on_namespace``): the
   frame coefficients of every sample (``blade.frame_columns``), the element's relative
-  velocity, force, moment, power, shed force and acute angle of attack (``blade``, Eqs.
-  6-16), the slope of its normal force, the momentum side and the solve's model residual
-  (``induction``), the convected wake's delay (``cycle.slipstream_delay``), and the blade elements (``cycle.section_at``, a ``bundle.Section`` of
-  tensors from the node tables of :func:`model.wing_tables`);
+  velocity, force, moment, power, shed force and acute angle of attack, the wing's force in
+  earth axes and inertial power (``blade``, Eqs. 6-16), the slope of the normal force, the
+  momentum side and the solve's model residual (``induction``), the convected wake's delay
+  (``cycle.slipstream_delay``), and the blade elements (``cycle.section_at``, a
+  ``bundle.Section`` of tensors from the node tables of :func:`model.wing_tables`);
 * mirrored here: the per-annulus safeguarded Newton inflow solve of
   ``induction.solve_annulus_samples``, every annulus with its own iterate, bracket and stopping
   rule: a converged annulus is masked and keeps its value while the others go on (no fixed
@@ -200,10 +201,6 @@ def _frame(angles: list[torch.Tensor], weight: torch.Tensor, beta: torch.Tensor,
 # --- the force sweep (induction.normal_force_sweep, _slope) and the span integrals --------------
 #: :class:`Section`'s per-element fields (the node table's; the others are the wing's).
 _ELEMENT_FIELDS = ("r", "chord", "width", "m11", "m22", "inertia_a", "damping")
-#: The frame's columns by name, in ``blade``'s order (``"AU"`` is column ``blade.C_AU``, …).
-_COLUMNS = tuple(
-    name[2:] for name in sorted((n for n in vars(blade) if n[:2] == "C_"), key=vars(blade).get)
-)
 
 
 def _on_tensors(kernel: Callable) -> Callable:
@@ -212,8 +209,8 @@ def _on_tensors(kernel: Callable) -> Callable:
 
 
 class _Wing:
-    """One wing's frame, ``frame`` (N_COEF, B, 1, n_time) in ``blade``'s column order (``f``:
-    the same by name), and its blade elements: ``section``, the numba kernel's
+    """One wing's frame, ``frame`` (N_COEF, B, 1, n_time) in ``blade``'s column order, and its
+    blade elements: ``section``, the numba kernel's
     :class:`~tandem_env.physics.bundle.Section` with the node-table fields as (n_blade, 1)
     tensors (``cycle.section_at`` of every annulus at once)."""
 
@@ -222,7 +219,6 @@ class _Wing:
     ):
         self.compiled = compiled
         self.frame = frame[:, :, None, :]
-        self.f = dict(zip(_COLUMNS, self.frame, strict=True))
         node = torch.tensor(nodes, dtype=like.dtype, device=like.device)[:, :, None]
         c = [float(v) for v in consts]
         self.section = cycle.section_at.py_func(node, slice(None), c, rho)
@@ -626,7 +622,6 @@ def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options
             wing, vt, vn0, sweep_amplitude, solve, options.tolerance, options.max_evaluations,
             wake,
         )  # fmt: skip
-    f = wing.f
     core = _compiled(_span_integrals) if wing.compiled else _span_integrals
     vn_final = (vn0 + v_i)[:, :, None]
     if wake is not None:
@@ -635,12 +630,11 @@ def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options
         wing.frame, wing.section, vt[:, None, None], vn_final, frequency[:, None, None]
     )
     chord, width = wing.section.chord, wing.section.width
-    g = {k: value[:, 0, :] for k, value in f.items()}
+    coef = wing.frame[:, :, 0].movedim(0, -1)
     n_time = wing.n_time
-    fx = span_fc * g["ECXE"] + span_fn * g["ENXE"]
-    fz = span_fc * g["ECZE"] + span_fn * g["ENZE"]
-    p_iner = wing.i_span * g["KIN"] + wing.i_pitch * g["SPIN"] * g["DSPIN"]
-    weight = g["WEIGHT"]
+    fx, fz, _ = _on_tensors(blade.earth_forces)(coef, ..., span_fc, span_fn)
+    p_iner = _on_tensors(blade.inertial_power)(coef, ..., wing.i_span, wing.i_pitch)
+    weight = coef[..., blade.C_WEIGHT]
     out = {"FX": (fx * weight).sum(-1) / n_time, "FZ": (fz * weight).sum(-1) / n_time}
     mean_aero = (span_power * weight).sum(-1) / n_time
     mean_iner = (p_iner * weight).sum(-1) / n_time
