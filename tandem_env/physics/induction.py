@@ -197,9 +197,8 @@ def _momentum(v, k_area, v_tangential, v_normal0):
     root2 = v_tangential * v_tangential + w * w
     flowing = root2 > 0.0
     root = np.sqrt(select(flowing, root2, 1.0))
-    return select(flowing, k_area * v * root, 0.0), select(
-        flowing, k_area * (root + v * w / root), 0.0
-    )
+    m = select(flowing, k_area * v * root, 0.0)
+    return m, select(flowing, k_area * (root + v * w / root), 0.0)
 
 
 @njit(cache=True)
@@ -264,10 +263,11 @@ def solve_annulus_samples(
 
     ``section``: the annulus's element (:class:`~tandem_env.physics.bundle.Section`);
     ``settings``: the options (:class:`~tandem_env.physics.bundle.Settings`: ``tolerance``,
-    ``max_evaluations``); ``sweep_amplitude`` φ_m [rad]. ``table``: the wing's force-coefficient model (``blade.element_force``; ``None``: the
-    paper's). ``wake``: (n_time,) the part of the upstream normal inflow that varies over the
-    cycle [m/s] (:func:`normal_force_sweep`); the momentum side m(v) takes the cycle-mean
-    upstream inflow ``v_normal0``. Converged means |h(v_i)| ≤ tolerance·F̄_n(0) or the bracket is narrower than
+    ``max_evaluations``); ``sweep_amplitude`` φ_m [rad]. ``table``: the wing's
+    force-coefficient model (``blade.element_force``; ``None``: the paper's). ``wake``:
+    (n_time,) the part of the upstream normal inflow that varies over the cycle [m/s]
+    (:func:`normal_force_sweep`); the momentum side m(v) takes the cycle-mean upstream inflow
+    ``v_normal0``. Converged means |h(v_i)| ≤ tolerance·F̄_n(0) or the bracket is narrower than
     tolerance·v_hover (v_hover: the inflow at which m alone absorbs F̄_n(0)). ``samples``
     (N_SAMPLE, n_time) is left holding the sweep at exactly the returned v_i.
 
