@@ -32,7 +32,7 @@ import numpy as np
 
 import tandem_env as te
 from tandem_env.io.files import write_json_atomic
-from tandem_env.physics import blade, induction, model
+from tandem_env.physics import blade, cycle, induction, model
 from tandem_env.physics.kinematics import fill_angle_history, wing_params_radians
 
 INDUCTION = ("coupled", "isolated", "none")
@@ -152,6 +152,7 @@ def sweeps_per_annulus(strokes: np.ndarray, speed: float) -> tuple[np.ndarray, n
     insect = te.DRAGONFLY
     nodes, consts = model.wing_tables(insect.fore, options.n_blade, insect.air_density)
     rho = insect.air_density
+    settings = model.kernel_settings(insect, options, options.n_time)
     counts, solved = [], []
     for stroke in strokes:
         params = wing_params_radians(stroke[:14])
@@ -161,13 +162,11 @@ def sweeps_per_annulus(strokes: np.ndarray, speed: float) -> tuple[np.ndarray, n
         coef = np.empty((options.n_time, blade.N_COEF))
         blade.fill_frame_coefficients(angles, weight, params[13], False, 1, coef)
         v_t, v_n = speed * np.cos(params[13]), speed * np.sin(params[13])
-        for r, chord, _, m11, m22, *_ in nodes:
-            args = (coef, r, chord, m11, m22, rho, *consts[:4], v_t)
-            _, evals, _ = induction.solve_annulus(
-                *args, v_n, params[1], options.tolerance, options.max_evaluations
-            )
+        for j in range(options.n_blade):
+            section = cycle.section_at(nodes, j, consts, rho)
+            _, evals, _ = induction.solve_annulus(coef, section, v_t, v_n, params[1], settings)
             counts.append(evals)
-            solved.append(induction.mean_normal_force(*args, v_n) > 0.0)
+            solved.append(induction.mean_normal_force(coef, section, v_t, v_n) > 0.0)
     return np.array(counts), np.array(solved)
 
 

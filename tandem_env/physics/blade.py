@@ -37,6 +37,7 @@ import numpy as np
 from numba import njit
 
 from .coefficients import PAPER, force_coefficients
+from .xp import BRANCH_FREE, select
 
 # Columns of the per-sample frame coefficients (one row per time sample).
 C_AU = 0  # ė_s·e_c            [1/s]   chordwise flapping velocity per unit radius
@@ -76,77 +77,92 @@ def fill_frame_coefficients(angles, weight, beta, spin_total, side, out):
     ``angles``: (n, 9) φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈; ``weight``: (n,) quadrature weights;
     ``beta``: stroke-plane angle [rad]; ``spin_total``: use ω·e_s instead of η̇ for Ω;
     ``side``: +1 right wing, −1 its mirror image (the left wing; used by the symmetry tests).
+    Writes ``out`` (n, N_COEF): :func:`frame_columns` of every sample.
     """
     cb = np.cos(beta)
     sb = np.sin(beta)
     for k in range(angles.shape[0]):
-        phi = angles[k, 0]
-        dphi = angles[k, 1]
-        ddphi = angles[k, 2]
-        th = angles[k, 3]
-        dth = angles[k, 4]
-        ddth = angles[k, 5]
-        eta = angles[k, 6]
-        deta = angles[k, 7]
-        ddeta = angles[k, 8]
-        cf = np.cos(phi)
-        sf = np.sin(phi)
-        ct = np.cos(th)
-        st = np.sin(th)
-        ce = np.cos(eta)
-        se = np.sin(eta)
-        # frame vectors in stroke-plane axes
-        es0, es1, es2 = ct * sf, ct * cf, st
-        ec0, ec1, ec2 = se * cf - st * ce * sf, -se * sf - st * ce * cf, ct * ce
-        en0, en1, en2 = ce * cf + st * se * sf, -ce * sf + st * se * cf, -ct * se
-        # angular velocity and acceleration
-        w0 = dth * cf + deta * es0
-        w1 = -dth * sf + deta * es1
-        w2 = -dphi + deta * es2
-        des0, des1, des2 = _cross(w0, w1, w2, es0, es1, es2)
-        dec0, dec1, dec2 = _cross(w0, w1, w2, ec0, ec1, ec2)
-        den0, den1, den2 = _cross(w0, w1, w2, en0, en1, en2)
-        a0 = ddth * cf - dth * dphi * sf + ddeta * es0 + deta * des0
-        a1 = -ddth * sf - dth * dphi * cf + ddeta * es1 + deta * des1
-        a2 = -ddphi + ddeta * es2 + deta * des2
-        x0, x1, x2 = _cross(a0, a1, a2, es0, es1, es2)
-        y0, y1, y2 = _cross(w0, w1, w2, des0, des1, des2)
-        dd0, dd1, dd2 = x0 + y0, x1 + y1, x2 + y2
-        if spin_total:
-            spin = w0 * es0 + w1 * es1 + w2 * es2
-            dspin = a0 * es0 + a1 * es1 + a2 * es2  # ω·ė_s = 0
-        else:
-            spin = deta
-            dspin = ddeta
-        if side < 0:
-            # Mirror through the x-z plane: polar vectors flip y; e_n = e_s × e_c, an axial
-            # combination, flips x and z; the spin about the span changes sign.
-            es1, des1, dd1, ec1, dec1 = -es1, -des1, -dd1, -ec1, -dec1
-            en0, en2, den0, den2 = -en0, -en2, -den0, -den2
-            spin, dspin = -spin, -dspin
-        out[k, C_AU] = des0 * ec0 + des1 * ec1 + des2 * ec2
-        out[k, C_AV] = des0 * en0 + des1 * en1 + des2 * en2
-        out[k, C_BU] = dd0 * ec0 + dd1 * ec1 + dd2 * ec2 + des0 * dec0 + des1 * dec1 + des2 * dec2
-        out[k, C_BV] = dd0 * en0 + dd1 * en1 + dd2 * en2 + des0 * den0 + des1 * den1 + des2 * den2
-        out[k, C_ECX] = ec0
-        out[k, C_ECZ] = ec2
-        out[k, C_ENX] = en0
-        out[k, C_ENZ] = en2
-        out[k, C_DECX] = dec0
-        out[k, C_DECZ] = dec2
-        out[k, C_DENX] = den0
-        out[k, C_DENZ] = den2
-        out[k, C_SPIN] = spin
-        out[k, C_DSPIN] = dspin
-        out[k, C_WEIGHT] = weight[k]
+        columns = frame_columns(angles, k, weight, cb, sb, spin_total, side)
+        for c in range(N_COEF):
+            out[k, c] = columns[c]
+
+
+@njit(cache=True)
+def frame_columns(angles, k, weight, cb, sb, spin_total, side):
+    """The frame coefficients of sample k, a tuple in column order (C_AU … C_ENY): ``angles``
+    [k, :] φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈ [rad, rad/s, rad/s²], ``weight`` [k] its quadrature
+    weight, ``cb``, ``sb`` cos β, sin β of the stroke-plane angle, ``spin_total`` and ``side``
+    as for :func:`fill_frame_coefficients` (on tensors, k = ``...``: every sample at once).
+    """
+    phi = angles[k, 0]
+    dphi = angles[k, 1]
+    ddphi = angles[k, 2]
+    th = angles[k, 3]
+    dth = angles[k, 4]
+    ddth = angles[k, 5]
+    eta = angles[k, 6]
+    deta = angles[k, 7]
+    ddeta = angles[k, 8]
+    cf = np.cos(phi)
+    sf = np.sin(phi)
+    ct = np.cos(th)
+    st = np.sin(th)
+    ce = np.cos(eta)
+    se = np.sin(eta)
+    # frame vectors in stroke-plane axes
+    es0, es1, es2 = ct * sf, ct * cf, st
+    ec0, ec1, ec2 = se * cf - st * ce * sf, -se * sf - st * ce * cf, ct * ce
+    en0, en1, en2 = ce * cf + st * se * sf, -ce * sf + st * se * cf, -ct * se
+    # angular velocity and acceleration
+    w0 = dth * cf + deta * es0
+    w1 = -dth * sf + deta * es1
+    w2 = -dphi + deta * es2
+    des0, des1, des2 = _cross(w0, w1, w2, es0, es1, es2)
+    dec0, dec1, dec2 = _cross(w0, w1, w2, ec0, ec1, ec2)
+    den0, den1, den2 = _cross(w0, w1, w2, en0, en1, en2)
+    a0 = ddth * cf - dth * dphi * sf + ddeta * es0 + deta * des0
+    a1 = -ddth * sf - dth * dphi * cf + ddeta * es1 + deta * des1
+    a2 = -ddphi + ddeta * es2 + deta * des2
+    x0, x1, x2 = _cross(a0, a1, a2, es0, es1, es2)
+    y0, y1, y2 = _cross(w0, w1, w2, des0, des1, des2)
+    dd0, dd1, dd2 = x0 + y0, x1 + y1, x2 + y2
+    if spin_total:
+        spin = w0 * es0 + w1 * es1 + w2 * es2
+        dspin = a0 * es0 + a1 * es1 + a2 * es2  # ω·ė_s = 0
+    else:
+        spin = deta
+        dspin = ddeta
+    if side < 0:
+        # Mirror through the x-z plane: polar vectors flip y; e_n = e_s × e_c, an axial
+        # combination, flips x and z; the spin about the span changes sign.
+        es1, des1, dd1, ec1, dec1 = -es1, -des1, -dd1, -ec1, -dec1
+        en0, en2, den0, den2 = -en0, -en2, -den0, -den2
+        spin, dspin = -spin, -dspin
+    return (
+        des0 * ec0 + des1 * ec1 + des2 * ec2,  # C_AU
+        des0 * en0 + des1 * en1 + des2 * en2,  # C_AV
+        dd0 * ec0 + dd1 * ec1 + dd2 * ec2 + des0 * dec0 + des1 * dec1 + des2 * dec2,  # C_BU
+        dd0 * en0 + dd1 * en1 + dd2 * en2 + des0 * den0 + des1 * den1 + des2 * den2,  # C_BV
+        ec0,  # C_ECX
+        ec2,  # C_ECZ
+        en0,  # C_ENX
+        en2,  # C_ENZ
+        dec0,  # C_DECX
+        dec2,  # C_DECZ
+        den0,  # C_DENX
+        den2,  # C_DENZ
+        spin,  # C_SPIN
+        dspin,  # C_DSPIN
+        weight[k],  # C_WEIGHT
         # earth axes: X = cos β·x_s + sin β·z_s, Z = −sin β·x_s + cos β·z_s, Y = y_s
-        out[k, C_ECXE] = ec0 * cb + ec2 * sb
-        out[k, C_ENXE] = en0 * cb + en2 * sb
-        out[k, C_ECZE] = -ec0 * sb + ec2 * cb
-        out[k, C_ENZE] = -en0 * sb + en2 * cb
-        out[k, C_KIN] = des0 * dd0 + des1 * dd1 + des2 * dd2
-        out[k, C_ECY] = ec1
-        out[k, C_ENY] = en1
+        ec0 * cb + ec2 * sb,  # C_ECXE
+        en0 * cb + en2 * sb,  # C_ENXE
+        -ec0 * sb + ec2 * cb,  # C_ECZE
+        -en0 * sb + en2 * cb,  # C_ENZE
+        des0 * dd0 + des1 * dd1 + des2 * dd2,  # C_KIN
+        ec1,  # C_ECY
+        en1,  # C_ENY
+    )
 
 
 @njit(cache=True)
@@ -164,55 +180,102 @@ def relative_velocity(coef, k, r, v_tangential, v_normal):
     return u, v, du, dv
 
 
-@njit(cache=True)
-def element_force(u, v, du, dv, spin, chord, m11, m22, rho, ct, cd0, cd90, cr, table=None):
+@njit(cache=True, error_model=BRANCH_FREE)
+def element_force(u, v, du, dv, spin, section, table=None):
     """Aerodynamic force per unit span (F_c, F_n) [N/m] on one blade element (Eqs. 11-14).
 
     Circulatory + added mass + viscous; the wing's own inertia is not an aerodynamic force
-    (docs/model.md §4.9). ``table``: the wing's force-coefficient model (``coefficients``;
-    omitted or ``[PAPER]``: the paper's C_t·sin 2α and C_d(0)cos²α + C_d(π/2)sin²α from ``ct``,
-    ``cd0``, ``cd90``); any other model replaces them by its C_L(α), C_D(α):
-    Γ_t = −½·c·|U|·C_L·sign(v), F_V = −½ρc·C_D·|U|·(u, v).
+    (docs/model.md §4.9). ``section``: the element and its wing's coefficients
+    (:class:`~tandem_env.physics.bundle.Section`). ``table``: the wing's force-coefficient model
+    (``coefficients``; omitted or ``[PAPER]``: the paper's C_t·sin 2α and
+    C_d(0)cos²α + C_d(π/2)sin²α from ``section``'s ``ct``, ``cd0``, ``cd90``); any other model
+    replaces them by its C_L(α), C_D(α): Γ_t = −½·c·|U|·C_L·sign(v), F_V = −½ρc·C_D·|U|·(u, v).
     """
+    chord = section.chord
+    m11 = section.m11
+    m22 = section.m22
+    rho = section.rho
+    cd0 = section.cd0
+    cd90 = section.cd90
     speed2 = u * u + v * v
-    gamma = 0.5 * cr * spin * chord * chord
+    moving = speed2 > 0.0  # a still element has no translational circulation and no drag
+    speed = np.sqrt(select(moving, speed2, 1.0))
+    gamma = 0.5 * section.cr * spin * chord * chord
     fc = m22 * v * spin - m11 * du
     fn = -m11 * u * spin - m22 * dv
-    if speed2 > 0.0:
-        speed = np.sqrt(speed2)
-        paper = True
-        if table is not None:
-            paper = table[0] == PAPER
-        if paper:
-            gamma -= ct * chord * u * v / speed
-            drag = 0.5 * rho * chord * (cd0 * u * u + cd90 * v * v) / speed
-        else:
-            lift_coefficient, drag_coefficient = force_coefficients(u, v, table)
-            side = 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0)
-            gamma -= 0.5 * chord * speed * lift_coefficient * side
-            drag = 0.5 * rho * chord * drag_coefficient * speed
-        fc -= drag * u
-        fn -= drag * v
+    paper = True
+    if table is not None:
+        paper = table[0] == PAPER
+    if paper:
+        gamma -= select(moving, section.ct * chord * u * v / speed, 0.0)
+        drag = select(moving, 0.5 * rho * chord * (cd0 * u * u + cd90 * v * v) / speed, 0.0)
+    else:  # numba only: the torch backend takes the paper's coefficients
+        lift_coefficient, drag_coefficient = force_coefficients(u, v, table)
+        side = 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0)
+        gamma -= select(moving, 0.5 * chord * speed * lift_coefficient * side, 0.0)
+        drag = select(moving, 0.5 * rho * chord * drag_coefficient * speed, 0.0)
+    fc -= drag * u
+    fn -= drag * v
     fc -= rho * gamma * v
     fn += rho * gamma * u
     return fc, fn
 
 
 @njit(cache=True)
-def element_moment(u, v, spin, dspin, m11, m22, inertia_a, damping, frequency, mu1, mu2):
-    """Aerodynamic pitching moment per unit span about the mid-chord axis [N·m/m].
+def element_moment(u, v, spin, dspin, section, frequency):
+    """Aerodynamic pitching moment per unit span about the mid-chord axis [N·m/m] of the
+    element ``section`` at flapping frequency ``frequency`` [Hz].
 
     Munk moment, added inertia and rotational damping (Berman & Wang 2007); the circulatory
     and viscous forces act at the pitch axis (docs/model.md §4).
     """
     return (
-        (m11 - m22) * u * v
-        - inertia_a * dspin
-        - damping * (mu1 * frequency + mu2 * abs(spin)) * spin
+        (section.m11 - section.m22) * u * v
+        - section.inertia_a * dspin
+        - section.damping * (section.mu1 * frequency + section.mu2 * abs(spin)) * spin
     )
 
 
 @njit(cache=True)
+def element_power(coef, k, fc, fn, moment, section):
+    """Power per unit span the element ``section`` delivers to the air at sample k [W/m]: minus
+    its aerodynamic force (F_c, F_n) [N/m] times its flapping velocity r·ė_s, minus its moment
+    [N·m/m] times its rotation rate Ω (``coef``, ``k`` as for :func:`relative_velocity`)."""
+    return -(section.r * (fc * coef[k, C_AU] + fn * coef[k, C_AV]) + moment * coef[k, C_SPIN])
+
+
+@njit(cache=True)
+def shed_force(coef, k, u, v, du, dv, fc, fn, section):
+    """The part of the element force (F_c, F_n) [N/m] at relative velocity (u, v, u̇, v̇) that the
+    wing sheds into its wake, along the stroke-plane normal z_s [N/m]: the force less its added
+    mass (Eq. 12), which is not shed (docs/model.md §5.7)."""
+    spin = coef[k, C_SPIN]
+    shed_c = fc - section.m22 * v * spin + section.m11 * du
+    shed_n = fn + section.m11 * u * spin + section.m22 * dv
+    return shed_c * coef[k, C_ECZ] + shed_n * coef[k, C_ENZ]
+
+
+@njit(cache=True)
+def earth_forces(coef, k, span_c, span_n):
+    """A wing's force at sample k in earth axes, (F_x forward, F_z up, F_y lateral) [N] (Eq. 16),
+    of the span integrals ``span_c``, ``span_n`` of its chordwise and chord-normal element forces
+    [N] (``coef``, ``k`` as for :func:`relative_velocity`)."""
+    return (
+        span_c * coef[k, C_ECXE] + span_n * coef[k, C_ENXE],
+        span_c * coef[k, C_ECZE] + span_n * coef[k, C_ENZE],
+        span_c * coef[k, C_ECY] + span_n * coef[k, C_ENY],
+    )
+
+
+@njit(cache=True)
+def inertial_power(coef, k, span_inertia, pitch_inertia):
+    """P_iner of a wing at sample k [W]: d/dt of its kinetic energy, the flapping of the pitch
+    axis (``span_inertia`` ∫m'r² dr) plus the rotation about it (``pitch_inertia`` ∫m'c²/12 dr)
+    [kg·m²] (docs/model.md §6.2)."""
+    return span_inertia * coef[k, C_KIN] + pitch_inertia * coef[k, C_SPIN] * coef[k, C_DSPIN]
+
+
+@njit(cache=True, error_model=BRANCH_FREE)
 def acute_angle(along, across):
     """atan(|across| / |along|) ∈ [0, π/2] [rad], to 2e-8 rad without a libm call.
 
@@ -221,14 +284,12 @@ def acute_angle(along, across):
     """
     x = abs(along)
     y = abs(across)
-    if x == 0.0 and y == 0.0:
-        return 0.0
+    still = (x == 0.0) & (y == 0.0)
     swap = y > x
-    z = x / y if swap else y / x  # z in [0, 1]
-    offset = 0.0
-    if z > 0.41421356237309503:  # tan(π/8): reduce with atan z = π/4 + atan((z − 1)/(z + 1))
-        z = (z - 1.0) / (z + 1.0)
-        offset = 0.7853981633974483
+    z = select(swap, x, y) / select(still, 1.0, select(swap, y, x))  # z in [0, 1]
+    # reduce with atan z = π/4 + atan((z − 1)/(z + 1)) above tan(π/8)
+    reduce = z > 0.41421356237309503
+    z = select(reduce, (z - 1.0) / (z + 1.0), z)
     z2 = z * z
     # odd Taylor series of atan to z¹⁵: |error| < 2e-8 rad for |z| <= tan(π/8)
     poly = z * (
@@ -247,5 +308,5 @@ def acute_angle(along, across):
             )
         )
     )
-    angle = offset + poly
-    return 1.5707963267948966 - angle if swap else angle
+    angle = select(reduce, 0.7853981633974483 + poly, poly)
+    return select(still, 0.0, select(swap, 1.5707963267948966 - angle, angle))

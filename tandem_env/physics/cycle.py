@@ -20,28 +20,23 @@ import numpy as np
 from numba import njit, prange
 
 from .blade import (
-    C_AU,
-    C_AV,
     C_DSPIN,
-    C_ECXE,
-    C_ECY,
-    C_ECZ,
-    C_ECZE,
-    C_ENXE,
-    C_ENY,
-    C_ENZ,
-    C_ENZE,
-    C_KIN,
     C_SPIN,
     C_WEIGHT,
     N_COEF,
     acute_angle,
+    earth_forces,
     element_moment,
+    element_power,
     fill_frame_coefficients,
+    inertial_power,
     relative_velocity,
+    shed_force,
 )
+from .bundle import Section, WingStroke
 from .induction import N_SAMPLE, S_FC, S_FN, S_U, S_V, sweep_annulus
 from .kinematics import fill_angle_history
+from .xp import BRANCH_FREE, select
 
 # Blade-element node table columns.
 N_R = 0  # radius r [m]
@@ -82,6 +77,18 @@ N_WING_OUT = 12
 MODE_NONE = 0
 MODE_ISOLATED = 1
 MODE_COUPLED = 2
+
+
+@njit(cache=True)
+def section_at(nodes, j, consts, rho):
+    """The :class:`~tandem_env.physics.bundle.Section` of annulus ``j`` of a wing's node table
+    ``nodes`` and constants ``consts`` (``model.wing_tables``) in air of density ``rho``
+    [kg/m³]."""
+    return Section(
+        nodes[j, N_R], nodes[j, N_CHORD], nodes[j, N_WIDTH], nodes[j, N_M11], nodes[j, N_M22],
+        nodes[j, N_IA], nodes[j, N_DAMP], rho, consts[K_CT], consts[K_CD0], consts[K_CD90],
+        consts[K_CR], consts[K_MU1], consts[K_MU2],
+    )  # fmt: skip
 
 
 @lru_cache(maxsize=16)
@@ -228,47 +235,33 @@ def cycle_means(histories, weight, out, cos_table, sin_table):
 
 @njit(cache=True)
 def wing_cycle(
-    coef,
-    nodes,
-    consts,
-    rho,
-    frequency,
-    sweep_amplitude,
-    v_tangential,
-    v_normal,
-    v_external,
-    solve_inflow,
-    tolerance,
-    max_evaluations,
-    out_inflow,
-    out,
-    histories,
-    cos_table,
-    sin_table,
-    table=None,
-    wake=None,
-    out_load=None,
+    wing, settings, v_external, solve, out_inflow, out, histories, wake=None, out_load=None
 ):
     """Solve the inflow of one wing and integrate its cycle (writes ``out`` and ``out_inflow``).
 
+    ``wing``: the wing of one stroke (:class:`~tandem_env.physics.bundle.WingStroke`);
+    ``settings``: the options, the air and the Fourier tables
+    (:class:`~tandem_env.physics.bundle.Settings`); ``solve``: the wing solves its inflow.
     ``v_external``: (n_r,) inflow imposed from upstream [m/s] (the fore-wing's slipstream on the
     hind-wing, already scaled by C_hf). ``wake``: (n_time,) the part of that inflow that varies
     over the cycle [m/s] (the convected slipstream, docs/model.md §5.7): annulus j sees
     v_external[j] + wake[k] at sample k; ``None``: the same at every sample (compiled exactly
     as without it). ``out_load``: (n_time,) receives the span integral of the circulatory and
     viscous element forces along the stroke-plane normal per sample at the solved inflow (the
-    force the wing sheds into its wake, §5.7) [N], or ``None``. ``histories``: (n_time, 5) scratch receiving F_x, F_z,
-    F_y, P_aero, P_iner per sample (one wing) [N, W]. ``table``: the wing's force-coefficient
-    model (``coefficients``), ``None`` for the paper's (then compiled exactly as without models).
+    force the wing sheds into its wake, §5.7) [N], or ``None``. ``histories``: (n_time, 5)
+    scratch receiving F_x, F_z, F_y, P_aero, P_iner per sample (one wing) [N, W]. The wing's
+    ``table``: its force-coefficient model (``coefficients``), ``None`` for the paper's (then
+    compiled exactly as without models).
     """
+    coef = wing.coef
+    nodes = wing.nodes
+    consts = wing.consts
+    table = wing.table
+    frequency = wing.frequency
+    v_tangential = wing.v_tangential
+    v_normal = wing.v_normal
     n_time = coef.shape[0]
     n_r = nodes.shape[0]
-    ct = consts[K_CT]
-    cd0 = consts[K_CD0]
-    cd90 = consts[K_CD90]
-    cr = consts[K_CR]
-    mu1 = consts[K_MU1]
-    mu2 = consts[K_MU2]
     converged = True
     max_evals = 0
     area = 0.0
@@ -285,16 +278,15 @@ def wing_cycle(
             coef_by_column[c, k] = coef[k, c]
     frame = coef_by_column.T
     for j in range(n_r):
-        r = nodes[j, N_R]
-        chord = nodes[j, N_CHORD]
-        width = nodes[j, N_WIDTH]
-        m11 = nodes[j, N_M11]
-        m22 = nodes[j, N_M22]
+        section = section_at(nodes, j, consts, settings.rho)
+        r = section.r
+        chord = section.chord
+        width = section.width
         v_upstream = v_normal + v_external[j]
         # ``samples`` ends up holding the element forces at the annulus's final inflow
         v_induced, evals, ok = sweep_annulus(
-            frame, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_upstream,
-            solve_inflow, sweep_amplitude, tolerance, max_evaluations, samples, table, wake,
+            frame, section, v_tangential, v_upstream, solve, wing.sweep, settings, samples,
+            table, wake,
         )  # fmt: skip
         converged = converged and ok
         max_evals = max(max_evals, evals)
@@ -307,68 +299,59 @@ def wing_cycle(
             fn = samples[S_FN, k]
             u = samples[S_U, k]
             v = samples[S_V, k]
-            moment = element_moment(
-                u, v, spin, frame[k, C_DSPIN], m11, m22, nodes[j, N_IA], nodes[j, N_DAMP],
-                frequency, mu1, mu2,
-            )  # fmt: skip
+            moment = element_moment(u, v, spin, frame[k, C_DSPIN], section, frequency)
             span[0, k] += width * fc
             span[1, k] += width * fn
-            # power delivered to the air: −(force on wing)·(flapping velocity r·ė_s) − M·Ω
-            span[2, k] -= width * (r * (fc * frame[k, C_AU] + fn * frame[k, C_AV]) + moment * spin)
+            span[2, k] += width * element_power(frame, k, fc, fn, moment, section)
             span[3, k] += chord * width * acute_angle(u, v)
         if out_load is not None:
             if j == 0:
                 for k in range(n_time):
                     out_load[k] = 0.0
             for k in range(n_time):
-                # the element force less its added mass (Eq. 12), which is not shed
                 _, _, du, dv = relative_velocity(frame, k, r, v_tangential, v_upstream + v_induced)
-                spin = frame[k, C_SPIN]
-                fc = samples[S_FC, k] - m22 * samples[S_V, k] * spin + m11 * du
-                fn = samples[S_FN, k] + m11 * samples[S_U, k] * spin + m22 * dv
-                out_load[k] += width * (fc * frame[k, C_ECZ] + fn * frame[k, C_ENZ])
+                out_load[k] += width * shed_force(
+                    frame, k, samples[S_U, k], samples[S_V, k], du, dv, samples[S_FC, k],
+                    samples[S_FN, k], section,
+                )  # fmt: skip
     aoa = 0.0
     for k in range(n_time):
-        span_fc = span[0, k]
-        span_fn = span[1, k]
-        histories[k, 0] = span_fc * frame[k, C_ECXE] + span_fn * frame[k, C_ENXE]
-        histories[k, 1] = span_fc * frame[k, C_ECZE] + span_fn * frame[k, C_ENZE]
-        histories[k, 2] = span_fc * frame[k, C_ECY] + span_fn * frame[k, C_ENY]
+        fx, fz, fy = earth_forces(frame, k, span[0, k], span[1, k])
+        histories[k, 0] = fx
+        histories[k, 1] = fz
+        histories[k, 2] = fy
         histories[k, 3] = span[2, k]
-        # d/dt of the wing's kinetic energy: flapping of the pitch axis plus rotation about it
-        histories[k, 4] = (
-            consts[K_I_SPAN] * frame[k, C_KIN]
-            + consts[K_I_PITCH] * frame[k, C_SPIN] * frame[k, C_DSPIN]
-        )
+        histories[k, 4] = inertial_power(frame, k, consts[K_I_SPAN], consts[K_I_PITCH])
         aoa += span[3, k] * frame[k, C_WEIGHT]
-    cycle_means(histories, coef_by_column[C_WEIGHT], out, cos_table, sin_table)
+    cycle_means(histories, coef_by_column[C_WEIGHT], out, settings.cos_table, settings.sin_table)
     out[W_AOA] = aoa / (area * n_time) if area > 0.0 else 0.0
     out[W_CONVERGED] = 1.0 if converged else 0.0
     out[W_EVALS] = max_evals
     out[W_INFLOW] = inflow_mean / area if area > 0.0 else 0.0
 
 
-@njit(cache=True)
-def slipstream_delay(
-    inflow_fore, nodes_fore, normal_speed_hind, beta_fore, beta_hind, root_spacing, root_drop
-):
+@njit(cache=True, error_model=BRANCH_FREE)
+def slipstream_delay(disc_inflow_fore, normal_speed_hind, beta_fore, beta_hind, roots):
     """Time t_d [s] the fore-wing's wake takes to reach the hind-wing's stroke plane (§5.7).
 
     The wake leaves the fore-wing's root at the free stream plus the fore-wing's induced
-    velocity v̄ (the mean over its swept disc, ∫v_i·r·dr / ∫r·dr, along −z_s of the fore-wing)
-    and crosses the distance from the fore-wing's root to the hind-wing's stroke plane,
-    h_n = d·sin β_h + D·cos β_h (d ``root_spacing`` aft, D ``root_drop`` below [m]), at the flow
+    velocity v̄ (``disc_inflow_fore`` [m/s], the mean over its swept disc, ∫v_i·r·dr / ∫r·dr:
+    :func:`disc_inflow`, along −z_s of the fore-wing) and crosses the distance from the
+    fore-wing's root to the hind-wing's stroke plane, h_n = d·sin β_h + D·cos β_h (d
+    ``roots.root_spacing`` aft, D ``roots.root_drop`` below [m]: the ``Settings`` or the
+    ``Dragonfly``; β [rad]), at the flow
     speed normal to that plane, U = V_n,h + v̄·cos(β_f − β_h) (``normal_speed_hind`` V_n,h
     [m/s]), bounded below by v̄·cos(β_f − β_h)/2 where the free stream opposes the wake (the
     vortex-ring state, where momentum theory no longer holds): t_d = h_n / U. Zero where the
     fore-wing induces nothing (its wake is then zero too).
     """
-    along = disc_inflow(inflow_fore, nodes_fore) * np.cos(beta_fore - beta_hind)
-    speed = max(normal_speed_hind + along, 0.5 * along)
-    distance = max(root_spacing * np.sin(beta_hind) + root_drop * np.cos(beta_hind), 0.0)
-    if not speed > 0.0:
-        return 0.0
-    return distance / speed
+    along = disc_inflow_fore * np.cos(beta_fore - beta_hind)
+    ahead = normal_speed_hind + along
+    speed = select(0.5 * along > ahead, 0.5 * along, ahead)
+    normal = roots.root_spacing * np.sin(beta_hind) + roots.root_drop * np.cos(beta_hind)
+    distance = select(0.0 > normal, 0.0, normal)
+    moving = speed > 0.0
+    return select(moving, distance / select(moving, speed, 1.0), 0.0)
 
 
 #: Strength of the exponential filter on the convected wake's harmonics, exp(−36·(m/m_c)^16)
@@ -390,13 +373,13 @@ def disc_inflow(inflow, nodes):
 
 
 @njit(cache=True)
-def convected_wake(
-    load, weight_fore, phase_fore, phase_hind, delay, inflow_fore, nodes_fore, sweep_fore,
-    v_tangential, v_normal, rho, interference, out,
-):  # fmt: skip
+def convected_wake(load, fore, phase_hind, delay, inflow_fore, settings, out):
     """The part of the fore-wing's slipstream on the hind-wing that varies over the cycle (§5.7):
     out[k] = C_hf·Δv(ϑ_h,k − δ) [m/s], the same on every annulus.
 
+    ``fore``: the fore-wing of the stroke (:class:`~tandem_env.physics.bundle.WingStroke`: its
+    ``weight``, ``phase``, ``nodes``, ``sweep``, ``v_tangential``, ``v_normal`` are read), and
+    ``settings`` its ``rho`` and ``interference`` (:class:`~tandem_env.physics.bundle.Settings`).
     ``load`` (n,) is the force along the fore-wing's stroke-plane normal that it sheds into its
     wake, per sample (one wing: the span integral of the circulatory and viscous element forces
     at the solved inflow, without the added mass) [N]. Linearised momentum theory on the fore
@@ -404,27 +387,32 @@ def convected_wake(
     fluctuation into a fluctuation of the induced velocity, uniform over the disc,
     Δv = (L − L̄)/(2ρφ_m·R²·V_m) (R² = 2∫r·dr over the nodes), with the disc's mass-flow
     parameter V_m = U + v̄·w/U at its mean induced velocity v̄ (:func:`disc_inflow`),
-    w = V_n + v̄, U = sqrt(V_t² + w²) (``v_tangential``, ``v_normal``: the fore-wing's [m/s]),
+    w = V_n + v̄, U = sqrt(V_t² + w²) (the fore-wing's V_t, V_n [m/s]),
     bounded below by sqrt(L_rms/(2ρφ_m·R²)), the speed the loading's fluctuation alone drives
     through the disc (it keeps Δv finite where the disc's mean flow vanishes).
 
     Δv is evaluated at the hind-wing's phases ``phase_hind`` less ``delay`` δ = 2π·f_h·t_d
     [rad] from its Fourier series in the fore-wing's phase ϑ, harmonics m = 1 … (n − 1)/2,
-    whose coefficients are trapezoid sums over the fore-wing's samples ``phase_fore`` with the
-    grid's weights dϑ/ds (``weight_fore``; spectrally accurate on the motion-following grid,
+    whose coefficients are trapezoid sums over the fore-wing's samples (its ``phase``) with the
+    grid's weights dϑ/ds (its ``weight``; spectrally accurate on the motion-following grid,
     §3.5). Where that grid is sparsest its spacing in ϑ is max(dϑ/ds) = 1 + λ times the
     uniform one, so harmonic m is weighted by the exponential filter σ_m = exp(−36·(m/m_c)^16)
     (:data:`WAKE_FILTER`), m_c = ((n − 1)/2)/max(dϑ/ds): the harmonics the sparsest samples
     cannot resolve are filtered out smoothly (a sharp cut would make the result jump with K),
     and σ_m → 1 for every m as n grows.
     """
+    weight_fore = fore.weight
+    phase_fore = fore.phase
+    nodes_fore = fore.nodes
+    v_tangential = fore.v_tangential
+    v_normal = fore.v_normal
     n = load.shape[0]
     for k in range(n):
         out[k] = 0.0
     half_square = 0.0  # ∫r·dr = R²/2
     for j in range(nodes_fore.shape[0]):
         half_square += nodes_fore[j, N_R] * nodes_fore[j, N_WIDTH]
-    k_disc = 4.0 * rho * sweep_fore * half_square
+    k_disc = 4.0 * settings.rho * fore.sweep * half_square
     if not k_disc > 0.0:
         return
     mean = 0.0
@@ -442,7 +430,7 @@ def convected_wake(
     mass_flow = max(mass_flow, np.sqrt(rms / k_disc))
     if not mass_flow > 0.0:
         return
-    scale = interference / (k_disc * mass_flow)
+    scale = settings.interference / (k_disc * mass_flow)
     n_modes = (n - 1) // 2
     densest = 0.0
     for i in range(n):
@@ -485,190 +473,89 @@ def fill_angle_batch(params, n_time, angles, weight):
 
 
 @njit(cache=True)
-def tandem_stroke(
-    b,
-    angles_fore,
-    weight_fore,
-    angles_hind,
-    weight_hind,
-    frequency,
-    beta,
-    sweep_amplitude,
-    freestream,
-    nodes_fore,
-    consts_fore,
-    nodes_hind,
-    consts_hind,
-    rho,
-    mode,
-    inflow_off,
-    interference,
-    spin_total,
-    tolerance,
-    max_evaluations,
-    out,
-    out_inflow,
-    out_history,
-    cos_table,
-    sin_table,
-    table_fore,
-    table_hind,
-    convected,
-    phases,
-    root_spacing,
-    root_drop,
-):
+def stroke_wing(wing, b, coef):
+    """The :class:`~tandem_env.physics.bundle.WingStroke` of stroke ``b`` of a
+    :class:`~tandem_env.physics.bundle.WingBatch`, with its frame coefficients ``coef``."""
+    phase = wing.phases[b] if wing.phases.shape[0] > b else wing.phases[0:0, 0]
+    return WingStroke(
+        coef, wing.nodes, wing.consts, wing.table, wing.frequency[b], wing.sweep[b],
+        wing.v_tangential[b], wing.v_normal[b], wing.weight[b], phase,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def tandem_stroke(b, fore, hind, settings, outputs):
     """Cycle means of stroke ``b`` of a batch: the fore-wing first, then the hind-wing in its
     slipstream (see :func:`tandem_cycle` for the arguments)."""
-    n_time = angles_fore.shape[1]
-    n_r = nodes_fore.shape[0]
-    coef = np.empty((n_time, N_COEF))
+    n_time = fore.angles.shape[1]
+    n_r = fore.nodes.shape[0]
+    mode = settings.mode
+    out = outputs.means
+    out_inflow = outputs.inflow
+    coef_fore = np.empty((n_time, N_COEF))
+    coef_hind = np.empty((n_time, N_COEF))
     hist = np.empty((n_time, 5))
     v_ext = np.zeros(n_r)
     # the convected slipstream (§5.7) where the hind-wing feels a fore-wing's wake at all
-    convect = convected and mode == MODE_COUPLED and not (inflow_off[b, 0] or inflow_off[b, 1])
+    convect = (
+        settings.convected
+        and mode == MODE_COUPLED
+        and not (fore.inflow_off[b] or hind.inflow_off[b])
+    )
     load = np.empty(n_time if convect else 0)
     wake = np.empty(n_time if convect else 0)
-    for wing in range(2):
-        # a wing with its induced velocity switched off (``ModelOptions.hover_inflow``) neither
-        # solves its own inflow nor sees the fore-wing's slipstream
-        solve = mode != MODE_NONE and not inflow_off[b, wing]
-        if wing == 0:
-            fill_frame_coefficients(angles_fore[b], weight_fore[b], beta[b, 0], spin_total, 1, coef)
-        else:
-            fill_frame_coefficients(angles_hind[b], weight_hind[b], beta[b, 1], spin_total, 1, coef)
-            if mode == MODE_COUPLED and not inflow_off[b, 1]:
-                for j in range(n_r):
-                    v_ext[j] = interference * out_inflow[b, 0, j]
-        v_t = freestream[b, wing, 0]
-        v_n = freestream[b, wing, 1]
-        if wing == 0 and convect:
-            wing_cycle(
-                coef, nodes_fore, consts_fore, rho, frequency[b, 0], sweep_amplitude[b, 0], v_t,
-                v_n, v_ext, solve, tolerance, max_evaluations, out_inflow[b, 0], out[b, 0], hist,
-                cos_table, sin_table, table_fore, None, load,
-            )  # fmt: skip
-        elif wing == 1 and convect:
-            delay = slipstream_delay(
-                out_inflow[b, 0], nodes_fore, v_n, beta[b, 0], beta[b, 1], root_spacing,
-                root_drop,
-            )  # fmt: skip
-            convected_wake(
-                load, weight_fore[b], phases[b, 0], phases[b, 1],
-                2.0 * np.pi * frequency[b, 1] * delay, out_inflow[b, 0], nodes_fore,
-                sweep_amplitude[b, 0], freestream[b, 0, 0], freestream[b, 0, 1], rho,
-                interference, wake,
-            )  # fmt: skip
-            wing_cycle(
-                coef, nodes_hind, consts_hind, rho, frequency[b, 1], sweep_amplitude[b, 1], v_t,
-                v_n, v_ext, solve, tolerance, max_evaluations, out_inflow[b, 1], out[b, 1], hist,
-                cos_table, sin_table, table_hind, wake,
-            )  # fmt: skip
-        else:
-            wing_cycle(
-                coef,
-                nodes_fore if wing == 0 else nodes_hind,
-                consts_fore if wing == 0 else consts_hind,
-                rho,
-                frequency[b, wing],
-                sweep_amplitude[b, wing],
-                v_t,
-                v_n,
-                v_ext,
-                solve,
-                tolerance,
-                max_evaluations,
-                out_inflow[b, wing],
-                out[b, wing],
-                hist,
-                cos_table,
-                sin_table,
-                table_fore if wing == 0 else table_hind,
-            )
-        if out_history.shape[0] > b:
-            out_history[b, wing] = hist
+    spin_total = settings.spin_total
+    fill_frame_coefficients(fore.angles[b], fore.weight[b], fore.beta[b], spin_total, 1, coef_fore)
+    fore_wing = stroke_wing(fore, b, coef_fore)
+    # a wing with its induced velocity switched off (``ModelOptions.hover_inflow``) neither
+    # solves its own inflow nor sees the fore-wing's slipstream
+    solve = mode != MODE_NONE and not fore.inflow_off[b]
+    if convect:
+        wing_cycle(fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist, None, load)
+    else:
+        wing_cycle(fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist)
+    if outputs.history.shape[0] > b:
+        outputs.history[b, 0] = hist
+    fill_frame_coefficients(hind.angles[b], hind.weight[b], hind.beta[b], spin_total, 1, coef_hind)
+    hind_wing = stroke_wing(hind, b, coef_hind)
+    if mode == MODE_COUPLED and not hind.inflow_off[b]:
+        for j in range(n_r):
+            v_ext[j] = settings.interference * out_inflow[b, 0, j]
+    solve = mode != MODE_NONE and not hind.inflow_off[b]
+    if convect:
+        delay = slipstream_delay(
+            disc_inflow(out_inflow[b, 0], fore.nodes), hind_wing.v_normal, fore.beta[b],
+            hind.beta[b], settings,
+        )  # fmt: skip
+        convected_wake(
+            load, fore_wing, hind_wing.phase, 2.0 * np.pi * hind_wing.frequency * delay,
+            out_inflow[b, 0], settings, wake,
+        )  # fmt: skip
+        wing_cycle(hind_wing, settings, v_ext, solve, out_inflow[b, 1], out[b, 1], hist, wake)
+    else:
+        wing_cycle(hind_wing, settings, v_ext, solve, out_inflow[b, 1], out[b, 1], hist)
+    if outputs.history.shape[0] > b:
+        outputs.history[b, 1] = hist
 
 
 @njit(parallel=True, cache=True)
-def tandem_cycle(
-    angles_fore,
-    weight_fore,
-    angles_hind,
-    weight_hind,
-    frequency,
-    beta,
-    sweep_amplitude,
-    freestream,
-    nodes_fore,
-    consts_fore,
-    nodes_hind,
-    consts_hind,
-    rho,
-    mode,
-    inflow_off,
-    interference,
-    spin_total,
-    tolerance,
-    max_evaluations,
-    out,
-    out_inflow,
-    out_history,
-    cos_table,
-    sin_table,
-    table_fore,
-    table_hind,
-    convected,
-    phases,
-    root_spacing,
-    root_drop,
-):
+def tandem_cycle(fore, hind, settings, outputs):
     """Cycle means of a batch of tandem strokes, in parallel over the batch.
 
-    ``angles_*``: (B, n_time, 9); ``weight_*``: (B, n_time); ``frequency``, ``beta``,
-    ``sweep_amplitude``: (B, 2) per wing [Hz, rad, rad]; ``freestream``: (B, 2, 2), per wing the
-    body's velocity along x_s and z_s of its stroke plane, (V_t, V_n) [m/s]
-    (``model.freestream_components``); ``inflow_off``: (B, 2) bool, True where a wing has no
-    induced velocity whatever ``mode`` (``model.inflow_switched_off``).
-    Writes ``out`` (B, 2, N_WING_OUT) and ``out_inflow`` (B, 2, n_r) [m/s]; if ``out_history``
-    has B rows, also the per-sample F_x, F_z, F_y, P_aero, P_iner of each wing (B, 2, n_time, 5).
-    ``table_fore``, ``table_hind``: the wings' force-coefficient models (``coefficients``), both
-    ``None`` for the paper's: numba compiles that signature without the models' code.
+    ``fore``, ``hind``: each wing's inputs (:class:`~tandem_env.physics.bundle.WingBatch`:
+    angles (B, n_time, 9), weights (B, n_time), frequency, β, sweep amplitude (B,) [Hz, rad,
+    rad], the body's velocity along x_s and z_s of the wing's stroke plane, (V_t, V_n) (B,)
+    [m/s] (``model.freestream_components``), ``inflow_off`` (B,) bool, True where the wing has
+    no induced velocity whatever the mode (``model.inflow_switched_off``), node table, constants
+    and force-coefficient model (``None``: the paper's; numba compiles that signature without the
+    models' code), and the grid phases ϑ = 2πft (B, n_time) [rad], read only under the convected
+    slipstream). ``settings``: :class:`~tandem_env.physics.bundle.Settings` (the options, the
+    air, the roots' ``root_spacing`` and ``root_drop`` [m] and the Fourier tables).
     ``convected``: the hind-wing sees the fore-wing's slipstream as it varies over the cycle
-    (``ModelOptions.slipstream="convected"``, docs/model.md §5.7), with ``phases`` (B, 2,
-    n_time) each wing's grid phases ϑ = 2πft [rad] (read only then) and the roots'
-    ``root_spacing`` and ``root_drop`` [m] (``Dragonfly``).
+    (``ModelOptions.slipstream="convected"``, docs/model.md §5.7).
+    Writes ``outputs`` (:class:`~tandem_env.physics.bundle.Outputs`): the means (B, 2,
+    N_WING_OUT) and the inflow (B, 2, n_r) [m/s]; if its history has B rows, also the per-sample
+    F_x, F_z, F_y, P_aero, P_iner of each wing (B, 2, n_time, 5).
     """
-    for b in prange(angles_fore.shape[0]):
-        tandem_stroke(
-            b,
-            angles_fore,
-            weight_fore,
-            angles_hind,
-            weight_hind,
-            frequency,
-            beta,
-            sweep_amplitude,
-            freestream,
-            nodes_fore,
-            consts_fore,
-            nodes_hind,
-            consts_hind,
-            rho,
-            mode,
-            inflow_off,
-            interference,
-            spin_total,
-            tolerance,
-            max_evaluations,
-            out,
-            out_inflow,
-            out_history,
-            cos_table,
-            sin_table,
-            table_fore,
-            table_hind,
-            convected,
-            phases,
-            root_spacing,
-            root_drop,
-        )
+    for b in prange(fore.angles.shape[0]):
+        tandem_stroke(b, fore, hind, settings, outputs)

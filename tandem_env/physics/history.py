@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import blade, cycle
+from .bundle import WingStroke
 from .checks import is_integer
 from .insect import DRAGONFLY, Dragonfly
 from .kinematics import fill_angles, wing_params_radians
@@ -31,6 +32,7 @@ from .model import (
     evaluate_numba,
     freestream_components,
     inflow_switched_off,
+    kernel_settings,
     validate_conditions,
     wing_tables,
 )
@@ -294,6 +296,7 @@ def _mirror_run(angles, weights, frequency, beta, freestream, inflow, insect, op
     hist = np.zeros((1, 2, n_time, 5))
     out = np.empty(cycle.N_WING_OUT)
     scratch = np.empty((n_time, 5))
+    settings = kernel_settings(insect, options, n_time)
     for w, wing in enumerate((insect.fore, insect.hind)):
         v_ext = _total_inflow(inflow, w, freestream, options)
         frames = _element_frames(angles[w], weights[w][0], beta[0, w], options.spin == "total", -1)
@@ -304,25 +307,15 @@ def _mirror_run(angles, weights, frequency, beta, freestream, inflow, insect, op
             tables = element_tables(wing, options.n_blade, insect.air_density)
             parts = [(frames[j], tables[j], v_ext[j : j + 1]) for j in range(len(frames))]
         for coef, (nodes, consts), v_part in parts:
+            wing_stroke = WingStroke(
+                coef, nodes, consts, coefficient_tables(insect)[w], float(frequency[0, w]), 0.0,
+                float(freestream[0, w, 0]), float(freestream[0, w, 1]), weights[w][0],
+                np.empty(0),
+            )  # fmt: skip
             cycle.wing_cycle(
-                coef,
-                nodes,
-                consts,
-                insect.air_density,
-                frequency[0, w],
-                0.0,
-                freestream[0, w, 0],
-                freestream[0, w, 1],
-                np.ascontiguousarray(v_part),
-                False,
-                options.tolerance,
-                options.max_evaluations,
-                np.empty(nodes.shape[0]),
-                out,
-                scratch,
-                *cycle.fourier_tables(n_time),
-                coefficient_tables(insect)[w],
-            )
+                wing_stroke, settings, np.ascontiguousarray(v_part), False,
+                np.empty(nodes.shape[0]), out, scratch,
+            )  # fmt: skip
             hist[0, w] += scratch
     return hist
 

@@ -32,6 +32,7 @@ from numba import njit
 
 from .blade import C_DECZ, C_DENZ, C_ECZ, C_ENZ, C_SPIN, C_WEIGHT, element_force, relative_velocity
 from .coefficients import PAPER, coefficients_and_rates
+from .xp import BRANCH_FREE, select
 
 #: Rows of the per-sample record a force sweep leaves, (N_SAMPLE, n_time): element force
 #: (F_c, F_n) [N/m] and relative velocity (u, v) [m/s] at the swept inflow, and scratch for the
@@ -51,9 +52,10 @@ def _added_mass_rate(a, b, c, d, spin, m11, m22):
     return (m22 - m11) * a * b * spin - m11 * a * c - m22 * b * d
 
 
-@njit(cache=True)
-def normal_force_rate(u, v, a, b, c, d, spin, chord, m11, m22, rho, ct, cd0, cd90):
-    """d/dv_n of the element's force along the stroke-plane normal, F_c·a + F_n·b [N·s/m²].
+@njit(cache=True, error_model=BRANCH_FREE)
+def normal_force_rate(u, v, a, b, c, d, spin, section):
+    """d/dv_n of the element's force along the stroke-plane normal, F_c·a + F_n·b [N·s/m²]
+    (``section``: :class:`~tandem_env.physics.bundle.Section`).
 
     The derivative of :func:`blade.element_force` (Eqs. 11-14) along the direction in which a
     change of the normal inflow v_n moves the element's state: (u, v, u̇, v̇) change at the rates
@@ -64,25 +66,29 @@ def normal_force_rate(u, v, a, b, c, d, spin, chord, m11, m22, rho, ct, cd0, cd9
     ``element_force`` term by term (tests/physics/test_inflow_solver.py checks it against finite
     differences of the sweep); a wrong slope would only slow the solve, never change its result.
     """
-    rate = _added_mass_rate(a, b, c, d, spin, m11, m22)
+    chord = section.chord
+    rho = section.rho
+    cd0 = section.cd0
+    cd90 = section.cd90
+    rate = _added_mass_rate(a, b, c, d, spin, section.m11, section.m22)
     speed2 = u * u + v * v
-    if speed2 > 0.0:
-        inv = 1.0 / np.sqrt(speed2)
-        along = u * a + v * b  # p
-        across = u * b - v * a  # q
-        dspeed = along * inv  # d|U|/dv_n
-        uv = u * v * inv
-        # Γ_t = −C_t·c·uv/|U|, D = ½ρc·(C_d0·u² + C_d90·v²)/|U|
-        duv = (a * v + u * b - uv * dspeed) * inv
-        k = 0.5 * rho * chord
-        drag = k * (cd0 * u * u + cd90 * v * v) * inv
-        ddrag = (2.0 * k * (cd0 * u * a + cd90 * v * b) - drag * dspeed) * inv
-        rate -= rho * ct * chord * duv * across + ddrag * along + drag * (a * a + b * b)
-    return rate
+    moving = speed2 > 0.0  # a still element: no translational circulation, no drag
+    inv = 1.0 / np.sqrt(select(moving, speed2, 1.0))
+    along = u * a + v * b  # p
+    across = u * b - v * a  # q
+    dspeed = along * inv  # d|U|/dv_n
+    uv = u * v * inv
+    # Γ_t = −C_t·c·uv/|U|, D = ½ρc·(C_d0·u² + C_d90·v²)/|U|
+    duv = (a * v + u * b - uv * dspeed) * inv
+    k = 0.5 * rho * chord
+    drag = k * (cd0 * u * u + cd90 * v * v) * inv
+    ddrag = (2.0 * k * (cd0 * u * a + cd90 * v * b) - drag * dspeed) * inv
+    viscous = rho * section.ct * chord * duv * across + ddrag * along + drag * (a * a + b * b)
+    return rate - select(moving, viscous, 0.0)
 
 
 @njit(cache=True)
-def normal_force_rate_model(u, v, a, b, c, d, spin, chord, m11, m22, rho, table):
+def normal_force_rate_model(u, v, a, b, c, d, spin, section, table):
     """:func:`normal_force_rate` for a force-coefficient model (``coefficients``) [N·s/m²].
 
     The same derivative of ``blade.element_force``'s non-paper branch along (a, b), with the
@@ -92,7 +98,9 @@ def normal_force_rate_model(u, v, a, b, c, d, spin, chord, m11, m22, rho, table)
     (rate sign(v)·q/|U|²). At v = 0, where sign(v) jumps, the rate is the one towards +n.
     The added mass is as for the paper.
     """
-    rate = _added_mass_rate(a, b, c, d, spin, m11, m22)
+    chord = section.chord
+    rho = section.rho
+    rate = _added_mass_rate(a, b, c, d, spin, section.m11, section.m22)
     speed2 = u * u + v * v
     if speed2 > 0.0:
         speed = np.sqrt(speed2)
@@ -115,24 +123,9 @@ def normal_force_rate_model(u, v, a, b, c, d, spin, chord, m11, m22, rho, table)
 
 
 @njit(cache=True)
-def normal_force_sweep(
-    coef,
-    r,
-    chord,
-    m11,
-    m22,
-    rho,
-    ct,
-    cd0,
-    cd90,
-    cr,
-    v_tangential,
-    v_normal,
-    samples,
-    table=None,
-    wake=None,
-):
-    """One force sweep over the cycle at normal inflow ``v_normal``: F̄_n [N/m].
+def normal_force_sweep(coef, section, v_tangential, v_normal, samples, table=None, wake=None):
+    """One force sweep over the cycle of the element ``section`` at normal inflow ``v_normal``:
+    F̄_n [N/m].
 
     Leaves each sample's (F_c, F_n, u, v) in ``samples`` (N_SAMPLE, n_time). ``table``: the
     wing's force-coefficient model (``blade.element_force``; ``None``: the paper's). ``wake``:
@@ -147,10 +140,8 @@ def normal_force_sweep(
         v_n = v_normal
         if wake is not None:
             v_n = v_normal + wake[k]
-        u, v, du, dv = relative_velocity(coef, k, r, v_tangential, v_n)
-        fc, fn = element_force(
-            u, v, du, dv, coef[k, C_SPIN], chord, m11, m22, rho, ct, cd0, cd90, cr, table
-        )
+        u, v, du, dv = relative_velocity(coef, k, section.r, v_tangential, v_n)
+        fc, fn = element_force(u, v, du, dv, coef[k, C_SPIN], section, table)
         samples[S_FC, k] = fc
         samples[S_FN, k] = fn
         samples[S_U, k] = u
@@ -164,7 +155,7 @@ def normal_force_sweep(
 
 
 @njit(cache=True)
-def normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples, table=None):
+def normal_force_slope(coef, section, samples, table=None):
     """dF̄_n/dv_n [N·s/m²] at the inflow of the sweep that left ``samples`` (from its stored
     relative velocities: no element force is recomputed; ``table``: the wing's force-coefficient
     model, ``None`` or the paper's: :func:`normal_force_rate`, any other:
@@ -177,14 +168,13 @@ def normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples, table
         for k in range(n):
             samples[S_RATE, k] = coef[k, C_WEIGHT] * normal_force_rate(
                 samples[S_U, k], samples[S_V, k], coef[k, C_ECZ], coef[k, C_ENZ],
-                coef[k, C_DECZ], coef[k, C_DENZ], coef[k, C_SPIN], chord, m11, m22, rho, ct,
-                cd0, cd90,
+                coef[k, C_DECZ], coef[k, C_DENZ], coef[k, C_SPIN], section,
             )  # fmt: skip
     else:
         for k in range(n):
             samples[S_RATE, k] = coef[k, C_WEIGHT] * normal_force_rate_model(
                 samples[S_U, k], samples[S_V, k], coef[k, C_ECZ], coef[k, C_ENZ],
-                coef[k, C_DECZ], coef[k, C_DENZ], coef[k, C_SPIN], chord, m11, m22, rho, table,
+                coef[k, C_DECZ], coef[k, C_DENZ], coef[k, C_SPIN], section, table,
             )  # fmt: skip
     rate = 0.0
     for k in range(n):
@@ -193,37 +183,36 @@ def normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples, table
 
 
 @njit(cache=True)
-def mean_normal_force(
-    coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, table=None
-):
-    """Cycle-mean aerodynamic force per unit span along the stroke-plane normal [N/m];
-    ``table``: the force-coefficient model (``blade.element_force``)."""
+def mean_normal_force(coef, section, v_tangential, v_normal, table=None):
+    """Cycle-mean aerodynamic force per unit span along the stroke-plane normal [N/m] of the
+    element ``section``; ``table``: the force-coefficient model (``blade.element_force``)."""
     samples = np.empty((N_SAMPLE, coef.shape[0]))
-    return normal_force_sweep(
-        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal, samples, table
-    )
+    return normal_force_sweep(coef, section, v_tangential, v_normal, samples, table)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model=BRANCH_FREE)
 def _momentum(v, k_area, v_tangential, v_normal0):
-    """m(v) = k·v·sqrt(V_t² + (V_n' + v)²) and dm/dv."""
+    """m(v) = k·v·sqrt(V_t² + (V_n' + v)²) and dm/dv (0 where the root vanishes)."""
     w = v_normal0 + v
-    root = np.sqrt(v_tangential * v_tangential + w * w)
-    if root == 0.0:
-        return 0.0, 0.0
-    return k_area * v * root, k_area * (root + v * w / root)
+    root2 = v_tangential * v_tangential + w * w
+    flowing = root2 > 0.0
+    root = np.sqrt(select(flowing, root2, 1.0))
+    m = select(flowing, k_area * v * root, 0.0)
+    return m, select(flowing, k_area * (root + v * w / root), 0.0)
 
 
 @njit(cache=True)
-def _model_residual(v, x0, c0, c1, c2, c3, k_area, vt, vn0):
-    """Force model c0 + c1·d + c2·d² + c3·d³ (d = v − x0) minus m(v), and its derivative."""
+def _model_residual(v, model, k_area, vt, vn0):
+    """Force model c0 + c1·d + c2·d² + c3·d³ (d = v − x0, ``model`` = (x0, c0, c1, c2, c3))
+    minus m(v), and its derivative."""
+    x0, c0, c1, c2, c3 = model
     d = v - x0
     m, dm = _momentum(v, k_area, vt, vn0)
     return c0 + d * (c1 + d * (c2 + d * c3)) - m, c1 + d * (2.0 * c2 + 3.0 * d * c3) - dm
 
 
 @njit(cache=True)
-def _solve_model(x0, c0, c1, c2, c3, k_area, vt, vn0, lo, hi):
+def _solve_model(model, k_area, vt, vn0, lo, hi):
     """Root of the force model minus m(v) in [lo, hi] by safeguarded Newton (no force sweeps).
 
     The residual must be positive at lo and non-positive at hi.
@@ -232,7 +221,7 @@ def _solve_model(x0, c0, c1, c2, c3, k_area, vt, vn0, lo, hi):
     a = lo
     b = hi
     for _ in range(60):
-        q, dq = _model_residual(v, x0, c0, c1, c2, c3, k_area, vt, vn0)
+        q, dq = _model_residual(v, model, k_area, vt, vn0)
         if q > 0.0:
             a = v
         else:
@@ -250,16 +239,16 @@ def _solve_model(x0, c0, c1, c2, c3, k_area, vt, vn0, lo, hi):
 
 
 @njit(cache=True)
-def _search_upwards(x0, c0, c1, c2, c3, k_area, vt, vn0, lo, start):
+def _search_upwards(model, k_area, vt, vn0, lo, start):
     """Root of the model minus m(v) above lo, bracketed by doubling from ``start``; −1 if the
     model has no sign change there."""
-    if _model_residual(lo, x0, c0, c1, c2, c3, k_area, vt, vn0)[0] <= 0.0:
+    if _model_residual(lo, model, k_area, vt, vn0)[0] <= 0.0:
         return -1.0
     a = lo
     b = max(start, 2.0 * lo, 1e-6)
     for _ in range(64):
-        if _model_residual(b, x0, c0, c1, c2, c3, k_area, vt, vn0)[0] <= 0.0:
-            return _solve_model(x0, c0, c1, c2, c3, k_area, vt, vn0, a, b)
+        if _model_residual(b, model, k_area, vt, vn0)[0] <= 0.0:
+            return _solve_model(model, k_area, vt, vn0, a, b)
         a = b
         b *= 2.0
     return -1.0
@@ -267,31 +256,18 @@ def _search_upwards(x0, c0, c1, c2, c3, k_area, vt, vn0, lo, start):
 
 @njit(cache=True)
 def solve_annulus_samples(
-    coef,
-    r,
-    chord,
-    m11,
-    m22,
-    rho,
-    ct,
-    cd0,
-    cd90,
-    cr,
-    v_tangential,
-    v_normal0,
-    sweep_amplitude,
-    tolerance,
-    max_iterations,
-    samples,
-    table=None,
+    coef, section, v_tangential, v_normal0, sweep_amplitude, settings, samples, table=None,
     wake=None,
-):
+):  # fmt: skip
     """Induced velocity v_i [m/s] of one annulus; returns (v_i, force sweeps, converged).
 
-    ``table``: the wing's force-coefficient model (``blade.element_force``; ``None``: the
-    paper's). ``wake``: (n_time,) the part of the upstream normal inflow that varies over the
-    cycle [m/s] (:func:`normal_force_sweep`); the momentum side m(v) takes the cycle-mean
-    upstream inflow ``v_normal0``. Converged means |h(v_i)| ≤ tolerance·F̄_n(0) or the bracket is narrower than
+    ``section``: the annulus's element (:class:`~tandem_env.physics.bundle.Section`);
+    ``settings``: the options (:class:`~tandem_env.physics.bundle.Settings`: ``tolerance``,
+    ``max_evaluations``); ``sweep_amplitude`` φ_m [rad]. ``table``: the wing's
+    force-coefficient model (``blade.element_force``; ``None``: the paper's). ``wake``:
+    (n_time,) the part of the upstream normal inflow that varies over the cycle [m/s]
+    (:func:`normal_force_sweep`); the momentum side m(v) takes the cycle-mean upstream inflow
+    ``v_normal0``. Converged means |h(v_i)| ≤ tolerance·F̄_n(0) or the bracket is narrower than
     tolerance·v_hover (v_hover: the inflow at which m alone absorbs F̄_n(0)). ``samples``
     (N_SAMPLE, n_time) is left holding the sweep at exactly the returned v_i.
 
@@ -303,14 +279,14 @@ def solve_annulus_samples(
     """
     vt = v_tangential
     vn0 = v_normal0
-    k_area = 4.0 * rho * sweep_amplitude * r
-    f0 = normal_force_sweep(
-        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0, samples, table, wake
-    )
+    tolerance = settings.tolerance
+    max_iterations = settings.max_evaluations
+    k_area = 4.0 * section.rho * sweep_amplitude * section.r
+    f0 = normal_force_sweep(coef, section, vt, vn0, samples, table, wake)
     if f0 <= 0.0 or k_area <= 0.0:
         return 0.0, 1, True
-    s0 = normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples, table)
-    v_hover = _search_upwards(0.0, f0, 0.0, 0.0, 0.0, k_area, vt, vn0, 0.0, 1.0)
+    s0 = normal_force_slope(coef, section, samples, table)
+    v_hover = _search_upwards((0.0, f0, 0.0, 0.0, 0.0), k_area, vt, vn0, 0.0, 1.0)
     f_tol = tolerance * f0
     x_tol = tolerance * max(v_hover, 1e-9)
     # bracket h(lo) > 0 >= h(hi), with F̄_n and its slope at both ends; hi unknown at first
@@ -323,7 +299,9 @@ def solve_annulus_samples(
     v = 0.0
     while evaluations < max_iterations:
         if hi == np.inf:
-            v = _search_upwards(lo, f_lo, s_lo, 0.5 * curvature, 0.0, k_area, vt, vn0, lo, v_hover)
+            v = _search_upwards(
+                (lo, f_lo, s_lo, 0.5 * curvature, 0.0), k_area, vt, vn0, lo, v_hover
+            )
             if evaluations == 1 and s_lo > 0.0:
                 # a force that rises with inflow (α > 45° moving towards 45°) must bend down
                 # again beyond the root: its tangent may overshoot far, so trust it only up to
@@ -336,7 +314,7 @@ def solve_annulus_samples(
             secant = (f_hi - f_lo) / w
             c2 = (3.0 * secant - 2.0 * s_lo - s_hi) / w
             c3 = (s_lo + s_hi - 2.0 * secant) / (w * w)
-            v_model = _solve_model(lo, f_lo, s_lo, c2, c3, k_area, vt, vn0, lo, hi)
+            v_model = _solve_model((lo, f_lo, s_lo, c2, c3), k_area, vt, vn0, lo, hi)
             # steps that stop shrinking (each under half the one before last) mean the model
             # is poor here: bisect instead
             if lo < v_model < hi and abs(v_model - v) <= 0.5 * step_before:
@@ -346,15 +324,13 @@ def solve_annulus_samples(
             step_before = step_last
             step_last = abs(v_new - v)
             v = v_new
-        fv = normal_force_sweep(
-            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, vt, vn0 + v, samples, table, wake
-        )
+        fv = normal_force_sweep(coef, section, vt, vn0 + v, samples, table, wake)
         evaluations += 1
         hv = fv - _momentum(v, k_area, vt, vn0)[0]
         if abs(hv) <= f_tol or (hi - v if hv > 0.0 else v - lo) <= x_tol:
             return v, evaluations, True
         # the slope only where the next step needs it: not at the sweep that converges
-        sv = normal_force_slope(coef, chord, m11, m22, rho, ct, cd0, cd90, samples, table)
+        sv = normal_force_slope(coef, section, samples, table)
         if hv > 0.0:
             curvature = (sv - s_lo) / (v - lo)
             lo, f_lo, s_lo = v, fv, sv
@@ -365,26 +341,9 @@ def solve_annulus_samples(
 
 @njit(cache=True)
 def sweep_annulus(
-    coef,
-    r,
-    chord,
-    m11,
-    m22,
-    rho,
-    ct,
-    cd0,
-    cd90,
-    cr,
-    v_tangential,
-    v_normal0,
-    solve,
-    sweep_amplitude,
-    tolerance,
-    max_iterations,
-    samples,
-    table=None,
-    wake=None,
-):
+    coef, section, v_tangential, v_normal0, solve, sweep_amplitude, settings, samples,
+    table=None, wake=None,
+):  # fmt: skip
     """One annulus of the compiled cycle (``cycle.wing_cycle``) at its final inflow; returns
     (v_i [m/s], force sweeps of the solve, converged).
 
@@ -396,41 +355,20 @@ def sweep_annulus(
     """
     if solve:
         return solve_annulus_samples(
-            coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0,
-            sweep_amplitude, tolerance, max_iterations, samples, table, wake,
+            coef, section, v_tangential, v_normal0, sweep_amplitude, settings, samples, table,
+            wake,
         )  # fmt: skip
-    normal_force_sweep(
-        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0, samples,
-        table, wake,
-    )  # fmt: skip
+    normal_force_sweep(coef, section, v_tangential, v_normal0, samples, table, wake)
     return 0.0, 0, True
 
 
 @njit(cache=True)
-def solve_annulus(
-    coef,
-    r,
-    chord,
-    m11,
-    m22,
-    rho,
-    ct,
-    cd0,
-    cd90,
-    cr,
-    v_tangential,
-    v_normal0,
-    sweep_amplitude,
-    tolerance,
-    max_iterations,
-    table=None,
-):
+def solve_annulus(coef, section, v_tangential, v_normal0, sweep_amplitude, settings, table=None):
     """Induced velocity v_i [m/s] of one annulus; returns (v_i, force sweeps, converged).
 
     :func:`solve_annulus_samples` without keeping the samples.
     """
     samples = np.empty((N_SAMPLE, coef.shape[0]))
     return solve_annulus_samples(
-        coef, r, chord, m11, m22, rho, ct, cd0, cd90, cr, v_tangential, v_normal0,
-        sweep_amplitude, tolerance, max_iterations, samples, table,
-    )  # fmt: skip
+        coef, section, v_tangential, v_normal0, sweep_amplitude, settings, samples, table
+    )

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from . import cycle
+from .bundle import Outputs, Settings, WingBatch
 from .checks import real_array, shown
 from .coefficients import PaperCoefficients
 from .first_use import compile_notice
@@ -341,6 +342,18 @@ def coefficient_tables(insect: Dragonfly) -> tuple[np.ndarray | None, np.ndarray
     return insect.fore.coefficients.table(), insect.hind.coefficients.table()
 
 
+def kernel_settings(insect: Dragonfly, options: ModelOptions, n_time: int) -> Settings:
+    """The kernel's :class:`~tandem_env.physics.bundle.Settings` of ``options`` (the induction
+    mode, C_hf, the spin, the inflow solve's tolerance and cap, the slipstream), the insect's air
+    and roots, and the Fourier tables of ``n_time`` samples per cycle."""
+    mode = {"none": cycle.MODE_NONE, "isolated": cycle.MODE_ISOLATED, "coupled": cycle.MODE_COUPLED}
+    return Settings(
+        mode[options.induction], options.interference, options.spin == "total", options.tolerance,
+        options.max_evaluations, options.slipstream == "convected", insect.air_density,
+        insect.root_spacing, insect.root_drop, *cycle.fourier_tables(n_time),
+    )  # fmt: skip
+
+
 def run_kernel(
     angles,
     weights,
@@ -376,35 +389,43 @@ def run_kernel(
             'allow: slipstream = "mean"'
         )
     if tables is None:
-        nodes_f, consts_f = wing_tables(insect.fore, options.n_blade, insect.air_density)
-        nodes_h, consts_h = wing_tables(insect.hind, options.n_blade, insect.air_density)
-    else:
-        nodes_f, consts_f, nodes_h, consts_h = tables
+        tables = (
+            *wing_tables(insect.fore, options.n_blade, insect.air_density),
+            *wing_tables(insect.hind, options.n_blade, insect.air_density),
+        )
     batch, n_time = weights[0].shape
-    out = np.empty((batch, 2, cycle.N_WING_OUT))
-    inflow = np.empty((batch, 2, nodes_f.shape[0]))
-    mode = {"none": cycle.MODE_NONE, "isolated": cycle.MODE_ISOLATED, "coupled": cycle.MODE_COUPLED}
-    history = np.empty((batch if keep_history else 0, 2, n_time, 5))
+    outputs = Outputs(
+        np.empty((batch, 2, cycle.N_WING_OUT)),
+        np.empty((batch, 2, tables[0].shape[0])),
+        np.empty((batch if keep_history else 0, 2, n_time, 5)),
+    )
     freestream = freestream_components(speed, beta, flight_path_angle)
+    off = inflow_switched_off(freestream[:, :, 1], options)
     if not convected:
         phases = np.empty((0, 2, n_time))
     elif phases is None:
         phases = np.broadcast_to(2.0 * np.pi * np.arange(n_time) / n_time, (batch, 2, n_time))
-    phases = np.ascontiguousarray(phases, dtype=float)
-    args = (
-        angles[0], weights[0], angles[1], weights[1], frequency, beta, sweep,
-        freestream, nodes_f, consts_f, nodes_h, consts_h, insect.air_density, mode[options.induction],
-        inflow_switched_off(freestream[:, :, 1], options), options.interference, options.spin == "total", options.tolerance,
-        options.max_evaluations, out, inflow, history, *cycle.fourier_tables(n_time),
-        *coefficient_tables(insect), convected, phases, insect.root_spacing, insect.root_drop,
-    )  # fmt: skip
+    fore, hind = (
+        WingBatch(
+            *(np.ascontiguousarray(a) for a in (angles[w], weights[w])),
+            *(np.ascontiguousarray(a[:, w], dtype=float) for a in (frequency, beta, sweep)),
+            *(np.ascontiguousarray(freestream[:, w, i]) for i in (0, 1)),
+            np.ascontiguousarray(off[:, w]),
+            np.ascontiguousarray(phases[:, w], dtype=float),
+            tables[2 * w],
+            tables[2 * w + 1],
+            coefficient_tables(insect)[w],
+        )
+        for w in (0, 1)
+    )
+    settings = kernel_settings(insect, options, n_time)
     with compile_notice():  # the first call compiles the kernels: say so once
         if batch >= SERIAL_BELOW:
-            cycle.tandem_cycle(*args)
+            cycle.tandem_cycle(fore, hind, settings, outputs)
         else:
             for b in range(batch):
-                cycle.tandem_stroke(b, *args)
-    return out, inflow, history
+                cycle.tandem_stroke(b, fore, hind, settings, outputs)
+    return outputs
 
 
 def _performance(

@@ -8,14 +8,21 @@ autograd with respect to the strokes and to speed, flight-path angle and availab
 those are tensors. It follows the numba kernel decision by decision, so that the two agree to
 rounding (docs/model.md §12.1):
 
-* the frame rates and element forces (``blade``, Eqs. 6-16), the node tables of :func:`model.wing_tables`;
-* the per-annulus safeguarded Newton inflow solve of ``induction.solve_annulus_samples``, every
-  annulus with its own iterate, bracket and stopping rule: a converged annulus is masked and
-  keeps its value while the others go on (no fixed iteration count);
-* the exact positive-part integrals of ``cycle.mean_positive_part`` (zero crossings of the
-  trigonometric interpolant by the same safeguarded Newton);
+* the pointwise formulae are the kernel's own, run on tensors (``xp.on_namespace``): the
+  frame coefficients of every sample (``blade.frame_columns``), the element's relative
+  velocity, force, moment, power, shed force and acute angle of attack, the wing's force in
+  earth axes and inertial power (``blade``, Eqs. 6-16), the slope of the normal force, the
+  momentum side and the solve's model residual (``induction``), the convected wake's delay
+  (``cycle.slipstream_delay``), and the blade elements (``cycle.section_at``, a
+  ``bundle.Section`` of tensors from the node tables of :func:`model.wing_tables`);
+* mirrored here: the per-annulus safeguarded Newton inflow solve of
+  ``induction.solve_annulus_samples``, every annulus with its own iterate, bracket and stopping
+  rule: a converged annulus is masked and keeps its value while the others go on (no fixed
+  iteration count); the exact positive-part integrals of ``cycle.mean_positive_part`` (zero
+  crossings of the trigonometric interpolant by the same safeguarded Newton); the convected
+  wake's transforms;
 * the kinematics (Eqs. 3-5) and the motion-following grid, the free stream and the performance
-  step (Eqs. 17-27) are not mirrored but shared: ``kinematics.batched_angle_history``,
+  step (Eqs. 17-27) are shared too: ``kinematics.batched_angle_history``,
   ``model.stroke_plane_speeds``, ``model.inflow_switched_off`` and ``model.flight_performance``,
   written once over an array namespace (``xp``), run on tensors here.
 
@@ -38,7 +45,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from . import cycle
+from . import blade, cycle, induction
+from .bundle import Section
 from .checks import count, flag
 from .coefficients import PaperCoefficients
 from .insect import DRAGONFLY, Dragonfly
@@ -63,7 +71,7 @@ from .stroke import (
     normalised_to_physical,
     validate_physical,
 )
-from .xp import ArrayNamespace
+from .xp import ArrayNamespace, on_namespace
 
 #: torch's :class:`~tandem_env.physics.xp.ArrayNamespace`: the shared model code on tensors.
 TORCH = ArrayNamespace(
@@ -180,222 +188,126 @@ def _condition(value: Any, checked: np.ndarray, like: torch.Tensor) -> torch.Ten
 
 
 # --- frames (blade.fill_frame_coefficients) ------------------------------------------------------
-def _cross(a, b):
-    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
-
-
 def _frame(angles: list[torch.Tensor], weight: torch.Tensor, beta: torch.Tensor, spin_total: bool):
-    """The per-sample frame coefficients of ``blade.fill_frame_coefficients`` (right wing) as a
-    dict of (B, n_time) tensors keyed by the ``blade`` column names (``AU`` for ``C_AU``, …)."""
-    phi, dphi, ddphi, th, dth, ddth, eta, deta, ddeta = angles
-    cb, sb = torch.cos(beta)[:, None], torch.sin(beta)[:, None]
-    cf, sf = torch.cos(phi), torch.sin(phi)
-    ct, st = torch.cos(th), torch.sin(th)
-    ce, se = torch.cos(eta), torch.sin(eta)
-    es = (ct * sf, ct * cf, st)
-    ec = (se * cf - st * ce * sf, -se * sf - st * ce * cf, ct * ce)
-    en = (ce * cf + st * se * sf, -ce * sf + st * se * cf, -ct * se)
-    w = (dth * cf + deta * es[0], -dth * sf + deta * es[1], -dphi + deta * es[2])
-    des = _cross(w, es)
-    dec = _cross(w, ec)
-    den = _cross(w, en)
-    a = (
-        ddth * cf - dth * dphi * sf + ddeta * es[0] + deta * des[0],
-        -ddth * sf - dth * dphi * cf + ddeta * es[1] + deta * des[1],
-        -ddphi + ddeta * es[2] + deta * des[2],
-    )
-    x = _cross(a, es)
-    y = _cross(w, des)
-    dd = (x[0] + y[0], x[1] + y[1], x[2] + y[2])
-    if spin_total:
-        spin = w[0] * es[0] + w[1] * es[1] + w[2] * es[2]
-        dspin = a[0] * es[0] + a[1] * es[1] + a[2] * es[2]  # ω·ė_s = 0
-    else:
-        spin, dspin = deta, ddeta
-    return {
-        "AU": des[0] * ec[0] + des[1] * ec[1] + des[2] * ec[2],
-        "AV": des[0] * en[0] + des[1] * en[1] + des[2] * en[2],
-        "BU": dd[0] * ec[0] + dd[1] * ec[1] + dd[2] * ec[2]
-        + des[0] * dec[0] + des[1] * dec[1] + des[2] * dec[2],
-        "BV": dd[0] * en[0] + dd[1] * en[1] + dd[2] * en[2]
-        + des[0] * den[0] + des[1] * den[1] + des[2] * den[2],
-        "ECX": ec[0], "ECZ": ec[2], "ENX": en[0], "ENZ": en[2],
-        "DECX": dec[0], "DECZ": dec[2], "DENX": den[0], "DENZ": den[2],
-        "SPIN": spin, "DSPIN": dspin, "WEIGHT": weight.expand_as(spin),
-        "ECXE": ec[0] * cb + ec[2] * sb, "ENXE": en[0] * cb + en[2] * sb,
-        "ECZE": -ec[0] * sb + ec[2] * cb, "ENZE": -en[0] * sb + en[2] * cb,
-        "KIN": des[0] * dd[0] + des[1] * dd[1] + des[2] * dd[2],
-    }  # fmt: skip
+    """The per-sample frame coefficients of the right wing (``blade.frame_columns`` of every
+    sample at once), (N_COEF, B, n_time) in ``blade``'s column order."""
+    columns = _on_tensors(blade.frame_columns)(
+        torch.stack(angles, -1), ..., weight, torch.cos(beta)[:, None], torch.sin(beta)[:, None],
+        spin_total, 1,
+    )  # fmt: skip
+    return torch.stack(torch.broadcast_tensors(*columns))
 
 
-# --- element forces and the force sweep (blade.element_force, induction.normal_force_*) ---------
-#: The frame coefficients a force sweep and its slope read.
-_SWEEP_KEYS = ("AU", "AV", "BU", "BV", "ECX", "ECZ", "ENX", "ENZ", "DECX", "DECZ", "DENX", "DENZ",
-               "SPIN", "WEIGHT")  # fmt: skip
+# --- the force sweep (induction.normal_force_sweep, _slope) and the span integrals --------------
+#: :class:`Section`'s per-element fields (the node table's; the others are the wing's).
+_ELEMENT_FIELDS = ("r", "chord", "width", "m11", "m22", "inertia_a", "damping")
+
+
+def _on_tensors(kernel: Callable) -> Callable:
+    """A compiled elementwise formula of the numba kernel on tensors (``xp.on_namespace``)."""
+    return on_namespace(kernel, TORCH)
 
 
 class _Wing:
-    """One wing's frame (each (B, 1, n_time)), nodes (each (1, n_blade, 1)) and constants."""
+    """One wing's frame, ``frame`` (N_COEF, B, 1, n_time) in ``blade``'s column order, and its
+    blade elements: ``section``, the numba kernel's
+    :class:`~tandem_env.physics.bundle.Section` with the node-table fields as (n_blade, 1)
+    tensors (``cycle.section_at`` of every annulus at once)."""
 
     def __init__(
-        self, frame: dict, nodes: np.ndarray, consts: np.ndarray, rho: float, like, compiled
+        self, frame: torch.Tensor, nodes: np.ndarray, consts: np.ndarray, rho: float, like, compiled
     ):
         self.compiled = compiled
-        self.f = {key: value[:, None, :] for key, value in frame.items()}
-        node = torch.tensor(nodes, dtype=like.dtype, device=like.device)[None, :, :, None]
-        self.r = node[:, :, cycle.N_R]
-        self.chord = node[:, :, cycle.N_CHORD]
-        self.width = node[:, :, cycle.N_WIDTH]
-        self.m11 = node[:, :, cycle.N_M11]
-        self.m22 = node[:, :, cycle.N_M22]
-        self.inertia_a = node[:, :, cycle.N_IA]
-        self.damping = node[:, :, cycle.N_DAMP]
+        self.frame = frame[:, :, None, :]
+        node = torch.tensor(nodes, dtype=like.dtype, device=like.device)[:, :, None]
         c = [float(v) for v in consts]
-        self.ct, self.cd0, self.cd90, self.cr = (
-            c[cycle.K_CT], c[cycle.K_CD0], c[cycle.K_CD90], c[cycle.K_CR]
-        )  # fmt: skip
-        self.mu1, self.mu2 = c[cycle.K_MU1], c[cycle.K_MU2]
+        self.section = cycle.section_at.py_func(node, slice(None), c, rho)
         self.i_span, self.i_pitch = c[cycle.K_I_SPAN], c[cycle.K_I_PITCH]
-        self.rho = rho
-        self.n_time = frame["AU"].shape[1]
-
-    def constants(self) -> tuple[float, ...]:
-        return (self.ct, self.cd0, self.cd90, self.cr, self.rho)
-
-    def nodes(self) -> tuple[torch.Tensor, ...]:
-        return (self.r, self.chord, self.m11, self.m22)
+        self.n_time = frame.shape[-1]
 
     def sweep_and_slope(self, vt: torch.Tensor, vn: torch.Tensor):
         """F̄_n [N/m] and dF̄_n/dv_n [N·s/m²] at normal inflow ``vn`` with ``vt``, both shaped
         like the nodes ((B, n_blade, 1) or (n, 1)); results have the nodes' shape without the
         last axis (``induction.normal_force_sweep`` and ``normal_force_slope``)."""
         core = _compiled(_sweep_and_slope) if self.compiled else _sweep_and_slope
-        frame = tuple(self.f[key] for key in _SWEEP_KEYS)
-        return core(frame, self.nodes(), self.constants(), vt, vn)
+        return core(self.frame, self.section, vt, vn)
 
     def sweep_and_slope_at(self, rows: torch.Tensor, cols: torch.Tensor, vt, vn):
         """:meth:`sweep_and_slope` of the listed (stroke, annulus) pairs only (the inflow
         solve's active annuli), ``vt`` and ``vn`` (n, 1): results (n,)."""
         core = _compiled(_sweep_and_slope_at) if self.compiled else _sweep_and_slope_at
-        frame = tuple(self.f[key] for key in _SWEEP_KEYS)
-        return core(frame, self.nodes(), self.constants(), vt, vn, rows, cols)
+        return core(self.frame, self.section, vt, vn, rows, cols)
 
 
-def _element_state(frame, nodes, constants, vt, vn):
-    """The relative velocity (u, v) [m/s] of every element and sample (``blade.relative_velocity``)
-    and the element force (F_c, F_n) [N/m] (``blade.element_force``, the paper's coefficients)."""
-    au, av, bu, bv, ecx, ecz, enx, enz, decx, decz, denx, denz, spin, _ = frame
-    r, chord, m11, m22 = nodes
-    ct, cd0, cd90, cr, rho = constants
-    u = r * au + vt * ecx + vn * ecz
-    v = r * av + vt * enx + vn * enz
-    du = r * bu + vt * decx + vn * decz
-    dv = r * bv + vt * denx + vn * denz
-    speed2 = u * u + v * v
-    moving = speed2 > 0.0
-    speed = torch.sqrt(torch.where(moving, speed2, torch.ones_like(speed2)))
-    gamma = 0.5 * cr * spin * chord * chord
-    gamma = gamma - torch.where(moving, ct * chord * u * v / speed, 0.0)
-    drag = torch.where(moving, 0.5 * rho * chord * (cd0 * u * u + cd90 * v * v) / speed, 0.0)
-    fc = m22 * v * spin - m11 * du - drag * u - rho * gamma * v
-    fn = -m11 * u * spin - m22 * dv - drag * v + rho * gamma * u
-    return u, v, fc, fn
+def _element_state(frame, section: Section, vt, vn):
+    """The frame as the kernel's formulas index it (``coef[k, C_*]`` with k = ``...``), the
+    relative velocity (u, v, u̇, v̇) [m/s, m/s²] of every element and sample
+    (``blade.relative_velocity``) and the element force (F_c, F_n) [N/m]
+    (``blade.element_force``, the paper's coefficients)."""
+    coef = frame.movedim(0, -1)
+    u, v, du, dv = _on_tensors(blade.relative_velocity)(coef, ..., section.r, vt, vn)
+    fc, fn = _on_tensors(blade.element_force)(u, v, du, dv, frame[blade.C_SPIN], section)
+    return coef, (u, v, du, dv), (fc, fn)
 
 
-def _sweep_and_slope(frame, nodes, constants, vt, vn):
+def _sweep_and_slope(frame, section: Section, vt, vn):
     """Cycle-mean normal force and its exact slope (``induction.normal_force_rate``) of a sweep."""
-    u, v, fc, fn = _element_state(frame, nodes, constants, vt, vn)
-    _, _, _, _, _, a, _, b, _, c, _, d, spin, weight = frame
-    _, chord, m11, m22 = nodes
-    ct, cd0, cd90, _, rho = constants
+    _, (u, v, _, _), (fc, fn) = _element_state(frame, section, vt, vn)
+    a, b = frame[blade.C_ECZ], frame[blade.C_ENZ]
+    weight = frame[blade.C_WEIGHT]
     n_time = weight.shape[-1]
     mean = ((fc * a + fn * b) * weight).sum(-1) / n_time
-    rate = (m22 - m11) * a * b * spin - m11 * a * c - m22 * b * d
-    speed2 = u * u + v * v
-    moving = speed2 > 0.0
-    inv = 1.0 / torch.sqrt(torch.where(moving, speed2, torch.ones_like(speed2)))
-    along = u * a + v * b
-    across = u * b - v * a
-    dspeed = along * inv
-    uv = u * v * inv
-    duv = (a * v + u * b - uv * dspeed) * inv
-    k = 0.5 * rho * chord
-    drag = k * (cd0 * u * u + cd90 * v * v) * inv
-    ddrag = (2.0 * k * (cd0 * u * a + cd90 * v * b) - drag * dspeed) * inv
-    viscous = rho * ct * chord * duv * across + ddrag * along + drag * (a * a + b * b)
-    rate = rate - torch.where(moving, viscous, 0.0)
+    rate = _on_tensors(induction.normal_force_rate)(
+        u, v, a, b, frame[blade.C_DECZ], frame[blade.C_DENZ], frame[blade.C_SPIN], section
+    )
     return mean, (rate * weight).sum(-1) / n_time
 
 
-def _sweep_and_slope_at(frame, nodes, constants, vt, vn, rows, cols):
+def _sweep_and_slope_at(frame, section: Section, vt, vn, rows, cols):
     """:func:`_sweep_and_slope` of the (stroke ``rows``, annulus ``cols``) pairs: the gathers
     sit inside the function, so that a compiled version reads the frame in place."""
-    frame = tuple(t[rows, 0] for t in frame)
-    nodes = tuple(t[0, cols] for t in nodes)
-    return _sweep_and_slope(frame, nodes, constants, vt, vn)
+    section = section._replace(**{name: getattr(section, name)[cols] for name in _ELEMENT_FIELDS})
+    return _sweep_and_slope(frame[:, rows, 0], section, vt, vn)
 
 
-def _span_integrals(frame, nodes, constants, vt, vn, rotation, extra):
+def _span_integrals(frame, section: Section, vt, vn, frequency):
     """Per sample, the span integrals of F_c, F_n [N], of the power delivered to the air P_aero
     [W] and of the chord-weighted acute angle of attack [m²·rad] at the solved inflow
-    (``cycle.wing_cycle``'s final pass); ``rotation``: (AU, AV, DSPIN, frequency) with
-    frequency (B, 1, 1) [Hz], ``extra``: (width, inertia_a, damping, mu1, mu2)."""
-    u, v, fc, fn = _element_state(frame, nodes, constants, vt, vn)
-    spin = frame[12]
-    r, chord, m11, m22 = nodes
-    au, av, dspin, frequency = rotation
-    width, inertia_a, damping, mu1, mu2 = extra
-    moment = (
-        (m11 - m22) * u * v
-        - inertia_a * dspin
-        - damping * (mu1 * frequency + mu2 * spin.abs()) * spin
+    (``cycle.wing_cycle``'s final pass); ``frequency`` (B, 1, 1) [Hz]."""
+    coef, (u, v, _, _), (fc, fn) = _element_state(frame, section, vt, vn)
+    moment = _on_tensors(blade.element_moment)(
+        u, v, frame[blade.C_SPIN], frame[blade.C_DSPIN], section, frequency
     )
+    width = section.width
+    power = _on_tensors(blade.element_power)(coef, ..., fc, fn, moment, section)
     return (
         (width * fc).sum(1),
         (width * fn).sum(1),
-        -(width * (r * (fc * au + fn * av) + moment * spin)).sum(1),
-        (chord * width * acute_angle(u, v)).sum(1),
+        (width * power).sum(1),
+        (section.chord * width * _on_tensors(blade.acute_angle)(u, v)).sum(1),
     )
 
 
-def _shed_load(frame, nodes, constants, vt, vn, width):
+def _shed_load(frame, section: Section, vt, vn):
     """Per sample, the span integral of the circulatory and viscous element forces along the
-    stroke-plane normal [N]: the force the wing sheds into its wake (``cycle.wing_cycle``'s
-    ``out_load``: the element force less its added mass, Eq. 12)."""
-    u, v, fc, fn = _element_state(frame, nodes, constants, vt, vn)
-    _, _, bu, bv, _, ecz, _, enz, decx, decz, denx, denz, spin, _ = frame
-    r, _, m11, m22 = nodes
-    du = r * bu + vt * decx + vn * decz
-    dv = r * bv + vt * denx + vn * denz
-    fc = fc - m22 * v * spin + m11 * du
-    fn = fn + m11 * u * spin + m22 * dv
-    return (width * (fc * ecz + fn * enz)).sum(1)
+    stroke-plane normal [N]: the force the wing sheds into its wake (``blade.shed_force``)."""
+    coef, velocity, force = _element_state(frame, section, vt, vn)
+    shed = _on_tensors(blade.shed_force)(coef, ..., *velocity, *force, section)
+    return (section.width * shed).sum(1)
 
 
-# --- the convected slipstream (cycle.slipstream_delay, cycle.convected_wake) --------------------
+# --- the convected slipstream (cycle.disc_inflow, cycle.convected_wake) -------------------------
 def _disc_inflow(inflow, wing: _Wing):
     """``cycle.disc_inflow``: the mean induced velocity over the swept disc (B,) [m/s]."""
-    area = (wing.r * wing.width)[0, :, 0]
+    area = (wing.section.r * wing.section.width)[:, 0]
     return (inflow * area).sum(-1) / area.sum()
-
-
-def _slipstream_delay(inflow_fore, fore: _Wing, vn_hind, beta_fore, beta_hind, insect):
-    """``cycle.slipstream_delay``: the wake's travel time to the hind-wing's plane (B,) [s]."""
-    along = _disc_inflow(inflow_fore, fore) * torch.cos(beta_fore - beta_hind)
-    speed = torch.maximum(vn_hind + along, 0.5 * along)
-    distance = torch.clamp(
-        insect.root_spacing * torch.sin(beta_hind) + insect.root_drop * torch.cos(beta_hind),
-        min=0.0,
-    )
-    moving = speed > 0.0
-    return torch.where(moving, distance / torch.where(moving, speed, 1.0), 0.0)
 
 
 def _convected_wake(load, weight, phase_fore, phase_hind, delay, inflow_fore, fore: _Wing,
                     sweep_fore, vt, vn, interference):  # fmt: skip
     """``cycle.convected_wake``: C_hf·Δv at the hind-wing's samples (B, n_time) [m/s]."""
     n = load.shape[-1]
-    k_disc = 4.0 * fore.rho * sweep_fore * (fore.r * fore.width).sum()
+    k_disc = 4.0 * fore.section.rho * sweep_fore * (fore.section.r * fore.section.width).sum()
     mean = (load * weight).sum(-1, keepdim=True) / n
     rms = torch.sqrt(((load - mean) ** 2 * weight).sum(-1) / n)
     v_disc = _disc_inflow(inflow_fore, fore)
@@ -429,22 +341,9 @@ def _compiled(function: Callable) -> Callable:
 
 
 # --- the inflow solve (induction.solve_annulus_samples), every annulus at once -----------------
-def _momentum(v, k_area, vt, vn0):
-    """m(v) = k·v·sqrt(V_t² + (V_n' + v)²) and dm/dv (0 where the root vanishes)."""
-    w = vn0 + v
-    root2 = vt * vt + w * w
-    nonzero = root2 > 0.0
-    root = torch.sqrt(torch.where(nonzero, root2, torch.ones_like(root2)))
-    m = torch.where(nonzero, k_area * v * root, 0.0)
-    dm = torch.where(nonzero, k_area * (root + v * w / root), 0.0)
-    return m, dm
-
-
-def _model_residual(v, coefs, k_area, vt, vn0):
-    x0, c0, c1, c2, c3 = coefs
-    d = v - x0
-    m, dm = _momentum(v, k_area, vt, vn0)
-    return c0 + d * (c1 + d * (c2 + d * c3)) - m, c1 + d * (2.0 * c2 + 3.0 * d * c3) - dm
+#: The momentum side m(v), dm/dv and the force model minus it (``induction``), on tensors.
+_momentum = _on_tensors(induction._momentum)
+_model_residual = _on_tensors(induction._model_residual)
 
 
 def _newton_in_bracket(coefs, k_area, vt, vn0, lo, hi):
@@ -555,7 +454,9 @@ def _solve_inflow(
     strokes whose wing solves its inflow at all; ``wake`` (B, n_time) or None: the part of the
     upstream inflow that varies over the cycle [m/s], in the sweeps only)."""
     vt_b = vt[:, None]
-    k_area = (4.0 * wing.rho * sweep_amplitude[:, None] * wing.r[..., 0]).expand_as(vn0)
+    k_area = (4.0 * wing.section.rho * sweep_amplitude[:, None] * wing.section.r[..., 0]).expand_as(
+        vn0
+    )
     vn_start = vn0[:, :, None] if wake is None else vn0[:, :, None] + wake[:, None, :]
     f0, s0 = wing.sweep_and_slope(vt[:, None, None], vn_start)
     trivial = (f0 <= 0.0) | (k_area <= 0.0) | ~solve[:, None]
@@ -708,31 +609,6 @@ def mean_positive_part(g: torch.Tensor) -> torch.Tensor:
     return torch.where(count > 0, torch.clamp(total, min=0.0) / _TWO_PI, out)
 
 
-_ACUTE_SERIES = (-1.0 / 11.0, 1.0 / 9.0, -1.0 / 7.0, 1.0 / 5.0, -1.0 / 3.0)
-
-
-def acute_angle(along: torch.Tensor, across: torch.Tensor) -> torch.Tensor:
-    """atan(|across|/|along|) ∈ [0, π/2] [rad] by ``blade.acute_angle``'s polynomial (the same
-    2e-8 rad approximation, so the mean angle of attack agrees to rounding)."""
-    x, y = along.abs(), across.abs()
-    still = (x == 0.0) & (y == 0.0)
-    swap = y > x
-    num = torch.where(swap, x, y)
-    den = torch.where(still, torch.ones_like(x), torch.where(swap, y, x))
-    z = num / den
-    reduce = z > 0.41421356237309503
-    z = torch.where(reduce, (z - 1.0) / (z + 1.0), z)
-    offset = reduce.to(z.dtype) * 0.7853981633974483
-    z2 = z * z
-    # odd Taylor series of atan to z¹⁵ by Horner, in blade.acute_angle's order of operations
-    poly = 1.0 / 13.0 - z2 / 15.0
-    for coefficient in _ACUTE_SERIES:
-        poly = coefficient + z2 * poly
-    angle = offset + z * (1.0 + z2 * poly)
-    angle = torch.where(swap, 1.5707963267948966 - angle, angle)
-    return torch.where(still, 0.0, angle)
-
-
 def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options, wake=None):
     """Per-wing cycle means (a dict of (B,) tensors keyed like ``cycle``'s W_ columns, ``FZ``
     for ``W_FZ``, …) and the inflow per annulus (B, n_blade) (``cycle.wing_cycle``; ``wake``
@@ -746,24 +622,19 @@ def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options
             wing, vt, vn0, sweep_amplitude, solve, options.tolerance, options.max_evaluations,
             wake,
         )  # fmt: skip
-    f = wing.f
     core = _compiled(_span_integrals) if wing.compiled else _span_integrals
     vn_final = (vn0 + v_i)[:, :, None]
     if wake is not None:
         vn_final = vn_final + wake[:, None, :]
     span_fc, span_fn, span_power, span_aoa = core(
-        tuple(f[key] for key in _SWEEP_KEYS), wing.nodes(), wing.constants(),
-        vt[:, None, None], vn_final,
-        (f["AU"], f["AV"], f["DSPIN"], frequency[:, None, None]),
-        (wing.width, wing.inertia_a, wing.damping, wing.mu1, wing.mu2),
-    )  # fmt: skip
-    chord, width = wing.chord, wing.width
-    g = {k: value[:, 0, :] for k, value in f.items()}
+        wing.frame, wing.section, vt[:, None, None], vn_final, frequency[:, None, None]
+    )
+    chord, width = wing.section.chord, wing.section.width
+    coef = wing.frame[:, :, 0].movedim(0, -1)
     n_time = wing.n_time
-    fx = span_fc * g["ECXE"] + span_fn * g["ENXE"]
-    fz = span_fc * g["ECZE"] + span_fn * g["ENZE"]
-    p_iner = wing.i_span * g["KIN"] + wing.i_pitch * g["SPIN"] * g["DSPIN"]
-    weight = g["WEIGHT"]
+    fx, fz, _ = _on_tensors(blade.earth_forces)(coef, ..., span_fc, span_fn)
+    p_iner = _on_tensors(blade.inertial_power)(coef, ..., wing.i_span, wing.i_pitch)
+    weight = coef[..., blade.C_WEIGHT]
     out = {"FX": (fx * weight).sum(-1) / n_time, "FZ": (fz * weight).sum(-1) / n_time}
     mean_aero = (span_power * weight).sum(-1) / n_time
     mean_iner = (p_iner * weight).sum(-1) / n_time
@@ -808,7 +679,9 @@ def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, com
             vn0 = vn0 + torch.where(off[:, None], 0.0, options.interference * inflow_fore)
         if index == 1 and convected:
             # the convected slipstream (docs/model.md §5.7; cycle.tandem_stroke)
-            delay = _slipstream_delay(inflow_fore, fore["wing"], vn, fore["beta"], beta, insect)
+            delay = _on_tensors(cycle.slipstream_delay)(
+                _disc_inflow(inflow_fore, fore["wing"]), vn, fore["beta"], beta, insect
+            )
             wake = _convected_wake(
                 fore["load"], fore["weight"], fore["phase"], phase,
                 2.0 * math.pi * frequency * delay, inflow_fore, fore["wing"],
@@ -818,9 +691,8 @@ def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, com
         out, inflow = _wing_cycle(wing, frequency, sweep_amplitude, vt, vn0, ~off, options, wake)
         if index == 0 and convected:
             load = _shed_load(
-                tuple(wing.f[key] for key in _SWEEP_KEYS), wing.nodes(), wing.constants(),
-                vt[:, None, None], (vn0 + inflow)[:, :, None], wing.width,
-            )  # fmt: skip
+                wing.frame, wing.section, vt[:, None, None], (vn0 + inflow)[:, :, None]
+            )
             fore = {
                 "wing": wing, "load": load, "weight": weight, "phase": phase, "beta": beta,
                 "sweep": sweep_amplitude, "vt": vt, "vn": vn, "off": off,

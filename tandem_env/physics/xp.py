@@ -19,6 +19,7 @@ from functools import cache
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 
 @dataclass(frozen=True)
@@ -65,15 +66,39 @@ NUMPY = ArrayNamespace(
 )
 
 
+#: numba's error model for the formulas that branch through :func:`select`: IEEE division, without
+#: the zero-divisor check of numba's default ("python") error model, a branch which keeps the
+#: compiler from vectorising the loops that call them (3-4× slower). Their divisors are
+#: selected nonzero where the result is read, so no result changes.
+BRANCH_FREE = "numpy"
+
+
+@njit(cache=True)
+def select(condition, if_true, otherwise):
+    """``if_true`` where ``condition``, else ``otherwise``: in compiled code a scalar choice (both
+    already computed, so the compiler may vectorise the loop around it), on arrays ``xp.where``
+    (:func:`on_namespace`). An elementwise formula branches through this, never through ``if``,
+    so that it runs on both. ``otherwise`` may be a number, but not both: torch would make that
+    a float32."""
+    return if_true if condition else otherwise
+
+
 @cache
 def on_namespace(kernel: Callable, xp: ArrayNamespace) -> Callable:
     """The pure-Python body of a numba-compiled elementwise function (its ``py_func``) with the
-    name ``np`` in it bound to ``xp``: the same formulas, compiled for numba's scalars, run on
-    broadcast numpy or torch arrays. The function may call only ``np.<name>`` that ``xp`` has."""
+    name ``np`` in it bound to ``xp``, :func:`select` to ``xp.where`` and every numba-compiled
+    function it calls to that function on ``xp`` in turn: the same formulas, compiled for
+    numba's scalars, run on broadcast numpy or torch arrays. The functions may call only
+    ``np.<name>`` that ``xp`` has, and branch with ``if`` only on what is not an array."""
     body = getattr(kernel, "py_func", kernel)
+    names = {"np": xp, "select": xp.where}
+    for name in body.__code__.co_names:
+        called = body.__globals__.get(name)
+        if name not in names and hasattr(called, "py_func"):
+            names[name] = on_namespace(called, xp)
     return types.FunctionType(
         body.__code__,
-        {**body.__globals__, "np": xp},
+        {**body.__globals__, **names},
         body.__name__,
         body.__defaults__,
         body.__closure__,

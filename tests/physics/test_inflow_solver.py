@@ -9,11 +9,13 @@ import pytest
 import tandem_env as te
 from tandem_env import ModelOptions, evaluate
 from tandem_env.physics import blade, cycle, induction, model
+from tandem_env.physics.bundle import Section, WingStroke
 from tandem_env.physics.kinematics import fill_angle_history, wing_params_radians
 
 INSECT = te.DRAGONFLY
 OPTIONS = ModelOptions()
 RHO = INSECT.air_density
+SETTINGS = model.kernel_settings(INSECT, OPTIONS, OPTIONS.n_time)
 
 
 def random_strokes(n: int, seed: int) -> np.ndarray:
@@ -33,8 +35,8 @@ def fore_wing_frames(stroke: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def annuli():
     nodes, consts = model.wing_tables(INSECT.fore, OPTIONS.n_blade, RHO)
-    for r, chord, _, m11, m22, *_ in nodes:
-        yield (r, chord, m11, m22, RHO, *consts[:4])
+    for j in range(OPTIONS.n_blade):
+        yield cycle.section_at(nodes, j, consts, RHO)
 
 
 def test_slope_of_the_mean_normal_force_matches_finite_differences() -> None:
@@ -45,16 +47,13 @@ def test_slope_of_the_mean_normal_force_matches_finite_differences() -> None:
         coef, _ = fore_wing_frames(stroke)
         for annulus in annuli():
             for v_t, v_n in ((0.0, 0.0), (0.8, 0.3), (1.9, 1.4)):
-                induction.normal_force_sweep(coef, *annulus, v_t, v_n, samples)
-                _, chord, m11, m22, rho, ct, cd0, cd90, _ = annulus
-                slope = induction.normal_force_slope(
-                    coef, chord, m11, m22, rho, ct, cd0, cd90, samples
-                )
+                induction.normal_force_sweep(coef, annulus, v_t, v_n, samples)
+                slope = induction.normal_force_slope(coef, annulus, samples)
                 # a step small against the element's speeds (they vanish at the root in hover)
-                flapping = annulus[0] * np.abs(coef[:, [blade.C_AU, blade.C_AV]]).max()
+                flapping = annulus.r * np.abs(coef[:, [blade.C_AU, blade.C_AV]]).max()
                 step = 1e-4 * max(flapping, v_t, v_n)
-                above = induction.mean_normal_force(coef, *annulus, v_t, v_n + step)
-                below = induction.mean_normal_force(coef, *annulus, v_t, v_n - step)
+                above = induction.mean_normal_force(coef, annulus, v_t, v_n + step)
+                below = induction.mean_normal_force(coef, annulus, v_t, v_n - step)
                 central = (above - below) / (2.0 * step)
                 errors.append(abs(slope - central) / max(abs(central), 1e-9))
     assert len(errors) >= 400
@@ -103,20 +102,13 @@ def test_slope_with_a_coefficient_model_matches_finite_differences(name: str) ->
         coef, _ = fore_wing_frames(stroke)
         for annulus in annuli():
             for v_t, v_n in ((0.0, 0.0), (0.8, 0.3), (1.9, 1.4)):
-                induction.normal_force_sweep(coef, *annulus, v_t, v_n, samples, table)
-                _, chord, m11, m22, rho, ct, cd0, cd90, _ = annulus
-                slope = induction.normal_force_slope(
-                    coef, chord, m11, m22, rho, ct, cd0, cd90, samples, table
-                )
-                flapping = annulus[0] * np.abs(coef[:, [blade.C_AU, blade.C_AV]]).max()
+                induction.normal_force_sweep(coef, annulus, v_t, v_n, samples, table)
+                slope = induction.normal_force_slope(coef, annulus, samples, table)
+                flapping = annulus.r * np.abs(coef[:, [blade.C_AU, blade.C_AV]]).max()
                 step = 1e-4 * max(flapping, v_t, v_n)
-                above = induction.normal_force_sweep(
-                    coef, *annulus, v_t, v_n + step, shifted, table
-                )
+                above = induction.normal_force_sweep(coef, annulus, v_t, v_n + step, shifted, table)
                 record = shifted.copy()
-                below = induction.normal_force_sweep(
-                    coef, *annulus, v_t, v_n - step, shifted, table
-                )
+                below = induction.normal_force_sweep(coef, annulus, v_t, v_n - step, shifted, table)
                 if breaks_crossed(record, shifted, breaks):
                     continue
                 central = (above - below) / (2.0 * step)
@@ -141,6 +133,7 @@ def test_model_slope_of_the_paper_formula_restated_as_a_fit_is_the_analytic_slop
     rng = np.random.default_rng(3)
     chord = 0.008
     m11, m22 = 0.0, 0.25 * np.pi * RHO * chord**2
+    section = Section(0.0, chord, 0.0, m11, m22, 0.0, 0.0, RHO, ct, cd0, cd90, 0.0, 0.0, 0.0)
     errors = []
     for i in range(2000):
         speed = rng.uniform(0.05, 5.0)
@@ -152,8 +145,8 @@ def test_model_slope_of_the_paper_formula_restated_as_a_fit_is_the_analytic_slop
             u, v = speed * np.cos(angle), speed * np.sin(angle)
         a, b = rng.uniform(-1.0, 1.0, 2)
         c, d, spin = rng.normal(0.0, 50.0, 3)
-        state = (u, v, a, b, c, d, spin, chord, m11, m22, RHO)
-        exact = induction.normal_force_rate(*state, ct, cd0, cd90)
+        state = (u, v, a, b, c, d, spin, section)
+        exact = induction.normal_force_rate(*state)
         model_rate = induction.normal_force_rate_model(*state, table)
         scale = RHO * chord * speed * (ct + cd90)  # size of the translational slope
         errors.append(abs(model_rate - exact) / scale)
@@ -184,7 +177,6 @@ def test_cycle_reuses_the_last_sweep_exactly(speed: float) -> None:
     """The cycle integrals reuse the solver's last sweep: imposing the solved inflow and
     recomputing every element force gives bit-identical cycle means."""
     nodes, consts = model.wing_tables(INSECT.fore, OPTIONS.n_blade, RHO)
-    tables = cycle.fourier_tables(OPTIONS.n_time)
     checked = 0
     for stroke in random_strokes(8, seed=21):
         coef, params = fore_wing_frames(stroke)
@@ -195,11 +187,11 @@ def test_cycle_reuses_the_last_sweep_exactly(speed: float) -> None:
             out = np.empty(cycle.N_WING_OUT)
             solved = np.empty(OPTIONS.n_blade)
             histories = np.empty((OPTIONS.n_time, 5))
-            cycle.wing_cycle(
-                coef, nodes, consts, RHO, params[0], params[1], v_t, v_n,
-                inflow.copy(), solve, OPTIONS.tolerance, OPTIONS.max_evaluations,
-                solved, out, histories, *tables,
+            wing = WingStroke(
+                coef, nodes, consts, None, params[0], params[1], v_t, v_n, coef[:, blade.C_WEIGHT],
+                np.empty(0),
             )  # fmt: skip
+            cycle.wing_cycle(wing, SETTINGS, inflow.copy(), solve, solved, out, histories)
             if solve:
                 inflow = solved.copy()
             runs.append((out, histories))
@@ -221,9 +213,8 @@ def sweeps_of_solved_annuli(
         v_t, v_n = speed * np.cos(params[13]), speed * np.sin(params[13])
         for annulus in annuli():
             _, sweeps, ok = induction.solve_annulus(
-                coef, *annulus, v_t, v_n, params[1], OPTIONS.tolerance, OPTIONS.max_evaluations,
-                table,
-            )  # fmt: skip
+                coef, annulus, v_t, v_n, params[1], SETTINGS, table
+            )
             assert ok
             if sweeps > 1:
                 counts.append(sweeps)
@@ -260,17 +251,18 @@ def test_solver_meets_the_momentum_balance_for_any_free_stream(v_normal: float) 
     """Glauert's balance holds also where the free stream leaves the swept disc (V_n' < 0, a
     descent through the stroke plane), where m(v) is not monotone and the bracket must hold."""
     checked = 0
+    tight = model.kernel_settings(INSECT, ModelOptions(tolerance=1e-8, max_evaluations=60), 1)
     for stroke in random_strokes(20, seed=61):
         coef, params = fore_wing_frames(stroke)
         for annulus in annuli():
-            v_i, _, ok = induction.solve_annulus(coef, *annulus, 0.5, v_normal, params[1], 1e-8, 60)
+            v_i, _, ok = induction.solve_annulus(coef, annulus, 0.5, v_normal, params[1], tight)
             assert ok
-            f0 = induction.mean_normal_force(coef, *annulus, 0.5, v_normal)
+            f0 = induction.mean_normal_force(coef, annulus, 0.5, v_normal)
             if f0 <= 0.0:
                 assert v_i == 0.0
                 continue
-            force = induction.mean_normal_force(coef, *annulus, 0.5, v_normal + v_i)
-            momentum = 4 * RHO * params[1] * annulus[0] * v_i * np.hypot(0.5, v_normal + v_i)
+            force = induction.mean_normal_force(coef, annulus, 0.5, v_normal + v_i)
+            momentum = 4 * RHO * params[1] * annulus.r * v_i * np.hypot(0.5, v_normal + v_i)
             assert v_i > 0.0
             assert force == pytest.approx(momentum, rel=1e-6, abs=1e-7 * f0)
             checked += 1

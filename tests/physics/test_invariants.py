@@ -17,6 +17,7 @@ from tandem_env import (
     stroke_history,
 )
 from tandem_env.physics.blade import element_force
+from tandem_env.physics.bundle import Section
 
 RHO = 1.225
 NO_INFLOW = ModelOptions(induction="none")
@@ -43,7 +44,8 @@ def test_element_steady_translation_gives_quasi_steady_lift_and_drag(alpha_deg: 
     speed, chord, ct, cd0, cd90 = 3.0, 0.006, 2.0, 0.12, 2.71
     # velocity of the plate relative to the air, in chord axes (u along the chord)
     u, v = speed * np.cos(alpha), -speed * np.sin(alpha)
-    fc, fn = element_force(u, v, 0.0, 0.0, 0.0, chord, 0.0, 0.0, RHO, ct, cd0, cd90, np.pi)
+    plate = Section(chord=chord, rho=RHO, ct=ct, cd0=cd0, cd90=cd90, cr=np.pi)
+    fc, fn = element_force(u, v, 0.0, 0.0, 0.0, plate)
     force = np.array([fc, fn])
     motion = np.array([u, v]) / speed
     normal = np.array([-motion[1], motion[0]])
@@ -270,11 +272,12 @@ def test_own_inflow_reduces_lift_of_a_lifting_wing() -> None:
 @pytest.mark.parametrize("speed", [0.0, 1.5])
 def test_inflow_satisfies_the_momentum_balance_on_every_annulus(speed: float) -> None:
     """Glauert: F̄_n(r, v_i) = 4ρφ_m·r·v_i·sqrt(V_t² + (V_n + v_i)²), or v_i = 0 where F̄_n(0) ≤ 0."""
-    from tandem_env.physics import blade, induction, model
+    from tandem_env.physics import blade, cycle, induction, model
     from tandem_env.physics.kinematics import fill_angle_history, wing_params_radians
 
     options = ModelOptions()
     insect = Dragonfly()
+    tight = model.kernel_settings(insect, ModelOptions(tolerance=1e-6, max_evaluations=60), 1)
     checked = 0
     for stroke in random_strokes(20, seed=81):
         params = wing_params_radians(stroke[:14])
@@ -285,16 +288,16 @@ def test_inflow_satisfies_the_momentum_balance_on_every_annulus(speed: float) ->
         blade.fill_frame_coefficients(angles, weight, params[13], False, 1, coef)
         nodes, consts = model.wing_tables(insect.fore, options.n_blade, insect.air_density)
         v_t, v_n = speed * np.cos(params[13]), speed * np.sin(params[13])
-        for r, chord, _, m11, m22, *_ in nodes:
-            args = (coef, r, chord, m11, m22, RHO, *consts[:4], v_t)
-            v_i, _, ok = induction.solve_annulus(*args, v_n, params[1], 1e-6, 60)
+        for j in range(options.n_blade):
+            section = cycle.section_at(nodes, j, consts, RHO)
+            v_i, _, ok = induction.solve_annulus(coef, section, v_t, v_n, params[1], tight)
             assert ok
-            f0 = induction.mean_normal_force(*args, v_n)
+            f0 = induction.mean_normal_force(coef, section, v_t, v_n)
             if f0 <= 0.0:
                 assert v_i == 0.0
                 continue
-            force = induction.mean_normal_force(*args, v_n + v_i)
-            momentum = 4 * RHO * params[1] * r * v_i * np.hypot(v_t, v_n + v_i)
+            force = induction.mean_normal_force(coef, section, v_t, v_n + v_i)
+            momentum = 4 * RHO * params[1] * section.r * v_i * np.hypot(v_t, v_n + v_i)
             assert v_i > 0.0
             assert force == pytest.approx(momentum, rel=1e-5, abs=1e-6 * f0)
             checked += 1

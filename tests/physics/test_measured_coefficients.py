@@ -20,6 +20,7 @@ from tandem_env import (
     evaluate_measured,
 )
 from tandem_env.physics.blade import element_force
+from tandem_env.physics.bundle import Section
 
 RHO = 1.225
 NO_INFLOW = ModelOptions(induction="none")
@@ -42,7 +43,8 @@ def plate_coefficients(table: np.ndarray | None, alpha_deg: float, ct=2.0, cd0=0
     alpha = np.deg2rad(alpha_deg)
     speed, chord = 3.0, 0.006
     u, v = speed * np.cos(alpha), -speed * np.sin(alpha)
-    args = (u, v, 0.0, 0.0, 0.0, chord, 0.0, 0.0, RHO, ct, cd0, cd90, np.pi)
+    plate = Section(chord=chord, rho=RHO, ct=ct, cd0=cd0, cd90=cd90, cr=np.pi)
+    args = (u, v, 0.0, 0.0, 0.0, plate)
     force = np.array(element_force(*args) if table is None else element_force(*args, table))
     motion = np.array([u, v]) / speed
     normal = np.array([-motion[1], motion[0]])
@@ -104,7 +106,7 @@ def test_plate_symmetries(model: str, alpha: float) -> None:
     table = MODELS[model]
     a = np.deg2rad(alpha)
     u, v = 2.0 * np.cos(a), -2.0 * np.sin(a)
-    common = (0.0, 0.0, 0.0, 0.006, 0.0, 0.0, RHO, 2.0, 0.1, 3.0, np.pi)
+    common = (0.0, 0.0, 0.0, Section(chord=0.006, rho=RHO, ct=2.0, cd0=0.1, cd90=3.0, cr=np.pi))
 
     def force(uu, vv):
         args = (uu, vv, *common)

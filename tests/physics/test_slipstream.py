@@ -15,6 +15,7 @@ import pytest
 
 import tandem_env as te
 from tandem_env.physics import cycle, model
+from tandem_env.physics.bundle import WingStroke
 from tandem_env.physics.kinematics import motion_grid
 from tandem_env.physics.options import ModelOptions
 
@@ -230,10 +231,11 @@ def test_convected_wake_is_the_shifted_linearised_momentum_fluctuation():
     rho, sweep, delay, interference = 1.225, 0.6, 0.7, 0.8
     v_normal = 1.0  # no induced velocity, no tangential flow: V_m = 1 m/s
     out = np.empty(n)
-    cycle.convected_wake(
-        loading(phases[0]), weight, phases[0], phases[1], delay, np.zeros(24), nodes, sweep,
-        0.0, v_normal, rho, interference, out,
-    )  # fmt: skip
+    fore = WingStroke(None, nodes, None, None, 0.0, sweep, 0.0, v_normal, weight, phases[0])
+    settings = model.kernel_settings(
+        replace(te.DRAGONFLY, air_density=rho), ModelOptions(interference=interference), n
+    )
+    cycle.convected_wake(loading(phases[0]), fore, phases[1], delay, np.zeros(24), settings, out)
     k_disc = 4.0 * rho * sweep * np.sum(nodes[:, cycle.N_R] * nodes[:, cycle.N_WIDTH])
     want = interference * (loading(phases[1] - delay) - 2e-4) / k_disc
     assert np.sqrt(np.mean((loading(phases[0]) - 2e-4) ** 2) / k_disc) < v_normal  # V_m = 1
