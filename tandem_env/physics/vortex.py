@@ -178,31 +178,30 @@ def prescribed_wake(
     bound: Any,
     trailing_edge: Any,
     circulation: Any,
-    displacement: Any,
-    rows: int,
+    carried: Any,
     xp: ArrayNamespace = NUMPY,
 ) -> tuple[Any, Any]:
     """The ring lattice of a lifting line and its prescribed periodic wake at each sample.
 
     ``bound``, ``trailing_edge`` (B, n, N, 3): the bound vortex's and the trailing edge's
     nodes at n samples uniform over one cycle [m]; ``circulation`` (B, n, N − 1): each strip's
-    bound circulation Γ at those samples [m²/s]; ``displacement`` (B, 3): how far the wake is
-    carried in one sample, u_c·T/n [m], u_c the free stream plus the mean induced velocity
-    seen from the insect; ``rows``: wake rows kept, K (K/n beats of wake). Returns, per sample
-    i, the nodes (B, n, K + 2, N, 3) and the rings (B, n, K + 1, N − 1) of
-    :func:`lattice_segments`: row 0 the bound vortex at t_i, row 1 the trailing edge at t_i,
-    row k + 1 the trailing edge at t_{i−k} carried for k samples (periodic: t_{i−k} is sample
-    i − k mod n); ring 0 carries Γ(t_i), ring k ≥ 1, between the rows released at t_{i−k+1} and
-    t_{i−k}, the mean of Γ over its release, ½(Γ_{i−k+1} + Γ_{i−k}).
+    bound circulation Γ at those samples [m²/s]; ``carried`` (B, K + 1, 3): how far the wake
+    has carried a row k samples after its release, k = 0 … K [m] (zero at k = 0; k·u_c·T/n
+    for a wake carried at u_c, or any descent law of the age). Returns, per sample i, the nodes
+    (B, n, K + 2, N, 3) and the rings (B, n, K + 1, N − 1) of :func:`lattice_segments`: row 0
+    the bound vortex at t_i, row 1 the trailing edge at t_i, row k + 1 the trailing edge at
+    t_{i−k} moved by ``carried[k]`` (periodic: t_{i−k} is sample i − k mod n); ring 0 carries
+    Γ(t_i), ring k ≥ 1, between the rows released at t_{i−k+1} and t_{i−k}, the mean of Γ over
+    its release, ½(Γ_{i−k+1} + Γ_{i−k}).
     """
-    if isinstance(rows, bool) or not isinstance(rows, int) or rows < 1:
-        raise ValueError(f"rows = {rows!r}; allowed: a whole number >= 1 of wake rows")
-    n = bound.shape[1]
+    n, rows = bound.shape[1], carried.shape[1] - 1
+    if rows < 1 or carried.shape[-1] != 3:
+        raise ValueError(
+            f"carried of shape {tuple(carried.shape)}; allowed: (B, K + 1, 3), K >= 1 wake rows"
+        )
     index = [[(i - k) % n for k in range(rows + 1)] for i in range(n)]
-    age = xp.arange_like(rows + 1, bound)  # in samples, 0 … K
     released = trailing_edge[:, index]  # (B, n, K + 1, N, 3)
-    nodes = released + age[None, None, :, None, None] * displacement[:, None, None, None, :]
-    nodes = xp.concatenate([bound[:, :, None], nodes], 2)
+    nodes = xp.concatenate([bound[:, :, None], released + carried[:, None, :, None, :]], 2)
     gamma = circulation[:, index]  # (B, n, K + 1, N − 1): Γ_{i−k}
     rings = xp.concatenate([gamma[:, :, :1], 0.5 * (gamma[:, :, :-1] + gamma[:, :, 1:])], 2)
     return nodes, rings

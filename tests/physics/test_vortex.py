@@ -164,18 +164,19 @@ def test_the_wake_is_released_at_the_trailing_edge_and_carried() -> None:
     n, k_rows = 8, 11
     bound, edge = rng.normal(size=(2, 1, n, 3, 3))
     gamma = rng.normal(size=(1, n, 2))
-    step = np.array([[-1e-3, 0.0, -2e-4]])
-    nodes, rings = prescribed_wake(bound, edge, gamma, step, k_rows)
+    step = np.array([-1e-3, 0.0, -2e-4])
+    carried = np.arange(k_rows + 1)[None, :, None] * step
+    nodes, rings = prescribed_wake(bound, edge, gamma, carried)
     assert nodes.shape == (1, n, k_rows + 2, 3, 3) and rings.shape == (1, n, k_rows + 1, 2)
     i = 5
     assert np.array_equal(nodes[0, i, 0], bound[0, i])
     assert np.array_equal(nodes[0, i, 1], edge[0, i])
     # Row k + 1: released at sample i − k (periodic), carried k steps.
-    assert nodes[0, i, 10] == pytest.approx(edge[0, (i - 9) % n] + 9 * step[0], rel=1e-14)
+    assert nodes[0, i, 10] == pytest.approx(edge[0, (i - 9) % n] + 9 * step, rel=1e-14)
     assert np.array_equal(rings[0, i, 0], gamma[0, i])
     assert rings[0, i, 3] == pytest.approx(0.5 * (gamma[0, i - 2] + gamma[0, i - 3]))
-    with pytest.raises(ValueError, match="rows = 0"):
-        prescribed_wake(bound, edge, gamma, step, 0)
+    with pytest.raises(ValueError, match=r"allowed: \(B, K \+ 1, 3\), K >= 1"):
+        prescribed_wake(bound, edge, gamma, carried[:, :1])
 
 
 def test_the_wing_lines_follow_the_models_frame() -> None:
