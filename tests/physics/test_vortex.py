@@ -226,6 +226,14 @@ def test_torch_matches_numpy_and_has_gradients() -> None:
     seg_np, gam_np = lattice_segments(nodes, rings)
     seg_t, gam_t = lattice_segments(torch.tensor(nodes), torch.tensor(rings), TORCH)
     assert np.array_equal(seg_t.numpy(), seg_np) and np.array_equal(gam_t.numpy(), gam_np)
+    wake = rng.normal(size=(1, 6, 3, 3)), rng.normal(size=(1, 6, 3, 3)), rng.normal(size=(1, 6, 2))
+    carried = np.arange(5)[None, :, None] * np.array([-1e-3, 0.0, -1e-4])
+    for found, expected in zip(
+        prescribed_wake(*(torch.tensor(a) for a in (*wake, carried)), TORCH),
+        prescribed_wake(*wake, carried),
+        strict=True,
+    ):
+        assert np.array_equal(found.numpy(), expected)
     wing = np.array(
         [37.0, 40.0, 10.0, 50.0, 5.0, 8.0, -10.0, 30.0, 20.0, 80.0, 0.5, 2.0, 1.0, 20.0]
     )
