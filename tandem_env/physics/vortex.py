@@ -53,7 +53,7 @@ def segment_velocity(
     ≥ 0. Returns (..., P, 3) [m/s]. The leading axes broadcast.
 
     The Biot-Savart law of a straight segment (Katz & Plotkin 2001, Low-Speed Aerodynamics,
-    §10.4.5) with Vatistas' n = 2 core (Vatistas, Kozel & Mih 1991, Exp. Fluids 11:73; as
+    section 10.4.5) with Vatistas' n = 2 core (Vatistas, Kozel & Mih 1991, Exp. Fluids 11:73; as
     Bagai & Leishman 1993 use it for rotor wakes), with r1, r2 from the ends to the point and
     r0 = r2 − r1 along the segment:
 
