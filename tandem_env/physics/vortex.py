@@ -55,7 +55,7 @@ def segment_velocity(
     The Biot-Savart law of a straight segment (Katz & Plotkin 2001, Low-Speed Aerodynamics,
     section 10.4.5) with Vatistas' n = 2 core (Vatistas, Kozel & Mih 1991, Exp. Fluids 11:73; as
     Bagai & Leishman 1993 use it for rotor wakes), with r1, r2 from the ends to the point and
-    r0 = r2 − r1 along the segment:
+    r0 = r1 − r2 from the first end to the second:
 
         v = Γ/(4π) · (r1 × r2) · r0·(r1/|r1| − r2/|r2|) / (|r0|² · sqrt(h⁴ + r_c⁴)),
 
