@@ -61,6 +61,10 @@ STATIONS = (0.0, 0.3, 0.55, 0.75, 0.9, 0.98)
 ROOT_OFFSET = 2.0e-3
 #: The two pairs' keys, fore first.
 PAIRS = ("fore", "hind")
+#: The solver's wakes (``--wake``), the default first: ``"free"`` moves each wake panel with
+#: the local flow (wake on wake); ``"prescribed"`` carries it by the free stream alone
+#: (Ptera Software's ``run(prescribed_wake=True)``: no self-induction, about 5-10x cheaper).
+WAKES = ("free", "prescribed")
 
 #: Samples of the clearance check: instants per beat, points along the span and the chord.
 _CLEARANCE_SAMPLES = (96, 48, 12)
@@ -320,27 +324,41 @@ class Run:
     """Hind phase shift [deg] (tandem only; 0 alone)."""
     resolution: Resolution
     root_offset: float = ROOT_OFFSET
+    wake: str = WAKES[0]
+    """The solver's wake, one of :data:`WAKES`."""
 
     def key(self, solver_version: str) -> str:
+        fields = asdict(self)
+        if self.wake == WAKES[0]:
+            # The default wake is left out, so runs stored before the choice existed keep
+            # their keys (and are reused); any other wake is another record.
+            del fields["wake"]
         text = json.dumps(
-            {"format": RUN_FORMAT, "solver": solver_version, "run": asdict(self)}, sort_keys=True
+            {"format": RUN_FORMAT, "solver": solver_version, "run": fields}, sort_keys=True
         )
         return hashlib.sha256(text.encode()).hexdigest()[:20]
 
     def label(self) -> str:
         what = f"tandem, lag {self.lag:g} deg" if self.kind == "tandem" else f"{self.kind} alone"
-        return f"{what}, V = {self.speed:g} m/s ({self.resolution.label()})"
+        wake = "" if self.wake == WAKES[0] else f", {self.wake} wake"
+        return f"{what}, V = {self.speed:g} m/s ({self.resolution.label()}{wake})"
 
 
-def case_runs(case: Case, insect: Dragonfly, resolution: Resolution) -> dict[str, Run]:
-    """The runs of ``case`` at ``resolution``: ``"fore"``, ``"hind"`` (alone; a time shift of
-    a pair alone changes no cycle mean, so one each) and ``"tandem <lag>"`` per lag."""
+def case_runs(
+    case: Case, insect: Dragonfly, resolution: Resolution, wake: str = WAKES[0]
+) -> dict[str, Run]:
+    """The runs of ``case`` at ``resolution`` with the solver's ``wake`` (:data:`WAKES`):
+    ``"fore"``, ``"hind"`` (alone; a time shift of a pair alone changes no cycle mean, so one
+    each) and ``"tandem <lag>"`` per lag."""
+    if wake not in WAKES:
+        raise ValueError(f"--wake {wake!r}; allowed: {', '.join(WAKES)}")
     stroke = np.asarray(case.stroke)
     common = {
         "speed": case.speed,
         "stroke_plane_angle": float(stroke[PARAMETER_NAMES.index("fore_stroke_plane_angle")]),
         "air_density": insect.air_density,
         "resolution": resolution,
+        "wake": wake,
     }
     fore = wing_motion(insect.fore, stroke, "fore")
     alone = {"spacing": 0.0, "drop": 0.0, "lag": 0.0}

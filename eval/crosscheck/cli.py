@@ -16,6 +16,7 @@ from tandem_env.physics import DRAGONFLY, PLANFORMS, Dragonfly
 
 from .case import (
     MIN_CLEARANCE,
+    WAKES,
     Case,
     Resolution,
     base_stroke,
@@ -112,6 +113,7 @@ examples:
   python -m eval crosscheck --grid tiny --out results/crosscheck-tiny
   python -m eval crosscheck --steps-per-beat 48 --panels 4x8 --out results/crosscheck
   python -m eval crosscheck --convergence --lags 0 --out results/crosscheck
+  python -m eval crosscheck --wake prescribed --out results/crosscheck
   python -m eval crosscheck --grid lag-study --scheduler local:2 --out results/crosscheck"""
 
 
@@ -158,6 +160,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--beats", type=int, metavar="N", help="beats run; loads from the last (default 3)"
+    )
+    parser.add_argument(
+        "--wake",
+        choices=WAKES,
+        default=WAKES[0],
+        help="the solver's wake: free (moved by the local flow) or prescribed (carried by the "
+        "free stream alone, about 5-10x cheaper); default free",
     )
     parser.add_argument(
         "--convergence",
@@ -258,7 +267,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         return 2
     start = time.perf_counter()
     planned = [
-        report.Planned(case, each, case_runs(case, insect, each), clearance[case])
+        report.Planned(case, each, case_runs(case, insect, each, args.wake), clearance[case])
         for index, case in enumerate(cases)
         for each in (resolutions if index == 0 else resolutions[:1])
     ]

@@ -83,6 +83,7 @@ def rows(
                 "steps_per_beat": plan.resolution.steps_per_beat,
                 "panels": plan.resolution.panels,
                 "beats": plan.resolution.beats,
+                "wake": plan.runs["fore"].wake,
                 "clearance_mm": round(1e3 * plan.clearance[lag]["pairs"], 2),
             }
             for pair in PAIRS:
@@ -106,7 +107,8 @@ def rows(
 
 def markdown(table: Sequence[Mapping[str, Any]]) -> str:
     """The rows as a Markdown table: vertical-force changes [%] of each pair."""
-    head = ["V [m/s]", "d [mm]", "h [mm]", "lag [deg]", "steps/beat", "panels", "clearance [mm]"]
+    head = ["V [m/s]", "d [mm]", "h [mm]", "lag [deg]", "steps/beat", "panels", "wake"]
+    head += ["clearance [mm]"]
     head += ["UVLM hind", "UVLM fore"]
     head += [f"ours {r} {p}" for r in READINGS for p in ("hind", "fore")]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -118,6 +120,7 @@ def markdown(table: Sequence[Mapping[str, Any]]) -> str:
             f"{row['lag_deg']:g}",
             str(row["steps_per_beat"]),
             row["panels"],
+            row["wake"],
             f"{row['clearance_mm']:.2f}",
             f"{row['uvlm_hind_change_pct']:+.1f} %",
             f"{row['uvlm_fore_change_pct']:+.1f} %",
@@ -188,7 +191,8 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
         first = main[0]
         left.set_title(
             f"V = {key[0]:g} m/s, d = {key[1]:g} mm, h = {key[2]:g} mm "
-            f"({first['steps_per_beat']} steps/beat, {first['panels']} panels)",
+            f"({first['steps_per_beat']} steps/beat, {first['panels']} panels, "
+            f"{first['wake']} wake)",
             fontsize=9,
         )
         # Coarsest first: by panels, then by time steps.

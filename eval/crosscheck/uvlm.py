@@ -1,4 +1,5 @@
-"""One free-wake vortex-lattice run of a wing pair or the tandem, with Ptera Software.
+"""One vortex-lattice run (free or prescribed wake) of a wing pair or the tandem, with Ptera
+Software.
 
 Ptera Software (the ``uvlm`` extra, ``pip install -e ".[uvlm]"``) is imported here only, when a
 run starts; :func:`solver_version` says whether it is installed. The mapping of the project's
@@ -142,7 +143,11 @@ def solve(run: Run) -> dict[str, Any]:
         # The project runs numba on its work-queue threading layer on purpose
         # (tandem_env/physics/__init__.py); the solver's advice to change it is not for here.
         warnings.filterwarnings("ignore", message=".*workqueue threading layer.*")
-        solver.run(prescribed_wake=False, calculate_streamlines=False, show_progress=False)
+        solver.run(
+            prescribed_wake=run.wake == "prescribed",
+            calculate_streamlines=False,
+            show_progress=False,
+        )
     to_geometry = np.asarray(operating_point.T_pas_W_CgP1_to_GP1_CgP1)[:3, :3]
     lateral = np.array([0.0, 1.0, 0.0])
     out: dict[str, Any] = {}

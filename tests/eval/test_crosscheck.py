@@ -16,6 +16,7 @@ from eval.crosscheck import uvlm
 from eval.crosscheck.case import (
     MAX_SHAPE,
     MIN_CLEARANCE,
+    WAKES,
     Case,
     Resolution,
     base_stroke,
@@ -73,6 +74,7 @@ def test_help_lists_the_grids(capsys: pytest.CaptureFixture) -> None:
         (["--lags", "400"], "--lags 400"),
         (["--speed", "0"], "--speed 0; allowed: above 0"),
         (["--scheduler", "local:0"], "local:N needs a whole number"),
+        (["--wake", "none"], "argument --wake: invalid choice: 'none'"),
     ],
 )
 def test_bad_input_is_refused_before_any_work(
@@ -233,3 +235,40 @@ def test_records_are_reused_and_damage_is_detected(tmp_path: Path) -> None:
     path.write_text(path.read_text().replace("0.0009", "0.0008"))
     with pytest.warns(RunRecordWarning, match="checksum"):
         assert store.load(run) is None
+
+
+def test_the_wake_is_keyed_apart_and_free_wake_records_keep_their_keys() -> None:
+    case = Case(tuple(base_stroke()), 1.0, 8.8e-3, 9e-3, (90.0,))
+    free = case_runs(case, DRAGONFLY, Resolution())
+    # The keys the stored free-wake runs were written under before the wake could be chosen
+    # (docs/crosscheck/lag_study.csv's runs): reused, not run again.
+    stored = {"fore": "923c7faf1c558439f6f1", "hind": "6a24ea635fdbfc4862b4"}
+    stored["tandem 90"] = "6734ee24f34014f720e1"
+    assert {name: run.key("5.1.0") for name, run in free.items()} == stored
+    assert case_runs(case, DRAGONFLY, Resolution(), "free") == free
+    prescribed = case_runs(case, DRAGONFLY, Resolution(), "prescribed")
+    assert all(run.wake == "prescribed" for run in prescribed.values())
+    assert not {run.key("5.1.0") for run in prescribed.values()} & set(stored.values())
+    assert "prescribed wake" in prescribed["tandem 90"].label()
+    assert "wake" not in free["tandem 90"].label()
+    with pytest.raises(ValueError, match="--wake 'fixed'; allowed: free, prescribed"):
+        case_runs(case, DRAGONFLY, Resolution(), "fixed")
+
+
+@pytest.mark.parametrize("wake", WAKES)
+def test_the_wake_option_reaches_every_solver_run(
+    wake: str, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture, tmp_path: Path
+) -> None:
+    started = []
+
+    def solve(run: object) -> None:
+        started.append(run)
+        raise RuntimeError("no solver here")
+
+    monkeypatch.setattr(uvlm, "solver_version", lambda: "0.0")
+    monkeypatch.setattr(uvlm, "solve", solve)
+    args = ["crosscheck", "--grid", "tiny", "--wake", wake, "--quiet"]
+    assert main([*args, "--out", str(tmp_path / "out")]) == 1
+    assert "3 of 3 solver runs failed" in capsys.readouterr().err
+    assert sorted(run.kind for run in started) == ["fore", "hind", "tandem"]
+    assert {run.wake for run in started} == {wake}

@@ -96,3 +96,21 @@ def test_the_solvers_wing_is_the_mappings() -> None:
         )
         gaps = np.min(np.linalg.norm(corners[:, None, :] - expected[None, :, :], axis=-1), axis=1)
         assert np.max(gaps) < 0.1e-3, step  # within 0.1 mm of the mapping's surface
+
+
+def test_the_prescribed_wake_runs_apart_from_the_free_wake(tiny: Path, tmp_path: Path) -> None:
+    out = tmp_path / "prescribed"
+    assert (
+        main(["crosscheck", "--grid", "tiny", "--wake", "prescribed", "--quiet", "--out", str(out)])
+        == 0
+    )
+    with open(out / "crosscheck.csv", encoding="utf-8") as handle:
+        (row,) = list(csv.DictReader(handle))
+    with open(tiny / "crosscheck.csv", encoding="utf-8") as handle:
+        (free,) = list(csv.DictReader(handle))
+    assert row["wake"] == "prescribed" and free["wake"] == "free"
+    assert float(row["uvlm_hind_change_pct"]) < 0.0  # the fore-wing's wake still costs lift
+    # Another solver: other forces, under other keys.
+    assert float(row["uvlm_hind_tandem_mN"]) != float(free["uvlm_hind_tandem_mN"])
+    keys = {p.name for p in (out / "runs").glob("*.json")}
+    assert len(keys) == 3 and not keys & {p.name for p in (tiny / "runs").glob("*.json")}

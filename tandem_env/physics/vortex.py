@@ -1,0 +1,207 @@
+"""Vortex filaments for the vortex reading of the tandem interaction (docs/model.md §5.8).
+
+The induced velocity of straight vortex segments with a viscous core (:func:`segment_velocity`,
+the Biot-Savart law), the ring lattice a lifting line and its wake form
+(:func:`lattice_segments`), and the geometry the reading needs from the existing kinematics:
+where a wing's span stations are at each instant (:func:`wing_lines`) and where the wake it
+released sits (:func:`prescribed_wake`). Everything is written once over an array namespace
+(``xp``, :mod:`~tandem_env.physics.xp`): numpy by default, torch (``torch_model.TORCH``) with
+autograd, batched over any leading axes, with no branches on values.
+
+Axes are the earth axes of docs/model.md §4.1 attached to the insect (X forward, Y right, Z up)
+and lengths are in metres; a circulation Γ [m²/s] is positive by the right-hand rule along its
+segment, from its first end to its second.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from .kinematics import flapping, pitching, weaving
+from .xp import NUMPY, ArrayNamespace, on_namespace
+
+#: Distance of each wing root from the body's mid-plane [m]: half the thorax's 4 mm width
+#: (docs/model.md §1.5; the cross-check's ``ROOT_OFFSET`` is the same).
+ROOT_HALF_WIDTH = 2.0e-3
+#: Where the bound vortex sits, as a fraction of the chord ahead of the mid-chord pitch axis
+#: (§2.4): the quarter chord of lifting-line theory (Weissinger), 0.25 c ahead of mid-chord.
+BOUND_VORTEX = 0.25
+#: Where a wing reads the other pair's induced velocity: the three-quarter chord, 0.25 c behind
+#: the mid-chord (Pistolesi's point: for a velocity varying linearly along the chord it gives
+#: the thin aerofoil's effective angle of attack).
+COLLOCATION = -0.25
+#: The trailing edge, 0.5 c behind the mid-chord, where the wake is released.
+TRAILING_EDGE = -0.5
+#: Squared lengths below this are treated as zero [m²] (a point on a segment's end, a segment of
+#: no length), and the core's h⁴ + r_c⁴ is kept above its square: 1e-18 m², a nanometre, far
+#: below any length of the model, and its square a normal float32.
+_TINY = 1.0e-18
+
+
+def segment_velocity(
+    segments: Any,
+    circulation: Any,
+    points: Any,
+    core_radius: Any,
+    xp: ArrayNamespace = NUMPY,
+) -> Any:
+    """Velocity induced at ``points`` by straight vortex segments, summed over the segments.
+
+    ``segments`` (..., S, 2, 3): each segment's first and second end [m]; ``circulation``
+    (..., S) [m²/s]; ``points`` (..., P, 3) [m]; ``core_radius`` [m], a number or (..., S),
+    ≥ 0. Returns (..., P, 3) [m/s]. The leading axes broadcast.
+
+    The Biot-Savart law of a straight segment (Katz & Plotkin 2001, Low-Speed Aerodynamics,
+    section 10.4.5) with Vatistas' n = 2 core (Vatistas, Kozel & Mih 1991, Exp. Fluids 11:73; as
+    Bagai & Leishman 1993 use it for rotor wakes), with r1, r2 from the ends to the point and
+    r0 = r1 − r2 from the first end to the second:
+
+        v = Γ/(4π) · (r1 × r2) · r0·(r1/|r1| − r2/|r2|) / (|r0|² · sqrt(h⁴ + r_c⁴)),
+
+    h = |r1 × r2|/|r0| the distance from the segment's line. With r_c = 0 it is the inviscid
+    Γ/(4πh)·(cos θ1 − cos θ2); the core multiplies that by h²/sqrt(h⁴ + r_c⁴), which tends to
+    1 − ½(r_c/h)⁴ outside the core (Scully's n = 1 core, the Rosenhead-Moore regularisation,
+    departs as (r_c/h)², ten times more at 1.8 r_c), peaks at h = r_c, and vanishes on the
+    line as h/r_c², so the velocity is finite everywhere and zero on the axis. With r_c = 0 a
+    point on a segment itself gets an unbounded velocity (autograd there too).
+    """
+    if segments.shape[-2:] != (2, 3) or points.shape[-1] != 3:
+        raise ValueError(
+            f"segments of shape {tuple(segments.shape)} and points of shape "
+            f"{tuple(points.shape)}; allowed: segments (..., S, 2, 3) and points (..., P, 3)"
+        )
+    first = segments[..., None, :, 0, :]  # (..., 1, S, 3)
+    second = segments[..., None, :, 1, :]
+    point = points[..., :, None, :]  # (..., P, 1, 3)
+    r1 = [point[..., i] - first[..., i] for i in range(3)]  # (..., P, S) each
+    r2 = [point[..., i] - second[..., i] for i in range(3)]
+    r0 = [second[..., i] - first[..., i] for i in range(3)]  # (..., 1, S)
+    cross = [
+        r1[1] * r2[2] - r1[2] * r2[1],
+        r1[2] * r2[0] - r1[0] * r2[2],
+        r1[0] * r2[1] - r1[1] * r2[0],
+    ]
+    cross2 = cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]
+    length2 = xp.maximum(r0[0] * r0[0] + r0[1] * r0[1] + r0[2] * r0[2], _TINY)
+    n1 = xp.sqrt(xp.maximum(r1[0] * r1[0] + r1[1] * r1[1] + r1[2] * r1[2], _TINY))
+    n2 = xp.sqrt(xp.maximum(r2[0] * r2[0] + r2[1] * r2[1] + r2[2] * r2[2], _TINY))
+    along = (r0[0] * r1[0] + r0[1] * r1[1] + r0[2] * r1[2]) / n1
+    along = along - (r0[0] * r2[0] + r0[1] * r2[1] + r0[2] * r2[2]) / n2
+    h2 = cross2 / length2
+    core2 = core_radius * core_radius
+    if getattr(core2, "ndim", 0) > 0:
+        core2 = core2[..., None, :]  # per segment
+    root = xp.sqrt(xp.maximum(h2 * h2 + core2 * core2, _TINY * _TINY))
+    factor = circulation[..., None, :] / (4.0 * math.pi) * along / (length2 * root)
+    return xp.stack([(factor * c).sum(-1) for c in cross], -1)
+
+
+def lattice_segments(nodes: Any, rings: Any, xp: ArrayNamespace = NUMPY) -> tuple[Any, Any]:
+    """The segments and their net circulations of a lattice of vortex rings.
+
+    ``nodes`` (..., K + 1, N, 3) [m]: K + 1 rows of N nodes each (for a lifting line and its
+    wake: row 0 the bound vortex, root to tip, then the rows released at the trailing edge,
+    newest first); ``rings`` (..., K, N − 1) [m²/s]: ring (k, j) runs node (k, j) → (k, j + 1)
+    → (k + 1, j + 1) → (k + 1, j) → back. Returns the (..., (K + 1)·(N − 1) + K·N, 2, 3)
+    segments and their (...) circulations: along each row (shed or bound) the difference of the
+    rings on either side, Γ(k, j) − Γ(k − 1, j); between two rows (trailed) Γ(k, j − 1) −
+    Γ(k, j), zero beyond the lattice. The last row closes the lattice (its segments carry
+    −Γ(K − 1, j): the oldest vorticity, a starting vortex), so every segment's vorticity is
+    conserved (Helmholtz) and the velocity is the rings' sum exactly.
+    """
+    if nodes.shape[-1] != 3 or tuple(rings.shape[-2:]) != (
+        nodes.shape[-3] - 1,
+        nodes.shape[-2] - 1,
+    ):
+        raise ValueError(
+            f"nodes of shape {tuple(nodes.shape)} and rings of shape {tuple(rings.shape)}; "
+            "allowed: nodes (..., K + 1, N, 3) and rings (..., K, N - 1)"
+        )
+    zeros_row = rings[..., :1, :] * 0.0
+    zeros_col = rings[..., :, :1] * 0.0
+    padded = xp.concatenate([zeros_row, rings, zeros_row], -2)  # (..., K + 2, N − 1)
+    shed = padded[..., 1:, :] - padded[..., :-1, :]  # (..., K + 1, N − 1), row k
+    sides = xp.concatenate([zeros_col, rings, zeros_col], -1)  # (..., K, N + 1)
+    trailed = sides[..., :, :-1] - sides[..., :, 1:]  # (..., K, N), node (k, j) → (k + 1, j)
+    lead = tuple(nodes.shape[:-3])
+    along_rows = xp.stack([nodes[..., :, :-1, :], nodes[..., :, 1:, :]], -2)
+    between_rows = xp.stack([nodes[..., :-1, :, :], nodes[..., 1:, :, :]], -2)
+    segments = xp.concatenate(
+        [along_rows.reshape(*lead, -1, 2, 3), between_rows.reshape(*lead, -1, 2, 3)], -3
+    )
+    circulation = xp.concatenate([shed.reshape(*lead, -1), trailed.reshape(*lead, -1)], -1)
+    return segments, circulation
+
+
+def wing_lines(
+    params: Any,
+    tau: Any,
+    span_fraction: Any,
+    length: float,
+    chord: Any,
+    chord_position: float,
+    root: Any,
+    xp: ArrayNamespace = NUMPY,
+) -> Any:
+    """Points of a right wing along its span at phases ``tau``, in earth axes [m].
+
+    ``params`` (B, 14) one wing's parameters in Hz/rad/- (``kinematics.wing_params_radians``);
+    ``tau`` (B, n) phases 2πft [rad]; ``span_fraction`` (N,) r/R; ``length`` R [m]; ``chord``
+    (N,) c(r) [m]; ``span_fraction``, ``chord`` and ``root`` are arrays of ``xp`` (torch:
+    tensors, ``xp.constant_like``); ``chord_position`` the points' place along the chord from the mid-chord
+    pitch axis (§2.4) towards the leading edge, in chords (:data:`BOUND_VORTEX`,
+    :data:`COLLOCATION`, :data:`TRAILING_EDGE`); ``root`` (3,) the wing root [m]. Returns
+    (B, n, N, 3). The frame is docs/model.md §4.2's, R_z(−φ)·R_x(θ)·R_y(η), the leading edge
+    on +e_c; the left wing is the mirror image (Y → −Y).
+    """
+    col = [params[:, i : i + 1] for i in range(14)]
+    omega = 2.0 * math.pi * col[0]
+    phi = on_namespace(weaving, xp)(tau, omega, col[1], col[4], col[7], col[10])[0]
+    theta = on_namespace(flapping, xp)(tau, omega, col[2], col[5], col[8], col[11])[0]
+    eta = on_namespace(pitching, xp)(tau, omega, col[3], col[6], col[9], col[12])[0]
+    cf, sf, ct, st = xp.cos(phi), xp.sin(phi), xp.cos(theta), xp.sin(theta)
+    ce, se = xp.cos(eta), xp.sin(eta)
+    # span e_s and chord e_c in stroke-plane axes (blade.fill_frame_coefficients)
+    span = (ct * sf, ct * cf, st)
+    chord_dir = (se * cf - st * ce * sf, -se * sf - st * ce * cf, ct * ce)
+    r = (span_fraction * length)[None, None, :]
+    offset = (chord_position * chord)[None, None, :]
+    local = [s[..., None] * r + c[..., None] * offset for s, c in zip(span, chord_dir, strict=True)]
+    # stroke-plane axes to earth axes: x_s = (cos β, 0, −sin β), z_s = (sin β, 0, cos β)
+    cb, sb = xp.cos(col[13])[..., None], xp.sin(col[13])[..., None]
+    earth = [cb * local[0] + sb * local[2], local[1], -sb * local[0] + cb * local[2]]
+    return xp.stack([earth[i] + root[i] for i in range(3)], -1)
+
+
+def prescribed_wake(
+    bound: Any,
+    trailing_edge: Any,
+    circulation: Any,
+    carried: Any,
+    xp: ArrayNamespace = NUMPY,
+) -> tuple[Any, Any]:
+    """The ring lattice of a lifting line and its prescribed periodic wake at each sample.
+
+    ``bound``, ``trailing_edge`` (B, n, N, 3): the bound vortex's and the trailing edge's
+    nodes at n samples uniform over one cycle [m]; ``circulation`` (B, n, N − 1): each strip's
+    bound circulation Γ at those samples [m²/s]; ``carried`` (B, K + 1, 3): how far the wake
+    has carried a row k samples after its release, k = 0 … K [m] (zero at k = 0; k·u_c·T/n
+    for a wake carried at u_c, or any descent law of the age). Returns, per sample i, the nodes
+    (B, n, K + 2, N, 3) and the rings (B, n, K + 1, N − 1) of :func:`lattice_segments`: row 0
+    the bound vortex at t_i, row 1 the trailing edge at t_i, row k + 1 the trailing edge at
+    t_{i−k} moved by ``carried[k]`` (periodic: t_{i−k} is sample i − k mod n); ring 0 carries
+    Γ(t_i), ring k ≥ 1, between the rows released at t_{i−k+1} and t_{i−k}, the mean of Γ over
+    its release, ½(Γ_{i−k+1} + Γ_{i−k}).
+    """
+    n, rows = bound.shape[1], carried.shape[1] - 1
+    if rows < 1 or carried.shape[-1] != 3:
+        raise ValueError(
+            f"carried of shape {tuple(carried.shape)}; allowed: (B, K + 1, 3), K >= 1 wake rows"
+        )
+    index = [[(i - k) % n for k in range(rows + 1)] for i in range(n)]
+    released = trailing_edge[:, index]  # (B, n, K + 1, N, 3)
+    nodes = xp.concatenate([bound[:, :, None], released + carried[:, None, :, None, :]], 2)
+    gamma = circulation[:, index]  # (B, n, K + 1, N − 1): Γ_{i−k}
+    rings = xp.concatenate([gamma[:, :, :1], 0.5 * (gamma[:, :, :-1] + gamma[:, :, 1:])], 2)
+    return nodes, rings
