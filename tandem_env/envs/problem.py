@@ -30,7 +30,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from ..physics import N_PARAMETERS, PARAMETER_NAMES, Result, normalised_to_physical
-from ..physics.stroke import DISCRETE, TABLE_4_BOUNDS
+from ..physics.stroke import DISCRETE
 from .config import FlightConfig
 from .declaration import Constraint, TaskCondition, TaskDeclaration
 
@@ -217,17 +217,9 @@ class FlightProblem:
         normalised coordinates, by autograd from ONE evaluation on the torch backend
         (``tandem_env.physics.torch_model.normalised_jacobian``, imported here: it needs torch),
         with the env's insect, model options and device. Raises ValueError where a constraint
-        declares no margin, or for an insect with its own stroke bounds (the torch map is
-        Table 4's; finite differences on the numba backend serve it)."""
+        declares no margin."""
         from ..physics import torch_model  # torch only when something differentiates
 
-        if self.config.insect.stroke_bounds != TABLE_4_BOUNDS:
-            raise ValueError(
-                f"{self.declaration.name}: differentiate maps actions onto Table 4's bounds "
-                "(torch_model.normalised_jacobian), not this insect's own stroke_bounds; "
-                "allowed: an insect with Table 4's bounds, or finite differences (the numba "
-                "backend's polish)"
-            )
         if not self.has_margins:
             missing = [c.name for c in self.constraints if c.margin is None]
             raise ValueError(

@@ -67,6 +67,7 @@ from .stroke import (
     DISCRETE,
     N_PARAMETERS,
     N_PER_WING,
+    StrokeBounds,
     map_normalised,
     normalised_to_physical,
     validate_physical,
@@ -140,7 +141,7 @@ def resolve_device(device: Any) -> torch.device:
     return dev
 
 
-def _check_strokes(strokes: Any) -> torch.Tensor:
+def _check_strokes(strokes: Any, bounds: StrokeBounds) -> torch.Tensor:
     if not isinstance(strokes, torch.Tensor):
         raise ValueError(
             f"strokes is a {type(strokes).__name__}; allowed: a torch.Tensor of shape "
@@ -160,8 +161,8 @@ def _check_strokes(strokes: Any) -> torch.Tensor:
             f"strokes has shape {tuple(strokes.shape)}; allowed: (B, {N_PARAMETERS}) with B >= 1 "
             f"or ({N_PARAMETERS},)"
         )
-    # Table 4 bounds, N in {1, 2}, finiteness: the numpy check, on a detached copy
-    validate_physical(strokes.detach().to("cpu", torch.float64).numpy())
+    # the insect's bounds, N in {1, 2}, finiteness: the numpy check, on a detached copy
+    validate_physical(strokes.detach().to("cpu", torch.float64).numpy(), bounds=bounds)
     return strokes
 
 
@@ -753,7 +754,7 @@ def evaluate_torch(
                 "backend 'torch': the paper's (PaperCoefficients); use the numba backend for "
                 "other force-coefficient models"
             )
-    strokes = _check_strokes(strokes)
+    strokes = _check_strokes(strokes, insect.stroke_bounds)
     batch = strokes.shape[0]
     given = (speed, available_power, flight_path_angle)
     names = ("speed", "available_power", "flight_path_angle")
@@ -844,7 +845,8 @@ def value_and_grad(
         raise ValueError(
             f"metric = {metric!r}; allowed: a Result field name or a function of the TorchResult"
         )
-    x = _check_strokes(strokes).detach().clone().reshape(strokes.shape).requires_grad_(True)
+    bounds = kwargs.get("insect", DRAGONFLY).stroke_bounds
+    x = _check_strokes(strokes, bounds).detach().clone().reshape(strokes.shape).requires_grad_(True)
     with torch.enable_grad():
         result = evaluate_torch(x, speed, available_power, **kwargs)
         values = getattr(result, metric) if isinstance(metric, str) else metric(result)
@@ -882,8 +884,8 @@ def normalised_jacobian(
     """Metrics of normalised strokes and their Jacobian w.r.t. the normalised coordinates, from
     ONE :func:`evaluate_torch` call (float64, on ``device``; None: the CPU).
 
-    ``actions``: (B, 28) normalised strokes in [-1, 1] (:func:`stroke.map_normalised`, the map
-    of :func:`stroke.normalised_to_physical`, here on tensors so autograd goes through it: linear
+    ``actions``: (B, 28) normalised strokes in [-1, 1] (:func:`stroke.map_normalised` onto the
+    insect's stroke bounds, the map of :func:`stroke.normalised_to_physical`, here on tensors so autograd goes through it: linear
     per coordinate, N a step, so its column is 0). ``metrics``: functions of the
     :class:`TorchResult` returning (B,) tensors (array-agnostic arithmetic on its fields).
     Returns the numpy :class:`Result`, the (B, m) metric values and their (B, m, 28) Jacobian,
@@ -901,12 +903,13 @@ def normalised_jacobian(
             f"metrics = {metrics!r}; allowed: a non-empty sequence of functions of the "
             "TorchResult, each returning (B,) values"
         )
-    normalised_to_physical(actions)  # the numpy checks (shape, finite, inside [-1, 1])
+    bounds = kwargs.get("insect", DRAGONFLY).stroke_bounds
+    normalised_to_physical(actions, bounds)  # the numpy checks (shape, finite, inside [-1, 1])
     dev = resolve_device(device)
     a = torch.as_tensor(np.atleast_2d(np.asarray(actions, dtype=np.float64)), device=dev)
     a = a.clamp(-1.0, 1.0).requires_grad_(True)
     with torch.enable_grad():
-        result = evaluate_torch(map_normalised(a, TORCH), speed, available_power, **kwargs)
+        result = evaluate_torch(map_normalised(a, TORCH, bounds), speed, available_power, **kwargs)
         values = [metric(result) for metric in metrics]
         for k, value in enumerate(values):
             _check_metric_values(value, f"metrics[{k}]", a.shape[0])
