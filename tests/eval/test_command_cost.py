@@ -16,7 +16,9 @@ from eval.__main__ import main
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import DEFAULT
 from eval.studies.presets import PRESETS, TINY
-from eval.studies.readings import Continuation, planned_phases, reading_by_name, reading_jobs
+from agents.runner import look_ahead
+from agents.store import RecordStore
+from eval.studies.readings import ReadingsPlan, reading_by_name, reading_jobs
 
 
 def _count_calls(monkeypatch: pytest.MonkeyPatch) -> list[Job]:
@@ -51,7 +53,8 @@ def test_readings_after_all_reuses_the_stored_jobs_and_its_first_line_gives_the_
     # The readings study into another folder: its plan finds the default's records (the
     # suite's own jobs) in the cache, so the continued jobs' keys are known before any work.
     readings = (DEFAULT, reading_by_name("convected"))
-    phases = planned_phases(plan, tmp_path / "readings", readings, Continuation())
+    store = RecordStore(tmp_path / "readings")
+    phases = look_ahead(ReadingsPlan(plan, store, readings), store)
     assert [p.name for p in phases] == ["default", "check", "singles"]
     assert {j.key for j in phases[0].jobs} == suite
     assert not any(p.provisional for p in phases)

@@ -217,6 +217,7 @@ class ReadingsPlan:
         continuation: Continuation | None = Continuation(),
         derive: bool = True,
         progress: bool = True,
+        title: str = "readings study",
     ) -> None:
         readings = tuple(readings)
         if not readings or readings[0] != DEFAULT:
@@ -227,7 +228,7 @@ class ReadingsPlan:
         names = [r.name for r in readings]
         if len(set(names)) != len(names):
             raise ValueError(f"readings = {names}; allowed: distinct names")
-        self.plan, self.store, self.readings = plan, out, readings
+        self.plan, self.store, self.readings, self.title = plan, out, readings, title
         self.continuation, self.derive, self.progress = continuation, derive, progress
         self.earlier = _earlier_invocations(out.directory, plan)
         self.load_before = _load()
