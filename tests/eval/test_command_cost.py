@@ -12,12 +12,12 @@ from agents import runner
 from agents.harness import PreparedJob
 from agents.jobs import Job
 from agents.records import Record
+from agents.runner import look_ahead
+from agents.store import RecordStore
 from eval.__main__ import main
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import DEFAULT
 from eval.studies.presets import PRESETS, TINY
-from agents.runner import look_ahead
-from agents.store import RecordStore
 from eval.studies.readings import ReadingsPlan, reading_by_name, reading_jobs
 
 
