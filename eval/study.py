@@ -17,7 +17,7 @@ from eval.optimize import add_insect_argument, add_run_arguments, backend_kwargs
 from eval.studies.base import StudyPlan
 from eval.studies.campaigns import CAMPAIGNS, campaigns
 from eval.studies.claims import FLIP_THRESHOLD
-from eval.studies.presets import OVERRIDES, PRESETS, get_preset, overridden
+from eval.studies.presets import OVERRIDES, STUDY_PRESETS, get_preset, overridden
 from tandem_env.physics.insect import DRAGONFLY, describe_insect, load_insect
 
 NAME = "study"
@@ -44,7 +44,7 @@ Presets:
         textwrap.fill(
             p.description, 92, initial_indent=f"  {p.name:<12} ", subsequent_indent=" " * 15
         )
-        for p in PRESETS.values()
+        for p in STUDY_PRESETS.values()
     )
     + """
 
@@ -80,7 +80,7 @@ def _default_out() -> str:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("study", choices=tuple(campaigns()), help="which study to run")
     parser.add_argument(
-        "--preset", choices=tuple(PRESETS), default="quick", help="conditions, seeds, budgets"
+        "--preset", choices=tuple(STUDY_PRESETS), default="quick", help="conditions, seeds, budgets"
     )
     helps = {
         "speeds": (

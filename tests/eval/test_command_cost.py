@@ -17,7 +17,7 @@ from agents.store import RecordStore
 from eval.__main__ import main
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import DEFAULT
-from eval.studies.presets import PRESETS, TINY
+from eval.studies.presets import STUDY_PRESETS, TINY
 from eval.studies.readings import ReadingsPlan, reading_by_name, reading_jobs
 
 
@@ -36,7 +36,7 @@ def _count_calls(monkeypatch: pytest.MonkeyPatch) -> list[Job]:
 def test_readings_after_all_reuses_the_stored_jobs_and_its_first_line_gives_the_cost(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    monkeypatch.setitem(STUDY_PRESETS, TINY.name, TINY)
     calls = _count_calls(monkeypatch)
     plan = StudyPlan(TINY)
     suite = {job.key for job in reading_jobs(plan, DEFAULT)}
