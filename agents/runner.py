@@ -55,7 +55,6 @@ __all__ = [
     "PlanRun",
     "RunSummary",
     "find_records",
-    "have_records",
     "job_records",
     "look_ahead",
     "run_jobs",
@@ -490,12 +489,6 @@ def find_records(
     return found
 
 
-def have_records(out_dir: Out, jobs: Iterable[Job]) -> bool:
-    """Whether every job has a stored record with its current configuration."""
-    store = RecordStore.at(out_dir)
-    return all(store.load(job) is not None for job in jobs)
-
-
 @dataclass
 class Lookup:
     """What a plan's next phases follow from (:class:`Plan`): the records of some jobs, from
@@ -562,9 +555,9 @@ def run_plan(
     """Run ``plan``'s phases in order into the store ``out``, each phase's jobs in one
     :func:`run_jobs` call (``scheduler``, ``cache``, ``progress`` and ``command`` as there); a
     killed run resumes phase by phase from the records stored (``summary_csv`` as for
-    :func:`run_jobs`). ``command`` says each phase's
-    start with the whole command's cost again (the plan's :func:`look_ahead` now). ``rerun``
-    runs every job again once (a job an earlier phase of this call ran is not run twice)."""
+    :func:`run_jobs`). ``command`` says each phase's start with the whole command's cost again
+    (the plan's :func:`look_ahead` now). ``rerun`` runs every job again once (a job an earlier
+    phase of this call ran is not run twice)."""
     start = time.perf_counter()
     store = _open(out, summary_csv)
     found = Lookup(store, cache, {})

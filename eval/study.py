@@ -10,7 +10,7 @@ from pathlib import Path
 from agents.dask_cluster import executor_spec
 from agents.methods import get_method
 from agents.progress import CommandProgress
-from agents.runner import have_records, look_ahead, run_plan
+from agents.runner import find_records, look_ahead, run_plan
 from agents.store import RecordStore
 from eval.figures import FORMATS
 from eval.optimize import add_insect_argument, add_run_arguments, backend_kwargs, run_reporting
@@ -178,7 +178,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         unique = list({job.key: job for job in phases[0].jobs}.values())
         writable = store.check(write=False, jobs=unique)  # and each record's path
         reports_only = len(phases) == 1 and not phases[0].later
-        if not writable and not (reports_only and have_records(store, unique)):
+        stored = find_records(store, unique, cache=False) is not None
+        if not writable and not (reports_only and stored):
             store.check(jobs=unique)  # raises, naming the folder and why
         command = CommandProgress(
             study.title,

@@ -15,7 +15,7 @@ from typing import Any
 from agents.dask_cluster import executor_spec
 from agents.progress import CommandProgress, Phase
 from agents.record_cache import CacheOption
-from agents.runner import Lookup, PlanRun, RunSummary, have_records, job_records, run_plan
+from agents.runner import Lookup, PlanRun, RunSummary, find_records, run_plan
 from agents.store import RecordStore
 from eval.studies import PAPER_STUDIES, STUDIES, report
 from eval.studies.base import StudyOutput, StudyPlan
@@ -53,8 +53,10 @@ class SuitePlan:
 
     def __init__(self, names: Sequence[str], plan: StudyPlan, out: RecordStore) -> None:
         self.started = time.perf_counter()
-        self.given, self.asked = ", ".join(names), expand(names)
-        self.plan, self.store = plan, out
+        self.given = ", ".join(names)
+        self.asked = expand(names)
+        self.plan = plan
+        self.store = out
         self.title = f"study {self.given} ({', '.join(self.asked)})"
         # each study's jobs, built once: the asked ones first, then the other paper studies
         studies = dict.fromkeys([*self.asked, *PAPER_STUDIES])
@@ -67,36 +69,39 @@ class SuitePlan:
     def finish(self, run: PlanRun) -> SuiteResult:
         """Analyse the studies asked (and every other paper study whose records are all
         present), write the report and the manifest."""
-        plan, out, asked, jobs_of = self.plan, self.store, self.asked, self.jobs_of
-        done = {
-            name: STUDIES[name].analyse(plan, job_records(out, own), out.directory)
-            for name, own in jobs_of.items()
-            if name in asked or have_records(out, own)
-        }
+        out = self.store.directory
+        done = {}
+        for name, own in self.jobs_of.items():
+            if name in self.asked:
+                records = {job: run.records[job.key] for job in own}
+            elif (records := find_records(self.store, own, cache=False)) is None:
+                continue
+            done[name] = STUDIES[name].analyse(self.plan, records, out)
         paper = [name for name in PAPER_STUDIES if name in done]
         summary = run.runs[self.given]
         report_path = None
         if paper:
-            wall = time.perf_counter() - self.started
             report_path = report.write_report(
-                out.directory / "report.md", plan, [done[n] for n in paper], list(PAPER_STUDIES)
+                out / "report.md", self.plan, [done[n] for n in paper], list(PAPER_STUDIES)
             )
+            last_run = {
+                "studies": self.asked,
+                **summary.to_dict(),
+                # the whole call's, analysis included
+                "wall_time_s": round(time.perf_counter() - self.started, 1),
+            }
             write_json_atomic(
-                out.directory / "manifest.json",
+                out / "manifest.json",
                 {
-                    "preset": plan.preset.name,
-                    "methods": list(plan.methods),
+                    "preset": self.plan.preset.name,
+                    "methods": list(self.plan.methods),
                     "studies": paper,
-                    "jobs": sorted({j.key for n in done for j in jobs_of[n]}),
-                    "last_run": {
-                        "studies": asked,
-                        **summary.to_dict(),
-                        "wall_time_s": round(wall, 1),  # the whole call's, analysis included
-                    },
+                    "jobs": sorted({j.key for n in done for j in self.jobs_of[n]}),
+                    "last_run": last_run,
                 },
             )
         wall = time.perf_counter() - self.started
-        return SuiteResult([done[n] for n in asked], summary, report_path, wall)
+        return SuiteResult([done[n] for n in self.asked], summary, report_path, wall)
 
 
 def run_studies(

@@ -192,9 +192,6 @@ def _load() -> float | None:
 #: What the readings study's plan cannot count before its singles are analysed.
 COMBINATIONS_LATER = "the combinations the singles' results point to (counted once known)"
 
-ByReading = Mapping[Reading, Mapping[str, Sequence[Job]]]
-"""Readings and each one's jobs by study name (:func:`study_jobs`)."""
-
 
 def _flat(jobs: Iterable[Mapping[str, Sequence[Job]]]) -> tuple[Job, ...]:
     return tuple(job for by_study in jobs for group in by_study.values() for job in group)
@@ -228,8 +225,13 @@ class ReadingsPlan:
         names = [r.name for r in readings]
         if len(set(names)) != len(names):
             raise ValueError(f"readings = {names}; allowed: distinct names")
-        self.plan, self.store, self.readings, self.title = plan, out, readings, title
-        self.continuation, self.derive, self.progress = continuation, derive, progress
+        self.plan = plan
+        self.store = out
+        self.readings = readings
+        self.title = title
+        self.continuation = continuation
+        self.derive = derive
+        self.progress = progress
         self.earlier = _earlier_invocations(out.directory, plan)
         self.load_before = _load()
         self.results: list[ReadingResult] = []
@@ -247,7 +249,9 @@ class ReadingsPlan:
 
     def __call__(self, found: Lookup) -> Iterator[Phase]:
         """The phases, each from the records of those before it."""
-        plan, readings, continuation = self.plan, self.readings, self.continuation
+        plan = self.plan
+        continuation = self.continuation
+        readings = self.readings
         later = COMBINATIONS_LATER if self.derive else ""
         rows: list[dict[str, Any]] = []  # one per checked job
         full: dict[str, dict[str, str]] = {}
