@@ -90,3 +90,24 @@ def test_readings_after_all_reuses_the_stored_jobs_and_its_first_line_gives_the_
     err = capsys.readouterr().err
     assert "time left" not in err and "optimisations:" in err  # the summary line alone
     assert len(calls) == len(TINY.speeds) * len(TINY.seeds)
+
+    # --rerun (every command that runs jobs): the stored jobs run again, their records replaced.
+    calls.clear()
+    argv = ["study", "speed", "--preset", "tiny", "--out", str(tmp_path / "again"), "--quiet"]
+    assert main([*argv, "--rerun"]) == 0
+    assert len(calls) == len(TINY.speeds) * len(TINY.seeds)
+    assert f"--rerun: {len(calls)} record(s) in {tmp_path / 'again'} replaced" in (
+        capsys.readouterr().err
+    )
+    for command in ("reference", "speed-change"):
+        assert "--rerun" in _help(command)
+
+
+def _help(command: str) -> str:
+    import contextlib
+    import io
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.suppress(SystemExit):
+        main([command, "--help"])
+    return out.getvalue()
