@@ -40,10 +40,10 @@ def _duration(seconds: float) -> str:
 
 class CommandProgress:
     """The whole cost of a command of several phases (a plan of
-    :func:`~agents.runner.run_plan`): its jobs, how many are stored in ``--out`` or the record cache and how many run,
-    their model evaluations and the time left, said on one line before any work
-    (:meth:`announce`) and again at each phase's start (:meth:`start`), on stderr (nothing
-    when not ``enabled``).
+    :func:`~agents.runner.run_plan`): its jobs, how many are stored in ``--out`` or the record
+    cache and how many run, their model evaluations and the time left, said on one line before
+    any work (:meth:`announce`) and again at each phase's start (:meth:`start`), on stderr
+    (nothing when not ``enabled``).
 
     The time left is the evaluations left at the rate this command has measured so far (the
     jobs it ran, over the wall time they took, compilation included); before its first job
