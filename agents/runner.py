@@ -297,7 +297,12 @@ def run_jobs(
     """
     executor = "serial" if scheduler is None else parse_scheduler(scheduler)
     start = time.perf_counter()
-    store = _open(out_dir, summary_csv)
+    try:
+        store = RecordStore.at(out_dir)
+    except ValueError as error:
+        if not summary_csv:
+            raise
+        raise OutputNotWritable(str(error)) from None
     shared = CacheWriter(record_cache(cache))
     given = {_job_of(job).key: job for job in jobs}
     records: dict[str, Record] = {}  # those in out_dir, then those copied from the cache
@@ -324,17 +329,6 @@ def run_jobs(
     finally:
         if summary_csv:
             _write_summary(store, records, writable)
-
-
-def _open(out: str | os.PathLike[str] | RecordStore, summary_csv: bool) -> RecordStore:
-    """The store ``out`` (:meth:`RecordStore.at`); its refusal is :class:`OutputNotWritable`
-    for a command that keeps its summary."""
-    try:
-        return RecordStore.at(out)
-    except ValueError as error:
-        if not summary_csv:
-            raise
-        raise OutputNotWritable(str(error)) from None
 
 
 def _check_output(
@@ -559,7 +553,7 @@ def run_plan(
     (the plan's :func:`look_ahead` now). ``rerun`` runs every job again once (a job an earlier
     phase of this call ran is not run twice)."""
     start = time.perf_counter()
-    store = _open(out, summary_csv)
+    store = RecordStore.at(out)
     found = Lookup(store, cache, {})
     runs: dict[str, RunSummary] = {}
     started: list[Phase] = []
