@@ -11,17 +11,27 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import tandem_env
+from agents.polish_config import INITIAL_SHARE_RANGE
 from agents.tasks import available_tasks, get_task
 from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
 from tandem_env.io.files import to_jsonable
-from tandem_env.physics.checks import count, is_real
+from tandem_env.physics import N_PARAMETERS
+from tandem_env.physics.checks import count, is_integer, is_real
 
-__all__ = ["MAX_BUDGET", "OLD_SCHEMAS", "SCHEMA", "FrozenMapping", "Job", "method_identity"]
+__all__ = [
+    "MAX_BUDGET",
+    "OLD_SCHEMAS",
+    "SCHEMA",
+    "Continuation",
+    "FrozenMapping",
+    "Job",
+    "method_identity",
+]
 
 #: Identifies record files (and their version) among other JSON files.
 SCHEMA = "tandem_env.harness-record/5"
@@ -220,3 +230,64 @@ class Job:
         return " ".join(
             [self.method, self.task, *extra, f"{symbol}={self.condition:g}", f"seed {self.seed}"]
         )
+
+
+@dataclass(frozen=True)
+class Continuation:
+    """Jobs continued from the optima found so far, in rounds (the reference table's, the
+    readings study's): each on a ``share`` of its budget, polishing the optima given as warm
+    starts beside ``starts`` short searches of its own (harness settings ``initial``,
+    ``initial_share`` and ``starts``, docs/harness.md). Which optima a job continues from is
+    the science of its user; this is the mechanism and the stop rule.
+
+    ``starts`` None leaves the method's own (and out of the key). The rounds run until
+    ``rounds`` have, or (``until`` [%], not None) until a round raised no point by more than
+    ``until`` percent (:meth:`stops`).
+    """
+
+    share: float = 0.2
+    initial_share: float = 0.75
+    starts: int | None = 1
+    rounds: int = 1
+    until: float | None = None
+
+    def __post_init__(self) -> None:
+        low, high = INITIAL_SHARE_RANGE
+        numbers = {
+            "share": (lambda x: 0.0 < x <= 1.0, "a number in (0, 1]"),
+            "initial_share": (lambda x: low <= x <= high, f"a number in [{low:g}, {high:g}]"),
+            "until": (lambda x: x >= 0.0, "a percentage >= 0, or None (every round)"),
+        }
+        for name, (inside, allowed) in numbers.items():
+            value = getattr(self, name)
+            if name == "until" and value is None:
+                continue
+            if not is_real(value) or not math.isfinite(value) or not inside(value):
+                raise ValueError(f"continuation {name} = {value!r}; allowed: {allowed}")
+            object.__setattr__(self, name, float(value))
+        if self.starts is not None and not (is_integer(self.starts) and 1 <= self.starts <= 8):
+            raise ValueError(
+                f"continuation starts = {self.starts!r}; allowed: an integer in [1, 8]"
+            )
+        count(self.rounds, "continuation rounds")
+
+    def job(self, job: Job, strokes: Sequence[Sequence[float]] | None, index: int = 0) -> Job:
+        """``job`` continued in round ``index`` (0, 1, ...; its seed plus ``index``) from the
+        normalised ``strokes``; None gives the stand-in of a job whose optima are not known yet
+        (the budget right, the key not final: the cost line's)."""
+        config = dict(job.method_config)
+        if strokes is None:
+            strokes = [(0.0,) * N_PARAMETERS]
+        config.update(
+            initial=[list(map(float, stroke)) for stroke in strokes],
+            initial_share=self.initial_share,
+        )
+        if self.starts is not None:
+            config["starts"] = self.starts
+        budget = max(1, round(self.share * job.budget))
+        return replace(job, budget=budget, seed=job.seed + index, method_config=config)
+
+    def stops(self, largest_gain: float) -> bool:
+        """Whether the rounds stop after one whose largest gain over the points was
+        ``largest_gain`` [%] (never, without ``until``: every round runs)."""
+        return self.until is not None and largest_gain <= self.until

@@ -1,10 +1,9 @@
-"""A command's whole cost over its phases (the readings study's), each a
-:func:`~agents.runner.run_jobs` call given one :class:`CommandProgress`."""
+"""A plan's phases and the whole command's cost over them (:func:`agents.runner.run_plan`)."""
 
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from agents.jobs import Job
@@ -17,13 +16,16 @@ __all__ = ["CommandProgress", "Phase"]
 
 @dataclass(frozen=True)
 class Phase:
-    """One phase of a command of several (:class:`CommandProgress`): its jobs as known now."""
+    """One phase of a plan (:func:`agents.runner.run_plan`): its jobs as known now."""
 
     name: str
     jobs: tuple[Job, ...]
     provisional: frozenset[str] = frozenset()
     """Keys of jobs that stand in for ones an earlier phase's results decide (their budgets are
-    right, their keys not final: a continued job's start): counted as to run."""
+    right, their keys not final: :meth:`agents.jobs.Continuation.job`): counted as to run."""
+    later: str = ""
+    """What follows this phase that no look-ahead can count before it has run (the readings
+    study's combinations), said as ``then ...`` on the cost line."""
 
 
 def _duration(seconds: float) -> str:
@@ -37,52 +39,53 @@ def _duration(seconds: float) -> str:
 
 
 class CommandProgress:
-    """The whole cost of a command of several phases, each a :func:`~agents.runner.run_jobs`
-    call: its jobs, how many are stored in ``--out`` or the record cache and how many run,
-    their model evaluations and the time left, said on one line before any work
-    (:meth:`announce`) and again at each phase's start (:meth:`start`), on stderr (nothing
-    when not ``enabled``).
+    """The whole cost of a command of several phases (a plan of
+    :func:`~agents.runner.run_plan`): its jobs, how many are stored in ``--out`` or the record
+    cache and how many run, their model evaluations and the time left, said on one line before
+    any work (:meth:`announce`) and again at each phase's start (:meth:`start`), on stderr
+    (nothing when not ``enabled``).
 
     The time left is the evaluations left at the rate this command has measured so far (the
     jobs it ran, over the wall time they took, compilation included); before its first job
-    finishes it says "estimating". A phase whose jobs follow from an earlier one's results is
-    planned with stand-ins (:class:`Phase`) and re-planned (:meth:`plan`) when it starts;
-    ``later`` says what no plan can count yet (the readings study's combinations). ``detail``
-    follows the title on the first line (the preset and methods).
+    finishes it says "estimating". The phases are the plan's look-ahead, again at each phase's
+    start (a phase whose jobs follow from an earlier one's results has stand-ins until then,
+    :class:`Phase`). ``detail`` follows the title on the first line (the preset and methods);
+    with ``rerun`` a stored job counts as one to run.
     """
 
     def __init__(
         self,
         title: str,
-        out_dir: str | os.PathLike[str],
+        out: str | os.PathLike[str] | RecordStore,
         *,
         cache: CacheOption = True,
         enabled: bool = True,
         detail: str = "",
+        rerun: bool = False,
     ) -> None:
         self.title = title
         self.name = title.partition(" (")[0]
         """The title less its parenthesis, as the phase lines name the command."""
         self.detail = detail
-        self.out_dir = out_dir
-        self._store = RecordStore(out_dir)
-        self._cache = record_cache(cache)
+        self._store = RecordStore.at(out)
+        self.out_dir = self._store.directory
+        self._cache = None if rerun else record_cache(cache)
+        self.rerun = rerun
         self.enabled = enabled
         self._phases: dict[str, Phase] = {}
-        self._later = ""
         self._done: set[str] = set()
         self._evaluations = 0
         self._seconds = 0.0
         self.lines: list[str] = []
         """Every line said, in order (what a test or a log reads)."""
 
-    def plan(self, phases: Iterable[Phase], later: str | None = None) -> None:
-        """Set these phases' jobs (a phase of the same name is replaced, a new one added after
-        the others); ``later`` replaces what is said of the work no phase counts yet."""
-        for phase in phases:
-            self._phases[phase.name] = phase
-        if later is not None:
-            self._later = later
+    def _plan(self, phases: Sequence[Phase], started: Sequence[Phase] = ()) -> None:
+        """The look-ahead's ``phases``, each of those ``started`` in its place (or after)."""
+        self._phases = {p.name: p for p in phases} | {p.name: p for p in started}
+
+    @property
+    def _later(self) -> str:
+        return list(self._phases.values())[-1].later if self._phases else ""
 
     def counts(self) -> dict[str, int]:
         """The command's jobs (each key once) by state: ``done`` (run by this command),
@@ -100,7 +103,7 @@ class CommandProgress:
             counts["evaluations"] += job.budget
             if key in self._done:
                 state = "done"
-            elif provisional:
+            elif provisional or self.rerun:
                 state = "todo"
             elif self._store.path(key).exists():
                 state = "stored"
@@ -141,9 +144,11 @@ class CommandProgress:
             stream.write(line + "\n")
             stream.flush()
 
-    def announce(self) -> None:
-        """The first line: the whole command before any work (its phases, jobs, seeds, budgets,
-        what is stored in ``--out`` or the cache, what runs, and the time left)."""
+    def announce(self, phases: Sequence[Phase]) -> None:
+        """The first line: the whole command before any work (its ``phases``, the plan's
+        look-ahead: jobs, seeds, budgets, what is stored in ``--out`` or the cache, what runs,
+        and the time left)."""
+        self._plan(phases)
         c = self.counts()
         jobs = self._jobs().values()
         seeds = sorted({job.seed for job in jobs})
@@ -157,17 +162,18 @@ class CommandProgress:
             f"{c['cached']} in the record cache, {self._left(c)}"
         )
 
-    def start(self, name: str) -> None:
-        """The line at the start of phase ``name`` (after :meth:`plan` gave its jobs); none for
-        the first phase, which the first line has just announced."""
-        names = list(self._phases)
-        place = names.index(name) + 1 if name in names else len(names)
+    def start(self, phases: Sequence[Phase], started: Sequence[Phase]) -> None:
+        """The line at the start of the last phase ``started`` (the plan's look-ahead is
+        ``phases`` now); none for the first, which the first line has just announced."""
+        self._plan(phases, started)
+        name = started[-1].name
+        place = list(self._phases).index(name) + 1
         if place == 1:
             return
         c = self.counts()
         finished = c["done"] + c["stored"] + c["cached"]
         self._say(
-            f"phase {place}/{len(names)} ({name}) of the {self.name}: "
+            f"phase {place}/{len(self._phases)} ({name}) of the {self.name}: "
             f"{len(self._jobs())} optimisations ({c['evaluations']:,} evaluations), "
             f"{finished} done or stored, {self._left(c)}"
         )

@@ -1,4 +1,8 @@
-"""The runner: a set of harness jobs run once each, resumably, here or on a Dask cluster.
+"""The runner: a plan's phases of harness jobs run once each, resumably, here or on Dask.
+
+A plan (:class:`Plan`, :func:`run_plan`) yields phases (:class:`~agents.progress.Phase`), each
+a list of keyed jobs computed from the records of the phases before it; :func:`run_jobs` runs
+one such list (a plan of one phase).
 
 Each job's record is kept in the output directory's :class:`~agents.store.RecordStore` under
 the job's key, the hash of its whole configuration and the package version, so a killed run
@@ -27,13 +31,12 @@ import traceback
 import warnings
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from agents.dask_cluster import dask_client, parse_scheduler, set_worker_numba_threads
 from agents.harness import PreparedJob, prepare_job, run_job
 from agents.jobs import Job
-from agents.progress import CommandProgress
+from agents.progress import CommandProgress, Phase
 from agents.record_cache import CacheOption, CacheWriter, cacheable, record_cache
 from agents.records import Record, RecordWarning
 from agents.store import RECORDS_DIR, SUMMARY_NAME, RecordStore
@@ -46,12 +49,16 @@ if TYPE_CHECKING:
 __all__ = [
     "JobFailure",
     "JobsFailed",
+    "Lookup",
     "OutputNotWritable",
+    "Plan",
+    "PlanRun",
     "RunSummary",
     "find_records",
-    "have_records",
     "job_records",
+    "look_ahead",
     "run_jobs",
+    "run_plan",
 ]
 
 #: Prefix of the Dask task keys (``harness-<job key>``; the dashboard groups tasks by it).
@@ -252,7 +259,7 @@ class _Display:
 
 def run_jobs(
     jobs: Iterable[Job | PreparedJob],
-    out_dir: str | os.PathLike[str],
+    out_dir: str | os.PathLike[str] | RecordStore,
     *,
     scheduler: str | None = None,
     progress: bool = True,
@@ -291,7 +298,7 @@ def run_jobs(
     executor = "serial" if scheduler is None else parse_scheduler(scheduler)
     start = time.perf_counter()
     try:
-        store = RecordStore(out_dir)
+        store = RecordStore.at(out_dir)
     except ValueError as error:
         if not summary_csv:
             raise
@@ -434,29 +441,33 @@ def _job_of(job: Job | PreparedJob) -> Job:
     return job.job if isinstance(job, PreparedJob) else job
 
 
-def job_records(out_dir: str | os.PathLike[str], jobs: Iterable[Job]) -> dict[Job, Record]:
+Out = str | os.PathLike[str] | RecordStore
+"""An output folder, or its store (a command builds it once: :meth:`RecordStore.at`)."""
+
+
+def job_records(out_dir: Out, jobs: Iterable[Job]) -> dict[Job, Record]:
     """The records of ``jobs`` in the store ``out_dir`` (all must have run); raises naming the
     first missing one."""
-    store = RecordStore(out_dir)
+    store = RecordStore.at(out_dir)
     found: dict[Job, Record] = {}
     for job in jobs:
         record = store.load(job)
         if record is None:
             raise FileNotFoundError(
                 f"no record for {job.label()} (key {job.key}) in "
-                f"{Path(out_dir) / RECORDS_DIR}; run the study"
+                f"{store.directory / RECORDS_DIR}; run the study"
             )
         found[job] = record
     return found
 
 
 def find_records(
-    out_dir: str | os.PathLike[str], jobs: Iterable[Job], cache: CacheOption = True
+    out_dir: Out, jobs: Iterable[Job], cache: CacheOption = True
 ) -> dict[Job, Record] | None:
     """The records of ``jobs`` as :func:`run_jobs` would find them (``out_dir`` first, then the
     record cache), writing nothing and warning of nothing; None if any is missing (a plan
     that looks ahead: those jobs still have to run)."""
-    stores = [RecordStore(out_dir)]
+    stores = [RecordStore.at(out_dir)]
     if (shared := record_cache(cache)) is not None:
         stores.append(shared)
     found: dict[Job, Record] = {}
@@ -472,7 +483,95 @@ def find_records(
     return found
 
 
-def have_records(out_dir: str | os.PathLike[str], jobs: Iterable[Job]) -> bool:
-    """Whether every job has a stored record with its current configuration."""
-    store = RecordStore(out_dir)
-    return all(store.load(job) is not None for job in jobs)
+@dataclass
+class Lookup:
+    """What a plan's next phases follow from (:class:`Plan`): the records of some jobs, from
+    the run so far (:attr:`running`), or, in a look-ahead, as far as ``store`` and the record
+    cache hold them (:func:`find_records`; None when some are missing: the phases after get
+    stand-ins, :meth:`agents.jobs.Continuation.job`)."""
+
+    store: RecordStore
+    cache: CacheOption = True
+    records: dict[str, Record] | None = None
+    """The records of the run so far; None in a look-ahead, which runs and writes nothing."""
+
+    @property
+    def running(self) -> bool:
+        """Whether the phases run (a plan analyses and says its results only then)."""
+        return self.records is not None
+
+    def __call__(self, jobs: Iterable[Job]) -> dict[Job, Record] | None:
+        """The records of ``jobs`` (every one's, when running), or None."""
+        if self.records is None:
+            return find_records(self.store, jobs, self.cache)
+        jobs = list(jobs)
+        missing = [job for job in jobs if job.key not in self.records]
+        self.records |= {job.key: r for job, r in job_records(self.store, missing).items()}
+        return {job: self.records[job.key] for job in jobs}
+
+
+class Plan(Protocol):
+    """Resumable work in phases (:func:`run_plan`): called with a :class:`Lookup`, it yields
+    each phase once the records of the phases before it are there to look up."""
+
+    def __call__(self, found: Lookup) -> Iterator[Phase]: ...
+
+
+def look_ahead(plan: Plan, out: Out, cache: CacheOption = True) -> list[Phase]:
+    """``plan``'s phases as far as the records in ``out`` and the record cache decide them now,
+    stand-ins after that (the cost line's; nothing runs or is written)."""
+    return list(plan(Lookup(RecordStore.at(out), cache)))
+
+
+@dataclass(frozen=True)
+class PlanRun:
+    """How a call of :func:`run_plan` went."""
+
+    runs: dict[str, RunSummary]
+    """Each phase's :func:`run_jobs` call, by phase name, in order."""
+    records: dict[str, Record]
+    """Every record the phases found or made, by key."""
+    wall_time: float
+    """Seconds spent [s]."""
+
+
+def run_plan(
+    plan: Plan,
+    out: Out,
+    scheduler: str | None = None,
+    cache: CacheOption = True,
+    *,
+    progress: bool = True,
+    rerun: bool = False,
+    command: CommandProgress | None = None,
+    summary_csv: bool = False,
+) -> PlanRun:
+    """Run ``plan``'s phases in order into the store ``out``, each phase's jobs in one
+    :func:`run_jobs` call (``scheduler``, ``cache``, ``progress`` and ``command`` as there); a
+    killed run resumes phase by phase from the records stored (``summary_csv`` as for
+    :func:`run_jobs`). ``command`` says each phase's start with the whole command's cost again
+    (the plan's :func:`look_ahead` now). ``rerun`` runs every job again once (a job an earlier
+    phase of this call ran is not run twice)."""
+    start = time.perf_counter()
+    store = RecordStore.at(out)
+    found = Lookup(store, cache, {})
+    runs: dict[str, RunSummary] = {}
+    started: list[Phase] = []
+    for phase in plan(found):
+        started.append(phase)
+        if command is not None and len(started) > 1:
+            command.start(look_ahead(plan, store, cache), started)
+        assert found.records is not None
+        jobs = [job for job in phase.jobs if not (rerun and job.key in found.records)]
+        runs[phase.name] = run_jobs(
+            jobs,
+            store,
+            scheduler=scheduler,
+            progress=progress,
+            rerun=rerun,
+            cache=cache,
+            command=command,
+            summary_csv=summary_csv,
+        )
+        found.records |= runs[phase.name].records
+    return PlanRun(runs, found.records, time.perf_counter() - start)

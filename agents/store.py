@@ -169,6 +169,11 @@ class RecordStore:
                     f"{path} is a file; allowed: a directory for the records (created if missing)"
                 )
 
+    @classmethod
+    def at(cls, out: str | os.PathLike[str] | RecordStore) -> RecordStore:
+        """``out`` if it is a store (a command's one), else the store in folder ``out``."""
+        return out if isinstance(out, RecordStore) else cls(out)
+
     def check(self, *, write: bool = True, jobs: Iterable[Job] = ()) -> bool:
         """Check every path the store writes before any work (:func:`output_directory`): the
         folder, its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError

@@ -25,8 +25,8 @@ from tandem_env.physics.checks import is_real
 from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
 
 __all__ = [
-    "ACCELERATE",
-    "LEVEL",
+    "ACCELERATE_TASK",
+    "LEVEL_TASK",
     "Condition",
     "TaskSpec",
     "available_tasks",
@@ -173,8 +173,8 @@ def _tasks() -> dict[str, TaskSpec]:
 
 
 #: The paper's two tasks (the studies name them).
-LEVEL: TaskSpec = TaskSpec.from_env("level", registration.LEVEL_FLIGHT_ID)
-ACCELERATE: TaskSpec = TaskSpec.from_env("accelerate", registration.ACCELERATE_ID)
+LEVEL_TASK: TaskSpec = TaskSpec.from_env("level", registration.LEVEL_FLIGHT_ID)
+ACCELERATE_TASK: TaskSpec = TaskSpec.from_env("accelerate", registration.ACCELERATE_ID)
 
 
 def register_task(spec: TaskSpec, *, replace: bool = False) -> None:

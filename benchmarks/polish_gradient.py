@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 from agents.polish import AutogradGradient, CentralDifferences, task_problem
-from agents.tasks import ACCELERATE, LEVEL
+from agents.tasks import ACCELERATE_TASK, LEVEL_TASK
 
 
 def _times(function, repeats: int) -> list[float]:
@@ -48,7 +48,10 @@ def main() -> None:
         f"({torch.get_num_threads()} threads), device {args.device}"
     )
     rng = np.random.default_rng(0)
-    for task, value, kwargs in ((LEVEL, 1.5, {}), (ACCELERATE, 60.0, {"objective": "vertical"})):
+    for task, value, kwargs in (
+        (LEVEL_TASK, 1.5, {}),
+        (ACCELERATE_TASK, 60.0, {"objective": "vertical"}),
+    ):
         condition = task.condition(value)
         numba = CentralDifferences(task_problem(task, condition, kwargs))
         problem = task_problem(

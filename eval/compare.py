@@ -329,8 +329,8 @@ def convergence_curve(
     return grid, q25, median, q75
 
 
-def convergence_figure(records: Sequence[Record]) -> Any:
-    """The convergence figure: one panel per task/objective/condition.
+def best_so_far_figure(records: Sequence[Record]) -> Any:
+    """The best-so-far figure: one panel per task/objective/condition.
 
     Each configuration's curve is the median best-so-far reward over its seeds (band: IQR);
     the marker at its end is the median reported objective over the feasible seeds, the number
@@ -426,7 +426,7 @@ def compare(
     rows = table_rows(records)
     write_csv_atomic(out / TABLE_CSV, [r.to_dict() for r in rows])
     write_text_atomic(out / TABLE_MD, comparison_markdown(rows))
-    save(convergence_figure(records), plot_path, crop=False)
+    save(best_so_far_figure(records), plot_path, crop=False)
     return rows
 
 

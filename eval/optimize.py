@@ -294,7 +294,7 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
         "help": "do not use the record cache shared by every output folder (by default a job "
         "whose record is there is copied into --out, not run, and every record computed is "
         "added to it; where it is and how to clear it: docs/harness.md, The record cache); a "
-        "record already in --out is still reused (eval optimize --rerun computes it again)",
+        "record already in --out is still reused (--rerun computes it again)",
     },
     "--rerun": {
         "action": "store_true",

@@ -1,10 +1,10 @@
 """``python -m eval reference``: make the reference table of certified optima.
 
-Two phases of harness jobs, run by the resumable runner (:func:`agents.runner.run_jobs`:
-records in ``--out``, here or on Dask with ``--scheduler``, a killed run resumes; one line says
-the whole cost first, :class:`agents.progress.CommandProgress`): the *search* (:func:`plan`: per
-point of :data:`tandem_env.envs.reference.REFERENCE_GRID`, objective, planform and seed), then
-:data:`ROUNDS` rounds of *continuation* (:func:`continuation`). Per point, the best stroke
+Phases of harness jobs, a plan of the resumable runner (:class:`ReferencePlan`,
+:func:`agents.runner.run_plan`: records in ``--out``, here or on Dask with ``--scheduler``, a
+killed run resumes; one line says the whole cost first, :class:`agents.progress.CommandProgress`):
+the *search* (:func:`plan`: per point of :data:`tandem_env.envs.reference.REFERENCE_GRID`,
+objective, planform and seed), then the rounds of :data:`CONTINUATION` (:func:`continuation`). Per point, the best stroke
 competing for it (:func:`_pool`) is written with its provenance to the packaged table
 ``tandem_env/data/reference_optima.json`` (or ``--table``, :func:`build_table`), a figure and a
 Markdown table of the optima to ``--out``. The method and the table: docs/reference.md.
@@ -16,8 +16,7 @@ import argparse
 import datetime as dt
 import os
 import sys
-from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import replace
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from itertools import product
 from pathlib import Path
 from typing import Any
@@ -25,13 +24,13 @@ from typing import Any
 import numpy as np
 
 import tandem_env
-from agents.harness import PreparedJob, prepare, prepare_job
-from agents.jobs import Job
+from agents.harness import PreparedJob, prepare
+from agents.jobs import Continuation, Job
 from agents.progress import CommandProgress, Phase
-from agents.record_cache import CacheOption
 from agents.records import Record, package_versions
-from agents.runner import find_records, run_jobs
+from agents.runner import Lookup, look_ahead, run_plan
 from agents.selection import best_index
+from agents.store import RecordStore
 from agents.tasks import get_task
 from eval.optimize import add_run_arguments, run_reporting
 from eval.reference_report import reference_markdown, write_reference_figure
@@ -96,11 +95,10 @@ PointKey = tuple[str, str, str, float]
 #: stroke that flies at P_avail flies, with the same forces, at every higher P_avail, and a
 #: stroke found for one objective is a candidate for the others (the same constraints).
 NESTED_TASKS: frozenset[str] = frozenset({"TandemWing/Accelerate-v0"})
-#: The continuation's share of a point's budget, and its initial strokes' share of that.
-CONTINUATION_SHARE = 0.5
-CONTINUATION_INITIAL_SHARE = 0.75
-#: Continuation rounds; the table says how much the last one raised the points.
-ROUNDS = 5
+#: The continuation: per point and round, one run on half its budget, three quarters of that
+#: for the warm starts, every round run (``until=0.1`` would stop once no point moves by more
+#: than 0.1 %: :class:`agents.jobs.Continuation`).
+CONTINUATION = Continuation(share=0.5, initial_share=0.75, starts=None, rounds=5)
 
 
 def _value(record: Record, env_id: str, objective: str) -> float:
@@ -116,25 +114,18 @@ def _best(records: Sequence[Record], env_id: str, objective: str) -> Record:
     return records[best_index([r.feasible for r in records], values)]
 
 
-def _round_job(job: Job, index: int) -> Job:
-    """The point of ``job`` (its first seed's) in continuation round ``index``, but for the warm
-    starts: on :data:`CONTINUATION_SHARE` of the budget, seeded with the round's number."""
-    return replace(
-        job, budget=max(1, round(CONTINUATION_SHARE * job.budget)), seed=job.seed + index
-    )
-
-
 def continuation(
     jobs: Mapping[PointKey, Sequence[PreparedJob]],
-    found: Mapping[PointKey, Sequence[Record]],
+    found: Mapping[PointKey, Sequence[Record]] | None,
     index: int = 0,
-) -> dict[PointKey, PreparedJob]:
-    """Continuation round ``index`` (0, 1, ...): per point, one run on
-    :data:`CONTINUATION_SHARE` of its budget that polishes the best strokes ``found`` so far at
-    this point, at its neighbours on the grid and, for a task in :data:`NESTED_TASKS`, for the
-    other objectives here (each a warm start, ``initial``), beside a short search of its own
-    (seeded with the round's number)."""
-    best = {key: _best(list(records), key[0], key[1]) for key, records in found.items()}
+    rule: Continuation = CONTINUATION,
+) -> dict[PointKey, Job]:
+    """Continuation round ``index`` (0, 1, ...): per point, one run of ``rule`` that polishes
+    the best strokes ``found`` so far at this point, at its neighbours on the grid and, for a
+    task in :data:`NESTED_TASKS`, for the other objectives here (each a warm start), beside a
+    short search of its own (seeded with the round's number); stand-ins where ``found`` is
+    None (:meth:`agents.jobs.Continuation.job`)."""
+    best = {key: _best(list(records), key[0], key[1]) for key, records in (found or {}).items()}
     continued = {}
     for key, prepared in jobs.items():
         env_id, objective, planform, condition = key
@@ -148,36 +139,60 @@ def continuation(
         strokes = list(
             dict.fromkeys(tuple(best[k].normalised_stroke) for k in sources if k in best)
         )
-        warm_starts = {
-            "initial": [list(stroke) for stroke in strokes],
-            "initial_share": CONTINUATION_INITIAL_SHARE,
-        }
-        job = replace(_round_job(prepared[0].job, index), method_config=warm_starts)
-        continued[key] = prepare_job(job)
+        continued[key] = rule.job(prepared[0].job, strokes if found is not None else None, index)
     return continued
 
 
-def planned_phases(
-    jobs: Mapping[PointKey, Sequence[PreparedJob]], out_dir: Path, cache: CacheOption
-) -> list[Phase]:
-    """The search and the continuation rounds. Each round's jobs follow from the optima before
-    it: they are the real ones as far as the records in ``out_dir`` and the record cache decide
-    them (a rerun or a resumed table), stand-ins of the same budgets after that, so the first
-    line says the whole cost."""
-    phases = [Phase("search", tuple(p.job for prepared in jobs.values() for p in prepared))]
-    records: dict[str, Record] | None = {}
-    rounds: list[dict[PointKey, PreparedJob]] = []
-    for index in range(ROUNDS):
-        found = None if records is None else find_records(out_dir, phases[-1].jobs, cache)
-        records = None if found is None else records | {j.key: r for j, r in found.items()}
-        name = f"continuation {index + 1}"
-        if records is None:
-            stand_ins = tuple(_round_job(p[0].job, index) for p in jobs.values())
-            phases.append(Phase(name, stand_ins, frozenset(j.key for j in stand_ins)))
-        else:
-            rounds.append(continuation(jobs, gather(jobs, rounds, records), index))
-            phases.append(Phase(name, tuple(p.job for p in rounds[-1].values())))
-    return phases
+class ReferencePlan:
+    """The table's phases (an :class:`agents.runner.Plan`): the search, then the rounds of
+    ``rule`` until it stops (:meth:`agents.jobs.Continuation.stops`). Running, it keeps the
+    rounds' jobs (:attr:`rounds`) and gains (:attr:`convergence`), said on stderr unless
+    ``quiet``."""
+
+    def __init__(
+        self,
+        jobs: Mapping[PointKey, Sequence[PreparedJob]],
+        rule: Continuation = CONTINUATION,
+        quiet: bool = True,
+    ) -> None:
+        self.jobs = jobs
+        self.rule = rule
+        self.quiet = quiet
+        self.rounds: list[dict[PointKey, Job]] = []
+        self.convergence: list[dict[str, Any]] = []
+
+    def __call__(self, found: Lookup) -> Iterator[Phase]:
+        """The phases, each round's jobs from the optima before it."""
+        jobs = self.jobs
+        search = tuple(p.job for prepared in jobs.values() for p in prepared)
+        yield Phase("search", search)
+        records = found(search)
+        by_key = {} if records is None else {j.key: r for j, r in records.items()}
+        rounds: list[dict[PointKey, Job]] = []
+        for index in range(self.rule.rounds):
+            name = f"continuation {index + 1}"
+            known = None if records is None else gather(jobs, rounds, by_key)
+            continued = continuation(jobs, known, index, self.rule)
+            stand_ins = frozenset(j.key for j in continued.values()) if known is None else None
+            yield Phase(name, tuple(continued.values()), stand_ins or frozenset())
+            records = None if known is None else found(continued.values())
+            if known is None or records is None:
+                continue
+            rounds.append(continued)
+            by_key |= {j.key: r for j, r in records.items()}
+            after = best_objectives(gather(jobs, rounds, by_key))
+            gains = round_gains(best_objectives(known), after)
+            if found.running:
+                self.rounds = rounds
+                self.convergence.append({"round": index + 1, **gains})
+                if not self.quiet:
+                    print(
+                        f"reference: {name} raised {gains['points_raised']} of {len(jobs)} "
+                        f"points, by at most {gains['largest_gain_percent']:.2f} %",
+                        file=sys.stderr,
+                    )
+            if self.rule.stops(gains["largest_gain_percent"]):
+                return
 
 
 def _pool(found: Mapping[PointKey, Sequence[Record]], key: PointKey) -> list[Record]:
@@ -250,19 +265,19 @@ def _point(key: PointKey, search: Sequence[Record], rounds: Sequence[Record],
 
 def gather(
     jobs: Mapping[PointKey, Sequence[PreparedJob]],
-    rounds: Sequence[Mapping[PointKey, PreparedJob]],
+    rounds: Sequence[Mapping[PointKey, Job]],
     records: Mapping[str, Record],
 ) -> dict[PointKey, list[Record]]:
     """Every record of each point: its seeds' then its continuation rounds'."""
     return {
-        key: [records[p.job.key] for p in prepared] + [records[r[key].job.key] for r in rounds]
+        key: [records[p.job.key] for p in prepared] + [records[r[key].key] for r in rounds]
         for key, prepared in jobs.items()
     }
 
 
 def build_table(
     jobs: Mapping[PointKey, Sequence[PreparedJob]],
-    rounds: Sequence[Mapping[PointKey, PreparedJob]],
+    rounds: Sequence[Mapping[PointKey, Job]],
     records: Mapping[str, Record],
     provenance: Mapping[str, Any],
 ) -> dict[str, Any]:
@@ -309,12 +324,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="where the table goes (default: the packaged tandem_env/data/reference_optima.json)",
     )
-    add_run_arguments(parser, "--scheduler", "--no-cache")
+    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def provenance(
-    jobs: Iterable[PreparedJob],
+    jobs: Iterable[Job],
     records: Mapping[str, Record],
     convergence: Sequence[Mapping[str, Any]] = (),
     seeds: Sequence[int] = SEEDS,
@@ -332,10 +347,10 @@ def provenance(
         "budgets": dict(BUDGETS),
         "seeds": list(seeds),
         "optimisations": len(jobs),
-        "optimisation_seconds": round(sum(records[p.job.key].wall_time for p in jobs), 1),
+        "optimisation_seconds": round(sum(records[job.key].wall_time for job in jobs), 1),
         "continuation": (
-            f"{len(convergence)} rounds, each on {CONTINUATION_SHARE:g} of the budget, "
-            f"{CONTINUATION_INITIAL_SHARE:g} of that for the warm starts (this point's, its "
+            f"{len(convergence)} rounds, each on {CONTINUATION.share:g} of the budget, "
+            f"{CONTINUATION.initial_share:g} of that for the warm starts (this point's, its "
             "neighbours' and, accelerating, the other objectives' best strokes)"
         ),
         "convergence": [dict(c) for c in convergence],
@@ -359,52 +374,41 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             "--table PATH)"
         )
     jobs = plan()
-    flat = [p for prepared in jobs.values() for p in prepared]
+    table_plan = ReferencePlan(jobs, quiet=args.quiet)
+    try:
+        store = RecordStore(args.out)
+    except ValueError as error:
+        parser.error(str(error))
     command = CommandProgress(
         f"{NAME} (the reference table -> {table_path})",
-        args.out,
+        store,
         cache=args.cache,
         enabled=not args.quiet,
         detail=f"{METHOD}, {len(jobs)} grid points",
+        rerun=args.rerun,
     )
-    command.plan(planned_phases(jobs, args.out, args.cache))
-    command.announce()
-    run = {
-        "out_dir": args.out,
-        "scheduler": args.scheduler,
-        "progress": not args.quiet,
-        "cache": args.cache,
-        "command": command,
-        "summary_csv": True,
-    }
-    rounds: list[dict[PointKey, PreparedJob]] = []
-    convergence = []
-
-    def run_phases() -> dict[str, Record]:
-        records = dict(run_jobs(flat, **run).records)
-        for index in range(ROUNDS):
-            before = best_objectives(gather(jobs, rounds, records))
-            continued = continuation(jobs, gather(jobs, rounds, records), index)
-            name = f"continuation {index + 1}"
-            command.plan([Phase(name, tuple(p.job for p in continued.values()))])
-            command.start(name)
-            records |= run_jobs(list(continued.values()), **run).records
-            rounds.append(continued)
-            gains = round_gains(before, best_objectives(gather(jobs, rounds, records)))
-            convergence.append({"round": index + 1, **gains})
-            if not args.quiet:
-                print(
-                    f"reference: {name} raised {gains['points_raised']} of {len(jobs)} points, "
-                    f"by at most {gains['largest_gain_percent']:.2f} %",
-                    file=sys.stderr,
-                )
-        return records
-
-    records = run_reporting(parser, run_phases)
-    if isinstance(records, int):
-        return records
-    every = [*flat, *(p for r in rounds for p in r.values())]
-    table = build_table(jobs, rounds, records, provenance(every, records, convergence))
+    command.announce(look_ahead(table_plan, store, args.cache))
+    run = run_reporting(
+        parser,
+        lambda: run_plan(
+            table_plan,
+            store,
+            args.scheduler,
+            args.cache,
+            progress=not args.quiet,
+            rerun=args.rerun,
+            command=command,
+            summary_csv=True,
+        ),
+    )
+    if isinstance(run, int):
+        return run
+    rounds = table_plan.rounds
+    every = [p.job for prepared in jobs.values() for p in prepared]
+    every += [job for r in rounds for job in r.values()]
+    table = build_table(
+        jobs, rounds, run.records, provenance(every, run.records, table_plan.convergence)
+    )
     write_json_atomic(table_path, table)
     _report(table, Path(args.out))
     print(f"reference: {len(every)} optimisations; table written to {table_path}", file=sys.stderr)

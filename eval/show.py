@@ -2,7 +2,7 @@
 
 The picture is the envs' render frame (:mod:`tandem_env.envs.render`) of the record's stroke,
 computed by the same model with the record's own insect and model options
-(:func:`eval.studies.kinematics.history_of`).
+(:func:`eval.studies.kinematics.record_history`).
 """
 
 from __future__ import annotations
@@ -63,10 +63,10 @@ def record_history(record: Record, path: Path, frames: int = DEFAULT_FRAMES) -> 
     own env keywords; ValueError in one line naming ``path`` for a record the model refuses (a
     stroke outside Table 4, a value that is not a finite number, a parameter missing, env
     keywords that are unknown or out of range): the model's own checks, before any drawing."""
-    from eval.studies.kinematics import history_of
+    from eval.studies.kinematics import record_history
 
     try:
-        return history_of(record, frames)
+        return record_history(record, frames)
     except KeyError as error:
         reason = f"its stroke has no parameter {error}"
     except (TypeError, ValueError) as error:

@@ -130,6 +130,7 @@ def optima_records(
     scheduler: str | None = None,
     progress: bool = True,
     record_cache: bool = True,
+    rerun: bool = False,
 ) -> list[Record]:
     """The records of the level-flight optima at ``speeds`` [m/s] for the env's insect and
     model options, in that order (one infeasible is said on stderr).
@@ -138,7 +139,7 @@ def optima_records(
     by the runner (:func:`agents.runner.run_jobs`: serially, or on Dask with ``scheduler``)
     into the record store ``cache_dir`` (a temporary one if None), where a stored record of the
     same configuration is reused, as is one in the record cache unless ``record_cache`` is
-    False (``--no-cache``); the runner hands the records back.
+    False (``--no-cache``), unless ``rerun`` (``--rerun``); the runner hands the records back.
     """
     import tempfile
 
@@ -150,7 +151,9 @@ def optima_records(
     jobs = [Job(method, "level", float(v), budget, seed, env_kwargs=kwargs) for v in speeds]
     with tempfile.TemporaryDirectory() as scratch:
         where = scratch if cache_dir is None else cache_dir
-        summary = run_jobs(jobs, where, scheduler=scheduler, progress=progress, cache=record_cache)
+        summary = run_jobs(
+            jobs, where, scheduler=scheduler, progress=progress, cache=record_cache, rerun=rerun
+        )
     records = [summary.records[job.key] for job in jobs]  # every job's: else run_jobs raises
     for speed, record in zip(speeds, records, strict=True):
         if not record.feasible:
@@ -440,7 +443,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     from eval.optimize import add_run_arguments
 
-    add_run_arguments(parser, "--scheduler", "--no-cache")
+    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
@@ -508,6 +511,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             scheduler=args.scheduler,
             progress=not args.quiet,
             record_cache=args.cache,
+            rerun=args.rerun,
         ),
     )
     if isinstance(steady, int):

@@ -10,14 +10,14 @@ from pathlib import Path
 from agents.dask_cluster import executor_spec
 from agents.methods import get_method
 from agents.progress import CommandProgress
-from agents.runner import have_records
+from agents.runner import find_records, look_ahead, run_plan
 from agents.store import RecordStore
 from eval.figures import FORMATS
 from eval.optimize import add_insect_argument, add_run_arguments, backend_kwargs, run_reporting
 from eval.studies.base import StudyPlan
 from eval.studies.campaigns import CAMPAIGNS, campaigns
 from eval.studies.claims import FLIP_THRESHOLD
-from eval.studies.presets import OVERRIDES, PRESETS, get_preset, overridden
+from eval.studies.presets import OVERRIDES, STUDY_PRESETS, get_preset, overridden
 from tandem_env.physics.insect import DRAGONFLY, describe_insect
 
 NAME = "study"
@@ -44,7 +44,7 @@ Presets:
         textwrap.fill(
             p.description, 92, initial_indent=f"  {p.name:<12} ", subsequent_indent=" " * 15
         )
-        for p in PRESETS.values()
+        for p in STUDY_PRESETS.values()
     )
     + """
 
@@ -80,7 +80,7 @@ def _default_out() -> str:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("study", choices=tuple(campaigns()), help="which study to run")
     parser.add_argument(
-        "--preset", choices=tuple(PRESETS), default="quick", help="conditions, seeds, budgets"
+        "--preset", choices=tuple(STUDY_PRESETS), default="quick", help="conditions, seeds, budgets"
     )
     helps = {
         "speeds": (
@@ -120,7 +120,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "side by side (default: the preset's method)",
     )
     add_insect_argument(parser)
-    add_run_arguments(parser, "--backend", "--device", "--scheduler", "--no-cache")
+    add_run_arguments(parser, "--backend", "--device", "--scheduler", "--no-cache", "--rerun")
     parser.add_argument(
         "--workers",
         type=int,
@@ -135,7 +135,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="; ".join(c.reading_help for c in CAMPAIGNS),
     )
     for campaign in CAMPAIGNS:
-        campaign.add_arguments(parser)
+        for flag, option in campaign.options.items():
+            parser.add_argument(flag, **option)
     parser.add_argument(
         "--format",
         choices=FORMATS,
@@ -152,15 +153,16 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     if args.out is None:
         args.out = campaign.default_out
     for other in CAMPAIGNS:
-        problem = None if other is campaign else other.misused(args)
-        if problem is not None:
-            parser.error(problem)
+        for flag, option in {} if other is campaign else other.options.items():
+            if getattr(args, flag[2:].replace("-", "_")) != option["default"]:
+                owner = ", ".join(other.names)
+                parser.error(f"{flag} is for the {owner} study only (study {args.study!r})")
     try:
         scheduler = executor_spec(args.scheduler, args.workers)
         # Checked before any work: a file is refused, a read-only folder unless everything
-        # is stored already (then the run only reports that).
+        # is stored already and the run only reports that. The one store of the command.
         store = RecordStore(args.out)
-        writable = store.check(write=False)
+        store.check(write=False)
         given = {option: getattr(args, option) for option in OVERRIDES}
         plan = StudyPlan(
             overridden(get_preset(args.preset), **given),
@@ -168,29 +170,25 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             figure_format=args.format,
             execution=tuple(backend_kwargs(args).items()),
             insect=DRAGONFLY if args.insect is None else args.insect,
-            reading=campaign.reading(args),
         )
-        if args.budget is not None and plan.reading.search is not None:
-            raise ValueError(
-                f"--budget {args.budget}: the reading {plan.reading.name!r} runs its own search "
-                f"({plan.reading.search.describe()}); allowed: --budget or that reading"
-            )
-        for method in plan.methods:  # an unknown method or bad setting, before any job
-            get_method(method, dict(plan.method_config(method)))
-        jobs, title = campaign.first_jobs(args, plan)
-        unique = list({job.key: job for job in jobs}.values())
+        study = campaign.plan(args, plan, store)
+        for method in study.plan.methods:  # an unknown method or bad setting, before any job
+            get_method(method, dict(study.plan.method_config(method)))
+        phases = look_ahead(study, store, args.cache)
+        unique = list({job.key: job for job in phases[0].jobs}.values())
         writable = store.check(write=False, jobs=unique)  # and each record's path
-        if not writable and (campaign.refuse_read_only or not have_records(args.out, unique)):
+        reports_only = len(phases) == 1 and not phases[0].later
+        stored = find_records(store, unique, cache=False) is not None
+        if not writable and not (reports_only and stored):
             store.check(jobs=unique)  # raises, naming the folder and why
         command = CommandProgress(
-            title,
-            args.out,
+            study.title,
+            store,
             cache=args.cache,
             enabled=not args.quiet,
-            detail=f"preset {plan.preset.name}, method {', '.join(plan.methods)}",
+            detail=f"preset {study.plan.preset.name}, method {', '.join(study.plan.methods)}",
+            rerun=args.rerun,
         )
-        if writable:
-            campaign.plan_phases(args, plan, command)
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     if not writable:
@@ -202,11 +200,24 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             file=sys.stderr,
         )
         return 0
-    command.announce()  # the first line (said unless --quiet)
+    command.announce(phases)  # the first line (said unless --quiet)
     if not args.quiet and plan.insect != DRAGONFLY:
         print(f"insect: {describe_insect(plan.insect)}", file=sys.stderr)
-    result = run_reporting(parser, lambda: campaign.run(args, plan, scheduler, command))
+
+    def run() -> object:
+        done = run_plan(
+            study,
+            store,
+            scheduler,
+            args.cache,
+            progress=not args.quiet,
+            rerun=args.rerun,
+            command=command,
+        )
+        return study.finish(done)
+
+    result = run_reporting(parser, run)
     if isinstance(result, int):
         return result
-    campaign.summarise(args, result)
+    campaign.report(args, result)
     return 0

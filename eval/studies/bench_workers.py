@@ -27,7 +27,7 @@ from agents.records import Record
 from agents.runner import run_jobs
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import StudyPlan
-from eval.studies.presets import PRESETS, get_preset
+from eval.studies.presets import STUDY_PRESETS, get_preset
 
 WORKERS: tuple[int, ...] = (1, 2, 4, 8, 16, 32, 64, 128)
 
@@ -67,7 +67,7 @@ def _speedups(name: str, durations: Sequence[float]) -> None:
 
 def main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", choices=tuple(PRESETS), default="quick")
+    parser.add_argument("--preset", choices=tuple(STUDY_PRESETS), default="quick")
     parser.add_argument("--scheduler", default="local:2", type=parse_scheduler)
     parser.add_argument("--repeat", type=int, default=1, help="runs of each mode (alternating)")
     args = parser.parse_args(argv)
@@ -105,7 +105,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         per_eval = seconds_per_evaluation(times)
         print(f"measured: {durations and sum(durations):.1f} s of jobs (serial)")
         _speedups(f"{args.preset} (measured)", durations)
-        for name, preset in PRESETS.items():
+        for name, preset in STUDY_PRESETS.items():
             others = sorted(_suite_jobs(StudyPlan(preset)), key=lambda j: -j.budget)
             _speedups(f"{name} (estimated)", [per_eval[j.task] * j.budget for j in others])
     finally:

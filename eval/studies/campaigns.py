@@ -1,6 +1,6 @@
-"""What ``python -m eval study NAME`` runs: a campaign, behind one protocol (:class:`Campaign`;
-its phases give the whole command's cost, announced on the first line and updated at each
-phase's start: :class:`agents.progress.CommandProgress`).
+"""What ``python -m eval study NAME`` runs: a campaign, behind one protocol (:class:`Campaign`):
+a plan (:class:`StudyRun`, run by :func:`agents.runner.run_plan`; its look-ahead gives the whole
+command's cost, :class:`agents.progress.CommandProgress`) and a report.
 
 :func:`campaigns` maps every study name the command offers to its campaign: ``all`` and each
 study of :data:`eval.studies.STUDIES` (read when called, so a study registered there is
@@ -12,63 +12,48 @@ protocol and its entry in :data:`CAMPAIGNS`; :mod:`eval.study` knows none of the
 from __future__ import annotations
 
 import argparse
+from collections.abc import Mapping
 from typing import Any, Protocol
 
-from agents.jobs import Job
-from agents.progress import CommandProgress
+from agents.runner import Plan, PlanRun
+from agents.store import RecordStore
 from eval.studies.base import StudyPlan
-from eval.studies.paper_reading import Reading
 from eval.studies.readings.campaign import READINGS
 from eval.studies.suite import SUITE
 
 
+class StudyRun(Plan, Protocol):
+    """A campaign's plan for one command: its phases (:class:`agents.runner.Plan`), the
+    :class:`StudyPlan` its jobs come from, the title of its first line, and what it writes once
+    run."""
+
+    plan: StudyPlan
+    title: str
+
+    def finish(self, run: PlanRun) -> Any:
+        """Analyse ``run`` (this plan's, run), write the outputs and return the result."""
+
+
 class Campaign(Protocol):
-    """A study the command line runs (:mod:`eval.study`)."""
+    """A study the command line runs (:mod:`eval.study`): a plan and a report, with its lines of
+    the command's help."""
 
-    @property
-    def names(self) -> tuple[str, ...]:
-        """The study names that choose it."""
-
+    names: tuple[str, ...]
+    """The study names that choose it."""
     description: str
     """Its lines of the command's study list."""
     default_out: str
     """The output directory without ``--out``."""
     reading_help: str
     """What ``--reading`` means for it, for the option's help."""
-    refuse_read_only: bool
-    """Whether an output folder that cannot be written is refused even when it holds every
-    record of the first phase (True: later phases write; False: the run only reports)."""
+    options: Mapping[str, dict[str, Any]]
+    """Its own options (flag -> ``add_argument`` keywords, a ``default`` each): refused for
+    another study when given."""
 
-    def add_arguments(self, parser: argparse.ArgumentParser) -> None:
-        """Its own options (the command adds the shared ones)."""
+    def plan(self, args: argparse.Namespace, plan: StudyPlan, out: RecordStore) -> StudyRun:
+        """Its plan into the store ``out``; ValueError naming a bad option, before any work."""
 
-    def misused(self, args: argparse.Namespace) -> str | None:
-        """One line if ``args`` give another study one of its own options, else None."""
-
-    def reading(self, args: argparse.Namespace) -> Reading:
-        """The reading of the plan (``--reading``); ValueError naming a bad value."""
-
-    def first_jobs(self, args: argparse.Namespace, plan: StudyPlan) -> tuple[list[Job], str]:
-        """Check its options against ``plan`` (ValueError, before any work) and return the jobs
-        of its first phase and the title that announces them."""
-
-    def plan_phases(
-        self, args: argparse.Namespace, plan: StudyPlan, command: CommandProgress
-    ) -> None:
-        """Give ``command`` its phases as far as they are known before any work
-        (:meth:`~agents.progress.CommandProgress.plan`)."""
-
-    def run(
-        self,
-        args: argparse.Namespace,
-        plan: StudyPlan,
-        scheduler: str | None,
-        command: CommandProgress,
-    ) -> Any:
-        """Run it into ``args.out`` (record cache ``args.cache``), telling ``command`` of each
-        phase, and return its result."""
-
-    def summarise(self, args: argparse.Namespace, result: Any) -> None:
+    def report(self, args: argparse.Namespace, result: Any) -> None:
         """Print what the run did (stderr) and found (stdout)."""
 
 
@@ -81,4 +66,4 @@ def campaigns() -> dict[str, Campaign]:
     return {name: campaign for campaign in CAMPAIGNS for name in campaign.names}
 
 
-__all__ = ["CAMPAIGNS", "Campaign", "campaigns"]
+__all__ = ["CAMPAIGNS", "Campaign", "StudyRun", "campaigns"]

@@ -25,7 +25,7 @@ from agents.polish import split_settings as polish_settings
 from agents.records import Record
 from eval import figures
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
-from eval.studies.presets import PRESETS
+from eval.studies.presets import STUDY_PRESETS
 from eval.studies.report import Column, markdown_table
 from tandem_env.io.files import write_csv_atomic, write_text_atomic
 
@@ -64,13 +64,14 @@ def split_jobs(plan: StudyPlan) -> dict[float, list[Job]]:
     one = StudyPlan(plan.preset, (plan.preset.method,))
     return {
         float(share): [
-            _with(job, split_settings(plan.preset.method, float(share))) for job in _spec_jobs(one)
+            _with(job, polish_share_settings(plan.preset.method, float(share)))
+            for job in _spec_jobs(one)
         ]
         for share in plan.preset.convergence.polish_shares
     }
 
 
-def split_settings(method: str, share: float) -> tuple[tuple[str, object], ...]:
+def polish_share_settings(method: str, share: float) -> tuple[tuple[str, object], ...]:
     """The method settings of a polish share: none for the method's default (so the split's
     jobs are the other studies' jobs at that condition, run once), else the share."""
     default = polish_settings(method, {})[0]
@@ -225,7 +226,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             grid, values = curves([records[j] for j in own])
             series.append((method, grid, values))
             table += checkpoint_rows(label, method, grid, values)
-        budgets = [(p.name, p.budget(task)) for p in PRESETS.values()]
+        budgets = [(p.name, p.budget(task)) for p in STUDY_PRESETS.values()]
         panels.append((label, series, budgets))
     splits = []
     for share, group in split_jobs(plan).items():

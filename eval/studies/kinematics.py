@@ -91,7 +91,7 @@ def flight_of(job: Job) -> tuple[Any, float, float]:
     return cfg, float(speeds[0]), float(powers[0])
 
 
-def history_of(record: Record, n_samples: int = HISTORY_SAMPLES):
+def record_history(record: Record, n_samples: int = HISTORY_SAMPLES):
     """The record's best stroke over one cycle, with the env's own insect and model options."""
     cfg, speed, power = flight_of(record.job)
     stroke = np.array([float(record.stroke[name]) for name in PARAMETER_NAMES])
@@ -109,7 +109,7 @@ def traces(
     by_key = {job.key: record for job, record in records.items()}
     out = []
     for row in sorted(chosen, key=lambda r: r["seed"]):
-        h = history_of(by_key[row["key"]])
+        h = record_history(by_key[row["key"]])
         fore, hind = ({name: getattr(wing, name) for name in TRACED} for wing in (h.fore, h.hind))
         best = row["seed"] == best_seed
         suffix = " (best)" if best else ("" if row["feasible"] else " (infeasible)")

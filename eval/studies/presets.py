@@ -254,7 +254,7 @@ PAPER = Preset(
 )
 
 #: The presets offered on the command line.
-PRESETS: dict[str, Preset] = {p.name: p for p in (QUICK, PAPER)}
+STUDY_PRESETS: dict[str, Preset] = {p.name: p for p in (QUICK, PAPER)}
 
 #: For the tests only: seconds, not minutes (coarse model resolution, 8 particles, 2 seeds).
 TINY = Preset(
@@ -317,6 +317,6 @@ def overridden(preset: Preset, **given: Any) -> Preset:
 def get_preset(name: str) -> Preset:
     """The named command-line preset."""
     try:
-        return PRESETS[name]
+        return STUDY_PRESETS[name]
     except KeyError:
-        raise ValueError(f"unknown preset {name!r}; allowed: {', '.join(PRESETS)}") from None
+        raise ValueError(f"unknown preset {name!r}; allowed: {', '.join(STUDY_PRESETS)}") from None

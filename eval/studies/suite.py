@@ -7,19 +7,20 @@ import argparse
 import os
 import sys
 import time
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 from agents.dask_cluster import executor_spec
-from agents.jobs import Job
 from agents.progress import CommandProgress, Phase
 from agents.record_cache import CacheOption
-from agents.runner import RunSummary, have_records, job_records, run_jobs
+from agents.runner import Lookup, PlanRun, RunSummary, find_records, run_plan
+from agents.store import RecordStore
 from eval.studies import PAPER_STUDIES, STUDIES, report
 from eval.studies.base import StudyOutput, StudyPlan
 from eval.studies.claims import VerdictCount
-from eval.studies.paper_reading import DEFAULT, Reading
+from eval.studies.paper_reading import DEFAULT
 from eval.studies.readings.plan import reading_by_name
 from tandem_env.io.files import write_json_atomic
 
@@ -43,66 +44,91 @@ def expand(names: Sequence[str]) -> list[str]:
     return list(dict.fromkeys(chosen))
 
 
+class SuitePlan:
+    """The studies ``names`` (or ``["all"]``) as a plan of one phase
+    (:class:`agents.runner.Plan`): all their jobs in one pool, shared optimisations run once;
+    :meth:`finish` analyses them into ``out`` with every other paper study whose records are
+    all there, so running ``speed`` and then ``power`` into one folder gives one report with
+    both."""
+
+    def __init__(self, names: Sequence[str], plan: StudyPlan, out: RecordStore) -> None:
+        self.started = time.perf_counter()
+        self.given = ", ".join(names)
+        self.asked = expand(names)
+        self.plan = plan
+        self.store = out
+        self.title = f"study {self.given} ({', '.join(self.asked)})"
+        # each study's jobs, built once: the asked ones first, then the other paper studies
+        studies = dict.fromkeys([*self.asked, *PAPER_STUDIES])
+        self.jobs_of = {name: STUDIES[name].jobs(plan) for name in studies}
+
+    def __call__(self, found: Lookup) -> Iterator[Phase]:
+        """The one phase: every job of the studies asked for."""
+        yield Phase(self.given, tuple(job for name in self.asked for job in self.jobs_of[name]))
+
+    def finish(self, run: PlanRun) -> SuiteResult:
+        """Analyse the studies asked (and every other paper study whose records are all
+        present), write the report and the manifest."""
+        out = self.store.directory
+        done = {}
+        for name, own in self.jobs_of.items():
+            if name in self.asked:
+                records = {job: run.records[job.key] for job in own}
+            elif (records := find_records(self.store, own, cache=False)) is None:
+                continue
+            done[name] = STUDIES[name].analyse(self.plan, records, out)
+        paper = [name for name in PAPER_STUDIES if name in done]
+        summary = run.runs[self.given]
+        report_path = None
+        if paper:
+            report_path = report.write_report(
+                out / "report.md", self.plan, [done[n] for n in paper], list(PAPER_STUDIES)
+            )
+            last_run = {
+                "studies": self.asked,
+                **summary.to_dict(),
+                # the whole call's, analysis included
+                "wall_time_s": round(time.perf_counter() - self.started, 1),
+            }
+            write_json_atomic(
+                out / "manifest.json",
+                {
+                    "preset": self.plan.preset.name,
+                    "methods": list(self.plan.methods),
+                    "studies": paper,
+                    "jobs": sorted({j.key for n in done for j in self.jobs_of[n]}),
+                    "last_run": last_run,
+                },
+            )
+        wall = time.perf_counter() - self.started
+        return SuiteResult([done[n] for n in self.asked], summary, report_path, wall)
+
+
 def run_studies(
     names: Sequence[str],
     plan: StudyPlan,
-    out_dir: str | os.PathLike[str],
+    out_dir: str | os.PathLike[str] | RecordStore,
     *,
     scheduler: str | None = None,
     workers: int = 1,
     progress: bool = True,
     cache: CacheOption = True,
+    rerun: bool = False,
     command: CommandProgress | None = None,
 ) -> SuiteResult:
-    """Run the studies ``names`` (or ``["all"]``) into ``out_dir``.
+    """Run the studies ``names`` (or ``["all"]``) into ``out_dir`` (:class:`SuitePlan`).
 
-    All their jobs go into one run (shared optimisations run once) on ``scheduler`` (None:
-    serially here; ``"local:N"``; a Dask scheduler's address; see
-    :func:`agents.runner.run_jobs`); ``workers=N > 1`` is short for
+    The jobs run on ``scheduler`` (None: serially here; ``"local:N"``; a Dask scheduler's
+    address; see :func:`agents.runner.run_jobs`); ``workers=N > 1`` is short for
     ``scheduler="local:N"``. Finished jobs from an earlier, killed or partial run with the same
-    configuration are reused. The report covers every paper study whose records are all
-    present, so running ``speed`` and then ``power`` into one directory gives one report with
-    both. ``cache`` is the record cache and ``command`` the command's progress, as for
-    :func:`~agents.runner.run_jobs`.
+    configuration are reused. ``cache``, ``rerun`` and ``command`` as for
+    :func:`~agents.runner.run_plan`.
     """
-    start = time.perf_counter()
-    out = Path(out_dir)
+    store = RecordStore.at(out_dir)
+    suite = SuitePlan(names, plan, store)
     scheduler = executor_spec(scheduler, workers)
-    asked = expand(names)
-    # each study's jobs, built once: the asked ones first, then the other paper studies
-    jobs_of = {name: STUDIES[name].jobs(plan) for name in dict.fromkeys([*asked, *PAPER_STUDIES])}
-    jobs = [job for name in asked for job in jobs_of[name]]
-    summary = run_jobs(
-        jobs, out, scheduler=scheduler, progress=progress, cache=cache, command=command
-    )
-    # the studies asked, and every other paper study whose records are all present
-    done = {
-        name: STUDIES[name].analyse(plan, job_records(out, own), out)
-        for name, own in jobs_of.items()
-        if name in asked or have_records(out, own)
-    }
-    paper = [name for name in PAPER_STUDIES if name in done]
-    report_path = None
-    if paper:
-        wall = time.perf_counter() - start
-        report_path = report.write_report(
-            out / "report.md", plan, [done[n] for n in paper], list(PAPER_STUDIES)
-        )
-        write_json_atomic(
-            out / "manifest.json",
-            {
-                "preset": plan.preset.name,
-                "methods": list(plan.methods),
-                "studies": paper,
-                "jobs": sorted({j.key for n in done for j in jobs_of[n]}),
-                "last_run": {
-                    "studies": asked,
-                    **summary.to_dict(),
-                    "wall_time_s": round(wall, 1),  # the whole call's, analysis included
-                },
-            },
-        )
-    return SuiteResult([done[n] for n in asked], summary, report_path, time.perf_counter() - start)
+    run = run_plan(suite, store, scheduler, cache, progress=progress, rerun=rerun, command=command)
+    return suite.finish(run)
 
 
 class SuiteCampaign:
@@ -126,51 +152,22 @@ class SuiteCampaign:
         "all and each paper study: run it under this one reading (paper, a single, or singles "
         "joined by '+'; docs/reproduction.md, Readings)"
     )
-    refuse_read_only = False
+    options: Mapping[str, dict[str, Any]] = {}
 
-    def add_arguments(self, parser: argparse.ArgumentParser) -> None:
-        """No options of its own."""
-
-    def misused(self, args: argparse.Namespace) -> str | None:
-        return None
-
-    def reading(self, args: argparse.Namespace) -> Reading:
-        if not args.reading:
-            return DEFAULT
-        if len(args.reading) > 1:
+    def plan(self, args: argparse.Namespace, plan: StudyPlan, out: RecordStore) -> SuitePlan:
+        """The study ``args.study`` under its ``--reading`` (ValueError naming a bad one)."""
+        if args.reading and len(args.reading) > 1:
             raise ValueError(f"study {args.study!r} runs under one --reading, got {args.reading}")
-        return reading_by_name(args.reading[0])
+        reading = reading_by_name(args.reading[0]) if args.reading else DEFAULT
+        if args.budget is not None and reading.search is not None:
+            raise ValueError(
+                f"--budget {args.budget}: the reading {reading.name!r} runs its own search "
+                f"({reading.search.describe()}); allowed: --budget or that reading"
+            )
+        return SuitePlan([args.study], replace(plan, reading=reading), out)
 
-    def first_jobs(self, args: argparse.Namespace, plan: StudyPlan) -> tuple[list[Job], str]:
-        names = expand([args.study])
-        jobs = [job for name in names for job in STUDIES[name].jobs(plan)]
-        return jobs, f"study {args.study} ({', '.join(names)})"
-
-    def plan_phases(
-        self, args: argparse.Namespace, plan: StudyPlan, command: CommandProgress
-    ) -> None:
-        """One phase: every job of the studies asked for, in one pool."""
-        jobs, _ = self.first_jobs(args, plan)
-        command.plan([Phase(args.study, tuple(jobs))])
-
-    def run(
-        self,
-        args: argparse.Namespace,
-        plan: StudyPlan,
-        scheduler: str | None,
-        command: CommandProgress,
-    ) -> SuiteResult:
-        return run_studies(
-            [args.study],
-            plan,
-            args.out,
-            scheduler=scheduler,
-            progress=not args.quiet,
-            cache=args.cache,
-            command=command,
-        )
-
-    def summarise(self, args: argparse.Namespace, result: SuiteResult) -> None:
+    def report(self, args: argparse.Namespace, result: SuiteResult) -> None:
+        """Print what the run did (stderr) and found (stdout)."""
         run = result.run
         print(
             f"{run.total} optimisations: {run.describe(args.out)} ({run.executor}); "

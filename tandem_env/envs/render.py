@@ -10,19 +10,19 @@ Matplotlib is imported only when something is rendered, so importing the envs do
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..physics import Dragonfly, ModelOptions, stroke_history
 from .columns import row
-from .config import FlightConfig
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
     from ..physics import StrokeHistory
+    from .problem import OneCycleCore
 
 #: Frame size [px] of ``rgb_array`` renders (width, height) and its resolution [dpi].
 FRAME_SIZE: tuple[int, int] = (720, 400)
@@ -205,14 +205,6 @@ class LastStep:
 
     batch: Any
     index: int
-
-
-class OneCycleCore(Protocol):
-    """What :func:`frame_for` reads of a one-cycle task's core (``base.FlightCore``)."""
-
-    config: FlightConfig
-
-    def flight_conditions(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
 
 
 def frame_for(

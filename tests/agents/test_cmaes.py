@@ -23,7 +23,7 @@ from agents.evaluator import VectorEnvEvaluator
 from agents.methods import AskTellMethod, get_method
 from agents.optimiser import FloatArray
 from agents.random_search import RandomSearchConfig
-from agents.tasks import ACCELERATE, LEVEL, STROKE_DISCRETE, register_task
+from agents.tasks import ACCELERATE_TASK, LEVEL_TASK, STROKE_DISCRETE, register_task
 from tandem_env.envs.base import as_action_type
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -128,14 +128,14 @@ def test_defaults_and_record_carry_every_setting() -> None:
     assert isinstance(method, AskTellMethod)
     assert method.config(100) == CMAESConfig(popsize=16, max_evaluations=100)
     # the task's discrete coordinates go into the configuration the method runs
-    assert method.config(100, LEVEL).discrete == ((11, 2), (25, 2))
+    assert method.config(100, LEVEL_TASK).discrete == ((11, 2), (25, 2))
 
 
 # --- the discrete harmonic N ------------------------------------------------------------------
 def test_stroke_discrete_coordinates_are_the_harmonic_n_with_the_envs_bins() -> None:
     names = [tandem_env.PARAMETER_NAMES[i] for i, _ in STROKE_DISCRETE]
     assert names == ["fore_elevation_harmonic", "hind_elevation_harmonic"]
-    assert LEVEL.discrete_actions == ACCELERATE.discrete_actions == STROKE_DISCRETE
+    assert LEVEL_TASK.discrete_actions == ACCELERATE_TASK.discrete_actions == STROKE_DISCRETE
     levels = discrete_levels(2)
     np.testing.assert_array_equal(levels, [-0.5, 0.5])
     for index, k in STROKE_DISCRETE:

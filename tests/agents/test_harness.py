@@ -40,7 +40,7 @@ from agents.pso import PSOConfig
 from agents.records import Record
 from agents.runner import run_jobs
 from agents.store import RecordStore, read_record_files
-from agents.tasks import LEVEL, get_task
+from agents.tasks import LEVEL_TASK, get_task
 
 sys.path.insert(0, str(Path(__file__).parent))
 from analytic_envs import ACTION_LOG, DIM, optimum, register_analytic
@@ -366,8 +366,8 @@ def test_one_batched_model_call_per_iteration(monkeypatch: pytest.MonkeyPatch) -
 
 def test_unknown_env_condition_out_of_range_is_reported() -> None:
     with pytest.raises(ValueError, match="speed"):
-        harness.prepare("pso", LEVEL, 25.0, 10, [0])
-    assert get_task("level") == LEVEL  # derived from the declaration when asked, equal
+        harness.prepare("pso", LEVEL_TASK, 25.0, 10, [0])
+    assert get_task("level") == LEVEL_TASK  # derived from the declaration when asked, equal
 
 
 def test_pso_config_defaults_are_recorded() -> None:

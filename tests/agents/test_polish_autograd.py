@@ -15,7 +15,7 @@ import pytest
 
 from agents.polish import AutogradGradient, CentralDifferences, task_problem
 from agents.store import read_record_files
-from agents.tasks import ACCELERATE, LEVEL
+from agents.tasks import ACCELERATE_TASK, LEVEL_TASK
 from eval.__main__ import main
 
 pytest.importorskip("torch")
@@ -34,15 +34,15 @@ STROKES = _env_strokes()
 # (task, condition, env keywords, feasible normalised stroke); the scaled strokes move every
 # coordinate off the box's faces, where central differences are one-sided (O(h) error).
 CASES = [
-    (LEVEL, STROKES.LEVEL_SPEED, {}, STROKES.LEVEL_FEASIBLE_ACTION),
+    (LEVEL_TASK, STROKES.LEVEL_SPEED, {}, STROKES.LEVEL_FEASIBLE_ACTION),
     (
-        LEVEL,
+        LEVEL_TASK,
         STROKES.LEVEL_SPEED,
         {"constraint_tolerance": 0.05},
         0.99 * STROKES.LEVEL_FEASIBLE_ACTION,
     ),
-    (ACCELERATE, STROKES.ACCELERATE_POWER, {}, 0.97 * STROKES.ACCELERATE_FEASIBLE_ACTION),
-    (ACCELERATE, 90.0, {"objective": "resultant"}, 0.97 * STROKES.ACCELERATE_FEASIBLE_ACTION),
+    (ACCELERATE_TASK, STROKES.ACCELERATE_POWER, {}, 0.97 * STROKES.ACCELERATE_FEASIBLE_ACTION),
+    (ACCELERATE_TASK, 90.0, {"objective": "resultant"}, 0.97 * STROKES.ACCELERATE_FEASIBLE_ACTION),
 ]
 
 

@@ -199,9 +199,9 @@ def test_the_command_progress_counts_the_whole_command(
     first = [_job(0), _job(1)]
     stand_in = Job("pso", "level", 2.0, 4, 2, **SMALL)  # a later phase's job, its key not final
     command = CommandProgress("test command", tmp_path / "b", detail="two phases")
-    command.plan([Phase("one", tuple(first)), Phase("two", (stand_in, _job(3)),
-                  frozenset({stand_in.key}))], later="more")  # fmt: skip
-    command.announce()
+    phases = [Phase("one", tuple(first)), Phase("two", (stand_in, _job(3)),
+              frozenset({stand_in.key}), later="more")]  # fmt: skip
+    command.announce(phases)
     line = capsys.readouterr().err.splitlines()[0]
     assert line == (
         "test command: two phases; 2 phases (one, two): 4 optimisations over seeds [0, 1, 2, 3], "
@@ -209,11 +209,11 @@ def test_the_command_progress_counts_the_whole_command(
         f"{tmp_path / 'b'}, 1 in the record cache, 2 to run (20 evaluations); then more; "
         "time left: estimating (from the speed of the first jobs to finish)"
     )
-    command.start("one")  # the first phase: the first line said it
+    command.start(phases, phases[:1])  # the first phase: the first line said it
     assert capsys.readouterr().err == ""
     run_jobs(first, tmp_path / "b", progress=False, command=command)
     command.ran(stand_in, 0.5)  # as run_jobs reports a job: 4 evaluations in 0.5 s
-    command.start("two")
+    command.start(phases, phases)
     line = capsys.readouterr().err.strip()
     assert line.startswith(
         "phase 2/2 (two) of the test command: 4 optimisations (52 evaluations), 3 done or "
@@ -221,6 +221,5 @@ def test_the_command_progress_counts_the_whole_command(
         "evaluations/s measured so far)"
     )
     quiet = CommandProgress("quiet", tmp_path / "b", enabled=False)
-    quiet.plan([Phase("one", tuple(first))])
-    quiet.announce()
+    quiet.announce([Phase("one", tuple(first))])
     assert capsys.readouterr().err == "" and quiet.lines[0].startswith("quiet: 2 optimisations")

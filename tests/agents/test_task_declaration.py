@@ -24,8 +24,8 @@ from gymnasium.utils.env_checker import check_env
 from agents.harness import run
 from agents.store import read_record
 from agents.tasks import (
-    ACCELERATE,
-    LEVEL,
+    ACCELERATE_TASK,
+    LEVEL_TASK,
     STROKE_DISCRETE,
     Condition,
     TaskSpec,
@@ -67,31 +67,31 @@ def toy() -> Iterator[TaskSpec]:
 
 def test_the_package_tasks_are_read_from_the_env_declarations() -> None:
     assert registration.task_env_ids() == {"level": LEVEL_FLIGHT_ID, "accelerate": ACCELERATE_ID}
-    level, accelerate = LEVEL.declared_condition, ACCELERATE.declared_condition
+    level, accelerate = LEVEL_TASK.declared_condition, ACCELERATE_TASK.declared_condition
     assert (level.keyword, level.unit) == ("speed", "m/s")
-    assert LEVEL.condition(1.5) == Condition("speed", 1.5, "m/s")
-    assert dict(LEVEL.declared_objectives.metrics) == {"efficiency": "efficiency"}
-    assert LEVEL.declared_objectives.keyword is None
-    assert LEVEL.forbidden_kwargs == ("speed", "speed_range")
+    assert LEVEL_TASK.condition(1.5) == Condition("speed", 1.5, "m/s")
+    assert dict(LEVEL_TASK.declared_objectives.metrics) == {"efficiency": "efficiency"}
+    assert LEVEL_TASK.declared_objectives.keyword is None
+    assert LEVEL_TASK.forbidden_kwargs == ("speed", "speed_range")
     # One name for Accelerate's condition: keyword, reset option, info key, record name.
     assert (accelerate.keyword, accelerate.unit) == ("available_power", "W/kg")
-    assert ACCELERATE.condition(2.0) == Condition("available_power", 2.0, "W/kg")
-    assert ACCELERATE.condition_flag == "--power"  # the command line keeps --power
-    assert dict(ACCELERATE.declared_objectives.metrics) == {
+    assert ACCELERATE_TASK.condition(2.0) == Condition("available_power", 2.0, "W/kg")
+    assert ACCELERATE_TASK.condition_flag == "--power"  # the command line keeps --power
+    assert dict(ACCELERATE_TASK.declared_objectives.metrics) == {
         "vertical": "excess_vertical",
         "horizontal": "excess_horizontal",
         "resultant": "excess_total",
         "horizontal_literal": "excess_horizontal_literal",
     }
-    objectives = ACCELERATE.declared_objectives
+    objectives = ACCELERATE_TASK.declared_objectives
     assert (objectives.default, objectives.keyword) == ("vertical", "objective")
-    assert ACCELERATE.forbidden_kwargs == ("available_power", "available_power_range")
-    assert LEVEL.discrete_actions == ACCELERATE.discrete_actions == STROKE_DISCRETE
+    assert ACCELERATE_TASK.forbidden_kwargs == ("available_power", "available_power_range")
+    assert LEVEL_TASK.discrete_actions == ACCELERATE_TASK.discrete_actions == STROKE_DISCRETE
     assert config_class(LEVEL_FLIGHT_ID) is LevelFlightConfig
     # The spec is a view of the declaration, not a copy.
-    assert LEVEL.declaration is LevelFlightConfig.DECLARATION
-    assert ACCELERATE.declaration is AccelerateConfig.DECLARATION
-    assert AccelerateConfig.CONDITION is ACCELERATE.declaration.condition
+    assert LEVEL_TASK.declaration is LevelFlightConfig.DECLARATION
+    assert ACCELERATE_TASK.declaration is AccelerateConfig.DECLARATION
+    assert AccelerateConfig.CONDITION is ACCELERATE_TASK.declaration.condition
 
 
 def test_the_registries_are_read_when_asked() -> None:

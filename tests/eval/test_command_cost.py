@@ -12,11 +12,13 @@ from agents import runner
 from agents.harness import PreparedJob
 from agents.jobs import Job
 from agents.records import Record
+from agents.runner import look_ahead
+from agents.store import RecordStore
 from eval.__main__ import main
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import DEFAULT
-from eval.studies.presets import PRESETS, TINY
-from eval.studies.readings import Continuation, planned_phases, reading_by_name, reading_jobs
+from eval.studies.presets import STUDY_PRESETS, TINY
+from eval.studies.readings import ReadingsPlan, reading_by_name, reading_jobs
 
 
 def _count_calls(monkeypatch: pytest.MonkeyPatch) -> list[Job]:
@@ -34,7 +36,7 @@ def _count_calls(monkeypatch: pytest.MonkeyPatch) -> list[Job]:
 def test_readings_after_all_reuses_the_stored_jobs_and_its_first_line_gives_the_cost(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    monkeypatch.setitem(STUDY_PRESETS, TINY.name, TINY)
     calls = _count_calls(monkeypatch)
     plan = StudyPlan(TINY)
     suite = {job.key for job in reading_jobs(plan, DEFAULT)}
@@ -51,7 +53,8 @@ def test_readings_after_all_reuses_the_stored_jobs_and_its_first_line_gives_the_
     # The readings study into another folder: its plan finds the default's records (the
     # suite's own jobs) in the cache, so the continued jobs' keys are known before any work.
     readings = (DEFAULT, reading_by_name("convected"))
-    phases = planned_phases(plan, tmp_path / "readings", readings, Continuation())
+    store = RecordStore(tmp_path / "readings")
+    phases = look_ahead(ReadingsPlan(plan, store, readings), store)
     assert [p.name for p in phases] == ["default", "check", "singles"]
     assert {j.key for j in phases[0].jobs} == suite
     assert not any(p.provisional for p in phases)
@@ -87,3 +90,24 @@ def test_readings_after_all_reuses_the_stored_jobs_and_its_first_line_gives_the_
     err = capsys.readouterr().err
     assert "time left" not in err and "optimisations:" in err  # the summary line alone
     assert len(calls) == len(TINY.speeds) * len(TINY.seeds)
+
+    # --rerun (every command that runs jobs): the stored jobs run again, their records replaced.
+    calls.clear()
+    argv = ["study", "speed", "--preset", "tiny", "--out", str(tmp_path / "again"), "--quiet"]
+    assert main([*argv, "--rerun"]) == 0
+    assert len(calls) == len(TINY.speeds) * len(TINY.seeds)
+    assert f"--rerun: {len(calls)} record(s) in {tmp_path / 'again'} replaced" in (
+        capsys.readouterr().err
+    )
+    for command in ("reference", "speed-change"):
+        assert "--rerun" in _help(command)
+
+
+def _help(command: str) -> str:
+    import contextlib
+    import io
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.suppress(SystemExit):
+        main([command, "--help"])
+    return out.getvalue()

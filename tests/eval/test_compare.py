@@ -140,7 +140,7 @@ def test_colours_are_fixed_per_method_and_labels_count_seeds_right() -> None:
     import matplotlib.pyplot as plt
 
     def lines(records: list[Record]) -> dict[str, tuple[str, str]]:
-        fig = compare_module.convergence_figure(records)
+        fig = compare_module.best_so_far_figure(records)
         try:
             ax = fig.axes[0]
             return {
@@ -175,7 +175,7 @@ def test_the_polish_is_drawn_from_the_end_of_the_search_to_the_reported_marker()
     runs = [_record("cmaes", seed, 0.5, True) for seed in (0, 1)]
     for r in runs:
         r.results["history"] = [[3, -2.0], [6, 0.4]]
-    fig = compare_module.convergence_figure(runs)
+    fig = compare_module.best_so_far_figure(runs)
     try:
         ax = fig.axes[0]
         [marker] = [ln for ln in ax.get_lines() if ln.get_marker() == "D" and len(ln.get_xdata())]
@@ -188,7 +188,7 @@ def test_the_polish_is_drawn_from_the_end_of_the_search_to_the_reported_marker()
     finally:
         plt.close(fig)
     # without a polish (the history reaches the evaluations spent) there is no segment
-    fig = compare_module.convergence_figure([_record("cmaes", 0, 0.5, True)])
+    fig = compare_module.best_so_far_figure([_record("cmaes", 0, 0.5, True)])
     try:
         assert compare_module.POLISH_LABEL not in fig.axes[0].get_legend_handles_labels()[1]
     finally:

@@ -26,7 +26,7 @@ from agents.dask_cluster import parse_scheduler
 from agents.jobs import Job
 from agents.runner import JobsFailed, run_jobs
 from eval.studies.base import StudyPlan
-from eval.studies.presets import PRESETS, TINY
+from eval.studies.presets import STUDY_PRESETS, TINY
 from eval.studies.suite import run_studies
 
 distributed = pytest.importorskip("distributed")
@@ -200,7 +200,7 @@ def test_unreachable_scheduler_fails_fast_naming_it(
 ) -> None:
     from eval.__main__ import main
 
-    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    monkeypatch.setitem(STUDY_PRESETS, TINY.name, TINY)
     argv = ["study", "speed", "--preset", "tiny", "--out", str(tmp_path), "--quiet"]
     start = time.monotonic()
     assert main([*argv, "--scheduler", "tcp://127.0.0.1:1"]) == 1

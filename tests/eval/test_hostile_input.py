@@ -30,7 +30,7 @@ from agents import dask_cluster
 from agents.dask_cluster import SchedulerUnreachable, dask_client, parse_scheduler
 from eval.__main__ import main
 from eval.measured import SpecError, load_case
-from eval.studies.presets import PRESETS, TINY
+from eval.studies.presets import STUDY_PRESETS, TINY
 from tandem_env.io.files import output_directory
 from tandem_env.io.progress_bar import COMPILING, STARTING, ProgressBar
 from tandem_env.physics.measured import MAX_SAMPLES, MeasuredWing
@@ -217,7 +217,7 @@ def test_a_file_as_out_is_refused_before_any_work(
     monkeypatch: pytest.MonkeyPatch,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    monkeypatch.setitem(STUDY_PRESETS, TINY.name, TINY)
     blocker = tmp_path / "taken"
     blocker.write_text("not a folder")
     out = blocker if where == "file" else blocker / "sub"
@@ -256,7 +256,7 @@ needs_permissions = pytest.mark.skipif(
 def test_a_read_only_out_is_refused_before_any_work(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    monkeypatch.setitem(STUDY_PRESETS, TINY.name, TINY)
     locked = tmp_path / "locked"
     locked.mkdir()
     locked.chmod(0o555)
@@ -561,8 +561,8 @@ def test_study_says_what_it_will_run(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Before the first job: the studies, optimisations, seeds, budgets and the work left."""
-    monkeypatch.setitem(PRESETS, TINY.name, TINY)
-    monkeypatch.setattr("eval.studies.suite.run_studies", lambda *a, **k: (_ for _ in ()).throw(
+    monkeypatch.setitem(STUDY_PRESETS, TINY.name, TINY)
+    monkeypatch.setattr("eval.study.run_plan", lambda *a, **k: (_ for _ in ()).throw(
         KeyboardInterrupt))  # fmt: skip
     assert main(["study", "speed", "--preset", "tiny", "--out", str(tmp_path)]) == 130
     err = capsys.readouterr().err

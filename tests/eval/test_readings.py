@@ -14,7 +14,7 @@ from agents import runner
 from eval.studies import PAPER_STUDIES, claims, readings
 from eval.studies.base import StudyOutput, StudyPlan
 from eval.studies.paper_reading import DEFAULT, Reading, combine
-from eval.studies.presets import PRESETS, TINY
+from eval.studies.presets import STUDY_PRESETS, TINY
 from eval.studies.readings import ReadingResult, combinations, reading_jobs
 from eval.studies.readings import timing as readings_time
 
@@ -205,7 +205,7 @@ def test_tiny_run_writes_everything_and_a_rerun_computes_nothing(
     # The same study from the command line: every record is reused, the verdicts are the same.
     calls: list[runner.Job] = []
     monkeypatch.setattr(runner, "_harness_run", lambda job: calls.append(job))
-    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    monkeypatch.setitem(STUDY_PRESETS, TINY.name, TINY)
     argv = ["study", "readings", "--preset", "tiny", "--out", str(tmp_path), "--quiet"]
     assert main([*argv, "--reading", "convected", "--continuation", "none"]) == 0
     out = capsys.readouterr().out

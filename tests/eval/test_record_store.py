@@ -24,7 +24,7 @@ from agents.runner import JobsFailed, run_jobs
 from agents.store import RecordStore, read_record, read_record_files
 from eval.__main__ import main
 from eval.studies.base import StudyPlan
-from eval.studies.presets import PRESETS, TINY
+from eval.studies.presets import STUDY_PRESETS, TINY
 
 SMALL = {"env_kwargs": {"n_blade": 6, "n_time": 32}, "method_config": {"swarm_size": 8}}
 
@@ -175,7 +175,7 @@ def test_failing_job_is_reported_by_key_and_the_others_finish(
     stored = {p.stem for p in (tmp_path / "records").glob("*.json")}
     assert stored == {j.key for j in jobs} - {victim.key}
     # The command line says the same and exits with status 1.
-    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    monkeypatch.setitem(STUDY_PRESETS, TINY.name, TINY)
     code = main(["study", "speed", "--preset", "tiny", "--out", str(tmp_path), "--quiet"])
     assert code == 1
     err = capsys.readouterr().err

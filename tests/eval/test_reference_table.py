@@ -10,17 +10,18 @@ import sys
 
 import pytest
 
-from agents.runner import run_jobs
+from agents.jobs import Continuation
+from agents.runner import look_ahead, run_jobs, run_plan
 from eval.reference import (
     BUDGETS,
-    ROUNDS,
+    CONTINUATION,
     SEEDS,
+    ReferencePlan,
     best_objectives,
     build_table,
     continuation,
     gather,
     plan,
-    planned_phases,
     provenance,
     round_gains,
 )
@@ -36,8 +37,7 @@ from tandem_env.envs.reference import (
 SMALL = {"n_time": 32, "n_blade": 8}
 
 
-def _key(prepared):
-    job = prepared.job
+def _key(job):
     return (LEVEL_FLIGHT_ID, "efficiency", job.env("planform"), job.condition)
 
 
@@ -64,7 +64,7 @@ def test_a_small_table_keeps_the_best_stroke_and_says_how_it_was_made(tmp_path):
     continued = continuation(jobs, gather(jobs, [], records))
     for (*_, condition), job in continued.items():
         # warm starts: this point's best and its neighbours' (2 at the ends, 3 inside)
-        initial = dict(job.job.method_config)["initial"]
+        initial = dict(job.method_config)["initial"]
         assert len(initial) <= (3 if condition == 1.125 else 2)
         own = max(
             (r for r in gather(jobs, [], records)[_key(job)] if r.feasible),
@@ -73,21 +73,33 @@ def test_a_small_table_keeps_the_best_stroke_and_says_how_it_was_made(tmp_path):
         )
         if own is not None:
             assert list(own.normalised_stroke) in [list(x) for x in initial]
-        assert job.job.budget == 240 and job.job.condition == condition
+        assert job.budget == 240 and job.condition == condition
     records |= run_jobs(list(continued.values()), tmp_path, progress=False, cache=False).records
     # The plan a rerun announces: the rounds the stored optima decide are the real jobs (the
     # second round's from the first round's records), stand-ins of the same budgets after them.
-    phases = planned_phases(jobs, tmp_path, cache=False)
-    assert [p.job for p in continued.values()] == list(phases[1].jobs)
+    phases = look_ahead(ReferencePlan(jobs), tmp_path, cache=False)
+    assert list(continued.values()) == list(phases[1].jobs)
     assert not phases[1].provisional and not phases[2].provisional
-    assert len(phases) == 1 + ROUNDS and phases[2].jobs != phases[1].jobs
+    assert len(phases) == 1 + CONTINUATION.rounds and phases[2].jobs != phases[1].jobs
     for phase in phases[3:]:
         assert phase.provisional == {job.key for job in phase.jobs}
         assert [job.budget for job in phase.jobs] == [job.budget for job in phases[1].jobs]
+    # The stop rule: rounds until one raises no point by more than `until` % (issue 42's 0.1 %
+    # is until=0.1); the first round's records are stored, so nothing runs, and the look-ahead
+    # stops where the run does.
+    rule = Continuation(share=0.5, initial_share=0.75, starts=None, rounds=3, until=1e9)
+    stopping = ReferencePlan(jobs, rule)
+    run = run_plan(stopping, tmp_path, cache=False, progress=False)
+    assert list(run.runs) == ["search", "continuation 1"]
+    assert sum(r.ran for r in run.runs.values()) == 0 and stopping.rounds == [continued]
+    assert [p.name for p in look_ahead(stopping, tmp_path, cache=False)] == list(run.runs)
+    assert (
+        not CONTINUATION.stops(0.0) and rule.stops(5.0) and not Continuation(until=0.1).stops(0.2)
+    )
     after = best_objectives(gather(jobs, [continued], records))
     gains = round_gains(before, after)
     assert 0 <= gains["points_raised"] <= len(jobs)
-    every = [*flat, *continued.values()]
+    every = [*(p.job for p in flat), *continued.values()]
     table = build_table(
         jobs,
         [continued],
@@ -106,7 +118,7 @@ def test_a_small_table_keeps_the_best_stroke_and_says_how_it_was_made(tmp_path):
             seeds = [records[p.job.key] for p in jobs[LEVEL_FLIGHT_ID, "efficiency",
                                                       series.planform, point["condition"]]]  # fmt: skip
             seeds.append(records[continued[LEVEL_FLIGHT_ID, "efficiency", series.planform,
-                                               point["condition"]].job.key])  # fmt: skip
+                                               point["condition"]].key])  # fmt: skip
             feasible = [r.objective for r in seeds if r.feasible]
             if feasible:
                 assert point["feasible"] and point["objective"] == max(feasible)

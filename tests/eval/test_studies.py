@@ -16,7 +16,7 @@ from agents import runner
 from agents.harness import run
 from eval.studies import STUDIES, claims, convergence
 from eval.studies.base import StudyPlan
-from eval.studies.presets import PRESETS, TINY, ConvergenceSpec, Preset
+from eval.studies.presets import STUDY_PRESETS, TINY, ConvergenceSpec, Preset
 from eval.studies.suite import run_studies
 from eval.studies.tables import Spread
 from tandem_env import PARAMETER_NAMES
@@ -220,7 +220,7 @@ def test_cli_study(
 ) -> None:
     from eval.__main__ import main
 
-    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    monkeypatch.setitem(STUDY_PRESETS, TINY.name, TINY)
     code = main(
         ["study", "power", "--preset", "tiny", "--out", str(tmp_path), "--workers", "1", "--quiet"]
     )
@@ -281,7 +281,7 @@ def test_convergence_study_compares_pso_and_cmaes(study_dir: Path) -> None:
 
 def test_studies_default_to_the_presets_method() -> None:
     assert StudyPlan(TINY).methods == (TINY.method,)
-    assert {p.method for p in PRESETS.values()} <= {"pso", "cmaes"}
+    assert {p.method for p in STUDY_PRESETS.values()} <= {"pso", "cmaes"}
     assert StudyPlan(TINY, ("pso",)).methods == ("pso",)
     with pytest.raises(ValueError, match="method"):
         replace(TINY, method="")
@@ -304,9 +304,9 @@ def test_presets_are_validated() -> None:
         ConvergenceSpec(budget=100, seeds=(0,), methods=("pso", "pso"))
     with pytest.raises(ValueError, match="methods"):
         StudyPlan(TINY, ())
-    assert all(isinstance(p, Preset) for p in PRESETS.values())
+    assert all(isinstance(p, Preset) for p in STUDY_PRESETS.values())
     # The presets cover the kinematics conditions and the 2 m/s phase claim.
-    for preset in PRESETS.values():
+    for preset in STUDY_PRESETS.values():
         assert preset.kinematics_speed in preset.speeds and preset.phase_speed in preset.speeds
         assert preset.kinematics_power in preset.powers
         assert {50.0, 90.0} <= set(preset.powers)
@@ -390,7 +390,7 @@ def test_convergence_splits_report_what_the_records_report(study_dir: Path) -> N
     for row in rows:
         task = "level" if row["condition"].startswith("level") else "accelerate"
         share = float(row["polish_share"])
-        setting = dict(convergence.split_settings(SMALL.method, share))
+        setting = dict(convergence.polish_share_settings(SMALL.method, share))
         chosen = sorted(
             (
                 r
@@ -428,7 +428,7 @@ def test_cli_study_takes_speeds_powers_seeds_and_budget(
     (one usage error naming the option, before any file), and reach the records and report."""
     from eval.__main__ import main
 
-    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    monkeypatch.setitem(STUDY_PRESETS, TINY.name, TINY)
     out = tmp_path / "s"
     for option, values, said in (
         ("--speeds", ["3"], "--speeds: Preset.speeds = (3.0,); allowed: a non-empty, increasing"),

@@ -15,14 +15,14 @@ from eval.__main__ import main
 from eval.studies import STUDIES
 from eval.studies import speed as speed_study
 from eval.studies.base import StudyPlan
-from eval.studies.presets import PRESETS, TINY
+from eval.studies.presets import STUDY_PRESETS, TINY
 
 
 def test_a_study_in_one_file_runs_through_the_command_line(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     monkeypatch.setitem(STUDIES, toy_study.NAME, toy_study)  # the one registry line
-    monkeypatch.setitem(PRESETS, TINY.name, TINY)
+    monkeypatch.setitem(STUDY_PRESETS, TINY.name, TINY)
     argv = ["study", "toy", "--preset", "tiny", "--out", str(tmp_path), "--quiet"]
     assert main(argv) == 0
     out = capsys.readouterr().out

@@ -34,9 +34,9 @@ from eval.studies.readings.plan import (
 from eval.studies.readings.result import ReadingResult
 from eval.studies.readings.run import (
     CHECK_COLUMNS,
+    ReadingsPlan,
     check_summary,
     csv_rows,
-    planned_phases,
     run_readings,
 )
 
@@ -49,6 +49,7 @@ __all__ = [
     "SINGLES",
     "Continuation",
     "ReadingResult",
+    "ReadingsPlan",
     "check_jobs",
     "check_summary",
     "combinations",
@@ -56,7 +57,6 @@ __all__ = [
     "csv_rows",
     "full_tasks",
     "optima_of",
-    "planned_phases",
     "reading_by_name",
     "reading_jobs",
     "reading_plan",

@@ -1,18 +1,19 @@
 """``python -m eval study readings``: the readings study as a campaign of the command line
-(:class:`eval.studies.campaigns.Campaign`): its ``--continuation`` option, its first phase and
-its run in phases (:mod:`eval.studies.readings`)."""
+(:class:`eval.studies.campaigns.Campaign`): its ``--continuation`` option, its plan and its
+report (:mod:`eval.studies.readings`)."""
 
 from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Mapping
+from typing import Any
 
 from agents.harness import prepare_job
-from agents.jobs import Job
-from agents.progress import CommandProgress
+from agents.store import RecordStore
 from eval.studies.base import StudyPlan
 from eval.studies.claims import VerdictCount
-from eval.studies.paper_reading import DEFAULT, Reading
+from eval.studies.paper_reading import DEFAULT
 from eval.studies.readings.plan import (
     DEFAULT_OUT,
     NAME,
@@ -22,8 +23,7 @@ from eval.studies.readings.plan import (
     reading_jobs,
     single_readings,
 )
-from eval.studies.readings.run import COMBINATIONS_LATER, planned_phases, run_readings
-from tandem_env.physics import N_PARAMETERS
+from eval.studies.readings.run import ReadingsPlan
 
 
 def continuation_option(text: str) -> Continuation | None:
@@ -51,9 +51,8 @@ def check_continuation(plan: StudyPlan, continuation: Continuation) -> None:
     method can run (below one population, or a part without evaluations) is refused now, not
     by every continued job after the default's phase has run. ValueError naming the share."""
     jobs = {(j.method, j.budget, j.method_config): j for j in reading_jobs(plan, DEFAULT)}
-    placeholder = [[0.0] * N_PARAMETERS]  # the default's optima are not known yet
     for job in jobs.values():
-        continued = continuation.job(job, placeholder)
+        continued = continuation.job(job, None)  # the default's optima are not known yet
         try:
             prepare_job(continued)
         except ValueError as error:
@@ -79,67 +78,35 @@ class ReadingsCampaign:
         "readings study: run these single readings (repeat; the default is always "
         f"run; allowed: {', '.join(r.name for r in SINGLES)})"
     )
-    refuse_read_only = True
+    options: Mapping[str, dict[str, Any]] = {
+        "--continuation": {
+            "type": continuation_option,
+            "default": Continuation(),
+            "metavar": "SHARE|none",
+            "help": "readings study only: the other readings continue from the default's "
+            f"optima on SHARE of the budget (default {Continuation().share:g}; "
+            "docs/reproduction.md, Readings); none runs every reading in full",
+        }
+    }
 
-    def add_arguments(self, parser: argparse.ArgumentParser) -> None:
-        parser.add_argument(
-            "--continuation",
-            type=continuation_option,
-            default=Continuation(),
-            metavar="SHARE|none",
-            help="readings study only: the other readings continue from the default's optima "
-            f"on SHARE of the budget (default {Continuation().share:g}; docs/reproduction.md, "
-            "Readings); none runs every reading in full",
-        )
-
-    def misused(self, args: argparse.Namespace) -> str | None:
-        if args.continuation != Continuation():
-            return f"--continuation is for the readings study only (study {args.study!r})"
-        return None
-
-    def reading(self, args: argparse.Namespace) -> Reading:
-        return DEFAULT  # the readings are the study's own
-
-    def first_jobs(self, args: argparse.Namespace, plan: StudyPlan) -> tuple[list[Job], str]:
+    def plan(self, args: argparse.Namespace, plan: StudyPlan, out: RecordStore) -> ReadingsPlan:
+        """The study of the readings ``--reading`` names (ValueError, before any work, for a
+        bad one or a share whose continued jobs cannot run)."""
         chosen = single_readings(args.reading)
         singles = f"{len(chosen) - 1} single reading{'s' * (len(chosen) != 2)}"
-        if args.continuation is None:
-            jobs = [job for r in chosen for job in reading_jobs(plan, r)]
-            return jobs, f"readings study (the default and {singles})"
-        check_continuation(plan, args.continuation)
-        return reading_jobs(plan, DEFAULT), (
-            f"readings study (the default in full; {singles} continuing from its optima on "
-            f"{args.continuation.share:g} of the budget, a task the bias check fails in full)"
+        title = f"readings study (the default and {singles})"
+        if args.continuation is not None:
+            check_continuation(plan, args.continuation)
+            title = (
+                f"readings study (the default in full; {singles} continuing from its optima on "
+                f"{args.continuation.share:g} of the budget, a task the bias check fails in full)"
+            )
+        return ReadingsPlan(
+            plan, out, chosen, args.continuation, progress=not args.quiet, title=title
         )
 
-    def plan_phases(
-        self, args: argparse.Namespace, plan: StudyPlan, command: CommandProgress
-    ) -> None:
-        """The phases before the combinations (:func:`planned_phases`), then those."""
-        phases = planned_phases(
-            plan, args.out, single_readings(args.reading), args.continuation, args.cache
-        )
-        command.plan(phases, later=COMBINATIONS_LATER)
-
-    def run(
-        self,
-        args: argparse.Namespace,
-        plan: StudyPlan,
-        scheduler: str | None,
-        command: CommandProgress,
-    ) -> ReadingsResult:
-        return run_readings(
-            plan,
-            args.out,
-            readings=single_readings(args.reading),
-            scheduler=scheduler,
-            progress=not args.quiet,
-            continuation=args.continuation,
-            cache=args.cache,
-            command=command,
-        )
-
-    def summarise(self, args: argparse.Namespace, result: ReadingsResult) -> None:
+    def report(self, args: argparse.Namespace, result: ReadingsResult) -> None:
+        """Print what the run did (stderr) and found (stdout)."""
         for phase, run in zip(result.phases, result.runs, strict=True):
             print(
                 f"{phase}: {run.total} optimisations: {run.describe(args.out)} "

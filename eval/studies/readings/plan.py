@@ -11,8 +11,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from agents import jobs as agents_jobs
 from agents.jobs import Job
-from agents.polish import INITIAL_SHARE_RANGE
 from agents.records import Record
 from agents.runner import RunSummary, job_records
 from eval.studies import PAPER_STUDIES
@@ -120,8 +120,9 @@ CSV_COLUMNS: tuple[str, ...] = (
 
 
 @dataclass(frozen=True)
-class Continuation:
-    """How a reading's optimisations continue from the default reading's optima.
+class Continuation(agents_jobs.Continuation):
+    """How a reading's optimisations continue from the default reading's optima (one round of
+    :class:`agents.jobs.Continuation`, with the bias check's settings).
 
     Parameters
     ----------
@@ -149,31 +150,20 @@ class Continuation:
         infeasible where the full run's is feasible, in [-1, 0].
     """
 
-    share: float = 0.2
-    initial_share: float = 0.75
-    starts: int = 1
     check_studies: tuple[str, ...] = ("power", "speed")
     check_seeds: tuple[int, ...] = (0,)
     full_median: float = -0.02
     full_lowest: float = -0.5
 
     def __post_init__(self) -> None:
-        low, high = INITIAL_SHARE_RANGE
-        numbers = {
-            "share": (lambda x: 0.0 < x <= 1.0, "a number in (0, 1]"),
-            "initial_share": (lambda x: low <= x <= high, f"a number in [{low:g}, {high:g}]"),
-            "full_median": (lambda x: -1.0 <= x <= 0.0, "a relative difference in [-1, 0]"),
-            "full_lowest": (lambda x: -1.0 <= x <= 0.0, "a relative difference in [-1, 0]"),
-        }
-        for name, (inside, allowed) in numbers.items():
+        super().__post_init__()
+        for name in ("full_median", "full_lowest"):
             value = getattr(self, name)
-            if not is_number(value) or not inside(value):
-                raise ValueError(f"continuation {name} = {value!r}; allowed: {allowed}")
+            if not is_number(value) or not -1.0 <= value <= 0.0:
+                raise ValueError(
+                    f"continuation {name} = {value!r}; allowed: a relative difference in [-1, 0]"
+                )
             object.__setattr__(self, name, float(value))
-        if not is_int(self.starts, 1) or self.starts > 8:
-            raise ValueError(
-                f"continuation starts = {self.starts!r}; allowed: an integer in [1, 8]"
-            )
         studies = tuple(self.check_studies)
         if any(name not in PAPER_STUDIES for name in studies):
             raise ValueError(
@@ -187,19 +177,6 @@ class Continuation:
                 f"continuation check_seeds = {self.check_seeds!r}; allowed: integers >= 0"
             )
         object.__setattr__(self, "check_seeds", seeds)
-
-    def job(self, job: Job, strokes: Sequence[Sequence[float]]) -> Job:
-        """``job`` continued from the normalised ``strokes`` (the optima of the readings it
-        continues from): a share of its budget, each stroke polished beside ``starts`` short
-        searches."""
-        config = dict(job.method_config)
-        config.update(
-            initial=[list(map(float, stroke)) for stroke in strokes],
-            initial_share=self.initial_share,
-            starts=self.starts,
-        )
-        budget = max(1, round(self.share * job.budget))
-        return replace(job, budget=budget, method_config=config)
 
 
 @dataclass(frozen=True)
@@ -303,14 +280,14 @@ def study_jobs(
     build both lists in one order, differing only in the reading's keywords): a job the
     default shares (same key) stays, and so does a job of a task in ``full`` (run in full:
     :func:`full_tasks`); any other continues from the optima of the same position in
-    ``optima`` of the readings :func:`continued_from` names (duplicate strokes once).
+    ``optima`` of the readings :func:`continued_from` names (duplicate strokes once); without
+    ``optima`` (not run yet) it is a stand-in (:meth:`agents.jobs.Continuation.job`).
     """
     p = reading_plan(plan, reading)
     if continuation is None or reading == DEFAULT or reading.search is not None:
         return {name: study.jobs(p) for name, study in PAPER_STUDIES.items()}
-    if optima is None:
-        raise ValueError("continuation needs the optima of the readings it continues from")
-    missing = [name for name in continued_from(reading) if name not in optima]
+    sources = continued_from(reading)
+    missing = [name for name in sources if optima is not None and name not in optima]
     if missing:
         raise ValueError(f"reading {reading.name!r} continues from {missing}, not run yet")
     base = reading_plan(plan, DEFAULT)
@@ -322,10 +299,10 @@ def study_jobs(
             if job.key == default_job.key or job.task in full:
                 jobs.append(job)
                 continue
-            strokes = {
-                tuple(optima[source][name][position]): None for source in continued_from(reading)
-            }
-            jobs.append(continuation.job(job, list(strokes)))
+            strokes = None
+            if optima is not None:
+                strokes = list({tuple(optima[source][name][position]): None for source in sources})
+            jobs.append(continuation.job(job, strokes))
         out[name] = jobs
     return out
 
@@ -354,7 +331,7 @@ def optima_from(
 
 
 def check_jobs(
-    plan: StudyPlan, reading: Reading, continuation: Continuation, optima: Optima
+    plan: StudyPlan, reading: Reading, continuation: Continuation, optima: Optima | None
 ) -> list[tuple[Job, Job]]:
     """(continued job, the same job in full) for the continuation's bias check: the check
     studies' jobs at the check seeds that the reading does not share with the default (none

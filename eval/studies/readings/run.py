@@ -8,11 +8,9 @@ import math
 import os
 import statistics
 import sys
-import time
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import asdict
 from datetime import datetime, timezone
-from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -20,8 +18,8 @@ from agents.jobs import Job
 from agents.progress import CommandProgress, Phase
 from agents.record_cache import CacheOption
 from agents.records import Record
-from agents.runner import RunSummary, find_records, job_records, run_jobs
-from agents.store import RECORDS_DIR
+from agents.runner import Lookup, PlanRun, job_records, run_plan
+from agents.store import RECORDS_DIR, RecordStore
 from eval.studies import PAPER_STUDIES, report
 from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading
@@ -47,11 +45,10 @@ from eval.studies.readings.plan import (
 from eval.studies.readings.report import write_readings_report
 from eval.studies.readings.result import ReadingResult, reading_dir
 from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
-from tandem_env.physics import N_PARAMETERS
 
 
 def analyse_reading(
-    plan: StudyPlan, reading: Reading, out_dir: Path, jobs: Mapping[str, Sequence[Job]]
+    plan: StudyPlan, reading: Reading, out: RecordStore, jobs: Mapping[str, Sequence[Job]]
 ) -> ReadingResult:
     """Analyse the four studies under ``reading`` (every record present) into its folder;
     ``jobs`` are each study's jobs (:func:`study_jobs`).
@@ -60,7 +57,7 @@ def analyse_reading(
     paths resolve, and its own ``report.md``.
     """
     p = reading_plan(plan, reading)
-    where = reading_dir(out_dir, reading)
+    where = reading_dir(out.directory, reading)
     where.mkdir(parents=True, exist_ok=True)
     link = where / RECORDS_DIR
     if not link.exists() and not link.is_symlink():
@@ -69,7 +66,7 @@ def analyse_reading(
         except OSError:  # no symlinks here (e.g. some Windows setups): the index paths dangle
             pass
     outputs = tuple(
-        study.analyse(p, job_records(out_dir, jobs[name]), where)
+        study.analyse(p, job_records(out, jobs[name]), where)
         for name, study in PAPER_STUDIES.items()
     )
     report.write_report(where / "report.md", p, outputs, list(PAPER_STUDIES))
@@ -195,85 +192,167 @@ def _load() -> float | None:
 #: What the readings study's plan cannot count before its singles are analysed.
 COMBINATIONS_LATER = "the combinations the singles' results point to (counted once known)"
 
-ByReading = Mapping[Reading, Mapping[str, Sequence[Job]]]
-"""Readings and each one's jobs by study name (:func:`study_jobs`)."""
-
 
 def _flat(jobs: Iterable[Mapping[str, Sequence[Job]]]) -> tuple[Job, ...]:
     return tuple(job for by_study in jobs for group in by_study.values() for job in group)
 
 
-def _phases(
-    plan: StudyPlan,
-    readings: Sequence[Reading],
-    continuation: Continuation | None,
-    records: Callable[[Sequence[Job]], Mapping[Job, Record] | None],
-    each: Callable[[Phase, ByReading], None],
-) -> tuple[dict[str, dict[str, list[Job]]], list[dict[str, Any]], dict[str, dict[str, str]]]:
-    """The phases of :func:`run_readings` before the combinations, in order: each goes to
-    ``each`` with the readings whose jobs it completes (the run runs it there, the plan only
-    collects it); then ``records`` gives its records if the next phases depend on them (None
-    when some are missing: those phases get stand-ins at the right budgets,
-    :class:`~agents.progress.Phase`, their keys provisional, and the singles are planned as if no
-    task ran in full). Returns every reading's jobs (reading name -> study -> jobs), the bias
-    check's rows (:func:`check_rows`) and the tasks run in full (:func:`full_tasks`)."""
-    if continuation is None:
-        jobs = {r.name: study_jobs(plan, r) for r in readings}
-        each(Phase(PHASES[2], _flat(jobs.values())), {r: jobs[r.name] for r in readings})
-        return jobs, [], {}
-    # the default first: the others start from its optima
-    jobs = {DEFAULT.name: study_jobs(plan, DEFAULT)}
-    default = Phase(PHASES[0], _flat(jobs.values()))
-    each(default, {DEFAULT: jobs[DEFAULT.name]})
-    found = records(default.jobs)
-    if found is None:  # stand-in optima: the jobs' budgets are right, their keys not final
-        optima: Optima = {
-            DEFAULT.name: {
-                name: [[0.0] * N_PARAMETERS] * len(group)
-                for name, group in jobs[DEFAULT.name].items()
+class ReadingsPlan:
+    """The readings study's phases (an :class:`agents.runner.Plan`): without ``continuation``
+    the readings in full, then the combinations; with it the default in full, the bias check
+    (:func:`check_jobs`), the singles continued from the default's optima (a task the check
+    fails in full, :func:`full_tasks`), then the combinations their results point to (if
+    ``derive``). Where the records are not there yet (a look-ahead) the continued jobs are
+    stand-ins and the singles are planned as if no task ran in full. Running, it analyses each
+    reading into ``out`` and keeps what :meth:`finish` writes."""
+
+    def __init__(
+        self,
+        plan: StudyPlan,
+        out: RecordStore,
+        readings: Sequence[Reading] = SINGLES,
+        continuation: Continuation | None = Continuation(),
+        derive: bool = True,
+        progress: bool = True,
+        title: str = "readings study",
+    ) -> None:
+        readings = tuple(readings)
+        if not readings or readings[0] != DEFAULT:
+            raise ValueError(
+                f"readings = {[r.name for r in readings]}; allowed: the default reading first, "
+                "then others (their claims are compared with the default's)"
+            )
+        names = [r.name for r in readings]
+        if len(set(names)) != len(names):
+            raise ValueError(f"readings = {names}; allowed: distinct names")
+        self.plan = plan
+        self.store = out
+        self.readings = readings
+        self.title = title
+        self.continuation = continuation
+        self.derive = derive
+        self.progress = progress
+        self.earlier = _earlier_invocations(out.directory, plan)
+        self.load_before = _load()
+        self.results: list[ReadingResult] = []
+        self.rows: list[dict[str, Any]] = []
+        self.full: dict[str, dict[str, str]] = {}
+        self.words = "not derived (derive=False)"
+
+    def _analyse(
+        self, jobs: Mapping[str, Mapping[str, Sequence[Job]]], readings: Iterable[Reading]
+    ) -> None:
+        for reading in readings:
+            if self.progress:
+                print(f"analysing reading {reading.name}", file=sys.stderr)
+            self.results.append(analyse_reading(self.plan, reading, self.store, jobs[reading.name]))
+
+    def __call__(self, found: Lookup) -> Iterator[Phase]:
+        """The phases, each from the records of those before it."""
+        plan = self.plan
+        continuation = self.continuation
+        readings = self.readings
+        later = COMBINATIONS_LATER if self.derive else ""
+        rows: list[dict[str, Any]] = []  # one per checked job
+        full: dict[str, dict[str, str]] = {}
+        if continuation is None:
+            jobs = {r.name: study_jobs(plan, r) for r in readings}
+            yield Phase(PHASES[2], _flat(jobs.values()), later=later)
+        else:
+            # the default first: the others start from its optima
+            jobs = {DEFAULT.name: study_jobs(plan, DEFAULT)}
+            default = _flat(jobs.values())
+            yield Phase(PHASES[0], default)
+            done = found(default)
+            optima: Optima | None = None if done is None else optima_from(done, jobs)
+            others = readings[1:]
+            checks = [
+                (r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)
+            ]
+            check = tuple(dict.fromkeys(job for _, c, f in checks for job in (c, f)))
+            stand_ins = frozenset(c.key for _, c, _ in checks) if done is None else frozenset()
+            yield Phase(PHASES[1], check, stand_ins)
+            if done is not None and checks and (checked := found(check)):
+                rows = check_rows(checked, checks)
+            full = full_tasks(check_summary(rows), continuation)
+            jobs |= {
+                r.name: study_jobs(plan, r, continuation, optima, full.get(r.name, {}))
+                for r in others
             }
+            singles = _flat(jobs[r.name] for r in others)
+            own = {job.key for r in others for job in reading_jobs(plan, r)}
+            stand_ins = frozenset(j.key for j in singles if j.key not in own and done is None)
+            yield Phase(PHASES[2], singles, stand_ins, later)
+        if not found.running:
+            return
+        self.rows, self.full = rows, full
+        self._analyse(jobs, readings)
+        if not self.derive:
+            return
+        derived, self.words = combinations(self.results[0], self.results)
+        derived = [r for r in derived if r.name not in jobs]
+        if derived:
+            optima = None if continuation is None else optima_of(self.store, jobs)
+            jobs |= {r.name: study_jobs(plan, r, continuation, optima) for r in derived}
+            yield Phase(PHASES[3], _flat(jobs[r.name] for r in derived))
+            self._analyse(jobs, derived)
+
+    def finish(self, run: PlanRun) -> ReadingsResult:
+        """Write the outputs and the manifest of ``run`` (this plan's, run): the bias check's
+        CSV, readings.csv, the matrix, report.md and the manifest."""
+        out = self.store.directory
+        if self.rows:
+            write_csv_atomic(out / CHECK_CSV, self.rows)
+        summary = check_summary(self.rows)
+        files = write_outputs(
+            self.plan, self.results, self.words, out, summary, self.continuation, self.full
+        )
+        this = {
+            "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            "cpus": os.cpu_count(),
+            "load_average_1min": [self.load_before, _load()],
+            "phases": [{"name": name, **r.to_dict()} for name, r in run.runs.items()],
+            "wall_time_s": round(run.wall_time, 1),
         }
-    else:
-        optima = optima_from(found, jobs)
-    # the bias check, then each single reading: a task the check fails runs in full
-    others = readings[1:]
-    checks = [(r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)]
-    check = tuple(dict.fromkeys(job for _, c, f in checks for job in (c, f)))
-    stand_ins = frozenset(c.key for _, c, _ in checks) if found is None else frozenset()
-    each(Phase(PHASES[1], check, stand_ins), {})
-    rows: list[dict[str, Any]] = []  # one per checked job
-    if found is not None and checks and (done := records(check)):
-        rows = check_rows(done, checks)
-    full = full_tasks(check_summary(rows), continuation)
-    jobs |= {
-        r.name: study_jobs(plan, r, continuation, optima, full.get(r.name, {})) for r in others
-    }
-    singles = _flat(jobs[r.name] for r in others)
-    own = {job.key for r in others for job in reading_jobs(plan, r)}
-    stand_ins = frozenset(j.key for j in singles if j.key not in own) if found is None else None
-    each(Phase(PHASES[2], singles, stand_ins or frozenset()), {r: jobs[r.name] for r in others})
-    return jobs, rows, full
-
-
-def planned_phases(
-    plan: StudyPlan,
-    out_dir: str | os.PathLike[str],
-    readings: Sequence[Reading] = SINGLES,
-    continuation: Continuation | None = Continuation(),
-    cache: CacheOption = True,
-) -> list[Phase]:
-    """The phases of :func:`run_readings` before the combinations, as far as the records in
-    ``out_dir`` and the record cache decide them now (nothing is written or run; stand-ins
-    where they do not: :func:`_phases`)."""
-    phases: list[Phase] = []
-    records = partial(find_records, out_dir, cache=cache)
-    _phases(plan, readings, continuation, records, lambda phase, _: phases.append(phase))
-    return phases
+        continuation = self.continuation
+        write_json_atomic(
+            out / MANIFEST,
+            {
+                "preset": self.plan.preset.name,
+                "methods": list(self.plan.methods),
+                "claims": [
+                    {"id": c.id, "statement": c.statement, "paper": c.paper}
+                    for c in self.results[0].claims
+                ],
+                "readings": [
+                    {
+                        "name": r.reading.name,
+                        "changes": r.reading.changes(),
+                        "agree": r.agree,
+                        "verdicts": r.verdicts(),
+                    }
+                    for r in self.results
+                ],
+                "combination_rule": self.words,
+                "continuation": None if continuation is None else asdict(continuation),
+                "continuation_check": summary,
+                "run_in_full": self.full,
+                "invocations": [*self.earlier, this],
+            },
+        )
+        return ReadingsResult(
+            tuple(self.results),
+            tuple(run.runs.values()),
+            self.words,
+            tuple(files),
+            run.wall_time,
+            tuple(run.runs),
+        )
 
 
 def run_readings(
     plan: StudyPlan,
-    out_dir: str | os.PathLike[str],
+    out_dir: str | os.PathLike[str] | RecordStore,
     *,
     readings: Sequence[Reading] = SINGLES,
     derive: bool = True,
@@ -281,108 +360,24 @@ def run_readings(
     progress: bool = True,
     continuation: Continuation | None = Continuation(),
     cache: CacheOption = True,
+    rerun: bool = False,
     command: CommandProgress | None = None,
 ) -> ReadingsResult:
-    """Run the readings study into ``out_dir``: the ``readings`` (singles; the default first),
-    then, if ``derive``, the combinations their results point to (:func:`combinations`).
+    """Run the readings study into ``out_dir`` (:class:`ReadingsPlan`: the ``readings``,
+    singles, the default first; then, if ``derive``, the combinations their results point to,
+    :func:`combinations`) and write its outputs.
 
     With ``continuation`` (the default; None runs every reading in full) the default reading
     runs first and the others continue from its optima (:class:`Continuation`), with the bias
-    check on the singles.
-
-    ``plan`` gives the preset and methods (its own reading is ignored). ``scheduler`` and
-    ``cache`` (the record cache) as for :func:`agents.runner.run_jobs`. ``command`` (the
-    command's progress, :class:`~agents.progress.CommandProgress`) is re-planned
-    (:func:`planned_phases`) and told at each phase's start. Raises ValueError if ``readings``
-    does not start with the default reading or repeats a name.
+    check on the singles. ``plan`` gives the preset and methods (its own reading is ignored).
+    ``scheduler``, ``cache``, ``rerun`` and ``command`` as for :func:`agents.runner.run_plan`.
+    Raises ValueError if ``readings`` does not start with the default reading or repeats a
+    name.
     """
-    started = time.perf_counter()
-    out = Path(out_dir)
-    readings = tuple(readings)
-    if not readings or readings[0] != DEFAULT:
-        raise ValueError(
-            f"readings = {[r.name for r in readings]}; allowed: the default reading first, "
-            "then others (their claims are compared with the default's)"
-        )
-    names = [r.name for r in readings]
-    if len(set(names)) != len(names):
-        raise ValueError(f"readings = {names}; allowed: distinct names")
-    earlier = _earlier_invocations(out, plan)
-    load_before = _load()
-    runs: dict[str, RunSummary] = {}  # by phase name
-    results: list[ReadingResult] = []
-
-    def run_phase(phase: Phase, chosen: ByReading) -> None:
-        """Run the phase's jobs in one call, and analyse the readings ``chosen``."""
-        runs[phase.name] = run_jobs(
-            phase.jobs, out, scheduler=scheduler, progress=progress, cache=cache, command=command
-        )
-        for reading, jobs in chosen.items():
-            if progress:
-                print(f"analysing reading {reading.name}", file=sys.stderr)
-            results.append(analyse_reading(plan, reading, out, jobs))
-
-    def start(phase: Phase, chosen: ByReading) -> None:
-        # The whole command again, from what the records decide now.
-        if command is not None:
-            command.plan(planned_phases(plan, out, readings, continuation, cache))
-            command.start(phase.name)
-        run_phase(phase, chosen)
-
-    jobs, rows, full = _phases(plan, readings, continuation, partial(job_records, out), start)
-    words = "not derived (derive=False)"
-    if derive:
-        derived, words = combinations(results[0], results)
-        derived = [r for r in derived if r.name not in names]
-        if command is not None:
-            command.plan([], later="")  # the combinations are known now
-        if derived:
-            optima = None if continuation is None else optima_of(out, jobs)
-            jobs |= {r.name: study_jobs(plan, r, continuation, optima) for r in derived}
-            phase = Phase(PHASES[3], _flat(jobs[r.name] for r in derived))
-            if command is not None:
-                command.plan([phase])
-                command.start(phase.name)
-            run_phase(phase, {r: jobs[r.name] for r in derived})
-    if rows:
-        write_csv_atomic(out / CHECK_CSV, rows)
-    summary = check_summary(rows)
-    files = write_outputs(plan, results, words, out, summary, continuation, full)
-    wall = time.perf_counter() - started
-    this = {
-        "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-        "cpus": os.cpu_count(),
-        "load_average_1min": [load_before, _load()],
-        "phases": [{"name": name, **run.to_dict()} for name, run in runs.items()],
-        "wall_time_s": round(wall, 1),
-    }
-    write_json_atomic(
-        out / MANIFEST,
-        {
-            "preset": plan.preset.name,
-            "methods": list(plan.methods),
-            "claims": [
-                {"id": c.id, "statement": c.statement, "paper": c.paper} for c in results[0].claims
-            ],
-            "readings": [
-                {
-                    "name": r.reading.name,
-                    "changes": r.reading.changes(),
-                    "agree": r.agree,
-                    "verdicts": r.verdicts(),
-                }
-                for r in results
-            ],
-            "combination_rule": words,
-            "continuation": None if continuation is None else asdict(continuation),
-            "continuation_check": summary,
-            "run_in_full": full,
-            "invocations": [*earlier, this],
-        },
-    )
-    return ReadingsResult(
-        tuple(results), tuple(runs.values()), words, tuple(files), wall, tuple(runs)
-    )
+    store = RecordStore.at(out_dir)
+    study = ReadingsPlan(plan, store, readings, continuation, derive, progress)
+    run = run_plan(study, store, scheduler, cache, progress=progress, rerun=rerun, command=command)
+    return study.finish(run)
 
 
 def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:

@@ -27,7 +27,7 @@ from eval.studies import PAPER_STUDIES
 from eval.studies.base import INDEX_FILE, StudyPlan
 from eval.studies.bench_workers import makespan, seconds_per_evaluation
 from eval.studies.paper_reading import Reading
-from eval.studies.presets import PRESETS, TINY, get_preset
+from eval.studies.presets import STUDY_PRESETS, TINY, get_preset
 from eval.studies.readings import MANIFEST, reading_jobs
 from eval.studies.readings.result import reading_dir
 from tandem_env.io.files import read_json
@@ -49,10 +49,10 @@ def analysed_records(out_dir: Path, reading: Reading) -> dict[Job, Record]:
 def main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--measured", default="results/readings", metavar="DIR")
-    parser.add_argument("--preset", choices=tuple(PRESETS), default="paper")
+    parser.add_argument("--preset", choices=tuple(STUDY_PRESETS), default="paper")
     args = parser.parse_args(argv)
     manifest = read_json(Path(args.measured) / MANIFEST)
-    presets = {**PRESETS, TINY.name: TINY}
+    presets = {**STUDY_PRESETS, TINY.name: TINY}
     measured = StudyPlan(presets[manifest["preset"]], tuple(manifest["methods"]))
     target = StudyPlan(get_preset(args.preset), tuple(manifest["methods"]))
     seen: set[str] = set()
