@@ -26,6 +26,7 @@ import numpy as np
 
 from eval.crosscheck.case import base_stroke, shifted_stroke
 from tandem_env.physics import DRAGONFLY, ModelOptions, blade, cycle
+from tandem_env.physics.bundle import Section
 from tandem_env.physics.history import stroke_history
 from tandem_env.physics.kinematics import fill_angles, wing_params_radians
 from tandem_env.physics.model import wing_tables
@@ -39,12 +40,15 @@ from tandem_env.physics.vortex import (
     segment_velocity,
     wing_lines,
 )
+from tandem_env.physics.xp import NUMPY, on_namespace
 
 LAG_STUDY = Path(__file__).resolve().parents[1] / "docs" / "crosscheck" / "lag_study.csv"
 INSECT = DRAGONFLY
 RHO = INSECT.air_density
 N_BLADE = 24
 MIRROR = np.array([1.0, -1.0, 1.0])  # right wing -> left wing (Y -> -Y)
+RELATIVE_VELOCITY = on_namespace(blade.relative_velocity, NUMPY)
+ELEMENT_FORCE = on_namespace(blade.element_force, NUMPY)  # the paper's coefficients
 
 
 def _option(default: Any, text: str, least: float | None = None) -> Any:
@@ -111,8 +115,7 @@ class Pair:
 
     wing: Any
     params: np.ndarray  # (14,) Hz/rad
-    nodes: np.ndarray  # (N_BLADE, cycle.N_COLUMNS)
-    consts: np.ndarray  # (cycle.N_CONSTANTS,)
+    section: Section  # the elements, (N_BLADE,) arrays (cycle.section_at)
     coef: np.ndarray  # (n, blade.N_COEF) frame coefficients on the uniform grid
     v_tangential: float  # V_t [m/s]
     v_normal: float  # V_n [m/s]
@@ -123,7 +126,7 @@ class Pair:
     @property
     def r(self) -> np.ndarray:
         """Element radii [m]."""
-        return self.nodes[:, cycle.N_R]
+        return self.section.r
 
 
 def isolated_pairs(stroke: np.ndarray, speed: float, n: int) -> list[Pair]:
@@ -134,12 +137,13 @@ def isolated_pairs(stroke: np.ndarray, speed: float, n: int) -> list[Pair]:
     for w, wing in enumerate((INSECT.fore, INSECT.hind)):
         params = wing_params_radians(stroke[w * 14 : (w + 1) * 14])
         nodes, consts = wing_tables(wing, N_BLADE, RHO)
+        section = cycle.section_at.py_func(nodes, slice(None), consts, RHO)
         angles = np.empty((n, 9))
         fill_angles(params, 2 * np.pi * np.arange(n) / n, angles)
         coef = np.empty((n, blade.N_COEF))
         blade.fill_frame_coefficients(angles, np.ones(n), params[13], False, 1, coef)
         beta, inflow = params[13], (history.fore, history.hind)[w].inflow
-        pair = Pair(wing, params, nodes, consts, coef, speed * np.cos(beta), speed * np.sin(beta),
+        pair = Pair(wing, params, section, coef, speed * np.cos(beta), speed * np.sin(beta),
                     inflow, None, None)  # fmt: skip
         pair.u, pair.v, _, _ = velocities(pair, inflow, None)
         pairs.append(pair)
@@ -157,9 +161,7 @@ def velocities(pair: Pair, inflow: np.ndarray, external: np.ndarray | None) -> t
     and the external air velocity (n, N_BLADE, 3) in earth axes [m/s] (its rate neglected)."""
     k = np.arange(pair.coef.shape[0])[:, None]
     vn = pair.v_normal + np.atleast_2d(inflow)
-    u, v, du, dv = blade.relative_velocity.py_func(
-        pair.coef, k, pair.r[None], pair.v_tangential, vn
-    )
+    u, v, du, dv = RELATIVE_VELOCITY(pair.coef, k, pair.r[None], pair.v_tangential, vn)
     if external is not None:
         wx, wy, wz = to_stroke_axes(pair, external)
         col = lambda name: pair.coef[:, getattr(blade, name)][:, None]  # noqa: E731
@@ -170,32 +172,23 @@ def velocities(pair: Pair, inflow: np.ndarray, external: np.ndarray | None) -> t
 
 def circulation(pair: Pair, u: np.ndarray, v: np.ndarray, rotational: bool = True) -> np.ndarray:
     """Eq. 14's Γ (n, N_BLADE) [m²/s], or its translational part −C_t·c·u·v/|U|."""
-    c, k = pair.nodes[:, cycle.N_CHORD][None], pair.consts
-    gamma = -k[cycle.K_CT] * c * u * v / np.sqrt(u * u + v * v)
+    sec = pair.section
+    gamma = -sec.ct * sec.chord * u * v / np.sqrt(u * u + v * v)
     if rotational:
-        gamma = gamma + 0.5 * k[cycle.K_CR] * pair.coef[:, blade.C_SPIN][:, None] * c * c
+        gamma = gamma + 0.5 * sec.cr * pair.coef[:, blade.C_SPIN][:, None] * sec.chord**2
     return gamma
 
 
 def element_forces(pair: Pair, u, v, du, dv) -> tuple[np.ndarray, np.ndarray]:
-    """Chordwise and normal force per unit span (n, N_BLADE) [N/m]: Eqs. 11-13."""
-    c, k = pair.nodes[:, cycle.N_CHORD][None], pair.consts
-    m11, m22 = pair.nodes[:, cycle.N_M11][None], pair.nodes[:, cycle.N_M22][None]
-    spin = pair.coef[:, blade.C_SPIN][:, None]
-    gamma = circulation(pair, u, v)
-    drag = (
-        0.5 * RHO * c * (k[cycle.K_CD0] * u * u + k[cycle.K_CD90] * v * v) / np.sqrt(u * u + v * v)
-    )
-    fc = m22 * v * spin - m11 * du - drag * u - RHO * gamma * v
-    fn = -m11 * u * spin - m22 * dv - drag * v + RHO * gamma * u
-    return fc, fn
+    """Chordwise and normal force per unit span (n, N_BLADE) [N/m]: the kernel's Eqs. 11-14."""
+    return ELEMENT_FORCE(u, v, du, dv, pair.coef[:, blade.C_SPIN][:, None], pair.section)
 
 
 def vertical_force(pair: Pair, inflow: np.ndarray, external: np.ndarray | None) -> float:
     """Cycle-mean vertical force of the pair [N]."""
     fc, fn = element_forces(pair, *velocities(pair, inflow, external))
     fz = fc * pair.coef[:, blade.C_ECZE][:, None] + fn * pair.coef[:, blade.C_ENZE][:, None]
-    return INSECT.wings_per_pair * (fz * pair.nodes[:, cycle.N_WIDTH][None]).sum(1).mean()
+    return INSECT.wings_per_pair * (fz * pair.section.width).sum(1).mean()
 
 
 def solve_inflow(pair: Pair, external: np.ndarray | None) -> np.ndarray:
@@ -225,7 +218,7 @@ def solve_inflow(pair: Pair, external: np.ndarray | None) -> np.ndarray:
 
 def disc_mean(pair: Pair) -> float:
     """v̄: the disc mean of the pair's inflow (§5.7) [m/s]."""
-    weight = pair.r * pair.nodes[:, cycle.N_WIDTH]
+    weight = pair.r * pair.section.width
     return float(np.sum(pair.inflow * weight) / np.sum(weight))
 
 
@@ -280,7 +273,7 @@ def stroke_changes(speed: float, spacing: float, drop: float, lag: float, var: V
         lattices = [lattice(p, root, speed, var) for p, root in zip(pairs, roots, strict=True)]
         fields_ = [induced(pairs[w], lattices[1 - w], roots[w], var) for w in (0, 1)]
         if step == 0:
-            area = pairs[1].nodes[:, cycle.N_CHORD] * pairs[1].nodes[:, cycle.N_WIDTH]
+            area = pairs[1].section.chord * pairs[1].section.width
             downwash = float((fields_[1][..., 2] * area).sum(1).mean() / area.sum())
         inflows = [solve_inflow(p, f) for p, f in zip(pairs, fields_, strict=True)]
         for p, vi, f in zip(pairs, inflows, fields_, strict=True):
@@ -323,10 +316,11 @@ def uvlm(rows: list[dict[str, str]], side: str) -> np.ndarray:
     return np.array([float(r[f"uvlm_{side}_change_pct"]) for r in rows])
 
 
-def first_harmonic(change: np.ndarray) -> float:
-    """Lag [deg] of the largest loss of the lag pattern's first harmonic (8 lags, 45° apart)."""
-    lags = np.radians(np.arange(0, 360, 45))
-    return float(np.degrees(np.angle(-np.sum(change * np.exp(-1j * lags)))) % 360)
+def first_harmonic(change: np.ndarray, lags: np.ndarray) -> float:
+    """Lag [deg] of the largest loss of the lag pattern's first harmonic (lags [deg] evenly
+    spaced over a beat)."""
+    phase = np.angle(-np.sum(change * np.exp(-1j * np.radians(lags))))
+    return float(np.degrees(phase) % 360)
 
 
 def apart(a: float, b: float) -> float:
@@ -334,9 +328,9 @@ def apart(a: float, b: float) -> float:
     return min(abs(a - b) % 360, 360 - abs(a - b) % 360)
 
 
-def correlation(ours: np.ndarray, target: np.ndarray) -> str:
-    """The lag patterns' correlation, "—" for a flat one."""
-    return "—" if np.ptp(ours) < FLAT else f"{np.corrcoef(ours, target)[0, 1]:+.2f}"
+def correlation(ours: np.ndarray, target: np.ndarray, flat: float = FLAT) -> str:
+    """The lag patterns' correlation, "—" where ours swings no more than ``flat``."""
+    return "—" if np.ptp(ours) <= flat else f"{np.corrcoef(ours, target)[0, 1]:+.2f}"
 
 
 def rms(errors: Any) -> str:
@@ -386,7 +380,7 @@ def today(cases: dict, reading: str) -> dict:
 
 def pattern(ours: np.ndarray, target: np.ndarray, lags: np.ndarray) -> str:
     """One side's lag pattern against the UVLM's: range, RMS, correlation, timing."""
-    h, u = first_harmonic(ours), first_harmonic(target)
+    h, u = first_harmonic(ours, lags), first_harmonic(target, lags)
     return (
         f"{ours.min():+.1f} to {ours.max():+.1f} % (UVLM {target.min():+.1f} to {target.max():+.1f}),"
         f" RMS {rms(ours - target)}, correlation {correlation(ours, target)}, largest loss at"
@@ -414,7 +408,7 @@ def details(ours: dict, cases: dict) -> str:
             f"  hind: {pattern(x['hind'], uh, lags)}",
             f"  fore: {pattern(x['fore'], uf, lags)}",
             f"  hind's w_e,Z: {w.min():+.2f} to {w.max():+.2f} m/s, most downwash at"
-            f" {lags[np.argmin(w)]:.0f}°, correlation with the UVLM's hind change {correlation(w, uh)}",
+            f" {lags[np.argmin(w)]:.0f}°, correlation with the UVLM's hind change {correlation(w, uh, 0.0)}",
         ]
     return "\n".join(lines)
 
