@@ -242,9 +242,9 @@ def lattice(pair: Pair, root: np.ndarray, speed: float, var: Variant) -> tuple:
     seg, g = lattice_segments(nodes[0], rings[0])
     # each segment's age: rows (row k released k − 1 samples ago), then the trailed segments
     k = np.arange(rows + 2)
-    ages = np.concatenate([np.repeat(np.maximum(k - 1, 0) * dt, var.strips),
-                           np.repeat(np.maximum(k[:-1] - 0.5, 0) * dt, var.strips + 1)])  # fmt: skip
-    core = np.sqrt(var.core**2 + var.core_growth * ages)
+    along = np.repeat(np.maximum(k - 1, 0) * dt, var.strips)
+    between = np.repeat(np.maximum(k[:-1] - 0.5, 0) * dt, var.strips + 1)
+    core = np.sqrt(var.core**2 + var.core_growth * np.concatenate([along, between]))
     return np.concatenate([seg, seg * MIRROR], 1), np.concatenate([g, -g], 1), np.tile(core, 2)
 
 
@@ -355,8 +355,9 @@ def metrics(ours: dict, cases: dict) -> list[str]:
             mean = f"{hind.mean():.1f} / {uvlm(rows, 'hind').mean():.1f}"
     order = sorted(cases, key=lambda k: (k[1], k[0]))  # 0.5, 1, 2 m/s; then 1 m/s farther apart
     n = len(errors)
-    return [f"{signs}/{n}", rms(errors), f"{within}/{len(cases)}", ", ".join(corr[k] for k in order),
-            mean, f"{fore_signs}/{n}", rms(fore_errors)]  # fmt: skip
+    correlations = ", ".join(corr[k] for k in order)
+    return [f"{signs}/{n}", rms(errors), f"{within}/{len(cases)}", correlations, mean,
+            f"{fore_signs}/{n}", rms(fore_errors)]  # fmt: skip
 
 
 def table_line(cells: list[str]) -> str:
@@ -365,8 +366,8 @@ def table_line(cells: list[str]) -> str:
 
 
 HEADER = (
-    "| lattice's Γ | wake descent κ_w | hind: UVLM's sign | hind: RMS [points] | largest hind loss "
-    "within 45° of the UVLM's | hind lag pattern's correlation with the UVLM's (0.5, 1, 2 m/s; "
+    "| lattice's Γ | wake descent κ_w | hind: UVLM's sign | hind: RMS [points] | largest hind "
+    "loss within 45° of the UVLM's | hind lag pattern's correlation with the UVLM's (0.5, 1, 2 m/s; "
     "1 m/s at 11.76 mm) | hind lag-mean, ours / UVLM's, 1 m/s [%] | fore: UVLM's sign | "
     "fore: RMS [points] |\n|---|---|---|---|---|---|---|---|---|"
 )
@@ -382,7 +383,8 @@ def pattern(ours: np.ndarray, target: np.ndarray, lags: np.ndarray) -> str:
     """One side's lag pattern against the UVLM's: range, RMS, correlation, timing."""
     h, u = first_harmonic(ours, lags), first_harmonic(target, lags)
     return (
-        f"{ours.min():+.1f} to {ours.max():+.1f} % (UVLM {target.min():+.1f} to {target.max():+.1f}),"
+        f"{ours.min():+.1f} to {ours.max():+.1f} %"
+        f" (UVLM {target.min():+.1f} to {target.max():+.1f}),"
         f" RMS {rms(ours - target)}, correlation {correlation(ours, target)}, largest loss at"
         f" {lags[np.argmin(ours)]:.0f}° (UVLM {lags[np.argmin(target)]:.0f}°), first harmonics"
         f" {apart(h, u):.0f}° apart"
@@ -401,14 +403,18 @@ def details(ours: dict, cases: dict) -> str:
             "  lag [deg] | hind: ours, UVLM [%] | fore: ours, UVLM [%] | hind's w_e,Z [m/s]"
         )
         for i, lag in enumerate(lags):
-            lines.append(f"  {lag:4.0f} | {x['hind'][i]:+6.1f} {uh[i]:+6.1f} | "
-                         f"{x['fore'][i]:+6.1f} {uf[i]:+6.1f} | {x['downwash'][i]:+.3f}")  # fmt: skip
+            hind, fore = (
+                f"{x['hind'][i]:+6.1f} {uh[i]:+6.1f}",
+                f"{x['fore'][i]:+6.1f} {uf[i]:+6.1f}",
+            )
+            lines.append(f"  {lag:4.0f} | {hind} | {fore} | {x['downwash'][i]:+.3f}")
         w = x["downwash"]
         lines += [
             f"  hind: {pattern(x['hind'], uh, lags)}",
             f"  fore: {pattern(x['fore'], uf, lags)}",
             f"  hind's w_e,Z: {w.min():+.2f} to {w.max():+.2f} m/s, most downwash at"
-            f" {lags[np.argmin(w)]:.0f}°, correlation with the UVLM's hind change {correlation(w, uh, 0.0)}",
+            f" {lags[np.argmin(w)]:.0f}°, correlation with the UVLM's hind change"
+            f" {correlation(w, uh, 0.0)}",
         ]
     return "\n".join(lines)
 
