@@ -428,7 +428,6 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
             "--" + f.name.replace("_", "-"),
             type=type(f.default),
             default=f.default,
-            choices=("full", "translational") if f.name == "shed" else None,
             help=f"{f.metadata['help']} (default {f.default})",
         )
     args = parser.parse_args(argv)
