@@ -13,33 +13,20 @@ from pathlib import Path
 
 import pytest
 
-from agents import runner
-from agents.harness import PreparedJob
 from agents.jobs import Job
 from agents.progress import CommandProgress, Phase
 from agents.record_cache import cacheable
-from agents.records import Record, RecordWarning
+from agents.records import RecordWarning
 from agents.runner import run_jobs
 from agents.store import CACHE_ENV, RecordStore, cache_directory, read_record
 from eval.__main__ import main
+from tests.runner_calls import count_harness_calls
 
 SMALL = {"env_kwargs": {"n_blade": 6, "n_time": 32}, "method_config": {"swarm_size": 8}}
 
 
 def _job(seed: int = 0) -> Job:
     return Job("pso", "level", 2.0, 16, seed, **SMALL)
-
-
-def _count_calls(monkeypatch: pytest.MonkeyPatch) -> list[Job]:
-    calls: list[Job] = []
-    original = runner._harness_run
-
-    def counting(prepared: PreparedJob) -> Record:
-        calls.append(prepared.job)
-        return original(prepared)
-
-    monkeypatch.setattr(runner, "_harness_run", counting)
-    return calls
 
 
 def _files(out: Path) -> dict[str, bytes]:
@@ -61,7 +48,7 @@ def test_the_cache_folder_rule(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) 
 def test_a_second_output_folder_copies_from_the_cache_and_computes_nothing(
     tmp_path: Path, record_cache: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     jobs = [_job(0), _job(1)]
     first = run_jobs(jobs, tmp_path / "a", progress=False)
     assert (first.ran, first.cached, len(calls)) == (2, 0, 2)
@@ -81,7 +68,7 @@ def test_a_second_output_folder_copies_from_the_cache_and_computes_nothing(
 def test_no_cache_neither_reads_nor_writes_it(
     tmp_path: Path, record_cache: Path, monkeypatch: pytest.MonkeyPatch, capsys
 ) -> None:
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     run_jobs([_job()], tmp_path / "a", progress=False, cache=False)
     assert not (record_cache / "records").exists()  # not written
     run_jobs([_job()], tmp_path / "b", progress=False)  # computed: the cache was empty
@@ -101,7 +88,7 @@ def test_no_cache_neither_reads_nor_writes_it(
 def test_a_store_made_without_the_cache_feeds_it(
     tmp_path: Path, record_cache: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     run_jobs([_job()], tmp_path / "a", progress=False, cache=False)
     run_jobs([_job()], tmp_path / "a", progress=False)  # reused from a, and added to the cache
     assert _files(record_cache) == _files(tmp_path / "a")
@@ -124,7 +111,7 @@ def test_a_damaged_cache_entry_is_ignored_with_a_warning_and_recomputed(
         entry.write_text(json.dumps(data))
     else:
         entry.write_bytes(RecordStore(record_cache).path(other.key).read_bytes())
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=str(entry)):
         summary = run_jobs([job], tmp_path / "b", progress=False)
     assert (summary.ran, summary.cached, calls) == (1, 0, [job])  # never trusted

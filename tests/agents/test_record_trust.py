@@ -18,8 +18,6 @@ from pathlib import Path
 import gymnasium as gym
 import pytest
 
-from agents import runner
-from agents.harness import PreparedJob
 from agents.jobs import Job
 from agents.records import Record, RecordError, RecordWarning
 from agents.runner import run_jobs
@@ -30,23 +28,13 @@ from eval.__main__ import main
 sys.path.insert(0, str(Path(__file__).parent))
 from analytic_envs import register_analytic
 
+from tests.runner_calls import count_harness_calls
+
 SMALL = {"env_kwargs": {"n_blade": 6, "n_time": 32}, "method_config": {"swarm_size": 8}}
 
 
 def _job(seed: int = 0, speed: float = 2.0) -> Job:
     return Job("pso", "level", speed, 16, seed, **SMALL)
-
-
-def _count_calls(monkeypatch: pytest.MonkeyPatch) -> list[Job]:
-    calls: list[Job] = []
-    original = runner._harness_run
-
-    def counting(prepared: PreparedJob) -> Record:
-        calls.append(prepared.job)
-        return original(prepared)
-
-    monkeypatch.setattr(runner, "_harness_run", counting)
-    return calls
 
 
 def _forge(path: Path, **results: object) -> None:
@@ -70,7 +58,7 @@ def test_a_forged_record_with_a_good_checksum_is_refused_and_recomputed(
     metrics = {**good.metrics, "efficiency": 0.99, "feasible": True, "power_per_mass": 95.0}
     _forge(entry, objective=0.99, feasible=True, metrics=metrics)
     read_record(entry)  # the checksum alone does not tell
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     out = tmp_path / ("b" if where == "cache" else "a")
     with pytest.warns(RecordWarning, match=rf"{entry}: its results are not what its stroke give"):
         summary = run_jobs([job], out, progress=False)
@@ -99,7 +87,7 @@ def test_records_reused_at_once_are_checked_in_one_model_step(
         return original(*args, **kwargs)  # type: ignore[arg-type]
 
     monkeypatch.setattr(gym, "make_vec", counting)
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     with warnings.catch_warnings():
         warnings.simplefilter("error", RecordWarning)
         summary = run_jobs(jobs, tmp_path / "a", progress=False)
@@ -126,7 +114,7 @@ def test_a_plugin_tasks_records_are_checked_as_the_harness_made_them(
     register_analytic()
     job = Job("random", "sphere", 0.3, 8, 0, method_config={"batch_size": 4})
     run_jobs([job], tmp_path / "a", progress=False)
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     with warnings.catch_warnings():
         warnings.simplefilter("error", RecordWarning)
         assert run_jobs([job], tmp_path / "a", progress=False).reused == 1 and calls == []
@@ -141,7 +129,7 @@ def test_a_cache_folder_others_can_write_is_not_used(
 ) -> None:
     job = _job()
     run_jobs([job], tmp_path / "a", progress=False)  # into the cache
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     record_cache.chmod(0o777)  # e.g. TANDEM_CACHE_DIR on a shared folder
     with pytest.warns(
         RecordWarning, match=rf"record cache is not used: {record_cache} is writable"
@@ -161,7 +149,7 @@ def test_a_cache_entry_others_can_write_is_not_trusted(
     run_jobs([job], tmp_path / "a", progress=False)
     entry = RecordStore(record_cache).path(job.key)
     entry.chmod(0o666)
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=rf"{entry} is writable by others.*not trusted"):
         assert run_jobs([job], tmp_path / "b", progress=False).cached == 0
     assert calls == [job] and entry.stat().st_mode & 0o022 == 0  # replaced by one of our own
@@ -195,7 +183,7 @@ def test_a_cache_folder_or_entry_of_another_user_is_not_trusted(
     run_jobs([job], tmp_path / "a", progress=False)
     entry = RecordStore(record_cache).path(job.key)
     os.chown(entry, 12345, -1)
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=rf"{entry} is owned by uid 12345, not by you"):
         assert run_jobs([job], tmp_path / "b", progress=False).cached == 0
     assert calls == [job] and entry.stat().st_uid == os.geteuid()  # replaced by one of ours
@@ -231,7 +219,7 @@ def test_a_named_pipe_in_place_of_a_record_never_blocks(
     store = RecordStore(record_cache if where == "cache" else tmp_path / "b")
     store.path(job.key).parent.mkdir(parents=True)
     os.mkfifo(store.path(job.key))
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=rf"{store.path(job.key)} is not a regular file"):
         _finishes(lambda: run_jobs([job], tmp_path / "b", progress=False))
     assert calls == [job] and store.path(job.key).is_file()  # replaced by the record
@@ -260,7 +248,7 @@ def test_a_cache_folder_that_is_a_file_is_said_in_one_line(
 def test_rerun_computes_again_and_says_so(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     out = tmp_path / "out"
     argv = ["optimize", "--task", "level", "--speed", "2", "--method", "pso", "--budget", "16",
             "--swarm-size", "8", "--env-kwargs", "n_blade=6", "n_time=32", "--quiet",

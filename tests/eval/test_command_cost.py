@@ -8,10 +8,6 @@ from pathlib import Path
 
 import pytest
 
-from agents import runner
-from agents.harness import PreparedJob
-from agents.jobs import Job
-from agents.records import Record
 from agents.runner import look_ahead
 from agents.store import RecordStore
 from eval.__main__ import main
@@ -19,25 +15,14 @@ from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import DEFAULT
 from eval.studies.presets import STUDY_PRESETS, TINY
 from eval.studies.readings import ReadingsPlan, reading_by_name, reading_jobs
-
-
-def _count_calls(monkeypatch: pytest.MonkeyPatch) -> list[Job]:
-    calls: list[Job] = []
-    original = runner._harness_run
-
-    def counting(prepared: PreparedJob) -> Record:
-        calls.append(prepared.job)
-        return original(prepared)
-
-    monkeypatch.setattr(runner, "_harness_run", counting)
-    return calls
+from tests.runner_calls import count_harness_calls
 
 
 def test_readings_after_all_reuses_the_stored_jobs_and_its_first_line_gives_the_cost(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     monkeypatch.setitem(STUDY_PRESETS, TINY.name, TINY)
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     plan = StudyPlan(TINY)
     suite = {job.key for job in reading_jobs(plan, DEFAULT)}
     assert main(["study", "all", "--preset", "tiny", "--out", str(tmp_path / "all")]) == 0

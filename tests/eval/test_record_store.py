@@ -25,6 +25,7 @@ from agents.store import RecordStore, read_record, read_record_files
 from eval.__main__ import main
 from eval.studies.base import StudyPlan
 from eval.studies.presets import STUDY_PRESETS, TINY
+from tests.runner_calls import count_harness_calls
 
 SMALL = {"env_kwargs": {"n_blade": 6, "n_time": 32}, "method_config": {"swarm_size": 8}}
 
@@ -40,18 +41,6 @@ def _job(budget: int = 16, seed: int = 0, **changes) -> Job:
         **changes,
     }
     return Job(**fields)
-
-
-def _count_calls(monkeypatch: pytest.MonkeyPatch) -> list[Job]:
-    calls: list[Job] = []
-    original = runner._harness_run
-
-    def counting(prepared: PreparedJob) -> Record:
-        calls.append(prepared.job)
-        return original(prepared)
-
-    monkeypatch.setattr(runner, "_harness_run", counting)
-    return calls
 
 
 def test_job_key_is_the_configuration() -> None:
@@ -77,7 +66,7 @@ def _run_prepared(out: Path, budget: int) -> Record:
 
 def test_prepared_and_plain_jobs_share_one_store(tmp_path: Path, monkeypatch) -> None:
     first = _run_prepared(tmp_path, 16)
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     assert first.key == _job().key and first.job == _job()
     assert (tmp_path / "records" / f"{first.key}.json").is_file()
     # The runner finds the prepared job's record by its configuration and does not run it again.
@@ -100,7 +89,7 @@ def test_corrupt_record_is_reported_and_recomputed(tmp_path: Path, monkeypatch) 
     path = RecordStore(tmp_path).path(job.key)
     good = read_record(path)
     path.write_text('{"schema": "tandem_env.harness-rec')  # a half-written file, by hand
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=f"{path}: corrupt record .* runs again"):
         summary = run_jobs([job], tmp_path, progress=False, cache=False)
     assert summary.ran == 1 and calls == [job]
@@ -141,7 +130,7 @@ def test_out_that_is_a_file_is_rejected(tmp_path: Path, capsys) -> None:
 
 
 def test_optimize_resumes_and_adds_seeds(tmp_path: Path, monkeypatch, capsys) -> None:
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     argv = ["optimize", "--task", "level", "--speed", "2", "--method", "pso", "--budget", "16",
             "--swarm-size", "8", "--out", str(tmp_path), "--env-kwargs", "n_blade=6", "n_time=32",
             "--quiet", "--seeds"]  # fmt: skip
@@ -202,7 +191,7 @@ def test_older_records_are_recomputed_never_mixed_in(tmp_path: Path, monkeypatch
         assert read_record_files([tmp_path]) == []
     with pytest.raises(RecordError, match=r"earlier format .* rerun the command"):
         read_record(path)
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=f"{path}: a record of the earlier format .* recomputed"):
         summary = run_jobs([job], tmp_path, progress=False, cache=False)
     assert summary.ran == 1 and calls == [job]
@@ -250,7 +239,7 @@ def test_a_record_edited_by_hand_is_detected_and_recomputed(tmp_path: Path, monk
         read_record(path)
     with pytest.warns(RecordWarning, match="checksum .* left out"):
         assert read_record_files([tmp_path]) == []  # compare does not report it
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     with pytest.warns(RecordWarning, match=f"{path}: corrupt record .*checksum.* runs again"):
         summary = run_jobs([job], tmp_path, progress=False, cache=False)
     assert summary.ran == 1 and calls == [job]
@@ -370,7 +359,7 @@ def test_a_resealed_record_with_a_nan_objective_is_recomputed(tmp_path: Path, mo
     _reseal(path, lambda d: d["results"].update(objective=float("nan")))
     with pytest.raises(RecordError, match=r"objective = nan; allowed: a number \(not NaN"):
         read_record(path)
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     with pytest.warns(RecordWarning, match="corrupt record .*objective = nan"):
         run_jobs([job], tmp_path, progress=False, cache=False)
     assert calls == [job] and math.isfinite(read_record(path).objective)
@@ -485,7 +474,7 @@ def test_the_runner_hands_back_each_record_read_at_most_once(tmp_path: Path, mon
         return original_read(path, **options)
 
     monkeypatch.setattr(store_module, "read_record", counting_read)
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     a, b = _job(seed=0), _job(seed=1)
     first = run_jobs([a], tmp_path, progress=False)
     assert reads == [] and calls == [a]  # run now: saved, handed back, not read back

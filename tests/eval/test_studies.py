@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents import runner
 from agents.harness import run
 from eval.studies import STUDIES, claims, convergence
 from eval.studies.base import StudyPlan
@@ -20,6 +19,7 @@ from eval.studies.presets import STUDY_PRESETS, TINY, ConvergenceSpec, Preset
 from eval.studies.suite import run_studies
 from eval.studies.tables import Spread
 from tandem_env import PARAMETER_NAMES
+from tests.runner_calls import count_harness_calls
 
 # A slightly larger budget than TINY's so that some optimisations are feasible and the report
 # has numbers to check (still well under a second per study).
@@ -31,18 +31,6 @@ def study_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("study")
     run_studies(["all", "convergence"], StudyPlan(SMALL), out, workers=1, progress=False)
     return out
-
-
-def _count_calls(monkeypatch: pytest.MonkeyPatch) -> list[runner.Job]:
-    calls: list[runner.Job] = []
-    original = runner._harness_run
-
-    def counting(job: runner.Job):
-        calls.append(job)
-        return original(job)
-
-    monkeypatch.setattr(runner, "_harness_run", counting)
-    return calls
 
 
 def _raw_records(study_dir: Path) -> list[dict]:
@@ -150,7 +138,7 @@ def test_report_numbers_are_the_records_numbers(study_dir: Path) -> None:
 
 
 def test_resume_skips_finished_jobs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     plan = StudyPlan(TINY)
     first = run_studies(["power"], plan, tmp_path, workers=1, progress=False)
     n = len(calls)
@@ -173,7 +161,7 @@ def test_resume_skips_finished_jobs(tmp_path: Path, monkeypatch: pytest.MonkeyPa
 def test_changed_configuration_is_not_mixed(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    calls = _count_calls(monkeypatch)
+    calls = count_harness_calls(monkeypatch)
     run_studies(["speed"], StudyPlan(TINY), tmp_path, workers=1, progress=False)
     old = len(calls)
     changed = replace(TINY, level_budget=24)
