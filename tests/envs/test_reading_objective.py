@@ -12,7 +12,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import tandem_env as te
 from agents import harness
-from agents.tasks import ACCELERATE as ACCELERATE_TASK
+from agents.tasks import ACCELERATE_TASK
 from tandem_env.envs import AccelerateConfig
 
 ACCELERATE = "TandemWing/Accelerate-v0"
