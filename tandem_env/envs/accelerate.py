@@ -24,16 +24,8 @@ from .validate import check_real
 SPECIMEN_POWER: float = DRAGONFLY.max_power_per_mass
 
 
-def _vertical_deficit(result: Result, _: Any) -> np.ndarray:
-    return np.maximum(0.0, -result.excess_vertical)
-
-
-def _horizontal_deficit(result: Result, _: Any) -> np.ndarray:
-    return np.maximum(0.0, -result.excess_horizontal)
-
-
-# The margins are array-agnostic (``0.0 + x``: a new array, numpy's or torch's): the polish
-# evaluates them on the torch backend's tensors too, to differentiate them (agents.polish).
+# Each violation is max(0, −margin). The margins are array-agnostic (``0.0 + x``: a new array,
+# numpy's or torch's): the polish differentiates them on torch tensors (agents.polish).
 def _vertical_margin(result: Result, _: Any) -> np.ndarray:
     return 0.0 + result.excess_vertical
 
@@ -70,10 +62,8 @@ ACCELERATE = TaskDeclaration(
         keyword="objective",
     ),
     constraints=(
-        Constraint("vertical_deficit", "F̄_v ≥ 0", "-", _vertical_deficit, None, _vertical_margin),
-        Constraint(
-            "horizontal_deficit", "F̄_h ≥ 0", "-", _horizontal_deficit, None, _horizontal_margin
-        ),
+        Constraint("vertical_deficit", "F̄_v ≥ 0", "-", margin=_vertical_margin),
+        Constraint("horizontal_deficit", "F̄_h ≥ 0", "-", margin=_horizontal_margin),
         POWER_CAP,
     ),
 )

@@ -249,9 +249,9 @@ class Constraint:
     """The constraint in symbols, for docs and messages, e.g. ``"|L/W − 1| ≤ tol"``."""
     unit: str
     """Unit of the violation, e.g. ``"-"`` (a fraction of W) or ``"W/kg"``."""
-    violation: Callable[[Result, Any], np.ndarray]
+    violation: Callable[[Result, Any], np.ndarray] | None = None
     """``violation(result, config)``: (B,) violation [unit], 0 where the constraint holds (a
-    module-level function, so that envs pickle)."""
+    module-level function, so that envs pickle); None: ``max(0, −margin)``."""
     scale: Callable[[Result, Any], np.ndarray] | None = None
     """``scale(result, config)``: (B,) divisor making the violation a fraction (the power cap
     for the power excess) in the reward's sum; None when it already is one."""
@@ -260,6 +260,10 @@ class Constraint:
     ``max(0, −margin) == violation / scale``, so >= 0 exactly where the constraint holds and
     smooth across its boundary (what a constrained local optimiser needs, ``agents.polish``);
     None for a constraint without one."""
+
+    def __post_init__(self) -> None:
+        if self.violation is None and self.margin is None:
+            raise TypeError(f"Constraint {self.name!r}: allowed: a violation or a margin (or both)")
 
 
 def _power_excess(result: Result, _: Any) -> np.ndarray:
@@ -336,7 +340,10 @@ class TaskDeclaration:
         total = np.zeros(result.power.shape)
         feasible = np.ones(result.power.shape, dtype=np.bool_)
         for constraint in self.constraints:
-            value = constraint.violation(result, config)
+            if constraint.violation is None:
+                value = np.maximum(0.0, -constraint.margin(result, config))  # type: ignore[misc]
+            else:
+                value = constraint.violation(result, config)
             violations[constraint.name] = value
             total = total + (
                 value if constraint.scale is None else value / constraint.scale(result, config)

@@ -20,16 +20,8 @@ from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, 
 from .validate import check_real
 
 
-def _lift_violation(result: Result, config: Any) -> np.ndarray:
-    return np.maximum(0.0, np.abs(result.lift_to_weight - 1.0) - config.constraint_tolerance)
-
-
-def _thrust_violation(result: Result, config: Any) -> np.ndarray:
-    return np.maximum(0.0, np.abs(result.excess_horizontal) - config.constraint_tolerance)
-
-
-# The margins are array-agnostic (builtin abs, arithmetic): the polish evaluates them on the
-# torch backend's tensors too, to differentiate them by autograd (agents.polish).
+# Each violation is max(0, −margin). The margins are array-agnostic (builtin abs, arithmetic):
+# the polish differentiates them on the torch backend's tensors by autograd (agents.polish).
 def _lift_margin(result: Result, config: Any) -> np.ndarray:
     return config.constraint_tolerance - abs(result.lift_to_weight - 1.0)
 
@@ -56,10 +48,8 @@ LEVEL_FLIGHT = TaskDeclaration(
     # Forces are fractions of W and the power excess a fraction of the cap, so the three terms
     # share one scale (a 10 % miss costs the same whichever constraint).
     constraints=(
-        Constraint("lift_violation", "|L/W − 1| ≤ tol", "-", _lift_violation, None, _lift_margin),
-        Constraint(
-            "thrust_violation", "|T − D|/W ≤ tol", "-", _thrust_violation, None, _thrust_margin
-        ),
+        Constraint("lift_violation", "|L/W − 1| ≤ tol", "-", margin=_lift_margin),
+        Constraint("thrust_violation", "|T − D|/W ≤ tol", "-", margin=_thrust_margin),
         POWER_CAP,
     ),
 )

@@ -25,7 +25,7 @@ Nothing here imports Gymnasium; torch only in :meth:`FlightProblem.differentiate
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
@@ -35,33 +35,6 @@ from .config import FlightConfig
 from .declaration import Constraint, TaskCondition, TaskDeclaration
 
 __all__ = ["FlightProblem", "ProblemEvaluation", "ProblemGradient"]
-
-
-class ScoredStrokes(Protocol):
-    """What the problem reads of a core's step (``tandem_env.envs.base.StepBatch``)."""
-
-    @property
-    def result(self) -> Result: ...
-
-    @property
-    def objective(self) -> np.ndarray: ...
-
-    @property
-    def feasible(self) -> np.ndarray: ...
-
-
-class OneCycleCore(Protocol):
-    """What the problem reads of a one-cycle task's core (``tandem_env.envs.base.FlightCore``)."""
-
-    @property
-    def config(self) -> FlightConfig: ...
-
-    @property
-    def declaration(self) -> TaskDeclaration: ...
-
-    def flight_conditions(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
-
-    def step(self, physical: np.ndarray, values: np.ndarray) -> ScoredStrokes: ...
 
 
 @dataclass(frozen=True)
@@ -115,7 +88,7 @@ class FlightProblem:
     (insect, model options, backend, device) is the env's.
     """
 
-    def __init__(self, core: OneCycleCore, normalised_low: float, normalised_high: float) -> None:
+    def __init__(self, core: Any, normalised_low: float, normalised_high: float) -> None:
         self._core = core
         self._low = np.full(N_PARAMETERS, float(normalised_low))
         self._high = np.full(N_PARAMETERS, float(normalised_high))

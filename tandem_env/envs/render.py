@@ -22,7 +22,6 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from ..physics import StrokeHistory
-    from .problem import OneCycleCore
 
 #: Frame size [px] of ``rgb_array`` renders (width, height) and its resolution [dpi].
 FRAME_SIZE: tuple[int, int] = (720, 400)
@@ -207,9 +206,7 @@ class LastStep:
     index: int
 
 
-def frame_for(
-    core: OneCycleCore, title: str, condition: float | None, last: LastStep | None
-) -> Frame:
+def frame_for(core: Any, title: str, condition: float | None, last: LastStep | None) -> Frame:
     """The render frame of one one-cycle env."""
     cfg = core.config
     if last is not None:

@@ -1,12 +1,9 @@
 """``TandemWing/SpeedChange-v0``: change speed and hold altitude over many wing-beats.
 
-The task's batched core (episode states, observations, one cycle for B envs: ONE
-:func:`tandem_env.evaluate` call, each stroke at its own speed and flight-path angle, then each
-body advanced by :mod:`tandem_env.envs.dynamics`), its vector env and its single env (the
-vector env at B = 1, :mod:`tandem_env.envs.base`), over its declaration (:data:`SPEED_CHANGE`:
-the power cap of level flight), config and reward weights in
-:mod:`~tandem_env.envs.speed_change_config`. One step is one wing-beat cycle chosen
-from the current state; the episode lasts up to ``max_cycles`` cycles.
+The task's batched core (one cycle of B episodes: ONE :func:`tandem_env.evaluate` call, then
+each body advanced by :mod:`tandem_env.envs.dynamics`), its vector env and its single env (the
+vector env at B = 1, :mod:`tandem_env.envs.base`); its declaration, config and reward weights
+are in :mod:`~tandem_env.envs.speed_change_config`.
 """
 
 from __future__ import annotations
@@ -90,15 +87,10 @@ class CycleBatch:
     objective − penalty, the env's reward)."""
     after: Flight
     """The state after the cycle."""
-    cycle_time: np.ndarray
-    force_horizontal: np.ndarray
-    force_vertical: np.ndarray
-    energy: np.ndarray
-    terms: dict[str, np.ndarray]
-    """``reward_progress``, ``reward_speed``, ``reward_altitude``, ``reward_energy``,
-    ``reward_termination`` (:class:`~tandem_env.envs.speed_change_config.SpeedChangeReward`)."""
-    left_altitude_band: np.ndarray
-    left_speed_band: np.ndarray
+    motion: Columns
+    """(B,) ``cycle_time`` [s], net ``force_horizontal`` / ``force_vertical`` [N], ``energy``
+    [J], the reward terms (``reward_progress``, ... :class:`~tandem_env.envs.speed_change_config.
+    SpeedChangeReward`) and the flags ``left_altitude_band``, ``left_speed_band``."""
     terminated: np.ndarray
     truncated: np.ndarray
 
@@ -111,18 +103,7 @@ class CycleBatch:
 
     def info_columns(self) -> Columns:
         """The model's metrics and stroke (as the one-cycle envs report them) plus the motion."""
-        columns = self.strokes.info_columns()
-        columns.update(self.after.columns())
-        columns.update(
-            cycle_time=self.cycle_time,
-            force_horizontal=self.force_horizontal,
-            force_vertical=self.force_vertical,
-            energy=self.energy,
-            **self.terms,
-            left_altitude_band=self.left_altitude_band,
-            left_speed_band=self.left_speed_band,
-        )
-        return columns
+        return {**self.strokes.info_columns(), **self.after.columns(), **self.motion}
 
 
 class SpeedChangeCore:
@@ -261,30 +242,21 @@ class SpeedChangeCore:
             "reward_energy": -weights.energy * energy,
             "reward_termination": np.where(terminated, -weights.termination * not_flown, 0.0),
         }
-        objective = (
-            terms["reward_progress"]
-            + terms["reward_speed"]
-            + terms["reward_altitude"]
-            + terms["reward_energy"]
-            + terms["reward_termination"]
-        )
+        objective = sum(terms.values())
         # The power cap as in level flight (SPEED_CHANGE's one constraint), penalised per cycle
         # by the env's PenaltyConfig (exactly 0 within the cap).
         scores = SPEED_CHANGE.score(result, cfg)
+        motion = {
+            "cycle_time": dt,
+            "force_horizontal": fx,
+            "force_vertical": fz,
+            "energy": energy,
+            **terms,
+            "left_altitude_band": left_altitude,
+            "left_speed_band": left_speed,
+        }
         strokes = StepBatch.scored(physical, result, objective, scores, cfg.penalty)
-        return CycleBatch(
-            strokes=strokes,
-            after=after,
-            cycle_time=dt,
-            force_horizontal=fx,
-            force_vertical=fz,
-            energy=energy,
-            terms=terms,
-            left_altitude_band=left_altitude,
-            left_speed_band=left_speed,
-            terminated=terminated,
-            truncated=truncated,
-        )
+        return CycleBatch(strokes, after, motion, terminated, truncated)
 
 
 def frame_for(
@@ -302,11 +274,11 @@ def frame_for(
     if last is None:
         return Frame(title=heading, subtitle="no cycle flown since reset", history=None)
     batch, k = last.batch, last.index
-    result = batch.strokes.result
+    result, motion = batch.strokes.result, row(batch.motion, k)
     subtitle = (
-        f"reward {float(batch.reward[k]):.4g} | F_x {float(batch.force_horizontal[k]) * 1e3:+.3f} "
-        f"mN | F_z {float(batch.force_vertical[k]) * 1e3:+.3f} mN | "
-        f"P/m {float(result.power_per_mass[k]):.1f} W/kg | Δt {float(batch.cycle_time[k]) * 1e3:.1f} ms"
+        f"reward {float(batch.reward[k]):.4g} | F_x {motion['force_horizontal'] * 1e3:+.3f} "
+        f"mN | F_z {motion['force_vertical'] * 1e3:+.3f} mN | "
+        f"P/m {float(result.power_per_mass[k]):.1f} W/kg | Δt {motion['cycle_time'] * 1e3:.1f} ms"
     )
     history = stroke_history(
         batch.strokes.physical[k],
@@ -395,21 +367,12 @@ class SpeedChangeEnv(FlightEnv):
     h / ``altitude_band`` (0.5 m), target speed u* over ``speed_envelope`` (0.25-2 m/s) and
     cycles left over (0, ``max_cycles``), each mapped linearly to [-1, 1].
 
-    ## Dynamics
-
-    One step lasts Δt = max(1/f_fore, 1/f_hind) (both pairs complete a beat). The net force
-    F = F_wings + D_body + W is held over the cycle and the state advanced exactly for a constant
-    force: u' = u + F_x/m·Δt, w' = w + F_z/m·Δt, h' = h + w·Δt + ½F_z/m·Δt².
-
     ## Rewards
 
-    ``reward = objective − penalty``, ``objective`` the sum of the weighted terms
-    (:class:`~tandem_env.envs.speed_change_config.SpeedChangeReward`; u, h before and u', h'
-    after the cycle): progress w_progress·(|u − u*| − |u' − u*|) [1/(m/s)], speed error
-    −w_speed·|u' − u*|·Δt [1/m], altitude error −w_altitude·|h'|·Δt [1/(m·s)], energy
-    −w_energy·P·Δt [1/J], and −w_termination·(cycles not flown) on termination; ``penalty`` the
-    power cap of level flight, ``penalty_weight``·max(0, P/m − 90)/90 per cycle (exactly 0
-    within the cap).
+    ``reward = objective − penalty``: ``objective`` the sum of the weighted terms of
+    :class:`~tandem_env.envs.speed_change_config.SpeedChangeReward` (progress towards u*, speed
+    and altitude errors × time, energy, cycles not flown on termination), ``penalty`` the power
+    cap of level flight, ``penalty_weight``·max(0, P/m − 90)/90 per cycle.
 
     ## Starting State
 
