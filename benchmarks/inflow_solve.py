@@ -43,6 +43,21 @@ CASES = {
     "convected": te.ModelOptions(slipstream="convected"),
 }
 BATCHES = (1, 64, 1024)
+#: The ratios printed: JSON key, title, the case timed and the case it is divided by.
+RATIOS = (
+    (
+        "ratios",
+        "coupled / none (time per call; per-round ratios: median and range)",
+        "coupled",
+        "none",
+    ),
+    (
+        "slipstream_ratios",
+        "convected / mean slipstream, both coupled (per-round ratios: median and range)",
+        "convected",
+        "coupled",
+    ),
+)
 SWEEP_STROKES = 200
 """Random strokes whose fore-wing annuli are solved one by one to count the sweeps."""
 SWEEP_SPEEDS = (0.0, 1.0, 2.0)
@@ -105,44 +120,26 @@ def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> dict[str
                 "best_cpu_per_s": case[1] / min(cpu[case]),
             }
         )
-    print()
-    print("coupled / none (time per call; per-round ratios: median and range):")
-    for batch in BATCHES:
-        coupled, none = ("coupled", batch), ("none", batch)
-        ratio = np.array(wall[coupled]) / np.array(wall[none])
-        cpu_ratio = np.array(cpu[coupled]) / np.array(cpu[none])
-        print(
-            f"  batch {batch:>4}: wall {np.median(ratio):.3f} ({ratio.min():.3f}-{ratio.max():.3f}), "
-            f"best/best {min(wall[coupled]) / min(wall[none]):.3f}; "
-            f"CPU {np.median(cpu_ratio):.3f} ({cpu_ratio.min():.3f}-{cpu_ratio.max():.3f})"
-        )
-        numbers["ratios"].append(
-            {
-                "batch": batch,
-                "wall_median": float(np.median(ratio)),
-                "wall_range": [float(ratio.min()), float(ratio.max())],
-                "cpu_median": float(np.median(cpu_ratio)),
-                "cpu_range": [float(cpu_ratio.min()), float(cpu_ratio.max())],
-            }
-        )
-    print()
-    print("convected / mean slipstream, both coupled (per-round ratios: median and range):")
-    for batch in BATCHES:
-        ratio = np.array(wall["convected", batch]) / np.array(wall["coupled", batch])
-        cpu_ratio = np.array(cpu["convected", batch]) / np.array(cpu["coupled", batch])
-        print(
-            f"  batch {batch:>4}: wall {np.median(ratio):.3f} ({ratio.min():.3f}-{ratio.max():.3f}); "
-            f"CPU {np.median(cpu_ratio):.3f} ({cpu_ratio.min():.3f}-{cpu_ratio.max():.3f})"
-        )
-        numbers["slipstream_ratios"].append(
-            {
-                "batch": batch,
-                "wall_median": float(np.median(ratio)),
-                "wall_range": [float(ratio.min()), float(ratio.max())],
-                "cpu_median": float(np.median(cpu_ratio)),
-                "cpu_range": [float(cpu_ratio.min()), float(cpu_ratio.max())],
-            }
-        )
+    for key, title, slower, faster in RATIOS:
+        print(f"\n{title}:")
+        for batch in BATCHES:
+            ratio = np.array(wall[slower, batch]) / np.array(wall[faster, batch])
+            cpu_ratio = np.array(cpu[slower, batch]) / np.array(cpu[faster, batch])
+            best = min(wall[slower, batch]) / min(wall[faster, batch])
+            print(
+                f"  batch {batch:>4}: wall {np.median(ratio):.3f} ({ratio.min():.3f}-{ratio.max():.3f})"
+                + (f", best/best {best:.3f}" if key == "ratios" else "")
+                + f"; CPU {np.median(cpu_ratio):.3f} ({cpu_ratio.min():.3f}-{cpu_ratio.max():.3f})"
+            )
+            numbers[key].append(
+                {
+                    "batch": batch,
+                    "wall_median": float(np.median(ratio)),
+                    "wall_range": [float(ratio.min()), float(ratio.max())],
+                    "cpu_median": float(np.median(cpu_ratio)),
+                    "cpu_range": [float(cpu_ratio.min()), float(cpu_ratio.max())],
+                }
+            )
     return numbers
 
 
