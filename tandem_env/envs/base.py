@@ -1,29 +1,15 @@
 """The machinery every task module shares: the batched core, the vector env and the single env.
 
-A task module (:mod:`~tandem_env.envs.level_flight`, :mod:`~tandem_env.envs.accelerate`,
-:mod:`~tandem_env.envs.speed_change`) declares its config and its batched core and gets:
-
-* the **core** (:class:`FlightCore` for one-cycle tasks): conditions, observations, one
-  batched model call, rewards and infos for B strokes; nothing here imports Gymnasium for it;
+* the **core** (:class:`FlightCore` for one-cycle tasks): conditions, observations, one batched
+  model call, rewards and infos for B strokes, without Gymnasium;
 * the **vector env** (:class:`FlightVectorEnv`): n sub-envs stepped by ONE model call, equal to
-  :class:`gymnasium.vector.SyncVectorEnv` over n single envs in every autoreset mode;
-* the **single env** (:class:`FlightEnv`): the vector env at B = 1, driven through the vector
-  env's public primitives (``start``, ``step_checked``, ``observations``, ``started``,
-  ``frame``), so the two cannot drift apart (the model itself is bit-identical per stroke at
-  any batch size).
+  :class:`gymnasium.vector.SyncVectorEnv` over n single envs in every autoreset mode (default
+  next-step; ``Disabled`` leaves resets to ``reset(options={"reset_mask": mask})``);
+* the **single env** (:class:`FlightEnv`): the vector env at B = 1, driven through its public
+  primitives, so the two cannot drift apart.
 
-An action is validated once, where an env receives it (``step`` of either env, or
-:meth:`FlightVectorEnv.step_envs` for the SB3 adapter). Infos are built as *columns* (name ->
-(B,) array, ``"stroke"`` a nested dict) and turned into per-env dicts or Gymnasium's masked dict
-of arrays by the helpers of :mod:`~tandem_env.envs.columns`, without a Python loop over metrics
-per env. Rendering (the frame of a sub-env, the window) is :mod:`~tandem_env.envs.render`'s.
-
-Autoreset of the vector env (default ``NEXT_STEP``, Gymnasium's default): after a step that
-ends an episode, the *next* ``step`` resets those sub-envs instead of stepping them (their
-actions are ignored; reward 0, ``terminated=False``, the reset info). ``SameStep`` resets at
-once (the final observation and info in ``info["final_obs"]`` / ``info["final_info"]``);
-``Disabled`` leaves it to ``reset(options={"reset_mask": mask})``. Stepping an ended episode
-raises :class:`gymnasium.error.ResetNeeded` in every env.
+An action is validated once, where an env receives it. Infos are built as columns
+(:mod:`~tandem_env.envs.columns`); stepping an ended episode raises ``ResetNeeded``.
 """
 
 from __future__ import annotations
@@ -114,12 +100,9 @@ def fly(
 
 # --- the batched core ----------------------------------------------------------------------------
 class FlightCore:
-    """The batched core of a one-cycle task: draw conditions, observe them, score strokes.
-
-    The condition, its reset option and the objective's metric come from the config's
-    ``DECLARATION``; a task's core defines only how the condition enters the model
-    (:meth:`flight_conditions`).
-    """
+    """The batched core of a one-cycle task: draw conditions, observe them, score strokes; a
+    task's core defines only how its declared condition enters the model
+    (:meth:`flight_conditions`)."""
 
     config: FlightConfig
 
@@ -143,13 +126,9 @@ class FlightCore:
         return self.config.declared_condition.keyword
 
     def draw_conditions(self, count: int, rngs: EnvGenerators, options: EnvOptions) -> np.ndarray:
-        """Conditions for ``count`` episodes starting now, (count,) float64.
-
-        ``rngs(k)`` gives episode k's generator (created lazily, as ``Env.np_random`` is);
-        ``options[k]`` its reset options. A sampled condition draws exactly one
-        ``uniform(low, high)`` from that generator; a fixed or overridden one draws nothing,
-        so the single env, the vector env and SyncVectorEnv consume the streams identically.
-        """
+        """Conditions (count,) of episodes starting now, episode k drawing from ``rngs(k)``
+        with reset options ``options[k]``: one ``uniform`` draw if sampled, none if fixed or
+        given, so every front end consumes the streams identically."""
         values = np.empty(count)
         cfg = self.config
         for k in range(count):
@@ -339,10 +318,8 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         return self.start(index, lambda k: self._rng(int(index[k])), per_env)
 
     def autoreset(self, index: np.ndarray) -> Columns:
-        """Start new episodes in the ended sub-envs ``index`` within the step that ended them
-        (the same-step mode, SB3's adapter): unseeded, no options, their reset info columns. Each
-        still shows the stroke just flown until its next step, as a frame drawn after the step
-        is drawn after this reset."""
+        """Start new episodes (unseeded, no options) in the ended sub-envs ``index`` within the
+        step that ended them (same-step mode, SB3); their frames still show the stroke flown."""
         pictures = [self._last[i] for i in index]
         columns = self.reset_envs(index, [None] * index.size, None)
         for i, picture in zip(index, pictures, strict=True):
@@ -358,8 +335,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
 
     def step_checked(self, index: np.ndarray, actions: np.ndarray) -> tuple[Any, np.ndarray]:
         """Step sub-envs ``index`` with normalised actions (len(index), 28) their caller has
-        already validated (``validate.check_actions`` or ``action_values``: the single env
-        checks its one action in its own shape); (batch, observations after it)."""
+        validated; (batch, observations after it)."""
         if not self._started[index].all():
             raise ResetNeeded("call reset() before step()")
         if self._ended[index].any():
@@ -513,8 +489,8 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
 
 # --- the single env: the vector env at B = 1 ------------------------------------------------------
 class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
-    """One env of a task: its vector env at B = 1 (``vector_class``), seeded and reset through
-    Gymnasium's ``Env.np_random``. Stepping after the episode ended raises ``ResetNeeded``."""
+    """One env of a task: its vector env at B = 1 (``vector_class``), seeded through
+    Gymnasium's ``Env.np_random``."""
 
     metadata: ClassVar[dict[str, Any]] = {
         "render_modes": list(RENDER_MODES),
@@ -526,9 +502,7 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
     title: ClassVar[str] = "Flight"
     """Name in render titles when the env was not made by ``gym.make`` (no spec)."""
     vector_env: FlightVectorEnv
-    """The vector env this env steps: its ``vector_class`` with ``num_envs=1``, autoreset
-    disabled (driven through its public ``start``, ``step_checked``, ``observations``,
-    ``started``, ``conditions`` and ``frame``)."""
+    """The vector env this env steps: ``vector_class`` with ``num_envs=1``, autoreset disabled."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)

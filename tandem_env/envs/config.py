@@ -19,15 +19,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..physics import PLANFORMS, SPEED_LIMITS, Dragonfly, ModelOptions
+from ..physics import PLANFORMS, Dragonfly, ModelOptions
 from ..physics.backends import check_backend
 from ..physics.checks import is_real as _is_real
 from ..physics.insect import insect_mapping, load_insect
 from .declaration import TaskCondition, TaskDeclaration, TaskObjectives, check_declarations
 from .validate import check_interval, check_real
-
-#: Flight speeds an env accepts [m/s]: the model's own limits.
-MODEL_SPEED_LIMITS: tuple[float, float] = SPEED_LIMITS
 
 #: ``ModelOptions`` fields whose ``gym.make`` keyword differs from the field's name: ``power``
 #: was Accelerate's old condition name, so the power accounting is ``power_convention`` there.
@@ -68,22 +65,30 @@ def _as_keywords(error: ValueError, task: str, owner: str, given: Mapping[str, s
 
 
 def normalise_condition(config: FlightConfig) -> None:
-    """Validate and store the fields of the condition ``type(config).CONDITION`` declares.
-
-    ``{keyword}_envelope`` is the range the observation is normalised over; the condition is
-    either a fixed ``{keyword}`` (the declared default when None) or a ``{keyword}_range``
-    sampled at each reset, both inside the envelope. A bad condition gets one message whatever
-    is wrong with it (not a number, outside the model's limits, outside the envelope): what is
-    allowed is the envelope.
-    """
+    """Validate and store the fields of the condition ``type(config).CONDITION`` declares: its
+    envelope (the range the observation is normalised over) and, inside it, a fixed value (the
+    declared default when None) or a range sampled at each reset (:func:`fixed_or_sampled`)."""
     declared = type(config).CONDITION
     if declared is None:
         raise TypeError(f"{type(config).__name__} declares no condition")
-    owner = type(config).__name__
-    name, range_name, envelope_name = declared.keywords
-    unit, limits = declared.unit, declared.limits
-    envelope = check_interval(owner, envelope_name, getattr(config, envelope_name), unit, limits)
+    name, _, envelope_name = declared.keywords
+    given = getattr(config, envelope_name)
+    envelope = check_interval(
+        type(config).__name__, envelope_name, given, declared.unit, declared.limits
+    )
     object.__setattr__(config, envelope_name, envelope)
+    fixed_or_sampled(config, name, envelope_name, declared.unit, declared.default)
+
+
+def fixed_or_sampled(
+    config: Any, name: str, envelope_name: str, unit: str, default: float | None
+) -> None:
+    """Validate and store a fixed ``{name}`` or a sampled ``{name}_range`` of ``config`` (not
+    both), inside its (checked) ``{envelope_name}``; with neither, ``default`` as the fixed value,
+    or the whole envelope as the range if ``default`` is None. A bad value gets one message
+    whatever is wrong with it: what is allowed is the envelope."""
+    owner, range_name = type(config).__name__, f"{name}_range"
+    envelope = getattr(config, envelope_name)
     fixed, sampled = getattr(config, name), getattr(config, range_name)
     if fixed is not None and sampled is not None:
         raise ValueError(
@@ -91,25 +96,22 @@ def normalise_condition(config: FlightConfig) -> None:
             f"allowed: a fixed {name} or a sampled {range_name}, not both"
         )
     inside = (
-        f"inside {owner}.{envelope_name} = ({envelope[0]:g}, {envelope[1]:g}) {unit}, the range "
-        f"the observation is normalised over (for other values widen {envelope_name}, within "
-        f"{limits[0]:g} to {limits[1]:g} {unit})"
+        f"inside {owner}.{envelope_name} = ({envelope[0]:g}, {envelope[1]:g}) {unit} (for other "
+        f"values widen {envelope_name})"
     )
+    if fixed is None and sampled is None and default is None:
+        sampled = envelope
     if sampled is not None:
         allowed = f"allowed: a pair (low, high) of finite numbers, low < high, {inside}"
         if isinstance(sampled, str | bytes) or not hasattr(sampled, "__len__") or len(sampled) != 2:
             raise ValueError(f"{owner}.{range_name} = {sampled!r}; {allowed}")
         low, high = sampled
-        if not (
-            _is_real(low)
-            and _is_real(high)
-            and envelope[0] <= low < high <= envelope[1]  # NaN fails every comparison
-        ):
+        if not (_is_real(low) and _is_real(high) and envelope[0] <= low < high <= envelope[1]):
             raise ValueError(f"{owner}.{range_name} = {sampled!r} {unit}; {allowed}")
         object.__setattr__(config, range_name, (float(low), float(high)))
     else:
-        value = declared.default if fixed is None else fixed
-        if not (_is_real(value) and envelope[0] <= value <= envelope[1]):
+        value = default if fixed is None else fixed
+        if not (_is_real(value) and envelope[0] <= value <= envelope[1]):  # NaN fails it
             raise ValueError(
                 f"{owner}.{name} = {value!r} {unit}; allowed: a finite number {inside}"
             )

@@ -14,9 +14,8 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 from ..physics import PARAMETER_NAMES, SPEED_LIMITS, ModelOptions
-from ..physics.checks import shown
 from ..physics.stroke import WING_NAMES
-from .config import FlightConfig
+from .config import FlightConfig, fixed_or_sampled
 from .declaration import POWER_CAP, TaskDeclaration
 from .level_flight import LEVEL_FLIGHT
 from .validate import check_count, check_interval, check_real
@@ -116,37 +115,6 @@ class SpeedChangeReward:
         )
 
 
-def _inside(
-    owner: str, name: str, value: float, envelope_name: str, envelope: tuple[float, float]
-) -> None:
-    if not envelope[0] <= value <= envelope[1]:
-        raise ValueError(
-            f"{owner}.{name} = {shown(value, *envelope)} m/s; allowed: a speed inside "
-            f"{owner}.{envelope_name} = "
-            f"({envelope[0]:g}, {envelope[1]:g}) m/s (for other speeds widen {envelope_name})"
-        )
-
-
-def _speed_option(owner: str, config: Any, name: str, envelope: tuple[float, float]) -> None:
-    """A fixed ``{name}`` or a sampled ``{name}_range`` inside the envelope (default: all of it)."""
-    fixed, sampled = getattr(config, name), getattr(config, f"{name}_range")
-    if fixed is not None and sampled is not None:
-        raise ValueError(
-            f"{owner}: {name} = {fixed!r} and {name}_range = {sampled!r} are both given; "
-            f"allowed: a fixed {name} or a sampled {name}_range, not both"
-        )
-    if fixed is not None:
-        value = check_real(owner, name, fixed, "m/s", *SPEED_LIMITS)
-        _inside(owner, name, value, "speed_envelope", envelope)
-        object.__setattr__(config, name, value)
-        return
-    given = envelope if sampled is None else sampled
-    low, high = check_interval(owner, f"{name}_range", given, "m/s", SPEED_LIMITS)
-    _inside(owner, f"{name}_range low", low, "speed_envelope", envelope)
-    _inside(owner, f"{name}_range high", high, "speed_envelope", envelope)
-    object.__setattr__(config, f"{name}_range", (low, high))
-
-
 def _body_split_options() -> ModelOptions:
     return ModelOptions(thrust_split="body")
 
@@ -198,8 +166,8 @@ class SpeedChangeConfig(FlightConfig):
         owner = type(self).__name__
         envelope = check_interval(owner, "speed_envelope", self.speed_envelope, "m/s", SPEED_LIMITS)
         object.__setattr__(self, "speed_envelope", envelope)
-        _speed_option(owner, self, "start_speed", envelope)
-        _speed_option(owner, self, "target_speed", envelope)
+        fixed_or_sampled(self, "start_speed", "speed_envelope", "m/s", None)
+        fixed_or_sampled(self, "target_speed", "speed_envelope", "m/s", None)
         cycles = check_count(
             owner, "max_cycles", self.max_cycles, 1, MAX_CYCLES, "wing-beat cycles per episode"
         )
@@ -219,8 +187,12 @@ class SpeedChangeConfig(FlightConfig):
                 "step, the cycle-mean force held over the cycle, is not resolved and can reverse "
                 "the flight)"
             )
-        _inside(owner, "speed_envelope low", envelope[0], "forward_speed_band", band)
-        _inside(owner, "speed_envelope high", envelope[1], "forward_speed_band", band)
+        for end, value in zip(("low", "high"), envelope, strict=True):
+            if not band[0] <= value <= band[1]:
+                raise ValueError(
+                    f"{owner}.speed_envelope {end} = {value:g} m/s; allowed: a speed inside "
+                    f"{owner}.forward_speed_band = ({band[0]:g}, {band[1]:g}) m/s"
+                )
         object.__setattr__(self, "forward_speed_band", band)
         object.__setattr__(
             self,
