@@ -1,16 +1,11 @@
 """A task's declaration, in one place: its condition, objectives, constraints and sweep.
 
-Each task module (:mod:`~tandem_env.envs.level_flight`, :mod:`~tandem_env.envs.accelerate`,
-:mod:`~tandem_env.envs.speed_change`) declares one :class:`TaskDeclaration` and puts it on its
-env config as ``DECLARATION``: the :class:`TaskCondition` (ONE name for the constructor keyword,
-the reset option, the ``info`` key and the record's condition; its unit, the model's limits, the
-default value and envelope, the paper's sweep), the :class:`TaskObjectives` (each objective
-choice and the ``info`` metric it maximises) and the :class:`Constraint` list. Physics reports
-forces and power; the constraints here decide what is feasible, and the env scores a stroke
-from them (:meth:`TaskDeclaration.score`). The harness (``agents.tasks``), ``python -m eval
-optimize``, the training tools and the study presets read the declaration; nothing copies it.
-
-Nothing here imports Gymnasium.
+Each task module declares one :class:`TaskDeclaration` and puts it on its env config as
+``DECLARATION``: the :class:`TaskCondition` (ONE name for the constructor keyword, the reset
+option, the ``info`` key and the record's condition, with its unit, limits, envelope and sweep),
+the :class:`TaskObjectives` and the :class:`Constraint` list, from which the env scores a stroke
+(:meth:`TaskDeclaration.score`). The harness, the commands and the training tools read it;
+nothing copies it. Nothing here imports Gymnasium.
 """
 
 from __future__ import annotations

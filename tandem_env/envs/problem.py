@@ -1,19 +1,10 @@
 """The optimisation problem a one-cycle task poses: a public view of its batched core.
 
-An optimiser that is not an episode-stepping agent (the harness's local polish,
-``agents.polish``; an amortised policy, a network mapping a flight condition to a stroke)
-needs the task as a problem, not as an env: the box the strokes live in, the constraints and
-how feasibility is decided, and a batched evaluation at conditions it chooses.
-:class:`FlightProblem` is that view. Every one-cycle env offers it (``env.problem()``, the
-single and the vector env alike; ``env.unwrapped.problem()`` through Gymnasium's wrappers).
-
-It evaluates through the core's own ``step`` (ONE batched model call, scored by the task's
-declaration), so it scores a stroke exactly as the env rewards it; the condition (the task's
-declared one: flight speed for level flight, available power for accelerating flight) is an
-argument of every evaluation, never the env's episode state, and each stroke of a batch may
-have its own.
-
-::
+An optimiser that is not an episode-stepping agent (``agents.polish``, an amortised policy)
+needs the task as a problem: the stroke box, the constraints, and a batched evaluation at
+conditions it chooses. Every one-cycle env offers it (``env.unwrapped.problem()``); it
+evaluates through the core's own ``step``, so it scores a stroke exactly as the env rewards it,
+at a condition given with each evaluation (one per stroke or one for all)::
 
     problem = gym.make("TandemWing/LevelFlight-v0").unwrapped.problem()
     evaluation = problem.evaluate(actions, 1.5)  # (B, 28) in [-1, 1], at V = 1.5 m/s
@@ -66,26 +57,12 @@ class ProblemGradient:
 
 
 class FlightProblem:
-    """Maximise a one-cycle task's objective over the normalised stroke box, subject to its
-    declared constraints, at a flight condition given with each evaluation.
-
-    * **Bounds.** A stroke is an action: 28 normalised coordinates in
-      [:attr:`normalised_low`, :attr:`normalised_high`] (the env's action box), mapped
-      linearly onto the insect's stroke bounds [:attr:`physical_low`, :attr:`physical_high`]
-      (``insect.stroke_bounds``: Table 4's unless it sets its own)
-      (``tandem_env.physics.normalised_to_physical``), except the :attr:`discrete` ones (each
-      wing's harmonic N: 1 on the box's lower half, 2 on its upper half).
-    * **Constraints.** The task declaration's :attr:`constraints`, in order: each has a
-      violation (>= 0, exactly 0 where it holds) and, where declared, a signed margin [-]
-      (>= 0 where it holds, smooth across the boundary, ``max(0, −margin)`` the violation on
-      the reward's scale). A stroke is feasible when every violation is exactly 0; the margins
-      are what a gradient-based optimiser holds >= 0.
-    * **Evaluation.** :meth:`evaluate` (B strokes, their conditions) -> objective, margins,
-      feasibility, in ONE model call through the core's ``step``; :meth:`differentiate` the
-      same with derivatives, by autograd on the torch backend.
-
-    Built by the env's core (``FlightCore.problem()``) with the env's action box; the config
-    (insect, model options, backend, device) is the env's.
+    """Maximise a one-cycle task's objective over the normalised stroke box (the env's action
+    box, mapped onto the insect's stroke bounds but for the :attr:`discrete` harmonics N),
+    subject to its declared :attr:`constraints`, at a flight condition given with each
+    evaluation. A stroke is feasible when every violation is exactly 0; the signed margins
+    (``max(0, −margin)`` the violation on the reward's scale) are what a gradient-based optimiser
+    holds >= 0. Built by the env's core (``FlightCore.problem()``), with the env's config.
     """
 
     def __init__(self, core: Any, normalised_low: float, normalised_high: float) -> None:

@@ -1,37 +1,14 @@
 """Reference optima and normalised scores: how good a stroke is, against the best one known.
 
 The reference table (``tandem_env/data/reference_optima.json``, made by ``python -m eval
-reference``) holds, for each task, objective and planform, the certified optimum (the harness's
-CMA-ES with its polish, the best of several seeds, each with its certificate) at every condition
-of :data:`REFERENCE_GRID`:
-
-* level flight (``TandemWing/LevelFlight-v0``, η = T·V/P): V = 0.25 to 2 m/s in steps of
-  0.125, the task's envelope (below it the env needs a wider ``speed_envelope``, and in hover
-  η = 0 for every stroke: there is nothing to normalise by);
-* accelerating flight (``TandemWing/Accelerate-v0``; F̄_v, F̄_h and F̄_a: the objectives
-  ``vertical``, ``horizontal``, ``resultant``): P_avail = 50 to 90 W/kg in steps of 5;
-* both planforms (tear-drop and real).
-
-It was made with the defaults: the model options, the insect of each planform and the task's
-constraint settings, hashed together per series (:func:`problem_fingerprint`). A series applies
-to an env whose fingerprint is the same; ``tests/envs/test_reference.py`` fails when the
-defaults no longer match the file (the table is then regenerated, ``python -m eval
-reference``).
-
-:func:`reference` is the reference objective at any condition inside the grid, linear between
-grid points (the optima vary smoothly with the condition on the grid's scale: docs/reference.md
-shows them), and a ValueError naming the grid outside it. :func:`normalised_score` is the
-score of a stroke (D4RL-style, 100 = the reference):
-
-* a feasible stroke scores ``100 · objective / reference``;
-* an infeasible one scores ``-100 · min(1, v)``, with v the sum of the task's normalised
-  constraint violations (``info["constraint_violation"]``): ≤ 0, closer to 0 the nearer the
-  stroke is to flying;
-* outside the grid the score is NaN; an env whose fingerprint differs from the table's has none
-  (its info has no ``score``; a record's is NaN).
-
-For a policy meant for the whole envelope, the grid is split into training and held-out
-conditions (:func:`training_conditions`, :func:`held_out_conditions`: every other point).
+reference``, docs/reference.md) holds, per task, objective and planform, the certified optimum
+at every condition of :data:`REFERENCE_GRID`, found with the default model, insect and task
+settings (hashed per series, :func:`problem_fingerprint`: a series applies to an env with the
+same fingerprint). :func:`reference` interpolates it linearly inside the grid;
+:func:`normalised_score` scores a stroke D4RL-style: ``100 · objective / reference`` if
+feasible, else ``-100 · min(1, v)`` with v its summed normalised constraint violations; NaN
+outside the grid, and no score at all for an env the table does not describe. The grid's every
+other point is held out (:func:`held_out_conditions`, :func:`training_conditions`).
 """
 
 from __future__ import annotations
@@ -185,14 +162,8 @@ class ReferenceTable:
     def find(self, env_id: str, objective: str, fingerprint: str) -> ReferenceSeries | None:
         """The series of ``env_id`` and ``objective`` made with the problem ``fingerprint``
         (:func:`problem_fingerprint`; it tells the planforms apart), or None."""
-        for series in self.series:
-            if (series.env_id, series.objective, series.fingerprint) == (
-                env_id,
-                objective,
-                fingerprint,
-            ):
-                return series
-        return None
+        key = (env_id, objective, fingerprint)
+        return next((s for s in self.series if (s.env_id, s.objective, s.fingerprint) == key), None)
 
     @classmethod
     def from_dict(cls, data: Any, *, complete: bool = False) -> ReferenceTable:
