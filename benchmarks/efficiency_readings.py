@@ -2,32 +2,22 @@
 
     python benchmarks/efficiency_readings.py [--scheduler local:2] [--out results/efficiency]
 
-Two parts, both level flight at 1.5 m/s over the same seeds, through the harness (the jobs are
-those of ``python -m eval optimize``, so its records are shared with such runs):
+Level flight at 1.5 m/s over the same seeds, through the harness (the jobs of ``python -m eval
+optimize``, so records are shared with such runs):
 
-1. *Readings of T and P, certified optima.* Each of the six readings (T: the ``sign`` or the
-   ``body`` thrust split, docs/model.md §7.3; P: ``absolute``, ``elastic`` or ``aerodynamic``
-   power, §6.3) optimised under itself: CMA-ES, 16 000 evaluations, the default SLSQP polish
-   (its certificate says whether the reported stroke is a constrained local optimum).
-2. *The paper-era search.* The same readings searched by the search readings
-   (``eval.studies.paper_reading.PAPER_SEARCHES``: PSO, 20-40 particles × 50-100 iterations, no
-   polish), plus PSO 40 × 50 with the linearly decreasing inertia of that era (Shi & Eberhart)
-   under the default reading: what an unconverged search reports.
+1. the six readings of T (``sign`` or ``body`` thrust split) and P (``absolute``, ``elastic``,
+   ``aerodynamic`` power), each optimised under itself by CMA-ES (16 000 evaluations) with the
+   default SLSQP polish;
+2. the same readings searched as in the paper's era (``PAPER_SEARCHES``: PSO, no polish), plus
+   PSO 40 × 50 with linearly decreasing inertia under the default reading;
+3. with ``--claims PRESET`` instead: the four studies' claims (``run_readings``) under the
+   default and ``hover-none`` readings, each as the preset searches and by each search reading,
+   every reading searched from scratch; writes ``OUT/claims-PRESET/efficiency_claims.json``.
 
-3. *Which claims the paper-era search moves* (``--claims PRESET``, instead of 1-2): the
-   readings study (``eval.studies.readings.run_readings``: the four paper studies, their claims
-   judged by the studies' own rules) under the default reading and ``hover-none`` (whose F̄_v
-   is the paper's), each as the preset searches and searched by each search reading, without
-   derived combinations and without the continuation from the default's optima (every reading
-   searched from scratch), in ``OUT/claims-PRESET``; prints each claim's verdict and median per
-   reading and writes ``OUT/claims-PRESET/efficiency_claims.json``.
-
-Parts 1-2 print one table (reading, T, P, search, median η [%] and range over the seeds' best feasible
-strokes, best seed, median / 12.7 %, whether 12.7 % lies within the seeds' range, how many
-seeds' polish converged (a constrained local optimum, KKT residual in the record), median T/W
-and P/m, and the median of the same strokes' D·V/P: T = D read exactly) and writes it
-with the run's date, machine and load to ``OUT/efficiency_readings.json``. Records are stored
-in ``OUT/records`` as each run finishes; a rerun computes only what is missing.
+Parts 1-2 print one table (per reading and search: median η and range over the seeds' best
+feasible strokes, how many polishes converged, median T/W, P/m and D·V/P) and write it with the
+run's date, machine and load to ``OUT/efficiency_readings.json``; records go to ``OUT/records``
+as each run finishes, so a rerun computes only what is missing.
 """
 
 from __future__ import annotations

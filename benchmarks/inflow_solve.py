@@ -2,18 +2,13 @@
 
     python benchmarks/inflow_solve.py [--rounds 7] [--seed 0]
 
-Prints evaluations per second for each inflow model at batch 1, 64 and 1024, and the target
-ratio coupled / none at batch 1024; and the same for the coupled inflow with the convected
-slipstream (``ModelOptions(slipstream="convected")``, docs/model.md §5.7), with the ratio
-convected / mean (the target: at most 2 at batch 1024). Everything runs in one process and the cases are timed in
-interleaved rounds (every case once per round), so a load that comes and goes on a shared
-machine hits all of them alike; each case reports the best and the median round, and the
-ratios are the medians of the per-round ratios, of wall time and of CPU time (all threads;
-steadier than wall time when other processes compete for the cores). Then it counts force sweeps per annulus by calling the
-solver directly (``induction.solve_annulus``) on the fore-wing annuli of random Table 4
-strokes: the mean over annuli that need a solve (F̄_n(0) > 0) is the solver's own cost.
-``--json PATH`` also writes the numbers to PATH (``python -m eval numbers`` renders
-docs/model.md §12 from it).
+Prints evaluations per second of each inflow model and of the convected slipstream
+(docs/model.md §5.7) at batch 1, 64 and 1024, timed in interleaved rounds in one process (a
+passing load hits every case alike): best and median round, and the medians of the per-round
+ratios coupled / none and convected / mean, of wall and of CPU time. Then it counts the force
+sweeps per fore-wing annulus of random Table 4 strokes (``induction.solve_annulus``, over the
+annuli that need a solve). ``--json PATH`` also writes the numbers (``python -m eval numbers``
+renders docs/model.md §12 from them).
 """
 
 from __future__ import annotations

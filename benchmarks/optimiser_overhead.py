@@ -1,19 +1,11 @@
 """How much of an optimisation run is the optimiser itself?
 
-Runs a harness method (``pso``, ``cmaes``, ``random``) on a flight task exactly as
-``agents.harness`` does (ask, one vector-env step of the whole batch, tell) and times separately
-
-* the model call (``tandem_env.evaluate`` inside the env),
-* the vector-env step (reset with the condition + step: the model call plus the env's own
-  work, building rewards and infos),
-* ask + tell (the optimiser's arithmetic) and the remaining loop/bookkeeping,
-* for ``cmaes``, the part spent inside the ``cmaes`` package's public calls (``ask``, ``tell``
-  with the margin correction and eigendecomposition, ``should_stop``), timed by wrapping those
-  methods for the duration of the benchmark: the package's own cost, against our wrapper's.
-
-The optimiser's overhead is everything but the env step, as a share of the run time; both are
-measured in the same process and run, so the ratio holds on a loaded machine too. It prints
-numbers and exits 0: what share is acceptable is stated in docs/harness.md. Usage::
+Runs a harness method (``pso``, ``cmaes``, ``random``) on a flight task as ``agents.harness``
+does (ask, one vector-env step of the whole batch, tell) and times separately the model call,
+the vector-env step (the model call plus the env's own work), ask + tell and, for ``cmaes``, the
+time inside the ``cmaes`` package's public calls (wrapped for the benchmark's duration). The
+overhead is everything but the env step, as a share of the run time, measured in one process.
+What share is acceptable is stated in docs/harness.md. Usage::
 
     python benchmarks/optimiser_overhead.py [--method cmaes] [--method-config popsize=20]
         [--task level] [--evaluations 12000] [--repeats 3]

@@ -49,16 +49,18 @@ class Frame:
     """Histories of the stroke, or None before the first step (axes drawn empty)."""
 
 
-def history_of(
-    physical: np.ndarray,
-    speed: float,
-    available_power: float,
-    insect: Dragonfly,
-    options: ModelOptions,
-) -> StrokeHistory:
-    """Histories of one physical stroke (28,), by the same model the env evaluates."""
+def history_of(batch: Any, k: int, insect: Dragonfly, options: ModelOptions) -> StrokeHistory:
+    """Histories of stroke ``k`` of an evaluated ``batch`` (a ``StepBatch``) in the condition it
+    was flown in, by the same model the env evaluates."""
+    result = batch.result
     return stroke_history(
-        physical, speed, available_power, insect=insect, options=options, n_samples=HISTORY_SAMPLES
+        batch.physical[k],
+        float(result.speed[k]),
+        float(result.available_power[k]),
+        flight_path_angle=float(result.flight_path_angle[k]),
+        insect=insect,
+        options=options,
+        n_samples=HISTORY_SAMPLES,
     )
 
 
@@ -84,9 +86,7 @@ def draw(figure: Figure, frame: Frame) -> tuple[Axes, list[Axes]]:
     side.set_title("wing-tip paths, side view", fontsize=9)
     side.set_xlabel("X forward [R]", fontsize=8)
     side.set_ylabel("Z up [R]", fontsize=8)
-    side.set_xlim(-1.15, 1.15)
-    side.set_ylim(-1.15, 1.15)
-    side.set_aspect("equal")
+    side.set(xlim=(-1.15, 1.15), ylim=(-1.15, 1.15), aspect="equal")
     side.axhline(0.0, color="0.85", lw=0.8, zorder=0)
     side.axvline(0.0, color="0.85", lw=0.8, zorder=0)
     side.plot([0.0], [0.0], "k+", ms=8)
@@ -228,7 +228,7 @@ def frame_for(core: Any, title: str, condition: float | None, last: LastStep | N
     return Frame(
         title=heading,
         subtitle=metrics_line(float(last.batch.reward[last.index]), info, label),
-        history=history_of(last.batch.physical[last.index], speed, power, cfg.insect, cfg.options),
+        history=history_of(last.batch, last.index, cfg.insect, cfg.options),
     )
 
 

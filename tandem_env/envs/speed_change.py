@@ -16,11 +16,11 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import VectorEnv
 
-from ..physics import SPEED_LIMITS, stroke_history
+from ..physics import SPEED_LIMITS
 from .base import EnvGenerators, EnvOptions, FlightEnv, FlightVectorEnv, fly
 from .columns import Columns, row
 from .dynamics import advance, cycle_time, flight_path, net_force
-from .render import HISTORY_SAMPLES, Frame, LastStep
+from .render import Frame, LastStep, history_of
 from .speed_change_config import MAX_BAND_SPEED, SPEED_CHANGE, SpeedChangeConfig
 from .step_batch import StepBatch
 from .validate import option_value, reset_options
@@ -280,15 +280,7 @@ def frame_for(
         f"mN | F_z {motion['force_vertical'] * 1e3:+.3f} mN | "
         f"P/m {float(result.power_per_mass[k]):.1f} W/kg | Δt {motion['cycle_time'] * 1e3:.1f} ms"
     )
-    history = stroke_history(
-        batch.strokes.physical[k],
-        float(result.speed[k]),
-        float(result.available_power[k]),
-        flight_path_angle=float(result.flight_path_angle[k]),
-        insect=cfg.insect,
-        options=cfg.options,
-        n_samples=HISTORY_SAMPLES,
-    )
+    history = history_of(batch.strokes, k, cfg.insect, cfg.options)
     return Frame(title=heading, subtitle=subtitle, history=history)
 
 
