@@ -142,12 +142,19 @@ def remove_entry(env_id: str) -> None:
 
 def config_class(env_id: str) -> type[Any]:
     """The config class of a registered env id: the ``config_class`` of its entry point (or,
-    if that has none, of its vector entry point).
+    if that has none, of its vector entry point), so that tasks registered outside this package
+    (tests, plug-ins) are looked up the same way."""
+    return _entry_class(env_id, "config_class")
 
-    Works for any id in Gymnasium's registry whose entry point is a class (or a
-    ``module:Class`` string) with a ``config_class`` attribute, so that tasks registered
-    outside this package (tests, plug-ins) are looked up the same way.
-    """
+
+def core_class(env_id: str) -> type[Any]:
+    """The batched core class of a registered env id (its vector env's ``core_class``)."""
+    return _entry_class(env_id, "core_class")
+
+
+def _entry_class(env_id: str, attribute: str) -> type[Any]:
+    """The class ``attribute`` of the first of ``env_id``'s entry points (a class or a
+    ``module:Class`` string) that has one."""
     from gymnasium.envs.registration import load_env_creator, registry
 
     if env_id not in registry:
@@ -155,27 +162,14 @@ def config_class(env_id: str) -> type[Any]:
     spec = registry[env_id]
     for entry_point in (spec.entry_point, spec.vector_entry_point):
         creator = load_env_creator(entry_point) if isinstance(entry_point, str) else entry_point
-        found = getattr(creator, "config_class", None)
+        found = getattr(creator, attribute, None)
         if isinstance(found, type):
             return found
     raise ValueError(
         f"{env_id}: neither its entry point {spec.entry_point!r} nor its vector entry point "
-        f"{spec.vector_entry_point!r} has a config_class; allowed: an env class whose "
+        f"{spec.vector_entry_point!r} has a {attribute}; allowed: an env class whose "
         "config_class has a DECLARATION (tandem_env.envs.declaration)"
     )
-
-
-def core_class(env_id: str) -> type[Any]:
-    """The batched core class of a registered env id (its vector env's ``core_class``)."""
-    from gymnasium.envs.registration import load_env_creator, registry
-
-    spec = registry[env_id]
-    entry = spec.vector_entry_point
-    creator = load_env_creator(entry) if isinstance(entry, str) else entry
-    found = getattr(creator, "core_class", None)
-    if not isinstance(found, type):
-        raise ValueError(f"{env_id}: its vector entry point {entry!r} has no core_class")
-    return found
 
 
 def condition_keywords() -> tuple[str, ...]:
