@@ -22,15 +22,6 @@ import numpy as np
 from ..physics import Result
 from ..physics.checks import is_real
 
-__all__ = [
-    "POWER_CAP",
-    "Constraint",
-    "TaskCondition",
-    "TaskDeclaration",
-    "TaskObjectives",
-    "check_declarations",
-]
-
 
 def _identifier(owner: str, name: str, value: Any) -> None:
     if not isinstance(value, str) or not value.isidentifier():

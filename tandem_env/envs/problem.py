@@ -25,8 +25,6 @@ from ..physics.stroke import DISCRETE
 from .config import FlightConfig
 from .declaration import Constraint, TaskCondition, TaskDeclaration
 
-__all__ = ["FlightProblem", "ProblemEvaluation", "ProblemGradient"]
-
 
 @dataclass(frozen=True)
 class ProblemEvaluation:

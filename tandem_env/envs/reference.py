@@ -32,24 +32,6 @@ from tandem_env.physics.checks import is_real, real_array
 from tandem_env.physics.insect import PLANFORMS
 from tandem_env.physics.stroke import N_PARAMETERS
 
-__all__ = [
-    "REFERENCE_FORMAT",
-    "REFERENCE_GRID",
-    "ReferenceSeries",
-    "ReferenceTable",
-    "config_fingerprint",
-    "default_fingerprint",
-    "held_out_conditions",
-    "load_reference_table",
-    "normalised_score",
-    "problem_fingerprint",
-    "record_score",
-    "reference",
-    "reference_series",
-    "score_strokes",
-    "training_conditions",
-]
-
 #: Identifies the reference table's format.
 REFERENCE_FORMAT = "tandem_env.reference-optima/1"
 

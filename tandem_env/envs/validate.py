@@ -20,19 +20,6 @@ from ..physics.checks import is_integer, is_real, real_array, shown
 #: A task's config class (``FlightConfig`` or a subclass; not imported: config.py imports this).
 Config = TypeVar("Config")
 
-__all__ = [
-    "RENDER_MODES",
-    "action_array",
-    "action_values",
-    "build_config",
-    "check_actions",
-    "check_count",
-    "check_interval",
-    "check_real",
-    "check_render_mode",
-    "reset_options",
-]
-
 RENDER_MODES: tuple[str, ...] = ("human", "rgb_array")
 
 

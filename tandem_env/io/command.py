@@ -35,15 +35,6 @@ from .progress_bar import QuietStream
 
 P = ParamSpec("P")
 
-__all__ = [
-    "NUMBA_THREADING_LAYERS",
-    "EnvironmentSettingError",
-    "check_numba_environment",
-    "checked_by",
-    "command_line",
-    "run_command",
-]
-
 #: The values of ``NUMBA_THREADING_LAYER`` numba knows (its documentation, "Selecting a
 #: threading layer"): the three layers and the three kinds of safety that choose among them.
 NUMBA_THREADING_LAYERS = ("default", "safe", "forksafe", "threadsafe", "tbb", "omp", "workqueue")

@@ -22,17 +22,6 @@ from typing import Any
 
 import yaml
 
-__all__ = [
-    "MAX_YAML_CHARS",
-    "MAX_YAML_NODES",
-    "BoundedLoader",
-    "DataFileError",
-    "DataLoader",
-    "parse_yaml",
-    "read_text",
-    "read_yaml",
-]
-
 #: Most characters a YAML text may hold: 16 MiB, far above any insect, kinematics or run file
 #: (a 4096-sample kinematics table with 20 pitch columns is under 2 MB).
 MAX_YAML_CHARS = 16 * 2**20

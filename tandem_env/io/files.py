@@ -33,19 +33,6 @@ from typing import Any
 
 import numpy as np
 
-__all__ = [
-    "FolderInUse",
-    "FolderLock",
-    "atomic_path",
-    "new_file_mode",
-    "output_directory",
-    "read_json",
-    "to_jsonable",
-    "write_csv_atomic",
-    "write_json_atomic",
-    "write_text_atomic",
-]
-
 
 def to_jsonable(obj: Any, default: Callable[[Any], Any] | None = None) -> Any:
     """Convert ``obj`` to plain JSON types (dict, list, str, int, float, bool, None).

@@ -21,8 +21,6 @@ from typing import Any, TextIO
 
 from tqdm.auto import tqdm
 
-__all__ = ["ProgressBar", "QuietStream", "Reporter", "warnings_as_lines"]
-
 #: A search's progress callback: (iteration, evaluations so far, best reward so far).
 Reporter = Callable[[int, int, float], None]
 
