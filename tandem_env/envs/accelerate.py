@@ -1,8 +1,6 @@
 """``TandemWing/Accelerate-v0``: the stroke with most specific excess force, one wing-beat per episode.
 
-The task in one place: its declaration (:data:`ACCELERATE`: condition, objectives, constraints,
-sweep), its config, its batched core, the vector env and the single env (the vector env at
-B = 1, :mod:`tandem_env.envs.base`).
+Its declaration (:data:`ACCELERATE`), config, batched core, vector env and single env.
 """
 
 from __future__ import annotations
@@ -142,11 +140,11 @@ class AccelerateEnv(FlightEnv):
 
     ## Description
 
-    The same quasi-steady tandem-wing model as :class:`LevelFlightEnv` (one wing-beat cycle per
-    episode) at a fixed flight speed (default 0: take-off or escape from hover). The task is
-    the paper's accelerating-flight optimisation (docs/model.md §7): maximise a specific excess
-    force subject to F_v >= 0, F_h >= 0 and P/m <= the available power. The observation is the
-    available power, so one policy can cover the paper's 50-90 W/kg sweep.
+    The model and episodes of :class:`LevelFlightEnv` (one wing-beat cycle per episode) at a
+    fixed flight speed (default 0: take-off or escape from hover): the paper's accelerating-
+    flight optimisation (docs/model.md §7), maximise a specific excess force subject to
+    F_v >= 0, F_h >= 0 and P/m <= the available power, which is observed, so one policy can
+    cover the paper's 50-90 W/kg sweep.
 
     ## Action Space
 
@@ -159,34 +157,29 @@ class AccelerateEnv(FlightEnv):
 
     ## Rewards
 
-    ``reward = F̄ − penalty`` where F̄ is the ``objective``: ``"vertical"`` F̄_v = (L − W)/W,
-    ``"horizontal"`` F̄_h = (T − D)/W, ``"resultant"`` F̄_a = sqrt(F̄_v² + F̄_h²) or
-    ``"horizontal_literal"`` (D_f + D_h)/W (Eq. 24 read literally, docs/model.md §7.6);
-    ``penalty = weight·violation + offset·[infeasible]`` with
-    ``violation = max(0, −F̄_v) + max(0, −F̄_h) + max(0, P/m − P_avail)/P_avail``
-    (:data:`ACCELERATE`'s constraints; weight 10, offset 0 by default). A feasible stroke is rewarded with exactly its F̄.
-    Scale: feasible rewards are F̄ in [0, ~6] (the paper reports F̄_v ≈ 2.7-4.4 for 50-90 W/kg);
-    uniform random strokes score about −100 to 0 (median about −15).
+    ``reward = F̄ − penalty``, F̄ the ``objective`` (:class:`AccelerateConfig`), the penalty as in
+    :class:`LevelFlightEnv` over :data:`ACCELERATE`'s constraints, the power excess a fraction of
+    P_avail. Feasible rewards are F̄ in [0, ~6] (the paper reports F̄_v ≈ 2.7-4.4 for
+    50-90 W/kg); uniform random strokes score about −100 to 0 (median about −15).
 
     ## Starting State
 
-    The available power is ``available_power`` (default the insect's maximum, 90 W/kg) or, with
-    ``available_power_range=(low, high)``, drawn uniformly at each reset from the env's seeded
-    ``np_random``. ``reset(options={"available_power": p})`` sets it for one episode. (The old
-    names ``power``, ``power_range`` and ``power_envelope`` are refused naming the new ones.)
+    The available power is ``available_power`` (default 90 W/kg) or drawn uniformly from
+    ``available_power_range`` at each reset; ``reset(options={"available_power": p})`` sets it
+    for one episode. (The old names ``power``, ``power_range`` and ``power_envelope`` are
+    refused naming the new ones.)
 
     ## Episode End
 
-    As in :class:`LevelFlightEnv`: one cycle, ``terminated=True``, ``truncated=False``, and the
-    same ``info`` keys.
+    As in :class:`LevelFlightEnv`, with the same ``info`` keys.
 
     ## Arguments
 
     ``gym.make("TandemWing/Accelerate-v0", **kwargs)``, see :class:`AccelerateConfig`:
     ``objective`` ("vertical" | "horizontal" | "resultant" | "horizontal_literal"),
     ``available_power``, ``available_power_range``, ``available_power_envelope``, ``speed``
-    [m/s], and every model, penalty and action option of :class:`LevelFlightEnv` (``thrust_split`` among them). Invalid values raise ``ValueError``
-    at construction.
+    [m/s], and every model, penalty and action option of :class:`LevelFlightEnv` (``thrust_split``
+    among them). Invalid values raise ``ValueError`` at construction.
 
     ## Version History
 

@@ -1,8 +1,6 @@
 """``TandemWing/LevelFlight-v0``: the most efficient stroke in steady level flight, one wing-beat per episode.
 
-The task in one place: its declaration (:data:`LEVEL_FLIGHT`: condition, objective, constraints,
-sweep), its config, its batched core, the vector env and the single env (the vector env at
-B = 1, :mod:`tandem_env.envs.base`).
+Its declaration (:data:`LEVEL_FLIGHT`), config, batched core, vector env and single env.
 """
 
 from __future__ import annotations
