@@ -1,24 +1,13 @@
 """What every command line of the project shares around its ``main``: streams and environment.
 
 :func:`run_command` is the one wrapper of the entry points (``python -m eval``, its console
-scripts, ``python -m train``, ``python -m train.envelope``). Around the command it
-
-* lets standard output and standard error carry any character: a stream whose encoding cannot
-  write one (``PYTHONIOENCODING=ascii``: the η and the macron of ``--help``) writes it as a
-  backslash escape instead of ending in a UnicodeEncodeError;
-* gives a stream that is closed (``2>&-``, Python's ``sys.stderr is None``) a null device, and
-  makes standard error a :class:`~tandem_env.io.progress_bar.QuietStream`: diagnostics that
-  cannot be written (a reader that went away) are dropped and the work goes on;
-* ends quietly when the reader of standard output goes away (``| head``): Python's own recipe
-  (the ``signal`` module's note on SIGPIPE) points standard output at the null device, so the
-  interpreter's last flush does not raise again, and exits with status 1;
-* ends a command that fails on the machine (an ``OSError`` left over by the command: a disk
-  that fills, a folder made read-only) with one line naming the file and the reason, status 1;
-* turns a bad numba setting of the environment (:func:`check_numba_environment`, also made
-  where :mod:`tandem_env.physics` imports numba) into one line and exit status 2.
-
-The progress bar writes through a :class:`~tandem_env.io.progress_bar.QuietStream` of its own,
-so a record is never lost to a failing standard error outside these commands either.
+scripts, ``python -m train``, ``python -m train.envelope``). Around the command it makes standard
+output and error carry any character (backslash escapes where the encoding cannot), gives a
+closed stream the null device and makes standard error a
+:class:`~tandem_env.io.progress_bar.QuietStream`; it ends quietly (status 1) when the reader of
+standard output goes away (``| head``, the ``signal`` module's recipe), with one line (status 1)
+for an ``OSError`` of the machine (a full disk, a read-only folder), and with one line (status 2)
+for a bad numba setting of the environment (:func:`check_numba_environment`).
 """
 
 from __future__ import annotations

@@ -1,15 +1,11 @@
 """Reading a user's data files: UTF-8 text and YAML through the safe loader (plain data only).
 
-:func:`read_text` refuses what is not UTF-8 text (UTF-16, binary), naming the file and what is
-allowed; :func:`read_yaml` parses with :class:`DataLoader`, YAML's safe loader (it never builds
-Python objects) with two fixes for hand-written files. Errors are :class:`DataFileError`, a
-``ValueError`` whose message names the file and the fault.
-
-Every YAML text the project reads goes through :func:`parse_yaml` and a loader derived from
-:class:`BoundedLoader`, which refuses a text longer than :data:`MAX_YAML_CHARS` and a document
-that expands to more than :data:`MAX_YAML_NODES` values, an alias counted as every value it
-repeats: an alias bomb (a few lines that expand to 10⁹ items) is refused after reading its few
-lines, before anything is built.
+:func:`read_text` refuses what is not UTF-8 text; :func:`read_yaml` parses with
+:class:`DataLoader`, YAML's safe loader with two fixes for hand-written files. Every YAML text
+the project reads goes through :func:`parse_yaml` and a :class:`BoundedLoader`, which refuses a
+text beyond :data:`MAX_YAML_CHARS` and a document expanding to more than
+:data:`MAX_YAML_NODES` values (an alias counted as all it repeats: an alias bomb is refused
+before anything is built). Errors are :class:`DataFileError`, naming the file and the fault.
 """
 
 from __future__ import annotations

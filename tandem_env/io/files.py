@@ -1,17 +1,12 @@
-"""File I/O the project shares: one JSON converter and one atomic writer.
+"""File I/O the project shares: one JSON converter, one atomic writer, one output-folder check.
 
 :func:`to_jsonable` is the one conversion of Python/numpy values to plain JSON types.
-:func:`atomic_path` is the one atomic write: it hands out a temporary file in the target's
-directory and, when the block succeeds, fsyncs it and renames it over the target with
-:func:`os.replace`, so a reader (or a crash) only ever sees the old file or the complete new
-one. :func:`output_directory` is the one check of an output folder that every command makes
-before it computes anything. :func:`write_text_atomic`, :func:`write_json_atomic` and :func:`write_csv_atomic` are built
-on it, and a writer that needs a path (a matplotlib figure) uses it directly. Serialisation
-happens before any file is touched.
-
-JSON is written with Python's defaults for non-finite floats (``NaN``, ``Infinity``,
-``-Infinity``): not strict RFC 8259, but it round-trips through :func:`read_json`, and an
-optimiser's ``-inf`` best fitness is information worth keeping.
+:func:`atomic_path` is the one atomic write (a temporary file beside the target, fsynced and
+renamed over it), under :func:`write_text_atomic`, :func:`write_json_atomic` and
+:func:`write_csv_atomic`; serialisation happens before any file is touched.
+:func:`output_directory` is the check of an output folder every command makes before it computes.
+JSON keeps Python's non-finite floats (``NaN``, ``Infinity``): not strict RFC 8259, but it
+round-trips through :func:`read_json`, and an optimiser's ``-inf`` best is worth keeping.
 """
 
 from __future__ import annotations

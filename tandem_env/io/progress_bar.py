@@ -1,13 +1,9 @@
 """Progress of long work on stderr (tqdm): one bar class for a search and for a set of jobs.
 
 A search reports ``(iteration, evaluations, best)`` after every iteration (:data:`Reporter`);
-the job runner (``agents.runner``) moves one bar over the evaluations of all its jobs
-as they run (serially) or finish (on a Dask cluster), with the jobs done in its status. The
-bar's rate and time left are in evaluations either way.
-
-Until its first report a bar shows what it waits for instead of a rate and a time left: the
-first evaluation in a process compiles the model (tens of seconds), and a rate measured over
-that would promise days. The clock restarts at the first report, so the time left counts
+the job runner (``agents.runner``) moves one bar over the evaluations of all its jobs. Until
+its first report a bar shows what it waits for (the first evaluation in a process compiles the
+model) instead of a rate; the clock restarts at the first report, so the time left counts
 evaluations only.
 """
 
@@ -84,20 +80,10 @@ class QuietStream:
 
 
 class ProgressBar:
-    """A tqdm bar over model evaluations (so its rate and ETA are in evaluations).
-
-    Parameters
-    ----------
-    total : int
-        The budget [evaluations].
-    description : str
-        Label, e.g. ``"pso level speed=1.5 seed 0"``.
-    enabled : bool
-        False makes every call a no-op (``--quiet``).
-    waiting : str, optional
-        What the bar shows until its first report; default :data:`COMPILING` in a process
-        whose bars have had no report yet, else :data:`STARTING`.
-    """
+    """A tqdm bar over model evaluations (its rate and time left in evaluations) of budget
+    ``total``, labelled ``description``; ``enabled`` False makes every call a no-op
+    (``--quiet``); ``waiting`` is what it shows until its first report (default
+    :data:`COMPILING` in a process whose bars have had none yet, else :data:`STARTING`)."""
 
     def __init__(
         self, total: int, description: str, enabled: bool = True, waiting: str | None = None
