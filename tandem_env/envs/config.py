@@ -144,12 +144,9 @@ class PenaltyConfig:
     (a step that PSO tolerates and RL may not)."""
 
     def __post_init__(self) -> None:
-        object.__setattr__(
-            self, "weight", check_real("PenaltyConfig", "weight", self.weight, "", 0.0, 1e6)
-        )
-        object.__setattr__(
-            self, "offset", check_real("PenaltyConfig", "offset", self.offset, "", 0.0, 1e6)
-        )
+        for name in ("weight", "offset"):
+            value = check_real("PenaltyConfig", name, getattr(self, name), "", 0.0, 1e6)
+            object.__setattr__(self, name, value)
         if self.weight == 0.0 and self.offset == 0.0:
             raise ValueError(
                 "PenaltyConfig.weight and PenaltyConfig.offset are both 0, so infeasible strokes "
@@ -162,10 +159,6 @@ class PenaltyConfig:
         return np.where(feasible, 0.0, self.weight * violation + self.offset)
 
 
-def _default_options() -> ModelOptions:
-    return ModelOptions()
-
-
 @dataclass(frozen=True, kw_only=True)
 class FlightConfig:
     """Options every flight environment shares (the model, the penalty, the action handling)."""
@@ -175,7 +168,7 @@ class FlightConfig:
     A mapping of the fields that differ from it, or a YAML file's path holding one, is read
     into a :class:`~tandem_env.physics.Dragonfly` (:func:`~tandem_env.physics.insect.load_insect`,
     docs/envs.md)."""
-    options: ModelOptions = field(default_factory=_default_options)
+    options: ModelOptions = field(default_factory=ModelOptions)
     """Model resolution, inflow coupling and conventions (``thrust_split`` among them)."""
     penalty: PenaltyConfig = field(default_factory=PenaltyConfig)
     """How constraint violations lower the reward."""

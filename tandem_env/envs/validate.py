@@ -47,19 +47,17 @@ def check_interval(
     owner: str, name: str, value: Any, unit: str, limits: tuple[float, float]
 ) -> tuple[float, float]:
     """``value`` as a ``(low, high)`` float pair with limits[0] <= low < high <= limits[1]."""
-    allowed = (
-        f"allowed: a pair (low, high) of finite numbers with {limits[0]:g} <= low < high <= "
-        f"{limits[1]:g} {unit}"
-    )
-    if isinstance(value, str | bytes) or not hasattr(value, "__len__") or len(value) != 2:
-        raise ValueError(f"{owner}.{name} = {value!r}; {allowed}")
-    low, high = value
-    if not (is_real(low) and is_real(high)):
-        raise ValueError(f"{owner}.{name} = {value!r}; {allowed}")
-    low, high = float(low), float(high)
-    if not (math.isfinite(low) and math.isfinite(high) and limits[0] <= low < high <= limits[1]):
-        raise ValueError(f"{owner}.{name} = {value!r} {unit}; {allowed}")
-    return low, high
+    pair = () if isinstance(value, str | bytes) or not hasattr(value, "__len__") else tuple(value)
+    if not (
+        len(pair) == 2
+        and all(is_real(v) and math.isfinite(v) for v in pair)
+        and limits[0] <= pair[0] < pair[1] <= limits[1]
+    ):
+        raise ValueError(
+            f"{owner}.{name} = {value!r} {unit}; allowed: a pair (low, high) of finite numbers "
+            f"with {limits[0]:g} <= low < high <= {limits[1]:g} {unit}"
+        )
+    return float(pair[0]), float(pair[1])
 
 
 def check_render_mode(render_mode: Any) -> str | None:
