@@ -34,10 +34,6 @@ OBSERVATION_NAMES: tuple[str, ...] = (
     "cycles_left",
 )
 
-#: ``reset(options=...)`` keys: the episode's start and target forward speeds [m/s] (inside
-#: ``speed_envelope``) and its start vertical speed [m/s] (default 0).
-RESET_OPTIONS: tuple[str, ...] = ("start_speed", "target_speed", "vertical_speed")
-
 
 @dataclass(frozen=True)
 class Flight:
@@ -132,41 +128,28 @@ class SpeedChangeCore:
         flight = Flight.empty(count)
         for k in range(count):
             given = self._options(options[k])
-            values = {}
-            for name in ("start_speed", "target_speed"):
+            for name, state in (("start_speed", "forward_speed"), ("target_speed", "target_speed")):
                 if name in given:
-                    values[name] = given[name]
+                    value = given[name]
                 elif getattr(cfg, name) is not None:
-                    values[name] = getattr(cfg, name)
+                    value = getattr(cfg, name)
                 else:
-                    values[name] = rngs(k).uniform(*getattr(cfg, f"{name}_range"))
-            flight.forward_speed[k] = values["start_speed"]
-            flight.target_speed[k] = values["target_speed"]
+                    value = rngs(k).uniform(*getattr(cfg, f"{name}_range"))
+                getattr(flight, state)[k] = value
             # Within ±MAX_BAND_SPEED (checked in _options), as u is within the band.
             flight.vertical_speed[k] = given.get("vertical_speed", 0.0)
         return flight
 
     def _options(self, options: Mapping[str, Any] | None) -> dict[str, float]:
         cfg = self.config
-        given = reset_options(cfg.name, options, RESET_OPTIONS, {})
         low, high = cfg.speed_envelope
-        out = {
-            key: option_value(cfg.name, key, given[key], low, high, "m/s", "the speed envelope")
-            for key in ("start_speed", "target_speed")
-            if key in given
+        ranges = {  # key -> (low, high, unit, what the range is)
+            "start_speed": (low, high, "m/s", "the speed envelope"),
+            "target_speed": (low, high, "m/s", "the speed envelope"),
+            "vertical_speed": (-MAX_BAND_SPEED, MAX_BAND_SPEED, "m/s", "the range"),
         }
-        if "vertical_speed" in given:
-            limit = MAX_BAND_SPEED
-            out["vertical_speed"] = option_value(
-                cfg.name,
-                "vertical_speed",
-                given["vertical_speed"],
-                -limit,
-                limit,
-                "m/s",
-                "the range",
-            )
-        return out
+        given = reset_options(cfg.name, options, tuple(ranges), {})
+        return {key: option_value(cfg.name, key, v, *ranges[key]) for key, v in given.items()}
 
     def observe(self, flight: Flight) -> np.ndarray:
         """(B, 5) float32 observations in [-1, 1] (:data:`OBSERVATION_NAMES`): u over
