@@ -63,6 +63,11 @@ class FlightProblem:
     holds >= 0. Built by the env's core (``FlightCore.problem()``), with the env's config.
     """
 
+    #: Number of action coordinates (28).
+    dim: int = N_PARAMETERS
+    #: Names of the coordinates, fore-wing first (Table 4 order).
+    parameter_names: tuple[str, ...] = PARAMETER_NAMES
+
     def __init__(self, core: Any, normalised_low: float, normalised_high: float) -> None:
         self._core = core
         self._low = np.full(N_PARAMETERS, float(normalised_low))
@@ -89,16 +94,6 @@ class FlightProblem:
     def objective_metric(self) -> str:
         """The :class:`~tandem_env.physics.Result` field maximised, e.g. ``"efficiency"``."""
         return self.config.objective_metric
-
-    @property
-    def dim(self) -> int:
-        """Number of action coordinates (28)."""
-        return N_PARAMETERS
-
-    @property
-    def parameter_names(self) -> tuple[str, ...]:
-        """Names of the coordinates, fore-wing first (Table 4 order)."""
-        return PARAMETER_NAMES
 
     @property
     def normalised_low(self) -> np.ndarray:
