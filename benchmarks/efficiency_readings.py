@@ -103,10 +103,7 @@ class Case:
 def cases() -> list[Case]:
     """Part 1 (certified) for every reading, then part 2 (the paper-era searches)."""
     readings = [(t, p) for t in THRUST for p in POWER]
-    searches: list[Search] = []
-    for reading in PAPER_SEARCHES:
-        assert isinstance(reading, Reading) and reading.search is not None
-        searches.append(reading.search)
+    searches = [reading.search for reading in PAPER_SEARCHES if reading.search is not None]
     out = [Case(t, p, CERTIFIED) for t, p in readings]
     out += [Case(t, p, s) for s in searches for t, p in readings]
     out.append(Case("sign", "absolute", LINEAR_INERTIA))

@@ -14,10 +14,9 @@ What share is acceptable is stated in docs/harness.md. Usage::
 from __future__ import annotations
 
 import argparse
-import importlib
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
@@ -28,6 +27,7 @@ import numpy as np
 from agents.evaluator import VectorEnvEvaluator
 from agents.methods import AskTellMethod, get_method
 from agents.tasks import get_task
+from tandem_env.envs import base
 from tandem_env.io.keyvalue import parse_pairs
 
 CONDITIONS = {"level": ({"speed": 1.5}, 1.5), "accelerate": ({"available_power": 60.0}, 60.0)}
@@ -55,8 +55,9 @@ class Timing:
 
 
 @contextmanager
-def timed_package(method: str, timing: Timing) -> Iterator[None]:
-    """Add the time spent in ``PACKAGE_CALLS[method]`` to ``timing.package`` (outermost only)."""
+def timed_calls(calls: Iterable[tuple[Any, str]], timing: Timing, field: str) -> Iterator[None]:
+    """While the block runs, add the time spent in the callables ``calls`` ((owner, name)
+    pairs) to ``timing.<field>``, counting the outermost of nested calls only."""
     depth = 0
 
     def timed(call: Callable[..., Any]) -> Callable[..., Any]:
@@ -69,64 +70,48 @@ def timed_package(method: str, timing: Timing) -> Iterator[None]:
             finally:
                 depth -= 1
                 if depth == 0:
-                    timing.package += time.perf_counter() - start
+                    setattr(timing, field, getattr(timing, field) + time.perf_counter() - start)
 
         return wrapper
 
-    calls = PACKAGE_CALLS.get(method, ())
-    saved = [getattr(owner, name) for owner, name in calls]
-    for (owner, name), call in zip(calls, saved, strict=True):
+    saved = [(owner, name, getattr(owner, name)) for owner, name in calls]
+    for owner, name, call in saved:
         setattr(owner, name, timed(call))
     try:
         yield
     finally:
-        for (owner, name), call in zip(calls, saved, strict=True):
+        for owner, name, call in saved:
             setattr(owner, name, call)
 
 
 def time_run(
     method: str, settings: dict[str, Any], task_name: str, evaluations: int, seed: int
 ) -> Timing:
-    task_module = importlib.import_module("tandem_env.envs.base")
-    real = task_module.evaluate
     timing = Timing()
-
-    def timed_evaluate(*args, **kwargs):
-        start = time.perf_counter()
-        try:
-            return real(*args, **kwargs)
-        finally:
-            timing.model += time.perf_counter() - start
-
-    task_module.evaluate = timed_evaluate
-    try:
-        task = get_task(task_name)
-        env_kwargs, value = CONDITIONS[task_name]
-        search = get_method(method, settings)
-        if not isinstance(search, AskTellMethod):
-            raise SystemExit(f"{method} is not an ask/tell optimiser")
-        optimiser = search.config(evaluations, task).build(28, seed)
-        start = time.perf_counter()
-        with (
-            VectorEnvEvaluator(
-                task, task.condition(value), env_kwargs, seed, evaluations
-            ) as evaluator,
-            timed_package(method, timing),
-        ):
-            while not optimiser.done:
-                t0 = time.perf_counter()
-                X = optimiser.ask()
-                t1 = time.perf_counter()
-                rewards = evaluator(X)
-                t2 = time.perf_counter()
-                optimiser.tell(X, rewards)
-                timing.ask_tell += (t1 - t0) + (time.perf_counter() - t2)
-            timing.total = time.perf_counter() - start
-            timing.env_step = evaluator.step_time
-            timing.evaluations = evaluator.evaluations
-            timing.iterations = evaluator.iterations
-    finally:
-        task_module.evaluate = real
+    task = get_task(task_name)
+    env_kwargs, value = CONDITIONS[task_name]
+    search = get_method(method, settings)
+    if not isinstance(search, AskTellMethod):
+        raise SystemExit(f"{method} is not an ask/tell optimiser")
+    optimiser = search.config(evaluations, task).build(28, seed)
+    start = time.perf_counter()
+    with (
+        timed_calls([(base, "evaluate")], timing, "model"),  # every env's one model call
+        timed_calls(PACKAGE_CALLS.get(method, ()), timing, "package"),
+        VectorEnvEvaluator(task, task.condition(value), env_kwargs, seed, evaluations) as evaluator,
+    ):
+        while not optimiser.done:
+            t0 = time.perf_counter()
+            X = optimiser.ask()
+            t1 = time.perf_counter()
+            rewards = evaluator(X)
+            t2 = time.perf_counter()
+            optimiser.tell(X, rewards)
+            timing.ask_tell += (t1 - t0) + (time.perf_counter() - t2)
+        timing.total = time.perf_counter() - start
+        timing.env_step = evaluator.step_time
+        timing.evaluations = evaluator.evaluations
+        timing.iterations = evaluator.iterations
     return timing
 
 

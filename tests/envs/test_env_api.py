@@ -268,12 +268,18 @@ def _step_once(env_id: str) -> dict:
 def test_a_docstring_that_lists_the_model_options_lists_every_one() -> None:
     """Checked on each registered env class's docstring as Python holds it (written or
     generated), so a new ``ModelOptions`` field is caught: a docstring that names two or more
-    model-option keywords (``n_time``) lists them, and then names every one of them; one
-    that mentions a single option (``thrust_split``) refers to another's list."""
+    model-option keywords (``n_time``) lists them, and then names every one of them with each of
+    its choices (a new ``slipstream`` value too); one that mentions a single option
+    (``thrust_split``) refers to another's list."""
+    from typing import get_args, get_type_hints
+
     from gymnasium.envs.registration import load_env_creator
 
     from tandem_env.envs.config import MODEL_OPTION_KWARGS
     from tandem_env.envs.registration import ENTRIES
+    from tandem_env.physics import ModelOptions
+
+    hints = get_type_hints(ModelOptions)
 
     listing = 0
     for env_id in ENTRIES:
@@ -287,4 +293,7 @@ def test_a_docstring_that_lists_the_model_options_lists_every_one() -> None:
                     entry_point,
                     set(MODEL_OPTION_KWARGS) - named,
                 )
+                for keyword, name in MODEL_OPTION_KWARGS.items():
+                    for choice in get_args(hints[name]):
+                        assert f'"{choice}"' in doc, (entry_point, keyword, choice)
     assert listing >= 1  # LevelFlightEnv's
