@@ -126,11 +126,9 @@ class LevelFlightEnv(FlightEnv):
 
     ``Box(-1, 1, (28,), float32)``: the 14 stroke parameters of each wing (fore-wing first,
     ``f, φ_m, θ_m, η_m, φ_0, θ_0, η_0, Φ_φ, Φ_θ, Φ_η, K, N, C_η, β_m``), each mapped linearly
-    onto its Table 4 range by :func:`tandem_env.normalised_to_physical` (N = 1 below 0, else 2).
-    Non-finite actions raise ``ValueError``; so do values outside [-1, 1] (a stroke outside
-    Table 4 is not silently replaced by another) unless the env was made with
-    ``clip_actions=True``, which clips them: recommended for clients that do not clip their
-    policy's actions to the space (SB3, the zoo and CleanRL do; skrl does not).
+    onto its Table 4 range (:func:`tandem_env.normalised_to_physical`; N = 1 below 0, else 2).
+    Non-finite actions raise ``ValueError``, and so do values outside [-1, 1] unless the env was
+    made with ``clip_actions=True`` (for clients that do not clip their actions, such as skrl).
 
     ## Observation Space
 
@@ -142,10 +140,9 @@ class LevelFlightEnv(FlightEnv):
     ``reward = η − penalty``, ``penalty = weight·violation + offset·[infeasible]`` with
     ``violation = max(0, |L/W − 1| − tol) + max(0, |T − D|/W − tol) + max(0, P/m − P_max)/P_max``
     (:data:`LEVEL_FLIGHT`'s constraints; tol = ``constraint_tolerance``, default 0.02; P_max the
-    insect's maximum, 90 W/kg; weight 10, offset 0 by default). A feasible stroke is rewarded with exactly its η. Scale: feasible rewards are
-    η in [0, ~0.5] (values above 1 are possible with ``thrust_split="sign"``, flagged in
-    ``info["efficiency_above_one"]``, never clipped); uniform random strokes score about −120 to 0
-    (median −15 to −45).
+    insect's maximum, 90 W/kg; weight 10, offset 0 by default): a feasible stroke is rewarded
+    with exactly its η, in [0, ~0.5] (above 1 is possible with ``thrust_split="sign"``, flagged
+    in ``info["efficiency_above_one"]``); uniform random strokes score about −120 to 0.
 
     ## Starting State
 
@@ -155,21 +152,19 @@ class LevelFlightEnv(FlightEnv):
 
     ## Episode End
 
-    Every ``step`` evaluates one wing-beat cycle and terminates the episode
-    (``terminated=True``, ``truncated=False``). ``info`` holds the named physical stroke
-    (``info["stroke"]``), every metric of the model (the :class:`tandem_env.Result` fields:
-    the ``METRIC_NAMES``, per-wing breakdown, ``speed``, ``available_power``), each
-    constraint's violation (``lift_violation``, ``thrust_violation``, ``power_violation``) and
-    the reward terms ``objective``, ``constraint_violation``, ``penalty`` and ``feasible``.
+    Every ``step`` evaluates one wing-beat cycle and terminates the episode. ``info`` holds
+    the named physical stroke (``info["stroke"]``), every field of :class:`tandem_env.Result`,
+    each constraint's violation (``lift_violation``, ...) and the reward terms ``objective``,
+    ``constraint_violation``, ``penalty`` and ``feasible``.
 
     ## Arguments
 
     ``gym.make("TandemWing/LevelFlight-v0", **kwargs)``, see :class:`LevelFlightConfig` and
     :meth:`FlightConfig.from_kwargs`: ``speed``, ``speed_range``, ``speed_envelope``,
     ``constraint_tolerance``, ``insect``, ``planform`` ("tear-drop" | "real"), ``options`` or its
-    fields ({model_options}), ``penalty`` or
-    ``penalty_weight`` / ``penalty_offset``, ``clip_actions``, ``render_mode``
-    ("rgb_array" | "human"). Invalid values raise ``ValueError`` at construction.
+    fields ({model_options}), ``penalty`` or ``penalty_weight`` / ``penalty_offset``,
+    ``clip_actions``, ``render_mode`` ("rgb_array" | "human"). Invalid values raise
+    ``ValueError`` at construction.
 
     ## Version History
 
