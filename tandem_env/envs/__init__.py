@@ -1,12 +1,9 @@
 """Gymnasium environments over the tandem-wing model (see docs/envs.md).
 
-Ids ``TandemWing/LevelFlight-v0``, ``TandemWing/Accelerate-v0`` (one wing-beat per episode)
-and ``TandemWing/SpeedChange-v0`` (many wing-beats) are registered by ``import tandem_env``;
-each is one module (``level_flight``, ``accelerate``, ``speed_change``: declaration, config,
-batched core, vector env, single env; SpeedChange's declaration and config sit in
-``speed_change_config``) over the shared machinery of ``base``.
-The SB3 adapter (``TandemVecEnv``, ``make_sb3_vec_env``) lives in :mod:`tandem_env.envs.sb3`
-and is imported only when asked for, so that importing the envs does not import
+``TandemWing/LevelFlight-v0``, ``TandemWing/Accelerate-v0`` (one wing-beat per episode) and
+``TandemWing/SpeedChange-v0`` (many wing-beats) are registered by ``import tandem_env``; each is
+one task module over the shared machinery of ``base``. The SB3 adapter (``TandemVecEnv``,
+``make_sb3_vec_env``) is imported only when asked for, so importing the envs does not import
 Stable-Baselines3 (or torch).
 """
 

@@ -1,13 +1,9 @@
 """What every flight env's configuration shares: frozen, validated dataclasses built from ``gym.make`` kwargs.
 
-Every option an environment takes is a field of its config (a :class:`FlightConfig` subclass in
-its task module), so that what an env does is fully described by ``env.config`` (and
-reproducible from it). ``gym.make(id, **kwargs)`` passes flat keyword arguments;
-:meth:`FlightConfig.from_kwargs` maps them onto the dataclasses and rejects anything it does
-not know, naming what is allowed (and an old name, naming the new one).
-
-Units follow the physics: speeds in m/s, powers per body mass in W/kg, forces as fractions of
-the weight W (dimensionless).
+Every option an env takes is a field of its config (a :class:`FlightConfig` subclass), so
+``env.config`` fully describes (and reproduces) what it does; :meth:`FlightConfig.from_kwargs`
+maps the flat ``gym.make`` keywords onto it and refuses anything else, naming what is allowed.
+Units follow the physics: m/s, W/kg, forces as fractions of the weight W.
 """
 
 from __future__ import annotations
@@ -282,17 +278,12 @@ class FlightConfig:
 
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> FlightConfig:
-        """Build the config from flat keyword arguments (the ``gym.make`` kwargs).
-
-        ``insect`` is a :class:`~tandem_env.physics.Dragonfly`, a mapping of the fields that
-        differ from the paper's specimen, or a YAML file's path (:func:`insect_keyword`).
-        Besides the dataclass fields this accepts ``planform`` ("tear-drop" | "real") and
-        ``rotational_coefficient`` (C_r of both wings [-], Table 3), applied to ``insect``; every
-        :class:`~tandem_env.physics.ModelOptions` field (:data:`MODEL_OPTION_KWARGS`: its
-        ``power`` as ``power_convention``), applied over ``options``; and ``penalty_weight`` / ``penalty_offset``, applied over
-        ``penalty``. A condition's old keyword (``power`` for ``available_power``) is refused
-        naming the new one.
-        """
+        """Build the config from flat keyword arguments (the ``gym.make`` kwargs): the fields,
+        ``planform`` and ``rotational_coefficient`` (C_r of both wings [-], Table 3) applied to
+        ``insect`` (a ``Dragonfly``, a mapping of what differs from the specimen, or a YAML file),
+        every ``ModelOptions`` field (:data:`MODEL_OPTION_KWARGS`) over ``options``, and
+        ``penalty_weight`` / ``penalty_offset`` over ``penalty``. A condition's old keyword is
+        refused naming the new one."""
         renamed = cls.CONDITION.renamed() if cls.CONDITION is not None else {}
         old = sorted(set(kwargs) & set(renamed))
         if old:

@@ -1,11 +1,6 @@
-"""Declaration and options of ``TandemWing/SpeedChange-v0``, whose env is ``speed_change``.
-
-The task's declaration (:data:`SPEED_CHANGE`: the power cap of level flight), its reward weights
-(:class:`SpeedChangeReward`) and its config (:class:`SpeedChangeConfig`: start and target speeds,
-episode length, the bands that end an episode, the observation's scales), each validated where
-it is built; and the limits they are checked against (:data:`MAX_CYCLES`,
-:data:`MAX_BAND_SPEED`).
-"""
+"""Declaration and options of ``TandemWing/SpeedChange-v0`` (its env: ``speed_change``): the
+declaration :data:`SPEED_CHANGE`, the reward weights :class:`SpeedChangeReward` and the config
+:class:`SpeedChangeConfig`, each validated where it is built."""
 
 from __future__ import annotations
 

@@ -1,9 +1,6 @@
-"""B evaluated strokes of a task: the model's result scored by the task's objective and
-constraints, before it is split per env (:class:`StepBatch`).
-
-Every task's core returns one from its ``step`` (the multi-cycle task wraps it with the motion);
-its infos are columns (:mod:`~tandem_env.envs.columns`).
-"""
+"""B evaluated strokes of a task, scored by its objective and constraints, before they are
+split per env (:class:`StepBatch`, what every core's ``step`` returns; the multi-cycle task wraps
+it with the motion)."""
 
 from __future__ import annotations
 

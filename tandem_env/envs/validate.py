@@ -1,10 +1,6 @@
-"""The env layer's validators: each value is checked once, where an env receives it.
-
-Configs check their fields when built, an env checks an action where its ``step`` (or the SB3
-adapter's) receives it and a reset option where ``reset`` receives it; nothing downstream checks
-again (the model's ``evaluate`` checks the physical strokes it receives, its own boundary). A
-bad value gets a ``ValueError`` naming it, its value and what is allowed.
-"""
+"""The env layer's validators: each value is checked once, where an env receives it (a config
+field when built, an action in ``step``, a reset option in ``reset``), with a ``ValueError``
+naming it, its value and what is allowed."""
 
 from __future__ import annotations
 
