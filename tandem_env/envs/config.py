@@ -116,18 +116,11 @@ def fixed_or_sampled(
 
 @dataclass(frozen=True)
 class PenaltyConfig:
-    """How constraint violations lower the reward.
-
-    ``reward = objective − penalty`` with
-    ``penalty = weight · violation + offset · [stroke infeasible]``, where ``violation`` is the
-    sum of the task's normalised constraint violations (see the env docstrings): every term is
-    zero when its constraint holds, so a feasible stroke is rewarded with exactly its objective.
-
-    The default is a linear ("exact", L1) penalty: it is continuous at the feasibility boundary
-    (no cliff for gradient-based RL), still ranks infeasible strokes by how far they are from
-    feasible (PSO and RL can climb towards the feasible set), and, once ``weight`` exceeds the
-    sensitivity of the objective to the constraints (the Lagrange multipliers, of order 1 here),
-    the constrained optimum is the maximum of the reward.
+    """How constraint violations lower the reward: ``reward = objective − penalty``,
+    ``penalty = weight · violation + offset · [stroke infeasible]``, ``violation`` the sum of the
+    task's normalised constraint violations, so a feasible stroke is rewarded with exactly its
+    objective. The default is a linear ("exact", L1) penalty, continuous at the feasibility
+    boundary (why these defaults: docs/envs.md, "Rewards and the penalty").
     """
 
     weight: float = 10.0
