@@ -52,10 +52,8 @@ class SpeedChangeReward:
         reward_energy      = −energy     · P · Δt                      energy spent [J]
         reward_termination = −termination · (cycles not flown)         only when terminated
 
-    Progress credits each stroke at once with the speed it gained towards u* (and charges
-    overshoot); over an episode it sums to the initial minus the final speed error. The speed,
-    altitude and energy terms are time integrals, so reaching u* sooner, holding altitude and
-    flying efficiently all pay. A weight of 0 switches a term off.
+    Over an episode progress sums to the initial minus the final speed error; the other terms are
+    time integrals (docs/envs.md). A weight of 0 switches a term off.
     """
 
     progress: float = 1.0
@@ -67,11 +65,9 @@ class SpeedChangeReward:
     energy: float = 50.0
     """Per joule spent by the wings [1/J]: level flight at 40 W/kg for 1.3 s costs about 0.3."""
     termination: float = 0.2
-    """Per cycle not flown when the episode terminates early [reward units per cycle]. With the
-    default weights the speed, altitude and energy terms of a cycle inside the default bands
-    cost at most (2.75 m/s · 1 + 0.5 m · 2 + 90 W/kg · 121.9 mg · 50)/30 Hz ≈ 0.14 (power within
-    the cap; :meth:`SpeedChangeConfig.max_cycle_cost`), so leaving the bands early does not
-    pay (progress sums to at most the speed error over any stretch of flight)."""
+    """Per cycle not flown when the episode terminates early [reward units per cycle]: above
+    the most a cycle inside the bands costs (:meth:`SpeedChangeConfig.max_cycle_cost`, ≈ 0.14),
+    so leaving the bands early does not pay."""
 
     TERMS: ClassVar[tuple[str, ...]] = ("progress", "speed", "altitude", "energy", "termination")
     UNITS: ClassVar[dict[str, str]] = {
