@@ -163,11 +163,6 @@ class SpeedChangeConfig(FlightConfig):
             owner, "max_cycles", self.max_cycles, 1, MAX_CYCLES, "wing-beat cycles per episode"
         )
         object.__setattr__(self, "max_cycles", cycles)
-        object.__setattr__(
-            self,
-            "altitude_band",
-            check_real(owner, "altitude_band", self.altitude_band, "m", 1e-6, 1e3),
-        )
         band = check_interval(
             owner, "forward_speed_band", self.forward_speed_band, "m/s", SPEED_LIMITS
         )
@@ -185,11 +180,9 @@ class SpeedChangeConfig(FlightConfig):
                     f"{owner}.forward_speed_band = ({band[0]:g}, {band[1]:g}) m/s"
                 )
         object.__setattr__(self, "forward_speed_band", band)
-        object.__setattr__(
-            self,
-            "vertical_speed_scale",
-            check_real(owner, "vertical_speed_scale", self.vertical_speed_scale, "m/s", 1e-6, 1e3),
-        )
+        for name, unit in (("altitude_band", "m"), ("vertical_speed_scale", "m/s")):
+            value = check_real(owner, name, getattr(self, name), unit, 1e-6, 1e3)
+            object.__setattr__(self, name, value)
         object.__setattr__(self, "reward", SpeedChangeReward.build(self.reward))
 
     @classmethod
