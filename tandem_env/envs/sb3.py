@@ -1,15 +1,10 @@
 """Stable-Baselines3 ``VecEnv`` adapter over the native vector env (one model call per step).
 
-SB3 does not use Gymnasium vector envs; its own :class:`~stable_baselines3.common.vec_env.DummyVecEnv`
-would step n single envs in a Python loop, n model calls per step. :class:`TandemVecEnv` gives
-SB3 exactly what ``DummyVecEnv`` over n single envs gives (observations, float32 rewards,
-dones, per-env info dicts with ``"terminal_observation"`` and ``"TimeLimit.truncated"``,
-``reset_infos``, seeds ``seed + i`` applied at the next reset), with SB3's same-step
-auto-reset, but evaluates the n strokes in one batched call.
-
-This module imports Stable-Baselines3; ``import tandem_env`` does not import it.
-
-Example::
+SB3's own ``DummyVecEnv`` would step n single envs in a Python loop, n model calls per step;
+:class:`TandemVecEnv` gives SB3 exactly what ``DummyVecEnv`` over n single envs gives (float32
+rewards, per-env infos with ``"terminal_observation"`` and ``"TimeLimit.truncated"``,
+``reset_infos``, seeds ``seed + i`` at the next reset, same-step auto-reset) from one batched
+call. This module imports Stable-Baselines3; ``import tandem_env`` does not. Example::
 
     from stable_baselines3 import PPO
     from tandem_env.envs.sb3 import make_sb3_vec_env
