@@ -3,13 +3,11 @@
     python benchmarks/float32_margin.py results/study [more stores ...]
 
 The polish holds one float32 step of every coordinate inside each constraint
-(``agents.polish.float32_margin``), so that its optimum, cast to the action type, stays
-feasible. At a record's stroke this takes the objective gradient and the constraints' Jacobian
-(central differences, step 1e-5), the multipliers λ of the constraints within 1e-6 of their
-limit (non-negative least squares with the active bounds, as the certificate's KKT check), the
-margin m of each constraint, and prints per record the active constraints, m, and the first-order
-cost Σ λ_i m_i (absolute and relative to the objective), then the median and the largest relative
-cost over the records.
+(``agents.polish.float32_margin``). At each record's stroke this takes the gradients (central
+differences, step 1e-5), the multipliers λ of the constraints within 1e-6 of their limit
+(non-negative least squares with the active bounds) and the margins m, and prints the active
+constraints, m and the first-order cost Σ λ_i m_i per record, then the median and the largest
+cost relative to the objective.
 """
 
 from __future__ import annotations

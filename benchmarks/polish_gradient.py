@@ -2,14 +2,11 @@
 
     python benchmarks/polish_gradient.py [--repeats 7] [--device cpu]
 
-Both are the polish's own gradient functions (``agents.polish``) on the level-flight task at
-V = 1.5 m/s and the accelerating task at 60 W/kg, at seeded random strokes, in one process (so
-the ratio holds on a loaded machine): ``CentralDifferences`` evaluates the point and its 52
-neighbours in ONE numba call (53 model evaluations in the budget), ``AutogradGradient`` one
-stroke in torch, forward and one backward pass per output (objective and each margin; 1 model
-evaluation in the budget). Each is called once first (numba compiles, torch warms up), then
-``--repeats`` times; prints the median and the fastest call [ms] and their ratio, and the torch
-forward pass alone (no graph) for comparison.
+The polish's own gradients (``agents.polish``) on level flight at 1.5 m/s and accelerating
+flight at 60 W/kg, at seeded random strokes, in one process: ``CentralDifferences`` (the point
+and its 52 neighbours in ONE numba call) against ``AutogradGradient`` (one stroke in torch, a
+backward pass per output). Each is called once first (compile, warm-up), then ``--repeats``
+times; prints the median and fastest call [ms], their ratio, and the torch forward pass alone.
 """
 
 from __future__ import annotations
