@@ -48,16 +48,13 @@ def main() -> None:
     physical = te.normalised_to_physical(actions.astype(np.float64))
 
     rows: list[tuple[str, float]] = []
+    for batch in (1, n):
 
-    def raw(batch: int) -> Callable[[], int]:
-        def run() -> int:
+        def raw(batch: int = batch) -> int:
             te.evaluate(physical[:batch], 1.5)
             return batch
 
-        return run
-
-    rows.append(("evaluate, B = 1", rate(raw(1), seconds)))
-    rows.append((f"evaluate, B = {n}", rate(raw(n), seconds)))
+        rows.append((f"evaluate, B = {batch}", rate(raw, seconds)))
 
     env = gym.make(ENV_ID)
     env.reset(seed=0)

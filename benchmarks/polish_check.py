@@ -2,14 +2,12 @@
 
     python benchmarks/polish_check.py results/acc60 [results/level15 ...]
 
-For every harness record in the given stores this runs its own SLSQP (scipy ``minimize``,
-``ftol`` 1e-10) from the record's normalised stroke over the 26 continuous parameters, N fixed,
-the task's constraints (their signed margins, from the env's public problem view
-``env.problem()``, ``tandem_env/envs/problem.py``) as constraints, gradients by central differences (step 1e-5) in one batched model call each. It
-shares no code with ``agents/polish.py`` on purpose: it checks that module's work. Prints per
-record the objective, the fresh polish's gain [%] and its final constraint violation, then per
-condition: how many seeds gain < 0.5 %, the best of the first and second half of the seeds and
-how far apart they are [%], and the median.
+For every harness record in the stores: its own SLSQP (``ftol`` 1e-10) from the record's stroke
+over the 26 continuous parameters, N fixed, the task's signed margins (``env.problem()``) as
+constraints, central-difference gradients (step 1e-5) in one batched call each. It shares no
+code with ``agents/polish.py`` on purpose: it checks that module's work. Prints per record the
+objective, the fresh polish's gain [%] and its final violation, then per condition: how many
+seeds gain < 0.5 %, the best of each half of the seeds, how far apart [%], and the median.
 """
 
 from __future__ import annotations
