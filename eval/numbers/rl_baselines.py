@@ -6,7 +6,15 @@ held-out condition (:func:`tandem_env.envs.reference.held_out_conditions`), scor
 reference table (``score``: 100 = the certified optimum).
 
 On request only (``--only rl-baselines``): twenty training runs, two at a time, about 45 min on
-2 cores. The figure (score against speed, every seed) is written beside the table."""
+2 cores. The figure (score against speed, every seed) is written beside the table.
+
+Beside them (on request too), the amortised policy (``--only amortised-scores``: for each seed,
+one policy trained by the documented ``python -m train --algo amortised`` command, default
+settings, scored exactly as the RL policies are; five training runs, two at a time, about half
+an hour on 2 cores; it redraws the shared figure with the stored RL runs), and the README's
+headline of every envelope policy's scores ("One network for the whole envelope",
+``--only envelope-headline``: each policy's median and worst score and the share of its strokes
+that fly, over every seed, read from the stored runs of the two: measure those first)."""
 
 from __future__ import annotations
 
@@ -20,6 +28,8 @@ from typing import Any
 from eval.numbers.framework import (
     ROOT,
     Measurement,
+    json_path,
+    load,
     machine_line,
     read_rows,
     run_command,
@@ -179,7 +189,6 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     import matplotlib.pyplot as plt
 
     from eval.figures import PALETTE, save
-    from eval.numbers.framework import json_path, load
 
     colours = dict(zip(dict.fromkeys(algo for _, algo, _ in POLICIES), PALETTE, strict=False))
     stored = {
@@ -214,4 +223,66 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     save(fig, path)  # atomically, its folder made if need be
 
 
-MEASUREMENT = Measurement("rl-baselines", measure, render, on_request=True)
+AMORTISED = "amortised"
+
+
+def amortised_command(seed: int | str) -> list[str]:
+    """The documented amortised training command (``-f`` is added)."""
+    return ["python", "-m", "train", "--algo", AMORTISED, "--env", ENV_ID, "--seed", str(seed),
+            "--verbose", "0"]  # fmt: skip
+
+
+def measure_amortised() -> dict[str, Any]:
+    """Train and score every seed of the amortised policy, two runs at a time."""
+    tasks = [(amortised_command(seed), AMORTISED, 0, seed, "") for seed in SEEDS]
+    return {"env_id": ENV_ID, "runs": score_runs("amortised-scores", tasks)}
+
+
+def render_amortised(data: dict[str, Any]) -> str:
+    return (
+        score_table("training", [(AMORTISED, "regression + 600 gradient steps", data["runs"])])
+        + "\n\nThe same held-out speeds and scoring; "
+        f"`{shlex.join(amortised_command('SEED'))}` with seeds {list(SEEDS)}, then `python -m "
+        f"train.envelope --conditions ...`. {machine_line(data, 'amortised-scores')}\n"
+    )
+
+
+def measure_headline() -> dict[str, Any]:
+    """Every policy of :data:`POLICIES` summarised from the stored runs."""
+    stored = {name: load(name) for name in dict.fromkeys(p[0] for p in POLICIES)}
+    rows = []
+    for name, algo, hp in POLICIES:
+        runs = runs_of(stored[name]["runs"], algo, hp)
+        median, worst, flies, _ = summary(runs)
+        rows.append({"algo": algo, "hyperparams": hp, "seeds": len(runs), "median": median,
+                     "worst": worst, "flies": flies})  # fmt: skip
+    dates = {name: data["machine_before"]["date"] for name, data in stored.items()}
+    return {"policies": rows, "measured": dates}
+
+
+def render_headline(data: dict[str, Any]) -> str:
+    def rl(hp: str) -> str:
+        rows = [r for r in data["policies"] if r["hyperparams"] == hp]
+        return ", ".join(
+            f"{r['algo'].upper()} {score_text(r['median'])} ({100 * r['flies']:.0f} % fly)"
+            for r in rows
+        )
+
+    (amortised,) = [r for r in data["policies"] if r["algo"] == AMORTISED]
+    return (
+        f"At level flight's held-out speeds the amortised policy's strokes score a median of "
+        f"**{score_text(amortised['median'])}** (worst {score_text(amortised['worst'])}, "
+        f"{100 * amortised['flies']:.0f} % fly; 100 = the reference optimum, ≤ 0 = does not "
+        f"fly); envelope policies of PPO and SAC with hyperparameters tuned for the envelope "
+        f"score {rl('tuned')}, with the shipped ones {rl('shipped')}; "
+        f'{amortised["seeds"]} seeds each (docs/training.md, "Scores at the held-out '
+        'conditions"; regenerate with `python -m eval numbers --only envelope-headline` after '
+        "`rl-baselines` and `amortised-scores`).\n"
+    )
+
+
+MEASUREMENTS = (
+    Measurement("rl-baselines", measure, render, on_request=True),
+    Measurement("amortised-scores", measure_amortised, render_amortised, on_request=True),
+    Measurement("envelope-headline", measure_headline, render_headline, on_request=True),
+)
