@@ -30,22 +30,21 @@ REGION = re.compile(
 )
 
 
-def run_command(command: Sequence[str], environment: dict[str, str] | None = None) -> float:
-    """Run a documented ``python ...`` command from the repository root with this interpreter
-    (``environment``: variables set for it); its wall time [s]. A failure raises with the end
-    of its stderr."""
-    command = [sys.executable, *command[1:]] if command[0] == "python" else list(command)
-    start = time.perf_counter()
-    done = subprocess.run(
-        command,
-        cwd=ROOT,
-        env={**os.environ, **(environment or {})},
-        capture_output=True,
-        text=True,
-        check=False,
-    )
+def _run(command: Sequence[str], environment: dict[str, str] | None = None) -> str:
+    """Run ``command`` from the repository root (``environment``: variables set for it); its
+    standard output. A failure raises with the end of its stderr."""
+    environment = {**os.environ, **(environment or {})}
+    done = subprocess.run(command, cwd=ROOT, env=environment, capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(command)} exited {done.returncode}:\n{done.stderr[-2000:]}")
+    return done.stdout
+
+
+def run_command(command: Sequence[str], environment: dict[str, str] | None = None) -> float:
+    """Run a documented ``python ...`` command with this interpreter (:func:`_run`); its wall
+    time [s]."""
+    start = time.perf_counter()
+    _run([sys.executable, *command[1:]] if command[0] == "python" else command, environment)
     return time.perf_counter() - start
 
 
@@ -123,24 +122,13 @@ def measure_other_kernels(name: str) -> dict[str, dict[str, Any]]:
         "import json, sys; from eval.numbers import MEASUREMENTS; "
         "json.dump(MEASUREMENTS[sys.argv[1]].measure(), sys.stdout)"
     )
-    measured = {}
-    for kernel in OTHER_BLAS_KERNELS:
-        if kernel.lower() == own.lower():
-            continue
-        done = subprocess.run(
-            [sys.executable, "-c", script, name],
-            cwd=ROOT,
-            env={**os.environ, "OPENBLAS_CORETYPE": kernel},
-            capture_output=True,
-            text=True,
-            check=False,
+    return {
+        kernel: json.loads(
+            _run([sys.executable, "-c", script, name], {"OPENBLAS_CORETYPE": kernel})
         )
-        if done.returncode != 0:
-            raise RuntimeError(
-                f"{name} under {kernel} exited {done.returncode}:\n{done.stderr[-2000:]}"
-            )
-        measured[kernel] = json.loads(done.stdout)
-    return measured
+        for kernel in OTHER_BLAS_KERNELS
+        if kernel.lower() != own.lower()
+    }
 
 
 def kernel_views(data: dict[str, Any]) -> dict[str, dict[str, Any]]:

@@ -35,8 +35,15 @@ def measure_rotation() -> dict[str, Any]:
         lifting = paper >= 0.5
         ratio = paper[lifting] / te.evaluate(strokes[lifting], speed, insect=half).lift_to_weight
         p5, p95 = np.percentile(ratio, [5, 95])
-        rows.append({"speed": speed, "strokes": int(lifting.sum()),
-                     "median": float(np.median(ratio)), "p5": float(p5), "p95": float(p95)})  # fmt: skip
+        rows.append(
+            {
+                "speed": speed,
+                "strokes": int(lifting.sum()),
+                "median": float(np.median(ratio)),
+                "p5": float(p5),
+                "p95": float(p95),
+            }
+        )
     return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}
 
 
