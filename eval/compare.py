@@ -22,14 +22,6 @@ from agents.store import read_record_files
 from eval.figures import FORMATS, figure_path, method_label, save, series_style
 from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
 
-__all__ = [
-    "Row",
-    "compare",
-    "comparison_markdown",
-    "convergence_curve",
-    "table_rows",
-]
-
 NAME = "compare"
 HELP = "compare records: median/IQR/spread table (CSV, Markdown) and convergence plot (PNG)"
 DESCRIPTION = """\
@@ -131,11 +123,6 @@ SeriesKey = tuple[str, int, tuple[tuple[str, str], ...]]
 """(method, budget, the rest of the job's configuration as sorted (name, value text) pairs)."""
 
 
-def panel_key(record: Record) -> PanelKey:
-    c = record.condition
-    return (record.task, record.objective_name, c.name, c.value, c.unit)
-
-
 def series_key(record: Record) -> SeriesKey:
     """Everything of the record's job but its task, condition and seed, plus its version."""
     job = record.job
@@ -191,7 +178,9 @@ def group(
                 )
             continue
         seen[record.key] = record
-        out[panel_key(record)][series_key(record)].append(record)
+        c = record.condition
+        panel = (record.task, record.objective_name, c.name, c.value, c.unit)
+        out[panel][series_key(record)].append(record)
     return {
         key: {k: sorted(v, key=lambda r: r.seed) for k, v in sorted(series.items())}
         for key, series in sorted(out.items())
@@ -215,13 +204,12 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
             method, budget, pairs = skey
             objective = np.array([r.objective for r in runs])
             feasible = np.array([r.feasible for r in runs], dtype=bool)
+            # the objective of strokes that do not fly is not a result: left out (NaN)
+            q25 = median = q75 = best = spread = median_feasible = math.nan
             if feasible.any():
-                q25, median, q75 = np.percentile(objective, [25, 50, 75])
-                best = float(objective.max())
-                spread = relative_spread(objective)
+                q25, median, q75 = map(float, np.percentile(objective, [25, 50, 75]))
+                best, spread = float(objective.max()), relative_spread(objective)
                 median_feasible = float(np.median(objective[feasible]))
-            else:  # the objective of strokes that do not fly is not a result: leave it out
-                q25 = median = q75 = best = spread = median_feasible = math.nan
             rows.append(
                 Row(
                     task=task,
@@ -234,10 +222,10 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
                     settings="; ".join(f"{k}={v}" for k, v in pairs),
                     distinct=distinct[skey],
                     seeds=len(runs),
-                    objective_median=float(median),
-                    objective_q25=float(q25),
-                    objective_q75=float(q75),
-                    objective_iqr=float(q75) - float(q25),
+                    objective_median=median,
+                    objective_q25=q25,
+                    objective_q75=q75,
+                    objective_iqr=q75 - q25,
                     objective_spread=spread,
                     objective_best=best,
                     objective_median_feasible=median_feasible,

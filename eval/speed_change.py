@@ -34,18 +34,6 @@ from tandem_env.io.files import (
 from tandem_env.physics.checks import shown
 from tandem_env.physics.model import MAX_BATCH_STROKES
 
-__all__ = [
-    "EpisodeLog",
-    "Policy",
-    "RandomPolicy",
-    "SB3Policy",
-    "SteadyPolicy",
-    "episode_metrics",
-    "policy_summary_rows",
-    "run_episodes",
-    "steady_optima",
-]
-
 NAME = "speed-change"
 HELP = "fly random, steady-optimum, PPO and SAC policies through SpeedChange-v0 episodes"
 DESCRIPTION = """\
@@ -216,29 +204,29 @@ def run_episodes(
     envs = gym.make_vec(
         SPEED_CHANGE_ID, num_envs=n, vectorization_mode="vector_entry_point", **(env_kwargs or {})
     )
+    columns = ("time", "forward_speed", "altitude", "distance")
+    per_cycle = ("power_per_mass", "energy", "reward")
     try:
         observations, info = envs.reset(seed=[int(s) for s in seeds])
-        columns = ("time", "forward_speed", "altitude", "distance")
-        states = {key: [[float(info[key][i])] for i in range(n)] for key in columns}
-        per_cycle: dict[str, list[list[float]]] = {
-            key: [[] for _ in range(n)] for key in ("power_per_mass", "energy", "reward")
-        }
+        states = {key: [np.asarray(info[key], np.float64)] for key in columns}
+        cycles: dict[str, list[np.ndarray]] = {key: [] for key in per_cycle}
         parts = {key: np.zeros(n) for key in REWARD_PARTS}
         targets = np.asarray(info["target_speed"], dtype=np.float64)
         running = np.ones(n, dtype=bool)
         terminated = np.zeros(n, dtype=bool)
+        cycles_run = np.zeros(n, dtype=int)  # each episode's cycles: later steps are another's
         while running.any():
             actions = policy.act(observations, envs.unwrapped.flight)
             observations, rewards, term, trunc, info = envs.step(actions.astype(np.float32))
-            for i in np.flatnonzero(running):
-                for key in columns:
-                    states[key][i].append(float(info[key][i]))
-                per_cycle["power_per_mass"][i].append(float(info["power_per_mass"][i]))
-                per_cycle["energy"][i].append(float(info["energy"][i]))
-                per_cycle["reward"][i].append(float(rewards[i]))
-                for key in REWARD_PARTS:
-                    name = key if key == "penalty" else f"reward_{key}"
-                    parts[key][i] += (-1.0 if key == "penalty" else 1.0) * float(info[name][i])
+            info = {**info, "reward": rewards}
+            cycles_run += running
+            for key in columns:
+                states[key].append(np.asarray(info[key], np.float64))
+            for key in per_cycle:
+                cycles[key].append(np.asarray(info[key], np.float64))
+            for key in REWARD_PARTS:  # the penalty is subtracted from the reward
+                value = -info[key] if key == "penalty" else info[f"reward_{key}"]
+                parts[key] += np.where(running, np.asarray(value, np.float64), 0.0)
             terminated |= running & term
             running &= ~(term | trunc)
     finally:
@@ -248,8 +236,8 @@ def run_episodes(
             policy=policy.name,
             seed=int(seeds[i]),
             target_speed=float(targets[i]),
-            **{key: np.asarray(states[key][i]) for key in columns},
-            **{key: np.asarray(per_cycle[key][i]) for key in per_cycle},
+            **{key: np.array(states[key])[: cycles_run[i] + 1, i] for key in columns},
+            **{key: np.array(cycles[key])[: cycles_run[i], i] for key in per_cycle},
             terminated=bool(terminated[i]),
             terms={key: float(parts[key][i]) for key in REWARD_PARTS},
         )
@@ -289,34 +277,32 @@ def policy_summary_rows(episodes: Sequence[Mapping[str, Any]]) -> list[dict[str,
     out = []
     for policy in dict.fromkeys(e["policy"] for e in episodes):
         rows = [e for e in episodes if e["policy"] == policy]
-
-        def values(key: str, rows: list[Mapping[str, Any]] = rows) -> np.ndarray:
-            return np.array([r[key] for r in rows], dtype=np.float64)
-
-        reached = values("time_to_target_s")
-        reached = reached[np.isfinite(reached)]
-        per_metre = values("energy_per_metre_mJ_m")
+        numbers = [key for key in rows[0] if key != "policy"]
+        values = {key: np.array([r[key] for r in rows], np.float64) for key in numbers}
+        reached = values["time_to_target_s"][np.isfinite(values["time_to_target_s"])]
+        per_metre = values["energy_per_metre_mJ_m"]
         per_metre = per_metre[np.isfinite(per_metre)]
+        mean = {key: float(v.mean()) for key, v in values.items()}
         out.append(
             {
                 "policy": policy,
                 "episodes": len(rows),
-                "return_mean": float(values("return").mean()),
-                "return_std": float(values("return").std()),
-                "terminated_share": float(values("terminated").mean()),
+                "return_mean": mean["return"],
+                "return_std": float(values["return"].std()),
+                "terminated_share": mean["terminated"],
                 "reached_share": reached.size / len(rows),
                 "time_to_target_median_s": float(np.median(reached)) if reached.size else math.nan,
-                "final_speed_error_mean_m_s": float(values("final_speed_error_m_s").mean()),
+                "final_speed_error_mean_m_s": mean["final_speed_error_m_s"],
                 "energy_per_metre_mean_mJ_m": float(per_metre.mean())
                 if per_metre.size
                 else math.nan,
-                "mean_abs_altitude_mean_mm": float(values("mean_abs_altitude_mm").mean()),
-                "flight_time_mean_s": float(values("flight_time_s").mean()),
-                "mean_power_W_kg": float(values("mean_power_W_kg").mean()),
+                "mean_abs_altitude_mean_mm": mean["mean_abs_altitude_mm"],
+                "flight_time_mean_s": mean["flight_time_s"],
+                "mean_power_W_kg": mean["mean_power_W_kg"],
                 **{
-                    f"return_{key}_mean": float(values(f"return_{key}").mean())
+                    f"return_{key}_mean": mean[f"return_{key}"]
                     for key in REWARD_PARTS
-                    if f"return_{key}" in rows[0]
+                    if f"return_{key}" in mean
                 },
             }
         )
