@@ -1,7 +1,7 @@
 """``python -m eval speed-change``: policies flown through whole ``TandemWing/SpeedChange-v0``
 episodes (the policies and what is written: :data:`DESCRIPTION`).
 
-Every policy (a :class:`~eval.speed_change_policies.Policy`) flies the same episodes: the native
+Every policy (a :class:`Policy`) flies the same episodes: the native
 vector env reset with the fixed evaluation seeds, one batched model call per cycle for all
 episodes. The steady schedule's level-flight optima are harness jobs (:func:`steady_optima`).
 """
@@ -15,15 +15,16 @@ import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import gymnasium as gym
 import numpy as np
 
 import tandem_env  # noqa: F401  (registers the ids)
 from agents.records import Record
-from eval.speed_change_policies import Policy, RandomPolicy, SB3Policy, SteadyPolicy
+from eval.optimize import add_run_arguments, run_reporting
 from tandem_env.envs.registration import SPEED_CHANGE_ID
+from tandem_env.envs.speed_change import Flight
 from tandem_env.envs.speed_change_config import LEVEL_FLIGHT_ENVELOPE, SpeedChangeConfig
 from tandem_env.io.files import (
     atomic_path,
@@ -76,6 +77,83 @@ REWARD_PARTS: tuple[str, ...] = (
 TARGET_WITHIN = 0.05
 FIRST_SEED = 1000
 """Default first evaluation seed (training runs use small seeds)."""
+
+
+# --- the policies: each chooses the next stroke of B episodes from their observations and states
+class Policy(Protocol):
+    """Chooses the next stroke of B episodes from their observations and states."""
+
+    name: str
+
+    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
+        """(B, 28) normalised strokes in [-1, 1]."""
+        ...
+
+
+@dataclass
+class RandomPolicy:
+    """Uniform random strokes, a fresh one each cycle, from a seeded generator."""
+
+    seed: int = 0
+    name: str = "random"
+    _rng: np.random.Generator = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self._rng = np.random.default_rng(self.seed)
+
+    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
+        return self._rng.uniform(-1.0, 1.0, (observations.shape[0], 28))
+
+
+@dataclass(frozen=True)
+class SteadyPolicy:
+    """The level-flight optimum at the grid speed nearest each episode's target, every cycle."""
+
+    speeds: np.ndarray
+    """(G,) grid speeds [m/s]."""
+    actions: np.ndarray
+    """(G, 28) normalised level-flight optimum at each grid speed."""
+    name: str = "steady"
+
+    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
+        nearest = np.argmin(np.abs(flight.target_speed[:, None] - self.speeds[None, :]), axis=1)
+        return self.actions[nearest]
+
+
+@dataclass(frozen=True)
+class SB3Policy:
+    """A Stable-Baselines3 model's deterministic action (clipped to the action box)."""
+
+    model: Any
+    name: str
+
+    @classmethod
+    def load(cls, run_dir: str | os.PathLike[str], name: str, which: str = "final") -> SB3Policy:
+        """The model of a ``python -m train`` run folder (``which``: "final" or "best"), named
+        ``"<name> (<steps>k steps)"``."""
+        from train.trained_policy import TrainedPolicy
+
+        policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
+        if policy.algo != name:
+            raise ValueError(
+                f"--{name} {run_dir} is a {policy.algo.upper()} run; allowed: a "
+                f"{name.upper()} run (or give it with --{policy.algo})"
+            )
+        if policy.env_id != SPEED_CHANGE_ID:
+            raise ValueError(
+                f"{run_dir} was trained on {policy.env_id}; allowed: a run on {SPEED_CHANGE_ID}"
+            )
+        if policy.normalizer_path is not None:
+            raise ValueError(
+                f"{run_dir} normalised its observations (VecNormalize); allowed here: runs with "
+                "normalize: false, as in train/hyperparams"
+            )
+        steps = int(policy.model.num_timesteps)
+        return cls(policy.model, f"{name} ({steps / 1000:.0f}k steps)")
+
+    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
+        actions, _ = self.model.predict(observations, deterministic=True)
+        return np.clip(actions, -1.0, 1.0)
 
 
 # --- the level-flight optima, through the harness ---------------------------------------------
@@ -408,12 +486,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="V",
         help="speeds [m/s] of the level-flight optima (default 0.25 to 2.0 in steps of 0.25)",
     )
-    parser.add_argument(
-        "--ppo", nargs="+", default=[], metavar="RUN_DIR", help="python -m train PPO run folders"
-    )
-    parser.add_argument(
-        "--sac", nargs="+", default=[], metavar="RUN_DIR", help="python -m train SAC run folders"
-    )
+    for algo in ("ppo", "sac"):
+        text = f"python -m train {algo.upper()} run folders"
+        parser.add_argument(f"--{algo}", nargs="+", default=[], metavar="RUN_DIR", help=text)
     parser.add_argument(
         "--model", choices=("final", "best"), default="final", help="which saved model (final)"
     )
@@ -427,8 +502,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=0,
         help="which evaluation episode the figure shows (index, default 0)",
     )
-    from eval.optimize import add_run_arguments
-
     add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
@@ -454,8 +527,6 @@ def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> None:
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from eval.optimize import run_reporting
-
     if not 1 <= args.episodes <= MAX_EPISODES:
         parser.error(f"--episodes {args.episodes}; allowed: 1 to {MAX_EPISODES:,}")
     if args.first_seed < 0:  # Gymnasium's seeds; found only after the optima otherwise
