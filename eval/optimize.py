@@ -13,7 +13,6 @@ import sys
 import textwrap
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -104,31 +103,31 @@ T = TypeVar("T")
 INTERRUPTED = "the finished records are stored; the same command resumes from them"
 
 
-#: How a run of jobs stops before its end (:func:`stop_status` says which way).
-RUN_STOPS = (OutputNotWritable, SchedulerUnreachable, JobsFailed, OSError, KeyboardInterrupt)
+#: How a run of jobs stops before its end (:func:`stop_status` says which way). Any other
+#: OSError (a table or figure written after the records) is the command line's to say
+#: (:func:`tandem_env.io.command.run_command`): one line, status 1, the files written kept whole.
+RUN_STOPS = (
+    OutputNotWritable,
+    SchedulerUnreachable,
+    JobsFailed,
+    StoreWriteError,
+    KeyboardInterrupt,
+)
 
 
 def stop_status(parser: argparse.ArgumentParser, error: BaseException) -> int:
     """The exit status of a run of jobs (optimize, study, reference or speed-change) stopped by
     ``error`` (one of :data:`RUN_STOPS`), said on stderr: the usage error (2) for an output
     folder the runner refuses before any job; 1 with the message for an unreachable scheduler,
-    failed jobs or a file that cannot be written (a full disk, a folder made read-only: the
-    store is as it was); 130 for an interrupt (records are kept)."""
+    failed jobs or a record that cannot be written (the store is as it was); 130 for an
+    interrupt (records are kept)."""
     if isinstance(error, OutputNotWritable):  # nothing ran
         parser.error(str(error))
-    if isinstance(error, SchedulerUnreachable | JobsFailed | StoreWriteError):
-        print(f"{parser.prog}: error: {error}", file=sys.stderr)
-        return 1
-    if isinstance(error, OSError):  # a table, figure or report the run writes after its records
-        where = f"{error.filename}: " if error.filename else ""
-        print(
-            f"{parser.prog}: error: {where}{error.strerror or error}; {INTERRUPTED} once that "
-            "is fixed",
-            file=sys.stderr,
-        )
-        return 1
-    print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
-    return 130
+    if isinstance(error, KeyboardInterrupt):
+        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
+        return 130
+    print(f"{parser.prog}: error: {error}", file=sys.stderr)
+    return 1
 
 
 def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T | int:
@@ -318,36 +317,10 @@ def backend_kwargs(args: argparse.Namespace) -> dict[str, str]:
     return {key: value for key, value in given.items() if value is not None}
 
 
-@dataclass(frozen=True)
-class OptimizePlan:
-    """One ``python -m eval optimize`` command, parsed and validated once from its arguments
-    (:func:`plan_command`): the seeds' jobs, validated (:func:`agents.harness.prepare`), where
-    their records go and how they run. :func:`main` hands it to the runner in one call."""
-
-    jobs: tuple[PreparedJob, ...]
-    """One per seed, in the order given."""
-    out: str
-    """``--out`` as given (an empty one is the runner's to refuse, not the current folder):
-    the record store, its ``summary.csv`` kept by the runner."""
-    scheduler: str | None
-    """``--scheduler`` normalised (:func:`agents.dask_cluster.parse_scheduler`); None: here, one job
-    after another."""
-    progress: bool
-    cache: bool
-    """Whether the record cache is used (``--no-cache`` turns it off)."""
-    rerun: bool = False
-    """``--rerun``: every job runs again, its new record replacing any stored one."""
-
-    def describe(self) -> str:
-        """The line said before any work: the run, its seeds and where its records go."""
-        first = self.jobs[0]
-        seeds = [p.job.seed for p in self.jobs]
-        return f"{first.describe()}, seeds {seeds} -> {Path(self.out)}"
-
-
-def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> OptimizePlan:
-    """The command's :class:`OptimizePlan`; the usage error (exit status 2) naming what is wrong
-    and what is allowed, before any work."""
+def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> list[PreparedJob]:
+    """The command's jobs, one per seed in the order given, validated once here
+    (:func:`agents.harness.prepare`; the runner does not validate them again); the usage error
+    (exit status 2) naming what is wrong and what is allowed, before any work."""
     tasks = _tasks()
     task = next(t for t in tasks if t.name == args.task)  # one of them: argparse's choices
     declared = task.declared_condition
@@ -406,8 +379,7 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> O
                 "--env-kwargs, not both"
             )
         env_kwargs.update(reading_kwargs)
-        # Validated once, here (the runner does not validate a prepared job again).
-        jobs = prepare(
+        return prepare(
             args.method,
             task,
             condition,
@@ -419,30 +391,31 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> O
         )
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
-    return OptimizePlan(
-        tuple(jobs), args.out, args.scheduler, not args.quiet, args.cache, args.rerun
-    )
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    plan = plan_command(args, parser)
-    if plan.progress:
-        print(f"optimize: {plan.describe()}", file=sys.stderr)
-        if "insect" in plan.jobs[0].env_kwargs:
-            print(f"insect: {describe_insect(plan.jobs[0].env_kwargs['insect'])}", file=sys.stderr)
-    try:
-        summary = run_jobs(
-            plan.jobs,
-            plan.out,
-            scheduler=plan.scheduler,
-            progress=plan.progress,
-            cache=plan.cache,
-            rerun=plan.rerun,
+    jobs = plan_command(args, parser)
+    if not args.quiet:
+        seeds = [p.job.seed for p in jobs]
+        print(f"optimize: {jobs[0].describe()}, seeds {seeds} -> {Path(args.out)}", file=sys.stderr)
+        if "insect" in jobs[0].env_kwargs:
+            print(f"insect: {describe_insect(jobs[0].env_kwargs['insect'])}", file=sys.stderr)
+    # --out as given: an empty one is the runner's to refuse, not the current folder
+    summary = run_reporting(
+        parser,
+        lambda: run_jobs(
+            jobs,
+            args.out,
+            scheduler=args.scheduler,
+            progress=not args.quiet,
+            cache=args.cache,
+            rerun=args.rerun,
             summary_csv=True,
-        )
-    except RUN_STOPS as error:
-        return stop_status(parser, error)
-    for record in (summary.records[p.job.key] for p in plan.jobs):
+        ),
+    )
+    if isinstance(summary, int):
+        return summary
+    for record in (summary.records[p.job.key] for p in jobs):
         power = record.metrics.get("power_per_mass")
         print(
             f"{record.method} seed {record.seed}: {record.objective_name} = "
@@ -453,7 +426,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         print(f"  {describe_certificate(record.certificate)}")
     hint = " (--rerun runs them again)" if summary.reused else ""
     print(
-        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.describe(Path(plan.out))}"
+        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.describe(Path(args.out))}"
         + hint,
         file=sys.stderr,
     )
