@@ -92,8 +92,8 @@ def render_power(data: dict[str, Any]) -> str:
 
     return (
         f"On {spaced(data['random_strokes'])} random Table 4 strokes (seed {data['seed']}, other "
-        f"options default) aerodynamic power is a median {listed('over_absolute_median', '{:.2f}×')} "
-        f"the absolute power at V = {listed('speed', '{:g}')} m/s, "
+        "options default) aerodynamic power is a median "
+        f"{listed('over_absolute_median', '{:.2f}×')} the absolute power at V = {listed('speed', '{:g}')} m/s, "
         f"{listed('over_elastic_median', '{:.2f}×')} the elastic one, and exceeds the elastic one "
         f"for {listed('above_elastic_share', '{:.1%}').replace('%', ' %')} of the strokes "
         "(written by `python -m eval numbers --only power-conventions`).\n"
