@@ -71,8 +71,8 @@ PLOT_STEM = "convergence"
 
 @dataclass(frozen=True)
 class Row:
-    """One configuration on one task/objective/condition, over its seeds. Its fields but
-    :attr:`distinct` are the columns of ``comparison.csv``, in this order."""
+    """One configuration on one task/objective/condition over its seeds; its fields but
+    :attr:`distinct` are the columns of ``comparison.csv``."""
 
     task: str
     objective_name: str
@@ -101,14 +101,12 @@ class Row:
     evaluations_median: float
     wall_time_median_s: float
     polish_gain_median: float = math.nan
-    """Median over the seeds of the local polish's gain (the records' ``certificate``) [-];
-    NaN where no seed was polished."""
+    """Median local polish gain over the seeds (records' ``certificate``) [-]; NaN: none."""
     kkt_residual_median: float = math.nan
     """Median first-order optimality residual of the reported strokes [-] (NaN: none known)."""
     score_median: float = math.nan
-    """Median over the seeds of the normalised score (100 = the reference optimum; ≤ 0 for a
-    stroke that does not fly; :attr:`agents.records.Record.score`) [-]; NaN where the
-    reference table does not apply."""
+    """Median normalised score over the seeds (:attr:`agents.records.Record.score`) [-]; NaN
+    where the reference table does not apply."""
 
     def to_dict(self) -> dict[str, Any]:
         """The row's ``comparison.csv`` columns."""
@@ -297,12 +295,8 @@ def _cell(text: str) -> str:
 def convergence_curve(
     runs: Sequence[Record],
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(evaluations, q25, median, q75) of the best-so-far reward over the runs' seeds.
-
-    Histories may sit on different evaluation grids (other batch sizes); each is read as the
-    step function it is (the best so far holds until the next report) on the union of grids.
-    Before a run's first report its value is missing, and quantiles use the runs reporting.
-    """
+    """(evaluations, q25, median, q75) of the best-so-far reward over the runs' seeds, each
+    history a step function on the union of their grids (missing before its first report)."""
     grid = np.unique(np.concatenate([np.array([e for e, _ in r.history], float) for r in runs]))
     values = np.full((len(runs), grid.size), np.nan)
     for k, r in enumerate(runs):
@@ -318,13 +312,9 @@ def convergence_curve(
 
 
 def best_so_far_figure(records: Sequence[Record]) -> Any:
-    """The best-so-far figure: one panel per task/objective/condition.
-
-    Each configuration's curve is the median best-so-far reward over its seeds (band: IQR);
-    the marker at its end is the median reported objective over the feasible seeds, the number
-    the table reports. Colours are fixed per method (:func:`eval.figures.method_color`), line styles tell
-    a method's variants in one panel apart.
-    """
+    """The best-so-far figure, a panel per task/objective/condition: each configuration's
+    median best-so-far reward over its seeds (band: IQR) and, as a marker, the table's median
+    reported objective over the feasible seeds."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -389,8 +379,8 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
 
 
 def _focus(ax: Any, values: list[float]) -> None:
-    # Early best-so-far rewards of infeasible strokes are tens of units below the feasible
-    # objectives at the end; show the range from a tenth of the run on, so the end is readable.
+    # Early rewards of infeasible strokes are far below the feasible objectives at the end:
+    # show the range from a tenth of the run on, so the end is readable.
     if not values:
         return
     low, high = min(values), max(values)
@@ -401,8 +391,7 @@ def _focus(ax: Any, values: list[float]) -> None:
 def compare(
     directories: Sequence[str | Path], out: str | Path, figure_format: str = FORMATS[0]
 ) -> list[Row]:
-    """Load the records under ``directories`` and write table and plot (``figure_format``,
-    :data:`eval.figures.FORMATS`) into ``out``."""
+    """Write the table and plot (``figure_format``) of the records under ``directories``."""
     plot_path = figure_path(Path(out), PLOT_STEM, figure_format)  # a bad format fails first
     records = read_record_files(directories)
     if not records:
