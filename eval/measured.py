@@ -100,15 +100,6 @@ def _number(value: Any, where: str, unit: str) -> float:
     return float(value)
 
 
-def _insect(spec: Any) -> Dragonfly:
-    """The file's insect: what differs from the paper's specimen (the one reader of an insect,
-    :func:`tandem_env.physics.insect.load_insect`, as ``--insect`` and the env keyword)."""
-    try:
-        return load_insect(_mapping(spec, "insect"))
-    except ValueError as exc:  # a SpecError's message is kept as it is
-        raise SpecError(str(exc)) from None
-
-
 def _options(spec: Any) -> ModelOptions:
     spec = _mapping(spec, "options")
     _take(spec, tuple(f.name for f in fields(ModelOptions)), "options")
@@ -198,10 +189,9 @@ def _measured_wing(
     spec: Any, where: str, degrees: bool, n_samples: int, folder: Path
 ) -> MeasuredWing:
     spec = _mapping(spec, where)
-    fourier = ("frequency", "stroke_plane_angle", "pitch_stations", *ANGLES)
-    sampled = ("frequency", "stroke_plane_angle", "pitch_stations", "csv", "columns")
     is_csv = "csv" in spec
-    _take(spec, sampled if is_csv else fourier, where)
+    extra = ("csv", "columns") if is_csv else ANGLES
+    _take(spec, ("frequency", "stroke_plane_angle", "pitch_stations", *extra), where)
     for key in ("frequency", "stroke_plane_angle"):
         if key not in spec:
             raise SpecError(f"{where}.{key}: missing; allowed: a number")
@@ -291,6 +281,10 @@ def load_case(path: str | Path) -> MeasuredCase:
         for w in ("fore", "hind")
     ]
     gamma = _number(flight.get("flight_path_angle", 0.0), "flight.flight_path_angle", "deg")
+    try:  # what differs from the paper's specimen, read as --insect and the env keyword read it
+        insect = load_insect(_mapping(spec.get("insect"), "insect"))
+    except ValueError as exc:
+        raise SpecError(str(exc)) from None
     power = flight.get("available_power")
     return MeasuredCase(
         name=path.stem,
@@ -300,7 +294,7 @@ def load_case(path: str | Path) -> MeasuredCase:
         speed=_number(flight.get("speed", 0.0), "flight.speed", "m/s"),
         flight_path_angle=math.radians(gamma) if degrees else gamma,
         available_power=None if power is None else _number(power, "flight.available_power", "W/kg"),
-        insect=_insect(spec.get("insect")),
+        insect=insect,
         options=_options(spec.get("options")),
     )
 
