@@ -1,13 +1,11 @@
 """``python -m eval reference``: make the reference table of certified optima.
 
-Phases of harness jobs, a plan of the resumable runner (:class:`ReferencePlan`,
-:func:`agents.runner.run_plan`: records in ``--out``, here or on Dask with ``--scheduler``, a
-killed run resumes; one line says the whole cost first, :class:`agents.progress.CommandProgress`):
-the *search* (:func:`plan`: per point of :data:`tandem_env.envs.reference.REFERENCE_GRID`,
-objective, planform and seed), then the rounds of :data:`CONTINUATION` (:func:`continuation`). Per point, the best stroke
-competing for it (:func:`_pool`) is written with its provenance to the packaged table
-``tandem_env/data/reference_optima.json`` (or ``--table``, :func:`build_table`), a figure and a
-Markdown table of the optima to ``--out``. The method and the table: docs/reference.md.
+A plan of the resumable runner (:class:`ReferencePlan`, :func:`agents.runner.run_plan`: records
+in ``--out``, here or on Dask, a killed run resumes): the *search* (:func:`plan`: per point of
+:data:`tandem_env.envs.reference.REFERENCE_GRID`, objective, planform and seed), then the rounds
+of :data:`CONTINUATION`. Per point, the best stroke competing for it (:func:`_pool`) is written
+with its provenance to the packaged table (or ``--table``, :func:`build_table`), a figure and a
+Markdown table to ``--out``. The method and the table: docs/reference.md.
 """
 
 from __future__ import annotations
@@ -31,7 +29,7 @@ from agents.records import Record, package_versions
 from agents.runner import Lookup, look_ahead, run_plan
 from agents.selection import best_index
 from agents.store import RecordStore
-from agents.tasks import get_task
+from agents.tasks import get_task, task_of
 from eval.optimize import add_run_arguments, run_reporting
 from eval.reference_report import reference_markdown, write_reference_figure
 from tandem_env.envs.reference import (
@@ -69,8 +67,6 @@ def plan(
     env_kwargs: Mapping[str, Any] | None = None,
 ) -> dict[tuple[str, str, str, float], list[PreparedJob]]:
     """The jobs of the table: per (env id, objective, planform, condition), one per seed."""
-    from agents.tasks import task_of
-
     jobs: dict[tuple[str, str, str, float], list[PreparedJob]] = {}
     for env_id, (objectives, conditions) in grid.items():
         task = get_task(task_of(env_id))
@@ -120,11 +116,9 @@ def continuation(
     index: int = 0,
     rule: Continuation = CONTINUATION,
 ) -> dict[PointKey, Job]:
-    """Continuation round ``index`` (0, 1, ...): per point, one run of ``rule`` that polishes
-    the best strokes ``found`` so far at this point, at its neighbours on the grid and, for a
-    task in :data:`NESTED_TASKS`, for the other objectives here (each a warm start), beside a
-    short search of its own (seeded with the round's number); stand-ins where ``found`` is
-    None (:meth:`agents.jobs.Continuation.job`)."""
+    """Continuation round ``index`` (0, 1, ...): per point, one job of ``rule`` warm-started from
+    the best strokes ``found`` at this point, its grid neighbours and, for a task in
+    :data:`NESTED_TASKS`, the other objectives here; stand-ins where ``found`` is None."""
     best = {key: _best(list(records), key[0], key[1]) for key, records in (found or {}).items()}
     continued = {}
     for key, prepared in jobs.items():
@@ -145,9 +139,8 @@ def continuation(
 
 class ReferencePlan:
     """The table's phases (an :class:`agents.runner.Plan`): the search, then the rounds of
-    ``rule`` until it stops (:meth:`agents.jobs.Continuation.stops`). Running, it keeps the
-    rounds' jobs (:attr:`rounds`) and gains (:attr:`convergence`), said on stderr unless
-    ``quiet``."""
+    ``rule`` until it stops. Running, it keeps the rounds' jobs (:attr:`rounds`) and gains
+    (:attr:`convergence`), said on stderr unless ``quiet``."""
 
     def __init__(
         self,
@@ -173,8 +166,8 @@ class ReferencePlan:
             name = f"continuation {index + 1}"
             known = None if records is None else gather(jobs, rounds, by_key)
             continued = continuation(jobs, known, index, self.rule)
-            stand_ins = frozenset(j.key for j in continued.values()) if known is None else None
-            yield Phase(name, tuple(continued.values()), stand_ins or frozenset())
+            stand_ins = frozenset(j.key for j in continued.values() if known is None)
+            yield Phase(name, tuple(continued.values()), stand_ins)
             records = None if known is None else found(continued.values())
             if known is None or records is None:
                 continue
@@ -225,8 +218,7 @@ def round_gains(
     before: Mapping[PointKey, float], after: Mapping[PointKey, float]
 ) -> dict[str, Any]:
     """How much a continuation round raised the points: how many by more than
-    :data:`RAISED_PERCENT`, the largest and the median relative gain [%] (what says whether
-    the table has converged)."""
+    :data:`RAISED_PERCENT`, the largest and the median relative gain [%]."""
     gains = [100 * (after[k] / before[k] - 1) for k in before if before[k] > 0]
     raised = [g for g in gains if g > RAISED_PERCENT]
     return {
@@ -334,9 +326,8 @@ def provenance(
     convergence: Sequence[Mapping[str, Any]] = (),
     seeds: Sequence[int] = SEEDS,
 ) -> dict[str, Any]:
-    """How the table was made: the command, date, versions, method, budgets, seeds, and the
-    optimisations' summed wall time [s] (each as its record says, wherever it ran); ``seeds``
-    are the search's."""
+    """How the table was made: command, date, versions, method, budgets, the search's seeds,
+    the optimisations' summed wall time [s] (as their records say) and the continuation."""
     jobs = list(jobs)
     return {
         # where it ran (--scheduler, --out) does not change the table
