@@ -103,39 +103,23 @@ T = TypeVar("T")
 INTERRUPTED = "the finished records are stored; the same command resumes from them"
 
 
-#: How a run of jobs stops before its end (:func:`stop_status` says which way). Any other
-#: OSError (a table or figure written after the records) is the command line's to say
-#: (:func:`tandem_env.io.command.run_command`): one line, status 1, the files written kept whole.
-RUN_STOPS = (
-    OutputNotWritable,
-    SchedulerUnreachable,
-    JobsFailed,
-    StoreWriteError,
-    KeyboardInterrupt,
-)
-
-
-def stop_status(parser: argparse.ArgumentParser, error: BaseException) -> int:
-    """The exit status of a run of jobs (optimize, study, reference or speed-change) stopped by
-    ``error`` (one of :data:`RUN_STOPS`), said on stderr: the usage error (2) for an output
-    folder the runner refuses before any job; 1 with the message for an unreachable scheduler,
-    failed jobs or a record that cannot be written (the store is as it was); 130 for an
-    interrupt (records are kept)."""
-    if isinstance(error, OutputNotWritable):  # nothing ran
-        parser.error(str(error))
-    if isinstance(error, KeyboardInterrupt):
-        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
-        return 130
-    print(f"{parser.prog}: error: {error}", file=sys.stderr)
-    return 1
-
-
 def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T | int:
-    """``call()``, or the exit status of how it stopped (:func:`stop_status`)."""
+    """``call()`` (a run of jobs: optimize, study, reference or speed-change), or the exit
+    status of how it stopped, said on stderr: the usage error (2) for an output folder the
+    runner refuses before any job; 1 for an unreachable scheduler, failed jobs or a record that
+    cannot be written (the store is as it was); 130 for an interrupt (records are kept). Any
+    other OSError (a table or figure written after the records) is the command line's to say
+    (:func:`tandem_env.io.command.run_command`)."""
     try:
         return call()
-    except RUN_STOPS as error:
-        return stop_status(parser, error)
+    except OutputNotWritable as error:  # nothing ran
+        parser.error(str(error))
+    except (SchedulerUnreachable, JobsFailed, StoreWriteError) as error:
+        print(f"{parser.prog}: error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
+        return 130
 
 
 def _check_reading_applies(
