@@ -1,9 +1,6 @@
 """``python -m eval speed-change``: policies flown through whole ``TandemWing/SpeedChange-v0``
-episodes (the policies and what is written: :data:`DESCRIPTION`).
-
-Every policy (a :class:`Policy`) flies the same episodes: the native
-vector env reset with the fixed evaluation seeds, one batched model call per cycle for all
-episodes. The steady schedule's level-flight optima are harness jobs (:func:`steady_optima`).
+episodes (:data:`DESCRIPTION`). Every :class:`Policy` flies the same episodes, the native vector
+env reset with the fixed evaluation seeds, one batched model call per cycle for all of them.
 """
 
 from __future__ import annotations
@@ -199,14 +196,9 @@ def optima_records(
     rerun: bool = False,
 ) -> list[Record]:
     """The records of the level-flight optima at ``speeds`` [m/s] for the env's insect and
-    model options, in that order (one infeasible is said on stderr).
-
-    Each is one harness job (``budget`` model evaluations, ``seed``) on the ``level`` task, run
-    by the runner (:func:`agents.runner.run_jobs`: serially, or on Dask with ``scheduler``)
-    into the record store ``cache_dir`` (a temporary one if None), where a stored record of the
-    same configuration is reused, as is one in the record cache unless ``record_cache`` is
-    False (``--no-cache``), unless ``rerun`` (``--rerun``); the runner hands the records back.
-    """
+    model options, in that order (one infeasible is said on stderr): a harness job each on the
+    ``level`` task, run by :func:`agents.runner.run_jobs` into the record store ``cache_dir`` (a
+    temporary one if None; ``record_cache``: ``--no-cache``, ``rerun``: ``--rerun``)."""
     import tempfile
 
     from agents.jobs import Job
