@@ -19,7 +19,7 @@ import numpy as np
 
 from agents.records import Record
 from agents.store import read_record_files
-from eval.figures import FORMATS, figure_path, method_label, save, series_style
+from eval.figures import FORMATS, figure_path, method_label, plt, save, series_style
 from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
 
 NAME = "compare"
@@ -269,10 +269,10 @@ def comparison_markdown(rows: Sequence[Row]) -> str:
             )
         else:
             objective = "n/a (none feasible) | n/a | n/a | n/a | n/a"
-        method = f"{r.method} ({r.distinct})" if r.distinct else r.method
+        method = (f"{r.method} ({r.distinct})" if r.distinct else r.method).replace("|", "\\|")
         lines.append(
             f"| {r.task} | {r.objective_name} | {r.condition} = {r.condition_value:g} "
-            f"{r.condition_unit} | {_cell(method)} | {r.budget} | {r.seeds} | {objective} | "
+            f"{r.condition_unit} | {method} | {r.budget} | {r.seeds} | {objective} | "
             f"{_fmt(r.reward_median)} | {r.feasible_share:.0%} | {r.evaluations_median:g} | "
             f"{r.wall_time_median_s:.3g} | {_fmt(r.polish_gain_median, '+.2f', 100, ' %')} | "
             f"{_fmt(r.kkt_residual_median, '.2g')} | {_fmt(r.score_median)} |"
@@ -286,10 +286,6 @@ def comparison_markdown(rows: Sequence[Row]) -> str:
     if any(r.distinct for r in rows):
         notes.append("In brackets: the settings that tell a row from the others of its condition.")
     return "\n".join(lines) + "\n\n" + "\n".join(notes) + "\n"
-
-
-def _cell(text: str) -> str:
-    return text.replace("|", "\\|")
 
 
 def convergence_curve(
@@ -315,11 +311,6 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
     """The best-so-far figure, a panel per task/objective/condition: each configuration's
     median best-so-far reward over its seeds (band: IQR) and, as a marker, the table's median
     reported objective over the feasible seeds."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     panels = group(records, quiet=True)  # duplicates are reported by table_rows
     n = len(panels)
     cols = min(n, 3)
