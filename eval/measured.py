@@ -56,6 +56,7 @@ example:
 
 DEFAULT_OUT = Path("results") / "measured"
 ANGLES = ("sweep", "elevation", "pitch")
+WINGS = ("fore", "hind")
 
 
 class SpecError(ValueError):
@@ -278,7 +279,7 @@ def load_case(path: str | Path) -> MeasuredCase:
     n_samples = kinematics.get("n_samples", FOURIER_SAMPLES)
     wings = [
         _measured_wing(kinematics.get(w), f"kinematics.{w}", degrees, n_samples, path.parent)
-        for w in ("fore", "hind")
+        for w in WINGS
     ]
     gamma = _number(flight.get("flight_path_angle", 0.0), "flight.flight_path_angle", "deg")
     try:  # what differs from the paper's specimen, read as --insect and the env keyword read it
@@ -303,7 +304,7 @@ def summary(history: StrokeHistory, insect: Dragonfly) -> dict[str, dict[str, fl
     """L/W, T, D [N], P [W], P/m [W/kg] per wing pair and in total (earth axes)."""
     r: Result = history.result
     out = {}
-    for name in ("fore", "hind"):
+    for name in WINGS:
         wing = getattr(history, name)
         thrust, drag = wing.thrust_and_drag()
         out[name] = {
@@ -367,24 +368,20 @@ def record(case: MeasuredCase, history: StrokeHistory, source: Path) -> dict[str
             "available_power_W_kg": float(history.result.available_power[0]),
         },
         "stroke_plane_angle_deg": {
-            "fore": math.degrees(case.fore.stroke_plane_angle),
-            "hind": math.degrees(case.hind.stroke_plane_angle),
+            w: math.degrees(getattr(case, w).stroke_plane_angle) for w in WINGS
         },
-        "frequency_Hz": {"fore": case.fore.frequency, "hind": case.hind.frequency},
+        "frequency_Hz": {w: getattr(case, w).frequency for w in WINGS},
         "options": case.options.to_dict(),
         "insect": {
             "body_mass_kg": case.insect.body_mass,
             "planform": case.insect.planform,
-            "coefficients": {
-                "fore": type(case.insect.fore.coefficients).__name__,
-                "hind": type(case.insect.hind.coefficients).__name__,
-            },
+            "coefficients": {w: type(getattr(case.insect, w).coefficients).__name__ for w in WINGS},
         },
         "axes": "earth: lift vertical, thrust/drag/horizontal force horizontal (+ forward)",
         "units": "N, W, W/kg, deg; histories per wing pair (N_w wings)",
         "summary": summary(history, case.insect),
         "result": history.result.row(0),
-        "histories": {"fore": wing_history(history.fore), "hind": wing_history(history.hind)},
+        "histories": {w: wing_history(getattr(history, w)) for w in WINGS},
     }
 
 
