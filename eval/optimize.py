@@ -154,12 +154,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     # One option per condition keyword, from the tasks' declarations (--speed, --power).
     condition = parser.add_mutually_exclusive_group(required=True)
-    by_flag: dict[str, list[TaskSpec]] = {}
-    for task in tasks:
-        by_flag.setdefault(task.condition_flag, []).append(task)
-    for flag, owners in by_flag.items():
-        declared = {t.name: t.declared_condition for t in owners}
-        first = declared[owners[0].name]
+    for flag in dict.fromkeys(t.condition_flag for t in tasks):
+        declared = {t.name: t.declared_condition for t in tasks if t.condition_flag == flag}
+        first = next(iter(declared.values()))
         condition.add_argument(
             flag,
             type=float,
@@ -203,18 +200,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"strokes per iteration: PSO particles / random-search batch (default 40, at most "
         f"{MAX_BATCH:,})",
     )
-    add_pairs_argument(
-        parser,
-        "--method-config",
-        "method settings, e.g. velocity_clamp=0.2 boundary=reflect inertia=linear-decreasing "
-        "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)",
-    )
-    add_pairs_argument(
-        parser,
-        "--env-kwargs",
-        "env options, e.g. thrust_split=body penalty_weight=20 planform=real n_time=256 "
-        "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)",
-    )
+    values = "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)"
+    pairs = {
+        "--method-config": "method settings, e.g. velocity_clamp=0.2 boundary=reflect inertia=linear-decreasing",
+        "--env-kwargs": "env options, e.g. thrust_split=body penalty_weight=20 planform=real n_time=256",
+    }
+    for option, what in pairs.items():
+        add_pairs_argument(parser, option, f"{what} {values}")
     add_insect_argument(parser)
     add_run_arguments(parser, "--backend", "--device")
     parser.add_argument(
