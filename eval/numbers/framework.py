@@ -1,7 +1,5 @@
-"""The framework of ``python -m eval numbers``: where numbers live (``docs/numbers/<name>.json``
-and the documents' marked regions), one :class:`Measurement`, the documented commands a
-measurement runs (:func:`run_command`, :class:`Benchmark`), the machine a timing is read
-against, and the helpers the measurements share."""
+"""The framework of ``python -m eval numbers``: where numbers live, one :class:`Measurement`,
+the documented commands it runs, the machine a timing is read against, shared helpers."""
 
 from __future__ import annotations
 
@@ -58,9 +56,8 @@ def optimize_command(arguments: Sequence[str], seeds: Sequence[int]) -> str:
 
 
 def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
-    """Run the documented ``eval optimize`` command (:func:`optimize_command`) into a fresh folder
-    with the record cache off (measured now, its wall times too, not copied from an earlier
-    run); its records, by seed."""
+    """Run the documented ``eval optimize`` command into a fresh folder with the record cache
+    off (measured now, wall times too); its records, by seed."""
     from agents.store import read_record_files
 
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
@@ -73,10 +70,9 @@ def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
 
 
 def seed_cells(by_kernel: Sequence[Sequence[dict[str, Any]]]) -> tuple[str, str, str, str]:
-    """The table cells of one command's seeds, measured under each BLAS kernel (the machine's
-    own first, :func:`kernel_views`): each seed's objective and their median (bold) at the
-    digits every kernel gives (:func:`agreed`), whether all are feasible under every kernel,
-    and the range of the own kernel's wall times per seed."""
+    """The cells of one command's seeds under each BLAS kernel (the machine's own first): each
+    seed's objective and their median (bold) at the digits every kernel gives, whether all are
+    feasible under every kernel, and the range of the own kernel's wall times per seed."""
     seeds = by_kernel[0]
     times = [s["wall_time_s"] for s in seeds]
     objectives = [[s["objective"] for s in kernel] for kernel in by_kernel]
@@ -110,9 +106,8 @@ def blas_kernel() -> str:
 
 
 def measure_other_kernels(name: str) -> dict[str, dict[str, Any]]:
-    """Measurement ``name`` measured again in a fresh process under each of
-    :data:`OTHER_BLAS_KERNELS` that differs from the machine's own, by kernel (empty where
-    numpy's BLAS is not OpenBLAS: its kernel cannot be chosen)."""
+    """Measurement ``name`` again in a fresh process under each other kernel, by kernel (empty
+    where numpy's BLAS is not OpenBLAS: its kernel cannot be chosen)."""
     own = blas_kernel()
     from threadpoolctl import threadpool_info
 
@@ -132,8 +127,7 @@ def measure_other_kernels(name: str) -> dict[str, dict[str, Any]]:
 
 
 def kernel_views(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
-    """A BLAS-dependent measurement's data as measured under each kernel, the machine's own
-    (``blas_kernel``) first; a measurement without kernels is its own single view."""
+    """A measurement's data under each kernel, the machine's own first (one view without)."""
     own = {k: v for k, v in data.items() if k != "other_kernels"}
     return {data.get("blas_kernel", "unknown"): own, **data.get("other_kernels", {})}
 
@@ -144,8 +138,7 @@ def for_kernel(data: dict[str, Any], kernel: str) -> dict[str, Any] | None:
 
 
 def kernels_line(data: dict[str, Any]) -> str:
-    """The sentence under a BLAS-dependent table: which kernels measured it, and what a range
-    in it means."""
+    """The sentence under a BLAS-dependent table: its kernels, and what a range means."""
     own, *others = kernel_views(data)
     kernels = ", ".join([f"{own} (the measuring machine's own)", *others])
     return (
@@ -155,8 +148,8 @@ def kernels_line(data: dict[str, Any]) -> str:
 
 
 def agreed(values: Sequence[float], form: str) -> str:
-    """``values`` (one number measured under several BLAS kernels) as the documents show it:
-    ``form`` of them where every kernel gives the same text, else their range, ``min–max``."""
+    """One number measured under several kernels as shown: ``form`` of it where every kernel
+    gives the same text, else their range, ``min–max``."""
     texts = {form.format(v) for v in values}
     if len(texts) == 1:
         return texts.pop()
@@ -164,8 +157,8 @@ def agreed(values: Sequence[float], form: str) -> str:
 
 
 def within_shown(value: float, values: Sequence[float], form: str) -> bool:
-    """Whether ``value``, measured under a kernel that was not, is what the documents show of
-    ``values`` (:func:`agreed`): the same text, or inside the shown range."""
+    """Whether ``value`` (from a kernel not measured) is what :func:`agreed` shows of
+    ``values``: the same text, or inside the shown range."""
     shown = agreed(values, form)
     low, _, high = shown.partition("–")
     return float(low) <= float(form.format(value)) <= float(high or low)
@@ -224,8 +217,8 @@ def random_strokes(n: int = RANDOM_STROKES, seed: int = 0) -> Any:
 
 @dataclass(frozen=True)
 class Measurement:
-    """One generated number set: ``measure`` runs it (its JSON, without the machine fields that
-    :func:`main` adds), ``render`` turns the stored JSON into the region's Markdown."""
+    """One generated number set: ``measure`` runs it (its JSON), ``render`` turns the stored
+    JSON into the region's Markdown."""
 
     name: str
     measure: Callable[[], dict[str, Any]]
@@ -234,8 +227,7 @@ class Measurement:
     """Measured only when named in ``--only``: it collects a long study's outputs (run first)."""
     blas_dependent: bool = False
     """Its numbers come from optimisations, whose last digits depend on the BLAS kernel: also
-    measured under :data:`OTHER_BLAS_KERNELS` (``other_kernels`` in its JSON), and rendered at
-    the digits every kernel gives (:func:`agreed`)."""
+    measured under :data:`OTHER_BLAS_KERNELS`, rendered at the digits all give."""
 
 
 def cpu_model() -> str:
@@ -275,16 +267,14 @@ def machine_line(data: dict[str, Any], name: str) -> str:
 
 
 def at_load(data: dict[str, Any]) -> str:
-    """Where a bold wall time holds: ``at a load average of 1.25-1.54 on 2 CPUs``. A CPU-bound
-    command on a busier machine takes longer, about in proportion to the load per core."""
+    """Where a bold wall time holds: ``at a load average of 1.25-1.54 on 2 CPUs``."""
     before, after = data["machine_before"], data["machine_after"]
     low, high = sorted((before["load_average_1min"], after["load_average_1min"]))
     return f"at a load average of {low:g}-{high:g} on {before['cpus']} CPUs"
 
 
 def footer(data: dict[str, Any], name: str, *commands: str, heading: str = "") -> list[str]:
-    """The lines that close a region: :func:`machine_line`, then ``heading`` (if any) and the
-    commands that measured it."""
+    """The lines that close a region: :func:`machine_line`, ``heading`` and the commands."""
     headed = [heading, ""] if heading else []
     return ["", machine_line(data, name), "", *headed, *(f"    {command}" for command in commands)]
 
