@@ -76,9 +76,8 @@ def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str
 def score_run(
     command: list[str], algo: str, steps: int, seed: int, folder: Path, variant: str = ""
 ) -> dict[str, Any]:
-    """Train by ``command`` (``-f`` is added), then score its stroke at each held-out
-    condition through ``python -m train.envelope``; ``variant`` tells runs of one ``algo``
-    apart (the hyperparameters)."""
+    """Train by ``command`` (``-f`` added), then score its stroke at each held-out condition
+    through ``python -m train.envelope``; ``variant``: the hyperparameters."""
     from tandem_env.envs.reference import held_out_conditions
 
     logs = folder / f"{algo}{variant and '-' + variant}-{seed}"
@@ -116,8 +115,8 @@ def measure() -> dict[str, Any]:
 
 
 def score_runs(name: str, tasks: list[tuple[list[str], str, int, int, str]]) -> list[Any]:
-    """:func:`score_run` of each (command, algo, steps, seed, variant), two at a time in a
-    fresh folder; the figure is redrawn with them as measurement ``name``'s runs."""
+    """:func:`score_run` of each (command, algo, steps, seed, variant), two at a time; the
+    figure is redrawn with them as measurement ``name``'s runs."""
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as tmp:
         with ThreadPoolExecutor(max_workers=2) as pool:
             runs = list(pool.map(lambda t: score_run(*t[:4], Path(tmp), t[4]), tasks))
@@ -139,8 +138,7 @@ def summary(runs: list[dict[str, Any]]) -> tuple[float, float, float, float]:
 
 
 def runs_of(runs: list[dict[str, Any]], algo: str, hyperparams: str = "") -> list[dict[str, Any]]:
-    """The runs of ``algo`` trained with ``hyperparams`` (a key of :data:`HYPERPARAMETERS`;
-    "" for a policy that has none, the amortised one)."""
+    """The runs of ``algo`` trained with ``hyperparams`` ("" for the amortised policy)."""
     return [r for r in runs if r["algo"] == algo and r.get("hyperparams", "") == hyperparams]
 
 
@@ -151,8 +149,7 @@ def score_text(value: float) -> str:
 
 
 def score_table(training: str, rows: list[tuple[str, str, list[dict[str, Any]]]]) -> str:
-    """The scores table the policies' tables share: a row per (policy, its ``training`` column,
-    its runs), the :func:`summary` of the runs."""
+    """The scores table: a row per (policy, its ``training`` column, its runs)."""
     scores = ("seeds", "median score", "worst score", "strokes that fly")
     lines = table_head(["policy", training, *scores, "training time (median, 1 core)"])
     for policy, trained, runs in rows:
@@ -182,10 +179,8 @@ def render(data: dict[str, Any]) -> str:
 
 
 def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
-    """Score against speed: one thin line per seed, the median thick, per policy: PPO's and
-    SAC's with the envelope's tuned hyperparameters (the shipped ones' median dashed) from
-    ``rl-baselines``, and the amortised policy's (``amortised-scores``); the ``fresh`` runs of
-    a measurement just made, the other's as stored (if it is)."""
+    """Score against speed per policy of :data:`POLICIES`: each seed thin, the median thick (the
+    shipped hyperparameters' median only, dashed); ``fresh``: runs just measured, by name."""
     import matplotlib.pyplot as plt
 
     from eval.figures import PALETTE, save
