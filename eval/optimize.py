@@ -1,9 +1,6 @@
-"""``python -m eval optimize``: run one method on one condition for several seeds.
-
-Each seed is one job of the resumable runner (:func:`agents.runner.run_jobs`): its
-record is stored in ``--out`` as ``records/<key>.json`` (atomically, as the seed finishes; a
-seed already stored with the same configuration is not run again), on this machine or on a
-Dask cluster (``--scheduler``), and ``summary.csv`` there is rewritten over every record.
+"""``python -m eval optimize``: run one method on one condition for several seeds, each a job of
+the resumable runner (:func:`agents.runner.run_jobs`) storing its record in ``--out``; with the
+options every command that runs jobs shares (:data:`RUN_OPTIONS`, :func:`run_reporting`).
 """
 
 from __future__ import annotations
@@ -125,9 +122,8 @@ def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T |
 def _check_reading_applies(
     name: str, reading: Reading, task: TaskSpec, objective: str | None
 ) -> None:
-    """A reading whose horizontal objective has no horizontal objective to replace here changes
-    nothing of that: refused if it is all the reading changes (the run would be the default's
-    under another name), said with a warning if the reading's model options still apply."""
+    """A reading's horizontal objective with no horizontal objective here to replace: refused
+    if it is all the reading changes, a warning if its model options still apply."""
     if reading.horizontal_objective == "horizontal":
         return
     objectives = task.declared_objectives
@@ -231,8 +227,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_insect_argument(parser: argparse.ArgumentParser) -> None:
-    """``--insect FILE`` (shared with ``study``): the insect every job flies, a ``Dragonfly``
-    read from its file when the command line is parsed (the usage error names a bad file)."""
+    """``--insect FILE`` (shared with ``study``), read when the command line is parsed."""
     parser.add_argument(
         "--insect",
         metavar="FILE",
@@ -244,8 +239,7 @@ def add_insect_argument(parser: argparse.ArgumentParser) -> None:
 
 
 #: The options of every command that runs jobs (optimize, study, reference, speed-change): the
-#: argparse keywords of each (``--backend``/``--device``: env keywords of every job,
-#: :func:`backend_kwargs`; ``--no-cache`` sets ``args.cache``).
+#: argparse keywords of each (``--no-cache`` sets ``args.cache``).
 RUN_OPTIONS: dict[str, dict[str, Any]] = {
     "--backend": {
         "choices": BACKENDS,
@@ -287,8 +281,7 @@ def add_run_arguments(parser: argparse.ArgumentParser, *flags: str) -> None:
 
 
 def backend_kwargs(args: argparse.Namespace) -> dict[str, str]:
-    """The env keywords of ``--backend`` / ``--device`` as given (none when neither is); the
-    backend's rule checks them with the rest of the env's options, before any work."""
+    """The env keywords of ``--backend`` / ``--device`` as given (checked with the env's)."""
     given = {"backend": args.backend, "device": args.device}
     return {key: value for key, value in given.items() if value is not None}
 
@@ -318,11 +311,9 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> l
             f"{task.declared_objectives.default}"
         )
     try:
-        # What the arguments mean: the env options and method settings (checked and parsed
-        # with the command line: pairs, insect, scheduler), then the reading's, then the jobs,
-        # validated by the harness. The output folder is the runner's to check (run_jobs,
-        # summary_csv): it alone knows, once it has read the stored records, whether a
-        # folder that cannot be written holds everything.
+        # The env options and method settings, the reading's, then the jobs (the harness's
+        # checks). The output folder is the runner's to check: it alone knows, once it has
+        # read the stored records, whether a folder that cannot be written holds everything.
         given = backend_kwargs(args)
         env_kwargs, method_config = dict(args.env_kwargs), dict(args.method_config)
         if given and set(EXECUTION_KWARGS) & set(env_kwargs):
