@@ -1,7 +1,5 @@
 """``python -m eval measured KINEMATICS.yaml``: a filmed insect's kinematics in, forces out
-(the file and what is written: :data:`DESCRIPTION`, docs/measured.md; complete files in
-``examples/``).
-"""
+(:data:`DESCRIPTION`, docs/measured.md; complete files in ``examples/``)."""
 
 from __future__ import annotations
 

@@ -126,8 +126,7 @@ class SB3Policy:
 
     @classmethod
     def load(cls, run_dir: str | os.PathLike[str], name: str, which: str = "final") -> SB3Policy:
-        """The model of a ``python -m train`` run folder (``which``: "final" or "best"), named
-        ``"<name> (<steps>k steps)"``."""
+        """The model of a ``python -m train`` run folder (``which``: "final" or "best")."""
         from train.trained_policy import TrainedPolicy
 
         policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
@@ -159,9 +158,8 @@ DEFAULT_OPTIMISER = "cmaes"
 
 
 def level_kwargs(config: SpeedChangeConfig) -> dict[str, Any]:
-    """The level-flight env keywords that give the SpeedChange env's insect and model options:
-    only what differs from the defaults (``{"thrust_split": "body"}`` by default), so records
-    stay readable and their configuration keys stable."""
+    """The level-flight env keywords of the SpeedChange env's insect and model options: only
+    what differs from the defaults, so records stay readable and their keys stable."""
     from tandem_env import Dragonfly, ModelOptions
     from tandem_env.envs.config import MODEL_OPTION_KWARGS
 
@@ -224,8 +222,7 @@ def optima_records(
 
 
 def steady_optima(config: SpeedChangeConfig, **run: Any) -> SteadyPolicy:
-    """The steady schedule: the level-flight optima of :func:`optima_records` (``run``: its
-    keyword arguments) at their speeds."""
+    """The steady schedule of the level-flight optima of :func:`optima_records` (``run``)."""
     records = optima_records(config, **run)
     return SteadyPolicy(
         np.array([r.job.condition for r in records], dtype=np.float64),
@@ -268,8 +265,8 @@ class EpisodeLog:
 def run_episodes(
     policy: Policy, seeds: Sequence[int], env_kwargs: Mapping[str, Any] | None = None
 ) -> list[EpisodeLog]:
-    """Fly one episode per seed with ``policy``: the native vector env, sub-env i reset with
-    ``seeds[i]``, one batched model call per cycle; each sub-env's first episode is logged."""
+    """Fly one episode per seed with ``policy``: sub-env i of the native vector env reset with
+    ``seeds[i]``, one batched model call per cycle; each sub-env's first episode."""
     n = len(seeds)
     envs = gym.make_vec(
         SPEED_CHANGE_ID, num_envs=n, vectorization_mode="vector_entry_point", **(env_kwargs or {})
@@ -499,8 +496,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> None:
-    """Validate --optimiser, --optima-budget and --grid before any optimisation (ValueError
-    naming the option and what is allowed)."""
+    """Validate --optimiser, --optima-budget and --grid before any optimisation."""
     from agents.harness import prepare
 
     if len(set(args.grid)) != len(args.grid):
