@@ -258,15 +258,8 @@ def flow_figure(traces: Sequence[Trace], title: str, path: Path, note: str = "")
         _cycle_panel(ax, traces, quantity, ylabel, first=k == 0)
     handles, labels = axes[0].get_legend_handles_labels()
     notes = [text_entry(note)] if note else []
-    axes[0].legend(
-        *zip(*[*zip(handles, labels, strict=True), *notes], strict=True),
-        fontsize=7,
-        title="bold: best seed",
-        title_fontsize=6,
-        loc="upper left",
-        bbox_to_anchor=(1.01, 1.0),
-        frameon=False,
-    )
+    entries = [*zip(handles, labels, strict=True), *notes]
+    legend(axes[0], entries, title="bold: best seed", title_fontsize=6)
     axes[-1].set_xlabel("cycle t/T [-]")
     fig.suptitle(title, fontsize=10)
     return figures.save(fig, path)
