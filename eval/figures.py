@@ -284,14 +284,18 @@ def sweep_figure(
 def draw_paper(ax: Axes, panel: Panel) -> list[tuple[Any, str]]:
     """The paper's values (a black marker per label), named conditions (dotted) and trend, then
     the values derived from it (open diamonds); the legend entries (no text inside the axes)."""
-    entries: list[tuple[Any, str]] = []
-    labels = list(dict.fromkeys(p[2] if len(p) == 3 else "paper" for p in panel.paper))
-    for k, label in enumerate(labels):
-        points = [p for p in panel.paper if (p[2] if len(p) == 3 else "paper") == label]
-        style = PAPER_MARKERS[k % len(PAPER_MARKERS)]
-        (mark,) = ax.plot([p[0] for p in points], [p[1] for p in points], ls="", color="k",
-                          zorder=4, **style)  # fmt: skip
-        entries.append((mark, label))
+
+    def marks(points: Sequence[tuple], color: str, styles: Sequence[dict]) -> list[tuple]:
+        """A marker style per label of (condition, value[, label]) points; legend entries."""
+        labelled = [(p[0], p[1], p[2] if len(p) == 3 else "paper") for p in points]
+        entries = []
+        for k, label in enumerate(dict.fromkeys(p[2] for p in labelled)):
+            x, y = zip(*[(c, v) for c, v, name in labelled if name == label], strict=True)
+            (mark,) = ax.plot(x, y, ls="", color=color, zorder=4, **styles[k % len(styles)])
+            entries.append((mark, label))
+        return entries
+
+    entries = marks(panel.paper, "k", PAPER_MARKERS)
     for k, (condition, label) in enumerate(panel.paper_at):
         line = ax.axvline(condition, color="k", ls=":", lw=1.2)
         if k == 0:
@@ -300,12 +304,7 @@ def draw_paper(ax: Axes, panel: Panel) -> list[tuple[Any, str]]:
             ax.annotate(label, (condition, 0.97), xycoords=("data", "axes fraction"), fontsize=7)
     if panel.paper_note:
         entries.append(text_entry(panel.paper_note))
-    for label in dict.fromkeys(d[2] for d in panel.derived):
-        points = [d for d in panel.derived if d[2] == label]
-        (mark,) = ax.plot([d[0] for d in points], [d[1] for d in points], ls="", color="0.3",
-                          zorder=4, **DERIVED_MARKER)  # fmt: skip
-        entries.append((mark, label))
-    return entries
+    return entries + marks(panel.derived, "0.3", (DERIVED_MARKER,))
 
 
 def save(fig: plt.Figure, path: Path, crop: bool = True) -> Path:
