@@ -54,9 +54,9 @@ HYPERPARAMETERS: dict[str, str | None] = {
     "tuned": "train/hyperparams/envelope/{algo}.yml",
 }
 
-#: Every envelope policy the figure and the README headline (:mod:`eval.numbers.
-#: envelope_headline`) show, in the figure's drawing and legend order: (the measurement that
-#: stores its runs, algo, a key of :data:`HYPERPARAMETERS`: "" for the amortised policy).
+#: Every envelope policy the figure and the README headline (``envelope-headline``) show, in
+#: the figure's drawing and legend order: (the measurement that stores its runs, algo, a key of
+#: :data:`HYPERPARAMETERS`: "" for the amortised policy).
 POLICIES: tuple[tuple[str, str, str], ...] = (
     *(("rl-baselines", algo, hp) for algo, _ in ALGOS for hp in ("tuned", "shipped")),
     ("amortised-scores", "amortised", ""),
