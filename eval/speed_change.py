@@ -19,7 +19,6 @@ import numpy as np
 
 import tandem_env  # noqa: F401  (registers the ids)
 from agents.records import Record
-from eval.optimize import add_run_arguments, run_reporting
 from tandem_env.envs.registration import SPEED_CHANGE_ID
 from tandem_env.envs.speed_change import Flight
 from tandem_env.envs.speed_change_config import LEVEL_FLIGHT_ENVELOPE, SpeedChangeConfig
@@ -491,6 +490,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=0,
         help="which evaluation episode the figure shows (index, default 0)",
     )
+    from eval.optimize import add_run_arguments  # eval.optimize imports the studies: not here
+
     add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
@@ -515,6 +516,8 @@ def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> None:
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from eval.optimize import run_reporting
+
     if not 1 <= args.episodes <= MAX_EPISODES:
         parser.error(f"--episodes {args.episodes}; allowed: 1 to {MAX_EPISODES:,}")
     if args.first_seed < 0:  # Gymnasium's seeds; found only after the optima otherwise
