@@ -1,12 +1,8 @@
 """``python -m eval SUBCOMMAND ...``: the evaluation command line.
 
-Subcommands are modules listed in :data:`SUBCOMMANDS`. Each defines
-
-* ``NAME``: the subcommand's name, and ``HELP``: one line for the overview;
-* ``add_arguments(parser)``: its arguments, on the ``argparse`` sub-parser;
-* ``main(args, parser) -> int``: run it (``parser.error`` for bad input, exit status 2).
-
-Adding a subcommand (e.g. ``study``) is one module with these four names and one entry here.
+A subcommand is a module listed in :data:`SUBCOMMANDS` that defines ``NAME``, ``HELP`` (one
+line for the overview), ``add_arguments(parser)`` and ``main(args, parser) -> int``
+(``parser.error`` for bad input, exit status 2).
 """
 
 from __future__ import annotations

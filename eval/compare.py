@@ -19,16 +19,8 @@ import numpy as np
 
 from agents.records import Record
 from agents.store import read_record_files
-from eval.figures import FORMATS, figure_path, method_label, save, series_style
+from eval.figures import FORMATS, figure_path, method_label, plt, save, series_style
 from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
-
-__all__ = [
-    "Row",
-    "compare",
-    "comparison_markdown",
-    "convergence_curve",
-    "table_rows",
-]
 
 NAME = "compare"
 HELP = "compare records: median/IQR/spread table (CSV, Markdown) and convergence plot (PNG)"
@@ -79,8 +71,8 @@ PLOT_STEM = "convergence"
 
 @dataclass(frozen=True)
 class Row:
-    """One configuration on one task/objective/condition, over its seeds. Its fields but
-    :attr:`distinct` are the columns of ``comparison.csv``, in this order."""
+    """One configuration on one task/objective/condition over its seeds; its fields but
+    :attr:`distinct` are the columns of ``comparison.csv``."""
 
     task: str
     objective_name: str
@@ -109,14 +101,12 @@ class Row:
     evaluations_median: float
     wall_time_median_s: float
     polish_gain_median: float = math.nan
-    """Median over the seeds of the local polish's gain (the records' ``certificate``) [-];
-    NaN where no seed was polished."""
+    """Median local polish gain over the seeds (records' ``certificate``) [-]; NaN: none."""
     kkt_residual_median: float = math.nan
     """Median first-order optimality residual of the reported strokes [-] (NaN: none known)."""
     score_median: float = math.nan
-    """Median over the seeds of the normalised score (100 = the reference optimum; ≤ 0 for a
-    stroke that does not fly; :attr:`agents.records.Record.score`) [-]; NaN where the
-    reference table does not apply."""
+    """Median normalised score over the seeds (:attr:`agents.records.Record.score`) [-]; NaN
+    where the reference table does not apply."""
 
     def to_dict(self) -> dict[str, Any]:
         """The row's ``comparison.csv`` columns."""
@@ -129,11 +119,6 @@ PanelKey = tuple[str, str, str, float, str]
 """(task, objective_name, condition name, value, unit)."""
 SeriesKey = tuple[str, int, tuple[tuple[str, str], ...]]
 """(method, budget, the rest of the job's configuration as sorted (name, value text) pairs)."""
-
-
-def panel_key(record: Record) -> PanelKey:
-    c = record.condition
-    return (record.task, record.objective_name, c.name, c.value, c.unit)
 
 
 def series_key(record: Record) -> SeriesKey:
@@ -191,7 +176,9 @@ def group(
                 )
             continue
         seen[record.key] = record
-        out[panel_key(record)][series_key(record)].append(record)
+        c = record.condition
+        panel = (record.task, record.objective_name, c.name, c.value, c.unit)
+        out[panel][series_key(record)].append(record)
     return {
         key: {k: sorted(v, key=lambda r: r.seed) for k, v in sorted(series.items())}
         for key, series in sorted(out.items())
@@ -215,13 +202,12 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
             method, budget, pairs = skey
             objective = np.array([r.objective for r in runs])
             feasible = np.array([r.feasible for r in runs], dtype=bool)
+            # the objective of strokes that do not fly is not a result: left out (NaN)
+            q25 = median = q75 = best = spread = median_feasible = math.nan
             if feasible.any():
-                q25, median, q75 = np.percentile(objective, [25, 50, 75])
-                best = float(objective.max())
-                spread = relative_spread(objective)
+                q25, median, q75 = map(float, np.percentile(objective, [25, 50, 75]))
+                best, spread = float(objective.max()), relative_spread(objective)
                 median_feasible = float(np.median(objective[feasible]))
-            else:  # the objective of strokes that do not fly is not a result: leave it out
-                q25 = median = q75 = best = spread = median_feasible = math.nan
             rows.append(
                 Row(
                     task=task,
@@ -234,10 +220,10 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
                     settings="; ".join(f"{k}={v}" for k, v in pairs),
                     distinct=distinct[skey],
                     seeds=len(runs),
-                    objective_median=float(median),
-                    objective_q25=float(q25),
-                    objective_q75=float(q75),
-                    objective_iqr=float(q75) - float(q25),
+                    objective_median=median,
+                    objective_q25=q25,
+                    objective_q75=q75,
+                    objective_iqr=q75 - q25,
                     objective_spread=spread,
                     objective_best=best,
                     objective_median_feasible=median_feasible,
@@ -283,10 +269,10 @@ def comparison_markdown(rows: Sequence[Row]) -> str:
             )
         else:
             objective = "n/a (none feasible) | n/a | n/a | n/a | n/a"
-        method = f"{r.method} ({r.distinct})" if r.distinct else r.method
+        method = (f"{r.method} ({r.distinct})" if r.distinct else r.method).replace("|", "\\|")
         lines.append(
             f"| {r.task} | {r.objective_name} | {r.condition} = {r.condition_value:g} "
-            f"{r.condition_unit} | {_cell(method)} | {r.budget} | {r.seeds} | {objective} | "
+            f"{r.condition_unit} | {method} | {r.budget} | {r.seeds} | {objective} | "
             f"{_fmt(r.reward_median)} | {r.feasible_share:.0%} | {r.evaluations_median:g} | "
             f"{r.wall_time_median_s:.3g} | {_fmt(r.polish_gain_median, '+.2f', 100, ' %')} | "
             f"{_fmt(r.kkt_residual_median, '.2g')} | {_fmt(r.score_median)} |"
@@ -302,19 +288,11 @@ def comparison_markdown(rows: Sequence[Row]) -> str:
     return "\n".join(lines) + "\n\n" + "\n".join(notes) + "\n"
 
 
-def _cell(text: str) -> str:
-    return text.replace("|", "\\|")
-
-
 def convergence_curve(
     runs: Sequence[Record],
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(evaluations, q25, median, q75) of the best-so-far reward over the runs' seeds.
-
-    Histories may sit on different evaluation grids (other batch sizes); each is read as the
-    step function it is (the best so far holds until the next report) on the union of grids.
-    Before a run's first report its value is missing, and quantiles use the runs reporting.
-    """
+    """(evaluations, q25, median, q75) of the best-so-far reward over the runs' seeds, each
+    history a step function on the union of their grids (missing before its first report)."""
     grid = np.unique(np.concatenate([np.array([e for e, _ in r.history], float) for r in runs]))
     values = np.full((len(runs), grid.size), np.nan)
     for k, r in enumerate(runs):
@@ -330,18 +308,9 @@ def convergence_curve(
 
 
 def best_so_far_figure(records: Sequence[Record]) -> Any:
-    """The best-so-far figure: one panel per task/objective/condition.
-
-    Each configuration's curve is the median best-so-far reward over its seeds (band: IQR);
-    the marker at its end is the median reported objective over the feasible seeds, the number
-    the table reports. Colours are fixed per method (:func:`eval.figures.method_color`), line styles tell
-    a method's variants in one panel apart.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    """The best-so-far figure, a panel per task/objective/condition: each configuration's
+    median best-so-far reward over its seeds (band: IQR) and, as a marker, the table's median
+    reported objective over the feasible seeds."""
     panels = group(records, quiet=True)  # duplicates are reported by table_rows
     n = len(panels)
     cols = min(n, 3)
@@ -401,8 +370,8 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
 
 
 def _focus(ax: Any, values: list[float]) -> None:
-    # Early best-so-far rewards of infeasible strokes are tens of units below the feasible
-    # objectives at the end; show the range from a tenth of the run on, so the end is readable.
+    # Early rewards of infeasible strokes are far below the feasible objectives at the end:
+    # show the range from a tenth of the run on, so the end is readable.
     if not values:
         return
     low, high = min(values), max(values)
@@ -413,8 +382,7 @@ def _focus(ax: Any, values: list[float]) -> None:
 def compare(
     directories: Sequence[str | Path], out: str | Path, figure_format: str = FORMATS[0]
 ) -> list[Row]:
-    """Load the records under ``directories`` and write table and plot (``figure_format``,
-    :data:`eval.figures.FORMATS`) into ``out``."""
+    """Write the table and plot (``figure_format``) of the records under ``directories``."""
     plot_path = figure_path(Path(out), PLOT_STEM, figure_format)  # a bad format fails first
     records = read_record_files(directories)
     if not records:

@@ -1,12 +1,9 @@
 """Paper-style figures of the studies (matplotlib, Agg; PNG, SVG or PDF: :data:`FORMATS`).
 
 Every sweep figure draws the spread over seeds, the paper's statements and the values derived
-from them the same way (docs/reproduction.md, "Every figure shows ..."): :func:`draw_series`,
-:func:`draw_paper`, :func:`draw_bounds`. Legends sit outside the axes. Colours are Okabe & Ito's
-colour-blind-safe palette (:data:`PALETTE`), fixed per method and variant
-(:func:`series_style`), so a series keeps its colour when another is added.
-
-The kinematics figures (Figs. 9-13) are in :mod:`eval.kinematics_figures`.
+from them the same way (docs/reproduction.md, "Every figure shows ..."), legends outside the
+axes, in Okabe & Ito's colour-blind-safe palette fixed per method and variant
+(:func:`series_style`). The kinematics figures (Figs. 9-13): :mod:`eval.kinematics_figures`.
 """
 
 from __future__ import annotations
@@ -31,8 +28,7 @@ from tandem_env.io.files import atomic_path
 
 
 class SpreadView(Protocol):
-    """What a sweep panel reads of one quantity at one condition over seeds (the studies'
-    ``eval.studies.tables.Spread`` has it; a protocol, for the studies import this module)."""
+    """One quantity at one condition over seeds (``eval.studies.tables.Spread``)."""
 
     @property
     def values(self) -> tuple[float, ...]: ...
@@ -61,8 +57,7 @@ PALETTE: tuple[str, ...] = (
     "#56B4E9",  # sky blue
     "#F0E442",  # yellow
 )
-#: The palette's hues that read as lines on white (yellow left out): a variant's hue is taken
-#: from these (:func:`variant_color`).
+#: The palette's hues that read as lines on white (yellow left out), a variant's hue.
 LINE_HUES: tuple[str, ...] = PALETTE[:6]
 #: Steps along :data:`LINE_HUES` from a method's hue to its variant 1's (2 for variant 2, ...):
 #: blue -> orange for CMA-ES, vermillion -> sky blue for PSO, so the defaults' pairs never share
@@ -77,9 +72,8 @@ METHOD_NAMES: dict[str, str] = {
     "ppo": "PPO",
     "sac": "SAC",
 }
-#: Fixed colour of each method family (the spec's name before ':'): the palette in the order
-#: above (CMA-ES blue, PSO vermillion, ...); other specs get a colour from their name's
-#: checksum, so no colour depends on which other series a figure has.
+#: Fixed colour of each method family (the spec's name before ':'), the palette in this order;
+#: other specs get one by checksum, so no colour depends on the figure's other series.
 METHOD_COLORS: dict[str, str] = dict(zip(METHOD_NAMES, PALETTE, strict=False))
 #: Line style of a series' variant (0: e.g. F̄_v or the tear-drop; 1: F̄_h or the real wing).
 VARIANT_LINES: tuple[str, ...] = ("-", "--", ":")
@@ -96,8 +90,7 @@ DERIVED_MARKER: dict[str, Any] = {"marker": "D", "ms": 7, "mew": 1.5, "mfc": "no
 #: The Table 4 bounds of a stroke parameter's panel.
 BOUND_STYLE: dict[str, Any] = {"color": "0.45", "ls": "--", "lw": 1.0, "zorder": 1}
 BOUND_LABEL = "Table 4 bounds"
-#: Appended to the axis label of a quantity that averages the fore and hind pairs (the tidy
-#: rows' means, ``eval.studies.tables.QUANTITIES``), so no figure averages them unsaid.
+#: Appended to the axis label of a quantity that averages the fore and hind pairs.
 PAIR_MEAN = "(mean of fore and hind pairs)"
 
 
@@ -125,8 +118,7 @@ def method_color(spec: str) -> str:
 
 
 def variant_color(base: str, variant: int = 0) -> str:
-    """The hue of variant ``variant`` of a series whose variant 0 is ``base``: ``base`` itself,
-    then :data:`VARIANT_HUE_STEP` steps along :data:`LINE_HUES` per variant."""
+    """The hue of variant ``variant`` of a series whose variant 0 is ``base``."""
     if not variant:
         return base
     start = LINE_HUES.index(base) if base in LINE_HUES else 0
@@ -134,8 +126,7 @@ def variant_color(base: str, variant: int = 0) -> str:
 
 
 def series_style(method: str, variant: int = 0) -> dict[str, Any]:
-    """Colour and line style of a series: the method's variant hue (:func:`variant_color`) and
-    the variant's line style."""
+    """Colour (:func:`variant_color`) and line style of a method's variant."""
     return {
         "color": variant_color(method_color(method), variant),
         "ls": VARIANT_LINES[variant % len(VARIANT_LINES)],
@@ -191,11 +182,8 @@ SERIES_KEY = "line: median, band: IQR, dots: seeds, ★: best seed"
 
 
 def draw_series(ax: Axes, series: Series) -> tuple | None:
-    """Median line, IQR band, seeds as dots, best as a star (conditions with data only).
-
-    Returns the series' legend handle (band, line and star together), or None when nothing
-    of it could be drawn (no feasible seed anywhere): such a series gets no legend entry.
-    """
+    """Median line, IQR band, seeds as dots, best as a star (conditions with data only); the
+    legend handle (band, line and star), or None where no seed is feasible (no entry)."""
     style = series_style(series.method or series.label, series.variant)
     color = style["color"]
     x = np.array(sorted(series.points))
@@ -268,11 +256,8 @@ def draw_bounds(ax: Axes, bounds: tuple[float, float] | None) -> list[tuple[Any,
 def sweep_figure(
     panels: Sequence[Panel], xlabel: str, title: str, path: Path, width: float = 6.0
 ) -> Path:
-    """Stacked panels over one condition axis, like the paper's Figs. 4-8 and 15-16.
-
-    Each panel's legend (outside, right) lists its drawn series (the first panel's only, when
-    every panel has the same ones), what the paper states for it and its Table 4 bounds.
-    """
+    """Stacked panels over one condition axis (the paper's Figs. 4-8 and 15-16), each legend
+    its drawn series (the first panel's only, when all have the same), the paper and bounds."""
     fig, axes = plt.subplots(
         len(panels), 1, figsize=(width + 2.6, 2.4 * len(panels) + 0.8), sharex=True
     )
@@ -297,17 +282,20 @@ def sweep_figure(
 
 
 def draw_paper(ax: Axes, panel: Panel) -> list[tuple[Any, str]]:
-    """What the paper states for this panel: its values (a black marker per label), dotted
-    lines and a quoted trend, then the values derived from it (open diamonds). Nothing is
-    written inside the axes, so no label covers the data. Returns the legend entries."""
-    entries: list[tuple[Any, str]] = []
-    labels = list(dict.fromkeys(p[2] if len(p) == 3 else "paper" for p in panel.paper))
-    for k, label in enumerate(labels):
-        points = [p for p in panel.paper if (p[2] if len(p) == 3 else "paper") == label]
-        style = PAPER_MARKERS[k % len(PAPER_MARKERS)]
-        (mark,) = ax.plot([p[0] for p in points], [p[1] for p in points], ls="", color="k",
-                          zorder=4, **style)  # fmt: skip
-        entries.append((mark, label))
+    """The paper's values (a black marker per label), named conditions (dotted) and trend, then
+    the values derived from it (open diamonds); the legend entries (no text inside the axes)."""
+
+    def marks(points: Sequence[tuple], color: str, styles: Sequence[dict]) -> list[tuple]:
+        """A marker style per label of (condition, value[, label]) points; legend entries."""
+        labelled = [(p[0], p[1], p[2] if len(p) == 3 else "paper") for p in points]
+        entries = []
+        for k, label in enumerate(dict.fromkeys(p[2] for p in labelled)):
+            x, y = zip(*[(c, v) for c, v, name in labelled if name == label], strict=True)
+            (mark,) = ax.plot(x, y, ls="", color=color, zorder=4, **styles[k % len(styles)])
+            entries.append((mark, label))
+        return entries
+
+    entries = marks(panel.paper, "k", PAPER_MARKERS)
     for k, (condition, label) in enumerate(panel.paper_at):
         line = ax.axvline(condition, color="k", ls=":", lw=1.2)
         if k == 0:
@@ -316,12 +304,7 @@ def draw_paper(ax: Axes, panel: Panel) -> list[tuple[Any, str]]:
             ax.annotate(label, (condition, 0.97), xycoords=("data", "axes fraction"), fontsize=7)
     if panel.paper_note:
         entries.append(text_entry(panel.paper_note))
-    for label in dict.fromkeys(d[2] for d in panel.derived):
-        points = [d for d in panel.derived if d[2] == label]
-        (mark,) = ax.plot([d[0] for d in points], [d[1] for d in points], ls="", color="0.3",
-                          zorder=4, **DERIVED_MARKER)  # fmt: skip
-        entries.append((mark, label))
-    return entries
+    return entries + marks(panel.derived, "0.3", (DERIVED_MARKER,))
 
 
 def save(fig: plt.Figure, path: Path, crop: bool = True) -> Path:
@@ -382,13 +365,9 @@ def convergence_figure(
     ],
     path: Path,
 ) -> Path:
-    """Best-so-far over evaluations: per condition (label, [(method, evaluations (n,), values
-    (seeds, n))], [(preset name, budget)]).
-
-    Per method a median line, an IQR band and each seed thin; vertical lines mark the presets'
-    budgets. The y-axis starts at the worst seed after 5 % of the run: the first batches'
-    penalised rewards would squash the rest.
-    """
+    """Best-so-far over evaluations per condition (label, [(method, evaluations (n,), values
+    (seeds, n))], [(preset name, budget)]): per method the median, IQR band and each seed thin,
+    the presets' budgets dotted; the y-axis from the worst seed after 5 % of the run."""
     fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 3.8))
     axes = np.atleast_1d(axes)
     for ax, (label, methods, budgets) in zip(axes, panels, strict=True):

@@ -37,17 +37,6 @@ def _trace_style(trace: Trace) -> dict:
     return {"lw": 2.0, "alpha": 1.0} if trace.best else {"lw": 0.8, "alpha": 0.35}
 
 
-def _plot_wings(ax: Axes, traces: Sequence[Trace], quantity: str) -> None:
-    """``quantity`` over the cycle per seed: fore-wing solid, hind-wing dashed, with one
-    legend entry each."""
-    for trace in traces:
-        style = _trace_style(trace)
-        ax.plot(trace.cycle, trace.fore[quantity], "-", color=WING_COLORS["fore"], **style)
-        ax.plot(trace.cycle, trace.hind[quantity], "--", color=WING_COLORS["hind"], **style)
-    ax.plot([], [], "-", color=WING_COLORS["fore"], label="fore-wing")
-    ax.plot([], [], "--", color=WING_COLORS["hind"], label="hind-wing")
-
-
 def _seed_color(trace: Trace, i: int) -> str:
     """Black for the best seed, else a palette colour fixed by the seed in the label."""
     if trace.best:
@@ -66,9 +55,8 @@ START_LABEL = "best seed at t = 0 (arrows: direction of travel)"
 
 
 def draw_direction(ax: Axes, path: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Arrowheads along a closed path (n, 2) at :data:`ARROW_PHASES`, pointing the way it is
-    travelled, drawn above the paths (:data:`ARROW_STYLE`). Returns each arrow's (from, to):
-    a sample of the path and the next one."""
+    """Arrowheads along a closed path (n, 2) at :data:`ARROW_PHASES`, the way it is travelled;
+    each arrow's (from, to): a sample of the path and the next one."""
     n = len(path)
     segments = []
     for phase in ARROW_PHASES:
@@ -80,9 +68,8 @@ def draw_direction(ax: Axes, path: np.ndarray) -> list[tuple[np.ndarray, np.ndar
 
 
 def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
-    """Wing-tip paths relative to the wing base, side view (x forward, z up), per wing; both
-    panels on the same axes limits and scale (1 x/R is as long as 1 z/R), so the fore- and
-    hind-wing's paths compare by eye."""
+    """Wing-tip paths relative to the wing base, side view (x forward, z up), a panel per wing,
+    both at the same limits and equal scale."""
     fig, axes = plt.subplots(1, 2, figsize=(7.5, 3.8), sharex=True, sharey=True)
     for ax, wing in zip(axes, ("fore", "hind"), strict=True):
         for i, trace in enumerate(traces):
@@ -114,9 +101,8 @@ def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
 
 @dataclass(frozen=True)
 class GroupPanel:
-    """A panel of per-seed values in groups (e.g. Fig. 11c's phase differences): each seed a
-    dot, the statistic the report judges as a bar, the best seed a star, the paper's values
-    as crosses and the rule's band shaded."""
+    """Per-seed values in groups (e.g. Fig. 11c's phase differences): seeds as dots, the
+    statistic judged as a bar, the best seed a star, the paper's values crosses, a band."""
 
     title: str
     groups: Mapping[str, Sequence[float]]
@@ -140,8 +126,7 @@ class GroupPanel:
 
 
 def draw_groups(ax: Axes, panel: GroupPanel, wrap: int = 0) -> None:
-    """Draw one :class:`GroupPanel` with its legend (below the axes; ``wrap``: its labels
-    and the title broken into lines of at most this many characters, 0: not)."""
+    """Draw one :class:`GroupPanel`, its legend below (``wrap``: labels and title wrapped)."""
     names = list(panel.groups)
     entries: list[tuple[Any, str]] = []
     if panel.band is not None:
@@ -185,9 +170,14 @@ PAPER_DOWNSTROKE_END = 0.5
 def _cycle_panel(
     ax: Axes, traces: Sequence[Trace], quantity: str, ylabel: str, first: bool
 ) -> None:
-    """``quantity`` of both wings over the cycle (:func:`_plot_wings`) with the paper's end of
-    the down-stroke (named in the legend of the ``first`` panel)."""
-    _plot_wings(ax, traces, quantity)
+    """``quantity`` over the cycle per seed, fore-wing solid, hind-wing dashed, with the paper's
+    end of the down-stroke (named in the legend of the ``first`` panel)."""
+    for trace in traces:
+        style = _trace_style(trace)
+        ax.plot(trace.cycle, trace.fore[quantity], "-", color=WING_COLORS["fore"], **style)
+        ax.plot(trace.cycle, trace.hind[quantity], "--", color=WING_COLORS["hind"], **style)
+    ax.plot([], [], "-", color=WING_COLORS["fore"], label="fore-wing")
+    ax.plot([], [], "--", color=WING_COLORS["hind"], label="hind-wing")
     ax.axvline(
         PAPER_DOWNSTROKE_END,
         color="k",
@@ -223,13 +213,9 @@ def cycle_figure(
     path: Path,
     extras: Sequence[GroupPanel] = (),
 ) -> Path:
-    """``quantity`` of fore (solid) and hind (dashed) over t/T, one panel per flight mode side
-    by side (the same y-axis), then below them one :class:`GroupPanel` per ``extras`` (e.g.
-    Fig. 11c's phase differences, Fig. 12c's pitch amplitudes).
-
-    Drawn for a journal column (:data:`COLUMN_WIDTH_MM` wide, text at :data:`COLUMN_FONT_PT`,
-    :data:`COLUMN_RC`): titles and legends are wrapped to a panel's width, each legend below
-    its panels, so the cropped figure is no wider than the column."""
+    """``quantity`` of fore (solid) and hind (dashed) over t/T, a panel per flight mode side by
+    side, below them a :class:`GroupPanel` per ``extras`` (e.g. Fig. 11c's phase differences),
+    for a journal column (:data:`COLUMN_RC`; titles and legends wrapped, legends below)."""
     with plt.rc_context(COLUMN_RC):
         parts = [len(part) for part in (rows, extras) if part]
         # constrained: it lays out each row's subfigure with its legend below it
@@ -265,23 +251,15 @@ FLOW_PANELS: tuple[tuple[str, str], ...] = (
 
 
 def flow_figure(traces: Sequence[Trace], title: str, path: Path, note: str = "") -> Path:
-    """Angle of attack and relative speed at 0.75 R over the cycle (Fig. 13); the dotted line
-    is the paper's end of the down-stroke (t/T = 0.5: the paper's cycles start with it);
-    ``note``: a last legend line (e.g. which strokes' weaving is a triangle wave)."""
+    """Angle of attack and relative speed at 0.75 R over the cycle (Fig. 13), the paper's end
+    of the down-stroke dotted; ``note``: a last legend line."""
     fig, axes = plt.subplots(2, 1, figsize=(8.4, 5.2), sharex=True)
     for k, (ax, (quantity, ylabel)) in enumerate(zip(axes, FLOW_PANELS, strict=True)):
         _cycle_panel(ax, traces, quantity, ylabel, first=k == 0)
     handles, labels = axes[0].get_legend_handles_labels()
     notes = [text_entry(note)] if note else []
-    axes[0].legend(
-        *zip(*[*zip(handles, labels, strict=True), *notes], strict=True),
-        fontsize=7,
-        title="bold: best seed",
-        title_fontsize=6,
-        loc="upper left",
-        bbox_to_anchor=(1.01, 1.0),
-        frameon=False,
-    )
+    entries = [*zip(handles, labels, strict=True), *notes]
+    legend(axes[0], entries, title="bold: best seed", title_fontsize=6)
     axes[-1].set_xlabel("cycle t/T [-]")
     fig.suptitle(title, fontsize=10)
     return figures.save(fig, path)

@@ -1,7 +1,5 @@
 """``python -m eval measured KINEMATICS.yaml``: a filmed insect's kinematics in, forces out
-(the file and what is written: :data:`DESCRIPTION`, docs/measured.md; complete files in
-``examples/``).
-"""
+(:data:`DESCRIPTION`, docs/measured.md; complete files in ``examples/``)."""
 
 from __future__ import annotations
 
@@ -56,6 +54,7 @@ example:
 
 DEFAULT_OUT = Path("results") / "measured"
 ANGLES = ("sweep", "elevation", "pitch")
+WINGS = ("fore", "hind")
 
 
 class SpecError(ValueError):
@@ -98,15 +97,6 @@ def _number(value: Any, where: str, unit: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise SpecError(f"{where} = {value!r}; allowed: a finite number [{unit}]")
     return float(value)
-
-
-def _insect(spec: Any) -> Dragonfly:
-    """The file's insect: what differs from the paper's specimen (the one reader of an insect,
-    :func:`tandem_env.physics.insect.load_insect`, as ``--insect`` and the env keyword)."""
-    try:
-        return load_insect(_mapping(spec, "insect"))
-    except ValueError as exc:  # a SpecError's message is kept as it is
-        raise SpecError(str(exc)) from None
 
 
 def _options(spec: Any) -> ModelOptions:
@@ -198,10 +188,9 @@ def _measured_wing(
     spec: Any, where: str, degrees: bool, n_samples: int, folder: Path
 ) -> MeasuredWing:
     spec = _mapping(spec, where)
-    fourier = ("frequency", "stroke_plane_angle", "pitch_stations", *ANGLES)
-    sampled = ("frequency", "stroke_plane_angle", "pitch_stations", "csv", "columns")
     is_csv = "csv" in spec
-    _take(spec, sampled if is_csv else fourier, where)
+    extra = ("csv", "columns") if is_csv else ANGLES
+    _take(spec, ("frequency", "stroke_plane_angle", "pitch_stations", *extra), where)
     for key in ("frequency", "stroke_plane_angle"):
         if key not in spec:
             raise SpecError(f"{where}.{key}: missing; allowed: a number")
@@ -288,9 +277,13 @@ def load_case(path: str | Path) -> MeasuredCase:
     n_samples = kinematics.get("n_samples", FOURIER_SAMPLES)
     wings = [
         _measured_wing(kinematics.get(w), f"kinematics.{w}", degrees, n_samples, path.parent)
-        for w in ("fore", "hind")
+        for w in WINGS
     ]
     gamma = _number(flight.get("flight_path_angle", 0.0), "flight.flight_path_angle", "deg")
+    try:  # what differs from the paper's specimen, read as --insect and the env keyword read it
+        insect = load_insect(_mapping(spec.get("insect"), "insect"))
+    except ValueError as exc:
+        raise SpecError(str(exc)) from None
     power = flight.get("available_power")
     return MeasuredCase(
         name=path.stem,
@@ -300,7 +293,7 @@ def load_case(path: str | Path) -> MeasuredCase:
         speed=_number(flight.get("speed", 0.0), "flight.speed", "m/s"),
         flight_path_angle=math.radians(gamma) if degrees else gamma,
         available_power=None if power is None else _number(power, "flight.available_power", "W/kg"),
-        insect=_insect(spec.get("insect")),
+        insect=insect,
         options=_options(spec.get("options")),
     )
 
@@ -309,7 +302,7 @@ def summary(history: StrokeHistory, insect: Dragonfly) -> dict[str, dict[str, fl
     """L/W, T, D [N], P [W], P/m [W/kg] per wing pair and in total (earth axes)."""
     r: Result = history.result
     out = {}
-    for name in ("fore", "hind"):
+    for name in WINGS:
         wing = getattr(history, name)
         thrust, drag = wing.thrust_and_drag()
         out[name] = {
@@ -373,24 +366,20 @@ def record(case: MeasuredCase, history: StrokeHistory, source: Path) -> dict[str
             "available_power_W_kg": float(history.result.available_power[0]),
         },
         "stroke_plane_angle_deg": {
-            "fore": math.degrees(case.fore.stroke_plane_angle),
-            "hind": math.degrees(case.hind.stroke_plane_angle),
+            w: math.degrees(getattr(case, w).stroke_plane_angle) for w in WINGS
         },
-        "frequency_Hz": {"fore": case.fore.frequency, "hind": case.hind.frequency},
+        "frequency_Hz": {w: getattr(case, w).frequency for w in WINGS},
         "options": case.options.to_dict(),
         "insect": {
             "body_mass_kg": case.insect.body_mass,
             "planform": case.insect.planform,
-            "coefficients": {
-                "fore": type(case.insect.fore.coefficients).__name__,
-                "hind": type(case.insect.hind.coefficients).__name__,
-            },
+            "coefficients": {w: type(getattr(case.insect, w).coefficients).__name__ for w in WINGS},
         },
         "axes": "earth: lift vertical, thrust/drag/horizontal force horizontal (+ forward)",
         "units": "N, W, W/kg, deg; histories per wing pair (N_w wings)",
         "summary": summary(history, case.insect),
         "result": history.result.row(0),
-        "histories": {"fore": wing_history(history.fore), "hind": wing_history(history.hind)},
+        "histories": {w: wing_history(getattr(history, w)) for w in WINGS},
     }
 
 

@@ -1,9 +1,6 @@
-"""``python -m eval optimize``: run one method on one condition for several seeds.
-
-Each seed is one job of the resumable runner (:func:`agents.runner.run_jobs`): its
-record is stored in ``--out`` as ``records/<key>.json`` (atomically, as the seed finishes; a
-seed already stored with the same configuration is not run again), on this machine or on a
-Dask cluster (``--scheduler``), and ``summary.csv`` there is rewritten over every record.
+"""``python -m eval optimize``: run one method on one condition for several seeds, each a job of
+the resumable runner (:func:`agents.runner.run_jobs`) storing its record in ``--out``; with the
+options every command that runs jobs shares (:data:`RUN_OPTIONS`, :func:`run_reporting`).
 """
 
 from __future__ import annotations
@@ -13,7 +10,6 @@ import sys
 import textwrap
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -104,47 +100,30 @@ T = TypeVar("T")
 INTERRUPTED = "the finished records are stored; the same command resumes from them"
 
 
-#: How a run of jobs stops before its end (:func:`stop_status` says which way).
-RUN_STOPS = (OutputNotWritable, SchedulerUnreachable, JobsFailed, OSError, KeyboardInterrupt)
-
-
-def stop_status(parser: argparse.ArgumentParser, error: BaseException) -> int:
-    """The exit status of a run of jobs (optimize, study, reference or speed-change) stopped by
-    ``error`` (one of :data:`RUN_STOPS`), said on stderr: the usage error (2) for an output
-    folder the runner refuses before any job; 1 with the message for an unreachable scheduler,
-    failed jobs or a file that cannot be written (a full disk, a folder made read-only: the
-    store is as it was); 130 for an interrupt (records are kept)."""
-    if isinstance(error, OutputNotWritable):  # nothing ran
-        parser.error(str(error))
-    if isinstance(error, SchedulerUnreachable | JobsFailed | StoreWriteError):
-        print(f"{parser.prog}: error: {error}", file=sys.stderr)
-        return 1
-    if isinstance(error, OSError):  # a table, figure or report the run writes after its records
-        where = f"{error.filename}: " if error.filename else ""
-        print(
-            f"{parser.prog}: error: {where}{error.strerror or error}; {INTERRUPTED} once that "
-            "is fixed",
-            file=sys.stderr,
-        )
-        return 1
-    print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
-    return 130
-
-
 def run_reporting(parser: argparse.ArgumentParser, call: Callable[[], T]) -> T | int:
-    """``call()``, or the exit status of how it stopped (:func:`stop_status`)."""
+    """``call()`` (a run of jobs: optimize, study, reference or speed-change), or the exit
+    status of how it stopped, said on stderr: the usage error (2) for an output folder the
+    runner refuses before any job; 1 for an unreachable scheduler, failed jobs or a record that
+    cannot be written (the store is as it was); 130 for an interrupt (records are kept). Any
+    other OSError (a table or figure written after the records) is the command line's to say
+    (:func:`tandem_env.io.command.run_command`)."""
     try:
         return call()
-    except RUN_STOPS as error:
-        return stop_status(parser, error)
+    except OutputNotWritable as error:  # nothing ran
+        parser.error(str(error))
+    except (SchedulerUnreachable, JobsFailed, StoreWriteError) as error:
+        print(f"{parser.prog}: error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"{parser.prog}: interrupted; {INTERRUPTED}", file=sys.stderr)
+        return 130
 
 
 def _check_reading_applies(
     name: str, reading: Reading, task: TaskSpec, objective: str | None
 ) -> None:
-    """A reading whose horizontal objective has no horizontal objective to replace here changes
-    nothing of that: refused if it is all the reading changes (the run would be the default's
-    under another name), said with a warning if the reading's model options still apply."""
+    """A reading's horizontal objective with no horizontal objective here to replace: refused
+    if it is all the reading changes, a warning if its model options still apply."""
     if reading.horizontal_objective == "horizontal":
         return
     objectives = task.declared_objectives
@@ -171,12 +150,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     # One option per condition keyword, from the tasks' declarations (--speed, --power).
     condition = parser.add_mutually_exclusive_group(required=True)
-    by_flag: dict[str, list[TaskSpec]] = {}
-    for task in tasks:
-        by_flag.setdefault(task.condition_flag, []).append(task)
-    for flag, owners in by_flag.items():
-        declared = {t.name: t.declared_condition for t in owners}
-        first = declared[owners[0].name]
+    for flag in dict.fromkeys(t.condition_flag for t in tasks):
+        declared = {t.name: t.declared_condition for t in tasks if t.condition_flag == flag}
+        first = next(iter(declared.values()))
         condition.add_argument(
             flag,
             type=float,
@@ -220,18 +196,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"strokes per iteration: PSO particles / random-search batch (default 40, at most "
         f"{MAX_BATCH:,})",
     )
-    add_pairs_argument(
-        parser,
-        "--method-config",
-        "method settings, e.g. velocity_clamp=0.2 boundary=reflect inertia=linear-decreasing "
-        "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)",
-    )
-    add_pairs_argument(
-        parser,
-        "--env-kwargs",
-        "env options, e.g. thrust_split=body penalty_weight=20 planform=real n_time=256 "
-        "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)",
-    )
+    values = "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)"
+    pairs = {
+        "--method-config": "method settings, e.g. velocity_clamp=0.2 boundary=reflect inertia=linear-decreasing",
+        "--env-kwargs": "env options, e.g. thrust_split=body penalty_weight=20 planform=real n_time=256",
+    }
+    for option, what in pairs.items():
+        add_pairs_argument(parser, option, f"{what} {values}")
     add_insect_argument(parser)
     add_run_arguments(parser, "--backend", "--device")
     parser.add_argument(
@@ -256,8 +227,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_insect_argument(parser: argparse.ArgumentParser) -> None:
-    """``--insect FILE`` (shared with ``study``): the insect every job flies, a ``Dragonfly``
-    read from its file when the command line is parsed (the usage error names a bad file)."""
+    """``--insect FILE`` (shared with ``study``), read when the command line is parsed."""
     parser.add_argument(
         "--insect",
         metavar="FILE",
@@ -269,8 +239,7 @@ def add_insect_argument(parser: argparse.ArgumentParser) -> None:
 
 
 #: The options of every command that runs jobs (optimize, study, reference, speed-change): the
-#: argparse keywords of each (``--backend``/``--device``: env keywords of every job,
-#: :func:`backend_kwargs`; ``--no-cache`` sets ``args.cache``).
+#: argparse keywords of each (``--no-cache`` sets ``args.cache``).
 RUN_OPTIONS: dict[str, dict[str, Any]] = {
     "--backend": {
         "choices": BACKENDS,
@@ -312,42 +281,15 @@ def add_run_arguments(parser: argparse.ArgumentParser, *flags: str) -> None:
 
 
 def backend_kwargs(args: argparse.Namespace) -> dict[str, str]:
-    """The env keywords of ``--backend`` / ``--device`` as given (none when neither is); the
-    backend's rule checks them with the rest of the env's options, before any work."""
+    """The env keywords of ``--backend`` / ``--device`` as given (checked with the env's)."""
     given = {"backend": args.backend, "device": args.device}
     return {key: value for key, value in given.items() if value is not None}
 
 
-@dataclass(frozen=True)
-class OptimizePlan:
-    """One ``python -m eval optimize`` command, parsed and validated once from its arguments
-    (:func:`plan_command`): the seeds' jobs, validated (:func:`agents.harness.prepare`), where
-    their records go and how they run. :func:`main` hands it to the runner in one call."""
-
-    jobs: tuple[PreparedJob, ...]
-    """One per seed, in the order given."""
-    out: str
-    """``--out`` as given (an empty one is the runner's to refuse, not the current folder):
-    the record store, its ``summary.csv`` kept by the runner."""
-    scheduler: str | None
-    """``--scheduler`` normalised (:func:`agents.dask_cluster.parse_scheduler`); None: here, one job
-    after another."""
-    progress: bool
-    cache: bool
-    """Whether the record cache is used (``--no-cache`` turns it off)."""
-    rerun: bool = False
-    """``--rerun``: every job runs again, its new record replacing any stored one."""
-
-    def describe(self) -> str:
-        """The line said before any work: the run, its seeds and where its records go."""
-        first = self.jobs[0]
-        seeds = [p.job.seed for p in self.jobs]
-        return f"{first.describe()}, seeds {seeds} -> {Path(self.out)}"
-
-
-def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> OptimizePlan:
-    """The command's :class:`OptimizePlan`; the usage error (exit status 2) naming what is wrong
-    and what is allowed, before any work."""
+def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> list[PreparedJob]:
+    """The command's jobs, one per seed in the order given, validated once here
+    (:func:`agents.harness.prepare`; the runner does not validate them again); the usage error
+    (exit status 2) naming what is wrong and what is allowed, before any work."""
     tasks = _tasks()
     task = next(t for t in tasks if t.name == args.task)  # one of them: argparse's choices
     declared = task.declared_condition
@@ -369,11 +311,9 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> O
             f"{task.declared_objectives.default}"
         )
     try:
-        # What the arguments mean: the env options and method settings (checked and parsed
-        # with the command line: pairs, insect, scheduler), then the reading's, then the jobs,
-        # validated by the harness. The output folder is the runner's to check (run_jobs,
-        # summary_csv): it alone knows, once it has read the stored records, whether a
-        # folder that cannot be written holds everything.
+        # The env options and method settings, the reading's, then the jobs (the harness's
+        # checks). The output folder is the runner's to check: it alone knows, once it has
+        # read the stored records, whether a folder that cannot be written holds everything.
         given = backend_kwargs(args)
         env_kwargs, method_config = dict(args.env_kwargs), dict(args.method_config)
         if given and set(EXECUTION_KWARGS) & set(env_kwargs):
@@ -406,8 +346,7 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> O
                 "--env-kwargs, not both"
             )
         env_kwargs.update(reading_kwargs)
-        # Validated once, here (the runner does not validate a prepared job again).
-        jobs = prepare(
+        return prepare(
             args.method,
             task,
             condition,
@@ -419,30 +358,31 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> O
         )
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
-    return OptimizePlan(
-        tuple(jobs), args.out, args.scheduler, not args.quiet, args.cache, args.rerun
-    )
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    plan = plan_command(args, parser)
-    if plan.progress:
-        print(f"optimize: {plan.describe()}", file=sys.stderr)
-        if "insect" in plan.jobs[0].env_kwargs:
-            print(f"insect: {describe_insect(plan.jobs[0].env_kwargs['insect'])}", file=sys.stderr)
-    try:
-        summary = run_jobs(
-            plan.jobs,
-            plan.out,
-            scheduler=plan.scheduler,
-            progress=plan.progress,
-            cache=plan.cache,
-            rerun=plan.rerun,
+    jobs = plan_command(args, parser)
+    if not args.quiet:
+        seeds = [p.job.seed for p in jobs]
+        print(f"optimize: {jobs[0].describe()}, seeds {seeds} -> {Path(args.out)}", file=sys.stderr)
+        if "insect" in jobs[0].env_kwargs:
+            print(f"insect: {describe_insect(jobs[0].env_kwargs['insect'])}", file=sys.stderr)
+    # --out as given: an empty one is the runner's to refuse, not the current folder
+    summary = run_reporting(
+        parser,
+        lambda: run_jobs(
+            jobs,
+            args.out,
+            scheduler=args.scheduler,
+            progress=not args.quiet,
+            cache=args.cache,
+            rerun=args.rerun,
             summary_csv=True,
-        )
-    except RUN_STOPS as error:
-        return stop_status(parser, error)
-    for record in (summary.records[p.job.key] for p in plan.jobs):
+        ),
+    )
+    if isinstance(summary, int):
+        return summary
+    for record in (summary.records[p.job.key] for p in jobs):
         power = record.metrics.get("power_per_mass")
         print(
             f"{record.method} seed {record.seed}: {record.objective_name} = "
@@ -453,7 +393,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         print(f"  {describe_certificate(record.certificate)}")
     hint = " (--rerun runs them again)" if summary.reused else ""
     print(
-        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.describe(Path(plan.out))}"
+        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.describe(Path(args.out))}"
         + hint,
         file=sys.stderr,
     )

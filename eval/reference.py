@@ -1,13 +1,11 @@
 """``python -m eval reference``: make the reference table of certified optima.
 
-Phases of harness jobs, a plan of the resumable runner (:class:`ReferencePlan`,
-:func:`agents.runner.run_plan`: records in ``--out``, here or on Dask with ``--scheduler``, a
-killed run resumes; one line says the whole cost first, :class:`agents.progress.CommandProgress`):
-the *search* (:func:`plan`: per point of :data:`tandem_env.envs.reference.REFERENCE_GRID`,
-objective, planform and seed), then the rounds of :data:`CONTINUATION` (:func:`continuation`). Per point, the best stroke
-competing for it (:func:`_pool`) is written with its provenance to the packaged table
-``tandem_env/data/reference_optima.json`` (or ``--table``, :func:`build_table`), a figure and a
-Markdown table of the optima to ``--out``. The method and the table: docs/reference.md.
+A plan of the resumable runner (:class:`ReferencePlan`, :func:`agents.runner.run_plan`: records
+in ``--out``, here or on Dask, a killed run resumes): the *search* (:func:`plan`: per point of
+:data:`tandem_env.envs.reference.REFERENCE_GRID`, objective, planform and seed), then the rounds
+of :data:`CONTINUATION`. Per point, the best stroke competing for it (:func:`_pool`) is written
+with its provenance to the packaged table (or ``--table``, :func:`build_table`), a figure and a
+Markdown table to ``--out``. The method and the table: docs/reference.md.
 """
 
 from __future__ import annotations
@@ -31,9 +29,8 @@ from agents.records import Record, package_versions
 from agents.runner import Lookup, look_ahead, run_plan
 from agents.selection import best_index
 from agents.store import RecordStore
-from agents.tasks import get_task
+from agents.tasks import get_task, task_of
 from eval.optimize import add_run_arguments, run_reporting
-from eval.reference_report import reference_markdown, write_reference_figure
 from tandem_env.envs.reference import (
     REFERENCE_FORMAT,
     REFERENCE_GRID,
@@ -69,8 +66,6 @@ def plan(
     env_kwargs: Mapping[str, Any] | None = None,
 ) -> dict[tuple[str, str, str, float], list[PreparedJob]]:
     """The jobs of the table: per (env id, objective, planform, condition), one per seed."""
-    from agents.tasks import task_of
-
     jobs: dict[tuple[str, str, str, float], list[PreparedJob]] = {}
     for env_id, (objectives, conditions) in grid.items():
         task = get_task(task_of(env_id))
@@ -120,11 +115,9 @@ def continuation(
     index: int = 0,
     rule: Continuation = CONTINUATION,
 ) -> dict[PointKey, Job]:
-    """Continuation round ``index`` (0, 1, ...): per point, one run of ``rule`` that polishes
-    the best strokes ``found`` so far at this point, at its neighbours on the grid and, for a
-    task in :data:`NESTED_TASKS`, for the other objectives here (each a warm start), beside a
-    short search of its own (seeded with the round's number); stand-ins where ``found`` is
-    None (:meth:`agents.jobs.Continuation.job`)."""
+    """Continuation round ``index`` (0, 1, ...): per point, one job of ``rule`` warm-started from
+    the best strokes ``found`` at this point, its grid neighbours and, for a task in
+    :data:`NESTED_TASKS`, the other objectives here; stand-ins where ``found`` is None."""
     best = {key: _best(list(records), key[0], key[1]) for key, records in (found or {}).items()}
     continued = {}
     for key, prepared in jobs.items():
@@ -145,9 +138,8 @@ def continuation(
 
 class ReferencePlan:
     """The table's phases (an :class:`agents.runner.Plan`): the search, then the rounds of
-    ``rule`` until it stops (:meth:`agents.jobs.Continuation.stops`). Running, it keeps the
-    rounds' jobs (:attr:`rounds`) and gains (:attr:`convergence`), said on stderr unless
-    ``quiet``."""
+    ``rule`` until it stops. Running, it keeps the rounds' jobs (:attr:`rounds`) and gains
+    (:attr:`convergence`), said on stderr unless ``quiet``."""
 
     def __init__(
         self,
@@ -173,8 +165,8 @@ class ReferencePlan:
             name = f"continuation {index + 1}"
             known = None if records is None else gather(jobs, rounds, by_key)
             continued = continuation(jobs, known, index, self.rule)
-            stand_ins = frozenset(j.key for j in continued.values()) if known is None else None
-            yield Phase(name, tuple(continued.values()), stand_ins or frozenset())
+            stand_ins = frozenset(j.key for j in continued.values() if known is None)
+            yield Phase(name, tuple(continued.values()), stand_ins)
             records = None if known is None else found(continued.values())
             if known is None or records is None:
                 continue
@@ -225,8 +217,7 @@ def round_gains(
     before: Mapping[PointKey, float], after: Mapping[PointKey, float]
 ) -> dict[str, Any]:
     """How much a continuation round raised the points: how many by more than
-    :data:`RAISED_PERCENT`, the largest and the median relative gain [%] (what says whether
-    the table has converged)."""
+    :data:`RAISED_PERCENT`, the largest and the median relative gain [%]."""
     gains = [100 * (after[k] / before[k] - 1) for k in before if before[k] > 0]
     raised = [g for g in gains if g > RAISED_PERCENT]
     return {
@@ -334,9 +325,8 @@ def provenance(
     convergence: Sequence[Mapping[str, Any]] = (),
     seeds: Sequence[int] = SEEDS,
 ) -> dict[str, Any]:
-    """How the table was made: the command, date, versions, method, budgets, seeds, and the
-    optimisations' summed wall time [s] (each as its record says, wherever it ran); ``seeds``
-    are the search's."""
+    """How the table was made: command, date, versions, method, budgets, the search's seeds,
+    the optimisations' summed wall time [s] (as their records say) and the continuation."""
     jobs = list(jobs)
     return {
         # where it ran (--scheduler, --out) does not change the table
@@ -427,3 +417,98 @@ def _report(table: Mapping[str, Any], out: Path) -> None:
                 f"feasible optimum at {[p['condition'] for p in weak]}",
                 file=sys.stderr,
             )
+
+
+# --- the table as people read it: a Markdown table, and a figure of the optima against the
+# condition with every seed's optimum beside the best
+# Okabe-Ito colours, one per objective (readable in colour-blind vision and in grey).
+_COLOURS = {"efficiency": "#0072B2", "vertical": "#0072B2", "horizontal": "#D55E00",
+            "resultant": "#009E73"}  # fmt: skip
+_LINES = {"tear-drop": "-", "real": "--"}
+
+
+def _condition_header(env_id: str) -> str:
+    condition = config_class(env_id).CONDITION
+    assert condition is not None
+    return f"{condition.symbol} [{condition.unit}]"
+
+
+def _spread(point: Mapping[str, Any]) -> str:
+    values = [v for v in point["seed_objectives"] if v is not None]
+    if not values:
+        return "none feasible"
+    return f"{min(values):.4g}-{max(values):.4g} ({len(values)}/{len(point['seed_objectives'])})"
+
+
+def reference_markdown(table: Mapping[str, Any]) -> str:
+    """One table per task: the optimum of each objective and planform at each condition, with
+    the range of the search's seeds' feasible optima (how many seeds found a feasible stroke)."""
+    by_env: dict[str, list[Mapping[str, Any]]] = {}
+    for series in table["series"]:
+        by_env.setdefault(series["env_id"], []).append(series)
+    parts = []
+    for env_id, series_list in by_env.items():
+        columns = [f"{s['objective']}, {s['planform']}" for s in series_list]
+        head = f"| {_condition_header(env_id)} | " + " | ".join(f"{c} | seeds" for c in columns)
+        rule = "|---" * (1 + 2 * len(columns)) + "|"
+        rows = []
+        for i, point in enumerate(series_list[0]["points"]):
+            cells = [f"{point['condition']:g}"]
+            for s in series_list:
+                p = s["points"][i]
+                cells += [f"{p['objective']:.4g}" if p["feasible"] else "-", _spread(p)]
+            rows.append("| " + " | ".join(cells) + " |")
+        parts.append(f"**{env_id}**\n\n{head} |\n{rule}\n" + "\n".join(rows) + "\n")
+    provenance = table["provenance"]
+    budgets = ", ".join(
+        f"{env_id.split('/')[-1]} {budget:,}" for env_id, budget in provenance["budgets"].items()
+    )
+    hours = provenance["optimisation_seconds"] / 3600
+    parts.append(
+        f"Made by `{provenance['command']}` on {provenance['date']} (tandem_env "
+        f"{provenance['versions']['tandem_env']}): {provenance['method']}, seeds "
+        f"{provenance['seeds']}, budgets {budgets} evaluations, then continuation: "
+        f"{provenance['continuation']}; {provenance['optimisations']} optimisations, "
+        f"{hours:.2f} h of one core's time in all (their records' wall times summed). "
+        + " ".join(
+            f"Continuation round {c['round']} raised {c['points_raised']} of the points by more "
+            f"than {provenance['raised_percent']:g} %, by at most {c['largest_gain_percent']:.2f} % (median "
+            f"{c['median_gain_percent']:.3f} %)."
+            for c in provenance["convergence"]
+        )
+        + "\n"
+    )
+    return "\n".join(parts)
+
+
+def write_reference_figure(table: Mapping[str, Any], path: Path) -> None:
+    """The optima against the condition: one panel per task, a line per objective and
+    planform (solid tear-drop, dashed real), every seed's feasible optimum as a faint dot."""
+    from eval.figures import plt, save
+
+    env_ids = list(dict.fromkeys(s["env_id"] for s in table["series"]))
+    fig, axes = plt.subplots(1, len(env_ids), figsize=(5.2 * len(env_ids), 3.8), squeeze=False)
+    for ax, env_id in zip(axes[0], env_ids, strict=True):
+        objectives = config_class(env_id).OBJECTIVES
+        assert objectives is not None
+        for series in (s for s in table["series"] if s["env_id"] == env_id):
+            colour = _COLOURS.get(series["objective"], "#000000")
+            points = [p for p in series["points"] if p["feasible"]]
+            ax.plot(
+                [p["condition"] for p in points],
+                [p["objective"] for p in points],
+                _LINES.get(series["planform"], ":"),
+                color=colour,
+                marker="o",
+                markersize=3,
+                label=f"{series['objective']}, {series['planform']}",
+            )
+            for p in series["points"]:
+                seeds = [v for v in p["seed_objectives"] if v is not None]
+                ax.plot([p["condition"]] * len(seeds), seeds, ".", color=colour, alpha=0.25)
+        ax.set_xlabel(_condition_header(env_id))
+        ax.set_ylabel(f"reference objective [{objectives.unit}]")
+        ax.set_title(env_id.split("/")[-1])
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    save(fig, path)  # atomically, its folder created

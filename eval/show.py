@@ -1,8 +1,6 @@
-"""``python -m eval show RECORD``: a record's stroke drawn and animated (:data:`DESCRIPTION`).
-
-The picture is the envs' render frame (:mod:`tandem_env.envs.render`) of the record's stroke,
-computed by the same model with the record's own insect and model options
-(:func:`eval.studies.kinematics.record_history`).
+"""``python -m eval show RECORD``: a record's stroke drawn and animated (:data:`DESCRIPTION`):
+the envs' render frame (:mod:`tandem_env.envs.render`) of the stroke, computed with the record's
+own insect and model options (:func:`eval.studies.kinematics.record_history`).
 """
 
 from __future__ import annotations
@@ -59,10 +57,9 @@ def load_record(path: Path) -> Record:
 
 
 def record_history(record: Record, path: Path, frames: int = DEFAULT_FRAMES) -> Any:
-    """The record's stroke over one cycle (``frames`` samples), by the model with the record's
-    own env keywords; ValueError in one line naming ``path`` for a record the model refuses (a
-    stroke outside Table 4, a value that is not a finite number, a parameter missing, env
-    keywords that are unknown or out of range): the model's own checks, before any drawing."""
+    """The record's stroke over one cycle (``frames`` samples) with the record's own env
+    keywords; ValueError in one line naming ``path`` for a record the model's own checks
+    refuse (a stroke outside Table 4, a parameter missing, bad env keywords), before drawing."""
     from eval.studies.kinematics import record_history
 
     try:
@@ -81,8 +78,7 @@ def show(
     fmt: str = "gif",
     fps: int = DEFAULT_FPS,
 ) -> tuple[Path, Path]:
-    """Write ``out/<key>.png`` and the animation ``out/<key>.<fmt>`` (atomically) of the
-    record's ``history`` (:func:`record_history`); their paths."""
+    """Write ``out/<key>.png`` and the animation ``out/<key>.<fmt>`` (atomically); their paths."""
     from matplotlib import animation
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure

@@ -1,9 +1,6 @@
 """``python -m eval speed-change``: policies flown through whole ``TandemWing/SpeedChange-v0``
-episodes (the policies and what is written: :data:`DESCRIPTION`).
-
-Every policy (a :class:`~eval.speed_change_policies.Policy`) flies the same episodes: the native
-vector env reset with the fixed evaluation seeds, one batched model call per cycle for all
-episodes. The steady schedule's level-flight optima are harness jobs (:func:`steady_optima`).
+episodes (:data:`DESCRIPTION`). Every :class:`Policy` flies the same episodes, the native vector
+env reset with the fixed evaluation seeds, one batched model call per cycle for all of them.
 """
 
 from __future__ import annotations
@@ -15,15 +12,15 @@ import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import gymnasium as gym
 import numpy as np
 
 import tandem_env  # noqa: F401  (registers the ids)
 from agents.records import Record
-from eval.speed_change_policies import Policy, RandomPolicy, SB3Policy, SteadyPolicy
 from tandem_env.envs.registration import SPEED_CHANGE_ID
+from tandem_env.envs.speed_change import Flight
 from tandem_env.envs.speed_change_config import LEVEL_FLIGHT_ENVELOPE, SpeedChangeConfig
 from tandem_env.io.files import (
     atomic_path,
@@ -33,18 +30,6 @@ from tandem_env.io.files import (
 )
 from tandem_env.physics.checks import shown
 from tandem_env.physics.model import MAX_BATCH_STROKES
-
-__all__ = [
-    "EpisodeLog",
-    "Policy",
-    "RandomPolicy",
-    "SB3Policy",
-    "SteadyPolicy",
-    "episode_metrics",
-    "policy_summary_rows",
-    "run_episodes",
-    "steady_optima",
-]
 
 NAME = "speed-change"
 HELP = "fly random, steady-optimum, PPO and SAC policies through SpeedChange-v0 episodes"
@@ -90,15 +75,90 @@ FIRST_SEED = 1000
 """Default first evaluation seed (training runs use small seeds)."""
 
 
+# --- the policies: each chooses the next stroke of B episodes from their observations and states
+class Policy(Protocol):
+    """Chooses the next stroke of B episodes from their observations and states."""
+
+    name: str
+
+    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
+        """(B, 28) normalised strokes in [-1, 1]."""
+        ...
+
+
+@dataclass
+class RandomPolicy:
+    """Uniform random strokes, a fresh one each cycle, from a seeded generator."""
+
+    seed: int = 0
+    name: str = "random"
+    _rng: np.random.Generator = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self._rng = np.random.default_rng(self.seed)
+
+    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
+        return self._rng.uniform(-1.0, 1.0, (observations.shape[0], 28))
+
+
+@dataclass(frozen=True)
+class SteadyPolicy:
+    """The level-flight optimum at the grid speed nearest each episode's target, every cycle."""
+
+    speeds: np.ndarray
+    """(G,) grid speeds [m/s]."""
+    actions: np.ndarray
+    """(G, 28) normalised level-flight optimum at each grid speed."""
+    name: str = "steady"
+
+    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
+        nearest = np.argmin(np.abs(flight.target_speed[:, None] - self.speeds[None, :]), axis=1)
+        return self.actions[nearest]
+
+
+@dataclass(frozen=True)
+class SB3Policy:
+    """A Stable-Baselines3 model's deterministic action (clipped to the action box)."""
+
+    model: Any
+    name: str
+
+    @classmethod
+    def load(cls, run_dir: str | os.PathLike[str], name: str, which: str = "final") -> SB3Policy:
+        """The model of a ``python -m train`` run folder (``which``: "final" or "best")."""
+        from train.trained_policy import TrainedPolicy
+
+        policy = TrainedPolicy.load(run_dir, which)  # type: ignore[arg-type]
+        if policy.algo != name:
+            raise ValueError(
+                f"--{name} {run_dir} is a {policy.algo.upper()} run; allowed: a "
+                f"{name.upper()} run (or give it with --{policy.algo})"
+            )
+        if policy.env_id != SPEED_CHANGE_ID:
+            raise ValueError(
+                f"{run_dir} was trained on {policy.env_id}; allowed: a run on {SPEED_CHANGE_ID}"
+            )
+        if policy.normalizer_path is not None:
+            raise ValueError(
+                f"{run_dir} normalised its observations (VecNormalize); allowed here: runs with "
+                "normalize: false, as in train/hyperparams"
+            )
+        steps = int(policy.model.num_timesteps)
+        return cls(policy.model, f"{name} ({steps / 1000:.0f}k steps)")
+
+    def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
+        actions, _ = self.model.predict(observations, deterministic=True)
+        return np.clip(actions, -1.0, 1.0)
+
+
 # --- the level-flight optima, through the harness ---------------------------------------------
 #: The harness method of the level-flight optima (registered with the harness, as pso is).
 DEFAULT_OPTIMISER = "cmaes"
 
 
 def level_kwargs(config: SpeedChangeConfig) -> dict[str, Any]:
-    """The level-flight env keywords that give the SpeedChange env's insect and model options:
-    only what differs from the defaults (``{"thrust_split": "body"}`` by default), so records
-    stay readable and their configuration keys stable."""
+    """The level-flight env keywords of the SpeedChange env's insect and model options: only
+    what differs from the defaults, so records stay readable and their keys stable."""
     from tandem_env import Dragonfly, ModelOptions
     from tandem_env.envs.config import MODEL_OPTION_KWARGS
 
@@ -133,14 +193,9 @@ def optima_records(
     rerun: bool = False,
 ) -> list[Record]:
     """The records of the level-flight optima at ``speeds`` [m/s] for the env's insect and
-    model options, in that order (one infeasible is said on stderr).
-
-    Each is one harness job (``budget`` model evaluations, ``seed``) on the ``level`` task, run
-    by the runner (:func:`agents.runner.run_jobs`: serially, or on Dask with ``scheduler``)
-    into the record store ``cache_dir`` (a temporary one if None), where a stored record of the
-    same configuration is reused, as is one in the record cache unless ``record_cache`` is
-    False (``--no-cache``), unless ``rerun`` (``--rerun``); the runner hands the records back.
-    """
+    model options, in that order (one infeasible is said on stderr): a harness job each on the
+    ``level`` task, run by :func:`agents.runner.run_jobs` into the record store ``cache_dir`` (a
+    temporary one if None; ``record_cache``: ``--no-cache``, ``rerun``: ``--rerun``)."""
     import tempfile
 
     from agents.jobs import Job
@@ -166,8 +221,7 @@ def optima_records(
 
 
 def steady_optima(config: SpeedChangeConfig, **run: Any) -> SteadyPolicy:
-    """The steady schedule: the level-flight optima of :func:`optima_records` (``run``: its
-    keyword arguments) at their speeds."""
+    """The steady schedule of the level-flight optima of :func:`optima_records` (``run``)."""
     records = optima_records(config, **run)
     return SteadyPolicy(
         np.array([r.job.condition for r in records], dtype=np.float64),
@@ -210,35 +264,35 @@ class EpisodeLog:
 def run_episodes(
     policy: Policy, seeds: Sequence[int], env_kwargs: Mapping[str, Any] | None = None
 ) -> list[EpisodeLog]:
-    """Fly one episode per seed with ``policy``: the native vector env, sub-env i reset with
-    ``seeds[i]``, one batched model call per cycle; each sub-env's first episode is logged."""
+    """Fly one episode per seed with ``policy``: sub-env i of the native vector env reset with
+    ``seeds[i]``, one batched model call per cycle; each sub-env's first episode."""
     n = len(seeds)
     envs = gym.make_vec(
         SPEED_CHANGE_ID, num_envs=n, vectorization_mode="vector_entry_point", **(env_kwargs or {})
     )
+    columns = ("time", "forward_speed", "altitude", "distance")
+    per_cycle = ("power_per_mass", "energy", "reward")
     try:
         observations, info = envs.reset(seed=[int(s) for s in seeds])
-        columns = ("time", "forward_speed", "altitude", "distance")
-        states = {key: [[float(info[key][i])] for i in range(n)] for key in columns}
-        per_cycle: dict[str, list[list[float]]] = {
-            key: [[] for _ in range(n)] for key in ("power_per_mass", "energy", "reward")
-        }
+        states = {key: [np.asarray(info[key], np.float64)] for key in columns}
+        cycles: dict[str, list[np.ndarray]] = {key: [] for key in per_cycle}
         parts = {key: np.zeros(n) for key in REWARD_PARTS}
         targets = np.asarray(info["target_speed"], dtype=np.float64)
         running = np.ones(n, dtype=bool)
         terminated = np.zeros(n, dtype=bool)
+        cycles_run = np.zeros(n, dtype=int)  # each episode's cycles: later steps are another's
         while running.any():
             actions = policy.act(observations, envs.unwrapped.flight)
             observations, rewards, term, trunc, info = envs.step(actions.astype(np.float32))
-            for i in np.flatnonzero(running):
-                for key in columns:
-                    states[key][i].append(float(info[key][i]))
-                per_cycle["power_per_mass"][i].append(float(info["power_per_mass"][i]))
-                per_cycle["energy"][i].append(float(info["energy"][i]))
-                per_cycle["reward"][i].append(float(rewards[i]))
-                for key in REWARD_PARTS:
-                    name = key if key == "penalty" else f"reward_{key}"
-                    parts[key][i] += (-1.0 if key == "penalty" else 1.0) * float(info[name][i])
+            info = {**info, "reward": rewards}
+            cycles_run += running
+            for key in columns:
+                states[key].append(np.asarray(info[key], np.float64))
+            for key in per_cycle:
+                cycles[key].append(np.asarray(info[key], np.float64))
+            for key in REWARD_PARTS:  # the penalty is subtracted from the reward
+                value = -info[key] if key == "penalty" else info[f"reward_{key}"]
+                parts[key] += np.where(running, np.asarray(value, np.float64), 0.0)
             terminated |= running & term
             running &= ~(term | trunc)
     finally:
@@ -248,8 +302,8 @@ def run_episodes(
             policy=policy.name,
             seed=int(seeds[i]),
             target_speed=float(targets[i]),
-            **{key: np.asarray(states[key][i]) for key in columns},
-            **{key: np.asarray(per_cycle[key][i]) for key in per_cycle},
+            **{key: np.array(states[key])[: cycles_run[i] + 1, i] for key in columns},
+            **{key: np.array(cycles[key])[: cycles_run[i], i] for key in per_cycle},
             terminated=bool(terminated[i]),
             terms={key: float(parts[key][i]) for key in REWARD_PARTS},
         )
@@ -289,34 +343,32 @@ def policy_summary_rows(episodes: Sequence[Mapping[str, Any]]) -> list[dict[str,
     out = []
     for policy in dict.fromkeys(e["policy"] for e in episodes):
         rows = [e for e in episodes if e["policy"] == policy]
-
-        def values(key: str, rows: list[Mapping[str, Any]] = rows) -> np.ndarray:
-            return np.array([r[key] for r in rows], dtype=np.float64)
-
-        reached = values("time_to_target_s")
-        reached = reached[np.isfinite(reached)]
-        per_metre = values("energy_per_metre_mJ_m")
+        numbers = [key for key in rows[0] if key != "policy"]
+        values = {key: np.array([r[key] for r in rows], np.float64) for key in numbers}
+        reached = values["time_to_target_s"][np.isfinite(values["time_to_target_s"])]
+        per_metre = values["energy_per_metre_mJ_m"]
         per_metre = per_metre[np.isfinite(per_metre)]
+        mean = {key: float(v.mean()) for key, v in values.items()}
         out.append(
             {
                 "policy": policy,
                 "episodes": len(rows),
-                "return_mean": float(values("return").mean()),
-                "return_std": float(values("return").std()),
-                "terminated_share": float(values("terminated").mean()),
+                "return_mean": mean["return"],
+                "return_std": float(values["return"].std()),
+                "terminated_share": mean["terminated"],
                 "reached_share": reached.size / len(rows),
                 "time_to_target_median_s": float(np.median(reached)) if reached.size else math.nan,
-                "final_speed_error_mean_m_s": float(values("final_speed_error_m_s").mean()),
+                "final_speed_error_mean_m_s": mean["final_speed_error_m_s"],
                 "energy_per_metre_mean_mJ_m": float(per_metre.mean())
                 if per_metre.size
                 else math.nan,
-                "mean_abs_altitude_mean_mm": float(values("mean_abs_altitude_mm").mean()),
-                "flight_time_mean_s": float(values("flight_time_s").mean()),
-                "mean_power_W_kg": float(values("mean_power_W_kg").mean()),
+                "mean_abs_altitude_mean_mm": mean["mean_abs_altitude_mm"],
+                "flight_time_mean_s": mean["flight_time_s"],
+                "mean_power_W_kg": mean["mean_power_W_kg"],
                 **{
-                    f"return_{key}_mean": float(values(f"return_{key}").mean())
+                    f"return_{key}_mean": mean[f"return_{key}"]
                     for key in REWARD_PARTS
-                    if f"return_{key}" in rows[0]
+                    if f"return_{key}" in mean
                 },
             }
         )
@@ -422,12 +474,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="V",
         help="speeds [m/s] of the level-flight optima (default 0.25 to 2.0 in steps of 0.25)",
     )
-    parser.add_argument(
-        "--ppo", nargs="+", default=[], metavar="RUN_DIR", help="python -m train PPO run folders"
-    )
-    parser.add_argument(
-        "--sac", nargs="+", default=[], metavar="RUN_DIR", help="python -m train SAC run folders"
-    )
+    for algo in ("ppo", "sac"):
+        text = f"python -m train {algo.upper()} run folders"
+        parser.add_argument(f"--{algo}", nargs="+", default=[], metavar="RUN_DIR", help=text)
     parser.add_argument(
         "--model", choices=("final", "best"), default="final", help="which saved model (final)"
     )
@@ -441,15 +490,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=0,
         help="which evaluation episode the figure shows (index, default 0)",
     )
-    from eval.optimize import add_run_arguments
+    from eval.optimize import add_run_arguments  # eval.optimize imports the studies: not here
 
     add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
 def _check_optima(args: argparse.Namespace, config: SpeedChangeConfig) -> None:
-    """Validate --optimiser, --optima-budget and --grid before any optimisation (ValueError
-    naming the option and what is allowed)."""
+    """Validate --optimiser, --optima-budget and --grid before any optimisation."""
     from agents.harness import prepare
 
     if len(set(args.grid)) != len(args.grid):

@@ -25,7 +25,7 @@ from collections.abc import Callable
 import pytest
 
 from eval import numbers
-from eval.numbers import comparison, convergence, framework, readings_paper, speed_change
+from eval.numbers import convergence, framework, optimisations, readings_paper, speed_change
 
 
 def test_every_region_is_its_rendering() -> None:
@@ -52,10 +52,10 @@ def test_render_document_rejects_unknown_region() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("row", comparison.COMPARISON_ROWS, ids=lambda r: r.label.split(",")[0])
-@pytest.mark.parametrize("method", comparison.COMPARISON_METHODS)
-def test_comparison_seed0_reproduces(row: comparison.ComparisonRow, method: str) -> None:
-    (fresh,) = comparison.run_optimize(row, method, [0])
+@pytest.mark.parametrize("row", optimisations.COMPARISON_ROWS, ids=lambda r: r.label.split(",")[0])
+@pytest.mark.parametrize("method", optimisations.COMPARISON_METHODS)
+def test_comparison_seed0_reproduces(row: optimisations.ComparisonRow, method: str) -> None:
+    (fresh,) = optimisations.run_optimize(row, method, [0])
 
     def seed0(view: dict) -> dict:
         stored = next(r for r in view["rows"] if r["label"] == row.label and r["method"] == method)
@@ -102,18 +102,17 @@ def assert_optimum_reproduces(
 def test_second_species_seed0_reproduces() -> None:
     """Seed 0 of the second species' documented command (docs/envs.md, "A second species"), run
     again: the same optimum, and the record holds the example file's insect."""
-    from eval.numbers import second_species
     from tandem_env.physics.insect import insect_mapping, load_insect
 
-    label, insect = second_species.SPECIES_INSECTS[-1]
+    label, insect = optimisations.SPECIES_INSECTS[-1]
 
     def seed0(view: dict) -> dict:
         stored = next(r for r in view["rows"] if r["label"] == label)
         return next(s for s in stored["seeds"] if s["seed"] == 0)
 
-    (fresh,) = second_species.run_species(insect, [0])
+    (fresh,) = optimisations.run_species(insect, [0])
     assert_optimum_reproduces(fresh, "second-species", seed0, "{:.4f}")
-    expected = insect_mapping(load_insect(framework.ROOT / second_species.SPECIES_FILE))
+    expected = insect_mapping(load_insect(framework.ROOT / optimisations.SPECIES_FILE))
     assert fresh["insect"] == expected == seed0(framework.load("second-species"))["insect"]
 
 

@@ -8,26 +8,17 @@ into the document between two markers::
     <!-- /numbers -->
 
 Each measurement keeps its raw results in ``docs/numbers/<name>.json`` (per-seed values, the
-commands, date, machine and load), and the Markdown is rendered from that file alone, so
+commands, date, machine and load), and the Markdown is rendered from that file alone:
+``python -m eval numbers`` reruns every measurement (``--only NAME ...``: those; the
+``on_request`` ones collect a long run's outputs and are measured only when named), rewrites
+its JSON and the documents; ``--render`` rewrites the documents from the stored JSON only.
+``tests/test_docs_numbers.py`` checks that every marked region equals its rendering and reruns
+the deterministic rows against the stored values.
 
-* ``python -m eval numbers`` reruns every measurement, rewrites its JSON and the documents;
-* ``python -m eval numbers --render`` rewrites the documents from the stored JSON only;
-* ``tests/test_docs_numbers.py`` checks that every marked region equals its rendering (a hand
-  edit or a stale region fails) and reruns seed 0 of every deterministic row at its stated
-  settings against the stored value.
-
-* ``python -m eval numbers --only NAME ...`` reruns only those (:data:`MEASUREMENTS` lists
-  them; the ``on_request`` ones collect a long run's outputs and are measured only when named).
-
-This package is a small framework (:mod:`eval.numbers.framework`: where numbers live, the
-machine, the documented commands) and one module per measurement. Adding a number is one
-module with its ``measure() -> dict``, pure ``render(dict) -> str`` and their
-:class:`~eval.numbers.framework.Measurement` (``MEASUREMENT``; :data:`MEASUREMENTS` finds it in
-the package), and one region in a document. A benchmark is measured by running its
-documented command with ``--json`` (:class:`~eval.numbers.framework.Benchmark`). Timings are
-not deterministic: they are shown with the machine (CPU model, cores), date and load average
-before and after they were taken, the documents read their ratios within one run, and the test
-does not compare them.
+Adding a number is a :class:`~eval.numbers.framework.Measurement` (``measure() -> dict``, pure
+``render(dict) -> str``) in a module of this package (its ``MEASUREMENT`` or ``MEASUREMENTS``)
+and one region in a document. Timings are shown with the machine (CPU model, cores), date and
+load average before and after they were taken, and the test does not compare them.
 """
 
 from __future__ import annotations
@@ -126,24 +117,9 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             print(f"measuring {name} ...", file=sys.stderr, flush=True)
             before = machine()
             data = MEASUREMENTS[name].measure()
-            if MEASUREMENTS[name].blas_dependent:
-                kernels = {
-                    "blas_kernel": blas_kernel(),
-                    "other_kernels": measure_other_kernels(name),
-                }
-                data = {**data, **kernels}
+            if MEASUREMENTS[name].blas_dependent:  # measured again under the other kernels
+                data |= {"blas_kernel": blas_kernel(), "other_kernels": measure_other_kernels(name)}
             save(name, {**data, "machine_before": before, "machine_after": machine()})
     for path in write_documents(rendered_all()):
         print(f"updated {path.relative_to(ROOT)}")
     return 0
-
-
-__all__ = [
-    "HELP",
-    "MEASUREMENTS",
-    "NAME",
-    "add_arguments",
-    "main",
-    "render_document",
-    "rendered_all",
-]

@@ -1,7 +1,5 @@
-"""The framework of ``python -m eval numbers``: where numbers live (``docs/numbers/<name>.json``
-and the documents' marked regions), one :class:`Measurement`, the documented commands a
-measurement runs (:func:`run_command`, :class:`Benchmark`), the machine a timing is read
-against, and the helpers the measurements share."""
+"""The framework of ``python -m eval numbers``: where numbers live, one :class:`Measurement`,
+the documented commands it runs, the machine a timing is read against, shared helpers."""
 
 from __future__ import annotations
 
@@ -30,22 +28,21 @@ REGION = re.compile(
 )
 
 
-def run_command(command: Sequence[str], environment: dict[str, str] | None = None) -> float:
-    """Run a documented ``python ...`` command from the repository root with this interpreter
-    (``environment``: variables set for it); its wall time [s]. A failure raises with the end
-    of its stderr."""
-    command = [sys.executable, *command[1:]] if command[0] == "python" else list(command)
-    start = time.perf_counter()
-    done = subprocess.run(
-        command,
-        cwd=ROOT,
-        env={**os.environ, **(environment or {})},
-        capture_output=True,
-        text=True,
-        check=False,
-    )
+def _run(command: Sequence[str], environment: dict[str, str] | None = None) -> str:
+    """Run ``command`` from the repository root (``environment``: variables set for it); its
+    standard output. A failure raises with the end of its stderr."""
+    environment = {**os.environ, **(environment or {})}
+    done = subprocess.run(command, cwd=ROOT, env=environment, capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(command)} exited {done.returncode}:\n{done.stderr[-2000:]}")
+    return done.stdout
+
+
+def run_command(command: Sequence[str], environment: dict[str, str] | None = None) -> float:
+    """Run a documented ``python ...`` command with this interpreter (:func:`_run`); its wall
+    time [s]."""
+    start = time.perf_counter()
+    _run([sys.executable, *command[1:]] if command[0] == "python" else command, environment)
     return time.perf_counter() - start
 
 
@@ -59,9 +56,8 @@ def optimize_command(arguments: Sequence[str], seeds: Sequence[int]) -> str:
 
 
 def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
-    """Run the documented ``eval optimize`` command (:func:`optimize_command`) into a fresh folder
-    with the record cache off (measured now, its wall times too, not copied from an earlier
-    run); its records, by seed."""
+    """Run the documented ``eval optimize`` command into a fresh folder with the record cache
+    off (measured now, wall times too); its records, by seed."""
     from agents.store import read_record_files
 
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
@@ -74,10 +70,9 @@ def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
 
 
 def seed_cells(by_kernel: Sequence[Sequence[dict[str, Any]]]) -> tuple[str, str, str, str]:
-    """The table cells of one command's seeds, measured under each BLAS kernel (the machine's
-    own first, :func:`kernel_views`): each seed's objective and their median (bold) at the
-    digits every kernel gives (:func:`agreed`), whether all are feasible under every kernel,
-    and the range of the own kernel's wall times per seed."""
+    """The cells of one command's seeds under each BLAS kernel (the machine's own first): each
+    seed's objective and their median (bold) at the digits every kernel gives, whether all are
+    feasible under every kernel, and the range of the own kernel's wall times per seed."""
     seeds = by_kernel[0]
     times = [s["wall_time_s"] for s in seeds]
     objectives = [[s["objective"] for s in kernel] for kernel in by_kernel]
@@ -111,9 +106,8 @@ def blas_kernel() -> str:
 
 
 def measure_other_kernels(name: str) -> dict[str, dict[str, Any]]:
-    """Measurement ``name`` measured again in a fresh process under each of
-    :data:`OTHER_BLAS_KERNELS` that differs from the machine's own, by kernel (empty where
-    numpy's BLAS is not OpenBLAS: its kernel cannot be chosen)."""
+    """Measurement ``name`` again in a fresh process under each other kernel, by kernel (empty
+    where numpy's BLAS is not OpenBLAS: its kernel cannot be chosen)."""
     own = blas_kernel()
     from threadpoolctl import threadpool_info
 
@@ -123,29 +117,17 @@ def measure_other_kernels(name: str) -> dict[str, dict[str, Any]]:
         "import json, sys; from eval.numbers import MEASUREMENTS; "
         "json.dump(MEASUREMENTS[sys.argv[1]].measure(), sys.stdout)"
     )
-    measured = {}
-    for kernel in OTHER_BLAS_KERNELS:
-        if kernel.lower() == own.lower():
-            continue
-        done = subprocess.run(
-            [sys.executable, "-c", script, name],
-            cwd=ROOT,
-            env={**os.environ, "OPENBLAS_CORETYPE": kernel},
-            capture_output=True,
-            text=True,
-            check=False,
+    return {
+        kernel: json.loads(
+            _run([sys.executable, "-c", script, name], {"OPENBLAS_CORETYPE": kernel})
         )
-        if done.returncode != 0:
-            raise RuntimeError(
-                f"{name} under {kernel} exited {done.returncode}:\n{done.stderr[-2000:]}"
-            )
-        measured[kernel] = json.loads(done.stdout)
-    return measured
+        for kernel in OTHER_BLAS_KERNELS
+        if kernel.lower() != own.lower()
+    }
 
 
 def kernel_views(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
-    """A BLAS-dependent measurement's data as measured under each kernel, the machine's own
-    (``blas_kernel``) first; a measurement without kernels is its own single view."""
+    """A measurement's data under each kernel, the machine's own first (one view without)."""
     own = {k: v for k, v in data.items() if k != "other_kernels"}
     return {data.get("blas_kernel", "unknown"): own, **data.get("other_kernels", {})}
 
@@ -156,8 +138,7 @@ def for_kernel(data: dict[str, Any], kernel: str) -> dict[str, Any] | None:
 
 
 def kernels_line(data: dict[str, Any]) -> str:
-    """The sentence under a BLAS-dependent table: which kernels measured it, and what a range
-    in it means."""
+    """The sentence under a BLAS-dependent table: its kernels, and what a range means."""
     own, *others = kernel_views(data)
     kernels = ", ".join([f"{own} (the measuring machine's own)", *others])
     return (
@@ -167,8 +148,8 @@ def kernels_line(data: dict[str, Any]) -> str:
 
 
 def agreed(values: Sequence[float], form: str) -> str:
-    """``values`` (one number measured under several BLAS kernels) as the documents show it:
-    ``form`` of them where every kernel gives the same text, else their range, ``min–max``."""
+    """One number measured under several kernels as shown: ``form`` of it where every kernel
+    gives the same text, else their range, ``min–max``."""
     texts = {form.format(v) for v in values}
     if len(texts) == 1:
         return texts.pop()
@@ -176,8 +157,8 @@ def agreed(values: Sequence[float], form: str) -> str:
 
 
 def within_shown(value: float, values: Sequence[float], form: str) -> bool:
-    """Whether ``value``, measured under a kernel that was not, is what the documents show of
-    ``values`` (:func:`agreed`): the same text, or inside the shown range."""
+    """Whether ``value`` (from a kernel not measured) is what :func:`agreed` shows of
+    ``values``: the same text, or inside the shown range."""
     shown = agreed(values, form)
     low, _, high = shown.partition("–")
     return float(low) <= float(form.format(value)) <= float(high or low)
@@ -236,8 +217,8 @@ def random_strokes(n: int = RANDOM_STROKES, seed: int = 0) -> Any:
 
 @dataclass(frozen=True)
 class Measurement:
-    """One generated number set: ``measure`` runs it (its JSON, without the machine fields that
-    :func:`main` adds), ``render`` turns the stored JSON into the region's Markdown."""
+    """One generated number set: ``measure`` runs it (its JSON), ``render`` turns the stored
+    JSON into the region's Markdown."""
 
     name: str
     measure: Callable[[], dict[str, Any]]
@@ -246,8 +227,7 @@ class Measurement:
     """Measured only when named in ``--only``: it collects a long study's outputs (run first)."""
     blas_dependent: bool = False
     """Its numbers come from optimisations, whose last digits depend on the BLAS kernel: also
-    measured under :data:`OTHER_BLAS_KERNELS` (``other_kernels`` in its JSON), and rendered at
-    the digits every kernel gives (:func:`agreed`)."""
+    measured under :data:`OTHER_BLAS_KERNELS`, rendered at the digits all give."""
 
 
 def cpu_model() -> str:
@@ -287,16 +267,14 @@ def machine_line(data: dict[str, Any], name: str) -> str:
 
 
 def at_load(data: dict[str, Any]) -> str:
-    """Where a bold wall time holds: ``at a load average of 1.25-1.54 on 2 CPUs``. A CPU-bound
-    command on a busier machine takes longer, about in proportion to the load per core."""
+    """Where a bold wall time holds: ``at a load average of 1.25-1.54 on 2 CPUs``."""
     before, after = data["machine_before"], data["machine_after"]
     low, high = sorted((before["load_average_1min"], after["load_average_1min"]))
     return f"at a load average of {low:g}-{high:g} on {before['cpus']} CPUs"
 
 
 def footer(data: dict[str, Any], name: str, *commands: str, heading: str = "") -> list[str]:
-    """The lines that close a region: :func:`machine_line`, then ``heading`` (if any) and the
-    commands that measured it."""
+    """The lines that close a region: :func:`machine_line`, ``heading`` and the commands."""
     headed = [heading, ""] if heading else []
     return ["", machine_line(data, name), "", *headed, *(f"    {command}" for command in commands)]
 

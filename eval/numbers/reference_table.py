@@ -19,7 +19,7 @@ def measure() -> dict[str, Any]:
 
 
 def render(data: dict[str, Any]) -> str:
-    from eval.reference_report import reference_markdown
+    from eval.reference import reference_markdown
 
     return reference_markdown(data)
 

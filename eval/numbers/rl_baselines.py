@@ -6,7 +6,15 @@ held-out condition (:func:`tandem_env.envs.reference.held_out_conditions`), scor
 reference table (``score``: 100 = the certified optimum).
 
 On request only (``--only rl-baselines``): twenty training runs, two at a time, about 45 min on
-2 cores. The figure (score against speed, every seed) is written beside the table."""
+2 cores. The figure (score against speed, every seed) is written beside the table.
+
+Beside them (on request too), the amortised policy (``--only amortised-scores``: for each seed,
+one policy trained by the documented ``python -m train --algo amortised`` command, default
+settings, scored exactly as the RL policies are; five training runs, two at a time, about half
+an hour on 2 cores; it redraws the shared figure with the stored RL runs), and the README's
+headline of every envelope policy's scores ("One network for the whole envelope",
+``--only envelope-headline``: each policy's median and worst score and the share of its strokes
+that fly, over every seed, read from the stored runs of the two: measure those first)."""
 
 from __future__ import annotations
 
@@ -20,6 +28,8 @@ from typing import Any
 from eval.numbers.framework import (
     ROOT,
     Measurement,
+    json_path,
+    load,
     machine_line,
     read_rows,
     run_command,
@@ -44,9 +54,9 @@ HYPERPARAMETERS: dict[str, str | None] = {
     "tuned": "train/hyperparams/envelope/{algo}.yml",
 }
 
-#: Every envelope policy the figure and the README headline (:mod:`eval.numbers.
-#: envelope_headline`) show, in the figure's drawing and legend order: (the measurement that
-#: stores its runs, algo, a key of :data:`HYPERPARAMETERS`: "" for the amortised policy).
+#: Every envelope policy the figure and the README headline (``envelope-headline``) show, in
+#: the figure's drawing and legend order: (the measurement that stores its runs, algo, a key of
+#: :data:`HYPERPARAMETERS`: "" for the amortised policy).
 POLICIES: tuple[tuple[str, str, str], ...] = (
     *(("rl-baselines", algo, hp) for algo, _ in ALGOS for hp in ("tuned", "shipped")),
     ("amortised-scores", "amortised", ""),
@@ -66,9 +76,8 @@ def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str
 def score_run(
     command: list[str], algo: str, steps: int, seed: int, folder: Path, variant: str = ""
 ) -> dict[str, Any]:
-    """Train by ``command`` (``-f`` is added), then score its stroke at each held-out
-    condition through ``python -m train.envelope``; ``variant`` tells runs of one ``algo``
-    apart (the hyperparameters)."""
+    """Train by ``command`` (``-f`` added), then score its stroke at each held-out condition
+    through ``python -m train.envelope``; ``variant``: the hyperparameters."""
     from tandem_env.envs.reference import held_out_conditions
 
     logs = folder / f"{algo}{variant and '-' + variant}-{seed}"
@@ -106,8 +115,8 @@ def measure() -> dict[str, Any]:
 
 
 def score_runs(name: str, tasks: list[tuple[list[str], str, int, int, str]]) -> list[Any]:
-    """:func:`score_run` of each (command, algo, steps, seed, variant), two at a time in a
-    fresh folder; the figure is redrawn with them as measurement ``name``'s runs."""
+    """:func:`score_run` of each (command, algo, steps, seed, variant), two at a time; the
+    figure is redrawn with them as measurement ``name``'s runs."""
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as tmp:
         with ThreadPoolExecutor(max_workers=2) as pool:
             runs = list(pool.map(lambda t: score_run(*t[:4], Path(tmp), t[4]), tasks))
@@ -129,8 +138,7 @@ def summary(runs: list[dict[str, Any]]) -> tuple[float, float, float, float]:
 
 
 def runs_of(runs: list[dict[str, Any]], algo: str, hyperparams: str = "") -> list[dict[str, Any]]:
-    """The runs of ``algo`` trained with ``hyperparams`` (a key of :data:`HYPERPARAMETERS`;
-    "" for a policy that has none, the amortised one)."""
+    """The runs of ``algo`` trained with ``hyperparams`` ("" for the amortised policy)."""
     return [r for r in runs if r["algo"] == algo and r.get("hyperparams", "") == hyperparams]
 
 
@@ -141,8 +149,7 @@ def score_text(value: float) -> str:
 
 
 def score_table(training: str, rows: list[tuple[str, str, list[dict[str, Any]]]]) -> str:
-    """The scores table the policies' tables share: a row per (policy, its ``training`` column,
-    its runs), the :func:`summary` of the runs."""
+    """The scores table: a row per (policy, its ``training`` column, its runs)."""
     scores = ("seeds", "median score", "worst score", "strokes that fly")
     lines = table_head(["policy", training, *scores, "training time (median, 1 core)"])
     for policy, trained, runs in rows:
@@ -172,14 +179,11 @@ def render(data: dict[str, Any]) -> str:
 
 
 def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
-    """Score against speed: one thin line per seed, the median thick, per policy: PPO's and
-    SAC's with the envelope's tuned hyperparameters (the shipped ones' median dashed) from
-    ``rl-baselines``, and the amortised policy's (``amortised-scores``); the ``fresh`` runs of
-    a measurement just made, the other's as stored (if it is)."""
+    """Score against speed per policy of :data:`POLICIES`: each seed thin, the median thick (the
+    shipped hyperparameters' median only, dashed); ``fresh``: runs just measured, by name."""
     import matplotlib.pyplot as plt
 
     from eval.figures import PALETTE, save
-    from eval.numbers.framework import json_path, load
 
     colours = dict(zip(dict.fromkeys(algo for _, algo, _ in POLICIES), PALETTE, strict=False))
     stored = {
@@ -214,4 +218,66 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     save(fig, path)  # atomically, its folder made if need be
 
 
-MEASUREMENT = Measurement("rl-baselines", measure, render, on_request=True)
+AMORTISED = "amortised"
+
+
+def amortised_command(seed: int | str) -> list[str]:
+    """The documented amortised training command (``-f`` is added)."""
+    return ["python", "-m", "train", "--algo", AMORTISED, "--env", ENV_ID, "--seed", str(seed),
+            "--verbose", "0"]  # fmt: skip
+
+
+def measure_amortised() -> dict[str, Any]:
+    """Train and score every seed of the amortised policy, two runs at a time."""
+    tasks = [(amortised_command(seed), AMORTISED, 0, seed, "") for seed in SEEDS]
+    return {"env_id": ENV_ID, "runs": score_runs("amortised-scores", tasks)}
+
+
+def render_amortised(data: dict[str, Any]) -> str:
+    return (
+        score_table("training", [(AMORTISED, "regression + 600 gradient steps", data["runs"])])
+        + "\n\nThe same held-out speeds and scoring; "
+        f"`{shlex.join(amortised_command('SEED'))}` with seeds {list(SEEDS)}, then `python -m "
+        f"train.envelope --conditions ...`. {machine_line(data, 'amortised-scores')}\n"
+    )
+
+
+def measure_headline() -> dict[str, Any]:
+    """Every policy of :data:`POLICIES` summarised from the stored runs."""
+    stored = {name: load(name) for name in dict.fromkeys(p[0] for p in POLICIES)}
+    rows = []
+    for name, algo, hp in POLICIES:
+        runs = runs_of(stored[name]["runs"], algo, hp)
+        median, worst, flies, _ = summary(runs)
+        rows.append({"algo": algo, "hyperparams": hp, "seeds": len(runs), "median": median,
+                     "worst": worst, "flies": flies})  # fmt: skip
+    dates = {name: data["machine_before"]["date"] for name, data in stored.items()}
+    return {"policies": rows, "measured": dates}
+
+
+def render_headline(data: dict[str, Any]) -> str:
+    def rl(hp: str) -> str:
+        rows = [r for r in data["policies"] if r["hyperparams"] == hp]
+        return ", ".join(
+            f"{r['algo'].upper()} {score_text(r['median'])} ({100 * r['flies']:.0f} % fly)"
+            for r in rows
+        )
+
+    (amortised,) = [r for r in data["policies"] if r["algo"] == AMORTISED]
+    return (
+        f"At level flight's held-out speeds the amortised policy's strokes score a median of "
+        f"**{score_text(amortised['median'])}** (worst {score_text(amortised['worst'])}, "
+        f"{100 * amortised['flies']:.0f} % fly; 100 = the reference optimum, ≤ 0 = does not "
+        f"fly); envelope policies of PPO and SAC with hyperparameters tuned for the envelope "
+        f"score {rl('tuned')}, with the shipped ones {rl('shipped')}; "
+        f'{amortised["seeds"]} seeds each (docs/training.md, "Scores at the held-out '
+        'conditions"; regenerate with `python -m eval numbers --only envelope-headline` after '
+        "`rl-baselines` and `amortised-scores`).\n"
+    )
+
+
+MEASUREMENTS = (
+    Measurement("rl-baselines", measure, render, on_request=True),
+    Measurement("amortised-scores", measure_amortised, render_amortised, on_request=True),
+    Measurement("envelope-headline", measure_headline, render_headline, on_request=True),
+)

@@ -23,9 +23,10 @@ from eval.reference import (
     gather,
     plan,
     provenance,
+    reference_markdown,
     round_gains,
+    write_reference_figure,
 )
-from eval.reference_report import reference_markdown, write_reference_figure
 from tandem_env.envs import ACCELERATE_ID, LEVEL_FLIGHT_ID
 from tandem_env.envs.reference import (
     REFERENCE_FORMAT,

@@ -1,0 +1,106 @@
+"""The model's readings on random Table 4 strokes (deterministic: the test reruns them): the
+rotational coefficient's (docs/model.md §1.3) and the power conventions' (§6.3)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from eval.numbers.framework import RANDOM_STROKES, Measurement, random_strokes, spaced
+
+ROTATION_SPEEDS: tuple[float, ...] = (0.0, 1.5)
+"""Flight speeds [m/s] of the rotational-coefficient reading (hover and 1.5 m/s)."""
+POWER_SPEEDS: tuple[float, ...] = (0.0, 1.0, 2.0)
+"""Flight speeds [m/s] of the power-conventions reading."""
+
+
+def measure_rotation() -> dict[str, Any]:
+    """L/W with the paper's C_r = π over L/W with π/2 (both wings), for the random strokes that
+    lift at least half the weight with π."""
+    import tandem_env as te
+
+    strokes = random_strokes()
+    insect = te.DRAGONFLY
+    half = replace(
+        insect,
+        fore=replace(insect.fore, rotational_coefficient=math.pi / 2),
+        hind=replace(insect.hind, rotational_coefficient=math.pi / 2),
+    )
+    rows = []
+    for speed in ROTATION_SPEEDS:
+        paper = te.evaluate(strokes, speed, insect=insect).lift_to_weight
+        lifting = paper >= 0.5
+        ratio = paper[lifting] / te.evaluate(strokes[lifting], speed, insect=half).lift_to_weight
+        p5, p95 = np.percentile(ratio, [5, 95])
+        rows.append(
+            {
+                "speed": speed,
+                "strokes": int(lifting.sum()),
+                "median": float(np.median(ratio)),
+                "p5": float(p5),
+                "p95": float(p95),
+            }
+        )
+    return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}
+
+
+def render_rotation(data: dict[str, Any]) -> str:
+    hover, forward = data["rows"]
+    return (
+        f"On {spaced(data['random_strokes'])} random Table 4 strokes (seed {data['seed']}, "
+        f"default options) that lift at least half the weight with C_r = π ({hover['strokes']} "
+        f"in hover, {forward['strokes']} at {forward['speed']:g} m/s), L/W with C_r = π is a "
+        f"median {hover['median']:.2f}× its value with C_r = π/2 in hover and "
+        f"{forward['median']:.2f}× at {forward['speed']:g} m/s (5th-95th percentiles "
+        f"{hover['p5']:.2f}-{hover['p95']:.1f}× and {forward['p5']:.2f}-{forward['p95']:.1f}×; "
+        "`evaluate` with `rotational_coefficient` replaced on both wings, written by `python -m "
+        "eval numbers --only rotational-coefficient`).\n"
+    )
+
+
+def measure_power() -> dict[str, Any]:
+    """The ``"aerodynamic"`` power over the ``"absolute"`` and ``"elastic"`` ones on the random
+    strokes."""
+    import tandem_env as te
+
+    strokes = random_strokes()
+    rows = []
+    for speed in POWER_SPEEDS:
+        power = {
+            kind: te.evaluate(strokes, speed, options=te.ModelOptions(power=kind)).power
+            for kind in ("absolute", "elastic", "aerodynamic")
+        }
+        aero = power["aerodynamic"]
+        rows.append(
+            {
+                "speed": speed,
+                "over_absolute_median": float(np.median(aero / power["absolute"])),
+                "over_elastic_median": float(np.median(aero / power["elastic"])),
+                "above_elastic_share": float(np.mean(aero > power["elastic"])),
+            }
+        )
+    return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}
+
+
+def render_power(data: dict[str, Any]) -> str:
+    def listed(key: str, form: str) -> str:
+        values = [form.format(row[key]) for row in data["rows"]]
+        return ", ".join(values[:-1]) + " and " + values[-1]
+
+    return (
+        f"On {spaced(data['random_strokes'])} random Table 4 strokes (seed {data['seed']}, other "
+        "options default) aerodynamic power is a median "
+        f"{listed('over_absolute_median', '{:.2f}×')} the absolute power at V = {listed('speed', '{:g}')} m/s, "
+        f"{listed('over_elastic_median', '{:.2f}×')} the elastic one, and exceeds the elastic one "
+        f"for {listed('above_elastic_share', '{:.1%}').replace('%', ' %')} of the strokes "
+        "(written by `python -m eval numbers --only power-conventions`).\n"
+    )
+
+
+MEASUREMENTS = (
+    Measurement("rotational-coefficient", measure_rotation, render_rotation),
+    Measurement("power-conventions", measure_power, render_power),
+)
