@@ -55,8 +55,11 @@ from tandem_env.physics.checks import is_integer
 
 # The public names of the settings and gradient modules are this module's too.
 __all__ = [
+    "CERTIFIED_KKT",
+    "UNCERTIFIED",
     "Certificate",
     "PolishResult",
+    "certified",
     "describe",
     "float32_margin",
     "kkt_residual",
@@ -166,6 +169,10 @@ class _OutOfBudget(Exception):
     pass
 
 
+class _Optimal(Exception):
+    """Raised from the optimiser's callback at an iterate that passes the KKT test."""
+
+
 class _Run:
     """The bookkeeping of one polish: budget, cache by point, best feasible point seen."""
 
@@ -189,6 +196,10 @@ class _Run:
         self.best: tuple[float, np.ndarray] | None = None
         self.margin: np.ndarray | float = 0.0
         """(m,) the margin held inside each constraint (:func:`float32_margin`)."""
+        self.active: float = config.active
+        """How near its held margin a constraint counts as active [-]: ``config.active`` plus
+        the largest float32 step of :func:`float32_margin` (the reported stroke is cast to
+        float32, which moves each margin by up to half its step)."""
 
     def full(self, z: np.ndarray) -> np.ndarray:
         x = self.start.copy()
@@ -277,6 +288,7 @@ def polish(
     first = run.gradient(z0)
     before = first.objective
     run.margin = margin = float32_margin(first.jacobian, config.margin)
+    run.active = config.active + float(np.max(margin - config.margin, initial=0.0))
     if not first.feasible and not infeasible_start:
         # the search's stroke is where the polish starts; one that fails the task's test has
         # no feasible neighbourhood guaranteed: keep it and say so.
@@ -298,11 +310,18 @@ def polish(
     bounds = Bounds(-np.ones(z0.size), np.ones(z0.size))
     counter = [0]
 
-    def count(*_: Any) -> None:  # called once per optimiser iteration
+    def count(z: Any, *_: Any) -> None:  # called once per optimiser iteration
         counter[0] += 1
+        # Stop where first-order optimality holds: the optimiser's own test watches the
+        # objective's change, which can stall long before it passes near active
+        # constraints, at a gradient (53 strokes) a step.
+        point = np.asarray(getattr(z, "x", z), dtype=np.float64)
+        if config.optimality > 0.0 and _optimal(run, point):
+            raise _Optimal
 
     outcome: OptimizeResult | None = None
     failure = ""
+    optimal = False
     with warnings.catch_warnings():
         # trust-constr warns when it skips a BFGS update (delta_grad == 0) and SLSQP about
         # values outside the bounds it clips; the outcome is in the certificate either way
@@ -322,6 +341,8 @@ def polish(
             )
         except _OutOfBudget:
             failure = "allowance used up"
+        except _Optimal:
+            optimal = True
         except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
             failure = f"failed: {type(error).__name__}: {error}"
     iterations = counter[0]
@@ -330,12 +351,13 @@ def polish(
         # the optimiser's last point, for the certificate (it is feasible only if it says so)
         with contextlib.suppress(_OutOfBudget):
             run.value(np.asarray(outcome.x))
-    template = replace(
-        template,
-        iterations=iterations,
-        converged=None if outcome is None else bool(outcome.success),
-        message=failure if outcome is None else str(outcome.message),
-    )
+    if optimal:
+        converged: bool | None = True
+        message = f"KKT residual <= {config.optimality:g} at a feasible iterate"
+    else:
+        converged = None if outcome is None else bool(outcome.success)
+        message = failure if outcome is None else str(outcome.message)
+    template = replace(template, iterations=iterations, converged=converged, message=message)
     if run.best is None or (first.feasible and run.best[0] <= before):
         status = "no gain" if not failure.startswith("failed") else failure
         if not first.feasible and not failure.startswith("failed"):
@@ -369,6 +391,19 @@ def float32_margin(jacobian: np.ndarray, margin: float) -> np.ndarray:
     return margin + step * np.abs(np.asarray(jacobian, dtype=np.float64)).sum(axis=1)
 
 
+def _optimal(run: _Run, z: np.ndarray) -> bool:
+    """The iterate z (free coordinates) is feasible and passes the KKT test
+    (``config.optimality``). Its gradient costs nothing extra: the optimiser's next step
+    asks for it at the same point, and gets it from the cache."""
+    grad = run.gradient(z)
+    if not grad.feasible:
+        return False
+    residual = kkt_residual(
+        grad.objective_gradient, grad.margins - run.margin, grad.jacobian, z, run.active
+    )[0]
+    return residual <= run.config.optimality
+
+
 def _check(run: _Run, x: np.ndarray) -> tuple[float | None, tuple[str, ...]]:
     """KKT residual and active constraints at x (one more gradient unless cached)."""
     try:
@@ -380,7 +415,7 @@ def _check(run: _Run, x: np.ndarray) -> tuple[float | None, tuple[str, ...]]:
         grad.margins - run.margin,
         grad.jacobian,
         x[run.free],
-        run.config.active,
+        run.active,
     )
     names: list[str] = [n for n, a in zip(grad.names, on_constraint, strict=True) if a]
     names += [f"bound:{run.problem.parameter_names[j]}" for j in run.free[on_bound]]
@@ -392,6 +427,7 @@ def _keep(
 ) -> PolishResult:
     """The search's stroke stays: no gain, a failure, or an infeasible start."""
     run.margin = run.config.margin  # the start was not held inside the float32 step
+    run.active = run.config.active
     gain = 0.0 if feasible else None
     return replace(_finish(run, x0, before, before, gain, template), feasible=feasible)
 
@@ -441,4 +477,26 @@ def describe(certificate: Mapping[str, Any] | Certificate) -> str:
     named = [name for name in active if not name.startswith("bound:")]
     if active:
         parts.append("active: " + " ".join([*named, f"{bounds} bounds" if bounds else ""]).strip())
-    return ", ".join(parts)
+    line = ", ".join(parts)
+    if not certified(c):
+        line += f"\n    ({UNCERTIFIED})"
+    return line
+
+
+#: What a number whose polish did not certify it means (printed under it by :func:`describe`).
+UNCERTIFIED = (
+    "not a certified optimum: the value of a feasible stroke, a lower bound on the local "
+    "optimum of its basin, which may lie higher"
+)
+
+
+def certified(certificate: Mapping[str, Any] | Certificate) -> bool:
+    """The polish certified its stroke: converged, with a KKT residual of at most
+    :data:`CERTIFIED_KKT` at the reported stroke (docs/harness.md, "Local polish")."""
+    c = certificate.to_dict() if isinstance(certificate, Certificate) else dict(certificate)
+    kkt = c.get("kkt_residual")
+    return bool(c.get("converged")) and kkt is not None and kkt <= CERTIFIED_KKT
+
+
+#: The largest KKT residual [-] of a certified stroke.
+CERTIFIED_KKT = 1e-4

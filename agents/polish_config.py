@@ -38,6 +38,7 @@ POLISH_SETTINGS: Mapping[str, str] = {
     "polish_step": "step",
     "polish_tolerance": "tolerance",
     "polish_iterations": "max_iterations",
+    "polish_optimality": "optimality",
     "starts": "starts",
     "initial": "initial",
     "initial_share": "initial_share",
@@ -65,6 +66,10 @@ class PolishConfig:
     """Stopping tolerance (SLSQP ``ftol``; trust-constr ``gtol``/``xtol``), in [1e-14, 1e-2]."""
     max_iterations: int = 200
     """Optimiser iterations at most, 1 to 10 000."""
+    optimality: float = 1e-5
+    """The polish stops at the first feasible iterate whose KKT residual
+    (:func:`agents.polish.kkt_residual`) is at most this [-], in [0, 1e-2]; 0 leaves the stop
+    to the optimiser's own test (``tolerance``). The certificate then says converged."""
     margin: float = 1e-9
     """Every constraint is held at margin >= ``margin`` [-] (normalised, as
     ``Constraint.margin``), 0 to 1e-4, so the optimum passes the task's exact feasibility test
@@ -97,6 +102,7 @@ class PolishConfig:
             ("share", 0.01, 0.9),
             ("step", 1e-8, 1e-2),
             ("tolerance", 1e-14, 1e-2),
+            ("optimality", 0.0, 1e-2),
             ("margin", 0.0, 1e-4),
             ("active", 0.0, 1e-2),
         ):

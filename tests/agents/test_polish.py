@@ -17,11 +17,14 @@ import pytest
 
 from agents.harness import prepare, run
 from agents.polish import (
+    UNCERTIFIED,
     BatchEvaluation,
     CentralDifferences,
     Certificate,
     PolishConfig,
     Problem,
+    certified,
+    describe,
     kkt_residual,
     polish,
     split_settings,
@@ -45,9 +48,10 @@ ROUNDING = len(FREE) * 2 * (TARGET - X_MARGIN) * 2.0**-25  # |Δf| of half a flo
 class Counted:
     """The analytic problem's batch function, counting evaluated strokes."""
 
-    def __init__(self, nan_objective: bool = False) -> None:
+    def __init__(self, nan_objective: bool = False, scale: float = 1.0) -> None:
         self.count = 0
         self.nan_objective = nan_objective
+        self.scale = scale  # of the constraint's margin: its float32 step grows with it
 
     def __call__(self, x: np.ndarray) -> BatchEvaluation:
         assert np.all(np.abs(x) <= 1.0), "the polish left the box"
@@ -56,7 +60,7 @@ class Counted:
         objective = -np.sum((free - TARGET) ** 2, axis=1)
         if self.nan_objective:
             objective = np.full_like(objective, np.nan)
-        margins = (CAP - free.sum(axis=1))[:, None]
+        margins = self.scale * (CAP - free.sum(axis=1))[:, None]
         return BatchEvaluation(objective, margins, margins[:, 0] >= 0.0, ("sum",))
 
 
@@ -88,6 +92,36 @@ def test_reaches_the_known_constrained_optimum_and_certifies_it():
     # the reported stroke satisfies the constraint (held at the margin inside it)
     assert CAP - result.stroke[list(FREE)].sum() >= 0.0
     assert c.evaluations == evaluate.count <= 5_000
+
+
+def test_a_steep_constraint_stays_active_after_the_float32_cast():
+    # |∂g/∂x_j| = 1000: the margin held for the cast is ~3e-3, and rounding the optimum to
+    # float32 moves the constraint by up to half that, far beyond the 1e-6 of ``active``: the
+    # certificate must still see the constraint as active and the optimum as one.
+    result = polish(problem(Counted(scale=1000.0)), start(), 5_000, PolishConfig())
+    c = result.certificate
+    assert c.status == "improved" and c.converged
+    assert c.active_constraints == ("sum",)
+    assert c.kkt_residual < 1e-4
+
+
+def test_the_polish_stops_where_the_kkt_test_passes_and_says_so():
+    stopped = polish(problem(Counted()), start(), 5_000, PolishConfig()).certificate
+    assert stopped.converged and stopped.kkt_residual <= PolishConfig().optimality
+    assert stopped.message.startswith("KKT residual <= 1e-05")
+    own = polish(problem(Counted()), start(), 5_000, PolishConfig(optimality=0.0)).certificate
+    assert own.converged and not own.message.startswith("KKT")  # scipy's own test
+    assert stopped.evaluations <= own.evaluations
+    assert certified(stopped) and describe(stopped).count("\n") == 0
+
+
+def test_an_uncertified_number_says_what_it_means():
+    # an allowance for three gradients: the polish gains but cannot converge
+    c = polish(problem(Counted()), start(), 3 * 53, PolishConfig()).certificate
+    assert not certified(c)
+    assert UNCERTIFIED in describe(c)
+    with pytest.raises(ValueError, match="polish optimality"):
+        PolishConfig(optimality=0.5)
 
 
 def test_kkt_residual_is_large_away_from_the_optimum():
