@@ -40,7 +40,7 @@ and the objective is unchanged to rounding (measured: 1e-14 relative; ``tests/tr
 test_amortised.py`` holds it to 1e-9), while an arbitrary delay moves it by the grid's
 discretisation error (measured: about 5e-6 relative at n_time = 128).
 
-**A run folder** (zoo-style, :class:`~train.layout.RunLayout`, ``logs/amortised/<env>_<n>/``)::
+**A run folder** (zoo-style, :class:`~train.run_folder.RunLayout`, ``logs/amortised/<env>_<n>/``)::
 
     <env>.pt                 the branches' weights: a torch state_dict (torch.load(weights_only=True))
     policy.json              what the forward pass needs besides: sizes, phase centres, the
@@ -50,7 +50,7 @@ discretisation error (measured: about 5e-6 relative at n_time = 128).
     <env>/config.yml         the training settings (:class:`~train.amortised_settings.Settings`)
 
 every file written atomically (``tandem_env.io.files``) and read with safe loaders (JSON,
-``yaml.safe_load`` through :func:`train.layout.read_run_yaml`, weights only).
+``yaml.safe_load`` through :func:`train.saved.read_run_yaml`, weights only).
 """
 
 from __future__ import annotations
@@ -73,7 +73,7 @@ from tandem_env.physics.stroke import (
     physical_to_normalised,
 )
 from train.config import AMORTISED
-from train.layout import RunPolicy, check_args_env, env_name, read_run_args, resolve_run_dir
+from train.run_folder import RunPolicy, env_name, read_run_args, resolve_run_dir
 
 #: Where the canonical targets put each canonicalised sweep phase [deg] (within half a time-grid
 #: step, :func:`canonicalise`).
@@ -408,7 +408,7 @@ def is_amortised_run(run_dir: str | Path) -> bool:
     amortised run writes one: :func:`load_policy` then says what its args.yml gets wrong)."""
     folder = resolve_run_dir(run_dir)
     try:
-        _, args = read_run_args(folder, "")
+        _, args, _ = read_run_args(folder, "")
     except ValueError:
         return False
     return args.get("algo") == AMORTISED or (folder / POLICY_FILE).is_file()
@@ -527,13 +527,14 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     from tandem_env.envs.reference import REFERENCE_GRID
 
     folder = resolve_run_dir(run_dir)
-    args_file, args = read_run_args(folder, "a folder written by python -m train --algo amortised")
+    args_file, args, env_id = read_run_args(
+        folder, "a folder written by python -m train --algo amortised"
+    )
     if args.get("algo") != AMORTISED:
         raise ValueError(
             f"{args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}, the run of "
             f"python -m train --algo amortised (its {POLICY_FILE} and weights) that this loads"
         )
-    env_id = check_args_env(args_file, args.get("env"))
     if env_id not in REFERENCE_GRID:
         raise ValueError(
             f"{args_file}: env = {env_id!r}; allowed: an env an amortised policy is trained for, "

@@ -536,7 +536,7 @@ class TrainConfig:
     def to_dict(self) -> dict[str, Any]:
         """Plain-YAML form (``args.yml``): every field (:func:`plain`), under its zoo name where
         it has one (:data:`ARGS_KEYS`), marked as written by this project (``made_by``)."""
-        from train.layout import MADE_BY
+        from train.run_folder import MADE_BY
 
         settings = {
             ARGS_KEYS.get(f.name, f.name): plain(getattr(self, f.name)) for f in fields(self)

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from tandem_env.io.files import atomic_path, read_json
-from train.layout import RunLayout
+from train.run_folder import RunLayout
 
 
 @dataclass(frozen=True)

@@ -42,8 +42,9 @@ from train.config import (
     plain,
     resolve_hyperparams,
 )
-from train.layout import RunLayout, read_run_yaml, resolve_run_dir
 from train.run import budget_hyperparams, learn_in_memory, step_granularity, train
+from train.run_folder import RunLayout, resolve_run_dir
+from train.saved import read_run_yaml
 from train.trained_policy import WHICH_MODELS, TrainingMismatchWarning, WhichModel, load_policy
 from train.vec import StrokeRecorder
 
