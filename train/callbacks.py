@@ -177,7 +177,7 @@ class StopOnInterrupt(BaseCallback):
     def _on_step(self) -> bool:
         return not self.requested
 
-    def _request(self, signum: int, frame: object) -> None:
+    def _request(self, *_: object) -> None:  # a signal handler's (signum, frame)
         self.requested = True
         signal.signal(signal.SIGINT, signal.default_int_handler)
 

@@ -6,10 +6,6 @@ this module is imported (it is the provider :mod:`agents.methods` imports on fir
 train`` (ppo, sac or amortised) asked once for its deterministic stroke (**1 evaluation**); and
 ``ppo`` / ``sac``, trained at the harness's condition within its budget of env steps, the
 result being the **best stroke seen** by the harness's selection rule (:mod:`agents.selection`).
-
-For use outside the harness: :func:`train_and_propose` (train within a budget, return the
-chosen stroke); a trained run's own stroke at a condition is
-:func:`train.trained_policy.policy_stroke`, over :class:`~train.trained_policy.TrainedPolicy`.
 """
 
 from __future__ import annotations
@@ -41,8 +37,9 @@ from train.config import (
     load_entry,
     plain,
     resolve_hyperparams,
+    step_granularity,
 )
-from train.run import budget_hyperparams, learn_in_memory, step_granularity, train
+from train.run import budget_hyperparams, learn_in_memory, train
 from train.run_folder import RunLayout, resolve_run_dir
 from train.saved import read_run_yaml
 from train.trained_policy import WHICH_MODELS, TrainingMismatchWarning, WhichModel, load_policy
@@ -75,15 +72,15 @@ _POLICY_SUFFIXES = (".zip", ".pkl", ".pt", ".json", ".yml")
 
 
 @functools.lru_cache(maxsize=256)
-def _file_digest(path: Path, size: int, mtime_ns: int) -> str:
-    with path.open("rb") as handle:
+def _file_digest(stamped: tuple[Path, int, int]) -> str:
+    with stamped[0].open("rb") as handle:
         return hashlib.file_digest(handle, "sha256").hexdigest()
 
 
 def _digest_of(path: Path) -> str:
     """SHA-256 of a file's bytes, read once per process while its size and time stay."""
     status = path.stat()
-    return _file_digest(path.resolve(), status.st_size, status.st_mtime_ns)
+    return _file_digest((path.resolve(), status.st_size, status.st_mtime_ns))
 
 
 # --- harness methods ---------------------------------------------------------------------------
@@ -379,22 +376,6 @@ class _Training:
     final_objective: float
     final_feasible: bool
     run_dir: str | None = None
-
-
-def train_and_propose(
-    algo: str,
-    task: str,
-    condition: float,
-    budget: int,
-    seed: int,
-    **options: Any,
-) -> np.ndarray:
-    """Train ``algo`` within ``budget`` env steps at ``condition`` and return the chosen stroke
-    (normalised, (28,)); the same as ``agents.harness.run(algo, ...)`` without the record."""
-    from agents.harness import run
-
-    record = run(algo, task, condition, budget, [seed], progress=False, **options)[0]
-    return np.asarray(record.normalised_stroke, dtype=np.float64)
 
 
 # --- factories for the registry ---------------------------------------------------------------

@@ -30,8 +30,8 @@ from train.callbacks import (
     SaveVecNormalize,
     StopOnInterrupt,
 )
-from train.config import Hyperparams, TrainConfig, load_entry, resolve_hyperparams
-from train.run_folder import Interrupted, RunFolder, RunLayout, step_granularity
+from train.config import Hyperparams, TrainConfig, load_entry, resolve_hyperparams, step_granularity
+from train.run_folder import Interrupted, RunFolder, RunLayout
 from train.saved import build_model, read_normalizer, save_checkpoint
 from train.vec import StrokeRecorder, evaluate_deterministic, make_evaluation_env, make_training_env
 

@@ -30,7 +30,16 @@ from pathlib import Path
 from typing import Any
 
 from tandem_env.io.files import FolderLock
-from train.config import AMORTISED, Hyperparams, TrainConfig, plain, resolve_hyperparams, write_yaml
+from train.config import (
+    AMORTISED,
+    MADE_BY,
+    Hyperparams,
+    TrainConfig,
+    plain,
+    resolve_hyperparams,
+    step_granularity,
+    write_yaml,
+)
 from train.saved import (
     build_model,
     load_model,
@@ -42,8 +51,6 @@ from train.saved import (
 )
 
 CHECKPOINT_PREFIX = "rl_model"
-#: The ``made_by`` entry of ``args.yml`` that marks a run folder written by ``python -m train``.
-MADE_BY = "tandem-env python -m train"
 #: An ``args.yml`` key only this project writes (runs from before ``made_by`` have it; the
 #: zoo calls its thread count ``num_threads``).
 _LEGACY_KEY = "torch_threads"
@@ -96,26 +103,6 @@ def run_lock(run_dir: Path) -> FolderLock:
             "another run"
         ),
     )
-
-
-def read_run_args(run_dir: Path, allowed: str) -> tuple[Path, dict[str, Any], Any]:
-    """The one ``<env>/args.yml`` of ``run_dir``, its settings and its ``env``; ValueError
-    naming the folder and ``allowed`` (the folders the caller takes) if it holds none or
-    several, or the file if its env is not the one its settings folder is named after."""
-    found = sorted(run_dir.glob("*/args.yml")) if run_dir.is_dir() else []
-    if len(found) != 1:
-        raise ValueError(
-            f"{run_dir} is not a training run folder (expected one <env>/args.yml, found "
-            f"{len(found)}); allowed: {allowed}"
-        )
-    args = read_run_yaml(found[0])
-    env_id = args.get("env")
-    if not isinstance(env_id, str) or env_name(env_id) != found[0].parent.name:
-        raise ValueError(
-            f"{found[0]}: env = {env_id!r}, but the file sits in the settings folder of "
-            f"{found[0].parent.name}; allowed: the env the run was trained on"
-        )
-    return found[0], args, env_id
 
 
 class RunPolicy:
@@ -359,16 +346,6 @@ class RunLayout:
                 f"Allowed: {hint}{'' if own else ' (without --resume)'}"
             )
         return layout
-
-
-def step_granularity(algo: str, hp: Hyperparams) -> int:
-    """Env steps one learn iteration takes (``learn`` never stops inside one)."""
-    if algo == "ppo":
-        return int(hp.model_kwargs.get("n_steps", 2048)) * hp.n_envs
-    train_freq = hp.model_kwargs.get("train_freq", 1)
-    # Every episode is one step, so "episode" frequencies count the same vector steps.
-    steps = train_freq[0] if isinstance(train_freq, tuple) else train_freq
-    return int(steps) * hp.n_envs
 
 
 @dataclass(frozen=True)

@@ -219,6 +219,26 @@ def read_result_segments(path: Path) -> tuple[dict[str, Any], ...]:
     return tuple(segments)
 
 
+def read_run_args(run_dir: Path, allowed: str) -> tuple[Path, dict[str, Any], Any]:
+    """The one ``<env>/args.yml`` of ``run_dir``, its settings and its ``env``; ValueError
+    naming the folder and ``allowed`` (the folders the caller takes) if it holds none or
+    several, or the file if its env is not the one its settings folder is named after."""
+    found = sorted(run_dir.glob("*/args.yml")) if run_dir.is_dir() else []
+    if len(found) != 1:
+        raise ValueError(
+            f"{run_dir} is not a training run folder (expected one <env>/args.yml, found "
+            f"{len(found)}); allowed: {allowed}"
+        )
+    args = read_run_yaml(found[0])
+    env_id = args.get("env")
+    if not isinstance(env_id, str) or env_id.replace("/", "-") != found[0].parent.name:
+        raise ValueError(
+            f"{found[0]}: env = {env_id!r}, but the file sits in the settings folder of "
+            f"{found[0].parent.name}; allowed: the env the run was trained on"
+        )
+    return found[0], args, env_id
+
+
 # --- the model ------------------------------------------------------------------------------
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
 

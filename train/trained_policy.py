@@ -2,8 +2,7 @@
 
 :class:`TrainedPolicy` reads and checks what a run folder holds (its settings, its model file,
 its normalisation statistics), loads the model without unpickling anything and observes a
-condition the way the training env did; :func:`policy_stroke` is the one-line
-use. The harness method ``policy:RUN_DIR`` (:mod:`train.policies`) and the envelope
+condition the way the training env did. The harness method ``policy:RUN_DIR`` (:mod:`train.policies`) and the envelope
 (:mod:`train.envelope`) are built on it. :func:`load_policy` loads either kind of run folder:
 an RL run as a :class:`TrainedPolicy`, an amortised run (``--algo amortised``) as a
 :class:`train.amortised_policy.AmortisedPolicy`, which answers the same questions (``strokes``,
@@ -26,8 +25,8 @@ from stable_baselines3.common.vec_env import VecEnv
 from tandem_env.envs.registration import check_env_id, config_class
 from tandem_env.envs.sb3 import make_sb3_vec_env
 from train.config import check_algo, resolve_hyperparams
-from train.run_folder import RunLayout, RunPolicy, read_run_args, resolve_run_dir
-from train.saved import load_on_copy, read_normalizer, read_run_yaml
+from train.run_folder import RunLayout, RunPolicy, resolve_run_dir
+from train.saved import load_on_copy, read_normalizer, read_run_args, read_run_yaml
 from train.vec import ConditionGrid, option_key
 
 WhichModel = Literal["best", "final"]
@@ -171,8 +170,3 @@ def load_policy(run_dir: str | Path, which: WhichModel = "best") -> Any:
     if is_amortised_run(run_dir):
         return load_amortised(run_dir)
     return TrainedPolicy.load(run_dir, which)
-
-
-def policy_stroke(run_dir: str | Path, condition: float, which: WhichModel = "best") -> np.ndarray:
-    """The trained run's deterministic normalised stroke (28,) at ``condition``."""
-    return load_policy(run_dir, which).strokes([condition])[0]
