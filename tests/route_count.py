@@ -1,7 +1,8 @@
 """Follow ``python -m eval study all`` (tiny preset) from eval/study.py's main down to the first
 record file, at run time; or, with ``train``, ``python -m train`` (a tiny PPO run with an
-evaluation and a checkpoint) from train/__main__.py's main to its end. A function *stays* when it receives the parsed arguments, one of their
-values, or a value made from them (what such a function returned, or the object it
+evaluation and a checkpoint) from train/__main__.py's main to its end, following the parsed
+arguments and the ``TrainConfig`` made of them. A function *stays* when it receives the parsed
+arguments (or the config), one of their values, or a value made from them (what such a function returned, or the object it
 initialised); a *return* is a call into a file already visited, from another file; a *climb* a
 call from a lower package floor to a higher one (tandem_env 1, agents 2, train 3, eval 4).
 Counted over distinct functions and call edges, up to the first record file's write.
@@ -19,6 +20,8 @@ import tempfile
 
 ROOT = os.getcwd()
 sys.path.insert(0, ROOT)
+#: What the route follows: the parsed arguments (and, for ``train``, the TrainConfig).
+FOLLOWED: list[type] = [argparse.Namespace]
 FLOORS = {"tandem_env": 1, "agents": 2, "train": 3, "eval": 4}
 SCALARS = (int, float, bool, type(None))
 #: ROUTE_DERIVED=0 follows only the parsed arguments and their values, not what is made of them.
@@ -44,6 +47,9 @@ def train_route(out: str) -> None:
     """``python -m train``: a tiny PPO run (two rollouts of 2 x 8 strokes, an evaluation and a
     checkpoint after each)."""
     from train.__main__ import main as train_main
+    from train.config import TrainConfig
+
+    FOLLOWED.append(TrainConfig)
 
     train_main(["--algo", "ppo", "--env", "TandemWing/LevelFlight-v0", "-n", "32", "--n-envs",
                 "8", "-params", "n_steps=2", "batch_size=16", "n_epochs=1", "--eval-freq", "16",
@@ -71,7 +77,7 @@ def main() -> None:
             code = frame.f_code
             names = code.co_varnames[: code.co_argcount + code.co_kwonlyargcount]
             values = [frame.f_locals.get(n) for n in names]
-            spaces = [v for v in values if isinstance(v, argparse.Namespace)]
+            spaces = [v for v in values if isinstance(v, tuple(FOLLOWED))]
             for space in spaces:
                 tracked[id(space)] = space
                 for value in vars(space).values():

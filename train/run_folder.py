@@ -27,6 +27,7 @@ import zipfile
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 from tandem_env.io.files import FolderLock
@@ -363,6 +364,8 @@ class RunFolder:
     """Env steps the run ends at: n_timesteps rounded up to whole learn iterations."""
     segments: tuple[Mapping[str, Any], ...] = ()
     """The earlier runs' segments of the folder's ``result.json``, which a resume extends."""
+    env_kwargs: Mapping[str, Any] = MappingProxyType({})
+    """The env options: the yml entry's, overridden by the command's."""
 
     @classmethod
     def open(cls, config: TrainConfig, held: contextlib.ExitStack) -> RunFolder:
@@ -385,7 +388,8 @@ class RunFolder:
             held.enter_context(run_lock(layout.run_dir))  # type: ignore[union-attr]
             _check_claimable(layout, amortised)  # type: ignore[arg-type]
         if amortised:
-            run = cls(layout or RunLayout.new(config.log_folder, AMORTISED, config.env_id), config)
+            layout = layout or RunLayout.new(config.log_folder, AMORTISED, config.env_id)
+            run = cls(layout, config, env_kwargs=config.env_kwargs)
         else:
             run = cls._resumable(config, layout)
         run.layout.run_dir.mkdir(parents=True, exist_ok=True)
@@ -467,12 +471,7 @@ class RunFolder:
                 read_normalizer(checkpoint.vecnormalize)
             segments = read_result_segments(layout.result_file)  # type: ignore[union-attr]
         layout = layout or RunLayout.new(config.log_folder, config.algo, config.env_id)
-        return cls(layout, config, hp, checkpoint, target, segments)
-
-    @property
-    def env_kwargs(self) -> dict[str, Any]:
-        """The env options: the yml entry's, overridden by the command's."""
-        return {**(self.hp.env_kwargs if self.hp else {}), **self.config.env_kwargs}
+        return cls(layout, config, hp, checkpoint, target, segments, MappingProxyType(env_kwargs))
 
     def model(self, venv: Any, **settings: Any) -> Any:
         """The model this run trains on ``venv`` (``settings``: :func:`train.saved.build_model`'s):

@@ -5,10 +5,10 @@ SB3's ``load`` unpickles (cloudpickle) the objects stored in a model zip's ``dat
 loader of a run folder (``--resume``, ``policy:RUN_DIR``, ``python -m train.envelope``,
 ``python -m eval speed-change --ppo/--sac``) goes through :func:`load_model` instead:
 
-1. the zip's ``data`` JSON is parsed as JSON (:func:`read_num_timesteps`): of SB3's own
+1. the model is rebuilt from the run's ``config.yml`` on the run's env (:func:`build_model`);
+2. the zip's ``data`` JSON is parsed as JSON (:func:`read_num_timesteps`): of SB3's own
    entries only the counter ``num_timesteps`` is read; serialized (pickled) entries are never
-   decoded, and one SB3 does not write is refused;
-2. the model is rebuilt from the run's ``config.yml`` on the run's env (:func:`build_model`);
+   decoded, and one that names no attribute of the rebuilt model (SB3 saves those) is refused;
 3. the weights and optimiser states, every ``.pth`` member, are read with
    ``torch.load(weights_only=True)`` (:func:`read_weights`) and put in place with SB3's
    ``set_parameters``; the names must be the rebuilt model's own.
@@ -276,26 +276,6 @@ def build_model(
 
 
 # --- the model zip ---------------------------------------------------------------------------
-#: The entries SB3 (2.x) writes into the ``data`` JSON of a PPO or SAC model. None of them is
-#: decoded (the model is rebuilt from ``config.yml``) but the plain counter ``num_timesteps``
-#: (:func:`read_num_timesteps`); a serialized entry of any other name is refused, as only a
-#: tampered file has one.
-SB3_ENTRIES = frozenset(
-    {
-        "policy_class", "verbose", "policy_kwargs", "num_timesteps", "_total_timesteps",
-        "_num_timesteps_at_start", "seed", "action_noise", "start_time", "learning_rate",
-        "tensorboard_log", "_last_obs", "_last_episode_starts", "_last_original_obs",
-        "_episode_num", "use_sde", "sde_sample_freq", "_current_progress_remaining",
-        "_stats_window_size", "ep_info_buffer", "ep_success_buffer", "_n_updates",
-        "observation_space", "action_space", "n_envs", "n_steps", "gamma", "gae_lambda",
-        "ent_coef", "vf_coef", "max_grad_norm", "rollout_buffer_class", "rollout_buffer_kwargs",
-        "batch_size", "n_epochs", "clip_range", "clip_range_vf", "normalize_advantage",
-        "target_kl", "lr_schedule", "buffer_size", "learning_starts", "tau", "gradient_steps",
-        "optimize_memory_usage", "replay_buffer_class", "replay_buffer_kwargs", "train_freq",
-        "use_sde_at_warmup", "target_entropy", "target_update_interval", "batch_norm_stats",
-        "batch_norm_stats_target",
-    }
-)  # fmt: skip
 #: The largest ``data`` JSON read [bytes]; SB3's is a few kB plus the last observations.
 MAX_DATA_BYTES = 64 * 2**20
 
@@ -315,12 +295,13 @@ def _open_zip(path: Path) -> zipfile.ZipFile:
         raise ValueError(f"{path} cannot be read ({error.strerror})") from None
 
 
-def read_num_timesteps(path: Path) -> int:
+def read_num_timesteps(path: Path, attributes: set[str]) -> int:
     """The step count ``num_timesteps`` of the model zip at ``path``, the one entry of its
     ``data`` a loaded model takes over (a public attribute), parsed as JSON and nothing decoded;
     ValueError naming the file for a zip without ``data``, JSON that is not an object, a
-    serialized entry SB3 does not write, or a count that is not an integer from 0 to
-    ``MAX_TIMESTEPS``.
+    serialized entry SB3 does not write (SB3 saves the model's own attributes: one that names
+    none of ``attributes``, those of the model rebuilt from ``config.yml``, only a tampered
+    file has), or a count that is not an integer from 0 to ``MAX_TIMESTEPS``.
 
     SB3's two log counters, ``_n_updates`` and ``_episode_num``, are private and have no public
     setter, so a resumed run's logged update count and SAC's episode-based log schedule restart
@@ -344,7 +325,7 @@ def read_num_timesteps(path: Path) -> int:
     foreign = sorted(
         key
         for key, value in data.items()
-        if key not in SB3_ENTRIES and isinstance(value, dict) and ":serialized:" in value
+        if key not in attributes and isinstance(value, dict) and ":serialized:" in value
     )
     if foreign:
         raise _model_error(
@@ -438,9 +419,9 @@ def load_model(
     gives its ``step`` (the one in its name) and SAC's ``replay_buffer`` file. ValueError naming
     the file if it is not such a model, its weights do not fit the rebuilt one (a changed
     ``net_arch``, another env) or its step count is not ``step``."""
-    num_timesteps = read_num_timesteps(path)
-    params, variables = read_weights(path)
     model = build_model(algo, hp, venv, **settings)
+    num_timesteps = read_num_timesteps(path, set(vars(model)))
+    params, variables = read_weights(path)
     expected = sorted(model.get_parameters())
     if sorted(params) != expected:
         raise _model_error(
