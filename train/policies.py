@@ -36,12 +36,10 @@ from train.config import (
     check_algo,
     load_entry,
     plain,
-    resolve_hyperparams,
     step_granularity,
 )
 from train.run import budget_hyperparams, learn_in_memory, train
-from train.run_folder import RunLayout, resolve_run_dir
-from train.saved import read_run_yaml
+from train.run_folder import resolve_run_dir
 from train.trained_policy import WHICH_MODELS, TrainingMismatchWarning, WhichModel, load_policy
 from train.vec import StrokeRecorder
 
@@ -340,15 +338,15 @@ class TrainingMethod:
         context.report(len(result.history), result.num_timesteps, result.best_reward)
         # train() evaluated the final deterministic stroke at the (fixed) condition once.
         [final] = result.final_evaluation
-        saved = read_run_yaml(RunLayout(result.run_dir, context.env_id).config_file)  # type: ignore[arg-type]
+        assert result.hp is not None
         return _Training(
             best_action=result.best_action,
             best_reward=result.best_reward,
             best_feasible=bool((result.best_info or {}).get("feasible", False)),
             history=list(result.history),
             steps=result.num_timesteps,
-            hyperparams=saved,
-            n_envs=resolve_hyperparams(saved).n_envs,  # an entry may leave n_envs out
+            hyperparams=result.hp.saved,
+            n_envs=result.hp.n_envs,
             final_action=np.clip(np.asarray(final["action"], dtype=np.float64), -1.0, 1.0),
             # float64 as the harness re-evaluates it (the adapter's reward is float32)
             final_reward=float(final["objective"] - final["penalty"]),

@@ -61,6 +61,8 @@ class TrainResult:
     """The final policy's deterministic stroke at each evaluation condition (metrics)."""
     history: tuple[tuple[int, float], ...] = ()
     """(env steps of this segment, best reward so far) after every vector step."""
+    hp: Hyperparams | None = None
+    """The hyperparameters it trained with (``config.yml``)."""
 
 
 # --- building blocks -----------------------------------------------------------------------
@@ -179,8 +181,9 @@ def train(config: TrainConfig) -> TrainResult:
             best_info=recorder.best_info,
             final_evaluation=evaluate_deterministic(model, eval_env),
             history=tuple(recorder.history),
+            hp=hp,
         )
-        _write_result(layout, result, hp, run.segments)
+        _write_result(layout, result, run.segments)
         return result
 
 
@@ -193,10 +196,7 @@ def _best_segment(segments: Sequence[Mapping[str, Any]]) -> Mapping[str, Any]:
 
 
 def _write_result(
-    layout: RunLayout,
-    result: TrainResult,
-    hp: Hyperparams,
-    previous: Sequence[Mapping[str, Any]],
+    layout: RunLayout, result: TrainResult, previous: Sequence[Mapping[str, Any]]
 ) -> None:
     """Write ``result.json``: the earlier segments (``previous``, read when the folder was opened) and this
     run's."""
@@ -216,7 +216,7 @@ def _write_result(
         "algo": result.algo,
         "env_id": result.env_id,
         "num_timesteps": result.num_timesteps,
-        "n_envs": hp.n_envs,
+        "n_envs": result.hp.n_envs,  # type: ignore[union-attr]
         "wall_time_s": sum(float(s["wall_time_s"]) for s in segments),
         "best_seen": {k: best[k] for k in ("best_reward", "best_action", "best_info")},
         "final_evaluation": result.final_evaluation,

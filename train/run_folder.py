@@ -181,15 +181,16 @@ class Checkpoint:
         """
         needed = [(self.model, _MODEL_ZIP)]
         if replay_buffer:
-            if not self.replay_buffer.exists() and self.legacy_replay_buffer.exists():
-                return (
-                    f"its replay buffer is {self.legacy_replay_buffer.name}, the pickled format "
-                    "of earlier versions, which is never loaded (a pickle can run code)"
-                )
             needed.append((self.replay_buffer, _BUFFER_ZIP))
         if vecnormalize:
             needed.append((self.vecnormalize, None))  # a pickle
         for path, zip_members in needed:
+            legacy = self.legacy_replay_buffer
+            if path == self.replay_buffer and not path.exists() and legacy.exists():
+                return (
+                    f"its replay buffer is {legacy.name}, the pickled format of earlier "
+                    "versions, which is never loaded (a pickle can run code)"
+                )
             if not path.is_file():
                 return f"{path.name} is missing"
             if path.stat().st_size == 0:
