@@ -25,7 +25,7 @@ import re
 import warnings
 import zipfile
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -365,7 +365,7 @@ class RunFolder:
     """Env steps the run ends at: n_timesteps rounded up to whole learn iterations."""
     segments: tuple[Mapping[str, Any], ...] = ()
     """The earlier runs' segments of the folder's ``result.json``, which a resume extends."""
-    env_kwargs: Mapping[str, Any] = MappingProxyType({})
+    env_kwargs: Mapping[str, Any] = field(default_factory=dict)
     """The env options: the yml entry's, overridden by the command's."""
 
     @classmethod
