@@ -64,7 +64,7 @@ _ANNOUNCED: set[tuple[Any, ...]] = set()
 _TRAINING_SETTINGS = ("n_envs", "conf_file", "torch_threads", "log_dir")
 
 
-# The suffixes of the files a run's policy is read from (train.layout.RunLayout, and an amortised
+# The suffixes of the files a run's policy is read from (train.run_folder.RunLayout, and an amortised
 # run's weights and policy.json): what PolicyMethod.identity hashes.
 _POLICY_SUFFIXES = (".zip", ".pkl", ".pt", ".json", ".yml")
 
