@@ -23,7 +23,7 @@ def session_record_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[P
 @pytest.fixture(scope="session", autouse=True)
 def sb3_log_folder(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
     """Where SB3's own logger writes when a test trains a model SB3 built or loaded itself (the
-    project's models log through their own logger, train.checkpoint.build_model): SB3's default
+    project's models log through their own logger, train.saved.build_model): SB3's default
     is a new SB3-<time> folder in the system's temp dir at every learn()."""
     folder = tmp_path_factory.mktemp("sb3-logs")
     with pytest.MonkeyPatch.context() as patch:

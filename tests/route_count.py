@@ -1,11 +1,14 @@
 """Follow ``python -m eval study all`` (tiny preset) from eval/study.py's main down to the first
-record file, at run time. A function *stays* when it receives the parsed arguments, one of their
-values, or a value made from them (what such a function returned, or the object it
+record file, at run time; or, with ``train``, ``python -m train`` (a tiny PPO run with an
+evaluation and a checkpoint) from train/__main__.py's main to its end, following the parsed
+arguments and the ``TrainConfig`` made of them. A function *stays* when it receives the parsed
+arguments (or the config), one of their values, or a value made from them (what such a function returned, or the object it
 initialised); a *return* is a call into a file already visited, from another file; a *climb* a
 call from a lower package floor to a higher one (tandem_env 1, agents 2, train 3, eval 4).
 Counted over distinct functions and call edges, up to the first record file's write.
 
     python tests/route_count.py                  # from a worktree root (ROUTE_DERIVED=0: args only)
+    python tests/route_count.py train            # the route of python -m train
 """
 
 from __future__ import annotations
@@ -17,6 +20,8 @@ import tempfile
 
 ROOT = os.getcwd()
 sys.path.insert(0, ROOT)
+#: What the route follows: the parsed arguments (and, for ``train``, the TrainConfig).
+FOLLOWED: list[type] = [argparse.Namespace]
 FLOORS = {"tandem_env": 1, "agents": 2, "train": 3, "eval": 4}
 SCALARS = (int, float, bool, type(None))
 #: ROUTE_DERIVED=0 follows only the parsed arguments and their values, not what is made of them.
@@ -27,13 +32,32 @@ def floor(rel: str) -> int | None:
     return None if rel.startswith("..") else FLOORS.get(rel.split(os.sep)[0])
 
 
-def main() -> None:
+def study_route(out: str) -> None:
+    """``python -m eval study all --preset tiny``."""
     from eval.__main__ import main as eval_main
     from eval.studies import presets
     from eval.studies.presets import TINY
 
     table = getattr(presets, "STUDY_PRESETS", None) or presets.PRESETS
     table[TINY.name] = TINY
+    eval_main(["study", "all", "--preset", "tiny", "--out", out, "--quiet", "--no-cache"])
+
+
+def train_route(out: str) -> None:
+    """``python -m train``: a tiny PPO run (two rollouts of 2 x 8 strokes, an evaluation and a
+    checkpoint after each)."""
+    from train.__main__ import main as train_main
+    from train.config import TrainConfig
+
+    FOLLOWED.append(TrainConfig)
+
+    train_main(["--algo", "ppo", "--env", "TandemWing/LevelFlight-v0", "-n", "32", "--n-envs",
+                "8", "-params", "n_steps=2", "batch_size=16", "n_epochs=1", "--eval-freq", "16",
+                "--save-freq", "16", "-f", out, "--no-progress", "--verbose", "0"])  # fmt: skip
+
+
+def main() -> None:
+    route = {"study": study_route, "train": train_route}[(sys.argv[1:] or ["study"])[0]]
     tracked: dict[int, object] = {}
     entered: list[tuple[str, str]] = []
     edges: list[tuple[tuple[str, str], tuple[str, str]]] = []
@@ -53,7 +77,7 @@ def main() -> None:
             code = frame.f_code
             names = code.co_varnames[: code.co_argcount + code.co_kwonlyargcount]
             values = [frame.f_locals.get(n) for n in names]
-            spaces = [v for v in values if isinstance(v, argparse.Namespace)]
+            spaces = [v for v in values if isinstance(v, tuple(FOLLOWED))]
             for space in spaces:
                 tracked[id(space)] = space
                 for value in vars(space).values():
@@ -79,7 +103,7 @@ def main() -> None:
     out = tempfile.mkdtemp()
     sys.setprofile(profile)
     try:
-        eval_main(["study", "all", "--preset", "tiny", "--out", out, "--quiet", "--no-cache"])
+        route(out)
     finally:
         sys.setprofile(None)
     seen = {entered[0][0]}

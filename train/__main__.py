@@ -33,7 +33,7 @@ with exit_on_bad_environment("python -m train"):
 from tandem_env.io.keyvalue import parse_pairs
 from tandem_env.io.progress_bar import warnings_as_lines
 from train.config import AMORTISED, TrainConfig
-from train.layout import Interrupted, RunComplete
+from train.run_folder import Interrupted, RunComplete
 
 EPILOG = """\
 Values of --env-kwargs / --hyperparams are Python literals or YAML scalars: speed=1.5,

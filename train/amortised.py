@@ -1,53 +1,22 @@
-"""An amortised stroke policy: one network from the flight condition to a stroke.
+"""An amortised stroke policy trained: one network from the flight condition to a stroke.
 
-Instead of an optimiser run per condition (seconds to a minute of CMA-ES and polish per
-seed, several seeds and continuation rounds for one certified optimum, docs/reference.md),
-one small network maps the condition to a stroke in one forward pass (amortised
-optimisation; Amos 2023, "Tutorial on amortized optimization", Found. Trends Mach. Learn.
-16(5)). ``python -m train --algo amortised --env ID`` trains one (docs/training.md,
-"Amortised policy"); ``policy:RUN_DIR`` and ``python -m train.envelope`` use it like a trained
-RL policy; ``python -m train.amortised_eval`` judges it at the held-out conditions.
-
-The policy (the map, its canonical targets, its run folder and how it is loaded) is
-:mod:`train.amortised_policy`; this module trains it.
+Instead of an optimiser run per condition, one small network per branch maps the condition to
+a stroke in one forward pass (amortised optimisation; Amos 2023, "Tutorial on amortized
+optimization", Found. Trends Mach. Learn. 16(5)). ``python -m train --algo amortised --env
+ID`` trains one (:func:`train_run`); the policy itself is :mod:`train.amortised_policy`. The
+method, its settings and its measured results: docs/training.md, "Amortised policy".
 
 **Training** (:func:`train_policy`), deterministic for a seed (torch and numpy seeded, one torch
-thread, float64), on the canonical optima of the reference table (``tandem_env.envs.reference``)
-at the grid's TRAINING conditions only (``training_conditions(env_id)``: every other grid
-point, the envelope's ends among them):
-
-(a) branches (:mod:`train.amortised_branches`, which states the rule): runs of neighbouring
-    training optima that belong together, each an MLP of its own over its domain (its
-    training conditions and :attr:`Settings.branch_reach` into each gap to a neighbour);
-(b) regression: each branch's outputs before the output tanh (z, u = tanh z) are fitted (mean
-    squared error on z, full batch, Adam, :attr:`Settings.regression_steps` steps) to atanh
-    of its canonical optima, of the strokes interpolated between them and of its end optima
-    held to its domain's ends (``regression_points``); targets at a bound are held
-    ``TARGET_LIMIT`` inside it (tanh reaches ±1 only at infinity), and fitting z keeps their
-    gradient from vanishing in the saturated tanh;
-(c) fine-tuning by the objective's gradient: :attr:`Settings.finetune_steps` Adam steps, each on
-    :attr:`Settings.batch` conditions per branch drawn uniformly over its domain (stratified:
-    one draw in each of ``batch`` equal parts), maximising the mean of ``J / ref(c)`` with
-    ``J = objective − w · Σ_i max(0, δ − margin_i)`` [objective units], the env's exact (L1)
-    penalty of its reward (``w`` = :attr:`Settings.penalty_weight`, the env's default 10)
-    held :attr:`Settings.safety_margin` δ inside every constraint's signed margin
-    (``Constraint.margin``, [-], >= 0 where it holds) so that the strokes between the
-    sampled ones stay feasible; ``ref(c)`` [objective units] is the table's optimum
-    interpolated over the training conditions only. The gradient w.r.t. the stroke is the
-    env's problem view's autograd gradient (``FlightProblem.differentiate``, the torch model,
-    ONE model evaluation for all branches' strokes of a step), carried through the networks
-    by the chain rule. A regression term on the training targets (weight
-    :attr:`Settings.anchor`) keeps each branch near its certified optima while it climbs.
-    The learning rate decays to 0 over the steps (cosine);
-(d) hand-overs (``hand_overs``): where two neighbouring branches overlap, at the condition
-    that maximises their summed penalised objective.
-
-The default training (5 000 regression steps, 600 fine-tuning steps of 16 conditions per
-branch at the default resolution) takes about 3.5 minutes for one branch (accelerating flight)
-and 9.5 for level flight's four on one core of the 2-core machine; the measured held-out
-results are in docs/training.md, "Amortised policy".
-
-The run folder is written by :func:`train_run` (:mod:`train.amortised_policy` lists its files).
+thread, float64), on the canonical optima of the reference table at the grid's training
+conditions only: (a) branches (:mod:`train.amortised_branches`); (b) regression of each
+branch's outputs before the output tanh on atanh of its targets (``regression_points``;
+targets at a bound held ``TARGET_LIMIT`` inside it); (c) fine-tuning by the gradient of the
+mean of ``J / ref(c)``, ``J = objective − w · Σ_i max(0, δ − margin_i)`` [objective units]
+(``w``: :attr:`Settings.penalty_weight`, ``δ``: :attr:`Settings.safety_margin`), on
+:attr:`Settings.batch` stratified conditions per branch and step, the stroke's gradient from
+the problem view's autograd (``FlightProblem.differentiate``, one model evaluation for all
+branches per step), an anchor on the training targets (:attr:`Settings.anchor`) and a cosine
+learning-rate decay; (d) hand-overs (``hand_overs``).
 
 Refused before any computation, with the value and what is allowed: an env without a
 reference table, a series the table does not hold (objective, planform), env options that

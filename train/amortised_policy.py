@@ -11,7 +11,7 @@ accelerating flight]. Output: a normalised stroke (28,) in [-1, 1], the env's ac
 * The 26 continuous coordinates from the branch's MLP: the condition mapped from the branch's
   domain to [-1, 1] (:meth:`AmortisedPolicy.inputs`; or, with
   ``features`` of :class:`~train.amortised_settings.Settings` > 0, its Gaussian radial features,
-  :class:`RadialFeatures`), tanh hidden layers (``hidden``) and a tanh output u ∈ (-1, 1)^26.
+  :func:`radial_features`), tanh hidden layers (``hidden``) and a tanh output u ∈ (-1, 1)^26.
   A coordinate that is not a phase is u itself. A phase (each wing's sweep, elevation and
   pitch phase, Table 4: -180° to 180° on both wings, so ±1 is one angle) is
   ``wrap(centre + u)`` [normalised: 1 = 180°], ``wrap`` onto [-1, 1), with a fixed ``centre``
@@ -23,24 +23,13 @@ accelerating flight]. Output: a normalised stroke (28,) in [-1, 1], the env's ac
   branch has the same N). N is a step of the action (its gradient is 0), so neither
   regression nor fine-tuning could move it.
 
-**Canonical targets** (:func:`canonicalise`). The model has a symmetry the targets need not
-carry: every angle of a wing is a function of τ + Φ (its elevation of N·τ + Φ_θ) over one cycle
-of its own (docs/model.md §3.2, §3.6), so delaying a wing's motion by Δ (its sweep and pitch
-phases by Δ, its elevation phase by N·Δ, wrapped) changes nothing but where the cycle starts.
-A common delay of both pairs changes nothing in any model reading; under the mean slipstream
-(the default, ``ModelOptions.phase_resolved()`` False) the pairs meet only through cycle means,
-so each pair may be delayed on its own (docs/model.md §5.7). The targets are delayed so that
-the fore-wing's sweep phase, and where the pairs are independent the hind-wing's too, sits at
-:data:`CANONICAL_SWEEP_PHASE` (0°): optima found with arbitrary phase offsets become one smooth
-family over the conditions. The delay is a whole number of time-grid steps (360°/n_time: 2.8125°
-at the default n_time = 128), so the canonical sweep phase lies within half a step of 0°: the
-motion-following time grid (docs/model.md §3.5) is sampled at fixed s_k = 2πk/n_time and
-follows the sweep phase, so a delay by whole steps samples the same points of the same motion
-and the objective is unchanged to rounding (measured: 1e-14 relative; ``tests/train/
-test_amortised.py`` holds it to 1e-9), while an arbitrary delay moves it by the grid's
-discretisation error (measured: about 5e-6 relative at n_time = 128).
+**Canonical targets** (:func:`canonicalise`): each pair's motion is delayed by whole time-grid
+steps so that its sweep phase sits within half a step of :data:`CANONICAL_SWEEP_PHASE` (the hind
+pair on its own where the model is not phase-resolved): optima found with arbitrary phase
+offsets become one smooth family over the conditions, and the objective is unchanged to
+rounding (why: docs/training.md, "Amortised policy", step 1; docs/model.md §3.2, §3.5, §5.7).
 
-**A run folder** (zoo-style, :class:`~train.layout.RunLayout`, ``logs/amortised/<env>_<n>/``)::
+**A run folder** (zoo-style, :class:`~train.run_folder.RunLayout`, ``logs/amortised/<env>_<n>/``)::
 
     <env>.pt                 the branches' weights: a torch state_dict (torch.load(weights_only=True))
     policy.json              what the forward pass needs besides: sizes, phase centres, the
@@ -50,7 +39,7 @@ discretisation error (measured: about 5e-6 relative at n_time = 128).
     <env>/config.yml         the training settings (:class:`~train.amortised_settings.Settings`)
 
 every file written atomically (``tandem_env.io.files``) and read with safe loaders (JSON,
-``yaml.safe_load`` through :func:`train.layout.read_run_yaml`, weights only).
+``yaml.safe_load`` through :func:`train.saved.read_run_yaml`, weights only).
 """
 
 from __future__ import annotations
@@ -73,7 +62,8 @@ from tandem_env.physics.stroke import (
     physical_to_normalised,
 )
 from train.config import AMORTISED
-from train.layout import RunPolicy, check_args_env, env_name, read_run_args, resolve_run_dir
+from train.run_folder import RunPolicy, env_name, resolve_run_dir
+from train.saved import read_run_args
 
 #: Where the canonical targets put each canonicalised sweep phase [deg] (within half a time-grid
 #: step, :func:`canonicalise`).
@@ -207,38 +197,35 @@ def reference_targets(series: Any, n_time: int, *, pairs_independent: bool) -> T
 
 
 # --- the network and the policy ------------------------------------------------------------------
-class RadialFeatures:
-    """Fixed Gaussian bumps of the observation x ∈ [-1, 1]: ``exp(−((x − μ_k)/σ)²/2)`` at
-    ``count`` centres μ_k evenly over [-1, 1], σ their spacing. A gradient step for one
-    condition then moves mostly the strokes of the conditions near it (what the per-condition
-    optima need: they are not one smooth family), while the map stays smooth."""
+def radial_features(count: int) -> Any:
+    """Fixed Gaussian bumps of the observation x ∈ [-1, 1] (a torch module):
+    ``exp(−((x − μ_k)/σ)²/2)`` at ``count`` centres μ_k evenly over [-1, 1], σ their spacing. A
+    gradient step for one condition then moves mostly the strokes of the conditions near it
+    (what the per-condition optima need: they are not one smooth family), while the map stays
+    smooth."""
+    import torch
 
-    def __new__(cls, count: int) -> Any:
-        import torch
+    class RadialFeatures(torch.nn.Module):
+        def __init__(self) -> None:
+            super().__init__()
+            self.register_buffer("centres", torch.linspace(-1.0, 1.0, count, dtype=torch.float64))
+            self.width = 2.0 / max(1, count - 1)
 
-        class _Radial(torch.nn.Module):
-            def __init__(self) -> None:
-                super().__init__()
-                self.register_buffer(
-                    "centres", torch.linspace(-1.0, 1.0, count, dtype=torch.float64)
-                )
-                self.width = 2.0 / max(1, count - 1)
+        def forward(self, x: Any) -> Any:
+            return torch.exp(-0.5 * ((x - self.centres) / self.width) ** 2)
 
-            def forward(self, x: Any) -> Any:
-                return torch.exp(-0.5 * ((x - self.centres) / self.width) ** 2)
-
-        return _Radial()
+    return RadialFeatures()
 
 
 def build_network(hidden: Sequence[int], features: int = 0) -> Any:
-    """One branch's MLP 1 -> (``features`` > 0: :class:`RadialFeatures`) -> hidden (tanh) -> 26
+    """One branch's MLP 1 -> (``features`` > 0: :func:`radial_features`) -> hidden (tanh) -> 26
     (linear: z, the output u = tanh z is taken by :class:`AmortisedPolicy`), float64."""
     import torch
 
     layers: list[Any] = []
     width = 1
     if features:
-        layers.append(RadialFeatures(features))
+        layers.append(radial_features(features))
         width = features
     for h in hidden:
         layers += [torch.nn.Linear(width, h), torch.nn.Tanh()]
@@ -408,7 +395,7 @@ def is_amortised_run(run_dir: str | Path) -> bool:
     amortised run writes one: :func:`load_policy` then says what its args.yml gets wrong)."""
     folder = resolve_run_dir(run_dir)
     try:
-        _, args = read_run_args(folder, "")
+        _, args, _ = read_run_args(folder, "")
     except ValueError:
         return False
     return args.get("algo") == AMORTISED or (folder / POLICY_FILE).is_file()
@@ -527,13 +514,14 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     from tandem_env.envs.reference import REFERENCE_GRID
 
     folder = resolve_run_dir(run_dir)
-    args_file, args = read_run_args(folder, "a folder written by python -m train --algo amortised")
+    args_file, args, env_id = read_run_args(
+        folder, "a folder written by python -m train --algo amortised"
+    )
     if args.get("algo") != AMORTISED:
         raise ValueError(
             f"{args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}, the run of "
             f"python -m train --algo amortised (its {POLICY_FILE} and weights) that this loads"
         )
-    env_id = check_args_env(args_file, args.get("env"))
     if env_id not in REFERENCE_GRID:
         raise ValueError(
             f"{args_file}: env = {env_id!r}; allowed: an env an amortised policy is trained for, "

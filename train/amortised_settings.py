@@ -56,7 +56,7 @@ class Settings:
     (:func:`~train.amortised_branches.branch_segments`) [-]."""
     features: int = field(default=0, metadata=_allowed(0, 1024))
     """Gaussian radial features of the observation before the MLP (0: the observation
-    itself) [-] (:class:`RadialFeatures`)."""
+    itself) [-] (:func:`~train.amortised_policy.radial_features`)."""
     finetune_n_time: int | None = field(default=None, metadata=_allowed(8, 4096))
     """Time samples of the fine-tuning's model (None: the env's, default 128) [-]."""
     finetune_n_blade: int | None = field(default=None, metadata=_allowed(2, 512))

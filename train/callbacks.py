@@ -1,4 +1,5 @@
-"""Callbacks of a training run: physical metrics to TensorBoard, and an EvalCallback that resumes.
+"""Callbacks of a training run: physical metrics to TensorBoard, an EvalCallback that resumes,
+checkpoints (:class:`RunCheckpoint`) and Ctrl-C (:class:`StopOnInterrupt`).
 
 SB3's own logger only knows rewards; here every vector step's ``info`` dicts (the model's
 metrics of each evaluated stroke, with its normalised score against the reference optimum,
@@ -8,14 +9,20 @@ docs/reference.md) are averaged into ``physics/*`` scalars, and the best stroke 
 
 from __future__ import annotations
 
+import contextlib
+import signal
+import threading
 import warnings
 import zipfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback, EvalCallback
 
+from train.run_folder import Checkpoint, RunLayout
+from train.saved import save_checkpoint
 from train.vec import StrokeRecorder
 
 #: ``info`` entries averaged over each vector step into ``physics/<name>``.
@@ -113,3 +120,82 @@ class SaveVecNormalize(BaseCallback):
         if normalizer is not None:
             normalizer.save(str(self.path))
         return True
+
+
+class RunCheckpoint(BaseCallback):
+    """Checkpoints every ``save_freq`` env steps, keeping the newest ``keep``.
+
+    Unlike SB3's CheckpointCallback (which saves inside ``on_step``, before an off-policy
+    algorithm stores that step's transitions, so a resumed SAC would miss one vector step of
+    its replay buffer), this saves at the end of a rollout: the buffer holds every transition
+    up to the checkpoint's step. Files are named as CheckpointCallback names them.
+    """
+
+    def __init__(self, layout: RunLayout, save_freq: int, keep: int, verbose: int = 0) -> None:
+        super().__init__(verbose)
+        self.layout = layout
+        self.save_freq = save_freq
+        self.keep = keep
+        self._next = save_freq
+
+    def _init_callback(self) -> None:
+        self._next = (self.model.num_timesteps // self.save_freq + 1) * self.save_freq
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        step = self.model.num_timesteps
+        if step >= self._next:
+            checkpoint = save_checkpoint(self.model, self.layout, self.keep)
+            self._next = (step // self.save_freq + 1) * self.save_freq
+            if self.verbose >= 2:
+                print(f"Saved checkpoint {checkpoint.model}")
+
+
+class StopOnInterrupt(BaseCallback):
+    """Ctrl-C (SIGINT) while :meth:`catching` stops ``learn`` at the next env step instead of
+    raising KeyboardInterrupt wherever it lands (a traceback, an open progress bar, the steps
+    since the last checkpoint lost); :meth:`save` then checkpoints the last whole iteration.
+
+    The step count goes back to the last rollout's end (:attr:`boundary`): the weights are those
+    trained on the rollouts up to it, and the steps of the unfinished rollout, which nothing
+    learnt from (SAC: whose last transition SB3 does not store), are collected again on resume.
+    A second Ctrl-C raises KeyboardInterrupt at once."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.requested = False
+        self.boundary = 0
+
+    def _init_callback(self) -> None:
+        self.boundary = self.model.num_timesteps
+
+    def _on_rollout_end(self) -> None:
+        self.boundary = self.model.num_timesteps
+
+    def _on_step(self) -> bool:
+        return not self.requested
+
+    def _request(self, *_: object) -> None:  # a signal handler's (signum, frame)
+        self.requested = True
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    @contextlib.contextmanager
+    def catching(self) -> Iterator[None]:
+        """Catch SIGINT within the block (in the main thread, unless SIGINT is ignored: a
+        background job's), restoring the previous handler afterwards."""
+        previous = signal.getsignal(signal.SIGINT)
+        if threading.current_thread() is not threading.main_thread() or previous == signal.SIG_IGN:
+            yield
+            return
+        signal.signal(signal.SIGINT, self._request)
+        try:
+            yield
+        finally:
+            signal.signal(signal.SIGINT, previous)
+
+    def save(self, layout: RunLayout, keep: int) -> Checkpoint:
+        """The checkpoint of the last whole iteration, the ``keep`` newest kept."""
+        self.model.num_timesteps = self.boundary
+        return save_checkpoint(self.model, layout, keep)

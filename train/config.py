@@ -353,6 +353,16 @@ def _schedule(key: str, value: Any) -> Any:
     return float(value)
 
 
+def step_granularity(algo: str, hp: Hyperparams) -> int:
+    """Env steps one learn iteration takes (``learn`` never stops inside one)."""
+    if algo == "ppo":
+        return int(hp.model_kwargs.get("n_steps", 2048)) * hp.n_envs
+    train_freq = hp.model_kwargs.get("train_freq", 1)
+    # Every episode is one step, so "episode" frequencies count the same vector steps.
+    steps = train_freq[0] if isinstance(train_freq, tuple) else train_freq
+    return int(steps) * hp.n_envs
+
+
 def check_algo(algo: str) -> str:
     if algo not in ALGOS:
         raise ValueError(f"algo = {algo!r}; allowed: {', '.join(ALGOS)}")
@@ -536,14 +546,14 @@ class TrainConfig:
     def to_dict(self) -> dict[str, Any]:
         """Plain-YAML form (``args.yml``): every field (:func:`plain`), under its zoo name where
         it has one (:data:`ARGS_KEYS`), marked as written by this project (``made_by``)."""
-        from train.layout import MADE_BY
-
         settings = {
             ARGS_KEYS.get(f.name, f.name): plain(getattr(self, f.name)) for f in fields(self)
         }
         return {"made_by": MADE_BY, **settings}
 
 
+#: The ``made_by`` entry of ``args.yml`` that marks a run folder written by ``python -m train``.
+MADE_BY = "tandem-env python -m train"
 #: The ``args.yml`` keys of the :class:`TrainConfig` fields the zoo names otherwise.
 ARGS_KEYS = {"env_id": "env", "hyperparams_file": "conf_file", "progress_bar": "progress"}
 

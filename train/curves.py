@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from tandem_env.io.files import atomic_path, read_json
-from train.layout import RunLayout
+from train.run_folder import RunLayout
 
 
 @dataclass(frozen=True)
@@ -50,7 +50,7 @@ def read_run(run_dir: str | Path) -> Curves:
     rewards: list[float] = []
     objective: list[float] = []
     feasible: list[bool] = []
-    for path in sorted(layout.monitor_files(), key=lambda p: int(p.name.split(".")[0])):
+    for path in layout.monitor_files():
         with path.open() as stream:
             stream.readline()  # JSON header
             for row in csv.DictReader(stream):

@@ -6,10 +6,6 @@ this module is imported (it is the provider :mod:`agents.methods` imports on fir
 train`` (ppo, sac or amortised) asked once for its deterministic stroke (**1 evaluation**); and
 ``ppo`` / ``sac``, trained at the harness's condition within its budget of env steps, the
 result being the **best stroke seen** by the harness's selection rule (:mod:`agents.selection`).
-
-For use outside the harness: :func:`train_and_propose` (train within a budget, return the
-chosen stroke); a trained run's own stroke at a condition is
-:func:`train.trained_policy.policy_stroke`, over :class:`~train.trained_policy.TrainedPolicy`.
 """
 
 from __future__ import annotations
@@ -40,10 +36,10 @@ from train.config import (
     check_algo,
     load_entry,
     plain,
-    resolve_hyperparams,
+    step_granularity,
 )
-from train.layout import RunLayout, read_run_yaml, resolve_run_dir
-from train.run import budget_hyperparams, learn_in_memory, step_granularity, train
+from train.run import budget_hyperparams, learn_in_memory, train
+from train.run_folder import resolve_run_dir
 from train.trained_policy import WHICH_MODELS, TrainingMismatchWarning, WhichModel, load_policy
 from train.vec import StrokeRecorder
 
@@ -68,21 +64,21 @@ _ANNOUNCED: set[tuple[Any, ...]] = set()
 _TRAINING_SETTINGS = ("n_envs", "conf_file", "torch_threads", "log_dir")
 
 
-# The suffixes of the files a run's policy is read from (train.layout.RunLayout, and an amortised
+# The suffixes of the files a run's policy is read from (train.run_folder.RunLayout, and an amortised
 # run's weights and policy.json): what PolicyMethod.identity hashes.
 _POLICY_SUFFIXES = (".zip", ".pkl", ".pt", ".json", ".yml")
 
 
 @functools.lru_cache(maxsize=256)
-def _file_digest(path: Path, size: int, mtime_ns: int) -> str:
-    with path.open("rb") as handle:
+def _file_digest(stamped: tuple[Path, int, int]) -> str:
+    with stamped[0].open("rb") as handle:
         return hashlib.file_digest(handle, "sha256").hexdigest()
 
 
 def _digest_of(path: Path) -> str:
     """SHA-256 of a file's bytes, read once per process while its size and time stay."""
     status = path.stat()
-    return _file_digest(path.resolve(), status.st_size, status.st_mtime_ns)
+    return _file_digest((path.resolve(), status.st_size, status.st_mtime_ns))
 
 
 # --- harness methods ---------------------------------------------------------------------------
@@ -342,15 +338,15 @@ class TrainingMethod:
         context.report(len(result.history), result.num_timesteps, result.best_reward)
         # train() evaluated the final deterministic stroke at the (fixed) condition once.
         [final] = result.final_evaluation
-        saved = read_run_yaml(RunLayout(result.run_dir, context.env_id).config_file)  # type: ignore[arg-type]
+        assert result.hp is not None
         return _Training(
             best_action=result.best_action,
             best_reward=result.best_reward,
             best_feasible=bool((result.best_info or {}).get("feasible", False)),
             history=list(result.history),
             steps=result.num_timesteps,
-            hyperparams=saved,
-            n_envs=resolve_hyperparams(saved).n_envs,  # an entry may leave n_envs out
+            hyperparams=result.hp.saved,
+            n_envs=result.hp.n_envs,
             final_action=np.clip(np.asarray(final["action"], dtype=np.float64), -1.0, 1.0),
             # float64 as the harness re-evaluates it (the adapter's reward is float32)
             final_reward=float(final["objective"] - final["penalty"]),
@@ -378,22 +374,6 @@ class _Training:
     final_objective: float
     final_feasible: bool
     run_dir: str | None = None
-
-
-def train_and_propose(
-    algo: str,
-    task: str,
-    condition: float,
-    budget: int,
-    seed: int,
-    **options: Any,
-) -> np.ndarray:
-    """Train ``algo`` within ``budget`` env steps at ``condition`` and return the chosen stroke
-    (normalised, (28,)); the same as ``agents.harness.run(algo, ...)`` without the record."""
-    from agents.harness import run
-
-    record = run(algo, task, condition, budget, [seed], progress=False, **options)[0]
-    return np.asarray(record.normalised_stroke, dtype=np.float64)
 
 
 # --- factories for the registry ---------------------------------------------------------------

@@ -19,21 +19,20 @@ import numpy as np
 import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
-from stable_baselines3.common.vec_env import VecNormalize, sync_envs_normalization
+from stable_baselines3.common.vec_env import sync_envs_normalization
 
 from agents.selection import best_index
 from tandem_env.io.files import write_json_atomic
-from train.callbacks import PhysicsLogger, ResumableEvalCallback, SaveVecNormalize
-from train.checkpoint import (
+from train.callbacks import (
+    PhysicsLogger,
+    ResumableEvalCallback,
     RunCheckpoint,
+    SaveVecNormalize,
     StopOnInterrupt,
-    build_model,
-    load_checkpoint,
-    save_checkpoint,
 )
-from train.config import Hyperparams, TrainConfig, load_entry, resolve_hyperparams
-from train.layout import Interrupted, RunLayout
-from train.run_folder import RunFolder, step_granularity
+from train.config import Hyperparams, TrainConfig, load_entry, resolve_hyperparams, step_granularity
+from train.run_folder import Interrupted, RunFolder, RunLayout
+from train.saved import build_model, read_normalizer, save_checkpoint
 from train.vec import StrokeRecorder, evaluate_deterministic, make_evaluation_env, make_training_env
 
 #: Checkpoints kept in a run folder (older ones are deleted: a SAC replay buffer is ~40 MB).
@@ -62,6 +61,8 @@ class TrainResult:
     """The final policy's deterministic stroke at each evaluation condition (metrics)."""
     history: tuple[tuple[int, float], ...] = ()
     """(env steps of this segment, best reward so far) after every vector step."""
+    hp: Hyperparams | None = None
+    """The hyperparameters it trained with (``config.yml``)."""
 
 
 # --- building blocks -----------------------------------------------------------------------
@@ -86,105 +87,88 @@ def default_log_interval(algo: str, n_envs: int) -> int:
 
 # --- the run ---------------------------------------------------------------------------------
 def train(config: TrainConfig) -> TrainResult:
-    """Run (or resume) one training run with files: the folder with every check before any work
-    (:meth:`RunFolder.open <train.run_folder.RunFolder.open>`), the envs, the model, learning
-    with evaluations and checkpoints, then the final model, its evaluation and ``result.json``."""
+    """Run (or resume) one training run with files: the plan (the folder, with every check
+    before any work: :meth:`RunFolder.open <train.run_folder.RunFolder.open>`), the envs, the
+    model, learning with evaluations and checkpoints, then the final model, its evaluation and
+    ``result.json``."""
     with contextlib.ExitStack() as held:
         # the plan: which folder, from which checkpoint, with which settings
         run = RunFolder.open(config, held)
         config, hp, layout, checkpoint = run.config, run.hp, run.layout, run.checkpoint
         assert hp is not None
-        if config.verbose:
-            run.say_plan()
         run.start(hp.saved)
-        with torch_threads(config.torch_threads):
-            # the envs: training (its Monitor file, normalisation resumed or new), evaluation
-            venv, recorder = make_training_env(
-                config.env_id,
-                hp.n_envs,
-                config.seed,
-                run.env_kwargs,
-                monitor_file=layout.next_monitor_file(),
-                normalize=None,
+        held.enter_context(torch_threads(config.torch_threads))
+        # the envs: training (its Monitor file, normalisation resumed or new), evaluation
+        venv, recorder = make_training_env(
+            config.env_id,
+            hp.n_envs,
+            config.seed,
+            run.env_kwargs,
+            monitor_file=layout.next_monitor_file(),
+            normalize=hp.normalize if checkpoint is None else None,
+        )
+        if hp.normalize is not None and checkpoint is not None:
+            normalizer = read_normalizer(checkpoint.vecnormalize)
+            normalizer.set_venv(venv)
+            venv, normalizer.training = normalizer, True
+        eval_env = make_evaluation_env(
+            config.env_id, run.env_kwargs, config.seed + 10_000, normalize=hp.normalize
+        )
+        held.callback(eval_env.close)
+        held.callback(venv.close)
+        # the model: new, or the checkpoint's (with SAC's replay buffer)
+        model = run.model(
+            venv,
+            tensorboard_log=layout.tensorboard if config.tensorboard else None,
+            verbose=config.model_verbose,
+            device=config.device,
+        )
+        start_step = model.num_timesteps
+        # learning, with physics logs, checkpoints and evaluations; Ctrl-C saves a checkpoint
+        stop = StopOnInterrupt()
+        callbacks: list[BaseCallback] = [PhysicsLogger(recorder)]
+        if config.save_freq > 0:
+            callbacks.append(
+                RunCheckpoint(layout, config.save_freq, KEEP_CHECKPOINTS, config.verbose)
             )
-            if hp.normalize is not None and checkpoint is not None:
-                normalizer = run.normaliser()
-                normalizer.set_venv(venv)
-                venv, normalizer.training = normalizer, True
-            elif hp.normalize is not None:
-                venv = VecNormalize(venv, **dict(hp.normalize))
-            eval_env = make_evaluation_env(
-                config.env_id, run.env_kwargs, config.seed + 10_000, normalize=hp.normalize
+        if config.eval_freq > 0:
+            callbacks.append(
+                ResumableEvalCallback(
+                    eval_env,
+                    n_eval_episodes=eval_env.num_envs,
+                    eval_freq=max(config.eval_freq // hp.n_envs, 1),
+                    best_model_save_path=str(layout.run_dir),
+                    log_path=str(layout.run_dir),
+                    deterministic=True,
+                    verbose=config.verbose,
+                    callback_on_new_best=None
+                    if hp.normalize is None
+                    else SaveVecNormalize(layout.best_vecnormalize),
+                    resume_from_step=None if checkpoint is None else start_step,
+                )
             )
-            # the model: new, or the checkpoint's (with SAC's replay buffer)
-            settings: dict[str, Any] = {
-                "seed": config.seed,
-                "tensorboard_log": layout.tensorboard if config.tensorboard else None,
-                "verbose": config.model_verbose,
-                "device": config.device,
-            }
-            if checkpoint is None:
-                model = build_model(config.algo, hp, venv, **settings)
-            else:
-                model = load_checkpoint(config.algo, checkpoint, hp, venv, **settings)
-                # A resumed segment is reproducible given its checkpoint (RNG states are not
-                # saved).
-                model.set_random_seed(config.seed + model.num_timesteps)
-            start_step = model.num_timesteps
-            # learning, with physics logs, checkpoints and evaluations; Ctrl-C saves a checkpoint
-            stop = StopOnInterrupt()
-            callbacks: list[BaseCallback] = [PhysicsLogger(recorder)]
-            if config.save_freq > 0:
-                callbacks.append(
-                    RunCheckpoint(
-                        layout, config.save_freq, KEEP_CHECKPOINTS, verbose=config.verbose
-                    )
-                )
-            if config.eval_freq > 0:
-                best = None if hp.normalize is None else SaveVecNormalize(layout.best_vecnormalize)
-                callbacks.append(
-                    ResumableEvalCallback(
-                        eval_env,
-                        n_eval_episodes=eval_env.num_envs,
-                        eval_freq=max(config.eval_freq // hp.n_envs, 1),
-                        best_model_save_path=str(layout.run_dir),
-                        log_path=str(layout.run_dir),
-                        deterministic=True,
-                        verbose=config.verbose,
-                        callback_on_new_best=best,
-                        resume_from_step=None if checkpoint is None else start_step,
-                    )
-                )
-            started = time.perf_counter()
-            with stop.catching():
-                model.learn(
-                    run.target - start_step,
-                    callback=CallbackList([*callbacks, stop]),
-                    log_interval=config.log_interval
-                    or default_log_interval(config.algo, hp.n_envs),
-                    tb_log_name=config.algo.upper(),
-                    reset_num_timesteps=checkpoint is None,
-                    progress_bar=config.progress_bar,
-                )
-            wall_time = time.perf_counter() - started
-            if stop.requested:
-                saved = stop.save(layout, KEEP_CHECKPOINTS)
-                venv.close()
-                eval_env.close()
-                resume = f"python -m train --algo {config.algo} --env {config.env_id} --run-dir"
-                raise Interrupted(saved, f"{resume} {layout.run_dir}")
-            # the final model (normalisation statistics, a last checkpoint) and its evaluation
-            model.save(layout.final_model)
-            if hp.normalize is not None:
-                normalizer = model.get_vec_normalize_env()
-                assert normalizer is not None
-                normalizer.save(str(layout.vecnormalize))
-                sync_envs_normalization(venv, eval_env)
-            if config.save_freq > 0:
-                save_checkpoint(model, layout, KEEP_CHECKPOINTS)
-            final = evaluate_deterministic(model, eval_env)
-            venv.close()
-            eval_env.close()
+        started = time.perf_counter()
+        with stop.catching():
+            model.learn(
+                run.target - start_step,
+                callback=CallbackList([*callbacks, stop]),
+                log_interval=config.log_interval or default_log_interval(config.algo, hp.n_envs),
+                tb_log_name=config.algo.upper(),
+                reset_num_timesteps=checkpoint is None,
+                progress_bar=config.progress_bar,
+            )
+        wall_time = time.perf_counter() - started
+        if stop.requested:
+            saved = stop.save(layout, KEEP_CHECKPOINTS)
+            resume = f"python -m train --algo {config.algo} --env {config.env_id} --run-dir"
+            raise Interrupted(saved, f"{resume} {layout.run_dir}")
+        # the final model (normalisation statistics, a last checkpoint) and its evaluation
+        model.save(layout.final_model)
+        if hp.normalize is not None:
+            model.get_vec_normalize_env().save(str(layout.vecnormalize))  # type: ignore[union-attr]
+            sync_envs_normalization(venv, eval_env)
+        if config.save_freq > 0:
+            save_checkpoint(model, layout, KEEP_CHECKPOINTS)
         result = TrainResult(
             algo=config.algo,
             env_id=config.env_id,
@@ -195,10 +179,11 @@ def train(config: TrainConfig) -> TrainResult:
             best_reward=recorder.best_reward,
             best_action=recorder.best_action,
             best_info=recorder.best_info,
-            final_evaluation=final,
+            final_evaluation=evaluate_deterministic(model, eval_env),
             history=tuple(recorder.history),
+            hp=hp,
         )
-        _write_result(layout, result, hp, run.segments)
+        _write_result(layout, result, run.segments)
         return result
 
 
@@ -211,10 +196,7 @@ def _best_segment(segments: Sequence[Mapping[str, Any]]) -> Mapping[str, Any]:
 
 
 def _write_result(
-    layout: RunLayout,
-    result: TrainResult,
-    hp: Hyperparams,
-    previous: Sequence[Mapping[str, Any]],
+    layout: RunLayout, result: TrainResult, previous: Sequence[Mapping[str, Any]]
 ) -> None:
     """Write ``result.json``: the earlier segments (``previous``, read when the folder was opened) and this
     run's."""
@@ -234,7 +216,7 @@ def _write_result(
         "algo": result.algo,
         "env_id": result.env_id,
         "num_timesteps": result.num_timesteps,
-        "n_envs": hp.n_envs,
+        "n_envs": result.hp.n_envs,  # type: ignore[union-attr]
         "wall_time_s": sum(float(s["wall_time_s"]) for s in segments),
         "best_seen": {k: best[k] for k in ("best_reward", "best_action", "best_info")},
         "final_evaluation": result.final_evaluation,

@@ -1,46 +1,353 @@
-"""A training run's folder (``logs/<algo>/<env>_<n>/``, the files of
-:class:`~train.layout.RunLayout`): :meth:`RunFolder.open` finds or makes it, locks it and
-decides, before any work, whether this command may train there and from which checkpoint; the
-folder then writes the run's settings and reads its normaliser. PPO, SAC
-(:func:`train.run.train`) and the amortised policy (:func:`train.amortised.train_run`) share it.
+"""A training run's folder, the one home of what it is and when a run goes on there.
 
-When a run continues: ``--resume`` (the latest run of the algo and env) or ``--run-dir`` of a
-folder ``python -m train`` wrote, with an intact checkpoint short of the target; it keeps the
-settings it started with (``args.yml``, ``config.yml``). An amortised run is never continued
-(it trains in minutes): its folder is new, or empty.
+**What it is** (:class:`RunLayout`): rl-baselines3-zoo's layout, ``logs/<algo>/<env>_<n>/``
+(each file listed in docs/training.md, "The run folder"; ``<env>`` is the env id with ``/``
+replaced by ``-``), its checkpoints (:class:`Checkpoint`) and its lock (:func:`run_lock`).
+rl_zoo3 writes the same layout into the same folders, so a run of this project is recognised
+by the ``made_by`` entry of its ``args.yml`` (:data:`MADE_BY`); :meth:`RunLayout.foreign` says
+why a folder is not one, and ``python -m train`` never resumes in, or writes into, such a folder.
+
+**When a run goes on** (:meth:`RunFolder.open`, every refusal before any work): ``--resume``
+(the latest run of the algo and env) or ``--run-dir`` of a folder ``python -m train`` wrote,
+with an intact checkpoint short of the target; it keeps the settings it started with
+(``args.yml``, ``config.yml``). An amortised run is never continued (it trains in minutes): its
+folder is new, or empty. PPO, SAC (:func:`train.run.train`) and the amortised policy
+(:func:`train.amortised.train_run`) share it.
 """
 
 from __future__ import annotations
 
 import contextlib
+import math
 import os
+import pickletools
+import re
 import warnings
+import zipfile
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
-from tandem_env.envs.registration import check_env_id
-from train.config import AMORTISED, Hyperparams, TrainConfig, plain, resolve_hyperparams, write_yaml
-from train.layout import (
-    LOCK_FILE,
-    Checkpoint,
-    RunComplete,
-    RunLayout,
+from tandem_env.io.files import FolderLock
+from train.config import (
+    AMORTISED,
+    MADE_BY,
+    Hyperparams,
+    TrainConfig,
+    plain,
+    resolve_hyperparams,
+    step_granularity,
+    write_yaml,
+)
+from train.saved import (
+    build_model,
+    load_model,
+    load_on_copy,
+    parse_run_yaml,
     read_normalizer,
     read_result_segments,
     read_run_yaml,
-    run_lock,
 )
 
+CHECKPOINT_PREFIX = "rl_model"
+#: An ``args.yml`` key only this project writes (runs from before ``made_by`` have it; the
+#: zoo calls its thread count ``num_threads``).
+_LEGACY_KEY = "torch_threads"
+_CHECKPOINT = re.compile(rf"^{CHECKPOINT_PREFIX}_(\d+)_steps\.zip$")
+#: The lock file of a run folder: held (``flock``) by the ``python -m train`` writing there.
+LOCK_FILE = ".train.lock"
+#: The members every SB3 model zip has (``save_to_zip_file``) and every replay buffer ``.npz``
+#: (:data:`train.saved.REPLAY_COUNTERS`), and what such a file is called.
+_MODEL_ZIP = (frozenset({"data", "_stable_baselines3_version"}), "model file")
+_BUFFER_ZIP = (frozenset({"pos.npy", "full.npy"}), "replay buffer file")
 
-def step_granularity(algo: str, hp: Hyperparams) -> int:
-    """Env steps one learn iteration takes (``learn`` never stops inside one)."""
-    if algo == "ppo":
-        return int(hp.model_kwargs.get("n_steps", 2048)) * hp.n_envs
-    train_freq = hp.model_kwargs.get("train_freq", 1)
-    # Every episode is one step, so "episode" frequencies count the same vector steps.
-    steps = train_freq[0] if isinstance(train_freq, tuple) else train_freq
-    return int(steps) * hp.n_envs
+
+def env_name(env_id: str) -> str:
+    """The env id as a folder name: ``TandemWing/LevelFlight-v0`` -> ``TandemWing-LevelFlight-v0``."""
+    return env_id.replace("/", "-")
+
+
+def latest_run_id(algo_folder: Path, name: str) -> int:
+    """Greatest ``n`` of the ``<name>_<n>`` folders in ``algo_folder`` (0 if none), as the zoo."""
+    numbers = [0]
+    if algo_folder.is_dir():
+        for path in algo_folder.iterdir():
+            stem, _, number = path.name.rpartition("_")
+            if path.is_dir() and stem == name and number.isdigit():
+                numbers.append(int(number))
+    return max(numbers)
+
+
+def resolve_run_dir(path: str | os.PathLike[str]) -> Path:
+    """A run folder, or the latest run a path names: ``logs/ppo/TandemWing-LevelFlight-v0``
+    (the folder without its ``_<n>``) is the run ``logs/ppo/TandemWing-LevelFlight-v0_<n>``
+    with the greatest ``n`` there, so a command need not hard-code a run number. Any other path
+    is returned as given."""
+    path = Path(path)
+    if path.is_dir() or not path.parent.is_dir():
+        return path
+    n = latest_run_id(path.parent, path.name)
+    return path.parent / f"{path.name}_{n}" if n else path
+
+
+def run_lock(run_dir: Path) -> FolderLock:
+    """The exclusive lock of a run folder (``<run>/.train.lock``), held while ``python -m train``
+    writes there; see :class:`tandem_env.io.files.FolderLock`."""
+    return FolderLock(
+        run_dir,
+        LOCK_FILE,
+        lambda pid: (
+            f"{run_dir} is in use: another python -m train (pid {pid}) is training there "
+            f"and holds {LOCK_FILE}; nothing was changed. Allowed: wait for it to finish, or resume "
+            "another run"
+        ),
+    )
+
+
+class RunPolicy:
+    """What every trained policy (:class:`train.trained_policy.TrainedPolicy`,
+    :class:`train.amortised_policy.AmortisedPolicy`) answers about its run."""
+
+    run_dir: Path | None
+    env_id: str
+    training_conditions: tuple[float, float] | float | None
+    """The condition range it was trained on, or its fixed condition (None if unknown) [the
+    condition's unit]."""
+
+    def check_env(self, env_id: str) -> None:
+        """ValueError unless the run was trained on ``env_id``."""
+        if self.env_id != env_id:
+            raise ValueError(
+                f"{self.run_dir} was trained on {self.env_id}; this task's env is {env_id}; "
+                "allowed: a run of the same env"
+            )
+
+    def trained_at(self, value: float) -> bool:
+        """Whether ``value`` is a condition the policy saw in training (inside its range, or
+        its fixed condition); True when the training condition is unknown."""
+        seen = self.training_conditions
+        if isinstance(seen, tuple):
+            return seen[0] - 1e-9 <= value <= seen[1] + 1e-9
+        return seen is None or math.isclose(seen, value)
+
+
+class RunComplete(Exception):
+    """A resumed run has nothing left to train (its checkpoint is at or past the target);
+    nothing was changed. ``python -m train`` prints the message and exits with status 0."""
+
+    def __init__(self, run_dir: Path, step: int, target: int) -> None:
+        super().__init__(
+            f"{run_dir} is complete: its last checkpoint is at {step} env steps and the target "
+            f"is {target}; nothing was trained or changed. To train on, give a larger target "
+            f"(-n N with N > {step})"
+        )
+
+
+class Interrupted(Exception):
+    """Training stopped by Ctrl-C with a checkpoint saved
+    (:class:`train.callbacks.StopOnInterrupt`); ``python -m train`` prints the message and
+    exits with status 130."""
+
+    def __init__(self, checkpoint: Checkpoint, resume: str) -> None:
+        self.checkpoint = checkpoint
+        super().__init__(
+            f"interrupted: checkpoint at step {checkpoint.step} saved as {checkpoint.model}; "
+            f"continue with: {resume}"
+        )
+
+
+@dataclass(frozen=True)
+class Checkpoint:
+    """One checkpoint: the model after ``step`` env steps and its companions."""
+
+    step: int
+    model: Path
+    replay_buffer: Path
+    """SAC's replay buffer, arrays in an ``.npz`` (:func:`train.saved.save_replay_buffer`)."""
+    vecnormalize: Path
+    legacy_replay_buffer: Path
+    """The pickled buffer of earlier versions: never loaded (a pickle can run code)."""
+
+    def damage(self, *, replay_buffer: bool, vecnormalize: bool) -> str | None:
+        """None if every file a resume needs is there and intact, else what is wrong, in words.
+
+        Read without loading anything: the model and the replay buffer are zips whose every
+        member's CRC must match (a truncated or altered file fails), and the VecNormalize file
+        is a pickle whose opcodes must run to its STOP (``pickletools.genops``, which builds no
+        object), so a file cut short by a kill or a full disk is found before it is loaded. A
+        replay buffer only in the pickled format of earlier versions is not loaded: it says so.
+        """
+        needed = [(self.model, _MODEL_ZIP)]
+        if replay_buffer:
+            needed.append((self.replay_buffer, _BUFFER_ZIP))
+        if vecnormalize:
+            needed.append((self.vecnormalize, None))  # a pickle
+        for path, zip_members in needed:
+            legacy = self.legacy_replay_buffer
+            if path == self.replay_buffer and not path.exists() and legacy.exists():
+                return (
+                    f"its replay buffer is {legacy.name}, the pickled format of earlier "
+                    "versions, which is never loaded (a pickle can run code)"
+                )
+            if not path.is_file():
+                return f"{path.name} is missing"
+            if path.stat().st_size == 0:
+                return f"{path.name} is empty"
+            problem = (
+                _pickle_damage(path) if zip_members is None else _zip_damage(path, *zip_members)
+            )
+            if problem is not None:
+                return f"{path.name} is damaged ({problem})"
+        return None
+
+    def loads(self, algo: str) -> dict[str, Any]:
+        """What :func:`train.saved.load_model` checks and loads besides the model file: the
+        step of its name, and SAC's replay buffer."""
+        return {"step": self.step, "replay_buffer": self.replay_buffer if algo == "sac" else None}
+
+    def paths(self) -> tuple[Path, ...]:
+        return (self.model, self.replay_buffer, self.vecnormalize, self.legacy_replay_buffer)
+
+
+def _zip_damage(path: Path, members: frozenset[str], what: str) -> str | None:
+    try:
+        with zipfile.ZipFile(path) as archive:
+            # The model's zip stores torch's own zips uncompressed, so a file cut short can end
+            # in an inner archive's directory and read as that archive: its members tell.
+            missing = members - set(archive.namelist())
+            bad = None if missing else archive.testzip()
+    except (zipfile.BadZipFile, OSError, EOFError, ValueError) as error:
+        return f"not a complete zip file: {error}"
+    if missing:
+        return f"not a complete {what}: no {', '.join(sorted(missing))}"
+    return None if bad is None else f"member {bad} fails its CRC check"
+
+
+def _pickle_damage(path: Path) -> str | None:
+    try:
+        with path.open("rb") as stream:
+            if any(op.name == "STOP" for op, _, _ in pickletools.genops(stream)):
+                return None
+    except (ValueError, EOFError, OSError) as error:
+        return f"not a complete pickle: {error}"
+    return "not a complete pickle: no STOP opcode"
+
+
+class RunLayout:
+    """The files of one run folder (``run_dir``) of a run on ``env_id``."""
+
+    def __init__(self, run_dir: str | os.PathLike[str], env_id: str) -> None:
+        self.run_dir, self.env_id, self.name = Path(run_dir), env_id, env_name(env_id)
+        self.params_dir = self.run_dir / self.name
+        self.final_model = self.run_dir / f"{self.name}.zip"
+        self.best_model = self.run_dir / "best_model.zip"
+        self.best_vecnormalize = self.run_dir / "best_model_vecnormalize.pkl"
+        """The VecNormalize statistics ``best_model.zip`` was evaluated with."""
+        self.evaluations = self.run_dir / "evaluations.npz"
+        self.tensorboard = self.run_dir / "tb"
+        self.result_file = self.run_dir / "result.json"
+        self.config_file = self.params_dir / "config.yml"
+        self.args_file = self.params_dir / "args.yml"
+        self.vecnormalize = self.params_dir / "vecnormalize.pkl"
+
+    def monitor_files(self) -> list[Path]:
+        """The Monitor CSVs of the run's training segments, in order."""
+        return sorted(self.run_dir.glob("*.monitor.csv"), key=lambda p: int(p.name.split(".")[0]))
+
+    def next_monitor_file(self) -> Path:
+        """A fresh Monitor file per training segment (VecMonitor truncates an existing one)."""
+        return self.run_dir / f"{len(self.monitor_files())}.monitor.csv"
+
+    def foreign(self) -> str | None:
+        """None if this folder is a run of ``python -m train`` on this env, or is absent or
+        empty (a new run may start there); otherwise why it is not, in words."""
+        if not self.run_dir.exists():
+            return None
+        if not self.run_dir.is_dir():
+            return f"{self.run_dir} is a file, not a run folder"
+        if not self.args_file.is_file():
+            if not any(p.name != LOCK_FILE for p in self.run_dir.iterdir()):
+                return None
+            others = sorted(p.parent.name for p in self.run_dir.glob("*/args.yml"))
+            if others:
+                return (
+                    f"{self.run_dir} holds a run of {', '.join(others)} (its */args.yml), not of "
+                    f"{self.env_id}"
+                )
+            return f"{self.run_dir} holds files but no {self.name}/args.yml: not a training run"
+        try:
+            text = self.args_file.read_text(encoding="utf-8")
+            args = parse_run_yaml(text, self.args_file)
+        except UnicodeDecodeError:
+            return f"{self.args_file} is not UTF-8 text"
+        except (OSError, ValueError) as error:
+            return str(error)
+        if args.get("made_by") == MADE_BY or (_LEGACY_KEY in args and "!!python" not in text):
+            return None
+        looks_like = ""
+        if "!!python/object/apply:collections.OrderedDict" in text or "trained_agent" in args:
+            looks_like = (
+                " (it looks like an rl-baselines3-zoo run: rl_zoo3.train writes the same layout)"
+            )
+        return f"{self.run_dir} was not written by python -m train{looks_like}"
+
+    def checkpoint(self, step: int) -> Checkpoint:
+        base = f"{self.run_dir / CHECKPOINT_PREFIX}"
+        return Checkpoint(
+            step=step,
+            model=Path(f"{base}_{step}_steps.zip"),
+            replay_buffer=Path(f"{base}_replay_buffer_{step}_steps.npz"),
+            vecnormalize=Path(f"{base}_vecnormalize_{step}_steps.pkl"),
+            legacy_replay_buffer=Path(f"{base}_replay_buffer_{step}_steps.pkl"),
+        )
+
+    def checkpoints(self) -> list[Checkpoint]:
+        """Every checkpoint model in the folder, oldest first."""
+        if not self.run_dir.is_dir():
+            return []
+        steps = sorted(
+            int(m.group(1)) for p in self.run_dir.iterdir() if (m := _CHECKPOINT.match(p.name))
+        )
+        return [self.checkpoint(step) for step in steps]
+
+    @classmethod
+    def new(cls, log_folder: Path, algo: str, env_id: str) -> RunLayout:
+        """The next free ``log_folder/<algo>/<env>_<n>`` (created)."""
+        algo_folder = Path(log_folder) / algo
+        n = latest_run_id(algo_folder, env_name(env_id)) + 1
+        run_dir = algo_folder / f"{env_name(env_id)}_{n}"
+        run_dir.mkdir(parents=True, exist_ok=False)
+        return cls(run_dir, env_id)
+
+    @classmethod
+    def latest(cls, log_folder: Path, algo: str, env_id: str) -> RunLayout:
+        """The newest existing run of ``algo`` on ``env_id``; ValueError if there is none, or
+        if the newest folder is not a run of this project (e.g. rl_zoo3's: same layout)."""
+        algo_folder = Path(log_folder) / algo
+        name = env_name(env_id)
+        n = latest_run_id(algo_folder, name)
+        if n == 0:
+            raise ValueError(
+                f"no run of {algo} on {env_id} in {algo_folder} to resume; allowed: start one "
+                "without --resume, or give its folder with --run-dir"
+            )
+        layout = cls(algo_folder / f"{name}_{n}", env_id)
+        reason = layout.foreign()
+        if reason is not None:
+            own = [
+                candidate.run_dir
+                for k in range(n - 1, 0, -1)
+                if (candidate := cls(algo_folder / f"{name}_{k}", env_id)).args_file.is_file()
+                and candidate.foreign() is None
+            ]
+            hint = f"--run-dir {own[0]} (the latest run of this project)" if own else "a new run"
+            raise ValueError(
+                f"--resume takes the latest run, and {reason}; it is left untouched. "
+                f"Allowed: {hint}{'' if own else ' (without --resume)'}"
+            )
+        return layout
 
 
 @dataclass(frozen=True)
@@ -56,19 +363,19 @@ class RunFolder:
     """The checkpoint a continued run resumes from (None: from step 0)."""
     target: int = 0
     """Env steps the run ends at: n_timesteps rounded up to whole learn iterations."""
-    unit: int = 0
-    """Env steps of one learn iteration (see :func:`step_granularity`)."""
     segments: tuple[Mapping[str, Any], ...] = ()
     """The earlier runs' segments of the folder's ``result.json``, which a resume extends."""
+    env_kwargs: Mapping[str, Any] = field(default_factory=dict)
+    """The env options: the yml entry's, overridden by the command's."""
 
     @classmethod
     def open(cls, config: TrainConfig, held: contextlib.ExitStack) -> RunFolder:
         """The folder of ``config``'s run, locked until ``held`` closes; every refusal (a folder
         not of ``python -m train``, in use, damaged, finished, unwritable; settings that differ
         from those the run started with) is raised here, before any work, and leaves the folder
-        untouched. The lock (:func:`~train.layout.run_lock`) is taken before the folder's files
-        are read, so a second command on the same run is refused instead of training beside it.
-        """
+        untouched. The lock (:func:`run_lock`) is taken before the folder's files are read, so a
+        second command on the same run is refused instead of training beside it. With
+        ``verbose``, what the command is about to do is said (stdout)."""
         amortised = config.algo == AMORTISED
         layout = None
         if config.resume:
@@ -82,7 +389,8 @@ class RunFolder:
             held.enter_context(run_lock(layout.run_dir))  # type: ignore[union-attr]
             _check_claimable(layout, amortised)  # type: ignore[arg-type]
         if amortised:
-            run = cls(layout or RunLayout.new(config.log_folder, AMORTISED, config.env_id), config)
+            layout = layout or RunLayout.new(config.log_folder, AMORTISED, config.env_id)
+            run = cls(layout, config, env_kwargs=config.env_kwargs)
         else:
             run = cls._resumable(config, layout)
         run.layout.run_dir.mkdir(parents=True, exist_ok=True)
@@ -94,23 +402,25 @@ class RunFolder:
                     f"{folder} is not writable; a run writes its checkpoints, models and "
                     "settings there. Allowed: a folder you can write (chmod u+w), or a new run"
                 )
+        if config.verbose and not amortised:
+            run._say_plan()
         return run
 
     @classmethod
-    def _resumable(cls, config: TrainConfig, layout: RunLayout | None) -> RunFolder | None:
+    def _resumable(cls, config: TrainConfig, layout: RunLayout | None) -> RunFolder:
         """A PPO / SAC run in ``layout`` (None: a new folder, made later): its settings,
         hyperparameters and the checkpoint it continues from, every file a resume loads read
         as it will read it."""
-        checkpoint = None
-        entry = None  # config.yml: the hyperparameters the run started with
+        checkpoint = entry = None  # entry: config.yml, the hyperparameters the run started with
         if layout is not None:
             resume = config.resume  # the merge below turns a resume into a run of a folder
             if layout.args_file.is_file():
                 config = _merge_saved(config, read_run_yaml(layout.args_file), layout)
             if layout.config_file.is_file():
                 entry = read_run_yaml(layout.config_file)
-            normalize = entry is not None and bool(entry.get("normalize"))
-            checkpoint = _latest_usable_checkpoint(layout, config.algo == "sac", normalize)
+            checkpoint = _latest_intact(
+                layout, config.algo == "sac", bool((entry or {}).get("normalize"))
+            )
             damaged = [c.model.name for c in layout.checkpoints()]
             if checkpoint is None and damaged:
                 raise ValueError(
@@ -123,21 +433,19 @@ class RunFolder:
                     f"{layout.run_dir} has no complete checkpoint to resume from (save_freq "
                     "<= 0, or killed before the first); allowed: start a new run"
                 )
-        if checkpoint is not None:
-            if entry is None:
-                # Resuming from the current yml instead would mix two runs' settings unsaid.
-                raise ValueError(
-                    f"{layout.config_file} is missing: the hyperparameters the run started "  # type: ignore[union-attr]
-                    "with cannot be restored; allowed: a run folder with its config.yml (or "
-                    "a new run)"
-                )
-            # A resumed run keeps the hyperparameters it started with, whatever the yml says.
+        if checkpoint is None:
+            hp = config.hyperparameters()
+        elif entry is None:  # resuming from the current yml would mix two runs' settings unsaid
+            raise ValueError(
+                f"{layout.config_file} is missing: the hyperparameters the run started "  # type: ignore[union-attr]
+                "with cannot be restored; allowed: a run folder with its config.yml (or "
+                "a new run)"
+            )
+        else:  # a resumed run keeps the hyperparameters it started with, whatever the yml says
             try:
                 hp = resolve_hyperparams(entry, n_timesteps=config.n_timesteps)
             except ValueError as error:
                 raise ValueError(f"{layout.config_file}: {error}") from None  # type: ignore[union-attr]
-        else:
-            hp = config.hyperparameters()
         unit = step_granularity(config.algo, hp)
         target = -(-hp.n_timesteps // unit) * unit  # where SB3's learn stops: whole iterations
         if checkpoint is not None and checkpoint.step >= target:
@@ -155,21 +463,30 @@ class RunFolder:
         _check_env(config.env_id, env_kwargs)
         segments: tuple[Mapping[str, Any], ...] = ()
         if checkpoint is not None:  # the files a resume loads, read as it will read them
-            from train.checkpoint import load_on_copy
-
-            checked = load_on_copy(config.algo, checkpoint, hp, config.env_id, env_kwargs)
+            loads = checkpoint.loads(config.algo)
+            checked = load_on_copy(
+                config.algo, checkpoint.model, hp, config.env_id, env_kwargs, **loads
+            )
             checked.get_env().close()  # type: ignore[union-attr]
             if hp.normalize is not None:
                 read_normalizer(checkpoint.vecnormalize)
             segments = read_result_segments(layout.result_file)  # type: ignore[union-attr]
-        if layout is None:
-            layout = RunLayout.new(config.log_folder, config.algo, config.env_id)
-        return cls(layout, config, hp, checkpoint, target, unit, segments)
+        layout = layout or RunLayout.new(config.log_folder, config.algo, config.env_id)
+        return cls(layout, config, hp, checkpoint, target, segments, MappingProxyType(env_kwargs))
 
-    @property
-    def env_kwargs(self) -> dict[str, Any]:
-        """The env options: the yml entry's, overridden by the command's."""
-        return {**(self.hp.env_kwargs if self.hp else {}), **self.config.env_kwargs}
+    def model(self, venv: Any, **settings: Any) -> Any:
+        """The model this run trains on ``venv`` (``settings``: :func:`train.saved.build_model`'s):
+        new, or the checkpoint's (with SAC's replay buffer) and seeded by its step, so that a
+        resumed segment is reproducible given its checkpoint (RNG states are not saved)."""
+        assert self.hp is not None
+        algo, seed, checkpoint = self.config.algo, self.config.seed, self.checkpoint
+        if checkpoint is None:
+            return build_model(algo, self.hp, venv, seed=seed, **settings)
+        model = load_model(
+            algo, checkpoint.model, self.hp, venv, seed=seed, **checkpoint.loads(algo), **settings
+        )
+        model.set_random_seed(seed + model.num_timesteps)
+        return model
 
     def start(self, settings: Mapping[str, Any]) -> None:
         """A run from step 0 writes its ``settings`` (``config.yml``) and its arguments
@@ -180,53 +497,49 @@ class RunFolder:
             write_yaml(self.layout.args_file, self.config.to_dict())
             self.layout.evaluations.unlink(missing_ok=True)
 
-    def normaliser(self) -> Any:
-        """The checkpoint's ``VecNormalize`` statistics (read with only the classes such a file
-        holds: :func:`~train.layout.read_normalizer`)."""
-        assert self.checkpoint is not None
-        return read_normalizer(self.checkpoint.vecnormalize)
-
-    def say_plan(self) -> None:
+    def _say_plan(self) -> None:
         """What this command is about to do, before any work (stdout)."""
-        hp, layout, algo = self.hp, self.layout, self.config.algo
+        hp, algo = self.hp, self.config.algo
         assert hp is not None
+        unit = step_granularity(algo, hp)
         if self.target != hp.n_timesteps:
             what = (
-                f"n_steps {self.unit // hp.n_envs} x n_envs {hp.n_envs}"  # step_granularity's
+                f"n_steps {unit // hp.n_envs} x n_envs {hp.n_envs}"  # step_granularity's
                 if algo == "ppo"
                 else f"train_freq x n_envs {hp.n_envs}"
             )
             print(
                 f"n_timesteps {hp.n_timesteps} is not a whole number of {algo.upper()} "
-                f"iterations ({self.unit} env steps = {what}); training runs to {self.target}"
+                f"iterations ({unit} env steps = {what}); training runs to {self.target}"
             )
         if self.checkpoint is not None:
             print(
-                f"resuming {layout.run_dir} from checkpoint {self.checkpoint.model.name} "
+                f"resuming {self.layout.run_dir} from checkpoint {self.checkpoint.model.name} "
                 f"(step {self.checkpoint.step} of {self.target})"
             )
-        elif layout.args_file.is_file():
-            print(f"{layout.run_dir} has no complete checkpoint: starting it again from step 0")
+        elif self.layout.args_file.is_file():
+            print(
+                f"{self.layout.run_dir} has no complete checkpoint: starting it again from step 0"
+            )
 
 
 def _check_claimable(layout: RunLayout, amortised: bool) -> None:
     """ValueError unless a run may start or go on in ``layout``'s folder: absent or empty, or
     (PPO, SAC) a run of ``python -m train`` on this env (:meth:`RunLayout.foreign`)."""
     run_dir = layout.run_dir
-    if amortised:
-        if run_dir.exists() and (
-            not run_dir.is_dir() or any(p.name != LOCK_FILE for p in run_dir.iterdir())
-        ):
+    if not amortised:
+        reason = layout.foreign()
+        if reason is not None:
             raise ValueError(
-                f"run_dir = {run_dir}: not an empty folder; an amortised run is not resumed "
-                "(it trains in minutes). Allowed: a new or empty folder"
+                f"--run-dir: {reason}; it is left untouched. Allowed: a run folder of "
+                "python -m train (to continue it), or an absent or empty folder (a new run)"
             )
-        return
-    reason = layout.foreign()
-    if reason is not None:
+    elif run_dir.exists() and (
+        not run_dir.is_dir() or any(p.name != LOCK_FILE for p in run_dir.iterdir())
+    ):
         raise ValueError(
-            f"--run-dir: {reason}; it is left untouched. Allowed: a run folder of "
-            "python -m train (to continue it), or an absent or empty folder (a new run)"
+            f"run_dir = {run_dir}: not an empty folder; an amortised run is not resumed "
+            "(it trains in minutes). Allowed: a new or empty folder"
         )
 
 
@@ -260,9 +573,7 @@ def _merge_saved(config: TrainConfig, saved: Mapping[str, Any], layout: RunLayou
     )
 
 
-def _latest_usable_checkpoint(
-    layout: RunLayout, replay_buffer: bool, normalize: bool
-) -> Checkpoint | None:
+def _latest_intact(layout: RunLayout, replay_buffer: bool, normalize: bool) -> Checkpoint | None:
     """The newest intact checkpoint (with its replay buffer, its VecNormalize statistics)."""
     for checkpoint in reversed(layout.checkpoints()):
         problem = checkpoint.damage(replay_buffer=replay_buffer, vecnormalize=normalize)
@@ -283,7 +594,6 @@ def _check_env(env_id: str, env_kwargs: Mapping[str, Any]) -> None:
 
     import tandem_env  # noqa: F401 - registers the ids
 
-    check_env_id(env_id, "env")
     try:
         gym.make(env_id, disable_env_checker=True, **env_kwargs).close()
     except TypeError as error:

@@ -2,8 +2,7 @@
 
 :class:`TrainedPolicy` reads and checks what a run folder holds (its settings, its model file,
 its normalisation statistics), loads the model without unpickling anything and observes a
-condition the way the training env did; :func:`policy_stroke` is the one-line
-use. The harness method ``policy:RUN_DIR`` (:mod:`train.policies`) and the envelope
+condition the way the training env did. The harness method ``policy:RUN_DIR`` (:mod:`train.policies`) and the envelope
 (:mod:`train.envelope`) are built on it. :func:`load_policy` loads either kind of run folder:
 an RL run as a :class:`TrainedPolicy`, an amortised run (``--algo amortised``) as a
 :class:`train.amortised_policy.AmortisedPolicy`, which answers the same questions (``strokes``,
@@ -25,17 +24,9 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from tandem_env.envs.registration import check_env_id, config_class
 from tandem_env.envs.sb3 import make_sb3_vec_env
-from train.checkpoint import load_on_copy
 from train.config import check_algo, resolve_hyperparams
-from train.layout import (
-    RunLayout,
-    RunPolicy,
-    check_args_env,
-    read_normalizer,
-    read_run_args,
-    read_run_yaml,
-    resolve_run_dir,
-)
+from train.run_folder import RunLayout, RunPolicy, resolve_run_dir
+from train.saved import load_on_copy, read_normalizer, read_run_args, read_run_yaml
 from train.vec import ConditionGrid, option_key
 
 WhichModel = Literal["best", "final"]
@@ -72,11 +63,11 @@ class TrainedPolicy(RunPolicy):
         args.yml naming an algo or env other than its own (its folder is named after the env),
         hyperparameters that do not resolve (:func:`~train.config.resolve_hyperparams`: n_envs,
         the network's size), a model or normalisation file that does not load
-        (:func:`~train.checkpoint.load_on_copy`, :func:`~train.layout.read_normalizer`)."""
+        (:func:`~train.saved.load_on_copy`, :func:`~train.saved.read_normalizer`)."""
         if which not in WHICH_MODELS:
             raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
         run_dir = resolve_run_dir(run_dir)
-        args_file, args = read_run_args(
+        args_file, args, env_id = read_run_args(
             run_dir,
             "a folder written by python -m train, e.g. logs/sac/TandemWing-LevelFlight-v0_1, or "
             "logs/sac/TandemWing-LevelFlight-v0 for the latest run there",
@@ -85,7 +76,6 @@ class TrainedPolicy(RunPolicy):
             algo = check_algo(str(args.get("algo")))
         except ValueError as error:
             raise ValueError(f"{args_file}: {error}") from None
-        env_id = check_args_env(args_file, args.get("env"))
         check_env_id(env_id, f"{args_file}: env")
         layout = RunLayout(run_dir, env_id)
         entry = read_run_yaml(layout.config_file) if layout.config_file.is_file() else {}
@@ -152,7 +142,7 @@ class TrainedPolicy(RunPolicy):
 
     @property
     def training_conditions(self) -> tuple[float, float] | float | None:
-        """From the env options it was trained with (:class:`~train.layout.RunPolicy`)."""
+        """From the env options it was trained with (:class:`~train.run_folder.RunPolicy`)."""
         declared = getattr(config_class(self.env_id), "CONDITION", None)
         if declared is None:
             return None
@@ -180,8 +170,3 @@ def load_policy(run_dir: str | Path, which: WhichModel = "best") -> Any:
     if is_amortised_run(run_dir):
         return load_amortised(run_dir)
     return TrainedPolicy.load(run_dir, which)
-
-
-def policy_stroke(run_dir: str | Path, condition: float, which: WhichModel = "best") -> np.ndarray:
-    """The trained run's deterministic normalised stroke (28,) at ``condition``."""
-    return load_policy(run_dir, which).strokes([condition])[0]

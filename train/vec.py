@@ -24,6 +24,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecMonitor, 
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 
 from agents.selection import BestStroke
+from tandem_env.envs.registration import config_class
 from tandem_env.envs.sb3 import TandemVecEnv, make_sb3_vec_env
 
 #: ``info`` entries written to the Monitor CSV next to each episode's reward and length.
@@ -120,36 +121,27 @@ class ConditionGrid(VecEnvWrapper):
         return self.venv.step_wait()
 
 
-def adapter(venv: VecEnv) -> TandemVecEnv:
-    """The batched adapter at the bottom of a wrapper stack."""
+def option_key(venv: VecEnv) -> str:
+    """The reset option that sets the condition (``"speed"`` or ``"available_power"``), read from
+    the batched adapter at the bottom of the wrapper stack ``venv``."""
     inner: Any = venv
     while isinstance(inner, VecEnvWrapper):
         inner = inner.venv
     if not isinstance(inner, TandemVecEnv):
         raise ValueError(f"{venv!r} is not a stack over tandem_env's TandemVecEnv")
-    return inner
-
-
-def option_key(venv: VecEnv) -> str:
-    """The reset option that sets the condition (``"speed"`` or ``"available_power"``)."""
-    return adapter(venv).vector_env.core.option_key
+    return inner.vector_env.core.option_key
 
 
 def evaluation_conditions(env_id: str, env_kwargs: Mapping[str, Any]) -> tuple[float, ...]:
     """The conditions a deterministic evaluation scores: the fixed one, or the points of the
     config's declared sweep (``CONDITION.sweep``) in the sampled range (its ends and midpoint if
     the range holds fewer than two of them, or the config declares no sweep)."""
-    probe = make_sb3_vec_env(env_id, n_envs=1, seed=0, **env_kwargs)
-    try:
-        config = adapter(probe).config
-        sampled = config.condition_range
-        if sampled is None:
-            return (float(config.fixed_condition),)
-        declared = type(config).CONDITION
-        sweep = () if declared is None else declared.sweep
-    finally:
-        probe.close()
-    low, high = sampled
+    config = config_class(env_id).from_kwargs(**env_kwargs)
+    if config.condition_range is None:
+        return (float(config.fixed_condition),)
+    low, high = config.condition_range
+    declared = type(config).CONDITION
+    sweep = () if declared is None else declared.sweep
     inside = tuple(c for c in sweep if low - 1e-9 <= c <= high + 1e-9)
     return inside if len(inside) >= 2 else (low, 0.5 * (low + high), high)
 

@@ -432,7 +432,7 @@ def test_a_run_folder_another_command_trains_in_is_refused_before_training(
 ) -> None:
     """Two commands given one empty --run-dir: the second finds the first's lock and stops
     before it trains, instead of both training and the later one overwriting the other's files."""
-    from train.layout import run_lock
+    from train.run_folder import run_lock
 
     run_dir = tmp_path / "run"
     run_dir.mkdir()

@@ -13,17 +13,17 @@ import torch
 
 import tandem_env  # noqa: F401 - registers the ids
 from tandem_env.envs.registration import LEVEL_FLIGHT_ID
-from train.checkpoint import (
+from train.config import load_entry, resolve_hyperparams
+from train.run import torch_threads
+from train.run_folder import RunLayout
+from train.saved import (
     ALGORITHMS,
     REPLAY_ARRAYS,
     build_model,
-    load_checkpoint,
+    load_model,
     load_replay_buffer,
     save_checkpoint,
 )
-from train.config import load_entry, resolve_hyperparams
-from train.layout import RunLayout
-from train.run import torch_threads
 from train.vec import make_training_env
 
 OVERRIDES = {
@@ -79,7 +79,9 @@ def test_a_checkpoint_loads_as_sb3_loads_it_and_resumes_identically(
         theirs = ALGORITHMS[algo].load(checkpoint.model, env=_venv(SEED + 1), device="cpu")
         if algo == "sac":
             theirs.load_replay_buffer(reference)
-        ours = load_checkpoint(algo, checkpoint, hp, _venv(SEED + 1), seed=SEED)
+        ours = load_model(
+            algo, checkpoint.model, hp, _venv(SEED + 1), seed=SEED, **checkpoint.loads(algo)
+        )
 
         assert ours.num_timesteps == theirs.num_timesteps == 64
         _assert_same(ours.get_parameters(), theirs.get_parameters())

@@ -180,7 +180,7 @@ def test_an_alias_bomb_in_a_run_folder_or_hyperparameter_file_is_refused(tmp_pat
     """The run folder's YAML and a zoo hyperparameter file are read with the bounded loader: a
     few lines that expand to 10**9 items are refused naming the file, not built."""
     from train.config import load_hyperparams_file
-    from train.layout import parse_run_yaml
+    from train.saved import parse_run_yaml
 
     lines = ["a0: &a0 [x, x, x, x, x, x, x, x, x, x]"]
     lines += [f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 10) + "]" for i in range(1, 9)]

@@ -17,8 +17,8 @@ import tandem_env  # noqa: F401 - registers the ids
 from tandem_env.envs.registration import LEVEL_FLIGHT_ID
 from tandem_env.envs.sb3 import make_sb3_vec_env
 from train.config import TrainConfig
-from train.layout import RunLayout
 from train.run import learn_in_memory, train
+from train.run_folder import RunLayout
 from train.trained_policy import TrainedPolicy
 
 SPEED = 1.5
@@ -182,7 +182,7 @@ def test_killed_run_resumes_from_its_last_checkpoint(tmp_path: Path) -> None:
         verbose=0,
     )
     complete = [
-        c for c in layout.checkpoints() if c.complete(replay_buffer=True, vecnormalize=False)
+        c for c in layout.checkpoints() if c.damage(replay_buffer=True, vecnormalize=False) is None
     ]
     last = complete[-1].step
     target = last + 256  # two evaluations (eval_freq 128) after the resume
@@ -240,7 +240,7 @@ def test_ctrl_c_saves_a_checkpoint_says_one_line_and_the_run_resumes(tmp_path: P
     said = [line for line in err.splitlines() if "interrupted" in line]
     assert len(said) == 1 and f"--run-dir {layout.run_dir}" in said[0], err
     last = layout.checkpoints()[-1]
-    assert last.complete(replay_buffer=True, vecnormalize=False)
+    assert last.damage(replay_buffer=True, vecnormalize=False) is None
     assert str(last.model) in said[0] and last.step % 16 == 0
     assert not layout.final_model.exists()
     # The buffer holds exactly the transitions up to the checkpoint's step.

@@ -16,7 +16,7 @@ from tandem_env.envs.registration import LEVEL_FLIGHT_ID
 from train.config import TrainConfig
 from train.envelope import evaluate_envelope
 from train.run import train
-from train.trained_policy import TrainedPolicy, policy_stroke
+from train.trained_policy import TrainedPolicy, load_policy
 
 
 @pytest.fixture(scope="module")
@@ -55,7 +55,7 @@ def test_policy_method_records_its_stroke_with_one_evaluation(
         progress=False,
     )
     assert record.evaluations == 1 and record.budget == 5
-    expected = policy_stroke(envelope_run, 1.0)
+    expected = load_policy(envelope_run).strokes([1.0])[0]
     np.testing.assert_array_equal(record.normalised_stroke, expected)
     assert record.reward == record.search_reward  # re-evaluated exactly
     assert record.config["method"]["model"] == "best"

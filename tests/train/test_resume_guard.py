@@ -16,7 +16,7 @@ import yaml
 
 from tandem_env.envs.registration import LEVEL_FLIGHT_ID
 from train.__main__ import main
-from train.layout import MADE_BY, RunLayout
+from train.run_folder import MADE_BY, RunLayout
 
 NAME = "TandemWing-LevelFlight-v0"
 

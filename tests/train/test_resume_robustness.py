@@ -24,14 +24,8 @@ from tandem_env.envs.registration import LEVEL_FLIGHT_ID
 from tandem_env.io.files import FolderInUse
 from tandem_env.io.progress_bar import ProgressBar, warnings_as_lines
 from train.__main__ import main
-from train.layout import (
-    LOCK_FILE,
-    RunLayout,
-    parse_run_yaml,
-    read_run_yaml,
-    resolve_run_dir,
-    run_lock,
-)
+from train.run_folder import LOCK_FILE, RunLayout, resolve_run_dir, run_lock
+from train.saved import parse_run_yaml, read_run_yaml
 
 REPO = Path(__file__).resolve().parents[2]
 NAME = "TandemWing-LevelFlight-v0"
@@ -239,7 +233,7 @@ def test_the_lock_of_a_killed_process_is_not_stale(tmp_path: Path) -> None:
         [
             sys.executable,
             "-c",
-            "import sys, time; from train.layout import run_lock; "
+            "import sys, time; from train.run_folder import run_lock; "
             f"run_lock({str(tmp_path)!r}).acquire(); print('held', flush=True); time.sleep(60)",
         ],
         cwd=REPO,
@@ -344,7 +338,7 @@ def test_normalisation_statistics_are_read_with_their_classes_only(tmp_path: Pat
     from stable_baselines3.common.vec_env import VecNormalize
 
     from tandem_env.envs.sb3 import make_sb3_vec_env
-    from train.layout import read_normalizer
+    from train.saved import read_normalizer
 
     venv = make_sb3_vec_env(LEVEL_FLIGHT_ID, n_envs=2, seed=0)
     saved = VecNormalize(venv, norm_obs=True, norm_reward=False)

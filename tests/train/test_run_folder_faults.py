@@ -3,7 +3,7 @@ naming the file and what is allowed, exit status 2, no traceback, nothing writte
 
 Every loader of a run folder goes through the same checks
 (:meth:`train.trained_policy.TrainedPolicy.load` for its settings,
-:func:`train.checkpoint.load_model` for a model file), so each fault is tried with
+:func:`train.saved.load_model` for a model file), so each fault is tried with
 ``policy:RUN_DIR``, ``python -m train.envelope`` and ``--resume``.
 """
 
@@ -23,8 +23,8 @@ from tandem_env.envs.registration import LEVEL_FLIGHT_ID
 from train.__main__ import main as train_main
 from train.config import TrainConfig
 from train.envelope import main as envelope_main
-from train.layout import LOCK_FILE, RunLayout
 from train.run import train
+from train.run_folder import LOCK_FILE, RunLayout
 
 
 @pytest.fixture(scope="module")

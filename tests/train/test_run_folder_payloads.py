@@ -30,8 +30,8 @@ from tandem_env.envs.registration import LEVEL_FLIGHT_ID, SPEED_CHANGE_ID
 from train.__main__ import main as train_main
 from train.config import TrainConfig
 from train.envelope import main as envelope_main
-from train.layout import LOCK_FILE, RunLayout
 from train.run import train
+from train.run_folder import LOCK_FILE, RunLayout
 
 NAME = "TandemWing-LevelFlight-v0"
 

@@ -1,50 +1,245 @@
-"""Saving and loading SB3 models and replay buffers without unpickling anything.
+"""A run folder's files read and written without running anything in them.
 
 SB3's ``load`` unpickles (cloudpickle) the objects stored in a model zip's ``data`` JSON, and
 ``load_replay_buffer`` unpickles the buffer file, so a tampered run folder could run code. Every
 loader of a run folder (``--resume``, ``policy:RUN_DIR``, ``python -m train.envelope``,
 ``python -m eval speed-change --ppo/--sac``) goes through :func:`load_model` instead:
 
-1. the zip's ``data`` JSON is parsed as JSON (:func:`read_num_timesteps`): of SB3's own
+1. the model is rebuilt from the run's ``config.yml`` on the run's env (:func:`build_model`);
+2. the zip's ``data`` JSON is parsed as JSON (:func:`read_num_timesteps`): of SB3's own
    entries only the counter ``num_timesteps`` is read; serialized (pickled) entries are never
-   decoded, and one SB3 does not write is refused;
-2. the model is rebuilt from the run's ``config.yml`` on the run's env (:func:`build_model`);
+   decoded, and one that names no attribute of the rebuilt model (SB3 saves those) is refused;
 3. the weights and optimiser states, every ``.pth`` member, are read with
    ``torch.load(weights_only=True)`` (:func:`read_weights`) and put in place with SB3's
    ``set_parameters``; the names must be the rebuilt model's own.
 
 A SAC replay buffer is saved as arrays in an ``.npz`` (:func:`save_replay_buffer`), loaded with
-``allow_pickle=False`` into the rebuilt model's buffer (:func:`load_replay_buffer`).
+``allow_pickle=False`` into the rebuilt model's buffer (:func:`load_replay_buffer`). The
+folder's YAML is read by :class:`RunFileLoader`, its ``VecNormalize`` statistics by
+:func:`read_normalizer` (only the classes such a file holds), its ``result.json`` by
+:func:`read_result_segments`.
 """
 
 from __future__ import annotations
 
-import contextlib
 import io
 import json
-import signal
+import pickle
 import sys
-import threading
 import warnings
 import zipfile
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
+import yaml
 from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.buffers import ReplayBuffer
-from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.logger import HumanOutputFormat, Logger
-from stable_baselines3.common.vec_env import VecEnv
+from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
-from tandem_env.io.files import atomic_path
+from tandem_env.io.datafile import BoundedLoader, parse_yaml
+from tandem_env.io.files import atomic_path, read_json
+from tandem_env.physics.checks import is_real
 from train.config import MAX_TIMESTEPS, Hyperparams
-from train.layout import Checkpoint, RunLayout
 from train.vec import make_training_env
 
+# --- the YAML, the normalisation statistics and result.json -----------------------------------
+#: The globals a pickled ``VecNormalize`` (SB3's ``save``) refers to: the wrapper and its running
+#: statistics, the spaces, numpy arrays and random generators. Nothing that runs code.
+_NORMALIZER_GLOBALS = frozenset(
+    {
+        ("stable_baselines3.common.vec_env.vec_normalize", "VecNormalize"),
+        ("stable_baselines3.common.running_mean_std", "RunningMeanStd"),
+        ("gymnasium.spaces.box", "Box"),
+        ("gymnasium.spaces.dict", "Dict"),
+        ("gymnasium.spaces.discrete", "Discrete"),
+        ("collections", "OrderedDict"),
+        ("numpy", "dtype"),
+        ("numpy", "ndarray"),
+        ("numpy.core.multiarray", "_reconstruct"),
+        ("numpy._core.multiarray", "_reconstruct"),
+        ("numpy.core.multiarray", "scalar"),
+        ("numpy._core.multiarray", "scalar"),
+        ("numpy.random._pickle", "__generator_ctor"),
+        ("numpy.random._pickle", "__bit_generator_ctor"),
+        ("numpy.random._pcg64", "PCG64"),
+        ("numpy.random.bit_generator", "SeedSequence"),
+        ("numpy.random.bit_generator", "__pyx_unpickle_SeedSequence"),
+    }
+)
+
+
+class _NormalizerUnpickler(pickle.Unpickler):
+    """``pickle.Unpickler`` that builds only :data:`_NORMALIZER_GLOBALS` (the "restricting
+    globals" recipe of the ``pickle`` documentation)."""
+
+    def find_class(self, module: str, name: str) -> Any:
+        if (module, name) in _NORMALIZER_GLOBALS:
+            return super().find_class(module, name)
+        raise pickle.UnpicklingError(
+            f"it names {module}.{name}, which a VecNormalize file does not"
+        )
+
+
+def read_normalizer(path: Path) -> Any:
+    """The ``VecNormalize`` statistics SB3 saved at ``path``, unpickled with only the classes
+    such a file holds (:data:`_NORMALIZER_GLOBALS`); ValueError naming the file otherwise. The
+    caller attaches its env with the public ``set_venv`` (what ``VecNormalize.load`` does)."""
+    try:
+        with Path(path).open("rb") as stream:
+            normalizer = _NormalizerUnpickler(stream).load()
+    except (pickle.UnpicklingError, EOFError, ValueError, TypeError, AttributeError) as error:
+        raise ValueError(
+            f"{path}: refused: not a VecNormalize file of SB3 ({error}); nothing was run"
+        ) from None
+    except OSError as error:
+        raise ValueError(f"{path} cannot be read ({error.strerror})") from None
+    if not isinstance(normalizer, VecNormalize):
+        raise ValueError(f"{path} holds a {type(normalizer).__name__}, not VecNormalize statistics")
+    return normalizer
+
+
+# --- the YAML of a run folder ---------------------------------------------------------------
+class RunFileLoader(BoundedLoader):
+    """YAML's safe loader, bounded in what a document may expand to (:class:`BoundedLoader`),
+    plus the two Python tags rl_zoo3 writes (``yaml.dump`` of its
+    ``OrderedDict`` of arguments and hyperparameters, and of tuples such as ``train_freq``):
+    ``!!python/object/apply:collections.OrderedDict`` becomes a dict and ``!!python/tuple`` a
+    tuple. Every other tag is refused (:class:`ForbiddenTag`) before anything is built."""
+
+
+class ForbiddenTag(yaml.constructor.ConstructorError):
+    """A YAML tag :class:`RunFileLoader` does not admit (``node.tag`` in :attr:`tag`)."""
+
+    def __init__(self, node: yaml.Node) -> None:
+        self.tag = node.tag
+        super().__init__(None, None, f"the tag {node.tag!r} is not admitted", node.start_mark)
+
+
+def _ordered_dict(loader: RunFileLoader, node: yaml.Node) -> dict[Any, Any]:
+    # PyYAML writes an OrderedDict as a one-item sequence: the list of [key, value] pairs.
+    arguments = (
+        loader.construct_sequence(node, deep=True) if isinstance(node, yaml.SequenceNode) else None
+    )
+    if (
+        not arguments
+        or len(arguments) != 1
+        or not all(isinstance(pair, list) and len(pair) == 2 for pair in arguments[0])
+    ):
+        raise ForbiddenTag(node)  # the tag, but not the zoo's form of it
+    return {key: value for key, value in arguments[0]}
+
+
+def _tuple(loader: RunFileLoader, node: yaml.Node) -> tuple[Any, ...]:
+    if not isinstance(node, yaml.SequenceNode):
+        raise ForbiddenTag(node)
+    return tuple(loader.construct_sequence(node, deep=True))
+
+
+def _refuse(loader: RunFileLoader, node: yaml.Node) -> None:
+    raise ForbiddenTag(node)
+
+
+RunFileLoader.add_constructor(
+    "tag:yaml.org,2002:python/object/apply:collections.OrderedDict", _ordered_dict
+)
+RunFileLoader.add_constructor("tag:yaml.org,2002:python/tuple", _tuple)
+RunFileLoader.add_constructor(None, _refuse)
+
+
+def parse_run_yaml(text: str, path: Path) -> dict[str, Any]:
+    """The mapping in a run folder's YAML ``text`` (of file ``path``), read with
+    :class:`RunFileLoader`; ValueError naming the file for a refused tag, YAML that does not
+    parse, or a document that is not a mapping."""
+    try:
+        data = parse_yaml(text, RunFileLoader)
+    except ForbiddenTag as error:
+        line = f" (line {error.problem_mark.line + 1})" if error.problem_mark else ""
+        raise ValueError(
+            f"{path}: refused: it holds the YAML tag {error.tag}{line}, which builds a Python "
+            "object; allowed in a run folder's YAML: plain YAML values, !!python/tuple and "
+            "rl_zoo3's !!python/object/apply:collections.OrderedDict. Nothing was loaded"
+        ) from None
+    except yaml.YAMLError as error:
+        raise ValueError(f"{path} is not readable YAML ({error}); it is left untouched") from None
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise ValueError(
+            f"{path} holds a YAML {type(data).__name__}, not a mapping of settings; it is left "
+            "untouched. Allowed: the file python -m train wrote there"
+        )
+    return data
+
+
+def read_run_yaml(path: Path) -> dict[str, Any]:
+    """:func:`parse_run_yaml` of the file ``path``; ValueError naming it if it cannot be read."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(
+            f"{path} is not UTF-8 text (a damaged file?); it is left untouched"
+        ) from None
+    except OSError as error:
+        raise ValueError(f"{path} cannot be read ({error.strerror})") from None
+    return parse_run_yaml(text, path)
+
+
+def read_result_segments(path: Path) -> tuple[dict[str, Any], ...]:
+    """The training segments of a run's ``result.json`` (each run of ``python -m train`` on the
+    folder adds one), read before a resume trains: () where there is none; ValueError naming
+    the file for one this project did not write as it is."""
+
+    def readable(segment: Any) -> bool:
+        return (
+            isinstance(segment, dict)
+            and is_real(segment.get("wall_time_s"))
+            and "best_reward" in segment
+            and (segment["best_reward"] is None or is_real(segment["best_reward"]))
+            and isinstance(segment.get("best_info") or {}, dict)
+        )
+
+    if not path.is_file():
+        return ()
+    try:
+        segments = read_json(path)["segments"]
+        readable_file = isinstance(segments, list) and all(map(readable, segments))
+    except (OSError, ValueError, KeyError, TypeError):
+        readable_file = False
+    if not readable_file:
+        raise ValueError(
+            f"{path}: not the run's result.json as python -m train writes it (its training "
+            "segments cannot be read); it is left untouched. Allowed: that file, or none (move "
+            "it away: the resumed run's summary then starts from its own segment)"
+        )
+    return tuple(segments)
+
+
+def read_run_args(run_dir: Path, allowed: str) -> tuple[Path, dict[str, Any], Any]:
+    """The one ``<env>/args.yml`` of ``run_dir``, its settings and its ``env``; ValueError
+    naming the folder and ``allowed`` (the folders the caller takes) if it holds none or
+    several, or the file if its env is not the one its settings folder is named after."""
+    found = sorted(run_dir.glob("*/args.yml")) if run_dir.is_dir() else []
+    if len(found) != 1:
+        raise ValueError(
+            f"{run_dir} is not a training run folder (expected one <env>/args.yml, found "
+            f"{len(found)}); allowed: {allowed}"
+        )
+    args = read_run_yaml(found[0])
+    env_id = args.get("env")
+    if not isinstance(env_id, str) or env_id.replace("/", "-") != found[0].parent.name:
+        raise ValueError(
+            f"{found[0]}: env = {env_id!r}, but the file sits in the settings folder of "
+            f"{found[0].parent.name}; allowed: the env the run was trained on"
+        )
+    return found[0], args, env_id
+
+
+# --- the model ------------------------------------------------------------------------------
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
 
 
@@ -81,26 +276,6 @@ def build_model(
 
 
 # --- the model zip ---------------------------------------------------------------------------
-#: The entries SB3 (2.x) writes into the ``data`` JSON of a PPO or SAC model. None of them is
-#: decoded (the model is rebuilt from ``config.yml``) but the plain counter ``num_timesteps``
-#: (:func:`read_num_timesteps`); a serialized entry of any other name is refused, as only a
-#: tampered file has one.
-SB3_ENTRIES = frozenset(
-    {
-        "policy_class", "verbose", "policy_kwargs", "num_timesteps", "_total_timesteps",
-        "_num_timesteps_at_start", "seed", "action_noise", "start_time", "learning_rate",
-        "tensorboard_log", "_last_obs", "_last_episode_starts", "_last_original_obs",
-        "_episode_num", "use_sde", "sde_sample_freq", "_current_progress_remaining",
-        "_stats_window_size", "ep_info_buffer", "ep_success_buffer", "_n_updates",
-        "observation_space", "action_space", "n_envs", "n_steps", "gamma", "gae_lambda",
-        "ent_coef", "vf_coef", "max_grad_norm", "rollout_buffer_class", "rollout_buffer_kwargs",
-        "batch_size", "n_epochs", "clip_range", "clip_range_vf", "normalize_advantage",
-        "target_kl", "lr_schedule", "buffer_size", "learning_starts", "tau", "gradient_steps",
-        "optimize_memory_usage", "replay_buffer_class", "replay_buffer_kwargs", "train_freq",
-        "use_sde_at_warmup", "target_entropy", "target_update_interval", "batch_norm_stats",
-        "batch_norm_stats_target",
-    }
-)  # fmt: skip
 #: The largest ``data`` JSON read [bytes]; SB3's is a few kB plus the last observations.
 MAX_DATA_BYTES = 64 * 2**20
 
@@ -120,12 +295,13 @@ def _open_zip(path: Path) -> zipfile.ZipFile:
         raise ValueError(f"{path} cannot be read ({error.strerror})") from None
 
 
-def read_num_timesteps(path: Path) -> int:
+def read_num_timesteps(path: Path, attributes: set[str]) -> int:
     """The step count ``num_timesteps`` of the model zip at ``path``, the one entry of its
     ``data`` a loaded model takes over (a public attribute), parsed as JSON and nothing decoded;
     ValueError naming the file for a zip without ``data``, JSON that is not an object, a
-    serialized entry SB3 does not write, or a count that is not an integer from 0 to
-    ``MAX_TIMESTEPS``.
+    serialized entry SB3 does not write (SB3 saves the model's own attributes: one that names
+    none of ``attributes``, those of the model rebuilt from ``config.yml``, only a tampered
+    file has), or a count that is not an integer from 0 to ``MAX_TIMESTEPS``.
 
     SB3's two log counters, ``_n_updates`` and ``_episode_num``, are private and have no public
     setter, so a resumed run's logged update count and SAC's episode-based log schedule restart
@@ -149,7 +325,7 @@ def read_num_timesteps(path: Path) -> int:
     foreign = sorted(
         key
         for key, value in data.items()
-        if key not in SB3_ENTRIES and isinstance(value, dict) and ":serialized:" in value
+        if key not in attributes and isinstance(value, dict) and ":serialized:" in value
     )
     if foreign:
         raise _model_error(
@@ -228,16 +404,24 @@ def _set_variables(model: BaseAlgorithm, variables: Mapping[str, Any]) -> None:
 
 
 def load_model(
-    algo: str, path: Path, hp: Hyperparams, venv: VecEnv, **settings: Any
+    algo: str,
+    path: Path,
+    hp: Hyperparams,
+    venv: VecEnv,
+    *,
+    step: int | None = None,
+    replay_buffer: Path | None = None,
+    **settings: Any,
 ) -> BaseAlgorithm:
     """The model saved at ``path``, rebuilt from ``hp`` (the run's ``config.yml``) on ``venv``
     (``settings``: :func:`build_model`'s) and given the file's weights, optimiser states and
-    counters; nothing in the file is unpickled (see the module docstring). ValueError naming the
-    file if it is not such a model or its weights do not fit the rebuilt one (a changed
-    ``net_arch``, another env)."""
-    num_timesteps = read_num_timesteps(path)
-    params, variables = read_weights(path)
+    counters; nothing in the file is unpickled (see the module docstring). A checkpoint's model
+    gives its ``step`` (the one in its name) and SAC's ``replay_buffer`` file. ValueError naming
+    the file if it is not such a model, its weights do not fit the rebuilt one (a changed
+    ``net_arch``, another env) or its step count is not ``step``."""
     model = build_model(algo, hp, venv, **settings)
+    num_timesteps = read_num_timesteps(path, set(vars(model)))
+    params, variables = read_weights(path)
     expected = sorted(model.get_parameters())
     if sorted(params) != expected:
         raise _model_error(
@@ -254,7 +438,13 @@ def load_model(
             f"{path}: its weights do not load into a {algo.upper()} model built from the run's "
             f"config.yml ({type(error).__name__}: {reason[:400]}). {_ALLOWED_MODEL}"
         ) from None
+    if step is not None and num_timesteps != step:
+        raise _model_error(
+            path, f"its num_timesteps = {num_timesteps}, not the step {step} of its name"
+        )
     model.num_timesteps = num_timesteps
+    if replay_buffer is not None:
+        load_replay_buffer(model, replay_buffer)
     return model
 
 
@@ -325,80 +515,12 @@ def load_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
     buffer.pos, buffer.full = int(pos), bool(full)
 
 
-# --- checkpoints -----------------------------------------------------------------------------
-def load_checkpoint(
-    algo: str, checkpoint: Checkpoint, hp: Hyperparams, venv: VecEnv, **settings: Any
-) -> BaseAlgorithm:
-    """The checkpoint's model (:func:`load_model`) with SAC's replay buffer; ValueError naming
-    the file at fault, also when the model's step count is not the one in its name."""
-    model = load_model(algo, checkpoint.model, hp, venv, **settings)
-    if model.num_timesteps != checkpoint.step:
-        raise _model_error(
-            checkpoint.model,
-            f"its num_timesteps = {model.num_timesteps}, not the step {checkpoint.step} of its name",
-        )
-    if algo == "sac":
-        load_replay_buffer(model, checkpoint.replay_buffer)
-    return model
-
-
-def load_on_copy(
-    algo: str,
-    saved: Path | Checkpoint,
-    hp: Hyperparams,
-    env_id: str,
-    env_kwargs: Mapping[str, Any],
-) -> BaseAlgorithm:
-    """A model file (:func:`load_model`) or a checkpoint (:func:`load_checkpoint`) loaded on
-    the CPU on a throwaway copy of the run's env (no files): a policy to ask for strokes, or
-    the check that lets a resume refuse a checkpoint before any work."""
-    # The run's own n_envs, so that the rebuilt model is the saved one (PPO's rollout size).
-    venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs, monitor_file=None, normalize=None)
-    try:
-        if isinstance(saved, Checkpoint):
-            return load_checkpoint(algo, saved, hp, venv, seed=0)
-        return load_model(algo, saved, hp, venv, seed=0)
-    except BaseException:
-        venv.close()
-        raise
-
-
-class RunCheckpoint(BaseCallback):
-    """Checkpoints every ``save_freq`` env steps, keeping the newest ``keep``.
-
-    Unlike SB3's CheckpointCallback (which saves inside ``on_step``, before an off-policy
-    algorithm stores that step's transitions, so a resumed SAC would miss one vector step of
-    its replay buffer), this saves at the end of a rollout: the buffer holds every transition
-    up to the checkpoint's step. Files are named as CheckpointCallback names them.
-    """
-
-    def __init__(self, layout: RunLayout, save_freq: int, keep: int, verbose: int = 0) -> None:
-        super().__init__(verbose)
-        self.layout = layout
-        self.save_freq = save_freq
-        self.keep = keep
-        self._next = save_freq
-
-    def _init_callback(self) -> None:
-        self._next = (self.model.num_timesteps // self.save_freq + 1) * self.save_freq
-
-    def _on_step(self) -> bool:
-        return True
-
-    def _on_rollout_end(self) -> None:
-        step = self.model.num_timesteps
-        if step >= self._next:
-            checkpoint = save_checkpoint(self.model, self.layout, self.keep)
-            self._next = (step // self.save_freq + 1) * self.save_freq
-            if self.verbose >= 2:
-                print(f"Saved checkpoint {checkpoint.model}")
-
-
-def save_checkpoint(model: BaseAlgorithm, layout: RunLayout, keep: int | None = None) -> Checkpoint:
+def save_checkpoint(model: BaseAlgorithm, layout: Any, keep: int | None = None) -> Any:
     """Checkpoint at the model's current step, then only the ``keep`` newest kept (None: all).
     Each file is written under a temporary name and renamed, companions first and the model
     last, so a model file means a complete checkpoint even if the process is killed while
-    saving."""
+    saving. ``layout``: the run's :class:`~train.run_folder.RunLayout`; returns the
+    :class:`~train.run_folder.Checkpoint`."""
     checkpoint = layout.checkpoint(model.num_timesteps)
     if getattr(model, "replay_buffer", None) is not None:
         with atomic_path(checkpoint.replay_buffer) as tmp:
@@ -415,49 +537,22 @@ def save_checkpoint(model: BaseAlgorithm, layout: RunLayout, keep: int | None = 
     return checkpoint
 
 
-class StopOnInterrupt(BaseCallback):
-    """Ctrl-C (SIGINT) while :meth:`catching` stops ``learn`` at the next env step instead of
-    raising KeyboardInterrupt wherever it lands (a traceback, an open progress bar, the steps
-    since the last checkpoint lost); :meth:`save` then checkpoints the last whole iteration.
-
-    The step count goes back to the last rollout's end (:attr:`boundary`): the weights are those
-    trained on the rollouts up to it, and the steps of the unfinished rollout, which nothing
-    learnt from (SAC: whose last transition SB3 does not store), are collected again on resume.
-    A second Ctrl-C raises KeyboardInterrupt at once."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.requested = False
-        self.boundary = 0
-
-    def _init_callback(self) -> None:
-        self.boundary = self.model.num_timesteps
-
-    def _on_rollout_end(self) -> None:
-        self.boundary = self.model.num_timesteps
-
-    def _on_step(self) -> bool:
-        return not self.requested
-
-    def _request(self, signum: int, frame: object) -> None:
-        self.requested = True
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-
-    @contextlib.contextmanager
-    def catching(self) -> Iterator[None]:
-        """Catch SIGINT within the block (in the main thread, unless SIGINT is ignored: a
-        background job's), restoring the previous handler afterwards."""
-        previous = signal.getsignal(signal.SIGINT)
-        if threading.current_thread() is not threading.main_thread() or previous == signal.SIG_IGN:
-            yield
-            return
-        signal.signal(signal.SIGINT, self._request)
-        try:
-            yield
-        finally:
-            signal.signal(signal.SIGINT, previous)
-
-    def save(self, layout: RunLayout, keep: int) -> Checkpoint:
-        """The checkpoint of the last whole iteration, the ``keep`` newest kept."""
-        self.model.num_timesteps = self.boundary
-        return save_checkpoint(self.model, layout, keep)
+def load_on_copy(
+    algo: str,
+    path: Path,
+    hp: Hyperparams,
+    env_id: str,
+    env_kwargs: Mapping[str, Any],
+    **checkpoint: Any,
+) -> BaseAlgorithm:
+    """A model file (:func:`load_model`, with a ``checkpoint``'s ``step`` and
+    ``replay_buffer``) loaded on the CPU on a throwaway copy of the run's env (no files): a
+    policy to ask for strokes, or the check that lets a resume refuse a checkpoint before any
+    work."""
+    # The run's own n_envs, so that the rebuilt model is the saved one (PPO's rollout size).
+    venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs, monitor_file=None, normalize=None)
+    try:
+        return load_model(algo, path, hp, venv, seed=0, **checkpoint)
+    except BaseException:
+        venv.close()
+        raise
