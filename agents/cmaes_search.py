@@ -99,8 +99,6 @@ class CMAESConfig(OptimiserConfig):
 
     algorithm = "cmaes"
 
-    max_evaluations: int = integer_setting(1)
-    """Points evaluated (>= 1); the last population is truncated to fit."""
     popsize: int | None = integer_setting(MIN_POPSIZE, default=None)
     """Population of the first run (>= 4); None uses :func:`default_popsize` of the dimension."""
     sigma0: float = real_setting(0.0, MAX_SIGMA0, low_inclusive=False, default=0.5)
@@ -178,8 +176,6 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
     """
 
     def __init__(self, dim: int, config: CMAESConfig, seed: SeedLike = None) -> None:
-        if not isinstance(config, CMAESConfig):
-            raise TypeError(f"config must be a CMAESConfig, got {type(config).__name__}")
         count(dim, "dim")
         popsize = config.popsize or default_popsize(dim)
         if config.max_evaluations < popsize:
