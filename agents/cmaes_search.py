@@ -55,8 +55,6 @@ from agents.optimiser import (
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
 from tandem_env.physics.checks import count
 
-__all__ = ["CMAES", "CMAESConfig", "Restarts", "default_popsize", "discrete_levels"]
-
 Restarts = Literal["none", "ipop", "bipop"]
 
 #: Population growth per large restart (Auger & Hansen 2005).

@@ -22,20 +22,10 @@ import time
 from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
+from tandem_env.physics.checks import count
+
 if TYPE_CHECKING:
     from distributed import Client
-
-__all__ = [
-    "CONNECT_TIMEOUT",
-    "MAX_LOCAL_WORKERS",
-    "PORTS",
-    "SCHEME",
-    "SchedulerUnreachable",
-    "dask_client",
-    "executor_spec",
-    "parse_scheduler",
-    "set_worker_numba_threads",
-]
 
 #: Seconds to wait for a Dask scheduler to answer before giving up [s].
 CONNECT_TIMEOUT = 10.0
@@ -76,13 +66,13 @@ def parse_scheduler(text: str) -> str:
         raise ValueError(f"scheduler = {text!r}; allowed: a string, {_ALLOWED}")
     text = text.strip()
     if text.startswith("local:"):
-        count = text.partition(":")[2]
-        if not count.isdigit() or not 1 <= int(count) <= MAX_LOCAL_WORKERS:
+        n = text.partition(":")[2]
+        if not n.isdigit() or not 1 <= int(n) <= MAX_LOCAL_WORKERS:
             raise ValueError(
                 f"--scheduler {text!r}: local:N needs a whole number N of worker processes from "
                 f"1 to {MAX_LOCAL_WORKERS}; allowed: {_ALLOWED}"
             )
-        return f"local:{int(count)}"
+        return f"local:{int(n)}"
     scheme, _, rest = text.rpartition("://")
     if scheme and scheme != SCHEME:
         raise ValueError(
@@ -113,15 +103,7 @@ def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
 
     ``workers=1`` (the default) leaves ``scheduler`` as given (None: serially, here).
     """
-    if (
-        isinstance(workers, bool)
-        or not isinstance(workers, int)
-        or not 1 <= workers <= MAX_LOCAL_WORKERS
-    ):
-        raise ValueError(
-            f"workers = {workers!r}; allowed: an integer from 1 to {MAX_LOCAL_WORKERS} (N > 1 "
-            "means local:N)"
-        )
+    workers = count(workers, "workers", 1, MAX_LOCAL_WORKERS, "N > 1 means local:N")
     if workers == 1:
         return None if scheduler is None else parse_scheduler(scheduler)
     if scheduler is not None:

@@ -25,14 +25,6 @@ from agents.tasks import Condition, TaskSpec
 from tandem_env.envs.base import as_action_type
 from tandem_env.io.files import to_jsonable
 
-__all__ = [
-    "BudgetExceededError",
-    "EvaluatedBatch",
-    "Reevaluation",
-    "VectorEnvEvaluator",
-    "reevaluate",
-]
-
 BatchCallback = Callable[[int, int, float], None]
 
 

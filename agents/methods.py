@@ -31,21 +31,6 @@ from agents.evaluator import EvaluatedBatch, VectorEnvEvaluator
 from agents.optimiser import OptimiserConfig
 from agents.tasks import Condition, TaskSpec
 
-__all__ = [
-    "PROVIDERS",
-    "AskTellMethod",
-    "Method",
-    "MethodFactory",
-    "SearchContext",
-    "SearchOutcome",
-    "available_methods",
-    "get_method",
-    "preset_batch_setting",
-    "providers",
-    "register_method",
-    "register_optimiser",
-]
-
 
 @dataclass(frozen=True, eq=False)
 class SearchContext:

@@ -11,8 +11,6 @@ from agents.record_cache import CacheOption, cacheable, record_cache
 from agents.store import RecordStore
 from tandem_env.io.progress_bar import QuietStream
 
-__all__ = ["CommandProgress", "Phase"]
-
 
 @dataclass(frozen=True)
 class Phase:

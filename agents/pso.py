@@ -47,8 +47,6 @@ from agents.optimiser import (
 )
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
 
-__all__ = ["PSO", "Boundary", "Inertia", "PSOConfig"]
-
 Inertia = Literal["constriction", "linear-decreasing"]
 Boundary = Literal["clip", "reflect"]
 

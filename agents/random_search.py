@@ -15,8 +15,6 @@ from agents.optimiser import (
 )
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
 
-__all__ = ["RandomSearch", "RandomSearchConfig"]
-
 
 @dataclass(frozen=True, kw_only=True)
 class RandomSearchConfig(OptimiserConfig):

@@ -26,21 +26,6 @@ from agents.tasks import Condition
 from tandem_env.envs.reference import record_score
 from tandem_env.io.files import to_jsonable
 
-__all__ = [
-    "CERTIFICATE",
-    "RESULTS",
-    "STARTS",
-    "SUMMARY_METRICS",
-    "OutdatedRecordError",
-    "Record",
-    "RecordChecksumError",
-    "RecordError",
-    "RecordMismatchError",
-    "RecordWarning",
-    "UnsafeFileError",
-    "package_versions",
-]
-
 #: The record's ``selection``: which of the strokes a search evaluated it reports.
 SELECTION_BEST_FEASIBLE = "best feasible stroke seen"
 SELECTION_BEST_REWARD = "best reward seen (no feasible stroke)"
@@ -102,15 +87,8 @@ SUMMARY_METRICS: tuple[str, ...] = (
 #: identity and condition (:meth:`Record.summary_row`).
 _SUMMARY_RESULTS = ("seed", "budget", "evaluations", "objective", "reward", "feasible", "score")
 
-# Record key -> distribution name on the package index.
-_PACKAGES = {
-    "numpy": "numpy",
-    "scipy": "scipy",
-    "gymnasium": "gymnasium",
-    "stable_baselines3": "stable-baselines3",
-    "torch": "torch",
-    "numba": "numba",
-}
+# Distribution names on the package index; the record's key is the name with '_' for '-'.
+_PACKAGES = ("numpy", "scipy", "gymnasium", "stable-baselines3", "torch", "numba")
 
 
 class RecordError(ValueError):
@@ -146,11 +124,12 @@ def package_versions() -> dict[str, str]:
     not installed is reported as ``"not installed"``.
     """
     versions: dict[str, str] = {}
-    for key, distribution in _PACKAGES.items():
+    for distribution in _PACKAGES:
         try:
-            versions[key] = metadata.version(distribution)
+            version = metadata.version(distribution)
         except metadata.PackageNotFoundError:
-            versions[key] = "not installed"
+            version = "not installed"
+        versions[distribution.replace("-", "_")] = version
     versions["python"] = platform.python_version()
     return versions
 
@@ -301,13 +280,7 @@ class Record:
     def to_dict(self) -> dict[str, Any]:
         """Plain-JSON form (the file format): schema, key, checksum, job, results."""
         payload = self._payload()
-        return {
-            "schema": payload["schema"],
-            "key": payload["key"],
-            "checksum": _checksum(payload),
-            "job": payload["job"],
-            "results": payload["results"],
-        }
+        return {**payload, "checksum": _checksum(payload)}
 
     @classmethod
     def from_dict(cls, data: Any) -> Record:
@@ -337,12 +310,7 @@ class Record:
             job = Job.from_dict(data["job"])
         except ValueError as error:
             raise RecordError(str(error)) from None
-        record = cls(
-            job=job,
-            key=data["key"],
-            results=data["results"],
-            schema=schema,
-        )
+        record = cls(job=job, key=data["key"], results=data["results"], schema=schema)
         if record.checksum != data["checksum"]:
             raise RecordChecksumError(
                 f"checksum {_short(data['checksum'])} does not match the record's contents: "
@@ -351,12 +319,11 @@ class Record:
         # The key is the hash of the job it holds (as the version that wrote it computed it):
         # a record whose job was edited, or whose key was, is not its job's record, even with
         # a checksum made again over the edit.
-        version = record.results["versions"]
-        version = version.get("tandem_env") if isinstance(version, Mapping) else None
-        keys = {record.job.key} | (
-            {record.job.key_at(version)} if isinstance(version, str) else set()
-        )
-        if record.key not in keys:
+        versions = record.results["versions"]
+        version = versions.get("tandem_env") if isinstance(versions, Mapping) else None
+        if record.key != job.key and not (
+            isinstance(version, str) and record.key == job.key_at(version)
+        ):
             raise RecordMismatchError(
                 f"key {_short(record.key)} is not the hash of the job it holds "
                 f"({record.job.label()}: key {record.job.key}); the key or the job was edited, "

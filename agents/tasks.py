@@ -24,17 +24,6 @@ from tandem_env.envs.registration import config_class
 from tandem_env.physics.checks import is_real
 from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
 
-__all__ = [
-    "ACCELERATE_TASK",
-    "LEVEL_TASK",
-    "Condition",
-    "TaskSpec",
-    "available_tasks",
-    "get_task",
-    "register_task",
-    "task_of",
-]
-
 _NAME = re.compile(r"^[a-z][a-z0-9_-]*$")
 
 

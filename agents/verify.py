@@ -12,7 +12,6 @@ record says the stroke gave (:data:`CHECKED`) with what it gives.
 from __future__ import annotations
 
 import contextlib
-import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -25,8 +24,6 @@ from agents.parts import PreparedJob
 from agents.records import Record
 from agents.tasks import TaskSpec, get_task
 from tandem_env.io.files import to_jsonable
-
-__all__ = ["ATOL", "CHECKED", "RTOL", "refuted", "stepped_results"]
 
 #: The results a record's stroke decides, compared with their re-evaluation.
 CHECKED = ("reward", "objective", "feasible", "stroke", "metrics")
@@ -149,15 +146,6 @@ def _difference(stored: Any, recomputed: Any, where: str = "") -> str | None:
 
 
 def _close(a: Any, b: Any) -> bool:
-    numbers = (int, float)
-    if (
-        isinstance(a, bool)
-        or isinstance(b, bool)
-        or not (isinstance(a, numbers) and isinstance(b, numbers))
-    ):
-        return type(a) is type(b) and a == b
-    if math.isnan(a) or math.isnan(b):
-        return math.isnan(a) and math.isnan(b)
-    if math.isinf(a) or math.isinf(b):
-        return a == b
-    return abs(a - b) <= ATOL + RTOL * abs(b)
+    if {type(a), type(b)} <= {int, float}:  # numbers of JSON (a flag is a bool, compared as one)
+        return bool(np.isclose(a, b, rtol=RTOL, atol=ATOL, equal_nan=True))
+    return type(a) is type(b) and a == b
