@@ -149,6 +149,10 @@ def _probe(address: str) -> None:
         raise SchedulerUnreachable(
             f"no Dask scheduler answers at {address} ({error.strerror or error}); {advice}"
         ) from None
+
+    def unreachable(what: str) -> SchedulerUnreachable:
+        return SchedulerUnreachable(f"{address} {what}: not a Dask scheduler; {advice}")
+
     head = b""
     with conn:
         try:
@@ -159,25 +163,15 @@ def _probe(address: str) -> None:
                     break
                 head += chunk
         except TimeoutError:
-            raise SchedulerUnreachable(
-                f"{address} accepts connections but sent no Dask handshake within "
-                f"{CONNECT_TIMEOUT:g} s: not a Dask scheduler (or a stalled one); {advice}"
-            ) from None
+            wait = f"within {CONNECT_TIMEOUT:g} s (or a stalled scheduler)"
+            raise unreachable(f"accepts connections but sent no Dask handshake {wait}") from None
         except OSError as error:
-            raise SchedulerUnreachable(
-                f"{address} dropped the connection ({error.strerror or error}) before a Dask "
-                f"handshake: not a Dask scheduler; {advice}"
-            ) from None
+            why = error.strerror or error
+            raise unreachable(f"dropped the connection ({why}) before a Dask handshake") from None
     if len(head) < 8:
-        raise SchedulerUnreachable(
-            f"{address} accepted the connection and closed it without a Dask handshake: not a "
-            f"Dask scheduler; {advice}"
-        )
+        raise unreachable("accepted the connection and closed it without a Dask handshake")
     if not 0 < int.from_bytes(head, "little") <= _HANDSHAKE_BYTES:
-        raise SchedulerUnreachable(
-            f"{address} answers, but not with the Dask protocol (first bytes {head!r}): not a "
-            f"Dask scheduler; {advice}"
-        )
+        raise unreachable(f"answers, but not with the Dask protocol (first bytes {head!r})")
 
 
 @contextlib.contextmanager

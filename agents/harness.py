@@ -18,7 +18,6 @@ single env, and the record's results come from that. The budget's parts: :mod:`a
 from __future__ import annotations
 
 import functools
-import math
 import time
 import warnings
 from collections.abc import Iterable, Mapping
@@ -285,7 +284,7 @@ def _results(
 ) -> dict[str, Any]:
     """The record's results (:data:`agents.records.RESULTS`) from the re-evaluation."""
     action, search_reward, selection = chosen.action, chosen.reward, chosen.selection
-    if not _same(again.reward, search_reward):
+    if not np.isclose(again.reward, search_reward, rtol=1e-12, atol=1e-12, equal_nan=True):
         warnings.warn(
             f"{prepared.job.label()}: re-evaluated reward {again.reward!r} differs from the "
             f"search's {search_reward!r}",
@@ -313,9 +312,3 @@ def _results(
         "env": to_jsonable(again.env_config),
         "versions": {**package_versions(), "tandem_env": tandem_env.__version__},
     }
-
-
-def _same(a: float, b: float) -> bool:
-    if math.isnan(a) or math.isnan(b):
-        return math.isnan(a) and math.isnan(b)
-    return a == b or math.isclose(a, b, rel_tol=1e-12, abs_tol=1e-12)

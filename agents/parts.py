@@ -1,11 +1,9 @@
 """A harness run's budget in parts, each searched and polished (``agents.harness`` runs them).
 
-:func:`plan_parts` splits a job's budget into parts: one per search (the ``starts`` setting)
-and one per initial stroke (``initial``). :func:`search_part` runs the method with its own
-seed on its part, selects its stroke (the one selection rule, :mod:`agents.selection`) and
-polishes it (:mod:`agents.polish`) on what the search left; :func:`initial_part` polishes an
-initial stroke directly. Each returns a :class:`Part`. :class:`PreparedJob` is the validated
-job they run on (:func:`agents.harness.prepare_job`).
+:func:`plan_parts` splits a job's budget: one part per search (``starts``) and one per initial
+stroke (``initial``). :func:`search_part` runs the method with its own seed, selects its stroke
+(:mod:`agents.selection`) and polishes it (:mod:`agents.polish`) on what the search left;
+:func:`initial_part` polishes an initial stroke. :class:`PreparedJob` is the validated job.
 """
 
 from __future__ import annotations

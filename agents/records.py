@@ -1,12 +1,10 @@
 """Harness records: what one job found, in one format every method and reader shares.
 
-A :class:`Record` is what the run of one :class:`~agents.jobs.Job` found, whichever method ran,
-so that ``python -m eval compare`` and the studies read one format. It holds its job, the job's
-key and one mapping of results (:data:`RESULTS`; a later stage of the run adds its own key to
-it), each once, and its file carries a checksum of all three, so a record edited by hand or
-damaged is detected. The records are kept in a :class:`~agents.store.RecordStore`, written by
-the runner alone (:func:`agents.runner.run_jobs`). The schema with units is documented in
-``docs/harness.md``.
+A :class:`Record` holds its :class:`~agents.jobs.Job`, the job's key and one mapping of results
+(:data:`RESULTS`; a later stage of the run adds its own key), and its file carries a checksum
+of all three, so a record edited by hand or damaged is detected. The runner alone writes them
+(:func:`agents.runner.run_jobs`, into a :class:`~agents.store.RecordStore`); the schema with
+units is in docs/harness.md.
 """
 
 from __future__ import annotations
@@ -135,7 +133,6 @@ def package_versions() -> dict[str, str]:
 
 
 def _result(name: str) -> property:
-    # One accessor per results key, documented from RESULTS (one home for the schema).
     return property(lambda self: self.results[name], doc=RESULTS[name])
 
 
@@ -212,20 +209,7 @@ class Record:
         r = self.results
         return Condition(r["condition_name"], self.job.condition, r["condition_unit"])
 
-    # --- the results --------------------------------------------------------------------------
-    env_id = _result("env_id")
-    objective_name = _result("objective_name")
-    evaluations = _result("evaluations")
-    objective = _result("objective")
-    reward = _result("reward")
-    search_reward = _result("search_reward")
-    feasible = _result("feasible")
-    selection = _result("selection")
-    stroke = _result("stroke")
-    metrics = _result("metrics")
-    wall_time = _result("wall_time")
-    versions = _result("versions")
-
+    # --- the results (each key of RESULTS is an attribute: below the class) ----------------------
     @property
     def certificate(self) -> dict[str, Any]:
         """The local polish and the optimality of the reported stroke (method, status, gain
@@ -364,6 +348,12 @@ class Record:
             row["insect"] = to_jsonable(insect)
         row["key"] = self.key
         return row
+
+
+# One accessor per results key without its own (``record.objective``), documented from RESULTS.
+for _name in RESULTS:
+    if not hasattr(Record, _name):
+        setattr(Record, _name, _result(_name))
 
 
 def _short(value: Any, limit: int = 60) -> str:

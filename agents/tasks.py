@@ -2,10 +2,9 @@
 
 A :class:`TaskSpec` is a name, a Gymnasium id (whose ``vector_entry_point`` the harness
 evaluates batches through) and the env config's :class:`~tandem_env.envs.TaskDeclaration`,
-which it reads and never copies. The tasks of this package's envs (``"level"``,
-``"accelerate"``) are built from their configs' declarations (:meth:`TaskSpec.from_env`, for
-every id with a task in ``tandem_env.envs.registration.ENTRIES``, read when asked), so adding a
-task touches nothing here; tests register analytic tasks by hand (:func:`register_task`).
+read, never copied: every env entry with a task (``tandem_env.envs.registration``) gives one
+(:meth:`TaskSpec.from_env`), so adding a task touches nothing here; tests register analytic
+tasks by hand (:func:`register_task`).
 """
 
 from __future__ import annotations
