@@ -144,6 +144,11 @@ def _difference(stored: Any, recomputed: Any, where: str = "") -> str | None:
 
 
 def _close(a: Any, b: Any) -> bool:
-    if {type(a), type(b)} <= {int, float}:  # numbers of JSON (a flag is a bool, compared as one)
-        return bool(np.isclose(a, b, rtol=RTOL, atol=ATOL, equal_nan=True))
-    return type(a) is type(b) and a == b
+    numbers = (int, float)
+    if (
+        isinstance(a, bool)
+        or isinstance(b, bool)
+        or not (isinstance(a, numbers) and isinstance(b, numbers))
+    ):
+        return type(a) is type(b) and a == b
+    return bool(np.isclose(a, b, rtol=RTOL, atol=ATOL, equal_nan=True))
