@@ -67,6 +67,7 @@ class VectorEnvEvaluator(Tally):
         super().__init__()
         self.task = task
         self.condition = condition
+        self._options = {task.declared_condition.keyword: condition.value}  # each reset's
         self.env_kwargs = dict(env_kwargs)
         self.seed = int(seed)
         self.budget = int(budget)
@@ -90,9 +91,7 @@ class VectorEnvEvaluator(Tally):
             )
             # The seed only matters for sampled conditions (none here), but a seeded first
             # reset keeps every generator the env owns reproducible too.
-            env.reset(
-                seed=self.seed, options={self.task.declared_condition.keyword: self.condition.value}
-            )
+            env.reset(seed=self.seed, options=self._options)
             self._envs[n] = env
         return env
 
@@ -126,7 +125,7 @@ class VectorEnvEvaluator(Tally):
             )
         start = time.perf_counter()
         env = self._env(n)
-        env.reset(options={self.task.declared_condition.keyword: self.condition.value})
+        env.reset(options=self._options)
         _, rewards, _, _, infos = env.step(actions)
         self.step_time += time.perf_counter() - start
         self._check_condition(infos, n)
