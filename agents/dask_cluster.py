@@ -22,8 +22,6 @@ import time
 from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
-from tandem_env.physics.checks import count
-
 if TYPE_CHECKING:
     from distributed import Client
 
@@ -103,7 +101,15 @@ def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
 
     ``workers=1`` (the default) leaves ``scheduler`` as given (None: serially, here).
     """
-    workers = count(workers, "workers", 1, MAX_LOCAL_WORKERS, "N > 1 means local:N")
+    if (
+        isinstance(workers, bool)
+        or not isinstance(workers, int)
+        or not 1 <= workers <= MAX_LOCAL_WORKERS
+    ):
+        raise ValueError(
+            f"workers = {workers!r}; allowed: an integer from 1 to {MAX_LOCAL_WORKERS} (N > 1 "
+            "means local:N)"
+        )
     if workers == 1:
         return None if scheduler is None else parse_scheduler(scheduler)
     if scheduler is not None:
