@@ -1,24 +1,12 @@
 """CMA-ES with IPOP / BIPOP restarts over the normalised box [-1, 1]^d, on the ``cmaes`` package.
 
 The evolution strategy is the package's CMA-ES with margin (``cmaes.CMAwM``, Hamano et al.
-2022), used through its public API only (``ask``, ``tell``, ``should_stop``,
-``population_size``, ``generation``). This module adds what the package leaves to its caller,
-each rule described with its reasons in docs/harness.md, "CMA-ES":
-
-* **Box and discrete coordinates.** ``discrete = ((index, levels), ...)``: coordinate
-  ``index`` takes the bin centres :func:`discrete_levels` (for the harmonic N: {-0.5, +0.5},
-  where ``physical_to_normalised`` puts N = 1 and N = 2).
-* **One population = one batch** (one ask/tell round of
-  :class:`~agents.optimiser.AskTellOptimiser`).
-* **Restarts** (``restarts``), each from a new uniform random mean: ``"none"``, ``"ipop"``
-  (Auger & Hansen 2005: the population doubles) or ``"bipop"`` (Hansen 2009: large restarts,
-  ``λ_def · 2^k`` and ``sigma0``, interlaced with small ones, ``λ = ⌊λ_def · (2^k)^(U²)⌋``,
-  ``σ = sigma0 · 10^(−2 U')``; the regime that has used fewer evaluations runs next).
-* **Stagnation**, checked every ``CHECK_EVERY`` generations: ``should_stop()``, or Hansen's
-  (2009) test on the medians of the generation-best and generation-median fitness over the
-  last L = max(``patience``, 20 % of the run's generations) generations (:meth:`CMAES._stop`).
-* **Budget.** Whole populations are drawn and the rules look only at what was evaluated, so a
-  run with budget B is exactly the first B evaluations of any longer run with the same seed.
+2022), through its public API only. This module adds what the package leaves to its caller
+(each rule and its reasons: docs/harness.md, "CMA-ES"): discrete coordinates on the bin
+centres (:func:`discrete_levels`), one population per ask/tell round, restarts from a uniform
+random mean (``"ipop"``: Auger & Hansen 2005; ``"bipop"``: Hansen 2009), Hansen's (2009)
+stagnation test every ``CHECK_EVERY`` generations (:meth:`CMAES._stop`), and a budget that
+truncates: a run with budget B is exactly the first B evaluations of any longer run.
 
 References
 ----------
@@ -54,8 +42,6 @@ from agents.optimiser import (
 )
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
 from tandem_env.physics.checks import count
-
-__all__ = ["CMAES", "CMAESConfig", "Restarts", "default_popsize", "discrete_levels"]
 
 Restarts = Literal["none", "ipop", "bipop"]
 
@@ -99,8 +85,6 @@ class CMAESConfig(OptimiserConfig):
 
     algorithm = "cmaes"
 
-    max_evaluations: int = integer_setting(1)
-    """Points evaluated (>= 1); the last population is truncated to fit."""
     popsize: int | None = integer_setting(MIN_POPSIZE, default=None)
     """Population of the first run (>= 4); None uses :func:`default_popsize` of the dimension."""
     sigma0: float = real_setting(0.0, MAX_SIGMA0, low_inclusive=False, default=0.5)
@@ -129,11 +113,13 @@ class CMAESConfig(OptimiserConfig):
         for pair in pairs:
             if len(pair) != 2:
                 raise ValueError(f"discrete must be {allowed}, got the entry {pair!r}")
-            count(pair[0], "discrete index", low=0)
-            count(pair[1], "discrete levels", low=2)
+        pairs = tuple(
+            (count(i, "discrete index", low=0), count(k, "discrete levels", low=2))
+            for i, k in pairs
+        )
         if len({i for i, _ in pairs}) != len(pairs):
             raise ValueError(f"discrete must be {allowed}; index repeated in {self.discrete!r}")
-        object.__setattr__(self, "discrete", tuple((int(i), int(k)) for i, k in pairs))
+        object.__setattr__(self, "discrete", pairs)
 
     @property
     def citation(self) -> str:
@@ -178,8 +164,6 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
     """
 
     def __init__(self, dim: int, config: CMAESConfig, seed: SeedLike = None) -> None:
-        if not isinstance(config, CMAESConfig):
-            raise TypeError(f"config must be a CMAESConfig, got {type(config).__name__}")
         count(dim, "dim")
         popsize = config.popsize or default_popsize(dim)
         if config.max_evaluations < popsize:

@@ -25,18 +25,6 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from distributed import Client
 
-__all__ = [
-    "CONNECT_TIMEOUT",
-    "MAX_LOCAL_WORKERS",
-    "PORTS",
-    "SCHEME",
-    "SchedulerUnreachable",
-    "dask_client",
-    "executor_spec",
-    "parse_scheduler",
-    "set_worker_numba_threads",
-]
-
 #: Seconds to wait for a Dask scheduler to answer before giving up [s].
 CONNECT_TIMEOUT = 10.0
 #: Most worker processes ``local:N`` starts on this machine [-].
@@ -76,13 +64,13 @@ def parse_scheduler(text: str) -> str:
         raise ValueError(f"scheduler = {text!r}; allowed: a string, {_ALLOWED}")
     text = text.strip()
     if text.startswith("local:"):
-        count = text.partition(":")[2]
-        if not count.isdigit() or not 1 <= int(count) <= MAX_LOCAL_WORKERS:
+        n = text.partition(":")[2]
+        if not n.isdigit() or not 1 <= int(n) <= MAX_LOCAL_WORKERS:
             raise ValueError(
                 f"--scheduler {text!r}: local:N needs a whole number N of worker processes from "
                 f"1 to {MAX_LOCAL_WORKERS}; allowed: {_ALLOWED}"
             )
-        return f"local:{int(count)}"
+        return f"local:{int(n)}"
     scheme, _, rest = text.rpartition("://")
     if scheme and scheme != SCHEME:
         raise ValueError(
@@ -167,6 +155,10 @@ def _probe(address: str) -> None:
         raise SchedulerUnreachable(
             f"no Dask scheduler answers at {address} ({error.strerror or error}); {advice}"
         ) from None
+
+    def unreachable(what: str) -> SchedulerUnreachable:
+        return SchedulerUnreachable(f"{address} {what}: not a Dask scheduler; {advice}")
+
     head = b""
     with conn:
         try:
@@ -177,25 +169,15 @@ def _probe(address: str) -> None:
                     break
                 head += chunk
         except TimeoutError:
-            raise SchedulerUnreachable(
-                f"{address} accepts connections but sent no Dask handshake within "
-                f"{CONNECT_TIMEOUT:g} s: not a Dask scheduler (or a stalled one); {advice}"
-            ) from None
+            wait = f"within {CONNECT_TIMEOUT:g} s (or a stalled scheduler)"
+            raise unreachable(f"accepts connections but sent no Dask handshake {wait}") from None
         except OSError as error:
-            raise SchedulerUnreachable(
-                f"{address} dropped the connection ({error.strerror or error}) before a Dask "
-                f"handshake: not a Dask scheduler; {advice}"
-            ) from None
+            why = error.strerror or error
+            raise unreachable(f"dropped the connection ({why}) before a Dask handshake") from None
     if len(head) < 8:
-        raise SchedulerUnreachable(
-            f"{address} accepted the connection and closed it without a Dask handshake: not a "
-            f"Dask scheduler; {advice}"
-        )
+        raise unreachable("accepted the connection and closed it without a Dask handshake")
     if not 0 < int.from_bytes(head, "little") <= _HANDSHAKE_BYTES:
-        raise SchedulerUnreachable(
-            f"{address} answers, but not with the Dask protocol (first bytes {head!r}): not a "
-            f"Dask scheduler; {advice}"
-        )
+        raise unreachable(f"answers, but not with the Dask protocol (first bytes {head!r})")
 
 
 @contextlib.contextmanager

@@ -19,19 +19,11 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.optimiser import Tallied, Tally
+from agents.optimiser import Tally
 from agents.selection import BestStroke
 from agents.tasks import Condition, TaskSpec
 from tandem_env.envs.base import as_action_type
 from tandem_env.io.files import to_jsonable
-
-__all__ = [
-    "BudgetExceededError",
-    "EvaluatedBatch",
-    "Reevaluation",
-    "VectorEnvEvaluator",
-    "reevaluate",
-]
 
 BatchCallback = Callable[[int, int, float], None]
 
@@ -52,7 +44,7 @@ class EvaluatedBatch:
     """``info["feasible"]`` (all True if the env has none)."""
 
 
-class VectorEnvEvaluator(Tallied):
+class VectorEnvEvaluator(Tally):
     """Budgeted, batched fitness through the task's native vector env.
 
     The envs are made with ``env_kwargs`` (the condition keyword included) and reset with
@@ -72,14 +64,15 @@ class VectorEnvEvaluator(Tallied):
         budget: int,
         on_batch: BatchCallback | None = None,
     ) -> None:
+        super().__init__()
         self.task = task
         self.condition = condition
+        self._options = {task.declared_condition.keyword: condition.value}  # each reset's
         self.env_kwargs = dict(env_kwargs)
         self.seed = int(seed)
         self.budget = int(budget)
         self._on_batch = on_batch
         self._envs: dict[int, gym.vector.VectorEnv] = {}
-        self._tally = Tally()
         self._best = BestStroke()
         self._best_stroke_action: np.ndarray | None = None
         self.step_time = 0.0
@@ -98,9 +91,7 @@ class VectorEnvEvaluator(Tallied):
             )
             # The seed only matters for sampled conditions (none here), but a seeded first
             # reset keeps every generator the env owns reproducible too.
-            env.reset(
-                seed=self.seed, options={self.task.declared_condition.keyword: self.condition.value}
-            )
+            env.reset(seed=self.seed, options=self._options)
             self._envs[n] = env
         return env
 
@@ -134,7 +125,7 @@ class VectorEnvEvaluator(Tallied):
             )
         start = time.perf_counter()
         env = self._env(n)
-        env.reset(options={self.task.declared_condition.keyword: self.condition.value})
+        env.reset(options=self._options)
         _, rewards, _, _, infos = env.step(actions)
         self.step_time += time.perf_counter() - start
         self._check_condition(infos, n)
@@ -143,7 +134,7 @@ class VectorEnvEvaluator(Tallied):
         objective = np.asarray(infos.get("objective", rewards), dtype=np.float64)
         feasible = np.asarray(infos.get("feasible", np.ones(n, dtype=bool)), dtype=bool)
         # the best reward so far, feasible or not, as the optimisers count it (the history)
-        self._tally.add(actions, rewards)
+        self.add(actions, rewards)
         # A penalised reward can rank a marginally infeasible stroke above every feasible one;
         # the best stroke by the selection rule (feasible first) is kept too, so the harness
         # can return a stroke that flies.
@@ -151,7 +142,7 @@ class VectorEnvEvaluator(Tallied):
         if j is not None:
             self._best_stroke_action = actions[j].copy()
         if self._on_batch is not None:
-            self._on_batch(self.iterations, self.evaluations, self.best_reward)
+            self._on_batch(self.iterations, self.evaluations, self.best_value)
         return EvaluatedBatch(rewards=rewards, objective=objective, feasible=feasible)
 
     def __call__(self, actions: np.ndarray) -> np.ndarray:
@@ -172,11 +163,6 @@ class VectorEnvEvaluator(Tallied):
             )
 
     # --- what was found ----------------------------------------------------------------------
-    @property
-    def best_reward(self) -> float:
-        """Best reward so far (-inf before any)."""
-        return self._tally.best_value
-
     @property
     def best_feasible(self) -> tuple[np.ndarray, float] | None:
         """(action, reward) of the best feasible stroke so far (a copy), or None if none was

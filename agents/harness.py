@@ -6,28 +6,18 @@
 
     records = run("pso", "level", 1.5, budget=12_000, seeds=[0, 1, 2])
 
-A :class:`~agents.jobs.Job` is one run's configuration. :func:`prepare_job` validates it
-against the task and method registries and resolves it into a :class:`PreparedJob`, once,
-before any evaluation; :func:`prepare` builds and validates the jobs of one call (one per
-seed) from user-level arguments. :func:`run_job` runs one job and returns its
-:class:`~agents.records.Record`; it writes nothing: storing records (and resuming from them)
-is the runner's job (:func:`agents.runner.run_jobs`). :func:`run` runs the jobs of one
-:func:`prepare` call here and returns their records.
-
-In :func:`run_job` the method searches the task's normalised action box [-1, 1]^28 with the
-job's budget of model evaluations, every batch through the task's native vector env (fitness
-= the env's reward, the penalised objective an RL agent sees). The reported stroke (the one
-selection rule, :mod:`agents.selection`), polished by a constrained local optimiser
-(:mod:`agents.polish`; on by default for ``cmaes`` and ``pso``, its evaluations counted in
-the budget, its certificate the results' ``certificate``), is then re-evaluated in the job's
-single env (reset with the job's seed), and the record's results come from that
-re-evaluation. The budget's parts (several searches, initial strokes) are :mod:`agents.parts`.
+:func:`prepare_job` validates a :class:`~agents.jobs.Job` against the task and method
+registries, once, before any evaluation (:func:`prepare`: the jobs of one call, one per seed);
+:func:`run_job` runs one and returns its :class:`~agents.records.Record`, writing nothing (the
+runner stores: :func:`agents.runner.run_jobs`). The method searches the box [-1, 1]^28 through
+the task's vector env (fitness = the env's reward); the reported stroke (:mod:`agents.selection`),
+polished (:mod:`agents.polish`, its evaluations in the budget), is re-evaluated in the job's
+single env, and the record's results come from that. The budget's parts: :mod:`agents.parts`.
 """
 
 from __future__ import annotations
 
 import functools
-import math
 import time
 import warnings
 from collections.abc import Iterable, Mapping
@@ -58,8 +48,6 @@ from agents.verify import stepped_results
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW, as_action_type
 from tandem_env.io.files import to_jsonable
 from tandem_env.io.progress_bar import ProgressBar, Reporter
-
-__all__ = ["PreparedJob", "prepare", "prepare_job", "run", "run_job"]
 
 
 def prepare_job(
@@ -296,7 +284,7 @@ def _results(
 ) -> dict[str, Any]:
     """The record's results (:data:`agents.records.RESULTS`) from the re-evaluation."""
     action, search_reward, selection = chosen.action, chosen.reward, chosen.selection
-    if not _same(again.reward, search_reward):
+    if not np.isclose(again.reward, search_reward, rtol=1e-12, atol=1e-12, equal_nan=True):
         warnings.warn(
             f"{prepared.job.label()}: re-evaluated reward {again.reward!r} differs from the "
             f"search's {search_reward!r}",
@@ -315,21 +303,12 @@ def _results(
         "normalised_stroke": action.tolist(),
         "history": [[int(e), float(b)] for e, b in history],
         "wall_time": 0.0,
-        "method_settings": to_jsonable(_method_settings(prepared, chosen)),
+        # a polished initial stroke: the method did not run there, so its name only
+        "method_settings": to_jsonable(
+            {"algorithm": prepared.job.method, "note": "initial stroke polished; no search"}
+            if chosen.outcome is None
+            else chosen.outcome.config
+        ),
         "env": to_jsonable(again.env_config),
         "versions": {**package_versions(), "tandem_env": tandem_env.__version__},
     }
-
-
-def _method_settings(prepared: PreparedJob, chosen: Part) -> dict[str, Any]:
-    """The method's settings as its (chosen) search reports them; for a polished initial stroke
-    the method did not run there, so the method's name only."""
-    if chosen.outcome is not None:
-        return dict(chosen.outcome.config)
-    return {"algorithm": prepared.job.method, "note": "initial stroke polished; no search"}
-
-
-def _same(a: float, b: float) -> bool:
-    if math.isnan(a) or math.isnan(b):
-        return math.isnan(a) and math.isnan(b)
-    return a == b or math.isclose(a, b, rel_tol=1e-12, abs_tol=1e-12)

@@ -1,20 +1,14 @@
 """Search methods the harness can run, and the registry that names them.
 
-A method is anything with a ``name`` and a ``search(context) -> SearchOutcome``. The harness
-gives it a :class:`SearchContext` (the task, the condition, the budget, the seed, a batched
-fitness through the task's vector env) and records what it returns. Black-box optimisers call
-``context.evaluate(actions)`` once per iteration with the whole batch; learners (PPO, SAC, a
-trained policy) build their own envs from ``context.env_id`` and ``context.env_kwargs`` and
-report their own evaluations and history.
+A method is anything with a ``name`` and a ``search(context) -> SearchOutcome``: black-box
+optimisers call ``context.evaluate(actions)`` once per iteration with the whole batch; learners
+(PPO, SAC, a trained policy) build their own envs from ``context.env_id`` and
+``context.env_kwargs`` and report their own evaluations and history.
 
-The extension point (docs/harness.md, "Methods: protocol and registry") is one path for every
-method: its module registers it when imported, an ask/tell optimiser with one line,
-``register_optimiser(name, ConfigClass, batch="...")`` (as ``agents.pso`` does), any other
-method with ``register_method(name, factory)``; and the method's name points at that module,
-in :data:`PROVIDERS` (this project's methods: the optimisers of ``agents``, the training
-package's ``"ppo"``, ``"sac"`` and ``"policy"``) or in a ``tandem_env.optimisers`` entry point
-of an installed package (:func:`providers`). The module is imported the first time the name is
-asked for, so ``agents`` never imports ``train`` unless such a method is used.
+One registration path for every method (docs/harness.md, "Methods: protocol and registry"):
+its module registers it when imported (:func:`register_optimiser`, :func:`register_method`),
+and its name points at that module in :data:`PROVIDERS` (this project's, ``train``'s included)
+or in a ``tandem_env.optimisers`` entry point (:func:`providers`), imported on first use.
 """
 
 from __future__ import annotations
@@ -30,21 +24,6 @@ import numpy as np
 from agents.evaluator import EvaluatedBatch, VectorEnvEvaluator
 from agents.optimiser import OptimiserConfig
 from agents.tasks import Condition, TaskSpec
-
-__all__ = [
-    "PROVIDERS",
-    "AskTellMethod",
-    "Method",
-    "MethodFactory",
-    "SearchContext",
-    "SearchOutcome",
-    "available_methods",
-    "get_method",
-    "preset_batch_setting",
-    "providers",
-    "register_method",
-    "register_optimiser",
-]
 
 
 @dataclass(frozen=True, eq=False)
@@ -298,8 +277,7 @@ def _factory(name: str) -> MethodFactory:
     except ModuleNotFoundError as error:
         # Only a missing provider is "not implemented"; a provider that fails while importing
         # its own dependencies is a real error and propagates from the import below.
-        parts = module.split(".")
-        if error.name not in {".".join(parts[: i + 1]) for i in range(len(parts))}:
+        if module != error.name and not module.startswith(f"{error.name}."):
             raise
         raise NotImplementedError(
             f"method {name!r} is provided by module {module}, which is not available: {error}"

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import functools
 from abc import ABC, abstractmethod
-from dataclasses import MISSING, field, fields
+from dataclasses import MISSING, dataclass, field, fields
 from typing import Any, ClassVar
 
 import numpy as np
@@ -58,7 +58,8 @@ def check_settings(config: Any) -> None:
 
 
 class Tally:
-    """Points evaluated, rounds, and the best value so far with its point, after every round.
+    """Points evaluated, rounds, and the best value so far with its point, after every round:
+    the base of an optimiser and of the harness's evaluator.
 
     NaN counts as -inf and only a strictly higher value replaces the best, so the first of
     equal values stays and -inf is never a best: the selection rule of :mod:`agents.selection`
@@ -67,70 +68,50 @@ class Tally:
 
     def __init__(self) -> None:
         self.evaluations = 0
-        """Points added so far."""
+        """Points (strokes, actions) evaluated so far."""
         self.iterations = 0
-        """Rounds (batches) added so far."""
+        """Rounds (ask/tell rounds, batches) so far."""
         self.history: list[tuple[int, float]] = []
         """(evaluations, best value so far) after every round."""
-        self._best = BestStroke()
-        self._point: FloatArray | None = None
+        self._top = BestStroke()
+        self._top_point: FloatArray | None = None
 
     @property
     def best_value(self) -> float:
         """Best value so far (-inf before any above -inf)."""
-        return self._best.reward
+        return self._top.reward
 
     @property
     def best_point(self) -> FloatArray | None:
         """The point of the best value (a copy), or None before any value above -inf."""
-        return None if self._point is None else self._point.copy()
+        return None if self._top_point is None else self._top_point.copy()
 
     def add(self, points: FloatArray, values: ArrayLike) -> None:
         """Count a round of points (n, dim) with their values (n,) and keep the best."""
         values = np.asarray(values, dtype=np.float64)
-        i = self._best.offer(np.zeros(values.shape, dtype=bool), values)
+        i = self._top.offer(np.zeros(values.shape, dtype=bool), values)
         if i is not None:
-            self._point = np.array(points[i], dtype=np.float64)
+            self._top_point = np.array(points[i], dtype=np.float64)
         self.evaluations += values.shape[0]
         self.iterations += 1
         self.history.append((self.evaluations, self.best_value))
 
 
-class Tallied:
-    """``evaluations``, ``iterations`` and ``history`` of a search that keeps a :class:`Tally`
-    (an optimiser, the harness's evaluator)."""
-
-    _tally: Tally
-
-    @property
-    def evaluations(self) -> int:
-        """Points (strokes, actions) evaluated so far."""
-        return self._tally.evaluations
-
-    @property
-    def iterations(self) -> int:
-        """Rounds (ask/tell rounds, batches) so far."""
-        return self._tally.iterations
-
-    @property
-    def history(self) -> list[tuple[int, float]]:
-        """(evaluations, best value so far) after every round."""
-        return list(self._tally.history)
-
-
+@dataclass(frozen=True, kw_only=True)
 class OptimiserConfig:
-    """Base of an optimiser's configuration, a frozen dataclass of its settings with a
-    ``max_evaluations`` field (the harness's budget): the checks (:func:`check_settings`), the
-    record (:meth:`to_dict`) and :meth:`build` follow from its fields. A subclass names its
-    ``algorithm`` and gives a ``citation``; its optimiser class names the subclass
+    """Base of an optimiser's configuration, a frozen keyword-only dataclass of its settings:
+    the checks (:func:`check_settings`), the record (:meth:`to_dict`) and :meth:`build` follow
+    from its fields. A subclass names its ``algorithm`` and gives a ``citation`` (a class
+    attribute or a property); its optimiser class names the subclass
     (``class PSO(AskTellOptimiser, settings=PSOConfig)``)."""
 
-    max_evaluations: int
-    citation: str
     algorithm: ClassVar[str]
     """The record's name of the algorithm."""
     optimiser: ClassVar[type[AskTellOptimiser]]
     """The ask/tell class :meth:`build` makes (set by its ``settings=`` class keyword)."""
+
+    max_evaluations: int = integer_setting(1)
+    """Points evaluated (>= 1), the harness's budget; the last round is truncated to fit."""
 
     def __post_init__(self) -> None:
         check_settings(self)
@@ -142,16 +123,16 @@ class OptimiserConfig:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready record: the algorithm, every setting, :meth:`in_use` and the citation."""
-        settings = {spec.name: getattr(self, spec.name) for spec in fields(self)}  # type: ignore[arg-type]
+        settings = {spec.name: getattr(self, spec.name) for spec in fields(self)}
         record = {"algorithm": self.algorithm, **settings, **self.in_use()}
-        return to_jsonable({**record, "citation": self.citation})
+        return to_jsonable({**record, "citation": self.citation})  # type: ignore[attr-defined]
 
     def build(self, dim: int, seed: SeedLike = None) -> AskTellOptimiser:
         """A fresh optimiser of ``dim`` dimensions for this configuration, seeded by ``seed``."""
         return self.optimiser(dim, self, seed)  # type: ignore[call-arg]
 
 
-class AskTellOptimiser(Tallied, ABC):
+class AskTellOptimiser(Tally, ABC):
     """Base class for batched ask/tell maximisers over [-1, 1]^dim.
 
     Subclasses implement :meth:`_propose` (the next batch) and :meth:`_observe` (learn from its
@@ -160,18 +141,27 @@ class AskTellOptimiser(Tallied, ABC):
     recorded), ``seed`` seeds ``numpy.random.default_rng``: equal seeds give identical runs.
     """
 
+    _settings: ClassVar[type[OptimiserConfig]] = OptimiserConfig
+
     def __init_subclass__(cls, settings: type[OptimiserConfig] | None = None, **kw: Any) -> None:
         # ``class PSO(AskTellOptimiser, settings=PSOConfig)``: what PSOConfig.build makes
         super().__init_subclass__(**kw)
         if settings is not None:
-            settings.optimiser = cls
+            settings.optimiser, cls._settings = cls, settings
+
+    def __new__(cls, dim: int, config: OptimiserConfig, *args: Any, **kw: Any) -> AskTellOptimiser:
+        # before the subclass's __init__ reads its settings from ``config``
+        if not isinstance(config, cls._settings):
+            name = cls._settings.__name__
+            raise TypeError(f"config must be a {name}, got {type(config).__name__}")
+        return super().__new__(cls)
 
     def __init__(self, dim: int, batch_size: int, config: OptimiserConfig, seed: SeedLike) -> None:
+        super().__init__()
         self._dim = count(dim, "dim")
         self._full_batch = int(batch_size)
         self._config = config
         self._rng = np.random.default_rng(seed)
-        self._tally = Tally()
         self._pending: FloatArray | None = None
 
     def _batch(self) -> int:
@@ -221,7 +211,7 @@ class AskTellOptimiser(Tallied, ABC):
         f = np.where(np.isnan(f), -np.inf, f)
 
         self._observe(self._pending, f)
-        self._tally.add(self._pending, f)
+        self.add(self._pending, f)
         self._pending = None
 
     @property
@@ -234,15 +224,8 @@ class AskTellOptimiser(Tallied, ABC):
         """The configuration this optimiser was built from."""
         return self._config
 
-    @property
-    def best_position(self) -> FloatArray | None:
-        """Best point told so far (a copy), or None before any fitness above -inf."""
-        return self._tally.best_point
-
-    @property
-    def best_fitness(self) -> float:
-        """Best fitness told so far (-inf before any)."""
-        return self._tally.best_value
+    best_position = Tally.best_point
+    best_fitness = Tally.best_value
 
     @property
     def done(self) -> bool:

@@ -1,18 +1,16 @@
 """A harness run's budget in parts, each searched and polished (``agents.harness`` runs them).
 
-:func:`plan_parts` splits a job's budget into parts: one per search (the ``starts`` setting)
-and one per initial stroke (``initial``). :func:`search_part` runs the method with its own
-seed on its part, selects its stroke (the one selection rule, :mod:`agents.selection`) and
-polishes it (:mod:`agents.polish`) on what the search left; :func:`initial_part` polishes an
-initial stroke directly. Each returns a :class:`Part`. :class:`PreparedJob` is the validated
-job they run on (:func:`agents.harness.prepare_job`).
+:func:`plan_parts` splits a job's budget: one part per search (``starts``) and one per initial
+stroke (``initial``). :func:`search_part` runs the method with its own seed, selects its stroke
+(:mod:`agents.selection`) and polishes it (:mod:`agents.polish`) on what the search left;
+:func:`initial_part` polishes an initial stroke. :class:`PreparedJob` is the validated job.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -32,16 +30,6 @@ from agents.records import (
 )
 from agents.tasks import Condition, TaskSpec
 from tandem_env.io.progress_bar import Reporter
-
-__all__ = [
-    "Part",
-    "PreparedJob",
-    "gradient_cost",
-    "initial_part",
-    "plan_parts",
-    "search_history",
-    "search_part",
-]
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,22 +122,8 @@ def search_part(
         report(iteration, offset + evaluations, best)
 
     outcome, evaluator = _search(prepared, seed, budget - reserve, shifted)
-    action, reward, selection = _select(outcome, evaluator)
-    action, reward, selection, certificate = _polish(
-        prepared, action, reward, selection, budget - outcome.evaluations, reserve, problem
-    )
-    feasible = selection in (SELECTION_BEST_FEASIBLE, SELECTION_POLISHED, SELECTION_REWARD_POLISHED)
-    return Part(
-        "search",
-        seed,
-        action,
-        reward,
-        feasible,
-        selection,
-        certificate,
-        outcome.evaluations + certificate.evaluations,
-        outcome,
-    )
+    found = _select(outcome, evaluator, seed)
+    return _polish(prepared, found, budget - outcome.evaluations, reserve, problem)
 
 
 def initial_part(
@@ -214,52 +188,69 @@ def search_history(parts: list[Part]) -> list[tuple[int, float]]:
 
 def _polish(
     prepared: PreparedJob,
-    action: np.ndarray,
-    reward: float,
-    selection: str,
+    part: Part,
     allowance: int,
     reserve: int,
     job_problem: Callable[[], Problem],
-) -> tuple[np.ndarray, float, str, Certificate]:
-    """The polished stroke (or the search's, when the polish is off, cannot start or does not
-    gain), its reward, the selection and the certificate."""
+) -> Part:
+    """The search's part polished on ``allowance`` evaluations, with its certificate (its
+    stroke as found when the polish is off, cannot start or does not gain)."""
     config = prepared.polish
     if not config.enabled:
-        return action, reward, selection, Certificate.off()
-    if reserve == 0:
-        status = "not applicable: the budget's polish share is below two gradients"
-        return action, reward, selection, Certificate(method=config.method, status=status)
-    if selection == SELECTION_METHOD:
-        status = "not applicable: the method evaluates through its own envs"
-        return action, reward, selection, Certificate(method=config.method, status=status)
+        return part
+    if reserve == 0 or part.selection == SELECTION_METHOD:
+        why = "the method evaluates through its own envs"
+        if reserve == 0:
+            why = "the budget's polish share is below two gradients"
+        certificate = Certificate(method=config.method, status=f"not applicable: {why}")
+        return replace(part, certificate=certificate)
     # A search that saw no feasible stroke hands over its best-reward one, and the polish starts
     # there all the same, as from an initial stroke: a policy's stroke a hair outside a margin,
     # or a short search's, is moved onto the constraints.
-    infeasible = selection == SELECTION_BEST_REWARD
+    infeasible = part.selection == SELECTION_BEST_REWARD
     problem = job_problem()
     result = polish(
-        problem, action, allowance, config, _gradient(prepared, problem),
+        problem, part.action, allowance, config, _gradient(prepared, problem),
         infeasible_start=infeasible,
     )  # fmt: skip
+    part = replace(
+        part,
+        certificate=result.certificate,
+        evaluations=part.evaluations + result.certificate.evaluations,
+    )
     if not result.improved:
-        return action, reward, selection, result.certificate
+        return part
     # accepted strokes pass the task's feasibility test, so their reward is their objective
     polished = SELECTION_REWARD_POLISHED if infeasible else SELECTION_POLISHED
-    return result.stroke, result.objective, polished, result.certificate
+    return replace(
+        part, action=result.stroke, reward=result.objective, feasible=True, selection=polished
+    )
 
 
-def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator) -> tuple[np.ndarray, float, str]:
-    """The stroke a record reports: the best feasible stroke the search evaluated, if any
+def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator, seed: int) -> Part:
+    """The search's part, unpolished: the best feasible stroke the search evaluated, if any
     (the selection rule, :mod:`agents.selection`), else the method's best-reward stroke."""
+    part = Part(
+        "search",
+        seed,
+        outcome.best_action,
+        outcome.best_reward,
+        False,
+        SELECTION_BEST_REWARD,
+        Certificate.off(),
+        outcome.evaluations,
+        outcome,
+    )
     if evaluator.evaluations < outcome.evaluations:
         # the method evaluated (some) strokes through its own envs (SB3): it chooses, by the
         # same rule (train/policies.py)
-        return outcome.best_action, outcome.best_reward, SELECTION_METHOD
-    best_feasible = evaluator.best_feasible
-    if best_feasible is None:
-        return outcome.best_action, outcome.best_reward, SELECTION_BEST_REWARD
-    action, reward = best_feasible
-    return action, reward, SELECTION_BEST_FEASIBLE
+        return replace(part, selection=SELECTION_METHOD)
+    if evaluator.best_feasible is None:
+        return part
+    action, reward = evaluator.best_feasible
+    return replace(
+        part, action=action, reward=reward, feasible=True, selection=SELECTION_BEST_FEASIBLE
+    )
 
 
 def _search(

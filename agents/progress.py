@@ -11,8 +11,6 @@ from agents.record_cache import CacheOption, cacheable, record_cache
 from agents.store import RecordStore
 from tandem_env.io.progress_bar import QuietStream
 
-__all__ = ["CommandProgress", "Phase"]
-
 
 @dataclass(frozen=True)
 class Phase:
@@ -39,18 +37,12 @@ def _duration(seconds: float) -> str:
 
 
 class CommandProgress:
-    """The whole cost of a command of several phases (a plan of
-    :func:`~agents.runner.run_plan`): its jobs, how many are stored in ``--out`` or the record
-    cache and how many run, their model evaluations and the time left, said on one line before
-    any work (:meth:`announce`) and again at each phase's start (:meth:`start`), on stderr
-    (nothing when not ``enabled``).
-
-    The time left is the evaluations left at the rate this command has measured so far (the
-    jobs it ran, over the wall time they took, compilation included); before its first job
-    finishes it says "estimating". The phases are the plan's look-ahead, again at each phase's
-    start (a phase whose jobs follow from an earlier one's results has stand-ins until then,
-    :class:`Phase`). ``detail`` follows the title on the first line (the preset and methods);
-    with ``rerun`` a stored job counts as one to run.
+    """The whole cost of a command of several phases (:func:`~agents.runner.run_plan`), said
+    on stderr (unless not ``enabled``) before any work (:meth:`announce`) and at each phase's
+    start (:meth:`start`): its jobs, how many are stored in ``--out`` or the record cache, how
+    many run, their model evaluations, and the time left at the rate measured so far
+    ("estimating" before the first job finishes). ``detail`` follows the title (the preset and
+    methods); with ``rerun`` a stored job counts as one to run.
     """
 
     def __init__(

@@ -47,8 +47,6 @@ from agents.optimiser import (
 )
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
 
-__all__ = ["PSO", "Boundary", "Inertia", "PSOConfig"]
-
 Inertia = Literal["constriction", "linear-decreasing"]
 Boundary = Literal["clip", "reflect"]
 
@@ -82,9 +80,6 @@ class PSOConfig(OptimiserConfig):
 
     algorithm = "pso"
 
-    max_evaluations: int = integer_setting(1)
-    """Particle evaluations (>= 1; the initial swarm counts); the last iteration is truncated
-    to fit."""
     swarm_size: int = integer_setting(2, MAX_BATCH, default=40)
     """Number of particles (>= 2)."""
     inertia: Inertia = "constriction"
@@ -155,8 +150,6 @@ class PSO(AskTellOptimiser, settings=PSOConfig):
     initial velocities uniform in +-vmax; each iteration is vectorised over the swarm."""
 
     def __init__(self, dim: int, config: PSOConfig, seed: SeedLike = None) -> None:
-        if not isinstance(config, PSOConfig):
-            raise TypeError(f"config must be a PSOConfig, got {type(config).__name__}")
         super().__init__(dim, config.swarm_size, config, seed)
         n, d = config.swarm_size, self.dim
         self._vmax = config.velocity_clamp * _BOX_WIDTH

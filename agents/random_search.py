@@ -15,8 +15,6 @@ from agents.optimiser import (
 )
 from tandem_env.envs.base import ACTION_HIGH, ACTION_LOW
 
-__all__ = ["RandomSearch", "RandomSearchConfig"]
-
 
 @dataclass(frozen=True, kw_only=True)
 class RandomSearchConfig(OptimiserConfig):
@@ -24,8 +22,6 @@ class RandomSearchConfig(OptimiserConfig):
 
     algorithm = "random-search"
 
-    max_evaluations: int = integer_setting(1)
-    """Points evaluated (>= 1); the last batch is truncated to fit."""
     batch_size: int = integer_setting(1, MAX_BATCH, default=40)
     """Points per ask (>= 1); 40 matches the default PSO swarm so per-iteration costs compare."""
 
@@ -40,8 +36,6 @@ class RandomSearch(AskTellOptimiser, settings=RandomSearchConfig):
     :class:`~agents.optimiser.AskTellOptimiser`)."""
 
     def __init__(self, dim: int, config: RandomSearchConfig, seed: SeedLike = None) -> None:
-        if not isinstance(config, RandomSearchConfig):
-            raise TypeError(f"config must be a RandomSearchConfig, got {type(config).__name__}")
         super().__init__(dim, config.batch_size, config, seed)
 
     def _propose(self, n: int) -> FloatArray:

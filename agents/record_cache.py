@@ -26,9 +26,6 @@ from agents.store import (
     unsafe_path,
 )
 
-__all__ = ["CacheOption", "CacheWriter", "cacheable", "record_cache"]
-
-
 CacheOption = bool | str | os.PathLike[str] | None
 """The record cache a call uses: True its folder (:func:`agents.store.cache_directory`), a path
 another folder, False or None none."""

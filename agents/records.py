@@ -1,12 +1,10 @@
 """Harness records: what one job found, in one format every method and reader shares.
 
-A :class:`Record` is what the run of one :class:`~agents.jobs.Job` found, whichever method ran,
-so that ``python -m eval compare`` and the studies read one format. It holds its job, the job's
-key and one mapping of results (:data:`RESULTS`; a later stage of the run adds its own key to
-it), each once, and its file carries a checksum of all three, so a record edited by hand or
-damaged is detected. The records are kept in a :class:`~agents.store.RecordStore`, written by
-the runner alone (:func:`agents.runner.run_jobs`). The schema with units is documented in
-``docs/harness.md``.
+A :class:`Record` holds its :class:`~agents.jobs.Job`, the job's key and one mapping of results
+(:data:`RESULTS`; a later stage of the run adds its own key), and its file carries a checksum
+of all three, so a record edited by hand or damaged is detected. The runner alone writes them
+(:func:`agents.runner.run_jobs`, into a :class:`~agents.store.RecordStore`); the schema with
+units is in docs/harness.md.
 """
 
 from __future__ import annotations
@@ -25,21 +23,6 @@ from agents.jobs import OLD_SCHEMAS, SCHEMA, Job
 from agents.tasks import Condition
 from tandem_env.envs.reference import record_score
 from tandem_env.io.files import to_jsonable
-
-__all__ = [
-    "CERTIFICATE",
-    "RESULTS",
-    "STARTS",
-    "SUMMARY_METRICS",
-    "OutdatedRecordError",
-    "Record",
-    "RecordChecksumError",
-    "RecordError",
-    "RecordMismatchError",
-    "RecordWarning",
-    "UnsafeFileError",
-    "package_versions",
-]
 
 #: The record's ``selection``: which of the strokes a search evaluated it reports.
 SELECTION_BEST_FEASIBLE = "best feasible stroke seen"
@@ -102,15 +85,8 @@ SUMMARY_METRICS: tuple[str, ...] = (
 #: identity and condition (:meth:`Record.summary_row`).
 _SUMMARY_RESULTS = ("seed", "budget", "evaluations", "objective", "reward", "feasible", "score")
 
-# Record key -> distribution name on the package index.
-_PACKAGES = {
-    "numpy": "numpy",
-    "scipy": "scipy",
-    "gymnasium": "gymnasium",
-    "stable_baselines3": "stable-baselines3",
-    "torch": "torch",
-    "numba": "numba",
-}
+# Distribution names on the package index; the record's key is the name with '_' for '-'.
+_PACKAGES = ("numpy", "scipy", "gymnasium", "stable-baselines3", "torch", "numba")
 
 
 class RecordError(ValueError):
@@ -146,17 +122,17 @@ def package_versions() -> dict[str, str]:
     not installed is reported as ``"not installed"``.
     """
     versions: dict[str, str] = {}
-    for key, distribution in _PACKAGES.items():
+    for distribution in _PACKAGES:
         try:
-            versions[key] = metadata.version(distribution)
+            version = metadata.version(distribution)
         except metadata.PackageNotFoundError:
-            versions[key] = "not installed"
+            version = "not installed"
+        versions[distribution.replace("-", "_")] = version
     versions["python"] = platform.python_version()
     return versions
 
 
 def _result(name: str) -> property:
-    # One accessor per results key, documented from RESULTS (one home for the schema).
     return property(lambda self: self.results[name], doc=RESULTS[name])
 
 
@@ -233,20 +209,7 @@ class Record:
         r = self.results
         return Condition(r["condition_name"], self.job.condition, r["condition_unit"])
 
-    # --- the results --------------------------------------------------------------------------
-    env_id = _result("env_id")
-    objective_name = _result("objective_name")
-    evaluations = _result("evaluations")
-    objective = _result("objective")
-    reward = _result("reward")
-    search_reward = _result("search_reward")
-    feasible = _result("feasible")
-    selection = _result("selection")
-    stroke = _result("stroke")
-    metrics = _result("metrics")
-    wall_time = _result("wall_time")
-    versions = _result("versions")
-
+    # --- the results (each key of RESULTS is an attribute: below the class) ----------------------
     @property
     def certificate(self) -> dict[str, Any]:
         """The local polish and the optimality of the reported stroke (method, status, gain
@@ -301,13 +264,7 @@ class Record:
     def to_dict(self) -> dict[str, Any]:
         """Plain-JSON form (the file format): schema, key, checksum, job, results."""
         payload = self._payload()
-        return {
-            "schema": payload["schema"],
-            "key": payload["key"],
-            "checksum": _checksum(payload),
-            "job": payload["job"],
-            "results": payload["results"],
-        }
+        return {**payload, "checksum": _checksum(payload)}
 
     @classmethod
     def from_dict(cls, data: Any) -> Record:
@@ -337,12 +294,7 @@ class Record:
             job = Job.from_dict(data["job"])
         except ValueError as error:
             raise RecordError(str(error)) from None
-        record = cls(
-            job=job,
-            key=data["key"],
-            results=data["results"],
-            schema=schema,
-        )
+        record = cls(job=job, key=data["key"], results=data["results"], schema=schema)
         if record.checksum != data["checksum"]:
             raise RecordChecksumError(
                 f"checksum {_short(data['checksum'])} does not match the record's contents: "
@@ -351,12 +303,11 @@ class Record:
         # The key is the hash of the job it holds (as the version that wrote it computed it):
         # a record whose job was edited, or whose key was, is not its job's record, even with
         # a checksum made again over the edit.
-        version = record.results["versions"]
-        version = version.get("tandem_env") if isinstance(version, Mapping) else None
-        keys = {record.job.key} | (
-            {record.job.key_at(version)} if isinstance(version, str) else set()
-        )
-        if record.key not in keys:
+        versions = record.results["versions"]
+        version = versions.get("tandem_env") if isinstance(versions, Mapping) else None
+        if record.key != job.key and not (
+            isinstance(version, str) and record.key == job.key_at(version)
+        ):
             raise RecordMismatchError(
                 f"key {_short(record.key)} is not the hash of the job it holds "
                 f"({record.job.label()}: key {record.job.key}); the key or the job was edited, "
@@ -397,6 +348,12 @@ class Record:
             row["insect"] = to_jsonable(insect)
         row["key"] = self.key
         return row
+
+
+# One accessor per results key without its own (``record.objective``), documented from RESULTS.
+for _name in RESULTS:
+    if not hasattr(Record, _name):
+        setattr(Record, _name, _result(_name))
 
 
 def _short(value: Any, limit: int = 60) -> str:

@@ -1,25 +1,19 @@
 """The one rule that picks "the best stroke": feasible first, then the higher reward, the
 earlier one on ties.
 
-Every place that chooses a stroke to report uses it: the harness's evaluator (the stroke a
-record reports), the SB3 stroke recorder (``train.vec.StrokeRecorder``), the training method's
-choice between the best training stroke and the final policy (``train.policies``) and a
-resumed training run's best over its segments (``train.run``).
-
-The rule, for strokes with a feasibility flag and a (penalised) reward [reward units]:
+Every place that chooses a stroke to report uses it: the harness's evaluator, the SB3 stroke
+recorder (``train.vec.StrokeRecorder``), the training method's choice between its best
+training stroke and its final policy (``train.policies``) and a resumed run (``train.run``).
 
 1. A feasible stroke beats every infeasible one, whatever their rewards: a penalised reward
-   can rank a marginally infeasible stroke above every feasible one, which would report a
-   stroke that does not fly (docs/harness.md, "Which stroke").
-2. Between strokes of equal feasibility the higher reward wins. For feasible strokes the reward
-   is exactly the objective, so this is the highest objective that flies.
-3. Ties go to the earlier stroke: the lower index in a batch, the incumbent against a newcomer
-   (a newcomer must be strictly better to replace it).
+   can rank a marginally infeasible stroke above every feasible one (docs/harness.md, "Which
+   stroke").
+2. Between strokes of equal feasibility the higher reward wins (for feasible strokes the reward
+   is the objective).
+3. Ties go to the earlier stroke: the lower index in a batch, the incumbent against a newcomer.
 
-A NaN reward or a reward of -inf says nothing about the stroke (a failed evaluation), so it
-ranks as an infeasible stroke with reward -inf whatever its flag: below every stroke with a
-real reward, and never an improvement on "nothing yet" (:data:`NOTHING`). Rewards of +inf are
-ranked as numbers.
+A NaN or -inf reward (a failed evaluation) ranks as an infeasible stroke with reward -inf,
+whatever its flag, and never improves on "nothing yet" (:data:`NOTHING`); +inf is a number.
 """
 
 from __future__ import annotations

@@ -2,10 +2,9 @@
 
 A :class:`TaskSpec` is a name, a Gymnasium id (whose ``vector_entry_point`` the harness
 evaluates batches through) and the env config's :class:`~tandem_env.envs.TaskDeclaration`,
-which it reads and never copies. The tasks of this package's envs (``"level"``,
-``"accelerate"``) are built from their configs' declarations (:meth:`TaskSpec.from_env`, for
-every id with a task in ``tandem_env.envs.registration.ENTRIES``, read when asked), so adding a
-task touches nothing here; tests register analytic tasks by hand (:func:`register_task`).
+read, never copied: every env entry with a task (``tandem_env.envs.registration``) gives one
+(:meth:`TaskSpec.from_env`), so adding a task touches nothing here; tests register analytic
+tasks by hand (:func:`register_task`).
 """
 
 from __future__ import annotations
@@ -23,17 +22,6 @@ from tandem_env.envs.declaration import TaskCondition, TaskDeclaration, TaskObje
 from tandem_env.envs.registration import config_class
 from tandem_env.physics.checks import is_real
 from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
-
-__all__ = [
-    "ACCELERATE_TASK",
-    "LEVEL_TASK",
-    "Condition",
-    "TaskSpec",
-    "available_tasks",
-    "get_task",
-    "register_task",
-    "task_of",
-]
 
 _NAME = re.compile(r"^[a-z][a-z0-9_-]*$")
 

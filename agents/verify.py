@@ -12,7 +12,6 @@ record says the stroke gave (:data:`CHECKED`) with what it gives.
 from __future__ import annotations
 
 import contextlib
-import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -25,8 +24,6 @@ from agents.parts import PreparedJob
 from agents.records import Record
 from agents.tasks import TaskSpec, get_task
 from tandem_env.io.files import to_jsonable
-
-__all__ = ["ATOL", "CHECKED", "RTOL", "refuted", "stepped_results"]
 
 #: The results a record's stroke decides, compared with their re-evaluation.
 CHECKED = ("reward", "objective", "feasible", "stroke", "metrics")
@@ -59,22 +56,20 @@ def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) 
     not give, re-evaluated in the env of its job in ``jobs`` (that job's backend and device); a
     record that cannot be re-evaluated is refuted too (its job runs again, and says why it
     cannot)."""
+    plain = {key: job.job if isinstance(job, PreparedJob) else job for key, job in jobs.items()}
     groups: dict[Any, list[list[str]]] = {}  # task and env keywords -> batches of keys
     for key in found:
-        job = jobs[key]
-        plain = job.job if isinstance(job, PreparedJob) else job
-        batches = groups.setdefault((plain.task, plain.env_kwargs), [[]])
+        batches = groups.setdefault((plain[key].task, plain[key].env_kwargs), [[]])
         if len(batches[-1]) == _BATCH:
             batches.append([])
         batches[-1].append(key)
     why: dict[str, str] = {}
     for keys in (batch for batches in groups.values() for batch in batches):
         job = jobs[keys[0]]
-        plain = job.job if isinstance(job, PreparedJob) else job
         records = [found[key] for key in keys]
         try:
             spec = job.task if isinstance(job, PreparedJob) else get_task(job.task)
-            steps = _step(spec, dict(plain.env_kwargs), records)
+            steps = _step(spec, dict(plain[keys[0]].env_kwargs), records)
         except (ValueError, TypeError, IndexError, RuntimeError, gym.error.Error) as error:
             if len(keys) == 1:
                 why[keys[0]] = f"it cannot be re-evaluated ({error})"
@@ -156,8 +151,4 @@ def _close(a: Any, b: Any) -> bool:
         or not (isinstance(a, numbers) and isinstance(b, numbers))
     ):
         return type(a) is type(b) and a == b
-    if math.isnan(a) or math.isnan(b):
-        return math.isnan(a) and math.isnan(b)
-    if math.isinf(a) or math.isinf(b):
-        return a == b
-    return abs(a - b) <= ATOL + RTOL * abs(b)
+    return bool(np.isclose(a, b, rtol=RTOL, atol=ATOL, equal_nan=True))
