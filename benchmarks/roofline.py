@@ -25,15 +25,16 @@ import os
 import subprocess
 import sys
 import time
+from collections import Counter
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def workload(te, batch: int = 1024):
-    strokes = te.normalised_to_physical(
-        __import__("numpy").random.default_rng(0).uniform(-1, 1, (batch, 28))
-    )
+    strokes = te.normalised_to_physical(np.random.default_rng(0).uniform(-1, 1, (batch, 28)))
     options = te.ModelOptions(slipstream="mean")
     return lambda: te.evaluate(strokes, 1.0, options=options)
 
@@ -97,8 +98,6 @@ class CountingNamespace:
 
 def counted(function, *args) -> dict[str, int]:
     """The operations of one call of a numba function's formulae on :class:`Counted` numbers."""
-    import numpy as np
-
     from tandem_env.physics.xp import on_namespace
 
     COUNTS.clear()
@@ -108,41 +107,34 @@ def counted(function, *args) -> dict[str, int]:
 
 def operation_counts() -> dict[str, dict[str, int]]:
     """Per element sample: a force sweep's, a slope's and the span integration's operations."""
-    import numpy as np
-
     from tandem_env.physics import blade, cycle, induction
     from tandem_env.physics.bundle import Section
 
     rng = np.random.default_rng(1)
     coef = np.array([[Counted(x) for x in rng.uniform(0.2, 1.0, blade.N_COEF)]], dtype=object)
     section = Section(*(Counted(x) for x in rng.uniform(0.1, 1.0, len(Section._fields))))
-    u, v, du, dv, fc, fn, inv = (Counted(x) for x in rng.uniform(0.2, 1.0, 7))
+    u, v, du, dv, fc, fn, speed = (Counted(x) for x in rng.uniform(0.2, 1.0, 7))
 
-    sweep = {}
-    for part in (
-        counted(blade.relative_velocity, coef, 0, section.r, u, v),
-        counted(blade.element_speed, u, v),
-        counted(blade.element_force_at, u, v, du, dv, coef[0, blade.C_SPIN], section, inv),
-        {"flop": 4},  # (F_c·e_c·z + F_n·e_n·z)·w and its partial sum
-    ):
-        for key, value in part.items():
-            sweep[key] = sweep.get(key, 0) + value
-    slope = counted(
-        induction.normal_force_rate_at, u, v, u, v, du, dv, coef[0, blade.C_SPIN], section, inv
+    sweep = Counter(counted(blade.relative_velocity, coef, 0, section.r, u, v))
+    sweep += Counter(counted(blade.element_speed, u, v))
+    sweep += Counter(
+        counted(blade.element_force_at, u, v, du, dv, coef[0, blade.C_SPIN], section, speed)
     )
-    slope["flop"] = slope.get("flop", 0) + 2  # the weight and the partial sum
+    sweep["flop"] += 4  # (F_c·e_c·z + F_n·e_n·z)·w and its running sum
+    slope = Counter(counted(induction.normal_force_rate_at, u, v, u, v, du, dv,
+                            coef[0, blade.C_SPIN], section, speed))  # fmt: skip
+    slope["flop"] += 2  # the weight and the running sum
     span = np.empty((4, 1), dtype=object)
     span[:] = Counted(0.0)
     samples = np.array([[Counted(x)] for x in (fc, fn, u, v)], dtype=object)
     integrate = counted(cycle.add_to_span, coef, samples, section, Counted(30.0), span)
-    return {"sweep": sweep, "slope": slope, "span": integrate}
+    return {"sweep": dict(sweep), "slope": dict(slope), "span": integrate}
 
 
 def machine_limits() -> dict[str, float]:
     """FMA flops and 1/sqrt(x) per ns of CPU time, each from a vectorised numba loop over data
     in L1 (best of 5)."""
     import numba
-    import numpy as np
 
     @numba.njit(fastmath={"contract"})
     def fma(x, n):
@@ -183,7 +175,6 @@ def main() -> None:
     args = parser.parse_args()
     os.environ["NUMBA_NUM_THREADS"] = str(max(args.threads))
     import numba
-    import numpy as np
 
     import tandem_env as te
     from tandem_env.physics import cycle, model
