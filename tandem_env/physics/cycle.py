@@ -330,6 +330,12 @@ def mean_positive_part(g, cos_table, sin_table):
     return positive_part_of_series(g, a0[0], series[0])
 
 
+#: Rows of the cycle means' Fourier analysis (:func:`cycle_means`), paired two by two into
+#: complex series: P_aero and P_aero + P_iner each beside F_x, so that a wing without inertial
+#: power gets the same bits for both; P_iner alone.
+_AERO, _FX, _ELASTIC, _INER = 0, 1, 2, 4
+
+
 @njit(cache=True)
 def cycle_means(histories, weight, out, cos_table, sin_table):
     """Cycle means of one wing's per-sample F_x, F_z, F_y, P_aero, P_iner (``histories``,
@@ -337,9 +343,9 @@ def cycle_means(histories, weight, out, cos_table, sin_table):
     W_THRUST, W_DRAG, W_P_AERO, W_P_AERO_POSITIVE, W_P_INER and W_P_ELASTIC of ``out``.
 
     The four positive parts (F_x, P_aero, P_iner, P_aero + P_iner) share one Fourier analysis
-    (:func:`fourier_coefficients`)."""
+    (:func:`fourier_coefficients`, three complex series)."""
     n_time = histories.shape[0]
-    g = np.empty((4, n_time))
+    g = np.zeros((6, n_time))
     fx = 0.0
     fz = 0.0
     mean_aero = 0.0
@@ -348,27 +354,27 @@ def cycle_means(histories, weight, out, cos_table, sin_table):
         w = weight[k]
         fx += histories[k, 0] * w
         fz += histories[k, 1] * w
-        g[0, k] = histories[k, 0] * w
-        g[1, k] = histories[k, 3] * w
-        g[2, k] = histories[k, 4] * w
-        g[3, k] = (histories[k, 3] + histories[k, 4]) * w
-        mean_aero += g[1, k]
-        mean_iner += g[2, k]
+        g[_FX, k] = histories[k, 0] * w
+        g[_FX + 2, k] = g[_FX, k]
+        g[_AERO, k] = histories[k, 3] * w
+        g[_INER, k] = histories[k, 4] * w
+        g[_ELASTIC, k] = (histories[k, 3] + histories[k, 4]) * w
+        mean_aero += g[_AERO, k]
+        mean_iner += g[_INER, k]
     out[W_FX] = fx / n_time
     out[W_FZ] = fz / n_time
     mean_aero /= n_time
     mean_iner /= n_time
     series, a0 = fourier_coefficients(g, cos_table, sin_table)
-    positive = np.empty(4)
-    for i in range(4):
-        positive[i] = positive_part_of_series(g[i], a0[i], series[i])
     # T = mean F_x⁺, D = mean F_x⁻ = T − mean F_x; mean|P| = 2·mean P⁺ − mean P
-    out[W_THRUST] = positive[0]
+    out[W_THRUST] = positive_part_of_series(g[_FX], a0[_FX], series[_FX])
     out[W_DRAG] = max(out[W_THRUST] - out[W_FX], 0.0)
-    out[W_P_AERO_POSITIVE] = positive[1]
-    out[W_P_AERO] = max(2.0 * positive[1] - mean_aero, 0.0)
-    out[W_P_INER] = max(2.0 * positive[2] - mean_iner, 0.0)
-    out[W_P_ELASTIC] = positive[3]
+    aero = positive_part_of_series(g[_AERO], a0[_AERO], series[_AERO])
+    out[W_P_AERO_POSITIVE] = aero
+    out[W_P_AERO] = max(2.0 * aero - mean_aero, 0.0)
+    iner = positive_part_of_series(g[_INER], a0[_INER], series[_INER])
+    out[W_P_INER] = max(2.0 * iner - mean_iner, 0.0)
+    out[W_P_ELASTIC] = positive_part_of_series(g[_ELASTIC], a0[_ELASTIC], series[_ELASTIC])
 
 
 @njit(cache=True)
