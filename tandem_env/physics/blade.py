@@ -181,8 +181,25 @@ def relative_velocity(coef, k, r, v_tangential, v_normal):
 
 
 @njit(cache=True, error_model=BRANCH_FREE)
+def element_speed(u, v):
+    """|U| of the relative velocity (u, v) [m/s], 1 for a still element (which has no
+    translational circulation and no drag, whatever this is): the one square root of an
+    element's force, kept by the force sweep for its slope (``induction.normal_force_slope``)."""
+    speed2 = u * u + v * v
+    return np.sqrt(select(speed2 > 0.0, speed2, 1.0))
+
+
+@njit(cache=True, error_model=BRANCH_FREE)
 def element_force(u, v, du, dv, spin, section, table=None):
-    """Aerodynamic force per unit span (F_c, F_n) [N/m] on one blade element (Eqs. 11-14).
+    """Aerodynamic force per unit span (F_c, F_n) [N/m] on one blade element (Eqs. 11-14):
+    :func:`element_force_at` at its :func:`element_speed`."""
+    return element_force_at(u, v, du, dv, spin, section, element_speed(u, v), table)
+
+
+@njit(cache=True, error_model=BRANCH_FREE)
+def element_force_at(u, v, du, dv, spin, section, speed, table=None):
+    """Aerodynamic force per unit span (F_c, F_n) [N/m] on one blade element (Eqs. 11-14) whose
+    :func:`element_speed` ``speed`` [m/s] is known.
 
     Circulatory + added mass + viscous; the wing's own inertia is not an aerodynamic force
     (docs/model.md §4.9). ``section``: the element and its wing's coefficients
@@ -197,9 +214,7 @@ def element_force(u, v, du, dv, spin, section, table=None):
     rho = section.rho
     cd0 = section.cd0
     cd90 = section.cd90
-    speed2 = u * u + v * v
-    moving = speed2 > 0.0  # a still element has no translational circulation and no drag
-    speed = np.sqrt(select(moving, speed2, 1.0))
+    moving = u * u + v * v > 0.0  # a still element has no translational circulation and no drag
     gamma = 0.5 * section.cr * spin * chord * chord
     fc = m22 * v * spin - m11 * du
     fn = -m11 * u * spin - m22 * dv
@@ -286,10 +301,12 @@ def acute_angle(along, across):
     y = abs(across)
     still = (x == 0.0) & (y == 0.0)
     swap = y > x
-    z = select(swap, x, y) / select(still, 1.0, select(swap, y, x))  # z in [0, 1]
-    # reduce with atan z = π/4 + atan((z − 1)/(z + 1)) above tan(π/8)
-    reduce = z > 0.41421356237309503
-    z = select(reduce, (z - 1.0) / (z + 1.0), z)
+    small = select(swap, x, y)
+    big = select(swap, y, x)
+    # z = small/big in [0, 1], reduced with atan z = π/4 + atan((z − 1)/(z + 1)) above
+    # tan(π/8): one division either way
+    reduce = small > 0.41421356237309503 * big
+    z = select(reduce, small - big, small) / select(still, 1.0, select(reduce, small + big, big))
     z2 = z * z
     # odd Taylor series of atan to z¹⁵: |error| < 2e-8 rad for |z| <= tan(π/8)
     poly = z * (
@@ -303,7 +320,7 @@ def acute_angle(along, across):
                 + z2
                 * (
                     -1.0 / 7.0
-                    + z2 * (1.0 / 9.0 + z2 * (-1.0 / 11.0 + z2 * (1.0 / 13.0 - z2 / 15.0)))
+                    + z2 * (1.0 / 9.0 + z2 * (-1.0 / 11.0 + z2 * (1.0 / 13.0 - z2 * (1.0 / 15.0))))
                 )
             )
         )

@@ -78,9 +78,9 @@ class Settings(NamedTuple):
     root_drop: float
     """How far the hind-wing's root is below the fore-wing's [m]."""
     cos_table: Any
-    """cos(m·s_k), (M, n_time) (``cycle.fourier_tables``)."""
+    """cos(m·s_k), (n_time, M) (``cycle.fourier_tables``)."""
     sin_table: Any
-    """sin(m·s_k), (M, n_time)."""
+    """sin(m·s_k), (n_time, M)."""
 
 
 class WingBatch(NamedTuple):

@@ -72,7 +72,9 @@ W_CONVERGED = 8  # 1 if every annulus's inflow converged
 W_EVALS = 9  # largest number of force sweeps an annulus needed
 W_INFLOW = 10  # area-weighted mean induced velocity [m/s]
 W_P_AERO_POSITIVE = 11  # mean of the positive part of P_aero [W]
-N_WING_OUT = 12
+W_SWEEPS = 12  # force sweeps over the cycle, all annuli together (benchmarks/roofline.py)
+W_SLOPES = 13  # slopes of the mean normal force (``induction.normal_force_slope``) computed
+N_WING_OUT = 14
 
 MODE_NONE = 0
 MODE_ISOLATED = 1
@@ -93,63 +95,172 @@ def section_at(nodes, j, consts, rho):
 
 @lru_cache(maxsize=16)
 def fourier_tables(n_time: int) -> tuple[np.ndarray, np.ndarray]:
-    """cos(m·s_k), sin(m·s_k) for m = 1 … (n − 1)//2 and s_k = 2πk/n: (M, n) each, read-only.
+    """cos(m·s_k), sin(m·s_k) for s_k = 2πk/n and m = 1 … (n − 1)//2: (n, M) each, read-only.
 
-    Cached: every evaluation at a resolution uses the same tables.
+    One row per sample, so that the Fourier sums over the samples run along contiguous rows
+    of modes (:func:`fourier_coefficients`). Cached: every evaluation at a resolution uses the
+    same tables.
     """
-    m = np.arange(1, (n_time - 1) // 2 + 1)[:, None]
-    s = 2.0 * np.pi * np.arange(n_time)[None, :] / n_time
+    m = np.arange(1, (n_time - 1) // 2 + 1)[None, :]
+    s = 2.0 * np.pi * np.arange(n_time)[:, None] / n_time
     tables = np.ascontiguousarray(np.cos(m * s)), np.ascontiguousarray(np.sin(m * s))
     for table in tables:
         table.setflags(write=False)
     return tables
 
 
+#: A Newton step shorter than this [rad] ends the search for a zero crossing of the
+#: interpolant in :func:`positive_part_of_series`: the antiderivative there is then corrected to
+#: the root to O(p''·δ³) ≈ 1e-18 relative, one evaluation of the series sooner.
+NEWTON_SHORT = 1e-6
+
+#: Independent partial sums of the interpolant's series in :func:`_trig_eval`: harmonics
+#: m ≡ i (mod 4) run in four chains, so that their rotations overlap instead of waiting on
+#: one another.
+CHAINS = 4
+
+
 @njit(cache=True)
-def _trig_eval(a0, a, b, s):
-    """Trigonometric interpolant p(s), its derivative and its antiderivative P(s) (P(0) = 0 + …)."""
+def _fft(re, im, cos_table, sin_table):
+    """In place, the discrete Fourier transform X_m = Σ_k x_k·exp(−2πi·mk/n) of the complex
+    series ``re`` + i·``im`` (n,), n a power of two (iterative radix 2, O(n log n)); the
+    twiddles are the first column of :func:`fourier_tables`."""
+    n = re.shape[0]
+    j = 0
+    for i in range(1, n):  # bit-reversed order
+        bit = n >> 1
+        while j & bit:
+            j ^= bit
+            bit >>= 1
+        j |= bit
+        if i < j:
+            re[i], re[j] = re[j], re[i]
+            im[i], im[j] = im[j], im[i]
+    size = 2
+    while size <= n:
+        half = size // 2
+        step = n // size
+        for k in range(half):
+            wr = cos_table[k * step, 0]
+            wi = -sin_table[k * step, 0]
+            for a in range(k, n, size):
+                b = a + half
+                tr = wr * re[b] - wi * im[b]
+                ti = wr * im[b] + wi * re[b]
+                re[b] = re[a] - tr
+                im[b] = im[a] - ti
+                re[a] += tr
+                im[a] += ti
+        size *= 2
+
+
+@njit(cache=True)
+def fourier_coefficients(g, cos_table, sin_table):
+    """Series coefficients of the trigonometric interpolants of the rows of ``g`` (S, n), S
+    even: (S, 6, M') of a_m, b_m, m·a_m, m·b_m, a_m/m, b_m/m (value, slope and antiderivative),
+    zero beyond M (M' a multiple of :data:`CHAINS`), and the means a_0 (S,).
+
+    a_m − i·b_m = (2/n)·Σ_k g_k·exp(−i·m·s_k): for n a power of two by the FFT, two real rows
+    as one complex series (:func:`_fft`), O(n log n); else summed sample by sample (O(n²)).
+    """
+    n_series, n = g.shape
+    n_modes = cos_table.shape[1]
+    padded = -(-n_modes // CHAINS) * CHAINS
+    series = np.zeros((n_series, 6, padded))
+    a0 = np.empty(n_series)
+    for i in range(n_series):
+        total = 0.0
+        for k in range(n):
+            total += g[i, k]
+        a0[i] = total / n
+    a = np.zeros((n_series, n_modes))
+    b = np.zeros((n_series, n_modes))
+    if n & (n - 1) == 0:
+        re = np.empty(n)
+        im = np.empty(n)
+        for i in range(0, n_series, 2):
+            re[:] = g[i]
+            im[:] = g[i + 1]
+            _fft(re, im, cos_table, sin_table)
+            for j in range(n_modes):
+                m = j + 1
+                a[i, j] = (re[m] + re[n - m]) / n
+                b[i, j] = (im[n - m] - im[m]) / n
+                a[i + 1, j] = (im[m] + im[n - m]) / n
+                b[i + 1, j] = (re[m] - re[n - m]) / n
+    else:
+        for k in range(n):
+            cos_k = cos_table[k]
+            sin_k = sin_table[k]
+            for i in range(n_series):
+                gk = g[i, k]
+                for j in range(n_modes):
+                    a[i, j] += gk * cos_k[j]
+                    b[i, j] += gk * sin_k[j]
+        a *= 2.0 / n
+        b *= 2.0 / n
+    for i in range(n_series):
+        for j in range(n_modes):
+            m = j + 1.0
+            series[i, 0, j] = a[i, j]
+            series[i, 1, j] = b[i, j]
+            series[i, 2, j] = m * a[i, j]
+            series[i, 3, j] = m * b[i, j]
+            series[i, 4, j] = a[i, j] / m
+            series[i, 5, j] = b[i, j] / m
+    return series, a0
+
+
+@njit(cache=True)
+def _trig_eval(a0, series, s):
+    """Trigonometric interpolant p(s), its derivative and its antiderivative P(s) (P(0) = 0 + …)
+    of one row of :func:`fourier_coefficients`.
+
+    cos(ms), sin(ms) by rotation, in :data:`CHAINS` = 4 interleaved chains (m ≡ 1, 2, 3, 4
+    mod 4), each stepping by 4s, with their own partial sums.
+    """
     c1 = np.cos(s)
     s1 = np.sin(s)
-    cm = 1.0
-    sm = 0.0
-    value = a0
-    slope = 0.0
-    integral = a0 * s
-    for j in range(a.shape[0]):
-        m = j + 1
-        cm, sm = cm * c1 - sm * s1, sm * c1 + cm * s1  # cos(ms), sin(ms) by rotation
-        value += a[j] * cm + b[j] * sm
-        slope += m * (b[j] * cm - a[j] * sm)
-        integral += (a[j] * sm - b[j] * cm) / m
-    return value, slope, integral
+    c2 = c1 * c1 - s1 * s1
+    s2 = 2.0 * s1 * c1
+    c3 = c2 * c1 - s2 * s1
+    s3 = s2 * c1 + c2 * s1
+    c4 = c2 * c2 - s2 * s2
+    s4 = 2.0 * s2 * c2
+    ca, cb, cc, cd = c1, c2, c3, c4
+    sa, sb, sc, sd = s1, s2, s3, s4
+    va = vb = vc = vd = 0.0
+    da = db = dc = dd = 0.0
+    ia = ib = ic = id_ = 0.0
+    for j in range(0, series.shape[1], CHAINS):
+        va += series[0, j] * ca + series[1, j] * sa
+        vb += series[0, j + 1] * cb + series[1, j + 1] * sb
+        vc += series[0, j + 2] * cc + series[1, j + 2] * sc
+        vd += series[0, j + 3] * cd + series[1, j + 3] * sd
+        da += series[3, j] * ca - series[2, j] * sa
+        db += series[3, j + 1] * cb - series[2, j + 1] * sb
+        dc += series[3, j + 2] * cc - series[2, j + 2] * sc
+        dd += series[3, j + 3] * cd - series[2, j + 3] * sd
+        ia += series[4, j] * sa - series[5, j] * ca
+        ib += series[4, j + 1] * sb - series[5, j + 1] * cb
+        ic += series[4, j + 2] * sc - series[5, j + 2] * cc
+        id_ += series[4, j + 3] * sd - series[5, j + 3] * cd
+        ca, sa = ca * c4 - sa * s4, sa * c4 + ca * s4
+        cb, sb = cb * c4 - sb * s4, sb * c4 + cb * s4
+        cc, sc = cc * c4 - sc * s4, sc * c4 + cc * s4
+        cd, sd = cd * c4 - sd * s4, sd * c4 + cd * s4
+    return (
+        a0 + ((va + vb) + (vc + vd)),
+        (da + db) + (dc + dd),
+        a0 * s + ((ia + ib) + (ic + id_)),
+    )
 
 
 @njit(cache=True)
-def mean_positive_part(g, cos_table, sin_table):
-    """Cycle mean of max(g, 0) for n periodic samples g at s_k = 2πk/n, to spectral accuracy.
-
-    The trapezoid rule is spectrally accurate for smooth periodic g but only second order for
-    its positive part, whose kinks sit between samples (docs/model.md §11). So we integrate the
-    trigonometric interpolant p of the samples exactly: its zero crossings are located by
-    safeguarded Newton inside each interval where the samples change sign, and the positive
-    arcs are summed with p's antiderivative.
-    """
+def positive_part_of_series(g, a0, series):
+    """Cycle mean of max(g, 0) of n periodic samples g at s_k = 2πk/n from the coefficients of
+    their interpolant (:func:`fourier_coefficients`: ``a0`` and ``series``, one row)."""
     n = g.shape[0]
-    n_modes = cos_table.shape[0]
-    a0 = 0.0
-    for k in range(n):
-        a0 += g[k]
-    a0 /= n
-    a = np.zeros(n_modes)
-    b = np.zeros(n_modes)
-    for j in range(n_modes):
-        sa = 0.0
-        sb = 0.0
-        for k in range(n):
-            sa += g[k] * cos_table[j, k]
-            sb += g[k] * sin_table[j, k]
-        a[j] = 2.0 * sa / n
-        b[j] = 2.0 * sb / n
     h = 2.0 * np.pi / n
     roots = np.empty(n)
     antiderivative = np.empty(n)
@@ -166,14 +277,23 @@ def mean_positive_part(g, cos_table, sin_table):
         x = lo + h * g0 / (g0 - g1)
         big_p = 0.0
         for _ in range(6):
-            p, dp, big_p = _trig_eval(a0, a, b, x)
+            p, dp, big_p = _trig_eval(a0, series, x)
             if (p > 0.0) == (g0 > 0.0):
                 lo = x
             else:
                 hi = x
-            x_new = x - p / dp if dp != 0.0 else 0.5 * (lo + hi)
+            newton = dp != 0.0
+            x_new = x - p / dp if newton else 0.5 * (lo + hi)
             if not lo <= x_new <= hi:
                 x_new = 0.5 * (lo + hi)
+                newton = False
+            if newton and abs(x_new - x) < NEWTON_SHORT:
+                # P at the root from the last point, P(x + δ) = P + p·δ + ½p'·δ² with the
+                # Newton step δ = −p/p': exact to O(p''·δ³), the root's own error (O(δ²))
+                # entering only squared (the integrand vanishes there)
+                big_p -= 0.5 * p * p / dp
+                x = x_new
+                break
             if abs(x_new - x) < 1e-11:
                 break
             x = x_new
@@ -195,42 +315,94 @@ def mean_positive_part(g, cos_table, sin_table):
 
 
 @njit(cache=True)
+def mean_positive_part(g, cos_table, sin_table):
+    """Cycle mean of max(g, 0) for n periodic samples g at s_k = 2πk/n, to spectral accuracy.
+
+    The trapezoid rule is spectrally accurate for smooth periodic g but only second order for
+    its positive part, whose kinks sit between samples (docs/model.md §11). So we integrate the
+    trigonometric interpolant p of the samples exactly: its zero crossings are located by
+    safeguarded Newton inside each interval where the samples change sign, and the positive
+    arcs are summed with p's antiderivative (:func:`positive_part_of_series`).
+    """
+    rows = np.zeros((2, g.shape[0]))
+    rows[0] = g
+    series, a0 = fourier_coefficients(rows, cos_table, sin_table)
+    return positive_part_of_series(g, a0[0], series[0])
+
+
+#: Rows of the cycle means' Fourier analysis (:func:`cycle_means`), paired two by two into
+#: complex series: P_aero and P_aero + P_iner each beside F_x, so that a wing without inertial
+#: power gets the same bits for both; P_iner alone.
+_AERO, _FX, _ELASTIC, _INER = 0, 1, 2, 4
+
+
+@njit(cache=True)
 def cycle_means(histories, weight, out, cos_table, sin_table):
     """Cycle means of one wing's per-sample F_x, F_z, F_y, P_aero, P_iner (``histories``,
     (n_time, 5) [N, W]) with quadrature weights ``weight`` (n_time,): writes W_FX, W_FZ,
-    W_THRUST, W_DRAG, W_P_AERO, W_P_AERO_POSITIVE, W_P_INER and W_P_ELASTIC of ``out``."""
+    W_THRUST, W_DRAG, W_P_AERO, W_P_AERO_POSITIVE, W_P_INER and W_P_ELASTIC of ``out``.
+
+    The four positive parts (F_x, P_aero, P_iner, P_aero + P_iner) share one Fourier analysis
+    (:func:`fourier_coefficients`, three complex series)."""
     n_time = histories.shape[0]
-    g = np.empty(n_time)
+    g = np.zeros((6, n_time))
     fx = 0.0
     fz = 0.0
+    mean_aero = 0.0
+    mean_iner = 0.0
     for k in range(n_time):
         w = weight[k]
         fx += histories[k, 0] * w
         fz += histories[k, 1] * w
+        g[_FX, k] = histories[k, 0] * w
+        g[_FX + 2, k] = g[_FX, k]
+        g[_AERO, k] = histories[k, 3] * w
+        g[_INER, k] = histories[k, 4] * w
+        g[_ELASTIC, k] = (histories[k, 3] + histories[k, 4]) * w
+        mean_aero += g[_AERO, k]
+        mean_iner += g[_INER, k]
     out[W_FX] = fx / n_time
     out[W_FZ] = fz / n_time
-    # T = mean F_x⁺, D = mean F_x⁻ = T − mean F_x; mean|P| = 2·mean P⁺ − mean P
-    for k in range(n_time):
-        g[k] = histories[k, 0] * weight[k]
-    out[W_THRUST] = mean_positive_part(g, cos_table, sin_table)
-    out[W_DRAG] = max(out[W_THRUST] - out[W_FX], 0.0)
-    mean_aero = 0.0
-    mean_iner = 0.0
-    for k in range(n_time):
-        g[k] = histories[k, 3] * weight[k]
-        mean_aero += g[k]
     mean_aero /= n_time
-    aero_positive = mean_positive_part(g, cos_table, sin_table)
-    out[W_P_AERO_POSITIVE] = aero_positive
-    out[W_P_AERO] = max(2.0 * aero_positive - mean_aero, 0.0)
-    for k in range(n_time):
-        g[k] = histories[k, 4] * weight[k]
-        mean_iner += g[k]
     mean_iner /= n_time
-    out[W_P_INER] = max(2.0 * mean_positive_part(g, cos_table, sin_table) - mean_iner, 0.0)
-    for k in range(n_time):
-        g[k] = (histories[k, 3] + histories[k, 4]) * weight[k]
-    out[W_P_ELASTIC] = mean_positive_part(g, cos_table, sin_table)
+    series, a0 = fourier_coefficients(g, cos_table, sin_table)
+    # T = mean F_x⁺, D = mean F_x⁻ = T − mean F_x; mean|P| = 2·mean P⁺ − mean P
+    out[W_THRUST] = positive_part_of_series(g[_FX], a0[_FX], series[_FX])
+    out[W_DRAG] = max(out[W_THRUST] - out[W_FX], 0.0)
+    aero = positive_part_of_series(g[_AERO], a0[_AERO], series[_AERO])
+    out[W_P_AERO_POSITIVE] = aero
+    out[W_P_AERO] = max(2.0 * aero - mean_aero, 0.0)
+    iner = positive_part_of_series(g[_INER], a0[_INER], series[_INER])
+    out[W_P_INER] = max(2.0 * iner - mean_iner, 0.0)
+    out[W_P_ELASTIC] = positive_part_of_series(g[_ELASTIC], a0[_ELASTIC], series[_ELASTIC])
+
+
+@njit(cache=True)
+def add_to_span(frame, samples, section, frequency, span):
+    """Add one annulus's element forces, power and acute angle of attack at the samples of its
+    final sweep (``samples``, ``induction.N_SAMPLE`` rows) into the span integrals ``span``
+    (4, n_time): chordwise and chord-normal force [N], P_aero [W] and the chord-weighted angle
+    [m²·rad]. Each row is its own contiguous array, so the loop vectorises."""
+    width = section.width
+    area = section.chord * width
+    span_c = span[0]
+    span_n = span[1]
+    span_power = span[2]
+    span_angle = span[3]
+    fc_row = samples[S_FC]
+    fn_row = samples[S_FN]
+    u_row = samples[S_U]
+    v_row = samples[S_V]
+    for k in range(span_c.shape[0]):
+        fc = fc_row[k]
+        fn = fn_row[k]
+        u = u_row[k]
+        v = v_row[k]
+        moment = element_moment(u, v, frame[k, C_SPIN], frame[k, C_DSPIN], section, frequency)
+        span_c[k] += width * fc
+        span_n[k] += width * fn
+        span_power[k] += width * element_power(frame, k, fc, fn, moment, section)
+        span_angle[k] += area * acute_angle(u, v)
 
 
 @njit(cache=True)
@@ -264,6 +436,8 @@ def wing_cycle(
     n_r = nodes.shape[0]
     converged = True
     max_evals = 0
+    sweeps = 0
+    slopes = 0
     area = 0.0
     inflow_mean = 0.0
     # Per sample: span integrals of the chordwise and chord-normal force [N], P_aero [W] and
@@ -290,20 +464,13 @@ def wing_cycle(
         )  # fmt: skip
         converged = converged and ok
         max_evals = max(max_evals, evals)
+        sweeps += max(evals, 1)
+        # a solve takes the slope at every sweep but the one it stops at (all, if it fails)
+        slopes += max(evals - 1, 0) + (0 if ok else 1)
         out_inflow[j] = v_induced
         area += chord * width
         inflow_mean += chord * width * v_induced
-        for k in range(n_time):
-            spin = frame[k, C_SPIN]
-            fc = samples[S_FC, k]
-            fn = samples[S_FN, k]
-            u = samples[S_U, k]
-            v = samples[S_V, k]
-            moment = element_moment(u, v, spin, frame[k, C_DSPIN], section, frequency)
-            span[0, k] += width * fc
-            span[1, k] += width * fn
-            span[2, k] += width * element_power(frame, k, fc, fn, moment, section)
-            span[3, k] += chord * width * acute_angle(u, v)
+        add_to_span(frame, samples, section, frequency, span)
         if out_load is not None:
             if j == 0:
                 for k in range(n_time):
@@ -327,6 +494,8 @@ def wing_cycle(
     out[W_AOA] = aoa / (area * n_time) if area > 0.0 else 0.0
     out[W_CONVERGED] = 1.0 if converged else 0.0
     out[W_EVALS] = max_evals
+    out[W_SWEEPS] = sweeps
+    out[W_SLOPES] = slopes
     out[W_INFLOW] = inflow_mean / area if area > 0.0 else 0.0
 
 

@@ -30,19 +30,40 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .blade import C_DECZ, C_DENZ, C_ECZ, C_ENZ, C_SPIN, C_WEIGHT, element_force, relative_velocity
+from .blade import (
+    C_DECZ,
+    C_DENZ,
+    C_ECZ,
+    C_ENZ,
+    C_SPIN,
+    C_WEIGHT,
+    element_force_at,
+    element_speed,
+    relative_velocity,
+)
 from .coefficients import PAPER, coefficients_and_rates
 from .xp import BRANCH_FREE, select
 
 #: Rows of the per-sample record a force sweep leaves, (N_SAMPLE, n_time): element force
 #: (F_c, F_n) [N/m] and relative velocity (u, v) [m/s] at the swept inflow, and scratch for the
-#: slope of each sample's normal force.
+#: terms of the sweep's mean normal force and of its slope (summed by :func:`row_sum`).
 S_FC = 0
 S_FN = 1
 S_U = 2
 S_V = 3
 S_RATE = 4
-N_SAMPLE = 5
+S_SPEED = 5  # |U| [m/s] (``blade.element_speed``), reused by the slope
+N_SAMPLE = 6
+
+
+@njit(cache=True)
+def row_sum(x):
+    """Σ x (1-D) in order, one running sum (the solve's path depends on every rounding, so its
+    sums keep the order they always had)."""
+    total = 0.0
+    for k in range(x.shape[0]):
+        total += x[k]
+    return total
 
 
 @njit(cache=True)
@@ -55,7 +76,15 @@ def _added_mass_rate(a, b, c, d, spin, m11, m22):
 @njit(cache=True, error_model=BRANCH_FREE)
 def normal_force_rate(u, v, a, b, c, d, spin, section):
     """d/dv_n of the element's force along the stroke-plane normal, F_c·a + F_n·b [N·s/m²]
-    (``section``: :class:`~tandem_env.physics.bundle.Section`).
+    (``section``: :class:`~tandem_env.physics.bundle.Section`): :func:`normal_force_rate_at`
+    at the element's ``blade.element_speed``."""
+    return normal_force_rate_at(u, v, a, b, c, d, spin, section, element_speed(u, v))
+
+
+@njit(cache=True, error_model=BRANCH_FREE)
+def normal_force_rate_at(u, v, a, b, c, d, spin, section, speed):
+    """:func:`normal_force_rate` at a known ``blade.element_speed`` ``speed`` [m/s] (the force
+    sweep's: one division here instead of a square root and a division).
 
     The derivative of :func:`blade.element_force` (Eqs. 11-14) along the direction in which a
     change of the normal inflow v_n moves the element's state: (u, v, u̇, v̇) change at the rates
@@ -71,9 +100,8 @@ def normal_force_rate(u, v, a, b, c, d, spin, section):
     cd0 = section.cd0
     cd90 = section.cd90
     rate = _added_mass_rate(a, b, c, d, spin, section.m11, section.m22)
-    speed2 = u * u + v * v
-    moving = speed2 > 0.0  # a still element: no translational circulation, no drag
-    inv = 1.0 / np.sqrt(select(moving, speed2, 1.0))
+    moving = u * u + v * v > 0.0  # a still element: no translational circulation, no drag
+    inv = 1.0 / speed
     along = u * a + v * b  # p
     across = u * b - v * a  # q
     dspeed = along * inv  # d|U|/dv_n
@@ -141,17 +169,15 @@ def normal_force_sweep(coef, section, v_tangential, v_normal, samples, table=Non
         if wake is not None:
             v_n = v_normal + wake[k]
         u, v, du, dv = relative_velocity(coef, k, section.r, v_tangential, v_n)
-        fc, fn = element_force(u, v, du, dv, coef[k, C_SPIN], section, table)
+        speed = element_speed(u, v)
+        fc, fn = element_force_at(u, v, du, dv, coef[k, C_SPIN], section, speed, table)
         samples[S_FC, k] = fc
         samples[S_FN, k] = fn
         samples[S_U, k] = u
         samples[S_V, k] = v
-    total = 0.0
-    for k in range(n):
-        total += (samples[S_FC, k] * coef[k, C_ECZ] + samples[S_FN, k] * coef[k, C_ENZ]) * coef[
-            k, C_WEIGHT
-        ]
-    return total / n
+        samples[S_SPEED, k] = speed
+        samples[S_RATE, k] = (fc * coef[k, C_ECZ] + fn * coef[k, C_ENZ]) * coef[k, C_WEIGHT]
+    return row_sum(samples[S_RATE]) / n
 
 
 @njit(cache=True)
@@ -166,9 +192,9 @@ def normal_force_slope(coef, section, samples, table=None):
         paper = table[0] == PAPER
     if paper:
         for k in range(n):
-            samples[S_RATE, k] = coef[k, C_WEIGHT] * normal_force_rate(
+            samples[S_RATE, k] = coef[k, C_WEIGHT] * normal_force_rate_at(
                 samples[S_U, k], samples[S_V, k], coef[k, C_ECZ], coef[k, C_ENZ],
-                coef[k, C_DECZ], coef[k, C_DENZ], coef[k, C_SPIN], section,
+                coef[k, C_DECZ], coef[k, C_DENZ], coef[k, C_SPIN], section, samples[S_SPEED, k],
             )  # fmt: skip
     else:
         for k in range(n):
@@ -176,10 +202,7 @@ def normal_force_slope(coef, section, samples, table=None):
                 samples[S_U, k], samples[S_V, k], coef[k, C_ECZ], coef[k, C_ENZ],
                 coef[k, C_DECZ], coef[k, C_DENZ], coef[k, C_SPIN], section, table,
             )  # fmt: skip
-    rate = 0.0
-    for k in range(n):
-        rate += samples[S_RATE, k]
-    return rate / n
+    return row_sum(samples[S_RATE]) / n
 
 
 @njit(cache=True)

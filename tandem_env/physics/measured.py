@@ -725,6 +725,7 @@ def run_measured(
     area = np.zeros(2)
     converged = np.ones(2, dtype=bool)
     evaluations = np.zeros(2)
+    work = np.zeros((2, 2))  # force sweeps and slopes, all elements together
     for j in range(n_blade):
         element = [a[j : j + 1] if a.shape[0] > 1 else a for a in angles]
         tables = (*fore_tables[j], *hind_tables[j])
@@ -741,6 +742,7 @@ def run_measured(
             mean_inflow[w] += inflow_j[0, w, 0] * a_j
             converged[w] &= out_j[0, w, cycle.W_CONVERGED] > 0.5
             evaluations[w] = max(evaluations[w], out_j[0, w, cycle.W_EVALS])
+            work[w] += out_j[0, w, [cycle.W_SWEEPS, cycle.W_SLOPES]]
     cos_table, sin_table = cycle.fourier_tables(n_time)
     for w in range(2):
         cycle.cycle_means(history[0, w], weights[w][0], out[0, w], cos_table, sin_table)
@@ -748,6 +750,7 @@ def run_measured(
         out[0, w, cycle.W_INFLOW] = mean_inflow[w] / area[w]
         out[0, w, cycle.W_CONVERGED] = 1.0 if converged[w] else 0.0
         out[0, w, cycle.W_EVALS] = evaluations[w]
+        out[0, w, [cycle.W_SWEEPS, cycle.W_SLOPES]] = work[w]
     return out, inflow, history if keep_history else np.empty((0, 2, n_time, 5))
 
 

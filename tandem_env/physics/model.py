@@ -537,14 +537,15 @@ def flight_performance(
 
 
 def parametric_kernel_inputs(
-    physical: np.ndarray, n_time: int
+    physical: np.ndarray, n_time: int, with_phases: bool = True
 ) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The compiled kernel's inputs of a batch of physical strokes (B, 28) in Table 4 units
     (validated: ``stroke.validate_physical``), on ``n_time`` samples of the motion-following grid:
     ``angles``, ``weights``, ``frequency``, ``beta``, ``sweep`` as :func:`run_kernel` takes them
     (per wing (B, n_time, 9) angle histories (φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈) and (B, n_time)
     quadrature weights, ``kinematics.fill_angle_history``; (B, 2) [Hz, rad, rad]) and
-    ``phases`` (B, 2, n_time) [rad] (``kinematics.motion_grid``).
+    ``phases`` (B, 2, n_time) [rad] (``kinematics.motion_grid``; with ``with_phases`` False,
+    (0, 2, n_time): only the convected slipstream reads them, and they cost 5 % of a call).
     The step of :func:`evaluate_numba` between validation and :func:`run_kernel`.
     """
     batch = physical.shape[0]
@@ -555,7 +556,7 @@ def parametric_kernel_inputs(
         np.empty((batch, 2)),
         np.empty((batch, 2)),
     )
-    phases = np.empty((batch, 2, n_time))
+    phases = np.empty((batch if with_phases else 0, 2, n_time))
     for w in range(2):
         params = np.ascontiguousarray(
             wing_params_radians(physical[:, w * N_PER_WING : (w + 1) * N_PER_WING])
@@ -572,7 +573,8 @@ def parametric_kernel_inputs(
         frequency[:, w] = params[:, 0]
         beta[:, w] = params[:, 13]
         sweep[:, w] = params[:, 1]
-        phases[:, w] = motion_grid(params, n_time)[0]
+        if with_phases:
+            phases[:, w] = motion_grid(params, n_time)[0]
     return angles, weights, frequency, beta, sweep, phases
 
 
@@ -625,7 +627,7 @@ def evaluate_numba(
         speed, available_power, flight_path_angle, batch, insect
     )
     angles, weights, frequency, beta, sweep, phases = parametric_kernel_inputs(
-        physical, options.n_time
+        physical, options.n_time, options.slipstream == "convected"
     )
     out, _, _ = run_kernel(
         angles, weights, frequency, beta, sweep, v, gamma, insect, options, phases=phases

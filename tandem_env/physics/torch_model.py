@@ -560,10 +560,10 @@ def mean_positive_part(g: torch.Tensor) -> torch.Tensor:
     cos_t, sin_t = (
         torch.tensor(t, dtype=g.dtype, device=g.device) for t in cycle.fourier_tables(n)
     )
-    harmonics = torch.arange(1, cos_t.shape[0] + 1, dtype=g.dtype, device=g.device)
+    harmonics = torch.arange(1, cos_t.shape[1] + 1, dtype=g.dtype, device=g.device)
     a0 = g.sum(-1) / n
-    a = 2.0 * (g @ cos_t.T) / n
-    b = 2.0 * (g @ sin_t.T) / n
+    a = 2.0 * (g @ cos_t) / n
+    b = 2.0 * (g @ sin_t) / n
     positive = g > 0.0
     change = positive != torch.roll(positive, -1, dims=1)
     series, k = torch.nonzero(change, as_tuple=True)  # row-major: by series, then k

@@ -1,0 +1,83 @@
+"""The kernel's equality cases and their stored values (tests/physics/test_kernel_equal.py).
+
+    PYTHONPATH=<tree of commit 8e3cf19> python tests/physics/kernel_cases.py [--per-set 64]
+        [--batch 256] [--out tests/data/kernel_8e3cf19.npz]
+
+evaluates, with the ``tandem_env`` found first on the path (the pinned kernel, extracted with
+``git archive 8e3cf19 tandem_env | tar -x -C <tree>``), every stored reference optimum (its
+planform and condition, default options), ``--batch`` random Table 4 strokes at V = 1 m/s with
+``slipstream="mean"`` (the speed benchmark's call) and ``--per-set`` random strokes under every
+option set of the torch-backend test (tests/physics/test_torch_backend.py), and writes every
+``Result`` array field of all of them to ``--out`` (compressed npz).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+import tandem_env as te
+from tandem_env.envs.reference import load_reference_table
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_torch_backend import OPTION_SETS, _case
+
+FIXTURE = Path(__file__).parents[1] / "data" / "kernel_8e3cf19.npz"
+
+
+def cases(per_set: int, batch: int) -> Iterator[tuple[str, te.Result]]:
+    """(name, Result) of every case, in a fixed order."""
+    table = load_reference_table()
+    for s in table.series:
+        strokes = te.normalised_to_physical(np.array([p["normalised_stroke"] for p in s.points]))
+        condition = np.array(s.conditions)
+        insect = te.DRAGONFLY.with_planform(s.planform)
+        if s.env_id.startswith("TandemWing/LevelFlight"):
+            yield (
+                s.env_id + s.objective + s.planform,
+                te.evaluate(strokes, condition, insect=insect),
+            )
+        else:
+            yield (
+                s.env_id + s.objective + s.planform,
+                te.evaluate(strokes, 0.0, condition, insect=insect),
+            )
+    rng = np.random.default_rng(2026)
+    strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (batch, 28)))
+    yield "mean-slipstream", te.evaluate(strokes, 1.0, options=te.ModelOptions(slipstream="mean"))
+    for index, options in enumerate(OPTION_SETS):
+        insect = te.DRAGONFLY.with_planform(("tear-drop", "real")[index % 2])
+        strokes, speed, gamma = _case(index, per_set)
+        yield (
+            repr(options),
+            te.evaluate(strokes, speed, flight_path_angle=gamma, insect=insect, options=options),
+        )
+
+
+def stacked(per_set: int, batch: int) -> dict[str, np.ndarray]:
+    """Every case's fields concatenated, with each case's name and size."""
+    names, sizes, fields = [], [], {}
+    for name, result in cases(per_set, batch):
+        names.append(name)
+        sizes.append(len(result))
+        for field, value in result.as_dict().items():
+            fields.setdefault(field, []).append(value)
+    return {"case_names": np.array(names), "case_sizes": np.array(sizes)} | {
+        field: np.concatenate(values) for field, values in fields.items()
+    }
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--per-set", type=int, default=64)
+    parser.add_argument("--batch", type=int, default=256)
+    parser.add_argument("--out", type=Path, default=FIXTURE)
+    args = parser.parse_args()
+    print(f"evaluating with {te.__file__}")
+    np.savez_compressed(
+        args.out, per_set=args.per_set, batch=args.batch, **stacked(args.per_set, args.batch)
+    )
