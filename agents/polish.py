@@ -170,7 +170,12 @@ class _OutOfBudget(Exception):
 
 
 class _Optimal(Exception):
-    """Raised from the optimiser's callback at an iterate that passes the KKT test."""
+    """Raised at an iterate that passes the KKT test (``point``: its full stroke)."""
+
+    def __init__(self, point: np.ndarray, objective: float) -> None:
+        super().__init__()
+        self.point = point
+        self.objective = objective
 
 
 class _Run:
@@ -299,7 +304,13 @@ def polish(
         return -run.value(z)[0]
 
     def jac(z: np.ndarray) -> np.ndarray:
-        return -run.gradient(z).objective_gradient
+        # The optimiser asks for the gradient at each of its iterates: stop at the first that
+        # passes the KKT test (its own test watches the objective's change, which can stall
+        # long before it passes near active constraints, at 53 strokes a step).
+        grad = run.gradient(z)
+        if config.optimality > 0.0 and _optimal(run, z, grad):
+            raise _Optimal(run.full(z), grad.objective)
+        return -grad.objective_gradient
 
     def cons(z: np.ndarray) -> np.ndarray:
         return run.value(z)[1] - margin
@@ -310,14 +321,8 @@ def polish(
     bounds = Bounds(-np.ones(z0.size), np.ones(z0.size))
     counter = [0]
 
-    def count(z: Any, *_: Any) -> None:  # called once per optimiser iteration
+    def count(*_: Any) -> None:  # called once per optimiser iteration
         counter[0] += 1
-        # Stop where first-order optimality holds: the optimiser's own test watches the
-        # objective's change, which can stall long before it passes near active
-        # constraints, at a gradient (53 strokes) a step.
-        point = np.asarray(getattr(z, "x", z), dtype=np.float64)
-        if config.optimality > 0.0 and _optimal(run, point):
-            raise _Optimal
 
     outcome: OptimizeResult | None = None
     failure = ""
@@ -341,8 +346,13 @@ def polish(
             )
         except _OutOfBudget:
             failure = "allowance used up"
-        except _Optimal:
+        except _Optimal as stop:
             optimal = True
+            # report the certified iterate unless a point of the line searches beat it by
+            # more than rounding (the certificate then checks that point instead)
+            best = run.best[0] if run.best is not None else -math.inf
+            if stop.objective >= best - 1e-9 * abs(best):
+                run.best = (stop.objective, stop.point)
         except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
             failure = f"failed: {type(error).__name__}: {error}"
     iterations = counter[0]
@@ -391,11 +401,9 @@ def float32_margin(jacobian: np.ndarray, margin: float) -> np.ndarray:
     return margin + step * np.abs(np.asarray(jacobian, dtype=np.float64)).sum(axis=1)
 
 
-def _optimal(run: _Run, z: np.ndarray) -> bool:
-    """The iterate z (free coordinates) is feasible and passes the KKT test
-    (``config.optimality``). Its gradient costs nothing extra: the optimiser's next step
-    asks for it at the same point, and gets it from the cache."""
-    grad = run.gradient(z)
+def _optimal(run: _Run, z: np.ndarray, grad: Gradient) -> bool:
+    """The iterate z (free coordinates), with its gradient, is feasible and passes the KKT test
+    (``config.optimality``)."""
     if not grad.feasible:
         return False
     residual = kkt_residual(
