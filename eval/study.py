@@ -158,11 +158,6 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                 owner = ", ".join(other.names)
                 parser.error(f"{flag} is for the {owner} study only (study {args.study!r})")
     try:
-        scheduler = executor_spec(args.scheduler, args.workers)
-        # Checked before any work: a file is refused, a read-only folder unless everything
-        # is stored already and the run only reports that. The one store of the command.
-        store = RecordStore(args.out)
-        store.check(write=False)
         given = {option: getattr(args, option) for option in OVERRIDES}
         plan = StudyPlan(
             overridden(get_preset(args.preset), **given),
@@ -171,6 +166,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             execution=tuple(backend_kwargs(args).items()),
             insect=DRAGONFLY if args.insect is None else args.insect,
         )
+        scheduler = executor_spec(args.scheduler, args.workers)
+        # Checked before any work: a file is refused, a read-only folder unless everything
+        # is stored already and the run only reports that. The one store of the command.
+        store = RecordStore(args.out)
+        store.check(write=False)
         study = campaign.plan(args, plan, store)
         for method in study.plan.methods:  # an unknown method or bad setting, before any job
             get_method(method, dict(study.plan.method_config(method)))
