@@ -158,11 +158,6 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                 owner = ", ".join(other.names)
                 parser.error(f"{flag} is for the {owner} study only (study {args.study!r})")
     try:
-        scheduler = executor_spec(args.scheduler, args.workers)
-        # Checked before any work: a file is refused, a read-only folder unless everything
-        # is stored already and the run only reports that. The one store of the command.
-        store = RecordStore(args.out)
-        store.check(write=False)
         given = {option: getattr(args, option) for option in OVERRIDES}
         plan = StudyPlan(
             overridden(get_preset(args.preset), **given),
@@ -171,6 +166,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             execution=tuple(backend_kwargs(args).items()),
             insect=DRAGONFLY if args.insect is None else args.insect,
         )
+        scheduler = executor_spec(args.scheduler, args.workers)
+        # Checked before any work: a file is refused, a read-only folder unless everything
+        # is stored already and the run only reports that. The one store of the command.
+        store = RecordStore(args.out)
+        store.check(write=False)
         study = campaign.plan(args, plan, store)
         for method in study.plan.methods:  # an unknown method or bad setting, before any job
             get_method(method, dict(study.plan.method_config(method)))
@@ -181,14 +181,16 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         stored = find_records(store, unique, cache=False) is not None
         if not writable and not (reports_only and stored):
             store.check(jobs=unique)  # raises, naming the folder and why
-        command = CommandProgress(
-            study.title,
-            store,
-            cache=args.cache,
-            enabled=not args.quiet,
-            detail=f"preset {study.plan.preset.name}, method {', '.join(study.plan.methods)}",
-            rerun=args.rerun,
-        )
+        # --quiet says no cost line, so none is made
+        command = None
+        if not args.quiet:
+            command = CommandProgress(
+                study.title,
+                store,
+                cache=args.cache,
+                detail=f"preset {study.plan.preset.name}, method {', '.join(study.plan.methods)}",
+                rerun=args.rerun,
+            )
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     if not writable:
@@ -200,7 +202,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             file=sys.stderr,
         )
         return 0
-    command.announce(phases)  # the first line (said unless --quiet)
+    if command is not None:
+        command.announce(phases)  # the first line
     if not args.quiet and plan.insect != DRAGONFLY:
         print(f"insect: {describe_insect(plan.insect)}", file=sys.stderr)
 

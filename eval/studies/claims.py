@@ -257,10 +257,6 @@ def close(value: float, paper: float) -> bool | None:
     return judge(value, lambda v: abs(v - paper) <= RELATIVE_TOLERANCE * abs(paper))
 
 
-def number(s: Spread, paper: float) -> bool | None:
-    return close(s.median, paper)
-
-
 def phase(value: float, in_phase: bool) -> bool | None:
     """In phase: |ΔΦ| < 15°; out of phase: |ΔΦ| ≥ 15° [deg] (None for NaN)."""
     return judge(value, lambda v: (v < IN_PHASE) == in_phase)
@@ -299,43 +295,6 @@ def monotonic_fraction(x: Sequence[float], y: Sequence[float], direction: int) -
     order = np.argsort(xa)
     steps = np.diff(ya[order])
     return math.nan if steps.size == 0 else float(np.mean(np.sign(steps) == direction))
-
-
-def trend(series: Mapping[float, Spread], direction: int) -> tuple[float, float, bool | None, str]:
-    """ρ of the medians, ρ of the best seeds, agreement, detail text."""
-    x = list(series)
-    medians = [s.median for s in series.values()]
-    bests = [s.best for s in series.values()]
-    r, r_best = rho(x, medians), rho(x, bests)
-    frac = monotonic_fraction(x, medians, direction)
-    ok = judge(r, trend_test(direction))
-    return r, r_best, ok, f"monotonic fraction {frac:.2f}" if not math.isnan(frac) else ""
-
-
-def trend_test(direction: int) -> Callable[[float], bool]:
-    """``trend``: ρ ≥ 0.5 in ``direction`` (+1 rises, −1 falls)."""
-    return lambda r: direction * r >= TREND_RHO
-
-
-def location_test(paper: float) -> Callable[[float], bool]:
-    """``location``: within one sweep step of the paper's condition."""
-    return lambda at: abs(at - paper) <= LOCATION_TOLERANCE + 1e-9
-
-
-def location(
-    series: Mapping[float, Spread], paper: float, kind: Literal["min", "max"]
-) -> tuple[float, float, bool | None]:
-    """Condition of the extremum of the medians and of the best seeds; within one step?"""
-
-    def where(values: list[float]) -> float:
-        xa, ya = _finite(list(series), values)
-        if ya.size == 0:
-            return math.nan
-        return float(xa[np.argmin(ya) if kind == "min" else np.argmax(ya)])
-
-    at = where([s.median for s in series.values()])
-    at_best = where([s.best for s in series.values()])
-    return at, at_best, judge(at, location_test(paper))
 
 
 # --- claim builders: a row's rule, statistics and test as ClaimBuilder.claim's arguments ------
@@ -379,12 +338,25 @@ class ClaimBuilder:
         )
 
 
+def trend_test(direction: int) -> Callable[[float], bool]:
+    """``trend``: ρ ≥ 0.5 in ``direction`` (+1 rises, −1 falls)."""
+    return lambda r: direction * r >= TREND_RHO
+
+
 def trend_row(series: Mapping[float, Spread], direction: int, **fields: Any) -> dict[str, Any]:
-    """``trend``: ρ between the condition and the medians (and the best seeds); ``fields``
-    override any of these (e.g. :func:`held_at_bound`'s)."""
-    r, r_best, _, detail = trend(series, direction)
-    test = trend_test(direction)
-    row = dict(rule="trend", test=test, median=r, best=r_best, unit="(ρ)", detail=detail)
+    """``trend``: ρ between the condition and the medians (and the best seeds), the monotonic
+    fraction of the medians as the detail; ``fields`` override any of these (e.g.
+    :func:`held_at_bound`'s)."""
+    x, medians = list(series), [s.median for s in series.values()]
+    frac = monotonic_fraction(x, medians, direction)
+    row = dict(
+        rule="trend",
+        test=trend_test(direction),
+        median=rho(x, medians),
+        best=rho(x, [s.best for s in series.values()]),
+        unit="(ρ)",
+        detail=f"monotonic fraction {frac:.2f}" if not math.isnan(frac) else "",
+    )
     return {**row, **fields}
 
 
@@ -422,10 +394,23 @@ def held_at_bound(rows: Sequence[Mapping[str, Any]], quantity: str) -> dict[str,
 def location_row(
     series: Mapping[float, Spread], paper: float, kind: Literal["min", "max"], **fields: Any
 ) -> dict[str, Any]:
-    """``location``: the speed [m/s] of the extremum of the medians (and the best seeds)."""
-    at, at_best, _ = location(series, paper, kind)
-    test = location_test(paper)
-    return dict(rule="location", test=test, median=at, best=at_best, unit="m/s", **fields)
+    """``location``: the speed [m/s] of the extremum of the medians (and the best seeds),
+    within one sweep step of the paper's."""
+
+    def where(values: list[float]) -> float:
+        xa, ya = _finite(list(series), values)
+        if ya.size == 0:
+            return math.nan
+        return float(xa[np.argmin(ya) if kind == "min" else np.argmax(ya)])
+
+    return dict(
+        rule="location",
+        test=lambda at: abs(at - paper) <= LOCATION_TOLERANCE + 1e-9,
+        median=where([s.median for s in series.values()]),
+        best=where([s.best for s in series.values()]),
+        unit="m/s",
+        **fields,
+    )
 
 
 def spread_row(

@@ -208,13 +208,12 @@ class Preset:
     def budget(self, task: str) -> int:
         """Evaluations per optimisation of ``task``; ValueError for a task the preset does not
         budget."""
-        budgets = self.budgets
-        if task not in budgets:
+        if task not in BUDGET_FIELDS:
             raise ValueError(
                 f"Preset {self.name!r} has no budget for task {task!r}; allowed: "
-                f"{', '.join(map(repr, budgets))}"
+                f"{', '.join(map(repr, BUDGET_FIELDS))}"
             )
-        return budgets[task]
+        return getattr(self, BUDGET_FIELDS[task])
 
 
 QUICK = Preset(

@@ -4,6 +4,8 @@ message naming the value and what is allowed, and combines like any other change
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 from agents.harness import prepare_job
@@ -165,7 +167,7 @@ def test_the_readings_study_runs_a_search_reading() -> None:
     plan = StudyPlan(TINY, methods=("random",))
     jobs = readings.reading_jobs(plan, PAPER_SEARCH)
     assert {j.method for j in jobs} == {"pso"} and {j.budget for j in jobs} == {2000}
-    assert readings.reading_plan(plan, PAPER_SEARCH).methods == ("pso",)
+    assert replace(plan, reading=PAPER_SEARCH).methods == ("pso",)
 
 
 def test_a_search_readings_report_and_csv_row_name_its_search() -> None:
@@ -173,7 +175,7 @@ def test_a_search_readings_report_and_csv_row_name_its_search() -> None:
     from eval.studies.report import settings_lines
 
     small = PAPER_SEARCHES[0]  # PSO 20 × 50: not the paper preset's swarm or budgets
-    plan = readings.reading_plan(StudyPlan(PAPER), small)
+    plan = replace(StudyPlan(PAPER), reading=small)
     budgets = settings_lines(plan)[1]
     assert "budgets 1000 (level) and 1000 (accelerating)" in budgets
     assert budgets.endswith(f"search of the reading: {small.search.describe()}")

@@ -316,15 +316,18 @@ def _spread(values: list[float]) -> Spread:
 
 
 def test_agreement_rules() -> None:
-    assert claims.number(_spread([12.0, 13.0, 14.0]), 12.7)
-    assert not claims.number(_spread([30.0, 31.0]), 12.7)
+    def ok(row: dict) -> bool | None:
+        return claims.judge(row["median"], row["test"])
+
+    assert ok(claims.number_row(_spread([12.0, 13.0, 14.0]), 12.7))
+    assert not ok(claims.number_row(_spread([30.0, 31.0]), 12.7))
     rising = {v: _spread([v, v + 0.1]) for v in (0.5, 1.0, 1.5, 2.0)}
-    r, _, ok, detail = claims.trend(rising, +1)
-    assert r == pytest.approx(1.0) and ok and "1.00" in detail
-    assert claims.trend(rising, -1)[2] is False
+    row = claims.trend_row(rising, +1)
+    assert row["median"] == pytest.approx(1.0) and ok(row) and "1.00" in row["detail"]
+    assert ok(claims.trend_row(rising, -1)) is False
     valley = {v: _spread([abs(v - 1.5) + 1]) for v in (0.5, 1.0, 1.5, 2.0)}
-    assert claims.location(valley, 1.5, "min")[2]
-    assert claims.location(valley, 1.5, "max")[0] == 0.5
+    assert ok(claims.location_row(valley, 1.5, "min"))
+    assert claims.location_row(valley, 1.5, "max")["median"] == 0.5
     assert claims.in_range(21.0, 10.0, 20.0) and not claims.in_range(30.0, 10.0, 20.0)
     assert math.isnan(claims.rho([1.0, 2.0], [1.0, 2.0]))
 

@@ -27,7 +27,6 @@ from eval.studies.readings.plan import (
     optima_of,
     reading_by_name,
     reading_jobs,
-    reading_plan,
     single_readings,
     study_jobs,
 )
@@ -59,7 +58,6 @@ __all__ = [
     "optima_of",
     "reading_by_name",
     "reading_jobs",
-    "reading_plan",
     "run_readings",
     "single_readings",
     "study_jobs",

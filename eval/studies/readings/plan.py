@@ -243,14 +243,9 @@ def reading_by_name(name: str) -> Reading:
     return combine([known[part] for part in parts], name)
 
 
-def reading_plan(plan: StudyPlan, reading: Reading) -> StudyPlan:
-    """``plan`` (preset and methods) under ``reading``."""
-    return replace(plan, reading=reading)
-
-
 def reading_jobs(plan: StudyPlan, reading: Reading) -> list[Job]:
     """Every job of the ``all`` suite under ``reading`` (duplicates between studies included)."""
-    p = reading_plan(plan, reading)
+    p = replace(plan, reading=reading)
     return [job for study in PAPER_STUDIES.values() for job in study.jobs(p)]
 
 
@@ -283,14 +278,14 @@ def study_jobs(
     ``optima`` of the readings :func:`continued_from` names (duplicate strokes once); without
     ``optima`` (not run yet) it is a stand-in (:meth:`agents.jobs.Continuation.job`).
     """
-    p = reading_plan(plan, reading)
+    p = replace(plan, reading=reading)
     if continuation is None or reading == DEFAULT or reading.search is not None:
         return {name: study.jobs(p) for name, study in PAPER_STUDIES.items()}
     sources = continued_from(reading)
     missing = [name for name in sources if optima is not None and name not in optima]
     if missing:
         raise ValueError(f"reading {reading.name!r} continues from {missing}, not run yet")
-    base = reading_plan(plan, DEFAULT)
+    base = replace(plan, reading=DEFAULT)
     out: dict[str, list[Job]] = {}
     for name, study in PAPER_STUDIES.items():
         jobs = []

@@ -9,7 +9,7 @@ import os
 import statistics
 import sys
 from collections.abc import Iterable, Iterator, Mapping, Sequence
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -39,7 +39,6 @@ from eval.studies.readings.plan import (
     optima_from,
     optima_of,
     reading_jobs,
-    reading_plan,
     study_jobs,
 )
 from eval.studies.readings.report import write_readings_report
@@ -56,7 +55,7 @@ def analyse_reading(
     The folder gets a relative link ``records -> ../records`` so the study indexes' record
     paths resolve, and its own ``report.md``.
     """
-    p = reading_plan(plan, reading)
+    p = replace(plan, reading=reading)
     where = reading_dir(out.directory, reading)
     where.mkdir(parents=True, exist_ok=True)
     link = where / RECORDS_DIR
