@@ -16,6 +16,7 @@ from tandem_env.physics import DRAGONFLY, PLANFORMS, Dragonfly
 
 from .case import (
     MIN_CLEARANCE,
+    PAIRS,
     WAKES,
     Case,
     Resolution,
@@ -36,21 +37,49 @@ DEFAULT_OUT = Path("results") / "crosscheck"
 
 
 @dataclass(frozen=True)
+class Point:
+    """One case of a grid of several strokes: the base stroke's changes (Table 4 names and
+    units), the speed [m/s], the spacing and drop [mm] (None: the insect's) and the lags [deg]."""
+
+    changes: tuple[tuple[str, float], ...]
+    speed: float = 1.0
+    spacing: float | None = None
+    drop: float | None = None
+    lags: tuple[float, ...] = (90.0,)
+
+    def case(self, insect: Dragonfly, lags: tuple[float, ...] | None) -> Case:
+        """This point as a :class:`Case` of ``insect``, at ``lags`` if given."""
+        spacing, drop = (
+            given * 1e-3 if given is not None else default
+            for given, default in (
+                (self.spacing, insect.root_spacing),
+                (self.drop, insect.root_drop),
+            )
+        )
+        stroke = check_family(base_stroke(**dict(self.changes)))
+        return Case(tuple(stroke), self.speed, spacing, drop, lags or self.lags)
+
+
+@dataclass(frozen=True)
 class Grid:
     """A named set of cases (``--grid``): their lags [deg], their speeds [m/s] at the insect's
     root spacing and, if ``wide_spacing`` is given, one more at V = 1 m/s and that many fore-wing
-    mean chords apart, each at the insect's root drop, and the resolution they run at."""
+    mean chords apart, each at the insect's root drop, and the resolution they run at; or, if
+    ``points`` are given, those cases (each its own stroke)."""
 
     description: str
     lags: tuple[float, ...]
     speeds: tuple[float, ...] = (1.0,)
     wide_spacing: float | None = None
     resolution: Resolution = field(default_factory=Resolution)
+    points: tuple[Point, ...] = ()
 
     def cases(
         self, insect: Dragonfly, stroke: np.ndarray, lags: tuple[float, ...] | None
     ) -> list[Case]:
-        """The grid's cases of ``stroke`` for ``insect``, at ``lags`` if given."""
+        """The grid's cases of ``stroke`` (or its points') for ``insect``, at ``lags`` if given."""
+        if self.points:
+            return [point.case(insect, lags) for point in self.points]
         conditions = [(speed, insect.root_spacing) for speed in self.speeds]
         if self.wide_spacing is not None:
             conditions.append((1.0, self.wide_spacing * insect.fore.mean_chord))
@@ -65,6 +94,33 @@ STUDY_LAGS = tuple(float(a) for a in range(0, 360, 45))
 #: The study's second root spacing, in fore-wing mean chords (the dragonfly's 8.8 mm is 1.5).
 SECOND_SPACING_CHORDS = 2.0
 
+
+def _both(**changes: float) -> tuple[tuple[str, float], ...]:
+    return tuple((f"{pair}_{name}", value) for name, value in changes.items() for pair in PAIRS)
+
+
+#: The generalisation grid: the lag study's family away from its one stroke, one or two lags
+#: each (docs/crosscheck.md, "Generalisation"). A change of one pair's stroke shares the other
+#: pair's run alone with the base case's; the solver has no elevation, so the two elevation
+#: offsets share their runs with the base case at lag 90 deg.
+GENERALISATION = (
+    Point((), spacing=14.7),
+    Point((), drop=6.5, lags=(0.0,)),
+    Point((), drop=14.0, lags=(0.0, 180.0)),
+    Point((("hind_elevation_offset", 5.0),)),
+    Point((("hind_elevation_offset", -5.0),)),
+    Point((("hind_sweep_amplitude", 45.0),)),
+    Point((("hind_pitch_amplitude", 35.0),), lags=(0.0,)),
+    Point((("hind_pitch_phase", 75.0),), lags=(180.0,)),
+    Point((("fore_sweep_amplitude", 30.0),)),
+    Point((("fore_pitch_amplitude", 65.0),), lags=(0.0,)),
+    Point(_both(stroke_plane_angle=25.0)),
+    Point(_both(frequency=30.0), lags=(180.0,)),
+    Point(_both(pitch_phase=105.0), speed=0.5, lags=(0.0,)),
+    Point(_both(sweep_amplitude=45.0), speed=2.0, lags=(180.0,)),
+    Point(_both(stroke_plane_angle=10.0), speed=1.5, drop=12.0),
+)
+
 GRIDS: dict[str, Grid] = {
     "single": Grid(
         "one case: V = 1 m/s at the dragonfly's root spacing and drop, lags 0, 90, 180 deg",
@@ -76,6 +132,12 @@ GRIDS: dict[str, Grid] = {
         STUDY_LAGS,
         speeds=(0.5, 1.0, 2.0),
         wide_spacing=SECOND_SPACING_CHORDS,
+    ),
+    "generalisation": Grid(
+        f"{len(GENERALISATION)} other strokes, speeds, spacings and drops of the family, one or "
+        "two lags each (docs/crosscheck.md)",
+        (),
+        points=GENERALISATION,
     ),
     "tiny": Grid(
         "a coarse smoke test (under a minute): V = 1 m/s, lag 90 deg, 8 steps per beat, 2x5 "
