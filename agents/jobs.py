@@ -13,7 +13,7 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields, replace
-from typing import Any
+from typing import Any, ClassVar, Protocol
 
 import tandem_env
 from agents.polish_config import INITIAL_SHARE_RANGE
@@ -30,6 +30,7 @@ __all__ = [
     "Continuation",
     "FrozenMapping",
     "Job",
+    "Work",
     "method_identity",
 ]
 
@@ -230,6 +231,32 @@ class Job:
         return " ".join(
             [self.method, self.task, *extra, f"{symbol}={self.condition:g}", f"seed {self.seed}"]
         )
+
+
+class Work(Protocol):
+    """A job of another kind than :class:`Job` (the cross-check's solver runs,
+    ``eval.crosscheck.uvlm.SolverJob``): hashable, keyed by what decides its result, it runs
+    itself (:meth:`compute`, on Dask too: picklable) and makes its own record, which
+    :class:`~agents.store.RecordStore` keeps as it keeps a :class:`Job`'s. The record has a
+    ``key``, its ``job`` and ``to_dict()``, and is read back by ``record_type.from_dict``
+    (:class:`~agents.records.RecordError` for anything but a valid record of the kind)."""
+
+    noun: ClassVar[str]
+    """What the progress line counts (``"solver run"``)."""
+    record_type: ClassVar[Any]
+
+    @property
+    def key(self) -> str: ...
+    @property
+    def budget(self) -> int:
+        """Its cost in the kind's own unit: the largest start first, the progress bar's total."""
+        ...
+
+    def label(self) -> str: ...
+    def configuration(self) -> dict[str, Any]: ...
+    def compute(self) -> Any:
+        """Its record (run here, or on a Dask worker)."""
+        ...
 
 
 @dataclass(frozen=True)

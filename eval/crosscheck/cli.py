@@ -11,7 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from tandem_env.io.files import output_directory
+from agents.store import RECORDS_DIR
+from eval.optimize import add_run_arguments
+from tandem_env.io.files import FolderLock, output_directory
 from tandem_env.physics import DRAGONFLY, PLANFORMS, Dragonfly
 
 from .case import (
@@ -34,6 +36,10 @@ HELP = (
     f"{INSTALL})"
 )
 DEFAULT_OUT = Path("results") / "crosscheck"
+#: The lock file of an output folder, held (``flock``) by the command writing there.
+LOCK_FILE = ".crosscheck.lock"
+#: Where the solver's records were kept before the runner ran them (:func:`adopt_old_runs`).
+OLD_RUNS_DIR = "runs"
 
 
 @dataclass(frozen=True)
@@ -166,7 +172,8 @@ Grids (--grid):
     + "\n".join(f"  {name:10s} {grid.description}" for name, grid in GRIDS.items())
     + """
 
-Writes into --out: runs/<key>.json (one record per solver run, reused on a rerun),
+Writes into --out: records/<key>.json (one record per solver run, reused on a rerun and
+from the record cache; those of an older runs/ folder are moved there once),
 crosscheck.csv and crosscheck.md (the table) and crosscheck.png (the figure)."""
 )
 
@@ -242,6 +249,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "each) or a running scheduler, tcp://HOST:PORT (docs/scaling.md); default: one after "
         "another in this process",
     )
+    add_run_arguments(parser, "--no-cache")
     parser.add_argument(
         "--out", default=str(DEFAULT_OUT), help=f"output folder (default {DEFAULT_OUT})"
     )
@@ -308,12 +316,42 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resoluti
     return insect, cases, resolutions
 
 
+def locked(out_dir: Path) -> FolderLock:
+    """The lock of ``OUT/.crosscheck.lock`` (made if absent), held while a command writes there;
+    :class:`~tandem_env.io.files.FolderInUse` naming the folder if another process holds it."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    return FolderLock(
+        out_dir,
+        LOCK_FILE,
+        lambda pid: (
+            f"--out {str(out_dir)!r}: another cross-check (pid {pid}) is writing there; "
+            "allowed: one command per folder at a time (wait for it, or give another --out)"
+        ),
+    )
+
+
+def adopt_old_runs(out_dir: Path) -> int:
+    """Move the records of ``OUT/runs`` (where they were kept before the runner ran the
+    solver's runs; the same files) into the store's ``OUT/records``, once; how many moved. A
+    record already there is kept; the store checks each when its run asks for it."""
+    old = out_dir / OLD_RUNS_DIR
+    if not old.is_dir():
+        return 0
+    (out_dir / RECORDS_DIR).mkdir(exist_ok=True)
+    moved = 0
+    for path in old.glob("*.json"):
+        if not (out_dir / RECORDS_DIR / path.name).exists():
+            path.replace(out_dir / RECORDS_DIR / path.name)
+            moved += 1
+    return moved
+
+
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from agents.dask_cluster import SchedulerUnreachable, parse_scheduler
+    from agents.runner import JobsFailed, run_jobs
 
     from . import report
-    from .store import RunsFailed, RunStore, locked, run_all
-    from .uvlm import MISSING_EXTRA, solver_version
+    from .uvlm import MISSING_EXTRA, SolverJob, solver_version
 
     try:
         insect, cases, resolutions = plan(args)
@@ -335,15 +373,20 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     ]
     try:
         with locked(args.out):
-            store = RunStore(args.out, version)
-            runs = [run for p in planned for run in p.runs.values()]
-            results = run_all(runs, store, scheduler=scheduler, progress=not args.quiet)
+            adopt_old_runs(args.out)
+            jobs = [SolverJob(run, version) for p in planned for run in p.runs.values()]
+            summary = run_jobs(
+                jobs, args.out, scheduler=scheduler, progress=not args.quiet, cache=args.cache
+            )
+            if not args.quiet:
+                print(f"{summary.total} solver runs: {summary.describe(args.out)}", file=sys.stderr)
+            results = {job.run: summary.records[job.key].result for job in jobs}
             table = report.rows(planned, results, insect)
             csv_path, md_path = report.write_table(args.out, table)
             figure = report.write_figure(args.out, table, resolutions[0])
     except ValueError as error:
         parser.error(str(error))
-    except (RunsFailed, SchedulerUnreachable) as error:
+    except (JobsFailed, SchedulerUnreachable) as error:
         print(f"{parser.prog}: {error}", file=sys.stderr)
         return 1
     print(report.markdown(table), end="")
