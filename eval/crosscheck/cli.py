@@ -383,12 +383,15 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             results = {job.run: summary.records[job.key].result for job in jobs}
             table = report.rows(planned, results, insect)
             csv_path, md_path = report.write_table(args.out, table)
-            figure = report.write_figure(args.out, table, resolutions[0])
+            if GRIDS[args.grid].points:
+                figure = report.write_scatter(args.out, table)
+            else:
+                figure = report.write_figure(args.out, table, resolutions[0])
     except ValueError as error:
         parser.error(str(error))
     except (JobsFailed, SchedulerUnreachable) as error:
         print(f"{parser.prog}: {error}", file=sys.stderr)
         return 1
-    print(report.markdown(table), end="")
+    print(report.markdown(table) + "\n" + report.agreement(table), end="")
     print(f"wrote {csv_path}, {md_path}, {figure} ({time.perf_counter() - start:.0f} s)")
     return 0
