@@ -9,8 +9,6 @@ import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-import numpy as np
-
 from agents.store import RECORDS_DIR
 from eval.optimize import add_run_arguments
 from tandem_env.io.files import FolderLock, output_directory
@@ -44,75 +42,50 @@ OLD_RUNS_DIR = "runs"
 
 @dataclass(frozen=True)
 class Point:
-    """One case of a grid of several strokes: the base stroke's changes (Table 4 names and
-    units), the speed [m/s], the spacing and drop [mm] (None: the insect's) and the lags [deg]."""
+    """One case of a grid: the base stroke's changes (Table 4 names and units), the speed
+    [m/s], the root spacing [fore-wing mean chords] and drop [mm] (None: the insect's) and the
+    lags [deg]."""
 
-    changes: tuple[tuple[str, float], ...]
+    changes: tuple[tuple[str, float], ...] = ()
     speed: float = 1.0
-    spacing: float | None = None
+    chords: float | None = None
     drop: float | None = None
     lags: tuple[float, ...] = (90.0,)
 
-    def case(self, insect: Dragonfly, lags: tuple[float, ...] | None) -> Case:
-        """This point as a :class:`Case` of ``insect``, at ``lags`` if given."""
-        spacing, drop = (
-            given * 1e-3 if given is not None else default
-            for given, default in (
-                (self.spacing, insect.root_spacing),
-                (self.drop, insect.root_drop),
-            )
+    def case(self, insect: Dragonfly, stroke: dict[str, float], lags: tuple | None) -> Case:
+        """This point of ``insect`` with the ``stroke`` changes (``--stroke``) on top of its own,
+        at ``lags`` if given; ValueError for a stroke outside the family."""
+        spacing = (
+            insect.root_spacing if self.chords is None else self.chords * insect.fore.mean_chord
         )
-        stroke = check_family(base_stroke(**dict(self.changes)))
-        return Case(tuple(stroke), self.speed, spacing, drop, lags or self.lags)
+        drop = insect.root_drop if self.drop is None else self.drop * 1e-3
+        changed = check_family(base_stroke(**(dict(self.changes) | stroke)))
+        return Case(tuple(changed), self.speed, spacing, drop, lags or self.lags)
 
 
 @dataclass(frozen=True)
 class Grid:
-    """A named set of cases (``--grid``): their lags [deg], their speeds [m/s] at the insect's
-    root spacing and, if ``wide_spacing`` is given, one more at V = 1 m/s and that many fore-wing
-    mean chords apart, each at the insect's root drop, and the resolution they run at; or, if
-    ``points`` are given, those cases (each its own stroke)."""
+    """A named set of cases (``--grid``) and the resolution they run at."""
 
     description: str
-    lags: tuple[float, ...]
-    speeds: tuple[float, ...] = (1.0,)
-    wide_spacing: float | None = None
+    points: tuple[Point, ...]
     resolution: Resolution = field(default_factory=Resolution)
-    points: tuple[Point, ...] = ()
-
-    def cases(
-        self, insect: Dragonfly, stroke: np.ndarray, lags: tuple[float, ...] | None
-    ) -> list[Case]:
-        """The grid's cases of ``stroke`` (or its points') for ``insect``, at ``lags`` if given."""
-        if self.points:
-            return [point.case(insect, lags) for point in self.points]
-        conditions = [(speed, insect.root_spacing) for speed in self.speeds]
-        if self.wide_spacing is not None:
-            conditions.append((1.0, self.wide_spacing * insect.fore.mean_chord))
-        return [
-            Case(tuple(stroke), speed, spacing, insect.root_drop, lags or self.lags)
-            for speed, spacing in conditions
-        ]
-
-
-#: The study's lags [deg]: 0 to 315 in steps of 45.
-STUDY_LAGS = tuple(float(a) for a in range(0, 360, 45))
-#: The study's second root spacing, in fore-wing mean chords (the dragonfly's 8.8 mm is 1.5).
-SECOND_SPACING_CHORDS = 2.0
 
 
 def _both(**changes: float) -> tuple[tuple[str, float], ...]:
     return tuple((f"{pair}_{name}", value) for name, value in changes.items() for pair in PAIRS)
 
 
+#: The lag study's lags [deg]: 0 to 315 in steps of 45.
+STUDY_LAGS = tuple(float(a) for a in range(0, 360, 45))
 #: The generalisation grid: the lag study's family away from its one stroke, one or two lags
 #: each (docs/crosscheck.md, "Generalisation"). A change of one pair's stroke shares the other
 #: pair's run alone with the base case's; the solver has no elevation, so the two elevation
 #: offsets share their runs with the base case at lag 90 deg.
 GENERALISATION = (
-    Point((), spacing=14.7),
-    Point((), drop=6.5, lags=(0.0,)),
-    Point((), drop=14.0, lags=(0.0, 180.0)),
+    Point(chords=2.5),
+    Point(drop=6.5, lags=(0.0,)),
+    Point(drop=14.0, lags=(0.0, 180.0)),
     Point((("hind_elevation_offset", 5.0),)),
     Point((("hind_elevation_offset", -5.0),)),
     Point((("hind_sweep_amplitude", 45.0),)),
@@ -126,30 +99,29 @@ GENERALISATION = (
     Point(_both(sweep_amplitude=45.0), speed=2.0, lags=(180.0,)),
     Point(_both(stroke_plane_angle=10.0), speed=1.5, drop=12.0),
 )
-
 GRIDS: dict[str, Grid] = {
     "single": Grid(
         "one case: V = 1 m/s at the dragonfly's root spacing and drop, lags 0, 90, 180 deg",
-        (0.0, 90.0, 180.0),  # the issue's exploratory runs
+        (Point(lags=(0.0, 90.0, 180.0)),),  # the issue's exploratory runs
     ),
     "lag-study": Grid(
         "lags 0-315 deg in 45 deg steps at V = 0.5, 1, 2 m/s at the dragonfly's spacing, and "
-        f"at {SECOND_SPACING_CHORDS:g} fore-wing chords at V = 1 m/s",
-        STUDY_LAGS,
-        speeds=(0.5, 1.0, 2.0),
-        wide_spacing=SECOND_SPACING_CHORDS,
+        "at 2 fore-wing chords at V = 1 m/s",
+        (
+            *(Point(speed=v, lags=STUDY_LAGS) for v in (0.5, 1.0, 2.0)),
+            Point(chords=2.0, lags=STUDY_LAGS),
+        ),
     ),
     "generalisation": Grid(
         f"{len(GENERALISATION)} other strokes, speeds, spacings and drops of the family, one or "
         "two lags each (docs/crosscheck.md)",
-        (),
-        points=GENERALISATION,
+        GENERALISATION,
     ),
     "tiny": Grid(
         "a coarse smoke test (under a minute): V = 1 m/s, lag 90 deg, 8 steps per beat, 2x5 "
         "panels, 2 beats",
-        (90.0,),
-        resolution=Resolution(steps_per_beat=8, chordwise=2, spanwise=5, beats=2),
+        (Point(),),
+        Resolution(steps_per_beat=8, chordwise=2, spanwise=5, beats=2),
     ),
 }
 
@@ -256,19 +228,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
-def _stroke(items: list[str]) -> np.ndarray:
-    overrides = {}
+def _stroke(items: list[str]) -> dict[str, float]:
+    """The ``--stroke NAME=VALUE`` changes; ValueError for an item that is not one."""
+    changes = {}
     for item in items:
         name, sep, value = item.partition("=")
         try:
-            overrides[name.strip()] = float(value)
+            changes[name.strip()] = float(value)
         except ValueError:
             sep = ""
         if not sep:
             raise ValueError(
                 f"--stroke {item!r}; allowed: NAME=NUMBER, e.g. fore_sweep_amplitude=40"
             )
-    return check_family(base_stroke(**overrides))
+    return changes
 
 
 def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resolution]]:
@@ -296,7 +269,7 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resoluti
     insect = DRAGONFLY.with_planform(args.planform)  # type: ignore[arg-type]
     stroke = _stroke(args.stroke)
     lags = None if args.lags is None else tuple(dict.fromkeys(float(a) for a in args.lags))
-    cases = grid.cases(insect, stroke, lags)
+    cases = [point.case(insect, stroke, lags) for point in grid.points]
     if where:
         from tandem_env.physics import SPEED_LIMITS
 
@@ -383,7 +356,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             results = {job.run: summary.records[job.key].result for job in jobs}
             table = report.rows(planned, results, insect)
             csv_path, md_path = report.write_table(args.out, table)
-            if GRIDS[args.grid].points:
+            if args.grid == "generalisation":
                 figure = report.write_scatter(args.out, table)
             else:
                 figure = report.write_figure(args.out, table, resolutions[0])

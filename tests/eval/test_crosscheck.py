@@ -314,7 +314,7 @@ def test_records_of_the_old_folder_and_the_cache_are_reused(
 
 
 def test_the_generalisation_grid_varies_the_family_and_is_refused_nothing() -> None:
-    cases = GRIDS["generalisation"].cases(DRAGONFLY, base_stroke(), None)
+    cases = [point.case(DRAGONFLY, {}, None) for point in GRIDS["generalisation"].points]
     assert len(cases) >= 12 and all(1 <= len(case.lags) <= 2 for case in cases)
     strokes = {case.stroke for case in cases}
     changed = {
