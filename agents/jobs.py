@@ -234,29 +234,20 @@ class Job:
 
 
 class Work(Protocol):
-    """A job of another kind than :class:`Job` (the cross-check's solver runs,
-    ``eval.crosscheck.uvlm.SolverJob``): hashable, keyed by what decides its result, it runs
-    itself (:meth:`compute`, on Dask too: picklable) and makes its own record, which
-    :class:`~agents.store.RecordStore` keeps as it keeps a :class:`Job`'s. The record has a
-    ``key``, its ``job`` and ``to_dict()``, and is read back by ``record_type.from_dict``
-    (:class:`~agents.records.RecordError` for anything but a valid record of the kind)."""
+    """A job of another kind than :class:`Job` (``eval.crosscheck.uvlm.SolverJob``), run,
+    stored and cached as a :class:`Job` is: hashable and picklable, its ``key`` hashes what
+    decides its result, its ``budget`` is its cost (largest first; the progress bar's unit) and
+    ``compute()`` makes its record: ``key``, ``job``, ``to_dict()``, read back by
+    ``record_type.from_dict`` (:class:`~agents.records.RecordError` for anything else)."""
 
-    noun: ClassVar[str]
-    """What the progress line counts (``"solver run"``)."""
+    noun: ClassVar[str]  # what the progress bar counts ("solver run")
     record_type: ClassVar[Any]
-
-    @property
-    def key(self) -> str: ...
-    @property
-    def budget(self) -> int:
-        """Its cost in the kind's own unit: the largest start first, the progress bar's total."""
-        ...
+    key: str
+    budget: int
 
     def label(self) -> str: ...
     def configuration(self) -> dict[str, Any]: ...
-    def compute(self) -> Any:
-        """Its record (run here, or on a Dask worker)."""
-        ...
+    def compute(self) -> Any: ...
 
 
 @dataclass(frozen=True)

@@ -303,20 +303,14 @@ def locked(out_dir: Path) -> FolderLock:
     )
 
 
-def adopt_old_runs(out_dir: Path) -> int:
+def adopt_old_runs(out_dir: Path) -> None:
     """Move the records of ``OUT/runs`` (where they were kept before the runner ran the
-    solver's runs; the same files) into the store's ``OUT/records``, once; how many moved. A
-    record already there is kept; the store checks each when its run asks for it."""
-    old = out_dir / OLD_RUNS_DIR
-    if not old.is_dir():
-        return 0
-    (out_dir / RECORDS_DIR).mkdir(exist_ok=True)
-    moved = 0
-    for path in old.glob("*.json"):
+    solver's runs: the same files) into the store's ``OUT/records``, once; one already there is
+    kept. The store checks each when its run asks for it."""
+    for path in (out_dir / OLD_RUNS_DIR).glob("*.json"):
+        (out_dir / RECORDS_DIR).mkdir(exist_ok=True)
         if not (out_dir / RECORDS_DIR / path.name).exists():
             path.replace(out_dir / RECORDS_DIR / path.name)
-            moved += 1
-    return moved
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

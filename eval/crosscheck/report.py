@@ -265,7 +265,7 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
         left.set_title(
             f"V = {key[0]:g} m/s, d = {key[1]:g} mm, h = {key[2]:g} mm "
             f"({first['steps_per_beat']} steps/beat, {first['panels']} panels, "
-            f"{first['wake']} wake)",
+            f"{first['beats']} beats, {first['wake']} wake)",
             fontsize=9,
         )
         # Coarsest first: by panels, then by time steps.
@@ -293,17 +293,8 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
             right.set_ylabel("UVLM change [%]")
             right.legend(fontsize=6)
             right.set_title("UVLM convergence (steps per beat, panels)", fontsize=9)
-        else:
+        else:  # one resolution, said in the title (--convergence runs 3 more)
             right.axis("off")
-            right.text(
-                0.0,
-                0.5,
-                f"UVLM at one resolution:\n{first['steps_per_beat']} steps per beat,\n"
-                f"{first['panels']} panels per wing,\n{first['beats']} beats\n\n"
-                "(--convergence runs it\nat 3 more)",
-                fontsize=9,
-                va="center",
-            )
     # One legend above the panels, off the data (every panel has the same series).
     handles, labels = axes[0][0].get_legend_handles_labels()
     legend_height = 0.5  # [inch]

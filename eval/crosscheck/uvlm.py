@@ -207,19 +207,15 @@ class SolverRecord:
         """Inverse of :meth:`to_dict`; :class:`~agents.records.RecordError` for anything else."""
         try:
             body = {k: data[k] for k in ("format", "key", "solver", "run", "result")}
-            if data.get("checksum") != _checksum(body):
-                raise RecordChecksumError("its checksum does not match its contents")
-            if body["format"] != RUN_FORMAT:
-                raise RecordError(f"format {body['format']!r}; allowed: {RUN_FORMAT!r}")
             record = cls(SolverJob(Run.from_dict(body["run"]), body["solver"]), body["result"])
         except (KeyError, TypeError, ValueError, AttributeError) as error:
-            if isinstance(error, RecordError):
-                raise
             raise RecordError(
                 f"not a solver run's record ({type(error).__name__}: {error})"
             ) from None
-        if record.key != body["key"]:
-            raise RecordError(f"key {body['key']!r} is not its run's ({record.key})")
+        if data.get("checksum") != _checksum(body):
+            raise RecordChecksumError("its checksum does not match its contents")
+        if record.key != body["key"]:  # the key hashes the format too
+            raise RecordError(f"key {body['key']!r} is not its run's in this format ({record.key})")
         return record
 
 
