@@ -32,7 +32,7 @@ from tandem_env.physics import (
     validate_physical,
 )
 
-#: Record format of one solver run (``OUT/runs/<key>.json``).
+#: Record format of one solver run (``OUT/records/<key>.json``).
 RUN_FORMAT = "tandem_env.crosscheck-run/1"
 
 #: Largest sweep shape K and pitch shape C_η the mapping takes [-]: the solver moves each angle
