@@ -331,3 +331,18 @@ def test_the_generalisation_grid_varies_the_family_and_is_refused_nothing() -> N
     for case in cases:  # what the command refuses before any work, it never plans
         check_family(np.asarray(case.stroke))
         assert min(gaps["pairs"] for gaps in clearances(case, DRAGONFLY).values()) >= MIN_CLEARANCE
+
+
+def test_the_agreement_is_the_rms_difference_and_the_signs_that_agree() -> None:
+    from eval.crosscheck.report import READINGS, agreement
+
+    rows = []
+    for solver, model in ((-20.0, -17.0), (4.0, -0.0), (-10.0, -14.0)):
+        row = {f"uvlm_{p}_change_pct": solver for p in ("hind", "fore")}
+        rows.append(
+            row | {f"ours_{r}_{p}_change_pct": model for r in READINGS for p in ("hind", "fore")}
+        )
+    lines = agreement(rows).splitlines()
+    assert len(lines) == 2 + len(READINGS)
+    rms = math.sqrt((3.0**2 + 4.0**2 + 4.0**2) / 3)  # 3.56 points; ours 0 has no sign of 4 %
+    assert lines[2] == f"| {READINGS[0]} | {rms:.1f} pp | {rms:.1f} pp | 2/3 | 2/3 |"
