@@ -260,9 +260,8 @@ class _Display:
             if outcome.objective > self.best.get(series, -math.inf):
                 self.best[series] = outcome.objective
         bests = ", ".join(f"{k} {v:.3g}" for k, v in sorted(self.best.items()))
-        self.bar.move_to(
-            self.evaluations, f"{self.done}/{len(self.jobs)} jobs; best feasible: {bests or '-'}"
-        )
+        best = f"; best feasible: {bests or '-'}" if isinstance(job, Job) else ""
+        self.bar.move_to(self.evaluations, f"{self.done}/{len(self.jobs)} jobs{best}")
 
     def close(self) -> None:
         self.bar.close()

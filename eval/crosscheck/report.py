@@ -117,31 +117,28 @@ def rows(
     return out
 
 
+#: The Markdown table's columns: heading, CSV column and format (the readings' follow).
+COLUMNS = [
+    *[("V [m/s]", "speed_m_s", "{:g}"), ("d [mm]", "spacing_mm", "{:g}")],
+    *[("h [mm]", "drop_mm", "{:g}"), ("lag [deg]", "lag_deg", "{:g}")],
+    *[("steps/beat", "steps_per_beat", "{}"), ("panels", "panels", "{}"), ("wake", "wake", "{}")],
+    ("clearance [mm]", "clearance_mm", "{:.2f}"),
+    *[(f"UVLM {p}", f"uvlm_{p}_change_pct", "{:+.1f} %") for p in ("hind", "fore")],
+]
+
+
 def markdown(table: Sequence[Mapping[str, Any]]) -> str:
-    """The rows as a Markdown table: vertical-force changes [%] of each pair."""
-    changes = any(row["stroke_changes"] for row in table)
-    head = ["stroke"] * changes + ["V [m/s]", "d [mm]", "h [mm]", "lag [deg]"]
-    head += ["steps/beat", "panels", "wake"]
-    head += ["clearance [mm]"]
-    head += ["UVLM hind", "UVLM fore"]
-    head += [f"ours {r} {p}" for r in READINGS for p in ("hind", "fore")]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    """The rows as a Markdown table: vertical-force changes [%] of each pair (and the stroke's
+    changes, where a row has some)."""
+    columns = [("stroke", "stroke_changes", "{}")] * any(r["stroke_changes"] for r in table)
+    columns += COLUMNS + [
+        (f"ours {r} {p}", f"ours_{r}_{p}_change_pct", "{:+.1f} %")
+        for r in READINGS
+        for p in ("hind", "fore")
+    ]
+    lines = ["| " + " | ".join(c[0] for c in columns) + " |", "|" + "---|" * len(columns)]
     for row in table:
-        cells = [row["stroke_changes"] or "base"] * changes + [
-            f"{row['speed_m_s']:g}",
-            f"{row['spacing_mm']:g}",
-            f"{row['drop_mm']:g}",
-            f"{row['lag_deg']:g}",
-            str(row["steps_per_beat"]),
-            row["panels"],
-            row["wake"],
-            f"{row['clearance_mm']:.2f}",
-            f"{row['uvlm_hind_change_pct']:+.1f} %",
-            f"{row['uvlm_fore_change_pct']:+.1f} %",
-        ]
-        cells += [
-            f"{row[f'ours_{r}_{p}_change_pct']:+.1f} %" for r in READINGS for p in ("hind", "fore")
-        ]
+        cells = [form.format(row[key]) if row[key] != "" else "base" for _, key, form in columns]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
