@@ -346,3 +346,30 @@ def test_the_agreement_is_the_rms_difference_and_the_signs_that_agree() -> None:
     assert len(lines) == 2 + len(READINGS)
     rms = math.sqrt((3.0**2 + 4.0**2 + 4.0**2) / 3)  # 3.56 points; ours 0 has no sign of 4 %
     assert lines[2] == f"| {READINGS[0]} | {rms:.1f} pp | {rms:.1f} pp | 2/3 | 2/3 |"
+
+
+def test_the_generalisation_table_has_every_reading_and_the_agreement(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture, tmp_path: Path
+) -> None:
+    import csv
+    from typing import get_args
+
+    from tandem_env.physics.options import Slipstream
+
+    started: list = []
+    monkeypatch.setattr(uvlm, "solver_version", lambda: "0.0")
+    monkeypatch.setattr(uvlm, "solve", _fake_solve(started))
+    args = ["crosscheck", "--grid", "generalisation", "--wake", "prescribed", "--quiet"]
+    assert main([*args, "--out", str(tmp_path)]) == 0
+    assert len(started) == 32  # 17 alone and 15 tandem: shared runs run once
+    with open(tmp_path / "crosscheck.csv", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == 16 and {row["wake"] for row in rows} == {"prescribed"}
+    assert (
+        rows[0]["stroke_changes"] == "" and rows[6]["stroke_changes"] == "hind_sweep_amplitude=45"
+    )
+    for reading in get_args(Slipstream):
+        assert all(f"ours_{reading}_{pair}_change_pct" in rows[0] for pair in ("hind", "fore"))
+    out = capsys.readouterr().out
+    assert all(f"| {reading} |" in out for reading in get_args(Slipstream))
+    assert (tmp_path / "crosscheck.png").stat().st_size > 10_000
