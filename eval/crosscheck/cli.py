@@ -141,7 +141,7 @@ come within {1e3 * MIN_CLEARANCE:g} mm of each other at any lag, and a missing e
 
 Grids (--grid):
 """
-    + "\n".join(f"  {name:10s} {grid.description}" for name, grid in GRIDS.items())
+    + "\n".join(f"  {name:14s} {grid.description}" for name, grid in GRIDS.items())
     + """
 
 Writes into --out: records/<key>.json (one record per solver run, reused on a rerun and
