@@ -8,6 +8,7 @@ import sys
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 from agents.store import RECORDS_DIR
 from eval.optimize import add_run_arguments
@@ -158,73 +159,66 @@ examples:
   python -m eval crosscheck --grid lag-study --scheduler local:2 --out results/crosscheck"""
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--grid", choices=list(GRIDS), default="single", help="the cases (above)")
-    parser.add_argument(
-        "--lags",
-        type=float,
-        nargs="+",
-        metavar="DEG",
-        help="hind-wing phase shifts [deg], -360 to 360 (default: the grid's)",
-    )
-    parser.add_argument(
-        "--speed", type=float, metavar="V", help="flight speed [m/s] (--grid single)"
-    )
-    parser.add_argument(
-        "--spacing",
-        type=float,
-        metavar="MM",
-        help="fore root to hind root along the body, + aft [mm] (--grid single; default the "
+#: The command's options (argparse keywords), ``--no-cache`` besides (:data:`RUN_OPTIONS
+#: <eval.optimize.RUN_OPTIONS>`).
+OPTIONS: dict[str, dict[str, Any]] = {
+    "--grid": {"choices": list(GRIDS), "default": "single", "help": "the cases (above)"},
+    "--lags": {
+        "type": float,
+        "nargs": "+",
+        "metavar": "DEG",
+        "help": "hind-wing phase shifts [deg], -360 to 360 (default: the grid's)",
+    },
+    "--speed": {"type": float, "metavar": "V", "help": "flight speed [m/s] (--grid single)"},
+    "--spacing": {
+        "type": float,
+        "metavar": "MM",
+        "help": "fore root to hind root along the body, + aft [mm] (--grid single; default the "
         "insect's Dragonfly.root_spacing)",
-    )
-    parser.add_argument(
-        "--drop",
-        type=float,
-        metavar="MM",
-        help="hind root below the fore root [mm] (--grid single; default Dragonfly.root_drop)",
-    )
-    parser.add_argument(
-        "--stroke",
-        nargs="+",
-        default=[],
-        metavar="NAME=VALUE",
-        help="change base-case stroke parameters, e.g. fore_sweep_amplitude=40 (Table 4 units)",
-    )
-    parser.add_argument(
-        "--planform", choices=PLANFORMS, default="tear-drop", help="both wings' planform"
-    )
-    parser.add_argument(
-        "--steps-per-beat", type=int, metavar="N", help="solver time steps per beat (default 48)"
-    )
-    parser.add_argument(
-        "--panels", metavar="CxS", help="chordwise x spanwise panels per wing (default 4x8)"
-    )
-    parser.add_argument(
-        "--beats", type=int, metavar="N", help="beats run; loads from the last (default 3)"
-    )
-    parser.add_argument(
-        "--wake",
-        choices=WAKES,
-        default=WAKES[0],
-        help="the solver's wake: free (moved by the local flow) or prescribed (carried by the "
+    },
+    "--drop": {
+        "type": float,
+        "metavar": "MM",
+        "help": "hind root below the fore root [mm] (--grid single; default Dragonfly.root_drop)",
+    },
+    "--stroke": {
+        "nargs": "+",
+        "default": [],
+        "metavar": "NAME=VALUE",
+        "help": "change base-case stroke parameters, e.g. fore_sweep_amplitude=40 (Table 4 units)",
+    },
+    "--planform": {"choices": PLANFORMS, "default": "tear-drop", "help": "both wings' planform"},
+    "--steps-per-beat": {
+        "type": int,
+        "metavar": "N",
+        "help": "solver time steps per beat (default 48)",
+    },
+    "--panels": {"metavar": "CxS", "help": "chordwise x spanwise panels per wing (default 4x8)"},
+    "--beats": {"type": int, "metavar": "N", "help": "beats run; loads from the last (default 3)"},
+    "--wake": {
+        "choices": WAKES,
+        "default": WAKES[0],
+        "help": "the solver's wake: free (moved by the local flow) or prescribed (carried by the "
         "free stream alone, about 5-10x cheaper); default free",
-    )
-    parser.add_argument(
-        "--convergence",
-        action="store_true",
-        help="also run the first case at 2/3 and 4/3 of the time steps and at 1.5x2 the panels",
-    )
-    parser.add_argument(
-        "--scheduler",
-        metavar="WHERE",
-        help="run the solver runs on Dask: local:N (N worker processes here, one numba thread "
+    },
+    "--convergence": {
+        "action": "store_true",
+        "help": "also run the first case at 2/3 and 4/3 of the time steps and at 1.5x2 the panels",
+    },
+    "--scheduler": {
+        "metavar": "WHERE",
+        "help": "run the solver runs on Dask: local:N (N worker processes here, one numba thread "
         "each) or a running scheduler, tcp://HOST:PORT (docs/scaling.md); default: one after "
         "another in this process",
-    )
-    add_run_arguments(parser, "--no-cache")
-    parser.add_argument(
-        "--out", default=str(DEFAULT_OUT), help=f"output folder (default {DEFAULT_OUT})"
-    )
+    },
+}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    for flag, keywords in OPTIONS.items():
+        parser.add_argument(flag, **keywords)
+    add_run_arguments(parser, "--no-cache", "--rerun")
+    parser.add_argument("--out", default=str(DEFAULT_OUT), help=f"output folder ({DEFAULT_OUT})")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
@@ -343,7 +337,12 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             adopt_old_runs(args.out)
             jobs = [SolverJob(run, version) for p in planned for run in p.runs.values()]
             summary = run_jobs(
-                jobs, args.out, scheduler=scheduler, progress=not args.quiet, cache=args.cache
+                jobs,
+                args.out,
+                scheduler=scheduler,
+                progress=not args.quiet,
+                cache=args.cache,
+                rerun=args.rerun,
             )
             if not args.quiet:
                 print(f"{summary.total} solver runs: {summary.describe(args.out)}", file=sys.stderr)

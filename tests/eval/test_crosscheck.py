@@ -311,6 +311,8 @@ def test_records_of_the_old_folder_and_the_cache_are_reused(
     rows = (tmp_path / "second" / "crosscheck.csv").read_text().splitlines()
     column = rows[0].split(",").index("uvlm_hind_change_pct")
     assert float(rows[1].split(",")[column]) == pytest.approx(-10.0)
+    args = ["crosscheck", "--grid", "tiny", "--rerun", "--quiet", "--out", str(tmp_path / "old")]
+    assert main(args) == 0 and len(started) == 6  # --rerun runs every one again
 
 
 def test_the_generalisation_grid_varies_the_family_and_is_refused_nothing() -> None:
