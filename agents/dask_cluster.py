@@ -125,7 +125,7 @@ def set_worker_numba_threads() -> None:
     numba's thread count is per calling thread; a worker runs as many jobs at once as it has
     threads, so one numba thread each keeps a node's cores from being oversubscribed. A worker
     started with ``NUMBA_NUM_THREADS`` set keeps numba's default (that many) instead. The
-    runner's jobs and the crosscheck's solver runs (``eval.crosscheck.store``) both call it.
+    runner calls it before each job (the harness's and the cross-check's solver runs).
     """
     if "NUMBA_NUM_THREADS" not in os.environ:
         import numba

@@ -13,7 +13,7 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields, replace
-from typing import Any
+from typing import Any, ClassVar, Protocol
 
 import tandem_env
 from agents.polish_config import INITIAL_SHARE_RANGE
@@ -30,6 +30,7 @@ __all__ = [
     "Continuation",
     "FrozenMapping",
     "Job",
+    "Work",
     "method_identity",
 ]
 
@@ -230,6 +231,23 @@ class Job:
         return " ".join(
             [self.method, self.task, *extra, f"{symbol}={self.condition:g}", f"seed {self.seed}"]
         )
+
+
+class Work(Protocol):
+    """A job of another kind than :class:`Job` (``eval.crosscheck.uvlm.SolverJob``), run,
+    stored and cached as a :class:`Job` is: hashable and picklable, its ``key`` hashes what
+    decides its result, its ``budget`` is its cost (largest first; the progress bar's unit) and
+    ``compute()`` makes its record: ``key``, ``job``, ``to_dict()``, read back by
+    ``record_type.from_dict`` (:class:`~agents.records.RecordError` for anything else)."""
+
+    noun: ClassVar[str]  # what the progress bar counts ("solver run")
+    record_type: ClassVar[Any]
+    key: str
+    budget: int
+
+    def label(self) -> str: ...
+    def configuration(self) -> dict[str, Any]: ...
+    def compute(self) -> Any: ...
 
 
 @dataclass(frozen=True)

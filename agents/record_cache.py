@@ -15,7 +15,7 @@ import os
 import warnings
 from pathlib import Path
 
-from agents.jobs import Job
+from agents.jobs import Job, Work
 from agents.records import Record, RecordWarning
 from agents.store import (
     CACHE_ENV,
@@ -65,10 +65,10 @@ def record_cache(cache: CacheOption = True) -> RecordStore | None:
 _SAID: set[str] = set()
 
 
-def cacheable(job: Job) -> bool:
+def cacheable(job: Job | Work) -> bool:
     """Whether ``job``'s record may be kept in the record cache."""
     # A method that takes a path (policy:RUN_DIR) reads files relative to where it runs.
-    return ":" not in job.method
+    return not isinstance(job, Job) or ":" not in job.method
 
 
 class CacheWriter:
@@ -79,7 +79,7 @@ class CacheWriter:
     def __init__(self, store: RecordStore | None) -> None:
         self.store = store
 
-    def load(self, job: Job) -> Record | None:
+    def load(self, job: Job | Work) -> Record | None:
         if self.store is None or not cacheable(job):
             return None
         return self.store.load(job)

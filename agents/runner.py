@@ -1,4 +1,4 @@
-"""The runner: a plan's phases of harness jobs run once each, resumably, here or on Dask.
+"""The runner: a plan's phases of jobs run once each, resumably, here or on Dask.
 
 A plan (:class:`Plan`, :func:`run_plan`) yields phases (:class:`~agents.progress.Phase`), each
 a list of keyed jobs computed from the records of the phases before it; :func:`run_jobs` runs
@@ -8,7 +8,9 @@ Each job's record is kept in the output directory's :class:`~agents.store.Record
 the job's key, the hash of its whole configuration and the package version, so a killed run
 resumes, a changed configuration never mixes in old records, and neither the order, the
 executor nor the number of workers changes a result (docs/harness.md, "The record and the
-store"). Where the jobs run is :mod:`agents.dask_cluster`'s.
+store"). Where the jobs run is :mod:`agents.dask_cluster`'s. Besides the harness's jobs it
+runs jobs of another kind (:class:`~agents.jobs.Work`: the cross-check's solver runs) the same
+way; only a harness record is re-evaluated when reused (:mod:`agents.verify`).
 
 Every job to run is validated once, here, before any of them runs
 (:func:`agents.harness.prepare_job`; a job already prepared is not validated again). This
@@ -35,7 +37,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from agents.dask_cluster import dask_client, parse_scheduler, set_worker_numba_threads
 from agents.harness import PreparedJob, prepare_job, run_job
-from agents.jobs import Job
+from agents.jobs import Job, Work
 from agents.progress import CommandProgress, Phase
 from agents.record_cache import CacheOption, CacheWriter, cacheable, record_cache
 from agents.records import Record, RecordWarning
@@ -104,6 +106,8 @@ class RunSummary:
     """Of the reused jobs, those whose records came from the record cache."""
     replaced: int = 0
     """Of the jobs run, those whose record in ``--out`` was replaced (``rerun``)."""
+    noun: str = "optimisation"
+    """What the jobs are (:attr:`agents.jobs.Work.noun`)."""
 
     def to_dict(self) -> dict[str, Any]:
         """The run as the manifests record it."""
@@ -141,7 +145,7 @@ class JobsFailed(RuntimeError):
         self.summary = summary
         failures = summary.failures
         lines = [
-            f"{len(failures)} of {summary.ran} optimisations failed (the others finished and "
+            f"{len(failures)} of {summary.ran} {summary.noun}s failed (the others finished and "
             "their records are stored; rerun the same command to retry the failed ones):"
         ]
         lines += [f"--- {f.describe()}" for f in failures]
@@ -155,12 +159,13 @@ _REPORTER: contextvars.ContextVar[Reporter | None] = contextvars.ContextVar(
 )
 
 
-def _harness_run(job: PreparedJob) -> Record:
-    """One harness call (module level so tests can count calls and workers can import it)."""
-    return run_job(job, _REPORTER.get())
+def _harness_run(job: PreparedJob | Work) -> Record:
+    """One harness call, or a job of another kind run (module level so tests can count calls
+    and workers can import it)."""
+    return run_job(job, _REPORTER.get()) if isinstance(job, PreparedJob) else job.compute()
 
 
-def _on_worker(job: PreparedJob) -> Record:
+def _on_worker(job: PreparedJob | Work) -> Record:
     """What a Dask worker runs: the harness call, with one numba thread per job
     (:func:`~agents.dask_cluster.set_worker_numba_threads`)."""
     set_worker_numba_threads()
@@ -168,9 +173,11 @@ def _on_worker(job: PreparedJob) -> Record:
 
 
 Outcome = Record | JobFailure
+#: A job as the runner takes it: the harness's (prepared or not) or another kind's.
+Given = Job | PreparedJob | Work
 
 
-def _failure(job: Job, error: BaseException, tb: Any) -> JobFailure:
+def _failure(job: Job | Work, error: BaseException, tb: Any) -> JobFailure:
     return JobFailure(
         key=job.key,
         label=job.label(),
@@ -179,9 +186,11 @@ def _failure(job: Job, error: BaseException, tb: Any) -> JobFailure:
     )
 
 
-def _run_serially(todo: Sequence[PreparedJob], display: _Display) -> Iterator[tuple[Job, Outcome]]:
+def _run_serially(
+    todo: Sequence[PreparedJob | Work], display: _Display
+) -> Iterator[tuple[Job | Work, Outcome]]:
     for prepared in todo:
-        job = prepared.job
+        job = _job_of(prepared)
         token = _REPORTER.set(display.reporter(job))
         try:
             outcome: Outcome = _harness_run(prepared)
@@ -192,14 +201,15 @@ def _run_serially(todo: Sequence[PreparedJob], display: _Display) -> Iterator[tu
         yield job, outcome
 
 
-def _run_on_dask(client: Client, todo: Sequence[PreparedJob]) -> Iterator[tuple[Job, Outcome]]:
+def _run_on_dask(
+    client: Client, todo: Sequence[PreparedJob | Work]
+) -> Iterator[tuple[Job | Work, Outcome]]:
     from distributed import as_completed
 
+    jobs = [_job_of(p) for p in todo]
     futures = {
-        client.submit(
-            _on_worker, p, key=f"{TASK_PREFIX}-{p.job.key}", priority=p.job.budget, retries=0
-        ): p.job
-        for p in todo
+        client.submit(_on_worker, p, key=f"{TASK_PREFIX}-{j.key}", priority=j.budget, retries=0): j
+        for p, j in zip(todo, jobs, strict=True)
     }
     for future in as_completed(futures):
         job = futures[future]
@@ -219,7 +229,7 @@ def _run_on_dask(client: Client, todo: Sequence[PreparedJob]) -> Iterator[tuple[
 class _Display:
     """One progress bar over the evaluations of all jobs: finished jobs, best so far, ETA."""
 
-    jobs: Sequence[Job]
+    jobs: Sequence[Job | Work]
     enabled: bool
     done: int = 0
     evaluations: int = 0
@@ -228,12 +238,13 @@ class _Display:
     def __post_init__(self) -> None:
         total = sum(j.budget for j in self.jobs)
         n = len(self.jobs)
+        noun = getattr(self.jobs[0], "noun", "optimisation") if self.jobs else ""
         # On Dask the bar moves as jobs finish; serially, reporter() says what it waits for.
         self.bar = ProgressBar(
-            total, f"{n} optimisation{'s' * (n != 1)}", self.enabled, waiting=DASK_WAITING
+            total, f"{n} {noun}{'s' * (n != 1)}", self.enabled, waiting=DASK_WAITING
         )
 
-    def reporter(self, job: Job) -> Reporter:
+    def reporter(self, job: Job | Work) -> Reporter:
         """Live progress of a job running in this process."""
         if self.done == 0:
             self.bar.waiting()
@@ -241,24 +252,23 @@ class _Display:
             self.evaluations + min(evaluations, job.budget)
         )
 
-    def finished(self, job: Job, outcome: Outcome) -> None:
+    def finished(self, job: Job | Work, outcome: Outcome) -> None:
         self.done += 1
         self.evaluations += job.budget
-        if isinstance(outcome, Record) and outcome.feasible:
+        if isinstance(job, Job) and isinstance(outcome, Record) and outcome.feasible:
             series = " ".join([job.task, *(str(v) for k, v in job.env_kwargs if k == "objective")])
             if outcome.objective > self.best.get(series, -math.inf):
                 self.best[series] = outcome.objective
         bests = ", ".join(f"{k} {v:.3g}" for k, v in sorted(self.best.items()))
-        self.bar.move_to(
-            self.evaluations, f"{self.done}/{len(self.jobs)} jobs; best feasible: {bests or '-'}"
-        )
+        best = f"; best feasible: {bests or '-'}" if isinstance(job, Job) else ""
+        self.bar.move_to(self.evaluations, f"{self.done}/{len(self.jobs)} jobs{best}")
 
     def close(self) -> None:
         self.bar.close()
 
 
 def run_jobs(
-    jobs: Iterable[Job | PreparedJob],
+    jobs: Iterable[Given],
     out_dir: str | os.PathLike[str] | RecordStore,
     *,
     scheduler: str | None = None,
@@ -268,7 +278,8 @@ def run_jobs(
     command: CommandProgress | None = None,
     summary_csv: bool = False,
 ) -> RunSummary:
-    """Run every job that has no valid stored record yet; duplicates run once.
+    """Run every job that has no valid stored record yet; duplicates run once (jobs of one
+    kind: the harness's, or another :class:`~agents.jobs.Work` kind's).
 
     ``scheduler`` chooses where (None: here, one after another; :mod:`agents.dask_cluster`).
     The jobs to run are validated first (a job :func:`~agents.harness.prepare_job` rejects is
@@ -314,7 +325,8 @@ def run_jobs(
             records[key] = record
         elif (record := shared.load(_job_of(job))) is not None:
             cached[key] = record
-    for key, why in refuted({**records, **cached}, given).items():
+    reused = {k: r for k, r in {**records, **cached}.items() if isinstance(r, Record)}
+    for key, why in refuted(reused, given).items():
         # never served: said, its job run again, its file replaced by the new record
         stored = records.pop(key, None) is not None
         cached.pop(key, None)
@@ -332,7 +344,7 @@ def run_jobs(
 
 
 def _check_output(
-    store: RecordStore, given: Mapping[str, Job | PreparedJob], stored: Mapping[str, Record]
+    store: RecordStore, given: Mapping[str, Given], stored: Mapping[str, Record]
 ) -> bool:
     """Whether ``store`` can be written (its folder, records, summary and the jobs' record
     files); :class:`OutputNotWritable` naming the path and why if it cannot and a job is not
@@ -361,7 +373,7 @@ def _write_summary(store: RecordStore, records: Mapping[str, Record], writable: 
 
 
 def _run(
-    given: Mapping[str, Job | PreparedJob],
+    given: Mapping[str, Given],
     records: dict[str, Record],
     cached: Mapping[str, Record],
     store: RecordStore,
@@ -381,13 +393,13 @@ def _run(
         records[key] = record
     missing = [job for key, job in given.items() if key not in records]
     failures: list[JobFailure] = []
-    todo: list[PreparedJob] = []
+    todo: list[PreparedJob | Work] = []
     for job in missing:  # validated once, all before any runs; a rejected job is a failure
         try:
-            todo.append(job if isinstance(job, PreparedJob) else prepare_job(job))
+            todo.append(prepare_job(job) if isinstance(job, Job) else job)
         except Exception as error:
             failures.append(_failure(_job_of(job), error, error.__traceback__))
-    todo.sort(key=lambda p: -p.job.budget)
+    todo.sort(key=lambda p: -_job_of(p).budget)
     if todo and (old := store.outdated(skip=given)):
         # Their keys hash the earlier format, so no job finds them: say so once (one at a
         # job's own key was reported by store.load).
@@ -401,7 +413,7 @@ def _run(
         client = None
         if todo and executor != "serial":
             client = stack.enter_context(dask_client(executor, quiet=not progress))
-        display = _Display([p.job for p in todo], progress and bool(todo))
+        display = _Display([_job_of(p) for p in todo], progress and bool(todo))
         stack.callback(display.close)
         outcomes = _run_serially(todo, display) if client is None else _run_on_dask(client, todo)
         running = time.perf_counter()
@@ -431,13 +443,14 @@ def _run(
         records=records,
         cached=len(cached),
         replaced=replaced,
+        noun=getattr(_job_of(next(iter(given.values()))), "noun", "optimisation") if given else "",
     )
     if failures:
         raise JobsFailed(summary)
     return summary
 
 
-def _job_of(job: Job | PreparedJob) -> Job:
+def _job_of(job: Given) -> Job | Work:
     return job.job if isinstance(job, PreparedJob) else job
 
 

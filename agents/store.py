@@ -27,7 +27,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from agents.jobs import OLD_SCHEMAS, SCHEMA, Job
+from agents.jobs import OLD_SCHEMAS, SCHEMA, Job, Work
 from agents.records import (
     OutdatedRecordError,
     Record,
@@ -94,14 +94,17 @@ class StoreWriteError(OSError):
 _KEY_NAME = re.compile(r"[0-9a-f]{20}")
 
 
-def read_record(path: str | os.PathLike[str], *, strict: bool = False) -> Record:
+def read_record(
+    path: str | os.PathLike[str], *, strict: bool = False, kind: Any = Record
+) -> Record:
     """The record in a record file; :class:`~agents.records.RecordError` naming the file for
     anything but a valid record (OSError if it cannot be opened; ``strict``:
     :func:`unsafe_path`'s refusals too). The files are the store's: the record's format is
-    :meth:`Record.from_dict <agents.records.Record.from_dict>`'s."""
+    ``kind.from_dict``'s (:meth:`Record.from_dict <agents.records.Record.from_dict>`, or a
+    :class:`~agents.jobs.Work` kind's ``record_type``)."""
     data = _read_json(path, strict=strict)
     try:
-        return Record.from_dict(data)
+        return kind.from_dict(data)
     except RecordError as error:
         raise type(error)(f"{path}: {error}") from None
 
@@ -189,7 +192,7 @@ class RecordStore:
         """Where the record with configuration hash ``key`` is stored."""
         return self.directory / RECORDS_DIR / f"{key}.json"
 
-    def load(self, job: Job) -> Record | None:
+    def load(self, job: Job | Work) -> Record | None:
         """The stored record of ``job``, or None if it has not run with this configuration.
 
         A file that is not a valid record of ``job`` (corrupt, failing its checksum, of an
@@ -202,7 +205,7 @@ class RecordStore:
         if not path.exists():
             return None
         try:
-            record = read_record(path, strict=self.strict)
+            record = read_record(path, strict=self.strict, kind=getattr(job, "record_type", Record))
         except (OutdatedRecordError, UnsafeFileError) as error:
             _warn(f"{error}; {job.label()} is recomputed")
             return None

@@ -19,6 +19,7 @@ import hashlib
 import json
 import math
 from dataclasses import asdict, dataclass, replace
+from typing import Any
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -31,7 +32,7 @@ from tandem_env.physics import (
     validate_physical,
 )
 
-#: Record format of one solver run (``OUT/runs/<key>.json``).
+#: Record format of one solver run (``OUT/records/<key>.json``).
 RUN_FORMAT = "tandem_env.crosscheck-run/1"
 
 #: Largest sweep shape K and pitch shape C_η the mapping takes [-]: the solver moves each angle
@@ -337,6 +338,20 @@ class Run:
             {"format": RUN_FORMAT, "solver": solver_version, "run": fields}, sort_keys=True
         )
         return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Run:
+        """Inverse of ``dataclasses.asdict`` after JSON (lists for tuples); TypeError or
+        ValueError for anything else."""
+        fields = dict(data)
+        for pair in PAIRS:
+            if fields[pair] is not None:
+                motion = {
+                    k: tuple(v) if isinstance(v, list) else v for k, v in fields[pair].items()
+                }
+                fields[pair] = WingMotion(**motion)
+        fields["resolution"] = Resolution(**fields["resolution"])
+        return cls(**fields)
 
     def label(self) -> str:
         what = f"tandem, lag {self.lag:g} deg" if self.kind == "tandem" else f"{self.kind} alone"

@@ -8,14 +8,16 @@ import sys
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
-import numpy as np
-
-from tandem_env.io.files import output_directory
+from agents.store import RECORDS_DIR
+from eval.optimize import add_run_arguments
+from tandem_env.io.files import FolderLock, output_directory
 from tandem_env.physics import DRAGONFLY, PLANFORMS, Dragonfly
 
 from .case import (
     MIN_CLEARANCE,
+    PAIRS,
     WAKES,
     Case,
     Resolution,
@@ -33,55 +35,94 @@ HELP = (
     f"{INSTALL})"
 )
 DEFAULT_OUT = Path("results") / "crosscheck"
+#: The lock file of an output folder, held (``flock``) by the command writing there.
+LOCK_FILE = ".crosscheck.lock"
+#: Where the solver's records were kept before the runner ran them (:func:`adopt_old_runs`).
+OLD_RUNS_DIR = "runs"
+
+
+@dataclass(frozen=True)
+class Point:
+    """One case of a grid: the base stroke's changes (Table 4 names and units), the speed
+    [m/s], the root spacing [fore-wing mean chords] and drop [mm] (None: the insect's) and the
+    lags [deg]."""
+
+    changes: tuple[tuple[str, float], ...] = ()
+    speed: float = 1.0
+    chords: float | None = None
+    drop: float | None = None
+    lags: tuple[float, ...] = (90.0,)
+
+    def case(self, insect: Dragonfly, stroke: dict[str, float], lags: tuple | None) -> Case:
+        """This point of ``insect`` with the ``stroke`` changes (``--stroke``) on top of its own,
+        at ``lags`` if given; ValueError for a stroke outside the family."""
+        spacing = (
+            insect.root_spacing if self.chords is None else self.chords * insect.fore.mean_chord
+        )
+        drop = insect.root_drop if self.drop is None else self.drop * 1e-3
+        changed = check_family(base_stroke(**(dict(self.changes) | stroke)))
+        return Case(tuple(changed), self.speed, spacing, drop, lags or self.lags)
 
 
 @dataclass(frozen=True)
 class Grid:
-    """A named set of cases (``--grid``): their lags [deg], their speeds [m/s] at the insect's
-    root spacing and, if ``wide_spacing`` is given, one more at V = 1 m/s and that many fore-wing
-    mean chords apart, each at the insect's root drop, and the resolution they run at."""
+    """A named set of cases (``--grid``) and the resolution they run at."""
 
     description: str
-    lags: tuple[float, ...]
-    speeds: tuple[float, ...] = (1.0,)
-    wide_spacing: float | None = None
+    points: tuple[Point, ...]
     resolution: Resolution = field(default_factory=Resolution)
 
-    def cases(
-        self, insect: Dragonfly, stroke: np.ndarray, lags: tuple[float, ...] | None
-    ) -> list[Case]:
-        """The grid's cases of ``stroke`` for ``insect``, at ``lags`` if given."""
-        conditions = [(speed, insect.root_spacing) for speed in self.speeds]
-        if self.wide_spacing is not None:
-            conditions.append((1.0, self.wide_spacing * insect.fore.mean_chord))
-        return [
-            Case(tuple(stroke), speed, spacing, insect.root_drop, lags or self.lags)
-            for speed, spacing in conditions
-        ]
+
+def _both(**changes: float) -> tuple[tuple[str, float], ...]:
+    return tuple((f"{pair}_{name}", value) for name, value in changes.items() for pair in PAIRS)
 
 
-#: The study's lags [deg]: 0 to 315 in steps of 45.
+#: The lag study's lags [deg]: 0 to 315 in steps of 45.
 STUDY_LAGS = tuple(float(a) for a in range(0, 360, 45))
-#: The study's second root spacing, in fore-wing mean chords (the dragonfly's 8.8 mm is 1.5).
-SECOND_SPACING_CHORDS = 2.0
-
+#: The generalisation grid: the lag study's family away from its one stroke, one or two lags
+#: each (docs/crosscheck.md, "Generalisation"). A change of one pair's stroke shares the other
+#: pair's run alone with the base case's; the solver has no elevation, so the two elevation
+#: offsets share their runs with the base case at lag 90 deg.
+GENERALISATION = (
+    Point(chords=2.5),
+    Point(drop=6.5, lags=(0.0,)),
+    Point(drop=14.0, lags=(0.0, 180.0)),
+    Point((("hind_elevation_offset", 5.0),)),
+    Point((("hind_elevation_offset", -5.0),)),
+    Point((("hind_sweep_amplitude", 45.0),)),
+    Point((("hind_pitch_amplitude", 35.0),), lags=(0.0,)),
+    Point((("hind_pitch_phase", 75.0),), lags=(180.0,)),
+    Point((("fore_sweep_amplitude", 30.0),)),
+    Point((("fore_pitch_amplitude", 65.0),), lags=(0.0,)),
+    Point(_both(stroke_plane_angle=25.0)),
+    Point(_both(frequency=30.0), lags=(180.0,)),
+    Point(_both(pitch_phase=105.0), speed=0.5, lags=(0.0,)),
+    Point(_both(sweep_amplitude=45.0), speed=2.0, lags=(180.0,)),
+    Point(_both(stroke_plane_angle=10.0), speed=1.5, drop=12.0),
+)
 GRIDS: dict[str, Grid] = {
     "single": Grid(
         "one case: V = 1 m/s at the dragonfly's root spacing and drop, lags 0, 90, 180 deg",
-        (0.0, 90.0, 180.0),  # the issue's exploratory runs
+        (Point(lags=(0.0, 90.0, 180.0)),),  # the issue's exploratory runs
     ),
     "lag-study": Grid(
         "lags 0-315 deg in 45 deg steps at V = 0.5, 1, 2 m/s at the dragonfly's spacing, and "
-        f"at {SECOND_SPACING_CHORDS:g} fore-wing chords at V = 1 m/s",
-        STUDY_LAGS,
-        speeds=(0.5, 1.0, 2.0),
-        wide_spacing=SECOND_SPACING_CHORDS,
+        "at 2 fore-wing chords at V = 1 m/s",
+        (
+            *(Point(speed=v, lags=STUDY_LAGS) for v in (0.5, 1.0, 2.0)),
+            Point(chords=2.0, lags=STUDY_LAGS),
+        ),
+    ),
+    "generalisation": Grid(
+        f"{len(GENERALISATION)} other strokes, speeds, spacings and drops of the family, one or "
+        "two lags each (docs/crosscheck.md)",
+        GENERALISATION,
     ),
     "tiny": Grid(
         "a coarse smoke test (under a minute): V = 1 m/s, lag 90 deg, 8 steps per beat, 2x5 "
         "panels, 2 beats",
-        (90.0,),
-        resolution=Resolution(steps_per_beat=8, chordwise=2, spanwise=5, beats=2),
+        (Point(),),
+        Resolution(steps_per_beat=8, chordwise=2, spanwise=5, beats=2),
     ),
 }
 
@@ -101,10 +142,11 @@ come within {1e3 * MIN_CLEARANCE:g} mm of each other at any lag, and a missing e
 
 Grids (--grid):
 """
-    + "\n".join(f"  {name:10s} {grid.description}" for name, grid in GRIDS.items())
+    + "\n".join(f"  {name:14s} {grid.description}" for name, grid in GRIDS.items())
     + """
 
-Writes into --out: runs/<key>.json (one record per solver run, reused on a rerun),
+Writes into --out: records/<key>.json (one record per solver run, reused on a rerun and
+from the record cache; those of an older runs/ folder are moved there once),
 crosscheck.csv and crosscheck.md (the table) and crosscheck.png (the figure)."""
 )
 
@@ -117,88 +159,83 @@ examples:
   python -m eval crosscheck --grid lag-study --scheduler local:2 --out results/crosscheck"""
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--grid", choices=list(GRIDS), default="single", help="the cases (above)")
-    parser.add_argument(
-        "--lags",
-        type=float,
-        nargs="+",
-        metavar="DEG",
-        help="hind-wing phase shifts [deg], -360 to 360 (default: the grid's)",
-    )
-    parser.add_argument(
-        "--speed", type=float, metavar="V", help="flight speed [m/s] (--grid single)"
-    )
-    parser.add_argument(
-        "--spacing",
-        type=float,
-        metavar="MM",
-        help="fore root to hind root along the body, + aft [mm] (--grid single; default the "
+#: The command's options (argparse keywords), ``--no-cache`` besides (:data:`RUN_OPTIONS
+#: <eval.optimize.RUN_OPTIONS>`).
+OPTIONS: dict[str, dict[str, Any]] = {
+    "--grid": {"choices": list(GRIDS), "default": "single", "help": "the cases (above)"},
+    "--lags": {
+        "type": float,
+        "nargs": "+",
+        "metavar": "DEG",
+        "help": "hind-wing phase shifts [deg], -360 to 360 (default: the grid's)",
+    },
+    "--speed": {"type": float, "metavar": "V", "help": "flight speed [m/s] (--grid single)"},
+    "--spacing": {
+        "type": float,
+        "metavar": "MM",
+        "help": "fore root to hind root along the body, + aft [mm] (--grid single; default the "
         "insect's Dragonfly.root_spacing)",
-    )
-    parser.add_argument(
-        "--drop",
-        type=float,
-        metavar="MM",
-        help="hind root below the fore root [mm] (--grid single; default Dragonfly.root_drop)",
-    )
-    parser.add_argument(
-        "--stroke",
-        nargs="+",
-        default=[],
-        metavar="NAME=VALUE",
-        help="change base-case stroke parameters, e.g. fore_sweep_amplitude=40 (Table 4 units)",
-    )
-    parser.add_argument(
-        "--planform", choices=PLANFORMS, default="tear-drop", help="both wings' planform"
-    )
-    parser.add_argument(
-        "--steps-per-beat", type=int, metavar="N", help="solver time steps per beat (default 48)"
-    )
-    parser.add_argument(
-        "--panels", metavar="CxS", help="chordwise x spanwise panels per wing (default 4x8)"
-    )
-    parser.add_argument(
-        "--beats", type=int, metavar="N", help="beats run; loads from the last (default 3)"
-    )
-    parser.add_argument(
-        "--wake",
-        choices=WAKES,
-        default=WAKES[0],
-        help="the solver's wake: free (moved by the local flow) or prescribed (carried by the "
+    },
+    "--drop": {
+        "type": float,
+        "metavar": "MM",
+        "help": "hind root below the fore root [mm] (--grid single; default Dragonfly.root_drop)",
+    },
+    "--stroke": {
+        "nargs": "+",
+        "default": [],
+        "metavar": "NAME=VALUE",
+        "help": "change base-case stroke parameters, e.g. fore_sweep_amplitude=40 (Table 4 units)",
+    },
+    "--planform": {"choices": PLANFORMS, "default": "tear-drop", "help": "both wings' planform"},
+    "--steps-per-beat": {
+        "type": int,
+        "metavar": "N",
+        "help": "solver time steps per beat (default 48)",
+    },
+    "--panels": {"metavar": "CxS", "help": "chordwise x spanwise panels per wing (default 4x8)"},
+    "--beats": {"type": int, "metavar": "N", "help": "beats run; loads from the last (default 3)"},
+    "--wake": {
+        "choices": WAKES,
+        "default": WAKES[0],
+        "help": "the solver's wake: free (moved by the local flow) or prescribed (carried by the "
         "free stream alone, about 5-10x cheaper); default free",
-    )
-    parser.add_argument(
-        "--convergence",
-        action="store_true",
-        help="also run the first case at 2/3 and 4/3 of the time steps and at 1.5x2 the panels",
-    )
-    parser.add_argument(
-        "--scheduler",
-        metavar="WHERE",
-        help="run the solver runs on Dask: local:N (N worker processes here, one numba thread "
+    },
+    "--convergence": {
+        "action": "store_true",
+        "help": "also run the first case at 2/3 and 4/3 of the time steps and at 1.5x2 the panels",
+    },
+    "--scheduler": {
+        "metavar": "WHERE",
+        "help": "run the solver runs on Dask: local:N (N worker processes here, one numba thread "
         "each) or a running scheduler, tcp://HOST:PORT (docs/scaling.md); default: one after "
         "another in this process",
-    )
-    parser.add_argument(
-        "--out", default=str(DEFAULT_OUT), help=f"output folder (default {DEFAULT_OUT})"
-    )
+    },
+}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    for flag, keywords in OPTIONS.items():
+        parser.add_argument(flag, **keywords)
+    add_run_arguments(parser, "--no-cache", "--rerun")
+    parser.add_argument("--out", default=str(DEFAULT_OUT), help=f"output folder ({DEFAULT_OUT})")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
-def _stroke(items: list[str]) -> np.ndarray:
-    overrides = {}
+def _stroke(items: list[str]) -> dict[str, float]:
+    """The ``--stroke NAME=VALUE`` changes; ValueError for an item that is not one."""
+    changes = {}
     for item in items:
         name, sep, value = item.partition("=")
         try:
-            overrides[name.strip()] = float(value)
+            changes[name.strip()] = float(value)
         except ValueError:
             sep = ""
         if not sep:
             raise ValueError(
                 f"--stroke {item!r}; allowed: NAME=NUMBER, e.g. fore_sweep_amplitude=40"
             )
-    return check_family(base_stroke(**overrides))
+    return changes
 
 
 def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resolution]]:
@@ -226,7 +263,7 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resoluti
     insect = DRAGONFLY.with_planform(args.planform)  # type: ignore[arg-type]
     stroke = _stroke(args.stroke)
     lags = None if args.lags is None else tuple(dict.fromkeys(float(a) for a in args.lags))
-    cases = grid.cases(insect, stroke, lags)
+    cases = [point.case(insect, stroke, lags) for point in grid.points]
     if where:
         from tandem_env.physics import SPEED_LIMITS
 
@@ -246,12 +283,36 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resoluti
     return insect, cases, resolutions
 
 
+def locked(out_dir: Path) -> FolderLock:
+    """The lock of ``OUT/.crosscheck.lock`` (made if absent), held while a command writes there;
+    :class:`~tandem_env.io.files.FolderInUse` naming the folder if another process holds it."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    return FolderLock(
+        out_dir,
+        LOCK_FILE,
+        lambda pid: (
+            f"--out {str(out_dir)!r}: another cross-check (pid {pid}) is writing there; "
+            "allowed: one command per folder at a time (wait for it, or give another --out)"
+        ),
+    )
+
+
+def adopt_old_runs(out_dir: Path) -> None:
+    """Move the records of ``OUT/runs`` (where they were kept before the runner ran the
+    solver's runs: the same files) into the store's ``OUT/records``, once; one already there is
+    kept. The store checks each when its run asks for it."""
+    for path in (out_dir / OLD_RUNS_DIR).glob("*.json"):
+        (out_dir / RECORDS_DIR).mkdir(exist_ok=True)
+        if not (out_dir / RECORDS_DIR / path.name).exists():
+            path.replace(out_dir / RECORDS_DIR / path.name)
+
+
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from agents.dask_cluster import SchedulerUnreachable, parse_scheduler
+    from agents.runner import JobsFailed, run_jobs
 
     from . import report
-    from .store import RunsFailed, RunStore, locked, run_all
-    from .uvlm import MISSING_EXTRA, solver_version
+    from .uvlm import MISSING_EXTRA, SolverJob, solver_version
 
     try:
         insect, cases, resolutions = plan(args)
@@ -273,17 +334,30 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     ]
     try:
         with locked(args.out):
-            store = RunStore(args.out, version)
-            runs = [run for p in planned for run in p.runs.values()]
-            results = run_all(runs, store, scheduler=scheduler, progress=not args.quiet)
+            adopt_old_runs(args.out)
+            jobs = [SolverJob(run, version) for p in planned for run in p.runs.values()]
+            summary = run_jobs(
+                jobs,
+                args.out,
+                scheduler=scheduler,
+                progress=not args.quiet,
+                cache=args.cache,
+                rerun=args.rerun,
+            )
+            if not args.quiet:
+                print(f"{summary.total} solver runs: {summary.describe(args.out)}", file=sys.stderr)
+            results = {job.run: summary.records[job.key].result for job in jobs}
             table = report.rows(planned, results, insect)
             csv_path, md_path = report.write_table(args.out, table)
-            figure = report.write_figure(args.out, table, resolutions[0])
+            if args.grid == "generalisation":
+                figure = report.write_scatter(args.out, table)
+            else:
+                figure = report.write_figure(args.out, table, resolutions[0])
     except ValueError as error:
         parser.error(str(error))
-    except (RunsFailed, SchedulerUnreachable) as error:
+    except (JobsFailed, SchedulerUnreachable) as error:
         print(f"{parser.prog}: {error}", file=sys.stderr)
         return 1
-    print(report.markdown(table), end="")
+    print(report.markdown(table) + "\n" + report.agreement(table), end="")
     print(f"wrote {csv_path}, {md_path}, {figure} ({time.perf_counter() - start:.0f} s)")
     return 0

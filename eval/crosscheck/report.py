@@ -17,10 +17,10 @@ from typing import Any, get_args
 import numpy as np
 
 from tandem_env.io.files import atomic_path, write_csv_atomic, write_text_atomic
-from tandem_env.physics import Dragonfly, ModelOptions, evaluate
+from tandem_env.physics import PARAMETER_NAMES, Dragonfly, ModelOptions, evaluate
 from tandem_env.physics.options import Slipstream
 
-from .case import PAIRS, Case, Resolution, Run, shifted_stroke
+from .case import PAIRS, Case, Resolution, Run, base_stroke, shifted_stroke
 
 #: The model's slipstream readings, each compared with the solver.
 READINGS: tuple[str, ...] = tuple(get_args(Slipstream))
@@ -50,6 +50,17 @@ def ours(case: Case, insect: Dragonfly) -> dict[str, Any]:
     return out
 
 
+def stroke_changes(case: Case) -> str:
+    """The case's stroke as its changes from the base stroke, ``name=value`` joined by spaces
+    (empty for the base stroke)."""
+    base = base_stroke()
+    return " ".join(
+        f"{name}={value:g}"
+        for name, value, was in zip(PARAMETER_NAMES, case.stroke, base, strict=True)
+        if value != was
+    )
+
+
 def _percent(value: float, reference: float) -> float:
     return 100.0 * (value - reference) / reference if reference != 0.0 else math.nan
 
@@ -76,6 +87,7 @@ def rows(
         for index, lag in enumerate(plan.case.lags):
             tandem = results[plan.runs[f"tandem {lag:g}"]]
             row: dict[str, Any] = {
+                "stroke_changes": stroke_changes(plan.case),
                 "speed_m_s": plan.case.speed,
                 "spacing_mm": round(1e3 * plan.case.spacing, 3),
                 "drop_mm": round(1e3 * plan.case.drop, 3),
@@ -105,29 +117,50 @@ def rows(
     return out
 
 
+#: The Markdown table's columns: heading, CSV column and format (the readings' follow).
+COLUMNS = [
+    *[("V [m/s]", "speed_m_s", "{:g}"), ("d [mm]", "spacing_mm", "{:g}")],
+    *[("h [mm]", "drop_mm", "{:g}"), ("lag [deg]", "lag_deg", "{:g}")],
+    *[("steps/beat", "steps_per_beat", "{}"), ("panels", "panels", "{}"), ("wake", "wake", "{}")],
+    ("clearance [mm]", "clearance_mm", "{:.2f}"),
+    *[(f"UVLM {p}", f"uvlm_{p}_change_pct", "{:+.1f} %") for p in ("hind", "fore")],
+]
+
+
 def markdown(table: Sequence[Mapping[str, Any]]) -> str:
-    """The rows as a Markdown table: vertical-force changes [%] of each pair."""
-    head = ["V [m/s]", "d [mm]", "h [mm]", "lag [deg]", "steps/beat", "panels", "wake"]
-    head += ["clearance [mm]"]
-    head += ["UVLM hind", "UVLM fore"]
-    head += [f"ours {r} {p}" for r in READINGS for p in ("hind", "fore")]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    """The rows as a Markdown table: vertical-force changes [%] of each pair (and the stroke's
+    changes, where a row has some)."""
+    columns = [("stroke", "stroke_changes", "{}")] * any(r["stroke_changes"] for r in table)
+    columns += COLUMNS + [
+        (f"ours {r} {p}", f"ours_{r}_{p}_change_pct", "{:+.1f} %")
+        for r in READINGS
+        for p in ("hind", "fore")
+    ]
+    lines = ["| " + " | ".join(c[0] for c in columns) + " |", "|" + "---|" * len(columns)]
     for row in table:
-        cells = [
-            f"{row['speed_m_s']:g}",
-            f"{row['spacing_mm']:g}",
-            f"{row['drop_mm']:g}",
-            f"{row['lag_deg']:g}",
-            str(row["steps_per_beat"]),
-            row["panels"],
-            row["wake"],
-            f"{row['clearance_mm']:.2f}",
-            f"{row['uvlm_hind_change_pct']:+.1f} %",
-            f"{row['uvlm_fore_change_pct']:+.1f} %",
+        cells = [form.format(row[key]) if row[key] != "" else "base" for _, key, form in columns]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def agreement(table: Sequence[Mapping[str, Any]]) -> str:
+    """Per reading, over the rows: the RMS of ours − UVLM change [percentage points] and the
+    rows whose change has the UVLM's sign, of each pair, as a Markdown table."""
+    lines = [
+        "| reading | RMS hind − UVLM | RMS fore − UVLM | hind sign agrees | fore sign agrees |",
+        "|---|---|---|---|---|",
+    ]
+    for reading in READINGS:
+        cells = [reading]
+        pairs = [
+            (
+                np.array([row[f"ours_{reading}_{pair}_change_pct"] for row in table]),
+                np.array([row[f"uvlm_{pair}_change_pct"] for row in table]),
+            )
+            for pair in ("hind", "fore")
         ]
-        cells += [
-            f"{row[f'ours_{r}_{p}_change_pct']:+.1f} %" for r in READINGS for p in ("hind", "fore")
-        ]
+        cells += [f"{np.sqrt(np.mean((o - u) ** 2)):.1f} pp" for o, u in pairs]
+        cells += [f"{int(np.sum(np.sign(o) == np.sign(u)))}/{len(u)}" for o, u in pairs]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -139,7 +172,8 @@ def write_table(out_dir: Path, table: Sequence[Mapping[str, Any]]) -> tuple[Path
         "pair's force without it: UVLM tandem − alone; ours each slipstream reading − "
         "isolated. Columns of every force: crosscheck.csv.\n\n"
     )
-    write_text_atomic(out_dir / TABLE_MD, intro + markdown(table))
+    text = intro + markdown(table) + "\nEach reading against the UVLM over these rows:\n\n"
+    write_text_atomic(out_dir / TABLE_MD, text + agreement(table))
     return out_dir / TABLE_CSV, out_dir / TABLE_MD
 
 
@@ -147,12 +181,48 @@ def _key(row: Mapping[str, Any]) -> tuple[float, float, float]:
     return (row["speed_m_s"], row["spacing_mm"], row["drop_mm"])
 
 
+def _save(fig: Any, path: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    from eval.figures import DPI
+
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=DPI)
+    plt.close(fig)
+    return path
+
+
+def write_scatter(out_dir: Path, table: Sequence[Mapping[str, Any]]) -> Path:
+    """Each row's change of each pair: ours (each reading) against the UVLM's, with the line
+    where they agree (a grid of many strokes, one or two lags each)."""
+    import matplotlib.pyplot as plt
+
+    from eval.figures import PALETTE  # which also selects the Agg backend
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.8))
+    for ax, pair in zip(axes, ("hind", "fore"), strict=True):
+        uvlm = [row[f"uvlm_{pair}_change_pct"] for row in table]
+        for i, reading in enumerate(READINGS):
+            ours = [row[f"ours_{reading}_{pair}_change_pct"] for row in table]
+            ax.plot(uvlm, ours, "o", color=PALETTE[i], label=f"ours ({reading})")
+        low, high = min(ax.get_xlim()[0], ax.get_ylim()[0]), max(ax.get_xlim()[1], ax.get_ylim()[1])
+        ax.plot([low, high], [low, high], color="0.6", lw=0.8, label="agreement")
+        ax.axhline(0.0, color="0.85", lw=0.8)
+        ax.axvline(0.0, color="0.85", lw=0.8)
+        ax.set_xlabel(f"UVLM {pair}-wing change [%]")
+        ax.set_ylabel(f"ours {pair}-wing change [%]")
+        ax.set_title(f"{pair}-wing vertical force change, {len(table)} points", fontsize=9)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, out_dir / FIGURE)
+
+
 def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolution) -> Path:
     """Per case, the changes against the lag at ``base`` resolution (left) and the solver's
     hind- and fore-wing change at each resolution run (right: its convergence)."""
     import matplotlib.pyplot as plt
 
-    from eval.figures import DPI, PALETTE  # which also selects the Agg backend
+    from eval.figures import PALETTE  # which also selects the Agg backend
 
     cases = list(dict.fromkeys(_key(r) for r in table))
     fig, axes = plt.subplots(
@@ -192,7 +262,7 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
         left.set_title(
             f"V = {key[0]:g} m/s, d = {key[1]:g} mm, h = {key[2]:g} mm "
             f"({first['steps_per_beat']} steps/beat, {first['panels']} panels, "
-            f"{first['wake']} wake)",
+            f"{first['beats']} beats, {first['wake']} wake)",
             fontsize=9,
         )
         # Coarsest first: by panels, then by time steps.
@@ -220,24 +290,11 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
             right.set_ylabel("UVLM change [%]")
             right.legend(fontsize=6)
             right.set_title("UVLM convergence (steps per beat, panels)", fontsize=9)
-        else:
+        else:  # one resolution, said in the title (--convergence runs 3 more)
             right.axis("off")
-            right.text(
-                0.0,
-                0.5,
-                f"UVLM at one resolution:\n{first['steps_per_beat']} steps per beat,\n"
-                f"{first['panels']} panels per wing,\n{first['beats']} beats\n\n"
-                "(--convergence runs it\nat 3 more)",
-                fontsize=9,
-                va="center",
-            )
     # One legend above the panels, off the data (every panel has the same series).
     handles, labels = axes[0][0].get_legend_handles_labels()
     legend_height = 0.5  # [inch]
     fig.legend(handles, labels, loc="upper center", ncol=3, fontsize=8, frameon=False)
     fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - legend_height / fig.get_figheight()))
-    path = out_dir / FIGURE
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=DPI)
-    plt.close(fig)
-    return path
+    return _save(fig, out_dir / FIGURE)

@@ -1,5 +1,5 @@
 """One vortex-lattice run (free or prescribed wake) of a wing pair or the tandem, with Ptera
-Software.
+Software, as a job of the runner (:class:`SolverJob`, :func:`agents.runner.run_jobs`).
 
 Ptera Software (the ``uvlm`` extra, ``pip install -e ".[uvlm]"``) is imported here only, when a
 run starts; :func:`solver_version` says whether it is installed. The mapping of the project's
@@ -9,14 +9,19 @@ own Airplane, so the solver reports each pair's loads apart.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import time
 import warnings
+from dataclasses import asdict, dataclass
 from importlib import metadata
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
-from .case import STATIONS, Run, WingMotion, earth_axes, hind_position
+from agents.records import RecordChecksumError, RecordError
+
+from .case import RUN_FORMAT, STATIONS, Run, WingMotion, earth_axes, hind_position
 
 #: The extra's distribution, the command that installs it and what a command without it says.
 DISTRIBUTION = "pterasoftware"
@@ -169,3 +174,80 @@ def solve(run: Run) -> dict[str, Any]:
     out["steps"] = int(problem.num_steps)
     out["wall_time"] = time.perf_counter() - start
     return out
+
+
+def _checksum(body: dict[str, Any]) -> str:
+    return hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()
+
+
+@dataclass(frozen=True)
+class SolverRecord:
+    """A solver run's record: its job and its result (:func:`solve`), in the file format the
+    cross-check has always written (``format``, ``key``, ``solver``, ``run``, ``result`` and
+    their checksum), so records stored before the runner took the runs are read as they are."""
+
+    job: SolverJob
+    result: dict[str, Any]
+
+    @property
+    def key(self) -> str:
+        return self.job.key
+
+    def label(self) -> str:
+        return self.job.label()
+
+    def to_dict(self) -> dict[str, Any]:
+        body = {"format": RUN_FORMAT, "key": self.key, **self.job.configuration()}
+        # Through JSON first, so the checksum is of what a reader gets back.
+        body = json.loads(json.dumps({**body, "result": self.result}))
+        return {**body, "checksum": _checksum(body)}
+
+    @classmethod
+    def from_dict(cls, data: Any) -> SolverRecord:
+        """Inverse of :meth:`to_dict`; :class:`~agents.records.RecordError` for anything else."""
+        try:
+            body = {k: data[k] for k in ("format", "key", "solver", "run", "result")}
+            record = cls(SolverJob(Run.from_dict(body["run"]), body["solver"]), body["result"])
+        except (KeyError, TypeError, ValueError, AttributeError) as error:
+            raise RecordError(
+                f"not a solver run's record ({type(error).__name__}: {error})"
+            ) from None
+        if data.get("checksum") != _checksum(body):
+            raise RecordChecksumError("its checksum does not match its contents")
+        if record.key != body["key"]:  # the key hashes the format too
+            raise RecordError(f"key {body['key']!r} is not its run's in this format ({record.key})")
+        return record
+
+
+@dataclass(frozen=True)
+class SolverJob:
+    """One solver run as a job of the runner (:class:`agents.jobs.Work`): stored, cached and
+    scheduled as the harness's jobs are, under the run's key (:meth:`Run.key
+    <eval.crosscheck.case.Run.key>`)."""
+
+    run: Run
+    solver: str
+    """Ptera Software's version (:func:`solver_version`), part of the key."""
+
+    noun: ClassVar[str] = "solver run"
+    record_type: ClassVar[type[SolverRecord]] = SolverRecord
+
+    @property
+    def key(self) -> str:
+        return self.run.key(self.solver)
+
+    @property
+    def budget(self) -> int:
+        """The solver's steps times the pairs flown: the tandem runs start first."""
+        resolution = self.run.resolution
+        pairs = (self.run.fore is not None) + (self.run.hind is not None)
+        return resolution.steps_per_beat * resolution.beats * pairs
+
+    def label(self) -> str:
+        return self.run.label()
+
+    def configuration(self) -> dict[str, Any]:
+        return {"solver": self.solver, "run": asdict(self.run)}
+
+    def compute(self) -> SolverRecord:
+        return SolverRecord(self, solve(self.run))

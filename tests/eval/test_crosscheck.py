@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from agents.records import RecordWarning
+from agents.store import RecordStore
 from eval.__main__ import main
 from eval.crosscheck import uvlm
 from eval.crosscheck.case import (
@@ -28,9 +30,9 @@ from eval.crosscheck.case import (
     wing_motion,
     wing_surface,
 )
-from eval.crosscheck.cli import STUDY_LAGS
+from eval.crosscheck.cli import GRIDS, STUDY_LAGS, locked
 from eval.crosscheck.report import ours
-from eval.crosscheck.store import RunRecordWarning, RunStore, locked
+from eval.crosscheck.uvlm import SolverJob, SolverRecord
 from tandem_env.physics import DRAGONFLY, PARAMETER_NAMES
 from tandem_env.physics.kinematics import pitching, weaving
 
@@ -92,7 +94,7 @@ def test_a_missing_extra_is_one_line_and_exit_2(
     assert main(["crosscheck", "--grid", "tiny", "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and 'pip install -e ".[uvlm]"' in err[0]
-    assert not (tmp_path / "out" / "runs").exists()
+    assert not (tmp_path / "out" / "records").exists()
 
 
 def test_a_second_command_on_the_same_folder_is_refused_before_any_run(
@@ -223,18 +225,18 @@ def test_the_models_side_matches_the_issue() -> None:
 def test_records_are_reused_and_damage_is_detected(tmp_path: Path) -> None:
     case = Case(tuple(base_stroke()), 1.0, 8.8e-3, 9e-3, (90.0,))
     runs = case_runs(case, DRAGONFLY, Resolution(steps_per_beat=8))
-    store = RunStore(tmp_path, "5.1.0")
-    run = runs["tandem 90"]
+    store = RecordStore(tmp_path)
+    job = SolverJob(runs["tandem 90"], "5.1.0")
     result = {"fore": {"vertical": 1e-3}, "hind": {"vertical": 9e-4}, "wall_time": 1.0}
-    store.save(run, result)
-    assert store.load(run) == result
-    assert runs["fore"].key("5.1.0") != run.key("5.1.0") != run.key("5.2.0")
+    store.save(SolverRecord(job, result))
+    assert store.load(job) == SolverRecord(job, result)
+    assert SolverJob(runs["fore"], "5.1.0").key != job.key != SolverJob(job.run, "5.2.0").key
     finer = case_runs(case, DRAGONFLY, Resolution(steps_per_beat=16))["tandem 90"]
-    assert store.load(finer) is None  # another resolution is another record
-    path = store.path(run)
+    assert store.load(SolverJob(finer, "5.1.0")) is None  # another resolution: another record
+    path = store.path(job.key)
     path.write_text(path.read_text().replace("0.0009", "0.0008"))
-    with pytest.warns(RunRecordWarning, match="checksum"):
-        assert store.load(run) is None
+    with pytest.warns(RecordWarning, match="checksum"):
+        assert store.load(job) is None
 
 
 def test_the_wake_is_keyed_apart_and_free_wake_records_keep_their_keys() -> None:
@@ -272,3 +274,104 @@ def test_the_wake_option_reaches_every_solver_run(
     assert "3 of 3 solver runs failed" in capsys.readouterr().err
     assert sorted(run.kind for run in started) == ["fore", "hind", "tandem"]
     assert {run.wake for run in started} == {wake}
+
+
+def _fake_solve(started: list) -> object:
+    """A stand-in for the solver: each pair flown lifts 1 mN, less 10 % in the tandem."""
+
+    def solve(run: object) -> dict:
+        started.append(run)
+        loss = 0.9 if run.kind == "tandem" else 1.0  # type: ignore[attr-defined]
+        pairs = [p for p in ("fore", "hind") if getattr(run, p) is not None]
+        return {"wall_time": 1.0, **{p: {"vertical": 1e-3 * loss} for p in pairs}}
+
+    return solve
+
+
+def test_records_of_the_old_folder_and_the_cache_are_reused(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture, tmp_path: Path
+) -> None:
+    started: list = []
+    monkeypatch.setattr(uvlm, "solver_version", lambda: "0.0")
+    monkeypatch.setattr(uvlm, "solve", _fake_solve(started))
+    first = tmp_path / "first"
+    assert main(["crosscheck", "--grid", "tiny", "--out", str(first)]) == 0
+    assert len(started) == 3 and "3 solver runs: 3 run" in capsys.readouterr().err
+    # Another folder takes them from the record cache; a folder of the earlier layout
+    # (OUT/runs/<key>.json, the same files) has them moved into OUT/records once.
+    (tmp_path / "old").mkdir()
+    (first / "records").rename(tmp_path / "old" / "runs")
+    for out in ("second", "old"):
+        args = ["crosscheck", "--grid", "tiny", "--out", str(tmp_path / out)]
+        assert main(args if out == "old" else [*args, "--quiet"]) == 0
+    assert len(started) == 3  # none ran again
+    assert "3 reused from" in capsys.readouterr().err
+    assert len(list((tmp_path / "old" / "records").glob("*.json"))) == 3
+    assert not list((tmp_path / "old" / "runs").glob("*.json"))
+    rows = (tmp_path / "second" / "crosscheck.csv").read_text().splitlines()
+    column = rows[0].split(",").index("uvlm_hind_change_pct")
+    assert float(rows[1].split(",")[column]) == pytest.approx(-10.0)
+    args = ["crosscheck", "--grid", "tiny", "--rerun", "--quiet", "--out", str(tmp_path / "old")]
+    assert main(args) == 0 and len(started) == 6  # --rerun runs every one again
+
+
+def test_the_generalisation_grid_varies_the_family_and_is_refused_nothing() -> None:
+    cases = [point.case(DRAGONFLY, {}, None) for point in GRIDS["generalisation"].points]
+    assert len(cases) >= 12 and all(1 <= len(case.lags) <= 2 for case in cases)
+    strokes = {case.stroke for case in cases}
+    changed = {
+        name
+        for stroke in strokes
+        for name, value, base in zip(PARAMETER_NAMES, stroke, base_stroke(), strict=True)
+        if value != base
+    }
+    for name in ("sweep_amplitude", "pitch_amplitude", "pitch_phase", "stroke_plane_angle"):
+        assert any(name in changed_name for changed_name in changed), name
+    assert {"fore_frequency", "hind_elevation_offset"} <= changed
+    assert {case.speed for case in cases} >= {0.5, 1.0, 2.0}
+    assert len({case.spacing for case in cases}) > 1 and len({case.drop for case in cases}) > 2
+    for case in cases:  # what the command refuses before any work, it never plans
+        check_family(np.asarray(case.stroke))
+        assert min(gaps["pairs"] for gaps in clearances(case, DRAGONFLY).values()) >= MIN_CLEARANCE
+
+
+def test_the_agreement_is_the_rms_difference_and_the_signs_that_agree() -> None:
+    from eval.crosscheck.report import READINGS, agreement
+
+    rows = []
+    for solver, model in ((-20.0, -17.0), (4.0, -0.0), (-10.0, -14.0)):
+        row = {f"uvlm_{p}_change_pct": solver for p in ("hind", "fore")}
+        rows.append(
+            row | {f"ours_{r}_{p}_change_pct": model for r in READINGS for p in ("hind", "fore")}
+        )
+    lines = agreement(rows).splitlines()
+    assert len(lines) == 2 + len(READINGS)
+    rms = math.sqrt((3.0**2 + 4.0**2 + 4.0**2) / 3)  # 3.56 points; ours 0 has no sign of 4 %
+    assert lines[2] == f"| {READINGS[0]} | {rms:.1f} pp | {rms:.1f} pp | 2/3 | 2/3 |"
+
+
+def test_the_generalisation_table_has_every_reading_and_the_agreement(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture, tmp_path: Path
+) -> None:
+    import csv
+    from typing import get_args
+
+    from tandem_env.physics.options import Slipstream
+
+    started: list = []
+    monkeypatch.setattr(uvlm, "solver_version", lambda: "0.0")
+    monkeypatch.setattr(uvlm, "solve", _fake_solve(started))
+    args = ["crosscheck", "--grid", "generalisation", "--wake", "prescribed", "--quiet"]
+    assert main([*args, "--out", str(tmp_path)]) == 0
+    assert len(started) == 32  # 17 alone and 15 tandem: shared runs run once
+    with open(tmp_path / "crosscheck.csv", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == 16 and {row["wake"] for row in rows} == {"prescribed"}
+    assert (
+        rows[0]["stroke_changes"] == "" and rows[6]["stroke_changes"] == "hind_sweep_amplitude=45"
+    )
+    for reading in get_args(Slipstream):
+        assert all(f"ours_{reading}_{pair}_change_pct" in rows[0] for pair in ("hind", "fore"))
+    out = capsys.readouterr().out
+    assert all(f"| {reading} |" in out for reading in get_args(Slipstream))
+    assert (tmp_path / "crosscheck.png").stat().st_size > 10_000

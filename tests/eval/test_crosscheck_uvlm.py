@@ -52,7 +52,7 @@ def test_a_tiny_case_runs_and_writes_its_table(tiny: Path) -> None:
 
 
 def test_left_and_right_wings_mirror_each_other(tiny: Path) -> None:
-    records = [json.loads(p.read_text()) for p in (tiny / "runs").glob("*.json")]
+    records = [json.loads(p.read_text()) for p in (tiny / "records").glob("*.json")]
     assert sorted(r["run"]["kind"] for r in records) == ["fore", "hind", "tandem"]
     for record in records:
         for pair in ("fore", "hind"):
@@ -63,10 +63,10 @@ def test_left_and_right_wings_mirror_each_other(tiny: Path) -> None:
 
 
 def test_a_rerun_reuses_every_record(tiny: Path, capsys: pytest.CaptureFixture) -> None:
-    before = {p: p.stat().st_mtime_ns for p in (tiny / "runs").glob("*.json")}
+    before = {p: p.stat().st_mtime_ns for p in (tiny / "records").glob("*.json")}
     assert main(["crosscheck", "--grid", "tiny", "--out", str(tiny)]) == 0
-    assert "3 solver runs: 3 stored, 0 to run" in capsys.readouterr().err
-    assert {p: p.stat().st_mtime_ns for p in (tiny / "runs").glob("*.json")} == before
+    assert "3 solver runs: 0 run, 3 reused from" in capsys.readouterr().err
+    assert {p: p.stat().st_mtime_ns for p in (tiny / "records").glob("*.json")} == before
 
 
 def test_the_solvers_wing_is_the_mappings() -> None:
@@ -112,5 +112,5 @@ def test_the_prescribed_wake_runs_apart_from_the_free_wake(tiny: Path, tmp_path:
     assert float(row["uvlm_hind_change_pct"]) < 0.0  # the fore-wing's wake still costs lift
     # Another solver: other forces, under other keys.
     assert float(row["uvlm_hind_tandem_mN"]) != float(free["uvlm_hind_tandem_mN"])
-    keys = {p.name for p in (out / "runs").glob("*.json")}
-    assert len(keys) == 3 and not keys & {p.name for p in (tiny / "runs").glob("*.json")}
+    keys = {p.name for p in (out / "records").glob("*.json")}
+    assert len(keys) == 3 and not keys & {p.name for p in (tiny / "records").glob("*.json")}
