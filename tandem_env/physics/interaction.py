@@ -123,14 +123,16 @@ def periodic_interpolation(source: Any, target: Any, xp: ArrayNamespace) -> Any:
     two_pi = 2.0 * math.pi
     n = source.shape[-1]
     start = source[..., :1]
-    src = xp.remainder(source - start, two_pi)
-    tgt = xp.remainder(target - start, two_pi)
+    # x − 2π·floor(x/2π), not xp.remainder: torch's loses float64 precision with a number
+    src = (source - start) - two_pi * xp.floor((source - start) / two_pi)
+    tgt = (target - start) - two_pi * xp.floor((target - start) / two_pi)
     count = ((src[..., None, :] <= tgt[..., :, None]) * 1).sum(-1)  # 1 … n: src[0] = 0
     index = xp.arange_like(n, source)
     left = (index == (count - 1)[..., None]) * 1.0  # (B, n_t, n_s) one-hot
     right = (index == (count % n)[..., None]) * 1.0
     x0 = (left * src[..., None, :]).sum(-1)
-    x1 = (right * src[..., None, :]).sum(-1) + two_pi * ((count % n) == 0)
+    x1 = (right * src[..., None, :]).sum(-1)
+    x1 = xp.where((count % n) == 0, x1 + two_pi, x1)  # a number times a bool: float32 in torch
     t = (tgt - x0) / xp.maximum(x1 - x0, 1e-300)
     return left * (1.0 - t)[..., None] + right * t[..., None]
 
@@ -369,7 +371,7 @@ def kernel_reading(
         root = np.array([-insect.root_spacing * w, ROOT_HALF_WIDTH, -insect.root_drop * w])
         pairs.append(
             Pair(params[w], coef, phases[:, w], batch.v_tangential, batch.v_normal, wing,
-                 batch.nodes[:, cycle.N_R], batch.nodes[:, cycle.N_WIDTH], root)
+                 np.array(batch.nodes[:, cycle.N_R]), np.array(batch.nodes[:, cycle.N_WIDTH]), root)
         )  # fmt: skip
 
     def run(fields: tuple[Any, Any] | None) -> tuple[Any, tuple[Any, Any], Any]:
@@ -387,7 +389,7 @@ def kernel_reading(
         return outputs.means[:, :, cycle.W_FZ], inflow, outputs
 
     outputs, converged, _ = vortex_reading(
-        *pairs, run, speed, path_angle, scale, NUMPY
+        *pairs, run, speed, path_angle, scale, NUMPY, WAKE
     )
     outputs.means[:, :, cycle.W_CONVERGED] *= converged[:, None]
     return outputs
