@@ -234,7 +234,7 @@ def both_wings(segments: Any, circulation: Any, xp) -> tuple[Any, Any]:
     )
 
 
-def induced(source: Lattice, gamma: Any, target: Pair, wake: VortexWake, xp) -> Any:  # noqa: PLR0913
+def induced(source: Lattice, gamma: Any, target: Pair, wake: VortexWake, xp) -> Any:
     """The velocity the source pair's lattice, with its circulation ``gamma`` (B, n_blade,
     n_time) [m²/s], induces at the target's three-quarter chord on the wake grid, (B, n_w, M, 3)
     in earth axes [m/s] (both of the source's wings; the target's right wing)."""
@@ -298,10 +298,9 @@ def vortex_reading(
     scale: Any,
     xp: ArrayNamespace,
     wake: VortexWake = WAKE,
-) -> tuple[Any, Any, int]:
+) -> tuple[Any, Any]:
     """The two pairs iterated to the fixed point of the vortex reading (docs/model.md §5.8
-    item 6); returns the last pass's result, the strokes (B,) whose fixed point converged and
-    the number of passes after the isolated one.
+    item 6); returns the last pass's result and the strokes (B,) whose fixed point converged.
 
     Pass 0 is each pair isolated; its v̄ fixes both wakes' descent (so the geometry). Pass m
     gives each pair the other's field of pass m − 1 (Jacobi). The fixed point is reached where
@@ -327,8 +326,7 @@ def vortex_reading(
     to_grid = [periodic_interpolation(uniform[None], p.phase, xp) for p in pairs]
     fields = None
     converged = scale * 0.0 > 1.0
-    passes = 0
-    for passes in range(1, wake.max_passes + 1):
+    for _ in range(wake.max_passes):
         gammas = [
             circulation(p, v, None if fields is None else fields[w], xp)
             for w, (p, v) in enumerate(zip(pairs, inflow, strict=True))
@@ -341,7 +339,7 @@ def vortex_reading(
                 to_elements[w],
                 scale,
                 xp,
-            )  # fmt: skip
+            )
             for w in (0, 1)
         )
         previous = force
@@ -351,7 +349,7 @@ def vortex_reading(
         converged = change <= wake.tolerance * size
         if bool(converged.all()):
             break
-    return result, converged, passes
+    return result, converged
 
 
 def kernel_reading(
@@ -397,6 +395,6 @@ def kernel_reading(
         inflow = (outputs.inflow[:, 0], outputs.inflow[:, 1])
         return outputs.means[:, :, cycle.W_FZ], inflow, outputs
 
-    outputs, converged, _ = vortex_reading(*pairs, run, speed, path_angle, scale, NUMPY, WAKE)
+    outputs, converged = vortex_reading(*pairs, run, speed, path_angle, scale, NUMPY, WAKE)
     outputs.means[:, :, cycle.W_CONVERGED] *= converged[:, None]
     return outputs

@@ -699,7 +699,7 @@ def _vortex_chunk(strokes, speed, gamma, available_power, insect, options, compi
             inflows.append(inflow)
         return torch.stack([o["FZ"] for o in outs], 1), tuple(inflows), outs
 
-    outs, converged, _ = interaction.vortex_reading(
+    outs, converged = interaction.vortex_reading(
         *pairs, run, speed, gamma, scale, TORCH, interaction.WAKE
     )
     for out in outs:

@@ -6,6 +6,7 @@ tests/physics/test_torch_backend.py's (every slipstream value is in its option s
 from __future__ import annotations
 
 from dataclasses import replace
+from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -83,7 +84,7 @@ def test_interaction_vanishes_with_spacing():
         np.abs(_changes(strokes, 1.0, insect=replace(te.DRAGONFLY, root_spacing=d))).max()
         for d in (8.8e-3, 0.05, 0.2, 1.0)
     ]
-    assert sizes[0] > 5.0 and all(a > b for a, b in zip(sizes, sizes[1:]))
+    assert sizes[0] > 5.0 and all(a > b for a, b in pairwise(sizes))
     assert sizes[-1] < 1e-2
 
 
