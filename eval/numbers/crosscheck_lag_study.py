@@ -158,6 +158,11 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
+def _sign(value: float) -> int:
+    """−1, 0 or +1: no change has neither sign."""
+    return (value > 0.0) - (value < 0.0)
+
+
 def targets(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
     """Per reading, the lag study's target quantities: signs of the hind and fore change
     shared with the UVLM, their RMS differences [points], and the cases whose largest hind loss
@@ -177,8 +182,8 @@ def targets(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
         out[reading] = {
             "points": len(rows),
             "cases": len(entries),
-            "hind_sign": sum((a < 0) == (b < 0) for a, b in hind),
-            "fore_sign": sum((a < 0) == (b < 0) for a, b in fore),
+            "hind_sign": sum(_sign(a) == _sign(b) for a, b in hind),
+            "fore_sign": sum(_sign(a) == _sign(b) for a, b in fore),
             "hind_rms": math.sqrt(sum((a - b) ** 2 for a, b in hind) / len(hind)),
             "fore_rms": math.sqrt(sum((a - b) ** 2 for a, b in fore) / len(fore)),
             "within": sum(off is not None and off <= 45.0 for off in within),
