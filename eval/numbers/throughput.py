@@ -84,18 +84,20 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
         f"{s['mean_sweeps']:.2f} sweeps on average (at most {s['max_sweeps']})"
         for s in data["sweeps"]
     )
-    slipstream = "; ".join(
-        f"batch {r['batch']}: {r['cpu_median']:.2f}× CPU ({r['cpu_range'][0]:.2f}-"
-        f"{r['cpu_range'][1]:.2f}), {r['wall_median']:.2f}× wall ({r['wall_range'][0]:.2f}-"
-        f"{r['wall_range'][1]:.2f})"
-        for r in data.get("slipstream_ratios", [])
-    )
-    if slipstream:
-        lines += [
-            "",
-            'The convected slipstream (`ModelOptions(slipstream="convected")`, §5.7) against '
-            f"the mean one, both coupled, median (range) of the per-round ratios: {slipstream}.",
-        ]
+    for reading, where in (("convected", "§5.7"), ("vortex", "§5.8")):
+        slipstream = "; ".join(
+            f"batch {r['batch']}: {r['cpu_median']:.2f}× CPU ({r['cpu_range'][0]:.2f}-"
+            f"{r['cpu_range'][1]:.2f}), {r['wall_median']:.2f}× wall ({r['wall_range'][0]:.2f}-"
+            f"{r['wall_range'][1]:.2f})"
+            for r in data.get("slipstream_ratios", [])
+            if r.get("reading", "convected") == reading
+        )
+        if slipstream:
+            lines += [
+                "",
+                f'The {reading} reading (`ModelOptions(slipstream="{reading}")`, {where}) against '
+                f"the mean one, all coupled, median (range) of the per-round ratios: {slipstream}.",
+            ]
     lines += [
         "",
         f"{data['rounds']} interleaved rounds (every case once per round, back-to-back calls for "

@@ -110,6 +110,12 @@ class WingBatch(NamedTuple):
     """(``cycle.N_CONSTANTS``,) the wing's constants."""
     table: Any
     """The force-coefficient model's table (``coefficients``), None for the paper's."""
+    external: Any
+    """(B, n_blade, 2, n_time) the other pair's induced velocity in each element's (u, v)
+    [m/s] and ``external_inflow`` (B, n_blade) its cycle mean along −z_s, the upstream inflow
+    of the momentum side (the vortex reading's passes, docs/model.md §5.8; ``interaction``),
+    or (0, …): none."""
+    external_inflow: Any
 
 
 class WingStroke(NamedTuple):

@@ -477,8 +477,9 @@ def add_to_span(frame, samples, section, frequency, span):
 
 @njit(cache=True)
 def wing_cycle(
-    wing, settings, v_external, solve, out_inflow, out, histories, wake=None, out_load=None
-):
+    wing, settings, v_external, solve, out_inflow, out, histories, wake=None, out_load=None,
+    external=None,
+):  # fmt: skip
     """Solve the inflow of one wing and integrate its cycle (writes ``out`` and ``out_inflow``).
 
     ``wing``: the wing of one stroke (:class:`~tandem_env.physics.bundle.WingStroke`);
@@ -493,7 +494,9 @@ def wing_cycle(
     force the wing sheds into its wake, §5.7) [N], or ``None``. ``histories``: (n_time, 5)
     scratch receiving F_x, F_z, F_y, P_aero, P_iner per sample (one wing) [N, W]. The wing's
     ``table``: its force-coefficient model (``coefficients``), ``None`` for the paper's (then
-    compiled exactly as without models).
+    compiled exactly as without models). ``external``: (n_r, 2, n_time) the other pair's induced
+    velocity in each element's (u, v) (the vortex reading, docs/model.md §5.8;
+    ``induction.normal_force_sweep``), or ``None``.
     """
     coef = wing.coef
     nodes = wing.nodes
@@ -528,10 +531,16 @@ def wing_cycle(
         width = section.width
         v_upstream = v_normal + v_external[j]
         # ``samples`` ends up holding the element forces at the annulus's final inflow
-        v_induced, evals, ok = sweep_annulus(
-            frame, section, v_tangential, v_upstream, solve, wing.sweep, settings, samples,
-            table, wake,
-        )  # fmt: skip
+        if external is None:
+            v_induced, evals, ok = sweep_annulus(
+                frame, section, v_tangential, v_upstream, solve, wing.sweep, settings, samples,
+                table, wake,
+            )  # fmt: skip
+        else:
+            v_induced, evals, ok = sweep_annulus(
+                frame, section, v_tangential, v_upstream, solve, wing.sweep, settings, samples,
+                table, wake, external[j],
+            )  # fmt: skip
         converged = converged and ok
         max_evals = max(max_evals, evals)
         sweeps += max(evals, 1)
@@ -751,6 +760,11 @@ def tandem_stroke(b, fore, hind, settings, outputs):
     solve = mode != MODE_NONE and not fore.inflow_off[b]
     if convect:
         wing_cycle(fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist, None, load)
+    elif fore.external.shape[0] > b:  # the vortex reading's pass (docs/model.md §5.8)
+        wing_cycle(
+            fore_wing, settings, fore.external_inflow[b], solve, out_inflow[b, 0], out[b, 0],
+            hist, None, None, fore.external[b],
+        )  # fmt: skip
     else:
         wing_cycle(fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist)
     if outputs.history.shape[0] > b:
@@ -771,6 +785,11 @@ def tandem_stroke(b, fore, hind, settings, outputs):
             out_inflow[b, 0], settings, wake,
         )  # fmt: skip
         wing_cycle(hind_wing, settings, v_ext, solve, out_inflow[b, 1], out[b, 1], hist, wake)
+    elif hind.external.shape[0] > b:
+        wing_cycle(
+            hind_wing, settings, hind.external_inflow[b], solve, out_inflow[b, 1], out[b, 1],
+            hist, None, None, hind.external[b],
+        )  # fmt: skip
     else:
         wing_cycle(hind_wing, settings, v_ext, solve, out_inflow[b, 1], out[b, 1], hist)
     if outputs.history.shape[0] > b:

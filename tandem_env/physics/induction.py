@@ -151,7 +151,9 @@ def normal_force_rate_model(u, v, a, b, c, d, spin, section, table):
 
 
 @njit(cache=True)
-def normal_force_sweep(coef, section, v_tangential, v_normal, samples, table=None, wake=None):
+def normal_force_sweep(
+    coef, section, v_tangential, v_normal, samples, table=None, wake=None, external=None
+):
     """One force sweep over the cycle of the element ``section`` at normal inflow ``v_normal``:
     F̄_n [N/m].
 
@@ -159,7 +161,9 @@ def normal_force_sweep(coef, section, v_tangential, v_normal, samples, table=Non
     wing's force-coefficient model (``blade.element_force``; ``None``: the paper's). ``wake``:
     (n_time,) a part of the normal inflow that varies over the cycle [m/s], added to
     ``v_normal`` sample by sample (the convected slipstream, docs/model.md §5.7; ``None``: none,
-    compiled exactly as without it). The element loop holds no running sum, so the compiler
+    compiled exactly as without it). ``external``: (2, n_time) the other pair's induced
+    velocity as it changes the element's (u, v) [m/s], −w_e·e_c and −w_e·e_n per sample (the
+    vortex reading, §5.8; its rate is not carried into u̇, v̇; ``None``: none). The element loop holds no running sum, so the compiler
     vectorises it (with ``coef`` in Fortran order, each column contiguous); the mean is then
     summed in sample order.
     """
@@ -169,6 +173,9 @@ def normal_force_sweep(coef, section, v_tangential, v_normal, samples, table=Non
         if wake is not None:
             v_n = v_normal + wake[k]
         u, v, du, dv = relative_velocity(coef, k, section.r, v_tangential, v_n)
+        if external is not None:
+            u = u + external[0, k]
+            v = v + external[1, k]
         speed = element_speed(u, v)
         fc, fn = element_force_at(u, v, du, dv, coef[k, C_SPIN], section, speed, table)
         samples[S_FC, k] = fc
@@ -280,7 +287,7 @@ def _search_upwards(model, k_area, vt, vn0, lo, start):
 @njit(cache=True)
 def solve_annulus_samples(
     coef, section, v_tangential, v_normal0, sweep_amplitude, settings, samples, table=None,
-    wake=None,
+    wake=None, external=None,
 ):  # fmt: skip
     """Induced velocity v_i [m/s] of one annulus; returns (v_i, force sweeps, converged).
 
@@ -289,7 +296,7 @@ def solve_annulus_samples(
     ``max_evaluations``); ``sweep_amplitude`` φ_m [rad]. ``table``: the wing's
     force-coefficient model (``blade.element_force``; ``None``: the paper's). ``wake``:
     (n_time,) the part of the upstream normal inflow that varies over the cycle [m/s]
-    (:func:`normal_force_sweep`); the momentum side m(v) takes the cycle-mean upstream inflow
+    (:func:`normal_force_sweep`; so ``external``); the momentum side m(v) takes the cycle-mean upstream inflow
     ``v_normal0``. Converged means |h(v_i)| ≤ tolerance·F̄_n(0) or the bracket is narrower than
     tolerance·v_hover (v_hover: the inflow at which m alone absorbs F̄_n(0)). ``samples``
     (N_SAMPLE, n_time) is left holding the sweep at exactly the returned v_i.
@@ -305,7 +312,7 @@ def solve_annulus_samples(
     tolerance = settings.tolerance
     max_iterations = settings.max_evaluations
     k_area = 4.0 * section.rho * sweep_amplitude * section.r
-    f0 = normal_force_sweep(coef, section, vt, vn0, samples, table, wake)
+    f0 = normal_force_sweep(coef, section, vt, vn0, samples, table, wake, external)
     if f0 <= 0.0 or k_area <= 0.0:
         return 0.0, 1, True
     s0 = normal_force_slope(coef, section, samples, table)
@@ -347,7 +354,7 @@ def solve_annulus_samples(
             step_before = step_last
             step_last = abs(v_new - v)
             v = v_new
-        fv = normal_force_sweep(coef, section, vt, vn0 + v, samples, table, wake)
+        fv = normal_force_sweep(coef, section, vt, vn0 + v, samples, table, wake, external)
         evaluations += 1
         hv = fv - _momentum(v, k_area, vt, vn0)[0]
         if abs(hv) <= f_tol or (hi - v if hv > 0.0 else v - lo) <= x_tol:
@@ -365,7 +372,7 @@ def solve_annulus_samples(
 @njit(cache=True)
 def sweep_annulus(
     coef, section, v_tangential, v_normal0, solve, sweep_amplitude, settings, samples,
-    table=None, wake=None,
+    table=None, wake=None, external=None,
 ):  # fmt: skip
     """One annulus of the compiled cycle (``cycle.wing_cycle``) at its final inflow; returns
     (v_i [m/s], force sweeps of the solve, converged).
@@ -373,15 +380,15 @@ def sweep_annulus(
     ``solve``: the inflow is solved (:func:`solve_annulus_samples`); else v_i = 0 and one force
     sweep at ``v_normal0`` (:func:`normal_force_sweep`), returned as (0, 0, True): no solve, so
     no sweep of one. Either way ``samples`` is left holding the sweep at the returned v_i (the
-    solve ends on a swept point, so its last sweep is reused, not redone). ``table`` and
-    ``wake`` as for :func:`solve_annulus_samples`; ``None`` is compiled exactly as without them.
+    solve ends on a swept point, so its last sweep is reused, not redone). ``table``,
+    ``wake`` and ``external`` as for :func:`solve_annulus_samples`; ``None`` is compiled exactly as without them.
     """
     if solve:
         return solve_annulus_samples(
             coef, section, v_tangential, v_normal0, sweep_amplitude, settings, samples, table,
-            wake,
+            wake, external,
         )  # fmt: skip
-    normal_force_sweep(coef, section, v_tangential, v_normal0, samples, table, wake)
+    normal_force_sweep(coef, section, v_tangential, v_normal0, samples, table, wake, external)
     return 0.0, 0, True
 
 

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from . import cycle
+from . import cycle, interaction
 from .bundle import Outputs, Settings, WingBatch
 from .checks import real_array, shown
 from .coefficients import PaperCoefficients
@@ -367,6 +367,7 @@ def run_kernel(
     keep_history: bool = False,
     tables: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
     phases: np.ndarray | None = None,
+    params: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Run the compiled cycle on prepared angle histories (the step below :func:`evaluate_numba`).
 
@@ -380,8 +381,18 @@ def run_kernel(
     ϑ = 2πft [rad] (``kinematics.motion_grid``), read by ``options.slipstream="convected"`` only;
     ``None``: uniform samples 2πk/n_time (measured kinematics). The convected slipstream follows
     the whole fore-wing's loading, so it refuses ``tables`` (wings evaluated element by element).
+    ``params``: each wing's (B, 14) parameters [Hz, rad, -], which the vortex reading
+    (``options.slipstream="vortex"``, docs/model.md §5.8; ``interaction``) needs to place the
+    wings; it refuses ``tables`` and runs without ``params`` only where it is off.
     """
     convected = options.slipstream == "convected"
+    vortex = options.slipstream == "vortex" and options.phase_resolved()
+    if vortex and (tables is not None or params is None):
+        raise ValueError(
+            'ModelOptions.slipstream = "vortex" needs whole wings moved by Table 4\'s '
+            "parametric kinematics (it places both pairs' lifting lines and wakes); measured "
+            'or twisted wings allow: slipstream = "mean" or "convected"'
+        )
     if convected and tables is not None:
         raise ValueError(
             'ModelOptions.slipstream = "convected" needs whole wings (it follows the fore-wing\'s '
@@ -401,7 +412,7 @@ def run_kernel(
     )
     freestream = freestream_components(speed, beta, flight_path_angle)
     off = inflow_switched_off(freestream[:, :, 1], options)
-    if not convected:
+    if not (convected or vortex):
         phases = np.empty((0, 2, n_time))
     elif phases is None:
         phases = np.broadcast_to(2.0 * np.pi * np.arange(n_time) / n_time, (batch, 2, n_time))
@@ -415,17 +426,33 @@ def run_kernel(
             tables[2 * w],
             tables[2 * w + 1],
             coefficient_tables(insect)[w],
+            np.empty((0, tables[2 * w].shape[0], 2, n_time)),
+            np.empty((0, tables[2 * w].shape[0])),
         )
         for w in (0, 1)
     )
     settings = kernel_settings(insect, options, n_time)
-    with compile_notice():  # the first call compiles the kernels: say so once
-        if batch >= SERIAL_BELOW:
-            cycle.tandem_cycle(fore, hind, settings, outputs)
-        else:
-            for b in range(batch):
-                cycle.tandem_stroke(b, fore, hind, settings, outputs)
-    return outputs
+
+    def run(wings: tuple[WingBatch, WingBatch]) -> Outputs:
+        out = outputs if not vortex else Outputs(*(np.empty_like(a) for a in outputs))
+        with compile_notice():  # the first call compiles the kernels: say so once
+            if batch >= SERIAL_BELOW:
+                cycle.tandem_cycle(*wings, settings, out)
+            else:
+                for b in range(batch):
+                    cycle.tandem_stroke(b, *wings, settings, out)
+        return out
+
+    if not vortex:
+        return run((fore, hind))
+    # the vortex reading (docs/model.md §5.8): each pair's own inflow as if isolated, the other
+    # pair's field in its element velocities, passes to a fixed point
+    settings = settings._replace(mode=cycle.MODE_ISOLATED)
+    scale = np.where(off.any(1), 0.0, options.interference)
+    return interaction.kernel_reading(
+        (fore, hind), params, phases, run, speed, flight_path_angle, scale, insect,
+        options.spin == "total",
+    )  # fmt: skip
 
 
 def _performance(
@@ -629,7 +656,11 @@ def evaluate_numba(
     angles, weights, frequency, beta, sweep, phases = parametric_kernel_inputs(
         physical, options.n_time, options.slipstream == "convected"
     )
-    out, _, _ = run_kernel(
-        angles, weights, frequency, beta, sweep, v, gamma, insect, options, phases=phases
+    params = tuple(
+        wing_params_radians(physical[:, w * N_PER_WING : (w + 1) * N_PER_WING]) for w in (0, 1)
     )
+    out, _, _ = run_kernel(
+        angles, weights, frequency, beta, sweep, v, gamma, insect, options, phases=phases,
+        params=params,
+    )  # fmt: skip
     return _performance(out, v, gamma, p_avail, insect, options)

@@ -14,7 +14,7 @@ PowerConvention = Literal["absolute", "elastic", "aerodynamic"]
 ThrustSplit = Literal["sign", "body"]
 Spin = Literal["pitch", "total"]
 HoverInflow = Literal["momentum", "none"]
-Slipstream = Literal["mean", "convected"]
+Slipstream = Literal["mean", "convected", "vortex"]
 
 
 #: Below this free-stream speed normal to a wing's stroke plane, |V·sin(β + γ)| [m/s], the wing
@@ -88,7 +88,10 @@ class ModelOptions:
     every instant (blind to the fore/hind phase); ``"convected"`` the fore-wing's wake as it
     varies over the cycle, following its instantaneous normal loading, convected from the
     fore- to the hind-wing's stroke plane (``Dragonfly.root_spacing``, ``root_drop``) with a
-    delay. Both have the same cycle mean; the fore-wing is the same under both."""
+    delay. Both have the same cycle mean; the fore-wing is the same under both. ``"vortex"``
+    each pair's lifting line and prescribed wake act on the other pair's elements by
+    Biot-Savart, both ways, iterated to a fixed point (docs/model.md §5.8): the fore-wing
+    then depends on the phase too; each pair's own inflow stays the momentum solve."""
     tolerance: float = 1e-4
     """Relative tolerance of the per-annulus inflow solve [-]."""
     max_evaluations: int = 30
@@ -122,9 +125,9 @@ class ModelOptions:
     def phase_resolved(self, speed: float | None = None) -> bool:
         """Whether the model's results depend on the fore/hind phase (docs/model.md §5.7).
 
-        Only the hind-wing's view of the fore-wing's wake can carry the phase between the pairs
-        (the two pairs meet nowhere else in the model): it does under ``slipstream="convected"``
-        with ``induction="coupled"`` and C_hf > 0. The mean slipstream is the same at every
+        Only the pairs' view of each other can carry the phase between them (they meet
+        nowhere else in the model): it does under ``slipstream="convected"`` (the hind-wing)
+        and ``"vortex"`` (both pairs) with ``induction="coupled"`` and C_hf > 0. The mean slipstream is the same at every
         instant, ``"isolated"`` and ``"none"`` have no slipstream, C_hf = 0 hides it, and so
         does ``hover_inflow="none"`` in hover, where no wing has an induced velocity (all
         tested in ``tests/physics/test_slipstream.py``).
@@ -140,7 +143,7 @@ class ModelOptions:
         hovering = speed is not None and abs(speed) < HOVER_NORMAL_SPEED
         if hovering and self.hover_inflow == "none":
             return False
-        return self.slipstream == "convected"
+        return self.slipstream in ("convected", "vortex")
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

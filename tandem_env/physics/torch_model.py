@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from . import blade, cycle, induction
+from . import blade, cycle, induction, interaction
 from .bundle import Section
 from .checks import count, flag
 from .coefficients import PaperCoefficients
@@ -225,35 +225,41 @@ class _Wing:
         self.section = cycle.section_at.py_func(node, slice(None), c, rho)
         self.i_span, self.i_pitch = c[cycle.K_I_SPAN], c[cycle.K_I_PITCH]
         self.n_time = frame.shape[-1]
+        #: the other pair's (u, v) offsets (B, n_blade, 2, n_time) [m/s] under the vortex
+        #: reading (``WingBatch.external``), or None
+        self.external = None
 
     def sweep_and_slope(self, vt: torch.Tensor, vn: torch.Tensor):
         """F̄_n [N/m] and dF̄_n/dv_n [N·s/m²] at normal inflow ``vn`` with ``vt``, both shaped
         like the nodes ((B, n_blade, 1) or (n, 1)); results have the nodes' shape without the
         last axis (``induction.normal_force_sweep`` and ``normal_force_slope``)."""
         core = _compiled(_sweep_and_slope) if self.compiled else _sweep_and_slope
-        return core(self.frame, self.section, vt, vn)
+        return core(self.frame, self.section, vt, vn, self.external)
 
     def sweep_and_slope_at(self, rows: torch.Tensor, cols: torch.Tensor, vt, vn):
         """:meth:`sweep_and_slope` of the listed (stroke, annulus) pairs only (the inflow
         solve's active annuli), ``vt`` and ``vn`` (n, 1): results (n,)."""
         core = _compiled(_sweep_and_slope_at) if self.compiled else _sweep_and_slope_at
-        return core(self.frame, self.section, vt, vn, rows, cols)
+        return core(self.frame, self.section, vt, vn, rows, cols, self.external)
 
 
-def _element_state(frame, section: Section, vt, vn):
+def _element_state(frame, section: Section, vt, vn, external=None):
     """The frame as the kernel's formulas index it (``coef[k, C_*]`` with k = ``...``), the
     relative velocity (u, v, u̇, v̇) [m/s, m/s²] of every element and sample
-    (``blade.relative_velocity``) and the element force (F_c, F_n) [N/m]
+    (``blade.relative_velocity``, with the ``external`` (u, v) offsets (..., 2, n_time) of the
+    vortex reading, ``induction.normal_force_sweep``) and the element force (F_c, F_n) [N/m]
     (``blade.element_force``, the paper's coefficients)."""
     coef = frame.movedim(0, -1)
     u, v, du, dv = _on_tensors(blade.relative_velocity)(coef, ..., section.r, vt, vn)
+    if external is not None:
+        u, v = u + external[..., 0, :], v + external[..., 1, :]
     fc, fn = _on_tensors(blade.element_force)(u, v, du, dv, frame[blade.C_SPIN], section)
     return coef, (u, v, du, dv), (fc, fn)
 
 
-def _sweep_and_slope(frame, section: Section, vt, vn):
+def _sweep_and_slope(frame, section: Section, vt, vn, external=None):
     """Cycle-mean normal force and its exact slope (``induction.normal_force_rate``) of a sweep."""
-    _, (u, v, _, _), (fc, fn) = _element_state(frame, section, vt, vn)
+    _, (u, v, _, _), (fc, fn) = _element_state(frame, section, vt, vn, external)
     a, b = frame[blade.C_ECZ], frame[blade.C_ENZ]
     weight = frame[blade.C_WEIGHT]
     n_time = weight.shape[-1]
@@ -264,18 +270,19 @@ def _sweep_and_slope(frame, section: Section, vt, vn):
     return mean, (rate * weight).sum(-1) / n_time
 
 
-def _sweep_and_slope_at(frame, section: Section, vt, vn, rows, cols):
+def _sweep_and_slope_at(frame, section: Section, vt, vn, rows, cols, external=None):
     """:func:`_sweep_and_slope` of the (stroke ``rows``, annulus ``cols``) pairs: the gathers
     sit inside the function, so that a compiled version reads the frame in place."""
     section = section._replace(**{name: getattr(section, name)[cols] for name in _ELEMENT_FIELDS})
-    return _sweep_and_slope(frame[:, rows, 0], section, vt, vn)
+    external = None if external is None else external[rows, cols]
+    return _sweep_and_slope(frame[:, rows, 0], section, vt, vn, external)
 
 
-def _span_integrals(frame, section: Section, vt, vn, frequency):
+def _span_integrals(frame, section: Section, vt, vn, frequency, external=None):
     """Per sample, the span integrals of F_c, F_n [N], of the power delivered to the air P_aero
     [W] and of the chord-weighted acute angle of attack [m²·rad] at the solved inflow
     (``cycle.wing_cycle``'s final pass); ``frequency`` (B, 1, 1) [Hz]."""
-    coef, (u, v, _, _), (fc, fn) = _element_state(frame, section, vt, vn)
+    coef, (u, v, _, _), (fc, fn) = _element_state(frame, section, vt, vn, external)
     moment = _on_tensors(blade.element_moment)(
         u, v, frame[blade.C_SPIN], frame[blade.C_DSPIN], section, frequency
     )
@@ -669,8 +676,9 @@ def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options
     if wake is not None:
         vn_final = vn_final + wake[:, None, :]
     span_fc, span_fn, span_power, span_aoa = core(
-        wing.frame, wing.section, vt[:, None, None], vn_final, frequency[:, None, None]
-    )
+        wing.frame, wing.section, vt[:, None, None], vn_final, frequency[:, None, None],
+        wing.external,
+    )  # fmt: skip
     chord, width = wing.section.chord, wing.section.width
     coef = wing.frame[:, :, 0].movedim(0, -1)
     n_time = wing.n_time
@@ -698,7 +706,55 @@ def _wing_cycle(wing: _Wing, frequency, sweep_amplitude, vt, vn0, solve, options
     return out, v_i
 
 
+def _vortex_chunk(strokes, speed, gamma, available_power, insect, options, compiled):
+    """:func:`_evaluate_chunk` under the vortex reading (docs/model.md §5.8;
+    ``interaction.vortex_reading``, as ``model.run_kernel`` runs it on the numba kernel)."""
+    pairs, wings = [], []
+    for index, geometry in enumerate((insect.fore, insect.hind)):
+        params = wing_params_radians(
+            strokes[:, index * N_PER_WING : (index + 1) * N_PER_WING], TORCH
+        )
+        angles, weight, phase = batched_angle_history(params, options.n_time, TORCH)
+        frame = _frame(angles, weight, params[:, 13], options.spin == "total")
+        nodes, consts = wing_tables(geometry, options.n_blade, insect.air_density)
+        wing = _Wing(frame, nodes, consts, insect.air_density, strokes, compiled)
+        vt, vn = stroke_plane_speeds(speed, params[:, 13], gamma, TORCH)
+        root = np.array([-insect.root_spacing, 0.0, -insect.root_drop]) * index
+        root[1] = interaction.ROOT_HALF_WIDTH
+        pairs.append(
+            interaction.Pair(params, wing.frame[:, :, 0].movedim(0, -1)[:, None], phase, vt, vn,
+                             geometry, np.array(nodes[:, cycle.N_R]), np.array(nodes[:, cycle.N_WIDTH]), root)
+        )  # fmt: skip
+        wings.append((wing, params, vt, vn, inflow_switched_off(vn, options, TORCH)))
+    scale = options.interference * (~(wings[0][4] | wings[1][4])).to(strokes.dtype)
+
+    def run(fields):
+        outs, inflows = [], []
+        for w, (wing, params, vt, vn, off) in enumerate(wings):
+            vn0 = vn[:, None].expand(-1, wing.section.r.shape[0])
+            wing.external = None if fields is None else fields[w][0]
+            if fields is not None:
+                vn0 = vn0 + fields[w][1]
+            out, inflow = _wing_cycle(wing, params[:, 0], params[:, 1], vt, vn0, ~off, options)
+            outs.append(out)
+            inflows.append(inflow)
+        return torch.stack([o["FZ"] for o in outs], 1), tuple(inflows), outs
+
+    outs, converged = interaction.vortex_reading(
+        *pairs, run, speed, gamma, scale, TORCH, interaction.WAKE
+    )
+    for out in outs:
+        out["CONVERGED"] = out["CONVERGED"] & converged
+
+    def means(key: str) -> torch.Tensor:
+        return torch.stack([outs[0][key], outs[1][key]], dim=1)
+
+    return flight_performance(means, speed, gamma, available_power, insect, options, TORCH)
+
+
 def _evaluate_chunk(strokes, speed, gamma, available_power, insect, options, compiled):
+    if options.slipstream == "vortex" and options.phase_resolved():
+        return _vortex_chunk(strokes, speed, gamma, available_power, insect, options, compiled)
     wings = []
     inflow_fore = None
     fore = {}

@@ -1,0 +1,400 @@
+"""The vortex reading of the fore/hind interaction (``ModelOptions.slipstream="vortex"``,
+docs/model.md §5.8), written once over an array namespace (``xp``: numpy for the numba
+backend, torch with autograd for its twin).
+
+Each pair's bound circulation Γ(r, t) (the translational part of Eq. 14) is reduced to a few
+strips on a uniform wake grid; each pair's lifting line and prescribed periodic wake
+(``vortex.prescribed_wake``) induce, by Biot-Savart with a growing viscous core
+(``vortex.segment_velocity``), a velocity at the other pair's three-quarter chord at a few
+span stations, interpolated onto its blade elements and its time grid. That field enters
+every element velocity of the other pair's next pass (``WingBatch.external``), whose own
+inflow stays the momentum solve. The passes run to a fixed point (:func:`vortex_reading`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from . import blade, cycle
+from .vortex import (
+    BOUND_VORTEX,
+    COLLOCATION,
+    ROOT_HALF_WIDTH,
+    TRAILING_EDGE,
+    lattice_segments,
+    prescribed_wake,
+    segment_velocity,
+    wing_lines,
+)
+from .xp import NUMPY, ArrayNamespace, on_namespace
+
+#: Right wing → left wing (Y → −Y); the left wing carries −Γ along the mirrored segment.
+MIRROR = np.array([1.0, -1.0, 1.0])
+
+
+@dataclass(frozen=True)
+class VortexWake:
+    """The reduced wake and the reading's constants (docs/model.md §5.8, items 3-6, 9).
+
+    The four constants ``descent``, ``core_growth``, ``gamma_scale`` and the choice of the
+    translational Γ were chosen on the lag study's 32 points (docs/crosscheck.md), not tested
+    out of sample there."""
+
+    n_wake: int = 16
+    """n_w: wake samples per beat [-]."""
+    strips: int = 4
+    """N_s: circulation strips per wing [-]."""
+    read_points: int = 6
+    """M: span stations reading the other pair's velocity [-]."""
+    fore_beats: float = 3.0
+    """The fore pair's wake length [beats] (it passes the hind pair; 4 beats move the lag
+    study's changes by at most 0.6 points)."""
+    hind_beats: float = 1.5
+    """The hind pair's wake length [beats] (it leaves the fore pair)."""
+    descent: float = 1.0
+    """κ_w: the wake descends at κ_w·v̄ along the source's z_s [-]."""
+    core: float = 0.5e-3
+    """r₀: the core radius at release [m]."""
+    core_growth: float = 2.4e-3
+    """g in r_c² = r₀² + g·age [m²/s]: 8 mm after a beat at 37 Hz."""
+    gamma_scale: float = 1.35
+    """Factor on the shed circulation [-]."""
+    tolerance: float = 1e-3
+    """The fixed point's tolerance: each pass's change of either pair's cycle-mean vertical
+    force, relative to the sum of both pairs' magnitudes [-]."""
+    max_passes: int = 12
+    """Most passes of the fixed point (after the isolated one) [-]."""
+    chunk: int = 64
+    """Strokes per Biot-Savart evaluation (memory ∝ chunk·n_w·M·segments) [-]."""
+
+    def __post_init__(self) -> None:
+        for name in ("n_wake", "strips", "read_points", "max_passes", "chunk"):
+            value = getattr(self, name)
+            least = 2 if name in ("n_wake", "read_points") else 1
+            if not isinstance(value, int) or isinstance(value, bool) or value < least:
+                raise ValueError(f"VortexWake.{name} = {value!r}; allowed: an integer >= {least}")
+        for name in ("fore_beats", "hind_beats", "descent", "core", "core_growth", "tolerance"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"VortexWake.{name} = {value!r}; allowed: a finite number >= 0")
+        for name in ("fore_beats", "hind_beats"):
+            if round(getattr(self, name) * self.n_wake) < 1:
+                raise ValueError(
+                    f"VortexWake.{name} = {getattr(self, name)!r}; allowed: at least one wake "
+                    f"row, >= 1/n_wake = {1 / self.n_wake:g}"
+                )
+
+
+#: The reading's settings (docs/model.md §5.8).
+WAKE = VortexWake()
+
+
+class Pair(NamedTuple):
+    """One wing pair of a batch as the reading sees it (the right wing; the left mirrors it)."""
+
+    params: Any
+    """(B, 14) the wing's parameters in Hz/rad/- (``kinematics.wing_params_radians``)."""
+    coef: Any
+    """(B, 1, n_time, ``blade.N_COEF``) frame coefficients on the kernel's grid."""
+    phase: Any
+    """(B, n_time) the kernel's sample phases ϑ [rad]."""
+    v_tangential: Any
+    """(B,) V_t [m/s]."""
+    v_normal: Any
+    """(B,) V_n [m/s]."""
+    wing: Any
+    """The ``insect.Wing`` (length, chord, C_t)."""
+    r: np.ndarray
+    """(n_blade,) element radii [m]."""
+    width: np.ndarray
+    """(n_blade,) quadrature weights dr [m]."""
+    root: np.ndarray
+    """(3,) the right wing's root in earth axes [m]."""
+
+
+def periodic_interpolation(source: Any, target: Any, xp: ArrayNamespace) -> Any:
+    """(B, n_t, n_s) weights of periodic linear interpolation in phase: values at phases
+    ``target`` (B, n_t) [rad] of series sampled at phases ``source`` (B, n_s) [rad],
+    increasing over one period from any start (the leading axes broadcast)."""
+    two_pi = 2.0 * math.pi
+    n = source.shape[-1]
+    start = source[..., :1]
+    # x − 2π·floor(x/2π), not xp.remainder: torch's loses float64 precision with a number
+    src = (source - start) - two_pi * xp.floor((source - start) / two_pi)
+    tgt = (target - start) - two_pi * xp.floor((target - start) / two_pi)
+    count = ((src[..., None, :] <= tgt[..., :, None]) * 1).sum(-1)  # 1 … n: src[0] = 0
+    index = xp.arange_like(n, source)
+    left = (index == (count - 1)[..., None]) * 1.0  # (B, n_t, n_s) one-hot
+    right = (index == (count % n)[..., None]) * 1.0
+    x0 = (left * src[..., None, :]).sum(-1)
+    x1 = (right * src[..., None, :]).sum(-1)
+    x1 = xp.where((count % n) == 0, x1 + two_pi, x1)  # a number times a bool: float32 in torch
+    t = (tgt - x0) / xp.maximum(x1 - x0, 1e-300)
+    return left * (1.0 - t)[..., None] + right * t[..., None]
+
+
+def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """(n_t, n_s) weights of linear interpolation in r from ``source`` to ``target`` radii
+    (held constant beyond the ends)."""
+    return np.stack([np.interp(target, source, column) for column in np.eye(source.size)], -1)
+
+
+def circulation(pair: Pair, inflow: Any, external: tuple[Any, Any] | None, xp) -> Any:
+    """The translational bound circulation −C_t·c·u·v/|U| (Eq. 14) of every element and
+    sample, (B, n_blade, n_time) [m²/s], at the pair's solved ``inflow`` (B, n_blade) [m/s]
+    with the other pair's field ``external`` (its (u, v) offsets (B, n_blade, 2, n_time) and
+    its mean upstream inflow (B, n_blade)) or ``None``."""
+    vn = pair.v_normal[:, None] + inflow
+    if external is not None:
+        vn = vn + external[1]
+    r = xp.constant_like(pair.r, vn)[None, :, None]
+    u, v, _, _ = on_namespace(blade.relative_velocity, xp)(
+        pair.coef, ..., r, pair.v_tangential[:, None, None], vn[:, :, None]
+    )
+    if external is not None:
+        u = u + external[0][:, :, 0]
+        v = v + external[0][:, :, 1]
+    chord = xp.constant_like(pair.wing.chord(pair.r / pair.wing.length), vn)[None, :, None]
+    speed2 = u * u + v * v
+    moving = speed2 > 0.0
+    gamma = -pair.wing.translational_coefficient * chord * u * v
+    return xp.where(moving, gamma / xp.sqrt(xp.where(moving, speed2, 1.0)), 0.0)
+
+
+def disc_mean(pair: Pair, inflow: Any, xp) -> Any:
+    """v̄: the disc mean ∫v_i·r·dr / ∫r·dr of the pair's inflow (B, n_blade) (§5.7) [m/s]."""
+    area = xp.constant_like(pair.r * pair.width, inflow)
+    return (inflow * area).sum(-1) / float(np.sum(pair.r * pair.width))
+
+
+class Lattice(NamedTuple):
+    """A pair's lifting-line and wake geometry on the wake grid (fixed over the passes)."""
+
+    bound: Any  # (B, n_w, N_s + 1, 3) [m]
+    edge: Any  # (B, n_w, N_s + 1, 3) [m]
+    carried: Any  # (B, K + 1, 3) [m]
+    core: Any  # (B, 1, S) per segment of both wings [m]
+    to_wake: Any  # (B, n_w, n_time) the kernel's grid → the wake grid
+    to_strips: Any  # (N_s, n_blade) elements → strip mid-points
+
+
+def lattice(
+    pair: Pair, v_bar: Any, speed: Any, path_angle: Any, beats: float, wake: VortexWake, xp
+) -> Lattice:
+    """The pair's :class:`Lattice`: its bound line and trailing edge at N_s + 1 stations on
+    n_w uniform phases, its wake rows carried by the free stream −V·(cos γ, 0, sin γ) plus
+    κ_w·v̄ along −z_s (``v_bar`` (B,) [m/s]), K = round(beats·n_w) rows, and the growing core
+    of each segment."""
+    n_w, n_s = wake.n_wake, wake.strips
+    like = pair.phase
+    frac = np.linspace(0.0, 1.0, n_s + 1)
+    tau = xp.constant_like(2.0 * np.pi * np.arange(n_w)[None] / n_w, like)
+    chord = xp.constant_like(pair.wing.chord(frac), like)
+    frac_x = xp.constant_like(frac, like)
+    root = xp.constant_like(pair.root, like)
+    bound = wing_lines(pair.params, tau, frac_x, pair.wing.length, chord, BOUND_VORTEX, root, xp)
+    edge = wing_lines(pair.params, tau, frac_x, pair.wing.length, chord, TRAILING_EDGE, root, xp)
+    rows = round(beats * n_w)
+    dt = 1.0 / (pair.params[:, 0] * n_w)  # (B,) [s]
+    age = dt[:, None] * xp.constant_like(np.arange(rows + 1.0), like)[None]  # (B, K + 1)
+    beta = pair.params[:, 13]
+    descent = wake.descent * v_bar
+    carry = [
+        -speed * xp.cos(path_angle) - descent * xp.sin(beta),
+        0.0 * speed,
+        -speed * xp.sin(path_angle) - descent * xp.cos(beta),
+    ]
+    carried = xp.stack([age * c[:, None] for c in carry], -1)
+    # each segment's age in samples: along the rows (row k released k − 1 samples ago), then
+    # between the rows (trailed), as vortex.lattice_segments orders them
+    k = np.arange(rows + 2)
+    along = np.repeat(np.maximum(k - 1, 0), n_s)
+    between = np.repeat(np.maximum(k[:-1] - 0.5, 0), n_s + 1)
+    samples = xp.constant_like(np.tile(np.concatenate([along, between]), 2), like)
+    core = xp.sqrt(wake.core**2 + wake.core_growth * dt[:, None] * samples[None])[:, None]
+    mids = 0.5 * (frac[1:] + frac[:-1])
+    to_strips = xp.constant_like(span_interpolation(pair.r / pair.wing.length, mids), like)
+    uniform = xp.constant_like(2.0 * np.pi * np.arange(n_w) / n_w, like)[None]
+    to_wake = periodic_interpolation(pair.phase, uniform, xp)
+    return Lattice(bound, edge, carried, core, to_wake, to_strips)
+
+
+def both_wings(segments: Any, circulation: Any, xp) -> tuple[Any, Any]:
+    """A right wing's segments (..., S, 2, 3) [m] and circulations (..., S) [m²/s] with its
+    left wing's, the mirror image (Y → −Y) carrying −Γ: (..., 2S, 2, 3) and (..., 2S)."""
+    mirrored = segments * xp.constant_like(MIRROR, segments)
+    return (
+        xp.concatenate([segments, mirrored], -3),
+        xp.concatenate([circulation, -circulation], -1),
+    )
+
+
+def induced(source: Lattice, gamma: Any, target: Pair, wake: VortexWake, xp) -> Any:
+    """The velocity the source pair's lattice, with its circulation ``gamma`` (B, n_blade,
+    n_time) [m²/s], induces at the target's three-quarter chord on the wake grid, (B, n_w, M, 3)
+    in earth axes [m/s] (both of the source's wings; the target's right wing)."""
+    strips = xp.einsum("sj,bjk->bks", source.to_strips, gamma)  # (B, n_time, N_s)
+    strips = wake.gamma_scale * xp.einsum("bwk,bks->bws", source.to_wake, strips)
+    frac = np.linspace(0.02, 0.98, wake.read_points)
+    like = target.phase
+    tau = xp.constant_like(2.0 * np.pi * np.arange(wake.n_wake)[None] / wake.n_wake, like)
+    points = wing_lines(
+        target.params, tau, xp.constant_like(frac, like), target.wing.length,
+        xp.constant_like(target.wing.chord(frac), like), COLLOCATION,
+        xp.constant_like(target.root, like), xp,
+    )  # fmt: skip
+    parts = []
+    for start in range(0, gamma.shape[0], wake.chunk):
+        part = slice(start, start + wake.chunk)
+        nodes, rings = prescribed_wake(
+            source.bound[part], source.edge[part], strips[part], source.carried[part], xp
+        )
+        segments, circ = both_wings(*lattice_segments(nodes, rings, xp), xp)
+        parts.append(segment_velocity(segments, circ, points[part], source.core[part], xp))
+    return xp.concatenate(parts, 0)
+
+
+def element_field(
+    w: Any, target: Pair, to_grid: Any, to_elements: Any, scale: Any, xp
+) -> tuple[Any, Any]:
+    """The field ``w`` (B, n_w, M, 3) [m/s] on the target's elements and samples, as the
+    kernel takes it: its (u, v) offsets −w·e_c, −w·e_n less the cycle-mean normal part, (B,
+    n_blade, 2, n_time), and that mean along −z_s, (B, n_blade), the upstream inflow of the
+    momentum side (docs/model.md §5.8 item 5); times ``scale`` (B,) (C_hf, 0 where off)."""
+    w = xp.einsum("jm,bwmc->bwjc", to_elements, w)
+    w = xp.einsum("bkw,bwjc->bjkc", to_grid, w) * scale[:, None, None, None]
+    beta = target.params[:, 13][:, None, None]
+    cb, sb = xp.cos(beta), xp.sin(beta)
+    wx = w[..., 0] * cb - w[..., 2] * sb
+    wz = w[..., 0] * sb + w[..., 2] * cb
+    wy = w[..., 1]
+    coef = target.coef[:, 0]  # (B, n_time, N_COEF)
+    weight = coef[:, None, :, blade.C_WEIGHT]
+    mean = (wz * weight).sum(-1) / weight.shape[-1]
+    wz = wz - mean[..., None]
+    col = [coef[:, None, :, c] for c in range(blade.N_COEF)]
+    du = -(wx * col[blade.C_ECX] + wy * col[blade.C_ECY] + wz * col[blade.C_ECZ])
+    dv = -(wx * col[blade.C_ENX] + wy * col[blade.C_ENY] + wz * col[blade.C_ENZ])
+    return xp.stack([du, dv], 2), -mean
+
+
+#: A backend's pass: the pairs' fields (fore, hind; each ``element_field``'s pair) or
+#: ``None`` (isolated) → the pairs' cycle-mean vertical force (B, 2) [N], their inflow
+#: (fore, hind; (B, n_blade) [m/s]) and what the backend returns of the pass.
+Run = Callable[[tuple[Any, Any] | None], tuple[Any, tuple[Any, Any], Any]]
+
+
+def vortex_reading(
+    fore: Pair,
+    hind: Pair,
+    run: Run,
+    speed: Any,
+    path_angle: Any,
+    scale: Any,
+    xp: ArrayNamespace,
+    wake: VortexWake = WAKE,
+) -> tuple[Any, Any]:
+    """The two pairs iterated to the fixed point of the vortex reading (docs/model.md §5.8
+    item 6); returns the last pass's result and the strokes (B,) whose fixed point converged.
+
+    Pass 0 is each pair isolated; its v̄ fixes both wakes' descent (so the geometry). Pass m
+    gives each pair the other's field of pass m − 1 (Jacobi). The fixed point is reached where
+    neither pair's cycle-mean vertical force moved by more than ``wake.tolerance`` times the
+    sum of both pairs' magnitudes in the last pass. ``speed`` V [m/s], ``path_angle`` γ [rad]
+    and ``scale`` (C_hf, 0 where the reading is off) are (B,).
+    """
+    force, inflow, result = run(None)
+    pairs = (fore, hind)
+    beats = (wake.fore_beats, wake.hind_beats)
+    lattices = [
+        lattice(p, disc_mean(p, v, xp), speed, path_angle, b, wake, xp)
+        for p, v, b in zip(pairs, inflow, beats, strict=True)
+    ]
+    to_elements = [
+        xp.constant_like(
+            span_interpolation(np.linspace(0.02, 0.98, wake.read_points), p.r / p.wing.length),
+            p.phase,
+        )
+        for p in pairs
+    ]
+    uniform = xp.constant_like(2.0 * np.pi * np.arange(wake.n_wake) / wake.n_wake, fore.phase)
+    to_grid = [periodic_interpolation(uniform[None], p.phase, xp) for p in pairs]
+    fields = None
+    converged = scale * 0.0 > 1.0
+    for _ in range(wake.max_passes):
+        gammas = [
+            circulation(p, v, None if fields is None else fields[w], xp)
+            for w, (p, v) in enumerate(zip(pairs, inflow, strict=True))
+        ]
+        fields = tuple(
+            element_field(
+                induced(lattices[1 - w], gammas[1 - w], pairs[w], wake, xp),
+                pairs[w],
+                to_grid[w],
+                to_elements[w],
+                scale,
+                xp,
+            )
+            for w in (0, 1)
+        )
+        previous = force
+        force, inflow, result = run(fields)
+        change = xp.max_along(xp.abs(force - previous), 1)
+        size = xp.abs(force).sum(1)
+        converged = change <= wake.tolerance * size
+        if bool(converged.all()):
+            break
+    return result, converged
+
+
+def kernel_reading(
+    wings: tuple[Any, Any],
+    params: tuple[np.ndarray, np.ndarray],
+    phases: np.ndarray,
+    run_pass: Callable[[tuple[Any, Any]], Any],
+    speed: np.ndarray,
+    path_angle: np.ndarray,
+    scale: np.ndarray,
+    insect: Any,
+    spin_total: bool,
+) -> Any:
+    """The vortex reading on the numba kernel: ``wings`` the fore and hind
+    ``bundle.WingBatch``, ``params`` their (B, 14) parameters [Hz, rad, -], ``phases`` (B, 2,
+    n_time) [rad]; ``run_pass(wings)`` runs the kernel on them and returns its
+    ``bundle.Outputs``. Returns the last pass's outputs, with the fixed point's convergence
+    folded into each wing's ``W_CONVERGED`` (``cycle``)."""
+
+    frame = on_namespace(blade.frame_columns, NUMPY)
+    pairs = []
+    for w, (batch, wing) in enumerate(zip(wings, (insect.fore, insect.hind), strict=True)):
+        beta = batch.beta[:, None]
+        columns = frame(batch.angles, ..., batch.weight, np.cos(beta), np.sin(beta), spin_total, 1)
+        coef = np.stack(np.broadcast_arrays(*columns), -1)[:, None]
+        root = np.array([-insect.root_spacing * w, ROOT_HALF_WIDTH, -insect.root_drop * w])
+        pairs.append(
+            Pair(params[w], coef, phases[:, w], batch.v_tangential, batch.v_normal, wing,
+                 np.array(batch.nodes[:, cycle.N_R]), np.array(batch.nodes[:, cycle.N_WIDTH]), root)
+        )  # fmt: skip
+
+    def run(fields: tuple[Any, Any] | None) -> tuple[Any, tuple[Any, Any], Any]:
+        if fields is None:
+            outputs = run_pass(wings)
+        else:
+            outputs = run_pass(
+                tuple(
+                    b._replace(external=np.ascontiguousarray(f[0]),
+                               external_inflow=np.ascontiguousarray(f[1]))
+                    for b, f in zip(wings, fields, strict=True)
+                )
+            )  # fmt: skip
+        inflow = (outputs.inflow[:, 0], outputs.inflow[:, 1])
+        return outputs.means[:, :, cycle.W_FZ], inflow, outputs
+
+    outputs, converged = vortex_reading(*pairs, run, speed, path_angle, scale, NUMPY, WAKE)
+    outputs.means[:, :, cycle.W_CONVERGED] *= converged[:, None]
+    return outputs
