@@ -572,7 +572,7 @@ def parametric_kernel_inputs(
     (per wing (B, n_time, 9) angle histories (φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈) and (B, n_time)
     quadrature weights, ``kinematics.fill_angle_history``; (B, 2) [Hz, rad, rad]) and
     ``phases`` (B, 2, n_time) [rad] (``kinematics.motion_grid``; with ``with_phases`` False,
-    (0, 2, n_time): only the convected slipstream reads them, and they cost 5 % of a call).
+    (0, 2, n_time): only the phase-resolved slipstreams read them, and they cost 5 % of a call).
     The step of :func:`evaluate_numba` between validation and :func:`run_kernel`.
     """
     batch = physical.shape[0]
@@ -654,7 +654,7 @@ def evaluate_numba(
         speed, available_power, flight_path_angle, batch, insect
     )
     angles, weights, frequency, beta, sweep, phases = parametric_kernel_inputs(
-        physical, options.n_time, options.slipstream == "convected"
+        physical, options.n_time, options.slipstream != "mean"
     )
     params = tuple(
         wing_params_radians(physical[:, w * N_PER_WING : (w + 1) * N_PER_WING]) for w in (0, 1)
