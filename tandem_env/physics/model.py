@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 from functools import lru_cache
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -354,6 +354,15 @@ def kernel_settings(insect: Dragonfly, options: ModelOptions, n_time: int) -> Se
     )  # fmt: skip
 
 
+class StrokeMotion(NamedTuple):
+    """What the phase-resolved slipstreams read of a parametric stroke (:func:`run_kernel`)."""
+
+    phases: np.ndarray | None
+    """(B, 2, n_time) each wing's sample phases ϑ = 2πft [rad], or None (uniform)."""
+    params: tuple[np.ndarray, np.ndarray] | None
+    """Each wing's (B, 14) parameters [Hz, rad, -] (the vortex reading), or None."""
+
+
 def run_kernel(
     angles,
     weights,
@@ -366,8 +375,7 @@ def run_kernel(
     options: ModelOptions,
     keep_history: bool = False,
     tables: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
-    phases: np.ndarray | None = None,
-    params: tuple[np.ndarray, np.ndarray] | None = None,
+    motion: StrokeMotion | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Run the compiled cycle on prepared angle histories (the step below :func:`evaluate_numba`).
 
@@ -377,14 +385,16 @@ def run_kernel(
     inflow per annulus (B, 2, n_blade) [m/s] and, with ``keep_history``, the per-sample earth-axis
     F_x, F_z, F_y [N] and P_aero, P_iner [W] of one wing (B, 2, n_time, 5). ``tables``
     replaces the insect's (nodes, constants) of the fore- and hind-wing (:func:`wing_tables`),
-    e.g. by single blade elements. ``phases``: (B, 2, n_time) each wing's sample phases
-    ϑ = 2πft [rad] (``kinematics.motion_grid``), read by ``options.slipstream="convected"`` only;
-    ``None``: uniform samples 2πk/n_time (measured kinematics). The convected slipstream follows
+    e.g. by single blade elements. ``motion`` (:class:`StrokeMotion`; None: neither part):
+    ``phases``, (B, 2, n_time) each wing's sample phases ϑ = 2πft [rad]
+    (``kinematics.motion_grid``), read by the phase-resolved slipstreams only; ``None``:
+    uniform samples 2πk/n_time (measured kinematics). The convected slipstream follows
     the whole fore-wing's loading, so it refuses ``tables`` (wings evaluated element by element).
     ``params``: each wing's (B, 14) parameters [Hz, rad, -], which the vortex reading
     (``options.slipstream="vortex"``, docs/model.md §5.8; ``interaction``) needs to place the
     wings; it refuses ``tables`` and runs without ``params`` only where it is off.
     """
+    phases, params = (None, None) if motion is None else motion
     convected = options.slipstream == "convected"
     vortex = options.slipstream == "vortex" and options.phase_resolved()
     if vortex and (tables is not None or params is None):
@@ -660,7 +670,7 @@ def evaluate_numba(
         wing_params_radians(physical[:, w * N_PER_WING : (w + 1) * N_PER_WING]) for w in (0, 1)
     )
     out, _, _ = run_kernel(
-        angles, weights, frequency, beta, sweep, v, gamma, insect, options, phases=phases,
-        params=params,
+        angles, weights, frequency, beta, sweep, v, gamma, insect, options,
+        motion=StrokeMotion(phases, params),
     )  # fmt: skip
     return _performance(out, v, gamma, p_avail, insect, options)
