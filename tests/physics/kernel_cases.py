@@ -14,8 +14,9 @@ option set of the torch-backend test (tests/physics/test_torch_backend.py), and 
 from __future__ import annotations
 
 import argparse
+import ast
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -29,8 +30,18 @@ from test_torch_backend import OPTION_SETS, _case
 FIXTURE = Path(__file__).parents[1] / "data" / "kernel_8e3cf19.npz"
 
 
-def cases(per_set: int, batch: int) -> Iterator[tuple[str, te.Result]]:
-    """(name, Result) of every case, in a fixed order."""
+def options_of(name: str) -> te.ModelOptions:
+    """The option set a case's name spells (``repr(ModelOptions(...))``, values literals)."""
+    body = name.removeprefix("ModelOptions(").removesuffix(")")
+    fields = (item.split("=", 1) for item in body.split(", "))
+    return te.ModelOptions(**{key: ast.literal_eval(value) for key, value in fields})
+
+
+def cases(
+    per_set: int, batch: int, option_sets: Sequence[te.ModelOptions] = OPTION_SETS
+) -> Iterator[tuple[str, te.Result]]:
+    """(name, Result) of every case, in a fixed order. ``option_sets``: the torch test's
+    (its pairwise covering grows with the options: the stored fixture names its own)."""
     table = load_reference_table()
     for s in table.series:
         strokes = te.normalised_to_physical(np.array([p["normalised_stroke"] for p in s.points]))
@@ -49,7 +60,7 @@ def cases(per_set: int, batch: int) -> Iterator[tuple[str, te.Result]]:
     rng = np.random.default_rng(2026)
     strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (batch, 28)))
     yield "mean-slipstream", te.evaluate(strokes, 1.0, options=te.ModelOptions(slipstream="mean"))
-    for index, options in enumerate(OPTION_SETS):
+    for index, options in enumerate(option_sets):
         insect = te.DRAGONFLY.with_planform(("tear-drop", "real")[index % 2])
         strokes, speed, gamma = _case(index, per_set)
         yield (
@@ -58,10 +69,12 @@ def cases(per_set: int, batch: int) -> Iterator[tuple[str, te.Result]]:
         )
 
 
-def stacked(per_set: int, batch: int) -> dict[str, np.ndarray]:
+def stacked(
+    per_set: int, batch: int, option_sets: Sequence[te.ModelOptions] = OPTION_SETS
+) -> dict[str, np.ndarray]:
     """Every case's fields concatenated, with each case's name and size."""
     names, sizes, fields = [], [], {}
-    for name, result in cases(per_set, batch):
+    for name, result in cases(per_set, batch, option_sets):
         names.append(name)
         sizes.append(len(result))
         for field, value in result.as_dict().items():
