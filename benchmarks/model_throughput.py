@@ -126,7 +126,7 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     print("* force sweeps over the cycle needed by a stroke's slowest annulus, mean over the batch")
     print()
     print("where the time goes at batch 1024 (coupled), ms per call (best wall, best CPU):")
-    angles, weights, frequency, beta, sweep, phases = model.parametric_kernel_inputs(
+    angles, weights, frequency, beta, sweep, motion = model.parametric_kernel_inputs(
         strokes, options.n_time
     )
     parts = {
@@ -144,7 +144,7 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
             np.zeros_like(speeds),
             te.DRAGONFLY,
             te.ModelOptions(induction="none"),
-            phases=phases,
+            motion=motion,
         ),
         "cycle with coupled inflow": lambda: model.run_kernel(
             angles,
@@ -156,7 +156,7 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
             np.zeros_like(speeds),
             te.DRAGONFLY,
             options,
-            phases=phases,
+            motion=motion,
         ),
         "whole evaluate()": lambda: te.evaluate(strokes, speeds),
     }

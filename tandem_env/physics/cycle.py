@@ -662,6 +662,20 @@ def stroke_wing(wing, b, coef):
 
 
 @njit(cache=True)
+def plain_cycle(batch, b, wing, settings, v_ext, solve, out_inflow, out, hist):
+    """:func:`wing_cycle` of stroke ``b`` without the convected slipstream: with the other
+    pair's field and upstream inflow where the vortex reading's pass gives them
+    (``batch.external``, docs/model.md §5.8), else with ``v_ext``."""
+    if batch.external.shape[0] > b:
+        wing_cycle(
+            wing, settings, batch.external_inflow[b], solve, out_inflow, out, hist, None, None,
+            batch.external[b],
+        )  # fmt: skip
+    else:
+        wing_cycle(wing, settings, v_ext, solve, out_inflow, out, hist)
+
+
+@njit(cache=True)
 def tandem_stroke(b, fore, hind, settings, outputs):
     """Cycle means of stroke ``b`` of a batch: the fore-wing first, then the hind-wing in its
     slipstream (see :func:`tandem_cycle` for the arguments)."""
@@ -690,13 +704,8 @@ def tandem_stroke(b, fore, hind, settings, outputs):
     solve = mode != MODE_NONE and not fore.inflow_off[b]
     if convect:
         wing_cycle(fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist, None, load)
-    elif fore.external.shape[0] > b:  # the vortex reading's pass (docs/model.md §5.8)
-        wing_cycle(
-            fore_wing, settings, fore.external_inflow[b], solve, out_inflow[b, 0], out[b, 0],
-            hist, None, None, fore.external[b],
-        )  # fmt: skip
     else:
-        wing_cycle(fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist)
+        plain_cycle(fore, b, fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist)
     if outputs.history.shape[0] > b:
         outputs.history[b, 0] = hist
     fill_frame_coefficients(hind.angles[b], hind.weight[b], hind.beta[b], spin_total, 1, coef_hind)
@@ -715,13 +724,8 @@ def tandem_stroke(b, fore, hind, settings, outputs):
             out_inflow[b, 0], settings, wake,
         )  # fmt: skip
         wing_cycle(hind_wing, settings, v_ext, solve, out_inflow[b, 1], out[b, 1], hist, wake)
-    elif hind.external.shape[0] > b:
-        wing_cycle(
-            hind_wing, settings, hind.external_inflow[b], solve, out_inflow[b, 1], out[b, 1],
-            hist, None, None, hind.external[b],
-        )  # fmt: skip
     else:
-        wing_cycle(hind_wing, settings, v_ext, solve, out_inflow[b, 1], out[b, 1], hist)
+        plain_cycle(hind, b, hind_wing, settings, v_ext, solve, out_inflow[b, 1], out[b, 1], hist)
     if outputs.history.shape[0] > b:
         outputs.history[b, 1] = hist
 

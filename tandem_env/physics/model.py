@@ -575,14 +575,15 @@ def flight_performance(
 
 def parametric_kernel_inputs(
     physical: np.ndarray, n_time: int, with_phases: bool = True
-) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray, np.ndarray, np.ndarray, StrokeMotion]:
     """The compiled kernel's inputs of a batch of physical strokes (B, 28) in Table 4 units
     (validated: ``stroke.validate_physical``), on ``n_time`` samples of the motion-following grid:
     ``angles``, ``weights``, ``frequency``, ``beta``, ``sweep`` as :func:`run_kernel` takes them
     (per wing (B, n_time, 9) angle histories (φ, φ̇, φ̈, θ, θ̇, θ̈, η, η̇, η̈) and (B, n_time)
-    quadrature weights, ``kinematics.fill_angle_history``; (B, 2) [Hz, rad, rad]) and
-    ``phases`` (B, 2, n_time) [rad] (``kinematics.motion_grid``; with ``with_phases`` False,
-    (0, 2, n_time): only the phase-resolved slipstreams read them, and they cost 5 % of a call).
+    quadrature weights, ``kinematics.fill_angle_history``; (B, 2) [Hz, rad, rad]) and the
+    :class:`StrokeMotion`: ``phases`` (B, 2, n_time) [rad] (``kinematics.motion_grid``; with
+    ``with_phases`` False, (0, 2, n_time): only the phase-resolved slipstreams read them, and
+    they cost 5 % of a call) and each wing's (B, 14) parameters in radians.
     The step of :func:`evaluate_numba` between validation and :func:`run_kernel`.
     """
     batch = physical.shape[0]
@@ -594,10 +595,12 @@ def parametric_kernel_inputs(
         np.empty((batch, 2)),
     )
     phases = np.empty((batch if with_phases else 0, 2, n_time))
+    wings = []
     for w in range(2):
         params = np.ascontiguousarray(
             wing_params_radians(physical[:, w * N_PER_WING : (w + 1) * N_PER_WING])
         )
+        wings.append(params)
         a = np.empty((batch, n_time, 9))
         wt = np.empty((batch, n_time))
         if batch >= SERIAL_BELOW:
@@ -612,7 +615,7 @@ def parametric_kernel_inputs(
         sweep[:, w] = params[:, 1]
         if with_phases:
             phases[:, w] = motion_grid(params, n_time)[0]
-    return angles, weights, frequency, beta, sweep, phases
+    return angles, weights, frequency, beta, sweep, StrokeMotion(phases, tuple(wings))
 
 
 def evaluate_numba(
@@ -663,14 +666,10 @@ def evaluate_numba(
     v, p_avail, gamma = validate_conditions(
         speed, available_power, flight_path_angle, batch, insect
     )
-    angles, weights, frequency, beta, sweep, phases = parametric_kernel_inputs(
+    angles, weights, frequency, beta, sweep, motion = parametric_kernel_inputs(
         physical, options.n_time, options.slipstream != "mean"
     )
-    params = tuple(
-        wing_params_radians(physical[:, w * N_PER_WING : (w + 1) * N_PER_WING]) for w in (0, 1)
-    )
     out, _, _ = run_kernel(
-        angles, weights, frequency, beta, sweep, v, gamma, insect, options,
-        motion=StrokeMotion(phases, params),
-    )  # fmt: skip
+        angles, weights, frequency, beta, sweep, v, gamma, insect, options, motion=motion
+    )
     return _performance(out, v, gamma, p_avail, insect, options)
