@@ -114,6 +114,9 @@ def fourier_tables(n_time: int) -> tuple[np.ndarray, np.ndarray]:
 #: the root to O(p''·δ³) ≈ 1e-18 relative, one evaluation of the series sooner.
 NEWTON_SHORT = 1e-6
 
+#: Bisections of :func:`turning_point` in an interval of 2π/n: 2π/128·2⁻⁴⁰ ≈ 4e-14 [rad].
+TURNING_BISECTIONS = 40
+
 #: Independent partial sums of the interpolant's series in :func:`_trig_eval`: harmonics
 #: m ≡ i (mod 4) run in four chains, so that their rotations overlap instead of waiting on
 #: one another.
@@ -257,50 +260,115 @@ def _trig_eval(a0, series, s):
 
 
 @njit(cache=True)
-def positive_part_of_series(g, a0, series):
+def _crossing(a0, series, lo, width, f_lo, f_hi):
+    """The zero crossing of the interpolant in [lo, lo + width], where it goes from ``f_lo`` to
+    ``f_hi`` (of the other sign): (s [rad], P(s)). Linear guess, then Newton kept inside the
+    bracket (bisection where a step would leave it)."""
+    hi = lo + width
+    x = lo + width * f_lo / (f_lo - f_hi)
+    big_p = 0.0
+    for _ in range(6):
+        p, dp, big_p = _trig_eval(a0, series, x)
+        if (p > 0.0) == (f_lo > 0.0):
+            lo = x
+        else:
+            hi = x
+        newton = dp != 0.0
+        x_new = x - p / dp if newton else 0.5 * (lo + hi)
+        if not lo <= x_new <= hi:
+            x_new = 0.5 * (lo + hi)
+            newton = False
+        if newton and abs(x_new - x) < NEWTON_SHORT:
+            # P at the root from the last point, P(x + δ) = P + p·δ + ½p'·δ² with the
+            # Newton step δ = −p/p': exact to O(p''·δ³), the root's own error (O(δ²))
+            # entering only squared (the integrand vanishes there)
+            big_p -= 0.5 * p * p / dp
+            x = x_new
+            break
+        if abs(x_new - x) < 1e-11:
+            break
+        x = x_new
+    return x, big_p
+
+
+@njit(cache=True)
+def sample_slopes(series, n, cos_table, sin_table):
+    """p'(s_k) of one row's interpolant at its n samples (n,): the series m·b_m, −m·a_m
+    transformed back (:func:`_fft` of the conjugate) for n a power of two, O(n log n); else
+    evaluated sample by sample."""
+    n_modes = cos_table.shape[1]
+    re = np.zeros(n)
+    im = np.zeros(n)
+    if n & (n - 1) == 0:
+        for j in range(n_modes):
+            re[j + 1] = series[3, j]
+            im[j + 1] = -series[2, j]
+        _fft(re, im, cos_table, sin_table)
+    else:
+        for k in range(n):
+            re[k] = _trig_eval(0.0, series, 2.0 * np.pi * k / n)[1]
+    return re
+
+
+@njit(cache=True)
+def turning_point(a0, series, lo, hi):
+    """The zero of p' in [lo, hi] where p' changes sign (bisection, to the last bits: the same
+    steps on both backends): (s [rad], p(s))."""
+    slope_lo = _trig_eval(a0, series, lo)[1]
+    for _ in range(TURNING_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        slope = _trig_eval(a0, series, mid)[1]
+        if (slope > 0.0) == (slope_lo > 0.0):
+            lo, slope_lo = mid, slope
+        else:
+            hi = mid
+    x = 0.5 * (lo + hi)
+    return x, _trig_eval(a0, series, x)[0]
+
+
+@njit(cache=True)
+def positive_part_of_series(g, a0, series, cos_table, sin_table):
     """Cycle mean of max(g, 0) of n periodic samples g at s_k = 2πk/n from the coefficients of
-    their interpolant (:func:`fourier_coefficients`: ``a0`` and ``series``, one row)."""
+    their interpolant (:func:`fourier_coefficients`: ``a0`` and ``series``, one row).
+
+    Its zero crossings are found interval by interval. Where p' has one sign over an interval,
+    p is taken as monotone there: one crossing if the samples change sign. Where p' changes
+    sign, p turns inside the interval (:func:`turning_point`), and each of the two monotone
+    pieces has a crossing where its end values differ in sign. Without the turning points,
+    p dipping across zero between two samples of one sign would be missed until a sample
+    crossed zero, and the mean would jump there (docs/model.md §11)."""
     n = g.shape[0]
     h = 2.0 * np.pi / n
-    roots = np.empty(n)
-    antiderivative = np.empty(n)
-    after_positive = np.empty(n, dtype=np.bool_)
+    slopes = sample_slopes(series, n, cos_table, sin_table)
+    roots = np.empty(2 * n)
+    antiderivative = np.empty(2 * n)
+    after_positive = np.empty(2 * n, dtype=np.bool_)
     n_roots = 0
     for k in range(n):
         g0 = g[k]
         g1 = g[(k + 1) % n]
-        if (g0 > 0.0) == (g1 > 0.0):
-            continue
         lo = k * h
-        hi = lo + h
-        # linear guess, then Newton on the interpolant kept inside [lo, hi]
-        x = lo + h * g0 / (g0 - g1)
-        big_p = 0.0
-        for _ in range(6):
-            p, dp, big_p = _trig_eval(a0, series, x)
-            if (p > 0.0) == (g0 > 0.0):
-                lo = x
-            else:
-                hi = x
-            newton = dp != 0.0
-            x_new = x - p / dp if newton else 0.5 * (lo + hi)
-            if not lo <= x_new <= hi:
-                x_new = 0.5 * (lo + hi)
-                newton = False
-            if newton and abs(x_new - x) < NEWTON_SHORT:
-                # P at the root from the last point, P(x + δ) = P + p·δ + ½p'·δ² with the
-                # Newton step δ = −p/p': exact to O(p''·δ³), the root's own error (O(δ²))
-                # entering only squared (the integrand vanishes there)
-                big_p -= 0.5 * p * p / dp
-                x = x_new
-                break
-            if abs(x_new - x) < 1e-11:
-                break
-            x = x_new
-        roots[n_roots] = x
-        antiderivative[n_roots] = big_p
-        after_positive[n_roots] = g1 > 0.0
-        n_roots += 1
+        if (slopes[k] > 0.0) == (slopes[(k + 1) % n] > 0.0):
+            if (g0 > 0.0) != (g1 > 0.0):
+                x, big_p = _crossing(a0, series, lo, h, g0, g1)
+                roots[n_roots] = x
+                antiderivative[n_roots] = big_p
+                after_positive[n_roots] = g1 > 0.0
+                n_roots += 1
+            continue
+        x_turn, p_turn = turning_point(a0, series, lo, lo + h)
+        if (g0 > 0.0) != (p_turn > 0.0):
+            x, big_p = _crossing(a0, series, lo, x_turn - lo, g0, p_turn)
+            roots[n_roots] = x
+            antiderivative[n_roots] = big_p
+            after_positive[n_roots] = p_turn > 0.0
+            n_roots += 1
+        if (p_turn > 0.0) != (g1 > 0.0):
+            x, big_p = _crossing(a0, series, x_turn, lo + h - x_turn, p_turn, g1)
+            roots[n_roots] = x
+            antiderivative[n_roots] = big_p
+            after_positive[n_roots] = g1 > 0.0
+            n_roots += 1
     if n_roots == 0:
         return max(a0, 0.0) if g[0] > 0.0 else 0.0
     total = 0.0
@@ -327,7 +395,7 @@ def mean_positive_part(g, cos_table, sin_table):
     rows = np.zeros((2, g.shape[0]))
     rows[0] = g
     series, a0 = fourier_coefficients(rows, cos_table, sin_table)
-    return positive_part_of_series(g, a0[0], series[0])
+    return positive_part_of_series(g, a0[0], series[0], cos_table, sin_table)
 
 
 #: Rows of the cycle means' Fourier analysis (:func:`cycle_means`), paired two by two into
@@ -367,14 +435,16 @@ def cycle_means(histories, weight, out, cos_table, sin_table):
     mean_iner /= n_time
     series, a0 = fourier_coefficients(g, cos_table, sin_table)
     # T = mean F_x⁺, D = mean F_x⁻ = T − mean F_x; mean|P| = 2·mean P⁺ − mean P
-    out[W_THRUST] = positive_part_of_series(g[_FX], a0[_FX], series[_FX])
+    out[W_THRUST] = positive_part_of_series(g[_FX], a0[_FX], series[_FX], cos_table, sin_table)
     out[W_DRAG] = max(out[W_THRUST] - out[W_FX], 0.0)
-    aero = positive_part_of_series(g[_AERO], a0[_AERO], series[_AERO])
+    aero = positive_part_of_series(g[_AERO], a0[_AERO], series[_AERO], cos_table, sin_table)
     out[W_P_AERO_POSITIVE] = aero
     out[W_P_AERO] = max(2.0 * aero - mean_aero, 0.0)
-    iner = positive_part_of_series(g[_INER], a0[_INER], series[_INER])
+    iner = positive_part_of_series(g[_INER], a0[_INER], series[_INER], cos_table, sin_table)
     out[W_P_INER] = max(2.0 * iner - mean_iner, 0.0)
-    out[W_P_ELASTIC] = positive_part_of_series(g[_ELASTIC], a0[_ELASTIC], series[_ELASTIC])
+    out[W_P_ELASTIC] = positive_part_of_series(
+        g[_ELASTIC], a0[_ELASTIC], series[_ELASTIC], cos_table, sin_table
+    )
 
 
 @njit(cache=True)

@@ -559,10 +559,53 @@ def _trig(coef_a0, coef_a, coef_b, x, harmonics):
     return value, slope, integral
 
 
+def _crossings(ca0, ca, cb, lo, width, f_lo, f_hi, harmonics):
+    """The zero crossings (x (R,), the positions its Newton iterations evaluated) of series
+    rows ca0, ca, cb in [lo, lo + width] from ``f_lo`` to ``f_hi`` (``cycle._crossing``), with
+    no gradient: the mean's derivative does not depend on where the roots are (p = 0 there)."""
+    hi = lo + width
+    x = lo + width * f_lo / (f_lo - f_hi)
+    x_eval = x.clone()
+    live = torch.arange(x.numel(), device=x.device)  # the crossings still iterating
+    for _ in range(6):
+        xs = x[live]
+        p, dp, _ = _trig(ca0[live], ca[live], cb[live], xs, harmonics)
+        x_eval[live] = xs
+        same = (p > 0.0) == (f_lo[live] > 0.0)
+        lo_l = torch.where(same, xs, lo[live])
+        hi_l = torch.where(same, hi[live], xs)
+        lo[live], hi[live] = lo_l, hi_l
+        mid = 0.5 * (lo_l + hi_l)
+        x_new = torch.where(dp != 0.0, xs - p / torch.where(dp != 0.0, dp, 1.0), mid)
+        x_new = torch.where((lo_l <= x_new) & (x_new <= hi_l), x_new, mid)
+        close = (x_new - xs).abs() < 1e-11
+        x[live] = torch.where(close, xs, x_new)
+        live = live[~close]
+        if live.numel() == 0:
+            break
+    return x_eval
+
+
+def _turning_points(ca0, ca, cb, lo, hi, harmonics):
+    """The zero of p' in each [lo, hi] where it changes sign, by the bisections of
+    ``cycle.turning_point``: (x, p(x)), no gradient."""
+    slope_lo = _trig(ca0, ca, cb, lo, harmonics)[1]
+    for _ in range(cycle.TURNING_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        slope = _trig(ca0, ca, cb, mid, harmonics)[1]
+        same = (slope > 0.0) == (slope_lo > 0.0)
+        lo = torch.where(same, mid, lo)
+        slope_lo = torch.where(same, slope, slope_lo)
+        hi = torch.where(same, hi, mid)
+    x = 0.5 * (lo + hi)
+    return x, _trig(ca0, ca, cb, x, harmonics)[0]
+
+
 def mean_positive_part(g: torch.Tensor) -> torch.Tensor:
     """Cycle means of max(g, 0) of (G, n) periodic series on s_k = 2πk/n, to spectral accuracy
-    (``cycle.mean_positive_part``: the trigonometric interpolant integrated exactly between its
-    zero crossings, each located by safeguarded Newton from the linear guess)."""
+    (``cycle.positive_part_of_series``: the trigonometric interpolant integrated exactly between
+    its zero crossings, found interval by interval, split at a turning point where p' changes
+    sign, each located by safeguarded Newton from the linear guess)."""
     n_series, n = g.shape
     cos_t, sin_t = (
         torch.tensor(t, dtype=g.dtype, device=g.device) for t in cycle.fourier_tables(n)
@@ -571,48 +614,46 @@ def mean_positive_part(g: torch.Tensor) -> torch.Tensor:
     a0 = g.sum(-1) / n
     a = 2.0 * (g @ cos_t) / n
     b = 2.0 * (g @ sin_t) / n
-    positive = g > 0.0
-    change = positive != torch.roll(positive, -1, dims=1)
-    series, k = torch.nonzero(change, as_tuple=True)  # row-major: by series, then k
     h = _TWO_PI / n
-    out = torch.where(positive[:, 0], torch.clamp(a0, min=0.0), torch.zeros_like(a0))
-    if series.numel() == 0:
-        return out
-    ca0, ca, cb = a0[series], a[series], b[series]
-    g0 = g[series, k].detach()
-    g1 = g[series, (k + 1) % n].detach()
+    out = torch.where(g[:, 0] > 0.0, torch.clamp(a0, min=0.0), torch.zeros_like(a0))
     with torch.no_grad():
-        ca0d, cad, cbd = ca0.detach(), ca.detach(), cb.detach()
-        lo = k.to(g.dtype) * h
-        hi = lo + h
-        x = lo + h * g0 / (g0 - g1)
-        x_eval = x.clone()
-        live = torch.arange(x.numel(), device=g.device)  # the crossings still iterating
-        for _ in range(6):
-            xs = x[live]
-            p, dp, _ = _trig(ca0d[live], cad[live], cbd[live], xs, harmonics)
-            x_eval[live] = xs
-            same = (p > 0.0) == (g0[live] > 0.0)
-            lo_l = torch.where(same, xs, lo[live])
-            hi_l = torch.where(same, hi[live], xs)
-            lo[live], hi[live] = lo_l, hi_l
-            mid = 0.5 * (lo_l + hi_l)
-            x_new = torch.where(dp != 0.0, xs - p / torch.where(dp != 0.0, dp, 1.0), mid)
-            x_new = torch.where((lo_l <= x_new) & (x_new <= hi_l), x_new, mid)
-            close = (x_new - xs).abs() < 1e-11
-            x[live] = torch.where(close, xs, x_new)
-            live = live[~close]
-            if live.numel() == 0:
-                break
-    big_p = _trig(ca0, ca, cb, x_eval, harmonics)[2]
-    # each positive arc runs from a crossing upwards to the next crossing of its series
+        gd, a0d, ad, bd = g.detach(), a0.detach(), a.detach(), b.detach()
+        slopes = (bd * harmonics) @ cos_t.T - (ad * harmonics) @ sin_t.T  # p'(s_k), (G, n)
+        turning = (slopes > 0.0) != (torch.roll(slopes, -1, dims=1) > 0.0)
+        g_next = torch.roll(gd, -1, dims=1)
+        # pieces (series, lo, width, value at lo, value at hi): whole intervals where p' keeps
+        # its sign, the two halves of the others split at their turning point
+        series_w, k_w = torch.nonzero(~turning & ((gd > 0.0) != (g_next > 0.0)), as_tuple=True)
+        series_t, k_t = torch.nonzero(turning, as_tuple=True)
+        lo_t = k_t.to(g.dtype) * h
+        x_t, p_t = _turning_points(
+            a0d[series_t], ad[series_t], bd[series_t], lo_t, lo_t + h, harmonics
+        )
+        g0_t, g1_t = gd[series_t, k_t], g_next[series_t, k_t]
+        first = (g0_t > 0.0) != (p_t > 0.0)
+        second = (p_t > 0.0) != (g1_t > 0.0)
+        lo_w = k_w.to(g.dtype) * h
+        pieces = (
+            (series_w, lo_w, torch.full_like(lo_w, h), gd[series_w, k_w], g_next[series_w, k_w]),
+            (series_t[first], lo_t[first], (x_t - lo_t)[first], g0_t[first], p_t[first]),
+            (series_t[second], x_t[second], (lo_t + h - x_t)[second], p_t[second], g1_t[second]),
+        )
+        series = torch.cat([piece[0] for piece in pieces])
+        if series.numel() == 0:
+            return out
+        lo, width, f_lo, f_hi = (torch.cat([piece[i] for piece in pieces]) for i in range(1, 5))
+        x = _crossings(a0d[series], ad[series], bd[series], lo, width, f_lo, f_hi, harmonics)
+        # by series, then position: each positive arc runs to the next crossing of its series
+        order = torch.argsort(series.to(g.dtype) * 2.0 * _TWO_PI + x)
+        series, x, rising = series[order], x[order], (f_hi > 0.0)[order]
+    big_p = _trig(a0[series], a[series], b[series], x, harmonics)[2]
     count = torch.bincount(series, minlength=n_series)
-    first = torch.cumsum(count, 0) - count
+    first_of = torch.cumsum(count, 0) - count
     index = torch.arange(series.numel(), device=g.device)
-    last = index == first[series] + count[series] - 1
-    following = torch.where(last, first[series], index + 1)
-    wrap = torch.where(last, _TWO_PI * ca0, torch.zeros_like(ca0))
-    arcs = torch.where(g1 > 0.0, big_p[following] + wrap - big_p, torch.zeros_like(big_p))
+    last = index == first_of[series] + count[series] - 1
+    following = torch.where(last, first_of[series], index + 1)
+    wrap = torch.where(last, _TWO_PI * a0[series], torch.zeros_like(big_p))
+    arcs = torch.where(rising, big_p[following] + wrap - big_p, torch.zeros_like(big_p))
     total = torch.zeros_like(a0).index_add(0, series, arcs)
     return torch.where(count > 0, torch.clamp(total, min=0.0) / _TWO_PI, out)
 

@@ -2,11 +2,9 @@
 trigonometric interpolant of the samples integrated exactly between its zero crossings.
 
 A crossing pair can sit between two samples of one sign (the interpolant dips across zero and
-back). Found only once a sample crossed zero, such a pair makes the mean jump there, by the
-area of the dip, and makes the model's thrust and power discontinuous in the stroke (a local
-optimiser then stalls on the jump). These tests hold the mean continuous and exact; today's
-kernel does not pass them yet (docs/model.md §11.2, "A known defect"): they are strict
-expected failures, which flag when the crossings between samples are found.
+back). Found only once a sample crossed zero, such a pair made the mean jump there, by the
+area of the dip, and made the model's thrust and power discontinuous in the stroke (a local
+optimiser then stalls on the jump). These tests hold the mean continuous and exact.
 """
 
 from __future__ import annotations
@@ -16,12 +14,6 @@ import pytest
 import torch
 
 from tandem_env.physics import cycle, torch_model
-
-#: The known defect these tests hold (docs/model.md §11.2).
-MISSED_PAIRS = pytest.mark.xfail(
-    strict=True,
-    reason="crossing pairs between two samples of one sign are missed (docs/model.md §11.2)",
-)
 
 N = 128
 H = 2.0 * np.pi / N
@@ -50,7 +42,6 @@ def numba_mean(g: np.ndarray) -> float:
 
 
 @pytest.mark.parametrize("c", [-2e-4, -1e-4, -3e-5, -1e-6])
-@MISSED_PAIRS
 def test_a_dip_between_samples_of_one_sign_is_integrated_exactly(c):
     g = dip(c)
     assert np.all(g > 0.0)  # the samples do not see the dip
@@ -59,7 +50,6 @@ def test_a_dip_between_samples_of_one_sign_is_integrated_exactly(c):
     assert numba_mean(g) > g.mean()  # the dip's negative area is left out
 
 
-@MISSED_PAIRS
 def test_the_mean_is_continuous_as_a_dip_crosses_the_samples():
     # c from inside the samples' reach to past it: the mean's slope is the share of the cycle
     # where the integrand is positive (≤ 1), so no step may exceed the change of c
@@ -74,7 +64,6 @@ def test_the_mean_is_continuous_as_a_dip_crosses_the_samples():
     np.testing.assert_allclose(means, [exact(c) for c in cs], rtol=1e-10)
 
 
-@MISSED_PAIRS
 def test_torch_twin_agrees_and_differentiates_through_a_dip():
     cs = (-2e-4, -1e-4, 5e-5, -4e-4)
     g = torch.tensor(np.array([dip(c) for c in cs]), requires_grad=True)
