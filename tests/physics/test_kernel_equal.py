@@ -11,6 +11,14 @@ difference below 1e-6.
 The summation order of the sweeps and Fourier sums changed (docs/model.md §12), so an inflow
 solve whose stopping test sits within rounding of its tolerance could stop one sweep earlier or
 later; such a stroke is listed by name, not hidden.
+
+The positive-part means (thrust, drag and the powers) moved on purpose: 8e3cf19 missed the
+interpolant's crossings between two samples of one sign (tests/physics/test_positive_part.py;
+docs/model.md §11), on about one stroke in six of these cases. A missed crossing pair only ever
+left out positive area (a negative dip counted, or a positive hump dropped), so today's values
+of those fields are never below 8e3cf19's (but for the ~1e-10 to which a crossing pair near a
+double root is located); the count of strokes that moved is printed. The
+efficiency and the literal horizontal excess are computed from them and are not compared.
 """
 
 from __future__ import annotations
@@ -39,31 +47,55 @@ TERMS = {
     "excess_vertical": lambda r: _terms(r)[0],
     "excess_horizontal": lambda r: _terms(r)[1],
     "excess_total": lambda r: np.minimum(*_terms(r)),
+    # D = T − F̄_x, a difference too: one rounding of T is 1e-16 of T, not of D
+    "drag": lambda r: np.abs(r["thrust"]),
 }
+
+
+#: Fields that are (sums of) positive-part means: today's >= 8e3cf19's.
+POSITIVE_PARTS = (
+    "thrust",
+    "drag",
+    "power",
+    "power_per_mass",
+    *(f"{wing}_{kind}" for wing in ("fore", "hind") for kind in ("power", "aero_power")),
+    *(f"{wing}_inertial_power" for wing in ("fore", "hind")),
+)
+#: Fields computed from the positive parts: not compared.
+FROM_POSITIVE_PARTS = ("efficiency", "excess_horizontal_literal")
 
 
 def compare(
     expected: dict[str, np.ndarray], got: dict[str, np.ndarray]
-) -> tuple[float, str, list[str]]:
-    """The largest relative difference of any float field, where it is ('field: case #i'),
-    and the strokes ('case #i') whose flags or counts differ."""
+) -> tuple[float, str, list[str], int, float]:
+    """The largest relative difference of any float field but the positive parts, where it is
+    ('field: case #i'), the strokes ('case #i') whose flags or counts differ, the number of
+    strokes whose positive parts moved beyond :data:`RELATIVE`, and the largest fall of a
+    positive part below 8e3cf19's (relative)."""
     assert list(got["case_names"]) == list(expected["case_names"]), "regenerate the fixture"
     case = np.repeat(expected["case_names"], expected["case_sizes"])
     index = np.concatenate([np.arange(n) for n in expected["case_sizes"]])
     worst, where, flipped = 0.0, "", set()
+    moved = np.zeros(len(case), dtype=bool)
+    fall = 0.0
     for name, want in expected.items():
-        if name in ("case_names", "case_sizes", "per_set", "batch"):
+        if name in ("case_names", "case_sizes", "per_set", "batch", *FROM_POSITIVE_PARTS):
             continue
         have = got[name]
         if want.dtype == bool or np.issubdtype(want.dtype, np.integer):
             flipped |= {f"{case[i]} #{index[i]}" for i in np.flatnonzero(have != want)}
         else:
             floor = np.maximum(TERMS[name](expected), FLOOR) if name in TERMS else FLOOR
-            error = np.abs(have - want) / np.maximum(np.abs(want), floor)
+            scale = np.maximum(np.abs(want), floor)
+            if name in POSITIVE_PARTS:
+                moved |= np.abs(have - want) > RELATIVE * scale
+                fall = max(fall, float(np.max((want - have) / scale)))
+                continue
+            error = np.abs(have - want) / scale
             i = int(np.argmax(error))
             if error[i] > worst:
                 worst, where = float(error[i]), f"{name}: {case[i]} #{index[i]}"
-    return worst, where, sorted(flipped)
+    return worst, where, sorted(flipped), int(moved.sum()), fall
 
 
 def test_kernel_equals_its_previous_version() -> None:
@@ -71,7 +103,11 @@ def test_kernel_equals_its_previous_version() -> None:
     # the option sets the fixture was written with (the torch test's covering has grown since)
     names = [str(n) for n in expected["case_names"] if str(n).startswith("ModelOptions(")]
     got = stacked(int(expected["per_set"]), int(expected["batch"]), [options_of(n) for n in names])
-    worst, where, flipped = compare(expected, got)
+    worst, where, flipped, moved, fall = compare(expected, got)
     print(f"largest relative difference {worst:.3g} ({where}); stops flipped: {flipped or 'none'}")
+    print(f"positive parts moved on {moved} of {sum(expected['case_sizes'])} strokes")
     assert not flipped, f"inflow solves that stop at another sweep: {flipped}"
     assert worst <= RELATIVE, worst
+    # a crossing pair near a double root is located to ~1e-10 of the mean (six Newton steps,
+    # tests/physics/test_positive_part.py), in either direction
+    assert fall <= 1e-9, f"a positive part fell below 8e3cf19's by {fall:.3g}"
