@@ -586,18 +586,29 @@ def _crossings(ca0, ca, cb, lo, width, f_lo, f_hi, harmonics):
     return x_eval
 
 
-def _turning_points(ca0, ca, cb, lo, hi, harmonics):
-    """The zero of p' in each [lo, hi] where it changes sign, by the bisections of
-    ``cycle.turning_point``: (x, p(x)), no gradient."""
-    slope_lo = _trig(ca0, ca, cb, lo, harmonics)[1]
-    for _ in range(cycle.TURNING_BISECTIONS):
-        mid = 0.5 * (lo + hi)
-        slope = _trig(ca0, ca, cb, mid, harmonics)[1]
-        same = (slope > 0.0) == (slope_lo > 0.0)
-        lo = torch.where(same, mid, lo)
-        slope_lo = torch.where(same, slope, slope_lo)
-        hi = torch.where(same, hi, mid)
-    x = 0.5 * (lo + hi)
+def _turning_points(ca0, ca, cb, lo, hi, slope_lo, slope_hi, harmonics):
+    """The zero of p' in each [lo, hi] where it goes from ``slope_lo`` to ``slope_hi``, by the
+    Illinois steps of ``cycle.turning_point`` (each stops as it does there): (x, p(x)), no
+    gradient."""
+    x = lo.clone()
+    kept = torch.zeros_like(lo)  # +1: lo was kept by the last step, −1: hi
+    live = torch.ones_like(lo, dtype=torch.bool)
+    for _ in range(cycle.TURNING_STEPS):
+        x_new = (lo * slope_hi - hi * slope_lo) / (slope_hi - slope_lo)
+        x_new = torch.where((lo < x_new) & (x_new < hi), x_new, 0.5 * (lo + hi))
+        step = (x_new - x).abs()
+        x = torch.where(live, x_new, x)
+        slope = _trig(ca0, ca, cb, x, harmonics)[1]
+        live = live & (slope != 0.0) & (step >= cycle.TURNING_SHORT)
+        if not bool(live.any()):
+            break
+        new_lo = live & ((slope > 0.0) == (slope_lo > 0.0))
+        new_hi = live & ~new_lo
+        slope_hi = torch.where(new_lo & (kept == -1.0), 0.5 * slope_hi, slope_hi)
+        slope_lo = torch.where(new_hi & (kept == 1.0), 0.5 * slope_lo, slope_lo)
+        lo, slope_lo = torch.where(new_lo, x, lo), torch.where(new_lo, slope, slope_lo)
+        hi, slope_hi = torch.where(new_hi, x, hi), torch.where(new_hi, slope, slope_hi)
+        kept = torch.where(new_lo, -1.0, torch.where(new_hi, 1.0, kept))
     return x, _trig(ca0, ca, cb, x, harmonics)[0]
 
 
@@ -627,8 +638,9 @@ def mean_positive_part(g: torch.Tensor) -> torch.Tensor:
         series_t, k_t = torch.nonzero(turning, as_tuple=True)
         lo_t = k_t.to(g.dtype) * h
         x_t, p_t = _turning_points(
-            a0d[series_t], ad[series_t], bd[series_t], lo_t, lo_t + h, harmonics
-        )
+            a0d[series_t], ad[series_t], bd[series_t], lo_t, lo_t + h,
+            slopes[series_t, k_t], torch.roll(slopes, -1, dims=1)[series_t, k_t], harmonics,
+        )  # fmt: skip
         g0_t, g1_t = gd[series_t, k_t], g_next[series_t, k_t]
         first = (g0_t > 0.0) != (p_t > 0.0)
         second = (p_t > 0.0) != (g1_t > 0.0)
