@@ -158,6 +158,59 @@ def machine_limits() -> dict[str, float]:
     }
 
 
+def stages(te, options, strokes, inputs, repeats: int = 3) -> dict[str, float]:
+    """CPU ms per call of one thread, the call split where its time goes: the angle histories
+    (``parametric_kernel_inputs``), the frame coefficients and the cycle means of both wings
+    (each timed alone in a compiled loop over the batch), the rest of the kernel (the force
+    sweeps, slopes and span integrals of the inflow solve) and what is left outside it."""
+    import numba
+
+    from tandem_env.physics import blade, cycle, model
+
+    numba.set_num_threads(1)
+
+    @numba.njit
+    def frames(angles, weight, beta, out):
+        for b in range(angles.shape[0]):
+            blade.fill_frame_coefficients(angles[b], weight[b], beta[b], True, 1, out)
+
+    @numba.njit
+    def means(history, weight, out, cos_table, sin_table):
+        for b in range(history.shape[0]):
+            for wing in range(2):
+                cycle.cycle_means(history[b, wing], weight[wing, b], out, cos_table, sin_table)
+
+    angles, weights, _, beta, _, _ = inputs
+    speed, path = np.ones(len(strokes)), np.zeros(len(strokes))
+    history = model.run_kernel(*inputs[:5], speed, path, te.DRAGONFLY, options,
+                               keep_history=True).history  # fmt: skip
+    coef = np.empty((options.n_time, blade.N_COEF))
+    out = np.empty(cycle.N_WING_OUT)
+    tables = cycle.fourier_tables(options.n_time)
+    calls = {
+        "whole call": lambda: te.evaluate(strokes, 1.0, options=options),
+        "angle histories": lambda: model.parametric_kernel_inputs(strokes, options.n_time, False),
+        "kernel": lambda: model.run_kernel(*inputs[:5], speed, path, te.DRAGONFLY, options),
+        "frame coefficients": lambda: [
+            frames(angles[w], weights[w], np.ascontiguousarray(beta[:, w]), coef) for w in (0, 1)
+        ],
+        "cycle means": lambda: means(history, np.stack(weights), out, *tables),
+    }
+    for call in calls.values():
+        call()
+    ms = {k: 1e3 * min(seconds_per_call(c, 1)[1] for _ in range(repeats)) for k, c in calls.items()}
+    return {
+        "angle histories": ms["angle histories"],
+        "frame coefficients": ms["frame coefficients"],
+        "cycle means": ms["cycle means"],
+        "sweeps, slopes and span integrals": ms["kernel"]
+        - ms["frame coefficients"]
+        - ms["cycle means"],
+        "outside the kernel": ms["whole call"] - ms["angle histories"] - ms["kernel"],
+        "whole call": ms["whole call"],
+    }
+
+
 def clock_ghz() -> float:
     for line in Path("/proc/cpuinfo").read_text().splitlines():
         if line.startswith("cpu MHz"):
@@ -195,7 +248,10 @@ def main() -> None:
               + per_stroke["slopes"] * ops["slope"].get(key, 0)) / annuli + ops["span"].get(key, 0)
         for key in ("flop", "div", "sqrt", "libm")
     }  # fmt: skip
-    numbers |= {"per_stroke": per_stroke, "operations": ops, "per_element_sample": per_sample}
+    numbers |= {"per_stroke": per_stroke, "operations": ops, "per_element_sample": per_sample,
+                "stages_ms": stages(te, options, strokes, inputs)}  # fmt: skip
+    print("where the time goes (CPU ms per call, 1 thread):",
+          ", ".join(f"{k} {v:.1f}" for k, v in numbers["stages_ms"].items()))  # fmt: skip
     tree = ROOT / "results" / "roofline" / args.commit
     if not (tree / "tandem_env").exists():
         tree.mkdir(parents=True, exist_ok=True)

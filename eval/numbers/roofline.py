@@ -39,6 +39,15 @@ def render_roofline(data: dict[str, Any]) -> str:
         f"{e['flop'] / fma:.1f} cycles (flops) and {divider:.1f} cycles (square roots and "
         "divisions) per element sample |",
         "",
+        "| where the time goes, 1 thread | " + " | ".join(data["stages_ms"]) + " |",
+        "|---" * (len(data["stages_ms"]) + 1) + "|",
+        "| CPU ms per call (share) | "
+        + " | ".join(
+            f"{v:.1f} ({100 * v / data['stages_ms']['whole call']:.0f} %)"
+            for v in data["stages_ms"].values()
+        )
+        + " |",
+        "",
         f'`evaluate` at B = {data["batch"]}, V = 1 m/s, `ModelOptions(slipstream="mean")`: '
         f"{data['rounds']} interleaved rounds of {data['calls']} calls per thread count, commit "
         f"{data['commit']}'s kernel in a second process; speed-up = its median time per call over "
