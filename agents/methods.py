@@ -1,14 +1,10 @@
 """Search methods the harness can run, and the registry that names them.
 
-A method is anything with a ``name`` and a ``search(context) -> SearchOutcome``: black-box
-optimisers call ``context.evaluate(actions)`` once per iteration with the whole batch; learners
-(PPO, SAC, a trained policy) build their own envs from ``context.env_id`` and
-``context.env_kwargs`` and report their own evaluations and history.
-
-One registration path for every method (docs/harness.md, "Methods: protocol and registry"):
-its module registers it when imported (:func:`register_optimiser`, :func:`register_method`),
-and its name points at that module in :data:`PROVIDERS` (this project's, ``train``'s included)
-or in a ``tandem_env.optimisers`` entry point (:func:`providers`), imported on first use.
+A method has a ``name`` and ``search(context) -> SearchOutcome``: an optimiser calls
+``context.evaluate(actions)`` once per batch; a learner builds its own envs from the context.
+One registration path (docs/harness.md, "Methods: protocol and registry"): a method's module
+registers it when imported (:func:`register_optimiser`, :func:`register_method`), found by its
+name in :data:`PROVIDERS` (``train``'s included) or a ``tandem_env.optimisers`` entry point.
 """
 
 from __future__ import annotations
@@ -166,14 +162,11 @@ def register_optimiser(
     preset_batch: bool = True,
     replace: bool = False,
 ) -> None:
-    """Register an ask/tell optimiser as method ``name``.
+    """Register an ask/tell optimiser as method ``name``: its settings are ``config_class``'s
+    fields but ``max_evaluations`` (the harness's budget) and those ``from_task`` fills;
+    ``batch`` names the points per round (alias ``swarm_size``, the CLI's ``--swarm-size``),
+    which a study's preset sets unless ``preset_batch=False``."""
 
-    Its settings are the fields of the dataclass ``config_class`` except ``max_evaluations``
-    (the harness's budget, the only one) and those ``from_task`` fills from the task (name ->
-    ``get(task)``). ``batch`` names the field of the points per ask/tell round; ``swarm_size``
-    (the CLI's ``--swarm-size``) is accepted as its alias. ``preset_batch=False`` keeps the
-    method's own default batch in studies instead of the preset's swarm size.
-    """
     filled = dict(from_task or {})
     allowed = tuple(
         f.name for f in fields(config_class) if f.name != "max_evaluations" and f.name not in filled
