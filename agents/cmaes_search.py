@@ -156,7 +156,6 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
     """CMA-ES maximiser with restarts and discrete coordinates, ask/tell over [-1, 1]^dim;
     ``seed`` draws every run's mean, the BIPOP choices and each ``CMAwM``'s seed."""
 
-
     def __init__(self, dim: int, config: CMAESConfig, seed: SeedLike = None) -> None:
         count(dim, "dim")
         popsize = config.popsize or default_popsize(dim)

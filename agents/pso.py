@@ -143,7 +143,6 @@ class PSO(AskTellOptimiser, settings=PSOConfig):
     """Global-best particle swarm maximiser over [-1, 1]^dim: positions start uniform in the
     box, velocities in +-vmax; each iteration is vectorised over the swarm."""
 
-
     def __init__(self, dim: int, config: PSOConfig, seed: SeedLike = None) -> None:
         super().__init__(dim, config.swarm_size, config, seed)
         n, d = config.swarm_size, self.dim

@@ -12,7 +12,6 @@ run's date, machine and load to ``OUT/efficiency_readings.json``; a rerun comput
 is missing.
 """
 
-
 from __future__ import annotations
 
 import argparse
