@@ -107,11 +107,8 @@ MethodFactory = Callable[[str | None, Mapping[str, Any]], Method]
 # --- ask/tell optimisers ---------------------------------------------------------------------
 @dataclass(frozen=True)
 class AskTellMethod:
-    """An ask/tell optimiser from :mod:`agents` run on the vector-env fitness.
-
-    ``config(budget, task)`` is ``config_class(**settings, **from the task, max_evaluations =
-    budget)``; it is built once at construction (budget 1) so bad settings fail early.
-    """
+    """An ask/tell optimiser run on the vector-env fitness; its config is built once at
+    construction (budget 1) so bad settings fail early."""
 
     name: str
     config_class: Callable[..., OptimiserConfig]
@@ -285,11 +282,9 @@ def _factory(name: str) -> MethodFactory:
 
 
 def get_method(spec: str | Method, config: Mapping[str, Any] | None = None) -> Method:
-    """The method for a spec such as ``"pso"``, ``"random"`` or ``"policy:runs/ppo"``.
+    """The method for a spec such as ``"pso"`` or ``"policy:runs/ppo"``: ValueError for an
+    unknown name or bad settings, NotImplementedError for a provider that is not there."""
 
-    Raises ValueError for an unknown name or bad settings, NotImplementedError when the name
-    belongs to a provider (``train``) that is not there.
-    """
     if not isinstance(spec, str):
         if isinstance(spec, Method):
             if config:

@@ -320,8 +320,70 @@ def run_jobs(
         except ValueError as error:
             raise OutputNotWritable(str(error)) from None
     try:
-        return _run(given, records, cached, store, shared, executor, start, progress, command,
-                    replaced)  # fmt: skip
+        for record in records.values():
+            shared.save(record, unless_present=True)  # a store made before the cache feeds it
+        for key, record in cached.items():
+            store.save(record)  # the store's one atomic write: a copy, checksum and all
+            records[key] = record
+        missing = [job for key, job in given.items() if key not in records]
+        failures: list[JobFailure] = []
+        todo: list[PreparedJob | Work] = []
+        for job in missing:  # validated once, all before any runs; a rejected job is a failure
+            try:
+                todo.append(prepare_job(job) if isinstance(job, Job) else job)
+            except Exception as error:
+                failures.append(_failure(_job_of(job), error, error.__traceback__))
+        todo.sort(key=lambda p: -_job_of(p).budget)
+        if todo and (old := store.outdated(skip=given)):
+            # Their keys hash the earlier format, so no job finds them: say so once (one at a
+            # job's own key was reported by store.load).
+            warnings.warn(
+                f"{len(old)} record file(s) of an earlier format in {old[0].parent} (e.g. "
+                f"{old[0].name}) are not used: the jobs they held run again in this format",
+                RecordWarning,
+                stacklevel=2,
+            )
+        with contextlib.ExitStack() as stack:
+            client = None
+            if todo and executor != "serial":
+                client = stack.enter_context(dask_client(executor, quiet=not progress))
+            display = _Display([_job_of(p) for p in todo], progress and bool(todo))
+            stack.callback(display.close)
+            outcomes = (
+                _run_serially(todo, display) if client is None else _run_on_dask(client, todo)
+            )
+            running = time.perf_counter()
+            for job, outcome in outcomes:
+                if isinstance(outcome, JobFailure):
+                    failures.append(outcome)
+                elif outcome.key != job.key:
+                    failures.append(
+                        JobFailure(job.key, job.label(), f"record has key {outcome.key!r}", "")
+                    )
+                else:
+                    store.save(outcome)
+                    shared.save(outcome)
+                    records[job.key] = outcome
+                display.finished(job, outcome)
+                now = time.perf_counter()
+                if command is not None and isinstance(outcome, Record):
+                    command.ran(job, now - running)
+                running = now
+        summary = RunSummary(
+            total=len(given),
+            reused=len(given) - len(missing),
+            ran=len(missing),
+            wall_time=time.perf_counter() - start,
+            executor=executor,
+            failures=tuple(sorted(failures, key=lambda f: f.key)),
+            records=records,
+            cached=len(cached),
+            replaced=replaced,
+            noun=next((getattr(_job_of(j), "noun", "optimisation") for j in given.values()), ""),
+        )
+        if failures:
+            raise JobsFailed(summary)
+        return summary
     finally:
         if summary_csv and not writable:
             print(
@@ -331,83 +393,6 @@ def run_jobs(
             )
         elif summary_csv and store.directory.exists():
             store.write_summary(records)
-
-
-def _run(
-    given: Mapping[str, Given],
-    records: dict[str, Record],
-    cached: Mapping[str, Record],
-    store: RecordStore,
-    shared: CacheWriter,
-    executor: str,
-    start: float,
-    progress: bool,
-    command: CommandProgress | None,
-    replaced: int,
-) -> RunSummary:
-    """:func:`run_jobs` once the stored and cached records are read and checked."""
-    for record in records.values():
-        shared.save(record, unless_present=True)  # a store made before the cache feeds it
-    for key, record in cached.items():
-        store.save(record)  # the store's one atomic write: a copy, checksum and all
-        records[key] = record
-    missing = [job for key, job in given.items() if key not in records]
-    failures: list[JobFailure] = []
-    todo: list[PreparedJob | Work] = []
-    for job in missing:  # validated once, all before any runs; a rejected job is a failure
-        try:
-            todo.append(prepare_job(job) if isinstance(job, Job) else job)
-        except Exception as error:
-            failures.append(_failure(_job_of(job), error, error.__traceback__))
-    todo.sort(key=lambda p: -_job_of(p).budget)
-    if todo and (old := store.outdated(skip=given)):
-        # Their keys hash the earlier format, so no job finds them: say so once (one at a
-        # job's own key was reported by store.load).
-        warnings.warn(
-            f"{len(old)} record file(s) of an earlier format in {old[0].parent} (e.g. "
-            f"{old[0].name}) are not used: the jobs they held run again in this format",
-            RecordWarning,
-            stacklevel=3,
-        )
-    with contextlib.ExitStack() as stack:
-        client = None
-        if todo and executor != "serial":
-            client = stack.enter_context(dask_client(executor, quiet=not progress))
-        display = _Display([_job_of(p) for p in todo], progress and bool(todo))
-        stack.callback(display.close)
-        outcomes = _run_serially(todo, display) if client is None else _run_on_dask(client, todo)
-        running = time.perf_counter()
-        for job, outcome in outcomes:
-            if isinstance(outcome, JobFailure):
-                failures.append(outcome)
-            elif outcome.key != job.key:
-                failures.append(
-                    JobFailure(job.key, job.label(), f"record has key {outcome.key!r}", "")
-                )
-            else:
-                store.save(outcome)
-                shared.save(outcome)
-                records[job.key] = outcome
-            display.finished(job, outcome)
-            now = time.perf_counter()
-            if command is not None and isinstance(outcome, Record):
-                command.ran(job, now - running)
-            running = now
-    summary = RunSummary(
-        total=len(given),
-        reused=len(given) - len(missing),
-        ran=len(missing),
-        wall_time=time.perf_counter() - start,
-        executor=executor,
-        failures=tuple(sorted(failures, key=lambda f: f.key)),
-        records=records,
-        cached=len(cached),
-        replaced=replaced,
-        noun=getattr(_job_of(next(iter(given.values()))), "noun", "optimisation") if given else "",
-    )
-    if failures:
-        raise JobsFailed(summary)
-    return summary
 
 
 def _job_of(job: Given) -> Job | Work:

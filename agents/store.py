@@ -219,10 +219,9 @@ class RecordStore:
         return path
 
     def records(self, known: Mapping[str, Record] | None = None) -> list[Record]:
-        """Every valid record in the store, in the summary's order (:func:`write_summary`); the
-        others are left out with a :class:`RecordWarning`. ``known`` (key -> record: those the
-        runner just saved or checked, :attr:`agents.runner.RunSummary.records`) are taken as
-        they are; only the other files are read."""
+        """Every valid record in the store, in the summary's order (the others left out with a
+        :class:`RecordWarning`); those ``known`` (key -> record) are not read again."""
+
         known = known or {}
         found = []
         for path in sorted((self.directory / RECORDS_DIR).glob("*.json")):
