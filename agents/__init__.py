@@ -2,4 +2,3 @@
 import from the modules (``agents.harness``, ``agents.jobs``, ``agents.methods``, ...;
 docs/harness.md). The package itself imports nothing.
 """
-
