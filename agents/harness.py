@@ -193,11 +193,9 @@ def run(
     progress: bool = True,
     **options: Any,
 ) -> list[Record]:
-    """Run ``method`` on ``task`` at ``condition`` for each seed, here; one record per seed.
+    """Run :func:`prepare`'s jobs here (a progress bar each if ``progress``); their records,
+    stored nowhere."""
 
-    The arguments and ``options`` are :func:`prepare`'s; ``progress`` shows a progress bar per
-    seed on stderr. Nothing is stored (the runner stores: :func:`agents.runner.run_jobs`).
-    """
     return [
         run_job(job, progress=progress)
         for job in prepare(method, task, condition, budget, seeds, **options)

@@ -119,9 +119,9 @@ class PolishConfig:
         return self.method != "none"
 
     def reserve(self, budget: int, gradient_cost: int) -> int:
-        """Evaluations of a run's ``budget`` kept for the polish: ``share`` of it, or 0 when
-        the polish is off or that share is below two gradients (``gradient_cost`` model
-        evaluations each: the polish could not take one step and check it)."""
+        """Evaluations of ``budget`` kept for the polish: ``share`` of it, or 0 when it is off
+        or that is below two gradients (it could not take one step and check it)."""
+
         reserve = round(self.share * budget) if self.enabled else 0
         return reserve if reserve >= 2 * gradient_cost else 0
 

@@ -74,9 +74,8 @@ class Problem:
 
 
 def env_problem(env: gym.Env) -> FlightProblem | None:
-    """The optimisation problem ``env`` offers (its public ``problem()``, through Gymnasium's
-    wrappers: ``tandem_env.envs.problem``), or None for an env without one (an analytic test
-    env)."""
+    """The optimisation problem ``env`` offers (its ``problem()``), or None for none."""
+
     view = getattr(env.unwrapped, "problem", None)
     return view() if callable(view) else None
 

@@ -200,9 +200,8 @@ class Record:
     # --- the results (each key of RESULTS is an attribute: below the class) ----------------------
     @property
     def certificate(self) -> dict[str, Any]:
-        """The local polish and the optimality of the reported stroke (method, status, gain
-        [-], evaluations, iterations, converged, KKT residual [-], active constraints;
-        :class:`agents.polish.Certificate`); empty for a record made without one."""
+        """The polish and optimality of the stroke (:class:`agents.polish.Certificate`), or {}."""
+
         return dict(self.results.get(CERTIFICATE, {}))
 
     @property

@@ -365,9 +365,9 @@ class ConfigReference:
         feasible: ArrayLike,
         violation: ArrayLike,
     ) -> NDArray[np.float64] | None:
-        """The normalised scores (B,) of strokes flown at ``condition`` (B,) (NaN outside the
-        grid); None where the table does not apply (the info then has no ``score``, rather
-        than a NaN that would make equal steps compare unequal)."""
+        """The normalised scores (B,) of strokes flown at ``condition`` (B,); None where the
+        table does not apply (no ``score`` then, not a NaN that makes equal steps unequal)."""
+
         if self.series is None:
             return None
         return normalised_score(self.series.at(condition), objective, feasible, violation)
