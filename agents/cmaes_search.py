@@ -1,12 +1,9 @@
 """CMA-ES with IPOP / BIPOP restarts over the normalised box [-1, 1]^d, on the ``cmaes`` package.
 
-The evolution strategy is the package's CMA-ES with margin (``cmaes.CMAwM``, Hamano et al.
-2022), through its public API only. This module adds what the package leaves to its caller
-(each rule and its reasons: docs/harness.md, "CMA-ES"): discrete coordinates on the bin
-centres (:func:`discrete_levels`), one population per ask/tell round, restarts from a uniform
-random mean (``"ipop"``: Auger & Hansen 2005; ``"bipop"``: Hansen 2009), Hansen's (2009)
-stagnation test every ``CHECK_EVERY`` generations (:meth:`CMAES._stop`), and a budget that
-truncates: a run with budget B is exactly the first B evaluations of any longer run.
+The package's CMA-ES with margin (``cmaes.CMAwM``) through its public API, plus what it leaves
+to its caller (docs/harness.md, "CMA-ES"): discrete coordinates on the bin centres, restarts
+from a uniform random mean, Hansen's (2009) stagnation test, and a budget that truncates (a run
+of budget B is the first B evaluations of any longer run).
 
 References
 ----------
@@ -68,9 +65,8 @@ POPSIZE_MULTIPLE = 4
 
 def default_popsize(dim: int) -> int:
     """Four times Hansen's default population, 4 (4 + ⌊3 ln d⌋) (52 at d = 28): with the
-    local polish, the best of 8 seeds reproduces on disjoint seed sets (0.0 % at 60 W/kg,
-    0.6 % at 1.5 m/s, against 2.5 % and 0.0 % at twice Hansen's) with medians 1.665 and
-    0.466 (docs/harness.md, "Reproducibility check")."""
+    polish, the best of 8 seeds reproduces on disjoint seed sets (docs/harness.md,
+    "Reproducibility check")."""
     return POPSIZE_MULTIPLE * (4 + math.floor(3.0 * math.log(dim)))
 
 
@@ -157,11 +153,8 @@ class RunInfo:
 
 
 class CMAES(AskTellOptimiser, settings=CMAESConfig):
-    """CMA-ES maximiser with restarts and discrete coordinates, ask/tell over [-1, 1]^dim.
-
-    ``seed`` seeds ``numpy.random.default_rng``, which draws every run's mean, the BIPOP
-    choices and the seed of each run's ``CMAwM``; equal seeds give identical runs.
-    """
+    """CMA-ES maximiser with restarts and discrete coordinates, ask/tell over [-1, 1]^dim;
+    ``seed`` draws every run's mean, the BIPOP choices and each ``CMAwM``'s seed."""
 
     def __init__(self, dim: int, config: CMAESConfig, seed: SeedLike = None) -> None:
         count(dim, "dim")

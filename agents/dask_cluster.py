@@ -1,12 +1,7 @@
-"""Reaching a Dask scheduler: where the runner's jobs run, parsed, checked and connected to.
-
-Where the jobs run (``scheduler``, ``--scheduler``; :func:`agents.runner.run_jobs`; each form
-in docs/scaling.md): ``None``, in this process, one after another (the default);
-``"local:N"``, a Dask ``LocalCluster`` started here with N worker processes of one thread (and
-one numba thread) each, closed at the end; ``"tcp://HOST:PORT"`` (or ``"HOST:PORT"``), a
-running Dask scheduler and its workers, each of which needs this project importable.
-
-Dask itself is imported only here, and only when a client is made (:func:`dask_client`).
+"""Reaching a Dask scheduler: where the runner's jobs run (docs/scaling.md): ``None`` here,
+serially; ``"local:N"`` a ``LocalCluster`` of N one-thread workers started here;
+``"tcp://HOST:PORT"`` (or ``"HOST:PORT"``) a running scheduler. Dask is imported only when a
+client is made (:func:`dask_client`).
 """
 
 from __future__ import annotations
@@ -120,13 +115,10 @@ def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
 
 
 def set_worker_numba_threads() -> None:
-    """On a Dask worker, before its job: one numba thread for the calling thread's job.
+    """On a Dask worker, before its job: one numba thread for the calling thread's job (a
+    worker runs a job per thread, so cores are not oversubscribed), unless the worker was
+    started with ``NUMBA_NUM_THREADS`` set."""
 
-    numba's thread count is per calling thread; a worker runs as many jobs at once as it has
-    threads, so one numba thread each keeps a node's cores from being oversubscribed. A worker
-    started with ``NUMBA_NUM_THREADS`` set keeps numba's default (that many) instead. The
-    runner calls it before each job (the harness's and the cross-check's solver runs).
-    """
     if "NUMBA_NUM_THREADS" not in os.environ:
         import numba
 

@@ -1,11 +1,7 @@
-"""Evaluating batches of normalised actions through a task's native vector env.
-
-Every batch of candidate strokes (a PSO swarm, a random-search batch) is one ``step`` of the
-task's batched vector env (``gym.make_vec(..., vectorization_mode="vector_entry_point",
-autoreset_mode="Disabled")``, one per distinct batch size, each step after a ``reset`` with the
-condition), so a particle's fitness is exactly the reward an RL agent would be given for that
-action, and one stroke evaluated is one env step is one unit of budget (docs/harness.md, "How a
-run evaluates strokes").
+"""Evaluating batches of normalised actions through a task's native vector env: every batch is
+one ``step`` of the task's vector env (one per batch size, reset with the condition first), so
+a fitness is exactly the reward an agent would get, and one stroke evaluated is one unit of
+budget (docs/harness.md, "How a run evaluates strokes").
 """
 
 from __future__ import annotations
@@ -45,15 +41,11 @@ class EvaluatedBatch:
 
 
 class VectorEnvEvaluator(Tally):
-    """Budgeted, batched fitness through the task's native vector env.
-
-    The envs are made with ``env_kwargs`` (the condition keyword included) and reset with
-    ``condition``; ``seed`` seeds their first reset (sub-env i gets ``seed + i``). More than
-    ``budget`` actions evaluated raises :class:`BudgetExceededError`; ``on_batch`` is called
-    after every batch with (iteration, evaluations, best reward so far). Calling the
-    evaluator with actions (n, dim) returns their rewards (n,) and updates the evaluation
-    count, the best action and the history of (evaluations, best reward so far).
-    """
+    """Budgeted, batched fitness through the task's native vector env, made with
+    ``env_kwargs`` and reset with ``condition`` (``seed`` seeds the first reset). Calling it
+    with actions (n, dim) returns their rewards (n,) and counts them: more than ``budget``
+    raises :class:`BudgetExceededError`; ``on_batch(iteration, evaluations, best)`` follows
+    every batch."""
 
     def __init__(
         self,
@@ -109,11 +101,8 @@ class VectorEnvEvaluator(Tally):
 
     # --- evaluation ----------------------------------------------------------------------------
     def evaluate_batch(self, actions: np.ndarray) -> EvaluatedBatch:
-        """Evaluate a batch (n, dim) in one vector-env step; rewards, objectives, feasibility.
-
-        The actions are evaluated as the action type carries them (float32,
-        :func:`~tandem_env.envs.base.as_action_type`): the strokes kept as best are the ones
-        an agent's action would fly."""
+        """Evaluate a batch (n, dim) in one vector-env step, as the action type carries it
+        (:func:`~tandem_env.envs.base.as_action_type`); rewards, objectives, feasibility."""
         actions = as_action_type(actions)
         if actions.ndim != 2 or actions.shape[0] < 1:
             raise ValueError(f"actions must have shape (n, dim) with n >= 1; got {actions.shape}")
@@ -185,22 +174,16 @@ class Reevaluation:
 def reevaluate(
     env: gym.Env, task: TaskSpec, condition: Condition, seed: int, action: np.ndarray
 ) -> Reevaluation:
-    """Evaluate ``action`` once more in ``env``, a single env of the task (the harness's job
-    env), reset with ``seed``.
-
-    The single env and the vector env share one batched core, so this gives the same reward
-    as during the search; doing it in a single env of its own (not the search's vector env)
-    makes the record independent of any state the search left behind.
-    """
+    """Evaluate ``action`` once more in ``env``, a single env of the task reset with ``seed``:
+    the same reward as in the search (one shared core), independent of the search's state."""
     env.reset(seed=seed, options={task.declared_condition.keyword: condition.value})
     _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
     return Reevaluation(float(reward), dict(info), env_config_dict(env))
 
 
 def env_config_dict(env: gym.Env) -> dict[str, Any] | None:
-    """The env's ``config`` dataclass as plain JSON (``to_jsonable``: through each part's own
-    ``to_dict``, so an insect with Table 4's stroke bounds reads as before they were a field),
-    or None if it has none."""
+    """The env's ``config`` dataclass as plain JSON (:func:`to_jsonable`), or None."""
+
     config = getattr(env.unwrapped, "config", None)
     if config is None or not dataclasses.is_dataclass(config):
         return None

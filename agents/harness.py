@@ -6,13 +6,11 @@
 
     records = run("pso", "level", 1.5, budget=12_000, seeds=[0, 1, 2])
 
-:func:`prepare_job` validates a :class:`~agents.jobs.Job` against the task and method
-registries, once, before any evaluation (:func:`prepare`: the jobs of one call, one per seed);
-:func:`run_job` runs one and returns its :class:`~agents.records.Record`, writing nothing (the
-runner stores: :func:`agents.runner.run_jobs`). The method searches the box [-1, 1]^28 through
-the task's vector env (fitness = the env's reward); the reported stroke (:mod:`agents.selection`),
-polished (:mod:`agents.polish`, its evaluations in the budget), is re-evaluated in the job's
-single env, and the record's results come from that. The budget's parts: :mod:`agents.parts`.
+:func:`prepare_job` validates a :class:`~agents.jobs.Job` once, before any evaluation;
+:func:`run_job` runs it and returns its :class:`~agents.records.Record`, writing nothing. The
+method searches [-1, 1]^28 through the task's vector env; the reported stroke
+(:mod:`agents.selection`), polished (:mod:`agents.polish`), is re-evaluated in the job's single
+env, and the record's results come from that (docs/harness.md).
 """
 
 from __future__ import annotations
@@ -53,13 +51,9 @@ from tandem_env.io.progress_bar import ProgressBar, Reporter
 def prepare_job(
     job: Job, *, task: TaskSpec | None = None, method: Method | None = None
 ) -> PreparedJob:
-    """Validate ``job`` and resolve it; raises ValueError saying what is wrong and allowed.
-
-    ``task`` and ``method`` are the objects named by the job when the caller holds them (an
-    own :class:`TaskSpec` or :class:`~agents.methods.Method` not in the registries). Building
-    the env once here lets it reject bad keywords and out-of-range conditions before any
-    evaluation.
-    """
+    """Validate ``job`` and resolve it, making its env once (it rejects bad keywords and
+    conditions); ValueError saying what is wrong and allowed. ``task`` and ``method`` are the
+    job's when the caller holds them (not in the registries)."""
     spec = get_task(job.task) if task is None else task
     if spec.name != job.task:
         raise ValueError(f"task {spec.name!r} given for a job of task {job.task!r}")
@@ -144,21 +138,12 @@ def prepare(
     method_config: Mapping[str, Any] | None = None,
     preset: str = "",
 ) -> list[PreparedJob]:
-    """The validated jobs of one method on one task and condition, one per seed.
-
-    ``method`` is ``"pso"``, ``"cmaes"``, ``"random"`` or any registered method (``"ppo"``,
-    ``"sac"``, ``"policy:RUN_DIR"`` once ``train`` provides them; :mod:`agents.methods`);
-    ``task`` ``"level"`` or ``"accelerate"`` (or a registered/own :class:`TaskSpec`);
-    ``condition`` the flight speed V [m/s] for level flight, the available power [W/kg] for
-    accelerating flight; ``budget`` the model evaluations per seed (one env step = one stroke
-    evaluated); one independent run, and one record, per seed. ``objective`` (accelerating
-    flight): ``"vertical"`` (default), ``"horizontal"`` or ``"resultant"``; ``env_kwargs``
-    further env keywords (model options, penalty, planform, ...), as for ``gym.make``;
-    ``method_config`` the method's settings, e.g. ``{"swarm_size": 40}`` for PSO; ``preset``
-    the study preset the runs belong to (part of each job and so of its record's key).
-
-    Raises ValueError saying what is wrong and what is allowed; the configuration is validated
-    once (:func:`prepare_job`), the seeds each by :class:`~agents.jobs.Job`.
+    """The validated jobs of ``method`` (a registered name, :mod:`agents.methods`, or a
+    :class:`~agents.methods.Method`) on ``task`` at ``condition`` [the task's unit], ``budget``
+    model evaluations per seed, one per seed. ``objective`` chooses the task's objective,
+    ``env_kwargs`` are further ``gym.make`` keywords, ``method_config`` the method's settings
+    and ``preset`` the study preset (part of each job's key). ValueError saying what is wrong
+    and what is allowed.
     """
     spec = get_task(task)
     kwargs = dict(env_kwargs or {})
@@ -208,11 +193,9 @@ def run(
     progress: bool = True,
     **options: Any,
 ) -> list[Record]:
-    """Run ``method`` on ``task`` at ``condition`` for each seed, here; one record per seed.
+    """Run :func:`prepare`'s jobs here (a progress bar each if ``progress``); their records,
+    stored nowhere."""
 
-    The arguments and ``options`` are :func:`prepare`'s; ``progress`` shows a progress bar per
-    seed on stderr. Nothing is stored (the runner stores: :func:`agents.runner.run_jobs`).
-    """
     return [
         run_job(job, progress=progress)
         for job in prepare(method, task, condition, budget, seeds, **options)
@@ -222,15 +205,11 @@ def run(
 def run_job(
     job: Job | PreparedJob, reporter: Reporter | None = None, *, progress: bool = False
 ) -> Record:
-    """Run one job: search (and polish), re-evaluate the reported stroke, build its record.
+    """Run one job (a plain :class:`~agents.jobs.Job` is validated first): search and polish
+    each part of the budget (:mod:`agents.parts`), re-evaluate the best feasible stroke of all
+    parts, build its record; writes nothing. Progress goes to ``reporter``, else to a bar of
+    its own if ``progress``."""
 
-    A plain :class:`~agents.jobs.Job` is validated first (:func:`prepare_job`). The budget is
-    split into parts (:mod:`agents.parts`; the ``starts`` and ``initial`` settings) and the
-    record reports the best feasible stroke of all parts (:data:`~agents.records.STARTS`
-    lists each). Progress goes to ``reporter`` when given, else to a progress bar of its own
-    if ``progress``. Writes nothing. One single env of the task serves every polish (its
-    ``env.problem()``) and the re-evaluation.
-    """
     prepared = prepare_job(job) if isinstance(job, Job) else job
     start = time.perf_counter()
     with gym.make(prepared.task.env_id, disable_env_checker=True, **prepared.env_kwargs) as env:

@@ -1,14 +1,10 @@
 """Search methods the harness can run, and the registry that names them.
 
-A method is anything with a ``name`` and a ``search(context) -> SearchOutcome``: black-box
-optimisers call ``context.evaluate(actions)`` once per iteration with the whole batch; learners
-(PPO, SAC, a trained policy) build their own envs from ``context.env_id`` and
-``context.env_kwargs`` and report their own evaluations and history.
-
-One registration path for every method (docs/harness.md, "Methods: protocol and registry"):
-its module registers it when imported (:func:`register_optimiser`, :func:`register_method`),
-and its name points at that module in :data:`PROVIDERS` (this project's, ``train``'s included)
-or in a ``tandem_env.optimisers`` entry point (:func:`providers`), imported on first use.
+A method has a ``name`` and ``search(context) -> SearchOutcome``: an optimiser calls
+``context.evaluate(actions)`` once per batch; a learner builds its own envs from the context.
+One registration path (docs/harness.md, "Methods: protocol and registry"): a method's module
+registers it when imported (:func:`register_optimiser`, :func:`register_method`), found by its
+name in :data:`PROVIDERS` (``train``'s included) or a ``tandem_env.optimisers`` entry point.
 """
 
 from __future__ import annotations
@@ -111,11 +107,8 @@ MethodFactory = Callable[[str | None, Mapping[str, Any]], Method]
 # --- ask/tell optimisers ---------------------------------------------------------------------
 @dataclass(frozen=True)
 class AskTellMethod:
-    """An ask/tell optimiser from :mod:`agents` run on the vector-env fitness.
-
-    ``config(budget, task)`` is ``config_class(**settings, **from the task, max_evaluations =
-    budget)``; it is built once at construction (budget 1) so bad settings fail early.
-    """
+    """An ask/tell optimiser run on the vector-env fitness; its config is built once at
+    construction (budget 1) so bad settings fail early."""
 
     name: str
     config_class: Callable[..., OptimiserConfig]
@@ -166,14 +159,11 @@ def register_optimiser(
     preset_batch: bool = True,
     replace: bool = False,
 ) -> None:
-    """Register an ask/tell optimiser as method ``name``.
+    """Register an ask/tell optimiser as method ``name``: its settings are ``config_class``'s
+    fields but ``max_evaluations`` (the harness's budget) and those ``from_task`` fills;
+    ``batch`` names the points per round (alias ``swarm_size``, the CLI's ``--swarm-size``),
+    which a study's preset sets unless ``preset_batch=False``."""
 
-    Its settings are the fields of the dataclass ``config_class`` except ``max_evaluations``
-    (the harness's budget, the only one) and those ``from_task`` fills from the task (name ->
-    ``get(task)``). ``batch`` names the field of the points per ask/tell round; ``swarm_size``
-    (the CLI's ``--swarm-size``) is accepted as its alias. ``preset_batch=False`` keeps the
-    method's own default batch in studies instead of the preset's swarm size.
-    """
     filled = dict(from_task or {})
     allowed = tuple(
         f.name for f in fields(config_class) if f.name != "max_evaluations" and f.name not in filled
@@ -292,11 +282,9 @@ def _factory(name: str) -> MethodFactory:
 
 
 def get_method(spec: str | Method, config: Mapping[str, Any] | None = None) -> Method:
-    """The method for a spec such as ``"pso"``, ``"random"`` or ``"policy:runs/ppo"``.
+    """The method for a spec such as ``"pso"`` or ``"policy:runs/ppo"``: ValueError for an
+    unknown name or bad settings, NotImplementedError for a provider that is not there."""
 
-    Raises ValueError for an unknown name or bad settings, NotImplementedError when the name
-    belongs to a provider (``train``) that is not there.
-    """
     if not isinstance(spec, str):
         if isinstance(spec, Method):
             if config:

@@ -1,9 +1,5 @@
-"""Shared ask/tell machinery for black-box optimisers over the box [-1, 1]^d.
-
-Every optimiser here *maximises* a fitness over the normalised box; callers map the box onto
-physical parameter ranges themselves. This module holds what all of them share: the evaluation
-budget, best-so-far bookkeeping and history, and the checks of their settings.
-"""
+"""Shared ask/tell machinery of the black-box maximisers over the box [-1, 1]^d: the budget,
+best-so-far bookkeeping and history, and their settings' checks, derived from the fields."""
 
 from __future__ import annotations
 
@@ -24,33 +20,27 @@ FloatArray = NDArray[np.float64]
 SeedLike = int | np.random.SeedSequence | None
 
 
-#: The most points of one ask/tell round (a PSO swarm, a random-search batch) [-]: one batched
-#: model evaluation (``MAX_BATCH_STROKES``); the batch is allocated when the optimiser is built,
-#: so a larger one would fail for memory before the first evaluation.
+#: The most points of one ask/tell round [-]: one batched model evaluation.
 MAX_BATCH = MAX_BATCH_STROKES
 
 
 def integer_setting(minimum: int, maximum: int | None = None, *, default: Any = MISSING) -> Any:
-    """A config field holding an integer ``>= minimum`` (and ``<= maximum``), checked by
-    :func:`check_settings` (:func:`~tandem_env.physics.checks.count`); a None ``default``
-    also allows None."""
+    """A config field of an integer ``>= minimum`` (``<= maximum``), checked by
+    :func:`check_settings`; a None ``default`` also allows None."""
     check = functools.partial(count, low=minimum, high=maximum)
     return field(default=default, metadata={"check": check})
 
 
 def real_setting(low: float, high: float, *, low_inclusive: bool, default: Any = MISSING) -> Any:
-    """A config field holding a finite number in the interval, checked by
-    :func:`check_settings` (:func:`~tandem_env.physics.checks.finite_real`); a None
-    ``default`` also allows None."""
+    """A config field of a finite number in the interval, checked by :func:`check_settings`;
+    a None ``default`` also allows None."""
     check = functools.partial(finite_real, low=low, high=high, above=not low_inclusive)
     return field(default=default, metadata={"check": check})
 
 
 def check_settings(config: Any) -> None:
-    """Check every field of the frozen dataclass ``config`` declared by :func:`integer_setting`
-    or :func:`real_setting` (ValueError naming it), and store it as a Python int / float:
-    numpy scalars are accepted (sweeps come from arrays), stored plain so ``to_dict()`` is
-    JSON-ready."""
+    """Check every field of ``config`` declared by :func:`integer_setting` or
+    :func:`real_setting` (ValueError naming it), stored as a plain int / float."""
     for spec in fields(config):
         value = getattr(config, spec.name)
         if "check" in spec.metadata and not (value is None and spec.default is None):
@@ -58,13 +48,8 @@ def check_settings(config: Any) -> None:
 
 
 class Tally:
-    """Points evaluated, rounds, and the best value so far with its point, after every round:
-    the base of an optimiser and of the harness's evaluator.
-
-    NaN counts as -inf and only a strictly higher value replaces the best, so the first of
-    equal values stays and -inf is never a best: the selection rule of :mod:`agents.selection`
-    for points without constraints.
-    """
+    """Points evaluated, rounds, and the best value so far with its point (the rule of
+    :mod:`agents.selection` without constraints): the base of an optimiser and the evaluator."""
 
     def __init__(self) -> None:
         self.evaluations = 0
@@ -99,11 +84,9 @@ class Tally:
 
 @dataclass(frozen=True, kw_only=True)
 class OptimiserConfig:
-    """Base of an optimiser's configuration, a frozen keyword-only dataclass of its settings:
-    the checks (:func:`check_settings`), the record (:meth:`to_dict`) and :meth:`build` follow
-    from its fields. A subclass names its ``algorithm`` and gives a ``citation`` (a class
-    attribute or a property); its optimiser class names the subclass
-    (``class PSO(AskTellOptimiser, settings=PSOConfig)``)."""
+    """Base of an optimiser's frozen configuration: checks, record (:meth:`to_dict`) and
+    :meth:`build` follow from its fields. A subclass names its ``algorithm`` and ``citation``;
+    its optimiser names it (``class PSO(AskTellOptimiser, settings=PSOConfig)``)."""
 
     algorithm: ClassVar[str]
     """The record's name of the algorithm."""
@@ -133,13 +116,9 @@ class OptimiserConfig:
 
 
 class AskTellOptimiser(Tally, ABC):
-    """Base class for batched ask/tell maximisers over [-1, 1]^dim.
-
-    Subclasses implement :meth:`_propose` (the next batch) and :meth:`_observe` (learn from its
-    fitness); budget, best-so-far tracking and history live here. ``batch_size`` is the points
-    of a full round, ``config.max_evaluations`` bounds the run (its ``to_dict()`` is
-    recorded), ``seed`` seeds ``numpy.random.default_rng``: equal seeds give identical runs.
-    """
+    """Base class for batched ask/tell maximisers over [-1, 1]^dim: subclasses implement
+    :meth:`_propose` and :meth:`_observe`; ``config.max_evaluations`` bounds the run, ``seed``
+    seeds ``numpy.random.default_rng`` (equal seeds, identical runs)."""
 
     _settings: ClassVar[type[OptimiserConfig]] = OptimiserConfig
 
@@ -181,8 +160,7 @@ class AskTellOptimiser(Tally, ABC):
         return max(0, min(self._batch(), self._config.max_evaluations - self.evaluations))
 
     def ask(self) -> FloatArray:
-        """Next batch of points (n, dim) inside [-1, 1]^dim: a full batch, but for a last round
-        truncated so the evaluation budget is never exceeded."""
+        """Next batch of points (n, dim) in [-1, 1]^dim, the last truncated to the budget."""
         if self._pending is not None:
             raise RuntimeError("ask() called again before tell(); tell the pending batch first")
         n = self._next_size()
@@ -194,8 +172,8 @@ class AskTellOptimiser(Tally, ABC):
         return self._pending.copy()
 
     def tell(self, X: ArrayLike, fitness: ArrayLike) -> None:
-        """Report the fitness (n,) (to be maximised; NaN counts as -inf) of the batch X
-        (n, dim) exactly as the last :meth:`ask` returned it."""
+        """Report the fitness (n,) (NaN counts as -inf) of the last :meth:`ask`'s batch X."""
+
         if self._pending is None:
             raise RuntimeError("tell() called without a preceding ask()")
         X = np.asarray(X, dtype=float)

@@ -1,8 +1,5 @@
-"""A harness run's budget in parts, each searched and polished (``agents.harness`` runs them).
-
-:func:`plan_parts` splits a job's budget: one part per search (``starts``) and one per initial
-stroke (``initial``). :func:`search_part` runs the method with its own seed, selects its stroke
-(:mod:`agents.selection`) and polishes it (:mod:`agents.polish`) on what the search left;
+"""A harness run's budget in parts (:func:`plan_parts`: one per search, ``starts``, and per
+initial stroke, ``initial``): :func:`search_part` searches, selects and polishes;
 :func:`initial_part` polishes an initial stroke. :class:`PreparedJob` is the validated job.
 """
 
@@ -80,9 +77,8 @@ class Part:
 
 
 def plan_parts(config: PolishConfig, budget: int) -> list[tuple[str, int, np.ndarray | None]]:
-    """A run's parts: (kind, budget, initial stroke), initial strokes first. The budget is
-    split evenly over the parts, or ``initial_share`` of it over the initial strokes and the
-    rest over the searches; a group's remainder goes to its last part."""
+    """A run's parts: (kind, budget, initial stroke), initial strokes first; the budget split
+    evenly, or ``initial_share`` of it over the initial strokes (remainders to the last)."""
     initial = [("initial", np.asarray(s)) for s in config.initial]
     searches: list[tuple[str, np.ndarray | None]] = [("search", None)] * config.starts
     if config.initial_share is None:
@@ -99,8 +95,8 @@ def plan_parts(config: PolishConfig, budget: int) -> list[tuple[str, int, np.nda
 
 
 def _part_seed(seed: int, index: int) -> int:
-    """The seed of the search in part ``index`` of a run (initial strokes first): the job's own
-    for part 0 (so one start is the plain run), independent streams of it for the others."""
+    """Part ``index``'s seed: the job's for part 0 (one start is the plain run), else a
+    stream spawned from it."""
     if index == 0:
         return seed
     return int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
@@ -193,8 +189,7 @@ def _polish(
     reserve: int,
     job_problem: Callable[[], Problem],
 ) -> Part:
-    """The search's part polished on ``allowance`` evaluations, with its certificate (its
-    stroke as found when the polish is off, cannot start or does not gain)."""
+    """The search's part polished on ``allowance`` evaluations, with its certificate."""
     config = prepared.polish
     if not config.enabled:
         return part
@@ -228,8 +223,7 @@ def _polish(
 
 
 def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator, seed: int) -> Part:
-    """The search's part, unpolished: the best feasible stroke the search evaluated, if any
-    (the selection rule, :mod:`agents.selection`), else the method's best-reward stroke."""
+    """The search's part, unpolished: its best feasible stroke, else its best reward's."""
     part = Part(
         "search",
         seed,
@@ -256,8 +250,8 @@ def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator, seed: int) ->
 def _search(
     prepared: PreparedJob, seed: int, budget: int, report: Reporter
 ) -> tuple[SearchOutcome, VectorEnvEvaluator]:
-    """The method's search (seed ``seed``, ``budget`` evaluations) through the budgeted
-    vector-env evaluator, checked."""
+    """The method's search through the budgeted vector-env evaluator, checked."""
+
     job = prepared.job
     with VectorEnvEvaluator(
         prepared.task, prepared.condition, prepared.env_kwargs, seed, budget, report

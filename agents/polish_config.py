@@ -1,10 +1,5 @@
-"""The local polish's settings: which optimiser, its share of a run's budget, its tolerances,
-and how a run's budget is split into searches and initial strokes (validated here, where they
-enter: ``--polish``, the ``polish*`` method settings, ``starts``, ``initial``).
-
-:func:`split_settings` takes the polish's settings out of a method's settings; the polish
-itself is :mod:`agents.polish`.
-"""
+"""The local polish's settings (:class:`PolishConfig`, validated where they enter) and
+:func:`split_settings`, which takes them out of a method's settings."""
 
 from __future__ import annotations
 
@@ -67,30 +62,22 @@ class PolishConfig:
     max_iterations: int = 200
     """Optimiser iterations at most, 1 to 10 000."""
     optimality: float = 0.0
-    """With a value > 0, the polish stops at the first feasible iterate whose KKT residual
-    (:func:`agents.polish.kkt_residual`) is at most this [-] (the certificate then says
-    converged), in [0, 1e-2]; 0 (the default, which keeps the stored results' path) leaves the
-    stop to the optimiser's own test (``tolerance``). ``polish_optimality=1e-5`` certifies
-    more seeds at the same budget (docs/harness.md, "Local polish")."""
+    """With a value > 0 (to 1e-2), the polish stops at the first feasible iterate whose KKT
+    residual is at most this [-]; 0 leaves the stop to the optimiser (docs/harness.md)."""
     margin: float = 1e-9
-    """Every constraint is held at margin >= ``margin`` [-] (normalised, as
-    ``Constraint.margin``), 0 to 1e-4, so the optimum passes the task's exact feasibility test
-    (a stroke on the boundary can miss it by rounding). One float32 step of every coordinate
-    is held on top (:func:`float32_margin`), and the reported stroke is the optimum cast to the
-    action type (float32), so it stays feasible when stepped through the env as an action."""
+    """Every constraint is held at margin >= ``margin`` [-] (0 to 1e-4), plus one float32 step
+    of every coordinate, so the optimum cast to the action type passes the exact test."""
     active: float = 1e-6
     """A constraint (or bound) within ``active`` [-] of its limit counts as active in the
     certificate, 0 to 1e-2."""
     starts: int = 1
-    """Independent searches the run's budget is split into, 1 to :data:`MAX_STARTS`; each is
-    the method with its own seed on an equal part of the budget, polished (``share`` of its
-    part), and the run reports the best (docs/harness.md, "Starts and initial strokes"). 1 by
-    default: more did not reproduce better (docs/harness.md, "Reproducibility check")."""
+    """Independent searches (own seeds, equal parts of the budget, each polished) the run
+    reports the best of, 1 to :data:`MAX_STARTS` (docs/harness.md, "Starts and initial
+    strokes")."""
     initial: tuple[tuple[float, ...], ...] = ()
-    """Normalised strokes (each of the action box's dimension, values in [-1, 1]) polished
-    directly, each on an equal part of the budget beside the searches: a warm start, e.g. the
-    optimum of a neighbouring model reading (continuation). A start may be infeasible; the
-    polish then moves it onto the constraints."""
+    """Normalised strokes polished directly, each on an equal part of the budget: warm starts
+    (feasible or not), e.g. a neighbouring model reading's optimum."""
+
     initial_share: float | None = None
     """Fraction of the run's budget the initial strokes get together (split evenly), in
     [0.05, 0.95], the searches sharing the rest; None: every part gets an equal share."""
@@ -132,9 +119,9 @@ class PolishConfig:
         return self.method != "none"
 
     def reserve(self, budget: int, gradient_cost: int) -> int:
-        """Evaluations of a run's ``budget`` kept for the polish: ``share`` of it, or 0 when
-        the polish is off or that share is below two gradients (``gradient_cost`` model
-        evaluations each: the polish could not take one step and check it)."""
+        """Evaluations of ``budget`` kept for the polish: ``share`` of it, or 0 when it is off
+        or that is below two gradients (it could not take one step and check it)."""
+
         reserve = round(self.share * budget) if self.enabled else 0
         return reserve if reserve >= 2 * gradient_cost else 0
 
@@ -165,12 +152,8 @@ def _strokes(value: Any) -> tuple[tuple[float, ...], ...]:
 def split_settings(
     method: str, method_config: Mapping[str, Any]
 ) -> tuple[PolishConfig, dict[str, Any]]:
-    """The polish settings among a method's settings, and the rest (the method's own).
-
-    ``method`` is the method spec; its name (before any ``:``) picks the default polish
-    (:data:`POLISH_DEFAULTS`). Raises ValueError for an unknown polish or a setting out of
-    range, naming it.
-    """
+    """The polish settings among a method's settings (the default polish is the method's,
+    :data:`POLISH_DEFAULTS`), and the rest; ValueError naming a bad one."""
     name = method.partition(":")[0]
     own = {k: v for k, v in method_config.items() if k not in POLISH_SETTINGS}
     given = {POLISH_SETTINGS[k]: v for k, v in method_config.items() if k in POLISH_SETTINGS}

@@ -1,10 +1,8 @@
-"""What the local polish optimises and how it takes derivatives: the :class:`Problem` (a
-maximisation over the box [-1, 1]^dim with constraints, some coordinates fixed), a harness
-task's problem read from its env's public problem view (:func:`task_problem`), and the
-gradient functions: :class:`CentralDifferences` (the point and its 2k perturbations in ONE
-batched model call) and, on the torch backend, :class:`AutogradGradient` (ONE model
-evaluation, ``FlightProblem.differentiate``). A gradient function's ``cost`` is the model
-evaluations it counts against the polish's allowance (docs/harness.md, "Local polish").
+"""What the local polish optimises and how it takes derivatives: the :class:`Problem`, a
+harness task's problem from its env's problem view (:func:`task_problem`), and the gradient
+functions :class:`CentralDifferences` (2k + 1 strokes in ONE model call) and
+:class:`AutogradGradient` (ONE torch evaluation); ``cost`` counts model evaluations against the
+polish's allowance (docs/harness.md, "Local polish").
 """
 
 from __future__ import annotations
@@ -76,9 +74,8 @@ class Problem:
 
 
 def env_problem(env: gym.Env) -> FlightProblem | None:
-    """The optimisation problem ``env`` offers (its public ``problem()``, through Gymnasium's
-    wrappers: ``tandem_env.envs.problem``), or None for an env without one (an analytic test
-    env)."""
+    """The optimisation problem ``env`` offers (its ``problem()``), or None for none."""
+
     view = getattr(env.unwrapped, "problem", None)
     return view() if callable(view) else None
 
@@ -91,16 +88,10 @@ def polishable(problem: FlightProblem | None) -> bool:
 def task_problem(
     task: TaskSpec, condition: Condition, env_kwargs: Mapping[str, Any], env: gym.Env | None = None
 ) -> Problem:
-    """The polish problem of a harness task: its env's problem view at ``condition``.
-
-    Objective, constraint margins (``Constraint.margin``) and feasibility come from the env's
-    :class:`~tandem_env.envs.problem.FlightProblem` (:func:`env_problem`) in ONE batched model
-    call, so the polish optimises exactly what the env rewards under the constraints it
-    penalises; the free coordinates are those not in ``task.discrete_actions``.
-    ``differentiate`` is the same by autograd on the torch backend. ``env``, the task's single
-    env made with ``env_kwargs`` when the caller has one (the harness's job env), is used
-    instead of making one (and left open).
-    """
+    """The polish problem of a harness task: its env's problem view (:func:`env_problem`) at
+    ``condition``, so the polish optimises exactly what the env rewards; the free coordinates
+    are those not in ``task.discrete_actions``. ``env``, the task's env when the caller has one,
+    is used (and left open) instead of making one."""
     with contextlib.ExitStack() as stack:
         if env is None:
             env = gym.make(task.env_id, disable_env_checker=True, **dict(env_kwargs))
@@ -182,14 +173,7 @@ class CentralDifferences:
         width = up - down
         d_obj = (batch.objective[1 : 1 + k] - batch.objective[1 + k :]) / width
         d_margins = (batch.margins[1 : 1 + k] - batch.margins[1 + k :]) / width[:, None]
-        return Gradient(
-            objective=float(batch.objective[0]),
-            margins=batch.margins[0].copy(),
-            feasible=bool(batch.feasible[0]),
-            objective_gradient=d_obj,
-            jacobian=d_margins.T.copy(),
-            names=batch.names,
-        )
+        return _gradient(batch, d_obj, d_margins.T)
 
 
 @dataclass(frozen=True)
@@ -211,11 +195,16 @@ class AutogradGradient:
         differentiate = self.problem.differentiate
         assert differentiate is not None  # checked in __post_init__
         batch, d_obj, d_margins = differentiate(np.asarray(x, dtype=np.float64)[None, :])
-        return Gradient(
-            objective=float(batch.objective[0]),
-            margins=batch.margins[0].copy(),
-            feasible=bool(batch.feasible[0]),
-            objective_gradient=d_obj[0, free].copy(),
-            jacobian=d_margins[0][:, free].copy(),
-            names=batch.names,
-        )
+        return _gradient(batch, d_obj[0, free], d_margins[0][:, free])
+
+
+def _gradient(batch: BatchEvaluation, d_obj: np.ndarray, jacobian: np.ndarray) -> Gradient:
+    """The :class:`Gradient` at the batch's first stroke."""
+    return Gradient(
+        float(batch.objective[0]),
+        batch.margins[0].copy(),
+        bool(batch.feasible[0]),
+        d_obj.copy(),
+        jacobian.copy(),
+        batch.names,
+    )

@@ -38,12 +38,8 @@ def _duration(seconds: float) -> str:
 
 class CommandProgress:
     """The whole cost of a command of several phases (:func:`~agents.runner.run_plan`), said
-    on stderr (unless not ``enabled``) before any work (:meth:`announce`) and at each phase's
-    start (:meth:`start`): its jobs, how many are stored in ``--out`` or the record cache, how
-    many run, their model evaluations, and the time left at the rate measured so far
-    ("estimating" before the first job finishes). ``detail`` follows the title (the preset and
-    methods); with ``rerun`` a stored job counts as one to run.
-    """
+    on stderr before any work (:meth:`announce`) and at each phase's start (:meth:`start`):
+    jobs stored, cached and to run, their evaluations and the time left at the rate so far."""
 
     def __init__(
         self,
@@ -80,9 +76,8 @@ class CommandProgress:
         return list(self._phases.values())[-1].later if self._phases else ""
 
     def counts(self) -> dict[str, int]:
-        """The command's jobs (each key once) by state: ``done`` (run by this command),
-        ``stored`` (in ``--out``), ``cached`` (in the record cache), ``todo`` (to run; also
-        every stand-in), with ``evaluations`` (all jobs) and ``todo_evaluations``."""
+        """The command's jobs by state (``done``, ``stored``, ``cached``, ``todo``: stand-ins
+        too), with ``evaluations`` and ``todo_evaluations``."""
         jobs: dict[str, tuple[Job, bool]] = {}
         for phase in self._phases.values():
             for job in phase.jobs:
@@ -137,9 +132,7 @@ class CommandProgress:
             stream.flush()
 
     def announce(self, phases: Sequence[Phase]) -> None:
-        """The first line: the whole command before any work (its ``phases``, the plan's
-        look-ahead: jobs, seeds, budgets, what is stored in ``--out`` or the cache, what runs,
-        and the time left)."""
+        """The first line: the whole command (the plan's look-ahead ``phases``) before work."""
         self._plan(phases)
         c = self.counts()
         jobs = self._jobs().values()
@@ -155,8 +148,7 @@ class CommandProgress:
         )
 
     def start(self, phases: Sequence[Phase], started: Sequence[Phase]) -> None:
-        """The line at the start of the last phase ``started`` (the plan's look-ahead is
-        ``phases`` now); none for the first, which the first line has just announced."""
+        """The line at the start of the last phase ``started`` (none for the first)."""
         self._plan(phases, started)
         name = started[-1].name
         place = list(self._phases).index(name) + 1
@@ -171,8 +163,8 @@ class CommandProgress:
         )
 
     def ran(self, job: Job, seconds: float) -> None:
-        """A job :func:`~agents.runner.run_jobs` finished, after ``seconds`` of wall time since
-        the previous one (or the call's start) [s]."""
+        """A job finished, ``seconds`` [s] after the previous one (or the call's start)."""
+
         self._done.add(job.key)
         self._evaluations += job.budget
         self._seconds += seconds

@@ -5,15 +5,10 @@ Velocity and position update (per particle i and dimension j, r1, r2 ~ U(0, 1) f
     v <- w v + c1 r1 (pbest - x) + c2 r2 (gbest - x),   |v_j| <= velocity_clamp * 2
     x <- x + v,                                          then clip or reflect into the box
 
-Two standard parameter sets are offered:
-
-``"constriction"``
-    Clerc & Kennedy (2002) constriction coefficients written in inertia-weight form: with
-    phi = c1 + c2 = 4.1, chi = 2 / |2 - phi - sqrt(phi^2 - 4 phi)| = 0.72984, so w = 0.7298 and
-    c1 = c2 = chi * 2.05 = 1.49618 (the equivalence is Eberhart & Shi, 2000).
-``"linear-decreasing"``
-    Shi & Eberhart inertia weight (introduced in their 1998 paper) decreased linearly from 0.9
-    to 0.4 over the run with c1 = c2 = 2.0, the schedule of Shi & Eberhart (1999).
+Parameter sets: ``"constriction"``, Clerc & Kennedy's (2002) coefficients in inertia-weight form
+(phi = c1 + c2 = 4.1, chi = 2 / |2 - phi - sqrt(phi^2 - 4 phi)| = 0.72984: w = 0.7298, c1 = c2 =
+chi * 2.05 = 1.49618; Eberhart & Shi 2000), or ``"linear-decreasing"``, w from 0.9 to 0.4 over
+the run with c1 = c2 = 2.0 (Shi & Eberhart 1998, 1999).
 
 References
 ----------
@@ -145,9 +140,8 @@ class PSOConfig(OptimiserConfig):
 
 
 class PSO(AskTellOptimiser, settings=PSOConfig):
-    """Global-best particle swarm maximiser over [-1, 1]^dim (ask/tell:
-    :class:`~agents.optimiser.AskTellOptimiser`). Initial positions are uniform in the box and
-    initial velocities uniform in +-vmax; each iteration is vectorised over the swarm."""
+    """Global-best particle swarm maximiser over [-1, 1]^dim: positions start uniform in the
+    box, velocities in +-vmax; each iteration is vectorised over the swarm."""
 
     def __init__(self, dim: int, config: PSOConfig, seed: SeedLike = None) -> None:
         super().__init__(dim, config.swarm_size, config, seed)

@@ -1,12 +1,7 @@
-"""The record cache: one store of records shared by every output folder.
-
-Its rules (where it is, what the runner does with it, what it never holds, how to turn it off)
-are in docs/harness.md, "The record cache": a job with no record in ``--out`` takes the
-cache's, and every record computed is written to the cache too (:func:`agents.runner.run_jobs`,
-through a :class:`CacheWriter`). The folder and its files must be the user's own, writable by no
-one else (:func:`record_cache`, :func:`agents.store.unsafe_path`), and what it serves is
-re-evaluated first (:mod:`agents.verify`). A job whose method takes a path (``policy:RUN_DIR``)
-is never cached (:func:`cacheable`): its result depends on files outside the output folder.
+"""The record cache: one store of records shared by every output folder (docs/harness.md, "The
+record cache"). Its folder and files must be the user's own (:func:`record_cache`); what it
+serves is re-evaluated first (:mod:`agents.verify`); a job whose method takes a path is never
+cached (:func:`cacheable`).
 """
 
 from __future__ import annotations
@@ -32,11 +27,9 @@ another folder, False or None none."""
 
 
 def record_cache(cache: CacheOption = True) -> RecordStore | None:
-    """The record cache as a store whose files must be the user's own (``strict``), or None:
-    when off, or (said once per process, in one :class:`RecordWarning` line) when its folder
-    cannot be used or trusted: not a folder, or a folder (or its ``records``) that
-    :func:`~agents.store.unsafe_path` refuses, owned by another user or writable by others, as
-    ssh refuses such keys."""
+    """The record cache as a ``strict`` store, or None: when off, or (said once per process in
+    a :class:`RecordWarning`) when its folder is not one or :func:`~agents.store.unsafe_path`
+    refuses it or its ``records``."""
     if cache is None or cache is False:
         return None
     directory = Path(cache_directory() if cache is True else cache)
@@ -72,9 +65,8 @@ def cacheable(job: Job | Work) -> bool:
 
 
 class CacheWriter:
-    """The record cache of one :func:`~agents.runner.run_jobs` call: read through the store's
-    checks, written through its atomic save; a cache that cannot be written is said once and
-    then left alone (the records are in ``--out``)."""
+    """The record cache of one :func:`~agents.runner.run_jobs` call; one that cannot be
+    written is said once and then left alone (the records are in ``--out``)."""
 
     def __init__(self, store: RecordStore | None) -> None:
         self.store = store

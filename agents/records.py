@@ -1,10 +1,6 @@
-"""Harness records: what one job found, in one format every method and reader shares.
-
-A :class:`Record` holds its :class:`~agents.jobs.Job`, the job's key and one mapping of results
-(:data:`RESULTS`; a later stage of the run adds its own key), and its file carries a checksum
-of all three, so a record edited by hand or damaged is detected. The runner alone writes them
-(:func:`agents.runner.run_jobs`, into a :class:`~agents.store.RecordStore`); the schema with
-units is in docs/harness.md.
+"""Harness records: what one job found, in one format every method and reader shares: its
+:class:`~agents.jobs.Job`, the job's key and one mapping of results (:data:`RESULTS`), with a
+checksum of all three (docs/harness.md).
 """
 
 from __future__ import annotations
@@ -116,11 +112,8 @@ class RecordWarning(UserWarning):
 
 
 def package_versions() -> dict[str, str]:
-    """Versions of the packages that determine results, plus the Python version.
-
-    Keys: numpy, scipy, gymnasium, stable_baselines3, torch, numba, python. A package that is
-    not installed is reported as ``"not installed"``.
-    """
+    """Versions of the packages that determine results (``"not installed"`` for one that is
+    not) and of Python."""
     versions: dict[str, str] = {}
     for distribution in _PACKAGES:
         try:
@@ -148,13 +141,8 @@ def _checksum(payload: Mapping[str, Any]) -> str:
 
 @dataclass(frozen=True)
 class Record:
-    """What one :class:`Job` found: the job, its key and one mapping of results.
-
-    Every number describing the stroke comes from the final re-evaluation of the reported
-    stroke (a single-env step after the search), not from the search. The results' keys and units are
-    :data:`RESULTS`; each has an attribute of that name (``record.objective``), and the job's
-    fields read through (``record.method``, ``record.seed``, ...).
-    """
+    """What one :class:`Job` found: the job, its key and its results (:data:`RESULTS`, each an
+    attribute, as the job's fields are), every number from the re-evaluation of the stroke."""
 
     job: Job
     """The configuration that produced the record."""
@@ -212,16 +200,15 @@ class Record:
     # --- the results (each key of RESULTS is an attribute: below the class) ----------------------
     @property
     def certificate(self) -> dict[str, Any]:
-        """The local polish and the optimality of the reported stroke (method, status, gain
-        [-], evaluations, iterations, converged, KKT residual [-], active constraints;
-        :class:`agents.polish.Certificate`); empty for a record made without one."""
+        """The polish and optimality of the stroke (:class:`agents.polish.Certificate`), or {}."""
+
         return dict(self.results.get(CERTIFICATE, {}))
 
     @property
     def score(self) -> float:
-        """The normalised score of the reported stroke against the reference optimum at its
-        condition [-] (100 = the reference; :func:`tandem_env.envs.reference.record_score`):
-        NaN where the reference table does not apply (another model, insect or condition)."""
+        """The stroke's normalised score [-] (:func:`~tandem_env.envs.reference.record_score`;
+        NaN where the reference table does not apply)."""
+
         return record_score(
             self.env_id,
             self.results["env"],
@@ -268,12 +255,8 @@ class Record:
 
     @classmethod
     def from_dict(cls, data: Any) -> Record:
-        """Inverse of :meth:`to_dict`.
-
-        Raises :class:`OutdatedRecordError` for a record of an earlier format and
-        :class:`RecordError` for anything else that is not a valid record, including one whose
-        checksum does not match its contents (edited by hand or damaged).
-        """
+        """Inverse of :meth:`to_dict`: :class:`OutdatedRecordError` for a record of an earlier
+        format, :class:`RecordError` for anything else that is not a valid record."""
         if not isinstance(data, Mapping):
             raise RecordError(
                 f"record data is {type(data).__name__} {_short(data)}; allowed: a JSON object "

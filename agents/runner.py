@@ -1,24 +1,13 @@
 """The runner: a plan's phases of jobs run once each, resumably, here or on Dask.
 
-A plan (:class:`Plan`, :func:`run_plan`) yields phases (:class:`~agents.progress.Phase`), each
-a list of keyed jobs computed from the records of the phases before it; :func:`run_jobs` runs
-one such list (a plan of one phase).
-
-Each job's record is kept in the output directory's :class:`~agents.store.RecordStore` under
-the job's key, the hash of its whole configuration and the package version, so a killed run
-resumes, a changed configuration never mixes in old records, and neither the order, the
-executor nor the number of workers changes a result (docs/harness.md, "The record and the
-store"). Where the jobs run is :mod:`agents.dask_cluster`'s. Besides the harness's jobs it
-runs jobs of another kind (:class:`~agents.jobs.Work`: the cross-check's solver runs) the same
-way; only a harness record is re-evaluated when reused (:mod:`agents.verify`).
-
-Every job to run is validated once, here, before any of them runs
-(:func:`agents.harness.prepare_job`; a job already prepared is not validated again). This
-process is the one writer of the records: it writes each as its job finishes (workers need no
-shared filesystem), one progress bar counts the evaluations of the finished jobs, a worker
-that dies has its jobs rerun by Dask, and a job that raises is reported with its key and
-traceback after the other jobs have finished (:class:`JobsFailed`). The record cache is
-:mod:`agents.record_cache`'s, a command's progress over several calls :mod:`agents.progress`'s.
+A plan (:class:`Plan`, :func:`run_plan`) yields phases (:class:`~agents.progress.Phase`) of
+keyed jobs computed from the records of the phases before it; :func:`run_jobs` runs one list.
+Each job's record is kept in the output's :class:`~agents.store.RecordStore` under the job's
+key (the hash of its configuration and the package version), so a killed run resumes and
+neither order, executor nor worker count changes a result (docs/harness.md, "The record and
+the store"). Jobs are validated once, all before any runs (:func:`agents.harness.prepare_job`);
+this process alone writes the records, as each job finishes; a job that raises is reported
+with its key and traceback after the others finish (:class:`JobsFailed`).
 """
 
 from __future__ import annotations
@@ -121,8 +110,7 @@ class RunSummary:
         }
 
     def describe(self, out_dir: str | os.PathLike[str]) -> str:
-        """``N run, M reused from OUT`` (with those reused from the cache), as the commands'
-        last lines say it."""
+        """``N run, M reused from OUT`` (and from the cache), the commands' last line."""
         parts = [f"{self.ran} run"]
         if self.replaced:
             parts[0] += f" again (--rerun: {self.replaced} record(s) in {out_dir} replaced)"
@@ -134,8 +122,8 @@ class RunSummary:
 
 
 class OutputNotWritable(ValueError):
-    """The output folder is a file (or under one), or cannot be written while some jobs have no
-    record there: nothing ran (:func:`run_jobs` with ``summary_csv``)."""
+    """The output folder is a file, or cannot be written while some jobs have no record
+    there: nothing ran (:func:`run_jobs` with ``summary_csv``)."""
 
 
 class JobsFailed(RuntimeError):
@@ -152,22 +140,19 @@ class JobsFailed(RuntimeError):
         super().__init__("\n".join(lines))
 
 
-# The serial executor's live progress: what the job running now reports to (module level, so
-# tests can wrap _harness_run(job) and still see progress).
+# The serial executor's live progress: what the job running now reports to.
 _REPORTER: contextvars.ContextVar[Reporter | None] = contextvars.ContextVar(
     "harness_reporter", default=None
 )
 
 
 def _harness_run(job: PreparedJob | Work) -> Record:
-    """One harness call, or a job of another kind run (module level so tests can count calls
-    and workers can import it)."""
+    """One harness call, or a job of another kind run (module level: workers import it)."""
     return run_job(job, _REPORTER.get()) if isinstance(job, PreparedJob) else job.compute()
 
 
 def _on_worker(job: PreparedJob | Work) -> Record:
-    """What a Dask worker runs: the harness call, with one numba thread per job
-    (:func:`~agents.dask_cluster.set_worker_numba_threads`)."""
+    """What a Dask worker runs: the harness call, with one numba thread per job."""
     set_worker_numba_threads()
     return _harness_run(job)
 
@@ -278,33 +263,24 @@ def run_jobs(
     command: CommandProgress | None = None,
     summary_csv: bool = False,
 ) -> RunSummary:
-    """Run every job that has no valid stored record yet; duplicates run once (jobs of one
-    kind: the harness's, or another :class:`~agents.jobs.Work` kind's).
+    """Run every job that has no valid stored record yet (duplicates once): the harness's
+    jobs or another :class:`~agents.jobs.Work` kind's.
 
-    ``scheduler`` chooses where (None: here, one after another; :mod:`agents.dask_cluster`).
-    The jobs to run are validated first (a job :func:`~agents.harness.prepare_job` rejects is
-    a failure and does not run) and start largest budget first, so the workers stay busy to
-    the end. Raises :class:`JobsFailed` (after every other job has finished) if any job was
-    rejected or raised, :class:`~agents.dask_cluster.SchedulerUnreachable` if the scheduler
-    does not answer, ValueError for a bad ``scheduler`` or an ``out_dir`` (or cache folder)
-    that is a file. ``rerun`` runs every job again, its record replacing the stored one (a
-    trained policy's run folder may hold a newer model under the same name). The summary's
-    ``records`` are the jobs' records, each read at most once.
+    ``scheduler``: None runs here, one job after another, else :mod:`agents.dask_cluster`'s;
+    jobs start largest budget first. ``rerun`` runs every job again, replacing its record.
+    ``cache`` (:data:`~agents.record_cache.CacheOption`): a job without a record in
+    ``out_dir`` takes the cache's; every record computed goes to both. A reused record is
+    re-evaluated first (:func:`agents.verify.refuted`); one its stroke does not reproduce is
+    said in a :class:`~agents.records.RecordWarning` and its job runs again. ``command`` is
+    told of every job finished. ``summary_csv`` keeps ``out_dir``'s ``summary.csv``, rewritten
+    when the call ends (after a failure too); the store's paths are then checked before any
+    work (:class:`OutputNotWritable`), and a store that cannot be written but holds every job
+    is used as it is.
 
-    ``cache`` is the record cache (:data:`~agents.record_cache.CacheOption`): a job with no
-    record in ``out_dir`` takes the cache's, copied into ``out_dir``; every record computed is
-    written to both. A record reused from either is re-evaluated first
-    (:func:`agents.verify.refuted`); one whose results its stroke does not give is said in a
-    :class:`~agents.records.RecordWarning` naming its file, and its job runs again. ``command`` (:class:`~agents.progress.CommandProgress`) is told of every
-    job this call finishes.
-
-    ``summary_csv`` (``python -m eval optimize``) also keeps ``out_dir``'s ``summary.csv``
-    over every record there, rewritten when the call ends (also after a failure or an
-    interrupt). The store's paths are checked once its records are read, before any other
-    work: :class:`OutputNotWritable` naming the path and what is allowed for a file where a
-    folder goes, or a folder that cannot be written while a job has no record there; one
-    that cannot be written but holds every job is used as it is, its summary left as it is
-    (said on stderr).
+    Raises :class:`JobsFailed` after the other jobs finished if any job was rejected or raised,
+    :class:`~agents.dask_cluster.SchedulerUnreachable`, and ValueError for a bad ``scheduler``
+    or an ``out_dir`` (or cache folder) that is a file. The summary's ``records`` are the
+    jobs' records, each read at most once.
     """
     executor = "serial" if scheduler is None else parse_scheduler(scheduler)
     start = time.perf_counter()
@@ -334,120 +310,89 @@ def run_jobs(
         message = f"{path}: {why}; it is not used and its job runs again"
         warnings.warn(message, RecordWarning, stacklevel=2)
     replaced = sum(store.path(key).exists() for key in given) if rerun else 0
-    writable = not summary_csv or _check_output(store, given, records)
-    try:
-        return _run(given, records, cached, store, shared, executor, start, progress, command,
-                    replaced)  # fmt: skip
-    finally:
-        if summary_csv:
-            _write_summary(store, records, writable)
-
-
-def _check_output(
-    store: RecordStore, given: Mapping[str, Given], stored: Mapping[str, Record]
-) -> bool:
-    """Whether ``store`` can be written (its folder, records, summary and the jobs' record
-    files); :class:`OutputNotWritable` naming the path and why if it cannot and a job is not
-    ``stored`` there."""
-    jobs = [_job_of(job) for job in given.values()]
-    try:
-        writable = store.check(write=False, jobs=jobs)
-        if not writable and set(given) - set(stored):
-            store.check(jobs=jobs)  # raises, naming the folder and why
-    except ValueError as error:
-        raise OutputNotWritable(str(error)) from None
-    return writable
-
-
-def _write_summary(store: RecordStore, records: Mapping[str, Record], writable: bool) -> None:
-    """Rewrite ``store``'s summary over every record there (``records`` not read again), or say
-    why it is left as it is."""
-    if writable and store.directory.exists():
-        store.write_summary(records)
-    elif not writable:
-        print(
-            f"{store.directory} cannot be written: every seed is stored there, "
-            f"{SUMMARY_NAME} is left as it is",
-            file=sys.stderr,
-        )
-
-
-def _run(
-    given: Mapping[str, Given],
-    records: dict[str, Record],
-    cached: Mapping[str, Record],
-    store: RecordStore,
-    shared: CacheWriter,
-    executor: str,
-    start: float,
-    progress: bool,
-    command: CommandProgress | None,
-    replaced: int,
-) -> RunSummary:
-    """:func:`run_jobs` once the stored ``records`` and the ``cached`` ones are read and
-    checked: the cache's copied, the others run; ``records`` gains every record found or made."""
-    for record in records.values():
-        shared.save(record, unless_present=True)  # a store made before the cache feeds it
-    for key, record in cached.items():
-        store.save(record)  # the store's one atomic write: a copy, checksum and all
-        records[key] = record
-    missing = [job for key, job in given.items() if key not in records]
-    failures: list[JobFailure] = []
-    todo: list[PreparedJob | Work] = []
-    for job in missing:  # validated once, all before any runs; a rejected job is a failure
+    writable = True
+    if summary_csv:  # every path checked before any work; one that cannot be written is
+        jobs = [_job_of(job) for job in given.values()]  # refused unless it holds every job
         try:
-            todo.append(prepare_job(job) if isinstance(job, Job) else job)
-        except Exception as error:
-            failures.append(_failure(_job_of(job), error, error.__traceback__))
-    todo.sort(key=lambda p: -_job_of(p).budget)
-    if todo and (old := store.outdated(skip=given)):
-        # Their keys hash the earlier format, so no job finds them: say so once (one at a
-        # job's own key was reported by store.load).
-        warnings.warn(
-            f"{len(old)} record file(s) of an earlier format in {old[0].parent} (e.g. "
-            f"{old[0].name}) are not used: the jobs they held run again in this format",
-            RecordWarning,
-            stacklevel=3,
+            writable = store.check(write=False, jobs=jobs)
+            if not writable and set(given) - set(records):
+                store.check(jobs=jobs)  # raises, naming the folder and why
+        except ValueError as error:
+            raise OutputNotWritable(str(error)) from None
+    try:
+        for record in records.values():
+            shared.save(record, unless_present=True)  # a store made before the cache feeds it
+        for key, record in cached.items():
+            store.save(record)  # the store's one atomic write: a copy, checksum and all
+            records[key] = record
+        missing = [job for key, job in given.items() if key not in records]
+        failures: list[JobFailure] = []
+        todo: list[PreparedJob | Work] = []
+        for job in missing:  # validated once, all before any runs; a rejected job is a failure
+            try:
+                todo.append(prepare_job(job) if isinstance(job, Job) else job)
+            except Exception as error:
+                failures.append(_failure(_job_of(job), error, error.__traceback__))
+        todo.sort(key=lambda p: -_job_of(p).budget)
+        if todo and (old := store.outdated(skip=given)):
+            # Their keys hash the earlier format, so no job finds them: say so once (one at a
+            # job's own key was reported by store.load).
+            warnings.warn(
+                f"{len(old)} record file(s) of an earlier format in {old[0].parent} (e.g. "
+                f"{old[0].name}) are not used: the jobs they held run again in this format",
+                RecordWarning,
+                stacklevel=2,
+            )
+        with contextlib.ExitStack() as stack:
+            client = None
+            if todo and executor != "serial":
+                client = stack.enter_context(dask_client(executor, quiet=not progress))
+            display = _Display([_job_of(p) for p in todo], progress and bool(todo))
+            stack.callback(display.close)
+            outcomes = (
+                _run_serially(todo, display) if client is None else _run_on_dask(client, todo)
+            )
+            running = time.perf_counter()
+            for job, outcome in outcomes:
+                if isinstance(outcome, JobFailure):
+                    failures.append(outcome)
+                elif outcome.key != job.key:
+                    failures.append(
+                        JobFailure(job.key, job.label(), f"record has key {outcome.key!r}", "")
+                    )
+                else:
+                    store.save(outcome)
+                    shared.save(outcome)
+                    records[job.key] = outcome
+                display.finished(job, outcome)
+                now = time.perf_counter()
+                if command is not None and isinstance(outcome, Record):
+                    command.ran(job, now - running)
+                running = now
+        summary = RunSummary(
+            total=len(given),
+            reused=len(given) - len(missing),
+            ran=len(missing),
+            wall_time=time.perf_counter() - start,
+            executor=executor,
+            failures=tuple(sorted(failures, key=lambda f: f.key)),
+            records=records,
+            cached=len(cached),
+            replaced=replaced,
+            noun=next((getattr(_job_of(j), "noun", "optimisation") for j in given.values()), ""),
         )
-    with contextlib.ExitStack() as stack:
-        client = None
-        if todo and executor != "serial":
-            client = stack.enter_context(dask_client(executor, quiet=not progress))
-        display = _Display([_job_of(p) for p in todo], progress and bool(todo))
-        stack.callback(display.close)
-        outcomes = _run_serially(todo, display) if client is None else _run_on_dask(client, todo)
-        running = time.perf_counter()
-        for job, outcome in outcomes:
-            if isinstance(outcome, JobFailure):
-                failures.append(outcome)
-            elif outcome.key != job.key:
-                failures.append(
-                    JobFailure(job.key, job.label(), f"record has key {outcome.key!r}", "")
-                )
-            else:
-                store.save(outcome)
-                shared.save(outcome)
-                records[job.key] = outcome
-            display.finished(job, outcome)
-            now = time.perf_counter()
-            if command is not None and isinstance(outcome, Record):
-                command.ran(job, now - running)
-            running = now
-    summary = RunSummary(
-        total=len(given),
-        reused=len(given) - len(missing),
-        ran=len(missing),
-        wall_time=time.perf_counter() - start,
-        executor=executor,
-        failures=tuple(sorted(failures, key=lambda f: f.key)),
-        records=records,
-        cached=len(cached),
-        replaced=replaced,
-        noun=getattr(_job_of(next(iter(given.values()))), "noun", "optimisation") if given else "",
-    )
-    if failures:
-        raise JobsFailed(summary)
-    return summary
+        if failures:
+            raise JobsFailed(summary)
+        return summary
+    finally:
+        if summary_csv and not writable:
+            print(
+                f"{store.directory} cannot be written: every seed is stored there, "
+                f"{SUMMARY_NAME} is left as it is",
+                file=sys.stderr,
+            )
+        elif summary_csv and store.directory.exists():
+            store.write_summary(records)
 
 
 def _job_of(job: Given) -> Job | Work:
@@ -477,9 +422,8 @@ def job_records(out_dir: Out, jobs: Iterable[Job]) -> dict[Job, Record]:
 def find_records(
     out_dir: Out, jobs: Iterable[Job], cache: CacheOption = True
 ) -> dict[Job, Record] | None:
-    """The records of ``jobs`` as :func:`run_jobs` would find them (``out_dir`` first, then the
-    record cache), writing nothing and warning of nothing; None if any is missing (a plan
-    that looks ahead: those jobs still have to run)."""
+    """The records of ``jobs`` as :func:`run_jobs` would find them (``out_dir``, then the
+    record cache), writing and warning nothing; None if any is missing."""
     stores = [RecordStore.at(out_dir)]
     if (shared := record_cache(cache)) is not None:
         stores.append(shared)
@@ -499,9 +443,8 @@ def find_records(
 @dataclass
 class Lookup:
     """What a plan's next phases follow from (:class:`Plan`): the records of some jobs, from
-    the run so far (:attr:`running`), or, in a look-ahead, as far as ``store`` and the record
-    cache hold them (:func:`find_records`; None when some are missing: the phases after get
-    stand-ins, :meth:`agents.jobs.Continuation.job`)."""
+    the run so far (:attr:`running`) or, in a look-ahead, as far as ``store`` and the record
+    cache hold them (:func:`find_records`)."""
 
     store: RecordStore
     cache: CacheOption = True
@@ -559,12 +502,10 @@ def run_plan(
     command: CommandProgress | None = None,
     summary_csv: bool = False,
 ) -> PlanRun:
-    """Run ``plan``'s phases in order into the store ``out``, each phase's jobs in one
-    :func:`run_jobs` call (``scheduler``, ``cache``, ``progress`` and ``command`` as there); a
-    killed run resumes phase by phase from the records stored (``summary_csv`` as for
-    :func:`run_jobs`). ``command`` says each phase's start with the whole command's cost again
-    (the plan's :func:`look_ahead` now). ``rerun`` runs every job again once (a job an earlier
-    phase of this call ran is not run twice)."""
+    """Run ``plan``'s phases in order into the store ``out``, each in one :func:`run_jobs`
+    call (the options as there); a killed run resumes phase by phase. ``command`` says each
+    phase's start with the command's cost again; ``rerun`` runs every job again once."""
+
     start = time.perf_counter()
     store = RecordStore.at(out)
     found = Lookup(store, cache, {})

@@ -1,19 +1,12 @@
-"""The one rule that picks "the best stroke": feasible first, then the higher reward, the
-earlier one on ties.
+"""The one rule that picks "the best stroke", wherever one is chosen (the harness, training,
+a resumed run; docs/harness.md, "Which stroke"):
 
-Every place that chooses a stroke to report uses it: the harness's evaluator, the SB3 stroke
-recorder (``train.vec.StrokeRecorder``), the training method's choice between its best
-training stroke and its final policy (``train.policies``) and a resumed run (``train.run``).
-
-1. A feasible stroke beats every infeasible one, whatever their rewards: a penalised reward
-   can rank a marginally infeasible stroke above every feasible one (docs/harness.md, "Which
-   stroke").
-2. Between strokes of equal feasibility the higher reward wins (for feasible strokes the reward
-   is the objective).
+1. A feasible stroke beats every infeasible one, whatever their rewards.
+2. Between strokes of equal feasibility the higher reward wins.
 3. Ties go to the earlier stroke: the lower index in a batch, the incumbent against a newcomer.
 
-A NaN or -inf reward (a failed evaluation) ranks as an infeasible stroke with reward -inf,
-whatever its flag, and never improves on "nothing yet" (:data:`NOTHING`); +inf is a number.
+A NaN or -inf reward ranks as an infeasible stroke with reward -inf and never improves on
+"nothing yet" (:data:`NOTHING`); +inf is a number.
 """
 
 from __future__ import annotations
@@ -59,11 +52,8 @@ def is_better(
 
 
 def best_index(feasible: ArrayLike, reward: ArrayLike) -> int:
-    """Index of the best of n strokes by the rule (the first of equals), vectorised.
-
-    ``feasible`` (n,) bool and ``reward`` (n,) [reward units]; n >= 1. When no stroke has a
-    real reward, every stroke ties and the answer is 0.
-    """
+    """Index of the best of n >= 1 strokes (``feasible`` (n,), ``reward`` (n,)) by the rule,
+    vectorised; 0 when none has a real reward."""
     flags = np.asarray(feasible, dtype=bool)
     values = np.asarray(reward, dtype=np.float64)
     if values.ndim != 1 or values.shape != flags.shape or values.size == 0:
@@ -80,11 +70,8 @@ def best_index(feasible: ArrayLike, reward: ArrayLike) -> int:
 
 
 class BestStroke:
-    """The best stroke seen so far over batches, by the rule: offer each batch, keep the winner.
-
-    Holds only the winner's rank and its batch-local index; the caller keeps whatever it
-    wants to remember about that stroke (action, info) when :meth:`offer` says it won.
-    """
+    """The best stroke's rank over batches: :meth:`offer` each batch; the caller keeps what it
+    wants of the stroke when it wins."""
 
     def __init__(self) -> None:
         self.rank = NOTHING

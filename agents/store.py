@@ -1,19 +1,10 @@
 """The record store: a job's record kept as ``DIR/records/<key>.json``, found by its job.
 
-A :class:`RecordStore` keeps :class:`~agents.records.Record` s as ``DIR/records/<key>.json``
-(:attr:`agents.jobs.Job.key`), each written atomically
-(:func:`tandem_env.io.files.write_json_atomic`). The runner (:func:`agents.runner.run_jobs`) is
-the one writer: ``python -m eval optimize``, the studies and ``python -m train.envelope`` run
-their jobs through it, so a record is found by its configuration: another budget, seed or model
-option is another file, a killed run resumes from the records already there, and a file that is
-not a valid record of its job (corrupt, edited, of an older format, of another job) is
-recomputed with a :class:`~agents.records.RecordWarning`. ``DIR/summary.csv`` is the CSV
-summary over every record of a store.
-
-The record cache is a store too, shared by every output folder of a user
-(:func:`cache_directory`; docs/harness.md, "The record cache"): the runner copies a job's
-record from it into ``--out`` instead of running the job again, and writes every record it
-computes into both, with the same atomic writes.
+The runner (:func:`agents.runner.run_jobs`) is the one writer, atomically, so a record is found
+by its configuration (:attr:`agents.jobs.Job.key`), a killed run resumes, and a file that is
+not a valid record of its job is recomputed with a :class:`~agents.records.RecordWarning`.
+``DIR/summary.csv`` summarises a store. The record cache is a store too, shared by every output
+folder of a user (:func:`cache_directory`; docs/harness.md, "The record cache").
 """
 
 from __future__ import annotations
@@ -97,11 +88,9 @@ _KEY_NAME = re.compile(r"[0-9a-f]{20}")
 def read_record(
     path: str | os.PathLike[str], *, strict: bool = False, kind: Any = Record
 ) -> Record:
-    """The record in a record file; :class:`~agents.records.RecordError` naming the file for
-    anything but a valid record (OSError if it cannot be opened; ``strict``:
-    :func:`unsafe_path`'s refusals too). The files are the store's: the record's format is
-    ``kind.from_dict``'s (:meth:`Record.from_dict <agents.records.Record.from_dict>`, or a
-    :class:`~agents.jobs.Work` kind's ``record_type``)."""
+    """The record in a record file, read by ``kind.from_dict`` (a :class:`~agents.jobs.Work`
+    kind's ``record_type``); :class:`~agents.records.RecordError` naming the file for anything
+    else (OSError if it cannot be opened; ``strict``: :func:`unsafe_path`'s refusals too)."""
     data = _read_json(path, strict=strict)
     try:
         return kind.from_dict(data)
@@ -123,9 +112,7 @@ def unsafe_path(path: str | os.PathLike[str], status: os.stat_result) -> str | N
 def _read_json(path: str | os.PathLike[str], *, strict: bool = False) -> Any:
     """The JSON in one of the store's files; RecordError naming the file for one that is not
     UTF-8 JSON, :class:`~agents.records.UnsafeFileError` for one that is not a regular file
-    (a named pipe, a device: opened without blocking, never read) or, if ``strict``, that
-    :func:`unsafe_path` refuses (OSError if it cannot be opened). The store reads its files
-    itself: one message for a damaged file, wherever the store meets it."""
+    (never read) or, if ``strict``, that :func:`unsafe_path` refuses."""
     # O_NONBLOCK: opening a named pipe would wait for a writer; fstat judges what was opened.
     descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     with open(descriptor, encoding="utf-8") as handle:
@@ -193,14 +180,9 @@ class RecordStore:
         return self.directory / RECORDS_DIR / f"{key}.json"
 
     def load(self, job: Job | Work) -> Record | None:
-        """The stored record of ``job``, or None if it has not run with this configuration.
-
-        A file that is not a valid record of ``job`` (corrupt, failing its checksum, of an
-        earlier format, or holding another job: a file copied by hand or a truncated-hash
-        collision), not a regular file, or not trusted (``strict``) is reported with a
-        :class:`RecordWarning` and treated as missing, so the job runs again and its record
-        replaces the file.
-        """
+        """The stored record of ``job``, or None if it has not run with this configuration; a
+        file that is not a valid, trusted record of ``job`` is said in a :class:`RecordWarning`
+        and treated as missing, so the job runs again and its record replaces the file."""
         path = self.path(job.key)
         if not path.exists():
             return None
@@ -222,11 +204,7 @@ class RecordStore:
         return record
 
     def save(self, record: Record) -> Path:
-        """Write ``record`` as ``records/<record.key>.json`` atomically; returns the path.
-
-        Nothing is read back: the one writer (:func:`agents.runner.run_jobs`) saves a
-        job's record only after :meth:`load` found none valid under its key.
-        """
+        """Write ``record`` as ``records/<record.key>.json`` atomically; returns the path."""
         path = self.path(record.key)
         data = record.to_dict()
         try:
@@ -241,10 +219,9 @@ class RecordStore:
         return path
 
     def records(self, known: Mapping[str, Record] | None = None) -> list[Record]:
-        """Every valid record in the store, in the summary's order (:func:`write_summary`); the
-        others are left out with a :class:`RecordWarning`. ``known`` (key -> record: those the
-        runner just saved or checked, :attr:`agents.runner.RunSummary.records`) are taken as
-        they are; only the other files are read."""
+        """Every valid record in the store, in the summary's order (the others left out with a
+        :class:`RecordWarning`); those ``known`` (key -> record) are not read again."""
+
         known = known or {}
         found = []
         for path in sorted((self.directory / RECORDS_DIR).glob("*.json")):
@@ -300,14 +277,11 @@ def write_summary(path: str | os.PathLike[str], records: Sequence[Record]) -> No
 
 
 def read_record_files(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
-    """Every record in the given files and directories (searched recursively for ``*.json``).
+    """Every record in the given files and directories (searched recursively for ``*.json``):
+    other JSON files are skipped, a record of an earlier format or failing its checksum is left
+    out with a :class:`RecordWarning`, and a file that cannot be read or is a malformed record
+    raises :class:`RecordError` naming it."""
 
-    Finds the records of stores (``DIR/records/*.json``) and of study directories alike. JSON
-    files that are not records (another schema) are skipped; a record of an earlier format or
-    one failing its checksum is left out with a :class:`RecordWarning` (never mixed in); a file
-    that cannot be read, or claims the record schema but is malformed, raises
-    :class:`RecordError` naming it.
-    """
     records: list[Record] = []
     for base in map(Path, paths):
         if not base.exists():

@@ -1,10 +1,8 @@
 """The harness's tasks: which env id a task name means, read from the env's task declaration.
 
-A :class:`TaskSpec` is a name, a Gymnasium id (whose ``vector_entry_point`` the harness
-evaluates batches through) and the env config's :class:`~tandem_env.envs.TaskDeclaration`,
-read, never copied: every env entry with a task (``tandem_env.envs.registration``) gives one
-(:meth:`TaskSpec.from_env`), so adding a task touches nothing here; tests register analytic
-tasks by hand (:func:`register_task`).
+A :class:`TaskSpec` is a name, a Gymnasium id and the env config's
+:class:`~tandem_env.envs.TaskDeclaration`, read, never copied: every env entry with a task
+gives one (:meth:`TaskSpec.from_env`); tests register analytic tasks (:func:`register_task`).
 """
 
 from __future__ import annotations
@@ -58,16 +56,13 @@ class TaskSpec:
     name: str
     """Short name used on the command line and in record file names (lower case)."""
     env_id: str
-    """Registered Gymnasium id; it must have a ``vector_entry_point`` whose vector env accepts
-    ``autoreset_mode="Disabled"`` and the keyword arguments of the single env, and whose step
-    ``info`` reports the condition under its keyword (checked when present)."""
+    """Registered Gymnasium id with a ``vector_entry_point`` (autoreset ``"Disabled"``, the
+    single env's keywords)."""
     declaration: TaskDeclaration
     """The env's declaration (its config's ``DECLARATION``), with a condition and objectives."""
     discrete_actions: tuple[tuple[int, int], ...] = field(default=())
-    """(index, levels) of each discrete action coordinate: it takes ``levels`` values, value i
-    on the i-th of ``levels`` equal bins of [-1, 1]. Methods that know discrete variables
-    (CMA-ES) search those coordinates on the bin centres; the others search them as
-    continuous and the env's map decides."""
+    """(index, levels) of each discrete action coordinate: value i on the i-th of ``levels``
+    equal bins of [-1, 1] (CMA-ES searches the bin centres)."""
 
     @classmethod
     def from_env(cls, name: str, env_id: str) -> TaskSpec:
@@ -144,9 +139,8 @@ class TaskSpec:
         return declared.metrics[choice]
 
 
-#: Tasks registered by hand (:func:`register_task`: a spec not read from an env config, such as
-#: the tests' analytic functions). The tasks of env entries are not kept: they are read from
-#: ``registration.task_env_ids()`` and the env configs' declarations on every call.
+#: Tasks registered by hand (:func:`register_task`); those of env entries are read on each call.
+
 REGISTERED_TASKS: dict[str, TaskSpec] = {}
 
 

@@ -1,12 +1,9 @@
 """Stored records checked against the physics before they are reused.
 
-A record's checksum tells damage from a record, not a forged record from a computed one: anyone
-who can write a store (``--out``, the record cache) can edit the results and make the checksum
-again. So the runner (:func:`agents.runner.run_jobs`) serves no stored record without stepping
-its stroke once more: :func:`refuted` re-evaluates every reused record's stroke, in one vector
-env step per task and env configuration (the flight envs take each sub-env's condition at its
-reset; another task's records one by one, as the harness made them), and compares what the
-record says the stroke gave (:data:`CHECKED`) with what it gives.
+A checksum tells damage, not a forged record (anyone who can write a store can make it again),
+so the runner serves no stored record without stepping its stroke once more: :func:`refuted`
+re-evaluates every reused record's stroke, one vector-env step per task and env configuration,
+and compares what the record says (:data:`CHECKED`) with what the stroke gives.
 """
 
 from __future__ import annotations
@@ -52,10 +49,8 @@ def stepped_results(reward: float, info: Mapping[str, Any], action: Sequence[flo
 
 
 def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) -> dict[str, str]:
-    """Key -> why, for each record of ``found`` (key -> record) whose results its stroke does
-    not give, re-evaluated in the env of its job in ``jobs`` (that job's backend and device); a
-    record that cannot be re-evaluated is refuted too (its job runs again, and says why it
-    cannot)."""
+    """Key -> why, for each record of ``found`` whose results its stroke does not give in the
+    env of its job in ``jobs``, or that cannot be re-evaluated."""
     plain = {key: job.job if isinstance(job, PreparedJob) else job for key, job in jobs.items()}
     groups: dict[Any, list[list[str]]] = {}  # task and env keywords -> batches of keys
     for key in found:
@@ -85,9 +80,9 @@ def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) 
 
 
 def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Record]) -> list[dict]:
-    """The stepped results of each record's stroke, at its job's condition and seed: one step of
-    one vector env of the task where it takes a condition per sub-env (the flight envs), else
-    the harness's own re-evaluation in a single env per record (a plug-in's task)."""
+    """The stepped results of each record's stroke at its job's condition and seed: one step
+    of one vector env where it takes a condition per sub-env, else one single env per record."""
+
     keyword = spec.declared_condition.keyword
     actions = np.asarray([r.normalised_stroke for r in records], dtype=np.float64)
     make = {"vectorization_mode": "vector_entry_point", "autoreset_mode": "Disabled"}

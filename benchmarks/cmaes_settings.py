@@ -1,10 +1,10 @@
 """Which CMA-ES settings? Runs settings side by side on the convergence study's two conditions.
 
-Per setting and seed, one harness run at level flight 1.5 m/s (η, ``--level-budget``) and one at
-accelerating flight 60 W/kg (F̄_v, ``--accelerate-budget``); each run's best-so-far history also
-gives every smaller budget (agents/cmaes_search.py). Prints, per task, setting and checkpoint,
-the median over seeds, the spread ((max - min) / median) and the restarts, and writes every value
-to ``--out`` (CSV). Tune on seeds other than those you report. Usage::
+Per setting and seed, one harness run at level flight 1.5 m/s and one at accelerating flight
+60 W/kg (each history gives every smaller budget); prints per task, setting and checkpoint the
+median over seeds, the spread and the restarts, and writes every value to ``--out`` (CSV). Tune
+on seeds other than those you report. Usage::
+
 
     python benchmarks/cmaes_settings.py --settings "popsize=13" "popsize=40" \\
         --seeds 100 101 102 103 --level-budget 30000 --accelerate-budget 12000

@@ -2,22 +2,14 @@
 
     python benchmarks/efficiency_readings.py [--scheduler local:2] [--out results/efficiency]
 
-Level flight at 1.5 m/s over the same seeds, through the harness (the jobs of ``python -m eval
-optimize``, so records are shared with such runs):
-
-1. the six readings of T (``sign`` or ``body`` thrust split) and P (``absolute``, ``elastic``,
-   ``aerodynamic`` power), each optimised under itself by CMA-ES (16 000 evaluations) with the
-   default SLSQP polish;
-2. the same readings searched as in the paper's era (``PAPER_SEARCHES``: PSO, no polish), plus
-   PSO 40 × 50 with linearly decreasing inertia under the default reading;
-3. with ``--claims PRESET`` instead: the four studies' claims (``run_readings``) under the
-   default and ``hover-none`` readings, each as the preset searches and by each search reading,
-   every reading searched from scratch; writes ``OUT/claims-PRESET/efficiency_claims.json``.
-
-Parts 1-2 print one table (per reading and search: median η and range over the seeds' best
-feasible strokes, how many polishes converged, median T/W, P/m and D·V/P) and write it with the
-run's date, machine and load to ``OUT/efficiency_readings.json``; records go to ``OUT/records``
-as each run finishes, so a rerun computes only what is missing.
+Level flight at 1.5 m/s over the same seeds, through the harness (records shared with ``python
+-m eval optimize``): 1. the six readings of T (thrust split) and P (power), each optimised by
+CMA-ES (16 000 evaluations) with the SLSQP polish; 2. the same searched as in the paper's era
+(``PAPER_SEARCHES``), plus PSO 40 × 50 with linearly decreasing inertia; 3. with ``--claims
+PRESET`` instead, the studies' claims under the default and ``hover-none`` readings
+(``OUT/claims-PRESET/efficiency_claims.json``). Parts 1-2 print one table and write it with the
+run's date, machine and load to ``OUT/efficiency_readings.json``; a rerun computes only what
+is missing.
 """
 
 from __future__ import annotations

@@ -1,13 +1,10 @@
 """Env throughput: the single env, the native vector env and the SB3 adapter against the raw model.
 
-Run ``python benchmarks/env_throughput.py`` (about 30 s). Every episode is one wing-beat cycle,
-so the number that matters is *strokes evaluated per second*; stepping n = 1024 envs should
-cost about one batched ``evaluate`` call at B = 1024, i.e. the vector env and the SB3 adapter
-should run at a large fraction of the raw model rate, and the single env at the B = 1 rate.
+Run ``python benchmarks/env_throughput.py`` (about 30 s): strokes evaluated per second, where
+stepping n = 1024 envs should cost about one ``evaluate`` call at B = 1024. The native env is
+timed in both autoreset modes (next-step resets every other step). ``--json PATH`` also writes
+the numbers (``python -m eval numbers`` renders docs/envs.md from them).
 
-With Gymnasium's default next-step autoreset, every other vector step only resets the envs
-(no model call), so the native env is timed in both autoreset modes. ``--json PATH`` also
-writes the numbers to PATH (``python -m eval numbers`` renders docs/envs.md from it).
 """
 
 from __future__ import annotations

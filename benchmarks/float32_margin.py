@@ -2,12 +2,11 @@
 
     python benchmarks/float32_margin.py results/study [more stores ...]
 
-The polish holds one float32 step of every coordinate inside each constraint
-(``agents.polish.float32_margin``). At each record's stroke this takes the gradients (central
-differences, step 1e-5), the multipliers λ of the constraints within 1e-6 of their limit
-(non-negative least squares with the active bounds) and the margins m, and prints the active
-constraints, m and the first-order cost Σ λ_i m_i per record, then the median and the largest
-cost relative to the objective.
+The polish holds one float32 step of every coordinate inside each constraint. At each record's
+stroke: the multipliers λ of the active constraints (non-negative least squares) and the
+margins m; prints the first-order cost Σ λ_i m_i per record, then its median and largest
+relative to the objective.
+
 """
 
 from __future__ import annotations

@@ -5,20 +5,12 @@
         [--threads 1] [--batches 1 64 1024] [--gradient]
     python benchmarks/model_throughput.py --json results/throughput.json   # the numbers too
 
-One evaluation is one full wing-beat cycle of both wing pairs at the default (converged)
-resolution; "coupled" solves each pair's momentum inflow and the fore-wing's slipstream on the
-hind-wing, "isolated" each pair's inflow alone, "none" no inflow at all. Numbers are the best of
-``--repeats`` timed calls after a warm-up call (which compiles or loads the numba cache); the
-breakdown also gives CPU time (all threads), steadier than wall time on a loaded machine.
-
-``--backend torch`` times the torch port (``tandem_env.evaluate_torch``, without a graph) per
-batch size and, on the CPU, the numba kernel on the same strokes in the same process, with the
-ratio torch / numba (> 1: torch faster). ``--gradient`` adds the cost of one autograd gradient
-of a metric with respect to all 28 parameters against a central difference of the numba model
-(the stroke and its 2 × 26 probes of the continuous parameters in one ``evaluate`` call).
-
-``--json PATH`` also writes every printed number to PATH (``python -m eval numbers`` renders
-docs/model.md §12 from it).
+One evaluation is one wing-beat cycle of both wing pairs at the default resolution, per inflow
+model ("coupled", "isolated", "none"); numbers are the best of ``--repeats`` calls after a
+warm-up, the breakdown with CPU time too. ``--backend torch`` times the torch port per batch
+and, on the CPU, numba on the same strokes (the ratio > 1: torch faster); ``--gradient`` adds
+one autograd gradient against a batched central difference. ``--json PATH`` also writes the
+numbers (``python -m eval numbers`` renders docs/model.md §12 from them).
 """
 
 from __future__ import annotations
@@ -78,7 +70,6 @@ def main() -> None:
 def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     """Evaluations per second of the numba kernel per inflow model and batch, and where the
     time of one coupled batch of 1024 goes."""
-
     options = te.ModelOptions()
     rng = np.random.default_rng(args.seed)
     strokes = te.normalised_to_physical(rng.uniform(-1, 1, (1024, 28)))
@@ -129,37 +120,20 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     angles, weights, frequency, beta, sweep, motion = model.parametric_kernel_inputs(
         strokes, options.n_time
     )
+    inputs = (angles, weights, frequency, beta, sweep, speeds, np.zeros_like(speeds), te.DRAGONFLY)
+    no_inflow = te.ModelOptions(induction="none")
     parts = {
         "validate strokes": lambda: te.validate_physical(strokes),
         "kinematics (angles, analytic rates)": lambda: model.parametric_kernel_inputs(
             strokes, options.n_time
         ),
         "cycle without inflow (frames, forces, power, means)": lambda: model.run_kernel(
-            angles,
-            weights,
-            frequency,
-            beta,
-            sweep,
-            speeds,
-            np.zeros_like(speeds),
-            te.DRAGONFLY,
-            te.ModelOptions(induction="none"),
-            motion=motion,
+            *inputs, no_inflow, motion=motion
         ),
-        "cycle with coupled inflow": lambda: model.run_kernel(
-            angles,
-            weights,
-            frequency,
-            beta,
-            sweep,
-            speeds,
-            np.zeros_like(speeds),
-            te.DRAGONFLY,
-            options,
-            motion=motion,
-        ),
+        "cycle with coupled inflow": lambda: model.run_kernel(*inputs, options, motion=motion),
         "whole evaluate()": lambda: te.evaluate(strokes, speeds),
     }
+
     for name, call in parts.items():
         wall, cpu = best_times(call, args.repeats)
         print(f"  {name:<55} {1e3 * wall:8.2f} {1e3 * cpu:8.2f}")
@@ -241,9 +215,9 @@ def torch_throughput(args: argparse.Namespace) -> dict[str, Any]:
 def accuracy(
     args, torch_model, x_all, v_all, strokes: np.ndarray, speeds: np.ndarray
 ) -> dict[str, Any]:
-    """The torch results against the numba kernel's on (up to) 256 of the strokes: the largest
-    relative difference of any field (denominator floored at 1e-6) and, per headline metric,
-    the largest difference relative to the metric's largest magnitude in the batch."""
+    """The torch results against numba's on up to 256 strokes: the largest relative
+    difference of any field and, per headline metric, relative to its largest magnitude."""
+
     import torch
 
     n = min(256, strokes.shape[0])

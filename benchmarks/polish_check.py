@@ -2,12 +2,11 @@
 
     python benchmarks/polish_check.py results/acc60 [results/level15 ...]
 
-For every harness record in the stores: its own SLSQP (``ftol`` 1e-10) from the record's stroke
-over the 26 continuous parameters, N fixed, the task's signed margins (``env.problem()``) as
-constraints, central-difference gradients (step 1e-5) in one batched call each. It shares no
-code with ``agents/polish.py`` on purpose: it checks that module's work. Prints per record the
-objective, the fresh polish's gain [%] and its final violation, then per condition: how many
-seeds gain < 0.5 %, the best of each half of the seeds, how far apart [%], and the median.
+For every harness record in the stores: an SLSQP of its own (sharing no code with
+``agents/polish.py``, whose work it checks) from the record's stroke under the task's margins.
+Prints per record the objective, the fresh polish's gain [%] and its final violation, then per
+condition how many seeds gain < 0.5 %, the best of each half of the seeds and the median.
+
 """
 
 from __future__ import annotations

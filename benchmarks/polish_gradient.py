@@ -2,11 +2,10 @@
 
     python benchmarks/polish_gradient.py [--repeats 7] [--device cpu]
 
-The polish's own gradients (``agents.polish``) on level flight at 1.5 m/s and accelerating
-flight at 60 W/kg, at seeded random strokes, in one process: ``CentralDifferences`` (the point
-and its 52 neighbours in ONE numba call) against ``AutogradGradient`` (one stroke in torch, a
-backward pass per output). Each is called once first (compile, warm-up), then ``--repeats``
-times; prints the median and fastest call [ms], their ratio, and the torch forward pass alone.
+The polish's ``CentralDifferences`` (53 strokes in ONE numba call) against ``AutogradGradient``
+(one torch stroke) on level flight at 1.5 m/s and accelerating flight at 60 W/kg, after a
+warm-up: the median and fastest call [ms], their ratio, and the torch forward pass alone.
+
 """
 
 from __future__ import annotations

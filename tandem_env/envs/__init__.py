@@ -1,10 +1,5 @@
-"""Gymnasium environments over the tandem-wing model (see docs/envs.md).
-
-``TandemWing/LevelFlight-v0``, ``TandemWing/Accelerate-v0`` (one wing-beat per episode) and
-``TandemWing/SpeedChange-v0`` (many wing-beats) are registered by ``import tandem_env``; each is
-one task module over the shared machinery of ``base``. The SB3 adapter (``TandemVecEnv``,
-``make_sb3_vec_env``) is imported only when asked for, so importing the envs does not import
-Stable-Baselines3 (or torch).
+"""Gymnasium environments over the tandem-wing model (docs/envs.md), registered by ``import
+tandem_env``: each a task module over ``base``. The SB3 adapter is imported only when asked for.
 """
 
 from __future__ import annotations

@@ -17,8 +17,8 @@ from .config import FlightConfig, normalise_condition
 from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
 from .validate import check_real
 
-#: The specimen's available power per body mass [W/kg]: its muscle ratio × muscle power
-#: (``Dragonfly.max_power_per_mass``, 90 W/kg), the top of the paper's sweep.
+#: The specimen's available power per body mass [W/kg], 90 W/kg: the top of the paper's sweep.
+
 SPECIMEN_POWER: float = DRAGONFLY.max_power_per_mass
 
 
@@ -71,13 +71,7 @@ _CONDITION: TaskCondition = ACCELERATE.condition  # type: ignore[assignment]
 
 @dataclass(frozen=True, kw_only=True)
 class AccelerateConfig(FlightConfig):
-    """Accelerating flight: maximise a specific excess force with F_v >= 0, F_h >= 0 and P/m <= P_avail.
-
-    Give ``available_power`` for a fixed available power or ``available_power_range`` to sample
-    it uniformly at every reset (not both); with neither, the insect's maximum (90 W/kg). The
-    observation is the available power normalised from ``available_power_envelope`` to
-    [-1, 1]. The flight speed ``speed`` is fixed (default 0: take-off or escape from hover).
-    """
+    """Accelerating flight: maximise a specific excess force with F_v >= 0, F_h >= 0 and P/m <= P_avail."""
 
     DECLARATION: ClassVar[TaskDeclaration] = ACCELERATE
 
@@ -88,16 +82,14 @@ class AccelerateConfig(FlightConfig):
     (the wings' rearward forces, ``excess_horizontal_literal``) [-] (docs/model.md §7.6: the
     paper's attainable F̄_a combines the first two). The constraints are the same for all."""
     available_power: float | None = None
-    """Fixed available power per body mass [W/kg]; default the insect's maximum (90 W/kg)
-    unless ``available_power_range`` is given."""
+    """Fixed available power per body mass [W/kg]; default 90 W/kg unless a range is given."""
     available_power_range: tuple[float, float] | None = None
     """(low, high) [W/kg]: the available power is drawn uniformly from it at each reset."""
     available_power_envelope: tuple[float, float] = _CONDITION.envelope
-    """(low, high) [W/kg] mapped linearly to the observation's [-1, 1]; every available power
-    used must lie inside it. Default the paper's sweep, 50 to 90 W/kg."""
+    """(low, high) [W/kg] mapped to the observation's [-1, 1], holding every power used;
+    default the paper's sweep, 50 to 90 W/kg."""
     speed: float = 0.0
-    """Flight speed V [m/s], fixed for every episode (not observed); within the model's
-    ``SPEED_LIMITS`` (0 to 20 m/s)."""
+    """Flight speed V [m/s], fixed and not observed (default 0: take-off or escape from hover)."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -107,9 +99,8 @@ class AccelerateConfig(FlightConfig):
             raise ValueError(
                 f"{owner}.objective = {self.objective!r}; allowed: {', '.join(map(repr, choices))}"
             )
-        object.__setattr__(
-            self, "speed", check_real(owner, "speed", self.speed, "m/s", *SPEED_LIMITS)
-        )
+        speed = check_real(owner, "speed", self.speed, "m/s", *SPEED_LIMITS)
+        object.__setattr__(self, "speed", speed)
         normalise_condition(self)
 
     def describe(self) -> str:
@@ -138,52 +129,16 @@ class AccelerateVectorEnv(FlightVectorEnv, VectorEnv):
 class AccelerateEnv(FlightEnv):
     """Accelerating flight of the tandem-wing dragonfly: find the stroke with most excess force.
 
-    ## Description
-
-    The model and episodes of :class:`LevelFlightEnv` (one wing-beat cycle per episode) at a
-    fixed flight speed (default 0: take-off or escape from hover): the paper's accelerating-
-    flight optimisation (docs/model.md §7), maximise a specific excess force subject to
-    F_v >= 0, F_h >= 0 and P/m <= the available power, which is observed, so one policy can
-    cover the paper's 50-90 W/kg sweep.
-
-    ## Action Space
-
-    ``Box(-1, 1, (28,), float32)``, as in :class:`LevelFlightEnv`.
-
-    ## Observation Space
-
-    ``Box(-1, 1, (1,), float32)``: the available power per body mass [W/kg] mapped linearly from
-    ``available_power_envelope`` (default 50-90 W/kg) to [-1, 1].
-
-    ## Rewards
-
-    ``reward = F̄ − penalty``, F̄ the ``objective`` (:class:`AccelerateConfig`), the penalty as in
-    :class:`LevelFlightEnv` over :data:`ACCELERATE`'s constraints, the power excess a fraction of
-    P_avail. Feasible rewards are F̄ in [0, ~6] (the paper reports F̄_v ≈ 2.7-4.4 for
-    50-90 W/kg); uniform random strokes score about −100 to 0 (median about −15).
-
-    ## Starting State
-
-    The available power is ``available_power`` (default 90 W/kg) or drawn uniformly from
-    ``available_power_range`` at each reset; ``reset(options={"available_power": p})`` sets it
-    for one episode. (The old names ``power``, ``power_range`` and ``power_envelope`` are
-    refused naming the new ones.)
-
-    ## Episode End
-
-    As in :class:`LevelFlightEnv`, with the same ``info`` keys.
-
-    ## Arguments
-
-    ``gym.make("TandemWing/Accelerate-v0", **kwargs)``, see :class:`AccelerateConfig`:
-    ``objective`` ("vertical" | "horizontal" | "resultant" | "horizontal_literal"),
-    ``available_power``, ``available_power_range``, ``available_power_envelope``, ``speed``
-    [m/s], and every model, penalty and action option of :class:`LevelFlightEnv` (``thrust_split``
-    among them). Invalid values raise ``ValueError`` at construction.
-
-    ## Version History
-
-    * v0: initial version.
+    The episodes, action space, penalty and ``info`` of :class:`LevelFlightEnv` at a fixed
+    flight speed (default 0: take-off or escape from hover): maximise a specific excess force
+    (``objective``) subject to F_v >= 0, F_h >= 0 and P/m <= the available power, which is
+    observed (Box(-1, 1, (1,), float32), mapped from ``available_power_envelope``, default
+    50-90 W/kg), so one policy can cover the paper's sweep. Feasible rewards are F̄ in [0, ~6]
+    (the paper: F̄_v ≈ 2.7-4.4); uniform random strokes score about −100 to 0.
+    ``reset(options={"available_power": p})`` sets one episode's power (the old names ``power``,
+    ``power_range`` and ``power_envelope`` are refused naming the new ones). Keywords:
+    :class:`AccelerateConfig` and every model, penalty and action option of
+    :class:`LevelFlightEnv` (docs/envs.md); invalid values raise ``ValueError``. v0: initial.
     """
 
     vector_class = AccelerateVectorEnv

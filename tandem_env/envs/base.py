@@ -1,15 +1,8 @@
-"""The machinery every task module shares: the batched core, the vector env and the single env.
-
-* the **core** (:class:`FlightCore` for one-cycle tasks): conditions, observations, one batched
-  model call, rewards and infos for B strokes, without Gymnasium;
-* the **vector env** (:class:`FlightVectorEnv`): n sub-envs stepped by ONE model call, equal to
-  :class:`gymnasium.vector.SyncVectorEnv` over n single envs in every autoreset mode (default
-  next-step; ``Disabled`` leaves resets to ``reset(options={"reset_mask": mask})``);
-* the **single env** (:class:`FlightEnv`): the vector env at B = 1, driven through its public
-  primitives, so the two cannot drift apart.
-
-An action is validated once, where an env receives it. Infos are built as columns
-(:mod:`~tandem_env.envs.columns`); stepping an ended episode raises ``ResetNeeded``.
+"""The machinery every task module shares: the batched core (:class:`FlightCore`: conditions,
+observations, one model call, rewards and infos for B strokes, without Gymnasium), the vector
+env (:class:`FlightVectorEnv`: n sub-envs in ONE model call, equal to ``SyncVectorEnv`` over n
+single envs in every autoreset mode) and the single env (:class:`FlightEnv`: the vector env at
+B = 1, so the two cannot drift apart). An action is validated once, where an env receives it.
 """
 
 from __future__ import annotations
@@ -69,11 +62,8 @@ def action_space() -> spaces.Box:
 
 
 def as_action_type(strokes: Any) -> np.ndarray:
-    """Normalised strokes (any shape) as the action type carries them: rounded to
-    :data:`ACTION_DTYPE`, returned as float64. A stroke the harness searches, polishes and
-    reports is one of these, so stepping it through the env as a float32 action evaluates the
-    same stroke, and its feasibility is what was reported (an optimum on a constraint's edge
-    is not pushed off it by the cast)."""
+    """Normalised strokes (any shape) rounded to :data:`ACTION_DTYPE`, as float64: the strokes
+    the harness searches and reports, so that stepped as float32 actions they are the same."""
     return np.asarray(strokes, dtype=np.float64).astype(ACTION_DTYPE).astype(np.float64)
 
 
@@ -84,8 +74,7 @@ def fly(
     power: np.ndarray,
     flight_path_angle: float | np.ndarray = 0.0,
 ) -> Result:
-    """ONE batched model call for B physical strokes in their conditions: every env's strokes
-    are evaluated here, with the config's insect, model options, backend and device."""
+    """ONE batched model call for B physical strokes with the config's model: every env's."""
     return evaluate(
         physical,
         speed,
@@ -126,9 +115,8 @@ class FlightCore:
         return self.config.declared_condition.keyword
 
     def draw_conditions(self, count: int, rngs: EnvGenerators, options: EnvOptions) -> np.ndarray:
-        """Conditions (count,) of episodes starting now, episode k drawing from ``rngs(k)``
-        with reset options ``options[k]``: one ``uniform`` draw if sampled, none if fixed or
-        given, so every front end consumes the streams identically."""
+        """Conditions (count,) of new episodes: ``options[k]``'s, the fixed one, or one
+        ``uniform`` draw from ``rngs(k)`` (so every front end consumes the streams alike)."""
         values = np.empty(count)
         cfg = self.config
         for k in range(count):
@@ -188,15 +176,9 @@ class FlightCore:
 
 # --- the vector env --------------------------------------------------------------------------------
 class FlightVectorEnv(RenderWindow, VectorEnv):
-    """n sub-envs of a task in ONE batched model call per step (see the module docstring).
-
-    Args:
-        num_envs: Number of sub-envs n (1 to ``MAX_BATCH_STROKES``, the model's largest batch).
-        render_mode: None, "rgb_array" (``render()`` returns one frame per sub-env) or "human"
-            (a window showing sub-env 0, redrawn at each step).
-        autoreset_mode: ``AutoresetMode`` or its value ("NextStep", "SameStep", "Disabled").
-        config: A ready config; otherwise the keyword options, as for the single env.
-    """
+    """n sub-envs (1 to ``MAX_BATCH_STROKES``) of a task in ONE batched model call per step;
+    ``render_mode`` "rgb_array" renders a frame per sub-env, "human" sub-env 0; ``config`` a
+    ready config, else the single env's keyword options."""
 
     metadata: ClassVar[dict[str, Any]] = {
         "render_modes": list(RENDER_MODES),

@@ -1,9 +1,5 @@
-"""Info columns: name -> (B,) array for B envs, turned into per-env dicts or Gymnasium's masked
-dict of arrays without a Python loop over metrics per env.
-
-A column is a (B,) array, or a nested dict of columns (``"stroke"``: one column per stroke
-parameter). The cores build their infos this way (``StepBatch.info_columns``); the single env,
-the vector env and the SB3 adapter split them with the helpers here.
+"""Info columns: name -> (B,) array (or a nested dict of columns, ``"stroke"``) for B envs,
+split into per-env dicts or Gymnasium's masked dict of arrays without a loop per metric.
 """
 
 from __future__ import annotations
@@ -47,11 +43,9 @@ def rows(columns: Columns, count: int) -> list[dict[str, Any]]:
 def add_columns(
     infos: dict[str, Any], columns: Columns, index: np.ndarray, num_envs: int
 ) -> dict[str, Any]:
-    """Scatter columns for envs ``index`` into Gymnasium's vector info dict, with ``_key`` masks.
+    """Scatter columns for envs ``index`` into Gymnasium's vector info dict with ``_key``
+    masks, as ``VectorEnv._add_info`` env by env would (so infos equal SyncVectorEnv's)."""
 
-    Reproduces ``VectorEnv._add_info`` applied env by env (same keys, dtypes and masks), so
-    the native vector env's infos equal SyncVectorEnv's.
-    """
     for key, values in columns.items():
         if isinstance(values, dict):
             array = add_columns(infos.get(key, {}), values, index, num_envs)

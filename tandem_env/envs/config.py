@@ -1,9 +1,7 @@
 """What every flight env's configuration shares: frozen, validated dataclasses built from ``gym.make`` kwargs.
 
-Every option an env takes is a field of its config (a :class:`FlightConfig` subclass), so
-``env.config`` fully describes (and reproduces) what it does; :meth:`FlightConfig.from_kwargs`
-maps the flat ``gym.make`` keywords onto it and refuses anything else, naming what is allowed.
-Units follow the physics: m/s, W/kg, forces as fractions of the weight W.
+Every option of an env is a field of its config, so ``env.config`` describes (and reproduces)
+what it does; :meth:`FlightConfig.from_kwargs` maps the flat ``gym.make`` keywords onto it.
 """
 
 from __future__ import annotations
@@ -25,9 +23,8 @@ from .validate import check_interval, check_real
 #: ``ModelOptions`` fields whose ``gym.make`` keyword differs from the field's name: ``power``
 #: was Accelerate's old condition name, so the power accounting is ``power_convention`` there.
 _RENAMED_MODEL_OPTIONS: dict[str, str] = {"power": "power_convention"}
-#: ``gym.make`` kwargs that become fields of :class:`~tandem_env.physics.ModelOptions`, mapped to
-#: the field's name there: every field, read from the dataclass (a new option is an env keyword
-#: with nothing to add here), under its own name but for :data:`_RENAMED_MODEL_OPTIONS`.
+#: ``gym.make`` kwargs of the :class:`~tandem_env.physics.ModelOptions` fields -> field name:
+#: every field, read from the dataclass, under its own name but for the renamed.
 MODEL_OPTION_KWARGS: dict[str, str] = {
     _RENAMED_MODEL_OPTIONS.get(f.name, f.name): f.name for f in fields(ModelOptions)
 }
@@ -41,18 +38,15 @@ _REAL_MODEL_OPTIONS = ("interference", "tolerance")
 
 
 def insect_keyword(value: Any) -> dict[str, Any] | None:
-    """The ``insect`` env keyword in its canonical form: the mapping of what differs from the
-    paper's specimen (:func:`~tandem_env.physics.insect.insect_mapping`), or None for the
-    specimen itself, so that the default insect leaves a record's key as it was and one insect
-    given as an object, a mapping or a file is one key. ValueError names a bad key or value."""
+    """The ``insect`` env keyword in its canonical form, one per insect however given: the
+    mapping of what differs from the paper's specimen, or None for the specimen itself."""
     changes = insect_mapping(load_insect(value))
     return changes or None
 
 
 def _as_keywords(error: ValueError, task: str, owner: str, given: Mapping[str, str]) -> ValueError:
-    """``error`` of ``owner`` (a ``ModelOptions`` or ``PenaltyConfig``) naming each field by the
-    keyword the caller gave for it (``given``: field -> keyword), so that a message about
-    ``ModelOptions.power`` says ``power_convention``, the word of ``gym.make``."""
+    """``error`` of ``owner`` naming each field by the keyword the caller gave for it
+    (``given``: field -> keyword), e.g. ``power_convention`` for ``ModelOptions.power``."""
     text = str(error)
     for name, keyword in given.items():
         if keyword != name:
@@ -61,9 +55,8 @@ def _as_keywords(error: ValueError, task: str, owner: str, given: Mapping[str, s
 
 
 def normalise_condition(config: FlightConfig) -> None:
-    """Validate and store the fields of the condition ``type(config).CONDITION`` declares: its
-    envelope (the range the observation is normalised over) and, inside it, a fixed value (the
-    declared default when None) or a range sampled at each reset (:func:`fixed_or_sampled`)."""
+    """Validate and store the fields of ``type(config).CONDITION``: its envelope and, inside
+    it, a fixed value or a sampled range (:func:`fixed_or_sampled`)."""
     declared = type(config).CONDITION
     if declared is None:
         raise TypeError(f"{type(config).__name__} declares no condition")
@@ -81,8 +74,7 @@ def fixed_or_sampled(
 ) -> None:
     """Validate and store a fixed ``{name}`` or a sampled ``{name}_range`` of ``config`` (not
     both), inside its (checked) ``{envelope_name}``; with neither, ``default`` as the fixed value,
-    or the whole envelope as the range if ``default`` is None. A bad value gets one message
-    whatever is wrong with it: what is allowed is the envelope."""
+    or the whole envelope as the range if ``default`` is None."""
     owner, range_name = type(config).__name__, f"{name}_range"
     envelope = getattr(config, envelope_name)
     fixed, sampled = getattr(config, name), getattr(config, range_name)
@@ -271,12 +263,11 @@ class FlightConfig:
 
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> FlightConfig:
-        """Build the config from flat keyword arguments (the ``gym.make`` kwargs): the fields,
-        ``planform`` and ``rotational_coefficient`` (C_r of both wings [-], Table 3) applied to
-        ``insect`` (a ``Dragonfly``, a mapping of what differs from the specimen, or a YAML file),
-        every ``ModelOptions`` field (:data:`MODEL_OPTION_KWARGS`) over ``options``, and
-        ``penalty_weight`` / ``penalty_offset`` over ``penalty``. A condition's old keyword is
-        refused naming the new one."""
+        """Build the config from the ``gym.make`` kwargs: the fields, ``planform`` and
+        ``rotational_coefficient`` (C_r of both wings [-], Table 3) over ``insect``, every
+        :data:`MODEL_OPTION_KWARGS` over ``options``, ``penalty_weight`` / ``penalty_offset``
+        over ``penalty``; a condition's old keyword is refused naming the new one."""
+
         renamed = cls.CONDITION.renamed() if cls.CONDITION is not None else {}
         old = sorted(set(kwargs) & set(renamed))
         if old:
@@ -302,12 +293,7 @@ class FlightConfig:
             insect = insect.with_planform(planform)
         if "rotational_coefficient" in kwargs:
             c_r = check_real(
-                cls.name,
-                "rotational_coefficient",
-                kwargs.pop("rotational_coefficient"),
-                "",
-                0.0,
-                100.0,
+                cls.name, "rotational_coefficient", kwargs.pop("rotational_coefficient"), "", 0, 100
             )
             insect = replace(
                 insect,
@@ -322,9 +308,8 @@ class FlightConfig:
                 f"{cls.name}: options = {options!r}; allowed: a tandem_env.ModelOptions"
             )
         fields_given = {MODEL_OPTION_KWARGS[k]: k for k in MODEL_OPTION_KWARGS if k in kwargs}
-        overrides = {
-            MODEL_OPTION_KWARGS[k]: kwargs.pop(k) for k in MODEL_OPTION_KWARGS if k in kwargs
-        }
+        overrides = {name: kwargs.pop(keyword) for name, keyword in fields_given.items()}
+
         for name in _REAL_MODEL_OPTIONS:
             if name in overrides and not _is_real(overrides[name]):
                 raise ValueError(

@@ -1,11 +1,8 @@
 """A task's declaration, in one place: its condition, objectives, constraints and sweep.
 
-Each task module declares one :class:`TaskDeclaration` and puts it on its env config as
-``DECLARATION``: the :class:`TaskCondition` (ONE name for the constructor keyword, the reset
-option, the ``info`` key and the record's condition, with its unit, limits, envelope and sweep),
-the :class:`TaskObjectives` and the :class:`Constraint` list, from which the env scores a stroke
-(:meth:`TaskDeclaration.score`). The harness, the commands and the training tools read it;
-nothing copies it. Nothing here imports Gymnasium.
+Each task module puts one :class:`TaskDeclaration` on its env config as ``DECLARATION``; the
+env scores strokes by it (:meth:`TaskDeclaration.score`), and the harness, the commands and the
+training tools read it; nothing copies it.
 """
 
 from __future__ import annotations
@@ -53,18 +50,13 @@ def _pair(owner: str, name: str, value: Any, unit: str) -> tuple[float, float]:
 
 @dataclass(frozen=True)
 class TaskCondition:
-    """The flight condition a task is optimised at and observes, e.g. the flight speed.
-
-    The config that declares it has three fields named after ``keyword``: ``{keyword}`` (a
-    fixed value, ``default`` when None), ``{keyword}_range`` (a range sampled at every reset)
-    and ``{keyword}_envelope`` (the range the observation is normalised over, default
-    ``envelope``). ``reset(options={keyword: value})`` sets one episode's condition.
-    """
+    """The flight condition a task is optimised at and observes, e.g. the flight speed: its
+    config has the fields ``{keyword}`` (fixed), ``{keyword}_range`` (sampled at each reset) and
+    ``{keyword}_envelope`` (the observation's range)."""
 
     keyword: str
-    """The condition's one name: constructor keyword, reset option, the model input and
-    ``info`` key reporting it, and its name in records, e.g. ``"speed"`` or
-    ``"available_power"``."""
+    """The condition's one name: constructor keyword, reset option, ``info`` key and record
+    name, e.g. ``"speed"`` or ``"available_power"``."""
     label: str
     """What it is, in words, for help texts and axis labels, e.g. ``"flight speed"``."""
     symbol: str
@@ -78,8 +70,7 @@ class TaskCondition:
     envelope: tuple[float, float]
     """Default ``{keyword}_envelope`` [unit]: the paper's range of the condition."""
     sweep: tuple[float, ...]
-    """The paper's sweep of the condition [unit], increasing, inside ``envelope``: what the
-    studies and the training evaluations run at."""
+    """The paper's sweep [unit], increasing, inside ``envelope``: what the studies run at."""
     metavar: str = ""
     """Placeholder of the value on the command line, e.g. ``"V"``; default ``symbol``."""
     option: str = ""
@@ -167,11 +158,8 @@ class TaskCondition:
 
 @dataclass(frozen=True)
 class TaskObjectives:
-    """What a task maximises: each objective choice and the ``info`` metric it is.
-
-    One entry and ``keyword=None`` for a task with a fixed objective (level flight's η);
-    several and the constructor keyword choosing between them otherwise.
-    """
+    """What a task maximises: each objective choice and its ``info`` metric (one entry and
+    ``keyword=None`` for a fixed objective)."""
 
     metrics: Mapping[str, str]
     """Objective choice -> the ``info`` metric (a :class:`~tandem_env.physics.Result` field)
@@ -242,10 +230,8 @@ class Constraint:
     """``scale(result, config)``: (B,) divisor making the violation a fraction (the power cap
     for the power excess) in the reward's sum; None when it already is one."""
     margin: Callable[[Result, Any], np.ndarray] | None = None
-    """``margin(result, config)``: (B,) signed margin [-], on the scale of the reward's sum:
-    ``max(0, −margin) == violation / scale``, so >= 0 exactly where the constraint holds and
-    smooth across its boundary (what a constrained local optimiser needs, ``agents.polish``);
-    None for a constraint without one."""
+    """``margin(result, config)``: (B,) signed margin [-] with ``max(0, −margin) == violation /
+    scale``, smooth across the boundary (what the polish needs); None for none."""
 
     def __post_init__(self) -> None:
         if self.violation is None and self.margin is None:
@@ -343,11 +329,8 @@ def _annotated(cls: type) -> set[str]:
 
 
 def check_declarations(cls: type) -> None:
-    """Check a config class's ``DECLARATION`` against its own fields.
-
-    Called when the class is defined (``FlightConfig.__init_subclass__``), so that a
-    declaration naming a field the class lacks fails at import, naming both.
-    """
+    """Check a config class's ``DECLARATION`` against its own fields, when the class is
+    defined (a declaration naming a missing field fails at import, naming both)."""
     declaration = getattr(cls, "DECLARATION", None)
     if declaration is None:
         return
@@ -374,8 +357,8 @@ def check_declarations(cls: type) -> None:
 
 
 def _check_literal(cls: type, objectives: TaskObjectives) -> None:
-    """An objective field typed ``Literal`` must offer exactly the declared choices (the
-    package's own configs type it ``str``: the declaration is the one list)."""
+    """An objective field typed ``Literal`` must offer exactly the declared choices."""
+
     try:
         hint = get_type_hints(cls).get(objectives.keyword)
     except NameError:  # an annotation not resolvable yet: nothing to compare

@@ -55,12 +55,7 @@ LEVEL_FLIGHT = TaskDeclaration(
 
 @dataclass(frozen=True, kw_only=True)
 class LevelFlightConfig(FlightConfig):
-    """Level flight at speed V: maximise η = T·V/P with L = W, T = D and P/m <= the insect's maximum.
-
-    Give ``speed`` for a fixed speed or ``speed_range`` to sample V uniformly at every reset
-    (not both); with neither, V = 1.5 m/s. The observation is V normalised from
-    ``speed_envelope`` to [-1, 1].
-    """
+    """Level flight at speed V: maximise η = T·V/P with L = W, T = D and P/m <= the insect's maximum."""
 
     DECLARATION: ClassVar[TaskDeclaration] = LEVEL_FLIGHT
 
@@ -68,11 +63,10 @@ class LevelFlightConfig(FlightConfig):
     """Fixed flight speed V [m/s]; default 1.5 m/s (the paper's best-efficiency speed) unless
     ``speed_range`` is given."""
     speed_range: tuple[float, float] | None = None
-    """(low, high) [m/s]: V is drawn uniformly from it at each reset (from the env's seeded
-    ``np_random``), so one policy can learn the whole envelope."""
+    """(low, high) [m/s]: V is drawn uniformly from it at each reset (not with ``speed``)."""
     speed_envelope: tuple[float, float] = LEVEL_FLIGHT.condition.envelope  # type: ignore[union-attr]
-    """(low, high) [m/s] mapped linearly to the observation's [-1, 1]; every speed used must lie
-    inside it. Default the paper's range, 0.25 to 2.0 m/s."""
+    """(low, high) [m/s] mapped to the observation's [-1, 1], holding every speed used;
+    default the paper's range, 0.25 to 2.0 m/s."""
     constraint_tolerance: float = 0.02
     """Band of the equalities L = W and T = D, as a fraction of W [-] (docs/model.md §7.5)."""
 
@@ -114,61 +108,29 @@ class LevelFlightVectorEnv(FlightVectorEnv, VectorEnv):
 class LevelFlightEnv(FlightEnv):
     """Steady level flight of the tandem-wing dragonfly: find the most efficient stroke.
 
-    ## Description
-
     The quasi-steady tandem flapping-wing model of Faisal & Filippone (2016, AIAA J.) evaluates
-    one wing-beat cycle of a stroke (both wing pairs, with the fore-wing's slipstream on the
-    hind-wing) at flight speed V. The task is the paper's level-flight optimisation
-    (docs/model.md §7): maximise the propulsive efficiency η = T·V/P subject to L = W, T = D and
-    P/m <= 90 W/kg. Each episode is one cycle (a contextual bandit): observe V, choose a stroke.
+    one wing-beat cycle of a stroke at flight speed V; the task (docs/model.md §7) is to maximise
+    η = T·V/P subject to L = W, T = D and P/m <= 90 W/kg. Each episode is one cycle (a
+    contextual bandit): observe V, choose a stroke; ``step`` terminates it (docs/envs.md).
 
-    ## Action Space
-
-    ``Box(-1, 1, (28,), float32)``: the 14 stroke parameters of each wing (fore-wing first,
-    ``f, φ_m, θ_m, η_m, φ_0, θ_0, η_0, Φ_φ, Φ_θ, Φ_η, K, N, C_η, β_m``), each mapped linearly
-    onto its Table 4 range (:func:`tandem_env.normalised_to_physical`; N = 1 below 0, else 2).
-    Non-finite actions raise ``ValueError``, and so do values outside [-1, 1] unless the env was
-    made with ``clip_actions=True`` (for clients that do not clip their actions, such as skrl).
-
-    ## Observation Space
-
-    ``Box(-1, 1, (1,), float32)``: the flight speed V [m/s] mapped linearly from
-    ``speed_envelope`` (default 0.25-2.0 m/s, the paper's range) to [-1, 1].
-
-    ## Rewards
-
-    ``reward = η − penalty``, ``penalty = weight·violation + offset·[infeasible]`` with
-    ``violation = max(0, |L/W − 1| − tol) + max(0, |T − D|/W − tol) + max(0, P/m − P_max)/P_max``
-    (:data:`LEVEL_FLIGHT`'s constraints; tol = ``constraint_tolerance``, default 0.02; P_max the
-    insect's maximum, 90 W/kg; weight 10, offset 0 by default): a feasible stroke is rewarded
-    with exactly its η, in [0, ~0.5] (above 1 is possible with ``thrust_split="sign"``, flagged
-    in ``info["efficiency_above_one"]``); uniform random strokes score about −120 to 0.
-
-    ## Starting State
-
-    V is ``speed`` (default 1.5 m/s) or, with ``speed_range=(low, high)``, drawn uniformly at
-    each reset from the env's seeded ``np_random``. ``reset(options={"speed": v})`` sets V for
-    one episode.
-
-    ## Episode End
-
-    Every ``step`` evaluates one wing-beat cycle and terminates the episode. ``info`` holds
-    the named physical stroke (``info["stroke"]``), every field of :class:`tandem_env.Result`,
-    each constraint's violation (``lift_violation``, ...) and the reward terms ``objective``,
-    ``constraint_violation``, ``penalty`` and ``feasible``.
-
-    ## Arguments
-
-    ``gym.make("TandemWing/LevelFlight-v0", **kwargs)``, see :class:`LevelFlightConfig` and
-    :meth:`FlightConfig.from_kwargs`: ``speed``, ``speed_range``, ``speed_envelope``,
-    ``constraint_tolerance``, ``insect``, ``planform`` ("tear-drop" | "real"), ``options`` or its
-    fields ({model_options}), ``penalty`` or ``penalty_weight`` / ``penalty_offset``,
-    ``clip_actions``, ``render_mode`` ("rgb_array" | "human"). Invalid values raise
-    ``ValueError`` at construction.
-
-    ## Version History
-
-    * v0: initial version.
+    * Action: ``Box(-1, 1, (28,), float32)``, the 14 parameters of each wing, fore-wing first,
+      each mapped onto its Table 4 range (:func:`tandem_env.normalised_to_physical`). Non-finite
+      actions raise ``ValueError``, and so do values outside [-1, 1] unless the env was made
+      with ``clip_actions=True`` (for clients that do not clip, such as skrl).
+    * Observation: ``Box(-1, 1, (1,), float32)``, V mapped from ``speed_envelope``.
+    * Reward: ``η − penalty``, ``penalty = weight·violation + offset·[infeasible]`` over
+      :data:`LEVEL_FLIGHT`'s constraints (:class:`~tandem_env.envs.config.PenaltyConfig`): a
+      feasible stroke earns exactly its η, in [0, ~0.5]; random strokes score about −120 to 0.
+    * Start: V is ``speed`` (default 1.5 m/s) or drawn from ``speed_range`` at each reset;
+      ``reset(options={"speed": v})`` sets it for one episode.
+    * Info: the named stroke (``info["stroke"]``), every field of :class:`tandem_env.Result`,
+      each constraint's violation and ``objective``, ``constraint_violation``, ``penalty``,
+      ``feasible``.
+    * Keywords (:class:`LevelFlightConfig`, :meth:`FlightConfig.from_kwargs`): ``speed``,
+      ``speed_range``, ``speed_envelope``, ``constraint_tolerance``, ``insect``, ``planform``
+      ("tear-drop" | "real"), ``options`` or its fields ({model_options}), ``penalty`` or
+      ``penalty_weight`` / ``penalty_offset``, ``clip_actions``, ``render_mode`` ("rgb_array" |
+      "human"); invalid values raise ``ValueError`` at construction. v0: initial version.
     """
 
     vector_class = LevelFlightVectorEnv
@@ -177,9 +139,8 @@ class LevelFlightEnv(FlightEnv):
 
 
 def model_option_keywords() -> str:
-    """The ``gym.make`` keywords of the model options (:data:`MODEL_OPTION_KWARGS`, every
-    :class:`~tandem_env.physics.ModelOptions` field), each with its choices if it has some, as
-    the env docstrings list them."""
+    """The ``gym.make`` keywords of the model options, each with its choices, for docstrings."""
+
     hints = get_type_hints(ModelOptions)
     shown = []
     for keyword, name in MODEL_OPTION_KWARGS.items():

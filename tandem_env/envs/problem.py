@@ -1,10 +1,6 @@
-"""The optimisation problem a one-cycle task poses: a public view of its batched core.
-
-An optimiser that is not an episode-stepping agent (``agents.polish``, an amortised policy)
-needs the task as a problem: the stroke box, the constraints, and a batched evaluation at
-conditions it chooses. Every one-cycle env offers it (``env.unwrapped.problem()``); it
-evaluates through the core's own ``step``, so it scores a stroke exactly as the env rewards it,
-at a condition given with each evaluation (one per stroke or one for all)::
+"""The optimisation problem a one-cycle task poses (``env.unwrapped.problem()``), for an
+optimiser that is not an episode-stepping agent: the stroke box, the constraints, and a batched
+evaluation through the core's own ``step`` at conditions given with each call::
 
     problem = gym.make("TandemWing/LevelFlight-v0").unwrapped.problem()
     evaluation = problem.evaluate(actions, 1.5)  # (B, 28) in [-1, 1], at V = 1.5 m/s
@@ -55,13 +51,9 @@ class ProblemGradient:
 
 
 class FlightProblem:
-    """Maximise a one-cycle task's objective over the normalised stroke box (the env's action
-    box, mapped onto the insect's stroke bounds but for the :attr:`discrete` harmonics N),
-    subject to its declared :attr:`constraints`, at a flight condition given with each
-    evaluation. A stroke is feasible when every violation is exactly 0; the signed margins
-    (``max(0, −margin)`` the violation on the reward's scale) are what a gradient-based optimiser
-    holds >= 0. Built by the env's core (``FlightCore.problem()``), with the env's config.
-    """
+    """Maximise a one-cycle task's objective over the normalised stroke box subject to its
+    :attr:`constraints` (feasible: every violation exactly 0; a gradient-based optimiser holds
+    the signed margins >= 0), at a condition given with each evaluation."""
 
     #: Number of action coordinates (28).
     dim: int = N_PARAMETERS
@@ -140,10 +132,9 @@ class FlightProblem:
 
     # --- evaluation ---------------------------------------------------------------------------
     def evaluate(self, actions: np.ndarray, conditions: Any) -> ProblemEvaluation:
-        """Evaluate B normalised strokes ``actions`` (B, 28), in the box, at ``conditions`` (one
-        value for all or (B,) values, the declared condition's unit) in ONE model call, scored
-        as the env scores a step. Raises ValueError for a bad shape, a stroke outside the box or
-        a condition the model refuses."""
+        """B normalised strokes (B, 28) at ``conditions`` (one or (B,) values, the condition's
+        unit) in ONE model call, scored as the env scores a step; ValueError for a bad shape,
+        a stroke outside the box or a condition the model refuses."""
         strokes = self._actions(actions)
         values = self._conditions(conditions, strokes.shape[0])
         bounds = self.config.insect.stroke_bounds
@@ -157,10 +148,9 @@ class FlightProblem:
 
     def differentiate(self, actions: np.ndarray, conditions: Any) -> ProblemGradient:
         """:meth:`evaluate` with the objective's gradient and the margins' Jacobian w.r.t. the
-        normalised coordinates, by autograd from ONE evaluation on the torch backend
-        (``tandem_env.physics.torch_model.normalised_jacobian``, imported here: it needs torch),
-        with the env's insect, model options and device. Raises ValueError where a constraint
-        declares no margin."""
+        normalised coordinates, by autograd from ONE torch evaluation; ValueError where a
+        constraint declares no margin."""
+
         from ..physics import torch_model  # torch only when something differentiates
 
         if not self.has_margins:

@@ -1,14 +1,9 @@
 """Reference optima and normalised scores: how good a stroke is, against the best one known.
 
-The reference table (``tandem_env/data/reference_optima.json``, made by ``python -m eval
-reference``, docs/reference.md) holds, per task, objective and planform, the certified optimum
-at every condition of :data:`REFERENCE_GRID`, found with the default model, insect and task
-settings (hashed per series, :func:`problem_fingerprint`: a series applies to an env with the
-same fingerprint). :func:`reference` interpolates it linearly inside the grid;
-:func:`normalised_score` scores a stroke D4RL-style: ``100 · objective / reference`` if
-feasible, else ``-100 · min(1, v)`` with v its summed normalised constraint violations; NaN
-outside the grid, and no score at all for an env the table does not describe. The grid's every
-other point is held out (:func:`held_out_conditions`, :func:`training_conditions`).
+The reference table (``python -m eval reference``, docs/reference.md) holds, per task,
+objective and planform, the certified optimum at every condition of :data:`REFERENCE_GRID`
+with the default model (a series applies to an env of the same :func:`problem_fingerprint`).
+:func:`normalised_score` scores D4RL-style; every other grid point is held out.
 """
 
 from __future__ import annotations
@@ -49,10 +44,8 @@ REFERENCE_GRID: Mapping[str, tuple[tuple[str, ...], tuple[float, ...]]] = {
 
 
 def held_out_conditions(env_id: str) -> tuple[float, ...]:
-    """The grid's held-out conditions of ``env_id``: every other point, from the second
-    (level flight: V = 0.375, 0.625, ..., 1.875 m/s; accelerating flight: P_avail = 55, 65,
-    75, 85 W/kg). A policy for the whole envelope is trained at the others
-    (:func:`training_conditions`, the envelope's ends among them) and judged at these."""
+    """The grid's held-out conditions of ``env_id``: every other point, from the second; a
+    policy is trained at the others (:func:`training_conditions`) and judged at these."""
     return REFERENCE_GRID[env_id][1][1::2]
 
 
@@ -149,12 +142,9 @@ class ReferenceTable:
 
     @classmethod
     def from_dict(cls, data: Any, *, complete: bool = False) -> ReferenceTable:
-        """The table in ``data`` (the file's JSON), its contents checked once here: ValueError
-        for an unknown task, objective or planform, a repeated series, conditions that are not
-        increasing points of the task's grid, a feasible point whose objective is not finite and
-        positive, or a stroke that is not 28 finite numbers in [-1, 1]. ``complete``: every
-        series of :data:`REFERENCE_GRID` (both planforms) over its whole grid, every point
-        feasible (the packaged table)."""
+        """The table in ``data`` (the file's JSON), checked once here (ValueError naming what
+        is wrong); ``complete``: every series of :data:`REFERENCE_GRID` over its whole grid,
+        every point feasible (the packaged table)."""
         if not isinstance(data, Mapping) or data.get("format") != REFERENCE_FORMAT:
             raise ValueError(f"not a reference table of format {REFERENCE_FORMAT!r}")
         try:
@@ -298,14 +288,11 @@ def normalised_score(
     feasible: ArrayLike,
     violation: ArrayLike,
 ) -> NDArray[np.float64]:
-    """The normalised score (B,) of strokes [-100 to 100 and above; 100 = the reference]:
-    ``100 · objective / reference`` where feasible, else ``-100 · min(1, violation)``; NaN
-    where the reference is NaN or not positive (module docstring).
+    """The normalised score (B,) of strokes [100 = the reference]: ``100 · objective /
+    reference`` where feasible, else ``-100 · min(1, violation)``; NaN where the reference is
+    NaN or not positive. ValueError for what no stroke can be: ``feasible`` not booleans, an
+    infinite reference, a negative or NaN violation, a feasible stroke's non-finite objective."""
 
-    ValueError, before any score, for what no stroke can be: ``feasible`` not booleans (``"no"``
-    is not False), a reference that is infinite, a violation that is negative or NaN (a sum of
-    violations is >= 0; +inf is a stroke far from flying, -100), and a feasible stroke whose
-    objective is not finite (an infeasible one's objective is not read)."""
     ref = real_array(reference_objective, "reference", "real numbers (NaN: none)")
     obj = real_array(objective, "objective", "real numbers [the objective's unit]")
     given = np.asarray(feasible)
@@ -378,9 +365,9 @@ class ConfigReference:
         feasible: ArrayLike,
         violation: ArrayLike,
     ) -> NDArray[np.float64] | None:
-        """The normalised scores (B,) of strokes flown at ``condition`` (B,) (NaN outside the
-        grid); None where the table does not apply (the info then has no ``score``, rather
-        than a NaN that would make equal steps compare unequal)."""
+        """The normalised scores (B,) of strokes flown at ``condition`` (B,); None where the
+        table does not apply (no ``score`` then, not a NaN that makes equal steps unequal)."""
+
         if self.series is None:
             return None
         return normalised_score(self.series.at(condition), objective, feasible, violation)

@@ -1,8 +1,5 @@
-"""The Gymnasium ids of the flight environments, registered when ``tandem_env`` is imported.
-
-Entry points are strings, so registering imports neither the env classes' dependencies
-(matplotlib) nor Stable-Baselines3.
-"""
+"""The Gymnasium ids of the flight environments, registered (as strings, importing nothing)
+when ``tandem_env`` is imported."""
 
 from __future__ import annotations
 
@@ -23,14 +20,11 @@ class EnvEntry:
     """One registered env: its task module and, if any, the harness task that runs it."""
 
     module: str
-    """The task module; it defines ``{env}Env`` and ``{env}VectorEnv`` (the single env's
-    ``config_class`` declares the task)."""
+    """The task module; it defines ``{env}Env`` and ``{env}VectorEnv``."""
     env: str
     """The env's class name without ``Env``, e.g. ``"LevelFlight"``."""
     task: str | None = None
-    """Name of the harness task (``agents.tasks``, ``--task`` on the command line) that
-    optimises one stroke on this env, read from its config's ``DECLARATION``; None for an env
-    the harness does not run (multi-cycle episodes)."""
+    """Name of the harness task (``--task``) that runs this env; None for none."""
 
     @property
     def entry_point(self) -> str:
@@ -43,10 +37,8 @@ class EnvEntry:
         return f"{self.module}:{self.env}VectorEnv"
 
 
-#: Every env id registered through :func:`add_entry`: this package's own (these three lines),
-#: then those of plug-ins (``tandem_env.tasks`` entry points) and tests. Adding a task is its
-#: module (declaration, config, core, vector env, single env) and one line here, or one
-#: :func:`add_entry` call, or one entry point. Everything below reads it when called.
+#: Every env id registered through :func:`add_entry`: this package's own (adding a task is its
+#: module and one line here), then those of plug-ins and tests.
 ENTRIES: dict[str, EnvEntry] = {
     LEVEL_FLIGHT_ID: EnvEntry("tandem_env.envs.level_flight", "LevelFlight", task="level"),
     ACCELERATE_ID: EnvEntry("tandem_env.envs.accelerate", "Accelerate", task="accelerate"),
@@ -61,8 +53,7 @@ TASK_ENTRY_POINTS = "tandem_env.tasks"
 
 
 def env_ids() -> tuple[str, ...]:
-    """The tandem-wing env ids now: every :data:`ENTRIES` id still in Gymnasium's registry, this
-    package's first (the ids the SB3 adapter and training accept, :func:`check_env_id`)."""
+    """The tandem-wing env ids now: every :data:`ENTRIES` id still in Gymnasium's registry."""
     from gymnasium.envs.registration import registry
 
     return tuple(env_id for env_id in ENTRIES if env_id in registry)
@@ -84,12 +75,8 @@ def check_env_id(env_id: object, name: str = "env_id") -> str:
 
 
 def register_envs() -> None:
-    """Register every id of :data:`ENTRIES` and of the installed ``tandem_env.tasks`` entry
-    points (idempotent: a reload does not re-register or warn).
-
-    An entry point that cannot be loaded, or is not an :class:`EnvEntry`, is skipped with a
-    warning naming it, so one broken plug-in does not stop ``import tandem_env``.
-    """
+    """Register every id of :data:`ENTRIES` and of the ``tandem_env.tasks`` entry points
+    (idempotent); a broken entry point is skipped with a warning naming it."""
     from importlib.metadata import entry_points
 
     for env_id, entry in list(ENTRIES.items()):
@@ -105,9 +92,7 @@ def register_envs() -> None:
 
 
 def add_entry(env_id: str, entry: EnvEntry) -> None:
-    """Register one task module's env under ``env_id`` with Gymnasium and, with
-    ``entry.task``, as a harness task: the one line that adds a task (a plug-in or a test
-    calls it as this package's :data:`ENTRIES` does). Idempotent for the same entry."""
+    """Register one task module's env under ``env_id`` (and its harness task); idempotent."""
     from gymnasium.envs.registration import register, registry
 
     if not isinstance(entry, EnvEntry):
@@ -129,8 +114,7 @@ def add_entry(env_id: str, entry: EnvEntry) -> None:
 
 
 def remove_entry(env_id: str) -> None:
-    """Undo :func:`add_entry` for an id added after import (a test's toy task, a plug-in being
-    unloaded): it leaves :data:`ENTRIES` and Gymnasium's registry. This package's own ids stay."""
+    """Undo :func:`add_entry` for an id added after import (this package's own ids stay)."""
     from gymnasium.envs.registration import registry
 
     if env_id in _OWN_IDS or env_id not in ENTRIES:
@@ -141,9 +125,7 @@ def remove_entry(env_id: str) -> None:
 
 
 def config_class(env_id: str) -> type[Any]:
-    """The config class of a registered env id: the ``config_class`` of its entry point (or,
-    if that has none, of its vector entry point), so that tasks registered outside this package
-    (tests, plug-ins) are looked up the same way."""
+    """The config class of a registered env id (its entry points' ``config_class``)."""
     return _entry_class(env_id, "config_class")
 
 
@@ -153,8 +135,7 @@ def core_class(env_id: str) -> type[Any]:
 
 
 def _entry_class(env_id: str, attribute: str) -> type[Any]:
-    """The class ``attribute`` of the first of ``env_id``'s entry points (a class or a
-    ``module:Class`` string) that has one."""
+    """The class ``attribute`` of the first of ``env_id``'s entry points that has one."""
     from gymnasium.envs.registration import load_env_creator, registry
 
     if env_id not in registry:
@@ -173,8 +154,8 @@ def _entry_class(env_id: str, attribute: str) -> type[Any]:
 
 
 def condition_keywords() -> tuple[str, ...]:
-    """Every keyword that sets a declared condition (fixed value or range) of the registered
-    envs (:func:`env_ids`, read now), e.g. ``("speed", "speed_range", "available_power", "available_power_range")``."""
+    """Every keyword that sets a declared condition (fixed or range) of the registered envs."""
+
     keywords: list[str] = []
     for env_id in env_ids():
         declared = getattr(config_class(env_id), "CONDITION", None)

@@ -1,10 +1,7 @@
 """The stroke picture: wing-tip paths (side view) and the φ/θ/η histories of the last stroke.
 
-``rgb_array`` frames are drawn on a private Agg canvas (no pyplot, so no global backend switch
-and no interference with the user's figures); ``human`` mode shows the same drawing in a pyplot
-window that is updated in place. The envs' side of it is here too: what a sub-env shows
-(:class:`LastStep`, :func:`frame_for`) and the window an env owns (:class:`RenderWindow`).
-Matplotlib is imported only when something is rendered, so importing the envs does not.
+``rgb_array`` frames are drawn on a private Agg canvas (no pyplot: the user's figures are left
+alone); ``human`` mode redraws a pyplot window. Matplotlib is imported only when rendering.
 """
 
 from __future__ import annotations
@@ -50,8 +47,7 @@ class Frame:
 
 
 def history_of(batch: Any, k: int, insect: Dragonfly, options: ModelOptions) -> StrokeHistory:
-    """Histories of stroke ``k`` of an evaluated ``batch`` (a ``StepBatch``) in the condition it
-    was flown in, by the same model the env evaluates."""
+    """Histories of stroke ``k`` of a ``StepBatch`` in the condition it was flown in."""
     result = batch.result
     return stroke_history(
         batch.physical[k],
@@ -149,11 +145,8 @@ def _interactive_backend() -> bool:
 
 
 class HumanWindow:
-    """A pyplot window redrawn in place at every step (``render_mode="human"``).
-
-    With a non-interactive backend (Agg on a headless machine) the figure is still drawn, but
-    nothing is shown and nothing waits, so that headless runs and CI do not warn or block.
-    """
+    """A pyplot window redrawn in place at every step (``render_mode="human"``); with a
+    non-interactive backend it is drawn but not shown, so headless runs do not block."""
 
     def __init__(self, fps: float) -> None:
         self.fps = fps
@@ -233,9 +226,8 @@ def frame_for(core: Any, title: str, condition: float | None, last: LastStep | N
 
 
 class RenderWindow:
-    """The human-mode window of an env (single or vector): opened at its first render, closed by
-    ``close``, never pickled (a pyplot window cannot be; a copy opens its own at its next render).
-    Matplotlib is imported only when something is rendered."""
+    """The human-mode window of an env: opened at its first render, closed by ``close``, never
+    pickled (a copy opens its own)."""
 
     _window: Any = None
 

@@ -1,10 +1,6 @@
-"""Stable-Baselines3 ``VecEnv`` adapter over the native vector env (one model call per step).
-
-SB3's own ``DummyVecEnv`` would step n single envs in a Python loop, n model calls per step;
-:class:`TandemVecEnv` gives SB3 exactly what ``DummyVecEnv`` over n single envs gives (float32
-rewards, per-env infos with ``"terminal_observation"`` and ``"TimeLimit.truncated"``,
-``reset_infos``, seeds ``seed + i`` at the next reset, same-step auto-reset) from one batched
-call. This module imports Stable-Baselines3; ``import tandem_env`` does not. Example::
+"""Stable-Baselines3 ``VecEnv`` adapter over the native vector env: exactly what
+``DummyVecEnv`` over n single envs gives SB3, from one batched model call instead of n.
+This module imports Stable-Baselines3; ``import tandem_env`` does not. Example::
 
     from stable_baselines3 import PPO
     from tandem_env.envs.sb3 import make_sb3_vec_env
@@ -29,14 +25,9 @@ from .registration import check_env_id
 
 
 class TandemVecEnv(VecEnv):
-    """SB3 ``VecEnv`` over a native :class:`~tandem_env.envs.base.FlightVectorEnv`.
-
-    Every SB3 step evaluates all n strokes in one model call and resets the sub-envs whose
-    episode ended, as ``DummyVecEnv`` does: all of them for the one-cycle envs (``dones`` all
-    True), those that terminated or truncated for ``TandemWing/SpeedChange-v0``.
-    ``get_attr`` / ``env_method`` act on the shared native env (the sub-envs have no separate
-    objects) and return its value once per requested index.
-    """
+    """SB3 ``VecEnv`` over a native :class:`~tandem_env.envs.base.FlightVectorEnv`: each step
+    is one model call, and the ended sub-envs reset as in ``DummyVecEnv``. ``get_attr`` /
+    ``env_method`` act on the shared native env, its value once per requested index."""
 
     def __init__(self, vector_env: FlightVectorEnv) -> None:
         if not isinstance(vector_env, FlightVectorEnv):
@@ -141,12 +132,9 @@ def make_sb3_vec_env(
     monitor: bool = False,
     **kwargs: Any,
 ) -> VecEnv:
-    """An SB3 ``VecEnv`` of ``n_envs`` envs of ``env_id`` stepped by one model call per step.
+    """An SB3 ``VecEnv`` of ``n_envs`` envs of ``env_id`` (seeded as SB3's ``make_vec_env``
+    seeds them), stepped by one model call; ``monitor=True`` wraps it in ``VecMonitor``."""
 
-    Like SB3's ``make_vec_env``: the envs are seeded ``seed + i`` at the first reset (a random
-    base seed if None) and the action space with ``seed``. ``monitor=True`` wraps the result in
-    ``VecMonitor`` (episode returns for SB3's logger). ``kwargs`` are the env's options.
-    """
     check_env_id(env_id)
     vector_env = gym.make_vec(
         env_id, num_envs=n_envs, vectorization_mode="vector_entry_point", **kwargs

@@ -1,9 +1,7 @@
 """``TandemWing/SpeedChange-v0``: change speed and hold altitude over many wing-beats.
 
-The task's batched core (one cycle of B episodes: ONE :func:`tandem_env.evaluate` call, then
-each body advanced by :mod:`tandem_env.envs.dynamics`), its vector env and its single env (the
-vector env at B = 1, :mod:`tandem_env.envs.base`); its declaration, config and reward weights
-are in :mod:`~tandem_env.envs.speed_change_config`.
+The core (one cycle of B episodes: ONE model call, then :mod:`tandem_env.envs.dynamics`), the
+vector env and the single env; declaration and config: :mod:`~tandem_env.envs.speed_change_config`.
 """
 
 from __future__ import annotations
@@ -85,8 +83,7 @@ class CycleBatch:
     """The state after the cycle."""
     motion: Columns
     """(B,) ``cycle_time`` [s], net ``force_horizontal`` / ``force_vertical`` [N], ``energy``
-    [J], the reward terms (``reward_progress``, ... :class:`~tandem_env.envs.speed_change_config.
-    SpeedChangeReward`) and the flags ``left_altitude_band``, ``left_speed_band``."""
+    [J], the reward terms and the flags ``left_altitude_band``, ``left_speed_band``."""
     terminated: np.ndarray
     truncated: np.ndarray
 
@@ -118,12 +115,8 @@ class SpeedChangeCore:
         rngs: EnvGenerators,
         options: Sequence[Mapping[str, Any] | None],
     ) -> Flight:
-        """States of ``count`` new episodes: u = u₀, w = w₀ (0), h = 0, target u*.
-
-        Episode k draws from ``rngs(k)`` one ``uniform`` for u₀ and then one for u*, each only
-        if it is sampled and not set by ``options[k]``, so every front end consumes the streams
-        identically.
-        """
+        """States of ``count`` new episodes: u = u₀, w = w₀ (0), h = 0, target u*; episode k
+        draws u₀, then u*, from ``rngs(k)`` where sampled and not set by ``options[k]``."""
         cfg = self.config
         flight = Flight.empty(count)
         for k in range(count):
@@ -152,9 +145,9 @@ class SpeedChangeCore:
         return {key: option_value(cfg.name, key, v, *ranges[key]) for key, v in given.items()}
 
     def observe(self, flight: Flight) -> np.ndarray:
-        """(B, 5) float32 observations in [-1, 1] (:data:`OBSERVATION_NAMES`): u over
+        """(B, 5) float32 observations (:data:`OBSERVATION_NAMES`), clipped to [-1, 1]: u over
         ``forward_speed_band``, w / ``vertical_speed_scale``, h / ``altitude_band``, u* over
-        ``speed_envelope``, cycles left over (0, ``max_cycles``); clipped to [-1, 1]."""
+        ``speed_envelope``, cycles left over (0, ``max_cycles``)."""
         cfg = self.config
 
         def scaled(value: np.ndarray, band: tuple[float, float]) -> np.ndarray:
@@ -269,11 +262,7 @@ def frame_for(
 
 # VectorEnv among the direct bases too: skrl tells a vector env by its class's direct bases.
 class SpeedChangeVectorEnv(FlightVectorEnv, VectorEnv):
-    """n :class:`SpeedChangeEnv` in one batched model call per step.
-
-    Args: as :class:`~tandem_env.envs.base.FlightVectorEnv` (``num_envs``, ``render_mode``,
-    ``autoreset_mode``, ``config`` or the env's keyword options).
-    """
+    """n :class:`SpeedChangeEnv` in one batched model call per step (as ``FlightVectorEnv``)."""
 
     config_class = SpeedChangeConfig
     core_class = SpeedChangeCore
@@ -319,66 +308,27 @@ class SpeedChangeVectorEnv(FlightVectorEnv, VectorEnv):
 class SpeedChangeEnv(FlightEnv):
     """Change forward speed and hold altitude over many wing-beats of the tandem-wing dragonfly.
 
-    ## Description
-
-    The quasi-steady tandem-wing model (Faisal & Filippone 2016) evaluates one wing-beat cycle
-    of a stroke at the body's current velocity: speed V = sqrt(u² + w²) along a flight path
-    inclined by γ = atan2(w, u), forces in earth axes. The cycle-mean wing forces plus the body's
-    parasite drag and its weight then move the body as a point mass for one cycle
+    Each step evaluates one wing-beat cycle of the stroke at the body's velocity (V =
+    sqrt(u² + w²) along γ = atan2(w, u)), then moves the body as a point mass for one cycle
     (:mod:`tandem_env.envs.dynamics`). The task: reach the target forward speed u*, hold the
-    start altitude, spend little energy, within the power cap (90 W/kg). Each stroke is chosen
-    from the current state, so a policy can do what no fixed stroke can: accelerate hard, then
-    settle.
+    start altitude and spend little energy within the power cap (90 W/kg); a policy can
+    accelerate hard, then settle, as no fixed stroke can (docs/envs.md, "SpeedChange").
 
-    ## Action Space
-
-    ``Box(-1, 1, (28,), float32)``: the next cycle's normalised stroke, exactly as in
-    ``TandemWing/LevelFlight-v0`` (``tandem_env.normalised_to_physical``; ``clip_actions``).
-
-    ## Observation Space
-
-    ``Box(-1, 1, (5,), float32)``: forward speed u over ``forward_speed_band`` (0-3 m/s),
-    vertical speed w / ``vertical_speed_scale`` (2 m/s, clipped), altitude error
-    h / ``altitude_band`` (0.5 m), target speed u* over ``speed_envelope`` (0.25-2 m/s) and
-    cycles left over (0, ``max_cycles``), each mapped linearly to [-1, 1].
-
-    ## Rewards
-
-    ``reward = objective − penalty``: ``objective`` the sum of the weighted terms of
-    :class:`~tandem_env.envs.speed_change_config.SpeedChangeReward` (progress towards u*, speed
-    and altitude errors × time, energy, cycles not flown on termination), ``penalty`` the power
-    cap of level flight, ``penalty_weight``·max(0, P/m − 90)/90 per cycle.
-
-    ## Starting State
-
-    u = u₀, w = 0, h = 0; u₀ and u* each fixed (``start_speed``, ``target_speed``) or drawn
-    uniformly from ``start_speed_range`` / ``target_speed_range`` (default the level-flight
-    envelope 0.25-2.0 m/s) with the env's seeded ``np_random``.
-    ``reset(options={"start_speed": .., "target_speed": .., "vertical_speed": ..})`` sets them
-    for one episode.
-
-    ## Episode End
-
-    Terminates when |h| > ``altitude_band`` (0.5 m) or u leaves ``forward_speed_band``
-    (0-3 m/s: the model covers forward flight only); truncates after ``max_cycles`` (48) cycles,
-    1.1-1.6 s of flight. ``info`` holds the state after the cycle (``forward_speed``,
-    ``vertical_speed``, ``altitude``, ``distance``, ``time``, ``cycle``, ``target_speed``),
-    ``cycle_time``, the net ``force_horizontal`` / ``force_vertical`` [N], ``energy`` [J], each
-    reward term, the band flags, and every field of the model's ``Result`` for the stroke at the
-    cycle's start (``speed`` V, ``flight_path_angle`` γ, ``power``, ``efficiency``, ...).
-
-    ## Arguments
-
-    ``gym.make("TandemWing/SpeedChange-v0", **kwargs)``, see
-    :class:`~tandem_env.envs.speed_change_config.SpeedChangeConfig`: ``start_speed``,
-    ``start_speed_range``, ``target_speed``, ``target_speed_range``, ``speed_envelope``,
-    ``max_cycles``, ``altitude_band``, ``forward_speed_band``, ``vertical_speed_scale``,
-    ``reward`` (a dict of weights), and every model, penalty and action option of the other envs
-    (``thrust_split`` defaults to ``"body"`` here). Invalid values raise ``ValueError``.
-
-    ## Version History
-
-    * v0: initial version.
+    * Action: the next cycle's normalised stroke, as in ``TandemWing/LevelFlight-v0``.
+    * Observation: ``Box(-1, 1, (5,), float32)``, :data:`OBSERVATION_NAMES` each mapped to
+      [-1, 1] (:meth:`SpeedChangeCore.observe`).
+    * Reward: the weighted terms of :class:`~tandem_env.envs.speed_change_config.SpeedChangeReward`
+      less the power cap's penalty, ``penalty_weight``·max(0, P/m − 90)/90 per cycle.
+    * Start: u = u₀, w = 0, h = 0; u₀ and u* fixed (``start_speed``, ``target_speed``) or drawn
+      from ``start_speed_range`` / ``target_speed_range`` (default 0.25-2.0 m/s);
+      ``reset(options={"start_speed": .., "target_speed": .., "vertical_speed": ..})`` sets them
+      for one episode.
+    * End: terminates when |h| > ``altitude_band`` or u leaves ``forward_speed_band``; truncates
+      after ``max_cycles``. ``info`` holds the state after the cycle, its motion and reward
+      terms (:class:`CycleBatch`) and the model's ``Result`` for the stroke.
+    * Keywords: :class:`~tandem_env.envs.speed_change_config.SpeedChangeConfig`'s fields and every
+      model, penalty and action option of the other envs (``thrust_split`` defaults to
+      ``"body"`` here); invalid values raise ``ValueError``. v0: initial version.
     """
 
     vector_class = SpeedChangeVectorEnv

@@ -1,6 +1,4 @@
-"""Declaration and options of ``TandemWing/SpeedChange-v0`` (its env: ``speed_change``): the
-declaration :data:`SPEED_CHANGE`, the reward weights :class:`SpeedChangeReward` and the config
-:class:`SpeedChangeConfig`, each validated where it is built."""
+"""Declaration (:data:`SPEED_CHANGE`), reward weights and config of ``TandemWing/SpeedChange-v0``."""
 
 from __future__ import annotations
 
@@ -22,12 +20,9 @@ LEVEL_FLIGHT_ENVELOPE: tuple[float, float] = LEVEL_FLIGHT.condition.envelope  # 
 #: are int64 and the observation divides by it.
 MAX_CYCLES = 500_000
 
-#: Fastest forward (and vertical) speed a SpeedChange episode may reach [m/s]: the top of the
-#: default ``forward_speed_band``. One step holds the wings' cycle-mean force, evaluated at the
-#: cycle's start, over the whole cycle (a zero-order hold, explicit in the velocity). The force
-#: grows with V, and above this speed that step is no longer resolved: at 4 m/s some strokes
-#: already reverse the flight in one cycle, and at 19.9 m/s most do (19.9 -> -29 m/s). So the
-#: config refuses a band beyond it rather than report such steps as ordinary ones.
+#: Fastest forward (and vertical) speed a SpeedChange episode may reach [m/s]: one step holds
+#: the cycle-mean force of the cycle's start, which above this speed is no longer resolved (at
+#: 4 m/s some strokes reverse the flight in one cycle), so a wider band is refused.
 MAX_BAND_SPEED: float = 3.0
 
 SPEED_CHANGE = TaskDeclaration(
@@ -65,9 +60,8 @@ class SpeedChangeReward:
     energy: float = 50.0
     """Per joule spent by the wings [1/J]: level flight at 40 W/kg for 1.3 s costs about 0.3."""
     termination: float = 0.2
-    """Per cycle not flown when the episode terminates early [reward units per cycle]: above
-    the most a cycle inside the bands costs (:meth:`SpeedChangeConfig.max_cycle_cost`, ≈ 0.14),
-    so leaving the bands early does not pay."""
+    """Per cycle not flown when the episode terminates early: above the most a cycle inside
+    the bands costs (:meth:`SpeedChangeConfig.max_cycle_cost`, ≈ 0.14)."""
 
     TERMS: ClassVar[tuple[str, ...]] = ("progress", "speed", "altitude", "energy", "termination")
     UNITS: ClassVar[dict[str, str]] = {
@@ -112,12 +106,7 @@ def _body_split_options() -> ModelOptions:
 
 @dataclass(frozen=True, kw_only=True)
 class SpeedChangeConfig(FlightConfig):
-    """Change speed and hold altitude over many wing-beats (see ``SpeedChangeEnv``).
-
-    Start speed u₀ and target speed u* are each fixed (``start_speed``, ``target_speed``) or
-    drawn uniformly at every reset from ``start_speed_range`` / ``target_speed_range``, which
-    default to the whole ``speed_envelope`` (the level-flight envelope, 0.25-2.0 m/s).
-    """
+    """Change speed and hold altitude over many wing-beats (see ``SpeedChangeEnv``)."""
 
     options: ModelOptions = field(default_factory=_body_split_options)
     """Model options; default ``thrust_split="body"``, so that the reported T − D and L − W
@@ -139,10 +128,8 @@ class SpeedChangeConfig(FlightConfig):
     altitude_band: float = 0.5
     """|h| [m] beyond which the episode terminates (h: altitude relative to the start)."""
     forward_speed_band: tuple[float, float] = (0.0, MAX_BAND_SPEED)
-    """(low, high) [m/s]: a forward speed u outside terminates the episode; the observation of u
-    is normalised over it. The low end may not be below 0: the model covers forward flight only
-    (|γ| ≤ 90°); the high end not above :data:`MAX_BAND_SPEED` (3 m/s), where one cycle's step
-    stops being resolved."""
+    """(low, high) [m/s]: a forward speed u outside terminates the episode; u's observation is
+    normalised over it. Within 0 (forward flight only) and :data:`MAX_BAND_SPEED`."""
     vertical_speed_scale: float = 2.0
     """|w| [m/s] mapped to ±1 in the observation (clipped beyond; w is not bounded)."""
     reward: SpeedChangeReward = field(default_factory=SpeedChangeReward)
@@ -211,14 +198,10 @@ class SpeedChangeConfig(FlightConfig):
         return self.insect.max_power_per_mass
 
     def max_cycle_cost(self) -> float:
-        """Largest speed, altitude and energy cost of one cycle flown inside the bands with power
-        within the cap [reward units].
+        """Largest speed, altitude and energy cost of one cycle inside the bands with power
+        within the cap [reward units]: the slowest cycle (the insect's lowest frequency), the
+        largest speed and altitude errors. The termination weight should exceed it."""
 
-        The slowest cycle lasts 1/f at the insect's lowest frequency (Table 4's 30 Hz unless its
-        ``stroke_bounds`` say otherwise); the speed error is at most
-        the forward band's width past the envelope, the altitude error the band. The
-        termination weight should exceed this, so that ending an episode early never pays.
-        """
         lowest = self.insect.stroke_bounds.lower
         slowest = 1.0 / min(lowest[PARAMETER_NAMES.index(f"{w}_frequency")] for w in WING_NAMES)
         band = self.forward_speed_band

@@ -1,6 +1,4 @@
-"""B evaluated strokes of a task, scored by its objective and constraints, before they are
-split per env (:class:`StepBatch`, what every core's ``step`` returns; the multi-cycle task wraps
-it with the motion)."""
+"""B evaluated strokes of a task, scored, before they are split per env (:class:`StepBatch`)."""
 
 from __future__ import annotations
 
@@ -33,9 +31,8 @@ class StepBatch:
     reward: np.ndarray
     """(B,) objective − penalty."""
     score: np.ndarray | None
-    """(B,) the normalised score [-]: 100 at the reference optimum, ≤ 0 where infeasible, NaN
-    outside the reference grid; None where the reference table does not describe the env
-    (:mod:`tandem_env.envs.reference`)."""
+    """(B,) the normalised score [-] (:mod:`tandem_env.envs.reference`); None where the
+    reference table does not describe the env."""
 
     @classmethod
     def scored(
@@ -47,9 +44,8 @@ class StepBatch:
         penalty: PenaltyConfig,
         score: np.ndarray | None = None,
     ) -> StepBatch:
-        """The batch of a task's objective and constraints, its reward penalised by the env's
-        ``penalty`` (exactly the objective where feasible), with the strokes' normalised
-        ``score`` where a reference applies."""
+        """The batch, its reward the objective penalised by the env's ``penalty``."""
+
         lost = penalty.penalty(scores.total, scores.feasible)
         return cls(physical, result, objective, scores, lost, objective - lost, score)
 

@@ -1,13 +1,8 @@
-"""What every command line of the project shares around its ``main``: streams and environment.
-
-:func:`run_command` is the one wrapper of the entry points (``python -m eval``, its console
-scripts, ``python -m train``, ``python -m train.envelope``). Around the command it makes standard
-output and error carry any character (backslash escapes where the encoding cannot), gives a
-closed stream the null device and makes standard error a
-:class:`~tandem_env.io.progress_bar.QuietStream`; it ends quietly (status 1) when the reader of
-standard output goes away (``| head``, the ``signal`` module's recipe), with one line (status 1)
-for an ``OSError`` of the machine (a full disk, a read-only folder), and with one line (status 2)
-for a bad numba setting of the environment (:func:`check_numba_environment`).
+"""What every command line shares around its ``main`` (:func:`run_command`): streams that carry
+any character, a closed stream given the null device, standard error a
+:class:`~tandem_env.io.progress_bar.QuietStream`; a quiet end (status 1) when the reader of
+standard output goes away, one line (status 1) for an ``OSError`` of the machine and one line
+(status 2) for a bad numba setting (:func:`check_numba_environment`).
 """
 
 from __future__ import annotations
@@ -34,12 +29,8 @@ class EnvironmentSettingError(ValueError):
 
 
 def check_numba_environment(environ: Mapping[str, str] | None = None) -> None:
-    """Check the numba variables of ``environ`` (default ``os.environ``) before numba reads them.
-
-    numba raises from deep inside its import for ``NUMBA_NUM_THREADS=0`` and for an unknown
-    ``NUMBA_THREADING_LAYER``; this says which variable, its value and what is allowed.
-    Raises :class:`EnvironmentSettingError`. Unset variables are numba's defaults.
-    """
+    """Check the numba variables of ``environ`` (default ``os.environ``) before numba, which
+    fails deep in its import, reads them: :class:`EnvironmentSettingError` naming one."""
     environ = os.environ if environ is None else environ
     threads = environ.get("NUMBA_NUM_THREADS")
     if threads is not None and threads.strip():
@@ -121,9 +112,7 @@ def run_command(main: Callable[[], int | None], program: str | None = None) -> i
 
 
 def command_line(main: Callable[P, int | None]) -> Callable[P, int]:
-    """Decorate an entry point's ``main(argv)`` with :func:`run_command` (one home for every
-    command line: ``python -m eval`` and its console scripts, ``python -m train``,
-    ``python -m train.envelope``)."""
+    """Decorate an entry point's ``main(argv)`` with :func:`run_command`."""
 
     @functools.wraps(main)
     def wrapped(*args: P.args, **kwargs: P.kwargs) -> int:
@@ -133,10 +122,8 @@ def command_line(main: Callable[P, int | None]) -> Callable[P, int]:
 
 
 def checked_by(convert: Callable[[Any], Any]) -> type[argparse.Action]:
-    """An argparse action that converts an option's value with ``convert`` when the command
-    line is parsed, so a command receives its options checked and in their final form; a
-    ValueError (naming the value and what is allowed) is the usage error, exit status 2,
-    prefixed with the option where it does not name it already."""
+    """An argparse action converting the option's value with ``convert``; its ValueError is
+    the usage error (status 2), prefixed with the option where it does not name it."""
 
     class Checked(argparse.Action):
         def __call__(

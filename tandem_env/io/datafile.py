@@ -1,11 +1,7 @@
-"""Reading a user's data files: UTF-8 text and YAML through the safe loader (plain data only).
-
-:func:`read_text` refuses what is not UTF-8 text; :func:`read_yaml` parses with
-:class:`DataLoader`, YAML's safe loader with two fixes for hand-written files. Every YAML text
-the project reads goes through :func:`parse_yaml` and a :class:`BoundedLoader`, which refuses a
-text beyond :data:`MAX_YAML_CHARS` and a document expanding to more than
-:data:`MAX_YAML_NODES` values (an alias counted as all it repeats: an alias bomb is refused
-before anything is built). Errors are :class:`DataFileError`, naming the file and the fault.
+"""Reading a user's data files: UTF-8 text (:func:`read_text`) and YAML through the safe loader
+(:func:`read_yaml`). Every YAML text goes through :func:`parse_yaml` and a
+:class:`BoundedLoader`, which refuses a text or document too large (an alias bomb before
+anything is built). Errors are :class:`DataFileError`, naming the file and the fault.
 """
 
 from __future__ import annotations
@@ -46,8 +42,7 @@ class BoundedLoader(yaml.SafeLoader):
 
 
 def _expanded_size(root: yaml.Node) -> int:
-    """How many values ``root`` expands to, each alias counted in full; memoised per node, so
-    it costs one visit of each distinct node however many times aliases repeat it.
+    """How many values ``root`` expands to, each alias in full (one visit per distinct node);
     :class:`YAMLTooLarge` beyond :data:`MAX_YAML_NODES`, or for a node that holds itself."""
     sizes: dict[int, int] = {}
     open_nodes: set[int] = set()
@@ -84,9 +79,9 @@ def _line(node: yaml.Node) -> int:
 
 
 def parse_yaml(text: str, loader: type[BoundedLoader]) -> Any:
-    """The plain data of a YAML ``text``, read with ``loader`` (a :class:`BoundedLoader`):
-    :class:`YAMLTooLarge` (a ``yaml.YAMLError``) for a text beyond :data:`MAX_YAML_CHARS` or a
-    document beyond :data:`MAX_YAML_NODES` values, other YAML errors as the loader raises them."""
+    """The plain data of a YAML ``text`` read with ``loader`` (a :class:`BoundedLoader`);
+    :class:`YAMLTooLarge` for a text or document too large."""
+
     if not (isinstance(loader, type) and issubclass(loader, BoundedLoader)):
         raise TypeError(f"loader = {loader!r}; allowed: a subclass of BoundedLoader")
     if len(text) > MAX_YAML_CHARS:

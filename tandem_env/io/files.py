@@ -1,12 +1,6 @@
-"""File I/O the project shares: one JSON converter, one atomic writer, one output-folder check.
-
-:func:`to_jsonable` is the one conversion of Python/numpy values to plain JSON types.
-:func:`atomic_path` is the one atomic write (a temporary file beside the target, fsynced and
-renamed over it), under :func:`write_text_atomic`, :func:`write_json_atomic` and
-:func:`write_csv_atomic`; serialisation happens before any file is touched.
-:func:`output_directory` is the check of an output folder every command makes before it computes.
-JSON keeps Python's non-finite floats (``NaN``, ``Infinity``): not strict RFC 8259, but it
-round-trips through :func:`read_json`, and an optimiser's ``-inf`` best is worth keeping.
+"""File I/O the project shares: one JSON converter (:func:`to_jsonable`), one atomic writer
+(:func:`atomic_path`), one output-folder check (:func:`output_directory`). JSON keeps Python's
+non-finite floats (not strict RFC 8259): an optimiser's ``-inf`` best is worth keeping.
 """
 
 from __future__ import annotations
@@ -30,14 +24,9 @@ import numpy as np
 
 
 def to_jsonable(obj: Any, default: Callable[[Any], Any] | None = None) -> Any:
-    """Convert ``obj`` to plain JSON types (dict, list, str, int, float, bool, None).
-
-    numpy scalars become Python scalars, arrays become nested lists, tuples become lists,
-    :class:`~pathlib.Path` becomes str, dataclass instances (e.g. a ``Dragonfly`` in env
-    keywords) become dicts of their fields, objects with a ``to_dict()`` method are converted
-    through it and mapping keys become strings as JSON writes them. Anything else goes to
-    ``default`` (as in :func:`json.dumps`: e.g. ``repr``, or ``lambda v: v`` to keep it for a
-    YAML writer to judge); without one it raises TypeError.
+    """Convert ``obj`` to plain JSON types: numpy values, tuples, paths, objects with a
+    ``to_dict()`` and dataclasses (as dicts of their fields) included, mapping keys as JSON
+    writes them. Anything else goes to ``default`` (as in :func:`json.dumps`), else TypeError.
     """
     if obj is None or isinstance(obj, str | bool | int | float):
         return obj
@@ -83,17 +72,11 @@ def output_directory(
     folders: Sequence[str] = (),
     files: Sequence[str] = (),
 ) -> bool:
-    """Check ``path`` as an output folder before any work; whether it can be written now.
-
-    The folder need not exist (it is created by the first write). ``folders`` and ``files``
-    name what the command writes inside it (a store's ``records``, its ``summary.csv``): each
-    is checked too, not only the top folder. Raises ValueError naming ``option``, the path and
-    what is allowed for an empty path, a path (or a parent) that is a file, a symlink that
-    points nowhere or into a loop, a file to be written that is a directory, and, with
-    ``write``, a folder (or, for a new one, its nearest existing parent) that cannot be
-    written; without ``write`` (a rerun that may have nothing to write) returns False instead.
-    Writability is tried with a temporary file, so permissions, ACLs, read-only mounts and a
-    full disk all count.
+    """Check ``path`` (need not exist) and the ``folders`` and ``files`` a command writes in
+    it as an output folder before any work; whether it can be written now. ValueError naming
+    ``option``, the path and what is allowed for an empty path, a file where a folder goes (or
+    the reverse), a broken symlink, and, with ``write``, a folder that cannot be written
+    (tried with a temporary file); without ``write`` that returns False instead.
     """
     text = os.fspath(path)
     if not text:
@@ -191,14 +174,9 @@ _UMASK_LOCK = threading.Lock()
 
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; on success it replaces ``path`` atomically.
-
-    The temporary name keeps ``path``'s suffix (so ``savefig`` infers the format), the parent
-    directories are created, the file is fsynced before the rename and the directory after it.
-    If the block raises, the temporary file is removed and ``path`` is untouched. The new file
-    keeps an existing file's mode where that lets its owner read and write it, else gets a new
-    file's mode under the umask (:func:`new_file_mode`; not mkstemp's private 0600), so a file
-    made unreadable (mode 000) is replaced by a readable one.
+    """Yield a temporary path beside ``path`` (same suffix); on success it is fsynced and
+    replaces ``path`` atomically, else it is removed. The new file keeps an existing file's
+    mode if its owner can read and write it, else gets :func:`new_file_mode`.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -224,14 +202,9 @@ class FolderInUse(ValueError):
 
 
 class FolderLock:
-    """The exclusive lock of a folder that one command writes in, held as a context manager.
-
-    An ``flock`` on ``folder/name``: the kernel releases it when the holder exits, however it
-    exits, so a killed command leaves no stale lock (the file stays and is reused). The holder
-    writes its pid into the file; another process's :meth:`acquire` raises :class:`FolderInUse`
-    with ``busy(pid)`` as its message, and ValueError naming the folder if it cannot open the
-    file there.
-    """
+    """The exclusive lock of a folder one command writes in (a context manager): an ``flock``
+    on ``folder/name`` holding the holder's pid, released by the kernel however it exits;
+    another process's :meth:`acquire` raises :class:`FolderInUse` with ``busy(pid)``."""
 
     def __init__(self, folder: str | os.PathLike[str], name: str, busy: Callable[[str], str]):
         self.path = Path(folder) / name
@@ -287,20 +260,13 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
 
 
 def write_json_atomic(path: str | os.PathLike[str], obj: Any, *, indent: int | None = 2) -> None:
-    """Write ``obj`` as JSON to ``path`` atomically (parent directories are created).
-
-    Raises TypeError for values :func:`to_jsonable` cannot convert, before touching the disk.
-    """
+    """Write ``obj`` as JSON to ``path`` atomically (TypeError before touching the disk)."""
     text = json.dumps(to_jsonable(obj), indent=indent, sort_keys=False) + "\n"
     write_text_atomic(Path(path), text)
 
 
 def read_json(path: str | os.PathLike[str]) -> Any:
-    """Read a JSON file written by :func:`write_json_atomic`.
-
-    Raises ValueError for a file that is not UTF-8 JSON, including JSON nested too deeply for
-    the parser (``[[[...]]]``), so that one damaged file is reported like any other.
-    """
+    """Read a JSON file; ValueError for one that is not UTF-8 JSON (or nested too deeply)."""
     with open(path, encoding="utf-8") as handle:
         try:
             return json.load(handle)
@@ -310,12 +276,9 @@ def read_json(path: str | os.PathLike[str]) -> Any:
 
 
 def write_csv_atomic(path: str | os.PathLike[str], rows: Sequence[Mapping[str, Any]]) -> None:
-    """Write ``rows`` as CSV to ``path`` atomically.
+    """Write ``rows`` as CSV to ``path`` atomically: the union of their keys as columns, None
+    as an empty cell, lists and dicts as JSON text."""
 
-    Columns are the union of the rows' keys in order of first appearance; a missing key or a
-    None value is an empty cell. numpy scalars are written as plain numbers and list-, dict- or
-    array-valued cells as JSON text.
-    """
     columns: dict[str, None] = {}  # an ordered set
     for row in rows:
         columns.update(dict.fromkeys(row))

@@ -1,10 +1,5 @@
 """Progress of long work on stderr (tqdm): one bar class for a search and for a set of jobs.
-
-A search reports ``(iteration, evaluations, best)`` after every iteration (:data:`Reporter`);
-the job runner (``agents.runner``) moves one bar over the evaluations of all its jobs. Until
-its first report a bar shows what it waits for (the first evaluation in a process compiles the
-model) instead of a rate; the clock restarts at the first report, so the time left counts
-evaluations only.
+Until its first report a bar shows what it waits for (compiling the model) instead of a rate.
 """
 
 from __future__ import annotations
@@ -30,10 +25,8 @@ _reported = False  # whether any bar of this process has had a report (the model
 
 
 class QuietStream:
-    """A text stream for diagnostics (progress, warnings, notes) whose failure never stops the
-    work: a write that fails (its reader went away, a full disk behind a redirection, a closed
-    file) silences it for good instead of raising into the computation, so a job is never
-    lost to its display. ``stream`` None means standard error as it is at each write."""
+    """A text stream for diagnostics whose failure never stops the work: a failed write
+    silences it for good. ``stream`` None means standard error as it is at each write."""
 
     def __init__(self, stream: TextIO | None = None) -> None:
         self._stream = stream
@@ -80,10 +73,8 @@ class QuietStream:
 
 
 class ProgressBar:
-    """A tqdm bar over model evaluations (its rate and time left in evaluations) of budget
-    ``total``, labelled ``description``; ``enabled`` False makes every call a no-op
-    (``--quiet``); ``waiting`` is what it shows until its first report (default
-    :data:`COMPILING` in a process whose bars have had none yet, else :data:`STARTING`)."""
+    """A tqdm bar over ``total`` model evaluations; ``enabled`` False makes every call a no-op;
+    ``waiting`` is shown until its first report (default :data:`COMPILING` or :data:`STARTING`)."""
 
     def __init__(
         self, total: int, description: str, enabled: bool = True, waiting: str | None = None
@@ -144,9 +135,9 @@ class ProgressBar:
 
 @contextlib.contextmanager
 def warnings_as_lines() -> Iterator[None]:
-    """Within the block every warning is shown as one line on stderr, ``Category: message``,
-    written through ``tqdm.write`` so that an open bar is redrawn below it instead of being cut
-    (the command lines run in it; ``warnings.showwarning`` is the documented hook)."""
+    """Within the block every warning is one line on stderr through ``tqdm.write``, so that an
+    open bar is redrawn below it."""
+
     previous = warnings.showwarning
 
     def show(message, category, filename, lineno, file=None, line=None) -> None:
