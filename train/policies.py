@@ -1,11 +1,8 @@
-"""Stable-Baselines3 models as harness methods: a trained policy, and training within a budget.
-
-Two kinds of method (docs/training.md, "Through the harness"), registered with the harness when
-this module is imported (it is the provider :mod:`agents.methods` imports on first use, so
-``agents`` imports SB3 only when asked): ``policy:RUN_DIR``, a policy trained by ``python -m
-train`` (ppo, sac or amortised) asked once for its deterministic stroke (**1 evaluation**); and
-``ppo`` / ``sac``, trained at the harness's condition within its budget of env steps, the
-result being the **best stroke seen** by the harness's selection rule (:mod:`agents.selection`).
+"""Stable-Baselines3 models as harness methods (docs/training.md, "Through the harness"):
+``policy:RUN_DIR``, a policy trained by ``python -m train`` asked once for its deterministic
+stroke, and ``ppo`` / ``sac``, trained at the harness's condition within its budget of env
+steps. Registered with the harness when imported (the provider :mod:`agents.methods` imports
+on first use, so ``agents`` imports SB3 only when asked).
 """
 
 from __future__ import annotations
