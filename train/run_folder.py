@@ -463,12 +463,19 @@ class RunFolder:
         layout = layout or RunLayout.new(config.log_folder, config.algo, config.env_id)
         return cls(layout, config, hp, checkpoint, target, segments, MappingProxyType(env_kwargs))
 
-    def model(self, venv: Any, **settings: Any) -> Any:
-        """The model this run trains on ``venv`` (``settings``: :func:`train.saved.build_model`'s):
-        new, or the checkpoint's (with SAC's replay buffer) and seeded by its step, so that a
-        resumed segment is reproducible given its checkpoint (RNG states are not saved)."""
+    def model(self, venv: Any) -> Any:
+        """The model this run trains on ``venv`` (its TensorBoard folder, verbosity and device
+        from the config): new, or the checkpoint's (with SAC's replay buffer) and seeded by its
+        step, so that a resumed segment is reproducible given its checkpoint (RNG states are
+        not saved)."""
         assert self.hp is not None
-        algo, seed, checkpoint = self.config.algo, self.config.seed, self.checkpoint
+        config, checkpoint = self.config, self.checkpoint
+        algo, seed = config.algo, config.seed
+        settings = {
+            "tensorboard_log": self.layout.tensorboard if config.tensorboard else None,
+            "verbose": config.model_verbose,
+            "device": config.device,
+        }
         if checkpoint is None:
             return build_model(algo, self.hp, venv, seed=seed, **settings)
         model = load_model(
