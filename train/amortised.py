@@ -1,28 +1,9 @@
-"""An amortised stroke policy trained: one network from the flight condition to a stroke.
-
-Instead of an optimiser run per condition, one small network per branch maps the condition to
-a stroke in one forward pass (amortised optimisation; Amos 2023, "Tutorial on amortized
-optimization", Found. Trends Mach. Learn. 16(5)). ``python -m train --algo amortised --env
-ID`` trains one (:func:`train_run`); the policy itself is :mod:`train.amortised_policy`. The
-method, its settings and its measured results: docs/training.md, "Amortised policy".
-
-**Training** (:func:`train_policy`), deterministic for a seed (torch and numpy seeded, one torch
-thread, float64), on the canonical optima of the reference table at the grid's training
-conditions only: (a) branches (:mod:`train.amortised_branches`); (b) regression of each
-branch's outputs before the output tanh on atanh of its targets (``regression_points``;
-targets at a bound held ``TARGET_LIMIT`` inside it); (c) fine-tuning by the gradient of the
-mean of ``J / ref(c)``, ``J = objective − w · Σ_i max(0, δ − margin_i)`` [objective units]
-(``w``: :attr:`Settings.penalty_weight`, ``δ``: :attr:`Settings.safety_margin`), on
-:attr:`Settings.batch` stratified conditions per branch and step, the stroke's gradient from
-the problem view's autograd (``FlightProblem.differentiate``, one model evaluation for all
-branches per step), an anchor on the training targets (:attr:`Settings.anchor`) and a cosine
-learning-rate decay; (d) hand-overs (``hand_overs``).
-
-Refused before any computation, with the value and what is allowed: an env without a
-reference table, a series the table does not hold (objective, planform), env options that
-change the problem the table describes (model options, insect, tolerances; those that do not
-are the penalty, backend and device), a condition keyword (the condition is the policy's
-input), unknown or out-of-range settings.
+"""An amortised stroke policy trained: one network per branch from the flight condition to a
+stroke (amortised optimisation; Amos 2023, "Tutorial on amortized optimization", Found. Trends
+Mach. Learn. 16(5)). ``python -m train --algo amortised --env ID`` runs :func:`train_run`; the
+policy itself is :mod:`train.amortised_policy`. The method ((a) branches, (b) regression,
+(c) fine-tuning, (d) hand-overs), its settings, its refusals and its measured results are
+specified in docs/training.md, "Amortised policy".
 """
 
 from __future__ import annotations
@@ -185,9 +166,9 @@ def train_policy(
     *,
     progress: Any = None,
 ) -> tuple[AmortisedPolicy, Training]:
-    """Train an amortised policy on ``targets`` (module docstring: (a) branches, (b)
-    regression, (c) fine-tuning through ``env_id``'s problem view with ``env_kwargs``, (d)
-    hand-overs). ``progress``: called as ``progress(step, total, row)`` after each
+    """Train an amortised policy on ``targets`` (docs/training.md, "Amortised policy": (a)
+    branches, (b) regression, (c) fine-tuning through ``env_id``'s problem view with
+    ``env_kwargs``, (d) hand-overs). ``progress``: called as ``progress(step, total, row)`` after each
     fine-tuning step."""
     import torch
 

@@ -1,22 +1,7 @@
 """The branches of an amortised policy: which training optima belong together, the conditions
 each branch learns over, its regression targets and where one branch hands over to the next
-(steps (a), (b) and (d) of :mod:`train.amortised`'s training).
-
-In level flight the reference optima lie in a few basins, and between two basins most stroke
-coordinates and N jump; one smooth map's strokes between two basins fly in neither. So the
-policy (:class:`train.amortised_policy.AmortisedPolicy`) has one network per branch, a run of
-neighbouring training conditions whose optima belong together.
-
-**The rule** (:func:`branch_segments`): two neighbouring training optima share a branch when
-they have the same N and the stroke midway between them, flown at the midway condition, is
-within ``branch_tolerance`` (:class:`train.amortised_settings.Settings`) of their mean objective and
-violates no constraint margin by more (one batched model evaluation). Within a basin the
-midway stroke is nearly optimal (0.2-0.3 % short, margins -0.006 in level flight); across a
-basin change it is far off (36-69 % short, margins -0.58 to -0.85), so the split does not hinge
-on the tolerance. A branch learns from its first to its last training condition and
-``branch_reach`` of the way into each gap to a neighbouring branch's (:func:`branch_domains`):
-both then cover the middle of the gap, and not further, for a branch continued deep into a
-neighbouring basin is pulled away from its own optima.
+(steps (a), (b) and (d) of :mod:`train.amortised`; the rule and why: docs/training.md,
+"Amortised policy", steps 2, 3 and 5).
 """
 
 from __future__ import annotations
@@ -52,7 +37,7 @@ def between(first: np.ndarray, second: np.ndarray, fraction: Any = 0.5) -> np.nd
 
 def branch_segments(problem: Any, targets: Targets, tolerance: float) -> list[tuple[int, int]]:
     """The training conditions split into branches ``[(first, stop), ...]`` (index ranges) by
-    the rule of the module docstring (``tolerance``: ``branch_tolerance``, the midway stroke by
+    the rule of docs/training.md (``tolerance``: ``branch_tolerance``, the midway stroke by
     :func:`between`); no held-out optimum is read."""
     k = targets.conditions.size
     if k == 1:
@@ -74,8 +59,8 @@ def branch_segments(problem: Any, targets: Targets, tolerance: float) -> list[tu
 def branch_domains(
     conditions: np.ndarray, segments: list[tuple[int, int]], reach: float
 ) -> np.ndarray:
-    """(n_branches, 2) the conditions each branch learns over [the condition's unit] (module
-    docstring; ``reach``: ``branch_reach``)."""
+    """(n_branches, 2) the conditions each branch learns over [the condition's unit] (docs/training.md,
+    step 2; ``reach``: ``branch_reach``)."""
     last = conditions.size - 1
     return np.array(
         [

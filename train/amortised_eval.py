@@ -1,26 +1,8 @@
-"""``python -m train.amortised_eval``: an amortised policy judged at the held-out conditions.
-
-::
+"""``python -m train.amortised_eval``: an amortised policy judged at the held-out conditions
+(what it measures and how: docs/training.md, "Amortised policy")::
 
     python -m train.amortised_eval --run logs/amortised/TandemWing-LevelFlight-v0_1 \\
         --polish 500 --records results/reference/records --out held_out.json
-
-At each held-out condition of the reference grid (``held_out_conditions(env_id)``: the
-training never saw their optima) the policy's stroke (one forward pass) is evaluated by the
-env's problem view at the run's env options (the env's default resolution): feasibility, the
-objective [the objective's unit], the normalised score against the table's optimum there
-(``normalised_score``: 100 = the optimum) and the gap, ``100 − score`` [% of the optimum; 100
-or more for an infeasible stroke]. The summary gives the feasible share, the median and the
-worst gap, and the time to a stroke: one forward pass for one condition [s] (the median of
-repeats; and of one pass for all of them) beside the optimiser's time to a certified optimum: the wall time of the records of
-the table's search at that condition (``--records``: the harness records of ``python -m eval
-reference``; the best record's, and the sum over every record there: seeds and continuation
-rounds) and, with ``--cmaes-budget N``, a fresh
-CMA-ES run of N evaluations at the first held-out condition measured in this process.
-
-``--polish N`` (N <= 500 model evaluations) warm-starts the harness's local polish
-(``agents.polish.polish``, SLSQP, autograd gradients: one model evaluation each) from the
-policy's stroke, an infeasible one too, and reports the gap after it.
 """
 
 from __future__ import annotations

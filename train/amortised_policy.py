@@ -1,45 +1,10 @@
-"""The amortised stroke policy itself: its map from the condition to a stroke, its canonical
-targets and its run folder (trained by :mod:`train.amortised`).
-
-**The map.** Input: the condition c [the condition's unit: m/s for level flight, W/kg for
-accelerating flight]. Output: a normalised stroke (28,) in [-1, 1], the env's action.
-
-* **Branches** (:mod:`train.amortised_branches`, which says why and how they are split). The
-  policy has one MLP per branch and hand-over conditions (``switches``) between neighbouring
-  branches; a condition is served by the branch whose span holds it
-  (:meth:`AmortisedPolicy.branch_at`), so one forward pass of one branch gives the stroke.
-* The 26 continuous coordinates from the branch's MLP: the condition mapped from the branch's
-  domain to [-1, 1] (:meth:`AmortisedPolicy.inputs`; or, with
-  ``features`` of :class:`~train.amortised_settings.Settings` > 0, its Gaussian radial features,
-  :func:`radial_features`), tanh hidden layers (``hidden``) and a tanh output u ∈ (-1, 1)^26.
-  A coordinate that is not a phase is u itself. A phase (each wing's sweep, elevation and
-  pitch phase, Table 4: -180° to 180° on both wings, so ±1 is one angle) is
-  ``wrap(centre + u)`` [normalised: 1 = 180°], ``wrap`` onto [-1, 1), with a fixed ``centre``
-  per phase (the circular mean of the training targets' phase; the canonical value for a
-  canonicalised one): the output then moves continuously around the circle, and the optima's
-  phases near ±180° do not sit on the output's edge.
-* The two discrete coordinates (indices 11 and 25, each wing's elevation harmonic N ∈ {1, 2},
-  -0.5 for 1 and +0.5 for 2) are not learned: they are the branch's (every optimum of a
-  branch has the same N). N is a step of the action (its gradient is 0), so neither
-  regression nor fine-tuning could move it.
-
-**Canonical targets** (:func:`canonicalise`): each pair's motion is delayed by whole time-grid
-steps so that its sweep phase sits within half a step of :data:`CANONICAL_SWEEP_PHASE` (the hind
-pair on its own where the model is not phase-resolved): optima found with arbitrary phase
-offsets become one smooth family over the conditions, and the objective is unchanged to
-rounding (why: docs/training.md, "Amortised policy", step 1; docs/model.md §3.2, §3.5, §5.7).
-
-**A run folder** (zoo-style, :class:`~train.run_folder.RunLayout`, ``logs/amortised/<env>_<n>/``)::
-
-    <env>.pt                 the branches' weights: a torch state_dict (torch.load(weights_only=True))
-    policy.json              what the forward pass needs besides: sizes, phase centres, the
-                             branches' domains, the hand-overs and each branch's N
-    result.json              training summary: losses, timings, strokes evaluated, provenance
-    <env>/args.yml           the command's arguments (made_by: python -m train)
-    <env>/config.yml         the training settings (:class:`~train.amortised_settings.Settings`)
-
-every file written atomically (``tandem_env.io.files``) and read with safe loaders (JSON,
-``yaml.safe_load`` through :func:`train.saved.read_run_yaml`, weights only).
+"""The amortised stroke policy itself (trained by :mod:`train.amortised`): its map from the
+condition c [the condition's unit] to a normalised stroke (28,) in [-1, 1], its canonical
+targets (:func:`canonicalise`) and its run folder (``logs/amortised/<env>_<n>/``: ``<env>.pt``,
+the weights, read with ``torch.load(weights_only=True)``; ``policy.json``; ``result.json``;
+``<env>/args.yml`` and ``<env>/config.yml``). What the map is and why (one MLP per branch, a
+tanh output, each phase wrapped around a fixed centre, N the branch's), the canonical targets
+and the folder's files: docs/training.md, "Amortised policy".
 """
 
 from __future__ import annotations
@@ -118,8 +83,8 @@ def delay(physical: np.ndarray, fore: Any, hind: Any) -> np.ndarray:
 
 
 def canonicalise(physical: np.ndarray, n_time: int, *, pairs_independent: bool) -> np.ndarray:
-    """The strokes (B, 28) [Table 4 units] made canonical (module docstring, **Canonical
-    targets**); ``pairs_independent``: the model is not phase-resolved, so the hind pair is
+    """The strokes (B, 28) [Table 4 units] made canonical (docs/training.md, "Amortised
+    policy", step 1); ``pairs_independent``: the model is not phase-resolved, so the hind pair is
     delayed on its own, else by the fore pair's delay."""
     strokes = np.array(physical, dtype=np.float64, ndmin=2)
     step = 360.0 / int(n_time)
@@ -251,7 +216,7 @@ class AmortisedPolicy(RunPolicy):
     env_id: str
     env_kwargs: Mapping[str, Any]
     centres: np.ndarray
-    """(26,) each output's centre [normalised]: 0 but for the phases (module docstring)."""
+    """(26,) each output's centre [normalised]: 0 but for the phases (docs/training.md)."""
     switches: np.ndarray
     """(n_branches - 1,) increasing conditions [the condition's unit] where one branch hands
     over to the next: branch b serves ``switches[b-1] <= c < switches[b]``."""
@@ -280,7 +245,7 @@ class AmortisedPolicy(RunPolicy):
         return len(self.network)
 
     def branch_at(self, conditions: np.ndarray) -> np.ndarray:
-        """(n,) the branch that serves each condition (module docstring)."""
+        """(n,) the branch whose span (between its ``switches``) holds each condition."""
         return np.searchsorted(self.switches, np.asarray(conditions, dtype=np.float64), "right")
 
     def pre_activations(self, conditions: np.ndarray, branches: np.ndarray) -> Any:

@@ -536,20 +536,11 @@ class TrainConfig:
         ``verbose`` 2); this run's own messages follow ``verbose``."""
         return self.verbose if self.log_table or self.verbose >= 2 else 0
 
-    def hyperparameters(self) -> Hyperparams:
-        """The resolved hyperparameters of this run."""
-        entry = load_entry(self.algo, self.env_id, self.hyperparams_file)
-        return resolve_hyperparams(
-            entry, self.hyperparams, n_envs=self.n_envs, n_timesteps=self.n_timesteps
-        )
-
     def to_dict(self) -> dict[str, Any]:
         """Plain-YAML form (``args.yml``): every field (:func:`plain`), under its zoo name where
         it has one (:data:`ARGS_KEYS`), marked as written by this project (``made_by``)."""
-        settings = {
-            ARGS_KEYS.get(f.name, f.name): plain(getattr(self, f.name)) for f in fields(self)
-        }
-        return {"made_by": MADE_BY, **settings}
+        settings = {ARGS_KEYS.get(f.name, f.name): getattr(self, f.name) for f in fields(self)}
+        return plain({"made_by": MADE_BY, **settings})
 
 
 #: The ``made_by`` entry of ``args.yml`` that marks a run folder written by ``python -m train``.

@@ -1,19 +1,9 @@
-"""``python -m train.envelope``: one trained policy evaluated at every sweep condition.
+"""``python -m train.envelope``: one trained policy (ppo, sac or amortised) asked, through the
+harness method ``policy:RUN_DIR``, for its stroke at every sweep condition, each recorded like
+a PSO result; ``envelope.csv`` gathers them (docs/training.md, "One policy for the whole
+envelope")::
 
-A policy trained over the whole envelope (``speed_range=(0.25, 2.0)`` for level flight,
-``available_power_range=(50, 90)`` for accelerating flight) is asked, through the harness method
-``policy:RUN_DIR``, for its deterministic stroke at each sweep condition; each stroke is
-re-evaluated and recorded exactly like a PSO result (one record per condition), and a CSV
-gathers them::
-
-    python -m train --algo sac --env TandemWing/LevelFlight-v0 \\
-        --env-kwargs "speed_range=(0.25, 2.0)" -n 300000
     python -m train.envelope --run logs/sac/TandemWing-LevelFlight-v0_1 --out results/envelope-sac
-
-writes ``results/envelope-sac/envelope.csv`` (condition, objective, feasible, the normalised
-score against the reference optimum (docs/reference.md), efficiency,
-evaluations spent, ...) and the records in ``results/envelope-sac/records/``. An amortised run
-(``python -m train --algo amortised``) is evaluated the same way.
 """
 
 from __future__ import annotations

@@ -1,11 +1,8 @@
-"""Stable-Baselines3 models as harness methods: a trained policy, and training within a budget.
-
-Two kinds of method (docs/training.md, "Through the harness"), registered with the harness when
-this module is imported (it is the provider :mod:`agents.methods` imports on first use, so
-``agents`` imports SB3 only when asked): ``policy:RUN_DIR``, a policy trained by ``python -m
-train`` (ppo, sac or amortised) asked once for its deterministic stroke (**1 evaluation**); and
-``ppo`` / ``sac``, trained at the harness's condition within its budget of env steps, the
-result being the **best stroke seen** by the harness's selection rule (:mod:`agents.selection`).
+"""Stable-Baselines3 models as harness methods (docs/training.md, "Through the harness"):
+``policy:RUN_DIR``, a policy trained by ``python -m train`` asked once for its deterministic
+stroke, and ``ppo`` / ``sac``, trained at the harness's condition within its budget of env
+steps. Registered with the harness when imported (the provider :mod:`agents.methods` imports
+on first use, so ``agents`` imports SB3 only when asked).
 """
 
 from __future__ import annotations
@@ -38,7 +35,7 @@ from train.config import (
     plain,
     step_granularity,
 )
-from train.run import budget_hyperparams, learn_in_memory, train
+from train.run import TrainResult, budget_hyperparams, learn_in_memory, train
 from train.run_folder import resolve_run_dir
 from train.trained_policy import WHICH_MODELS, TrainingMismatchWarning, WhichModel, load_policy
 from train.vec import StrokeRecorder
@@ -205,16 +202,16 @@ class TrainingMethod:
         hp = self._hyperparams(context.env_id, context.budget)
         unused = self._announce_budget(context, hp)
         if self.log_dir is None:
-            training = self._learn(context)
+            training, final = self._learn(context)
         else:
-            training = self._learn_with_files(context, hp.n_timesteps)
-        evaluations = training.steps + 1
-        final_reward = training.final_reward
+            training, final = self._learn_with_files(context, hp.n_timesteps)
+        evaluations = training.num_timesteps + 1
+        best_feasible = bool((training.best_info or {}).get("feasible", False))
         # the selection rule (agents.selection); on a tie the stroke seen in training stays
         if training.best_action is None or is_better(
-            training.final_feasible, final_reward, training.best_feasible, training.best_reward
+            final["feasible"], final["reward"], best_feasible, training.best_reward
         ):
-            best_action, best_reward = training.final_action, final_reward
+            best_action, best_reward = final["action"], final["reward"]
             chosen = "final policy"
         else:
             best_action = np.asarray(training.best_action, dtype=np.float64)
@@ -223,6 +220,7 @@ class TrainingMethod:
         # Where the progress bar ends: every evaluation spent, training's and the final one's
         # (the harness's evaluator counted only the final one, and reported 1).
         context.report(len(history), evaluations, max(reward for _, reward in history))
+        assert training.hp is not None
         return SearchOutcome(
             best_action=best_action,
             best_reward=best_reward,
@@ -230,20 +228,15 @@ class TrainingMethod:
             history=tuple(history),
             config={
                 "method": self.algo,
-                "hyperparams": to_jsonable(dict(training.hyperparams), default=repr),
-                "n_envs": training.n_envs,
-                "training_timesteps": training.steps,
+                "hyperparams": to_jsonable(dict(training.hp.saved), default=repr),
+                "n_envs": training.hp.n_envs,
+                "training_timesteps": training.num_timesteps,
                 "budget_unused": unused,
                 "result": "best stroke seen (training strokes and the final deterministic one)",
                 "chosen": chosen,
-                "final_policy": {
-                    "reward": final_reward,
-                    "objective": training.final_objective,
-                    "feasible": training.final_feasible,
-                    "action": training.final_action.tolist(),
-                },
+                "final_policy": {**final, "action": final["action"].tolist()},
                 "log_dir": self.log_dir,
-                "run_dir": training.run_dir,
+                "run_dir": None if training.run_dir is None else str(training.run_dir),
                 "citation": CITATIONS[self.algo],
             },
         )
@@ -278,7 +271,10 @@ class TrainingMethod:
             )
         return unused
 
-    def _learn(self, context: SearchContext) -> _Training:
+    def _learn(self, context: SearchContext) -> tuple[TrainResult, dict[str, Any]]:
+        """Training without files (:func:`~train.run.learn_in_memory`), and its final
+        deterministic stroke evaluated by the harness's evaluator, so the budget counts it."""
+
         def report(recorder: StrokeRecorder) -> None:
             context.report(recorder.steps, recorder.evaluations, recorder.max_reward)
 
@@ -296,27 +292,35 @@ class TrainingMethod:
         )
         env = model.get_env()
         assert env is not None
-        observation = env.reset()[:1]
-        action, _ = model.predict(observation, deterministic=True)
+        action, _ = model.predict(env.reset()[:1], deterministic=True)
         env.close()
         final_action = np.clip(np.asarray(action[0], dtype=np.float64), -1.0, 1.0)
-        # The final stroke goes through the harness's evaluator, so the budget counts it.
         final = context.evaluate_batch(final_action[None, :])
-        return _Training(
-            best_action=recorder.best_action,
-            best_reward=recorder.best_reward,
-            best_feasible=recorder.best_feasible,
-            history=list(recorder.history),
-            steps=recorder.evaluations,
-            hyperparams=hp.saved,
-            n_envs=hp.n_envs,
-            final_action=final_action,
-            final_reward=float(final.rewards[0]),
-            final_objective=float(final.objective[0]),
-            final_feasible=bool(final.feasible[0]),
+        training = TrainResult(
+            self.algo,
+            context.env_id,
+            None,
+            recorder.evaluations,
+            0.0,
+            None,
+            recorder.best_reward,
+            recorder.best_action,
+            recorder.best_info,
+            history=tuple(recorder.history),
+            hp=hp,
         )
+        return training, {
+            "reward": float(final.rewards[0]),
+            "objective": float(final.objective[0]),
+            "feasible": bool(final.feasible[0]),
+            "action": final_action,
+        }
 
-    def _learn_with_files(self, context: SearchContext, steps: int) -> _Training:
+    def _learn_with_files(
+        self, context: SearchContext, steps: int
+    ) -> tuple[TrainResult, dict[str, Any]]:
+        """Training through ``python -m train``'s code into ``log_dir`` (:func:`~train.run.train`),
+        and the final deterministic stroke it evaluated at the (fixed) condition."""
         result = train(
             TrainConfig(
                 algo=self.algo,  # type: ignore[arg-type]
@@ -336,44 +340,14 @@ class TrainingMethod:
             )
         )
         context.report(len(result.history), result.num_timesteps, result.best_reward)
-        # train() evaluated the final deterministic stroke at the (fixed) condition once.
         [final] = result.final_evaluation
-        assert result.hp is not None
-        return _Training(
-            best_action=result.best_action,
-            best_reward=result.best_reward,
-            best_feasible=bool((result.best_info or {}).get("feasible", False)),
-            history=list(result.history),
-            steps=result.num_timesteps,
-            hyperparams=result.hp.saved,
-            n_envs=result.hp.n_envs,
-            final_action=np.clip(np.asarray(final["action"], dtype=np.float64), -1.0, 1.0),
+        return result, {
             # float64 as the harness re-evaluates it (the adapter's reward is float32)
-            final_reward=float(final["objective"] - final["penalty"]),
-            final_objective=float(final["objective"]),
-            final_feasible=bool(final["feasible"]),
-            run_dir=str(result.run_dir),
-        )
-
-
-@dataclass(frozen=True)
-class _Training:
-    """What one training pass hands back to :meth:`TrainingMethod.search`."""
-
-    best_action: np.ndarray | None
-    """Best stroke the training env evaluated, feasible ones first (None if none)."""
-    best_reward: float
-    best_feasible: bool
-    history: list[tuple[int, float]]
-    steps: int
-    """Env steps trained (each one stroke evaluated)."""
-    hyperparams: Mapping[str, Any]
-    n_envs: int
-    final_action: np.ndarray
-    final_reward: float
-    final_objective: float
-    final_feasible: bool
-    run_dir: str | None = None
+            "reward": float(final["objective"] - final["penalty"]),
+            "objective": float(final["objective"]),
+            "feasible": bool(final["feasible"]),
+            "action": np.clip(np.asarray(final["action"], dtype=np.float64), -1.0, 1.0),
+        }
 
 
 # --- factories for the registry ---------------------------------------------------------------

@@ -117,12 +117,7 @@ def train(config: TrainConfig) -> TrainResult:
         held.callback(eval_env.close)
         held.callback(venv.close)
         # the model: new, or the checkpoint's (with SAC's replay buffer)
-        model = run.model(
-            venv,
-            tensorboard_log=layout.tensorboard if config.tensorboard else None,
-            verbose=config.model_verbose,
-            device=config.device,
-        )
+        model = run.model(venv)
         start_step = model.num_timesteps
         # learning, with physics logs, checkpoints and evaluations; Ctrl-C saves a checkpoint
         stop = StopOnInterrupt()

@@ -1,18 +1,8 @@
-"""A training run's folder, the one home of what it is and when a run goes on there.
-
-**What it is** (:class:`RunLayout`): rl-baselines3-zoo's layout, ``logs/<algo>/<env>_<n>/``
-(each file listed in docs/training.md, "The run folder"; ``<env>`` is the env id with ``/``
-replaced by ``-``), its checkpoints (:class:`Checkpoint`) and its lock (:func:`run_lock`).
-rl_zoo3 writes the same layout into the same folders, so a run of this project is recognised
-by the ``made_by`` entry of its ``args.yml`` (:data:`MADE_BY`); :meth:`RunLayout.foreign` says
-why a folder is not one, and ``python -m train`` never resumes in, or writes into, such a folder.
-
-**When a run goes on** (:meth:`RunFolder.open`, every refusal before any work): ``--resume``
-(the latest run of the algo and env) or ``--run-dir`` of a folder ``python -m train`` wrote,
-with an intact checkpoint short of the target; it keeps the settings it started with
-(``args.yml``, ``config.yml``). An amortised run is never continued (it trains in minutes): its
-folder is new, or empty. PPO, SAC (:func:`train.run.train`) and the amortised policy
-(:func:`train.amortised.train_run`) share it.
+"""A training run's folder (docs/training.md, "The run folder"): what it is (:class:`RunLayout`,
+rl-baselines3-zoo's layout ``logs/<algo>/<env>_<n>/``, its checkpoints and its lock; a run of
+this project is told from rl_zoo3's by the ``made_by`` entry of its ``args.yml``) and when a
+run goes on there (:meth:`RunFolder.open`, every refusal before any work). PPO, SAC
+(:func:`train.run.train`) and the amortised policy (:func:`train.amortised.train_run`) share it.
 """
 
 from __future__ import annotations
@@ -36,6 +26,7 @@ from train.config import (
     MADE_BY,
     Hyperparams,
     TrainConfig,
+    load_entry,
     plain,
     resolve_hyperparams,
     step_granularity,
@@ -171,14 +162,9 @@ class Checkpoint:
     """The pickled buffer of earlier versions: never loaded (a pickle can run code)."""
 
     def damage(self, *, replay_buffer: bool, vecnormalize: bool) -> str | None:
-        """None if every file a resume needs is there and intact, else what is wrong, in words.
-
-        Read without loading anything: the model and the replay buffer are zips whose every
-        member's CRC must match (a truncated or altered file fails), and the VecNormalize file
-        is a pickle whose opcodes must run to its STOP (``pickletools.genops``, which builds no
-        object), so a file cut short by a kill or a full disk is found before it is loaded. A
-        replay buffer only in the pickled format of earlier versions is not loaded: it says so.
-        """
+        """None if every file a resume needs is there and intact, else what is wrong, in words:
+        read without loading anything (the zips' members and CRCs, the VecNormalize pickle's
+        opcodes up to its STOP, ``pickletools.genops``, which builds no object)."""
         needed = [(self.model, _MODEL_ZIP)]
         if replay_buffer:
             needed.append((self.replay_buffer, _BUFFER_ZIP))
@@ -434,7 +420,10 @@ class RunFolder:
                     "<= 0, or killed before the first); allowed: start a new run"
                 )
         if checkpoint is None:
-            hp = config.hyperparameters()
+            entry = load_entry(config.algo, config.env_id, config.hyperparams_file)
+            hp = resolve_hyperparams(
+                entry, config.hyperparams, n_envs=config.n_envs, n_timesteps=config.n_timesteps
+            )
         elif entry is None:  # resuming from the current yml would mix two runs' settings unsaid
             raise ValueError(
                 f"{layout.config_file} is missing: the hyperparameters the run started "  # type: ignore[union-attr]
@@ -474,12 +463,19 @@ class RunFolder:
         layout = layout or RunLayout.new(config.log_folder, config.algo, config.env_id)
         return cls(layout, config, hp, checkpoint, target, segments, MappingProxyType(env_kwargs))
 
-    def model(self, venv: Any, **settings: Any) -> Any:
-        """The model this run trains on ``venv`` (``settings``: :func:`train.saved.build_model`'s):
-        new, or the checkpoint's (with SAC's replay buffer) and seeded by its step, so that a
-        resumed segment is reproducible given its checkpoint (RNG states are not saved)."""
+    def model(self, venv: Any) -> Any:
+        """The model this run trains on ``venv`` (its TensorBoard folder, verbosity and device
+        from the config): new, or the checkpoint's (with SAC's replay buffer) and seeded by its
+        step, so that a resumed segment is reproducible given its checkpoint (RNG states are
+        not saved)."""
         assert self.hp is not None
-        algo, seed, checkpoint = self.config.algo, self.config.seed, self.checkpoint
+        config, checkpoint = self.config, self.checkpoint
+        algo, seed = config.algo, config.seed
+        settings = {
+            "tensorboard_log": self.layout.tensorboard if config.tensorboard else None,
+            "verbose": config.model_verbose,
+            "device": config.device,
+        }
         if checkpoint is None:
             return build_model(algo, self.hp, venv, seed=seed, **settings)
         model = load_model(

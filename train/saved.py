@@ -1,23 +1,9 @@
-"""A run folder's files read and written without running anything in them.
-
-SB3's ``load`` unpickles (cloudpickle) the objects stored in a model zip's ``data`` JSON, and
-``load_replay_buffer`` unpickles the buffer file, so a tampered run folder could run code. Every
-loader of a run folder (``--resume``, ``policy:RUN_DIR``, ``python -m train.envelope``,
-``python -m eval speed-change --ppo/--sac``) goes through :func:`load_model` instead:
-
-1. the model is rebuilt from the run's ``config.yml`` on the run's env (:func:`build_model`);
-2. the zip's ``data`` JSON is parsed as JSON (:func:`read_num_timesteps`): of SB3's own
-   entries only the counter ``num_timesteps`` is read; serialized (pickled) entries are never
-   decoded, and one that names no attribute of the rebuilt model (SB3 saves those) is refused;
-3. the weights and optimiser states, every ``.pth`` member, are read with
-   ``torch.load(weights_only=True)`` (:func:`read_weights`) and put in place with SB3's
-   ``set_parameters``; the names must be the rebuilt model's own.
-
-A SAC replay buffer is saved as arrays in an ``.npz`` (:func:`save_replay_buffer`), loaded with
-``allow_pickle=False`` into the rebuilt model's buffer (:func:`load_replay_buffer`). The
-folder's YAML is read by :class:`RunFileLoader`, its ``VecNormalize`` statistics by
-:func:`read_normalizer` (only the classes such a file holds), its ``result.json`` by
-:func:`read_result_segments`.
+"""A run folder's files read and written without running anything in them (docs/training.md,
+"What a run folder may hold"): a model is rebuilt from the run's ``config.yml``
+(:func:`build_model`) and given the zip's ``num_timesteps`` (its ``data`` parsed as JSON) and
+its weights (``torch.load(weights_only=True)``) by :func:`load_model`; SAC's replay buffer is
+an ``.npz`` of arrays; the YAML, the ``VecNormalize`` statistics and ``result.json`` have
+their own readers. SB3's ``load`` and ``load_replay_buffer`` unpickle, so they never read one.
 """
 
 from __future__ import annotations
@@ -301,13 +287,9 @@ def read_num_timesteps(path: Path, attributes: set[str]) -> int:
     ValueError naming the file for a zip without ``data``, JSON that is not an object, a
     serialized entry SB3 does not write (SB3 saves the model's own attributes: one that names
     none of ``attributes``, those of the model rebuilt from ``config.yml``, only a tampered
-    file has), or a count that is not an integer from 0 to ``MAX_TIMESTEPS``.
-
-    SB3's two log counters, ``_n_updates`` and ``_episode_num``, are private and have no public
-    setter, so a resumed run's logged update count and SAC's episode-based log schedule restart
-    (docs/training.md); training itself does not read them. Everything else that training uses
-    is rebuilt from ``config.yml``, or set by ``learn`` before its first use (the schedules'
-    progress, the last observation: SB3's ``load`` with an env resets it too)."""
+    file has), or a count that is not an integer from 0 to ``MAX_TIMESTEPS``. Everything else
+    training uses is rebuilt from ``config.yml`` or set by ``learn``; SB3's two private log
+    counters restart (docs/training.md, "Resume")."""
     with _open_zip(path) as archive:
         try:
             info = archive.getinfo("data")
@@ -415,7 +397,7 @@ def load_model(
 ) -> BaseAlgorithm:
     """The model saved at ``path``, rebuilt from ``hp`` (the run's ``config.yml``) on ``venv``
     (``settings``: :func:`build_model`'s) and given the file's weights, optimiser states and
-    counters; nothing in the file is unpickled (see the module docstring). A checkpoint's model
+    counters; nothing in the file is unpickled (docs/training.md). A checkpoint's model
     gives its ``step`` (the one in its name) and SAC's ``replay_buffer`` file. ValueError naming
     the file if it is not such a model, its weights do not fit the rebuilt one (a changed
     ``net_arch``, another env) or its step count is not ``step``."""

@@ -1,13 +1,7 @@
-"""A policy trained by ``python -m train``, loaded from its run folder and asked for strokes.
-
-:class:`TrainedPolicy` reads and checks what a run folder holds (its settings, its model file,
-its normalisation statistics), loads the model without unpickling anything and observes a
-condition the way the training env did. The harness method ``policy:RUN_DIR`` (:mod:`train.policies`) and the envelope
-(:mod:`train.envelope`) are built on it. :func:`load_policy` loads either kind of run folder:
-an RL run as a :class:`TrainedPolicy`, an amortised run (``--algo amortised``) as a
-:class:`train.amortised_policy.AmortisedPolicy`, which answers the same questions (``strokes``,
-``check_env``, ``env_id``, ``env_kwargs``, ``algo``, ``model_path``, ``num_timesteps``,
-``training_conditions``, ``trained_at``, ``run_dir``).
+"""A policy trained by ``python -m train``, loaded from its run folder and asked for strokes:
+:class:`TrainedPolicy` (ppo, sac) and :func:`load_policy`, which loads either kind of run
+folder (an amortised run as a :class:`train.amortised_policy.AmortisedPolicy`, which answers
+the same questions, :class:`~train.run_folder.RunPolicy`).
 """
 
 from __future__ import annotations

@@ -1,19 +1,10 @@
 """``python -m train.tune``: tune PPO's or SAC's hyperparameters for a policy over an envelope.
 
-Optuna's TPE sampler (seeded) proposes overrides of the shipped zoo entry
-(``train/hyperparams/<algo>.yml``) from :data:`SEARCH_SPACES`; the first trial is the shipped
-entry itself, so the result is never worse than it on the tuning objective. Each trial trains
-one policy by the same code as ``python -m train`` (``--steps`` env steps, one seed, the given
-env options, e.g. ``speed_range=(0.25, 2.0)`` for the whole envelope), then asks it for its
-deterministic stroke at the reference grid's *training* conditions
-(:func:`tandem_env.envs.reference.training_conditions`; the held-out ones are never seen) and
-scores each (100 = the reference optimum, <= 0 = does not fly). The trial's value is the median
-score.
-
-The study's files in ``--out`` (``study.journal``: a killed run resumes with the same command;
-``trials.csv``; ``<algo>.yml``, the best trial's entry for ``python -m train --conf-file``) and
-the shipped results: docs/training.md, "Tuning for the envelope". The budget is ``--trials`` x
-``--steps`` env steps. Needs the ``tune`` extra (``pip install -e ".[tune]"``).
+Optuna's TPE sampler (seeded) proposes overrides of the shipped zoo entry from
+:data:`SEARCH_SPACES`, the first trial being the shipped entry; each trial trains one policy by
+the same code as ``python -m train`` and its value is the median normalised score of its
+strokes at the reference grid's *training* conditions. The study's files, its checks and the
+shipped results: docs/training.md, "Tuning for the envelope". Needs the ``tune`` extra.
 """
 
 from __future__ import annotations
@@ -303,16 +294,10 @@ def _check_journal_lines(path: Path) -> None:
 
 
 def foreign_trial(algo: str, n_conditions: int, trial: Any) -> str | None:
-    """None if the finished ``trial`` is one this tuner's objective recorded, else why not.
-
-    The check is consistency, not a signature: the trial's parameters are exactly
-    :data:`SEARCH_SPACES`'s for ``algo``, each one of its choices or inside its range; its
-    value is finite and is the median of the scores the objective recorded with it (user
-    attribute ``scores``: one per training condition, ``n_conditions``, each rounded to 0.01,
-    so the median is within 0.005 of the value). A trial of another study or tool appended to
-    the journal, or a value edited by hand, fails it. Whoever can rewrite the journal
-    consistently can as well write ``<algo>.yml`` itself, so a key kept beside them would add
-    nothing."""
+    """None if the finished ``trial`` is one this tuner's objective recorded, else why not: a
+    consistency check (docs/training.md): its parameters are :data:`SEARCH_SPACES`'s for
+    ``algo``, inside it, and its value the median of the ``n_conditions`` finite scores it
+    recorded (each rounded to 0.01, so within 0.005)."""
     from tandem_env.physics.checks import is_real
 
     space = SEARCH_SPACES[algo]

@@ -132,20 +132,6 @@ def option_key(venv: VecEnv) -> str:
     return inner.vector_env.core.option_key
 
 
-def evaluation_conditions(env_id: str, env_kwargs: Mapping[str, Any]) -> tuple[float, ...]:
-    """The conditions a deterministic evaluation scores: the fixed one, or the points of the
-    config's declared sweep (``CONDITION.sweep``) in the sampled range (its ends and midpoint if
-    the range holds fewer than two of them, or the config declares no sweep)."""
-    config = config_class(env_id).from_kwargs(**env_kwargs)
-    if config.condition_range is None:
-        return (float(config.fixed_condition),)
-    low, high = config.condition_range
-    declared = type(config).CONDITION
-    sweep = () if declared is None else declared.sweep
-    inside = tuple(c for c in sweep if low - 1e-9 <= c <= high + 1e-9)
-    return inside if len(inside) >= 2 else (low, 0.5 * (low + high), high)
-
-
 def make_training_env(
     env_id: str,
     n_envs: int,
@@ -177,8 +163,19 @@ def make_evaluation_env(
     *,
     normalize: Mapping[str, Any] | None,
 ) -> VecEnv:
-    """The evaluation stack: one sub-env per evaluation condition, reset at it every time."""
-    conditions = evaluation_conditions(env_id, env_kwargs)
+    """The evaluation stack: one sub-env per evaluation condition, reset at it every time: the
+    fixed condition, or the points of the config's declared sweep (``CONDITION.sweep``) in the
+    sampled range (its ends and midpoint if the range holds fewer than two of them, or the
+    config declares no sweep)."""
+    config = config_class(env_id).from_kwargs(**env_kwargs)
+    if config.condition_range is None:
+        conditions: tuple[float, ...] = (float(config.fixed_condition),)
+    else:
+        low, high = config.condition_range
+        declared = type(config).CONDITION
+        sweep = () if declared is None else declared.sweep
+        inside = tuple(c for c in sweep if low - 1e-9 <= c <= high + 1e-9)
+        conditions = inside if len(inside) >= 2 else (low, 0.5 * (low + high), high)
     base = make_sb3_vec_env(env_id, n_envs=len(conditions), seed=seed, **env_kwargs)
     venv: VecEnv = VecMonitor(ConditionGrid(base, option_key(base), conditions))
     if normalize is not None:
