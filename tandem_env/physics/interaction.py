@@ -26,9 +26,9 @@ from .vortex import (
     COLLOCATION,
     ROOT_HALF_WIDTH,
     TRAILING_EDGE,
-    lattice_segments,
-    prescribed_wake,
-    segment_velocity,
+    lattice_geometry,
+    segment_influence,
+    wake_nodes,
     wing_lines,
 )
 from .xp import NUMPY, ArrayNamespace, on_namespace
@@ -234,29 +234,74 @@ def both_wings(segments: Any, circulation: Any, xp) -> tuple[Any, Any]:
     )
 
 
-def induced(source: Lattice, gamma: Any, target: Pair, wake: VortexWake, xp) -> Any:
-    """The velocity the source pair's lattice, with its circulation ``gamma`` (B, n_blade,
-    n_time) [m²/s], induces at the target's three-quarter chord on the wake grid, (B, n_w, M, 3)
-    in earth axes [m/s] (both of the source's wings; the target's right wing)."""
+def strip_circulation(source: Lattice, gamma: Any, wake: VortexWake, xp) -> Any:
+    """The shed strip circulations (B, n_w, N_s) [m²/s] on the wake grid of the elements'
+    ``gamma`` (B, n_blade, n_time) [m²/s] (item 1), times ``wake.gamma_scale``."""
     strips = xp.einsum("sj,bjk->bks", source.to_strips, gamma)  # (B, n_time, N_s)
-    strips = wake.gamma_scale * xp.einsum("bwk,bks->bws", source.to_wake, strips)
-    frac = np.linspace(0.02, 0.98, wake.read_points)
+    return wake.gamma_scale * xp.einsum("bwk,bks->bws", source.to_wake, strips)
+
+
+def influence(source: Lattice, target: Pair, wake: VortexWake, xp) -> Any:
+    """The source pair's influence on the target: the velocity its lattice induces at the
+    target's three-quarter chord on the wake grid per unit strip circulation, (B, n_w, M·3,
+    n_w·N_s) [m/s per m²/s] (both of the source's wings; the target's right wing).
+
+    Entry (i, (m, c), (e, j)) multiplies strip j's circulation released e samples before t_i,
+    Γ_j(t_{i−e}) (periodic), in component c of the velocity at station m at t_i
+    (:func:`field_on_grid`). The geometry does not depend on Γ (item 6), so this is built once
+    per stroke: each ring's segments by Biot-Savart (``vortex.segment_influence``), the rings
+    of ``vortex.prescribed_wake`` summed over their segments, and the rings' circulations
+    (ring 0: Γ(t_i); ring k ≥ 1: ½·(Γ(t_{i−k+1}) + Γ(t_{i−k}))) folded onto the release ages
+    modulo the period."""
+    n_w, n_s, m = wake.n_wake, wake.strips, wake.read_points
+    frac = np.linspace(0.02, 0.98, m)
     like = target.phase
-    tau = xp.constant_like(2.0 * np.pi * np.arange(wake.n_wake)[None] / wake.n_wake, like)
+    tau = xp.constant_like(2.0 * np.pi * np.arange(n_w)[None] / n_w, like)
     points = wing_lines(
         target.params, tau, xp.constant_like(frac, like), target.wing.length,
         xp.constant_like(target.wing.chord(frac), like), COLLOCATION,
         xp.constant_like(target.root, like), xp,
     )  # fmt: skip
+    rings = source.carried.shape[1]  # K + 1
+    beats = -(-rings // n_w)  # the ages folded onto one period
+    mirror = xp.constant_like(MIRROR, like)
+    ages = [min(d, rings - 1) for d in range(beats * n_w)]
+    within = xp.constant_like((np.arange(beats * n_w) < rings)[:, None, None] * 1.0, like)
     parts = []
-    for start in range(0, gamma.shape[0], wake.chunk):
+    for start in range(0, like.shape[0], wake.chunk):
         part = slice(start, start + wake.chunk)
-        nodes, rings = prescribed_wake(
-            source.bound[part], source.edge[part], strips[part], source.carried[part], xp
+        nodes = wake_nodes(source.bound[part], source.edge[part], source.carried[part], xp)
+        right = lattice_geometry(nodes, xp)  # (b, n_w, S, 2, 3)
+        both = xp.concatenate([right, right * mirror], -3)
+        unit = segment_influence(both, points[part], source.core[part], xp)
+        half = unit.shape[-2] // 2
+        unit = unit[..., :half, :] - unit[..., half:, :]  # the left wing carries −Γ
+        lead = tuple(unit.shape[:3])  # (b, n_w, M)
+        along = unit[..., : (rings + 1) * n_s, :].reshape(*lead, rings + 1, n_s, 3)
+        trailed = unit[..., (rings + 1) * n_s :, :].reshape(*lead, rings, n_s + 1, 3)
+        # ring (k, j): along rows k and k + 1, trailed at nodes j and j + 1 (lattice_segments)
+        ring = along[..., :-1, :, :] - along[..., 1:, :, :]
+        ring = ring - trailed[..., :-1, :] + trailed[..., 1:, :]  # (b, n_w, M, K + 1, N_s, 3)
+        # by release age d: ½(ring d + ring d + 1), and ring 0 carries Γ(t_i) whole
+        later = xp.concatenate([ring[..., 1:, :, :], ring[..., :1, :, :] * 0.0], -3)
+        age = 0.5 * (ring + later)
+        age = xp.concatenate(
+            [age[..., :1, :, :] + 0.5 * ring[..., :1, :, :], age[..., 1:, :, :]], -3
         )
-        segments, circ = both_wings(*lattice_segments(nodes, rings, xp), xp)
-        parts.append(segment_velocity(segments, circ, points[part], source.core[part], xp))
+        age = age[..., ages, :, :] * within  # (b, n_w, M, beats·n_w, N_s, 3), zero beyond K
+        age = age.reshape(*lead, beats, n_w, n_s, 3).sum(-4)
+        parts.append(xp.moveaxis(age, -1, 3).reshape(*lead[:2], m * 3, n_w * n_s))
     return xp.concatenate(parts, 0)
+
+
+def field_on_grid(matrix: Any, strips: Any, xp) -> Any:
+    """The velocity (B, n_w, M, 3) [m/s] of the :func:`influence` ``matrix`` with the source's
+    strip circulations ``strips`` (B, n_w, N_s) [m²/s] on the wake grid: one batched product,
+    Γ_j(t_{i−e}) gathered for each t_i."""
+    n_w = strips.shape[1]
+    shifted = strips[:, [[(i - e) % n_w for e in range(n_w)] for i in range(n_w)]]
+    flat = shifted.reshape(shifted.shape[0], n_w, -1, 1)  # (B, n_w, n_w·N_s, 1)
+    return (matrix @ flat).reshape(shifted.shape[0], n_w, -1, 3)
 
 
 def element_field(
@@ -324,16 +369,19 @@ def vortex_reading(
     ]
     uniform = xp.constant_like(2.0 * np.pi * np.arange(wake.n_wake) / wake.n_wake, fore.phase)
     to_grid = [periodic_interpolation(uniform[None], p.phase, xp) for p in pairs]
+    matrices = [influence(lattices[1 - w], pairs[w], wake, xp) for w in (0, 1)]
     fields = None
     converged = scale * 0.0 > 1.0
     for _ in range(wake.max_passes):
-        gammas = [
-            circulation(p, v, None if fields is None else fields[w], xp)
+        strips = [
+            strip_circulation(
+                lattices[w], circulation(p, v, None if fields is None else fields[w], xp), wake, xp
+            )
             for w, (p, v) in enumerate(zip(pairs, inflow, strict=True))
         ]
         fields = tuple(
             element_field(
-                induced(lattices[1 - w], gammas[1 - w], pairs[w], wake, xp),
+                field_on_grid(matrices[w], strips[1 - w], xp),
                 pairs[w],
                 to_grid[w],
                 to_elements[w],
