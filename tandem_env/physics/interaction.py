@@ -69,7 +69,9 @@ class VortexWake:
     force, relative to the sum of both pairs' magnitudes [-]."""
     max_passes: int = 12
     """Most passes of the fixed point (after the isolated one) [-]."""
-    chunk: int = 64
+    accelerate: bool = True
+    """Anderson's step of depth one on the passes (False: plain Jacobi passes)."""
+    chunk: int = 16
     """Strokes per Biot-Savart evaluation (memory ∝ chunk·n_w·M·segments) [-]."""
 
     def __post_init__(self) -> None:
@@ -78,6 +80,8 @@ class VortexWake:
             least = 2 if name in ("n_wake", "read_points") else 1
             if not isinstance(value, int) or isinstance(value, bool) or value < least:
                 raise ValueError(f"VortexWake.{name} = {value!r}; allowed: an integer >= {least}")
+        if not isinstance(self.accelerate, bool):
+            raise ValueError(f"VortexWake.accelerate = {self.accelerate!r}; allowed: True, False")
         for name in ("fore_beats", "hind_beats", "descent", "core", "core_growth", "tolerance"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
@@ -266,7 +270,7 @@ def influence(source: Lattice, target: Pair, wake: VortexWake, xp) -> Any:
     beats = -(-rings // n_w)  # the ages folded onto one period
     mirror = xp.constant_like(MIRROR, like)
     ages = [min(d, rings - 1) for d in range(beats * n_w)]
-    within = xp.constant_like((np.arange(beats * n_w) < rings)[:, None, None] * 1.0, like)
+    within = xp.constant_like((np.arange(beats * n_w) < rings)[:, None] * 1.0, like)
     parts = []
     for start in range(0, like.shape[0], wake.chunk):
         part = slice(start, start + wake.chunk)
@@ -274,23 +278,20 @@ def influence(source: Lattice, target: Pair, wake: VortexWake, xp) -> Any:
         right = lattice_geometry(nodes, xp)  # (b, n_w, S, 2, 3)
         both = xp.concatenate([right, right * mirror], -3)
         unit = segment_influence(both, points[part], source.core[part], xp)
-        half = unit.shape[-2] // 2
-        unit = unit[..., :half, :] - unit[..., half:, :]  # the left wing carries −Γ
-        lead = tuple(unit.shape[:3])  # (b, n_w, M)
-        along = unit[..., : (rings + 1) * n_s, :].reshape(*lead, rings + 1, n_s, 3)
-        trailed = unit[..., (rings + 1) * n_s :, :].reshape(*lead, rings, n_s + 1, 3)
+        half = unit.shape[-1] // 2
+        unit = unit[..., :half] - unit[..., half:]  # the left wing carries −Γ: (b, n_w, M, 3, S)
+        lead = tuple(unit.shape[:4])
+        along = unit[..., : (rings + 1) * n_s].reshape(*lead, rings + 1, n_s)
+        trailed = unit[..., (rings + 1) * n_s :].reshape(*lead, rings, n_s + 1)
         # ring (k, j): along rows k and k + 1, trailed at nodes j and j + 1 (lattice_segments)
-        ring = along[..., :-1, :, :] - along[..., 1:, :, :]
-        ring = ring - trailed[..., :-1, :] + trailed[..., 1:, :]  # (b, n_w, M, K + 1, N_s, 3)
+        ring = along[..., :-1, :] - along[..., 1:, :] - trailed[..., :-1] + trailed[..., 1:]
         # by release age d: ½(ring d + ring d + 1), and ring 0 carries Γ(t_i) whole
-        later = xp.concatenate([ring[..., 1:, :, :], ring[..., :1, :, :] * 0.0], -3)
+        later = xp.concatenate([ring[..., 1:, :], ring[..., :1, :] * 0.0], -2)
         age = 0.5 * (ring + later)
-        age = xp.concatenate(
-            [age[..., :1, :, :] + 0.5 * ring[..., :1, :, :], age[..., 1:, :, :]], -3
-        )
-        age = age[..., ages, :, :] * within  # (b, n_w, M, beats·n_w, N_s, 3), zero beyond K
-        age = age.reshape(*lead, beats, n_w, n_s, 3).sum(-4)
-        parts.append(xp.moveaxis(age, -1, 3).reshape(*lead[:2], m * 3, n_w * n_s))
+        age = xp.concatenate([age[..., :1, :] + 0.5 * ring[..., :1, :], age[..., 1:, :]], -2)
+        age = age[..., ages, :] * within  # (b, n_w, M, 3, beats·n_w, N_s), zero beyond K
+        age = age.reshape(*lead, beats, n_w, n_s).sum(-3)
+        parts.append(age.reshape(*lead[:2], m * 3, n_w * n_s))
     return xp.concatenate(parts, 0)
 
 
@@ -372,16 +373,35 @@ def vortex_reading(
     matrices = [influence(lattices[1 - w], pairs[w], wake, xp) for w in (0, 1)]
     fields = None
     converged = scale * 0.0 > 1.0
+    given = last = None  # the strips the pass was given, and the last pass's (given, residual)
     for _ in range(wake.max_passes):
-        strips = [
-            strip_circulation(
-                lattices[w], circulation(p, v, None if fields is None else fields[w], xp), wake, xp
-            )
-            for w, (p, v) in enumerate(zip(pairs, inflow, strict=True))
-        ]
+        strips = xp.stack(
+            [
+                strip_circulation(
+                    lattices[w],
+                    circulation(p, v, None if fields is None else fields[w], xp),
+                    wake,
+                    xp,
+                )
+                for w, (p, v) in enumerate(zip(pairs, inflow, strict=True))
+            ],
+            1,
+        )  # fmt: skip  (B, 2, n_w, N_s): the map's value at what the pass was given
+        if given is not None and wake.accelerate:
+            residual = strips - given
+            if last is not None:  # Anderson's step of depth one (secant), stroke by stroke
+                dr, dg = residual - last[1], strips - last[0]
+                dot = (residual * dr).sum((1, 2, 3))
+                norm = (dr * dr).sum((1, 2, 3))
+                step = xp.where(norm > 0.0, dot / xp.where(norm > 0.0, norm, 1.0), 0.0)
+                last = (strips, residual)
+                strips = strips - step[:, None, None, None] * dg
+            else:
+                last = (strips, residual)
+        given = strips
         fields = tuple(
             element_field(
-                field_on_grid(matrices[w], strips[1 - w], xp),
+                field_on_grid(matrices[w], strips[:, 1 - w], xp),
                 pairs[w],
                 to_grid[w],
                 to_elements[w],

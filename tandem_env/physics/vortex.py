@@ -118,18 +118,20 @@ def segment_velocity(
 
 
 @njit(cache=True, parallel=True, error_model=BRANCH_FREE)
-def _fill_influence(segments, points, core2, out):
-    """``out[q, p, s]`` = :func:`unit_velocity` of segment ``segments[q, s]`` at
-    ``points[q, p]`` with ``core2[q, s]``, in parallel over q (numba; the numpy backend's
-    loop over what :func:`segment_influence` broadcasts on torch)."""
-    for q in prange(segments.shape[0]):
+def _fill_influence(ends, core2, points, out):
+    """``out[q, p, :, s]`` = :func:`unit_velocity` of segment s (its ends ``ends[q, :, s]``,
+    x1, y1, z1, x2, y2, z2, and ``core2[q, s]``) at ``points[q, p]``: the numpy backend's
+    compiled loop, parallel over q and contiguous over the segments, over what
+    :func:`segment_influence` broadcasts on torch."""
+    for q in prange(ends.shape[0]):
         for p in range(points.shape[1]):
             px, py, pz = points[q, p, 0], points[q, p, 1], points[q, p, 2]
-            for s in range(segments.shape[1]):
-                a, b = segments[q, s, 0], segments[q, s, 1]
-                out[q, p, s, 0], out[q, p, s, 1], out[q, p, s, 2] = unit_velocity(
-                    a[0], a[1], a[2], b[0], b[1], b[2], px, py, pz, core2[q, s]
-                )
+            for s in range(ends.shape[2]):
+                out[q, p, 0, s], out[q, p, 1, s], out[q, p, 2, s] = unit_velocity(
+                    ends[q, 0, s], ends[q, 1, s], ends[q, 2, s],
+                    ends[q, 3, s], ends[q, 4, s], ends[q, 5, s],
+                    px, py, pz, core2[q, s],
+                )  # fmt: skip
 
 
 def segment_influence(
@@ -137,24 +139,25 @@ def segment_influence(
 ) -> Any:
     """The velocity per unit circulation [m/s per m²/s] each segment induces at each point,
     not summed: ``segments`` (..., S, 2, 3) [m], ``points`` (..., P, 3) [m], ``core_radius``
-    (..., S) [m] (the leading axes equal). Returns (..., P, S, 3), so that
-    :func:`segment_velocity` is ``(influence · Γ[..., None, :, None]).sum(-2)``. On numpy a
+    (..., S) [m] (the leading axes broadcast). Returns (..., P, 3, S), so that
+    :func:`segment_velocity` is ``(influence · Γ[..., None, None, :]).sum(-1)``. On numpy a
     compiled loop over the leading axes (:func:`_fill_influence`), on torch the same formula
     broadcast (:func:`unit_velocity`)."""
     _check_shapes(segments, points)
     if xp is not NUMPY:
         unit = on_namespace(unit_velocity, xp)(*_unit_arguments(segments, points, core_radius))
-        return xp.stack(unit, -1)
-    lead = segments.shape[:-3]
+        return xp.stack(unit, -2)
+    lead = np.broadcast_shapes(segments.shape[:-3], points.shape[:-2])
     n_s, n_p = segments.shape[-3], points.shape[-2]
-    flat = (-1, n_s)
+    ends = np.broadcast_to(np.moveaxis(segments.reshape(*segments.shape[:-2], 6), -1, -2),
+                           (*lead, 6, n_s))  # fmt: skip
     core2 = np.broadcast_to(core_radius * core_radius, (*lead, n_s))
-    out = np.empty((*lead, n_p, n_s, 3))
+    out = np.empty((*lead, n_p, 3, n_s))
     _fill_influence(
-        np.ascontiguousarray(segments.reshape(*flat, 2, 3)),
-        np.ascontiguousarray(points.reshape(-1, n_p, 3)),
-        np.ascontiguousarray(core2.reshape(flat)),
-        out.reshape(-1, n_p, n_s, 3),
+        np.ascontiguousarray(ends.reshape(-1, 6, n_s)),
+        np.ascontiguousarray(core2.reshape(-1, n_s)),
+        np.ascontiguousarray(np.broadcast_to(points, (*lead, n_p, 3)).reshape(-1, n_p, 3)),
+        out.reshape(-1, n_p, 3, n_s),
     )
     return out
 
