@@ -118,46 +118,70 @@ def segment_velocity(
 
 
 @njit(cache=True, parallel=True, error_model=BRANCH_FREE)
-def _fill_influence(ends, core2, points, out):
-    """``out[q, p, :, s]`` = :func:`unit_velocity` of segment s (its ends ``ends[q, :, s]``,
-    x1, y1, z1, x2, y2, z2, and ``core2[q, s]``) at ``points[q, p]``: the numpy backend's
-    compiled loop, parallel over q and contiguous over the segments, over what
-    :func:`segment_influence` broadcasts on torch."""
+def _fill_influence(ends, core2, points, rows, weights, out):
+    """``out[q, p, :, o]`` = Σ_t ``weights[o, t]``·(:func:`unit_velocity` of segment
+    ``rows[o, t]``, its ends ``ends[q, :, s]`` = x1, y1, z1, x2, y2, z2 and ``core2[q, s]``, at
+    ``points[q, p]``): the numpy backend's compiled loop, parallel over q, for what
+    :func:`segment_influence` broadcasts on torch (``rows``, ``weights``: the nonzero entries of
+    each column of its ``combine``)."""
+    n_s = ends.shape[2]
     for q in prange(ends.shape[0]):
+        unit = np.empty((3, n_s))
         for p in range(points.shape[1]):
             px, py, pz = points[q, p, 0], points[q, p, 1], points[q, p, 2]
-            for s in range(ends.shape[2]):
-                out[q, p, 0, s], out[q, p, 1, s], out[q, p, 2, s] = unit_velocity(
+            for s in range(n_s):
+                unit[0, s], unit[1, s], unit[2, s] = unit_velocity(
                     ends[q, 0, s], ends[q, 1, s], ends[q, 2, s],
                     ends[q, 3, s], ends[q, 4, s], ends[q, 5, s],
                     px, py, pz, core2[q, s],
                 )  # fmt: skip
+            for o in range(rows.shape[0]):
+                vx = vy = vz = 0.0
+                for t in range(rows.shape[1]):
+                    s, w = rows[o, t], weights[o, t]
+                    vx += w * unit[0, s]
+                    vy += w * unit[1, s]
+                    vz += w * unit[2, s]
+                out[q, p, 0, o], out[q, p, 1, o], out[q, p, 2, o] = vx, vy, vz
 
 
 def segment_influence(
-    segments: Any, points: Any, core_radius: Any, xp: ArrayNamespace = NUMPY
+    segments: Any,
+    points: Any,
+    core_radius: Any,
+    combine: np.ndarray | None = None,
+    xp: ArrayNamespace = NUMPY,
 ) -> Any:
     """The velocity per unit circulation [m/s per m²/s] each segment induces at each point,
-    not summed: ``segments`` (..., S, 2, 3) [m], ``points`` (..., P, 3) [m], ``core_radius``
-    (..., S) [m] (the leading axes broadcast). Returns (..., P, 3, S), so that
-    :func:`segment_velocity` is ``(influence · Γ[..., None, None, :]).sum(-1)``. On numpy a
-    compiled loop over the leading axes (:func:`_fill_influence`), on torch the same formula
-    broadcast (:func:`unit_velocity`)."""
+    not summed, or combined linearly: ``segments`` (..., S, 2, 3) [m], ``points`` (..., P, 3)
+    [m], ``core_radius`` (..., S) [m] (the leading axes broadcast), ``combine`` a numpy (S, O)
+    matrix (None: the identity). Returns (..., P, 3, O): the unit velocities (..., P, 3, S)
+    times ``combine``, so that :func:`segment_velocity` is this with ``combine`` = Γ as a
+    column. On numpy a compiled loop over the leading axes that keeps the unit velocities of
+    one point only and adds each column's nonzero entries (:func:`_fill_influence`); on torch
+    the same formula broadcast (:func:`unit_velocity`) and a product."""
     _check_shapes(segments, points)
+    n_s, n_p = segments.shape[-3], points.shape[-2]
+    combine = np.eye(n_s) if combine is None else np.asarray(combine, dtype=float)
     if xp is not NUMPY:
         unit = on_namespace(unit_velocity, xp)(*_unit_arguments(segments, points, core_radius))
-        return xp.stack(unit, -2)
+        return xp.stack(unit, -2) @ xp.constant_like(combine, points)
     lead = np.broadcast_shapes(segments.shape[:-3], points.shape[:-2])
-    n_s, n_p = segments.shape[-3], points.shape[-2]
     ends = np.broadcast_to(np.moveaxis(segments.reshape(*segments.shape[:-2], 6), -1, -2),
                            (*lead, 6, n_s))  # fmt: skip
     core2 = np.broadcast_to(core_radius * core_radius, (*lead, n_s))
-    out = np.empty((*lead, n_p, 3, n_s))
+    nonzero = combine != 0.0
+    width = max(int(nonzero.sum(0).max()), 1)
+    rows = np.argsort(~nonzero, axis=0, kind="stable")[:width].T  # each column's nonzero rows
+    weights = np.take_along_axis(combine.T, rows, 1)  # zero where a column has fewer
+    out = np.empty((*lead, n_p, 3, combine.shape[1]))
     _fill_influence(
         np.ascontiguousarray(ends.reshape(-1, 6, n_s)),
         np.ascontiguousarray(core2.reshape(-1, n_s)),
         np.ascontiguousarray(np.broadcast_to(points, (*lead, n_p, 3)).reshape(-1, n_p, 3)),
-        out.reshape(-1, n_p, 3, n_s),
+        np.ascontiguousarray(rows),
+        np.ascontiguousarray(weights),
+        out.reshape(-1, n_p, 3, combine.shape[1]),
     )
     return out
 
