@@ -338,7 +338,7 @@ def element_field(
     wy = w[..., 1]
     coef = target.coef[:, 0]  # (B, n_time, N_COEF)
     weight = coef[:, :, blade.C_WEIGHT, None]
-    mean = (wz * weight).sum(1, keepdims=True) / weight.shape[1]  # (B, 1, M)
+    mean = (wz * weight).sum(1)[:, None] / weight.shape[1]  # (B, 1, M)
     wz = wz - mean
     col = [coef[:, :, c, None] for c in range(blade.N_COEF)]
     du = -(wx * col[blade.C_ECX] + wy * col[blade.C_ECY] + wz * col[blade.C_ECZ])
