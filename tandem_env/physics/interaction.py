@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cache
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -26,9 +27,9 @@ from .vortex import (
     COLLOCATION,
     ROOT_HALF_WIDTH,
     TRAILING_EDGE,
-    lattice_segments,
-    prescribed_wake,
-    segment_velocity,
+    lattice_geometry,
+    segment_influence,
+    wake_nodes,
     wing_lines,
 )
 from .xp import NUMPY, ArrayNamespace, on_namespace
@@ -65,10 +66,12 @@ class VortexWake:
     gamma_scale: float = 1.35
     """Factor on the shed circulation [-]."""
     tolerance: float = 1e-3
-    """The fixed point's tolerance: each pass's change of either pair's cycle-mean vertical
-    force, relative to the sum of both pairs' magnitudes [-]."""
+    """The fixed point's tolerance: the RMS of either pair's residual (the strips its pass
+    gives less those it was given), relative to the sum of both pairs' RMS strips [-]."""
     max_passes: int = 12
-    """Most passes of the fixed point (after the isolated one) [-]."""
+    """Most passes of the fixed point (kernel calls after the isolated one) [-]."""
+    accelerate: bool = True
+    """Anderson's step of depth one on the passes (False: plain Jacobi passes)."""
     chunk: int = 64
     """Strokes per Biot-Savart evaluation (memory ∝ chunk·n_w·M·segments) [-]."""
 
@@ -78,6 +81,8 @@ class VortexWake:
             least = 2 if name in ("n_wake", "read_points") else 1
             if not isinstance(value, int) or isinstance(value, bool) or value < least:
                 raise ValueError(f"VortexWake.{name} = {value!r}; allowed: an integer >= {least}")
+        if not isinstance(self.accelerate, bool):
+            raise ValueError(f"VortexWake.accelerate = {self.accelerate!r}; allowed: True, False")
         for name in ("fore_beats", "hind_beats", "descent", "core", "core_growth", "tolerance"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
@@ -178,7 +183,7 @@ class Lattice(NamedTuple):
     bound: Any  # (B, n_w, N_s + 1, 3) [m]
     edge: Any  # (B, n_w, N_s + 1, 3) [m]
     carried: Any  # (B, K + 1, 3) [m]
-    core: Any  # (B, 1, S) per segment of both wings [m]
+    core: Any  # (B, 1, S) per segment of a wing [m]
     to_wake: Any  # (B, n_w, n_time) the kernel's grid → the wake grid
     to_strips: Any  # (N_s, n_blade) elements → strip mid-points
 
@@ -215,7 +220,7 @@ def lattice(
     k = np.arange(rows + 2)
     along = np.repeat(np.maximum(k - 1, 0), n_s)
     between = np.repeat(np.maximum(k[:-1] - 0.5, 0), n_s + 1)
-    samples = xp.constant_like(np.tile(np.concatenate([along, between]), 2), like)
+    samples = xp.constant_like(np.concatenate([along, between]), like)
     core = xp.sqrt(wake.core**2 + wake.core_growth * dt[:, None] * samples[None])[:, None]
     mids = 0.5 * (frac[1:] + frac[:-1])
     to_strips = xp.constant_like(span_interpolation(pair.r / pair.wing.length, mids), like)
@@ -234,29 +239,85 @@ def both_wings(segments: Any, circulation: Any, xp) -> tuple[Any, Any]:
     )
 
 
-def induced(source: Lattice, gamma: Any, target: Pair, wake: VortexWake, xp) -> Any:
-    """The velocity the source pair's lattice, with its circulation ``gamma`` (B, n_blade,
-    n_time) [m²/s], induces at the target's three-quarter chord on the wake grid, (B, n_w, M, 3)
-    in earth axes [m/s] (both of the source's wings; the target's right wing)."""
+def strip_circulation(source: Lattice, gamma: Any, wake: VortexWake, xp) -> Any:
+    """The shed strip circulations (B, n_w, N_s) [m²/s] on the wake grid of the elements'
+    ``gamma`` (B, n_blade, n_time) [m²/s] (item 1), times ``wake.gamma_scale``."""
     strips = xp.einsum("sj,bjk->bks", source.to_strips, gamma)  # (B, n_time, N_s)
-    strips = wake.gamma_scale * xp.einsum("bwk,bks->bws", source.to_wake, strips)
-    frac = np.linspace(0.02, 0.98, wake.read_points)
+    return wake.gamma_scale * xp.einsum("bwk,bks->bws", source.to_wake, strips)
+
+
+def influence(source: Lattice, target: Pair, wake: VortexWake, xp) -> Any:
+    """The source pair's influence on the target: the velocity its lattice induces at the
+    target's three-quarter chord on the wake grid per unit strip circulation, (B, n_w, M·3,
+    n_w·N_s) [m/s per m²/s] (both of the source's wings; the target's right wing).
+
+    Entry (i, (m, c), (e, j)) multiplies strip j's circulation released e samples before t_i,
+    Γ_j(t_{i−e}) (periodic), in component c of the velocity at station m at t_i
+    (:func:`field_on_grid`). The geometry does not depend on Γ (item 6), so this is built once
+    per stroke: each ring's segments by Biot-Savart (``vortex.segment_influence``), the rings
+    of ``vortex.prescribed_wake`` summed over their segments, and the rings' circulations
+    (ring 0: Γ(t_i); ring k ≥ 1: ½·(Γ(t_{i−k+1}) + Γ(t_{i−k}))) folded onto the release ages
+    modulo the period."""
+    n_w, n_s, m = wake.n_wake, wake.strips, wake.read_points
+    frac = np.linspace(0.02, 0.98, m)
     like = target.phase
-    tau = xp.constant_like(2.0 * np.pi * np.arange(wake.n_wake)[None] / wake.n_wake, like)
+    tau = xp.constant_like(2.0 * np.pi * np.arange(n_w)[None] / n_w, like)
     points = wing_lines(
         target.params, tau, xp.constant_like(frac, like), target.wing.length,
         xp.constant_like(target.wing.chord(frac), like), COLLOCATION,
         xp.constant_like(target.root, like), xp,
     )  # fmt: skip
+    mirror = xp.constant_like(MIRROR, like)
+    # the left wing (its mirror image, −Γ) induces at x what the right induces at its mirror
+    # image, mirrored: the right wing's segments read at both
+    points = xp.concatenate([points, points * mirror], -2)
+    combine = ring_ages(source.carried.shape[1], n_s, n_w)
     parts = []
-    for start in range(0, gamma.shape[0], wake.chunk):
+    for start in range(0, like.shape[0], wake.chunk):
         part = slice(start, start + wake.chunk)
-        nodes, rings = prescribed_wake(
-            source.bound[part], source.edge[part], strips[part], source.carried[part], xp
-        )
-        segments, circ = both_wings(*lattice_segments(nodes, rings, xp), xp)
-        parts.append(segment_velocity(segments, circ, points[part], source.core[part], xp))
+        nodes = wake_nodes(source.bound[part], source.edge[part], source.carried[part], xp)
+        unit = segment_influence(
+            lattice_geometry(nodes, xp), points[part], source.core[part], combine, xp
+        )  # (b, n_w, 2M, 3, n_w·N_s)
+        unit = unit[:, :, :m] + unit[:, :, m:] * mirror[:, None]
+        parts.append(unit.reshape(*unit.shape[:2], m * 3, n_w * n_s))
     return xp.concatenate(parts, 0)
+
+
+@cache
+def ring_ages(rings: int, n_s: int, n_w: int) -> np.ndarray:
+    """The (S, n_w·N_s) matrix from the right wing's segments (``vortex.lattice_geometry``'s
+    order) to the strip circulations by release
+    age modulo the period, Γ_j(t_{i−e}): ring (k, j) of ``rings`` = K + 1 rows of N_s strips
+    is +along row k, −along row k + 1, −trailed at node j, +trailed at node j + 1
+    (``vortex.lattice_segments``); ring 0 carries Γ(t_i), ring k ≥ 1 ½·(Γ(t_{i−k+1}) +
+    Γ(t_{i−k})); the ages beyond one period fold onto it."""
+    along = np.zeros((rings + 1, n_s, rings, n_s))  # segment (row, j) ← ring (k, j')
+    trailed = np.zeros((rings, n_s + 1, rings, n_s))
+    for k in range(rings):
+        for j in range(n_s):
+            along[k, j, k, j] += 1.0
+            along[k + 1, j, k, j] -= 1.0
+            trailed[k, j, k, j] -= 1.0
+            trailed[k, j + 1, k, j] += 1.0
+    to_rings = np.concatenate([along.reshape(-1, rings, n_s), trailed.reshape(-1, rings, n_s)])
+    ages = np.zeros((rings, -(-rings // n_w) * n_w))  # ring k ← Γ released d samples ago
+    ages[0, 0] = 1.0
+    for k in range(1, rings):
+        ages[k, k - 1] += 0.5
+        ages[k, k] += 0.5
+    folded = ages.reshape(rings, -1, n_w).sum(1)  # (K + 1, n_w)
+    return np.einsum("skj,ke->sej", to_rings, folded).reshape(to_rings.shape[0], n_w * n_s)
+
+
+def field_on_grid(matrix: Any, strips: Any, xp) -> Any:
+    """The velocity (B, n_w, M, 3) [m/s] of the :func:`influence` ``matrix`` with the source's
+    strip circulations ``strips`` (B, n_w, N_s) [m²/s] on the wake grid: one batched product,
+    Γ_j(t_{i−e}) gathered for each t_i."""
+    n_w = strips.shape[1]
+    shifted = strips[:, [[(i - e) % n_w for e in range(n_w)] for i in range(n_w)]]
+    flat = shifted.reshape(shifted.shape[0], n_w, -1, 1)  # (B, n_w, n_w·N_s, 1)
+    return (matrix @ flat).reshape(shifted.shape[0], n_w, -1, 3)
 
 
 def element_field(
@@ -265,27 +326,31 @@ def element_field(
     """The field ``w`` (B, n_w, M, 3) [m/s] on the target's elements and samples, as the
     kernel takes it: its (u, v) offsets −w·e_c, −w·e_n less the cycle-mean normal part, (B,
     n_blade, 2, n_time), and that mean along −z_s, (B, n_blade), the upstream inflow of the
-    momentum side (docs/model.md §5.8 item 5); times ``scale`` (B,) (C_hf, 0 where off)."""
-    w = xp.einsum("jm,bwmc->bwjc", to_elements, w)
-    w = xp.einsum("bkw,bwjc->bjkc", to_grid, w) * scale[:, None, None, None]
+    momentum side (docs/model.md §5.8 item 5); times ``scale`` (B,) (C_hf, 0 where off).
+    The projections and the mean are linear and the same along the span, so they are taken at
+    the M stations and interpolated onto the elements last."""
+    w = (to_grid @ w.reshape(*w.shape[:2], -1)) * scale[:, None, None]  # (B, n_time, M·3)
+    w = w.reshape(*w.shape[:2], -1, 3)
     beta = target.params[:, 13][:, None, None]
     cb, sb = xp.cos(beta), xp.sin(beta)
-    wx = w[..., 0] * cb - w[..., 2] * sb
+    wx = w[..., 0] * cb - w[..., 2] * sb  # (B, n_time, M)
     wz = w[..., 0] * sb + w[..., 2] * cb
     wy = w[..., 1]
     coef = target.coef[:, 0]  # (B, n_time, N_COEF)
-    weight = coef[:, None, :, blade.C_WEIGHT]
-    mean = (wz * weight).sum(-1) / weight.shape[-1]
-    wz = wz - mean[..., None]
-    col = [coef[:, None, :, c] for c in range(blade.N_COEF)]
+    weight = coef[:, :, blade.C_WEIGHT, None]
+    mean = (wz * weight).sum(1)[:, None] / weight.shape[1]  # (B, 1, M)
+    wz = wz - mean
+    col = [coef[:, :, c, None] for c in range(blade.N_COEF)]
     du = -(wx * col[blade.C_ECX] + wy * col[blade.C_ECY] + wz * col[blade.C_ECZ])
     dv = -(wx * col[blade.C_ENX] + wy * col[blade.C_ENY] + wz * col[blade.C_ENZ])
-    return xp.stack([du, dv], 2), -mean
+    offsets = xp.stack([du, dv], 1) @ to_elements.T  # (B, 2, n_time, n_blade)
+    return xp.moveaxis(offsets, -1, 1), -(mean[:, 0] @ to_elements.T)
 
 
 #: A backend's pass: the pairs' fields (fore, hind; each ``element_field``'s pair) or
-#: ``None`` (isolated) → the pairs' cycle-mean vertical force (B, 2) [N], their inflow
-#: (fore, hind; (B, n_blade) [m/s]) and what the backend returns of the pass.
+#: ``None`` (isolated) → the pairs' cycle-mean vertical force (B, 2) [N] (not read by the
+#: fixed point, whose test is on the circulation), their inflow (fore, hind; (B, n_blade)
+#: [m/s]) and what the backend returns of the pass.
 Run = Callable[[tuple[Any, Any] | None], tuple[Any, tuple[Any, Any], Any]]
 
 
@@ -302,13 +367,17 @@ def vortex_reading(
     """The two pairs iterated to the fixed point of the vortex reading (docs/model.md §5.8
     item 6); returns the last pass's result and the strokes (B,) whose fixed point converged.
 
-    Pass 0 is each pair isolated; its v̄ fixes both wakes' descent (so the geometry). Pass m
-    gives each pair the other's field of pass m − 1 (Jacobi). The fixed point is reached where
-    neither pair's cycle-mean vertical force moved by more than ``wake.tolerance`` times the
-    sum of both pairs' magnitudes in the last pass. ``speed`` V [m/s], ``path_angle`` γ [rad]
-    and ``scale`` (C_hf, 0 where the reading is off) are (B,).
+    Pass 0 is each pair isolated; its v̄ fixes both wakes' descent (so the geometry) and its
+    strip circulations start the iteration. Pass m gives each pair the other's field of the
+    strips x_m, and its solution gives the strips g_m = F(x_m). The fixed point is reached
+    where the residual g_m − x_m of neither pair has an RMS above ``wake.tolerance`` times the
+    sum of both pairs' RMS strips: pass m's input reproduces itself, and pass m is returned.
+    Otherwise x_{m+1} = g_m (Jacobi), or with ``wake.accelerate`` Anderson's step of depth one,
+    x_{m+1} = g_m − β·(g_m − g_{m−1}), β minimising |r_m − β·(r_m − r_{m−1})| (r = g − x) stroke
+    by stroke. ``speed`` V [m/s], ``path_angle`` γ [rad] and ``scale`` (C_hf, 0 where the
+    reading is off) are (B,).
     """
-    force, inflow, result = run(None)
+    _, inflow, result = run(None)
     pairs = (fore, hind)
     beats = (wake.fore_beats, wake.hind_beats)
     lattices = [
@@ -324,16 +393,40 @@ def vortex_reading(
     ]
     uniform = xp.constant_like(2.0 * np.pi * np.arange(wake.n_wake) / wake.n_wake, fore.phase)
     to_grid = [periodic_interpolation(uniform[None], p.phase, xp) for p in pairs]
-    fields = None
-    converged = scale * 0.0 > 1.0
-    for _ in range(wake.max_passes):
-        gammas = [
-            circulation(p, v, None if fields is None else fields[w], xp)
-            for w, (p, v) in enumerate(zip(pairs, inflow, strict=True))
-        ]
+    matrices = [influence(lattices[1 - w], pairs[w], wake, xp) for w in (0, 1)]
+    fields = given = last = None  # last: the last pass's (given strips, residual)
+    for passes in range(wake.max_passes + 1):
+        strips = xp.stack(
+            [
+                strip_circulation(
+                    lattices[w],
+                    circulation(p, v, None if fields is None else fields[w], xp),
+                    wake,
+                    xp,
+                )
+                for w, (p, v) in enumerate(zip(pairs, inflow, strict=True))
+            ],
+            1,
+        )  # fmt: skip  (B, 2, n_w, N_s): the map's value at what the pass was given
+        if given is not None:
+            residual = strips - given
+            size = xp.sqrt((strips * strips).mean((2, 3))).sum(1)
+            change = xp.max_along(xp.sqrt((residual * residual).mean((2, 3))), 1)
+            converged = change <= wake.tolerance * size
+            if bool(converged.all()) or passes == wake.max_passes:
+                break
+            if last is not None and wake.accelerate:  # Anderson's step of depth one (secant)
+                dr, dg = residual - last[1], strips - last[0]
+                dot, norm = (residual * dr).sum((1, 2, 3)), (dr * dr).sum((1, 2, 3))
+                step = xp.where(norm > 0.0, dot / xp.where(norm > 0.0, norm, 1.0), 0.0)
+                last = (strips, residual)
+                strips = strips - step[:, None, None, None] * dg
+            else:
+                last = (strips, residual)
+        given = strips
         fields = tuple(
             element_field(
-                induced(lattices[1 - w], gammas[1 - w], pairs[w], wake, xp),
+                field_on_grid(matrices[w], strips[:, 1 - w], xp),
                 pairs[w],
                 to_grid[w],
                 to_elements[w],
@@ -342,13 +435,7 @@ def vortex_reading(
             )
             for w in (0, 1)
         )
-        previous = force
-        force, inflow, result = run(fields)
-        change = xp.max_along(xp.abs(force - previous), 1)
-        size = xp.abs(force).sum(1)
-        converged = change <= wake.tolerance * size
-        if bool(converged.all()):
-            break
+        _, inflow, result = run(fields)
     return result, converged
 
 

@@ -18,8 +18,11 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
+from numba import njit, prange
+
 from .kinematics import flapping, pitching, weaving
-from .xp import NUMPY, ArrayNamespace, on_namespace
+from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace
 
 #: Distance of each wing root from the body's mid-plane [m]: half the thorax's 4 mm width
 #: (docs/model.md §1.5; the cross-check's ``ROOT_OFFSET`` is the same).
@@ -37,6 +40,47 @@ TRAILING_EDGE = -0.5
 #: no length), and the core's h⁴ + r_c⁴ is kept above its square: 1e-18 m², a nanometre, far
 #: below any length of the model, and its square a normal float32.
 _TINY = 1.0e-18
+
+
+@njit(cache=True, error_model=BRANCH_FREE)
+def unit_velocity(x1, y1, z1, x2, y2, z2, px, py, pz, core2):
+    """Velocity [m/s] per unit circulation [m²/s] induced at (px, py, pz) by the segment from
+    (x1, y1, z1) to (x2, y2, z2) [m] with the squared core radius ``core2`` [m²]: Eq. (5.8.4)
+    of :func:`segment_velocity` with Γ = 1, elementwise (numba's scalars, or broadcast arrays
+    through ``xp.on_namespace``). Returns (v_x, v_y, v_z)."""
+    r1x, r1y, r1z = px - x1, py - y1, pz - z1
+    r2x, r2y, r2z = px - x2, py - y2, pz - z2
+    r0x, r0y, r0z = x2 - x1, y2 - y1, z2 - z1
+    cx = r1y * r2z - r1z * r2y
+    cy = r1z * r2x - r1x * r2z
+    cz = r1x * r2y - r1y * r2x
+    length2 = np.maximum(r0x * r0x + r0y * r0y + r0z * r0z, _TINY)
+    n1 = np.sqrt(np.maximum(r1x * r1x + r1y * r1y + r1z * r1z, _TINY))
+    n2 = np.sqrt(np.maximum(r2x * r2x + r2y * r2y + r2z * r2z, _TINY))
+    along = (r0x * r1x + r0y * r1y + r0z * r1z) / n1 - (r0x * r2x + r0y * r2y + r0z * r2z) / n2
+    h2 = (cx * cx + cy * cy + cz * cz) / length2
+    root = np.sqrt(np.maximum(h2 * h2 + core2 * core2, _TINY * _TINY))
+    factor = along / (4.0 * math.pi * length2 * root)
+    return factor * cx, factor * cy, factor * cz
+
+
+def _unit_arguments(segments: Any, points: Any, core_radius: Any) -> tuple[Any, ...]:
+    """:func:`unit_velocity`'s arguments broadcast to (..., P, S): segments (..., S, 2, 3),
+    points (..., P, 3), core radius a number or (..., S)."""
+    ends = [segments[..., None, :, e, i] for e in (0, 1) for i in range(3)]  # (..., 1, S)
+    at = [points[..., :, None, i] for i in range(3)]  # (..., P, 1)
+    core2 = core_radius * core_radius
+    if getattr(core2, "ndim", 0) > 0:
+        core2 = core2[..., None, :]  # per segment
+    return (*ends, *at, core2)
+
+
+def _check_shapes(segments: Any, points: Any) -> None:
+    if segments.shape[-2:] != (2, 3) or points.shape[-1] != 3:
+        raise ValueError(
+            f"segments of shape {tuple(segments.shape)} and points of shape "
+            f"{tuple(points.shape)}; allowed: segments (..., S, 2, 3) and points (..., P, 3)"
+        )
 
 
 def segment_velocity(
@@ -64,37 +108,82 @@ def segment_velocity(
     1 − ½(r_c/h)⁴ outside the core (Scully's n = 1 core, the Rosenhead-Moore regularisation,
     departs as (r_c/h)², ten times more at 1.8 r_c), peaks at h = r_c, and vanishes on the
     line as h/r_c², so the velocity is finite everywhere and zero on the axis. With r_c = 0 a
-    point on a segment itself gets an unbounded velocity (autograd there too).
+    point on a segment itself gets an unbounded velocity (autograd there too). The formula is
+    :func:`unit_velocity`'s.
     """
-    if segments.shape[-2:] != (2, 3) or points.shape[-1] != 3:
-        raise ValueError(
-            f"segments of shape {tuple(segments.shape)} and points of shape "
-            f"{tuple(points.shape)}; allowed: segments (..., S, 2, 3) and points (..., P, 3)"
-        )
-    first = segments[..., None, :, 0, :]  # (..., 1, S, 3)
-    second = segments[..., None, :, 1, :]
-    point = points[..., :, None, :]  # (..., P, 1, 3)
-    r1 = [point[..., i] - first[..., i] for i in range(3)]  # (..., P, S) each
-    r2 = [point[..., i] - second[..., i] for i in range(3)]
-    r0 = [second[..., i] - first[..., i] for i in range(3)]  # (..., 1, S)
-    cross = [
-        r1[1] * r2[2] - r1[2] * r2[1],
-        r1[2] * r2[0] - r1[0] * r2[2],
-        r1[0] * r2[1] - r1[1] * r2[0],
-    ]
-    cross2 = cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]
-    length2 = xp.maximum(r0[0] * r0[0] + r0[1] * r0[1] + r0[2] * r0[2], _TINY)
-    n1 = xp.sqrt(xp.maximum(r1[0] * r1[0] + r1[1] * r1[1] + r1[2] * r1[2], _TINY))
-    n2 = xp.sqrt(xp.maximum(r2[0] * r2[0] + r2[1] * r2[1] + r2[2] * r2[2], _TINY))
-    along = (r0[0] * r1[0] + r0[1] * r1[1] + r0[2] * r1[2]) / n1
-    along = along - (r0[0] * r2[0] + r0[1] * r2[1] + r0[2] * r2[2]) / n2
-    h2 = cross2 / length2
-    core2 = core_radius * core_radius
-    if getattr(core2, "ndim", 0) > 0:
-        core2 = core2[..., None, :]  # per segment
-    root = xp.sqrt(xp.maximum(h2 * h2 + core2 * core2, _TINY * _TINY))
-    factor = circulation[..., None, :] / (4.0 * math.pi) * along / (length2 * root)
-    return xp.stack([(factor * c).sum(-1) for c in cross], -1)
+    _check_shapes(segments, points)
+    unit = on_namespace(unit_velocity, xp)(*_unit_arguments(segments, points, core_radius))
+    weight = circulation[..., None, :]
+    return xp.stack([(weight * c).sum(-1) for c in unit], -1)
+
+
+@njit(cache=True, parallel=True, error_model=BRANCH_FREE)
+def _fill_influence(ends, core2, points, rows, weights, out):
+    """``out[q, p, :, o]`` = Σ_t ``weights[o, t]``·(:func:`unit_velocity` of segment
+    ``rows[o, t]``, its ends ``ends[q, :, s]`` = x1, y1, z1, x2, y2, z2 and ``core2[q, s]``, at
+    ``points[q, p]``): the numpy backend's compiled loop, parallel over q, for what
+    :func:`segment_influence` broadcasts on torch (``rows``, ``weights``: the nonzero entries of
+    each column of its ``combine``)."""
+    n_s = ends.shape[2]
+    for q in prange(ends.shape[0]):
+        unit = np.empty((3, n_s))
+        for p in range(points.shape[1]):
+            px, py, pz = points[q, p, 0], points[q, p, 1], points[q, p, 2]
+            for s in range(n_s):
+                unit[0, s], unit[1, s], unit[2, s] = unit_velocity(
+                    ends[q, 0, s], ends[q, 1, s], ends[q, 2, s],
+                    ends[q, 3, s], ends[q, 4, s], ends[q, 5, s],
+                    px, py, pz, core2[q, s],
+                )  # fmt: skip
+            for o in range(rows.shape[0]):
+                vx = vy = vz = 0.0
+                for t in range(rows.shape[1]):
+                    s, w = rows[o, t], weights[o, t]
+                    vx += w * unit[0, s]
+                    vy += w * unit[1, s]
+                    vz += w * unit[2, s]
+                out[q, p, 0, o], out[q, p, 1, o], out[q, p, 2, o] = vx, vy, vz
+
+
+def segment_influence(
+    segments: Any,
+    points: Any,
+    core_radius: Any,
+    combine: np.ndarray | None = None,
+    xp: ArrayNamespace = NUMPY,
+) -> Any:
+    """The velocity per unit circulation [m/s per m²/s] each segment induces at each point,
+    not summed, or combined linearly: ``segments`` (..., S, 2, 3) [m], ``points`` (..., P, 3)
+    [m], ``core_radius`` (..., S) [m] (the leading axes broadcast), ``combine`` a numpy (S, O)
+    matrix (None: the identity). Returns (..., P, 3, O): the unit velocities (..., P, 3, S)
+    times ``combine``, so that :func:`segment_velocity` is this with ``combine`` = Γ as a
+    column. On numpy a compiled loop over the leading axes that keeps the unit velocities of
+    one point only and adds each column's nonzero entries (:func:`_fill_influence`); on torch
+    the same formula broadcast (:func:`unit_velocity`) and a product."""
+    _check_shapes(segments, points)
+    n_s, n_p = segments.shape[-3], points.shape[-2]
+    combine = np.eye(n_s) if combine is None else np.asarray(combine, dtype=float)
+    if xp is not NUMPY:
+        unit = on_namespace(unit_velocity, xp)(*_unit_arguments(segments, points, core_radius))
+        return xp.stack(unit, -2) @ xp.constant_like(combine, points)
+    lead = np.broadcast_shapes(segments.shape[:-3], points.shape[:-2])
+    ends = np.broadcast_to(np.moveaxis(segments.reshape(*segments.shape[:-2], 6), -1, -2),
+                           (*lead, 6, n_s))  # fmt: skip
+    core2 = np.broadcast_to(core_radius * core_radius, (*lead, n_s))
+    nonzero = combine != 0.0
+    width = max(int(nonzero.sum(0).max()), 1)
+    rows = np.argsort(~nonzero, axis=0, kind="stable")[:width].T  # each column's nonzero rows
+    weights = np.take_along_axis(combine.T, rows, 1)  # zero where a column has fewer
+    out = np.empty((*lead, n_p, 3, combine.shape[1]))
+    _fill_influence(
+        np.ascontiguousarray(ends.reshape(-1, 6, n_s)),
+        np.ascontiguousarray(core2.reshape(-1, n_s)),
+        np.ascontiguousarray(np.broadcast_to(points, (*lead, n_p, 3)).reshape(-1, n_p, 3)),
+        np.ascontiguousarray(rows),
+        np.ascontiguousarray(weights),
+        out.reshape(-1, n_p, 3, combine.shape[1]),
+    )
+    return out
 
 
 def lattice_segments(nodes: Any, rings: Any, xp: ArrayNamespace = NUMPY) -> tuple[Any, Any]:
@@ -125,13 +214,20 @@ def lattice_segments(nodes: Any, rings: Any, xp: ArrayNamespace = NUMPY) -> tupl
     sides = xp.concatenate([zeros_col, rings, zeros_col], -1)  # (..., K, N + 1)
     trailed = sides[..., :, :-1] - sides[..., :, 1:]  # (..., K, N), node (k, j) → (k + 1, j)
     lead = tuple(nodes.shape[:-3])
+    circulation = xp.concatenate([shed.reshape(*lead, -1), trailed.reshape(*lead, -1)], -1)
+    return lattice_geometry(nodes, xp), circulation
+
+
+def lattice_geometry(nodes: Any, xp: ArrayNamespace = NUMPY) -> Any:
+    """The segments (..., (K + 1)·(N − 1) + K·N, 2, 3) [m] of :func:`lattice_segments`'s
+    lattice on ``nodes`` (..., K + 1, N, 3): first along each row k (node (k, j) → (k, j + 1)),
+    row by row, then between rows k and k + 1 (node (k, j) → (k + 1, j))."""
+    lead = tuple(nodes.shape[:-3])
     along_rows = xp.stack([nodes[..., :, :-1, :], nodes[..., :, 1:, :]], -2)
     between_rows = xp.stack([nodes[..., :-1, :, :], nodes[..., 1:, :, :]], -2)
-    segments = xp.concatenate(
+    return xp.concatenate(
         [along_rows.reshape(*lead, -1, 2, 3), between_rows.reshape(*lead, -1, 2, 3)], -3
     )
-    circulation = xp.concatenate([shed.reshape(*lead, -1), trailed.reshape(*lead, -1)], -1)
-    return segments, circulation
 
 
 def wing_lines(
@@ -194,6 +290,18 @@ def prescribed_wake(
     Γ(t_i), ring k ≥ 1, between the rows released at t_{i−k+1} and t_{i−k}, the mean of Γ over
     its release, ½(Γ_{i−k+1} + Γ_{i−k}).
     """
+    nodes = wake_nodes(bound, trailing_edge, carried, xp)
+    n, rows = bound.shape[1], carried.shape[1] - 1
+    index = [[(i - k) % n for k in range(rows + 1)] for i in range(n)]
+    gamma = circulation[:, index]  # (B, n, K + 1, N − 1): Γ_{i−k}
+    rings = xp.concatenate([gamma[:, :, :1], 0.5 * (gamma[:, :, :-1] + gamma[:, :, 1:])], 2)
+    return nodes, rings
+
+
+def wake_nodes(bound: Any, trailing_edge: Any, carried: Any, xp: ArrayNamespace = NUMPY) -> Any:
+    """The nodes (B, n, K + 2, N, 3) [m] of :func:`prescribed_wake`'s lattice (its geometry,
+    which does not depend on the circulation): row 0 ``bound`` at t_i, row k + 1
+    ``trailing_edge`` at t_{i−k} (periodic) moved by ``carried[k]``."""
     n, rows = bound.shape[1], carried.shape[1] - 1
     if rows < 1 or carried.shape[-1] != 3:
         raise ValueError(
@@ -201,7 +309,4 @@ def prescribed_wake(
         )
     index = [[(i - k) % n for k in range(rows + 1)] for i in range(n)]
     released = trailing_edge[:, index]  # (B, n, K + 1, N, 3)
-    nodes = xp.concatenate([bound[:, :, None], released + carried[:, None, :, None, :]], 2)
-    gamma = circulation[:, index]  # (B, n, K + 1, N − 1): Γ_{i−k}
-    rings = xp.concatenate([gamma[:, :, :1], 0.5 * (gamma[:, :, :-1] + gamma[:, :, 1:])], 2)
-    return nodes, rings
+    return xp.concatenate([bound[:, :, None], released + carried[:, None, :, None, :]], 2)
