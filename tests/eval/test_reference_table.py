@@ -19,6 +19,7 @@ from eval.reference import (
     ReferencePlan,
     best_objectives,
     build_table,
+    candidates,
     continuation,
     gather,
     plan,
@@ -126,6 +127,29 @@ def test_a_small_table_keeps_the_best_stroke_and_says_how_it_was_made(tmp_path):
             else:
                 assert not point["feasible"] and math.isnan(point["objective"])
             assert len(point["seed_objectives"]) == 2
+    # Another run's stroke competes for its point (issue 42: the table absorbs any better
+    # stroke a method finds), with its provenance; one not of a grid point is refused.
+    from agents.harness import prepare
+
+    other = prepare("cmaes", "level", 1.0, 480, [7], env_kwargs={"planform": "real", **SMALL})
+    off = prepare("cmaes", "level", 1.0625, 480, [7], env_kwargs={"planform": "real", **SMALL})
+    ran = run_jobs([*other, *off], tmp_path / "other", progress=False, cache=False).records
+    extra = ran[other[0].job.key]
+    key = (LEVEL_FLIGHT_ID, "efficiency", "real", 1.0)
+    with pytest.raises(ValueError, match=f"candidate record {ran[off[0].job.key].key}"):
+        candidates([ran[off[0].job.key]], jobs)
+    if extra.feasible:
+        assert candidates([extra], jobs) == {key: [extra]}
+        absorbed = build_table(jobs, [continued], records, table["provenance"], {key: [extra]})
+        point = next(
+            p for s in absorbed["series"] if s["planform"] == "real"
+            for p in s["points"] if p["condition"] == 1.0
+        )  # fmt: skip
+        found = [*point["seed_objectives"], *point["continued_objectives"], extra.objective]
+        assert point["objective"] == max(v for v in found if v is not None)
+        assert point["candidate_objectives"] == [extra.objective]
+        if point["objective"] > max(v for v in found[:-1] if v is not None):
+            assert point["source"].startswith("candidate: cmaes, seed 7")
     text = reference_markdown(table)
     assert "| V [m/s] | efficiency, tear-drop | seeds | efficiency, real | seeds |" in text
     write_reference_figure(table, tmp_path / "reference.png")
