@@ -28,13 +28,14 @@ from agents.progress import CommandProgress, Phase
 from agents.records import Record, package_versions
 from agents.runner import Lookup, look_ahead, run_plan
 from agents.selection import best_index
-from agents.store import RecordStore
+from agents.store import RecordStore, read_record_files
 from agents.tasks import get_task, task_of
 from eval.optimize import add_run_arguments, run_reporting
 from tandem_env.envs.reference import (
     REFERENCE_FORMAT,
     REFERENCE_GRID,
     config_fingerprint,
+    problem_fingerprint,
     reference_path,
 )
 from tandem_env.envs.registration import config_class
@@ -90,10 +91,16 @@ PointKey = tuple[str, str, str, float]
 #: stroke that flies at P_avail flies, with the same forces, at every higher P_avail, and a
 #: stroke found for one objective is a candidate for the others (the same constraints).
 NESTED_TASKS: frozenset[str] = frozenset({"TandemWing/Accelerate-v0"})
+#: A round "raises" a point when it gains more than this [%] (smaller gains are the polish's
+#: last digits, not a better optimum).
+RAISED_PERCENT = 0.1
 #: The continuation: per point and round, one run on half its budget, three quarters of that
-#: for the warm starts, every round run (``until=0.1`` would stop once no point moves by more
-#: than 0.1 %: :class:`agents.jobs.Continuation`).
-CONTINUATION = Continuation(share=0.5, initial_share=0.75, starts=None, rounds=5)
+#: for the warm starts, until a round raises no point by more than :data:`RAISED_PERCENT`
+#: (0.1 %), at most 15 rounds (:class:`agents.jobs.Continuation`; the table says whether the
+#: last round still moved a point).
+CONTINUATION = Continuation(
+    share=0.5, initial_share=0.75, starts=None, rounds=15, until=RAISED_PERCENT
+)
 
 
 def _value(record: Record, env_id: str, objective: str) -> float:
@@ -208,11 +215,6 @@ def best_objectives(found: Mapping[PointKey, Sequence[Record]]) -> dict[PointKey
     return values
 
 
-#: A round "raises" a point when it gains more than this [%] (smaller gains are the polish's
-#: last digits, not a better optimum).
-RAISED_PERCENT = 0.1
-
-
 def round_gains(
     before: Mapping[PointKey, float], after: Mapping[PointKey, float]
 ) -> dict[str, Any]:
@@ -228,7 +230,8 @@ def round_gains(
 
 
 def _point(key: PointKey, search: Sequence[Record], rounds: Sequence[Record],
-           found: Mapping[PointKey, Sequence[Record]]) -> dict[str, Any]:  # fmt: skip
+           found: Mapping[PointKey, Sequence[Record]],
+           candidates: Sequence[Record] = ()) -> dict[str, Any]:  # fmt: skip
     """One grid point: the best stroke competing for it (:func:`_pool`)."""
     env_id, objective, _, condition = key
     best = _best(_pool(found, key), env_id, objective)
@@ -237,6 +240,11 @@ def _point(key: PointKey, search: Sequence[Record], rounds: Sequence[Record],
         source = f"seed {best.seed}"
     elif best in rounds:
         source = f"continuation round {list(rounds).index(best) + 1}"
+    elif best in candidates:
+        source = (
+            f"candidate: {best.job.method}, seed {best.seed}, budget {best.budget}, at "
+            f"{best.job.condition:g} (record {best.key})"
+        )
     else:
         source = f"{best.job.env('objective', objective)} optimum at {best.job.condition:g}"
     return {
@@ -246,6 +254,10 @@ def _point(key: PointKey, search: Sequence[Record], rounds: Sequence[Record],
         "source": source,
         "seed_objectives": [r.objective if r.feasible else None for r in search],
         "continued_objectives": [r.objective if r.feasible else None for r in rounds],
+        "candidate_objectives": [
+            _value(r, env_id, objective) if r.feasible else None
+            for r in found[key][len(search) + len(rounds) :]
+        ],
         "normalised_stroke": list(best.normalised_stroke),
         "certificate": {
             k: certificate.get(k) for k in ("method", "status", "gain", "objective_before")
@@ -271,14 +283,21 @@ def build_table(
     rounds: Sequence[Mapping[PointKey, Job]],
     records: Mapping[str, Record],
     provenance: Mapping[str, Any],
+    candidates: Mapping[PointKey, Sequence[Record]] | None = None,
 ) -> dict[str, Any]:
-    """The reference table (format :data:`REFERENCE_FORMAT`) from every phase's records."""
+    """The reference table (format :data:`REFERENCE_FORMAT`) from every phase's records and
+    the ``candidates`` (:func:`candidates`) competing beside them."""
     found = gather(jobs, rounds, records)
+    ours = {key: len(mine) for key, mine in found.items()}
+    for key, extra in (candidates or {}).items():
+        found[key] += extra
+    every_candidate = [r for extra in (candidates or {}).values() for r in extra]
     series: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
     fingerprints: dict[tuple[str, str, str], set[str]] = {}
     seeds = len(next(iter(jobs.values())))
     for key, mine in found.items():
-        point = _point(key, mine[:seeds], mine[seeds:], found)
+        search, rounds_ = mine[:seeds], mine[seeds : ours[key]]
+        point = _point(key, search, rounds_, found, every_candidate)
         series.setdefault(key[:3], []).append(point)
         fingerprints.setdefault(key[:3], set()).update(
             config_fingerprint(config_class(key[0]), r.results["env"]) for r in mine
@@ -302,6 +321,52 @@ def build_table(
     }
 
 
+def candidates(
+    records: Iterable[Record], jobs: Mapping[PointKey, Sequence[PreparedJob]]
+) -> dict[PointKey, list[Record]]:
+    """Strokes found by other runs (any method: a policy's, a study's), per grid point they
+    compete for: a feasible record of the table's env at a grid condition, of the problem of
+    one of the table's series there (its fingerprint: the same model, insect and planform),
+    competes for every objective of that planform. It must replay, through the env, to its
+    record's objective (relative 1e-6) and fly; any other record is refused (ValueError)."""
+    import gymnasium as gym
+
+    kwargs = {key: dict(prepared[0].job.env_kwargs) for key, prepared in jobs.items()}
+    fingerprints = {
+        key: problem_fingerprint(config_class(key[0]).from_kwargs(**kw))
+        for key, kw in kwargs.items()
+    }
+    kept: dict[PointKey, list[Record]] = {}
+    for record in records:
+        env_id, condition = record.env_id, record.job.condition
+        mine = config_fingerprint(config_class(env_id), record.results["env"])
+        keys = [k for k in jobs if (k[0], k[3]) == (env_id, condition) and fingerprints[k] == mine]
+        why = (
+            "it does not fly" if not record.feasible
+            else f"no series of the table at {env_id} {condition:g} with its model and insect"
+            if not keys else None
+        )  # fmt: skip
+        if why is None:
+            own = {k: v for k, v in record.job.env_kwargs if k == "objective"}
+            env = gym.make(env_id, **(kwargs[keys[0]] | own))
+            keyword = config_class(env_id).CONDITION.keyword  # type: ignore[union-attr]
+            env.reset(seed=0, options={keyword: condition})
+            info = env.step(np.asarray(record.normalised_stroke, dtype=np.float32))[4]
+            if not (
+                info["feasible"]
+                and np.isclose(info["objective"], record.objective, rtol=1e-6, atol=0.0)
+            ):
+                why = "its stroke does not replay to its objective and fly"
+        if why is not None:
+            raise ValueError(
+                f"candidate record {record.key} ({record.job.label()}): {why}; allowed: a "
+                "feasible record of the table's env and model at a grid condition"
+            )
+        for key in keys:
+            kept.setdefault(key, []).append(record)
+    return kept
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--out",
@@ -314,6 +379,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         default=None,
         help="where the table goes (default: the packaged tandem_env/data/reference_optima.json)",
+    )
+    parser.add_argument(
+        "--candidates",
+        type=Path,
+        nargs="+",
+        default=[],
+        metavar="PATH",
+        help="record files or folders of other runs (e.g. eval optimize --out) whose strokes "
+        "compete for the table's points, with their provenance (docs/reference.md)",
     )
     add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -339,7 +413,9 @@ def provenance(
         "optimisations": len(jobs),
         "optimisation_seconds": round(sum(records[job.key].wall_time for job in jobs), 1),
         "continuation": (
-            f"{len(convergence)} rounds, each on {CONTINUATION.share:g} of the budget, "
+            f"{len(convergence)} rounds (until one raised no point by more than "
+            f"{CONTINUATION.until:g} %, at most {CONTINUATION.rounds}), each on "
+            f"{CONTINUATION.share:g} of the budget, "
             f"{CONTINUATION.initial_share:g} of that for the warm starts (this point's, its "
             "neighbours' and, accelerating, the other objectives' best strokes)"
         ),
@@ -364,6 +440,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             "--table PATH)"
         )
     jobs = plan()
+    try:  # checked before any optimisation
+        extra = candidates(read_record_files(args.candidates), jobs)
+    except ValueError as error:  # a RecordError too
+        parser.error(f"--candidates: {error}")
     table_plan = ReferencePlan(jobs, quiet=args.quiet)
     try:
         store = RecordStore(args.out)
@@ -397,7 +477,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     every = [p.job for prepared in jobs.values() for p in prepared]
     every += [job for r in rounds for job in r.values()]
     table = build_table(
-        jobs, rounds, run.records, provenance(every, run.records, table_plan.convergence)
+        jobs,
+        rounds,
+        run.records,
+        provenance(every, run.records, table_plan.convergence),
+        extra,
     )
     write_json_atomic(table_path, table)
     _report(table, Path(args.out))

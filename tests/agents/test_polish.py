@@ -106,11 +106,12 @@ def test_a_steep_constraint_stays_active_after_the_float32_cast():
 
 
 def test_the_polish_stops_where_the_kkt_test_passes_and_says_so():
-    config = PolishConfig(optimality=1e-5)
+    config = PolishConfig()  # the default stop: 1e-5
+    assert config.optimality == 1e-5
     stopped = polish(problem(Counted()), start(), 5_000, config).certificate
     assert stopped.converged and stopped.kkt_residual <= config.optimality
     assert stopped.message.startswith("KKT residual <= 1e-05")
-    own = polish(problem(Counted()), start(), 5_000, PolishConfig()).certificate
+    own = polish(problem(Counted()), start(), 5_000, PolishConfig(optimality=0.0)).certificate
     assert own.converged and not own.message.startswith("KKT")  # scipy's own test
     assert stopped.evaluations <= own.evaluations
     assert certified(stopped) and describe(stopped).count("\n") == 0

@@ -71,10 +71,11 @@ def test_autograd_gradient_equals_central_differences(task, value, kwargs, actio
 
 
 def test_a_torch_polish_through_eval_optimize_certifies_autograd(tmp_path):
-    # a small budget at a coarse resolution: a feasible start (seed 0 finds one at 90 W/kg)
-    # and three SLSQP iterations
+    # a small budget at a coarse resolution: a feasible start (seed 1 finds one at 90 W/kg;
+    # seed 0 no longer does since the positive parts' crossing pairs are found) and three
+    # SLSQP iterations
     argv = ["optimize", "--task", "accelerate", "--power", "90", "--method", "cmaes"]
-    argv += ["--budget", "300", "--seeds", "0", "--out", str(tmp_path), "--quiet"]
+    argv += ["--budget", "300", "--seeds", "1", "--out", str(tmp_path), "--quiet"]
     argv += ["--backend", "torch", "--method-config", "polish_iterations=3"]
     argv += ["--env-kwargs", "n_time=32", "n_blade=8"]
     assert main(argv) == 0

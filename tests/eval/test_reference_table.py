@@ -19,6 +19,7 @@ from eval.reference import (
     ReferencePlan,
     best_objectives,
     build_table,
+    candidates,
     continuation,
     gather,
     plan,
@@ -77,11 +78,13 @@ def test_a_small_table_keeps_the_best_stroke_and_says_how_it_was_made(tmp_path):
         assert job.budget == 240 and job.condition == condition
     records |= run_jobs(list(continued.values()), tmp_path, progress=False, cache=False).records
     # The plan a rerun announces: the rounds the stored optima decide are the real jobs (the
-    # second round's from the first round's records), stand-ins of the same budgets after them.
-    phases = look_ahead(ReferencePlan(jobs), tmp_path, cache=False)
+    # second round's from the first round's records), stand-ins of the same budgets after them
+    # (a rule that runs every round: the default's stop rule may end it after the first).
+    every_round = Continuation(share=0.5, initial_share=0.75, starts=None, rounds=4)
+    phases = look_ahead(ReferencePlan(jobs, every_round), tmp_path, cache=False)
     assert list(continued.values()) == list(phases[1].jobs)
     assert not phases[1].provisional and not phases[2].provisional
-    assert len(phases) == 1 + CONTINUATION.rounds and phases[2].jobs != phases[1].jobs
+    assert len(phases) == 1 + every_round.rounds and phases[2].jobs != phases[1].jobs
     for phase in phases[3:]:
         assert phase.provisional == {job.key for job in phase.jobs}
         assert [job.budget for job in phase.jobs] == [job.budget for job in phases[1].jobs]
@@ -94,9 +97,9 @@ def test_a_small_table_keeps_the_best_stroke_and_says_how_it_was_made(tmp_path):
     assert list(run.runs) == ["search", "continuation 1"]
     assert sum(r.ran for r in run.runs.values()) == 0 and stopping.rounds == [continued]
     assert [p.name for p in look_ahead(stopping, tmp_path, cache=False)] == list(run.runs)
-    assert (
-        not CONTINUATION.stops(0.0) and rule.stops(5.0) and not Continuation(until=0.1).stops(0.2)
-    )
+    # issue 42: the table's rounds run until no point moves by more than 0.1 %
+    assert CONTINUATION.stops(0.1) and not CONTINUATION.stops(0.2) and rule.stops(5.0)
+    assert not every_round.stops(0.0)
     after = best_objectives(gather(jobs, [continued], records))
     gains = round_gains(before, after)
     assert 0 <= gains["points_raised"] <= len(jobs)
@@ -126,6 +129,29 @@ def test_a_small_table_keeps_the_best_stroke_and_says_how_it_was_made(tmp_path):
             else:
                 assert not point["feasible"] and math.isnan(point["objective"])
             assert len(point["seed_objectives"]) == 2
+    # Another run's stroke competes for its point (issue 42: the table absorbs any better
+    # stroke a method finds), with its provenance; one not of a grid point is refused.
+    from agents.harness import prepare
+
+    other = prepare("cmaes", "level", 1.0, 480, [7], env_kwargs={"planform": "real", **SMALL})
+    off = prepare("cmaes", "level", 1.0625, 480, [7], env_kwargs={"planform": "real", **SMALL})
+    ran = run_jobs([*other, *off], tmp_path / "other", progress=False, cache=False).records
+    extra = ran[other[0].job.key]
+    key = (LEVEL_FLIGHT_ID, "efficiency", "real", 1.0)
+    with pytest.raises(ValueError, match=f"candidate record {ran[off[0].job.key].key}"):
+        candidates([ran[off[0].job.key]], jobs)
+    if extra.feasible:
+        assert candidates([extra], jobs) == {key: [extra]}
+        absorbed = build_table(jobs, [continued], records, table["provenance"], {key: [extra]})
+        point = next(
+            p for s in absorbed["series"] if s["planform"] == "real"
+            for p in s["points"] if p["condition"] == 1.0
+        )  # fmt: skip
+        found = [*point["seed_objectives"], *point["continued_objectives"], extra.objective]
+        assert point["objective"] == max(v for v in found if v is not None)
+        assert point["candidate_objectives"] == [extra.objective]
+        if point["objective"] > max(v for v in found[:-1] if v is not None):
+            assert point["source"].startswith("candidate: cmaes, seed 7")
     text = reference_markdown(table)
     assert "| V [m/s] | efficiency, tear-drop | seeds | efficiency, real | seeds |" in text
     write_reference_figure(table, tmp_path / "reference.png")
