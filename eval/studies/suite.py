@@ -7,7 +7,7 @@ import argparse
 import os
 import sys
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -15,7 +15,7 @@ from typing import Any
 from agents.dask_cluster import executor_spec
 from agents.progress import CommandProgress, Phase
 from agents.record_cache import CacheOption
-from agents.runner import Lookup, PlanRun, RunSummary, find_records, run_plan
+from agents.runner import PlanRun, RunSummary, find_records, run_plan
 from agents.store import RecordStore
 from eval.studies import PAPER_STUDIES, STUDIES, report
 from eval.studies.base import StudyOutput, StudyPlan
@@ -35,36 +35,28 @@ class SuiteResult:
     """Seconds for the whole call, analysis included [s]."""
 
 
-def expand(names: Sequence[str]) -> list[str]:
-    """``all`` -> the paper's studies; otherwise the names, validated, duplicates dropped."""
-    chosen = [n for name in names for n in (PAPER_STUDIES if name == "all" else [name])]
-    for name in chosen:
-        if name not in STUDIES:
-            raise ValueError(f"unknown study {name!r}; allowed: all, {', '.join(STUDIES)}")
-    return list(dict.fromkeys(chosen))
-
-
 class SuitePlan:
-    """The studies ``names`` (or ``["all"]``) as a plan of one phase
-    (:class:`agents.runner.Plan`): all their jobs in one pool, shared optimisations run once;
-    :meth:`finish` analyses them into ``out`` with every other paper study whose records are
-    all there, so running ``speed`` and then ``power`` into one folder gives one report with
-    both."""
+    """The studies ``names`` (``all``: the paper's) as a plan of one phase, :attr:`phases`:
+    all their jobs in one pool, shared optimisations run once; :meth:`finish` analyses them
+    into ``out`` with every other paper study whose records are all there, so running ``speed``
+    and then ``power`` into one folder gives one report with both."""
 
     def __init__(self, names: Sequence[str], plan: StudyPlan, out: RecordStore) -> None:
         self.started = time.perf_counter()
         self.given = ", ".join(names)
-        self.asked = expand(names)
+        chosen = [n for name in names for n in (PAPER_STUDIES if name == "all" else [name])]
+        for name in chosen:
+            if name not in STUDIES:
+                raise ValueError(f"unknown study {name!r}; allowed: all, {', '.join(STUDIES)}")
+        self.asked = list(dict.fromkeys(chosen))
         self.plan = plan
         self.store = out
         self.title = f"study {self.given} ({', '.join(self.asked)})"
         # each study's jobs, built once: the asked ones first, then the other paper studies
         studies = dict.fromkeys([*self.asked, *PAPER_STUDIES])
         self.jobs_of = {name: STUDIES[name].jobs(plan) for name in studies}
-
-    def __call__(self, found: Lookup) -> Iterator[Phase]:
-        """The one phase: every job of the studies asked for."""
-        yield Phase(self.given, tuple(job for name in self.asked for job in self.jobs_of[name]))
+        jobs = tuple(job for name in self.asked for job in self.jobs_of[name])
+        self.phases = [Phase(self.given, jobs)]
 
     def finish(self, run: PlanRun) -> SuiteResult:
         """Analyse the studies asked (and every other paper study whose records are all
@@ -127,7 +119,9 @@ def run_studies(
     store = RecordStore.at(out_dir)
     suite = SuitePlan(names, plan, store)
     scheduler = executor_spec(scheduler, workers)
-    run = run_plan(suite, store, scheduler, cache, progress=progress, rerun=rerun, command=command)
+    run = run_plan(
+        suite.phases, store, scheduler, cache, progress=progress, rerun=rerun, command=command
+    )
     return suite.finish(run)
 
 
@@ -188,5 +182,5 @@ class SuiteCampaign:
             print(f"report: {result.report}")
 
 
-#: The paper studies' campaign (:data:`eval.studies.campaigns.CAMPAIGNS`).
+#: The paper studies' campaign (:data:`eval.study.CAMPAIGNS`).
 SUITE = SuiteCampaign()

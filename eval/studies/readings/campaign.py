@@ -1,5 +1,5 @@
 """``python -m eval study readings``: the readings study as a campaign of the command line
-(:class:`eval.studies.campaigns.Campaign`): its ``--continuation`` option, its plan and its
+(:data:`eval.study.CAMPAIGNS`): its ``--continuation`` option, its plan and its
 report (:mod:`eval.studies.readings`)."""
 
 from __future__ import annotations
@@ -120,5 +120,5 @@ class ReadingsCampaign:
         print(f"report: {result.files[-1]}; total {result.wall_time:.1f} s")
 
 
-#: The readings study's campaign (:data:`eval.studies.campaigns.CAMPAIGNS`).
+#: The readings study's campaign (:data:`eval.study.CAMPAIGNS`).
 READINGS = ReadingsCampaign()

@@ -246,6 +246,11 @@ class ReadingsPlan:
                 print(f"analysing reading {reading.name}", file=sys.stderr)
             self.results.append(analyse_reading(self.plan, reading, self.store, jobs[reading.name]))
 
+    @property
+    def phases(self) -> ReadingsPlan:
+        """What :func:`agents.runner.run_plan` runs: this plan, its phases computed in turn."""
+        return self
+
     def __call__(self, found: Lookup) -> Iterator[Phase]:
         """The phases, each from the records of those before it."""
         plan = self.plan
