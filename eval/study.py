@@ -17,7 +17,7 @@ from eval.optimize import add_insect_argument, add_run_arguments, backend_kwargs
 from eval.studies.base import StudyPlan
 from eval.studies.claims import FLIP_THRESHOLD
 from eval.studies.presets import OVERRIDES, STUDY_PRESETS, get_preset, overridden
-from eval.studies.readings.campaign import READINGS, ReadingsCampaign
+from eval.studies.readings.run import READINGS, ReadingsCampaign
 from eval.studies.suite import SUITE, SuiteCampaign
 from tandem_env.physics.insect import DRAGONFLY, describe_insect
 
