@@ -16,7 +16,7 @@ from eval.figures import FORMATS
 from eval.optimize import add_insect_argument, add_run_arguments, backend_kwargs, run_reporting
 from eval.studies.base import StudyPlan
 from eval.studies.claims import FLIP_THRESHOLD
-from eval.studies.presets import OVERRIDES, STUDY_PRESETS, get_preset, overridden
+from eval.studies.presets import OVERRIDES, STUDY_PRESETS, overridden
 from eval.studies.readings.run import READINGS, ReadingsCampaign
 from eval.studies.suite import SUITE, SuiteCampaign
 from tandem_env.physics.insect import DRAGONFLY, describe_insect
@@ -171,7 +171,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                 parser.error(f"{flag} is for the {owner} study only (study {args.study!r})")
     try:
         plan = StudyPlan(
-            overridden(get_preset(args.preset), **{o: getattr(args, o) for o in OVERRIDES}),
+            overridden(STUDY_PRESETS[args.preset], **{o: getattr(args, o) for o in OVERRIDES}),
             tuple(dict.fromkeys(args.method)) if args.method else None,
             figure_format=args.format,
             execution=tuple(backend_kwargs(args).items()),
@@ -189,7 +189,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         unique = list({job.key: job for job in phases[0].jobs}.values())
         writable = store.check(write=False, jobs=unique)  # and each record's path
         reports_only = len(phases) == 1 and not phases[0].later
-        stored = find_records(store, unique, cache=False) is not None
+        stored = writable or find_records(store, unique, cache=False) is not None
         if not writable and not (reports_only and stored):
             store.check(jobs=unique)  # raises, naming the folder and why
         # --quiet says no cost line, so none is made

@@ -41,7 +41,7 @@ class SuitePlan:
     into ``out`` with every other paper study whose records are all there, so running ``speed``
     and then ``power`` into one folder gives one report with both."""
 
-    def __init__(self, names: Sequence[str], plan: StudyPlan, out: RecordStore) -> None:
+    def __init__(self, names: Sequence[str], plan: StudyPlan, out: Path) -> None:
         self.started = time.perf_counter()
         self.given = ", ".join(names)
         chosen = [n for name in names for n in (PAPER_STUDIES if name == "all" else [name])]
@@ -50,7 +50,7 @@ class SuitePlan:
                 raise ValueError(f"unknown study {name!r}; allowed: all, {', '.join(STUDIES)}")
         self.asked = list(dict.fromkeys(chosen))
         self.plan = plan
-        self.store = out
+        self.out = out
         self.title = f"study {self.given} ({', '.join(self.asked)})"
         # each study's jobs, built once: the asked ones first, then the other paper studies
         studies = dict.fromkeys([*self.asked, *PAPER_STUDIES])
@@ -61,12 +61,12 @@ class SuitePlan:
     def finish(self, run: PlanRun) -> SuiteResult:
         """Analyse the studies asked (and every other paper study whose records are all
         present), write the report and the manifest."""
-        out = self.store.directory
+        out = self.out
         done = {}
         for name, own in self.jobs_of.items():
             if name in self.asked:
                 records = {job: run.records[job.key] for job in own}
-            elif (records := find_records(self.store, own, cache=False)) is None:
+            elif (records := find_records(out, own, cache=False)) is None:
                 continue
             done[name] = STUDIES[name].analyse(self.plan, records, out)
         paper = [name for name in PAPER_STUDIES if name in done]
@@ -117,7 +117,7 @@ def run_studies(
     :func:`~agents.runner.run_plan`.
     """
     store = RecordStore.at(out_dir)
-    suite = SuitePlan(names, plan, store)
+    suite = SuitePlan(names, plan, store.directory)
     scheduler = executor_spec(scheduler, workers)
     run = run_plan(
         suite.phases, store, scheduler, cache, progress=progress, rerun=rerun, command=command
@@ -158,7 +158,7 @@ class SuiteCampaign:
                 f"--budget {args.budget}: the reading {reading.name!r} runs its own search "
                 f"({reading.search.describe()}); allowed: --budget or that reading"
             )
-        return SuitePlan([args.study], replace(plan, reading=reading), out)
+        return SuitePlan([args.study], replace(plan, reading=reading), out.directory)
 
     def report(self, args: argparse.Namespace, result: SuiteResult) -> None:
         """Print what the run did (stderr) and found (stdout)."""
