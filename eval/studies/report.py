@@ -1,7 +1,5 @@
-"""The reproduction report: every claim of the paper (docs/model.md §9) beside ours, plus figures.
-
-The report holds no timestamps or timings, so the same command gives the same file; run
-times are in ``manifest.json``.
+"""The reproduction report: every claim of the paper (docs/model.md §9) beside ours, plus figures;
+no timestamps or timings (those are in ``manifest.json``), so the same command gives the same file.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""Run studies: gather their jobs, run the missing ones once, analyse, write the report; the
-paper's studies as a campaign of the command line (:data:`SUITE`)."""
+"""Run studies: their jobs once, the analyses and the report; the paper's studies as a campaign of
+the command line (:data:`SUITE`)."""
 
 from __future__ import annotations
 
@@ -108,14 +108,9 @@ def run_studies(
     rerun: bool = False,
     command: CommandProgress | None = None,
 ) -> SuiteResult:
-    """Run the studies ``names`` (or ``["all"]``) into ``out_dir`` (:class:`SuitePlan`).
-
-    The jobs run on ``scheduler`` (None: serially here; ``"local:N"``; a Dask scheduler's
-    address; see :func:`agents.runner.run_jobs`); ``workers=N > 1`` is short for
-    ``scheduler="local:N"``. Finished jobs from an earlier, killed or partial run with the same
-    configuration are reused. ``cache``, ``rerun`` and ``command`` as for
-    :func:`~agents.runner.run_plan`.
-    """
+    """Run the studies ``names`` (or ``["all"]``) into ``out_dir`` (:class:`SuitePlan`), reusing
+    the stored records; ``workers=N > 1`` is short for ``scheduler="local:N"``; ``scheduler``,
+    ``cache``, ``rerun`` and ``command`` as for :func:`~agents.runner.run_plan`."""
     store = RecordStore.at(out_dir)
     suite = SuitePlan(names, plan, store.directory)
     scheduler = executor_spec(scheduler, workers)
