@@ -531,14 +531,10 @@ class Plan(Protocol):
     def __call__(self, found: Lookup) -> Iterator[Phase]: ...
 
 
-def _phases(plan: Plan | Sequence[Phase], found: Lookup) -> Iterable[Phase]:
-    return plan if isinstance(plan, Sequence) else plan(found)
-
-
 def look_ahead(plan: Plan | Sequence[Phase], out: Out, cache: CacheOption = True) -> list[Phase]:
     """``plan``'s phases as far as the records in ``out`` and the record cache decide them now,
     stand-ins after that (the cost line's; nothing runs or is written)."""
-    return list(_phases(plan, Lookup(RecordStore.at(out), cache)))
+    return list(plan if isinstance(plan, Sequence) else plan(Lookup(RecordStore.at(out), cache)))
 
 
 @dataclass(frozen=True)
@@ -575,7 +571,7 @@ def run_plan(
     found = Lookup(store, cache, {})
     runs: dict[str, RunSummary] = {}
     started: list[Phase] = []
-    for phase in _phases(plan, found):
+    for phase in plan if isinstance(plan, Sequence) else plan(found):
         started.append(phase)
         if command is not None and len(started) > 1:
             command.start(look_ahead(plan, store, cache), started)
