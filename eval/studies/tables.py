@@ -151,16 +151,10 @@ def circular_quartiles(angles: Sequence[float], median: float) -> tuple[float, f
     return median + float(q25), median + float(q75)
 
 
-def weight_of(record: Record) -> float:
-    """W = m·g of the record's insect [N]."""
-    insect = record.config["env"]["insect"]
-    return float(insect["body_mass"]) * float(insect["gravity"])
-
-
 def record_row(job: Job, record: Record) -> dict[str, Any]:
     """The tidy row of one optimisation: identity, feasibility, metrics, stroke summary, the 28
     stroke parameters (Table 4 units) and ``at_bounds`` (:func:`tandem_env.describe_bounds`)."""
-    m, s = record.metrics, record.stroke
+    m, s, insect = record.metrics, record.stroke, record.config["env"]["insect"]
     phase_difference = float(_wrap(float(s["hind_sweep_phase"]) - float(s["fore_sweep_phase"])))
     mean = lambda name: 0.5 * (float(s[f"fore_{name}"]) + float(s[f"hind_{name}"]))  # noqa: E731
     row: dict[str, Any] = {
@@ -179,7 +173,8 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
         "reward": float(record.reward),
         "efficiency": float(m["efficiency"]),
         "efficiency_pct": 100.0 * float(m["efficiency"]),
-        "thrust_ratio": float(m["thrust"]) / weight_of(record),
+        "thrust_ratio": float(m["thrust"])
+        / (float(insect["body_mass"]) * float(insect["gravity"])),
         "lift_to_weight": float(m["lift_to_weight"]),
         "power_per_mass": float(m["power_per_mass"]),
         "excess_vertical": float(m["excess_vertical"]),
@@ -198,7 +193,7 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
     }
     stroke = [float(s[name]) for name in PARAMETER_NAMES]  # Table 4 units
     row.update(zip(PARAMETER_NAMES, stroke, strict=True))
-    own = record.config["env"]["insect"].get("stroke_bounds")  # only where not Table 4's
+    own = insect.get("stroke_bounds")  # only where not Table 4's
     bounds = TABLE_4_BOUNDS if own is None else StrokeBounds(**own)
     row["at_bounds"] = describe_bounds(stroke, bounds)
     if own is not None:  # the insect's own bounds, what pinned() measures against
