@@ -468,15 +468,16 @@ class Lookup:
 
 class Plan(Protocol):
     """Resumable work in phases (:func:`run_plan`): called with a :class:`Lookup`, it yields
-    each phase once the records of the phases before it are there to look up."""
+    each phase once the records of the phases before it are there to look up. Phases that do
+    not depend on records are given as data instead, a sequence of :class:`Phase`."""
 
     def __call__(self, found: Lookup) -> Iterator[Phase]: ...
 
 
-def look_ahead(plan: Plan, out: Out, cache: CacheOption = True) -> list[Phase]:
+def look_ahead(plan: Plan | Sequence[Phase], out: Out, cache: CacheOption = True) -> list[Phase]:
     """``plan``'s phases as far as the records in ``out`` and the record cache decide them now,
     stand-ins after that (the cost line's; nothing runs or is written)."""
-    return list(plan(Lookup(RecordStore.at(out), cache)))
+    return list(plan if isinstance(plan, Sequence) else plan(Lookup(RecordStore.at(out), cache)))
 
 
 @dataclass(frozen=True)
@@ -492,7 +493,7 @@ class PlanRun:
 
 
 def run_plan(
-    plan: Plan,
+    plan: Plan | Sequence[Phase],
     out: Out,
     scheduler: str | None = None,
     cache: CacheOption = True,
@@ -511,7 +512,7 @@ def run_plan(
     found = Lookup(store, cache, {})
     runs: dict[str, RunSummary] = {}
     started: list[Phase] = []
-    for phase in plan(found):
+    for phase in plan if isinstance(plan, Sequence) else plan(found):
         started.append(phase)
         if command is not None and len(started) > 1:
             command.start(look_ahead(plan, store, cache), started)

@@ -15,10 +15,24 @@ from agents.store import RecordStore
 from eval.figures import FORMATS
 from eval.optimize import add_insect_argument, add_run_arguments, backend_kwargs, run_reporting
 from eval.studies.base import StudyPlan
-from eval.studies.campaigns import CAMPAIGNS, campaigns
 from eval.studies.claims import FLIP_THRESHOLD
-from eval.studies.presets import OVERRIDES, STUDY_PRESETS, get_preset, overridden
+from eval.studies.presets import OVERRIDES, STUDY_PRESETS, overridden
+from eval.studies.readings.run import READINGS, ReadingsCampaign
+from eval.studies.suite import SUITE, SuiteCampaign
 from tandem_env.physics.insect import DRAGONFLY, describe_insect
+
+#: What the command runs, in the order of its help: the paper's studies and the readings study.
+#: Each has the study ``names`` that choose it, its help lines (``description``,
+#: ``reading_help``), ``default_out``, its own ``options`` (flag -> ``add_argument`` keywords,
+#: refused for another study), a plan (``plan(args, plan, store)``: ``phases`` for
+#: :func:`agents.runner.run_plan`, a ``title`` and ``finish(run)``) and ``report(args, result)``.
+CAMPAIGNS = (SUITE, READINGS)
+
+
+def campaigns() -> dict[str, SuiteCampaign | ReadingsCampaign]:
+    """Every study name the command offers -> its campaign (the names read now)."""
+    return {name: campaign for campaign in CAMPAIGNS for name in campaign.names}
+
 
 NAME = "study"
 HELP = "reproduce the paper's figures: speed/power sweeps, kinematics, wing shape, report"
@@ -149,19 +163,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     campaign = campaigns()[args.study]
-    methods = tuple(dict.fromkeys(args.method)) if args.method else None
-    if args.out is None:
-        args.out = campaign.default_out
+    args.out = args.out or campaign.default_out
     for other in CAMPAIGNS:
         for flag, option in {} if other is campaign else other.options.items():
             if getattr(args, flag[2:].replace("-", "_")) != option["default"]:
                 owner = ", ".join(other.names)
                 parser.error(f"{flag} is for the {owner} study only (study {args.study!r})")
     try:
-        given = {option: getattr(args, option) for option in OVERRIDES}
         plan = StudyPlan(
-            overridden(get_preset(args.preset), **given),
-            methods,
+            overridden(STUDY_PRESETS[args.preset], **{o: getattr(args, o) for o in OVERRIDES}),
+            tuple(dict.fromkeys(args.method)) if args.method else None,
             figure_format=args.format,
             execution=tuple(backend_kwargs(args).items()),
             insect=DRAGONFLY if args.insect is None else args.insect,
@@ -174,11 +185,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         study = campaign.plan(args, plan, store)
         for method in study.plan.methods:  # an unknown method or bad setting, before any job
             get_method(method, dict(study.plan.method_config(method)))
-        phases = look_ahead(study, store, args.cache)
+        phases = look_ahead(study.phases, store, args.cache)
         unique = list({job.key: job for job in phases[0].jobs}.values())
         writable = store.check(write=False, jobs=unique)  # and each record's path
         reports_only = len(phases) == 1 and not phases[0].later
-        stored = find_records(store, unique, cache=False) is not None
+        stored = writable or find_records(store, unique, cache=False) is not None
         if not writable and not (reports_only and stored):
             store.check(jobs=unique)  # raises, naming the folder and why
         # --quiet says no cost line, so none is made
@@ -209,7 +220,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
     def run() -> object:
         done = run_plan(
-            study,
+            study.phases,
             store,
             scheduler,
             args.cache,

@@ -1,8 +1,5 @@
-"""The reproduction studies of the paper's figures, run on the harness.
-
-``python -m eval study all|speed|power|kinematics|wing-shape|convergence --preset quick|paper
---out DIR`` (see :mod:`eval.study`); :func:`eval.studies.suite.run_studies` from Python.
-"""
+"""The reproduction studies of the paper's figures, run on the harness: ``python -m eval study``
+(:mod:`eval.study`), :func:`eval.studies.suite.run_studies` from Python."""
 
 from __future__ import annotations
 

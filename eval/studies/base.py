@@ -1,9 +1,7 @@
 """What every study shares: the plan (preset + methods), job construction and output writing.
 
 A study module defines ``NAME``, ``TITLE``, ``jobs(plan) -> list[Job]`` and
-``analyse(plan, records, out_dir) -> StudyOutput``. Jobs of different studies that mean the
-same optimisation (e.g. the tear-drop speed sweep reused by the wing-shape study, or the
-kinematics study's strokes at 1.25 m/s and 60 W/kg) are the same :class:`Job` and run once.
+``analyse(plan, records, out_dir) -> StudyOutput``; jobs two studies share run once.
 """
 
 from __future__ import annotations
@@ -40,22 +38,16 @@ class StudyPlan:
 
     preset: Preset
     methods: tuple[str, ...] | None = None
-    """The methods run at every condition; under a reading with a search
-    (:attr:`Reading.search <eval.studies.paper_reading.Reading.search>`) that search's method
-    alone, whatever is given here."""
+    """The methods run at every condition; under a reading with a search, its method alone."""
     reading: Reading = DEFAULT
-    """The model options every job runs with, which objective gives F̄_h and, if it has one, the
-    search (method, budget, settings) of every job (:mod:`eval.studies.paper_reading`); the
-    default reading adds no env keyword and no search, so its jobs and keys are those of a plan
-    without one."""
+    """The model options, F̄_h's objective and search of every job
+    (:mod:`eval.studies.paper_reading`); the default adds nothing to the jobs."""
     figure_format: str = FORMATS[0]
     """The figures' file format (:data:`eval.figures.FORMATS`)."""
     execution: tuple[tuple[str, Any], ...] = ()
-    """Env keywords of every job that choose only how the model is computed (``backend``,
-    ``device``: :data:`~tandem_env.envs.config.EXECUTION_KWARGS`); left out of the record keys."""
+    """Env keywords that choose only how the model is computed (``backend``, ``device``)."""
     insect: Dragonfly = DRAGONFLY
-    """The insect every job flies (``--insect``); the paper's specimen adds no env keyword, so
-    its jobs and keys are those of a plan without one. The studies set each series' planform."""
+    """The insect every job flies (``--insect``; the paper's specimen adds no env keyword)."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.preset, Preset):
@@ -99,8 +91,7 @@ class StudyPlan:
 
     @property
     def model_options(self) -> ModelOptions:
-        """The model options every job runs with: the preset's and the reading's env keywords
-        over the defaults (as the env builds them, ``FlightConfig.from_kwargs``)."""
+        """The model options of every job: the preset's and the reading's env keywords."""
         kwargs = {**dict(self.preset.env_kwargs), **self.reading.env_kwargs()}
         return ModelOptions(
             **{MODEL_OPTION_KWARGS[k]: v for k, v in kwargs.items() if k in MODEL_OPTION_KWARGS}
@@ -111,8 +102,8 @@ class StudyPlan:
         return figure_path(folder, stem, self.figure_format)
 
     def method_config(self, method: str) -> tuple[tuple[str, Any], ...]:
-        """The settings of ``method`` in every job: the reading's search's (with its swarm
-        size), else the preset's swarm size as the method's batch."""
+        """The settings of ``method`` in every job: the reading's search's, else the preset's
+        swarm size as its batch."""
         search = self.reading.search
         if search is not None and method == search.method:
             return search.method_config(self.preset.swarm_size)
@@ -136,9 +127,8 @@ class StudyPlan:
         budget: int | None = None,
         seeds: Sequence[int] | None = None,
     ) -> list[Job]:
-        """Every method × condition × seed of one series (the plan's :meth:`budget` and the
-        preset's seeds unless given), under the plan's reading (its model options and search;
-        ``objective="horizontal"`` becomes the reading's F̄_h objective)."""
+        """Every method × condition × seed of one series under the plan's reading (the plan's
+        :meth:`budget` and the preset's seeds unless given)."""
         kwargs: dict[str, Any] = dict(self.preset.env_kwargs)
         kwargs.update(self.reading.env_kwargs())
         kwargs.update(self.execution)
@@ -184,9 +174,8 @@ def write_tables(
     out_dir: Path,
     quantities: Sequence[str],
 ) -> tuple[list[dict[str, Any]], list[Path]]:
-    """Write ``DIR/<name>/records.json`` (index, :data:`INDEX_FILE`), ``<name>.csv`` (tidy) and
-    ``<name>_summary.csv`` (the ``quantities`` and the 28 stroke parameters per series and
-    condition)."""
+    """Write ``DIR/<name>/records.json`` (the index), ``<name>.csv`` (tidy rows) and
+    ``<name>_summary.csv`` (the ``quantities`` and the 28 stroke parameters)."""
     study_dir = out_dir / name
     rows = tidy_rows(records)
     index = [

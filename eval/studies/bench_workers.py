@@ -2,11 +2,9 @@
 
     python -m eval.studies.bench_workers [--preset quick] [--scheduler local:2] [--repeat 1]
 
-Runs every optimisation of ``study all`` for the preset into fresh temporary directories,
-serially and on ``--scheduler``, alternating ``--repeat`` times, and prints each run's wall
-time; then, from the serial run's records, the job-length distribution and the best speed-up W
-workers can give (:func:`makespan`), measured for the preset and estimated for every preset.
-What it measures and the numbers: docs/scaling.md, "Measured".
+Runs ``study all``'s optimisations for the preset serially and on ``--scheduler`` (alternating,
+``--repeat`` times) and prints the wall times, the job lengths and the best speed-up W workers
+can give (:func:`makespan`), measured and estimated for every preset (docs/scaling.md).
 """
 
 from __future__ import annotations

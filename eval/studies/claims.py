@@ -1,21 +1,9 @@
 """The paper's claims (docs/model.md §9) as checkable rows, and the rules that decide agreement.
 
-Agreement rules: :data:`RULES`, stated in every report. ``trend`` reports the monotonic
-fraction (steps in the claimed direction / steps) beside ρ; ``location``'s tolerance is one step
-of the paper's speed sweep.
-
-"best" is the same statistic computed from the best seed of each condition (the seed with
-the best objective), i.e. what a "take the best of N runs" protocol, like the paper's, gives.
-Every claim is judged on both, by the same rule.
-
-Confidence (:data:`CONFIDENCE_RULE`, :func:`with_confidence`): each verdict is recomputed on
-bootstrap resamples of the seeds; one that flips in more than :data:`FLIP_THRESHOLD` of them
-is *undecided*: the seeds run do not decide it.
-
-Identifiability (:data:`IDENTIFIABILITY_RULE`, :func:`identifiable`): a claim declares what of
-the model it is about (:class:`Dependence`, e.g. the fore/hind phase); where the model, under
-the options the study ran, does not depend on it (:data:`QUANTITIES`), every value of it is an
-optimum, so the claim is *not identifiable* instead of agreeing or differing, and counted apart.
+Every claim is judged by its rule (:data:`RULES`) on the seeds' medians and on each condition's
+best seed (what the paper's "best of N runs" gives); a verdict the bootstrap over seeds flips
+is undecided (:data:`CONFIDENCE_RULE`), and a claim about what the model does not depend on is
+not identifiable (:data:`IDENTIFIABILITY_RULE`).
 """
 
 from __future__ import annotations
@@ -157,9 +145,7 @@ class Claim:
             object.__setattr__(self, "best_leaning", self.best_verdict)
 
     def verdict_text(self, best: bool = False) -> str:
-        """The verdict with its confidence, e.g. ``agrees (flips 4 %)`` or
-        ``undecided (leans differs, flips 35 %)``, or ``not identifiable (the model does not
-        depend on the fore/hind phase)``."""
+        """The verdict with its confidence, e.g. ``undecided (leans differs, flips 35 %)``."""
         if self.lacks:
             return f"not identifiable (the model does not depend on the {', '.join(self.lacks)})"
         if best:
@@ -169,17 +155,13 @@ class Claim:
     def ours(self) -> str:
         if math.isnan(self.median):
             return "–"
-        text = f"{_fmt(self.median)}"
+        text = f"{self.median:.3g}"
         if not (math.isnan(self.q25) or math.isnan(self.q75)):
-            text += f" [{_fmt(self.q25)}, {_fmt(self.q75)}]"
+            text += f" [{self.q25:.3g}, {self.q75:.3g}]"
         return f"{text} {self.unit}".strip()
 
     def best_text(self) -> str:
-        return "–" if math.isnan(self.best) else f"{_fmt(self.best)} {self.unit}".strip()
-
-
-def _fmt(value: float) -> str:
-    return f"{value:.3g}"
+        return "–" if math.isnan(self.best) else f"{self.best:.3g} {self.unit}".strip()
 
 
 def _judgement_text(verdict: Verdict, leaning: Verdict | None, flips: float) -> str:
@@ -201,9 +183,7 @@ def decide(leaning: Verdict, flips: float) -> Verdict:
 
 @dataclass(frozen=True)
 class VerdictCount:
-    """How many of some claims agree, differ, are undecided (the bootstrap flips them), are
-    not identifiable (the model does not depend on what they are about) or have no verdict
-    (no data, not run)."""
+    """How many claims agree, differ, are undecided, not identifiable or without a verdict."""
 
     agree: int
     differ: int
@@ -300,10 +280,8 @@ def monotonic_fraction(x: Sequence[float], y: Sequence[float], direction: int) -
 # --- claim builders: a row's rule, statistics and test as ClaimBuilder.claim's arguments ------
 @dataclass(frozen=True)
 class ClaimBuilder:
-    """Builds one study's claims for one method: the id gets the method's suffix (``S7`` for
-    the study's first method, ``S7/random`` for the others); the verdicts on the median and on
-    the best seed come from one ``test`` of the rule applied to each (None, NaN or no test: no
-    data)."""
+    """Builds one study's claims for one method (ids ``S7`` for the first method, ``S7/random``
+    for the others); one ``test`` judges the median and the best seed (None or NaN: no data)."""
 
     study: str
     method: str
@@ -321,9 +299,8 @@ class ClaimBuilder:
         test: Callable[[float], Any] | None = None,
         **fields: Any,
     ) -> Claim:
-        """One row; ``fields`` are the other :class:`Claim` fields (``median`` and ``best``
-        are what ``test`` judges). The ``*_row`` functions below give a rule's arguments,
-        e.g. ``claim(..., **trend_row(series, +1))``."""
+        """One row; ``fields`` are the other :class:`Claim` fields (``test`` judges ``median``
+        and ``best``), e.g. from a ``*_row`` function: ``claim(..., **trend_row(series, +1))``."""
         median, best = fields.get("median", math.nan), fields.get("best", math.nan)
         return Claim(
             id=cid if self.index == 0 else f"{cid}/{self.method}",
@@ -344,9 +321,8 @@ def trend_test(direction: int) -> Callable[[float], bool]:
 
 
 def trend_row(series: Mapping[float, Spread], direction: int, **fields: Any) -> dict[str, Any]:
-    """``trend``: ρ between the condition and the medians (and the best seeds), the monotonic
-    fraction of the medians as the detail; ``fields`` override any of these (e.g.
-    :func:`held_at_bound`'s)."""
+    """``trend``: ρ between the condition and the medians (and the best seeds), the medians'
+    monotonic fraction as the detail; ``fields`` override these (:func:`held_at_bound`'s)."""
     x, medians = list(series), [s.median for s in series.values()]
     frac = monotonic_fraction(x, medians, direction)
     row = dict(
@@ -361,12 +337,10 @@ def trend_row(series: Mapping[float, Spread], direction: int, **fields: Any) -> 
 
 
 def held_at_bound(rows: Sequence[Mapping[str, Any]], quantity: str) -> dict[str, Any]:
-    """What :data:`HELD_RULE` changes in a ``trend`` or ``follows`` row of stroke parameter
-    ``quantity`` over the rows' conditions (one series): ρ = 0 for the medians (``median``)
-    where one Table 4 bound holds it at every condition (``tables.pinned`` over the feasible
-    seeds), and for the best seeds (``best``) where it holds each condition's best seed; a
-    ``detail`` and ``note`` that name the bound. Empty where no bound holds either, and below
-    3 conditions (too few for a ρ, :func:`rho`)."""
+    """What :data:`HELD_RULE` changes in a ``trend`` or ``follows`` row of ``quantity`` over
+    one series' rows: ρ = 0 for the medians and/or the best seeds that one Table 4 bound holds
+    at every condition (``tables.pinned``), with a ``detail`` and ``note`` naming it; empty
+    where none does or below 3 conditions."""
     conditions = sorted({float(r["condition"]) for r in rows})
     bounds = table4_bounds(quantity)
     if len(conditions) < 3 or bounds is None:
@@ -416,9 +390,8 @@ def location_row(
 def spread_row(
     rule: Rule, s: Spread, test: Callable[[float], Any], **fields: Any
 ) -> dict[str, Any]:
-    """A row of one spread over seeds: its median, quartiles and best seed (``test`` judges
-    the median and the best), and how many seeds were feasible as the detail (``fields``
-    override any of these)."""
+    """A row of one spread over seeds: median, quartiles, best seed and the feasible seeds as
+    the detail (``fields`` override these)."""
     stats = {"median": s.median, "q25": s.q25, "q75": s.q75, "best": s.best}
     return {"rule": rule, "test": test, **stats, "detail": seeds_feasible(s), **fields}
 
@@ -441,9 +414,8 @@ Rows = list[dict[str, Any]]
 
 
 def _strata(rows: Sequence[Mapping[str, Any]]) -> list[tuple[list[int], dict[int, list[dict]]]]:
-    """The rows grouped by what a seed is drawn within: one condition of one series
-    (method, task, planform; the objectives together, so a seed's vertical and horizontal
-    optimisations stay paired), each as (its seeds, {seed: rows}), in a fixed order."""
+    """(seeds, {seed: rows}) per condition of each series (method, task, planform; objectives
+    together, so a seed's two accelerating optimisations stay paired), in a fixed order."""
     groups: dict[tuple[str, ...], dict[int, list[dict]]] = {}
     for row in rows:
         key = tuple(str(row.get(k)) for k in ("method", "task", "planform", "condition"))
@@ -469,12 +441,9 @@ def with_confidence(
     resamples: int = BOOTSTRAP_RESAMPLES,
     seed: int = BOOTSTRAP_SEED,
 ) -> list[Claim]:
-    """``claims_of(rows)`` with each verdict's confidence (:data:`CONFIDENCE_RULE`).
-
-    ``claims_of`` builds claims from tidy rows (one per seed and optimisation); it is rerun on
-    ``resamples`` bootstrap resamples of the seeds (:func:`resample`, RNG seeded by ``seed``,
-    so the result is deterministic). A claim missing from a resample counts as flipped.
-    """
+    """``claims_of(rows)`` (tidy rows) with each verdict's confidence (:data:`CONFIDENCE_RULE`):
+    rerun on ``resamples`` resamples of the seeds (:func:`resample`, RNG seeded by ``seed``); a
+    claim missing from a resample counts as flipped."""
     claims = claims_of([dict(r) for r in rows])
     if not claims or resamples <= 0:
         return claims
@@ -511,10 +480,9 @@ def with_confidence(
 
 
 def identifiable(claims: Iterable[Claim], options: ModelOptions) -> list[Claim]:
-    """The claims with the verdicts :data:`IDENTIFIABILITY_RULE` gives under ``options`` (the
-    model options the study's optimisations ran with): a claim about a quantity the model does
-    not depend on (:attr:`Claim.depends_on`) is ``"not identifiable"`` on the median and on the
-    best seed, without a confidence (its statistics stay, as what the search left)."""
+    """The claims with the verdicts :data:`IDENTIFIABILITY_RULE` gives under the study's model
+    ``options``: ``"not identifiable"``, without a confidence, where the model does not depend
+    on a quantity of :attr:`Claim.depends_on` (the statistics stay)."""
     unknowable: Verdict = "not identifiable"
     out = []
     for c in claims:
@@ -541,9 +509,8 @@ def study_claims(
     *,
     options: ModelOptions,
 ) -> list[Claim]:
-    """Every method's claims (``claims_of(rows, method, index)``) with their confidence, each
-    method's bootstrap over its own rows, and identifiable under ``options``, the model options
-    the rows' optimisations ran with (:func:`identifiable`)."""
+    """Every method's claims (``claims_of(rows, method, index)``), each method's bootstrap over
+    its own rows (:func:`with_confidence`), judged identifiable under ``options``."""
     return identifiable(
         [
             c

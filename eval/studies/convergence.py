@@ -1,13 +1,9 @@
 """Budget study: best-so-far against evaluations, PSO and CMA-ES side by side.
 
-Each method of the preset's :class:`~eval.studies.presets.ConvergenceSpec`, plus any method the
-study is run with, runs with a long budget and no polish at one level (η) and one accelerating
-(F̄_v) condition, several seeds each. Both methods have the prefix property (a run with budget B
-is exactly the first B evaluations of a longer run with the same seed), so each run's history
-gives the best reward every smaller budget would have reached (:func:`checkpoint_rows`); the
-presets' methods and budgets are chosen from it (docs/reproduction.md). v3 adds the budget
-splits between search and polish at the preset's own budgets, judged by what the records
-report (:func:`split_rows`, ``ConvergenceSpec.polish_shares``).
+Each method of the preset's :class:`~eval.studies.presets.ConvergenceSpec` (and any the study is
+run with) runs long, without a polish, at one level and one accelerating (F̄_v) condition; by
+the prefix property each run's history gives every smaller budget's best (:func:`checkpoint_rows`).
+The budget splits between search and polish run at the preset's own budgets (:func:`split_rows`).
 """
 
 from __future__ import annotations
@@ -72,8 +68,8 @@ def split_jobs(plan: StudyPlan) -> dict[float, list[Job]]:
 
 
 def polish_share_settings(method: str, share: float) -> tuple[tuple[str, object], ...]:
-    """The method settings of a polish share: none for the method's default (so the split's
-    jobs are the other studies' jobs at that condition, run once), else the share."""
+    """The method settings of a polish share: none for the method's default (the other studies'
+    jobs), else the share."""
     default = polish_settings(method, {})[0]
     if share == 0:
         return (("polish", "none"),) if default.enabled else ()
@@ -88,8 +84,8 @@ def jobs(plan: StudyPlan) -> list[Job]:
 
 
 def curves(runs: Sequence[Record]) -> tuple[np.ndarray, np.ndarray]:
-    """(evaluations (n,), best reward so far (seeds, n)) of ``runs`` (the long runs of one
-    method and condition, :func:`long_jobs`) on a common evaluation grid."""
+    """(evaluations (n,), best reward so far (seeds, n)) of one method's and condition's long
+    ``runs`` on a common evaluation grid."""
     chosen = sorted(runs, key=lambda r: r.seed)
     grid = np.array(sorted({e for r in chosen for e, _ in r.history}), dtype=float)
     values = np.empty((len(chosen), grid.size))
@@ -102,12 +98,8 @@ def curves(runs: Sequence[Record]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, Any]:
-    """Reproducibility of one budget split, from what the records report.
-
-    The objective of a seed is its record's objective when feasible, else NaN (a stroke that
-    does not fly is not a result). ``halves_apart`` = |best(first half) − best(second half)| /
-    the larger, the seeds in their order split into two disjoint sets.
-    """
+    """Reproducibility of one budget split from the records' feasible objectives:
+    ``halves_apart`` = |best(first half) − best(second half)| / the larger, over the seeds."""
     runs = sorted(runs, key=lambda r: r.seed)
     values = np.array([r.objective if r.feasible else np.nan for r in runs], dtype=float)
     half = len(runs) // 2
@@ -146,12 +138,8 @@ def _best(values: np.ndarray) -> float:
 def checkpoint_rows(
     label: str, method: str, grid: np.ndarray, values: np.ndarray
 ) -> list[dict[str, Any]]:
-    """Median, IQR, min, max, spread and fraction of the longest run's median per checkpoint.
-
-    spread = (max − min) / median over seeds. The fraction is of the value itself, not of the
-    gain from the first batch, whose median is a penalised (infeasible) reward and would make
-    every budget look converged.
-    """
+    """Median, IQR, min, max, spread ((max − min) / median) and fraction of the longest run's
+    median (of the value, not the gain from a penalised first batch) per checkpoint."""
     final = np.median(values[:, -1])
     out = []
     for budget in [c for c in CHECKPOINTS if c <= grid[-1]] + [int(grid[-1])]:

@@ -1,16 +1,10 @@
 """Kinematics of the optimised strokes (paper Figs. 9-13).
 
-The strokes are those of the level-flight optimisations at V = 1.25 m/s and of the
-accelerating optimisations at 60 W/kg (the paper's choices; the same jobs as the sweeps', so
-they run once), plus level flight at 2 m/s for the paper's largest phase difference. Every
-seed's stroke is drawn (thin) and the best seed's bold: wing-tip paths relative to the wing
-base (Figs. 9-10), φ and η of both wings over the cycle with the fore/hind phase difference
-(Figs. 11-12), angle of attack and relative speed at 0.75 R (Fig. 13).
-
-Phase difference: φ(t) = φ_m/asin K · asin[K sin(2πft + Φ_φ)] + φ_0 is odd about its
-zero crossing, so its fundamental has phase Φ_φ exactly; ΔΦ = Φ_φ,hind − Φ_φ,fore wrapped to
-(−180°, 180°], positive when the hind-wing leads. Its statistics over seeds are circular
-(``tables.circular_median``): seeds at +136° and −170° have the median 163°, not −17°.
+The strokes of level flight at 1.25 m/s and accelerating flight at 60 W/kg (the paper's choices,
+the sweeps' own jobs), and level flight at 2 m/s for the paper's largest phase difference; every
+seed thin, the best bold: tip paths (Figs. 9-10), φ and η over the cycle (Figs. 11-12), angle of
+attack and relative speed at 0.75 R (Fig. 13). The fore/hind phase difference ΔΦ = Φ_φ,hind −
+Φ_φ,fore is wrapped to (−180°, 180°] (> 0: the hind-wing leads); its statistics are circular.
 """
 
 from __future__ import annotations
@@ -51,11 +45,9 @@ TRACED = ("tip_path", "sweep", "pitch", "angle_of_attack", "relative_speed")
 
 
 def triangle_note(rows: list[dict[str, Any]]) -> str:
-    """Fig. 13's legend line on the strokes (``rows``, one per seed) whose weaving is a
-    triangle wave: shape K at its Table 4 upper bound 1 (``tandem_env.bound_sides``; the
-    model caps it at 1 − 10⁻⁴, docs/model.md §3.4). Such a wing's φ̇ is constant along each
-    half-stroke and reverses within one of the figure's samples, so its relative speed (and
-    angle of attack) steps at each reversal: the kinematics, not the plot. "" where none is."""
+    """Fig. 13's legend line naming the seeds' wings whose weaving is a triangle wave (shape K
+    at its upper bound 1, docs/model.md §3.4): their φ̇ reverses at once, so their relative
+    speed steps at each reversal (the kinematics, not the plot); "" where none is."""
     shape = {w: PARAMETER_NAMES.index(f"{w}_sweep_shape") for w in ("fore", "hind")}
     found = []
     for row in sorted(rows, key=lambda r: r["seed"]):
@@ -140,10 +132,8 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             title, values, ylabel, best={k: s.best for k, s in groups.items()}, **marks
         )
 
-    # Each panel shows the statistic its claim judges: the median of |ΔΦ| (K1, K3), the
-    # circular median of ΔΦ (K2), the medians of η_m (K4). Where the model does not depend on
-    # the fore/hind phase, K1-K3 are not identifiable and the figure says the medians are not
-    # judged (claims.IDENTIFIABILITY_RULE).
+    # Each panel shows the statistic its claim judges; not judged where K1-K3 are not
+    # identifiable (claims.IDENTIFIABILITY_RULE).
     judged = (
         "judged"
         if plan.model_options.phase_resolved()
@@ -247,8 +237,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
 
 
 def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
-    """What K1-K3 are about: the fore/hind phase at the flight speed of their optimisations
-    (level at ``kinematics_speed`` and ``phase_speed``, accelerating at the env's speed)."""
+    """What K1-K3 are about: the fore/hind phase at their optimisations' flight speeds."""
     p = plan.preset
     level = plan.jobs("level", [p.kinematics_speed, p.phase_speed], seeds=p.seeds[:1])
     accel = plan.jobs(
@@ -262,9 +251,8 @@ def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
 
 
 def _judged(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> tuple[Spread, ...]:
-    """What K1-K4 judge and Figs. 11c-d and 12c show, over ``method``'s seeds: |ΔΦ| at the
-    level and at the accelerating condition, ΔΦ at ``phase_speed``, η_m at the level and at
-    the accelerating condition."""
+    """What K1-K4 judge and Figs. 11c-d and 12c show: |ΔΦ| level and accelerating, ΔΦ at
+    ``phase_speed``, η_m level and accelerating."""
     p = plan.preset
     level, accel = _series(plan, method)
     picks = (
@@ -278,8 +266,7 @@ def _judged(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> tuple[S
 
 
 def _series(plan: StudyPlan, method: str) -> tuple[dict[str, Any], dict[str, Any]]:
-    """What picks ``method``'s level and accelerating series (:func:`tables.select`), the
-    accelerating one with the objective of its jobs (``StudyPlan.jobs``)."""
+    """What picks ``method``'s level and accelerating series (:func:`tables.select`)."""
     level = dict(method=method, task="level", planform="tear-drop")
     objective = plan.reading.objective(plan.preset.kinematics_objective)
     return level, dict(level, task="accelerate", objective=objective)

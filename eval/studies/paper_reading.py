@@ -1,18 +1,11 @@
 """A reading of the paper: one named, documented choice for each decision the paper leaves open.
 
-The paper (Faisal & Filippone 2016) leaves several modelling decisions open (docs/model.md §1.3,
-§5, §6, §7): how thrust and drag split the horizontal force, how power is accounted, the
-rotational coefficient C_r, which spin rate enters circulation and added mass, the inflow in
-hover, the fore-wing's share C_hf on the hind-wing, and what F̄_h of accelerating flight is. A
-:class:`Reading` names one combination of those choices; the studies build their jobs under it
-(:meth:`eval.studies.base.StudyPlan.jobs`), so a reading changes the env keywords of every job and
-nothing else. The default reading changes nothing: its jobs are the ``all`` suite's, key for key.
-
-One more open decision is not the model's but the search's: the paper optimises with "particle
-swarm optimization" (Sec. II.F) and states no swarm size, iteration count or stopping rule. A
-reading may carry a :class:`Search` (method, budget, method settings) that replaces the plan's
-method and the preset's budget in every job, so that "the paper's optimiser had not converged"
-is a reading the studies can run like any other (:data:`PAPER_SEARCHES`, docs/efficiency.md).
+The paper leaves modelling decisions open (docs/model.md §1.3, §5, §6, §7: thrust and drag,
+power, C_r, spin, hover inflow, C_hf, F̄_h). A :class:`Reading` names one combination of them
+and changes only the env keywords of the studies' jobs (:meth:`eval.studies.base.StudyPlan.jobs`);
+the default reading changes nothing. The paper does not state its search either (PSO, no swarm
+size or stopping rule): a reading may carry a :class:`Search` that replaces the plan's method and
+budgets (:data:`PAPER_SEARCHES`, docs/efficiency.md).
 """
 
 from __future__ import annotations
@@ -51,8 +44,7 @@ def _fail(name: str, field_name: str, value: Any, allowed: str) -> None:
 
 
 def _pairs(value: Any, where: str) -> tuple[tuple[str, Any], ...]:
-    """``value`` (pairs or a mapping) as sorted (name, value) pairs with distinct names;
-    ``where`` names the field in the error (e.g. ``"Search.settings"``)."""
+    """``value`` (pairs or a mapping) as sorted (name, value) pairs with distinct names."""
     items = value.items() if isinstance(value, Mapping) else value
     try:
         pairs = tuple(sorted((k, v) for k, v in items))
@@ -68,28 +60,22 @@ def _pairs(value: Any, where: str) -> tuple[tuple[str, Any], ...]:
 
 @dataclass(frozen=True)
 class Search:
-    """How every job of a reading searches: the method, its budget and its settings, replacing
-    the plan's method and the preset's budget (:meth:`eval.studies.base.StudyPlan.jobs`).
-
-    The budget is ``swarm_size`` × ``iterations`` model evaluations for every task, or
-    ``budgets`` per task, or (neither given) the preset's. A polish, when the settings leave one
-    on, takes its share of that budget (``polish_share``, agents/polish.py).
-    """
+    """How every job of a reading searches (method, budget, settings), replacing the plan's
+    method and the preset's budget: ``swarm_size`` × ``iterations`` evaluations for every task,
+    or ``budgets`` per task, or the preset's; a polish takes its share of it."""
 
     method: str
     """A harness method name, e.g. ``"pso"`` (:func:`agents.methods.available_methods`)."""
     swarm_size: int | None = None
-    """Strokes per iteration (PSO particles, a CMA-ES population: the method's batch), >= 2;
-    None keeps the batch a plan gives the method (the preset's swarm size for PSO)."""
+    """Strokes per iteration (the method's batch), >= 2; None: the plan's."""
     iterations: int | None = None
-    """Iterations per run (the initial swarm counts as one), >= 1; with ``swarm_size`` it sets
-    the budget of every task. None: ``budgets`` or the preset's budget."""
+    """Iterations per run (the initial swarm counts as one), >= 1; with ``swarm_size`` the
+    budget of every task."""
     budgets: tuple[tuple[str, int], ...] = ()
-    """Model evaluations per run by task name (``"level"``, ``"accelerate"``), sorted; a mapping
-    is accepted. A task not named keeps the preset's budget."""
+    """Model evaluations per run by task name, sorted (a mapping is accepted); a task not named
+    keeps the preset's."""
     settings: tuple[tuple[str, Any], ...] = ()
-    """Method settings (``method_config``), e.g. ``{"polish": "none"}``, sorted; a mapping is
-    accepted; the batch size goes in ``swarm_size``, the budget in ``iterations``/``budgets``."""
+    """Method settings, e.g. ``{"polish": "none"}``, sorted (a mapping is accepted)."""
 
     def __post_init__(self) -> None:
         method = self.method
@@ -142,8 +128,7 @@ class Search:
             raise ValueError(f"Search of method {method!r}: {error}") from None
 
     def _batch(self, preset_swarm: int | None) -> dict[str, int]:
-        """The batch setting this search gives: its swarm size as ``swarm_size`` (the alias
-        every ask/tell optimiser accepts for its batch, agents/methods.py), else
+        """The batch setting: its ``swarm_size`` (every ask/tell optimiser's alias), else
         ``preset_swarm`` where a study's preset sets the method's batch."""
         if self.swarm_size is not None:
             return {"swarm_size": self.swarm_size}
@@ -187,16 +172,14 @@ class Reading:
     description: str
     """One line: what this reading assumes and where the paper leaves it open."""
     options: tuple[tuple[str, Any], ...] = ()
-    """:class:`~tandem_env.ModelOptions` fields (``DECISION_OPTIONS``) and their values, sorted
-    by name; a mapping is accepted. Values are validated by ``ModelOptions`` itself."""
+    """:class:`~tandem_env.ModelOptions` fields (``DECISION_OPTIONS``) and values, sorted (a
+    mapping is accepted)."""
     rotational_coefficient: float | None = None
     """C_r of both wings [-] (Table 3); None keeps the insect's (π)."""
     horizontal_objective: str = "horizontal"
-    """The accelerating-flight objective whose optimum gives F̄_h (``HORIZONTAL_OBJECTIVES``):
-    ``"horizontal"`` (docs/model.md §7) or ``"horizontal_literal"`` (Eq. 24 read literally)."""
+    """The accelerating objective whose optimum gives F̄_h (``HORIZONTAL_OBJECTIVES``)."""
     search: Search | None = None
-    """How every job searches (:class:`Search`; a mapping of its fields is accepted); None keeps
-    the plan's method and the preset's budgets."""
+    """How every job searches (a :class:`Search` or a mapping of its fields); None: the plan's."""
     derived_from: tuple[str, ...] = field(default=(), compare=False)
     """The single readings a combination was derived from (empty for a single reading)."""
 
@@ -281,9 +264,8 @@ class Reading:
         )
 
     def env_kwargs(self) -> dict[str, Any]:
-        """The env keywords of this reading's model (``gym.make`` names): only the options
-        that differ from the defaults, so a reading that restates a default has the default's
-        job keys."""
+        """The env keywords of the options that differ from the defaults (so a reading that
+        restates a default has the default's job keys)."""
         changed = self.changes()
         changed.pop("horizontal_objective", None)
         changed.pop("search", None)

@@ -1,10 +1,6 @@
-"""Accelerating-flight power sweep (paper Figs. 7-8).
-
-At each available power (50-90 W/kg, V = 0) two optimisations per seed (docs/model.md §7): one
-maximises F̄_v (with F̄_h ≥ 0), one F̄_h (with F̄_v ≥ 0). The attainable specific excess force
-(Eq. 27) combines them: per seed F̄_a = sqrt(F̄_v² + F̄_h²) of that seed's two optimisations,
-and for the best seeds sqrt(max F̄_v² + max F̄_h²), the paper's reading.
-"""
+"""Accelerating-flight power sweep (paper Figs. 7-8): per power and seed one optimisation of F̄_v
+(F̄_h ≥ 0) and one of F̄_h (F̄_v ≥ 0), combined as F̄_a = sqrt(F̄_v² + F̄_h²) (Eq. 27) per seed and,
+the paper's reading, over the best seeds."""
 
 from __future__ import annotations
 
@@ -38,14 +34,12 @@ PAPER_VERTICAL = {50.0: 2.7, 90.0: 4.4}
 PAPER_HORIZONTAL = {50.0: 2.4, 90.0: 3.5}
 PAPER_ATTAINABLE = {50.0: 3.6, 90.0: 5.6}
 PAPER_RATIO = (10.0, 20.0)  # % by which F̄_v exceeds F̄_h
-#: F̄'s unit in every figure (Figs. 7, 8, 16): an excess force over the body weight W = m·g
-#: (docs/model.md §7.6), a ratio; numerically the acceleration it gives in units of g.
+#: F̄'s unit in every figure: an excess force over the body weight (docs/model.md §7.6).
 EXCESS_UNIT = "[-]"
 
 
 def excess_label(name: str) -> str:
-    """The axis label of an excess force ``name`` (e.g. ``"attainable F̄_a"``): what it is
-    divided by and its unit, :data:`EXCESS_UNIT`."""
+    """The axis label of an excess force ``name``, e.g. ``"attainable F̄_a = F/W [-]"``."""
     return f"{name} = F/W {EXCESS_UNIT}"
 
 
@@ -68,9 +62,8 @@ def excess(
     axis: str,
     horizontal: str = "horizontal",
 ) -> dict[float, Spread]:
-    """F̄_v (axis "vertical") or F̄_h ("horizontal") per power: the objective value of its own
-    optimisation; F̄_h's is the accelerating objective ``horizontal`` (the plan's reading's,
-    ``StudyPlan.reading.horizontal_objective``; its value is ``excess_<horizontal>``)."""
+    """F̄_v (axis "vertical") or F̄_h ("horizontal": the reading's objective ``horizontal``) per
+    power, the objective value of its own optimisation."""
     return by_condition(
         rows,
         "objective_value",
@@ -84,8 +77,7 @@ def excess(
 def attainable(
     rows: list[dict[str, Any]], method: str, planform: str, horizontal: str = "horizontal"
 ) -> dict[float, Spread]:
-    """F̄_a per power: per seed from that seed's vertical and horizontal optima (both feasible;
-    ``horizontal`` as in :func:`excess`)."""
+    """F̄_a per power from each seed's feasible vertical and horizontal optima."""
     out: dict[float, Spread] = {}
     vertical = excess(rows, method, planform, "vertical")
     horizontal_series = excess(rows, method, planform, "horizontal", horizontal)

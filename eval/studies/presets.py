@@ -1,10 +1,8 @@
 """Study presets: which conditions, seeds, method and budgets a study run uses (frozen, validated).
 
-``quick`` finishes in a few minutes on a 2-core machine; ``paper`` is the full study of the
-paper's figures; ``tiny`` exists for the tests only (it is not offered on the command line).
-Method and budgets come from the measured convergence study (``python -m eval study convergence
---preset paper``): the checkpoints chosen and why are in docs/reproduction.md, "Method and
-budget: the convergence study"."""
+``quick`` takes minutes on 2 cores, ``paper`` is the full study, ``tiny`` is for the tests only.
+Method and budgets come from the convergence study (docs/reproduction.md, "Method and budget:
+the convergence study")."""
 
 from __future__ import annotations
 
@@ -64,8 +62,7 @@ def _fail(name: str, value: Any, allowed: str, owner: str = "Preset") -> None:
 
 
 def _check_values(name: str, values: Any, condition: TaskCondition) -> None:
-    """``values`` must be distinct, increasing and inside the env's default envelope (the
-    conditions it accepts without widening its observation envelope)."""
+    """``values`` must be distinct, increasing and inside the env's default envelope."""
     limits, unit = condition.envelope, condition.unit
     inside = lambda v: is_number(v) and limits[0] <= v <= limits[1]  # noqa: E731
     if not distinct(values, inside) or list(values) != sorted(values):
@@ -81,13 +78,9 @@ def _check_values(name: str, values: Any, condition: TaskCondition) -> None:
 class ConvergenceSpec:
     """The budget study: each method at one level and one accelerating condition, long runs.
 
-    Every method compared here has the prefix property: a run with budget B is the first B
-    evaluations of any longer run with the same seed. PSO with constriction coefficients has a
-    constant inertia weight and draws its random numbers for the whole swarm even on a
-    truncated last batch; CMA-ES draws whole populations too and its restart rules look only
-    at what was evaluated, never at the budget (agents/cmaes_search.py). So one long run per
-    seed gives the best-so-far at every smaller budget (checked in tests/eval/test_studies.py
-    and tests/agents/test_cmaes.py).
+    Every method compared has the prefix property (a run with budget B is the first B
+    evaluations of any longer run with the same seed: agents/cmaes_search.py, agents/pso.py),
+    so one long run per seed gives the best-so-far at every smaller budget.
     """
 
     budget: int
@@ -99,13 +92,11 @@ class ConvergenceSpec:
     power: float = 60.0
     """Accelerating condition [W/kg], objective ``vertical``."""
     methods: tuple[str, ...] = ("pso", "cmaes")
-    """Harness methods compared side by side (with their default settings; PSO with the
-    preset's swarm), besides any the study is run with (``--method``). Their long runs have
-    no polish (it would end the prefix property)."""
+    """Harness methods compared side by side, besides any the study is run with; their long
+    runs have no polish (it would end the prefix property)."""
     polish_shares: tuple[float, ...] = (0.0, 0.25, 0.4)
-    """The budget splits compared at the preset's own budgets (v3): the preset's method with
-    this share of the budget kept for the local polish (``polish_share``; 0: no polish), by
-    what the records report (the best feasible objective), over ``seeds``."""
+    """The budget splits compared at the preset's own budgets: the share of the preset's
+    method's budget kept for the local polish (``polish_share``; 0: no polish)."""
 
     def __post_init__(self) -> None:
         owner = "ConvergenceSpec"
@@ -161,8 +152,7 @@ class Preset:
     swarm_size: int = 40
     """PSO particles (the harness default); also the random-search batch."""
     env_kwargs: tuple[tuple[str, Any], ...] = field(default=())
-    """Extra env keywords for every job, e.g. ``(("n_time", 32),)`` in the test preset; model
-    options stay at their defaults (``thrust_split="sign"``) unless given here."""
+    """Extra env keywords for every job, e.g. ``(("n_time", 32),)`` in the test preset."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.isidentifier():
@@ -202,7 +192,7 @@ class Preset:
 
     @property
     def budgets(self) -> dict[str, int]:
-        """Evaluations per optimisation, per task: the tasks a study runs (:data:`BUDGET_FIELDS`)."""
+        """Evaluations per optimisation, per task (:data:`BUDGET_FIELDS`)."""
         return {task: getattr(self, name) for task, name in BUDGET_FIELDS.items()}
 
     def budget(self, task: str) -> int:
@@ -285,9 +275,9 @@ OVERRIDES: dict[str, tuple[str, ...]] = {
 
 
 def overridden(preset: Preset, **given: Any) -> Preset:
-    """``preset`` with the values ``given`` on the command line (keys of :data:`OVERRIDES`;
-    None: the preset's), checked by the preset's own checks; ValueError naming the option.
-    The description says what was changed (the report prints it)."""
+    """``preset`` with the command line's values ``given`` (keys of :data:`OVERRIDES`; None:
+    the preset's), checked by the preset; ValueError naming the option. Its description says
+    what was changed."""
     changed = []
     for option, value in given.items():
         if value is None:

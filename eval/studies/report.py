@@ -1,7 +1,5 @@
-"""The reproduction report: every claim of the paper (docs/model.md §9) beside ours, plus figures.
-
-The report holds no timestamps or timings, so the same command gives the same file; run
-times are in ``manifest.json``.
+"""The reproduction report: every claim of the paper (docs/model.md §9) beside ours, plus figures;
+no timestamps or timings (those are in ``manifest.json``), so the same command gives the same file.
 """
 
 from __future__ import annotations
@@ -126,8 +124,7 @@ def claims_table(claims: Sequence[Claim]) -> str:
 
 
 def verdict_summary(claims: Sequence[Claim]) -> list[str]:
-    """The counts of the verdicts on the median and on the best seed, and the undecided
-    claims by id (Markdown lines)."""
+    """The verdict counts on the median and on the best seed, with the undecided by id."""
     lines = []
     for best, name in ((False, "the median"), (True, "the best seed")):
         counts = VerdictCount.of(claims, best=best)
@@ -192,8 +189,8 @@ def settings_lines(plan: StudyPlan) -> list[str]:
 def write_report(
     path: Path, plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str]
 ) -> Path:
-    """Write the report to ``path`` (atomically) and return it: the settings, the rules, every
-    claim beside ours, the pinned parameters, the studies not run and the figures."""
+    """Write the report to ``path`` (atomically) and return it: settings, rules, every claim
+    beside ours, the pinned parameters, the studies not run and the figures."""
     base = path.parent
     claims = [c for o in outputs for c in o.claims]
     parts = [
@@ -240,8 +237,7 @@ def write_report(
 
 
 def pinned_section(rows: Sequence[Mapping[str, Any]]) -> list[str]:
-    """The stroke parameters pinned at a Table 4 bound (``tables.pinned_parameters``), one line
-    per parameter and bound listing its series and conditions (Markdown lines)."""
+    """The parameters pinned at a Table 4 bound, one line per parameter and bound (Markdown)."""
     found = pinned_parameters(rows)
     lines = [
         "## Parameters pinned at Table 4 bounds",
@@ -268,8 +264,7 @@ def pinned_section(rows: Sequence[Mapping[str, Any]]) -> list[str]:
 
 
 def figure_markdown(caption: str, path: Path, base: Path) -> str:
-    """A figure in the report: embedded (PNG, SVG), or linked where Markdown viewers cannot
-    show it (PDF)."""
+    """A figure in the report: embedded, or linked for a PDF (Markdown viewers cannot show it)."""
     target = relative_path(path, base)
     return f"[{caption} (PDF)]({target})" if path.suffix == ".pdf" else f"![{caption}]({target})"
 

@@ -1,8 +1,5 @@
-"""Level-flight speed sweep (paper Figs. 4-6): optimise η at each speed, every seed.
-
-Per speed and seed: thrust ratio T/W, mean angle of attack and stroke-plane angle (Fig. 4);
-power per mass P/m, frequency f and weaving amplitude φ_m (Fig. 5); efficiency η (Fig. 6).
-"""
+"""Level-flight speed sweep (paper Figs. 4-6): η optimised at each speed, every seed; T/W, mean
+angle of attack and stroke-plane angle (Fig. 4), P/m, f and φ_m (Fig. 5), η (Fig. 6)."""
 
 from __future__ import annotations
 
@@ -186,8 +183,7 @@ def _follows(
     held: Mapping[str, Any],
 ) -> C.Claim:
     """``follows``: ρ between the power's and ``other``'s medians (and best seeds) over speeds;
-    0 where a Table 4 bound holds ``other`` (``held``: :func:`claims.held_at_bound`), which
-    then does not follow the power: differs."""
+    0 where a Table 4 bound holds ``other`` (``held``: :func:`claims.held_at_bound`)."""
     common = [v for v in power if v in other]
     r = C.rho([power[v].median for v in common], [other[v].median for v in common])
     r_best = C.rho([power[v].best for v in common], [other[v].best for v in common])

@@ -1,5 +1,5 @@
-"""Run studies: gather their jobs, run the missing ones once, analyse, write the report; the
-paper's studies as a campaign of the command line (:data:`SUITE`)."""
+"""Run studies: their jobs once, the analyses and the report; the paper's studies as a campaign of
+the command line (:data:`SUITE`)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import argparse
 import os
 import sys
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -15,7 +15,7 @@ from typing import Any
 from agents.dask_cluster import executor_spec
 from agents.progress import CommandProgress, Phase
 from agents.record_cache import CacheOption
-from agents.runner import Lookup, PlanRun, RunSummary, find_records, run_plan
+from agents.runner import PlanRun, RunSummary, find_records, run_plan
 from agents.store import RecordStore
 from eval.studies import PAPER_STUDIES, STUDIES, report
 from eval.studies.base import StudyOutput, StudyPlan
@@ -35,46 +35,38 @@ class SuiteResult:
     """Seconds for the whole call, analysis included [s]."""
 
 
-def expand(names: Sequence[str]) -> list[str]:
-    """``all`` -> the paper's studies; otherwise the names, validated, duplicates dropped."""
-    chosen = [n for name in names for n in (PAPER_STUDIES if name == "all" else [name])]
-    for name in chosen:
-        if name not in STUDIES:
-            raise ValueError(f"unknown study {name!r}; allowed: all, {', '.join(STUDIES)}")
-    return list(dict.fromkeys(chosen))
-
-
 class SuitePlan:
-    """The studies ``names`` (or ``["all"]``) as a plan of one phase
-    (:class:`agents.runner.Plan`): all their jobs in one pool, shared optimisations run once;
-    :meth:`finish` analyses them into ``out`` with every other paper study whose records are
-    all there, so running ``speed`` and then ``power`` into one folder gives one report with
-    both."""
+    """The studies ``names`` (``all``: the paper's) as a plan of one phase, :attr:`phases`:
+    all their jobs in one pool, shared optimisations run once; :meth:`finish` analyses them
+    into ``out`` with every other paper study whose records are all there, so running ``speed``
+    and then ``power`` into one folder gives one report with both."""
 
-    def __init__(self, names: Sequence[str], plan: StudyPlan, out: RecordStore) -> None:
+    def __init__(self, names: Sequence[str], plan: StudyPlan, out: Path) -> None:
         self.started = time.perf_counter()
         self.given = ", ".join(names)
-        self.asked = expand(names)
+        chosen = [n for name in names for n in (PAPER_STUDIES if name == "all" else [name])]
+        for name in chosen:
+            if name not in STUDIES:
+                raise ValueError(f"unknown study {name!r}; allowed: all, {', '.join(STUDIES)}")
+        self.asked = list(dict.fromkeys(chosen))
         self.plan = plan
-        self.store = out
+        self.out = out
         self.title = f"study {self.given} ({', '.join(self.asked)})"
         # each study's jobs, built once: the asked ones first, then the other paper studies
         studies = dict.fromkeys([*self.asked, *PAPER_STUDIES])
         self.jobs_of = {name: STUDIES[name].jobs(plan) for name in studies}
-
-    def __call__(self, found: Lookup) -> Iterator[Phase]:
-        """The one phase: every job of the studies asked for."""
-        yield Phase(self.given, tuple(job for name in self.asked for job in self.jobs_of[name]))
+        jobs = tuple(job for name in self.asked for job in self.jobs_of[name])
+        self.phases = [Phase(self.given, jobs)]
 
     def finish(self, run: PlanRun) -> SuiteResult:
         """Analyse the studies asked (and every other paper study whose records are all
         present), write the report and the manifest."""
-        out = self.store.directory
+        out = self.out
         done = {}
         for name, own in self.jobs_of.items():
             if name in self.asked:
                 records = {job: run.records[job.key] for job in own}
-            elif (records := find_records(self.store, own, cache=False)) is None:
+            elif (records := find_records(out, own, cache=False)) is None:
                 continue
             done[name] = STUDIES[name].analyse(self.plan, records, out)
         paper = [name for name in PAPER_STUDIES if name in done]
@@ -116,18 +108,15 @@ def run_studies(
     rerun: bool = False,
     command: CommandProgress | None = None,
 ) -> SuiteResult:
-    """Run the studies ``names`` (or ``["all"]``) into ``out_dir`` (:class:`SuitePlan`).
-
-    The jobs run on ``scheduler`` (None: serially here; ``"local:N"``; a Dask scheduler's
-    address; see :func:`agents.runner.run_jobs`); ``workers=N > 1`` is short for
-    ``scheduler="local:N"``. Finished jobs from an earlier, killed or partial run with the same
-    configuration are reused. ``cache``, ``rerun`` and ``command`` as for
-    :func:`~agents.runner.run_plan`.
-    """
+    """Run the studies ``names`` (or ``["all"]``) into ``out_dir`` (:class:`SuitePlan`), reusing
+    the stored records; ``workers=N > 1`` is short for ``scheduler="local:N"``; ``scheduler``,
+    ``cache``, ``rerun`` and ``command`` as for :func:`~agents.runner.run_plan`."""
     store = RecordStore.at(out_dir)
-    suite = SuitePlan(names, plan, store)
+    suite = SuitePlan(names, plan, store.directory)
     scheduler = executor_spec(scheduler, workers)
-    run = run_plan(suite, store, scheduler, cache, progress=progress, rerun=rerun, command=command)
+    run = run_plan(
+        suite.phases, store, scheduler, cache, progress=progress, rerun=rerun, command=command
+    )
     return suite.finish(run)
 
 
@@ -164,7 +153,7 @@ class SuiteCampaign:
                 f"--budget {args.budget}: the reading {reading.name!r} runs its own search "
                 f"({reading.search.describe()}); allowed: --budget or that reading"
             )
-        return SuitePlan([args.study], replace(plan, reading=reading), out)
+        return SuitePlan([args.study], replace(plan, reading=reading), out.directory)
 
     def report(self, args: argparse.Namespace, result: SuiteResult) -> None:
         """Print what the run did (stderr) and found (stdout)."""
@@ -188,5 +177,5 @@ class SuiteCampaign:
             print(f"report: {result.report}")
 
 
-#: The paper studies' campaign (:data:`eval.studies.campaigns.CAMPAIGNS`).
+#: The paper studies' campaign (:data:`eval.study.CAMPAIGNS`).
 SUITE = SuiteCampaign()

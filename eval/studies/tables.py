@@ -1,9 +1,7 @@
 """Records -> tidy rows (one per optimisation) -> per-condition statistics over seeds.
 
-Statistics use the feasible seeds only (an infeasible level stroke's efficiency means
-nothing); every row says how many seeds there were and how many were feasible. "best" is the
-value at the seed with the best objective, not the largest value of each quantity, so every
-"best" column describes one and the same stroke.
+Statistics use the feasible seeds only; "best" is the value at the feasible seed with the best
+objective, so every "best" column describes one and the same stroke.
 """
 
 from __future__ import annotations
@@ -31,8 +29,7 @@ from tandem_env.physics.stroke import UNBOUNDED
 #: Columns that identify a series (one line in a figure).
 SERIES_KEYS: tuple[str, ...] = ("method", "task", "objective", "planform")
 
-#: Tidy-row quantities with units (the CSV header carries the names; units are documented here
-#: and in the figure labels).
+#: Tidy-row quantities with units (as the figure labels give them).
 QUANTITIES: dict[str, str] = {
     "objective_value": "the task's objective: η [-] or F̄ [-]",
     "efficiency": "η = T·V/P [-]",
@@ -73,19 +70,16 @@ PARAMETERS_OF: dict[str, tuple[str, ...]] = {
     },
     **{name: (name,) for name in PARAMETER_NAMES},
 }
-#: A parameter is *pinned* at a Table 4 bound at one condition of one series when it sits at
-#: that bound (:func:`tandem_env.bound_sides`: within 1 % of its range) in more than this share
-#: of the feasible seeds; a mean of both wings (:data:`PARAMETERS_OF`) when both wings are
-#: pinned at the same bound.
+#: A parameter is *pinned* at a Table 4 bound at one condition when more than this share of the
+#: feasible seeds sit at it (:func:`tandem_env.bound_sides`); a two-wing mean when both wings do.
 PINNED_SHARE = 0.5
 
 
 def table4_bounds(
     quantity: str, bounds: StrokeBounds = TABLE_4_BOUNDS
 ) -> tuple[float, float] | None:
-    """The (low, high) of a stroke quantity (:data:`PARAMETERS_OF`) in ``bounds`` (an insect's
-    ``stroke_bounds``, default Table 4's), when its parameters share one range and can sit at
-    a bound; else None."""
+    """The (low, high) of a stroke quantity's parameters in ``bounds`` when they share one
+    range and can sit at a bound; else None."""
     names = PARAMETERS_OF.get(quantity, ())
     index = [PARAMETER_NAMES.index(n) for n in names]
     ranges = {(bounds.lower[i], bounds.upper[i]) for i in index if not UNBOUNDED[i]}
@@ -93,8 +87,8 @@ def table4_bounds(
 
 
 def row_bounds(row: Mapping[str, Any]) -> StrokeBounds:
-    """The stroke bounds of a row's insect: Table 4's unless the row gives its own
-    (``stroke_bounds``: the parameters that differ, a mapping or its JSON text)."""
+    """The stroke bounds of a row's insect: Table 4's with the row's ``stroke_bounds`` changes
+    (a mapping or its JSON text)."""
     own = row.get("stroke_bounds")
     if not own:
         return TABLE_4_BOUNDS
@@ -102,9 +96,8 @@ def row_bounds(row: Mapping[str, Any]) -> StrokeBounds:
 
 
 def pinned(rows: Sequence[Mapping[str, Any]], quantity: str) -> str:
-    """``"lower"``, ``"upper"`` or ``""``: where the stroke quantity is pinned over the
-    feasible ``rows`` (the seeds of one condition, :data:`PINNED_SHARE`); ``""`` for a
-    quantity that is not a stroke parameter."""
+    """``"lower"``, ``"upper"`` or ``""``: the bound the stroke quantity is pinned at over the
+    feasible ``rows`` of one condition (:data:`PINNED_SHARE`)."""
     names = PARAMETERS_OF.get(quantity)
     feasible = [r for r in rows if r["feasible"]]
     if not names or not feasible:
@@ -130,14 +123,9 @@ def _wrap(angles: np.ndarray) -> np.ndarray:
 
 
 def circular_median(angles: Sequence[float]) -> float:
-    """The circular median of angles [deg], in (−180, 180] (NaN for none).
-
-    The direction that minimises the summed angular distance to the angles (Fisher 1993,
-    §2.3.2), looked for among the angles and the midpoints of neighbours on the circle; where
-    several tie (an even count), their circular mean, i.e. the middle of the arc between the
-    two central angles. For angles within a half circle this is the ordinary median; for
-    +136° and −170° it is 163°, where a linear median gives −17°.
-    """
+    """The circular median of angles [deg] in (−180, 180] (NaN for none): the direction of
+    least summed angular distance (Fisher 1993, §2.3.2) among the angles and their neighbours'
+    midpoints, ties averaged on the circle; for +136° and −170° it is 163°, not −17°."""
     values = _wrap(np.asarray(angles, float))
     if values.size == 0:
         return math.nan
@@ -156,24 +144,17 @@ def circular_median(angles: Sequence[float]) -> float:
 
 
 def circular_quartiles(angles: Sequence[float], median: float) -> tuple[float, float]:
-    """25th and 75th percentiles of the angles [deg] about their circular ``median``: the
-    quartiles of the wrapped deviations, added to it (so q25 <= median <= q75, possibly
-    beyond ±180°)."""
+    """The quartiles [deg] of the angles' wrapped deviations from ``median``, added to it
+    (q25 <= median <= q75, possibly beyond ±180°)."""
     deviations = _wrap(np.asarray(angles, float) - median)
     q25, q75 = np.percentile(deviations, [25.0, 75.0])
     return median + float(q25), median + float(q75)
 
 
-def weight_of(record: Record) -> float:
-    """W = m·g of the record's insect [N]."""
-    insect = record.config["env"]["insect"]
-    return float(insect["body_mass"]) * float(insect["gravity"])
-
-
 def record_row(job: Job, record: Record) -> dict[str, Any]:
     """The tidy row of one optimisation: identity, feasibility, metrics, stroke summary, the 28
     stroke parameters (Table 4 units) and ``at_bounds`` (:func:`tandem_env.describe_bounds`)."""
-    m, s = record.metrics, record.stroke
+    m, s, insect = record.metrics, record.stroke, record.config["env"]["insect"]
     phase_difference = float(_wrap(float(s["hind_sweep_phase"]) - float(s["fore_sweep_phase"])))
     mean = lambda name: 0.5 * (float(s[f"fore_{name}"]) + float(s[f"hind_{name}"]))  # noqa: E731
     row: dict[str, Any] = {
@@ -192,7 +173,8 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
         "reward": float(record.reward),
         "efficiency": float(m["efficiency"]),
         "efficiency_pct": 100.0 * float(m["efficiency"]),
-        "thrust_ratio": float(m["thrust"]) / weight_of(record),
+        "thrust_ratio": float(m["thrust"])
+        / (float(insect["body_mass"]) * float(insect["gravity"])),
         "lift_to_weight": float(m["lift_to_weight"]),
         "power_per_mass": float(m["power_per_mass"]),
         "excess_vertical": float(m["excess_vertical"]),
@@ -211,7 +193,7 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
     }
     stroke = [float(s[name]) for name in PARAMETER_NAMES]  # Table 4 units
     row.update(zip(PARAMETER_NAMES, stroke, strict=True))
-    own = record.config["env"]["insect"].get("stroke_bounds")  # only where not Table 4's
+    own = insect.get("stroke_bounds")  # only where not Table 4's
     bounds = TABLE_4_BOUNDS if own is None else StrokeBounds(**own)
     row["at_bounds"] = describe_bounds(stroke, bounds)
     if own is not None:  # the insect's own bounds, what pinned() measures against
@@ -304,8 +286,7 @@ def _by_condition(
 def spread_summary_rows(
     rows: Sequence[Mapping[str, Any]], quantities: Sequence[str]
 ) -> list[dict[str, Any]]:
-    """Per series, condition and quantity: n, n_feasible, median, q25, q75, best, best_seed and
-    ``pinned`` (:func:`pinned`: the Table 4 bound a stroke quantity is pinned at, or empty)."""
+    """Per series, condition and quantity: its :class:`Spread` and ``pinned`` (:func:`pinned`)."""
     out = []
     for key, members in _by_condition(rows):
         for quantity in quantities:
@@ -330,10 +311,9 @@ def spread_summary_rows(
 
 
 def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Every stroke parameter pinned at a Table 4 bound (:func:`pinned`), per series and
-    condition: the series' columns, condition and unit, parameter, ``bound`` ("lower" or
-    "upper"), its ``value`` [Table 4 units] and ``share`` of the feasible seeds at it. A row
-    seen twice (the same record key, e.g. in two studies) counts once."""
+    """Every stroke parameter pinned at a Table 4 bound (:func:`pinned`) per series and
+    condition: its ``bound``, ``value`` and ``share`` of the feasible seeds there; a record in
+    two studies counts once."""
     out = []
     for key, members in _by_condition(list({r["key"]: r for r in rows}.values())):
         feasible = [r for r in members if r["feasible"]]

@@ -1,10 +1,6 @@
-"""Wing shape: tear-drop against the real dragonfly planform (paper Figs. 14-16).
-
-Both planforms have the same area and span (docs/model.md §2); each is optimised separately, level
-flight at each speed (Fig. 15: efficiency) and accelerating flight at each power (Fig. 16: the
-attainable F̄_a from a vertical and a horizontal optimisation). The tear-drop jobs are the
-speed and power sweeps' own, so they run once.
-"""
+"""Wing shape: tear-drop against the real dragonfly planform (paper Figs. 14-16), each optimised
+in level flight (Fig. 15: efficiency) and accelerating flight (Fig. 16: F̄_a); the tear-drop jobs
+are the sweeps' own."""
 
 from __future__ import annotations
 
@@ -48,11 +44,8 @@ def jobs(plan: StudyPlan) -> list[Job]:
 
 
 def planform_outlines(n: int = 200) -> list[tuple[str, np.ndarray, np.ndarray, np.ndarray]]:
-    """(label, r [mm], leading edge [mm], trailing edge [mm]) of both wings, both planforms.
-
-    The tear-drop is drawn symmetric about its pitch axis (mid-chord); the real wing's edges
-    are Table 2's polynomials, both axes scaled by R (docs/model.md §2).
-    """
+    """(label, r [mm], leading edge [mm], trailing edge [mm]) of both wings, both planforms:
+    the tear-drop symmetric about mid-chord, the real wing's edges Table 2's polynomials."""
     out = []
     r_hat = np.linspace(0.0, 1.0, n)
     for planform in PLANFORMS:
@@ -144,10 +137,8 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
 
 
 def _paper_gain(rows: list[dict[str, Any]], method: str) -> list[tuple[float, float, str]]:
-    """Fig. 15's stated gain drawn where it applies, as a derived mark (the paper gives no real
-    wing's η): our tear-drop median η at 2 m/s × (1 + 12 %), where the paper's real wing would
-    sit relative to our tear-drop (W2 judges the same ratio of medians); none without that
-    median."""
+    """Fig. 15's stated gain as a derived mark: our tear-drop median η at 2 m/s × (1 + 12 %),
+    where the paper's real wing would sit (W2 judges that ratio); none without it."""
     at = _efficiency(rows, method, "tear-drop").get(2.0)
     if at is None or not math.isfinite(at.median):
         return []

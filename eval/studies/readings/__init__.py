@@ -1,14 +1,11 @@
 """The readings study: which reading of the paper reproduces which of its claims.
 
-``python -m eval study readings [--preset quick|paper]``: the four paper studies (the ``all``
-suite) run under every reading (:mod:`eval.studies.paper_reading`), the single readings
-(:data:`SINGLES`) and then the combinations their results point to (:func:`combinations`), and
-their claims are judged by the studies' own claim builders. By default a reading continues from
-the optima of the readings nearest it, with a measured bias check (:class:`Continuation`,
-:data:`~eval.studies.readings.plan.PHASES`). What the phases run, what is shared and what is
-written: docs/reproduction.md, "Readings". The parts: :mod:`.plan` (readings, continuation,
-jobs), :mod:`.run` (the phases, the analysis, the outputs), :mod:`.report`, :mod:`.figure`,
-:mod:`.result`, :mod:`.campaign` (the command line) and :mod:`.timing`.
+``python -m eval study readings [--preset quick|paper]``: the four paper studies under the
+default reading, each single reading (:data:`SINGLES`) and the combinations their results
+point to (:func:`combinations`), a reading continuing from the optima of those nearest it
+(:class:`Continuation`; docs/reproduction.md, "Readings"). The parts: :mod:`.plan` (readings,
+continuation, jobs), :mod:`.run` (the phases, the analysis, the outputs, the command line),
+:mod:`.report`, :mod:`.figure`, :mod:`.result` and :mod:`.timing`.
 """
 
 from __future__ import annotations

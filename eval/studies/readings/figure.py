@@ -1,11 +1,6 @@
-"""The claims × readings matrix: which reading of the paper reproduces which claim.
-
-One row per claim (paper order), one column per reading; a cell shows the claim's verdict on
-the median by colour and by glyph, so no colour vision is needed (Okabe & Ito's palette): blue
-✓ agrees, vermillion ✗ differs, yellow ? undecided (the bootstrap over seeds flips it), pale ∅
-not identifiable (the model does not depend on what the claim is about), grey – no data. Column labels carry the reading's counts of agreeing and undecided claims; a black
-frame flags a verdict that changed from the first (default) reading; a black line separates
-the single readings from the combinations derived from them.
+"""The claims × readings matrix: one row per claim, one column per reading, each cell the
+median's verdict by colour and glyph (:data:`VERDICT_STYLE`, readable without colour vision); a
+black frame flags a verdict changed from the first (default) reading.
 """
 
 from __future__ import annotations
@@ -42,12 +37,8 @@ def matrix_figure(
     title: str,
     split: int | None = None,
 ) -> Path:
-    """Draw the matrix: ``columns`` are (reading name, verdict per claim in ``claim_ids`` order).
-
-    The first column is the reference: a black frame marks every other cell whose verdict
-    differs from it. A vertical line goes before column ``split`` (the first combination
-    reading).
-    """
+    """Draw the matrix of ``columns`` (reading name, verdict per claim in ``claim_ids`` order),
+    the first the reference, a line before column ``split`` (the first combination)."""
     n_rows, n_cols = len(claim_ids), len(columns)
     no_data = _CODE["no data"]
     grid = [[_CODE.get(verdicts[i], no_data) for _, verdicts in columns] for i in range(n_rows)]

@@ -97,11 +97,9 @@ SINGLES: tuple[Reading, ...] = (
     ),
 )
 
-#: Named readings. ``paper``: the reading with the most agreeing claims (13 of 26, 4 undecided,
-#: strictly more than any other) in the paper-preset run of this study (docs/reproduction.md,
-#: "Readings at the paper preset"; tests/test_docs_numbers.py checks it against that run's
-#: stored readings.csv). Its model part is ``ModelOptions.preset("paper")``; what its decisions
-#: mean physically: docs/model.md §5.5 and §7.6.
+#: Named readings. ``paper``: the reading with the most agreeing claims in the paper-preset run
+#: of this study (docs/reproduction.md, "Readings at the paper preset"); its model part is
+#: ``ModelOptions.preset("paper")``.
 ALIASES: dict[str, str] = {"paper": "hover-none+Fh-literal"}
 
 #: The columns of readings.csv, in order.
@@ -121,39 +119,20 @@ CSV_COLUMNS: tuple[str, ...] = (
 
 @dataclass(frozen=True)
 class Continuation(agents_jobs.Continuation):
-    """How a reading's optimisations continue from the default reading's optima (one round of
-    :class:`agents.jobs.Continuation`, with the bias check's settings).
-
-    Parameters
-    ----------
-    share : float
-        A continued job's budget as a fraction of the preset's, in (0, 1].
-    initial_share : float
-        The part of that budget for polishing the default's optimum under the reading, in
-        [0.05, 0.95]; ``starts`` short searches of the preset's method, each polished, share
-        the rest (harness settings ``initial``, ``initial_share`` and ``starts``,
-        docs/harness.md).
-    starts : int
-        Short global searches beside the warm start (1 to 8): they catch a basin that moved.
-    check_studies : tuple of str
-        The paper studies whose jobs also run in full for each single reading, to measure the
-        continuation's bias (``continuation_check.csv``): one per task.
-    check_seeds : tuple of int
-        The seeds of those full runs (seeds of the preset that are not among them are not
-        checked).
-    full_median : float
-        A single reading's task (``accelerate`` or ``level``) whose checked continued optima
-        fall short of the full runs' by more than this median relative difference [-] runs in
-        full instead (:func:`full_tasks`), in [-1, 0].
-    full_lowest : float
-        Likewise for any one checked pair worse than this [-], or a continued optimum
-        infeasible where the full run's is feasible, in [-1, 0].
-    """
+    """How a reading's optimisations continue from the default reading's optima: one round of
+    :class:`agents.jobs.Continuation` (``share``, ``initial_share``, ``starts``), with the
+    bias check's settings."""
 
     check_studies: tuple[str, ...] = ("power", "speed")
+    """The paper studies whose jobs also run in full for each single reading, to measure the
+    continuation's bias (``continuation_check.csv``): one per task."""
     check_seeds: tuple[int, ...] = (0,)
+    """The seeds of those full runs."""
     full_median: float = -0.02
+    """A single reading's task whose checked continued optima fall short of the full runs' by
+    more than this median relative difference [-] runs in full instead (:func:`full_tasks`)."""
     full_lowest: float = -0.5
+    """Likewise for any one checked pair worse than this [-]."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -216,10 +195,8 @@ def single_readings(names: Sequence[str] | None = None) -> tuple[Reading, ...]:
 
 
 def reading_by_name(name: str) -> Reading:
-    """The reading ``name``: a single (:data:`SINGLES`), singles joined by ``+`` (their
-    combination, as the study derives them, e.g. ``hover-none+Fh-literal``) or an alias of
-    :data:`ALIASES` (``paper``), an alias also inside a combination (``paper+body``). Raises
-    ValueError naming what is allowed."""
+    """The reading ``name``: a single (:data:`SINGLES`), an alias (:data:`ALIASES`) or these
+    joined by ``+`` (their combination, e.g. ``paper+body``); ValueError naming what is allowed."""
     given = name
     known = {r.name: r for r in SINGLES}
     allowed = f"{', '.join([*ALIASES, *known])}, or these joined by '+'"
@@ -245,13 +222,11 @@ def reading_by_name(name: str) -> Reading:
 
 def reading_jobs(plan: StudyPlan, reading: Reading) -> list[Job]:
     """Every job of the ``all`` suite under ``reading`` (duplicates between studies included)."""
-    p = replace(plan, reading=reading)
-    return [job for study in PAPER_STUDIES.values() for job in study.jobs(p)]
+    return [job for group in study_jobs(plan, reading).values() for job in group]
 
 
 Optima = Mapping[str, Mapping[str, Sequence[Sequence[float]]]]
-"""Optima of readings already run: reading name -> study name -> the normalised optimum of each
-of the study's jobs under that reading, in the study's order (:func:`optima_of`)."""
+"""reading -> study -> the normalised optimum of each of its jobs, in order (:func:`optima_of`)."""
 
 
 def continued_from(reading: Reading) -> tuple[str, ...]:
@@ -267,17 +242,10 @@ def study_jobs(
     optima: Optima | None = None,
     full: Collection[str] = (),
 ) -> dict[str, list[Job]]:
-    """Each paper study's jobs under ``reading``, by study name.
-
-    Without ``continuation`` (or for the default reading, or a reading of the search itself,
-    ``Reading.search``: its point is the search from scratch) these are the studies' own
-    jobs. With it, each job pairs with the default's job of the same position (the studies
-    build both lists in one order, differing only in the reading's keywords): a job the
-    default shares (same key) stays, and so does a job of a task in ``full`` (run in full:
-    :func:`full_tasks`); any other continues from the optima of the same position in
-    ``optima`` of the readings :func:`continued_from` names (duplicate strokes once); without
-    ``optima`` (not run yet) it is a stand-in (:meth:`agents.jobs.Continuation.job`).
-    """
+    """Each paper study's jobs under ``reading``, by study name: the studies' own without
+    ``continuation`` (and for the default or a search reading). With it, a job the default
+    shares or of a task in ``full`` stays; any other continues from the optima at its position
+    of the readings :func:`continued_from` names (a stand-in without ``optima``)."""
     p = replace(plan, reading=reading)
     if continuation is None or reading == DEFAULT or reading.search is not None:
         return {name: study.jobs(p) for name, study in PAPER_STUDIES.items()}
@@ -303,19 +271,13 @@ def study_jobs(
 
 
 def optima_of(
-    out_dir: Path, jobs: Mapping[str, Mapping[str, list[Job]]]
-) -> dict[str, dict[str, list[list[float]]]]:
-    """:data:`Optima` of the readings in ``jobs`` (reading -> study -> jobs, every record
-    present in ``out_dir``)."""
-    flat = [job for by_study in jobs.values() for group in by_study.values() for job in group]
-    return optima_from(job_records(out_dir, flat), jobs)
-
-
-def optima_from(
-    records: Mapping[Job, Record], jobs: Mapping[str, Mapping[str, list[Job]]]
+    records: Mapping[Job, Record] | Path, jobs: Mapping[str, Mapping[str, list[Job]]]
 ) -> dict[str, dict[str, list[list[float]]]]:
     """:data:`Optima` of the readings in ``jobs`` (reading -> study -> jobs) from their
-    ``records`` (job -> record, every job's present)."""
+    ``records`` (job -> record), or from the store at ``records`` (every record present)."""
+    if not isinstance(records, Mapping):
+        flat = [job for by_study in jobs.values() for group in by_study.values() for job in group]
+        records = job_records(records, flat)
     return {
         reading: {
             study: [list(records[job].results["normalised_stroke"]) for job in group]
@@ -328,9 +290,8 @@ def optima_from(
 def check_jobs(
     plan: StudyPlan, reading: Reading, continuation: Continuation, optima: Optima | None
 ) -> list[tuple[Job, Job]]:
-    """(continued job, the same job in full) for the continuation's bias check: the check
-    studies' jobs at the check seeds that the reading does not share with the default (none
-    for a search reading, which runs in full)."""
+    """(continued job, the same job in full) of the check studies' jobs at the check seeds that
+    the reading does not share with the default: the continuation's bias check."""
     continued = study_jobs(plan, reading, continuation, optima)
     full = study_jobs(plan, reading)
     pairs = dict.fromkeys(
@@ -345,10 +306,9 @@ def check_jobs(
 def full_tasks(
     summary: Sequence[Mapping[str, Any]], continuation: Continuation
 ) -> dict[str, dict[str, str]]:
-    """reading -> task -> why that task's jobs run in full: the bias check
-    (:func:`check_summary` rows) found its continued optima short of the full runs' by more
-    than ``continuation.full_median`` on the median or ``full_lowest`` in one pair, or a
-    continued optimum infeasible where the full run's is feasible."""
+    """reading -> task -> why its jobs run in full: the bias check (:func:`check_summary`
+    rows) found them short by more than ``full_median`` or ``full_lowest``, or a continued
+    optimum infeasible where the full run's is feasible."""
     out: dict[str, dict[str, str]] = {}
     for row in summary:
         if row["reading"] == "all" or row["task"] == "all":
@@ -369,22 +329,11 @@ def full_tasks(
 def combinations(
     default: ReadingResult, singles: Sequence[ReadingResult]
 ) -> tuple[list[Reading], str]:
-    """The combination readings the singles' results point to, and the rule's outcome in words.
-
-    Rule, in two parts:
-
-    1. *Gainers together.* The gainers are the singles (other than the default) with more
-       agreeing claims than the default, best first (ties in :data:`SINGLES` order). Taken best
-       first, each gainer joins the set unless it conflicts with one already in it (two values
-       of one option); combined are the pair of its best two (if it has 2 or more) and the
-       whole set (if it has 3 or more).
-    2. *The best single with each other.* If a gainer exists, the best one is paired with every
-       other single it does not conflict with: a change that loses claims on its own can win
-       them beside another (one that lowers F̄_h, say, where the best raises it too far), and
-       the singles' counts cannot show that.
-
-    Duplicates (the same changes) are dropped. Without a gainer there is nothing to combine.
-    """
+    """The combination readings the singles' results point to, and the rule's outcome in words
+    (docs/reproduction.md, "Readings"): the gainers (more agreeing claims than the default, best
+    first), each joining unless it conflicts with one before it, combine as their best two and
+    as all; the best gainer also pairs with every other single it does not conflict with (a
+    change that loses claims alone can win them beside another). Duplicates are dropped."""
     base = default.agree
     gainers = sorted(
         (r for r in singles if r.reading != default.reading and r.agree > base),

@@ -1,6 +1,5 @@
-"""The readings study's report section: the table of readings, the best one, which decision
-moves which claim, the continuation and its bias check (:mod:`eval.studies.readings`), written
-with the generic report's pieces (:mod:`eval.studies.report`)."""
+"""The readings study's report (:mod:`eval.studies.readings`), from the generic report's pieces
+(:mod:`eval.studies.report`)."""
 
 from __future__ import annotations
 
@@ -41,9 +40,8 @@ READING_COLUMNS: tuple[Column, ...] = (
 
 
 def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
-    """One line per claim whose verdict differs from the default's: the change and the
-    statistic before and after (``*``: the two medians lie in each other's inter-quartile range
-    over seeds, so the flip is within the seed-to-seed spread; not with a NaN)."""
+    """One line per claim whose verdict differs from the default's, with the statistic before
+    and after (``*``: each median inside the other's inter-quartile range)."""
     mine = {c.id: c for c in other.claims}
     lines = []
     for before in default.claims:
@@ -73,12 +71,9 @@ def write_readings_report(
     continuation: Any = None,
     full: Mapping[str, Mapping[str, str]] | None = None,
 ) -> Path:
-    """Write the readings study's report to ``path`` (atomically) and return it: the table of
-    readings, the best one, which decision moves which claim and by how much, the matrix
-    figure; how the readings continued from the default's optima (``continuation``: an
-    ``eval.studies.readings.Continuation`` or None), the measured bias of that (``check``:
-    ``readings.check_summary`` rows) and the tasks that ran in full for it (``full``:
-    ``readings.full_tasks``)."""
+    """Write the readings study's report to ``path`` (atomically) and return it: the readings,
+    the best, which decision moves which claim, the matrix; the ``continuation`` (or None),
+    its bias ``check`` (``check_summary`` rows) and the tasks run in full (``full_tasks``)."""
     base = path.parent
     default = results[0]
     best = max(results, key=lambda r: r.agree)
@@ -199,9 +194,8 @@ def _continuation_section(
 def check_table(
     check: Sequence[Mapping[str, Any]], full: Mapping[str, Mapping[str, str]]
 ) -> list[str]:
-    """The continuation's bias check as a Markdown table: one row per reading and task
-    (``readings.check_summary``) with whether it ran in full and why (``readings.full_tasks``),
-    the overall row in bold."""
+    """The bias check as a Markdown table, one row per reading and task with whether it ran in
+    full and why, the overall row in bold."""
 
     def runs(row: Mapping[str, Any]) -> str:
         why = full.get(row["reading"], {}).get(row["task"])

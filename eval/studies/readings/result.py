@@ -1,6 +1,5 @@
-"""One reading's analysed studies (:class:`ReadingResult`), the headline numbers of
-readings.csv and a reading's output folder: what the readings study's run computes and its
-report section renders (:mod:`eval.studies.readings`)."""
+"""One reading's analysed studies (:class:`ReadingResult`), readings.csv's headline numbers and
+a reading's output folder (:mod:`eval.studies.readings`)."""
 
 from __future__ import annotations
 
@@ -44,8 +43,7 @@ class ReadingResult:
 
     @property
     def counts(self) -> VerdictCount:
-        """How many of its claims agree, differ, are undecided, not identifiable or without
-        data, on the median (:class:`~eval.studies.claims.VerdictCount`)."""
+        """Its verdict counts on the median."""
         return VerdictCount.of(self.claims)
 
     @property

@@ -1,9 +1,10 @@
-"""Running the readings study's plan phase by phase, analysing each reading and writing its
-outputs: readings.csv, the matrix figure, report.md and the manifest
-(:mod:`eval.studies.readings`)."""
+"""The readings study's plan run phase by phase, each reading analysed, its outputs
+(readings.csv, the matrix figure, report.md, the manifest) and its campaign of the command line
+(:data:`READINGS`, with its ``--continuation`` option)."""
 
 from __future__ import annotations
 
+import argparse
 import math
 import os
 import statistics
@@ -14,6 +15,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from agents.harness import prepare_job
 from agents.jobs import Job
 from agents.progress import CommandProgress, Phase
 from agents.record_cache import CacheOption
@@ -22,12 +24,15 @@ from agents.runner import Lookup, PlanRun, job_records, run_plan
 from agents.store import RECORDS_DIR, RecordStore
 from eval.studies import PAPER_STUDIES, report
 from eval.studies.base import StudyPlan
+from eval.studies.claims import VerdictCount
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading
 from eval.studies.readings.figure import matrix_figure
 from eval.studies.readings.plan import (
     CHECK_CSV,
     CSV_COLUMNS,
+    DEFAULT_OUT,
     MANIFEST,
+    NAME,
     PHASES,
     SINGLES,
     Continuation,
@@ -36,9 +41,9 @@ from eval.studies.readings.plan import (
     check_jobs,
     combinations,
     full_tasks,
-    optima_from,
     optima_of,
     reading_jobs,
+    single_readings,
     study_jobs,
 )
 from eval.studies.readings.report import write_readings_report
@@ -49,12 +54,8 @@ from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
 def analyse_reading(
     plan: StudyPlan, reading: Reading, out: RecordStore, jobs: Mapping[str, Sequence[Job]]
 ) -> ReadingResult:
-    """Analyse the four studies under ``reading`` (every record present) into its folder;
-    ``jobs`` are each study's jobs (:func:`study_jobs`).
-
-    The folder gets a relative link ``records -> ../records`` so the study indexes' record
-    paths resolve, and its own ``report.md``.
-    """
+    """Analyse the four studies' ``jobs`` (:func:`study_jobs`) under ``reading`` into its
+    folder, with its ``report.md`` and a link ``records -> ../records`` for the indexes."""
     p = replace(plan, reading=reading)
     where = reading_dir(out.directory, reading)
     where.mkdir(parents=True, exist_ok=True)
@@ -93,9 +94,8 @@ CHECK_COLUMNS: tuple[str, ...] = (
 def check_rows(
     records: Mapping[Job, Record], checks: Sequence[tuple[Reading, Job, Job]]
 ) -> list[dict[str, Any]]:
-    """One row per checked job, from the checked jobs' ``records`` (job -> record): the
-    continued and the full optimum (``difference`` = (continued − full) / |full| [-]) and which
-    part the continued run reported."""
+    """One row per checked pair: the continued and the full optimum (``difference`` =
+    (continued − full) / |full| [-]) and which part the continued run reported."""
     rows = []
     for reading, c, f in checks:
         rc, rf = records[c].results, records[f].results
@@ -121,10 +121,8 @@ def check_rows(
 
 
 def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Per reading and task, and over all (last): the continuation's bias on the checked jobs
-    (both feasible): pairs, median, lowest and highest relative difference, how many continued
-    optima are within 0.5 % of the full run's or above it, the pairs with either infeasible, and
-    those with only the continued one infeasible."""
+    """Per reading and task, and over all (last): the continuation's bias on the checked pairs
+    (both feasible; :data:`CHECK_COLUMNS` says what each column is)."""
     groups: dict[tuple[str, str], list[Mapping[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["reading"], row["task"]), []).append(row)
@@ -156,11 +154,8 @@ def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
 
 
 def _earlier_invocations(out_dir: Path, plan: StudyPlan) -> list[dict[str, Any]]:
-    """The invocations into ``out_dir`` at this preset its manifest records: a resumed run (or
-    one that only redraws the outputs) keeps their work and times. A manifest written before
-    invocations were recorded (no ``invocations``) gives its one run, with the phases named in
-    order. Says so (stderr) when ``out_dir`` holds another preset's readings, which are
-    replaced."""
+    """The invocations into ``out_dir`` at this preset its manifest records (one written before
+    invocations were recorded gives its one run); says so when it holds another preset's."""
     try:
         before = read_json(out_dir / MANIFEST)
     except (FileNotFoundError, ValueError):
@@ -197,13 +192,11 @@ def _flat(jobs: Iterable[Mapping[str, Sequence[Job]]]) -> tuple[Job, ...]:
 
 
 class ReadingsPlan:
-    """The readings study's phases (an :class:`agents.runner.Plan`): without ``continuation``
-    the readings in full, then the combinations; with it the default in full, the bias check
-    (:func:`check_jobs`), the singles continued from the default's optima (a task the check
-    fails in full, :func:`full_tasks`), then the combinations their results point to (if
-    ``derive``). Where the records are not there yet (a look-ahead) the continued jobs are
-    stand-ins and the singles are planned as if no task ran in full. Running, it analyses each
-    reading into ``out`` and keeps what :meth:`finish` writes."""
+    """The readings study's phases (an :class:`agents.runner.Plan`): with ``continuation`` the
+    default in full, the bias check (:func:`check_jobs`) and the singles continued from the
+    default's optima (:func:`full_tasks` in full), else the readings in full; then the
+    combinations their results point to (if ``derive``). A look-ahead gets stand-ins; a run
+    analyses each reading into ``out`` for :meth:`finish`."""
 
     def __init__(
         self,
@@ -246,6 +239,11 @@ class ReadingsPlan:
                 print(f"analysing reading {reading.name}", file=sys.stderr)
             self.results.append(analyse_reading(self.plan, reading, self.store, jobs[reading.name]))
 
+    @property
+    def phases(self) -> ReadingsPlan:
+        """What :func:`agents.runner.run_plan` runs: this plan, its phases computed in turn."""
+        return self
+
     def __call__(self, found: Lookup) -> Iterator[Phase]:
         """The phases, each from the records of those before it."""
         plan = self.plan
@@ -263,7 +261,7 @@ class ReadingsPlan:
             default = _flat(jobs.values())
             yield Phase(PHASES[0], default)
             done = found(default)
-            optima: Optima | None = None if done is None else optima_from(done, jobs)
+            optima: Optima | None = None if done is None else optima_of(done, jobs)
             others = readings[1:]
             checks = [
                 (r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)
@@ -297,14 +295,38 @@ class ReadingsPlan:
             self._analyse(jobs, derived)
 
     def finish(self, run: PlanRun) -> ReadingsResult:
-        """Write the outputs and the manifest of ``run`` (this plan's, run): the bias check's
-        CSV, readings.csv, the matrix, report.md and the manifest."""
+        """Write the bias check's CSV, readings.csv, the matrix, report.md and the manifest of
+        ``run`` (this plan's)."""
         out = self.store.directory
         if self.rows:
             write_csv_atomic(out / CHECK_CSV, self.rows)
         summary = check_summary(self.rows)
-        files = write_outputs(
-            self.plan, self.results, self.words, out, summary, self.continuation, self.full
+        plan, results = self.plan, self.results
+        csv_path = out / "readings.csv"
+        write_csv_atomic(csv_path, csv_rows(results))
+        claims = results[0].claims
+        figure = matrix_figure(
+            [c.id for c in claims],
+            [c.statement for c in claims],
+            [
+                (r.reading.name, [r.verdicts().get(c.id, "no data") for c in claims])
+                for r in results
+            ],
+            plan.figure(out, "readings_matrix"),
+            f"Paper claims under each reading ({plan.preset.name} preset, {', '.join(plan.methods)})",
+            split=next((k for k, r in enumerate(results) if r.reading.derived_from), None),
+        )
+        report = out / "report.md"
+        write_readings_report(
+            report,
+            plan,
+            results,
+            self.words,
+            csv_path,
+            figure,
+            summary,
+            self.continuation,
+            self.full,
         )
         this = {
             "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
@@ -317,11 +339,10 @@ class ReadingsPlan:
         write_json_atomic(
             out / MANIFEST,
             {
-                "preset": self.plan.preset.name,
-                "methods": list(self.plan.methods),
+                "preset": plan.preset.name,
+                "methods": list(plan.methods),
                 "claims": [
-                    {"id": c.id, "statement": c.statement, "paper": c.paper}
-                    for c in self.results[0].claims
+                    {"id": c.id, "statement": c.statement, "paper": c.paper} for c in claims
                 ],
                 "readings": [
                     {
@@ -330,7 +351,7 @@ class ReadingsPlan:
                         "agree": r.agree,
                         "verdicts": r.verdicts(),
                     }
-                    for r in self.results
+                    for r in results
                 ],
                 "combination_rule": self.words,
                 "continuation": None if continuation is None else asdict(continuation),
@@ -339,11 +360,12 @@ class ReadingsPlan:
                 "invocations": [*self.earlier, this],
             },
         )
+        files = (csv_path, figure, report)
         return ReadingsResult(
-            tuple(self.results),
+            tuple(results),
             tuple(run.runs.values()),
             self.words,
-            tuple(files),
+            files,
             run.wall_time,
             tuple(run.runs),
         )
@@ -362,17 +384,10 @@ def run_readings(
     rerun: bool = False,
     command: CommandProgress | None = None,
 ) -> ReadingsResult:
-    """Run the readings study into ``out_dir`` (:class:`ReadingsPlan`: the ``readings``,
-    singles, the default first; then, if ``derive``, the combinations their results point to,
-    :func:`combinations`) and write its outputs.
-
-    With ``continuation`` (the default; None runs every reading in full) the default reading
-    runs first and the others continue from its optima (:class:`Continuation`), with the bias
-    check on the singles. ``plan`` gives the preset and methods (its own reading is ignored).
-    ``scheduler``, ``cache``, ``rerun`` and ``command`` as for :func:`agents.runner.run_plan`.
-    Raises ValueError if ``readings`` does not start with the default reading or repeats a
-    name.
-    """
+    """Run the readings study into ``out_dir`` (:class:`ReadingsPlan`: the ``readings``, the
+    default first; the combinations if ``derive``; ``continuation`` None runs all in full) and
+    write its outputs; ``plan``'s reading is ignored. ``scheduler``, ``cache``, ``rerun`` and
+    ``command`` as for :func:`agents.runner.run_plan`. ValueError for bad ``readings``."""
     store = RecordStore.at(out_dir)
     study = ReadingsPlan(plan, store, readings, continuation, derive, progress)
     run = run_plan(study, store, scheduler, cache, progress=progress, rerun=rerun, command=command)
@@ -401,32 +416,98 @@ def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
     return rows
 
 
-def write_outputs(
-    plan: StudyPlan,
-    results: Sequence[ReadingResult],
-    rule: str,
-    out_dir: Path,
-    check: Sequence[Mapping[str, Any]] = (),
-    continuation: Continuation | None = None,
-    full: Mapping[str, Mapping[str, str]] | None = None,
-) -> list[Path]:
-    """readings.csv, readings_matrix.<format> and report.md (:func:`write_readings_report`
-    says what ``check``, ``continuation`` and ``full`` are)."""
-    csv_path = out_dir / "readings.csv"
-    write_csv_atomic(csv_path, csv_rows(results))
-    claims = results[0].claims
-    columns = [
-        (r.reading.name, [r.verdicts().get(c.id, "no data") for c in claims]) for r in results
-    ]
-    figure = matrix_figure(
-        [c.id for c in claims],
-        [c.statement for c in claims],
-        columns,
-        plan.figure(out_dir, "readings_matrix"),
-        f"Paper claims under each reading ({plan.preset.name} preset, {', '.join(plan.methods)})",
-        split=next((k for k, r in enumerate(results) if r.reading.derived_from), None),
+def continuation_option(text: str) -> Continuation | None:
+    """``--continuation``: a share in (0, 1], or none."""
+    if text.strip().lower() == "none":
+        return None
+    try:
+        share = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a number; allowed: a share of the budget in (0, 1], or none to run "
+            "every reading in full"
+        ) from None
+    try:
+        return Continuation(share=share)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(
+            f"{error} (got {text!r}; or none to run every reading in full)"
+        ) from None
+
+
+def check_continuation(plan: StudyPlan, continuation: Continuation) -> None:
+    """Prepare a continued job of every configuration (method, budget, settings) of the
+    default's jobs as the harness will: ValueError, before any work, naming a share whose
+    continued jobs cannot run (below one population, a part without evaluations)."""
+    jobs = {(j.method, j.budget, j.method_config): j for j in reading_jobs(plan, DEFAULT)}
+    for job in jobs.values():
+        continued = continuation.job(job, None)  # the default's optima are not known yet
+        try:
+            prepare_job(continued)
+        except ValueError as error:
+            raise ValueError(
+                f"--continuation {continuation.share:g}: a continued {job.method} job "
+                f"({continued.budget} of its {job.budget} evaluations, from the default's "
+                f"optimum) cannot run: {error}; allowed: a share (and method) whose continued "
+                "jobs run, or --continuation none to run every reading in full"
+            ) from None
+
+
+class ReadingsCampaign:
+    """The readings study on the command line."""
+
+    names = (NAME,)
+    description = """\
+  readings     the four paper studies under each reading of the paper's open decisions (the
+               default, each decision changed alone, the combinations those results point
+               to): readings.csv, a claims × readings matrix, report.md (default out
+               results/readings)"""
+    default_out = DEFAULT_OUT
+    reading_help = (
+        "readings study: run these single readings (repeat; the default is always "
+        f"run; allowed: {', '.join(r.name for r in SINGLES)})"
     )
-    report_path = write_readings_report(
-        out_dir / "report.md", plan, results, rule, csv_path, figure, check, continuation, full
-    )
-    return [csv_path, figure, report_path]
+    options: Mapping[str, dict[str, Any]] = {
+        "--continuation": {
+            "type": continuation_option,
+            "default": Continuation(),
+            "metavar": "SHARE|none",
+            "help": "readings study only: the other readings continue from the default's "
+            f"optima on SHARE of the budget (default {Continuation().share:g}; "
+            "docs/reproduction.md, Readings); none runs every reading in full",
+        }
+    }
+
+    def plan(self, args: argparse.Namespace, plan: StudyPlan, out: RecordStore) -> ReadingsPlan:
+        """The study of the readings ``--reading`` names (ValueError, before any work, for a
+        bad one or a share whose continued jobs cannot run)."""
+        chosen = single_readings(args.reading)
+        singles = f"{len(chosen) - 1} single reading{'s' * (len(chosen) != 2)}"
+        title = f"readings study (the default and {singles})"
+        if args.continuation is not None:
+            check_continuation(plan, args.continuation)
+            title = (
+                f"readings study (the default in full; {singles} continuing from its optima on "
+                f"{args.continuation.share:g} of the budget, a task the bias check fails in full)"
+            )
+        return ReadingsPlan(
+            plan, out, chosen, args.continuation, progress=not args.quiet, title=title
+        )
+
+    def report(self, args: argparse.Namespace, result: ReadingsResult) -> None:
+        """Print what the run did (stderr) and found (stdout)."""
+        for phase, run in zip(result.phases, result.runs, strict=True):
+            print(
+                f"{phase}: {run.total} optimisations: {run.describe(args.out)} "
+                f"({run.executor}); {run.wall_time:.1f} s",
+                file=sys.stderr,
+            )
+        for r in result.results:
+            print(f"{r.reading.name}: {VerdictCount.of(r.claims).text()}")
+        print(f"best: {result.best.reading.name} ({result.best.agree} claims agree)")
+        print(f"combinations: {result.combination_rule}")
+        print(f"report: {result.files[-1]}; total {result.wall_time:.1f} s")
+
+
+#: The readings study's campaign (:data:`eval.study.CAMPAIGNS`).
+READINGS = ReadingsCampaign()

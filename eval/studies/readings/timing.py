@@ -2,16 +2,12 @@
 
     python -m eval.studies.readings.timing [--measured results/readings] [--preset paper]
 
-Reads ``DIR/readings_manifest.json`` of a finished readings run (its preset and readings, the
-derived combinations included) and the ``wall_time`` of every record a reading's studies
-analysed (their indexes, ``DIR/<reading>/<study>/records.json``: the jobs that ran, continued
-or not). Per reading and task it takes the median seconds per model evaluation of those jobs;
-each job of ``--preset`` under the same readings run in full (a job two readings share counted
-once; with the continuation a run costs less) is then estimated as that rate times its budget. Printed: the measured and estimated job-seconds per reading, the serial total, and
-the wall time W workers need at best (jobs started largest budget first, each to the worker
-free first: :func:`eval.studies.bench_workers.makespan`). An estimate, not a measurement: the
-rates carry the measured run's machine and load, and a larger budget's later iterations cost
-what its first ones did (CMA-ES's cost per evaluation does not depend on the budget).
+Per reading and task, the median seconds per model evaluation of the records a finished run's
+studies analysed (``DIR/readings_manifest.json``, the studies' indexes) times each budget of
+``--preset``'s jobs under the same readings, run in full (shared jobs once): the job-seconds
+per reading, the serial total and the best wall time on W workers
+(:func:`eval.studies.bench_workers.makespan`). An estimate: the rates carry the measured run's
+machine and load.
 """
 
 from __future__ import annotations
