@@ -81,6 +81,8 @@ def run_study(kernel: str | None) -> dict[str, Any]:
 
 
 def measure() -> dict[str, Any]:
+    """:func:`run_study` under the machine's own kernel and under each other OpenBLAS kernel
+    (none where numpy's BLAS is not OpenBLAS: its kernel cannot be chosen)."""
     from threadpoolctl import threadpool_info
 
     own = blas_kernel()
@@ -162,6 +164,8 @@ def flips_sentence(claims: Sequence[Mapping[str, Mapping[str, str]]]) -> str:
 
 
 def render(data: dict[str, Any]) -> str:
+    """The verdict counts, the merged claims table, the flipping verdicts, the kernels, the
+    runs' times and commands."""
     from eval.studies.report import markdown_table
 
     views = kernel_views(data)
