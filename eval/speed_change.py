@@ -86,16 +86,13 @@ class Policy(Protocol):
         ...
 
 
-@dataclass
 class RandomPolicy:
     """Uniform random strokes, a fresh one each cycle, from a seeded generator."""
 
-    seed: int = 0
-    name: str = "random"
-    _rng: np.random.Generator = field(init=False, repr=False)
+    name = "random"
 
-    def __post_init__(self) -> None:
-        self._rng = np.random.default_rng(self.seed)
+    def __init__(self, seed: int = 0) -> None:
+        self._rng = np.random.default_rng(seed)
 
     def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
         return self._rng.uniform(-1.0, 1.0, (observations.shape[0], 28))
