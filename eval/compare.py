@@ -278,14 +278,12 @@ def convergence_curve(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(evaluations, q25, median, q75) of the best-so-far reward over the runs' seeds, each
     history a step function on the union of their grids (missing before its first report)."""
-    grid = np.unique(np.concatenate([np.array([e for e, _ in r.history], float) for r in runs]))
+    histories = [np.array(r.history, float).reshape(-1, 2) for r in runs]  # (evaluations, best)
+    grid = np.unique(np.concatenate([h[:, 0] for h in histories]))
     values = np.full((len(runs), grid.size), np.nan)
-    for k, r in enumerate(runs):
-        evals = np.array([e for e, _ in r.history], float)
-        best = np.array([b for _, b in r.history], float)
-        idx = np.searchsorted(evals, grid, side="right") - 1
-        have = idx >= 0
-        values[k, have] = best[idx[have]]
+    for k, history in enumerate(histories):
+        idx = np.searchsorted(history[:, 0], grid, side="right") - 1
+        values[k, idx >= 0] = history[idx[idx >= 0], 1]
     values[~np.isfinite(values)] = np.nan
     with np.errstate(all="ignore"):
         q25, median, q75 = np.nanpercentile(values, [25, 50, 75], axis=0)
