@@ -127,13 +127,14 @@ GRIDS: dict[str, Grid] = {
 DESCRIPTION = (
     f"""\
 Cross-check the model's fore/hind interaction against Ptera Software's free-wake unsteady
-vortex-lattice solver (the uvlm extra: {INSTALL}, Python >= 3.11; docs/crosscheck.md). Per
-case it runs the fore pair alone, the hind pair alone and the tandem at each lag, and compares
-each pair's cycle-mean vertical force change due to the other pair: UVLM tandem - alone, and
-the model's each slipstream reading - isolated. Strokes: the base case (Table 1 wings, f = 37
-Hz, sweep +-35 deg, pitch +-50 deg leading by 90 deg, beta = 15 deg) with --stroke changes.
-Refused before any work (exit status 2): strokes outside the family the mapping supports,
-wings within {1e3 * MIN_CLEARANCE:g} mm of each other at any lag, and a missing extra.
+vortex-lattice solver (the uvlm extra: {INSTALL}, Python >= 3.11;
+docs/crosscheck.md). Per case it runs the fore pair alone, the hind pair alone and the tandem
+at each lag, and compares each pair's cycle-mean vertical force change due to the other pair:
+UVLM tandem - alone, and the model's each slipstream reading - isolated. Strokes: the base
+case (Table 1 wings, f = 37 Hz, sweep +-35 deg, pitch +-50 deg leading by 90 deg, beta = 15
+deg) with --stroke changes. Refused before any work (exit status 2): strokes outside the
+family the mapping supports, wings within {1e3 * MIN_CLEARANCE:g} mm of each other at any lag,
+and a missing extra.
 
 Grids (--grid):
 """
