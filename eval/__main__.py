@@ -31,7 +31,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "eval.reference",
     "eval.numbers",
     "eval.show",
-    "eval.crosscheck",
+    "eval.crosscheck.cli",
 )
 
 

@@ -26,33 +26,18 @@ NAME = "compare"
 HELP = "compare records: median/IQR/spread table (CSV, Markdown) and convergence plot (PNG)"
 DESCRIPTION = """\
 Compare harness records (the records/<key>.json files of `optimize` and `study`) found
-recursively in the given directories. Records are grouped by their full job configuration
-(method, budget, env keywords such as planform and model options, method settings, preset,
-package version): only seeds differ within a row, and the settings that tell the rows of one
-condition apart are shown beside the method. A record failing its checksum or of an earlier
-format is left out with a warning. Writes into --out (default: the first DIR's compare/
-sub-folder):
-  comparison.csv, comparison.md  per task/objective/condition and configuration: seeds,
-                                 median, IQR (25th-75th percentile) and spread (max - min) /
-                                 |median| of the re-evaluated objective over all seeds, best,
-                                 median over the feasible seeds, median reward, feasible share,
-                                 median evaluations, median wall time [s] and, from the
-                                 records' certificates, the median gain of the local polish
-                                 and the median KKT residual. Where no seed is
-                                 feasible the objective columns are left out (nan in the CSV,
-                                 "n/a (none feasible)" in the table): the objective of a
-                                 stroke that does not fly is not a result;
-  convergence.png                best-so-far reward (the penalised objective the search
-                                 maximises, feasible or not) against evaluations, median over
-                                 seeds with the IQR band, one panel per task/objective/
-                                 condition; a marker is the median reported objective (the
-                                 best feasible stroke, polished, re-evaluated) at the median
-                                 evaluations spent, a dotted segment from the end of the
-                                 search's curve to it the local polish; it lies below the
-                                 curve where a higher reward was infeasible. Each method in
-                                 its fixed colour-blind-safe colour, its variants in other
-                                 hues and line styles (--format svg or pdf: convergence.svg,
-                                 convergence.pdf; PNG at 200 dpi)."""
+recursively in the given directories, grouped by their full job configuration (only seeds
+differ within a row; the settings that tell the rows of one condition apart are shown beside
+the method). A record failing its checksum or of an earlier format is left out with a warning.
+Writes into --out (default: the first DIR's compare/ sub-folder; docs/harness.md, "compare"):
+  comparison.csv, comparison.md  per task/objective/condition and configuration: median, IQR
+                                 and spread of the objective over the seeds, best, feasible
+                                 share, evaluations, wall time, polish gain, KKT residual and
+                                 score ("n/a (none feasible)" where no seed flies);
+  convergence.png                best-so-far reward against evaluations (median over seeds,
+                                 IQR band), one panel per task/objective/condition; a marker
+                                 is the median reported objective, a dotted segment the local
+                                 polish (--format svg or pdf: convergence.svg, .pdf)."""
 EPILOG = """\
 example:
   python -m eval compare results/v1.5                 # writes results/v1.5/compare/
@@ -293,14 +278,12 @@ def convergence_curve(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(evaluations, q25, median, q75) of the best-so-far reward over the runs' seeds, each
     history a step function on the union of their grids (missing before its first report)."""
-    grid = np.unique(np.concatenate([np.array([e for e, _ in r.history], float) for r in runs]))
+    histories = [np.array(r.history, float).reshape(-1, 2) for r in runs]  # (evaluations, best)
+    grid = np.unique(np.concatenate([h[:, 0] for h in histories]))
     values = np.full((len(runs), grid.size), np.nan)
-    for k, r in enumerate(runs):
-        evals = np.array([e for e, _ in r.history], float)
-        best = np.array([b for _, b in r.history], float)
-        idx = np.searchsorted(evals, grid, side="right") - 1
-        have = idx >= 0
-        values[k, have] = best[idx[have]]
+    for k, history in enumerate(histories):
+        idx = np.searchsorted(history[:, 0], grid, side="right") - 1
+        values[k, idx >= 0] = history[idx[idx >= 0], 1]
     values[~np.isfinite(values)] = np.nan
     with np.errstate(all="ignore"):
         q25, median, q75 = np.nanpercentile(values, [25, 50, 75], axis=0)

@@ -179,6 +179,9 @@ def _read_csv(path: Path, where: str) -> dict[str, np.ndarray]:
 
 
 def _column(data: dict[str, np.ndarray], name: Any, where: str) -> np.ndarray:
+    """Column ``name`` of ``data``; a list of names: those columns side by side, (n, k)."""
+    if isinstance(name, list):
+        return np.stack([_column(data, n, where) for n in name], axis=1)
     if not isinstance(name, str) or name not in data:
         raise SpecError(f"{where} = {name!r}: not a column; allowed: one of {sorted(data)}")
     return data[name]
@@ -226,14 +229,7 @@ def _measured_wing(
         data = _read_csv(folder / str(spec["csv"]), where)
         columns = _mapping(spec.get("columns"), f"{where}.columns")
         _take(columns, ("time", *ANGLES), f"{where}.columns")
-        angles = []
-        for angle in ANGLES:
-            name = columns.get(angle, angle)
-            where_col = f"{where}.columns.{angle}"
-            if isinstance(name, list):
-                angles.append(np.stack([_column(data, n, where_col) for n in name], axis=1))
-            else:
-                angles.append(_column(data, name, where_col))
+        angles = [_column(data, columns.get(a, a), f"{where}.columns.{a}") for a in ANGLES]
         if "time" in columns or "time" in data:
             time = _column(data, columns.get("time", "time"), f"{where}.columns.time")
         else:

@@ -86,16 +86,13 @@ class Policy(Protocol):
         ...
 
 
-@dataclass
 class RandomPolicy:
     """Uniform random strokes, a fresh one each cycle, from a seeded generator."""
 
-    seed: int = 0
-    name: str = "random"
-    _rng: np.random.Generator = field(init=False, repr=False)
+    name = "random"
 
-    def __post_init__(self) -> None:
-        self._rng = np.random.default_rng(self.seed)
+    def __init__(self, seed: int = 0) -> None:
+        self._rng = np.random.default_rng(seed)
 
     def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
         return self._rng.uniform(-1.0, 1.0, (observations.shape[0], 28))
@@ -566,11 +563,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         return steady
     policies.insert(1, steady)
     seeds = list(range(args.first_seed, args.first_seed + args.episodes))
-    episodes, shown = [], []
+    episodes, drawn = [], []
     for policy in policies:
         logs = run_episodes(policy, seeds)
         episodes.extend(episode_metrics(log) for log in logs)
-        shown.append(logs[args.figure_episode])
+        drawn.append(logs[args.figure_episode])
     rows = policy_summary_rows(episodes)
     write_csv_atomic(args.out / "episodes.csv", episodes)  # atomically, the folder created
     write_csv_atomic(args.out / "summary.csv", rows)
@@ -578,6 +575,6 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     write_text_atomic(args.out / "summary.md", table)
     print(table)
     if args.figure is not None:
-        plot_episode(shown, args.figure)
+        plot_episode(drawn, args.figure)
         print(f"figure: {args.figure}", file=sys.stderr)
     return 0

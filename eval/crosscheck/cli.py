@@ -35,8 +35,6 @@ HELP = (
     f"{INSTALL})"
 )
 DEFAULT_OUT = Path("results") / "crosscheck"
-#: The lock file of an output folder, held (``flock``) by the command writing there.
-LOCK_FILE = ".crosscheck.lock"
 #: Where the solver's records were kept before the runner ran them (:func:`adopt_old_runs`).
 OLD_RUNS_DIR = "runs"
 
@@ -129,16 +127,14 @@ GRIDS: dict[str, Grid] = {
 DESCRIPTION = (
     f"""\
 Cross-check the model's fore/hind interaction against Ptera Software's free-wake unsteady
-vortex-lattice solver (the uvlm extra: {INSTALL}, Python >= 3.11). For each
-case it runs the fore pair alone, the hind pair alone and the tandem at each lag (the
-hind-wing's phases shifted), and compares each pair's cycle-mean vertical force change due to
-the other pair: UVLM tandem - alone, and the model's each slipstream reading - isolated.
-
-Strokes: the base case (Table 1 wings, f = 37 Hz, sweep +-35 deg, pitch +-50 deg leading the
-sweep by 90 deg, beta = 15 deg) with --stroke NAME=VALUE changes (Table 4 names and units).
-Refused before any work: strokes outside the family the mapping supports (sinusoidal sweep
-and pitch, elevation at Table 4's least, equal frequencies and stroke planes), wings that
-come within {1e3 * MIN_CLEARANCE:g} mm of each other at any lag, and a missing extra (exit status 2).
+vortex-lattice solver (the uvlm extra: {INSTALL}, Python >= 3.11;
+docs/crosscheck.md). Per case it runs the fore pair alone, the hind pair alone and the tandem
+at each lag, and compares each pair's cycle-mean vertical force change due to the other pair:
+UVLM tandem - alone, and the model's each slipstream reading - isolated. Strokes: the base
+case (Table 1 wings, f = 37 Hz, sweep +-35 deg, pitch +-50 deg leading by 90 deg, beta = 15
+deg) with --stroke changes. Refused before any work (exit status 2): strokes outside the
+family the mapping supports, wings within {1e3 * MIN_CLEARANCE:g} mm of each other at any lag,
+and a missing extra.
 
 Grids (--grid):
 """
@@ -289,7 +285,7 @@ def locked(out_dir: Path) -> FolderLock:
     out_dir.mkdir(parents=True, exist_ok=True)
     return FolderLock(
         out_dir,
-        LOCK_FILE,
+        ".crosscheck.lock",
         lambda pid: (
             f"--out {str(out_dir)!r}: another cross-check (pid {pid}) is writing there; "
             "allowed: one command per folder at a time (wait for it, or give another --out)"

@@ -16,7 +16,8 @@ from typing import Any, get_args
 
 import numpy as np
 
-from tandem_env.io.files import atomic_path, write_csv_atomic, write_text_atomic
+from eval.figures import PALETTE, plt, save
+from tandem_env.io.files import write_csv_atomic, write_text_atomic
 from tandem_env.physics import PARAMETER_NAMES, Dragonfly, ModelOptions, evaluate
 from tandem_env.physics.options import Slipstream
 
@@ -181,24 +182,9 @@ def _key(row: Mapping[str, Any]) -> tuple[float, float, float]:
     return (row["speed_m_s"], row["spacing_mm"], row["drop_mm"])
 
 
-def _save(fig: Any, path: Path) -> Path:
-    import matplotlib.pyplot as plt
-
-    from eval.figures import DPI
-
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=DPI)
-    plt.close(fig)
-    return path
-
-
 def write_scatter(out_dir: Path, table: Sequence[Mapping[str, Any]]) -> Path:
     """Each row's change of each pair: ours (each reading) against the UVLM's, with the line
     where they agree (a grid of many strokes, one or two lags each)."""
-    import matplotlib.pyplot as plt
-
-    from eval.figures import PALETTE  # which also selects the Agg backend
-
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.8))
     for ax, pair in zip(axes, ("hind", "fore"), strict=True):
         uvlm = [row[f"uvlm_{pair}_change_pct"] for row in table]
@@ -214,16 +200,12 @@ def write_scatter(out_dir: Path, table: Sequence[Mapping[str, Any]]) -> Path:
         ax.set_title(f"{pair}-wing vertical force change, {len(table)} points", fontsize=9)
         ax.legend(fontsize=7)
     fig.tight_layout()
-    return _save(fig, out_dir / FIGURE)
+    return save(fig, out_dir / FIGURE, crop=False)
 
 
 def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolution) -> Path:
     """Per case, the changes against the lag at ``base`` resolution (left) and the solver's
     hind- and fore-wing change at each resolution run (right: its convergence)."""
-    import matplotlib.pyplot as plt
-
-    from eval.figures import PALETTE  # which also selects the Agg backend
-
     cases = list(dict.fromkeys(_key(r) for r in table))
     fig, axes = plt.subplots(
         len(cases), 2, figsize=(11, 3.6 * len(cases)), squeeze=False, width_ratios=(2, 1)
@@ -297,4 +279,4 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
     legend_height = 0.5  # [inch]
     fig.legend(handles, labels, loc="upper center", ncol=3, fontsize=8, frameon=False)
     fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - legend_height / fig.get_figheight()))
-    return _save(fig, out_dir / FIGURE)
+    return save(fig, out_dir / FIGURE, crop=False)

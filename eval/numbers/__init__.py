@@ -1,24 +1,14 @@
 """``python -m eval numbers``: measure the numbers README and docs quote, and write them in.
 
 A number a document states is produced here, by the command the document names, and written
-into the document between two markers::
-
-    <!-- numbers: comparison -->
-    ...generated Markdown, never edited by hand...
-    <!-- /numbers -->
-
-Each measurement keeps its raw results in ``docs/numbers/<name>.json`` (per-seed values, the
-commands, date, machine and load), and the Markdown is rendered from that file alone:
-``python -m eval numbers`` reruns every measurement (``--only NAME ...``: those; the
-``on_request`` ones collect a long run's outputs and are measured only when named), rewrites
-its JSON and the documents; ``--render`` rewrites the documents from the stored JSON only.
-``tests/test_docs_numbers.py`` checks that every marked region equals its rendering and reruns
-the deterministic rows against the stored values.
-
-Adding a number is a :class:`~eval.numbers.framework.Measurement` (``measure() -> dict``, pure
-``render(dict) -> str``) in a module of this package (its ``MEASUREMENT`` or ``MEASUREMENTS``)
-and one region in a document. Timings are shown with the machine (CPU model, cores), date and
-load average before and after they were taken, and the test does not compare them.
+between the markers ``<!-- numbers: NAME -->`` and ``<!-- /numbers -->`` (generated Markdown,
+never edited by hand). Each measurement keeps its raw results in ``docs/numbers/<name>.json``
+(per-seed values, commands, date, machine and load) and its Markdown is rendered from that
+file alone: ``--only NAME ...`` measures those (the ``on_request`` ones, which collect a long
+run's outputs, only when named), ``--render`` rewrites the documents from the stored JSON.
+``tests/test_docs_numbers.py`` checks every region against its rendering and reruns the
+deterministic rows. A new number is a :class:`~eval.numbers.framework.Measurement` in a
+module of this package (its ``MEASUREMENT`` or ``MEASUREMENTS``) and one region in a document.
 """
 
 from __future__ import annotations

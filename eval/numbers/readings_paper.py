@@ -102,9 +102,8 @@ def render(data: dict[str, Any]) -> str:
         numbers = [
             " / ".join(f"{float(r[c]):.3g}" for c in columns) for _, columns in READINGS_COLUMNS
         ]
-        counts = " | ".join(
-            r.get(k, "–") for k in list(COUNTS)[1:]
-        )  # older runs: no not_identifiable
+        # an older run has no not_identifiable count
+        counts = " | ".join(r.get(k, "–") for k in list(COUNTS)[1:])
         lines.append(
             f"| {mark}`{r['reading']}`{mark} | {r['changes']} | {mark}{r['agree']}{mark} | "
             f"{counts} | {' | '.join(numbers)} |"

@@ -1,20 +1,14 @@
 """PPO and SAC envelope policies against the reference optima (docs/training.md, "Scores at
-the held-out conditions"): for each algorithm, set of hyperparameters (:data:`HYPERPARAMETERS`)
-and seed, one policy trained over level flight's whole envelope by the documented ``python -m
-train`` command, then asked through ``python -m train.envelope`` for its stroke at each
-held-out condition (:func:`tandem_env.envs.reference.held_out_conditions`), scored against the
-reference table (``score``: 100 = the certified optimum).
+the held-out conditions"): per algorithm, set of hyperparameters (:data:`HYPERPARAMETERS`) and
+seed, a policy trained over level flight's envelope by the documented ``python -m train``
+command, asked through ``python -m train.envelope`` for its stroke at each held-out condition
+and scored against the reference table (100 = the certified optimum).
 
-On request only (``--only rl-baselines``): twenty training runs, two at a time, about 45 min on
-2 cores. The figure (score against speed, every seed) is written beside the table.
-
-Beside them (on request too), the amortised policy (``--only amortised-scores``: for each seed,
-one policy trained by the documented ``python -m train --algo amortised`` command, default
-settings, scored exactly as the RL policies are; five training runs, two at a time, about half
-an hour on 2 cores; it redraws the shared figure with the stored RL runs), and the README's
-headline of every envelope policy's scores ("One network for the whole envelope",
-``--only envelope-headline``: each policy's median and worst score and the share of its strokes
-that fly, over every seed, read from the stored runs of the two: measure those first)."""
+On request only, each: ``rl-baselines`` (twenty training runs, two at a time, about 45 min on
+2 cores; the figure of score against speed is written beside the table), ``amortised-scores``
+(the documented ``--algo amortised`` command, five seeds scored the same way; it redraws the
+shared figure) and ``envelope-headline`` (README, "One network for the whole envelope": each
+policy's median and worst score and the share that flies, read from the stored runs)."""
 
 from __future__ import annotations
 
