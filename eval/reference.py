@@ -31,11 +31,11 @@ from agents.selection import best_index
 from agents.store import RecordStore, read_record_files
 from agents.tasks import get_task, task_of
 from eval.optimize import add_run_arguments, run_reporting
+from eval.reference_candidates import candidates
 from tandem_env.envs.reference import (
     REFERENCE_FORMAT,
     REFERENCE_GRID,
     config_fingerprint,
-    problem_fingerprint,
     reference_path,
 )
 from tandem_env.envs.registration import config_class
@@ -307,7 +307,7 @@ def build_table(
             raise ValueError(f"the records of {name} were made with {len(seen)} configurations")
     return {
         "format": REFERENCE_FORMAT,
-        "provenance": dict(provenance),
+        "provenance": {**provenance, "candidates": sorted({r.key for r in every_candidate})},
         "series": [
             {
                 "env_id": env_id,
@@ -319,52 +319,6 @@ def build_table(
             for (env_id, objective, planform), points in series.items()
         ],
     }
-
-
-def candidates(
-    records: Iterable[Record], jobs: Mapping[PointKey, Sequence[PreparedJob]]
-) -> dict[PointKey, list[Record]]:
-    """Strokes found by other runs (any method: a policy's, a study's), per grid point they
-    compete for: a feasible record of the table's env at a grid condition, of the problem of
-    one of the table's series there (its fingerprint: the same model, insect and planform),
-    competes for every objective of that planform. It must replay, through the env, to its
-    record's objective (relative 1e-6) and fly; any other record is refused (ValueError)."""
-    import gymnasium as gym
-
-    kwargs = {key: dict(prepared[0].job.env_kwargs) for key, prepared in jobs.items()}
-    fingerprints = {
-        key: problem_fingerprint(config_class(key[0]).from_kwargs(**kw))
-        for key, kw in kwargs.items()
-    }
-    kept: dict[PointKey, list[Record]] = {}
-    for record in records:
-        env_id, condition = record.env_id, record.job.condition
-        mine = config_fingerprint(config_class(env_id), record.results["env"])
-        keys = [k for k in jobs if (k[0], k[3]) == (env_id, condition) and fingerprints[k] == mine]
-        why = (
-            "it does not fly" if not record.feasible
-            else f"no series of the table at {env_id} {condition:g} with its model and insect"
-            if not keys else None
-        )  # fmt: skip
-        if why is None:
-            own = {k: v for k, v in record.job.env_kwargs if k == "objective"}
-            env = gym.make(env_id, **(kwargs[keys[0]] | own))
-            keyword = config_class(env_id).CONDITION.keyword  # type: ignore[union-attr]
-            env.reset(seed=0, options={keyword: condition})
-            info = env.step(np.asarray(record.normalised_stroke, dtype=np.float32))[4]
-            if not (
-                info["feasible"]
-                and np.isclose(info["objective"], record.objective, rtol=1e-6, atol=0.0)
-            ):
-                why = "its stroke does not replay to its objective and fly"
-        if why is not None:
-            raise ValueError(
-                f"candidate record {record.key} ({record.job.label()}): {why}; allowed: a "
-                "feasible record of the table's env and model at a grid condition"
-            )
-        for key in keys:
-            kept.setdefault(key, []).append(record)
-    return kept
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -560,9 +514,27 @@ def reference_markdown(table: Mapping[str, Any]) -> str:
             f"{c['median_gain_percent']:.3f} %)."
             for c in provenance["convergence"]
         )
+        + _absorbed(table)
         + "\n"
     )
     return "\n".join(parts)
+
+
+def _absorbed(table: Mapping[str, Any]) -> str:
+    """What the candidates (``--candidates``) raised: the points whose best stroke is one, and
+    by how much above the table's own seeds and rounds [%]."""
+    raised = [
+        (s["objective"], s["planform"], p["condition"], 100 * (p["objective"] / own - 1))
+        for s in table["series"] for p in s["points"] if p["source"].startswith("candidate")
+        if (own := max(v for v in (*p["seed_objectives"], *p["continued_objectives"]) if v))
+    ]  # fmt: skip
+    if not table["provenance"].get("candidates"):
+        return ""
+    listed = ", ".join(f"{o} {f} at {c:g} (+{g:.3f} %)" for o, f, c, g in raised) or "none"
+    return (
+        f" Candidates: {len(table['provenance']['candidates'])} strokes of other runs "
+        f"(`--candidates`); the best at {len(raised)} points: {listed}."
+    )
 
 
 def write_reference_figure(table: Mapping[str, Any], path: Path) -> None:

@@ -1,0 +1,62 @@
+"""Strokes of other runs competing for the reference table's points (``python -m eval reference
+--candidates``, docs/reference.md, "Strokes other methods find")."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+
+import numpy as np
+
+from agents.harness import PreparedJob
+from agents.records import Record
+from tandem_env.envs.reference import config_fingerprint, problem_fingerprint
+from tandem_env.envs.registration import config_class
+
+PointKey = tuple[str, str, str, float]
+"""(env id, objective, planform, condition) of a grid point (:data:`eval.reference.PointKey`)."""
+
+
+def candidates(
+    records: Iterable[Record], jobs: Mapping[PointKey, Sequence[PreparedJob]]
+) -> dict[PointKey, list[Record]]:
+    """Strokes found by other runs (any method: a policy's, a study's), per grid point they
+    compete for: a feasible record of the table's env at a grid condition, of the problem of
+    one of the table's series there (its fingerprint: the same model, insect and planform),
+    competes for every objective of that planform. It must replay, through the env, to its
+    record's objective (relative 1e-6) and fly; any other record is refused (ValueError)."""
+    import gymnasium as gym
+
+    kwargs = {key: dict(prepared[0].job.env_kwargs) for key, prepared in jobs.items()}
+    fingerprints = {
+        key: problem_fingerprint(config_class(key[0]).from_kwargs(**kw))
+        for key, kw in kwargs.items()
+    }
+    kept: dict[PointKey, list[Record]] = {}
+    for record in records:
+        env_id, condition = record.env_id, record.job.condition
+        mine = config_fingerprint(config_class(env_id), record.results["env"])
+        keys = [k for k in jobs if (k[0], k[3]) == (env_id, condition) and fingerprints[k] == mine]
+        why = (
+            "it does not fly" if not record.feasible
+            else f"no series of the table at {env_id} {condition:g} with its model and insect"
+            if not keys else None
+        )  # fmt: skip
+        if why is None:
+            own = {k: v for k, v in record.job.env_kwargs if k == "objective"}
+            env = gym.make(env_id, **(kwargs[keys[0]] | own))
+            keyword = config_class(env_id).CONDITION.keyword  # type: ignore[union-attr]
+            env.reset(seed=0, options={keyword: condition})
+            info = env.step(np.asarray(record.normalised_stroke, dtype=np.float32))[4]
+            if not (
+                info["feasible"]
+                and np.isclose(info["objective"], record.objective, rtol=1e-6, atol=0.0)
+            ):
+                why = "its stroke does not replay to its objective and fly"
+        if why is not None:
+            raise ValueError(
+                f"candidate record {record.key} ({record.job.label()}): {why}; allowed: a "
+                "feasible record of the table's env and model at a grid condition"
+            )
+        for key in keys:
+            kept.setdefault(key, []).append(record)
+    return kept
