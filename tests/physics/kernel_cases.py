@@ -4,8 +4,9 @@
         [--batch 256] [--out tests/data/kernel_8e3cf19.npz]
 
 evaluates, with the ``tandem_env`` found first on the path (the pinned kernel, extracted with
-``git archive 8e3cf19 tandem_env | tar -x -C <tree>``), every stored reference optimum (its
-planform and condition, default options), ``--batch`` random Table 4 strokes at V = 1 m/s with
+``git archive 8e3cf19 tandem_env | tar -x -C <tree>``), every reference optimum of 8e3cf19's
+packaged table (its planform and condition, default options; kept in
+tests/data/kernel_8e3cf19_optima.npz, since the packaged table has been regenerated since), ``--batch`` random Table 4 strokes at V = 1 m/s with
 ``slipstream="mean"`` (the speed benchmark's call) and ``--per-set`` random strokes under every
 option set of the torch-backend test (tests/physics/test_torch_backend.py), and writes every
 ``Result`` array field of all of them to ``--out`` (compressed npz).
@@ -22,12 +23,14 @@ from pathlib import Path
 import numpy as np
 
 import tandem_env as te
-from tandem_env.envs.reference import load_reference_table
 
 sys.path.insert(0, str(Path(__file__).parent))
 from test_torch_backend import OPTION_SETS, _case
 
 FIXTURE = Path(__file__).parents[1] / "data" / "kernel_8e3cf19.npz"
+#: 8e3cf19's reference optima: per series its env id, objective and planform, and its
+#: normalised strokes and conditions (``strokes_<i>``, ``conditions_<i>``).
+OPTIMA = FIXTURE.with_name("kernel_8e3cf19_optima.npz")
 
 
 def options_of(name: str) -> te.ModelOptions:
@@ -42,21 +45,15 @@ def cases(
 ) -> Iterator[tuple[str, te.Result]]:
     """(name, Result) of every case, in a fixed order. ``option_sets``: the torch test's
     (its pairwise covering grows with the options: the stored fixture names its own)."""
-    table = load_reference_table()
-    for s in table.series:
-        strokes = te.normalised_to_physical(np.array([p["normalised_stroke"] for p in s.points]))
-        condition = np.array(s.conditions)
-        insect = te.DRAGONFLY.with_planform(s.planform)
-        if s.env_id.startswith("TandemWing/LevelFlight"):
-            yield (
-                s.env_id + s.objective + s.planform,
-                te.evaluate(strokes, condition, insect=insect),
-            )
+    optima = np.load(OPTIMA)
+    for i, (env_id, objective, planform) in enumerate(optima["series"]):
+        strokes = te.normalised_to_physical(optima[f"strokes_{i}"])
+        condition = optima[f"conditions_{i}"]
+        insect = te.DRAGONFLY.with_planform(str(planform))
+        if env_id.startswith("TandemWing/LevelFlight"):
+            yield env_id + objective + planform, te.evaluate(strokes, condition, insect=insect)
         else:
-            yield (
-                s.env_id + s.objective + s.planform,
-                te.evaluate(strokes, 0.0, condition, insect=insect),
-            )
+            yield env_id + objective + planform, te.evaluate(strokes, 0.0, condition, insect=insect)
     rng = np.random.default_rng(2026)
     strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (batch, 28)))
     yield "mean-slipstream", te.evaluate(strokes, 1.0, options=te.ModelOptions(slipstream="mean"))
