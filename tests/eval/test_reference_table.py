@@ -88,8 +88,8 @@ def test_a_small_table_keeps_the_best_stroke_and_says_how_it_was_made(tmp_path):
     for phase in phases[3:]:
         assert phase.provisional == {job.key for job in phase.jobs}
         assert [job.budget for job in phase.jobs] == [job.budget for job in phases[1].jobs]
-    # The stop rule: rounds until one raises no point by more than `until` % (issue 42's 0.1 %
-    # is until=0.1); the first round's records are stored, so nothing runs, and the look-ahead
+    # The stop rule: rounds until one raises no point by more than `until` % (the packaged
+    # rule's 0.1 % is until=0.1); the first round's records are stored, so nothing runs, and the look-ahead
     # stops where the run does.
     rule = Continuation(share=0.5, initial_share=0.75, starts=None, rounds=3, until=1e9)
     stopping = ReferencePlan(jobs, rule)
@@ -97,7 +97,7 @@ def test_a_small_table_keeps_the_best_stroke_and_says_how_it_was_made(tmp_path):
     assert list(run.runs) == ["search", "continuation 1"]
     assert sum(r.ran for r in run.runs.values()) == 0 and stopping.rounds == [continued]
     assert [p.name for p in look_ahead(stopping, tmp_path, cache=False)] == list(run.runs)
-    # issue 42: the table's rounds run until no point moves by more than 0.1 %
+    # the table's rounds run until no point moves by more than 0.1 %
     assert CONTINUATION.stops(0.1) and not CONTINUATION.stops(0.2) and rule.stops(5.0)
     assert not every_round.stops(0.0)
     after = best_objectives(gather(jobs, [continued], records))
@@ -129,7 +129,7 @@ def test_a_small_table_keeps_the_best_stroke_and_says_how_it_was_made(tmp_path):
             else:
                 assert not point["feasible"] and math.isnan(point["objective"])
             assert len(point["seed_objectives"]) == 2
-    # Another run's stroke competes for its point (issue 42: the table absorbs any better
+    # Another run's stroke competes for its point (the table absorbs any better
     # stroke a method finds), with its provenance; one not of a grid point is refused.
     from agents.harness import prepare
 

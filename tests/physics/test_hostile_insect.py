@@ -1,4 +1,4 @@
-"""Hostile insect and kinematics input, by class (issue 43): YAML that expands without bound,
+"""Hostile insect and kinematics input, by class: YAML that expands without bound,
 YAML merge keys, every value of an insect checked before use, ``--insect`` given twice, and
 a measured sweep that is a step."""
 

@@ -1,4 +1,4 @@
-"""A flyer's own stroke bounds (issue 43): an insect may set the bounds of any of the 28 stroke
+"""A flyer's own stroke bounds: an insect may set the bounds of any of the 28 stroke
 parameters (``Dragonfly.stroke_bounds``), Table 4's by default; the env's action map, the
 optimisers' box, the model's checks, the at-bound reports and the reference scores follow,
 and a flyer that keeps Table 4's bounds keeps its record keys."""

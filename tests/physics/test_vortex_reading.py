@@ -173,7 +173,7 @@ def test_reduced_wake_converges(monkeypatch, refined, points):
 @cache
 def _random(flight_path_angle: float) -> tuple[te.Result, te.Result]:
     """The vortex reading and the isolated pairs on 128 random Table 4 strokes, in hover
-    (γ = 0, V = 0) or climbing (γ = +0.3 rad, V = 1 m/s). (Issue 41 asks 1 024: on the 2-core
+    (γ = 0, V = 0) or climbing (γ = +0.3 rad, V = 1 m/s). (The target is 1 024: on the 2-core
     machine under load they took 5 min in hover and 1.4 min in the climb, over the CI's share;
     docs/model.md §5.8 item 8 says what they gave.)"""
     rng = np.random.default_rng(41)
@@ -204,12 +204,12 @@ def test_hover_and_climb_fixed_points_converge(flight_path_angle):
 
 @pytest.mark.xfail(
     strict=True,
-    reason="issue 41's bound is not met yet: in hover and climb some pairs change by more "
+    reason="the reading's ±100 % bound is not met yet: in hover and climb some pairs change by more "
     "than 100 % (docs/model.md §5.8 item 8)",
 )
 @pytest.mark.parametrize("flight_path_angle", [0.0, 0.3])
 def test_hover_and_climb_changes_stay_within_a_factor_of_two(flight_path_angle):
-    """Each lifting pair's change within (−100 %, +100 %) (issue 41's bound)."""
+    """Each lifting pair's change within (−100 %, +100 %) (the bound asked of the reading)."""
     result, alone = _random(flight_path_angle)
     for pair in ("fore", "hind"):
         mine, theirs = (getattr(r, f"{pair}_lift_to_weight") for r in (result, alone))

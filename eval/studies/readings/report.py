@@ -22,7 +22,7 @@ from eval.studies.report import (
 )
 from tandem_env.io.files import write_text_atomic
 
-#: Goal of issue 14: a reading under which this many of the paper's claims agree.
+#: The readings study's goal: a reading under which this many of the paper's claims agree.
 READINGS_GOAL = 16
 
 
