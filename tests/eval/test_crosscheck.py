@@ -276,24 +276,26 @@ def test_the_wake_option_reaches_every_solver_run(
     assert {run.wake for run in started} == {wake}
 
 
-def _fake_solve(started: list) -> object:
-    """A stand-in for the solver: each pair flown lifts 1 mN, less 10 % in the tandem."""
+@pytest.fixture
+def started(monkeypatch: pytest.MonkeyPatch) -> list:
+    """The solver replaced by a stand-in (each pair flown lifts 1 mN, less 10 % in the
+    tandem); the list of the runs it was asked for."""
+    runs: list = []
 
     def solve(run: object) -> dict:
-        started.append(run)
+        runs.append(run)
         loss = 0.9 if run.kind == "tandem" else 1.0  # type: ignore[attr-defined]
         pairs = [p for p in ("fore", "hind") if getattr(run, p) is not None]
         return {"wall_time": 1.0, **{p: {"vertical": 1e-3 * loss} for p in pairs}}
 
-    return solve
+    monkeypatch.setattr(uvlm, "solver_version", lambda: "0.0")
+    monkeypatch.setattr(uvlm, "solve", solve)
+    return runs
 
 
 def test_records_of_the_old_folder_and_the_cache_are_reused(
-    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture, tmp_path: Path
+    started: list, capsys: pytest.CaptureFixture, tmp_path: Path
 ) -> None:
-    started: list = []
-    monkeypatch.setattr(uvlm, "solver_version", lambda: "0.0")
-    monkeypatch.setattr(uvlm, "solve", _fake_solve(started))
     first = tmp_path / "first"
     assert main(["crosscheck", "--grid", "tiny", "--out", str(first)]) == 0
     assert len(started) == 3 and "3 solver runs: 3 run" in capsys.readouterr().err
@@ -351,16 +353,13 @@ def test_the_agreement_is_the_rms_difference_and_the_signs_that_agree() -> None:
 
 
 def test_the_generalisation_table_has_every_reading_and_the_agreement(
-    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture, tmp_path: Path
+    started: list, capsys: pytest.CaptureFixture, tmp_path: Path
 ) -> None:
     import csv
     from typing import get_args
 
     from tandem_env.physics.options import Slipstream
 
-    started: list = []
-    monkeypatch.setattr(uvlm, "solver_version", lambda: "0.0")
-    monkeypatch.setattr(uvlm, "solve", _fake_solve(started))
     args = ["crosscheck", "--grid", "generalisation", "--wake", "prescribed", "--quiet"]
     assert main([*args, "--out", str(tmp_path)]) == 0
     assert len(started) == 32  # 17 alone and 15 tandem: shared runs run once
