@@ -5,8 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 
-import numpy as np
-
+from agents import verify
 from agents.harness import PreparedJob
 from agents.records import Record
 from tandem_env.envs.reference import config_fingerprint, problem_fingerprint
@@ -22,14 +21,14 @@ def candidates(
     """Strokes found by other runs (any method: a policy's, a study's), per grid point they
     compete for: a feasible record of the table's env at a grid condition, of the problem of
     one of the table's series there (its fingerprint: the same model, insect and planform),
-    competes for every objective of that planform. It must replay, through the env, to its
-    record's objective (relative 1e-6) and fly; any other record is refused (ValueError)."""
-    import gymnasium as gym
-
-    kwargs = {key: dict(prepared[0].job.env_kwargs) for key, prepared in jobs.items()}
+    competes for every objective of that planform. Its stroke must replay, through the env,
+    to its record (:func:`agents.verify.refuted`, as every reused record does) and fly; any
+    other record is refused (ValueError)."""
     fingerprints = {
-        key: problem_fingerprint(config_class(key[0]).from_kwargs(**kw))
-        for key, kw in kwargs.items()
+        key: problem_fingerprint(
+            config_class(key[0]).from_kwargs(**dict(prepared[0].job.env_kwargs))
+        )
+        for key, prepared in jobs.items()
     }
     kept: dict[PointKey, list[Record]] = {}
     for record in records:
@@ -41,17 +40,10 @@ def candidates(
             else f"no series of the table at {env_id} {condition:g} with its model and insect"
             if not keys else None
         )  # fmt: skip
-        if why is None:
-            own = {k: v for k, v in record.job.env_kwargs if k == "objective"}
-            env = gym.make(env_id, **(kwargs[keys[0]] | own))
-            keyword = config_class(env_id).CONDITION.keyword  # type: ignore[union-attr]
-            env.reset(seed=0, options={keyword: condition})
-            info = env.step(np.asarray(record.normalised_stroke, dtype=np.float32))[4]
-            if not (
-                info["feasible"]
-                and np.isclose(info["objective"], record.objective, rtol=1e-6, atol=0.0)
-            ):
-                why = "its stroke does not replay to its objective and fly"
+        if why is None and (
+            refuted := verify.refuted({record.key: record}, {record.key: record.job})
+        ):
+            why = f"its stroke does not replay to its record ({refuted[record.key]})"
         if why is not None:
             raise ValueError(
                 f"candidate record {record.key} ({record.job.label()}): {why}; allowed: a "
