@@ -17,6 +17,7 @@ from typing import Any, get_args
 import numpy as np
 
 from eval.figures import PALETTE, plt, save
+from eval.studies.report import table_head, table_row
 from tandem_env.io.files import write_csv_atomic, write_text_atomic
 from tandem_env.physics import PARAMETER_NAMES, Dragonfly, ModelOptions, evaluate
 from tandem_env.physics.options import Slipstream
@@ -143,11 +144,11 @@ def markdown(table: Sequence[Mapping[str, Any]]) -> str:
         for r in READINGS
         for p in ("hind", "fore")
     ]
-    lines = ["| " + " | ".join(c[0] for c in columns) + " |", "|" + "---|" * len(columns)]
-    for row in table:
-        cells = [form.format(row[key]) if row[key] != "" else "base" for _, key, form in columns]
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+    cells = [
+        [form.format(row[key]) if row[key] != "" else "base" for _, key, form in columns]
+        for row in table
+    ]
+    return "\n".join([*table_head([c[0] for c in columns]), *map(table_row, cells)]) + "\n"
 
 
 def agreement_numbers(
@@ -186,8 +187,9 @@ def write_table(out_dir: Path, table: Sequence[Mapping[str, Any]]) -> tuple[Path
     return out_dir / TABLE_CSV, out_dir / TABLE_MD
 
 
-def _key(row: Mapping[str, Any]) -> tuple[float, float, float]:
-    return (row["speed_m_s"], row["spacing_mm"], row["drop_mm"])
+def case_of(row: Mapping[str, Any]) -> tuple[float, float, float]:
+    """(speed [m/s], spacing [mm], drop [mm]) of a row (numbers or their CSV text)."""
+    return (float(row["speed_m_s"]), float(row["spacing_mm"]), float(row["drop_mm"]))
 
 
 def write_scatter(out_dir: Path, table: Sequence[Mapping[str, Any]]) -> Path:
@@ -214,12 +216,12 @@ def write_scatter(out_dir: Path, table: Sequence[Mapping[str, Any]]) -> Path:
 def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolution) -> Path:
     """Per case, the changes against the lag at ``base`` resolution (left) and the solver's
     hind- and fore-wing change at each resolution run (right: its convergence)."""
-    cases = list(dict.fromkeys(_key(r) for r in table))
+    cases = list(dict.fromkeys(case_of(r) for r in table))
     fig, axes = plt.subplots(
         len(cases), 2, figsize=(11, 3.6 * len(cases)), squeeze=False, width_ratios=(2, 1)
     )
     for (left, right), key in zip(axes, cases, strict=True):
-        mine = [r for r in table if _key(r) == key]
+        mine = [r for r in table if case_of(r) == key]
         main = [
             r
             for r in mine

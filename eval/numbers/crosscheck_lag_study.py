@@ -11,6 +11,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from eval.crosscheck.report import case_of
 from eval.numbers.framework import ROOT, Measurement, copy_outputs, load, read_rows
 from eval.studies.report import table_head, table_row
 
@@ -79,11 +80,6 @@ def measure() -> dict[str, Any]:
         "convergence_command": CONVERGENCE_COMMAND,
         "convergence": read_rows(CONVERGENCE_OUT / "crosscheck.csv"),
     }
-
-
-def case_of(row: Mapping[str, Any]) -> tuple[float, float, float]:
-    """(speed [m/s], spacing [mm], drop [mm]) of a row."""
-    return (float(row["speed_m_s"]), float(row["spacing_mm"]), float(row["drop_mm"]))
 
 
 def readings(rows: Sequence[Mapping[str, Any]]) -> list[str]:
