@@ -17,6 +17,7 @@ from typing import Any, get_args
 import numpy as np
 
 from eval.figures import PALETTE, plt, save
+from eval.studies.report import table_head, table_row
 from tandem_env.io.files import write_csv_atomic, write_text_atomic
 from tandem_env.physics import PARAMETER_NAMES, Dragonfly, ModelOptions, evaluate
 from tandem_env.physics.options import Slipstream
@@ -66,6 +67,18 @@ def _percent(value: float, reference: float) -> float:
     return 100.0 * (value - reference) / reference if reference != 0.0 else math.nan
 
 
+def model_cells(mine: Mapping[str, Any], index: int) -> dict[str, float]:
+    """The model's columns of lag ``index`` of :func:`ours`' ``mine``: each pair's isolated
+    force [mN], then each reading's change of it [%]."""
+    alone = {pair: float(mine["isolated"][pair][index]) for pair in PAIRS}
+    out = {f"ours_isolated_{pair}_mN": 1e3 * alone[pair] for pair in PAIRS}
+    for reading in READINGS:
+        for pair in PAIRS:
+            value = float(mine[reading][pair][index])
+            out[f"ours_{reading}_{pair}_change_pct"] = _percent(value, alone[pair])
+    return out
+
+
 @dataclass(frozen=True)
 class Planned:
     """A case at one resolution, with its runs and its clearance at each lag [m]."""
@@ -106,13 +119,7 @@ def rows(
                 row[f"uvlm_{pair}_change_pct"] = _percent(
                     tandem[pair]["vertical"], alone[pair]["vertical"]
                 )
-            for pair in PAIRS:
-                row[f"ours_isolated_{pair}_mN"] = 1e3 * float(mine["isolated"][pair][index])
-            for reading in READINGS:
-                for pair in PAIRS:
-                    row[f"ours_{reading}_{pair}_change_pct"] = _percent(
-                        float(mine[reading][pair][index]), float(mine["isolated"][pair][index])
-                    )
+            row |= model_cells(mine, index)
             row["uvlm_tandem_wall_s"] = round(tandem["wall_time"], 1)
             out.append(row)
     return out
@@ -137,31 +144,33 @@ def markdown(table: Sequence[Mapping[str, Any]]) -> str:
         for r in READINGS
         for p in ("hind", "fore")
     ]
-    lines = ["| " + " | ".join(c[0] for c in columns) + " |", "|" + "---|" * len(columns)]
-    for row in table:
-        cells = [form.format(row[key]) if row[key] != "" else "base" for _, key, form in columns]
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+    cells = [
+        [form.format(row[key]) if row[key] != "" else "base" for _, key, form in columns]
+        for row in table
+    ]
+    return "\n".join([*table_head([c[0] for c in columns]), *map(table_row, cells)]) + "\n"
+
+
+def agreement_numbers(
+    table: Sequence[Mapping[str, Any]], reading: str, pair: str
+) -> tuple[float, int]:
+    """The RMS of ours (``reading``) − UVLM change of ``pair`` over the rows [percentage
+    points] and how many rows' changes have the UVLM's sign (cells: numbers or their text)."""
+    ours = np.array([float(row[f"ours_{reading}_{pair}_change_pct"]) for row in table])
+    uvlm = np.array([float(row[f"uvlm_{pair}_change_pct"]) for row in table])
+    return float(np.sqrt(np.mean((ours - uvlm) ** 2))), int(np.sum(np.sign(ours) == np.sign(uvlm)))
 
 
 def agreement(table: Sequence[Mapping[str, Any]]) -> str:
-    """Per reading, over the rows: the RMS of ours − UVLM change [percentage points] and the
-    rows whose change has the UVLM's sign, of each pair, as a Markdown table."""
+    """Per reading, over the rows: :func:`agreement_numbers` of each pair, a Markdown table."""
     lines = [
         "| reading | RMS hind − UVLM | RMS fore − UVLM | hind sign agrees | fore sign agrees |",
         "|---|---|---|---|---|",
     ]
     for reading in READINGS:
-        cells = [reading]
-        pairs = [
-            (
-                np.array([row[f"ours_{reading}_{pair}_change_pct"] for row in table]),
-                np.array([row[f"uvlm_{pair}_change_pct"] for row in table]),
-            )
-            for pair in ("hind", "fore")
-        ]
-        cells += [f"{np.sqrt(np.mean((o - u) ** 2)):.1f} pp" for o, u in pairs]
-        cells += [f"{int(np.sum(np.sign(o) == np.sign(u)))}/{len(u)}" for o, u in pairs]
+        numbers = [agreement_numbers(table, reading, pair) for pair in ("hind", "fore")]
+        cells = [reading, *(f"{rms:.1f} pp" for rms, _ in numbers)]
+        cells += [f"{same}/{len(table)}" for _, same in numbers]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -178,8 +187,9 @@ def write_table(out_dir: Path, table: Sequence[Mapping[str, Any]]) -> tuple[Path
     return out_dir / TABLE_CSV, out_dir / TABLE_MD
 
 
-def _key(row: Mapping[str, Any]) -> tuple[float, float, float]:
-    return (row["speed_m_s"], row["spacing_mm"], row["drop_mm"])
+def case_of(row: Mapping[str, Any]) -> tuple[float, float, float]:
+    """(speed [m/s], spacing [mm], drop [mm]) of a row (numbers or their CSV text)."""
+    return (float(row["speed_m_s"]), float(row["spacing_mm"]), float(row["drop_mm"]))
 
 
 def write_scatter(out_dir: Path, table: Sequence[Mapping[str, Any]]) -> Path:
@@ -206,12 +216,12 @@ def write_scatter(out_dir: Path, table: Sequence[Mapping[str, Any]]) -> Path:
 def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolution) -> Path:
     """Per case, the changes against the lag at ``base`` resolution (left) and the solver's
     hind- and fore-wing change at each resolution run (right: its convergence)."""
-    cases = list(dict.fromkeys(_key(r) for r in table))
+    cases = list(dict.fromkeys(case_of(r) for r in table))
     fig, axes = plt.subplots(
         len(cases), 2, figsize=(11, 3.6 * len(cases)), squeeze=False, width_ratios=(2, 1)
     )
     for (left, right), key in zip(axes, cases, strict=True):
-        mine = [r for r in table if _key(r) == key]
+        mine = [r for r in table if case_of(r) == key]
         main = [
             r
             for r in mine

@@ -11,6 +11,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from eval.crosscheck.report import case_of
 from eval.numbers.framework import ROOT, Measurement, copy_outputs, load, read_rows
 from eval.studies.report import table_head, table_row
 
@@ -33,10 +34,8 @@ def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """The stored rows with the model's columns (``ours_*``: isolated forces, each slipstream
     reading's changes) computed afresh by the model as it is (``eval.crosscheck.report.ours``),
     the solver's columns as stored: a new or changed reading without rerunning the solver."""
-    import numpy as np
-
     from eval.crosscheck.case import Case, base_stroke
-    from eval.crosscheck.report import READINGS, ours
+    from eval.crosscheck.report import model_cells, ours
     from tandem_env.physics import DRAGONFLY
 
     out = [dict(row) for row in rows]
@@ -46,12 +45,7 @@ def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
         case = Case(tuple(base_stroke()), key[0], 1e-3 * key[1], 1e-3 * key[2], lags)
         model = ours(case, DRAGONFLY)
         for index, row in enumerate(mine):
-            for pair in ("fore", "hind"):
-                alone = float(model["isolated"][pair][index])
-                row[f"ours_isolated_{pair}_mN"] = 1e3 * alone
-                for reading in READINGS:
-                    value = float(np.asarray(model[reading][pair])[index])
-                    row[f"ours_{reading}_{pair}_change_pct"] = 100.0 * (value - alone) / alone
+            row.update(model_cells(model, index))
     return out
 
 
@@ -86,11 +80,6 @@ def measure() -> dict[str, Any]:
         "convergence_command": CONVERGENCE_COMMAND,
         "convergence": read_rows(CONVERGENCE_OUT / "crosscheck.csv"),
     }
-
-
-def case_of(row: Mapping[str, Any]) -> tuple[float, float, float]:
-    """(speed [m/s], spacing [mm], drop [mm]) of a row."""
-    return (float(row["speed_m_s"]), float(row["spacing_mm"]), float(row["drop_mm"]))
 
 
 def readings(rows: Sequence[Mapping[str, Any]]) -> list[str]:
@@ -158,34 +147,27 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
-def _sign(value: float) -> int:
-    """−1, 0 or +1: no change has neither sign."""
-    return (value > 0.0) - (value < 0.0)
-
-
 def targets(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
     """Per reading, the lag study's target quantities: signs of the hind and fore change
-    shared with the UVLM, their RMS differences [points], and the cases whose largest hind loss
+    shared with the UVLM, their RMS differences [points]
+    (:func:`~eval.crosscheck.report.agreement_numbers`), and the cases whose largest hind loss
     lies within 45° of the UVLM's."""
+    from eval.crosscheck.report import agreement_numbers
+
     out = {}
     entries = summary(rows)
     for reading in readings(rows):
-        hind, fore = [], []
-        for r in rows:
-            hind.append(
-                (float(r[f"ours_{reading}_hind_change_pct"]), float(r["uvlm_hind_change_pct"]))
-            )
-            fore.append(
-                (float(r[f"ours_{reading}_fore_change_pct"]), float(r["uvlm_fore_change_pct"]))
-            )
+        (hind_rms, hind_sign), (fore_rms, fore_sign) = (
+            agreement_numbers(rows, reading, pair) for pair in ("hind", "fore")
+        )
         within = [e["readings"][reading]["loss_lag_off"] for e in entries]
         out[reading] = {
             "points": len(rows),
             "cases": len(entries),
-            "hind_sign": sum(_sign(a) == _sign(b) for a, b in hind),
-            "fore_sign": sum(_sign(a) == _sign(b) for a, b in fore),
-            "hind_rms": math.sqrt(sum((a - b) ** 2 for a, b in hind) / len(hind)),
-            "fore_rms": math.sqrt(sum((a - b) ** 2 for a, b in fore) / len(fore)),
+            "hind_sign": hind_sign,
+            "fore_sign": fore_sign,
+            "hind_rms": hind_rms,
+            "fore_rms": fore_rms,
             "within": sum(off is not None and off <= 45.0 for off in within),
         }
     return out
