@@ -6,6 +6,7 @@ budget (docs/harness.md, "How a run evaluates strokes").
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import time
 from collections.abc import Callable, Mapping
@@ -40,7 +41,7 @@ class EvaluatedBatch:
     """``info["feasible"]`` (all True if the env has none)."""
 
 
-class VectorEnvEvaluator(Tally):
+class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
     """Budgeted, batched fitness through the task's native vector env, made with
     ``env_kwargs`` and reset with ``condition`` (``seed`` seeds the first reset). Calling it
     with actions (n, dim) returns their rewards (n,) and counts them: more than ``budget``
@@ -92,9 +93,6 @@ class VectorEnvEvaluator(Tally):
         for env in self._envs.values():
             env.close()
         self._envs.clear()
-
-    def __enter__(self) -> VectorEnvEvaluator:
-        return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()

@@ -139,11 +139,6 @@ def _difference(stored: Any, recomputed: Any, where: str = "") -> str | None:
 
 
 def _close(a: Any, b: Any) -> bool:
-    numbers = (int, float)
-    if (
-        isinstance(a, bool)
-        or isinstance(b, bool)
-        or not (isinstance(a, numbers) and isinstance(b, numbers))
-    ):
-        return type(a) is type(b) and a == b
-    return bool(np.isclose(a, b, rtol=RTOL, atol=ATOL, equal_nan=True))
+    if all(isinstance(x, int | float) and not isinstance(x, bool) for x in (a, b)):
+        return bool(np.isclose(a, b, rtol=RTOL, atol=ATOL, equal_nan=True))
+    return type(a) is type(b) and a == b
