@@ -410,16 +410,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
             truncations[index] = batch.truncated
             return batch, final
 
-        if self.autoreset_mode == AutoresetMode.NEXT_STEP:
-            resetting = np.flatnonzero(self._ended)
-            stepping = np.flatnonzero(~self._ended)
-            if stepping.size:
-                batch, _ = fly_envs(stepping)
-                add_columns(infos, batch.info_columns(), stepping, n)
-            if resetting.size:
-                columns = self.reset_envs(resetting, [None] * resetting.size, None)
-                add_columns(infos, columns, resetting, n)
-        elif self.autoreset_mode == AutoresetMode.SAME_STEP:
+        if self.autoreset_mode == AutoresetMode.SAME_STEP:
             batch, final = fly_envs(np.arange(n))
             ended = terminations | truncations
             columns = batch.info_columns()
@@ -434,16 +425,20 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
                 infos["final_info"] = add_columns({}, take_columns(columns, done), done, n)
                 infos["_final_info"] = ended.copy()
                 add_columns(infos, self.autoreset(done), done, n)
-        else:
-            if self._ended.any():
+        else:  # next-step autoreset resets the ended sub-envs instead; Disabled refuses them
+            resetting, stepping = np.flatnonzero(self._ended), np.flatnonzero(~self._ended)
+            if resetting.size and self.autoreset_mode == AutoresetMode.DISABLED:
                 raise RuntimeError(
-                    f"sub-envs {np.flatnonzero(self._ended).tolist()} have ended their "
-                    "episodes; with autoreset_mode=Disabled reset them first, e.g. "
+                    f"sub-envs {resetting.tolist()} have ended their episodes; with "
+                    "autoreset_mode=Disabled reset them first, e.g. "
                     "reset(options={'reset_mask': mask})"
                 )
-            everyone = np.arange(n)
-            batch, _ = fly_envs(everyone)
-            add_columns(infos, batch.info_columns(), everyone, n)
+            if stepping.size:
+                batch, _ = fly_envs(stepping)
+                add_columns(infos, batch.info_columns(), stepping, n)
+            if resetting.size:
+                columns = self.reset_envs(resetting, [None] * resetting.size, None)
+                add_columns(infos, columns, resetting, n)
 
         if self.render_mode == "human":
             self.render()
