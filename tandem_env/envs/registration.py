@@ -145,9 +145,6 @@ def _entry_class(env_id: str, attribute: str) -> type[Any]:
 def condition_keywords() -> tuple[str, ...]:
     """Every keyword that sets a declared condition (fixed or range) of the registered envs."""
 
-    keywords: list[str] = []
-    for env_id in env_ids():
-        declared = getattr(config_class(env_id), "CONDITION", None)
-        if declared is not None:
-            keywords += [declared.keyword, declared.range_keyword]
+    declared = [getattr(config_class(env_id), "CONDITION", None) for env_id in env_ids()]
+    keywords = [k for d in declared if d is not None for k in (d.keyword, d.range_keyword)]
     return tuple(dict.fromkeys(keywords))

@@ -95,10 +95,8 @@ def draw(figure: Figure, frame: Frame) -> tuple[Axes, list[Axes]]:
     for axis, (_, label) in zip(angle_axes, labels, strict=True):
         axis.set_ylabel(label, fontsize=8)
         axis.set_xlim(0.0, 1.0)
-        axis.tick_params(labelsize=7)
+        axis.tick_params(labelsize=7, labelbottom=axis is angle_axes[-1])
         axis.grid(True, color="0.9")
-    for axis in angle_axes[:-1]:
-        axis.tick_params(labelbottom=False)
     angle_axes[-1].set_xlabel("t / T [-] (each wing over its own cycle)", fontsize=8)
     side.tick_params(labelsize=7)
 
