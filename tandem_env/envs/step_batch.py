@@ -69,22 +69,22 @@ class StepBatch:
 
     def info_columns(self) -> Columns:
         """Every metric of the model, the task's constraints and reward terms, the stroke."""
-        columns: Columns = {
-            name: values if values.dtype == bool else values.astype(np.float64, copy=False)
-            for name, values in self.result.as_dict().items()
-        }
-        columns |= self.scores.violations
-        columns |= {
-            "objective": self.objective,
-            "constraint_violation": self.scores.total,
-            "penalty": self.penalty,
-            "feasible": self.scores.feasible,
-        }
+        columns: Columns = {}
+        for name, values in self.result.as_dict().items():
+            columns[name] = (
+                values if values.dtype == bool else values.astype(np.float64, copy=False)
+            )
+        columns.update(self.scores.violations)
+        columns["objective"] = self.objective
+        columns["constraint_violation"] = self.scores.total
+        columns["penalty"] = self.penalty
+        columns["feasible"] = self.scores.feasible
         if self.score is not None:
             columns["score"] = self.score
-        # N is an integer parameter; strokes_to_dicts reports it as int, and so do we.
-        columns["stroke"] = {
-            name: column.astype(int) if name in _HARMONIC else column.copy()
-            for name, column in zip(PARAMETER_NAMES, self.physical.T, strict=True)
-        }
+        stroke: Columns = {}
+        for j, name in enumerate(PARAMETER_NAMES):
+            column = self.physical[:, j]
+            # N is an integer parameter; strokes_to_dicts reports it as int, and so do we.
+            stroke[name] = column.astype(int) if name in _HARMONIC else column.copy()
+        columns["stroke"] = stroke
         return columns
