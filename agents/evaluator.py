@@ -23,6 +23,9 @@ from tandem_env.envs.base import as_action_type
 from tandem_env.io.files import to_jsonable
 
 BatchCallback = Callable[[int, int, float], None]
+#: How the harness makes a task's vector env: its native one (one model call per step), each
+#: sub-env reset by the harness (with the condition) rather than on its own.
+NATIVE_VECTOR_ENV = {"vectorization_mode": "vector_entry_point", "autoreset_mode": "Disabled"}
 
 
 class BudgetExceededError(RuntimeError):
@@ -75,13 +78,7 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
     def _env(self, n: int) -> gym.vector.VectorEnv:
         env = self._envs.get(n)
         if env is None:
-            env = gym.make_vec(
-                self.task.env_id,
-                num_envs=n,
-                vectorization_mode="vector_entry_point",
-                autoreset_mode="Disabled",
-                **self.env_kwargs,
-            )
+            env = gym.make_vec(self.task.env_id, num_envs=n, **NATIVE_VECTOR_ENV, **self.env_kwargs)
             # The seed only matters for sampled conditions (none here), but a seeded first
             # reset keeps every generator the env owns reproducible too.
             env.reset(seed=self.seed, options=self._options)

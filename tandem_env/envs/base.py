@@ -117,21 +117,13 @@ class FlightCore:
     def draw_conditions(self, count: int, rngs: EnvGenerators, options: EnvOptions) -> np.ndarray:
         """Conditions (count,) of new episodes: ``options[k]``'s, the fixed one, or one
         ``uniform`` draw from ``rngs(k)`` (so every front end consumes the streams alike)."""
+        cfg, key = self.config, self.option_key
+        where = (self._low, self._high, cfg.declared_condition.unit, "the observation envelope")
         values = np.empty(count)
-        cfg = self.config
         for k in range(count):
             given = reset_options(cfg.name, options[k], self._options, self._renamed)
             if given:
-                unit = cfg.declared_condition.unit
-                values[k] = option_value(
-                    cfg.name,
-                    self.option_key,
-                    given[self.option_key],
-                    self._low,
-                    self._high,
-                    unit,
-                    "the observation envelope",
-                )
+                values[k] = option_value(cfg.name, key, given[key], *where)
             elif cfg.condition_range is None:
                 values[k] = cfg.fixed_condition
             else:
