@@ -42,10 +42,6 @@ _HOST = re.compile(
 _HANDSHAKE_BYTES = 1 << 24
 
 
-def _short(text: str, limit: int = 40) -> str:
-    return text if len(text) <= limit else f"{text[:limit]}…"
-
-
 class SchedulerUnreachable(ConnectionError):
     """No Dask scheduler answers at the address given."""
 
@@ -78,8 +74,9 @@ def parse_scheduler(text: str) -> str:
     host, port = match.groups()
     if not host.startswith("[") and not _HOST.fullmatch(host):
         # The resolver refuses other names with a codec error ("label too long") or a NUL.
+        short = host if len(host) <= 40 else f"{host[:40]}…"
         raise ValueError(
-            f"--scheduler {text!r}: {_short(host)!r} is not a host name (letters, digits, '-', "
+            f"--scheduler {text!r}: {short!r} is not a host name (letters, digits, '-', "
             f"'.', '_'; labels of 1 to 63, at most 253 in all) nor an IP address; allowed: "
             f"{_ALLOWED}"
         )

@@ -6,6 +6,7 @@ budget (docs/harness.md, "How a run evaluates strokes").
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import time
 from collections.abc import Callable, Mapping
@@ -22,6 +23,9 @@ from tandem_env.envs.base import as_action_type
 from tandem_env.io.files import to_jsonable
 
 BatchCallback = Callable[[int, int, float], None]
+#: How the harness makes a task's vector env: its native one (one model call per step), each
+#: sub-env reset by the harness (with the condition) rather than on its own.
+NATIVE_VECTOR_ENV = {"vectorization_mode": "vector_entry_point", "autoreset_mode": "Disabled"}
 
 
 class BudgetExceededError(RuntimeError):
@@ -40,7 +44,7 @@ class EvaluatedBatch:
     """``info["feasible"]`` (all True if the env has none)."""
 
 
-class VectorEnvEvaluator(Tally):
+class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
     """Budgeted, batched fitness through the task's native vector env, made with
     ``env_kwargs`` and reset with ``condition`` (``seed`` seeds the first reset). Calling it
     with actions (n, dim) returns their rewards (n,) and counts them: more than ``budget``
@@ -74,13 +78,7 @@ class VectorEnvEvaluator(Tally):
     def _env(self, n: int) -> gym.vector.VectorEnv:
         env = self._envs.get(n)
         if env is None:
-            env = gym.make_vec(
-                self.task.env_id,
-                num_envs=n,
-                vectorization_mode="vector_entry_point",
-                autoreset_mode="Disabled",
-                **self.env_kwargs,
-            )
+            env = gym.make_vec(self.task.env_id, num_envs=n, **NATIVE_VECTOR_ENV, **self.env_kwargs)
             # The seed only matters for sampled conditions (none here), but a seeded first
             # reset keeps every generator the env owns reproducible too.
             env.reset(seed=self.seed, options=self._options)
@@ -92,9 +90,6 @@ class VectorEnvEvaluator(Tally):
         for env in self._envs.values():
             env.close()
         self._envs.clear()
-
-    def __enter__(self) -> VectorEnvEvaluator:
-        return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()

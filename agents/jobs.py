@@ -23,17 +23,6 @@ from tandem_env.io.files import to_jsonable
 from tandem_env.physics import N_PARAMETERS
 from tandem_env.physics.checks import count, is_integer, is_real
 
-__all__ = [
-    "MAX_BUDGET",
-    "OLD_SCHEMAS",
-    "SCHEMA",
-    "Continuation",
-    "FrozenMapping",
-    "Job",
-    "Work",
-    "method_identity",
-]
-
 #: Identifies record files (and their version) among other JSON files.
 SCHEMA = "tandem_env.harness-record/5"
 """Record format; /2 added ``selection`` (records report the best feasible stroke seen), /3
@@ -42,12 +31,7 @@ results' ``certificate`` (the local polish, ``agents.polish``); a run split into
 (``starts``, ``initial``) adds the results' ``starts`` (optional: a one-part run's record is
 unchanged)."""
 #: Earlier formats: recognised, never read as results (their jobs are recomputed).
-OLD_SCHEMAS = (
-    "tandem_env.harness-record/1",
-    "tandem_env.harness-record/2",
-    "tandem_env.harness-record/3",
-    "tandem_env.harness-record/4",
-)
+OLD_SCHEMAS = tuple(f"tandem_env.harness-record/{n}" for n in range(1, 5))
 
 #: The largest budget of one job [model evaluations]: 10⁸, over 6 000 times the paper's
 #: budgets; a larger one would run for days and outgrow the memory of the methods' per-iteration
@@ -148,10 +132,9 @@ class Job:
     """The study preset the job belongs to (part of the key, so presets never share records);
     empty for a run outside the studies (``python -m eval optimize``)."""
     method_identity: str | None = None
-    """What the files a method reads hold (``policy:RUN_DIR``: a digest of the trained run), so
-    that a newer run is another job under another key; when not given, asked of the method (its
-    optional ``identity()``, :func:`method_identity`). Empty for a method that reads no files,
-    and then left out of the job's dict and key (those keys are what they always were)."""
+    """What the files the method reads hold, so that a newer trained run is another job under
+    another key (:func:`method_identity` when not given); empty ones are left out of the job's
+    dict and key."""
 
     def __post_init__(self) -> None:
         # The one structural check of a job, where it is made (the CLI, a study, a record file):

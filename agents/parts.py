@@ -97,9 +97,7 @@ def plan_parts(config: PolishConfig, budget: int) -> list[tuple[str, int, np.nda
 def _part_seed(seed: int, index: int) -> int:
     """Part ``index``'s seed: the job's for part 0 (one start is the plain run), else a
     stream spawned from it."""
-    if index == 0:
-        return seed
-    return int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
+    return seed if index == 0 else int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
 
 
 def search_part(

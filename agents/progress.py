@@ -71,10 +71,6 @@ class CommandProgress:
         """The look-ahead's ``phases``, each of those ``started`` in its place (or after)."""
         self._phases = {p.name: p for p in phases} | {p.name: p for p in started}
 
-    @property
-    def _later(self) -> str:
-        return list(self._phases.values())[-1].later if self._phases else ""
-
     def counts(self) -> dict[str, int]:
         """The command's jobs by state (``done``, ``stored``, ``cached``, ``todo``: stand-ins
         too), with ``evaluations`` and ``todo_evaluations``."""
@@ -120,8 +116,8 @@ class CommandProgress:
 
     def _left(self, c: Mapping[str, int]) -> str:
         text = f"{c['todo']} to run ({c['todo_evaluations']:,} evaluations)"
-        if self._later:
-            text += f"; then {self._later}"
+        if later := (list(self._phases.values())[-1].later if self._phases else ""):
+            text += f"; then {later}"
         return f"{text}; time left: {self.time_left(c['todo_evaluations'])}"
 
     def _say(self, line: str) -> None:

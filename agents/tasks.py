@@ -140,7 +140,6 @@ class TaskSpec:
 
 
 #: Tasks registered by hand (:func:`register_task`); those of env entries are read on each call.
-
 REGISTERED_TASKS: dict[str, TaskSpec] = {}
 
 

@@ -15,7 +15,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.evaluator import reevaluate
+from agents.evaluator import NATIVE_VECTOR_ENV, reevaluate
 from agents.jobs import Job
 from agents.parts import PreparedJob
 from agents.records import Record
@@ -85,8 +85,7 @@ def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Record]) -> 
 
     keyword = spec.declared_condition.keyword
     actions = np.asarray([r.normalised_stroke for r in records], dtype=np.float64)
-    make = {"vectorization_mode": "vector_entry_point", "autoreset_mode": "Disabled"}
-    env = gym.make_vec(spec.env_id, num_envs=len(records), **make, **kwargs)
+    env = gym.make_vec(spec.env_id, num_envs=len(records), **NATIVE_VECTOR_ENV, **kwargs)
     with contextlib.closing(env):
         if callable(reset_envs := getattr(env.unwrapped, "reset_envs", None)):
             options = [{keyword: spec.condition(r.job.condition).value} for r in records]
@@ -139,11 +138,6 @@ def _difference(stored: Any, recomputed: Any, where: str = "") -> str | None:
 
 
 def _close(a: Any, b: Any) -> bool:
-    numbers = (int, float)
-    if (
-        isinstance(a, bool)
-        or isinstance(b, bool)
-        or not (isinstance(a, numbers) and isinstance(b, numbers))
-    ):
-        return type(a) is type(b) and a == b
-    return bool(np.isclose(a, b, rtol=RTOL, atol=ATOL, equal_nan=True))
+    if all(isinstance(x, int | float) and not isinstance(x, bool) for x in (a, b)):
+        return bool(np.isclose(a, b, rtol=RTOL, atol=ATOL, equal_nan=True))
+    return type(a) is type(b) and a == b

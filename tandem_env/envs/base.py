@@ -117,21 +117,13 @@ class FlightCore:
     def draw_conditions(self, count: int, rngs: EnvGenerators, options: EnvOptions) -> np.ndarray:
         """Conditions (count,) of new episodes: ``options[k]``'s, the fixed one, or one
         ``uniform`` draw from ``rngs(k)`` (so every front end consumes the streams alike)."""
+        cfg, key = self.config, self.option_key
+        where = (self._low, self._high, cfg.declared_condition.unit, "the observation envelope")
         values = np.empty(count)
-        cfg = self.config
         for k in range(count):
             given = reset_options(cfg.name, options[k], self._options, self._renamed)
             if given:
-                unit = cfg.declared_condition.unit
-                values[k] = option_value(
-                    cfg.name,
-                    self.option_key,
-                    given[self.option_key],
-                    self._low,
-                    self._high,
-                    unit,
-                    "the observation envelope",
-                )
+                values[k] = option_value(cfg.name, key, given[key], *where)
             elif cfg.condition_range is None:
                 values[k] = cfg.fixed_condition
             else:
@@ -410,16 +402,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
             truncations[index] = batch.truncated
             return batch, final
 
-        if self.autoreset_mode == AutoresetMode.NEXT_STEP:
-            resetting = np.flatnonzero(self._ended)
-            stepping = np.flatnonzero(~self._ended)
-            if stepping.size:
-                batch, _ = fly_envs(stepping)
-                add_columns(infos, batch.info_columns(), stepping, n)
-            if resetting.size:
-                columns = self.reset_envs(resetting, [None] * resetting.size, None)
-                add_columns(infos, columns, resetting, n)
-        elif self.autoreset_mode == AutoresetMode.SAME_STEP:
+        if self.autoreset_mode == AutoresetMode.SAME_STEP:
             batch, final = fly_envs(np.arange(n))
             ended = terminations | truncations
             columns = batch.info_columns()
@@ -434,16 +417,20 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
                 infos["final_info"] = add_columns({}, take_columns(columns, done), done, n)
                 infos["_final_info"] = ended.copy()
                 add_columns(infos, self.autoreset(done), done, n)
-        else:
-            if self._ended.any():
+        else:  # next-step autoreset resets the ended sub-envs instead; Disabled refuses them
+            resetting, stepping = np.flatnonzero(self._ended), np.flatnonzero(~self._ended)
+            if resetting.size and self.autoreset_mode == AutoresetMode.DISABLED:
                 raise RuntimeError(
-                    f"sub-envs {np.flatnonzero(self._ended).tolist()} have ended their "
-                    "episodes; with autoreset_mode=Disabled reset them first, e.g. "
+                    f"sub-envs {resetting.tolist()} have ended their episodes; with "
+                    "autoreset_mode=Disabled reset them first, e.g. "
                     "reset(options={'reset_mask': mask})"
                 )
-            everyone = np.arange(n)
-            batch, _ = fly_envs(everyone)
-            add_columns(infos, batch.info_columns(), everyone, n)
+            if stepping.size:
+                batch, _ = fly_envs(stepping)
+                add_columns(infos, batch.info_columns(), stepping, n)
+            if resetting.size:
+                columns = self.reset_envs(resetting, [None] * resetting.size, None)
+                add_columns(infos, columns, resetting, n)
 
         if self.render_mode == "human":
             self.render()

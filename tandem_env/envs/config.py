@@ -54,6 +54,26 @@ def _as_keywords(error: ValueError, task: str, owner: str, given: Mapping[str, s
     return ValueError(f"{task}: {text}")
 
 
+def _overridden(
+    task: str, kwargs: dict[str, Any], name: str, keywords: Mapping[str, str], allowed: str
+) -> Any:
+    """``kwargs[name]`` (``ModelOptions`` or ``PenaltyConfig``; default its defaults) with the
+    fields that flat ``keywords`` (keyword -> field) of ``kwargs`` set over it, all popped; its
+    ValueError names each field by the keyword given for it."""
+    kind = {"options": ModelOptions, "penalty": PenaltyConfig}[name]
+    value = kwargs.pop(name, None)
+    value = kind() if value is None else value
+    if not isinstance(value, kind):
+        raise ValueError(f"{task}: {name} = {value!r}; allowed: {allowed}")
+    given = {field: keyword for keyword, field in keywords.items() if keyword in kwargs}
+    if not given:
+        return value
+    try:  # the dataclass validates, naming the rule
+        return replace(value, **{field: kwargs.pop(keyword) for field, keyword in given.items()})
+    except ValueError as error:
+        raise _as_keywords(error, task, kind.__name__, given) from None
+
+
 def normalise_condition(config: FlightConfig) -> None:
     """Validate and store the fields of ``type(config).CONDITION``: its envelope and, inside
     it, a fixed value or a sampled range (:func:`fixed_or_sampled`)."""
@@ -138,6 +158,10 @@ class PenaltyConfig:
         """Penalty (B,) [reward units] of normalised violations (B,) and feasibility flags (B,)."""
         # Exactly 0.0 for feasible strokes (violation == 0 there), so reward == objective.
         return np.where(feasible, 0.0, self.weight * violation + self.offset)
+
+
+#: ``gym.make`` kwargs of the :class:`PenaltyConfig` fields -> field name.
+_PENALTY_KWARGS: dict[str, str] = {f"penalty_{f.name}": f.name for f in fields(PenaltyConfig)}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -252,14 +276,7 @@ class FlightConfig:
     def allowed_kwargs(cls) -> tuple[str, ...]:
         """Every keyword ``from_kwargs`` (and so ``gym.make``) accepts for this task."""
         own = tuple(f.name for f in fields(cls) if f.init)
-        return (
-            *own,
-            "planform",
-            "rotational_coefficient",
-            *MODEL_OPTION_KWARGS,
-            "penalty_weight",
-            "penalty_offset",
-        )
+        return (*own, "planform", "rotational_coefficient", *MODEL_OPTION_KWARGS, *_PENALTY_KWARGS)
 
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> FlightConfig:
@@ -301,51 +318,22 @@ class FlightConfig:
                 hind=replace(insect.hind, rotational_coefficient=c_r),
             )
 
-        options = kwargs.pop("options", None)
-        options = ModelOptions() if options is None else options
-        if not isinstance(options, ModelOptions):
-            raise ValueError(
-                f"{cls.name}: options = {options!r}; allowed: a tandem_env.ModelOptions"
-            )
-        fields_given = {MODEL_OPTION_KWARGS[k]: k for k in MODEL_OPTION_KWARGS if k in kwargs}
-        overrides = {name: kwargs.pop(keyword) for name, keyword in fields_given.items()}
-
         for name in _REAL_MODEL_OPTIONS:
-            if name in overrides and not _is_real(overrides[name]):
-                raise ValueError(
-                    f"{cls.name}: {name} = {overrides[name]!r}; allowed: a finite number"
-                )
-        if overrides:
-            try:
-                options = replace(options, **overrides)  # ModelOptions validates, names the rule
-            except ValueError as error:
-                raise _as_keywords(error, cls.name, "ModelOptions", fields_given) from None
-
-        penalty = kwargs.pop("penalty", None)
-        penalty = PenaltyConfig() if penalty is None else penalty
+            if name in kwargs and not _is_real(kwargs[name]):
+                raise ValueError(f"{cls.name}: {name} = {kwargs[name]!r}; allowed: a finite number")
+        options = _overridden(
+            cls.name, kwargs, "options", MODEL_OPTION_KWARGS, "a tandem_env.ModelOptions"
+        )
+        penalty = kwargs.get("penalty")
         if isinstance(penalty, Mapping):
             extra = sorted(set(penalty) - {f.name for f in fields(PenaltyConfig)})
             if extra:
                 raise ValueError(
                     f"{cls.name}: penalty has unknown key(s) {extra}; allowed: weight, offset"
                 )
-            penalty = PenaltyConfig(**penalty)
-        if not isinstance(penalty, PenaltyConfig):
-            raise ValueError(
-                f"{cls.name}: penalty = {penalty!r}; allowed: a PenaltyConfig or a dict of its "
-                "fields (weight, offset)"
-            )
-        penalty_overrides = {
-            key: kwargs.pop(f"penalty_{key}")
-            for key in ("weight", "offset")
-            if f"penalty_{key}" in kwargs
-        }
-        if penalty_overrides:
-            try:
-                penalty = replace(penalty, **penalty_overrides)
-            except ValueError as error:
-                given = {key: f"penalty_{key}" for key in penalty_overrides}
-                raise _as_keywords(error, cls.name, "PenaltyConfig", given) from None
+            kwargs["penalty"] = PenaltyConfig(**penalty)
+        allowed = "a PenaltyConfig or a dict of its fields (weight, offset)"
+        penalty = _overridden(cls.name, kwargs, "penalty", _PENALTY_KWARGS, allowed)
         return cls(insect=insect, options=options, penalty=penalty, **kwargs)
 
     def describe(self) -> str:

@@ -82,17 +82,14 @@ class TaskCondition:
 
     def __post_init__(self) -> None:
         owner = "TaskCondition"
-        _identifier(owner, "keyword", self.keyword)
-        if self.former_keyword is not None:
-            _identifier(owner, "former_keyword", self.former_keyword)
-        if self.option == "":
-            object.__setattr__(self, "option", self.keyword)
-        _identifier(owner, "option", self.option)
-        for name in ("label", "symbol", "unit"):
+        # "" (the default) stands for the keyword's option and the symbol's placeholder
+        object.__setattr__(self, "option", self.keyword if self.option == "" else self.option)
+        object.__setattr__(self, "metavar", self.symbol if self.metavar == "" else self.metavar)
+        for name in ("keyword", "option", "former_keyword"):
+            if name != "former_keyword" or self.former_keyword is not None:
+                _identifier(owner, name, getattr(self, name))
+        for name in ("label", "symbol", "unit", "metavar"):
             _text(owner, name, getattr(self, name))
-        if self.metavar == "":
-            object.__setattr__(self, "metavar", self.symbol)
-        _text(owner, "metavar", self.metavar)
         limits = _pair(owner, "limits", self.limits, self.unit)
         envelope = _pair(owner, "envelope", self.envelope, self.unit)
         if not limits[0] <= envelope[0] < envelope[1] <= limits[1]:
@@ -143,11 +140,7 @@ class TaskCondition:
         old = self.former_keyword
         if old is None:
             return {}
-        return {
-            old: self.keyword,
-            f"{old}_range": self.range_keyword,
-            f"{old}_envelope": self.envelope_keyword,
-        }
+        return dict(zip((old, f"{old}_range", f"{old}_envelope"), self.keywords, strict=True))
 
     def describe(self, fixed: float | None, sampled: tuple[float, float] | None) -> str:
         """``"V = 1.5 m/s"`` or ``"V ~ U(0.25, 2) m/s"``, for titles and reprs."""

@@ -26,16 +26,6 @@ class EnvEntry:
     task: str | None = None
     """Name of the harness task (``--task``) that runs this env; None for none."""
 
-    @property
-    def entry_point(self) -> str:
-        """``module:Class`` of the single env."""
-        return f"{self.module}:{self.env}Env"
-
-    @property
-    def vector_entry_point(self) -> str:
-        """``module:Class`` of the batched vector env."""
-        return f"{self.module}:{self.env}VectorEnv"
-
 
 #: Every env id registered through :func:`add_entry`: this package's own (adding a task is its
 #: module and one line here), then those of plug-ins and tests.
@@ -108,9 +98,8 @@ def add_entry(env_id: str, entry: EnvEntry) -> None:
     if env_id not in registry:
         # No max_episode_steps: the one-cycle episodes terminate after their step and
         # SpeedChange truncates itself after max_cycles, so a TimeLimit would only duplicate it.
-        register(
-            id=env_id, entry_point=entry.entry_point, vector_entry_point=entry.vector_entry_point
-        )
+        where = f"{entry.module}:{entry.env}"  # the task module's {env}Env and {env}VectorEnv
+        register(id=env_id, entry_point=f"{where}Env", vector_entry_point=f"{where}VectorEnv")
 
 
 def remove_entry(env_id: str) -> None:
@@ -156,9 +145,6 @@ def _entry_class(env_id: str, attribute: str) -> type[Any]:
 def condition_keywords() -> tuple[str, ...]:
     """Every keyword that sets a declared condition (fixed or range) of the registered envs."""
 
-    keywords: list[str] = []
-    for env_id in env_ids():
-        declared = getattr(config_class(env_id), "CONDITION", None)
-        if declared is not None:
-            keywords += [declared.keyword, declared.range_keyword]
+    declared = [getattr(config_class(env_id), "CONDITION", None) for env_id in env_ids()]
+    keywords = [k for d in declared if d is not None for k in (d.keyword, d.range_keyword)]
     return tuple(dict.fromkeys(keywords))

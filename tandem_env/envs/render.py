@@ -95,10 +95,8 @@ def draw(figure: Figure, frame: Frame) -> tuple[Axes, list[Axes]]:
     for axis, (_, label) in zip(angle_axes, labels, strict=True):
         axis.set_ylabel(label, fontsize=8)
         axis.set_xlim(0.0, 1.0)
-        axis.tick_params(labelsize=7)
+        axis.tick_params(labelsize=7, labelbottom=axis is angle_axes[-1])
         axis.grid(True, color="0.9")
-    for axis in angle_axes[:-1]:
-        axis.tick_params(labelbottom=False)
     angle_axes[-1].set_xlabel("t / T [-] (each wing over its own cycle)", fontsize=8)
     side.tick_params(labelsize=7)
 
@@ -136,43 +134,6 @@ def to_rgb_array(frame: Frame) -> np.ndarray:
     draw(figure, frame)
     canvas.draw()
     return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
-
-
-def _interactive_backend() -> bool:
-    import matplotlib
-
-    return matplotlib.get_backend().lower() not in _NON_INTERACTIVE
-
-
-class HumanWindow:
-    """A pyplot window redrawn in place at every step (``render_mode="human"``); with a
-    non-interactive backend it is drawn but not shown, so headless runs do not block."""
-
-    def __init__(self, fps: float) -> None:
-        self.fps = fps
-        self._figure: Any = None
-
-    def show(self, frame: Frame) -> None:
-        import matplotlib.pyplot as plt
-
-        if self._figure is None or not plt.fignum_exists(self._figure.number):
-            width, height = FRAME_SIZE
-            self._figure = plt.figure(
-                figsize=(width / FRAME_DPI, height / FRAME_DPI), dpi=FRAME_DPI
-            )
-        draw(self._figure, frame)
-        if _interactive_backend():
-            self._figure.canvas.draw_idle()
-            plt.pause(1.0 / self.fps)  # shows the window and lets the GUI draw it
-        else:
-            self._figure.canvas.draw()
-
-    def close(self) -> None:
-        if self._figure is not None:
-            import matplotlib.pyplot as plt
-
-            plt.close(self._figure)
-            self._figure = None
 
 
 def metrics_line(reward: float, info: dict[str, Any], objective_label: str) -> str:
@@ -226,8 +187,9 @@ def frame_for(core: Any, title: str, condition: float | None, last: LastStep | N
 
 
 class RenderWindow:
-    """The human-mode window of an env: opened at its first render, closed by ``close``, never
-    pickled (a copy opens its own)."""
+    """The human-mode window of an env: a pyplot figure opened at its first render and redrawn
+    in place at each, closed by ``close``, never pickled (a copy opens its own); with a
+    non-interactive backend it is drawn but not shown, so headless runs do not block."""
 
     _window: Any = None
 
@@ -235,14 +197,27 @@ class RenderWindow:
         """``frame`` as an RGB array (``render_mode="rgb_array"``) or in the window (``"human"``)."""
         if self.render_mode == "rgb_array":  # type: ignore[attr-defined]
             return to_rgb_array(frame)
-        if self._window is None:
-            self._window = HumanWindow(self.metadata["render_fps"])  # type: ignore[attr-defined]
-        self._window.show(frame)
+        import matplotlib
+        import matplotlib.pyplot as plt
+
+        if self._window is None or not plt.fignum_exists(self._window.number):
+            width, height = FRAME_SIZE
+            self._window = plt.figure(
+                figsize=(width / FRAME_DPI, height / FRAME_DPI), dpi=FRAME_DPI
+            )
+        draw(self._window, frame)
+        if matplotlib.get_backend().lower() in _NON_INTERACTIVE:
+            self._window.canvas.draw()
+        else:
+            self._window.canvas.draw_idle()
+            plt.pause(1.0 / self.metadata["render_fps"])  # type: ignore[attr-defined]
         return None
 
     def _close_window(self) -> None:
         if self._window is not None:
-            self._window.close()
+            import matplotlib.pyplot as plt
+
+            plt.close(self._window)
             self._window = None
 
     def __getstate__(self) -> dict[str, Any]:

@@ -43,9 +43,6 @@ class TandemVecEnv(VecEnv):
         self.metadata = {
             key: value for key, value in vector_env.metadata.items() if key != "autoreset_mode"
         }
-        self._observations = np.zeros(
-            (self.num_envs, *vector_env.single_observation_space.shape), dtype=np.float32
-        )
         self._actions: np.ndarray | None = None
 
     @property
@@ -58,11 +55,10 @@ class TandemVecEnv(VecEnv):
         options = [opts if opts else None for opts in self._options]
         columns = self.vector_env.reset_envs(everyone, list(self._seeds), options)
         self.reset_infos = rows(columns, self.num_envs)
-        self._observations = self.vector_env.observations
         # Seeds and options are used once, as in DummyVecEnv.
         self._reset_seeds()
         self._reset_options()
-        return self._observations.copy()
+        return self.vector_env.observations  # a copy
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = np.asarray(actions)
@@ -88,8 +84,8 @@ class TandemVecEnv(VecEnv):
             columns = self.vector_env.autoreset(ended)  # frames still show the strokes flown
             for i, info in zip(ended, rows(columns, ended.size), strict=True):
                 self.reset_infos[i] = info
-        self._observations = self.vector_env.observations
-        return self._observations.copy(), batch.reward.astype(np.float32), dones, infos
+        observations = self.vector_env.observations  # a copy
+        return observations, batch.reward.astype(np.float32), dones, infos
 
     def close(self) -> None:
         self.vector_env.close()
