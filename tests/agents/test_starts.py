@@ -19,11 +19,13 @@ from agents.records import SELECTION_INITIAL, SELECTION_INITIAL_POLISHED, STARTS
 from tests.agents.test_polish import F_MARGIN, FIXED, FREE, ROUNDING, X_STAR, Counted, problem
 
 BUDGET = 3_000
-ACCELERATE = {"objective": "vertical", "progress": False}
+ACCELERATE_KWARGS = {"objective": "vertical", "progress": False}
 
 
 def _run(config: dict, budget: int = BUDGET, seed: int = 0):
-    return run("cmaes", "accelerate", 60.0, budget, [seed], method_config=config, **ACCELERATE)[0]
+    return run(
+        "cmaes", "accelerate", 60.0, budget, [seed], method_config=config, **ACCELERATE_KWARGS
+    )[0]
 
 
 def test_one_start_is_the_plain_run():

@@ -22,13 +22,13 @@ from tandem_env.envs import (
 )
 
 LEVEL = "TandemWing/LevelFlight-v0"
-ACCELERATE = "TandemWing/Accelerate-v0"
+ACCELERATE_ID = "TandemWing/Accelerate-v0"
 
 
 def test_ids_resolve_with_module_prefix() -> None:
     env = gym.make(f"tandem_env:{LEVEL}")
     assert isinstance(env.unwrapped, LevelFlightEnv)
-    assert isinstance(gym.make(ACCELERATE).unwrapped, AccelerateEnv)
+    assert isinstance(gym.make(ACCELERATE_ID).unwrapped, AccelerateEnv)
     assert gym.spec(LEVEL).vector_entry_point == "tandem_env.envs.level_flight:LevelFlightVectorEnv"
 
 
@@ -39,7 +39,7 @@ def test_registration_is_idempotent() -> None:
     assert gym.spec(LEVEL).max_episode_steps is None  # no TimeLimit: episodes terminate
 
 
-@pytest.mark.parametrize("env_id", [LEVEL, ACCELERATE])
+@pytest.mark.parametrize("env_id", [LEVEL, ACCELERATE_ID])
 def test_spaces(env_id: str) -> None:
     env = gym.make(env_id)
     assert env.action_space == gym.spaces.Box(-1.0, 1.0, (28,), np.float32)
@@ -76,7 +76,7 @@ def test_speed_range_is_sampled_from_the_seeded_generator() -> None:
 
 
 def test_accelerate_condition_is_the_available_power() -> None:
-    env = gym.make(ACCELERATE, available_power_range=(50.0, 90.0), speed=0.5)
+    env = gym.make(ACCELERATE_ID, available_power_range=(50.0, 90.0), speed=0.5)
     obs, info = env.reset(seed=0)
     assert 50.0 <= info["available_power"] <= 90.0 and info["speed"] == 0.5
     assert obs[0] == np.float32(2.0 * (info["available_power"] - 50.0) / 40.0 - 1.0)
@@ -88,19 +88,19 @@ def test_reset_options_set_the_condition_for_one_episode() -> None:
     env = gym.make(LEVEL, speed_range=(0.25, 2.0))
     _, info = env.reset(seed=0, options={"speed": 0.75})
     assert info["speed"] == 0.75
-    _, info = gym.make(ACCELERATE).reset(options={"available_power": 55})
+    _, info = gym.make(ACCELERATE_ID).reset(options={"available_power": 55})
     assert info["available_power"] == 55.0
     with pytest.raises(ValueError, match="allowed: 'speed'"):
         env.reset(options={"available_power": 60.0})
     with pytest.raises(ValueError, match="reset option 'power' was renamed; use 'available_power'"):
-        gym.make(ACCELERATE).reset(options={"power": 60.0})
+        gym.make(ACCELERATE_ID).reset(options={"power": 60.0})
     with pytest.raises(ValueError, match=r"envelope 0\.25 to 2"):
         env.reset(options={"speed": 3.0})
 
 
 def test_info_has_the_stroke_every_metric_and_each_violation() -> None:
     # Each env reports its own task's constraints (its declaration's), not the other task's.
-    accelerate = _step_once(ACCELERATE)
+    accelerate = _step_once(ACCELERATE_ID)
     for name in ("vertical_deficit", "horizontal_deficit", "power_violation"):
         assert isinstance(accelerate[name], float)
     assert "lift_violation" not in accelerate
@@ -151,7 +151,7 @@ def test_info_has_the_stroke_every_metric_and_each_violation() -> None:
             te.ModelOptions(induction="isolated", n_time=32, n_blade=6, power="elastic"),
         ),
         (
-            ACCELERATE,
+            ACCELERATE_ID,
             {"objective": "horizontal", "speed": 2.0, "thrust_split": "body"},
             2.0,
             90.0,
@@ -159,7 +159,7 @@ def test_info_has_the_stroke_every_metric_and_each_violation() -> None:
             te.ModelOptions(thrust_split="body"),
         ),
         (
-            ACCELERATE,
+            ACCELERATE_ID,
             {"available_power": 70.0, "speed": 1.0, "spin": "total"},
             1.0,
             70.0,
@@ -210,7 +210,7 @@ def test_a_config_object_can_be_given_instead_of_kwargs() -> None:
         assert f.name in LevelFlightConfig.allowed_kwargs()
 
 
-@pytest.mark.parametrize("env_id", [LEVEL, ACCELERATE])
+@pytest.mark.parametrize("env_id", [LEVEL, ACCELERATE_ID])
 def test_same_seed_same_everything(env_id: str, same) -> None:
     kwargs = (
         {"speed_range": (0.25, 2.0)} if env_id == LEVEL else {"available_power_range": (50.0, 90.0)}
@@ -227,7 +227,7 @@ def test_same_seed_same_everything(env_id: str, same) -> None:
     same(outputs[0], outputs[1])
 
 
-@pytest.mark.parametrize("env_id", [LEVEL, ACCELERATE])
+@pytest.mark.parametrize("env_id", [LEVEL, ACCELERATE_ID])
 def test_a_second_step_after_the_episode_ended_raises_as_in_speed_change(env_id: str) -> None:
     env = gym.make(env_id).unwrapped
     env.reset(seed=0)

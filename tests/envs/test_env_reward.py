@@ -11,7 +11,7 @@ from tandem_env.envs import LevelFlightConfig, PenaltyConfig
 from tandem_env.envs.level_flight import LevelFlightCore
 
 LEVEL = "TandemWing/LevelFlight-v0"
-ACCELERATE = "TandemWing/Accelerate-v0"
+ACCELERATE_ID = "TandemWing/Accelerate-v0"
 
 
 def test_feasible_level_stroke_is_rewarded_with_exactly_its_efficiency(
@@ -82,7 +82,7 @@ def test_constraint_tolerance_moves_the_feasibility_band(level_feasible_action) 
 def test_feasible_accelerate_stroke_is_rewarded_with_exactly_its_excess_force(
     objective: str, metric: str, accelerate_feasible_action
 ) -> None:
-    env = gym.make(ACCELERATE, objective=objective, available_power=60.0)
+    env = gym.make(ACCELERATE_ID, objective=objective, available_power=60.0)
     env.reset()
     _, reward, _, _, info = env.step(accelerate_feasible_action)
     direct = te.evaluate(te.normalised_to_physical(accelerate_feasible_action), 0.0, 60.0)
@@ -95,7 +95,7 @@ def test_feasible_accelerate_stroke_is_rewarded_with_exactly_its_excess_force(
 def test_accelerate_power_above_the_available_power_is_penalised(
     accelerate_feasible_action,
 ) -> None:
-    env = gym.make(ACCELERATE, objective="vertical", available_power=50.0)
+    env = gym.make(ACCELERATE_ID, objective="vertical", available_power=50.0)
     env.reset()
     _, reward, _, _, info = env.step(accelerate_feasible_action)
     assert not info["feasible"]
@@ -106,7 +106,7 @@ def test_accelerate_power_above_the_available_power_is_penalised(
 
 
 def test_accelerate_deficits_are_penalised() -> None:
-    env = gym.make(ACCELERATE, objective="resultant", available_power=90.0)
+    env = gym.make(ACCELERATE_ID, objective="resultant", available_power=90.0)
     env.reset(seed=0)
     _, reward, _, _, info = env.step(np.zeros(28, dtype=np.float32))
     assert info["horizontal_deficit"] > 0.0 or info["vertical_deficit"] > 0.0

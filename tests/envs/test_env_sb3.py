@@ -14,7 +14,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 from tandem_env.envs import TandemVecEnv, make_sb3_vec_env
 
 LEVEL = "TandemWing/LevelFlight-v0"
-ACCELERATE = "TandemWing/Accelerate-v0"
+ACCELERATE_ID = "TandemWing/Accelerate-v0"
 
 
 def dummy(env_id: str, n: int, **kwargs: Any) -> DummyVecEnv:
@@ -26,7 +26,7 @@ def dummy(env_id: str, n: int, **kwargs: Any) -> DummyVecEnv:
     [
         (LEVEL, {"speed_range": (0.25, 2.0)}),
         (
-            ACCELERATE,
+            ACCELERATE_ID,
             {"objective": "horizontal", "available_power_range": (50.0, 90.0), "planform": "real"},
         ),
     ],

@@ -10,7 +10,7 @@ import tandem_env as te
 from tandem_env.envs import AccelerateConfig, LevelFlightConfig, PenaltyConfig
 
 LEVEL = "TandemWing/LevelFlight-v0"
-ACCELERATE = "TandemWing/Accelerate-v0"
+ACCELERATE_ID = "TandemWing/Accelerate-v0"
 
 
 @pytest.fixture
@@ -66,7 +66,7 @@ def test_env_limits_are_the_models() -> None:
     LevelFlightConfig(speed_envelope=te.SPEED_LIMITS, speed=te.SPEED_LIMITS[1])
     for power in te.AVAILABLE_POWER_LIMITS:
         env = gym.make(
-            ACCELERATE,
+            ACCELERATE_ID,
             available_power_envelope=te.AVAILABLE_POWER_LIMITS,
             available_power=power,
             speed=te.SPEED_LIMITS[1],
@@ -118,18 +118,18 @@ def test_env_limits_are_the_models() -> None:
         (LEVEL, {"penalty": {"scale": 2.0}}, "allowed: weight, offset"),
         (LEVEL, {"clip_actions": "yes"}, "clip_actions = 'yes'; allowed: True or False"),
         (
-            ACCELERATE,
+            ACCELERATE_ID,
             {"objective": "sideways"},
             "objective = 'sideways'; allowed: 'vertical', 'horizontal', 'resultant'",
         ),
-        (ACCELERATE, {"available_power": 95.0}, "available_power_envelope"),
+        (ACCELERATE_ID, {"available_power": 95.0}, "available_power_envelope"),
         (
-            ACCELERATE,
+            ACCELERATE_ID,
             {"available_power": 0.0},
             r"allowed: a finite number inside .*\(50, 90\) W/kg",
         ),
-        (ACCELERATE, {"speed": -0.5}, "speed = -0.5 m/s"),
-        (ACCELERATE, {"speed_range": (0.5, 1.0)}, "unknown argument.*'speed_range'"),
+        (ACCELERATE_ID, {"speed": -0.5}, "speed = -0.5 m/s"),
+        (ACCELERATE_ID, {"speed_range": (0.5, 1.0)}, "unknown argument.*'speed_range'"),
     ],
 )
 def test_invalid_options_fail_at_make_time(env_id: str, kwargs: dict, message: str) -> None:
@@ -151,7 +151,7 @@ def test_unknown_render_mode_fails_at_make_time() -> None:
 def test_invalid_vector_options_fail_at_make_time() -> None:
     with pytest.raises(ValueError, match="objective = 'sideways'"):
         gym.make_vec(
-            ACCELERATE, num_envs=2, vectorization_mode="vector_entry_point", objective="sideways"
+            ACCELERATE_ID, num_envs=2, vectorization_mode="vector_entry_point", objective="sideways"
         )
     with pytest.raises(ValueError, match="num_envs = 0; allowed: an integer >= 1"):
         gym.make_vec(LEVEL, num_envs=0, vectorization_mode="vector_entry_point")

@@ -17,11 +17,11 @@ from tandem_env.envs import AccelerateVectorEnv, LevelFlightEnv, LevelFlightVect
 from tandem_env.envs import base as task_module
 
 LEVEL = "TandemWing/LevelFlight-v0"
-ACCELERATE = "TandemWing/Accelerate-v0"
+ACCELERATE_ID = "TandemWing/Accelerate-v0"
 CASES: list[tuple[str, dict[str, Any]]] = [
     (LEVEL, {"speed_range": (0.25, 2.0)}),
     (LEVEL, {"speed": 1.0, "thrust_split": "body"}),
-    (ACCELERATE, {"objective": "resultant", "available_power_range": (50.0, 90.0)}),
+    (ACCELERATE_ID, {"objective": "resultant", "available_power_range": (50.0, 90.0)}),
 ]
 
 
@@ -51,7 +51,7 @@ def test_make_vec_uses_the_native_env_by_default() -> None:
     assert envs.metadata["autoreset_mode"] is AutoresetMode.NEXT_STEP
     assert envs.single_action_space == gym.spaces.Box(-1.0, 1.0, (28,), np.float32)
     assert envs.action_space.shape == (3, 28) and envs.observation_space.shape == (3, 1)
-    assert isinstance(gym.make_vec(ACCELERATE, num_envs=2), AccelerateVectorEnv)
+    assert isinstance(gym.make_vec(ACCELERATE_ID, num_envs=2), AccelerateVectorEnv)
 
 
 @pytest.mark.parametrize(("env_id", "kwargs"), CASES)
@@ -105,7 +105,7 @@ def test_partial_reset_mask_and_mixed_infos_match_sync_vector_env(same) -> None:
 def test_disabled_autoreset_matches_sync_vector_env(same) -> None:
     n = 3
     native, sync = make_pair(
-        ACCELERATE, n, AutoresetMode.DISABLED, available_power_range=(50.0, 90.0)
+        ACCELERATE_ID, n, AutoresetMode.DISABLED, available_power_range=(50.0, 90.0)
     )
     same(native.reset(seed=9), sync.reset(seed=9))
     same(native.step(actions_for(n, 0)), sync.step(actions_for(n, 0)))

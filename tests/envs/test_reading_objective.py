@@ -15,17 +15,17 @@ from agents import harness
 from agents.tasks import ACCELERATE_TASK
 from tandem_env.envs import AccelerateConfig
 
-ACCELERATE = "TandemWing/Accelerate-v0"
+ACCELERATE_ID = "TandemWing/Accelerate-v0"
 KWARGS = {"objective": "horizontal_literal", "available_power": 60.0}
 
 
 def test_env_checkers_pass() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        env = gym.make(f"tandem_env:{ACCELERATE}", **KWARGS)
+        env = gym.make(f"tandem_env:{ACCELERATE_ID}", **KWARGS)
         check_env(env.unwrapped, skip_render_check=False)
         env.close()
-        env = gym.make(ACCELERATE, render_mode="rgb_array", **KWARGS)
+        env = gym.make(ACCELERATE_ID, render_mode="rgb_array", **KWARGS)
         sb3_check_env(env, warn=True, skip_render_check=False)
         env.close()
 
@@ -33,7 +33,7 @@ def test_env_checkers_pass() -> None:
 def test_feasible_stroke_is_rewarded_with_exactly_its_literal_excess_force(
     accelerate_feasible_action,
 ) -> None:
-    env = gym.make(ACCELERATE, **KWARGS)
+    env = gym.make(ACCELERATE_ID, **KWARGS)
     obs, _ = env.reset(seed=0)
     _, reward, _, _, info = env.step(accelerate_feasible_action)
     direct = te.evaluate(te.normalised_to_physical(accelerate_feasible_action), 0.0, 60.0)
@@ -42,7 +42,7 @@ def test_feasible_stroke_is_rewarded_with_exactly_its_literal_excess_force(
     assert reward == direct.excess_horizontal_literal[0] > 0.0
     # the observation and the info keys are those of any other objective, but the score: the
     # reference table holds F̄_h, not this reading's literal F̄_h (docs/reference.md)
-    other = gym.make(ACCELERATE, objective="horizontal", available_power=60.0)
+    other = gym.make(ACCELERATE_ID, objective="horizontal", available_power=60.0)
     other_obs, _ = other.reset(seed=0)
     _, _, _, _, other_info = other.step(accelerate_feasible_action)
     np.testing.assert_array_equal(obs, other_obs)
