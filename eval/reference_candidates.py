@@ -39,9 +39,9 @@ def candidates(
         mine = config_fingerprint(config_class(env_id), record.results["env"])
         keys = [k for k in jobs if (k[0], k[3]) == (env_id, condition) and fingerprints[k] == mine]
         why = (
-            "it does not fly" if not record.feasible
-            else f"it was made by model revision {record.model}, not this model's {revision} "
+            f"it was made by model revision {record.model}, not this model's {revision} "
             "(tandem_env.physics.MODEL_REVISION): rerun it" if record.model != revision
+            else "it does not fly" if not record.feasible
             else f"no series of the table at {env_id} {condition:g} with its model and insect"
             if not keys else None
         )  # fmt: skip
