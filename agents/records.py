@@ -115,7 +115,7 @@ class RecordWarning(UserWarning):
 def package_versions() -> dict[str, Any]:
     """Versions of the packages that determine results (``"not installed"`` for one that is
     not), of Python and tandem_env, and the model's revision (``model``)."""
-    versions: dict[str, str] = {}
+    versions: dict[str, Any] = {}
     for distribution in _PACKAGES:
         try:
             version = metadata.version(distribution)
@@ -123,10 +123,9 @@ def package_versions() -> dict[str, Any]:
             version = "not installed"
         versions[distribution.replace("-", "_")] = version
     versions["python"] = platform.python_version()
-    return versions | {
-        "tandem_env": tandem_env.__version__,
-        "model": tandem_env.physics.MODEL_REVISION,
-    }
+    versions["tandem_env"] = tandem_env.__version__
+    versions["model"] = tandem_env.physics.MODEL_REVISION
+    return versions
 
 
 def _result(name: str) -> property:
@@ -227,8 +226,7 @@ class Record:
         """The model revision that made the record (:data:`tandem_env.physics.MODEL_REVISION`),
         None before records held it; only a record of today's is reused (its key holds it)."""
         versions = self.results["versions"]
-        model = versions.get("model") if isinstance(versions, Mapping) else None
-        return model if isinstance(model, int) and not isinstance(model, bool) else None
+        return versions.get("model") if isinstance(versions, Mapping) else None
 
     @property
     def normalised_stroke(self) -> tuple[float, ...]:
