@@ -26,7 +26,6 @@ import gymnasium as gym
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-import tandem_env
 from agents.evaluator import Reevaluation, reevaluate
 from agents.jobs import Job
 from agents.methods import Method, get_method
@@ -289,5 +288,5 @@ def _results(
             else chosen.outcome.config
         ),
         "env": to_jsonable(again.env_config),
-        "versions": {**package_versions(), "tandem_env": tandem_env.__version__},
+        "versions": package_versions(),
     }

@@ -2,8 +2,8 @@
 
 A :class:`Job` is one method, task, condition, budget and seed, with its env keywords, method
 settings and study preset; its :attr:`Job.key` hashes all of that (but the model's backend and
-device, which do not change results) plus the ``tandem_env`` version and the record format
-(:data:`SCHEMA`). Jobs are run by :func:`agents.runner.run_jobs`.
+device, which do not change results) plus the ``tandem_env`` version, the model's revision
+and the record format (:data:`SCHEMA`). Jobs are run by :func:`agents.runner.run_jobs`.
 """
 
 from __future__ import annotations
@@ -191,13 +191,16 @@ class Job:
 
     @property
     def key(self) -> str:
-        """Configuration hash: the job's :meth:`configuration`, the tandem_env version and the
-        record format."""
-        return self.key_at(tandem_env.__version__)
+        """Configuration hash: the job's :meth:`configuration`, the tandem_env version, the
+        model's revision (:data:`~tandem_env.physics.MODEL_REVISION`) and the record format."""
+        return self.key_at(tandem_env.__version__, tandem_env.physics.MODEL_REVISION)
 
-    def key_at(self, version: str) -> str:
-        """:attr:`key` as tandem_env ``version`` computed it (a record made by that version)."""
+    def key_at(self, version: str, model: int | None) -> str:
+        """:attr:`key` as tandem_env ``version`` computed it with model revision ``model``
+        (None: a record made before the key held the model's revision)."""
         payload = {**self.configuration(), "tandem_env": version, "record": SCHEMA}
+        if model is not None:
+            payload["model"] = model
         text = json.dumps(payload, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:20]
 

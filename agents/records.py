@@ -51,7 +51,8 @@ RESULTS: dict[str, str] = {
     "wall_time": "wall-clock time of the run, search plus re-evaluation [s]",
     "method_settings": "the method's settings and citation as it reports them",
     "env": "the env's full configuration (insect, model options, penalty)",
-    "versions": "package versions (numpy, gymnasium, torch, ..., python, tandem_env)",
+    "versions": "package versions (numpy, gymnasium, torch, ..., python, tandem_env) and the "
+    "model's revision (model: tandem_env.physics.MODEL_REVISION; none before records held it)",
 }
 #: The results key of the stage after the search: the local polish and the optimality of the
 #: reported stroke (:meth:`agents.polish.Certificate.to_dict`); every harness record has it.
@@ -111,10 +112,10 @@ class RecordWarning(UserWarning):
     """A stored record that is corrupt, or replaced by a record of another configuration."""
 
 
-def package_versions() -> dict[str, str]:
+def package_versions() -> dict[str, Any]:
     """Versions of the packages that determine results (``"not installed"`` for one that is
-    not) and of Python."""
-    versions: dict[str, str] = {}
+    not), of Python and tandem_env, and the model's revision (``model``)."""
+    versions: dict[str, Any] = {}
     for distribution in _PACKAGES:
         try:
             version = metadata.version(distribution)
@@ -122,6 +123,8 @@ def package_versions() -> dict[str, str]:
             version = "not installed"
         versions[distribution.replace("-", "_")] = version
     versions["python"] = platform.python_version()
+    versions["tandem_env"] = tandem_env.__version__
+    versions["model"] = tandem_env.physics.MODEL_REVISION
     return versions
 
 
@@ -219,6 +222,13 @@ class Record:
         )
 
     @property
+    def model(self) -> int | None:
+        """The model revision that made the record (:data:`tandem_env.physics.MODEL_REVISION`),
+        None before records held it; only a record of today's is reused (its key holds it)."""
+        versions = self.results["versions"]
+        return versions.get("model") if isinstance(versions, Mapping) else None
+
+    @property
     def normalised_stroke(self) -> tuple[float, ...]:
         """The stroke as the 28 normalised action values in [-1, 1]."""
         return tuple(self.results["normalised_stroke"])
@@ -283,13 +293,13 @@ class Record:
                 f"checksum {_short(data['checksum'])} does not match the record's contents: "
                 "edited by hand or damaged; it is not used"
             )
-        # The key is the hash of the job it holds (as the version that wrote it computed it):
-        # a record whose job was edited, or whose key was, is not its job's record, even with
-        # a checksum made again over the edit.
+        # The key is the hash of the job it holds (as the version and model that wrote it
+        # computed it): a record whose job was edited, or whose key was, is not its job's
+        # record, even with a checksum made again over the edit.
         versions = record.results["versions"]
         version = versions.get("tandem_env") if isinstance(versions, Mapping) else None
         if record.key != job.key and not (
-            isinstance(version, str) and record.key == job.key_at(version)
+            isinstance(version, str) and record.key == job.key_at(version, record.model)
         ):
             raise RecordMismatchError(
                 f"key {_short(record.key)} is not the hash of the job it holds "

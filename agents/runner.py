@@ -343,6 +343,15 @@ def run_jobs(
                 RecordWarning,
                 stacklevel=2,
             )
+        for held in (store, shared.store) if missing and not rerun else ():
+            if held is not None and (old := held.earlier_models(map(_job_of, missing))):
+                warnings.warn(
+                    f"{len(old)} record file(s) in {old[0].parent} (e.g. {old[0].name}) were made "
+                    "by an earlier model (tandem_env.physics.MODEL_REVISION): not used, their "
+                    "jobs run again (the files are kept)",
+                    RecordWarning,
+                    stacklevel=2,
+                )
         with contextlib.ExitStack() as stack:
             client = None
             if todo and executor != "serial":

@@ -21,7 +21,6 @@ from typing import Any
 
 import numpy as np
 
-import tandem_env
 from agents.harness import PreparedJob, prepare
 from agents.jobs import Continuation, Job
 from agents.progress import CommandProgress, Phase
@@ -360,7 +359,7 @@ def provenance(
         # where it ran (--scheduler, --out) does not change the table
         "command": f"python -m eval {NAME}",
         "date": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
-        "versions": {**package_versions(), "tandem_env": tandem_env.__version__},
+        "versions": package_versions(),
         "method": METHOD,
         "budgets": dict(BUDGETS),
         "seeds": list(seeds),

@@ -12,6 +12,7 @@ import functools
 import hashlib
 import json
 import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import resources
@@ -20,6 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from tandem_env import physics
 from tandem_env.envs.config import EXECUTION_KWARGS, FlightConfig
 from tandem_env.envs.registration import ACCELERATE_ID, LEVEL_FLIGHT_ID, config_class
 from tandem_env.io.files import to_jsonable
@@ -120,6 +122,13 @@ class ReferenceTable:
     series: tuple[ReferenceSeries, ...]
     provenance: Mapping[str, Any]
     """The command, package versions, date, budgets and seeds it was made with."""
+
+    @property
+    def model(self) -> int | None:
+        """The model revision that made it (:data:`~tandem_env.physics.MODEL_REVISION`; None:
+        a table from before tables held it)."""
+        versions = self.provenance.get("versions")
+        return versions.get("model") if isinstance(versions, Mapping) else None
 
     def get(self, env_id: str, objective: str, planform: str) -> ReferenceSeries:
         """The series of ``env_id``, ``objective`` and ``planform``; ValueError naming what the
@@ -232,16 +241,27 @@ def reference_path() -> Any:
 def load_reference_table() -> ReferenceTable:
     """The packaged reference table, read once (plain JSON) and checked once
     (:meth:`ReferenceTable.from_dict`, ``complete``); ValueError naming the file for one that
-    is not UTF-8 JSON or not a complete table (FileNotFoundError if there is none)."""
+    is not UTF-8 JSON or not a complete table (FileNotFoundError if there is none), a warning
+    for one made by another model revision."""
     path = reference_path()
     try:  # FileNotFoundError passes: the callers say how to make the table
-        return ReferenceTable.from_dict(json.loads(path.read_text(encoding="utf-8")), complete=True)
+        table = ReferenceTable.from_dict(
+            json.loads(path.read_text(encoding="utf-8")), complete=True
+        )
     except (ValueError, RecursionError) as error:  # RecursionError: JSON nested too deeply
         reason = str(error) if isinstance(error, ValueError) else "JSON nested too deeply"
         raise ValueError(
             f"{path}: not a readable reference table ({reason}); allowed: the table python -m "
             "eval reference writes (or the packaged one, reinstalled)"
         ) from None
+    if table.model not in (None, physics.MODEL_REVISION):  # None: made before tables held it
+        warnings.warn(
+            f"{path} was made by model revision {table.model}, not this model's "
+            f"{physics.MODEL_REVISION} (tandem_env.physics.MODEL_REVISION): its optima and the "
+            "scores against them are the earlier model's; remake it: python -m eval reference",
+            stacklevel=2,
+        )
+    return table
 
 
 def reference_series(

@@ -17,6 +17,12 @@ if "NUMBA_THREADING_LAYER" not in _os.environ:
     _numba.config.THREADING_LAYER = "workqueue"
 
 from .backends import BACKENDS, evaluate
+
+#: The model's revision: part of every harness record's key, so a record (and the reference
+#: table, its provenance) made by another model is never served as this one's. Bump it in
+#: every change that moves any result beyond 1e-10 relative; tests/physics/test_kernel_equal.py's
+#: canary fails until it is bumped (docs/harness.md, "The record cache").
+MODEL_REVISION = 1
 from .coefficients import (
     COEFFICIENT_MODELS,
     PaperCoefficients,
@@ -74,6 +80,7 @@ __all__ = [
     "MAX_FLIGHT_PATH_ANGLE",
     "METRIC_NAMES",
     "MODEL_LIMITS",
+    "MODEL_REVISION",
     "N_PARAMETERS",
     "PARAMETER_NAMES",
     "PARAMETER_UNITS",

@@ -136,6 +136,8 @@ def test_package_versions(monkeypatch: pytest.MonkeyPatch) -> None:
         "torch",
         "numba",
         "python",
+        "tandem_env",
+        "model",
     }
     assert versions["numpy"] == np.__version__
     assert versions["python"] == platform.python_version()

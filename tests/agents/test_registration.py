@@ -145,8 +145,11 @@ def test_job_keys_are_unchanged() -> None:
         ),
         Job("random", "level", 1.0, 40, 1, method_config={"batch_size": 20}, preset="quick"),
     ]
+    # as they were before the key held the model's revision, and with revision 1's
     keys = ["b3749d1d905831c6126e", "e061e240443fa3186df2", "45084073cc37364f33b1"]
-    assert [job.key for job in jobs] == keys
+    assert [job.key_at("0.2.0", None) for job in jobs] == keys
+    keys = ["7a9ff059f0afcb296e09", "fcdbc5209edadaef5ed0", "d7b8d5f57c4289cd11eb"]
+    assert [job.key_at("0.2.0", 1) for job in jobs] == keys
 
 
 def test_one_registry_names_every_method() -> None:

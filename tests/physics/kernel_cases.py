@@ -10,6 +10,11 @@ tests/data/kernel_8e3cf19_optima.npz, since the packaged table has been regenera
 ``slipstream="mean"`` (the speed benchmark's call) and ``--per-set`` random strokes under every
 option set of the torch-backend test (tests/physics/test_torch_backend.py), and writes every
 ``Result`` array field of all of them to ``--out`` (compressed npz).
+
+    PYTHONPATH=. python tests/physics/kernel_cases.py --canary
+
+writes the same cases, fewer strokes, with this tree's model to :data:`CANARY`, beside its
+``MODEL_REVISION`` (after each bump of it: test_kernel_equal.py's canary).
 """
 
 from __future__ import annotations
@@ -31,6 +36,8 @@ FIXTURE = Path(__file__).parents[1] / "data" / "kernel_8e3cf19.npz"
 #: 8e3cf19's reference optima: per series its env id, objective and planform, and its
 #: normalised strokes and conditions (``strokes_<i>``, ``conditions_<i>``).
 OPTIMA = FIXTURE.with_name("kernel_8e3cf19_optima.npz")
+#: The canary: today's values of the cases (``--per-set 3 --batch 8``) and ``revision``.
+CANARY = FIXTURE.with_name("model_canary.npz")
 
 
 def options_of(name: str) -> te.ModelOptions:
@@ -86,8 +93,15 @@ if __name__ == "__main__":
     parser.add_argument("--per-set", type=int, default=64)
     parser.add_argument("--batch", type=int, default=256)
     parser.add_argument("--out", type=Path, default=FIXTURE)
+    parser.add_argument("--canary", action="store_true", help=f"write {CANARY.name}")
     args = parser.parse_args()
     print(f"evaluating with {te.__file__}")
+    per_set, batch = (3, 8) if args.canary else (args.per_set, args.batch)
+    revision = {"revision": te.physics.MODEL_REVISION} if args.canary else {}
     np.savez_compressed(
-        args.out, per_set=args.per_set, batch=args.batch, **stacked(args.per_set, args.batch)
+        CANARY if args.canary else args.out,
+        per_set=per_set,
+        batch=batch,
+        **revision,
+        **stacked(per_set, batch),
     )

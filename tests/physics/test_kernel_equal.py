@@ -31,7 +31,7 @@ import numpy as np
 import tandem_env as te
 
 sys.path.insert(0, str(Path(__file__).parent))
-from kernel_cases import FIXTURE, options_of, stacked
+from kernel_cases import CANARY, FIXTURE, options_of, stacked
 
 RELATIVE = 1e-10
 FLOOR = 1e-6
@@ -66,12 +66,15 @@ FROM_POSITIVE_PARTS = ("efficiency", "excess_horizontal_literal")
 
 
 def compare(
-    expected: dict[str, np.ndarray], got: dict[str, np.ndarray]
+    expected: dict[str, np.ndarray],
+    got: dict[str, np.ndarray],
+    one_sided: tuple[str, ...] = POSITIVE_PARTS,
+    skipped: tuple[str, ...] = FROM_POSITIVE_PARTS,
 ) -> tuple[float, str, list[str], int, float]:
-    """The largest relative difference of any float field but the positive parts, where it is
-    ('field: case #i'), the strokes ('case #i') whose flags or counts differ, the number of
-    strokes whose positive parts moved beyond :data:`RELATIVE`, and the largest fall of a
-    positive part below 8e3cf19's (relative)."""
+    """The largest relative difference of any float field but ``one_sided`` and ``skipped``,
+    where it is ('field: case #i'), the strokes ('case #i') whose flags or counts differ, the
+    number of strokes whose ``one_sided`` fields moved beyond :data:`RELATIVE`, and the largest
+    fall of one of them below ``expected`` (relative)."""
     assert list(got["case_names"]) == list(expected["case_names"]), "regenerate the fixture"
     case = np.repeat(expected["case_names"], expected["case_sizes"])
     index = np.concatenate([np.arange(n) for n in expected["case_sizes"]])
@@ -79,7 +82,7 @@ def compare(
     moved = np.zeros(len(case), dtype=bool)
     fall = 0.0
     for name, want in expected.items():
-        if name in ("case_names", "case_sizes", "per_set", "batch", *FROM_POSITIVE_PARTS):
+        if name in ("case_names", "case_sizes", "per_set", "batch", "revision", *skipped):
             continue
         have = got[name]
         if want.dtype == bool or np.issubdtype(want.dtype, np.integer):
@@ -87,7 +90,7 @@ def compare(
         else:
             floor = np.maximum(TERMS[name](expected), FLOOR) if name in TERMS else FLOOR
             scale = np.maximum(np.abs(want), floor)
-            if name in POSITIVE_PARTS:
+            if name in one_sided:
                 moved |= np.abs(have - want) > RELATIVE * scale
                 fall = max(fall, float(np.max((want - have) / scale)))
                 continue
@@ -98,12 +101,16 @@ def compare(
     return worst, where, sorted(flipped), int(moved.sum()), fall
 
 
+def _today(stored: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The cases ``stored`` holds, evaluated by today's model with the option sets it names (the
+    torch test's covering has grown since 8e3cf19's fixture)."""
+    names = [str(n) for n in stored["case_names"] if str(n).startswith("ModelOptions(")]
+    return stacked(int(stored["per_set"]), int(stored["batch"]), [options_of(n) for n in names])
+
+
 def test_kernel_equals_its_previous_version() -> None:
     expected = dict(np.load(FIXTURE))
-    # the option sets the fixture was written with (the torch test's covering has grown since)
-    names = [str(n) for n in expected["case_names"] if str(n).startswith("ModelOptions(")]
-    got = stacked(int(expected["per_set"]), int(expected["batch"]), [options_of(n) for n in names])
-    worst, where, flipped, moved, fall = compare(expected, got)
+    worst, where, flipped, moved, fall = compare(expected, _today(expected))
     print(f"largest relative difference {worst:.3g} ({where}); stops flipped: {flipped or 'none'}")
     print(f"positive parts moved on {moved} of {sum(expected['case_sizes'])} strokes")
     assert not flipped, f"inflow solves that stop at another sweep: {flipped}"
@@ -111,3 +118,21 @@ def test_kernel_equals_its_previous_version() -> None:
     # a crossing pair near a double root is located to ~1e-10 of the mean (six Newton steps,
     # tests/physics/test_positive_part.py), in either direction
     assert fall <= 1e-9, f"a positive part fell below 8e3cf19's by {fall:.3g}"
+
+
+def test_results_move_only_with_the_model_revision() -> None:
+    # The canary: a record is reused while its model revision is today's (docs/harness.md, "The
+    # record cache"), so every change of a result beyond RELATIVE must bump MODEL_REVISION.
+    stored, revision = dict(np.load(CANARY)), te.physics.MODEL_REVISION
+    assert int(stored["revision"]) == revision, (
+        f"{CANARY.name} holds revision {int(stored['revision'])}, MODEL_REVISION is {revision}: "
+        "rewrite it with PYTHONPATH=. python tests/physics/kernel_cases.py --canary"
+    )
+    worst, where, flipped, _, _ = compare(stored, _today(stored), (), ())
+    print(f"largest relative change {worst:.3g} ({where}); flags changed: {flipped or 'none'}")
+    assert worst <= RELATIVE and not flipped, (
+        f"the model's results moved by {worst:.3g} ({where}; flags: {flipped or 'none'}) while "
+        f"MODEL_REVISION is still {revision}: bump MODEL_REVISION (tandem_env/physics/"
+        "__init__.py), then rewrite the canary (PYTHONPATH=. python tests/physics/kernel_cases.py "
+        "--canary)"
+    )
