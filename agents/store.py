@@ -256,8 +256,12 @@ class RecordStore:
         keys it gave them (:meth:`Job.key_at`; None: before the key held it): no job finds them
         now, so none is served (docs/harness.md, "The record cache")."""
         revisions = (None, *range(1, tandem_env.physics.MODEL_REVISION))
-        paths = [self.path(job.key_at(tandem_env.__version__, model))
-                 for job in jobs if isinstance(job, Job) for model in revisions]  # fmt: skip
+        paths = [
+            self.path(job.key_at(tandem_env.__version__, model))
+            for job in jobs
+            if isinstance(job, Job)
+            for model in revisions
+        ]
         return [path for path in paths if path.exists()]
 
     def write_summary(self, known: Mapping[str, Record] | None = None) -> Path:
