@@ -42,10 +42,16 @@ def weaving(tau, omega, amplitude, offset, phase, shape):
     Returns (φ [rad], φ̇ [rad/s], φ̈ [rad/s²]).
     """
     k = np.minimum(shape, MAX_SWEEP_SHAPE)
+    return weaving_scaled(tau, omega, amplitude / np.arcsin(k), k, offset, phase)
+
+
+@njit(cache=True)
+def weaving_scaled(tau, omega, scale, k, offset, phase):
+    """:func:`weaving` with its scale φ_m/asin(K) [rad] and its capped K known (the same
+    operations; a loop over the samples of one stroke computes them once)."""
     x = tau + phase
     sx = np.sin(x)
     cx = np.cos(x)
-    scale = amplitude / np.arcsin(k)
     q = 1.0 - k * k * sx * sx
     root = np.sqrt(q)
     phi = scale * np.arcsin(k * sx) + offset
@@ -68,13 +74,19 @@ def flapping(tau, omega, amplitude, offset, phase, harmonic):
 @njit(cache=True)
 def pitching(tau, omega, amplitude, offset, phase, shape):
     """Pitch angle η of Eq. 5: η = η_m/tanh(C_η)·tanh(C_η·sin y) + η_0, y = τ + Φ_η."""
+    return pitching_scaled(tau, omega, amplitude / np.tanh(shape), offset, phase, shape)
+
+
+@njit(cache=True)
+def pitching_scaled(tau, omega, scale, offset, phase, shape):
+    """:func:`pitching` with its scale η_m/tanh(C_η) [rad] known (the same operations; a loop
+    over the samples of one stroke computes it once)."""
     y = tau + phase
     sy = np.sin(y)
     cy = np.cos(y)
     z = shape * sy
     tz = np.tanh(z)
     sech2 = 1.0 - tz * tz
-    scale = amplitude / np.tanh(shape)
     eta = scale * tz + offset
     deta = omega * scale * shape * cy * sech2
     ddeta = omega * omega * scale * shape * sech2 * (-sy - 2.0 * shape * cy * cy * tz)
@@ -95,15 +107,20 @@ def fill_angles(wing_params, tau, out_angles):
     ``wing_params``: 14 parameters in Hz/rad/- (the order of Table 4); writes (n, 9).
     """
     omega = 2.0 * math.pi * wing_params[0]
+    # the waveforms' scales once per wing, not per sample (libm calls the compiler keeps)
+    sweep_shape = np.minimum(wing_params[10], MAX_SWEEP_SHAPE)
+    sweep_scale = wing_params[1] / np.arcsin(sweep_shape)
+    pitch_shape = wing_params[12]
+    pitch_scale = wing_params[3] / np.tanh(pitch_shape)
     for k in range(tau.shape[0]):
-        phi, dphi, ddphi = weaving(
-            tau[k], omega, wing_params[1], wing_params[4], wing_params[7], wing_params[10]
+        phi, dphi, ddphi = weaving_scaled(
+            tau[k], omega, sweep_scale, sweep_shape, wing_params[4], wing_params[7]
         )
         theta, dtheta, ddtheta = flapping(
             tau[k], omega, wing_params[2], wing_params[5], wing_params[8], wing_params[11]
         )
-        eta, deta, ddeta = pitching(
-            tau[k], omega, wing_params[3], wing_params[6], wing_params[9], wing_params[12]
+        eta, deta, ddeta = pitching_scaled(
+            tau[k], omega, pitch_scale, wing_params[6], wing_params[9], pitch_shape
         )
         out_angles[k, 0] = phi
         out_angles[k, 1] = dphi
