@@ -241,6 +241,7 @@ class _Run:
         if key not in self.gradients:
             self._spend(self.gradient_function.cost)
             grad = self.gradient_function(x)
+            self.used -= self.gradient_function.cost - grad.evaluations
             self.gradients[key] = grad
             self.values[key] = (grad.objective, grad.margins, grad.feasible)
             # Only the point itself is a candidate, not its perturbed neighbours: one of those

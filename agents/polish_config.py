@@ -57,7 +57,7 @@ class PolishConfig:
     step: float = 1e-5
     """Central-difference step in normalised units, in [1e-8, 1e-2] (gradients agree to ~1e-7
     relative between 1e-4 and 1e-5)."""
-    tolerance: float = 1e-10
+    tolerance: float = 1e-14
     """Stopping tolerance (SLSQP ``ftol``; trust-constr ``gtol``/``xtol``), in [1e-14, 1e-2]."""
     max_iterations: int = 200
     """Optimiser iterations at most, 1 to 10 000."""
