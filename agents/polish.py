@@ -489,7 +489,7 @@ def describe(certificate: Mapping[str, Any] | Certificate) -> str:
         parts.append("active: " + " ".join([*named, f"{bounds} bounds" if bounds else ""]).strip())
     line = ", ".join(parts)
     if not certified(c):  # why, then what the number is
-        why = f"KKT residual above {CERTIFIED_KKT:g}" if c.get("converged") else c.get("message")
+        why = f"KKT residual above {CERTIFIED_KKT:.0e}" if c.get("converged") else c.get("message")
         line += f"\n    ({why or 'not converged'}: {UNCERTIFIED})"
     return line
 
