@@ -138,8 +138,8 @@ class Gradient:
 
 class GradientFunction(Protocol):
     """``gradient(x) -> Gradient`` at the full point x (dim,); ``cost`` model evaluations per
-    call at most (kept back from the budget; ``Gradient.evaluations`` are counted); ``name`` for the certificate. The seam for an autograd
-    gradient."""
+    call at most (kept back; ``Gradient.evaluations`` are counted); ``name`` for the
+    certificate. The seam for an autograd gradient."""
 
     cost: int
     name: str
