@@ -13,10 +13,10 @@ names are imported from here too.
 
 The budget counts model evaluations (strokes evaluated, not wall time): a central-difference
 gradient costs at most 2k + 1, an autograd gradient one (its backward passes' wall cost is
-measured in docs/harness.md, "Local polish"); the polish's allowance is never exceeded. The result is
-the best of the optimiser's own points that the task calls feasible, if it beats the start,
-cast to the env's action type (float32; :func:`float32_margin` keeps the cast feasible);
-otherwise the start is kept and the certificate says why.
+measured in docs/harness.md, "Local polish"); the polish's allowance is never exceeded. The
+result is the best of the optimiser's own points that the task calls feasible, if it beats the
+start, cast to the env's action type (float32; :func:`float32_margin` keeps the cast
+feasible); otherwise the start is kept and the certificate says why.
 
 ::
 
