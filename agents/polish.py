@@ -12,11 +12,11 @@ problem (the env's public problem view, ``env.problem()``) and the gradient func
 names are imported from here too.
 
 The budget counts model evaluations (strokes evaluated, not wall time): a central-difference
-gradient costs 2k + 1, an autograd gradient one (its backward passes' wall cost is measured
-in docs/harness.md, "Local polish"); the polish's allowance is never exceeded. The result is
-the best of the optimiser's own points that the task calls feasible, if it beats the start,
-cast to the env's action type (float32; :func:`float32_margin` keeps the cast feasible);
-otherwise the start is kept and the certificate says why.
+gradient costs at most 2k + 1, an autograd gradient one (its backward passes' wall cost is
+measured in docs/harness.md, "Local polish"); the polish's allowance is never exceeded. The
+result is the best of the optimiser's own points that the task calls feasible, if it beats the
+start, cast to the env's action type (float32; :func:`float32_margin` keeps the cast
+feasible); otherwise the start is kept and the certificate says why.
 
 ::
 
@@ -241,6 +241,7 @@ class _Run:
         if key not in self.gradients:
             self._spend(self.gradient_function.cost)
             grad = self.gradient_function(x)
+            self.used -= self.gradient_function.cost - grad.evaluations
             self.gradients[key] = grad
             self.values[key] = (grad.objective, grad.margins, grad.feasible)
             # Only the point itself is a candidate, not its perturbed neighbours: one of those
@@ -487,8 +488,9 @@ def describe(certificate: Mapping[str, Any] | Certificate) -> str:
     if active:
         parts.append("active: " + " ".join([*named, f"{bounds} bounds" if bounds else ""]).strip())
     line = ", ".join(parts)
-    if not certified(c):
-        line += f"\n    ({UNCERTIFIED})"
+    if not certified(c):  # why, then what the number is
+        why = f"KKT residual above {CERTIFIED_KKT:.0e}" if c.get("converged") else c.get("message")
+        line += f"\n    ({why or 'not converged'}: {UNCERTIFIED})"
     return line
 
 

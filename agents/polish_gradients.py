@@ -132,12 +132,14 @@ class Gradient:
     jacobian: np.ndarray
     """(m, k) d margins / d x_free."""
     names: tuple[str, ...]
+    evaluations: int
+    """Model evaluations it took (at most its function's ``cost``)."""
 
 
 class GradientFunction(Protocol):
     """``gradient(x) -> Gradient`` at the full point x (dim,); ``cost`` model evaluations per
-    call (counted in the budget); ``name`` for the certificate. The seam for an autograd
-    gradient."""
+    call at most (kept back; ``Gradient.evaluations`` are counted); ``name`` for the
+    certificate. The seam for an autograd gradient."""
 
     cost: int
     name: str
@@ -149,7 +151,8 @@ class GradientFunction(Protocol):
 class CentralDifferences:
     """Central differences of a :class:`Problem`: x and x ± h e_j for every free j in ONE call.
 
-    At a bound the step is cut to stay inside [-1, 1] (a one-sided difference there).
+    At a bound the step is cut to stay inside [-1, 1] (a one-sided difference there); ``cost``
+    is the most, a point on k' bounds takes 2k + 1 − k'.
     """
 
     problem: Problem
@@ -161,19 +164,23 @@ class CentralDifferences:
         object.__setattr__(self, "cost", 1 + 2 * len(self.problem.free))
 
     def __call__(self, x: np.ndarray) -> Gradient:
+        x = np.asarray(x, dtype=np.float64)
         free = np.asarray(self.problem.free)
         k = free.size
-        points = np.repeat(np.asarray(x, dtype=np.float64)[None, :], 1 + 2 * k, axis=0)
-        rows = np.arange(k)
-        up = np.minimum(points[0, free] + self.step, 1.0)
-        down = np.maximum(points[0, free] - self.step, -1.0)
-        points[1 + rows, free] = up
-        points[1 + k + rows, free] = down
+        up = np.minimum(x[free] + self.step, 1.0)
+        down = np.maximum(x[free] - self.step, -1.0)
+        # On a bound that side's neighbour is x itself: row 0, not evaluated twice (an optimum
+        # has a dozen bounds active, a fifth of the 53 strokes).
+        moved = np.concatenate([up, down]) != np.tile(x[free], 2)
+        rows = np.zeros(2 * k, dtype=int)
+        rows[moved] = 1 + np.arange(moved.sum())
+        points = np.repeat(x[None, :], 1 + moved.sum(), axis=0)
+        points[rows[moved], np.tile(free, 2)[moved]] = np.concatenate([up, down])[moved]
         batch = self.problem.evaluate(points)
         width = up - down
-        d_obj = (batch.objective[1 : 1 + k] - batch.objective[1 + k :]) / width
-        d_margins = (batch.margins[1 : 1 + k] - batch.margins[1 + k :]) / width[:, None]
-        return _gradient(batch, d_obj, d_margins.T)
+        d_obj = (batch.objective[rows[:k]] - batch.objective[rows[k:]]) / width
+        d_margins = (batch.margins[rows[:k]] - batch.margins[rows[k:]]) / width[:, None]
+        return _gradient(batch, d_obj, d_margins.T, len(points))
 
 
 @dataclass(frozen=True)
@@ -195,11 +202,13 @@ class AutogradGradient:
         differentiate = self.problem.differentiate
         assert differentiate is not None  # checked in __post_init__
         batch, d_obj, d_margins = differentiate(np.asarray(x, dtype=np.float64)[None, :])
-        return _gradient(batch, d_obj[0, free], d_margins[0][:, free])
+        return _gradient(batch, d_obj[0, free], d_margins[0][:, free], 1)
 
 
-def _gradient(batch: BatchEvaluation, d_obj: np.ndarray, jacobian: np.ndarray) -> Gradient:
-    """The :class:`Gradient` at the batch's first stroke."""
+def _gradient(
+    batch: BatchEvaluation, d_obj: np.ndarray, jacobian: np.ndarray, evaluations: int
+) -> Gradient:
+    """The :class:`Gradient` at the batch's first stroke, which took ``evaluations``."""
     return Gradient(
         float(batch.objective[0]),
         batch.margins[0].copy(),
@@ -207,4 +216,5 @@ def _gradient(batch: BatchEvaluation, d_obj: np.ndarray, jacobian: np.ndarray) -
         d_obj.copy(),
         jacobian.copy(),
         batch.names,
+        evaluations,
     )

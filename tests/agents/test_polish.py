@@ -281,3 +281,40 @@ def test_a_search_that_saw_no_feasible_stroke_is_polished_onto_the_constraints(r
     assert record.feasible and record.evaluations <= record.budget == 2_000
     assert record.objective == c["objective_after"]
     assert not [w for w in recwarn if "differs from the search" in str(w.message)]
+
+
+def test_central_differences_evaluate_a_bound_neighbour_once():
+    # on a bound the one-sided difference's outer neighbour is the point itself: evaluated
+    # once (row 0), the gradient the one-sided difference all the same (f'' = −2: error ∓h)
+    evaluate, h = Counted(), 1e-4
+    grad = CentralDifferences(problem(evaluate), h)
+    x = start()
+    x[list(FREE)] = np.linspace(-0.9, 0.9, 26)
+    x[[0, 1, 2]], x[[3, 4]] = 1.0, -1.0
+    g = grad(x)
+    assert evaluate.count == g.evaluations == grad.cost - 5
+    side = np.where(x[list(FREE)] == 1.0, h, np.where(x[list(FREE)] == -1.0, -h, 0.0))
+    np.testing.assert_allclose(
+        g.objective_gradient, side - 2.0 * (x[list(FREE)] - TARGET), atol=1e-9
+    )
+    np.testing.assert_allclose(g.jacobian, -np.ones((1, 26)), atol=1e-9)
+
+
+def test_the_default_tolerance_certifies_an_ill_conditioned_slope():
+    # SLSQP's own stop, |Δf| < ftol (absolute), fires on a small objective with curvatures
+    # 1 to 100 while its KKT residual is still 1e-3: at ftol 1e-10 the polish ends there,
+    # uncertified (and says why); at the default (1e-14) it runs on and certifies
+    curvature = np.logspace(0, 2, len(FREE))
+
+    def evaluate(x: np.ndarray) -> BatchEvaluation:
+        free = x[:, FREE]
+        objective = -1e-4 * np.sum(curvature * (free - TARGET) ** 2, axis=1)
+        margins = (CAP - free.sum(axis=1))[:, None]
+        return BatchEvaluation(objective, margins, margins[:, 0] >= 0.0, ("sum",))
+
+    ill = Problem(evaluate, DIM, FREE)
+    early = polish(ill, start(), 20_000, PolishConfig(tolerance=1e-10)).certificate
+    assert early.message == "Optimization terminated successfully" and not certified(early)
+    assert early.kkt_residual > 1e-3 and "(KKT residual above 1e-04: " in describe(early)
+    default = polish(ill, start(), 20_000, PolishConfig()).certificate
+    assert certified(default) and default.kkt_residual < early.kkt_residual / 30
