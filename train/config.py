@@ -172,8 +172,7 @@ def load_hyperparams_file(path: str | Path) -> dict[str, dict[str, Any]]:
 
 def load_entry(algo: str, env_id: str, path: str | Path | None = None) -> dict[str, Any]:
     """The entry for ``env_id`` (else ``default``) of ``algo``'s hyperparameter file (``path``,
-    default ``train/hyperparams/<algo>.yml``), as the zoo."""
-    check_algo(algo)
+    default ``train/hyperparams/<algo>.yml``; ``algo`` checked by the caller), as the zoo."""
     file = Path(path) if path is not None else HYPERPARAMS_DIR / f"{algo}.yml"
     entries = load_hyperparams_file(file)
     if env_id in entries:
@@ -481,11 +480,7 @@ class TrainConfig:
         if not isinstance(self.log_table, bool):
             raise ValueError(f"log_table = {self.log_table!r}; allowed: True or False")
         if self.log_interval is not None:
-            if not is_integer(self.log_interval) or self.log_interval < 1:
-                raise ValueError(
-                    f"log_interval = {self.log_interval!r}; allowed: None or an integer >= 1"
-                )
-            object.__setattr__(self, "log_interval", int(self.log_interval))
+            object.__setattr__(self, "log_interval", count(self.log_interval, "log_interval"))
         for name in ("env_kwargs", "hyperparams"):
             value = getattr(self, name)
             if not isinstance(value, Mapping):

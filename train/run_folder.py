@@ -72,10 +72,8 @@ def latest_run_id(algo_folder: Path, name: str) -> int:
 
 
 def resolve_run_dir(path: str | os.PathLike[str]) -> Path:
-    """A run folder, or the latest run a path names: ``logs/ppo/TandemWing-LevelFlight-v0``
-    (the folder without its ``_<n>``) is the run ``logs/ppo/TandemWing-LevelFlight-v0_<n>``
-    with the greatest ``n`` there, so a command need not hard-code a run number. Any other path
-    is returned as given."""
+    """A run folder, or the latest run a path names: ``logs/ppo/<env>`` (no ``_<n>``) is
+    ``logs/ppo/<env>_<n>`` with the greatest ``n``; any other path as given."""
     path = Path(path)
     if path.is_dir() or not path.parent.is_dir():
         return path
@@ -84,8 +82,7 @@ def resolve_run_dir(path: str | os.PathLike[str]) -> Path:
 
 
 def run_lock(run_dir: Path) -> FolderLock:
-    """The exclusive lock of a run folder (``<run>/.train.lock``), held while ``python -m train``
-    writes there; see :class:`tandem_env.io.files.FolderLock`."""
+    """The exclusive lock of a run folder (``<run>/.train.lock``, a ``FolderLock``)."""
     return FolderLock(
         run_dir,
         LOCK_FILE,
@@ -125,8 +122,7 @@ class RunPolicy:
 
 
 class RunComplete(Exception):
-    """A resumed run has nothing left to train (its checkpoint is at or past the target);
-    nothing was changed. ``python -m train`` prints the message and exits with status 0."""
+    """A resumed run has nothing left to train (``python -m train`` exits with status 0)."""
 
     def __init__(self, run_dir: Path, step: int, target: int) -> None:
         super().__init__(
@@ -137,9 +133,7 @@ class RunComplete(Exception):
 
 
 class Interrupted(Exception):
-    """Training stopped by Ctrl-C with a checkpoint saved
-    (:class:`train.callbacks.StopOnInterrupt`); ``python -m train`` prints the message and
-    exits with status 130."""
+    """Training stopped by Ctrl-C with a checkpoint saved (``python -m train`` exits 130)."""
 
     def __init__(self, checkpoint: Checkpoint, resume: str) -> None:
         self.checkpoint = checkpoint
@@ -162,9 +156,8 @@ class Checkpoint:
     """The pickled buffer of earlier versions: never loaded (a pickle can run code)."""
 
     def damage(self, *, replay_buffer: bool, vecnormalize: bool) -> str | None:
-        """None if every file a resume needs is there and intact, else what is wrong, in words:
-        read without loading anything (the zips' members and CRCs, the VecNormalize pickle's
-        opcodes up to its STOP, ``pickletools.genops``, which builds no object)."""
+        """None if every file a resume needs is there and intact, else what is wrong; nothing is
+        loaded (zip members and CRCs, the pickle's opcodes by ``pickletools.genops``)."""
         needed = [(self.model, _MODEL_ZIP)]
         if replay_buffer:
             needed.append((self.replay_buffer, _BUFFER_ZIP))
@@ -189,8 +182,7 @@ class Checkpoint:
         return None
 
     def loads(self, algo: str) -> dict[str, Any]:
-        """What :func:`train.saved.load_model` checks and loads besides the model file: the
-        step of its name, and SAC's replay buffer."""
+        """:func:`train.saved.load_model`'s ``step`` and ``replay_buffer`` (SAC's)."""
         return {"step": self.step, "replay_buffer": self.replay_buffer if algo == "sac" else None}
 
     def paths(self) -> tuple[Path, ...]:
@@ -356,12 +348,8 @@ class RunFolder:
 
     @classmethod
     def open(cls, config: TrainConfig, held: contextlib.ExitStack) -> RunFolder:
-        """The folder of ``config``'s run, locked until ``held`` closes; every refusal (a folder
-        not of ``python -m train``, in use, damaged, finished, unwritable; settings that differ
-        from those the run started with) is raised here, before any work, and leaves the folder
-        untouched. The lock (:func:`run_lock`) is taken before the folder's files are read, so a
-        second command on the same run is refused instead of training beside it. With
-        ``verbose``, what the command is about to do is said (stdout)."""
+        """The folder of ``config``'s run, locked (before its files are read) until ``held``
+        closes; every refusal is raised here, before any work, leaving the folder untouched."""
         amortised = config.algo == AMORTISED
         layout = None
         if config.resume:
@@ -394,9 +382,8 @@ class RunFolder:
 
     @classmethod
     def _resumable(cls, config: TrainConfig, layout: RunLayout | None) -> RunFolder:
-        """A PPO / SAC run in ``layout`` (None: a new folder, made later): its settings,
-        hyperparameters and the checkpoint it continues from, every file a resume loads read
-        as it will read it."""
+        """A PPO / SAC run in ``layout`` (None: a new folder): its settings, hyperparameters
+        and checkpoint, every file a resume loads read as it will read it."""
         checkpoint = entry = None  # entry: config.yml, the hyperparameters the run started with
         if layout is not None:
             resume = config.resume  # the merge below turns a resume into a run of a folder
@@ -464,10 +451,8 @@ class RunFolder:
         return cls(layout, config, hp, checkpoint, target, segments, MappingProxyType(env_kwargs))
 
     def model(self, venv: Any) -> Any:
-        """The model this run trains on ``venv`` (its TensorBoard folder, verbosity and device
-        from the config): new, or the checkpoint's (with SAC's replay buffer) and seeded by its
-        step, so that a resumed segment is reproducible given its checkpoint (RNG states are
-        not saved)."""
+        """The model this run trains on ``venv``: new, or the checkpoint's seeded by its step
+        (a resumed segment is reproducible given its checkpoint; RNG states are not saved)."""
         assert self.hp is not None
         config, checkpoint = self.config, self.checkpoint
         algo, seed = config.algo, config.seed
@@ -485,9 +470,8 @@ class RunFolder:
         return model
 
     def start(self, settings: Mapping[str, Any]) -> None:
-        """A run from step 0 writes its ``settings`` (``config.yml``) and its arguments
-        (``args.yml``), and drops the evaluation curve an earlier start left; a continued run
-        keeps its own."""
+        """A run from step 0 writes ``config.yml`` (``settings``) and ``args.yml`` and drops an
+        earlier start's evaluation curve; a continued run keeps its own."""
         if self.checkpoint is None:
             write_yaml(self.layout.config_file, settings)
             write_yaml(self.layout.args_file, self.config.to_dict())
@@ -520,8 +504,7 @@ class RunFolder:
 
 
 def _check_claimable(layout: RunLayout, amortised: bool) -> None:
-    """ValueError unless a run may start or go on in ``layout``'s folder: absent or empty, or
-    (PPO, SAC) a run of ``python -m train`` on this env (:meth:`RunLayout.foreign`)."""
+    """ValueError unless a run may start or go on in ``layout``'s folder."""
     run_dir = layout.run_dir
     if not amortised:
         reason = layout.foreign()

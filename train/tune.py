@@ -426,7 +426,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--algo", required=True, choices=tuple(SEARCH_SPACES))
     parser.add_argument(
-        "--env", default="TandemWing/LevelFlight-v0", help="env id (default %(default)s)"
+        "--env",
+        dest="env_id",
+        default="TandemWing/LevelFlight-v0",
+        help="env id (default %(default)s)",
     )
     add_pairs_argument(
         parser,
@@ -443,15 +446,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ImportError:
         parser.error('needs Optuna: pip install -e ".[tune]"')
     try:
-        config = TuneConfig(
-            args.algo,
-            args.env,
-            dict(args.env_kwargs),
-            args.trials,
-            args.steps,
-            args.seed,
-            args.out,
-        )
+        config = TuneConfig(**vars(args))
         study = open_study(config)
     except ValueError as error:
         parser.error(str(error))

@@ -25,7 +25,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 
 from agents.selection import BestStroke
 from tandem_env.envs.registration import config_class
-from tandem_env.envs.sb3 import TandemVecEnv, make_sb3_vec_env
+from tandem_env.envs.sb3 import make_sb3_vec_env
 
 #: ``info`` entries written to the Monitor CSV next to each episode's reward and length.
 MONITOR_KEYWORDS: tuple[str, ...] = (
@@ -102,16 +102,16 @@ def _exact_rewards(rewards: np.ndarray, infos: Sequence[Mapping[str, Any]]) -> n
 
 
 class ConditionGrid(VecEnvWrapper):
-    """Resets sub-env i at ``conditions[i]`` (via the env's reset option) at every reset."""
+    """The batched adapter of ``env_id`` with one sub-env per condition, sub-env i reset at
+    ``conditions[i]`` (the env's reset option, e.g. ``speed``) at every reset."""
 
-    def __init__(self, venv: VecEnv, option_key: str, conditions: Sequence[float]):
-        if len(conditions) != venv.num_envs:
-            raise ValueError(
-                f"{len(conditions)} conditions for {venv.num_envs} sub-envs; allowed: one each"
-            )
-        super().__init__(venv)
-        self.option_key = option_key
+    def __init__(
+        self, env_id: str, env_kwargs: Mapping[str, Any], conditions: Sequence[float], seed: int
+    ) -> None:
         self.conditions = tuple(float(c) for c in conditions)
+        base = make_sb3_vec_env(env_id, n_envs=len(self.conditions), seed=seed, **env_kwargs)
+        super().__init__(base)
+        self.option_key = base.vector_env.core.option_key
 
     def reset(self) -> np.ndarray:
         self.venv.set_options([{self.option_key: c} for c in self.conditions])
@@ -119,17 +119,6 @@ class ConditionGrid(VecEnvWrapper):
 
     def step_wait(self) -> VecEnvStepReturn:
         return self.venv.step_wait()
-
-
-def option_key(venv: VecEnv) -> str:
-    """The reset option that sets the condition (``"speed"`` or ``"available_power"``), read from
-    the batched adapter at the bottom of the wrapper stack ``venv``."""
-    inner: Any = venv
-    while isinstance(inner, VecEnvWrapper):
-        inner = inner.venv
-    if not isinstance(inner, TandemVecEnv):
-        raise ValueError(f"{venv!r} is not a stack over tandem_env's TandemVecEnv")
-    return inner.vector_env.core.option_key
 
 
 def make_training_env(
@@ -176,8 +165,7 @@ def make_evaluation_env(
         sweep = () if declared is None else declared.sweep
         inside = tuple(c for c in sweep if low - 1e-9 <= c <= high + 1e-9)
         conditions = inside if len(inside) >= 2 else (low, 0.5 * (low + high), high)
-    base = make_sb3_vec_env(env_id, n_envs=len(conditions), seed=seed, **env_kwargs)
-    venv: VecEnv = VecMonitor(ConditionGrid(base, option_key(base), conditions))
+    venv: VecEnv = VecMonitor(ConditionGrid(env_id, env_kwargs, conditions, seed))
     if normalize is not None:
         venv = VecNormalize(venv, **{**normalize, "training": False, "norm_reward": False})
     return venv
