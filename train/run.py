@@ -87,10 +87,8 @@ def default_log_interval(algo: str, n_envs: int) -> int:
 
 # --- the run ---------------------------------------------------------------------------------
 def train(config: TrainConfig) -> TrainResult:
-    """Run (or resume) one training run with files: the plan (the folder, with every check
-    before any work: :meth:`RunFolder.open <train.run_folder.RunFolder.open>`), the envs, the
-    model, learning with evaluations and checkpoints, then the final model, its evaluation and
-    ``result.json``."""
+    """Run (or resume) one training run with files (:class:`~train.run_folder.RunFolder`): the
+    envs, the model, learning, then the final model, its evaluation and ``result.json``."""
     with contextlib.ExitStack() as held:
         # the plan: which folder, from which checkpoint, with which settings
         run = RunFolder.open(config, held)
@@ -193,8 +191,7 @@ def _best_segment(segments: Sequence[Mapping[str, Any]]) -> Mapping[str, Any]:
 def _write_result(
     layout: RunLayout, result: TrainResult, previous: Sequence[Mapping[str, Any]]
 ) -> None:
-    """Write ``result.json``: the earlier segments (``previous``, read when the folder was opened) and this
-    run's."""
+    """Write ``result.json``: the ``previous`` segments and this run's."""
     segments = list(previous)
     segments.append(
         {
@@ -228,9 +225,8 @@ def budget_hyperparams(
     n_envs: int | None,
     budget: int,
 ) -> Hyperparams:
-    """The hyperparameters of a run within ``budget`` env steps: ``n_timesteps`` is the budget
-    rounded down to whole learn iterations (PPO: n_steps·n_envs, SAC: train_freq·n_envs),
-    because SB3 never stops inside one and the budget is a hard limit."""
+    """The hyperparameters of a run within ``budget`` env steps: ``n_timesteps`` rounded down
+    to whole learn iterations (SB3 never stops inside one; the budget is a hard limit)."""
     hp = resolve_hyperparams(entry, overrides, n_envs=n_envs, n_timesteps=1)
     unit = step_granularity(algo, hp)
     steps = (budget // unit) * unit

@@ -152,10 +152,8 @@ def make_evaluation_env(
     *,
     normalize: Mapping[str, Any] | None,
 ) -> VecEnv:
-    """The evaluation stack: one sub-env per evaluation condition, reset at it every time: the
-    fixed condition, or the points of the config's declared sweep (``CONDITION.sweep``) in the
-    sampled range (its ends and midpoint if the range holds fewer than two of them, or the
-    config declares no sweep)."""
+    """The evaluation stack at the fixed condition, or the declared sweep's points in the
+    sampled range (its ends and midpoint where it holds fewer than two)."""
     config = config_class(env_id).from_kwargs(**env_kwargs)
     if config.condition_range is None:
         conditions: tuple[float, ...] = (float(config.fixed_condition),)
@@ -174,10 +172,9 @@ def make_evaluation_env(
 def evaluate_deterministic(
     model: BaseAlgorithm, eval_env: VecEnv, max_steps: int = 100_000
 ) -> list[dict[str, Any]]:
-    """The deterministic policy from one reset of each evaluation env, played to the end of that
-    episode: one row per env with the info of its last step, ``reward`` the episode's return,
-    ``episode_length`` its steps and ``action`` its first action. The one-cycle envs end after one
-    stroke, so their row is that stroke's metrics; SpeedChange rows summarise whole episodes."""
+    """The deterministic policy from one reset of each evaluation env to the end of its episode:
+    one row per env, the info of its last step with ``reward`` (the return),
+    ``episode_length`` and ``action`` (its first)."""
     observations = eval_env.reset()
     n_envs = eval_env.num_envs
     returns = np.zeros(n_envs)
