@@ -91,10 +91,8 @@ _POLICY_KWARGS_ALLOWED = (
 def eval_policy_kwargs(text: str) -> dict[str, Any]:
     """The zoo's ``policy_kwargs`` string, e.g. ``"dict(net_arch=[64, 64], log_std_init=-1)"``.
 
-    The zoo evaluates it with ``eval`` and torch in scope; here it is read from its syntax tree
-    and nothing in it runs: literals, ``dict(key=...)``, ``list(...)``, ``tuple(...)`` and
-    classes of ``torch.nn`` or ``torch.optim`` named as in the zoo (``nn.ReLU``,
-    ``th.optim.RMSprop``), which are looked up, never called.
+    The zoo evaluates it; here it is read from its syntax tree and nothing runs (literals,
+    ``dict``/``list``/``tuple`` and ``torch.nn``/``torch.optim`` classes, looked up).
     """
     try:
         tree = ast.parse(text, mode="eval")
@@ -286,10 +284,8 @@ MAX_NETWORK_PARAMETERS = 10**8
 
 
 def network_parameters(arch: Any) -> int:
-    """A lower bound on the weights and biases of the networks a valid ``net_arch`` describes
-    [-]: each list of layer sizes is a fully connected network from at least one input to at
-    least one output (SB3 adds the env's observation and action sizes, and builds a list once
-    per network)."""
+    """A lower bound on the weights and biases of the networks of a valid ``net_arch`` [-]
+    (each list of sizes from at least one input to at least one output)."""
     if isinstance(arch, Mapping):
         return sum(network_parameters(sizes) for sizes in arch.values())
     sizes = [1, *(int(n) for n in arch), 1]
@@ -388,10 +384,9 @@ def check_seed(value: Any, name: str = "seed") -> int:
 
 
 def option(*flags: str, default: Any = MISSING, factory: Any = MISSING, **settings: Any) -> Any:
-    """A :class:`TrainConfig` field and its ``python -m train`` option: ``flags`` (a bool field
-    is a switch; ``off``: the flag that turns a True default off), ``amortised=True`` where
-    ``--algo amortised`` takes it too, and argparse ``settings`` (choices, metavar). The
-    option's help is the field's docstring (``train.__main__.build_parser``)."""
+    """A :class:`TrainConfig` field and its ``python -m train`` option: ``flags`` (``off``: the
+    flag that turns a True default off), ``amortised=True`` where ``--algo amortised`` takes it
+    too, and argparse ``settings``; its help is the field's docstring."""
     return field(default=default, default_factory=factory, metadata={"flags": flags, **settings})
 
 
@@ -545,10 +540,8 @@ ARGS_KEYS = {"env_id": "env", "hyperparams_file": "conf_file", "progress_bar": "
 
 
 def plain(value: Any) -> Any:
-    """YAML-safe form (config.yml, args.yml): the project's JSON conversion
-    (:func:`tandem_env.io.files.to_jsonable`: string keys, tuples as lists, which ``yaml.safe_dump``
-    needs, numpy scalars as Python numbers); anything it cannot convert is kept, for
-    ``yaml.safe_dump`` to accept or refuse."""
+    """YAML-safe form (config.yml, args.yml) by :func:`tandem_env.io.files.to_jsonable`;
+    anything it cannot convert is kept, for ``yaml.safe_dump`` to accept or refuse."""
     return to_jsonable(value, default=lambda kept: kept)
 
 

@@ -17,6 +17,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv
 
 from tandem_env.envs.registration import check_env_id, config_class
+from tandem_env.envs.sb3 import make_sb3_vec_env
 from train.config import check_algo, resolve_hyperparams
 from train.run_folder import RunLayout, RunPolicy, resolve_run_dir
 from train.saved import load_on_copy, read_normalizer, read_run_args, read_run_yaml
@@ -105,7 +106,8 @@ class TrainedPolicy(RunPolicy):
     def _observing_env(self, conditions: Sequence[float]) -> VecEnv:
         # The training env's own observation path: reset at each condition through the env's
         # reset option, so the normalisation over the envelope is the one the policy learned.
-        venv: VecEnv = ConditionGrid(self.env_id, self.env_kwargs, conditions, seed=0)
+        base = make_sb3_vec_env(self.env_id, n_envs=len(conditions), seed=0, **self.env_kwargs)
+        venv: VecEnv = ConditionGrid(base, conditions)
         if self.normalizer_path is not None:
             normalizer = read_normalizer(self.normalizer_path)
             normalizer.set_venv(venv)
