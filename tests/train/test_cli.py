@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from tandem_env.envs.registration import LEVEL_FLIGHT_ID
-from train.__main__ import build_parser, config_from_args, main
+from train.__main__ import build_parser, main, parse_config
 from train.config import TrainConfig
 from train.run import train
 from train.run_folder import RunLayout
@@ -146,8 +146,7 @@ def test_cli_defaults_are_the_configs() -> None:
     names = {f.name for f in fields(TrainConfig)}
     parser = build_parser()
     assert {action.dest for action in parser._actions} == {*names, "help", "insect"}
-    args = parser.parse_args(["--algo", "sac", "--env", LEVEL_FLIGHT_ID])
-    config = config_from_args(args)
+    config = parse_config(parser, ["--algo", "sac", "--env", LEVEL_FLIGHT_ID])
     for f in fields(TrainConfig):
         if f.default is not MISSING:
             assert getattr(config, f.name) == f.default, f.name
@@ -242,11 +241,11 @@ def test_a_log_folder_that_cannot_be_one_is_named_not_errno_text(
 
 def test_sb3_log_table_is_off_by_default_and_a_flag_away() -> None:
     base = ["--algo", "ppo", "--env", LEVEL_FLIGHT_ID]
-    quiet = config_from_args(build_parser().parse_args(base))
+    quiet = parse_config(build_parser(), base)
     assert not quiet.log_table and quiet.verbose == 1 and quiet.model_verbose == 0
-    table = config_from_args(build_parser().parse_args([*base, "--log-table"]))
+    table = parse_config(build_parser(), [*base, "--log-table"])
     assert table.log_table and table.model_verbose == 1
-    assert config_from_args(build_parser().parse_args([*base, "--verbose", "2"])).model_verbose == 2
+    assert parse_config(build_parser(), [*base, "--verbose", "2"]).model_verbose == 2
 
 
 def test_a_plugged_in_task_trains_without_a_patch(tmp_path: Path) -> None:
