@@ -186,6 +186,8 @@ def load_entry(algo: str, env_id: str, path: str | Path | None = None) -> dict[s
 class Hyperparams:
     """One zoo entry after preprocessing (what the model and the envs are built from)."""
 
+    algo: str
+    """The algorithm of the entry's file (``ppo``, ``sac``)."""
     n_envs: int
     n_timesteps: int
     policy: str
@@ -205,10 +207,12 @@ def resolve_hyperparams(
     entry: Mapping[str, Any],
     overrides: Mapping[str, Any] | None = None,
     *,
+    algo: str,
     n_envs: int | None = None,
     n_timesteps: int | None = None,
 ) -> Hyperparams:
-    """Preprocess a zoo entry as ``rl_zoo3.exp_manager`` does (schedules, policy_kwargs, normalize)."""
+    """Preprocess ``algo``'s zoo entry as ``rl_zoo3.exp_manager`` does (schedules,
+    policy_kwargs, normalize)."""
     raw = {**entry, **(overrides or {})}
     if n_envs is not None:
         raw["n_envs"] = n_envs
@@ -265,6 +269,7 @@ def resolve_hyperparams(
     if isinstance(params.get("train_freq"), list):
         params["train_freq"] = tuple(params["train_freq"])
     return Hyperparams(
+        algo=algo,
         n_envs=count,
         n_timesteps=timesteps,
         policy=policy,
@@ -348,9 +353,9 @@ def _schedule(key: str, value: Any) -> Any:
     return float(value)
 
 
-def step_granularity(algo: str, hp: Hyperparams) -> int:
+def step_granularity(hp: Hyperparams) -> int:
     """Env steps one learn iteration takes (``learn`` never stops inside one)."""
-    if algo == "ppo":
+    if hp.algo == "ppo":
         return int(hp.model_kwargs.get("n_steps", 2048)) * hp.n_envs
     train_freq = hp.model_kwargs.get("train_freq", 1)
     # Every episode is one step, so "episode" frequencies count the same vector steps.

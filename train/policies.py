@@ -257,7 +257,7 @@ class TrainingMethod:
         said = (self.algo, context.env_id, context.budget, self.n_envs, repr(self.overrides))
         if unused > 0 and said not in _ANNOUNCED:
             _ANNOUNCED.add(said)
-            unit = step_granularity(self.algo, hp)
+            unit = step_granularity(hp)
             tqdm.write(
                 f"{self.algo}: budget {context.budget} -> {steps} training steps (whole "
                 f"{self.algo.upper()} iterations of {unit} env steps, n_envs {hp.n_envs}) + 1 "

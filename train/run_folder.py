@@ -409,7 +409,11 @@ class RunFolder:
         if checkpoint is None:
             entry = load_entry(config.algo, config.env_id, config.hyperparams_file)
             hp = resolve_hyperparams(
-                entry, config.hyperparams, n_envs=config.n_envs, n_timesteps=config.n_timesteps
+                entry,
+                config.hyperparams,
+                algo=config.algo,
+                n_envs=config.n_envs,
+                n_timesteps=config.n_timesteps,
             )
         elif entry is None:  # resuming from the current yml would mix two runs' settings unsaid
             raise ValueError(
@@ -419,10 +423,10 @@ class RunFolder:
             )
         else:  # a resumed run keeps the hyperparameters it started with, whatever the yml says
             try:
-                hp = resolve_hyperparams(entry, n_timesteps=config.n_timesteps)
+                hp = resolve_hyperparams(entry, algo=config.algo, n_timesteps=config.n_timesteps)
             except ValueError as error:
                 raise ValueError(f"{layout.config_file}: {error}") from None  # type: ignore[union-attr]
-        unit = step_granularity(config.algo, hp)
+        unit = step_granularity(hp)
         target = -(-hp.n_timesteps // unit) * unit  # where SB3's learn stops: whole iterations
         if checkpoint is not None and checkpoint.step >= target:
             raise RunComplete(layout.run_dir, checkpoint.step, target)  # type: ignore[union-attr]
@@ -481,7 +485,7 @@ class RunFolder:
         """What this command is about to do, before any work (stdout)."""
         hp, algo = self.hp, self.config.algo
         assert hp is not None
-        unit = step_granularity(algo, hp)
+        unit = step_granularity(hp)
         if self.target != hp.n_timesteps:
             what = (
                 f"n_steps {unit // hp.n_envs} x n_envs {hp.n_envs}"  # step_granularity's

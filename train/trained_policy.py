@@ -86,7 +86,7 @@ class TrainedPolicy(RunPolicy):
                 "folder needs them. Allowed: a folder written by python -m train"
             )
         try:
-            hp = resolve_hyperparams(entry, n_timesteps=1)
+            hp = resolve_hyperparams(entry, algo=algo, n_timesteps=1)
         except ValueError as error:
             raise ValueError(f"{layout.config_file}: {error}") from None
         model = load_on_copy(algo, path, hp, env_id, env_kwargs)
