@@ -26,8 +26,8 @@ from tandem_env.physics.stroke import (
     normalised_to_physical,
     physical_to_normalised,
 )
-from train.config import AMORTISED
-from train.run_folder import RunPolicy, env_name, resolve_run_dir
+from train.config import AMORTISED, FOLDER_NAME
+from train.run_folder import RunPolicy, resolve_run_dir
 from train.saved import read_run_args
 
 #: Where the canonical targets put each canonicalised sweep phase [deg] (within half a time-grid
@@ -302,7 +302,7 @@ class AmortisedPolicy(RunPolicy):
     @property
     def model_path(self) -> Path:
         base = Path(".") if self.run_dir is None else self.run_dir
-        return base / f"{env_name(self.env_id)}{WEIGHTS_SUFFIX}"
+        return base / f"{self.env_id.translate(FOLDER_NAME)}{WEIGHTS_SUFFIX}"
 
     @property
     def training_conditions(self) -> tuple[float, float]:
@@ -490,7 +490,7 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     except (OSError, ValueError) as error:
         raise _refuse(path, f"not readable JSON ({error})") from None
     fields_ = _policy_fields(path, data, env_id)
-    weights = folder / f"{env_name(env_id)}{WEIGHTS_SUFFIX}"
+    weights = folder / f"{env_id.translate(FOLDER_NAME)}{WEIGHTS_SUFFIX}"
     if not weights.is_file():
         raise ValueError(f"{folder}: no weights file {weights.name} (did the run finish?)")
     sizes, n = fields_.pop("sizes"), len(fields_["harmonics"])

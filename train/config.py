@@ -525,12 +525,6 @@ class TrainConfig:
                 f"with amortised: {', '.join(allowed)}"
             )
 
-    @property
-    def model_verbose(self) -> int:
-        """The SB3 model's ``verbose``: its log table is printed only with ``log_table`` (or
-        ``verbose`` 2); this run's own messages follow ``verbose``."""
-        return self.verbose if self.log_table or self.verbose >= 2 else 0
-
     def to_dict(self) -> dict[str, Any]:
         """Plain-YAML form (``args.yml``): every field (:func:`plain`), under its zoo name where
         it has one (:data:`ARGS_KEYS`), marked as written by this project (``made_by``)."""
@@ -540,6 +534,9 @@ class TrainConfig:
 
 #: The ``made_by`` entry of ``args.yml`` that marks a run folder written by ``python -m train``.
 MADE_BY = "tandem-env python -m train"
+#: An env id as a folder name (``env_id.translate(FOLDER_NAME)``), as the zoo:
+#: ``TandemWing/LevelFlight-v0`` -> ``TandemWing-LevelFlight-v0``.
+FOLDER_NAME = str.maketrans("/", "-")
 #: The ``args.yml`` keys of the :class:`TrainConfig` fields the zoo names otherwise.
 ARGS_KEYS = {"env_id": "env", "hyperparams_file": "conf_file", "progress_bar": "progress"}
 

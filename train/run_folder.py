@@ -23,6 +23,7 @@ from typing import Any
 from tandem_env.io.files import FolderLock
 from train.config import (
     AMORTISED,
+    FOLDER_NAME,
     MADE_BY,
     Hyperparams,
     TrainConfig,
@@ -53,11 +54,6 @@ LOCK_FILE = ".train.lock"
 #: (:data:`train.saved.REPLAY_COUNTERS`), and what such a file is called.
 _MODEL_ZIP = (frozenset({"data", "_stable_baselines3_version"}), "model file")
 _BUFFER_ZIP = (frozenset({"pos.npy", "full.npy"}), "replay buffer file")
-
-
-def env_name(env_id: str) -> str:
-    """The env id as a folder name: ``TandemWing/LevelFlight-v0`` -> ``TandemWing-LevelFlight-v0``."""
-    return env_id.replace("/", "-")
 
 
 def latest_run_id(algo_folder: Path, name: str) -> int:
@@ -217,7 +213,7 @@ class RunLayout:
     """The files of one run folder (``run_dir``) of a run on ``env_id``."""
 
     def __init__(self, run_dir: str | os.PathLike[str], env_id: str) -> None:
-        self.run_dir, self.env_id, self.name = Path(run_dir), env_id, env_name(env_id)
+        self.run_dir, self.env_id, self.name = Path(run_dir), env_id, env_id.translate(FOLDER_NAME)
         self.params_dir = self.run_dir / self.name
         self.final_model = self.run_dir / f"{self.name}.zip"
         self.best_model = self.run_dir / "best_model.zip"
@@ -294,8 +290,8 @@ class RunLayout:
     def new(cls, log_folder: Path, algo: str, env_id: str) -> RunLayout:
         """The next free ``log_folder/<algo>/<env>_<n>`` (created)."""
         algo_folder = Path(log_folder) / algo
-        n = latest_run_id(algo_folder, env_name(env_id)) + 1
-        run_dir = algo_folder / f"{env_name(env_id)}_{n}"
+        name = env_id.translate(FOLDER_NAME)
+        run_dir = algo_folder / f"{name}_{latest_run_id(algo_folder, name) + 1}"
         run_dir.mkdir(parents=True, exist_ok=False)
         return cls(run_dir, env_id)
 
@@ -304,7 +300,7 @@ class RunLayout:
         """The newest existing run of ``algo`` on ``env_id``; ValueError if there is none, or
         if the newest folder is not a run of this project (e.g. rl_zoo3's: same layout)."""
         algo_folder = Path(log_folder) / algo
-        name = env_name(env_id)
+        name = env_id.translate(FOLDER_NAME)
         n = latest_run_id(algo_folder, name)
         if n == 0:
             raise ValueError(
@@ -462,7 +458,8 @@ class RunFolder:
         algo, seed = config.algo, config.seed
         settings = {
             "tensorboard_log": self.layout.tensorboard if config.tensorboard else None,
-            "verbose": config.model_verbose,
+            # SB3's log table only with log_table (or verbose 2); the run's messages follow verbose
+            "verbose": config.verbose if config.log_table or config.verbose >= 2 else 0,
             "device": config.device,
         }
         if checkpoint is None:

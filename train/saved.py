@@ -30,7 +30,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import atomic_path, read_json
 from tandem_env.physics.checks import is_real
-from train.config import MAX_TIMESTEPS, Hyperparams
+from train.config import FOLDER_NAME, MAX_TIMESTEPS, Hyperparams
 from train.vec import make_training_env
 
 # --- the YAML, the normalisation statistics and result.json -----------------------------------
@@ -213,7 +213,7 @@ def read_run_args(run_dir: Path, allowed: str) -> tuple[Path, dict[str, Any], An
         )
     args = read_run_yaml(found[0])
     env_id = args.get("env")
-    if not isinstance(env_id, str) or env_id.replace("/", "-") != found[0].parent.name:
+    if not isinstance(env_id, str) or env_id.translate(FOLDER_NAME) != found[0].parent.name:
         raise ValueError(
             f"{found[0]}: env = {env_id!r}, but the file sits in the settings folder of "
             f"{found[0].parent.name}; allowed: the env the run was trained on"

@@ -239,13 +239,21 @@ def test_a_log_folder_that_cannot_be_one_is_named_not_errno_text(
         TrainConfig(algo="ppo", env_id=LEVEL_FLIGHT_ID, log_folder=log_folder)
 
 
-def test_sb3_log_table_is_off_by_default_and_a_flag_away() -> None:
-    base = ["--algo", "ppo", "--env", LEVEL_FLIGHT_ID]
-    quiet = parse_config(build_parser(), base)
-    assert not quiet.log_table and quiet.verbose == 1 and quiet.model_verbose == 0
-    table = parse_config(build_parser(), [*base, "--log-table"])
-    assert table.log_table and table.model_verbose == 1
-    assert parse_config(build_parser(), [*base, "--verbose", "2"]).model_verbose == 2
+def test_sb3_log_table_is_off_by_default_and_a_flag_away(tmp_path: Path) -> None:
+    from tandem_env.envs.sb3 import make_sb3_vec_env
+    from train.config import load_entry, resolve_hyperparams
+    from train.run_folder import RunFolder, RunLayout
+
+    hp = resolve_hyperparams(load_entry("ppo", LEVEL_FLIGHT_ID), algo="ppo", n_envs=2)
+    venv = make_sb3_vec_env(LEVEL_FLIGHT_ID, n_envs=2, seed=0)
+    base = ["--algo", "ppo", "--env", LEVEL_FLIGHT_ID, "--no-tensorboard"]
+    # the model's verbose: SB3's table only with --log-table or --verbose 2; the run's own lines
+    # follow --verbose
+    for extra, table in (([], 0), (["--log-table"], 1), (["--verbose", "2"], 2)):
+        config = parse_config(build_parser(), [*base, *extra])
+        run = RunFolder(RunLayout(tmp_path, LEVEL_FLIGHT_ID), config, hp)
+        assert run.model(venv).verbose == table, extra
+    assert config.verbose == 2 and not parse_config(build_parser(), base).log_table
 
 
 def test_a_plugged_in_task_trains_without_a_patch(tmp_path: Path) -> None:
