@@ -119,9 +119,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def config_from_args(args: argparse.Namespace) -> TrainConfig:
-    """The :class:`TrainConfig` of parsed arguments (``--env-kwargs``/``--hyperparams`` pairs
-    parsed, ``--insect`` put into the env options)."""
+def parse_config(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> TrainConfig:
+    """The :class:`TrainConfig` of the command line ``argv`` (``--env-kwargs``/``--hyperparams``
+    pairs parsed, ``--insect`` put into the env options)."""
+    args = parser.parse_args(argv)
     import tandem_env  # noqa: F401 - registers the ids before the config checks the env
 
     values = {spec.name: getattr(args, spec.name) for spec in fields(TrainConfig)}
@@ -143,10 +144,9 @@ def config_from_args(args: argparse.Namespace) -> TrainConfig:
 @command_line
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
     result: Any
     try:
-        config = config_from_args(args)
+        config = parse_config(parser, argv)
         with warnings_as_lines():  # every input was checked before any training
             if config.algo == AMORTISED:
                 from train.amortised import train_run
@@ -173,7 +173,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{parser.prog}: error: {error}", file=sys.stderr)
         return 1
     print(f"run folder: {result.run_dir}")
-    if args.algo == AMORTISED:
+    if config.algo == AMORTISED:
         return _say_amortised(result.summary)
     from tandem_env.envs.registration import config_class
 

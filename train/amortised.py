@@ -37,10 +37,8 @@ from train.run_folder import RunFolder
 
 # --- the problem and its reference -------------------------------------------------------------
 def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
-    """The reference series (``tandem_env.envs.reference.ReferenceSeries``) the env of
-    ``env_id`` with ``env_kwargs`` is trained on; ValueError naming the value and what is
-    allowed for a condition keyword (the condition is the policy's input) or where the table
-    does not describe that problem (:func:`table_series`). Nothing is evaluated."""
+    """The reference series the env of ``env_id`` with ``env_kwargs`` is trained on
+    (:func:`table_series`); ValueError for a condition keyword (the policy's input)."""
     from tandem_env.envs.registration import config_class
 
     series = table_series(env_id, env_kwargs)
@@ -57,12 +55,8 @@ def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
 
 def table_series(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     """The reference series that scores the env of ``env_id`` with ``env_kwargs`` (its problem
-    fingerprint's); ValueError naming the value and what is allowed for an env without a table,
-    a series the table does not hold (objective, planform), and env options that change the
-    problem the table describes (model options, insect, tolerances; those that do not are the
-    penalty, backend, device and the condition's keywords). What ``python -m train --algo
-    amortised`` and ``python -m train.tune`` (whose trials are scored against the table) check
-    before any work; nothing is evaluated."""
+    fingerprint's); ValueError naming what is allowed where the table has none (no table, no
+    such series, env options that change the problem). Nothing is evaluated."""
     from tandem_env.envs.reference import (
         REFERENCE_GRID,
         load_reference_table,
@@ -166,10 +160,8 @@ def train_policy(
     *,
     progress: Any = None,
 ) -> tuple[AmortisedPolicy, Training]:
-    """Train an amortised policy on ``targets`` (docs/training.md, "Amortised policy": (a)
-    branches, (b) regression, (c) fine-tuning through ``env_id``'s problem view with
-    ``env_kwargs``, (d) hand-overs). ``progress``: called as ``progress(step, total, row)`` after each
-    fine-tuning step."""
+    """Train an amortised policy on ``targets`` (docs/training.md, "Amortised policy");
+    ``progress(step, total, row)`` is called after each fine-tuning step."""
     import torch
 
     resolution = {"n_time": settings.finetune_n_time, "n_blade": settings.finetune_n_blade}
@@ -294,11 +286,9 @@ class RunResult:
 
 
 def train_run(config: TrainConfig) -> RunResult:
-    """``python -m train --algo amortised``: check everything, train on the reference table's
-    training optima, write the run folder (:class:`~train.run_folder.RunFolder`: a new one in
-    ``log_folder/amortised/``, or ``run_dir``, a new or empty folder; the files are
-    :mod:`train.amortised_policy`'s, each written atomically, ``result.json`` last), and
-    evaluate the final policy at the training conditions (default model) for the summary."""
+    """``python -m train --algo amortised``: train on the reference table's training optima,
+    write the run folder (``result.json`` last) and evaluate the final policy at the training
+    conditions for the summary."""
     import torch
 
     from agents.records import package_versions

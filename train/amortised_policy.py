@@ -26,8 +26,8 @@ from tandem_env.physics.stroke import (
     normalised_to_physical,
     physical_to_normalised,
 )
-from train.config import AMORTISED
-from train.run_folder import RunPolicy, env_name, resolve_run_dir
+from train.config import AMORTISED, FOLDER_NAME
+from train.run_folder import RunPolicy, resolve_run_dir
 from train.saved import read_run_args
 
 #: Where the canonical targets put each canonicalised sweep phase [deg] (within half a time-grid
@@ -163,11 +163,9 @@ def reference_targets(series: Any, n_time: int, *, pairs_independent: bool) -> T
 
 # --- the network and the policy ------------------------------------------------------------------
 def radial_features(count: int) -> Any:
-    """Fixed Gaussian bumps of the observation x ∈ [-1, 1] (a torch module):
-    ``exp(−((x − μ_k)/σ)²/2)`` at ``count`` centres μ_k evenly over [-1, 1], σ their spacing. A
-    gradient step for one condition then moves mostly the strokes of the conditions near it
-    (what the per-condition optima need: they are not one smooth family), while the map stays
-    smooth."""
+    """Fixed Gaussian bumps ``exp(−((x − μ_k)/σ)²/2)`` of the observation x ∈ [-1, 1] at
+    ``count`` centres μ_k evenly over [-1, 1], σ their spacing (a torch module): a step for one
+    condition moves mostly the strokes near it."""
     import torch
 
     class RadialFeatures(torch.nn.Module):
@@ -304,7 +302,7 @@ class AmortisedPolicy(RunPolicy):
     @property
     def model_path(self) -> Path:
         base = Path(".") if self.run_dir is None else self.run_dir
-        return base / f"{env_name(self.env_id)}{WEIGHTS_SUFFIX}"
+        return base / f"{self.env_id.translate(FOLDER_NAME)}{WEIGHTS_SUFFIX}"
 
     @property
     def training_conditions(self) -> tuple[float, float]:
@@ -355,9 +353,8 @@ def regression_outputs(strokes: np.ndarray, centres: np.ndarray) -> np.ndarray:
 
 
 def is_amortised_run(run_dir: str | Path) -> bool:
-    """Whether ``run_dir`` (or the latest run it names) holds an amortised run: its one
-    ``<env>/args.yml`` says ``algo: amortised``, or it holds a ``policy.json`` (only an
-    amortised run writes one: :func:`load_policy` then says what its args.yml gets wrong)."""
+    """Whether ``run_dir`` (or the latest run it names) holds an amortised run (its args.yml
+    says so, or it holds a ``policy.json``)."""
     folder = resolve_run_dir(run_dir)
     try:
         _, args, _ = read_run_args(folder, "")
@@ -374,12 +371,9 @@ def _refuse(path: Path, what: str) -> ValueError:
 
 
 def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
-    """``policy.json``'s ``data`` checked before anything is built (:func:`load_policy`): the
-    network's sizes within training's limits (:class:`~train.amortised_settings.Settings`, their one
-    home), the arrays finite and of consistent shapes, each branch's domain an increasing range
-    inside the env's reference grid, the hand-overs increasing and inside both neighbours'
-    domains, N of each branch 1 or 2, and the counts whole numbers >= 0; ValueError naming
-    ``path`` otherwise."""
+    """``policy.json``'s ``data`` checked before anything is built (sizes within
+    :class:`~train.amortised_settings.Settings`' limits, arrays finite and consistent, domains
+    and hand-overs inside the reference grid); ValueError naming ``path`` otherwise."""
     from tandem_env.envs.reference import REFERENCE_GRID, training_conditions
     from tandem_env.envs.registration import config_class
     from tandem_env.physics.checks import count, real_array
@@ -441,10 +435,8 @@ def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
 
 
 def _read_weights(weights: Path, expected: Mapping[str, tuple[int, ...]]) -> Any:
-    """The state_dict in ``weights``, read with ``torch.load(weights_only=True)`` and checked
-    against the ``expected`` names and shapes (the network ``policy.json`` describes) and for
-    finite values; ValueError naming the file, in one line, otherwise (a tampered file is not
-    run: the weights-only unpickler builds tensors and containers only)."""
+    """The state_dict in ``weights`` (``torch.load(weights_only=True)``) with the ``expected``
+    names and shapes and finite values; ValueError naming the file otherwise."""
     import pickle
 
     import torch
@@ -470,10 +462,8 @@ def _read_weights(weights: Path, expected: Mapping[str, tuple[int, ...]]) -> Any
 
 
 def load_policy(run_dir: str | Path) -> AmortisedPolicy:
-    """The policy of an amortised run folder (or of the latest run it names), all of it checked
-    before the network is built: its ``args.yml`` (the algorithm and env), ``policy.json``
-    (JSON, :func:`_policy_fields`) and the weights (``torch.load(weights_only=True)``,
-    :func:`_read_weights`); ValueError naming the file at fault."""
+    """The policy of an amortised run folder (or of the latest run it names), every file
+    checked before the network is built; ValueError naming the file at fault."""
     import torch
 
     from tandem_env.envs.reference import REFERENCE_GRID
@@ -500,7 +490,7 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     except (OSError, ValueError) as error:
         raise _refuse(path, f"not readable JSON ({error})") from None
     fields_ = _policy_fields(path, data, env_id)
-    weights = folder / f"{env_name(env_id)}{WEIGHTS_SUFFIX}"
+    weights = folder / f"{env_id.translate(FOLDER_NAME)}{WEIGHTS_SUFFIX}"
     if not weights.is_file():
         raise ValueError(f"{folder}: no weights file {weights.name} (did the run finish?)")
     sizes, n = fields_.pop("sizes"), len(fields_["harmonics"])

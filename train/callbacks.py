@@ -64,13 +64,8 @@ class PhysicsLogger(BaseCallback):
 
 
 class ResumableEvalCallback(EvalCallback):
-    """``EvalCallback`` that, on a resumed run, keeps the evaluations made before the kill.
-
-    SB3's EvalCallback rewrites ``evaluations.npz`` from its in-memory lists, so a plain resume
-    would lose the curve up to the checkpoint; this one starts from the file's rows up to the
-    checkpoint's step, and from its best mean reward (so ``best_model.zip`` is only replaced by
-    a better model).
-    """
+    """``EvalCallback`` that, on a resumed run, starts from ``evaluations.npz``'s rows up to the
+    checkpoint and their best mean reward (SB3's rewrites the file from memory)."""
 
     def __init__(self, *args: Any, resume_from_step: int | None = None, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
@@ -154,14 +149,10 @@ class RunCheckpoint(BaseCallback):
 
 
 class StopOnInterrupt(BaseCallback):
-    """Ctrl-C (SIGINT) while :meth:`catching` stops ``learn`` at the next env step instead of
-    raising KeyboardInterrupt wherever it lands (a traceback, an open progress bar, the steps
-    since the last checkpoint lost); :meth:`save` then checkpoints the last whole iteration.
-
-    The step count goes back to the last rollout's end (:attr:`boundary`): the weights are those
-    trained on the rollouts up to it, and the steps of the unfinished rollout, which nothing
-    learnt from (SAC: whose last transition SB3 does not store), are collected again on resume.
-    A second Ctrl-C raises KeyboardInterrupt at once."""
+    """Ctrl-C (SIGINT) while :meth:`catching` stops ``learn`` at the next env step (not a
+    KeyboardInterrupt wherever it lands); :meth:`save` then checkpoints the last rollout's end
+    (:attr:`boundary`: the unfinished rollout's steps are collected again on resume). A second
+    Ctrl-C raises KeyboardInterrupt at once."""
 
     def __init__(self) -> None:
         super().__init__()

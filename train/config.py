@@ -91,10 +91,8 @@ _POLICY_KWARGS_ALLOWED = (
 def eval_policy_kwargs(text: str) -> dict[str, Any]:
     """The zoo's ``policy_kwargs`` string, e.g. ``"dict(net_arch=[64, 64], log_std_init=-1)"``.
 
-    The zoo evaluates it with ``eval`` and torch in scope; here it is read from its syntax tree
-    and nothing in it runs: literals, ``dict(key=...)``, ``list(...)``, ``tuple(...)`` and
-    classes of ``torch.nn`` or ``torch.optim`` named as in the zoo (``nn.ReLU``,
-    ``th.optim.RMSprop``), which are looked up, never called.
+    The zoo evaluates it; here it is read from its syntax tree and nothing runs (literals,
+    ``dict``/``list``/``tuple`` and ``torch.nn``/``torch.optim`` classes, looked up).
     """
     try:
         tree = ast.parse(text, mode="eval")
@@ -172,8 +170,7 @@ def load_hyperparams_file(path: str | Path) -> dict[str, dict[str, Any]]:
 
 def load_entry(algo: str, env_id: str, path: str | Path | None = None) -> dict[str, Any]:
     """The entry for ``env_id`` (else ``default``) of ``algo``'s hyperparameter file (``path``,
-    default ``train/hyperparams/<algo>.yml``), as the zoo."""
-    check_algo(algo)
+    default ``train/hyperparams/<algo>.yml``; ``algo`` checked by the caller), as the zoo."""
     file = Path(path) if path is not None else HYPERPARAMS_DIR / f"{algo}.yml"
     entries = load_hyperparams_file(file)
     if env_id in entries:
@@ -189,6 +186,8 @@ def load_entry(algo: str, env_id: str, path: str | Path | None = None) -> dict[s
 class Hyperparams:
     """One zoo entry after preprocessing (what the model and the envs are built from)."""
 
+    algo: str
+    """The algorithm of the entry's file (``ppo``, ``sac``)."""
     n_envs: int
     n_timesteps: int
     policy: str
@@ -208,10 +207,12 @@ def resolve_hyperparams(
     entry: Mapping[str, Any],
     overrides: Mapping[str, Any] | None = None,
     *,
+    algo: str,
     n_envs: int | None = None,
     n_timesteps: int | None = None,
 ) -> Hyperparams:
-    """Preprocess a zoo entry as ``rl_zoo3.exp_manager`` does (schedules, policy_kwargs, normalize)."""
+    """Preprocess ``algo``'s zoo entry as ``rl_zoo3.exp_manager`` does (schedules,
+    policy_kwargs, normalize)."""
     raw = {**entry, **(overrides or {})}
     if n_envs is not None:
         raw["n_envs"] = n_envs
@@ -268,6 +269,7 @@ def resolve_hyperparams(
     if isinstance(params.get("train_freq"), list):
         params["train_freq"] = tuple(params["train_freq"])
     return Hyperparams(
+        algo=algo,
         n_envs=count,
         n_timesteps=timesteps,
         policy=policy,
@@ -287,10 +289,8 @@ MAX_NETWORK_PARAMETERS = 10**8
 
 
 def network_parameters(arch: Any) -> int:
-    """A lower bound on the weights and biases of the networks a valid ``net_arch`` describes
-    [-]: each list of layer sizes is a fully connected network from at least one input to at
-    least one output (SB3 adds the env's observation and action sizes, and builds a list once
-    per network)."""
+    """A lower bound on the weights and biases of the networks of a valid ``net_arch`` [-]
+    (each list of sizes from at least one input to at least one output)."""
     if isinstance(arch, Mapping):
         return sum(network_parameters(sizes) for sizes in arch.values())
     sizes = [1, *(int(n) for n in arch), 1]
@@ -353,9 +353,9 @@ def _schedule(key: str, value: Any) -> Any:
     return float(value)
 
 
-def step_granularity(algo: str, hp: Hyperparams) -> int:
+def step_granularity(hp: Hyperparams) -> int:
     """Env steps one learn iteration takes (``learn`` never stops inside one)."""
-    if algo == "ppo":
+    if hp.algo == "ppo":
         return int(hp.model_kwargs.get("n_steps", 2048)) * hp.n_envs
     train_freq = hp.model_kwargs.get("train_freq", 1)
     # Every episode is one step, so "episode" frequencies count the same vector steps.
@@ -389,10 +389,9 @@ def check_seed(value: Any, name: str = "seed") -> int:
 
 
 def option(*flags: str, default: Any = MISSING, factory: Any = MISSING, **settings: Any) -> Any:
-    """A :class:`TrainConfig` field and its ``python -m train`` option: ``flags`` (a bool field
-    is a switch; ``off``: the flag that turns a True default off), ``amortised=True`` where
-    ``--algo amortised`` takes it too, and argparse ``settings`` (choices, metavar). The
-    option's help is the field's docstring (``train.__main__.build_parser``)."""
+    """A :class:`TrainConfig` field and its ``python -m train`` option: ``flags`` (``off``: the
+    flag that turns a True default off), ``amortised=True`` where ``--algo amortised`` takes it
+    too, and argparse ``settings``; its help is the field's docstring."""
     return field(default=default, default_factory=factory, metadata={"flags": flags, **settings})
 
 
@@ -481,11 +480,7 @@ class TrainConfig:
         if not isinstance(self.log_table, bool):
             raise ValueError(f"log_table = {self.log_table!r}; allowed: True or False")
         if self.log_interval is not None:
-            if not is_integer(self.log_interval) or self.log_interval < 1:
-                raise ValueError(
-                    f"log_interval = {self.log_interval!r}; allowed: None or an integer >= 1"
-                )
-            object.__setattr__(self, "log_interval", int(self.log_interval))
+            object.__setattr__(self, "log_interval", count(self.log_interval, "log_interval"))
         for name in ("env_kwargs", "hyperparams"):
             value = getattr(self, name)
             if not isinstance(value, Mapping):
@@ -530,12 +525,6 @@ class TrainConfig:
                 f"with amortised: {', '.join(allowed)}"
             )
 
-    @property
-    def model_verbose(self) -> int:
-        """The SB3 model's ``verbose``: its log table is printed only with ``log_table`` (or
-        ``verbose`` 2); this run's own messages follow ``verbose``."""
-        return self.verbose if self.log_table or self.verbose >= 2 else 0
-
     def to_dict(self) -> dict[str, Any]:
         """Plain-YAML form (``args.yml``): every field (:func:`plain`), under its zoo name where
         it has one (:data:`ARGS_KEYS`), marked as written by this project (``made_by``)."""
@@ -545,15 +534,16 @@ class TrainConfig:
 
 #: The ``made_by`` entry of ``args.yml`` that marks a run folder written by ``python -m train``.
 MADE_BY = "tandem-env python -m train"
+#: An env id as a folder name (``env_id.translate(FOLDER_NAME)``), as the zoo:
+#: ``TandemWing/LevelFlight-v0`` -> ``TandemWing-LevelFlight-v0``.
+FOLDER_NAME = str.maketrans("/", "-")
 #: The ``args.yml`` keys of the :class:`TrainConfig` fields the zoo names otherwise.
 ARGS_KEYS = {"env_id": "env", "hyperparams_file": "conf_file", "progress_bar": "progress"}
 
 
 def plain(value: Any) -> Any:
-    """YAML-safe form (config.yml, args.yml): the project's JSON conversion
-    (:func:`tandem_env.io.files.to_jsonable`: string keys, tuples as lists, which ``yaml.safe_dump``
-    needs, numpy scalars as Python numbers); anything it cannot convert is kept, for
-    ``yaml.safe_dump`` to accept or refuse."""
+    """YAML-safe form (config.yml, args.yml) by :func:`tandem_env.io.files.to_jsonable`;
+    anything it cannot convert is kept, for ``yaml.safe_dump`` to accept or refuse."""
     return to_jsonable(value, default=lambda kept: kept)
 
 

@@ -127,9 +127,11 @@ def evaluate_envelope(
                 "score": record.score,
                 **{k: metrics.get(k) for k in COLUMNS if k in metrics},
                 "trained_at": policy.trained_at(float(value)),
+                "trained_over": policy.training_conditions,  # not a column: main's note
                 "evaluations": record.evaluations,
                 "training_timesteps": policy.num_timesteps,
                 "model": policy.model_path.name,
+                "task": task,  # not a column: main's note
                 "run_dir": str(run_dir),
             }
         )
@@ -171,12 +173,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     outside = [row for row in rows if not row["trained_at"]]
     if outside:
-        from agents.tasks import get_task, task_of
-        from train.trained_policy import load_policy
+        from agents.tasks import get_task
 
-        policy = load_policy(args.run, args.model)
-        seen = policy.training_conditions
-        declared = get_task(task_of(policy.env_id)).declaration.condition
+        seen = outside[0]["trained_over"]
+        declared = get_task(outside[0]["task"]).declaration.condition
         ranged = "a range" if declared is None else declared.range_keyword
         unit = outside[0]["condition_unit"]
         trained = f"({seen[0]:g}, {seen[1]:g})" if isinstance(seen, tuple) else f"{seen:g}"

@@ -91,10 +91,8 @@ class PolicyMethod:
         return f"policy:{self.run_dir}"
 
     def identity(self) -> str:
-        """The trained run this method asks, as part of its jobs' keys (:class:`agents.jobs.Job`):
-        a digest of the run folder's name and of the files a policy is read from (models,
-        normalisation, weights, settings), so that a newer run, or one trained again in place,
-        is another job and never served the older run's record."""
+        """Part of its jobs' keys: a digest of the run folder's name and of the files a policy
+        is read from, so a run trained again in place is another job."""
         run_dir = resolve_run_dir(self.run_dir)
         digest = hashlib.sha256(run_dir.name.encode())
         for path in sorted(run_dir.glob("*")) + sorted(run_dir.glob("*/*")):
@@ -103,9 +101,7 @@ class PolicyMethod:
         return digest.hexdigest()[:20]
 
     def check(self, budget: int, dim: int, task: TaskSpec) -> None:
-        """The harness's check before any work: the run folder holds a policy of this task's
-        env, and its files load (the same load as :meth:`search`'s, so that a damaged or
-        tampered folder is refused here, not as a failed job)."""
+        """The harness's check before any work: the run's policy loads, for this task's env."""
         load_policy(self.run_dir, self.which).check_env(task.env_id)
 
     def search(self, context: SearchContext) -> SearchOutcome:
@@ -242,8 +238,7 @@ class TrainingMethod:
         )
 
     def check(self, budget: int, dim: int, task: TaskSpec) -> None:
-        """The harness's check before any work: the yml entry and the overrides resolve, and
-        the budget holds one whole iteration (:func:`~train.run.budget_hyperparams` raises)."""
+        """The harness's check before any work: the hyperparameters resolve within ``budget``."""
         self._hyperparams(task.env_id, budget)
 
     def _hyperparams(self, env_id: str, budget: int) -> Hyperparams:
@@ -262,7 +257,7 @@ class TrainingMethod:
         said = (self.algo, context.env_id, context.budget, self.n_envs, repr(self.overrides))
         if unused > 0 and said not in _ANNOUNCED:
             _ANNOUNCED.add(said)
-            unit = step_granularity(self.algo, hp)
+            unit = step_granularity(hp)
             tqdm.write(
                 f"{self.algo}: budget {context.budget} -> {steps} training steps (whole "
                 f"{self.algo.upper()} iterations of {unit} env steps, n_envs {hp.n_envs}) + 1 "

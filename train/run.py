@@ -77,20 +77,18 @@ def torch_threads(count: int) -> Iterator[None]:
         torch.set_num_threads(previous)
 
 
-def default_log_interval(algo: str, n_envs: int) -> int:
+def default_log_interval(hp: Hyperparams) -> int:
     """PPO: every rollout. SAC counts episodes, and every vector step ends n_envs of them, so
     its default (4) would dump n_envs/4 times per step; dump every ~SAC_LOG_EVERY steps instead."""
-    if algo == "ppo":
+    if hp.algo == "ppo":
         return 1
-    return n_envs * max(1, round(SAC_LOG_EVERY / n_envs))
+    return hp.n_envs * max(1, round(SAC_LOG_EVERY / hp.n_envs))
 
 
 # --- the run ---------------------------------------------------------------------------------
 def train(config: TrainConfig) -> TrainResult:
-    """Run (or resume) one training run with files: the plan (the folder, with every check
-    before any work: :meth:`RunFolder.open <train.run_folder.RunFolder.open>`), the envs, the
-    model, learning with evaluations and checkpoints, then the final model, its evaluation and
-    ``result.json``."""
+    """Run (or resume) one training run with files (:class:`~train.run_folder.RunFolder`): the
+    envs, the model, learning, then the final model, its evaluation and ``result.json``."""
     with contextlib.ExitStack() as held:
         # the plan: which folder, from which checkpoint, with which settings
         run = RunFolder.open(config, held)
@@ -147,7 +145,7 @@ def train(config: TrainConfig) -> TrainResult:
             model.learn(
                 run.target - start_step,
                 callback=CallbackList([*callbacks, stop]),
-                log_interval=config.log_interval or default_log_interval(config.algo, hp.n_envs),
+                log_interval=config.log_interval or default_log_interval(hp),
                 tb_log_name=config.algo.upper(),
                 reset_num_timesteps=checkpoint is None,
                 progress_bar=config.progress_bar,
@@ -193,8 +191,7 @@ def _best_segment(segments: Sequence[Mapping[str, Any]]) -> Mapping[str, Any]:
 def _write_result(
     layout: RunLayout, result: TrainResult, previous: Sequence[Mapping[str, Any]]
 ) -> None:
-    """Write ``result.json``: the earlier segments (``previous``, read when the folder was opened) and this
-    run's."""
+    """Write ``result.json``: the ``previous`` segments and this run's."""
     segments = list(previous)
     segments.append(
         {
@@ -228,18 +225,17 @@ def budget_hyperparams(
     n_envs: int | None,
     budget: int,
 ) -> Hyperparams:
-    """The hyperparameters of a run within ``budget`` env steps: ``n_timesteps`` is the budget
-    rounded down to whole learn iterations (PPO: n_steps·n_envs, SAC: train_freq·n_envs),
-    because SB3 never stops inside one and the budget is a hard limit."""
-    hp = resolve_hyperparams(entry, overrides, n_envs=n_envs, n_timesteps=1)
-    unit = step_granularity(algo, hp)
+    """The hyperparameters of a run within ``budget`` env steps: ``n_timesteps`` rounded down
+    to whole learn iterations (SB3 never stops inside one; the budget is a hard limit)."""
+    hp = resolve_hyperparams(entry, overrides, algo=algo, n_envs=n_envs, n_timesteps=1)
+    unit = step_granularity(hp)
     steps = (budget // unit) * unit
     if steps < 1:
         raise ValueError(
             f"budget {budget} is below one {algo.upper()} iteration ({unit} env steps with "
             f"n_envs = {hp.n_envs}); allowed: a budget >= {unit}, or a smaller n_envs"
         )
-    return resolve_hyperparams(entry, overrides, n_envs=n_envs, n_timesteps=steps)
+    return resolve_hyperparams(entry, overrides, algo=algo, n_envs=n_envs, n_timesteps=steps)
 
 
 def learn_in_memory(
@@ -274,7 +270,7 @@ def learn_in_memory(
         model = build_model(algo, hp, venv, seed=seed)
         model.learn(
             hp.n_timesteps,
-            log_interval=default_log_interval(algo, hp.n_envs),
+            log_interval=default_log_interval(hp),
             progress_bar=False,
         )
     if recorder.evaluations > budget:  # cannot happen with the rounding above; never record it

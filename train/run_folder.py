@@ -23,6 +23,7 @@ from typing import Any
 from tandem_env.io.files import FolderLock
 from train.config import (
     AMORTISED,
+    FOLDER_NAME,
     MADE_BY,
     Hyperparams,
     TrainConfig,
@@ -55,11 +56,6 @@ _MODEL_ZIP = (frozenset({"data", "_stable_baselines3_version"}), "model file")
 _BUFFER_ZIP = (frozenset({"pos.npy", "full.npy"}), "replay buffer file")
 
 
-def env_name(env_id: str) -> str:
-    """The env id as a folder name: ``TandemWing/LevelFlight-v0`` -> ``TandemWing-LevelFlight-v0``."""
-    return env_id.replace("/", "-")
-
-
 def latest_run_id(algo_folder: Path, name: str) -> int:
     """Greatest ``n`` of the ``<name>_<n>`` folders in ``algo_folder`` (0 if none), as the zoo."""
     numbers = [0]
@@ -72,10 +68,8 @@ def latest_run_id(algo_folder: Path, name: str) -> int:
 
 
 def resolve_run_dir(path: str | os.PathLike[str]) -> Path:
-    """A run folder, or the latest run a path names: ``logs/ppo/TandemWing-LevelFlight-v0``
-    (the folder without its ``_<n>``) is the run ``logs/ppo/TandemWing-LevelFlight-v0_<n>``
-    with the greatest ``n`` there, so a command need not hard-code a run number. Any other path
-    is returned as given."""
+    """A run folder, or the latest run a path names: ``logs/ppo/<env>`` (no ``_<n>``) is
+    ``logs/ppo/<env>_<n>`` with the greatest ``n``; any other path as given."""
     path = Path(path)
     if path.is_dir() or not path.parent.is_dir():
         return path
@@ -84,8 +78,7 @@ def resolve_run_dir(path: str | os.PathLike[str]) -> Path:
 
 
 def run_lock(run_dir: Path) -> FolderLock:
-    """The exclusive lock of a run folder (``<run>/.train.lock``), held while ``python -m train``
-    writes there; see :class:`tandem_env.io.files.FolderLock`."""
+    """The exclusive lock of a run folder (``<run>/.train.lock``, a ``FolderLock``)."""
     return FolderLock(
         run_dir,
         LOCK_FILE,
@@ -125,8 +118,7 @@ class RunPolicy:
 
 
 class RunComplete(Exception):
-    """A resumed run has nothing left to train (its checkpoint is at or past the target);
-    nothing was changed. ``python -m train`` prints the message and exits with status 0."""
+    """A resumed run has nothing left to train (``python -m train`` exits with status 0)."""
 
     def __init__(self, run_dir: Path, step: int, target: int) -> None:
         super().__init__(
@@ -137,9 +129,7 @@ class RunComplete(Exception):
 
 
 class Interrupted(Exception):
-    """Training stopped by Ctrl-C with a checkpoint saved
-    (:class:`train.callbacks.StopOnInterrupt`); ``python -m train`` prints the message and
-    exits with status 130."""
+    """Training stopped by Ctrl-C with a checkpoint saved (``python -m train`` exits 130)."""
 
     def __init__(self, checkpoint: Checkpoint, resume: str) -> None:
         self.checkpoint = checkpoint
@@ -162,9 +152,8 @@ class Checkpoint:
     """The pickled buffer of earlier versions: never loaded (a pickle can run code)."""
 
     def damage(self, *, replay_buffer: bool, vecnormalize: bool) -> str | None:
-        """None if every file a resume needs is there and intact, else what is wrong, in words:
-        read without loading anything (the zips' members and CRCs, the VecNormalize pickle's
-        opcodes up to its STOP, ``pickletools.genops``, which builds no object)."""
+        """None if every file a resume needs is there and intact, else what is wrong; nothing is
+        loaded (zip members and CRCs, the pickle's opcodes by ``pickletools.genops``)."""
         needed = [(self.model, _MODEL_ZIP)]
         if replay_buffer:
             needed.append((self.replay_buffer, _BUFFER_ZIP))
@@ -189,8 +178,7 @@ class Checkpoint:
         return None
 
     def loads(self, algo: str) -> dict[str, Any]:
-        """What :func:`train.saved.load_model` checks and loads besides the model file: the
-        step of its name, and SAC's replay buffer."""
+        """:func:`train.saved.load_model`'s ``step`` and ``replay_buffer`` (SAC's)."""
         return {"step": self.step, "replay_buffer": self.replay_buffer if algo == "sac" else None}
 
     def paths(self) -> tuple[Path, ...]:
@@ -225,7 +213,7 @@ class RunLayout:
     """The files of one run folder (``run_dir``) of a run on ``env_id``."""
 
     def __init__(self, run_dir: str | os.PathLike[str], env_id: str) -> None:
-        self.run_dir, self.env_id, self.name = Path(run_dir), env_id, env_name(env_id)
+        self.run_dir, self.env_id, self.name = Path(run_dir), env_id, env_id.translate(FOLDER_NAME)
         self.params_dir = self.run_dir / self.name
         self.final_model = self.run_dir / f"{self.name}.zip"
         self.best_model = self.run_dir / "best_model.zip"
@@ -302,8 +290,8 @@ class RunLayout:
     def new(cls, log_folder: Path, algo: str, env_id: str) -> RunLayout:
         """The next free ``log_folder/<algo>/<env>_<n>`` (created)."""
         algo_folder = Path(log_folder) / algo
-        n = latest_run_id(algo_folder, env_name(env_id)) + 1
-        run_dir = algo_folder / f"{env_name(env_id)}_{n}"
+        name = env_id.translate(FOLDER_NAME)
+        run_dir = algo_folder / f"{name}_{latest_run_id(algo_folder, name) + 1}"
         run_dir.mkdir(parents=True, exist_ok=False)
         return cls(run_dir, env_id)
 
@@ -312,7 +300,7 @@ class RunLayout:
         """The newest existing run of ``algo`` on ``env_id``; ValueError if there is none, or
         if the newest folder is not a run of this project (e.g. rl_zoo3's: same layout)."""
         algo_folder = Path(log_folder) / algo
-        name = env_name(env_id)
+        name = env_id.translate(FOLDER_NAME)
         n = latest_run_id(algo_folder, name)
         if n == 0:
             raise ValueError(
@@ -356,12 +344,8 @@ class RunFolder:
 
     @classmethod
     def open(cls, config: TrainConfig, held: contextlib.ExitStack) -> RunFolder:
-        """The folder of ``config``'s run, locked until ``held`` closes; every refusal (a folder
-        not of ``python -m train``, in use, damaged, finished, unwritable; settings that differ
-        from those the run started with) is raised here, before any work, and leaves the folder
-        untouched. The lock (:func:`run_lock`) is taken before the folder's files are read, so a
-        second command on the same run is refused instead of training beside it. With
-        ``verbose``, what the command is about to do is said (stdout)."""
+        """The folder of ``config``'s run, locked (before its files are read) until ``held``
+        closes; every refusal is raised here, before any work, leaving the folder untouched."""
         amortised = config.algo == AMORTISED
         layout = None
         if config.resume:
@@ -394,9 +378,8 @@ class RunFolder:
 
     @classmethod
     def _resumable(cls, config: TrainConfig, layout: RunLayout | None) -> RunFolder:
-        """A PPO / SAC run in ``layout`` (None: a new folder, made later): its settings,
-        hyperparameters and the checkpoint it continues from, every file a resume loads read
-        as it will read it."""
+        """A PPO / SAC run in ``layout`` (None: a new folder): its settings, hyperparameters
+        and checkpoint, every file a resume loads read as it will read it."""
         checkpoint = entry = None  # entry: config.yml, the hyperparameters the run started with
         if layout is not None:
             resume = config.resume  # the merge below turns a resume into a run of a folder
@@ -422,7 +405,11 @@ class RunFolder:
         if checkpoint is None:
             entry = load_entry(config.algo, config.env_id, config.hyperparams_file)
             hp = resolve_hyperparams(
-                entry, config.hyperparams, n_envs=config.n_envs, n_timesteps=config.n_timesteps
+                entry,
+                config.hyperparams,
+                algo=config.algo,
+                n_envs=config.n_envs,
+                n_timesteps=config.n_timesteps,
             )
         elif entry is None:  # resuming from the current yml would mix two runs' settings unsaid
             raise ValueError(
@@ -432,10 +419,10 @@ class RunFolder:
             )
         else:  # a resumed run keeps the hyperparameters it started with, whatever the yml says
             try:
-                hp = resolve_hyperparams(entry, n_timesteps=config.n_timesteps)
+                hp = resolve_hyperparams(entry, algo=config.algo, n_timesteps=config.n_timesteps)
             except ValueError as error:
                 raise ValueError(f"{layout.config_file}: {error}") from None  # type: ignore[union-attr]
-        unit = step_granularity(config.algo, hp)
+        unit = step_granularity(hp)
         target = -(-hp.n_timesteps // unit) * unit  # where SB3's learn stops: whole iterations
         if checkpoint is not None and checkpoint.step >= target:
             raise RunComplete(layout.run_dir, checkpoint.step, target)  # type: ignore[union-attr]
@@ -464,16 +451,15 @@ class RunFolder:
         return cls(layout, config, hp, checkpoint, target, segments, MappingProxyType(env_kwargs))
 
     def model(self, venv: Any) -> Any:
-        """The model this run trains on ``venv`` (its TensorBoard folder, verbosity and device
-        from the config): new, or the checkpoint's (with SAC's replay buffer) and seeded by its
-        step, so that a resumed segment is reproducible given its checkpoint (RNG states are
-        not saved)."""
+        """The model this run trains on ``venv``: new, or the checkpoint's seeded by its step
+        (a resumed segment is reproducible given its checkpoint; RNG states are not saved)."""
         assert self.hp is not None
         config, checkpoint = self.config, self.checkpoint
         algo, seed = config.algo, config.seed
         settings = {
             "tensorboard_log": self.layout.tensorboard if config.tensorboard else None,
-            "verbose": config.model_verbose,
+            # SB3's log table only with log_table (or verbose 2); the run's messages follow verbose
+            "verbose": config.verbose if config.log_table or config.verbose >= 2 else 0,
             "device": config.device,
         }
         if checkpoint is None:
@@ -485,9 +471,8 @@ class RunFolder:
         return model
 
     def start(self, settings: Mapping[str, Any]) -> None:
-        """A run from step 0 writes its ``settings`` (``config.yml``) and its arguments
-        (``args.yml``), and drops the evaluation curve an earlier start left; a continued run
-        keeps its own."""
+        """A run from step 0 writes ``config.yml`` (``settings``) and ``args.yml`` and drops an
+        earlier start's evaluation curve; a continued run keeps its own."""
         if self.checkpoint is None:
             write_yaml(self.layout.config_file, settings)
             write_yaml(self.layout.args_file, self.config.to_dict())
@@ -497,7 +482,7 @@ class RunFolder:
         """What this command is about to do, before any work (stdout)."""
         hp, algo = self.hp, self.config.algo
         assert hp is not None
-        unit = step_granularity(algo, hp)
+        unit = step_granularity(hp)
         if self.target != hp.n_timesteps:
             what = (
                 f"n_steps {unit // hp.n_envs} x n_envs {hp.n_envs}"  # step_granularity's
@@ -520,8 +505,7 @@ class RunFolder:
 
 
 def _check_claimable(layout: RunLayout, amortised: bool) -> None:
-    """ValueError unless a run may start or go on in ``layout``'s folder: absent or empty, or
-    (PPO, SAC) a run of ``python -m train`` on this env (:meth:`RunLayout.foreign`)."""
+    """ValueError unless a run may start or go on in ``layout``'s folder."""
     run_dir = layout.run_dir
     if not amortised:
         reason = layout.foreign()

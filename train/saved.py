@@ -30,7 +30,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import atomic_path, read_json
 from tandem_env.physics.checks import is_real
-from train.config import MAX_TIMESTEPS, Hyperparams
+from train.config import FOLDER_NAME, MAX_TIMESTEPS, Hyperparams
 from train.vec import make_training_env
 
 # --- the YAML, the normalisation statistics and result.json -----------------------------------
@@ -72,9 +72,8 @@ class _NormalizerUnpickler(pickle.Unpickler):
 
 
 def read_normalizer(path: Path) -> Any:
-    """The ``VecNormalize`` statistics SB3 saved at ``path``, unpickled with only the classes
-    such a file holds (:data:`_NORMALIZER_GLOBALS`); ValueError naming the file otherwise. The
-    caller attaches its env with the public ``set_venv`` (what ``VecNormalize.load`` does)."""
+    """The ``VecNormalize`` statistics SB3 saved at ``path``, unpickled with only
+    :data:`_NORMALIZER_GLOBALS`; ValueError naming the file otherwise."""
     try:
         with Path(path).open("rb") as stream:
             normalizer = _NormalizerUnpickler(stream).load()
@@ -139,8 +138,7 @@ RunFileLoader.add_constructor(None, _refuse)
 
 def parse_run_yaml(text: str, path: Path) -> dict[str, Any]:
     """The mapping in a run folder's YAML ``text`` (of file ``path``), read with
-    :class:`RunFileLoader`; ValueError naming the file for a refused tag, YAML that does not
-    parse, or a document that is not a mapping."""
+    :class:`RunFileLoader`; ValueError naming the file otherwise."""
     try:
         data = parse_yaml(text, RunFileLoader)
     except ForbiddenTag as error:
@@ -176,9 +174,8 @@ def read_run_yaml(path: Path) -> dict[str, Any]:
 
 
 def read_result_segments(path: Path) -> tuple[dict[str, Any], ...]:
-    """The training segments of a run's ``result.json`` (each run of ``python -m train`` on the
-    folder adds one), read before a resume trains: () where there is none; ValueError naming
-    the file for one this project did not write as it is."""
+    """The training segments of a run's ``result.json`` (() where there is none); ValueError
+    naming the file for one this project did not write as it is."""
 
     def readable(segment: Any) -> bool:
         return (
@@ -207,8 +204,7 @@ def read_result_segments(path: Path) -> tuple[dict[str, Any], ...]:
 
 def read_run_args(run_dir: Path, allowed: str) -> tuple[Path, dict[str, Any], Any]:
     """The one ``<env>/args.yml`` of ``run_dir``, its settings and its ``env``; ValueError
-    naming the folder and ``allowed`` (the folders the caller takes) if it holds none or
-    several, or the file if its env is not the one its settings folder is named after."""
+    naming the folder and ``allowed`` otherwise."""
     found = sorted(run_dir.glob("*/args.yml")) if run_dir.is_dir() else []
     if len(found) != 1:
         raise ValueError(
@@ -217,7 +213,7 @@ def read_run_args(run_dir: Path, allowed: str) -> tuple[Path, dict[str, Any], An
         )
     args = read_run_yaml(found[0])
     env_id = args.get("env")
-    if not isinstance(env_id, str) or env_id.replace("/", "-") != found[0].parent.name:
+    if not isinstance(env_id, str) or env_id.translate(FOLDER_NAME) != found[0].parent.name:
         raise ValueError(
             f"{found[0]}: env = {env_id!r}, but the file sits in the settings folder of "
             f"{found[0].parent.name}; allowed: the env the run was trained on"
@@ -282,14 +278,9 @@ def _open_zip(path: Path) -> zipfile.ZipFile:
 
 
 def read_num_timesteps(path: Path, attributes: set[str]) -> int:
-    """The step count ``num_timesteps`` of the model zip at ``path``, the one entry of its
-    ``data`` a loaded model takes over (a public attribute), parsed as JSON and nothing decoded;
-    ValueError naming the file for a zip without ``data``, JSON that is not an object, a
-    serialized entry SB3 does not write (SB3 saves the model's own attributes: one that names
-    none of ``attributes``, those of the model rebuilt from ``config.yml``, only a tampered
-    file has), or a count that is not an integer from 0 to ``MAX_TIMESTEPS``. Everything else
-    training uses is rebuilt from ``config.yml`` or set by ``learn``; SB3's two private log
-    counters restart (docs/training.md, "Resume")."""
+    """The ``num_timesteps`` of the model zip at ``path`` (its ``data`` parsed as JSON, nothing
+    decoded); ValueError naming the file for a serialized entry that names none of
+    ``attributes`` (the rebuilt model's: only a tampered file has one) or a bad count."""
     with _open_zip(path) as archive:
         try:
             info = archive.getinfo("data")
@@ -336,9 +327,8 @@ def _gist(error: Exception) -> str:
 
 
 def read_weights(path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The state dicts (``policy``, ``policy.optimizer``, ...) and the torch variables of the
-    model zip at ``path``, each ``.pth`` member read with ``torch.load(weights_only=True)`` on
-    the CPU; ValueError naming the file and the member that fails."""
+    """The state dicts and torch variables of the model zip at ``path``, each ``.pth`` read with
+    ``torch.load(weights_only=True)``; ValueError naming the file and member that fails."""
     params: dict[str, Any] = {}
     variables: dict[str, Any] = {}
     with _open_zip(path) as archive:
@@ -371,8 +361,7 @@ def read_weights(path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
 
 
 def _set_variables(model: BaseAlgorithm, variables: Mapping[str, Any]) -> None:
-    """Copy the saved torch variables (SAC's ``log_ent_coef`` or ``ent_coef_tensor``) into the
-    model's own tensors of the same name and shape, as SB3's ``load`` does."""
+    """Copy the saved torch variables (SAC's entropy coefficient) into the model's own."""
     for name, value in variables.items():
         if value is None:
             continue  # SB3 saves None for a variable the model does not use
@@ -395,12 +384,9 @@ def load_model(
     replay_buffer: Path | None = None,
     **settings: Any,
 ) -> BaseAlgorithm:
-    """The model saved at ``path``, rebuilt from ``hp`` (the run's ``config.yml``) on ``venv``
-    (``settings``: :func:`build_model`'s) and given the file's weights, optimiser states and
-    counters; nothing in the file is unpickled (docs/training.md). A checkpoint's model
-    gives its ``step`` (the one in its name) and SAC's ``replay_buffer`` file. ValueError naming
-    the file if it is not such a model, its weights do not fit the rebuilt one (a changed
-    ``net_arch``, another env) or its step count is not ``step``."""
+    """The model saved at ``path``, rebuilt from ``hp`` on ``venv`` (``settings``:
+    :func:`build_model`'s) and given the file's weights and step count (a checkpoint's: its
+    ``step``), nothing unpickled; ValueError naming the file if they do not fit."""
     model = build_model(algo, hp, venv, **settings)
     num_timesteps = read_num_timesteps(path, set(vars(model)))
     params, variables = read_weights(path)
@@ -459,9 +445,8 @@ def save_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
 
 
 def load_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
-    """Fill the model's (empty, rebuilt) replay buffer from the ``.npz`` at ``path``, read with
-    ``allow_pickle=False``; ValueError naming the file if its arrays are not this buffer's
-    (names, dtypes, shapes) or its counters are out of range."""
+    """Fill the model's rebuilt replay buffer from the ``.npz`` at ``path`` (no pickle);
+    ValueError naming the file if its arrays or counters are not this buffer's."""
     buffer = _replay_buffer(model)
     expected = {n for n in REPLAY_ARRAYS if getattr(buffer, n) is not None} | set(REPLAY_COUNTERS)
     refused = f"{path}: refused as the replay buffer of this run"
@@ -498,11 +483,8 @@ def load_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
 
 
 def save_checkpoint(model: BaseAlgorithm, layout: Any, keep: int | None = None) -> Any:
-    """Checkpoint at the model's current step, then only the ``keep`` newest kept (None: all).
-    Each file is written under a temporary name and renamed, companions first and the model
-    last, so a model file means a complete checkpoint even if the process is killed while
-    saving. ``layout``: the run's :class:`~train.run_folder.RunLayout`; returns the
-    :class:`~train.run_folder.Checkpoint`."""
+    """Checkpoint at the model's step in ``layout`` (a ``RunLayout``), keeping the ``keep``
+    newest; atomic files, the model last, so a model file means a complete checkpoint."""
     checkpoint = layout.checkpoint(model.num_timesteps)
     if getattr(model, "replay_buffer", None) is not None:
         with atomic_path(checkpoint.replay_buffer) as tmp:
@@ -527,10 +509,7 @@ def load_on_copy(
     env_kwargs: Mapping[str, Any],
     **checkpoint: Any,
 ) -> BaseAlgorithm:
-    """A model file (:func:`load_model`, with a ``checkpoint``'s ``step`` and
-    ``replay_buffer``) loaded on the CPU on a throwaway copy of the run's env (no files): a
-    policy to ask for strokes, or the check that lets a resume refuse a checkpoint before any
-    work."""
+    """A model file (:func:`load_model`) loaded on a throwaway copy of the run's env."""
     # The run's own n_envs, so that the rebuilt model is the saved one (PPO's rollout size).
     venv, _ = make_training_env(env_id, hp.n_envs, 0, env_kwargs, monitor_file=None, normalize=None)
     try:

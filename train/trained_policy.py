@@ -21,7 +21,7 @@ from tandem_env.envs.sb3 import make_sb3_vec_env
 from train.config import check_algo, resolve_hyperparams
 from train.run_folder import RunLayout, RunPolicy, resolve_run_dir
 from train.saved import load_on_copy, read_normalizer, read_run_args, read_run_yaml
-from train.vec import ConditionGrid, option_key
+from train.vec import ConditionGrid
 
 WhichModel = Literal["best", "final"]
 WHICH_MODELS: tuple[str, ...] = get_args(WhichModel)
@@ -51,13 +51,9 @@ class TrainedPolicy(RunPolicy):
 
     @classmethod
     def load(cls, run_dir: str | Path, which: WhichModel = "best") -> TrainedPolicy:
-        """Load ``best_model.zip`` (``which="best"``, falling back to the final model when the
-        run had no evaluations) or the final ``<env>.zip`` of ``run_dir`` (or of the latest run
-        it names). ValueError naming the folder or file and what is wrong: a missing file, an
-        args.yml naming an algo or env other than its own (its folder is named after the env),
-        hyperparameters that do not resolve (:func:`~train.config.resolve_hyperparams`: n_envs,
-        the network's size), a model or normalisation file that does not load
-        (:func:`~train.saved.load_on_copy`, :func:`~train.saved.read_normalizer`)."""
+        """Load ``best_model.zip`` (``which="best"``; the final model if there is none) or the
+        final ``<env>.zip`` of ``run_dir`` (or of the latest run it names); ValueError naming
+        the folder or file and what is wrong."""
         if which not in WHICH_MODELS:
             raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
         run_dir = resolve_run_dir(run_dir)
@@ -90,7 +86,7 @@ class TrainedPolicy(RunPolicy):
                 "folder needs them. Allowed: a folder written by python -m train"
             )
         try:
-            hp = resolve_hyperparams(entry, n_timesteps=1)
+            hp = resolve_hyperparams(entry, algo=algo, n_timesteps=1)
         except ValueError as error:
             raise ValueError(f"{layout.config_file}: {error}") from None
         model = load_on_copy(algo, path, hp, env_id, env_kwargs)
@@ -111,7 +107,7 @@ class TrainedPolicy(RunPolicy):
         # The training env's own observation path: reset at each condition through the env's
         # reset option, so the normalisation over the envelope is the one the policy learned.
         base = make_sb3_vec_env(self.env_id, n_envs=len(conditions), seed=0, **self.env_kwargs)
-        venv: VecEnv = ConditionGrid(base, option_key(base), conditions)
+        venv: VecEnv = ConditionGrid(base, conditions)
         if self.normalizer_path is not None:
             normalizer = read_normalizer(self.normalizer_path)
             normalizer.set_venv(venv)

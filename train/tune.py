@@ -123,8 +123,7 @@ class TuneConfig:
 
     @property
     def study_name(self) -> str:
-        """The study's name in its journal: what the trials' values depend on (a folder
-        holding a study of other settings is refused, not continued)."""
+        """The study's name in its journal: what the trials' values depend on."""
         options = hashlib.sha256(repr(sorted(self.env_kwargs.items())).encode()).hexdigest()[:8]
         return f"{self.algo}-{self.env_id}-{self.steps}-seed{self.seed}-env{options}"
 
@@ -267,9 +266,7 @@ _REPLAY_ERRORS = (AssertionError, KeyError, IndexError, TypeError, ValueError, A
 
 def _check_journal_lines(path: Path) -> None:
     """ValueError naming the journal unless every line is a JSON object with an integer
-    ``op_code`` (Optuna's journal format) ending in a newline. A last line cut short by a kill
-    is refused too, with the way out: Optuna's reader skips it, but its next write would be
-    appended to it and damage the journal for good."""
+    ``op_code`` ending in a newline (Optuna would append to a line a kill cut short)."""
     if not path.exists():
         return
     try:
@@ -294,10 +291,8 @@ def _check_journal_lines(path: Path) -> None:
 
 
 def foreign_trial(algo: str, n_conditions: int, trial: Any) -> str | None:
-    """None if the finished ``trial`` is one this tuner's objective recorded, else why not: a
-    consistency check (docs/training.md): its parameters are :data:`SEARCH_SPACES`'s for
-    ``algo``, inside it, and its value the median of the ``n_conditions`` finite scores it
-    recorded (each rounded to 0.01, so within 0.005)."""
+    """None if the finished ``trial`` is one this tuner recorded (parameters inside
+    :data:`SEARCH_SPACES`, value the median of its ``n_conditions`` scores), else why not."""
     from tandem_env.physics.checks import is_real
 
     space = SEARCH_SPACES[algo]
@@ -330,9 +325,7 @@ def foreign_trial(algo: str, n_conditions: int, trial: Any) -> str | None:
 
 def open_study(config: TuneConfig) -> Any:
     """The Optuna study of ``config`` in ``config.out`` (made, or loaded to continue it);
-    ValueError naming the folder or its journal, before any training, for one that cannot be
-    written, holds a study of other settings, is not a readable journal, or holds a finished
-    trial this tuner did not record (:func:`foreign_trial`)."""
+    ValueError naming the folder or journal, before any training, for one it cannot continue."""
     import optuna
 
     from tandem_env.envs.reference import training_conditions
@@ -426,7 +419,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--algo", required=True, choices=tuple(SEARCH_SPACES))
     parser.add_argument(
-        "--env", default="TandemWing/LevelFlight-v0", help="env id (default %(default)s)"
+        "--env",
+        dest="env_id",
+        default="TandemWing/LevelFlight-v0",
+        help="env id (default %(default)s)",
     )
     add_pairs_argument(
         parser,
@@ -443,15 +439,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ImportError:
         parser.error('needs Optuna: pip install -e ".[tune]"')
     try:
-        config = TuneConfig(
-            args.algo,
-            args.env,
-            dict(args.env_kwargs),
-            args.trials,
-            args.steps,
-            args.seed,
-            args.out,
-        )
+        config = TuneConfig(**vars(args))
         study = open_study(config)
     except ValueError as error:
         parser.error(str(error))

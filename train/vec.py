@@ -102,15 +102,12 @@ def _exact_rewards(rewards: np.ndarray, infos: Sequence[Mapping[str, Any]]) -> n
 
 
 class ConditionGrid(VecEnvWrapper):
-    """Resets sub-env i at ``conditions[i]`` (via the env's reset option) at every reset."""
+    """Resets sub-env i of the batched adapter ``venv`` at ``conditions[i]`` at every reset
+    (through the env's reset option, e.g. ``speed``)."""
 
-    def __init__(self, venv: VecEnv, option_key: str, conditions: Sequence[float]):
-        if len(conditions) != venv.num_envs:
-            raise ValueError(
-                f"{len(conditions)} conditions for {venv.num_envs} sub-envs; allowed: one each"
-            )
+    def __init__(self, venv: TandemVecEnv, conditions: Sequence[float]) -> None:
         super().__init__(venv)
-        self.option_key = option_key
+        self.option_key = venv.vector_env.core.option_key
         self.conditions = tuple(float(c) for c in conditions)
 
     def reset(self) -> np.ndarray:
@@ -119,17 +116,6 @@ class ConditionGrid(VecEnvWrapper):
 
     def step_wait(self) -> VecEnvStepReturn:
         return self.venv.step_wait()
-
-
-def option_key(venv: VecEnv) -> str:
-    """The reset option that sets the condition (``"speed"`` or ``"available_power"``), read from
-    the batched adapter at the bottom of the wrapper stack ``venv``."""
-    inner: Any = venv
-    while isinstance(inner, VecEnvWrapper):
-        inner = inner.venv
-    if not isinstance(inner, TandemVecEnv):
-        raise ValueError(f"{venv!r} is not a stack over tandem_env's TandemVecEnv")
-    return inner.vector_env.core.option_key
 
 
 def make_training_env(
@@ -163,10 +149,8 @@ def make_evaluation_env(
     *,
     normalize: Mapping[str, Any] | None,
 ) -> VecEnv:
-    """The evaluation stack: one sub-env per evaluation condition, reset at it every time: the
-    fixed condition, or the points of the config's declared sweep (``CONDITION.sweep``) in the
-    sampled range (its ends and midpoint if the range holds fewer than two of them, or the
-    config declares no sweep)."""
+    """The evaluation stack at the fixed condition, or the declared sweep's points in the
+    sampled range (its ends and midpoint where it holds fewer than two)."""
     config = config_class(env_id).from_kwargs(**env_kwargs)
     if config.condition_range is None:
         conditions: tuple[float, ...] = (float(config.fixed_condition),)
@@ -177,7 +161,7 @@ def make_evaluation_env(
         inside = tuple(c for c in sweep if low - 1e-9 <= c <= high + 1e-9)
         conditions = inside if len(inside) >= 2 else (low, 0.5 * (low + high), high)
     base = make_sb3_vec_env(env_id, n_envs=len(conditions), seed=seed, **env_kwargs)
-    venv: VecEnv = VecMonitor(ConditionGrid(base, option_key(base), conditions))
+    venv: VecEnv = VecMonitor(ConditionGrid(base, conditions))
     if normalize is not None:
         venv = VecNormalize(venv, **{**normalize, "training": False, "norm_reward": False})
     return venv
@@ -186,10 +170,9 @@ def make_evaluation_env(
 def evaluate_deterministic(
     model: BaseAlgorithm, eval_env: VecEnv, max_steps: int = 100_000
 ) -> list[dict[str, Any]]:
-    """The deterministic policy from one reset of each evaluation env, played to the end of that
-    episode: one row per env with the info of its last step, ``reward`` the episode's return,
-    ``episode_length`` its steps and ``action`` its first action. The one-cycle envs end after one
-    stroke, so their row is that stroke's metrics; SpeedChange rows summarise whole episodes."""
+    """The deterministic policy from one reset of each evaluation env to the end of its episode:
+    one row per env, the info of its last step with ``reward`` (the return),
+    ``episode_length`` and ``action`` (its first)."""
     observations = eval_env.reset()
     n_envs = eval_env.num_envs
     returns = np.zeros(n_envs)

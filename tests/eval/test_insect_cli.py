@@ -20,7 +20,7 @@ from eval.studies.base import StudyPlan
 from eval.studies.presets import TINY
 from tandem_env.io.files import to_jsonable
 from tandem_env.physics.insect import DRAGONFLY, insect_mapping, load_insect
-from train.__main__ import build_parser, config_from_args
+from train.__main__ import build_parser, parse_config
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "scaled_dragonfly.yaml"
 LEVEL_ID = "TandemWing/LevelFlight-v0"
@@ -89,14 +89,14 @@ def test_cli_refuses_a_bad_insect_in_one_line(tmp_path: Path, capsys, text: str,
         err = capsys.readouterr().err.strip().splitlines()[-1]
         assert "error:" in err and re.search(message, err)
     assert not (tmp_path / "out").exists()  # before any work
-    args = build_parser().parse_args(["--algo", "sac", "--env", LEVEL_ID, "--insect", str(path)])
     with pytest.raises(ValueError, match=message):
-        config_from_args(args)
+        parse_config(build_parser(), ["--algo", "sac", "--env", LEVEL_ID, "--insect", str(path)])
 
 
 def test_train_insect_goes_into_env_kwargs() -> None:
-    args = build_parser().parse_args(["--algo", "sac", "--env", LEVEL_ID, "--insect", str(EXAMPLE)])
-    config = config_from_args(args)
+    config = parse_config(
+        build_parser(), ["--algo", "sac", "--env", LEVEL_ID, "--insect", str(EXAMPLE)]
+    )
     assert config.env_kwargs["insect"] == insect_mapping(load_insect(EXAMPLE))
     assert config.to_dict()["env_kwargs"]["insect"] == insect_mapping(load_insect(EXAMPLE))
 

@@ -62,7 +62,11 @@ def test_a_checkpoint_loads_as_sb3_loads_it_and_resumes_identically(
     algo: str, tmp_path: Path
 ) -> None:
     hp = resolve_hyperparams(
-        load_entry(algo, LEVEL_FLIGHT_ID), OVERRIDES[algo], n_envs=N_ENVS, n_timesteps=128
+        load_entry(algo, LEVEL_FLIGHT_ID),
+        OVERRIDES[algo],
+        algo=algo,
+        n_envs=N_ENVS,
+        n_timesteps=128,
     )
     layout = RunLayout(tmp_path, LEVEL_FLIGHT_ID)
     with torch_threads(1):
@@ -104,7 +108,11 @@ def test_a_checkpoint_loads_as_sb3_loads_it_and_resumes_identically(
 
 def test_a_replay_buffer_of_another_run_is_refused(tmp_path: Path) -> None:
     hp = resolve_hyperparams(
-        load_entry("sac", LEVEL_FLIGHT_ID), OVERRIDES["sac"], n_envs=N_ENVS, n_timesteps=64
+        load_entry("sac", LEVEL_FLIGHT_ID),
+        OVERRIDES["sac"],
+        algo="sac",
+        n_envs=N_ENVS,
+        n_timesteps=64,
     )
     with torch_threads(1):
         model = build_model(
@@ -113,7 +121,11 @@ def test_a_replay_buffer_of_another_run_is_refused(tmp_path: Path) -> None:
         model.learn(32)
         checkpoint = save_checkpoint(model, RunLayout(tmp_path, LEVEL_FLIGHT_ID))
         other = resolve_hyperparams(
-            load_entry("sac", LEVEL_FLIGHT_ID), OVERRIDES["sac"], n_envs=8, n_timesteps=64
+            load_entry("sac", LEVEL_FLIGHT_ID),
+            OVERRIDES["sac"],
+            algo="sac",
+            n_envs=8,
+            n_timesteps=64,
         )
         venv, _ = make_training_env(
             LEVEL_FLIGHT_ID, 8, 0, {"speed": 1.5}, monitor_file=None, normalize=None

@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from tandem_env.envs.registration import LEVEL_FLIGHT_ID
-from train.__main__ import build_parser, config_from_args, main
+from train.__main__ import build_parser, main, parse_config
 from train.config import TrainConfig
 from train.run import train
 from train.run_folder import RunLayout
@@ -146,8 +146,7 @@ def test_cli_defaults_are_the_configs() -> None:
     names = {f.name for f in fields(TrainConfig)}
     parser = build_parser()
     assert {action.dest for action in parser._actions} == {*names, "help", "insect"}
-    args = parser.parse_args(["--algo", "sac", "--env", LEVEL_FLIGHT_ID])
-    config = config_from_args(args)
+    config = parse_config(parser, ["--algo", "sac", "--env", LEVEL_FLIGHT_ID])
     for f in fields(TrainConfig):
         if f.default is not MISSING:
             assert getattr(config, f.name) == f.default, f.name
@@ -240,13 +239,21 @@ def test_a_log_folder_that_cannot_be_one_is_named_not_errno_text(
         TrainConfig(algo="ppo", env_id=LEVEL_FLIGHT_ID, log_folder=log_folder)
 
 
-def test_sb3_log_table_is_off_by_default_and_a_flag_away() -> None:
-    base = ["--algo", "ppo", "--env", LEVEL_FLIGHT_ID]
-    quiet = config_from_args(build_parser().parse_args(base))
-    assert not quiet.log_table and quiet.verbose == 1 and quiet.model_verbose == 0
-    table = config_from_args(build_parser().parse_args([*base, "--log-table"]))
-    assert table.log_table and table.model_verbose == 1
-    assert config_from_args(build_parser().parse_args([*base, "--verbose", "2"])).model_verbose == 2
+def test_sb3_log_table_is_off_by_default_and_a_flag_away(tmp_path: Path) -> None:
+    from tandem_env.envs.sb3 import make_sb3_vec_env
+    from train.config import load_entry, resolve_hyperparams
+    from train.run_folder import RunFolder, RunLayout
+
+    hp = resolve_hyperparams(load_entry("ppo", LEVEL_FLIGHT_ID), algo="ppo", n_envs=2)
+    venv = make_sb3_vec_env(LEVEL_FLIGHT_ID, n_envs=2, seed=0)
+    base = ["--algo", "ppo", "--env", LEVEL_FLIGHT_ID, "--no-tensorboard"]
+    # the model's verbose: SB3's table only with --log-table or --verbose 2; the run's own lines
+    # follow --verbose
+    for extra, table in (([], 0), (["--log-table"], 1), (["--verbose", "2"], 2)):
+        config = parse_config(build_parser(), [*base, *extra])
+        run = RunFolder(RunLayout(tmp_path, LEVEL_FLIGHT_ID), config, hp)
+        assert run.model(venv).verbose == table, extra
+    assert config.verbose == 2 and not parse_config(build_parser(), base).log_table
 
 
 def test_a_plugged_in_task_trains_without_a_patch(tmp_path: Path) -> None:

@@ -33,7 +33,7 @@ def test_yml_has_default_and_both_env_ids(algo: str) -> None:
         for key in ("n_envs", "n_timesteps", "policy", "policy_kwargs"):
             assert key in entry, f"{algo}.yml {name}: {key} missing"
         assert isinstance(entry["policy_kwargs"], str)
-        hp = resolve_hyperparams(entry)
+        hp = resolve_hyperparams(entry, algo=algo)
         assert hp.n_envs >= 1 and hp.n_timesteps >= 1
         assert hp.policy == "MlpPolicy"
 
@@ -45,7 +45,7 @@ def test_entries_build_models(algo: str) -> None:
     from train.run import build_model
 
     for env_id in env_ids():
-        hp = resolve_hyperparams(load_entry(algo, env_id), n_envs=2)
+        hp = resolve_hyperparams(load_entry(algo, env_id), algo=algo, n_envs=2)
         venv = make_sb3_vec_env(env_id, n_envs=2, seed=0)
         model = build_model(algo, hp, venv, seed=0, tensorboard_log=None, verbose=0, device="cpu")
         assert model.n_envs == 2
@@ -71,9 +71,9 @@ def test_a_network_beyond_the_size_limit_is_refused_before_it_is_built(
     assert (network_parameters(arch) > MAX_NETWORK_PARAMETERS) is refused
     if refused:
         with pytest.raises(ValueError, match=r"has at least [\d,]+ weights; allowed: networks"):
-            resolve_hyperparams(entry, overrides)
+            resolve_hyperparams(entry, overrides, algo="ppo")
     else:
-        assert resolve_hyperparams(entry, overrides).policy_kwargs["net_arch"] == arch
+        assert resolve_hyperparams(entry, overrides, algo="ppo").policy_kwargs["net_arch"] == arch
 
 
 def test_parse_values_like_the_zoo() -> None:
@@ -112,12 +112,14 @@ def test_policy_kwargs_strings_are_restricted() -> None:
 
 def test_schedules_and_overrides() -> None:
     entry = load_entry("ppo", env_ids()[0])
-    hp = resolve_hyperparams(entry, {"learning_rate": "lin_1e-3"}, n_envs=8, n_timesteps=64)
+    hp = resolve_hyperparams(
+        entry, {"learning_rate": "lin_1e-3"}, algo="ppo", n_envs=8, n_timesteps=64
+    )
     assert hp.n_envs == 8 and hp.n_timesteps == 64
     schedule = hp.model_kwargs["learning_rate"]
     assert schedule(1.0) == pytest.approx(1e-3) and schedule(0.0) == pytest.approx(0.0)
     with pytest.raises(ValueError, match="does not implement"):
-        resolve_hyperparams(entry, {"frame_stack": 4})
+        resolve_hyperparams(entry, {"frame_stack": 4}, algo="ppo")
 
 
 def test_train_config_validates() -> None:
@@ -146,14 +148,14 @@ def test_train_config_validates() -> None:
 )
 def test_hyperparameters_out_of_range_are_named(override: dict, match: str) -> None:
     with pytest.raises(ValueError, match=match):
-        resolve_hyperparams({"n_timesteps": 64, **override})
+        resolve_hyperparams({"n_timesteps": 64, **override}, algo="ppo")
 
 
 def test_sac_entropy_auto_and_the_shipped_entries_pass_the_ranges() -> None:
-    assert resolve_hyperparams({"n_timesteps": 64, "ent_coef": "auto_0.1"})
+    assert resolve_hyperparams({"n_timesteps": 64, "ent_coef": "auto_0.1"}, algo="sac")
     for algo in ALGOS:
         for env_id in env_ids():
-            assert resolve_hyperparams(load_entry(algo, env_id)).n_timesteps >= 1
+            assert resolve_hyperparams(load_entry(algo, env_id), algo=algo).n_timesteps >= 1
 
 
 @pytest.mark.parametrize(

@@ -25,7 +25,7 @@ ENVELOPE = {"speed_range": (0.25, 2.0)}
 
 def _resolved(algo: str, params: dict | None) -> dict:
     hp = resolve_hyperparams(
-        load_entry(algo, ENV), None if params is None else overrides(algo, params)
+        load_entry(algo, ENV), None if params is None else overrides(algo, params), algo=algo
     )
     kwargs = dict(hp.model_kwargs)
     rate = kwargs.pop("learning_rate")
@@ -50,7 +50,7 @@ def test_every_value_of_the_search_space_is_a_valid_entry(algo):
     ]
     points += [{n: values[end] for n, (_, values) in space.items()} for end in (0, -1)]
     for params in points:
-        hp = resolve_hyperparams(load_entry(algo, ENV), overrides(algo, params))
+        hp = resolve_hyperparams(load_entry(algo, ENV), overrides(algo, params), algo=algo)
         assert hp.model_kwargs["batch_size"] == params["batch_size"]
 
 
@@ -101,7 +101,7 @@ def test_a_tiny_study_writes_its_trials_and_best_entry_and_resumes(tmp_path):
     # the best entry is a zoo file that python -m train reads, with the best overrides
     entry = load_hyperparams_file(out / "ppo.yml")[ENV]
     assert entry["n_epochs"] == best.params["n_epochs"]
-    resolve_hyperparams(entry)
+    resolve_hyperparams(entry, algo="ppo")
     assert "python -m train.tune --algo ppo" in (out / "ppo.yml").read_text()
     # the same command with more trials runs only the new one, and proposes a new point
     study = tune(
@@ -121,7 +121,7 @@ def test_the_shipped_envelope_files_are_the_tuners_output_and_the_docs_quote_the
     text = path.read_text(encoding="utf-8")
     assert f"python -m train.tune --algo {algo} --env {ENV}" in text
     entry = load_hyperparams_file(path)[ENV]
-    resolve_hyperparams(entry)  # what python -m train --conf-file reads
+    resolve_hyperparams(entry, algo=algo)  # what python -m train --conf-file reads
     (best,) = [line for line in text.splitlines() if line.startswith("# Best: trial")]
     # the trial and its median score, as docs/training.md "Tuning for the envelope" says
     said = best.removeprefix("# Best: ").split(" at the training")[0]
