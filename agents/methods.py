@@ -4,7 +4,8 @@ A method has a ``name`` and ``search(context) -> SearchOutcome``: an optimiser c
 ``context.evaluate(actions)`` once per batch; a learner builds its own envs from the context.
 One registration path (docs/harness.md, "Methods: protocol and registry"): a method's module
 registers it when imported (:func:`register_optimiser`, :func:`register_method`), found by its
-name in :data:`PROVIDERS` (``train``'s included) or a ``tandem_env.optimisers`` entry point.
+name in a ``tandem_env.optimisers`` entry point (this project's in its pyproject.toml,
+``train``'s included, as a plug-in's in its own).
 """
 
 from __future__ import annotations
@@ -209,17 +210,6 @@ def preset_batch_setting(method: str) -> str | None:
 # --- the registry ------------------------------------------------------------------------------
 _REGISTRY: dict[str, MethodFactory] = {}
 
-#: This project's methods: name -> the module that registers it when imported (as an entry
-#: point names a plug-in's). The RL methods live with the training code.
-PROVIDERS: dict[str, str] = {
-    "pso": "agents.pso",
-    "random": "agents.random_search",
-    "cmaes": "agents.cmaes_search",
-    "ppo": "train.policies",
-    "sac": "train.policies",
-    "policy": "train.policies",
-}
-
 
 def register_method(name: str, factory: MethodFactory, *, replace: bool = False) -> None:
     """Register ``factory`` under ``name`` (a method spec is ``name`` or ``name:argument``)."""
@@ -232,24 +222,23 @@ def register_method(name: str, factory: MethodFactory, *, replace: bool = False)
     _REGISTRY[name] = factory
 
 
-#: The entry-point group of out-of-tree methods: each entry point's name is a method name, its
-#: value the module that registers it when imported (as :data:`PROVIDERS`), e.g. in a plug-in's
-#: pyproject.toml ``[project.entry-points."tandem_env.optimisers"]`` ``hill-climb = "my_opt"``.
+#: The entry-point group that names every method: each entry point's name is a method name, its
+#: value the module that registers it when imported, e.g. ``[project.entry-points.
+#: "tandem_env.optimisers"]`` ``hill-climb = "my_opt"`` (this project's own: its pyproject.toml).
 OPTIMISER_ENTRY_POINTS = "tandem_env.optimisers"
 
 
 def providers() -> dict[str, str]:
-    """Method name -> the module that registers it on first use: :data:`PROVIDERS`, then the
-    installed ``tandem_env.optimisers`` entry points (read now) of the names it leaves."""
+    """Method name -> the module that registers it on first use: the installed
+    ``tandem_env.optimisers`` entry points (read now)."""
     from importlib.metadata import entry_points
 
-    plugged = {p.name: p.module for p in entry_points(group=OPTIMISER_ENTRY_POINTS)}
-    return {**PROVIDERS, **{k: v for k, v in plugged.items() if k not in PROVIDERS}}
+    return {p.name: p.module for p in entry_points(group=OPTIMISER_ENTRY_POINTS)}
 
 
 def available_methods() -> tuple[str, ...]:
     """Registered method names plus those a provider module would register on first use."""
-    return tuple(dict.fromkeys([*providers(), *_REGISTRY]))
+    return tuple(sorted({*providers(), *_REGISTRY}))
 
 
 def _factory(name: str) -> MethodFactory:
@@ -257,9 +246,10 @@ def _factory(name: str) -> MethodFactory:
         return _REGISTRY[name]
     known = providers()
     if name not in known:
+        installed = "" if known else " (no entry points installed: pip install -e . here)"
         raise ValueError(
             f"unknown method {name!r}; allowed: {', '.join(available_methods())} "
-            "('policy' as policy:RUN_DIR)"
+            f"('policy' as policy:RUN_DIR){installed}"
         )
     module = known[name]
     try:

@@ -388,5 +388,5 @@ def register() -> None:
     register_method("policy", policy_factory, replace=True)
 
 
-# Importing this module registers the methods: agents.methods.PROVIDERS names it.
+# Importing this module registers the methods: their tandem_env.optimisers entry points name it.
 register()

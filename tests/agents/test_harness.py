@@ -24,11 +24,10 @@ import numpy as np
 import pytest
 
 import tandem_env
-from agents import harness
+from agents import harness, methods
 from agents.evaluator import BudgetExceededError, VectorEnvEvaluator
 from agents.jobs import SCHEMA, Job
 from agents.methods import (
-    PROVIDERS,
     AskTellMethod,
     SearchContext,
     SearchOutcome,
@@ -140,7 +139,7 @@ def test_budget_is_enforced_by_the_evaluator() -> None:
 # --- the method registry ------------------------------------------------------------------------
 def test_registry_validates_settings_and_names() -> None:
     assert {"pso", "random", "ppo", "sac", "policy"} <= set(available_methods())
-    with pytest.raises(ValueError, match=r"unknown method 'cma'.*allowed: pso, random"):
+    with pytest.raises(ValueError, match=r"unknown method 'cma'.*allowed: cmaes, .*pso, random"):
         get_method("cma")
     with pytest.raises(ValueError, match=r"unknown setting.*allowed: swarm_size"):
         get_method("pso", {"swarmsize": 10})
@@ -155,8 +154,14 @@ def test_registry_validates_settings_and_names() -> None:
     assert method.config(100).batch_size == 16
 
 
+def _plug_in(monkeypatch: pytest.MonkeyPatch, name: str, module: str) -> None:
+    """Method ``name`` named by an installed entry point with value ``module``."""
+    installed = methods.providers()
+    monkeypatch.setattr(methods, "providers", lambda: {**installed, name: module})
+
+
 def test_lazy_provider_missing_raises_not_implemented(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setitem(PROVIDERS, "ghost", "no_such_package_for_tests.methods")
+    _plug_in(monkeypatch, "ghost", "no_such_package_for_tests.methods")
     with pytest.raises(NotImplementedError, match="provided by module no_such_package_for_tests"):
         get_method("ghost")
 
@@ -190,7 +195,7 @@ def test_lazy_provider_registers_on_first_use(
         )
     )
     monkeypatch.syspath_prepend(str(tmp_path))
-    monkeypatch.setitem(PROVIDERS, "fake", "fake_provider_for_tests")
+    _plug_in(monkeypatch, "fake", "fake_provider_for_tests")
     try:
         record = run_analytic("fake:5", "sphere", 20, 0)
         assert record.method == "fake:5"
