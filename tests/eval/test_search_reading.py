@@ -110,7 +110,10 @@ def test_search_jobs_are_accepted_by_the_harness() -> None:
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"method": "nope"}, r"Search of method 'nope': unknown method 'nope'; allowed: cmaes, .*pso"),
+        (
+            {"method": "nope"},
+            r"Search of method 'nope': unknown method 'nope'; allowed: cmaes, .*pso",
+        ),
         ({"method": "policy:runs/x"}, r"Search.method = 'policy:runs/x'; allowed: a harness"),
         ({"method": "pso", "swarm_size": 1}, r"swarm_size = 1; allowed: None or an integer >= 2"),
         ({"method": "pso", "iterations": 0, "swarm_size": 4}, r"iterations = 0; allowed"),
