@@ -87,6 +87,14 @@ def test_every_study_writes_records_csv_figures_and_report(study_dir: Path) -> N
         assert table[cid]["verdict: median"] == table[cid]["verdict: best seed"] == blind
     assert not table["K4"]["verdict: median"].startswith("not identifiable")
     assert "not identifiable (K1, K2, K3)" in report
+    # The claims as data beside the report: the same rows, their numbers and verdict words.
+    data = json.loads((study_dir / "claims.json").read_text(encoding="utf-8"))["claims"]
+    assert [c["id"] for c in data] == list(table)
+    for c in data:
+        assert {k: v.replace("|", "\\|") for k, v in c["cells"].items()} == table[c["id"]]
+        assert c["cells"]["verdict: median"].startswith(c["verdict"])
+        assert c["cells"]["verdict: best seed"].startswith(c["best_verdict"])
+        assert c["median"] is None or f"{c['median']:.3g}" in c["cells"]["ours: median [IQR]"]
     # Every figure is linked from the report with a path relative to it.
     for png in study_dir.glob("*/fig*.png"):
         assert f"]({png.relative_to(study_dir).as_posix()})" in report
