@@ -47,7 +47,8 @@ class StudyPlan:
     figure_format: str = FORMATS[0]
     """The figures' file format (:data:`eval.figures.FORMATS`)."""
     execution: tuple[tuple[str, Any], ...] = ()
-    """Env keywords that choose only how the model is computed (``backend``, ``device``)."""
+    """Env keywords that choose only how the model is computed (``backend``, ``device``); one
+    given as None is not set (``--backend`` / ``--device`` left out)."""
     insect: Dragonfly = DRAGONFLY
     """The insect every job flies (``--insect``; the paper's specimen adds no env keyword)."""
 
@@ -72,7 +73,7 @@ class StudyPlan:
         if self.reading.search is not None:
             # the analyses select records by plan.methods, so the search's method goes there
             object.__setattr__(self, "methods", (self.reading.search.method,))
-        execution = dict(self.execution)
+        execution = {k: v for k, v in dict(self.execution).items() if v is not None}
         if not set(execution) <= set(EXECUTION_KWARGS):
             raise ValueError(
                 f"StudyPlan.execution = {self.execution!r}; allowed: keywords among "
