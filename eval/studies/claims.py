@@ -462,47 +462,33 @@ def with_confidence(
                 flips[c.id] += 1.0
             else:
                 flips[c.id] += (other.verdict != c.verdict, other.best_verdict != c.best_verdict)
-    out = []
-    for c in claims:
-        median_flips, best_flips = flips[c.id] / resamples
-        if c.verdict in ("no data", "not run"):
-            median_flips = math.nan
-        if c.best_verdict in ("no data", "not run"):
-            best_flips = math.nan
-        out.append(
-            replace(
-                c,
-                verdict=decide(c.verdict, median_flips),
-                best_verdict=decide(c.best_verdict, best_flips),
-                leaning=c.verdict,
-                best_leaning=c.best_verdict,
-                flips=float(median_flips),
-                best_flips=float(best_flips),
-            )
-        )
-    return out
+    return [_settled(c, *(flips[c.id] / resamples)) for c in claims]
+
+
+def _settled(c: Claim, flips: float, best_flips: float, lacks: tuple[str, ...] = ()) -> Claim:
+    """``c`` with each verdict as run its leaning and the verdict :func:`decide` gives it with
+    its share of flipping resamples (NaN for a verdict without data); ``lacks``: every verdict
+    "not identifiable", without a confidence."""
+    sides = {}
+    for side, share in (("", flips), ("best_", best_flips)):
+        said: Verdict = "not identifiable" if lacks else getattr(c, f"{side}verdict")
+        share = math.nan if lacks or said in ("no data", "not run") else float(share)
+        sides |= {
+            f"{side}verdict": decide(said, share),
+            f"{side}leaning": said,
+            f"{side}flips": share,
+        }
+    return replace(c, **sides, lacks=lacks)
 
 
 def identifiable(claims: Iterable[Claim], options: ModelOptions) -> list[Claim]:
     """The claims with the verdicts :data:`IDENTIFIABILITY_RULE` gives under the study's model
     ``options``: ``"not identifiable"``, without a confidence, where the model does not depend
     on a quantity of :attr:`Claim.depends_on` (the statistics stay)."""
-    unknowable: Verdict = "not identifiable"
     out = []
     for c in claims:
         lacks = tuple(dict.fromkeys(d.quantity for d in c.depends_on if not d.resolved(options)))
-        if lacks:
-            c = replace(
-                c,
-                verdict=unknowable,
-                best_verdict=unknowable,
-                leaning=unknowable,
-                best_leaning=unknowable,
-                flips=math.nan,
-                best_flips=math.nan,
-                lacks=lacks,
-            )
-        out.append(c)
+        out.append(_settled(c, math.nan, math.nan, lacks) if lacks else c)
     return out
 
 
