@@ -43,11 +43,6 @@ VERDICT_COLUMNS = {
 :class:`~eval.studies.claims.Claim` field."""
 
 
-def claim_titles() -> list[str]:
-    """The titles of the report's paper-vs-ours table (``eval.studies.report.CLAIM_COLUMNS``)."""
-    return [title for title, _ in CLAIM_COLUMNS]
-
-
 def read_claims(path: Path) -> list[dict[str, str]]:
     """The rows of a run's paper-vs-ours table from its ``claims.json``
     (``eval.studies.report.CLAIMS_FILE``), each as ``{column title: cell text}``."""
@@ -156,7 +151,7 @@ def render(data: dict[str, Any]) -> str:
     claims = by_claim(views)
     columns = [
         (title, lambda same, t=title: merged({k: row[t] for k, row in same.items()}))
-        for title in claim_titles()
+        for title, _ in CLAIM_COLUMNS
     ]
     own, *others = views
     times = ", ".join(f"{minutes(v['wall_time_s'])} ({k})" for k, v in views.items())

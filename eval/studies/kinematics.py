@@ -175,45 +175,39 @@ def draw(
         paper_note="paper: larger in accelerating flight",
         bounds=table4_bounds("pitch_amplitude", plan.insect.stroke_bounds),
     )
+    label = figures.method_label(method)
+    tips = (
+        (9, "level flight", lv, level_name, "fig9_tip_paths_level"),
+        (10, "accelerating flight", ac, accel_name, "fig10_tip_paths_accelerating"),
+    )
+    phase = "(c) |ΔΦ|, (d) ΔΦ at the paper's largest phase difference"
+    cycles = (
+        (11, "weaving angle φ", phase, "sweep", "weaving", phase_panels),
+        (12, "pitch angle η", "(c) pitch amplitudes", "pitch", "pitch", (pitch_panel,)),
+    )
     return [
-        (
-            "Fig. 9: wing-tip paths relative to the wing base, level flight",
-            kf.tip_path_figure(
-                lv,
-                f"Fig. 9: tip paths, {level_name} ({figures.method_label(method)})",
-                plan.figure(study_dir, "fig9_tip_paths_level"),
-            ),
+        *(
+            (
+                f"Fig. {n}: wing-tip paths relative to the wing base, {flight}",
+                kf.tip_path_figure(
+                    t, f"Fig. {n}: tip paths, {name} ({label})", plan.figure(study_dir, stem)
+                ),
+            )
+            for n, flight, t, name, stem in tips
         ),
-        (
-            "Fig. 10: wing-tip paths relative to the wing base, accelerating flight",
-            kf.tip_path_figure(
-                ac,
-                f"Fig. 10: tip paths, {accel_name} ({figures.method_label(method)})",
-                plan.figure(study_dir, "fig10_tip_paths_accelerating"),
-            ),
-        ),
-        (
-            "Fig. 11: weaving angle φ of fore- and hind-wing; (c) |ΔΦ|, (d) ΔΦ at the paper's "
-            "largest phase difference",
-            kf.cycle_figure(
-                [(f"(a) {level_name}", lv), (f"(b) {accel_name}", ac)],
-                "sweep",
-                "weaving angle φ [deg]",
-                "Fig. 11: weaving angle over the cycle",
-                plan.figure(study_dir, "fig11_weaving"),
-                extras=phase_panels,
-            ),
-        ),
-        (
-            "Fig. 12: pitch angle η of fore- and hind-wing; (c) pitch amplitudes",
-            kf.cycle_figure(
-                [(f"(a) {level_name}", lv), (f"(b) {accel_name}", ac)],
-                "pitch",
-                "pitch angle η [deg]",
-                "Fig. 12: pitch angle over the cycle",
-                plan.figure(study_dir, "fig12_pitch"),
-                extras=(pitch_panel,),
-            ),
+        *(
+            (
+                f"Fig. {n}: {angle} of fore- and hind-wing; {panels}",
+                kf.cycle_figure(
+                    [(f"(a) {level_name}", lv), (f"(b) {accel_name}", ac)],
+                    key,
+                    f"{angle} [deg]",
+                    f"Fig. {n}: {angle.rsplit(' ', 1)[0]} over the cycle",
+                    plan.figure(study_dir, f"fig{n}_{stem}"),
+                    extras=extras,
+                ),
+            )
+            for n, angle, panels, key, stem, extras in cycles
         ),
         (
             "Fig. 13: angle of attack and relative speed over the cycle, level flight (a wing "
