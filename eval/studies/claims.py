@@ -1,6 +1,7 @@
 """The paper's claims (docs/model.md §9) as checkable rows, and the rules that decide agreement.
 
-Every claim is judged by its rule (:data:`RULES`) on the seeds' medians and on each condition's
+Each study declares its claims once, as data (a ``CLAIMS`` table of :class:`ClaimSpec`); this
+module judges and formats them all (:func:`judged`, :data:`TESTS`). Every claim is judged by its rule (:data:`RULES`) on the seeds' medians and on each condition's
 best seed (what the paper's "best of N runs" gives); a verdict the bootstrap over seeds flips
 is undecided (:data:`CONFIDENCE_RULE`), and a claim about what the model does not depend on is
 not identifiable (:data:`IDENTIFIABILITY_RULE`).
