@@ -13,7 +13,7 @@ from agents.progress import CommandProgress
 from agents.runner import find_records, look_ahead, run_plan
 from agents.store import RecordStore
 from eval.figures import FORMATS
-from eval.optimize import add_insect_argument, add_run_arguments, backend_kwargs, run_reporting
+from eval.optimize import add_insect_argument, add_run_arguments, run_reporting
 from eval.studies.base import StudyPlan
 from eval.studies.claims import FLIP_THRESHOLD
 from eval.studies.presets import OVERRIDES, STUDY_PRESETS, overridden
@@ -174,7 +174,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             overridden(STUDY_PRESETS[args.preset], **{o: getattr(args, o) for o in OVERRIDES}),
             tuple(dict.fromkeys(args.method)) if args.method else None,
             figure_format=args.format,
-            execution=tuple(backend_kwargs(args).items()),
+            execution=(("backend", args.backend), ("device", args.device)),
             insect=DRAGONFLY if args.insect is None else args.insect,
         )
         scheduler = executor_spec(args.scheduler, args.workers)

@@ -5,7 +5,6 @@ table whose differing cells name each kernel's value, and its Figs. 6, 7 and 11 
 
 from __future__ import annotations
 
-import re
 import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -22,6 +21,9 @@ from eval.numbers.framework import (
     minutes,
     run_command,
 )
+from eval.studies.claims import Claim
+from eval.studies.report import CLAIM_COLUMNS, CLAIMS_FILE, markdown_table, verdict_summary
+from tandem_env.io.files import read_json
 
 NAME = "quick-claims"
 COMMAND = "python -m eval study all --preset quick --no-cache --quiet --out"
@@ -39,31 +41,12 @@ VERDICT_COLUMNS = {
 }
 """The verdict columns of the claims table: the name the flip sentence gives each, and its
 :class:`~eval.studies.claims.Claim` field."""
-_CELL_SEPARATOR = re.compile(r" (?<!\\)\| ")
 
 
-def claim_titles() -> list[str]:
-    """The titles of the report's paper-vs-ours table (``eval.studies.report.CLAIM_COLUMNS``)."""
-    from eval.studies.report import CLAIM_COLUMNS
-
-    return [title for title, _ in CLAIM_COLUMNS]
-
-
-def read_claims(report: Path) -> list[dict[str, str]]:
-    """The rows of a run's ``report.md`` paper-vs-ours table (the study writes no other copy of
-    its claims), each as ``{column title: cell text}``, unescaped."""
-    from eval.studies.report import table_row
-
-    titles = claim_titles()
-    lines = report.read_text(encoding="utf-8").splitlines()
-    start = lines.index(table_row(titles)) + 2  # past the heading and its rule
-    rows = []
-    for line in lines[start:]:
-        if not line.startswith("| "):
-            break
-        cells = _CELL_SEPARATOR.split(line[2:-2])
-        rows.append(dict(zip(titles, (c.replace("\\|", "|") for c in cells), strict=True)))
-    return rows
+def read_claims(path: Path) -> list[dict[str, str]]:
+    """The rows of a run's paper-vs-ours table from its ``claims.json``
+    (``eval.studies.report.CLAIMS_FILE``), each as ``{column title: cell text}``."""
+    return [claim["cells"] for claim in read_json(path)["claims"]]
 
 
 def run_study(kernel: str | None) -> dict[str, Any]:
@@ -74,7 +57,7 @@ def run_study(kernel: str | None) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(dir=ROOT / "results", prefix="numbers-quick-") as out:
         environment = {"OPENBLAS_CORETYPE": kernel} if kernel else {}
         wall = run_command([*COMMAND.split(), out], environment)
-        rows = read_claims(Path(out) / "report.md")
+        rows = read_claims(Path(out) / CLAIMS_FILE)
         if kernel is None:
             copy_outputs(Path(out), FIGURES)
     return {"rows": rows, "wall_time_s": round(wall, 1)}
@@ -123,8 +106,6 @@ def verdicts(row: Mapping[str, str], field: bool = False) -> dict[str, str]:
 def summary_lines(views: Mapping[str, Mapping[str, Any]]) -> list[str]:
     """The report's verdict counts (``eval.studies.report.verdict_summary``) of each kernel's
     run; a line that differs between kernels is given once per kernel group."""
-    from eval.studies.claims import Claim
-    from eval.studies.report import verdict_summary
 
     def claims(rows: Sequence[Mapping[str, str]]) -> list[Claim]:
         return [Claim(r["id"], "", "", "", "", r["rule"], **verdicts(r, field=True)) for r in rows]
@@ -166,13 +147,11 @@ def flips_sentence(claims: Sequence[Mapping[str, Mapping[str, str]]]) -> str:
 def render(data: dict[str, Any]) -> str:
     """The verdict counts, the merged claims table, the flipping verdicts, the kernels, the
     runs' times and commands."""
-    from eval.studies.report import markdown_table
-
     views = kernel_views(data)
     claims = by_claim(views)
     columns = [
         (title, lambda same, t=title: merged({k: row[t] for k, row in same.items()}))
-        for title in claim_titles()
+        for title, _ in CLAIM_COLUMNS
     ]
     own, *others = views
     times = ", ".join(f"{minutes(v['wall_time_s'])} ({k})" for k, v in views.items())

@@ -1,12 +1,14 @@
-"""What every study shares: the plan (preset + methods), job construction and output writing.
+"""What every study shares: the plan (preset + methods), job construction, output writing and
+the analysis (:class:`Analysis`).
 
 A study module defines ``NAME``, ``TITLE``, ``jobs(plan) -> list[Job]`` and
-``analyse(plan, records, out_dir) -> StudyOutput``; jobs two studies share run once.
+``analyse(plan, records, out_dir) -> StudyOutput`` (the paper's studies: an :class:`Analysis`
+of their figures and claims); jobs two studies share run once.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -16,7 +18,7 @@ from agents.methods import preset_batch_setting
 from agents.records import Record
 from agents.store import RECORDS_DIR
 from eval.figures import FORMATS, figure_path
-from eval.studies.claims import Claim
+from eval.studies.claims import Claim, ClaimSpec, judged, study_claims
 from eval.studies.paper_reading import DEFAULT, Reading
 from eval.studies.presets import Preset, distinct, is_name
 from eval.studies.tables import spread_summary_rows, tidy_rows
@@ -45,7 +47,8 @@ class StudyPlan:
     figure_format: str = FORMATS[0]
     """The figures' file format (:data:`eval.figures.FORMATS`)."""
     execution: tuple[tuple[str, Any], ...] = ()
-    """Env keywords that choose only how the model is computed (``backend``, ``device``)."""
+    """Env keywords that choose only how the model is computed (``backend``, ``device``); one
+    given as None is not set (``--backend`` / ``--device`` left out)."""
     insect: Dragonfly = DRAGONFLY
     """The insect every job flies (``--insect``; the paper's specimen adds no env keyword)."""
 
@@ -70,7 +73,7 @@ class StudyPlan:
         if self.reading.search is not None:
             # the analyses select records by plan.methods, so the search's method goes there
             object.__setattr__(self, "methods", (self.reading.search.method,))
-        execution = dict(self.execution)
+        execution = {k: v for k, v in dict(self.execution).items() if v is not None}
         if not set(execution) <= set(EXECUTION_KWARGS):
             raise ValueError(
                 f"StudyPlan.execution = {self.execution!r}; allowed: keywords among "
@@ -198,3 +201,41 @@ def write_tables(
     extra = [n for n in PARAMETER_NAMES if n not in quantities]
     write_csv_atomic(paths[2], spread_summary_rows(rows, [*quantities, *extra]))
     return rows, paths
+
+
+#: A study's figures from its plan, tidy rows, records and folder: (caption, path) of each.
+Figures = Callable[
+    [StudyPlan, list[dict[str, Any]], Mapping[Job, Record], Path], list[tuple[str, Path]]
+]
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """A paper study's ``analyse``: its tables (:func:`write_tables`), its ``figures`` and its
+    ``claims``, each judged on ``view(plan, rows, method)`` of every method's rows."""
+
+    name: str
+    title: str
+    quantities: tuple[str, ...]
+    """The summary CSV's quantities (the 28 stroke parameters follow)."""
+    figures: Figures
+    claims: tuple[ClaimSpec, ...]
+    view: Callable[[StudyPlan, list[dict[str, Any]], str], Any]
+
+    def __call__(
+        self, plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path
+    ) -> StudyOutput:
+        rows, files = write_tables(self.name, records, out_dir, self.quantities)
+        figures = self.figures(plan, rows, records, out_dir / self.name)
+        return StudyOutput(self.name, self.title, rows, figures, self.judge(plan, rows), files)
+
+    def judge(self, plan: StudyPlan, rows: list[dict[str, Any]]) -> list[Claim]:
+        """Every method's claims, with their confidence and identifiability
+        (:func:`eval.studies.claims.study_claims`)."""
+        words = vars(plan.preset)
+        return study_claims(
+            rows,
+            plan.methods,
+            lambda r, m, i: judged(self.claims, self.name, self.view(plan, r, m), m, i, words),
+            options=plan.model_options,
+        )

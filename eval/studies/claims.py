@@ -1,6 +1,7 @@
 """The paper's claims (docs/model.md §9) as checkable rows, and the rules that decide agreement.
 
-Every claim is judged by its rule (:data:`RULES`) on the seeds' medians and on each condition's
+Each study declares its claims once, as data (a ``CLAIMS`` table of :class:`ClaimSpec`); this
+module judges and formats them all (:func:`judged`, :data:`TESTS`). Every claim is judged by its rule (:data:`RULES`) on the seeds' medians and on each condition's
 best seed (what the paper's "best of N runs" gives); a verdict the bootstrap over seeds flips
 is undecided (:data:`CONFIDENCE_RULE`), and a claim about what the model does not depend on is
 not identifiable (:data:`IDENTIFIABILITY_RULE`).
@@ -9,6 +10,7 @@ not identifiable (:data:`IDENTIFIABILITY_RULE`).
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, Literal
@@ -217,41 +219,96 @@ def verdict(ok: bool | None) -> Verdict:
     return "no data" if ok is None else ("agrees" if ok else "differs")
 
 
-def judge(value: float, test: Callable[[float], Any] | None) -> bool | None:
-    """``test(value)`` as the agreement, None (no data) for a NaN value, no test or a test
-    that answers None."""
-    if test is None or math.isnan(value):
-        return None
-    ok = test(value)
-    return None if ok is None else bool(ok)
+#: How each rule judges a statistic against the claim's target (:attr:`ClaimSpec.target`).
+ORDERS: dict[str, Callable[[float, float], bool]] = {">": operator.gt, "==": operator.eq}
+
+
+def _rises(rho: float, direction: int) -> bool:
+    return direction * rho >= TREND_RHO
+
+
+TESTS: dict[str, Callable[[float, Any], bool]] = {
+    "number": lambda v, paper: abs(v - paper) <= RELATIVE_TOLERANCE * abs(paper),
+    "range": lambda v, ends: (
+        (1 - RELATIVE_TOLERANCE) * ends[0] <= v <= (1 + RELATIVE_TOLERANCE) * ends[1]
+    ),
+    "trend": _rises,
+    "follows": _rises,
+    "location": lambda at, paper: abs(at - paper) <= LOCATION_TOLERANCE + 1e-9,
+    "angle": lambda v, paper: abs(v - paper) <= ANGLE_TOLERANCE,
+    "phase": lambda v, in_phase: (v < IN_PHASE) == in_phase,
+    "compare": lambda v, order: ORDERS[order[0]](v, order[1]),
+}
+
+
+def judge(value: float, rule: Rule, target: Any) -> bool | None:
+    """Whether ``value`` agrees with ``target`` under ``rule`` (:data:`TESTS`); None (no data)
+    for NaN."""
+    return None if math.isnan(value) else bool(TESTS[rule](value, target))
+
+
+#: A claim's statistic: :class:`Claim` fields (``median``, ``best``, ``q25``, ``q75``, ``unit``,
+#: ``detail``, ...), or None where the claim is not made (what it compares is not run).
+Stats = dict[str, Any] | None
+#: A claim's statistic from a study's view of one method's rows and the claim's target.
+Measure = Callable[[Any, Any], Stats]
+
+
+@dataclass(frozen=True)
+class ClaimSpec:
+    """One claim of the paper, declared once: what the report's row says and how it is judged;
+    ``measure(view, target)`` gives its statistic from a study's view of one method's rows."""
+
+    id: str
+    figure: str
+    statement: str
+    """The claim; ``{name}`` fields are the preset's (e.g. ``{phase_speed:g}``)."""
+    paper: str
+    rule: Rule
+    target: Any
+    """What the rule compares with (:data:`TESTS`): the paper's number [its unit], range
+    (low, high), location [m/s] or angle [deg]; a trend's direction (+1 rises, −1 falls);
+    whether in phase; a compare rule's (order, value)."""
+    measure: Measure
+    note: str = ""
+    """Why a difference is understood, when it is."""
+
+    def claim(self, study: str, view: Any, method: str, index: int, words: Mapping) -> Claim | None:
+        """The row of ``method`` (ids ``S7`` for the first method, ``S7/random`` for the
+        others), judged on the median and the best seed; None where it is not made."""
+        fields = self.measure(view, self.target)
+        if fields is None:
+            return None
+        row = {"statement": self.statement.format_map(words), "note": self.note, **fields}
+        median, best = (row.get(k, math.nan) for k in ("median", "best"))
+        return Claim(
+            id=self.id if index == 0 else f"{self.id}/{method}",
+            study=study,
+            figure=self.figure,
+            paper=self.paper,
+            rule=self.rule,
+            verdict=verdict(judge(median, self.rule, self.target)),
+            best_verdict=verdict(judge(best, self.rule, self.target)),
+            **row,
+        )
+
+
+def judged(
+    specs: Iterable[ClaimSpec],
+    study: str,
+    view: Any,
+    method: str,
+    index: int,
+    words: Mapping = {},
+) -> list[Claim]:
+    """The claims ``specs`` make of one method's ``view`` (:meth:`ClaimSpec.claim`)."""
+    found = (spec.claim(study, view, method, index, words) for spec in specs)
+    return [c for c in found if c is not None]
 
 
 def seeds_feasible(s: Spread) -> str:
     """How many of the seeds were feasible, e.g. ``"3/5 seeds feasible"``."""
     return f"{s.n_feasible}/{s.n} seeds feasible"
-
-
-# --- rule helpers: each returns (statistic from medians, statistic from best seeds, ok) ------
-def close(value: float, paper: float) -> bool | None:
-    """Within ±20 % of the paper's number (None for NaN)."""
-    return judge(value, lambda v: abs(v - paper) <= RELATIVE_TOLERANCE * abs(paper))
-
-
-def phase(value: float, in_phase: bool) -> bool | None:
-    """In phase: |ΔΦ| < 15°; out of phase: |ΔΦ| ≥ 15° [deg] (None for NaN)."""
-    return judge(value, lambda v: (v < IN_PHASE) == in_phase)
-
-
-def angle(value: float, paper: float) -> bool | None:
-    """Within ±15° of the paper's angle [deg] (None for NaN)."""
-    return judge(value, lambda v: abs(v - paper) <= ANGLE_TOLERANCE)
-
-
-def in_range(value: float, low: float, high: float) -> bool | None:
-    """Inside [low, high] widened by 20 % of its ends (None for NaN)."""
-    return judge(
-        value, lambda v: (1 - RELATIVE_TOLERANCE) * low <= v <= (1 + RELATIVE_TOLERANCE) * high
-    )
 
 
 def _finite(x: Sequence[float], y: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
@@ -277,57 +334,30 @@ def monotonic_fraction(x: Sequence[float], y: Sequence[float], direction: int) -
     return math.nan if steps.size == 0 else float(np.mean(np.sign(steps) == direction))
 
 
-# --- claim builders: a row's rule, statistics and test as ClaimBuilder.claim's arguments ------
-@dataclass(frozen=True)
-class ClaimBuilder:
-    """Builds one study's claims for one method (ids ``S7`` for the first method, ``S7/random``
-    for the others); one ``test`` judges the median and the best seed (None or NaN: no data)."""
-
-    study: str
-    method: str
-    index: int
-    """The method's place in the study's methods (0: ids without a suffix)."""
-
-    def claim(
-        self,
-        cid: str,
-        figure: str,
-        statement: str,
-        paper: str,
-        *,
-        rule: Rule,
-        test: Callable[[float], Any] | None = None,
-        **fields: Any,
-    ) -> Claim:
-        """One row; ``fields`` are the other :class:`Claim` fields (``test`` judges ``median``
-        and ``best``), e.g. from a ``*_row`` function: ``claim(..., **trend_row(series, +1))``."""
-        median, best = fields.get("median", math.nan), fields.get("best", math.nan)
-        return Claim(
-            id=cid if self.index == 0 else f"{cid}/{self.method}",
-            study=self.study,
-            figure=figure,
-            statement=statement,
-            paper=paper,
-            rule=rule,
-            verdict=verdict(judge(median, test)),
-            best_verdict=verdict(judge(best, test)),
-            **fields,
-        )
+# --- statistics: what a ClaimSpec's measure gives ----------------------------------------------
+def spread_stats(s: Spread, **fields: Any) -> dict[str, Any]:
+    """One spread over seeds: median, quartiles, best seed and the feasible seeds as the detail
+    (``fields`` override these)."""
+    stats = {"median": s.median, "q25": s.q25, "q75": s.q75, "best": s.best}
+    return {**stats, "detail": seeds_feasible(s), **fields}
 
 
-def trend_test(direction: int) -> Callable[[float], bool]:
-    """``trend``: ρ ≥ 0.5 in ``direction`` (+1 rises, −1 falls)."""
-    return lambda r: direction * r >= TREND_RHO
+def follows_stats(
+    x: Mapping[float, Spread], y: Mapping[float, Spread], **fields: Any
+) -> dict[str, Any]:
+    """ρ between the medians (and the best seeds) of two series at their common conditions."""
+    common = [c for c in x if c in y]
+    r = rho([x[c].median for c in common], [y[c].median for c in common])
+    r_best = rho([x[c].best for c in common], [y[c].best for c in common])
+    return {"median": r, "best": r_best, "unit": "(ρ)", **fields}
 
 
-def trend_row(series: Mapping[float, Spread], direction: int, **fields: Any) -> dict[str, Any]:
-    """``trend``: ρ between the condition and the medians (and the best seeds), the medians'
-    monotonic fraction as the detail; ``fields`` override these (:func:`held_at_bound`'s)."""
+def trend_stats(series: Mapping[float, Spread], direction: int, **fields: Any) -> dict[str, Any]:
+    """ρ between the condition and the medians (and the best seeds), the medians' monotonic
+    fraction as the detail; ``fields`` override these (:func:`held_at_bound`'s)."""
     x, medians = list(series), [s.median for s in series.values()]
     frac = monotonic_fraction(x, medians, direction)
     row = dict(
-        rule="trend",
-        test=trend_test(direction),
         median=rho(x, medians),
         best=rho(x, [s.best for s in series.values()]),
         unit="(ρ)",
@@ -365,11 +395,10 @@ def held_at_bound(rows: Sequence[Mapping[str, Any]], quantity: str) -> dict[str,
     }
 
 
-def location_row(
-    series: Mapping[float, Spread], paper: float, kind: Literal["min", "max"], **fields: Any
+def location_stats(
+    series: Mapping[float, Spread], kind: Literal["min", "max"], **fields: Any
 ) -> dict[str, Any]:
-    """``location``: the speed [m/s] of the extremum of the medians (and the best seeds),
-    within one sweep step of the paper's."""
+    """The condition [m/s] of the extremum of the medians (and of the best seeds)."""
 
     def where(values: list[float]) -> float:
         xa, ya = _finite(list(series), values)
@@ -378,35 +407,11 @@ def location_row(
         return float(xa[np.argmin(ya) if kind == "min" else np.argmax(ya)])
 
     return dict(
-        rule="location",
-        test=lambda at: abs(at - paper) <= LOCATION_TOLERANCE + 1e-9,
         median=where([s.median for s in series.values()]),
         best=where([s.best for s in series.values()]),
         unit="m/s",
         **fields,
     )
-
-
-def spread_row(
-    rule: Rule, s: Spread, test: Callable[[float], Any], **fields: Any
-) -> dict[str, Any]:
-    """A row of one spread over seeds: median, quartiles, best seed and the feasible seeds as
-    the detail (``fields`` override these)."""
-    stats = {"median": s.median, "q25": s.q25, "q75": s.q75, "best": s.best}
-    return {"rule": rule, "test": test, **stats, "detail": seeds_feasible(s), **fields}
-
-
-def number_row(s: Spread, paper: float, **fields: Any) -> dict[str, Any]:
-    """``number``: the spread's median against the paper's number (see :func:`spread_row`)."""
-    return spread_row("number", s, lambda v: close(v, paper), **fields)
-
-
-def compare_row(
-    median: float, best: float, holds: Callable[[float], Any], **fields: Any
-) -> dict[str, Any]:
-    """``compare``: the claimed order ``holds(median)`` between medians (and between the best
-    seeds)."""
-    return dict(rule="compare", test=holds, median=median, best=best, **fields)
 
 
 # --- confidence: the bootstrap over seeds ------------------------------------------------------
@@ -458,47 +463,33 @@ def with_confidence(
                 flips[c.id] += 1.0
             else:
                 flips[c.id] += (other.verdict != c.verdict, other.best_verdict != c.best_verdict)
-    out = []
-    for c in claims:
-        median_flips, best_flips = flips[c.id] / resamples
-        if c.verdict in ("no data", "not run"):
-            median_flips = math.nan
-        if c.best_verdict in ("no data", "not run"):
-            best_flips = math.nan
-        out.append(
-            replace(
-                c,
-                verdict=decide(c.verdict, median_flips),
-                best_verdict=decide(c.best_verdict, best_flips),
-                leaning=c.verdict,
-                best_leaning=c.best_verdict,
-                flips=float(median_flips),
-                best_flips=float(best_flips),
-            )
-        )
-    return out
+    return [_settled(c, *(flips[c.id] / resamples)) for c in claims]
+
+
+def _settled(c: Claim, flips: float, best_flips: float, lacks: tuple[str, ...] = ()) -> Claim:
+    """``c`` with each verdict as run its leaning and the verdict :func:`decide` gives it with
+    its share of flipping resamples (NaN for a verdict without data); ``lacks``: every verdict
+    "not identifiable", without a confidence."""
+    sides = {}
+    for side, share in (("", flips), ("best_", best_flips)):
+        said: Verdict = "not identifiable" if lacks else getattr(c, f"{side}verdict")
+        share = math.nan if lacks or said in ("no data", "not run") else float(share)
+        sides |= {
+            f"{side}verdict": decide(said, share),
+            f"{side}leaning": said,
+            f"{side}flips": share,
+        }
+    return replace(c, **sides, lacks=lacks)
 
 
 def identifiable(claims: Iterable[Claim], options: ModelOptions) -> list[Claim]:
     """The claims with the verdicts :data:`IDENTIFIABILITY_RULE` gives under the study's model
     ``options``: ``"not identifiable"``, without a confidence, where the model does not depend
     on a quantity of :attr:`Claim.depends_on` (the statistics stay)."""
-    unknowable: Verdict = "not identifiable"
     out = []
     for c in claims:
         lacks = tuple(dict.fromkeys(d.quantity for d in c.depends_on if not d.resolved(options)))
-        if lacks:
-            c = replace(
-                c,
-                verdict=unknowable,
-                best_verdict=unknowable,
-                leaning=unknowable,
-                best_leaning=unknowable,
-                flips=math.nan,
-                best_flips=math.nan,
-                lacks=lacks,
-            )
-        out.append(c)
+        out.append(_settled(c, math.nan, math.nan, lacks) if lacks else c)
     return out
 
 

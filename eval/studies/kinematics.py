@@ -9,6 +9,7 @@ attack and relative speed at 0.75 R (Fig. 13). The fore/hind phase difference Δ
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -21,7 +22,7 @@ from agents.tasks import get_task
 from eval import figures
 from eval import kinematics_figures as kf
 from eval.studies import claims as C
-from eval.studies.base import StudyOutput, StudyPlan, write_tables
+from eval.studies.base import Analysis, StudyPlan
 from eval.studies.tables import Spread, circular_median, select, spread, table4_bounds
 from tandem_env import PARAMETER_NAMES, bound_sides, stroke_history
 from tandem_env.envs import registration
@@ -109,8 +110,10 @@ def traces(
     return out
 
 
-def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
-    rows, files = write_tables(NAME, records, out_dir, QUANTITIES)
+def draw(
+    plan: StudyPlan, rows: list[dict[str, Any]], records: Mapping[Job, Record], study_dir: Path
+) -> list[tuple[str, Path]]:
+    """Figs. 9-13 of the first method's strokes, each seed's."""
     p = plan.preset
     method = plan.methods[0]
     level, accel = _series(plan, method)
@@ -118,9 +121,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
     ac = traces(records, rows, condition=p.kinematics_power, **accel)
     level_name = f"level flight, V = {p.kinematics_speed:g} m/s"
     accel_name = f"accelerating ({p.kinematics_objective}), {p.kinematics_power:g} W/kg"
-    study_dir = out_dir / NAME
-
-    lv_abs, ac_abs, lead, lv_pitch, ac_pitch = _judged(plan, rows, method)
+    judged = view(plan, rows, method)
     level_at = f"level {p.kinematics_speed:g} m/s"
     accel_at = f"accel. {p.kinematics_power:g} W/kg"
     lead_at = f"level {p.phase_speed:g} m/s"
@@ -134,7 +135,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
 
     # Each panel shows the statistic its claim judges; not judged where K1-K3 are not
     # identifiable (claims.IDENTIFIABILITY_RULE).
-    judged = (
+    said = (
         "judged"
         if plan.model_options.phase_resolved()
         else "not judged: the model does not depend on ΔΦ"
@@ -142,9 +143,9 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
     phase_panels = (
         panel(
             "(c) |ΔΦ| (K1, K3; feasible seeds)",
-            {level_at: lv_abs, accel_at: ac_abs},
+            {level_at: judged["level |ΔΦ|"], accel_at: judged["accel |ΔΦ|"]},
             "|ΔΦ| [deg]",
-            statistic_label=f"median |ΔΦ| ({judged})",
+            statistic_label=f"median |ΔΦ| ({said})",
             paper={accel_at: PAPER_IN_PHASE},
             paper_label="paper: in phase (ΔΦ = 0°)",
             band=(0.0, C.IN_PHASE, f"in phase: |ΔΦ| < {C.IN_PHASE:g}°"),
@@ -152,10 +153,10 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         ),
         panel(
             f"(d) ΔΦ at {p.phase_speed:g} m/s (K2; > 0: hind leads)",
-            {lead_at: lead},
+            {lead_at: judged["ΔΦ"]},
             "ΔΦ = Φ_hind − Φ_fore [deg]",
             statistic=circular_median,
-            statistic_label=f"circular median ({judged})",
+            statistic_label=f"circular median ({said})",
             paper={lead_at: PAPER_PHASE_LEAD},
             paper_label=f"paper: hind leads by ≈ {PAPER_PHASE_LEAD:g}°",
             band=(
@@ -168,51 +169,45 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
     )
     pitch_panel = panel(
         "(c) pitch amplitude η_m (K4; feasible seeds)",
-        {"level": lv_pitch, "accelerating": ac_pitch},
+        {"level": judged["level η_m"], "accelerating": judged["accel η_m"]},
         figures.pair_mean("η_m [deg]"),
         statistic_label="median (judged)",
         paper_note="paper: larger in accelerating flight",
         bounds=table4_bounds("pitch_amplitude", plan.insect.stroke_bounds),
     )
-    figs = [
-        (
-            "Fig. 9: wing-tip paths relative to the wing base, level flight",
-            kf.tip_path_figure(
-                lv,
-                f"Fig. 9: tip paths, {level_name} ({figures.method_label(method)})",
-                plan.figure(study_dir, "fig9_tip_paths_level"),
-            ),
+    label = figures.method_label(method)
+    tips = (
+        (9, "level flight", lv, level_name, "fig9_tip_paths_level"),
+        (10, "accelerating flight", ac, accel_name, "fig10_tip_paths_accelerating"),
+    )
+    phase = "(c) |ΔΦ|, (d) ΔΦ at the paper's largest phase difference"
+    cycles = (
+        (11, "weaving angle φ", phase, "sweep", "weaving", phase_panels),
+        (12, "pitch angle η", "(c) pitch amplitudes", "pitch", "pitch", (pitch_panel,)),
+    )
+    return [
+        *(
+            (
+                f"Fig. {n}: wing-tip paths relative to the wing base, {flight}",
+                kf.tip_path_figure(
+                    t, f"Fig. {n}: tip paths, {name} ({label})", plan.figure(study_dir, stem)
+                ),
+            )
+            for n, flight, t, name, stem in tips
         ),
-        (
-            "Fig. 10: wing-tip paths relative to the wing base, accelerating flight",
-            kf.tip_path_figure(
-                ac,
-                f"Fig. 10: tip paths, {accel_name} ({figures.method_label(method)})",
-                plan.figure(study_dir, "fig10_tip_paths_accelerating"),
-            ),
-        ),
-        (
-            "Fig. 11: weaving angle φ of fore- and hind-wing; (c) |ΔΦ|, (d) ΔΦ at the paper's "
-            "largest phase difference",
-            kf.cycle_figure(
-                [(f"(a) {level_name}", lv), (f"(b) {accel_name}", ac)],
-                "sweep",
-                "weaving angle φ [deg]",
-                "Fig. 11: weaving angle over the cycle",
-                plan.figure(study_dir, "fig11_weaving"),
-                extras=phase_panels,
-            ),
-        ),
-        (
-            "Fig. 12: pitch angle η of fore- and hind-wing; (c) pitch amplitudes",
-            kf.cycle_figure(
-                [(f"(a) {level_name}", lv), (f"(b) {accel_name}", ac)],
-                "pitch",
-                "pitch angle η [deg]",
-                "Fig. 12: pitch angle over the cycle",
-                plan.figure(study_dir, "fig12_pitch"),
-                extras=(pitch_panel,),
-            ),
+        *(
+            (
+                f"Fig. {n}: {angle} of fore- and hind-wing; {panels}",
+                kf.cycle_figure(
+                    [(f"(a) {level_name}", lv), (f"(b) {accel_name}", ac)],
+                    key,
+                    f"{angle} [deg]",
+                    f"Fig. {n}: {angle.rsplit(' ', 1)[0]} over the cycle",
+                    plan.figure(study_dir, f"fig{n}_{stem}"),
+                    extras=extras,
+                ),
+            )
+            for n, angle, panels, key, stem, extras in cycles
         ),
         (
             "Fig. 13: angle of attack and relative speed over the cycle, level flight (a wing "
@@ -226,18 +221,12 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             ),
         ),
     ]
-    phase = phase_dependences(plan)
-    found = C.study_claims(
-        rows,
-        plan.methods,
-        lambda r, m, i: _claims(plan, r, m, i, phase),
-        options=plan.model_options,
-    )
-    return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
+@functools.cache
 def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
-    """What K1-K3 are about: the fore/hind phase at their optimisations' flight speeds."""
+    """What K1-K3 are about: the fore/hind phase at their optimisations' flight speeds (once
+    per plan: every bootstrap resample asks)."""
     p = plan.preset
     level = plan.jobs("level", [p.kinematics_speed, p.phase_speed], seeds=p.seeds[:1])
     accel = plan.jobs(
@@ -250,19 +239,23 @@ def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
     }
 
 
-def _judged(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> tuple[Spread, ...]:
+def view(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> dict[str, Any]:
     """What K1-K4 judge and Figs. 11c-d and 12c show: |ΔΦ| level and accelerating, ΔΦ at
-    ``phase_speed``, η_m level and accelerating."""
+    ``phase_speed``, η_m level and accelerating (spreads over seeds); and what K1-K3 are about
+    (``phase``: :func:`phase_dependences`)."""
     p = plan.preset
     level, accel = _series(plan, method)
-    picks = (
-        (level, p.kinematics_speed, "phase_difference_abs"),
-        (accel, p.kinematics_power, "phase_difference_abs"),
-        (level, p.phase_speed, "phase_difference"),
-        (level, p.kinematics_speed, "pitch_amplitude"),
-        (accel, p.kinematics_power, "pitch_amplitude"),
-    )
-    return tuple(spread(select(rows, condition=c, **where), q) for where, c, q in picks)
+    picks = {
+        "level |ΔΦ|": (level, p.kinematics_speed, "phase_difference_abs"),
+        "accel |ΔΦ|": (accel, p.kinematics_power, "phase_difference_abs"),
+        "ΔΦ": (level, p.phase_speed, "phase_difference"),
+        "level η_m": (level, p.kinematics_speed, "pitch_amplitude"),
+        "accel η_m": (accel, p.kinematics_power, "pitch_amplitude"),
+    }
+    out: dict[str, Any] = {
+        k: spread(select(rows, condition=c, **where), q) for k, (where, c, q) in picks.items()
+    }
+    return {**out, "phase": phase_dependences(plan)}
 
 
 def _series(plan: StudyPlan, method: str) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -272,61 +265,42 @@ def _series(plan: StudyPlan, method: str) -> tuple[dict[str, Any], dict[str, Any
     return level, dict(level, task="accelerate", objective=objective)
 
 
-def _claims(
-    plan: StudyPlan,
-    rows: list[dict[str, Any]],
-    method: str,
-    index: int,
-    phase: Mapping[str, tuple[C.Dependence, ...]],
-) -> list[C.Claim]:
-    p = plan.preset
-    lv_abs, ac_abs, lead, lv_pitch, ac_pitch = _judged(plan, rows, method)
+def phase_of(key: str, cid: str) -> C.Measure:
+    """``phase`` or ``angle``: the spread of ``key`` (a :func:`view` key) [deg], about the
+    fore/hind phase of claim ``cid``'s optimisations."""
+    return lambda by, _: C.spread_stats(by[key], unit="deg", depends_on=by["phase"][cid])
 
-    make = C.ClaimBuilder(NAME, method, index)
-    level_at, accel_at = f"{p.kinematics_speed:g} m/s", f"{p.kinematics_power:g} W/kg"
-    pitch = "pitch amplitude η_m is larger in accelerating than in level flight"
-    noisy = (
-        "Φ_φ of each wing is a free parameter over ±180°; with a wide seed spread the median "
-        "phase is noisy."
-    )
-    return [
-        make.claim(
-            "K1",
-            "Fig. 11a",
-            f"level flight ({level_at}): fore- and hind-wing flap out of phase (|ΔΦ|)",
-            "out of phase",
-            **C.spread_row("phase", lv_abs, lambda v: C.phase(v, in_phase=False), unit="deg"),
-            depends_on=phase["K1"],
-        ),
-        make.claim(
-            "K2",
-            "Fig. 11",
-            f"at {p.phase_speed:g} m/s the hind-wing leads by about 30° (ΔΦ)",
-            "+30°",
-            **C.spread_row(
-                "angle", lead, lambda v: C.angle(v, PAPER_PHASE_LEAD), unit="deg", note=noisy
-            ),
-            depends_on=phase["K2"],
-        ),
-        make.claim(
-            "K3",
-            "Fig. 11b",
-            f"accelerating flight ({accel_at}): the wings flap in phase (|ΔΦ|)",
-            "in phase",
-            **C.spread_row("phase", ac_abs, lambda v: C.phase(v, in_phase=True), unit="deg"),
-            depends_on=phase["K3"],
-        ),
-        make.claim(
-            "K4",
-            "Fig. 12c",
-            f"{pitch} (ours: accelerating − level)",
-            "η_m,acc > η_m,level",
-            **C.compare_row(
-                ac_pitch.median - lv_pitch.median,
-                ac_pitch.best - lv_pitch.best,
-                lambda v: v > 0,
-                unit="deg",
-                detail=f"η_m level {lv_pitch.describe()}°, accelerating {ac_pitch.describe()}°",
-            ),
-        ),
-    ]
+
+def pitch_larger(by: Mapping[str, Any], _: Any) -> C.Stats:
+    """``compare``: η_m accelerating − level [deg] of the medians (and of the best seeds)."""
+    level, accel = by["level η_m"], by["accel η_m"]
+    return {
+        "median": accel.median - level.median,
+        "best": accel.best - level.best,
+        "unit": "deg",
+        "detail": f"η_m level {level.describe()}°, accelerating {accel.describe()}°",
+    }
+
+
+NOISY = (
+    "Φ_φ of each wing is a free parameter over ±180°; with a wide seed spread the median phase "
+    "is noisy."
+)
+PITCH = "pitch amplitude η_m is larger in accelerating than in level flight (ours: accelerating − level)"
+CLAIMS: tuple[C.ClaimSpec, ...] = (
+    C.ClaimSpec(
+        "K1", "Fig. 11a", "level flight ({kinematics_speed:g} m/s): fore- and hind-wing flap out of phase (|ΔΦ|)",
+        "out of phase", "phase", False, phase_of("level |ΔΦ|", "K1"),
+    ),
+    C.ClaimSpec(
+        "K2", "Fig. 11", "at {phase_speed:g} m/s the hind-wing leads by about 30° (ΔΦ)", "+30°",
+        "angle", PAPER_PHASE_LEAD, phase_of("ΔΦ", "K2"), NOISY,
+    ),
+    C.ClaimSpec(
+        "K3", "Fig. 11b", "accelerating flight ({kinematics_power:g} W/kg): the wings flap in phase (|ΔΦ|)",
+        "in phase", "phase", True, phase_of("accel |ΔΦ|", "K3"),
+    ),
+    C.ClaimSpec("K4", "Fig. 12c", PITCH, "η_m,acc > η_m,level", "compare", (">", 0.0), pitch_larger),
+)  # fmt: skip
+
+analyse = Analysis(NAME, TITLE, QUANTITIES, draw, CLAIMS, view)

@@ -15,7 +15,7 @@ from agents.jobs import Job
 from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import StudyOutput, StudyPlan, write_tables
+from eval.studies.base import Analysis, StudyPlan
 from eval.studies.tables import Spread, by_condition, select
 
 NAME = "power"
@@ -109,9 +109,10 @@ def paper_attainable(label: str = "") -> list[tuple[float, float] | tuple[float,
     return [(p, v, label) if label else (p, v) for p, v in PAPER_ATTAINABLE.items()]
 
 
-def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
-    rows, files = write_tables(NAME, records, out_dir, QUANTITIES)
-    study_dir = out_dir / NAME
+def draw(
+    plan: StudyPlan, rows: list[dict[str, Any]], records: Mapping[Job, Record], study_dir: Path
+) -> list[tuple[str, Path]]:
+    """Figs. 7-8: F̄_v and F̄_h, and F̄_a, over powers, one series per method."""
     xlabel = "available power P/m [W/kg]"
     h_obj = plan.reading.horizontal_objective
     label = figures.method_label
@@ -127,7 +128,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
         figures.Series(label(m), attainable(rows, m, "tear-drop", h_obj), method=m)
         for m in plan.methods
     ]
-    figs = [
+    return [
         (
             "Fig. 7: vertical and horizontal specific excess forces against available power",
             figures.sweep_figure(
@@ -156,84 +157,72 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             ),
         ),
     ]
-    found = C.study_claims(
-        rows, plan.methods, lambda r, m, i: _claims(r, m, i, h_obj), options=plan.model_options
-    )
-    return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
-def _number_claims(
-    make: C.ClaimBuilder,
-    cid: str,
-    label: str,
-    figure: str,
-    series: Mapping[float, Spread],
-    paper: Mapping[float, float],
-) -> list[C.Claim]:
-    """``number`` claims ``cid`` a, b, …: ``label`` at each of the paper's powers."""
-    out = []
-    for k, (power, value) in enumerate(paper.items()):
-        head = (f"{cid}{'ab'[k]}", figure, f"{label} at {power:g} W/kg", f"≈ {value:g}")
-        s = series.get(power)
-        if s is None:
-            detail = f"{power:g} W/kg not in this preset"
-            out.append(make.claim(*head, rule="number", detail=detail))
-        else:
-            out.append(make.claim(*head, **C.number_row(s, value)))
-    return out
+def view(
+    plan: StudyPlan, rows: list[dict[str, Any]], method: str
+) -> dict[str, dict[float, Spread]]:
+    """What the claims judge: ``method``'s F̄_v, F̄_h and F̄_a over powers (tear-drop)."""
+    h_obj = plan.reading.horizontal_objective
+    return {
+        "vertical": excess(rows, method, "tear-drop", "vertical"),
+        "horizontal": excess(rows, method, "tear-drop", "horizontal", h_obj),
+        "attainable": attainable(rows, method, "tear-drop", h_obj),
+    }
 
 
-def _claims(
-    rows: list[dict[str, Any]], method: str, index: int, h_obj: str = "horizontal"
-) -> list[C.Claim]:
-    make = C.ClaimBuilder(NAME, method, index)
-    vertical = excess(rows, method, "tear-drop", "vertical")
-    horizontal = excess(rows, method, "tear-drop", "horizontal", h_obj)
-    fa = attainable(rows, method, "tear-drop", h_obj)
-    return [
-        *_number_claims(make, "P1", "F̄_v", "Fig. 7", vertical, PAPER_VERTICAL),
-        *_number_claims(make, "P2", "F̄_h", "Fig. 7", horizontal, PAPER_HORIZONTAL),
-        *_ratio_claim(make, vertical, horizontal),
-        *(
-            make.claim(
-                cid,
-                "Fig. 7",
-                f"{label} increases with available power",
-                "increases",
-                **C.trend_row(series, +1),
-            )
-            for cid, label, series in (("P4", "F̄_v", vertical), ("P5", "F̄_h", horizontal))
-        ),
-        *_number_claims(make, "P6", "attainable F̄_a", "Fig. 8", fa, PAPER_ATTAINABLE),
-    ]
+def at_power(force: str, power: float) -> C.Measure:
+    """``number``: the ``force`` (a :func:`view` key) at ``power`` [W/kg] over seeds."""
+
+    def measure(series: Mapping[str, Mapping[float, Spread]], _: float) -> C.Stats:
+        s = series[force].get(power)
+        return {"detail": f"{power:g} W/kg not in this preset"} if s is None else C.spread_stats(s)
+
+    return measure
 
 
-def _ratio_claim(
-    make: C.ClaimBuilder, vertical: Mapping[float, Spread], horizontal: Mapping[float, Spread]
-) -> list[C.Claim]:
+def rises(force: str) -> C.Measure:
+    """``trend``: ρ(power, the medians of ``force``)."""
+    return lambda series, sign: C.trend_stats(series[force], sign)
+
+
+def ratio(series: Mapping[str, Mapping[float, Spread]], _: Any) -> C.Stats:
     """By how much F̄_v exceeds F̄_h [%] over the powers (none when no power has both)."""
+    vertical, horizontal = series["vertical"], series["horizontal"]
     common = sorted(set(vertical) & set(horizontal))
     ratios = [100.0 * (vertical[p].median / horizontal[p].median - 1.0) for p in common]
     best_ratios = [100.0 * (vertical[p].best / horizontal[p].best - 1.0) for p in common]
     ratios = [r for r in ratios if math.isfinite(r)]
     best_ratios = [r for r in best_ratios if math.isfinite(r)]
     if not ratios:
-        return []
+        return None
     q25, med, q75 = np.percentile(ratios, [25.0, 50.0, 75.0])
-    return [
-        make.claim(
-            "P3",
-            "Fig. 7",
-            "F̄_v exceeds F̄_h by 10-20 % (median over powers; IQR over powers)",
-            "10-20 %",
-            rule="range",
-            test=lambda v: C.in_range(v, *PAPER_RATIO),
-            median=float(med),
-            q25=float(q25),
-            q75=float(q75),
-            best=float(np.median(best_ratios)) if best_ratios else math.nan,
-            unit="%",
-            note="with the same total force |F|, F̄_v = |F|/W − 1 but F̄_h = "
-            "sqrt((|F|/W)² − 1) (see Understood differences)",
-        )
-    ]
+    best = float(np.median(best_ratios)) if best_ratios else math.nan
+    return {"median": float(med), "q25": float(q25), "q75": float(q75), "best": best, "unit": "%"}
+
+
+def _at_powers(cid: str, label: str, figure: str, force: str, paper: Mapping[float, float]):
+    """``number`` claims ``cid`` a, b, …: ``label`` at each of the paper's powers."""
+    return tuple(
+        C.ClaimSpec(f"{cid}{'ab'[k]}", figure, f"{label} at {p:g} W/kg", f"≈ {value:g}", "number", value, at_power(force, p))
+        for k, (p, value) in enumerate(paper.items())
+    )  # fmt: skip
+
+
+GEOMETRY = (
+    "with the same total force |F|, F̄_v = |F|/W − 1 but F̄_h = sqrt((|F|/W)² − 1) (see "
+    "Understood differences)"
+)
+CLAIMS: tuple[C.ClaimSpec, ...] = (
+    *_at_powers("P1", "F̄_v", "Fig. 7", "vertical", PAPER_VERTICAL),
+    *_at_powers("P2", "F̄_h", "Fig. 7", "horizontal", PAPER_HORIZONTAL),
+    C.ClaimSpec(
+        "P3", "Fig. 7", "F̄_v exceeds F̄_h by 10-20 % (median over powers; IQR over powers)",
+        "10-20 %", "range", PAPER_RATIO, ratio, GEOMETRY,
+    ),
+    C.ClaimSpec("P4", "Fig. 7", "F̄_v increases with available power", "increases", "trend", +1, rises("vertical")),
+    C.ClaimSpec("P5", "Fig. 7", "F̄_h increases with available power", "increases", "trend", +1, rises("horizontal")),
+    *_at_powers("P6", "attainable F̄_a", "Fig. 8", "attainable", PAPER_ATTAINABLE),
+)  # fmt: skip
+
+analyse = Analysis(NAME, TITLE, QUANTITIES, draw, CLAIMS, view)

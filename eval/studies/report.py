@@ -4,8 +4,10 @@ no timestamps or timings (those are in ``manifest.json``), so the same command g
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import asdict
 from operator import attrgetter
 from pathlib import Path
 from typing import Any
@@ -20,7 +22,7 @@ from eval.studies.claims import (
 )
 from eval.studies.tables import PINNED_SHARE, pinned_parameters
 from tandem_env import BOUND_TOLERANCE, PARAMETER_NAMES
-from tandem_env.io.files import write_text_atomic
+from tandem_env.io.files import write_json_atomic, write_text_atomic
 from tandem_env.physics.insect import describe_insect
 
 UNDERSTOOD = {
@@ -123,6 +125,20 @@ def claims_table(claims: Sequence[Claim]) -> str:
     return "\n".join(markdown_table(CLAIM_COLUMNS, claims))
 
 
+#: The claims as data beside report.md (:func:`write_report`; ``eval/numbers/quick_claims.py``).
+CLAIMS_FILE = "claims.json"
+
+
+def claims_data(claims: Sequence[Claim]) -> dict[str, Any]:
+    """The claims as JSON: each claim's fields (statistics, verdicts before and after the
+    bootstrap, its flips; NaN as null) and its ``cells`` in the paper-vs-ours table, by title."""
+    nan = lambda v: None if isinstance(v, float) and math.isnan(v) else v  # noqa: E731
+    rows = [{k: nan(v) for k, v in asdict(c).items()} for c in claims]
+    for row, c in zip(rows, claims, strict=True):
+        row["cells"] = {title: cell(c) for title, cell in CLAIM_COLUMNS}
+    return {"claims": rows}
+
+
 def verdict_summary(claims: Sequence[Claim]) -> list[str]:
     """The verdict counts on the median and on the best seed, with the undecided by id."""
     lines = []
@@ -190,7 +206,8 @@ def write_report(
     path: Path, plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str]
 ) -> Path:
     """Write the report to ``path`` (atomically) and return it: settings, rules, every claim
-    beside ours, the pinned parameters, the studies not run and the figures."""
+    beside ours, the pinned parameters, the studies not run and the figures; and the claims as
+    data beside it (:data:`CLAIMS_FILE`)."""
     base = path.parent
     claims = [c for o in outputs for c in o.claims]
     parts = [
@@ -233,6 +250,7 @@ def write_report(
         for caption, figure in o.figures:
             parts += [figure_markdown(caption, figure, base), ""]
     write_text_atomic(path, "\n".join(parts))
+    write_json_atomic(base / CLAIMS_FILE, claims_data(claims))
     return path
 
 

@@ -12,8 +12,8 @@ from agents.jobs import Job
 from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import StudyOutput, StudyPlan, write_tables
-from eval.studies.tables import Spread, by_condition, select, table4_bounds
+from eval.studies.base import Analysis, StudyPlan
+from eval.studies.tables import by_condition, select, table4_bounds
 
 NAME = "speed"
 TITLE = "Level flight: speed sweep (Figs. 4-6)"
@@ -43,8 +43,10 @@ def jobs(plan: StudyPlan) -> list[Job]:
     return plan.jobs("level", plan.preset.speeds)
 
 
-def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
-    rows, files = write_tables(NAME, records, out_dir, QUANTITIES)
+def draw(
+    plan: StudyPlan, rows: list[dict[str, Any]], records: Mapping[Job, Record], study_dir: Path
+) -> list[tuple[str, Path]]:
+    """Figs. 4-6: each quantity over speeds, one series per method."""
 
     def panel(ylabel: str, quantity: str, **paper: Any) -> figures.Panel:
         """``quantity`` over speeds, one series per method, within its Table 4 bounds if any."""
@@ -113,114 +115,82 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             ],
         ),
     )
-    figs = [
+    return [
         (
             caption,
             figures.sweep_figure(
-                panels, "flight speed V [m/s]", title, plan.figure(out_dir / NAME, stem)
+                panels, "flight speed V [m/s]", title, plan.figure(study_dir, stem)
             ),
         )
         for caption, stem, title, panels in specs
     ]
-    found = C.study_claims(rows, plan.methods, _claims, options=plan.model_options)
-    return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
-def _claims(rows: list[dict], method: str, index: int) -> list[C.Claim]:
-    series = select(rows, method=method, task="level", planform="tear-drop")
-    get = lambda q: by_condition(series, q)  # noqa: E731
-    held = lambda q: C.held_at_bound(series, q)  # noqa: E731 (a parameter at a bound: ρ = 0)
-    make = C.ClaimBuilder(NAME, method, index)
-    power, eff = get("power_per_mass"), get("efficiency_pct")
-    trends = [
-        make.claim(
-            cid,
-            "Fig. 4",
-            statement,
-            "rises" if sign > 0 else "falls",
-            **C.trend_row(get(quantity), sign, **held(quantity)),
-        )
-        for cid, quantity, sign, statement in (
-            ("S1", "stroke_plane_angle", +1, "stroke-plane angle rises with V"),
-            ("S2", "mean_angle_of_attack", -1, "mean angle of attack falls with V"),
-            ("S3", "thrust_ratio", -1, "thrust ratio T/W falls with V"),
-        )
-    ]
-    not_minimised = "η, not P, is maximised: P/m at the η-optimum need not be the minimum power."
-    return [
-        *trends,
-        make.claim(
-            "S4",
-            "Fig. 5",
-            "power P/m is lowest at V = 1.5 m/s",
-            "1.5 m/s",
-            **C.location_row(power, PAPER_BEST_SPEED, "min", note=not_minimised),
-        ),
-        *(
-            _follows(make, cid, label, power, get(quantity), held(quantity))
-            for cid, label, quantity in (
-                ("S5", "frequency f", "frequency"),
-                ("S6", "weaving amplitude φ_m", "sweep_amplitude"),
-            )
-        ),
-        _peak_efficiency(make, eff),
-        make.claim(
-            "S8",
-            "Fig. 6",
-            "efficiency peaks at V = 1.5 m/s",
-            "1.5 m/s",
-            **C.location_row(eff, PAPER_BEST_SPEED, "max"),
-        ),
-    ]
+def view(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> list[Mapping[str, Any]]:
+    """What the claims judge: ``method``'s level-flight rows (tear-drop)."""
+    return select(rows, method=method, task="level", planform="tear-drop")
 
 
-def _follows(
-    make: C.ClaimBuilder,
-    cid: str,
-    label: str,
-    power: Mapping[float, Spread],
-    other: Mapping[float, Spread],
-    held: Mapping[str, Any],
-) -> C.Claim:
-    """``follows``: ρ between the power's and ``other``'s medians (and best seeds) over speeds;
-    0 where a Table 4 bound holds ``other`` (``held``: :func:`claims.held_at_bound`)."""
-    common = [v for v in power if v in other]
-    r = C.rho([power[v].median for v in common], [other[v].median for v in common])
-    r_best = C.rho([power[v].best for v in common], [other[v].best for v in common])
-    statement = f"{label} follows the power trend"
-    return make.claim(
-        cid,
-        "Fig. 5",
-        statement,
-        "follows P",
-        rule="follows",
-        test=C.trend_test(+1),
-        **{"median": r, "best": r_best, "unit": "(ρ)", **held},
+def trend(quantity: str) -> C.Measure:
+    """``trend``: ρ(V, the medians of ``quantity``); 0 where a Table 4 bound holds it."""
+    return lambda rows, sign: C.trend_stats(
+        by_condition(rows, quantity), sign, **C.held_at_bound(rows, quantity)
     )
 
 
-def _peak_efficiency(make: C.ClaimBuilder, eff: Mapping[float, Spread]) -> C.Claim:
+def follows(quantity: str) -> C.Measure:
+    """``follows``: ρ between the power's and ``quantity``'s medians (and best seeds) over
+    speeds; 0 where a Table 4 bound holds ``quantity``."""
+    return lambda rows, _: C.follows_stats(
+        by_condition(rows, "power_per_mass"),
+        by_condition(rows, quantity),
+        **C.held_at_bound(rows, quantity),
+    )
+
+
+def extremum(quantity: str, kind: str) -> C.Measure:
+    """``location``: the speed of the lowest (``min``) or highest medians of ``quantity``."""
+    return lambda rows, _: C.location_stats(by_condition(rows, quantity), kind)
+
+
+def peak_efficiency(rows: list[Mapping[str, Any]], _: float) -> C.Stats:
     """The highest median η over speeds against the paper's 12.7 % (Fig. 6)."""
-    paper = f"{PAPER_PEAK_EFFICIENCY} %"
-    finite = {v: s for v, s in eff.items() if not math.isnan(s.median)}
+    finite = {
+        v: s for v, s in by_condition(rows, "efficiency_pct").items() if not math.isnan(s.median)
+    }
     if not finite:
         statement = "peak level-flight efficiency"
-        return make.claim(
-            "S7", "Fig. 6", statement, paper, rule="number", detail="no feasible seed"
-        )
+        return {"statement": statement, "detail": "no feasible seed", "note": ""}
     peak_speed = max(finite, key=lambda v: finite[v].median)
     s = finite[peak_speed]
-    return make.claim(
-        "S7",
-        "Fig. 6",
-        "peak level-flight efficiency (≈ 13 % flight-muscle efficiency)",
-        paper,
-        **C.number_row(
-            s,
-            PAPER_PEAK_EFFICIENCY,
-            best=max(x.best for x in finite.values()),
-            unit="%",
-            detail=f"at V = {peak_speed:g} m/s, {C.seeds_feasible(s)}",
-            note=SIGN_NOTE,
-        ),
+    return C.spread_stats(
+        s,
+        best=max(x.best for x in finite.values()),
+        unit="%",
+        detail=f"at V = {peak_speed:g} m/s, {C.seeds_feasible(s)}",
     )
+
+
+FOLLOWS = "follows the power trend"
+CLAIMS: tuple[C.ClaimSpec, ...] = (
+    C.ClaimSpec("S1", "Fig. 4", "stroke-plane angle rises with V", "rises", "trend", +1, trend("stroke_plane_angle")),
+    C.ClaimSpec("S2", "Fig. 4", "mean angle of attack falls with V", "falls", "trend", -1, trend("mean_angle_of_attack")),
+    C.ClaimSpec("S3", "Fig. 4", "thrust ratio T/W falls with V", "falls", "trend", -1, trend("thrust_ratio")),
+    C.ClaimSpec(
+        "S4", "Fig. 5", "power P/m is lowest at V = 1.5 m/s", "1.5 m/s", "location", PAPER_BEST_SPEED,
+        extremum("power_per_mass", "min"),
+        "η, not P, is maximised: P/m at the η-optimum need not be the minimum power.",
+    ),
+    C.ClaimSpec("S5", "Fig. 5", f"frequency f {FOLLOWS}", "follows P", "follows", +1, follows("frequency")),
+    C.ClaimSpec("S6", "Fig. 5", f"weaving amplitude φ_m {FOLLOWS}", "follows P", "follows", +1, follows("sweep_amplitude")),
+    C.ClaimSpec(
+        "S7", "Fig. 6", "peak level-flight efficiency (≈ 13 % flight-muscle efficiency)",
+        f"{PAPER_PEAK_EFFICIENCY} %", "number", PAPER_PEAK_EFFICIENCY, peak_efficiency, SIGN_NOTE,
+    ),
+    C.ClaimSpec(
+        "S8", "Fig. 6", "efficiency peaks at V = 1.5 m/s", "1.5 m/s", "location", PAPER_BEST_SPEED,
+        extremum("efficiency_pct", "max"),
+    ),
+)  # fmt: skip
+
+analyse = Analysis(NAME, TITLE, QUANTITIES, draw, CLAIMS, view)

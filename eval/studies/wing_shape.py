@@ -15,7 +15,7 @@ from agents.jobs import Job
 from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
-from eval.studies.base import StudyOutput, StudyPlan, write_tables
+from eval.studies.base import Analysis, StudyPlan
 from eval.studies.power import attainable, excess_label, paper_attainable, series_jobs
 from eval.studies.speed import PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY
 from eval.studies.tables import Spread, by_condition
@@ -63,9 +63,10 @@ def planform_outlines(n: int = 200) -> list[tuple[str, np.ndarray, np.ndarray, n
     return out
 
 
-def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> StudyOutput:
-    rows, files = write_tables(NAME, records, out_dir, QUANTITIES)
-    study_dir = out_dir / NAME
+def draw(
+    plan: StudyPlan, rows: list[dict[str, Any]], records: Mapping[Job, Record], study_dir: Path
+) -> list[tuple[str, Path]]:
+    """Figs. 14-16: the planforms, and η and F̄_a of each planform, one series per method."""
     h_obj = plan.reading.horizontal_objective
 
     def by_planform(points: Callable[[str, str], Mapping[float, Spread]]) -> list[figures.Series]:
@@ -83,7 +84,7 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
 
     eff = by_planform(lambda m, planform: _efficiency(rows, m, planform))
     acc = by_planform(lambda m, planform: attainable(rows, m, planform, h_obj))
-    figs = [
+    return [
         (
             "Fig. 14: tear-drop and real wing planforms",
             figures.planform_figure(planform_outlines(), plan.figure(study_dir, "fig14_planforms")),
@@ -130,10 +131,6 @@ def analyse(plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path) -> St
             ),
         ),
     ]
-    found = C.study_claims(
-        rows, plan.methods, lambda r, m, i: _claims(r, m, i, h_obj), options=plan.model_options
-    )
-    return StudyOutput(NAME, TITLE, rows, figs, found, files)
 
 
 def _paper_gain(rows: list[dict[str, Any]], method: str) -> list[tuple[float, float, str]]:
@@ -168,62 +165,61 @@ def _share_better(real: Mapping[float, Spread], tear: Mapping[float, Spread], st
     return math.nan if not pairs else float(np.mean([a > b for a, b in pairs]))
 
 
-def _claims(
-    rows: list[dict[str, Any]], method: str, index: int, h_obj: str = "horizontal"
-) -> list[C.Claim]:
-    make = C.ClaimBuilder(NAME, method, index)
-    eff = {pf: _efficiency(rows, method, pf) for pf in PLANFORMS}
-    acc = {pf: attainable(rows, method, pf, h_obj) for pf in PLANFORMS}
-    every_speed = "the real wing is more efficient than the tear-drop at every speed"
-    every_power = "the real wing attains slightly more F̄_a at every power"
-    return [
-        make.claim(
-            "W1", "Fig. 15", f"{every_speed} (share of speeds)", "every speed", **_real_wins(eff)
-        ),
-        *_gain_at_2(make, eff),
-        *(
-            make.claim(
-                f"W3{'ab'[k]}",
-                "Fig. 15",
-                f"{pf} wing: efficiency peaks at 1.5 m/s",
-                "1.5 m/s",
-                **C.location_row(eff[pf], PAPER_BEST_SPEED, "max"),
-            )
-            for k, pf in enumerate(PLANFORMS)
-        ),
-        make.claim(
-            "W4", "Fig. 16", f"{every_power} (share of powers)", "every power", **_real_wins(acc)
-        ),
-    ]
+Planforms = Mapping[str, Mapping[str, Mapping[float, Spread]]]
 
 
-def _real_wins(by_planform: Mapping[str, Mapping[float, Spread]]) -> dict[str, Any]:
-    """``compare``: the share of conditions where the real wing beats the tear-drop is 1."""
-    real, tear = by_planform["real"], by_planform["tear-drop"]
-    return C.compare_row(
-        _share_better(real, tear, "median"),
-        _share_better(real, tear, "best"),
-        lambda share: share == 1.0,
-    )
+def view(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> Planforms:
+    """What the claims judge: ``method``'s η over speeds (``efficiency``) and F̄_a over powers
+    (``attainable``) of each planform."""
+    h_obj = plan.reading.horizontal_objective
+    return {
+        "efficiency": {pf: _efficiency(rows, method, pf) for pf in PLANFORMS},
+        "attainable": {pf: attainable(rows, method, pf, h_obj) for pf in PLANFORMS},
+    }
 
 
-def _gain_at_2(make: C.ClaimBuilder, eff: Mapping[str, Mapping[float, Spread]]) -> list[C.Claim]:
+def real_wins(quantity: str) -> C.Measure:
+    """``compare``: the share of conditions where the real wing's ``quantity`` beats the
+    tear-drop's (the claim: 1)."""
+
+    def measure(by: Planforms, _: Any) -> C.Stats:
+        real, tear = by[quantity]["real"], by[quantity]["tear-drop"]
+        return {
+            "median": _share_better(real, tear, "median"),
+            "best": _share_better(real, tear, "best"),
+        }
+
+    return measure
+
+
+def peak(planform: str) -> C.Measure:
+    """``location``: the speed of the highest median η of ``planform``."""
+    return lambda by, _: C.location_stats(by["efficiency"][planform], "max")
+
+
+def gain_at_2(by: Planforms, _: float) -> C.Stats:
     """The real wing's relative efficiency gain at 2 m/s [%] (none without both wings there)."""
-    real2, tear2 = eff["real"].get(2.0), eff["tear-drop"].get(2.0)
+    real2, tear2 = by["efficiency"]["real"].get(2.0), by["efficiency"]["tear-drop"].get(2.0)
     if real2 is None or tear2 is None:
-        return []
-    gain = 100.0 * (real2.median / tear2.median - 1.0)
-    return [
-        make.claim(
-            "W2",
-            "Fig. 15",
-            "efficiency gain of the real wing at 2 m/s (relative)",
-            "≈ 12 %",
-            rule="number",
-            test=lambda v: C.close(v, PAPER_GAIN_AT_2),
-            median=gain,
-            best=100.0 * (real2.best / tear2.best - 1.0),
-            unit="%",
-            detail=f"η real {real2.describe()} %, tear-drop {tear2.describe()} %",
-        )
-    ]
+        return None
+    return {
+        "median": 100.0 * (real2.median / tear2.median - 1.0),
+        "best": 100.0 * (real2.best / tear2.best - 1.0),
+        "unit": "%",
+        "detail": f"η real {real2.describe()} %, tear-drop {tear2.describe()} %",
+    }
+
+
+EVERY_SPEED = "the real wing is more efficient than the tear-drop at every speed (share of speeds)"
+EVERY_POWER = "the real wing attains slightly more F̄_a at every power (share of powers)"
+CLAIMS: tuple[C.ClaimSpec, ...] = (
+    C.ClaimSpec("W1", "Fig. 15", EVERY_SPEED, "every speed", "compare", ("==", 1.0), real_wins("efficiency")),
+    C.ClaimSpec("W2", "Fig. 15", "efficiency gain of the real wing at 2 m/s (relative)", "≈ 12 %", "number", PAPER_GAIN_AT_2, gain_at_2),
+    *(
+        C.ClaimSpec(f"W3{'ab'[k]}", "Fig. 15", f"{pf} wing: efficiency peaks at 1.5 m/s", "1.5 m/s", "location", PAPER_BEST_SPEED, peak(pf))
+        for k, pf in enumerate(PLANFORMS)
+    ),
+    C.ClaimSpec("W4", "Fig. 16", EVERY_POWER, "every power", "compare", ("==", 1.0), real_wins("attainable")),
+)  # fmt: skip
+
+analyse = Analysis(NAME, TITLE, QUANTITIES, draw, CLAIMS, view)

@@ -1,5 +1,5 @@
 """The quick preset's claims table under several BLAS kernels (eval/numbers/quick_claims.py):
-a run's claims read back from its report, and the kernels' runs merged, on small fake runs (no
+a run's claims read back from its claims.json, and the kernels' runs merged, on small fake runs (no
 study is run here)."""
 
 from __future__ import annotations
@@ -10,7 +10,8 @@ from typing import Any
 
 from eval.numbers import quick_claims
 from eval.studies.claims import Claim
-from eval.studies.report import claims_table, verdict_summary
+from eval.studies.report import claims_data, verdict_summary
+from tandem_env.io.files import write_json_atomic
 
 MACHINE = {"date": "2026-12-06 12:00 UTC", "cpus": 2, "processor": "x86_64", "python": "3.12"}
 
@@ -21,17 +22,17 @@ def claim(id: str, verdict: str, best_verdict: str, median: float = 1.0, **kw: A
 
 
 def run(claims: list[Claim], tmp_path: Path, name: str) -> dict[str, Any]:
-    """A fake run's stored data: its claims as read back from a report holding their table."""
-    report = tmp_path / f"{name}.md"
-    report.write_text(f"# report\n\n{claims_table(claims)}\n\n## Notes\n", encoding="utf-8")
-    return {"rows": quick_claims.read_claims(report), "wall_time_s": 80.0}
+    """A fake run's stored data: its claims as read back from the claims.json of a report."""
+    path = tmp_path / f"{name}.json"
+    write_json_atomic(path, claims_data(claims))
+    return {"rows": quick_claims.read_claims(path), "wall_time_s": 80.0}
 
 
 def test_report_rows_read_back(tmp_path: Path) -> None:
     claims = [claim("S1", "agrees", "undecided", math.nan), claim("K1", "differs", "differs")]
     rows = run(claims, tmp_path, "one")["rows"]
     assert [r["id"] for r in rows] == ["S1", "K1"]
-    assert rows[0]["claim"] == "a claim (|ΔΦ|)"  # the escaped pipes are the claim's own
+    assert rows[0]["claim"] == "a claim (|ΔΦ|)"  # the pipes are the claim's own
     assert rows[0]["ours: median [IQR]"] == "–"
     assert rows[0]["verdict: best seed"] == "undecided (leans undecided, flips 10 %)"
     assert quick_claims.verdicts(rows[0]) == {"median": "agrees", "best seed": "undecided"}

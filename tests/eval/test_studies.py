@@ -87,6 +87,14 @@ def test_every_study_writes_records_csv_figures_and_report(study_dir: Path) -> N
         assert table[cid]["verdict: median"] == table[cid]["verdict: best seed"] == blind
     assert not table["K4"]["verdict: median"].startswith("not identifiable")
     assert "not identifiable (K1, K2, K3)" in report
+    # The claims as data beside the report: the same rows, their numbers and verdict words.
+    data = json.loads((study_dir / "claims.json").read_text(encoding="utf-8"))["claims"]
+    assert [c["id"] for c in data] == list(table)
+    for c in data:
+        assert {k: v.replace("|", "\\|") for k, v in c["cells"].items()} == table[c["id"]]
+        assert c["cells"]["verdict: median"].startswith(c["verdict"])
+        assert c["cells"]["verdict: best seed"].startswith(c["best_verdict"])
+        assert c["median"] is None or f"{c['median']:.3g}" in c["cells"]["ours: median [IQR]"]
     # Every figure is linked from the report with a path relative to it.
     for png in study_dir.glob("*/fig*.png"):
         assert f"]({png.relative_to(study_dir).as_posix()})" in report
@@ -316,40 +324,46 @@ def _spread(values: list[float]) -> Spread:
 
 
 def test_agreement_rules() -> None:
-    def ok(row: dict) -> bool | None:
-        return claims.judge(row["median"], row["test"])
+    def ok(row: dict, rule: claims.Rule, target: object) -> bool | None:
+        return claims.judge(row["median"], rule, target)
 
-    assert ok(claims.number_row(_spread([12.0, 13.0, 14.0]), 12.7))
-    assert not ok(claims.number_row(_spread([30.0, 31.0]), 12.7))
+    assert ok(claims.spread_stats(_spread([12.0, 13.0, 14.0])), "number", 12.7)
+    assert not ok(claims.spread_stats(_spread([30.0, 31.0])), "number", 12.7)
     rising = {v: _spread([v, v + 0.1]) for v in (0.5, 1.0, 1.5, 2.0)}
-    row = claims.trend_row(rising, +1)
-    assert row["median"] == pytest.approx(1.0) and ok(row) and "1.00" in row["detail"]
-    assert ok(claims.trend_row(rising, -1)) is False
+    row = claims.trend_stats(rising, +1)
+    assert row["median"] == pytest.approx(1.0) and ok(row, "trend", +1) and "1.00" in row["detail"]
+    assert ok(row, "trend", -1) is False
     valley = {v: _spread([abs(v - 1.5) + 1]) for v in (0.5, 1.0, 1.5, 2.0)}
-    assert ok(claims.location_row(valley, 1.5, "min"))
-    assert claims.location_row(valley, 1.5, "max")["median"] == 0.5
-    assert claims.in_range(21.0, 10.0, 20.0) and not claims.in_range(30.0, 10.0, 20.0)
+    assert ok(claims.location_stats(valley, "min"), "location", 1.5)
+    assert claims.location_stats(valley, "max")["median"] == 0.5
+    assert claims.judge(21.0, "range", (10.0, 20.0))
+    assert not claims.judge(30.0, "range", (10.0, 20.0))
     assert math.isnan(claims.rho([1.0, 2.0], [1.0, 2.0]))
 
 
 def test_phase_angle_and_compare_rules() -> None:
-    assert claims.phase(14.9, in_phase=True) and not claims.phase(15.0, in_phase=True)
-    assert claims.phase(15.0, in_phase=False) and not claims.phase(3.0, in_phase=False)
-    assert claims.angle(44.0, 30.0) and not claims.angle(46.0, 30.0)
-    assert claims.close(-9.0, -10.0) and not claims.close(-7.0, -10.0)
-    assert claims.phase(math.nan, in_phase=True) is None and claims.close(math.nan, 1.0) is None
-    make = claims.ClaimBuilder("speed", "random", 1)
-    row = make.claim(
-        "S9", "Fig. 0", "x", "every speed", **claims.compare_row(0.5, 1.0, lambda v: v == 1)
+    assert claims.judge(14.9, "phase", True) and not claims.judge(15.0, "phase", True)
+    assert claims.judge(15.0, "phase", False) and not claims.judge(3.0, "phase", False)
+    assert claims.judge(44.0, "angle", 30.0) and not claims.judge(46.0, "angle", 30.0)
+    assert claims.judge(-9.0, "number", -10.0) and not claims.judge(-7.0, "number", -10.0)
+    assert claims.judge(math.nan, "phase", True) is None
+    assert claims.judge(math.nan, "number", 1.0) is None
+    assert claims.judge(0.0, "compare", (">", 0.0)) is False
+    spec = claims.ClaimSpec(
+        "S9", "Fig. 0", "x", "every speed", "compare", ("==", 1.0), lambda _, __: {"median": 0.5}
     )
+    [row] = claims.judged([spec], "speed", None, "random", 1)
     assert (row.id, row.study, row.rule, row.verdict) == (
         "S9/random",
         "speed",
         "compare",
         "differs",
     )
-    none = make.claim("S9", "Fig. 0", "x", "1.5 m/s", rule="location")
-    assert none.verdict == "no data" and math.isnan(none.median)
+    none = claims.ClaimSpec("S9", "Fig. 0", "x", "1.5 m/s", "location", 1.5, lambda _, __: {})
+    [row] = claims.judged([none], "speed", None, "pso", 0)
+    assert row.verdict == "no data" and math.isnan(row.median)
+    # a claim whose data is not run is not made
+    assert claims.judged([replace(none, measure=lambda _, __: None)], "speed", None, "pso", 0) == []
 
 
 def test_figures_in_another_format_and_the_report_shows_them(tmp_path: Path) -> None:

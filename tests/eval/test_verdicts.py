@@ -11,6 +11,8 @@ import pytest
 
 from eval.studies import claims as C
 from eval.studies import report, speed
+from eval.studies.base import StudyPlan
+from eval.studies.presets import TINY
 from eval.studies.tables import spread
 from tandem_env import LOWER, PARAMETER_NAMES, UPPER, ModelOptions
 
@@ -34,10 +36,15 @@ def _rows(values: list[float], condition: float = 1.0, method: str = "cmaes") ->
     ]
 
 
+def _x(rows: list[dict[str, Any]], _: Any) -> C.Stats:
+    return C.spread_stats(spread(rows, "x"))
+
+
+X1 = C.ClaimSpec("X1", "Fig. 0", "x is about 10", "≈ 10", "number", PAPER, _x)
+
+
 def _number_claims(rows: list[dict[str, Any]], method: str = "cmaes", index: int = 0):
-    make = C.ClaimBuilder("test", method, index)
-    s = spread([r for r in rows if r["method"] == method], "x")
-    return [make.claim("X1", "Fig. 0", "x is about 10", "≈ 10", **C.number_row(s, PAPER))]
+    return C.judged([X1], "test", [r for r in rows if r["method"] == method], method, index)
 
 
 def test_a_claim_far_from_its_threshold_is_decided() -> None:
@@ -94,7 +101,8 @@ def test_resampling_keeps_a_seeds_optimisations_together() -> None:
 
 def test_no_data_is_not_resampled_and_counts_apart() -> None:
     def none(rows: list[dict]) -> list[C.Claim]:
-        return [C.ClaimBuilder("t", "cmaes", 0).claim("X2", "Fig. 0", "x", "x", rule="number")]
+        spec = C.ClaimSpec("X2", "Fig. 0", "x", "x", "number", 1.0, lambda rows, _: {})
+        return C.judged([spec], "t", rows, "cmaes", 0)
 
     [c] = C.with_confidence(none, _rows([1.0, 2.0]))
     assert c.verdict == "no data" and math.isnan(c.flips)
@@ -123,16 +131,15 @@ def test_study_claims_bootstrap_each_method_on_its_own_rows() -> None:
 # --- identifiability: no verdict on what the model does not depend on -------------------------
 def _phase_claims(rows: list[dict[str, Any]], method: str = "cmaes", index: int = 0):
     """X1 about the fore/hind phase in forward flight, X2 in hover, X3 about nothing lacking."""
-    make = C.ClaimBuilder("test", method, index)
-    s = spread([r for r in rows if r["method"] == method], "x")
-    return [
-        make.claim(
+    specs = [
+        C.ClaimSpec(
             cid,
             "Fig. 0",
             "x is about 10",
             "≈ 10",
-            **C.number_row(s, PAPER),
-            depends_on=depends,
+            "number",
+            PAPER,
+            lambda rows, _, depends=depends: {**_x(rows, _), "depends_on": depends},
         )
         for cid, depends in (
             ("X1", (C.Dependence(C.PHASE),)),
@@ -140,6 +147,7 @@ def _phase_claims(rows: list[dict[str, Any]], method: str = "cmaes", index: int 
             ("X3", ()),
         )
     ]
+    return C.judged(specs, "test", [r for r in rows if r["method"] == method], method, index)
 
 
 def test_claims_about_the_phase_are_not_identifiable_under_a_phase_blind_model() -> None:
@@ -191,8 +199,6 @@ def test_the_phase_claims_are_about_the_phase_at_their_optimisations_speeds() ->
     """K1 and K2 at their level-flight speeds, K3 at the accelerating env's speed (hover), where
     ``hover_inflow="none"`` leaves no slipstream to carry the phase even when convected."""
     from eval.studies import kinematics
-    from eval.studies.base import StudyPlan
-    from eval.studies.presets import TINY
 
     found = kinematics.phase_dependences(StudyPlan(TINY))
     speeds = {cid: d.speed for cid, (d,) in found.items()}
@@ -223,7 +229,7 @@ def _level_rows(sweep: dict[float, float], beta: float = 15.0) -> list[dict[str,
 
 
 def _speed_claims(rows: list[dict[str, Any]]) -> dict[str, C.Claim]:
-    found = C.study_claims(rows, ["cmaes"], speed._claims, options=ModelOptions())
+    found = speed.analyse.judge(StudyPlan(TINY, ("cmaes",)), rows)
     return {c.id: c for c in found}
 
 
