@@ -352,7 +352,9 @@ def table_strokes(
         )
     near = [j for j in (i, i - 1, i + 1) if 0 <= j < len(series.points)]
     strokes = (tuple(map(float, series.points[j]["normalised_stroke"])) for j in near)
-    return tuple(dict.fromkeys(s for j, s in zip(near, strokes) if series.points[j]["feasible"]))
+    return tuple(
+        dict.fromkeys(s for j, s in zip(near, strokes, strict=True) if series.points[j]["feasible"])
+    )
 
 
 def record_score(
