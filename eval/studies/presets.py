@@ -236,7 +236,7 @@ QUICK = Preset(
     description=(
         "CMA-ES, 3 seeds, 8 000 (level) / 4 000 (accelerating) evaluations per optimisation, "
         "5 speeds, 3 powers, both planforms at 3 speeds and 2 powers; measured wall times "
-        "in docs/reproduction.md"
+        "in docs/reproduction.md; warm-started from the reference table"
     ),
     seeds=(0, 1, 2),
     method="cmaes",
@@ -254,7 +254,7 @@ PAPER = Preset(
     description=(
         "CMA-ES, 8 seeds, 16 000 (level) / 12 000 (accelerating) evaluations per optimisation, "
         "all 8 speeds and 5 powers, both planforms everywhere; measured wall times in "
-        "docs/reproduction.md"
+        "docs/reproduction.md; warm-started from the reference table"
     ),
     seeds=(0, 1, 2, 3, 4, 5, 6, 7),
     method="cmaes",
