@@ -151,6 +151,8 @@ class StudyPlan:
         starts, in words: from the table, or cold and why (:func:`~eval.studies.presets.warm_start`)."""
         if self.preset.warm_start == "none":
             return {}, "cold (warm start none)"
+        if self.reading.search is not None:  # it is how the reading finds its optima
+            return {}, f"cold: the reading's own search ({self.reading.search.describe()})"
         if not split_settings(method, dict(self.method_config(method)))[0].enabled:
             return {}, f"cold: {method} has no polish to warm-start"
         try:

@@ -12,6 +12,7 @@ from agents.harness import run_job
 from eval.__main__ import main
 from eval.studies import PAPER_STUDIES
 from eval.studies.base import StudyPlan
+from eval.studies.paper_reading import Reading, Search
 from eval.studies.presets import PAPER, TINY, WARM_SHARE
 from tandem_env.envs.reference import reference_series, table_strokes
 
@@ -69,9 +70,11 @@ def test_studies_warm_start_where_the_table_has_the_problem_and_say_where_not() 
             else:  # the coarse model is another problem: a cold start, and the reason
                 assert "initial" not in settings
                 assert how.startswith("cold: the reference table has no") and "fingerprint" in how
-    # the budget study compares the methods' own searches: cold
-    cold = StudyPlan(replace(PAPER, warm_start="none")).jobs("level", [1.25])
-    assert all("initial" not in dict(j.method_config) for j in cold)
+    # warm start none, and a reading's own search (how it finds its optima), start cold
+    search = Reading("c", "a test search", search=Search("cmaes", swarm_size=12, iterations=5))
+    for plan in (StudyPlan(replace(PAPER, warm_start="none")), StudyPlan(PAPER, reading=search)):
+        assert all("initial" not in dict(j.method_config) for j in plan.jobs("level", [1.25]))
+    assert "cold: the reading's own search" in plan.warm_start("cmaes", "level", 1.25, {})[1]
 
 
 def test_a_warm_started_record_names_its_strokes_and_reaches_the_table() -> None:
