@@ -24,6 +24,7 @@ from agents.runner import JobsFailed, OutputNotWritable, run_jobs
 from agents.store import StoreWriteError
 from agents.tasks import TaskSpec, available_tasks, get_task
 from eval.studies.paper_reading import Reading
+from eval.studies.presets import WARM_SHARE, WARM_STARTS, warm_start
 from eval.studies.readings import reading_by_name
 from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
 from tandem_env.io.command import checked_by
@@ -214,6 +215,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "polish_share sets its part)",
     )
     parser.add_argument(
+        "--warm-start",
+        choices=WARM_STARTS,
+        default="none",
+        help="table: polish the reference table's optimum at this condition and its grid "
+        f"neighbours' first, on {WARM_SHARE:g} of --budget (counted in it; the job's "
+        "initial strokes, docs/reference.md); an error where the table has no such point. "
+        "Default none: a cold start",
+    )
+    parser.add_argument(
         "--reading",
         metavar="NAME",
         help="run under a reading of the paper's open decisions (eval/studies/readings/): "
@@ -346,6 +356,14 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> l
                 "--env-kwargs, not both"
             )
         env_kwargs.update(reading_kwargs)
+        if args.warm_start == "table":
+            if {"initial", "initial_share"} & set(method_config):
+                raise ValueError("give --warm-start table or --method-config initial=..., not both")
+            with_objective = {**env_kwargs, **({"objective": objective} if objective else {})}
+            try:
+                method_config.update(warm_start(task.name, condition, with_objective))
+            except ValueError as error:
+                raise ValueError(f"--warm-start table: {error}") from None
         return prepare(
             args.method,
             task,

@@ -8,22 +8,29 @@ of their figures and claims); jobs two studies share run once.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from agents.jobs import Job
 from agents.methods import preset_batch_setting
+from agents.polish_config import split_settings
 from agents.records import Record
 from agents.store import RECORDS_DIR
+from agents.tasks import get_task
 from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim, ClaimSpec, judged, study_claims
 from eval.studies.paper_reading import DEFAULT, Reading
-from eval.studies.presets import Preset, distinct, is_name
+from eval.studies.presets import WARM_SHARE, Preset, distinct, is_name, warm_start
 from eval.studies.tables import spread_summary_rows, tidy_rows
 from tandem_env import PARAMETER_NAMES, ModelOptions
 from tandem_env.envs.config import EXECUTION_KWARGS, MODEL_OPTION_KWARGS
+from tandem_env.envs.reference import ConfigReference
+from tandem_env.envs.registration import config_class
 from tandem_env.io.files import write_csv_atomic, write_json_atomic
 from tandem_env.physics import BACKENDS
 from tandem_env.physics.backends import check_backend
@@ -31,6 +38,11 @@ from tandem_env.physics.insect import DRAGONFLY, Dragonfly
 
 #: A study's index of the records it analysed, ``DIR/<study>/records.json`` (:func:`write_tables`).
 INDEX_FILE = "records.json"
+#: The target of the searches against the reference table: the seeds' median within this [%].
+GAP_TARGET = 1.0
+#: A stroke the table holds replays to its objective within this (relative): a best seed lower
+#: by more is below the table (tests/envs/test_reference.py).
+REPLAY_RTOL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -120,6 +132,38 @@ class StudyPlan:
         given = None if search is None else search.budget(task)
         return self.preset.budget(task) if given is None else given
 
+    def env_kwargs(
+        self, task: str, objective: str | None = None, planform: str = "tear-drop"
+    ) -> dict[str, Any]:
+        """The env keywords of the plan's jobs of one series (the condition aside); ``objective``
+        is the env's (after the reading's), for a task that takes one."""
+        kwargs: dict[str, Any] = dict(self.preset.env_kwargs)
+        kwargs.update(self.reading.env_kwargs())
+        kwargs.update(self.execution)
+        if self.insect != DRAGONFLY:
+            kwargs["insect"] = self.insect  # the job keeps what differs from the specimen
+        kwargs["planform"] = planform
+        if get_task(task).declared_objectives.keyword is not None and objective is not None:
+            kwargs["objective"] = objective
+        return kwargs
+
+    def warm_start(
+        self, method: str, task: str, condition: float, kwargs: Mapping[str, Any]
+    ) -> tuple[dict[str, Any], str]:
+        """The method settings of the preset's warm start of one job (none: ``{}``) and how it
+        starts, in words: from the table, or cold and why (:func:`~eval.studies.presets.warm_start`)."""
+        if self.preset.warm_start == "none":
+            return {}, "cold (warm start none)"
+        if self.reading.search is not None:  # it is how the reading finds its optima
+            return {}, f"cold: the reading's own search ({self.reading.search.describe()})"
+        if not split_settings(method, dict(self.method_config(method)))[0].enabled:
+            return {}, f"cold: {method} has no polish to warm-start"
+        try:
+            settings = warm_start(task, condition, kwargs)
+        except ValueError as error:
+            return {}, f"cold: {error}"
+        return settings, f"table ({len(settings['initial'])} strokes)"
+
     def jobs(
         self,
         task: str,
@@ -129,17 +173,13 @@ class StudyPlan:
         planform: str = "tear-drop",
         budget: int | None = None,
         seeds: Sequence[int] | None = None,
+        warm: bool = True,
     ) -> list[Job]:
         """Every method × condition × seed of one series under the plan's reading (the plan's
-        :meth:`budget` and the preset's seeds unless given)."""
-        kwargs: dict[str, Any] = dict(self.preset.env_kwargs)
-        kwargs.update(self.reading.env_kwargs())
-        kwargs.update(self.execution)
-        if self.insect != DRAGONFLY:
-            kwargs["insect"] = self.insect  # the job keeps what differs from the specimen
-        kwargs["planform"] = planform
-        if objective is not None:
-            kwargs["objective"] = self.reading.objective(objective)
+        :meth:`budget` and the preset's seeds unless given); ``warm``: with the preset's
+        :meth:`warm_start`."""
+        given = None if objective is None else self.reading.objective(objective)
+        kwargs = self.env_kwargs(task, given, planform)
         return [
             Job(
                 method=method,
@@ -148,12 +188,59 @@ class StudyPlan:
                 budget=self.budget(task) if budget is None else budget,
                 seed=seed,
                 env_kwargs=tuple(kwargs.items()),
-                method_config=self.method_config(method),
+                method_config={
+                    **dict(self.method_config(method)),
+                    **(self.warm_start(method, task, float(c), kwargs)[0] if warm else {}),
+                },
                 preset=self.preset.name,
             )
             for method in self.methods
             for c in conditions
             for seed in (self.preset.seeds if seeds is None else seeds)
+        ]
+
+    def table_lines(self, rows: Sequence[Mapping[str, Any]]) -> list[str]:
+        """The report's check against the reference table (Markdown): per series and condition,
+        how the searches started, the table's optimum and the seeds' median and best objective
+        with their gap below it [%]; the conditions within :data:`GAP_TARGET` and any best seed
+        below the table (beyond the replay's :data:`REPLAY_RTOL`)."""
+        groups: dict[tuple[Any, ...], list[Mapping[str, Any]]] = {}
+        for row in {r["key"]: r for r in rows}.values():
+            key = (row["method"], row["task"], row["objective"], row["planform"], row["condition"])
+            groups.setdefault(key, []).append(row)
+        lines = [
+            f"Warm start `{self.preset.warm_start}` ({WARM_SHARE:g} of each budget for the "
+            "table's strokes, counted in it; docs/reference.md, Warm starts).",
+            "",
+            "| method | series | condition | start | table | median (gap %) | best (gap %) |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        median_gaps, below = [], []
+        for (method, task, objective, planform, c), found in sorted(groups.items()):
+            kwargs = self.env_kwargs(task, objective, planform)
+            how = self.warm_start(method, task, c, kwargs)[1]
+            series = ConfigReference(config_class(get_task(task).env_id).from_kwargs(**kwargs))
+            on_grid = series.series is not None and c in series.series.conditions
+            table = float(series.series.at(c)) if on_grid else math.nan  # type: ignore[union-attr]
+            values = [float(r["objective_value"]) for r in found if r["feasible"]]
+            median, best = (float(np.median(values)), max(values)) if values else (math.nan,) * 2
+            gaps = [100 * (1 - v / table) for v in (median, best)]  # NaN: no table, no seed
+            if not math.isnan(table):
+                median_gaps.append(100.0 if math.isnan(median) else gaps[0])  # none flies
+                if not best >= table * (1 - REPLAY_RTOL):
+                    below.append(f"{task} {objective} {planform} at {c:g} ({gaps[1]:+.3f} %)")
+            lines.append(
+                f"| {method} | {task} {objective} {planform} | {c:g} | {how} | {table:.5g} | "
+                f"{median:.5g} ({gaps[0]:+.2f}) | {best:.5g} ({gaps[1]:+.2f}) |"
+            )
+        within = sum(g <= GAP_TARGET for g in median_gaps)
+        worst = f"largest {max(median_gaps):.2f} %" if median_gaps else "none"
+        return [
+            *lines,
+            "",
+            f"The seeds' median within {GAP_TARGET:g} % of the table at {within} of the "
+            f"{len(median_gaps)} conditions it has ({worst}); the best seed below the table at: "
+            f"{', '.join(below) or 'none'}.",
         ]
 
 

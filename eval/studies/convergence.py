@@ -40,11 +40,14 @@ def _with(job: Job, settings: tuple[tuple[str, object], ...]) -> Job:
 
 
 def _spec_jobs(plan: StudyPlan, **given: Any) -> list[Job]:
-    """``plan``'s jobs at the spec's level and accelerating (F̄_v) conditions, the spec's seeds."""
+    """``plan``'s jobs at the spec's level and accelerating (F̄_v) conditions, the spec's seeds,
+    started cold (the budget study compares the methods' own searches)."""
     spec = plan.preset.convergence
     return [
-        *plan.jobs("level", [spec.speed], seeds=spec.seeds, **given),
-        *plan.jobs("accelerate", [spec.power], objective="vertical", seeds=spec.seeds, **given),
+        *plan.jobs("level", [spec.speed], seeds=spec.seeds, warm=False, **given),
+        *plan.jobs(
+            "accelerate", [spec.power], objective="vertical", seeds=spec.seeds, warm=False, **given
+        ),
     ]
 
 

@@ -7,11 +7,13 @@ the convergence study")."""
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from agents.tasks import get_task
 from tandem_env.envs import AccelerateConfig, LevelFlightConfig, TaskCondition
+from tandem_env.envs.reference import table_strokes
 
 #: The accelerating objectives the studies run (the paper's Figs. 7-8), of the declared choices.
 STUDIED_OBJECTIVES: tuple[str, ...] = ("vertical", "horizontal")
@@ -26,6 +28,23 @@ PAPER_POWERS: tuple[float, ...] = _POWER.sweep
 _PER_JOB_KWARGS: frozenset[str] = frozenset(
     {_SPEED.keyword, _POWER.keyword, str(AccelerateConfig.OBJECTIVES.keyword)}
 )
+
+
+#: Warm starts of a search (``Preset.warm_start``, ``eval optimize --warm-start``): none (a cold
+#: start), or the reference table's optimum at the job's condition and its grid neighbours'.
+WARM_STARTS: tuple[str, ...] = ("none", "table")
+#: The share of a warm-started run's budget its table strokes are polished on (together); the
+#: search and its polish get the rest (docs/reference.md, "Warm starts").
+WARM_SHARE = 0.25
+
+
+def warm_start(task: str, condition: float, env_kwargs: Mapping[str, Any]) -> dict[str, Any]:
+    """The method settings of a warm start from the reference table: its strokes at
+    ``condition`` (:func:`~tandem_env.envs.reference.table_strokes`) as the polish's
+    ``initial`` strokes on :data:`WARM_SHARE` of the budget; ValueError saying why the table
+    has none for this problem and condition."""
+    strokes = table_strokes(get_task(task).env_id, env_kwargs, condition)
+    return {"initial": [list(s) for s in strokes], "initial_share": WARM_SHARE}
 
 
 #: The field of :class:`Preset` that budgets each task the studies run (the paper's two).
@@ -153,6 +172,10 @@ class Preset:
     """PSO particles (the harness default); also the random-search batch."""
     env_kwargs: tuple[tuple[str, Any], ...] = field(default=())
     """Extra env keywords for every job, e.g. ``(("n_time", 32),)`` in the test preset."""
+    warm_start: str = "table"
+    """How each search at the preset's budgets starts (:data:`WARM_STARTS`): ``table`` polishes
+    the reference table's strokes first where it has the job's problem and condition (the
+    report says where it has not), ``none`` starts cold."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.isidentifier():
@@ -180,6 +203,8 @@ class Preset:
             _fail("kinematics_objective", self.kinematics_objective, allowed)
         if not is_name(self.method):
             _fail("method", self.method, "a harness method name such as 'cmaes' or 'pso'")
+        if self.warm_start not in WARM_STARTS:
+            _fail("warm_start", self.warm_start, " or ".join(map(repr, WARM_STARTS)))
         if not isinstance(self.convergence, ConvergenceSpec):
             _fail("convergence", self.convergence, "a ConvergenceSpec")
         keys = [k for k, _ in self.env_kwargs]
@@ -211,7 +236,7 @@ QUICK = Preset(
     description=(
         "CMA-ES, 3 seeds, 8 000 (level) / 4 000 (accelerating) evaluations per optimisation, "
         "5 speeds, 3 powers, both planforms at 3 speeds and 2 powers; measured wall times "
-        "in docs/reproduction.md"
+        "in docs/reproduction.md; warm-started from the reference table"
     ),
     seeds=(0, 1, 2),
     method="cmaes",
@@ -229,7 +254,7 @@ PAPER = Preset(
     description=(
         "CMA-ES, 8 seeds, 16 000 (level) / 12 000 (accelerating) evaluations per optimisation, "
         "all 8 speeds and 5 powers, both planforms everywhere; measured wall times in "
-        "docs/reproduction.md"
+        "docs/reproduction.md; warm-started from the reference table"
     ),
     seeds=(0, 1, 2, 3, 4, 5, 6, 7),
     method="cmaes",

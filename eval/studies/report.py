@@ -233,6 +233,12 @@ def write_report(
             text = "; ".join(t for t in (c.detail, c.note) if t)
             parts.append(f"- **{c.id}**: {text}")
         parts.append("")
+    parts += [
+        "## Against the reference table",
+        "",
+        *plan.table_lines([r for o in outputs for r in o.rows]),
+        "",
+    ]
     parts += ["## Understood differences", "", *[f"- {t}" for t in UNDERSTOOD.values()], ""]
     parts += pinned_section([r for o in outputs for r in o.rows])
     missing = [n for n in all_studies if n not in {o.name for o in outputs}]

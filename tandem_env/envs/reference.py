@@ -349,6 +349,34 @@ def _applicable(config_type: type[FlightConfig], data: Mapping[str, Any]) -> Ref
     return table.find(env_id, str(objective), config_fingerprint(config_type, data))
 
 
+def table_strokes(
+    env_id: str, env_kwargs: Mapping[str, Any], condition: float
+) -> tuple[tuple[float, ...], ...]:
+    """The table's normalised strokes for the problem of ``env_id`` made with ``env_kwargs`` at
+    ``condition``: the point's optimum, then its grid neighbours' (the feasible ones; what a
+    warm start polishes). ValueError saying why there are none: no series of this problem (its
+    :func:`problem_fingerprint`), or ``condition`` not a feasible point of the grid."""
+    config = config_class(env_id).from_kwargs(**env_kwargs)
+    series = _applicable(type(config), to_jsonable(config))
+    if series is None:
+        raise ValueError(
+            f"the reference table has no {env_id} series of this problem (fingerprint "
+            f"{problem_fingerprint(config)}: other model options, insect or settings than the "
+            "table's, or no table); allowed: the default model"
+        )
+    i = next((i for i, c in enumerate(series.conditions) if abs(c - condition) < 1e-9), None)
+    if i is None or not series.points[i]["feasible"]:
+        raise ValueError(
+            f"condition {condition:g} is not a feasible point of the reference table's grid "
+            f"{list(series.conditions)}"
+        )
+    near = [j for j in (i, i - 1, i + 1) if 0 <= j < len(series.points)]
+    strokes = (tuple(map(float, series.points[j]["normalised_stroke"])) for j in near)
+    return tuple(
+        dict.fromkeys(s for j, s in zip(near, strokes, strict=True) if series.points[j]["feasible"])
+    )
+
+
 def record_score(
     env_id: str,
     env: Mapping[str, Any],
