@@ -34,6 +34,12 @@ from .vortex import (
 )
 from .xp import NUMPY, ArrayNamespace, on_namespace
 
+#: The ``bundle.WingBatch`` fields with one row per stroke (a pass on some strokes takes theirs).
+BATCH_FIELDS = (
+    "angles", "weight", "frequency", "beta", "sweep", "v_tangential", "v_normal", "inflow_off",
+    "phases",
+)  # fmt: skip
+
 #: Right wing → left wing (Y → −Y); the left wing carries −Γ along the mirrored segment.
 MIRROR = np.array([1.0, -1.0, 1.0])
 
@@ -120,6 +126,13 @@ class Pair(NamedTuple):
     """(n_blade,) quadrature weights dr [m]."""
     root: np.ndarray
     """(3,) the right wing's root in earth axes [m]."""
+
+    def take(self, keep: Any) -> Pair:
+        """The pair on the strokes ``keep`` (a boolean mask or indices of the batch)."""
+        return self._replace(
+            params=self.params[keep], coef=self.coef[keep], phase=self.phase[keep],
+            v_tangential=self.v_tangential[keep], v_normal=self.v_normal[keep],
+        )  # fmt: skip
 
 
 def periodic_interpolation(source: Any, target: Any, xp: ArrayNamespace) -> Any:
@@ -239,11 +252,12 @@ def both_wings(segments: Any, circulation: Any, xp) -> tuple[Any, Any]:
     )
 
 
-def strip_circulation(source: Lattice, gamma: Any, wake: VortexWake, xp) -> Any:
+def strip_circulation(to_strips: Any, to_wake: Any, gamma: Any, wake: VortexWake, xp) -> Any:
     """The shed strip circulations (B, n_w, N_s) [m²/s] on the wake grid of the elements'
-    ``gamma`` (B, n_blade, n_time) [m²/s] (item 1), times ``wake.gamma_scale``."""
-    strips = xp.einsum("sj,bjk->bks", source.to_strips, gamma)  # (B, n_time, N_s)
-    return wake.gamma_scale * xp.einsum("bwk,bks->bws", source.to_wake, strips)
+    ``gamma`` (B, n_blade, n_time) [m²/s] (item 1), times ``wake.gamma_scale``
+    (``Lattice.to_strips``, ``Lattice.to_wake``)."""
+    strips = xp.einsum("sj,bjk->bks", to_strips, gamma)  # (B, n_time, N_s)
+    return wake.gamma_scale * xp.einsum("bwk,bks->bws", to_wake, strips)
 
 
 def influence(source: Lattice, target: Pair, wake: VortexWake, xp) -> Any:
@@ -347,11 +361,12 @@ def element_field(
     return xp.moveaxis(offsets, -1, 1), -(mean[:, 0] @ to_elements.T)
 
 
-#: A backend's pass: the pairs' fields (fore, hind; each ``element_field``'s pair) or
-#: ``None`` (isolated) → the pairs' cycle-mean vertical force (B, 2) [N] (not read by the
-#: fixed point, whose test is on the circulation), their inflow (fore, hind; (B, n_blade)
-#: [m/s]) and what the backend returns of the pass.
-Run = Callable[[tuple[Any, Any] | None], tuple[Any, tuple[Any, Any], Any]]
+#: A backend's pass: ``run(fields, rows)`` solves the strokes ``rows`` (integer indices into
+#: the batch; ``None``: all) with the pairs' fields on those rows (fore, hind; each
+#: ``element_field``'s pair) or ``None`` (isolated), and returns their inflow (fore, hind;
+#: (n, n_blade) [m/s]) and the backend's result of the whole batch, those rows this pass's and
+#: the others' as the pass that last solved them left them.
+Run = Callable[[tuple[Any, Any] | None, Any], tuple[tuple[Any, Any], Any]]
 
 
 def vortex_reading(
@@ -365,19 +380,21 @@ def vortex_reading(
     wake: VortexWake = WAKE,
 ) -> tuple[Any, Any]:
     """The two pairs iterated to the fixed point of the vortex reading (docs/model.md §5.8
-    item 6); returns the last pass's result and the strokes (B,) whose fixed point converged.
+    item 6); returns the result (each stroke's from the pass at which it stopped) and the
+    strokes (B,) whose fixed point converged.
 
     Pass 0 is each pair isolated; its v̄ fixes both wakes' descent (so the geometry) and its
     strip circulations start the iteration. Pass m gives each pair the other's field of the
-    strips x_m, and its solution gives the strips g_m = F(x_m). The fixed point is reached
-    where the residual g_m − x_m of neither pair has an RMS above ``wake.tolerance`` times the
-    sum of both pairs' RMS strips: pass m's input reproduces itself, and pass m is returned.
-    Otherwise x_{m+1} = g_m (Jacobi), or with ``wake.accelerate`` Anderson's step of depth one,
-    x_{m+1} = g_m − β·(g_m − g_{m−1}), β minimising |r_m − β·(r_m − r_{m−1})| (r = g − x) stroke
-    by stroke. ``speed`` V [m/s], ``path_angle`` γ [rad] and ``scale`` (C_hf, 0 where the
-    reading is off) are (B,).
+    strips x_m, and its solution gives the strips g_m = F(x_m). A stroke's fixed point is
+    reached where the residual g_m − x_m of neither pair has an RMS above ``wake.tolerance``
+    times the sum of both pairs' RMS strips: pass m's input reproduces itself, pass m is that
+    stroke's result, and the later passes run the other strokes only (every step below is
+    stroke by stroke, so a stroke's result does not depend on the others). Otherwise x_{m+1} =
+    g_m (Jacobi), or with ``wake.accelerate`` Anderson's step of depth one, x_{m+1} = g_m −
+    β·(g_m − g_{m−1}), β minimising |r_m − β·(r_m − r_{m−1})| (r = g − x). ``speed`` V [m/s],
+    ``path_angle`` γ [rad] and ``scale`` (C_hf, 0 where the reading is off) are (B,).
     """
-    _, inflow, result = run(None)
+    inflow, result = run(None, None)
     pairs = (fore, hind)
     beats = (wake.fore_beats, wake.hind_beats)
     lattices = [
@@ -394,12 +411,16 @@ def vortex_reading(
     uniform = xp.constant_like(2.0 * np.pi * np.arange(wake.n_wake) / wake.n_wake, fore.phase)
     to_grid = [periodic_interpolation(uniform[None], p.phase, xp) for p in pairs]
     matrices = [influence(lattices[1 - w], pairs[w], wake, xp) for w in (0, 1)]
+    to_wake = [lat.to_wake for lat in lattices]
+    rows = xp.as_int64(xp.arange_like(fore.phase.shape[0], fore.phase))  # the strokes solved
+    converged = xp.zeros_bool(rows)
     fields = given = last = None  # last: the last pass's (given strips, residual)
     for passes in range(wake.max_passes + 1):
         strips = xp.stack(
             [
                 strip_circulation(
-                    lattices[w],
+                    lattices[w].to_strips,
+                    to_wake[w],
                     circulation(p, v, None if fields is None else fields[w], xp),
                     wake,
                     xp,
@@ -407,14 +428,28 @@ def vortex_reading(
                 for w, (p, v) in enumerate(zip(pairs, inflow, strict=True))
             ],
             1,
-        )  # fmt: skip  (B, 2, n_w, N_s): the map's value at what the pass was given
+        )  # fmt: skip  (n, 2, n_w, N_s): the map's value at what the pass was given
         if given is not None:
             residual = strips - given
             size = xp.sqrt((strips * strips).mean((2, 3))).sum(1)
             change = xp.max_along(xp.sqrt((residual * residual).mean((2, 3))), 1)
-            converged = change <= wake.tolerance * size
-            if bool(converged.all()) or passes == wake.max_passes:
+            done = change <= wake.tolerance * size
+            converged[rows[done]] = True
+            if bool(done.all()) or passes == wake.max_passes:
                 break
+            if bool(done.any()):  # the converged strokes stop here
+                keep = ~done
+                rows, scale, strips, residual = (
+                    rows[keep],
+                    scale[keep],
+                    strips[keep],
+                    residual[keep],
+                )
+                pairs = tuple(p.take(keep) for p in pairs)
+                to_wake = [t[keep] for t in to_wake]
+                to_grid = [g[keep] for g in to_grid]
+                matrices = [m[keep] for m in matrices]
+                last = None if last is None else (last[0][keep], last[1][keep])
             if last is not None and wake.accelerate:  # Anderson's step of depth one (secant)
                 dr, dg = residual - last[1], strips - last[0]
                 dot, norm = (residual * dr).sum((1, 2, 3)), (dr * dr).sum((1, 2, 3))
@@ -435,7 +470,7 @@ def vortex_reading(
             )
             for w in (0, 1)
         )
-        _, inflow, result = run(fields)
+        inflow, result = run(fields, rows)
     return result, converged
 
 
@@ -452,8 +487,8 @@ def kernel_reading(
 ) -> Any:
     """The vortex reading on the numba kernel: ``wings`` the fore and hind
     ``bundle.WingBatch``, ``params`` their (B, 14) parameters [Hz, rad, -], ``phases`` (B, 2,
-    n_time) [rad]; ``run_pass(wings)`` runs the kernel on them and returns its
-    ``bundle.Outputs``. Returns the last pass's outputs, with the fixed point's convergence
+    n_time) [rad]; ``run_pass(wings)`` runs the kernel on them (the whole batch or some of its
+    strokes, as many as the wings hold) and returns its ``bundle.Outputs``. Returns the last pass's outputs, with the fixed point's convergence
     folded into each wing's ``W_CONVERGED`` (``cycle``)."""
 
     frame = on_namespace(blade.frame_columns, NUMPY)
@@ -468,19 +503,25 @@ def kernel_reading(
                  np.array(batch.nodes[:, cycle.N_R]), np.array(batch.nodes[:, cycle.N_WIDTH]), root)
         )  # fmt: skip
 
-    def run(fields: tuple[Any, Any] | None) -> tuple[Any, tuple[Any, Any], Any]:
+    result = None
+
+    def run(fields: tuple[Any, Any] | None, rows: Any) -> tuple[tuple[Any, Any], Any]:
+        nonlocal result
         if fields is None:
-            outputs = run_pass(wings)
-        else:
-            outputs = run_pass(
-                tuple(
-                    b._replace(external=np.ascontiguousarray(f[0]),
-                               external_inflow=np.ascontiguousarray(f[1]))
-                    for b, f in zip(wings, fields, strict=True)
-                )
-            )  # fmt: skip
-        inflow = (outputs.inflow[:, 0], outputs.inflow[:, 1])
-        return outputs.means[:, :, cycle.W_FZ], inflow, outputs
+            result = run_pass(wings)
+            return (result.inflow[:, 0], result.inflow[:, 1]), result
+        outputs = run_pass(
+            tuple(
+                b._replace(**{name: getattr(b, name)[rows] for name in BATCH_FIELDS},
+                           external=np.ascontiguousarray(f[0]),
+                           external_inflow=np.ascontiguousarray(f[1]))
+                for b, f in zip(wings, fields, strict=True)
+            )
+        )  # fmt: skip
+        for whole, part in zip(result, outputs, strict=True):
+            if len(whole):  # the history is (0, …) unless kept
+                whole[rows] = part
+        return (outputs.inflow[:, 0], outputs.inflow[:, 1]), result
 
     outputs, converged = vortex_reading(*pairs, run, speed, path_angle, scale, NUMPY, WAKE)
     outputs.means[:, :, cycle.W_CONVERGED] *= converged[:, None]

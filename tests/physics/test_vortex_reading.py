@@ -127,8 +127,7 @@ def test_the_influence_matrix_is_the_wakes_biot_savart_sum():
         lattice = interaction.lattice(
             source, rng.uniform(0.2, 1.0, batch), *captured["flow"], 2.0, wake, NUMPY
         )
-        gamma = rng.normal(0.0, 2e-3, (batch, source.r.size, source.phase.shape[1]))
-        strips = interaction.strip_circulation(lattice, gamma, wake, NUMPY)
+        strips = rng.normal(0.0, 2e-3, (batch, wake.n_wake, wake.strips))  # [m²/s]
         got = interaction.field_on_grid(
             interaction.influence(lattice, target, wake, NUMPY), strips, NUMPY
         )
