@@ -135,10 +135,11 @@ class Pair(NamedTuple):
         )  # fmt: skip
 
 
-def periodic_interpolation(source: Any, target: Any, xp: ArrayNamespace) -> Any:
-    """(B, n_t, n_s) weights of periodic linear interpolation in phase: values at phases
-    ``target`` (B, n_t) [rad] of series sampled at phases ``source`` (B, n_s) [rad],
-    increasing over one period from any start (the leading axes broadcast)."""
+def periodic_brackets(source: Any, target: Any, xp: ArrayNamespace) -> tuple[Any, Any]:
+    """Periodic linear interpolation in phase, values at phases ``target`` (B, n_t) [rad] of
+    series sampled at phases ``source`` (B, n_s) [rad], increasing over one period from any
+    start (the leading axes broadcast): the two samples around each target, (B, n_t, 2)
+    integer indices, and their weights (B, n_t, 2)."""
     two_pi = 2.0 * math.pi
     n = source.shape[-1]
     start = source[..., :1]
@@ -147,13 +148,18 @@ def periodic_interpolation(source: Any, target: Any, xp: ArrayNamespace) -> Any:
     tgt = (target - start) - two_pi * xp.floor((target - start) / two_pi)
     count = ((src[..., None, :] <= tgt[..., :, None]) * 1).sum(-1)  # 1 … n: src[0] = 0
     index = xp.arange_like(n, source)
-    left = (index == (count - 1)[..., None]) * 1.0  # (B, n_t, n_s) one-hot
-    right = (index == (count % n)[..., None]) * 1.0
-    x0 = (left * src[..., None, :]).sum(-1)
-    x1 = (right * src[..., None, :]).sum(-1)
+    x0 = ((index == (count - 1)[..., None]) * src[..., None, :]).sum(-1)
+    x1 = ((index == (count % n)[..., None]) * src[..., None, :]).sum(-1)
     x1 = xp.where((count % n) == 0, x1 + two_pi, x1)  # a number times a bool: float32 in torch
     t = (tgt - x0) / xp.maximum(x1 - x0, 1e-300)
-    return left * (1.0 - t)[..., None] + right * t[..., None]
+    return xp.stack([count - 1, count % n], -1), xp.stack([1.0 - t, t], -1)
+
+
+def periodic_interpolation(source: Any, target: Any, xp: ArrayNamespace) -> Any:
+    """(B, n_t, n_s) weights of :func:`periodic_brackets`' interpolation as a matrix."""
+    index, weight = periodic_brackets(source, target, xp)
+    columns = xp.as_int64(xp.arange_like(source.shape[-1], source))
+    return ((index[..., None] == columns) * weight[..., None]).sum(-2)
 
 
 def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -162,21 +168,25 @@ def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     return np.stack([np.interp(target, source, column) for column in np.eye(source.size)], -1)
 
 
-def circulation(pair: Pair, inflow: Any, external: tuple[Any, Any] | None, xp) -> Any:
-    """The translational bound circulation −C_t·c·u·v/|U| (Eq. 14) of every element and
-    sample, (B, n_blade, n_time) [m²/s], at the pair's solved ``inflow`` (B, n_blade) [m/s]
-    with the other pair's field ``external`` (its (u, v) offsets (B, n_blade, 2, n_time) and
-    its mean upstream inflow (B, n_blade)) or ``None``."""
+def circulation(pair: Pair, inflow: Any, external: tuple[Any, Any] | None, samples: Any, xp) -> Any:
+    """The translational bound circulation −C_t·c·u·v/|U| (Eq. 14) of every element at the
+    kernel's samples ``samples`` (B, n) (indices into each stroke's n_time; the wake grid
+    reads only those), (B, n_blade, n) [m²/s], at the pair's solved ``inflow`` (B, n_blade)
+    [m/s] with the other pair's field ``external`` (its (u, v) offsets (B, n_blade, 2, n_time)
+    and its mean upstream inflow (B, n_blade)) or ``None``."""
     vn = pair.v_normal[:, None] + inflow
     if external is not None:
         vn = vn + external[1]
+    stroke = xp.as_int64(xp.arange_like(samples.shape[0], vn))[:, None]
     r = xp.constant_like(pair.r, vn)[None, :, None]
     u, v, _, _ = on_namespace(blade.relative_velocity, xp)(
-        pair.coef, ..., r, pair.v_tangential[:, None, None], vn[:, :, None]
-    )
+        pair.coef[:, 0][stroke, samples][:, None], ..., r, pair.v_tangential[:, None, None],
+        vn[:, :, None],
+    )  # fmt: skip
     if external is not None:
-        u = u + external[0][:, :, 0]
-        v = v + external[0][:, :, 1]
+        offsets = xp.moveaxis(external[0], -1, 1)[stroke, samples]  # (B, n, n_blade, 2)
+        u = u + xp.moveaxis(offsets[..., 0], 1, -1)
+        v = v + xp.moveaxis(offsets[..., 1], 1, -1)
     chord = xp.constant_like(pair.wing.chord(pair.r / pair.wing.length), vn)[None, :, None]
     speed2 = u * u + v * v
     moving = speed2 > 0.0
@@ -197,7 +207,8 @@ class Lattice(NamedTuple):
     edge: Any  # (B, n_w, N_s + 1, 3) [m]
     carried: Any  # (B, K + 1, 3) [m]
     core: Any  # (B, 1, S) per segment of a wing [m]
-    to_wake: Any  # (B, n_w, n_time) the kernel's grid → the wake grid
+    samples: Any  # (B, 2·n_w) the kernel's samples around each of the wake grid's, and
+    sample_weights: Any  # (B, n_w, 2) their weights (periodic_brackets)
     to_strips: Any  # (N_s, n_blade) elements → strip mid-points
 
 
@@ -233,13 +244,13 @@ def lattice(
     k = np.arange(rows + 2)
     along = np.repeat(np.maximum(k - 1, 0), n_s)
     between = np.repeat(np.maximum(k[:-1] - 0.5, 0), n_s + 1)
-    samples = xp.constant_like(np.concatenate([along, between]), like)
-    core = xp.sqrt(wake.core**2 + wake.core_growth * dt[:, None] * samples[None])[:, None]
+    ages = xp.constant_like(np.concatenate([along, between]), like)
+    core = xp.sqrt(wake.core**2 + wake.core_growth * dt[:, None] * ages[None])[:, None]
     mids = 0.5 * (frac[1:] + frac[:-1])
     to_strips = xp.constant_like(span_interpolation(pair.r / pair.wing.length, mids), like)
     uniform = xp.constant_like(2.0 * np.pi * np.arange(n_w) / n_w, like)[None]
-    to_wake = periodic_interpolation(pair.phase, uniform, xp)
-    return Lattice(bound, edge, carried, core, to_wake, to_strips)
+    samples, weights = periodic_brackets(pair.phase, uniform, xp)
+    return Lattice(bound, edge, carried, core, samples.reshape(-1, 2 * n_w), weights, to_strips)
 
 
 def both_wings(segments: Any, circulation: Any, xp) -> tuple[Any, Any]:
@@ -252,12 +263,13 @@ def both_wings(segments: Any, circulation: Any, xp) -> tuple[Any, Any]:
     )
 
 
-def strip_circulation(to_strips: Any, to_wake: Any, gamma: Any, wake: VortexWake, xp) -> Any:
+def strip_circulation(to_strips: Any, weights: Any, gamma: Any, wake: VortexWake, xp) -> Any:
     """The shed strip circulations (B, n_w, N_s) [m²/s] on the wake grid of the elements'
-    ``gamma`` (B, n_blade, n_time) [m²/s] (item 1), times ``wake.gamma_scale``
-    (``Lattice.to_strips``, ``Lattice.to_wake``)."""
-    strips = xp.einsum("sj,bjk->bks", to_strips, gamma)  # (B, n_time, N_s)
-    return wake.gamma_scale * xp.einsum("bwk,bks->bws", to_wake, strips)
+    ``gamma`` (B, n_blade, 2·n_w) [m²/s] at ``Lattice.samples`` (item 1), interpolated with
+    ``Lattice.sample_weights`` (B, n_w, 2) and reduced to the strips by ``Lattice.to_strips``,
+    times ``wake.gamma_scale``."""
+    on_grid = (gamma.reshape(*gamma.shape[:2], -1, 2) * weights[:, None]).sum(-1)
+    return wake.gamma_scale * xp.einsum("sj,bjw->bws", to_strips, on_grid)
 
 
 def influence(source: Lattice, target: Pair, wake: VortexWake, xp) -> Any:
@@ -357,8 +369,9 @@ def element_field(
     col = [coef[:, :, c, None] for c in range(blade.N_COEF)]
     du = -(wx * col[blade.C_ECX] + wy * col[blade.C_ECY] + wz * col[blade.C_ECZ])
     dv = -(wx * col[blade.C_ENX] + wy * col[blade.C_ENY] + wz * col[blade.C_ENZ])
-    offsets = xp.stack([du, dv], 1) @ to_elements.T  # (B, 2, n_time, n_blade)
-    return xp.moveaxis(offsets, -1, 1), -(mean[:, 0] @ to_elements.T)
+    # (B, n_blade, 2, n_time), in the kernel's layout
+    offsets = xp.stack([to_elements @ xp.moveaxis(d, 1, 2) for d in (du, dv)], 2)
+    return offsets, -(mean[:, 0] @ to_elements.T)
 
 
 #: A backend's pass: ``run(fields, rows)`` solves the strokes ``rows`` (integer indices into
@@ -411,7 +424,7 @@ def vortex_reading(
     uniform = xp.constant_like(2.0 * np.pi * np.arange(wake.n_wake) / wake.n_wake, fore.phase)
     to_grid = [periodic_interpolation(uniform[None], p.phase, xp) for p in pairs]
     matrices = [influence(lattices[1 - w], pairs[w], wake, xp) for w in (0, 1)]
-    to_wake = [lat.to_wake for lat in lattices]
+    samples = [(lat.samples, lat.sample_weights) for lat in lattices]
     rows = xp.as_int64(xp.arange_like(fore.phase.shape[0], fore.phase))  # the strokes solved
     converged = xp.zeros_bool(rows)
     fields = given = last = None  # last: the last pass's (given strips, residual)
@@ -420,8 +433,8 @@ def vortex_reading(
             [
                 strip_circulation(
                     lattices[w].to_strips,
-                    to_wake[w],
-                    circulation(p, v, None if fields is None else fields[w], xp),
+                    samples[w][1],
+                    circulation(p, v, None if fields is None else fields[w], samples[w][0], xp),
                     wake,
                     xp,
                 )
@@ -446,7 +459,7 @@ def vortex_reading(
                     residual[keep],
                 )
                 pairs = tuple(p.take(keep) for p in pairs)
-                to_wake = [t[keep] for t in to_wake]
+                samples = [(i[keep], s[keep]) for i, s in samples]
                 to_grid = [g[keep] for g in to_grid]
                 matrices = [m[keep] for m in matrices]
                 last = None if last is None else (last[0][keep], last[1][keep])
