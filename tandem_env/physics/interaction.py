@@ -25,6 +25,7 @@ from . import blade, cycle
 from .vortex import (
     BOUND_VORTEX,
     COLLOCATION,
+    MIRROR,
     ROOT_HALF_WIDTH,
     TRAILING_EDGE,
     lattice_geometry,
@@ -39,9 +40,6 @@ BATCH_FIELDS = (
     "angles", "weight", "frequency", "beta", "sweep", "v_tangential", "v_normal", "inflow_off",
     "phases",
 )  # fmt: skip
-
-#: Right wing → left wing (Y → −Y); the left wing carries −Γ along the mirrored segment.
-MIRROR = np.array([1.0, -1.0, 1.0])
 
 
 @dataclass(frozen=True)
@@ -303,9 +301,8 @@ def influence(source: Lattice, target: Pair, wake: VortexWake, xp) -> Any:
         part = slice(start, start + wake.chunk)
         nodes = wake_nodes(source.bound[part], source.edge[part], source.carried[part], xp)
         unit = segment_influence(
-            lattice_geometry(nodes, xp), points[part], source.core[part], combine, xp
-        )  # (b, n_w, 2M, 3, n_w·N_s)
-        unit = unit[:, :, :m] + unit[:, :, m:] * mirror[:, None]
+            lattice_geometry(nodes, xp), points[part], source.core[part], combine, xp, True
+        )  # (b, n_w, M, 3, n_w·N_s)
         parts.append(unit.reshape(*unit.shape[:2], m * 3, n_w * n_s))
     return xp.concatenate(parts, 0)
 
