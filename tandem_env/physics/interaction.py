@@ -25,6 +25,7 @@ from . import blade, cycle
 from .vortex import (
     BOUND_VORTEX,
     COLLOCATION,
+    MIRROR,
     ROOT_HALF_WIDTH,
     TRAILING_EDGE,
     lattice_geometry,
@@ -34,8 +35,11 @@ from .vortex import (
 )
 from .xp import NUMPY, ArrayNamespace, on_namespace
 
-#: Right wing → left wing (Y → −Y); the left wing carries −Γ along the mirrored segment.
-MIRROR = np.array([1.0, -1.0, 1.0])
+#: The ``bundle.WingBatch`` fields with one row per stroke (a pass on some strokes takes theirs).
+BATCH_FIELDS = (
+    "angles", "weight", "frequency", "beta", "sweep", "v_tangential", "v_normal", "inflow_off",
+    "phases",
+)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -121,11 +125,19 @@ class Pair(NamedTuple):
     root: np.ndarray
     """(3,) the right wing's root in earth axes [m]."""
 
+    def take(self, keep: Any) -> Pair:
+        """The pair on the strokes ``keep`` (a boolean mask or indices of the batch)."""
+        return self._replace(
+            params=self.params[keep], coef=self.coef[keep], phase=self.phase[keep],
+            v_tangential=self.v_tangential[keep], v_normal=self.v_normal[keep],
+        )  # fmt: skip
 
-def periodic_interpolation(source: Any, target: Any, xp: ArrayNamespace) -> Any:
-    """(B, n_t, n_s) weights of periodic linear interpolation in phase: values at phases
-    ``target`` (B, n_t) [rad] of series sampled at phases ``source`` (B, n_s) [rad],
-    increasing over one period from any start (the leading axes broadcast)."""
+
+def periodic_brackets(source: Any, target: Any, xp: ArrayNamespace) -> tuple[Any, Any]:
+    """Periodic linear interpolation in phase, values at phases ``target`` (B, n_t) [rad] of
+    series sampled at phases ``source`` (B, n_s) [rad], increasing over one period from any
+    start (the leading axes broadcast): the two samples around each target, (B, n_t, 2)
+    integer indices, and their weights (B, n_t, 2)."""
     two_pi = 2.0 * math.pi
     n = source.shape[-1]
     start = source[..., :1]
@@ -134,13 +146,18 @@ def periodic_interpolation(source: Any, target: Any, xp: ArrayNamespace) -> Any:
     tgt = (target - start) - two_pi * xp.floor((target - start) / two_pi)
     count = ((src[..., None, :] <= tgt[..., :, None]) * 1).sum(-1)  # 1 … n: src[0] = 0
     index = xp.arange_like(n, source)
-    left = (index == (count - 1)[..., None]) * 1.0  # (B, n_t, n_s) one-hot
-    right = (index == (count % n)[..., None]) * 1.0
-    x0 = (left * src[..., None, :]).sum(-1)
-    x1 = (right * src[..., None, :]).sum(-1)
+    x0 = ((index == (count - 1)[..., None]) * src[..., None, :]).sum(-1)
+    x1 = ((index == (count % n)[..., None]) * src[..., None, :]).sum(-1)
     x1 = xp.where((count % n) == 0, x1 + two_pi, x1)  # a number times a bool: float32 in torch
     t = (tgt - x0) / xp.maximum(x1 - x0, 1e-300)
-    return left * (1.0 - t)[..., None] + right * t[..., None]
+    return xp.stack([count - 1, count % n], -1), xp.stack([1.0 - t, t], -1)
+
+
+def periodic_interpolation(source: Any, target: Any, xp: ArrayNamespace) -> Any:
+    """(B, n_t, n_s) weights of :func:`periodic_brackets`' interpolation as a matrix."""
+    index, weight = periodic_brackets(source, target, xp)
+    columns = xp.as_int64(xp.arange_like(source.shape[-1], source))
+    return ((index[..., None] == columns) * weight[..., None]).sum(-2)
 
 
 def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -149,21 +166,25 @@ def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     return np.stack([np.interp(target, source, column) for column in np.eye(source.size)], -1)
 
 
-def circulation(pair: Pair, inflow: Any, external: tuple[Any, Any] | None, xp) -> Any:
-    """The translational bound circulation −C_t·c·u·v/|U| (Eq. 14) of every element and
-    sample, (B, n_blade, n_time) [m²/s], at the pair's solved ``inflow`` (B, n_blade) [m/s]
-    with the other pair's field ``external`` (its (u, v) offsets (B, n_blade, 2, n_time) and
-    its mean upstream inflow (B, n_blade)) or ``None``."""
+def circulation(pair: Pair, inflow: Any, external: tuple[Any, Any] | None, samples: Any, xp) -> Any:
+    """The translational bound circulation −C_t·c·u·v/|U| (Eq. 14) of every element at the
+    kernel's samples ``samples`` (B, n) (indices into each stroke's n_time; the wake grid
+    reads only those), (B, n_blade, n) [m²/s], at the pair's solved ``inflow`` (B, n_blade)
+    [m/s] with the other pair's field ``external`` (its (u, v) offsets (B, n_blade, 2, n_time)
+    and its mean upstream inflow (B, n_blade)) or ``None``."""
     vn = pair.v_normal[:, None] + inflow
     if external is not None:
         vn = vn + external[1]
+    stroke = xp.as_int64(xp.arange_like(samples.shape[0], vn))[:, None]
     r = xp.constant_like(pair.r, vn)[None, :, None]
     u, v, _, _ = on_namespace(blade.relative_velocity, xp)(
-        pair.coef, ..., r, pair.v_tangential[:, None, None], vn[:, :, None]
-    )
+        pair.coef[:, 0][stroke, samples][:, None], ..., r, pair.v_tangential[:, None, None],
+        vn[:, :, None],
+    )  # fmt: skip
     if external is not None:
-        u = u + external[0][:, :, 0]
-        v = v + external[0][:, :, 1]
+        offsets = xp.moveaxis(external[0], -1, 1)[stroke, samples]  # (B, n, n_blade, 2)
+        u = u + xp.moveaxis(offsets[..., 0], 1, -1)
+        v = v + xp.moveaxis(offsets[..., 1], 1, -1)
     chord = xp.constant_like(pair.wing.chord(pair.r / pair.wing.length), vn)[None, :, None]
     speed2 = u * u + v * v
     moving = speed2 > 0.0
@@ -184,7 +205,8 @@ class Lattice(NamedTuple):
     edge: Any  # (B, n_w, N_s + 1, 3) [m]
     carried: Any  # (B, K + 1, 3) [m]
     core: Any  # (B, 1, S) per segment of a wing [m]
-    to_wake: Any  # (B, n_w, n_time) the kernel's grid → the wake grid
+    samples: Any  # (B, 2·n_w) the kernel's samples around each of the wake grid's, and
+    sample_weights: Any  # (B, n_w, 2) their weights (periodic_brackets)
     to_strips: Any  # (N_s, n_blade) elements → strip mid-points
 
 
@@ -220,13 +242,13 @@ def lattice(
     k = np.arange(rows + 2)
     along = np.repeat(np.maximum(k - 1, 0), n_s)
     between = np.repeat(np.maximum(k[:-1] - 0.5, 0), n_s + 1)
-    samples = xp.constant_like(np.concatenate([along, between]), like)
-    core = xp.sqrt(wake.core**2 + wake.core_growth * dt[:, None] * samples[None])[:, None]
+    ages = xp.constant_like(np.concatenate([along, between]), like)
+    core = xp.sqrt(wake.core**2 + wake.core_growth * dt[:, None] * ages[None])[:, None]
     mids = 0.5 * (frac[1:] + frac[:-1])
     to_strips = xp.constant_like(span_interpolation(pair.r / pair.wing.length, mids), like)
     uniform = xp.constant_like(2.0 * np.pi * np.arange(n_w) / n_w, like)[None]
-    to_wake = periodic_interpolation(pair.phase, uniform, xp)
-    return Lattice(bound, edge, carried, core, to_wake, to_strips)
+    samples, weights = periodic_brackets(pair.phase, uniform, xp)
+    return Lattice(bound, edge, carried, core, samples.reshape(-1, 2 * n_w), weights, to_strips)
 
 
 def both_wings(segments: Any, circulation: Any, xp) -> tuple[Any, Any]:
@@ -239,11 +261,13 @@ def both_wings(segments: Any, circulation: Any, xp) -> tuple[Any, Any]:
     )
 
 
-def strip_circulation(source: Lattice, gamma: Any, wake: VortexWake, xp) -> Any:
+def strip_circulation(to_strips: Any, weights: Any, gamma: Any, wake: VortexWake, xp) -> Any:
     """The shed strip circulations (B, n_w, N_s) [m²/s] on the wake grid of the elements'
-    ``gamma`` (B, n_blade, n_time) [m²/s] (item 1), times ``wake.gamma_scale``."""
-    strips = xp.einsum("sj,bjk->bks", source.to_strips, gamma)  # (B, n_time, N_s)
-    return wake.gamma_scale * xp.einsum("bwk,bks->bws", source.to_wake, strips)
+    ``gamma`` (B, n_blade, 2·n_w) [m²/s] at ``Lattice.samples`` (item 1), interpolated with
+    ``Lattice.sample_weights`` (B, n_w, 2) and reduced to the strips by ``Lattice.to_strips``,
+    times ``wake.gamma_scale``."""
+    on_grid = (gamma.reshape(*gamma.shape[:2], -1, 2) * weights[:, None]).sum(-1)
+    return wake.gamma_scale * xp.einsum("sj,bjw->bws", to_strips, on_grid)
 
 
 def influence(source: Lattice, target: Pair, wake: VortexWake, xp) -> Any:
@@ -277,9 +301,8 @@ def influence(source: Lattice, target: Pair, wake: VortexWake, xp) -> Any:
         part = slice(start, start + wake.chunk)
         nodes = wake_nodes(source.bound[part], source.edge[part], source.carried[part], xp)
         unit = segment_influence(
-            lattice_geometry(nodes, xp), points[part], source.core[part], combine, xp
-        )  # (b, n_w, 2M, 3, n_w·N_s)
-        unit = unit[:, :, :m] + unit[:, :, m:] * mirror[:, None]
+            lattice_geometry(nodes, xp), points[part], source.core[part], combine, xp, True
+        )  # (b, n_w, M, 3, n_w·N_s)
         parts.append(unit.reshape(*unit.shape[:2], m * 3, n_w * n_s))
     return xp.concatenate(parts, 0)
 
@@ -343,15 +366,17 @@ def element_field(
     col = [coef[:, :, c, None] for c in range(blade.N_COEF)]
     du = -(wx * col[blade.C_ECX] + wy * col[blade.C_ECY] + wz * col[blade.C_ECZ])
     dv = -(wx * col[blade.C_ENX] + wy * col[blade.C_ENY] + wz * col[blade.C_ENZ])
-    offsets = xp.stack([du, dv], 1) @ to_elements.T  # (B, 2, n_time, n_blade)
-    return xp.moveaxis(offsets, -1, 1), -(mean[:, 0] @ to_elements.T)
+    # (B, n_blade, 2, n_time), in the kernel's layout
+    offsets = xp.stack([to_elements @ xp.moveaxis(d, 1, 2) for d in (du, dv)], 2)
+    return offsets, -(mean[:, 0] @ to_elements.T)
 
 
-#: A backend's pass: the pairs' fields (fore, hind; each ``element_field``'s pair) or
-#: ``None`` (isolated) → the pairs' cycle-mean vertical force (B, 2) [N] (not read by the
-#: fixed point, whose test is on the circulation), their inflow (fore, hind; (B, n_blade)
-#: [m/s]) and what the backend returns of the pass.
-Run = Callable[[tuple[Any, Any] | None], tuple[Any, tuple[Any, Any], Any]]
+#: A backend's pass: ``run(fields, rows)`` solves the strokes ``rows`` (integer indices into
+#: the batch; ``None``: all) with the pairs' fields on those rows (fore, hind; each
+#: ``element_field``'s pair) or ``None`` (isolated), and returns their inflow (fore, hind;
+#: (n, n_blade) [m/s]) and the backend's result of the whole batch, those rows this pass's and
+#: the others' as the pass that last solved them left them.
+Run = Callable[[tuple[Any, Any] | None, Any], tuple[tuple[Any, Any], Any]]
 
 
 def vortex_reading(
@@ -365,19 +390,21 @@ def vortex_reading(
     wake: VortexWake = WAKE,
 ) -> tuple[Any, Any]:
     """The two pairs iterated to the fixed point of the vortex reading (docs/model.md §5.8
-    item 6); returns the last pass's result and the strokes (B,) whose fixed point converged.
+    item 6); returns the result (each stroke's from the pass at which it stopped) and the
+    strokes (B,) whose fixed point converged.
 
     Pass 0 is each pair isolated; its v̄ fixes both wakes' descent (so the geometry) and its
     strip circulations start the iteration. Pass m gives each pair the other's field of the
-    strips x_m, and its solution gives the strips g_m = F(x_m). The fixed point is reached
-    where the residual g_m − x_m of neither pair has an RMS above ``wake.tolerance`` times the
-    sum of both pairs' RMS strips: pass m's input reproduces itself, and pass m is returned.
-    Otherwise x_{m+1} = g_m (Jacobi), or with ``wake.accelerate`` Anderson's step of depth one,
-    x_{m+1} = g_m − β·(g_m − g_{m−1}), β minimising |r_m − β·(r_m − r_{m−1})| (r = g − x) stroke
-    by stroke. ``speed`` V [m/s], ``path_angle`` γ [rad] and ``scale`` (C_hf, 0 where the
-    reading is off) are (B,).
+    strips x_m, and its solution gives the strips g_m = F(x_m). A stroke's fixed point is
+    reached where the residual g_m − x_m of neither pair has an RMS above ``wake.tolerance``
+    times the sum of both pairs' RMS strips: pass m's input reproduces itself, pass m is that
+    stroke's result, and the later passes run the other strokes only (every step below is
+    stroke by stroke, so a stroke's result does not depend on the others). Otherwise x_{m+1} =
+    g_m (Jacobi), or with ``wake.accelerate`` Anderson's step of depth one, x_{m+1} = g_m −
+    β·(g_m − g_{m−1}), β minimising |r_m − β·(r_m − r_{m−1})| (r = g − x). ``speed`` V [m/s],
+    ``path_angle`` γ [rad] and ``scale`` (C_hf, 0 where the reading is off) are (B,).
     """
-    _, inflow, result = run(None)
+    inflow, result = run(None, None)
     pairs = (fore, hind)
     beats = (wake.fore_beats, wake.hind_beats)
     lattices = [
@@ -394,27 +421,45 @@ def vortex_reading(
     uniform = xp.constant_like(2.0 * np.pi * np.arange(wake.n_wake) / wake.n_wake, fore.phase)
     to_grid = [periodic_interpolation(uniform[None], p.phase, xp) for p in pairs]
     matrices = [influence(lattices[1 - w], pairs[w], wake, xp) for w in (0, 1)]
+    samples = [(lat.samples, lat.sample_weights) for lat in lattices]
+    rows = xp.as_int64(xp.arange_like(fore.phase.shape[0], fore.phase))  # the strokes solved
+    converged = xp.zeros_bool(rows)
     fields = given = last = None  # last: the last pass's (given strips, residual)
     for passes in range(wake.max_passes + 1):
         strips = xp.stack(
             [
                 strip_circulation(
-                    lattices[w],
-                    circulation(p, v, None if fields is None else fields[w], xp),
+                    lattices[w].to_strips,
+                    samples[w][1],
+                    circulation(p, v, None if fields is None else fields[w], samples[w][0], xp),
                     wake,
                     xp,
                 )
                 for w, (p, v) in enumerate(zip(pairs, inflow, strict=True))
             ],
             1,
-        )  # fmt: skip  (B, 2, n_w, N_s): the map's value at what the pass was given
+        )  # fmt: skip  (n, 2, n_w, N_s): the map's value at what the pass was given
         if given is not None:
             residual = strips - given
             size = xp.sqrt((strips * strips).mean((2, 3))).sum(1)
             change = xp.max_along(xp.sqrt((residual * residual).mean((2, 3))), 1)
-            converged = change <= wake.tolerance * size
-            if bool(converged.all()) or passes == wake.max_passes:
+            done = change <= wake.tolerance * size
+            converged[rows[done]] = True
+            if bool(done.all()) or passes == wake.max_passes:
                 break
+            if bool(done.any()):  # the converged strokes stop here
+                keep = ~done
+                rows, scale, strips, residual = (
+                    rows[keep],
+                    scale[keep],
+                    strips[keep],
+                    residual[keep],
+                )
+                pairs = tuple(p.take(keep) for p in pairs)
+                samples = [(i[keep], s[keep]) for i, s in samples]
+                to_grid = [g[keep] for g in to_grid]
+                matrices = [m[keep] for m in matrices]
+                last = None if last is None else (last[0][keep], last[1][keep])
             if last is not None and wake.accelerate:  # Anderson's step of depth one (secant)
                 dr, dg = residual - last[1], strips - last[0]
                 dot, norm = (residual * dr).sum((1, 2, 3)), (dr * dr).sum((1, 2, 3))
@@ -435,7 +480,7 @@ def vortex_reading(
             )
             for w in (0, 1)
         )
-        _, inflow, result = run(fields)
+        inflow, result = run(fields, rows)
     return result, converged
 
 
@@ -452,8 +497,8 @@ def kernel_reading(
 ) -> Any:
     """The vortex reading on the numba kernel: ``wings`` the fore and hind
     ``bundle.WingBatch``, ``params`` their (B, 14) parameters [Hz, rad, -], ``phases`` (B, 2,
-    n_time) [rad]; ``run_pass(wings)`` runs the kernel on them and returns its
-    ``bundle.Outputs``. Returns the last pass's outputs, with the fixed point's convergence
+    n_time) [rad]; ``run_pass(wings)`` runs the kernel on them (the whole batch or some of its
+    strokes, as many as the wings hold) and returns its ``bundle.Outputs``. Returns the last pass's outputs, with the fixed point's convergence
     folded into each wing's ``W_CONVERGED`` (``cycle``)."""
 
     frame = on_namespace(blade.frame_columns, NUMPY)
@@ -468,19 +513,25 @@ def kernel_reading(
                  np.array(batch.nodes[:, cycle.N_R]), np.array(batch.nodes[:, cycle.N_WIDTH]), root)
         )  # fmt: skip
 
-    def run(fields: tuple[Any, Any] | None) -> tuple[Any, tuple[Any, Any], Any]:
+    result = None
+
+    def run(fields: tuple[Any, Any] | None, rows: Any) -> tuple[tuple[Any, Any], Any]:
+        nonlocal result
         if fields is None:
-            outputs = run_pass(wings)
-        else:
-            outputs = run_pass(
-                tuple(
-                    b._replace(external=np.ascontiguousarray(f[0]),
-                               external_inflow=np.ascontiguousarray(f[1]))
-                    for b, f in zip(wings, fields, strict=True)
-                )
-            )  # fmt: skip
-        inflow = (outputs.inflow[:, 0], outputs.inflow[:, 1])
-        return outputs.means[:, :, cycle.W_FZ], inflow, outputs
+            result = run_pass(wings)
+            return (result.inflow[:, 0], result.inflow[:, 1]), result
+        outputs = run_pass(
+            tuple(
+                b._replace(**{name: getattr(b, name)[rows] for name in BATCH_FIELDS},
+                           external=np.ascontiguousarray(f[0]),
+                           external_inflow=np.ascontiguousarray(f[1]))
+                for b, f in zip(wings, fields, strict=True)
+            )
+        )  # fmt: skip
+        for whole, part in zip(result, outputs, strict=True):
+            if len(whole):  # the history is (0, …) unless kept
+                whole[rows] = part
+        return (outputs.inflow[:, 0], outputs.inflow[:, 1]), result
 
     outputs, converged = vortex_reading(*pairs, run, speed, path_angle, scale, NUMPY, WAKE)
     outputs.means[:, :, cycle.W_CONVERGED] *= converged[:, None]

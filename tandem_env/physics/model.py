@@ -444,12 +444,16 @@ def run_kernel(
     settings = kernel_settings(insect, options, n_time)
 
     def run(wings: tuple[WingBatch, WingBatch]) -> Outputs:
-        out = outputs if not vortex else Outputs(*(np.empty_like(a) for a in outputs))
+        # the vortex reading's passes run some of the strokes, each into outputs of its own
+        n = wings[0].weight.shape[0]
+        out = outputs
+        if vortex:
+            out = Outputs(*(np.empty((min(len(a), n), *a.shape[1:])) for a in outputs))
         with compile_notice():  # the first call compiles the kernels: say so once
-            if batch >= SERIAL_BELOW:
+            if n >= SERIAL_BELOW:
                 cycle.tandem_cycle(*wings, settings, out)
             else:
-                for b in range(batch):
+                for b in range(n):
                     cycle.tandem_stroke(b, *wings, settings, out)
         return out
 

@@ -36,6 +36,7 @@ there, so their motion changes the integral only to second order.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import fields, make_dataclass
@@ -740,9 +741,16 @@ def _vortex_chunk(strokes, speed, gamma, available_power, insect, options, compi
         wings.append((wing, params, vt, vn, inflow_switched_off(vn, options, TORCH)))
     scale = options.interference * (~(wings[0][4] | wings[1][4])).to(strokes.dtype)
 
-    def run(fields):
+    result = None
+
+    def run(fields, rows):
+        nonlocal result
         outs, inflows = [], []
         for w, (wing, params, vt, vn, off) in enumerate(wings):
+            if rows is not None:  # a pass on some of the strokes: their rows of everything
+                wing = copy.copy(wing)
+                wing.frame = wing.frame[:, rows]
+                params, vt, vn, off = params[rows], vt[rows], vn[rows], off[rows]
             vn0 = vn[:, None].expand(-1, wing.section.r.shape[0])
             wing.external = None if fields is None else fields[w][0]
             if fields is not None:
@@ -750,7 +758,14 @@ def _vortex_chunk(strokes, speed, gamma, available_power, insect, options, compi
             out, inflow = _wing_cycle(wing, params[:, 0], params[:, 1], vt, vn0, ~off, options)
             outs.append(out)
             inflows.append(inflow)
-        return torch.stack([o["FZ"] for o in outs], 1), tuple(inflows), outs
+        if rows is None:
+            result = outs
+        else:
+            result = [
+                {key: whole[key].index_copy(0, rows, part[key]) for key in whole}
+                for whole, part in zip(result, outs, strict=True)
+            ]
+        return tuple(inflows), result
 
     outs, converged = interaction.vortex_reading(
         *pairs, run, speed, gamma, scale, TORCH, interaction.WAKE

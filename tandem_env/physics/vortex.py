@@ -34,6 +34,8 @@ BOUND_VORTEX = 0.25
 #: the mid-chord (Pistolesi's point: for a velocity varying linearly along the chord it gives
 #: the thin aerofoil's effective angle of attack).
 COLLOCATION = -0.25
+#: Right wing → left wing (Y → −Y); the left wing carries −Γ along the mirrored segment.
+MIRROR = np.array([1.0, -1.0, 1.0])
 #: The trailing edge, 0.5 c behind the mid-chord, where the wake is released.
 TRAILING_EDGE = -0.5
 #: Squared lengths below this are treated as zero [m²] (a point on a segment's end, a segment of
@@ -118,23 +120,32 @@ def segment_velocity(
 
 
 @njit(cache=True, parallel=True, error_model=BRANCH_FREE)
-def _fill_influence(ends, core2, points, rows, weights, out):
-    """``out[q, p, :, o]`` = Σ_t ``weights[o, t]``·(:func:`unit_velocity` of segment
-    ``rows[o, t]``, its ends ``ends[q, :, s]`` = x1, y1, z1, x2, y2, z2 and ``core2[q, s]``, at
-    ``points[q, p]``): the numpy backend's compiled loop, parallel over q, for what
-    :func:`segment_influence` broadcasts on torch (``rows``, ``weights``: the nonzero entries of
-    each column of its ``combine``)."""
+def _fill_influence(ends, core2, points, rows, weights, signs, out):
+    """``out[q, i, c, o]`` = Σ_t ``weights[o, t]``·Σ_k ``signs[k, c]``·(:func:`unit_velocity`
+    of segment ``rows[o, t]``, its ends ``ends[q, :, s]`` = x1, y1, z1, x2, y2, z2 and
+    ``core2[q, s]``, at ``points[q, i + k·P]``)[c], P = ``out.shape[1]``: the numpy backend's
+    compiled loop, parallel over q, for what :func:`segment_influence` broadcasts on torch
+    (``rows``, ``weights``: the nonzero entries of each column of its ``combine``; ``signs``
+    (1, 3) ones, or (2, 3) ones and ``MIRROR`` for its ``mirrored`` fold, which is linear and
+    so taken before the combination)."""
     n_s = ends.shape[2]
     for q in prange(ends.shape[0]):
         unit = np.empty((3, n_s))
-        for p in range(points.shape[1]):
-            px, py, pz = points[q, p, 0], points[q, p, 1], points[q, p, 2]
-            for s in range(n_s):
-                unit[0, s], unit[1, s], unit[2, s] = unit_velocity(
-                    ends[q, 0, s], ends[q, 1, s], ends[q, 2, s],
-                    ends[q, 3, s], ends[q, 4, s], ends[q, 5, s],
-                    px, py, pz, core2[q, s],
-                )  # fmt: skip
+        for i in range(out.shape[1]):
+            unit[:] = 0.0
+            for k in range(signs.shape[0]):
+                p = i + k * out.shape[1]
+                px, py, pz = points[q, p, 0], points[q, p, 1], points[q, p, 2]
+                sx, sy, sz = signs[k, 0], signs[k, 1], signs[k, 2]
+                for s in range(n_s):
+                    vx, vy, vz = unit_velocity(
+                        ends[q, 0, s], ends[q, 1, s], ends[q, 2, s],
+                        ends[q, 3, s], ends[q, 4, s], ends[q, 5, s],
+                        px, py, pz, core2[q, s],
+                    )  # fmt: skip
+                    unit[0, s] += sx * vx
+                    unit[1, s] += sy * vy
+                    unit[2, s] += sz * vz
             for o in range(rows.shape[0]):
                 vx = vy = vz = 0.0
                 for t in range(rows.shape[1]):
@@ -142,7 +153,7 @@ def _fill_influence(ends, core2, points, rows, weights, out):
                     vx += w * unit[0, s]
                     vy += w * unit[1, s]
                     vz += w * unit[2, s]
-                out[q, p, 0, o], out[q, p, 1, o], out[q, p, 2, o] = vx, vy, vz
+                out[q, i, 0, o], out[q, i, 1, o], out[q, i, 2, o] = vx, vy, vz
 
 
 def segment_influence(
@@ -151,21 +162,32 @@ def segment_influence(
     core_radius: Any,
     combine: np.ndarray | None = None,
     xp: ArrayNamespace = NUMPY,
+    mirrored: bool = False,
 ) -> Any:
     """The velocity per unit circulation [m/s per m²/s] each segment induces at each point,
     not summed, or combined linearly: ``segments`` (..., S, 2, 3) [m], ``points`` (..., P, 3)
     [m], ``core_radius`` (..., S) [m] (the leading axes broadcast), ``combine`` a numpy (S, O)
     matrix (None: the identity). Returns (..., P, 3, O): the unit velocities (..., P, 3, S)
     times ``combine``, so that :func:`segment_velocity` is this with ``combine`` = Γ as a
-    column. On numpy a compiled loop over the leading axes that keeps the unit velocities of
-    one point only and adds each column's nonzero entries (:func:`_fill_influence`); on torch
-    the same formula broadcast (:func:`unit_velocity`) and a product."""
+    column. ``mirrored``: the last P/2 points are the first P/2's mirror images (Y → −Y),
+    and their velocities, mirrored, are added to the first P/2's: (..., P/2, 3, O) (what a
+    right wing's segments and its mirror image, the left wing carrying −Γ, induce at the first
+    P/2). On numpy a compiled loop over the leading axes that keeps the unit velocities of one
+    point only and adds each column's nonzero entries (:func:`_fill_influence`); on torch the
+    same formula broadcast (:func:`unit_velocity`) and a product."""
     _check_shapes(segments, points)
     n_s, n_p = segments.shape[-3], points.shape[-2]
+    half = n_p // 2 if mirrored else n_p
+    if mirrored and n_p % 2:
+        raise ValueError(f"{n_p} points, mirrored; allowed: an even number (points, images)")
     combine = np.eye(n_s) if combine is None else np.asarray(combine, dtype=float)
     if xp is not NUMPY:
         unit = on_namespace(unit_velocity, xp)(*_unit_arguments(segments, points, core_radius))
-        return xp.stack(unit, -2) @ xp.constant_like(combine, points)
+        unit = xp.stack(unit, -2) @ xp.constant_like(combine, points)
+        if mirrored:
+            mirror = xp.constant_like(MIRROR, points)[:, None]
+            unit = unit[..., :half, :, :] + unit[..., half:, :, :] * mirror
+        return unit
     lead = np.broadcast_shapes(segments.shape[:-3], points.shape[:-2])
     ends = np.broadcast_to(np.moveaxis(segments.reshape(*segments.shape[:-2], 6), -1, -2),
                            (*lead, 6, n_s))  # fmt: skip
@@ -174,14 +196,15 @@ def segment_influence(
     width = max(int(nonzero.sum(0).max()), 1)
     rows = np.argsort(~nonzero, axis=0, kind="stable")[:width].T  # each column's nonzero rows
     weights = np.take_along_axis(combine.T, rows, 1)  # zero where a column has fewer
-    out = np.empty((*lead, n_p, 3, combine.shape[1]))
+    out = np.empty((*lead, half, 3, combine.shape[1]))
     _fill_influence(
         np.ascontiguousarray(ends.reshape(-1, 6, n_s)),
         np.ascontiguousarray(core2.reshape(-1, n_s)),
         np.ascontiguousarray(np.broadcast_to(points, (*lead, n_p, 3)).reshape(-1, n_p, 3)),
         np.ascontiguousarray(rows),
         np.ascontiguousarray(weights),
-        out.reshape(-1, n_p, 3, combine.shape[1]),
+        np.stack([np.ones(3), MIRROR]) if mirrored else np.ones((1, 3)),
+        out.reshape(-1, half, 3, combine.shape[1]),
     )
     return out
 
