@@ -38,9 +38,9 @@ def test_a_record_of_another_revision_is_not_served_and_is_kept(
     assert first.model == tandem_env.physics.MODEL_REVISION
     # the same model: served from the cache, nothing computed
     assert run_jobs([JOB], tmp_path / "b", progress=False).cached == 1 and len(calls) == 1
-    old_key = JOB.key
+    old_key, moved = JOB.key, tandem_env.physics.MODEL_REVISION + 1
     with monkeypatch.context() as patch:
-        patch.setattr(tandem_env.physics, "MODEL_REVISION", 2)  # the model's results moved
+        patch.setattr(tandem_env.physics, "MODEL_REVISION", moved)  # the model's results moved
         assert JOB.key != old_key
         for out, cache in (("c", True), ("a", False)):  # c: the old record in the cache; a: in a
             with pytest.warns(
@@ -48,11 +48,11 @@ def test_a_record_of_another_revision_is_not_served_and_is_kept(
             ) as said:
                 summary = run_jobs([JOB], tmp_path / out, progress=False, cache=cache)
             assert len(said) == 1 and (summary.ran, summary.cached) == (1, 0)
-        assert len(calls) == 3  # recomputed, not served: the new records are revision 2's
+        assert len(calls) == 3  # recomputed, not served: the new records are the next revision's
         new = read_record(record_cache / "records" / f"{JOB.key}.json")
-        assert new.model == 2 and new.key == JOB.key
+        assert new.model == moved and new.key == JOB.key
         assert (record_cache / "records" / f"{old_key}.json").exists()  # kept, never deleted
-    # back at revision 1: its record is served again, and revision 2's stays readable
+    # back at today's revision: its record is served again, and the next one's stays readable
     assert run_jobs([JOB], tmp_path / "d", progress=False).cached == 1 and len(calls) == 3
     assert read_record(tmp_path / "c" / "records" / f"{new.key}.json") == new
 
