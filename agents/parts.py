@@ -203,9 +203,13 @@ def _polish(
     infeasible = part.selection == SELECTION_BEST_REWARD
     problem = job_problem()
     result = polish(
-        problem, part.action, allowance, config, _gradient(prepared, problem),
+        problem,
+        part.action,
+        allowance,
+        config,
+        _gradient(prepared, problem),
         infeasible_start=infeasible,
-    )  # fmt: skip
+    )
     part = replace(
         part,
         certificate=result.certificate,

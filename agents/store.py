@@ -172,9 +172,12 @@ class RecordStore:
         written now."""
         records = [f"{RECORDS_DIR}/{job.key}.json" for job in jobs]
         return output_directory(
-            self._given, "--out", write=write, folders=(RECORDS_DIR,),
+            self._given,
+            "--out",
+            write=write,
+            folders=(RECORDS_DIR,),
             files=(SUMMARY_NAME, *records),
-        )  # fmt: skip
+        )
 
     def path(self, key: str) -> Path:
         """Where the record with configuration hash ``key`` is stored."""
@@ -308,8 +311,10 @@ def read_record_files(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
                 raise RecordError(f"{path}: cannot read JSON: {error}") from None
             schema = data.get("schema") if isinstance(data, dict) else None
             if schema in OLD_SCHEMAS:
-                _warn(f"{path}: a record of the earlier format {schema!r}; left out (rerun "
-                      "the command that wrote it to recompute it)")  # fmt: skip
+                _warn(
+                    f"{path}: a record of the earlier format {schema!r}; left out (rerun "
+                    "the command that wrote it to recompute it)"
+                )
                 continue
             if schema != SCHEMA:
                 continue

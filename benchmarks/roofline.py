@@ -76,8 +76,14 @@ def _op(kind: str, fn):
     return apply
 
 
-for _name, _fn in (("add", float.__add__), ("radd", float.__radd__), ("sub", float.__sub__),
-                   ("rsub", float.__rsub__), ("mul", float.__mul__), ("rmul", float.__rmul__)):  # fmt: skip
+for _name, _fn in (
+    ("add", float.__add__),
+    ("radd", float.__radd__),
+    ("sub", float.__sub__),
+    ("rsub", float.__rsub__),
+    ("mul", float.__mul__),
+    ("rmul", float.__rmul__),
+):
     setattr(Counted, f"__{_name}__", _op("flop", _fn))
 Counted.__truediv__ = _op("div", float.__truediv__)
 Counted.__rtruediv__ = _op("div", float.__rtruediv__)
@@ -121,8 +127,20 @@ def operation_counts() -> dict[str, dict[str, int]]:
         counted(blade.element_force_at, u, v, du, dv, coef[0, blade.C_SPIN], section, speed)
     )
     sweep["flop"] += 4  # (F_c·e_c·z + F_n·e_n·z)·w and its running sum
-    slope = Counter(counted(induction.normal_force_rate_at, u, v, u, v, du, dv,
-                            coef[0, blade.C_SPIN], section, speed))  # fmt: skip
+    slope = Counter(
+        counted(
+            induction.normal_force_rate_at,
+            u,
+            v,
+            u,
+            v,
+            du,
+            dv,
+            coef[0, blade.C_SPIN],
+            section,
+            speed,
+        )
+    )
     slope["flop"] += 2  # the weight and the running sum
     span = np.empty((4, 1), dtype=object)
     span[:] = Counted(0.0)
@@ -182,8 +200,9 @@ def stages(te, options, strokes, inputs, repeats: int = 3) -> dict[str, float]:
 
     angles, weights, _, beta, _, _ = inputs
     speed, path = np.ones(len(strokes)), np.zeros(len(strokes))
-    history = model.run_kernel(*inputs[:5], speed, path, te.DRAGONFLY, options,
-                               keep_history=True).history  # fmt: skip
+    history = model.run_kernel(
+        *inputs[:5], speed, path, te.DRAGONFLY, options, keep_history=True
+    ).history
     coef = np.empty((options.n_time, blade.N_COEF))
     out = np.empty(cycle.N_WING_OUT)
     tables = cycle.fourier_tables(options.n_time)
@@ -232,35 +251,63 @@ def main() -> None:
     import tandem_env as te
     from tandem_env.physics import cycle, model
 
-    numbers = {"commit": args.commit, "rounds": args.rounds, "calls": args.calls, "batch": 1024,
-               "load_before": os.getloadavg()[0], "ghz": clock_ghz(), **machine_limits()}  # fmt: skip
+    numbers = {
+        "commit": args.commit,
+        "rounds": args.rounds,
+        "calls": args.calls,
+        "batch": 1024,
+        "load_before": os.getloadavg()[0],
+        "ghz": clock_ghz(),
+        **machine_limits(),
+    }
     options = te.ModelOptions(slipstream="mean")
     strokes = te.normalised_to_physical(np.random.default_rng(0).uniform(-1, 1, (1024, 28)))
     inputs = model.parametric_kernel_inputs(strokes, options.n_time)
     out = model.run_kernel(*inputs[:5], np.ones(1024), np.zeros(1024), te.DRAGONFLY, options).means
     annuli = 2 * options.n_blade
-    per_stroke = {"element_samples": annuli * options.n_time,
-                  "sweeps": float(out[:, :, cycle.W_SWEEPS].sum(1).mean()),
-                  "slopes": float(out[:, :, cycle.W_SLOPES].sum(1).mean())}  # fmt: skip
+    per_stroke = {
+        "element_samples": annuli * options.n_time,
+        "sweeps": float(out[:, :, cycle.W_SWEEPS].sum(1).mean()),
+        "slopes": float(out[:, :, cycle.W_SLOPES].sum(1).mean()),
+    }
     ops = operation_counts()
     per_sample = {
-        key: (per_stroke["sweeps"] * ops["sweep"].get(key, 0)
-              + per_stroke["slopes"] * ops["slope"].get(key, 0)) / annuli + ops["span"].get(key, 0)
+        key: (
+            per_stroke["sweeps"] * ops["sweep"].get(key, 0)
+            + per_stroke["slopes"] * ops["slope"].get(key, 0)
+        )
+        / annuli
+        + ops["span"].get(key, 0)
         for key in ("flop", "div", "sqrt", "libm")
-    }  # fmt: skip
-    numbers |= {"per_stroke": per_stroke, "operations": ops, "per_element_sample": per_sample,
-                "stages_ms": stages(te, options, strokes, inputs)}  # fmt: skip
-    print("where the time goes (CPU ms per call, 1 thread):",
-          ", ".join(f"{k} {v:.1f}" for k, v in numbers["stages_ms"].items()))  # fmt: skip
+    }
+    numbers |= {
+        "per_stroke": per_stroke,
+        "operations": ops,
+        "per_element_sample": per_sample,
+        "stages_ms": stages(te, options, strokes, inputs),
+    }
+    print(
+        "where the time goes (CPU ms per call, 1 thread):",
+        ", ".join(f"{k} {v:.1f}" for k, v in numbers["stages_ms"].items()),
+    )
     tree = ROOT / "results" / "roofline" / args.commit
     if not (tree / "tandem_env").exists():
         tree.mkdir(parents=True, exist_ok=True)
-        archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.commit, "tandem_env"],
-                                 check=True, capture_output=True).stdout  # fmt: skip
+        archive = subprocess.run(
+            ["git", "-C", str(ROOT), "archive", args.commit, "tandem_env"],
+            check=True,
+            capture_output=True,
+        ).stdout
         subprocess.run(["tar", "-x", "-C", str(tree)], input=archive, check=True)
     env = {**os.environ, "PYTHONPATH": str(tree)}
-    old = subprocess.Popen([sys.executable, __file__, "--worker"], stdin=subprocess.PIPE,
-                           stdout=subprocess.PIPE, text=True, env=env, cwd=tree)  # fmt: skip
+    old = subprocess.Popen(
+        [sys.executable, __file__, "--worker"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        env=env,
+        cwd=tree,
+    )
     call = workload(te)
     call()
     times = {t: {"old": [], "new": []} for t in args.threads}  # (wall, CPU) s per call
@@ -282,20 +329,27 @@ def main() -> None:
         for i, kind in enumerate(("wall", "cpu")):
             before, now = np.array(t["old"])[:, i], np.array(t["new"])[:, i]
             ratios = before / now
-            row |= {f"{kind}_old_ms": 1e3 * np.median(before), f"{kind}_new_ms": 1e3 * np.median(now),
-                    f"{kind}_ratio": float(np.median(ratios)),
-                    f"{kind}_range": [float(ratios.min()), float(ratios.max())]}  # fmt: skip
-            print(f"{threads} thread(s), {kind}: {args.commit} {row[kind + '_old_ms']:.1f} ms, now "
-                  f"{row[kind + '_new_ms']:.1f} ms per call: {row[kind + '_ratio']:.2f}x "
-                  f"(rounds {ratios.min():.2f}-{ratios.max():.2f})")  # fmt: skip
+            row |= {
+                f"{kind}_old_ms": 1e3 * np.median(before),
+                f"{kind}_new_ms": 1e3 * np.median(now),
+                f"{kind}_ratio": float(np.median(ratios)),
+                f"{kind}_range": [float(ratios.min()), float(ratios.max())],
+            }
+            print(
+                f"{threads} thread(s), {kind}: {args.commit} {row[kind + '_old_ms']:.1f} ms, now "
+                f"{row[kind + '_new_ms']:.1f} ms per call: {row[kind + '_ratio']:.2f}x "
+                f"(rounds {ratios.min():.2f}-{ratios.max():.2f})"
+            )
         numbers["speed"].append(row)
     one = numbers["speed"][0]
     ns = 1e-3 * one["cpu_new_ms"] * 1e9 / 1024 / per_stroke["element_samples"]
     numbers |= {"ns_per_element_sample": ns, "load_after": os.getloadavg()[0]}
     print(f"per stroke: {per_stroke}; per element sample: {per_sample}")
-    print(f"measured: {ns:.2f} ns = {ns * numbers['ghz']:.1f} cycles per element sample (whole call, "
-          f"CPU time); machine: {numbers['fma_flops_per_ns'] / numbers['ghz']:.1f} FMA flops/cycle, "
-          f"{numbers['rsqrt_per_ns'] / numbers['ghz']:.2f} 1/sqrt per cycle at {numbers['ghz']:.2f} GHz")  # fmt: skip
+    print(
+        f"measured: {ns:.2f} ns = {ns * numbers['ghz']:.1f} cycles per element sample (whole call, "
+        f"CPU time); machine: {numbers['fma_flops_per_ns'] / numbers['ghz']:.1f} FMA flops/cycle, "
+        f"{numbers['rsqrt_per_ns'] / numbers['ghz']:.2f} 1/sqrt per cycle at {numbers['ghz']:.2f} GHz"
+    )
     if args.json:
         from tandem_env.io.files import write_json_atomic
 

@@ -330,8 +330,15 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
             finals.extend(v for v in (q25[-1], median[-1], q75[-1]) if np.isfinite(v))
             tail = median[x >= 0.1 * x[-1]]
             finals.extend(v for v in tail[:1] if np.isfinite(v))
-        ax.plot([], [], marker="D", color="0.5", mec="k", ls="none",
-                label=f"reported {objective_name} (median of feasible seeds)")  # fmt: skip
+        ax.plot(
+            [],
+            [],
+            marker="D",
+            color="0.5",
+            mec="k",
+            ls="none",
+            label=f"reported {objective_name} (median of feasible seeds)",
+        )
         if polished:
             ax.plot([], [], ":", color="0.5", lw=1.4, label=POLISH_LABEL)
         _focus(ax, finals)

@@ -49,8 +49,16 @@ def _seed_color(trace: Trace, i: int) -> str:
 #: figure-of-eight shows its direction on both loops.
 ARROW_PHASES: tuple[float, ...] = (0.125, 0.375, 0.625, 0.875)
 #: The arrowheads: filled black with a white rim, above every path, 16 pt long.
-ARROW_STYLE: dict = {"arrowstyle": "-|>", "mutation_scale": 16, "fc": "k", "ec": "white",
-                     "lw": 0.8, "shrinkA": 0, "shrinkB": 0, "zorder": 6}  # fmt: skip
+ARROW_STYLE: dict = {
+    "arrowstyle": "-|>",
+    "mutation_scale": 16,
+    "fc": "k",
+    "ec": "white",
+    "lw": 0.8,
+    "shrinkA": 0,
+    "shrinkB": 0,
+    "zorder": 6,
+}
 START_LABEL = "best seed at t = 0 (arrows: direction of travel)"
 
 
@@ -196,10 +204,19 @@ COLUMN_FONT_PT = 7.0
 #: The text sizes of a single-column figure: every text at :data:`COLUMN_FONT_PT`, the title
 #: a point larger.
 COLUMN_RC: dict[str, Any] = {
-    **{key: COLUMN_FONT_PT for key in ("font.size", "axes.titlesize", "axes.labelsize",
-                                       "xtick.labelsize", "ytick.labelsize", "legend.fontsize")},
+    **{
+        key: COLUMN_FONT_PT
+        for key in (
+            "font.size",
+            "axes.titlesize",
+            "axes.labelsize",
+            "xtick.labelsize",
+            "ytick.labelsize",
+            "legend.fontsize",
+        )
+    },
     "figure.titlesize": COLUMN_FONT_PT + 1,
-}  # fmt: skip
+}
 #: Characters per line of a single-column figure's panel titles and legends (two panels
 #: side by side at :data:`COLUMN_FONT_PT`).
 COLUMN_WRAP = 22
@@ -233,8 +250,9 @@ def cycle_figure(
             # one legend for the row, below it
             handles, labels = axes[0].get_legend_handles_labels()
             entries = [*zip(handles, labels, strict=True), text_entry("bold: best seed")]
-            subfigs[0].legend(*zip(*entries, strict=True), loc="outside lower center",
-                              ncols=2, frameon=False)  # fmt: skip
+            subfigs[0].legend(
+                *zip(*entries, strict=True), loc="outside lower center", ncols=2, frameon=False
+            )
         if extras:
             axes = np.atleast_1d(subfigs[-1].subplots(1, len(extras)))
             for ax, extra in zip(axes, extras, strict=True):

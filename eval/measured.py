@@ -348,9 +348,17 @@ def record(case: MeasuredCase, history: StrokeHistory, source: Path) -> dict[str
 
     def wing_history(w: Any) -> dict[str, list[float]]:
         keys = (
-            "cycle_fraction", "time", "sweep", "elevation", "pitch", "angle_of_attack",
-            "vertical_force", "horizontal_force", "aero_power", "inertial_power",
-        )  # fmt: skip
+            "cycle_fraction",
+            "time",
+            "sweep",
+            "elevation",
+            "pitch",
+            "angle_of_attack",
+            "vertical_force",
+            "horizontal_force",
+            "aero_power",
+            "inertial_power",
+        )
         return {k: np.asarray(getattr(w, k)).tolist() for k in keys}
 
     return {

@@ -200,9 +200,11 @@ def _pool(found: Mapping[PointKey, Sequence[Record]], key: PointKey) -> list[Rec
     if env_id not in NESTED_TASKS:
         return list(found[key])
     return [
-        r for (e, _, p, c), rs in found.items() if (e, p) == (env_id, planform) and c <= condition
+        r
+        for (e, _, p, c), rs in found.items()
+        if (e, p) == (env_id, planform) and c <= condition
         for r in rs
-    ]  # fmt: skip
+    ]
 
 
 def best_objectives(found: Mapping[PointKey, Sequence[Record]]) -> dict[PointKey, float]:
@@ -228,9 +230,13 @@ def round_gains(
     }
 
 
-def _point(key: PointKey, search: Sequence[Record], rounds: Sequence[Record],
-           found: Mapping[PointKey, Sequence[Record]],
-           candidates: Sequence[Record] = ()) -> dict[str, Any]:  # fmt: skip
+def _point(
+    key: PointKey,
+    search: Sequence[Record],
+    rounds: Sequence[Record],
+    found: Mapping[PointKey, Sequence[Record]],
+    candidates: Sequence[Record] = (),
+) -> dict[str, Any]:
     """One grid point: the best stroke competing for it (:func:`_pool`)."""
     env_id, objective, _, condition = key
     best = _best(_pool(found, key), env_id, objective)
@@ -459,8 +465,12 @@ def _report(table: Mapping[str, Any], out: Path) -> None:
 # --- the table as people read it: a Markdown table, and a figure of the optima against the
 # condition with every seed's optimum beside the best
 # Okabe-Ito colours, one per objective (readable in colour-blind vision and in grey).
-_COLOURS = {"efficiency": "#0072B2", "vertical": "#0072B2", "horizontal": "#D55E00",
-            "resultant": "#009E73"}  # fmt: skip
+_COLOURS = {
+    "efficiency": "#0072B2",
+    "vertical": "#0072B2",
+    "horizontal": "#D55E00",
+    "resultant": "#009E73",
+}
 _LINES = {"tear-drop": "-", "real": "--"}
 
 
@@ -524,9 +534,11 @@ def _absorbed(table: Mapping[str, Any]) -> str:
     by how much above the table's own seeds and rounds [%]."""
     raised = [
         (s["objective"], s["planform"], p["condition"], 100 * (p["objective"] / own - 1))
-        for s in table["series"] for p in s["points"] if p["source"].startswith("candidate")
+        for s in table["series"]
+        for p in s["points"]
+        if p["source"].startswith("candidate")
         if (own := max(v for v in (*p["seed_objectives"], *p["continued_objectives"]) if v))
-    ]  # fmt: skip
+    ]
     if not table["provenance"].get("candidates"):
         return ""
     listed = ", ".join(f"{o} {f} at {c:g} (+{g:.3f} %)" for o, f, c, g in raised) or "none"

@@ -40,11 +40,14 @@ def candidates(
         keys = [k for k in jobs if (k[0], k[3]) == (env_id, condition) and fingerprints[k] == mine]
         why = (
             f"it was made by model revision {record.model}, not this model's {revision} "
-            "(tandem_env.physics.MODEL_REVISION): rerun it" if record.model != revision
-            else "it does not fly" if not record.feasible
+            "(tandem_env.physics.MODEL_REVISION): rerun it"
+            if record.model != revision
+            else "it does not fly"
+            if not record.feasible
             else f"no series of the table at {env_id} {condition:g} with its model and insect"
-            if not keys else None
-        )  # fmt: skip
+            if not keys
+            else None
+        )
         if why is None and (
             refuted := verify.refuted({record.key: record}, {record.key: record.job})
         ):

@@ -298,14 +298,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--run", required=True, help="run folder of python -m train --algo amortised"
     )
     parser.add_argument(
-        "--polish", type=int, default=0, metavar="N",
+        "--polish",
+        type=int,
+        default=0,
+        metavar="N",
         help=f"warm-started polish of at most N evaluations per condition (<= {MAX_POLISH})",
-    )  # fmt: skip
+    )
     parser.add_argument("--records", help="harness records of the reference run (wall times)")
     parser.add_argument(
-        "--cmaes-budget", type=int, default=0, metavar="N",
+        "--cmaes-budget",
+        type=int,
+        default=0,
+        metavar="N",
         help="time a fresh CMA-ES run of N evaluations at the first held-out condition",
-    )  # fmt: skip
+    )
     parser.add_argument("--out", help="write the report as JSON to this file")
     args = parser.parse_args(argv)
     try:

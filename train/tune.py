@@ -129,9 +129,23 @@ class TuneConfig:
 
     def command(self) -> str:
         """The command line that makes this study."""
-        words = ["python", "-m", "train.tune", "--algo", self.algo, "--env", self.env_id,
-                 "--trials", str(self.trials), "--steps", str(self.steps), "--seed",
-                 str(self.seed), "--out", str(self.out)]  # fmt: skip
+        words = [
+            "python",
+            "-m",
+            "train.tune",
+            "--algo",
+            self.algo,
+            "--env",
+            self.env_id,
+            "--trials",
+            str(self.trials),
+            "--steps",
+            str(self.steps),
+            "--seed",
+            str(self.seed),
+            "--out",
+            str(self.out),
+        ]
         if self.env_kwargs:
             words += ["--env-kwargs", *(f"{k}={v!r}" for k, v in self.env_kwargs.items())]
         return shlex.join(words)
@@ -149,8 +163,10 @@ class TuneConfig:
         # the trials are scored against the reference table: an env it does not describe
         # (n_time=64, another insect) would train a whole trial to a NaN score
         table_series(self.env_id, self.env_kwargs)
-        for option, value, high in (("--trials", self.trials, MAX_TRIALS),
-                                    ("--steps", self.steps, MAX_STEPS)):  # fmt: skip
+        for option, value, high in (
+            ("--trials", self.trials, MAX_TRIALS),
+            ("--steps", self.steps, MAX_STEPS),
+        ):
             if not is_integer(value) or not 1 <= value <= high:
                 raise ValueError(f"{option} {value!r}; allowed: an integer from 1 to {high:,}")
         from train.config import check_seed

@@ -49,8 +49,15 @@ COMPARISON_SEEDS: tuple[int, ...] = (0, 1, 2, 3)
 
 SPECIES_FILE = "examples/orthetrum_cancellatum.yaml"
 SPECIES_ARGUMENTS: tuple[str, ...] = (
-    "--task", "level", "--speed", "1.5", "--method", "cmaes", "--budget", "16000",
-)  # fmt: skip
+    "--task",
+    "level",
+    "--speed",
+    "1.5",
+    "--method",
+    "cmaes",
+    "--budget",
+    "16000",
+)
 """The condition and search, the README's level-flight comparison row (cmaes)."""
 SPECIES_SEEDS: tuple[int, ...] = (0, 1, 2)
 SPECIES_INSECTS: tuple[tuple[str, tuple[str, ...]], ...] = (
@@ -64,8 +71,12 @@ SPECIES_METRICS: tuple[tuple[str, str, str], ...] = (
     ("power_per_mass", "P/m [W/kg]", "{:.1f}"),
 )
 SPECIES_PARAMETERS: tuple[str, ...] = (
-    "frequency", "sweep_amplitude", "elevation_amplitude", "pitch_amplitude", "stroke_plane_angle",
-)  # fmt: skip
+    "frequency",
+    "sweep_amplitude",
+    "elevation_amplitude",
+    "pitch_amplitude",
+    "stroke_plane_angle",
+)
 """Table 4 parameters shown per wing (fore / hind), with the paper's symbols."""
 
 

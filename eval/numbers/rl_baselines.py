@@ -61,10 +61,26 @@ def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str
     """The documented envelope training command of ``algo`` with the ``hyperparams`` of
     :data:`HYPERPARAMETERS` (``-f`` is added)."""
     conf = HYPERPARAMETERS[hyperparams]
-    return ["python", "-m", "train", "--algo", algo, "--env", ENV_ID, "--seed", str(seed),
-            "-n", str(steps), "--env-kwargs", ENVELOPE, "--no-progress", "--no-tensorboard",
-            "--torch-threads", "1",
-            *(() if conf is None else ("--conf-file", conf.format(algo=algo)))]  # fmt: skip
+    return [
+        "python",
+        "-m",
+        "train",
+        "--algo",
+        algo,
+        "--env",
+        ENV_ID,
+        "--seed",
+        str(seed),
+        "-n",
+        str(steps),
+        "--env-kwargs",
+        ENVELOPE,
+        "--no-progress",
+        "--no-tensorboard",
+        "--torch-threads",
+        "1",
+        *(() if conf is None else ("--conf-file", conf.format(algo=algo))),
+    ]
 
 
 def score_run(
@@ -80,10 +96,19 @@ def score_run(
     out = folder / f"envelope-{logs.name}"
     conditions = [str(c) for c in held_out_conditions(ENV_ID)]
     run_command(
-        ["python", "-m", "train.envelope", "--run", str(run), "--out", str(out),
-         "--conditions", *conditions],
+        [
+            "python",
+            "-m",
+            "train.envelope",
+            "--run",
+            str(run),
+            "--out",
+            str(out),
+            "--conditions",
+            *conditions,
+        ],
         _ONE_CORE,
-    )  # fmt: skip
+    )
     rows = read_rows(out / "envelope.csv")
     return {
         "algo": algo,
@@ -181,9 +206,10 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
 
     colours = dict(zip(dict.fromkeys(algo for _, algo, _ in POLICIES), PALETTE, strict=False))
     stored = {
-        name: load(name)["runs"] for name in dict.fromkeys(name for name, _, _ in POLICIES)
+        name: load(name)["runs"]
+        for name in dict.fromkeys(name for name, _, _ in POLICIES)
         if json_path(name).is_file()
-    }  # fmt: skip
+    }
     measured = {**stored, **fresh}
     fig, ax = plt.subplots(figsize=(6.0, 4.8))
     for name, algo, hp in POLICIES:
@@ -197,10 +223,18 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
         columns = zip(*(r["scores"] for r in runs), strict=True)
         medians = [statistics.median(col) for col in columns]
         label = f"{algo.upper()}, {hp} hyperparameters" if hp else "amortised policy"
-        ax.plot(runs[0]["conditions"], medians, color=colours[algo], lw=1.4 if shipped else 2.2,
-                ls="--" if shipped else "-", marker="o", ms=3 if shipped else 5,
-                label=f"{label} (median of {len(runs)} seeds" + ("" if shipped else "; thin: each")
-                + ")")  # fmt: skip
+        ax.plot(
+            runs[0]["conditions"],
+            medians,
+            color=colours[algo],
+            lw=1.4 if shipped else 2.2,
+            ls="--" if shipped else "-",
+            marker="o",
+            ms=3 if shipped else 5,
+            label=f"{label} (median of {len(runs)} seeds"
+            + ("" if shipped else "; thin: each")
+            + ")",
+        )
     ax.axhline(100.0, color="0.3", ls="--", lw=1.0, label="reference optimum (100)")
     ax.axhline(0.0, color="0.6", lw=0.8)
     ax.set_xlabel("flight speed V [m/s] (held-out conditions)")
@@ -217,8 +251,19 @@ AMORTISED = "amortised"
 
 def amortised_command(seed: int | str) -> list[str]:
     """The documented amortised training command (``-f`` is added)."""
-    return ["python", "-m", "train", "--algo", AMORTISED, "--env", ENV_ID, "--seed", str(seed),
-            "--verbose", "0"]  # fmt: skip
+    return [
+        "python",
+        "-m",
+        "train",
+        "--algo",
+        AMORTISED,
+        "--env",
+        ENV_ID,
+        "--seed",
+        str(seed),
+        "--verbose",
+        "0",
+    ]
 
 
 def measure_amortised() -> dict[str, Any]:
@@ -243,8 +288,16 @@ def measure_headline() -> dict[str, Any]:
     for name, algo, hp in POLICIES:
         runs = runs_of(stored[name]["runs"], algo, hp)
         median, worst, flies, _ = summary(runs)
-        rows.append({"algo": algo, "hyperparams": hp, "seeds": len(runs), "median": median,
-                     "worst": worst, "flies": flies})  # fmt: skip
+        rows.append(
+            {
+                "algo": algo,
+                "hyperparams": hp,
+                "seeds": len(runs),
+                "median": median,
+                "worst": worst,
+                "flies": flies,
+            }
+        )
     dates = {name: data["machine_before"]["date"] for name, data in stored.items()}
     return {"policies": rows, "measured": dates}
 

@@ -13,16 +13,28 @@ ROOFLINE = Benchmark(("benchmarks/roofline.py",))
 
 def render_roofline(data: dict[str, Any]) -> str:
     lines = table_head(
-        ["numba threads", f"{data['commit']}: ms per call, wall / CPU", "now: ms per call, wall / CPU",
-         "speed-up, wall: median (range)", "speed-up, CPU: median (range)"]
-    )  # fmt: skip
+        [
+            "numba threads",
+            f"{data['commit']}: ms per call, wall / CPU",
+            "now: ms per call, wall / CPU",
+            "speed-up, wall: median (range)",
+            "speed-up, CPU: median (range)",
+        ]
+    )
     for r in data["speed"]:
-        lines.append(table_row([
-            r["threads"], f"{r['wall_old_ms']:.0f} / {r['cpu_old_ms']:.0f}",
-            f"{r['wall_new_ms']:.0f} / {r['cpu_new_ms']:.0f}",
-            *(f"{r[k + '_ratio']:.2f} ({r[k + '_range'][0]:.2f}-{r[k + '_range'][1]:.2f})"
-              for k in ("wall", "cpu")),
-        ]))  # fmt: skip
+        lines.append(
+            table_row(
+                [
+                    r["threads"],
+                    f"{r['wall_old_ms']:.0f} / {r['cpu_old_ms']:.0f}",
+                    f"{r['wall_new_ms']:.0f} / {r['cpu_new_ms']:.0f}",
+                    *(
+                        f"{r[k + '_ratio']:.2f} ({r[k + '_range'][0]:.2f}-{r[k + '_range'][1]:.2f})"
+                        for k in ("wall", "cpu")
+                    ),
+                ]
+            )
+        )
     s, e, ghz = data["per_stroke"], data["per_element_sample"], data["ghz"]
     cycles = data["ns_per_element_sample"] * ghz
     fma, rsqrt = data["fma_flops_per_ns"] / ghz, data["rsqrt_per_ns"] / ghz

@@ -141,8 +141,11 @@ def measure_torch_throughput() -> dict[str, Any]:
 
 def render_torch_throughput(data: dict[str, Any]) -> str:
     eager, compiled = by_case(data["eager"]["rates"]), by_case(data["compiled"]["rates"])
-    columns = (("coupled, eager", eager, "coupled"), ("coupled, compiled", compiled, "coupled"),
-               ("none, eager", eager, "none"))  # fmt: skip
+    columns = (
+        ("coupled, eager", eager, "coupled"),
+        ("coupled, compiled", compiled, "coupled"),
+        ("none, eager", eager, "none"),
+    )
     batches = sorted({batch for batch, _ in eager} | {batch for batch, _ in compiled})
 
     def cell(rates: dict[tuple[int, str], dict[str, Any]], key: tuple[int, str]) -> str:

@@ -289,18 +289,36 @@ NOISY = (
 PITCH = "pitch amplitude η_m is larger in accelerating than in level flight (ours: accelerating − level)"
 CLAIMS: tuple[C.ClaimSpec, ...] = (
     C.ClaimSpec(
-        "K1", "Fig. 11a", "level flight ({kinematics_speed:g} m/s): fore- and hind-wing flap out of phase (|ΔΦ|)",
-        "out of phase", "phase", False, phase_of("level |ΔΦ|", "K1"),
+        "K1",
+        "Fig. 11a",
+        "level flight ({kinematics_speed:g} m/s): fore- and hind-wing flap out of phase (|ΔΦ|)",
+        "out of phase",
+        "phase",
+        False,
+        phase_of("level |ΔΦ|", "K1"),
     ),
     C.ClaimSpec(
-        "K2", "Fig. 11", "at {phase_speed:g} m/s the hind-wing leads by about 30° (ΔΦ)", "+30°",
-        "angle", PAPER_PHASE_LEAD, phase_of("ΔΦ", "K2"), NOISY,
+        "K2",
+        "Fig. 11",
+        "at {phase_speed:g} m/s the hind-wing leads by about 30° (ΔΦ)",
+        "+30°",
+        "angle",
+        PAPER_PHASE_LEAD,
+        phase_of("ΔΦ", "K2"),
+        NOISY,
     ),
     C.ClaimSpec(
-        "K3", "Fig. 11b", "accelerating flight ({kinematics_power:g} W/kg): the wings flap in phase (|ΔΦ|)",
-        "in phase", "phase", True, phase_of("accel |ΔΦ|", "K3"),
+        "K3",
+        "Fig. 11b",
+        "accelerating flight ({kinematics_power:g} W/kg): the wings flap in phase (|ΔΦ|)",
+        "in phase",
+        "phase",
+        True,
+        phase_of("accel |ΔΦ|", "K3"),
     ),
-    C.ClaimSpec("K4", "Fig. 12c", PITCH, "η_m,acc > η_m,level", "compare", (">", 0.0), pitch_larger),
-)  # fmt: skip
+    C.ClaimSpec(
+        "K4", "Fig. 12c", PITCH, "η_m,acc > η_m,level", "compare", (">", 0.0), pitch_larger
+    ),
+)
 
 analyse = Analysis(NAME, TITLE, QUANTITIES, draw, CLAIMS, view)

@@ -204,9 +204,17 @@ def ratio(series: Mapping[str, Mapping[float, Spread]], _: Any) -> C.Stats:
 def _at_powers(cid: str, label: str, figure: str, force: str, paper: Mapping[float, float]):
     """``number`` claims ``cid`` a, b, …: ``label`` at each of the paper's powers."""
     return tuple(
-        C.ClaimSpec(f"{cid}{'ab'[k]}", figure, f"{label} at {p:g} W/kg", f"≈ {value:g}", "number", value, at_power(force, p))
+        C.ClaimSpec(
+            f"{cid}{'ab'[k]}",
+            figure,
+            f"{label} at {p:g} W/kg",
+            f"≈ {value:g}",
+            "number",
+            value,
+            at_power(force, p),
+        )
         for k, (p, value) in enumerate(paper.items())
-    )  # fmt: skip
+    )
 
 
 GEOMETRY = (
@@ -217,12 +225,34 @@ CLAIMS: tuple[C.ClaimSpec, ...] = (
     *_at_powers("P1", "F̄_v", "Fig. 7", "vertical", PAPER_VERTICAL),
     *_at_powers("P2", "F̄_h", "Fig. 7", "horizontal", PAPER_HORIZONTAL),
     C.ClaimSpec(
-        "P3", "Fig. 7", "F̄_v exceeds F̄_h by 10-20 % (median over powers; IQR over powers)",
-        "10-20 %", "range", PAPER_RATIO, ratio, GEOMETRY,
+        "P3",
+        "Fig. 7",
+        "F̄_v exceeds F̄_h by 10-20 % (median over powers; IQR over powers)",
+        "10-20 %",
+        "range",
+        PAPER_RATIO,
+        ratio,
+        GEOMETRY,
     ),
-    C.ClaimSpec("P4", "Fig. 7", "F̄_v increases with available power", "increases", "trend", +1, rises("vertical")),
-    C.ClaimSpec("P5", "Fig. 7", "F̄_h increases with available power", "increases", "trend", +1, rises("horizontal")),
+    C.ClaimSpec(
+        "P4",
+        "Fig. 7",
+        "F̄_v increases with available power",
+        "increases",
+        "trend",
+        +1,
+        rises("vertical"),
+    ),
+    C.ClaimSpec(
+        "P5",
+        "Fig. 7",
+        "F̄_h increases with available power",
+        "increases",
+        "trend",
+        +1,
+        rises("horizontal"),
+    ),
     *_at_powers("P6", "attainable F̄_a", "Fig. 8", "attainable", PAPER_ATTAINABLE),
-)  # fmt: skip
+)
 
 analyse = Analysis(NAME, TITLE, QUANTITIES, draw, CLAIMS, view)

@@ -173,24 +173,68 @@ def peak_efficiency(rows: list[Mapping[str, Any]], _: float) -> C.Stats:
 
 FOLLOWS = "follows the power trend"
 CLAIMS: tuple[C.ClaimSpec, ...] = (
-    C.ClaimSpec("S1", "Fig. 4", "stroke-plane angle rises with V", "rises", "trend", +1, trend("stroke_plane_angle")),
-    C.ClaimSpec("S2", "Fig. 4", "mean angle of attack falls with V", "falls", "trend", -1, trend("mean_angle_of_attack")),
-    C.ClaimSpec("S3", "Fig. 4", "thrust ratio T/W falls with V", "falls", "trend", -1, trend("thrust_ratio")),
     C.ClaimSpec(
-        "S4", "Fig. 5", "power P/m is lowest at V = 1.5 m/s", "1.5 m/s", "location", PAPER_BEST_SPEED,
+        "S1",
+        "Fig. 4",
+        "stroke-plane angle rises with V",
+        "rises",
+        "trend",
+        +1,
+        trend("stroke_plane_angle"),
+    ),
+    C.ClaimSpec(
+        "S2",
+        "Fig. 4",
+        "mean angle of attack falls with V",
+        "falls",
+        "trend",
+        -1,
+        trend("mean_angle_of_attack"),
+    ),
+    C.ClaimSpec(
+        "S3", "Fig. 4", "thrust ratio T/W falls with V", "falls", "trend", -1, trend("thrust_ratio")
+    ),
+    C.ClaimSpec(
+        "S4",
+        "Fig. 5",
+        "power P/m is lowest at V = 1.5 m/s",
+        "1.5 m/s",
+        "location",
+        PAPER_BEST_SPEED,
         extremum("power_per_mass", "min"),
         "η, not P, is maximised: P/m at the η-optimum need not be the minimum power.",
     ),
-    C.ClaimSpec("S5", "Fig. 5", f"frequency f {FOLLOWS}", "follows P", "follows", +1, follows("frequency")),
-    C.ClaimSpec("S6", "Fig. 5", f"weaving amplitude φ_m {FOLLOWS}", "follows P", "follows", +1, follows("sweep_amplitude")),
     C.ClaimSpec(
-        "S7", "Fig. 6", "peak level-flight efficiency (≈ 13 % flight-muscle efficiency)",
-        f"{PAPER_PEAK_EFFICIENCY} %", "number", PAPER_PEAK_EFFICIENCY, peak_efficiency, SIGN_NOTE,
+        "S5", "Fig. 5", f"frequency f {FOLLOWS}", "follows P", "follows", +1, follows("frequency")
     ),
     C.ClaimSpec(
-        "S8", "Fig. 6", "efficiency peaks at V = 1.5 m/s", "1.5 m/s", "location", PAPER_BEST_SPEED,
+        "S6",
+        "Fig. 5",
+        f"weaving amplitude φ_m {FOLLOWS}",
+        "follows P",
+        "follows",
+        +1,
+        follows("sweep_amplitude"),
+    ),
+    C.ClaimSpec(
+        "S7",
+        "Fig. 6",
+        "peak level-flight efficiency (≈ 13 % flight-muscle efficiency)",
+        f"{PAPER_PEAK_EFFICIENCY} %",
+        "number",
+        PAPER_PEAK_EFFICIENCY,
+        peak_efficiency,
+        SIGN_NOTE,
+    ),
+    C.ClaimSpec(
+        "S8",
+        "Fig. 6",
+        "efficiency peaks at V = 1.5 m/s",
+        "1.5 m/s",
+        "location",
+        PAPER_BEST_SPEED,
         extremum("efficiency_pct", "max"),
     ),
-)  # fmt: skip
+)
 
 analyse = Analysis(NAME, TITLE, QUANTITIES, draw, CLAIMS, view)

@@ -213,13 +213,33 @@ def gain_at_2(by: Planforms, _: float) -> C.Stats:
 EVERY_SPEED = "the real wing is more efficient than the tear-drop at every speed (share of speeds)"
 EVERY_POWER = "the real wing attains slightly more F̄_a at every power (share of powers)"
 CLAIMS: tuple[C.ClaimSpec, ...] = (
-    C.ClaimSpec("W1", "Fig. 15", EVERY_SPEED, "every speed", "compare", ("==", 1.0), real_wins("efficiency")),
-    C.ClaimSpec("W2", "Fig. 15", "efficiency gain of the real wing at 2 m/s (relative)", "≈ 12 %", "number", PAPER_GAIN_AT_2, gain_at_2),
+    C.ClaimSpec(
+        "W1", "Fig. 15", EVERY_SPEED, "every speed", "compare", ("==", 1.0), real_wins("efficiency")
+    ),
+    C.ClaimSpec(
+        "W2",
+        "Fig. 15",
+        "efficiency gain of the real wing at 2 m/s (relative)",
+        "≈ 12 %",
+        "number",
+        PAPER_GAIN_AT_2,
+        gain_at_2,
+    ),
     *(
-        C.ClaimSpec(f"W3{'ab'[k]}", "Fig. 15", f"{pf} wing: efficiency peaks at 1.5 m/s", "1.5 m/s", "location", PAPER_BEST_SPEED, peak(pf))
+        C.ClaimSpec(
+            f"W3{'ab'[k]}",
+            "Fig. 15",
+            f"{pf} wing: efficiency peaks at 1.5 m/s",
+            "1.5 m/s",
+            "location",
+            PAPER_BEST_SPEED,
+            peak(pf),
+        )
         for k, pf in enumerate(PLANFORMS)
     ),
-    C.ClaimSpec("W4", "Fig. 16", EVERY_POWER, "every power", "compare", ("==", 1.0), real_wins("attainable")),
-)  # fmt: skip
+    C.ClaimSpec(
+        "W4", "Fig. 16", EVERY_POWER, "every power", "compare", ("==", 1.0), real_wins("attainable")
+    ),
+)
 
 analyse = Analysis(NAME, TITLE, QUANTITIES, draw, CLAIMS, view)

@@ -163,8 +163,12 @@ class ReferenceTable:
             what = f"no {error}" if isinstance(error, KeyError) else str(error)
             raise ValueError(f"{what}; allowed: a table python -m eval reference writes") from None
         names = [(s.env_id, s.objective, s.planform) for s in series]
-        wanted = {(e, o, p) for e, (objectives, _) in REFERENCE_GRID.items()
-                  for o in objectives for p in PLANFORMS}  # fmt: skip
+        wanted = {
+            (e, o, p)
+            for e, (objectives, _) in REFERENCE_GRID.items()
+            for o in objectives
+            for p in PLANFORMS
+        }
         missing = sorted(wanted - set(names)) if complete else []
         if len(set(names)) != len(names) or missing:
             raise ValueError(
