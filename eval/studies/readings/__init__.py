@@ -31,7 +31,6 @@ from eval.studies.readings.result import ReadingResult
 from eval.studies.readings.run import (
     CHECK_COLUMNS,
     ReadingsPlan,
-    check_summary,
     csv_rows,
     run_readings,
 )
@@ -47,7 +46,6 @@ __all__ = [
     "ReadingResult",
     "ReadingsPlan",
     "check_jobs",
-    "check_summary",
     "combinations",
     "continued_from",
     "csv_rows",

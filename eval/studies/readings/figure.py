@@ -15,7 +15,7 @@ import matplotlib.pyplot as plt
 from matplotlib.colors import ListedColormap
 from matplotlib.patches import Patch, Rectangle
 
-from eval.figures import PALETTE, save
+from eval.figures import PALETTE, legend, save
 
 #: Cell colour and glyph of each verdict (any other verdict is drawn as "no data").
 VERDICT_STYLE: dict[str, tuple[str, str, str]] = {
@@ -74,24 +74,9 @@ def matrix_figure(
     if split is not None and 0 < split < n_cols:
         ax.axvline(split - 0.5, color="black", linewidth=1.5)
     ax.set_title(title, fontsize=9)
-    ax.legend(
-        handles=[
-            *(
-                Patch(color=color, label=f"{glyph} {verdict}")
-                for verdict, (color, glyph, _) in VERDICT_STYLE.items()
-            ),
-            Patch(
-                fill=False,
-                ec="black",
-                lw=1.3,
-                label=f"changed vs {columns[0][0] if columns else 'first'}",
-            ),
-        ],
-        loc="upper left",
-        bbox_to_anchor=(1.01, 1.0),
-        fontsize=7,
-        frameon=False,
-    )
+    entries = [(Patch(color=color), f"{g} {v}") for v, (color, g, _) in VERDICT_STYLE.items()]
+    changed = Patch(fill=False, ec="black", lw=1.3)
+    legend(ax, [*entries, (changed, f"changed vs {columns[0][0] if columns else 'first'}")])
     fig.tight_layout()
     return save(fig, path)
 

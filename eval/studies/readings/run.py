@@ -230,6 +230,8 @@ class ReadingsPlan:
         self.rows: list[dict[str, Any]] = []
         self.full: dict[str, dict[str, str]] = {}
         self.words = "not derived (derive=False)"
+        #: What :func:`agents.runner.run_plan` runs: this plan, its phases computed in turn.
+        self.phases = self
 
     def _analyse(
         self, jobs: Mapping[str, Mapping[str, Sequence[Job]]], readings: Iterable[Reading]
@@ -238,11 +240,6 @@ class ReadingsPlan:
             if self.progress:
                 print(f"analysing reading {reading.name}", file=sys.stderr)
             self.results.append(analyse_reading(self.plan, reading, self.store, jobs[reading.name]))
-
-    @property
-    def phases(self) -> ReadingsPlan:
-        """What :func:`agents.runner.run_plan` runs: this plan, its phases computed in turn."""
-        return self
 
     def __call__(self, found: Lookup) -> Iterator[Phase]:
         """The phases, each from the records of those before it."""
@@ -360,12 +357,11 @@ class ReadingsPlan:
                 "invocations": [*self.earlier, this],
             },
         )
-        files = (csv_path, figure, report)
         return ReadingsResult(
             tuple(results),
             tuple(run.runs.values()),
             self.words,
-            files,
+            (csv_path, figure, report),
             run.wall_time,
             tuple(run.runs),
         )
