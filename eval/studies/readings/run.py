@@ -302,29 +302,14 @@ class ReadingsPlan:
         csv_path = out / "readings.csv"
         write_csv_atomic(csv_path, csv_rows(results))
         claims = results[0].claims
+        methods = ", ".join(plan.methods)
         figure = matrix_figure(
-            [c.id for c in claims],
-            [c.statement for c in claims],
-            [
-                (r.reading.name, [r.verdicts().get(c.id, "no data") for c in claims])
-                for r in results
-            ],
+            results,
             plan.figure(out, "readings_matrix"),
-            f"Paper claims under each reading ({plan.preset.name} preset, {', '.join(plan.methods)})",
-            split=next((k for k, r in enumerate(results) if r.reading.derived_from), None),
+            f"Paper claims under each reading ({plan.preset.name} preset, {methods})",
         )
         report = out / "report.md"
-        write_readings_report(
-            report,
-            plan,
-            results,
-            self.words,
-            csv_path,
-            figure,
-            summary,
-            self.continuation,
-            self.full,
-        )
+        write_readings_report(report, self, csv_path, figure, summary)
         this = {
             "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "cpus": os.cpu_count(),
