@@ -16,6 +16,8 @@ from eval.studies.base import StudyOutput, StudyPlan
 from eval.studies.paper_reading import DEFAULT, Reading, combine
 from eval.studies.presets import STUDY_PRESETS, TINY
 from eval.studies.readings import ReadingResult, combinations, reading_jobs
+from eval.studies.readings import plan as readings_plan
+from eval.studies.readings import run as readings_run
 from eval.studies.readings import timing as readings_time
 
 
@@ -45,8 +47,8 @@ def test_bad_reading_names_the_value_and_what_is_allowed(kwargs: dict, match: st
 
 def test_unknown_single_reading_is_named() -> None:
     with pytest.raises(ValueError, match=r"unknown reading\(s\) 'nope'; allowed: default, body"):
-        readings.single_readings(["nope"])
-    assert readings.single_readings(["body"])[0] == DEFAULT
+        readings_plan.single_readings(["nope"])
+    assert readings_plan.single_readings(["body"])[0] == DEFAULT
 
 
 def test_every_single_reading_changes_one_decision_and_builds_envs() -> None:
@@ -161,8 +163,8 @@ def test_combine_refuses_conflicting_readings() -> None:
 
 
 def test_csv_has_one_row_per_reading_with_the_documented_columns() -> None:
-    rows = readings.csv_rows([_result(DEFAULT, 4), _result(readings.SINGLES[1], 6)])
-    assert [tuple(r) for r in rows] == [readings.CSV_COLUMNS] * 2
+    rows = readings_run.csv_rows([_result(DEFAULT, 4), _result(readings.SINGLES[1], 6)])
+    assert [tuple(r) for r in rows] == [readings_plan.CSV_COLUMNS] * 2
     assert rows[1]["reading"] == "body" and rows[1]["thrust_split"] == "body"
     assert (rows[1]["agree"], rows[1]["differ"], rows[1]["undecided"]) == (6, 4, 0)
     assert rows[0]["rotational_coefficient"] == math.pi
@@ -176,7 +178,7 @@ def test_tiny_run_writes_everything_and_a_rerun_computes_nothing(
     from eval.__main__ import main
 
     plan = StudyPlan(TINY)
-    chosen = readings.single_readings(["convected"])
+    chosen = readings_plan.single_readings(["convected"])
     first = readings.run_readings(
         plan, tmp_path, readings=chosen, progress=False, continuation=None
     )
@@ -189,7 +191,7 @@ def test_tiny_run_writes_everything_and_a_rerun_computes_nothing(
     with open(tmp_path / "readings.csv", newline="", encoding="utf-8") as handle:
         rows = list(csv.DictReader(handle))
     assert [r["reading"] for r in rows] == ["default", "convected"]
-    assert tuple(rows[0]) == readings.CSV_COLUMNS
+    assert tuple(rows[0]) == readings_plan.CSV_COLUMNS
     n_claims = len(first.results[0].claims)
     counts = ("agree", "differ", "undecided", "not_identifiable", "no_data")
     assert all(sum(int(r[k]) for k in counts) == n_claims for r in rows)
@@ -238,7 +240,7 @@ def test_cli_names_an_unknown_reading(capsys: pytest.CaptureFixture) -> None:
 
 
 def test_named_readings_are_the_singles_and_their_combinations() -> None:
-    assert readings.reading_by_name("body") is readings.single_readings(["body"])[1]
+    assert readings.reading_by_name("body") is readings_plan.single_readings(["body"])[1]
     both = readings.reading_by_name("hover-none+Fh-literal")
     assert both.changes() == {"hover_inflow": "none", "horizontal_objective": "horizontal_literal"}
     assert both.derived_from == ("hover-none", "Fh-literal")
@@ -268,17 +270,17 @@ def test_continued_jobs_start_from_the_default_optimum_of_the_same_job() -> None
     plan = StudyPlan(TINY)
     reading = next(r for r in readings.SINGLES if r.name == "Fh-literal")
     continuation = readings.Continuation(share=0.5, initial_share=0.6, starts=2)
-    default = readings.study_jobs(plan, DEFAULT)
+    default = readings_plan.study_jobs(plan, DEFAULT)
     optima = {
         DEFAULT.name: {
             name: [[0.01 * k] * 28 for k in range(len(group))] for name, group in default.items()
         }
     }
-    continued = readings.study_jobs(plan, reading, continuation, optima)
-    full = readings.study_jobs(plan, reading)
-    assert readings.study_jobs(plan, DEFAULT, continuation, optima) == default
+    continued = readings_plan.study_jobs(plan, reading, continuation, optima)
+    full = readings_plan.study_jobs(plan, reading)
+    assert readings_plan.study_jobs(plan, DEFAULT, continuation, optima) == default
     # a task named in ``full`` keeps its own jobs
-    assert readings.study_jobs(plan, reading, continuation, optima, ("accelerate",)) == full
+    assert readings_plan.study_jobs(plan, reading, continuation, optima, ("accelerate",)) == full
     shared = changed = 0
     for name in default:
         triples = zip(default[name], continued[name], full[name], strict=True)
@@ -317,7 +319,7 @@ def test_tiny_run_with_continuation_checks_its_bias(
     tmp_path: Path, capsys: pytest.CaptureFixture
 ) -> None:
     plan = StudyPlan(TINY)
-    chosen = readings.single_readings(["hover-none"])
+    chosen = readings_plan.single_readings(["hover-none"])
     continuation = readings.Continuation(share=1.0)
     result = readings.run_readings(
         plan, tmp_path, readings=chosen, progress=False, continuation=continuation
@@ -325,14 +327,16 @@ def test_tiny_run_with_continuation_checks_its_bias(
     assert result.phases[:3] == ("default", "check", "singles")
     n_default = len(_keys(reading_jobs(plan, DEFAULT)))
     assert result.runs[0].ran == n_default
-    with open(tmp_path / readings.CHECK_CSV, newline="", encoding="utf-8") as handle:
+    with open(tmp_path / readings_plan.CHECK_CSV, newline="", encoding="utf-8") as handle:
         rows = list(csv.DictReader(handle))
-    optima = readings.optima_of(tmp_path, {DEFAULT.name: readings.study_jobs(plan, DEFAULT)})
+    optima = readings_plan.optima_of(
+        tmp_path, {DEFAULT.name: readings_plan.study_jobs(plan, DEFAULT)}
+    )
     checked = readings.check_jobs(plan, chosen[1], continuation, optima)
     # the check's pairs ran in the check phase, so the singles' phase reuses its checked jobs
     assert result.runs[1].ran == len({job for pair in checked for job in pair})
     assert result.runs[2].reused >= len(checked)
-    assert len(rows) == len(checked) > 0 and tuple(rows[0]) == readings.CHECK_COLUMNS
+    assert len(rows) == len(checked) > 0 and tuple(rows[0]) == readings_run.CHECK_COLUMNS
     assert {r["reading"] for r in rows} == {"hover-none"}
     report = (tmp_path / "report.md").read_text(encoding="utf-8")
     assert "## Continuation and its bias" in report and "**all**" in report
@@ -385,8 +389,8 @@ def test_a_combination_continues_from_the_optima_of_its_parts() -> None:
     plan = StudyPlan(TINY)
     parts = [readings.reading_by_name(name) for name in ("hover-none", "Fh-literal")]
     combined = readings.reading_by_name("hover-none+Fh-literal")
-    assert readings.continued_from(combined) == ("hover-none", "Fh-literal")
-    default = readings.study_jobs(plan, DEFAULT)
+    assert readings_plan.continued_from(combined) == ("hover-none", "Fh-literal")
+    default = readings_plan.study_jobs(plan, DEFAULT)
     optima = {
         r.name: {
             name: [[0.01 * k + 0.001 * i] * 28 for k in range(len(group))]
@@ -396,8 +400,8 @@ def test_a_combination_continues_from_the_optima_of_its_parts() -> None:
     }
     continuation = readings.Continuation()
     with pytest.raises(ValueError, match=r"continues from \['Fh-literal'\], not run yet"):
-        readings.study_jobs(plan, combined, continuation, {"hover-none": optima["hover-none"]})
-    continued = readings.study_jobs(plan, combined, continuation, optima)
+        readings_plan.study_jobs(plan, combined, continuation, {"hover-none": optima["hover-none"]})
+    continued = readings_plan.study_jobs(plan, combined, continuation, optima)
     seen = 0
     for name, group in continued.items():
         for position, (job, d) in enumerate(zip(group, default[name], strict=True)):
@@ -409,6 +413,6 @@ def test_a_combination_continues_from_the_optima_of_its_parts() -> None:
     assert seen
     # a part's stroke that equals the other's is polished once
     same = {**optima, "Fh-literal": optima["hover-none"]}
-    once = readings.study_jobs(plan, combined, continuation, same)
+    once = readings_plan.study_jobs(plan, combined, continuation, same)
     configs = [dict(j.method_config) for g in once.values() for j in g]
     assert all(len(c["initial"]) == 1 for c in configs if "initial" in c)

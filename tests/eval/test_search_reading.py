@@ -21,6 +21,7 @@ from eval.studies.paper_reading import (
     combine,
 )
 from eval.studies.presets import PAPER, TINY
+from eval.studies.readings import run as readings_run
 
 
 def _suite(plan: StudyPlan) -> list[Job]:
@@ -184,5 +185,5 @@ def test_a_search_readings_report_and_csv_row_name_its_search() -> None:
     assert "budgets 1000 (level) and 1000 (accelerating)" in budgets
     assert budgets.endswith(f"search of the reading: {small.search.describe()}")
     assert "PSO swarm" not in budgets  # the preset's swarm, which the search replaces
-    row, default = readings.csv_rows([ReadingResult(small, ()), ReadingResult(DEFAULT, ())])
+    row, default = readings_run.csv_rows([ReadingResult(small, ()), ReadingResult(DEFAULT, ())])
     assert row["search"] == small.search.describe() and default["search"] == ""

@@ -12,50 +12,29 @@ from __future__ import annotations
 
 from eval.studies.readings.plan import (
     ALIASES,
-    CHECK_CSV,
-    CSV_COLUMNS,
     MANIFEST,
     SINGLES,
     Continuation,
     check_jobs,
     combinations,
-    continued_from,
     full_tasks,
-    optima_of,
     reading_by_name,
     reading_jobs,
-    single_readings,
-    study_jobs,
 )
 from eval.studies.readings.result import ReadingResult
-from eval.studies.readings.run import (
-    CHECK_COLUMNS,
-    ReadingsPlan,
-    check_summary,
-    csv_rows,
-    run_readings,
-)
+from eval.studies.readings.run import ReadingsPlan, run_readings
 
 __all__ = [
     "ALIASES",
-    "CHECK_COLUMNS",
-    "CHECK_CSV",
-    "CSV_COLUMNS",
     "MANIFEST",
     "SINGLES",
     "Continuation",
     "ReadingResult",
     "ReadingsPlan",
     "check_jobs",
-    "check_summary",
     "combinations",
-    "continued_from",
-    "csv_rows",
     "full_tasks",
-    "optima_of",
     "reading_by_name",
     "reading_jobs",
     "run_readings",
-    "single_readings",
-    "study_jobs",
 ]

@@ -15,7 +15,8 @@ import matplotlib.pyplot as plt
 from matplotlib.colors import ListedColormap
 from matplotlib.patches import Patch, Rectangle
 
-from eval.figures import PALETTE, save
+from eval.figures import PALETTE, legend, save
+from eval.studies.readings.result import ReadingResult
 
 #: Cell colour and glyph of each verdict (any other verdict is drawn as "no data").
 VERDICT_STYLE: dict[str, tuple[str, str, str]] = {
@@ -29,17 +30,15 @@ VERDICT_STYLE: dict[str, tuple[str, str, str]] = {
 _CODE = {verdict: k for k, verdict in enumerate(VERDICT_STYLE)}
 
 
-def matrix_figure(
-    claim_ids: Sequence[str],
-    statements: Sequence[str],
-    columns: Sequence[tuple[str, Sequence[str]]],
-    path: Path,
-    title: str,
-    split: int | None = None,
-) -> Path:
-    """Draw the matrix of ``columns`` (reading name, verdict per claim in ``claim_ids`` order),
-    the first the reference, a line before column ``split`` (the first combination)."""
-    n_rows, n_cols = len(claim_ids), len(columns)
+def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> Path:
+    """Draw the matrix of the readings' verdicts on the first's claims, the first reading the
+    reference, a line before the first combination."""
+    claims = results[0].claims
+    columns = [
+        (r.reading.name, [r.verdicts().get(c.id, "no data") for c in claims]) for r in results
+    ]
+    split = next((k for k, r in enumerate(results) if r.reading.derived_from), None)
+    n_rows, n_cols = len(claims), len(columns)
     no_data = _CODE["no data"]
     grid = [[_CODE.get(verdicts[i], no_data) for _, verdicts in columns] for i in range(n_rows)]
     width = 3.6 + 0.42 * n_cols
@@ -48,7 +47,7 @@ def matrix_figure(
     cmap = ListedColormap([color for color, _, _ in VERDICT_STYLE.values()])
     ax.imshow(grid, cmap=cmap, vmin=0, vmax=len(_CODE) - 1, aspect="auto", interpolation="nearest")
     styles = list(VERDICT_STYLE.values())
-    reference = columns[0][1] if columns else []
+    reference = columns[0][1]
     for j, (_, verdicts) in enumerate(columns):
         for i in range(n_rows):
             _, glyph, ink = styles[grid[i][j]]
@@ -64,7 +63,7 @@ def matrix_figure(
     ax.set_xticks(range(n_cols), labels, rotation=60, ha="right", fontsize=7)
     ax.set_yticks(
         range(n_rows),
-        [f"{cid}  {_clip(s)}" for cid, s in zip(claim_ids, statements, strict=True)],
+        [f"{c.id}  {_clip(c.statement)}" for c in claims],
         fontsize=6.5,
     )
     ax.set_xticks([x - 0.5 for x in range(1, n_cols)], minor=True)
@@ -74,24 +73,9 @@ def matrix_figure(
     if split is not None and 0 < split < n_cols:
         ax.axvline(split - 0.5, color="black", linewidth=1.5)
     ax.set_title(title, fontsize=9)
-    ax.legend(
-        handles=[
-            *(
-                Patch(color=color, label=f"{glyph} {verdict}")
-                for verdict, (color, glyph, _) in VERDICT_STYLE.items()
-            ),
-            Patch(
-                fill=False,
-                ec="black",
-                lw=1.3,
-                label=f"changed vs {columns[0][0] if columns else 'first'}",
-            ),
-        ],
-        loc="upper left",
-        bbox_to_anchor=(1.01, 1.0),
-        fontsize=7,
-        frameon=False,
-    )
+    entries = [(Patch(color=color), f"{g} {v}") for v, (color, g, _) in VERDICT_STYLE.items()]
+    changed = Patch(fill=False, ec="black", lw=1.3)
+    legend(ax, [*entries, (changed, f"changed vs {columns[0][0]}")])
     fig.tight_layout()
     return save(fig, path)
 

@@ -6,9 +6,8 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from eval.studies.base import StudyPlan
 from eval.studies.readings.result import COUNTS, HEADLINES, ReadingResult, reading_dir
 from eval.studies.report import (
     Column,
@@ -21,6 +20,9 @@ from eval.studies.report import (
     settings_lines,
 )
 from tandem_env.io.files import write_text_atomic
+
+if TYPE_CHECKING:  # the plan writes its report: an import at run time would be a cycle
+    from eval.studies.readings.run import ReadingsPlan
 
 #: The readings study's goal: a reading under which this many of the paper's claims agree.
 READINGS_GOAL = 16
@@ -61,19 +63,12 @@ def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
 
 
 def write_readings_report(
-    path: Path,
-    plan: StudyPlan,
-    results: Sequence[ReadingResult],
-    rule: str,
-    table: Path,
-    figure: Path,
-    check: Sequence[Mapping[str, Any]] = (),
-    continuation: Any = None,
-    full: Mapping[str, Mapping[str, str]] | None = None,
+    path: Path, study: ReadingsPlan, table: Path, figure: Path, check: Sequence[Mapping[str, Any]]
 ) -> Path:
-    """Write the readings study's report to ``path`` (atomically) and return it: the readings,
-    the best, which decision moves which claim, the matrix; the ``continuation`` (or None),
-    its bias ``check`` (``check_summary`` rows) and the tasks run in full (``full_tasks``)."""
+    """Write the readings ``study``'s report to ``path`` (atomically) and return it: the
+    readings, the best, which decision moves which claim, the matrix; its continuation (or
+    None), the bias ``check`` (``check_summary`` rows) and the tasks run in full."""
+    plan, results = study.plan, study.results
     base = path.parent
     default = results[0]
     best = max(results, key=lambda r: r.agree)
@@ -94,9 +89,9 @@ def write_readings_report(
         "Headline columns: " + "; ".join(f"{k}: {text}" for k, (_, text) in HEADLINES.items()),
         "",
         f"Combination rule (combinations derived from the singles' results, not chosen by "
-        f"hand): {rule}.",
+        f"hand): {study.words}.",
         "",
-        *_continuation_section(continuation, check, full or {}),
+        *_continuation_section(study.continuation, check, study.full),
         "## Best reading",
         "",
         f"`{best.reading.name}`"

@@ -230,6 +230,8 @@ class ReadingsPlan:
         self.rows: list[dict[str, Any]] = []
         self.full: dict[str, dict[str, str]] = {}
         self.words = "not derived (derive=False)"
+        #: What :func:`agents.runner.run_plan` runs: this plan, its phases computed in turn.
+        self.phases = self
 
     def _analyse(
         self, jobs: Mapping[str, Mapping[str, Sequence[Job]]], readings: Iterable[Reading]
@@ -238,11 +240,6 @@ class ReadingsPlan:
             if self.progress:
                 print(f"analysing reading {reading.name}", file=sys.stderr)
             self.results.append(analyse_reading(self.plan, reading, self.store, jobs[reading.name]))
-
-    @property
-    def phases(self) -> ReadingsPlan:
-        """What :func:`agents.runner.run_plan` runs: this plan, its phases computed in turn."""
-        return self
 
     def __call__(self, found: Lookup) -> Iterator[Phase]:
         """The phases, each from the records of those before it."""
@@ -305,29 +302,14 @@ class ReadingsPlan:
         csv_path = out / "readings.csv"
         write_csv_atomic(csv_path, csv_rows(results))
         claims = results[0].claims
+        methods = ", ".join(plan.methods)
         figure = matrix_figure(
-            [c.id for c in claims],
-            [c.statement for c in claims],
-            [
-                (r.reading.name, [r.verdicts().get(c.id, "no data") for c in claims])
-                for r in results
-            ],
+            results,
             plan.figure(out, "readings_matrix"),
-            f"Paper claims under each reading ({plan.preset.name} preset, {', '.join(plan.methods)})",
-            split=next((k for k, r in enumerate(results) if r.reading.derived_from), None),
+            f"Paper claims under each reading ({plan.preset.name} preset, {methods})",
         )
         report = out / "report.md"
-        write_readings_report(
-            report,
-            plan,
-            results,
-            self.words,
-            csv_path,
-            figure,
-            summary,
-            self.continuation,
-            self.full,
-        )
+        write_readings_report(report, self, csv_path, figure, summary)
         this = {
             "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "cpus": os.cpu_count(),
@@ -360,12 +342,11 @@ class ReadingsPlan:
                 "invocations": [*self.earlier, this],
             },
         )
-        files = (csv_path, figure, report)
         return ReadingsResult(
             tuple(results),
             tuple(run.runs.values()),
             self.words,
-            files,
+            (csv_path, figure, report),
             run.wall_time,
             tuple(run.runs),
         )
