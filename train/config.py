@@ -13,7 +13,7 @@ from __future__ import annotations
 import ast
 import math
 from collections.abc import Mapping
-from dataclasses import MISSING, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 from itertools import pairwise
 from pathlib import Path
 from types import MappingProxyType
@@ -27,6 +27,7 @@ from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import output_directory, to_jsonable, write_text_atomic
 from tandem_env.physics.checks import count, is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
+from train.cli import option
 
 #: The Stable-Baselines3 algorithms (``python -m train``'s RL path, :class:`TrainConfig`).
 ALGOS = ("ppo", "sac")
@@ -386,13 +387,6 @@ def check_seed(value: Any, name: str = "seed") -> int:
     if not is_integer(value) or not 0 <= value <= MAX_SEED:
         raise ValueError(f"{name} = {value!r}; allowed: an integer from 0 to 2**32 - 1")
     return int(value)
-
-
-def option(*flags: str, default: Any = MISSING, factory: Any = MISSING, **settings: Any) -> Any:
-    """A :class:`TrainConfig` field and its ``python -m train`` option: ``flags`` (``off``: the
-    flag that turns a True default off), ``amortised=True`` where ``--algo amortised`` takes it
-    too, and argparse ``settings``; its help is the field's docstring."""
-    return field(default=default, default_factory=factory, metadata={"flags": flags, **settings})
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -10,7 +10,6 @@ and, as markers, the deterministic policy's reward at each evaluation (evaluatio
 
 from __future__ import annotations
 
-import argparse
 import csv
 import sys
 from collections.abc import Sequence
@@ -20,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from tandem_env.io.files import atomic_path, read_json
+from train.cli import build_parser, option, parse
 from train.run_folder import RunLayout
 
 
@@ -133,14 +133,24 @@ def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60
     return out
 
 
+@dataclass(frozen=True)
+class CurvesOptions:
+    """``python -m train.curves``'s command line (each field an option, its docstring the
+    help)."""
+
+    runs: tuple[str, ...] = option("--runs")
+    """Run folders."""
+    out: str = option("--out")
+    """PNG to write."""
+    title: str = option("--title", default="reward curves")
+    """The figure's title."""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m train.curves", description=__doc__.split("\n")[0]
+    parser = build_parser(
+        CurvesOptions, prog="python -m train.curves", description=__doc__.split("\n")[0]
     )
-    parser.add_argument("--runs", nargs="+", required=True, help="run folders")
-    parser.add_argument("--out", required=True, help="PNG to write")
-    parser.add_argument("--title", default="reward curves")
-    args = parser.parse_args(argv)
+    args = parse(CurvesOptions, parser, argv)
     try:
         path = plot(args.runs, args.out, args.title)
     except ValueError as error:
