@@ -23,7 +23,7 @@ with exit_on_bad_environment("python -m train.amortised_eval"):
 import numpy as np
 
 from agents.selection import best_index
-from train.cli import build_parser, option, parse
+from train.cli import command, option
 
 if TYPE_CHECKING:
     from agents.records import Record
@@ -291,8 +291,9 @@ def format_report(report: Mapping[str, Any]) -> str:
 
 @dataclass(frozen=True)
 class HeldOutOptions:
-    """``python -m train.amortised_eval``'s command line (each field an option, its docstring
-    the help), its files checked before any evaluation."""
+    """Judge an amortised policy at the reference grid's held-out conditions.
+
+    Its files are checked when made, before any evaluation."""
 
     run: str = option("--run")
     """Run folder of python -m train --algo amortised."""
@@ -322,12 +323,7 @@ class HeldOutOptions:
 
 @command_line
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser(
-        HeldOutOptions,
-        prog="python -m train.amortised_eval",
-        description="Judge an amortised policy at the reference grid's held-out conditions.",
-    )
-    args = parse(HeldOutOptions, parser, argv)
+    parser, args = command(HeldOutOptions, argv)
     try:
         report = evaluate_held_out(
             args.run,

@@ -1,8 +1,6 @@
-"""Command lines made from frozen dataclasses: each field of a command's options is one option,
-declared once by :func:`option` (its flags and argparse settings), its help the field's
-docstring; :func:`parse` turns the command line into the dataclass, whose ``__post_init__``
-checks it (a ValueError is the usage error, exit status 2). ``python -m train``,
-``train.tune``, ``train.envelope``, ``train.amortised_eval`` and ``train.curves`` are made so.
+"""Command lines made from frozen dataclasses: each field one option, declared once by
+:func:`option`, its help the field's docstring; the dataclass's ``__post_init__`` checks the
+values, and a ValueError it raises is the usage error (:func:`command`, exit status 2).
 """
 
 from __future__ import annotations
@@ -11,6 +9,7 @@ import argparse
 import ast
 import inspect
 import itertools
+import sys
 import textwrap
 from collections.abc import Sequence
 from dataclasses import MISSING, field, fields
@@ -85,11 +84,16 @@ def build_parser(cls: type, exclusive: Sequence[str] = (), **settings: Any) -> A
     return parser
 
 
-def parse(cls: type[T], parser: Any, argv: Sequence[str] | None) -> T:
-    """``cls`` of the command line ``argv``; a ValueError it raises is the parser's usage
-    error (one line, exit status 2)."""
+def command(cls: type[T], argv: Sequence[str] | None, **settings: Any) -> tuple[Any, T]:
+    """The parser of ``cls`` (:func:`build_parser`; ``prog`` ``python -m <its module>`` and its
+    docstring's first line the description, unless given) and ``cls`` of the command line
+    ``argv``, whose ValueError is the parser's usage error (one line, exit status 2)."""
+    module = getattr(sys.modules[cls.__module__].__spec__, "name", cls.__module__)  # not __main__
+    settings.setdefault("prog", f"python -m {module}")
+    settings.setdefault("description", (cls.__doc__ or "").split("\n\n")[0])
+    parser = build_parser(cls, **settings)
     args = parser.parse_args(argv)
     try:
-        return cls(**{f.name: getattr(args, f.name) for f in fields(cls)})
+        return parser, cls(**{f.name: getattr(args, f.name) for f in fields(cls)})
     except ValueError as error:
         parser.error(str(error))

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from tandem_env.io.files import atomic_path, read_json
-from train.cli import build_parser, option, parse
+from train.cli import command, option
 from train.run_folder import RunLayout
 
 
@@ -135,8 +135,7 @@ def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60
 
 @dataclass(frozen=True)
 class CurvesOptions:
-    """``python -m train.curves``'s command line (each field an option, its docstring the
-    help)."""
+    """Reward curves of one or more runs (one line per run / seed)."""
 
     runs: tuple[str, ...] = option("--runs")
     """Run folders."""
@@ -147,10 +146,7 @@ class CurvesOptions:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser(
-        CurvesOptions, prog="python -m train.curves", description=__doc__.split("\n")[0]
-    )
-    args = parse(CurvesOptions, parser, argv)
+    parser, args = command(CurvesOptions, argv)
     try:
         path = plot(args.runs, args.out, args.title)
     except ValueError as error:

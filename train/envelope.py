@@ -22,7 +22,7 @@ from train.entry import exit_on_bad_environment
 with exit_on_bad_environment("python -m train.envelope"):
     from tandem_env.io.command import command_line
 from tandem_env.io.files import output_directory, write_csv_atomic
-from train.cli import build_parser, option, parse
+from train.cli import command, option
 
 #: Columns of envelope.csv.
 COLUMNS: tuple[str, ...] = (
@@ -142,8 +142,9 @@ def evaluate_envelope(
 
 @dataclass(frozen=True)
 class EnvelopeOptions:
-    """``python -m train.envelope``'s command line (each field an option, its docstring the
-    help), its output folder checked before any policy is loaded."""
+    """Evaluate one trained policy at every sweep condition through the harness.
+
+    Its output folder is checked when made, before any policy is loaded."""
 
     run: str = option("--run")
     """Run folder written by python -m train."""
@@ -160,15 +161,13 @@ class EnvelopeOptions:
 
 @command_line
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser(
+    script = Path(sys.argv[0]).name == "tandem-envelope"
+    parser, args = command(
         EnvelopeOptions,
-        prog="tandem-envelope"
-        if Path(sys.argv[0]).name == "tandem-envelope"
-        else "python -m train.envelope",
-        description="Evaluate one trained policy at every sweep condition through the harness.",
+        argv,
+        prog="tandem-envelope" if script else "python -m train.envelope",
         epilog=f"The tasks' sweeps (the default --conditions): {_sweeps_text()}",
     )
-    args = parse(EnvelopeOptions, parser, argv)
     try:
         rows = evaluate_envelope(args.run, args.out, conditions=args.conditions, which=args.model)
     except ValueError as error:

@@ -32,7 +32,7 @@ from train.entry import exit_on_bad_environment
 with exit_on_bad_environment("python -m train.tune"):
     from tandem_env.io.command import command_line
 from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
-from train.cli import build_parser, option, parse
+from train.cli import command, option
 
 #: What Optuna proposes per algorithm: name -> (kind, choices or (low, high)). "log" and
 #: "float" are ranges; "choice" a list. Every choice here is a value the shipped entry could
@@ -423,14 +423,13 @@ def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = No
 
 @command_line
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser(
+    parser, config = command(
         TuneConfig,
-        prog="python -m train.tune",
+        argv,
         description=__doc__.split("\n\n")[0].split(": ", 1)[1],
         epilog="example: python -m train.tune --algo ppo --trials 12 --steps 100000 "
         "--env-kwargs 'speed_range=(0.25, 2.0)' --out results/tune-ppo",
     )
-    config = parse(TuneConfig, parser, argv)
     try:
         import optuna  # noqa: F401
     except ImportError:
