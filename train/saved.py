@@ -275,16 +275,17 @@ MAX_DATA_BYTES = 64 * 2**20
 _ALLOWED_MODEL = "Allowed: a model saved by python -m train with the run's config.yml"
 
 
-def _model_error(path: Path, what: str) -> ValueError:
-    return ValueError(f"{path}: refused: {what}; nothing in it was run. {_ALLOWED_MODEL}")
+def _model_error(path: Path, what: str, damage: str | None = None) -> ValueError:
+    message = f"{path}: refused: {what}; nothing in it was run. {_ALLOWED_MODEL}"
+    return ValueError(message) if damage is None else Incomplete(message, path, damage)
 
 
 def _open_zip(path: Path) -> zipfile.ZipFile:
     try:
         return zipfile.ZipFile(path)
     except (zipfile.BadZipFile, EOFError, ValueError) as error:
-        message = str(_model_error(path, f"not a zip file ({error})"))
-        raise Incomplete(message, path, f"not a complete zip file: {error}") from None
+        damage = f"not a complete zip file: {error}"
+        raise _model_error(path, f"not a zip file ({error})", damage) from None
     except OSError as error:
         raise ValueError(f"{path} cannot be read ({error.strerror})") from None
 
@@ -295,7 +296,7 @@ def _read_member(archive: zipfile.ZipFile, name: str, path: Path) -> bytes:
         return archive.read(name)
     except zipfile.BadZipFile as error:
         what = f"member {name} fails its CRC check"
-        raise Incomplete(str(_model_error(path, f"{what} ({error})")), path, what) from None
+        raise _model_error(path, f"{what} ({error})", what) from None
 
 
 def read_num_timesteps(path: Path, attributes: set[str]) -> int:
@@ -307,8 +308,8 @@ def read_num_timesteps(path: Path, attributes: set[str]) -> int:
             info = archive.getinfo("data")
         except KeyError:  # a zip cut short can read as the inner archive of its last member
             members = ", ".join(archive.namelist()) or "no members"
-            error = _model_error(path, f"no data entry (it holds {members})")
-            raise Incomplete(str(error), path, "not a complete model file: no data") from None
+            what = f"no data entry (it holds {members})"
+            raise _model_error(path, what, "not a complete model file: no data") from None
         if info.file_size > MAX_DATA_BYTES:
             raise _model_error(path, f"its data is {info.file_size:,} bytes")
         try:
