@@ -21,6 +21,7 @@ import numpy as np
 from tandem_env.io.files import atomic_path, read_json
 from train.cli import command, option
 from train.run_folder import RunLayout
+from train.saved import read_run_args
 
 
 @dataclass(frozen=True)
@@ -43,10 +44,7 @@ class Curves:
 def read_run(run_dir: str | Path) -> Curves:
     """Monitor CSVs (every segment, in order) and evaluations.npz of a run folder."""
     run_dir = Path(run_dir)
-    args = sorted(run_dir.glob("*/args.yml"))
-    if not args:
-        raise ValueError(f"{run_dir} is not a training run folder (no <env>/args.yml)")
-    layout = RunLayout(run_dir, args[0].parent.name)
+    layout = RunLayout(run_dir, read_run_args(run_dir, "a run folder of python -m train")[2])
     rewards: list[float] = []
     objective: list[float] = []
     feasible: list[bool] = []
