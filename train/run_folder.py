@@ -330,15 +330,15 @@ class RunFolder:
             resume = config.resume  # the merge below turns a resume into a run of a folder
             if layout.args_file.is_file():
                 config = _merge_saved(config, read_run_yaml(layout.args_file), layout)
-            if layout.checkpoints() and not layout.config_file.is_file():
-                # resuming from the current yml would mix two runs' settings unsaid
-                raise ValueError(
-                    f"{layout.config_file} is missing: the hyperparameters the run started "
-                    "with cannot be restored; allowed: a run folder with its config.yml (or "
-                    "a new run)"
-                )
-            if layout.checkpoints():  # a resumed run keeps the hyperparameters it started with
-                entry = read_run_yaml(layout.config_file)
+            # config.yml: the hyperparameters the run started with, which a resume keeps
+            entry = read_run_yaml(layout.config_file) if layout.config_file.is_file() else None
+            if layout.checkpoints():
+                if entry is None:  # resuming from the current yml would mix two runs' settings
+                    raise ValueError(
+                        f"{layout.config_file} is missing: the hyperparameters the run started "
+                        "with cannot be restored; allowed: a run folder with its config.yml (or "
+                        "a new run)"
+                    )
                 try:
                     hp = resolve_hyperparams(
                         entry, algo=config.algo, n_timesteps=config.n_timesteps
