@@ -17,8 +17,8 @@ from stable_baselines3 import PPO, SAC
 import tandem_env  # noqa: F401 - registers the ids
 from tandem_env.envs.registration import LEVEL_FLIGHT_ID
 from tandem_env.envs.sb3 import make_sb3_vec_env
-from train.config import TrainConfig
-from train.run import learn_in_memory, train
+from train.config import TrainConfig, load_entry
+from train.run import budget_hyperparams, learn_in_memory, train
 from train.run_folder import Checkpoint, RunLayout
 from train.trained_policy import TrainedPolicy
 
@@ -65,15 +65,10 @@ def test_short_ppo_run_beats_random_strokes() -> None:
     env.close()
     random_mean = float(np.mean(random_rewards))
 
-    model, recorder, _ = learn_in_memory(
-        "ppo",
-        LEVEL_FLIGHT_ID,
-        {"speed": SPEED},
-        SHORT_STEPS,
-        seed=0,
-        overrides=PPO_SHORT,
-        n_envs=SHORT_ENVS,
+    hp = budget_hyperparams(
+        "ppo", load_entry("ppo", LEVEL_FLIGHT_ID), PPO_SHORT, SHORT_ENVS, SHORT_STEPS
     )
+    model, recorder = learn_in_memory(hp, LEVEL_FLIGHT_ID, {"speed": SPEED}, seed=0)
     assert recorder.evaluations == SHORT_STEPS
     observation = model.get_env().reset()[:1]
     action, _ = model.predict(observation, deterministic=True)
@@ -85,15 +80,8 @@ def test_short_ppo_run_beats_random_strokes() -> None:
 @pytest.mark.parametrize("algo", ["ppo", "sac"])
 def test_save_load_gives_the_same_actions(algo: str, tmp_path: Path) -> None:
     overrides = {"n_steps": 4, "batch_size": 64} if algo == "ppo" else {"learning_starts": 64}
-    model, _, _ = learn_in_memory(
-        algo,
-        LEVEL_FLIGHT_ID,
-        {"speed_range": (0.25, 2.0)},
-        512,
-        seed=1,
-        overrides=overrides,
-        n_envs=16,
-    )
+    hp = budget_hyperparams(algo, load_entry(algo, LEVEL_FLIGHT_ID), overrides, 16, 512)
+    model, _ = learn_in_memory(hp, LEVEL_FLIGHT_ID, {"speed_range": (0.25, 2.0)}, seed=1)
     observations = np.linspace(-1, 1, 9, dtype=np.float32)[:, None]
     before, _ = model.predict(observations, deterministic=True)
     model.save(tmp_path / "model.zip")
