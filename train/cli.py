@@ -47,7 +47,7 @@ def field_docs(cls: type) -> dict[str, str]:
 def build_parser(cls: type, exclusive: Sequence[str] = (), **settings: Any) -> Any:
     """An ``argparse.ArgumentParser(**settings)`` with one option per field of ``cls`` (the
     fields named in ``exclusive`` exclude each other): a ``bool`` is a switch, a ``Mapping``
-    takes ``KEY=VALUE`` pairs, an ``int`` / ``float`` / ``tuple[float, ...]`` its numbers."""
+    takes ``KEY=VALUE`` pairs, an ``int`` / ``tuple[float, ...]`` its numbers."""
     parser = argparse.ArgumentParser(**settings)
     group = parser.add_mutually_exclusive_group() if exclusive else parser
     docs = field_docs(cls)
@@ -74,8 +74,8 @@ def build_parser(cls: type, exclusive: Sequence[str] = (), **settings: Any) -> A
             kwargs.update(nargs="+", metavar="KEY=VALUE", action=KeyValuePairs)
         elif kind.startswith("tuple"):
             kwargs.update(nargs="+", type=float if "float" in kind else str)
-        elif kind.split(" |")[0] in ("int", "float"):
-            kwargs["type"] = int if kind.startswith("int") else float
+        elif kind.startswith("int"):
+            kwargs["type"] = int
         if meta["flags"]:
             required = "cli_default" not in meta and MISSING is spec.default is spec.default_factory
             target.add_argument(

@@ -488,11 +488,9 @@ class TrainConfig:
             object.__setattr__(self, name, MappingProxyType(value))
         # a file, a dangling link or an empty name: said here, not as errno text when a run starts
         output_directory(self.log_folder, "log_folder (-f)", write=False)
-        object.__setattr__(self, "log_folder", Path(self.log_folder))
-        for name in ("run_dir", "hyperparams_file"):
-            value = getattr(self, name)
-            if value is not None:
-                object.__setattr__(self, name, Path(value))
+        for name in ("log_folder", "run_dir", "hyperparams_file"):
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, Path(getattr(self, name)))
         if self.resume and self.run_dir is not None:
             raise ValueError(
                 "give resume=True (the latest run in log_folder) or run_dir (that run), not both"
