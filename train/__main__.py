@@ -15,13 +15,9 @@ Examples::
 from __future__ import annotations
 
 import argparse
-import ast
-import inspect
-import itertools
 import sys
-import textwrap
 from collections.abc import Mapping, Sequence
-from dataclasses import MISSING, fields
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -30,8 +26,8 @@ from train.entry import exit_on_bad_environment
 # importing tandem_env checks numba's environment: a bad setting is one line and status 2
 with exit_on_bad_environment("python -m train"):
     from tandem_env.io.command import command_line
-from tandem_env.io.keyvalue import parse_pairs
 from tandem_env.io.progress_bar import warnings_as_lines
+from train.cli import build_parser as build_fields_parser
 from train.config import AMORTISED, TrainConfig
 from train.run_folder import Interrupted, RunComplete
 
@@ -49,67 +45,17 @@ one and the run says so.
 """
 
 
-#: Options that exclude each other: the latest run, or a given one.
-EXCLUSIVE = ("resume", "run_dir")
-
-
-def field_docs(cls: type) -> dict[str, str]:
-    """The docstring under each field of the dataclass ``cls``, read from its source, one line
-    each (the help of ``python -m train``'s options)."""
-    body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0].body  # type: ignore[attr-defined]
-    return {
-        node.target.id: " ".join(doc.value.value.split())
-        for node, doc in itertools.pairwise(body)
-        if isinstance(node, ast.AnnAssign)
-        and isinstance(node.target, ast.Name)
-        and isinstance(doc, ast.Expr)
-        and isinstance(doc.value, ast.Constant)
-    }
-
-
 def build_parser() -> argparse.ArgumentParser:
-    """The command line: one option per :class:`TrainConfig` field (its flags and settings from
-    :func:`train.config.option`, its help from the field's docstring), plus ``--insect``."""
-    parser = argparse.ArgumentParser(
+    """The command line: one option per :class:`TrainConfig` field (:mod:`train.cli`; ``--resume``
+    and ``--run-dir`` exclude each other), plus ``--insect``."""
+    parser = build_fields_parser(
+        TrainConfig,
+        exclusive=("resume", "run_dir"),
         prog="tandem-train" if Path(sys.argv[0]).name == "tandem-train" else "python -m train",
         description="Train PPO or SAC (Stable-Baselines3) on a TandemWing env through the batched vector env.",
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    exclusive = parser.add_mutually_exclusive_group()
-    docs = field_docs(TrainConfig)
-    for spec in fields(TrainConfig):
-        group = exclusive if spec.name in EXCLUSIVE else parser
-        settings = {
-            k: v for k, v in spec.metadata.items() if k not in ("flags", "off", "amortised")
-        }
-        help_text = docs[spec.name].replace("%", "%%")
-        if not any(spec.default is v for v in (None, True, False, MISSING)):
-            help_text = help_text.removesuffix(".") + " (default %(default)s)"
-        if spec.type == "bool":
-            if "off" in spec.metadata:  # a switch that is on by default
-                group.add_argument(
-                    spec.metadata["off"],
-                    dest=spec.name,
-                    action="store_false",
-                    help=f"off: {help_text}",
-                )
-                help_text = "(the default)"
-            settings["action"] = "store_true"
-        elif spec.type.startswith("Mapping"):
-            settings.update(nargs="+", metavar="KEY=VALUE")
-        elif spec.type.startswith("int"):
-            settings["type"] = int
-        if spec.metadata["flags"]:
-            default = None if spec.default is MISSING else spec.default
-            group.add_argument(
-                *spec.metadata["flags"],
-                dest=spec.name,
-                default=default,
-                required=spec.default is MISSING and spec.default_factory is MISSING,
-                help=help_text,
-                **settings,
-            )
     # Short for --env-kwargs insect=FILE (TrainConfig reads it into env_kwargs).
     parser.add_argument(
         "--insect",
@@ -120,14 +66,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def parse_config(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> TrainConfig:
-    """The :class:`TrainConfig` of the command line ``argv`` (``--env-kwargs``/``--hyperparams``
-    pairs parsed, ``--insect`` put into the env options)."""
+    """The :class:`TrainConfig` of the command line ``argv`` (``--insect`` put into the env
+    options)."""
     args = parser.parse_args(argv)
     import tandem_env  # noqa: F401 - registers the ids before the config checks the env
 
     values = {spec.name: getattr(args, spec.name) for spec in fields(TrainConfig)}
-    for name in ("env_kwargs", "hyperparams"):
-        values[name] = parse_pairs(values[name], f"--{name.replace('_', '-')}")
     insect = getattr(args, "insect", None)
     if insect is not None:
         if args.algo == AMORTISED:

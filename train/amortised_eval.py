@@ -7,11 +7,11 @@
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import sys
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -23,6 +23,7 @@ with exit_on_bad_environment("python -m train.amortised_eval"):
 import numpy as np
 
 from agents.selection import best_index
+from train.cli import command, option
 
 if TYPE_CHECKING:
     from agents.records import Record
@@ -288,45 +289,42 @@ def format_report(report: Mapping[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@command_line
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m train.amortised_eval",
-        description="Judge an amortised policy at the reference grid's held-out conditions.",
-    )
-    parser.add_argument(
-        "--run", required=True, help="run folder of python -m train --algo amortised"
-    )
-    parser.add_argument(
-        "--polish",
-        type=int,
-        default=0,
-        metavar="N",
-        help=f"warm-started polish of at most N evaluations per condition (<= {MAX_POLISH})",
-    )
-    parser.add_argument("--records", help="harness records of the reference run (wall times)")
-    parser.add_argument(
-        "--cmaes-budget",
-        type=int,
-        default=0,
-        metavar="N",
-        help="time a fresh CMA-ES run of N evaluations at the first held-out condition",
-    )
-    parser.add_argument("--out", help="write the report as JSON to this file")
-    args = parser.parse_args(argv)
-    try:
-        if args.records is not None and not Path(args.records).is_dir():
+@dataclass(frozen=True)
+class HeldOutOptions:
+    """Judge an amortised policy at the reference grid's held-out conditions.
+
+    Its files are checked when made, before any evaluation."""
+
+    run: str = option("--run")
+    """Run folder of python -m train --algo amortised."""
+    polish: int = option("--polish", default=0, metavar="N")
+    """Warm-started polish of at most N evaluations per condition (at most MAX_POLISH, 500)."""
+    records: str | None = option("--records", default=None)
+    """Harness records of the reference run (wall times)."""
+    cmaes_budget: int = option("--cmaes-budget", default=0, metavar="N")
+    """Time a fresh CMA-ES run of N evaluations at the first held-out condition."""
+    out: str | None = option("--out", default=None)
+    """Write the report as JSON to this file."""
+
+    def __post_init__(self) -> None:
+        if self.records is not None and not Path(self.records).is_dir():
             raise ValueError(
-                f"--records {args.records} is not a folder; allowed: the records folder of "
+                f"--records {self.records} is not a folder; allowed: the records folder of "
                 "python -m eval reference --out DIR (DIR/records), or no --records (the "
                 "optimiser's times are then left out)"
             )
-        if args.out is not None:  # checked now, not after the evaluation
+        if self.out is not None:
             from tandem_env.io.files import output_directory
 
-            if args.out and Path(args.out).is_dir():
-                raise ValueError(f"--out {args.out!r} is a folder; allowed: a file name")
-            output_directory(args.out and Path(args.out).parent, "--out")
+            if self.out and Path(self.out).is_dir():
+                raise ValueError(f"--out {self.out!r} is a folder; allowed: a file name")
+            output_directory(self.out and Path(self.out).parent, "--out")
+
+
+@command_line
+def main(argv: Sequence[str] | None = None) -> int:
+    parser, args = command(HeldOutOptions, argv)
+    try:
         report = evaluate_held_out(
             args.run,
             polish_budget=args.polish,

@@ -13,7 +13,7 @@ from __future__ import annotations
 import ast
 import math
 from collections.abc import Mapping
-from dataclasses import MISSING, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 from itertools import pairwise
 from pathlib import Path
 from types import MappingProxyType
@@ -27,6 +27,7 @@ from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import output_directory, to_jsonable, write_text_atomic
 from tandem_env.physics.checks import count, is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
+from train.cli import option
 
 #: The Stable-Baselines3 algorithms (``python -m train``'s RL path, :class:`TrainConfig`).
 ALGOS = ("ppo", "sac")
@@ -388,13 +389,6 @@ def check_seed(value: Any, name: str = "seed") -> int:
     return int(value)
 
 
-def option(*flags: str, default: Any = MISSING, factory: Any = MISSING, **settings: Any) -> Any:
-    """A :class:`TrainConfig` field and its ``python -m train`` option: ``flags`` (``off``: the
-    flag that turns a True default off), ``amortised=True`` where ``--algo amortised`` takes it
-    too, and argparse ``settings``; its help is the field's docstring."""
-    return field(default=default, default_factory=factory, metadata={"flags": flags, **settings})
-
-
 @dataclass(frozen=True, kw_only=True)
 class TrainConfig:
     """Everything one training run is made from (the command line, as data: each field is an
@@ -494,11 +488,9 @@ class TrainConfig:
             object.__setattr__(self, name, MappingProxyType(value))
         # a file, a dangling link or an empty name: said here, not as errno text when a run starts
         output_directory(self.log_folder, "log_folder (-f)", write=False)
-        object.__setattr__(self, "log_folder", Path(self.log_folder))
-        for name in ("run_dir", "hyperparams_file"):
-            value = getattr(self, name)
-            if value is not None:
-                object.__setattr__(self, name, Path(value))
+        for name in ("log_folder", "run_dir", "hyperparams_file"):
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, Path(getattr(self, name)))
         if self.resume and self.run_dir is not None:
             raise ValueError(
                 "give resume=True (the latest run in log_folder) or run_dir (that run), not both"

@@ -10,7 +10,6 @@ and, as markers, the deterministic policy's reward at each evaluation (evaluatio
 
 from __future__ import annotations
 
-import argparse
 import csv
 import sys
 from collections.abc import Sequence
@@ -20,7 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from tandem_env.io.files import atomic_path, read_json
+from train.cli import command, option
 from train.run_folder import RunLayout
+from train.saved import read_run_args
 
 
 @dataclass(frozen=True)
@@ -43,10 +44,7 @@ class Curves:
 def read_run(run_dir: str | Path) -> Curves:
     """Monitor CSVs (every segment, in order) and evaluations.npz of a run folder."""
     run_dir = Path(run_dir)
-    args = sorted(run_dir.glob("*/args.yml"))
-    if not args:
-        raise ValueError(f"{run_dir} is not a training run folder (no <env>/args.yml)")
-    layout = RunLayout(run_dir, args[0].parent.name)
+    layout = RunLayout(run_dir, read_run_args(run_dir, "a run folder of python -m train")[2])
     rewards: list[float] = []
     objective: list[float] = []
     feasible: list[bool] = []
@@ -133,14 +131,20 @@ def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60
     return out
 
 
+@dataclass(frozen=True)
+class CurvesOptions:
+    """Reward curves of one or more runs (one line per run / seed)."""
+
+    runs: tuple[str, ...] = option("--runs")
+    """Run folders."""
+    out: str = option("--out")
+    """PNG to write."""
+    title: str = option("--title", default="reward curves")
+    """The figure's title."""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m train.curves", description=__doc__.split("\n")[0]
-    )
-    parser.add_argument("--runs", nargs="+", required=True, help="run folders")
-    parser.add_argument("--out", required=True, help="PNG to write")
-    parser.add_argument("--title", default="reward curves")
-    args = parser.parse_args(argv)
+    parser, args = command(CurvesOptions, argv)
     try:
         path = plot(args.runs, args.out, args.title)
     except ValueError as error:

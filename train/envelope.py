@@ -8,11 +8,11 @@ envelope")::
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import warnings
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +22,7 @@ from train.entry import exit_on_bad_environment
 with exit_on_bad_environment("python -m train.envelope"):
     from tandem_env.io.command import command_line
 from tandem_env.io.files import output_directory, write_csv_atomic
+from train.cli import command, option
 
 #: Columns of envelope.csv.
 COLUMNS: tuple[str, ...] = (
@@ -139,27 +140,35 @@ def evaluate_envelope(
     return rows
 
 
+@dataclass(frozen=True)
+class EnvelopeOptions:
+    """Evaluate one trained policy at every sweep condition through the harness.
+
+    Its output folder is checked when made, before any policy is loaded."""
+
+    run: str = option("--run")
+    """Run folder written by python -m train."""
+    out: str = option("--out")
+    """Output folder (envelope.csv, records/)."""
+    conditions: tuple[float, ...] | None = option("--conditions", default=None)
+    """Conditions to evaluate (default: the task's sweep, below)."""
+    model: str = option("--model", default="best", choices=("best", "final"))
+    """The run's model: best_model.zip, or the final one."""
+
+    def __post_init__(self) -> None:
+        output_directory(self.out, folders=("records",), files=("envelope.csv",))
+
+
 @command_line
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="tandem-envelope"
-        if Path(sys.argv[0]).name == "tandem-envelope"
-        else "python -m train.envelope",
-        description="Evaluate one trained policy at every sweep condition through the harness.",
+    script = Path(sys.argv[0]).name == "tandem-envelope"
+    parser, args = command(
+        EnvelopeOptions,
+        argv,
+        prog="tandem-envelope" if script else "python -m train.envelope",
+        epilog=f"The tasks' sweeps (the default --conditions): {_sweeps_text()}",
     )
-    parser.add_argument("--run", required=True, help="run folder written by python -m train")
-    parser.add_argument("--out", required=True, help="output folder (envelope.csv, records/)")
-    parser.add_argument(
-        "--conditions",
-        type=float,
-        nargs="+",
-        default=None,
-        help=f"conditions to evaluate (default: the task's sweep, {_sweeps_text()})",
-    )
-    parser.add_argument("--model", choices=("best", "final"), default="best")
-    args = parser.parse_args(argv)
     try:
-        output_directory(args.out, folders=("records",), files=("envelope.csv",))  # before loading
         rows = evaluate_envelope(args.run, args.out, conditions=args.conditions, which=args.model)
     except ValueError as error:
         parser.error(str(error))

@@ -198,7 +198,7 @@ class TrainingMethod:
         hp = self._hyperparams(context.env_id, context.budget)
         unused = self._announce_budget(context, hp)
         if self.log_dir is None:
-            training, final = self._learn(context)
+            training, final = self._learn(context, hp)
         else:
             training, final = self._learn_with_files(context, hp.n_timesteps)
         evaluations = training.num_timesteps + 1
@@ -266,22 +266,19 @@ class TrainingMethod:
             )
         return unused
 
-    def _learn(self, context: SearchContext) -> tuple[TrainResult, dict[str, Any]]:
-        """Training without files (:func:`~train.run.learn_in_memory`), and its final
-        deterministic stroke evaluated by the harness's evaluator, so the budget counts it."""
+    def _learn(self, context: SearchContext, hp: Hyperparams) -> tuple[TrainResult, dict[str, Any]]:
+        """Training without files (:func:`~train.run.learn_in_memory`, ``hp`` of
+        :meth:`_hyperparams`), and its final deterministic stroke evaluated by the harness's
+        evaluator, so the budget counts it."""
 
         def report(recorder: StrokeRecorder) -> None:
             context.report(recorder.steps, recorder.evaluations, recorder.max_reward)
 
-        model, recorder, hp = learn_in_memory(
-            self.algo,
+        model, recorder = learn_in_memory(
+            hp,
             context.env_id,
             context.env_kwargs,
-            context.budget - 1,
             context.seed,
-            overrides=self.overrides,
-            n_envs=self.n_envs,
-            hyperparams_file=self.conf_file,
             on_step=report,
             threads=self.torch_threads,
         )

@@ -30,7 +30,7 @@ from train.callbacks import (
     SaveVecNormalize,
     StopOnInterrupt,
 )
-from train.config import Hyperparams, TrainConfig, load_entry, resolve_hyperparams, step_granularity
+from train.config import Hyperparams, TrainConfig, resolve_hyperparams, step_granularity
 from train.run_folder import Interrupted, RunFolder, RunLayout
 from train.saved import build_model, read_normalizer, save_checkpoint
 from train.vec import StrokeRecorder, evaluate_deterministic, make_evaluation_env, make_training_env
@@ -239,23 +239,16 @@ def budget_hyperparams(
 
 
 def learn_in_memory(
-    algo: str,
+    hp: Hyperparams,
     env_id: str,
     env_kwargs: Mapping[str, Any],
-    budget: int,
     seed: int,
     *,
-    overrides: Mapping[str, Any] | None = None,
-    n_envs: int | None = None,
-    hyperparams_file: str | Path | None = None,
     on_step: Callable[[StrokeRecorder], None] | None = None,
     threads: int = 1,
-) -> tuple[BaseAlgorithm, StrokeRecorder, Hyperparams]:
-    """Train ``algo`` for at most ``budget`` env steps (see :func:`budget_hyperparams`), no files;
-    returns (model, recorder, hp)."""
-    hp = budget_hyperparams(
-        algo, load_entry(algo, env_id, hyperparams_file), overrides, n_envs, budget
-    )
+) -> tuple[BaseAlgorithm, StrokeRecorder]:
+    """Train ``hp.algo`` for its ``n_timesteps`` env steps (a budget's, :func:`budget_hyperparams`),
+    no files; returns (model, recorder)."""
     env_kwargs = {**hp.env_kwargs, **env_kwargs}
     with torch_threads(threads):
         venv, recorder = make_training_env(
@@ -267,12 +260,12 @@ def learn_in_memory(
             normalize=hp.normalize,
             on_step=on_step,
         )
-        model = build_model(algo, hp, venv, seed=seed)
+        model = build_model(hp.algo, hp, venv, seed=seed)
         model.learn(
             hp.n_timesteps,
             log_interval=default_log_interval(hp),
             progress_bar=False,
         )
-    if recorder.evaluations > budget:  # cannot happen with the rounding above; never record it
-        raise RuntimeError(f"{algo} used {recorder.evaluations} env steps > budget {budget}")
-    return model, recorder, hp
+    if recorder.evaluations > hp.n_timesteps:  # whole iterations: cannot happen; never record it
+        raise RuntimeError(f"{hp.algo} used {recorder.evaluations} env steps > {hp.n_timesteps}")
+    return model, recorder

@@ -10,10 +10,8 @@ from __future__ import annotations
 import contextlib
 import math
 import os
-import pickletools
 import re
 import warnings
-import zipfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -34,6 +32,7 @@ from train.config import (
     write_yaml,
 )
 from train.saved import (
+    Incomplete,
     build_model,
     load_model,
     load_on_copy,
@@ -50,10 +49,6 @@ _LEGACY_KEY = "torch_threads"
 _CHECKPOINT = re.compile(rf"^{CHECKPOINT_PREFIX}_(\d+)_steps\.zip$")
 #: The lock file of a run folder: held (``flock``) by the ``python -m train`` writing there.
 LOCK_FILE = ".train.lock"
-#: The members every SB3 model zip has (``save_to_zip_file``) and every replay buffer ``.npz``
-#: (:data:`train.saved.REPLAY_COUNTERS`), and what such a file is called.
-_MODEL_ZIP = (frozenset({"data", "_stable_baselines3_version"}), "model file")
-_BUFFER_ZIP = (frozenset({"pos.npy", "full.npy"}), "replay buffer file")
 
 
 def latest_run_id(algo_folder: Path, name: str) -> int:
@@ -151,62 +146,12 @@ class Checkpoint:
     legacy_replay_buffer: Path
     """The pickled buffer of earlier versions: never loaded (a pickle can run code)."""
 
-    def damage(self, *, replay_buffer: bool, vecnormalize: bool) -> str | None:
-        """None if every file a resume needs is there and intact, else what is wrong; nothing is
-        loaded (zip members and CRCs, the pickle's opcodes by ``pickletools.genops``)."""
-        needed = [(self.model, _MODEL_ZIP)]
-        if replay_buffer:
-            needed.append((self.replay_buffer, _BUFFER_ZIP))
-        if vecnormalize:
-            needed.append((self.vecnormalize, None))  # a pickle
-        for path, zip_members in needed:
-            legacy = self.legacy_replay_buffer
-            if path == self.replay_buffer and not path.exists() and legacy.exists():
-                return (
-                    f"its replay buffer is {legacy.name}, the pickled format of earlier "
-                    "versions, which is never loaded (a pickle can run code)"
-                )
-            if not path.is_file():
-                return f"{path.name} is missing"
-            if path.stat().st_size == 0:
-                return f"{path.name} is empty"
-            problem = (
-                _pickle_damage(path) if zip_members is None else _zip_damage(path, *zip_members)
-            )
-            if problem is not None:
-                return f"{path.name} is damaged ({problem})"
-        return None
-
     def loads(self, algo: str) -> dict[str, Any]:
         """:func:`train.saved.load_model`'s ``step`` and ``replay_buffer`` (SAC's)."""
         return {"step": self.step, "replay_buffer": self.replay_buffer if algo == "sac" else None}
 
     def paths(self) -> tuple[Path, ...]:
         return (self.model, self.replay_buffer, self.vecnormalize, self.legacy_replay_buffer)
-
-
-def _zip_damage(path: Path, members: frozenset[str], what: str) -> str | None:
-    try:
-        with zipfile.ZipFile(path) as archive:
-            # The model's zip stores torch's own zips uncompressed, so a file cut short can end
-            # in an inner archive's directory and read as that archive: its members tell.
-            missing = members - set(archive.namelist())
-            bad = None if missing else archive.testzip()
-    except (zipfile.BadZipFile, OSError, EOFError, ValueError) as error:
-        return f"not a complete zip file: {error}"
-    if missing:
-        return f"not a complete {what}: no {', '.join(sorted(missing))}"
-    return None if bad is None else f"member {bad} fails its CRC check"
-
-
-def _pickle_damage(path: Path) -> str | None:
-    try:
-        with path.open("rb") as stream:
-            if any(op.name == "STOP" for op, _, _ in pickletools.genops(stream)):
-                return None
-    except (ValueError, EOFError, OSError) as error:
-        return f"not a complete pickle: {error}"
-    return "not a complete pickle: no STOP opcode"
 
 
 class RunLayout:
@@ -380,29 +325,32 @@ class RunFolder:
     def _resumable(cls, config: TrainConfig, layout: RunLayout | None) -> RunFolder:
         """A PPO / SAC run in ``layout`` (None: a new folder): its settings, hyperparameters
         and checkpoint, every file a resume loads read as it will read it."""
-        checkpoint = entry = None  # entry: config.yml, the hyperparameters the run started with
+        checkpoint = hp = None
         if layout is not None:
             resume = config.resume  # the merge below turns a resume into a run of a folder
             if layout.args_file.is_file():
                 config = _merge_saved(config, read_run_yaml(layout.args_file), layout)
-            if layout.config_file.is_file():
-                entry = read_run_yaml(layout.config_file)
-            checkpoint = _latest_intact(
-                layout, config.algo == "sac", bool((entry or {}).get("normalize"))
-            )
-            damaged = [c.model.name for c in layout.checkpoints()]
-            if checkpoint is None and damaged:
-                raise ValueError(
-                    f"{layout.run_dir}: no checkpoint is intact ({', '.join(damaged)}: see the "
-                    "warnings above); it is left untouched. Allowed: move the damaged "
-                    "checkpoints away to start this run again from step 0, or a new run"
-                )
-            if checkpoint is None and resume:
+            # config.yml: the hyperparameters the run started with, which a resume keeps
+            entry = read_run_yaml(layout.config_file) if layout.config_file.is_file() else None
+            if layout.checkpoints():
+                if entry is None:  # resuming from the current yml would mix two runs' settings
+                    raise ValueError(
+                        f"{layout.config_file} is missing: the hyperparameters the run started "
+                        "with cannot be restored; allowed: a run folder with its config.yml (or "
+                        "a new run)"
+                    )
+                try:
+                    hp = resolve_hyperparams(
+                        entry, algo=config.algo, n_timesteps=config.n_timesteps
+                    )
+                except ValueError as error:
+                    raise ValueError(f"{layout.config_file}: {error}") from None
+            elif resume:
                 raise ValueError(
                     f"{layout.run_dir} has no complete checkpoint to resume from (save_freq "
                     "<= 0, or killed before the first); allowed: start a new run"
                 )
-        if checkpoint is None:
+        if hp is None:
             entry = load_entry(config.algo, config.env_id, config.hyperparams_file)
             hp = resolve_hyperparams(
                 entry,
@@ -411,17 +359,12 @@ class RunFolder:
                 n_envs=config.n_envs,
                 n_timesteps=config.n_timesteps,
             )
-        elif entry is None:  # resuming from the current yml would mix two runs' settings unsaid
-            raise ValueError(
-                f"{layout.config_file} is missing: the hyperparameters the run started "  # type: ignore[union-attr]
-                "with cannot be restored; allowed: a run folder with its config.yml (or "
-                "a new run)"
-            )
-        else:  # a resumed run keeps the hyperparameters it started with, whatever the yml says
-            try:
-                hp = resolve_hyperparams(entry, algo=config.algo, n_timesteps=config.n_timesteps)
-            except ValueError as error:
-                raise ValueError(f"{layout.config_file}: {error}") from None  # type: ignore[union-attr]
+        env_kwargs = {**hp.env_kwargs, **config.env_kwargs}
+        _check_env(config.env_id, env_kwargs)
+        segments: tuple[Mapping[str, Any], ...] = ()
+        if layout is not None and layout.checkpoints():
+            checkpoint = _latest_intact(layout, config, hp, env_kwargs)
+            segments = read_result_segments(layout.result_file)
         unit = step_granularity(hp)
         target = -(-hp.n_timesteps // unit) * unit  # where SB3's learn stops: whole iterations
         if checkpoint is not None and checkpoint.step >= target:
@@ -435,18 +378,6 @@ class RunFolder:
                     "would overwrite it, so it is left untouched. Allowed: a new run (no "
                     "--run-dir) or another folder"
                 )
-        env_kwargs = {**hp.env_kwargs, **config.env_kwargs}
-        _check_env(config.env_id, env_kwargs)
-        segments: tuple[Mapping[str, Any], ...] = ()
-        if checkpoint is not None:  # the files a resume loads, read as it will read them
-            loads = checkpoint.loads(config.algo)
-            checked = load_on_copy(
-                config.algo, checkpoint.model, hp, config.env_id, env_kwargs, **loads
-            )
-            checked.get_env().close()  # type: ignore[union-attr]
-            if hp.normalize is not None:
-                read_normalizer(checkpoint.vecnormalize)
-            segments = read_result_segments(layout.result_file)  # type: ignore[union-attr]
         layout = layout or RunLayout.new(config.log_folder, config.algo, config.env_id)
         return cls(layout, config, hp, checkpoint, target, segments, MappingProxyType(env_kwargs))
 
@@ -553,19 +484,48 @@ def _merge_saved(config: TrainConfig, saved: Mapping[str, Any], layout: RunLayou
     )
 
 
-def _latest_intact(layout: RunLayout, replay_buffer: bool, normalize: bool) -> Checkpoint | None:
-    """The newest intact checkpoint (with its replay buffer, its VecNormalize statistics)."""
+def _latest_intact(
+    layout: RunLayout, config: TrainConfig, hp: Hyperparams, env_kwargs: Mapping[str, Any]
+) -> Checkpoint:
+    """The newest checkpoint whose files load as a resume loads them (its model, SAC's replay
+    buffer, the VecNormalize statistics), each read once, nothing unpickled: one cut short (a
+    kill while saving) is skipped with a warning, one that is refused raises its ValueError."""
     for checkpoint in reversed(layout.checkpoints()):
-        problem = checkpoint.damage(replay_buffer=replay_buffer, vecnormalize=normalize)
-        if problem is None:
-            return checkpoint
+        needed = [checkpoint.model]
+        needed += [checkpoint.replay_buffer] if config.algo == "sac" else []
+        needed += [checkpoint.vecnormalize] if hp.normalize is not None else []
+        missing = [path.name for path in needed if not path.is_file()]
+        problem = f"{missing[0]} is missing" if missing else None
+        legacy = checkpoint.legacy_replay_buffer
+        if checkpoint.replay_buffer.name in missing and legacy.exists():
+            problem = (
+                f"its replay buffer is {legacy.name}, the pickled format of earlier versions, "
+                "which is never loaded (a pickle can run code)"
+            )
+        try:
+            if problem is None:
+                loads = checkpoint.loads(config.algo)
+                model = load_on_copy(
+                    config.algo, checkpoint.model, hp, config.env_id, env_kwargs, **loads
+                )
+                model.get_env().close()  # type: ignore[union-attr]
+                if hp.normalize is not None:
+                    read_normalizer(checkpoint.vecnormalize)
+                return checkpoint
+        except Incomplete as error:
+            problem = error.damage
         warnings.warn(
             f"skipping checkpoint {checkpoint.model.name} of {layout.run_dir}: {problem} "
             "(killed while saving?); an earlier intact checkpoint is used if there is one",
             RuntimeWarning,
             stacklevel=4,
         )
-    return None
+    damaged = ", ".join(c.model.name for c in layout.checkpoints())
+    raise ValueError(
+        f"{layout.run_dir}: no checkpoint is intact ({damaged}: see the warnings above); it is "
+        "left untouched. Allowed: move the damaged checkpoints away to start this run again "
+        "from step 0, or a new run"
+    )
 
 
 def _check_env(env_id: str, env_kwargs: Mapping[str, Any]) -> None:

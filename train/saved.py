@@ -33,6 +33,16 @@ from tandem_env.physics.checks import is_real
 from train.config import FOLDER_NAME, MAX_TIMESTEPS, Hyperparams
 from train.vec import make_training_env
 
+
+class Incomplete(ValueError):
+    """A file cut short (a kill while saving): the loader's refusal, and in :attr:`damage` what
+    a resume says when it skips that checkpoint for an earlier one."""
+
+    def __init__(self, message: str, path: Path, what: str) -> None:
+        super().__init__(message)
+        self.damage = f"{Path(path).name} is damaged ({what})"
+
+
 # --- the YAML, the normalisation statistics and result.json -----------------------------------
 #: The globals a pickled ``VecNormalize`` (SB3's ``save``) refers to: the wrapper and its running
 #: statistics, the spaces, numpy arrays and random generators. Nothing that runs code.
@@ -78,9 +88,10 @@ def read_normalizer(path: Path) -> Any:
         with Path(path).open("rb") as stream:
             normalizer = _NormalizerUnpickler(stream).load()
     except (pickle.UnpicklingError, EOFError, ValueError, TypeError, AttributeError) as error:
-        raise ValueError(
-            f"{path}: refused: not a VecNormalize file of SB3 ({error}); nothing was run"
-        ) from None
+        message = f"{path}: refused: not a VecNormalize file of SB3 ({error}); nothing was run"
+        if isinstance(error, EOFError) or "truncated" in str(error):
+            raise Incomplete(message, path, f"not a complete pickle: {error}") from None
+        raise ValueError(message) from None
     except OSError as error:
         raise ValueError(f"{path} cannot be read ({error.strerror})") from None
     if not isinstance(normalizer, VecNormalize):
@@ -264,17 +275,28 @@ MAX_DATA_BYTES = 64 * 2**20
 _ALLOWED_MODEL = "Allowed: a model saved by python -m train with the run's config.yml"
 
 
-def _model_error(path: Path, what: str) -> ValueError:
-    return ValueError(f"{path}: refused: {what}; nothing in it was run. {_ALLOWED_MODEL}")
+def _model_error(path: Path, what: str, damage: str | None = None) -> ValueError:
+    message = f"{path}: refused: {what}; nothing in it was run. {_ALLOWED_MODEL}"
+    return ValueError(message) if damage is None else Incomplete(message, path, damage)
 
 
 def _open_zip(path: Path) -> zipfile.ZipFile:
     try:
         return zipfile.ZipFile(path)
     except (zipfile.BadZipFile, EOFError, ValueError) as error:
-        raise _model_error(path, f"not a zip file ({error})") from None
+        damage = f"not a complete zip file: {error}"
+        raise _model_error(path, f"not a zip file ({error})", damage) from None
     except OSError as error:
         raise ValueError(f"{path} cannot be read ({error.strerror})") from None
+
+
+def _read_member(archive: zipfile.ZipFile, name: str, path: Path) -> bytes:
+    """The bytes of the member ``name``; :class:`Incomplete` where they fail their CRC."""
+    try:
+        return archive.read(name)
+    except zipfile.BadZipFile as error:
+        what = f"member {name} fails its CRC check"
+        raise _model_error(path, f"{what} ({error})", what) from None
 
 
 def read_num_timesteps(path: Path, attributes: set[str]) -> int:
@@ -284,14 +306,15 @@ def read_num_timesteps(path: Path, attributes: set[str]) -> int:
     with _open_zip(path) as archive:
         try:
             info = archive.getinfo("data")
-        except KeyError:
+        except KeyError:  # a zip cut short can read as the inner archive of its last member
             members = ", ".join(archive.namelist()) or "no members"
-            raise _model_error(path, f"no data entry (it holds {members})") from None
+            what = f"no data entry (it holds {members})"
+            raise _model_error(path, what, "not a complete model file: no data") from None
         if info.file_size > MAX_DATA_BYTES:
             raise _model_error(path, f"its data is {info.file_size:,} bytes")
         try:
-            data = json.loads(archive.read(info))
-        except (UnicodeDecodeError, json.JSONDecodeError, zipfile.BadZipFile, OSError) as error:
+            data = json.loads(_read_member(archive, info.filename, path))
+        except (UnicodeDecodeError, json.JSONDecodeError, OSError) as error:
             raise _model_error(path, f"its data is not JSON ({error})") from None
     if not isinstance(data, dict):
         raise _model_error(path, f"its data is a JSON {type(data).__name__}, not an object")
@@ -338,9 +361,10 @@ def read_weights(path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
             try:
                 with warnings.catch_warnings():  # torch's notes on a file it then refuses
                     warnings.simplefilter("ignore", UserWarning)
-                    content = torch.load(
-                        io.BytesIO(archive.read(name)), map_location="cpu", weights_only=True
-                    )
+                    stream = io.BytesIO(_read_member(archive, name, path))
+                    content = torch.load(stream, map_location="cpu", weights_only=True)
+            except Incomplete:
+                raise
             # An untrusted file: whatever torch's restricted unpickler or its zip reader raise
             # (UnpicklingError, RuntimeError, EOFError, ...) means the same refusal.
             except Exception as error:
@@ -476,7 +500,8 @@ def load_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
     except ValueError as error:
         raise ValueError(f"{refused} ({error}); nothing was loaded") from None
     except (OSError, EOFError, zipfile.BadZipFile) as error:
-        raise ValueError(f"{refused}: not a readable .npz ({error}); nothing was loaded") from None
+        message = f"{refused}: not a readable .npz ({error}); nothing was loaded"
+        raise Incomplete(message, path, f"not a complete zip file: {error}") from None
     for name, array in loaded.items():
         getattr(buffer, name)[:rows] = array
     buffer.pos, buffer.full = int(pos), bool(full)

@@ -9,7 +9,6 @@ shipped results: docs/training.md, "Tuning for the envelope". Needs the ``tune``
 
 from __future__ import annotations
 
-import argparse
 import datetime
 import hashlib
 import json
@@ -21,7 +20,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +32,7 @@ from train.entry import exit_on_bad_environment
 with exit_on_bad_environment("python -m train.tune"):
     from tandem_env.io.command import command_line
 from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
-from tandem_env.io.keyvalue import add_pairs_argument
+from train.cli import command, option
 
 #: What Optuna proposes per algorithm: name -> (kind, choices or (low, high)). "log" and
 #: "float" are ranges; "choice" a list. Every choice here is a value the shipped entry could
@@ -110,16 +109,24 @@ def overrides(algo: str, params: Mapping[str, Any]) -> dict[str, Any]:
 
 @dataclass(frozen=True)
 class TuneConfig:
-    """One tuning command, checked once, when it is made (ValueError naming the value and what
-    is allowed, before any training)."""
+    """One tuning command (each field an option of ``python -m train.tune``, its docstring the
+    option's help), checked once, when it is made (ValueError naming the value and what is
+    allowed, before any training)."""
 
-    algo: str
-    env_id: str
-    env_kwargs: Mapping[str, Any]
-    trials: int
-    steps: int
-    seed: int
-    out: Path
+    algo: str = option("--algo", choices=tuple(SEARCH_SPACES))
+    """The algorithm whose hyperparameters are tuned."""
+    env_id: str = option("--env", cli_default="TandemWing/LevelFlight-v0")
+    """Env id."""
+    env_kwargs: Mapping[str, Any] = option("--env-kwargs", cli_default={})
+    """Env options of every trial, e.g. 'speed_range=(0.25, 2.0)' (the whole envelope)."""
+    trials: int = option("--trials")
+    """Finished trials wanted."""
+    steps: int = option("--steps")
+    """Env steps per trial."""
+    seed: int = option("--seed", cli_default=0)
+    """Training and sampler seed."""
+    out: Path = option("--out")
+    """The study's folder."""
 
     @property
     def study_name(self) -> str:
@@ -129,25 +136,13 @@ class TuneConfig:
 
     def command(self) -> str:
         """The command line that makes this study."""
-        words = [
-            "python",
-            "-m",
-            "train.tune",
-            "--algo",
-            self.algo,
-            "--env",
-            self.env_id,
-            "--trials",
-            str(self.trials),
-            "--steps",
-            str(self.steps),
-            "--seed",
-            str(self.seed),
-            "--out",
-            str(self.out),
-        ]
-        if self.env_kwargs:
-            words += ["--env-kwargs", *(f"{k}={v!r}" for k, v in self.env_kwargs.items())]
+        words = ["python", "-m", "train.tune"]
+        for spec in fields(self):
+            value = getattr(self, spec.name)
+            if value != {}:
+                pairs = isinstance(value, Mapping)
+                words.append(spec.metadata["flags"][0])
+                words += [f"{k}={v!r}" for k, v in value.items()] if pairs else [str(value)]
         return shlex.join(words)
 
     def __post_init__(self) -> None:
@@ -163,15 +158,16 @@ class TuneConfig:
         # the trials are scored against the reference table: an env it does not describe
         # (n_time=64, another insect) would train a whole trial to a NaN score
         table_series(self.env_id, self.env_kwargs)
-        for option, value, high in (
+        for flag, value, high in (
             ("--trials", self.trials, MAX_TRIALS),
             ("--steps", self.steps, MAX_STEPS),
         ):
             if not is_integer(value) or not 1 <= value <= high:
-                raise ValueError(f"{option} {value!r}; allowed: an integer from 1 to {high:,}")
+                raise ValueError(f"{flag} {value!r}; allowed: an integer from 1 to {high:,}")
         from train.config import check_seed
 
         check_seed(self.seed, "--seed")
+        object.__setattr__(self, "out", Path(self.out))
         gym.make(self.env_id, disable_env_checker=True, **self.env_kwargs).close()  # its options
 
 
@@ -427,35 +423,18 @@ def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = No
 
 @command_line
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m train.tune",
+    parser, config = command(
+        TuneConfig,
+        argv,
         description=__doc__.split("\n\n")[0].split(": ", 1)[1],
         epilog="example: python -m train.tune --algo ppo --trials 12 --steps 100000 "
         "--env-kwargs 'speed_range=(0.25, 2.0)' --out results/tune-ppo",
     )
-    parser.add_argument("--algo", required=True, choices=tuple(SEARCH_SPACES))
-    parser.add_argument(
-        "--env",
-        dest="env_id",
-        default="TandemWing/LevelFlight-v0",
-        help="env id (default %(default)s)",
-    )
-    add_pairs_argument(
-        parser,
-        "--env-kwargs",
-        "env options of every trial, e.g. 'speed_range=(0.25, 2.0)' (the whole envelope)",
-    )
-    parser.add_argument("--trials", type=int, required=True, help="finished trials wanted")
-    parser.add_argument("--steps", type=int, required=True, help="env steps per trial")
-    parser.add_argument("--seed", type=int, default=0, help="training and sampler seed")
-    parser.add_argument("--out", required=True, type=Path, help="the study's folder")
-    args = parser.parse_args(argv)
     try:
         import optuna  # noqa: F401
     except ImportError:
         parser.error('needs Optuna: pip install -e ".[tune]"')
     try:
-        config = TuneConfig(**vars(args))
         study = open_study(config)
     except ValueError as error:
         parser.error(str(error))

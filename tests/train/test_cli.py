@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import subprocess
 import sys
+import zipfile
 from dataclasses import MISSING, fields
 from pathlib import Path
 
@@ -17,6 +18,7 @@ from train.__main__ import build_parser, main, parse_config
 from train.config import TrainConfig
 from train.run import train
 from train.run_folder import RunLayout
+from train.saved import read_normalizer
 from train.vec import MONITOR_KEYWORDS
 
 REPO = Path(__file__).resolve().parents[2]
@@ -66,7 +68,11 @@ def test_cli_writes_the_run_folder(tmp_path: Path) -> None:
         assert path.is_file(), path
     checkpoint = layout.checkpoints()[-1]
     assert checkpoint.step == 256
-    assert checkpoint.damage(replay_buffer=True, vecnormalize=False) is None
+    with (
+        zipfile.ZipFile(checkpoint.model) as model,
+        zipfile.ZipFile(checkpoint.replay_buffer) as rb,
+    ):
+        assert model.testzip() is None and rb.testzip() is None  # complete, every CRC right
     assert list((run_dir / "tb").glob("SAC_1/events.out.tfevents.*"))
 
     config = yaml.safe_load(layout.config_file.read_text())
@@ -136,7 +142,7 @@ def test_normalised_run_saves_its_statistics(tmp_path: Path) -> None:
     )
     layout = RunLayout(result.run_dir, LEVEL_FLIGHT_ID)  # type: ignore[arg-type]
     assert layout.vecnormalize.is_file()
-    assert layout.checkpoints()[-1].damage(replay_buffer=False, vecnormalize=True) is None
+    read_normalizer(layout.checkpoints()[-1].vecnormalize)  # complete: it loads
     # Range 0.5-1.5 m/s holds the sweep speeds 0.5, 0.75, ..., 1.5.
     assert [row["speed"] for row in result.final_evaluation] == [0.5, 0.75, 1.0, 1.25, 1.5]
 
@@ -280,3 +286,42 @@ def test_a_plugged_in_task_trains_without_a_patch(tmp_path: Path) -> None:
     assert layout.final_model.is_file() and layout.result_file.is_file()
     args = yaml.safe_load(layout.args_file.read_text())
     assert args["env"] == TOY_ID and args["env_kwargs"] == {"n_time": 16, "n_blade": 4}
+
+
+@pytest.mark.parametrize(
+    "name", ["train.tune:TuneConfig", "train.envelope:EnvelopeOptions",
+             "train.amortised_eval:HeldOutOptions", "train.curves:CurvesOptions"],
+)  # fmt: skip
+def test_each_command_line_is_its_dataclass(name: str) -> None:
+    """Every option of train's other commands is one field of its options' dataclass, its help
+    that field's docstring (train.cli), and nothing else is an option."""
+    import importlib
+
+    from train.cli import build_parser as fields_parser
+    from train.cli import field_docs
+
+    module, _, cls_name = name.partition(":")
+    cls = getattr(importlib.import_module(module), cls_name)
+    parser = fields_parser(cls)
+    assert {a.dest for a in parser._actions} == {f.name for f in fields(cls)} | {"help"}
+    help_text = " ".join(parser.format_help().split())
+    for doc in field_docs(cls).values():
+        assert doc.removesuffix(".") in help_text, doc
+
+
+def test_a_value_its_dataclass_refuses_is_a_usage_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from train.amortised_eval import main as held_out
+    from train.curves import main as curves
+
+    for command, argv, said in (
+        (curves, ["--runs", str(tmp_path), "--out", str(tmp_path / "c.png")],
+         f"{tmp_path} is not a training run folder (expected one <env>/args.yml"),
+        (held_out, ["--run", str(tmp_path), "--records", str(tmp_path / "none")],
+         f"--records {tmp_path / 'none'} is not a folder; allowed: the records folder"),
+    ):  # fmt: skip
+        with pytest.raises(SystemExit) as stop:
+            command(argv)
+        err = capsys.readouterr().err
+        assert stop.value.code == 2 and said in err and "Traceback" not in err, err

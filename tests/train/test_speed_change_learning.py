@@ -8,7 +8,8 @@ import numpy as np
 import tandem_env  # noqa: F401 - registers the ids
 from eval.speed_change import RandomPolicy, SB3Policy, episode_metrics, run_episodes
 from tandem_env.envs.registration import SPEED_CHANGE_ID
-from train.run import learn_in_memory
+from train.config import load_entry
+from train.run import budget_hyperparams, learn_in_memory
 
 # The budget of tests/train/test_learning.py (SHORT_STEPS env steps on SHORT_ENVS envs), with
 # every hyperparameter pinned here so that retuning ppo.yml cannot change what is measured.
@@ -49,9 +50,9 @@ def mean_returns(policy) -> tuple[float, float]:
 
 def test_short_ppo_run_beats_random_strokes() -> None:
     random_return, _ = mean_returns(RandomPolicy(seed=0))
-    model, recorder, _ = learn_in_memory(
-        "ppo", SPEED_CHANGE_ID, {}, SHORT_STEPS, seed=0, overrides=PPO_SHORT, n_envs=SHORT_ENVS
-    )
+    entry = load_entry("ppo", SPEED_CHANGE_ID)
+    hp = budget_hyperparams("ppo", entry, PPO_SHORT, SHORT_ENVS, SHORT_STEPS)
+    model, recorder = learn_in_memory(hp, SPEED_CHANGE_ID, {}, seed=0)
     assert recorder.evaluations == SHORT_STEPS
     trained_return, trained_penalty = mean_returns(SB3Policy(model, "ppo"))
     assert trained_return - random_return > MARGIN_OVER_RANDOM, (trained_return, random_return)
