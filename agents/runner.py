@@ -24,6 +24,7 @@ from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
+import tandem_env
 from agents.dask_cluster import dask_client, parse_scheduler, set_worker_numba_threads
 from agents.harness import PreparedJob, prepare_job, run_job
 from agents.jobs import Job, Work
@@ -343,8 +344,18 @@ def run_jobs(
                 RecordWarning,
                 stacklevel=2,
             )
-        for held in (store, shared.store) if missing and not rerun else ():
-            if held is not None and (old := held.earlier_models(map(_job_of, missing))):
+        # Records of an earlier model sit under the keys it gave them (Job.key_at; None: before
+        # keys held the revision): no job finds them, so none is served; say so once per store.
+        revisions = (None, *range(1, tandem_env.physics.MODEL_REVISION))
+        earlier = [
+            job.key_at(tandem_env.__version__, model)
+            for job in map(_job_of, missing)
+            if isinstance(job, Job) and not rerun
+            for model in revisions
+        ]
+        for held in (store, shared.store):
+            old = [p for key in earlier if held is not None and (p := held.path(key)).exists()]
+            if old:
                 warnings.warn(
                     f"{len(old)} record file(s) in {old[0].parent} (e.g. {old[0].name}) were made "
                     "by an earlier model (tandem_env.physics.MODEL_REVISION): not used, their "

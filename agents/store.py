@@ -18,7 +18,6 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-import tandem_env
 from agents.jobs import OLD_SCHEMAS, SCHEMA, Job, Work
 from agents.records import (
     OutdatedRecordError,
@@ -253,19 +252,6 @@ class RecordStore:
             if isinstance(data, dict) and data.get("schema") in OLD_SCHEMAS:
                 found.append(path)
         return found
-
-    def earlier_models(self, jobs: Iterable[Job | Work]) -> list[Path]:
-        """The files holding records of ``jobs`` made by an earlier model revision, under the
-        keys it gave them (:meth:`Job.key_at`; None: before the key held it): no job finds them
-        now, so none is served (docs/harness.md, "The record cache")."""
-        revisions = (None, *range(1, tandem_env.physics.MODEL_REVISION))
-        paths = [
-            self.path(job.key_at(tandem_env.__version__, model))
-            for job in jobs
-            if isinstance(job, Job)
-            for model in revisions
-        ]
-        return [path for path in paths if path.exists()]
 
     def write_summary(self, known: Mapping[str, Record] | None = None) -> Path:
         """Rewrite ``DIR/summary.csv`` over every record in the store (each file read at most
