@@ -6,8 +6,10 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
+from eval.studies.base import StudyPlan
+from eval.studies.readings.plan import Continuation
 from eval.studies.readings.result import COUNTS, HEADLINES, ReadingResult, reading_dir
 from eval.studies.report import (
     Column,
@@ -21,8 +23,18 @@ from eval.studies.report import (
 )
 from tandem_env.io.files import write_text_atomic
 
-if TYPE_CHECKING:  # the plan writes its report: an import at run time would be a cycle
-    from eval.studies.readings.run import ReadingsPlan
+
+class ReadingsRun(Protocol):
+    """What the report reads of the readings study's run (its plan, results, combination rule,
+    continuation and the tasks run in full: :class:`eval.studies.readings.run.ReadingsPlan`,
+    which writes the report, so this module cannot import it)."""
+
+    plan: StudyPlan
+    results: Sequence[ReadingResult]
+    words: str
+    continuation: Continuation | None
+    full: Mapping[str, Mapping[str, str]]
+
 
 #: The readings study's goal: a reading under which this many of the paper's claims agree.
 READINGS_GOAL = 16
@@ -63,7 +75,7 @@ def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
 
 
 def write_readings_report(
-    path: Path, study: ReadingsPlan, table: Path, figure: Path, check: Sequence[Mapping[str, Any]]
+    path: Path, study: ReadingsRun, table: Path, figure: Path, check: Sequence[Mapping[str, Any]]
 ) -> Path:
     """Write the readings ``study``'s report to ``path`` (atomically) and return it: the
     readings, the best, which decision moves which claim, the matrix; its continuation (or
