@@ -43,7 +43,9 @@ UNDERSTOOD = {
         "§9): runs from different seeds settle in different ones, so medians over seeds "
         "are noisy, and per-condition medians can break a trend the best seeds follow. The "
         "paper reports one optimum per condition; its numbers compare most directly with our "
-        "*best* column."
+        "*best* column. Where the searches warm-start from the reference table (*Against the "
+        "reference table*), the seeds end on its optimum or above it and hardly spread: the "
+        "median is then the best known optimum, not a cold search's typical result."
     ),
     "objective": (
         "**What is optimised.** Level flight maximises η only; power, frequency and φ_m at the "
