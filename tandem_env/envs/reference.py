@@ -361,7 +361,7 @@ def table_strokes(
     warm start polishes). ValueError saying why there are none: no series of this problem (its
     :func:`problem_fingerprint`), or ``condition`` not a feasible point of the grid."""
     config = config_class(env_id).from_kwargs(**env_kwargs)
-    series = _applicable(type(config), to_jsonable(config))
+    series = ConfigReference(config).series
     if series is None:
         raise ValueError(
             f"the reference table has no {env_id} series of this problem (fingerprint "
