@@ -48,7 +48,13 @@ from agents.polish_config import *  # noqa: F403  (the polish's settings, see __
 from agents.polish_config import PolishConfig
 from agents.polish_config import __all__ as _config_names
 from agents.polish_gradients import *  # noqa: F403  (its problem and gradients, see __all__)
-from agents.polish_gradients import CentralDifferences, Gradient, GradientFunction, Problem
+from agents.polish_gradients import (
+    AutogradGradient,
+    CentralDifferences,
+    Gradient,
+    GradientFunction,
+    Problem,
+)
 from agents.polish_gradients import __all__ as _gradient_names
 from tandem_env.envs.base import ACTION_DTYPE, as_action_type
 from tandem_env.physics.checks import is_integer
@@ -195,6 +201,9 @@ class _Run:
         self.free = np.asarray(problem.free)
         self.allowance = allowance
         self.gradient_function = gradient
+        self.first_gradient = gradient
+        self.kept_back = gradient.cost
+        """Evaluations kept back for the certificate's check: one gradient of the first kind."""
         self.used = 0
         self.values: dict[bytes, tuple[float, np.ndarray, bool]] = {}
         self.gradients: dict[bytes, Gradient] = {}
@@ -243,6 +252,11 @@ class _Run:
             grad = self.gradient_function(x)
             self.used -= self.gradient_function.cost - grad.evaluations
             self.gradients[key] = grad
+            if self.gradient_function is not self.first_gradient:
+                # the finish's gradient comes from another model (autograd: torch), equal to
+                # the last bits at most: the values reported are the problem's own
+                self.value(z)
+                return grad
             self.values[key] = (grad.objective, grad.margins, grad.feasible)
             # Only the point itself is a candidate, not its perturbed neighbours: one of those
             # can beat it by rounding while h off an active constraint, where the KKT check
@@ -290,6 +304,9 @@ def polish(
         status = f"failed: allowance {budget} < two gradients ({2 * grad_fn.cost})"
         return PolishResult(x0, math.nan, replace(template, status=status, allowance=int(budget)))
     run = _Run(problem, x0, int(budget) - grad_fn.cost, grad_fn, config)
+    finisher = _finisher(problem, grad_fn, config)
+    held = round(config.finish * run.allowance) if finisher is not None else 0
+    run.allowance -= held  # kept for the finish by autograd (below)
     z0 = x0[run.free]
     first = run.gradient(z0)
     before = first.objective
@@ -300,6 +317,68 @@ def polish(
         # no feasible neighbourhood guaranteed: keep it and say so.
         failed = replace(template, status="failed: the start is infeasible")
         return _keep(run, x0, before, failed, False)
+
+    climb = _climb(run, z0, margin)
+    # Central differences cannot resolve the model where its second derivative jumps (the
+    # positive parts' crossings) within a step of the optimum: the climb then stalls short of
+    # the KKT stop. Exact gradients finish it, each one model evaluation.
+    if finisher is not None and not climb.optimal:
+        run.allowance += held
+        run.gradient_function, run.gradients = finisher, {}
+        restart = run.best[1][run.free] if run.best is not None else z0
+        first_climb, climb = climb, _climb(run, restart, margin)
+        climb = replace(climb, iterations=first_climb.iterations + climb.iterations)
+        template = replace(template, gradient=f"{grad_fn.name}, then {finisher.name}")
+    failure, iterations = climb.failure, climb.iterations
+    if climb.optimal:
+        converged: bool | None = True
+        message = f"KKT residual <= {config.optimality:g} at a feasible iterate"
+    else:
+        converged = None if climb.success is None else climb.success
+        message = climb.message
+    template = replace(template, iterations=iterations, converged=converged, message=message)
+    if run.best is None or (first.feasible and run.best[0] <= before):
+        status = "no gain" if not failure.startswith("failed") else failure
+        if not first.feasible and not failure.startswith("failed"):
+            status = "failed: no feasible point from the infeasible start"
+        return _keep(run, x0, before, replace(template, status=status), first.feasible)
+    after, x_best = run.best
+    # reported as the action type carries it (the margin keeps it feasible there): the
+    # certificate's check evaluates the rounded stroke, whose objective is reported
+    x_best = as_action_type(x_best)
+    gain = (after - before) / abs(before) if before != 0.0 and first.feasible else None
+    result = _finish(run, x_best, before, after, gain, replace(template, status="improved"))
+    if not result.feasible:  # the margin is a first-order bound: say so if it ever falls short
+        status = "failed: the optimum is infeasible as a float32 action"
+        certificate = replace(
+            result.certificate,
+            status=status,
+            gain=0.0 if first.feasible else None,
+            objective_after=before,
+        )
+        return PolishResult(x0, before, certificate, feasible=first.feasible)
+    return result
+
+
+@dataclass(frozen=True)
+class _Climb:
+    """How one run of the local optimiser ended."""
+
+    optimal: bool
+    """It stopped at an iterate that passed the KKT test (``config.optimality``)."""
+    success: bool | None
+    """The optimiser's own convergence test (scipy ``success``); None where it did not end."""
+    message: str
+    failure: str
+    """``"allowance used up"``, ``"failed: ..."`` or empty."""
+    iterations: int
+
+
+def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
+    """The local optimiser from z0 (free coordinates) on ``run``'s allowance and gradient
+    function, each constraint held ``margin`` inside; the best feasible point seen is
+    ``run.best``."""
+    config = run.config
 
     def fun(z: np.ndarray) -> float:
         return -run.value(z)[0]
@@ -357,40 +436,26 @@ def polish(
                 run.best = (stop.objective, stop.point)
         except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
             failure = f"failed: {type(error).__name__}: {error}"
-    iterations = counter[0]
-    if outcome is not None:
-        iterations = int(outcome.get("nit", iterations))
-        # the optimiser's last point, for the certificate (it is feasible only if it says so)
-        with contextlib.suppress(_OutOfBudget):
-            run.value(np.asarray(outcome.x))
-    if optimal:
-        converged: bool | None = True
-        message = f"KKT residual <= {config.optimality:g} at a feasible iterate"
-    else:
-        converged = None if outcome is None else bool(outcome.success)
-        message = failure if outcome is None else str(outcome.message)
-    template = replace(template, iterations=iterations, converged=converged, message=message)
-    if run.best is None or (first.feasible and run.best[0] <= before):
-        status = "no gain" if not failure.startswith("failed") else failure
-        if not first.feasible and not failure.startswith("failed"):
-            status = "failed: no feasible point from the infeasible start"
-        return _keep(run, x0, before, replace(template, status=status), first.feasible)
-    after, x_best = run.best
-    # reported as the action type carries it (the margin keeps it feasible there): the
-    # certificate's check evaluates the rounded stroke, whose objective is reported
-    x_best = as_action_type(x_best)
-    gain = (after - before) / abs(before) if before != 0.0 and first.feasible else None
-    result = _finish(run, x_best, before, after, gain, replace(template, status="improved"))
-    if not result.feasible:  # the margin is a first-order bound: say so if it ever falls short
-        status = "failed: the optimum is infeasible as a float32 action"
-        certificate = replace(
-            result.certificate,
-            status=status,
-            gain=0.0 if first.feasible else None,
-            objective_after=before,
-        )
-        return PolishResult(x0, before, certificate, feasible=first.feasible)
-    return result
+    if outcome is None:
+        return _Climb(optimal, None, failure, failure, counter[0])
+    # the optimiser's last point, for the certificate (it is feasible only if it says so)
+    with contextlib.suppress(_OutOfBudget):
+        run.value(np.asarray(outcome.x))
+    iterations = int(outcome.get("nit", counter[0]))
+    return _Climb(optimal, bool(outcome.success), str(outcome.message), failure, iterations)
+
+
+def _finisher(
+    problem: Problem, gradient: GradientFunction, config: PolishConfig
+) -> GradientFunction | None:
+    """The exact gradient that finishes a climb which did not reach the KKT stop: autograd,
+    where the problem differentiates, the climb took differences and a finish is kept
+    (``config.finish``); else None."""
+    if problem.differentiate is None or gradient.cost == 1 or config.finish == 0.0:
+        return None
+    if config.optimality == 0.0:  # the stop is left to the optimiser's own test
+        return None
+    return AutogradGradient(problem)
 
 
 def float32_margin(jacobian: np.ndarray, margin: float) -> np.ndarray:
@@ -447,7 +512,7 @@ def _finish(
 ) -> PolishResult:
     """The reported stroke x and its certificate (``template`` completed), with the KKT check at
     x (the gradient kept back for it is released from the allowance first)."""
-    run.allowance += run.gradient_function.cost
+    run.allowance += run.kept_back
     kkt, active = _check(run, x)
     feasible = True
     found = run.values.get(x.tobytes())  # x as evaluated by the check
@@ -478,6 +543,8 @@ def describe(certificate: Mapping[str, Any] | Certificate) -> str:
     if c.get("gain") is not None:
         parts[0] += f" {100 * c['gain']:+.2f} %"
     parts.append(f"{c.get('iterations', 0)} it")
+    if ", then " in c.get("gradient", ""):  # a climb by differences finished by autograd
+        parts[0] += f" (finished by {c['gradient'].partition(', then ')[2]})"
     parts.append(f"{c.get('evaluations', 0)} ev")
     parts.append("converged" if c.get("converged") else "not converged")
     kkt = c.get("kkt_residual")

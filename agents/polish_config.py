@@ -34,6 +34,7 @@ POLISH_SETTINGS: Mapping[str, str] = {
     "polish_tolerance": "tolerance",
     "polish_iterations": "max_iterations",
     "polish_optimality": "optimality",
+    "polish_finish": "finish",
     "starts": "starts",
     "initial": "initial",
     "initial_share": "initial_share",
@@ -70,6 +71,13 @@ class PolishConfig:
     converged), in [0, 1e-2]; 0 leaves the stop to the optimiser's own test (``tolerance``),
     which watches the objective's change and can stall long after. 1e-5 certified one more of
     eight seeds than 0, at the same budget and optima (docs/harness.md, "Local polish")."""
+    finish: float = 0.1
+    """Fraction of the polish's allowance kept for a finish by exact gradients, in [0, 0.5]:
+    where the climb by central differences ends short of the KKT stop (``optimality``) and the
+    problem differentiates (``Problem.differentiate``), the optimiser goes on from its best
+    feasible point with autograd gradients (one evaluation each) on what is left. Central
+    differences misread the gradient where the model's second derivative jumps within a step of
+    the optimum; 0: no finish (docs/harness.md, "Certified")."""
     margin: float = 1e-9
     """Every constraint is held at margin >= ``margin`` [-] (0 to 1e-4), plus one float32 step
     of every coordinate, so the optimum cast to the action type passes the exact test."""
@@ -98,6 +106,7 @@ class PolishConfig:
             ("step", 1e-8, 1e-2),
             ("tolerance", 1e-14, 1e-2),
             ("optimality", 0.0, 1e-2),
+            ("finish", 0.0, 0.5),
             ("margin", 0.0, 1e-4),
             ("active", 0.0, 1e-2),
         ):

@@ -318,3 +318,59 @@ def test_the_default_tolerance_certifies_an_ill_conditioned_slope():
     assert early.kkt_residual > 1e-3 and "(KKT residual above 1e-04: " in describe(early)
     default = polish(ill, start(), 20_000, PolishConfig()).certificate
     assert certified(default) and default.kkt_residual < early.kkt_residual / 30
+
+
+CURVATURE = np.logspace(0, 2, len(FREE))
+"""Curvatures of the ill-conditioned problem below, 1 to 100."""
+
+
+def ill_conditioned(counted: list[int]) -> Problem:
+    """Maximise −Σ c_j (x_j − 0.6)² (c: :data:`CURVATURE`) subject to Σ x_j <= 7.8, with the
+    exact derivatives an autograd model gives (``differentiate``, one evaluation a stroke); its
+    optimum x_j = 0.6 − λ/(2 c_j), λ from the active constraint. ``counted[0]`` counts strokes."""
+
+    def evaluate(x: np.ndarray) -> BatchEvaluation:
+        counted[0] += x.shape[0]
+        free = x[:, FREE]
+        margins = (CAP - free.sum(axis=1))[:, None]
+        objective = -np.sum(CURVATURE * (free - TARGET) ** 2, axis=1)
+        return BatchEvaluation(objective, margins, margins[:, 0] >= 0.0, ("sum",))
+
+    def differentiate(x: np.ndarray) -> tuple[BatchEvaluation, np.ndarray, np.ndarray]:
+        gradient, jacobian = np.zeros_like(x), np.zeros((x.shape[0], 1, DIM))
+        gradient[:, FREE] = -2.0 * CURVATURE * (x[:, FREE] - TARGET)
+        jacobian[:, 0, FREE] = -1.0
+        return evaluate(x), gradient, jacobian
+
+    return Problem(evaluate, DIM, FREE, differentiate=differentiate)
+
+
+def test_a_climb_short_of_the_kkt_stop_is_finished_by_exact_gradients():
+    # 1 000 evaluations: the climb by central differences (53 a gradient) runs out short of
+    # the KKT stop on the ill-conditioned problem; the share kept for exact gradients
+    # (PolishConfig.finish, 0.1) goes on at one evaluation a gradient and certifies the known
+    # optimum. Without it the same budget leaves the stroke uncertified.
+    unfinished = polish(ill_conditioned([0]), start(), 1_000, PolishConfig(finish=0.0))
+    assert unfinished.certificate.message == "allowance used up"
+    assert not certified(unfinished.certificate)
+    assert unfinished.certificate.gradient == "central differences"
+    counted = [0]
+    finished = polish(ill_conditioned(counted), start(), 1_000, PolishConfig())
+    c = finished.certificate
+    assert certified(c) and c.gradient == "central differences, then autograd", c
+    assert "(finished by autograd)" in describe(c)
+    assert counted[0] == c.evaluations <= 1_000
+    multiplier = (len(FREE) * TARGET - CAP + MARGIN) / np.sum(0.5 / CURVATURE)
+    np.testing.assert_allclose(
+        finished.stroke[list(FREE)], TARGET - multiplier / (2 * CURVATURE), atol=1e-4
+    )
+
+
+def test_a_climb_that_reaches_the_kkt_stop_is_not_finished():
+    # the finish's share is held back, not spent: where the climb by differences certifies on
+    # the rest, it ends as it does with no finish kept (the same stroke; differences only)
+    with_finish = polish(ill_conditioned([0]), start(), 2_000, PolishConfig())
+    without = polish(ill_conditioned([0]), start(), 2_000, PolishConfig(finish=0.0))
+    assert with_finish.certificate.gradient == "central differences"
+    assert certified(with_finish.certificate)
+    np.testing.assert_array_equal(with_finish.stroke, without.stroke)
