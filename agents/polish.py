@@ -324,11 +324,17 @@ def polish(
     # the KKT stop. Exact gradients finish it, each one model evaluation.
     if finisher is not None and not climb.optimal:
         run.allowance += held
-        run.gradient_function, run.gradients = finisher, {}
+        differences, run.gradient_function, run.gradients = run.gradients, finisher, {}
         restart = run.best[1][run.free] if run.best is not None else z0
-        first_climb, climb = climb, _climb(run, restart, margin)
-        climb = replace(climb, iterations=first_climb.iterations + climb.iterations)
-        template = replace(template, gradient=f"{grad_fn.name}, then {finisher.name}")
+        finish = _climb(run, restart, margin)
+        iterations = climb.iterations + finish.iterations
+        if finish.failure.startswith("failed"):  # the differences' climb and gradients stand
+            run.gradient_function, run.gradients = grad_fn, differences
+            climb = replace(climb, message=f"{climb.message}; the finish {finish.failure}")
+        else:
+            climb = finish
+            template = replace(template, gradient=f"{grad_fn.name}, then {finisher.name}")
+        climb = replace(climb, iterations=iterations)
     failure, iterations = climb.failure, climb.iterations
     if climb.optimal:
         converged: bool | None = True

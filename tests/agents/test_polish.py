@@ -374,3 +374,20 @@ def test_a_climb_that_reaches_the_kkt_stop_is_not_finished():
     assert with_finish.certificate.gradient == "central differences"
     assert certified(with_finish.certificate)
     np.testing.assert_array_equal(with_finish.stroke, without.stroke)
+
+
+def test_a_finish_that_fails_leaves_the_climb_by_differences_and_says_so():
+    # a model that cannot differentiate at the finish (it raises): the differences' climb and
+    # its stroke stand, checked by differences, and the message says what became of the finish
+    problem = ill_conditioned([0])
+
+    def broken(x: np.ndarray) -> tuple[BatchEvaluation, np.ndarray, np.ndarray]:
+        raise ValueError("no derivatives here")
+
+    result = polish(
+        Problem(problem.evaluate, DIM, FREE, differentiate=broken), start(), 1_000, PolishConfig()
+    )
+    c = result.certificate
+    assert c.gradient == "central differences" and c.status == "improved"
+    assert c.message == "allowance used up; the finish failed: ValueError: no derivatives here"
+    assert c.kkt_residual is not None and not certified(c)
