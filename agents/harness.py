@@ -32,6 +32,7 @@ from agents.methods import Method, get_method
 from agents.parts import (
     Part,
     PreparedJob,
+    finish_part,
     gradient_cost,
     initial_part,
     plan_parts,
@@ -237,7 +238,10 @@ def _run_prepared(
                 parts.append(search_part(prepared, index, part_budget, offset, report, problem))
             else:
                 parts.append(initial_part(prepared, part_budget, stroke, problem()))
-    chosen = max(parts, key=lambda part: (part.feasible, part.reward))
+    index = max(range(len(parts)), key=lambda k: (parts[k].feasible, parts[k].reward))
+    left = budget - sum(part.evaluations for part in parts)
+    parts[index] = finish_part(prepared, parts[index], left, problem)
+    chosen = parts[index]
     # as the action type carries it (the evaluator and the polish evaluate no other strokes:
     # a no-op for theirs), so the record's stroke stepped as a float32 action is this stroke
     chosen = replace(chosen, action=as_action_type(chosen.action))

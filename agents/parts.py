@@ -15,7 +15,16 @@ import numpy as np
 from agents.evaluator import VectorEnvEvaluator
 from agents.jobs import Job
 from agents.methods import Method, SearchContext, SearchOutcome
-from agents.polish import AutogradGradient, Certificate, PolishConfig, Problem, polish
+from agents.polish import (
+    AutogradGradient,
+    Certificate,
+    PolishConfig,
+    PolishResult,
+    Problem,
+    certified,
+    finish,
+    polish,
+)
 from agents.records import (
     SELECTION_BEST_FEASIBLE,
     SELECTION_BEST_REWARD,
@@ -153,6 +162,34 @@ def initial_part(
         selection,
         certificate,
         evaluations,
+    )
+
+
+def finish_part(
+    prepared: PreparedJob, part: Part, allowance: int, problem: Callable[[], Problem]
+) -> Part:
+    """The run's chosen part with its polish finished by autograd where it ended short of the
+    KKT stop (:func:`agents.polish.finish`), on the ``allowance`` the parts left of the budget
+    (each kept ``polish_finish`` of its polish's back for it): the reported stroke is the one
+    certified, so one finish serves the run, however many parts it has."""
+    ran = part.certificate.method != "none" and part.certificate.iterations > 0
+    if not prepared.polish.enabled or not part.feasible or not ran or certified(part.certificate):
+        return part
+    started = PolishResult(part.action, part.reward, part.certificate, feasible=True)
+    done = finish(problem(), started, allowance, prepared.polish)
+    if done is started:
+        return part
+    evaluations = part.evaluations + done.certificate.evaluations - part.certificate.evaluations
+    selection = part.selection
+    if done.certificate.status == "improved" and part.certificate.status != "improved":
+        selection = SELECTION_INITIAL_POLISHED if part.kind == "initial" else SELECTION_POLISHED
+    return replace(
+        part,
+        action=done.stroke,
+        reward=done.objective,
+        certificate=done.certificate,
+        evaluations=evaluations,
+        selection=selection,
     )
 
 

@@ -67,6 +67,8 @@ __all__ = [
     "PolishResult",
     "certified",
     "describe",
+    "finish",
+    "finishable",
     "float32_margin",
     "kkt_residual",
     "polish",
@@ -201,9 +203,6 @@ class _Run:
         self.free = np.asarray(problem.free)
         self.allowance = allowance
         self.gradient_function = gradient
-        self.first_gradient = gradient
-        self.kept_back = gradient.cost
-        """Evaluations kept back for the certificate's check: one gradient of the first kind."""
         self.used = 0
         self.values: dict[bytes, tuple[float, np.ndarray, bool]] = {}
         self.gradients: dict[bytes, Gradient] = {}
@@ -252,9 +251,10 @@ class _Run:
             grad = self.gradient_function(x)
             self.used -= self.gradient_function.cost - grad.evaluations
             self.gradients[key] = grad
-            if self.gradient_function is not self.first_gradient:
-                # the finish's gradient comes from another model (autograd: torch), equal to
-                # the last bits at most: the values reported are the problem's own
+            if isinstance(self.gradient_function, AutogradGradient):
+                # autograd differentiates the torch model, which need not be the problem's
+                # own evaluation (numba; equal to the last bits at most): the values the polish
+                # compares and reports are the problem's own
                 self.value(z)
                 return grad
             self.values[key] = (grad.objective, grad.margins, grad.feasible)
@@ -303,10 +303,12 @@ def polish(
     if budget < 2 * grad_fn.cost:
         status = f"failed: allowance {budget} < two gradients ({2 * grad_fn.cost})"
         return PolishResult(x0, math.nan, replace(template, status=status, allowance=int(budget)))
-    run = _Run(problem, x0, int(budget) - grad_fn.cost, grad_fn, config)
-    finisher = _finisher(problem, grad_fn, config)
-    held = round(config.finish * run.allowance) if finisher is not None else 0
-    run.allowance -= held  # kept for the finish by autograd (below)
+    # kept back for the certificate's check at the reported stroke: one gradient (autograd's
+    # with the problem's own value there, below)
+    check = grad_fn.cost + isinstance(grad_fn, AutogradGradient)
+    run = _Run(problem, x0, int(budget) - check, grad_fn, config)
+    if finishable(problem, grad_fn.name, config):  # kept for the finish (:func:`finish`)
+        run.allowance -= round(config.finish * run.allowance)
     z0 = x0[run.free]
     first = run.gradient(z0)
     before = first.objective
@@ -319,22 +321,6 @@ def polish(
         return _keep(run, x0, before, failed, False)
 
     climb = _climb(run, z0, margin)
-    # Central differences cannot resolve the model where its second derivative jumps (the
-    # positive parts' crossings) within a step of the optimum: the climb then stalls short of
-    # the KKT stop. Exact gradients finish it, each one model evaluation.
-    if finisher is not None and not climb.optimal:
-        run.allowance += held
-        differences, run.gradient_function, run.gradients = run.gradients, finisher, {}
-        restart = run.best[1][run.free] if run.best is not None else z0
-        finish = _climb(run, restart, margin)
-        iterations = climb.iterations + finish.iterations
-        if finish.failure.startswith("failed"):  # the differences' climb and gradients stand
-            run.gradient_function, run.gradients = grad_fn, differences
-            climb = replace(climb, message=f"{climb.message}; the finish {finish.failure}")
-        else:
-            climb = finish
-            template = replace(template, gradient=f"{grad_fn.name}, then {finisher.name}")
-        climb = replace(climb, iterations=iterations)
     failure, iterations = climb.failure, climb.iterations
     if climb.optimal:
         converged: bool | None = True
@@ -451,17 +437,67 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
     return _Climb(optimal, bool(outcome.success), str(outcome.message), failure, iterations)
 
 
-def _finisher(
-    problem: Problem, gradient: GradientFunction, config: PolishConfig
-) -> GradientFunction | None:
-    """The exact gradient that finishes a climb which did not reach the KKT stop: autograd,
-    where the problem differentiates, the climb took differences and a finish is kept
-    (``config.finish``); else None."""
-    if problem.differentiate is None or gradient.cost == 1 or config.finish == 0.0:
-        return None
-    if config.optimality == 0.0:  # the stop is left to the optimiser's own test
-        return None
-    return AutogradGradient(problem)
+def finishable(problem: Problem, gradient: str, config: PolishConfig) -> bool:
+    """A polish by ``gradient`` (its name) on ``problem`` keeps ``config.finish`` of its
+    allowance back for :func:`finish`: its gradient is not autograd, the problem differentiates
+    and the KKT stop is on."""
+    return (
+        gradient != AutogradGradient.name
+        and problem.differentiate is not None
+        and config.finish > 0.0
+        and config.optimality > 0.0
+    )
+
+
+def finish(
+    problem: Problem, result: PolishResult, budget: int, config: PolishConfig
+) -> PolishResult:
+    """``result``, a polish by central differences that ended short of the KKT stop, polished
+    on from its stroke with autograd gradients (one evaluation each) on ``budget`` more
+    evaluations; ``result`` itself where it is certified, infeasible, not :func:`finishable`
+    or ``budget`` is below two gradients. Central differences misread the gradient where the
+    model's second derivative jumps within a step of the optimum (the positive parts'
+    crossings), and the climb stalls there (docs/harness.md, "Certified"). The certificate
+    covers both: evaluations, allowance and iterations summed, the stop and the KKT check the
+    finish's, ``gradient`` ``"central differences, then autograd"``."""
+    first = result.certificate
+    if (
+        certified(first)
+        or not result.feasible
+        or first.method == "none"
+        or first.status.startswith("not applicable")
+        or not finishable(problem, first.gradient, config)
+        or budget < 2
+    ):
+        return result
+    try:
+        more = polish(problem, result.stroke, budget, config, AutogradGradient(problem))
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
+        message = f"{first.message}; the finish failed: {type(error).__name__}: {error}"
+        return replace(result, certificate=replace(first, message=message))
+    last = more.certificate
+    if last.status.startswith("failed"):
+        message = f"{first.message}; the finish {last.status}"
+        return replace(result, certificate=replace(first, message=message))
+    before = first.objective_before
+    improved = more.improved or result.improved
+    gain = first.gain
+    if more.improved and before is not None and first.gain is not None and before != 0.0:
+        gain = (more.objective - before) / abs(before)
+    certificate = replace(
+        last,
+        status="improved" if improved else first.status,
+        gain=gain,
+        objective_before=before,
+        objective_after=more.objective if more.improved else first.objective_after,
+        evaluations=first.evaluations + last.evaluations,
+        allowance=first.allowance + last.allowance,
+        iterations=first.iterations + last.iterations,
+        gradient=f"{first.gradient}, then {last.gradient}",
+    )
+    stroke = more.stroke if more.improved else result.stroke
+    objective = more.objective if more.improved else result.objective
+    return PolishResult(stroke, objective, certificate, feasible=True)
 
 
 def float32_margin(jacobian: np.ndarray, margin: float) -> np.ndarray:
@@ -506,9 +542,14 @@ def _check(run: _Run, x: np.ndarray) -> tuple[float | None, tuple[str, ...]]:
 def _keep(
     run: _Run, x0: np.ndarray, before: float, template: Certificate, feasible: bool
 ) -> PolishResult:
-    """The search's stroke stays: no gain, a failure, or an infeasible start."""
-    run.margin = run.config.margin  # the start was not held inside the float32 step
-    run.active = run.config.active
+    """The start stays: no gain, a failure, or an infeasible start. It is checked as the
+    polish checks its own strokes where it lies inside the held margins (a polished stroke,
+    e.g. one :func:`finish` starts from); a search's stroke, not held inside the float32 step,
+    with the plain margin and activity."""
+    found = run.values.get(x0.tobytes())
+    if found is None or np.any(found[1] - run.margin < -run.active):
+        run.margin = run.config.margin
+        run.active = run.config.active
     gain = 0.0 if feasible else None
     return replace(_finish(run, x0, before, before, gain, template), feasible=feasible)
 
@@ -518,7 +559,9 @@ def _finish(
 ) -> PolishResult:
     """The reported stroke x and its certificate (``template`` completed), with the KKT check at
     x (the gradient kept back for it is released from the allowance first)."""
-    run.allowance += run.kept_back
+    run.allowance += run.gradient_function.cost + isinstance(
+        run.gradient_function, AutogradGradient
+    )
     kkt, active = _check(run, x)
     feasible = True
     found = run.values.get(x.tobytes())  # x as evaluated by the check

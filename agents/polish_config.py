@@ -72,12 +72,12 @@ class PolishConfig:
     which watches the objective's change and can stall long after. 1e-5 certified one more of
     eight seeds than 0, at the same budget and optima (docs/harness.md, "Local polish")."""
     finish: float = 0.1
-    """Fraction of the polish's allowance kept for a finish by exact gradients, in [0, 0.5]:
-    where the climb by central differences ends short of the KKT stop (``optimality``) and the
-    problem differentiates (``Problem.differentiate``), the optimiser goes on from its best
-    feasible point with autograd gradients (one evaluation each) on what is left. Central
-    differences misread the gradient where the model's second derivative jumps within a step of
-    the optimum; 0: no finish (docs/harness.md, "Certified")."""
+    """Fraction of a polish's allowance kept back, in [0, 0.5], where it climbs by central
+    differences and the problem differentiates: where the run's reported stroke is then not
+    certified, :func:`agents.polish.finish` polishes it on with autograd gradients (one
+    evaluation each) on what the run left. Central differences misread the gradient where the
+    model's second derivative jumps within a step of the optimum; 0: no finish (docs/harness.md,
+    "Certified")."""
     margin: float = 1e-9
     """Every constraint is held at margin >= ``margin`` [-] (0 to 1e-4), plus one float32 step
     of every coordinate, so the optimum cast to the action type passes the exact test."""

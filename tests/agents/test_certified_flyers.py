@@ -29,7 +29,7 @@ FLYERS: dict[str, Any] = {
 @pytest.mark.parametrize("flyer", FLYERS)
 def test_the_default_pipeline_certifies_level_flight_on_every_listed_flyer(flyer: str) -> None:
     source = FLYERS[flyer]
-    options = {} if source is None else {"insect": insect_keyword(source)}
+    options = {} if source is None else {"env_kwargs": {"insect": insect_keyword(source)}}
     for record in run("cmaes", "level", 1.5, 16_000, [0, 1], progress=False, **options):
         seed, c = record.job.seed, record.certificate
         assert record.feasible and record.evaluations <= 16_000, (flyer, seed)

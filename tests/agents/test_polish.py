@@ -25,6 +25,7 @@ from agents.polish import (
     Problem,
     certified,
     describe,
+    finish,
     kkt_residual,
     polish,
     split_settings,
@@ -347,47 +348,50 @@ def ill_conditioned(counted: list[int]) -> Problem:
 
 def test_a_climb_short_of_the_kkt_stop_is_finished_by_exact_gradients():
     # 1 000 evaluations: the climb by central differences (53 a gradient) runs out short of
-    # the KKT stop on the ill-conditioned problem; the share kept for exact gradients
-    # (PolishConfig.finish, 0.1) goes on at one evaluation a gradient and certifies the known
-    # optimum. Without it the same budget leaves the stroke uncertified.
+    # the KKT stop on the ill-conditioned problem, having kept PolishConfig.finish (0.1) of its
+    # allowance back; finish() goes on from its stroke at one evaluation a gradient and
+    # certifies the known optimum. With nothing kept back the same budget leaves it uncertified.
     unfinished = polish(ill_conditioned([0]), start(), 1_000, PolishConfig(finish=0.0))
     assert unfinished.certificate.message == "allowance used up"
     assert not certified(unfinished.certificate)
-    assert unfinished.certificate.gradient == "central differences"
     counted = [0]
-    finished = polish(ill_conditioned(counted), start(), 1_000, PolishConfig())
+    problem = ill_conditioned(counted)
+    climbed = polish(problem, start(), 1_000, PolishConfig())
+    assert not certified(climbed.certificate)
+    assert climbed.certificate.evaluations <= 0.9 * (1_000 - 53) + 53  # the share kept back
+    finished = finish(problem, climbed, 1_000 - climbed.certificate.evaluations, PolishConfig())
     c = finished.certificate
     assert certified(c) and c.gradient == "central differences, then autograd", c
     assert "(finished by autograd)" in describe(c)
     assert counted[0] == c.evaluations <= 1_000
+    assert c.objective_before == climbed.certificate.objective_before
     multiplier = (len(FREE) * TARGET - CAP + MARGIN) / np.sum(0.5 / CURVATURE)
     np.testing.assert_allclose(
         finished.stroke[list(FREE)], TARGET - multiplier / (2 * CURVATURE), atol=1e-4
     )
 
 
-def test_a_climb_that_reaches_the_kkt_stop_is_not_finished():
-    # the finish's share is held back, not spent: where the climb by differences certifies on
-    # the rest, it ends as it does with no finish kept (the same stroke; differences only)
-    with_finish = polish(ill_conditioned([0]), start(), 2_000, PolishConfig())
-    without = polish(ill_conditioned([0]), start(), 2_000, PolishConfig(finish=0.0))
-    assert with_finish.certificate.gradient == "central differences"
-    assert certified(with_finish.certificate)
-    np.testing.assert_array_equal(with_finish.stroke, without.stroke)
+def test_a_certified_polish_is_not_finished():
+    # the share is held back, not spent: a climb that certifies on the rest is left as it is
+    climbed = polish(ill_conditioned([0]), start(), 2_000, PolishConfig())
+    assert certified(climbed.certificate)
+    assert climbed.certificate.gradient == "central differences"
+    assert finish(ill_conditioned([0]), climbed, 1_000, PolishConfig()) is climbed
 
 
 def test_a_finish_that_fails_leaves_the_climb_by_differences_and_says_so():
     # a model that cannot differentiate at the finish (it raises): the differences' climb and
-    # its stroke stand, checked by differences, and the message says what became of the finish
+    # its stroke stand, and the message says what became of the finish
     problem = ill_conditioned([0])
 
     def broken(x: np.ndarray) -> tuple[BatchEvaluation, np.ndarray, np.ndarray]:
         raise ValueError("no derivatives here")
 
-    result = polish(
-        Problem(problem.evaluate, DIM, FREE, differentiate=broken), start(), 1_000, PolishConfig()
-    )
-    c = result.certificate
+    problem = Problem(problem.evaluate, DIM, FREE, differentiate=broken)
+    climbed = polish(problem, start(), 1_000, PolishConfig())
+    finished = finish(problem, climbed, 200, PolishConfig())
+    c = finished.certificate
     assert c.gradient == "central differences" and c.status == "improved"
     assert c.message == "allowance used up; the finish failed: ValueError: no derivatives here"
-    assert c.kkt_residual is not None and not certified(c)
+    np.testing.assert_array_equal(finished.stroke, climbed.stroke)
+    assert not certified(c)
