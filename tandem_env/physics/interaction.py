@@ -136,11 +136,47 @@ class Pair(NamedTuple):
         )  # fmt: skip
 
 
+@njit(cache=True, error_model=BRANCH_FREE)
+def _fill_brackets(source, target, index, weight):
+    """:func:`periodic_brackets` on numpy, compiled: ``source`` (B, n_s), ``target`` (B, n_t)
+    (leading axes broadcast by the caller); writes ``index``, ``weight`` (B, n_t, 2)."""
+    two_pi = 2.0 * math.pi
+    n = source.shape[1]
+    src = np.empty(n)
+    for b in range(source.shape[0]):
+        start = source[b, 0]
+        for s in range(n):
+            x = source[b, s] - start
+            src[s] = x - two_pi * np.floor(x / two_pi)
+        for t in range(target.shape[1]):
+            x = target[b, t] - start
+            tgt = x - two_pi * np.floor(x / two_pi)
+            count = 0
+            for s in range(n):
+                count += src[s] <= tgt
+            x0 = src[count - 1]
+            x1 = src[count % n] + (two_pi if count % n == 0 else 0.0)
+            share = (tgt - x0) / max(x1 - x0, 1e-300)
+            index[b, t, 0], index[b, t, 1] = count - 1, count % n
+            weight[b, t, 0], weight[b, t, 1] = 1.0 - share, share
+
+
 def periodic_brackets(source: Any, target: Any, xp: ArrayNamespace) -> tuple[Any, Any]:
     """Periodic linear interpolation in phase, values at phases ``target`` (B, n_t) [rad] of
     series sampled at phases ``source`` (B, n_s) [rad], increasing over one period from any
     start (the leading axes broadcast): the two samples around each target, (B, n_t, 2)
     integer indices, and their weights (B, n_t, 2)."""
+    if xp is NUMPY:
+        lead = np.broadcast_shapes(source.shape[:-1], target.shape[:-1])
+        shape = (*lead, target.shape[-1], 2)
+        index, weight = np.empty(shape, dtype=np.int64), np.empty(shape)
+        _fill_brackets(
+            np.broadcast_to(source, (*lead, source.shape[-1])).reshape(-1, source.shape[-1]),
+            np.broadcast_to(target, (*lead, target.shape[-1])).reshape(-1, target.shape[-1]),
+            index.reshape(-1, *shape[-2:]),
+            weight.reshape(-1, *shape[-2:]),
+        )
+        return index, weight
     two_pi = 2.0 * math.pi
     n = source.shape[-1]
     start = source[..., :1]
@@ -367,7 +403,7 @@ def ring_ages(rings: int, n_s: int, n_w: int) -> np.ndarray:
     return np.einsum("skj,ke->sej", to_rings, folded).reshape(to_rings.shape[0], n_w * n_s)
 
 
-@njit(cache=True, error_model=BRANCH_FREE)
+@njit(cache=True, error_model=BRANCH_FREE, fastmath={"reassoc", "contract"})
 def _fill_field(matrix, rows, strips, out):
     """:func:`field_on_grid` on numpy, compiled and parallel over strokes b: ``out[b, i, r]`` =
     Σ_(e, j) ``matrix[rows[b], i, r, e·N_s + j]``·``strips[b, (i − e) mod n_w, j]``."""
@@ -623,6 +659,15 @@ def vortex_reading(
     return result, converged
 
 
+@njit(cache=True)
+def _fill_frames(angles, weight, beta, spin_total, out):
+    """Each stroke's frame coefficients (``blade.fill_frame_coefficients``, the right wing):
+    ``angles`` (B, n_time, 9), ``weight`` (B, n_time), ``beta`` (B,); ``out`` (B, n_time,
+    N_COEF)."""
+    for b in range(angles.shape[0]):
+        blade.fill_frame_coefficients(angles[b], weight[b], beta[b], spin_total, 1, out[b])
+
+
 def kernel_reading(
     wings: tuple[Any, Any],
     params: tuple[np.ndarray, np.ndarray],
@@ -640,12 +685,14 @@ def kernel_reading(
     strokes, as many as the wings hold) and returns its ``bundle.Outputs``. Returns the last pass's outputs, with the fixed point's convergence
     folded into each wing's ``W_CONVERGED`` (``cycle``)."""
 
-    frame = on_namespace(blade.frame_columns, NUMPY)
     pairs = []
     for w, (batch, wing) in enumerate(zip(wings, (insect.fore, insect.hind), strict=True)):
-        beta = batch.beta[:, None]
-        columns = frame(batch.angles, ..., batch.weight, np.cos(beta), np.sin(beta), spin_total, 1)
-        coef = np.stack(np.broadcast_arrays(*columns), -1)[:, None]
+        coef = np.empty((*batch.weight.shape, blade.N_COEF))
+        _fill_frames(
+            np.ascontiguousarray(batch.angles), np.ascontiguousarray(batch.weight),
+            np.ascontiguousarray(batch.beta), spin_total, coef,
+        )  # fmt: skip
+        coef = coef[:, None]
         root = np.array([-insect.root_spacing * w, ROOT_HALF_WIDTH, -insect.root_drop * w])
         pairs.append(
             Pair(params[w], coef, phases[:, w], batch.v_tangential, batch.v_normal, wing,
