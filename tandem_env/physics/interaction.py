@@ -20,6 +20,7 @@ from functools import cache
 from typing import Any, NamedTuple
 
 import numpy as np
+from numba import njit
 
 from . import blade, cycle
 from .vortex import (
@@ -30,10 +31,11 @@ from .vortex import (
     TRAILING_EDGE,
     lattice_geometry,
     segment_influence,
+    wake_influence,
     wake_nodes,
     wing_lines,
 )
-from .xp import NUMPY, ArrayNamespace, on_namespace
+from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace
 
 #: The ``bundle.WingBatch`` fields with one row per stroke (a pass on some strokes takes theirs).
 BATCH_FIELDS = (
@@ -77,7 +79,8 @@ class VortexWake:
     accelerate: bool = True
     """Anderson's step of depth one on the passes (False: plain Jacobi passes)."""
     chunk: int = 64
-    """Strokes per Biot-Savart evaluation (memory ∝ chunk·n_w·M·segments) [-]."""
+    """Strokes per Biot-Savart evaluation (memory ∝ chunk·n_w·M·segments) and, on the numba
+    backend, per fixed point (the batch's strokes are iterated this many at a time) [-]."""
 
     def __post_init__(self) -> None:
         for name in ("n_wake", "strips", "read_points", "max_passes", "chunk"):
@@ -133,11 +136,47 @@ class Pair(NamedTuple):
         )  # fmt: skip
 
 
+@njit(cache=True, error_model=BRANCH_FREE)
+def _fill_brackets(source, target, index, weight):
+    """:func:`periodic_brackets` on numpy, compiled: ``source`` (B, n_s), ``target`` (B, n_t)
+    (leading axes broadcast by the caller); writes ``index``, ``weight`` (B, n_t, 2)."""
+    two_pi = 2.0 * math.pi
+    n = source.shape[1]
+    src = np.empty(n)
+    for b in range(source.shape[0]):
+        start = source[b, 0]
+        for s in range(n):
+            x = source[b, s] - start
+            src[s] = x - two_pi * np.floor(x / two_pi)
+        for t in range(target.shape[1]):
+            x = target[b, t] - start
+            tgt = x - two_pi * np.floor(x / two_pi)
+            count = 0
+            for s in range(n):
+                count += src[s] <= tgt
+            x0 = src[count - 1]
+            x1 = src[count % n] + (two_pi if count % n == 0 else 0.0)
+            share = (tgt - x0) / max(x1 - x0, 1e-300)
+            index[b, t, 0], index[b, t, 1] = count - 1, count % n
+            weight[b, t, 0], weight[b, t, 1] = 1.0 - share, share
+
+
 def periodic_brackets(source: Any, target: Any, xp: ArrayNamespace) -> tuple[Any, Any]:
     """Periodic linear interpolation in phase, values at phases ``target`` (B, n_t) [rad] of
     series sampled at phases ``source`` (B, n_s) [rad], increasing over one period from any
     start (the leading axes broadcast): the two samples around each target, (B, n_t, 2)
     integer indices, and their weights (B, n_t, 2)."""
+    if xp is NUMPY:
+        lead = np.broadcast_shapes(source.shape[:-1], target.shape[:-1])
+        shape = (*lead, target.shape[-1], 2)
+        index, weight = np.empty(shape, dtype=np.int64), np.empty(shape)
+        _fill_brackets(
+            np.broadcast_to(source, (*lead, source.shape[-1])).reshape(-1, source.shape[-1]),
+            np.broadcast_to(target, (*lead, target.shape[-1])).reshape(-1, target.shape[-1]),
+            index.reshape(-1, *shape[-2:]),
+            weight.reshape(-1, *shape[-2:]),
+        )
+        return index, weight
     two_pi = 2.0 * math.pi
     n = source.shape[-1]
     start = source[..., :1]
@@ -153,17 +192,30 @@ def periodic_brackets(source: Any, target: Any, xp: ArrayNamespace) -> tuple[Any
     return xp.stack([count - 1, count % n], -1), xp.stack([1.0 - t, t], -1)
 
 
-def periodic_interpolation(source: Any, target: Any, xp: ArrayNamespace) -> Any:
-    """(B, n_t, n_s) weights of :func:`periodic_brackets`' interpolation as a matrix."""
-    index, weight = periodic_brackets(source, target, xp)
-    columns = xp.as_int64(xp.arange_like(source.shape[-1], source))
-    return ((index[..., None] == columns) * weight[..., None]).sum(-2)
-
-
 def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     """(n_t, n_s) weights of linear interpolation in r from ``source`` to ``target`` radii
     (held constant beyond the ends)."""
     return np.stack([np.interp(target, source, column) for column in np.eye(source.size)], -1)
+
+
+@njit(cache=True, error_model=BRANCH_FREE)
+def _fill_circulation(coef, samples, r, v_t, vn, offsets, chord, c_t, out):
+    """:func:`circulation` on numpy, compiled and parallel over strokes b: ``coef`` (B, n_time,
+    N_COEF), ``samples`` (B, n), ``r``, ``chord`` (n_blade,), ``v_t`` (B,), ``vn`` (B,
+    n_blade) the total normal inflow, ``offsets`` (B, n_blade, 2, n_time) the field's (u, v)
+    or (0, …) without one; writes Γ into ``out`` (B, n_blade, n)."""
+    field = offsets.shape[0] > 0
+    for b in range(coef.shape[0]):
+        for s in range(samples.shape[1]):
+            k = samples[b, s]
+            for e in range(r.shape[0]):
+                u, v, _, _ = blade.relative_velocity(coef[b], k, r[e], v_t[b], vn[b, e])
+                if field:
+                    u += offsets[b, e, 0, k]
+                    v += offsets[b, e, 1, k]
+                speed2 = u * u + v * v
+                gamma = -c_t * chord[e] * u * v
+                out[b, e, s] = gamma / np.sqrt(speed2) if speed2 > 0.0 else 0.0
 
 
 def circulation(pair: Pair, inflow: Any, external: tuple[Any, Any] | None, samples: Any, xp) -> Any:
@@ -175,6 +227,15 @@ def circulation(pair: Pair, inflow: Any, external: tuple[Any, Any] | None, sampl
     vn = pair.v_normal[:, None] + inflow
     if external is not None:
         vn = vn + external[1]
+    if xp is NUMPY:
+        out = np.empty((*vn.shape, samples.shape[1]))
+        _fill_circulation(
+            np.ascontiguousarray(pair.coef[:, 0]), np.ascontiguousarray(samples), pair.r,
+            np.ascontiguousarray(pair.v_tangential), np.ascontiguousarray(vn),
+            np.zeros((0, 0, 2, 0)) if external is None else np.ascontiguousarray(external[0]),
+            pair.wing.chord(pair.r / pair.wing.length), pair.wing.translational_coefficient, out,
+        )  # fmt: skip
+        return out
     stroke = xp.as_int64(xp.arange_like(samples.shape[0], vn))[:, None]
     r = xp.constant_like(pair.r, vn)[None, :, None]
     u, v, _, _ = on_namespace(blade.relative_velocity, xp)(
@@ -295,6 +356,15 @@ def influence(source: Lattice, target: Pair, wake: VortexWake, xp) -> Any:
     # the left wing (its mirror image, −Γ) induces at x what the right induces at its mirror
     # image, mirrored: the right wing's segments read at both
     points = xp.concatenate([points, points * mirror], -2)
+    if xp is NUMPY:  # the same sum, compiled for the lattice's structure, into one array
+        out = np.empty((like.shape[0], n_w, m, 3, n_w * n_s))
+        for start in range(0, like.shape[0], wake.chunk):
+            part = slice(start, start + wake.chunk)
+            wake_influence(
+                source.bound[part], source.edge[part], source.carried[part], points[part],
+                source.core[part], out[part],
+            )  # fmt: skip
+        return out.reshape(like.shape[0], n_w, m * 3, n_w * n_s)
     combine = ring_ages(source.carried.shape[1], n_s, n_w)
     parts = []
     for start in range(0, like.shape[0], wake.chunk):
@@ -333,42 +403,148 @@ def ring_ages(rings: int, n_s: int, n_w: int) -> np.ndarray:
     return np.einsum("skj,ke->sej", to_rings, folded).reshape(to_rings.shape[0], n_w * n_s)
 
 
-def field_on_grid(matrix: Any, strips: Any, xp) -> Any:
+@njit(cache=True, error_model=BRANCH_FREE, fastmath={"reassoc", "contract"})
+def _fill_field(matrix, rows, strips, out):
+    """:func:`field_on_grid` on numpy, compiled and parallel over strokes b: ``out[b, i, r]`` =
+    Σ_(e, j) ``matrix[rows[b], i, r, e·N_s + j]``·``strips[b, (i − e) mod n_w, j]``."""
+    n_w, n_s = strips.shape[1], strips.shape[2]
+    for b in range(strips.shape[0]):
+        at = rows[b]
+        shifted = np.empty(n_w * n_s)
+        for i in range(n_w):
+            for e in range(n_w):
+                back = (i - e) % n_w
+                for j in range(n_s):
+                    shifted[e * n_s + j] = strips[b, back, j]
+            for r in range(matrix.shape[2]):
+                total = 0.0
+                for c in range(n_w * n_s):
+                    total += matrix[at, i, r, c] * shifted[c]
+                out[b, i, r] = total
+
+
+def field_on_grid(matrix: Any, strips: Any, xp, rows: Any = None) -> Any:
     """The velocity (B, n_w, M, 3) [m/s] of the :func:`influence` ``matrix`` with the source's
     strip circulations ``strips`` (B, n_w, N_s) [m²/s] on the wake grid: one batched product,
-    Γ_j(t_{i−e}) gathered for each t_i."""
-    n_w = strips.shape[1]
+    Γ_j(t_{i−e}) gathered for each t_i. ``rows`` (B,): the matrix's strokes to read (``None``:
+    all, in order), so that the strokes still iterating read theirs without a copy of it (on
+    numpy a compiled loop; on torch the rows taken and a batched product)."""
+    n_b, n_w = strips.shape[:2]
+    if xp is NUMPY:
+        rows = np.arange(n_b) if rows is None else np.asarray(rows)
+        out = np.empty((n_b, n_w, matrix.shape[2]))
+        _fill_field(matrix, rows.astype(np.int64), np.ascontiguousarray(strips), out)
+        return out.reshape(n_b, n_w, -1, 3)
+    if rows is not None:
+        matrix = matrix[rows]
     shifted = strips[:, [[(i - e) % n_w for e in range(n_w)] for i in range(n_w)]]
-    flat = shifted.reshape(shifted.shape[0], n_w, -1, 1)  # (B, n_w, n_w·N_s, 1)
-    return (matrix @ flat).reshape(shifted.shape[0], n_w, -1, 3)
+    flat = shifted.reshape(n_b, n_w, -1, 1)  # (B, n_w, n_w·N_s, 1)
+    return (matrix @ flat).reshape(n_b, n_w, -1, 3)
+
+
+@njit(cache=True, error_model=BRANCH_FREE)
+def _fill_element_field(flat, index, weight, coef, beta, to_elements, out, mean):
+    """:func:`element_field` on numpy, compiled and parallel over strokes b: ``flat`` (B, n_w,
+    M·3) the scaled field on the wake grid, ``index``, ``weight`` (B, n_time, 2) its brackets,
+    ``coef`` (B, n_time, N_COEF), ``beta`` (B,), ``to_elements`` (n_blade, M); writes the
+    offsets into ``out`` (B, n_blade, 2, n_time) and the mean into ``mean`` (B, M)."""
+    n_t, n_m = index.shape[1], to_elements.shape[1]
+    c_x = (blade.C_ECX, blade.C_ENX)
+    c_y = (blade.C_ECY, blade.C_ENY)
+    c_z = (blade.C_ECZ, blade.C_ENZ)
+    for b in range(flat.shape[0]):
+        cb, sb = np.cos(beta[b]), np.sin(beta[b])
+        w = np.empty((n_t, flat.shape[2]))
+        for t in range(n_t):
+            i0, i1 = index[b, t, 0], index[b, t, 1]
+            w0, w1 = weight[b, t, 0], weight[b, t, 1]
+            for c in range(flat.shape[2]):
+                w[t, c] = flat[b, i0, c] * w0 + flat[b, i1, c] * w1
+        for m in range(n_m):
+            total = 0.0
+            for t in range(n_t):
+                total += (w[t, 3 * m] * sb + w[t, 3 * m + 2] * cb) * coef[b, t, blade.C_WEIGHT]
+            mean[b, m] = total / n_t
+        d = np.empty((2, n_m, n_t))
+        for t in range(n_t):
+            for k in range(2):
+                ex = cb * coef[b, t, c_x[k]] + sb * coef[b, t, c_z[k]]
+                ey = coef[b, t, c_y[k]]
+                ez = cb * coef[b, t, c_z[k]] - sb * coef[b, t, c_x[k]]
+                for m in range(n_m):
+                    d[k, m, t] = coef[b, t, c_z[k]] * mean[b, m] - (
+                        ex * w[t, 3 * m] + ey * w[t, 3 * m + 1] + ez * w[t, 3 * m + 2]
+                    )
+        for j in range(to_elements.shape[0]):
+            for k in range(2):
+                for t in range(n_t):
+                    out[b, j, k, t] = 0.0
+                for m in range(n_m):
+                    weight_jm = to_elements[j, m]
+                    for t in range(n_t):
+                        out[b, j, k, t] += weight_jm * d[k, m, t]
 
 
 def element_field(
-    w: Any, target: Pair, to_grid: Any, to_elements: Any, scale: Any, xp
+    w: Any, target: Pair, to_grid: tuple[Any, Any], to_elements: Any, scale: Any, xp
 ) -> tuple[Any, Any]:
     """The field ``w`` (B, n_w, M, 3) [m/s] on the target's elements and samples, as the
     kernel takes it: its (u, v) offsets −w·e_c, −w·e_n less the cycle-mean normal part, (B,
     n_blade, 2, n_time), and that mean along −z_s, (B, n_blade), the upstream inflow of the
     momentum side (docs/model.md §5.8 item 5); times ``scale`` (B,) (C_hf, 0 where off).
-    The projections and the mean are linear and the same along the span, so they are taken at
-    the M stations and interpolated onto the elements last."""
-    w = (to_grid @ w.reshape(*w.shape[:2], -1)) * scale[:, None, None]  # (B, n_time, M·3)
-    w = w.reshape(*w.shape[:2], -1, 3)
-    beta = target.params[:, 13][:, None, None]
+    ``to_grid``: :func:`periodic_brackets` from the wake grid to the kernel's samples, (B,
+    n_time, 2) indices and weights. The interpolation, the projections and the mean are linear
+    and the same along the span, so they are taken at the M stations, the projections on
+    e_c and e_n in earth axes (β folded into them), and interpolated onto the elements last."""
+    n_b, n_w = w.shape[:2]
+    flat = w.reshape(n_b, n_w, -1) * scale[:, None, None]  # (B, n_w, M·3)
+    index, weight = to_grid
+    if xp is NUMPY:
+        coef = np.ascontiguousarray(target.coef[:, 0])
+        out = np.empty((n_b, to_elements.shape[0], 2, coef.shape[1]))
+        mean = np.empty((n_b, to_elements.shape[1]))
+        _fill_element_field(
+            np.ascontiguousarray(flat), np.ascontiguousarray(index), np.ascontiguousarray(weight),
+            coef, np.ascontiguousarray(target.params[:, 13]), np.ascontiguousarray(to_elements),
+            out, mean,
+        )  # fmt: skip
+        return out, -(mean @ to_elements.T)
+    stroke = xp.as_int64(xp.arange_like(n_b, flat))[:, None]
+    w = (
+        flat[stroke, index[..., 0]] * weight[..., :1]
+        + flat[stroke, index[..., 1]] * weight[..., 1:]
+    )
+    w = w.reshape(*w.shape[:2], -1, 3)  # (B, n_time, M, 3)
+    beta = target.params[:, 13][:, None]
     cb, sb = xp.cos(beta), xp.sin(beta)
-    wx = w[..., 0] * cb - w[..., 2] * sb  # (B, n_time, M)
-    wz = w[..., 0] * sb + w[..., 2] * cb
-    wy = w[..., 1]
     coef = target.coef[:, 0]  # (B, n_time, N_COEF)
-    weight = coef[:, :, blade.C_WEIGHT, None]
-    mean = (wz * weight).sum(1)[:, None] / weight.shape[1]  # (B, 1, M)
-    wz = wz - mean
-    col = [coef[:, :, c, None] for c in range(blade.N_COEF)]
-    du = -(wx * col[blade.C_ECX] + wy * col[blade.C_ECY] + wz * col[blade.C_ECZ])
-    dv = -(wx * col[blade.C_ENX] + wy * col[blade.C_ENY] + wz * col[blade.C_ENZ])
+    # w in stroke-plane axes is (w_x·cos β − w_z·sin β, w_y, w_x·sin β + w_z·cos β)
+    project = xp.stack(
+        [
+            xp.stack(
+                [
+                    cb * coef[..., x] + sb * coef[..., z],
+                    coef[..., y],
+                    cb * coef[..., z] - sb * coef[..., x],
+                ],
+                -1,
+            )
+            for x, y, z in (
+                (blade.C_ECX, blade.C_ECY, blade.C_ECZ),
+                (blade.C_ENX, blade.C_ENY, blade.C_ENZ),
+            )
+        ],
+        -2,
+    )  # fmt: skip  (B, n_time, 2, 3): e_c, e_n in earth axes
+    wz = w[..., 0] * sb[..., None] + w[..., 2] * cb[..., None]  # (B, n_time, M)
+    mean = (wz * coef[:, :, blade.C_WEIGHT, None]).sum(1) / coef.shape[1]  # (B, M)
+    normal = xp.stack([coef[..., blade.C_ECZ], coef[..., blade.C_ENZ]], -1)  # (B, n_time, 2)
+    # −(w − mean·z_s)·e: (B, n_time, 2, M)
+    d = normal[..., None] * mean[:, None, None, :] - project @ xp.moveaxis(w, -1, -2)
+    offsets = d.reshape(n_b, -1, d.shape[-1]) @ to_elements.T  # (B, n_time·2, n_blade)
+    offsets = offsets.reshape(*d.shape[:3], -1)
     # (B, n_blade, 2, n_time), in the kernel's layout
-    offsets = xp.stack([to_elements @ xp.moveaxis(d, 1, 2) for d in (du, dv)], 2)
-    return offsets, -(mean[:, 0] @ to_elements.T)
+    return xp.moveaxis(xp.moveaxis(offsets, -1, 1), -1, -2), -(mean @ to_elements.T)
 
 
 #: A backend's pass: ``run(fields, rows)`` solves the strokes ``rows`` (integer indices into
@@ -419,7 +595,7 @@ def vortex_reading(
         for p in pairs
     ]
     uniform = xp.constant_like(2.0 * np.pi * np.arange(wake.n_wake) / wake.n_wake, fore.phase)
-    to_grid = [periodic_interpolation(uniform[None], p.phase, xp) for p in pairs]
+    to_grid = [periodic_brackets(uniform[None], p.phase, xp) for p in pairs]
     matrices = [influence(lattices[1 - w], pairs[w], wake, xp) for w in (0, 1)]
     samples = [(lat.samples, lat.sample_weights) for lat in lattices]
     rows = xp.as_int64(xp.arange_like(fore.phase.shape[0], fore.phase))  # the strokes solved
@@ -457,8 +633,7 @@ def vortex_reading(
                 )
                 pairs = tuple(p.take(keep) for p in pairs)
                 samples = [(i[keep], s[keep]) for i, s in samples]
-                to_grid = [g[keep] for g in to_grid]
-                matrices = [m[keep] for m in matrices]
+                to_grid = [(i[keep], g[keep]) for i, g in to_grid]
                 last = None if last is None else (last[0][keep], last[1][keep])
             if last is not None and wake.accelerate:  # Anderson's step of depth one (secant)
                 dr, dg = residual - last[1], strips - last[0]
@@ -471,7 +646,7 @@ def vortex_reading(
         given = strips
         fields = tuple(
             element_field(
-                field_on_grid(matrices[w], strips[:, 1 - w], xp),
+                field_on_grid(matrices[w], strips[:, 1 - w], xp, rows),
                 pairs[w],
                 to_grid[w],
                 to_elements[w],
@@ -482,6 +657,15 @@ def vortex_reading(
         )
         inflow, result = run(fields, rows)
     return result, converged
+
+
+@njit(cache=True)
+def _fill_frames(angles, weight, beta, spin_total, out):
+    """Each stroke's frame coefficients (``blade.fill_frame_coefficients``, the right wing):
+    ``angles`` (B, n_time, 9), ``weight`` (B, n_time), ``beta`` (B,); ``out`` (B, n_time,
+    N_COEF)."""
+    for b in range(angles.shape[0]):
+        blade.fill_frame_coefficients(angles[b], weight[b], beta[b], spin_total, 1, out[b])
 
 
 def kernel_reading(
@@ -501,38 +685,50 @@ def kernel_reading(
     strokes, as many as the wings hold) and returns its ``bundle.Outputs``. Returns the last pass's outputs, with the fixed point's convergence
     folded into each wing's ``W_CONVERGED`` (``cycle``)."""
 
-    frame = on_namespace(blade.frame_columns, NUMPY)
     pairs = []
     for w, (batch, wing) in enumerate(zip(wings, (insect.fore, insect.hind), strict=True)):
-        beta = batch.beta[:, None]
-        columns = frame(batch.angles, ..., batch.weight, np.cos(beta), np.sin(beta), spin_total, 1)
-        coef = np.stack(np.broadcast_arrays(*columns), -1)[:, None]
+        coef = np.empty((*batch.weight.shape, blade.N_COEF))
+        _fill_frames(
+            np.ascontiguousarray(batch.angles), np.ascontiguousarray(batch.weight),
+            np.ascontiguousarray(batch.beta), spin_total, coef,
+        )  # fmt: skip
+        coef = coef[:, None]
         root = np.array([-insect.root_spacing * w, ROOT_HALF_WIDTH, -insect.root_drop * w])
         pairs.append(
             Pair(params[w], coef, phases[:, w], batch.v_tangential, batch.v_normal, wing,
                  np.array(batch.nodes[:, cycle.N_R]), np.array(batch.nodes[:, cycle.N_WIDTH]), root)
         )  # fmt: skip
 
-    result = None
+    result = run_pass(wings)  # pass 0, the isolated pairs, on the whole batch
+    converged = np.zeros(len(speed), dtype=bool)
+    # the fixed point, stroke by stroke, on WAKE.chunk strokes at a time: the same results
+    # (item 6), and arrays small enough to be reused rather than mapped afresh at each pass
+    for start in range(0, len(speed), WAKE.chunk):
+        part = np.arange(start, min(start + WAKE.chunk, len(speed)))
 
-    def run(fields: tuple[Any, Any] | None, rows: Any) -> tuple[tuple[Any, Any], Any]:
-        nonlocal result
-        if fields is None:
-            result = run_pass(wings)
-            return (result.inflow[:, 0], result.inflow[:, 1]), result
-        outputs = run_pass(
-            tuple(
-                b._replace(**{name: getattr(b, name)[rows] for name in BATCH_FIELDS},
-                           external=np.ascontiguousarray(f[0]),
-                           external_inflow=np.ascontiguousarray(f[1]))
-                for b, f in zip(wings, fields, strict=True)
-            )
-        )  # fmt: skip
-        for whole, part in zip(result, outputs, strict=True):
-            if len(whole):  # the history is (0, …) unless kept
-                whole[rows] = part
-        return (outputs.inflow[:, 0], outputs.inflow[:, 1]), result
+        def run(
+            fields: tuple[Any, Any] | None, rows: Any, part=part
+        ) -> tuple[tuple[Any, Any], Any]:
+            if fields is None:
+                return (result.inflow[part, 0], result.inflow[part, 1]), result
+            index = part[rows]
+            outputs = run_pass(
+                tuple(
+                    b._replace(**{name: getattr(b, name)[index] for name in BATCH_FIELDS},
+                               external=np.ascontiguousarray(f[0]),
+                               external_inflow=np.ascontiguousarray(f[1]))
+                    for b, f in zip(wings, fields, strict=True)
+                )
+            )  # fmt: skip
+            for whole, piece in zip(result, outputs, strict=True):
+                if len(whole):  # the history is (0, …) unless kept
+                    whole[index] = piece
+            return (outputs.inflow[:, 0], outputs.inflow[:, 1]), result
 
-    outputs, converged = vortex_reading(*pairs, run, speed, path_angle, scale, NUMPY, WAKE)
+        chunk = tuple(p.take(part) for p in pairs)
+        _, converged[part] = vortex_reading(
+            *chunk, run, speed[part], path_angle[part], scale[part], NUMPY, WAKE
+        )
+    outputs = result
     outputs.means[:, :, cycle.W_CONVERGED] *= converged[:, None]
     return outputs

@@ -333,3 +333,174 @@ def wake_nodes(bound: Any, trailing_edge: Any, carried: Any, xp: ArrayNamespace 
     index = [[(i - k) % n for k in range(rows + 1)] for i in range(n)]
     released = trailing_edge[:, index]  # (B, n, K + 1, N, 3)
     return xp.concatenate([bound[:, :, None], released + carried[:, None, :, None, :]], 2)
+
+
+#: The compiled wake sums' floating-point licence: fused multiply-adds and x/y as x·(1/y),
+#: which move their results by ~1e-15 relative (no assumption of finite values).
+_FAST = {"contract", "arcp"}
+
+
+@njit(cache=True, parallel=True, error_model=BRANCH_FREE, fastmath=_FAST)
+def _fill_wake_influence(bound, edge, carried, core2, points, signs, out):
+    """:func:`wake_influence`'s compiled loop, parallel over (stroke b, sample i): ``bound``,
+    ``edge`` (B, n_w, N, 3), ``carried`` (B, K + 1, 3), ``core2`` (B, S) each segment's
+    squared core radius in :func:`lattice_geometry`'s order, ``points`` (B, n_w, k·P, 3),
+    ``signs`` (k, 3) as :func:`_fill_influence`'s; ``out`` (B, n_w, P, 3, n_w·(N − 1))."""
+    n_b, n_w, n_n = bound.shape[0], bound.shape[1], bound.shape[2]
+    n_points = out.shape[2]
+    n_rows = carried.shape[1] + 1  # R = K + 2
+    n_all = n_rows * n_n
+    n_along = n_rows * (n_n - 1)
+    n_strips = n_n - 1
+    n_ring = (n_rows - 1) * n_n
+    four_pi = 4.0 * math.pi
+    for q in prange(n_b * n_w):
+        b, i = q // n_w, q % n_w
+        # the lattice's nodes, flat n = row·N + j (wake_nodes): row 0 the bound vortex at t_i,
+        # row k + 1 the trailing edge at t_{i−k} carried by carried[k]
+        nodes = np.empty((3, n_all))
+        for j in range(n_n):
+            for c in range(3):
+                nodes[c, j] = bound[b, i, j, c]
+        for k in range(n_rows - 1):
+            back = (i - k) % n_w
+            for j in range(n_n):
+                for c in range(3):
+                    nodes[c, (k + 1) * n_n + j] = edge[b, back, j, c] + carried[b, k, c]
+        # per segment, independent of the point: r0, 1/|r0|², r_c⁴; along the rows the flat
+        # pairs (n, n + 1) (those across two rows, n = N − 1 mod N, are read by nothing),
+        # between the rows (n, n + N)
+        d_a = np.zeros((3, n_all))
+        d_t = np.zeros((3, n_all))
+        inv_a = np.ones(n_all)
+        inv_t = np.ones(n_all)
+        core4_a = np.ones(n_all)
+        core4_t = np.ones(n_all)
+        for n in range(n_all - 1):
+            for c in range(3):
+                d_a[c, n] = nodes[c, n + 1] - nodes[c, n]
+            inv_a[n] = 1.0 / max(d_a[0, n] ** 2 + d_a[1, n] ** 2 + d_a[2, n] ** 2, _TINY)
+        for n in range(n_all - n_n):
+            for c in range(3):
+                d_t[c, n] = nodes[c, n + n_n] - nodes[c, n]
+            inv_t[n] = 1.0 / max(d_t[0, n] ** 2 + d_t[1, n] ** 2 + d_t[2, n] ** 2, _TINY)
+        for row in range(n_rows):
+            for j in range(n_strips):
+                c2 = core2[b, row * n_strips + j]
+                core4_a[row * n_n + j] = c2 * c2
+        for row in range(n_rows - 1):
+            for j in range(n_n):
+                c2 = core2[b, n_along + row * n_n + j]
+                core4_t[row * n_n + j] = c2 * c2
+        rel = np.empty((3, n_all))
+        inv = np.empty(n_all)
+        u_a = np.empty((3, n_all))
+        u_t = np.empty((3, n_all))
+        ring = np.empty((3, n_all))
+        folded = np.empty((3, n_w * n_n))
+        for p0 in range(n_points):
+            u_a[:] = 0.0
+            u_t[:] = 0.0
+            for k in range(signs.shape[0]):
+                p = p0 + k * n_points
+                px, py, pz = points[b, i, p, 0], points[b, i, p, 1], points[b, i, p, 2]
+                sx, sy, sz = signs[k, 0], signs[k, 1], signs[k, 2]
+                for n in range(n_all):
+                    rx = px - nodes[0, n]
+                    ry = py - nodes[1, n]
+                    rz = pz - nodes[2, n]
+                    rel[0, n], rel[1, n], rel[2, n] = rx, ry, rz
+                    inv[n] = 1.0 / np.sqrt(max(rx * rx + ry * ry + rz * rz, _TINY))
+                for n in range(n_all - 1):  # along the rows: (n, n + 1)
+                    r1x, r1y, r1z = rel[0, n], rel[1, n], rel[2, n]
+                    r2x, r2y, r2z = rel[0, n + 1], rel[1, n + 1], rel[2, n + 1]
+                    r0x, r0y, r0z = d_a[0, n], d_a[1, n], d_a[2, n]
+                    cx = r1y * r2z - r1z * r2y
+                    cy = r1z * r2x - r1x * r2z
+                    cz = r1x * r2y - r1y * r2x
+                    along = (r0x * r1x + r0y * r1y + r0z * r1z) * inv[n] - (
+                        r0x * r2x + r0y * r2y + r0z * r2z
+                    ) * inv[n + 1]
+                    h2 = (cx * cx + cy * cy + cz * cz) * inv_a[n]
+                    root = np.sqrt(max(h2 * h2 + core4_a[n], _TINY * _TINY))
+                    factor = along * inv_a[n] / (four_pi * root)
+                    u_a[0, n] += sx * factor * cx
+                    u_a[1, n] += sy * factor * cy
+                    u_a[2, n] += sz * factor * cz
+                for n in range(n_all - n_n):  # between the rows: (n, n + N)
+                    r1x, r1y, r1z = rel[0, n], rel[1, n], rel[2, n]
+                    r2x, r2y, r2z = rel[0, n + n_n], rel[1, n + n_n], rel[2, n + n_n]
+                    r0x, r0y, r0z = d_t[0, n], d_t[1, n], d_t[2, n]
+                    cx = r1y * r2z - r1z * r2y
+                    cy = r1z * r2x - r1x * r2z
+                    cz = r1x * r2y - r1y * r2x
+                    along = (r0x * r1x + r0y * r1y + r0z * r1z) * inv[n] - (
+                        r0x * r2x + r0y * r2y + r0z * r2z
+                    ) * inv[n + n_n]
+                    h2 = (cx * cx + cy * cy + cz * cz) * inv_t[n]
+                    root = np.sqrt(max(h2 * h2 + core4_t[n], _TINY * _TINY))
+                    factor = along * inv_t[n] / (four_pi * root)
+                    u_t[0, n] += sx * factor * cx
+                    u_t[1, n] += sy * factor * cy
+                    u_t[2, n] += sz * factor * cz
+            # ring (k, j) at flat n = k·N + j: +along row k, −along row k + 1, −trailed at node
+            # j, +trailed at node j + 1 (lattice_segments); j = N − 1 is read by nothing
+            for c in range(3):
+                for n in range(n_ring - 1):
+                    ring[c, n] = u_a[c, n] - u_a[c, n + n_n] - u_t[c, n] + u_t[c, n + 1]
+                ring[c, n_ring - 1] = 0.0
+            # ring 0 carries Γ at age 0, ring k ≥ 1 ½·(Γ at age k − 1 + Γ at age k), the ages
+            # folded modulo n_w (interaction.ring_ages): folded[e] = ½·Σ_{k ≥ 1, k ≡ e} ring k
+            folded[:] = 0.0
+            for c in range(3):
+                for n in range(n_n, n_ring):
+                    folded[c, n % (n_w * n_n)] += 0.5 * ring[c, n]
+            for c in range(3):
+                for e in range(n_w):
+                    later = ((e + 1) % n_w) * n_n
+                    for j in range(n_strips):
+                        value = folded[c, e * n_n + j] + folded[c, later + j]
+                        if e == 0:
+                            value += ring[c, j]
+                        out[b, i, p0, c, e * n_strips + j] = value
+
+
+def wake_influence(
+    bound: np.ndarray,
+    edge: np.ndarray,
+    carried: np.ndarray,
+    points: np.ndarray,
+    core_radius: np.ndarray,
+    out: np.ndarray | None = None,
+) -> np.ndarray:
+    """What :func:`segment_influence` gives, ``mirrored``, for :func:`lattice_geometry`'s
+    segments of :func:`wake_nodes`' lattices on ``bound``, ``edge`` (B, n_w, N, 3) and
+    ``carried`` (B, K + 1, 3) [m], with ``combine`` the rings' circulations folded onto their
+    release ages modulo n_w (``interaction.ring_ages``): the velocity per unit circulation
+    at the first P/2 of ``points`` (B, n_w, P, 3) [m] of the right wing's lattice read there
+    and at the last P/2 (their mirror images), (B, n_w, P/2, 3, n_w·(N − 1));
+    ``core_radius`` (B, 1, S) or (B, S) per segment [m]. numpy only: a compiled loop over
+    strokes and samples that builds each lattice's nodes, takes each node's distance from a
+    point once for the (up to) four segments that share it and each segment's direction and
+    length once for all points, and sums the segments into rings and the rings into ages in
+    the lattice's order, without the general combination matrix. ``out``: a contiguous array
+    of the result's shape to write it into (None: a new one)."""
+    n_b, n_w, n_n = bound.shape[:3]
+    n_p = points.shape[-2]
+    if n_p % 2 or points.shape[:2] != (n_b, n_w) or carried.shape[0] != n_b:
+        raise ValueError(
+            f"bound of shape {bound.shape}, carried {carried.shape}, points {points.shape}; "
+            "allowed: (B, n_w, N, 3), (B, K + 1, 3) and (B, n_w, P, 3), P even (points, images)"
+        )
+    shape = (n_b, n_w, n_p // 2, 3, n_w * (n_n - 1))
+    if out is None:
+        out = np.empty(shape)
+    elif out.shape != shape or not out.flags.c_contiguous:
+        raise ValueError(f"out of shape {out.shape}; allowed: a contiguous array of {shape}")
+    core2 = core_radius.reshape(n_b, -1) ** 2
+    _fill_wake_influence(
+        np.ascontiguousarray(bound), np.ascontiguousarray(edge), np.ascontiguousarray(carried),
+        np.ascontiguousarray(core2), np.ascontiguousarray(points), np.stack([np.ones(3), MIRROR]),
+        out,
+    )  # fmt: skip
+    return out

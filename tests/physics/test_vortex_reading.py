@@ -236,3 +236,37 @@ def test_a_strokes_result_does_not_depend_on_the_batch():
             np.testing.assert_allclose(
                 together[name][i], value[0], rtol=1e-10, atol=1e-15, err_msg=name
             )
+
+
+@pytest.mark.parametrize(("rows", "n_w", "nodes"), [(48, 16, 5), (24, 16, 5), (5, 4, 3), (9, 4, 4)])
+def test_compiled_wake_sum_is_the_segment_sum(rows, n_w, nodes):
+    """``vortex.wake_influence`` (the numba backend's sum over a wake lattice: shared node
+    distances, rings and ages summed in the lattice's order) equals ``segment_influence`` over
+    ``lattice_geometry``'s segments with ``interaction.ring_ages`` (torch's), mirrored, to
+    rounding, on random lattices: wakes shorter and longer than a period, with ages folded."""
+    rng = np.random.default_rng(rows)
+    b = 2
+    bound = rng.normal(0.0, 5e-3, (b, n_w, nodes, 3))
+    edge = bound + rng.normal(0.0, 1e-3, (b, n_w, nodes, 3))
+    carried = np.arange(rows + 1.0)[None, :, None] * rng.normal(0.0, 1e-3, (b, 1, 3))
+    points = rng.normal(0.0, 5e-3, (b, n_w, 8, 3))
+    segments = (rows + 2) * (nodes - 1) + (rows + 1) * nodes
+    core = rng.uniform(1e-4, 1e-3, (b, 1, segments))
+    got = vortex.wake_influence(bound, edge, carried, points, core)
+    geometry = vortex.lattice_geometry(vortex.wake_nodes(bound, edge, carried))
+    combine = interaction.ring_ages(rows + 1, nodes - 1, n_w)
+    expected = vortex.segment_influence(geometry, points, core, combine, NUMPY, mirrored=True)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-13 * np.abs(expected).max())
+
+
+def test_a_strokes_result_does_not_depend_on_the_chunk(monkeypatch):
+    """The numba backend runs the fixed point ``VortexWake.chunk`` strokes at a time: any chunk
+    gives the same results (each stroke stops at its own fixed point)."""
+    rng = np.random.default_rng(5)
+    strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (7, 28)))
+    speeds = rng.uniform(0.25, 2.0, 7)
+    whole = te.evaluate(strokes, speeds, options=VORTEX).as_dict()
+    monkeypatch.setattr(interaction, "WAKE", replace(interaction.WAKE, chunk=3))
+    chunked = te.evaluate(strokes, speeds, options=VORTEX).as_dict()
+    for name, value in whole.items():
+        np.testing.assert_allclose(chunked[name], value, rtol=1e-10, atol=1e-15, err_msg=name)
