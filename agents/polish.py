@@ -30,7 +30,7 @@ from __future__ import annotations
 import contextlib
 import math
 import warnings
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
@@ -471,7 +471,8 @@ def finish(
     ):
         return result
     try:
-        more = polish(problem, result.stroke, budget, config, AutogradGradient(problem))
+        with _one_torch_thread():
+            more = polish(problem, result.stroke, budget, config, AutogradGradient(problem))
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
         message = f"{first.message}; the finish failed: {type(error).__name__}: {error}"
         return replace(result, certificate=replace(first, message=message))
@@ -498,6 +499,21 @@ def finish(
     stroke = more.stroke if more.improved else result.stroke
     objective = more.objective if more.improved else result.objective
     return PolishResult(stroke, objective, certificate, feasible=True)
+
+
+@contextlib.contextmanager
+def _one_torch_thread() -> Iterator[None]:
+    """One torch thread, restored afterwards: the finish differentiates one stroke at a time,
+    too small a tensor for threads to gain, and on a machine shared with the run's other workers
+    torch's waiting threads cost it several times its time."""
+    import torch  # the finish's gradients are torch's (the env's differentiate)
+
+    previous = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)
 
 
 def float32_margin(jacobian: np.ndarray, margin: float) -> np.ndarray:
