@@ -22,9 +22,9 @@ from agents.polish import (
     PolishResult,
     Problem,
     certified,
-    finish,
     polish,
 )
+from agents.polish_finish import finish
 from agents.records import (
     SELECTION_BEST_FEASIBLE,
     SELECTION_BEST_REWARD,
@@ -169,7 +169,7 @@ def finish_part(
     prepared: PreparedJob, part: Part, allowance: int, problem: Callable[[], Problem]
 ) -> Part:
     """The run's chosen part with its polish finished by autograd where it ended short of the
-    KKT stop (:func:`agents.polish.finish`), on the ``allowance`` the parts left of the budget
+    KKT stop (:func:`agents.polish_finish.finish`), on the ``allowance`` the parts left of the budget
     (each kept ``polish_finish`` of its polish's back for it): the reported stroke is the one
     certified, so one finish serves the run, however many parts it has."""
     ran = part.certificate.method != "none" and part.certificate.iterations > 0

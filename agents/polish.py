@@ -30,7 +30,7 @@ from __future__ import annotations
 import contextlib
 import math
 import warnings
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
@@ -54,6 +54,7 @@ from agents.polish_gradients import (
     Gradient,
     GradientFunction,
     Problem,
+    finishable,
 )
 from agents.polish_gradients import __all__ as _gradient_names
 from tandem_env.envs.base import ACTION_DTYPE, as_action_type
@@ -67,8 +68,6 @@ __all__ = [
     "PolishResult",
     "certified",
     "describe",
-    "finish",
-    "finishable",
     "float32_margin",
     "kkt_residual",
     "polish",
@@ -435,85 +434,6 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
         run.value(np.asarray(outcome.x))
     iterations = int(outcome.get("nit", counter[0]))
     return _Climb(optimal, bool(outcome.success), str(outcome.message), failure, iterations)
-
-
-def finishable(problem: Problem, gradient: str, config: PolishConfig) -> bool:
-    """A polish by ``gradient`` (its name) on ``problem`` keeps ``config.finish`` of its
-    allowance back for :func:`finish`: its gradient is not autograd, the problem differentiates
-    and the KKT stop is on."""
-    return (
-        gradient != AutogradGradient.name
-        and problem.differentiate is not None
-        and config.finish > 0.0
-        and config.optimality > 0.0
-    )
-
-
-def finish(
-    problem: Problem, result: PolishResult, budget: int, config: PolishConfig
-) -> PolishResult:
-    """``result``, a polish by central differences that ended short of the KKT stop, polished
-    on from its stroke with autograd gradients (one evaluation each) on ``budget`` more
-    evaluations; ``result`` itself where it is certified, infeasible, not :func:`finishable`
-    or ``budget`` is below two gradients. Central differences misread the gradient where the
-    model's second derivative jumps within a step of the optimum (the positive parts'
-    crossings), and the climb stalls there (docs/harness.md, "Certified"). The certificate
-    covers both: evaluations, allowance and iterations summed, the stop and the KKT check the
-    finish's, ``gradient`` ``"central differences, then autograd"``."""
-    first = result.certificate
-    if (
-        certified(first)
-        or not result.feasible
-        or first.method == "none"
-        or first.status.startswith("not applicable")
-        or not finishable(problem, first.gradient, config)
-        or budget < 2
-    ):
-        return result
-    try:
-        with _one_torch_thread():
-            more = polish(problem, result.stroke, budget, config, AutogradGradient(problem))
-    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
-        message = f"{first.message}; the finish failed: {type(error).__name__}: {error}"
-        return replace(result, certificate=replace(first, message=message))
-    last = more.certificate
-    if last.status.startswith("failed"):
-        message = f"{first.message}; the finish {last.status}"
-        return replace(result, certificate=replace(first, message=message))
-    before = first.objective_before
-    improved = more.improved or result.improved
-    gain = first.gain
-    if more.improved and before is not None and first.gain is not None and before != 0.0:
-        gain = (more.objective - before) / abs(before)
-    certificate = replace(
-        last,
-        status="improved" if improved else first.status,
-        gain=gain,
-        objective_before=before,
-        objective_after=more.objective if more.improved else first.objective_after,
-        evaluations=first.evaluations + last.evaluations,
-        allowance=first.allowance + last.allowance,
-        iterations=first.iterations + last.iterations,
-        gradient=f"{first.gradient}, then {last.gradient}",
-    )
-    stroke = more.stroke if more.improved else result.stroke
-    objective = more.objective if more.improved else result.objective
-    return PolishResult(stroke, objective, certificate, feasible=True)
-
-
-@contextlib.contextmanager
-def _one_torch_thread() -> Iterator[None]:
-    """One torch thread, restored afterwards: the finish differentiates one stroke at a time,
-    too small a tensor for threads to gain, and on a machine shared with the run's other workers
-    torch's waiting threads cost it several times its time."""
-    import torch  # the finish's gradients are torch's (the env's differentiate)
-
-    previous = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(previous)
 
 
 def float32_margin(jacobian: np.ndarray, margin: float) -> np.ndarray:

@@ -74,7 +74,7 @@ class PolishConfig:
     finish: float = 0.1
     """Fraction of a polish's allowance kept back, in [0, 0.5], where it climbs by central
     differences and the problem differentiates: where the run's reported stroke is then not
-    certified, :func:`agents.polish.finish` polishes it on with autograd gradients (one
+    certified, :func:`agents.polish_finish.finish` polishes it on with autograd gradients (one
     evaluation each) on what the run left. Central differences misread the gradient where the
     model's second derivative jumps within a step of the optimum; 0: no finish (docs/harness.md,
     "Certified")."""

@@ -15,6 +15,7 @@ from typing import Any, Protocol
 import gymnasium as gym
 import numpy as np
 
+from agents.polish_config import PolishConfig
 from agents.tasks import Condition, TaskSpec
 from tandem_env.envs.problem import FlightProblem
 
@@ -26,6 +27,7 @@ __all__ = [
     "GradientFunction",
     "Problem",
     "env_problem",
+    "finishable",
     "polishable",
     "task_problem",
 ]
@@ -217,4 +219,16 @@ def _gradient(
         jacobian.copy(),
         batch.names,
         evaluations,
+    )
+
+
+def finishable(problem: Problem, gradient: str, config: PolishConfig) -> bool:
+    """A polish by ``gradient`` (its name) on ``problem`` keeps ``config.finish`` of its
+    allowance back for :func:`agents.polish_finish.finish`: its gradient is not autograd, the problem differentiates
+    and the KKT stop is on."""
+    return (
+        gradient != AutogradGradient.name
+        and problem.differentiate is not None
+        and config.finish > 0.0
+        and config.optimality > 0.0
     )

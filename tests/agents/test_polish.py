@@ -25,11 +25,11 @@ from agents.polish import (
     Problem,
     certified,
     describe,
-    finish,
     kkt_residual,
     polish,
     split_settings,
 )
+from agents.polish_finish import finish
 from agents.records import SELECTION_POLISHED, SELECTION_REWARD_POLISHED, Record
 
 DIM = 28
