@@ -169,9 +169,9 @@ def finish_part(
     prepared: PreparedJob, part: Part, allowance: int, problem: Callable[[], Problem]
 ) -> Part:
     """The run's chosen part with its polish finished by autograd where it ended short of the
-    KKT stop (:func:`agents.polish_finish.finish`), on the ``allowance`` the parts left of the budget
-    (each kept ``polish_finish`` of its polish's back for it): the reported stroke is the one
-    certified, so one finish serves the run, however many parts it has."""
+    KKT stop (:func:`agents.polish_finish.finish`), on the ``allowance`` the parts left of the
+    budget (each kept ``polish_finish`` of its polish's back for it): the reported stroke is
+    the one certified, so one finish serves the run, however many parts it has."""
     ran = part.certificate.method != "none" and part.certificate.iterations > 0
     if not prepared.polish.enabled or not part.feasible or not ran or certified(part.certificate):
         return part

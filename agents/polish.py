@@ -306,7 +306,7 @@ def polish(
     # with the problem's own value there, below)
     check = grad_fn.cost + isinstance(grad_fn, AutogradGradient)
     run = _Run(problem, x0, int(budget) - check, grad_fn, config)
-    if finishable(problem, grad_fn.name, config):  # kept for the finish (:func:`finish`)
+    if finishable(problem, grad_fn.name, config):  # kept for agents.polish_finish.finish
         run.allowance -= round(config.finish * run.allowance)
     z0 = x0[run.free]
     first = run.gradient(z0)
@@ -480,7 +480,7 @@ def _keep(
 ) -> PolishResult:
     """The start stays: no gain, a failure, or an infeasible start. It is checked as the
     polish checks its own strokes where it lies inside the held margins (a polished stroke,
-    e.g. one :func:`finish` starts from); a search's stroke, not held inside the float32 step,
+    e.g. one :func:`agents.polish_finish.finish` starts from); a search's stroke, not held inside the float32 step,
     with the plain margin and activity."""
     found = run.values.get(x0.tobytes())
     if found is None or np.any(found[1] - run.margin < -run.active):

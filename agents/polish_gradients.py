@@ -224,8 +224,8 @@ def _gradient(
 
 def finishable(problem: Problem, gradient: str, config: PolishConfig) -> bool:
     """A polish by ``gradient`` (its name) on ``problem`` keeps ``config.finish`` of its
-    allowance back for :func:`agents.polish_finish.finish`: its gradient is not autograd, the problem differentiates
-    and the KKT stop is on."""
+    allowance back for :func:`agents.polish_finish.finish`: its gradient is not autograd, the
+    problem differentiates and the KKT stop is on."""
     return (
         gradient != AutogradGradient.name
         and problem.differentiate is not None
