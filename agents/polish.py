@@ -272,6 +272,7 @@ def polish(
     gradient: GradientFunction | None = None,
     *,
     infeasible_start: bool = False,
+    keep_certified: bool = False,
 ) -> PolishResult:
     """Polish ``start`` (dim,) on ``problem`` with at most ``budget`` model evaluations.
 
@@ -279,6 +280,10 @@ def polish(
     start is infeasible"``) unless ``infeasible_start``: then the optimiser starts there all
     the same (SLSQP moves onto the constraints) and any feasible point it finds counts as a
     gain over the start (certificate ``gain`` None: there is no feasible objective to compare).
+
+    With ``keep_certified``, an iterate that passed the KKT stop is reported even where it
+    does not beat the start (by at most 1e-6 relative below it): the start was a polished
+    stroke that its check could not certify.
 
     ``gradient`` is the gradient function (default :class:`CentralDifferences` with
     ``config.step``); its ``cost`` is counted per call. One gradient's cost is kept back for
@@ -328,7 +333,11 @@ def polish(
         converged = None if climb.success is None else climb.success
         message = climb.message
     template = replace(template, iterations=iterations, converged=converged, message=message)
-    if run.best is None or (first.feasible and run.best[0] <= before):
+    # a start already polished (:func:`agents.polish_finish.finish`'s) gives way to the iterate
+    # that passed the KKT stop beside it, within the 1e-6 of the stop's rule, to certify it
+    settled = keep_certified and climb.optimal and run.best is not None
+    settled = settled and not np.array_equal(run.best[1], x0)
+    if run.best is None or (first.feasible and run.best[0] <= before and not settled):
         status = "no gain" if not failure.startswith("failed") else failure
         if not first.feasible and not failure.startswith("failed"):
             status = "failed: no feasible point from the infeasible start"

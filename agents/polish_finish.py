@@ -50,7 +50,14 @@ def finish(
         # shared with the run's other workers torch's waiting threads cost several times its
         # time: torch's OpenMP pool on one thread, restored afterwards
         with threadpool_limits(limits=1, user_api="openmp"):
-            more = polish(problem, result.stroke, budget, config, AutogradGradient(problem))
+            more = polish(
+                problem,
+                result.stroke,
+                budget,
+                config,
+                AutogradGradient(problem),
+                keep_certified=True,
+            )
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
         message = f"{first.message}; the finish failed: {type(error).__name__}: {error}"
         return replace(result, certificate=replace(first, message=message))

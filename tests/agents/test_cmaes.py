@@ -315,8 +315,11 @@ def test_no_restarts_means_one_run() -> None:
 def test_rastrigin_converged_runs_restart_and_the_restarts_help() -> None:
     # Measured, 28-D Rastrigin, 20 000 evaluations, seeds 0-4: one run (restarts="none")
     # -28.9 / -21.9 / -25.9 / -40.8 / -22.9; BIPOP -13.0 / -15.1 / -12.9 / -18.1 / -12.0, its
-    # first run stagnating after 8 600-10 900 evaluations. The first run is the same in both,
-    # so BIPOP can only gain on it. (Measured at λ = 26; the default 52 stagnates later.)
+    # first run stagnating after 8 600-10 900 evaluations. BIPOP's first run is the single run
+    # up to its stagnation stop, so it can only gain on it, less what the single run still
+    # gains after that stop: at most what the stagnation test counts as none, tolerance·|f|
+    # (3e-10 of 12.93 at seed 2 under OpenBLAS's Sandybridge kernel). (Measured at λ = 26; the
+    # default 52 stagnates later.)
     config = CMAESConfig(max_evaluations=20_000, popsize=26)
     one = [run(replace(config, restarts="none"), rastrigin, seed=s) for s in range(3)]
     bipop = [run(config, rastrigin, seed=s) for s in range(3)]
@@ -325,7 +328,8 @@ def test_rastrigin_converged_runs_restart_and_the_restarts_help() -> None:
         assert len(runs) > 1 and all(
             run["stop"] in ("stagnation", "should_stop") for run in runs[:-1]
         )
-        assert restarted.best_fitness >= single.best_fitness
+        lost = config.tolerance * abs(single.best_fitness)
+        assert restarted.best_fitness >= single.best_fitness - lost
     assert np.median([r.best_fitness for r in bipop]) > np.median([r.best_fitness for r in one])
 
 

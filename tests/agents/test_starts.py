@@ -41,9 +41,14 @@ def test_starts_share_the_budget_and_the_best_feasible_part_is_reported():
     parts = record.results[STARTS]
     assert [p["kind"] for p in parts] == ["search"] * 3
     assert len({p["seed"] for p in parts}) == 3 and parts[0]["seed"] == 0
-    assert all(p["evaluations"] <= BUDGET // 3 + BUDGET % 3 for p in parts)
     assert record.evaluations == sum(p["evaluations"] for p in parts) <= BUDGET
     best = max(p["reward"] for p in parts if p["feasible"])
+    # each part within its share, but the reported one when the finish by autograd (on what
+    # the parts left of the budget) certified it
+    finished = ", then " in record.certificate["gradient"]
+    for p in parts:
+        if not (finished and p["reward"] == best):
+            assert p["evaluations"] <= BUDGET // 3 + BUDGET % 3
     assert record.feasible and record.objective == pytest.approx(best, rel=1e-12)
     # the history runs over the whole budget, best so far never falling
     evaluations, values = np.array(record.history).T
