@@ -340,6 +340,31 @@ def wake_nodes(bound: Any, trailing_edge: Any, carried: Any, xp: ArrayNamespace 
 _FAST = {"contract", "arcp"}
 
 
+@njit(cache=True, error_model=BRANCH_FREE, fastmath=_FAST)
+def _add_segments(rel, inv, d, inv_len, core4, step, sx, sy, sz, out):
+    """Adds to ``out`` (3, n) the unit velocities, mirrored by (sx, sy, sz), of the segments
+    from node n to node n + ``step`` at the read point whose offsets from the nodes are ``rel``
+    (3, n_all) (``inv``: their inverse lengths); ``d`` (3, n) the segments, ``inv_len`` their
+    inverse squared lengths, ``core4`` their viscous cores (Biot-Savart with a core)."""
+    four_pi = 4.0 * math.pi
+    for n in range(rel.shape[1] - step):
+        r1x, r1y, r1z = rel[0, n], rel[1, n], rel[2, n]
+        r2x, r2y, r2z = rel[0, n + step], rel[1, n + step], rel[2, n + step]
+        r0x, r0y, r0z = d[0, n], d[1, n], d[2, n]
+        cx = r1y * r2z - r1z * r2y
+        cy = r1z * r2x - r1x * r2z
+        cz = r1x * r2y - r1y * r2x
+        along = (r0x * r1x + r0y * r1y + r0z * r1z) * inv[n] - (
+            r0x * r2x + r0y * r2y + r0z * r2z
+        ) * inv[n + step]
+        h2 = (cx * cx + cy * cy + cz * cz) * inv_len[n]
+        root = np.sqrt(max(h2 * h2 + core4[n], _TINY * _TINY))
+        factor = along * inv_len[n] / (four_pi * root)
+        out[0, n] += sx * factor * cx
+        out[1, n] += sy * factor * cy
+        out[2, n] += sz * factor * cz
+
+
 @njit(cache=True, parallel=True, error_model=BRANCH_FREE, fastmath=_FAST)
 def _fill_wake_influence(bound, edge, carried, core2, points, signs, out):
     """:func:`wake_influence`'s compiled loop, parallel over (stroke b, sample i): ``bound``,
@@ -353,7 +378,6 @@ def _fill_wake_influence(bound, edge, carried, core2, points, signs, out):
     n_along = n_rows * (n_n - 1)
     n_strips = n_n - 1
     n_ring = (n_rows - 1) * n_n
-    four_pi = 4.0 * math.pi
     for q in prange(n_b * n_w):
         b, i = q // n_w, q % n_w
         # the lattice's nodes, flat n = row·N + j (wake_nodes): row 0 the bound vortex at t_i,
@@ -411,38 +435,8 @@ def _fill_wake_influence(bound, edge, carried, core2, points, signs, out):
                     rz = pz - nodes[2, n]
                     rel[0, n], rel[1, n], rel[2, n] = rx, ry, rz
                     inv[n] = 1.0 / np.sqrt(max(rx * rx + ry * ry + rz * rz, _TINY))
-                for n in range(n_all - 1):  # along the rows: (n, n + 1)
-                    r1x, r1y, r1z = rel[0, n], rel[1, n], rel[2, n]
-                    r2x, r2y, r2z = rel[0, n + 1], rel[1, n + 1], rel[2, n + 1]
-                    r0x, r0y, r0z = d_a[0, n], d_a[1, n], d_a[2, n]
-                    cx = r1y * r2z - r1z * r2y
-                    cy = r1z * r2x - r1x * r2z
-                    cz = r1x * r2y - r1y * r2x
-                    along = (r0x * r1x + r0y * r1y + r0z * r1z) * inv[n] - (
-                        r0x * r2x + r0y * r2y + r0z * r2z
-                    ) * inv[n + 1]
-                    h2 = (cx * cx + cy * cy + cz * cz) * inv_a[n]
-                    root = np.sqrt(max(h2 * h2 + core4_a[n], _TINY * _TINY))
-                    factor = along * inv_a[n] / (four_pi * root)
-                    u_a[0, n] += sx * factor * cx
-                    u_a[1, n] += sy * factor * cy
-                    u_a[2, n] += sz * factor * cz
-                for n in range(n_all - n_n):  # between the rows: (n, n + N)
-                    r1x, r1y, r1z = rel[0, n], rel[1, n], rel[2, n]
-                    r2x, r2y, r2z = rel[0, n + n_n], rel[1, n + n_n], rel[2, n + n_n]
-                    r0x, r0y, r0z = d_t[0, n], d_t[1, n], d_t[2, n]
-                    cx = r1y * r2z - r1z * r2y
-                    cy = r1z * r2x - r1x * r2z
-                    cz = r1x * r2y - r1y * r2x
-                    along = (r0x * r1x + r0y * r1y + r0z * r1z) * inv[n] - (
-                        r0x * r2x + r0y * r2y + r0z * r2z
-                    ) * inv[n + n_n]
-                    h2 = (cx * cx + cy * cy + cz * cz) * inv_t[n]
-                    root = np.sqrt(max(h2 * h2 + core4_t[n], _TINY * _TINY))
-                    factor = along * inv_t[n] / (four_pi * root)
-                    u_t[0, n] += sx * factor * cx
-                    u_t[1, n] += sy * factor * cy
-                    u_t[2, n] += sz * factor * cz
+                _add_segments(rel, inv, d_a, inv_a, core4_a, 1, sx, sy, sz, u_a)  # along rows
+                _add_segments(rel, inv, d_t, inv_t, core4_t, n_n, sx, sy, sz, u_t)  # between
             # ring (k, j) at flat n = k·N + j: +along row k, −along row k + 1, −trailed at node
             # j, +trailed at node j + 1 (lattice_segments); j = N − 1 is read by nothing
             for c in range(3):
