@@ -11,7 +11,7 @@ from __future__ import annotations
 import contextlib
 import math
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -22,8 +22,6 @@ from tandem_env.io.files import atomic_path, to_jsonable, write_json_atomic
 from train.amortised_branches import branch_domains, branch_segments, hand_overs, regression_points
 from train.amortised_policy import (
     HARMONICS,
-    POLICY_FILE,
-    WEIGHTS_SUFFIX,
     AmortisedPolicy,
     Targets,
     build_networks,
@@ -32,6 +30,7 @@ from train.amortised_policy import (
 )
 from train.amortised_settings import Settings
 from train.config import AMORTISED, TrainConfig
+from train.run import torch_threads
 from train.run_folder import RunFolder
 
 
@@ -122,22 +121,7 @@ def make_problem(env_id: str, env_kwargs: Mapping[str, Any], **options: Any) -> 
         env.close()
 
 
-# --- training ----------------------------------------------------------------------------------
-@contextlib.contextmanager
-def _torch_state(seed: int) -> Iterator[None]:
-    """One torch thread and the seed, both restored afterwards."""
-    import torch
-
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        with torch.random.fork_rng(devices=[]):
-            torch.manual_seed(seed)
-            yield
-    finally:
-        torch.set_num_threads(threads)
-
-
+# --- training ---------------------------------------------------------------------------------
 @dataclass
 class Training:
     """What :func:`train_policy` hands back besides the policy."""
@@ -174,7 +158,9 @@ def train_policy(
     segments = branch_segments(problem, targets, settings.branch_tolerance)
     domains = branch_domains(conditions, segments, settings.branch_reach)
     record = Training()
-    with _torch_state(seed):
+    # one torch thread, and the seed: both restored afterwards
+    with torch_threads(1), torch.random.fork_rng(devices=[]):
+        torch.manual_seed(seed)
         network = build_networks(settings.hidden, settings.features, len(segments))
         policy = AmortisedPolicy(
             network=network,
@@ -354,8 +340,8 @@ def train_run(config: TrainConfig) -> RunResult:
             "versions": package_versions(),
         }
         run.start(settings.to_dict())
-        write_json_atomic(run.layout.run_dir / POLICY_FILE, policy.policy_data())
-        with atomic_path(run.layout.run_dir / f"{run.layout.name}{WEIGHTS_SUFFIX}") as tmp:
+        write_json_atomic(run.layout.policy_file, policy.policy_data())
+        with atomic_path(run.layout.weights) as tmp:
             torch.save(policy.network.state_dict(), tmp)
         write_json_atomic(run.layout.result_file, summary)
         return RunResult(run.layout.run_dir, summary)

@@ -26,8 +26,8 @@ from tandem_env.physics.stroke import (
     normalised_to_physical,
     physical_to_normalised,
 )
-from train.config import AMORTISED, FOLDER_NAME
-from train.run_folder import RunPolicy, resolve_run_dir
+from train.config import AMORTISED
+from train.run_folder import POLICY_FILE, RunLayout, RunPolicy, resolve_run_dir
 from train.saved import read_run_args
 
 #: Where the canonical targets put each canonicalised sweep phase [deg] (within half a time-grid
@@ -38,9 +38,6 @@ CANONICAL_SWEEP_PHASE = 0.0
 TARGET_LIMIT = 0.9999
 #: Format of ``policy.json``.
 POLICY_FORMAT = "tandem_env.amortised-policy/2"
-#: The file of the weights in the run folder: ``<env>.pt``.
-WEIGHTS_SUFFIX = ".pt"
-POLICY_FILE = "policy.json"
 
 #: Per wing, indices of the sweep, elevation and pitch phases and of N within its 14.
 _SWEEP, _ELEVATION, _PITCH = 7, 8, 9
@@ -301,8 +298,7 @@ class AmortisedPolicy(RunPolicy):
     # --- what the harness and the envelope read ---------------------------------------------
     @property
     def model_path(self) -> Path:
-        base = Path(".") if self.run_dir is None else self.run_dir
-        return base / f"{self.env_id.translate(FOLDER_NAME)}{WEIGHTS_SUFFIX}"
+        return RunLayout(self.run_dir or Path("."), self.env_id).weights
 
     @property
     def training_conditions(self) -> tuple[float, float]:
@@ -482,7 +478,8 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
             f"{args_file}: env = {env_id!r}; allowed: an env an amortised policy is trained for, "
             f"{', '.join(REFERENCE_GRID)}"
         )
-    path = folder / POLICY_FILE
+    layout = RunLayout(folder, env_id)
+    path = layout.policy_file
     if not path.is_file():
         raise ValueError(f"{folder}: no {POLICY_FILE} (did the run finish?)")
     try:
@@ -490,7 +487,7 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     except (OSError, ValueError) as error:
         raise _refuse(path, f"not readable JSON ({error})") from None
     fields_ = _policy_fields(path, data, env_id)
-    weights = folder / f"{env_id.translate(FOLDER_NAME)}{WEIGHTS_SUFFIX}"
+    weights = layout.weights
     if not weights.is_file():
         raise ValueError(f"{folder}: no weights file {weights.name} (did the run finish?)")
     sizes, n = fields_.pop("sizes"), len(fields_["harmonics"])

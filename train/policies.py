@@ -67,15 +67,11 @@ _POLICY_SUFFIXES = (".zip", ".pkl", ".pt", ".json", ".yml")
 
 
 @functools.lru_cache(maxsize=256)
-def _file_digest(stamped: tuple[Path, int, int]) -> str:
-    with stamped[0].open("rb") as handle:
+def _file_digest(path: Path, size: int, modified: int) -> str:
+    """SHA-256 of a file's bytes, read once per process while its ``size`` and ``modified``
+    time (``st_mtime_ns``) stay."""
+    with path.open("rb") as handle:
         return hashlib.file_digest(handle, "sha256").hexdigest()
-
-
-def _digest_of(path: Path) -> str:
-    """SHA-256 of a file's bytes, read once per process while its size and time stay."""
-    status = path.stat()
-    return _file_digest((path.resolve(), status.st_size, status.st_mtime_ns))
 
 
 # --- harness methods ---------------------------------------------------------------------------
@@ -97,7 +93,9 @@ class PolicyMethod:
         digest = hashlib.sha256(run_dir.name.encode())
         for path in sorted(run_dir.glob("*")) + sorted(run_dir.glob("*/*")):
             if path.suffix in _POLICY_SUFFIXES and path.is_file():
-                digest.update(f"{path.relative_to(run_dir)}:{_digest_of(path)}".encode())
+                status = path.stat()
+                found = _file_digest(path.resolve(), status.st_size, status.st_mtime_ns)
+                digest.update(f"{path.relative_to(run_dir)}:{found}".encode())
         return digest.hexdigest()[:20]
 
     def check(self, budget: int, dim: int, task: TaskSpec) -> None:

@@ -180,14 +180,6 @@ def train(config: TrainConfig) -> TrainResult:
         return result
 
 
-def _best_segment(segments: Sequence[Mapping[str, Any]]) -> Mapping[str, Any]:
-    """The segment whose best stroke wins by the selection rule (:mod:`agents.selection`);
-    a segment without one (reward None) ranks last."""
-    feasible = [bool((s.get("best_info") or {}).get("feasible", False)) for s in segments]
-    rewards = [-math.inf if s["best_reward"] is None else s["best_reward"] for s in segments]
-    return segments[best_index(feasible, rewards)]
-
-
 def _write_result(
     layout: RunLayout, result: TrainResult, previous: Sequence[Mapping[str, Any]]
 ) -> None:
@@ -203,7 +195,11 @@ def _write_result(
             "best_info": result.best_info,
         }
     )
-    best = _best_segment(segments)
+    # the segment whose best stroke wins by the selection rule (agents.selection); a segment
+    # without one (reward None) ranks last
+    feasible = [bool((s.get("best_info") or {}).get("feasible", False)) for s in segments]
+    rewards = [-math.inf if s["best_reward"] is None else s["best_reward"] for s in segments]
+    best = segments[best_index(feasible, rewards)]
     data = {
         "algo": result.algo,
         "env_id": result.env_id,

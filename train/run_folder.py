@@ -49,6 +49,8 @@ _LEGACY_KEY = "torch_threads"
 _CHECKPOINT = re.compile(rf"^{CHECKPOINT_PREFIX}_(\d+)_steps\.zip$")
 #: The lock file of a run folder: held (``flock``) by the ``python -m train`` writing there.
 LOCK_FILE = ".train.lock"
+#: What an amortised run's network is besides its weights (``train.amortised_policy``).
+POLICY_FILE = "policy.json"
 
 
 def latest_run_id(algo_folder: Path, name: str) -> int:
@@ -170,6 +172,10 @@ class RunLayout:
         self.config_file = self.params_dir / "config.yml"
         self.args_file = self.params_dir / "args.yml"
         self.vecnormalize = self.params_dir / "vecnormalize.pkl"
+        self.weights = self.run_dir / f"{self.name}.pt"
+        """An amortised run's weights (``torch.load(weights_only=True)``), beside its
+        ``policy.json`` (:attr:`policy_file`)."""
+        self.policy_file = self.run_dir / POLICY_FILE
 
     def monitor_files(self) -> list[Path]:
         """The Monitor CSVs of the run's training segments, in order."""

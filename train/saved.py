@@ -299,43 +299,6 @@ def _read_member(archive: zipfile.ZipFile, name: str, path: Path) -> bytes:
         raise _model_error(path, f"{what} ({error})", what) from None
 
 
-def read_num_timesteps(path: Path, attributes: set[str]) -> int:
-    """The ``num_timesteps`` of the model zip at ``path`` (its ``data`` parsed as JSON, nothing
-    decoded); ValueError naming the file for a serialized entry that names none of
-    ``attributes`` (the rebuilt model's: only a tampered file has one) or a bad count."""
-    with _open_zip(path) as archive:
-        try:
-            info = archive.getinfo("data")
-        except KeyError:  # a zip cut short can read as the inner archive of its last member
-            members = ", ".join(archive.namelist()) or "no members"
-            what = f"no data entry (it holds {members})"
-            raise _model_error(path, what, "not a complete model file: no data") from None
-        if info.file_size > MAX_DATA_BYTES:
-            raise _model_error(path, f"its data is {info.file_size:,} bytes")
-        try:
-            data = json.loads(_read_member(archive, info.filename, path))
-        except (UnicodeDecodeError, json.JSONDecodeError, OSError) as error:
-            raise _model_error(path, f"its data is not JSON ({error})") from None
-    if not isinstance(data, dict):
-        raise _model_error(path, f"its data is a JSON {type(data).__name__}, not an object")
-    foreign = sorted(
-        key
-        for key, value in data.items()
-        if key not in attributes and isinstance(value, dict) and ":serialized:" in value
-    )
-    if foreign:
-        raise _model_error(
-            path,
-            f"its data holds serialized (pickled) entries SB3 does not write: {', '.join(foreign)}",
-        )
-    value = data.get("num_timesteps", 0)
-    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_TIMESTEPS:
-        raise _model_error(
-            path, f"its num_timesteps = {value!r}; allowed: an integer from 0 to {MAX_TIMESTEPS:,}"
-        )
-    return value
-
-
 #: The ``.pth`` member of a model zip that holds torch variables (SAC's entropy coefficient)
 #: rather than state dicts.
 VARIABLES_MEMBER = "pytorch_variables.pth"
@@ -349,12 +312,46 @@ def _gist(error: Exception) -> str:
     return (found or lines or [""])[0][:300]
 
 
-def read_weights(path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The state dicts and torch variables of the model zip at ``path``, each ``.pth`` read with
-    ``torch.load(weights_only=True)``; ValueError naming the file and member that fails."""
+def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any], dict[str, Any]]:
+    """The ``num_timesteps``, state dicts and torch variables of the model zip at ``path``:
+    its ``data`` parsed as JSON (nothing decoded), each ``.pth`` read with
+    ``torch.load(weights_only=True)``; ValueError naming the file (and member) for a
+    serialized entry that names none of ``attributes`` (the rebuilt model's: only a tampered
+    file has one), a bad count, or weights that fail the load."""
     params: dict[str, Any] = {}
     variables: dict[str, Any] = {}
     with _open_zip(path) as archive:
+        try:
+            info = archive.getinfo("data")
+        except KeyError:  # a zip cut short can read as the inner archive of its last member
+            members = ", ".join(archive.namelist()) or "no members"
+            what = f"no data entry (it holds {members})"
+            raise _model_error(path, what, "not a complete model file: no data") from None
+        if info.file_size > MAX_DATA_BYTES:
+            raise _model_error(path, f"its data is {info.file_size:,} bytes")
+        try:
+            data = json.loads(_read_member(archive, info.filename, path))
+        except (UnicodeDecodeError, json.JSONDecodeError, OSError) as error:
+            raise _model_error(path, f"its data is not JSON ({error})") from None
+        if not isinstance(data, dict):
+            raise _model_error(path, f"its data is a JSON {type(data).__name__}, not an object")
+        foreign = sorted(
+            key
+            for key, value in data.items()
+            if key not in attributes and isinstance(value, dict) and ":serialized:" in value
+        )
+        if foreign:
+            raise _model_error(
+                path,
+                "its data holds serialized (pickled) entries SB3 does not write: "
+                + ", ".join(foreign),
+            )
+        steps = data.get("num_timesteps", 0)
+        if isinstance(steps, bool) or not isinstance(steps, int) or not 0 <= steps <= MAX_TIMESTEPS:
+            raise _model_error(
+                path,
+                f"its num_timesteps = {steps!r}; allowed: an integer from 0 to {MAX_TIMESTEPS:,}",
+            )
         for name in archive.namelist():
             if not name.endswith(".pth"):
                 continue
@@ -381,7 +378,7 @@ def read_weights(path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
                 params[name.removesuffix(".pth")] = content
     if "policy" not in params:
         raise _model_error(path, "it has no policy.pth (the policy's weights)")
-    return params, variables
+    return steps, params, variables
 
 
 def _set_variables(model: BaseAlgorithm, variables: Mapping[str, Any]) -> None:
@@ -412,8 +409,7 @@ def load_model(
     :func:`build_model`'s) and given the file's weights and step count (a checkpoint's: its
     ``step``), nothing unpickled; ValueError naming the file if they do not fit."""
     model = build_model(algo, hp, venv, **settings)
-    num_timesteps = read_num_timesteps(path, set(vars(model)))
-    params, variables = read_weights(path)
+    num_timesteps, params, variables = read_model_zip(path, set(vars(model)))
     expected = sorted(model.get_parameters())
     if sorted(params) != expected:
         raise _model_error(
