@@ -26,7 +26,7 @@ from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim, ClaimSpec, judged, study_claims
 from eval.studies.paper_reading import DEFAULT, Reading
 from eval.studies.presets import WARM_SHARE, Preset, distinct, is_name, warm_start
-from eval.studies.tables import spread_summary_rows, tidy_rows
+from eval.studies.tables import series_conditions, spread_summary_rows, tidy_rows
 from tandem_env import PARAMETER_NAMES, ModelOptions
 from tandem_env.envs.config import EXECUTION_KWARGS, MODEL_OPTION_KWARGS
 from tandem_env.envs.reference import ConfigReference
@@ -204,10 +204,6 @@ class StudyPlan:
         how the searches started, the table's optimum and the seeds' median and best objective
         with their gap below it [%]; the conditions within :data:`GAP_TARGET` and any best seed
         below the table (beyond the replay's :data:`REPLAY_RTOL`)."""
-        groups: dict[tuple[Any, ...], list[Mapping[str, Any]]] = {}
-        for row in {r["key"]: r for r in rows}.values():
-            key = (row["method"], row["task"], row["objective"], row["planform"], row["condition"])
-            groups.setdefault(key, []).append(row)
         lines = [
             f"Warm start `{self.preset.warm_start}` ({WARM_SHARE:g} of each budget for the "
             "table's strokes, counted in it; docs/reference.md, Warm starts).",
@@ -216,7 +212,8 @@ class StudyPlan:
             "|---|---|---|---|---|---|---|",
         ]
         median_gaps, below = [], []
-        for (method, task, objective, planform, c), found in sorted(groups.items()):
+        for key, found in series_conditions({r["key"]: r for r in rows}.values()):
+            method, task, objective, planform, c = key
             kwargs = self.env_kwargs(task, objective, planform)
             how = self.warm_start(method, task, c, kwargs)[1]
             series = ConfigReference(config_class(get_task(task).env_id).from_kwargs(**kwargs))

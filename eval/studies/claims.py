@@ -150,9 +150,14 @@ class Claim:
         """The verdict with its confidence, e.g. ``undecided (leans differs, flips 35 %)``."""
         if self.lacks:
             return f"not identifiable (the model does not depend on the {', '.join(self.lacks)})"
-        if best:
-            return _judgement_text(self.best_verdict, self.best_leaning, self.best_flips)
-        return _judgement_text(self.verdict, self.leaning, self.flips)
+        side = "best_" if best else ""
+        verdict, leaning, flips = (getattr(self, side + k) for k in ("verdict", "leaning", "flips"))
+        if math.isnan(flips):
+            return verdict
+        share = f"flips {100.0 * flips:.0f} %"
+        if verdict == "undecided":
+            return f"undecided (leans {leaning}, {share})"
+        return f"{verdict} ({share})"
 
     def ours(self) -> str:
         if math.isnan(self.median):
@@ -164,15 +169,6 @@ class Claim:
 
     def best_text(self) -> str:
         return "–" if math.isnan(self.best) else f"{self.best:.3g} {self.unit}".strip()
-
-
-def _judgement_text(verdict: Verdict, leaning: Verdict | None, flips: float) -> str:
-    if math.isnan(flips):
-        return verdict
-    share = f"flips {100.0 * flips:.0f} %"
-    if verdict == "undecided":
-        return f"undecided (leans {leaning}, {share})"
-    return f"{verdict} ({share})"
 
 
 def decide(leaning: Verdict, flips: float) -> Verdict:

@@ -173,26 +173,13 @@ def peak_efficiency(rows: list[Mapping[str, Any]], _: float) -> C.Stats:
 
 FOLLOWS = "follows the power trend"
 CLAIMS: tuple[C.ClaimSpec, ...] = (
-    C.ClaimSpec(
-        "S1",
-        "Fig. 4",
-        "stroke-plane angle rises with V",
-        "rises",
-        "trend",
-        +1,
-        trend("stroke_plane_angle"),
-    ),
-    C.ClaimSpec(
-        "S2",
-        "Fig. 4",
-        "mean angle of attack falls with V",
-        "falls",
-        "trend",
-        -1,
-        trend("mean_angle_of_attack"),
-    ),
-    C.ClaimSpec(
-        "S3", "Fig. 4", "thrust ratio T/W falls with V", "falls", "trend", -1, trend("thrust_ratio")
+    *(
+        C.ClaimSpec(cid, "Fig. 4", f"{what} {word} with V", word, "trend", sign, trend(quantity))
+        for cid, what, word, sign, quantity in (
+            ("S1", "stroke-plane angle", "rises", +1, "stroke_plane_angle"),
+            ("S2", "mean angle of attack", "falls", -1, "mean_angle_of_attack"),
+            ("S3", "thrust ratio T/W", "falls", -1, "thrust_ratio"),
+        )
     ),
     C.ClaimSpec(
         "S4",
@@ -204,17 +191,12 @@ CLAIMS: tuple[C.ClaimSpec, ...] = (
         extremum("power_per_mass", "min"),
         "η, not P, is maximised: P/m at the η-optimum need not be the minimum power.",
     ),
-    C.ClaimSpec(
-        "S5", "Fig. 5", f"frequency f {FOLLOWS}", "follows P", "follows", +1, follows("frequency")
-    ),
-    C.ClaimSpec(
-        "S6",
-        "Fig. 5",
-        f"weaving amplitude φ_m {FOLLOWS}",
-        "follows P",
-        "follows",
-        +1,
-        follows("sweep_amplitude"),
+    *(
+        C.ClaimSpec(cid, "Fig. 5", f"{what} {FOLLOWS}", "follows P", "follows", +1, follows(q))
+        for cid, what, q in (
+            ("S5", "frequency f", "frequency"),
+            ("S6", "weaving amplitude φ_m", "sweep_amplitude"),
+        )
     ),
     C.ClaimSpec(
         "S7",

@@ -273,14 +273,19 @@ def by_condition(
     return {c: spread(select(chosen, condition=c), quantity) for c in conditions}
 
 
-def _by_condition(
+def series_conditions(
     rows: Iterable[Mapping[str, Any]],
 ) -> list[tuple[tuple[Any, ...], list[Mapping[str, Any]]]]:
-    """The rows grouped by series (:data:`SERIES_KEYS`, as text) and condition, in that order."""
+    """The rows grouped by series (:data:`SERIES_KEYS`, as text) and condition, in that order:
+    ((method, task, objective, planform, condition), rows) each."""
     groups: dict[tuple[Any, ...], list[Mapping[str, Any]]] = {}
     for r in rows:
         groups.setdefault((*(str(r[k]) for k in SERIES_KEYS), float(r["condition"])), []).append(r)
     return sorted(groups.items())
+
+
+#: The :class:`Spread` fields of a summary row, in its column order.
+SUMMARY_FIELDS = ("n", "n_feasible", "median", "q25", "q75", "best", "best_seed")
 
 
 def spread_summary_rows(
@@ -288,7 +293,7 @@ def spread_summary_rows(
 ) -> list[dict[str, Any]]:
     """Per series, condition and quantity: its :class:`Spread` and ``pinned`` (:func:`pinned`)."""
     out = []
-    for key, members in _by_condition(rows):
+    for key, members in series_conditions(rows):
         for quantity in quantities:
             s = spread(members, quantity)
             out.append(
@@ -297,13 +302,7 @@ def spread_summary_rows(
                     "condition": key[-1],
                     "quantity": quantity,
                     "meaning": QUANTITIES.get(quantity, ""),
-                    "n": s.n,
-                    "n_feasible": s.n_feasible,
-                    "median": s.median,
-                    "q25": s.q25,
-                    "q75": s.q75,
-                    "best": s.best,
-                    "best_seed": s.best_seed,
+                    **{k: getattr(s, k) for k in SUMMARY_FIELDS},
                     "pinned": pinned(members, quantity),
                 }
             )
@@ -315,7 +314,7 @@ def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]
     condition: its ``bound``, ``value`` and ``share`` of the feasible seeds there; a record in
     two studies counts once."""
     out = []
-    for key, members in _by_condition(list({r["key"]: r for r in rows}.values())):
+    for key, members in series_conditions(list({r["key"]: r for r in rows}.values())):
         feasible = [r for r in members if r["feasible"]]
         if not feasible:  # nothing is pinned (:func:`pinned`)
             continue

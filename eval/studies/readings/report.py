@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 from eval.studies.base import StudyPlan
 from eval.studies.readings.plan import Continuation
@@ -22,19 +22,6 @@ from eval.studies.report import (
     settings_lines,
 )
 from tandem_env.io.files import write_text_atomic
-
-
-class ReadingsRun(Protocol):
-    """What the report reads of the readings study's run (its plan, results, combination rule,
-    continuation and the tasks run in full: :class:`eval.studies.readings.run.ReadingsPlan`,
-    which writes the report, so this module cannot import it)."""
-
-    plan: StudyPlan
-    results: Sequence[ReadingResult]
-    words: str
-    continuation: Continuation | None
-    full: Mapping[str, Mapping[str, str]]
-
 
 #: The readings study's goal: a reading under which this many of the paper's claims agree.
 READINGS_GOAL = 16
@@ -75,12 +62,20 @@ def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
 
 
 def write_readings_report(
-    path: Path, study: ReadingsRun, table: Path, figure: Path, check: Sequence[Mapping[str, Any]]
+    path: Path,
+    plan: StudyPlan,
+    results: Sequence[ReadingResult],
+    words: str,
+    continuation: Continuation | None,
+    full: Mapping[str, Mapping[str, str]],
+    table: Path,
+    figure: Path,
+    check: Sequence[Mapping[str, Any]],
 ) -> Path:
-    """Write the readings ``study``'s report to ``path`` (atomically) and return it: the
-    readings, the best, which decision moves which claim, the matrix; its continuation (or
-    None), the bias ``check`` (``check_summary`` rows) and the tasks run in full."""
-    plan, results = study.plan, study.results
+    """Write the readings study's report to ``path`` (atomically) and return it: the
+    ``results`` of its readings, the best, which decision moves which claim, the matrix; the
+    combination rule in ``words``, its ``continuation`` (or None), the bias ``check``
+    (``check_summary`` rows) and the tasks run in ``full``."""
     base = path.parent
     default = results[0]
     best = max(results, key=lambda r: r.agree)
@@ -101,9 +96,9 @@ def write_readings_report(
         "Headline columns: " + "; ".join(f"{k}: {text}" for k, (_, text) in HEADLINES.items()),
         "",
         f"Combination rule (combinations derived from the singles' results, not chosen by "
-        f"hand): {study.words}.",
+        f"hand): {words}.",
         "",
-        *_continuation_section(study.continuation, check, study.full),
+        *_continuation_section(continuation, check, full),
         "## Best reading",
         "",
         f"`{best.reading.name}`"

@@ -100,23 +100,11 @@ def check_rows(
     for reading, c, f in checks:
         rc, rf = records[c].results, records[f].results
         oc, of = float(rc["objective"]), float(rf["objective"])
-        rows.append(
-            {
-                "reading": reading.name,
-                "task": f.task,
-                "objective": rf["objective_name"],
-                "condition": f.condition,
-                "seed": f.seed,
-                "budget_full": f.budget,
-                "budget_continued": c.budget,
-                "objective_full": of,
-                "objective_continued": oc,
-                "feasible_full": bool(rf["feasible"]),
-                "feasible_continued": bool(rc["feasible"]),
-                "difference": (oc - of) / abs(of) if of else math.nan,
-                "chosen": rc["selection"],
-            }
-        )
+        values = (reading.name, f.task, rf["objective_name"], f.condition, f.seed, f.budget)
+        feasible = (bool(rf["feasible"]), bool(rc["feasible"]))
+        difference = (oc - of) / abs(of) if of else math.nan
+        row = (*values, c.budget, of, oc, *feasible, difference, rc["selection"])
+        rows.append(dict(zip(CHECK_COLUMNS, row, strict=True)))
     return rows
 
 
@@ -309,7 +297,17 @@ class ReadingsPlan:
             f"Paper claims under each reading ({plan.preset.name} preset, {methods})",
         )
         report = out / "report.md"
-        write_readings_report(report, self, csv_path, figure, summary)
+        write_readings_report(
+            report,
+            plan,
+            results,
+            self.words,
+            self.continuation,
+            self.full,
+            csv_path,
+            figure,
+            summary,
+        )
         this = {
             "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "cpus": os.cpu_count(),
