@@ -123,7 +123,6 @@ class AskTellOptimiser(Tally, ABC):
     _settings: ClassVar[type[OptimiserConfig]] = OptimiserConfig
 
     def __init_subclass__(cls, settings: type[OptimiserConfig] | None = None, **kw: Any) -> None:
-        # ``class PSO(AskTellOptimiser, settings=PSOConfig)``: what PSOConfig.build makes
         super().__init_subclass__(**kw)
         if settings is not None:
             settings.optimiser, cls._settings = cls, settings
@@ -173,7 +172,6 @@ class AskTellOptimiser(Tally, ABC):
 
     def tell(self, X: ArrayLike, fitness: ArrayLike) -> None:
         """Report the fitness (n,) (NaN counts as -inf) of the last :meth:`ask`'s batch X."""
-
         if self._pending is None:
             raise RuntimeError("tell() called without a preceding ask()")
         X = np.asarray(X, dtype=float)

@@ -132,12 +132,8 @@ def _difference(stored: Any, recomputed: Any, where: str = "") -> str | None:
             if (found := _difference(a, b, f"{where}[{j}]")) is not None:
                 return found
         return None
-    if _close(stored, recomputed):
-        return None
-    return f"{where} = {stored!r}, re-evaluated {recomputed!r}"
-
-
-def _close(a: Any, b: Any) -> bool:
-    if all(isinstance(x, int | float) and not isinstance(x, bool) for x in (a, b)):
-        return bool(np.isclose(a, b, rtol=RTOL, atol=ATOL, equal_nan=True))
-    return type(a) is type(b) and a == b
+    if all(isinstance(x, int | float) and not isinstance(x, bool) for x in (stored, recomputed)):
+        close = np.isclose(stored, recomputed, rtol=RTOL, atol=ATOL, equal_nan=True)
+    else:
+        close = type(stored) is type(recomputed) and stored == recomputed
+    return None if close else f"{where} = {stored!r}, re-evaluated {recomputed!r}"

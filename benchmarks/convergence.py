@@ -12,15 +12,14 @@ docs/model.md §11.4 from it).
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from shared import write_numbers
 
 import tandem_env as te
-from tandem_env.io.files import write_json_atomic
 
 FLOORS = {"lift_to_weight": 0.1, "thrust": 0.1, "drag": 0.1, "power": 0.0}
 RESOLUTIONS = ((48, 8), (64, 12), (96, 16), (96, 24), (128, 16), (128, 24), (128, 32))
@@ -98,12 +97,7 @@ def main() -> None:
                     "error_percent": percent,
                 }
             )
-    if args.json is not None:
-        command = " ".join(["python", "benchmarks/convergence.py", *sys.argv[1:]])
-        write_json_atomic(
-            args.json,
-            {"command": command, "strokes": args.strokes, "seed": args.seed, "rows": rows},
-        )
+    write_numbers(args.json, {"strokes": args.strokes, "seed": args.seed, "rows": rows})
 
 
 if __name__ == "__main__":

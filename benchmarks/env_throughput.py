@@ -10,16 +10,15 @@ the numbers (``python -m eval numbers`` renders docs/envs.md from them).
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from shared import write_numbers
 
 import tandem_env as te
-from tandem_env.io.files import write_json_atomic
 
 ENV_ID = "TandemWing/LevelFlight-v0"
 
@@ -93,21 +92,18 @@ def main() -> None:
     print(f"{'':{width}}  strokes/s   vs evaluate(B={n})")
     for name, value in rows:
         print(f"{name:{width}}  {value:9.0f}   {value / reference:6.1%}")
-    if args.json is not None:
-        command = " ".join(["python", "benchmarks/env_throughput.py", *sys.argv[1:]])
-        write_json_atomic(
-            args.json,
-            {
-                "command": command,
-                "num_envs": n,
-                "seconds": seconds,
-                "reference": rows[1][0],
-                "rows": [
-                    {"case": name, "strokes_per_s": value, "of_reference": value / reference}
-                    for name, value in rows
-                ],
-            },
-        )
+    write_numbers(
+        args.json,
+        {
+            "num_envs": n,
+            "seconds": seconds,
+            "reference": rows[1][0],
+            "rows": [
+                {"case": name, "strokes_per_s": value, "of_reference": value / reference}
+                for name, value in rows
+            ],
+        },
+    )
 
 
 if __name__ == "__main__":

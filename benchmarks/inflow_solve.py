@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import sys
 import time
 from functools import partial
 from pathlib import Path
@@ -30,9 +29,9 @@ from typing import Any
 
 import numba
 import numpy as np
+from shared import write_numbers
 
 import tandem_env as te
-from tandem_env.io.files import write_json_atomic
 from tandem_env.physics import blade, cycle, induction, model
 from tandem_env.physics.kinematics import fill_angle_history, wing_params_radians
 
@@ -112,43 +111,32 @@ def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> dict[str
     print()
     print("coupled / none (time per call; per-round ratios: median and range):")
     for batch in BATCHES:
-        coupled, none = ("coupled", batch), ("none", batch)
-        ratio = np.array(wall[coupled]) / np.array(wall[none])
-        cpu_ratio = np.array(cpu[coupled]) / np.array(cpu[none])
-        print(
-            f"  batch {batch:>4}: wall {np.median(ratio):.3f} ({ratio.min():.3f}-{ratio.max():.3f}), "
-            f"best/best {min(wall[coupled]) / min(wall[none]):.3f}; "
-            f"CPU {np.median(cpu_ratio):.3f} ({cpu_ratio.min():.3f}-{cpu_ratio.max():.3f})"
-        )
-        numbers["ratios"].append(
-            {
-                "batch": batch,
-                "wall_median": float(np.median(ratio)),
-                "wall_range": [float(ratio.min()), float(ratio.max())],
-                "cpu_median": float(np.median(cpu_ratio)),
-                "cpu_range": [float(cpu_ratio.min()), float(cpu_ratio.max())],
-            }
-        )
+        row = ratios(wall, cpu, ("coupled", batch), ("none", batch))
+        best = min(wall["coupled", batch]) / min(wall["none", batch])
+        print(f"  batch {batch:>4}: {row.pop('line')} (best/best {best:.3f})")
+        numbers["ratios"].append({"batch": batch, **row})
     print()
     print("reading / mean slipstream, all coupled (per-round ratios: median and range):")
     for reading, batch in ((r, b) for r in READINGS for b in BATCHES):
-        ratio = np.array(wall[reading, batch]) / np.array(wall["coupled", batch])
-        cpu_ratio = np.array(cpu[reading, batch]) / np.array(cpu["coupled", batch])
-        print(
-            f"  {reading:>9} batch {batch:>4}: wall {np.median(ratio):.3f} ({ratio.min():.3f}-{ratio.max():.3f}); "
-            f"CPU {np.median(cpu_ratio):.3f} ({cpu_ratio.min():.3f}-{cpu_ratio.max():.3f})"
-        )
-        numbers["slipstream_ratios"].append(
-            {
-                "reading": reading,
-                "batch": batch,
-                "wall_median": float(np.median(ratio)),
-                "wall_range": [float(ratio.min()), float(ratio.max())],
-                "cpu_median": float(np.median(cpu_ratio)),
-                "cpu_range": [float(cpu_ratio.min()), float(cpu_ratio.max())],
-            }
-        )
+        row = ratios(wall, cpu, (reading, batch), ("coupled", batch))
+        print(f"  {reading:>9} batch {batch:>4}: {row.pop('line')}")
+        numbers["slipstream_ratios"].append({"reading": reading, "batch": batch, **row})
     return numbers
+
+
+def ratios(wall: dict, cpu: dict, case: tuple, base: tuple) -> dict[str, Any]:
+    """The per-round ratios case / base of wall and CPU time: median and range of each, and
+    their printed ``line``."""
+    row: dict[str, Any] = {}
+    for kind, times in (("wall", wall), ("cpu", cpu)):
+        ratio = np.array(times[case]) / np.array(times[base])
+        row[f"{kind}_median"] = float(np.median(ratio))
+        row[f"{kind}_range"] = [float(ratio.min()), float(ratio.max())]
+    row["line"] = (
+        f"wall {row['wall_median']:.3f} ({row['wall_range'][0]:.3f}-{row['wall_range'][1]:.3f}); "
+        f"CPU {row['cpu_median']:.3f} ({row['cpu_range'][0]:.3f}-{row['cpu_range'][1]:.3f})"
+    )
+    return row
 
 
 def sweeps_per_annulus(strokes: np.ndarray, speed: float) -> tuple[np.ndarray, np.ndarray]:
@@ -212,12 +200,7 @@ def main() -> None:
         )
     print()
     numbers = throughput(strokes, speeds, args.rounds)
-    if args.json is not None:
-        command = " ".join(["python", "benchmarks/inflow_solve.py", *sys.argv[1:]])
-        write_json_atomic(
-            args.json,
-            {"command": command, "seed": args.seed, "sweeps": sweeps, **numbers},
-        )
+    write_numbers(args.json, {"seed": args.seed, "sweeps": sweeps, **numbers})
 
 
 if __name__ == "__main__":

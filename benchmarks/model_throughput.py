@@ -18,29 +18,15 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import sys
-import time
 from pathlib import Path
 from typing import Any
 
 import numba
 import numpy as np
+from shared import call_times, write_numbers
 
 import tandem_env as te
-from tandem_env.io.files import write_json_atomic
 from tandem_env.physics import model
-
-
-def best_times(call, repeats: int) -> tuple[float, float]:
-    """Best wall and best CPU (all threads) seconds of ``repeats`` calls after a warm-up."""
-    call()
-    wall, cpu = [], []
-    for _ in range(repeats):
-        start, start_cpu = time.perf_counter(), time.process_time()
-        call()
-        wall.append(time.perf_counter() - start)
-        cpu.append(time.process_time() - start_cpu)
-    return min(wall), min(cpu)
 
 
 def main() -> None:
@@ -61,10 +47,9 @@ def main() -> None:
     )
     parser.add_argument("--json", type=Path, default=None, help="also write the numbers here")
     args = parser.parse_args()
-    numbers = torch_throughput(args) if args.backend == "torch" else numba_throughput(args)
-    if args.json is not None:
-        numbers["command"] = " ".join(["python", "benchmarks/model_throughput.py", *sys.argv[1:]])
-        write_json_atomic(args.json, numbers)
+    write_numbers(
+        args.json, torch_throughput(args) if args.backend == "torch" else numba_throughput(args)
+    )
 
 
 def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
@@ -98,8 +83,10 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
         opts = te.ModelOptions(induction=induction)
         for batch in args.batches or (1, 64, 1024):
             x, v = strokes[:batch], speeds[:batch]
-            seconds, _ = best_times(
-                lambda x=x, v=v, opts=opts: te.evaluate(x, v, options=opts), args.repeats
+            seconds = min(
+                call_times(
+                    lambda x=x, v=v, opts=opts: te.evaluate(x, v, options=opts), args.repeats
+                )[0]
             )
             sweeps = float(te.evaluate(x, v, options=opts).induction_evaluations.mean())
             print(
@@ -135,7 +122,7 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     }
 
     for name, call in parts.items():
-        wall, cpu = best_times(call, args.repeats)
+        wall, cpu = map(min, call_times(call, args.repeats))
         print(f"  {name:<55} {1e3 * wall:8.2f} {1e3 * cpu:8.2f}")
         numbers["breakdown"].append({"part": name, "wall_ms": 1e3 * wall, "cpu_ms": 1e3 * cpu})
     return numbers
@@ -191,13 +178,15 @@ def torch_throughput(args: argparse.Namespace) -> dict[str, Any]:
     for induction in args.induction:
         opts = te.ModelOptions(induction=induction)
         for batch in batches:
-            seconds, _ = best_times(lambda b=batch, o=opts: run_torch(b, o), args.repeats)
+            seconds = min(call_times(lambda b=batch, o=opts: run_torch(b, o), args.repeats)[0])
             line = f"{batch:>7} {induction:>10} {batch / seconds:>14.0f} {1e3 * seconds:>9.2f}"
             row = {"batch": batch, "induction": induction, "evaluations_per_s": batch / seconds}
             if on_cpu:
-                numba_s, _ = best_times(
-                    lambda b=batch, o=opts: te.evaluate(strokes[:b], speeds[:b], options=o),
-                    args.repeats,
+                numba_s = min(
+                    call_times(
+                        lambda b=batch, o=opts: te.evaluate(strokes[:b], speeds[:b], options=o),
+                        args.repeats,
+                    )[0]
                 )
                 line += f" {batch / numba_s:>14.0f} {numba_s / seconds:>12.3f}"
                 row |= {
@@ -256,7 +245,7 @@ def gradient_cost(
     probes = np.repeat(strokes[:1], 1 + 2 * columns.size, axis=0)
     probes[1::2, columns] += np.diag(step)
     probes[2::2, columns] -= np.diag(step)
-    central, _ = best_times(lambda: te.evaluate(probes, speeds[0]), args.repeats)
+    central = min(call_times(lambda: te.evaluate(probes, speeds[0]), args.repeats)[0])
     print()
     print(
         f"gradient of power with respect to the 28 parameters, per stroke: central difference "
@@ -264,11 +253,13 @@ def gradient_cost(
     )
     numbers: dict[str, Any] = {"central_difference_ms": 1e3 * central, "probes": probes.shape[0]}
     for batch in (1, 64):
-        seconds, _ = best_times(
-            lambda b=batch: torch_model.value_and_grad(
-                x_all[:b], "power", speeds[0], compiled=args.compile
-            ),
-            args.repeats,
+        seconds = min(
+            call_times(
+                lambda b=batch: torch_model.value_and_grad(
+                    x_all[:b], "power", speeds[0], compiled=args.compile
+                ),
+                args.repeats,
+            )[0]
         )
         print(
             f"  autograd at batch {batch:>3}: {1e3 * seconds / batch:8.1f} ms per stroke "

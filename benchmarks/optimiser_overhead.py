@@ -18,7 +18,7 @@ import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import astuple, dataclass
 from typing import Any
 
 import cmaes
@@ -146,11 +146,9 @@ def main(argv: list[str] | None = None) -> int:
             f"{k:>4} {t.iterations:>8} {t.total:>10.3f} {t.model:>10.3f} {t.env_step:>13.3f} "
             f"{t.ask_tell:>13.4f} {t.evaluations / t.total:>9.0f} {t.overhead:>8.2%}"
         )
-    total = sum(t.total for t in timings)
-    env_step = sum(t.env_step for t in timings)
-    model = sum(t.model for t in timings)
-    ask_tell = sum(t.ask_tell for t in timings)
-    package = sum(t.package for t in timings)
+    total, env_step, model, ask_tell, package, _, iterations = (
+        sum(values) for values in zip(*map(astuple, timings), strict=True)
+    )
     overhead = (total - env_step) / total
     print(
         f"all  vector-env step {env_step:.3f} s ({env_step / total:.1%} of the run; of which "
@@ -167,7 +165,6 @@ def main(argv: list[str] | None = None) -> int:
             f"{package:.3f} s = {package / total:.2%} of the run, our own code "
             f"{total - env_step - package:.3f} s = {(total - env_step - package) / total:.2%}"
         )
-    iterations = sum(t.iterations for t in timings)
     per_eval = np.array([t.ask_tell / t.evaluations for t in timings])
     in_package = (
         f" (of which the package {package / iterations * 1e3:.3f} ms)"

@@ -13,22 +13,16 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
-import time
 
 import numpy as np
+from shared import call_times
 
 from agents.polish import AutogradGradient, CentralDifferences, task_problem
 from agents.tasks import ACCELERATE_TASK, LEVEL_TASK
 
 
 def _times(function, repeats: int) -> list[float]:
-    function()  # compile / warm up
-    out = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        out.append(1e3 * (time.perf_counter() - start))
-    return out
+    return [1e3 * seconds for seconds in call_times(function, repeats)[0]]
 
 
 def main() -> None:

@@ -156,13 +156,10 @@ def new_file_mode() -> int:
 def _umask() -> int:
     # Read without changing it where the platform says it (Linux >= 4.7); otherwise set and
     # restore it under a lock, the one way the os module offers.
-    try:
-        with open("/proc/self/status", encoding="ascii") as status:
-            for line in status:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
-    except (OSError, ValueError):
-        pass
+    with contextlib.suppress(OSError, ValueError), open("/proc/self/status", encoding="ascii") as f:
+        for line in f:
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
     with _UMASK_LOCK:
         mask = os.umask(0o022)
         os.umask(mask)
@@ -303,13 +300,9 @@ def _csv_cell(value: Any) -> Any:
 def _fsync_directory(directory: Path) -> None:
     # Makes the rename itself durable on POSIX; directories cannot be opened this way on
     # Windows, where the rename is as durable as the platform makes it.
-    try:
+    with contextlib.suppress(OSError):
         fd = os.open(directory, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)

@@ -1,0 +1,30 @@
+"""What the benchmark scripts share: the timing loop and the ``--json`` writer."""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from tandem_env.io.files import write_json_atomic
+
+
+def call_times(call: Callable[[], Any], repeats: int) -> tuple[list[float], list[float]]:
+    """Wall and CPU (all threads) seconds of each of ``repeats`` calls after a warm-up."""
+    call()
+    wall, cpu = [], []
+    for _ in range(repeats):
+        start, start_cpu = time.perf_counter(), time.process_time()
+        call()
+        wall.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - start_cpu)
+    return wall, cpu
+
+
+def write_numbers(path: Path | None, numbers: dict[str, Any]) -> None:
+    """Write ``numbers`` as JSON to ``path``, if given, with the command that measured them."""
+    if path is not None:
+        script = f"benchmarks/{Path(sys.argv[0]).name}"
+        write_json_atomic(path, {"command": " ".join(["python", script, *sys.argv[1:]]), **numbers})
