@@ -436,11 +436,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     every = [p.job for prepared in jobs.values() for p in prepared]
     every += [job for r in rounds for job in r.values()]
     table = build_table(
-        jobs,
-        rounds,
-        run.records,
-        provenance(every, run.records, table_plan.convergence),
-        extra,
+        jobs, rounds, run.records, provenance(every, run.records, table_plan.convergence), extra
     )
     write_json_atomic(table_path, table)
     _report(table, Path(args.out))
