@@ -13,7 +13,7 @@ import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path, PurePath
-from typing import Any, Protocol
+from typing import Any
 
 import matplotlib
 
@@ -25,22 +25,6 @@ from matplotlib.legend_handler import HandlerTuple
 from matplotlib.patches import Patch
 
 from tandem_env.io.files import atomic_path
-
-
-class SpreadView(Protocol):
-    """One quantity at one condition over seeds (``eval.studies.tables.Spread``)."""
-
-    @property
-    def values(self) -> tuple[float, ...]: ...
-    @property
-    def median(self) -> float: ...
-    @property
-    def q25(self) -> float: ...
-    @property
-    def q75(self) -> float: ...
-    @property
-    def best(self) -> float: ...
-
 
 #: Resolution of every PNG the project writes (studies, compare, speed-change) [dots per inch].
 DPI = 200
@@ -142,10 +126,12 @@ def figure_path(folder: Path, stem: str, fmt: str = FORMATS[0]) -> Path:
 
 @dataclass(frozen=True)
 class Series:
-    """One line of a sweep panel: {condition: SpreadView} with a label."""
+    """One line of a sweep panel: {condition: spread over seeds} with a label."""
 
     label: str
-    points: Mapping[float, SpreadView]
+    points: Mapping[float, Any]
+    """Each condition's ``eval.studies.tables.Spread``: its ``values`` (one per seed),
+    ``median``, ``q25``, ``q75`` and ``best``."""
     scale: float = 1.0
     """Multiplies every value (e.g. 100 for a percentage)."""
     method: str = ""

@@ -247,7 +247,6 @@ def cycle_figure(
                 ax.set_title(textwrap.fill(name, COLUMN_WRAP))
                 ax.set_xlabel("cycle t/T [-]")
                 ax.set_xticks([0.0, 0.5, 1.0])
-            # one legend for the row, below it
             handles, labels = axes[0].get_legend_handles_labels()
             entries = [*zip(handles, labels, strict=True), text_entry("bold: best seed")]
             subfigs[0].legend(

@@ -55,6 +55,11 @@ example:
 DEFAULT_OUT = Path("results") / "measured"
 ANGLES = ("sweep", "elevation", "pitch")
 WINGS = ("fore", "hind")
+#: The per-wing histories a record keeps (fields of the history of each wing pair).
+WING_HISTORY = tuple(
+    "cycle_fraction time sweep elevation pitch angle_of_attack vertical_force horizontal_force "
+    "aero_power inertial_power".split()
+)
 
 
 class SpecError(ValueError):
@@ -345,22 +350,6 @@ def format_summary(case: MeasuredCase, history: StrokeHistory) -> str:
 
 def record(case: MeasuredCase, history: StrokeHistory, source: Path) -> dict[str, Any]:
     """The JSON record: inputs, cycle means, per-wing summary and histories."""
-
-    def wing_history(w: Any) -> dict[str, list[float]]:
-        keys = (
-            "cycle_fraction",
-            "time",
-            "sweep",
-            "elevation",
-            "pitch",
-            "angle_of_attack",
-            "vertical_force",
-            "horizontal_force",
-            "aero_power",
-            "inertial_power",
-        )
-        return {k: np.asarray(getattr(w, k)).tolist() for k in keys}
-
     return {
         "source": str(source),
         "description": case.description,
@@ -383,7 +372,10 @@ def record(case: MeasuredCase, history: StrokeHistory, source: Path) -> dict[str
         "units": "N, W, W/kg, deg; histories per wing pair (N_w wings)",
         "summary": summary(history, case.insect),
         "result": history.result.row(0),
-        "histories": {w: wing_history(getattr(history, w)) for w in WINGS},
+        "histories": {
+            w: {k: np.asarray(getattr(getattr(history, w), k)).tolist() for k in WING_HISTORY}
+            for w in WINGS
+        },
     }
 
 
@@ -406,9 +398,7 @@ def plot(case: MeasuredCase, history: StrokeHistory, path: Path) -> Path:
             ax.plot(x, 1e3 * total, color="k", lw=1.0, label="both pairs")
     axes[0].axhline(1e3 * weight, color="0.4", lw=0.8, ls="--", label="weight")
     for ax, label in zip(
-        axes,
-        ("vertical force [mN]", "horizontal force [mN], + forward", "power [mW]"),
-        strict=True,
+        axes, ("vertical force [mN]", "horizontal force [mN], + forward", "power [mW]"), strict=True
     ):
         ax.axhline(0.0, color="0.7", lw=0.6)
         ax.set_ylabel(label, fontsize=8)

@@ -149,7 +149,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--task", required=True, choices=tuple(t.name for t in tasks), help="the flight task"
     )
-    # One option per condition keyword, from the tasks' declarations (--speed, --power).
     condition = parser.add_mutually_exclusive_group(required=True)
     for flag in dict.fromkeys(t.condition_flag for t in tasks):
         declared = {t.name: t.declared_condition for t in tasks if t.condition_flag == flag}

@@ -15,6 +15,7 @@ import datetime as dt
 import os
 import sys
 from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
 from itertools import product
 from pathlib import Path
 from typing import Any
@@ -142,22 +143,17 @@ def continuation(
     return continued
 
 
+@dataclass(eq=False)
 class ReferencePlan:
     """The table's phases (an :class:`agents.runner.Plan`): the search, then the rounds of
     ``rule`` until it stops. Running, it keeps the rounds' jobs (:attr:`rounds`) and gains
     (:attr:`convergence`), said on stderr unless ``quiet``."""
 
-    def __init__(
-        self,
-        jobs: Mapping[PointKey, Sequence[PreparedJob]],
-        rule: Continuation = CONTINUATION,
-        quiet: bool = True,
-    ) -> None:
-        self.jobs = jobs
-        self.rule = rule
-        self.quiet = quiet
-        self.rounds: list[dict[PointKey, Job]] = []
-        self.convergence: list[dict[str, Any]] = []
+    jobs: Mapping[PointKey, Sequence[PreparedJob]]
+    rule: Continuation = CONTINUATION
+    quiet: bool = True
+    rounds: list[dict[PointKey, Job]] = field(default_factory=list, init=False)
+    convergence: list[dict[str, Any]] = field(default_factory=list, init=False)
 
     def __call__(self, found: Lookup) -> Iterator[Phase]:
         """The phases, each round's jobs from the optima before it."""
@@ -436,11 +432,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     every = [p.job for prepared in jobs.values() for p in prepared]
     every += [job for r in rounds for job in r.values()]
     table = build_table(
-        jobs,
-        rounds,
-        run.records,
-        provenance(every, run.records, table_plan.convergence),
-        extra,
+        jobs, rounds, run.records, provenance(every, run.records, table_plan.convergence), extra
     )
     write_json_atomic(table_path, table)
     _report(table, Path(args.out))

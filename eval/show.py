@@ -72,11 +72,7 @@ def record_history(record: Record, path: Path, frames: int = DEFAULT_FRAMES) -> 
 
 
 def show(
-    record: Record,
-    history: Any,
-    out: Path,
-    fmt: str = "gif",
-    fps: int = DEFAULT_FPS,
+    record: Record, history: Any, out: Path, fmt: str = "gif", fps: int = DEFAULT_FPS
 ) -> tuple[Path, Path]:
     """Write ``out/<key>.png`` and the animation ``out/<key>.<fmt>`` (atomically); their paths."""
     from matplotlib import animation
@@ -84,14 +80,7 @@ def show(
     from matplotlib.figure import Figure
 
     from eval.figures import DPI
-    from tandem_env.envs.render import (
-        FRAME_DPI,
-        FRAME_SIZE,
-        WING_STYLE,
-        Frame,
-        draw,
-        metrics_line,
-    )
+    from tandem_env.envs.render import FRAME_DPI, FRAME_SIZE, WING_STYLE, Frame, draw, metrics_line
 
     frame = Frame(
         title=record.label(),

@@ -22,12 +22,7 @@ from agents.records import Record
 from tandem_env.envs.registration import SPEED_CHANGE_ID
 from tandem_env.envs.speed_change import Flight
 from tandem_env.envs.speed_change_config import LEVEL_FLIGHT_ENVELOPE, SpeedChangeConfig
-from tandem_env.io.files import (
-    atomic_path,
-    output_directory,
-    write_csv_atomic,
-    write_text_atomic,
-)
+from tandem_env.io.files import atomic_path, output_directory, write_csv_atomic, write_text_atomic
 from tandem_env.physics.checks import shown
 from tandem_env.physics.model import MAX_BATCH_STROKES
 

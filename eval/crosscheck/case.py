@@ -24,13 +24,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from tandem_env.physics import (
-    PARAMETER_NAMES,
-    TABLE_4_BOUNDS,
-    Dragonfly,
-    Wing,
-    validate_physical,
-)
+from tandem_env.physics import PARAMETER_NAMES, TABLE_4_BOUNDS, Dragonfly, Wing, validate_physical
 
 #: Record format of one solver run (``OUT/records/<key>.json``).
 RUN_FORMAT = "tandem_env.crosscheck-run/1"

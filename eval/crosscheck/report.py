@@ -39,7 +39,6 @@ def ours(case: Case, insect: Dragonfly) -> dict[str, Any]:
     """The model's vertical force of each pair [N], isolated and per reading, at each lag:
     ``{"isolated": {"fore": (L,), "hind": (L,)}, reading: {...}}``."""
     strokes = np.array([shifted_stroke(np.asarray(case.stroke), lag) for lag in case.lags])
-    # the model's geometry of the tandem: the case's root spacing and drop
     flyer = replace(insect, root_spacing=case.spacing, root_drop=case.drop)
     out: dict[str, Any] = {}
     for name, options in [("isolated", ModelOptions(induction="isolated"))] + [
@@ -257,7 +256,6 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
             f"{first['beats']} beats, {first['wake']} wake)",
             fontsize=9,
         )
-        # Coarsest first: by panels, then by time steps.
         resolutions = sorted(
             dict.fromkeys((r["steps_per_beat"], r["panels"]) for r in mine),
             key=lambda sp: (math.prod(int(n) for n in sp[1].split("x")), sp[0]),

@@ -105,24 +105,28 @@ def blas_kernel() -> str:
     return "none"
 
 
-def measure_other_kernels(name: str) -> dict[str, dict[str, Any]]:
-    """Measurement ``name`` again in a fresh process under each other kernel, by kernel (empty
-    where numpy's BLAS is not OpenBLAS: its kernel cannot be chosen)."""
-    own = blas_kernel()
+def other_kernels() -> list[str]:
+    """The kernels of :data:`OTHER_BLAS_KERNELS` but the machine's own (none where numpy's BLAS
+    is not OpenBLAS: its kernel cannot be chosen)."""
     from threadpoolctl import threadpool_info
 
+    own = blas_kernel()
     if not any(lib["internal_api"] == "openblas" for lib in threadpool_info()):
-        return {}
+        return []
+    return [kernel for kernel in OTHER_BLAS_KERNELS if kernel.lower() != own.lower()]
+
+
+def measure_other_kernels(name: str) -> dict[str, dict[str, Any]]:
+    """Measurement ``name`` again in a fresh process under each of :func:`other_kernels`, by
+    kernel."""
     script = (
         "import json, sys; from eval.numbers import MEASUREMENTS; "
         "json.dump(MEASUREMENTS[sys.argv[1]].measure(), sys.stdout)"
     )
+    environments = {kernel: {"OPENBLAS_CORETYPE": kernel} for kernel in other_kernels()}
     return {
-        kernel: json.loads(
-            _run([sys.executable, "-c", script, name], {"OPENBLAS_CORETYPE": kernel})
-        )
-        for kernel in OTHER_BLAS_KERNELS
-        if kernel.lower() != own.lower()
+        k: json.loads(_run([sys.executable, "-c", script, name], e))
+        for k, e in environments.items()
     }
 
 

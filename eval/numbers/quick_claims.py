@@ -11,7 +11,6 @@ from pathlib import Path
 from typing import Any
 
 from eval.numbers.framework import (
-    OTHER_BLAS_KERNELS,
     ROOT,
     Measurement,
     blas_kernel,
@@ -19,6 +18,7 @@ from eval.numbers.framework import (
     footer,
     kernel_views,
     minutes,
+    other_kernels,
     run_command,
 )
 from eval.studies.claims import Claim
@@ -65,14 +65,9 @@ def run_study(kernel: str | None) -> dict[str, Any]:
 
 def measure() -> dict[str, Any]:
     """:func:`run_study` under the machine's own kernel and under each other OpenBLAS kernel
-    (none where numpy's BLAS is not OpenBLAS: its kernel cannot be chosen)."""
-    from threadpoolctl import threadpool_info
-
-    own = blas_kernel()
-    openblas = any(lib["internal_api"] == "openblas" for lib in threadpool_info())
-    others = [k for k in OTHER_BLAS_KERNELS if openblas and k.lower() != own.lower()]
-    data = {"blas_kernel": own, **run_study(None)}
-    return {**data, "other_kernels": {kernel: run_study(kernel) for kernel in others}}
+    (:func:`~eval.numbers.framework.other_kernels`)."""
+    data = {"blas_kernel": blas_kernel(), **run_study(None)}
+    return {**data, "other_kernels": {kernel: run_study(kernel) for kernel in other_kernels()}}
 
 
 def joined(names: Sequence[str]) -> str:

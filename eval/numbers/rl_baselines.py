@@ -62,23 +62,8 @@ def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str
     :data:`HYPERPARAMETERS` (``-f`` is added)."""
     conf = HYPERPARAMETERS[hyperparams]
     return [
-        "python",
-        "-m",
-        "train",
-        "--algo",
-        algo,
-        "--env",
-        ENV_ID,
-        "--seed",
-        str(seed),
-        "-n",
-        str(steps),
-        "--env-kwargs",
-        ENVELOPE,
-        "--no-progress",
-        "--no-tensorboard",
-        "--torch-threads",
-        "1",
+        *f"python -m train --algo {algo} --env {ENV_ID} --seed {seed} -n {steps}".split(),
+        *("--env-kwargs", ENVELOPE, "--no-progress", "--no-tensorboard", "--torch-threads", "1"),
         *(() if conf is None else ("--conf-file", conf.format(algo=algo))),
     ]
 
@@ -95,20 +80,8 @@ def score_run(
     run = logs / algo / ENV_ID.replace("/", "-")  # the latest run of the env
     out = folder / f"envelope-{logs.name}"
     conditions = [str(c) for c in held_out_conditions(ENV_ID)]
-    run_command(
-        [
-            "python",
-            "-m",
-            "train.envelope",
-            "--run",
-            str(run),
-            "--out",
-            str(out),
-            "--conditions",
-            *conditions,
-        ],
-        _ONE_CORE,
-    )
+    envelope = ["python", "-m", "train.envelope", "--run", str(run), "--out", str(out)]
+    run_command([*envelope, "--conditions", *conditions], _ONE_CORE)
     rows = read_rows(out / "envelope.csv")
     return {
         "algo": algo,
@@ -251,19 +224,7 @@ AMORTISED = "amortised"
 
 def amortised_command(seed: int | str) -> list[str]:
     """The documented amortised training command (``-f`` is added)."""
-    return [
-        "python",
-        "-m",
-        "train",
-        "--algo",
-        AMORTISED,
-        "--env",
-        ENV_ID,
-        "--seed",
-        str(seed),
-        "--verbose",
-        "0",
-    ]
+    return f"python -m train --algo {AMORTISED} --env {ENV_ID} --seed {seed} --verbose 0".split()
 
 
 def measure_amortised() -> dict[str, Any]:
@@ -287,17 +248,8 @@ def measure_headline() -> dict[str, Any]:
     rows = []
     for name, algo, hp in POLICIES:
         runs = runs_of(stored[name]["runs"], algo, hp)
-        median, worst, flies, _ = summary(runs)
-        rows.append(
-            {
-                "algo": algo,
-                "hyperparams": hp,
-                "seeds": len(runs),
-                "median": median,
-                "worst": worst,
-                "flies": flies,
-            }
-        )
+        numbers = dict(zip(("median", "worst", "flies"), summary(runs), strict=False))
+        rows.append({"algo": algo, "hyperparams": hp, "seeds": len(runs), **numbers})
     dates = {name: data["machine_before"]["date"] for name, data in stored.items()}
     return {"policies": rows, "measured": dates}
 
