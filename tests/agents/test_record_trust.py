@@ -287,3 +287,24 @@ def test_a_policy_jobs_key_holds_its_runs_identity(tmp_path: Path) -> None:
     # Every other job's dict, and so its key, is what it was before the identity: the keys of
     # the records already stored stay theirs.
     assert _job().method_identity == "" and "method_identity" not in _job().to_dict()
+
+
+def test_a_record_scored_against_another_reference_table_is_served(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A record's ``score`` reads its objective against the reference table of its run; a
+    regenerated table moves it, and the record is still this stroke's (agents.verify
+    .TABLE_RELATIVE): served without running again. Its objective is still checked."""
+    job = _job()
+    run_jobs([job], tmp_path, progress=False)
+    entry = RecordStore(tmp_path).path(job.key)
+    good = read_record(entry)
+    _forge(entry, metrics={**good.metrics, "score": 12.5})  # another table's reading
+    calls = count_harness_calls(monkeypatch)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RecordWarning)
+        summary = run_jobs([job], tmp_path, progress=False)
+    assert (summary.ran, summary.reused, calls) == (0, 1, [])
+    assert summary.records[job.key].metrics["score"] == 12.5  # the record keeps its run's
+    _forge(entry, objective=good.objective * 1.01)
+    assert job.key in refuted({job.key: read_record(entry)}, {job.key: job})
