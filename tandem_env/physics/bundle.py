@@ -71,6 +71,9 @@ class Settings(NamedTuple):
     """Most force sweeps of one annulus's inflow solve [-]."""
     convected: bool
     """The convected slipstream (``ModelOptions.slipstream``, docs/model.md §5.7)."""
+    means: bool
+    """Each wing's cycle means are computed (False: only the per-sample history is written,
+    whose means ``cycle.history_means`` takes later: the vortex reading's passes)."""
     rho: float
     """Air density ρ [kg/m³]."""
     root_spacing: float
@@ -116,6 +119,10 @@ class WingBatch(NamedTuple):
     of the momentum side (the vortex reading's passes, docs/model.md §5.8; ``interaction``),
     or (0, …): none."""
     external_inflow: Any
+    frames: Any
+    """(B, n_time, ``blade.N_COEF``) the frame coefficients of each sample
+    (``blade.fill_frame_coefficients``, the right wing) where the caller has them, or (0, …):
+    the kernel computes them."""
 
 
 class WingStroke(NamedTuple):

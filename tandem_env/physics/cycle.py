@@ -597,7 +597,10 @@ def wing_cycle(
         histories[k, 3] = span[2, k]
         histories[k, 4] = inertial_power(frame, k, consts[K_I_SPAN], consts[K_I_PITCH])
         aoa += span[3, k] * frame[k, C_WEIGHT]
-    cycle_means(histories, coef_by_column[C_WEIGHT], out, settings.cos_table, settings.sin_table)
+    if settings.means:
+        cycle_means(
+            histories, coef_by_column[C_WEIGHT], out, settings.cos_table, settings.sin_table
+        )
     out[W_AOA] = aoa / (area * n_time) if area > 0.0 else 0.0
     out[W_CONVERGED] = 1.0 if converged else 0.0
     out[W_EVALS] = max_evals
@@ -795,7 +798,12 @@ def tandem_stroke(b, fore, hind, settings, outputs):
     load = np.empty(n_time if convect else 0)
     wake = np.empty(n_time if convect else 0)
     spin_total = settings.spin_total
-    fill_frame_coefficients(fore.angles[b], fore.weight[b], fore.beta[b], spin_total, 1, coef_fore)
+    if fore.frames.shape[0] > b:
+        coef_fore = fore.frames[b]
+    else:
+        fill_frame_coefficients(
+            fore.angles[b], fore.weight[b], fore.beta[b], spin_total, 1, coef_fore
+        )
     fore_wing = stroke_wing(fore, b, coef_fore)
     # a wing with its induced velocity switched off (``ModelOptions.hover_inflow``) neither
     # solves its own inflow nor sees the fore-wing's slipstream
@@ -806,7 +814,12 @@ def tandem_stroke(b, fore, hind, settings, outputs):
         plain_cycle(fore, b, fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist)
     if outputs.history.shape[0] > b:
         outputs.history[b, 0] = hist
-    fill_frame_coefficients(hind.angles[b], hind.weight[b], hind.beta[b], spin_total, 1, coef_hind)
+    if hind.frames.shape[0] > b:
+        coef_hind = hind.frames[b]
+    else:
+        fill_frame_coefficients(
+            hind.angles[b], hind.weight[b], hind.beta[b], spin_total, 1, coef_hind
+        )
     hind_wing = stroke_wing(hind, b, coef_hind)
     if mode == MODE_COUPLED and not hind.inflow_off[b]:
         for j in range(n_r):
@@ -849,3 +862,15 @@ def tandem_cycle(fore, hind, settings, outputs):
     """
     for b in prange(fore.angles.shape[0]):
         tandem_stroke(b, fore, hind, settings, outputs)
+
+
+@njit(parallel=True, cache=True)
+def history_means(history, fore_weight, hind_weight, cos_table, sin_table, means):
+    """Each wing's :func:`cycle_means` from its per-sample history (B, 2, n_time, 5) [N, W]
+    (``Outputs.history`` of a kernel call with ``Settings.means`` off) and quadrature weights
+    (B, n_time) each: the same function on the same numbers, so the same bits as computing
+    them in :func:`wing_cycle`; writes the cycle-mean columns of ``means`` (B, 2,
+    N_WING_OUT)."""
+    for b in prange(history.shape[0]):
+        cycle_means(history[b, 0], fore_weight[b], means[b, 0], cos_table, sin_table)
+        cycle_means(history[b, 1], hind_weight[b], means[b, 1], cos_table, sin_table)

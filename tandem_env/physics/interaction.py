@@ -40,7 +40,7 @@ from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace
 #: The ``bundle.WingBatch`` fields with one row per stroke (a pass on some strokes takes theirs).
 BATCH_FIELDS = (
     "angles", "weight", "frequency", "beta", "sweep", "v_tangential", "v_normal", "inflow_off",
-    "phases",
+    "phases", "frames",
 )  # fmt: skip
 
 
@@ -682,16 +682,21 @@ def kernel_reading(
     """The vortex reading on the numba kernel: ``wings`` the fore and hind
     ``bundle.WingBatch``, ``params`` their (B, 14) parameters [Hz, rad, -], ``phases`` (B, 2,
     n_time) [rad]; ``run_pass(wings)`` runs the kernel on them (the whole batch or some of its
-    strokes, as many as the wings hold) and returns its ``bundle.Outputs``. Returns the last pass's outputs, with the fixed point's convergence
-    folded into each wing's ``W_CONVERGED`` (``cycle``)."""
+    strokes, as many as the wings hold) and returns its ``bundle.Outputs``, with each sample's
+    frame coefficients computed once here (``WingBatch.frames``). Returns each stroke's
+    outputs of the pass at which it stopped, with the fixed point's convergence folded into
+    each wing's ``W_CONVERGED`` (``cycle``); the caller takes the cycle means from their
+    history where its passes leave them out (``Settings.means``)."""
 
     pairs = []
+    frames = []
     for w, (batch, wing) in enumerate(zip(wings, (insect.fore, insect.hind), strict=True)):
         coef = np.empty((*batch.weight.shape, blade.N_COEF))
         _fill_frames(
             np.ascontiguousarray(batch.angles), np.ascontiguousarray(batch.weight),
             np.ascontiguousarray(batch.beta), spin_total, coef,
         )  # fmt: skip
+        frames.append(coef)  # the kernel's own, computed once for all passes
         coef = coef[:, None]
         root = np.array([-insect.root_spacing * w, ROOT_HALF_WIDTH, -insect.root_drop * w])
         pairs.append(
@@ -699,6 +704,7 @@ def kernel_reading(
                  np.array(batch.nodes[:, cycle.N_R]), np.array(batch.nodes[:, cycle.N_WIDTH]), root)
         )  # fmt: skip
 
+    wings = tuple(b._replace(frames=f) for b, f in zip(wings, frames, strict=True))
     result = run_pass(wings)  # pass 0, the isolated pairs, on the whole batch
     converged = np.zeros(len(speed), dtype=bool)
     # the fixed point, stroke by stroke, on WAKE.chunk strokes at a time: the same results
