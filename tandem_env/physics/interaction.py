@@ -74,7 +74,7 @@ class VortexWake:
     tolerance: float = 1e-3
     """The fixed point's tolerance: the RMS of either pair's residual (the strips its pass
     gives less those it was given), relative to the sum of both pairs' RMS strips [-]."""
-    max_passes: int = 12
+    max_passes: int = 20
     """Most passes of the fixed point (kernel calls after the isolated one) [-]."""
     accelerate: bool = True
     """Anderson's step of depth one on the passes (False: plain Jacobi passes)."""

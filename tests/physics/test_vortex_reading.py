@@ -195,7 +195,7 @@ def test_hover_and_climb_are_finite(flight_path_angle):
 @pytest.mark.parametrize("flight_path_angle", [0.0, 0.3])
 def test_hover_and_climb_fixed_points_converge(flight_path_angle):
     """Every stroke's fixed point (and inflow solve) converged within its limit: on these 128
-    strokes; on 1 024 in hover (run once, 2026-12-06) 2 did not within 12 passes
+    strokes; on 1 024 in hover (run once, 2026-12-06) one did not within 20 passes
     (docs/model.md §5.8 item 8)."""
     result, _ = _random(flight_path_angle)
     assert result.induction_converged.all()
