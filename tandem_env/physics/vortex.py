@@ -348,7 +348,11 @@ def _pair_velocities(rel, seg, step, count, out):
     and its length, then the same from the image [m]; ``seg`` (5, ≥ ``count``) each segment's
     r0 (3), 1/|r0|² and r_c⁴. :func:`unit_velocity`'s formula, with the node lengths and the
     core's root in the denominator and one division for both points. One loop over the
-    segments, structure of arrays, no branches: it vectorises (sqrt and division 4-wide)."""
+    segments, structure of arrays, no branches: it vectorises (sqrt and division 4-wide).
+    Every index is a loop's or a shift known not to be negative (``max(step, 0)``), so the
+    loads are plain vector loads (a possibly negative index would take numba's wraparound
+    and make each a gather)."""
+    step = max(step, 0)
     for n in range(count):
         m = n + step
         dx, dy, dz, inv, core4 = seg[0, n], seg[1, n], seg[2, n], seg[3, n], seg[4, n]
@@ -392,6 +396,24 @@ def _node_offsets(nodes, point, image, rel):
 
 
 @njit(cache=True, error_model=BRANCH_FREE)
+def _segments(nodes, step, count, seg):
+    """``seg`` (5, nodes) of :func:`_pair_velocities`: the segments from node n < ``count``
+    to node n + ``step`` of ``nodes`` (3, nodes) [m], r0 and 1/|r0|², and r_c⁴ = 1 (the
+    caller sets the cores); beyond ``count``, r0 = 0 and the rest 1."""
+    step = max(step, 0)
+    for n in range(count):
+        x = nodes[0, n + step] - nodes[0, n]
+        y = nodes[1, n + step] - nodes[1, n]
+        z = nodes[2, n + step] - nodes[2, n]
+        seg[0, n], seg[1, n], seg[2, n] = x, y, z
+        seg[3, n] = 1.0 / max(x * x + y * y + z * z, _TINY)
+        seg[4, n] = 1.0
+    for n in range(max(count, 0), seg.shape[1]):
+        seg[0, n] = seg[1, n] = seg[2, n] = 0.0
+        seg[3, n] = seg[4, n] = 1.0
+
+
+@njit(cache=True, error_model=BRANCH_FREE)
 def _build_lattice(bound, edge, carried, core2, i, nodes, along, trailed):
     """Sample ``i``'s lattice for :func:`_pair_velocities`: ``nodes`` (3, R·N) flat n =
     row·N + j (:func:`wake_nodes`: row 0 ``bound[i]``, row k + 1 ``edge`` at sample i − k,
@@ -412,15 +434,8 @@ def _build_lattice(bound, edge, carried, core2, i, nodes, along, trailed):
             for j in range(n_n):
                 nodes[c, (k + 1) * n_n + j] = edge[back, j, c] + carried[k, c]
             back = back - 1 if back > 0 else n_w - 1
-    for n in range(n_all):
-        for c in range(3):
-            along[c, n] = nodes[c, min(n + 1, n_all - 1)] - nodes[c, n]
-            trailed[c, n] = nodes[c, min(n + n_n, n_all - 1)] - nodes[c, n]
-        along[3, n] = 1.0 / max(along[0, n] ** 2 + along[1, n] ** 2 + along[2, n] ** 2, _TINY)
-        trailed[3, n] = 1.0 / max(
-            trailed[0, n] ** 2 + trailed[1, n] ** 2 + trailed[2, n] ** 2, _TINY
-        )
-        along[4, n] = trailed[4, n] = 1.0
+    _segments(nodes, 1, n_all - 1, along)
+    _segments(nodes, n_n, n_all - n_n, trailed)
     for row in range(n_rows):
         for j in range(n_strips):
             along[4, row * n_n + j] = core2[row * n_strips + j] ** 2
@@ -455,7 +470,7 @@ def _fold_rings(u_a, u_t, n_n, folded, out):
                 into[m] += 0.5 * (a0[m] - a1[m] - t0[m] + t1[m])
         row = out[c]
         for e in range(n_w):
-            now, later = fold[e * n_n :], fold[((e + 1) % n_w) * n_n :]
+            now, later = fold[e * n_n :], fold[(e + 1) * n_n if e + 1 < n_w else 0 :]
             into = row[e * n_strips :]
             for j in range(n_strips):
                 into[j] = now[j] + later[j]
