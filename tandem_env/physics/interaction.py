@@ -20,7 +20,7 @@ from functools import cache
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from . import blade, cycle
 from .vortex import (
@@ -198,14 +198,14 @@ def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     return np.stack([np.interp(target, source, column) for column in np.eye(source.size)], -1)
 
 
-@njit(cache=True, error_model=BRANCH_FREE)
+@njit(cache=True, parallel=True, error_model=BRANCH_FREE)
 def _fill_circulation(coef, samples, r, v_t, vn, offsets, chord, c_t, out):
     """:func:`circulation` on numpy, compiled and parallel over strokes b: ``coef`` (B, n_time,
     N_COEF), ``samples`` (B, n), ``r``, ``chord`` (n_blade,), ``v_t`` (B,), ``vn`` (B,
     n_blade) the total normal inflow, ``offsets`` (B, n_blade, 2, n_time) the field's (u, v)
     or (0, …) without one; writes Γ into ``out`` (B, n_blade, n)."""
     field = offsets.shape[0] > 0
-    for b in range(coef.shape[0]):
+    for b in prange(coef.shape[0]):
         for s in range(samples.shape[1]):
             k = samples[b, s]
             for e in range(r.shape[0]):
@@ -403,12 +403,12 @@ def ring_ages(rings: int, n_s: int, n_w: int) -> np.ndarray:
     return np.einsum("skj,ke->sej", to_rings, folded).reshape(to_rings.shape[0], n_w * n_s)
 
 
-@njit(cache=True, error_model=BRANCH_FREE, fastmath={"reassoc", "contract"})
+@njit(cache=True, parallel=True, error_model=BRANCH_FREE, fastmath={"reassoc", "contract"})
 def _fill_field(matrix, rows, strips, out):
     """:func:`field_on_grid` on numpy, compiled and parallel over strokes b: ``out[b, i, r]`` =
     Σ_(e, j) ``matrix[rows[b], i, r, e·N_s + j]``·``strips[b, (i − e) mod n_w, j]``."""
     n_w, n_s = strips.shape[1], strips.shape[2]
-    for b in range(strips.shape[0]):
+    for b in prange(strips.shape[0]):
         at = rows[b]
         shifted = np.empty(n_w * n_s)
         for i in range(n_w):
@@ -442,7 +442,7 @@ def field_on_grid(matrix: Any, strips: Any, xp, rows: Any = None) -> Any:
     return (matrix @ flat).reshape(n_b, n_w, -1, 3)
 
 
-@njit(cache=True, error_model=BRANCH_FREE)
+@njit(cache=True, parallel=True, error_model=BRANCH_FREE)
 def _fill_element_field(flat, index, weight, coef, beta, to_elements, out, mean):
     """:func:`element_field` on numpy, compiled and parallel over strokes b: ``flat`` (B, n_w,
     M·3) the scaled field on the wake grid, ``index``, ``weight`` (B, n_time, 2) its brackets,
@@ -452,7 +452,7 @@ def _fill_element_field(flat, index, weight, coef, beta, to_elements, out, mean)
     c_x = (blade.C_ECX, blade.C_ENX)
     c_y = (blade.C_ECY, blade.C_ENY)
     c_z = (blade.C_ECZ, blade.C_ENZ)
-    for b in range(flat.shape[0]):
+    for b in prange(flat.shape[0]):
         cb, sb = np.cos(beta[b]), np.sin(beta[b])
         w = np.empty((n_t, flat.shape[2]))
         for t in range(n_t):
@@ -659,12 +659,12 @@ def vortex_reading(
     return result, converged
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def _fill_frames(angles, weight, beta, spin_total, out):
     """Each stroke's frame coefficients (``blade.fill_frame_coefficients``, the right wing):
     ``angles`` (B, n_time, 9), ``weight`` (B, n_time), ``beta`` (B,); ``out`` (B, n_time,
     N_COEF)."""
-    for b in range(angles.shape[0]):
+    for b in prange(angles.shape[0]):
         blade.fill_frame_coefficients(angles[b], weight[b], beta[b], spin_total, 1, out[b])
 
 
