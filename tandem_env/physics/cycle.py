@@ -763,6 +763,24 @@ def stroke_wing(wing, b, coef):
 
 
 @njit(cache=True)
+def station_offsets(stations, to_elements):
+    """The other pair's (u, v) offsets on the elements (n_blade, 2, n_time) [m/s] of one
+    stroke's at the M read stations ``stations`` (2, M, n_time), by the interpolation weights
+    ``to_elements`` (n_blade, M) (the vortex reading, docs/model.md §5.8 item 5): computed per
+    stroke, where the sweeps read them from cache, rather than held for the batch."""
+    n_r = to_elements.shape[0]
+    n_time = stations.shape[2]
+    out = np.zeros((n_r, 2, n_time))
+    for j in range(n_r):
+        for k in range(2):
+            for m in range(to_elements.shape[1]):
+                weight = to_elements[j, m]
+                for t in range(n_time):
+                    out[j, k, t] += weight * stations[k, m, t]
+    return out
+
+
+@njit(cache=True)
 def plain_cycle(batch, b, wing, settings, v_ext, solve, out_inflow, out, hist):
     """:func:`wing_cycle` of stroke ``b`` without the convected slipstream: with the other
     pair's field and upstream inflow where the vortex reading's pass gives them
@@ -770,7 +788,7 @@ def plain_cycle(batch, b, wing, settings, v_ext, solve, out_inflow, out, hist):
     if batch.external.shape[0] > b:
         wing_cycle(
             wing, settings, batch.external_inflow[b], solve, out_inflow, out, hist, None, None,
-            batch.external[b],
+            station_offsets(batch.external[b], batch.to_elements),
         )  # fmt: skip
     else:
         wing_cycle(wing, settings, v_ext, solve, out_inflow, out, hist)

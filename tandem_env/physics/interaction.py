@@ -192,6 +192,12 @@ def periodic_brackets(source: Any, target: Any, xp: ArrayNamespace) -> tuple[Any
     return xp.stack([count - 1, count % n], -1), xp.stack([1.0 - t, t], -1)
 
 
+def station_weights(pair: Pair, wake: VortexWake) -> np.ndarray:
+    """(n_blade, M) weights of linear interpolation in r from the M read stations, evenly
+    spaced over 2-98 % of the span, onto the pair's elements (docs/model.md §5.8 item 5)."""
+    return span_interpolation(np.linspace(0.02, 0.98, wake.read_points), pair.r / pair.wing.length)
+
+
 def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     """(n_t, n_s) weights of linear interpolation in r from ``source`` to ``target`` radii
     (held constant beyond the ends)."""
@@ -202,28 +208,42 @@ def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
 def _fill_circulation(coef, samples, r, v_t, vn, offsets, chord, c_t, out):
     """:func:`circulation` on numpy, compiled and parallel over strokes b: ``coef`` (B, n_time,
     N_COEF), ``samples`` (B, n), ``r``, ``chord`` (n_blade,), ``v_t`` (B,), ``vn`` (B,
-    n_blade) the total normal inflow, ``offsets`` (B, n_blade, 2, n_time) the field's (u, v)
-    or (0, …) without one; writes Γ into ``out`` (B, n_blade, n)."""
-    field = offsets.shape[0] > 0
+    n_blade) the total normal inflow, ``offsets`` the field's (u, v) offsets at the M stations
+    and their weights onto the elements (:func:`element_field`, ``cycle.station_offsets``) or
+    ``None``; writes Γ into ``out`` (B, n_blade, n)."""
     for b in prange(coef.shape[0]):
         for s in range(samples.shape[1]):
             k = samples[b, s]
             for e in range(r.shape[0]):
                 u, v, _, _ = blade.relative_velocity(coef[b], k, r[e], v_t[b], vn[b, e])
-                if field:
-                    u += offsets[b, e, 0, k]
-                    v += offsets[b, e, 1, k]
+                if offsets is not None:
+                    stations, to_elements = offsets
+                    du = 0.0
+                    dv = 0.0
+                    for m in range(to_elements.shape[1]):
+                        du += to_elements[e, m] * stations[b, 0, m, k]
+                        dv += to_elements[e, m] * stations[b, 1, m, k]
+                    u += du
+                    v += dv
                 speed2 = u * u + v * v
                 gamma = -c_t * chord[e] * u * v
                 out[b, e, s] = gamma / np.sqrt(speed2) if speed2 > 0.0 else 0.0
 
 
-def circulation(pair: Pair, inflow: Any, external: tuple[Any, Any] | None, samples: Any, xp) -> Any:
+def circulation(
+    pair: Pair,
+    inflow: Any,
+    external: tuple[Any, Any] | None,
+    samples: Any,
+    xp,
+    to_elements: Any = None,
+) -> Any:
     """The translational bound circulation −C_t·c·u·v/|U| (Eq. 14) of every element at the
     kernel's samples ``samples`` (B, n) (indices into each stroke's n_time; the wake grid
     reads only those), (B, n_blade, n) [m²/s], at the pair's solved ``inflow`` (B, n_blade)
-    [m/s] with the other pair's field ``external`` (its (u, v) offsets (B, n_blade, 2, n_time)
-    and its mean upstream inflow (B, n_blade)) or ``None``."""
+    [m/s] with the other pair's field ``external`` (:func:`element_field`: its (u, v) offsets
+    and its mean upstream inflow (B, n_blade)) or ``None``; ``to_elements`` (n_blade, M): the
+    offsets' weights onto the elements on numpy, where they stay at the M stations."""
     vn = pair.v_normal[:, None] + inflow
     if external is not None:
         vn = vn + external[1]
@@ -232,7 +252,7 @@ def circulation(pair: Pair, inflow: Any, external: tuple[Any, Any] | None, sampl
         _fill_circulation(
             np.ascontiguousarray(pair.coef[:, 0]), np.ascontiguousarray(samples), pair.r,
             np.ascontiguousarray(pair.v_tangential), np.ascontiguousarray(vn),
-            np.zeros((0, 0, 2, 0)) if external is None else np.ascontiguousarray(external[0]),
+            None if external is None else (external[0], np.ascontiguousarray(to_elements)),
             pair.wing.chord(pair.r / pair.wing.length), pair.wing.translational_coefficient, out,
         )  # fmt: skip
         return out
@@ -443,12 +463,12 @@ def field_on_grid(matrix: Any, strips: Any, xp, rows: Any = None) -> Any:
 
 
 @njit(cache=True, parallel=True, error_model=BRANCH_FREE)
-def _fill_element_field(flat, index, weight, coef, beta, to_elements, out, mean):
+def _fill_element_field(flat, index, weight, coef, beta, out, mean):
     """:func:`element_field` on numpy, compiled and parallel over strokes b: ``flat`` (B, n_w,
     M·3) the scaled field on the wake grid, ``index``, ``weight`` (B, n_time, 2) its brackets,
-    ``coef`` (B, n_time, N_COEF), ``beta`` (B,), ``to_elements`` (n_blade, M); writes the
-    offsets into ``out`` (B, n_blade, 2, n_time) and the mean into ``mean`` (B, M)."""
-    n_t, n_m = index.shape[1], to_elements.shape[1]
+    ``coef`` (B, n_time, N_COEF), ``beta`` (B,); writes the offsets at the M stations into
+    ``out`` (B, 2, M, n_time) and the mean into ``mean`` (B, M)."""
+    n_t, n_m = index.shape[1], mean.shape[1]
     c_x = (blade.C_ECX, blade.C_ENX)
     c_y = (blade.C_ECY, blade.C_ENY)
     c_z = (blade.C_ECZ, blade.C_ENZ)
@@ -465,7 +485,7 @@ def _fill_element_field(flat, index, weight, coef, beta, to_elements, out, mean)
             for t in range(n_t):
                 total += (w[t, 3 * m] * sb + w[t, 3 * m + 2] * cb) * coef[b, t, blade.C_WEIGHT]
             mean[b, m] = total / n_t
-        d = np.empty((2, n_m, n_t))
+        d = out[b]
         for t in range(n_t):
             for k in range(2):
                 ex = cb * coef[b, t, c_x[k]] + sb * coef[b, t, c_z[k]]
@@ -475,14 +495,6 @@ def _fill_element_field(flat, index, weight, coef, beta, to_elements, out, mean)
                     d[k, m, t] = coef[b, t, c_z[k]] * mean[b, m] - (
                         ex * w[t, 3 * m] + ey * w[t, 3 * m + 1] + ez * w[t, 3 * m + 2]
                     )
-        for j in range(to_elements.shape[0]):
-            for k in range(2):
-                for t in range(n_t):
-                    out[b, j, k, t] = 0.0
-                for m in range(n_m):
-                    weight_jm = to_elements[j, m]
-                    for t in range(n_t):
-                        out[b, j, k, t] += weight_jm * d[k, m, t]
 
 
 def element_field(
@@ -490,8 +502,11 @@ def element_field(
 ) -> tuple[Any, Any]:
     """The field ``w`` (B, n_w, M, 3) [m/s] on the target's elements and samples, as the
     kernel takes it: its (u, v) offsets −w·e_c, −w·e_n less the cycle-mean normal part, (B,
-    n_blade, 2, n_time), and that mean along −z_s, (B, n_blade), the upstream inflow of the
-    momentum side (docs/model.md §5.8 item 5); times ``scale`` (B,) (C_hf, 0 where off).
+    n_blade, 2, n_time) on torch, and on numpy (B, 2, M, n_time) at the M stations, which the
+    kernel interpolates onto each stroke's elements (``to_elements``; ``cycle.station_offsets``)
+    rather than holding every element's in memory; and that mean along −z_s, (B, n_blade), the
+    upstream inflow of the momentum side (docs/model.md §5.8 item 5); times ``scale`` (B,)
+    (C_hf, 0 where off).
     ``to_grid``: :func:`periodic_brackets` from the wake grid to the kernel's samples, (B,
     n_time, 2) indices and weights. The interpolation, the projections and the mean are linear
     and the same along the span, so they are taken at the M stations, the projections on
@@ -501,12 +516,11 @@ def element_field(
     index, weight = to_grid
     if xp is NUMPY:
         coef = np.ascontiguousarray(target.coef[:, 0])
-        out = np.empty((n_b, to_elements.shape[0], 2, coef.shape[1]))
+        out = np.empty((n_b, 2, to_elements.shape[1], coef.shape[1]))
         mean = np.empty((n_b, to_elements.shape[1]))
         _fill_element_field(
             np.ascontiguousarray(flat), np.ascontiguousarray(index), np.ascontiguousarray(weight),
-            coef, np.ascontiguousarray(target.params[:, 13]), np.ascontiguousarray(to_elements),
-            out, mean,
+            coef, np.ascontiguousarray(target.params[:, 13]), out, mean,
         )  # fmt: skip
         return out, -(mean @ to_elements.T)
     stroke = xp.as_int64(xp.arange_like(n_b, flat))[:, None]
@@ -587,13 +601,7 @@ def vortex_reading(
         lattice(p, disc_mean(p, v, xp), speed, path_angle, b, wake, xp)
         for p, v, b in zip(pairs, inflow, beats, strict=True)
     ]
-    to_elements = [
-        xp.constant_like(
-            span_interpolation(np.linspace(0.02, 0.98, wake.read_points), p.r / p.wing.length),
-            p.phase,
-        )
-        for p in pairs
-    ]
+    to_elements = [xp.constant_like(station_weights(p, wake), p.phase) for p in pairs]
     uniform = xp.constant_like(2.0 * np.pi * np.arange(wake.n_wake) / wake.n_wake, fore.phase)
     to_grid = [periodic_brackets(uniform[None], p.phase, xp) for p in pairs]
     matrices = [influence(lattices[1 - w], pairs[w], wake, xp) for w in (0, 1)]
@@ -607,7 +615,14 @@ def vortex_reading(
                 strip_circulation(
                     lattices[w].to_strips,
                     samples[w][1],
-                    circulation(p, v, None if fields is None else fields[w], samples[w][0], xp),
+                    circulation(
+                        p,
+                        v,
+                        None if fields is None else fields[w],
+                        samples[w][0],
+                        xp,
+                        to_elements[w],
+                    ),
                     wake,
                     xp,
                 )
@@ -706,6 +721,7 @@ def kernel_reading(
 
     wings = tuple(b._replace(frames=f) for b, f in zip(wings, frames, strict=True))
     result = run_pass(wings)  # pass 0, the isolated pairs, on the whole batch
+    to_elements = [np.ascontiguousarray(station_weights(p, WAKE)) for p in pairs]
     converged = np.zeros(len(speed), dtype=bool)
     # the fixed point, stroke by stroke, on WAKE.chunk strokes at a time: the same results
     # (item 6), and arrays small enough to be reused rather than mapped afresh at each pass
@@ -721,9 +737,9 @@ def kernel_reading(
             outputs = run_pass(
                 tuple(
                     b._replace(**{name: getattr(b, name)[index] for name in BATCH_FIELDS},
-                               external=np.ascontiguousarray(f[0]),
-                               external_inflow=np.ascontiguousarray(f[1]))
-                    for b, f in zip(wings, fields, strict=True)
+                               external=f[0], external_inflow=np.ascontiguousarray(f[1]),
+                               to_elements=elements)
+                    for b, f, elements in zip(wings, fields, to_elements, strict=True)
                 )
             )  # fmt: skip
             for whole, piece in zip(result, outputs, strict=True):

@@ -436,8 +436,9 @@ def run_kernel(
             tables[2 * w],
             tables[2 * w + 1],
             coefficient_tables(insect)[w],
-            np.empty((0, tables[2 * w].shape[0], 2, n_time)),
+            np.empty((0, 2, 1, n_time)),
             np.empty((0, tables[2 * w].shape[0])),
+            np.empty((tables[2 * w].shape[0], 1)),
             np.empty((0, n_time, blade.N_COEF)),
         )
         for w in (0, 1)
