@@ -35,7 +35,7 @@ from .vortex import (
     wake_nodes,
     wing_lines,
 )
-from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace
+from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace, stroke_loop
 
 #: The ``bundle.WingBatch`` fields with one row per stroke (a pass on some strokes takes theirs).
 BATCH_FIELDS = (
@@ -204,7 +204,7 @@ def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     return np.stack([np.interp(target, source, column) for column in np.eye(source.size)], -1)
 
 
-@njit(cache=True, parallel=True, error_model=BRANCH_FREE)
+@stroke_loop(error_model=BRANCH_FREE)
 def _fill_circulation(coef, samples, r, v_t, vn, offsets, chord, c_t, out):
     """:func:`circulation` on numpy, compiled and parallel over strokes b: ``coef`` (B, n_time,
     N_COEF), ``samples`` (B, n), ``r``, ``chord`` (n_blade,), ``v_t`` (B,), ``vn`` (B,
@@ -250,6 +250,7 @@ def circulation(
     if xp is NUMPY:
         out = np.empty((*vn.shape, samples.shape[1]))
         _fill_circulation(
+            len(out),
             np.ascontiguousarray(pair.coef[:, 0]), np.ascontiguousarray(samples), pair.r,
             np.ascontiguousarray(pair.v_tangential), np.ascontiguousarray(vn),
             None if external is None else (external[0], np.ascontiguousarray(to_elements)),
@@ -423,7 +424,7 @@ def ring_ages(rings: int, n_s: int, n_w: int) -> np.ndarray:
     return np.einsum("skj,ke->sej", to_rings, folded).reshape(to_rings.shape[0], n_w * n_s)
 
 
-@njit(cache=True, parallel=True, error_model=BRANCH_FREE, fastmath={"reassoc", "contract"})
+@stroke_loop(error_model=BRANCH_FREE, fastmath={"reassoc", "contract"})
 def _fill_field(matrix, rows, strips, out):
     """:func:`field_on_grid` on numpy, compiled and parallel over strokes b: ``out[b, i, r]`` =
     Σ_(e, j) ``matrix[rows[b], i, r, e·N_s + j]``·``strips[b, (i − e) mod n_w, j]``."""
@@ -453,7 +454,7 @@ def field_on_grid(matrix: Any, strips: Any, xp, rows: Any = None) -> Any:
     if xp is NUMPY:
         rows = np.arange(n_b) if rows is None else np.asarray(rows)
         out = np.empty((n_b, n_w, matrix.shape[2]))
-        _fill_field(matrix, rows.astype(np.int64), np.ascontiguousarray(strips), out)
+        _fill_field(n_b, matrix, rows.astype(np.int64), np.ascontiguousarray(strips), out)
         return out.reshape(n_b, n_w, -1, 3)
     if rows is not None:
         matrix = matrix[rows]
@@ -462,7 +463,7 @@ def field_on_grid(matrix: Any, strips: Any, xp, rows: Any = None) -> Any:
     return (matrix @ flat).reshape(n_b, n_w, -1, 3)
 
 
-@njit(cache=True, parallel=True, error_model=BRANCH_FREE)
+@stroke_loop(error_model=BRANCH_FREE)
 def _fill_element_field(flat, index, weight, coef, beta, out, mean):
     """:func:`element_field` on numpy, compiled and parallel over strokes b: ``flat`` (B, n_w,
     M·3) the scaled field on the wake grid, ``index``, ``weight`` (B, n_time, 2) its brackets,
@@ -519,6 +520,7 @@ def element_field(
         out = np.empty((n_b, 2, to_elements.shape[1], coef.shape[1]))
         mean = np.empty((n_b, to_elements.shape[1]))
         _fill_element_field(
+            n_b,
             np.ascontiguousarray(flat), np.ascontiguousarray(index), np.ascontiguousarray(weight),
             coef, np.ascontiguousarray(target.params[:, 13]), out, mean,
         )  # fmt: skip
@@ -674,7 +676,7 @@ def vortex_reading(
     return result, converged
 
 
-@njit(cache=True, parallel=True)
+@stroke_loop()
 def _fill_frames(angles, weight, beta, spin_total, out):
     """Each stroke's frame coefficients (``blade.fill_frame_coefficients``, the right wing):
     ``angles`` (B, n_time, 9), ``weight`` (B, n_time), ``beta`` (B,); ``out`` (B, n_time,
@@ -708,6 +710,7 @@ def kernel_reading(
     for w, (batch, wing) in enumerate(zip(wings, (insect.fore, insect.hind), strict=True)):
         coef = np.empty((*batch.weight.shape, blade.N_COEF))
         _fill_frames(
+            len(coef),
             np.ascontiguousarray(batch.angles), np.ascontiguousarray(batch.weight),
             np.ascontiguousarray(batch.beta), spin_total, coef,
         )  # fmt: skip

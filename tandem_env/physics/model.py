@@ -26,13 +26,9 @@ from .insect import DRAGONFLY, Dragonfly, Wing
 from .kinematics import fill_angle_history, motion_grid, wing_params_radians
 from .options import HOVER_NORMAL_SPEED, ModelOptions
 from .stroke import N_PER_WING, validate_physical
-from .xp import NUMPY, ArrayNamespace
+from .xp import NUMPY, SERIAL_BELOW, ArrayNamespace
 
 DEFAULT_OPTIONS = ModelOptions()
-
-#: Batches smaller than this run stroke by stroke on the calling thread: a parallel launch costs
-#: more than it saves.
-SERIAL_BELOW = 4
 
 #: The metrics every evaluation reports, in the order environments list them in ``info``.
 METRIC_NAMES: tuple[str, ...] = (

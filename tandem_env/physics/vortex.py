@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit, prange
 
 from .kinematics import flapping, pitching, weaving
-from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace
+from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace, stroke_loop
 
 #: Distance of each wing root from the body's mid-plane [m]: half the thorax's 4 mm width
 #: (docs/model.md §1.5; the cross-check's ``ROOT_OFFSET`` is the same).
@@ -479,7 +479,7 @@ def _fold_rings(u_a, u_t, n_n, folded, out):
             row[j] += a0[j] - a1[j] - t0[j] + t1[j]
 
 
-@njit(cache=True, parallel=True, error_model=BRANCH_FREE)
+@stroke_loop(error_model=BRANCH_FREE)
 def _fill_wake_influence(bound, edge, carried, core2, points, out):
     """:func:`wake_influence`'s compiled loop, parallel over strokes b: ``bound``, ``edge``
     (B, n_w, N, 3), ``carried`` (B, K + 1, 3), ``core2`` (B, S) each segment's squared core
@@ -545,6 +545,7 @@ def wake_influence(
         raise ValueError(f"out of shape {out.shape}; allowed: a contiguous array of {shape}")
     core2 = core_radius.reshape(n_b, -1) ** 2
     _fill_wake_influence(
+        n_b,
         np.ascontiguousarray(bound), np.ascontiguousarray(edge), np.ascontiguousarray(carried),
         np.ascontiguousarray(core2), np.ascontiguousarray(points), out,
     )  # fmt: skip
