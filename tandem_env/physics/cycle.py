@@ -36,7 +36,7 @@ from .blade import (
 from .bundle import Section, WingStroke
 from .induction import N_SAMPLE, S_FC, S_FN, S_U, S_V, sweep_annulus
 from .kinematics import fill_angle_history
-from .xp import BRANCH_FREE, select
+from .xp import BRANCH_FREE, select, stroke_loop
 
 # Blade-element node table columns.
 N_R = 0  # radius r [m]
@@ -882,7 +882,7 @@ def tandem_cycle(fore, hind, settings, outputs):
         tandem_stroke(b, fore, hind, settings, outputs)
 
 
-@njit(parallel=True, cache=True)
+@stroke_loop()
 def history_means(history, fore_weight, hind_weight, cos_table, sin_table, means):
     """Each wing's :func:`cycle_means` from its per-sample history (B, 2, n_time, 5) [N, W]
     (``Outputs.history`` of a kernel call with ``Settings.means`` off) and quadrature weights

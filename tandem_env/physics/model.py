@@ -467,8 +467,8 @@ def run_kernel(
         options.spin == "total",
     )  # fmt: skip
     cycle.history_means(
-        result.history, fore.weight, hind.weight, settings.cos_table, settings.sin_table,
-        result.means,
+        len(result.history), result.history, fore.weight, hind.weight, settings.cos_table,
+        settings.sin_table, result.means,
     )  # fmt: skip
     return result if keep_history else result._replace(history=outputs.history)
 
