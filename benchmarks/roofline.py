@@ -215,7 +215,9 @@ def stages(te, options, strokes, inputs, repeats: int = 3) -> dict[str, float]:
         ],
         "cycle means": lambda: means(history, np.stack(weights), out, *tables),
     }
-    for call in calls.values():
+    # twice each first: a process's first calls map fresh pages for the batch's arrays (glibc
+    # serves them from the heap once it has freed a few), which alone doubled a call's time
+    for call in [*calls.values(), *calls.values()]:
         call()
     ms = {k: 1e3 * min(seconds_per_call(c, 1)[1] for _ in range(repeats)) for k, c in calls.items()}
     return {

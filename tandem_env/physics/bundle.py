@@ -71,6 +71,9 @@ class Settings(NamedTuple):
     """Most force sweeps of one annulus's inflow solve [-]."""
     convected: bool
     """The convected slipstream (``ModelOptions.slipstream``, docs/model.md §5.7)."""
+    means: bool
+    """Each wing's cycle means are computed (False: only the per-sample history is written,
+    whose means ``cycle.history_means`` takes later: the vortex reading's passes)."""
     rho: float
     """Air density ρ [kg/m³]."""
     root_spacing: float
@@ -111,11 +114,17 @@ class WingBatch(NamedTuple):
     table: Any
     """The force-coefficient model's table (``coefficients``), None for the paper's."""
     external: Any
-    """(B, n_blade, 2, n_time) the other pair's induced velocity in each element's (u, v)
-    [m/s] and ``external_inflow`` (B, n_blade) its cycle mean along −z_s, the upstream inflow
-    of the momentum side (the vortex reading's passes, docs/model.md §5.8; ``interaction``),
-    or (0, …): none."""
+    """(B, 2, M, n_time) the other pair's induced velocity in the (u, v) of each element at M
+    span stations [m/s], which ``to_elements`` (n_blade, M) interpolates onto the elements,
+    and ``external_inflow`` (B, n_blade) its cycle mean along −z_s, the upstream inflow of the
+    momentum side (the vortex reading's passes, docs/model.md §5.8; ``interaction``), or
+    (0, …): none."""
     external_inflow: Any
+    to_elements: Any
+    frames: Any
+    """(B, n_time, ``blade.N_COEF``) the frame coefficients of each sample
+    (``blade.fill_frame_coefficients``, the right wing) where the caller has them, or (0, …):
+    the kernel computes them."""
 
 
 class WingStroke(NamedTuple):

@@ -36,7 +36,7 @@ from .blade import (
 from .bundle import Section, WingStroke
 from .induction import N_SAMPLE, S_FC, S_FN, S_U, S_V, sweep_annulus
 from .kinematics import fill_angle_history
-from .xp import BRANCH_FREE, select
+from .xp import BRANCH_FREE, select, stroke_loop
 
 # Blade-element node table columns.
 N_R = 0  # radius r [m]
@@ -597,7 +597,10 @@ def wing_cycle(
         histories[k, 3] = span[2, k]
         histories[k, 4] = inertial_power(frame, k, consts[K_I_SPAN], consts[K_I_PITCH])
         aoa += span[3, k] * frame[k, C_WEIGHT]
-    cycle_means(histories, coef_by_column[C_WEIGHT], out, settings.cos_table, settings.sin_table)
+    if settings.means:
+        cycle_means(
+            histories, coef_by_column[C_WEIGHT], out, settings.cos_table, settings.sin_table
+        )
     out[W_AOA] = aoa / (area * n_time) if area > 0.0 else 0.0
     out[W_CONVERGED] = 1.0 if converged else 0.0
     out[W_EVALS] = max_evals
@@ -760,6 +763,24 @@ def stroke_wing(wing, b, coef):
 
 
 @njit(cache=True)
+def station_offsets(stations, to_elements):
+    """The other pair's (u, v) offsets on the elements (n_blade, 2, n_time) [m/s] of one
+    stroke's at the M read stations ``stations`` (2, M, n_time), by the interpolation weights
+    ``to_elements`` (n_blade, M) (the vortex reading, docs/model.md §5.8 item 5): computed per
+    stroke, where the sweeps read them from cache, rather than held for the batch."""
+    n_r = to_elements.shape[0]
+    n_time = stations.shape[2]
+    out = np.zeros((n_r, 2, n_time))
+    for j in range(n_r):
+        for k in range(2):
+            for m in range(to_elements.shape[1]):
+                weight = to_elements[j, m]
+                for t in range(n_time):
+                    out[j, k, t] += weight * stations[k, m, t]
+    return out
+
+
+@njit(cache=True)
 def plain_cycle(batch, b, wing, settings, v_ext, solve, out_inflow, out, hist):
     """:func:`wing_cycle` of stroke ``b`` without the convected slipstream: with the other
     pair's field and upstream inflow where the vortex reading's pass gives them
@@ -767,7 +788,7 @@ def plain_cycle(batch, b, wing, settings, v_ext, solve, out_inflow, out, hist):
     if batch.external.shape[0] > b:
         wing_cycle(
             wing, settings, batch.external_inflow[b], solve, out_inflow, out, hist, None, None,
-            batch.external[b],
+            station_offsets(batch.external[b], batch.to_elements),
         )  # fmt: skip
     else:
         wing_cycle(wing, settings, v_ext, solve, out_inflow, out, hist)
@@ -795,7 +816,12 @@ def tandem_stroke(b, fore, hind, settings, outputs):
     load = np.empty(n_time if convect else 0)
     wake = np.empty(n_time if convect else 0)
     spin_total = settings.spin_total
-    fill_frame_coefficients(fore.angles[b], fore.weight[b], fore.beta[b], spin_total, 1, coef_fore)
+    if fore.frames.shape[0] > b:
+        coef_fore = fore.frames[b]
+    else:
+        fill_frame_coefficients(
+            fore.angles[b], fore.weight[b], fore.beta[b], spin_total, 1, coef_fore
+        )
     fore_wing = stroke_wing(fore, b, coef_fore)
     # a wing with its induced velocity switched off (``ModelOptions.hover_inflow``) neither
     # solves its own inflow nor sees the fore-wing's slipstream
@@ -806,7 +832,12 @@ def tandem_stroke(b, fore, hind, settings, outputs):
         plain_cycle(fore, b, fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist)
     if outputs.history.shape[0] > b:
         outputs.history[b, 0] = hist
-    fill_frame_coefficients(hind.angles[b], hind.weight[b], hind.beta[b], spin_total, 1, coef_hind)
+    if hind.frames.shape[0] > b:
+        coef_hind = hind.frames[b]
+    else:
+        fill_frame_coefficients(
+            hind.angles[b], hind.weight[b], hind.beta[b], spin_total, 1, coef_hind
+        )
     hind_wing = stroke_wing(hind, b, coef_hind)
     if mode == MODE_COUPLED and not hind.inflow_off[b]:
         for j in range(n_r):
@@ -849,3 +880,15 @@ def tandem_cycle(fore, hind, settings, outputs):
     """
     for b in prange(fore.angles.shape[0]):
         tandem_stroke(b, fore, hind, settings, outputs)
+
+
+@stroke_loop()
+def history_means(history, fore_weight, hind_weight, cos_table, sin_table, means):
+    """Each wing's :func:`cycle_means` from its per-sample history (B, 2, n_time, 5) [N, W]
+    (``Outputs.history`` of a kernel call with ``Settings.means`` off) and quadrature weights
+    (B, n_time) each: the same function on the same numbers, so the same bits as computing
+    them in :func:`wing_cycle`; writes the cycle-mean columns of ``means`` (B, 2,
+    N_WING_OUT)."""
+    for b in prange(history.shape[0]):
+        cycle_means(history[b, 0], fore_weight[b], means[b, 0], cos_table, sin_table)
+        cycle_means(history[b, 1], hind_weight[b], means[b, 1], cos_table, sin_table)

@@ -20,7 +20,7 @@ from functools import cache
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from . import blade, cycle
 from .vortex import (
@@ -35,12 +35,12 @@ from .vortex import (
     wake_nodes,
     wing_lines,
 )
-from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace
+from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace, stroke_loop
 
 #: The ``bundle.WingBatch`` fields with one row per stroke (a pass on some strokes takes theirs).
 BATCH_FIELDS = (
     "angles", "weight", "frequency", "beta", "sweep", "v_tangential", "v_normal", "inflow_off",
-    "phases",
+    "phases", "frames",
 )  # fmt: skip
 
 
@@ -74,7 +74,7 @@ class VortexWake:
     tolerance: float = 1e-3
     """The fixed point's tolerance: the RMS of either pair's residual (the strips its pass
     gives less those it was given), relative to the sum of both pairs' RMS strips [-]."""
-    max_passes: int = 12
+    max_passes: int = 20
     """Most passes of the fixed point (kernel calls after the isolated one) [-]."""
     accelerate: bool = True
     """Anderson's step of depth one on the passes (False: plain Jacobi passes)."""
@@ -192,47 +192,68 @@ def periodic_brackets(source: Any, target: Any, xp: ArrayNamespace) -> tuple[Any
     return xp.stack([count - 1, count % n], -1), xp.stack([1.0 - t, t], -1)
 
 
+def station_weights(pair: Pair, wake: VortexWake) -> np.ndarray:
+    """(n_blade, M) weights of linear interpolation in r from the M read stations, evenly
+    spaced over 2-98 % of the span, onto the pair's elements (docs/model.md §5.8 item 5)."""
+    return span_interpolation(np.linspace(0.02, 0.98, wake.read_points), pair.r / pair.wing.length)
+
+
 def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     """(n_t, n_s) weights of linear interpolation in r from ``source`` to ``target`` radii
     (held constant beyond the ends)."""
     return np.stack([np.interp(target, source, column) for column in np.eye(source.size)], -1)
 
 
-@njit(cache=True, error_model=BRANCH_FREE)
+@stroke_loop(error_model=BRANCH_FREE)
 def _fill_circulation(coef, samples, r, v_t, vn, offsets, chord, c_t, out):
     """:func:`circulation` on numpy, compiled and parallel over strokes b: ``coef`` (B, n_time,
     N_COEF), ``samples`` (B, n), ``r``, ``chord`` (n_blade,), ``v_t`` (B,), ``vn`` (B,
-    n_blade) the total normal inflow, ``offsets`` (B, n_blade, 2, n_time) the field's (u, v)
-    or (0, …) without one; writes Γ into ``out`` (B, n_blade, n)."""
-    field = offsets.shape[0] > 0
-    for b in range(coef.shape[0]):
+    n_blade) the total normal inflow, ``offsets`` the field's (u, v) offsets at the M stations
+    and their weights onto the elements (:func:`element_field`, ``cycle.station_offsets``) or
+    ``None``; writes Γ into ``out`` (B, n_blade, n)."""
+    for b in prange(coef.shape[0]):
         for s in range(samples.shape[1]):
             k = samples[b, s]
             for e in range(r.shape[0]):
                 u, v, _, _ = blade.relative_velocity(coef[b], k, r[e], v_t[b], vn[b, e])
-                if field:
-                    u += offsets[b, e, 0, k]
-                    v += offsets[b, e, 1, k]
+                if offsets is not None:
+                    stations, to_elements = offsets
+                    du = 0.0
+                    dv = 0.0
+                    for m in range(to_elements.shape[1]):
+                        du += to_elements[e, m] * stations[b, 0, m, k]
+                        dv += to_elements[e, m] * stations[b, 1, m, k]
+                    u += du
+                    v += dv
                 speed2 = u * u + v * v
                 gamma = -c_t * chord[e] * u * v
                 out[b, e, s] = gamma / np.sqrt(speed2) if speed2 > 0.0 else 0.0
 
 
-def circulation(pair: Pair, inflow: Any, external: tuple[Any, Any] | None, samples: Any, xp) -> Any:
+def circulation(
+    pair: Pair,
+    inflow: Any,
+    external: tuple[Any, Any] | None,
+    samples: Any,
+    xp,
+    to_elements: Any = None,
+) -> Any:
     """The translational bound circulation −C_t·c·u·v/|U| (Eq. 14) of every element at the
     kernel's samples ``samples`` (B, n) (indices into each stroke's n_time; the wake grid
     reads only those), (B, n_blade, n) [m²/s], at the pair's solved ``inflow`` (B, n_blade)
-    [m/s] with the other pair's field ``external`` (its (u, v) offsets (B, n_blade, 2, n_time)
-    and its mean upstream inflow (B, n_blade)) or ``None``."""
+    [m/s] with the other pair's field ``external`` (:func:`element_field`: its (u, v) offsets
+    and its mean upstream inflow (B, n_blade)) or ``None``; ``to_elements`` (n_blade, M): the
+    offsets' weights onto the elements on numpy, where they stay at the M stations."""
     vn = pair.v_normal[:, None] + inflow
     if external is not None:
         vn = vn + external[1]
     if xp is NUMPY:
         out = np.empty((*vn.shape, samples.shape[1]))
         _fill_circulation(
+            len(out),
             np.ascontiguousarray(pair.coef[:, 0]), np.ascontiguousarray(samples), pair.r,
             np.ascontiguousarray(pair.v_tangential), np.ascontiguousarray(vn),
-            np.zeros((0, 0, 2, 0)) if external is None else np.ascontiguousarray(external[0]),
+            None if external is None else (external[0], np.ascontiguousarray(to_elements)),
             pair.wing.chord(pair.r / pair.wing.length), pair.wing.translational_coefficient, out,
         )  # fmt: skip
         return out
@@ -403,12 +424,12 @@ def ring_ages(rings: int, n_s: int, n_w: int) -> np.ndarray:
     return np.einsum("skj,ke->sej", to_rings, folded).reshape(to_rings.shape[0], n_w * n_s)
 
 
-@njit(cache=True, error_model=BRANCH_FREE, fastmath={"reassoc", "contract"})
+@stroke_loop(error_model=BRANCH_FREE, fastmath={"reassoc", "contract"})
 def _fill_field(matrix, rows, strips, out):
     """:func:`field_on_grid` on numpy, compiled and parallel over strokes b: ``out[b, i, r]`` =
     Σ_(e, j) ``matrix[rows[b], i, r, e·N_s + j]``·``strips[b, (i − e) mod n_w, j]``."""
     n_w, n_s = strips.shape[1], strips.shape[2]
-    for b in range(strips.shape[0]):
+    for b in prange(strips.shape[0]):
         at = rows[b]
         shifted = np.empty(n_w * n_s)
         for i in range(n_w):
@@ -433,7 +454,7 @@ def field_on_grid(matrix: Any, strips: Any, xp, rows: Any = None) -> Any:
     if xp is NUMPY:
         rows = np.arange(n_b) if rows is None else np.asarray(rows)
         out = np.empty((n_b, n_w, matrix.shape[2]))
-        _fill_field(matrix, rows.astype(np.int64), np.ascontiguousarray(strips), out)
+        _fill_field(n_b, matrix, rows.astype(np.int64), np.ascontiguousarray(strips), out)
         return out.reshape(n_b, n_w, -1, 3)
     if rows is not None:
         matrix = matrix[rows]
@@ -442,17 +463,17 @@ def field_on_grid(matrix: Any, strips: Any, xp, rows: Any = None) -> Any:
     return (matrix @ flat).reshape(n_b, n_w, -1, 3)
 
 
-@njit(cache=True, error_model=BRANCH_FREE)
-def _fill_element_field(flat, index, weight, coef, beta, to_elements, out, mean):
+@stroke_loop(error_model=BRANCH_FREE)
+def _fill_element_field(flat, index, weight, coef, beta, out, mean):
     """:func:`element_field` on numpy, compiled and parallel over strokes b: ``flat`` (B, n_w,
     M·3) the scaled field on the wake grid, ``index``, ``weight`` (B, n_time, 2) its brackets,
-    ``coef`` (B, n_time, N_COEF), ``beta`` (B,), ``to_elements`` (n_blade, M); writes the
-    offsets into ``out`` (B, n_blade, 2, n_time) and the mean into ``mean`` (B, M)."""
-    n_t, n_m = index.shape[1], to_elements.shape[1]
+    ``coef`` (B, n_time, N_COEF), ``beta`` (B,); writes the offsets at the M stations into
+    ``out`` (B, 2, M, n_time) and the mean into ``mean`` (B, M)."""
+    n_t, n_m = index.shape[1], mean.shape[1]
     c_x = (blade.C_ECX, blade.C_ENX)
     c_y = (blade.C_ECY, blade.C_ENY)
     c_z = (blade.C_ECZ, blade.C_ENZ)
-    for b in range(flat.shape[0]):
+    for b in prange(flat.shape[0]):
         cb, sb = np.cos(beta[b]), np.sin(beta[b])
         w = np.empty((n_t, flat.shape[2]))
         for t in range(n_t):
@@ -465,7 +486,7 @@ def _fill_element_field(flat, index, weight, coef, beta, to_elements, out, mean)
             for t in range(n_t):
                 total += (w[t, 3 * m] * sb + w[t, 3 * m + 2] * cb) * coef[b, t, blade.C_WEIGHT]
             mean[b, m] = total / n_t
-        d = np.empty((2, n_m, n_t))
+        d = out[b]
         for t in range(n_t):
             for k in range(2):
                 ex = cb * coef[b, t, c_x[k]] + sb * coef[b, t, c_z[k]]
@@ -475,14 +496,6 @@ def _fill_element_field(flat, index, weight, coef, beta, to_elements, out, mean)
                     d[k, m, t] = coef[b, t, c_z[k]] * mean[b, m] - (
                         ex * w[t, 3 * m] + ey * w[t, 3 * m + 1] + ez * w[t, 3 * m + 2]
                     )
-        for j in range(to_elements.shape[0]):
-            for k in range(2):
-                for t in range(n_t):
-                    out[b, j, k, t] = 0.0
-                for m in range(n_m):
-                    weight_jm = to_elements[j, m]
-                    for t in range(n_t):
-                        out[b, j, k, t] += weight_jm * d[k, m, t]
 
 
 def element_field(
@@ -490,8 +503,11 @@ def element_field(
 ) -> tuple[Any, Any]:
     """The field ``w`` (B, n_w, M, 3) [m/s] on the target's elements and samples, as the
     kernel takes it: its (u, v) offsets −w·e_c, −w·e_n less the cycle-mean normal part, (B,
-    n_blade, 2, n_time), and that mean along −z_s, (B, n_blade), the upstream inflow of the
-    momentum side (docs/model.md §5.8 item 5); times ``scale`` (B,) (C_hf, 0 where off).
+    n_blade, 2, n_time) on torch, and on numpy (B, 2, M, n_time) at the M stations, which the
+    kernel interpolates onto each stroke's elements (``to_elements``; ``cycle.station_offsets``)
+    rather than holding every element's in memory; and that mean along −z_s, (B, n_blade), the
+    upstream inflow of the momentum side (docs/model.md §5.8 item 5); times ``scale`` (B,)
+    (C_hf, 0 where off).
     ``to_grid``: :func:`periodic_brackets` from the wake grid to the kernel's samples, (B,
     n_time, 2) indices and weights. The interpolation, the projections and the mean are linear
     and the same along the span, so they are taken at the M stations, the projections on
@@ -501,12 +517,12 @@ def element_field(
     index, weight = to_grid
     if xp is NUMPY:
         coef = np.ascontiguousarray(target.coef[:, 0])
-        out = np.empty((n_b, to_elements.shape[0], 2, coef.shape[1]))
+        out = np.empty((n_b, 2, to_elements.shape[1], coef.shape[1]))
         mean = np.empty((n_b, to_elements.shape[1]))
         _fill_element_field(
+            n_b,
             np.ascontiguousarray(flat), np.ascontiguousarray(index), np.ascontiguousarray(weight),
-            coef, np.ascontiguousarray(target.params[:, 13]), np.ascontiguousarray(to_elements),
-            out, mean,
+            coef, np.ascontiguousarray(target.params[:, 13]), out, mean,
         )  # fmt: skip
         return out, -(mean @ to_elements.T)
     stroke = xp.as_int64(xp.arange_like(n_b, flat))[:, None]
@@ -587,13 +603,7 @@ def vortex_reading(
         lattice(p, disc_mean(p, v, xp), speed, path_angle, b, wake, xp)
         for p, v, b in zip(pairs, inflow, beats, strict=True)
     ]
-    to_elements = [
-        xp.constant_like(
-            span_interpolation(np.linspace(0.02, 0.98, wake.read_points), p.r / p.wing.length),
-            p.phase,
-        )
-        for p in pairs
-    ]
+    to_elements = [xp.constant_like(station_weights(p, wake), p.phase) for p in pairs]
     uniform = xp.constant_like(2.0 * np.pi * np.arange(wake.n_wake) / wake.n_wake, fore.phase)
     to_grid = [periodic_brackets(uniform[None], p.phase, xp) for p in pairs]
     matrices = [influence(lattices[1 - w], pairs[w], wake, xp) for w in (0, 1)]
@@ -607,7 +617,14 @@ def vortex_reading(
                 strip_circulation(
                     lattices[w].to_strips,
                     samples[w][1],
-                    circulation(p, v, None if fields is None else fields[w], samples[w][0], xp),
+                    circulation(
+                        p,
+                        v,
+                        None if fields is None else fields[w],
+                        samples[w][0],
+                        xp,
+                        to_elements[w],
+                    ),
                     wake,
                     xp,
                 )
@@ -659,12 +676,12 @@ def vortex_reading(
     return result, converged
 
 
-@njit(cache=True)
+@stroke_loop()
 def _fill_frames(angles, weight, beta, spin_total, out):
     """Each stroke's frame coefficients (``blade.fill_frame_coefficients``, the right wing):
     ``angles`` (B, n_time, 9), ``weight`` (B, n_time), ``beta`` (B,); ``out`` (B, n_time,
     N_COEF)."""
-    for b in range(angles.shape[0]):
+    for b in prange(angles.shape[0]):
         blade.fill_frame_coefficients(angles[b], weight[b], beta[b], spin_total, 1, out[b])
 
 
@@ -682,16 +699,22 @@ def kernel_reading(
     """The vortex reading on the numba kernel: ``wings`` the fore and hind
     ``bundle.WingBatch``, ``params`` their (B, 14) parameters [Hz, rad, -], ``phases`` (B, 2,
     n_time) [rad]; ``run_pass(wings)`` runs the kernel on them (the whole batch or some of its
-    strokes, as many as the wings hold) and returns its ``bundle.Outputs``. Returns the last pass's outputs, with the fixed point's convergence
-    folded into each wing's ``W_CONVERGED`` (``cycle``)."""
+    strokes, as many as the wings hold) and returns its ``bundle.Outputs``, with each sample's
+    frame coefficients computed once here (``WingBatch.frames``). Returns each stroke's
+    outputs of the pass at which it stopped, with the fixed point's convergence folded into
+    each wing's ``W_CONVERGED`` (``cycle``); the caller takes the cycle means from their
+    history where its passes leave them out (``Settings.means``)."""
 
     pairs = []
+    frames = []
     for w, (batch, wing) in enumerate(zip(wings, (insect.fore, insect.hind), strict=True)):
         coef = np.empty((*batch.weight.shape, blade.N_COEF))
         _fill_frames(
+            len(coef),
             np.ascontiguousarray(batch.angles), np.ascontiguousarray(batch.weight),
             np.ascontiguousarray(batch.beta), spin_total, coef,
         )  # fmt: skip
+        frames.append(coef)  # the kernel's own, computed once for all passes
         coef = coef[:, None]
         root = np.array([-insect.root_spacing * w, ROOT_HALF_WIDTH, -insect.root_drop * w])
         pairs.append(
@@ -699,7 +722,9 @@ def kernel_reading(
                  np.array(batch.nodes[:, cycle.N_R]), np.array(batch.nodes[:, cycle.N_WIDTH]), root)
         )  # fmt: skip
 
+    wings = tuple(b._replace(frames=f) for b, f in zip(wings, frames, strict=True))
     result = run_pass(wings)  # pass 0, the isolated pairs, on the whole batch
+    to_elements = [np.ascontiguousarray(station_weights(p, WAKE)) for p in pairs]
     converged = np.zeros(len(speed), dtype=bool)
     # the fixed point, stroke by stroke, on WAKE.chunk strokes at a time: the same results
     # (item 6), and arrays small enough to be reused rather than mapped afresh at each pass
@@ -715,9 +740,9 @@ def kernel_reading(
             outputs = run_pass(
                 tuple(
                     b._replace(**{name: getattr(b, name)[index] for name in BATCH_FIELDS},
-                               external=np.ascontiguousarray(f[0]),
-                               external_inflow=np.ascontiguousarray(f[1]))
-                    for b, f in zip(wings, fields, strict=True)
+                               external=f[0], external_inflow=np.ascontiguousarray(f[1]),
+                               to_elements=elements)
+                    for b, f, elements in zip(wings, fields, to_elements, strict=True)
                 )
             )  # fmt: skip
             for whole, piece in zip(result, outputs, strict=True):

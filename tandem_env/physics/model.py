@@ -17,7 +17,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from . import cycle, interaction
+from . import blade, cycle, interaction
 from .bundle import Outputs, Settings, WingBatch
 from .checks import real_array, shown
 from .coefficients import PaperCoefficients
@@ -26,13 +26,9 @@ from .insect import DRAGONFLY, Dragonfly, Wing
 from .kinematics import fill_angle_history, motion_grid, wing_params_radians
 from .options import HOVER_NORMAL_SPEED, ModelOptions
 from .stroke import N_PER_WING, validate_physical
-from .xp import NUMPY, ArrayNamespace
+from .xp import NUMPY, SERIAL_BELOW, ArrayNamespace
 
 DEFAULT_OPTIONS = ModelOptions()
-
-#: Batches smaller than this run stroke by stroke on the calling thread: a parallel launch costs
-#: more than it saves.
-SERIAL_BELOW = 4
 
 #: The metrics every evaluation reports, in the order environments list them in ``info``.
 METRIC_NAMES: tuple[str, ...] = (
@@ -349,7 +345,7 @@ def kernel_settings(insect: Dragonfly, options: ModelOptions, n_time: int) -> Se
     mode = {"none": cycle.MODE_NONE, "isolated": cycle.MODE_ISOLATED, "coupled": cycle.MODE_COUPLED}
     return Settings(
         mode[options.induction], options.interference, options.spin == "total", options.tolerance,
-        options.max_evaluations, options.slipstream == "convected", insect.air_density,
+        options.max_evaluations, options.slipstream == "convected", True, insect.air_density,
         insect.root_spacing, insect.root_drop, *cycle.fourier_tables(n_time),
     )  # fmt: skip
 
@@ -436,8 +432,10 @@ def run_kernel(
             tables[2 * w],
             tables[2 * w + 1],
             coefficient_tables(insect)[w],
-            np.empty((0, tables[2 * w].shape[0], 2, n_time)),
+            np.empty((0, 2, 1, n_time)),
             np.empty((0, tables[2 * w].shape[0])),
+            np.empty((tables[2 * w].shape[0], 1)),
+            np.empty((0, n_time, blade.N_COEF)),
         )
         for w in (0, 1)
     )
@@ -447,8 +445,8 @@ def run_kernel(
         # the vortex reading's passes run some of the strokes, each into outputs of its own
         n = wings[0].weight.shape[0]
         out = outputs
-        if vortex:
-            out = Outputs(*(np.empty((min(len(a), n), *a.shape[1:])) for a in outputs))
+        if vortex:  # each pass keeps its history, whose means are taken once at the end
+            out = Outputs(*(np.empty((n, *a.shape[1:])) for a in outputs))
         with compile_notice():  # the first call compiles the kernels: say so once
             if n >= SERIAL_BELOW:
                 cycle.tandem_cycle(*wings, settings, out)
@@ -461,12 +459,18 @@ def run_kernel(
         return run((fore, hind))
     # the vortex reading (docs/model.md §5.8): each pair's own inflow as if isolated, the other
     # pair's field in its element velocities, passes to a fixed point
-    settings = settings._replace(mode=cycle.MODE_ISOLATED)
+    # (the cycle means only of the pass at which each stroke stops: from its history)
+    settings = settings._replace(mode=cycle.MODE_ISOLATED, means=False)
     scale = np.where(off.any(1), 0.0, options.interference)
-    return interaction.kernel_reading(
+    result = interaction.kernel_reading(
         (fore, hind), params, phases, run, speed, flight_path_angle, scale, insect,
         options.spin == "total",
     )  # fmt: skip
+    cycle.history_means(
+        len(result.history), result.history, fore.weight, hind.weight, settings.cos_table,
+        settings.sin_table, result.means,
+    )  # fmt: skip
+    return result if keep_history else result._replace(history=outputs.history)
 
 
 def _performance(

@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit, prange
 
 from .kinematics import flapping, pitching, weaving
-from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace
+from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace, stroke_loop
 
 #: Distance of each wing root from the body's mid-plane [m]: half the thorax's 4 mm width
 #: (docs/model.md §1.5; the cross-check's ``ROOT_OFFSET`` is the same).
@@ -341,122 +341,173 @@ _FAST = {"contract", "arcp"}
 
 
 @njit(cache=True, error_model=BRANCH_FREE, fastmath=_FAST)
-def _add_segments(rel, inv, d, inv_len, core4, step, sx, sy, sz, out):
-    """Adds to ``out`` (3, n) the unit velocities, mirrored by (sx, sy, sz), of the segments
-    from node n to node n + ``step`` at the read point whose offsets from the nodes are ``rel``
-    (3, n_all) (``inv``: their inverse lengths); ``d`` (3, n) the segments, ``inv_len`` their
-    inverse squared lengths, ``core4`` their viscous cores (Biot-Savart with a core)."""
-    four_pi = 4.0 * math.pi
-    for n in range(rel.shape[1] - step):
-        r1x, r1y, r1z = rel[0, n], rel[1, n], rel[2, n]
-        r2x, r2y, r2z = rel[0, n + step], rel[1, n + step], rel[2, n + step]
-        r0x, r0y, r0z = d[0, n], d[1, n], d[2, n]
-        cx = r1y * r2z - r1z * r2y
-        cy = r1z * r2x - r1x * r2z
-        cz = r1x * r2y - r1y * r2x
-        along = (r0x * r1x + r0y * r1y + r0z * r1z) * inv[n] - (
-            r0x * r2x + r0y * r2y + r0z * r2z
-        ) * inv[n + step]
-        h2 = (cx * cx + cy * cy + cz * cz) * inv_len[n]
-        root = np.sqrt(max(h2 * h2 + core4[n], _TINY * _TINY))
-        factor = along * inv_len[n] / (four_pi * root)
-        out[0, n] += sx * factor * cx
-        out[1, n] += sy * factor * cy
-        out[2, n] += sz * factor * cz
+def _pair_velocities(rel, seg, step, count, out):
+    """``out[:, n]``, n < ``count``: the unit velocity of the segment from node n to node
+    n + ``step`` at a read point plus the mirrored one (Y → −Y, :data:`MIRROR`) at a second
+    point (the read point's image): ``rel`` (8, nodes) each node's offset from the read point
+    and its length, then the same from the image [m]; ``seg`` (5, ≥ ``count``) each segment's
+    r0 (3), 1/|r0|² and r_c⁴. :func:`unit_velocity`'s formula, with the node lengths and the
+    core's root in the denominator and one division for both points. One loop over the
+    segments, structure of arrays, no branches: it vectorises (sqrt and division 4-wide).
+    Every index is a loop's or a shift known not to be negative (``max(step, 0)``), so the
+    loads are plain vector loads (a possibly negative index would take numba's wraparound
+    and make each a gather)."""
+    step = max(step, 0)
+    for n in range(count):
+        m = n + step
+        dx, dy, dz, inv, core4 = seg[0, n], seg[1, n], seg[2, n], seg[3, n], seg[4, n]
+        sx, sy, sz, sl = rel[0, n], rel[1, n], rel[2, n], rel[3, n]
+        ex, ey, ez, el = rel[0, m], rel[1, m], rel[2, m], rel[3, m]
+        acx = sy * ez - sz * ey
+        acy = sz * ex - sx * ez
+        acz = sx * ey - sy * ex
+        a_along = (dx * sx + dy * sy + dz * sz) * el - (dx * ex + dy * ey + dz * ez) * sl
+        h2 = (acx * acx + acy * acy + acz * acz) * inv
+        a_den = np.sqrt(max(h2 * h2 + core4, _TINY * _TINY)) * sl * el
+        sx, sy, sz, sl = rel[4, n], rel[5, n], rel[6, n], rel[7, n]
+        ex, ey, ez, el = rel[4, m], rel[5, m], rel[6, m], rel[7, m]
+        bcx = sy * ez - sz * ey
+        bcy = sz * ex - sx * ez
+        bcz = sx * ey - sy * ex
+        b_along = (dx * sx + dy * sy + dz * sz) * el - (dx * ex + dy * ey + dz * ez) * sl
+        h2 = (bcx * bcx + bcy * bcy + bcz * bcz) * inv
+        b_den = np.sqrt(max(h2 * h2 + core4, _TINY * _TINY)) * sl * el
+        both = inv / (4.0 * math.pi * a_den * b_den)
+        fa = a_along * b_den * both
+        fb = b_along * a_den * both
+        out[0, n] = fa * acx + fb * bcx
+        out[1, n] = fa * acy - fb * bcy
+        out[2, n] = fa * acz + fb * bcz
 
 
-@njit(cache=True, parallel=True, error_model=BRANCH_FREE, fastmath=_FAST)
-def _fill_wake_influence(bound, edge, carried, core2, points, signs, out):
-    """:func:`wake_influence`'s compiled loop, parallel over (stroke b, sample i): ``bound``,
-    ``edge`` (B, n_w, N, 3), ``carried`` (B, K + 1, 3), ``core2`` (B, S) each segment's
-    squared core radius in :func:`lattice_geometry`'s order, ``points`` (B, n_w, k·P, 3),
-    ``signs`` (k, 3) as :func:`_fill_influence`'s; ``out`` (B, n_w, P, 3, n_w·(N − 1))."""
+@njit(cache=True, error_model=BRANCH_FREE)
+def _node_offsets(nodes, point, image, rel):
+    """``rel`` (8, nodes) of :func:`_pair_velocities`: each of ``nodes`` (3, nodes)' offset
+    from ``point`` (3,) and its length, then the same from ``image`` (3,) [m]."""
+    px, py, pz = point[0], point[1], point[2]
+    qx, qy, qz = image[0], image[1], image[2]
+    for n in range(rel.shape[1]):
+        x, y, z = px - nodes[0, n], py - nodes[1, n], pz - nodes[2, n]
+        rel[0, n], rel[1, n], rel[2, n] = x, y, z
+        rel[3, n] = np.sqrt(max(x * x + y * y + z * z, _TINY))
+        x, y, z = qx - nodes[0, n], qy - nodes[1, n], qz - nodes[2, n]
+        rel[4, n], rel[5, n], rel[6, n] = x, y, z
+        rel[7, n] = np.sqrt(max(x * x + y * y + z * z, _TINY))
+
+
+@njit(cache=True, error_model=BRANCH_FREE)
+def _segments(nodes, step, count, seg):
+    """``seg`` (5, nodes) of :func:`_pair_velocities`: the segments from node n < ``count``
+    to node n + ``step`` of ``nodes`` (3, nodes) [m], r0 and 1/|r0|², and r_c⁴ = 1 (the
+    caller sets the cores); beyond ``count``, r0 = 0 and the rest 1."""
+    step = max(step, 0)
+    for n in range(count):
+        x = nodes[0, n + step] - nodes[0, n]
+        y = nodes[1, n + step] - nodes[1, n]
+        z = nodes[2, n + step] - nodes[2, n]
+        seg[0, n], seg[1, n], seg[2, n] = x, y, z
+        seg[3, n] = 1.0 / max(x * x + y * y + z * z, _TINY)
+        seg[4, n] = 1.0
+    for n in range(max(count, 0), seg.shape[1]):
+        seg[0, n] = seg[1, n] = seg[2, n] = 0.0
+        seg[3, n] = seg[4, n] = 1.0
+
+
+@njit(cache=True, error_model=BRANCH_FREE)
+def _build_lattice(bound, edge, carried, core2, i, nodes, along, trailed):
+    """Sample ``i``'s lattice for :func:`_pair_velocities`: ``nodes`` (3, R·N) flat n =
+    row·N + j (:func:`wake_nodes`: row 0 ``bound[i]``, row k + 1 ``edge`` at sample i − k,
+    periodic, plus ``carried[k]``); ``along`` (5, R·N) the segments from node n to n + 1
+    (those across two rows, j = N − 1, are read by nothing), ``trailed`` (5, R·N) from node
+    n to n + N, each r0 (3), 1/|r0|² and r_c⁴ from ``core2`` (S,) in
+    :func:`lattice_geometry`'s order. ``bound``, ``edge`` (n_w, N, 3), ``carried``
+    (K + 1, 3) one stroke's."""
+    n_w, n_n = bound.shape[0], bound.shape[1]
+    n_rows = carried.shape[0] + 1
+    n_all = n_rows * n_n
+    n_strips = n_n - 1
+    for c in range(3):
+        for j in range(n_n):
+            nodes[c, j] = bound[i, j, c]
+        back = i
+        for k in range(n_rows - 1):
+            for j in range(n_n):
+                nodes[c, (k + 1) * n_n + j] = edge[back, j, c] + carried[k, c]
+            back = back - 1 if back > 0 else n_w - 1
+    _segments(nodes, 1, n_all - 1, along)
+    _segments(nodes, n_n, n_all - n_n, trailed)
+    for row in range(n_rows):
+        for j in range(n_strips):
+            along[4, row * n_n + j] = core2[row * n_strips + j] ** 2
+    for row in range(n_rows - 1):
+        for j in range(n_n):
+            trailed[4, row * n_n + j] = core2[n_rows * n_strips + row * n_n + j] ** 2
+
+
+@njit(cache=True, error_model=BRANCH_FREE, fastmath=_FAST)
+def _fold_rings(u_a, u_t, n_n, folded, out):
+    """``out`` (3, n_w·(N − 1)) from the segments' unit velocities ``u_a`` (along) and
+    ``u_t`` (trailed) (3, R·N) of :func:`_build_lattice`'s lattice: ring (k, j) at flat n =
+    k·N + j is +along n, −along n + N, −trailed n, +trailed n + 1 (:func:`lattice_segments`);
+    ring 0 carries Γ at age 0, ring k ≥ 1 ½·(Γ at age k − 1 + Γ at age k), the ages folded
+    modulo n_w (``interaction.ring_ages``), rings k ≡ e (mod n_w) summed in ``folded``
+    (3, n_w·N) in the lattice's order. The shifted reads are slices, so that every index is
+    a loop's (no wraparound check) and the loops vectorise."""
+    span = folded.shape[1]
+    n_w = span // n_n
+    n_ring = u_a.shape[1] - n_n
+    n_strips = n_n - 1
+    for c in range(3):
+        fold = folded[c]
+        for m in range(span):
+            fold[m] = 0.0
+        for start in range(0, n_ring, span):
+            first = n_n if start == 0 else 0  # ring 0 is not folded
+            a0, a1 = u_a[c, start + first :], u_a[c, start + first + n_n :]
+            t0, t1 = u_t[c, start + first :], u_t[c, start + first + 1 :]
+            into = fold[first:]
+            for m in range(min(span, n_ring - start) - first):
+                into[m] += 0.5 * (a0[m] - a1[m] - t0[m] + t1[m])
+        row = out[c]
+        for e in range(n_w):
+            now, later = fold[e * n_n :], fold[(e + 1) * n_n if e + 1 < n_w else 0 :]
+            into = row[e * n_strips :]
+            for j in range(n_strips):
+                into[j] = now[j] + later[j]
+        a0, a1, t0, t1 = u_a[c], u_a[c, n_n:], u_t[c], u_t[c, 1:]
+        for j in range(n_strips):
+            row[j] += a0[j] - a1[j] - t0[j] + t1[j]
+
+
+@stroke_loop(error_model=BRANCH_FREE)
+def _fill_wake_influence(bound, edge, carried, core2, points, out):
+    """:func:`wake_influence`'s compiled loop, parallel over strokes b: ``bound``, ``edge``
+    (B, n_w, N, 3), ``carried`` (B, K + 1, 3), ``core2`` (B, S) each segment's squared core
+    radius in :func:`lattice_geometry`'s order, ``points`` (B, n_w, 2·P, 3) the read points
+    then their images; ``out`` (B, n_w, P, 3, n_w·(N − 1)). Per sample, the lattice
+    (:func:`_build_lattice`); per read point, the nodes' offsets from it and its image
+    (:func:`_node_offsets`), both families' unit velocities (:func:`_pair_velocities`) and
+    their rings folded onto the ages (:func:`_fold_rings`)."""
     n_b, n_w, n_n = bound.shape[0], bound.shape[1], bound.shape[2]
     n_points = out.shape[2]
-    n_rows = carried.shape[1] + 1  # R = K + 2
-    n_all = n_rows * n_n
-    n_along = n_rows * (n_n - 1)
-    n_strips = n_n - 1
-    n_ring = (n_rows - 1) * n_n
-    for q in prange(n_b * n_w):
-        b, i = q // n_w, q % n_w
-        # the lattice's nodes, flat n = row·N + j (wake_nodes): row 0 the bound vortex at t_i,
-        # row k + 1 the trailing edge at t_{i−k} carried by carried[k]
+    n_all = (carried.shape[1] + 1) * n_n
+    for b in prange(n_b):
         nodes = np.empty((3, n_all))
-        for j in range(n_n):
-            for c in range(3):
-                nodes[c, j] = bound[b, i, j, c]
-        for k in range(n_rows - 1):
-            back = (i - k) % n_w
-            for j in range(n_n):
-                for c in range(3):
-                    nodes[c, (k + 1) * n_n + j] = edge[b, back, j, c] + carried[b, k, c]
-        # per segment, independent of the point: r0, 1/|r0|², r_c⁴; along the rows the flat
-        # pairs (n, n + 1) (those across two rows, n = N − 1 mod N, are read by nothing),
-        # between the rows (n, n + N)
-        d_a = np.zeros((3, n_all))
-        d_t = np.zeros((3, n_all))
-        inv_a = np.ones(n_all)
-        inv_t = np.ones(n_all)
-        core4_a = np.ones(n_all)
-        core4_t = np.ones(n_all)
-        for n in range(n_all - 1):
-            for c in range(3):
-                d_a[c, n] = nodes[c, n + 1] - nodes[c, n]
-            inv_a[n] = 1.0 / max(d_a[0, n] ** 2 + d_a[1, n] ** 2 + d_a[2, n] ** 2, _TINY)
-        for n in range(n_all - n_n):
-            for c in range(3):
-                d_t[c, n] = nodes[c, n + n_n] - nodes[c, n]
-            inv_t[n] = 1.0 / max(d_t[0, n] ** 2 + d_t[1, n] ** 2 + d_t[2, n] ** 2, _TINY)
-        for row in range(n_rows):
-            for j in range(n_strips):
-                c2 = core2[b, row * n_strips + j]
-                core4_a[row * n_n + j] = c2 * c2
-        for row in range(n_rows - 1):
-            for j in range(n_n):
-                c2 = core2[b, n_along + row * n_n + j]
-                core4_t[row * n_n + j] = c2 * c2
-        rel = np.empty((3, n_all))
-        inv = np.empty(n_all)
-        u_a = np.empty((3, n_all))
-        u_t = np.empty((3, n_all))
-        ring = np.empty((3, n_all))
+        along = np.empty((5, n_all))
+        trailed = np.empty((5, n_all))
+        rel = np.empty((8, n_all))
+        # the entries no segment fills (past the last row) stay zero: the folds read them
+        # only into the strips' unused last slot, j = N − 1
+        u_a = np.zeros((3, n_all))
+        u_t = np.zeros((3, n_all))
         folded = np.empty((3, n_w * n_n))
-        for p0 in range(n_points):
-            u_a[:] = 0.0
-            u_t[:] = 0.0
-            for k in range(signs.shape[0]):
-                p = p0 + k * n_points
-                px, py, pz = points[b, i, p, 0], points[b, i, p, 1], points[b, i, p, 2]
-                sx, sy, sz = signs[k, 0], signs[k, 1], signs[k, 2]
-                for n in range(n_all):
-                    rx = px - nodes[0, n]
-                    ry = py - nodes[1, n]
-                    rz = pz - nodes[2, n]
-                    rel[0, n], rel[1, n], rel[2, n] = rx, ry, rz
-                    inv[n] = 1.0 / np.sqrt(max(rx * rx + ry * ry + rz * rz, _TINY))
-                _add_segments(rel, inv, d_a, inv_a, core4_a, 1, sx, sy, sz, u_a)  # along rows
-                _add_segments(rel, inv, d_t, inv_t, core4_t, n_n, sx, sy, sz, u_t)  # between
-            # ring (k, j) at flat n = k·N + j: +along row k, −along row k + 1, −trailed at node
-            # j, +trailed at node j + 1 (lattice_segments); j = N − 1 is read by nothing
-            for c in range(3):
-                for n in range(n_ring - 1):
-                    ring[c, n] = u_a[c, n] - u_a[c, n + n_n] - u_t[c, n] + u_t[c, n + 1]
-                ring[c, n_ring - 1] = 0.0
-            # ring 0 carries Γ at age 0, ring k ≥ 1 ½·(Γ at age k − 1 + Γ at age k), the ages
-            # folded modulo n_w (interaction.ring_ages): folded[e] = ½·Σ_{k ≥ 1, k ≡ e} ring k
-            folded[:] = 0.0
-            for c in range(3):
-                for n in range(n_n, n_ring):
-                    folded[c, n % (n_w * n_n)] += 0.5 * ring[c, n]
-            for c in range(3):
-                for e in range(n_w):
-                    later = ((e + 1) % n_w) * n_n
-                    for j in range(n_strips):
-                        value = folded[c, e * n_n + j] + folded[c, later + j]
-                        if e == 0:
-                            value += ring[c, j]
-                        out[b, i, p0, c, e * n_strips + j] = value
+        for i in range(n_w):
+            _build_lattice(bound[b], edge[b], carried[b], core2[b], i, nodes, along, trailed)
+            for p in range(n_points):
+                _node_offsets(nodes, points[b, i, p], points[b, i, n_points + p], rel)
+                _pair_velocities(rel, along, 1, n_all - 1, u_a)
+                _pair_velocities(rel, trailed, n_n, n_all - n_n, u_t)
+                _fold_rings(u_a, u_t, n_n, folded, out[b, i, p])
 
 
 def wake_influence(
@@ -476,9 +527,10 @@ def wake_influence(
     ``core_radius`` (B, 1, S) or (B, S) per segment [m]. numpy only: a compiled loop over
     strokes and samples that builds each lattice's nodes, takes each node's distance from a
     point once for the (up to) four segments that share it and each segment's direction and
-    length once for all points, and sums the segments into rings and the rings into ages in
-    the lattice's order, without the general combination matrix. ``out``: a contiguous array
-    of the result's shape to write it into (None: a new one)."""
+    length once for all points, reads each point and its image in the same vectorised loop
+    over the segments, and sums the segments into rings and the rings into ages in the
+    lattice's order, without the general combination matrix. ``out``: a contiguous array of
+    the result's shape to write it into (None: a new one)."""
     n_b, n_w, n_n = bound.shape[:3]
     n_p = points.shape[-2]
     if n_p % 2 or points.shape[:2] != (n_b, n_w) or carried.shape[0] != n_b:
@@ -493,8 +545,8 @@ def wake_influence(
         raise ValueError(f"out of shape {out.shape}; allowed: a contiguous array of {shape}")
     core2 = core_radius.reshape(n_b, -1) ** 2
     _fill_wake_influence(
+        n_b,
         np.ascontiguousarray(bound), np.ascontiguousarray(edge), np.ascontiguousarray(carried),
-        np.ascontiguousarray(core2), np.ascontiguousarray(points), np.stack([np.ones(3), MIRROR]),
-        out,
+        np.ascontiguousarray(core2), np.ascontiguousarray(points), out,
     )  # fmt: skip
     return out

@@ -21,6 +21,38 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+#: Batches smaller than this run stroke by stroke on the calling thread: a parallel launch costs
+#: more than it saves.
+SERIAL_BELOW = 4
+
+
+class StrokeLoop:
+    """A compiled loop over a batch's strokes (``prange``), compiled twice: in parallel, and
+    on the calling thread for batches of fewer than :data:`SERIAL_BELOW` strokes, where waking
+    the threads costs more than the loop (without ``parallel``, ``prange`` is ``range``: the
+    same arithmetic, the same bits). Call ``loop(strokes, *args)``, ``strokes`` the batch's
+    size; ``options`` are numba's (``error_model``, ``fastmath``)."""
+
+    def __init__(self, function: Callable, **options: Any) -> None:
+        self.parallel = njit(cache=True, parallel=True, **options)(function)
+        # numba's cache names its files by the function's qualified name, not by its options:
+        # the serial twin gets a name of its own so that neither loads the other's machine code
+        twin = types.FunctionType(
+            function.__code__, function.__globals__, function.__name__, function.__defaults__
+        )
+        twin.__qualname__ = f"{function.__qualname__}_serial"
+        twin.__module__ = function.__module__
+        self.serial = njit(cache=True, **options)(twin)
+        self.__doc__ = function.__doc__
+
+    def __call__(self, strokes: int, *args: Any) -> Any:
+        return (self.parallel if strokes >= SERIAL_BELOW else self.serial)(*args)
+
+
+def stroke_loop(**options: Any) -> Callable[[Callable], StrokeLoop]:
+    """Decorator: the function as a :class:`StrokeLoop` with numba's ``options``."""
+    return lambda function: StrokeLoop(function, **options)
+
 
 @dataclass(frozen=True)
 class ArrayNamespace:
