@@ -121,6 +121,8 @@ class WingBatch(NamedTuple):
     (0, …): none."""
     external_inflow: Any
     to_elements: Any
+    """(n_blade, M) the read stations' interpolation weights onto the elements (``external``;
+    unread where ``external`` has no rows)."""
     frames: Any
     """(B, n_time, ``blade.N_COEF``) the frame coefficients of each sample
     (``blade.fill_frame_coefficients``, the right wing) where the caller has them, or (0, …):

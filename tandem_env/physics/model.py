@@ -434,7 +434,7 @@ def run_kernel(
             coefficient_tables(insect)[w],
             np.empty((0, 2, 1, n_time)),
             np.empty((0, tables[2 * w].shape[0])),
-            np.empty((tables[2 * w].shape[0], 1)),
+            np.zeros((tables[2 * w].shape[0], 1)),
             np.empty((0, n_time, blade.N_COEF)),
         )
         for w in (0, 1)
