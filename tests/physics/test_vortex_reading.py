@@ -171,12 +171,11 @@ def test_reduced_wake_converges(monkeypatch, refined, points):
 
 @cache
 def _random(flight_path_angle: float) -> tuple[te.Result, te.Result]:
-    """The vortex reading and the isolated pairs on 128 random Table 4 strokes, in hover
-    (γ = 0, V = 0) or climbing (γ = +0.3 rad, V = 1 m/s). (The target is 1 024: on the 2-core
-    machine under load they took 5 min in hover and 1.4 min in the climb, over the CI's share;
-    docs/model.md §5.8 item 8 says what they gave.)"""
+    """The vortex reading and the isolated pairs on the 1 024 random Table 4 strokes asked of
+    the reading, in hover (γ = 0, V = 0) or climbing (γ = +0.3 rad, V = 1 m/s) (3.2 s and 1.3
+    s on the 2-core machine, 2026-12-07; docs/model.md §5.8 item 8 says what they give)."""
     rng = np.random.default_rng(41)
-    strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (128, 28)))
+    strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (1024, 28)))
     speed = 0.0 if flight_path_angle == 0.0 else 1.0
     return tuple(
         te.evaluate(strokes, speed, flight_path_angle=flight_path_angle, options=options)
@@ -192,11 +191,23 @@ def test_hover_and_climb_are_finite(flight_path_angle):
         assert np.isfinite(value.astype(float)).all(), name
 
 
-@pytest.mark.parametrize("flight_path_angle", [0.0, 0.3])
+@pytest.mark.parametrize(
+    "flight_path_angle",
+    [
+        pytest.param(
+            0.0,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="in hover one of the 1 024 fixed points (stroke 874) cycles instead of "
+                "converging, under Anderson's step, Jacobi and damped passes alike "
+                "(docs/model.md §5.8 item 8)",
+            ),
+        ),
+        0.3,
+    ],
+)
 def test_hover_and_climb_fixed_points_converge(flight_path_angle):
-    """Every stroke's fixed point (and inflow solve) converged within its limit: on these 128
-    strokes; on 1 024 in hover (run once, 2026-12-06) one did not within 20 passes
-    (docs/model.md §5.8 item 8)."""
+    """Every stroke's fixed point (and inflow solve) converged within its limit."""
     result, _ = _random(flight_path_angle)
     assert result.induction_converged.all()
 
@@ -224,12 +235,12 @@ def test_the_paper_reading_breaks_the_hover_bound_too():
     the readings there; the fore pair, which no momentum reading moves, keeps within it under
     the vortex reading wherever it lifts more than 10 % of the weight."""
     rng = np.random.default_rng(41)
-    strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (128, 28)))
+    strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (1024, 28)))
     mean = te.evaluate(strokes, 0.0, options=te.ModelOptions(slipstream="mean"))
     vortex, alone = _random(0.0)
     hind, hind_alone = mean.hind_lift_to_weight, alone.hind_lift_to_weight
     lifting = np.abs(hind_alone) > 1e-3
-    assert (np.abs(hind[lifting] / hind_alone[lifting] - 1.0) >= 1.0).sum() >= 5
+    assert (np.abs(hind[lifting] / hind_alone[lifting] - 1.0) >= 1.0).sum() >= 50
     fore, fore_alone = vortex.fore_lift_to_weight, alone.fore_lift_to_weight
     lifting = np.abs(fore_alone) > 0.1
     assert lifting.sum() > 50 and (np.abs(fore[lifting] / fore_alone[lifting] - 1.0) < 1.0).all()
