@@ -341,6 +341,23 @@ _FAST = {"contract", "arcp"}
 
 
 @njit(cache=True, error_model=BRANCH_FREE, fastmath=_FAST)
+def _segment_terms(segment, start, end):
+    """One segment's Biot-Savart terms at one read point for :func:`_pair_velocities`:
+    ``segment`` its r0 (3), 1/|r0|² and r_c⁴, ``start`` and ``end`` its nodes' offsets from
+    the point and their lengths (4 each) [m]; returns r1 × r2 (3), r0·(r1·|r2| − r2·|r1|) and
+    the denominator sqrt(h⁴ + r_c⁴)·|r1|·|r2| (h² = |r1 × r2|²/|r0|²)."""
+    dx, dy, dz, inv, core4 = segment
+    sx, sy, sz, sl = start
+    ex, ey, ez, el = end
+    cx = sy * ez - sz * ey
+    cy = sz * ex - sx * ez
+    cz = sx * ey - sy * ex
+    along = (dx * sx + dy * sy + dz * sz) * el - (dx * ex + dy * ey + dz * ez) * sl
+    h2 = (cx * cx + cy * cy + cz * cz) * inv
+    return cx, cy, cz, along, np.sqrt(max(h2 * h2 + core4, _TINY * _TINY)) * sl * el
+
+
+@njit(cache=True, error_model=BRANCH_FREE, fastmath=_FAST)
 def _pair_velocities(rel, seg, step, count, out):
     """``out[:, n]``, n < ``count``: the unit velocity of the segment from node n to node
     n + ``step`` at a read point plus the mirrored one (Y → −Y, :data:`MIRROR`) at a second
@@ -355,24 +372,16 @@ def _pair_velocities(rel, seg, step, count, out):
     step = max(step, 0)
     for n in range(count):
         m = n + step
-        dx, dy, dz, inv, core4 = seg[0, n], seg[1, n], seg[2, n], seg[3, n], seg[4, n]
-        sx, sy, sz, sl = rel[0, n], rel[1, n], rel[2, n], rel[3, n]
-        ex, ey, ez, el = rel[0, m], rel[1, m], rel[2, m], rel[3, m]
-        acx = sy * ez - sz * ey
-        acy = sz * ex - sx * ez
-        acz = sx * ey - sy * ex
-        a_along = (dx * sx + dy * sy + dz * sz) * el - (dx * ex + dy * ey + dz * ez) * sl
-        h2 = (acx * acx + acy * acy + acz * acz) * inv
-        a_den = np.sqrt(max(h2 * h2 + core4, _TINY * _TINY)) * sl * el
-        sx, sy, sz, sl = rel[4, n], rel[5, n], rel[6, n], rel[7, n]
-        ex, ey, ez, el = rel[4, m], rel[5, m], rel[6, m], rel[7, m]
-        bcx = sy * ez - sz * ey
-        bcy = sz * ex - sx * ez
-        bcz = sx * ey - sy * ex
-        b_along = (dx * sx + dy * sy + dz * sz) * el - (dx * ex + dy * ey + dz * ez) * sl
-        h2 = (bcx * bcx + bcy * bcy + bcz * bcz) * inv
-        b_den = np.sqrt(max(h2 * h2 + core4, _TINY * _TINY)) * sl * el
-        both = inv / (4.0 * math.pi * a_den * b_den)
+        segment = (seg[0, n], seg[1, n], seg[2, n], seg[3, n], seg[4, n])
+        acx, acy, acz, a_along, a_den = _segment_terms(
+            segment, (rel[0, n], rel[1, n], rel[2, n], rel[3, n]),
+            (rel[0, m], rel[1, m], rel[2, m], rel[3, m]),
+        )  # fmt: skip
+        bcx, bcy, bcz, b_along, b_den = _segment_terms(
+            segment, (rel[4, n], rel[5, n], rel[6, n], rel[7, n]),
+            (rel[4, m], rel[5, m], rel[6, m], rel[7, m]),
+        )  # fmt: skip
+        both = segment[3] / (4.0 * math.pi * a_den * b_den)
         fa = a_along * b_den * both
         fb = b_along * a_den * both
         out[0, n] = fa * acx + fb * bcx
