@@ -91,7 +91,8 @@ def attainable(
             for s in v.keys() & h.keys()
         }
         pairs = [
-            {"seed": s, "feasible": True, "objective_value": 0, "F_a": fa[s]} for s in sorted(fa)
+            {"seed": s, "feasible": True, "objective_value": fa[s], "F_a": fa[s]}
+            for s in sorted(fa)
         ]
         n = len(select(rows, objective="vertical", **pick))
         best = math.hypot(vertical[power].best, horizontal_series[power].best)
