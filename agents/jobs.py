@@ -20,7 +20,7 @@ from agents.polish_config import INITIAL_SHARE_RANGE
 from agents.tasks import available_tasks, get_task
 from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
 from tandem_env.io.files import to_jsonable
-from tandem_env.physics import N_PARAMETERS
+from tandem_env.physics import N_PARAMETERS, ModelOptions
 from tandem_env.physics.checks import count, is_integer, is_real
 
 #: Identifies record files (and their version) among other JSON files.
@@ -197,12 +197,23 @@ class Job:
 
     def key_at(self, version: str, model: int | None) -> str:
         """:attr:`key` as tandem_env ``version`` computed it with model revision ``model``
-        (None: a record made before the key held the model's revision)."""
+        (None: a record made before the key held the model's revision); a job under the vortex
+        reading holds :data:`~tandem_env.physics.VORTEX_REVISION` too."""
         payload = {**self.configuration(), "tandem_env": version, "record": SCHEMA}
         if model is not None:
             payload["model"] = model
+            if self.slipstream() == "vortex":  # that reading's own revision besides
+                payload["vortex"] = tandem_env.physics.VORTEX_REVISION
         text = json.dumps(payload, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+    def slipstream(self) -> str:
+        """The slipstream reading the job's model runs: its ``slipstream`` keyword, else its
+        ``options``' (an object or its mapping), else ``ModelOptions``' default."""
+        options = self.env("options")
+        given = options.get("slipstream") if isinstance(options, Mapping) else None
+        default = getattr(options, "slipstream", given) or ModelOptions().slipstream
+        return str(self.env("slipstream", default))
 
     def env(self, name: str, default: Any = None) -> Any:
         """One env keyword (``objective``, ``planform``, ...) or ``default``."""

@@ -57,6 +57,26 @@ def test_a_record_of_another_revision_is_not_served_and_is_kept(
     assert read_record(tmp_path / "c" / "records" / f"{new.key}.json") == new
 
 
+@pytest.mark.parametrize(
+    "given",
+    [{"slipstream": "vortex"}, {"options": tandem_env.ModelOptions(slipstream="vortex")}],
+)
+def test_the_vortex_readings_own_revision_moves_its_records_keys_only(
+    given: dict, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a change of the vortex reading alone (its constants) leaves every other reading's records
+    # served: the reference table's among them
+    vortex = Job("pso", "level", 2.0, 16, 0, env_kwargs={**SMALL, **given})
+    mean = Job("pso", "level", 2.0, 16, 0, env_kwargs={**SMALL, "slipstream": "mean"})
+    assert (vortex.slipstream(), mean.slipstream(), JOB.slipstream()) == ("vortex", "mean", "mean")
+    before = {job: job.key for job in (vortex, mean, JOB)}
+    monkeypatch.setattr(
+        tandem_env.physics, "VORTEX_REVISION", tandem_env.physics.VORTEX_REVISION + 1
+    )
+    assert vortex.key != before[vortex]
+    assert (mean.key, JOB.key) == (before[mean], before[JOB])
+
+
 def test_a_record_from_before_keys_held_the_revision_is_not_served(
     tmp_path: Path, record_cache: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -14,7 +14,8 @@ option set of the torch-backend test (tests/physics/test_torch_backend.py), and 
     PYTHONPATH=. python tests/physics/kernel_cases.py --canary
 
 writes the same cases, fewer strokes, with this tree's model to :data:`CANARY`, beside its
-``MODEL_REVISION`` (after each bump of it: test_kernel_equal.py's canary).
+``MODEL_REVISION`` and ``VORTEX_REVISION`` (after each bump of either: test_kernel_equal.py's
+canary).
 """
 
 from __future__ import annotations
@@ -97,7 +98,11 @@ if __name__ == "__main__":
     args = parser.parse_args()
     print(f"evaluating with {te.__file__}")
     per_set, batch = (3, 8) if args.canary else (args.per_set, args.batch)
-    revision = {"revision": te.physics.MODEL_REVISION} if args.canary else {}
+    revision = (
+        {"revision": te.physics.MODEL_REVISION, "vortex_revision": te.physics.VORTEX_REVISION}
+        if args.canary
+        else {}
+    )
     np.savez_compressed(
         CANARY if args.canary else args.out,
         per_set=per_set,

@@ -27,6 +27,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import tandem_env as te
 
@@ -82,7 +83,15 @@ def compare(
     moved = np.zeros(len(case), dtype=bool)
     fall = 0.0
     for name, want in expected.items():
-        if name in ("case_names", "case_sizes", "per_set", "batch", "revision", *skipped):
+        if name in (
+            "case_names",
+            "case_sizes",
+            "per_set",
+            "batch",
+            "revision",
+            "vortex_revision",
+            *skipped,
+        ):
             continue
         have = got[name]
         if want.dtype == bool or np.issubdtype(want.dtype, np.integer):
@@ -120,19 +129,42 @@ def test_kernel_equals_its_previous_version() -> None:
     assert fall <= 1e-9, f"a positive part fell below 8e3cf19's by {fall:.3g}"
 
 
-def test_results_move_only_with_the_model_revision() -> None:
+def _cases(data: dict[str, np.ndarray], vortex: bool) -> dict[str, np.ndarray]:
+    """The cases of ``data`` under the vortex reading (``vortex``) or under the others."""
+    names = [str(n) for n in data["case_names"]]
+    mine = np.array(["slipstream='vortex'" in n for n in names]) == vortex
+    rows = np.repeat(mine, data["case_sizes"])
+    cases = {"case_names": data["case_names"][mine], "case_sizes": data["case_sizes"][mine]}
+    return {
+        name: value if value.ndim == 0 or name in cases else value[rows]
+        for name, value in data.items()
+    } | cases
+
+
+@pytest.mark.parametrize("vortex", [False, True], ids=["other readings", "vortex reading"])
+def test_results_move_only_with_the_model_revision(vortex: bool) -> None:
     # The canary: a record is reused while its model revision is today's (docs/harness.md, "The
-    # record cache"), so every change of a result beyond RELATIVE must bump MODEL_REVISION.
-    stored, revision = dict(np.load(CANARY)), te.physics.MODEL_REVISION
-    assert int(stored["revision"]) == revision, (
-        f"{CANARY.name} holds revision {int(stored['revision'])}, MODEL_REVISION is {revision}: "
-        "rewrite it with PYTHONPATH=. python tests/physics/kernel_cases.py --canary"
+    # record cache"), so every change of a result beyond RELATIVE must bump MODEL_REVISION, or
+    # VORTEX_REVISION where only the vortex reading's results move.
+    stored = dict(np.load(CANARY))
+    today = {"revision": te.physics.MODEL_REVISION}
+    if vortex:
+        today["vortex_revision"] = te.physics.VORTEX_REVISION
+    held = {name: int(stored[name]) if name in stored else None for name in today}
+    assert held == today, (
+        f"{CANARY.name} holds revisions {held}, today's are {today}: rewrite it with "
+        "PYTHONPATH=. python tests/physics/kernel_cases.py --canary"
     )
-    worst, where, flipped, _, _ = compare(stored, _today(stored), (), ())
+    mine = _cases(stored, vortex)
+    assert len(mine["case_names"]) > 0
+    worst, where, flipped, _, _ = compare(mine, _cases(_today(stored), vortex), (), ())
     print(f"largest relative change {worst:.3g} ({where}); flags changed: {flipped or 'none'}")
+    bump, revision = (
+        ("VORTEX_REVISION", "vortex_revision") if vortex else ("MODEL_REVISION", "revision")
+    )
     assert worst <= RELATIVE and not flipped, (
         f"the model's results moved by {worst:.3g} ({where}; flags: {flipped or 'none'}) while "
-        f"MODEL_REVISION is still {revision}: bump MODEL_REVISION (tandem_env/physics/"
-        "__init__.py), then rewrite the canary (PYTHONPATH=. python tests/physics/kernel_cases.py "
-        "--canary)"
+        f"{bump} is still {today[revision]}: bump {bump} "
+        "(tandem_env/physics/__init__.py), then rewrite the canary (PYTHONPATH=. python "
+        "tests/physics/kernel_cases.py --canary)"
     )
