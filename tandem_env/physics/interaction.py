@@ -59,11 +59,11 @@ class VortexWake:
     read_points: int = 6
     """M: span stations reading the other pair's velocity [-]."""
     fore_beats: float = 3.0
-    """The fore pair's wake length [beats] (it passes the hind pair; 4 beats move the lag
-    study's changes by at most 0.9 points)."""
+    """The fore pair's wake length [beats] (it passes the hind pair; 4 beats, with the hind
+    pair's 3, move the lag study's changes by at most 0.8 points)."""
     hind_beats: float = 2.0
     """The hind pair's wake length [beats] (it leaves the fore pair; 3 beats move the fore
-    pair's change at 0.5 m/s by at most 0.5 points, 1.5 beats would be 1 point off)."""
+    pair's change at 0.5 m/s by at most 0.4 points, where 1.5 beats were 1.0 point off)."""
     descent: float = 1.0
     """κ_w: the wake descends at κ_w·v̄ along the source's z_s [-]."""
     core: float = 0.5e-3
