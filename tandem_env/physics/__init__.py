@@ -30,8 +30,9 @@ MODEL_REVISION = 4
 #: MODEL_REVISION: bump it in a change that moves the vortex reading's results only (its
 #: constants, its reduced wake; docs/model.md §5.8), so that the other readings' records (the
 #: reference table's among them) stay served; the canary checks both. 2: the factor on the
-#: shed circulation refitted to 1.7 and the hind pair's wake 2 beats long (2026-12-07).
-VORTEX_REVISION = 2
+#: shed circulation refitted to 1.7 and the hind pair's wake 2 beats long; 3: the fixed point's
+#: Anderson step of depth two (2026-12-07).
+VORTEX_REVISION = 3
 from .coefficients import (
     COEFFICIENT_MODELS,
     PaperCoefficients,

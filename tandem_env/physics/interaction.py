@@ -13,6 +13,7 @@ inflow stays the momentum solve. The passes run to a fixed point (:func:`vortex_
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -79,13 +80,16 @@ class VortexWake:
     max_passes: int = 20
     """Most passes of the fixed point (kernel calls after the isolated one) [-]."""
     accelerate: bool = True
-    """Anderson's step of depth one on the passes (False: plain Jacobi passes)."""
+    """Anderson's step on the passes (False: plain Jacobi passes)."""
+    depth: int = 2
+    """Anderson's depth: the differences of the last ``depth`` passes it mixes [-] (1: a
+    secant step; 2 converges hover strokes that 1 leaves cycling, docs/model.md §5.8 item 6)."""
     chunk: int = 64
     """Strokes per Biot-Savart evaluation (memory ∝ chunk·n_w·M·segments) and, on the numba
     backend, per fixed point (the batch's strokes are iterated this many at a time) [-]."""
 
     def __post_init__(self) -> None:
-        for name in ("n_wake", "strips", "read_points", "max_passes", "chunk"):
+        for name in ("n_wake", "strips", "read_points", "max_passes", "chunk", "depth"):
             value = getattr(self, name)
             least = 2 if name in ("n_wake", "read_points") else 1
             if not isinstance(value, int) or isinstance(value, bool) or value < least:
@@ -594,8 +598,9 @@ def vortex_reading(
     times the sum of both pairs' RMS strips: pass m's input reproduces itself, pass m is that
     stroke's result, and the later passes run the other strokes only (every step below is
     stroke by stroke, so a stroke's result does not depend on the others). Otherwise x_{m+1} =
-    g_m (Jacobi), or with ``wake.accelerate`` Anderson's step of depth one, x_{m+1} = g_m −
-    β·(g_m − g_{m−1}), β minimising |r_m − β·(r_m − r_{m−1})| (r = g − x). ``speed`` V [m/s],
+    g_m (Jacobi), or with ``wake.accelerate`` Anderson's step of depth k = ``wake.depth``,
+    x_{m+1} = g_m − Σ_i β_i·(g_{m−i+1} − g_{m−i}), the β minimising |r_m − Σ_i β_i·(r_{m−i+1} −
+    r_{m−i})| (r = g − x; i = 1 … k, as many as the passes so far give). ``speed`` V [m/s],
     ``path_angle`` γ [rad] and ``scale`` (C_hf, 0 where the reading is off) are (B,).
     """
     inflow, result = run(None, None)
@@ -612,7 +617,8 @@ def vortex_reading(
     samples = [(lat.samples, lat.sample_weights) for lat in lattices]
     rows = xp.as_int64(xp.arange_like(fore.phase.shape[0], fore.phase))  # the strokes solved
     converged = xp.zeros_bool(rows)
-    fields = given = last = None  # last: the last pass's (given strips, residual)
+    fields = given = None
+    history: list[tuple[Any, Any]] = []  # the last passes' (strips g, residual r), oldest first
     for passes in range(wake.max_passes + 1):
         strips = xp.stack(
             [
@@ -653,15 +659,10 @@ def vortex_reading(
                 pairs = tuple(p.take(keep) for p in pairs)
                 samples = [(i[keep], s[keep]) for i, s in samples]
                 to_grid = [(i[keep], g[keep]) for i, g in to_grid]
-                last = None if last is None else (last[0][keep], last[1][keep])
-            if last is not None and wake.accelerate:  # Anderson's step of depth one (secant)
-                dr, dg = residual - last[1], strips - last[0]
-                dot, norm = (residual * dr).sum((1, 2, 3)), (dr * dr).sum((1, 2, 3))
-                step = xp.where(norm > 0.0, dot / xp.where(norm > 0.0, norm, 1.0), 0.0)
-                last = (strips, residual)
-                strips = strips - step[:, None, None, None] * dg
-            else:
-                last = (strips, residual)
+                history = [(g[keep], r[keep]) for g, r in history]
+            history = [*history, (strips, residual)][-(wake.depth + 1) :]
+            if wake.accelerate and len(history) > 1:
+                strips = anderson_step(history, xp)
         given = strips
         fields = tuple(
             element_field(
@@ -676,6 +677,24 @@ def vortex_reading(
         )
         inflow, result = run(fields, rows)
     return result, converged
+
+
+def anderson_step(history: list[tuple[Any, Any]], xp: ArrayNamespace) -> Any:
+    """Anderson's next input from the passes' ``history`` of (g, r), oldest first, each (n, …):
+    g_m − ΔG·β with β the least-squares solution of ΔR·β ≈ r_m, stroke by stroke (ΔG, ΔR the
+    differences of successive passes; its normal equations regularised by 10⁻¹² of their trace,
+    so that equal passes give β = 0)."""
+    g, r = history[-1]
+    n, k = g.shape[0], len(history) - 1
+    dg, dr = (
+        xp.stack([new[i] - old[i] for old, new in itertools.pairwise(history)], 1).reshape(n, k, -1)
+        for i in (0, 1)
+    )
+    gram = xp.einsum("nid,njd->nij", dr, dr)
+    floor = 1e-12 * xp.einsum("nii->n", gram) + 1e-300
+    gram = gram + floor[:, None, None] * xp.constant_like(np.eye(k), g)
+    beta = xp.linalg.solve(gram, xp.einsum("nid,nd->ni", dr, r.reshape(n, -1))[..., None])
+    return g - xp.einsum("ni,nid->nd", beta[..., 0], dg).reshape(g.shape)
 
 
 @stroke_loop()

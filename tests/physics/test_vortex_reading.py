@@ -198,9 +198,9 @@ def test_hover_and_climb_are_finite(flight_path_angle):
             0.0,
             marks=pytest.mark.xfail(
                 strict=True,
-                reason="in hover 4 of the 1 024 fixed points (strokes 45, 714, 871 and 874, each "
-                "with a hind pair lifting downwards alone) do not converge within the limit of "
-                "20 passes (docs/model.md §5.8 item 8)",
+                reason="in hover one of the 1 024 fixed points (stroke 714, a hind pair lifting "
+                "downwards alone) does not converge: its residual stays at 1-3 % under Anderson's "
+                "step of any depth (docs/model.md §5.8 item 8)",
             ),
         ),
         0.3,
