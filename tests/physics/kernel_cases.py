@@ -54,14 +54,15 @@ def cases(
     """(name, Result) of every case, in a fixed order. ``option_sets``: the torch test's
     (its pairwise covering grows with the options: the stored fixture names its own)."""
     optima = np.load(OPTIMA)
+    paper = te.ModelOptions(slipstream="mean")  # 8e3cf19's default, whatever today's is
     for i, (env_id, objective, planform) in enumerate(optima["series"]):
         strokes = te.normalised_to_physical(optima[f"strokes_{i}"])
         condition = optima[f"conditions_{i}"]
         insect = te.DRAGONFLY.with_planform(str(planform))
-        if env_id.startswith("TandemWing/LevelFlight"):
-            yield env_id + objective + planform, te.evaluate(strokes, condition, insect=insect)
-        else:
-            yield env_id + objective + planform, te.evaluate(strokes, 0.0, condition, insect=insect)
+        level = env_id.startswith("TandemWing/LevelFlight")
+        speed, power = (condition, None) if level else (0.0, condition)
+        result = te.evaluate(strokes, speed, power, insect=insect, options=paper)
+        yield env_id + objective + planform, result
     rng = np.random.default_rng(2026)
     strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (batch, 28)))
     yield "mean-slipstream", te.evaluate(strokes, 1.0, options=te.ModelOptions(slipstream="mean"))
