@@ -1,9 +1,6 @@
-"""What the local polish optimises and how it takes derivatives: the :class:`Problem`, a
-harness task's problem from its env's problem view (:func:`task_problem`), and the gradient
-functions :class:`CentralDifferences` (2k + 1 strokes in ONE model call) and
-:class:`AutogradGradient` (ONE torch evaluation); ``cost`` counts model evaluations against the
-polish's allowance (docs/harness.md, "Local polish").
-"""
+"""What the local polish optimises (:class:`Problem`, :func:`task_problem`) and its gradients:
+:class:`CentralDifferences` (2k + 1 strokes in ONE model call), :class:`AutogradGradient` (ONE
+torch evaluation); ``cost`` counts model evaluations against the allowance."""
 
 from __future__ import annotations
 
@@ -37,14 +34,10 @@ __all__ = [
 class BatchEvaluation:
     """What one batched model call gives for n strokes."""
 
-    objective: np.ndarray
-    """(n,) the task's objective, maximised [objective units]."""
-    margins: np.ndarray
-    """(n, m) signed constraint margins, >= 0 where a constraint holds [-]."""
-    feasible: np.ndarray
-    """(n,) bool, the task's exact feasibility test."""
-    names: tuple[str, ...]
-    """The m constraints' names."""
+    objective: np.ndarray  # (n,) the task's objective, maximised [objective units]
+    margins: np.ndarray  # (n, m) signed constraint margins, >= 0 where one holds [-]
+    feasible: np.ndarray  # (n,) bool, the task's exact feasibility test
+    names: tuple[str, ...]  # the m constraints' names
 
 
 BatchFunction = Callable[[np.ndarray], BatchEvaluation]
@@ -63,10 +56,8 @@ class Problem:
     dim: int
     free: tuple[int, ...]
     """The coordinates the polish moves (the others stay at the start's values)."""
-    parameter_names: tuple[str, ...] = ()
-    """Names of the dim coordinates (for the certificate's active bounds); default x0, x1..."""
-    differentiate: DifferentiateFunction | None = None
-    """The same evaluation with derivatives (autograd), or None where the model has none."""
+    parameter_names: tuple[str, ...] = ()  # for the certificate's active bounds; default x0...
+    differentiate: DifferentiateFunction | None = None  # with derivatives (autograd), or None
 
     def __post_init__(self) -> None:
         if not self.free or any(not 0 <= j < self.dim for j in self.free):
@@ -91,8 +82,7 @@ def task_problem(
     task: TaskSpec, condition: Condition, env_kwargs: Mapping[str, Any], env: gym.Env | None = None
 ) -> Problem:
     """The polish problem of a harness task: its env's problem view (:func:`env_problem`) at
-    ``condition``, so the polish optimises exactly what the env rewards; the free coordinates
-    are those not in ``task.discrete_actions``. ``env``, the task's env when the caller has one,
+    ``condition``, free coordinates those not in ``task.discrete_actions``; ``env``, if given,
     is used (and left open) instead of making one."""
     with contextlib.ExitStack() as stack:
         if env is None:
@@ -126,22 +116,17 @@ class Gradient:
     """Value and first derivatives at one point, w.r.t. the free coordinates."""
 
     objective: float
-    margins: np.ndarray
-    """(m,)"""
+    margins: np.ndarray  # (m,)
     feasible: bool
-    objective_gradient: np.ndarray
-    """(k,) d objective / d x_free."""
-    jacobian: np.ndarray
-    """(m, k) d margins / d x_free."""
+    objective_gradient: np.ndarray  # (k,) d objective / d x_free
+    jacobian: np.ndarray  # (m, k) d margins / d x_free
     names: tuple[str, ...]
-    evaluations: int
-    """Model evaluations it took (at most its function's ``cost``)."""
+    evaluations: int  # model evaluations it took (at most its function's ``cost``)
 
 
 class GradientFunction(Protocol):
-    """``gradient(x) -> Gradient`` at the full point x (dim,); ``cost`` model evaluations per
-    call at most (kept back; ``Gradient.evaluations`` are counted); ``name`` for the
-    certificate. The seam for an autograd gradient."""
+    """``gradient(x) -> Gradient`` at the full point x (dim,); ``cost``: model evaluations per
+    call at most; ``name`` for the certificate."""
 
     cost: int
     name: str
@@ -151,11 +136,8 @@ class GradientFunction(Protocol):
 
 @dataclass(frozen=True)
 class CentralDifferences:
-    """Central differences of a :class:`Problem`: x and x ± h e_j for every free j in ONE call.
-
-    At a bound the step is cut to stay inside [-1, 1] (a one-sided difference there); ``cost``
-    is the most, a point on k' bounds takes 2k + 1 − k'.
-    """
+    """Central differences of a :class:`Problem`: x and x ± h e_j for every free j in ONE call
+    (one-sided at a bound: a point on k' bounds takes 2k + 1 − k' of ``cost``)."""
 
     problem: Problem
     step: float = 1e-5
@@ -187,9 +169,8 @@ class CentralDifferences:
 
 @dataclass(frozen=True)
 class AutogradGradient:
-    """The gradient of a :class:`Problem` by autograd: value, objective gradient and margin
-    Jacobian from ONE differentiable model evaluation (``problem.differentiate``, the torch
-    backend), so ``cost`` is 1 model evaluation."""
+    """The gradient of a :class:`Problem` by autograd: ONE differentiable model evaluation
+    (``problem.differentiate``, the torch backend)."""
 
     problem: Problem
     cost: int = field(init=False, default=1)
@@ -223,9 +204,8 @@ def _gradient(
 
 
 def finishable(problem: Problem, gradient: str, config: PolishConfig) -> bool:
-    """A polish by ``gradient`` (its name) on ``problem`` keeps ``config.finish`` of its
-    allowance back for :func:`agents.polish_finish.finish`: its gradient is not autograd, the
-    problem differentiates and the KKT stop is on."""
+    """A polish by ``gradient`` (its name) keeps ``config.finish`` of its allowance back for
+    :func:`agents.polish_finish.finish`: not autograd, ``problem`` differentiates, KKT stop on."""
     return (
         gradient != AutogradGradient.name
         and problem.differentiate is not None

@@ -6,7 +6,6 @@ The polish holds one float32 step of every coordinate inside each constraint. At
 stroke: the multipliers λ of the active constraints (non-negative least squares) and the
 margins m; prints the first-order cost Σ λ_i m_i per record, then its median and largest
 relative to the objective.
-
 """
 
 from __future__ import annotations
@@ -39,10 +38,8 @@ def main(argv: list[str] | None = None) -> int:
             active = grad.margins <= ACTIVE
             x = stroke[list(problem.free)]
             eye = np.eye(x.size)
-            a = np.concatenate(
-                [grad.jacobian[active].T, -eye[:, x >= 1 - ACTIVE], eye[:, x <= -1 + ACTIVE]],
-                axis=1,
-            )
+            bounds = [-eye[:, x >= 1 - ACTIVE], eye[:, x <= -1 + ACTIVE]]
+            a = np.concatenate([grad.jacobian[active].T, *bounds], axis=1)
             multipliers = np.zeros(margin.size)
             if active.any():
                 solution, _ = nnls(a, -grad.objective_gradient)

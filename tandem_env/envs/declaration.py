@@ -55,8 +55,7 @@ class TaskCondition:
     ``{keyword}_envelope`` (the observation's range)."""
 
     keyword: str
-    """The condition's one name: constructor keyword, reset option, ``info`` key and record
-    name, e.g. ``"speed"`` or ``"available_power"``."""
+    """Constructor keyword, reset option, ``info`` key and record name, e.g. ``"speed"``."""
     label: str
     """What it is, in words, for help texts and axis labels, e.g. ``"flight speed"``."""
     symbol: str
@@ -74,11 +73,9 @@ class TaskCondition:
     metavar: str = ""
     """Placeholder of the value on the command line, e.g. ``"V"``; default ``symbol``."""
     option: str = ""
-    """Its command-line option without the dashes (``python -m eval optimize``), e.g.
-    ``"power"`` for ``--power``; default the keyword."""
+    """Its command-line option without the dashes, e.g. ``"power"``; default the keyword."""
     former_keyword: str | None = None
-    """The condition's old name, refused with a message naming the new one (``"power"`` for
-    ``"available_power"``), or None."""
+    """The condition's old name, refused with a message naming the new one, or None."""
 
     def __post_init__(self) -> None:
         owner = "TaskCondition"
@@ -155,8 +152,7 @@ class TaskObjectives:
     ``keyword=None`` for a fixed objective)."""
 
     metrics: Mapping[str, str]
-    """Objective choice -> the ``info`` metric (a :class:`~tandem_env.physics.Result` field)
-    it maximises, e.g. ``{"vertical": "excess_vertical"}``."""
+    """Objective choice -> the ``info`` metric (a ``Result`` field) it maximises."""
     default: str
     """The choice used when none is given."""
     keyword: str | None = None
@@ -220,11 +216,10 @@ class Constraint:
     """``violation(result, config)``: (B,) violation [unit], 0 where the constraint holds (a
     module-level function, so that envs pickle); None: ``max(0, −margin)``."""
     scale: Callable[[Result, Any], np.ndarray] | None = None
-    """``scale(result, config)``: (B,) divisor making the violation a fraction (the power cap
-    for the power excess) in the reward's sum; None when it already is one."""
+    """``scale(result, config)``: (B,) divisor making the violation a fraction; None: it is one."""
     margin: Callable[[Result, Any], np.ndarray] | None = None
-    """``margin(result, config)``: (B,) signed margin [-] with ``max(0, −margin) == violation /
-    scale``, smooth across the boundary (what the polish needs); None for none."""
+    """``margin(result, config)``: (B,) smooth signed margin [-], ``max(0, −margin) ==
+    violation / scale``; None for none."""
 
     def __post_init__(self) -> None:
         if self.violation is None and self.margin is None:
@@ -270,11 +265,9 @@ class TaskDeclaration:
     summary: str
     """One line for ``--help`` and docs."""
     constraints: tuple[Constraint, ...]
-    """What a feasible stroke satisfies (a feasible stroke is rewarded with its objective);
-    empty for an unconstrained task."""
+    """What a feasible stroke satisfies; empty for an unconstrained task."""
     condition: TaskCondition | None = None
-    """The one flight condition the task is optimised at and observes, or None (a task with
-    several, such as SpeedChange's start and target speeds)."""
+    """The one flight condition the task is optimised at and observes, or None (several)."""
     objectives: TaskObjectives | None = None
     """What the task maximises as an ``info`` metric, or None (a reward of several terms)."""
 
@@ -310,9 +303,8 @@ class TaskDeclaration:
             else:
                 value = constraint.violation(result, config)
             violations[constraint.name] = value
-            total = total + (
-                value if constraint.scale is None else value / constraint.scale(result, config)
-            )
+            scale = 1.0 if constraint.scale is None else constraint.scale(result, config)
+            total = total + value / scale
             feasible &= value == 0.0
         return Scores(violations, total, feasible)
 
@@ -351,7 +343,6 @@ def check_declarations(cls: type) -> None:
 
 def _check_literal(cls: type, objectives: TaskObjectives) -> None:
     """An objective field typed ``Literal`` must offer exactly the declared choices."""
-
     try:
         hint = get_type_hints(cls).get(objectives.keyword)
     except NameError:  # an annotation not resolvable yet: nothing to compare

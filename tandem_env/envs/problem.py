@@ -29,12 +29,10 @@ class ProblemEvaluation:
     objective: np.ndarray
     """(B,) the task's objective, maximised [the objective's unit]."""
     margins: np.ndarray | None
-    """(B, m) each constraint's signed margin [-], >= 0 where it holds
-    (:attr:`FlightProblem.constraints` order); None for a task with a constraint that declares
-    no margin (:attr:`FlightProblem.has_margins`)."""
+    """(B, m) each constraint's signed margin [-], >= 0 where it holds; None where a
+    constraint declares no margin (:attr:`FlightProblem.has_margins`)."""
     feasible: np.ndarray
-    """(B,) bool: the task's exact feasibility test, every constraint's violation exactly 0
-    (what the env's ``info["feasible"]`` reports)."""
+    """(B,) bool: every constraint's violation exactly 0 (the env's ``info["feasible"]``)."""
     result: Result
     """The model's full result, (B,) arrays."""
 
@@ -78,8 +76,7 @@ class FlightProblem:
 
     @property
     def condition(self) -> TaskCondition:
-        """The declared condition every evaluation takes: its keyword, unit, the model's limits,
-        the paper's envelope and sweep."""
+        """The declared condition every evaluation takes (keyword, unit, limits, envelope)."""
         return self.config.declared_condition
 
     @property
@@ -99,14 +96,12 @@ class FlightProblem:
 
     @property
     def physical_low(self) -> np.ndarray:
-        """(28,) the insect's lower stroke bounds [Hz, deg, -] (Table 4's unless it sets its
-        own), what :attr:`normalised_low` maps to."""
+        """(28,) the insect's lower stroke bounds [Hz, deg, -], :attr:`normalised_low`'s image."""
         return np.array(self.config.insect.stroke_bounds.lower)
 
     @property
     def physical_high(self) -> np.ndarray:
-        """(28,) the insect's upper stroke bounds [Hz, deg, -], what :attr:`normalised_high`
-        maps to."""
+        """(28,) the insect's upper stroke bounds [Hz, deg, -], :attr:`normalised_high`'s image."""
         return np.array(self.config.insect.stroke_bounds.upper)
 
     @property
@@ -126,8 +121,7 @@ class FlightProblem:
 
     @property
     def has_margins(self) -> bool:
-        """Every constraint declares a signed margin (what :meth:`differentiate` and a
-        gradient-based optimiser need); a task without constraints has none to declare."""
+        """Every constraint declares a signed margin (what :meth:`differentiate` needs)."""
         return all(c.margin is not None for c in self.constraints)
 
     # --- evaluation ---------------------------------------------------------------------------
@@ -139,18 +133,14 @@ class FlightProblem:
         values = self._conditions(conditions, strokes.shape[0])
         bounds = self.config.insect.stroke_bounds
         batch = self._core.step(normalised_to_physical(strokes, bounds), values)
-        return ProblemEvaluation(
-            objective=np.asarray(batch.objective, dtype=np.float64),
-            margins=self._margins(batch.result),
-            feasible=np.asarray(batch.feasible, dtype=bool),
-            result=batch.result,
-        )
+        objective = np.asarray(batch.objective, dtype=np.float64)
+        feasible = np.asarray(batch.feasible, dtype=bool)
+        return ProblemEvaluation(objective, self._margins(batch.result), feasible, batch.result)
 
     def differentiate(self, actions: np.ndarray, conditions: Any) -> ProblemGradient:
         """:meth:`evaluate` with the objective's gradient and the margins' Jacobian w.r.t. the
         normalised coordinates, by autograd from ONE torch evaluation; ValueError where a
         constraint declares no margin."""
-
         from ..physics import torch_model  # torch only when something differentiates
 
         if not self.has_margins:
@@ -165,21 +155,12 @@ class FlightProblem:
         metric = config.objective_metric
         functions = [lambda result: getattr(result, metric)]
         functions += [lambda result, c=c: c.margin(result, config) for c in self.constraints]
+        model = {"insect": config.insect, "options": config.options, "device": config.device}
         result, values, jacobian = torch_model.normalised_jacobian(
-            strokes,
-            functions,
-            speed,
-            power,
-            insect=config.insect,
-            options=config.options,
-            device=config.device,
+            strokes, functions, speed, power, **model
         )
-        evaluation = ProblemEvaluation(
-            objective=values[:, 0],
-            margins=values[:, 1:],
-            feasible=np.asarray(self.declaration.score(result, config).feasible, dtype=bool),
-            result=result,
-        )
+        feasible = np.asarray(self.declaration.score(result, config).feasible, dtype=bool)
+        evaluation = ProblemEvaluation(values[:, 0], values[:, 1:], feasible, result)
         return ProblemGradient(evaluation, jacobian[:, 0], jacobian[:, 1:])
 
     # --- checks -------------------------------------------------------------------------------

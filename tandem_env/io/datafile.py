@@ -54,10 +54,8 @@ def _expanded_size(root: yaml.Node) -> int:
         if key in open_nodes:
             raise YAMLTooLarge(f"an alias refers to a value that holds it (line {_line(node)})")
         open_nodes.add(key)
-        children: list[yaml.Node] = []
-        if isinstance(node, yaml.SequenceNode):
-            children = list(node.value)
-        elif isinstance(node, yaml.MappingNode):
+        children = list(node.value) if isinstance(node, yaml.SequenceNode) else []
+        if isinstance(node, yaml.MappingNode):
             children = [item for pair in node.value for item in pair]
         total = 1
         for child in children:
@@ -81,7 +79,6 @@ def _line(node: yaml.Node) -> int:
 def parse_yaml(text: str, loader: type[BoundedLoader]) -> Any:
     """The plain data of a YAML ``text`` read with ``loader`` (a :class:`BoundedLoader`);
     :class:`YAMLTooLarge` for a text or document too large."""
-
     if not (isinstance(loader, type) and issubclass(loader, BoundedLoader)):
         raise TypeError(f"loader = {loader!r}; allowed: a subclass of BoundedLoader")
     if len(text) > MAX_YAML_CHARS:
@@ -92,14 +89,9 @@ def parse_yaml(text: str, loader: type[BoundedLoader]) -> Any:
 
 
 class DataLoader(BoundedLoader):
-    """YAML's safe loader (plain data only) with two fixes for hand-written data files.
-
-    * YAML 1.2 numbers: PyYAML reads YAML 1.1, where ``1e-4`` and ``34e0`` (no dot, or no sign
-      in the exponent) are strings; they are floats here, as in YAML 1.2 and every spreadsheet.
-    * Duplicate keys are refused, naming the key and its line (YAML 1.1 loaders keep the
-      last one silently, so a pasted second ``speed:`` would win without a word). A key
-      merged in (``<<: *anchor``) and given again beside it is an override, not a duplicate.
-    """
+    """YAML's safe loader for hand-written data files: YAML 1.2 numbers (``1e-4`` is a float,
+    not YAML 1.1's string) and duplicate keys refused, naming the key and its lines (a key
+    merged in with ``<<: *anchor`` and given again beside it is an override)."""
 
     def construct_mapping(self, node: yaml.Node, deep: bool = False) -> dict[Any, Any]:
         if isinstance(node, yaml.MappingNode):

@@ -24,10 +24,9 @@ import numpy as np
 
 
 def to_jsonable(obj: Any, default: Callable[[Any], Any] | None = None) -> Any:
-    """Convert ``obj`` to plain JSON types: numpy values, tuples, paths, objects with a
-    ``to_dict()`` and dataclasses (as dicts of their fields) included, mapping keys as JSON
-    writes them. Anything else goes to ``default`` (as in :func:`json.dumps`), else TypeError.
-    """
+    """Convert ``obj`` to plain JSON types (numpy values, tuples, paths, ``to_dict()``
+    objects, dataclasses; mapping keys as JSON writes them); anything else goes to ``default``
+    (as in :func:`json.dumps`), else TypeError."""
     if obj is None or isinstance(obj, str | bool | int | float):
         return obj
     if isinstance(obj, np.generic):
@@ -73,10 +72,9 @@ def output_directory(
     files: Sequence[str] = (),
 ) -> bool:
     """Check ``path`` (need not exist) and the ``folders`` and ``files`` a command writes in
-    it as an output folder before any work; whether it can be written now. ValueError naming
-    ``option``, the path and what is allowed for an empty path, a file where a folder goes (or
-    the reverse), a broken symlink, and, with ``write``, a folder that cannot be written
-    (tried with a temporary file); without ``write`` that returns False instead.
+    it before any work; whether it can be written now. ValueError naming ``option``, the path
+    and what is allowed for an empty path, a file where a folder goes (or the reverse), a
+    broken symlink, and, with ``write``, a folder that cannot be written (else False).
     """
     text = os.fspath(path)
     if not text:
@@ -105,11 +103,8 @@ def _check_link(target: Path, option: str, path: Path) -> None:
     try:
         target.stat()
     except OSError as error:
-        what = (
-            "a symlink loop"
-            if error.errno == errno.ELOOP
-            else (f"a dangling symlink (to {os.readlink(target)!r})")
-        )
+        what = f"a dangling symlink (to {os.readlink(target)!r})"
+        what = "a symlink loop" if error.errno == errno.ELOOP else what
         raise ValueError(
             f"{option} {str(path)!r}: {target} is {what}; allowed: a directory this user can "
             "write, or a symlink to one"
@@ -172,9 +167,8 @@ _UMASK_LOCK = threading.Lock()
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path`` (same suffix); on success it is fsynced and
-    replaces ``path`` atomically, else it is removed. The new file keeps an existing file's
-    mode if its owner can read and write it, else gets :func:`new_file_mode`.
-    """
+    replaces ``path`` atomically (keeping an existing file's mode if its owner can read and
+    write it, else :func:`new_file_mode`), else it is removed."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp_name = tempfile.mkstemp(
@@ -267,15 +261,13 @@ def read_json(path: str | os.PathLike[str]) -> Any:
     with open(path, encoding="utf-8") as handle:
         try:
             return json.load(handle)
-        except RecursionError:
-            # The decoder recurses per nesting level; a hand-made file can exceed the stack.
+        except RecursionError:  # the decoder recurses per nesting level
             raise ValueError("JSON nested too deeply to read") from None
 
 
 def write_csv_atomic(path: str | os.PathLike[str], rows: Sequence[Mapping[str, Any]]) -> None:
     """Write ``rows`` as CSV to ``path`` atomically: the union of their keys as columns, None
     as an empty cell, lists and dicts as JSON text."""
-
     columns: dict[str, None] = {}  # an ordered set
     for row in rows:
         columns.update(dict.fromkeys(row))
