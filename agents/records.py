@@ -54,8 +54,8 @@ RESULTS: dict[str, str] = {
     "versions": "package versions (numpy, gymnasium, torch, ..., python, tandem_env) and the "
     "model's revision (model: tandem_env.physics.MODEL_REVISION; none before records held it)",
 }
-#: The results key of the stage after the search: the local polish and the optimality of the
-#: reported stroke (:meth:`agents.polish.Certificate.to_dict`); every harness record has it.
+#: The results key of the local polish and the reported stroke's optimality (every harness
+#: record has it: :meth:`agents.polish.Certificate.to_dict`).
 CERTIFICATE = "certificate"
 #: The results key listing the parts of a run split into several (``starts`` searches,
 #: ``initial`` strokes; :mod:`agents.harness`): kind, seed, evaluations, reward, feasible,
@@ -95,13 +95,11 @@ class RecordChecksumError(RecordError):
 
 
 class RecordMismatchError(RecordError):
-    """A record whose key is not its job's hash, or whose file is named by another key: edited
-    or moved by hand (its checksum may have been made again over the edit)."""
+    """A record whose key is not its job's hash, or whose file is named by another key."""
 
 
 class UnsafeFileError(RecordError):
-    """A file not read or not trusted: not a regular file (a named pipe), or one of the record
-    cache owned by another user or writable by others (:func:`agents.store.unsafe_path`)."""
+    """A file not read (not a regular file) or not trusted (:func:`agents.store.unsafe_path`)."""
 
 
 class OutdatedRecordError(RecordError):
@@ -145,7 +143,7 @@ def _checksum(payload: Mapping[str, Any]) -> str:
 @dataclass(frozen=True)
 class Record:
     """What one :class:`Job` found: the job, its key and its results (:data:`RESULTS`, each an
-    attribute, as the job's fields are), every number from the re-evaluation of the stroke."""
+    attribute, as the job's fields are)."""
 
     job: Job
     """The configuration that produced the record."""
@@ -154,7 +152,6 @@ class Record:
     results: dict[str, Any]
     """What the run found, plain JSON (:data:`RESULTS`, plus any key a later stage adds)."""
     schema: str = field(default=SCHEMA)
-    """Record format identifier."""
 
     def __post_init__(self) -> None:
         if self.schema != SCHEMA:
@@ -204,22 +201,15 @@ class Record:
     @property
     def certificate(self) -> dict[str, Any]:
         """The polish and optimality of the stroke (:class:`agents.polish.Certificate`), or {}."""
-
         return dict(self.results.get(CERTIFICATE, {}))
 
     @property
     def score(self) -> float:
         """The stroke's normalised score [-] (:func:`~tandem_env.envs.reference.record_score`;
         NaN where the reference table does not apply)."""
-
-        return record_score(
-            self.env_id,
-            self.results["env"],
-            self.job.condition,
-            self.objective,
-            self.feasible,
-            float(self.metrics.get("constraint_violation", math.nan)),
-        )
+        violation = float(self.metrics.get("constraint_violation", math.nan))
+        stroke = (self.job.condition, self.objective, self.feasible, violation)
+        return record_score(self.env_id, self.results["env"], *stroke)
 
     @property
     def model(self) -> int | None:
@@ -240,8 +230,7 @@ class Record:
 
     @property
     def config(self) -> dict[str, Any]:
-        """``method`` (``method_settings``: the method's settings and citation) and ``env`` (the env's full
-        configuration: insect, model options incl. ``thrust_split``, penalty)."""
+        """``method`` (``method_settings``) and ``env`` (the env's full configuration)."""
         return {"method": self.results["method_settings"], "env": self.results["env"]}
 
     # --- JSON ------------------------------------------------------------------------------------
@@ -328,9 +317,8 @@ class Record:
         for name in SUMMARY_METRICS:
             if name in self.metrics:
                 row[name] = self.metrics[name]
-        # The stroke itself (Table 4 units), and which of its parameters sit at a bound of the
-        # insect's (Table 4's unless it sets its own); a task of another action (a plug-in, the
-        # analytic test tasks) has no such stroke.
+        # The stroke (Table 4 units) and its parameters at a bound of the insect's; a task of
+        # another action (a plug-in, the analytic test tasks) has no such stroke.
         insect = self.job.env("insect")
         if set(tandem_env.PARAMETER_NAMES) <= set(self.stroke):
             stroke = [float(self.stroke[name]) for name in tandem_env.PARAMETER_NAMES]

@@ -64,9 +64,8 @@ def cache_directory() -> Path:
 
 
 class StoreWriteError(OSError):
-    """A store's file could not be written (a full disk, a folder made read-only, a directory
-    in a file's place): the file is as it was (writes are atomic), the records already stored
-    are kept, and the same command resumes from them once the cause is fixed."""
+    """A store's file could not be written: the file is as it was (writes are atomic) and the
+    same command resumes from the records already stored once the cause is fixed."""
 
     def __init__(self, path: Path, error: OSError) -> None:
         reason = error.strerror or str(error)
@@ -111,8 +110,7 @@ def unsafe_path(path: str | os.PathLike[str], status: os.stat_result) -> str | N
 
 def _read_json(path: str | os.PathLike[str], *, strict: bool = False) -> Any:
     """The JSON in one of the store's files; RecordError naming the file for one that is not
-    UTF-8 JSON, :class:`~agents.records.UnsafeFileError` for one that is not a regular file
-    (never read) or, if ``strict``, that :func:`unsafe_path` refuses."""
+    UTF-8 JSON, UnsafeFileError for one not regular or (``strict``) :func:`unsafe_path`'s."""
     # O_NONBLOCK: opening a named pipe would wait for a writer; fstat judges what was opened.
     descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     with open(descriptor, encoding="utf-8") as handle:
@@ -131,8 +129,7 @@ def _read_json(path: str | os.PathLike[str], *, strict: bool = False) -> Any:
 
 
 def _check_name(path: Path, record: Record) -> Record:
-    """``record`` if ``path`` is named by its key, as a store names them (``<key>.json``), or by
-    no key at all; RecordError for one moved or copied to another job's name."""
+    """``record`` if ``path`` is named by its key (``<key>.json``) or by no key at all."""
     if _KEY_NAME.fullmatch(path.stem) and path.stem != record.key:
         raise RecordMismatchError(
             f"{path}: holds the record of key {record.key} ({record.label()}), not of the key "
@@ -166,16 +163,11 @@ class RecordStore:
 
     def check(self, *, write: bool = True, jobs: Iterable[Job] = ()) -> bool:
         """Check every path the store writes before any work (:func:`output_directory`): the
-        folder, its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError
-        naming the path and what is allowed, or (without ``write``) False if it cannot be
-        written now."""
-        records = [f"{RECORDS_DIR}/{job.key}.json" for job in jobs]
+        folder, its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError,
+        or (without ``write``) False if it cannot be written now."""
+        files = (SUMMARY_NAME, *(f"{RECORDS_DIR}/{job.key}.json" for job in jobs))
         return output_directory(
-            self._given,
-            "--out",
-            write=write,
-            folders=(RECORDS_DIR,),
-            files=(SUMMARY_NAME, *records),
+            self._given, "--out", write=write, folders=(RECORDS_DIR,), files=files
         )
 
     def path(self, key: str) -> Path:
@@ -224,7 +216,6 @@ class RecordStore:
     def records(self, known: Mapping[str, Record] | None = None) -> list[Record]:
         """Every valid record in the store, in the summary's order (the others left out with a
         :class:`RecordWarning`); those ``known`` (key -> record) are not read again."""
-
         known = known or {}
         found = []
         for path in sorted((self.directory / RECORDS_DIR).glob("*.json")):
@@ -284,7 +275,6 @@ def read_record_files(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
     other JSON files are skipped, a record of an earlier format or failing its checksum is left
     out with a :class:`RecordWarning`, and a file that cannot be read or is a malformed record
     raises :class:`RecordError` naming it."""
-
     records: list[Record] = []
     for base in map(Path, paths):
         if not base.exists():

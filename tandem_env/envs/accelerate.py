@@ -18,7 +18,6 @@ from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, 
 from .validate import check_real
 
 #: The specimen's available power per body mass [W/kg], 90 W/kg: the top of the paper's sweep.
-
 SPECIMEN_POWER: float = DRAGONFLY.max_power_per_mass
 
 
@@ -76,18 +75,15 @@ class AccelerateConfig(FlightConfig):
     DECLARATION: ClassVar[TaskDeclaration] = ACCELERATE
 
     objective: str = _OBJECTIVES.default
-    """Which specific excess force is maximised (one of ``ACCELERATE.objectives.choices``):
-    ``"vertical"`` F̄_v = (L − W)/W, ``"horizontal"`` F̄_h = (T − D)/W, ``"resultant"``
-    F̄_a = sqrt(F̄_v² + F̄_h²) or ``"horizontal_literal"`` (D_f + D_h)/W, Eq. 24 read literally
-    (the wings' rearward forces, ``excess_horizontal_literal``) [-] (docs/model.md §7.6: the
-    paper's attainable F̄_a combines the first two). The constraints are the same for all."""
+    """The specific excess force maximised [-]: ``"vertical"`` F̄_v = (L − W)/W,
+    ``"horizontal"`` F̄_h = (T − D)/W, ``"resultant"`` F̄_a = sqrt(F̄_v² + F̄_h²) or
+    ``"horizontal_literal"`` (D_f + D_h)/W, Eq. 24 read literally (docs/model.md §7.6)."""
     available_power: float | None = None
     """Fixed available power per body mass [W/kg]; default 90 W/kg unless a range is given."""
     available_power_range: tuple[float, float] | None = None
     """(low, high) [W/kg]: the available power is drawn uniformly from it at each reset."""
     available_power_envelope: tuple[float, float] = _CONDITION.envelope
-    """(low, high) [W/kg] mapped to the observation's [-1, 1], holding every power used;
-    default the paper's sweep, 50 to 90 W/kg."""
+    """(low, high) [W/kg] mapped to the observation's [-1, 1]; default 50 to 90 W/kg."""
     speed: float = 0.0
     """Flight speed V [m/s], fixed and not observed (default 0: take-off or escape from hover)."""
 

@@ -38,13 +38,9 @@ def flight_path(
 
 
 def cycle_time(physical: np.ndarray) -> np.ndarray:
-    """Duration of one step Δt = max(1/f_fore, 1/f_hind) [s] of physical strokes (B, 28).
-
-    Each wing pair beats at its own frequency and the model's forces and powers are each pair's
-    mean over its own cycle. The step lasts the longer of the two periods, so that both pairs
-    complete at least one whole beat within it: the slower pair's mean is then never applied
-    over a fraction of its beat, where its forces would be far from their mean.
-    """
+    """Duration of one step Δt = max(1/f_fore, 1/f_hind) [s] of physical strokes (B, 28): the
+    longer period, so that both pairs, whose forces are means over their own cycles, complete
+    at least one whole beat within it."""
     slowest = np.minimum(physical[:, _FORE_FREQUENCY], physical[:, _HIND_FREQUENCY])
     return 1.0 / slowest
 
@@ -56,12 +52,8 @@ def body_drag(speed: np.ndarray, insect: Dragonfly) -> np.ndarray:
 
 def net_force(result: Result, insect: Dragonfly) -> tuple[np.ndarray, np.ndarray]:
     """Net force (F_x, F_z) [N] of Eq. (1) in earth axes, for strokes evaluated at
-    ``result.speed`` and ``result.flight_path_angle``.
-
-    The wing forces are the per-pair fields (``fore/hind_horizontal_force`` and
-    ``fore/hind_lift_to_weight``), which do not depend on ``thrust_split``; with
-    ``thrust_split="body"`` the result equals (F̄_h·W, F̄_v·W) exactly in exact arithmetic.
-    """
+    ``result.speed`` and ``result.flight_path_angle``, from the per-pair fields (independent of
+    ``thrust_split``; with ``"body"`` it equals (F̄_h·W, F̄_v·W) in exact arithmetic)."""
     weight = insect.weight
     gamma = result.flight_path_angle
     drag = body_drag(result.speed, insect)
@@ -81,12 +73,9 @@ def advance(
     mass: float,
     dt: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Eqs. (2)-(3): (u', w', x', h') after Δt [s] under the constant force (F_x, F_z) [N].
-
-    Velocities in m/s, positions in m, mass in kg; every array (B,).
-    """
-    ax = force_x / mass
-    az = force_z / mass
+    """Eqs. (2)-(3): (u', w', x', h') after Δt [s] under the constant force (F_x, F_z) [N];
+    velocities in m/s, positions in m, mass in kg; every array (B,)."""
+    ax, az = force_x / mass, force_z / mass
     return (
         forward_speed + ax * dt,
         vertical_speed + az * dt,

@@ -60,13 +60,11 @@ class LevelFlightConfig(FlightConfig):
     DECLARATION: ClassVar[TaskDeclaration] = LEVEL_FLIGHT
 
     speed: float | None = None
-    """Fixed flight speed V [m/s]; default 1.5 m/s (the paper's best-efficiency speed) unless
-    ``speed_range`` is given."""
+    """Fixed flight speed V [m/s]; default 1.5 m/s unless ``speed_range`` is given."""
     speed_range: tuple[float, float] | None = None
     """(low, high) [m/s]: V is drawn uniformly from it at each reset (not with ``speed``)."""
     speed_envelope: tuple[float, float] = LEVEL_FLIGHT.condition.envelope  # type: ignore[union-attr]
-    """(low, high) [m/s] mapped to the observation's [-1, 1], holding every speed used;
-    default the paper's range, 0.25 to 2.0 m/s."""
+    """(low, high) [m/s] mapped to the observation's [-1, 1]; default 0.25 to 2.0 m/s."""
     constraint_tolerance: float = 0.02
     """Band of the equalities L = W and T = D, as a fraction of W [-] (docs/model.md §7.5)."""
 
@@ -140,7 +138,6 @@ class LevelFlightEnv(FlightEnv):
 
 def model_option_keywords() -> str:
     """The ``gym.make`` keywords of the model options, each with its choices, for docstrings."""
-
     hints = get_type_hints(ModelOptions)
     shown = []
     for keyword, name in MODEL_OPTION_KWARGS.items():

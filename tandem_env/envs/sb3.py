@@ -73,8 +73,7 @@ class TandemVecEnv(VecEnv):
         terminated, truncated = batch.terminated, batch.truncated
         dones = terminated | truncated
         infos = rows(batch.info_columns(), n)
-        # What DummyVecEnv adds: the truncation flag at every step, the last observation at
-        # an episode's end.
+        # what DummyVecEnv adds: the truncation flag, the last observation at an episode's end
         for i, info in enumerate(infos):
             info["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
         ended = np.flatnonzero(dones)
@@ -84,8 +83,7 @@ class TandemVecEnv(VecEnv):
             columns = self.vector_env.autoreset(ended)  # frames still show the strokes flown
             for i, info in zip(ended, rows(columns, ended.size), strict=True):
                 self.reset_infos[i] = info
-        observations = self.vector_env.observations  # a copy
-        return observations, batch.reward.astype(np.float32), dones, infos
+        return self.vector_env.observations, batch.reward.astype(np.float32), dones, infos
 
     def close(self) -> None:
         self.vector_env.close()
@@ -130,11 +128,9 @@ def make_sb3_vec_env(
 ) -> VecEnv:
     """An SB3 ``VecEnv`` of ``n_envs`` envs of ``env_id`` (seeded as SB3's ``make_vec_env``
     seeds them), stepped by one model call; ``monitor=True`` wraps it in ``VecMonitor``."""
-
     check_env_id(env_id)
-    vector_env = gym.make_vec(
-        env_id, num_envs=n_envs, vectorization_mode="vector_entry_point", **kwargs
-    )
+    mode = "vector_entry_point"
+    vector_env = gym.make_vec(env_id, num_envs=n_envs, vectorization_mode=mode, **kwargs)
     venv = TandemVecEnv(vector_env)
     venv.seed(seed)
     if seed is not None:

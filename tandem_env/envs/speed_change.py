@@ -6,7 +6,7 @@ vector env and the single env; declaration and config: :mod:`~tandem_env.envs.sp
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -77,8 +77,7 @@ class CycleBatch:
     """B wing-beat cycles flown: the model's evaluation, the motion and the reward terms."""
 
     strokes: StepBatch
-    """The evaluated strokes with the model's result and the power penalty (``reward`` there is
-    objective − penalty, the env's reward)."""
+    """The evaluated strokes with the model's result; its ``reward`` is the env's."""
     after: Flight
     """The state after the cycle."""
     motion: Columns
@@ -109,12 +108,7 @@ class SpeedChangeCore:
         self.config = config
 
     # --- episodes --------------------------------------------------------------------------
-    def draw(
-        self,
-        count: int,
-        rngs: EnvGenerators,
-        options: Sequence[Mapping[str, Any] | None],
-    ) -> Flight:
+    def draw(self, count: int, rngs: EnvGenerators, options: EnvOptions) -> Flight:
         """States of ``count`` new episodes: u = u₀, w = w₀ (0), h = 0, target u*; episode k
         draws u₀, then u*, from ``rngs(k)`` where sampled and not set by ``options[k]``."""
         cfg = self.config
@@ -181,25 +175,10 @@ class SpeedChangeCore:
         result = fly(cfg, physical, speed, np.full(count, cfg.available_power), gamma)
         dt = cycle_time(physical)
         fx, fz = net_force(result, cfg.insect)
-        u, w, x, h = advance(
-            flight.forward_speed,
-            flight.vertical_speed,
-            flight.distance,
-            flight.altitude,
-            fx,
-            fz,
-            cfg.insect.body_mass,
-            dt,
-        )
-        after = Flight(
-            forward_speed=u,
-            vertical_speed=w,
-            altitude=h,
-            distance=x,
-            time=flight.time + dt,
-            target_speed=flight.target_speed.copy(),
-            cycle=flight.cycle + 1,
-        )
+        before = (flight.forward_speed, flight.vertical_speed, flight.distance, flight.altitude)
+        u, w, x, h = advance(*before, fx, fz, cfg.insect.body_mass, dt)
+        # the fields in order: forward and vertical speed, altitude, distance, time, target, cycle
+        after = Flight(u, w, h, x, flight.time + dt, flight.target_speed.copy(), flight.cycle + 1)
         low, high = cfg.forward_speed_band
         left_altitude = np.abs(h) > cfg.altitude_band
         left_speed = (u < low) | (u > high) | (np.hypot(u, w) > SPEED_LIMITS[1])
@@ -219,18 +198,10 @@ class SpeedChangeCore:
             "reward_termination": np.where(terminated, -weights.termination * not_flown, 0.0),
         }
         objective = sum(terms.values())
-        # The power cap as in level flight (SPEED_CHANGE's one constraint), penalised per cycle
-        # by the env's PenaltyConfig (exactly 0 within the cap).
+        # the power cap (SPEED_CHANGE's one constraint), penalised by the env's PenaltyConfig
         scores = SPEED_CHANGE.score(result, cfg)
-        motion = {
-            "cycle_time": dt,
-            "force_horizontal": fx,
-            "force_vertical": fz,
-            "energy": energy,
-            **terms,
-            "left_altitude_band": left_altitude,
-            "left_speed_band": left_speed,
-        }
+        motion = {"cycle_time": dt, "force_horizontal": fx, "force_vertical": fz, "energy": energy}
+        motion |= {**terms, "left_altitude_band": left_altitude, "left_speed_band": left_speed}
         strokes = StepBatch.scored(physical, result, objective, scores, cfg.penalty)
         return CycleBatch(strokes, after, motion, terminated, truncated)
 

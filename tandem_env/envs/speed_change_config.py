@@ -14,15 +14,14 @@ from .level_flight import LEVEL_FLIGHT
 from .validate import check_count, check_interval, check_real
 
 #: Speeds the episode's start and target are drawn from by default [m/s]: the level-flight
-#: envelope (``LEVEL_FLIGHT.condition.envelope``), where a steady level stroke exists.
+#: envelope, where a steady level stroke exists.
 LEVEL_FLIGHT_ENVELOPE: tuple[float, float] = LEVEL_FLIGHT.condition.envelope  # type: ignore[union-attr]
 #: Most cycles an episode may last [-] (about 4.5 h of flight at 30 Hz): the cycle counters
 #: are int64 and the observation divides by it.
 MAX_CYCLES = 500_000
 
-#: Fastest forward (and vertical) speed a SpeedChange episode may reach [m/s]: one step holds
-#: the cycle-mean force of the cycle's start, which above this speed is no longer resolved (at
-#: 4 m/s some strokes reverse the flight in one cycle), so a wider band is refused.
+#: Fastest forward (and vertical) speed a SpeedChange episode may reach [m/s]: above it one
+#: step's cycle-mean force is not resolved (at 4 m/s some strokes reverse in one cycle).
 MAX_BAND_SPEED: float = 3.0
 
 SPEED_CHANGE = TaskDeclaration(
@@ -60,8 +59,7 @@ class SpeedChangeReward:
     energy: float = 50.0
     """Per joule spent by the wings [1/J]: level flight at 40 W/kg for 1.3 s costs about 0.3."""
     termination: float = 0.2
-    """Per cycle not flown when the episode terminates early: above the most a cycle inside
-    the bands costs (:meth:`SpeedChangeConfig.max_cycle_cost`, ≈ 0.14)."""
+    """Per cycle not flown when terminated early: above a cycle's most cost (≈ 0.14)."""
 
     TERMS: ClassVar[tuple[str, ...]] = ("progress", "speed", "altitude", "energy", "termination")
     UNITS: ClassVar[dict[str, str]] = {
@@ -109,8 +107,7 @@ class SpeedChangeConfig(FlightConfig):
     """Change speed and hold altitude over many wing-beats (see ``SpeedChangeEnv``)."""
 
     options: ModelOptions = field(default_factory=_body_split_options)
-    """Model options; default ``thrust_split="body"``, so that the reported T − D and L − W
-    are exactly the net forces of the dynamics (wings + body drag + weight)."""
+    """Model options; default ``thrust_split="body"`` (T − D, L − W: the dynamics' net forces)."""
     start_speed: float | None = None
     """Fixed forward speed at reset u₀ [m/s] (else drawn from ``start_speed_range``)."""
     start_speed_range: tuple[float, float] | None = None
@@ -120,16 +117,14 @@ class SpeedChangeConfig(FlightConfig):
     target_speed_range: tuple[float, float] | None = None
     """(low, high) [m/s] u* is drawn from; default ``speed_envelope``."""
     speed_envelope: tuple[float, float] = LEVEL_FLIGHT_ENVELOPE
-    """(low, high) [m/s]: start and target speeds must lie inside; the target's observation is
-    normalised over it. Default the level-flight envelope, 0.25-2.0 m/s."""
+    """(low, high) [m/s] holding start and target speeds (the target observed over it)."""
     max_cycles: int = 48
-    """Wing-beat cycles per episode before truncation [-]: 48 cycles of 22-33 ms (30-45 Hz)
-    are 1.1-1.6 s of flight."""
+    """Wing-beat cycles per episode before truncation [-] (48: 1.1-1.6 s of flight)."""
     altitude_band: float = 0.5
     """|h| [m] beyond which the episode terminates (h: altitude relative to the start)."""
     forward_speed_band: tuple[float, float] = (0.0, MAX_BAND_SPEED)
-    """(low, high) [m/s]: a forward speed u outside terminates the episode; u's observation is
-    normalised over it. Within 0 (forward flight only) and :data:`MAX_BAND_SPEED`."""
+    """(low, high) [m/s] within 0 and :data:`MAX_BAND_SPEED`: u outside terminates the
+    episode; u is observed over it."""
     vertical_speed_scale: float = 2.0
     """|w| [m/s] mapped to ±1 in the observation (clipped beyond; w is not bounded)."""
     reward: SpeedChangeReward = field(default_factory=SpeedChangeReward)
@@ -201,11 +196,9 @@ class SpeedChangeConfig(FlightConfig):
         """Largest speed, altitude and energy cost of one cycle inside the bands with power
         within the cap [reward units]: the slowest cycle (the insect's lowest frequency), the
         largest speed and altitude errors. The termination weight should exceed it."""
-
         lowest = self.insect.stroke_bounds.lower
         slowest = 1.0 / min(lowest[PARAMETER_NAMES.index(f"{w}_frequency")] for w in WING_NAMES)
-        band = self.forward_speed_band
-        env = self.speed_envelope
+        band, env = self.forward_speed_band, self.speed_envelope
         speed_error = max(band[1] - env[0], env[1] - band[0])
         power = self.available_power * self.insect.body_mass
         w = self.reward
@@ -216,8 +209,8 @@ class SpeedChangeConfig(FlightConfig):
     def describe(self) -> str:
         def part(name: str) -> str:
             fixed, sampled = getattr(self, name), getattr(self, f"{name}_range")
-            if fixed is not None:
-                return f"{fixed:g} m/s"
-            return f"U({sampled[0]:g}, {sampled[1]:g}) m/s"
+            return (
+                f"{fixed:g} m/s" if fixed is not None else f"U({sampled[0]:g}, {sampled[1]:g}) m/s"
+            )
 
         return f"u0 = {part('start_speed')} -> u* = {part('target_speed')}"
