@@ -92,8 +92,7 @@ class CMAESConfig(OptimiserConfig):
     tolerance: float = real_setting(0.0, math.inf, low_inclusive=True, default=1e-4)
     """Relative rise of the history's median (best) fitness that counts as progress (>= 0)."""
     resampling: int = integer_setting(0, default=100)
-    """Draws of a candidate outside the box before it is clipped (the package's
-    ``n_max_resampling``, >= 0)."""
+    """Draws of a candidate outside the box before it is clipped (``n_max_resampling``, >= 0)."""
     discrete: tuple[tuple[int, int], ...] = ()
     """``(index, levels)`` of each discrete coordinate: distinct indices >= 0, levels >= 2."""
 
@@ -203,8 +202,7 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
         return self._es.population_size
 
     def _propose(self, n: int) -> FloatArray:
-        # The whole population is drawn even when only n < λ are evaluated, so the random
-        # stream (and every earlier population) does not depend on the budget.
+        # the whole population is drawn even when n < λ: the stream does not depend on the budget
         encoded, raw = zip(*(self._es.ask() for _ in range(self._es.population_size)), strict=True)
         self._raw = raw  # what the package learns from (discrete coordinates not encoded)
         return np.array(encoded[:n])
@@ -226,9 +224,8 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
                 self._restart(stop)
 
     def _stop(self) -> str | None:
-        """Why the current run should end now, or None: the newest 30 % of the window's
-        generations no better than the oldest 30 % by more than ``tolerance · |oldest|``, in
-        the median of both histories (docs/harness.md, "CMA-ES")."""
+        """Why the current run should end now, or None: the newest 30 % of the window no better
+        than the oldest 30 % by ``tolerance · |oldest|`` in both histories' medians."""
         if self._es.should_stop():
             return "should_stop"
         length = min(max(self._patience, math.ceil(0.2 * len(self._best))), 20_000)

@@ -36,12 +36,9 @@ class BudgetExceededError(RuntimeError):
 class EvaluatedBatch:
     """What one vector-env step returned for a batch, as (n,) arrays."""
 
-    rewards: np.ndarray
-    """Rewards (the penalised objective) [reward units]."""
-    objective: np.ndarray
-    """The task's raw objective (``info["objective"]``; the reward if the env has none)."""
-    feasible: np.ndarray
-    """``info["feasible"]`` (all True if the env has none)."""
+    rewards: np.ndarray  # the penalised objective [reward units]
+    objective: np.ndarray  # info["objective"] (the reward if the env has none)
+    feasible: np.ndarray  # info["feasible"] (all True if the env has none)
 
 
 class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
@@ -79,8 +76,7 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
         env = self._envs.get(n)
         if env is None:
             env = gym.make_vec(self.task.env_id, num_envs=n, **NATIVE_VECTOR_ENV, **self.env_kwargs)
-            # The seed only matters for sampled conditions (none here), but a seeded first
-            # reset keeps every generator the env owns reproducible too.
+            # a seeded first reset keeps every generator the env owns reproducible
             env.reset(seed=self.seed, options=self._options)
             self._envs[n] = env
         return env
@@ -103,39 +99,34 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
             raise ValueError(f"actions must have shape (n, dim) with n >= 1; got {actions.shape}")
         n = actions.shape[0]
         if self.evaluations + n > self.budget:
-            raise BudgetExceededError(
-                f"{n} more evaluations would exceed the budget of {self.budget} "
-                f"({self.evaluations} used)"
-            )
+            used = f"the budget of {self.budget} ({self.evaluations} used)"
+            raise BudgetExceededError(f"{n} more evaluations would exceed {used}")
         start = time.perf_counter()
         env = self._env(n)
         env.reset(options=self._options)
         _, rewards, _, _, infos = env.step(actions)
         self.step_time += time.perf_counter() - start
         self._check_condition(infos, n)
-
         rewards = np.asarray(rewards, dtype=np.float64).copy()
         objective = np.asarray(infos.get("objective", rewards), dtype=np.float64)
         feasible = np.asarray(infos.get("feasible", np.ones(n, dtype=bool)), dtype=bool)
         # the best reward so far, feasible or not, as the optimisers count it (the history)
         self.add(actions, rewards)
-        # A penalised reward can rank a marginally infeasible stroke above every feasible one;
-        # the best stroke by the selection rule (feasible first) is kept too, so the harness
-        # can return a stroke that flies.
+        # the best stroke by the selection rule (feasible first) too, so the harness can
+        # return a stroke that flies (a penalised reward can rank an infeasible one above)
         j = self._best.offer(feasible, rewards)
         if j is not None:
             self._best_stroke_action = actions[j].copy()
         if self._on_batch is not None:
             self._on_batch(self.iterations, self.evaluations, self.best_value)
-        return EvaluatedBatch(rewards=rewards, objective=objective, feasible=feasible)
+        return EvaluatedBatch(rewards, objective, feasible)
 
     def __call__(self, actions: np.ndarray) -> np.ndarray:
         """Rewards (n,) of a batch of actions (n, dim): the fitness a method maximises."""
         return self.evaluate_batch(actions).rewards
 
     def _check_condition(self, infos: Mapping[str, Any], n: int) -> None:
-        # A wrong condition would silently optimise the wrong problem; the env reports the one
-        # it used, so compare.
+        # the env reports the condition it used: a wrong one would optimise the wrong problem
         seen = infos.get(self.condition.name)
         if seen is None:
             return
@@ -178,7 +169,6 @@ def reevaluate(
 
 def env_config_dict(env: gym.Env) -> dict[str, Any] | None:
     """The env's ``config`` dataclass as plain JSON (:func:`to_jsonable`), or None."""
-
     config = getattr(env.unwrapped, "config", None)
     if config is None or not dataclasses.is_dataclass(config):
         return None

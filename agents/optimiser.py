@@ -52,12 +52,9 @@ class Tally:
     :mod:`agents.selection` without constraints): the base of an optimiser and the evaluator."""
 
     def __init__(self) -> None:
-        self.evaluations = 0
-        """Points (strokes, actions) evaluated so far."""
-        self.iterations = 0
-        """Rounds (ask/tell rounds, batches) so far."""
-        self.history: list[tuple[int, float]] = []
-        """(evaluations, best value so far) after every round."""
+        self.evaluations = 0  # points (strokes, actions) evaluated so far
+        self.iterations = 0  # rounds (ask/tell rounds, batches) so far
+        self.history: list[tuple[int, float]] = []  # (evaluations, best so far) per round
         self._top = BestStroke()
         self._top_point: FloatArray | None = None
 
@@ -100,8 +97,7 @@ class OptimiserConfig:
         check_settings(self)
 
     def in_use(self) -> dict[str, Any]:
-        """What the record adds to (or puts in place of) the settings: the constants and rules
-        in use. None by default."""
+        """What the record adds to the settings: the constants and rules in use (none here)."""
         return {}
 
     def to_dict(self) -> dict[str, Any]:
@@ -164,9 +160,8 @@ class AskTellOptimiser(Tally, ABC):
             raise RuntimeError("ask() called again before tell(); tell the pending batch first")
         n = self._next_size()
         if n == 0:
-            raise RuntimeError(
-                f"budget exhausted after {self.evaluations} evaluations; check `done` first"
-            )
+            done = f"budget exhausted after {self.evaluations} evaluations; check `done` first"
+            raise RuntimeError(done)
         self._pending = self._propose(n)
         return self._pending.copy()
 
@@ -185,7 +180,6 @@ class AskTellOptimiser(Tally, ABC):
         if f.shape != (X.shape[0],):
             raise ValueError(f"fitness must have shape ({X.shape[0]},), got {f.shape}")
         f = np.where(np.isnan(f), -np.inf, f)
-
         self._observe(self._pending, f)
         self.add(self._pending, f)
         self._pending = None

@@ -53,7 +53,6 @@ class PreparedJob:
     dim: int
     """Dimension of the action box."""
     polish: PolishConfig = field(default_factory=lambda: PolishConfig(method="none"))
-    """The local polish after the search (its settings are the ``polish*`` method settings)."""
 
     def describe(self) -> str:
         """E.g. ``pso on level (efficiency) at speed = 1.5 m/s, budget 12000 evaluations``."""
@@ -134,14 +133,8 @@ def initial_part(
 ) -> Part:
     """One initial stroke polished on ``budget`` evaluations (it may start infeasible)."""
     assert stroke is not None
-    result = polish(
-        problem,
-        stroke,
-        budget,
-        prepared.polish,
-        _gradient(prepared, problem),
-        infeasible_start=True,
-    )
+    gradient = _gradient(prepared, problem)
+    result = polish(problem, stroke, budget, prepared.polish, gradient, infeasible_start=True)
     certificate = result.certificate
     evaluations = certificate.evaluations
     objective, feasible = certificate.objective_after, result.feasible
@@ -153,15 +146,10 @@ def initial_part(
         evaluations += 1
     reward = float(objective) if objective is not None and feasible else -math.inf
     selection = SELECTION_INITIAL_POLISHED if result.improved else SELECTION_INITIAL
+    feasible = feasible and objective is not None
+    seed = prepared.job.seed
     return Part(
-        "initial",
-        prepared.job.seed,
-        result.stroke,
-        reward,
-        feasible and objective is not None,
-        selection,
-        certificate,
-        evaluations,
+        "initial", seed, result.stroke, reward, feasible, selection, certificate, evaluations
     )
 
 
@@ -183,14 +171,8 @@ def finish_part(
     selection = part.selection
     if done.certificate.status == "improved" and part.certificate.status != "improved":
         selection = SELECTION_INITIAL_POLISHED if part.kind == "initial" else SELECTION_POLISHED
-    return replace(
-        part,
-        action=done.stroke,
-        reward=done.objective,
-        certificate=done.certificate,
-        evaluations=evaluations,
-        selection=selection,
-    )
+    found = {"action": done.stroke, "reward": done.objective, "certificate": done.certificate}
+    return replace(part, evaluations=evaluations, selection=selection, **found)
 
 
 def gradient_cost(dim: int, task: TaskSpec) -> int:
@@ -239,19 +221,10 @@ def _polish(
     # or a short search's, is moved onto the constraints.
     infeasible = part.selection == SELECTION_BEST_REWARD
     problem = job_problem()
-    result = polish(
-        problem,
-        part.action,
-        allowance,
-        config,
-        _gradient(prepared, problem),
-        infeasible_start=infeasible,
-    )
-    part = replace(
-        part,
-        certificate=result.certificate,
-        evaluations=part.evaluations + result.certificate.evaluations,
-    )
+    gradient = _gradient(prepared, problem)
+    result = polish(problem, part.action, allowance, config, gradient, infeasible_start=infeasible)
+    evaluations = part.evaluations + result.certificate.evaluations
+    part = replace(part, certificate=result.certificate, evaluations=evaluations)
     if not result.improved:
         return part
     # accepted strokes pass the task's feasibility test, so their reward is their objective
@@ -263,20 +236,10 @@ def _polish(
 
 def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator, seed: int) -> Part:
     """The search's part, unpolished: its best feasible stroke, else its best reward's."""
-    part = Part(
-        "search",
-        seed,
-        outcome.best_action,
-        outcome.best_reward,
-        False,
-        SELECTION_BEST_REWARD,
-        Certificate.off(),
-        outcome.evaluations,
-        outcome,
-    )
+    found = (outcome.best_action, outcome.best_reward, False, SELECTION_BEST_REWARD)
+    part = Part("search", seed, *found, Certificate.off(), outcome.evaluations, outcome)
     if evaluator.evaluations < outcome.evaluations:
-        # the method evaluated (some) strokes through its own envs (SB3): it chooses, by the
-        # same rule (train/policies.py)
+        # the method evaluated strokes through its own envs (SB3): it chooses, by the same rule
         return replace(part, selection=SELECTION_METHOD)
     if evaluator.best_feasible is None:
         return part
@@ -290,22 +253,10 @@ def _search(
     prepared: PreparedJob, seed: int, budget: int, report: Reporter
 ) -> tuple[SearchOutcome, VectorEnvEvaluator]:
     """The method's search through the budgeted vector-env evaluator, checked."""
-
-    job = prepared.job
-    with VectorEnvEvaluator(
-        prepared.task, prepared.condition, prepared.env_kwargs, seed, budget, report
-    ) as evaluator:
-        context = SearchContext(
-            task=prepared.task,
-            condition=prepared.condition,
-            env_id=prepared.task.env_id,
-            env_kwargs=prepared.env_kwargs,
-            budget=budget,
-            seed=seed,
-            dim=prepared.dim,
-            evaluator=evaluator,
-            _reporter=report,
-        )
+    job, task, kwargs = prepared.job, prepared.task, prepared.env_kwargs
+    with VectorEnvEvaluator(task, prepared.condition, kwargs, seed, budget, report) as evaluator:
+        run = (task.env_id, kwargs, budget, seed, prepared.dim, evaluator, report)
+        context = SearchContext(task, prepared.condition, *run)
         outcome = prepared.method.search(context)
     if not evaluator.evaluations <= outcome.evaluations <= budget:
         raise RuntimeError(

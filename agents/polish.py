@@ -23,14 +23,7 @@ from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
-from scipy.optimize import (
-    BFGS,
-    Bounds,
-    NonlinearConstraint,
-    OptimizeResult,
-    minimize,
-    nnls,
-)
+from scipy.optimize import BFGS, Bounds, NonlinearConstraint, OptimizeResult, minimize, nnls
 
 from agents.polish_config import *  # noqa: F403  (the polish's settings, see __all__)
 from agents.polish_config import PolishConfig

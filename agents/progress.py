@@ -19,11 +19,9 @@ class Phase:
     name: str
     jobs: tuple[Job, ...]
     provisional: frozenset[str] = frozenset()
-    """Keys of jobs that stand in for ones an earlier phase's results decide (their budgets are
-    right, their keys not final: :meth:`agents.jobs.Continuation.job`): counted as to run."""
+    """Keys of stand-ins for jobs an earlier phase's results decide: counted as to run."""
     later: str = ""
-    """What follows this phase that no look-ahead can count before it has run (the readings
-    study's combinations), said as ``then ...`` on the cost line."""
+    """What follows this phase that no look-ahead can count (said as ``then ...``)."""
 
 
 def _duration(seconds: float) -> str:
@@ -52,8 +50,7 @@ class CommandProgress:
         rerun: bool = False,
     ) -> None:
         self.title = title
-        self.name = title.partition(" (")[0]
-        """The title less its parenthesis, as the phase lines name the command."""
+        self.name = title.partition(" (")[0]  # as the phase lines name the command
         self.detail = detail
         self._store = RecordStore.at(out)
         self.out_dir = self._store.directory
@@ -64,8 +61,7 @@ class CommandProgress:
         self._done: set[str] = set()
         self._evaluations = 0
         self._seconds = 0.0
-        self.lines: list[str] = []
-        """Every line said, in order (what a test or a log reads)."""
+        self.lines: list[str] = []  # every line said, in order
 
     def _plan(self, phases: Sequence[Phase], started: Sequence[Phase] = ()) -> None:
         """The look-ahead's ``phases``, each of those ``started`` in its place (or after)."""
@@ -106,10 +102,8 @@ class CommandProgress:
         if self._evaluations == 0 or self._seconds <= 0:
             return "estimating (from the speed of the first jobs to finish)"
         rate = self._evaluations / self._seconds
-        return (
-            f"about {_duration(evaluations / rate)} (at the {rate:,.0f} evaluations/s "
-            "measured so far)"
-        )
+        measured = f"at the {rate:,.0f} evaluations/s measured so far"
+        return f"about {_duration(evaluations / rate)} ({measured})"
 
     def _jobs(self) -> dict[str, Job]:
         return {job.key: job for phase in self._phases.values() for job in phase.jobs}
@@ -160,7 +154,6 @@ class CommandProgress:
 
     def ran(self, job: Job, seconds: float) -> None:
         """A job finished, ``seconds`` [s] after the previous one (or the call's start)."""
-
         self._done.add(job.key)
         self._evaluations += job.budget
         self._seconds += seconds

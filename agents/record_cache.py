@@ -59,8 +59,8 @@ _SAID: set[str] = set()
 
 
 def cacheable(job: Job | Work) -> bool:
-    """Whether ``job``'s record may be kept in the record cache."""
-    # A method that takes a path (policy:RUN_DIR) reads files relative to where it runs.
+    """Whether ``job``'s record may be kept in the record cache (not a method taking a path,
+    which reads files relative to where it runs)."""
     return not isinstance(job, Job) or ":" not in job.method
 
 

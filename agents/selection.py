@@ -21,10 +21,8 @@ from numpy.typing import ArrayLike
 class Rank:
     """What the rule compares for one stroke."""
 
-    feasible: bool
-    """All constraints met (False for a stroke whose reward is NaN or -inf)."""
-    reward: float
-    """The reward [reward units]; -inf for a NaN reward."""
+    feasible: bool  # all constraints met (False for a stroke whose reward is NaN or -inf)
+    reward: float  # the reward [reward units]; -inf for a NaN reward
 
     def beats(self, other: Rank) -> bool:
         """Strictly better than ``other`` by the rule (ties keep ``other``, the earlier one)."""
@@ -37,9 +35,7 @@ NOTHING = Rank(feasible=False, reward=-np.inf)
 
 def rank(feasible: bool | np.bool_, reward: float) -> Rank:
     """The rule's view of one stroke (NaN -> -inf, and such a stroke counts as infeasible)."""
-    value = float(reward)
-    if np.isnan(value):
-        value = -np.inf
+    value = -np.inf if np.isnan(float(reward)) else float(reward)
     return Rank(feasible=bool(feasible) and value > -np.inf, reward=value)
 
 

@@ -1,10 +1,7 @@
-"""The record store: a job's record kept as ``DIR/records/<key>.json``, found by its job.
-
-The runner (:func:`agents.runner.run_jobs`) is the one writer, atomically, so a record is found
-by its configuration (:attr:`agents.jobs.Job.key`), a killed run resumes, and a file that is
-not a valid record of its job is recomputed with a :class:`~agents.records.RecordWarning`.
-``DIR/summary.csv`` summarises a store. The record cache is a store too, shared by every output
-folder of a user (:func:`cache_directory`; docs/harness.md, "The record cache").
+"""The record store: a job's record kept as ``DIR/records/<key>.json``, found by its job's key,
+written atomically by the runner alone; a file that is not a valid record of its job is
+recomputed with a :class:`~agents.records.RecordWarning`. ``DIR/summary.csv`` summarises it.
+The record cache is a store too (:func:`cache_directory`; docs/harness.md, "The record cache").
 """
 
 from __future__ import annotations

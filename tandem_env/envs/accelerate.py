@@ -126,13 +126,10 @@ class AccelerateEnv(FlightEnv):
     """Accelerating flight of the tandem-wing dragonfly: find the stroke with most excess force.
 
     The episodes, action space, penalty and ``info`` of :class:`LevelFlightEnv` at a fixed
-    flight speed (default 0: take-off or escape from hover): maximise a specific excess force
-    (``objective``) subject to F_v >= 0, F_h >= 0 and P/m <= the available power, which is
-    observed (Box(-1, 1, (1,), float32), mapped from ``available_power_envelope``, default
-    50-90 W/kg), so one policy can cover the paper's sweep. Feasible rewards are F̄ in [0, ~6]
-    (the paper: F̄_v ≈ 2.7-4.4); uniform random strokes score about −100 to 0.
-    ``reset(options={"available_power": p})`` sets one episode's power (the old names ``power``,
-    ``power_range`` and ``power_envelope`` are refused naming the new ones). Keywords:
+    flight speed (default 0): maximise a specific excess force (``objective``) subject to
+    F_v >= 0, F_h >= 0 and P/m <= the available power, which is observed (mapped from
+    ``available_power_envelope``, default 50-90 W/kg). Feasible rewards are F̄ in [0, ~6].
+    ``reset(options={"available_power": p})`` sets one episode's power. Keywords:
     :class:`AccelerateConfig` and every model, penalty and action option of
     :class:`LevelFlightEnv` (docs/envs.md); invalid values raise ``ValueError``. v0: initial.
     """

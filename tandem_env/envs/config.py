@@ -28,9 +28,8 @@ _RENAMED_MODEL_OPTIONS: dict[str, str] = {"power": "power_convention"}
 MODEL_OPTION_KWARGS: dict[str, str] = {
     _RENAMED_MODEL_OPTIONS.get(f.name, f.name): f.name for f in fields(ModelOptions)
 }
-#: ``gym.make`` kwargs that choose how the model is computed, not what it computes (the torch
-#: backend equals the numba kernel within 1e-8, docs/model.md §12.1): a record's key leaves them
-#: out (:attr:`agents.jobs.Job.key`), so a run on one backend reuses another's records.
+#: ``gym.make`` kwargs that choose how the model is computed, not what it computes: a record's
+#: key leaves them out (:attr:`agents.jobs.Job.key`), so backends share records.
 EXECUTION_KWARGS: tuple[str, ...] = ("backend", "device")
 #: Model options that must be real numbers (checked here, because ``ModelOptions`` would raise
 #: a bare ``TypeError`` from ``math.isfinite`` on a string).
@@ -42,16 +41,6 @@ def insect_keyword(value: Any) -> dict[str, Any] | None:
     mapping of what differs from the paper's specimen, or None for the specimen itself."""
     changes = insect_mapping(load_insect(value))
     return changes or None
-
-
-def _as_keywords(error: ValueError, task: str, owner: str, given: Mapping[str, str]) -> ValueError:
-    """``error`` of ``owner`` naming each field by the keyword the caller gave for it
-    (``given``: field -> keyword), e.g. ``power_convention`` for ``ModelOptions.power``."""
-    text = str(error)
-    for name, keyword in given.items():
-        if keyword != name:
-            text = re.sub(rf"\b{owner}\.{name}\b", f"{keyword} ({owner}.{name})", text)
-    return ValueError(f"{task}: {text}")
 
 
 def _overridden(
@@ -70,8 +59,12 @@ def _overridden(
         return value
     try:  # the dataclass validates, naming the rule
         return replace(value, **{field: kwargs.pop(keyword) for field, keyword in given.items()})
-    except ValueError as error:
-        raise _as_keywords(error, task, kind.__name__, given) from None
+    except ValueError as error:  # each field named by the keyword given for it
+        text, owner = str(error), kind.__name__
+        for name, keyword in given.items():
+            if keyword != name:
+                text = re.sub(rf"\b{owner}\.{name}\b", f"{keyword} ({owner}.{name})", text)
+        raise ValueError(f"{task}: {text}") from None
 
 
 def normalise_condition(config: FlightConfig) -> None:
@@ -136,13 +129,11 @@ class PenaltyConfig:
     """
 
     weight: float = 10.0
-    """Reward lost per unit of normalised violation [reward units per unit violation]. 10 is
-    well above the Lagrange multipliers of both tasks (dη/d(L/W) and dF̄/d(P/P_avail) are
-    of order 0.1-4), so trading a constraint for objective never pays."""
+    """Reward lost per unit of normalised violation [reward units per unit violation], well
+    above both tasks' Lagrange multipliers (0.1-4), so trading a constraint never pays."""
     offset: float = 0.0
-    """Constant subtracted from every infeasible stroke [reward units]. 0 keeps the reward
-    continuous; a positive value makes every feasible stroke beat every nearly-feasible one
-    (a step that PSO tolerates and RL may not)."""
+    """Constant subtracted from every infeasible stroke [reward units]; 0 keeps the reward
+    continuous."""
 
     def __post_init__(self) -> None:
         for name in ("weight", "offset"):
@@ -169,23 +160,19 @@ class FlightConfig:
     """Options every flight environment shares (the model, the penalty, the action handling)."""
 
     insect: Dragonfly = field(default_factory=Dragonfly)
-    """The insect (wings, planform, masses, air); default the paper's specimen, tear-drop wings.
-    A mapping of the fields that differ from it, or a YAML file's path holding one, is read
-    into a :class:`~tandem_env.physics.Dragonfly` (:func:`~tandem_env.physics.insect.load_insect`,
-    docs/envs.md)."""
+    """The insect; default the paper's specimen, tear-drop wings. A mapping of the fields that
+    differ from it, or a YAML file holding one, is read by
+    :func:`~tandem_env.physics.insect.load_insect`."""
     options: ModelOptions = field(default_factory=ModelOptions)
     """Model resolution, inflow coupling and conventions (``thrust_split`` among them)."""
     penalty: PenaltyConfig = field(default_factory=PenaltyConfig)
     """How constraint violations lower the reward."""
     clip_actions: bool = False
-    """Clip actions into [-1, 1] before mapping them to strokes; if False an action outside
-    [-1, 1] raises ``ValueError``. Non-finite actions raise either way."""
+    """Clip actions into [-1, 1]; else one outside raises ``ValueError`` (non-finite: always)."""
     backend: str = "numba"
-    """The model's implementation (``tandem_env.physics.BACKENDS``): ``"numba"``, the compiled
-    kernel (default), or ``"torch"``, its port (the same results within 1e-8; imports torch)."""
+    """``"numba"``, the compiled kernel, or ``"torch"``, its port (within 1e-8; imports torch)."""
     device: str | None = None
-    """The torch device of ``backend="torch"`` (``"cpu"``, ``"cuda"``, ``"cuda:1"``; None: the
-    CPU), stored by its canonical name; only with the torch backend."""
+    """The torch device of ``backend="torch"`` (``"cuda:1"``; None: the CPU), canonical name."""
 
     #: The task's declaration (condition, objectives, constraints, sweep): its one home.
     DECLARATION: ClassVar[TaskDeclaration | None] = None
@@ -211,18 +198,14 @@ class FlightConfig:
     def __post_init__(self) -> None:
         owner = type(self).__name__
         object.__setattr__(self, "insect", load_insect(self.insect, f"{owner}.insect"))
-        if not isinstance(self.options, ModelOptions):
-            raise ValueError(
-                f"{owner}.options = {self.options!r}; allowed: a tandem_env.ModelOptions instance"
-            )
-        if not isinstance(self.penalty, PenaltyConfig):
-            raise ValueError(
-                f"{owner}.penalty = {self.penalty!r}; allowed: a tandem_env.envs.PenaltyConfig"
-            )
-        if not isinstance(self.clip_actions, bool | np.bool_):
-            raise ValueError(
-                f"{owner}.clip_actions = {self.clip_actions!r}; allowed: True or False"
-            )
+        kinds = {
+            "options": (ModelOptions, "a tandem_env.ModelOptions instance"),
+            "penalty": (PenaltyConfig, "a tandem_env.envs.PenaltyConfig"),
+            "clip_actions": (bool | np.bool_, "True or False"),
+        }
+        for name, (kind, allowed) in kinds.items():
+            if not isinstance(getattr(self, name), kind):
+                raise ValueError(f"{owner}.{name} = {getattr(self, name)!r}; allowed: {allowed}")
         object.__setattr__(self, "clip_actions", bool(self.clip_actions))
         try:
             backend, device = check_backend(self.backend, self.device)
@@ -284,7 +267,6 @@ class FlightConfig:
         ``rotational_coefficient`` (C_r of both wings [-], Table 3) over ``insect``, every
         :data:`MODEL_OPTION_KWARGS` over ``options``, ``penalty_weight`` / ``penalty_offset``
         over ``penalty``; a condition's old keyword is refused naming the new one."""
-
         renamed = cls.CONDITION.renamed() if cls.CONDITION is not None else {}
         old = sorted(set(kwargs) & set(renamed))
         if old:

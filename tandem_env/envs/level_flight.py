@@ -111,19 +111,17 @@ class LevelFlightEnv(FlightEnv):
     η = T·V/P subject to L = W, T = D and P/m <= 90 W/kg. Each episode is one cycle (a
     contextual bandit): observe V, choose a stroke; ``step`` terminates it (docs/envs.md).
 
-    * Action: ``Box(-1, 1, (28,), float32)``, the 14 parameters of each wing, fore-wing first,
-      each mapped onto its Table 4 range (:func:`tandem_env.normalised_to_physical`). Non-finite
-      actions raise ``ValueError``, and so do values outside [-1, 1] unless the env was made
-      with ``clip_actions=True`` (for clients that do not clip, such as skrl).
+    * Action: ``Box(-1, 1, (28,), float32)``, each wing's 14 parameters, fore-wing first, mapped
+      onto Table 4 (:func:`tandem_env.normalised_to_physical`); non-finite values raise
+      ``ValueError``, and so do values outside [-1, 1] unless ``clip_actions=True``.
     * Observation: ``Box(-1, 1, (1,), float32)``, V mapped from ``speed_envelope``.
     * Reward: ``η − penalty``, ``penalty = weight·violation + offset·[infeasible]`` over
       :data:`LEVEL_FLIGHT`'s constraints (:class:`~tandem_env.envs.config.PenaltyConfig`): a
       feasible stroke earns exactly its η, in [0, ~0.5]; random strokes score about −120 to 0.
     * Start: V is ``speed`` (default 1.5 m/s) or drawn from ``speed_range`` at each reset;
       ``reset(options={"speed": v})`` sets it for one episode.
-    * Info: the named stroke (``info["stroke"]``), every field of :class:`tandem_env.Result`,
-      each constraint's violation and ``objective``, ``constraint_violation``, ``penalty``,
-      ``feasible``.
+    * Info: ``stroke``, every :class:`tandem_env.Result` field, each constraint's violation,
+      ``objective``, ``constraint_violation``, ``penalty``, ``feasible``.
     * Keywords (:class:`LevelFlightConfig`, :meth:`FlightConfig.from_kwargs`): ``speed``,
       ``speed_range``, ``speed_envelope``, ``constraint_tolerance``, ``insect``, ``planform``
       ("tear-drop" | "real"), ``options`` or its fields ({model_options}), ``penalty`` or

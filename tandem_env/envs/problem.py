@@ -1,12 +1,7 @@
 """The optimisation problem a one-cycle task poses (``env.unwrapped.problem()``), for an
 optimiser that is not an episode-stepping agent: the stroke box, the constraints, and a batched
-evaluation through the core's own ``step`` at conditions given with each call::
-
-    problem = gym.make("TandemWing/LevelFlight-v0").unwrapped.problem()
-    evaluation = problem.evaluate(actions, 1.5)  # (B, 28) in [-1, 1], at V = 1.5 m/s
-    evaluation.objective, evaluation.margins, evaluation.feasible
-
-Nothing here imports Gymnasium; torch only in :meth:`FlightProblem.differentiate`.
+evaluation through the core's own ``step``, e.g. ``problem.evaluate(actions, 1.5)`` for (B, 28)
+actions at V = 1.5 m/s. No Gymnasium here; torch only in :meth:`FlightProblem.differentiate`.
 """
 
 from __future__ import annotations

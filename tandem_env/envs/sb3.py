@@ -1,12 +1,7 @@
 """Stable-Baselines3 ``VecEnv`` adapter over the native vector env: exactly what
-``DummyVecEnv`` over n single envs gives SB3, from one batched model call instead of n.
-This module imports Stable-Baselines3; ``import tandem_env`` does not. Example::
-
-    from stable_baselines3 import PPO
-    from tandem_env.envs.sb3 import make_sb3_vec_env
-
-    venv = make_sb3_vec_env("TandemWing/LevelFlight-v0", n_envs=64, seed=0, speed_range=(0.25, 2.0))
-    model = PPO("MlpPolicy", venv, n_steps=16, batch_size=256).learn(50_000)
+``DummyVecEnv`` over n single envs gives SB3, from one batched model call instead of n (this
+module imports Stable-Baselines3; ``import tandem_env`` does not), e.g.
+``PPO("MlpPolicy", make_sb3_vec_env("TandemWing/LevelFlight-v0", n_envs=64, seed=0))``.
 """
 
 from __future__ import annotations
@@ -119,12 +114,7 @@ class TandemVecEnv(VecEnv):
 
 
 def make_sb3_vec_env(
-    env_id: str,
-    n_envs: int = 1,
-    seed: int | None = None,
-    *,
-    monitor: bool = False,
-    **kwargs: Any,
+    env_id: str, n_envs: int = 1, seed: int | None = None, *, monitor: bool = False, **kwargs: Any
 ) -> VecEnv:
     """An SB3 ``VecEnv`` of ``n_envs`` envs of ``env_id`` (seeded as SB3's ``make_vec_env``
     seeds them), stepped by one model call; ``monitor=True`` wraps it in ``VecMonitor``."""

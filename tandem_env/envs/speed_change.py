@@ -279,11 +279,10 @@ class SpeedChangeVectorEnv(FlightVectorEnv, VectorEnv):
 class SpeedChangeEnv(FlightEnv):
     """Change forward speed and hold altitude over many wing-beats of the tandem-wing dragonfly.
 
-    Each step evaluates one wing-beat cycle of the stroke at the body's velocity (V =
-    sqrt(u² + w²) along γ = atan2(w, u)), then moves the body as a point mass for one cycle
-    (:mod:`tandem_env.envs.dynamics`). The task: reach the target forward speed u*, hold the
-    start altitude and spend little energy within the power cap (90 W/kg); a policy can
-    accelerate hard, then settle, as no fixed stroke can (docs/envs.md, "SpeedChange").
+    Each step evaluates one wing-beat cycle of the stroke at the body's velocity, then moves the
+    body as a point mass for one cycle (:mod:`tandem_env.envs.dynamics`). The task: reach the
+    target forward speed u*, hold the start altitude and spend little energy within the power
+    cap (90 W/kg) (docs/envs.md, "SpeedChange").
 
     * Action: the next cycle's normalised stroke, as in ``TandemWing/LevelFlight-v0``.
     * Observation: ``Box(-1, 1, (5,), float32)``, :data:`OBSERVATION_NAMES` each mapped to
@@ -291,12 +290,10 @@ class SpeedChangeEnv(FlightEnv):
     * Reward: the weighted terms of :class:`~tandem_env.envs.speed_change_config.SpeedChangeReward`
       less the power cap's penalty, ``penalty_weight``·max(0, P/m − 90)/90 per cycle.
     * Start: u = u₀, w = 0, h = 0; u₀ and u* fixed (``start_speed``, ``target_speed``) or drawn
-      from ``start_speed_range`` / ``target_speed_range`` (default 0.25-2.0 m/s);
-      ``reset(options={"start_speed": .., "target_speed": .., "vertical_speed": ..})`` sets them
-      for one episode.
+      from their ``_range`` (default 0.25-2.0 m/s); ``reset(options=...)`` sets them (and
+      ``vertical_speed``) for one episode.
     * End: terminates when |h| > ``altitude_band`` or u leaves ``forward_speed_band``; truncates
-      after ``max_cycles``. ``info`` holds the state after the cycle, its motion and reward
-      terms (:class:`CycleBatch`) and the model's ``Result`` for the stroke.
+      after ``max_cycles``. ``info``: the state after the cycle, its motion and reward terms.
     * Keywords: :class:`~tandem_env.envs.speed_change_config.SpeedChangeConfig`'s fields and every
       model, penalty and action option of the other envs (``thrust_split`` defaults to
       ``"body"`` here); invalid values raise ``ValueError``. v0: initial version.

@@ -46,8 +46,7 @@ class SpeedChangeReward:
         reward_energy      = −energy     · P · Δt                      energy spent [J]
         reward_termination = −termination · (cycles not flown)         only when terminated
 
-    Over an episode progress sums to the initial minus the final speed error; the other terms are
-    time integrals (docs/envs.md). A weight of 0 switches a term off.
+    Progress sums to the initial minus the final speed error; a weight of 0 switches a term off.
     """
 
     progress: float = 1.0
