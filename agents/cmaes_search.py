@@ -85,8 +85,7 @@ class CMAESConfig(OptimiserConfig):
     """Population of the first run (>= 4); None uses :func:`default_popsize` of the dimension."""
     sigma0: float = real_setting(0.0, MAX_SIGMA0, low_inclusive=False, default=0.5)
     """Initial step size [box units; the box is 2 wide], in (0, 2]."""
-    restarts: Restarts = "bipop"
-    """Restart schedule (module docstring)."""
+    restarts: Restarts = "bipop"  # Restart schedule (module docstring).
     patience: int | None = integer_setting(1, default=None)
     """Shortest stagnation history [generations] (>= 1); None: ``120 + ⌈30 d / λ⌉`` per run."""
     tolerance: float = real_setting(0.0, math.inf, low_inclusive=True, default=1e-4)
@@ -108,10 +107,8 @@ class CMAESConfig(OptimiserConfig):
         for pair in pairs:
             if len(pair) != 2:
                 raise ValueError(f"discrete must be {allowed}, got the entry {pair!r}")
-        pairs = tuple(
-            (count(i, "discrete index", low=0), count(k, "discrete levels", low=2))
-            for i, k in pairs
-        )
+        index, levels = "discrete index", "discrete levels"
+        pairs = tuple((count(i, index, low=0), count(k, levels, low=2)) for i, k in pairs)
         if len({i for i, _ in pairs}) != len(pairs):
             raise ValueError(f"discrete must be {allowed}; index repeated in {self.discrete!r}")
         object.__setattr__(self, "discrete", pairs)
@@ -166,9 +163,9 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
             )
         bad = [i for i, _ in config.discrete if i >= dim]
         if bad:
+            allowed = f"allowed: 0 to {dim - 1}"
             raise ValueError(
-                f"discrete index {bad[0]} is outside the box of dimension {dim}; allowed: "
-                f"0 to {dim - 1}"
+                f"discrete index {bad[0]} is outside the box of dimension {dim}; {allowed}"
             )
         super().__init__(dim, popsize, config, seed)
         self._popsize0 = popsize

@@ -1,9 +1,8 @@
 """A job: the configuration of one harness run, and the key its record is stored under.
 
 A :class:`Job` is one method, task, condition, budget and seed, with its env keywords, method
-settings and study preset; its :attr:`Job.key` hashes all of that (but the model's backend and
-device, which do not change results) plus the ``tandem_env`` version, the model's revision
-and the record format (:data:`SCHEMA`). Jobs are run by :func:`agents.runner.run_jobs`.
+settings and study preset; its :attr:`Job.key` hashes them (but the backend and device), the
+``tandem_env`` version, the model's revision and the record format (:data:`SCHEMA`).
 """
 
 from __future__ import annotations
@@ -105,14 +104,10 @@ def method_identity(spec: str, config: Mapping[str, Any]) -> str:
 class Job:
     """One harness run (one seed) and everything that decides its result."""
 
-    method: str
-    """Harness method spec, e.g. ``"pso"``, ``"random"``, ``"policy:runs/ppo"``."""
-    task: str
-    """Task name, ``"level"`` or ``"accelerate"`` (or a registered task)."""
-    condition: float
-    """The task's condition in its declared unit, e.g. flight speed [m/s] (level)."""
-    budget: int
-    """Model evaluations."""
+    method: str  # Harness method spec, e.g. ``"pso"``, ``"random"``, ``"policy:runs/ppo"``.
+    task: str  # Task name, ``"level"`` or ``"accelerate"`` (or a registered task).
+    condition: float  # The task's condition in its declared unit, e.g. flight speed [m/s] (level).
+    budget: int  # Model evaluations.
     seed: int
     env_kwargs: tuple[tuple[str, Any], ...] = ()
     """Env keywords besides the condition, sorted by name (a mapping is accepted); ``insect``

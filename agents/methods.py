@@ -27,17 +27,13 @@ class SearchContext:
     """What a method is given for one seed."""
 
     task: TaskSpec
-    condition: Condition
-    """The fixed condition of every episode (e.g. speed = 1.5 m/s)."""
+    condition: Condition  # The fixed condition of every episode (e.g. speed = 1.5 m/s).
     env_id: str
     env_kwargs: Mapping[str, Any]
     """Constructor keywords that make the env of this run (they include the condition)."""
-    budget: int
-    """Maximum number of model evaluations (= env steps = strokes evaluated)."""
-    seed: int
-    """The run's seed; equal seeds must give identical runs."""
-    dim: int
-    """Dimension of the action box [-1, 1]^dim."""
+    budget: int  # Maximum number of model evaluations (= env steps = strokes evaluated).
+    seed: int  # The run's seed; equal seeds must give identical runs.
+    dim: int  # Dimension of the action box [-1, 1]^dim.
     evaluator: VectorEnvEvaluator  # the batched fitness; use :meth:`evaluate`
     _reporter: Callable[[int, int, float], None] | None = field(default=None, repr=False)
 
@@ -66,10 +62,8 @@ class SearchOutcome:
 
     best_action: np.ndarray
     """The normalised stroke (dim,) to record (it is re-evaluated by the harness)."""
-    best_reward: float
-    """Its reward as the method saw it [reward units]."""
-    evaluations: int
-    """Model evaluations (env steps) used, <= the budget."""
+    best_reward: float  # Its reward as the method saw it [reward units].
+    evaluations: int  # Model evaluations (env steps) used, <= the budget.
     history: tuple[tuple[int, float], ...]
     """(evaluations, best reward so far) pairs, evaluations increasing."""
     config: dict[str, Any]

@@ -85,8 +85,7 @@ class OptimiserConfig:
     :meth:`build` follow from its fields. A subclass names its ``algorithm`` and ``citation``;
     its optimiser names it (``class PSO(AskTellOptimiser, settings=PSOConfig)``)."""
 
-    algorithm: ClassVar[str]
-    """The record's name of the algorithm."""
+    algorithm: ClassVar[str]  # The record's name of the algorithm.
     optimiser: ClassVar[type[AskTellOptimiser]]
     """The ask/tell class :meth:`build` makes (set by its ``settings=`` class keyword)."""
 

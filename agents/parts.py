@@ -48,10 +48,8 @@ class PreparedJob:
     condition: Condition
     env_kwargs: Mapping[str, Any]
     """Env constructor keywords, including the condition (and objective) keyword."""
-    objective_name: str
-    """The ``info`` metric the task maximises under these keywords."""
-    dim: int
-    """Dimension of the action box."""
+    objective_name: str  # The ``info`` metric the task maximises under these keywords.
+    dim: int  # Dimension of the action box.
     polish: PolishConfig = field(default_factory=lambda: PolishConfig(method="none"))
 
     def describe(self) -> str:

@@ -95,8 +95,7 @@ def kkt_residual(
 class Certificate:
     """What a record says about the local optimality of its stroke (JSON: :meth:`to_dict`)."""
 
-    method: str
-    """The polish's optimiser, ``"none"`` when it did not run."""
+    method: str  # The polish's optimiser, ``"none"`` when it did not run.
     status: str
     """``"improved"``, ``"no gain"``, ``"failed: ..."`` (both: the start kept), ``"off"`` or
     ``"not applicable"``."""
@@ -104,8 +103,7 @@ class Certificate:
     """(after − before) / |before| [-] (0: the start kept; None: the start's objective is 0)."""
     objective_before: float | None = None
     objective_after: float | None = None
-    evaluations: int = 0
-    """Model evaluations the polish used (counted in the run's budget)."""
+    evaluations: int = 0  # Model evaluations the polish used (counted in the run's budget).
     allowance: int = 0
     """Model evaluations it was allowed (the run's budget less what the search used)."""
     iterations: int = 0

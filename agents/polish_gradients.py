@@ -68,7 +68,6 @@ class Problem:
 
 def env_problem(env: gym.Env) -> FlightProblem | None:
     """The optimisation problem ``env`` offers (its ``problem()``), or None for none."""
-
     view = getattr(env.unwrapped, "problem", None)
     return view() if callable(view) else None
 

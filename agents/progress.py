@@ -20,8 +20,7 @@ class Phase:
     jobs: tuple[Job, ...]
     provisional: frozenset[str] = frozenset()
     """Keys of stand-ins for jobs an earlier phase's results decide: counted as to run."""
-    later: str = ""
-    """What follows this phase that no look-ahead can count (said as ``then ...``)."""
+    later: str = ""  # What follows this phase that no look-ahead can count (said as ``then ...``).
 
 
 def _duration(seconds: float) -> str:

@@ -75,10 +75,8 @@ class PSOConfig(OptimiserConfig):
 
     algorithm = "pso"
 
-    swarm_size: int = integer_setting(2, MAX_BATCH, default=40)
-    """Number of particles (>= 2)."""
-    inertia: Inertia = "constriction"
-    """Parameter set; see the module docstring."""
+    swarm_size: int = integer_setting(2, MAX_BATCH, default=40)  # Number of particles (>= 2).
+    inertia: Inertia = "constriction"  # Parameter set; see the module docstring.
     cognitive: float | None = real_setting(0.0, math.inf, low_inclusive=True, default=None)
     """Override of c1 (>= 0); None uses the value of the chosen parameter set."""
     social: float | None = real_setting(0.0, math.inf, low_inclusive=True, default=None)

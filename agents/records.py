@@ -145,10 +145,8 @@ class Record:
     """What one :class:`Job` found: the job, its key and its results (:data:`RESULTS`, each an
     attribute, as the job's fields are)."""
 
-    job: Job
-    """The configuration that produced the record."""
-    key: str
-    """The job's configuration hash when it ran (:attr:`Job.key`): the record's file name."""
+    job: Job  # The configuration that produced the record.
+    key: str  # The job's configuration hash when it ran (:attr:`Job.key`): the record's file name.
     results: dict[str, Any]
     """What the run found, plain JSON (:data:`RESULTS`, plus any key a later stage adds)."""
     schema: str = field(default=SCHEMA)
@@ -176,8 +174,7 @@ class Record:
                 f"record evaluations = {evaluations!r}; allowed: an integer from 0 to its "
                 f"budget {self.job.budget}"
             )
-        for name in ("objective", "reward", "search_reward"):
-            # A NaN is no result: it would pass every comparison silently (max, median, rank).
+        for name in ("objective", "reward", "search_reward"):  # a NaN would pass every comparison
             value = results[name]
             if isinstance(value, bool) or not isinstance(value, int | float) or math.isnan(value):
                 raise RecordError(
@@ -282,14 +279,12 @@ class Record:
                 f"checksum {_short(data['checksum'])} does not match the record's contents: "
                 "edited by hand or damaged; it is not used"
             )
-        # The key is the hash of the job it holds (as the version and model that wrote it
-        # computed it): a record whose job was edited, or whose key was, is not its job's
-        # record, even with a checksum made again over the edit.
+        # the key is the hash of the job it holds, as the version and model that wrote it
+        # computed it (a checksum made again over an edit does not hide the edit)
         versions = record.results["versions"]
         version = versions.get("tandem_env") if isinstance(versions, Mapping) else None
-        if record.key != job.key and not (
-            isinstance(version, str) and record.key == job.key_at(version, record.model)
-        ):
+        written = isinstance(version, str) and record.key == job.key_at(version, record.model)
+        if record.key != job.key and not written:
             raise RecordMismatchError(
                 f"key {_short(record.key)} is not the hash of the job it holds "
                 f"({record.job.label()}: key {record.job.key}); the key or the job was edited, "

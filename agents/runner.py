@@ -63,8 +63,7 @@ class JobFailure:
 
     key: str
     label: str
-    error: str
-    """``Type: message`` of the exception."""
+    error: str  # ``Type: message`` of the exception.
     traceback: str
 
     def describe(self) -> str:
@@ -75,25 +74,18 @@ class JobFailure:
 class RunSummary:
     """How a call of :func:`run_jobs` went."""
 
-    total: int
-    """Distinct jobs asked for."""
-    reused: int
-    """Jobs whose records already existed (resumed), in ``--out`` or the record cache."""
-    ran: int
-    """Jobs run now (including failed ones)."""
-    wall_time: float
-    """Seconds spent [s]."""
+    total: int  # Distinct jobs asked for.
+    reused: int  # Jobs whose records already existed (resumed), in ``--out`` or the record cache.
+    ran: int  # Jobs run now (including failed ones).
+    wall_time: float  # Seconds spent [s].
     executor: str = "serial"
     """Where the jobs ran: ``serial``, ``local:N`` or the scheduler's address."""
     failures: tuple[JobFailure, ...] = field(default=())
     records: Mapping[str, Record] = field(default_factory=dict, repr=False, compare=False)
     """The record of every job that has one, by key (reused ones read once, new ones as saved)."""
-    cached: int = 0
-    """Of the reused jobs, those whose records came from the record cache."""
-    replaced: int = 0
-    """Of the jobs run, those whose record in ``--out`` was replaced (``rerun``)."""
-    noun: str = "optimisation"
-    """What the jobs are (:attr:`agents.jobs.Work.noun`)."""
+    cached: int = 0  # Of the reused jobs, those whose records came from the record cache.
+    replaced: int = 0  # Of the jobs run, those whose record in ``--out`` was replaced (``rerun``).
+    noun: str = "optimisation"  # What the jobs are (:attr:`agents.jobs.Work.noun`).
 
     def to_dict(self) -> dict[str, Any]:
         """The run as the manifests record it."""
@@ -325,12 +317,9 @@ def run_jobs(
                 failures.append(_failure(_job_of(job), error, error.__traceback__))
         todo.sort(key=lambda p: -_job_of(p).budget)
         if todo and (old := store.outdated(skip=given)):  # no job finds them: said once
-            warnings.warn(
-                f"{len(old)} record file(s) of an earlier format in {old[0].parent} (e.g. "
-                f"{old[0].name}) are not used: the jobs they held run again in this format",
-                RecordWarning,
-                stacklevel=2,
-            )
+            where = f"{len(old)} record file(s) of an earlier format in {old[0].parent}"
+            message = f"{where} (e.g. {old[0].name}) are not used: the jobs they held run again"
+            warnings.warn(f"{message} in this format", RecordWarning, stacklevel=2)
         # Records of an earlier model sit under the keys it gave them (Job.key_at): no job
         # finds them; said once per store.
         revisions = (None, *range(1, tandem_env.physics.MODEL_REVISION))
@@ -343,13 +332,12 @@ def run_jobs(
         for held in (store, shared.store):
             old = [p for key in earlier if held is not None and (p := held.path(key)).exists()]
             if old:
-                warnings.warn(
+                message = (
                     f"{len(old)} record file(s) in {old[0].parent} (e.g. {old[0].name}) were made "
                     "by an earlier model (tandem_env.physics.MODEL_REVISION): not used, their "
-                    "jobs run again (the files are kept)",
-                    RecordWarning,
-                    stacklevel=2,
+                    "jobs run again (the files are kept)"
                 )
+                warnings.warn(message, RecordWarning, stacklevel=2)
         with contextlib.ExitStack() as stack:
             client = None
             if todo and executor != "serial":
@@ -484,12 +472,9 @@ def look_ahead(plan: Plan | Sequence[Phase], out: Out, cache: CacheOption = True
 class PlanRun:
     """How a call of :func:`run_plan` went."""
 
-    runs: dict[str, RunSummary]
-    """Each phase's :func:`run_jobs` call, by phase name, in order."""
-    records: dict[str, Record]
-    """Every record the phases found or made, by key."""
-    wall_time: float
-    """Seconds spent [s]."""
+    runs: dict[str, RunSummary]  # Each phase's :func:`run_jobs` call, by phase name, in order.
+    records: dict[str, Record]  # Every record the phases found or made, by key.
+    wall_time: float  # Seconds spent [s].
 
 
 def run_plan(

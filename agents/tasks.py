@@ -34,10 +34,8 @@ STROKE_DISCRETE: tuple[tuple[int, int], ...] = tuple(
 class Condition:
     """A task's flight condition as recorded: e.g. ``speed = 1.5 m/s``."""
 
-    name: str
-    """What the value is, e.g. ``"speed"`` or ``"available_power"``."""
-    value: float
-    """The value [unit]."""
+    name: str  # What the value is, e.g. ``"speed"`` or ``"available_power"``.
+    value: float  # The value [unit].
     unit: str
 
     def to_dict(self) -> dict[str, Any]:
@@ -51,10 +49,8 @@ class Condition:
 class TaskSpec:
     """How the harness runs one task: a name, an env id and the env's task declaration."""
 
-    name: str
-    """Short name used on the command line and in record file names (lower case)."""
-    env_id: str
-    """Registered Gymnasium id with a ``vector_entry_point``."""
+    name: str  # Short name used on the command line and in record file names (lower case).
+    env_id: str  # Registered Gymnasium id with a ``vector_entry_point``.
     declaration: TaskDeclaration
     """The env's declaration (its config's ``DECLARATION``), with a condition and objectives."""
     discrete_actions: tuple[tuple[int, int], ...] = field(default=())

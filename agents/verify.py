@@ -1,9 +1,6 @@
-"""Stored records checked against the physics before they are reused.
-
-A checksum tells damage, not a forged record (anyone who can write a store can make it again),
-so the runner serves no stored record without stepping its stroke once more: :func:`refuted`
-re-evaluates every reused record's stroke, one vector-env step per task and env configuration,
-and compares what the record says (:data:`CHECKED`) with what the stroke gives.
+"""Stored records checked against the physics before they are reused: a checksum tells damage,
+not a forged record, so :func:`refuted` steps every reused record's stroke once more (one
+vector-env step per task and env configuration) and compares it with what the record says.
 """
 
 from __future__ import annotations

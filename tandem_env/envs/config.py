@@ -291,21 +291,17 @@ class FlightConfig:
                 )
             insect = insect.with_planform(planform)
         if "rotational_coefficient" in kwargs:
-            c_r = check_real(
-                cls.name, "rotational_coefficient", kwargs.pop("rotational_coefficient"), "", 0, 100
-            )
-            insect = replace(
-                insect,
-                fore=replace(insect.fore, rotational_coefficient=c_r),
-                hind=replace(insect.hind, rotational_coefficient=c_r),
-            )
-
+            given = kwargs.pop("rotational_coefficient")
+            c_r = check_real(cls.name, "rotational_coefficient", given, "", 0, 100)
+            wings = {
+                w: replace(getattr(insect, w), rotational_coefficient=c_r) for w in ("fore", "hind")
+            }
+            insect = replace(insect, **wings)
         for name in _REAL_MODEL_OPTIONS:
             if name in kwargs and not _is_real(kwargs[name]):
                 raise ValueError(f"{cls.name}: {name} = {kwargs[name]!r}; allowed: a finite number")
-        options = _overridden(
-            cls.name, kwargs, "options", MODEL_OPTION_KWARGS, "a tandem_env.ModelOptions"
-        )
+        allowed = "a tandem_env.ModelOptions"
+        options = _overridden(cls.name, kwargs, "options", MODEL_OPTION_KWARGS, allowed)
         penalty = kwargs.get("penalty")
         if isinstance(penalty, Mapping):
             extra = sorted(set(penalty) - {f.name for f in fields(PenaltyConfig)})

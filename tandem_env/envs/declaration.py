@@ -1,8 +1,6 @@
-"""A task's declaration, in one place: its condition, objectives, constraints and sweep.
-
-Each task module puts one :class:`TaskDeclaration` on its env config as ``DECLARATION``; the
-env scores strokes by it (:meth:`TaskDeclaration.score`), and the harness, the commands and the
-training tools read it; nothing copies it.
+"""A task's declaration, in one place: its condition, objectives, constraints and sweep. Each
+task module puts one :class:`TaskDeclaration` on its env config as ``DECLARATION``; the env
+scores strokes by it, and the harness, commands and training tools read it, never copy it.
 """
 
 from __future__ import annotations
@@ -100,13 +98,9 @@ class TaskCondition:
                 f"number inside envelope = ({envelope[0]:g}, {envelope[1]:g}) {self.unit}"
             )
         sweep = self.sweep
-        ok = (
-            isinstance(sweep, tuple)
-            and len(sweep) > 0
-            and all(is_real(v) and envelope[0] <= v <= envelope[1] for v in sweep)
-            and all(a < b for a, b in pairwise(sweep))
-        )
-        if not ok:
+        inside = isinstance(sweep, tuple) and len(sweep) > 0
+        inside = inside and all(is_real(v) and envelope[0] <= v <= envelope[1] for v in sweep)
+        if not (inside and all(a < b for a, b in pairwise(sweep))):
             raise ValueError(
                 f"{owner} {self.keyword!r}: sweep = {sweep!r}; allowed: a non-empty, increasing "
                 f"tuple of numbers inside envelope = ({envelope[0]:g}, {envelope[1]:g}) "
@@ -163,11 +157,11 @@ class TaskObjectives:
     """The choices, in declaration order."""
 
     def __post_init__(self) -> None:
-        owner = "TaskObjectives"
-        if (
-            not isinstance(self.metrics, Mapping)
-            or not self.metrics
-            or not all(isinstance(k, str) and k for k in self.metrics)
+        owner, metrics = "TaskObjectives", self.metrics
+        if not (
+            isinstance(metrics, Mapping)
+            and metrics
+            and all(isinstance(k, str) and k for k in metrics)
         ):
             raise ValueError(
                 f"{owner}.metrics = {self.metrics!r}; allowed: a non-empty mapping of objective "

@@ -21,15 +21,13 @@ from .declaration import Constraint, TaskCondition, TaskDeclaration
 class ProblemEvaluation:
     """B strokes evaluated at their conditions in ONE model call."""
 
-    objective: np.ndarray
-    """(B,) the task's objective, maximised [the objective's unit]."""
+    objective: np.ndarray  # (B,) the task's objective, maximised [the objective's unit].
     margins: np.ndarray | None
     """(B, m) each constraint's signed margin [-], >= 0 where it holds; None where a
     constraint declares no margin (:attr:`FlightProblem.has_margins`)."""
     feasible: np.ndarray
     """(B,) bool: every constraint's violation exactly 0 (the env's ``info["feasible"]``)."""
-    result: Result
-    """The model's full result, (B,) arrays."""
+    result: Result  # The model's full result, (B,) arrays.
 
 
 @dataclass(frozen=True)
@@ -39,8 +37,7 @@ class ProblemGradient:
     evaluation: ProblemEvaluation
     objective_gradient: np.ndarray
     """(B, 28) d objective / d action (0 in the discrete coordinates, N being a step)."""
-    margin_jacobian: np.ndarray
-    """(B, m, 28) d margins / d action."""
+    margin_jacobian: np.ndarray  # (B, m, 28) d margins / d action.
 
 
 class FlightProblem:

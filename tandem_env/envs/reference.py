@@ -1,9 +1,8 @@
 """Reference optima and normalised scores: how good a stroke is, against the best one known.
 
-The reference table (``python -m eval reference``, docs/reference.md) holds, per task,
-objective and planform, the certified optimum at every condition of :data:`REFERENCE_GRID`
-with the default model (a series applies to an env of the same :func:`problem_fingerprint`).
-:func:`normalised_score` scores D4RL-style; every other grid point is held out.
+The reference table (docs/reference.md) holds per task, objective and planform the certified
+optimum at every condition of :data:`REFERENCE_GRID` (for configs of its
+:func:`problem_fingerprint`); :func:`normalised_score` scores D4RL-style.
 """
 
 from __future__ import annotations
@@ -92,10 +91,8 @@ class ReferenceSeries:
     env_id: str
     objective: str
     planform: str
-    fingerprint: str
-    """:func:`problem_fingerprint` of the configs the optima were found with."""
-    conditions: tuple[float, ...]
-    """The grid [the condition's unit], increasing."""
+    fingerprint: str  # :func:`problem_fingerprint` of the configs the optima were found with.
+    conditions: tuple[float, ...]  # The grid [the condition's unit], increasing.
     objectives: tuple[float, ...]
     """The best feasible objective at each condition [the objective's unit]."""
     points: tuple[Mapping[str, Any], ...]

@@ -19,10 +19,8 @@ SPEED_CHANGE_ID = "TandemWing/SpeedChange-v0"
 class EnvEntry:
     """One registered env: its task module and, if any, the harness task that runs it."""
 
-    module: str
-    """The task module; it defines ``{env}Env`` and ``{env}VectorEnv``."""
-    env: str
-    """The env's class name without ``Env``, e.g. ``"LevelFlight"``."""
+    module: str  # The task module; it defines ``{env}Env`` and ``{env}VectorEnv``.
+    env: str  # The env's class name without ``Env``, e.g. ``"LevelFlight"``.
     task: str | None = None
     """Name of the harness task (``--task``) that runs this env; None for none."""
 
@@ -144,7 +142,6 @@ def _entry_class(env_id: str, attribute: str) -> type[Any]:
 
 def condition_keywords() -> tuple[str, ...]:
     """Every keyword that sets a declared condition (fixed or range) of the registered envs."""
-
     declared = [getattr(config_class(env_id), "CONDITION", None) for env_id in env_ids()]
     keywords = [k for d in declared if d is not None for k in (d.keyword, d.range_keyword)]
     return tuple(dict.fromkeys(keywords))

@@ -37,20 +37,13 @@ OBSERVATION_NAMES: tuple[str, ...] = (
 class Flight:
     """The state of B episodes, each field a (B,) array (``cycle`` int64, the rest float64)."""
 
-    forward_speed: np.ndarray
-    """u [m/s]."""
-    vertical_speed: np.ndarray
-    """w [m/s], + up."""
-    altitude: np.ndarray
-    """h [m], relative to the altitude at reset (the altitude to hold)."""
-    distance: np.ndarray
-    """Horizontal distance flown since reset [m]."""
-    time: np.ndarray
-    """Flight time since reset [s]."""
-    target_speed: np.ndarray
-    """u* [m/s]."""
-    cycle: np.ndarray
-    """Cycles flown since reset [-]."""
+    forward_speed: np.ndarray  # u [m/s].
+    vertical_speed: np.ndarray  # w [m/s], + up.
+    altitude: np.ndarray  # h [m], relative to the altitude at reset (the altitude to hold).
+    distance: np.ndarray  # Horizontal distance flown since reset [m].
+    time: np.ndarray  # Flight time since reset [s].
+    target_speed: np.ndarray  # u* [m/s].
+    cycle: np.ndarray  # Cycles flown since reset [-].
 
     @classmethod
     def empty(cls, count: int) -> Flight:
@@ -78,8 +71,7 @@ class CycleBatch:
 
     strokes: StepBatch
     """The evaluated strokes with the model's result; its ``reward`` is the env's."""
-    after: Flight
-    """The state after the cycle."""
+    after: Flight  # The state after the cycle.
     motion: Columns
     """(B,) ``cycle_time`` [s], net ``force_horizontal`` / ``force_vertical`` [N], ``energy``
     [J], the reward terms and the flags ``left_altitude_band``, ``left_speed_band``."""
@@ -189,9 +181,9 @@ class SpeedChangeCore:
         energy = result.power * dt
         not_flown = (cfg.max_cycles - after.cycle).astype(np.float64)
         error = np.abs(u - flight.target_speed)
+        removed = np.abs(flight.forward_speed - flight.target_speed) - error
         terms = {
-            "reward_progress": weights.progress
-            * (np.abs(flight.forward_speed - flight.target_speed) - error),
+            "reward_progress": weights.progress * removed,
             "reward_speed": -weights.speed * error * dt,
             "reward_altitude": -weights.altitude * np.abs(h) * dt,
             "reward_energy": -weights.energy * energy,

@@ -49,12 +49,9 @@ class SpeedChangeReward:
     Progress sums to the initial minus the final speed error; a weight of 0 switches a term off.
     """
 
-    progress: float = 1.0
-    """Per m/s of speed error removed [1/(m/s)]."""
-    speed: float = 1.0
-    """Per metre of speed error × time [1/m] (1 (m/s)·s of error costs 1)."""
-    altitude: float = 2.0
-    """Per metre-second of altitude error [1/(m·s)]."""
+    progress: float = 1.0  # Per m/s of speed error removed [1/(m/s)].
+    speed: float = 1.0  # Per metre of speed error × time [1/m] (1 (m/s)·s of error costs 1).
+    altitude: float = 2.0  # Per metre-second of altitude error [1/(m·s)].
     energy: float = 50.0
     """Per joule spent by the wings [1/J]: level flight at 40 W/kg for 1.3 s costs about 0.3."""
     termination: float = 0.2

@@ -1,8 +1,6 @@
 """What every command line shares around its ``main`` (:func:`run_command`): streams that carry
-any character, a closed stream given the null device, standard error a
-:class:`~tandem_env.io.progress_bar.QuietStream`; a quiet end (status 1) when the reader of
-standard output goes away, one line (status 1) for an ``OSError`` of the machine and one line
-(status 2) for a bad numba setting (:func:`check_numba_environment`).
+any character; a quiet end (status 1) when standard output's reader goes away, one line for an
+``OSError`` (status 1) or a bad numba setting (status 2, :func:`check_numba_environment`).
 """
 
 from __future__ import annotations

@@ -112,21 +112,19 @@ def _check_link(target: Path, option: str, path: Path) -> None:
 
 
 def _check_folder(folder: Path, option: str, path: Path, write: bool) -> bool:
-    existing = folder
+    existing, given = folder, f"{option} {str(path)!r}"
+    allowed = "allowed: a directory this user can write (created if missing)"
     try:
         while not os.path.lexists(existing) and existing.parent != existing:
             existing = existing.parent
         _check_link(existing, option, path)
         is_dir = existing.is_dir()
     except OSError as error:
-        raise ValueError(
-            f"{option} {str(path)!r}: cannot look into {existing} ({error.strerror or error}); "
-            "allowed: a directory this user can write (created if missing)"
-        ) from None
+        why = error.strerror or error
+        raise ValueError(f"{given}: cannot look into {existing} ({why}); {allowed}") from None
     if not is_dir:
         raise ValueError(
-            f"{option} {str(path)!r}: {existing} is a file; allowed: a directory (created if "
-            "missing)"
+            f"{given}: {existing} is a file; allowed: a directory (created if missing)"
         )
     try:
         fd, name = tempfile.mkstemp(prefix=".write-check.", dir=existing)
@@ -134,11 +132,8 @@ def _check_folder(folder: Path, option: str, path: Path, write: bool) -> bool:
         os.unlink(name)
     except OSError as error:
         if write:
-            raise ValueError(
-                f"{option} {str(path)!r}: cannot write into {existing} "
-                f"({error.strerror or error}); allowed: a directory this user can write (created "
-                "if missing)"
-            ) from None
+            why = error.strerror or error
+            raise ValueError(f"{given}: cannot write into {existing} ({why}); {allowed}") from None
         return False
     return True
 
