@@ -1,9 +1,8 @@
 """CMA-ES with IPOP / BIPOP restarts over the normalised box [-1, 1]^d, on the ``cmaes`` package.
 
-The package's CMA-ES with margin (``cmaes.CMAwM``) through its public API, plus what it leaves
-to its caller (docs/harness.md, "CMA-ES"): discrete coordinates on the bin centres, restarts
-from a uniform random mean, Hansen's (2009) stagnation test, and a budget that truncates (a run
-of budget B is the first B evaluations of any longer run).
+The package's CMA-ES with margin (``cmaes.CMAwM``) plus what it leaves to its caller
+(docs/harness.md, "CMA-ES"): discrete coordinates on the bin centres, restarts from a uniform
+random mean, Hansen's (2009) stagnation test, and a budget that truncates.
 
 References
 ----------

@@ -1,7 +1,6 @@
 """Evaluating batches of normalised actions through a task's native vector env: every batch is
-one ``step`` of the task's vector env (one per batch size, reset with the condition first), so
-a fitness is exactly the reward an agent would get, and one stroke evaluated is one unit of
-budget (docs/harness.md, "How a run evaluates strokes").
+one ``step`` (one env per batch size, reset with the condition first), so a fitness is exactly
+the reward an agent would get and one stroke is one unit of budget (docs/harness.md).
 """
 
 from __future__ import annotations

@@ -1,10 +1,7 @@
 """The one path that runs a search method on a task and records what it found, e.g.
-``run("pso", "level", 1.5, budget=12_000, seeds=[0, 1, 2])``.
-
-:func:`prepare_job` validates a :class:`~agents.jobs.Job` once, before any evaluation;
-:func:`run_job` runs it (search over [-1, 1]^28 through the task's vector env, the reported
-stroke polished and re-evaluated in the job's single env) and returns its
-:class:`~agents.records.Record`, writing nothing (docs/harness.md).
+``run("pso", "level", 1.5, budget=12_000, seeds=[0, 1, 2])``: :func:`prepare_job` validates a
+:class:`~agents.jobs.Job` once, before any evaluation; :func:`run_job` runs it (search, polish,
+re-evaluation in the job's single env) and returns its record, writing nothing (docs/harness.md).
 """
 
 from __future__ import annotations
@@ -67,12 +64,8 @@ def prepare_job(
         raise ValueError(f"cannot make {spec.env_id}: {error}") from error
     with env:
         space = env.action_space
-        if not (
-            isinstance(space, gym.spaces.Box)
-            and len(space.shape) == 1
-            and np.all(space.low == ACTION_LOW)
-            and np.all(space.high == ACTION_HIGH)
-        ):
+        box = isinstance(space, gym.spaces.Box) and len(space.shape) == 1
+        if not (box and np.all(space.low == ACTION_LOW) and np.all(space.high == ACTION_HIGH)):
             raise ValueError(f"{spec.env_id}: action space {space}; allowed: Box(-1, 1, (d,))")
         dim = int(space.shape[0])
         # The polish needs the task's constraints with margins (the env's problem view).
@@ -103,8 +96,7 @@ def prepare_job(
     part = min(part_budget for kind, part_budget, _ in plan if kind == "search")
     reserve = polish_config.reserve(part, gradient_cost(dim, spec))
     method_obj = get_method(job.method, own_config) if method is None else method
-    # Optional hook: a method that can tell before searching that it cannot run this budget on
-    # this box (a budget smaller than one CMA-ES population) says so here, not mid-run.
+    # optional: a method that can tell it cannot run this budget on this box says so here
     check = getattr(method_obj, "check", None)
     if callable(check):
         check(part - reserve, dim, spec)

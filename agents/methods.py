@@ -153,9 +153,8 @@ def register_optimiser(
     replace: bool = False,
 ) -> None:
     """Register an ask/tell optimiser as method ``name``: its settings are ``config_class``'s
-    fields but ``max_evaluations`` (the harness's budget) and those ``from_task`` fills;
-    ``batch`` names the points per round (alias ``swarm_size``, the CLI's ``--swarm-size``),
-    which a study's preset sets unless ``preset_batch=False``."""
+    fields but ``max_evaluations`` and those ``from_task`` fills; ``batch`` names the points per
+    round (alias ``swarm_size``), which a study's preset sets unless ``preset_batch=False``."""
     filled = dict(from_task or {})
     allowed = tuple(
         f.name for f in fields(config_class) if f.name != "max_evaluations" and f.name not in filled

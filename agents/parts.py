@@ -1,6 +1,6 @@
-"""A harness run's budget in parts (:func:`plan_parts`: one per search, ``starts``, and per
-initial stroke, ``initial``): :func:`search_part` searches, selects and polishes;
-:func:`initial_part` polishes an initial stroke. :class:`PreparedJob` is the validated job.
+"""A harness run's budget in parts (:func:`plan_parts`: per search and per initial stroke):
+:func:`search_part` searches, selects and polishes; :func:`initial_part` polishes an initial
+stroke; :class:`PreparedJob` is the validated job.
 """
 
 from __future__ import annotations

@@ -3,14 +3,10 @@ continuous stroke parameters (each wing's harmonic N held fixed), the box [-1, 1
 and the task's constraints (the signed margins of ``Constraint.margin``) as constraints.
 
 This module is the driver (:func:`polish`, its :class:`Certificate`, the KKT check); the
-problem and gradients are in :mod:`agents.polish_gradients`, the settings in
-:mod:`agents.polish_config` (their public names are imported from here too). The budget counts
-model evaluations (a central-difference gradient 2k + 1, an autograd one 1; docs/harness.md,
-"Local polish") and is never exceeded. The result is the best feasible point found, if it
-beats the start, cast to float32 (:func:`float32_margin` keeps the cast feasible); otherwise
-the start is kept and the certificate says why::
-
-    result = polish(task_problem(task, condition, env_kwargs), start, 4000, PolishConfig())
+problem, gradients (:mod:`agents.polish_gradients`) and settings (:mod:`agents.polish_config`)
+are imported from here too. The budget counts model evaluations and is never exceeded. The
+result is the best feasible point found if it beats the start, cast to float32
+(:func:`float32_margin` keeps it feasible); otherwise the start, the certificate saying why.
 """
 
 from __future__ import annotations

@@ -53,13 +53,11 @@ class PolishConfig:
     """The scipy optimiser (:data:`POLISH_METHODS`); ``"none"`` turns the polish off."""
     share: float = 0.4
     """Fraction of the run's budget kept for the polish, in [0.01, 0.9] (docs/harness.md)."""
-    step: float = 1e-5
-    """Central-difference step in normalised units, in [1e-8, 1e-2]."""
+    step: float = 1e-5  # Central-difference step in normalised units, in [1e-8, 1e-2].
     tolerance: float = 1e-14
     """Stopping tolerance (SLSQP ``ftol``, absolute; trust-constr ``gtol``/``xtol``), in
     [1e-14, 1e-2]: at 1e-10 SLSQP stalled at KKT residuals of 1.2-2.7e-4 (docs/harness.md)."""
-    max_iterations: int = 200
-    """Optimiser iterations at most, 1 to 10 000."""
+    max_iterations: int = 200  # Optimiser iterations at most, 1 to 10 000.
     optimality: float = 1e-5
     """Stop at the first feasible iterate whose KKT residual (:func:`agents.polish.kkt_residual`)
     is at most this [-], in [0, 1e-2]; 0: the optimiser's own test (docs/harness.md)."""

@@ -1,7 +1,6 @@
-"""The record cache: one store of records shared by every output folder (docs/harness.md, "The
-record cache"). Its folder and files must be the user's own (:func:`record_cache`); what it
-serves is re-evaluated first (:mod:`agents.verify`); a job whose method takes a path is never
-cached (:func:`cacheable`).
+"""The record cache: one store of records shared by every output folder (docs/harness.md). Its
+folder and files must be the user's own (:func:`record_cache`); what it serves is re-evaluated
+first (:mod:`agents.verify`); a method that takes a path is never cached (:func:`cacheable`).
 """
 
 from __future__ import annotations

@@ -430,9 +430,8 @@ def find_records(
 
 @dataclass
 class Lookup:
-    """What a plan's next phases follow from (:class:`Plan`): the records of some jobs, from
-    the run so far (:attr:`running`) or, in a look-ahead, as far as ``store`` and the record
-    cache hold them (:func:`find_records`)."""
+    """What a plan's next phases follow from: the records of some jobs, from the run so far
+    (:attr:`running`) or, in a look-ahead, as far as the stores hold them (:func:`find_records`)."""
 
     store: RecordStore
     cache: CacheOption = True
@@ -455,9 +454,8 @@ class Lookup:
 
 
 class Plan(Protocol):
-    """Resumable work in phases (:func:`run_plan`): called with a :class:`Lookup`, it yields
-    each phase once the records of the phases before it are there to look up. Phases that do
-    not depend on records are given as data instead, a sequence of :class:`Phase`."""
+    """Resumable work in phases (:func:`run_plan`): called with a :class:`Lookup`, it yields each
+    phase once the records before it can be looked up (or a sequence of :class:`Phase`)."""
 
     def __call__(self, found: Lookup) -> Iterator[Phase]: ...
 

@@ -149,9 +149,8 @@ class RecordStore:
         self.strict = strict
         for path in (self.directory, self.directory / RECORDS_DIR):
             if path.exists() and not path.is_dir():
-                raise ValueError(
-                    f"{path} is a file; allowed: a directory for the records (created if missing)"
-                )
+                allowed = "allowed: a directory for the records (created if missing)"
+                raise ValueError(f"{path} is a file; {allowed}")
 
     @classmethod
     def at(cls, out: str | os.PathLike[str] | RecordStore) -> RecordStore:

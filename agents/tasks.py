@@ -1,8 +1,6 @@
 """The harness's tasks: which env id a task name means, read from the env's task declaration.
-
-A :class:`TaskSpec` is a name, a Gymnasium id and the env config's
-:class:`~tandem_env.envs.TaskDeclaration`, read, never copied: every env entry with a task
-gives one (:meth:`TaskSpec.from_env`); tests register analytic tasks (:func:`register_task`).
+A :class:`TaskSpec` is a name, a Gymnasium id and the env config's declaration, read, never
+copied (:meth:`TaskSpec.from_env`); tests register analytic tasks (:func:`register_task`).
 """
 
 from __future__ import annotations

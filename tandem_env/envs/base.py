@@ -1,8 +1,7 @@
-"""The machinery every task module shares: the batched core (:class:`FlightCore`: conditions,
-observations, one model call, rewards and infos for B strokes, without Gymnasium), the vector
-env (:class:`FlightVectorEnv`: n sub-envs in ONE model call, equal to ``SyncVectorEnv`` over n
-single envs in every autoreset mode) and the single env (:class:`FlightEnv`: the vector env at
-B = 1, so the two cannot drift apart). An action is validated once, where an env receives it.
+"""The machinery every task module shares: the batched core (:class:`FlightCore`, without
+Gymnasium), the vector env (:class:`FlightVectorEnv`: n sub-envs in ONE model call, equal to
+``SyncVectorEnv`` over n single envs in every autoreset mode) and the single env
+(:class:`FlightEnv`: the vector env at B = 1). An action is validated once, where received.
 """
 
 from __future__ import annotations

@@ -1,7 +1,6 @@
 """What every flight env's configuration shares: frozen, validated dataclasses built from ``gym.make`` kwargs.
-
-Every option of an env is a field of its config, so ``env.config`` describes (and reproduces)
-what it does; :meth:`FlightConfig.from_kwargs` maps the flat ``gym.make`` keywords onto it.
+Every option of an env is a field of its config; :meth:`FlightConfig.from_kwargs` maps the
+flat ``gym.make`` keywords onto it.
 """
 
 from __future__ import annotations

@@ -54,12 +54,9 @@ class TaskCondition:
 
     keyword: str
     """Constructor keyword, reset option, ``info`` key and record name, e.g. ``"speed"``."""
-    label: str
-    """What it is, in words, for help texts and axis labels, e.g. ``"flight speed"``."""
-    symbol: str
-    """Its symbol in titles and plots, e.g. ``"V"`` or ``"P_avail"``."""
-    unit: str
-    """Its unit, e.g. ``"m/s"``."""
+    label: str  # What it is, in words, for help texts and axis labels, e.g. ``"flight speed"``.
+    symbol: str  # Its symbol in titles and plots, e.g. ``"V"`` or ``"P_avail"``.
+    unit: str  # Its unit, e.g. ``"m/s"``.
     limits: tuple[float, float]
     """What the model accepts [unit]: an envelope must lie inside (the physics' limits)."""
     default: float
@@ -147,14 +144,11 @@ class TaskObjectives:
 
     metrics: Mapping[str, str]
     """Objective choice -> the ``info`` metric (a ``Result`` field) it maximises."""
-    default: str
-    """The choice used when none is given."""
+    default: str  # The choice used when none is given.
     keyword: str | None = None
     """Constructor keyword selecting the objective, or None when there is only one."""
-    unit: str = "-"
-    """Unit of the objective's values."""
-    choices: tuple[str, ...] = field(init=False)
-    """The choices, in declaration order."""
+    unit: str = "-"  # Unit of the objective's values.
+    choices: tuple[str, ...] = field(init=False)  # The choices, in declaration order.
 
     def __post_init__(self) -> None:
         owner, metrics = "TaskObjectives", self.metrics
@@ -200,12 +194,9 @@ class Constraint:
     """One constraint of a task: its violation from the model's result, >= 0 and exactly 0
     where the constraint holds."""
 
-    name: str
-    """The ``info`` key reporting the violation, e.g. ``"lift_violation"``."""
-    text: str
-    """The constraint in symbols, for docs and messages, e.g. ``"|L/W − 1| ≤ tol"``."""
-    unit: str
-    """Unit of the violation, e.g. ``"-"`` (a fraction of W) or ``"W/kg"``."""
+    name: str  # The ``info`` key reporting the violation, e.g. ``"lift_violation"``.
+    text: str  # The constraint in symbols, for docs and messages, e.g. ``"|L/W − 1| ≤ tol"``.
+    unit: str  # Unit of the violation, e.g. ``"-"`` (a fraction of W) or ``"W/kg"``.
     violation: Callable[[Result, Any], np.ndarray] | None = None
     """``violation(result, config)``: (B,) violation [unit], 0 where the constraint holds (a
     module-level function, so that envs pickle); None: ``max(0, −margin)``."""
@@ -244,20 +235,16 @@ class Scores:
 
     violations: dict[str, np.ndarray]
     """Each constraint's violation (B,) [its unit], by its ``info`` name."""
-    total: np.ndarray
-    """(B,) sum of the normalised violations [-], 0 where feasible."""
-    feasible: np.ndarray
-    """(B,) bool: every constraint holds."""
+    total: np.ndarray  # (B,) sum of the normalised violations [-], 0 where feasible.
+    feasible: np.ndarray  # (B,) bool: every constraint holds.
 
 
 @dataclass(frozen=True)
 class TaskDeclaration:
     """Everything a task is, in one place (see the module docstring)."""
 
-    name: str
-    """The task's name in messages, e.g. ``"LevelFlight"``."""
-    summary: str
-    """One line for ``--help`` and docs."""
+    name: str  # The task's name in messages, e.g. ``"LevelFlight"``.
+    summary: str  # One line for ``--help`` and docs.
     constraints: tuple[Constraint, ...]
     """What a feasible stroke satisfies; empty for an unconstrained task."""
     condition: TaskCondition | None = None

@@ -15,9 +15,8 @@ exactly for a constant force (a zero-order hold on the force, i.e. explicit Eule
     u' = u + F_x/m·Δt,            w' = w + F_z/m·Δt,                             (2)
     x' = x + u·Δt + ½·F_x/m·Δt²,  h' = h + w·Δt + ½·F_z/m·Δt².                   (3)
 
-The scheme is first order in Δt in how the force follows the velocity (the force is evaluated at
-the start of the cycle) and exact for the motion under that force; Eq. (3) is the trapezoidal
-rule on the velocity, h' − h = ½(w + w')·Δt.
+The scheme is first order in Δt in how the force follows the velocity (evaluated at the cycle's
+start) and exact for the motion under it; Eq. (3) is h' − h = ½(w + w')·Δt.
 """
 
 from __future__ import annotations

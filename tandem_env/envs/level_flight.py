@@ -107,9 +107,8 @@ class LevelFlightEnv(FlightEnv):
     """Steady level flight of the tandem-wing dragonfly: find the most efficient stroke.
 
     The quasi-steady tandem flapping-wing model of Faisal & Filippone (2016, AIAA J.) evaluates
-    one wing-beat cycle of a stroke at flight speed V; the task (docs/model.md §7) is to maximise
-    η = T·V/P subject to L = W, T = D and P/m <= 90 W/kg. Each episode is one cycle (a
-    contextual bandit): observe V, choose a stroke; ``step`` terminates it (docs/envs.md).
+    one wing-beat cycle at flight speed V; the task (docs/model.md §7): maximise η = T·V/P with
+    L = W, T = D and P/m <= 90 W/kg, one cycle per episode (a contextual bandit, docs/envs.md).
 
     * Action: ``Box(-1, 1, (28,), float32)``, each wing's 14 parameters, fore-wing first, mapped
       onto Table 4 (:func:`tandem_env.normalised_to_physical`); non-finite values raise

@@ -1,7 +1,6 @@
 """Reading a user's data files: UTF-8 text (:func:`read_text`) and YAML through the safe loader
-(:func:`read_yaml`). Every YAML text goes through :func:`parse_yaml` and a
-:class:`BoundedLoader`, which refuses a text or document too large (an alias bomb before
-anything is built). Errors are :class:`DataFileError`, naming the file and the fault.
+(:func:`read_yaml`, :func:`parse_yaml`, a :class:`BoundedLoader` that refuses an alias bomb
+before anything is built). Errors are :class:`DataFileError`, naming the file and the fault.
 """
 
 from __future__ import annotations
@@ -14,8 +13,7 @@ from typing import Any
 
 import yaml
 
-#: Most characters a YAML text may hold: 16 MiB, far above any insect, kinematics or run file
-#: (a 4096-sample kinematics table with 20 pitch columns is under 2 MB).
+#: Most characters a YAML text may hold: 16 MiB, far above any data file (< 2 MB).
 MAX_YAML_CHARS = 16 * 2**20
 #: Most values (scalars, sequences, mappings) a YAML document may expand to, each alias counted
 #: as the whole value it repeats; 10⁶ is ten times the largest table a data file holds.

@@ -1,6 +1,5 @@
-"""File I/O the project shares: one JSON converter (:func:`to_jsonable`), one atomic writer
-(:func:`atomic_path`), one output-folder check (:func:`output_directory`). JSON keeps Python's
-non-finite floats (not strict RFC 8259): an optimiser's ``-inf`` best is worth keeping.
+"""File I/O the project shares: one JSON converter (:func:`to_jsonable`, non-finite floats
+kept), one atomic writer (:func:`atomic_path`), one output-folder check (:func:`output_directory`).
 """
 
 from __future__ import annotations
@@ -201,10 +200,8 @@ class FolderLock:
         try:
             fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         except OSError as error:
-            raise ValueError(
-                f"{self.path.parent} is not writable ({error.strerror}); allowed: a folder you "
-                "can write"
-            ) from None
+            why = f"{self.path.parent} is not writable ({error.strerror})"
+            raise ValueError(f"{why}; allowed: a folder you can write") from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:

@@ -1,6 +1,5 @@
-"""Progress of long work on stderr (tqdm): one bar class for a search and for a set of jobs.
-Until its first report a bar shows what it waits for (compiling the model) instead of a rate.
-"""
+"""Progress of long work on stderr (tqdm): one bar class for a search and for a set of jobs,
+showing what it waits for (compiling the model) until its first report."""
 
 from __future__ import annotations
 
@@ -58,9 +57,8 @@ class QuietStream:
             return False
 
     def __eq__(self, other: object) -> bool:
-        # Two quiet streams over the same stream are one file to tqdm, whose ``write`` clears
-        # and redraws only the bars writing to a file equal to its own (a warning line is then
-        # printed above an open bar, not run into it).
+        # quiet streams over one stream are one file to tqdm, whose ``write`` redraws the bars
+        # of files equal to its own (a warning line then goes above an open bar)
         return isinstance(other, QuietStream) and other._stream is self._stream
 
     def __hash__(self) -> int:
