@@ -2,7 +2,8 @@
 
 The package's CMA-ES with margin (``cmaes.CMAwM``) plus what it leaves to its caller
 (docs/harness.md, "CMA-ES"): discrete coordinates on the bin centres, restarts from a uniform
-random mean, Hansen's (2009) stagnation test, and a budget that truncates.
+random mean, Hansen's (2009) stagnation test, and a budget that truncates (a run of budget B
+is the first B evaluations of any longer run).
 
 References
 ----------
@@ -84,7 +85,8 @@ class CMAESConfig(OptimiserConfig):
     """Population of the first run (>= 4); None uses :func:`default_popsize` of the dimension."""
     sigma0: float = real_setting(0.0, MAX_SIGMA0, low_inclusive=False, default=0.5)
     """Initial step size [box units; the box is 2 wide], in (0, 2]."""
-    restarts: Restarts = "bipop"  # Restart schedule (module docstring).
+    restarts: Restarts = "bipop"
+    """Restart schedule (module docstring)."""
     patience: int | None = integer_setting(1, default=None)
     """Shortest stagnation history [generations] (>= 1); None: ``120 + ⌈30 d / λ⌉`` per run."""
     tolerance: float = real_setting(0.0, math.inf, low_inclusive=True, default=1e-4)
@@ -221,7 +223,8 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
 
     def _stop(self) -> str | None:
         """Why the current run should end now, or None: the newest 30 % of the window no better
-        than the oldest 30 % by ``tolerance · |oldest|`` in both histories' medians."""
+        than the oldest 30 % by ``tolerance · |oldest|`` in both histories' medians
+        (docs/harness.md, "CMA-ES")."""
         if self._es.should_stop():
             return "should_stop"
         length = min(max(self._patience, math.ceil(0.2 * len(self._best))), 20_000)

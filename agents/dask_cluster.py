@@ -192,7 +192,8 @@ def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
                     host="127.0.0.1",
                     dashboard_address="127.0.0.1:0",  # a free port (the dashboard needs bokeh)
                     env={"NUMBA_NUM_THREADS": "1"},  # a job per core: set_worker_numba_threads
-                    # the runner reports every failed job itself: the cluster's logs are noise
+                    # the runner reports every failed job itself (key and traceback) and Dask
+                    # reruns a dead worker's jobs: the cluster's own ERROR logs are noise
                     silence_logs=logging.CRITICAL,
                 )
             stack.enter_context(cluster)

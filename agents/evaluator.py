@@ -1,6 +1,7 @@
 """Evaluating batches of normalised actions through a task's native vector env: every batch is
 one ``step`` (one env per batch size, reset with the condition first), so a fitness is exactly
-the reward an agent would get and one stroke is one unit of budget (docs/harness.md).
+the reward an agent would get and one stroke evaluated is one unit of budget (docs/harness.md,
+"How a run evaluates strokes").
 """
 
 from __future__ import annotations
@@ -35,9 +36,12 @@ class BudgetExceededError(RuntimeError):
 class EvaluatedBatch:
     """What one vector-env step returned for a batch, as (n,) arrays."""
 
-    rewards: np.ndarray  # the penalised objective [reward units]
-    objective: np.ndarray  # info["objective"] (the reward if the env has none)
-    feasible: np.ndarray  # info["feasible"] (all True if the env has none)
+    rewards: np.ndarray
+    """Rewards (the penalised objective) [reward units]."""
+    objective: np.ndarray
+    """The task's raw objective (``info["objective"]``; the reward if the env has none)."""
+    feasible: np.ndarray
+    """``info["feasible"]`` (all True if the env has none)."""
 
 
 class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
@@ -75,7 +79,8 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
         env = self._envs.get(n)
         if env is None:
             env = gym.make_vec(self.task.env_id, num_envs=n, **NATIVE_VECTOR_ENV, **self.env_kwargs)
-            # a seeded first reset keeps every generator the env owns reproducible
+            # the seed only matters for sampled conditions (none here), but a seeded first
+            # reset keeps every generator the env owns reproducible
             env.reset(seed=self.seed, options=self._options)
             self._envs[n] = env
         return env

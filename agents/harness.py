@@ -1,7 +1,14 @@
-"""The one path that runs a search method on a task and records what it found, e.g.
-``run("pso", "level", 1.5, budget=12_000, seeds=[0, 1, 2])``: :func:`prepare_job` validates a
-:class:`~agents.jobs.Job` once, before any evaluation; :func:`run_job` runs it (search, polish,
-re-evaluation in the job's single env) and returns its record, writing nothing (docs/harness.md).
+"""The one path that runs a search method on a task and records what it found.
+
+::
+
+    from agents.harness import run
+
+    records = run("pso", "level", 1.5, budget=12_000, seeds=[0, 1, 2])
+
+:func:`prepare_job` validates a :class:`~agents.jobs.Job` once, before any evaluation;
+:func:`run_job` runs it (search, polish, re-evaluation in the job's single env) and returns its
+record, writing nothing (docs/harness.md).
 """
 
 from __future__ import annotations
@@ -96,11 +103,21 @@ def prepare_job(
     part = min(part_budget for kind, part_budget, _ in plan if kind == "search")
     reserve = polish_config.reserve(part, gradient_cost(dim, spec))
     method_obj = get_method(job.method, own_config) if method is None else method
-    # optional: a method that can tell it cannot run this budget on this box says so here
+    # optional: a method that can tell it cannot run this budget on this box (a budget smaller
+    # than one CMA-ES population) says so here, not mid-run
     check = getattr(method_obj, "check", None)
     if callable(check):
         check(part - reserve, dim, spec)
-    return PreparedJob(job, method_obj, spec, cond, kwargs, objective_name, dim, polish_config)
+    return PreparedJob(
+        job=job,
+        method=method_obj,
+        task=spec,
+        condition=cond,
+        env_kwargs=kwargs,
+        objective_name=objective_name,
+        dim=dim,
+        polish=polish_config,
+    )
 
 
 def prepare(
@@ -117,8 +134,9 @@ def prepare(
 ) -> list[PreparedJob]:
     """The validated jobs, one per seed, of ``method`` (a registered name or a
     :class:`~agents.methods.Method`) on ``task`` at ``condition`` [the task's unit] with
-    ``budget`` model evaluations; ``env_kwargs``: further ``gym.make`` keywords, ``preset``:
-    the study preset (part of each job's key). ValueError saying what is wrong and allowed.
+    ``budget`` model evaluations; ``objective``: the task's objective, ``env_kwargs``: further
+    ``gym.make`` keywords, ``method_config``: the method's settings, ``preset``: the study preset
+    (part of each job's key). ValueError saying what is wrong and allowed.
     """
     spec = get_task(task)
     kwargs = dict(env_kwargs or {})
@@ -195,6 +213,7 @@ def run_job(
         parts: list[Part] = []
         # One BLAS thread: on d = 28 matrices more only cost (CMA-ES seed 0 at 60 W/kg:
         # 6.9-7.3 s against 5.5 s) and make the optimum depend on the machine's thread count.
+        # The model's own threads (numba) are not BLAS threads.
         plan = enumerate(plan_parts(prepared.polish, budget))
         with bar, threadpool_limits(limits=1, user_api="blas"):
             for index, (kind, part_budget, stroke) in plan:

@@ -1,8 +1,9 @@
 """A job: the configuration of one harness run, and the key its record is stored under.
 
 A :class:`Job` is one method, task, condition, budget and seed, with its env keywords, method
-settings and study preset; its :attr:`Job.key` hashes them (but the backend and device), the
-``tandem_env`` version, the model's revision and the record format (:data:`SCHEMA`).
+settings and study preset; its :attr:`Job.key` hashes them (but the backend and device, which
+do not change results), the ``tandem_env`` version, the model's revision and the record format
+(:data:`SCHEMA`). Jobs are run by :func:`agents.runner.run_jobs`.
 """
 
 from __future__ import annotations
@@ -104,24 +105,33 @@ def method_identity(spec: str, config: Mapping[str, Any]) -> str:
 class Job:
     """One harness run (one seed) and everything that decides its result."""
 
-    method: str  # Harness method spec, e.g. ``"pso"``, ``"random"``, ``"policy:runs/ppo"``.
-    task: str  # Task name, ``"level"`` or ``"accelerate"`` (or a registered task).
-    condition: float  # The task's condition in its declared unit, e.g. flight speed [m/s] (level).
-    budget: int  # Model evaluations.
+    method: str
+    """Harness method spec, e.g. ``"pso"``, ``"random"``, ``"policy:runs/ppo"``."""
+    task: str
+    """Task name, ``"level"`` or ``"accelerate"`` (or a registered task)."""
+    condition: float
+    """The task's condition in its declared unit, e.g. flight speed [m/s] (level) or available
+    power [W/kg] (accelerate)."""
+    budget: int
+    """Model evaluations."""
     seed: int
     env_kwargs: tuple[tuple[str, Any], ...] = ()
-    """Env keywords besides the condition, sorted by name (a mapping is accepted); ``insect``
-    kept as what differs from the paper's specimen."""
+    """Env keywords besides the condition (objective, planform, model options, insect), sorted
+    by name (a mapping is accepted); ``insect`` (an object, a mapping or a YAML file) kept as
+    what differs from the paper's specimen, left out for the specimen."""
     method_config: tuple[tuple[str, Any], ...] = ()
     """Method settings (e.g. ``swarm_size``), sorted by name; a mapping is accepted."""
     preset: str = ""
-    """The study preset the job belongs to (part of the key); empty outside the studies."""
+    """The study preset the job belongs to (part of the key, so presets never share records);
+    empty outside the studies (``python -m eval optimize``)."""
     method_identity: str | None = None
-    """What the files the method reads hold (:func:`method_identity` when not given); empty
-    ones are left out of the job's dict and key."""
+    """What the files the method reads hold, so a newer trained run is another job under
+    another key (:func:`method_identity` when not given); empty ones are left out of the job's
+    dict and key."""
 
     def __post_init__(self) -> None:
-        # the one structural check of a job (prepare_job adds what needs the registries)
+        # the one structural check of a job, where it is made (the CLI, a study, a record
+        # file); prepare_job adds what needs the registries
         for name in ("method", "task", "preset"):
             value = getattr(self, name)
             if not isinstance(value, str) or (name != "preset" and not value):
@@ -222,8 +232,9 @@ class Work(Protocol):
 class Continuation:
     """Jobs continued from the optima found so far, in rounds: each on a ``share`` of its
     budget, polishing the optima given as warm starts beside ``starts`` short searches of its
-    own (None: the method's own; docs/harness.md). The rounds run until ``rounds`` have, or
-    until one raised no point by more than ``until`` [%] (:meth:`stops`).
+    own (harness settings ``initial``, ``initial_share`` and ``starts``; ``starts`` None: the
+    method's own, left out of the key; docs/harness.md). The rounds run until ``rounds`` have,
+    or (``until`` not None) until one raised no point by more than ``until`` [%] (:meth:`stops`).
     """
 
     share: float = 0.2
@@ -254,7 +265,8 @@ class Continuation:
 
     def job(self, job: Job, strokes: Sequence[Sequence[float]] | None, index: int = 0) -> Job:
         """``job`` continued in round ``index`` (its seed plus ``index``) from the normalised
-        ``strokes``; None gives the stand-in of a job whose optima are not known yet."""
+        ``strokes``; None gives the stand-in of a job whose optima are not known yet (the
+        budget right, the key not final: the cost line's)."""
         config = dict(job.method_config)
         if strokes is None:
             strokes = [(0.0,) * N_PARAMETERS]

@@ -4,7 +4,8 @@ A method has a ``name`` and ``search(context) -> SearchOutcome``: an optimiser c
 ``context.evaluate(actions)`` once per batch; a learner builds its own envs from the context.
 A method's module registers it when imported (:func:`register_optimiser`,
 :func:`register_method`), found by its name in a ``tandem_env.optimisers`` entry point
-(docs/harness.md, "Methods: protocol and registry").
+(this project's in its pyproject.toml, ``train``'s included; a plug-in's in its own;
+docs/harness.md, "Methods: protocol and registry").
 """
 
 from __future__ import annotations
@@ -27,14 +28,19 @@ class SearchContext:
     """What a method is given for one seed."""
 
     task: TaskSpec
-    condition: Condition  # The fixed condition of every episode (e.g. speed = 1.5 m/s).
+    condition: Condition
+    """The fixed condition of every episode (e.g. speed = 1.5 m/s)."""
     env_id: str
     env_kwargs: Mapping[str, Any]
     """Constructor keywords that make the env of this run (they include the condition)."""
-    budget: int  # Maximum number of model evaluations (= env steps = strokes evaluated).
-    seed: int  # The run's seed; equal seeds must give identical runs.
-    dim: int  # Dimension of the action box [-1, 1]^dim.
-    evaluator: VectorEnvEvaluator  # the batched fitness; use :meth:`evaluate`
+    budget: int
+    """Maximum number of model evaluations (= env steps = strokes evaluated)."""
+    seed: int
+    """The run's seed; equal seeds must give identical runs."""
+    dim: int
+    """Dimension of the action box [-1, 1]^dim."""
+    evaluator: VectorEnvEvaluator
+    """The batched fitness; use :meth:`evaluate`."""
     _reporter: Callable[[int, int, float], None] | None = field(default=None, repr=False)
 
     def evaluate(self, actions: np.ndarray) -> np.ndarray:
@@ -62,8 +68,10 @@ class SearchOutcome:
 
     best_action: np.ndarray
     """The normalised stroke (dim,) to record (it is re-evaluated by the harness)."""
-    best_reward: float  # Its reward as the method saw it [reward units].
-    evaluations: int  # Model evaluations (env steps) used, <= the budget.
+    best_reward: float
+    """Its reward as the method saw it [reward units]."""
+    evaluations: int
+    """Model evaluations (env steps) used, <= the budget."""
     history: tuple[tuple[int, float], ...]
     """(evaluations, best reward so far) pairs, evaluations increasing."""
     config: dict[str, Any]
@@ -153,8 +161,9 @@ def register_optimiser(
     replace: bool = False,
 ) -> None:
     """Register an ask/tell optimiser as method ``name``: its settings are ``config_class``'s
-    fields but ``max_evaluations`` and those ``from_task`` fills; ``batch`` names the points per
-    round (alias ``swarm_size``), which a study's preset sets unless ``preset_batch=False``."""
+    fields but ``max_evaluations`` (the harness's budget) and those ``from_task`` fills;
+    ``batch`` names the points per round (alias ``swarm_size``, the CLI's ``--swarm-size``),
+    which a study's preset sets unless ``preset_batch=False``."""
     filled = dict(from_task or {})
     allowed = tuple(
         f.name for f in fields(config_class) if f.name != "max_evaluations" and f.name not in filled
@@ -213,7 +222,8 @@ def register_method(name: str, factory: MethodFactory, *, replace: bool = False)
 
 
 #: The entry-point group that names every method: name -> the module that registers it when
-#: imported, e.g. ``hill-climb = "my_opt"`` (this project's own: its pyproject.toml).
+#: imported, e.g. ``hill-climb = "my_opt"`` under ``[project.entry-points."tandem_env.optimisers"]``
+#: (this project's own: its pyproject.toml).
 OPTIMISER_ENTRY_POINTS = "tandem_env.optimisers"
 
 
@@ -244,7 +254,8 @@ def _factory(name: str) -> MethodFactory:
     try:
         importlib.import_module(module)
     except ModuleNotFoundError as error:
-        # only a missing provider is "not implemented", not one whose own imports fail
+        # only a missing provider is "not implemented"; one whose own imports fail is a real
+        # error and propagates
         if module != error.name and not module.startswith(f"{error.name}."):
             raise
         raise NotImplementedError(

@@ -52,9 +52,12 @@ class Tally:
     :mod:`agents.selection` without constraints): the base of an optimiser and the evaluator."""
 
     def __init__(self) -> None:
-        self.evaluations = 0  # points (strokes, actions) evaluated so far
-        self.iterations = 0  # rounds (ask/tell rounds, batches) so far
-        self.history: list[tuple[int, float]] = []  # (evaluations, best so far) per round
+        self.evaluations = 0
+        """Points (strokes, actions) evaluated so far."""
+        self.iterations = 0
+        """Rounds (ask/tell rounds, batches) so far."""
+        self.history: list[tuple[int, float]] = []
+        """(evaluations, best value so far) after every round."""
         self._top = BestStroke()
         self._top_point: FloatArray | None = None
 
@@ -85,7 +88,8 @@ class OptimiserConfig:
     :meth:`build` follow from its fields. A subclass names its ``algorithm`` and ``citation``;
     its optimiser names it (``class PSO(AskTellOptimiser, settings=PSOConfig)``)."""
 
-    algorithm: ClassVar[str]  # The record's name of the algorithm.
+    algorithm: ClassVar[str]
+    """The record's name of the algorithm."""
     optimiser: ClassVar[type[AskTellOptimiser]]
     """The ask/tell class :meth:`build` makes (set by its ``settings=`` class keyword)."""
 
@@ -96,7 +100,8 @@ class OptimiserConfig:
         check_settings(self)
 
     def in_use(self) -> dict[str, Any]:
-        """What the record adds to the settings: the constants and rules in use (none here)."""
+        """What the record adds to (or puts in place of) the settings: the constants and rules
+        in use (none here)."""
         return {}
 
     def to_dict(self) -> dict[str, Any]:

@@ -48,9 +48,12 @@ class PreparedJob:
     condition: Condition
     env_kwargs: Mapping[str, Any]
     """Env constructor keywords, including the condition (and objective) keyword."""
-    objective_name: str  # The ``info`` metric the task maximises under these keywords.
-    dim: int  # Dimension of the action box.
+    objective_name: str
+    """The ``info`` metric the task maximises under these keywords."""
+    dim: int
+    """Dimension of the action box."""
     polish: PolishConfig = field(default_factory=lambda: PolishConfig(method="none"))
+    """The local polish after the search (its settings are the ``polish*`` method settings)."""
 
     def describe(self) -> str:
         """E.g. ``pso on level (efficiency) at speed = 1.5 m/s, budget 12000 evaluations``."""
@@ -144,10 +147,15 @@ def initial_part(
         evaluations += 1
     reward = float(objective) if objective is not None and feasible else -math.inf
     selection = SELECTION_INITIAL_POLISHED if result.improved else SELECTION_INITIAL
-    feasible = feasible and objective is not None
-    seed = prepared.job.seed
     return Part(
-        "initial", seed, result.stroke, reward, feasible, selection, certificate, evaluations
+        kind="initial",
+        seed=prepared.job.seed,
+        action=result.stroke,
+        reward=reward,
+        feasible=feasible and objective is not None,
+        selection=selection,
+        certificate=certificate,
+        evaluations=evaluations,
     )
 
 
@@ -234,10 +242,20 @@ def _polish(
 
 def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator, seed: int) -> Part:
     """The search's part, unpolished: its best feasible stroke, else its best reward's."""
-    found = (outcome.best_action, outcome.best_reward, False, SELECTION_BEST_REWARD)
-    part = Part("search", seed, *found, Certificate.off(), outcome.evaluations, outcome)
+    part = Part(
+        kind="search",
+        seed=seed,
+        action=outcome.best_action,
+        reward=outcome.best_reward,
+        feasible=False,
+        selection=SELECTION_BEST_REWARD,
+        certificate=Certificate.off(),
+        evaluations=outcome.evaluations,
+        outcome=outcome,
+    )
     if evaluator.evaluations < outcome.evaluations:
         # the method evaluated strokes through its own envs (SB3): it chooses, by the same rule
+        # (train/policies.py)
         return replace(part, selection=SELECTION_METHOD)
     if evaluator.best_feasible is None:
         return part
@@ -253,8 +271,17 @@ def _search(
     """The method's search through the budgeted vector-env evaluator, checked."""
     job, task, kwargs = prepared.job, prepared.task, prepared.env_kwargs
     with VectorEnvEvaluator(task, prepared.condition, kwargs, seed, budget, report) as evaluator:
-        run = (task.env_id, kwargs, budget, seed, prepared.dim, evaluator, report)
-        context = SearchContext(task, prepared.condition, *run)
+        context = SearchContext(
+            task=task,
+            condition=prepared.condition,
+            env_id=task.env_id,
+            env_kwargs=kwargs,
+            budget=budget,
+            seed=seed,
+            dim=prepared.dim,
+            evaluator=evaluator,
+            _reporter=report,
+        )
         outcome = prepared.method.search(context)
     if not evaluator.evaluations <= outcome.evaluations <= budget:
         raise RuntimeError(

@@ -4,9 +4,16 @@ and the task's constraints (the signed margins of ``Constraint.margin``) as cons
 
 This module is the driver (:func:`polish`, its :class:`Certificate`, the KKT check); the
 problem, gradients (:mod:`agents.polish_gradients`) and settings (:mod:`agents.polish_config`)
-are imported from here too. The budget counts model evaluations and is never exceeded. The
-result is the best feasible point found if it beats the start, cast to float32
+are imported from here too. The budget counts model evaluations (a central-difference gradient
+at most 2k + 1, an autograd gradient one; docs/harness.md, "Local polish") and is never
+exceeded. The result is the best feasible point found if it beats the start, cast to float32
 (:func:`float32_margin` keeps it feasible); otherwise the start, the certificate saying why.
+
+::
+
+    problem = task_problem(task, condition, env_kwargs)
+    result = polish(problem, start, budget=4000, config=PolishConfig())
+    result.stroke, result.certificate.to_dict()
 """
 
 from __future__ import annotations
@@ -65,7 +72,9 @@ def kkt_residual(
 
     ∇f + Σ λ_i ∇c_i = 0, λ_i >= 0 over the active constraints (c_i <= ``active``) and bounds,
     solved by non-negative least squares. Returns (residual ||∇f + Σ λ_i ∇c_i|| / ||∇f|| [-],
-    active constraint mask, active bound mask); residual 0 where ∇f = 0, inf where infeasible.
+    active constraint mask, active bound mask): the residual is near 0 at a KKT point, of order 1
+    where f can still rise feasibly, 0 where ∇f = 0, inf at an infeasible point (some
+    c_i < -active).
     """
     g = np.asarray(objective_gradient, dtype=np.float64)
     norm = float(np.linalg.norm(g))
@@ -91,7 +100,8 @@ def kkt_residual(
 class Certificate:
     """What a record says about the local optimality of its stroke (JSON: :meth:`to_dict`)."""
 
-    method: str  # The polish's optimiser, ``"none"`` when it did not run.
+    method: str
+    """The polish's optimiser, ``"none"`` when it did not run."""
     status: str
     """``"improved"``, ``"no gain"``, ``"failed: ..."`` (both: the start kept), ``"off"`` or
     ``"not applicable"``."""
@@ -99,19 +109,22 @@ class Certificate:
     """(after − before) / |before| [-] (0: the start kept; None: the start's objective is 0)."""
     objective_before: float | None = None
     objective_after: float | None = None
-    evaluations: int = 0  # Model evaluations the polish used (counted in the run's budget).
+    evaluations: int = 0
+    """Model evaluations the polish used (counted in the run's budget)."""
     allowance: int = 0
     """Model evaluations it was allowed (the run's budget less what the search used)."""
     iterations: int = 0
     converged: bool | None = None
     """The optimiser's own convergence test passed (scipy ``success``)."""
     message: str = ""
+    """The optimiser's message."""
     kkt_residual: float | None = None
     """First-order optimality residual at the reported stroke (:func:`kkt_residual`) [-]."""
     active_constraints: tuple[str, ...] = ()
     """Constraints (and bounds, as ``bound:<parameter>``) active at the reported stroke."""
     gradient: str = ""
-    """``GradientFunction.name`` of the gradient used; empty when the polish did not run."""
+    """``GradientFunction.name`` of the gradient used (``"central differences"`` or
+    ``"autograd"``); empty when the polish did not run."""
 
     def to_dict(self) -> dict[str, Any]:
         out = asdict(self)
@@ -174,10 +187,12 @@ class _Run:
         self.values: dict[bytes, tuple[float, np.ndarray, bool]] = {}
         self.gradients: dict[bytes, Gradient] = {}
         self.best: tuple[float, np.ndarray] | None = None
-        self.margin: np.ndarray | float = 0.0  # (m,) held inside each constraint
-        # how near its held margin a constraint counts as active [-]: ``config.active`` plus
-        # the largest float32 step of :func:`float32_margin` (the cast to float32 moves it)
+        self.margin: np.ndarray | float = 0.0
+        """(m,) the margin held inside each constraint (:func:`float32_margin`)."""
         self.active: float = config.active
+        """How near its held margin a constraint counts as active [-]: ``config.active`` plus
+        the largest float32 step of :func:`float32_margin` (the reported stroke is cast to
+        float32, which moves each margin by up to half its step)."""
 
     def full(self, z: np.ndarray) -> np.ndarray:
         x = self.start.copy()
@@ -240,11 +255,13 @@ def polish(
     """Polish ``start`` (dim,) on ``problem`` with at most ``budget`` model evaluations.
 
     An infeasible start is kept (``"failed: the start is infeasible"``) unless
-    ``infeasible_start``: then any feasible point found is a gain (certificate ``gain`` None).
+    ``infeasible_start``: then the optimiser starts there all the same (SLSQP moves onto the
+    constraints) and any feasible point found is a gain (certificate ``gain`` None).
     ``keep_certified``: an iterate that passed the KKT stop is reported even up to 1e-6
     relative below the start (a polished stroke its check could not certify). ``gradient``
     defaults to :class:`CentralDifferences` with ``config.step``; one gradient's ``cost`` is
-    kept back for the certificate's check at the reported stroke. Without a feasible stroke
+    counted per call and kept back for the certificate's check at the reported stroke, so the
+    total never exceeds ``budget``. Without a feasible stroke
     better than the start, the start is returned (``"no gain"`` or ``"failed: ..."``).
     """
     if not config.enabled:
@@ -283,8 +300,8 @@ def polish(
     climb = _climb(run, z0, margin)
     failure, iterations = climb.failure, climb.iterations
     converged = True if climb.optimal else climb.success
-    message = f"KKT residual <= {config.optimality:g} at a feasible iterate"
-    message = message if climb.optimal else climb.message
+    optimal = f"KKT residual <= {config.optimality:g} at a feasible iterate"
+    message = optimal if climb.optimal else climb.message
     template = replace(template, iterations=iterations, converged=converged, message=message)
     # a start already polished (:func:`agents.polish_finish.finish`'s) gives way to the iterate
     # that passed the KKT stop beside it, within the 1e-6 of the stop's rule, to certify it
@@ -317,16 +334,20 @@ def polish(
 class _Climb:
     """How one run of the local optimiser ended."""
 
-    optimal: bool  # it stopped at an iterate that passed the KKT test
-    success: bool | None  # scipy's ``success``; None where it did not end
+    optimal: bool
+    """It stopped at an iterate that passed the KKT test (``config.optimality``)."""
+    success: bool | None
+    """The optimiser's own convergence test (scipy ``success``); None where it did not end."""
     message: str
-    failure: str  # "allowance used up", "failed: ..." or empty
+    failure: str
+    """``"allowance used up"``, ``"failed: ..."`` or empty."""
     iterations: int
 
 
 def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
-    """The local optimiser from z0 (free coordinates), each constraint held ``margin`` inside;
-    the best feasible point seen is ``run.best``."""
+    """The local optimiser from z0 (free coordinates) on ``run``'s allowance and gradient
+    function, each constraint held ``margin`` inside; the best feasible point seen is
+    ``run.best``."""
     config = run.config
 
     def fun(z: np.ndarray) -> float:
@@ -396,8 +417,10 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
 
 def float32_margin(jacobian: np.ndarray, margin: float) -> np.ndarray:
     """(m,) the margin held inside each constraint [-]: ``margin`` + Σ_j |∂g_i/∂x_j|·eps from
-    the start's Jacobian (m, k), eps = ``np.finfo(float32).eps``; a stroke that far inside stays
-    feasible cast to float32, to first order with a factor of 2 to spare."""
+    the start's Jacobian (m, k), eps = ``np.finfo(float32).eps`` (one float32 step of every free
+    coordinate, twice the largest rounding of a value in [-1, 1]); a stroke that far inside stays
+    feasible cast to float32, to first order with a factor of 2 to spare; its cost in objective
+    is the constraint's multiplier times it."""
     step = float(np.finfo(ACTION_DTYPE).eps)
     return margin + step * np.abs(np.asarray(jacobian, dtype=np.float64)).sum(axis=1)
 
@@ -409,7 +432,8 @@ def _kkt(run: _Run, z: np.ndarray, grad: Gradient) -> tuple[float, np.ndarray, n
 
 
 def _optimal(run: _Run, z: np.ndarray, grad: Gradient) -> bool:
-    """The iterate z (free coordinates) is feasible and passes the KKT test."""
+    """The iterate z (free coordinates) is feasible and passes the KKT test
+    (``config.optimality``)."""
     return grad.feasible and _kkt(run, z, grad)[0] <= run.config.optimality
 
 
@@ -429,7 +453,8 @@ def _keep(
     run: _Run, x0: np.ndarray, before: float, template: Certificate, feasible: bool
 ) -> PolishResult:
     """The start stays (no gain, a failure, an infeasible start), checked with the held margins
-    if it lies inside them (a polished stroke), else with the plain margin and activity."""
+    if it lies inside them (a polished stroke, e.g. one :func:`agents.polish_finish.finish`
+    starts from), else (a search's stroke) with the plain margin and activity."""
     found = run.values.get(x0.tobytes())
     if found is None or np.any(found[1] - run.margin < -run.active):
         run.margin = run.config.margin
@@ -441,8 +466,8 @@ def _keep(
 def _finish(
     run: _Run, x: np.ndarray, before: float, after: float, gain: float | None, template: Certificate
 ) -> PolishResult:
-    """The reported stroke x and its certificate, with the KKT check at x (on the gradient kept
-    back for it)."""
+    """The reported stroke x and its certificate (``template`` completed), with the KKT check
+    at x (the gradient kept back for it released from the allowance first)."""
     gradient = run.gradient_function
     run.allowance += gradient.cost + isinstance(gradient, AutogradGradient)
     kkt, active = _check(run, x)

@@ -50,20 +50,31 @@ class PolishConfig:
     """Settings of the local polish (validated here, where they enter)."""
 
     method: str = "slsqp"
-    """The scipy optimiser (:data:`POLISH_METHODS`); ``"none"`` turns the polish off."""
+    """The scipy optimiser (``minimize(method=...)``, :data:`POLISH_METHODS`); ``"none"``
+    turns the polish off."""
     share: float = 0.4
-    """Fraction of the run's budget kept for the polish, in [0.01, 0.9] (docs/harness.md)."""
-    step: float = 1e-5  # Central-difference step in normalised units, in [1e-8, 1e-2].
+    """Fraction of the run's budget kept for the polish, in [0.01, 0.9], the search getting the
+    rest; chosen by measurement (docs/harness.md, "Local polish")."""
+    step: float = 1e-5
+    """Central-difference step in normalised units, in [1e-8, 1e-2] (gradients agree to ~1e-7
+    relative between 1e-4 and 1e-5)."""
     tolerance: float = 1e-14
     """Stopping tolerance (SLSQP ``ftol``, absolute; trust-constr ``gtol``/``xtol``), in
-    [1e-14, 1e-2]: at 1e-10 SLSQP stalled at KKT residuals of 1.2-2.7e-4 (docs/harness.md)."""
-    max_iterations: int = 200  # Optimiser iterations at most, 1 to 10 000.
+    [1e-14, 1e-2]: at 1e-10 SLSQP ended level-flight polishes at KKT residuals of 1.2-2.7e-4;
+    at 1e-14 they run on to the KKT stop (``optimality``; docs/harness.md, "Certified")."""
+    max_iterations: int = 200
+    """Optimiser iterations at most, 1 to 10 000."""
     optimality: float = 1e-5
     """Stop at the first feasible iterate whose KKT residual (:func:`agents.polish.kkt_residual`)
-    is at most this [-], in [0, 1e-2]; 0: the optimiser's own test (docs/harness.md)."""
+    is at most this [-] (the certificate then says converged), in [0, 1e-2]; 0: the optimiser's
+    own test (``tolerance``), which can stall long after. 1e-5 certified one more of eight seeds
+    than 0 at the same budget and optima (docs/harness.md, "Local polish")."""
     finish: float = 0.1
-    """Fraction of a central-difference polish's allowance, in [0, 0.5], kept for
-    :func:`agents.polish_finish.finish` (autograd) where the stroke is not certified; 0: none."""
+    """Fraction of a polish's allowance kept back, in [0, 0.5], where it climbs by central
+    differences and the problem differentiates: where the run's reported stroke is not
+    certified, :func:`agents.polish_finish.finish` polishes it on with autograd gradients on
+    what the run left (central differences misread the gradient where the model's second
+    derivative jumps within a step); 0: no finish (docs/harness.md, "Certified")."""
     margin: float = 1e-9
     """Every constraint is held at margin >= ``margin`` [-] (0 to 1e-4), plus one float32 step
     of every coordinate, so the optimum cast to the action type passes the exact test."""
@@ -71,11 +82,14 @@ class PolishConfig:
     """Distance to its limit [-] within which a constraint or bound is active, 0 to 1e-2."""
     starts: int = 1
     """Independent searches (own seeds, equal parts of the budget, each polished) the run
-    reports the best of, 1 to :data:`MAX_STARTS` (docs/harness.md)."""
+    reports the best of, 1 to :data:`MAX_STARTS` (docs/harness.md, "Starts and initial
+    strokes")."""
     initial: tuple[tuple[float, ...], ...] = ()
-    """Normalised strokes polished directly (warm starts), each on an equal part of the budget."""
+    """Normalised strokes polished directly, each on an equal part of the budget: warm starts
+    (feasible or not), e.g. a neighbouring model reading's optimum."""
     initial_share: float | None = None
-    """The initial strokes' fraction of the budget together, in [0.05, 0.95]; None: equal parts."""
+    """The initial strokes' fraction of the budget together (split evenly), in [0.05, 0.95],
+    the searches sharing the rest; None: every part an equal share."""
 
     def __post_init__(self) -> None:
         if self.method not in POLISH_METHODS:
@@ -114,7 +128,7 @@ class PolishConfig:
 
     def reserve(self, budget: int, gradient_cost: int) -> int:
         """Evaluations of ``budget`` kept for the polish: ``share`` of it, or 0 when it is off
-        or that is below two gradients."""
+        or that is below two gradients (it could not take one step and check it)."""
         reserve = round(self.share * budget) if self.enabled else 0
         return reserve if reserve >= 2 * gradient_cost else 0
 

@@ -1,6 +1,7 @@
 """The finish of a polish: a stroke whose climb by central differences ended short of the KKT
 stop, polished on with autograd gradients (:func:`finish`; docs/harness.md, "Certified"), once
-per run (:func:`agents.parts.finish_part`), on the allowance each polish kept back for it."""
+per run (:func:`agents.parts.finish_part`), on the ``polish_finish`` share of its allowance
+each polish by differences kept back for it (:func:`agents.polish_gradients.finishable`)."""
 
 from __future__ import annotations
 
@@ -26,10 +27,11 @@ def finish(
     problem: Problem, result: PolishResult, budget: int, config: PolishConfig
 ) -> PolishResult:
     """``result``, a polish by central differences that ended short of the KKT stop (where the
-    model's second derivative jumps within a step), polished on with autograd gradients on
-    ``budget`` more evaluations; ``result`` itself where it is certified, infeasible, not
-    :func:`finishable` or ``budget`` is below two gradients. The certificate covers both
-    (evaluations, allowance and iterations summed, the finish's stop and KKT check)."""
+    model's second derivative jumps within a step), polished on with autograd gradients (one
+    evaluation each) on ``budget`` more evaluations; ``result`` itself where it is certified,
+    infeasible, not :func:`finishable` or ``budget`` is below two gradients. The certificate
+    covers both: evaluations, allowance and iterations summed, the stop and the KKT check the
+    finish's, ``gradient`` ``"central differences, then autograd"``."""
     first = result.certificate
     if (
         certified(first)

@@ -1,6 +1,7 @@
 """What the local polish optimises (:class:`Problem`, :func:`task_problem`) and its gradients:
 :class:`CentralDifferences` (2k + 1 strokes in ONE model call), :class:`AutogradGradient` (ONE
-torch evaluation); ``cost`` counts model evaluations against the allowance."""
+torch evaluation); ``cost`` counts model evaluations against the polish's allowance
+(docs/harness.md, "Local polish")."""
 
 from __future__ import annotations
 
@@ -34,10 +35,14 @@ __all__ = [
 class BatchEvaluation:
     """What one batched model call gives for n strokes."""
 
-    objective: np.ndarray  # (n,) the task's objective, maximised [objective units]
-    margins: np.ndarray  # (n, m) signed constraint margins, >= 0 where one holds [-]
-    feasible: np.ndarray  # (n,) bool, the task's exact feasibility test
-    names: tuple[str, ...]  # the m constraints' names
+    objective: np.ndarray
+    """(n,) the task's objective, maximised [objective units]."""
+    margins: np.ndarray
+    """(n, m) signed constraint margins, >= 0 where a constraint holds [-]."""
+    feasible: np.ndarray
+    """(n,) bool, the task's exact feasibility test."""
+    names: tuple[str, ...]
+    """The m constraints' names."""
 
 
 BatchFunction = Callable[[np.ndarray], BatchEvaluation]
@@ -56,8 +61,10 @@ class Problem:
     dim: int
     free: tuple[int, ...]
     """The coordinates the polish moves (the others stay at the start's values)."""
-    parameter_names: tuple[str, ...] = ()  # for the certificate's active bounds; default x0...
-    differentiate: DifferentiateFunction | None = None  # with derivatives (autograd), or None
+    parameter_names: tuple[str, ...] = ()
+    """Names of the dim coordinates (for the certificate's active bounds); default x0, x1..."""
+    differentiate: DifferentiateFunction | None = None
+    """The same evaluation with derivatives (autograd), or None where the model has none."""
 
     def __post_init__(self) -> None:
         if not self.free or any(not 0 <= j < self.dim for j in self.free):
@@ -81,7 +88,8 @@ def task_problem(
     task: TaskSpec, condition: Condition, env_kwargs: Mapping[str, Any], env: gym.Env | None = None
 ) -> Problem:
     """The polish problem of a harness task: its env's problem view (:func:`env_problem`) at
-    ``condition``, free coordinates those not in ``task.discrete_actions``; ``env``, if given,
+    ``condition``, so the polish optimises exactly what the env rewards; free coordinates
+    those not in ``task.discrete_actions``; ``env``, if given,
     is used (and left open) instead of making one."""
     with contextlib.ExitStack() as stack:
         if env is None:
@@ -115,17 +123,22 @@ class Gradient:
     """Value and first derivatives at one point, w.r.t. the free coordinates."""
 
     objective: float
-    margins: np.ndarray  # (m,)
+    margins: np.ndarray
+    """(m,)"""
     feasible: bool
-    objective_gradient: np.ndarray  # (k,) d objective / d x_free
-    jacobian: np.ndarray  # (m, k) d margins / d x_free
+    objective_gradient: np.ndarray
+    """(k,) d objective / d x_free."""
+    jacobian: np.ndarray
+    """(m, k) d margins / d x_free."""
     names: tuple[str, ...]
-    evaluations: int  # model evaluations it took (at most its function's ``cost``)
+    evaluations: int
+    """Model evaluations it took (at most its function's ``cost``)."""
 
 
 class GradientFunction(Protocol):
     """``gradient(x) -> Gradient`` at the full point x (dim,); ``cost``: model evaluations per
-    call at most; ``name`` for the certificate."""
+    call at most (kept back; ``Gradient.evaluations`` are counted); ``name`` for the
+    certificate."""
 
     cost: int
     name: str
@@ -136,7 +149,8 @@ class GradientFunction(Protocol):
 @dataclass(frozen=True)
 class CentralDifferences:
     """Central differences of a :class:`Problem`: x and x ± h e_j for every free j in ONE call
-    (one-sided at a bound: a point on k' bounds takes 2k + 1 − k' of ``cost``)."""
+    (at a bound the step is cut to stay inside [-1, 1], one-sided: ``cost`` is the most, a
+    point on k' bounds takes 2k + 1 − k')."""
 
     problem: Problem
     step: float = 1e-5
@@ -168,8 +182,9 @@ class CentralDifferences:
 
 @dataclass(frozen=True)
 class AutogradGradient:
-    """The gradient of a :class:`Problem` by autograd: ONE differentiable model evaluation
-    (``problem.differentiate``, the torch backend)."""
+    """The gradient of a :class:`Problem` by autograd: value, objective gradient and margin
+    Jacobian from ONE differentiable model evaluation (``problem.differentiate``, the torch
+    backend), so ``cost`` is 1."""
 
     problem: Problem
     cost: int = field(init=False, default=1)

@@ -19,8 +19,11 @@ class Phase:
     name: str
     jobs: tuple[Job, ...]
     provisional: frozenset[str] = frozenset()
-    """Keys of stand-ins for jobs an earlier phase's results decide: counted as to run."""
-    later: str = ""  # What follows this phase that no look-ahead can count (said as ``then ...``).
+    """Keys of stand-ins for jobs an earlier phase's results decide (budgets right, keys not
+    final: :meth:`agents.jobs.Continuation.job`): counted as to run."""
+    later: str = ""
+    """What follows this phase that no look-ahead can count before it has run (the readings
+    study's combinations), said as ``then ...`` on the cost line."""
 
 
 def _duration(seconds: float) -> str:
@@ -49,7 +52,8 @@ class CommandProgress:
         rerun: bool = False,
     ) -> None:
         self.title = title
-        self.name = title.partition(" (")[0]  # as the phase lines name the command
+        self.name = title.partition(" (")[0]
+        """The title less its parenthesis, as the phase lines name the command."""
         self.detail = detail
         self._store = RecordStore.at(out)
         self.out_dir = self._store.directory
@@ -60,7 +64,8 @@ class CommandProgress:
         self._done: set[str] = set()
         self._evaluations = 0
         self._seconds = 0.0
-        self.lines: list[str] = []  # every line said, in order
+        self.lines: list[str] = []
+        """Every line said, in order (what a test or a log reads)."""
 
     def _plan(self, phases: Sequence[Phase], started: Sequence[Phase] = ()) -> None:
         """The look-ahead's ``phases``, each of those ``started`` in its place (or after)."""

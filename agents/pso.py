@@ -75,8 +75,10 @@ class PSOConfig(OptimiserConfig):
 
     algorithm = "pso"
 
-    swarm_size: int = integer_setting(2, MAX_BATCH, default=40)  # Number of particles (>= 2).
-    inertia: Inertia = "constriction"  # Parameter set; see the module docstring.
+    swarm_size: int = integer_setting(2, MAX_BATCH, default=40)
+    """Number of particles (>= 2)."""
+    inertia: Inertia = "constriction"
+    """Parameter set; see the module docstring."""
     cognitive: float | None = real_setting(0.0, math.inf, low_inclusive=True, default=None)
     """Override of c1 (>= 0); None uses the value of the chosen parameter set."""
     social: float | None = real_setting(0.0, math.inf, low_inclusive=True, default=None)
@@ -84,8 +86,8 @@ class PSOConfig(OptimiserConfig):
     velocity_clamp: float = real_setting(0.0, 1.0, low_inclusive=False, default=0.5)
     """Maximum |v| per dimension as a fraction of the box width 2, in (0, 1]."""
     boundary: Boundary = "clip"
-    """``"clip"``: a particle leaving the box stops on the wall; ``"reflect"``: it is mirrored
-    back inside, that velocity component reversed."""
+    """``"clip"``: a particle leaving the box stops on the wall, that velocity component
+    zeroed; ``"reflect"``: it is mirrored back inside, that velocity component reversed."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -185,7 +187,8 @@ class PSO(AskTellOptimiser, settings=PSOConfig):
     def _confine(self, x: FloatArray, v: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Bring positions that left the box back inside, adjusting their velocities."""
         low, high = x < ACTION_LOW, x > ACTION_HIGH
-        # landing exactly on a wall is a hit too: a particle there keeps no outward velocity
+        # landing exactly on a wall (e.g. -1 + vmax = 1 with the full-width clamp) is a hit
+        # too: a particle there keeps no outward velocity
         hit = (x <= ACTION_LOW) | (x >= ACTION_HIGH)
         if self._boundary == "clip":
             v[hit] = 0.0

@@ -1,4 +1,5 @@
-"""The record cache: one store of records shared by every output folder (docs/harness.md). Its
+"""The record cache: one store of records shared by every output folder (docs/harness.md, "The
+record cache"). Its
 folder and files must be the user's own (:func:`record_cache`); what it serves is re-evaluated
 first (:mod:`agents.verify`); a method that takes a path is never cached (:func:`cacheable`).
 """

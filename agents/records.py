@@ -95,11 +95,13 @@ class RecordChecksumError(RecordError):
 
 
 class RecordMismatchError(RecordError):
-    """A record whose key is not its job's hash, or whose file is named by another key."""
+    """A record whose key is not its job's hash, or whose file is named by another key: edited
+    or moved by hand (its checksum may have been made again over the edit)."""
 
 
 class UnsafeFileError(RecordError):
-    """A file not read (not a regular file) or not trusted (:func:`agents.store.unsafe_path`)."""
+    """A file not read (not a regular file, e.g. a named pipe) or not trusted (one of the record
+    cache owned by another user or writable by others: :func:`agents.store.unsafe_path`)."""
 
 
 class OutdatedRecordError(RecordError):
@@ -143,13 +145,16 @@ def _checksum(payload: Mapping[str, Any]) -> str:
 @dataclass(frozen=True)
 class Record:
     """What one :class:`Job` found: the job, its key and its results (:data:`RESULTS`, each an
-    attribute, as the job's fields are)."""
+    attribute, as the job's fields are), every number from the re-evaluation of the stroke."""
 
-    job: Job  # The configuration that produced the record.
-    key: str  # The job's configuration hash when it ran (:attr:`Job.key`): the record's file name.
+    job: Job
+    """The configuration that produced the record."""
+    key: str
+    """The job's configuration hash when it ran (:attr:`Job.key`): the record's file name."""
     results: dict[str, Any]
     """What the run found, plain JSON (:data:`RESULTS`, plus any key a later stage adds)."""
     schema: str = field(default=SCHEMA)
+    """Record format identifier."""
 
     def __post_init__(self) -> None:
         if self.schema != SCHEMA:
@@ -227,7 +232,8 @@ class Record:
 
     @property
     def config(self) -> dict[str, Any]:
-        """``method`` (``method_settings``) and ``env`` (the env's full configuration)."""
+        """``method`` (``method_settings``: the method's settings and citation) and ``env`` (the
+        env's full configuration: insect, model options incl. ``thrust_split``, penalty)."""
         return {"method": self.results["method_settings"], "env": self.results["env"]}
 
     # --- JSON ------------------------------------------------------------------------------------
@@ -312,7 +318,8 @@ class Record:
         for name in SUMMARY_METRICS:
             if name in self.metrics:
                 row[name] = self.metrics[name]
-        # The stroke (Table 4 units) and its parameters at a bound of the insect's; a task of
+        # The stroke (Table 4 units) and its parameters at a bound of the insect's (Table 4's
+        # unless it sets its own); a task of
         # another action (a plug-in, the analytic test tasks) has no such stroke.
         insect = self.job.env("insect")
         if set(tandem_env.PARAMETER_NAMES) <= set(self.stroke):

@@ -2,10 +2,12 @@
 
 A plan (:class:`Plan`, :func:`run_plan`) yields phases (:class:`~agents.progress.Phase`) of
 keyed jobs computed from the records of the phases before it; :func:`run_jobs` runs one list.
-Each record is kept in the output's :class:`~agents.store.RecordStore` under its job's key, so
-a killed run resumes and neither order, executor nor worker count changes a result
-(docs/harness.md). Jobs are validated all before any runs; this process alone writes the
-records; a job that raises is reported after the others finish (:class:`JobsFailed`).
+Each record is kept in the output's :class:`~agents.store.RecordStore` under its job's key
+(the hash of its configuration and the package version), so a killed run resumes and neither
+order, executor nor worker count changes a result (docs/harness.md, "The record and the
+store"). Jobs are validated all before any runs (:func:`agents.harness.prepare_job`); this
+process alone writes the records, as each job finishes; a job that raises is reported with its
+key and traceback after the others finish (:class:`JobsFailed`).
 """
 
 from __future__ import annotations
@@ -63,7 +65,8 @@ class JobFailure:
 
     key: str
     label: str
-    error: str  # ``Type: message`` of the exception.
+    error: str
+    """``Type: message`` of the exception."""
     traceback: str
 
     def describe(self) -> str:
@@ -74,18 +77,26 @@ class JobFailure:
 class RunSummary:
     """How a call of :func:`run_jobs` went."""
 
-    total: int  # Distinct jobs asked for.
-    reused: int  # Jobs whose records already existed (resumed), in ``--out`` or the record cache.
-    ran: int  # Jobs run now (including failed ones).
-    wall_time: float  # Seconds spent [s].
+    total: int
+    """Distinct jobs asked for."""
+    reused: int
+    """Jobs whose records already existed (resumed), in ``--out`` or the record cache."""
+    ran: int
+    """Jobs run now (including failed ones)."""
+    wall_time: float
+    """Seconds spent [s]."""
     executor: str = "serial"
     """Where the jobs ran: ``serial``, ``local:N`` or the scheduler's address."""
     failures: tuple[JobFailure, ...] = field(default=())
+    """Jobs that raised."""
     records: Mapping[str, Record] = field(default_factory=dict, repr=False, compare=False)
     """The record of every job that has one, by key (reused ones read once, new ones as saved)."""
-    cached: int = 0  # Of the reused jobs, those whose records came from the record cache.
-    replaced: int = 0  # Of the jobs run, those whose record in ``--out`` was replaced (``rerun``).
-    noun: str = "optimisation"  # What the jobs are (:attr:`agents.jobs.Work.noun`).
+    cached: int = 0
+    """Of the reused jobs, those whose records came from the record cache."""
+    replaced: int = 0
+    """Of the jobs run, those whose record in ``--out`` was replaced (``rerun``)."""
+    noun: str = "optimisation"
+    """What the jobs are (:attr:`agents.jobs.Work.noun`)."""
 
     def to_dict(self) -> dict[str, Any]:
         """The run as the manifests record it."""
@@ -254,15 +265,19 @@ def run_jobs(
     """Run every job (the harness's or another :class:`~agents.jobs.Work` kind's) that has no
     valid stored record yet, duplicates once, largest budget first.
 
-    ``scheduler``: None runs here, else :mod:`agents.dask_cluster`'s. ``rerun`` runs every job
-    again. ``cache``: a job without a record in ``out_dir`` takes the cache's; every record
-    computed goes to both. A reused record its stroke does not reproduce
-    (:func:`agents.verify.refuted`) is warned of and run again. ``command`` is told of every
-    job finished. ``summary_csv`` rewrites ``out_dir``'s ``summary.csv`` when the call ends,
-    the store's paths checked first (:class:`OutputNotWritable`; a store that cannot be
-    written but holds every job is used as it is). Raises :class:`JobsFailed` after the other
-    jobs finished, :class:`~agents.dask_cluster.SchedulerUnreachable`, and ValueError for a
-    bad ``scheduler`` or an ``out_dir`` (or cache folder) that is a file.
+    ``scheduler``: None runs here, one job after another, else :mod:`agents.dask_cluster`'s.
+    ``rerun`` runs every job again, replacing its record. ``cache``
+    (:data:`~agents.record_cache.CacheOption`): a job without a record in ``out_dir`` takes the
+    cache's; every record computed goes to both. A reused record is re-evaluated first: one its
+    stroke does not reproduce (:func:`agents.verify.refuted`) is said in a
+    :class:`~agents.records.RecordWarning` and run again. ``command`` is told of every job
+    finished. ``summary_csv`` rewrites ``out_dir``'s ``summary.csv`` when the call ends (after
+    a failure too), the store's paths checked first (:class:`OutputNotWritable`; a store that
+    cannot be written but holds every job is used as it is). Raises :class:`JobsFailed` after
+    the other jobs finished if any job was rejected or raised,
+    :class:`~agents.dask_cluster.SchedulerUnreachable`, and ValueError for a bad ``scheduler``
+    or an ``out_dir`` (or cache folder) that is a file. The summary's ``records`` are the jobs'
+    records, each read at most once.
     """
     executor = "serial" if scheduler is None else parse_scheduler(scheduler)
     start = time.perf_counter()
@@ -316,12 +331,14 @@ def run_jobs(
             except Exception as error:
                 failures.append(_failure(_job_of(job), error, error.__traceback__))
         todo.sort(key=lambda p: -_job_of(p).budget)
-        if todo and (old := store.outdated(skip=given)):  # no job finds them: said once
+        # their keys hash the earlier format, so no job finds them: said once (one at a job's
+        # own key was reported by store.load)
+        if todo and (old := store.outdated(skip=given)):
             where = f"{len(old)} record file(s) of an earlier format in {old[0].parent}"
             message = f"{where} (e.g. {old[0].name}) are not used: the jobs they held run again"
             warnings.warn(f"{message} in this format", RecordWarning, stacklevel=2)
-        # Records of an earlier model sit under the keys it gave them (Job.key_at): no job
-        # finds them; said once per store.
+        # Records of an earlier model sit under the keys it gave them (Job.key_at; None: before
+        # keys held the revision): no job finds them; said once per store.
         revisions = (None, *range(1, tandem_env.physics.MODEL_REVISION))
         earlier = [
             job.key_at(tandem_env.__version__, model)
@@ -365,10 +382,18 @@ def run_jobs(
                     command.ran(job, now - running)
                 running = now
         noun = next((getattr(_job_of(j), "noun", "optimisation") for j in given.values()), "")
-        failed = tuple(sorted(failures, key=lambda f: f.key))
-        counts = (len(given), len(given) - len(missing), len(missing))
-        wall = time.perf_counter() - start
-        summary = RunSummary(*counts, wall, executor, failed, records, len(cached), replaced, noun)
+        summary = RunSummary(
+            total=len(given),
+            reused=len(given) - len(missing),
+            ran=len(missing),
+            wall_time=time.perf_counter() - start,
+            executor=executor,
+            failures=tuple(sorted(failures, key=lambda f: f.key)),
+            records=records,
+            cached=len(cached),
+            replaced=replaced,
+            noun=noun,
+        )
         if failures:
             raise JobsFailed(summary)
         return summary
@@ -455,7 +480,8 @@ class Lookup:
 
 class Plan(Protocol):
     """Resumable work in phases (:func:`run_plan`): called with a :class:`Lookup`, it yields each
-    phase once the records before it can be looked up (or a sequence of :class:`Phase`)."""
+    phase once the records before it can be looked up. Phases that do not depend on records are
+    given as data instead, a sequence of :class:`Phase`."""
 
     def __call__(self, found: Lookup) -> Iterator[Phase]: ...
 
@@ -470,9 +496,12 @@ def look_ahead(plan: Plan | Sequence[Phase], out: Out, cache: CacheOption = True
 class PlanRun:
     """How a call of :func:`run_plan` went."""
 
-    runs: dict[str, RunSummary]  # Each phase's :func:`run_jobs` call, by phase name, in order.
-    records: dict[str, Record]  # Every record the phases found or made, by key.
-    wall_time: float  # Seconds spent [s].
+    runs: dict[str, RunSummary]
+    """Each phase's :func:`run_jobs` call, by phase name, in order."""
+    records: dict[str, Record]
+    """Every record the phases found or made, by key."""
+    wall_time: float
+    """Seconds spent [s]."""
 
 
 def run_plan(

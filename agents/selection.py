@@ -21,8 +21,10 @@ from numpy.typing import ArrayLike
 class Rank:
     """What the rule compares for one stroke."""
 
-    feasible: bool  # all constraints met (False for a stroke whose reward is NaN or -inf)
-    reward: float  # the reward [reward units]; -inf for a NaN reward
+    feasible: bool
+    """All constraints met (False for a stroke whose reward is NaN or -inf)."""
+    reward: float
+    """The reward [reward units]; -inf for a NaN reward."""
 
     def beats(self, other: Rank) -> bool:
         """Strictly better than ``other`` by the rule (ties keep ``other``, the earlier one)."""

@@ -1,7 +1,9 @@
-"""The record store: a job's record kept as ``DIR/records/<key>.json``, found by its job's key,
-written atomically by the runner alone; a file that is not a valid record of its job is
-recomputed with a :class:`~agents.records.RecordWarning`. ``DIR/summary.csv`` summarises it.
-The record cache is a store too (:func:`cache_directory`; docs/harness.md, "The record cache").
+"""The record store: a job's record kept as ``DIR/records/<key>.json``, found by its job's key
+(:attr:`agents.jobs.Job.key`), written atomically by the runner alone
+(:func:`agents.runner.run_jobs`), so a killed run resumes; a file that is not a valid record of
+its job is recomputed with a :class:`~agents.records.RecordWarning`. ``DIR/summary.csv``
+summarises it. The record cache is a store too, shared by every output folder of a user
+(:func:`cache_directory`; docs/harness.md, "The record cache").
 """
 
 from __future__ import annotations
@@ -61,8 +63,9 @@ def cache_directory() -> Path:
 
 
 class StoreWriteError(OSError):
-    """A store's file could not be written: the file is as it was (writes are atomic) and the
-    same command resumes from the records already stored once the cause is fixed."""
+    """A store's file could not be written (a full disk, a folder made read-only, a directory
+    in a file's place): the file is as it was (writes are atomic), the records already stored
+    are kept, and the same command resumes from them once the cause is fixed."""
 
     def __init__(self, path: Path, error: OSError) -> None:
         reason = error.strerror or str(error)
@@ -107,7 +110,8 @@ def unsafe_path(path: str | os.PathLike[str], status: os.stat_result) -> str | N
 
 def _read_json(path: str | os.PathLike[str], *, strict: bool = False) -> Any:
     """The JSON in one of the store's files; RecordError naming the file for one that is not
-    UTF-8 JSON, UnsafeFileError for one not regular or (``strict``) :func:`unsafe_path`'s."""
+    UTF-8 JSON, :class:`~agents.records.UnsafeFileError` for one that is not a regular file
+    (never read) or, if ``strict``, that :func:`unsafe_path` refuses."""
     # O_NONBLOCK: opening a named pipe would wait for a writer; fstat judges what was opened.
     descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     with open(descriptor, encoding="utf-8") as handle:
@@ -126,7 +130,8 @@ def _read_json(path: str | os.PathLike[str], *, strict: bool = False) -> Any:
 
 
 def _check_name(path: Path, record: Record) -> Record:
-    """``record`` if ``path`` is named by its key (``<key>.json``) or by no key at all."""
+    """``record`` if ``path`` is named by its key (``<key>.json``) or by no key at all;
+    RecordError for one moved or copied to another job's name."""
     if _KEY_NAME.fullmatch(path.stem) and path.stem != record.key:
         raise RecordMismatchError(
             f"{path}: holds the record of key {record.key} ({record.label()}), not of the key "
@@ -159,8 +164,9 @@ class RecordStore:
 
     def check(self, *, write: bool = True, jobs: Iterable[Job] = ()) -> bool:
         """Check every path the store writes before any work (:func:`output_directory`): the
-        folder, its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError,
-        or (without ``write``) False if it cannot be written now."""
+        folder, its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError
+        naming the path and what is allowed, or (without ``write``) False if it cannot be
+        written now."""
         files = (SUMMARY_NAME, *(f"{RECORDS_DIR}/{job.key}.json" for job in jobs))
         return output_directory(
             self._given, "--out", write=write, folders=(RECORDS_DIR,), files=files

@@ -1,6 +1,8 @@
 """The harness's tasks: which env id a task name means, read from the env's task declaration.
-A :class:`TaskSpec` is a name, a Gymnasium id and the env config's declaration, read, never
-copied (:meth:`TaskSpec.from_env`); tests register analytic tasks (:func:`register_task`).
+
+A :class:`TaskSpec` is a name, a Gymnasium id and the env config's
+:class:`~tandem_env.envs.TaskDeclaration`, read, never copied: every env entry with a task
+gives one (:meth:`TaskSpec.from_env`); tests register analytic tasks (:func:`register_task`).
 """
 
 from __future__ import annotations
@@ -22,7 +24,8 @@ from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
 _NAME = re.compile(r"^[a-z][a-z0-9_-]*$")
 
 
-#: The harmonic N of each wing, 1 or 2 (two equal bins of [-1, 1]): the only discrete parameters.
+#: The harmonic N of each wing, 1 or 2 (``normalised_to_physical``: N = 1 where a < 0, else 2,
+#: two equal bins of [-1, 1]): the stroke's only discrete parameters.
 STROKE_DISCRETE: tuple[tuple[int, int], ...] = tuple(
     (int(i), int(UPPER[i] - LOWER[i]) + 1) for i in np.flatnonzero(DISCRETE)
 )
@@ -32,9 +35,12 @@ STROKE_DISCRETE: tuple[tuple[int, int], ...] = tuple(
 class Condition:
     """A task's flight condition as recorded: e.g. ``speed = 1.5 m/s``."""
 
-    name: str  # What the value is, e.g. ``"speed"`` or ``"available_power"``.
-    value: float  # The value [unit].
+    name: str
+    """What the value is, e.g. ``"speed"`` or ``"available_power"``."""
+    value: float
+    """The value [unit]."""
     unit: str
+    """Its unit, e.g. ``"m/s"`` or ``"W/kg"``."""
 
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "value": self.value, "unit": self.unit}
@@ -47,13 +53,16 @@ class Condition:
 class TaskSpec:
     """How the harness runs one task: a name, an env id and the env's task declaration."""
 
-    name: str  # Short name used on the command line and in record file names (lower case).
-    env_id: str  # Registered Gymnasium id with a ``vector_entry_point``.
+    name: str
+    """Short name used on the command line and in record file names (lower case)."""
+    env_id: str
+    """Registered Gymnasium id with a ``vector_entry_point`` (autoreset ``"Disabled"``, the
+    single env's keywords)."""
     declaration: TaskDeclaration
     """The env's declaration (its config's ``DECLARATION``), with a condition and objectives."""
     discrete_actions: tuple[tuple[int, int], ...] = field(default=())
     """(index, levels) of each discrete action coordinate: value i on the i-th of ``levels``
-    equal bins of [-1, 1]."""
+    equal bins of [-1, 1] (CMA-ES searches the bin centres)."""
 
     @classmethod
     def from_env(cls, name: str, env_id: str) -> TaskSpec:

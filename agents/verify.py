@@ -1,6 +1,7 @@
 """Stored records checked against the physics before they are reused: a checksum tells damage,
-not a forged record, so :func:`refuted` steps every reused record's stroke once more (one
-vector-env step per task and env configuration) and compares it with what the record says.
+not a forged record, so the runner serves no stored record before :func:`refuted` steps its
+stroke once more (one vector-env step per task and env configuration) and compares what the
+record says (:data:`CHECKED`) with what the stroke gives.
 """
 
 from __future__ import annotations
@@ -22,10 +23,12 @@ from tandem_env.io.files import to_jsonable
 #: The results a record's stroke decides, compared with their re-evaluation.
 CHECKED = ("reward", "objective", "feasible", "stroke", "metrics")
 #: Metrics the stroke does not decide alone, left out of the comparison: ``score`` reads the
-#: objective against the reference table, which every regeneration moves.
+#: objective (which is checked) against the packaged reference table (docs/reference.md), which
+#: every regeneration moves; a record keeps the one of its run.
 TABLE_RELATIVE = frozenset({"score"})
-#: How closely each number must agree: |stored - recomputed| <= ATOL + RTOL |recomputed|
-#: (numba and torch, which share records, agree within 1e-8).
+#: How closely each number must agree: |stored - recomputed| <= ATOL + RTOL |recomputed| (the
+#: same backend reproduces a record bit for bit; numba and torch, which share records, agree
+#: within 1e-8, docs/harness.md).
 RTOL, ATOL = 1e-7, 1e-8
 #: The most records re-evaluated in one step (the model takes up to 10 000 strokes a batch).
 _BATCH = 1024

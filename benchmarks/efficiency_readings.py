@@ -2,11 +2,14 @@
 
     python benchmarks/efficiency_readings.py [--scheduler local:2] [--out results/efficiency]
 
-Level flight at 1.5 m/s over the same seeds, through the harness: 1. the six readings of T and
-P, each by CMA-ES (16 000 evaluations) with the SLSQP polish; 2. the same searched as in the
-paper's era (``PAPER_SEARCHES``) and by PSO 40 × 50 with linearly decreasing inertia, into one
-table in ``OUT/efficiency_readings.json`` (a rerun computes only what is missing); 3. with
-``--claims PRESET`` instead, the studies' claims under the default and ``hover-none`` readings.
+Level flight at 1.5 m/s over the same seeds, through the harness (records shared with ``python
+-m eval optimize``): 1. the six readings of T (thrust split) and P (power), each optimised by
+CMA-ES (16 000 evaluations) with the SLSQP polish; 2. the same searched as in the paper's era
+(``PAPER_SEARCHES``), plus PSO 40 × 50 with linearly decreasing inertia; 3. with ``--claims
+PRESET`` instead, the studies' claims under the default and ``hover-none`` readings
+(``OUT/claims-PRESET/efficiency_claims.json``). Parts 1-2 print one table and write it with the
+run's date, machine and load to ``OUT/efficiency_readings.json``; a rerun computes only what
+is missing.
 """
 
 from __future__ import annotations

@@ -2,8 +2,11 @@
 
     python benchmarks/float32_margin.py results/study [more stores ...]
 
-At each record's stroke: the multipliers λ of the active constraints (non-negative least
-squares) and the margins m; prints the cost Σ λ_i m_i per record, its median and largest.
+The polish holds one float32 step of every coordinate inside each constraint. At each record's
+stroke: the multipliers λ of the active constraints (non-negative least squares) and the
+margins m; prints the first-order cost Σ λ_i m_i per record, then its median and largest
+relative to the objective.
+
 """
 
 from __future__ import annotations

@@ -2,14 +2,18 @@
 
     python benchmarks/inflow_solve.py [--rounds 7] [--seed 0]
 
-Evaluations per second of each inflow model at batch 1, 64 and 1024 with the ratio coupled /
-none, and of the convected slipstream (docs/model.md §5.7) and the vortex reading (§5.8) with
-the ratios convected / mean (target: at most 2 at batch 1024) and vortex / mean (at most 3).
-The cases are timed in interleaved rounds in one process, so a passing load hits all alike;
-ratios are medians of the per-round ratios of wall and CPU time. Then force sweeps per annulus
+Evaluations per second of each inflow model at batch 1, 64 and 1024 with the target ratio
+coupled / none at batch 1024, and of the convected slipstream
+(``ModelOptions(slipstream="convected")``, docs/model.md §5.7) and the vortex reading
+(``"vortex"``, §5.8) with the ratios convected / mean (target: at most 2 at batch 1024) and
+vortex / mean (at most 3). The cases are timed in one process in interleaved rounds (every case
+once per round), so a load that comes and goes hits all alike; each case reports its best and
+median round, the ratios are medians of the per-round ratios of wall time and of CPU time (all
+threads; steadier when other processes compete for the cores). Then force sweeps per annulus
 from the solver itself (``induction.solve_annulus``) on the fore-wing annuli of random Table 4
-strokes, over the annuli that need a solve (F̄_n(0) > 0). ``--json PATH`` also writes the
-numbers (``python -m eval numbers`` renders docs/model.md §12 from them).
+strokes: the mean over the annuli that need a solve (F̄_n(0) > 0) is the solver's own cost.
+``--json PATH`` also writes the numbers (``python -m eval numbers`` renders docs/model.md §12
+from them).
 """
 
 from __future__ import annotations
@@ -28,7 +32,8 @@ from tandem_env.physics import blade, cycle, induction, model
 from tandem_env.physics.kinematics import fill_angle_history, wing_params_radians
 
 INDUCTION = ("coupled", "isolated", "none")
-#: The cases timed: each inflow model, and the coupled inflow with each slipstream reading.
+#: The cases timed: each inflow model, and the coupled inflow with each slipstream reading
+#: (``ModelOptions.slipstream``, docs/model.md §5.7), against the coupled one (the mean reading).
 CASES = {
     **{induction: te.ModelOptions(induction=induction) for induction in INDUCTION},
     "convected": te.ModelOptions(slipstream="convected"),
@@ -37,8 +42,10 @@ CASES = {
 #: The phase-resolved readings, each timed against the mean one.
 READINGS = ("convected", "vortex")
 BATCHES = (1, 64, 1024)
-SWEEP_STROKES = 200  # random strokes whose fore-wing annuli are solved to count the sweeps
-SWEEP_SPEEDS = (0.0, 1.0, 2.0)  # flight speeds [m/s] of that count
+SWEEP_STROKES = 200
+"""Random strokes whose fore-wing annuli are solved one by one to count the sweeps."""
+SWEEP_SPEEDS = (0.0, 1.0, 2.0)
+"""Flight speeds [m/s] of that count."""
 
 
 def timed(call, min_seconds: float) -> tuple[float, float]:

@@ -5,10 +5,12 @@
         [--threads 1] [--batches 1 64 1024] [--gradient]
     python benchmarks/model_throughput.py --json results/throughput.json   # the numbers too
 
-One evaluation is one wing-beat cycle at the default resolution, per inflow model; numbers are
-the best of ``--repeats`` calls after a warm-up. ``--backend torch`` times the torch port (and,
-on the CPU, numba on the same strokes); ``--gradient`` adds one autograd gradient against a
-batched central difference. ``--json PATH`` also writes the numbers (docs/model.md §12).
+One evaluation is one wing-beat cycle of both wing pairs at the default resolution, per inflow
+model ("coupled", "isolated", "none"); numbers are the best of ``--repeats`` calls after a
+warm-up, the breakdown with CPU time too. ``--backend torch`` times the torch port per batch
+and, on the CPU, numba on the same strokes (the ratio > 1: torch faster); ``--gradient`` adds
+one autograd gradient against a batched central difference. ``--json PATH`` also writes the
+numbers (``python -m eval numbers`` renders docs/model.md §12 from them).
 """
 
 from __future__ import annotations

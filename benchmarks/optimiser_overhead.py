@@ -1,8 +1,11 @@
 """How much of an optimisation run is the optimiser itself?
 
-Runs a harness method on a flight task as ``agents.harness`` does and times the model call,
-the vector-env step, ask + tell and, for ``cmaes``, the package's public calls; the overhead
-is everything but the env step, as a share of the run (acceptable: docs/harness.md). Usage::
+Runs a harness method (``pso``, ``cmaes``, ``random``) on a flight task as ``agents.harness``
+does (ask, one vector-env step of the whole batch, tell) and times separately the model call,
+the vector-env step (the model call plus the env's own work), ask + tell and, for ``cmaes``, the
+time inside the ``cmaes`` package's public calls (wrapped for the benchmark's duration). The
+overhead is everything but the env step, as a share of the run time, measured in one process.
+What share is acceptable is stated in docs/harness.md. Usage::
 
     python benchmarks/optimiser_overhead.py [--method cmaes] [--method-config popsize=20]
         [--task level] [--evaluations 12000] [--repeats 3]
@@ -40,7 +43,8 @@ class Timing:
     env_step: float = 0.0
     model: float = 0.0
     ask_tell: float = 0.0
-    package: float = 0.0  # time inside the optimiser's package (cmaes only) [s]
+    package: float = 0.0
+    """Time inside the optimiser's package (cmaes only) [s]."""
     evaluations: int = 0
     iterations: int = 0
 

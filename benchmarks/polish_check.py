@@ -2,8 +2,11 @@
 
     python benchmarks/polish_check.py results/acc60 [results/level15 ...]
 
-Per record, an SLSQP of its own (no code shared with ``agents/polish.py``) from its stroke: the
-gain [%] and final violation; per condition the seeds gaining < 0.5 %, halves' bests, median.
+For every harness record in the stores: an SLSQP of its own (sharing no code with
+``agents/polish.py``, whose work it checks) from the record's stroke under the task's margins.
+Prints per record the objective, the fresh polish's gain [%] and its final violation, then per
+condition how many seeds gain < 0.5 %, the best of each half of the seeds and the median.
+
 """
 
 from __future__ import annotations

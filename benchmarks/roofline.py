@@ -2,14 +2,20 @@
 
     python benchmarks/roofline.py [--commit 8e3cf19] [--threads 1 2] [--rounds 7] [--json PATH]
 
-The call timed is ``tandem_env.evaluate(strokes, 1.0, options=ModelOptions(slipstream="mean"))``
-on B = 1024 random Table 4 strokes. Per stroke: the element samples, the force sweeps and slopes
-(``cycle.W_SWEEPS``, ``W_SLOPES``), and the flops, square roots, divisions and libm calls per
-element sample, counted by running the kernel's pointwise formulae once on counting numbers
-(``xp.on_namespace``); beside them the machine's FMA flops and 1/sqrt(x) per cycle (cycles: the
-clock in /proc/cpuinfo). Speed: the pinned commit's ``tandem_env`` (``git archive`` under
-results/roofline/) runs in a second process, in interleaved rounds of ``--calls`` calls; the
-ratio old / new of the median seconds per call is printed. It reports, never fails.
+The call timed is ``tandem_env.evaluate(strokes, speed=1.0, options=ModelOptions(slipstream=
+"mean"))`` on B = 1024 random Table 4 strokes. Per stroke it prints the element samples (both
+wings' blade elements × samples), the force sweeps and slopes (counted by the kernel,
+``cycle.W_SWEEPS``, ``W_SLOPES``), and the floating-point operations and square roots, divisions
+and libm calls per element sample, counted by running the kernel's own pointwise formulae
+(``blade``, ``induction``, ``cycle.add_to_span``) once on counting numbers (``xp.on_namespace``).
+Beside them the machine's limits measured here: FMA flops per cycle (a vectorised numba FMA
+loop) and 1/sqrt(x) per cycle (the divider, which a sweep needs once per element sample). Cycles
+are seconds × the clock the kernel reports in /proc/cpuinfo (a virtual machine's nominal clock).
+
+Speed: the pinned commit's ``tandem_env`` (``git archive``, kept under results/roofline/) runs
+in a second process; per round and thread count each process times ``--calls`` calls, back to
+back (interleaved rounds), and the ratio old / new of the median seconds per call is printed.
+It reports, never fails.
 """
 
 from __future__ import annotations
@@ -108,12 +114,12 @@ def operation_counts() -> dict[str, dict[str, int]]:
     section = Section(*(Counted(x) for x in rng.uniform(0.1, 1.0, len(Section._fields))))
     u, v, du, dv, fc, fn, speed = (Counted(x) for x in rng.uniform(0.2, 1.0, 7))
 
-    rate_args = (u, v, u, v, du, dv, coef[0, blade.C_SPIN], section, speed)
+    force_args = (u, v, du, dv, coef[0, blade.C_SPIN], section, speed)
     sweep = Counter(counted(blade.relative_velocity, coef, 0, section.r, u, v))
     sweep += Counter(counted(blade.element_speed, u, v))
-    sweep += Counter(counted(blade.element_force_at, *rate_args[2:]))
+    sweep += Counter(counted(blade.element_force_at, *force_args))
     sweep["flop"] += 4  # (F_c·e_c·z + F_n·e_n·z)·w and its running sum
-    slope = Counter(counted(induction.normal_force_rate_at, *rate_args))
+    slope = Counter(counted(induction.normal_force_rate_at, u, v, *force_args))
     slope["flop"] += 2  # the weight and the running sum
     span = np.empty((4, 1), dtype=object)
     span[:] = Counted(0.0)

@@ -75,15 +75,18 @@ class AccelerateConfig(FlightConfig):
     DECLARATION: ClassVar[TaskDeclaration] = ACCELERATE
 
     objective: str = _OBJECTIVES.default
-    """The specific excess force maximised [-]: ``"vertical"`` F̄_v = (L − W)/W,
-    ``"horizontal"`` F̄_h = (T − D)/W, ``"resultant"`` F̄_a = sqrt(F̄_v² + F̄_h²) or
-    ``"horizontal_literal"`` (D_f + D_h)/W, Eq. 24 read literally (docs/model.md §7.6)."""
+    """Which specific excess force is maximised (one of ``ACCELERATE.objectives.choices``):
+    ``"vertical"`` F̄_v = (L − W)/W, ``"horizontal"`` F̄_h = (T − D)/W, ``"resultant"``
+    F̄_a = sqrt(F̄_v² + F̄_h²) or ``"horizontal_literal"`` (D_f + D_h)/W, Eq. 24 read literally
+    (the wings' rearward forces, ``excess_horizontal_literal``) [-] (docs/model.md §7.6: the
+    paper's attainable F̄_a combines the first two). The constraints are the same for all."""
     available_power: float | None = None
     """Fixed available power per body mass [W/kg]; default 90 W/kg unless a range is given."""
     available_power_range: tuple[float, float] | None = None
     """(low, high) [W/kg]: the available power is drawn uniformly from it at each reset."""
     available_power_envelope: tuple[float, float] = _CONDITION.envelope
-    """(low, high) [W/kg] mapped to the observation's [-1, 1]; default 50 to 90 W/kg."""
+    """(low, high) [W/kg] mapped to the observation's [-1, 1], holding every power used;
+    default the paper's sweep, 50 to 90 W/kg."""
     speed: float = 0.0
     """Flight speed V [m/s], fixed and not observed (default 0: take-off or escape from hover)."""
 
@@ -126,10 +129,13 @@ class AccelerateEnv(FlightEnv):
     """Accelerating flight of the tandem-wing dragonfly: find the stroke with most excess force.
 
     The episodes, action space, penalty and ``info`` of :class:`LevelFlightEnv` at a fixed
-    flight speed (default 0): maximise a specific excess force (``objective``) subject to
-    F_v >= 0, F_h >= 0 and P/m <= the available power, which is observed (mapped from
-    ``available_power_envelope``, default 50-90 W/kg). Feasible rewards are F̄ in [0, ~6].
-    ``reset(options={"available_power": p})`` sets one episode's power. Keywords:
+    flight speed (default 0: take-off or escape from hover): maximise a specific excess force
+    (``objective``) subject to F_v >= 0, F_h >= 0 and P/m <= the available power, which is
+    observed (Box(-1, 1, (1,), float32), mapped from ``available_power_envelope``, default
+    50-90 W/kg), so one policy can cover the paper's sweep. Feasible rewards are F̄ in [0, ~6]
+    (the paper: F̄_v ≈ 2.7-4.4); uniform random strokes score about −100 to 0.
+    ``reset(options={"available_power": p})`` sets one episode's power (the old names ``power``,
+    ``power_range`` and ``power_envelope`` are refused naming the new ones). Keywords:
     :class:`AccelerateConfig` and every model, penalty and action option of
     :class:`LevelFlightEnv` (docs/envs.md); invalid values raise ``ValueError``. v0: initial.
     """

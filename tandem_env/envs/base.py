@@ -1,7 +1,8 @@
-"""The machinery every task module shares: the batched core (:class:`FlightCore`, without
-Gymnasium), the vector env (:class:`FlightVectorEnv`: n sub-envs in ONE model call, equal to
-``SyncVectorEnv`` over n single envs in every autoreset mode) and the single env
-(:class:`FlightEnv`: the vector env at B = 1). An action is validated once, where received.
+"""The machinery every task module shares: the batched core (:class:`FlightCore`: conditions,
+observations, one model call, rewards and infos for B strokes, without Gymnasium), the vector
+env (:class:`FlightVectorEnv`: n sub-envs in ONE model call, equal to ``SyncVectorEnv`` over n
+single envs in every autoreset mode) and the single env (:class:`FlightEnv`: the vector env at
+B = 1, so the two cannot drift apart). An action is validated once, where an env receives it.
 """
 
 from __future__ import annotations
@@ -316,7 +317,8 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         self._values = np.full(n, np.nan)
 
     def _start(self, index: np.ndarray, rng: EnvGenerators, options: EnvOptions) -> Columns:
-        """Draw new episodes for sub-envs ``index``; their reset info columns."""
+        """Draw new episodes for sub-envs ``index``, set their state and observations; their
+        reset info columns."""
         values = self.core.draw_conditions(index.size, rng, options)
         self._values[index] = values
         self._observations[index] = self.core.observe(values)

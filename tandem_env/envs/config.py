@@ -1,6 +1,7 @@
 """What every flight env's configuration shares: frozen, validated dataclasses built from ``gym.make`` kwargs.
-Every option of an env is a field of its config; :meth:`FlightConfig.from_kwargs` maps the
-flat ``gym.make`` keywords onto it.
+
+Every option of an env is a field of its config, so ``env.config`` describes (and reproduces)
+what it does; :meth:`FlightConfig.from_kwargs` maps the flat ``gym.make`` keywords onto it.
 """
 
 from __future__ import annotations
@@ -27,8 +28,9 @@ _RENAMED_MODEL_OPTIONS: dict[str, str] = {"power": "power_convention"}
 MODEL_OPTION_KWARGS: dict[str, str] = {
     _RENAMED_MODEL_OPTIONS.get(f.name, f.name): f.name for f in fields(ModelOptions)
 }
-#: ``gym.make`` kwargs that choose how the model is computed, not what it computes: a record's
-#: key leaves them out (:attr:`agents.jobs.Job.key`), so backends share records.
+#: ``gym.make`` kwargs that choose how the model is computed, not what it computes (the torch
+#: backend equals the numba kernel within 1e-8, docs/model.md §12.1): a record's key leaves them
+#: out (:attr:`agents.jobs.Job.key`), so backends share records.
 EXECUTION_KWARGS: tuple[str, ...] = ("backend", "device")
 #: Model options that must be real numbers (checked here, because ``ModelOptions`` would raise
 #: a bare ``TypeError`` from ``math.isfinite`` on a string).
@@ -128,11 +130,13 @@ class PenaltyConfig:
     """
 
     weight: float = 10.0
-    """Reward lost per unit of normalised violation [reward units per unit violation], well
-    above both tasks' Lagrange multipliers (0.1-4), so trading a constraint never pays."""
+    """Reward lost per unit of normalised violation [reward units per unit violation]. 10 is
+    well above the Lagrange multipliers of both tasks (dη/d(L/W) and dF̄/d(P/P_avail) are
+    of order 0.1-4), so trading a constraint for objective never pays."""
     offset: float = 0.0
-    """Constant subtracted from every infeasible stroke [reward units]; 0 keeps the reward
-    continuous."""
+    """Constant subtracted from every infeasible stroke [reward units]. 0 keeps the reward
+    continuous; a positive value makes every feasible stroke beat every nearly-feasible one
+    (a step that PSO tolerates and RL may not)."""
 
     def __post_init__(self) -> None:
         for name in ("weight", "offset"):
@@ -159,9 +163,10 @@ class FlightConfig:
     """Options every flight environment shares (the model, the penalty, the action handling)."""
 
     insect: Dragonfly = field(default_factory=Dragonfly)
-    """The insect; default the paper's specimen, tear-drop wings. A mapping of the fields that
-    differ from it, or a YAML file holding one, is read by
-    :func:`~tandem_env.physics.insect.load_insect`."""
+    """The insect (wings, planform, masses, air); default the paper's specimen, tear-drop wings.
+    A mapping of the fields that differ from it, or a YAML file's path holding one, is read
+    into a :class:`~tandem_env.physics.Dragonfly` (:func:`~tandem_env.physics.insect.load_insect`,
+    docs/envs.md)."""
     options: ModelOptions = field(default_factory=ModelOptions)
     """Model resolution, inflow coupling and conventions (``thrust_split`` among them)."""
     penalty: PenaltyConfig = field(default_factory=PenaltyConfig)
@@ -169,9 +174,11 @@ class FlightConfig:
     clip_actions: bool = False
     """Clip actions into [-1, 1]; else one outside raises ``ValueError`` (non-finite: always)."""
     backend: str = "numba"
-    """``"numba"``, the compiled kernel, or ``"torch"``, its port (within 1e-8; imports torch)."""
+    """The model's implementation (``tandem_env.physics.BACKENDS``): ``"numba"``, the compiled
+    kernel (default), or ``"torch"``, its port (the same results within 1e-8; imports torch)."""
     device: str | None = None
-    """The torch device of ``backend="torch"`` (``"cuda:1"``; None: the CPU), canonical name."""
+    """The torch device of ``backend="torch"`` (``"cpu"``, ``"cuda"``, ``"cuda:1"``; None: the
+    CPU), stored by its canonical name; only with the torch backend."""
 
     #: The task's declaration (condition, objectives, constraints, sweep): its one home.
     DECLARATION: ClassVar[TaskDeclaration | None] = None

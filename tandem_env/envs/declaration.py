@@ -1,6 +1,8 @@
-"""A task's declaration, in one place: its condition, objectives, constraints and sweep. Each
-task module puts one :class:`TaskDeclaration` on its env config as ``DECLARATION``; the env
-scores strokes by it, and the harness, commands and training tools read it, never copy it.
+"""A task's declaration, in one place: its condition, objectives, constraints and sweep.
+
+Each task module puts one :class:`TaskDeclaration` on its env config as ``DECLARATION``; the
+env scores strokes by it (:meth:`TaskDeclaration.score`), and the harness, the commands and the
+training tools read it; nothing copies it.
 """
 
 from __future__ import annotations
@@ -53,10 +55,14 @@ class TaskCondition:
     ``{keyword}_envelope`` (the observation's range)."""
 
     keyword: str
-    """Constructor keyword, reset option, ``info`` key and record name, e.g. ``"speed"``."""
-    label: str  # What it is, in words, for help texts and axis labels, e.g. ``"flight speed"``.
-    symbol: str  # Its symbol in titles and plots, e.g. ``"V"`` or ``"P_avail"``.
-    unit: str  # Its unit, e.g. ``"m/s"``.
+    """The condition's one name: constructor keyword, reset option, ``info`` key and record
+    name, e.g. ``"speed"`` or ``"available_power"``."""
+    label: str
+    """What it is, in words, for help texts and axis labels, e.g. ``"flight speed"``."""
+    symbol: str
+    """Its symbol in titles and plots, e.g. ``"V"`` or ``"P_avail"``."""
+    unit: str
+    """Its unit, e.g. ``"m/s"``."""
     limits: tuple[float, float]
     """What the model accepts [unit]: an envelope must lie inside (the physics' limits)."""
     default: float
@@ -68,9 +74,11 @@ class TaskCondition:
     metavar: str = ""
     """Placeholder of the value on the command line, e.g. ``"V"``; default ``symbol``."""
     option: str = ""
-    """Its command-line option without the dashes, e.g. ``"power"``; default the keyword."""
+    """Its command-line option without the dashes (``python -m eval optimize``), e.g.
+    ``"power"`` for ``--power``; default the keyword."""
     former_keyword: str | None = None
-    """The condition's old name, refused with a message naming the new one, or None."""
+    """The condition's old name, refused with a message naming the new one (``"power"`` for
+    ``"available_power"``), or None."""
 
     def __post_init__(self) -> None:
         owner = "TaskCondition"
@@ -143,12 +151,16 @@ class TaskObjectives:
     ``keyword=None`` for a fixed objective)."""
 
     metrics: Mapping[str, str]
-    """Objective choice -> the ``info`` metric (a ``Result`` field) it maximises."""
-    default: str  # The choice used when none is given.
+    """Objective choice -> the ``info`` metric (a :class:`~tandem_env.physics.Result` field)
+    it maximises, e.g. ``{"vertical": "excess_vertical"}``."""
+    default: str
+    """The choice used when none is given."""
     keyword: str | None = None
     """Constructor keyword selecting the objective, or None when there is only one."""
-    unit: str = "-"  # Unit of the objective's values.
-    choices: tuple[str, ...] = field(init=False)  # The choices, in declaration order.
+    unit: str = "-"
+    """Unit of the objective's values."""
+    choices: tuple[str, ...] = field(init=False)
+    """The choices, in declaration order."""
 
     def __post_init__(self) -> None:
         owner, metrics = "TaskObjectives", self.metrics
@@ -194,17 +206,21 @@ class Constraint:
     """One constraint of a task: its violation from the model's result, >= 0 and exactly 0
     where the constraint holds."""
 
-    name: str  # The ``info`` key reporting the violation, e.g. ``"lift_violation"``.
-    text: str  # The constraint in symbols, for docs and messages, e.g. ``"|L/W − 1| ≤ tol"``.
-    unit: str  # Unit of the violation, e.g. ``"-"`` (a fraction of W) or ``"W/kg"``.
+    name: str
+    """The ``info`` key reporting the violation, e.g. ``"lift_violation"``."""
+    text: str
+    """The constraint in symbols, for docs and messages, e.g. ``"|L/W − 1| ≤ tol"``."""
+    unit: str
+    """Unit of the violation, e.g. ``"-"`` (a fraction of W) or ``"W/kg"``."""
     violation: Callable[[Result, Any], np.ndarray] | None = None
     """``violation(result, config)``: (B,) violation [unit], 0 where the constraint holds (a
     module-level function, so that envs pickle); None: ``max(0, −margin)``."""
     scale: Callable[[Result, Any], np.ndarray] | None = None
-    """``scale(result, config)``: (B,) divisor making the violation a fraction; None: it is one."""
+    """``scale(result, config)``: (B,) divisor making the violation a fraction (the power cap
+    for the power excess) in the reward's sum; None when it already is one."""
     margin: Callable[[Result, Any], np.ndarray] | None = None
-    """``margin(result, config)``: (B,) smooth signed margin [-], ``max(0, −margin) ==
-    violation / scale``; None for none."""
+    """``margin(result, config)``: (B,) signed margin [-] with ``max(0, −margin) == violation /
+    scale``, smooth across the boundary (what the polish needs); None for none."""
 
     def __post_init__(self) -> None:
         if self.violation is None and self.margin is None:
@@ -235,20 +251,26 @@ class Scores:
 
     violations: dict[str, np.ndarray]
     """Each constraint's violation (B,) [its unit], by its ``info`` name."""
-    total: np.ndarray  # (B,) sum of the normalised violations [-], 0 where feasible.
-    feasible: np.ndarray  # (B,) bool: every constraint holds.
+    total: np.ndarray
+    """(B,) sum of the normalised violations [-], 0 where feasible."""
+    feasible: np.ndarray
+    """(B,) bool: every constraint holds."""
 
 
 @dataclass(frozen=True)
 class TaskDeclaration:
     """Everything a task is, in one place (see the module docstring)."""
 
-    name: str  # The task's name in messages, e.g. ``"LevelFlight"``.
-    summary: str  # One line for ``--help`` and docs.
+    name: str
+    """The task's name in messages, e.g. ``"LevelFlight"``."""
+    summary: str
+    """One line for ``--help`` and docs."""
     constraints: tuple[Constraint, ...]
-    """What a feasible stroke satisfies; empty for an unconstrained task."""
+    """What a feasible stroke satisfies (a feasible stroke is rewarded with its objective);
+    empty for an unconstrained task."""
     condition: TaskCondition | None = None
-    """The one flight condition the task is optimised at and observes, or None (several)."""
+    """The one flight condition the task is optimised at and observes, or None (a task with
+    several, such as SpeedChange's start and target speeds)."""
     objectives: TaskObjectives | None = None
     """What the task maximises as an ``info`` metric, or None (a reward of several terms)."""
 

@@ -60,11 +60,13 @@ class LevelFlightConfig(FlightConfig):
     DECLARATION: ClassVar[TaskDeclaration] = LEVEL_FLIGHT
 
     speed: float | None = None
-    """Fixed flight speed V [m/s]; default 1.5 m/s unless ``speed_range`` is given."""
+    """Fixed flight speed V [m/s]; default 1.5 m/s (the paper's best-efficiency speed) unless
+    ``speed_range`` is given."""
     speed_range: tuple[float, float] | None = None
     """(low, high) [m/s]: V is drawn uniformly from it at each reset (not with ``speed``)."""
     speed_envelope: tuple[float, float] = LEVEL_FLIGHT.condition.envelope  # type: ignore[union-attr]
-    """(low, high) [m/s] mapped to the observation's [-1, 1]; default 0.25 to 2.0 m/s."""
+    """(low, high) [m/s] mapped to the observation's [-1, 1], holding every speed used;
+    default the paper's range, 0.25 to 2.0 m/s."""
     constraint_tolerance: float = 0.02
     """Band of the equalities L = W and T = D, as a fraction of W [-] (docs/model.md §7.5)."""
 
@@ -107,20 +109,23 @@ class LevelFlightEnv(FlightEnv):
     """Steady level flight of the tandem-wing dragonfly: find the most efficient stroke.
 
     The quasi-steady tandem flapping-wing model of Faisal & Filippone (2016, AIAA J.) evaluates
-    one wing-beat cycle at flight speed V; the task (docs/model.md §7): maximise η = T·V/P with
-    L = W, T = D and P/m <= 90 W/kg, one cycle per episode (a contextual bandit, docs/envs.md).
+    one wing-beat cycle of a stroke at flight speed V; the task (docs/model.md §7) is to maximise
+    η = T·V/P subject to L = W, T = D and P/m <= 90 W/kg. Each episode is one cycle (a
+    contextual bandit): observe V, choose a stroke; ``step`` terminates it (docs/envs.md).
 
-    * Action: ``Box(-1, 1, (28,), float32)``, each wing's 14 parameters, fore-wing first, mapped
-      onto Table 4 (:func:`tandem_env.normalised_to_physical`); non-finite values raise
-      ``ValueError``, and so do values outside [-1, 1] unless ``clip_actions=True``.
+    * Action: ``Box(-1, 1, (28,), float32)``, the 14 parameters of each wing, fore-wing first,
+      each mapped onto its Table 4 range (:func:`tandem_env.normalised_to_physical`). Non-finite
+      actions raise ``ValueError``, and so do values outside [-1, 1] unless the env was made
+      with ``clip_actions=True`` (for clients that do not clip, such as skrl).
     * Observation: ``Box(-1, 1, (1,), float32)``, V mapped from ``speed_envelope``.
     * Reward: ``η − penalty``, ``penalty = weight·violation + offset·[infeasible]`` over
       :data:`LEVEL_FLIGHT`'s constraints (:class:`~tandem_env.envs.config.PenaltyConfig`): a
       feasible stroke earns exactly its η, in [0, ~0.5]; random strokes score about −120 to 0.
     * Start: V is ``speed`` (default 1.5 m/s) or drawn from ``speed_range`` at each reset;
       ``reset(options={"speed": v})`` sets it for one episode.
-    * Info: ``stroke``, every :class:`tandem_env.Result` field, each constraint's violation,
-      ``objective``, ``constraint_violation``, ``penalty``, ``feasible``.
+    * Info: the named stroke (``info["stroke"]``), every field of :class:`tandem_env.Result`,
+      each constraint's violation and ``objective``, ``constraint_violation``, ``penalty``,
+      ``feasible``.
     * Keywords (:class:`LevelFlightConfig`, :meth:`FlightConfig.from_kwargs`): ``speed``,
       ``speed_range``, ``speed_envelope``, ``constraint_tolerance``, ``insect``, ``planform``
       ("tear-drop" | "real"), ``options`` or its fields ({model_options}), ``penalty`` or

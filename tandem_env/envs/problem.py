@@ -1,7 +1,12 @@
 """The optimisation problem a one-cycle task poses (``env.unwrapped.problem()``), for an
 optimiser that is not an episode-stepping agent: the stroke box, the constraints, and a batched
-evaluation through the core's own ``step``, e.g. ``problem.evaluate(actions, 1.5)`` for (B, 28)
-actions at V = 1.5 m/s. No Gymnasium here; torch only in :meth:`FlightProblem.differentiate`.
+evaluation through the core's own ``step`` at conditions given with each call::
+
+    problem = gym.make("TandemWing/LevelFlight-v0").unwrapped.problem()
+    evaluation = problem.evaluate(actions, 1.5)  # (B, 28) in [-1, 1], at V = 1.5 m/s
+    evaluation.objective, evaluation.margins, evaluation.feasible
+
+Nothing here imports Gymnasium; torch only in :meth:`FlightProblem.differentiate`.
 """
 
 from __future__ import annotations
@@ -21,13 +26,17 @@ from .declaration import Constraint, TaskCondition, TaskDeclaration
 class ProblemEvaluation:
     """B strokes evaluated at their conditions in ONE model call."""
 
-    objective: np.ndarray  # (B,) the task's objective, maximised [the objective's unit].
+    objective: np.ndarray
+    """(B,) the task's objective, maximised [the objective's unit]."""
     margins: np.ndarray | None
-    """(B, m) each constraint's signed margin [-], >= 0 where it holds; None where a
-    constraint declares no margin (:attr:`FlightProblem.has_margins`)."""
+    """(B, m) each constraint's signed margin [-], >= 0 where it holds
+    (:attr:`FlightProblem.constraints` order); None for a task with a constraint that declares
+    no margin (:attr:`FlightProblem.has_margins`)."""
     feasible: np.ndarray
-    """(B,) bool: every constraint's violation exactly 0 (the env's ``info["feasible"]``)."""
-    result: Result  # The model's full result, (B,) arrays.
+    """(B,) bool: the task's exact feasibility test, every constraint's violation exactly 0
+    (what the env's ``info["feasible"]`` reports)."""
+    result: Result
+    """The model's full result, (B,) arrays."""
 
 
 @dataclass(frozen=True)
@@ -37,7 +46,8 @@ class ProblemGradient:
     evaluation: ProblemEvaluation
     objective_gradient: np.ndarray
     """(B, 28) d objective / d action (0 in the discrete coordinates, N being a step)."""
-    margin_jacobian: np.ndarray  # (B, m, 28) d margins / d action.
+    margin_jacobian: np.ndarray
+    """(B, m, 28) d margins / d action."""
 
 
 class FlightProblem:
@@ -68,7 +78,8 @@ class FlightProblem:
 
     @property
     def condition(self) -> TaskCondition:
-        """The declared condition every evaluation takes (keyword, unit, limits, envelope)."""
+        """The declared condition every evaluation takes: its keyword, unit, the model's limits,
+        the paper's envelope and sweep."""
         return self.config.declared_condition
 
     @property
@@ -88,7 +99,8 @@ class FlightProblem:
 
     @property
     def physical_low(self) -> np.ndarray:
-        """(28,) the insect's lower stroke bounds [Hz, deg, -], :attr:`normalised_low`'s image."""
+        """(28,) the insect's lower stroke bounds [Hz, deg, -] (Table 4's unless it sets its
+        own), what :attr:`normalised_low` maps to."""
         return np.array(self.config.insect.stroke_bounds.lower)
 
     @property
@@ -113,7 +125,8 @@ class FlightProblem:
 
     @property
     def has_margins(self) -> bool:
-        """Every constraint declares a signed margin (what :meth:`differentiate` needs)."""
+        """Every constraint declares a signed margin (what :meth:`differentiate` and a
+        gradient-based optimiser need); a task without constraints has none to declare."""
         return all(c.margin is not None for c in self.constraints)
 
     # --- evaluation ---------------------------------------------------------------------------
@@ -125,9 +138,12 @@ class FlightProblem:
         values = self._conditions(conditions, strokes.shape[0])
         bounds = self.config.insect.stroke_bounds
         batch = self._core.step(normalised_to_physical(strokes, bounds), values)
-        objective = np.asarray(batch.objective, dtype=np.float64)
-        feasible = np.asarray(batch.feasible, dtype=bool)
-        return ProblemEvaluation(objective, self._margins(batch.result), feasible, batch.result)
+        return ProblemEvaluation(
+            objective=np.asarray(batch.objective, dtype=np.float64),
+            margins=self._margins(batch.result),
+            feasible=np.asarray(batch.feasible, dtype=bool),
+            result=batch.result,
+        )
 
     def differentiate(self, actions: np.ndarray, conditions: Any) -> ProblemGradient:
         """:meth:`evaluate` with the objective's gradient and the margins' Jacobian w.r.t. the
@@ -151,8 +167,12 @@ class FlightProblem:
         result, values, jacobian = torch_model.normalised_jacobian(
             strokes, functions, speed, power, **model
         )
-        feasible = np.asarray(self.declaration.score(result, config).feasible, dtype=bool)
-        evaluation = ProblemEvaluation(values[:, 0], values[:, 1:], feasible, result)
+        evaluation = ProblemEvaluation(
+            objective=values[:, 0],
+            margins=values[:, 1:],
+            feasible=np.asarray(self.declaration.score(result, config).feasible, dtype=bool),
+            result=result,
+        )
         return ProblemGradient(evaluation, jacobian[:, 0], jacobian[:, 1:])
 
     # --- checks -------------------------------------------------------------------------------

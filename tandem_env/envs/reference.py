@@ -1,8 +1,9 @@
 """Reference optima and normalised scores: how good a stroke is, against the best one known.
 
-The reference table (docs/reference.md) holds per task, objective and planform the certified
-optimum at every condition of :data:`REFERENCE_GRID` (for configs of its
-:func:`problem_fingerprint`); :func:`normalised_score` scores D4RL-style.
+The reference table (``python -m eval reference``, docs/reference.md) holds, per task,
+objective and planform, the certified optimum at every condition of :data:`REFERENCE_GRID`
+with the default model (a series applies to an env of the same :func:`problem_fingerprint`).
+:func:`normalised_score` scores D4RL-style; every other grid point is held out.
 """
 
 from __future__ import annotations
@@ -91,8 +92,10 @@ class ReferenceSeries:
     env_id: str
     objective: str
     planform: str
-    fingerprint: str  # :func:`problem_fingerprint` of the configs the optima were found with.
-    conditions: tuple[float, ...]  # The grid [the condition's unit], increasing.
+    fingerprint: str
+    """:func:`problem_fingerprint` of the configs the optima were found with."""
+    conditions: tuple[float, ...]
+    """The grid [the condition's unit], increasing."""
     objectives: tuple[float, ...]
     """The best feasible objective at each condition [the objective's unit]."""
     points: tuple[Mapping[str, Any], ...]
@@ -211,10 +214,15 @@ def _series(entry: Any) -> ReferenceSeries:
                 f"{where}: normalised_stroke of shape {stroke.shape}; allowed: 28 finite numbers "
                 "in [-1, 1]"
             )
-    optima = tuple(float(p["objective"]) if p["feasible"] else math.nan for p in points)
-    grid_points = tuple(float(c) for c in conditions)
-    fingerprint = entry["fingerprint"]
-    return ReferenceSeries(env_id, objective, planform, fingerprint, grid_points, optima, points)
+    return ReferenceSeries(
+        env_id=env_id,
+        objective=objective,
+        planform=planform,
+        fingerprint=entry["fingerprint"],
+        conditions=tuple(float(c) for c in conditions),
+        objectives=tuple(float(p["objective"]) if p["feasible"] else math.nan for p in points),
+        points=points,
+    )
 
 
 def reference_path() -> Any:
@@ -373,8 +381,11 @@ def record_score(
 
 
 class ConfigReference:
-    """The reference of one env config, or none: what its vector env scores its steps against
-    (the table's series of the config's :func:`problem_fingerprint`, if any)."""
+    """The reference of one env config, or none: what its vector env scores its steps against.
+
+    The table's series applies when the config's :func:`problem_fingerprint` is the series';
+    otherwise (other model options, insect or tolerances, or no table) there is no score.
+    """
 
     def __init__(self, config: FlightConfig) -> None:
         self.series = _applicable(type(config), to_jsonable(config))

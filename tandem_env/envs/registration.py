@@ -19,13 +19,16 @@ SPEED_CHANGE_ID = "TandemWing/SpeedChange-v0"
 class EnvEntry:
     """One registered env: its task module and, if any, the harness task that runs it."""
 
-    module: str  # The task module; it defines ``{env}Env`` and ``{env}VectorEnv``.
-    env: str  # The env's class name without ``Env``, e.g. ``"LevelFlight"``.
+    module: str
+    """The task module; it defines ``{env}Env`` and ``{env}VectorEnv``."""
+    env: str
+    """The env's class name without ``Env``, e.g. ``"LevelFlight"``."""
     task: str | None = None
     """Name of the harness task (``--task``) that runs this env; None for none."""
 
 
-#: Every env id registered through :func:`add_entry`: this package's own, then plug-ins'.
+#: Every env id registered through :func:`add_entry`: this package's own (adding a task is its
+#: module and one line here), then those of plug-ins and tests.
 ENTRIES: dict[str, EnvEntry] = {
     LEVEL_FLIGHT_ID: EnvEntry("tandem_env.envs.level_flight", "LevelFlight", task="level"),
     ACCELERATE_ID: EnvEntry("tandem_env.envs.accelerate", "Accelerate", task="accelerate"),
@@ -33,7 +36,8 @@ ENTRIES: dict[str, EnvEntry] = {
 }
 #: This package's own ids, which :func:`remove_entry` keeps.
 _OWN_IDS: frozenset[str] = frozenset(ENTRIES)
-#: The entry-point group of out-of-tree tasks: env id -> an :class:`EnvEntry`, e.g.
+#: The entry-point group of out-of-tree tasks: env id -> an :class:`EnvEntry`, e.g. in a
+#: plug-in's pyproject.toml ``[project.entry-points."tandem_env.tasks"]``
 #: ``"Mine/Cruise-v0" = "my_tasks:CRUISE_ENTRY"``.
 TASK_ENTRY_POINTS = "tandem_env.tasks"
 
@@ -90,7 +94,8 @@ def add_entry(env_id: str, entry: EnvEntry) -> None:
             raise ValueError(f"task {entry.task!r} already runs {runs}; allowed: a new name")
     ENTRIES[env_id] = entry
     if env_id not in registry:
-        # no max_episode_steps: every task's episodes end on their own
+        # no max_episode_steps: the one-cycle episodes terminate after their step and
+        # SpeedChange truncates itself after max_cycles (a TimeLimit would only duplicate it)
         where = f"{entry.module}:{entry.env}"  # the task module's {env}Env and {env}VectorEnv
         register(id=env_id, entry_point=f"{where}Env", vector_entry_point=f"{where}VectorEnv")
 

@@ -38,8 +38,10 @@ _NON_INTERACTIVE = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
 class Frame:
     """What one picture shows."""
 
-    title: str  # Task and condition, e.g. "LevelFlight-v0  V = 1.5 m/s".
-    subtitle: str  # Reward and headline metrics, or why there is no stroke yet.
+    title: str
+    """Task and condition, e.g. "LevelFlight-v0  V = 1.5 m/s"."""
+    subtitle: str
+    """Reward and headline metrics, or why there is no stroke yet."""
     history: StrokeHistory | None
     """Histories of the stroke, or None before the first step (axes drawn empty)."""
 

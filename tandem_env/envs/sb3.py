@@ -1,7 +1,12 @@
 """Stable-Baselines3 ``VecEnv`` adapter over the native vector env: exactly what
-``DummyVecEnv`` over n single envs gives SB3, from one batched model call instead of n (this
-module imports Stable-Baselines3; ``import tandem_env`` does not), e.g.
-``PPO("MlpPolicy", make_sb3_vec_env("TandemWing/LevelFlight-v0", n_envs=64, seed=0))``.
+``DummyVecEnv`` over n single envs gives SB3, from one batched model call instead of n.
+This module imports Stable-Baselines3; ``import tandem_env`` does not. Example::
+
+    from stable_baselines3 import PPO
+    from tandem_env.envs.sb3 import make_sb3_vec_env
+
+    venv = make_sb3_vec_env("TandemWing/LevelFlight-v0", n_envs=64, seed=0, speed_range=(0.25, 2.0))
+    model = PPO("MlpPolicy", venv, n_steps=16, batch_size=256).learn(50_000)
 """
 
 from __future__ import annotations
@@ -78,7 +83,8 @@ class TandemVecEnv(VecEnv):
             columns = self.vector_env.autoreset(ended)  # frames still show the strokes flown
             for i, info in zip(ended, rows(columns, ended.size), strict=True):
                 self.reset_infos[i] = info
-        return self.vector_env.observations, batch.reward.astype(np.float32), dones, infos
+        observations = self.vector_env.observations  # a copy
+        return observations, batch.reward.astype(np.float32), dones, infos
 
     def close(self) -> None:
         self.vector_env.close()

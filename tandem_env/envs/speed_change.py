@@ -37,13 +37,20 @@ OBSERVATION_NAMES: tuple[str, ...] = (
 class Flight:
     """The state of B episodes, each field a (B,) array (``cycle`` int64, the rest float64)."""
 
-    forward_speed: np.ndarray  # u [m/s].
-    vertical_speed: np.ndarray  # w [m/s], + up.
-    altitude: np.ndarray  # h [m], relative to the altitude at reset (the altitude to hold).
-    distance: np.ndarray  # Horizontal distance flown since reset [m].
-    time: np.ndarray  # Flight time since reset [s].
-    target_speed: np.ndarray  # u* [m/s].
-    cycle: np.ndarray  # Cycles flown since reset [-].
+    forward_speed: np.ndarray
+    """u [m/s]."""
+    vertical_speed: np.ndarray
+    """w [m/s], + up."""
+    altitude: np.ndarray
+    """h [m], relative to the altitude at reset (the altitude to hold)."""
+    distance: np.ndarray
+    """Horizontal distance flown since reset [m]."""
+    time: np.ndarray
+    """Flight time since reset [s]."""
+    target_speed: np.ndarray
+    """u* [m/s]."""
+    cycle: np.ndarray
+    """Cycles flown since reset [-]."""
 
     @classmethod
     def empty(cls, count: int) -> Flight:
@@ -70,8 +77,10 @@ class CycleBatch:
     """B wing-beat cycles flown: the model's evaluation, the motion and the reward terms."""
 
     strokes: StepBatch
-    """The evaluated strokes with the model's result; its ``reward`` is the env's."""
-    after: Flight  # The state after the cycle.
+    """The evaluated strokes with the model's result and the power penalty (``reward`` there is
+    objective − penalty, the env's reward)."""
+    after: Flight
+    """The state after the cycle."""
     motion: Columns
     """(B,) ``cycle_time`` [s], net ``force_horizontal`` / ``force_vertical`` [N], ``energy``
     [J], the reward terms and the flags ``left_altitude_band``, ``left_speed_band``."""
@@ -169,8 +178,15 @@ class SpeedChangeCore:
         fx, fz = net_force(result, cfg.insect)
         before = (flight.forward_speed, flight.vertical_speed, flight.distance, flight.altitude)
         u, w, x, h = advance(*before, fx, fz, cfg.insect.body_mass, dt)
-        # the fields in order: forward and vertical speed, altitude, distance, time, target, cycle
-        after = Flight(u, w, h, x, flight.time + dt, flight.target_speed.copy(), flight.cycle + 1)
+        after = Flight(
+            forward_speed=u,
+            vertical_speed=w,
+            altitude=h,
+            distance=x,
+            time=flight.time + dt,
+            target_speed=flight.target_speed.copy(),
+            cycle=flight.cycle + 1,
+        )
         low, high = cfg.forward_speed_band
         left_altitude = np.abs(h) > cfg.altitude_band
         left_speed = (u < low) | (u > high) | (np.hypot(u, w) > SPEED_LIMITS[1])
@@ -190,7 +206,8 @@ class SpeedChangeCore:
             "reward_termination": np.where(terminated, -weights.termination * not_flown, 0.0),
         }
         objective = sum(terms.values())
-        # the power cap (SPEED_CHANGE's one constraint), penalised by the env's PenaltyConfig
+        # the power cap as in level flight (SPEED_CHANGE's one constraint), penalised per cycle
+        # by the env's PenaltyConfig (exactly 0 within the cap)
         scores = SPEED_CHANGE.score(result, cfg)
         motion = {"cycle_time": dt, "force_horizontal": fx, "force_vertical": fz, "energy": energy}
         motion |= {**terms, "left_altitude_band": left_altitude, "left_speed_band": left_speed}
@@ -271,10 +288,11 @@ class SpeedChangeVectorEnv(FlightVectorEnv, VectorEnv):
 class SpeedChangeEnv(FlightEnv):
     """Change forward speed and hold altitude over many wing-beats of the tandem-wing dragonfly.
 
-    Each step evaluates one wing-beat cycle of the stroke at the body's velocity, then moves the
-    body as a point mass for one cycle (:mod:`tandem_env.envs.dynamics`). The task: reach the
-    target forward speed u*, hold the start altitude and spend little energy within the power
-    cap (90 W/kg) (docs/envs.md, "SpeedChange").
+    Each step evaluates one wing-beat cycle of the stroke at the body's velocity (V =
+    sqrt(u² + w²) along γ = atan2(w, u)), then moves the body as a point mass for one cycle
+    (:mod:`tandem_env.envs.dynamics`). The task: reach the target forward speed u*, hold the
+    start altitude and spend little energy within the power cap (90 W/kg); a policy can
+    accelerate hard, then settle, as no fixed stroke can (docs/envs.md, "SpeedChange").
 
     * Action: the next cycle's normalised stroke, as in ``TandemWing/LevelFlight-v0``.
     * Observation: ``Box(-1, 1, (5,), float32)``, :data:`OBSERVATION_NAMES` each mapped to
@@ -282,10 +300,12 @@ class SpeedChangeEnv(FlightEnv):
     * Reward: the weighted terms of :class:`~tandem_env.envs.speed_change_config.SpeedChangeReward`
       less the power cap's penalty, ``penalty_weight``·max(0, P/m − 90)/90 per cycle.
     * Start: u = u₀, w = 0, h = 0; u₀ and u* fixed (``start_speed``, ``target_speed``) or drawn
-      from their ``_range`` (default 0.25-2.0 m/s); ``reset(options=...)`` sets them (and
-      ``vertical_speed``) for one episode.
+      from ``start_speed_range`` / ``target_speed_range`` (default 0.25-2.0 m/s);
+      ``reset(options={"start_speed": .., "target_speed": .., "vertical_speed": ..})`` sets them
+      for one episode.
     * End: terminates when |h| > ``altitude_band`` or u leaves ``forward_speed_band``; truncates
-      after ``max_cycles``. ``info``: the state after the cycle, its motion and reward terms.
+      after ``max_cycles``. ``info`` holds the state after the cycle, its motion and reward
+      terms (:class:`CycleBatch`) and the model's ``Result`` for the stroke.
     * Keywords: :class:`~tandem_env.envs.speed_change_config.SpeedChangeConfig`'s fields and every
       model, penalty and action option of the other envs (``thrust_split`` defaults to
       ``"body"`` here); invalid values raise ``ValueError``. v0: initial version.

@@ -14,14 +14,15 @@ from .level_flight import LEVEL_FLIGHT
 from .validate import check_count, check_interval, check_real
 
 #: Speeds the episode's start and target are drawn from by default [m/s]: the level-flight
-#: envelope, where a steady level stroke exists.
+#: envelope (``LEVEL_FLIGHT.condition.envelope``), where a steady level stroke exists.
 LEVEL_FLIGHT_ENVELOPE: tuple[float, float] = LEVEL_FLIGHT.condition.envelope  # type: ignore[union-attr]
 #: Most cycles an episode may last [-] (about 4.5 h of flight at 30 Hz): the cycle counters
 #: are int64 and the observation divides by it.
 MAX_CYCLES = 500_000
 
 #: Fastest forward (and vertical) speed a SpeedChange episode may reach [m/s]: above it one
-#: step's cycle-mean force is not resolved (at 4 m/s some strokes reverse in one cycle).
+#: step's cycle-mean force (held from the cycle's start) is not resolved (at 4 m/s some strokes
+#: reverse the flight in one cycle), so a wider band is refused.
 MAX_BAND_SPEED: float = 3.0
 
 SPEED_CHANGE = TaskDeclaration(
@@ -46,16 +47,21 @@ class SpeedChangeReward:
         reward_energy      = −energy     · P · Δt                      energy spent [J]
         reward_termination = −termination · (cycles not flown)         only when terminated
 
-    Progress sums to the initial minus the final speed error; a weight of 0 switches a term off.
+    Over an episode progress sums to the initial minus the final speed error; the other terms are
+    time integrals (docs/envs.md). A weight of 0 switches a term off.
     """
 
-    progress: float = 1.0  # Per m/s of speed error removed [1/(m/s)].
-    speed: float = 1.0  # Per metre of speed error × time [1/m] (1 (m/s)·s of error costs 1).
-    altitude: float = 2.0  # Per metre-second of altitude error [1/(m·s)].
+    progress: float = 1.0
+    """Per m/s of speed error removed [1/(m/s)]."""
+    speed: float = 1.0
+    """Per metre of speed error × time [1/m] (1 (m/s)·s of error costs 1)."""
+    altitude: float = 2.0
+    """Per metre-second of altitude error [1/(m·s)]."""
     energy: float = 50.0
     """Per joule spent by the wings [1/J]: level flight at 40 W/kg for 1.3 s costs about 0.3."""
     termination: float = 0.2
-    """Per cycle not flown when terminated early: above a cycle's most cost (≈ 0.14)."""
+    """Per cycle not flown when the episode terminates early: above the most a cycle inside
+    the bands costs (:meth:`SpeedChangeConfig.max_cycle_cost`, ≈ 0.14)."""
 
     TERMS: ClassVar[tuple[str, ...]] = ("progress", "speed", "altitude", "energy", "termination")
     UNITS: ClassVar[dict[str, str]] = {
@@ -103,7 +109,8 @@ class SpeedChangeConfig(FlightConfig):
     """Change speed and hold altitude over many wing-beats (see ``SpeedChangeEnv``)."""
 
     options: ModelOptions = field(default_factory=_body_split_options)
-    """Model options; default ``thrust_split="body"`` (T − D, L − W: the dynamics' net forces)."""
+    """Model options; default ``thrust_split="body"``, so that the reported T − D and L − W
+    are exactly the net forces of the dynamics (wings + body drag + weight)."""
     start_speed: float | None = None
     """Fixed forward speed at reset u₀ [m/s] (else drawn from ``start_speed_range``)."""
     start_speed_range: tuple[float, float] | None = None
@@ -113,14 +120,16 @@ class SpeedChangeConfig(FlightConfig):
     target_speed_range: tuple[float, float] | None = None
     """(low, high) [m/s] u* is drawn from; default ``speed_envelope``."""
     speed_envelope: tuple[float, float] = LEVEL_FLIGHT_ENVELOPE
-    """(low, high) [m/s] holding start and target speeds (the target observed over it)."""
+    """(low, high) [m/s]: start and target speeds must lie inside; the target's observation is
+    normalised over it. Default the level-flight envelope, 0.25-2.0 m/s."""
     max_cycles: int = 48
-    """Wing-beat cycles per episode before truncation [-] (48: 1.1-1.6 s of flight)."""
+    """Wing-beat cycles per episode before truncation [-]: 48 cycles of 22-33 ms (30-45 Hz)
+    are 1.1-1.6 s of flight."""
     altitude_band: float = 0.5
     """|h| [m] beyond which the episode terminates (h: altitude relative to the start)."""
     forward_speed_band: tuple[float, float] = (0.0, MAX_BAND_SPEED)
-    """(low, high) [m/s] within 0 and :data:`MAX_BAND_SPEED`: u outside terminates the
-    episode; u is observed over it."""
+    """(low, high) [m/s]: a forward speed u outside terminates the episode; u's observation is
+    normalised over it. Within 0 (forward flight only) and :data:`MAX_BAND_SPEED`."""
     vertical_speed_scale: float = 2.0
     """|w| [m/s] mapped to ±1 in the observation (clipped beyond; w is not bounded)."""
     reward: SpeedChangeReward = field(default_factory=SpeedChangeReward)

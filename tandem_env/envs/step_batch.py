@@ -18,16 +18,21 @@ _HARMONIC = {name for name in PARAMETER_NAMES if name.endswith("_elevation_harmo
 class StepBatch:
     """B evaluated strokes: what ``step`` returns and records, before it is split per env."""
 
-    physical: np.ndarray  # (B, 28) physical strokes (Table 4 units).
-    result: Result  # The model's full result, (B,) arrays.
-    objective: np.ndarray  # (B,) the task's objective [-].
+    physical: np.ndarray
+    """(B, 28) physical strokes (Table 4 units)."""
+    result: Result
+    """The model's full result, (B,) arrays."""
+    objective: np.ndarray
+    """(B,) the task's objective [-]."""
     scores: Scores
     """The task's constraint violations and feasibility (its declaration's constraints)."""
     penalty: np.ndarray
     """(B,) reward lost to the constraints [reward units] (exactly 0 when feasible)."""
-    reward: np.ndarray  # (B,) objective − penalty.
+    reward: np.ndarray
+    """(B,) objective − penalty."""
     score: np.ndarray | None
-    """(B,) the normalised score [-] (:mod:`tandem_env.envs.reference`), or None (no table)."""
+    """(B,) the normalised score [-] (:mod:`tandem_env.envs.reference`); None where the
+    reference table does not describe the env."""
 
     @classmethod
     def scored(

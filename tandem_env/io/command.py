@@ -1,6 +1,8 @@
 """What every command line shares around its ``main`` (:func:`run_command`): streams that carry
-any character; a quiet end (status 1) when standard output's reader goes away, one line for an
-``OSError`` (status 1) or a bad numba setting (status 2, :func:`check_numba_environment`).
+any character, a closed stream given the null device, standard error a
+:class:`~tandem_env.io.progress_bar.QuietStream`; a quiet end (status 1) when the reader of
+standard output goes away, one line (status 1) for an ``OSError`` of the machine and one line
+(status 2) for a bad numba setting (:func:`check_numba_environment`).
 """
 
 from __future__ import annotations
@@ -94,7 +96,9 @@ def run_command(main: Callable[[], int | None], program: str | None = None) -> i
         finally:
             os.close(devnull)
         return 1
-    except OSError as error:  # the machine, not the input: every file is written atomically
+    except OSError as error:
+        # the machine, not the input (a disk that fills, a folder made read-only during the
+        # run): every file is written atomically, so what is on disk is whole; say what failed
         where = f"{error.filename}: " if error.filename else ""
         print(
             f"{program or _program()}: error: {where}{error.strerror or error}; files already "

@@ -1,5 +1,6 @@
-"""File I/O the project shares: one JSON converter (:func:`to_jsonable`, non-finite floats
-kept), one atomic writer (:func:`atomic_path`), one output-folder check (:func:`output_directory`).
+"""File I/O the project shares: one JSON converter (:func:`to_jsonable`), one atomic writer
+(:func:`atomic_path`), one output-folder check (:func:`output_directory`). JSON keeps Python's
+non-finite floats (not strict RFC 8259): an optimiser's ``-inf`` best is worth keeping.
 """
 
 from __future__ import annotations
@@ -71,9 +72,10 @@ def output_directory(
     files: Sequence[str] = (),
 ) -> bool:
     """Check ``path`` (need not exist) and the ``folders`` and ``files`` a command writes in
-    it before any work; whether it can be written now. ValueError naming ``option``, the path
-    and what is allowed for an empty path, a file where a folder goes (or the reverse), a
-    broken symlink, and, with ``write``, a folder that cannot be written (else False).
+    it as an output folder before any work; whether it can be written now. ValueError naming
+    ``option``, the path and what is allowed for an empty path, a file where a folder goes (or
+    the reverse), a broken symlink, and, with ``write``, a folder that cannot be written
+    (tried with a temporary file); without ``write`` that returns False instead.
     """
     text = os.fspath(path)
     if not text:
@@ -253,7 +255,7 @@ def read_json(path: str | os.PathLike[str]) -> Any:
     with open(path, encoding="utf-8") as handle:
         try:
             return json.load(handle)
-        except RecursionError:  # the decoder recurses per nesting level
+        except RecursionError:  # the decoder recurses per level: a hand-made file can be deeper
             raise ValueError("JSON nested too deeply to read") from None
 
 

@@ -14,7 +14,11 @@ from .datafile import BoundedLoader, parse_yaml
 
 def parse_value(text: str) -> Any:
     """A command-line value: a Python literal if it is one (``0.1``, ``(0.25, 2.0)``,
-    ``True``), else YAML (``yes``), else the text itself (``coupled``); never ``eval``."""
+    ``"dict(a=1)"``, ``True``), else YAML (``yes``), else the text itself (``coupled``).
+
+    The zoo evaluates ``key:value`` with ``eval``; literals cover every value our envs and
+    models take without executing code.
+    """
     try:
         return ast.literal_eval(text)
     except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
