@@ -7,8 +7,9 @@
     records = run("pso", "level", 1.5, budget=12_000, seeds=[0, 1, 2])
 
 :func:`prepare_job` validates a :class:`~agents.jobs.Job` once, before any evaluation;
-:func:`run_job` runs it (search, polish, re-evaluation in the job's single env) and returns its
-record, writing nothing (docs/harness.md).
+:func:`run_job` runs it and returns its record, writing nothing: the reported stroke
+(:mod:`agents.selection`), polished (:mod:`agents.polish`), is re-evaluated in the job's single
+env, and the record's results come from that (docs/harness.md).
 """
 
 from __future__ import annotations

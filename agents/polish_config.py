@@ -79,7 +79,8 @@ class PolishConfig:
     """Every constraint is held at margin >= ``margin`` [-] (0 to 1e-4), plus one float32 step
     of every coordinate, so the optimum cast to the action type passes the exact test."""
     active: float = 1e-6
-    """Distance to its limit [-] within which a constraint or bound is active, 0 to 1e-2."""
+    """Distance to its limit [-] within which a constraint or bound counts as active in the
+    certificate, 0 to 1e-2."""
     starts: int = 1
     """Independent searches (own seeds, equal parts of the budget, each polished) the run
     reports the best of, 1 to :data:`MAX_STARTS` (docs/harness.md, "Starts and initial

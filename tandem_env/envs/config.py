@@ -60,7 +60,7 @@ def _overridden(
         return value
     try:  # the dataclass validates, naming the rule
         return replace(value, **{field: kwargs.pop(keyword) for field, keyword in given.items()})
-    except ValueError as error:  # each field named by the keyword given for it
+    except ValueError as error:  # each field named by its keyword, e.g. power_convention
         text, owner = str(error), kind.__name__
         for name, keyword in given.items():
             if keyword != name:
