@@ -1,9 +1,9 @@
 """CMA-ES with IPOP / BIPOP restarts over the normalised box [-1, 1]^d, on the ``cmaes`` package.
 
-The package's CMA-ES with margin (``cmaes.CMAwM``) through its public API, plus what it leaves
-to its caller (docs/harness.md, "CMA-ES"): discrete coordinates on the bin centres, restarts
-from a uniform random mean, Hansen's (2009) stagnation test, and a budget that truncates (a run
-of budget B is the first B evaluations of any longer run).
+The package's CMA-ES with margin (``cmaes.CMAwM``) plus what it leaves to its caller
+(docs/harness.md, "CMA-ES"): discrete coordinates on the bin centres, restarts from a uniform
+random mean, Hansen's (2009) stagnation test, and a budget that truncates (a run of budget B
+is the first B evaluations of any longer run).
 
 References
 ----------
@@ -92,8 +92,7 @@ class CMAESConfig(OptimiserConfig):
     tolerance: float = real_setting(0.0, math.inf, low_inclusive=True, default=1e-4)
     """Relative rise of the history's median (best) fitness that counts as progress (>= 0)."""
     resampling: int = integer_setting(0, default=100)
-    """Draws of a candidate outside the box before it is clipped (the package's
-    ``n_max_resampling``, >= 0)."""
+    """Draws of a candidate outside the box before it is clipped (``n_max_resampling``, >= 0)."""
     discrete: tuple[tuple[int, int], ...] = ()
     """``(index, levels)`` of each discrete coordinate: distinct indices >= 0, levels >= 2."""
 
@@ -109,10 +108,8 @@ class CMAESConfig(OptimiserConfig):
         for pair in pairs:
             if len(pair) != 2:
                 raise ValueError(f"discrete must be {allowed}, got the entry {pair!r}")
-        pairs = tuple(
-            (count(i, "discrete index", low=0), count(k, "discrete levels", low=2))
-            for i, k in pairs
-        )
+        index, levels = "discrete index", "discrete levels"
+        pairs = tuple((count(i, index, low=0), count(k, levels, low=2)) for i, k in pairs)
         if len({i for i, _ in pairs}) != len(pairs):
             raise ValueError(f"discrete must be {allowed}; index repeated in {self.discrete!r}")
         object.__setattr__(self, "discrete", pairs)
@@ -167,9 +164,9 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
             )
         bad = [i for i, _ in config.discrete if i >= dim]
         if bad:
+            allowed = f"allowed: 0 to {dim - 1}"
             raise ValueError(
-                f"discrete index {bad[0]} is outside the box of dimension {dim}; allowed: "
-                f"0 to {dim - 1}"
+                f"discrete index {bad[0]} is outside the box of dimension {dim}; {allowed}"
             )
         super().__init__(dim, popsize, config, seed)
         self._popsize0 = popsize
@@ -203,8 +200,7 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
         return self._es.population_size
 
     def _propose(self, n: int) -> FloatArray:
-        # The whole population is drawn even when only n < λ are evaluated, so the random
-        # stream (and every earlier population) does not depend on the budget.
+        # the whole population is drawn even when n < λ: the stream does not depend on the budget
         encoded, raw = zip(*(self._es.ask() for _ in range(self._es.population_size)), strict=True)
         self._raw = raw  # what the package learns from (discrete coordinates not encoded)
         return np.array(encoded[:n])
@@ -226,9 +222,9 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
                 self._restart(stop)
 
     def _stop(self) -> str | None:
-        """Why the current run should end now, or None: the newest 30 % of the window's
-        generations no better than the oldest 30 % by more than ``tolerance · |oldest|``, in
-        the median of both histories (docs/harness.md, "CMA-ES")."""
+        """Why the current run should end now, or None: the newest 30 % of the window no better
+        than the oldest 30 % by ``tolerance · |oldest|`` in both histories' medians
+        (docs/harness.md, "CMA-ES")."""
         if self._es.should_stop():
             return "should_stop"
         length = min(max(self._patience, math.ceil(0.2 * len(self._best))), 20_000)

@@ -47,10 +47,8 @@ class SchedulerUnreachable(ConnectionError):
 
 
 def parse_scheduler(text: str) -> str:
-    """Validate a ``--scheduler`` value; returns it normalised (``HOST:PORT`` -> ``tcp://...``).
-
-    Raises ValueError naming the value and what is allowed.
-    """
+    """Validate a ``--scheduler`` value; returns it normalised (``HOST:PORT`` -> ``tcp://...``);
+    ValueError naming the value and what is allowed."""
     if not isinstance(text, str):
         raise ValueError(f"scheduler = {text!r}; allowed: a string, {_ALLOWED}")
     text = text.strip()
@@ -89,10 +87,8 @@ def parse_scheduler(text: str) -> str:
 
 
 def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
-    """The executor from ``scheduler`` and the shorthand ``workers=N`` (N > 1 means ``local:N``).
-
-    ``workers=1`` (the default) leaves ``scheduler`` as given (None: serially, here).
-    """
+    """The executor from ``scheduler`` and the shorthand ``workers=N`` (N > 1 means ``local:N``;
+    1, the default, leaves ``scheduler`` as given)."""
     if (
         isinstance(workers, bool)
         or not isinstance(workers, int)
@@ -115,7 +111,6 @@ def set_worker_numba_threads() -> None:
     """On a Dask worker, before its job: one numba thread for the calling thread's job (a
     worker runs a job per thread, so cores are not oversubscribed), unless the worker was
     started with ``NUMBA_NUM_THREADS`` set."""
-
     if "NUMBA_NUM_THREADS" not in os.environ:
         import numba
 
@@ -123,15 +118,10 @@ def set_worker_numba_threads() -> None:
 
 
 def _probe(address: str) -> None:
-    """Check that a Dask scheduler answers at ``address`` within :data:`CONNECT_TIMEOUT`.
-
-    Fails fast (connection refused) where the Dask client would retry until its timeout, and
-    bounds what the client cannot: a Dask scheduler speaks first (its handshake, framed by an
-    8-byte little-endian length), so a port that accepts but stays silent (an HTTP server
-    waits for a request) is reported after the timeout instead of hanging the client, and one
-    that answers with something else (its first bytes read as an absurd frame length) instead
-    of making the client allocate that length.
-    """
+    """Check that a Dask scheduler answers at ``address`` within :data:`CONNECT_TIMEOUT`: fail
+    fast where the client would retry, and read the handshake a scheduler sends first (an
+    8-byte little-endian frame length), so a silent port or another protocol is reported
+    instead of hanging the client or making it allocate an absurd length."""
     host, port = address.removeprefix(f"{SCHEME}://").rsplit(":", 1)
     deadline = time.monotonic() + CONNECT_TIMEOUT
     advice = (
@@ -171,12 +161,8 @@ def _probe(address: str) -> None:
 
 @contextlib.contextmanager
 def _workers_ignore_interrupts() -> Iterator[None]:
-    """Start worker processes that ignore Ctrl-C (SIGINT), so only this process handles it.
-
-    A Ctrl-C in a terminal goes to the whole process group: the local workers would die at once
-    and their nannies log tracebacks while this process closes the cluster in order. A process
-    started while SIGINT is ignored inherits that (POSIX; Python then leaves it ignored).
-    """
+    """Start worker processes that ignore Ctrl-C (SIGINT, sent to the whole process group), so
+    only this process handles it and closes the cluster in order (the ignore is inherited)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -189,11 +175,8 @@ def _workers_ignore_interrupts() -> Iterator[None]:
 
 @contextlib.contextmanager
 def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
-    """A client of ``scheduler`` (``local:N`` or an address), closed (with its cluster) at exit.
-
-    Raises :class:`SchedulerUnreachable` naming the address if no scheduler answers within
-    :data:`CONNECT_TIMEOUT` seconds.
-    """
+    """A client of ``scheduler`` (``local:N`` or an address), closed (with its cluster) at exit;
+    :class:`SchedulerUnreachable` if none answers within :data:`CONNECT_TIMEOUT` seconds."""
     import logging
 
     from distributed import Client, LocalCluster
@@ -209,9 +192,8 @@ def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
                     host="127.0.0.1",
                     dashboard_address="127.0.0.1:0",  # a free port (the dashboard needs bokeh)
                     env={"NUMBA_NUM_THREADS": "1"},  # a job per core: set_worker_numba_threads
-                    # The runner reports every failed job itself (key and traceback) and
-                    # Dask reruns a dead worker's jobs: the cluster's own ERROR logs are noise
-                    # then, e.g. a busy worker's heartbeat to a scheduler closed by Ctrl-C.
+                    # the runner reports every failed job itself (key and traceback) and Dask
+                    # reruns a dead worker's jobs: the cluster's own ERROR logs are noise
                     silence_logs=logging.CRITICAL,
                 )
             stack.enter_context(cluster)

@@ -1,7 +1,7 @@
 """Evaluating batches of normalised actions through a task's native vector env: every batch is
-one ``step`` of the task's vector env (one per batch size, reset with the condition first), so
-a fitness is exactly the reward an agent would get, and one stroke evaluated is one unit of
-budget (docs/harness.md, "How a run evaluates strokes").
+one ``step`` (one env per batch size, reset with the condition first), so a fitness is exactly
+the reward an agent would get and one stroke evaluated is one unit of budget (docs/harness.md,
+"How a run evaluates strokes").
 """
 
 from __future__ import annotations
@@ -79,8 +79,8 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
         env = self._envs.get(n)
         if env is None:
             env = gym.make_vec(self.task.env_id, num_envs=n, **NATIVE_VECTOR_ENV, **self.env_kwargs)
-            # The seed only matters for sampled conditions (none here), but a seeded first
-            # reset keeps every generator the env owns reproducible too.
+            # the seed only matters for sampled conditions (none here), but a seeded first
+            # reset keeps every generator the env owns reproducible
             env.reset(seed=self.seed, options=self._options)
             self._envs[n] = env
         return env
@@ -103,39 +103,34 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
             raise ValueError(f"actions must have shape (n, dim) with n >= 1; got {actions.shape}")
         n = actions.shape[0]
         if self.evaluations + n > self.budget:
-            raise BudgetExceededError(
-                f"{n} more evaluations would exceed the budget of {self.budget} "
-                f"({self.evaluations} used)"
-            )
+            used = f"the budget of {self.budget} ({self.evaluations} used)"
+            raise BudgetExceededError(f"{n} more evaluations would exceed {used}")
         start = time.perf_counter()
         env = self._env(n)
         env.reset(options=self._options)
         _, rewards, _, _, infos = env.step(actions)
         self.step_time += time.perf_counter() - start
         self._check_condition(infos, n)
-
         rewards = np.asarray(rewards, dtype=np.float64).copy()
         objective = np.asarray(infos.get("objective", rewards), dtype=np.float64)
         feasible = np.asarray(infos.get("feasible", np.ones(n, dtype=bool)), dtype=bool)
         # the best reward so far, feasible or not, as the optimisers count it (the history)
         self.add(actions, rewards)
-        # A penalised reward can rank a marginally infeasible stroke above every feasible one;
-        # the best stroke by the selection rule (feasible first) is kept too, so the harness
-        # can return a stroke that flies.
+        # the best stroke by the selection rule (feasible first) too, so the harness can
+        # return a stroke that flies (a penalised reward can rank an infeasible one above)
         j = self._best.offer(feasible, rewards)
         if j is not None:
             self._best_stroke_action = actions[j].copy()
         if self._on_batch is not None:
             self._on_batch(self.iterations, self.evaluations, self.best_value)
-        return EvaluatedBatch(rewards=rewards, objective=objective, feasible=feasible)
+        return EvaluatedBatch(rewards, objective, feasible)
 
     def __call__(self, actions: np.ndarray) -> np.ndarray:
         """Rewards (n,) of a batch of actions (n, dim): the fitness a method maximises."""
         return self.evaluate_batch(actions).rewards
 
     def _check_condition(self, infos: Mapping[str, Any], n: int) -> None:
-        # A wrong condition would silently optimise the wrong problem; the env reports the one
-        # it used, so compare.
+        # the env reports the condition it used: a wrong one would optimise the wrong problem
         seen = infos.get(self.condition.name)
         if seen is None:
             return
@@ -178,7 +173,6 @@ def reevaluate(
 
 def env_config_dict(env: gym.Env) -> dict[str, Any] | None:
     """The env's ``config`` dataclass as plain JSON (:func:`to_jsonable`), or None."""
-
     config = getattr(env.unwrapped, "config", None)
     if config is None or not dataclasses.is_dataclass(config):
         return None

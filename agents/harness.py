@@ -7,8 +7,7 @@
     records = run("pso", "level", 1.5, budget=12_000, seeds=[0, 1, 2])
 
 :func:`prepare_job` validates a :class:`~agents.jobs.Job` once, before any evaluation;
-:func:`run_job` runs it and returns its :class:`~agents.records.Record`, writing nothing. The
-method searches [-1, 1]^28 through the task's vector env; the reported stroke
+:func:`run_job` runs it and returns its record, writing nothing: the reported stroke
 (:mod:`agents.selection`), polished (:mod:`agents.polish`), is re-evaluated in the job's single
 env, and the record's results come from that (docs/harness.md).
 """
@@ -73,12 +72,8 @@ def prepare_job(
         raise ValueError(f"cannot make {spec.env_id}: {error}") from error
     with env:
         space = env.action_space
-        if not (
-            isinstance(space, gym.spaces.Box)
-            and len(space.shape) == 1
-            and np.all(space.low == ACTION_LOW)
-            and np.all(space.high == ACTION_HIGH)
-        ):
+        box = isinstance(space, gym.spaces.Box) and len(space.shape) == 1
+        if not (box and np.all(space.low == ACTION_LOW) and np.all(space.high == ACTION_HIGH)):
             raise ValueError(f"{spec.env_id}: action space {space}; allowed: Box(-1, 1, (d,))")
         dim = int(space.shape[0])
         # The polish needs the task's constraints with margins (the env's problem view).
@@ -109,8 +104,8 @@ def prepare_job(
     part = min(part_budget for kind, part_budget, _ in plan if kind == "search")
     reserve = polish_config.reserve(part, gradient_cost(dim, spec))
     method_obj = get_method(job.method, own_config) if method is None else method
-    # Optional hook: a method that can tell before searching that it cannot run this budget on
-    # this box (a budget smaller than one CMA-ES population) says so here, not mid-run.
+    # optional: a method that can tell it cannot run this budget on this box (a budget smaller
+    # than one CMA-ES population) says so here, not mid-run
     check = getattr(method_obj, "check", None)
     if callable(check):
         check(part - reserve, dim, spec)
@@ -138,12 +133,11 @@ def prepare(
     method_config: Mapping[str, Any] | None = None,
     preset: str = "",
 ) -> list[PreparedJob]:
-    """The validated jobs of ``method`` (a registered name, :mod:`agents.methods`, or a
-    :class:`~agents.methods.Method`) on ``task`` at ``condition`` [the task's unit], ``budget``
-    model evaluations per seed, one per seed. ``objective`` chooses the task's objective,
-    ``env_kwargs`` are further ``gym.make`` keywords, ``method_config`` the method's settings
-    and ``preset`` the study preset (part of each job's key). ValueError saying what is wrong
-    and what is allowed.
+    """The validated jobs, one per seed, of ``method`` (a registered name or a
+    :class:`~agents.methods.Method`) on ``task`` at ``condition`` [the task's unit] with
+    ``budget`` model evaluations; ``objective``: the task's objective, ``env_kwargs``: further
+    ``gym.make`` keywords, ``method_config``: the method's settings, ``preset``: the study preset
+    (part of each job's key). ValueError saying what is wrong and allowed.
     """
     spec = get_task(task)
     kwargs = dict(env_kwargs or {})
@@ -195,7 +189,6 @@ def run(
 ) -> list[Record]:
     """Run :func:`prepare`'s jobs here (a progress bar each if ``progress``); their records,
     stored nowhere."""
-
     return [
         run_job(job, progress=progress)
         for job in prepare(method, task, condition, budget, seeds, **options)
@@ -209,56 +202,48 @@ def run_job(
     each part of the budget (:mod:`agents.parts`), re-evaluate the best feasible stroke of all
     parts, build its record; writes nothing. Progress goes to ``reporter``, else to a bar of
     its own if ``progress``."""
-
     prepared = prepare_job(job) if isinstance(job, Job) else job
     start = time.perf_counter()
     with gym.make(prepared.task.env_id, disable_env_checker=True, **prepared.env_kwargs) as env:
-        return _run_prepared(prepared, env, start, reporter, progress)
-
-
-def _run_prepared(
-    prepared: PreparedJob, env: gym.Env, start: float, reporter: Reporter | None, progress: bool
-) -> Record:
-    """:func:`run_job` in the job's single env ``env``, started at ``start`` [s]."""
-    problem = functools.cache(
-        lambda: task_problem(prepared.task, prepared.condition, prepared.env_kwargs, env)
-    )
-    budget = prepared.job.budget
-    bar = ProgressBar(budget, prepared.job.label(), progress and reporter is None)
-    report = bar.update if reporter is None else reporter
-    parts: list[Part] = []
-    # The search's and the polish's linear algebra is on matrices of the stroke's size (d = 28):
-    # BLAS threads only cost there (CMA-ES seed 0 at 60 W/kg: 6.9-7.3 s with the default
-    # threads, 5.5 s with one, on the idle 2-core machine) and make the optimum depend on the
-    # machine's thread count. The model's own threads (numba) are not BLAS threads.
-    with bar, threadpool_limits(limits=1, user_api="blas"):
-        for index, (kind, part_budget, stroke) in enumerate(plan_parts(prepared.polish, budget)):
-            offset = sum(part.evaluations for part in parts)
-            if kind == "search":
-                parts.append(search_part(prepared, index, part_budget, offset, report, problem))
-            else:
-                parts.append(initial_part(prepared, part_budget, stroke, problem()))
-    index = max(range(len(parts)), key=lambda k: (parts[k].feasible, parts[k].reward))
-    left = budget - sum(part.evaluations for part in parts)
-    parts[index] = finish_part(prepared, parts[index], left, problem)
-    chosen = parts[index]
-    # as the action type carries it (the evaluator and the polish evaluate no other strokes:
-    # a no-op for theirs), so the record's stroke stepped as a float32 action is this stroke
-    chosen = replace(chosen, action=as_action_type(chosen.action))
-    evaluations = sum(part.evaluations for part in parts)
-    if evaluations > budget:  # every part counts its own; never over its share
-        raise RuntimeError(f"search and polish used {evaluations} > budget {budget}")
-    again = reevaluate(env, prepared.task, prepared.condition, prepared.job.seed, chosen.action)
-    if not chosen.feasible and chosen.kind == "initial":
-        # an infeasible initial stroke has no search reward: its reward is the re-evaluation's
-        chosen = replace(chosen, reward=again.reward)
-    results = _results(prepared, chosen, search_history(parts), again)
-    results["evaluations"] = int(evaluations)
-    results[CERTIFICATE] = chosen.certificate.to_dict()
-    if len(parts) > 1:
-        results[STARTS] = [part.summary() for part in parts]
-    results["wall_time"] = time.perf_counter() - start
-    return Record(job=prepared.job, key=prepared.job.key, results=results)
+        problem = functools.cache(
+            lambda: task_problem(prepared.task, prepared.condition, prepared.env_kwargs, env)
+        )
+        budget = prepared.job.budget
+        bar = ProgressBar(budget, prepared.job.label(), progress and reporter is None)
+        report = bar.update if reporter is None else reporter
+        parts: list[Part] = []
+        # One BLAS thread: on d = 28 matrices more only cost (CMA-ES seed 0 at 60 W/kg:
+        # 6.9-7.3 s against 5.5 s) and make the optimum depend on the machine's thread count.
+        # The model's own threads (numba) are not BLAS threads.
+        plan = enumerate(plan_parts(prepared.polish, budget))
+        with bar, threadpool_limits(limits=1, user_api="blas"):
+            for index, (kind, part_budget, stroke) in plan:
+                offset = sum(part.evaluations for part in parts)
+                if kind == "search":
+                    parts.append(search_part(prepared, index, part_budget, offset, report, problem))
+                else:
+                    parts.append(initial_part(prepared, part_budget, stroke, problem()))
+        index = max(range(len(parts)), key=lambda k: (parts[k].feasible, parts[k].reward))
+        left = budget - sum(part.evaluations for part in parts)
+        parts[index] = finish_part(prepared, parts[index], left, problem)
+        chosen = parts[index]
+        # as the action type carries it, so the record's stroke stepped as a float32 action is
+        # this stroke (a no-op for the evaluator's and the polish's strokes)
+        chosen = replace(chosen, action=as_action_type(chosen.action))
+        evaluations = sum(part.evaluations for part in parts)
+        if evaluations > budget:  # every part counts its own; never over its share
+            raise RuntimeError(f"search and polish used {evaluations} > budget {budget}")
+        again = reevaluate(env, prepared.task, prepared.condition, prepared.job.seed, chosen.action)
+        if not chosen.feasible and chosen.kind == "initial":
+            # an infeasible initial stroke has no search reward: the re-evaluation's is its own
+            chosen = replace(chosen, reward=again.reward)
+        results = _results(prepared, chosen, search_history(parts), again)
+        results["evaluations"] = int(evaluations)
+        results[CERTIFICATE] = chosen.certificate.to_dict()
+        if len(parts) > 1:
+            results[STARTS] = [part.summary() for part in parts]
+        results["wall_time"] = time.perf_counter() - start
+        return Record(job=prepared.job, key=prepared.job.key, results=results)
 
 
 def _results(

@@ -1,9 +1,9 @@
 """A job: the configuration of one harness run, and the key its record is stored under.
 
 A :class:`Job` is one method, task, condition, budget and seed, with its env keywords, method
-settings and study preset; its :attr:`Job.key` hashes all of that (but the model's backend and
-device, which do not change results) plus the ``tandem_env`` version, the model's revision
-and the record format (:data:`SCHEMA`). Jobs are run by :func:`agents.runner.run_jobs`.
+settings and study preset; its :attr:`Job.key` hashes them (but the backend and device, which
+do not change results), the ``tandem_env`` version, the model's revision and the record format
+(:data:`SCHEMA`). Jobs are run by :func:`agents.runner.run_jobs`.
 """
 
 from __future__ import annotations
@@ -25,24 +25,19 @@ from tandem_env.physics.checks import count, is_integer, is_real
 
 #: Identifies record files (and their version) among other JSON files.
 SCHEMA = "tandem_env.harness-record/5"
-"""Record format; /2 added ``selection`` (records report the best feasible stroke seen), /3
-``key`` and ``job``, /4 holds the job, key and results once each plus a checksum, /5 the
-results' ``certificate`` (the local polish, ``agents.polish``); a run split into parts
-(``starts``, ``initial``) adds the results' ``starts`` (optional: a one-part run's record is
-unchanged)."""
+"""Record format; /2 added ``selection``, /3 ``key`` and ``job``, /4 the job, key and results
+once each plus a checksum, /5 the results' ``certificate`` (and, optional, ``starts``)."""
 #: Earlier formats: recognised, never read as results (their jobs are recomputed).
 OLD_SCHEMAS = tuple(f"tandem_env.harness-record/{n}" for n in range(1, 5))
 
-#: The largest budget of one job [model evaluations]: 10⁸, over 6 000 times the paper's
-#: budgets; a larger one would run for days and outgrow the memory of the methods' per-iteration
-#: tables (PSO's inertia schedule alone: 8 bytes per iteration).
+#: The largest budget of one job [model evaluations]: 10⁸, over 6 000 times the paper's; a
+#: larger one would run for days and outgrow the methods' per-iteration tables.
 MAX_BUDGET = 10**8
 
 
 def _pairs(value: Any) -> tuple[tuple[str, Any], ...]:
-    # Sorted by name, lists as tuples and mappings read-only (nested too: e.g. the polish's
-    # initial strokes, the insect's fields): the same settings give one hashable Job, whatever
-    # their order.
+    # Sorted by name, lists as tuples and mappings read-only (nested too): the same settings
+    # give one hashable Job, whatever their order.
     items = value.items() if isinstance(value, Mapping) else value
     return tuple(sorted((str(k), _frozen(v)) for k, v in items))
 
@@ -79,9 +74,8 @@ class FrozenMapping(Mapping[str, Any]):
 
 
 def _canonical_env_kwargs(value: Any) -> Any:
-    """The job's env keywords with ``insect`` in its canonical form (what differs from the
-    paper's specimen, :func:`~tandem_env.envs.config.insect_keyword`; left out for the specimen
-    itself, so a default run's key is what it always was)."""
+    """The job's env keywords with ``insect`` in its canonical form
+    (:func:`~tandem_env.envs.config.insect_keyword`; left out for the specimen itself)."""
     items = dict(value.items() if isinstance(value, Mapping) else value)
     if "insect" in items:
         insect = insect_keyword(items.pop("insect"))
@@ -92,9 +86,8 @@ def _canonical_env_kwargs(value: Any) -> Any:
 
 def method_identity(spec: str, config: Mapping[str, Any]) -> str:
     """The identity of the files the method ``spec`` (with settings ``config``) reads: its
-    ``identity()`` (``policy:RUN_DIR``: a digest of the trained run), asked only of a method that
-    takes a path (``name:ARGUMENT``); empty for the others, and for a method that cannot be made
-    (the harness refuses its job, saying why)."""
+    ``identity()``, asked only of a method that takes a path (``name:ARGUMENT``); empty for
+    the others and for a method that cannot be made (the harness refuses its job)."""
     if ":" not in spec:
         return ""
     from agents.methods import get_method
@@ -124,21 +117,21 @@ class Job:
     seed: int
     env_kwargs: tuple[tuple[str, Any], ...] = ()
     """Env keywords besides the condition (objective, planform, model options, insect), sorted
-    by name; a mapping is accepted. ``insect`` (an object, a mapping or a YAML file) is kept as
-    the mapping of what differs from the paper's specimen, and left out for the specimen."""
+    by name (a mapping is accepted); ``insect`` (an object, a mapping or a YAML file) kept as
+    what differs from the paper's specimen, left out for the specimen."""
     method_config: tuple[tuple[str, Any], ...] = ()
     """Method settings (e.g. ``swarm_size``), sorted by name; a mapping is accepted."""
     preset: str = ""
     """The study preset the job belongs to (part of the key, so presets never share records);
-    empty for a run outside the studies (``python -m eval optimize``)."""
+    empty outside the studies (``python -m eval optimize``)."""
     method_identity: str | None = None
-    """What the files the method reads hold, so that a newer trained run is another job under
+    """What the files the method reads hold, so a newer trained run is another job under
     another key (:func:`method_identity` when not given); empty ones are left out of the job's
     dict and key."""
 
     def __post_init__(self) -> None:
-        # The one structural check of a job, where it is made (the CLI, a study, a record file):
-        # the harness's prepare_job adds what needs the task and method registries.
+        # the one structural check of a job, where it is made (the CLI, a study, a record
+        # file); prepare_job adds what needs the registries
         for name in ("method", "task", "preset"):
             value = getattr(self, name)
             if not isinstance(value, str) or (name != "preset" and not value):
@@ -184,9 +177,8 @@ class Job:
         only how the model is computed (``backend``, ``device``: ``EXECUTION_KWARGS``), so a
         torch run reuses a numba run's record and the other way round."""
         data = self.to_dict()
-        data["env_kwargs"] = {
-            k: v for k, v in data["env_kwargs"].items() if k not in EXECUTION_KWARGS
-        }
+        kwargs = data["env_kwargs"].items()
+        data["env_kwargs"] = {k: v for k, v in kwargs if k not in EXECUTION_KWARGS}
         return data
 
     @property
@@ -249,15 +241,11 @@ class Work(Protocol):
 
 @dataclass(frozen=True)
 class Continuation:
-    """Jobs continued from the optima found so far, in rounds (the reference table's, the
-    readings study's): each on a ``share`` of its budget, polishing the optima given as warm
-    starts beside ``starts`` short searches of its own (harness settings ``initial``,
-    ``initial_share`` and ``starts``, docs/harness.md). Which optima a job continues from is
-    the science of its user; this is the mechanism and the stop rule.
-
-    ``starts`` None leaves the method's own (and out of the key). The rounds run until
-    ``rounds`` have, or (``until`` [%], not None) until a round raised no point by more than
-    ``until`` percent (:meth:`stops`).
+    """Jobs continued from the optima found so far, in rounds: each on a ``share`` of its
+    budget, polishing the optima given as warm starts beside ``starts`` short searches of its
+    own (harness settings ``initial``, ``initial_share`` and ``starts``; ``starts`` None: the
+    method's own, left out of the key; docs/harness.md). The rounds run until ``rounds`` have,
+    or (``until`` not None) until one raised no point by more than ``until`` [%] (:meth:`stops`).
     """
 
     share: float = 0.2
@@ -287,9 +275,9 @@ class Continuation:
         count(self.rounds, "continuation rounds")
 
     def job(self, job: Job, strokes: Sequence[Sequence[float]] | None, index: int = 0) -> Job:
-        """``job`` continued in round ``index`` (0, 1, ...; its seed plus ``index``) from the
-        normalised ``strokes``; None gives the stand-in of a job whose optima are not known yet
-        (the budget right, the key not final: the cost line's)."""
+        """``job`` continued in round ``index`` (its seed plus ``index``) from the normalised
+        ``strokes``; None gives the stand-in of a job whose optima are not known yet (the
+        budget right, the key not final: the cost line's)."""
         config = dict(job.method_config)
         if strokes is None:
             strokes = [(0.0,) * N_PARAMETERS]

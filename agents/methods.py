@@ -2,10 +2,10 @@
 
 A method has a ``name`` and ``search(context) -> SearchOutcome``: an optimiser calls
 ``context.evaluate(actions)`` once per batch; a learner builds its own envs from the context.
-One registration path (docs/harness.md, "Methods: protocol and registry"): a method's module
-registers it when imported (:func:`register_optimiser`, :func:`register_method`), found by its
-name in a ``tandem_env.optimisers`` entry point (this project's in its pyproject.toml,
-``train``'s included, as a plug-in's in its own).
+A method's module registers it when imported (:func:`register_optimiser`,
+:func:`register_method`), found by its name in a ``tandem_env.optimisers`` entry point
+(this project's in its pyproject.toml, ``train``'s included; a plug-in's in its own;
+docs/harness.md, "Methods: protocol and registry").
 """
 
 from __future__ import annotations
@@ -164,7 +164,6 @@ def register_optimiser(
     fields but ``max_evaluations`` (the harness's budget) and those ``from_task`` fills;
     ``batch`` names the points per round (alias ``swarm_size``, the CLI's ``--swarm-size``),
     which a study's preset sets unless ``preset_batch=False``."""
-
     filled = dict(from_task or {})
     allowed = tuple(
         f.name for f in fields(config_class) if f.name != "max_evaluations" and f.name not in filled
@@ -222,9 +221,9 @@ def register_method(name: str, factory: MethodFactory, *, replace: bool = False)
     _REGISTRY[name] = factory
 
 
-#: The entry-point group that names every method: each entry point's name is a method name, its
-#: value the module that registers it when imported, e.g. ``[project.entry-points.
-#: "tandem_env.optimisers"]`` ``hill-climb = "my_opt"`` (this project's own: its pyproject.toml).
+#: The entry-point group that names every method: name -> the module that registers it when
+#: imported, e.g. ``hill-climb = "my_opt"`` under ``[project.entry-points."tandem_env.optimisers"]``
+#: (this project's own: its pyproject.toml).
 OPTIMISER_ENTRY_POINTS = "tandem_env.optimisers"
 
 
@@ -255,8 +254,8 @@ def _factory(name: str) -> MethodFactory:
     try:
         importlib.import_module(module)
     except ModuleNotFoundError as error:
-        # Only a missing provider is "not implemented"; a provider that fails while importing
-        # its own dependencies is a real error and propagates from the import below.
+        # only a missing provider is "not implemented"; one whose own imports fail is a real
+        # error and propagates
         if module != error.name and not module.startswith(f"{error.name}."):
             raise
         raise NotImplementedError(
@@ -274,7 +273,6 @@ def _factory(name: str) -> MethodFactory:
 def get_method(spec: str | Method, config: Mapping[str, Any] | None = None) -> Method:
     """The method for a spec such as ``"pso"`` or ``"policy:runs/ppo"``: ValueError for an
     unknown name or bad settings, NotImplementedError for a provider that is not there."""
-
     if not isinstance(spec, str):
         if isinstance(spec, Method):
             if config:

@@ -101,7 +101,7 @@ class OptimiserConfig:
 
     def in_use(self) -> dict[str, Any]:
         """What the record adds to (or puts in place of) the settings: the constants and rules
-        in use. None by default."""
+        in use (none here)."""
         return {}
 
     def to_dict(self) -> dict[str, Any]:
@@ -164,9 +164,8 @@ class AskTellOptimiser(Tally, ABC):
             raise RuntimeError("ask() called again before tell(); tell the pending batch first")
         n = self._next_size()
         if n == 0:
-            raise RuntimeError(
-                f"budget exhausted after {self.evaluations} evaluations; check `done` first"
-            )
+            done = f"budget exhausted after {self.evaluations} evaluations; check `done` first"
+            raise RuntimeError(done)
         self._pending = self._propose(n)
         return self._pending.copy()
 
@@ -185,7 +184,6 @@ class AskTellOptimiser(Tally, ABC):
         if f.shape != (X.shape[0],):
             raise ValueError(f"fitness must have shape ({X.shape[0]},), got {f.shape}")
         f = np.where(np.isnan(f), -np.inf, f)
-
         self._observe(self._pending, f)
         self.add(self._pending, f)
         self._pending = None

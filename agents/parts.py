@@ -1,6 +1,6 @@
-"""A harness run's budget in parts (:func:`plan_parts`: one per search, ``starts``, and per
-initial stroke, ``initial``): :func:`search_part` searches, selects and polishes;
-:func:`initial_part` polishes an initial stroke. :class:`PreparedJob` is the validated job.
+"""A harness run's budget in parts (:func:`plan_parts`: per search and per initial stroke):
+:func:`search_part` searches, selects and polishes; :func:`initial_part` polishes an initial
+stroke; :class:`PreparedJob` is the validated job.
 """
 
 from __future__ import annotations
@@ -134,14 +134,8 @@ def initial_part(
 ) -> Part:
     """One initial stroke polished on ``budget`` evaluations (it may start infeasible)."""
     assert stroke is not None
-    result = polish(
-        problem,
-        stroke,
-        budget,
-        prepared.polish,
-        _gradient(prepared, problem),
-        infeasible_start=True,
-    )
+    gradient = _gradient(prepared, problem)
+    result = polish(problem, stroke, budget, prepared.polish, gradient, infeasible_start=True)
     certificate = result.certificate
     evaluations = certificate.evaluations
     objective, feasible = certificate.objective_after, result.feasible
@@ -154,14 +148,14 @@ def initial_part(
     reward = float(objective) if objective is not None and feasible else -math.inf
     selection = SELECTION_INITIAL_POLISHED if result.improved else SELECTION_INITIAL
     return Part(
-        "initial",
-        prepared.job.seed,
-        result.stroke,
-        reward,
-        feasible and objective is not None,
-        selection,
-        certificate,
-        evaluations,
+        kind="initial",
+        seed=prepared.job.seed,
+        action=result.stroke,
+        reward=reward,
+        feasible=feasible and objective is not None,
+        selection=selection,
+        certificate=certificate,
+        evaluations=evaluations,
     )
 
 
@@ -183,14 +177,8 @@ def finish_part(
     selection = part.selection
     if done.certificate.status == "improved" and part.certificate.status != "improved":
         selection = SELECTION_INITIAL_POLISHED if part.kind == "initial" else SELECTION_POLISHED
-    return replace(
-        part,
-        action=done.stroke,
-        reward=done.objective,
-        certificate=done.certificate,
-        evaluations=evaluations,
-        selection=selection,
-    )
+    found = {"action": done.stroke, "reward": done.objective, "certificate": done.certificate}
+    return replace(part, evaluations=evaluations, selection=selection, **found)
 
 
 def gradient_cost(dim: int, task: TaskSpec) -> int:
@@ -239,19 +227,10 @@ def _polish(
     # or a short search's, is moved onto the constraints.
     infeasible = part.selection == SELECTION_BEST_REWARD
     problem = job_problem()
-    result = polish(
-        problem,
-        part.action,
-        allowance,
-        config,
-        _gradient(prepared, problem),
-        infeasible_start=infeasible,
-    )
-    part = replace(
-        part,
-        certificate=result.certificate,
-        evaluations=part.evaluations + result.certificate.evaluations,
-    )
+    gradient = _gradient(prepared, problem)
+    result = polish(problem, part.action, allowance, config, gradient, infeasible_start=infeasible)
+    evaluations = part.evaluations + result.certificate.evaluations
+    part = replace(part, certificate=result.certificate, evaluations=evaluations)
     if not result.improved:
         return part
     # accepted strokes pass the task's feasibility test, so their reward is their objective
@@ -264,19 +243,19 @@ def _polish(
 def _select(outcome: SearchOutcome, evaluator: VectorEnvEvaluator, seed: int) -> Part:
     """The search's part, unpolished: its best feasible stroke, else its best reward's."""
     part = Part(
-        "search",
-        seed,
-        outcome.best_action,
-        outcome.best_reward,
-        False,
-        SELECTION_BEST_REWARD,
-        Certificate.off(),
-        outcome.evaluations,
-        outcome,
+        kind="search",
+        seed=seed,
+        action=outcome.best_action,
+        reward=outcome.best_reward,
+        feasible=False,
+        selection=SELECTION_BEST_REWARD,
+        certificate=Certificate.off(),
+        evaluations=outcome.evaluations,
+        outcome=outcome,
     )
     if evaluator.evaluations < outcome.evaluations:
-        # the method evaluated (some) strokes through its own envs (SB3): it chooses, by the
-        # same rule (train/policies.py)
+        # the method evaluated strokes through its own envs (SB3): it chooses, by the same rule
+        # (train/policies.py)
         return replace(part, selection=SELECTION_METHOD)
     if evaluator.best_feasible is None:
         return part
@@ -290,16 +269,13 @@ def _search(
     prepared: PreparedJob, seed: int, budget: int, report: Reporter
 ) -> tuple[SearchOutcome, VectorEnvEvaluator]:
     """The method's search through the budgeted vector-env evaluator, checked."""
-
-    job = prepared.job
-    with VectorEnvEvaluator(
-        prepared.task, prepared.condition, prepared.env_kwargs, seed, budget, report
-    ) as evaluator:
+    job, task, kwargs = prepared.job, prepared.task, prepared.env_kwargs
+    with VectorEnvEvaluator(task, prepared.condition, kwargs, seed, budget, report) as evaluator:
         context = SearchContext(
-            task=prepared.task,
+            task=task,
             condition=prepared.condition,
-            env_id=prepared.task.env_id,
-            env_kwargs=prepared.env_kwargs,
+            env_id=task.env_id,
+            env_kwargs=kwargs,
             budget=budget,
             seed=seed,
             dim=prepared.dim,

@@ -1,22 +1,13 @@
-"""Local polish: a constrained local optimiser from a search's best feasible stroke.
-
-A population search (CMA-ES, PSO) stops somewhere on the slope of the basin it found. The
-polish climbs the rest of the way with scipy's SLSQP (or trust-constr) over the continuous
-stroke parameters (each wing's harmonic N held fixed), the box [-1, 1] as bounds and the
-task's constraints as constraints (the signed margins of ``Constraint.margin``), not as a
-penalty.
+"""Local polish: SLSQP (or trust-constr) from a search's best feasible stroke, over the
+continuous stroke parameters (each wing's harmonic N held fixed), the box [-1, 1] as bounds
+and the task's constraints (the signed margins of ``Constraint.margin``) as constraints.
 
 This module is the driver (:func:`polish`, its :class:`Certificate`, the KKT check); the
-problem (the env's public problem view, ``env.problem()``) and the gradient functions are in
-:mod:`agents.polish_gradients`, its settings in :mod:`agents.polish_config`; their public
-names are imported from here too.
-
-The budget counts model evaluations (strokes evaluated, not wall time): a central-difference
-gradient costs at most 2k + 1, an autograd gradient one (its backward passes' wall cost is
-measured in docs/harness.md, "Local polish"); the polish's allowance is never exceeded. The
-result is the best of the optimiser's own points that the task calls feasible, if it beats the
-start, cast to the env's action type (float32; :func:`float32_margin` keeps the cast
-feasible); otherwise the start is kept and the certificate says why.
+problem, gradients (:mod:`agents.polish_gradients`) and settings (:mod:`agents.polish_config`)
+are imported from here too. The budget counts model evaluations (a central-difference gradient
+at most 2k + 1, an autograd gradient one; docs/harness.md, "Local polish") and is never
+exceeded. The result is the best feasible point found if it beats the start, cast to float32
+(:func:`float32_margin` keeps it feasible); otherwise the start, the certificate saying why.
 
 ::
 
@@ -35,14 +26,7 @@ from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
-from scipy.optimize import (
-    BFGS,
-    Bounds,
-    NonlinearConstraint,
-    OptimizeResult,
-    minimize,
-    nnls,
-)
+from scipy.optimize import BFGS, Bounds, NonlinearConstraint, OptimizeResult, minimize, nnls
 
 from agents.polish_config import *  # noqa: F403  (the polish's settings, see __all__)
 from agents.polish_config import PolishConfig
@@ -86,12 +70,11 @@ def kkt_residual(
 ) -> tuple[float, np.ndarray, np.ndarray]:
     """First-order optimality of a maximum of f subject to c >= 0 and -1 <= x <= 1.
 
-    Stationarity of the Lagrangian, ∇f + Σ λ_i ∇c_i = 0 with λ_i >= 0 over the active
-    constraints (c_i <= ``active``) and active bounds, solved for the multipliers by
-    non-negative least squares. Returns (residual, active constraint mask, active bound mask):
-    the residual is ||∇f + Σ λ_i ∇c_i|| / ||∇f|| [-] (0 where ∇f = 0): near 0 at a KKT
-    point, of order 1 where f can still rise without leaving the feasible set. An infeasible
-    point (some c_i < -active) gets residual inf.
+    ∇f + Σ λ_i ∇c_i = 0, λ_i >= 0 over the active constraints (c_i <= ``active``) and bounds,
+    solved by non-negative least squares. Returns (residual ||∇f + Σ λ_i ∇c_i|| / ||∇f|| [-],
+    active constraint mask, active bound mask): the residual is near 0 at a KKT point, of order 1
+    where f can still rise feasibly, 0 where ∇f = 0, inf at an infeasible point (some
+    c_i < -active).
     """
     g = np.asarray(objective_gradient, dtype=np.float64)
     norm = float(np.linalg.norm(g))
@@ -120,11 +103,10 @@ class Certificate:
     method: str
     """The polish's optimiser, ``"none"`` when it did not run."""
     status: str
-    """``"improved"``, ``"no gain"`` (the start is kept), ``"failed: ..."`` (the start is
-    kept), ``"off"`` or ``"not applicable"``."""
+    """``"improved"``, ``"no gain"``, ``"failed: ..."`` (both: the start kept), ``"off"`` or
+    ``"not applicable"``."""
     gain: float | None = None
-    """(objective_after − objective_before) / |objective_before| [-] (0 when the start is
-    kept; None where the start's objective is 0)."""
+    """(after − before) / |before| [-] (0: the start kept; None: the start's objective is 0)."""
     objective_before: float | None = None
     objective_after: float | None = None
     evaluations: int = 0
@@ -141,8 +123,8 @@ class Certificate:
     active_constraints: tuple[str, ...] = ()
     """Constraints (and bounds, as ``bound:<parameter>``) active at the reported stroke."""
     gradient: str = ""
-    """The gradient the optimiser used (``GradientFunction.name``: ``"central differences"``
-    or ``"autograd"``); empty when the polish did not run."""
+    """``GradientFunction.name`` of the gradient used (``"central differences"`` or
+    ``"autograd"``); empty when the polish did not run."""
 
     def to_dict(self) -> dict[str, Any]:
         out = asdict(self)
@@ -164,8 +146,7 @@ class PolishResult:
     objective: float
     certificate: Certificate
     feasible: bool = True
-    """The reported stroke passes the task's feasibility test (False only for an infeasible
-    start that was kept)."""
+    """The reported stroke is feasible (False only for an infeasible start that was kept)."""
 
     @property
     def improved(self) -> bool:
@@ -224,11 +205,8 @@ class _Run:
         self.used += n
 
     def _offer(self, objective: float, feasible: bool, x: np.ndarray) -> None:
-        if (
-            feasible
-            and math.isfinite(objective)
-            and (self.best is None or objective > self.best[0])
-        ):
+        better = self.best is None or objective > self.best[0]
+        if feasible and math.isfinite(objective) and better:
             self.best = (objective, x.copy())
 
     def value(self, z: np.ndarray) -> tuple[float, np.ndarray, bool]:
@@ -276,20 +254,15 @@ def polish(
 ) -> PolishResult:
     """Polish ``start`` (dim,) on ``problem`` with at most ``budget`` model evaluations.
 
-    A start that fails the task's feasibility test is kept unpolished (status ``"failed: the
-    start is infeasible"``) unless ``infeasible_start``: then the optimiser starts there all
-    the same (SLSQP moves onto the constraints) and any feasible point it finds counts as a
-    gain over the start (certificate ``gain`` None: there is no feasible objective to compare).
-
-    With ``keep_certified``, an iterate that passed the KKT stop is reported even where it
-    does not beat the start (by at most 1e-6 relative below it): the start was a polished
-    stroke that its check could not certify.
-
-    ``gradient`` is the gradient function (default :class:`CentralDifferences` with
-    ``config.step``); its ``cost`` is counted per call. One gradient's cost is kept back for
-    the certificate's optimality check at the reported stroke, so the total never exceeds
-    ``budget``. Returns the start unchanged (certificate status ``"no gain"`` or ``"failed:
-    ..."``) when no feasible stroke better than the start was found.
+    An infeasible start is kept (``"failed: the start is infeasible"``) unless
+    ``infeasible_start``: then the optimiser starts there all the same (SLSQP moves onto the
+    constraints) and any feasible point found is a gain (certificate ``gain`` None).
+    ``keep_certified``: an iterate that passed the KKT stop is reported even up to 1e-6
+    relative below the start (a polished stroke its check could not certify). ``gradient``
+    defaults to :class:`CentralDifferences` with ``config.step``; one gradient's ``cost`` is
+    counted per call and kept back for the certificate's check at the reported stroke, so the
+    total never exceeds ``budget``. Without a feasible stroke
+    better than the start, the start is returned (``"no gain"`` or ``"failed: ..."``).
     """
     if not config.enabled:
         return PolishResult(np.asarray(start, dtype=np.float64), math.nan, Certificate.off())
@@ -326,12 +299,9 @@ def polish(
 
     climb = _climb(run, z0, margin)
     failure, iterations = climb.failure, climb.iterations
-    if climb.optimal:
-        converged: bool | None = True
-        message = f"KKT residual <= {config.optimality:g} at a feasible iterate"
-    else:
-        converged = None if climb.success is None else climb.success
-        message = climb.message
+    converged = True if climb.optimal else climb.success
+    optimal = f"KKT residual <= {config.optimality:g} at a feasible iterate"
+    message = optimal if climb.optimal else climb.message
     template = replace(template, iterations=iterations, converged=converged, message=message)
     # a start already polished (:func:`agents.polish_finish.finish`'s) gives way to the iterate
     # that passed the KKT stop beside it, within the 1e-6 of the stop's rule, to certify it
@@ -446,24 +416,25 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
 
 
 def float32_margin(jacobian: np.ndarray, margin: float) -> np.ndarray:
-    """(m,) the margin the polish holds inside each constraint [-]: ``margin`` plus one float32
-    step (``np.finfo(float32).eps``, twice the largest rounding of a value in [-1, 1]) of
-    every free coordinate, Σ_j |∂g_i/∂x_j|·eps from the start's Jacobian (m, k). A stroke that
-    far inside stays feasible when it is cast to the action type (float32), to first order with
-    a factor of 2 to spare; its cost in objective is the constraint's multiplier times it."""
+    """(m,) the margin held inside each constraint [-]: ``margin`` + Σ_j |∂g_i/∂x_j|·eps from
+    the start's Jacobian (m, k), eps = ``np.finfo(float32).eps`` (one float32 step of every free
+    coordinate, twice the largest rounding of a value in [-1, 1]); a stroke that far inside stays
+    feasible cast to float32, to first order with a factor of 2 to spare; its cost in objective
+    is the constraint's multiplier times it."""
     step = float(np.finfo(ACTION_DTYPE).eps)
     return margin + step * np.abs(np.asarray(jacobian, dtype=np.float64)).sum(axis=1)
 
 
+def _kkt(run: _Run, z: np.ndarray, grad: Gradient) -> tuple[float, np.ndarray, np.ndarray]:
+    """:func:`kkt_residual` at the iterate z (free coordinates) with ``run``'s margins."""
+    margins = grad.margins - run.margin
+    return kkt_residual(grad.objective_gradient, margins, grad.jacobian, z, run.active)
+
+
 def _optimal(run: _Run, z: np.ndarray, grad: Gradient) -> bool:
-    """The iterate z (free coordinates), with its gradient, is feasible and passes the KKT test
+    """The iterate z (free coordinates) is feasible and passes the KKT test
     (``config.optimality``)."""
-    if not grad.feasible:
-        return False
-    residual = kkt_residual(
-        grad.objective_gradient, grad.margins - run.margin, grad.jacobian, z, run.active
-    )[0]
-    return residual <= run.config.optimality
+    return grad.feasible and _kkt(run, z, grad)[0] <= run.config.optimality
 
 
 def _check(run: _Run, x: np.ndarray) -> tuple[float | None, tuple[str, ...]]:
@@ -472,13 +443,7 @@ def _check(run: _Run, x: np.ndarray) -> tuple[float | None, tuple[str, ...]]:
         grad = run.gradient(x[run.free])
     except _OutOfBudget:
         return None, ()
-    residual, on_constraint, on_bound = kkt_residual(
-        grad.objective_gradient,
-        grad.margins - run.margin,
-        grad.jacobian,
-        x[run.free],
-        run.active,
-    )
+    residual, on_constraint, on_bound = _kkt(run, x[run.free], grad)
     names: list[str] = [n for n, a in zip(grad.names, on_constraint, strict=True) if a]
     names += [f"bound:{run.problem.parameter_names[j]}" for j in run.free[on_bound]]
     return residual, tuple(names)
@@ -487,10 +452,9 @@ def _check(run: _Run, x: np.ndarray) -> tuple[float | None, tuple[str, ...]]:
 def _keep(
     run: _Run, x0: np.ndarray, before: float, template: Certificate, feasible: bool
 ) -> PolishResult:
-    """The start stays: no gain, a failure, or an infeasible start. It is checked as the
-    polish checks its own strokes where it lies inside the held margins (a polished stroke,
-    e.g. one :func:`agents.polish_finish.finish` starts from); a search's stroke, not held inside the float32 step,
-    with the plain margin and activity."""
+    """The start stays (no gain, a failure, an infeasible start), checked with the held margins
+    if it lies inside them (a polished stroke, e.g. one :func:`agents.polish_finish.finish`
+    starts from), else (a search's stroke) with the plain margin and activity."""
     found = run.values.get(x0.tobytes())
     if found is None or np.any(found[1] - run.margin < -run.active):
         run.margin = run.config.margin
@@ -502,11 +466,10 @@ def _keep(
 def _finish(
     run: _Run, x: np.ndarray, before: float, after: float, gain: float | None, template: Certificate
 ) -> PolishResult:
-    """The reported stroke x and its certificate (``template`` completed), with the KKT check at
-    x (the gradient kept back for it is released from the allowance first)."""
-    run.allowance += run.gradient_function.cost + isinstance(
-        run.gradient_function, AutogradGradient
-    )
+    """The reported stroke x and its certificate (``template`` completed), with the KKT check
+    at x (the gradient kept back for it released from the allowance first)."""
+    gradient = run.gradient_function
+    run.allowance += gradient.cost + isinstance(gradient, AutogradGradient)
     kkt, active = _check(run, x)
     feasible = True
     found = run.values.get(x.tobytes())  # x as evaluated by the check

@@ -53,36 +53,33 @@ class PolishConfig:
     """The scipy optimiser (``minimize(method=...)``, :data:`POLISH_METHODS`); ``"none"``
     turns the polish off."""
     share: float = 0.4
-    """Fraction of the run's budget reserved for the polish, in [0.01, 0.9]: the search gets
-    the rest. Chosen by measurement (docs/harness.md, "Local polish")."""
+    """Fraction of the run's budget kept for the polish, in [0.01, 0.9], the search getting the
+    rest; chosen by measurement (docs/harness.md, "Local polish")."""
     step: float = 1e-5
     """Central-difference step in normalised units, in [1e-8, 1e-2] (gradients agree to ~1e-7
     relative between 1e-4 and 1e-5)."""
     tolerance: float = 1e-14
-    """Stopping tolerance (SLSQP ``ftol``; trust-constr ``gtol``/``xtol``), in [1e-14, 1e-2].
-    SLSQP's test is |Δf| < ftol, absolute: at 1e-10 it ended level-flight polishes at KKT
-    residuals of 1.2-2.7e-4 on ill-conditioned ridges; at 1e-14 they run on to the KKT stop
-    (``optimality``; docs/harness.md, "Certified")."""
+    """Stopping tolerance (SLSQP ``ftol``, absolute; trust-constr ``gtol``/``xtol``), in
+    [1e-14, 1e-2]: at 1e-10 SLSQP ended level-flight polishes at KKT residuals of 1.2-2.7e-4;
+    at 1e-14 they run on to the KKT stop (``optimality``; docs/harness.md, "Certified")."""
     max_iterations: int = 200
     """Optimiser iterations at most, 1 to 10 000."""
     optimality: float = 1e-5
-    """With a value > 0, the polish stops at the first feasible iterate whose KKT residual
-    (:func:`agents.polish.kkt_residual`) is at most this [-] (the certificate then says
-    converged), in [0, 1e-2]; 0 leaves the stop to the optimiser's own test (``tolerance``),
-    which watches the objective's change and can stall long after. 1e-5 certified one more of
-    eight seeds than 0, at the same budget and optima (docs/harness.md, "Local polish")."""
+    """Stop at the first feasible iterate whose KKT residual (:func:`agents.polish.kkt_residual`)
+    is at most this [-] (the certificate then says converged), in [0, 1e-2]; 0: the optimiser's
+    own test (``tolerance``), which can stall long after. 1e-5 certified one more of eight seeds
+    than 0 at the same budget and optima (docs/harness.md, "Local polish")."""
     finish: float = 0.1
     """Fraction of a polish's allowance kept back, in [0, 0.5], where it climbs by central
-    differences and the problem differentiates: where the run's reported stroke is then not
-    certified, :func:`agents.polish_finish.finish` polishes it on with autograd gradients (one
-    evaluation each) on what the run left. Central differences misread the gradient where the
-    model's second derivative jumps within a step of the optimum; 0: no finish (docs/harness.md,
-    "Certified")."""
+    differences and the problem differentiates: where the run's reported stroke is not
+    certified, :func:`agents.polish_finish.finish` polishes it on with autograd gradients on
+    what the run left (central differences misread the gradient where the model's second
+    derivative jumps within a step); 0: no finish (docs/harness.md, "Certified")."""
     margin: float = 1e-9
     """Every constraint is held at margin >= ``margin`` [-] (0 to 1e-4), plus one float32 step
     of every coordinate, so the optimum cast to the action type passes the exact test."""
     active: float = 1e-6
-    """A constraint (or bound) within ``active`` [-] of its limit counts as active in the
+    """Distance to its limit [-] within which a constraint or bound counts as active in the
     certificate, 0 to 1e-2."""
     starts: int = 1
     """Independent searches (own seeds, equal parts of the budget, each polished) the run
@@ -91,10 +88,9 @@ class PolishConfig:
     initial: tuple[tuple[float, ...], ...] = ()
     """Normalised strokes polished directly, each on an equal part of the budget: warm starts
     (feasible or not), e.g. a neighbouring model reading's optimum."""
-
     initial_share: float | None = None
-    """Fraction of the run's budget the initial strokes get together (split evenly), in
-    [0.05, 0.95], the searches sharing the rest; None: every part gets an equal share."""
+    """The initial strokes' fraction of the budget together (split evenly), in [0.05, 0.95],
+    the searches sharing the rest; None: every part an equal share."""
 
     def __post_init__(self) -> None:
         if self.method not in POLISH_METHODS:
@@ -112,11 +108,9 @@ class PolishConfig:
         ):
             value = finite_real(getattr(self, name), f"polish {name}", low, high)
             object.__setattr__(self, name, value)
-        for name, text, high in (
-            ("max_iterations", "polish max_iterations", 10_000),
-            ("starts", "starts", MAX_STARTS),
-        ):
-            object.__setattr__(self, name, count(getattr(self, name), text, high=high))
+        iterations = count(self.max_iterations, "polish max_iterations", high=10_000)
+        object.__setattr__(self, "max_iterations", iterations)
+        object.__setattr__(self, "starts", count(self.starts, "starts", high=MAX_STARTS))
         object.__setattr__(self, "initial", _strokes(self.initial))
         if self.initial_share is not None:
             share = finite_real(self.initial_share, "initial_share", *INITIAL_SHARE_RANGE)
@@ -136,7 +130,6 @@ class PolishConfig:
     def reserve(self, budget: int, gradient_cost: int) -> int:
         """Evaluations of ``budget`` kept for the polish: ``share`` of it, or 0 when it is off
         or that is below two gradients (it could not take one step and check it)."""
-
         reserve = round(self.share * budget) if self.enabled else 0
         return reserve if reserve >= 2 * gradient_cost else 0
 

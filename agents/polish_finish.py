@@ -1,8 +1,7 @@
 """The finish of a polish: a stroke whose climb by central differences ended short of the KKT
-stop, polished on with autograd gradients (:func:`finish`; docs/harness.md, "Certified, and
-what an uncertified number means"). Each polish by differences keeps ``polish_finish`` of its
-allowance back for it (:func:`agents.polish_gradients.finishable`); the harness finishes the
-stroke a run reports, once (:func:`agents.parts.finish_part`)."""
+stop, polished on with autograd gradients (:func:`finish`; docs/harness.md, "Certified"), once
+per run (:func:`agents.parts.finish_part`), on the ``polish_finish`` share of its allowance
+each polish by differences kept back for it (:func:`agents.polish_gradients.finishable`)."""
 
 from __future__ import annotations
 
@@ -27,12 +26,10 @@ __all__ = ["finish"]
 def finish(
     problem: Problem, result: PolishResult, budget: int, config: PolishConfig
 ) -> PolishResult:
-    """``result``, a polish by central differences that ended short of the KKT stop, polished
-    on from its stroke with autograd gradients (one evaluation each) on ``budget`` more
-    evaluations; ``result`` itself where it is certified, infeasible, not :func:`finishable`
-    or ``budget`` is below two gradients. Central differences misread the gradient where the
-    model's second derivative jumps within a step of the optimum (the positive parts'
-    crossings), and the climb stalls there (docs/harness.md, "Certified"). The certificate
+    """``result``, a polish by central differences that ended short of the KKT stop (where the
+    model's second derivative jumps within a step), polished on with autograd gradients (one
+    evaluation each) on ``budget`` more evaluations; ``result`` itself where it is certified,
+    infeasible, not :func:`finishable` or ``budget`` is below two gradients. The certificate
     covers both: evaluations, allowance and iterations summed, the stop and the KKT check the
     finish's, ``gradient`` ``"central differences, then autograd"``."""
     first = result.certificate
@@ -46,18 +43,11 @@ def finish(
     ):
         return result
     try:
-        # one stroke at a time is too small a tensor for threads to gain, and on a machine
-        # shared with the run's other workers torch's waiting threads cost several times its
-        # time: torch's OpenMP pool on one thread, restored afterwards
+        # one stroke is too small a tensor for threads to gain (and waiting threads cost):
+        # torch's OpenMP pool on one thread, restored afterwards
+        gradient = AutogradGradient(problem)
         with threadpool_limits(limits=1, user_api="openmp"):
-            more = polish(
-                problem,
-                result.stroke,
-                budget,
-                config,
-                AutogradGradient(problem),
-                keep_certified=True,
-            )
+            more = polish(problem, result.stroke, budget, config, gradient, keep_certified=True)
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
         message = f"{first.message}; the finish failed: {type(error).__name__}: {error}"
         return replace(result, certificate=replace(first, message=message))

@@ -1,9 +1,7 @@
-"""What the local polish optimises and how it takes derivatives: the :class:`Problem`, a
-harness task's problem from its env's problem view (:func:`task_problem`), and the gradient
-functions :class:`CentralDifferences` (2k + 1 strokes in ONE model call) and
-:class:`AutogradGradient` (ONE torch evaluation); ``cost`` counts model evaluations against the
-polish's allowance (docs/harness.md, "Local polish").
-"""
+"""What the local polish optimises (:class:`Problem`, :func:`task_problem`) and its gradients:
+:class:`CentralDifferences` (2k + 1 strokes in ONE model call), :class:`AutogradGradient` (ONE
+torch evaluation); ``cost`` counts model evaluations against the polish's allowance
+(docs/harness.md, "Local polish")."""
 
 from __future__ import annotations
 
@@ -77,7 +75,6 @@ class Problem:
 
 def env_problem(env: gym.Env) -> FlightProblem | None:
     """The optimisation problem ``env`` offers (its ``problem()``), or None for none."""
-
     view = getattr(env.unwrapped, "problem", None)
     return view() if callable(view) else None
 
@@ -91,8 +88,8 @@ def task_problem(
     task: TaskSpec, condition: Condition, env_kwargs: Mapping[str, Any], env: gym.Env | None = None
 ) -> Problem:
     """The polish problem of a harness task: its env's problem view (:func:`env_problem`) at
-    ``condition``, so the polish optimises exactly what the env rewards; the free coordinates
-    are those not in ``task.discrete_actions``. ``env``, the task's env when the caller has one,
+    ``condition``, so the polish optimises exactly what the env rewards; free coordinates
+    those not in ``task.discrete_actions``; ``env``, if given,
     is used (and left open) instead of making one."""
     with contextlib.ExitStack() as stack:
         if env is None:
@@ -139,9 +136,9 @@ class Gradient:
 
 
 class GradientFunction(Protocol):
-    """``gradient(x) -> Gradient`` at the full point x (dim,); ``cost`` model evaluations per
+    """``gradient(x) -> Gradient`` at the full point x (dim,); ``cost``: model evaluations per
     call at most (kept back; ``Gradient.evaluations`` are counted); ``name`` for the
-    certificate. The seam for an autograd gradient."""
+    certificate."""
 
     cost: int
     name: str
@@ -151,11 +148,9 @@ class GradientFunction(Protocol):
 
 @dataclass(frozen=True)
 class CentralDifferences:
-    """Central differences of a :class:`Problem`: x and x ± h e_j for every free j in ONE call.
-
-    At a bound the step is cut to stay inside [-1, 1] (a one-sided difference there); ``cost``
-    is the most, a point on k' bounds takes 2k + 1 − k'.
-    """
+    """Central differences of a :class:`Problem`: x and x ± h e_j for every free j in ONE call
+    (at a bound the step is cut to stay inside [-1, 1], one-sided: ``cost`` is the most, a
+    point on k' bounds takes 2k + 1 − k')."""
 
     problem: Problem
     step: float = 1e-5
@@ -189,7 +184,7 @@ class CentralDifferences:
 class AutogradGradient:
     """The gradient of a :class:`Problem` by autograd: value, objective gradient and margin
     Jacobian from ONE differentiable model evaluation (``problem.differentiate``, the torch
-    backend), so ``cost`` is 1 model evaluation."""
+    backend), so ``cost`` is 1."""
 
     problem: Problem
     cost: int = field(init=False, default=1)
@@ -223,9 +218,8 @@ def _gradient(
 
 
 def finishable(problem: Problem, gradient: str, config: PolishConfig) -> bool:
-    """A polish by ``gradient`` (its name) on ``problem`` keeps ``config.finish`` of its
-    allowance back for :func:`agents.polish_finish.finish`: its gradient is not autograd, the
-    problem differentiates and the KKT stop is on."""
+    """A polish by ``gradient`` (its name) keeps ``config.finish`` of its allowance back for
+    :func:`agents.polish_finish.finish`: not autograd, ``problem`` differentiates, KKT stop on."""
     return (
         gradient != AutogradGradient.name
         and problem.differentiate is not None

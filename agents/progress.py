@@ -19,8 +19,8 @@ class Phase:
     name: str
     jobs: tuple[Job, ...]
     provisional: frozenset[str] = frozenset()
-    """Keys of jobs that stand in for ones an earlier phase's results decide (their budgets are
-    right, their keys not final: :meth:`agents.jobs.Continuation.job`): counted as to run."""
+    """Keys of stand-ins for jobs an earlier phase's results decide (budgets right, keys not
+    final: :meth:`agents.jobs.Continuation.job`): counted as to run."""
     later: str = ""
     """What follows this phase that no look-ahead can count before it has run (the readings
     study's combinations), said as ``then ...`` on the cost line."""
@@ -106,10 +106,8 @@ class CommandProgress:
         if self._evaluations == 0 or self._seconds <= 0:
             return "estimating (from the speed of the first jobs to finish)"
         rate = self._evaluations / self._seconds
-        return (
-            f"about {_duration(evaluations / rate)} (at the {rate:,.0f} evaluations/s "
-            "measured so far)"
-        )
+        measured = f"at the {rate:,.0f} evaluations/s measured so far"
+        return f"about {_duration(evaluations / rate)} ({measured})"
 
     def _jobs(self) -> dict[str, Job]:
         return {job.key: job for phase in self._phases.values() for job in phase.jobs}
@@ -160,7 +158,6 @@ class CommandProgress:
 
     def ran(self, job: Job, seconds: float) -> None:
         """A job finished, ``seconds`` [s] after the previous one (or the call's start)."""
-
         self._done.add(job.key)
         self._evaluations += job.budget
         self._seconds += seconds

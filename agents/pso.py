@@ -86,8 +86,8 @@ class PSOConfig(OptimiserConfig):
     velocity_clamp: float = real_setting(0.0, 1.0, low_inclusive=False, default=0.5)
     """Maximum |v| per dimension as a fraction of the box width 2, in (0, 1]."""
     boundary: Boundary = "clip"
-    """``"clip"`` puts a particle that leaves the box on the wall and zeroes that velocity
-    component; ``"reflect"`` mirrors the position back inside and reverses the component."""
+    """``"clip"``: a particle leaving the box stops on the wall, that velocity component
+    zeroed; ``"reflect"``: it is mirrored back inside, that velocity component reversed."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -116,10 +116,8 @@ class PSOConfig(OptimiserConfig):
     @property
     def citation(self) -> str:
         """The variant, its source and the constants actually used."""
-        if self.inertia == "constriction":
-            weight = f"w = {CONSTRICTION_W}"
-        else:
-            weight = f"w = {LINEAR_W_START} -> {LINEAR_W_END} linearly"
+        weight = f"w = {LINEAR_W_START} -> {LINEAR_W_END} linearly"
+        weight = f"w = {CONSTRICTION_W}" if self.inertia == "constriction" else weight
         overridden = [name for name in ("cognitive", "social") if getattr(self, name) is not None]
         note = f" ({' and '.join(overridden)} overridden)" if overridden else ""
         return f"{_CITATIONS[self.inertia]}: {weight}, c1 = {self.c1}, c2 = {self.c2}{note}"
@@ -174,8 +172,8 @@ class PSO(AskTellOptimiser, settings=PSOConfig):
             self._candidate_x, self._candidate_v = self._x, self._v
             return self._x[:n]
         w = self._schedule[self.iterations - 1]
-        # Draw for the whole swarm even on a truncated last iteration: the random stream, and
-        # hence every earlier iteration, stays independent of the budget.
+        # the whole swarm's draws even on a truncated last iteration: the stream stays
+        # independent of the budget
         r1, r2 = self._rng.random((2, *self._x.shape))
         v = (
             w * self._v
@@ -189,8 +187,8 @@ class PSO(AskTellOptimiser, settings=PSOConfig):
     def _confine(self, x: FloatArray, v: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Bring positions that left the box back inside, adjusting their velocities."""
         low, high = x < ACTION_LOW, x > ACTION_HIGH
-        # Landing exactly on a wall (e.g. -1 + vmax = 1 with the full-width clamp) also counts
-        # as a hit, so a particle resting on a wall never keeps an outward velocity.
+        # landing exactly on a wall (e.g. -1 + vmax = 1 with the full-width clamp) is a hit
+        # too: a particle there keeps no outward velocity
         hit = (x <= ACTION_LOW) | (x >= ACTION_HIGH)
         if self._boundary == "clip":
             v[hit] = 0.0

@@ -1,7 +1,7 @@
 """The record cache: one store of records shared by every output folder (docs/harness.md, "The
-record cache"). Its folder and files must be the user's own (:func:`record_cache`); what it
-serves is re-evaluated first (:mod:`agents.verify`); a job whose method takes a path is never
-cached (:func:`cacheable`).
+record cache"). Its
+folder and files must be the user's own (:func:`record_cache`); what it serves is re-evaluated
+first (:mod:`agents.verify`); a method that takes a path is never cached (:func:`cacheable`).
 """
 
 from __future__ import annotations
@@ -59,8 +59,8 @@ _SAID: set[str] = set()
 
 
 def cacheable(job: Job | Work) -> bool:
-    """Whether ``job``'s record may be kept in the record cache."""
-    # A method that takes a path (policy:RUN_DIR) reads files relative to where it runs.
+    """Whether ``job``'s record may be kept in the record cache (not a method taking a path,
+    which reads files relative to where it runs)."""
     return not isinstance(job, Job) or ":" not in job.method
 
 

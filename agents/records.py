@@ -54,8 +54,8 @@ RESULTS: dict[str, str] = {
     "versions": "package versions (numpy, gymnasium, torch, ..., python, tandem_env) and the "
     "model's revision (model: tandem_env.physics.MODEL_REVISION; none before records held it)",
 }
-#: The results key of the stage after the search: the local polish and the optimality of the
-#: reported stroke (:meth:`agents.polish.Certificate.to_dict`); every harness record has it.
+#: The results key of the local polish and the reported stroke's optimality (every harness
+#: record has it: :meth:`agents.polish.Certificate.to_dict`).
 CERTIFICATE = "certificate"
 #: The results key listing the parts of a run split into several (``starts`` searches,
 #: ``initial`` strokes; :mod:`agents.harness`): kind, seed, evaluations, reward, feasible,
@@ -100,8 +100,8 @@ class RecordMismatchError(RecordError):
 
 
 class UnsafeFileError(RecordError):
-    """A file not read or not trusted: not a regular file (a named pipe), or one of the record
-    cache owned by another user or writable by others (:func:`agents.store.unsafe_path`)."""
+    """A file not read (not a regular file, e.g. a named pipe) or not trusted (one of the record
+    cache owned by another user or writable by others: :func:`agents.store.unsafe_path`)."""
 
 
 class OutdatedRecordError(RecordError):
@@ -179,8 +179,7 @@ class Record:
                 f"record evaluations = {evaluations!r}; allowed: an integer from 0 to its "
                 f"budget {self.job.budget}"
             )
-        for name in ("objective", "reward", "search_reward"):
-            # A NaN is no result: it would pass every comparison silently (max, median, rank).
+        for name in ("objective", "reward", "search_reward"):  # a NaN would pass every comparison
             value = results[name]
             if isinstance(value, bool) or not isinstance(value, int | float) or math.isnan(value):
                 raise RecordError(
@@ -204,22 +203,15 @@ class Record:
     @property
     def certificate(self) -> dict[str, Any]:
         """The polish and optimality of the stroke (:class:`agents.polish.Certificate`), or {}."""
-
         return dict(self.results.get(CERTIFICATE, {}))
 
     @property
     def score(self) -> float:
         """The stroke's normalised score [-] (:func:`~tandem_env.envs.reference.record_score`;
         NaN where the reference table does not apply)."""
-
-        return record_score(
-            self.env_id,
-            self.results["env"],
-            self.job.condition,
-            self.objective,
-            self.feasible,
-            float(self.metrics.get("constraint_violation", math.nan)),
-        )
+        violation = float(self.metrics.get("constraint_violation", math.nan))
+        stroke = (self.job.condition, self.objective, self.feasible, violation)
+        return record_score(self.env_id, self.results["env"], *stroke)
 
     @property
     def model(self) -> int | None:
@@ -240,8 +232,8 @@ class Record:
 
     @property
     def config(self) -> dict[str, Any]:
-        """``method`` (``method_settings``: the method's settings and citation) and ``env`` (the env's full
-        configuration: insect, model options incl. ``thrust_split``, penalty)."""
+        """``method`` (``method_settings``: the method's settings and citation) and ``env`` (the
+        env's full configuration: insect, model options incl. ``thrust_split``, penalty)."""
         return {"method": self.results["method_settings"], "env": self.results["env"]}
 
     # --- JSON ------------------------------------------------------------------------------------
@@ -293,14 +285,12 @@ class Record:
                 f"checksum {_short(data['checksum'])} does not match the record's contents: "
                 "edited by hand or damaged; it is not used"
             )
-        # The key is the hash of the job it holds (as the version and model that wrote it
-        # computed it): a record whose job was edited, or whose key was, is not its job's
-        # record, even with a checksum made again over the edit.
+        # the key is the hash of the job it holds, as the version and model that wrote it
+        # computed it (a checksum made again over an edit does not hide the edit)
         versions = record.results["versions"]
         version = versions.get("tandem_env") if isinstance(versions, Mapping) else None
-        if record.key != job.key and not (
-            isinstance(version, str) and record.key == job.key_at(version, record.model)
-        ):
+        written = isinstance(version, str) and record.key == job.key_at(version, record.model)
+        if record.key != job.key and not written:
             raise RecordMismatchError(
                 f"key {_short(record.key)} is not the hash of the job it holds "
                 f"({record.job.label()}: key {record.job.key}); the key or the job was edited, "
@@ -328,9 +318,9 @@ class Record:
         for name in SUMMARY_METRICS:
             if name in self.metrics:
                 row[name] = self.metrics[name]
-        # The stroke itself (Table 4 units), and which of its parameters sit at a bound of the
-        # insect's (Table 4's unless it sets its own); a task of another action (a plug-in, the
-        # analytic test tasks) has no such stroke.
+        # The stroke (Table 4 units) and its parameters at a bound of the insect's (Table 4's
+        # unless it sets its own); a task of
+        # another action (a plug-in, the analytic test tasks) has no such stroke.
         insect = self.job.env("insect")
         if set(tandem_env.PARAMETER_NAMES) <= set(self.stroke):
             stroke = [float(self.stroke[name]) for name in tandem_env.PARAMETER_NAMES]

@@ -2,12 +2,12 @@
 
 A plan (:class:`Plan`, :func:`run_plan`) yields phases (:class:`~agents.progress.Phase`) of
 keyed jobs computed from the records of the phases before it; :func:`run_jobs` runs one list.
-Each job's record is kept in the output's :class:`~agents.store.RecordStore` under the job's
-key (the hash of its configuration and the package version), so a killed run resumes and
-neither order, executor nor worker count changes a result (docs/harness.md, "The record and
-the store"). Jobs are validated once, all before any runs (:func:`agents.harness.prepare_job`);
-this process alone writes the records, as each job finishes; a job that raises is reported
-with its key and traceback after the others finish (:class:`JobsFailed`).
+Each record is kept in the output's :class:`~agents.store.RecordStore` under its job's key
+(the hash of its configuration and the package version), so a killed run resumes and neither
+order, executor nor worker count changes a result (docs/harness.md, "The record and the
+store"). Jobs are validated all before any runs (:func:`agents.harness.prepare_job`); this
+process alone writes the records, as each job finishes; a job that raises is reported with its
+key and traceback after the others finish (:class:`JobsFailed`).
 """
 
 from __future__ import annotations
@@ -90,8 +90,7 @@ class RunSummary:
     failures: tuple[JobFailure, ...] = field(default=())
     """Jobs that raised."""
     records: Mapping[str, Record] = field(default_factory=dict, repr=False, compare=False)
-    """The record of every job that has one, by key: those reused (read once, to check them)
-    and those run now (as saved, not read back)."""
+    """The record of every job that has one, by key (reused ones read once, new ones as saved)."""
     cached: int = 0
     """Of the reused jobs, those whose records came from the record cache."""
     replaced: int = 0
@@ -204,9 +203,8 @@ def _run_on_dask(
         elif future.status == "error":
             outcome = _failure(job, future.exception(), future.traceback())
         else:  # cancelled: the scheduler went away or gave up on the task
-            outcome = JobFailure(
-                job.key, job.label(), f"task {future.status} by the Dask scheduler", ""
-            )
+            why = f"task {future.status} by the Dask scheduler"
+            outcome = JobFailure(job.key, job.label(), why, "")
         future.release()
         yield job, outcome
 
@@ -264,24 +262,22 @@ def run_jobs(
     command: CommandProgress | None = None,
     summary_csv: bool = False,
 ) -> RunSummary:
-    """Run every job that has no valid stored record yet (duplicates once): the harness's
-    jobs or another :class:`~agents.jobs.Work` kind's.
+    """Run every job (the harness's or another :class:`~agents.jobs.Work` kind's) that has no
+    valid stored record yet, duplicates once, largest budget first.
 
-    ``scheduler``: None runs here, one job after another, else :mod:`agents.dask_cluster`'s;
-    jobs start largest budget first. ``rerun`` runs every job again, replacing its record.
-    ``cache`` (:data:`~agents.record_cache.CacheOption`): a job without a record in
-    ``out_dir`` takes the cache's; every record computed goes to both. A reused record is
-    re-evaluated first (:func:`agents.verify.refuted`); one its stroke does not reproduce is
-    said in a :class:`~agents.records.RecordWarning` and its job runs again. ``command`` is
-    told of every job finished. ``summary_csv`` keeps ``out_dir``'s ``summary.csv``, rewritten
-    when the call ends (after a failure too); the store's paths are then checked before any
-    work (:class:`OutputNotWritable`), and a store that cannot be written but holds every job
-    is used as it is.
-
-    Raises :class:`JobsFailed` after the other jobs finished if any job was rejected or raised,
+    ``scheduler``: None runs here, one job after another, else :mod:`agents.dask_cluster`'s.
+    ``rerun`` runs every job again, replacing its record. ``cache``
+    (:data:`~agents.record_cache.CacheOption`): a job without a record in ``out_dir`` takes the
+    cache's; every record computed goes to both. A reused record is re-evaluated first: one its
+    stroke does not reproduce (:func:`agents.verify.refuted`) is said in a
+    :class:`~agents.records.RecordWarning` and run again. ``command`` is told of every job
+    finished. ``summary_csv`` rewrites ``out_dir``'s ``summary.csv`` when the call ends (after
+    a failure too), the store's paths checked first (:class:`OutputNotWritable`; a store that
+    cannot be written but holds every job is used as it is). Raises :class:`JobsFailed` after
+    the other jobs finished if any job was rejected or raised,
     :class:`~agents.dask_cluster.SchedulerUnreachable`, and ValueError for a bad ``scheduler``
-    or an ``out_dir`` (or cache folder) that is a file. The summary's ``records`` are the
-    jobs' records, each read at most once.
+    or an ``out_dir`` (or cache folder) that is a file. The summary's ``records`` are the jobs'
+    records, each read at most once.
     """
     executor = "serial" if scheduler is None else parse_scheduler(scheduler)
     start = time.perf_counter()
@@ -335,17 +331,14 @@ def run_jobs(
             except Exception as error:
                 failures.append(_failure(_job_of(job), error, error.__traceback__))
         todo.sort(key=lambda p: -_job_of(p).budget)
+        # their keys hash the earlier format, so no job finds them: said once (one at a job's
+        # own key was reported by store.load)
         if todo and (old := store.outdated(skip=given)):
-            # Their keys hash the earlier format, so no job finds them: say so once (one at a
-            # job's own key was reported by store.load).
-            warnings.warn(
-                f"{len(old)} record file(s) of an earlier format in {old[0].parent} (e.g. "
-                f"{old[0].name}) are not used: the jobs they held run again in this format",
-                RecordWarning,
-                stacklevel=2,
-            )
+            where = f"{len(old)} record file(s) of an earlier format in {old[0].parent}"
+            message = f"{where} (e.g. {old[0].name}) are not used: the jobs they held run again"
+            warnings.warn(f"{message} in this format", RecordWarning, stacklevel=2)
         # Records of an earlier model sit under the keys it gave them (Job.key_at; None: before
-        # keys held the revision): no job finds them, so none is served; say so once per store.
+        # keys held the revision): no job finds them; said once per store.
         revisions = (None, *range(1, tandem_env.physics.MODEL_REVISION))
         earlier = [
             job.key_at(tandem_env.__version__, model)
@@ -356,13 +349,12 @@ def run_jobs(
         for held in (store, shared.store):
             old = [p for key in earlier if held is not None and (p := held.path(key)).exists()]
             if old:
-                warnings.warn(
+                message = (
                     f"{len(old)} record file(s) in {old[0].parent} (e.g. {old[0].name}) were made "
                     "by an earlier model (tandem_env.physics.MODEL_REVISION): not used, their "
-                    "jobs run again (the files are kept)",
-                    RecordWarning,
-                    stacklevel=2,
+                    "jobs run again (the files are kept)"
                 )
+                warnings.warn(message, RecordWarning, stacklevel=2)
         with contextlib.ExitStack() as stack:
             client = None
             if todo and executor != "serial":
@@ -389,6 +381,7 @@ def run_jobs(
                 if command is not None and isinstance(outcome, Record):
                     command.ran(job, now - running)
                 running = now
+        noun = next((getattr(_job_of(j), "noun", "optimisation") for j in given.values()), "")
         summary = RunSummary(
             total=len(given),
             reused=len(given) - len(missing),
@@ -399,7 +392,7 @@ def run_jobs(
             records=records,
             cached=len(cached),
             replaced=replaced,
-            noun=next((getattr(_job_of(j), "noun", "optimisation") for j in given.values()), ""),
+            noun=noun,
         )
         if failures:
             raise JobsFailed(summary)
@@ -462,9 +455,8 @@ def find_records(
 
 @dataclass
 class Lookup:
-    """What a plan's next phases follow from (:class:`Plan`): the records of some jobs, from
-    the run so far (:attr:`running`) or, in a look-ahead, as far as ``store`` and the record
-    cache hold them (:func:`find_records`)."""
+    """What a plan's next phases follow from: the records of some jobs, from the run so far
+    (:attr:`running`) or, in a look-ahead, as far as the stores hold them (:func:`find_records`)."""
 
     store: RecordStore
     cache: CacheOption = True
@@ -487,9 +479,9 @@ class Lookup:
 
 
 class Plan(Protocol):
-    """Resumable work in phases (:func:`run_plan`): called with a :class:`Lookup`, it yields
-    each phase once the records of the phases before it are there to look up. Phases that do
-    not depend on records are given as data instead, a sequence of :class:`Phase`."""
+    """Resumable work in phases (:func:`run_plan`): called with a :class:`Lookup`, it yields each
+    phase once the records before it can be looked up. Phases that do not depend on records are
+    given as data instead, a sequence of :class:`Phase`."""
 
     def __call__(self, found: Lookup) -> Iterator[Phase]: ...
 
@@ -526,7 +518,6 @@ def run_plan(
     """Run ``plan``'s phases in order into the store ``out``, each in one :func:`run_jobs`
     call (the options as there); a killed run resumes phase by phase. ``command`` says each
     phase's start with the command's cost again; ``rerun`` runs every job again once."""
-
     start = time.perf_counter()
     store = RecordStore.at(out)
     found = Lookup(store, cache, {})
@@ -538,15 +529,9 @@ def run_plan(
             command.start(look_ahead(plan, store, cache), started)
         assert found.records is not None
         jobs = [job for job in phase.jobs if not (rerun and job.key in found.records)]
+        options = {"scheduler": scheduler, "progress": progress, "rerun": rerun, "cache": cache}
         runs[phase.name] = run_jobs(
-            jobs,
-            store,
-            scheduler=scheduler,
-            progress=progress,
-            rerun=rerun,
-            cache=cache,
-            command=command,
-            summary_csv=summary_csv,
+            jobs, store, command=command, summary_csv=summary_csv, **options
         )
         found.records |= runs[phase.name].records
     return PlanRun(runs, found.records, time.perf_counter() - start)

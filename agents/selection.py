@@ -37,9 +37,7 @@ NOTHING = Rank(feasible=False, reward=-np.inf)
 
 def rank(feasible: bool | np.bool_, reward: float) -> Rank:
     """The rule's view of one stroke (NaN -> -inf, and such a stroke counts as infeasible)."""
-    value = float(reward)
-    if np.isnan(value):
-        value = -np.inf
+    value = -np.inf if np.isnan(float(reward)) else float(reward)
     return Rank(feasible=bool(feasible) and value > -np.inf, reward=value)
 
 

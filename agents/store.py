@@ -1,10 +1,9 @@
-"""The record store: a job's record kept as ``DIR/records/<key>.json``, found by its job.
-
-The runner (:func:`agents.runner.run_jobs`) is the one writer, atomically, so a record is found
-by its configuration (:attr:`agents.jobs.Job.key`), a killed run resumes, and a file that is
-not a valid record of its job is recomputed with a :class:`~agents.records.RecordWarning`.
-``DIR/summary.csv`` summarises a store. The record cache is a store too, shared by every output
-folder of a user (:func:`cache_directory`; docs/harness.md, "The record cache").
+"""The record store: a job's record kept as ``DIR/records/<key>.json``, found by its job's key
+(:attr:`agents.jobs.Job.key`), written atomically by the runner alone
+(:func:`agents.runner.run_jobs`), so a killed run resumes; a file that is not a valid record of
+its job is recomputed with a :class:`~agents.records.RecordWarning`. ``DIR/summary.csv``
+summarises it. The record cache is a store too, shared by every output folder of a user
+(:func:`cache_directory`; docs/harness.md, "The record cache").
 """
 
 from __future__ import annotations
@@ -131,8 +130,8 @@ def _read_json(path: str | os.PathLike[str], *, strict: bool = False) -> Any:
 
 
 def _check_name(path: Path, record: Record) -> Record:
-    """``record`` if ``path`` is named by its key, as a store names them (``<key>.json``), or by
-    no key at all; RecordError for one moved or copied to another job's name."""
+    """``record`` if ``path`` is named by its key (``<key>.json``) or by no key at all;
+    RecordError for one moved or copied to another job's name."""
     if _KEY_NAME.fullmatch(path.stem) and path.stem != record.key:
         raise RecordMismatchError(
             f"{path}: holds the record of key {record.key} ({record.label()}), not of the key "
@@ -155,9 +154,8 @@ class RecordStore:
         self.strict = strict
         for path in (self.directory, self.directory / RECORDS_DIR):
             if path.exists() and not path.is_dir():
-                raise ValueError(
-                    f"{path} is a file; allowed: a directory for the records (created if missing)"
-                )
+                allowed = "allowed: a directory for the records (created if missing)"
+                raise ValueError(f"{path} is a file; {allowed}")
 
     @classmethod
     def at(cls, out: str | os.PathLike[str] | RecordStore) -> RecordStore:
@@ -169,13 +167,9 @@ class RecordStore:
         folder, its ``records``, ``summary.csv`` and the record files of ``jobs``; ValueError
         naming the path and what is allowed, or (without ``write``) False if it cannot be
         written now."""
-        records = [f"{RECORDS_DIR}/{job.key}.json" for job in jobs]
+        files = (SUMMARY_NAME, *(f"{RECORDS_DIR}/{job.key}.json" for job in jobs))
         return output_directory(
-            self._given,
-            "--out",
-            write=write,
-            folders=(RECORDS_DIR,),
-            files=(SUMMARY_NAME, *records),
+            self._given, "--out", write=write, folders=(RECORDS_DIR,), files=files
         )
 
     def path(self, key: str) -> Path:
@@ -224,7 +218,6 @@ class RecordStore:
     def records(self, known: Mapping[str, Record] | None = None) -> list[Record]:
         """Every valid record in the store, in the summary's order (the others left out with a
         :class:`RecordWarning`); those ``known`` (key -> record) are not read again."""
-
         known = known or {}
         found = []
         for path in sorted((self.directory / RECORDS_DIR).glob("*.json")):
@@ -284,7 +277,6 @@ def read_record_files(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
     other JSON files are skipped, a record of an earlier format or failing its checksum is left
     out with a :class:`RecordWarning`, and a file that cannot be read or is a malformed record
     raises :class:`RecordError` naming it."""
-
     records: list[Record] = []
     for base in map(Path, paths):
         if not base.exists():

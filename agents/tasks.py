@@ -25,7 +25,7 @@ _NAME = re.compile(r"^[a-z][a-z0-9_-]*$")
 
 
 #: The harmonic N of each wing, 1 or 2 (``normalised_to_physical``: N = 1 where a < 0, else 2,
-#: i.e. two equal bins of [-1, 1]); the stroke's only discrete parameters.
+#: two equal bins of [-1, 1]): the stroke's only discrete parameters.
 STROKE_DISCRETE: tuple[tuple[int, int], ...] = tuple(
     (int(i), int(UPPER[i] - LOWER[i]) + 1) for i in np.flatnonzero(DISCRETE)
 )
@@ -114,11 +114,9 @@ class TaskSpec:
         return self.declared_condition.keyword, self.declared_condition.range_keyword
 
     def condition(self, value: float) -> Condition:
-        """The recorded condition for ``value`` [the declared unit] (range checks are the
-        env's)."""
+        """The recorded condition for ``value`` [the declared unit] (range checks are the env's)."""
         declared = self.declared_condition
-        # NumPy numbers are real numbers too; strings (also "1.5") and booleans are not.
-        if not is_real(value):
+        if not is_real(value):  # numpy numbers are; strings (also "1.5") and booleans are not
             raise ValueError(
                 f"{self.name}: condition {declared.keyword} = {value!r}; allowed: a "
                 f"number [{declared.unit}]"
@@ -144,12 +142,8 @@ REGISTERED_TASKS: dict[str, TaskSpec] = {}
 
 
 def _tasks() -> dict[str, TaskSpec]:
-    """Every task now: one per env entry with a task (derived from its declaration), then
-    those registered by hand."""
-    derived = {
-        name: TaskSpec.from_env(name, env_id)
-        for name, env_id in registration.task_env_ids().items()
-    }
+    """Every task now: one per env entry with a task, then those registered by hand."""
+    derived = {name: TaskSpec.from_env(name, i) for name, i in registration.task_env_ids().items()}
     return {**derived, **REGISTERED_TASKS}
 
 

@@ -1,9 +1,7 @@
-"""Stored records checked against the physics before they are reused.
-
-A checksum tells damage, not a forged record (anyone who can write a store can make it again),
-so the runner serves no stored record without stepping its stroke once more: :func:`refuted`
-re-evaluates every reused record's stroke, one vector-env step per task and env configuration,
-and compares what the record says (:data:`CHECKED`) with what the stroke gives.
+"""Stored records checked against the physics before they are reused: a checksum tells damage,
+not a forged record, so the runner serves no stored record before :func:`refuted` steps its
+stroke once more (one vector-env step per task and env configuration) and compares what the
+record says (:data:`CHECKED`) with what the stroke gives.
 """
 
 from __future__ import annotations
@@ -25,12 +23,12 @@ from tandem_env.io.files import to_jsonable
 #: The results a record's stroke decides, compared with their re-evaluation.
 CHECKED = ("reward", "objective", "feasible", "stroke", "metrics")
 #: Metrics the stroke does not decide alone, left out of the comparison: ``score`` reads the
-#: objective (which is checked) against the packaged reference table (docs/reference.md), so
-#: every regeneration of the table moves it, and a record keeps the one of its run.
+#: objective (which is checked) against the packaged reference table (docs/reference.md), which
+#: every regeneration moves; a record keeps the one of its run.
 TABLE_RELATIVE = frozenset({"score"})
-#: How closely each number must agree: |stored - recomputed| <= ATOL + RTOL |recomputed|. The
+#: How closely each number must agree: |stored - recomputed| <= ATOL + RTOL |recomputed| (the
 #: same backend reproduces a record bit for bit; numba and torch, which share records, agree
-#: within 1e-8 (docs/harness.md).
+#: within 1e-8, docs/harness.md).
 RTOL, ATOL = 1e-7, 1e-8
 #: The most records re-evaluated in one step (the model takes up to 10 000 strokes a batch).
 _BATCH = 1024
@@ -94,7 +92,6 @@ def _decided(results: Mapping[str, Any]) -> dict[str, Any]:
 def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Record]) -> list[dict]:
     """The stepped results of each record's stroke at its job's condition and seed: one step
     of one vector env where it takes a condition per sub-env, else one single env per record."""
-
     keyword = spec.declared_condition.keyword
     actions = np.asarray([r.normalised_stroke for r in records], dtype=np.float64)
     env = gym.make_vec(spec.env_id, num_envs=len(records), **NATIVE_VECTOR_ENV, **kwargs)
@@ -103,9 +100,8 @@ def _step(spec: TaskSpec, kwargs: dict[str, Any], records: Sequence[Record]) -> 
             options = [{keyword: spec.condition(r.job.condition).value} for r in records]
             reset_envs(np.arange(len(records)), [r.job.seed for r in records], options)
             _, rewards, _, _, infos = env.step(actions)
-            return [
-                stepped_results(rewards[i], _row(infos, i), actions[i]) for i in range(len(records))
-            ]
+            steps = range(len(records))
+            return [stepped_results(rewards[i], _row(infos, i), actions[i]) for i in steps]
     return [_single(spec, kwargs, r, a) for r, a in zip(records, actions, strict=True)]
 
 

@@ -5,7 +5,6 @@ Per setting and seed, one harness run at level flight 1.5 m/s and one at acceler
 median over seeds, the spread and the restarts, and writes every value to ``--out`` (CSV). Tune
 on seeds other than those you report. Usage::
 
-
     python benchmarks/cmaes_settings.py --settings "popsize=13" "popsize=40" \\
         --seeds 100 101 102 103 --level-budget 30000 --accelerate-budget 12000
 """
@@ -42,7 +41,6 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--method", default="cmaes")
     parser.add_argument("--out", default="results/cmaes_settings.csv")
     args = parser.parse_args(argv)
-
     rows = []
     for setting in args.settings:
         config = parse_pairs(setting.split(), "--settings")
@@ -50,32 +48,19 @@ def main(argv: list[str] | None = None) -> int:
             condition, objective = TASKS[task]
             budget = args.level_budget if task == "level" else args.accelerate_budget
             start = time.perf_counter()
-            records = run(
-                args.method,
-                task,
-                condition,
-                budget,
-                args.seeds,
-                objective=objective,
-                method_config=config,
-                progress=False,
-            )
+            options = {"objective": objective, "method_config": config, "progress": False}
+            records = run(args.method, task, condition, budget, args.seeds, **options)
             seconds = time.perf_counter() - start
             restarts = [len(r.config["method"].get("runs", [None])) - 1 for r in records]
             for checkpoint in [c for c in args.checkpoints if c <= budget]:
                 values = np.array([best_at(r.history, checkpoint) for r in records])
                 median = float(np.median(values))
                 spread = float((values.max() - values.min()) / median) if median else np.nan
+                case = {"method": args.method, "setting": setting, "task": task}
                 rows += [
-                    {
-                        "method": args.method,
-                        "setting": setting,
-                        "task": task,
-                        "budget": checkpoint,
-                        "seed": r.seed,
-                        "best_reward": float(v),
-                        "restarts": k,
-                    }
+                    case
+                    | {"budget": checkpoint, "seed": r.seed, "best_reward": float(v)}
+                    | {"restarts": k}
                     for r, v, k in zip(records, values, restarts, strict=True)
                 ]
                 print(

@@ -88,15 +88,8 @@ def main() -> None:
                 f"n_time={n_time:>3} n_blade={n_blade:>2} V={speed:.0f} ({rate:6.0f} evals/s)  "
                 + "  ".join(cells)
             )
-            rows.append(
-                {
-                    "n_time": n_time,
-                    "n_blade": n_blade,
-                    "speed": speed,
-                    "evaluations_per_s": rate,
-                    "error_percent": percent,
-                }
-            )
+            row = {"n_time": n_time, "n_blade": n_blade, "speed": speed}
+            rows.append(row | {"evaluations_per_s": rate, "error_percent": percent})
     write_numbers(args.json, {"strokes": args.strokes, "seed": args.seed, "rows": rows})
 
 

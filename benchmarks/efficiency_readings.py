@@ -29,13 +29,7 @@ from typing import Any
 from agents.harness import PreparedJob, prepare
 from agents.runner import run_jobs
 from eval.studies.base import StudyPlan
-from eval.studies.paper_reading import (
-    DEFAULT,
-    PAPER_SEARCHES,
-    Reading,
-    Search,
-    combine,
-)
+from eval.studies.paper_reading import DEFAULT, PAPER_SEARCHES, Reading, Search, combine
 from eval.studies.presets import get_preset
 from eval.studies.readings import SINGLES, run_readings
 from tandem_env import DRAGONFLY
@@ -57,10 +51,7 @@ POWER = {
 }
 #: The era's other common PSO parameter set, at the middle budget, under the default reading.
 LINEAR_INERTIA = Search(
-    "pso",
-    swarm_size=40,
-    iterations=50,
-    settings={"polish": "none", "inertia": "linear-decreasing"},
+    "pso", swarm_size=40, iterations=50, settings={"polish": "none", "inertia": "linear-decreasing"}
 )
 
 
@@ -81,15 +72,11 @@ class Case:
     def prepare(self, seeds: list[int]) -> list[PreparedJob]:
         budget = self.search.budget("level")
         assert budget is not None
-        return prepare(
-            self.search.method,
-            "level",
-            SPEED,
-            budget,
-            seeds,
-            env_kwargs=self.env_kwargs(),
-            method_config=dict(self.search.method_config(40)),
-        )
+        settings = {
+            "env_kwargs": self.env_kwargs(),
+            "method_config": dict(self.search.method_config(40)),
+        }
+        return prepare(self.search.method, "level", SPEED, budget, seeds, **settings)
 
 
 def cases() -> list[Case]:
@@ -130,6 +117,11 @@ def summarise(case: Case, records: list[Any]) -> dict[str, Any]:
     certified = [r for r in feasible if r.certificate.get("converged") is True]
     low, high = eta[0], eta[-1]
     median = statistics.median(eta)
+    thrust = statistics.median(r.metrics["thrust"] for r in feasible) / DRAGONFLY.weight
+    power = statistics.median(r.metrics["power_per_mass"] for r in feasible)
+    # T = D read exactly: the same strokes' D·V/P (level flight holds T = D only to the
+    # task's tolerance, 2 % of W, which exceeds the body's drag at 1.5 m/s)
+    eta_d = [100 * r.objective * r.metrics["drag"] / r.metrics["thrust"] for r in feasible]
     return row | {
         "median_eta": round(median, 2),
         "min_eta": round(low, 2),
@@ -138,20 +130,9 @@ def summarise(case: Case, records: list[Any]) -> dict[str, Any]:
         "median_over_paper": round(median / PAPER_ETA, 2),
         "paper_in_range": low <= PAPER_ETA <= high,
         "polish_converged": len(certified),
-        "median_T_over_W": round(
-            statistics.median(r.metrics["thrust"] for r in feasible) / DRAGONFLY.weight, 3
-        ),
-        "median_P_per_mass": round(
-            statistics.median(r.metrics["power_per_mass"] for r in feasible), 1
-        ),
-        # T = D read exactly: the same strokes' D·V/P (level flight holds T = D only to the
-        # task's tolerance, 2 % of W, which exceeds the body's drag at 1.5 m/s)
-        "median_eta_T_is_D": round(
-            statistics.median(
-                100 * r.objective * r.metrics["drag"] / r.metrics["thrust"] for r in feasible
-            ),
-            2,
-        ),
+        "median_T_over_W": round(thrust, 3),
+        "median_P_per_mass": round(power, 1),
+        "median_eta_T_is_D": round(statistics.median(eta_d), 2),
     }
 
 
@@ -213,14 +194,10 @@ def claims(preset: str, out: Path, scheduler: str | None) -> int:
     where = out / f"claims-{preset}"
     load_before = os.getloadavg()
     start = time.perf_counter()
+    # continuation None: every reading searched from scratch (the search is what is read)
+    options = {"derive": False, "scheduler": scheduler, "progress": False, "continuation": None}
     result = run_readings(
-        StudyPlan(get_preset(preset)),
-        where,
-        readings=claim_readings(),
-        derive=False,
-        scheduler=scheduler,
-        progress=False,
-        continuation=None,  # every reading searched from scratch: the search is what is read
+        StudyPlan(get_preset(preset)), where, readings=claim_readings(), **options
     )
     wall = time.perf_counter() - start
     by_model = {json.dumps(r.reading.env_kwargs(), sort_keys=True): r for r in result.results}
@@ -242,10 +219,8 @@ def claims(preset: str, out: Path, scheduler: str | None) -> int:
     counts = {r.reading.name: {"agree": r.agree, "differ": r.differ} for r in result.results}
     print("agree: " + ", ".join(f"{n} {c['agree']}" for n, c in counts.items()))
     print("differ: " + ", ".join(f"{n} {c['differ']}" for n, c in counts.items()))
-    meta = _meta(load_before, wall, scheduler) | {
-        "preset": preset,
-        "runs": [s.to_dict() for s in result.runs],
-    }
+    meta = _meta(load_before, wall, scheduler) | {"preset": preset}
+    meta["runs"] = [s.to_dict() for s in result.runs]
     write_json_atomic(
         where / "efficiency_claims.json", {"meta": meta, "counts": counts, "claims": rows}
     )
@@ -270,20 +245,14 @@ def main() -> int:
     args = parser.parse_args()
     if args.claims is not None:
         return claims(args.claims, Path(args.out), args.scheduler)
-    chosen = [
-        c
-        for c in cases()
-        if args.part == "all" or (c.search == CERTIFIED) == (args.part == "certified")
-    ]
-    prepared = {c: c.prepare(args.seeds) for c in chosen}
+    wanted = {"all": (True, False), "certified": (True,), "search": (False,)}[args.part]
+    prepared = {c: c.prepare(args.seeds) for c in cases() if (c.search == CERTIFIED) in wanted}
     load_before = os.getloadavg()
     start = time.perf_counter()
     jobs = [p for group in prepared.values() for p in group]
     summary = run_jobs(jobs, args.out, scheduler=args.scheduler, progress=False)
     wall = time.perf_counter() - start
-    rows = []
-    for case, group in prepared.items():
-        rows.append(summarise(case, [summary.records[p.job.key] for p in group]))
+    rows = [summarise(c, [summary.records[p.job.key] for p in g]) for c, g in prepared.items()]
     print(table(rows))
     meta = _meta(load_before, wall, args.scheduler) | {
         "runs": summary.total,

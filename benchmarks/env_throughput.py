@@ -4,7 +4,6 @@ Run ``python benchmarks/env_throughput.py`` (about 30 s): strokes evaluated per 
 stepping n = 1024 envs should cost about one ``evaluate`` call at B = 1024. The native env is
 timed in both autoreset modes (next-step resets every other step). ``--json PATH`` also writes
 the numbers (``python -m eval numbers`` renders docs/envs.md from them).
-
 """
 
 from __future__ import annotations
@@ -92,18 +91,12 @@ def main() -> None:
     print(f"{'':{width}}  strokes/s   vs evaluate(B={n})")
     for name, value in rows:
         print(f"{name:{width}}  {value:9.0f}   {value / reference:6.1%}")
-    write_numbers(
-        args.json,
-        {
-            "num_envs": n,
-            "seconds": seconds,
-            "reference": rows[1][0],
-            "rows": [
-                {"case": name, "strokes_per_s": value, "of_reference": value / reference}
-                for name, value in rows
-            ],
-        },
-    )
+    table = [
+        {"case": name, "strokes_per_s": value, "of_reference": value / reference}
+        for name, value in rows
+    ]
+    numbers = {"num_envs": n, "seconds": seconds, "reference": rows[1][0], "rows": table}
+    write_numbers(args.json, numbers)
 
 
 if __name__ == "__main__":

@@ -39,10 +39,8 @@ def main(argv: list[str] | None = None) -> int:
             active = grad.margins <= ACTIVE
             x = stroke[list(problem.free)]
             eye = np.eye(x.size)
-            a = np.concatenate(
-                [grad.jacobian[active].T, -eye[:, x >= 1 - ACTIVE], eye[:, x <= -1 + ACTIVE]],
-                axis=1,
-            )
+            bounds = [-eye[:, x >= 1 - ACTIVE], eye[:, x <= -1 + ACTIVE]]
+            a = np.concatenate([grad.jacobian[active].T, *bounds], axis=1)
             multipliers = np.zeros(margin.size)
             if active.any():
                 solution, _ = nnls(a, -grad.objective_gradient)

@@ -2,41 +2,37 @@
 
     python benchmarks/inflow_solve.py [--rounds 7] [--seed 0]
 
-Prints evaluations per second for each inflow model at batch 1, 64 and 1024, and the target
-ratio coupled / none at batch 1024; and the same for the coupled inflow with the convected
-slipstream (``ModelOptions(slipstream="convected")``, docs/model.md §5.7) and the vortex
-reading (``"vortex"``, §5.8), with the ratios convected / mean (the target: at most 2 at batch
-1024) and vortex / mean (at most 3). Everything runs in one process and the cases are timed in
-interleaved rounds (every case once per round), so a load that comes and goes on a shared
-machine hits all of them alike; each case reports the best and the median round, and the
-ratios are the medians of the per-round ratios, of wall time and of CPU time (all threads;
-steadier than wall time when other processes compete for the cores). Then it counts force sweeps per annulus by calling the
-solver directly (``induction.solve_annulus``) on the fore-wing annuli of random Table 4
-strokes: the mean over annuli that need a solve (F̄_n(0) > 0) is the solver's own cost.
-``--json PATH`` also writes the numbers to PATH (``python -m eval numbers`` renders
-docs/model.md §12 from it).
+Evaluations per second of each inflow model at batch 1, 64 and 1024 with the target ratio
+coupled / none at batch 1024, and of the convected slipstream
+(``ModelOptions(slipstream="convected")``, docs/model.md §5.7) and the vortex reading
+(``"vortex"``, §5.8) with the ratios convected / mean (target: at most 2 at batch 1024) and
+vortex / mean (at most 3). The cases are timed in one process in interleaved rounds (every case
+once per round), so a load that comes and goes hits all alike; each case reports its best and
+median round, the ratios are medians of the per-round ratios of wall time and of CPU time (all
+threads; steadier when other processes compete for the cores). Then force sweeps per annulus
+from the solver itself (``induction.solve_annulus``) on the fore-wing annuli of random Table 4
+strokes: the mean over the annuli that need a solve (F̄_n(0) > 0) is the solver's own cost.
+``--json PATH`` also writes the numbers (``python -m eval numbers`` renders docs/model.md §12
+from them).
 """
 
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import time
 from functools import partial
 from pathlib import Path
 from typing import Any
 
-import numba
 import numpy as np
-from shared import write_numbers
+from shared import machine, write_numbers
 
 import tandem_env as te
 from tandem_env.physics import blade, cycle, induction, model
 from tandem_env.physics.kinematics import fill_angle_history, wing_params_radians
 
 INDUCTION = ("coupled", "isolated", "none")
-#: The cases timed: each inflow model, and the coupled inflow with the convected slipstream
+#: The cases timed: each inflow model, and the coupled inflow with each slipstream reading
 #: (``ModelOptions.slipstream``, docs/model.md §5.7), against the coupled one (the mean reading).
 CASES = {
     **{induction: te.ModelOptions(induction=induction) for induction in INDUCTION},
@@ -55,9 +51,7 @@ SWEEP_SPEEDS = (0.0, 1.0, 2.0)
 def timed(call, min_seconds: float) -> tuple[float, float]:
     """Wall and CPU (all threads) seconds per call, over back-to-back calls lasting
     ``min_seconds``."""
-    calls = 0
-    cpu = time.process_time()
-    start = time.perf_counter()
+    calls, cpu, start = 0, time.process_time(), time.perf_counter()
     while True:
         call()
         calls += 1
@@ -76,38 +70,22 @@ def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> dict[str
     }
     for call in calls.values():
         call()  # compile or load the cache
-    wall = {case: [] for case in cases}
-    cpu = {case: [] for case in cases}
-    for _ in range(rounds):
-        for case in cases:
-            seconds, cpu_seconds = timed(calls[case], 0.3)
-            wall[case].append(seconds)
-            cpu[case].append(cpu_seconds)
+    wall: dict[tuple, list[float]] = {case: [] for case in cases}
+    cpu: dict[tuple, list[float]] = {case: [] for case in cases}
+    for case in [case for _ in range(rounds) for case in cases]:
+        seconds, cpu_seconds = timed(calls[case], 0.3)
+        wall[case].append(seconds)
+        cpu[case].append(cpu_seconds)
     print(
         f"{'batch':>6} {'induction':>10} {'evals/s best':>13} {'evals/s median':>15} "
         f"{'CPU ms/call best':>17}"
     )
-    numbers: dict[str, Any] = {
-        "rounds": rounds,
-        "rates": [],
-        "ratios": [],
-        "slipstream_ratios": [],
-    }
-    for case in cases:
-        t = np.array(wall[case])
-        print(
-            f"{case[1]:>6} {case[0]:>10} {case[1] / t.min():>13.0f} "
-            f"{case[1] / np.median(t):>15.0f} {1e3 * min(cpu[case]):>17.2f}"
-        )
-        numbers["rates"].append(
-            {
-                "batch": case[1],
-                "induction": case[0],
-                "best_per_s": case[1] / t.min(),
-                "median_per_s": case[1] / np.median(t),
-                "best_cpu_per_s": case[1] / min(cpu[case]),
-            }
-        )
+    numbers: dict[str, Any] = {"rounds": rounds, "rates": [], "ratios": [], "slipstream_ratios": []}
+    for (name, batch), t in wall.items():
+        best, median, best_cpu = batch / min(t), batch / np.median(t), min(cpu[name, batch])
+        print(f"{batch:>6} {name:>10} {best:>13.0f} {median:>15.0f} {1e3 * best_cpu:>17.2f}")
+        row = {"batch": batch, "induction": name, "best_per_s": best, "median_per_s": median}
+        numbers["rates"].append(row | {"best_cpu_per_s": batch / best_cpu})
     print()
     print("coupled / none (time per call; per-round ratios: median and range):")
     for batch in BATCHES:
@@ -141,10 +119,9 @@ def ratios(wall: dict, cpu: dict, case: tuple, base: tuple) -> dict[str, Any]:
 
 def sweeps_per_annulus(strokes: np.ndarray, speed: float) -> tuple[np.ndarray, np.ndarray]:
     """Force sweeps of every fore-wing annulus of ``strokes`` (own inflow), and F̄_n(0) > 0."""
-    options = te.ModelOptions()
-    insect = te.DRAGONFLY
-    nodes, consts = model.wing_tables(insect.fore, options.n_blade, insect.air_density)
+    options, insect = te.ModelOptions(), te.DRAGONFLY
     rho = insect.air_density
+    nodes, consts = model.wing_tables(insect.fore, options.n_blade, rho)
     settings = model.kernel_settings(insect, options, options.n_time)
     counts, solved = [], []
     for stroke in strokes:
@@ -169,15 +146,13 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", type=Path, default=None, help="also write the numbers here")
     args = parser.parse_args()
-
     rng = np.random.default_rng(args.seed)
     strokes = te.normalised_to_physical(rng.uniform(-1, 1, (1024, 28)))
     speeds = rng.uniform(0.25, 2.0, 1024)
     options = te.ModelOptions()
     print(
-        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-        f"numba {numba.__version__} with {numba.get_num_threads()} threads; "
-        f"n_time = {options.n_time}, n_blade = {options.n_blade}, tolerance {options.tolerance:g}"
+        f"{machine()}; n_time = {options.n_time}, n_blade = {options.n_blade}, "
+        f"tolerance {options.tolerance:g}"
     )
     print()
     print(f"force sweeps per fore-wing annulus (own inflow, {SWEEP_STROKES} random strokes):")
@@ -185,19 +160,13 @@ def main() -> None:
     for speed in SWEEP_SPEEDS:
         counts, solved = sweeps_per_annulus(strokes[:SWEEP_STROKES], speed)
         hist = np.bincount(counts[solved])
+        share, mean, most = float(solved.mean()), float(counts[solved].mean()), int(counts.max())
         print(
-            f"  V = {speed:.0f} m/s: {solved.mean():.0%} of annuli solved, mean "
-            f"{counts[solved].mean():.2f} sweeps (max {counts.max()}), "
-            f"histogram {dict((int(k), int(n)) for k, n in enumerate(hist) if n)}"
+            f"  V = {speed:.0f} m/s: {share:.0%} of annuli solved, mean {mean:.2f} sweeps (max "
+            f"{most}), histogram {dict((int(k), int(n)) for k, n in enumerate(hist) if n)}"
         )
-        sweeps.append(
-            {
-                "speed": speed,
-                "solved_share": float(solved.mean()),
-                "mean_sweeps": float(counts[solved].mean()),
-                "max_sweeps": int(counts.max()),
-            }
-        )
+        row = {"speed": speed, "solved_share": share, "mean_sweeps": mean, "max_sweeps": most}
+        sweeps.append(row)
     print()
     numbers = throughput(strokes, speeds, args.rounds)
     write_numbers(args.json, {"seed": args.seed, "sweeps": sweeps, **numbers})

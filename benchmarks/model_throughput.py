@@ -18,12 +18,13 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numba
 import numpy as np
-from shared import call_times, write_numbers
+from shared import best_time, call_times, machine, write_numbers
 
 import tandem_env as te
 from tandem_env.physics import model
@@ -31,9 +32,7 @@ from tandem_env.physics import model
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument(
-        "--repeats", type=int, default=5, help="timed calls per case (best is kept)"
-    )
+    parser.add_argument("--repeats", type=int, default=5, help="timed calls per case (best kept)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--backend", choices=("numba", "torch"), default="numba")
     parser.add_argument("--device", default=None, help="torch device (default: the CPU)")
@@ -47,9 +46,8 @@ def main() -> None:
     )
     parser.add_argument("--json", type=Path, default=None, help="also write the numbers here")
     args = parser.parse_args()
-    write_numbers(
-        args.json, torch_throughput(args) if args.backend == "torch" else numba_throughput(args)
-    )
+    throughput = torch_throughput if args.backend == "torch" else numba_throughput
+    write_numbers(args.json, throughput(args))
 
 
 def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
@@ -59,10 +57,7 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     rng = np.random.default_rng(args.seed)
     strokes = te.normalised_to_physical(rng.uniform(-1, 1, (1024, 28)))
     speeds = rng.uniform(0.25, 2.0, 1024)
-    print(
-        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-        f"numba {numba.__version__} with {numba.get_num_threads()} threads"
-    )
+    print(machine())
     print(
         f"default resolution: n_time = {options.n_time} samples per cycle, "
         f"n_blade = {options.n_blade} blade elements per wing, inflow tolerance {options.tolerance:g}"
@@ -83,24 +78,12 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
         opts = te.ModelOptions(induction=induction)
         for batch in args.batches or (1, 64, 1024):
             x, v = strokes[:batch], speeds[:batch]
-            seconds = min(
-                call_times(
-                    lambda x=x, v=v, opts=opts: te.evaluate(x, v, options=opts), args.repeats
-                )[0]
-            )
+            seconds = best_time(lambda x=x, v=v, o=opts: te.evaluate(x, v, options=o), args.repeats)
             sweeps = float(te.evaluate(x, v, options=opts).induction_evaluations.mean())
-            print(
-                f"{batch:>6} {induction:>10} {batch / seconds:>10.0f} {1e3 * seconds:>9.2f} {sweeps:>15.1f}"
-            )
-            numbers["rates"].append(
-                {
-                    "batch": batch,
-                    "induction": induction,
-                    "evaluations_per_s": batch / seconds,
-                    "ms_per_call": 1e3 * seconds,
-                    "inflow_sweeps": sweeps,
-                }
-            )
+            rate, ms = batch / seconds, 1e3 * seconds
+            print(f"{batch:>6} {induction:>10} {rate:>10.0f} {ms:>9.2f} {sweeps:>15.1f}")
+            row = {"batch": batch, "induction": induction, "evaluations_per_s": rate}
+            numbers["rates"].append(row | {"ms_per_call": ms, "inflow_sweeps": sweeps})
     print("* force sweeps over the cycle needed by a stroke's slowest annulus, mean over the batch")
     print()
     print("where the time goes at batch 1024 (coupled), ms per call (best wall, best CPU):")
@@ -109,18 +92,16 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     )
     inputs = (angles, weights, frequency, beta, sweep, speeds, np.zeros_like(speeds), te.DRAGONFLY)
     no_inflow = te.ModelOptions(induction="none")
+    kinematics = partial(model.parametric_kernel_inputs, strokes, options.n_time)
     parts = {
         "validate strokes": lambda: te.validate_physical(strokes),
-        "kinematics (angles, analytic rates)": lambda: model.parametric_kernel_inputs(
-            strokes, options.n_time
+        "kinematics (angles, analytic rates)": kinematics,
+        "cycle without inflow (frames, forces, power, means)": partial(
+            model.run_kernel, *inputs, no_inflow, motion=motion
         ),
-        "cycle without inflow (frames, forces, power, means)": lambda: model.run_kernel(
-            *inputs, no_inflow, motion=motion
-        ),
-        "cycle with coupled inflow": lambda: model.run_kernel(*inputs, options, motion=motion),
+        "cycle with coupled inflow": partial(model.run_kernel, *inputs, options, motion=motion),
         "whole evaluate()": lambda: te.evaluate(strokes, speeds),
     }
-
     for name, call in parts.items():
         wall, cpu = map(min, call_times(call, args.repeats))
         print(f"  {name:<55} {1e3 * wall:8.2f} {1e3 * cpu:8.2f}")
@@ -178,15 +159,13 @@ def torch_throughput(args: argparse.Namespace) -> dict[str, Any]:
     for induction in args.induction:
         opts = te.ModelOptions(induction=induction)
         for batch in batches:
-            seconds = min(call_times(lambda b=batch, o=opts: run_torch(b, o), args.repeats)[0])
+            seconds = best_time(lambda b=batch, o=opts: run_torch(b, o), args.repeats)
             line = f"{batch:>7} {induction:>10} {batch / seconds:>14.0f} {1e3 * seconds:>9.2f}"
             row = {"batch": batch, "induction": induction, "evaluations_per_s": batch / seconds}
             if on_cpu:
-                numba_s = min(
-                    call_times(
-                        lambda b=batch, o=opts: te.evaluate(strokes[:b], speeds[:b], options=o),
-                        args.repeats,
-                    )[0]
+                x, v = strokes[:batch], speeds[:batch]
+                numba_s = best_time(
+                    lambda x=x, v=v, o=opts: te.evaluate(x, v, options=o), args.repeats
                 )
                 line += f" {batch / numba_s:>14.0f} {numba_s / seconds:>12.3f}"
                 row |= {
@@ -206,7 +185,6 @@ def accuracy(
 ) -> dict[str, Any]:
     """The torch results against numba's on up to 256 strokes: the largest relative
     difference of any field and, per headline metric, relative to its largest magnitude."""
-
     import torch
 
     n = min(256, strokes.shape[0])
@@ -245,7 +223,7 @@ def gradient_cost(
     probes = np.repeat(strokes[:1], 1 + 2 * columns.size, axis=0)
     probes[1::2, columns] += np.diag(step)
     probes[2::2, columns] -= np.diag(step)
-    central = min(call_times(lambda: te.evaluate(probes, speeds[0]), args.repeats)[0])
+    central = best_time(lambda: te.evaluate(probes, speeds[0]), args.repeats)
     print()
     print(
         f"gradient of power with respect to the 28 parameters, per stroke: central difference "
@@ -253,14 +231,8 @@ def gradient_cost(
     )
     numbers: dict[str, Any] = {"central_difference_ms": 1e3 * central, "probes": probes.shape[0]}
     for batch in (1, 64):
-        seconds = min(
-            call_times(
-                lambda b=batch: torch_model.value_and_grad(
-                    x_all[:b], "power", speeds[0], compiled=args.compile
-                ),
-                args.repeats,
-            )[0]
-        )
+        gradient = partial(torch_model.value_and_grad, x_all[:batch], "power", speeds[0])
+        seconds = best_time(partial(gradient, compiled=args.compile), args.repeats)
         print(
             f"  autograd at batch {batch:>3}: {1e3 * seconds / batch:8.1f} ms per stroke "
             f"({central * batch / seconds:.2f}x the central difference's rate)"

@@ -33,7 +33,7 @@ from tandem_env.io.keyvalue import parse_pairs
 CONDITIONS = {"level": ({"speed": 1.5}, 1.5), "accelerate": ({"available_power": 60.0}, 60.0)}
 #: The package's public calls our CMA-ES makes (agents/cmaes_search.py): its whole work.
 PACKAGE_CALLS = {
-    "cmaes": ((cmaes.CMAwM, "ask"), (cmaes.CMAwM, "tell"), (cmaes.CMAwM, "should_stop")),
+    "cmaes": ((cmaes.CMAwM, "ask"), (cmaes.CMAwM, "tell"), (cmaes.CMAwM, "should_stop"))
 }
 
 
@@ -118,15 +118,13 @@ def time_run(
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--method", default="pso", help="pso (default), cmaes or random")
-    parser.add_argument(
-        "--method-config", nargs="+", default=[], metavar="KEY=VALUE", help="method settings"
-    )
+    settings_help = {"nargs": "+", "default": [], "metavar": "KEY=VALUE", "help": "method settings"}
+    parser.add_argument("--method-config", **settings_help)
     parser.add_argument("--task", choices=tuple(CONDITIONS), default="level")
     parser.add_argument("--evaluations", type=int, default=12_000, help="budget per run")
     parser.add_argument("--repeats", type=int, default=3, help="runs (seeds 0..repeats-1)")
     args = parser.parse_args(argv)
     settings = parse_pairs(args.method_config, "--method-config")
-
     time_run(args.method, settings, args.task, 200, 0)  # warm-up: numba cache, env construction
     timings = [
         time_run(args.method, settings, args.task, args.evaluations, seed)
@@ -166,11 +164,8 @@ def main(argv: list[str] | None = None) -> int:
             f"{total - env_step - package:.3f} s = {(total - env_step - package) / total:.2%}"
         )
     per_eval = np.array([t.ask_tell / t.evaluations for t in timings])
-    in_package = (
-        f" (of which the package {package / iterations * 1e3:.3f} ms)"
-        if args.method in PACKAGE_CALLS
-        else ""
-    )
+    in_package = f" (of which the package {package / iterations * 1e3:.3f} ms)"
+    in_package = in_package if args.method in PACKAGE_CALLS else ""
     print(
         f"     ask+tell per evaluated point: {per_eval.mean() * 1e6:.1f} µs, per batch "
         f"{ask_tell / iterations * 1e3:.3f} ms{in_package} against "

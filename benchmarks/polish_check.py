@@ -48,15 +48,16 @@ def fresh_polish(record: Record) -> tuple[float, float, float, int]:
         return evaluation.objective, evaluation.margins
 
     def derivatives(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        k = z.size
-        hi = np.minimum(z + STEP, 1.0)
-        lo = np.maximum(z - STEP, -1.0)
+        k, hi, lo = z.size, np.minimum(z + STEP, 1.0), np.maximum(z - STEP, -1.0)
         pts = np.repeat(z[None, :], 2 * k, axis=0)
         pts[np.arange(k), np.arange(k)] = hi
         pts[k + np.arange(k), np.arange(k)] = lo
         f, c = batch(pts)
         width = hi - lo
         return (f[:k] - f[k:]) / width, ((c[:k] - c[k:]) / width[:, None]).T
+
+    def margins(z: np.ndarray) -> np.ndarray:
+        return derivatives(z)[1]
 
     z0 = x0[free]
     f0 = float(batch(z0[None, :])[0][0])
@@ -66,13 +67,7 @@ def fresh_polish(record: Record) -> tuple[float, float, float, int]:
         jac=lambda z: -derivatives(z)[0],
         method="SLSQP",
         bounds=[(-1.0, 1.0)] * z0.size,
-        constraints=[
-            {
-                "type": "ineq",
-                "fun": lambda z: batch(z[None, :])[1][0],
-                "jac": lambda z: derivatives(z)[1],
-            }
-        ],
+        constraints=[{"type": "ineq", "fun": lambda z: batch(z[None, :])[1][0], "jac": margins}],
         options={"ftol": 1e-10, "maxiter": 500},
     )
     f1, c1 = batch(np.asarray(res.x)[None, :])

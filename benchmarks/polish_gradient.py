@@ -38,15 +38,12 @@ def main() -> None:
         f"({torch.get_num_threads()} threads), device {args.device}"
     )
     rng = np.random.default_rng(0)
-    for task, value, kwargs in (
-        (LEVEL_TASK, 1.5, {}),
-        (ACCELERATE_TASK, 60.0, {"objective": "vertical"}),
-    ):
+    cases = ((LEVEL_TASK, 1.5, {}), (ACCELERATE_TASK, 60.0, {"objective": "vertical"}))
+    for task, value, kwargs in cases:
         condition = task.condition(value)
         numba = CentralDifferences(task_problem(task, condition, kwargs))
-        problem = task_problem(
-            task, condition, {**kwargs, "backend": "torch", "device": args.device}
-        )
+        torch_kwargs = {**kwargs, "backend": "torch", "device": args.device}
+        problem = task_problem(task, condition, torch_kwargs)
         autograd = AutogradGradient(problem)
         x = rng.uniform(-0.9, 0.9, 28)
         cd = _times(lambda: numba(x), args.repeats)  # noqa: B023 (called here, in the loop)

@@ -76,15 +76,8 @@ def _op(kind: str, fn):
     return apply
 
 
-for _name, _fn in (
-    ("add", float.__add__),
-    ("radd", float.__radd__),
-    ("sub", float.__sub__),
-    ("rsub", float.__rsub__),
-    ("mul", float.__mul__),
-    ("rmul", float.__rmul__),
-):
-    setattr(Counted, f"__{_name}__", _op("flop", _fn))
+for _name in ("add", "radd", "sub", "rsub", "mul", "rmul"):
+    setattr(Counted, f"__{_name}__", _op("flop", getattr(float, f"__{_name}__")))
 Counted.__truediv__ = _op("div", float.__truediv__)
 Counted.__rtruediv__ = _op("div", float.__rtruediv__)
 Counted.__neg__ = lambda x: Counted(-float(x))
@@ -121,26 +114,12 @@ def operation_counts() -> dict[str, dict[str, int]]:
     section = Section(*(Counted(x) for x in rng.uniform(0.1, 1.0, len(Section._fields))))
     u, v, du, dv, fc, fn, speed = (Counted(x) for x in rng.uniform(0.2, 1.0, 7))
 
+    force_args = (u, v, du, dv, coef[0, blade.C_SPIN], section, speed)
     sweep = Counter(counted(blade.relative_velocity, coef, 0, section.r, u, v))
     sweep += Counter(counted(blade.element_speed, u, v))
-    sweep += Counter(
-        counted(blade.element_force_at, u, v, du, dv, coef[0, blade.C_SPIN], section, speed)
-    )
+    sweep += Counter(counted(blade.element_force_at, *force_args))
     sweep["flop"] += 4  # (F_c·e_c·z + F_n·e_n·z)·w and its running sum
-    slope = Counter(
-        counted(
-            induction.normal_force_rate_at,
-            u,
-            v,
-            u,
-            v,
-            du,
-            dv,
-            coef[0, blade.C_SPIN],
-            section,
-            speed,
-        )
-    )
+    slope = Counter(counted(induction.normal_force_rate_at, u, v, *force_args))
     slope["flop"] += 2  # the weight and the running sum
     span = np.empty((4, 1), dtype=object)
     span[:] = Counted(0.0)
@@ -220,13 +199,10 @@ def stages(te, options, strokes, inputs, repeats: int = 3) -> dict[str, float]:
     for call in [*calls.values(), *calls.values()]:
         call()
     ms = {k: 1e3 * min(seconds_per_call(c, 1)[1] for _ in range(repeats)) for k, c in calls.items()}
+    sweeps = ms["kernel"] - ms["frame coefficients"] - ms["cycle means"]
     return {
-        "angle histories": ms["angle histories"],
-        "frame coefficients": ms["frame coefficients"],
-        "cycle means": ms["cycle means"],
-        "sweeps, slopes and span integrals": ms["kernel"]
-        - ms["frame coefficients"]
-        - ms["cycle means"],
+        **{k: ms[k] for k in ("angle histories", "frame coefficients", "cycle means")},
+        "sweeps, slopes and span integrals": sweeps,
         "outside the kernel": ms["whole call"] - ms["angle histories"] - ms["kernel"],
         "whole call": ms["whole call"],
     }
@@ -273,12 +249,9 @@ def main() -> None:
         "slopes": float(out[:, :, cycle.W_SLOPES].sum(1).mean()),
     }
     ops = operation_counts()
+    sweeps, slopes = per_stroke["sweeps"], per_stroke["slopes"]
     per_sample = {
-        key: (
-            per_stroke["sweeps"] * ops["sweep"].get(key, 0)
-            + per_stroke["slopes"] * ops["slope"].get(key, 0)
-        )
-        / annuli
+        key: (sweeps * ops["sweep"].get(key, 0) + slopes * ops["slope"].get(key, 0)) / annuli
         + ops["span"].get(key, 0)
         for key in ("flop", "div", "sqrt", "libm")
     }
@@ -295,21 +268,12 @@ def main() -> None:
     tree = ROOT / "results" / "roofline" / args.commit
     if not (tree / "tandem_env").exists():
         tree.mkdir(parents=True, exist_ok=True)
-        archive = subprocess.run(
-            ["git", "-C", str(ROOT), "archive", args.commit, "tandem_env"],
-            check=True,
-            capture_output=True,
-        ).stdout
+        git = ["git", "-C", str(ROOT), "archive", args.commit, "tandem_env"]
+        archive = subprocess.run(git, check=True, capture_output=True).stdout
         subprocess.run(["tar", "-x", "-C", str(tree)], input=archive, check=True)
     env = {**os.environ, "PYTHONPATH": str(tree)}
-    old = subprocess.Popen(
-        [sys.executable, __file__, "--worker"],
-        stdin=subprocess.PIPE,
-        stdout=subprocess.PIPE,
-        text=True,
-        env=env,
-        cwd=tree,
-    )
+    pipes = {"stdin": subprocess.PIPE, "stdout": subprocess.PIPE, "text": True}
+    old = subprocess.Popen([sys.executable, __file__, "--worker"], env=env, cwd=tree, **pipes)
     call = workload(te)
     call()
     times = {t: {"old": [], "new": []} for t in args.threads}  # (wall, CPU) s per call

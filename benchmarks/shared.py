@@ -1,7 +1,9 @@
-"""What the benchmark scripts share: the timing loop and the ``--json`` writer."""
+"""What the benchmark scripts share: the timing loop, the machine line and the ``--json`` writer."""
 
 from __future__ import annotations
 
+import os
+import platform
 import sys
 import time
 from collections.abc import Callable
@@ -21,6 +23,21 @@ def call_times(call: Callable[[], Any], repeats: int) -> tuple[list[float], list
         wall.append(time.perf_counter() - start)
         cpu.append(time.process_time() - start_cpu)
     return wall, cpu
+
+
+def best_time(call: Callable[[], Any], repeats: int) -> float:
+    """The best wall seconds of ``repeats`` calls after a warm-up (:func:`call_times`)."""
+    return min(call_times(call, repeats)[0])
+
+
+def machine() -> str:
+    """The processor, its cores and numba's threads, as the scripts print them."""
+    import numba
+
+    return (
+        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"numba {numba.__version__} with {numba.get_num_threads()} threads"
+    )
 
 
 def write_numbers(path: Path | None, numbers: dict[str, Any]) -> None:

@@ -18,7 +18,6 @@ from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, 
 from .validate import check_real
 
 #: The specimen's available power per body mass [W/kg], 90 W/kg: the top of the paper's sweep.
-
 SPECIMEN_POWER: float = DRAGONFLY.max_power_per_mass
 
 

@@ -75,16 +75,9 @@ def fly(
     flight_path_angle: float | np.ndarray = 0.0,
 ) -> Result:
     """ONE batched model call for B physical strokes with the config's model: every env's."""
-    return evaluate(
-        physical,
-        speed,
-        power,
-        flight_path_angle=flight_path_angle,
-        insect=config.insect,
-        options=config.options,
-        backend=config.backend,
-        device=config.device,
-    )
+    model = {"insect": config.insect, "options": config.options}
+    model |= {"backend": config.backend, "device": config.device}
+    return evaluate(physical, speed, power, flight_path_angle=flight_path_angle, **model)
 
 
 # --- the batched core ----------------------------------------------------------------------------
@@ -151,14 +144,8 @@ class FlightCore:
         result = fly(self.config, physical, speed, power)
         objective = getattr(result, self.config.objective_metric)
         scores = self.declaration.score(result, self.config)
-        return StepBatch.scored(
-            physical,
-            result,
-            objective,
-            scores,
-            self.config.penalty,
-            self.reference.score(values, objective, scores.feasible, scores.total),
-        )
+        score = self.reference.score(values, objective, scores.feasible, scores.total)
+        return StepBatch.scored(physical, result, objective, scores, self.config.penalty, score)
 
     def problem(self) -> FlightProblem:
         """The task as an optimisation problem over the action box, evaluated through
@@ -189,8 +176,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         config: FlightConfig | None = None,
         **kwargs: Any,
     ) -> None:
-        # Every vector env's n enters here (gym.make_vec, training, the speed-change episodes):
-        # one batch of strokes per step, so the model's batch limit is its limit.
+        # one batch of strokes per step: the model's batch limit is every vector env's
         count(num_envs, "num_envs", 1, MAX_BATCH_STROKES, "sub-envs: one model batch per step")
         try:
             mode = AutoresetMode(autoreset_mode)
@@ -513,10 +499,11 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
         batch, observations = self.vector_env.step_checked(_FIRST, arr[None, :])
         if self.render_mode == "human":
             self.render()
+        reward, ended = float(batch.reward[0]), bool(batch.terminated[0])
         return (
             observations[0].copy(),
-            float(batch.reward[0]),
-            bool(batch.terminated[0]),
+            reward,
+            ended,
             bool(batch.truncated[0]),
             row(batch.info_columns(), 0),
         )

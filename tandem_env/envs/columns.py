@@ -45,18 +45,15 @@ def add_columns(
 ) -> dict[str, Any]:
     """Scatter columns for envs ``index`` into Gymnasium's vector info dict with ``_key``
     masks, as ``VectorEnv._add_info`` env by env would (so infos equal SyncVectorEnv's)."""
-
     for key, values in columns.items():
         if isinstance(values, dict):
             array = add_columns(infos.get(key, {}), values, index, num_envs)
         else:
             array = infos.get(key)
-            if array is None:
-                array = np.zeros(num_envs, dtype=values.dtype)
+            array = np.zeros(num_envs, dtype=values.dtype) if array is None else array
             array[index] = values
         mask = infos.get(f"_{key}")
-        if mask is None:
-            mask = np.zeros(num_envs, dtype=np.bool_)
+        mask = np.zeros(num_envs, dtype=np.bool_) if mask is None else mask
         mask[index] = True
         infos[key], infos[f"_{key}"] = array, mask
     return infos

@@ -30,7 +30,7 @@ MODEL_OPTION_KWARGS: dict[str, str] = {
 }
 #: ``gym.make`` kwargs that choose how the model is computed, not what it computes (the torch
 #: backend equals the numba kernel within 1e-8, docs/model.md §12.1): a record's key leaves them
-#: out (:attr:`agents.jobs.Job.key`), so a run on one backend reuses another's records.
+#: out (:attr:`agents.jobs.Job.key`), so backends share records.
 EXECUTION_KWARGS: tuple[str, ...] = ("backend", "device")
 #: Model options that must be real numbers (checked here, because ``ModelOptions`` would raise
 #: a bare ``TypeError`` from ``math.isfinite`` on a string).
@@ -42,16 +42,6 @@ def insect_keyword(value: Any) -> dict[str, Any] | None:
     mapping of what differs from the paper's specimen, or None for the specimen itself."""
     changes = insect_mapping(load_insect(value))
     return changes or None
-
-
-def _as_keywords(error: ValueError, task: str, owner: str, given: Mapping[str, str]) -> ValueError:
-    """``error`` of ``owner`` naming each field by the keyword the caller gave for it
-    (``given``: field -> keyword), e.g. ``power_convention`` for ``ModelOptions.power``."""
-    text = str(error)
-    for name, keyword in given.items():
-        if keyword != name:
-            text = re.sub(rf"\b{owner}\.{name}\b", f"{keyword} ({owner}.{name})", text)
-    return ValueError(f"{task}: {text}")
 
 
 def _overridden(
@@ -70,8 +60,12 @@ def _overridden(
         return value
     try:  # the dataclass validates, naming the rule
         return replace(value, **{field: kwargs.pop(keyword) for field, keyword in given.items()})
-    except ValueError as error:
-        raise _as_keywords(error, task, kind.__name__, given) from None
+    except ValueError as error:  # each field named by its keyword, e.g. power_convention
+        text, owner = str(error), kind.__name__
+        for name, keyword in given.items():
+            if keyword != name:
+                text = re.sub(rf"\b{owner}\.{name}\b", f"{keyword} ({owner}.{name})", text)
+        raise ValueError(f"{task}: {text}") from None
 
 
 def normalise_condition(config: FlightConfig) -> None:
@@ -178,8 +172,7 @@ class FlightConfig:
     penalty: PenaltyConfig = field(default_factory=PenaltyConfig)
     """How constraint violations lower the reward."""
     clip_actions: bool = False
-    """Clip actions into [-1, 1] before mapping them to strokes; if False an action outside
-    [-1, 1] raises ``ValueError``. Non-finite actions raise either way."""
+    """Clip actions into [-1, 1]; else one outside raises ``ValueError`` (non-finite: always)."""
     backend: str = "numba"
     """The model's implementation (``tandem_env.physics.BACKENDS``): ``"numba"``, the compiled
     kernel (default), or ``"torch"``, its port (the same results within 1e-8; imports torch)."""
@@ -211,18 +204,14 @@ class FlightConfig:
     def __post_init__(self) -> None:
         owner = type(self).__name__
         object.__setattr__(self, "insect", load_insect(self.insect, f"{owner}.insect"))
-        if not isinstance(self.options, ModelOptions):
-            raise ValueError(
-                f"{owner}.options = {self.options!r}; allowed: a tandem_env.ModelOptions instance"
-            )
-        if not isinstance(self.penalty, PenaltyConfig):
-            raise ValueError(
-                f"{owner}.penalty = {self.penalty!r}; allowed: a tandem_env.envs.PenaltyConfig"
-            )
-        if not isinstance(self.clip_actions, bool | np.bool_):
-            raise ValueError(
-                f"{owner}.clip_actions = {self.clip_actions!r}; allowed: True or False"
-            )
+        kinds = {
+            "options": (ModelOptions, "a tandem_env.ModelOptions instance"),
+            "penalty": (PenaltyConfig, "a tandem_env.envs.PenaltyConfig"),
+            "clip_actions": (bool | np.bool_, "True or False"),
+        }
+        for name, (kind, allowed) in kinds.items():
+            if not isinstance(getattr(self, name), kind):
+                raise ValueError(f"{owner}.{name} = {getattr(self, name)!r}; allowed: {allowed}")
         object.__setattr__(self, "clip_actions", bool(self.clip_actions))
         try:
             backend, device = check_backend(self.backend, self.device)
@@ -284,7 +273,6 @@ class FlightConfig:
         ``rotational_coefficient`` (C_r of both wings [-], Table 3) over ``insect``, every
         :data:`MODEL_OPTION_KWARGS` over ``options``, ``penalty_weight`` / ``penalty_offset``
         over ``penalty``; a condition's old keyword is refused naming the new one."""
-
         renamed = cls.CONDITION.renamed() if cls.CONDITION is not None else {}
         old = sorted(set(kwargs) & set(renamed))
         if old:
@@ -309,21 +297,17 @@ class FlightConfig:
                 )
             insect = insect.with_planform(planform)
         if "rotational_coefficient" in kwargs:
-            c_r = check_real(
-                cls.name, "rotational_coefficient", kwargs.pop("rotational_coefficient"), "", 0, 100
-            )
-            insect = replace(
-                insect,
-                fore=replace(insect.fore, rotational_coefficient=c_r),
-                hind=replace(insect.hind, rotational_coefficient=c_r),
-            )
-
+            given = kwargs.pop("rotational_coefficient")
+            c_r = check_real(cls.name, "rotational_coefficient", given, "", 0, 100)
+            wings = {
+                w: replace(getattr(insect, w), rotational_coefficient=c_r) for w in ("fore", "hind")
+            }
+            insect = replace(insect, **wings)
         for name in _REAL_MODEL_OPTIONS:
             if name in kwargs and not _is_real(kwargs[name]):
                 raise ValueError(f"{cls.name}: {name} = {kwargs[name]!r}; allowed: a finite number")
-        options = _overridden(
-            cls.name, kwargs, "options", MODEL_OPTION_KWARGS, "a tandem_env.ModelOptions"
-        )
+        allowed = "a tandem_env.ModelOptions"
+        options = _overridden(cls.name, kwargs, "options", MODEL_OPTION_KWARGS, allowed)
         penalty = kwargs.get("penalty")
         if isinstance(penalty, Mapping):
             extra = sorted(set(penalty) - {f.name for f in fields(PenaltyConfig)})

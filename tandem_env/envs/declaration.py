@@ -103,13 +103,9 @@ class TaskCondition:
                 f"number inside envelope = ({envelope[0]:g}, {envelope[1]:g}) {self.unit}"
             )
         sweep = self.sweep
-        ok = (
-            isinstance(sweep, tuple)
-            and len(sweep) > 0
-            and all(is_real(v) and envelope[0] <= v <= envelope[1] for v in sweep)
-            and all(a < b for a, b in pairwise(sweep))
-        )
-        if not ok:
+        inside = isinstance(sweep, tuple) and len(sweep) > 0
+        inside = inside and all(is_real(v) and envelope[0] <= v <= envelope[1] for v in sweep)
+        if not (inside and all(a < b for a, b in pairwise(sweep))):
             raise ValueError(
                 f"{owner} {self.keyword!r}: sweep = {sweep!r}; allowed: a non-empty, increasing "
                 f"tuple of numbers inside envelope = ({envelope[0]:g}, {envelope[1]:g}) "
@@ -167,11 +163,11 @@ class TaskObjectives:
     """The choices, in declaration order."""
 
     def __post_init__(self) -> None:
-        owner = "TaskObjectives"
-        if (
-            not isinstance(self.metrics, Mapping)
-            or not self.metrics
-            or not all(isinstance(k, str) and k for k in self.metrics)
+        owner, metrics = "TaskObjectives", self.metrics
+        if not (
+            isinstance(metrics, Mapping)
+            and metrics
+            and all(isinstance(k, str) and k for k in metrics)
         ):
             raise ValueError(
                 f"{owner}.metrics = {self.metrics!r}; allowed: a non-empty mapping of objective "
@@ -310,9 +306,8 @@ class TaskDeclaration:
             else:
                 value = constraint.violation(result, config)
             violations[constraint.name] = value
-            total = total + (
-                value if constraint.scale is None else value / constraint.scale(result, config)
-            )
+            scale = 1.0 if constraint.scale is None else constraint.scale(result, config)
+            total = total + value / scale
             feasible &= value == 0.0
         return Scores(violations, total, feasible)
 
@@ -351,7 +346,6 @@ def check_declarations(cls: type) -> None:
 
 def _check_literal(cls: type, objectives: TaskObjectives) -> None:
     """An objective field typed ``Literal`` must offer exactly the declared choices."""
-
     try:
         hint = get_type_hints(cls).get(objectives.keyword)
     except NameError:  # an annotation not resolvable yet: nothing to compare

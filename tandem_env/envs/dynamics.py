@@ -15,9 +15,9 @@ exactly for a constant force (a zero-order hold on the force, i.e. explicit Eule
     u' = u + F_x/m·Δt,            w' = w + F_z/m·Δt,                             (2)
     x' = x + u·Δt + ½·F_x/m·Δt²,  h' = h + w·Δt + ½·F_z/m·Δt².                   (3)
 
-The scheme is first order in Δt in how the force follows the velocity (the force is evaluated at
-the start of the cycle) and exact for the motion under that force; Eq. (3) is the trapezoidal
-rule on the velocity, h' − h = ½(w + w')·Δt.
+The scheme is first order in Δt in how the force follows the velocity (evaluated at the cycle's
+start) and exact for the motion under it; Eq. (3) is the trapezoidal rule on the velocity,
+h' − h = ½(w + w')·Δt.
 """
 
 from __future__ import annotations
@@ -81,12 +81,9 @@ def advance(
     mass: float,
     dt: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Eqs. (2)-(3): (u', w', x', h') after Δt [s] under the constant force (F_x, F_z) [N].
-
-    Velocities in m/s, positions in m, mass in kg; every array (B,).
-    """
-    ax = force_x / mass
-    az = force_z / mass
+    """Eqs. (2)-(3): (u', w', x', h') after Δt [s] under the constant force (F_x, F_z) [N];
+    velocities in m/s, positions in m, mass in kg; every array (B,)."""
+    ax, az = force_x / mass, force_z / mass
     return (
         forward_speed + ax * dt,
         vertical_speed + az * dt,

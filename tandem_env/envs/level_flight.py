@@ -140,7 +140,6 @@ class LevelFlightEnv(FlightEnv):
 
 def model_option_keywords() -> str:
     """The ``gym.make`` keywords of the model options, each with its choices, for docstrings."""
-
     hints = get_type_hints(ModelOptions)
     shown = []
     for keyword, name in MODEL_OPTION_KWARGS.items():

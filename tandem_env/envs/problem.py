@@ -105,8 +105,7 @@ class FlightProblem:
 
     @property
     def physical_high(self) -> np.ndarray:
-        """(28,) the insect's upper stroke bounds [Hz, deg, -], what :attr:`normalised_high`
-        maps to."""
+        """(28,) the insect's upper stroke bounds [Hz, deg, -], :attr:`normalised_high`'s image."""
         return np.array(self.config.insect.stroke_bounds.upper)
 
     @property
@@ -150,7 +149,6 @@ class FlightProblem:
         """:meth:`evaluate` with the objective's gradient and the margins' Jacobian w.r.t. the
         normalised coordinates, by autograd from ONE torch evaluation; ValueError where a
         constraint declares no margin."""
-
         from ..physics import torch_model  # torch only when something differentiates
 
         if not self.has_margins:
@@ -165,14 +163,9 @@ class FlightProblem:
         metric = config.objective_metric
         functions = [lambda result: getattr(result, metric)]
         functions += [lambda result, c=c: c.margin(result, config) for c in self.constraints]
+        model = {"insect": config.insect, "options": config.options, "device": config.device}
         result, values, jacobian = torch_model.normalised_jacobian(
-            strokes,
-            functions,
-            speed,
-            power,
-            insect=config.insect,
-            options=config.options,
-            device=config.device,
+            strokes, functions, speed, power, **model
         )
         evaluation = ProblemEvaluation(
             objective=values[:, 0],

@@ -74,14 +74,7 @@ def config_fingerprint(config_type: type[FlightConfig], data: Mapping[str, Any])
     record keeps as its ``env``)."""
     condition = config_type.CONDITION
     assert condition is not None, config_type
-    dropped = {
-        *_NOT_THE_PROBLEM,
-        "description",
-        "objective",
-        condition.keyword,
-        condition.range_keyword,
-        condition.envelope_keyword,
-    }
+    dropped = {*_NOT_THE_PROBLEM, "description", "objective", *condition.keywords}
     kept = {k: v for k, v in data.items() if k not in dropped}
     text = json.dumps({"task": config_type.name, **kept}, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:20]
@@ -163,12 +156,8 @@ class ReferenceTable:
             what = f"no {error}" if isinstance(error, KeyError) else str(error)
             raise ValueError(f"{what}; allowed: a table python -m eval reference writes") from None
         names = [(s.env_id, s.objective, s.planform) for s in series]
-        wanted = {
-            (e, o, p)
-            for e, (objectives, _) in REFERENCE_GRID.items()
-            for o in objectives
-            for p in PLANFORMS
-        }
+        tasks = REFERENCE_GRID.items()
+        wanted = {(e, o, p) for e, (objectives, _) in tasks for o in objectives for p in PLANFORMS}
         missing = sorted(wanted - set(names)) if complete else []
         if len(set(names)) != len(names) or missing:
             raise ValueError(
@@ -249,9 +238,8 @@ def load_reference_table() -> ReferenceTable:
     for one made by another model revision."""
     path = reference_path()
     try:  # FileNotFoundError passes: the callers say how to make the table
-        table = ReferenceTable.from_dict(
-            json.loads(path.read_text(encoding="utf-8")), complete=True
-        )
+        data = json.loads(path.read_text(encoding="utf-8"))
+        table = ReferenceTable.from_dict(data, complete=True)
     except (ValueError, RecursionError) as error:  # RecursionError: JSON nested too deeply
         reason = str(error) if isinstance(error, ValueError) else "JSON nested too deeply"
         raise ValueError(
@@ -282,11 +270,7 @@ def reference_series(
 
 
 def reference(
-    env_id: str,
-    condition: ArrayLike,
-    *,
-    objective: str | None = None,
-    planform: str = "tear-drop",
+    env_id: str, condition: ArrayLike, *, objective: str | None = None, planform: str = "tear-drop"
 ) -> float | NDArray[np.float64]:
     """The reference objective at ``condition`` [the task's condition unit] of the default
     model: linear between the grid's points; ValueError naming the grid outside it.
@@ -307,16 +291,12 @@ def reference(
 
 
 def normalised_score(
-    reference_objective: ArrayLike,
-    objective: ArrayLike,
-    feasible: ArrayLike,
-    violation: ArrayLike,
+    reference_objective: ArrayLike, objective: ArrayLike, feasible: ArrayLike, violation: ArrayLike
 ) -> NDArray[np.float64]:
     """The normalised score (B,) of strokes [100 = the reference]: ``100 · objective /
     reference`` where feasible, else ``-100 · min(1, violation)``; NaN where the reference is
     NaN or not positive. ValueError for what no stroke can be: ``feasible`` not booleans, an
     infinite reference, a negative or NaN violation, a feasible stroke's non-finite objective."""
-
     ref = real_array(reference_objective, "reference", "real numbers (NaN: none)")
     obj = real_array(objective, "objective", "real numbers [the objective's unit]")
     given = np.asarray(feasible)
@@ -411,15 +391,10 @@ class ConfigReference:
         self.series = _applicable(type(config), to_jsonable(config))
 
     def score(
-        self,
-        condition: ArrayLike,
-        objective: ArrayLike,
-        feasible: ArrayLike,
-        violation: ArrayLike,
+        self, condition: ArrayLike, objective: ArrayLike, feasible: ArrayLike, violation: ArrayLike
     ) -> NDArray[np.float64] | None:
         """The normalised scores (B,) of strokes flown at ``condition`` (B,); None where the
         table does not apply (no ``score`` then, not a NaN that makes equal steps unequal)."""
-
         if self.series is None:
             return None
         return normalised_score(self.series.at(condition), objective, feasible, violation)
@@ -431,7 +406,6 @@ def score_strokes(problem: Any, strokes: ArrayLike, conditions: ArrayLike) -> ND
     values = np.asarray(conditions, dtype=np.float64)
     found = problem.evaluate(np.asarray(strokes, dtype=np.float64), values)
     violation = problem.declaration.score(found.result, problem.config).total
-    score = ConfigReference(problem.config).score(
-        values, found.objective, found.feasible, violation
-    )
+    reference = ConfigReference(problem.config)
+    score = reference.score(values, found.objective, found.feasible, violation)
     return np.full(values.shape, np.nan) if score is None else score

@@ -36,9 +36,9 @@ ENTRIES: dict[str, EnvEntry] = {
 }
 #: This package's own ids, which :func:`remove_entry` keeps.
 _OWN_IDS: frozenset[str] = frozenset(ENTRIES)
-#: The entry-point group of out-of-tree tasks: each entry point's name is a Gymnasium env id,
-#: its object an :class:`EnvEntry`, e.g. in a plug-in's pyproject.toml
-#: ``[project.entry-points."tandem_env.tasks"]`` ``"Mine/Cruise-v0" = "my_tasks:CRUISE_ENTRY"``.
+#: The entry-point group of out-of-tree tasks: env id -> an :class:`EnvEntry`, e.g. in a
+#: plug-in's pyproject.toml ``[project.entry-points."tandem_env.tasks"]``
+#: ``"Mine/Cruise-v0" = "my_tasks:CRUISE_ENTRY"``.
 TASK_ENTRY_POINTS = "tandem_env.tasks"
 
 
@@ -75,10 +75,8 @@ def register_envs() -> None:
         try:
             add_entry(point.name, point.load())
         except Exception as error:  # a plug-in's own failure: report it, keep the others
-            warnings.warn(
-                f"{TASK_ENTRY_POINTS} entry point {point.name} = {point.value} skipped: {error}",
-                stacklevel=2,
-            )
+            skipped = f"{TASK_ENTRY_POINTS} entry point {point.name} = {point.value} skipped"
+            warnings.warn(f"{skipped}: {error}", stacklevel=2)
 
 
 def add_entry(env_id: str, entry: EnvEntry) -> None:
@@ -96,8 +94,8 @@ def add_entry(env_id: str, entry: EnvEntry) -> None:
             raise ValueError(f"task {entry.task!r} already runs {runs}; allowed: a new name")
     ENTRIES[env_id] = entry
     if env_id not in registry:
-        # No max_episode_steps: the one-cycle episodes terminate after their step and
-        # SpeedChange truncates itself after max_cycles, so a TimeLimit would only duplicate it.
+        # no max_episode_steps: the one-cycle episodes terminate after their step and
+        # SpeedChange truncates itself after max_cycles (a TimeLimit would only duplicate it)
         where = f"{entry.module}:{entry.env}"  # the task module's {env}Env and {env}VectorEnv
         register(id=env_id, entry_point=f"{where}Env", vector_entry_point=f"{where}VectorEnv")
 
@@ -144,7 +142,6 @@ def _entry_class(env_id: str, attribute: str) -> type[Any]:
 
 def condition_keywords() -> tuple[str, ...]:
     """Every keyword that sets a declared condition (fixed or range) of the registered envs."""
-
     declared = [getattr(config_class(env_id), "CONDITION", None) for env_id in env_ids()]
     keywords = [k for d in declared if d is not None for k in (d.keyword, d.range_keyword)]
     return tuple(dict.fromkeys(keywords))

@@ -49,32 +49,18 @@ class Frame:
 def history_of(batch: Any, k: int, insect: Dragonfly, options: ModelOptions) -> StrokeHistory:
     """Histories of stroke ``k`` of a ``StepBatch`` in the condition it was flown in."""
     result = batch.result
-    return stroke_history(
-        batch.physical[k],
-        float(result.speed[k]),
-        float(result.available_power[k]),
-        flight_path_angle=float(result.flight_path_angle[k]),
-        insect=insect,
-        options=options,
-        n_samples=HISTORY_SAMPLES,
-    )
+    condition = (float(result.speed[k]), float(result.available_power[k]))
+    gamma = float(result.flight_path_angle[k])
+    model = {"insect": insect, "options": options, "n_samples": HISTORY_SAMPLES}
+    return stroke_history(batch.physical[k], *condition, flight_path_angle=gamma, **model)
 
 
 def draw(figure: Figure, frame: Frame) -> tuple[Axes, list[Axes]]:
     """Draw ``frame`` onto an empty ``figure``: side view left, angle histories right (φ, θ,
     η); returns those axes, e.g. to animate the stroke over them."""
     figure.clear()
-    grid = figure.add_gridspec(
-        3,
-        2,
-        width_ratios=(1.0, 1.25),
-        left=0.07,
-        right=0.98,
-        top=0.84,
-        bottom=0.11,
-        wspace=0.22,
-        hspace=0.12,
-    )
+    margins = {"left": 0.07, "right": 0.98, "top": 0.84, "bottom": 0.11}
+    grid = figure.add_gridspec(3, 2, width_ratios=(1.0, 1.25), wspace=0.22, hspace=0.12, **margins)
     side = figure.add_subplot(grid[:, 0])
     angle_axes = [figure.add_subplot(grid[i, 1]) for i in range(3)]
     figure.suptitle(f"{frame.title}\n{frame.subtitle}", fontsize=10)
@@ -86,9 +72,8 @@ def draw(figure: Figure, frame: Frame) -> tuple[Axes, list[Axes]]:
     side.axhline(0.0, color="0.85", lw=0.8, zorder=0)
     side.axvline(0.0, color="0.85", lw=0.8, zorder=0)
     side.plot([0.0], [0.0], "k+", ms=8)
-    side.annotate(
-        "", xy=(1.05, -1.0), xytext=(0.55, -1.0), arrowprops={"arrowstyle": "->", "color": "0.4"}
-    )
+    arrow = {"arrowstyle": "->", "color": "0.4"}
+    side.annotate("", xy=(1.05, -1.0), xytext=(0.55, -1.0), arrowprops=arrow)
     side.text(0.55, -0.93, "flight", fontsize=7, color="0.4")
 
     labels = (("sweep", "φ [deg]"), ("elevation", "θ [deg]"), ("pitch", "η [deg]"))
@@ -101,15 +86,8 @@ def draw(figure: Figure, frame: Frame) -> tuple[Axes, list[Axes]]:
     side.tick_params(labelsize=7)
 
     if frame.history is None:
-        side.text(
-            0.0,
-            0.35,
-            "no stroke yet\n(call step)",
-            ha="center",
-            va="center",
-            fontsize=10,
-            color="0.5",
-        )
+        centred = {"ha": "center", "va": "center", "fontsize": 10, "color": "0.5"}
+        side.text(0.0, 0.35, "no stroke yet\n(call step)", **centred)
         return side, angle_axes
     for name in ("fore", "hind"):
         wing = getattr(frame.history, name)
@@ -138,15 +116,14 @@ def to_rgb_array(frame: Frame) -> np.ndarray:
 
 def metrics_line(reward: float, info: dict[str, Any], objective_label: str) -> str:
     """The subtitle: "reward … | objective … | L/W … | F̄_h … | P/m … | feasible"."""
+    infeasible = f"infeasible (violation {info['constraint_violation']:.3g})"
     parts = [
         f"reward {reward:.4g}",
         f"{objective_label} {info['objective']:.4g}",
         f"L/W {info['lift_to_weight']:.3f}",
         f"F̄_h {info['excess_horizontal']:+.3f}",
         f"P/m {info['power_per_mass']:.1f} W/kg",
-        "feasible"
-        if info["feasible"]
-        else f"infeasible (violation {info['constraint_violation']:.3g})",
+        "feasible" if info["feasible"] else infeasible,
     ]
     return " | ".join(parts)
 
@@ -174,16 +151,11 @@ def frame_for(core: Any, title: str, condition: float | None, last: LastStep | N
     heading = f"{title}  V = {speed:.3g} m/s, P_avail = {power:.3g} W/kg"
     if last is None:
         return Frame(title=heading, subtitle="no stroke evaluated since reset", history=None)
-    info = row(
-        {k: v for k, v in last.batch.info_columns().items() if not isinstance(v, dict)}, last.index
-    )
+    columns = {k: v for k, v in last.batch.info_columns().items() if not isinstance(v, dict)}
     keyword = cfg.OBJECTIVES.keyword if cfg.OBJECTIVES is not None else None
     label = "η" if keyword is None else f"F̄ ({getattr(cfg, keyword)})"
-    return Frame(
-        title=heading,
-        subtitle=metrics_line(float(last.batch.reward[last.index]), info, label),
-        history=history_of(last.batch, last.index, cfg.insect, cfg.options),
-    )
+    line = metrics_line(float(last.batch.reward[last.index]), row(columns, last.index), label)
+    return Frame(heading, line, history_of(last.batch, last.index, cfg.insect, cfg.options))
 
 
 class RenderWindow:
@@ -201,10 +173,8 @@ class RenderWindow:
         import matplotlib.pyplot as plt
 
         if self._window is None or not plt.fignum_exists(self._window.number):
-            width, height = FRAME_SIZE
-            self._window = plt.figure(
-                figsize=(width / FRAME_DPI, height / FRAME_DPI), dpi=FRAME_DPI
-            )
+            size = (FRAME_SIZE[0] / FRAME_DPI, FRAME_SIZE[1] / FRAME_DPI)
+            self._window = plt.figure(figsize=size, dpi=FRAME_DPI)
         draw(self._window, frame)
         if matplotlib.get_backend().lower() in _NON_INTERACTIVE:
             self._window.canvas.draw()

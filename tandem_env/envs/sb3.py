@@ -73,8 +73,7 @@ class TandemVecEnv(VecEnv):
         terminated, truncated = batch.terminated, batch.truncated
         dones = terminated | truncated
         infos = rows(batch.info_columns(), n)
-        # What DummyVecEnv adds: the truncation flag at every step, the last observation at
-        # an episode's end.
+        # what DummyVecEnv adds: the truncation flag, the last observation at an episode's end
         for i, info in enumerate(infos):
             info["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
         ended = np.flatnonzero(dones)
@@ -121,20 +120,13 @@ class TandemVecEnv(VecEnv):
 
 
 def make_sb3_vec_env(
-    env_id: str,
-    n_envs: int = 1,
-    seed: int | None = None,
-    *,
-    monitor: bool = False,
-    **kwargs: Any,
+    env_id: str, n_envs: int = 1, seed: int | None = None, *, monitor: bool = False, **kwargs: Any
 ) -> VecEnv:
     """An SB3 ``VecEnv`` of ``n_envs`` envs of ``env_id`` (seeded as SB3's ``make_vec_env``
     seeds them), stepped by one model call; ``monitor=True`` wraps it in ``VecMonitor``."""
-
     check_env_id(env_id)
-    vector_env = gym.make_vec(
-        env_id, num_envs=n_envs, vectorization_mode="vector_entry_point", **kwargs
-    )
+    mode = "vector_entry_point"
+    vector_env = gym.make_vec(env_id, num_envs=n_envs, vectorization_mode=mode, **kwargs)
     venv = TandemVecEnv(vector_env)
     venv.seed(seed)
     if seed is not None:

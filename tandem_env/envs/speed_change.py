@@ -6,7 +6,7 @@ vector env and the single env; declaration and config: :mod:`~tandem_env.envs.sp
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -109,12 +109,7 @@ class SpeedChangeCore:
         self.config = config
 
     # --- episodes --------------------------------------------------------------------------
-    def draw(
-        self,
-        count: int,
-        rngs: EnvGenerators,
-        options: Sequence[Mapping[str, Any] | None],
-    ) -> Flight:
+    def draw(self, count: int, rngs: EnvGenerators, options: EnvOptions) -> Flight:
         """States of ``count`` new episodes: u = u₀, w = w₀ (0), h = 0, target u*; episode k
         draws u₀, then u*, from ``rngs(k)`` where sampled and not set by ``options[k]``."""
         cfg = self.config
@@ -181,16 +176,8 @@ class SpeedChangeCore:
         result = fly(cfg, physical, speed, np.full(count, cfg.available_power), gamma)
         dt = cycle_time(physical)
         fx, fz = net_force(result, cfg.insect)
-        u, w, x, h = advance(
-            flight.forward_speed,
-            flight.vertical_speed,
-            flight.distance,
-            flight.altitude,
-            fx,
-            fz,
-            cfg.insect.body_mass,
-            dt,
-        )
+        before = (flight.forward_speed, flight.vertical_speed, flight.distance, flight.altitude)
+        u, w, x, h = advance(*before, fx, fz, cfg.insect.body_mass, dt)
         after = Flight(
             forward_speed=u,
             vertical_speed=w,
@@ -210,27 +197,20 @@ class SpeedChangeCore:
         energy = result.power * dt
         not_flown = (cfg.max_cycles - after.cycle).astype(np.float64)
         error = np.abs(u - flight.target_speed)
+        removed = np.abs(flight.forward_speed - flight.target_speed) - error
         terms = {
-            "reward_progress": weights.progress
-            * (np.abs(flight.forward_speed - flight.target_speed) - error),
+            "reward_progress": weights.progress * removed,
             "reward_speed": -weights.speed * error * dt,
             "reward_altitude": -weights.altitude * np.abs(h) * dt,
             "reward_energy": -weights.energy * energy,
             "reward_termination": np.where(terminated, -weights.termination * not_flown, 0.0),
         }
         objective = sum(terms.values())
-        # The power cap as in level flight (SPEED_CHANGE's one constraint), penalised per cycle
-        # by the env's PenaltyConfig (exactly 0 within the cap).
+        # the power cap as in level flight (SPEED_CHANGE's one constraint), penalised per cycle
+        # by the env's PenaltyConfig (exactly 0 within the cap)
         scores = SPEED_CHANGE.score(result, cfg)
-        motion = {
-            "cycle_time": dt,
-            "force_horizontal": fx,
-            "force_vertical": fz,
-            "energy": energy,
-            **terms,
-            "left_altitude_band": left_altitude,
-            "left_speed_band": left_speed,
-        }
+        motion = {"cycle_time": dt, "force_horizontal": fx, "force_vertical": fz, "energy": energy}
+        motion |= {**terms, "left_altitude_band": left_altitude, "left_speed_band": left_speed}
         strokes = StepBatch.scored(physical, result, objective, scores, cfg.penalty)
         return CycleBatch(strokes, after, motion, terminated, truncated)
 

@@ -20,9 +20,9 @@ LEVEL_FLIGHT_ENVELOPE: tuple[float, float] = LEVEL_FLIGHT.condition.envelope  # 
 #: are int64 and the observation divides by it.
 MAX_CYCLES = 500_000
 
-#: Fastest forward (and vertical) speed a SpeedChange episode may reach [m/s]: one step holds
-#: the cycle-mean force of the cycle's start, which above this speed is no longer resolved (at
-#: 4 m/s some strokes reverse the flight in one cycle), so a wider band is refused.
+#: Fastest forward (and vertical) speed a SpeedChange episode may reach [m/s]: above it one
+#: step's cycle-mean force (held from the cycle's start) is not resolved (at 4 m/s some strokes
+#: reverse the flight in one cycle), so a wider band is refused.
 MAX_BAND_SPEED: float = 3.0
 
 SPEED_CHANGE = TaskDeclaration(
@@ -201,11 +201,9 @@ class SpeedChangeConfig(FlightConfig):
         """Largest speed, altitude and energy cost of one cycle inside the bands with power
         within the cap [reward units]: the slowest cycle (the insect's lowest frequency), the
         largest speed and altitude errors. The termination weight should exceed it."""
-
         lowest = self.insect.stroke_bounds.lower
         slowest = 1.0 / min(lowest[PARAMETER_NAMES.index(f"{w}_frequency")] for w in WING_NAMES)
-        band = self.forward_speed_band
-        env = self.speed_envelope
+        band, env = self.forward_speed_band, self.speed_envelope
         speed_error = max(band[1] - env[0], env[1] - band[0])
         power = self.available_power * self.insect.body_mass
         w = self.reward
@@ -216,8 +214,8 @@ class SpeedChangeConfig(FlightConfig):
     def describe(self) -> str:
         def part(name: str) -> str:
             fixed, sampled = getattr(self, name), getattr(self, f"{name}_range")
-            if fixed is not None:
-                return f"{fixed:g} m/s"
-            return f"U({sampled[0]:g}, {sampled[1]:g}) m/s"
+            return (
+                f"{fixed:g} m/s" if fixed is not None else f"U({sampled[0]:g}, {sampled[1]:g}) m/s"
+            )
 
         return f"u0 = {part('start_speed')} -> u* = {part('target_speed')}"

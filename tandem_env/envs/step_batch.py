@@ -45,7 +45,6 @@ class StepBatch:
         score: np.ndarray | None = None,
     ) -> StepBatch:
         """The batch, its reward the objective penalised by the env's ``penalty``."""
-
         lost = penalty.penalty(scores.total, scores.feasible)
         return cls(physical, result, objective, scores, lost, objective - lost, score)
 
@@ -71,14 +70,10 @@ class StepBatch:
         """Every metric of the model, the task's constraints and reward terms, the stroke."""
         columns: Columns = {}
         for name, values in self.result.as_dict().items():
-            columns[name] = (
-                values if values.dtype == bool else values.astype(np.float64, copy=False)
-            )
+            columns[name] = values if values.dtype == bool else values.astype(float, copy=False)
         columns.update(self.scores.violations)
-        columns["objective"] = self.objective
-        columns["constraint_violation"] = self.scores.total
-        columns["penalty"] = self.penalty
-        columns["feasible"] = self.scores.feasible
+        columns |= {"objective": self.objective, "constraint_violation": self.scores.total}
+        columns |= {"penalty": self.penalty, "feasible": self.scores.feasible}
         if self.score is not None:
             columns["score"] = self.score
         stroke: Columns = {}

@@ -44,11 +44,8 @@ def check_interval(
 ) -> tuple[float, float]:
     """``value`` as a ``(low, high)`` float pair with limits[0] <= low < high <= limits[1]."""
     pair = () if isinstance(value, str | bytes) or not hasattr(value, "__len__") else tuple(value)
-    if not (
-        len(pair) == 2
-        and all(is_real(v) and math.isfinite(v) for v in pair)
-        and limits[0] <= pair[0] < pair[1] <= limits[1]
-    ):
+    finite = len(pair) == 2 and all(is_real(v) and math.isfinite(v) for v in pair)
+    if not (finite and limits[0] <= pair[0] < pair[1] <= limits[1]):
         raise ValueError(
             f"{owner}.{name} = {value!r} {unit}; allowed: a pair (low, high) of finite numbers "
             f"with {limits[0]:g} <= low < high <= {limits[1]:g} {unit}"

@@ -87,8 +87,7 @@ def run_command(main: Callable[[], int | None], program: str | None = None) -> i
     except EnvironmentSettingError as error:
         print(f"{program or _program()}: error: {error}", file=sys.stderr)
         return 2
-    except BrokenPipeError:
-        # The reader of standard output went away: nothing more can be said there.
+    except BrokenPipeError:  # the reader of standard output went away
         devnull = os.open(os.devnull, os.O_WRONLY)
         try:
             os.dup2(devnull, sys.stdout.fileno())
@@ -98,8 +97,8 @@ def run_command(main: Callable[[], int | None], program: str | None = None) -> i
             os.close(devnull)
         return 1
     except OSError as error:
-        # The machine, not the input (a disk that fills, a folder made read-only during the
-        # run): every file is written atomically, so what is on disk is whole; say what failed.
+        # the machine, not the input (a disk that fills, a folder made read-only during the
+        # run): every file is written atomically, so what is on disk is whole; say what failed
         where = f"{error.filename}: " if error.filename else ""
         print(
             f"{program or _program()}: error: {where}{error.strerror or error}; files already "

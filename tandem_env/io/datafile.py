@@ -14,8 +14,8 @@ from typing import Any
 
 import yaml
 
-#: Most characters a YAML text may hold: 16 MiB, far above any insect, kinematics or run file
-#: (a 4096-sample kinematics table with 20 pitch columns is under 2 MB).
+#: Most characters a YAML text may hold: 16 MiB, far above any data file (a 4096-sample
+#: kinematics table with 20 pitch columns is under 2 MB).
 MAX_YAML_CHARS = 16 * 2**20
 #: Most values (scalars, sequences, mappings) a YAML document may expand to, each alias counted
 #: as the whole value it repeats; 10⁶ is ten times the largest table a data file holds.
@@ -54,10 +54,8 @@ def _expanded_size(root: yaml.Node) -> int:
         if key in open_nodes:
             raise YAMLTooLarge(f"an alias refers to a value that holds it (line {_line(node)})")
         open_nodes.add(key)
-        children: list[yaml.Node] = []
-        if isinstance(node, yaml.SequenceNode):
-            children = list(node.value)
-        elif isinstance(node, yaml.MappingNode):
+        children = list(node.value) if isinstance(node, yaml.SequenceNode) else []
+        if isinstance(node, yaml.MappingNode):
             children = [item for pair in node.value for item in pair]
         total = 1
         for child in children:
@@ -81,7 +79,6 @@ def _line(node: yaml.Node) -> int:
 def parse_yaml(text: str, loader: type[BoundedLoader]) -> Any:
     """The plain data of a YAML ``text`` read with ``loader`` (a :class:`BoundedLoader`);
     :class:`YAMLTooLarge` for a text or document too large."""
-
     if not (isinstance(loader, type) and issubclass(loader, BoundedLoader)):
         raise TypeError(f"loader = {loader!r}; allowed: a subclass of BoundedLoader")
     if len(text) > MAX_YAML_CHARS:

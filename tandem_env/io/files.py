@@ -24,10 +24,9 @@ import numpy as np
 
 
 def to_jsonable(obj: Any, default: Callable[[Any], Any] | None = None) -> Any:
-    """Convert ``obj`` to plain JSON types: numpy values, tuples, paths, objects with a
-    ``to_dict()`` and dataclasses (as dicts of their fields) included, mapping keys as JSON
-    writes them. Anything else goes to ``default`` (as in :func:`json.dumps`), else TypeError.
-    """
+    """Convert ``obj`` to plain JSON types (numpy values, tuples, paths, ``to_dict()``
+    objects, dataclasses; mapping keys as JSON writes them); anything else goes to ``default``
+    (as in :func:`json.dumps`), else TypeError."""
     if obj is None or isinstance(obj, str | bool | int | float):
         return obj
     if isinstance(obj, np.generic):
@@ -105,11 +104,8 @@ def _check_link(target: Path, option: str, path: Path) -> None:
     try:
         target.stat()
     except OSError as error:
-        what = (
-            "a symlink loop"
-            if error.errno == errno.ELOOP
-            else (f"a dangling symlink (to {os.readlink(target)!r})")
-        )
+        what = f"a dangling symlink (to {os.readlink(target)!r})"
+        what = "a symlink loop" if error.errno == errno.ELOOP else what
         raise ValueError(
             f"{option} {str(path)!r}: {target} is {what}; allowed: a directory this user can "
             "write, or a symlink to one"
@@ -117,21 +113,19 @@ def _check_link(target: Path, option: str, path: Path) -> None:
 
 
 def _check_folder(folder: Path, option: str, path: Path, write: bool) -> bool:
-    existing = folder
+    existing, given = folder, f"{option} {str(path)!r}"
+    allowed = "allowed: a directory this user can write (created if missing)"
     try:
         while not os.path.lexists(existing) and existing.parent != existing:
             existing = existing.parent
         _check_link(existing, option, path)
         is_dir = existing.is_dir()
     except OSError as error:
-        raise ValueError(
-            f"{option} {str(path)!r}: cannot look into {existing} ({error.strerror or error}); "
-            "allowed: a directory this user can write (created if missing)"
-        ) from None
+        why = error.strerror or error
+        raise ValueError(f"{given}: cannot look into {existing} ({why}); {allowed}") from None
     if not is_dir:
         raise ValueError(
-            f"{option} {str(path)!r}: {existing} is a file; allowed: a directory (created if "
-            "missing)"
+            f"{given}: {existing} is a file; allowed: a directory (created if missing)"
         )
     try:
         fd, name = tempfile.mkstemp(prefix=".write-check.", dir=existing)
@@ -139,11 +133,8 @@ def _check_folder(folder: Path, option: str, path: Path, write: bool) -> bool:
         os.unlink(name)
     except OSError as error:
         if write:
-            raise ValueError(
-                f"{option} {str(path)!r}: cannot write into {existing} "
-                f"({error.strerror or error}); allowed: a directory this user can write (created "
-                "if missing)"
-            ) from None
+            why = error.strerror or error
+            raise ValueError(f"{given}: cannot write into {existing} ({why}); {allowed}") from None
         return False
     return True
 
@@ -172,9 +163,8 @@ _UMASK_LOCK = threading.Lock()
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path`` (same suffix); on success it is fsynced and
-    replaces ``path`` atomically, else it is removed. The new file keeps an existing file's
-    mode if its owner can read and write it, else gets :func:`new_file_mode`.
-    """
+    replaces ``path`` atomically (keeping an existing file's mode if its owner can read and
+    write it, else :func:`new_file_mode`), else it is removed."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp_name = tempfile.mkstemp(
@@ -212,10 +202,8 @@ class FolderLock:
         try:
             fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         except OSError as error:
-            raise ValueError(
-                f"{self.path.parent} is not writable ({error.strerror}); allowed: a folder you "
-                "can write"
-            ) from None
+            why = f"{self.path.parent} is not writable ({error.strerror})"
+            raise ValueError(f"{why}; allowed: a folder you can write") from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -267,15 +255,13 @@ def read_json(path: str | os.PathLike[str]) -> Any:
     with open(path, encoding="utf-8") as handle:
         try:
             return json.load(handle)
-        except RecursionError:
-            # The decoder recurses per nesting level; a hand-made file can exceed the stack.
+        except RecursionError:  # the decoder recurses per level: a hand-made file can be deeper
             raise ValueError("JSON nested too deeply to read") from None
 
 
 def write_csv_atomic(path: str | os.PathLike[str], rows: Sequence[Mapping[str, Any]]) -> None:
     """Write ``rows`` as CSV to ``path`` atomically: the union of their keys as columns, None
     as an empty cell, lists and dicts as JSON text."""
-
     columns: dict[str, None] = {}  # an ordered set
     for row in rows:
         columns.update(dict.fromkeys(row))

@@ -1,6 +1,5 @@
-"""Progress of long work on stderr (tqdm): one bar class for a search and for a set of jobs.
-Until its first report a bar shows what it waits for (compiling the model) instead of a rate.
-"""
+"""Progress of long work on stderr (tqdm): one bar class for a search and for a set of jobs,
+showing what it waits for (compiling the model) until its first report."""
 
 from __future__ import annotations
 
@@ -35,22 +34,20 @@ class QuietStream:
     def _target(self) -> TextIO | None:
         return None if self._failed else (self._stream or sys.stderr)
 
-    def write(self, text: str) -> int:
+    def _call(self, name: str, *args: Any) -> Any:
         stream = self._target()
-        if stream is not None:
-            try:
-                return stream.write(text)
-            except (OSError, ValueError):  # EPIPE, EBADF, ENOSPC; ValueError: closed file
-                self._failed = True
-        return len(text)
+        try:
+            return None if stream is None else getattr(stream, name)(*args)
+        except (OSError, ValueError):  # EPIPE, EBADF, ENOSPC; ValueError: closed file
+            self._failed = True
+            return None
+
+    def write(self, text: str) -> int:
+        written = self._call("write", text)
+        return len(text) if written is None else written
 
     def flush(self) -> None:
-        stream = self._target()
-        if stream is not None:
-            try:
-                stream.flush()
-            except (OSError, ValueError):
-                self._failed = True
+        self._call("flush")
 
     def isatty(self) -> bool:
         stream = self._target()
@@ -60,9 +57,8 @@ class QuietStream:
             return False
 
     def __eq__(self, other: object) -> bool:
-        # Two quiet streams over the same stream are one file to tqdm, whose ``write`` clears
-        # and redraws only the bars writing to a file equal to its own (a warning line is then
-        # printed above an open bar, not run into it).
+        # quiet streams over one stream are one file to tqdm, whose ``write`` redraws the bars
+        # of files equal to its own (a warning line then goes above an open bar)
         return isinstance(other, QuietStream) and other._stream is self._stream
 
     def __hash__(self) -> int:
@@ -80,22 +76,19 @@ class ProgressBar:
         self, total: int, description: str, enabled: bool = True, waiting: str | None = None
     ) -> None:
         self._waiting = True
-        self._bar = (
-            tqdm(
+        postfix = waiting or (STARTING if _reported else COMPILING)
+        settings = {"unit": "eval", "unit_scale": True, "dynamic_ncols": True, "leave": True}
+        self._bar: Any = None
+        if enabled:
+            self._bar = tqdm(
                 total=total,
                 desc=description,
-                unit="eval",
-                unit_scale=True,
                 file=QuietStream(),
-                dynamic_ncols=True,
                 mininterval=0.5,
-                leave=True,
                 bar_format=_WAITING_FORMAT,
-                postfix=waiting or (STARTING if _reported else COMPILING),
+                postfix=postfix,
+                **settings,
             )
-            if enabled
-            else None
-        )
 
     def move_to(self, evaluations: int, status: str | None = None) -> None:
         """Move the bar to ``evaluations`` (absolute, so irregular reports still work)."""
@@ -137,7 +130,6 @@ class ProgressBar:
 def warnings_as_lines() -> Iterator[None]:
     """Within the block every warning is one line on stderr through ``tqdm.write``, so that an
     open bar is redrawn below it."""
-
     previous = warnings.showwarning
 
     def show(message, category, filename, lineno, file=None, line=None) -> None:
