@@ -20,12 +20,13 @@ from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from shared import machine, write_numbers
+from shared import PAPER, machine, write_numbers
 
 import tandem_env as te
 from tandem_env.physics import blade, cycle, induction, model
@@ -35,7 +36,7 @@ INDUCTION = ("coupled", "isolated", "none")
 #: The cases timed: each inflow model, and the coupled inflow with each slipstream reading
 #: (``ModelOptions.slipstream``, docs/model.md §5.7), against the coupled one (the mean reading).
 CASES = {
-    **{induction: te.ModelOptions(induction=induction) for induction in INDUCTION},
+    **{induction: replace(PAPER, induction=induction) for induction in INDUCTION},
     "convected": te.ModelOptions(slipstream="convected"),
     "vortex": te.ModelOptions(slipstream="vortex"),
 }
@@ -119,7 +120,7 @@ def ratios(wall: dict, cpu: dict, case: tuple, base: tuple) -> dict[str, Any]:
 
 def sweeps_per_annulus(strokes: np.ndarray, speed: float) -> tuple[np.ndarray, np.ndarray]:
     """Force sweeps of every fore-wing annulus of ``strokes`` (own inflow), and F̄_n(0) > 0."""
-    options, insect = te.ModelOptions(), te.DRAGONFLY
+    options, insect = PAPER, te.DRAGONFLY
     rho = insect.air_density
     nodes, consts = model.wing_tables(insect.fore, options.n_blade, rho)
     settings = model.kernel_settings(insect, options, options.n_time)
@@ -149,7 +150,7 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     strokes = te.normalised_to_physical(rng.uniform(-1, 1, (1024, 28)))
     speeds = rng.uniform(0.25, 2.0, 1024)
-    options = te.ModelOptions()
+    options = PAPER
     print(
         f"{machine()}; n_time = {options.n_time}, n_blade = {options.n_blade}, "
         f"tolerance {options.tolerance:g}"

@@ -18,13 +18,14 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+from dataclasses import replace
 from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numba
 import numpy as np
-from shared import best_time, call_times, machine, write_numbers
+from shared import PAPER, best_time, call_times, machine, write_numbers
 
 import tandem_env as te
 from tandem_env.physics import model
@@ -53,7 +54,7 @@ def main() -> None:
 def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     """Evaluations per second of the numba kernel per inflow model and batch, and where the
     time of one coupled batch of 1024 goes."""
-    options = te.ModelOptions()
+    options = PAPER
     rng = np.random.default_rng(args.seed)
     strokes = te.normalised_to_physical(rng.uniform(-1, 1, (1024, 28)))
     speeds = rng.uniform(0.25, 2.0, 1024)
@@ -75,7 +76,7 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     }
     print(f"{'batch':>6} {'induction':>10} {'evals/s':>10} {'ms/call':>9} {'inflow sweeps*':>15}")
     for induction in args.induction:
-        opts = te.ModelOptions(induction=induction)
+        opts = replace(PAPER, induction=induction)
         for batch in args.batches or (1, 64, 1024):
             x, v = strokes[:batch], speeds[:batch]
             seconds = best_time(lambda x=x, v=v, o=opts: te.evaluate(x, v, options=o), args.repeats)
@@ -91,7 +92,7 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
         strokes, options.n_time
     )
     inputs = (angles, weights, frequency, beta, sweep, speeds, np.zeros_like(speeds), te.DRAGONFLY)
-    no_inflow = te.ModelOptions(induction="none")
+    no_inflow = replace(PAPER, induction="none")
     kinematics = partial(model.parametric_kernel_inputs, strokes, options.n_time)
     parts = {
         "validate strokes": lambda: te.validate_physical(strokes),
@@ -100,7 +101,7 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
             model.run_kernel, *inputs, no_inflow, motion=motion
         ),
         "cycle with coupled inflow": partial(model.run_kernel, *inputs, options, motion=motion),
-        "whole evaluate()": lambda: te.evaluate(strokes, speeds),
+        "whole evaluate()": lambda: te.evaluate(strokes, speeds, options=PAPER),
     }
     for name, call in parts.items():
         wall, cpu = map(min, call_times(call, args.repeats))
@@ -157,7 +158,7 @@ def torch_throughput(args: argparse.Namespace) -> dict[str, Any]:
     header = f"{'batch':>7} {'induction':>10} {'torch evals/s':>14} {'ms/call':>9}"
     print(header + (f" {'numba evals/s':>14} {'torch/numba':>12}" if on_cpu else ""))
     for induction in args.induction:
-        opts = te.ModelOptions(induction=induction)
+        opts = replace(PAPER, induction=induction)
         for batch in batches:
             seconds = best_time(lambda b=batch, o=opts: run_torch(b, o), args.repeats)
             line = f"{batch:>7} {induction:>10} {batch / seconds:>14.0f} {1e3 * seconds:>9.2f}"
@@ -223,7 +224,7 @@ def gradient_cost(
     probes = np.repeat(strokes[:1], 1 + 2 * columns.size, axis=0)
     probes[1::2, columns] += np.diag(step)
     probes[2::2, columns] -= np.diag(step)
-    central = best_time(lambda: te.evaluate(probes, speeds[0]), args.repeats)
+    central = best_time(lambda: te.evaluate(probes, speeds[0], options=PAPER), args.repeats)
     print()
     print(
         f"gradient of power with respect to the 28 parameters, per stroke: central difference "

@@ -10,7 +10,12 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import tandem_env as te
 from tandem_env.io.files import write_json_atomic
+
+#: The paper's model (the mean reading), which the speed benchmarks time and compare the other
+#: readings with whatever ``ModelOptions``' default is (docs/crosscheck.md, *The rule*).
+PAPER = te.ModelOptions(slipstream="mean")
 
 
 def call_times(call: Callable[[], Any], repeats: int) -> tuple[list[float], list[float]]:
