@@ -108,7 +108,8 @@ class CMAESConfig(OptimiserConfig):
         for pair in pairs:
             if len(pair) != 2:
                 raise ValueError(f"discrete must be {allowed}, got the entry {pair!r}")
-        index, levels = "discrete index", "discrete levels"
+        index = "discrete index"
+        levels = "discrete levels"
         pairs = tuple((count(i, index, low=0), count(k, levels, low=2)) for i, k in pairs)
         if len({i for i, _ in pairs}) != len(pairs):
             raise ValueError(f"discrete must be {allowed}; index repeated in {self.discrete!r}")

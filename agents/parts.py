@@ -269,7 +269,9 @@ def _search(
     prepared: PreparedJob, seed: int, budget: int, report: Reporter
 ) -> tuple[SearchOutcome, VectorEnvEvaluator]:
     """The method's search through the budgeted vector-env evaluator, checked."""
-    job, task, kwargs = prepared.job, prepared.task, prepared.env_kwargs
+    job = prepared.job
+    task = prepared.task
+    kwargs = prepared.env_kwargs
     with VectorEnvEvaluator(task, prepared.condition, kwargs, seed, budget, report) as evaluator:
         context = SearchContext(
             task=task,

@@ -52,7 +52,9 @@ SWEEP_SPEEDS = (0.0, 1.0, 2.0)
 def timed(call, min_seconds: float) -> tuple[float, float]:
     """Wall and CPU (all threads) seconds per call, over back-to-back calls lasting
     ``min_seconds``."""
-    calls, cpu, start = 0, time.process_time(), time.perf_counter()
+    calls = 0
+    cpu = time.process_time()
+    start = time.perf_counter()
     while True:
         call()
         calls += 1
@@ -83,7 +85,9 @@ def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> dict[str
     )
     numbers: dict[str, Any] = {"rounds": rounds, "rates": [], "ratios": [], "slipstream_ratios": []}
     for (name, batch), t in wall.items():
-        best, median, best_cpu = batch / min(t), batch / np.median(t), min(cpu[name, batch])
+        best = batch / min(t)
+        median = batch / np.median(t)
+        best_cpu = min(cpu[name, batch])
         print(f"{batch:>6} {name:>10} {best:>13.0f} {median:>15.0f} {1e3 * best_cpu:>17.2f}")
         row = {"batch": batch, "induction": name, "best_per_s": best, "median_per_s": median}
         numbers["rates"].append(row | {"best_cpu_per_s": batch / best_cpu})
@@ -161,7 +165,9 @@ def main() -> None:
     for speed in SWEEP_SPEEDS:
         counts, solved = sweeps_per_annulus(strokes[:SWEEP_STROKES], speed)
         hist = np.bincount(counts[solved])
-        share, mean, most = float(solved.mean()), float(counts[solved].mean()), int(counts.max())
+        share = float(solved.mean())
+        mean = float(counts[solved].mean())
+        most = int(counts.max())
         print(
             f"  V = {speed:.0f} m/s: {share:.0%} of annuli solved, mean {mean:.2f} sweeps (max "
             f"{most}), histogram {dict((int(k), int(n)) for k, n in enumerate(hist) if n)}"

@@ -81,7 +81,8 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
             x, v = strokes[:batch], speeds[:batch]
             seconds = best_time(lambda x=x, v=v, o=opts: te.evaluate(x, v, options=o), args.repeats)
             sweeps = float(te.evaluate(x, v, options=opts).induction_evaluations.mean())
-            rate, ms = batch / seconds, 1e3 * seconds
+            rate = batch / seconds
+            ms = 1e3 * seconds
             print(f"{batch:>6} {induction:>10} {rate:>10.0f} {ms:>9.2f} {sweeps:>15.1f}")
             row = {"batch": batch, "induction": induction, "evaluations_per_s": rate}
             numbers["rates"].append(row | {"ms_per_call": ms, "inflow_sweeps": sweeps})

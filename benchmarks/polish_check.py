@@ -48,7 +48,9 @@ def fresh_polish(record: Record) -> tuple[float, float, float, int]:
         return evaluation.objective, evaluation.margins
 
     def derivatives(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        k, hi, lo = z.size, np.minimum(z + STEP, 1.0), np.maximum(z - STEP, -1.0)
+        k = z.size
+        hi = np.minimum(z + STEP, 1.0)
+        lo = np.maximum(z - STEP, -1.0)
         pts = np.repeat(z[None, :], 2 * k, axis=0)
         pts[np.arange(k), np.arange(k)] = hi
         pts[k + np.arange(k), np.arange(k)] = lo

@@ -499,7 +499,8 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
         batch, observations = self.vector_env.step_checked(_FIRST, arr[None, :])
         if self.render_mode == "human":
             self.render()
-        reward, ended = float(batch.reward[0]), bool(batch.terminated[0])
+        reward = float(batch.reward[0])
+        ended = bool(batch.terminated[0])
         return (
             observations[0].copy(),
             reward,

@@ -61,7 +61,8 @@ def _overridden(
     try:  # the dataclass validates, naming the rule
         return replace(value, **{field: kwargs.pop(keyword) for field, keyword in given.items()})
     except ValueError as error:  # each field named by its keyword, e.g. power_convention
-        text, owner = str(error), kind.__name__
+        text = str(error)
+        owner = kind.__name__
         for name, keyword in given.items():
             if keyword != name:
                 text = re.sub(rf"\b{owner}\.{name}\b", f"{keyword} ({owner}.{name})", text)

@@ -163,7 +163,8 @@ class TaskObjectives:
     """The choices, in declaration order."""
 
     def __post_init__(self) -> None:
-        owner, metrics = "TaskObjectives", self.metrics
+        owner = "TaskObjectives"
+        metrics = self.metrics
         if not (
             isinstance(metrics, Mapping)
             and metrics

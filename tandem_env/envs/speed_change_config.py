@@ -203,7 +203,8 @@ class SpeedChangeConfig(FlightConfig):
         largest speed and altitude errors. The termination weight should exceed it."""
         lowest = self.insect.stroke_bounds.lower
         slowest = 1.0 / min(lowest[PARAMETER_NAMES.index(f"{w}_frequency")] for w in WING_NAMES)
-        band, env = self.forward_speed_band, self.speed_envelope
+        band = self.forward_speed_band
+        env = self.speed_envelope
         speed_error = max(band[1] - env[0], env[1] - band[0])
         power = self.available_power * self.insect.body_mass
         w = self.reward

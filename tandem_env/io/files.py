@@ -113,7 +113,8 @@ def _check_link(target: Path, option: str, path: Path) -> None:
 
 
 def _check_folder(folder: Path, option: str, path: Path, write: bool) -> bool:
-    existing, given = folder, f"{option} {str(path)!r}"
+    existing = folder
+    given = f"{option} {str(path)!r}"
     allowed = "allowed: a directory this user can write (created if missing)"
     try:
         while not os.path.lexists(existing) and existing.parent != existing:
