@@ -1,9 +1,7 @@
 """An amortised stroke policy trained: one network per branch from the flight condition to a
 stroke (amortised optimisation; Amos 2023, "Tutorial on amortized optimization", Found. Trends
 Mach. Learn. 16(5)). ``python -m train --algo amortised --env ID`` runs :func:`train_run`; the
-policy itself is :mod:`train.amortised_policy`. The method ((a) branches, (b) regression,
-(c) fine-tuning, (d) hand-overs), its settings, its refusals and its measured results are
-specified in docs/training.md, "Amortised policy".
+policy itself is :mod:`train.amortised_policy`; the method: docs/training.md, "Amortised policy".
 """
 
 from __future__ import annotations
@@ -16,19 +14,23 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
+import torch
 
+from tandem_env.envs.reference import REFERENCE_GRID, problem_fingerprint, training_conditions
+from tandem_env.envs.registration import check_env_id, config_class
 from tandem_env.io.files import atomic_path, to_jsonable, write_json_atomic
 from train.amortised_branches import branch_domains, branch_segments, hand_overs, regression_points
 from train.amortised_policy import (
     HARMONICS,
     AmortisedPolicy,
+    Settings,
     Targets,
     build_networks,
     output_centres,
     reference_targets,
 )
-from train.amortised_settings import Settings
 from train.config import AMORTISED, TrainConfig
 from train.run import torch_threads
 from train.run_folder import RunFolder
@@ -36,10 +38,7 @@ from train.run_folder import RunFolder
 
 # --- the problem and its reference -------------------------------------------------------------
 def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
-    """The reference series the env of ``env_id`` with ``env_kwargs`` is trained on
-    (:func:`table_series`); ValueError for a condition keyword (the policy's input)."""
-    from tandem_env.envs.registration import config_class
-
+    """The reference series of ``env_id``'s env; ValueError for a condition keyword."""
     series = table_series(env_id, env_kwargs)
     declared = config_class(env_id).CONDITION
     condition_words = (declared.keyword, declared.range_keyword, declared.envelope_keyword)
@@ -54,15 +53,8 @@ def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
 
 def table_series(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     """The reference series that scores the env of ``env_id`` with ``env_kwargs`` (its problem
-    fingerprint's); ValueError naming what is allowed where the table has none (no table, no
-    such series, env options that change the problem). Nothing is evaluated."""
-    from tandem_env.envs.reference import (
-        REFERENCE_GRID,
-        load_reference_table,
-        problem_fingerprint,
-        reference_path,
-    )
-    from tandem_env.envs.registration import check_env_id, config_class
+    fingerprint's); ValueError naming what is allowed where the table has none."""
+    from tandem_env.envs.reference import load_reference_table, reference_path  # at each call
 
     check_env_id(env_id, "env")
     if env_id not in REFERENCE_GRID:
@@ -82,8 +74,7 @@ def table_series(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
             "eval reference"
         ) from None
     planform = config.planform
-    series = table.find(env_id, str(objective), problem_fingerprint(config))
-    if series is not None:
+    if (series := table.find(env_id, str(objective), problem_fingerprint(config))) is not None:
         return series
     # which is it: a series the table lacks, or options that change the problem?
     table.get(env_id, str(objective), planform)  # raises naming what the table holds
@@ -108,12 +99,7 @@ def table_series(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
 
 
 def make_problem(env_id: str, env_kwargs: Mapping[str, Any], **options: Any) -> Any:
-    """The env's problem view (``FlightProblem``) with ``env_kwargs`` and model ``options``
-    (e.g. ``n_time``) over them."""
-    import gymnasium as gym
-
-    import tandem_env  # noqa: F401 - registers the ids
-
+    """The env's problem view (``FlightProblem``) with ``env_kwargs`` and model ``options``."""
     env = gym.make(env_id, disable_env_checker=True, **{**dict(env_kwargs), **options})
     try:
         return env.unwrapped.problem()
@@ -144,16 +130,13 @@ def train_policy(
     *,
     progress: Any = None,
 ) -> tuple[AmortisedPolicy, Training]:
-    """Train an amortised policy on ``targets`` (docs/training.md, "Amortised policy");
-    ``progress(step, total, row)`` is called after each fine-tuning step."""
-    import torch
-
+    """Train an amortised policy on ``targets``; ``progress(step, total, row)`` after each step."""
     resolution = {"n_time": settings.finetune_n_time, "n_blade": settings.finetune_n_blade}
     problem = make_problem(
         env_id, env_kwargs, **{k: v for k, v in resolution.items() if v is not None}
     )
-    config = problem.config
-    centres = output_centres(targets, pairs_independent=not config.options.phase_resolved())
+    independent = not problem.config.options.phase_resolved()
+    centres = output_centres(targets, pairs_independent=independent)
     conditions = targets.conditions
     segments = branch_segments(problem, targets, settings.branch_tolerance)
     domains = branch_domains(conditions, segments, settings.branch_reach)
@@ -185,8 +168,7 @@ def train_policy(
         optimiser = torch.optim.Adam(network.parameters(), lr=settings.regression_lr)
         for _ in range(settings.regression_steps):
             optimiser.zero_grad()
-            loss = fit_loss()
-            loss.backward()
+            fit_loss().backward()
             optimiser.step()
         with torch.no_grad():
             record.regression_loss = float(fit_loss(conditions.size))
@@ -222,9 +204,7 @@ def train_policy(
             d_value = found.objective_gradient + settings.penalty_weight * np.einsum(
                 "bm,bmj->bj", short.astype(np.float64), found.margin_jacobian
             )
-            scale = ref * settings.batch
-            d_loss = torch.as_tensor(-d_value / scale[:, None])
-            actions.backward(d_loss)
+            actions.backward(torch.as_tensor(-d_value / (ref * settings.batch)[:, None]))
             anchor = 0.0
             if settings.anchor > 0:
                 term = settings.anchor * fit_loss(conditions.size)
@@ -275,10 +255,8 @@ def train_run(config: TrainConfig) -> RunResult:
     """``python -m train --algo amortised``: train on the reference table's training optima,
     write the run folder (``result.json`` last) and evaluate the final policy at the training
     conditions for the summary."""
-    import torch
-
     from agents.records import package_versions
-    from tandem_env.envs.reference import load_reference_table, training_conditions
+    from tandem_env.envs.reference import load_reference_table
 
     env_id, env_kwargs, seed = config.env_id, config.env_kwargs, config.seed
     settings = Settings.from_mapping(config.hyperparams)

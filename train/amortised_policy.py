@@ -1,23 +1,25 @@
-"""The amortised stroke policy itself (trained by :mod:`train.amortised`): its map from the
-condition c [the condition's unit] to a normalised stroke (28,) in [-1, 1], its canonical
-targets (:func:`canonicalise`) and its run folder (``logs/amortised/<env>_<n>/``: ``<env>.pt``,
-the weights, read with ``torch.load(weights_only=True)``; ``policy.json``; ``result.json``;
-``<env>/args.yml`` and ``<env>/config.yml``). What the map is and why (one MLP per branch, a
-tanh output, each phase wrapped around a fixed centre, N the branch's), the canonical targets
-and the folder's files: docs/training.md, "Amortised policy".
+"""The amortised stroke policy (trained by :mod:`train.amortised`): its map from the condition
+c [the condition's unit] to a normalised stroke (28,) in [-1, 1], its canonical targets
+(:func:`canonicalise`) and its run folder's ``<env>.pt`` (weights, read with
+``torch.load(weights_only=True)``) and ``policy.json`` (docs/training.md, "Amortised policy").
 """
 
 from __future__ import annotations
 
 import math
+import pickle
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import torch
 
+from tandem_env.envs.reference import REFERENCE_GRID, training_conditions
+from tandem_env.envs.registration import config_class
 from tandem_env.io.files import read_json, to_jsonable
+from tandem_env.physics.checks import count, is_integer, is_real, real_array
 from tandem_env.physics.stroke import (
     DISCRETE,
     HARMONIC_INDEX,
@@ -30,11 +32,9 @@ from train.config import AMORTISED
 from train.run_folder import POLICY_FILE, RunLayout, RunPolicy, resolve_run_dir
 from train.saved import read_run_args
 
-#: Where the canonical targets put each canonicalised sweep phase [deg] (within half a time-grid
-#: step, :func:`canonicalise`).
+#: Where the canonical targets put each canonicalised sweep phase [deg] (:func:`canonicalise`).
 CANONICAL_SWEEP_PHASE = 0.0
-#: The most a regression target lies from 0 in a normalised coordinate [-]: targets at a bound
-#: are held this far inside (0.005 % of the parameter's range), where tanh can reach them.
+#: The most a regression target lies from 0 in a normalised coordinate [-] (tanh reaches it).
 TARGET_LIMIT = 0.9999
 #: Format of ``policy.json``.
 POLICY_FORMAT = "tandem_env.amortised-policy/2"
@@ -60,6 +60,91 @@ CITATION = (
 )
 
 
+# --- how it is trained (``--hyperparams``, ``config.yml``) and the limits of its network ----
+def _allowed(low: float, high: float, *, above: bool = False) -> dict[str, Any]:
+    """A setting's allowed values: ``low`` (excluded if ``above``) to ``high`` (or None)."""
+    return {"range": (low, high), "above": above}
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How an amortised policy is trained (``--hyperparams key=value``; ``config.yml``)."""
+
+    hidden: tuple[int, ...] = (64, 64)
+    """Widths of the MLP's hidden layers (tanh) [-]."""
+    regression_steps: int = field(default=5000, metadata=_allowed(0, 10**6))
+    """Adam steps of the regression on the training optima (full batch) [-]."""
+    regression_lr: float = field(default=3e-3, metadata=_allowed(0.0, 1.0, above=True))
+    """Adam's learning rate in the regression [-]."""
+    finetune_steps: int = field(default=600, metadata=_allowed(0, 10**6))
+    """Adam steps of the fine-tuning by the objective's gradient (0: none) [-]."""
+    finetune_lr: float = field(default=1e-3, metadata=_allowed(0.0, 1.0, above=True))
+    """Adam's learning rate in the fine-tuning [-]."""
+    batch: int = field(default=16, metadata=_allowed(1, 4096))
+    """Conditions per branch and fine-tuning step (one batched model evaluation) [-]."""
+    penalty_weight: float = field(default=10.0, metadata=_allowed(0.0, 1e6, above=True))
+    """w of the fine-tuning's penalty [objective units per unit of margin]."""
+    safety_margin: float = field(default=1e-3, metadata=_allowed(0.0, 0.1))
+    """δ: the fine-tuning penalises every constraint margin below it [-] (a fraction)."""
+    anchor: float = field(default=30.0, metadata=_allowed(0.0, 1e6))
+    """Weight of the regression loss on the training targets during the fine-tuning [-]."""
+    branch_reach: float = field(default=0.6, metadata=_allowed(0.5, 1.0, above=True))
+    """How far each branch's domain reaches into the gap to a neighbouring branch's training
+    condition, as a fraction of the gap [-] (above 0.5: both cover its middle)."""
+    branch_tolerance: float = field(default=0.1, metadata=_allowed(0.0, 1.0))
+    """Two neighbouring training optima share a branch when the stroke midway between them
+    loses at most this fraction of their mean objective and violates no margin by more [-]."""
+    features: int = field(default=0, metadata=_allowed(0, 1024))
+    """Gaussian radial features of the observation before the MLP (0: none) [-]."""
+    finetune_n_time: int | None = field(default=None, metadata=_allowed(8, 4096))
+    """Time samples of the fine-tuning's model (None: the env's, default 128) [-]."""
+    finetune_n_blade: int | None = field(default=None, metadata=_allowed(2, 512))
+    """Blade elements of the fine-tuning's model (None: the env's, default 24) [-]."""
+
+    def __post_init__(self) -> None:
+        hidden = (self.hidden,) if is_integer(self.hidden) else self.hidden
+        if (
+            not isinstance(hidden, list | tuple)
+            or not hidden
+            or not all(is_integer(h) and 1 <= h <= 4096 for h in hidden)
+            or len(hidden) > 8
+        ):
+            raise ValueError(
+                f"hidden = {self.hidden!r}; allowed: 1 to 8 layer widths, each an integer from "
+                "1 to 4096, e.g. [64, 64]"
+            )
+        object.__setattr__(self, "hidden", tuple(int(h) for h in hidden))
+        for spec in fields(self)[1:]:
+            name, value, (low, high) = spec.name, getattr(self, spec.name), spec.metadata["range"]
+            if spec.type == "float":
+                ok = is_real(value) and math.isfinite(value) and low <= value <= high
+                if not ok or (spec.metadata["above"] and value == low):
+                    bound = f"above {low:g}" if spec.metadata["above"] else f"from {low:g}"
+                    raise ValueError(f"{name} = {value!r}; allowed: a number {bound} to {high:g}")
+                object.__setattr__(self, name, float(value))
+            elif value is not None or spec.type == "int":
+                if not is_integer(value) or not low <= value <= high:
+                    allowed = (
+                        f"an integer from {low} to {high:,}"
+                        if spec.type == "int"
+                        else f"None (the env's) or an integer from {low} to {high}"
+                    )
+                    raise ValueError(f"{name} = {value!r}; allowed: {allowed}")
+                object.__setattr__(self, name, int(value))
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> Settings:
+        """Settings from ``key=value`` overrides; ValueError naming an unknown key."""
+        names = [f.name for f in fields(cls)]
+        unknown = sorted(set(values) - set(names))
+        if unknown:
+            raise ValueError(f"unknown amortised setting(s) {unknown}; allowed: {', '.join(names)}")
+        return cls(**dict(values))
+
+    def to_dict(self) -> dict[str, Any]:
+        return to_jsonable(asdict(self))
+
+
 # --- canonical strokes -------------------------------------------------------------------------
 def _wrap_degrees(angle: np.ndarray) -> np.ndarray:
     return (np.asarray(angle, dtype=np.float64) + 180.0) % 360.0 - 180.0
@@ -67,8 +152,7 @@ def _wrap_degrees(angle: np.ndarray) -> np.ndarray:
 
 def delay(physical: np.ndarray, fore: Any, hind: Any) -> np.ndarray:
     """Physical strokes (B, 28) [Table 4 units] with each pair's motion delayed by ``fore`` and
-    ``hind`` [deg of its own cycle, scalars or (B,)]: its sweep and pitch phases less Δ, its
-    elevation phase less N·Δ, wrapped onto [-180°, 180°)."""
+    ``hind`` [deg of its own cycle]: sweep and pitch phases less Δ, elevation phase less N·Δ."""
     out = np.array(physical, dtype=np.float64, copy=True)
     for base, shift in ((0, fore), (N_PER_WING, hind)):
         d = np.broadcast_to(np.asarray(shift, dtype=np.float64), out.shape[:1])
@@ -81,8 +165,7 @@ def delay(physical: np.ndarray, fore: Any, hind: Any) -> np.ndarray:
 
 def canonicalise(physical: np.ndarray, n_time: int, *, pairs_independent: bool) -> np.ndarray:
     """The strokes (B, 28) [Table 4 units] made canonical (docs/training.md, "Amortised
-    policy", step 1); ``pairs_independent``: the model is not phase-resolved, so the hind pair is
-    delayed on its own, else by the fore pair's delay."""
+    policy", step 1); ``pairs_independent``: the hind pair is delayed on its own."""
     strokes = np.array(physical, dtype=np.float64, ndmin=2)
     step = 360.0 / int(n_time)
 
@@ -130,10 +213,7 @@ class Targets:
 
 
 def reference_targets(series: Any, n_time: int, *, pairs_independent: bool) -> Targets:
-    """The canonical optima of a reference series at its env's training conditions only
-    (``training_conditions``; the held-out ones are never read)."""
-    from tandem_env.envs.reference import training_conditions
-
+    """The canonical optima of a reference series at its env's training conditions only."""
     wanted = training_conditions(series.env_id)
     rows = [
         (c, point)
@@ -161,9 +241,7 @@ def reference_targets(series: Any, n_time: int, *, pairs_independent: bool) -> T
 # --- the network and the policy ------------------------------------------------------------------
 def radial_features(count: int) -> Any:
     """Fixed Gaussian bumps ``exp(−((x − μ_k)/σ)²/2)`` of the observation x ∈ [-1, 1] at
-    ``count`` centres μ_k evenly over [-1, 1], σ their spacing (a torch module): a step for one
-    condition moves mostly the strokes near it."""
-    import torch
+    ``count`` centres μ_k evenly over [-1, 1], σ their spacing (a torch module)."""
 
     class RadialFeatures(torch.nn.Module):
         def __init__(self) -> None:
@@ -180,13 +258,8 @@ def radial_features(count: int) -> Any:
 def build_network(hidden: Sequence[int], features: int = 0) -> Any:
     """One branch's MLP 1 -> (``features`` > 0: :func:`radial_features`) -> hidden (tanh) -> 26
     (linear: z, the output u = tanh z is taken by :class:`AmortisedPolicy`), float64."""
-    import torch
-
-    layers: list[Any] = []
-    width = 1
-    if features:
-        layers.append(radial_features(features))
-        width = features
+    layers: list[Any] = [radial_features(features)] if features else []
+    width = features or 1
     for h in hidden:
         layers += [torch.nn.Linear(width, h), torch.nn.Tanh()]
         width = h
@@ -195,10 +268,7 @@ def build_network(hidden: Sequence[int], features: int = 0) -> Any:
 
 
 def build_networks(hidden: Sequence[int], features: int, branches: int) -> Any:
-    """The policy's network: one :func:`build_network` per branch (a ``torch.nn.ModuleList``;
-    its ``state_dict`` is the weights file)."""
-    import torch
-
+    """One :func:`build_network` per branch (a ``torch.nn.ModuleList``, the weights file's)."""
     return torch.nn.ModuleList([build_network(hidden, features) for _ in range(branches)])
 
 
@@ -227,9 +297,7 @@ class AmortisedPolicy(RunPolicy):
 
     # --- forward pass ---------------------------------------------------------------------
     def inputs(self, conditions: np.ndarray, branches: np.ndarray) -> np.ndarray:
-        """(n, 1) each condition as its branch's network reads it: mapped from the branch's
-        domain to [-1, 1] (clipped), so every branch has its whole input range over the
-        conditions it learns, however narrow [-]."""
+        """(n, 1) each condition mapped from its branch's domain to [-1, 1] (clipped) [-]."""
         values = np.asarray(conditions, dtype=np.float64).reshape(-1)
         low, high = self.domains[np.asarray(branches).reshape(-1)].T
         scaled = 2.0 * (values - low) / np.maximum(high - low, 1e-12) - 1.0
@@ -245,8 +313,6 @@ class AmortisedPolicy(RunPolicy):
 
     def pre_activations(self, conditions: np.ndarray, branches: np.ndarray) -> Any:
         """(n, 26) z of each condition's branch (u = tanh z), differentiable."""
-        import torch
-
         values = np.asarray(conditions, dtype=np.float64).reshape(-1)
         chosen = np.asarray(branches).reshape(-1)
         obs = torch.as_tensor(self.inputs(values, chosen), dtype=torch.float64)
@@ -257,26 +323,20 @@ class AmortisedPolicy(RunPolicy):
         return z
 
     def forward(self, conditions: np.ndarray, branches: np.ndarray | None = None) -> Any:
-        """(n, 28) normalised strokes as a float64 tensor, differentiable w.r.t. the weights:
-        each condition's stroke from its branch (``branches``, default :meth:`branch_at`)."""
-        import torch
+        """(n, 28) normalised strokes, a float64 tensor differentiable w.r.t. the weights, each
+        from its branch (``branches``, default :meth:`branch_at`)."""
 
         values = np.asarray(conditions, dtype=np.float64).reshape(-1)
         chosen = self.branch_at(values) if branches is None else np.asarray(branches).reshape(-1)
         return self.assemble(torch.tanh(self.pre_activations(values, chosen)), chosen)
 
     def strokes_of(self, conditions: np.ndarray, branches: np.ndarray | None = None) -> np.ndarray:
-        """(n, 28) normalised strokes in [-1, 1] of the given ``branches`` (default: each
-        condition's, :meth:`branch_at`), no gradient."""
-        import torch
-
+        """(n, 28) normalised strokes in [-1, 1] of :meth:`forward`, no gradient."""
         with torch.no_grad():
             return np.clip(self.forward(conditions, branches).numpy(), -1.0, 1.0)
 
     def assemble(self, u: Any, branches: np.ndarray) -> Any:
         """(n, 28) strokes from the tanh outputs ``u`` (n, 26) of the ``branches`` (n,)."""
-        import torch
-
         centres = torch.as_tensor(self.centres, dtype=torch.float64)
         phase = torch.as_tensor(_OUTPUT_PHASES, dtype=torch.bool)
         shifted = torch.remainder(u + centres + 1.0, 2.0) - 1.0
@@ -302,8 +362,7 @@ class AmortisedPolicy(RunPolicy):
 
     @property
     def training_conditions(self) -> tuple[float, float]:
-        """The range of conditions it was trained over [the condition's unit]: the first
-        branch's start to the last one's end (the first and last training conditions)."""
+        """The range of conditions it was trained over [the condition's unit]."""
         return float(self.domains[0, 0]), float(self.domains[-1, 1])
 
     def policy_data(self) -> dict[str, Any]:
@@ -324,8 +383,7 @@ class AmortisedPolicy(RunPolicy):
 
 def output_centres(targets: Targets, *, pairs_independent: bool) -> np.ndarray:
     """(26,) output centres: the circular mean of the targets' phase (the canonical value for
-    the sweep phases :func:`canonicalise` set, as ``pairs_independent``), 0 for the other
-    coordinates."""
+    the sweep phases :func:`canonicalise` set), 0 for the other coordinates."""
     canonical = (_SWEEP, N_PER_WING + _SWEEP) if pairs_independent else (_SWEEP,)
     centres = np.zeros(len(CONTINUOUS))
     for k, j in enumerate(CONTINUOUS):
@@ -340,17 +398,15 @@ def output_centres(targets: Targets, *, pairs_independent: bool) -> np.ndarray:
 
 
 def regression_outputs(strokes: np.ndarray, centres: np.ndarray) -> np.ndarray:
-    """(K, 26) what the tanh outputs are fitted to for normalised ``strokes`` (K, 28): each
-    continuous coordinate, its phases relative to their centres (wrapped), all within
-    :data:`TARGET_LIMIT`."""
+    """(K, 26) the tanh outputs' targets for normalised ``strokes`` (K, 28): phases relative
+    to their centres (wrapped), all within :data:`TARGET_LIMIT`."""
     u = np.asarray(strokes, dtype=np.float64)[:, list(CONTINUOUS)].copy()
     u[:, _OUTPUT_PHASES] = wrap_normalised(u[:, _OUTPUT_PHASES] - centres[_OUTPUT_PHASES])
     return np.clip(u, -TARGET_LIMIT, TARGET_LIMIT)
 
 
 def is_amortised_run(run_dir: str | Path) -> bool:
-    """Whether ``run_dir`` (or the latest run it names) holds an amortised run (its args.yml
-    says so, or it holds a ``policy.json``)."""
+    """Whether ``run_dir`` (or the latest run it names) holds an amortised run."""
     folder = resolve_run_dir(run_dir)
     try:
         _, args, _ = read_run_args(folder, "")
@@ -367,14 +423,8 @@ def _refuse(path: Path, what: str) -> ValueError:
 
 
 def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
-    """``policy.json``'s ``data`` checked before anything is built (sizes within
-    :class:`~train.amortised_settings.Settings`' limits, arrays finite and consistent, domains
-    and hand-overs inside the reference grid); ValueError naming ``path`` otherwise."""
-    from tandem_env.envs.reference import REFERENCE_GRID, training_conditions
-    from tandem_env.envs.registration import config_class
-    from tandem_env.physics.checks import count, real_array
-    from train.amortised_settings import Settings
-
+    """``policy.json``'s ``data`` checked before anything is built (sizes within ``Settings``'
+    limits, arrays finite and consistent); ValueError naming ``path`` otherwise."""
     if not isinstance(data, dict) or data.get("format") != POLICY_FORMAT:
         raise ValueError(
             f"{path}: format {data.get('format') if isinstance(data, dict) else None!r}; "
@@ -430,39 +480,8 @@ def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
     return {**arrays, "sizes": sizes, "num_timesteps": steps, "env_kwargs": data["env_kwargs"]}
 
 
-def _read_weights(weights: Path, expected: Mapping[str, tuple[int, ...]]) -> Any:
-    """The state_dict in ``weights`` (``torch.load(weights_only=True)``) with the ``expected``
-    names and shapes and finite values; ValueError naming the file otherwise."""
-    import pickle
-
-    import torch
-
-    try:
-        state = torch.load(weights, map_location="cpu", weights_only=True)
-    except (pickle.UnpicklingError, RuntimeError, EOFError, OSError, ValueError) as error:
-        raise _refuse(
-            weights,
-            f"not a state_dict that torch.load(weights_only=True) reads ({type(error).__name__}; "
-            "damaged or tampered), nothing in it was run",
-        ) from None
-    shapes = (
-        {k: tuple(v.shape) for k, v in state.items() if isinstance(v, torch.Tensor)}
-        if isinstance(state, dict)
-        else None
-    )
-    if shapes is None or len(shapes) != len(state) or shapes != dict(expected):
-        raise _refuse(weights, f"its tensors do not match the network {POLICY_FILE} describes")
-    if not all(bool(torch.isfinite(v).all()) for v in state.values()):
-        raise _refuse(weights, "weights that are not finite")
-    return state
-
-
 def load_policy(run_dir: str | Path) -> AmortisedPolicy:
-    """The policy of an amortised run folder (or of the latest run it names), every file
-    checked before the network is built; ValueError naming the file at fault."""
-    import torch
-
-    from tandem_env.envs.reference import REFERENCE_GRID
+    """The policy of an amortised run folder, every file checked before the network is built."""
 
     folder = resolve_run_dir(run_dir)
     args_file, args, env_id = read_run_args(
@@ -493,7 +512,20 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     sizes, n = fields_.pop("sizes"), len(fields_["harmonics"])
     with torch.device("meta"):  # the names and shapes only: nothing is allocated
         skeleton = build_networks(sizes.hidden, sizes.features, n)
-    state = _read_weights(weights, {k: tuple(v.shape) for k, v in skeleton.state_dict().items()})
+    try:
+        state = torch.load(weights, map_location="cpu", weights_only=True)
+    except (pickle.UnpicklingError, RuntimeError, EOFError, OSError, ValueError) as error:
+        raise _refuse(
+            weights,
+            f"not a state_dict that torch.load(weights_only=True) reads ({type(error).__name__}; "
+            "damaged or tampered), nothing in it was run",
+        ) from None
+    shapes = {k: tuple(v.shape) for k, v in getattr(state, "items", dict)() if torch.is_tensor(v)}
+    expected = {k: tuple(v.shape) for k, v in skeleton.state_dict().items()}
+    if not isinstance(state, dict) or len(shapes) != len(state) or shapes != expected:
+        raise _refuse(weights, f"its tensors do not match the network {POLICY_FILE} describes")
+    if not all(bool(torch.isfinite(v).all()) for v in state.values()):
+        raise _refuse(weights, "weights that are not finite")
     network = build_networks(sizes.hidden, sizes.features, n)
     network.load_state_dict(state)
     return AmortisedPolicy(network=network.eval(), env_id=env_id, run_dir=folder, **fields_)

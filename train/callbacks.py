@@ -1,10 +1,6 @@
-"""Callbacks of a training run: physical metrics to TensorBoard, an EvalCallback that resumes,
-checkpoints (:class:`RunCheckpoint`) and Ctrl-C (:class:`StopOnInterrupt`).
-
-SB3's own logger only knows rewards; here every vector step's ``info`` dicts (the model's
-metrics of each evaluated stroke, with its normalised score against the reference optimum,
-docs/reference.md) are averaged into ``physics/*`` scalars, and the best stroke seen so far
-(from :class:`~train.vec.StrokeRecorder`) is logged beside them.
+"""Callbacks of a training run: physical metrics to TensorBoard (each vector step's ``info``
+averaged into ``physics/*`` scalars, beside the best stroke seen so far), an EvalCallback that
+resumes, checkpoints (:class:`RunCheckpoint`) and Ctrl-C (:class:`StopOnInterrupt`).
 """
 
 from __future__ import annotations
@@ -26,14 +22,8 @@ from train.saved import save_checkpoint
 from train.vec import StrokeRecorder
 
 #: ``info`` entries averaged over each vector step into ``physics/<name>``.
-LOGGED_METRICS: tuple[str, ...] = (
-    "objective",
-    "efficiency",
-    "lift_to_weight",
-    "power_per_mass",
-    "constraint_violation",
-    "feasible",
-    "score",
+LOGGED_METRICS: tuple[str, ...] = tuple(
+    "objective efficiency lift_to_weight power_per_mass constraint_violation feasible score".split()
 )
 
 
@@ -51,21 +41,24 @@ class PhysicsLogger(BaseCallback):
             values = [info[name] for info in infos if name in info and info[name] == info[name]]
             if values:
                 self.logger.record_mean(f"physics/{name}", float(np.mean(values)))
-        best = self.recorder.best_info
+        best, recorder = self.recorder.best_info, self.recorder
+        scalars = {"evaluations": recorder.evaluations}
         if best is not None:
-            self.logger.record("physics/best_reward", self.recorder.max_reward)
-            self.logger.record("physics/best_feasible", float(best["feasible"]))
-            self.logger.record("physics/best_objective", float(best["objective"]))
-            best_score = float(best.get("score", np.nan))
-            if not np.isnan(best_score):
-                self.logger.record("physics/best_score", best_score)
-        self.logger.record("physics/evaluations", self.recorder.evaluations)
+            scalars = {
+                "best_reward": recorder.max_reward,
+                "best_feasible": float(best["feasible"]),
+                "best_objective": float(best["objective"]),
+                "best_score": float(best.get("score", np.nan)),
+                **scalars,
+            }
+        for name, value in scalars.items():
+            if name != "best_score" or not np.isnan(value):  # NaN: no reference score
+                self.logger.record(f"physics/{name}", value)
         return True
 
 
 class ResumableEvalCallback(EvalCallback):
-    """``EvalCallback`` that, on a resumed run, starts from ``evaluations.npz``'s rows up to the
-    checkpoint and their best mean reward (SB3's rewrites the file from memory)."""
+    """``EvalCallback`` that, on a resumed run, starts from ``evaluations.npz``'s rows."""
 
     def __init__(self, *args: Any, resume_from_step: int | None = None, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
@@ -80,9 +73,7 @@ class ResumableEvalCallback(EvalCallback):
             return
         try:
             with np.load(path, allow_pickle=False) as data:
-                steps = data["timesteps"]
-                results = data["results"]
-                lengths = data["ep_lengths"]
+                steps, results, lengths = data["timesteps"], data["results"], data["ep_lengths"]
                 successes = data["successes"] if "successes" in data.files else None
         except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
             warnings.warn(
@@ -103,8 +94,7 @@ class ResumableEvalCallback(EvalCallback):
 
 
 class SaveVecNormalize(BaseCallback):
-    """Saves the training VecNormalize statistics (called by EvalCallback on a new best model,
-    so ``best_model.zip`` is loaded with the statistics it was evaluated with)."""
+    """Saves the training VecNormalize statistics of a new best model (``best_model.zip``)."""
 
     def __init__(self, path: Path, verbose: int = 0) -> None:
         super().__init__(verbose)
@@ -118,20 +108,13 @@ class SaveVecNormalize(BaseCallback):
 
 
 class RunCheckpoint(BaseCallback):
-    """Checkpoints every ``save_freq`` env steps, keeping the newest ``keep``.
-
-    Unlike SB3's CheckpointCallback (which saves inside ``on_step``, before an off-policy
-    algorithm stores that step's transitions, so a resumed SAC would miss one vector step of
-    its replay buffer), this saves at the end of a rollout: the buffer holds every transition
-    up to the checkpoint's step. Files are named as CheckpointCallback names them.
-    """
+    """Checkpoints every ``save_freq`` env steps, keeping the newest ``keep``, named as SB3's
+    CheckpointCallback names them; saved at a rollout's end (not inside ``on_step``, before SAC
+    stores that step's transitions), so the replay buffer holds every step up to it."""
 
     def __init__(self, layout: RunLayout, save_freq: int, keep: int, verbose: int = 0) -> None:
         super().__init__(verbose)
-        self.layout = layout
-        self.save_freq = save_freq
-        self.keep = keep
-        self._next = save_freq
+        self.layout, self.save_freq, self.keep, self._next = layout, save_freq, keep, save_freq
 
     def _init_callback(self) -> None:
         self._next = (self.model.num_timesteps // self.save_freq + 1) * self.save_freq
@@ -149,15 +132,13 @@ class RunCheckpoint(BaseCallback):
 
 
 class StopOnInterrupt(BaseCallback):
-    """Ctrl-C (SIGINT) while :meth:`catching` stops ``learn`` at the next env step (not a
-    KeyboardInterrupt wherever it lands); :meth:`save` then checkpoints the last rollout's end
-    (:attr:`boundary`: the unfinished rollout's steps are collected again on resume). A second
-    Ctrl-C raises KeyboardInterrupt at once."""
+    """Ctrl-C (SIGINT) while :meth:`catching` stops ``learn`` at the next env step; :meth:`save`
+    then checkpoints the last rollout's end (:attr:`boundary`). A second Ctrl-C raises
+    KeyboardInterrupt at once."""
 
     def __init__(self) -> None:
         super().__init__()
-        self.requested = False
-        self.boundary = 0
+        self.requested, self.boundary = False, 0
 
     def _init_callback(self) -> None:
         self.boundary = self.model.num_timesteps
@@ -174,8 +155,7 @@ class StopOnInterrupt(BaseCallback):
 
     @contextlib.contextmanager
     def catching(self) -> Iterator[None]:
-        """Catch SIGINT within the block (in the main thread, unless SIGINT is ignored: a
-        background job's), restoring the previous handler afterwards."""
+        """Catch SIGINT within the block (in the main thread, unless SIGINT is ignored)."""
         previous = signal.getsignal(signal.SIGINT)
         if threading.current_thread() is not threading.main_thread() or previous == signal.SIG_IGN:
             yield

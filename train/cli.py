@@ -31,8 +31,7 @@ def option(*flags: str, default: Any = MISSING, factory: Any = MISSING, **settin
 
 
 def field_docs(cls: type) -> dict[str, str]:
-    """The docstring under each field of the dataclass ``cls``, read from its source, one line
-    each (the help of its options)."""
+    """The docstring under each field of the dataclass ``cls``, one line each."""
     body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0].body  # type: ignore[attr-defined]
     return {
         node.target.id: " ".join(doc.value.value.split())

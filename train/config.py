@@ -1,16 +1,14 @@
-"""Training configuration: zoo-format hyperparameter files, ``key=value`` parsing, the run config.
-
-The hyperparameter files (``train/hyperparams/<algo>.yml``) follow rl-baselines3-zoo: one entry
-per env id plus a ``default`` entry, each a flat mapping of the model's constructor arguments
-and the zoo's own keys (``n_envs``, ``n_timesteps``, ``policy``, ``policy_kwargs`` as a Python
-string, ``normalize``, ``env_kwargs``). :func:`resolve_hyperparams` turns one entry (plus the
-overrides of the command line) into a :class:`Hyperparams` whose ``model_kwargs`` go straight
-to the SB3 constructor, exactly as the zoo preprocesses them.
+"""Training configuration: zoo-format hyperparameter files (``train/hyperparams/<algo>.yml``,
+one entry per env id plus ``default``), their preprocessing as the zoo's
+(:func:`resolve_hyperparams`) and the run config (:class:`TrainConfig`).
 """
 
 from __future__ import annotations
 
 import ast
+import contextlib
+import functools
+import importlib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
@@ -29,10 +27,9 @@ from tandem_env.physics.checks import count, is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
 from train.cli import option
 
-#: The Stable-Baselines3 algorithms (``python -m train``'s RL path, :class:`TrainConfig`).
+#: The Stable-Baselines3 algorithms.
 ALGOS = ("ppo", "sac")
-#: Every ``--algo`` of ``python -m train``: the RL algorithms and ``amortised``, one network
-#: from the condition to a stroke trained on the reference optima (``train.amortised``).
+#: Every ``--algo`` of ``python -m train``: the RL algorithms and ``amortised`` (``train.amortised``).
 AMORTISED = "amortised"
 TRAINERS: tuple[str, ...] = (*ALGOS, AMORTISED)
 DEVICES = ("cpu", "cuda", "auto")
@@ -42,44 +39,25 @@ HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 #: Keys of a zoo entry that are not model constructor arguments.
 ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "policy_kwargs", "normalize", "env_kwargs")
 #: Zoo keys this trainer does not implement; refused rather than silently ignored.
-UNSUPPORTED_ZOO_KEYS = (
-    "env_wrapper",
-    "vec_env_wrapper",
-    "callback",
-    "frame_stack",
-    "monitor_kwargs",
-    "replay_buffer_class",
-    "replay_buffer_kwargs",
-    "noise_type",
-    "noise_std",
+UNSUPPORTED_ZOO_KEYS = tuple(
+    "env_wrapper vec_env_wrapper callback frame_stack monitor_kwargs replay_buffer_class "
+    "replay_buffer_kwargs noise_type noise_std".split()
 )
 #: Constructor arguments the zoo turns from "lin_<x>" strings into linear schedules.
 SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
-#: Ranges of the numeric PPO / SAC hyperparameters that SB3 takes unchecked (``gamma = 2``
-#: trains on a diverging return, ``n_epochs = 0`` fails after the first rollout): (integer?,
-#: low, high). A string (SAC's ``ent_coef = "auto"``) and a schedule are left to SB3.
+#: (integer?, low, high) of the numeric hyperparameters SB3 takes unchecked (``gamma = 2``
+#: diverges); a string (SAC's ``ent_coef = "auto"``) and a schedule are left to SB3.
 HYPERPARAM_RANGES: dict[str, tuple[bool, float, float]] = {
-    "n_steps": (True, 1, math.inf),
-    "batch_size": (True, 1, math.inf),
-    "n_epochs": (True, 1, math.inf),
-    "buffer_size": (True, 1, math.inf),
+    **dict.fromkeys(("n_steps", "batch_size", "n_epochs", "buffer_size"), (True, 1, math.inf)),
     "learning_starts": (True, 0, math.inf),
-    "gamma": (False, 0.0, 1.0),
-    "gae_lambda": (False, 0.0, 1.0),
-    "tau": (False, 0.0, 1.0),
-    "ent_coef": (False, 0.0, math.inf),
-    "vf_coef": (False, 0.0, math.inf),
-    "max_grad_norm": (False, 0.0, math.inf),
+    **dict.fromkeys(("gamma", "gae_lambda", "tau"), (False, 0.0, 1.0)),
+    **dict.fromkeys(("ent_coef", "vf_coef", "max_grad_norm"), (False, 0.0, math.inf)),
 }
 
-# Modules whose classes a ``policy_kwargs`` string may name (activation functions, optimisers),
-# under the zoo's spellings.
+# Modules whose classes a ``policy_kwargs`` string may name, under the zoo's spellings.
 _POLICY_KWARGS_MODULES = {
-    "nn": "torch.nn",
-    "th.nn": "torch.nn",
-    "torch.nn": "torch.nn",
-    "th.optim": "torch.optim",
-    "torch.optim": "torch.optim",
+    **dict.fromkeys(("nn", "th.nn", "torch.nn"), "torch.nn"),
+    **dict.fromkeys(("th.optim", "torch.optim"), "torch.optim"),
 }
 _POLICY_KWARGS_ALLOWED = (
     "allowed names: numbers, strings, True/False/None, lists, tuples, {...}, dict(key=...), "
@@ -90,11 +68,8 @@ _POLICY_KWARGS_ALLOWED = (
 
 # --- parsing ---------------------------------------------------------------------------------
 def eval_policy_kwargs(text: str) -> dict[str, Any]:
-    """The zoo's ``policy_kwargs`` string, e.g. ``"dict(net_arch=[64, 64], log_std_init=-1)"``.
-
-    The zoo evaluates it; here it is read from its syntax tree and nothing runs (literals,
-    ``dict``/``list``/``tuple`` and ``torch.nn``/``torch.optim`` classes, looked up).
-    """
+    """The zoo's ``policy_kwargs`` string, e.g. ``"dict(net_arch=[64, 64])"``, read from its
+    syntax tree (the zoo evaluates it; here nothing runs)."""
     try:
         tree = ast.parse(text, mode="eval")
         value = _policy_value(tree.body, text)
@@ -135,8 +110,6 @@ def _policy_value(node: ast.expr, text: str) -> Any:
         # a chain of plain names unparses as itself; anything else names no module here
         module = _POLICY_KWARGS_MODULES.get(ast.unparse(node.value))
         if module is not None:
-            import importlib
-
             found = getattr(importlib.import_module(module), node.attr, None)
             if isinstance(found, type) and not node.attr.startswith("_"):
                 return found
@@ -153,25 +126,21 @@ def load_hyperparams_file(path: str | Path) -> dict[str, dict[str, Any]]:
         raise ValueError(f"hyperparameter file {path} does not exist; allowed: a zoo-format .yml")
     try:
         data = parse_yaml(path.read_text(encoding="utf-8"), BoundedLoader)
-    except UnicodeDecodeError as error:
-        raise ValueError(
-            f"hyperparameter file {path} is not UTF-8 text (byte {error.start}); allowed: a "
-            "zoo-format .yml"
-        ) from None
-    except (yaml.YAMLError, RecursionError) as error:
+    except (UnicodeDecodeError, yaml.YAMLError, RecursionError) as error:
         # a safe loader: a Python tag (the zoo's files have none) is refused, not built
-        raise ValueError(
-            f"hyperparameter file {path} is not plain YAML ({' '.join(str(error).split())}); "
-            "allowed: a zoo-format .yml"
-        ) from None
+        what = (
+            f"is not UTF-8 text (byte {error.start})"
+            if isinstance(error, UnicodeDecodeError)
+            else f"is not plain YAML ({' '.join(str(error).split())})"
+        )
+        raise ValueError(f"hyperparameter file {path} {what}; allowed: a zoo-format .yml") from None
     if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
         raise ValueError(f"{path}: expected a mapping of env id -> mapping of hyperparameters")
     return data
 
 
 def load_entry(algo: str, env_id: str, path: str | Path | None = None) -> dict[str, Any]:
-    """The entry for ``env_id`` (else ``default``) of ``algo``'s hyperparameter file (``path``,
-    default ``train/hyperparams/<algo>.yml``; ``algo`` checked by the caller), as the zoo."""
+    """The entry for ``env_id`` (else ``default``) of ``algo``'s (or ``path``'s) yml, as the zoo."""
     file = Path(path) if path is not None else HYPERPARAMS_DIR / f"{algo}.yml"
     entries = load_hyperparams_file(file)
     if env_id in entries:
@@ -212,22 +181,17 @@ def resolve_hyperparams(
     n_envs: int | None = None,
     n_timesteps: int | None = None,
 ) -> Hyperparams:
-    """Preprocess ``algo``'s zoo entry as ``rl_zoo3.exp_manager`` does (schedules,
-    policy_kwargs, normalize)."""
-    raw = {**entry, **(overrides or {})}
-    if n_envs is not None:
-        raw["n_envs"] = n_envs
-    if n_timesteps is not None:
-        raw["n_timesteps"] = n_timesteps
+    """Preprocess ``algo``'s zoo entry as ``rl_zoo3.exp_manager`` does."""
+    given = {"n_envs": n_envs, "n_timesteps": n_timesteps}
+    raw = {**entry, **(overrides or {}), **{k: v for k, v in given.items() if v is not None}}
     unsupported = sorted(set(raw) & set(UNSUPPORTED_ZOO_KEYS))
     if unsupported:
         raise ValueError(
             f"hyperparameters {unsupported} are zoo features this trainer does not implement; "
             "allowed: model constructor arguments and " + ", ".join(ZOO_KEYS)
         )
-    saved = {key: raw[key] for key in sorted(raw)}
     params = dict(raw)
-    count = _positive_int("n_envs", params.pop("n_envs", 1))
+    envs = _positive_int("n_envs", params.pop("n_envs", 1))
     if "n_timesteps" not in params:
         raise ValueError("hyperparameters have no n_timesteps; allowed: an integer >= 1")
     timesteps = _positive_int("n_timesteps", params.pop("n_timesteps"))
@@ -252,7 +216,19 @@ def resolve_hyperparams(
             f"net_arch = {arch!r} has at least {network_parameters(arch):,} weights; allowed: "
             f"networks of at most {MAX_NETWORK_PARAMETERS:,} (MAX_NETWORK_PARAMETERS)"
         )
-    normalize = _normalize_kwargs(params.pop("normalize", False), params.get("gamma"))
+    normalize = params.pop("normalize", None)
+    if isinstance(normalize, str):
+        normalize = eval_policy_kwargs(normalize)
+    if normalize is True or isinstance(normalize, dict):
+        normalize = {} if normalize is True else dict(normalize)
+        # As the zoo: the reward normaliser discounts with the algorithm's gamma.
+        if params.get("gamma") is not None:
+            normalize.setdefault("gamma", params["gamma"])
+    elif normalize is not False and normalize is not None:
+        raise ValueError(
+            f"normalize = {normalize!r}; allowed: false, true, or VecNormalize kwargs as a dict "
+            "or a 'dict(norm_obs=..., norm_reward=...)' string"
+        )
     env_kwargs = params.pop("env_kwargs", None) or {}
     if not isinstance(env_kwargs, dict):
         raise ValueError(f"env_kwargs = {env_kwargs!r}; allowed: a mapping of env options")
@@ -264,34 +240,30 @@ def resolve_hyperparams(
             kind = "an integer" if integer else "a number"
             upper = "" if high == math.inf else f" to {high:g}"
             raise ValueError(f"{key} = {value!r}; allowed: {kind} from {low:g}{upper}")
-    for key in SCHEDULE_KEYS:
-        if key in params:
-            params[key] = _schedule(key, params[key])
+    for key in set(SCHEDULE_KEYS) & set(params):
+        params[key] = _schedule(key, params[key])
     if isinstance(params.get("train_freq"), list):
         params["train_freq"] = tuple(params["train_freq"])
     return Hyperparams(
         algo=algo,
-        n_envs=count,
+        n_envs=envs,
         n_timesteps=timesteps,
         policy=policy,
         policy_kwargs=MappingProxyType(policy_kwargs),
-        normalize=None if normalize is None else MappingProxyType(normalize),
+        normalize=MappingProxyType(normalize) if isinstance(normalize, dict) else None,
         env_kwargs=MappingProxyType(dict(env_kwargs)),
         model_kwargs=MappingProxyType(params),
-        saved=MappingProxyType(saved),
+        saved=MappingProxyType({key: raw[key] for key in sorted(raw)}),
     )
 
 
-#: The most weights and biases the networks of one ``net_arch`` may have [-]: 10⁸ is 0.4 GB of
-#: float32, and the optimiser keeps two more copies (SAC also a target critic); the yml entries'
-#: networks have about 10⁵. Counted from the layer sizes before anything is allocated
-#: (:func:`network_parameters`), so a mistyped size is refused instead of an allocator error.
+#: The most weights and biases the networks of one ``net_arch`` may have [-] (10⁸: 0.4 GB of
+#: float32; the yml's networks have about 10⁵), counted before anything is allocated.
 MAX_NETWORK_PARAMETERS = 10**8
 
 
 def network_parameters(arch: Any) -> int:
-    """A lower bound on the weights and biases of the networks of a valid ``net_arch`` [-]
-    (each list of sizes from at least one input to at least one output)."""
+    """A lower bound on the weights and biases of a valid ``net_arch``'s networks [-]."""
     if isinstance(arch, Mapping):
         return sum(network_parameters(sizes) for sizes in arch.values())
     sizes = [1, *(int(n) for n in arch), 1]
@@ -299,8 +271,7 @@ def network_parameters(arch: Any) -> int:
 
 
 def _layer_sizes(arch: Any) -> bool:
-    """Whether ``arch`` is an SB3 ``net_arch``: layer sizes >= 1 (a zero-width layer trains
-    without an error and without any hidden unit), or a dict of them per network."""
+    """Whether ``arch`` is an SB3 ``net_arch``: layer sizes >= 1, or a dict of them per network."""
     if isinstance(arch, Mapping):
         return all(_layer_sizes(v) for v in arch.values())
     return isinstance(arch, list | tuple) and all(is_integer(n) and n >= 1 for n in arch)
@@ -316,40 +287,14 @@ def _positive_int(name: str, value: Any) -> int:
     return int(value)
 
 
-def _normalize_kwargs(value: Any, gamma: Any) -> dict[str, Any] | None:
-    if value is False or value is None:
-        return None
-    if value is True:
-        kwargs: dict[str, Any] = {}
-    elif isinstance(value, str):
-        kwargs = eval_policy_kwargs(value)
-    elif isinstance(value, dict):
-        kwargs = dict(value)
-    else:
-        raise ValueError(
-            f"normalize = {value!r}; allowed: false, true, or VecNormalize kwargs as a dict or "
-            "a 'dict(norm_obs=..., norm_reward=...)' string"
-        )
-    # As the zoo: the reward normaliser discounts with the algorithm's gamma.
-    if gamma is not None:
-        kwargs.setdefault("gamma", gamma)
-    return kwargs
-
-
 def _schedule(key: str, value: Any) -> Any:
     from stable_baselines3.common.utils import LinearSchedule
 
-    if isinstance(value, str):
-        kind, _, number = value.partition("_")
-        try:
-            initial = float(number)
-        except ValueError:
-            initial = math.nan
-        if kind != "lin" or not math.isfinite(initial):
-            raise ValueError(f"{key} = {value!r}; allowed: a number or 'lin_<initial value>'")
-        # The zoo's linear schedule: from `initial` at the start to 0 at the end.
-        return LinearSchedule(initial, 0.0, 1.0)
-    if not is_real(value):
+    kind, _, number = str(value).partition("_")
+    with contextlib.suppress(ValueError):
+        if isinstance(value, str) and kind == "lin" and math.isfinite(initial := float(number)):
+            return LinearSchedule(initial, 0.0, 1.0)  # the zoo's: from `initial` down to 0
+    if isinstance(value, str) or not is_real(value):
         raise ValueError(f"{key} = {value!r}; allowed: a number or 'lin_<initial value>'")
     return float(value)
 
@@ -371,19 +316,16 @@ def check_algo(algo: str) -> str:
 
 
 # --- the run configuration ---------------------------------------------------------------------
-#: The most parallel envs of a run [-]: they are stepped by one model call of that many strokes
-#: (``MAX_BATCH_STROKES``); SB3 keeps per-env buffers besides.
+#: The most parallel envs of a run [-]: one model call of that many strokes steps them.
 MAX_ENVS = MAX_BATCH_STROKES
-#: The most env steps of a run [-]: 10¹², far beyond any training run, and inside the int64
-#: step counters of SB3 and numpy (2**63 wraps them).
+#: The most env steps of a run [-]: 10¹², inside SB3's and numpy's int64 step counters.
 MAX_TIMESTEPS = 10**12
 #: The largest training seed: SB3 seeds numpy's legacy generator, which takes 32 bits.
 MAX_SEED = 2**32 - 1
 
 
 def check_seed(value: Any, name: str = "seed") -> int:
-    """``value`` as a training seed [-]; ValueError naming ``name`` unless it is an integer from 0
-    to :data:`MAX_SEED`."""
+    """``value`` as a training seed [-]; ValueError naming ``name`` otherwise."""
     if not is_integer(value) or not 0 <= value <= MAX_SEED:
         raise ValueError(f"{name} = {value!r}; allowed: an integer from 0 to 2**32 - 1")
     return int(value)
@@ -391,12 +333,9 @@ def check_seed(value: Any, name: str = "seed") -> int:
 
 @dataclass(frozen=True, kw_only=True)
 class TrainConfig:
-    """Everything one training run is made from (the command line, as data: each field is an
-    option of ``python -m train``, its docstring the option's help).
-
-    ``n_envs``, ``n_timesteps`` None take the hyperparameter file's values; ``hyperparams``
-    and ``env_kwargs`` override the file's entry key by key.
-    """
+    """Everything one training run is made from: each field an option of ``python -m train``,
+    its docstring the help. ``n_envs``, ``n_timesteps`` None take the yml's values;
+    ``hyperparams`` and ``env_kwargs`` override its entry key by key."""
 
     algo: str = option("--algo", choices=TRAINERS, amortised=True)
     """RL algorithm, or amortised (a network from condition to stroke)."""
@@ -414,7 +353,7 @@ class TrainConfig:
         "-params", "--hyperparams", factory=dict, amortised=True
     )
     """Override hyperparameters of the yml entry (amortised: its settings,
-    train.amortised_settings.Settings)."""
+    train.amortised_policy.Settings)."""
     hyperparams_file: Path | None = option(
         "-conf", "--conf-file", default=None, metavar="CONF_FILE"
     )
@@ -452,56 +391,48 @@ class TrainConfig:
     """Torch device of the model."""
 
     def __post_init__(self) -> None:
+        put = functools.partial(object.__setattr__, self)
         for spec in fields(self):  # the fields with choices: algo, device
             value, allowed = getattr(self, spec.name), spec.metadata.get("choices")
             if allowed and value not in allowed:
                 raise ValueError(f"{spec.name} = {value!r}; allowed: {', '.join(allowed)}")
         check_env_id(self.env_id, "env")
         for name in ("n_timesteps", "n_envs"):
-            value = getattr(self, name)
-            if value is not None:
-                object.__setattr__(self, name, _positive_int(name, value))
-        object.__setattr__(self, "seed", check_seed(self.seed))
+            if getattr(self, name) is not None:
+                put(name, _positive_int(name, getattr(self, name)))
+        put("seed", check_seed(self.seed))
         for name, low in (("verbose", 0), ("torch_threads", 1)):
-            object.__setattr__(self, name, count(getattr(self, name), name, low))
+            put(name, count(getattr(self, name), name, low))
         if self.verbose > 2:
             raise ValueError(f"verbose = {self.verbose!r}; allowed: 0 quiet, 1 info, 2 debug")
         for name in ("eval_freq", "save_freq"):
-            value = getattr(self, name)
-            if not is_integer(value):
+            if not is_integer(value := getattr(self, name)):
                 raise ValueError(f"{name} = {value!r}; allowed: an integer (<= 0 disables)")
-            object.__setattr__(self, name, int(value))
+            put(name, int(value))
         if not isinstance(self.log_table, bool):
             raise ValueError(f"log_table = {self.log_table!r}; allowed: True or False")
         if self.log_interval is not None:
-            object.__setattr__(self, "log_interval", count(self.log_interval, "log_interval"))
+            put("log_interval", count(self.log_interval, "log_interval"))
         for name in ("env_kwargs", "hyperparams"):
-            value = getattr(self, name)
-            if not isinstance(value, Mapping):
+            if not isinstance(value := getattr(self, name), Mapping):
                 raise ValueError(f"{name} = {value!r}; allowed: a mapping of keyword -> value")
             value = dict(value)
             if name == "env_kwargs" and "insect" in value:
                 # what differs from the paper's specimen, read now (a file, before any work)
                 insect = insect_keyword(value.pop("insect"))
-                if insect is not None:
-                    value["insect"] = insect
-            object.__setattr__(self, name, MappingProxyType(value))
+                value.update({} if insect is None else {"insect": insect})
+            put(name, MappingProxyType(value))
         # a file, a dangling link or an empty name: said here, not as errno text when a run starts
         output_directory(self.log_folder, "log_folder (-f)", write=False)
         for name in ("log_folder", "run_dir", "hyperparams_file"):
             if getattr(self, name) is not None:
-                object.__setattr__(self, name, Path(getattr(self, name)))
+                put(name, Path(getattr(self, name)))
         if self.resume and self.run_dir is not None:
             raise ValueError(
                 "give resume=True (the latest run in log_folder) or run_dir (that run), not both"
             )
-        if self.algo == AMORTISED:
-            self._check_amortised()
 
-    def _check_amortised(self) -> None:
-        """An amortised run takes the options marked ``amortised`` only: any other one given
-        (not its default) is refused, naming its flag."""
-
+        # an amortised run takes the options marked amortised only: any other one given is refused
         def flag(spec: Any) -> str:
             return next(f for f in (*spec.metadata["flags"], spec.metadata.get("off")) if "--" in f)
 
@@ -510,7 +441,7 @@ class TrainConfig:
             for f in fields(self)
             if not f.metadata.get("amortised") and getattr(self, f.name) != f.default
         ]
-        if given:
+        if self.algo == AMORTISED and given:
             allowed = [flag(f) for f in fields(self) if f.metadata.get("amortised")]
             raise ValueError(
                 f"{', '.join(given)}: option(s) of ppo and sac, not of --algo amortised; allowed "
@@ -518,8 +449,7 @@ class TrainConfig:
             )
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain-YAML form (``args.yml``): every field (:func:`plain`), under its zoo name where
-        it has one (:data:`ARGS_KEYS`), marked as written by this project (``made_by``)."""
+        """Plain-YAML form (``args.yml``): every field, under its zoo name, and ``made_by``."""
         settings = {ARGS_KEYS.get(f.name, f.name): getattr(self, f.name) for f in fields(self)}
         return plain({"made_by": MADE_BY, **settings})
 
@@ -534,8 +464,7 @@ ARGS_KEYS = {"env_id": "env", "hyperparams_file": "conf_file", "progress_bar": "
 
 
 def plain(value: Any) -> Any:
-    """YAML-safe form (config.yml, args.yml) by :func:`tandem_env.io.files.to_jsonable`;
-    anything it cannot convert is kept, for ``yaml.safe_dump`` to accept or refuse."""
+    """YAML-safe form (config.yml, args.yml); what ``to_jsonable`` cannot convert is kept."""
     return to_jsonable(value, default=lambda kept: kept)
 
 

@@ -1,8 +1,6 @@
-"""``python -m train.curves``: reward curves of one or more runs (one line per run / seed).
-
-Left: the mean reward of the strokes the training env evaluated (from the Monitor CSVs, in
-bins of env steps). Right: the objective (η or F̄) of the best *feasible* stroke seen so far
-and, as markers, the deterministic policy's reward at each evaluation (evaluations.npz)::
+"""``python -m train.curves``: reward curves of one or more runs (one line per run / seed):
+the mean training reward (Monitor CSVs, binned), and the best feasible objective (η or F̄)
+seen so far with the deterministic policy's reward at each evaluation (evaluations.npz)::
 
     python -m train.curves --runs logs/ppo/TandemWing-LevelFlight-v0_{1,2,3} \\
         --out results/figures/ppo_level_v15.png --title "PPO, level flight, V = 1.5 m/s"
@@ -45,42 +43,27 @@ def read_run(run_dir: str | Path) -> Curves:
     """Monitor CSVs (every segment, in order) and evaluations.npz of a run folder."""
     run_dir = Path(run_dir)
     layout = RunLayout(run_dir, read_run_args(run_dir, "a run folder of python -m train")[2])
-    rewards: list[float] = []
-    objective: list[float] = []
-    feasible: list[bool] = []
+    rows = []
     for path in layout.monitor_files():
         with path.open() as stream:
             stream.readline()  # JSON header
-            for row in csv.DictReader(stream):
-                rewards.append(float(row["r"]))
-                objective.append(float(row["objective"]))
-                feasible.append(row["feasible"] == "True")
-    reward = np.asarray(rewards)
-    feasible_objective = np.where(np.asarray(feasible, dtype=bool), np.asarray(objective), -np.inf)
-    best = np.maximum.accumulate(feasible_objective) if len(reward) else np.zeros(0)
+            rows += [
+                (float(r["r"]), float(r["objective"]), r["feasible"] == "True")
+                for r in csv.DictReader(stream)
+            ]
+    reward, objective, feasible = np.array(rows, dtype=np.float64).reshape(-1, 3).T
+    best = np.maximum.accumulate(np.where(feasible == 1.0, objective, -np.inf))
     best = np.where(np.isfinite(best), best, np.nan)
-    eval_steps = np.zeros(0)
-    eval_reward = np.zeros(0)
+    eval_steps, eval_reward = np.zeros(0), np.zeros(0)
     if layout.evaluations.is_file():
         with np.load(layout.evaluations) as data:
-            eval_steps = data["timesteps"]
-            eval_reward = data["results"].mean(axis=1)
-    wall = None
-    if layout.result_file.is_file():
-        wall = read_json(layout.result_file).get("wall_time_s")
+            eval_steps, eval_reward = data["timesteps"], data["results"].mean(axis=1)
+    wall = (
+        read_json(layout.result_file).get("wall_time_s") if layout.result_file.is_file() else None
+    )
     return Curves(
         run_dir.name, np.arange(1, len(reward) + 1), reward, best, eval_steps, eval_reward, wall
     )
-
-
-def binned_mean(steps: np.ndarray, values: np.ndarray, bins: int) -> tuple[np.ndarray, np.ndarray]:
-    """Mean of ``values`` in ``bins`` equal bins of ``steps`` (bin centres, means)."""
-    edges = np.linspace(0, steps[-1], bins + 1)
-    index = np.clip(np.searchsorted(edges, steps, side="left") - 1, 0, bins - 1)
-    sums = np.bincount(index, values, minlength=bins)
-    counts = np.bincount(index, minlength=bins)
-    keep = counts > 0
-    return 0.5 * (edges[:-1] + edges[1:])[keep], sums[keep] / counts[keep]
 
 
 def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60) -> Path:
@@ -97,8 +80,12 @@ def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60
         color = f"C{k}"
         label = c.label + ("" if c.wall_time is None else f" ({c.wall_time:.0f} s)")
         if len(c.steps):
-            x, y = binned_mean(c.steps, c.reward, bins)
-            left.plot(x, y, color=color, lw=1.2, label=label)
+            # the mean reward in equal bins of env steps
+            edges = np.linspace(0, c.steps[-1], bins + 1)
+            index = np.clip(np.searchsorted(edges, c.steps, side="left") - 1, 0, bins - 1)
+            sums, counts = np.bincount(index, c.reward, bins), np.bincount(index, minlength=bins)
+            x, keep = 0.5 * (edges[:-1] + edges[1:]), counts > 0
+            left.plot(x[keep], sums[keep] / counts[keep], color=color, lw=1.2, label=label)
             right.plot(
                 c.steps[:: max(1, len(c.steps) // 400)],
                 c.best_feasible[:: max(1, len(c.steps) // 400)],

@@ -21,54 +21,18 @@ from train.entry import exit_on_bad_environment
 # importing tandem_env checks numba's environment: a bad setting is one line and status 2
 with exit_on_bad_environment("python -m train.envelope"):
     from tandem_env.io.command import command_line
+from tandem_env.envs.registration import condition_keywords
 from tandem_env.io.files import output_directory, write_csv_atomic
 from train.cli import command, option
 
 #: Columns of envelope.csv.
-COLUMNS: tuple[str, ...] = (
-    "condition",
-    "condition_value",
-    "condition_unit",
-    "objective_name",
-    "objective",
-    "reward",
-    "feasible",
-    "score",
-    "efficiency",
-    "lift_to_weight",
-    "power_per_mass",
-    "excess_vertical",
-    "excess_horizontal",
-    "constraint_violation",
-    "trained_at",
-    "evaluations",
-    "training_timesteps",
-    "model",
-    "run_dir",
+COLUMNS: tuple[str, ...] = tuple(
+    "condition condition_value condition_unit objective_name objective reward feasible score "
+    "efficiency lift_to_weight power_per_mass excess_vertical excess_horizontal "
+    "constraint_violation trained_at evaluations training_timesteps model run_dir".split()
 )
-
-
-def sweep_conditions(task: str) -> tuple[float, ...]:
-    """The task's declared sweep (its env config's ``CONDITION.sweep``)."""
-    from agents.tasks import get_task
-
-    declared = get_task(task).declaration.condition
-    if declared is None:
-        raise ValueError(f"task {task!r} declares no sweep; give the conditions")
-    return declared.sweep
-
-
-def _sweeps_text() -> str:
-    """Each declared task's sweep, for ``--help``."""
-    from agents.tasks import available_tasks, get_task
-
-    parts = []
-    for name in available_tasks():
-        declared = get_task(name).declaration.condition
-        if declared is not None:
-            values = ", ".join(f"{v:g}" for v in declared.sweep)
-            parts.append(f"{name}: {declared.keyword} {values} {declared.unit}")
-    return "; ".join(parts)
+#: The columns that are a record's attributes.
+RECORD_COLUMNS = COLUMNS[3:8]
 
 
 def evaluate_envelope(
@@ -86,15 +50,16 @@ def evaluate_envelope(
     folder may hold a newer model under the same name)."""
     from agents.harness import prepare
     from agents.runner import run_jobs
-    from agents.tasks import task_of
-    from tandem_env.envs.registration import condition_keywords
+    from agents.tasks import get_task, task_of
     from train.trained_policy import TrainingMismatchWarning, load_policy
 
     policy = load_policy(run_dir, which)  # type: ignore[arg-type]
     task = task_of(policy.env_id)
     # The harness sets the condition itself; every other training option is kept.
     env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
-    values = tuple(conditions) if conditions is not None else sweep_conditions(task)
+    if conditions is None and (declared := get_task(task).declaration.condition) is None:
+        raise ValueError(f"task {task!r} declares no sweep; give the conditions")
+    values = tuple(conditions) if conditions is not None else declared.sweep
     out = Path(out_dir)
     with warnings.catch_warnings():
         # Said once, for every condition, by the trained_at column (and main's note).
@@ -115,18 +80,14 @@ def evaluate_envelope(
     rows = []
     for value, job in zip(values, jobs, strict=True):
         record = records[job.job.key]
-        metrics = record.metrics
+        condition = record.condition
         rows.append(
             {
-                "condition": record.condition.name,
-                "condition_value": record.condition.value,
-                "condition_unit": record.condition.unit,
-                "objective_name": record.objective_name,
-                "objective": record.objective,
-                "reward": record.reward,
-                "feasible": record.feasible,
-                "score": record.score,
-                **{k: metrics.get(k) for k in COLUMNS if k in metrics},
+                "condition": condition.name,
+                "condition_value": condition.value,
+                "condition_unit": condition.unit,
+                **{k: getattr(record, k) for k in RECORD_COLUMNS},
+                **{k: record.metrics[k] for k in COLUMNS if k in record.metrics},
                 "trained_at": policy.trained_at(float(value)),
                 "trained_over": policy.training_conditions,  # not a column: main's note
                 "evaluations": record.evaluations,
@@ -161,12 +122,19 @@ class EnvelopeOptions:
 
 @command_line
 def main(argv: Sequence[str] | None = None) -> int:
+    from agents.tasks import available_tasks, get_task
+
     script = Path(sys.argv[0]).name == "tandem-envelope"
+    sweeps = [
+        f"{name}: {d.keyword} {', '.join(f'{v:g}' for v in d.sweep)} {d.unit}"
+        for name in available_tasks()
+        if (d := get_task(name).declaration.condition) is not None
+    ]
     parser, args = command(
         EnvelopeOptions,
         argv,
         prog="tandem-envelope" if script else "python -m train.envelope",
-        epilog=f"The tasks' sweeps (the default --conditions): {_sweeps_text()}",
+        epilog=f"The tasks' sweeps (the default --conditions): {'; '.join(sweeps)}",
     )
     try:
         rows = evaluate_envelope(args.run, args.out, conditions=args.conditions, which=args.model)
@@ -182,8 +150,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     outside = [row for row in rows if not row["trained_at"]]
     if outside:
-        from agents.tasks import get_task
-
         seen = outside[0]["trained_over"]
         declared = get_task(outside[0]["task"]).declaration.condition
         ranged = "a range" if declared is None else declared.range_keyword

@@ -1,8 +1,6 @@
 """Stable-Baselines3 models as harness methods (docs/training.md, "Through the harness"):
-``policy:RUN_DIR``, a policy trained by ``python -m train`` asked once for its deterministic
-stroke, and ``ppo`` / ``sac``, trained at the harness's condition within its budget of env
-steps. Registered with the harness when imported (the provider :mod:`agents.methods` imports
-on first use, so ``agents`` imports SB3 only when asked).
+``policy:RUN_DIR`` (a trained policy asked once for its stroke) and ``ppo`` / ``sac`` (trained
+within the harness's budget of env steps); registered with the harness when imported.
 """
 
 from __future__ import annotations
@@ -43,33 +41,24 @@ from train.vec import StrokeRecorder
 if TYPE_CHECKING:
     from agents.tasks import TaskSpec
 
+_SB3 = "Stable-Baselines3 implementation (Raffin et al. 2021, JMLR 22(268))"
 CITATIONS: dict[str, str] = {
-    "ppo": (
-        "PPO (Schulman et al. 2017, arXiv:1707.06347), Stable-Baselines3 implementation "
-        "(Raffin et al. 2021, JMLR 22(268))"
-    ),
-    "sac": (
-        "SAC (Haarnoja et al. 2018, ICML / arXiv:1812.05905), Stable-Baselines3 implementation "
-        "(Raffin et al. 2021, JMLR 22(268))"
-    ),
+    "ppo": f"PPO (Schulman et al. 2017, arXiv:1707.06347), {_SB3}",
+    "sac": f"SAC (Haarnoja et al. 2018, ICML / arXiv:1812.05905), {_SB3}",
     "amortised": AMORTISED_CITATION,
 }
 
-# The budget notices this process has printed (TrainingMethod._announce_budget).
+# The budget notices this process has printed (TrainingMethod.search).
 _ANNOUNCED: set[tuple[Any, ...]] = set()
 # Settings of the training methods that are not hyperparameter overrides.
 _TRAINING_SETTINGS = ("n_envs", "conf_file", "torch_threads", "log_dir")
-
-
-# The suffixes of the files a run's policy is read from (train.run_folder.RunLayout, and an amortised
-# run's weights and policy.json): what PolicyMethod.identity hashes.
+# The suffixes of the files a run's policy is read from: what PolicyMethod.identity hashes.
 _POLICY_SUFFIXES = (".zip", ".pkl", ".pt", ".json", ".yml")
 
 
 @functools.lru_cache(maxsize=256)
 def _file_digest(path: Path, size: int, modified: int) -> str:
-    """SHA-256 of a file's bytes, read once per process while its ``size`` and ``modified``
-    time (``st_mtime_ns``) stay."""
+    """SHA-256 of a file's bytes, read once per process while its size and mtime stay."""
     with path.open("rb") as handle:
         return hashlib.file_digest(handle, "sha256").hexdigest()
 
@@ -87,8 +76,7 @@ class PolicyMethod:
         return f"policy:{self.run_dir}"
 
     def identity(self) -> str:
-        """Part of its jobs' keys: a digest of the run folder's name and of the files a policy
-        is read from, so a run trained again in place is another job."""
+        """Part of its jobs' keys: a digest of the run folder's name and policy files."""
         run_dir = resolve_run_dir(self.run_dir)
         digest = hashlib.sha256(run_dir.name.encode())
         for path in sorted(run_dir.glob("*")) + sorted(run_dir.glob("*/*")):
@@ -105,7 +93,20 @@ class PolicyMethod:
     def search(self, context: SearchContext) -> SearchOutcome:
         policy = load_policy(self.run_dir, self.which)
         policy.check_env(context.env_id)
-        _warn_on_differences(policy, context)
+        # the condition's keywords may differ between training and evaluation
+        trained, asked = (
+            {k: v for k, v in kwargs.items() if k not in condition_keywords()}
+            for kwargs in (policy.env_kwargs, context.env_kwargs)
+        )
+        if plain(trained) != plain(asked):
+            message = f"was trained with env options {trained}, evaluated with {asked}"
+            warnings.warn(f"{policy.run_dir} {message}", TrainingMismatchWarning, stacklevel=2)
+        if not policy.trained_at(context.condition.value):
+            message = (
+                f"was trained at {policy.training_conditions}, asked at "
+                f"{context.condition.describe()}"
+            )
+            warnings.warn(f"{policy.run_dir} {message}", TrainingMismatchWarning, stacklevel=2)
         action = policy.strokes([context.condition.value])[0]
         reward = float(context.evaluate(action[None, :])[0])
         return SearchOutcome(
@@ -127,26 +128,6 @@ class PolicyMethod:
         )
 
 
-def _warn_on_differences(policy: Any, context: SearchContext) -> None:
-    # The condition's keywords may differ between training and evaluation.
-    condition = condition_keywords()
-    trained = {k: v for k, v in policy.env_kwargs.items() if k not in condition}
-    asked = {k: v for k, v in context.env_kwargs.items() if k not in condition}
-    if plain(trained) != plain(asked):
-        warnings.warn(
-            f"{policy.run_dir} was trained with env options {trained}, evaluated with {asked}",
-            TrainingMismatchWarning,
-            stacklevel=3,
-        )
-    if not policy.trained_at(context.condition.value):
-        warnings.warn(
-            f"{policy.run_dir} was trained at {policy.training_conditions}, asked at "
-            f"{context.condition.describe()}",
-            TrainingMismatchWarning,
-            stacklevel=3,
-        )
-
-
 @dataclass(frozen=True)
 class TrainingMethod:
     """``ppo`` / ``sac``: train at the harness's condition within its budget of env steps."""
@@ -159,8 +140,7 @@ class TrainingMethod:
     torch_threads: int = 1
     log_dir: str | None = None
     """If given, train through ``python -m train``'s code into ``log_dir/<algo>/<env>_<n>/``
-    (Monitor, TensorBoard, final model, result.json; no EvalCallback and no checkpoints, whose
-    evaluations the budget would not count), so the run can be plotted and reused as
+    (no evaluations or checkpoints, which the budget would not count), to plot and reuse as
     ``policy:RUN_DIR``."""
 
     def __post_init__(self) -> None:
@@ -170,16 +150,13 @@ class TrainingMethod:
                 f"method {self.algo!r}: n_timesteps cannot be set; the harness budget (env "
                 "steps) is the only budget"
             )
-        object.__setattr__(self, "overrides", MappingProxyType(dict(self.overrides)))
-        method = f"method {self.algo!r}"
-        if self.n_envs is not None:  # None: the yml's
-            object.__setattr__(self, "n_envs", count(self.n_envs, f"{method}: n_envs"))
-        object.__setattr__(
-            self, "torch_threads", count(self.torch_threads, f"{method}: torch_threads")
-        )
+        put = functools.partial(object.__setattr__, self)
+        put("overrides", MappingProxyType(dict(self.overrides)))
+        for name in ("n_envs", "torch_threads"):  # n_envs None: the yml's
+            if name == "torch_threads" or self.n_envs is not None:
+                put(name, count(getattr(self, name), f"method {self.algo!r}: {name}"))
         for name in ("conf_file", "log_dir"):
-            value = getattr(self, name)
-            if value is not None and not isinstance(value, str | Path):
+            if (value := getattr(self, name)) is not None and not isinstance(value, str | Path):
                 raise ValueError(f"method {self.algo!r}: {name} = {value!r}; allowed: a path")
 
     @property
@@ -194,11 +171,23 @@ class TrainingMethod:
             )
 
         hp = self._hyperparams(context.env_id, context.budget)
-        unused = self._announce_budget(context, hp)
+        steps = hp.n_timesteps
+        unused = context.budget - (steps + 1)
+        # said once per process and setting, not once per seed: the seeds of a run share it
+        said = (self.algo, context.env_id, context.budget, self.n_envs, repr(self.overrides))
+        if unused > 0 and said not in _ANNOUNCED:
+            _ANNOUNCED.add(said)
+            tqdm.write(
+                f"{self.algo}: budget {context.budget} -> {steps} training steps (whole "
+                f"{self.algo.upper()} iterations of {step_granularity(hp)} env steps, n_envs "
+                f"{hp.n_envs}) + 1 final evaluation; {unused} evaluations stay unused (each seed "
+                "alike)",
+                file=sys.stderr,
+            )
         if self.log_dir is None:
             training, final = self._learn(context, hp)
         else:
-            training, final = self._learn_with_files(context, hp.n_timesteps)
+            training, final = self._learn_with_files(context, steps)
         evaluations = training.num_timesteps + 1
         best_feasible = bool((training.best_info or {}).get("feasible", False))
         # the selection rule (agents.selection); on a tie the stroke seen in training stays
@@ -240,34 +229,12 @@ class TrainingMethod:
         self._hyperparams(task.env_id, budget)
 
     def _hyperparams(self, env_id: str, budget: int) -> Hyperparams:
-        """The hyperparameters of training within ``budget``: its env steps (``n_timesteps``)
-        are ``budget - 1`` (the last evaluation is the final policy's) rounded down to whole
-        iterations (:func:`~train.run.budget_hyperparams`)."""
+        """The hyperparameters of training within ``budget - 1`` env steps."""
         entry = load_entry(self.algo, env_id, self.conf_file)
         return budget_hyperparams(self.algo, entry, self.overrides, self.n_envs, budget - 1)
 
-    def _announce_budget(self, context: SearchContext, hp: Hyperparams) -> int:
-        """Say (stderr, one line) when training (``hp``, :meth:`_hyperparams`) cannot use the
-        whole budget; returns the evaluations left unused. SB3 learns in whole iterations."""
-        steps = hp.n_timesteps
-        unused = context.budget - (steps + 1)
-        # Once per process and setting, not once per seed: the seeds of a run share it.
-        said = (self.algo, context.env_id, context.budget, self.n_envs, repr(self.overrides))
-        if unused > 0 and said not in _ANNOUNCED:
-            _ANNOUNCED.add(said)
-            unit = step_granularity(hp)
-            tqdm.write(
-                f"{self.algo}: budget {context.budget} -> {steps} training steps (whole "
-                f"{self.algo.upper()} iterations of {unit} env steps, n_envs {hp.n_envs}) + 1 "
-                f"final evaluation; {unused} evaluations stay unused (each seed alike)",
-                file=sys.stderr,
-            )
-        return unused
-
     def _learn(self, context: SearchContext, hp: Hyperparams) -> tuple[TrainResult, dict[str, Any]]:
-        """Training without files (:func:`~train.run.learn_in_memory`, ``hp`` of
-        :meth:`_hyperparams`), and its final deterministic stroke evaluated by the harness's
-        evaluator, so the budget counts it."""
+        """Training without files, and its final stroke evaluated by the harness."""
 
         def report(recorder: StrokeRecorder) -> None:
             context.report(recorder.steps, recorder.evaluations, recorder.max_reward)
@@ -286,6 +253,7 @@ class TrainingMethod:
         env.close()
         final_action = np.clip(np.asarray(action[0], dtype=np.float64), -1.0, 1.0)
         final = context.evaluate_batch(final_action[None, :])
+        best = (recorder.best_reward, recorder.best_action, recorder.best_info)
         training = TrainResult(
             self.algo,
             context.env_id,
@@ -293,24 +261,17 @@ class TrainingMethod:
             recorder.evaluations,
             0.0,
             None,
-            recorder.best_reward,
-            recorder.best_action,
-            recorder.best_info,
+            *best,
             history=tuple(recorder.history),
             hp=hp,
         )
-        return training, {
-            "reward": float(final.rewards[0]),
-            "objective": float(final.objective[0]),
-            "feasible": bool(final.feasible[0]),
-            "action": final_action,
-        }
+        found = (final.rewards[0], final.objective[0], final.feasible[0])
+        return training, _final(*found, final_action)
 
     def _learn_with_files(
         self, context: SearchContext, steps: int
     ) -> tuple[TrainResult, dict[str, Any]]:
-        """Training through ``python -m train``'s code into ``log_dir`` (:func:`~train.run.train`),
-        and the final deterministic stroke it evaluated at the (fixed) condition."""
+        """Training into ``log_dir`` (:func:`~train.run.train`), and its final stroke."""
         result = train(
             TrainConfig(
                 algo=self.algo,  # type: ignore[arg-type]
@@ -330,14 +291,20 @@ class TrainingMethod:
             )
         )
         context.report(len(result.history), result.num_timesteps, result.best_reward)
-        [final] = result.final_evaluation
-        return result, {
-            # float64 as the harness re-evaluates it (the adapter's reward is float32)
-            "reward": float(final["objective"] - final["penalty"]),
-            "objective": float(final["objective"]),
-            "feasible": bool(final["feasible"]),
-            "action": np.clip(np.asarray(final["action"], dtype=np.float64), -1.0, 1.0),
-        }
+        [row] = result.final_evaluation
+        # float64 as the harness re-evaluates it (the adapter's reward is float32)
+        found = (row["objective"] - row["penalty"], row["objective"], row["feasible"])
+        return result, _final(*found, np.asarray(row["action"], dtype=np.float64))
+
+
+def _final(reward: Any, objective: Any, feasible: Any, action: np.ndarray) -> dict[str, Any]:
+    """The final deterministic stroke's row of a search's config."""
+    return {
+        "reward": float(reward),
+        "objective": float(objective),
+        "feasible": bool(feasible),
+        "action": np.clip(action, -1.0, 1.0),
+    }
 
 
 # --- factories for the registry ---------------------------------------------------------------
@@ -345,8 +312,7 @@ def policy_factory(argument: str | None, config: Mapping[str, Any]) -> Method:
     """``policy:RUN_DIR`` with setting ``model`` = best | final."""
     if not argument:
         raise ValueError("method 'policy' needs a run folder: policy:RUN_DIR")
-    unknown = sorted(set(config) - {"model"})
-    if unknown:
+    if unknown := sorted(set(config) - {"model"}):
         raise ValueError(f"method 'policy': unknown setting(s) {unknown}; allowed: model")
     which = config.get("model", "best")
     if which not in WHICH_MODELS:
@@ -361,8 +327,7 @@ def policy_factory(argument: str | None, config: Mapping[str, Any]) -> Method:
 
 
 def training_factory(algo: str):
-    """The factory of ``ppo`` or ``sac``: settings are hyperparameter overrides, plus
-    ``n_envs``, ``conf_file`` (a zoo-format yml) and ``torch_threads``."""
+    """The factory of ``ppo`` or ``sac``: settings are hyperparameter overrides and more."""
 
     def factory(argument: str | None, config: Mapping[str, Any]) -> Method:
         if argument is not None:

@@ -1,8 +1,6 @@
-"""One training run: build the envs and the model from a :class:`~train.config.TrainConfig`,
-learn with evaluation, checkpoints, Monitor and TensorBoard logs, and resume a killed run.
-
-:func:`train` is what ``python -m train`` calls; :func:`learn_in_memory` is the lean variant
-the harness's ``ppo`` / ``sac`` methods use (no files, a budget of env steps).
+"""One training run: :func:`train` (``python -m train``: envs and model from a
+:class:`~train.config.TrainConfig`, evaluations, checkpoints, logs, resumption) and
+:func:`learn_in_memory` (the harness's ``ppo`` / ``sac``: no files, a budget of env steps).
 """
 
 from __future__ import annotations
@@ -10,7 +8,7 @@ from __future__ import annotations
 import contextlib
 import math
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,7 +29,7 @@ from train.callbacks import (
     StopOnInterrupt,
 )
 from train.config import Hyperparams, TrainConfig, resolve_hyperparams, step_granularity
-from train.run_folder import Interrupted, RunFolder, RunLayout
+from train.run_folder import Interrupted, RunFolder
 from train.saved import build_model, read_normalizer, save_checkpoint
 from train.vec import StrokeRecorder, evaluate_deterministic, make_evaluation_env, make_training_env
 
@@ -78,17 +76,14 @@ def torch_threads(count: int) -> Iterator[None]:
 
 
 def default_log_interval(hp: Hyperparams) -> int:
-    """PPO: every rollout. SAC counts episodes, and every vector step ends n_envs of them, so
-    its default (4) would dump n_envs/4 times per step; dump every ~SAC_LOG_EVERY steps instead."""
-    if hp.algo == "ppo":
-        return 1
-    return hp.n_envs * max(1, round(SAC_LOG_EVERY / hp.n_envs))
+    """PPO: every rollout. SAC counts episodes (every vector step ends n_envs of them): every
+    ~SAC_LOG_EVERY steps."""
+    return 1 if hp.algo == "ppo" else hp.n_envs * max(1, round(SAC_LOG_EVERY / hp.n_envs))
 
 
 # --- the run ---------------------------------------------------------------------------------
 def train(config: TrainConfig) -> TrainResult:
-    """Run (or resume) one training run with files (:class:`~train.run_folder.RunFolder`): the
-    envs, the model, learning, then the final model, its evaluation and ``result.json``."""
+    """Run (or resume) one training run with files (:class:`~train.run_folder.RunFolder`)."""
     with contextlib.ExitStack() as held:
         # the plan: which folder, from which checkpoint, with which settings
         run = RunFolder.open(config, held)
@@ -162,55 +157,40 @@ def train(config: TrainConfig) -> TrainResult:
             sync_envs_normalization(venv, eval_env)
         if config.save_freq > 0:
             save_checkpoint(model, layout, KEEP_CHECKPOINTS)
+        resumed_from = None if checkpoint is None else checkpoint.step
+        seen = {k: getattr(recorder, k) for k in ("best_reward", "best_action", "best_info")}
+        steps = int(model.num_timesteps)
         result = TrainResult(
             algo=config.algo,
             env_id=config.env_id,
             run_dir=layout.run_dir,
-            num_timesteps=int(model.num_timesteps),
+            num_timesteps=steps,
             wall_time=wall_time,
-            resumed_from=None if checkpoint is None else checkpoint.step,
-            best_reward=recorder.best_reward,
-            best_action=recorder.best_action,
-            best_info=recorder.best_info,
+            resumed_from=resumed_from,
+            **seen,
             final_evaluation=evaluate_deterministic(model, eval_env),
             history=tuple(recorder.history),
             hp=hp,
         )
-        _write_result(layout, result, run.segments)
-        return result
-
-
-def _write_result(
-    layout: RunLayout, result: TrainResult, previous: Sequence[Mapping[str, Any]]
-) -> None:
-    """Write ``result.json``: the ``previous`` segments and this run's."""
-    segments = list(previous)
-    segments.append(
-        {
-            "resumed_from": result.resumed_from,
-            "end_step": result.num_timesteps,
-            "wall_time_s": result.wall_time,
-            "best_reward": result.best_reward,
-            "best_action": result.best_action,
-            "best_info": result.best_info,
+        segment = {"resumed_from": resumed_from, "end_step": steps, "wall_time_s": wall_time}
+        segments = [*run.segments, {**segment, **seen}]
+        # the segment whose best stroke wins by the selection rule (agents.selection); a segment
+        # without one (reward None) ranks last
+        feasible = [bool((s.get("best_info") or {}).get("feasible", False)) for s in segments]
+        rewards = [-math.inf if s["best_reward"] is None else s["best_reward"] for s in segments]
+        best = segments[best_index(feasible, rewards)]
+        data = {
+            "algo": result.algo,
+            "env_id": result.env_id,
+            "num_timesteps": steps,
+            "n_envs": hp.n_envs,
+            "wall_time_s": sum(float(s["wall_time_s"]) for s in segments),
+            "best_seen": {k: best[k] for k in ("best_reward", "best_action", "best_info")},
+            "final_evaluation": result.final_evaluation,
+            "segments": segments,
         }
-    )
-    # the segment whose best stroke wins by the selection rule (agents.selection); a segment
-    # without one (reward None) ranks last
-    feasible = [bool((s.get("best_info") or {}).get("feasible", False)) for s in segments]
-    rewards = [-math.inf if s["best_reward"] is None else s["best_reward"] for s in segments]
-    best = segments[best_index(feasible, rewards)]
-    data = {
-        "algo": result.algo,
-        "env_id": result.env_id,
-        "num_timesteps": result.num_timesteps,
-        "n_envs": result.hp.n_envs,  # type: ignore[union-attr]
-        "wall_time_s": sum(float(s["wall_time_s"]) for s in segments),
-        "best_seen": {k: best[k] for k in ("best_reward", "best_action", "best_info")},
-        "final_evaluation": result.final_evaluation,
-        "segments": segments,
-    }
-    write_json_atomic(layout.result_file, data, indent=1)
+        write_json_atomic(layout.result_file, data, indent=1)
+        return result
 
 
 # --- the harness's lean variant ----------------------------------------------------------------
@@ -221,8 +201,7 @@ def budget_hyperparams(
     n_envs: int | None,
     budget: int,
 ) -> Hyperparams:
-    """The hyperparameters of a run within ``budget`` env steps: ``n_timesteps`` rounded down
-    to whole learn iterations (SB3 never stops inside one; the budget is a hard limit)."""
+    """The hyperparameters of a run within ``budget`` env steps (whole learn iterations)."""
     hp = resolve_hyperparams(entry, overrides, algo=algo, n_envs=n_envs, n_timesteps=1)
     unit = step_granularity(hp)
     steps = (budget // unit) * unit
@@ -243,8 +222,7 @@ def learn_in_memory(
     on_step: Callable[[StrokeRecorder], None] | None = None,
     threads: int = 1,
 ) -> tuple[BaseAlgorithm, StrokeRecorder]:
-    """Train ``hp.algo`` for its ``n_timesteps`` env steps (a budget's, :func:`budget_hyperparams`),
-    no files; returns (model, recorder)."""
+    """Train ``hp.algo`` for its ``n_timesteps`` env steps, no files; (model, recorder)."""
     env_kwargs = {**hp.env_kwargs, **env_kwargs}
     with torch_threads(threads):
         venv, recorder = make_training_env(

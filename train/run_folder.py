@@ -1,8 +1,6 @@
-"""A training run's folder (docs/training.md, "The run folder"): what it is (:class:`RunLayout`,
-rl-baselines3-zoo's layout ``logs/<algo>/<env>_<n>/``, its checkpoints and its lock; a run of
-this project is told from rl_zoo3's by the ``made_by`` entry of its ``args.yml``) and when a
-run goes on there (:meth:`RunFolder.open`, every refusal before any work). PPO, SAC
-(:func:`train.run.train`) and the amortised policy (:func:`train.amortised.train_run`) share it.
+"""A training run's folder (docs/training.md, "The run folder"): its files (:class:`RunLayout`,
+rl-baselines3-zoo's layout ``logs/<algo>/<env>_<n>/``) and when a run goes on there
+(:meth:`RunFolder.open`, every refusal before any work).
 """
 
 from __future__ import annotations
@@ -17,6 +15,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
+
+import gymnasium as gym
 
 from tandem_env.io.files import FolderLock
 from train.config import (
@@ -43,8 +43,7 @@ from train.saved import (
 )
 
 CHECKPOINT_PREFIX = "rl_model"
-#: An ``args.yml`` key only this project writes (runs from before ``made_by`` have it; the
-#: zoo calls its thread count ``num_threads``).
+#: An ``args.yml`` key only this project writes (runs from before ``made_by`` have it).
 _LEGACY_KEY = "torch_threads"
 _CHECKPOINT = re.compile(rf"^{CHECKPOINT_PREFIX}_(\d+)_steps\.zip$")
 #: The lock file of a run folder: held (``flock``) by the ``python -m train`` writing there.
@@ -55,18 +54,15 @@ POLICY_FILE = "policy.json"
 
 def latest_run_id(algo_folder: Path, name: str) -> int:
     """Greatest ``n`` of the ``<name>_<n>`` folders in ``algo_folder`` (0 if none), as the zoo."""
-    numbers = [0]
-    if algo_folder.is_dir():
-        for path in algo_folder.iterdir():
-            stem, _, number = path.name.rpartition("_")
-            if path.is_dir() and stem == name and number.isdigit():
-                numbers.append(int(number))
-    return max(numbers)
+    paths = algo_folder.iterdir() if algo_folder.is_dir() else ()
+    parts = [(p, *p.name.rpartition("_")) for p in paths]
+    return max(
+        [int(n) for p, stem, _, n in parts if p.is_dir() and stem == name and n.isdigit()] or [0]
+    )
 
 
 def resolve_run_dir(path: str | os.PathLike[str]) -> Path:
-    """A run folder, or the latest run a path names: ``logs/ppo/<env>`` (no ``_<n>``) is
-    ``logs/ppo/<env>_<n>`` with the greatest ``n``; any other path as given."""
+    """A run folder, or the latest run a path names (``logs/ppo/<env>`` -> ``..._<n>``)."""
     path = Path(path)
     if path.is_dir() or not path.parent.is_dir():
         return path
@@ -88,8 +84,7 @@ def run_lock(run_dir: Path) -> FolderLock:
 
 
 class RunPolicy:
-    """What every trained policy (:class:`train.trained_policy.TrainedPolicy`,
-    :class:`train.amortised_policy.AmortisedPolicy`) answers about its run."""
+    """What every trained policy (``TrainedPolicy``, ``AmortisedPolicy``) answers about its run."""
 
     run_dir: Path | None
     env_id: str
@@ -106,8 +101,7 @@ class RunPolicy:
             )
 
     def trained_at(self, value: float) -> bool:
-        """Whether ``value`` is a condition the policy saw in training (inside its range, or
-        its fixed condition); True when the training condition is unknown."""
+        """Whether the policy saw ``value`` in training (True where that is unknown)."""
         seen = self.training_conditions
         if isinstance(seen, tuple):
             return seen[0] - 1e-9 <= value <= seen[1] + 1e-9
@@ -149,7 +143,7 @@ class Checkpoint:
     """The pickled buffer of earlier versions: never loaded (a pickle can run code)."""
 
     def loads(self, algo: str) -> dict[str, Any]:
-        """:func:`train.saved.load_model`'s ``step`` and ``replay_buffer`` (SAC's)."""
+        """``load_model``'s ``step`` and ``replay_buffer`` (SAC's)."""
         return {"step": self.step, "replay_buffer": self.replay_buffer if algo == "sac" else None}
 
     def paths(self) -> tuple[Path, ...]:
@@ -173,8 +167,7 @@ class RunLayout:
         self.args_file = self.params_dir / "args.yml"
         self.vecnormalize = self.params_dir / "vecnormalize.pkl"
         self.weights = self.run_dir / f"{self.name}.pt"
-        """An amortised run's weights (``torch.load(weights_only=True)``), beside its
-        ``policy.json`` (:attr:`policy_file`)."""
+        """An amortised run's weights (``torch.load(weights_only=True)``)."""
         self.policy_file = self.run_dir / POLICY_FILE
 
     def monitor_files(self) -> list[Path]:
@@ -186,8 +179,7 @@ class RunLayout:
         return self.run_dir / f"{len(self.monitor_files())}.monitor.csv"
 
     def foreign(self) -> str | None:
-        """None if this folder is a run of ``python -m train`` on this env, or is absent or
-        empty (a new run may start there); otherwise why it is not, in words."""
+        """None if a run may go on here (absent, empty, or ours on this env); else why not."""
         if not self.run_dir.exists():
             return None
         if not self.run_dir.is_dir():
@@ -203,20 +195,16 @@ class RunLayout:
                 )
             return f"{self.run_dir} holds files but no {self.name}/args.yml: not a training run"
         try:
-            text = self.args_file.read_text(encoding="utf-8")
-            args = parse_run_yaml(text, self.args_file)
+            args = parse_run_yaml(text := self.args_file.read_text("utf-8"), self.args_file)
         except UnicodeDecodeError:
             return f"{self.args_file} is not UTF-8 text"
         except (OSError, ValueError) as error:
             return str(error)
         if args.get("made_by") == MADE_BY or (_LEGACY_KEY in args and "!!python" not in text):
             return None
-        looks_like = ""
-        if "!!python/object/apply:collections.OrderedDict" in text or "trained_agent" in args:
-            looks_like = (
-                " (it looks like an rl-baselines3-zoo run: rl_zoo3.train writes the same layout)"
-            )
-        return f"{self.run_dir} was not written by python -m train{looks_like}"
+        zoo = "!!python/object/apply:collections.OrderedDict" in text or "trained_agent" in args
+        looks = " (it looks like an rl-baselines3-zoo run: rl_zoo3.train writes the same layout)"
+        return f"{self.run_dir} was not written by python -m train{looks if zoo else ''}"
 
     def checkpoint(self, step: int) -> Checkpoint:
         base = f"{self.run_dir / CHECKPOINT_PREFIX}"
@@ -240,18 +228,14 @@ class RunLayout:
     @classmethod
     def new(cls, log_folder: Path, algo: str, env_id: str) -> RunLayout:
         """The next free ``log_folder/<algo>/<env>_<n>`` (created)."""
-        algo_folder = Path(log_folder) / algo
-        name = env_id.translate(FOLDER_NAME)
-        run_dir = algo_folder / f"{name}_{latest_run_id(algo_folder, name) + 1}"
-        run_dir.mkdir(parents=True, exist_ok=False)
+        folder, name = Path(log_folder) / algo, env_id.translate(FOLDER_NAME)
+        (run_dir := folder / f"{name}_{latest_run_id(folder, name) + 1}").mkdir(parents=True)
         return cls(run_dir, env_id)
 
     @classmethod
     def latest(cls, log_folder: Path, algo: str, env_id: str) -> RunLayout:
-        """The newest existing run of ``algo`` on ``env_id``; ValueError if there is none, or
-        if the newest folder is not a run of this project (e.g. rl_zoo3's: same layout)."""
-        algo_folder = Path(log_folder) / algo
-        name = env_id.translate(FOLDER_NAME)
+        """The newest run of ``algo`` on ``env_id``; ValueError if none, or if it is not ours."""
+        algo_folder, name = Path(log_folder) / algo, env_id.translate(FOLDER_NAME)
         n = latest_run_id(algo_folder, name)
         if n == 0:
             raise ValueError(
@@ -295,8 +279,7 @@ class RunFolder:
 
     @classmethod
     def open(cls, config: TrainConfig, held: contextlib.ExitStack) -> RunFolder:
-        """The folder of ``config``'s run, locked (before its files are read) until ``held``
-        closes; every refusal is raised here, before any work, leaving the folder untouched."""
+        """The folder of ``config``'s run, locked until ``held`` closes; every refusal first."""
         amortised = config.algo == AMORTISED
         layout = None
         if config.resume:
@@ -323,14 +306,31 @@ class RunFolder:
                     f"{folder} is not writable; a run writes its checkpoints, models and "
                     "settings there. Allowed: a folder you can write (chmod u+w), or a new run"
                 )
-        if config.verbose and not amortised:
-            run._say_plan()
+        if not config.verbose or amortised:
+            return run
+        # what this command is about to do, before any work
+        hp, layout, checkpoint, target = run.hp, run.layout, run.checkpoint, run.target
+        assert hp is not None
+        if target != hp.n_timesteps:
+            unit = step_granularity(hp)
+            per_env = f"n_steps {unit // hp.n_envs}" if config.algo == "ppo" else "train_freq"
+            print(
+                f"n_timesteps {hp.n_timesteps} is not a whole number of {config.algo.upper()} "
+                f"iterations ({unit} env steps = {per_env} x n_envs {hp.n_envs}); training runs "
+                f"to {target}"
+            )
+        if checkpoint is not None:
+            print(
+                f"resuming {layout.run_dir} from checkpoint {checkpoint.model.name} "
+                f"(step {checkpoint.step} of {target})"
+            )
+        elif layout.args_file.is_file():
+            print(f"{layout.run_dir} has no complete checkpoint: starting it again from step 0")
         return run
 
     @classmethod
     def _resumable(cls, config: TrainConfig, layout: RunLayout | None) -> RunFolder:
-        """A PPO / SAC run in ``layout`` (None: a new folder): its settings, hyperparameters
-        and checkpoint, every file a resume loads read as it will read it."""
+        """A PPO / SAC run in ``layout`` (None: a new folder), every file a resume loads read."""
         checkpoint = hp = None
         if layout is not None:
             resume = config.resume  # the merge below turns a resume into a run of a folder
@@ -366,7 +366,10 @@ class RunFolder:
                 n_timesteps=config.n_timesteps,
             )
         env_kwargs = {**hp.env_kwargs, **config.env_kwargs}
-        _check_env(config.env_id, env_kwargs)
+        try:  # the env's options, before any work
+            gym.make(config.env_id, disable_env_checker=True, **env_kwargs).close()
+        except TypeError as error:
+            raise ValueError(f"{config.env_id}: {error}") from error
         segments: tuple[Mapping[str, Any], ...] = ()
         if layout is not None and layout.checkpoints():
             checkpoint = _latest_intact(layout, config, hp, env_kwargs)
@@ -388,8 +391,7 @@ class RunFolder:
         return cls(layout, config, hp, checkpoint, target, segments, MappingProxyType(env_kwargs))
 
     def model(self, venv: Any) -> Any:
-        """The model this run trains on ``venv``: new, or the checkpoint's seeded by its step
-        (a resumed segment is reproducible given its checkpoint; RNG states are not saved)."""
+        """The model this run trains on ``venv``: new, or the checkpoint's seeded by its step."""
         assert self.hp is not None
         config, checkpoint = self.config, self.checkpoint
         algo, seed = config.algo, config.seed
@@ -408,37 +410,11 @@ class RunFolder:
         return model
 
     def start(self, settings: Mapping[str, Any]) -> None:
-        """A run from step 0 writes ``config.yml`` (``settings``) and ``args.yml`` and drops an
-        earlier start's evaluation curve; a continued run keeps its own."""
+        """A run from step 0 writes ``config.yml`` and ``args.yml`` and drops an old curve."""
         if self.checkpoint is None:
             write_yaml(self.layout.config_file, settings)
             write_yaml(self.layout.args_file, self.config.to_dict())
             self.layout.evaluations.unlink(missing_ok=True)
-
-    def _say_plan(self) -> None:
-        """What this command is about to do, before any work (stdout)."""
-        hp, algo = self.hp, self.config.algo
-        assert hp is not None
-        unit = step_granularity(hp)
-        if self.target != hp.n_timesteps:
-            what = (
-                f"n_steps {unit // hp.n_envs} x n_envs {hp.n_envs}"  # step_granularity's
-                if algo == "ppo"
-                else f"train_freq x n_envs {hp.n_envs}"
-            )
-            print(
-                f"n_timesteps {hp.n_timesteps} is not a whole number of {algo.upper()} "
-                f"iterations ({unit} env steps = {what}); training runs to {self.target}"
-            )
-        if self.checkpoint is not None:
-            print(
-                f"resuming {self.layout.run_dir} from checkpoint {self.checkpoint.model.name} "
-                f"(step {self.checkpoint.step} of {self.target})"
-            )
-        elif self.layout.args_file.is_file():
-            print(
-                f"{self.layout.run_dir} has no complete checkpoint: starting it again from step 0"
-            )
 
 
 def _check_claimable(layout: RunLayout, amortised: bool) -> None:
@@ -526,21 +502,9 @@ def _latest_intact(
             RuntimeWarning,
             stacklevel=4,
         )
-    damaged = ", ".join(c.model.name for c in layout.checkpoints())
     raise ValueError(
-        f"{layout.run_dir}: no checkpoint is intact ({damaged}: see the warnings above); it is "
+        f"{layout.run_dir}: no checkpoint is intact "
+        f"({', '.join(c.model.name for c in layout.checkpoints())}: see the warnings above); it is "
         "left untouched. Allowed: move the damaged checkpoints away to start this run again "
         "from step 0, or a new run"
     )
-
-
-def _check_env(env_id: str, env_kwargs: Mapping[str, Any]) -> None:
-    """ValueError unless ``env_id`` with ``env_kwargs`` makes an env."""
-    import gymnasium as gym
-
-    import tandem_env  # noqa: F401 - registers the ids
-
-    try:
-        gym.make(env_id, disable_env_checker=True, **env_kwargs).close()
-    except TypeError as error:
-        raise ValueError(f"{env_id}: {error}") from error

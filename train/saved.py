@@ -1,9 +1,7 @@
 """A run folder's files read and written without running anything in them (docs/training.md,
-"What a run folder may hold"): a model is rebuilt from the run's ``config.yml``
-(:func:`build_model`) and given the zip's ``num_timesteps`` (its ``data`` parsed as JSON) and
-its weights (``torch.load(weights_only=True)``) by :func:`load_model`; SAC's replay buffer is
-an ``.npz`` of arrays; the YAML, the ``VecNormalize`` statistics and ``result.json`` have
-their own readers. SB3's ``load`` and ``load_replay_buffer`` unpickle, so they never read one.
+"What a run folder may hold"): a model is rebuilt from the run's ``config.yml`` and given the
+zip's step count and weights (:func:`load_model`; SB3's ``load`` unpickles), SAC's replay buffer
+is an ``.npz`` of arrays, and the YAML, ``VecNormalize`` and ``result.json`` have own readers.
 """
 
 from __future__ import annotations
@@ -29,14 +27,13 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import atomic_path, read_json
-from tandem_env.physics.checks import is_real
+from tandem_env.physics.checks import is_integer, is_real
 from train.config import FOLDER_NAME, MAX_TIMESTEPS, Hyperparams
 from train.vec import make_training_env
 
 
 class Incomplete(ValueError):
-    """A file cut short (a kill while saving): the loader's refusal, and in :attr:`damage` what
-    a resume says when it skips that checkpoint for an earlier one."""
+    """A file cut short (a kill while saving); :attr:`damage` says what a resume skips."""
 
     def __init__(self, message: str, path: Path, what: str) -> None:
         super().__init__(message)
@@ -44,34 +41,30 @@ class Incomplete(ValueError):
 
 
 # --- the YAML, the normalisation statistics and result.json -----------------------------------
-#: The globals a pickled ``VecNormalize`` (SB3's ``save``) refers to: the wrapper and its running
-#: statistics, the spaces, numpy arrays and random generators. Nothing that runs code.
+#: The globals a pickled ``VecNormalize`` (SB3's ``save``) refers to, by module: the wrapper and
+#: its running statistics, the spaces, numpy arrays and random generators. Nothing that runs code.
 _NORMALIZER_GLOBALS = frozenset(
-    {
-        ("stable_baselines3.common.vec_env.vec_normalize", "VecNormalize"),
-        ("stable_baselines3.common.running_mean_std", "RunningMeanStd"),
-        ("gymnasium.spaces.box", "Box"),
-        ("gymnasium.spaces.dict", "Dict"),
-        ("gymnasium.spaces.discrete", "Discrete"),
-        ("collections", "OrderedDict"),
-        ("numpy", "dtype"),
-        ("numpy", "ndarray"),
-        ("numpy.core.multiarray", "_reconstruct"),
-        ("numpy._core.multiarray", "_reconstruct"),
-        ("numpy.core.multiarray", "scalar"),
-        ("numpy._core.multiarray", "scalar"),
-        ("numpy.random._pickle", "__generator_ctor"),
-        ("numpy.random._pickle", "__bit_generator_ctor"),
-        ("numpy.random._pcg64", "PCG64"),
-        ("numpy.random.bit_generator", "SeedSequence"),
-        ("numpy.random.bit_generator", "__pyx_unpickle_SeedSequence"),
-    }
+    (module, name)
+    for module, names in {
+        "stable_baselines3.common.vec_env.vec_normalize": "VecNormalize",
+        "stable_baselines3.common.running_mean_std": "RunningMeanStd",
+        "gymnasium.spaces.box": "Box",
+        "gymnasium.spaces.dict": "Dict",
+        "gymnasium.spaces.discrete": "Discrete",
+        "collections": "OrderedDict",
+        "numpy": "dtype ndarray",
+        "numpy.core.multiarray": "_reconstruct scalar",
+        "numpy._core.multiarray": "_reconstruct scalar",
+        "numpy.random._pickle": "__generator_ctor __bit_generator_ctor",
+        "numpy.random._pcg64": "PCG64",
+        "numpy.random.bit_generator": "SeedSequence __pyx_unpickle_SeedSequence",
+    }.items()
+    for name in names.split()
 )
 
 
 class _NormalizerUnpickler(pickle.Unpickler):
-    """``pickle.Unpickler`` that builds only :data:`_NORMALIZER_GLOBALS` (the "restricting
-    globals" recipe of the ``pickle`` documentation)."""
+    """``pickle.Unpickler`` that builds only :data:`_NORMALIZER_GLOBALS`."""
 
     def find_class(self, module: str, name: str) -> Any:
         if (module, name) in _NORMALIZER_GLOBALS:
@@ -82,8 +75,7 @@ class _NormalizerUnpickler(pickle.Unpickler):
 
 
 def read_normalizer(path: Path) -> Any:
-    """The ``VecNormalize`` statistics SB3 saved at ``path``, unpickled with only
-    :data:`_NORMALIZER_GLOBALS`; ValueError naming the file otherwise."""
+    """The ``VecNormalize`` statistics SB3 saved at ``path``; ValueError naming it otherwise."""
     try:
         with Path(path).open("rb") as stream:
             normalizer = _NormalizerUnpickler(stream).load()
@@ -101,11 +93,9 @@ def read_normalizer(path: Path) -> Any:
 
 # --- the YAML of a run folder ---------------------------------------------------------------
 class RunFileLoader(BoundedLoader):
-    """YAML's safe loader, bounded in what a document may expand to (:class:`BoundedLoader`),
-    plus the two Python tags rl_zoo3 writes (``yaml.dump`` of its
-    ``OrderedDict`` of arguments and hyperparameters, and of tuples such as ``train_freq``):
-    ``!!python/object/apply:collections.OrderedDict`` becomes a dict and ``!!python/tuple`` a
-    tuple. Every other tag is refused (:class:`ForbiddenTag`) before anything is built."""
+    """YAML's safe loader, bounded (:class:`BoundedLoader`), plus the two Python tags rl_zoo3
+    writes: ``!!python/object/apply:collections.OrderedDict`` becomes a dict and
+    ``!!python/tuple`` a tuple. Every other tag is refused (:class:`ForbiddenTag`)."""
 
 
 class ForbiddenTag(yaml.constructor.ConstructorError):
@@ -148,8 +138,7 @@ RunFileLoader.add_constructor(None, _refuse)
 
 
 def parse_run_yaml(text: str, path: Path) -> dict[str, Any]:
-    """The mapping in a run folder's YAML ``text`` (of file ``path``), read with
-    :class:`RunFileLoader`; ValueError naming the file otherwise."""
+    """The mapping in a run folder's YAML ``text`` (of ``path``); ValueError otherwise."""
     try:
         data = parse_yaml(text, RunFileLoader)
     except ForbiddenTag as error:
@@ -185,26 +174,22 @@ def read_run_yaml(path: Path) -> dict[str, Any]:
 
 
 def read_result_segments(path: Path) -> tuple[dict[str, Any], ...]:
-    """The training segments of a run's ``result.json`` (() where there is none); ValueError
-    naming the file for one this project did not write as it is."""
-
-    def readable(segment: Any) -> bool:
-        return (
+    """The training segments of a run's ``result.json`` (() without one); ValueError if odd."""
+    if not path.is_file():
+        return ()
+    try:
+        segments = read_json(path)["segments"]
+        readable = isinstance(segments, list) and all(
             isinstance(segment, dict)
             and is_real(segment.get("wall_time_s"))
             and "best_reward" in segment
             and (segment["best_reward"] is None or is_real(segment["best_reward"]))
             and isinstance(segment.get("best_info") or {}, dict)
+            for segment in segments
         )
-
-    if not path.is_file():
-        return ()
-    try:
-        segments = read_json(path)["segments"]
-        readable_file = isinstance(segments, list) and all(map(readable, segments))
     except (OSError, ValueError, KeyError, TypeError):
-        readable_file = False
-    if not readable_file:
+        readable = False
+    if not readable:
         raise ValueError(
             f"{path}: not the run's result.json as python -m train writes it (its training "
             "segments cannot be read); it is left untouched. Allowed: that file, or none (move "
@@ -214,8 +199,7 @@ def read_result_segments(path: Path) -> tuple[dict[str, Any], ...]:
 
 
 def read_run_args(run_dir: Path, allowed: str) -> tuple[Path, dict[str, Any], Any]:
-    """The one ``<env>/args.yml`` of ``run_dir``, its settings and its ``env``; ValueError
-    naming the folder and ``allowed`` otherwise."""
+    """The one ``<env>/args.yml`` of ``run_dir``, its settings and its ``env``."""
     found = sorted(run_dir.glob("*/args.yml")) if run_dir.is_dir() else []
     if len(found) != 1:
         raise ValueError(
@@ -247,9 +231,8 @@ def build_model(
     device: str = "cpu",
 ) -> BaseAlgorithm:
     """A new SB3 model of ``algo`` on ``venv`` with the resolved hyperparameters."""
-    cls = ALGORITHMS[algo]
     try:
-        model = cls(
+        model = ALGORITHMS[algo](
             hp.policy,
             venv,
             seed=seed,
@@ -280,16 +263,6 @@ def _model_error(path: Path, what: str, damage: str | None = None) -> ValueError
     return ValueError(message) if damage is None else Incomplete(message, path, damage)
 
 
-def _open_zip(path: Path) -> zipfile.ZipFile:
-    try:
-        return zipfile.ZipFile(path)
-    except (zipfile.BadZipFile, EOFError, ValueError) as error:
-        damage = f"not a complete zip file: {error}"
-        raise _model_error(path, f"not a zip file ({error})", damage) from None
-    except OSError as error:
-        raise ValueError(f"{path} cannot be read ({error.strerror})") from None
-
-
 def _read_member(archive: zipfile.ZipFile, name: str, path: Path) -> bytes:
     """The bytes of the member ``name``; :class:`Incomplete` where they fail their CRC."""
     try:
@@ -299,28 +272,25 @@ def _read_member(archive: zipfile.ZipFile, name: str, path: Path) -> bytes:
         raise _model_error(path, f"{what} ({error})", what) from None
 
 
-#: The ``.pth`` member of a model zip that holds torch variables (SAC's entropy coefficient)
-#: rather than state dicts.
+#: The ``.pth`` member of a model zip that holds torch variables (SAC's entropy coefficient).
 VARIABLES_MEMBER = "pytorch_variables.pth"
 
 
-def _gist(error: Exception) -> str:
-    """The line of a torch error that says what was found (torch's restricted unpickler
-    explains its defaults at length first)."""
-    lines = [line.strip() for line in str(error).splitlines() if line.strip()]
-    found = [line for line in lines if "nsupported" in line]  # "Trying to load unsupported ..."
-    return (found or lines or [""])[0][:300]
-
-
 def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any], dict[str, Any]]:
-    """The ``num_timesteps``, state dicts and torch variables of the model zip at ``path``:
-    its ``data`` parsed as JSON (nothing decoded), each ``.pth`` read with
-    ``torch.load(weights_only=True)``; ValueError naming the file (and member) for a
-    serialized entry that names none of ``attributes`` (the rebuilt model's: only a tampered
-    file has one), a bad count, or weights that fail the load."""
+    """The ``num_timesteps``, state dicts and torch variables of the model zip at ``path``: its
+    ``data`` parsed as JSON, each ``.pth`` read with ``torch.load(weights_only=True)``;
+    ValueError naming the file for a serialized entry that names none of ``attributes`` (the
+    rebuilt model's), a bad count, or weights that fail the load."""
     params: dict[str, Any] = {}
     variables: dict[str, Any] = {}
-    with _open_zip(path) as archive:
+    try:
+        archive = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, EOFError, ValueError) as error:
+        damage = f"not a complete zip file: {error}"
+        raise _model_error(path, f"not a zip file ({error})", damage) from None
+    except OSError as error:
+        raise ValueError(f"{path} cannot be read ({error.strerror})") from None
+    with archive:
         try:
             info = archive.getinfo("data")
         except KeyError:  # a zip cut short can read as the inner archive of its last member
@@ -347,7 +317,7 @@ def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any
                 + ", ".join(foreign),
             )
         steps = data.get("num_timesteps", 0)
-        if isinstance(steps, bool) or not isinstance(steps, int) or not 0 <= steps <= MAX_TIMESTEPS:
+        if not is_integer(steps) or not 0 <= steps <= MAX_TIMESTEPS:
             raise _model_error(
                 path,
                 f"its num_timesteps = {steps!r}; allowed: an integer from 0 to {MAX_TIMESTEPS:,}",
@@ -365,10 +335,14 @@ def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any
             # An untrusted file: whatever torch's restricted unpickler or its zip reader raise
             # (UnpicklingError, RuntimeError, EOFError, ...) means the same refusal.
             except Exception as error:
+                # the line that says what was found (torch explains its defaults at length first)
+                lines = [line.strip() for line in str(error).splitlines() if line.strip()]
+                found = [line for line in lines if "nsupported" in line]  # "... unsupported ..."
+                gist = (found or lines or [""])[0][:300]
                 raise _model_error(
                     path,
                     f"its {name} fails the weights-only load (tensors only): "
-                    f"{type(error).__name__}: {_gist(error)}",
+                    f"{type(error).__name__}: {gist}",
                 ) from None
             if name == VARIABLES_MEMBER:
                 if not isinstance(content, dict):
@@ -379,20 +353,6 @@ def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any
     if "policy" not in params:
         raise _model_error(path, "it has no policy.pth (the policy's weights)")
     return steps, params, variables
-
-
-def _set_variables(model: BaseAlgorithm, variables: Mapping[str, Any]) -> None:
-    """Copy the saved torch variables (SAC's entropy coefficient) into the model's own."""
-    for name, value in variables.items():
-        if value is None:
-            continue  # SB3 saves None for a variable the model does not use
-        target = getattr(model, name, None) if name in ("log_ent_coef", "ent_coef_tensor") else None
-        if not isinstance(target, torch.Tensor) or not isinstance(value, torch.Tensor):
-            raise ValueError(f"a torch variable {name!r} this model does not have")
-        if target.shape != value.shape:
-            raise ValueError(f"{name} has shape {tuple(value.shape)}, not {tuple(target.shape)}")
-        with torch.no_grad():
-            target.copy_(value)
 
 
 def load_model(
@@ -419,7 +379,20 @@ def load_model(
         )
     try:
         model.set_parameters(params, exact_match=True)  # a dict: its tensors, no device move
-        _set_variables(model, variables)
+        # the saved torch variables (SAC's entropy coefficient) into the model's own
+        for name, value in variables.items():
+            if value is None:
+                continue  # SB3 saves None for a variable the model does not use
+            known = name in ("log_ent_coef", "ent_coef_tensor")
+            target = getattr(model, name, None) if known else None
+            if not isinstance(target, torch.Tensor) or not isinstance(value, torch.Tensor):
+                raise ValueError(f"a torch variable {name!r} this model does not have")
+            if target.shape != value.shape:
+                raise ValueError(
+                    f"{name} has shape {tuple(value.shape)}, not {tuple(target.shape)}"
+                )
+            with torch.no_grad():
+                target.copy_(value)
     except (RuntimeError, ValueError, KeyError, TypeError, IndexError) as error:
         reason = " ".join(str(error).split())
         raise ValueError(
@@ -455,18 +428,13 @@ def save_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
     """Write the model's replay buffer to ``path`` as an ``.npz`` of plain arrays (no pickle)."""
     buffer = _replay_buffer(model)
     rows = buffer.buffer_size if buffer.full else buffer.pos
-    arrays = {
-        name: getattr(buffer, name)[:rows]
-        for name in REPLAY_ARRAYS
-        if getattr(buffer, name) is not None
-    }
+    arrays = {n: a[:rows] for n in REPLAY_ARRAYS if (a := getattr(buffer, n)) is not None}
     with Path(path).open("wb") as stream:  # a file object: savez would append ".npz" to a name
         np.savez(stream, pos=np.int64(buffer.pos), full=np.bool_(buffer.full), **arrays)
 
 
 def load_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
-    """Fill the model's rebuilt replay buffer from the ``.npz`` at ``path`` (no pickle);
-    ValueError naming the file if its arrays or counters are not this buffer's."""
+    """Fill the model's replay buffer from the ``.npz`` at ``path``; ValueError if not its."""
     buffer = _replay_buffer(model)
     expected = {n for n in REPLAY_ARRAYS if getattr(buffer, n) is not None} | set(REPLAY_COUNTERS)
     refused = f"{path}: refused as the replay buffer of this run"
@@ -504,8 +472,7 @@ def load_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
 
 
 def save_checkpoint(model: BaseAlgorithm, layout: Any, keep: int | None = None) -> Any:
-    """Checkpoint at the model's step in ``layout`` (a ``RunLayout``), keeping the ``keep``
-    newest; atomic files, the model last, so a model file means a complete checkpoint."""
+    """Checkpoint at the model's step (atomic files, the model last), keeping ``keep``."""
     checkpoint = layout.checkpoint(model.num_timesteps)
     if getattr(model, "replay_buffer", None) is not None:
         with atomic_path(checkpoint.replay_buffer) as tmp:

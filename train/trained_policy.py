@@ -1,7 +1,5 @@
 """A policy trained by ``python -m train``, loaded from its run folder and asked for strokes:
-:class:`TrainedPolicy` (ppo, sac) and :func:`load_policy`, which loads either kind of run
-folder (an amortised run as a :class:`train.amortised_policy.AmortisedPolicy`, which answers
-the same questions, :class:`~train.run_folder.RunPolicy`).
+:class:`TrainedPolicy` (ppo, sac) and :func:`load_policy` (either kind of run folder).
 """
 
 from __future__ import annotations
@@ -18,6 +16,8 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from tandem_env.envs.registration import check_env_id, config_class
 from tandem_env.envs.sb3 import make_sb3_vec_env
+from train.amortised_policy import is_amortised_run
+from train.amortised_policy import load_policy as load_amortised
 from train.config import check_algo, resolve_hyperparams
 from train.run_folder import RunLayout, RunPolicy, resolve_run_dir
 from train.saved import load_on_copy, read_normalizer, read_run_args, read_run_yaml
@@ -34,8 +34,7 @@ class TrainingMismatchWarning(RuntimeWarning):
 # --- a trained run ---------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class TrainedPolicy(RunPolicy):
-    """A model saved by ``python -m train``, with what it needs to observe a condition: the
-    run folder's settings read and checked, the model loaded without unpickling anything."""
+    """A model saved by ``python -m train`` and what it needs to observe a condition."""
 
     run_dir: Path
     algo: str
@@ -70,13 +69,12 @@ class TrainedPolicy(RunPolicy):
         layout = RunLayout(run_dir, env_id)
         entry = read_run_yaml(layout.config_file) if layout.config_file.is_file() else {}
         env_kwargs = {**(entry.get("env_kwargs") or {}), **(args.get("env_kwargs") or {})}
-        path = layout.best_model if which == "best" else layout.final_model
+        best = which == "best" and layout.best_model.is_file()
+        path = layout.best_model if best else layout.final_model
         normalizer: Path | None = None
         if entry.get("normalize"):
-            best = which == "best" and layout.best_vecnormalize.is_file()
-            normalizer = layout.best_vecnormalize if best else layout.vecnormalize
-        if which == "best" and not path.is_file():
-            path = layout.final_model
+            best_statistics = which == "best" and layout.best_vecnormalize.is_file()
+            normalizer = layout.best_vecnormalize if best_statistics else layout.vecnormalize
         if not path.is_file():
             raise ValueError(f"{run_dir}: no model file {path.name} (did the run finish?)")
         if not layout.config_file.is_file():
@@ -92,36 +90,23 @@ class TrainedPolicy(RunPolicy):
         model = load_on_copy(algo, path, hp, env_id, env_kwargs)
         if normalizer is not None:
             read_normalizer(normalizer)
-        return cls(
-            run_dir,
-            algo,
-            env_id,
-            entry,
-            MappingProxyType(env_kwargs),
-            path,
-            normalizer,
-            model,
-        )
-
-    def _observing_env(self, conditions: Sequence[float]) -> VecEnv:
-        # The training env's own observation path: reset at each condition through the env's
-        # reset option, so the normalisation over the envelope is the one the policy learned.
-        base = make_sb3_vec_env(self.env_id, n_envs=len(conditions), seed=0, **self.env_kwargs)
-        venv: VecEnv = ConditionGrid(base, conditions)
-        if self.normalizer_path is not None:
-            normalizer = read_normalizer(self.normalizer_path)
-            normalizer.set_venv(venv)
-            venv = normalizer
-            venv.training = False
-            venv.norm_reward = False
-        return venv
+        kwargs = MappingProxyType(env_kwargs)
+        return cls(run_dir, algo, env_id, entry, kwargs, path, normalizer, model)
 
     def strokes(self, conditions: Sequence[float]) -> np.ndarray:
         """The deterministic normalised strokes (n, 28) in [-1, 1] at ``conditions``."""
         values = [float(c) for c in conditions]
         if not values:
             raise ValueError("conditions is empty; allowed: one or more conditions")
-        venv = self._observing_env(values)
+        # the training env's own observation path: reset at each condition through the env's
+        # reset option, so the normalisation over the envelope is the one the policy learned
+        venv: VecEnv = ConditionGrid(
+            make_sb3_vec_env(self.env_id, n_envs=len(values), seed=0, **self.env_kwargs), values
+        )
+        if self.normalizer_path is not None:
+            normalizer = read_normalizer(self.normalizer_path)
+            normalizer.set_venv(venv)
+            venv, normalizer.training, normalizer.norm_reward = normalizer, False, False
         try:
             observations = venv.reset()
         finally:
@@ -152,9 +137,6 @@ def load_policy(run_dir: str | Path, which: WhichModel = "best") -> Any:
     """The policy of a run folder of ``python -m train`` (or of the latest run it names): a
     :class:`TrainedPolicy` for ppo and sac, a :class:`train.amortised_policy.AmortisedPolicy` for an
     amortised run (one weights file: ``which`` best and final are the same)."""
-    from train.amortised_policy import is_amortised_run
-    from train.amortised_policy import load_policy as load_amortised
-
     if which not in WHICH_MODELS:
         raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
     if is_amortised_run(run_dir):

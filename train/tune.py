@@ -1,10 +1,8 @@
 """``python -m train.tune``: tune PPO's or SAC's hyperparameters for a policy over an envelope.
 
-Optuna's TPE sampler (seeded) proposes overrides of the shipped zoo entry from
-:data:`SEARCH_SPACES`, the first trial being the shipped entry; each trial trains one policy by
-the same code as ``python -m train`` and its value is the median normalised score of its
-strokes at the reference grid's *training* conditions. The study's files, its checks and the
-shipped results: docs/training.md, "Tuning for the envelope". Needs the ``tune`` extra.
+Optuna's TPE sampler proposes overrides of the shipped zoo entry (the first trial) from
+:data:`SEARCH_SPACES`; a trial's value is the median normalised score of its policy's strokes
+at the reference grid's training conditions (docs/training.md, "Tuning for the envelope").
 """
 
 from __future__ import annotations
@@ -31,58 +29,45 @@ from train.entry import exit_on_bad_environment
 # importing tandem_env checks numba's environment: a bad setting is one line and status 2
 with exit_on_bad_environment("python -m train.tune"):
     from tandem_env.io.command import command_line
+from tandem_env.envs.registration import check_env_id, condition_keywords
 from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
+from tandem_env.physics.checks import is_integer, is_real
 from train.cli import command, option
+from train.config import TrainConfig, check_seed, load_entry
 
-#: What Optuna proposes per algorithm: name -> (kind, choices or (low, high)). "log" and
-#: "float" are ranges; "choice" a list. Every choice here is a value the shipped entry could
-#: hold (the shipped value is among them: the first trial is the shipped entry).
-SEARCH_SPACES: Mapping[str, Mapping[str, tuple[str, Any]]] = {
+#: Per algorithm and parameter: what Optuna proposes (kind, choices or (low, high): "log" and
+#: "float" are ranges, "choice" a list) and the shipped entry's value (the first trial).
+_SPACES: Mapping[str, Mapping[str, tuple[str, Any, Any]]] = {
     "ppo": {
-        "learning_rate": ("log", (3e-4, 1e-2)),
-        "lr_schedule": ("choice", ("linear", "constant")),
-        "n_steps": ("choice", (2, 4, 8)),
-        "batch_size": ("choice", (256, 512, 1024)),
-        "n_epochs": ("choice", (5, 10, 20)),
-        "clip_range": ("choice", (0.1, 0.2, 0.3)),
-        "ent_coef": ("choice", (0.0, 1e-3, 1e-2)),
-        "width": ("choice", (64, 128, 256)),
-        "log_std_init": ("float", (-2.0, 0.0)),
+        "learning_rate": ("log", (3e-4, 1e-2), 3e-3),
+        "lr_schedule": ("choice", ("linear", "constant"), "linear"),
+        "n_steps": ("choice", (2, 4, 8), 4),
+        "batch_size": ("choice", (256, 512, 1024), 512),
+        "n_epochs": ("choice", (5, 10, 20), 20),
+        "clip_range": ("choice", (0.1, 0.2, 0.3), 0.2),
+        "ent_coef": ("choice", (0.0, 1e-3, 1e-2), 0.0),
+        "width": ("choice", (64, 128, 256), 64),
+        "log_std_init": ("float", (-2.0, 0.0), -1.0),
     },
     "sac": {
-        "learning_rate": ("log", (1e-4, 3e-3)),
-        "batch_size": ("choice", (128, 256, 512)),
-        "gradient_steps": ("choice", (2, 4, 8)),
-        "tau": ("choice", (0.005, 0.01, 0.02)),
-        "buffer_size": ("choice", (20_000, 50_000, 100_000)),
-        "learning_starts": ("choice", (1024, 4096)),
-        "width": ("choice", (64, 128, 256)),
+        "learning_rate": ("log", (1e-4, 3e-3), 1e-3),
+        "batch_size": ("choice", (128, 256, 512), 256),
+        "gradient_steps": ("choice", (2, 4, 8), 8),
+        "tau": ("choice", (0.005, 0.01, 0.02), 0.005),
+        "buffer_size": ("choice", (20_000, 50_000, 100_000), 50_000),
+        "learning_starts": ("choice", (1024, 4096), 1024),
+        "width": ("choice", (64, 128, 256), 128),
     },
 }
-
-#: The shipped entry (``train/hyperparams/<algo>.yml``, level flight) in the search space's
-#: terms: the first trial (tests check it resolves to the shipped file's hyperparameters).
+#: What Optuna proposes per algorithm: name -> (kind, choices or (low, high)).
+SEARCH_SPACES: Mapping[str, Mapping[str, tuple[str, Any]]] = {
+    algo: {name: (kind, values) for name, (kind, values, _) in space.items()}
+    for algo, space in _SPACES.items()
+}
+#: The shipped entry (``train/hyperparams/<algo>.yml``) in the search space's terms.
 SHIPPED: Mapping[str, Mapping[str, Any]] = {
-    "ppo": {
-        "learning_rate": 3e-3,
-        "lr_schedule": "linear",
-        "n_steps": 4,
-        "batch_size": 512,
-        "n_epochs": 20,
-        "clip_range": 0.2,
-        "ent_coef": 0.0,
-        "width": 64,
-        "log_std_init": -1.0,
-    },
-    "sac": {
-        "learning_rate": 1e-3,
-        "batch_size": 256,
-        "gradient_steps": 8,
-        "tau": 0.005,
-        "buffer_size": 50_000,
-        "learning_starts": 1024,
-        "width": 128,
-    },
+    algo: {name: shipped for name, (_, _, shipped) in space.items()}
+    for algo, space in _SPACES.items()
 }
 
 #: Most trials and env steps per trial one command accepts.
@@ -109,9 +94,7 @@ def overrides(algo: str, params: Mapping[str, Any]) -> dict[str, Any]:
 
 @dataclass(frozen=True)
 class TuneConfig:
-    """One tuning command (each field an option of ``python -m train.tune``, its docstring the
-    option's help), checked once, when it is made (ValueError naming the value and what is
-    allowed, before any training)."""
+    """One tuning command (each field an option, its docstring the help), checked when made."""
 
     algo: str = option("--algo", choices=tuple(SEARCH_SPACES))
     """The algorithm whose hyperparameters are tuned."""
@@ -138,18 +121,15 @@ class TuneConfig:
         """The command line that makes this study."""
         words = ["python", "-m", "train.tune"]
         for spec in fields(self):
-            value = getattr(self, spec.name)
-            if value != {}:
-                pairs = isinstance(value, Mapping)
+            if (value := getattr(self, spec.name)) != {}:
                 words.append(spec.metadata["flags"][0])
+                pairs = isinstance(value, Mapping)
                 words += [f"{k}={v!r}" for k, v in value.items()] if pairs else [str(value)]
         return shlex.join(words)
 
     def __post_init__(self) -> None:
         import gymnasium as gym
 
-        from tandem_env.envs.registration import check_env_id
-        from tandem_env.physics.checks import is_integer
         from train.amortised import table_series
 
         if self.algo not in SEARCH_SPACES:
@@ -164,68 +144,9 @@ class TuneConfig:
         ):
             if not is_integer(value) or not 1 <= value <= high:
                 raise ValueError(f"{flag} {value!r}; allowed: an integer from 1 to {high:,}")
-        from train.config import check_seed
-
         check_seed(self.seed, "--seed")
         object.__setattr__(self, "out", Path(self.out))
         gym.make(self.env_id, disable_env_checker=True, **self.env_kwargs).close()  # its options
-
-
-def _sample(trial: Any, algo: str) -> dict[str, Any]:
-    params: dict[str, Any] = {}
-    for name, (kind, values) in SEARCH_SPACES[algo].items():
-        if kind == "choice":
-            params[name] = trial.suggest_categorical(name, list(values))
-        else:
-            params[name] = trial.suggest_float(name, *values, log=kind == "log")
-    return params
-
-
-def score_policy(policy: Any, conditions: Sequence[float]) -> np.ndarray:
-    """The normalised scores (n,) of a trained policy's deterministic strokes at
-    ``conditions``, flown by its env (the training options but the condition)."""
-    from tandem_env.envs.reference import score_strokes
-    from tandem_env.envs.registration import condition_keywords
-    from train.amortised import make_problem
-
-    env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
-    problem = make_problem(policy.env_id, env_kwargs)
-    values = np.asarray(conditions, dtype=np.float64)
-    return score_strokes(problem, policy.strokes(values), values)
-
-
-def run_trial(config: TuneConfig, params: Mapping[str, Any], folder: Path) -> dict[str, Any]:
-    """Train one policy with ``params`` into ``folder`` and score it at the training
-    conditions: ``{"value": median score, "scores": [...], "seconds": ...}``."""
-    from tandem_env.envs.reference import training_conditions
-    from train.config import TrainConfig
-    from train.run import train
-    from train.trained_policy import TrainedPolicy
-
-    start = time.perf_counter()
-    result = train(
-        TrainConfig(
-            algo=config.algo,  # type: ignore[arg-type]
-            env_id=config.env_id,
-            n_timesteps=config.steps,
-            seed=config.seed,
-            env_kwargs=dict(config.env_kwargs),
-            hyperparams=overrides(config.algo, params),
-            log_folder=folder,
-            progress_bar=False,
-            tensorboard=False,
-            verbose=0,
-        )
-    )
-    assert result.run_dir is not None  # a run with files
-    scores = score_policy(
-        TrainedPolicy.load(result.run_dir, "best"), training_conditions(config.env_id)
-    )
-    return {
-        "value": float(statistics.median(scores.tolist())),
-        "scores": [round(float(s), 2) for s in scores],
-        "seconds": round(time.perf_counter() - start, 1),
-    }
 
 
 def _rows(study: Any) -> list[dict[str, Any]]:
@@ -244,16 +165,12 @@ def _rows(study: Any) -> list[dict[str, Any]]:
 
 
 def best_entry_text(config: TuneConfig, study: Any) -> str:
-    """The best trial's zoo-format file: the shipped entry of ``config.env_id`` with the
-    trial's overrides, and where it came from in comments."""
+    """The best trial's zoo-format file, with where it came from in comments."""
     import optuna
     import yaml
 
-    from train.config import load_entry
-
     best = study.best_trial
-    entry = dict(load_entry(config.algo, config.env_id))
-    entry.update(overrides(config.algo, best.params))
+    entry = {**load_entry(config.algo, config.env_id), **overrides(config.algo, best.params)}
     env_kwargs = ", ".join(f"{k}={v!r}" for k, v in config.env_kwargs.items())
     finished = len(_rows(study))
     head = [
@@ -271,14 +188,13 @@ def best_entry_text(config: TuneConfig, study: Any) -> str:
     return "\n".join(head) + "\n" + body
 
 
-#: The Optuna errors replaying a damaged journal raises (it asserts on unknown operations and
-#: looks up studies and trials by id).
+#: The Optuna errors replaying a damaged journal raises.
 _REPLAY_ERRORS = (AssertionError, KeyError, IndexError, TypeError, ValueError, AttributeError)
 
 
 def _check_journal_lines(path: Path) -> None:
     """ValueError naming the journal unless every line is a JSON object with an integer
-    ``op_code`` ending in a newline (Optuna would append to a line a kill cut short)."""
+    ``op_code``, ending in a newline (Optuna would append to a line a kill cut short)."""
     if not path.exists():
         return
     try:
@@ -305,8 +221,6 @@ def _check_journal_lines(path: Path) -> None:
 def foreign_trial(algo: str, n_conditions: int, trial: Any) -> str | None:
     """None if the finished ``trial`` is one this tuner recorded (parameters inside
     :data:`SEARCH_SPACES`, value the median of its ``n_conditions`` scores), else why not."""
-    from tandem_env.physics.checks import is_real
-
     space = SEARCH_SPACES[algo]
     if set(trial.params) != set(space):
         return f"its parameters {sorted(trial.params)} are not the search space's"
@@ -336,8 +250,7 @@ def foreign_trial(algo: str, n_conditions: int, trial: Any) -> str | None:
 
 
 def open_study(config: TuneConfig) -> Any:
-    """The Optuna study of ``config`` in ``config.out`` (made, or loaded to continue it);
-    ValueError naming the folder or journal, before any training, for one it cannot continue."""
+    """The Optuna study of ``config`` (made or continued); ValueError before any training."""
     import optuna
 
     from tandem_env.envs.reference import training_conditions
@@ -366,17 +279,15 @@ def open_study(config: TuneConfig) -> Any:
             "(algo, env, steps, seed or env options); allowed: those settings to continue it, "
             "or another --out"
         )
-    finished = [t for t in trials if t.state == optuna.trial.TrialState.COMPLETE]
-    for trial in finished:
-        why = foreign_trial(config.algo, len(training_conditions(config.env_id)), trial)
-        if why is not None:
+    n_conditions = len(training_conditions(config.env_id))
+    for trial in (t for t in trials if t.state == optuna.trial.TrialState.COMPLETE):
+        if (why := foreign_trial(config.algo, n_conditions, trial)) is not None:
             raise ValueError(
                 f"{journal}: trial {trial.number} is not one this tuner recorded: {why}; the "
                 "journal is left untouched. Allowed: the journal python -m train.tune wrote, or "
                 "another --out"
             )
-    # Seeded by the trials already run too: a resumed study must not propose its first
-    # random trials again.
+    # seeded by the trials already run too: a resumed study must not propose its first again
     sampler = optuna.samplers.TPESampler(
         seed=(config.seed + len(trials)) % 2**32, n_startup_trials=5
     )
@@ -389,20 +300,49 @@ def open_study(config: TuneConfig) -> Any:
 
 
 def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = None) -> Any:
-    """Run the study of ``config`` (:func:`open_study`, unless given) up to ``config.trials``
-    finished trials (module docstring); returns the Optuna study."""
+    """Run the study of ``config`` up to ``config.trials`` finished trials; the study."""
+    from tandem_env.envs.reference import score_strokes, training_conditions
+    from train.amortised import make_problem
+    from train.run import train
+    from train.trained_policy import TrainedPolicy
+
     study = open_study(config) if study is None else study
 
     def objective(trial: Any) -> float:
-        params = _sample(trial, config.algo)
+        """Train one policy with the trial's parameters; its median score at the conditions."""
+        params = {
+            name: trial.suggest_categorical(name, list(values))
+            if kind == "choice"
+            else trial.suggest_float(name, *values, log=kind == "log")
+            for name, (kind, values) in SEARCH_SPACES[config.algo].items()
+        }
+        start = time.perf_counter()
         with tempfile.TemporaryDirectory(prefix="tandem-tune-") as folder:
-            found = run_trial(config, params, Path(folder))
-        for key in ("scores", "seconds"):
-            trial.set_user_attr(key, found[key])
-        say(
-            f"trial {trial.number}: median score {found['value']:.1f} in {found['seconds']:.0f} s ({params})"
-        )
-        return found["value"]
+            result = train(
+                TrainConfig(
+                    algo=config.algo,  # type: ignore[arg-type]
+                    env_id=config.env_id,
+                    n_timesteps=config.steps,
+                    seed=config.seed,
+                    env_kwargs=dict(config.env_kwargs),
+                    hyperparams=overrides(config.algo, params),
+                    log_folder=Path(folder),
+                    progress_bar=False,
+                    tensorboard=False,
+                    verbose=0,
+                )
+            )
+            policy = TrainedPolicy.load(result.run_dir, "best")  # type: ignore[arg-type]
+            kept = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
+            conditions = np.asarray(training_conditions(config.env_id), dtype=np.float64)
+            problem = make_problem(policy.env_id, kept)
+            scores = score_strokes(problem, policy.strokes(conditions), conditions)
+        value, seconds = float(statistics.median(scores.tolist())), time.perf_counter() - start
+        seconds = round(seconds, 1)
+        trial.set_user_attr("scores", [round(float(s), 2) for s in scores])
+        trial.set_user_attr("seconds", seconds)
+        say(f"trial {trial.number}: median score {value:.1f} in {seconds:.0f} s ({params})")
+        return value
 
     def write(study: Any, _trial: Any) -> None:
         write_csv_atomic(config.out / "trials.csv", _rows(study))

@@ -1,15 +1,8 @@
-"""The vector envs a run trains and evaluates on, and the two wrappers that make them useful here.
-
-Training stack (bottom up): the batched SB3 adapter (one model call per step) ->
-:class:`StrokeRecorder` (raw rewards: the best stroke seen and the evaluation count) ->
-``VecMonitor`` (episode CSV with the physical metrics) -> ``VecNormalize`` if the
-hyperparameters ask for it.
-
-Evaluation stack: the adapter over one sub-env per evaluation condition ->
-:class:`ConditionGrid` (every reset starts sub-env i at condition i, so each deterministic
-evaluation scores the same conditions and ``best_model.zip`` is chosen on a fixed, not a
-resampled, set) -> ``VecMonitor`` -> ``VecNormalize(training=False, norm_reward=False)``;
-:func:`evaluate_deterministic` plays a model's deterministic policy on it.
+"""The vector envs a run trains and evaluates on (bottom up). Training: the batched SB3 adapter
+-> :class:`StrokeRecorder` (the best stroke seen, the evaluation count) -> ``VecMonitor``
+(episode CSV with the physical metrics) -> ``VecNormalize`` if asked. Evaluation: the adapter
+-> :class:`ConditionGrid` (each deterministic evaluation scores the same conditions, so
+``best_model.zip`` is chosen on a fixed set) -> ``VecMonitor`` -> ``VecNormalize(training=False)``.
 """
 
 from __future__ import annotations
@@ -28,40 +21,27 @@ from tandem_env.envs.registration import config_class
 from tandem_env.envs.sb3 import TandemVecEnv, make_sb3_vec_env
 
 #: ``info`` entries written to the Monitor CSV next to each episode's reward and length.
-MONITOR_KEYWORDS: tuple[str, ...] = (
-    "objective",
-    "efficiency",
-    "lift_to_weight",
-    "power_per_mass",
-    "feasible",
-    "speed",
-    "available_power",
+MONITOR_KEYWORDS: tuple[str, ...] = tuple(
+    "objective efficiency lift_to_weight power_per_mass feasible speed available_power".split()
 )
 
 
 class StrokeRecorder(VecEnvWrapper):
-    """Keeps the best stroke any sub-env was given and counts evaluations.
-
-    "Best" is the harness's selection rule (:mod:`agents.selection`: feasible strokes first,
-    then the higher raw reward, the earlier on ties).
-    ``history`` records the best reward so far, feasible or not, so that it never decreases.
-    Sits directly on the adapter, so it sees the exact actions evaluated (after SB3's clipping
-    or rescaling) and the env's own rewards (before any normalisation).
-    """
+    """Keeps the best stroke any sub-env was given (the harness's selection rule,
+    :mod:`agents.selection`) and counts evaluations. On the adapter, it sees the exact actions
+    evaluated and the env's own rewards (before any normalisation)."""
 
     def __init__(self, venv: VecEnv, on_step: Callable[[StrokeRecorder], None] | None = None):
         super().__init__(venv)
         # VecMonitor writes the env id into the Monitor header when the stack has a spec.
         self.spec = getattr(getattr(venv, "vector_env", None), "spec", None)
-        self.evaluations = 0
-        self.steps = 0
-        self.best_reward = -np.inf
+        self.evaluations = self.steps = 0
+        self.best_reward = self.max_reward = -np.inf
         self.best_feasible = False
         self.best_action: np.ndarray | None = None
         self.best_info: dict[str, Any] | None = None
-        self.max_reward = -np.inf
         self.history: list[tuple[int, float]] = []
-        """(evaluations, best reward so far) after every vector step."""
+        """(evaluations, best reward so far, feasible or not) after every vector step."""
         self._best = BestStroke()
         self._actions: np.ndarray | None = None
         self._on_step = on_step
@@ -75,7 +55,11 @@ class StrokeRecorder(VecEnvWrapper):
 
     def step_wait(self) -> VecEnvStepReturn:
         observations, rewards, dones, infos = self.venv.step_wait()
-        exact = _exact_rewards(rewards, infos)
+        # float64 rewards: a record compares the stroke's reward with its re-evaluation, which
+        # is objective - penalty exactly as the task computes it (SB3 gets float32)
+        exact = np.asarray(rewards, dtype=np.float64)
+        if infos and all("objective" in info and "penalty" in info for info in infos):
+            exact = np.array([i["objective"] - i["penalty"] for i in infos], dtype=np.float64)
         feasible = np.array([bool(info.get("feasible", True)) for info in infos], dtype=bool)
         i = None if self._actions is None else self._best.offer(feasible, exact)
         if i is not None:
@@ -93,17 +77,8 @@ class StrokeRecorder(VecEnvWrapper):
         return observations, rewards, dones, infos
 
 
-def _exact_rewards(rewards: np.ndarray, infos: Sequence[Mapping[str, Any]]) -> np.ndarray:
-    """The rewards in float64: SB3 gets float32, but a record compares the stroke's reward with
-    its float64 re-evaluation, which is objective - penalty exactly as the task computes it."""
-    if infos and all("objective" in info and "penalty" in info for info in infos):
-        return np.array([info["objective"] - info["penalty"] for info in infos], dtype=np.float64)
-    return np.asarray(rewards, dtype=np.float64)
-
-
 class ConditionGrid(VecEnvWrapper):
-    """Resets sub-env i of the batched adapter ``venv`` at ``conditions[i]`` at every reset
-    (through the env's reset option, e.g. ``speed``)."""
+    """Resets sub-env i of ``venv`` at ``conditions[i]`` at every reset."""
 
     def __init__(self, venv: TandemVecEnv, conditions: Sequence[float]) -> None:
         super().__init__(venv)
@@ -149,8 +124,7 @@ def make_evaluation_env(
     *,
     normalize: Mapping[str, Any] | None,
 ) -> VecEnv:
-    """The evaluation stack at the fixed condition, or the declared sweep's points in the
-    sampled range (its ends and midpoint where it holds fewer than two)."""
+    """The evaluation stack at the fixed condition, or the sweep's points in the range."""
     config = config_class(env_id).from_kwargs(**env_kwargs)
     if config.condition_range is None:
         conditions: tuple[float, ...] = (float(config.fixed_condition),)
@@ -175,10 +149,10 @@ def evaluate_deterministic(
     ``episode_length`` and ``action`` (its first)."""
     observations = eval_env.reset()
     n_envs = eval_env.num_envs
-    returns = np.zeros(n_envs)
-    lengths = np.zeros(n_envs, dtype=np.int64)
+    returns, lengths = np.zeros(n_envs), np.zeros(n_envs, dtype=np.int64)
     first_actions: list[Any] = [None] * n_envs
     rows: list[dict[str, Any] | None] = [None] * n_envs
+    dropped = ("terminal_observation", "episode", "stroke", "TimeLimit.truncated")
     for _ in range(max_steps):
         actions, _ = model.predict(observations, deterministic=True)
         observations, rewards, dones, infos = eval_env.step(actions)
@@ -190,16 +164,12 @@ def evaluate_deterministic(
             returns[k] += float(rewards[k])
             lengths[k] += 1
             if dones[k]:
-                row = {
-                    key: value
-                    for key, value in infos[k].items()
-                    if key
-                    not in ("terminal_observation", "episode", "stroke", "TimeLimit.truncated")
-                }
-                row["reward"] = float(returns[k])
-                row["episode_length"] = int(lengths[k])
-                row["action"] = first_actions[k]
-                rows[k] = row
+                rows[k] = {key: v for key, v in infos[k].items() if key not in dropped}
+                rows[k].update(  # type: ignore[union-attr]
+                    reward=float(returns[k]),
+                    episode_length=int(lengths[k]),
+                    action=first_actions[k],
+                )
         if all(row is not None for row in rows):
-            return [row for row in rows if row is not None]
+            return rows  # type: ignore[return-value]
     raise RuntimeError(f"the evaluation episodes did not end within {max_steps} steps")
