@@ -77,15 +77,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     result: Any
     try:
         config = parse_config(parser, argv)
+        from train.amortised import train_run
+        from train.run import train
+
         with warnings_as_lines():  # every input was checked before any training
-            if config.algo == AMORTISED:
-                from train.amortised import train_run
-
-                result = train_run(config)
-            else:
-                from train.run import train
-
-                result = train(config)
+            result = (train_run if config.algo == AMORTISED else train)(config)
     except Interrupted as stop:  # Ctrl-C in training: a checkpoint was saved
         print(f"{parser.prog}: {stop}", file=sys.stderr)
         return 130

@@ -42,8 +42,7 @@ def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     series = table_series(env_id, env_kwargs)
     declared = config_class(env_id).CONDITION
     condition_words = (declared.keyword, declared.range_keyword, declared.envelope_keyword)
-    given = sorted(set(env_kwargs) & set(condition_words))
-    if given:
+    if given := sorted(set(env_kwargs) & set(condition_words)):
         raise ValueError(
             f"env_kwargs {given}: the condition is the amortised policy's input, set per "
             f"stroke; allowed: none of {', '.join(condition_words)}"
@@ -52,8 +51,7 @@ def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
 
 
 def table_series(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
-    """The reference series that scores the env of ``env_id`` with ``env_kwargs`` (its problem
-    fingerprint's); ValueError naming what is allowed where the table has none."""
+    """The reference series that scores ``env_id``'s env with ``env_kwargs``; ValueError if none."""
     from tandem_env.envs.reference import load_reference_table, reference_path  # at each call
 
     check_env_id(env_id, "env")
@@ -253,8 +251,7 @@ class RunResult:
 
 def train_run(config: TrainConfig) -> RunResult:
     """``python -m train --algo amortised``: train on the reference table's training optima,
-    write the run folder (``result.json`` last) and evaluate the final policy at the training
-    conditions for the summary."""
+    write the run folder (``result.json`` last), with the final policy's training evaluation."""
     from agents.records import package_versions
     from tandem_env.envs.reference import load_reference_table
 

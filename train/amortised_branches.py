@@ -36,8 +36,7 @@ def between(first: np.ndarray, second: np.ndarray, fraction: Any = 0.5) -> np.nd
 
 def branch_segments(problem: Any, targets: Targets, tolerance: float) -> list[tuple[int, int]]:
     """The training conditions split into branches ``[(first, stop), ...]`` (index ranges) by
-    the rule of docs/training.md (``tolerance``: ``branch_tolerance``, the midway stroke by
-    :func:`between`); no held-out optimum is read."""
+    the rule of docs/training.md; no held-out optimum is read."""
     k = targets.conditions.size
     if k == 1:
         return [(0, 1)]
@@ -75,9 +74,8 @@ def branch_domains(
 def regression_points(
     targets: Targets, segments: list[tuple[int, int]], domains: np.ndarray, centres: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """What each branch's regression fits (conditions (n,), branches (n,), atanh of the tanh
-    outputs (n, 26)): its optima, the :data:`INTERPOLATED` strokes between each two
-    neighbouring ones, and its end optima at its domain's ends (a constant continuation)."""
+    """What each branch's regression fits (conditions, branches, atanh of the tanh outputs):
+    its optima, strokes between neighbouring ones, and its end optima at its domain's ends."""
     conditions = targets.conditions
     goal = np.arctanh(regression_outputs(targets.strokes, centres))
     owner = [np.full(b - a, i) for i, (a, b) in enumerate(segments)]

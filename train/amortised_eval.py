@@ -38,9 +38,7 @@ def record_times(
     records: Sequence[Record], env_id: str, metric: str, planform: str, condition: float
 ) -> tuple[float, float, int] | None:
     """(wall time of the best record by the selection rule [s], sum over the records [s],
-    records) of the harness ``records`` at ``condition`` (the table's: its seeds and its
-    continuation rounds, read by the store, :func:`agents.store.read_record_files`); None where
-    there are none."""
+    records) of the harness ``records`` at ``condition``; None where there are none."""
     found = [
         record
         for record in records
@@ -178,8 +176,7 @@ def evaluate_held_out(
             "batch": int(values.size),
         }
     )
-    timed = [r for r in rows if "optimiser_wall_time" in r]
-    if timed:
+    if timed := [r for r in rows if "optimiser_wall_time" in r]:
         summary["optimiser_seconds_median"] = statistics.median(
             r["optimiser_wall_time"] for r in timed
         )
@@ -268,9 +265,7 @@ def format_report(report: Mapping[str, Any]) -> str:
 
 @dataclass(frozen=True)
 class HeldOutOptions:
-    """Judge an amortised policy at the reference grid's held-out conditions.
-
-    Its files are checked when made, before any evaluation."""
+    """Judge an amortised policy at the reference grid's held-out conditions."""
 
     run: str = option("--run")
     """Run folder of python -m train --algo amortised."""

@@ -136,8 +136,7 @@ class Settings:
     def from_mapping(cls, values: Mapping[str, Any]) -> Settings:
         """Settings from ``key=value`` overrides; ValueError naming an unknown key."""
         names = [f.name for f in fields(cls)]
-        unknown = sorted(set(values) - set(names))
-        if unknown:
+        if unknown := sorted(set(values) - set(names)):
             raise ValueError(f"unknown amortised setting(s) {unknown}; allowed: {', '.join(names)}")
         return cls(**dict(values))
 
@@ -323,8 +322,7 @@ class AmortisedPolicy(RunPolicy):
         return z
 
     def forward(self, conditions: np.ndarray, branches: np.ndarray | None = None) -> Any:
-        """(n, 28) normalised strokes, a float64 tensor differentiable w.r.t. the weights, each
-        from its branch (``branches``, default :meth:`branch_at`)."""
+        """(n, 28) normalised strokes of each condition's branch, differentiable (float64)."""
 
         values = np.asarray(conditions, dtype=np.float64).reshape(-1)
         chosen = self.branch_at(values) if branches is None else np.asarray(branches).reshape(-1)
@@ -432,8 +430,7 @@ def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
             "python -m train --algo amortised, minutes)"
         )
     needed = ("env_id", "env_kwargs", "hidden", "features", "num_timesteps", *_ARRAYS)
-    missing = [key for key in needed if key not in data]
-    if missing:
+    if missing := [key for key in needed if key not in data]:
         raise _refuse(path, f"no {', '.join(missing)}")
     if data["env_id"] != env_id:
         raise _refuse(path, f"env_id = {data['env_id']!r}, but its args.yml says {env_id!r}")

@@ -101,16 +101,14 @@ class SaveVecNormalize(BaseCallback):
         self.path = Path(path)
 
     def _on_step(self) -> bool:
-        normalizer = self.model.get_vec_normalize_env()
-        if normalizer is not None:
+        if (normalizer := self.model.get_vec_normalize_env()) is not None:
             normalizer.save(str(self.path))
         return True
 
 
 class RunCheckpoint(BaseCallback):
-    """Checkpoints every ``save_freq`` env steps, keeping the newest ``keep``, named as SB3's
-    CheckpointCallback names them; saved at a rollout's end (not inside ``on_step``, before SAC
-    stores that step's transitions), so the replay buffer holds every step up to it."""
+    """Checkpoints every ``save_freq`` env steps (at a rollout's end, when SAC's replay buffer
+    holds every step up to it), keeping the newest ``keep``, named as SB3's names them."""
 
     def __init__(self, layout: RunLayout, save_freq: int, keep: int, verbose: int = 0) -> None:
         super().__init__(verbose)
@@ -123,8 +121,7 @@ class RunCheckpoint(BaseCallback):
         return True
 
     def _on_rollout_end(self) -> None:
-        step = self.model.num_timesteps
-        if step >= self._next:
+        if (step := self.model.num_timesteps) >= self._next:
             checkpoint = save_checkpoint(self.model, self.layout, self.keep)
             self._next = (step // self.save_freq + 1) * self.save_freq
             if self.verbose >= 2:
@@ -132,9 +129,8 @@ class RunCheckpoint(BaseCallback):
 
 
 class StopOnInterrupt(BaseCallback):
-    """Ctrl-C (SIGINT) while :meth:`catching` stops ``learn`` at the next env step; :meth:`save`
-    then checkpoints the last rollout's end (:attr:`boundary`). A second Ctrl-C raises
-    KeyboardInterrupt at once."""
+    """Ctrl-C while :meth:`catching` stops ``learn`` at the next env step; :meth:`save` then
+    checkpoints the last rollout's end. A second Ctrl-C raises KeyboardInterrupt at once."""
 
     def __init__(self) -> None:
         super().__init__()

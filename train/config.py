@@ -68,8 +68,7 @@ _POLICY_KWARGS_ALLOWED = (
 
 # --- parsing ---------------------------------------------------------------------------------
 def eval_policy_kwargs(text: str) -> dict[str, Any]:
-    """The zoo's ``policy_kwargs`` string, e.g. ``"dict(net_arch=[64, 64])"``, read from its
-    syntax tree (the zoo evaluates it; here nothing runs)."""
+    """The zoo's ``policy_kwargs`` string read from its syntax tree (nothing runs)."""
     try:
         tree = ast.parse(text, mode="eval")
         value = _policy_value(tree.body, text)
@@ -108,8 +107,7 @@ def _policy_value(node: ast.expr, text: str) -> Any:
                 return list(items) if name == "list" else tuple(items)
     elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Load):
         # a chain of plain names unparses as itself; anything else names no module here
-        module = _POLICY_KWARGS_MODULES.get(ast.unparse(node.value))
-        if module is not None:
+        if (module := _POLICY_KWARGS_MODULES.get(ast.unparse(node.value))) is not None:
             found = getattr(importlib.import_module(module), node.attr, None)
             if isinstance(found, type) and not node.attr.startswith("_"):
                 return found
@@ -184,8 +182,7 @@ def resolve_hyperparams(
     """Preprocess ``algo``'s zoo entry as ``rl_zoo3.exp_manager`` does."""
     given = {"n_envs": n_envs, "n_timesteps": n_timesteps}
     raw = {**entry, **(overrides or {}), **{k: v for k, v in given.items() if v is not None}}
-    unsupported = sorted(set(raw) & set(UNSUPPORTED_ZOO_KEYS))
-    if unsupported:
+    if unsupported := sorted(set(raw) & set(UNSUPPORTED_ZOO_KEYS)):
         raise ValueError(
             f"hyperparameters {unsupported} are zoo features this trainer does not implement; "
             "allowed: model constructor arguments and " + ", ".join(ZOO_KEYS)
@@ -352,8 +349,7 @@ class TrainConfig:
     hyperparams: Mapping[str, Any] = option(
         "-params", "--hyperparams", factory=dict, amortised=True
     )
-    """Override hyperparameters of the yml entry (amortised: its settings,
-    train.amortised_policy.Settings)."""
+    """Override hyperparameters of the yml entry (amortised: its Settings)."""
     hyperparams_file: Path | None = option(
         "-conf", "--conf-file", default=None, metavar="CONF_FILE"
     )
@@ -371,11 +367,9 @@ class TrainConfig:
     save_freq: int = option("--save-freq", default=20_000)
     """Env steps between checkpoints (<= 0: none, and no resume)."""
     log_interval: int | None = option("--log-interval", default=None)
-    """SB3's log_interval; default one that dumps every few thousand steps (SAC counts it in
-    episodes, and every env step ends n_envs of them)."""
+    """SB3's log_interval; default one that dumps every few thousand steps."""
     log_table: bool = option("--log-table", default=False)
-    """Print SB3's statistics table at every log dump (default: off, the progress bar and the
-    final lines only; TensorBoard gets the same numbers)."""
+    """Print SB3's statistics table at every log dump (TensorBoard gets it either way)."""
     progress_bar: bool = option(
         "-P", "--progress", default=True, off="--no-progress", amortised=True
     )
@@ -385,8 +379,7 @@ class TrainConfig:
     verbose: int = option("--verbose", default=1, amortised=True)
     """0 quiet, 1 info, 2 debug."""
     torch_threads: int = option("--torch-threads", default=1)
-    """Torch threads: faster on 2 cores, where torch's second thread fights the model's numba
-    threads and small-MLP updates get up to 10x slower (docs/training.md)."""
+    """Torch threads (one is faster on 2 cores: docs/training.md)."""
     device: str = option("--device", default="cpu", choices=DEVICES)
     """Torch device of the model."""
 

@@ -86,21 +86,15 @@ def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60
             sums, counts = np.bincount(index, c.reward, bins), np.bincount(index, minlength=bins)
             x, keep = 0.5 * (edges[:-1] + edges[1:]), counts > 0
             left.plot(x[keep], sums[keep] / counts[keep], color=color, lw=1.2, label=label)
-            right.plot(
-                c.steps[:: max(1, len(c.steps) // 400)],
-                c.best_feasible[:: max(1, len(c.steps) // 400)],
-                color=color,
-                lw=1.2,
-            )
+            every = max(1, len(c.steps) // 400)
+            right.plot(c.steps[::every], c.best_feasible[::every], color=color, lw=1.2)
         if len(c.eval_steps):
             right.plot(c.eval_steps, c.eval_reward, ".", color=color, ms=3)
     left.set_yscale("symlog", linthresh=1.0)
     # symlog's default ticks leave this range unlabelled; name the decades.
     left.set_yticks([-100, -30, -10, -3, -1, 0, 0.5])
     left.yaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
-    left.set_xlabel("env steps (strokes evaluated)")
-    left.set_ylabel("mean training reward")
-    left.grid(alpha=0.3)
+    left.set(xlabel="env steps (strokes evaluated)", ylabel="mean training reward")
     left.legend(fontsize=7)
     right.set_xlabel("env steps")
     if any(len(c.eval_steps) for c in curves):
@@ -108,7 +102,8 @@ def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60
         right.set_ylim(-0.5, None)  # deterministic rewards far below 0 are off the chart
     else:
         right.set_ylabel("best feasible objective seen", fontsize=8)
-    right.grid(alpha=0.3)
+    for axes in (left, right):
+        axes.grid(alpha=0.3)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     out = Path(out)

@@ -43,11 +43,8 @@ def evaluate_envelope(
     which: str = "best",
     progress: bool = False,
 ) -> list[dict[str, Any]]:
-    """Record the run's policy at each condition (default the sweep); write envelope.csv.
-
-    One job per condition, run and stored by the runner (:func:`agents.runner.run_jobs`, the
-    one writer of the records), here, one after another; a rerun replaces the records (the run
-    folder may hold a newer model under the same name)."""
+    """Record the run's policy at each condition (default the sweep), one runner job each (a
+    rerun replaces the records); write envelope.csv."""
     from agents.harness import prepare
     from agents.runner import run_jobs
     from agents.tasks import get_task, task_of
@@ -103,9 +100,7 @@ def evaluate_envelope(
 
 @dataclass(frozen=True)
 class EnvelopeOptions:
-    """Evaluate one trained policy at every sweep condition through the harness.
-
-    Its output folder is checked when made, before any policy is loaded."""
+    """Evaluate one trained policy at every sweep condition through the harness."""
 
     run: str = option("--run")
     """Run folder written by python -m train."""
@@ -148,8 +143,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"{row['evaluations']} evaluation(s)"
             + ("" if row["trained_at"] else " (outside training)")
         )
-    outside = [row for row in rows if not row["trained_at"]]
-    if outside:
+    if outside := [row for row in rows if not row["trained_at"]]:
         seen = outside[0]["trained_over"]
         declared = get_task(outside[0]["task"]).declaration.condition
         ranged = "a range" if declared is None else declared.range_keyword

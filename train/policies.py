@@ -140,8 +140,7 @@ class TrainingMethod:
     torch_threads: int = 1
     log_dir: str | None = None
     """If given, train through ``python -m train``'s code into ``log_dir/<algo>/<env>_<n>/``
-    (no evaluations or checkpoints, which the budget would not count), to plot and reuse as
-    ``policy:RUN_DIR``."""
+    (no evaluations or checkpoints), to plot and reuse as ``policy:RUN_DIR``."""
 
     def __post_init__(self) -> None:
         check_algo(self.algo)
@@ -254,16 +253,9 @@ class TrainingMethod:
         final_action = np.clip(np.asarray(action[0], dtype=np.float64), -1.0, 1.0)
         final = context.evaluate_batch(final_action[None, :])
         best = (recorder.best_reward, recorder.best_action, recorder.best_info)
+        history = tuple(recorder.history)
         training = TrainResult(
-            self.algo,
-            context.env_id,
-            None,
-            recorder.evaluations,
-            0.0,
-            None,
-            *best,
-            history=tuple(recorder.history),
-            hp=hp,
+            self.algo, context.env_id, recorder.evaluations, *best, history=history, hp=hp
         )
         found = (final.rewards[0], final.objective[0], final.feasible[0])
         return training, _final(*found, final_action)

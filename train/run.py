@@ -45,16 +45,16 @@ class TrainResult:
 
     algo: str
     env_id: str
-    run_dir: Path | None
     num_timesteps: int
-    wall_time: float
-    """Wall-clock time of this training segment [s]."""
-    resumed_from: int | None
-    """Checkpoint step this segment resumed from, or None for a fresh run."""
     best_reward: float
     """Best raw reward of any stroke the training env evaluated in this segment."""
     best_action: np.ndarray | None
     best_info: dict[str, Any] | None
+    run_dir: Path | None = None
+    wall_time: float = 0.0
+    """Wall-clock time of this training segment [s]."""
+    resumed_from: int | None = None
+    """Checkpoint step this segment resumed from, or None for a fresh run."""
     final_evaluation: list[dict[str, Any]] = field(default_factory=list)
     """The final policy's deterministic stroke at each evaluation condition (metrics)."""
     history: tuple[tuple[int, float], ...] = ()
@@ -76,8 +76,7 @@ def torch_threads(count: int) -> Iterator[None]:
 
 
 def default_log_interval(hp: Hyperparams) -> int:
-    """PPO: every rollout. SAC counts episodes (every vector step ends n_envs of them): every
-    ~SAC_LOG_EVERY steps."""
+    """PPO: every rollout; SAC (counting episodes, n_envs per step): every ~SAC_LOG_EVERY steps."""
     return 1 if hp.algo == "ppo" else hp.n_envs * max(1, round(SAC_LOG_EVERY / hp.n_envs))
 
 

@@ -89,8 +89,7 @@ class RunPolicy:
     run_dir: Path | None
     env_id: str
     training_conditions: tuple[float, float] | float | None
-    """The condition range it was trained on, or its fixed condition (None if unknown) [the
-    condition's unit]."""
+    """The condition range it was trained on, its fixed condition, or None [condition's unit]."""
 
     def check_env(self, env_id: str) -> None:
         """ValueError unless the run was trained on ``env_id``."""
@@ -187,8 +186,7 @@ class RunLayout:
         if not self.args_file.is_file():
             if not any(p.name != LOCK_FILE for p in self.run_dir.iterdir()):
                 return None
-            others = sorted(p.parent.name for p in self.run_dir.glob("*/args.yml"))
-            if others:
+            if others := sorted(p.parent.name for p in self.run_dir.glob("*/args.yml")):
                 return (
                     f"{self.run_dir} holds a run of {', '.join(others)} (its */args.yml), not of "
                     f"{self.env_id}"
@@ -243,8 +241,7 @@ class RunLayout:
                 "without --resume, or give its folder with --run-dir"
             )
         layout = cls(algo_folder / f"{name}_{n}", env_id)
-        reason = layout.foreign()
-        if reason is not None:
+        if (reason := layout.foreign()) is not None:
             own = [
                 candidate.run_dir
                 for k in range(n - 1, 0, -1)
@@ -421,8 +418,7 @@ def _check_claimable(layout: RunLayout, amortised: bool) -> None:
     """ValueError unless a run may start or go on in ``layout``'s folder."""
     run_dir = layout.run_dir
     if not amortised:
-        reason = layout.foreign()
-        if reason is not None:
+        if (reason := layout.foreign()) is not None:
             raise ValueError(
                 f"--run-dir: {reason}; it is left untouched. Allowed: a run folder of "
                 "python -m train (to continue it), or an absent or empty folder (a new run)"
@@ -451,16 +447,17 @@ def _merge_saved(config: TrainConfig, saved: Mapping[str, Any], layout: RunLayou
                 f"gives {plain(dict(mine))!r}. A resumed run keeps its settings; allowed: the "
                 "same values or none, or a new run"
             )
+    kept = {
+        key: int(saved.get(key, getattr(config, key))) for key in ("seed", "eval_freq", "save_freq")
+    }
     return replace(
         config,
-        seed=int(saved.get("seed", config.seed)),
+        **kept,
         n_envs=saved.get("n_envs"),
         n_timesteps=config.n_timesteps or saved.get("n_timesteps"),
         env_kwargs=saved.get("env_kwargs") or {},
         hyperparams=saved.get("hyperparams") or {},
         hyperparams_file=saved.get("conf_file"),
-        eval_freq=int(saved.get("eval_freq", config.eval_freq)),
-        save_freq=int(saved.get("save_freq", config.save_freq)),
         resume=False,
         run_dir=layout.run_dir,
     )
@@ -469,9 +466,8 @@ def _merge_saved(config: TrainConfig, saved: Mapping[str, Any], layout: RunLayou
 def _latest_intact(
     layout: RunLayout, config: TrainConfig, hp: Hyperparams, env_kwargs: Mapping[str, Any]
 ) -> Checkpoint:
-    """The newest checkpoint whose files load as a resume loads them (its model, SAC's replay
-    buffer, the VecNormalize statistics), each read once, nothing unpickled: one cut short (a
-    kill while saving) is skipped with a warning, one that is refused raises its ValueError."""
+    """The newest checkpoint whose files load as a resume loads them (nothing unpickled): one
+    cut short is skipped with a warning, one that is refused raises its ValueError."""
     for checkpoint in reversed(layout.checkpoints()):
         needed = [checkpoint.model]
         needed += [checkpoint.replay_buffer] if config.algo == "sac" else []

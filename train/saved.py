@@ -94,8 +94,7 @@ def read_normalizer(path: Path) -> Any:
 # --- the YAML of a run folder ---------------------------------------------------------------
 class RunFileLoader(BoundedLoader):
     """YAML's safe loader, bounded (:class:`BoundedLoader`), plus the two Python tags rl_zoo3
-    writes: ``!!python/object/apply:collections.OrderedDict`` becomes a dict and
-    ``!!python/tuple`` a tuple. Every other tag is refused (:class:`ForbiddenTag`)."""
+    writes (:func:`_construct`); every other tag is refused (:class:`ForbiddenTag`)."""
 
 
 class ForbiddenTag(yaml.constructor.ConstructorError):
@@ -106,35 +105,25 @@ class ForbiddenTag(yaml.constructor.ConstructorError):
         super().__init__(None, None, f"the tag {node.tag!r} is not admitted", node.start_mark)
 
 
-def _ordered_dict(loader: RunFileLoader, node: yaml.Node) -> dict[Any, Any]:
-    # PyYAML writes an OrderedDict as a one-item sequence: the list of [key, value] pairs.
-    arguments = (
-        loader.construct_sequence(node, deep=True) if isinstance(node, yaml.SequenceNode) else None
-    )
-    if (
-        not arguments
-        or len(arguments) != 1
-        or not all(isinstance(pair, list) and len(pair) == 2 for pair in arguments[0])
-    ):
-        raise ForbiddenTag(node)  # the tag, but not the zoo's form of it
-    return {key: value for key, value in arguments[0]}
+_TUPLE, _ORDERED_DICT = (
+    f"tag:yaml.org,2002:python/{name}" for name in ("tuple", "object/apply:collections.OrderedDict")
+)
 
 
-def _tuple(loader: RunFileLoader, node: yaml.Node) -> tuple[Any, ...]:
-    if not isinstance(node, yaml.SequenceNode):
-        raise ForbiddenTag(node)
-    return tuple(loader.construct_sequence(node, deep=True))
-
-
-def _refuse(loader: RunFileLoader, node: yaml.Node) -> None:
+def _construct(loader: RunFileLoader, node: yaml.Node) -> Any:
+    """A ``!!python/tuple`` sequence as a tuple, rl_zoo3's OrderedDict (a one-item sequence: the
+    list of [key, value] pairs) as a dict; any other tag, or other form, is refused."""
+    if isinstance(node, yaml.SequenceNode) and node.tag in (_TUPLE, _ORDERED_DICT):
+        items = loader.construct_sequence(node, deep=True)
+        if node.tag == _TUPLE:
+            return tuple(items)
+        if len(items) == 1 and all(isinstance(pair, list) and len(pair) == 2 for pair in items[0]):
+            return dict(items[0])
     raise ForbiddenTag(node)
 
 
-RunFileLoader.add_constructor(
-    "tag:yaml.org,2002:python/object/apply:collections.OrderedDict", _ordered_dict
-)
-RunFileLoader.add_constructor("tag:yaml.org,2002:python/tuple", _tuple)
-RunFileLoader.add_constructor(None, _refuse)
+for _tag in (_TUPLE, _ORDERED_DICT, None):
+    RunFileLoader.add_constructor(_tag, _construct)
 
 
 def parse_run_yaml(text: str, path: Path) -> dict[str, Any]:
@@ -277,10 +266,8 @@ VARIABLES_MEMBER = "pytorch_variables.pth"
 
 
 def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any], dict[str, Any]]:
-    """The ``num_timesteps``, state dicts and torch variables of the model zip at ``path``: its
-    ``data`` parsed as JSON, each ``.pth`` read with ``torch.load(weights_only=True)``;
-    ValueError naming the file for a serialized entry that names none of ``attributes`` (the
-    rebuilt model's), a bad count, or weights that fail the load."""
+    """The ``num_timesteps``, state dicts and torch variables of the model zip at ``path``,
+    nothing unpickled; ValueError naming the file for an entry none of ``attributes`` names."""
     params: dict[str, Any] = {}
     variables: dict[str, Any] = {}
     try:
@@ -365,9 +352,8 @@ def load_model(
     replay_buffer: Path | None = None,
     **settings: Any,
 ) -> BaseAlgorithm:
-    """The model saved at ``path``, rebuilt from ``hp`` on ``venv`` (``settings``:
-    :func:`build_model`'s) and given the file's weights and step count (a checkpoint's: its
-    ``step``), nothing unpickled; ValueError naming the file if they do not fit."""
+    """The model saved at ``path``, rebuilt from ``hp`` on ``venv`` and given the file's
+    weights and step count, nothing unpickled; ValueError naming the file if they do not fit."""
     model = build_model(algo, hp, venv, **settings)
     num_timesteps, params, variables = read_model_zip(path, set(vars(model)))
     expected = sorted(model.get_parameters())
@@ -477,8 +463,7 @@ def save_checkpoint(model: BaseAlgorithm, layout: Any, keep: int | None = None) 
     if getattr(model, "replay_buffer", None) is not None:
         with atomic_path(checkpoint.replay_buffer) as tmp:
             save_replay_buffer(model, tmp)
-    normalizer = model.get_vec_normalize_env()
-    if normalizer is not None:
+    if (normalizer := model.get_vec_normalize_env()) is not None:
         with atomic_path(checkpoint.vecnormalize) as tmp:
             normalizer.save(str(tmp))
     with atomic_path(checkpoint.model) as tmp:

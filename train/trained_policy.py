@@ -50,9 +50,8 @@ class TrainedPolicy(RunPolicy):
 
     @classmethod
     def load(cls, run_dir: str | Path, which: WhichModel = "best") -> TrainedPolicy:
-        """Load ``best_model.zip`` (``which="best"``; the final model if there is none) or the
-        final ``<env>.zip`` of ``run_dir`` (or of the latest run it names); ValueError naming
-        the folder or file and what is wrong."""
+        """Load ``best_model.zip`` (else the final model) or the final ``<env>.zip`` of ``run_dir``
+        (or of the latest run it names); ValueError naming the folder or file otherwise."""
         if which not in WHICH_MODELS:
             raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
         run_dir = resolve_run_dir(run_dir)
@@ -134,9 +133,8 @@ class TrainedPolicy(RunPolicy):
 
 
 def load_policy(run_dir: str | Path, which: WhichModel = "best") -> Any:
-    """The policy of a run folder of ``python -m train`` (or of the latest run it names): a
-    :class:`TrainedPolicy` for ppo and sac, a :class:`train.amortised_policy.AmortisedPolicy` for an
-    amortised run (one weights file: ``which`` best and final are the same)."""
+    """The policy of a run folder of ``python -m train``: a :class:`TrainedPolicy` for ppo and
+    sac, an ``AmortisedPolicy`` for an amortised run (its ``which`` models are the same)."""
     if which not in WHICH_MODELS:
         raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
     if is_amortised_run(run_dir):

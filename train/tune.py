@@ -348,8 +348,7 @@ def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = No
         write_csv_atomic(config.out / "trials.csv", _rows(study))
         write_text_atomic(config.out / f"{config.algo}.yml", best_entry_text(config, study))
 
-    done = len(_rows(study))
-    left = config.trials - done
+    left = config.trials - len(_rows(study))
     say(
         f"tune {config.algo} on {config.env_id}: {left} of {config.trials} trials left, "
         f"{config.steps:,} env steps each -> {config.out}"
@@ -371,11 +370,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--env-kwargs 'speed_range=(0.25, 2.0)' --out results/tune-ppo",
     )
     try:
-        import optuna  # noqa: F401
+        study = open_study(config)  # imports Optuna first
     except ImportError:
         parser.error('needs Optuna: pip install -e ".[tune]"')
-    try:
-        study = open_study(config)
     except ValueError as error:
         parser.error(str(error))
     start = time.perf_counter()

@@ -27,9 +27,8 @@ MONITOR_KEYWORDS: tuple[str, ...] = tuple(
 
 
 class StrokeRecorder(VecEnvWrapper):
-    """Keeps the best stroke any sub-env was given (the harness's selection rule,
-    :mod:`agents.selection`) and counts evaluations. On the adapter, it sees the exact actions
-    evaluated and the env's own rewards (before any normalisation)."""
+    """Keeps the best stroke any sub-env was given (:mod:`agents.selection`'s rule, on the env's
+    own rewards) and counts evaluations."""
 
     def __init__(self, venv: VecEnv, on_step: Callable[[StrokeRecorder], None] | None = None):
         super().__init__(venv)
@@ -144,9 +143,8 @@ def make_evaluation_env(
 def evaluate_deterministic(
     model: BaseAlgorithm, eval_env: VecEnv, max_steps: int = 100_000
 ) -> list[dict[str, Any]]:
-    """The deterministic policy from one reset of each evaluation env to the end of its episode:
-    one row per env, the info of its last step with ``reward`` (the return),
-    ``episode_length`` and ``action`` (its first)."""
+    """One episode of the deterministic policy in each evaluation env: the info of its last step
+    with ``reward`` (the return), ``episode_length`` and ``action`` (its first)."""
     observations = eval_env.reset()
     n_envs = eval_env.num_envs
     returns, lengths = np.zeros(n_envs), np.zeros(n_envs, dtype=np.int64)
