@@ -13,7 +13,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from train.entry import exit_on_bad_environment
 
@@ -22,13 +22,13 @@ with exit_on_bad_environment("python -m train.amortised_eval"):
 
 import numpy as np
 
+from agents.records import Record
 from agents.selection import best_index
+from agents.tasks import get_task, task_of
+from tandem_env.envs.reference import held_out_conditions, normalised_score
 from tandem_env.io.files import output_directory, write_json_atomic
 from tandem_env.physics.checks import is_integer
 from train.cli import command, option
-
-if TYPE_CHECKING:
-    from agents.records import Record
 
 #: The most evaluations the warm-started polish may spend per condition [-].
 MAX_POLISH = 500
@@ -63,7 +63,6 @@ def evaluate_held_out(
     repeats: int = 20,
 ) -> dict[str, Any]:
     """The held-out evaluation of an amortised run: ``{"rows": [...], "summary": {...}}``."""
-    from tandem_env.envs.reference import held_out_conditions, normalised_score
     from train.amortised import check_env_kwargs, make_problem
     from train.amortised_policy import load_policy
 
@@ -127,7 +126,6 @@ def evaluate_held_out(
     }
     if polish_budget:
         from agents.polish import AutogradGradient, PolishConfig, polish, task_problem
-        from agents.tasks import get_task, task_of
 
         task = get_task(task_of(env_id))
         for row, start in zip(rows, strokes, strict=True):
@@ -186,7 +184,6 @@ def evaluate_held_out(
     if cmaes_budget:
         # a CMA-ES run (the harness's, its default polish included) at the first condition
         from agents.harness import run
-        from agents.tasks import task_of
 
         condition, start = float(values[0]), time.perf_counter()
         [record] = run(

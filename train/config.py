@@ -70,8 +70,7 @@ _POLICY_KWARGS_ALLOWED = (
 def eval_policy_kwargs(text: str) -> dict[str, Any]:
     """The zoo's ``policy_kwargs`` string read from its syntax tree (nothing runs)."""
     try:
-        tree = ast.parse(text, mode="eval")
-        value = _policy_value(tree.body, text)
+        value = _policy_value(ast.parse(text, mode="eval").body, text)
     except (SyntaxError, RecursionError, MemoryError) as error:
         raise ValueError(
             f"policy_kwargs = {text[:200]!r} is not a Python expression this reader takes: "
@@ -141,10 +140,9 @@ def load_entry(algo: str, env_id: str, path: str | Path | None = None) -> dict[s
     """The entry for ``env_id`` (else ``default``) of ``algo``'s (or ``path``'s) yml, as the zoo."""
     file = Path(path) if path is not None else HYPERPARAMS_DIR / f"{algo}.yml"
     entries = load_hyperparams_file(file)
-    if env_id in entries:
-        return dict(entries[env_id])
-    if "default" in entries:
-        return dict(entries["default"])
+    for key in (env_id, "default"):
+        if key in entries:
+            return dict(entries[key])
     raise ValueError(
         f"{file}: no entry for {env_id!r} and no 'default'; entries: {sorted(entries)}"
     )

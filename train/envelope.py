@@ -21,6 +21,7 @@ from train.entry import exit_on_bad_environment
 # importing tandem_env checks numba's environment: a bad setting is one line and status 2
 with exit_on_bad_environment("python -m train.envelope"):
     from tandem_env.io.command import command_line
+from agents.tasks import available_tasks, get_task, task_of
 from tandem_env.envs.registration import condition_keywords
 from tandem_env.io.files import output_directory, write_csv_atomic
 from train.cli import command, option
@@ -47,7 +48,6 @@ def evaluate_envelope(
     rerun replaces the records); write envelope.csv."""
     from agents.harness import prepare
     from agents.runner import run_jobs
-    from agents.tasks import get_task, task_of
     from train.trained_policy import TrainingMismatchWarning, load_policy
 
     policy = load_policy(run_dir, which)  # type: ignore[arg-type]
@@ -117,8 +117,6 @@ class EnvelopeOptions:
 
 @command_line
 def main(argv: Sequence[str] | None = None) -> int:
-    from agents.tasks import available_tasks, get_task
-
     script = Path(sys.argv[0]).name == "tandem-envelope"
     sweeps = [
         f"{name}: {d.keyword} {', '.join(f'{v:g}' for v in d.sweep)} {d.unit}"
@@ -139,8 +137,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(
             f"{row['condition']} = {row['condition_value']:g} {row['condition_unit']}: "
             f"{row['objective_name']} = {row['objective']:.4g}, feasible {row['feasible']}, "
-            f"score {row['score']:.1f}, "
-            f"{row['evaluations']} evaluation(s)"
+            f"score {row['score']:.1f}, {row['evaluations']} evaluation(s)"
             + ("" if row["trained_at"] else " (outside training)")
         )
     if outside := [row for row in rows if not row["trained_at"]]:

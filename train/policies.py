@@ -13,13 +13,14 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from tqdm.auto import tqdm
 
-from agents.methods import Method, SearchContext, SearchOutcome
+from agents.methods import Method, SearchContext, SearchOutcome, register_method
 from agents.selection import is_better
+from agents.tasks import TaskSpec
 from tandem_env.envs.registration import condition_keywords
 from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import count
@@ -37,9 +38,6 @@ from train.run import TrainResult, budget_hyperparams, learn_in_memory, train
 from train.run_folder import resolve_run_dir
 from train.trained_policy import WHICH_MODELS, TrainingMismatchWarning, WhichModel, load_policy
 from train.vec import StrokeRecorder
-
-if TYPE_CHECKING:
-    from agents.tasks import TaskSpec
 
 _SB3 = "Stable-Baselines3 implementation (Raffin et al. 2021, JMLR 22(268))"
 CITATIONS: dict[str, str] = {
@@ -333,8 +331,6 @@ def training_factory(algo: str):
 
 def register() -> None:
     """Register ``ppo``, ``sac`` and ``policy`` with the harness (idempotent)."""
-    from agents.methods import register_method
-
     for algo in ALGOS:
         register_method(algo, training_factory(algo), replace=True)
     register_method("policy", policy_factory, replace=True)

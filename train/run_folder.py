@@ -19,6 +19,7 @@ from typing import Any
 import gymnasium as gym
 
 from tandem_env.io.files import FolderLock
+from train import saved
 from train.config import (
     AMORTISED,
     FOLDER_NAME,
@@ -30,16 +31,6 @@ from train.config import (
     resolve_hyperparams,
     step_granularity,
     write_yaml,
-)
-from train.saved import (
-    Incomplete,
-    build_model,
-    load_model,
-    load_on_copy,
-    parse_run_yaml,
-    read_normalizer,
-    read_result_segments,
-    read_run_yaml,
 )
 
 CHECKPOINT_PREFIX = "rl_model"
@@ -142,7 +133,7 @@ class Checkpoint:
     """The pickled buffer of earlier versions: never loaded (a pickle can run code)."""
 
     def loads(self, algo: str) -> dict[str, Any]:
-        """``load_model``'s ``step`` and ``replay_buffer`` (SAC's)."""
+        """``saved.load_model``'s ``step`` and ``replay_buffer`` (SAC's)."""
         return {"step": self.step, "replay_buffer": self.replay_buffer if algo == "sac" else None}
 
     def paths(self) -> tuple[Path, ...]:
@@ -193,7 +184,7 @@ class RunLayout:
                 )
             return f"{self.run_dir} holds files but no {self.name}/args.yml: not a training run"
         try:
-            args = parse_run_yaml(text := self.args_file.read_text("utf-8"), self.args_file)
+            args = saved.parse_run_yaml(text := self.args_file.read_text("utf-8"), self.args_file)
         except UnicodeDecodeError:
             return f"{self.args_file} is not UTF-8 text"
         except (OSError, ValueError) as error:
@@ -332,9 +323,11 @@ class RunFolder:
         if layout is not None:
             resume = config.resume  # the merge below turns a resume into a run of a folder
             if layout.args_file.is_file():
-                config = _merge_saved(config, read_run_yaml(layout.args_file), layout)
+                config = _merge_saved(config, saved.read_run_yaml(layout.args_file), layout)
             # config.yml: the hyperparameters the run started with, which a resume keeps
-            entry = read_run_yaml(layout.config_file) if layout.config_file.is_file() else None
+            entry = (
+                saved.read_run_yaml(layout.config_file) if layout.config_file.is_file() else None
+            )
             if layout.checkpoints():
                 if entry is None:  # resuming from the current yml would mix two runs' settings
                     raise ValueError(
@@ -370,7 +363,7 @@ class RunFolder:
         segments: tuple[Mapping[str, Any], ...] = ()
         if layout is not None and layout.checkpoints():
             checkpoint = _latest_intact(layout, config, hp, env_kwargs)
-            segments = read_result_segments(layout.result_file)
+            segments = saved.read_result_segments(layout.result_file)
         unit = step_granularity(hp)
         target = -(-hp.n_timesteps // unit) * unit  # where SB3's learn stops: whole iterations
         if checkpoint is not None and checkpoint.step >= target:
@@ -399,8 +392,8 @@ class RunFolder:
             "device": config.device,
         }
         if checkpoint is None:
-            return build_model(algo, self.hp, venv, seed=seed, **settings)
-        model = load_model(
+            return saved.build_model(algo, self.hp, venv, seed=seed, **settings)
+        model = saved.load_model(
             algo, checkpoint.model, self.hp, venv, seed=seed, **checkpoint.loads(algo), **settings
         )
         model.set_random_seed(seed + model.num_timesteps)
@@ -432,32 +425,32 @@ def _check_claimable(layout: RunLayout, amortised: bool) -> None:
         )
 
 
-def _merge_saved(config: TrainConfig, saved: Mapping[str, Any], layout: RunLayout) -> TrainConfig:
+def _merge_saved(config: TrainConfig, args: Mapping[str, Any], layout: RunLayout) -> TrainConfig:
     """The config of a run being continued: its saved settings, this command's target steps."""
     for key, mine in (("algo", config.algo), ("env", config.env_id)):
-        if saved.get(key) != mine:
+        if args.get(key) != mine:
             raise ValueError(
-                f"{layout.run_dir} is a run of {key} = {saved.get(key)!r}, not {mine!r}; "
+                f"{layout.run_dir} is a run of {key} = {args.get(key)!r}, not {mine!r}; "
                 "allowed: the same algo and env, or a new run"
             )
     for key, mine in (("env_kwargs", config.env_kwargs), ("hyperparams", config.hyperparams)):
-        if mine and plain(dict(mine)) != saved.get(key):
+        if mine and plain(dict(mine)) != args.get(key):
             raise ValueError(
-                f"{layout.run_dir} was started with {key} = {saved.get(key)!r}; this command "
+                f"{layout.run_dir} was started with {key} = {args.get(key)!r}; this command "
                 f"gives {plain(dict(mine))!r}. A resumed run keeps its settings; allowed: the "
                 "same values or none, or a new run"
             )
     kept = {
-        key: int(saved.get(key, getattr(config, key))) for key in ("seed", "eval_freq", "save_freq")
+        key: int(args.get(key, getattr(config, key))) for key in ("seed", "eval_freq", "save_freq")
     }
     return replace(
         config,
         **kept,
-        n_envs=saved.get("n_envs"),
-        n_timesteps=config.n_timesteps or saved.get("n_timesteps"),
-        env_kwargs=saved.get("env_kwargs") or {},
-        hyperparams=saved.get("hyperparams") or {},
-        hyperparams_file=saved.get("conf_file"),
+        n_envs=args.get("n_envs"),
+        n_timesteps=config.n_timesteps or args.get("n_timesteps"),
+        env_kwargs=args.get("env_kwargs") or {},
+        hyperparams=args.get("hyperparams") or {},
+        hyperparams_file=args.get("conf_file"),
         resume=False,
         run_dir=layout.run_dir,
     )
@@ -483,14 +476,14 @@ def _latest_intact(
         try:
             if problem is None:
                 loads = checkpoint.loads(config.algo)
-                model = load_on_copy(
+                model = saved.load_on_copy(
                     config.algo, checkpoint.model, hp, config.env_id, env_kwargs, **loads
                 )
                 model.get_env().close()  # type: ignore[union-attr]
                 if hp.normalize is not None:
-                    read_normalizer(checkpoint.vecnormalize)
+                    saved.read_normalizer(checkpoint.vecnormalize)
                 return checkpoint
-        except Incomplete as error:
+        except saved.Incomplete as error:
             problem = error.damage
         warnings.warn(
             f"skipping checkpoint {checkpoint.model.name} of {layout.run_dir}: {problem} "

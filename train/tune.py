@@ -22,13 +22,16 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
+import yaml
 
 from train.entry import exit_on_bad_environment
 
 # importing tandem_env checks numba's environment: a bad setting is one line and status 2
 with exit_on_bad_environment("python -m train.tune"):
     from tandem_env.io.command import command_line
+from tandem_env.envs.reference import score_strokes, training_conditions
 from tandem_env.envs.registration import check_env_id, condition_keywords
 from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
 from tandem_env.physics.checks import is_integer, is_real
@@ -128,8 +131,6 @@ class TuneConfig:
         return shlex.join(words)
 
     def __post_init__(self) -> None:
-        import gymnasium as gym
-
         from train.amortised import table_series
 
         if self.algo not in SEARCH_SPACES:
@@ -167,7 +168,6 @@ def _rows(study: Any) -> list[dict[str, Any]]:
 def best_entry_text(config: TuneConfig, study: Any) -> str:
     """The best trial's zoo-format file, with where it came from in comments."""
     import optuna
-    import yaml
 
     best = study.best_trial
     entry = {**load_entry(config.algo, config.env_id), **overrides(config.algo, best.params)}
@@ -253,8 +253,6 @@ def open_study(config: TuneConfig) -> Any:
     """The Optuna study of ``config`` (made or continued); ValueError before any training."""
     import optuna
 
-    from tandem_env.envs.reference import training_conditions
-
     output_directory(config.out, files=("study.journal", "trials.csv", f"{config.algo}.yml"))
     config.out.mkdir(parents=True, exist_ok=True)  # the journal is opened, not written whole
     optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -301,7 +299,6 @@ def open_study(config: TuneConfig) -> Any:
 
 def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = None) -> Any:
     """Run the study of ``config`` up to ``config.trials`` finished trials; the study."""
-    from tandem_env.envs.reference import score_strokes, training_conditions
     from train.amortised import make_problem
     from train.run import train
     from train.trained_policy import TrainedPolicy
