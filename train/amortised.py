@@ -250,8 +250,7 @@ class RunResult:
 
 
 def train_run(config: TrainConfig) -> RunResult:
-    """``python -m train --algo amortised``: train on the reference table's training optima,
-    write the run folder (``result.json`` last), with the final policy's training evaluation."""
+    """``python -m train --algo amortised``: train, then write the run folder (result last)."""
     from agents.records import package_versions
     from tandem_env.envs.reference import load_reference_table
 

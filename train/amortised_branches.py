@@ -35,8 +35,7 @@ def between(first: np.ndarray, second: np.ndarray, fraction: Any = 0.5) -> np.nd
 
 
 def branch_segments(problem: Any, targets: Targets, tolerance: float) -> list[tuple[int, int]]:
-    """The training conditions split into branches ``[(first, stop), ...]`` (index ranges) by
-    the rule of docs/training.md; no held-out optimum is read."""
+    """The training conditions split into branches ``[(first, stop), ...]`` (index ranges)."""
     k = targets.conditions.size
     if k == 1:
         return [(0, 1)]
@@ -98,8 +97,7 @@ def regression_points(
 
 def hand_overs(policy: AmortisedPolicy, problem: Any, penalty_weight: float) -> np.ndarray:
     """Where each branch hands over to the next: in their domains' overlap, at the cut that
-    maximises the summed penalised objective (objective − w·Σ max(0, −margin), the env's
-    reward) of the two branches' strokes on :data:`SWITCH_SAMPLES` conditions there."""
+    maximises the two branches' summed reward on :data:`SWITCH_SAMPLES` conditions there."""
     switches = []
     for branch in range(policy.n_branches - 1):
         grid = np.linspace(policy.domains[branch + 1, 0], policy.domains[branch, 1], SWITCH_SAMPLES)

@@ -37,8 +37,7 @@ MAX_POLISH = 500
 def record_times(
     records: Sequence[Record], env_id: str, metric: str, planform: str, condition: float
 ) -> tuple[float, float, int] | None:
-    """(wall time of the best record by the selection rule [s], sum over the records [s],
-    records) of the harness ``records`` at ``condition``; None where there are none."""
+    """(best record's wall time [s], all records' [s], records) at ``condition``, or None."""
     found = [
         record
         for record in records

@@ -323,7 +323,6 @@ class AmortisedPolicy(RunPolicy):
 
     def forward(self, conditions: np.ndarray, branches: np.ndarray | None = None) -> Any:
         """(n, 28) normalised strokes of each condition's branch, differentiable (float64)."""
-
         values = np.asarray(conditions, dtype=np.float64).reshape(-1)
         chosen = self.branch_at(values) if branches is None else np.asarray(branches).reshape(-1)
         return self.assemble(torch.tanh(self.pre_activations(values, chosen)), chosen)
@@ -338,9 +337,8 @@ class AmortisedPolicy(RunPolicy):
         centres = torch.as_tensor(self.centres, dtype=torch.float64)
         phase = torch.as_tensor(_OUTPUT_PHASES, dtype=torch.bool)
         shifted = torch.remainder(u + centres + 1.0, 2.0) - 1.0
-        continuous = torch.where(phase, shifted, u)
         out = torch.zeros((u.shape[0], N_PARAMETERS), dtype=torch.float64)
-        out[:, list(CONTINUOUS)] = continuous
+        out[:, list(CONTINUOUS)] = torch.where(phase, shifted, u)
         out[:, list(HARMONICS)] = torch.as_tensor(self.harmonics[np.asarray(branches)])
         return out
 
@@ -380,8 +378,7 @@ class AmortisedPolicy(RunPolicy):
 
 
 def output_centres(targets: Targets, *, pairs_independent: bool) -> np.ndarray:
-    """(26,) output centres: the circular mean of the targets' phase (the canonical value for
-    the sweep phases :func:`canonicalise` set), 0 for the other coordinates."""
+    """(26,) output centres: the circular mean of each phase of the targets, else 0."""
     canonical = (_SWEEP, N_PER_WING + _SWEEP) if pairs_independent else (_SWEEP,)
     centres = np.zeros(len(CONTINUOUS))
     for k, j in enumerate(CONTINUOUS):
@@ -421,8 +418,7 @@ def _refuse(path: Path, what: str) -> ValueError:
 
 
 def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
-    """``policy.json``'s ``data`` checked before anything is built (sizes within ``Settings``'
-    limits, arrays finite and consistent); ValueError naming ``path`` otherwise."""
+    """``policy.json``'s ``data`` checked before anything is built; ValueError naming ``path``."""
     if not isinstance(data, dict) or data.get("format") != POLICY_FORMAT:
         raise ValueError(
             f"{path}: format {data.get('format') if isinstance(data, dict) else None!r}; "
@@ -479,7 +475,6 @@ def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
 
 def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     """The policy of an amortised run folder, every file checked before the network is built."""
-
     folder = resolve_run_dir(run_dir)
     args_file, args, env_id = read_run_args(
         folder, "a folder written by python -m train --algo amortised"

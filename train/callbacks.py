@@ -107,8 +107,8 @@ class SaveVecNormalize(BaseCallback):
 
 
 class RunCheckpoint(BaseCallback):
-    """Checkpoints every ``save_freq`` env steps (at a rollout's end, when SAC's replay buffer
-    holds every step up to it), keeping the newest ``keep``, named as SB3's names them."""
+    """Checkpoints every ``save_freq`` env steps at a rollout's end (SAC's buffer then holds
+    every step), keeping the newest ``keep``."""
 
     def __init__(self, layout: RunLayout, save_freq: int, keep: int, verbose: int = 0) -> None:
         super().__init__(verbose)
@@ -129,8 +129,7 @@ class RunCheckpoint(BaseCallback):
 
 
 class StopOnInterrupt(BaseCallback):
-    """Ctrl-C while :meth:`catching` stops ``learn`` at the next env step; :meth:`save` then
-    checkpoints the last rollout's end. A second Ctrl-C raises KeyboardInterrupt at once."""
+    """Ctrl-C while :meth:`catching` stops ``learn`` at the next env step (a second one at once)."""
 
     def __init__(self) -> None:
         super().__init__()

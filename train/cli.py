@@ -44,8 +44,7 @@ def field_docs(cls: type) -> dict[str, str]:
 
 
 def build_parser(cls: type, exclusive: Sequence[str] = (), **settings: Any) -> Any:
-    """An ``argparse.ArgumentParser(**settings)`` with one option per field of ``cls`` (those in
-    ``exclusive`` exclude each other), typed by the field's type."""
+    """An ``argparse.ArgumentParser(**settings)`` with one option per field of ``cls``."""
     parser = argparse.ArgumentParser(**settings)
     group = parser.add_mutually_exclusive_group() if exclusive else parser
     docs = field_docs(cls)
@@ -83,8 +82,7 @@ def build_parser(cls: type, exclusive: Sequence[str] = (), **settings: Any) -> A
 
 
 def command(cls: type[T], argv: Sequence[str] | None, **settings: Any) -> tuple[Any, T]:
-    """The parser of ``cls`` (:func:`build_parser`) and ``cls`` of the command line ``argv``,
-    whose ValueError is the parser's usage error (one line, exit status 2)."""
+    """The parser of ``cls`` and ``cls`` of ``argv``; a ValueError is the usage error."""
     module = getattr(sys.modules[cls.__module__].__spec__, "name", cls.__module__)  # not __main__
     settings.setdefault("prog", f"python -m {module}")
     settings.setdefault("description", (cls.__doc__ or "").split("\n\n")[0])

@@ -13,8 +13,7 @@ from collections.abc import Iterator
 
 @contextlib.contextmanager
 def exit_on_bad_environment(program: str) -> Iterator[None]:
-    """Run the ``with`` block (an entry point's first import of ``tandem_env``); a ValueError
-    it raises ends the process with ``PROGRAM: error: ...`` on stderr and exit status 2."""
+    """Run the ``with`` block; a ValueError it raises is ``PROGRAM: error: ...`` and status 2."""
     try:
         yield
     except ValueError as error:

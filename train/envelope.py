@@ -44,8 +44,7 @@ def evaluate_envelope(
     which: str = "best",
     progress: bool = False,
 ) -> list[dict[str, Any]]:
-    """Record the run's policy at each condition (default the sweep), one runner job each (a
-    rerun replaces the records); write envelope.csv."""
+    """Record the run's policy at each condition (default the sweep); write envelope.csv."""
     from agents.harness import prepare
     from agents.runner import run_jobs
     from train.trained_policy import TrainingMismatchWarning, load_policy

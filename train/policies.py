@@ -137,8 +137,7 @@ class TrainingMethod:
     conf_file: str | None = None
     torch_threads: int = 1
     log_dir: str | None = None
-    """If given, train through ``python -m train``'s code into ``log_dir/<algo>/<env>_<n>/``
-    (no evaluations or checkpoints), to plot and reuse as ``policy:RUN_DIR``."""
+    """If given, train into ``log_dir/<algo>/<env>_<n>/`` as ``python -m train`` does."""
 
     def __post_init__(self) -> None:
         check_algo(self.algo)
@@ -166,7 +165,6 @@ class TrainingMethod:
                 f"method {self.algo!r}: budget {context.budget}; allowed: >= 2 (training steps "
                 "plus one evaluation of the final deterministic policy)"
             )
-
         hp = self._hyperparams(context.env_id, context.budget)
         steps = hp.n_timesteps
         unused = context.budget - (steps + 1)

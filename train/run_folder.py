@@ -459,8 +459,7 @@ def _merge_saved(config: TrainConfig, args: Mapping[str, Any], layout: RunLayout
 def _latest_intact(
     layout: RunLayout, config: TrainConfig, hp: Hyperparams, env_kwargs: Mapping[str, Any]
 ) -> Checkpoint:
-    """The newest checkpoint whose files load as a resume loads them (nothing unpickled): one
-    cut short is skipped with a warning, one that is refused raises its ValueError."""
+    """The newest checkpoint that loads as a resume loads it (cut short: skipped, warning)."""
     for checkpoint in reversed(layout.checkpoints()):
         needed = [checkpoint.model]
         needed += [checkpoint.replay_buffer] if config.algo == "sac" else []

@@ -93,8 +93,7 @@ def read_normalizer(path: Path) -> Any:
 
 # --- the YAML of a run folder ---------------------------------------------------------------
 class RunFileLoader(BoundedLoader):
-    """YAML's safe loader, bounded (:class:`BoundedLoader`), plus the two Python tags rl_zoo3
-    writes (:func:`_construct`); every other tag is refused (:class:`ForbiddenTag`)."""
+    """YAML's safe loader, bounded, plus the two Python tags rl_zoo3 writes (:func:`_construct`)."""
 
 
 class ForbiddenTag(yaml.constructor.ConstructorError):
@@ -266,8 +265,7 @@ VARIABLES_MEMBER = "pytorch_variables.pth"
 
 
 def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any], dict[str, Any]]:
-    """The ``num_timesteps``, state dicts and torch variables of the model zip at ``path``,
-    nothing unpickled; ValueError naming the file for an entry none of ``attributes`` names."""
+    """The ``num_timesteps``, state dicts and torch variables of the model zip at ``path``."""
     params: dict[str, Any] = {}
     variables: dict[str, Any] = {}
     try:
@@ -352,8 +350,7 @@ def load_model(
     replay_buffer: Path | None = None,
     **settings: Any,
 ) -> BaseAlgorithm:
-    """The model saved at ``path``, rebuilt from ``hp`` on ``venv`` and given the file's
-    weights and step count, nothing unpickled; ValueError naming the file if they do not fit."""
+    """The model saved at ``path``, rebuilt from ``hp`` on ``venv``, nothing unpickled."""
     model = build_model(algo, hp, venv, **settings)
     num_timesteps, params, variables = read_model_zip(path, set(vars(model)))
     expected = sorted(model.get_parameters())

@@ -50,8 +50,7 @@ class TrainedPolicy(RunPolicy):
 
     @classmethod
     def load(cls, run_dir: str | Path, which: WhichModel = "best") -> TrainedPolicy:
-        """Load ``best_model.zip`` (else the final model) or the final ``<env>.zip`` of ``run_dir``
-        (or of the latest run it names); ValueError naming the folder or file otherwise."""
+        """Load ``best_model.zip`` (else the final model) or the final model of ``run_dir``."""
         if which not in WHICH_MODELS:
             raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
         run_dir = resolve_run_dir(run_dir)
@@ -133,8 +132,7 @@ class TrainedPolicy(RunPolicy):
 
 
 def load_policy(run_dir: str | Path, which: WhichModel = "best") -> Any:
-    """The policy of a run folder of ``python -m train``: a :class:`TrainedPolicy` for ppo and
-    sac, an ``AmortisedPolicy`` for an amortised run (its ``which`` models are the same)."""
+    """The policy of a run folder: :class:`TrainedPolicy`, or an amortised run's policy."""
     if which not in WHICH_MODELS:
         raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
     if is_amortised_run(run_dir):

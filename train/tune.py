@@ -193,8 +193,7 @@ _REPLAY_ERRORS = (AssertionError, KeyError, IndexError, TypeError, ValueError, A
 
 
 def _check_journal_lines(path: Path) -> None:
-    """ValueError naming the journal unless every line is a JSON object with an integer
-    ``op_code``, ending in a newline (Optuna would append to a line a kill cut short)."""
+    """ValueError naming the journal unless every line is a whole JSON operation."""
     if not path.exists():
         return
     try:
@@ -219,19 +218,14 @@ def _check_journal_lines(path: Path) -> None:
 
 
 def foreign_trial(algo: str, n_conditions: int, trial: Any) -> str | None:
-    """None if the finished ``trial`` is one this tuner recorded (parameters inside
-    :data:`SEARCH_SPACES`, value the median of its ``n_conditions`` scores), else why not."""
+    """None if the finished ``trial`` is one this tuner recorded, else why not."""
     space = SEARCH_SPACES[algo]
     if set(trial.params) != set(space):
         return f"its parameters {sorted(trial.params)} are not the search space's"
     for name, (kind, values) in space.items():
         value = trial.params[name]
-        inside = (
-            value in values
-            if kind == "choice"
-            else is_real(value) and values[0] <= value <= values[1]
-        )
-        if not inside:
+        ranged = is_real(value) and values[0] <= value <= values[1]
+        if not (value in values if kind == "choice" else ranged):
             return f"{name} = {value!r} is outside the search space ({values})"
     scores = trial.user_attrs.get("scores")
     if not (

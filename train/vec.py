@@ -27,8 +27,7 @@ MONITOR_KEYWORDS: tuple[str, ...] = tuple(
 
 
 class StrokeRecorder(VecEnvWrapper):
-    """Keeps the best stroke any sub-env was given (:mod:`agents.selection`'s rule, on the env's
-    own rewards) and counts evaluations."""
+    """Keeps the best stroke any sub-env was given and counts evaluations."""
 
     def __init__(self, venv: VecEnv, on_step: Callable[[StrokeRecorder], None] | None = None):
         super().__init__(venv)
@@ -143,8 +142,7 @@ def make_evaluation_env(
 def evaluate_deterministic(
     model: BaseAlgorithm, eval_env: VecEnv, max_steps: int = 100_000
 ) -> list[dict[str, Any]]:
-    """One episode of the deterministic policy in each evaluation env: the info of its last step
-    with ``reward`` (the return), ``episode_length`` and ``action`` (its first)."""
+    """One episode of the deterministic policy in each evaluation env: a row per env."""
     observations = eval_env.reset()
     n_envs = eval_env.num_envs
     returns, lengths = np.zeros(n_envs), np.zeros(n_envs, dtype=np.int64)
