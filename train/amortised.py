@@ -82,10 +82,9 @@ def table_series(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     )
     declared = config_type.CONDITION
     kept = ("penalty", "backend", "device", declared.keyword, declared.range_keyword)
+    base = to_jsonable(default)
     changed = sorted(
-        k
-        for k, v in to_jsonable(config).items()
-        if to_jsonable(default).get(k) != v and k not in kept
+        k for k, v in to_jsonable(config).items() if base.get(k) != v and k not in kept
     )
     raise ValueError(
         f"env_kwargs {dict(env_kwargs)!r} change the problem the reference table describes "

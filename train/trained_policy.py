@@ -117,14 +117,12 @@ class TrainedPolicy(RunPolicy):
     def training_conditions(self) -> tuple[float, float] | float | None:
         """From the env options it was trained with (:class:`~train.run_folder.RunPolicy`)."""
         declared = getattr(config_class(self.env_id), "CONDITION", None)
-        if declared is None:
-            return None
-        if self.env_kwargs.get(declared.range_keyword) is not None:
-            low, high = self.env_kwargs[declared.range_keyword]
+        ranged = None if declared is None else self.env_kwargs.get(declared.range_keyword)
+        fixed = None if declared is None else self.env_kwargs.get(declared.keyword)
+        if ranged is not None:
+            low, high = ranged
             return float(low), float(high)
-        if self.env_kwargs.get(declared.keyword) is not None:
-            return float(self.env_kwargs[declared.keyword])
-        return None
+        return None if fixed is None else float(fixed)
 
     @property
     def num_timesteps(self) -> int:

@@ -105,11 +105,8 @@ def make_training_env(
     recorder = StrokeRecorder(
         make_sb3_vec_env(env_id, n_envs=n_envs, seed=seed, **env_kwargs), on_step
     )
-    venv: VecEnv = VecMonitor(
-        recorder,
-        filename=None if monitor_file is None else str(monitor_file),
-        info_keywords=MONITOR_KEYWORDS,
-    )
+    filename = None if monitor_file is None else str(monitor_file)
+    venv: VecEnv = VecMonitor(recorder, filename=filename, info_keywords=MONITOR_KEYWORDS)
     if normalize is not None:
         venv = VecNormalize(venv, **normalize)
     return venv, recorder
