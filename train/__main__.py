@@ -30,9 +30,8 @@ Values of --env-kwargs / --hyperparams are Python literals or YAML scalars: spee
 "speed_range=(0.25, 2.0)", thrust_split=body, learning_rate=lin_1e-3,
 "policy_kwargs=dict(net_arch=[64, 64])". The zoo's key:value spelling works too.
 
-A run writes logs/<algo>/<env>_<n>/ (the zoo's layout; docs/training.md). A killed run
-continues from its last checkpoint with --resume (the latest run) or --run-dir DIR (that run);
--n may raise the target. Training stops at whole iterations, so -n is rounded up to one.
+A run writes logs/<algo>/<env>_<n>/ (docs/training.md); a killed one continues from its last
+checkpoint with --resume (the latest run) or --run-dir DIR. -n is rounded up to whole iterations.
 """
 
 

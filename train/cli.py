@@ -23,10 +23,8 @@ _OWN = ("flags", "off", "amortised", "cli_default")
 
 
 def option(*flags: str, default: Any = MISSING, factory: Any = MISSING, **settings: Any) -> Any:
-    """A field and its option: ``flags`` (none: only ``off``, the flag that turns a True default
-    off), argparse ``settings`` (``cli_default``: the command line's default of a field without
-    one), ``amortised=True`` where ``python -m train --algo amortised`` takes it too; its help
-    is the field's docstring."""
+    """A field and its option: ``flags`` (or only ``off``, turning a True default off), argparse
+    ``settings``, ``cli_default`` and ``amortised`` (``--algo amortised`` takes it too)."""
     return field(default=default, default_factory=factory, metadata={"flags": flags, **settings})
 
 

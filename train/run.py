@@ -21,13 +21,7 @@ from stable_baselines3.common.vec_env import sync_envs_normalization
 
 from agents.selection import best_index
 from tandem_env.io.files import write_json_atomic
-from train.callbacks import (
-    PhysicsLogger,
-    ResumableEvalCallback,
-    RunCheckpoint,
-    SaveVecNormalize,
-    StopOnInterrupt,
-)
+from train import callbacks
 from train.config import Hyperparams, TrainConfig, resolve_hyperparams, step_granularity
 from train.run_folder import Interrupted, RunFolder
 from train.saved import build_model, read_normalizer, save_checkpoint
@@ -112,15 +106,15 @@ def train(config: TrainConfig) -> TrainResult:
         model = run.model(venv)
         start_step = model.num_timesteps
         # learning, with physics logs, checkpoints and evaluations; Ctrl-C saves a checkpoint
-        stop = StopOnInterrupt()
-        callbacks: list[BaseCallback] = [PhysicsLogger(recorder)]
+        stop = callbacks.StopOnInterrupt()
+        hooks: list[BaseCallback] = [callbacks.PhysicsLogger(recorder)]
         if config.save_freq > 0:
-            callbacks.append(
-                RunCheckpoint(layout, config.save_freq, KEEP_CHECKPOINTS, config.verbose)
+            hooks.append(
+                callbacks.RunCheckpoint(layout, config.save_freq, KEEP_CHECKPOINTS, config.verbose)
             )
         if config.eval_freq > 0:
-            callbacks.append(
-                ResumableEvalCallback(
+            hooks.append(
+                callbacks.ResumableEvalCallback(
                     eval_env,
                     n_eval_episodes=eval_env.num_envs,
                     eval_freq=max(config.eval_freq // hp.n_envs, 1),
@@ -130,7 +124,7 @@ def train(config: TrainConfig) -> TrainResult:
                     verbose=config.verbose,
                     callback_on_new_best=None
                     if hp.normalize is None
-                    else SaveVecNormalize(layout.best_vecnormalize),
+                    else callbacks.SaveVecNormalize(layout.best_vecnormalize),
                     resume_from_step=None if checkpoint is None else start_step,
                 )
             )
@@ -138,7 +132,7 @@ def train(config: TrainConfig) -> TrainResult:
         with stop.catching():
             model.learn(
                 run.target - start_step,
-                callback=CallbackList([*callbacks, stop]),
+                callback=CallbackList([*hooks, stop]),
                 log_interval=config.log_interval or default_log_interval(hp),
                 tb_log_name=config.algo.upper(),
                 reset_num_timesteps=checkpoint is None,
