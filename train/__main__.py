@@ -1,8 +1,13 @@
 """``python -m train``: train PPO or SAC on a tandem-wing env (rl-baselines3-zoo's spelling),
-or with ``--algo amortised`` one network from the condition to a stroke (``train.amortised``)::
+or with ``--algo amortised`` one network from the condition to a stroke on the reference
+optima (``train.amortised``, docs/training.md "Amortised policy"; its settings are
+--hyperparams)::
 
     python -m train --algo sac --env TandemWing/LevelFlight-v0 --timesteps 100000 --seed 0
+    python -m train --algo ppo --env TandemWing/LevelFlight-v0 --env-kwargs "speed_range=(0.25,2.0)"
     python -m train --algo sac --env TandemWing/LevelFlight-v0 --resume      # latest run
+    python -m train --algo sac --env TandemWing/LevelFlight-v0 --run-dir logs/sac/TandemWing-LevelFlight-v0_3
+    python -m train --algo amortised --env TandemWing/Accelerate-v0 --env-kwargs objective=horizontal
 """
 
 from __future__ import annotations
@@ -30,13 +35,18 @@ Values of --env-kwargs / --hyperparams are Python literals or YAML scalars: spee
 "speed_range=(0.25, 2.0)", thrust_split=body, learning_rate=lin_1e-3,
 "policy_kwargs=dict(net_arch=[64, 64])". The zoo's key:value spelling works too.
 
-A run writes logs/<algo>/<env>_<n>/ (docs/training.md); a killed one continues from its last
-checkpoint with --resume (the latest run) or --run-dir DIR. -n is rounded up to whole iterations.
+A run writes logs/<algo>/<env>_<n>/ (the zoo's layout; see docs/training.md). A killed run
+continues from its last checkpoint with --resume (the latest run of that algo and env) or
+--run-dir DIR (that run); the step count continues and -n may raise the target. Only runs
+written by python -m train are continued: a folder of rl_zoo3 (same layout) is left untouched.
+Training stops at whole iterations (PPO: n_steps x n_envs env steps), so -n is rounded up to
+one and the run says so.
 """
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The command line: one option per :class:`TrainConfig` field, plus ``--insect``."""
+    """The command line: one option per :class:`TrainConfig` field (:mod:`train.cli`; ``--resume``
+    and ``--run-dir`` exclude each other), plus ``--insect``."""
     parser = build_fields_parser(
         TrainConfig,
         exclusive=("resume", "run_dir"),

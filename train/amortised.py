@@ -1,7 +1,9 @@
 """An amortised stroke policy trained: one network per branch from the flight condition to a
 stroke (amortised optimisation; Amos 2023, "Tutorial on amortized optimization", Found. Trends
 Mach. Learn. 16(5)). ``python -m train --algo amortised --env ID`` runs :func:`train_run`; the
-policy itself is :mod:`train.amortised_policy`; the method: docs/training.md, "Amortised policy".
+policy itself is :mod:`train.amortised_policy`. The method ((a) branches, (b) regression,
+(c) fine-tuning, (d) hand-overs), its settings, its refusals and its measured results are
+specified in docs/training.md, "Amortised policy".
 """
 
 from __future__ import annotations
@@ -38,7 +40,8 @@ from train.run_folder import RunFolder
 
 # --- the problem and its reference -------------------------------------------------------------
 def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
-    """The reference series of ``env_id``'s env; ValueError for a condition keyword."""
+    """The reference series the env of ``env_id`` with ``env_kwargs`` is trained on
+    (:func:`table_series`); ValueError for a condition keyword (the policy's input)."""
     series = table_series(env_id, env_kwargs)
     declared = config_class(env_id).CONDITION
     condition_words = (declared.keyword, declared.range_keyword, declared.envelope_keyword)
@@ -51,7 +54,9 @@ def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
 
 
 def table_series(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
-    """The reference series that scores ``env_id``'s env with ``env_kwargs``; ValueError if none."""
+    """The reference series that scores the env of ``env_id`` with ``env_kwargs`` (its problem
+    fingerprint's); ValueError naming what is allowed where the table has none (no table, no
+    such series, env options that change the problem). Nothing is evaluated."""
     from tandem_env.envs.reference import load_reference_table, reference_path  # at each call
 
     check_env_id(env_id, "env")
@@ -96,7 +101,8 @@ def table_series(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
 
 
 def make_problem(env_id: str, env_kwargs: Mapping[str, Any], **options: Any) -> Any:
-    """The env's problem view (``FlightProblem``) with ``env_kwargs`` and model ``options``."""
+    """The env's problem view (``FlightProblem``) with ``env_kwargs`` and model ``options``
+    (e.g. ``n_time``) over them."""
     env = gym.make(env_id, disable_env_checker=True, **{**dict(env_kwargs), **options})
     try:
         return env.unwrapped.problem()
@@ -127,7 +133,8 @@ def train_policy(
     *,
     progress: Any = None,
 ) -> tuple[AmortisedPolicy, Training]:
-    """Train an amortised policy on ``targets``; ``progress(step, total, row)`` after each step."""
+    """Train an amortised policy on ``targets`` (docs/training.md, "Amortised policy");
+    ``progress(step, total, row)`` is called after each fine-tuning step."""
     resolution = {"n_time": settings.finetune_n_time, "n_blade": settings.finetune_n_blade}
     problem = make_problem(
         env_id, env_kwargs, **{k: v for k, v in resolution.items() if v is not None}
@@ -249,7 +256,9 @@ class RunResult:
 
 
 def train_run(config: TrainConfig) -> RunResult:
-    """``python -m train --algo amortised``: train, then write the run folder (result last)."""
+    """``python -m train --algo amortised``: train on the reference table's training optima,
+    write the run folder (``result.json`` last) and evaluate the final policy at the training
+    conditions for the summary."""
     from agents.records import package_versions
     from tandem_env.envs.reference import load_reference_table
 

@@ -1,6 +1,7 @@
 """The branches of an amortised policy: which training optima belong together, the conditions
-each learns over, its regression targets and the hand-overs (docs/training.md, "Amortised
-policy", steps 2, 3 and 5).
+each branch learns over, its regression targets and where one branch hands over to the next
+(steps (a), (b) and (d) of :mod:`train.amortised`; the rule and why: docs/training.md,
+"Amortised policy", steps 2, 3 and 5).
 """
 
 from __future__ import annotations
@@ -35,7 +36,9 @@ def between(first: np.ndarray, second: np.ndarray, fraction: Any = 0.5) -> np.nd
 
 
 def branch_segments(problem: Any, targets: Targets, tolerance: float) -> list[tuple[int, int]]:
-    """The training conditions split into branches ``[(first, stop), ...]`` (index ranges)."""
+    """The training conditions split into branches ``[(first, stop), ...]`` (index ranges) by
+    the rule of docs/training.md (``tolerance``: ``branch_tolerance``, the midway stroke by
+    :func:`between`); no held-out optimum is read."""
     k = targets.conditions.size
     if k == 1:
         return [(0, 1)]
@@ -56,7 +59,8 @@ def branch_segments(problem: Any, targets: Targets, tolerance: float) -> list[tu
 def branch_domains(
     conditions: np.ndarray, segments: list[tuple[int, int]], reach: float
 ) -> np.ndarray:
-    """(n_branches, 2) the conditions each branch learns over [the condition's unit]."""
+    """(n_branches, 2) the conditions each branch learns over [the condition's unit]
+    (docs/training.md, step 2; ``reach``: ``branch_reach``)."""
     last = conditions.size - 1
     return np.array(
         [
@@ -73,8 +77,11 @@ def branch_domains(
 def regression_points(
     targets: Targets, segments: list[tuple[int, int]], domains: np.ndarray, centres: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """What each branch's regression fits (conditions, branches, atanh of the tanh outputs):
-    its optima, strokes between neighbouring ones, and its end optima at its domain's ends."""
+    """What each branch's regression fits (conditions (n,), branches (n,), atanh of the tanh
+    outputs (n, 26)): its optima; the :data:`INTERPOLATED` strokes between each two
+    neighbouring ones (within a basin they fly nearly as well); and its end optima at its
+    domain's ends (a constant continuation, so a branch of one training condition starts flat
+    over its domain)."""
     conditions = targets.conditions
     goal = np.arctanh(regression_outputs(targets.strokes, centres))
     owner = [np.full(b - a, i) for i, (a, b) in enumerate(segments)]
@@ -96,8 +103,10 @@ def regression_points(
 
 
 def hand_overs(policy: AmortisedPolicy, problem: Any, penalty_weight: float) -> np.ndarray:
-    """Where each branch hands over to the next: in their domains' overlap, at the cut that
-    maximises the two branches' summed reward on :data:`SWITCH_SAMPLES` conditions there."""
+    """Where each branch hands over to the next: where their domains overlap (inside the gap
+    between their training conditions), at the cut that maximises the summed penalised
+    objective (objective − w·Σ max(0, −margin), the env's reward) of the two branches'
+    strokes on :data:`SWITCH_SAMPLES` conditions there."""
     switches = []
     for branch in range(policy.n_branches - 1):
         grid = np.linspace(policy.domains[branch + 1, 0], policy.domains[branch, 1], SWITCH_SAMPLES)

@@ -37,7 +37,10 @@ MAX_POLISH = 500
 def record_times(
     records: Sequence[Record], env_id: str, metric: str, planform: str, condition: float
 ) -> tuple[float, float, int] | None:
-    """(best record's wall time [s], all records' [s], records) at ``condition``, or None."""
+    """(wall time of the best record by the selection rule [s], sum over the records [s],
+    records) of the harness ``records`` at ``condition`` (the table's: its seeds and its
+    continuation rounds, read by the store, :func:`agents.store.read_record_files`); None where
+    there are none."""
     found = [
         record
         for record in records
@@ -61,7 +64,8 @@ def evaluate_held_out(
     conditions: Sequence[float] | None = None,
     repeats: int = 20,
 ) -> dict[str, Any]:
-    """The held-out evaluation of an amortised run: ``{"rows": [...], "summary": {...}}``."""
+    """The held-out evaluation of an amortised run (module docstring): ``{"rows": [...],
+    "summary": {...}}``. ValueError for a bad budget, before any work."""
     from train.amortised import check_env_kwargs, make_problem
     from train.amortised_policy import load_policy
 
@@ -261,7 +265,9 @@ def format_report(report: Mapping[str, Any]) -> str:
 
 @dataclass(frozen=True)
 class HeldOutOptions:
-    """Judge an amortised policy at the reference grid's held-out conditions."""
+    """Judge an amortised policy at the reference grid's held-out conditions.
+
+    Its files are checked when made, before any evaluation."""
 
     run: str = option("--run")
     """Run folder of python -m train --algo amortised."""

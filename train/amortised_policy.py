@@ -1,7 +1,11 @@
 """The amortised stroke policy (trained by :mod:`train.amortised`): its map from the condition
-c [the condition's unit] to a normalised stroke (28,) in [-1, 1], its canonical targets
-(:func:`canonicalise`) and its run folder's ``<env>.pt`` (weights, read with
-``torch.load(weights_only=True)``) and ``policy.json`` (docs/training.md, "Amortised policy").
+c [the condition's unit] to a normalised stroke (28,) in [-1, 1], its training settings
+(:class:`Settings`, the one home of their limits), its canonical targets (:func:`canonicalise`)
+and its run folder (``logs/amortised/<env>_<n>/``: ``<env>.pt``, the weights, read with
+``torch.load(weights_only=True)``; ``policy.json``; ``result.json``; ``<env>/args.yml`` and
+``<env>/config.yml``). What the map is and why (one MLP per branch, a tanh output, each phase
+wrapped around a fixed centre, N the branch's), the canonical targets and the folder's files:
+docs/training.md, "Amortised policy".
 """
 
 from __future__ import annotations
@@ -32,9 +36,11 @@ from train.config import AMORTISED
 from train.run_folder import POLICY_FILE, RunLayout, RunPolicy, resolve_run_dir
 from train.saved import read_run_args
 
-#: Where the canonical targets put each canonicalised sweep phase [deg] (:func:`canonicalise`).
+#: Where the canonical targets put each canonicalised sweep phase [deg] (within half a time-grid
+#: step, :func:`canonicalise`).
 CANONICAL_SWEEP_PHASE = 0.0
-#: The most a regression target lies from 0 in a normalised coordinate [-] (tanh reaches it).
+#: The most a regression target lies from 0 in a normalised coordinate [-]: targets at a bound
+#: are held this far inside (0.005 % of the parameter's range), where tanh can reach them.
 TARGET_LIMIT = 0.9999
 #: Format of ``policy.json``.
 POLICY_FORMAT = "tandem_env.amortised-policy/2"
@@ -62,7 +68,8 @@ CITATION = (
 
 # --- how it is trained (``--hyperparams``, ``config.yml``) and the limits of its network ----
 def _allowed(low: float, high: float, *, above: bool = False) -> dict[str, Any]:
-    """A setting's allowed values: ``low`` (excluded if ``above``) to ``high`` (or None)."""
+    """A setting's allowed values, checked by :class:`Settings`: ``low`` (excluded if
+    ``above``) to ``high``; an ``int | None`` setting may also be None."""
     return {"range": (low, high), "above": above}
 
 
@@ -81,21 +88,26 @@ class Settings:
     finetune_lr: float = field(default=1e-3, metadata=_allowed(0.0, 1.0, above=True))
     """Adam's learning rate in the fine-tuning [-]."""
     batch: int = field(default=16, metadata=_allowed(1, 4096))
-    """Conditions per branch and fine-tuning step (one batched model evaluation) [-]."""
+    """Conditions per branch and fine-tuning step (all in one batched model evaluation) [-]."""
     penalty_weight: float = field(default=10.0, metadata=_allowed(0.0, 1e6, above=True))
-    """w of the fine-tuning's penalty [objective units per unit of margin]."""
+    """w of the fine-tuning's penalty [objective units per unit of margin] (the env's default
+    ``penalty_weight``)."""
     safety_margin: float = field(default=1e-3, metadata=_allowed(0.0, 0.1))
-    """δ: the fine-tuning penalises every constraint margin below it [-] (a fraction)."""
+    """δ: the fine-tuning penalises every constraint margin below it [-] (margins are
+    fractions: the level flight's tolerance is 0.02)."""
     anchor: float = field(default=30.0, metadata=_allowed(0.0, 1e6))
     """Weight of the regression loss on the training targets during the fine-tuning [-]."""
     branch_reach: float = field(default=0.6, metadata=_allowed(0.5, 1.0, above=True))
     """How far each branch's domain reaches into the gap to a neighbouring branch's training
-    condition, as a fraction of the gap [-] (above 0.5: both cover its middle)."""
+    condition, as a fraction of the gap [-] (above 0.5, so that both branches cover its
+    middle, where they hand over)."""
     branch_tolerance: float = field(default=0.1, metadata=_allowed(0.0, 1.0))
     """Two neighbouring training optima share a branch when the stroke midway between them
-    loses at most this fraction of their mean objective and violates no margin by more [-]."""
+    loses at most this fraction of their mean objective and violates no margin by more
+    (:func:`~train.amortised_branches.branch_segments`) [-]."""
     features: int = field(default=0, metadata=_allowed(0, 1024))
-    """Gaussian radial features of the observation before the MLP (0: none) [-]."""
+    """Gaussian radial features of the observation before the MLP (0: the observation
+    itself) [-] (:func:`radial_features`)."""
     finetune_n_time: int | None = field(default=None, metadata=_allowed(8, 4096))
     """Time samples of the fine-tuning's model (None: the env's, default 128) [-]."""
     finetune_n_blade: int | None = field(default=None, metadata=_allowed(2, 512))
@@ -151,7 +163,8 @@ def _wrap_degrees(angle: np.ndarray) -> np.ndarray:
 
 def delay(physical: np.ndarray, fore: Any, hind: Any) -> np.ndarray:
     """Physical strokes (B, 28) [Table 4 units] with each pair's motion delayed by ``fore`` and
-    ``hind`` [deg of its own cycle]: sweep and pitch phases less Δ, elevation phase less N·Δ."""
+    ``hind`` [deg of its own cycle, scalars or (B,)]: its sweep and pitch phases less Δ, its
+    elevation phase less N·Δ, wrapped onto [-180°, 180°)."""
     out = np.array(physical, dtype=np.float64, copy=True)
     for base, shift in ((0, fore), (N_PER_WING, hind)):
         d = np.broadcast_to(np.asarray(shift, dtype=np.float64), out.shape[:1])
@@ -164,7 +177,8 @@ def delay(physical: np.ndarray, fore: Any, hind: Any) -> np.ndarray:
 
 def canonicalise(physical: np.ndarray, n_time: int, *, pairs_independent: bool) -> np.ndarray:
     """The strokes (B, 28) [Table 4 units] made canonical (docs/training.md, "Amortised
-    policy", step 1); ``pairs_independent``: the hind pair is delayed on its own."""
+    policy", step 1); ``pairs_independent``: the model is not phase-resolved, so the hind pair is
+    delayed on its own, else by the fore pair's delay."""
     strokes = np.array(physical, dtype=np.float64, ndmin=2)
     step = 360.0 / int(n_time)
 
@@ -212,7 +226,8 @@ class Targets:
 
 
 def reference_targets(series: Any, n_time: int, *, pairs_independent: bool) -> Targets:
-    """The canonical optima of a reference series at its env's training conditions only."""
+    """The canonical optima of a reference series at its env's training conditions only
+    (``training_conditions``; the held-out ones are never read)."""
     wanted = training_conditions(series.env_id)
     rows = [
         (c, point)
@@ -240,7 +255,8 @@ def reference_targets(series: Any, n_time: int, *, pairs_independent: bool) -> T
 # --- the network and the policy ------------------------------------------------------------------
 def radial_features(count: int) -> Any:
     """Fixed Gaussian bumps ``exp(−((x − μ_k)/σ)²/2)`` of the observation x ∈ [-1, 1] at
-    ``count`` centres μ_k evenly over [-1, 1], σ their spacing (a torch module)."""
+    ``count`` centres μ_k evenly over [-1, 1], σ their spacing (a torch module): a step for one
+    condition moves mostly the strokes near it."""
 
     class RadialFeatures(torch.nn.Module):
         def __init__(self) -> None:
@@ -267,7 +283,8 @@ def build_network(hidden: Sequence[int], features: int = 0) -> Any:
 
 
 def build_networks(hidden: Sequence[int], features: int, branches: int) -> Any:
-    """One :func:`build_network` per branch (a ``torch.nn.ModuleList``, the weights file's)."""
+    """The policy's network: one :func:`build_network` per branch (a ``torch.nn.ModuleList``;
+    its ``state_dict`` is the weights file)."""
     return torch.nn.ModuleList([build_network(hidden, features) for _ in range(branches)])
 
 
@@ -296,7 +313,9 @@ class AmortisedPolicy(RunPolicy):
 
     # --- forward pass ---------------------------------------------------------------------
     def inputs(self, conditions: np.ndarray, branches: np.ndarray) -> np.ndarray:
-        """(n, 1) each condition mapped from its branch's domain to [-1, 1] (clipped) [-]."""
+        """(n, 1) each condition as its branch's network reads it: mapped from the branch's
+        domain to [-1, 1] (clipped), so every branch has its whole input range over the
+        conditions it learns, however narrow [-]."""
         values = np.asarray(conditions, dtype=np.float64).reshape(-1)
         low, high = self.domains[np.asarray(branches).reshape(-1)].T
         scaled = 2.0 * (values - low) / np.maximum(high - low, 1e-12) - 1.0
@@ -322,13 +341,15 @@ class AmortisedPolicy(RunPolicy):
         return z
 
     def forward(self, conditions: np.ndarray, branches: np.ndarray | None = None) -> Any:
-        """(n, 28) normalised strokes of each condition's branch, differentiable (float64)."""
+        """(n, 28) normalised strokes as a float64 tensor, differentiable w.r.t. the weights:
+        each condition's stroke from its branch (``branches``, default :meth:`branch_at`)."""
         values = np.asarray(conditions, dtype=np.float64).reshape(-1)
         chosen = self.branch_at(values) if branches is None else np.asarray(branches).reshape(-1)
         return self.assemble(torch.tanh(self.pre_activations(values, chosen)), chosen)
 
     def strokes_of(self, conditions: np.ndarray, branches: np.ndarray | None = None) -> np.ndarray:
-        """(n, 28) normalised strokes in [-1, 1] of :meth:`forward`, no gradient."""
+        """(n, 28) normalised strokes in [-1, 1] of the given ``branches`` (default: each
+        condition's, :meth:`branch_at`), no gradient."""
         with torch.no_grad():
             return np.clip(self.forward(conditions, branches).numpy(), -1.0, 1.0)
 
@@ -358,7 +379,8 @@ class AmortisedPolicy(RunPolicy):
 
     @property
     def training_conditions(self) -> tuple[float, float]:
-        """The range of conditions it was trained over [the condition's unit]."""
+        """The range of conditions it was trained over [the condition's unit]: the first
+        branch's start to the last one's end (the first and last training conditions)."""
         return float(self.domains[0, 0]), float(self.domains[-1, 1])
 
     def policy_data(self) -> dict[str, Any]:
@@ -378,7 +400,9 @@ class AmortisedPolicy(RunPolicy):
 
 
 def output_centres(targets: Targets, *, pairs_independent: bool) -> np.ndarray:
-    """(26,) output centres: the circular mean of each phase of the targets, else 0."""
+    """(26,) output centres: the circular mean of the targets' phase (the canonical value for
+    the sweep phases :func:`canonicalise` set, as ``pairs_independent``), 0 for the other
+    coordinates."""
     canonical = (_SWEEP, N_PER_WING + _SWEEP) if pairs_independent else (_SWEEP,)
     centres = np.zeros(len(CONTINUOUS))
     for k, j in enumerate(CONTINUOUS):
@@ -393,15 +417,17 @@ def output_centres(targets: Targets, *, pairs_independent: bool) -> np.ndarray:
 
 
 def regression_outputs(strokes: np.ndarray, centres: np.ndarray) -> np.ndarray:
-    """(K, 26) the tanh outputs' targets for normalised ``strokes`` (K, 28): phases relative
-    to their centres (wrapped), all within :data:`TARGET_LIMIT`."""
+    """(K, 26) what the tanh outputs are fitted to for normalised ``strokes`` (K, 28): each
+    continuous coordinate, its phases relative to their centres (wrapped), all within
+    :data:`TARGET_LIMIT`."""
     u = np.asarray(strokes, dtype=np.float64)[:, list(CONTINUOUS)].copy()
     u[:, _OUTPUT_PHASES] = wrap_normalised(u[:, _OUTPUT_PHASES] - centres[_OUTPUT_PHASES])
     return np.clip(u, -TARGET_LIMIT, TARGET_LIMIT)
 
 
 def is_amortised_run(run_dir: str | Path) -> bool:
-    """Whether ``run_dir`` (or the latest run it names) holds an amortised run."""
+    """Whether ``run_dir`` (or the latest run it names) holds an amortised run (its args.yml
+    says so, or it holds a ``policy.json``)."""
     folder = resolve_run_dir(run_dir)
     try:
         _, args, _ = read_run_args(folder, "")
@@ -418,7 +444,9 @@ def _refuse(path: Path, what: str) -> ValueError:
 
 
 def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
-    """``policy.json``'s ``data`` checked before anything is built; ValueError naming ``path``."""
+    """``policy.json``'s ``data`` checked before anything is built (sizes within
+    :class:`Settings`' limits, arrays finite and consistent, domains and hand-overs inside the
+    reference grid); ValueError naming ``path`` otherwise."""
     if not isinstance(data, dict) or data.get("format") != POLICY_FORMAT:
         raise ValueError(
             f"{path}: format {data.get('format') if isinstance(data, dict) else None!r}; "
@@ -474,7 +502,10 @@ def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
 
 
 def load_policy(run_dir: str | Path) -> AmortisedPolicy:
-    """The policy of an amortised run folder, every file checked before the network is built."""
+    """The policy of an amortised run folder (or of the latest run it names), every file
+    checked before the network is built (the weights: a state_dict that
+    ``torch.load(weights_only=True)`` reads, with the network's names and shapes and finite
+    values); ValueError naming the file at fault."""
     folder = resolve_run_dir(run_dir)
     args_file, args, env_id = read_run_args(
         folder, "a folder written by python -m train --algo amortised"

@@ -1,6 +1,10 @@
-"""Callbacks of a training run: physical metrics to TensorBoard (each vector step's ``info``
-averaged into ``physics/*`` scalars, beside the best stroke seen so far), an EvalCallback that
-resumes, checkpoints (:class:`RunCheckpoint`) and Ctrl-C (:class:`StopOnInterrupt`).
+"""Callbacks of a training run: physical metrics to TensorBoard, an EvalCallback that resumes,
+checkpoints (:class:`RunCheckpoint`) and Ctrl-C (:class:`StopOnInterrupt`).
+
+SB3's own logger only knows rewards; here every vector step's ``info`` dicts (the model's
+metrics of each evaluated stroke, with its normalised score against the reference optimum,
+docs/reference.md) are averaged into ``physics/*`` scalars, and the best stroke seen so far
+(from :class:`~train.vec.StrokeRecorder`) is logged beside them.
 """
 
 from __future__ import annotations
@@ -22,8 +26,14 @@ from train.saved import save_checkpoint
 from train.vec import StrokeRecorder
 
 #: ``info`` entries averaged over each vector step into ``physics/<name>``.
-LOGGED_METRICS: tuple[str, ...] = tuple(
-    "objective efficiency lift_to_weight power_per_mass constraint_violation feasible score".split()
+LOGGED_METRICS: tuple[str, ...] = (
+    "objective",
+    "efficiency",
+    "lift_to_weight",
+    "power_per_mass",
+    "constraint_violation",
+    "feasible",
+    "score",
 )
 
 
@@ -58,7 +68,8 @@ class PhysicsLogger(BaseCallback):
 
 
 class ResumableEvalCallback(EvalCallback):
-    """``EvalCallback`` that, on a resumed run, starts from ``evaluations.npz``'s rows."""
+    """``EvalCallback`` that, on a resumed run, starts from ``evaluations.npz``'s rows up to the
+    checkpoint and their best mean reward (SB3's rewrites the file from memory)."""
 
     def __init__(self, *args: Any, resume_from_step: int | None = None, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
@@ -94,7 +105,8 @@ class ResumableEvalCallback(EvalCallback):
 
 
 class SaveVecNormalize(BaseCallback):
-    """Saves the training VecNormalize statistics of a new best model (``best_model.zip``)."""
+    """Saves the training VecNormalize statistics (called by EvalCallback on a new best model,
+    so ``best_model.zip`` is loaded with the statistics it was evaluated with)."""
 
     def __init__(self, path: Path, verbose: int = 0) -> None:
         super().__init__(verbose)
@@ -107,8 +119,13 @@ class SaveVecNormalize(BaseCallback):
 
 
 class RunCheckpoint(BaseCallback):
-    """Checkpoints every ``save_freq`` env steps at a rollout's end (SAC's buffer then holds
-    every step), keeping the newest ``keep``."""
+    """Checkpoints every ``save_freq`` env steps, keeping the newest ``keep``.
+
+    Unlike SB3's CheckpointCallback (which saves inside ``on_step``, before an off-policy
+    algorithm stores that step's transitions, so a resumed SAC would miss one vector step of
+    its replay buffer), this saves at the end of a rollout: the buffer holds every transition
+    up to the checkpoint's step. Files are named as CheckpointCallback names them.
+    """
 
     def __init__(self, layout: RunLayout, save_freq: int, keep: int, verbose: int = 0) -> None:
         super().__init__(verbose)
@@ -129,7 +146,10 @@ class RunCheckpoint(BaseCallback):
 
 
 class StopOnInterrupt(BaseCallback):
-    """Ctrl-C while :meth:`catching` stops ``learn`` at the next env step (a second one at once)."""
+    """Ctrl-C (SIGINT) while :meth:`catching` stops ``learn`` at the next env step (not a
+    KeyboardInterrupt wherever it lands); :meth:`save` then checkpoints the last rollout's end
+    (:attr:`boundary`: the unfinished rollout's steps are collected again on resume). A second
+    Ctrl-C raises KeyboardInterrupt at once."""
 
     def __init__(self) -> None:
         super().__init__()
@@ -150,7 +170,8 @@ class StopOnInterrupt(BaseCallback):
 
     @contextlib.contextmanager
     def catching(self) -> Iterator[None]:
-        """Catch SIGINT within the block (in the main thread, unless SIGINT is ignored)."""
+        """Catch SIGINT within the block (in the main thread, unless SIGINT is ignored: a
+        background job's), restoring the previous handler afterwards."""
         previous = signal.getsignal(signal.SIGINT)
         if threading.current_thread() is not threading.main_thread() or previous == signal.SIG_IGN:
             yield

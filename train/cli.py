@@ -23,13 +23,16 @@ _OWN = ("flags", "off", "amortised", "cli_default")
 
 
 def option(*flags: str, default: Any = MISSING, factory: Any = MISSING, **settings: Any) -> Any:
-    """A field and its option: ``flags`` (or only ``off``, turning a True default off), argparse
-    ``settings``, ``cli_default`` and ``amortised`` (``--algo amortised`` takes it too)."""
+    """A field and its option: ``flags`` (none: only ``off``, the flag that turns a True default
+    off), argparse ``settings`` (``cli_default``: the command line's default of a field without
+    one), ``amortised=True`` where ``python -m train --algo amortised`` takes it too; its help
+    is the field's docstring."""
     return field(default=default, default_factory=factory, metadata={"flags": flags, **settings})
 
 
 def field_docs(cls: type) -> dict[str, str]:
-    """The docstring under each field of the dataclass ``cls``, one line each."""
+    """The docstring under each field of the dataclass ``cls``, read from its source, one line
+    each (the help of its options)."""
     body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0].body  # type: ignore[attr-defined]
     return {
         node.target.id: " ".join(doc.value.value.split())
@@ -42,7 +45,9 @@ def field_docs(cls: type) -> dict[str, str]:
 
 
 def build_parser(cls: type, exclusive: Sequence[str] = (), **settings: Any) -> Any:
-    """An ``argparse.ArgumentParser(**settings)`` with one option per field of ``cls``."""
+    """An ``argparse.ArgumentParser(**settings)`` with one option per field of ``cls`` (those
+    in ``exclusive`` exclude each other), typed by the field's type: a ``bool`` is a switch, a
+    ``Mapping`` takes ``KEY=VALUE`` pairs, an ``int`` / ``tuple[float, ...]`` its numbers."""
     parser = argparse.ArgumentParser(**settings)
     group = parser.add_mutually_exclusive_group() if exclusive else parser
     docs = field_docs(cls)
@@ -80,7 +85,9 @@ def build_parser(cls: type, exclusive: Sequence[str] = (), **settings: Any) -> A
 
 
 def command(cls: type[T], argv: Sequence[str] | None, **settings: Any) -> tuple[Any, T]:
-    """The parser of ``cls`` and ``cls`` of ``argv``; a ValueError is the usage error."""
+    """The parser of ``cls`` (:func:`build_parser`; ``prog`` ``python -m <its module>`` and its
+    docstring's first line the description, unless given) and ``cls`` of the command line
+    ``argv``, whose ValueError is the parser's usage error (one line, exit status 2)."""
     module = getattr(sys.modules[cls.__module__].__spec__, "name", cls.__module__)  # not __main__
     settings.setdefault("prog", f"python -m {module}")
     settings.setdefault("description", (cls.__doc__ or "").split("\n\n")[0])

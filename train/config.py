@@ -1,6 +1,11 @@
-"""Training configuration: zoo-format hyperparameter files (``train/hyperparams/<algo>.yml``,
-one entry per env id plus ``default``), their preprocessing as the zoo's
-(:func:`resolve_hyperparams`) and the run config (:class:`TrainConfig`).
+"""Training configuration: zoo-format hyperparameter files, ``key=value`` parsing, the run config.
+
+The hyperparameter files (``train/hyperparams/<algo>.yml``) follow rl-baselines3-zoo: one entry
+per env id plus a ``default`` entry, each a flat mapping of the model's constructor arguments
+and the zoo's own keys (``n_envs``, ``n_timesteps``, ``policy``, ``policy_kwargs`` as a Python
+string, ``normalize``, ``env_kwargs``). :func:`resolve_hyperparams` turns one entry (plus the
+overrides of the command line) into a :class:`Hyperparams` whose ``model_kwargs`` go straight
+to the SB3 constructor, exactly as the zoo preprocesses them.
 """
 
 from __future__ import annotations
@@ -27,9 +32,10 @@ from tandem_env.physics.checks import count, is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
 from train.cli import option
 
-#: The Stable-Baselines3 algorithms.
+#: The Stable-Baselines3 algorithms (``python -m train``'s RL path, :class:`TrainConfig`).
 ALGOS = ("ppo", "sac")
-#: Every ``--algo`` of ``python -m train``: the RL algorithms and ``amortised`` (``train.amortised``).
+#: Every ``--algo`` of ``python -m train``: the RL algorithms and ``amortised``, one network
+#: from the condition to a stroke trained on the reference optima (``train.amortised``).
 AMORTISED = "amortised"
 TRAINERS: tuple[str, ...] = (*ALGOS, AMORTISED)
 DEVICES = ("cpu", "cuda", "auto")
@@ -39,14 +45,22 @@ HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 #: Keys of a zoo entry that are not model constructor arguments.
 ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "policy_kwargs", "normalize", "env_kwargs")
 #: Zoo keys this trainer does not implement; refused rather than silently ignored.
-UNSUPPORTED_ZOO_KEYS = tuple(
-    "env_wrapper vec_env_wrapper callback frame_stack monitor_kwargs replay_buffer_class "
-    "replay_buffer_kwargs noise_type noise_std".split()
+UNSUPPORTED_ZOO_KEYS = (
+    "env_wrapper",
+    "vec_env_wrapper",
+    "callback",
+    "frame_stack",
+    "monitor_kwargs",
+    "replay_buffer_class",
+    "replay_buffer_kwargs",
+    "noise_type",
+    "noise_std",
 )
 #: Constructor arguments the zoo turns from "lin_<x>" strings into linear schedules.
 SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
-#: (integer?, low, high) of the numeric hyperparameters SB3 takes unchecked (``gamma = 2``
-#: diverges); a string (SAC's ``ent_coef = "auto"``) and a schedule are left to SB3.
+#: Ranges of the numeric PPO / SAC hyperparameters that SB3 takes unchecked (``gamma = 2``
+#: trains on a diverging return, ``n_epochs = 0`` fails after the first rollout): (integer?,
+#: low, high). A string (SAC's ``ent_coef = "auto"``) and a schedule are left to SB3.
 HYPERPARAM_RANGES: dict[str, tuple[bool, float, float]] = {
     **dict.fromkeys(("n_steps", "batch_size", "n_epochs", "buffer_size"), (True, 1, math.inf)),
     "learning_starts": (True, 0, math.inf),
@@ -54,7 +68,8 @@ HYPERPARAM_RANGES: dict[str, tuple[bool, float, float]] = {
     **dict.fromkeys(("ent_coef", "vf_coef", "max_grad_norm"), (False, 0.0, math.inf)),
 }
 
-# Modules whose classes a ``policy_kwargs`` string may name, under the zoo's spellings.
+# Modules whose classes a ``policy_kwargs`` string may name (activation functions, optimisers),
+# under the zoo's spellings.
 _POLICY_KWARGS_MODULES = {
     **dict.fromkeys(("nn", "th.nn", "torch.nn"), "torch.nn"),
     **dict.fromkeys(("th.optim", "torch.optim"), "torch.optim"),
@@ -68,7 +83,11 @@ _POLICY_KWARGS_ALLOWED = (
 
 # --- parsing ---------------------------------------------------------------------------------
 def eval_policy_kwargs(text: str) -> dict[str, Any]:
-    """The zoo's ``policy_kwargs`` string read from its syntax tree (nothing runs)."""
+    """The zoo's ``policy_kwargs`` string, e.g. ``"dict(net_arch=[64, 64], log_std_init=-1)"``.
+
+    The zoo evaluates it; here it is read from its syntax tree and nothing runs (literals,
+    ``dict``/``list``/``tuple`` and ``torch.nn``/``torch.optim`` classes, looked up).
+    """
     try:
         value = _policy_value(ast.parse(text, mode="eval").body, text)
     except (SyntaxError, RecursionError, MemoryError) as error:
@@ -137,7 +156,8 @@ def load_hyperparams_file(path: str | Path) -> dict[str, dict[str, Any]]:
 
 
 def load_entry(algo: str, env_id: str, path: str | Path | None = None) -> dict[str, Any]:
-    """The entry for ``env_id`` (else ``default``) of ``algo``'s (or ``path``'s) yml, as the zoo."""
+    """The entry for ``env_id`` (else ``default``) of ``algo``'s hyperparameter file (``path``,
+    default ``train/hyperparams/<algo>.yml``; ``algo`` checked by the caller), as the zoo."""
     file = Path(path) if path is not None else HYPERPARAMS_DIR / f"{algo}.yml"
     entries = load_hyperparams_file(file)
     for key in (env_id, "default"):
@@ -177,7 +197,8 @@ def resolve_hyperparams(
     n_envs: int | None = None,
     n_timesteps: int | None = None,
 ) -> Hyperparams:
-    """Preprocess ``algo``'s zoo entry as ``rl_zoo3.exp_manager`` does."""
+    """Preprocess ``algo``'s zoo entry as ``rl_zoo3.exp_manager`` does (schedules,
+    policy_kwargs, normalize)."""
     given = {"n_envs": n_envs, "n_timesteps": n_timesteps}
     raw = {**entry, **(overrides or {}), **{k: v for k, v in given.items() if v is not None}}
     if unsupported := sorted(set(raw) & set(UNSUPPORTED_ZOO_KEYS)):
@@ -252,13 +273,16 @@ def resolve_hyperparams(
     )
 
 
-#: The most weights and biases the networks of one ``net_arch`` may have [-] (10⁸: 0.4 GB of
-#: float32; the yml's networks have about 10⁵), counted before anything is allocated.
+#: The most weights and biases the networks of one ``net_arch`` may have [-]: 10⁸ is 0.4 GB of
+#: float32, and the optimiser keeps two more copies (SAC also a target critic); the yml entries'
+#: networks have about 10⁵. Counted from the layer sizes before anything is allocated
+#: (:func:`network_parameters`), so a mistyped size is refused instead of an allocator error.
 MAX_NETWORK_PARAMETERS = 10**8
 
 
 def network_parameters(arch: Any) -> int:
-    """A lower bound on the weights and biases of a valid ``net_arch``'s networks [-]."""
+    """A lower bound on the weights and biases of the networks of a valid ``net_arch`` [-]
+    (each list of sizes from at least one input to at least one output)."""
     if isinstance(arch, Mapping):
         return sum(network_parameters(sizes) for sizes in arch.values())
     sizes = [1, *(int(n) for n in arch), 1]
@@ -266,7 +290,8 @@ def network_parameters(arch: Any) -> int:
 
 
 def _layer_sizes(arch: Any) -> bool:
-    """Whether ``arch`` is an SB3 ``net_arch``: layer sizes >= 1, or a dict of them per network."""
+    """Whether ``arch`` is an SB3 ``net_arch``: layer sizes >= 1 (a zero-width layer trains
+    without an error and without any hidden unit), or a dict of them per network."""
     if isinstance(arch, Mapping):
         return all(_layer_sizes(v) for v in arch.values())
     return isinstance(arch, list | tuple) and all(is_integer(n) and n >= 1 for n in arch)
@@ -311,16 +336,19 @@ def check_algo(algo: str) -> str:
 
 
 # --- the run configuration ---------------------------------------------------------------------
-#: The most parallel envs of a run [-]: one model call of that many strokes steps them.
+#: The most parallel envs of a run [-]: they are stepped by one model call of that many strokes
+#: (``MAX_BATCH_STROKES``); SB3 keeps per-env buffers besides.
 MAX_ENVS = MAX_BATCH_STROKES
-#: The most env steps of a run [-]: 10¹², inside SB3's and numpy's int64 step counters.
+#: The most env steps of a run [-]: 10¹², far beyond any training run, and inside the int64
+#: step counters of SB3 and numpy (2**63 wraps them).
 MAX_TIMESTEPS = 10**12
 #: The largest training seed: SB3 seeds numpy's legacy generator, which takes 32 bits.
 MAX_SEED = 2**32 - 1
 
 
 def check_seed(value: Any, name: str = "seed") -> int:
-    """``value`` as a training seed [-]; ValueError naming ``name`` otherwise."""
+    """``value`` as a training seed [-]; ValueError naming ``name`` unless it is an integer from 0
+    to :data:`MAX_SEED`."""
     if not is_integer(value) or not 0 <= value <= MAX_SEED:
         raise ValueError(f"{name} = {value!r}; allowed: an integer from 0 to 2**32 - 1")
     return int(value)
@@ -347,7 +375,8 @@ class TrainConfig:
     hyperparams: Mapping[str, Any] = option(
         "-params", "--hyperparams", factory=dict, amortised=True
     )
-    """Override hyperparameters of the yml entry (amortised: its Settings)."""
+    """Override hyperparameters of the yml entry (amortised: its settings,
+    train.amortised_policy.Settings)."""
     hyperparams_file: Path | None = option(
         "-conf", "--conf-file", default=None, metavar="CONF_FILE"
     )
@@ -365,9 +394,11 @@ class TrainConfig:
     save_freq: int = option("--save-freq", default=20_000)
     """Env steps between checkpoints (<= 0: none, and no resume)."""
     log_interval: int | None = option("--log-interval", default=None)
-    """SB3's log_interval; default one that dumps every few thousand steps."""
+    """SB3's log_interval; default one that dumps every few thousand steps (SAC counts it in
+    episodes, and every env step ends n_envs of them)."""
     log_table: bool = option("--log-table", default=False)
-    """Print SB3's statistics table at every log dump (TensorBoard gets it either way)."""
+    """Print SB3's statistics table at every log dump (default: off, the progress bar and the
+    final lines only; TensorBoard gets the same numbers)."""
     progress_bar: bool = option(
         "-P", "--progress", default=True, off="--no-progress", amortised=True
     )
@@ -377,7 +408,8 @@ class TrainConfig:
     verbose: int = option("--verbose", default=1, amortised=True)
     """0 quiet, 1 info, 2 debug."""
     torch_threads: int = option("--torch-threads", default=1)
-    """Torch threads (one is faster on 2 cores: docs/training.md)."""
+    """Torch threads: faster on 2 cores, where torch's second thread fights the model's numba
+    threads and small-MLP updates get up to 10x slower (docs/training.md)."""
     device: str = option("--device", default="cpu", choices=DEVICES)
     """Torch device of the model."""
 
@@ -423,7 +455,8 @@ class TrainConfig:
                 "give resume=True (the latest run in log_folder) or run_dir (that run), not both"
             )
 
-        # an amortised run takes the options marked amortised only: any other one given is refused
+        # an amortised run takes the options marked amortised only: any other one given (not
+        # its default) is refused, naming its flag
         def flag(spec: Any) -> str:
             return next(f for f in (*spec.metadata["flags"], spec.metadata.get("off")) if "--" in f)
 
@@ -440,7 +473,8 @@ class TrainConfig:
             )
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain-YAML form (``args.yml``): every field, under its zoo name, and ``made_by``."""
+        """Plain-YAML form (``args.yml``): every field (:func:`plain`), under its zoo name where
+        it has one (:data:`ARGS_KEYS`), marked as written by this project (``made_by``)."""
         settings = {ARGS_KEYS.get(f.name, f.name): getattr(self, f.name) for f in fields(self)}
         return plain({"made_by": MADE_BY, **settings})
 
@@ -455,7 +489,8 @@ ARGS_KEYS = {"env_id": "env", "hyperparams_file": "conf_file", "progress_bar": "
 
 
 def plain(value: Any) -> Any:
-    """YAML-safe form (config.yml, args.yml); what ``to_jsonable`` cannot convert is kept."""
+    """YAML-safe form (config.yml, args.yml) by :func:`tandem_env.io.files.to_jsonable`;
+    anything it cannot convert is kept, for ``yaml.safe_dump`` to accept or refuse."""
     return to_jsonable(value, default=lambda kept: kept)
 
 

@@ -1,6 +1,8 @@
-"""``python -m train.curves``: reward curves of one or more runs (one line per run / seed):
-the mean training reward (Monitor CSVs, binned), and the best feasible objective (η or F̄)
-seen so far with the deterministic policy's reward at each evaluation (evaluations.npz)::
+"""``python -m train.curves``: reward curves of one or more runs (one line per run / seed).
+
+Left: the mean reward of the strokes the training env evaluated (from the Monitor CSVs, in
+bins of env steps). Right: the objective (η or F̄) of the best *feasible* stroke seen so far
+and, as markers, the deterministic policy's reward at each evaluation (evaluations.npz)::
 
     python -m train.curves --runs logs/ppo/TandemWing-LevelFlight-v0_{1,2,3} \\
         --out results/figures/ppo_level_v15.png --title "PPO, level flight, V = 1.5 m/s"

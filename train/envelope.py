@@ -27,10 +27,26 @@ from tandem_env.io.files import output_directory, write_csv_atomic
 from train.cli import command, option
 
 #: Columns of envelope.csv.
-COLUMNS: tuple[str, ...] = tuple(
-    "condition condition_value condition_unit objective_name objective reward feasible score "
-    "efficiency lift_to_weight power_per_mass excess_vertical excess_horizontal "
-    "constraint_violation trained_at evaluations training_timesteps model run_dir".split()
+COLUMNS: tuple[str, ...] = (
+    "condition",
+    "condition_value",
+    "condition_unit",
+    "objective_name",
+    "objective",
+    "reward",
+    "feasible",
+    "score",
+    "efficiency",
+    "lift_to_weight",
+    "power_per_mass",
+    "excess_vertical",
+    "excess_horizontal",
+    "constraint_violation",
+    "trained_at",
+    "evaluations",
+    "training_timesteps",
+    "model",
+    "run_dir",
 )
 #: The columns that are a record's attributes.
 RECORD_COLUMNS = COLUMNS[3:8]
@@ -44,7 +60,12 @@ def evaluate_envelope(
     which: str = "best",
     progress: bool = False,
 ) -> list[dict[str, Any]]:
-    """Record the run's policy at each condition (default the sweep); write envelope.csv."""
+    """Record the run's policy at each condition (default the task's declared sweep, its env
+    config's ``CONDITION.sweep``); write envelope.csv.
+
+    One job per condition, run and stored by the runner (:func:`agents.runner.run_jobs`, the
+    one writer of the records), here, one after another; a rerun replaces the records (the run
+    folder may hold a newer model under the same name)."""
     from agents.harness import prepare
     from agents.runner import run_jobs
     from train.trained_policy import TrainingMismatchWarning, load_policy
@@ -99,7 +120,9 @@ def evaluate_envelope(
 
 @dataclass(frozen=True)
 class EnvelopeOptions:
-    """Evaluate one trained policy at every sweep condition through the harness."""
+    """Evaluate one trained policy at every sweep condition through the harness.
+
+    Its output folder is checked when made, before any policy is loaded."""
 
     run: str = option("--run")
     """Run folder written by python -m train."""

@@ -1,6 +1,8 @@
 """Stable-Baselines3 models as harness methods (docs/training.md, "Through the harness"):
-``policy:RUN_DIR`` (a trained policy asked once for its stroke) and ``ppo`` / ``sac`` (trained
-within the harness's budget of env steps); registered with the harness when imported.
+``policy:RUN_DIR``, a policy trained by ``python -m train`` asked once for its deterministic
+stroke, and ``ppo`` / ``sac``, trained at the harness's condition within its budget of env
+steps. Registered with the harness when imported (the provider :mod:`agents.methods` imports
+on first use, so ``agents`` imports SB3 only when asked).
 """
 
 from __future__ import annotations
@@ -50,13 +52,15 @@ CITATIONS: dict[str, str] = {
 _ANNOUNCED: set[tuple[Any, ...]] = set()
 # Settings of the training methods that are not hyperparameter overrides.
 _TRAINING_SETTINGS = ("n_envs", "conf_file", "torch_threads", "log_dir")
-# The suffixes of the files a run's policy is read from: what PolicyMethod.identity hashes.
+# The suffixes of the files a run's policy is read from (train.run_folder.RunLayout, and an
+# amortised run's weights and policy.json): what PolicyMethod.identity hashes.
 _POLICY_SUFFIXES = (".zip", ".pkl", ".pt", ".json", ".yml")
 
 
 @functools.lru_cache(maxsize=256)
 def _file_digest(path: Path, size: int, modified: int) -> str:
-    """SHA-256 of a file's bytes, read once per process while its size and mtime stay."""
+    """SHA-256 of a file's bytes, read once per process while its ``size`` and ``modified``
+    time (``st_mtime_ns``) stay."""
     with path.open("rb") as handle:
         return hashlib.file_digest(handle, "sha256").hexdigest()
 
@@ -74,7 +78,8 @@ class PolicyMethod:
         return f"policy:{self.run_dir}"
 
     def identity(self) -> str:
-        """Part of its jobs' keys: a digest of the run folder's name and policy files."""
+        """Part of its jobs' keys: a digest of the run folder's name and of the files a policy
+        is read from, so a run trained again in place is another job."""
         run_dir = resolve_run_dir(self.run_dir)
         digest = hashlib.sha256(run_dir.name.encode())
         for path in sorted(run_dir.glob("*")) + sorted(run_dir.glob("*/*")):
@@ -137,7 +142,10 @@ class TrainingMethod:
     conf_file: str | None = None
     torch_threads: int = 1
     log_dir: str | None = None
-    """If given, train into ``log_dir/<algo>/<env>_<n>/`` as ``python -m train`` does."""
+    """If given, train through ``python -m train``'s code into ``log_dir/<algo>/<env>_<n>/``
+    (Monitor, TensorBoard, final model, result.json; no EvalCallback and no checkpoints, whose
+    evaluations the budget would not count), so the run can be plotted and reused as
+    ``policy:RUN_DIR``."""
 
     def __post_init__(self) -> None:
         check_algo(self.algo)
@@ -168,7 +176,8 @@ class TrainingMethod:
         hp = self._hyperparams(context.env_id, context.budget)
         steps = hp.n_timesteps
         unused = context.budget - (steps + 1)
-        # said once per process and setting, not once per seed: the seeds of a run share it
+        # when training cannot use the whole budget (SB3 learns in whole iterations), said on
+        # stderr once per process and setting, not once per seed: the seeds of a run share it
         said = (self.algo, context.env_id, context.budget, self.n_envs, repr(self.overrides))
         if unused > 0 and said not in _ANNOUNCED:
             _ANNOUNCED.add(said)
@@ -224,12 +233,16 @@ class TrainingMethod:
         self._hyperparams(task.env_id, budget)
 
     def _hyperparams(self, env_id: str, budget: int) -> Hyperparams:
-        """The hyperparameters of training within ``budget - 1`` env steps."""
+        """The hyperparameters of training within ``budget``: its env steps (``n_timesteps``)
+        are ``budget - 1`` (the last evaluation is the final policy's) rounded down to whole
+        iterations (:func:`~train.run.budget_hyperparams`)."""
         entry = load_entry(self.algo, env_id, self.conf_file)
         return budget_hyperparams(self.algo, entry, self.overrides, self.n_envs, budget - 1)
 
     def _learn(self, context: SearchContext, hp: Hyperparams) -> tuple[TrainResult, dict[str, Any]]:
-        """Training without files, and its final stroke evaluated by the harness."""
+        """Training without files (:func:`~train.run.learn_in_memory`, ``hp`` of
+        :meth:`_hyperparams`), and its final deterministic stroke evaluated by the harness's
+        evaluator, so the budget counts it."""
 
         def report(recorder: StrokeRecorder) -> None:
             context.report(recorder.steps, recorder.evaluations, recorder.max_reward)
@@ -259,7 +272,8 @@ class TrainingMethod:
     def _learn_with_files(
         self, context: SearchContext, steps: int
     ) -> tuple[TrainResult, dict[str, Any]]:
-        """Training into ``log_dir`` (:func:`~train.run.train`), and its final stroke."""
+        """Training through ``python -m train``'s code into ``log_dir`` (:func:`~train.run.train`),
+        and the final deterministic stroke it evaluated at the (fixed) condition."""
         result = train(
             TrainConfig(
                 algo=self.algo,  # type: ignore[arg-type]
@@ -315,7 +329,8 @@ def policy_factory(argument: str | None, config: Mapping[str, Any]) -> Method:
 
 
 def training_factory(algo: str):
-    """The factory of ``ppo`` or ``sac``: settings are hyperparameter overrides and more."""
+    """The factory of ``ppo`` or ``sac``: settings are hyperparameter overrides, plus
+    ``n_envs``, ``conf_file`` (a zoo-format yml) and ``torch_threads``."""
 
     def factory(argument: str | None, config: Mapping[str, Any]) -> Method:
         if argument is not None:

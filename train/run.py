@@ -1,6 +1,8 @@
-"""One training run: :func:`train` (``python -m train``: envs and model from a
-:class:`~train.config.TrainConfig`, evaluations, checkpoints, logs, resumption) and
-:func:`learn_in_memory` (the harness's ``ppo`` / ``sac``: no files, a budget of env steps).
+"""One training run: build the envs and the model from a :class:`~train.config.TrainConfig`,
+learn with evaluation, checkpoints, Monitor and TensorBoard logs, and resume a killed run.
+
+:func:`train` is what ``python -m train`` calls; :func:`learn_in_memory` is the lean variant
+the harness's ``ppo`` / ``sac`` methods use (no files, a budget of env steps).
 """
 
 from __future__ import annotations
@@ -70,13 +72,16 @@ def torch_threads(count: int) -> Iterator[None]:
 
 
 def default_log_interval(hp: Hyperparams) -> int:
-    """PPO: every rollout; SAC (counting episodes, n_envs per step): every ~SAC_LOG_EVERY steps."""
+    """PPO: every rollout. SAC counts episodes, and every vector step ends n_envs of them, so
+    its default (4) would dump n_envs/4 times per step; dump every ~SAC_LOG_EVERY steps instead."""
     return 1 if hp.algo == "ppo" else hp.n_envs * max(1, round(SAC_LOG_EVERY / hp.n_envs))
 
 
 # --- the run ---------------------------------------------------------------------------------
 def train(config: TrainConfig) -> TrainResult:
-    """Run (or resume) one training run with files (:class:`~train.run_folder.RunFolder`)."""
+    """Run (or resume) one training run with files (:class:`~train.run_folder.RunFolder`): the
+    envs, the model, learning, then the final model, its evaluation and ``result.json`` (the
+    previous segments and this run's)."""
     with contextlib.ExitStack() as held:
         # the plan: which folder, from which checkpoint, with which settings
         run = RunFolder.open(config, held)
@@ -194,7 +199,8 @@ def budget_hyperparams(
     n_envs: int | None,
     budget: int,
 ) -> Hyperparams:
-    """The hyperparameters of a run within ``budget`` env steps (whole learn iterations)."""
+    """The hyperparameters of a run within ``budget`` env steps: ``n_timesteps`` rounded down
+    to whole learn iterations (SB3 never stops inside one; the budget is a hard limit)."""
     hp = resolve_hyperparams(entry, overrides, algo=algo, n_envs=n_envs, n_timesteps=1)
     unit = step_granularity(hp)
     steps = (budget // unit) * unit
@@ -215,7 +221,8 @@ def learn_in_memory(
     on_step: Callable[[StrokeRecorder], None] | None = None,
     threads: int = 1,
 ) -> tuple[BaseAlgorithm, StrokeRecorder]:
-    """Train ``hp.algo`` for its ``n_timesteps`` env steps, no files; (model, recorder)."""
+    """Train ``hp.algo`` for its ``n_timesteps`` env steps (a budget's, :func:`budget_hyperparams`),
+    no files; returns (model, recorder)."""
     env_kwargs = {**hp.env_kwargs, **env_kwargs}
     with torch_threads(threads):
         venv, recorder = make_training_env(

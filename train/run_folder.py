@@ -1,6 +1,8 @@
-"""A training run's folder (docs/training.md, "The run folder"): its files (:class:`RunLayout`,
-rl-baselines3-zoo's layout ``logs/<algo>/<env>_<n>/``) and when a run goes on there
-(:meth:`RunFolder.open`, every refusal before any work).
+"""A training run's folder (docs/training.md, "The run folder"): what it is (:class:`RunLayout`,
+rl-baselines3-zoo's layout ``logs/<algo>/<env>_<n>/``, its checkpoints and its lock; a run of
+this project is told from rl_zoo3's by the ``made_by`` entry of its ``args.yml``) and when a
+run goes on there (:meth:`RunFolder.open`, every refusal before any work). PPO, SAC
+(:func:`train.run.train`) and the amortised policy (:func:`train.amortised.train_run`) share it.
 """
 
 from __future__ import annotations
@@ -34,7 +36,8 @@ from train.config import (
 )
 
 CHECKPOINT_PREFIX = "rl_model"
-#: An ``args.yml`` key only this project writes (runs from before ``made_by`` have it).
+#: An ``args.yml`` key only this project writes (runs from before ``made_by`` have it; the
+#: zoo calls its thread count ``num_threads``).
 _LEGACY_KEY = "torch_threads"
 _CHECKPOINT = re.compile(rf"^{CHECKPOINT_PREFIX}_(\d+)_steps\.zip$")
 #: The lock file of a run folder: held (``flock``) by the ``python -m train`` writing there.
@@ -53,7 +56,8 @@ def latest_run_id(algo_folder: Path, name: str) -> int:
 
 
 def resolve_run_dir(path: str | os.PathLike[str]) -> Path:
-    """A run folder, or the latest run a path names (``logs/ppo/<env>`` -> ``..._<n>``)."""
+    """A run folder, or the latest run a path names: ``logs/ppo/<env>`` (no ``_<n>``) is
+    ``logs/ppo/<env>_<n>`` with the greatest ``n``; any other path as given."""
     path = Path(path)
     if path.is_dir() or not path.parent.is_dir():
         return path
@@ -80,7 +84,8 @@ class RunPolicy:
     run_dir: Path | None
     env_id: str
     training_conditions: tuple[float, float] | float | None
-    """The condition range it was trained on, its fixed condition, or None [condition's unit]."""
+    """The condition range it was trained on, or its fixed condition (None if unknown) [the
+    condition's unit]."""
 
     def check_env(self, env_id: str) -> None:
         """ValueError unless the run was trained on ``env_id``."""
@@ -91,7 +96,8 @@ class RunPolicy:
             )
 
     def trained_at(self, value: float) -> bool:
-        """Whether the policy saw ``value`` in training (True where that is unknown)."""
+        """Whether ``value`` is a condition the policy saw in training (inside its range, or
+        its fixed condition); True when the training condition is unknown."""
         seen = self.training_conditions
         if isinstance(seen, tuple):
             return seen[0] - 1e-9 <= value <= seen[1] + 1e-9
@@ -157,7 +163,8 @@ class RunLayout:
         self.args_file = self.params_dir / "args.yml"
         self.vecnormalize = self.params_dir / "vecnormalize.pkl"
         self.weights = self.run_dir / f"{self.name}.pt"
-        """An amortised run's weights (``torch.load(weights_only=True)``)."""
+        """An amortised run's weights (``torch.load(weights_only=True)``), beside its
+        ``policy.json`` (:attr:`policy_file`)."""
         self.policy_file = self.run_dir / POLICY_FILE
 
     def monitor_files(self) -> list[Path]:
@@ -223,7 +230,8 @@ class RunLayout:
 
     @classmethod
     def latest(cls, log_folder: Path, algo: str, env_id: str) -> RunLayout:
-        """The newest run of ``algo`` on ``env_id``; ValueError if none, or if it is not ours."""
+        """The newest existing run of ``algo`` on ``env_id``; ValueError if there is none, or
+        if the newest folder is not a run of this project (e.g. rl_zoo3's: same layout)."""
         algo_folder, name = Path(log_folder) / algo, env_id.translate(FOLDER_NAME)
         n = latest_run_id(algo_folder, name)
         if n == 0:
@@ -267,7 +275,8 @@ class RunFolder:
 
     @classmethod
     def open(cls, config: TrainConfig, held: contextlib.ExitStack) -> RunFolder:
-        """The folder of ``config``'s run, locked until ``held`` closes; every refusal first."""
+        """The folder of ``config``'s run, locked (before its files are read) until ``held``
+        closes; every refusal is raised here, before any work, leaving the folder untouched."""
         amortised = config.algo == AMORTISED
         layout = None
         if config.resume:
@@ -296,7 +305,7 @@ class RunFolder:
                 )
         if not config.verbose or amortised:
             return run
-        # what this command is about to do, before any work
+        # what this command is about to do, before any work (stdout)
         hp, layout, checkpoint, target = run.hp, run.layout, run.checkpoint, run.target
         assert hp is not None
         if target != hp.n_timesteps:
@@ -318,7 +327,8 @@ class RunFolder:
 
     @classmethod
     def _resumable(cls, config: TrainConfig, layout: RunLayout | None) -> RunFolder:
-        """A PPO / SAC run in ``layout`` (None: a new folder), every file a resume loads read."""
+        """A PPO / SAC run in ``layout`` (None: a new folder): its settings, hyperparameters
+        and checkpoint, every file a resume loads read as it will read it."""
         checkpoint = hp = None
         if layout is not None:
             resume = config.resume  # the merge below turns a resume into a run of a folder
@@ -381,7 +391,8 @@ class RunFolder:
         return cls(layout, config, hp, checkpoint, target, segments, MappingProxyType(env_kwargs))
 
     def model(self, venv: Any) -> Any:
-        """The model this run trains on ``venv``: new, or the checkpoint's seeded by its step."""
+        """The model this run trains on ``venv``: new, or the checkpoint's seeded by its step
+        (a resumed segment is reproducible given its checkpoint; RNG states are not saved)."""
         assert self.hp is not None
         config, checkpoint = self.config, self.checkpoint
         algo, seed = config.algo, config.seed
@@ -400,7 +411,8 @@ class RunFolder:
         return model
 
     def start(self, settings: Mapping[str, Any]) -> None:
-        """A run from step 0 writes ``config.yml`` and ``args.yml`` and drops an old curve."""
+        """A run from step 0 writes ``config.yml`` (``settings``) and ``args.yml`` and drops an
+        earlier start's evaluation curve; a continued run keeps its own."""
         if self.checkpoint is None:
             write_yaml(self.layout.config_file, settings)
             write_yaml(self.layout.args_file, self.config.to_dict())
@@ -459,7 +471,9 @@ def _merge_saved(config: TrainConfig, args: Mapping[str, Any], layout: RunLayout
 def _latest_intact(
     layout: RunLayout, config: TrainConfig, hp: Hyperparams, env_kwargs: Mapping[str, Any]
 ) -> Checkpoint:
-    """The newest checkpoint that loads as a resume loads it (cut short: skipped, warning)."""
+    """The newest checkpoint whose files load as a resume loads them (its model, SAC's replay
+    buffer, the VecNormalize statistics), each read once, nothing unpickled: one cut short (a
+    kill while saving) is skipped with a warning, one that is refused raises its ValueError."""
     for checkpoint in reversed(layout.checkpoints()):
         needed = [checkpoint.model]
         needed += [checkpoint.replay_buffer] if config.algo == "sac" else []

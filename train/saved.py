@@ -1,7 +1,9 @@
 """A run folder's files read and written without running anything in them (docs/training.md,
-"What a run folder may hold"): a model is rebuilt from the run's ``config.yml`` and given the
-zip's step count and weights (:func:`load_model`; SB3's ``load`` unpickles), SAC's replay buffer
-is an ``.npz`` of arrays, and the YAML, ``VecNormalize`` and ``result.json`` have own readers.
+"What a run folder may hold"): a model is rebuilt from the run's ``config.yml``
+(:func:`build_model`) and given the zip's ``num_timesteps`` (its ``data`` parsed as JSON) and
+its weights (``torch.load(weights_only=True)``) by :func:`load_model`; SAC's replay buffer is
+an ``.npz`` of arrays; the YAML, the ``VecNormalize`` statistics and ``result.json`` have
+their own readers. SB3's ``load`` and ``load_replay_buffer`` unpickle, so they never read one.
 """
 
 from __future__ import annotations
@@ -33,7 +35,8 @@ from train.vec import make_training_env
 
 
 class Incomplete(ValueError):
-    """A file cut short (a kill while saving); :attr:`damage` says what a resume skips."""
+    """A file cut short (a kill while saving): the loader's refusal, and in :attr:`damage` what
+    a resume says when it skips that checkpoint for an earlier one."""
 
     def __init__(self, message: str, path: Path, what: str) -> None:
         super().__init__(message)
@@ -46,25 +49,26 @@ class Incomplete(ValueError):
 _NORMALIZER_GLOBALS = frozenset(
     (module, name)
     for module, names in {
-        "stable_baselines3.common.vec_env.vec_normalize": "VecNormalize",
-        "stable_baselines3.common.running_mean_std": "RunningMeanStd",
-        "gymnasium.spaces.box": "Box",
-        "gymnasium.spaces.dict": "Dict",
-        "gymnasium.spaces.discrete": "Discrete",
-        "collections": "OrderedDict",
-        "numpy": "dtype ndarray",
-        "numpy.core.multiarray": "_reconstruct scalar",
-        "numpy._core.multiarray": "_reconstruct scalar",
-        "numpy.random._pickle": "__generator_ctor __bit_generator_ctor",
-        "numpy.random._pcg64": "PCG64",
-        "numpy.random.bit_generator": "SeedSequence __pyx_unpickle_SeedSequence",
+        "stable_baselines3.common.vec_env.vec_normalize": ("VecNormalize",),
+        "stable_baselines3.common.running_mean_std": ("RunningMeanStd",),
+        "gymnasium.spaces.box": ("Box",),
+        "gymnasium.spaces.dict": ("Dict",),
+        "gymnasium.spaces.discrete": ("Discrete",),
+        "collections": ("OrderedDict",),
+        "numpy": ("dtype", "ndarray"),
+        "numpy.core.multiarray": ("_reconstruct", "scalar"),
+        "numpy._core.multiarray": ("_reconstruct", "scalar"),
+        "numpy.random._pickle": ("__generator_ctor", "__bit_generator_ctor"),
+        "numpy.random._pcg64": ("PCG64",),
+        "numpy.random.bit_generator": ("SeedSequence", "__pyx_unpickle_SeedSequence"),
     }.items()
-    for name in names.split()
+    for name in names
 )
 
 
 class _NormalizerUnpickler(pickle.Unpickler):
-    """``pickle.Unpickler`` that builds only :data:`_NORMALIZER_GLOBALS`."""
+    """``pickle.Unpickler`` that builds only :data:`_NORMALIZER_GLOBALS` (the "restricting
+    globals" recipe of the ``pickle`` documentation)."""
 
     def find_class(self, module: str, name: str) -> Any:
         if (module, name) in _NORMALIZER_GLOBALS:
@@ -75,7 +79,8 @@ class _NormalizerUnpickler(pickle.Unpickler):
 
 
 def read_normalizer(path: Path) -> Any:
-    """The ``VecNormalize`` statistics SB3 saved at ``path``; ValueError naming it otherwise."""
+    """The ``VecNormalize`` statistics SB3 saved at ``path``, unpickled with only
+    :data:`_NORMALIZER_GLOBALS`; ValueError naming the file otherwise."""
     try:
         with Path(path).open("rb") as stream:
             normalizer = _NormalizerUnpickler(stream).load()
@@ -93,7 +98,10 @@ def read_normalizer(path: Path) -> Any:
 
 # --- the YAML of a run folder ---------------------------------------------------------------
 class RunFileLoader(BoundedLoader):
-    """YAML's safe loader, bounded, plus the two Python tags rl_zoo3 writes (:func:`_construct`)."""
+    """YAML's safe loader, bounded in what a document may expand to (:class:`BoundedLoader`),
+    plus the two Python tags rl_zoo3 writes (``yaml.dump`` of its ``OrderedDict`` of arguments
+    and hyperparameters, and of tuples such as ``train_freq``; :func:`_construct`). Every other
+    tag is refused (:class:`ForbiddenTag`) before anything is built."""
 
 
 class ForbiddenTag(yaml.constructor.ConstructorError):
@@ -110,8 +118,10 @@ _TUPLE, _ORDERED_DICT = (
 
 
 def _construct(loader: RunFileLoader, node: yaml.Node) -> Any:
-    """A ``!!python/tuple`` sequence as a tuple, rl_zoo3's OrderedDict (a one-item sequence: the
-    list of [key, value] pairs) as a dict; any other tag, or other form, is refused."""
+    """A ``!!python/tuple`` sequence as a tuple, a
+    ``!!python/object/apply:collections.OrderedDict`` as a dict (PyYAML writes an OrderedDict
+    as a one-item sequence: the list of [key, value] pairs); any other tag, or the tag in
+    another form than the zoo's, is refused (:class:`ForbiddenTag`)."""
     if isinstance(node, yaml.SequenceNode) and node.tag in (_TUPLE, _ORDERED_DICT):
         items = loader.construct_sequence(node, deep=True)
         if node.tag == _TUPLE:
@@ -126,7 +136,8 @@ for _tag in (_TUPLE, _ORDERED_DICT, None):
 
 
 def parse_run_yaml(text: str, path: Path) -> dict[str, Any]:
-    """The mapping in a run folder's YAML ``text`` (of ``path``); ValueError otherwise."""
+    """The mapping in a run folder's YAML ``text`` (of file ``path``), read with
+    :class:`RunFileLoader`; ValueError naming the file otherwise."""
     try:
         data = parse_yaml(text, RunFileLoader)
     except ForbiddenTag as error:
@@ -162,7 +173,8 @@ def read_run_yaml(path: Path) -> dict[str, Any]:
 
 
 def read_result_segments(path: Path) -> tuple[dict[str, Any], ...]:
-    """The training segments of a run's ``result.json`` (() without one); ValueError if odd."""
+    """The training segments of a run's ``result.json`` (() where there is none); ValueError
+    naming the file for one this project did not write as it is."""
     if not path.is_file():
         return ()
     try:
@@ -187,7 +199,8 @@ def read_result_segments(path: Path) -> tuple[dict[str, Any], ...]:
 
 
 def read_run_args(run_dir: Path, allowed: str) -> tuple[Path, dict[str, Any], Any]:
-    """The one ``<env>/args.yml`` of ``run_dir``, its settings and its ``env``."""
+    """The one ``<env>/args.yml`` of ``run_dir``, its settings and its ``env``; ValueError
+    naming the folder and ``allowed`` otherwise."""
     found = sorted(run_dir.glob("*/args.yml")) if run_dir.is_dir() else []
     if len(found) != 1:
         raise ValueError(
@@ -260,12 +273,17 @@ def _read_member(archive: zipfile.ZipFile, name: str, path: Path) -> bytes:
         raise _model_error(path, f"{what} ({error})", what) from None
 
 
-#: The ``.pth`` member of a model zip that holds torch variables (SAC's entropy coefficient).
+#: The ``.pth`` member of a model zip that holds torch variables (SAC's entropy coefficient)
+#: rather than state dicts.
 VARIABLES_MEMBER = "pytorch_variables.pth"
 
 
 def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any], dict[str, Any]]:
-    """The ``num_timesteps``, state dicts and torch variables of the model zip at ``path``."""
+    """The ``num_timesteps``, state dicts and torch variables of the model zip at ``path``:
+    its ``data`` parsed as JSON (nothing decoded), each ``.pth`` read with
+    ``torch.load(weights_only=True)``; ValueError naming the file (and member) for a
+    serialized entry that names none of ``attributes`` (the rebuilt model's: only a tampered
+    file has one), a bad count, or weights that fail the load."""
     params: dict[str, Any] = {}
     variables: dict[str, Any] = {}
     try:
@@ -350,7 +368,9 @@ def load_model(
     replay_buffer: Path | None = None,
     **settings: Any,
 ) -> BaseAlgorithm:
-    """The model saved at ``path``, rebuilt from ``hp`` on ``venv``, nothing unpickled."""
+    """The model saved at ``path``, rebuilt from ``hp`` on ``venv`` (``settings``:
+    :func:`build_model`'s) and given the file's weights and step count (a checkpoint's: its
+    ``step``), nothing unpickled; ValueError naming the file if they do not fit."""
     model = build_model(algo, hp, venv, **settings)
     num_timesteps, params, variables = read_model_zip(path, set(vars(model)))
     expected = sorted(model.get_parameters())
@@ -417,7 +437,8 @@ def save_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
 
 
 def load_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
-    """Fill the model's replay buffer from the ``.npz`` at ``path``; ValueError if not its."""
+    """Fill the model's rebuilt replay buffer from the ``.npz`` at ``path`` (no pickle);
+    ValueError naming the file if its arrays or counters are not this buffer's."""
     buffer = _replay_buffer(model)
     expected = {n for n in REPLAY_ARRAYS if getattr(buffer, n) is not None} | set(REPLAY_COUNTERS)
     refused = f"{path}: refused as the replay buffer of this run"
@@ -455,7 +476,8 @@ def load_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
 
 
 def save_checkpoint(model: BaseAlgorithm, layout: Any, keep: int | None = None) -> Any:
-    """Checkpoint at the model's step (atomic files, the model last), keeping ``keep``."""
+    """Checkpoint at the model's step in ``layout`` (a ``RunLayout``), keeping the ``keep``
+    newest; atomic files, the model last, so a model file means a complete checkpoint."""
     checkpoint = layout.checkpoint(model.num_timesteps)
     if getattr(model, "replay_buffer", None) is not None:
         with atomic_path(checkpoint.replay_buffer) as tmp:

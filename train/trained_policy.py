@@ -1,5 +1,7 @@
 """A policy trained by ``python -m train``, loaded from its run folder and asked for strokes:
-:class:`TrainedPolicy` (ppo, sac) and :func:`load_policy` (either kind of run folder).
+:class:`TrainedPolicy` (ppo, sac) and :func:`load_policy`, which loads either kind of run
+folder (an amortised run as a :class:`train.amortised_policy.AmortisedPolicy`, which answers
+the same questions, :class:`~train.run_folder.RunPolicy`).
 """
 
 from __future__ import annotations
@@ -34,7 +36,8 @@ class TrainingMismatchWarning(RuntimeWarning):
 # --- a trained run ---------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class TrainedPolicy(RunPolicy):
-    """A model saved by ``python -m train`` and what it needs to observe a condition."""
+    """A model saved by ``python -m train``, with what it needs to observe a condition: the
+    run folder's settings read and checked, the model loaded without unpickling anything."""
 
     run_dir: Path
     algo: str
@@ -50,7 +53,9 @@ class TrainedPolicy(RunPolicy):
 
     @classmethod
     def load(cls, run_dir: str | Path, which: WhichModel = "best") -> TrainedPolicy:
-        """Load ``best_model.zip`` (else the final model) or the final model of ``run_dir``."""
+        """Load ``best_model.zip`` (``which="best"``; the final model if there is none) or the
+        final ``<env>.zip`` of ``run_dir`` (or of the latest run it names); ValueError naming
+        the folder or file and what is wrong."""
         if which not in WHICH_MODELS:
             raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
         run_dir = resolve_run_dir(run_dir)
@@ -130,7 +135,9 @@ class TrainedPolicy(RunPolicy):
 
 
 def load_policy(run_dir: str | Path, which: WhichModel = "best") -> Any:
-    """The policy of a run folder: :class:`TrainedPolicy`, or an amortised run's policy."""
+    """The policy of a run folder of ``python -m train`` (or of the latest run it names): a
+    :class:`TrainedPolicy` for ppo and sac, a :class:`train.amortised_policy.AmortisedPolicy` for an
+    amortised run (one weights file: ``which`` best and final are the same)."""
     if which not in WHICH_MODELS:
         raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
     if is_amortised_run(run_dir):

@@ -1,8 +1,10 @@
 """``python -m train.tune``: tune PPO's or SAC's hyperparameters for a policy over an envelope.
 
-Optuna's TPE sampler proposes overrides of the shipped zoo entry (the first trial) from
-:data:`SEARCH_SPACES`; a trial's value is the median normalised score of its policy's strokes
-at the reference grid's training conditions (docs/training.md, "Tuning for the envelope").
+Optuna's TPE sampler (seeded) proposes overrides of the shipped zoo entry from
+:data:`SEARCH_SPACES`, the first trial being the shipped entry; each trial trains one policy by
+the same code as ``python -m train`` and its value is the median normalised score of its
+strokes at the reference grid's *training* conditions. The study's files, its checks and the
+shipped results: docs/training.md, "Tuning for the envelope". Needs the ``tune`` extra.
 """
 
 from __future__ import annotations
@@ -39,7 +41,8 @@ from train.cli import command, option
 from train.config import TrainConfig, check_seed, load_entry
 
 #: Per algorithm and parameter: what Optuna proposes (kind, choices or (low, high): "log" and
-#: "float" are ranges, "choice" a list) and the shipped entry's value (the first trial).
+#: "float" are ranges, "choice" a list) and the shipped entry's value (the first trial). Every
+#: choice here is a value the shipped entry could hold (the shipped value is among them).
 _SPACES: Mapping[str, Mapping[str, tuple[str, Any, Any]]] = {
     "ppo": {
         "learning_rate": ("log", (3e-4, 1e-2), 3e-3),
@@ -67,7 +70,8 @@ SEARCH_SPACES: Mapping[str, Mapping[str, tuple[str, Any]]] = {
     algo: {name: (kind, values) for name, (kind, values, _) in space.items()}
     for algo, space in _SPACES.items()
 }
-#: The shipped entry (``train/hyperparams/<algo>.yml``) in the search space's terms.
+#: The shipped entry (``train/hyperparams/<algo>.yml``, level flight) in the search space's
+#: terms: the first trial (tests check it resolves to the shipped file's hyperparameters).
 SHIPPED: Mapping[str, Mapping[str, Any]] = {
     algo: {name: shipped for name, (_, _, shipped) in space.items()}
     for algo, space in _SPACES.items()
@@ -97,7 +101,9 @@ def overrides(algo: str, params: Mapping[str, Any]) -> dict[str, Any]:
 
 @dataclass(frozen=True)
 class TuneConfig:
-    """One tuning command (each field an option, its docstring the help), checked when made."""
+    """One tuning command (each field an option of ``python -m train.tune``, its docstring the
+    option's help), checked once, when it is made (ValueError naming the value and what is
+    allowed, before any training)."""
 
     algo: str = option("--algo", choices=tuple(SEARCH_SPACES))
     """The algorithm whose hyperparameters are tuned."""
@@ -166,7 +172,8 @@ def _rows(study: Any) -> list[dict[str, Any]]:
 
 
 def best_entry_text(config: TuneConfig, study: Any) -> str:
-    """The best trial's zoo-format file, with where it came from in comments."""
+    """The best trial's zoo-format file: the shipped entry of ``config.env_id`` with the
+    trial's overrides, and where it came from in comments."""
     import optuna
 
     best = study.best_trial
@@ -188,12 +195,14 @@ def best_entry_text(config: TuneConfig, study: Any) -> str:
     return "\n".join(head) + "\n" + body
 
 
-#: The Optuna errors replaying a damaged journal raises.
+#: The Optuna errors replaying a damaged journal raises (it asserts on unknown operations and
+#: looks up studies and trials by id).
 _REPLAY_ERRORS = (AssertionError, KeyError, IndexError, TypeError, ValueError, AttributeError)
 
 
 def _check_journal_lines(path: Path) -> None:
-    """ValueError naming the journal unless every line is a whole JSON operation."""
+    """ValueError naming the journal unless every line is a JSON object with an integer
+    ``op_code`` ending in a newline (Optuna would append to a line a kill cut short)."""
     if not path.exists():
         return
     try:
@@ -218,7 +227,8 @@ def _check_journal_lines(path: Path) -> None:
 
 
 def foreign_trial(algo: str, n_conditions: int, trial: Any) -> str | None:
-    """None if the finished ``trial`` is one this tuner recorded, else why not."""
+    """None if the finished ``trial`` is one this tuner recorded (parameters inside
+    :data:`SEARCH_SPACES`, value the median of its ``n_conditions`` scores), else why not."""
     space = SEARCH_SPACES[algo]
     if set(trial.params) != set(space):
         return f"its parameters {sorted(trial.params)} are not the search space's"
@@ -244,7 +254,8 @@ def foreign_trial(algo: str, n_conditions: int, trial: Any) -> str | None:
 
 
 def open_study(config: TuneConfig) -> Any:
-    """The Optuna study of ``config`` (made or continued); ValueError before any training."""
+    """The Optuna study of ``config`` in ``config.out`` (made, or loaded to continue it);
+    ValueError naming the folder or journal, before any training, for one it cannot continue."""
     import optuna
 
     output_directory(config.out, files=("study.journal", "trials.csv", f"{config.algo}.yml"))
@@ -279,7 +290,8 @@ def open_study(config: TuneConfig) -> Any:
                 "journal is left untouched. Allowed: the journal python -m train.tune wrote, or "
                 "another --out"
             )
-    # seeded by the trials already run too: a resumed study must not propose its first again
+    # seeded by the trials already run too: a resumed study must not propose its first
+    # random trials again
     sampler = optuna.samplers.TPESampler(
         seed=(config.seed + len(trials)) % 2**32, n_startup_trials=5
     )
@@ -292,7 +304,8 @@ def open_study(config: TuneConfig) -> Any:
 
 
 def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = None) -> Any:
-    """Run the study of ``config`` up to ``config.trials`` finished trials; the study."""
+    """Run the study of ``config`` (:func:`open_study`, unless given) up to ``config.trials``
+    finished trials (module docstring); returns the Optuna study."""
     from train.amortised import make_problem
     from train.run import train
     from train.trained_policy import TrainedPolicy
@@ -300,7 +313,9 @@ def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = No
     study = open_study(config) if study is None else study
 
     def objective(trial: Any) -> float:
-        """Train one policy with the trial's parameters; its median score at the conditions."""
+        """Train one policy with the trial's parameters into a temporary folder and score its
+        deterministic strokes at the training conditions, flown by its env (the training
+        options but the condition): the median score (the scores and seconds: user attrs)."""
         params = {
             name: trial.suggest_categorical(name, list(values))
             if kind == "choice"

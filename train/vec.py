@@ -1,8 +1,15 @@
-"""The vector envs a run trains and evaluates on (bottom up). Training: the batched SB3 adapter
--> :class:`StrokeRecorder` (the best stroke seen, the evaluation count) -> ``VecMonitor``
-(episode CSV with the physical metrics) -> ``VecNormalize`` if asked. Evaluation: the adapter
--> :class:`ConditionGrid` (each deterministic evaluation scores the same conditions, so
-``best_model.zip`` is chosen on a fixed set) -> ``VecMonitor`` -> ``VecNormalize(training=False)``.
+"""The vector envs a run trains and evaluates on, and the two wrappers that make them useful here.
+
+Training stack (bottom up): the batched SB3 adapter (one model call per step) ->
+:class:`StrokeRecorder` (raw rewards: the best stroke seen and the evaluation count) ->
+``VecMonitor`` (episode CSV with the physical metrics) -> ``VecNormalize`` if the
+hyperparameters ask for it.
+
+Evaluation stack: the adapter over one sub-env per evaluation condition ->
+:class:`ConditionGrid` (every reset starts sub-env i at condition i, so each deterministic
+evaluation scores the same conditions and ``best_model.zip`` is chosen on a fixed, not a
+resampled, set) -> ``VecMonitor`` -> ``VecNormalize(training=False, norm_reward=False)``;
+:func:`evaluate_deterministic` plays a model's deterministic policy on it.
 """
 
 from __future__ import annotations
@@ -21,13 +28,26 @@ from tandem_env.envs.registration import config_class
 from tandem_env.envs.sb3 import TandemVecEnv, make_sb3_vec_env
 
 #: ``info`` entries written to the Monitor CSV next to each episode's reward and length.
-MONITOR_KEYWORDS: tuple[str, ...] = tuple(
-    "objective efficiency lift_to_weight power_per_mass feasible speed available_power".split()
+MONITOR_KEYWORDS: tuple[str, ...] = (
+    "objective",
+    "efficiency",
+    "lift_to_weight",
+    "power_per_mass",
+    "feasible",
+    "speed",
+    "available_power",
 )
 
 
 class StrokeRecorder(VecEnvWrapper):
-    """Keeps the best stroke any sub-env was given and counts evaluations."""
+    """Keeps the best stroke any sub-env was given and counts evaluations.
+
+    "Best" is the harness's selection rule (:mod:`agents.selection`: feasible strokes first,
+    then the higher raw reward, the earlier on ties).
+    ``history`` records the best reward so far, feasible or not, so that it never decreases.
+    Sits directly on the adapter, so it sees the exact actions evaluated (after SB3's clipping
+    or rescaling) and the env's own rewards (before any normalisation).
+    """
 
     def __init__(self, venv: VecEnv, on_step: Callable[[StrokeRecorder], None] | None = None):
         super().__init__(venv)
@@ -76,7 +96,8 @@ class StrokeRecorder(VecEnvWrapper):
 
 
 class ConditionGrid(VecEnvWrapper):
-    """Resets sub-env i of ``venv`` at ``conditions[i]`` at every reset."""
+    """Resets sub-env i of the batched adapter ``venv`` at ``conditions[i]`` at every reset
+    (through the env's reset option, e.g. ``speed``)."""
 
     def __init__(self, venv: TandemVecEnv, conditions: Sequence[float]) -> None:
         super().__init__(venv)
@@ -119,7 +140,8 @@ def make_evaluation_env(
     *,
     normalize: Mapping[str, Any] | None,
 ) -> VecEnv:
-    """The evaluation stack at the fixed condition, or the sweep's points in the range."""
+    """The evaluation stack at the fixed condition, or the declared sweep's points in the
+    sampled range (its ends and midpoint where it holds fewer than two)."""
     config = config_class(env_id).from_kwargs(**env_kwargs)
     if config.condition_range is None:
         conditions: tuple[float, ...] = (float(config.fixed_condition),)
@@ -139,7 +161,9 @@ def make_evaluation_env(
 def evaluate_deterministic(
     model: BaseAlgorithm, eval_env: VecEnv, max_steps: int = 100_000
 ) -> list[dict[str, Any]]:
-    """One episode of the deterministic policy in each evaluation env: a row per env."""
+    """The deterministic policy from one reset of each evaluation env to the end of its episode:
+    one row per env, the info of its last step with ``reward`` (the return),
+    ``episode_length`` and ``action`` (its first)."""
     observations = eval_env.reset()
     n_envs = eval_env.num_envs
     returns, lengths = np.zeros(n_envs), np.zeros(n_envs, dtype=np.int64)
