@@ -68,7 +68,8 @@ def parse_config(parser: argparse.ArgumentParser, argv: Sequence[str] | None) ->
     """The :class:`TrainConfig` of the command line ``argv`` (``--insect`` in its env options)."""
     args = parser.parse_args(argv)
     values = {spec.name: getattr(args, spec.name) for spec in fields(TrainConfig)}
-    if (insect := getattr(args, "insect", None)) is not None:
+    insect = getattr(args, "insect", None)
+    if insect is not None:
         if args.algo == AMORTISED:
             raise ValueError(
                 f"--insect {insect}: the reference table describes the paper's insects "

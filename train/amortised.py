@@ -45,7 +45,8 @@ def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     series = table_series(env_id, env_kwargs)
     declared = config_class(env_id).CONDITION
     condition_words = (declared.keyword, declared.range_keyword, declared.envelope_keyword)
-    if given := sorted(set(env_kwargs) & set(condition_words)):
+    given = sorted(set(env_kwargs) & set(condition_words))
+    if given:
         raise ValueError(
             f"env_kwargs {given}: the condition is the amortised policy's input, set per "
             f"stroke; allowed: none of {', '.join(condition_words)}"
@@ -77,7 +78,8 @@ def table_series(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
             "eval reference"
         ) from None
     planform = config.planform
-    if (series := table.find(env_id, str(objective), problem_fingerprint(config))) is not None:
+    series = table.find(env_id, str(objective), problem_fingerprint(config))
+    if series is not None:
         return series
     # which is it: a series the table lacks, or options that change the problem?
     table.get(env_id, str(objective), planform)  # raises naming what the table holds

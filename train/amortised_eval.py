@@ -85,7 +85,8 @@ def evaluate_held_out(
 
     def scored(strokes: np.ndarray, at: Any) -> tuple[Any, Any, Any, np.ndarray]:
         """The evaluation, violations, reference optima and scores of ``strokes`` at ``at``."""
-        found, reference = problem.evaluate(strokes, at), series.at(at)
+        found = problem.evaluate(strokes, at)
+        reference = series.at(at)
         total = problem.declaration.score(found.result, problem.config).total
         score = normalised_score(reference, found.objective, found.feasible, total)
         return found, total, reference, score
@@ -177,7 +178,8 @@ def evaluate_held_out(
             "batch": int(values.size),
         }
     )
-    if timed := [r for r in rows if "optimiser_wall_time" in r]:
+    timed = [r for r in rows if "optimiser_wall_time" in r]
+    if timed:
         summary["optimiser_seconds_median"] = statistics.median(
             r["optimiser_wall_time"] for r in timed
         )
@@ -188,7 +190,8 @@ def evaluate_held_out(
         # a CMA-ES run (the harness's, its default polish included) at the first condition
         from agents.harness import run
 
-        condition, start = float(values[0]), time.perf_counter()
+        condition = float(values[0])
+        start = time.perf_counter()
         [record] = run(
             "cmaes",
             task_of(env_id),

@@ -148,7 +148,8 @@ class Settings:
     def from_mapping(cls, values: Mapping[str, Any]) -> Settings:
         """Settings from ``key=value`` overrides; ValueError naming an unknown key."""
         names = [f.name for f in fields(cls)]
-        if unknown := sorted(set(values) - set(names)):
+        unknown = sorted(set(values) - set(names))
+        if unknown:
             raise ValueError(f"unknown amortised setting(s) {unknown}; allowed: {', '.join(names)}")
         return cls(**dict(values))
 
@@ -454,7 +455,8 @@ def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
             "python -m train --algo amortised, minutes)"
         )
     needed = ("env_id", "env_kwargs", "hidden", "features", "num_timesteps", *_ARRAYS)
-    if missing := [key for key in needed if key not in data]:
+    missing = [key for key in needed if key not in data]
+    if missing:
         raise _refuse(path, f"no {', '.join(missing)}")
     if data["env_id"] != env_id:
         raise _refuse(path, f"env_id = {data['env_id']!r}, but its args.yml says {env_id!r}")

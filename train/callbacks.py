@@ -51,7 +51,8 @@ class PhysicsLogger(BaseCallback):
             values = [info[name] for info in infos if name in info and info[name] == info[name]]
             if values:
                 self.logger.record_mean(f"physics/{name}", float(np.mean(values)))
-        best, recorder = self.recorder.best_info, self.recorder
+        recorder = self.recorder
+        best = recorder.best_info
         scalars = {"evaluations": recorder.evaluations}
         if best is not None:
             scalars = {
@@ -84,7 +85,9 @@ class ResumableEvalCallback(EvalCallback):
             return
         try:
             with np.load(path, allow_pickle=False) as data:
-                steps, results, lengths = data["timesteps"], data["results"], data["ep_lengths"]
+                steps = data["timesteps"]
+                results = data["results"]
+                lengths = data["ep_lengths"]
                 successes = data["successes"] if "successes" in data.files else None
         except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
             warnings.warn(
@@ -113,7 +116,8 @@ class SaveVecNormalize(BaseCallback):
         self.path = Path(path)
 
     def _on_step(self) -> bool:
-        if (normalizer := self.model.get_vec_normalize_env()) is not None:
+        normalizer = self.model.get_vec_normalize_env()
+        if normalizer is not None:
             normalizer.save(str(self.path))
         return True
 
@@ -129,7 +133,10 @@ class RunCheckpoint(BaseCallback):
 
     def __init__(self, layout: RunLayout, save_freq: int, keep: int, verbose: int = 0) -> None:
         super().__init__(verbose)
-        self.layout, self.save_freq, self.keep, self._next = layout, save_freq, keep, save_freq
+        self.layout = layout
+        self.save_freq = save_freq
+        self.keep = keep
+        self._next = save_freq
 
     def _init_callback(self) -> None:
         self._next = (self.model.num_timesteps // self.save_freq + 1) * self.save_freq
@@ -138,7 +145,8 @@ class RunCheckpoint(BaseCallback):
         return True
 
     def _on_rollout_end(self) -> None:
-        if (step := self.model.num_timesteps) >= self._next:
+        step = self.model.num_timesteps
+        if step >= self._next:
             checkpoint = save_checkpoint(self.model, self.layout, self.keep)
             self._next = (step // self.save_freq + 1) * self.save_freq
             if self.verbose >= 2:
@@ -153,7 +161,8 @@ class StopOnInterrupt(BaseCallback):
 
     def __init__(self) -> None:
         super().__init__()
-        self.requested, self.boundary = False, 0
+        self.requested = False
+        self.boundary = 0
 
     def _init_callback(self) -> None:
         self.boundary = self.model.num_timesteps

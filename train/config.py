@@ -11,8 +11,6 @@ to the SB3 constructor, exactly as the zoo preprocesses them.
 from __future__ import annotations
 
 import ast
-import contextlib
-import functools
 import importlib
 import math
 from collections.abc import Mapping
@@ -125,7 +123,8 @@ def _policy_value(node: ast.expr, text: str) -> Any:
                 return list(items) if name == "list" else tuple(items)
     elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Load):
         # a chain of plain names unparses as itself; anything else names no module here
-        if (module := _POLICY_KWARGS_MODULES.get(ast.unparse(node.value))) is not None:
+        module = _POLICY_KWARGS_MODULES.get(ast.unparse(node.value))
+        if module is not None:
             found = getattr(importlib.import_module(module), node.attr, None)
             if isinstance(found, type) and not node.attr.startswith("_"):
                 return found
@@ -201,7 +200,8 @@ def resolve_hyperparams(
     policy_kwargs, normalize)."""
     given = {"n_envs": n_envs, "n_timesteps": n_timesteps}
     raw = {**entry, **(overrides or {}), **{k: v for k, v in given.items() if v is not None}}
-    if unsupported := sorted(set(raw) & set(UNSUPPORTED_ZOO_KEYS)):
+    unsupported = sorted(set(raw) & set(UNSUPPORTED_ZOO_KEYS))
+    if unsupported:
         raise ValueError(
             f"hyperparameters {unsupported} are zoo features this trainer does not implement; "
             "allowed: model constructor arguments and " + ", ".join(ZOO_KEYS)
@@ -310,11 +310,17 @@ def _positive_int(name: str, value: Any) -> int:
 def _schedule(key: str, value: Any) -> Any:
     from stable_baselines3.common.utils import LinearSchedule
 
-    kind, _, number = str(value).partition("_")
-    with contextlib.suppress(ValueError):
-        if isinstance(value, str) and kind == "lin" and math.isfinite(initial := float(number)):
-            return LinearSchedule(initial, 0.0, 1.0)  # the zoo's: from `initial` down to 0
-    if isinstance(value, str) or not is_real(value):
+    if isinstance(value, str):
+        kind, _, number = value.partition("_")
+        try:
+            initial = float(number)
+        except ValueError:
+            initial = math.nan
+        if kind != "lin" or not math.isfinite(initial):
+            raise ValueError(f"{key} = {value!r}; allowed: a number or 'lin_<initial value>'")
+        # The zoo's linear schedule: from `initial` at the start to 0 at the end.
+        return LinearSchedule(initial, 0.0, 1.0)
+    if not is_real(value):
         raise ValueError(f"{key} = {value!r}; allowed: a number or 'lin_<initial value>'")
     return float(value)
 
@@ -414,42 +420,45 @@ class TrainConfig:
     """Torch device of the model."""
 
     def __post_init__(self) -> None:
-        put = functools.partial(object.__setattr__, self)
         for spec in fields(self):  # the fields with choices: algo, device
             value, allowed = getattr(self, spec.name), spec.metadata.get("choices")
             if allowed and value not in allowed:
                 raise ValueError(f"{spec.name} = {value!r}; allowed: {', '.join(allowed)}")
         check_env_id(self.env_id, "env")
         for name in ("n_timesteps", "n_envs"):
-            if getattr(self, name) is not None:
-                put(name, _positive_int(name, getattr(self, name)))
-        put("seed", check_seed(self.seed))
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, _positive_int(name, value))
+        object.__setattr__(self, "seed", check_seed(self.seed))
         for name, low in (("verbose", 0), ("torch_threads", 1)):
-            put(name, count(getattr(self, name), name, low))
+            object.__setattr__(self, name, count(getattr(self, name), name, low))
         if self.verbose > 2:
             raise ValueError(f"verbose = {self.verbose!r}; allowed: 0 quiet, 1 info, 2 debug")
         for name in ("eval_freq", "save_freq"):
-            if not is_integer(value := getattr(self, name)):
+            value = getattr(self, name)
+            if not is_integer(value):
                 raise ValueError(f"{name} = {value!r}; allowed: an integer (<= 0 disables)")
-            put(name, int(value))
+            object.__setattr__(self, name, int(value))
         if not isinstance(self.log_table, bool):
             raise ValueError(f"log_table = {self.log_table!r}; allowed: True or False")
         if self.log_interval is not None:
-            put("log_interval", count(self.log_interval, "log_interval"))
+            object.__setattr__(self, "log_interval", count(self.log_interval, "log_interval"))
         for name in ("env_kwargs", "hyperparams"):
-            if not isinstance(value := getattr(self, name), Mapping):
+            value = getattr(self, name)
+            if not isinstance(value, Mapping):
                 raise ValueError(f"{name} = {value!r}; allowed: a mapping of keyword -> value")
             value = dict(value)
             if name == "env_kwargs" and "insect" in value:
                 # what differs from the paper's specimen, read now (a file, before any work)
                 insect = insect_keyword(value.pop("insect"))
-                value.update({} if insect is None else {"insect": insect})
-            put(name, MappingProxyType(value))
+                if insect is not None:
+                    value["insect"] = insect
+            object.__setattr__(self, name, MappingProxyType(value))
         # a file, a dangling link or an empty name: said here, not as errno text when a run starts
         output_directory(self.log_folder, "log_folder (-f)", write=False)
         for name in ("log_folder", "run_dir", "hyperparams_file"):
             if getattr(self, name) is not None:
-                put(name, Path(getattr(self, name)))
+                object.__setattr__(self, name, Path(getattr(self, name)))
         if self.resume and self.run_dir is not None:
             raise ValueError(
                 "give resume=True (the latest run in log_folder) or run_dir (that run), not both"

@@ -56,16 +56,28 @@ def read_run(run_dir: str | Path) -> Curves:
     reward, objective, feasible = np.array(rows, dtype=np.float64).reshape(-1, 3).T
     best = np.maximum.accumulate(np.where(feasible == 1.0, objective, -np.inf))
     best = np.where(np.isfinite(best), best, np.nan)
-    eval_steps, eval_reward = np.zeros(0), np.zeros(0)
+    eval_steps = np.zeros(0)
+    eval_reward = np.zeros(0)
     if layout.evaluations.is_file():
         with np.load(layout.evaluations) as data:
-            eval_steps, eval_reward = data["timesteps"], data["results"].mean(axis=1)
+            eval_steps = data["timesteps"]
+            eval_reward = data["results"].mean(axis=1)
     wall = (
         read_json(layout.result_file).get("wall_time_s") if layout.result_file.is_file() else None
     )
     return Curves(
         run_dir.name, np.arange(1, len(reward) + 1), reward, best, eval_steps, eval_reward, wall
     )
+
+
+def binned_mean(steps: np.ndarray, values: np.ndarray, bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """Mean of ``values`` in ``bins`` equal bins of ``steps`` (bin centres, means)."""
+    edges = np.linspace(0, steps[-1], bins + 1)
+    index = np.clip(np.searchsorted(edges, steps, side="left") - 1, 0, bins - 1)
+    sums = np.bincount(index, values, minlength=bins)
+    counts = np.bincount(index, minlength=bins)
+    keep = counts > 0
+    return 0.5 * (edges[:-1] + edges[1:])[keep], sums[keep] / counts[keep]
 
 
 def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60) -> Path:
@@ -82,12 +94,8 @@ def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60
         color = f"C{k}"
         label = c.label + ("" if c.wall_time is None else f" ({c.wall_time:.0f} s)")
         if len(c.steps):
-            # the mean reward in equal bins of env steps
-            edges = np.linspace(0, c.steps[-1], bins + 1)
-            index = np.clip(np.searchsorted(edges, c.steps, side="left") - 1, 0, bins - 1)
-            sums, counts = np.bincount(index, c.reward, bins), np.bincount(index, minlength=bins)
-            x, keep = 0.5 * (edges[:-1] + edges[1:]), counts > 0
-            left.plot(x[keep], sums[keep] / counts[keep], color=color, lw=1.2, label=label)
+            x, y = binned_mean(c.steps, c.reward, bins)
+            left.plot(x, y, color=color, lw=1.2, label=label)
             every = max(1, len(c.steps) // 400)
             right.plot(c.steps[::every], c.best_feasible[::every], color=color, lw=1.2)
         if len(c.eval_steps):

@@ -52,6 +52,14 @@ COLUMNS: tuple[str, ...] = (
 RECORD_COLUMNS = COLUMNS[3:8]
 
 
+def sweep_conditions(task: str) -> tuple[float, ...]:
+    """The task's declared sweep (its env config's ``CONDITION.sweep``)."""
+    declared = get_task(task).declaration.condition
+    if declared is None:
+        raise ValueError(f"task {task!r} declares no sweep; give the conditions")
+    return declared.sweep
+
+
 def evaluate_envelope(
     run_dir: str | os.PathLike[str],
     out_dir: str | os.PathLike[str],
@@ -60,8 +68,8 @@ def evaluate_envelope(
     which: str = "best",
     progress: bool = False,
 ) -> list[dict[str, Any]]:
-    """Record the run's policy at each condition (default the task's declared sweep, its env
-    config's ``CONDITION.sweep``); write envelope.csv.
+    """Record the run's policy at each condition (default the sweep, :func:`sweep_conditions`);
+    write envelope.csv.
 
     One job per condition, run and stored by the runner (:func:`agents.runner.run_jobs`, the
     one writer of the records), here, one after another; a rerun replaces the records (the run
@@ -74,9 +82,7 @@ def evaluate_envelope(
     task = task_of(policy.env_id)
     # The harness sets the condition itself; every other training option is kept.
     env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
-    if conditions is None and (declared := get_task(task).declaration.condition) is None:
-        raise ValueError(f"task {task!r} declares no sweep; give the conditions")
-    values = tuple(conditions) if conditions is not None else declared.sweep
+    values = tuple(conditions) if conditions is not None else sweep_conditions(task)
     out = Path(out_dir)
     with warnings.catch_warnings():
         # Said once, for every condition, by the trained_at column (and main's note).
@@ -140,11 +146,12 @@ class EnvelopeOptions:
 @command_line
 def main(argv: Sequence[str] | None = None) -> int:
     script = Path(sys.argv[0]).name == "tandem-envelope"
-    sweeps = [
-        f"{name}: {d.keyword} {', '.join(f'{v:g}' for v in d.sweep)} {d.unit}"
-        for name in available_tasks()
-        if (d := get_task(name).declaration.condition) is not None
-    ]
+    sweeps = []
+    for name in available_tasks():
+        declared = get_task(name).declaration.condition
+        if declared is not None:
+            values = ", ".join(f"{v:g}" for v in declared.sweep)
+            sweeps.append(f"{name}: {declared.keyword} {values} {declared.unit}")
     parser, args = command(
         EnvelopeOptions,
         argv,
@@ -162,7 +169,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"score {row['score']:.1f}, {row['evaluations']} evaluation(s)"
             + ("" if row["trained_at"] else " (outside training)")
         )
-    if outside := [row for row in rows if not row["trained_at"]]:
+    outside = [row for row in rows if not row["trained_at"]]
+    if outside:
         seen = outside[0]["trained_over"]
         declared = get_task(outside[0]["task"]).declaration.condition
         ranged = "a range" if declared is None else declared.range_keyword

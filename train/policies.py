@@ -97,10 +97,9 @@ class PolicyMethod:
         policy = load_policy(self.run_dir, self.which)
         policy.check_env(context.env_id)
         # the condition's keywords may differ between training and evaluation
-        trained, asked = (
-            {k: v for k, v in kwargs.items() if k not in condition_keywords()}
-            for kwargs in (policy.env_kwargs, context.env_kwargs)
-        )
+        condition = condition_keywords()
+        trained = {k: v for k, v in policy.env_kwargs.items() if k not in condition}
+        asked = {k: v for k, v in context.env_kwargs.items() if k not in condition}
         if plain(trained) != plain(asked):
             message = f"was trained with env options {trained}, evaluated with {asked}"
             warnings.warn(f"{policy.run_dir} {message}", TrainingMismatchWarning, stacklevel=2)
@@ -154,13 +153,16 @@ class TrainingMethod:
                 f"method {self.algo!r}: n_timesteps cannot be set; the harness budget (env "
                 "steps) is the only budget"
             )
-        put = functools.partial(object.__setattr__, self)
-        put("overrides", MappingProxyType(dict(self.overrides)))
-        for name in ("n_envs", "torch_threads"):  # n_envs None: the yml's
-            if name == "torch_threads" or self.n_envs is not None:
-                put(name, count(getattr(self, name), f"method {self.algo!r}: {name}"))
+        object.__setattr__(self, "overrides", MappingProxyType(dict(self.overrides)))
+        method = f"method {self.algo!r}"
+        if self.n_envs is not None:  # None: the yml's
+            object.__setattr__(self, "n_envs", count(self.n_envs, f"{method}: n_envs"))
+        object.__setattr__(
+            self, "torch_threads", count(self.torch_threads, f"{method}: torch_threads")
+        )
         for name in ("conf_file", "log_dir"):
-            if (value := getattr(self, name)) is not None and not isinstance(value, str | Path):
+            value = getattr(self, name)
+            if value is not None and not isinstance(value, str | Path):
                 raise ValueError(f"method {self.algo!r}: {name} = {value!r}; allowed: a path")
 
     @property
@@ -314,7 +316,8 @@ def policy_factory(argument: str | None, config: Mapping[str, Any]) -> Method:
     """``policy:RUN_DIR`` with setting ``model`` = best | final."""
     if not argument:
         raise ValueError("method 'policy' needs a run folder: policy:RUN_DIR")
-    if unknown := sorted(set(config) - {"model"}):
+    unknown = sorted(set(config) - {"model"})
+    if unknown:
         raise ValueError(f"method 'policy': unknown setting(s) {unknown}; allowed: model")
     which = config.get("model", "best")
     if which not in WHICH_MODELS:

@@ -184,14 +184,16 @@ class RunLayout:
         if not self.args_file.is_file():
             if not any(p.name != LOCK_FILE for p in self.run_dir.iterdir()):
                 return None
-            if others := sorted(p.parent.name for p in self.run_dir.glob("*/args.yml")):
+            others = sorted(p.parent.name for p in self.run_dir.glob("*/args.yml"))
+            if others:
                 return (
                     f"{self.run_dir} holds a run of {', '.join(others)} (its */args.yml), not of "
                     f"{self.env_id}"
                 )
             return f"{self.run_dir} holds files but no {self.name}/args.yml: not a training run"
         try:
-            args = saved.parse_run_yaml(text := self.args_file.read_text("utf-8"), self.args_file)
+            text = self.args_file.read_text(encoding="utf-8")
+            args = saved.parse_run_yaml(text, self.args_file)
         except UnicodeDecodeError:
             return f"{self.args_file} is not UTF-8 text"
         except (OSError, ValueError) as error:
@@ -224,15 +226,18 @@ class RunLayout:
     @classmethod
     def new(cls, log_folder: Path, algo: str, env_id: str) -> RunLayout:
         """The next free ``log_folder/<algo>/<env>_<n>`` (created)."""
-        folder, name = Path(log_folder) / algo, env_id.translate(FOLDER_NAME)
-        (run_dir := folder / f"{name}_{latest_run_id(folder, name) + 1}").mkdir(parents=True)
+        algo_folder = Path(log_folder) / algo
+        name = env_id.translate(FOLDER_NAME)
+        run_dir = algo_folder / f"{name}_{latest_run_id(algo_folder, name) + 1}"
+        run_dir.mkdir(parents=True, exist_ok=False)
         return cls(run_dir, env_id)
 
     @classmethod
     def latest(cls, log_folder: Path, algo: str, env_id: str) -> RunLayout:
         """The newest existing run of ``algo`` on ``env_id``; ValueError if there is none, or
         if the newest folder is not a run of this project (e.g. rl_zoo3's: same layout)."""
-        algo_folder, name = Path(log_folder) / algo, env_id.translate(FOLDER_NAME)
+        algo_folder = Path(log_folder) / algo
+        name = env_id.translate(FOLDER_NAME)
         n = latest_run_id(algo_folder, name)
         if n == 0:
             raise ValueError(
@@ -240,7 +245,8 @@ class RunLayout:
                 "without --resume, or give its folder with --run-dir"
             )
         layout = cls(algo_folder / f"{name}_{n}", env_id)
-        if (reason := layout.foreign()) is not None:
+        reason = layout.foreign()
+        if reason is not None:
             own = [
                 candidate.run_dir
                 for k in range(n - 1, 0, -1)
@@ -306,7 +312,10 @@ class RunFolder:
         if not config.verbose or amortised:
             return run
         # what this command is about to do, before any work (stdout)
-        hp, layout, checkpoint, target = run.hp, run.layout, run.checkpoint, run.target
+        hp = run.hp
+        layout = run.layout
+        checkpoint = run.checkpoint
+        target = run.target
         assert hp is not None
         if target != hp.n_timesteps:
             unit = step_granularity(hp)
@@ -423,7 +432,8 @@ def _check_claimable(layout: RunLayout, amortised: bool) -> None:
     """ValueError unless a run may start or go on in ``layout``'s folder."""
     run_dir = layout.run_dir
     if not amortised:
-        if (reason := layout.foreign()) is not None:
+        reason = layout.foreign()
+        if reason is not None:
             raise ValueError(
                 f"--run-dir: {reason}; it is left untouched. Allowed: a run folder of "
                 "python -m train (to continue it), or an absent or empty folder (a new run)"

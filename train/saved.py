@@ -112,9 +112,8 @@ class ForbiddenTag(yaml.constructor.ConstructorError):
         super().__init__(None, None, f"the tag {node.tag!r} is not admitted", node.start_mark)
 
 
-_TUPLE, _ORDERED_DICT = (
-    f"tag:yaml.org,2002:python/{name}" for name in ("tuple", "object/apply:collections.OrderedDict")
-)
+_TUPLE = "tag:yaml.org,2002:python/tuple"
+_ORDERED_DICT = "tag:yaml.org,2002:python/object/apply:collections.OrderedDict"
 
 
 def _construct(loader: RunFileLoader, node: yaml.Node) -> Any:
@@ -431,7 +430,11 @@ def save_replay_buffer(model: BaseAlgorithm, path: Path) -> None:
     """Write the model's replay buffer to ``path`` as an ``.npz`` of plain arrays (no pickle)."""
     buffer = _replay_buffer(model)
     rows = buffer.buffer_size if buffer.full else buffer.pos
-    arrays = {n: a[:rows] for n in REPLAY_ARRAYS if (a := getattr(buffer, n)) is not None}
+    arrays = {
+        name: getattr(buffer, name)[:rows]
+        for name in REPLAY_ARRAYS
+        if getattr(buffer, name) is not None
+    }
     with Path(path).open("wb") as stream:  # a file object: savez would append ".npz" to a name
         np.savez(stream, pos=np.int64(buffer.pos), full=np.bool_(buffer.full), **arrays)
 
@@ -482,7 +485,8 @@ def save_checkpoint(model: BaseAlgorithm, layout: Any, keep: int | None = None) 
     if getattr(model, "replay_buffer", None) is not None:
         with atomic_path(checkpoint.replay_buffer) as tmp:
             save_replay_buffer(model, tmp)
-    if (normalizer := model.get_vec_normalize_env()) is not None:
+    normalizer = model.get_vec_normalize_env()
+    if normalizer is not None:
         with atomic_path(checkpoint.vecnormalize) as tmp:
             normalizer.save(str(tmp))
     with atomic_path(checkpoint.model) as tmp:

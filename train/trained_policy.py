@@ -109,7 +109,9 @@ class TrainedPolicy(RunPolicy):
         if self.normalizer_path is not None:
             normalizer = read_normalizer(self.normalizer_path)
             normalizer.set_venv(venv)
-            venv, normalizer.training, normalizer.norm_reward = normalizer, False, False
+            normalizer.training = False
+            normalizer.norm_reward = False
+            venv = normalizer
         try:
             observations = venv.reset()
         finally:

@@ -130,7 +130,8 @@ class TuneConfig:
         """The command line that makes this study."""
         words = ["python", "-m", "train.tune"]
         for spec in fields(self):
-            if (value := getattr(self, spec.name)) != {}:
+            value = getattr(self, spec.name)
+            if value != {}:
                 words.append(spec.metadata["flags"][0])
                 pairs = isinstance(value, Mapping)
                 words += [f"{k}={v!r}" for k, v in value.items()] if pairs else [str(value)]
@@ -284,7 +285,8 @@ def open_study(config: TuneConfig) -> Any:
         )
     n_conditions = len(training_conditions(config.env_id))
     for trial in (t for t in trials if t.state == optuna.trial.TrialState.COMPLETE):
-        if (why := foreign_trial(config.algo, n_conditions, trial)) is not None:
+        why = foreign_trial(config.algo, n_conditions, trial)
+        if why is not None:
             raise ValueError(
                 f"{journal}: trial {trial.number} is not one this tuner recorded: {why}; the "
                 "journal is left untouched. Allowed: the journal python -m train.tune wrote, or "
@@ -303,50 +305,69 @@ def open_study(config: TuneConfig) -> Any:
     return study
 
 
-def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = None) -> Any:
-    """Run the study of ``config`` (:func:`open_study`, unless given) up to ``config.trials``
-    finished trials (module docstring); returns the Optuna study."""
+def score_policy(policy: Any, conditions: Sequence[float]) -> np.ndarray:
+    """The normalised scores (n,) of a trained policy's deterministic strokes at
+    ``conditions``, flown by its env (the training options but the condition)."""
     from train.amortised import make_problem
+
+    env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
+    problem = make_problem(policy.env_id, env_kwargs)
+    values = np.asarray(conditions, dtype=np.float64)
+    return score_strokes(problem, policy.strokes(values), values)
+
+
+def run_trial(config: TuneConfig, params: Mapping[str, Any], folder: Path) -> dict[str, Any]:
+    """Train one policy with ``params`` into ``folder`` and score it at the training
+    conditions: ``{"value": median score, "scores": [...], "seconds": ...}``."""
     from train.run import train
     from train.trained_policy import TrainedPolicy
 
+    start = time.perf_counter()
+    result = train(
+        TrainConfig(
+            algo=config.algo,  # type: ignore[arg-type]
+            env_id=config.env_id,
+            n_timesteps=config.steps,
+            seed=config.seed,
+            env_kwargs=dict(config.env_kwargs),
+            hyperparams=overrides(config.algo, params),
+            log_folder=folder,
+            progress_bar=False,
+            tensorboard=False,
+            verbose=0,
+        )
+    )
+    assert result.run_dir is not None  # a run with files
+    scores = score_policy(
+        TrainedPolicy.load(result.run_dir, "best"), training_conditions(config.env_id)
+    )
+    return {
+        "value": float(statistics.median(scores.tolist())),
+        "scores": [round(float(s), 2) for s in scores],
+        "seconds": round(time.perf_counter() - start, 1),
+    }
+
+
+def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = None) -> Any:
+    """Run the study of ``config`` (:func:`open_study`, unless given) up to ``config.trials``
+    finished trials (module docstring); returns the Optuna study."""
     study = open_study(config) if study is None else study
 
     def objective(trial: Any) -> float:
-        """Train one policy with the trial's parameters into a temporary folder and score its
-        deterministic strokes at the training conditions, flown by its env (the training
-        options but the condition): the median score (the scores and seconds: user attrs)."""
+        """Train one policy with the trial's parameters into a temporary folder
+        (:func:`run_trial`): the median score (the scores and seconds: user attrs)."""
         params = {
             name: trial.suggest_categorical(name, list(values))
             if kind == "choice"
             else trial.suggest_float(name, *values, log=kind == "log")
             for name, (kind, values) in SEARCH_SPACES[config.algo].items()
         }
-        start = time.perf_counter()
         with tempfile.TemporaryDirectory(prefix="tandem-tune-") as folder:
-            result = train(
-                TrainConfig(
-                    algo=config.algo,  # type: ignore[arg-type]
-                    env_id=config.env_id,
-                    n_timesteps=config.steps,
-                    seed=config.seed,
-                    env_kwargs=dict(config.env_kwargs),
-                    hyperparams=overrides(config.algo, params),
-                    log_folder=Path(folder),
-                    progress_bar=False,
-                    tensorboard=False,
-                    verbose=0,
-                )
-            )
-            policy = TrainedPolicy.load(result.run_dir, "best")  # type: ignore[arg-type]
-            kept = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
-            conditions = np.asarray(training_conditions(config.env_id), dtype=np.float64)
-            problem = make_problem(policy.env_id, kept)
-            scores = score_strokes(problem, policy.strokes(conditions), conditions)
-        value, seconds = float(statistics.median(scores.tolist())), time.perf_counter() - start
-        seconds = round(seconds, 1)
-        trial.set_user_attr("scores", [round(float(s), 2) for s in scores])
-        trial.set_user_attr("seconds", seconds)
+            found = run_trial(config, params, Path(folder))
+        trial.set_user_attr("scores", found["scores"])
+        trial.set_user_attr("seconds", found["seconds"])
+        value = found["value"]
+        seconds = found["seconds"]
         say(f"trial {trial.number}: median score {value:.1f} in {seconds:.0f} s ({params})")
         return value
 

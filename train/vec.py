@@ -53,11 +53,13 @@ class StrokeRecorder(VecEnvWrapper):
         super().__init__(venv)
         # VecMonitor writes the env id into the Monitor header when the stack has a spec.
         self.spec = getattr(getattr(venv, "vector_env", None), "spec", None)
-        self.evaluations = self.steps = 0
-        self.best_reward = self.max_reward = -np.inf
+        self.evaluations = 0
+        self.steps = 0
+        self.best_reward = -np.inf
         self.best_feasible = False
         self.best_action: np.ndarray | None = None
         self.best_info: dict[str, Any] | None = None
+        self.max_reward = -np.inf
         self.history: list[tuple[int, float]] = []
         """(evaluations, best reward so far, feasible or not) after every vector step."""
         self._best = BestStroke()
@@ -166,7 +168,8 @@ def evaluate_deterministic(
     ``episode_length`` and ``action`` (its first)."""
     observations = eval_env.reset()
     n_envs = eval_env.num_envs
-    returns, lengths = np.zeros(n_envs), np.zeros(n_envs, dtype=np.int64)
+    returns = np.zeros(n_envs)
+    lengths = np.zeros(n_envs, dtype=np.int64)
     first_actions: list[Any] = [None] * n_envs
     rows: list[dict[str, Any] | None] = [None] * n_envs
     dropped = ("terminal_observation", "episode", "stroke", "TimeLimit.truncated")
