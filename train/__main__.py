@@ -1,22 +1,20 @@
-"""``python -m train``: train PPO or SAC on a tandem-wing env (rl-baselines3-zoo's spelling).
-
-Examples::
+"""``python -m train``: train PPO or SAC on a tandem-wing env (rl-baselines3-zoo's spelling),
+or with ``--algo amortised`` one network from the condition to a stroke on the reference
+optima (``train.amortised``, docs/training.md "Amortised policy"; its settings are
+--hyperparams)::
 
     python -m train --algo sac --env TandemWing/LevelFlight-v0 --timesteps 100000 --seed 0
     python -m train --algo ppo --env TandemWing/LevelFlight-v0 --env-kwargs "speed_range=(0.25,2.0)"
     python -m train --algo sac --env TandemWing/LevelFlight-v0 --resume      # latest run
     python -m train --algo sac --env TandemWing/LevelFlight-v0 --run-dir logs/sac/TandemWing-LevelFlight-v0_3
     python -m train --algo amortised --env TandemWing/Accelerate-v0 --env-kwargs objective=horizontal
-
-``--algo amortised`` trains one network from the condition to a stroke on the reference optima
-(``train.amortised``, docs/training.md "Amortised policy"); its settings are --hyperparams.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import fields
 from pathlib import Path
 from typing import Any
@@ -26,6 +24,7 @@ from train.entry import exit_on_bad_environment
 # importing tandem_env checks numba's environment: a bad setting is one line and status 2
 with exit_on_bad_environment("python -m train"):
     from tandem_env.io.command import command_line
+from tandem_env.envs.registration import config_class
 from tandem_env.io.progress_bar import warnings_as_lines
 from train.cli import build_parser as build_fields_parser
 from train.config import AMORTISED, TrainConfig
@@ -66,11 +65,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def parse_config(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> TrainConfig:
-    """The :class:`TrainConfig` of the command line ``argv`` (``--insect`` put into the env
-    options)."""
+    """The :class:`TrainConfig` of the command line ``argv`` (``--insect`` in its env options)."""
     args = parser.parse_args(argv)
-    import tandem_env  # noqa: F401 - registers the ids before the config checks the env
-
     values = {spec.name: getattr(args, spec.name) for spec in fields(TrainConfig)}
     insect = getattr(args, "insect", None)
     if insect is not None:
@@ -91,15 +87,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     result: Any
     try:
         config = parse_config(parser, argv)
+        from train.amortised import train_run
+        from train.run import train
+
         with warnings_as_lines():  # every input was checked before any training
-            if config.algo == AMORTISED:
-                from train.amortised import train_run
-
-                result = train_run(config)
-            else:
-                from train.run import train
-
-                result = train(config)
+            result = (train_run if config.algo == AMORTISED else train)(config)
     except Interrupted as stop:  # Ctrl-C in training: a checkpoint was saved
         print(f"{parser.prog}: {stop}", file=sys.stderr)
         return 130
@@ -118,9 +110,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     print(f"run folder: {result.run_dir}")
     if config.algo == AMORTISED:
-        return _say_amortised(result.summary)
-    from tandem_env.envs.registration import config_class
-
+        summary = result.summary
+        print(
+            f"trained in {summary['wall_time']:.1f} s (regression "
+            f"{summary['regression_seconds']:.1f} s, fine-tuning {summary['finetune_seconds']:.1f} "
+            f"s, {summary['num_timesteps']} strokes evaluated)"
+        )
+        for branch in summary["branches"]:
+            conditions = ", ".join(f"{c:g}" for c in branch["training_conditions"])
+            print(
+                f"  branch N={branch['N']} from {branch['serves_from']:g} to "
+                f"{branch['serves_to']:g} (training conditions {conditions})"
+            )
+        for row in summary["training_evaluation"]:
+            print(
+                f"  at training condition {row['condition']:g}: objective {row['objective']:.4g} "
+                f"(reference {row['reference']:.4g}), feasible {row['feasible']}"
+            )
+        return 0
     # The info key of the env's observed condition (speed, available_power, target_speed).
     condition_key = config_class(result.env_id).condition_key
     episodic = any(row["episode_length"] > 1 for row in result.final_evaluation)
@@ -148,26 +155,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(
             f"  final deterministic policy{where}: reward {row['reward']:.4g}, "
             f"objective {row['objective']:.4g}, feasible {row['feasible']}"
-        )
-    return 0
-
-
-def _say_amortised(summary: Mapping[str, Any]) -> int:
-    """What an amortised run ended with (stdout), after its run folder."""
-    print(
-        f"trained in {summary['wall_time']:.1f} s (regression {summary['regression_seconds']:.1f} "
-        f"s, fine-tuning {summary['finetune_seconds']:.1f} s, {summary['num_timesteps']} strokes "
-        "evaluated)"
-    )
-    for branch in summary["branches"]:
-        print(
-            f"  branch N={branch['N']} from {branch['serves_from']:g} to {branch['serves_to']:g} "
-            f"(training conditions {', '.join(f'{c:g}' for c in branch['training_conditions'])})"
-        )
-    for row in summary["training_evaluation"]:
-        print(
-            f"  at training condition {row['condition']:g}: objective {row['objective']:.4g} "
-            f"(reference {row['reference']:.4g}), feasible {row['feasible']}"
         )
     return 0
 

@@ -16,19 +16,23 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
+import torch
 
+from tandem_env.envs.reference import REFERENCE_GRID, problem_fingerprint, training_conditions
+from tandem_env.envs.registration import check_env_id, config_class
 from tandem_env.io.files import atomic_path, to_jsonable, write_json_atomic
 from train.amortised_branches import branch_domains, branch_segments, hand_overs, regression_points
 from train.amortised_policy import (
     HARMONICS,
     AmortisedPolicy,
+    Settings,
     Targets,
     build_networks,
     output_centres,
     reference_targets,
 )
-from train.amortised_settings import Settings
 from train.config import AMORTISED, TrainConfig
 from train.run import torch_threads
 from train.run_folder import RunFolder
@@ -38,8 +42,6 @@ from train.run_folder import RunFolder
 def check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     """The reference series the env of ``env_id`` with ``env_kwargs`` is trained on
     (:func:`table_series`); ValueError for a condition keyword (the policy's input)."""
-    from tandem_env.envs.registration import config_class
-
     series = table_series(env_id, env_kwargs)
     declared = config_class(env_id).CONDITION
     condition_words = (declared.keyword, declared.range_keyword, declared.envelope_keyword)
@@ -56,13 +58,7 @@ def table_series(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     """The reference series that scores the env of ``env_id`` with ``env_kwargs`` (its problem
     fingerprint's); ValueError naming what is allowed where the table has none (no table, no
     such series, env options that change the problem). Nothing is evaluated."""
-    from tandem_env.envs.reference import (
-        REFERENCE_GRID,
-        load_reference_table,
-        problem_fingerprint,
-        reference_path,
-    )
-    from tandem_env.envs.registration import check_env_id, config_class
+    from tandem_env.envs.reference import load_reference_table, reference_path  # at each call
 
     check_env_id(env_id, "env")
     if env_id not in REFERENCE_GRID:
@@ -93,10 +89,9 @@ def table_series(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     )
     declared = config_type.CONDITION
     kept = ("penalty", "backend", "device", declared.keyword, declared.range_keyword)
+    base = to_jsonable(default)
     changed = sorted(
-        k
-        for k, v in to_jsonable(config).items()
-        if to_jsonable(default).get(k) != v and k not in kept
+        k for k, v in to_jsonable(config).items() if base.get(k) != v and k not in kept
     )
     raise ValueError(
         f"env_kwargs {dict(env_kwargs)!r} change the problem the reference table describes "
@@ -110,10 +105,6 @@ def table_series(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
 def make_problem(env_id: str, env_kwargs: Mapping[str, Any], **options: Any) -> Any:
     """The env's problem view (``FlightProblem``) with ``env_kwargs`` and model ``options``
     (e.g. ``n_time``) over them."""
-    import gymnasium as gym
-
-    import tandem_env  # noqa: F401 - registers the ids
-
     env = gym.make(env_id, disable_env_checker=True, **{**dict(env_kwargs), **options})
     try:
         return env.unwrapped.problem()
@@ -146,14 +137,12 @@ def train_policy(
 ) -> tuple[AmortisedPolicy, Training]:
     """Train an amortised policy on ``targets`` (docs/training.md, "Amortised policy");
     ``progress(step, total, row)`` is called after each fine-tuning step."""
-    import torch
-
     resolution = {"n_time": settings.finetune_n_time, "n_blade": settings.finetune_n_blade}
     problem = make_problem(
         env_id, env_kwargs, **{k: v for k, v in resolution.items() if v is not None}
     )
-    config = problem.config
-    centres = output_centres(targets, pairs_independent=not config.options.phase_resolved())
+    independent = not problem.config.options.phase_resolved()
+    centres = output_centres(targets, pairs_independent=independent)
     conditions = targets.conditions
     segments = branch_segments(problem, targets, settings.branch_tolerance)
     domains = branch_domains(conditions, segments, settings.branch_reach)
@@ -185,8 +174,7 @@ def train_policy(
         optimiser = torch.optim.Adam(network.parameters(), lr=settings.regression_lr)
         for _ in range(settings.regression_steps):
             optimiser.zero_grad()
-            loss = fit_loss()
-            loss.backward()
+            fit_loss().backward()
             optimiser.step()
         with torch.no_grad():
             record.regression_loss = float(fit_loss(conditions.size))
@@ -222,9 +210,7 @@ def train_policy(
             d_value = found.objective_gradient + settings.penalty_weight * np.einsum(
                 "bm,bmj->bj", short.astype(np.float64), found.margin_jacobian
             )
-            scale = ref * settings.batch
-            d_loss = torch.as_tensor(-d_value / scale[:, None])
-            actions.backward(d_loss)
+            actions.backward(torch.as_tensor(-d_value / (ref * settings.batch)[:, None]))
             anchor = 0.0
             if settings.anchor > 0:
                 term = settings.anchor * fit_loss(conditions.size)
@@ -275,10 +261,8 @@ def train_run(config: TrainConfig) -> RunResult:
     """``python -m train --algo amortised``: train on the reference table's training optima,
     write the run folder (``result.json`` last) and evaluate the final policy at the training
     conditions for the summary."""
-    import torch
-
     from agents.records import package_versions
-    from tandem_env.envs.reference import load_reference_table, training_conditions
+    from tandem_env.envs.reference import load_reference_table
 
     env_id, env_kwargs, seed = config.env_id, config.env_kwargs, config.seed
     settings = Settings.from_mapping(config.hyperparams)

@@ -59,8 +59,8 @@ def branch_segments(problem: Any, targets: Targets, tolerance: float) -> list[tu
 def branch_domains(
     conditions: np.ndarray, segments: list[tuple[int, int]], reach: float
 ) -> np.ndarray:
-    """(n_branches, 2) the conditions each branch learns over [the condition's unit] (docs/training.md,
-    step 2; ``reach``: ``branch_reach``)."""
+    """(n_branches, 2) the conditions each branch learns over [the condition's unit]
+    (docs/training.md, step 2; ``reach``: ``branch_reach``)."""
     last = conditions.size - 1
     return np.array(
         [

@@ -13,7 +13,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from train.entry import exit_on_bad_environment
 
@@ -22,11 +22,13 @@ with exit_on_bad_environment("python -m train.amortised_eval"):
 
 import numpy as np
 
+from agents.records import Record
 from agents.selection import best_index
+from agents.tasks import get_task, task_of
+from tandem_env.envs.reference import held_out_conditions, normalised_score
+from tandem_env.io.files import output_directory, write_json_atomic
+from tandem_env.physics.checks import is_integer
 from train.cli import command, option
-
-if TYPE_CHECKING:
-    from agents.records import Record
 
 #: The most evaluations the warm-started polish may spend per condition [-].
 MAX_POLISH = 500
@@ -64,8 +66,6 @@ def evaluate_held_out(
 ) -> dict[str, Any]:
     """The held-out evaluation of an amortised run (module docstring): ``{"rows": [...],
     "summary": {...}}``. ValueError for a bad budget, before any work."""
-    from tandem_env.envs.reference import held_out_conditions, normalised_score
-    from tandem_env.physics.checks import is_integer
     from train.amortised import check_env_kwargs, make_problem
     from train.amortised_policy import load_policy
 
@@ -82,11 +82,17 @@ def evaluate_held_out(
         held_out_conditions(env_id) if conditions is None else conditions, dtype=np.float64
     )
     problem = make_problem(env_id, env_kwargs)
+
+    def scored(strokes: np.ndarray, at: Any) -> tuple[Any, Any, Any, np.ndarray]:
+        """The evaluation, violations, reference optima and scores of ``strokes`` at ``at``."""
+        found = problem.evaluate(strokes, at)
+        reference = series.at(at)
+        total = problem.declaration.score(found.result, problem.config).total
+        score = normalised_score(reference, found.objective, found.feasible, total)
+        return found, total, reference, score
+
     strokes = policy.strokes(values)
-    found = problem.evaluate(strokes, values)
-    scores = problem.declaration.score(found.result, problem.config)
-    reference = series.at(values)
-    score = normalised_score(reference, found.objective, found.feasible, scores.total)
+    found, violation, reference, score = scored(strokes, values)
     # the time to a stroke: one forward pass (observation, network, assembly) per condition
     single, batched = [], []
     for times, batch in ((single, values[:1]), (batched, values)):
@@ -100,24 +106,65 @@ def evaluate_held_out(
             "reference": float(reference[k]),
             "objective": float(found.objective[k]),
             "feasible": bool(found.feasible[k]),
-            "violation": float(scores.total[k]),
+            "violation": float(violation[k]),
             "score": float(score[k]),
             "gap": float(100.0 - score[k]),
         }
         for k, value in enumerate(values)
     ]
-    metric = problem.objective_metric
     if records is not None:
         from agents.store import read_record_files
 
         stored = read_record_files([records])  # once for every condition
         for row in rows:
-            times = record_times(stored, env_id, metric, series.planform, row["condition"])
+            at = row["condition"]
+            times = record_times(stored, env_id, problem.objective_metric, series.planform, at)
             if times is not None:
                 row["optimiser_wall_time"], row["optimiser_wall_time_seeds"], row["seeds"] = times
+    gaps = [r["gap"] for r in rows]
+    summary: dict[str, Any] = {
+        "feasible": sum(r["feasible"] for r in rows),
+        "count": len(rows),
+        "median_gap": statistics.median(gaps),
+        "worst_gap": max(gaps),
+    }
     if polish_budget:
-        _polish_rows(rows, strokes, policy, polish_budget, series, problem)
-    summary = _summary(rows, polish_budget)
+        from agents.polish import AutogradGradient, PolishConfig, polish, task_problem
+
+        task = get_task(task_of(env_id))
+        for row, start in zip(rows, strokes, strict=True):
+            began = time.perf_counter()
+            view = task_problem(task, task.condition(row["condition"]), env_kwargs)
+            result = polish(
+                view,
+                np.clip(start, -1.0, 1.0),
+                polish_budget,
+                PolishConfig(),
+                AutogradGradient(view),
+                infeasible_start=True,
+            )
+            seconds = time.perf_counter() - began
+            after, _, _, polished = scored(result.stroke[None, :], row["condition"])
+            row.update(
+                {
+                    "polished_objective": float(after.objective[0]),
+                    "polished_feasible": bool(after.feasible[0]),
+                    "polished_score": float(polished[0]),
+                    "polished_gap": 100.0 - float(polished[0]),
+                    "polish_evaluations": int(result.certificate.evaluations or 0),
+                    "polish_seconds": seconds,
+                }
+            )
+        polished_gaps = [r["polished_gap"] for r in rows]
+        summary.update(
+            {
+                "polish_budget": polish_budget,
+                "polished_feasible": sum(r["polished_feasible"] for r in rows),
+                "polished_median_gap": statistics.median(polished_gaps),
+                "polished_worst_gap": max(polished_gaps),
+                "polish_seconds_median": statistics.median(r["polish_seconds"] for r in rows),
+            }
+        )
     summary.update(
         {
             "run_dir": str(policy.run_dir),
@@ -131,110 +178,40 @@ def evaluate_held_out(
             "batch": int(values.size),
         }
     )
-    timed = [r["optimiser_wall_time"] for r in rows if "optimiser_wall_time" in r]
+    timed = [r for r in rows if "optimiser_wall_time" in r]
     if timed:
-        summary["optimiser_seconds_median"] = statistics.median(timed)
+        summary["optimiser_seconds_median"] = statistics.median(
+            r["optimiser_wall_time"] for r in timed
+        )
         summary["optimiser_seconds_seeds_median"] = statistics.median(
-            r["optimiser_wall_time_seeds"] for r in rows if "optimiser_wall_time" in r
+            r["optimiser_wall_time_seeds"] for r in timed
         )
     if cmaes_budget:
-        summary.update(_fresh_cmaes(env_id, env_kwargs, float(values[0]), cmaes_budget, series))
+        # a CMA-ES run (the harness's, its default polish included) at the first condition
+        from agents.harness import run
+
+        condition = float(values[0])
+        start = time.perf_counter()
+        [record] = run(
+            "cmaes",
+            task_of(env_id),
+            condition,
+            cmaes_budget,
+            [0],
+            progress=False,
+            env_kwargs=env_kwargs,
+        )
+        gap = 100.0 - 100.0 * float(record.objective) / float(series.at(condition))
+        summary.update(
+            {
+                "cmaes_condition": condition,
+                "cmaes_budget": cmaes_budget,
+                "cmaes_seconds": time.perf_counter() - start,
+                "cmaes_feasible": bool(record.feasible),
+                "cmaes_gap": gap if record.feasible else None,
+            }
+        )
     return {"rows": rows, "summary": summary}
-
-
-def _polish_rows(
-    rows: list[dict[str, Any]],
-    strokes: np.ndarray,
-    policy: Any,
-    budget: int,
-    series: Any,
-    problem: Any,
-) -> None:
-    from agents.polish import AutogradGradient, PolishConfig, polish, task_problem
-    from agents.tasks import get_task, task_of
-    from tandem_env.envs.reference import normalised_score
-
-    task = get_task(task_of(policy.env_id))
-    for row, start in zip(rows, strokes, strict=True):
-        began = time.perf_counter()
-        view = task_problem(task, task.condition(row["condition"]), dict(policy.env_kwargs))
-        result = polish(
-            view,
-            np.clip(start, -1.0, 1.0),
-            budget,
-            PolishConfig(),
-            AutogradGradient(view),
-            infeasible_start=True,
-        )
-        seconds = time.perf_counter() - began
-        after = problem.evaluate(result.stroke[None, :], row["condition"])
-        total = problem.declaration.score(after.result, problem.config).total
-        score = float(
-            normalised_score(series.at(row["condition"]), after.objective, after.feasible, total)[0]
-        )
-        row.update(
-            {
-                "polished_objective": float(after.objective[0]),
-                "polished_feasible": bool(after.feasible[0]),
-                "polished_score": score,
-                "polished_gap": 100.0 - score,
-                "polish_evaluations": int(result.certificate.evaluations or 0),
-                "polish_seconds": seconds,
-            }
-        )
-
-
-def _summary(rows: list[dict[str, Any]], polish_budget: int) -> dict[str, Any]:
-    gaps = [r["gap"] for r in rows]
-    out: dict[str, Any] = {
-        "feasible": sum(r["feasible"] for r in rows),
-        "count": len(rows),
-        "median_gap": statistics.median(gaps),
-        "worst_gap": max(gaps),
-    }
-    if polish_budget:
-        polished = [r["polished_gap"] for r in rows]
-        out.update(
-            {
-                "polish_budget": polish_budget,
-                "polished_feasible": sum(r["polished_feasible"] for r in rows),
-                "polished_median_gap": statistics.median(polished),
-                "polished_worst_gap": max(polished),
-                "polish_seconds_median": statistics.median(r["polish_seconds"] for r in rows),
-            }
-        )
-    return out
-
-
-def _fresh_cmaes(
-    env_id: str, env_kwargs: Mapping[str, Any], condition: float, budget: int, series: Any
-) -> dict[str, Any]:
-    """A CMA-ES run (the harness's, its default polish included) of ``budget`` evaluations at
-    ``condition``, timed here."""
-    from agents.harness import run
-    from agents.tasks import task_of
-
-    start = time.perf_counter()
-    [record] = run(
-        "cmaes",
-        task_of(env_id),
-        condition,
-        budget,
-        [0],
-        progress=False,
-        env_kwargs=dict(env_kwargs),
-    )
-    seconds = time.perf_counter() - start
-    reference = float(series.at(condition))
-    return {
-        "cmaes_condition": condition,
-        "cmaes_budget": budget,
-        "cmaes_seconds": seconds,
-        "cmaes_feasible": bool(record.feasible),
-        "cmaes_gap": 100.0 - 100.0 * float(record.objective) / reference
-        if record.feasible
-        else None,
-    }
 
 
 def format_report(report: Mapping[str, Any]) -> str:
@@ -314,8 +291,6 @@ class HeldOutOptions:
                 "optimiser's times are then left out)"
             )
         if self.out is not None:
-            from tandem_env.io.files import output_directory
-
             if self.out and Path(self.out).is_dir():
                 raise ValueError(f"--out {self.out!r} is a folder; allowed: a file name")
             output_directory(self.out and Path(self.out).parent, "--out")
@@ -335,8 +310,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(str(error))
     print(format_report(report))
     if args.out is not None:
-        from tandem_env.io.files import write_json_atomic
-
         write_json_atomic(args.out, report)
         print(f"wrote {args.out}")
     return 0

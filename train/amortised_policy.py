@@ -1,23 +1,29 @@
-"""The amortised stroke policy itself (trained by :mod:`train.amortised`): its map from the
-condition c [the condition's unit] to a normalised stroke (28,) in [-1, 1], its canonical
-targets (:func:`canonicalise`) and its run folder (``logs/amortised/<env>_<n>/``: ``<env>.pt``,
-the weights, read with ``torch.load(weights_only=True)``; ``policy.json``; ``result.json``;
-``<env>/args.yml`` and ``<env>/config.yml``). What the map is and why (one MLP per branch, a
-tanh output, each phase wrapped around a fixed centre, N the branch's), the canonical targets
-and the folder's files: docs/training.md, "Amortised policy".
+"""The amortised stroke policy (trained by :mod:`train.amortised`): its map from the condition
+c [the condition's unit] to a normalised stroke (28,) in [-1, 1], its training settings
+(:class:`Settings`, the one home of their limits), its canonical targets (:func:`canonicalise`)
+and its run folder (``logs/amortised/<env>_<n>/``: ``<env>.pt``, the weights, read with
+``torch.load(weights_only=True)``; ``policy.json``; ``result.json``; ``<env>/args.yml`` and
+``<env>/config.yml``). What the map is and why (one MLP per branch, a tanh output, each phase
+wrapped around a fixed centre, N the branch's), the canonical targets and the folder's files:
+docs/training.md, "Amortised policy".
 """
 
 from __future__ import annotations
 
 import math
+import pickle
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import torch
 
+from tandem_env.envs.reference import REFERENCE_GRID, training_conditions
+from tandem_env.envs.registration import config_class
 from tandem_env.io.files import read_json, to_jsonable
+from tandem_env.physics.checks import count, is_integer, is_real, real_array
 from tandem_env.physics.stroke import (
     DISCRETE,
     HARMONIC_INDEX,
@@ -58,6 +64,97 @@ CITATION = (
     "Mach. Learn. 16(5)): one MLP per branch of the reference optima, regressed on them at the "
     "training conditions and fine-tuned by the autograd gradient of the penalised objective"
 )
+
+
+# --- how it is trained (``--hyperparams``, ``config.yml``) and the limits of its network ----
+def _allowed(low: float, high: float, *, above: bool = False) -> dict[str, Any]:
+    """A setting's allowed values, checked by :class:`Settings`: ``low`` (excluded if
+    ``above``) to ``high``; an ``int | None`` setting may also be None."""
+    return {"range": (low, high), "above": above}
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How an amortised policy is trained (``--hyperparams key=value``; ``config.yml``)."""
+
+    hidden: tuple[int, ...] = (64, 64)
+    """Widths of the MLP's hidden layers (tanh) [-]."""
+    regression_steps: int = field(default=5000, metadata=_allowed(0, 10**6))
+    """Adam steps of the regression on the training optima (full batch) [-]."""
+    regression_lr: float = field(default=3e-3, metadata=_allowed(0.0, 1.0, above=True))
+    """Adam's learning rate in the regression [-]."""
+    finetune_steps: int = field(default=600, metadata=_allowed(0, 10**6))
+    """Adam steps of the fine-tuning by the objective's gradient (0: none) [-]."""
+    finetune_lr: float = field(default=1e-3, metadata=_allowed(0.0, 1.0, above=True))
+    """Adam's learning rate in the fine-tuning [-]."""
+    batch: int = field(default=16, metadata=_allowed(1, 4096))
+    """Conditions per branch and fine-tuning step (all in one batched model evaluation) [-]."""
+    penalty_weight: float = field(default=10.0, metadata=_allowed(0.0, 1e6, above=True))
+    """w of the fine-tuning's penalty [objective units per unit of margin] (the env's default
+    ``penalty_weight``)."""
+    safety_margin: float = field(default=1e-3, metadata=_allowed(0.0, 0.1))
+    """δ: the fine-tuning penalises every constraint margin below it [-] (margins are
+    fractions: the level flight's tolerance is 0.02)."""
+    anchor: float = field(default=30.0, metadata=_allowed(0.0, 1e6))
+    """Weight of the regression loss on the training targets during the fine-tuning [-]."""
+    branch_reach: float = field(default=0.6, metadata=_allowed(0.5, 1.0, above=True))
+    """How far each branch's domain reaches into the gap to a neighbouring branch's training
+    condition, as a fraction of the gap [-] (above 0.5, so that both branches cover its
+    middle, where they hand over)."""
+    branch_tolerance: float = field(default=0.1, metadata=_allowed(0.0, 1.0))
+    """Two neighbouring training optima share a branch when the stroke midway between them
+    loses at most this fraction of their mean objective and violates no margin by more
+    (:func:`~train.amortised_branches.branch_segments`) [-]."""
+    features: int = field(default=0, metadata=_allowed(0, 1024))
+    """Gaussian radial features of the observation before the MLP (0: the observation
+    itself) [-] (:func:`radial_features`)."""
+    finetune_n_time: int | None = field(default=None, metadata=_allowed(8, 4096))
+    """Time samples of the fine-tuning's model (None: the env's, default 128) [-]."""
+    finetune_n_blade: int | None = field(default=None, metadata=_allowed(2, 512))
+    """Blade elements of the fine-tuning's model (None: the env's, default 24) [-]."""
+
+    def __post_init__(self) -> None:
+        hidden = (self.hidden,) if is_integer(self.hidden) else self.hidden
+        if (
+            not isinstance(hidden, list | tuple)
+            or not hidden
+            or not all(is_integer(h) and 1 <= h <= 4096 for h in hidden)
+            or len(hidden) > 8
+        ):
+            raise ValueError(
+                f"hidden = {self.hidden!r}; allowed: 1 to 8 layer widths, each an integer from "
+                "1 to 4096, e.g. [64, 64]"
+            )
+        object.__setattr__(self, "hidden", tuple(int(h) for h in hidden))
+        for spec in fields(self)[1:]:
+            name, value, (low, high) = spec.name, getattr(self, spec.name), spec.metadata["range"]
+            if spec.type == "float":
+                ok = is_real(value) and math.isfinite(value) and low <= value <= high
+                if not ok or (spec.metadata["above"] and value == low):
+                    bound = f"above {low:g}" if spec.metadata["above"] else f"from {low:g}"
+                    raise ValueError(f"{name} = {value!r}; allowed: a number {bound} to {high:g}")
+                object.__setattr__(self, name, float(value))
+            elif value is not None or spec.type == "int":
+                if not is_integer(value) or not low <= value <= high:
+                    allowed = (
+                        f"an integer from {low} to {high:,}"
+                        if spec.type == "int"
+                        else f"None (the env's) or an integer from {low} to {high}"
+                    )
+                    raise ValueError(f"{name} = {value!r}; allowed: {allowed}")
+                object.__setattr__(self, name, int(value))
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> Settings:
+        """Settings from ``key=value`` overrides; ValueError naming an unknown key."""
+        names = [f.name for f in fields(cls)]
+        unknown = sorted(set(values) - set(names))
+        if unknown:
+            raise ValueError(f"unknown amortised setting(s) {unknown}; allowed: {', '.join(names)}")
+        return cls(**dict(values))
+
+    def to_dict(self) -> dict[str, Any]:
+        return to_jsonable(asdict(self))
 
 
 # --- canonical strokes -------------------------------------------------------------------------
@@ -132,8 +229,6 @@ class Targets:
 def reference_targets(series: Any, n_time: int, *, pairs_independent: bool) -> Targets:
     """The canonical optima of a reference series at its env's training conditions only
     (``training_conditions``; the held-out ones are never read)."""
-    from tandem_env.envs.reference import training_conditions
-
     wanted = training_conditions(series.env_id)
     rows = [
         (c, point)
@@ -163,7 +258,6 @@ def radial_features(count: int) -> Any:
     """Fixed Gaussian bumps ``exp(−((x − μ_k)/σ)²/2)`` of the observation x ∈ [-1, 1] at
     ``count`` centres μ_k evenly over [-1, 1], σ their spacing (a torch module): a step for one
     condition moves mostly the strokes near it."""
-    import torch
 
     class RadialFeatures(torch.nn.Module):
         def __init__(self) -> None:
@@ -180,13 +274,8 @@ def radial_features(count: int) -> Any:
 def build_network(hidden: Sequence[int], features: int = 0) -> Any:
     """One branch's MLP 1 -> (``features`` > 0: :func:`radial_features`) -> hidden (tanh) -> 26
     (linear: z, the output u = tanh z is taken by :class:`AmortisedPolicy`), float64."""
-    import torch
-
-    layers: list[Any] = []
-    width = 1
-    if features:
-        layers.append(radial_features(features))
-        width = features
+    layers: list[Any] = [radial_features(features)] if features else []
+    width = features or 1
     for h in hidden:
         layers += [torch.nn.Linear(width, h), torch.nn.Tanh()]
         width = h
@@ -197,8 +286,6 @@ def build_network(hidden: Sequence[int], features: int = 0) -> Any:
 def build_networks(hidden: Sequence[int], features: int, branches: int) -> Any:
     """The policy's network: one :func:`build_network` per branch (a ``torch.nn.ModuleList``;
     its ``state_dict`` is the weights file)."""
-    import torch
-
     return torch.nn.ModuleList([build_network(hidden, features) for _ in range(branches)])
 
 
@@ -245,8 +332,6 @@ class AmortisedPolicy(RunPolicy):
 
     def pre_activations(self, conditions: np.ndarray, branches: np.ndarray) -> Any:
         """(n, 26) z of each condition's branch (u = tanh z), differentiable."""
-        import torch
-
         values = np.asarray(conditions, dtype=np.float64).reshape(-1)
         chosen = np.asarray(branches).reshape(-1)
         obs = torch.as_tensor(self.inputs(values, chosen), dtype=torch.float64)
@@ -259,8 +344,6 @@ class AmortisedPolicy(RunPolicy):
     def forward(self, conditions: np.ndarray, branches: np.ndarray | None = None) -> Any:
         """(n, 28) normalised strokes as a float64 tensor, differentiable w.r.t. the weights:
         each condition's stroke from its branch (``branches``, default :meth:`branch_at`)."""
-        import torch
-
         values = np.asarray(conditions, dtype=np.float64).reshape(-1)
         chosen = self.branch_at(values) if branches is None else np.asarray(branches).reshape(-1)
         return self.assemble(torch.tanh(self.pre_activations(values, chosen)), chosen)
@@ -268,21 +351,16 @@ class AmortisedPolicy(RunPolicy):
     def strokes_of(self, conditions: np.ndarray, branches: np.ndarray | None = None) -> np.ndarray:
         """(n, 28) normalised strokes in [-1, 1] of the given ``branches`` (default: each
         condition's, :meth:`branch_at`), no gradient."""
-        import torch
-
         with torch.no_grad():
             return np.clip(self.forward(conditions, branches).numpy(), -1.0, 1.0)
 
     def assemble(self, u: Any, branches: np.ndarray) -> Any:
         """(n, 28) strokes from the tanh outputs ``u`` (n, 26) of the ``branches`` (n,)."""
-        import torch
-
         centres = torch.as_tensor(self.centres, dtype=torch.float64)
         phase = torch.as_tensor(_OUTPUT_PHASES, dtype=torch.bool)
         shifted = torch.remainder(u + centres + 1.0, 2.0) - 1.0
-        continuous = torch.where(phase, shifted, u)
         out = torch.zeros((u.shape[0], N_PARAMETERS), dtype=torch.float64)
-        out[:, list(CONTINUOUS)] = continuous
+        out[:, list(CONTINUOUS)] = torch.where(phase, shifted, u)
         out[:, list(HARMONICS)] = torch.as_tensor(self.harmonics[np.asarray(branches)])
         return out
 
@@ -368,13 +446,8 @@ def _refuse(path: Path, what: str) -> ValueError:
 
 def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
     """``policy.json``'s ``data`` checked before anything is built (sizes within
-    :class:`~train.amortised_settings.Settings`' limits, arrays finite and consistent, domains
-    and hand-overs inside the reference grid); ValueError naming ``path`` otherwise."""
-    from tandem_env.envs.reference import REFERENCE_GRID, training_conditions
-    from tandem_env.envs.registration import config_class
-    from tandem_env.physics.checks import count, real_array
-    from train.amortised_settings import Settings
-
+    :class:`Settings`' limits, arrays finite and consistent, domains and hand-overs inside the
+    reference grid); ValueError naming ``path`` otherwise."""
     if not isinstance(data, dict) or data.get("format") != POLICY_FORMAT:
         raise ValueError(
             f"{path}: format {data.get('format') if isinstance(data, dict) else None!r}; "
@@ -430,40 +503,11 @@ def _policy_fields(path: Path, data: Any, env_id: str) -> dict[str, Any]:
     return {**arrays, "sizes": sizes, "num_timesteps": steps, "env_kwargs": data["env_kwargs"]}
 
 
-def _read_weights(weights: Path, expected: Mapping[str, tuple[int, ...]]) -> Any:
-    """The state_dict in ``weights`` (``torch.load(weights_only=True)``) with the ``expected``
-    names and shapes and finite values; ValueError naming the file otherwise."""
-    import pickle
-
-    import torch
-
-    try:
-        state = torch.load(weights, map_location="cpu", weights_only=True)
-    except (pickle.UnpicklingError, RuntimeError, EOFError, OSError, ValueError) as error:
-        raise _refuse(
-            weights,
-            f"not a state_dict that torch.load(weights_only=True) reads ({type(error).__name__}; "
-            "damaged or tampered), nothing in it was run",
-        ) from None
-    shapes = (
-        {k: tuple(v.shape) for k, v in state.items() if isinstance(v, torch.Tensor)}
-        if isinstance(state, dict)
-        else None
-    )
-    if shapes is None or len(shapes) != len(state) or shapes != dict(expected):
-        raise _refuse(weights, f"its tensors do not match the network {POLICY_FILE} describes")
-    if not all(bool(torch.isfinite(v).all()) for v in state.values()):
-        raise _refuse(weights, "weights that are not finite")
-    return state
-
-
 def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     """The policy of an amortised run folder (or of the latest run it names), every file
-    checked before the network is built; ValueError naming the file at fault."""
-    import torch
-
-    from tandem_env.envs.reference import REFERENCE_GRID
-
+    checked before the network is built (the weights: a state_dict that
+    ``torch.load(weights_only=True)`` reads, with the network's names and shapes and finite
+    values); ValueError naming the file at fault."""
     folder = resolve_run_dir(run_dir)
     args_file, args, env_id = read_run_args(
         folder, "a folder written by python -m train --algo amortised"
@@ -493,7 +537,20 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     sizes, n = fields_.pop("sizes"), len(fields_["harmonics"])
     with torch.device("meta"):  # the names and shapes only: nothing is allocated
         skeleton = build_networks(sizes.hidden, sizes.features, n)
-    state = _read_weights(weights, {k: tuple(v.shape) for k, v in skeleton.state_dict().items()})
+    try:
+        state = torch.load(weights, map_location="cpu", weights_only=True)
+    except (pickle.UnpicklingError, RuntimeError, EOFError, OSError, ValueError) as error:
+        raise _refuse(
+            weights,
+            f"not a state_dict that torch.load(weights_only=True) reads ({type(error).__name__}; "
+            "damaged or tampered), nothing in it was run",
+        ) from None
+    shapes = {k: tuple(v.shape) for k, v in getattr(state, "items", dict)() if torch.is_tensor(v)}
+    expected = {k: tuple(v.shape) for k, v in skeleton.state_dict().items()}
+    if not isinstance(state, dict) or len(shapes) != len(state) or shapes != expected:
+        raise _refuse(weights, f"its tensors do not match the network {POLICY_FILE} describes")
+    if not all(bool(torch.isfinite(v).all()) for v in state.values()):
+        raise _refuse(weights, "weights that are not finite")
     network = build_networks(sizes.hidden, sizes.features, n)
     network.load_state_dict(state)
     return AmortisedPolicy(network=network.eval(), env_id=env_id, run_dir=folder, **fields_)

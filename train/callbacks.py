@@ -51,15 +51,20 @@ class PhysicsLogger(BaseCallback):
             values = [info[name] for info in infos if name in info and info[name] == info[name]]
             if values:
                 self.logger.record_mean(f"physics/{name}", float(np.mean(values)))
-        best = self.recorder.best_info
+        recorder = self.recorder
+        best = recorder.best_info
+        scalars = {"evaluations": recorder.evaluations}
         if best is not None:
-            self.logger.record("physics/best_reward", self.recorder.max_reward)
-            self.logger.record("physics/best_feasible", float(best["feasible"]))
-            self.logger.record("physics/best_objective", float(best["objective"]))
-            best_score = float(best.get("score", np.nan))
-            if not np.isnan(best_score):
-                self.logger.record("physics/best_score", best_score)
-        self.logger.record("physics/evaluations", self.recorder.evaluations)
+            scalars = {
+                "best_reward": recorder.max_reward,
+                "best_feasible": float(best["feasible"]),
+                "best_objective": float(best["objective"]),
+                "best_score": float(best.get("score", np.nan)),
+                **scalars,
+            }
+        for name, value in scalars.items():
+            if name != "best_score" or not np.isnan(value):  # NaN: no reference score
+                self.logger.record(f"physics/{name}", value)
         return True
 
 

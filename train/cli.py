@@ -45,9 +45,9 @@ def field_docs(cls: type) -> dict[str, str]:
 
 
 def build_parser(cls: type, exclusive: Sequence[str] = (), **settings: Any) -> Any:
-    """An ``argparse.ArgumentParser(**settings)`` with one option per field of ``cls`` (the
-    fields named in ``exclusive`` exclude each other): a ``bool`` is a switch, a ``Mapping``
-    takes ``KEY=VALUE`` pairs, an ``int`` / ``tuple[float, ...]`` its numbers."""
+    """An ``argparse.ArgumentParser(**settings)`` with one option per field of ``cls`` (those
+    in ``exclusive`` exclude each other), typed by the field's type: a ``bool`` is a switch, a
+    ``Mapping`` takes ``KEY=VALUE`` pairs, an ``int`` / ``tuple[float, ...]`` its numbers."""
     parser = argparse.ArgumentParser(**settings)
     group = parser.add_mutually_exclusive_group() if exclusive else parser
     docs = field_docs(cls)

@@ -11,6 +11,7 @@ to the SB3 constructor, exactly as the zoo preprocesses them.
 from __future__ import annotations
 
 import ast
+import importlib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
@@ -59,27 +60,17 @@ SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
 #: trains on a diverging return, ``n_epochs = 0`` fails after the first rollout): (integer?,
 #: low, high). A string (SAC's ``ent_coef = "auto"``) and a schedule are left to SB3.
 HYPERPARAM_RANGES: dict[str, tuple[bool, float, float]] = {
-    "n_steps": (True, 1, math.inf),
-    "batch_size": (True, 1, math.inf),
-    "n_epochs": (True, 1, math.inf),
-    "buffer_size": (True, 1, math.inf),
+    **dict.fromkeys(("n_steps", "batch_size", "n_epochs", "buffer_size"), (True, 1, math.inf)),
     "learning_starts": (True, 0, math.inf),
-    "gamma": (False, 0.0, 1.0),
-    "gae_lambda": (False, 0.0, 1.0),
-    "tau": (False, 0.0, 1.0),
-    "ent_coef": (False, 0.0, math.inf),
-    "vf_coef": (False, 0.0, math.inf),
-    "max_grad_norm": (False, 0.0, math.inf),
+    **dict.fromkeys(("gamma", "gae_lambda", "tau"), (False, 0.0, 1.0)),
+    **dict.fromkeys(("ent_coef", "vf_coef", "max_grad_norm"), (False, 0.0, math.inf)),
 }
 
 # Modules whose classes a ``policy_kwargs`` string may name (activation functions, optimisers),
 # under the zoo's spellings.
 _POLICY_KWARGS_MODULES = {
-    "nn": "torch.nn",
-    "th.nn": "torch.nn",
-    "torch.nn": "torch.nn",
-    "th.optim": "torch.optim",
-    "torch.optim": "torch.optim",
+    **dict.fromkeys(("nn", "th.nn", "torch.nn"), "torch.nn"),
+    **dict.fromkeys(("th.optim", "torch.optim"), "torch.optim"),
 }
 _POLICY_KWARGS_ALLOWED = (
     "allowed names: numbers, strings, True/False/None, lists, tuples, {...}, dict(key=...), "
@@ -96,8 +87,7 @@ def eval_policy_kwargs(text: str) -> dict[str, Any]:
     ``dict``/``list``/``tuple`` and ``torch.nn``/``torch.optim`` classes, looked up).
     """
     try:
-        tree = ast.parse(text, mode="eval")
-        value = _policy_value(tree.body, text)
+        value = _policy_value(ast.parse(text, mode="eval").body, text)
     except (SyntaxError, RecursionError, MemoryError) as error:
         raise ValueError(
             f"policy_kwargs = {text[:200]!r} is not a Python expression this reader takes: "
@@ -135,8 +125,6 @@ def _policy_value(node: ast.expr, text: str) -> Any:
         # a chain of plain names unparses as itself; anything else names no module here
         module = _POLICY_KWARGS_MODULES.get(ast.unparse(node.value))
         if module is not None:
-            import importlib
-
             found = getattr(importlib.import_module(module), node.attr, None)
             if isinstance(found, type) and not node.attr.startswith("_"):
                 return found
@@ -153,17 +141,14 @@ def load_hyperparams_file(path: str | Path) -> dict[str, dict[str, Any]]:
         raise ValueError(f"hyperparameter file {path} does not exist; allowed: a zoo-format .yml")
     try:
         data = parse_yaml(path.read_text(encoding="utf-8"), BoundedLoader)
-    except UnicodeDecodeError as error:
-        raise ValueError(
-            f"hyperparameter file {path} is not UTF-8 text (byte {error.start}); allowed: a "
-            "zoo-format .yml"
-        ) from None
-    except (yaml.YAMLError, RecursionError) as error:
+    except (UnicodeDecodeError, yaml.YAMLError, RecursionError) as error:
         # a safe loader: a Python tag (the zoo's files have none) is refused, not built
-        raise ValueError(
-            f"hyperparameter file {path} is not plain YAML ({' '.join(str(error).split())}); "
-            "allowed: a zoo-format .yml"
-        ) from None
+        what = (
+            f"is not UTF-8 text (byte {error.start})"
+            if isinstance(error, UnicodeDecodeError)
+            else f"is not plain YAML ({' '.join(str(error).split())})"
+        )
+        raise ValueError(f"hyperparameter file {path} {what}; allowed: a zoo-format .yml") from None
     if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
         raise ValueError(f"{path}: expected a mapping of env id -> mapping of hyperparameters")
     return data
@@ -174,10 +159,9 @@ def load_entry(algo: str, env_id: str, path: str | Path | None = None) -> dict[s
     default ``train/hyperparams/<algo>.yml``; ``algo`` checked by the caller), as the zoo."""
     file = Path(path) if path is not None else HYPERPARAMS_DIR / f"{algo}.yml"
     entries = load_hyperparams_file(file)
-    if env_id in entries:
-        return dict(entries[env_id])
-    if "default" in entries:
-        return dict(entries["default"])
+    for key in (env_id, "default"):
+        if key in entries:
+            return dict(entries[key])
     raise ValueError(
         f"{file}: no entry for {env_id!r} and no 'default'; entries: {sorted(entries)}"
     )
@@ -214,20 +198,16 @@ def resolve_hyperparams(
 ) -> Hyperparams:
     """Preprocess ``algo``'s zoo entry as ``rl_zoo3.exp_manager`` does (schedules,
     policy_kwargs, normalize)."""
-    raw = {**entry, **(overrides or {})}
-    if n_envs is not None:
-        raw["n_envs"] = n_envs
-    if n_timesteps is not None:
-        raw["n_timesteps"] = n_timesteps
+    given = {"n_envs": n_envs, "n_timesteps": n_timesteps}
+    raw = {**entry, **(overrides or {}), **{k: v for k, v in given.items() if v is not None}}
     unsupported = sorted(set(raw) & set(UNSUPPORTED_ZOO_KEYS))
     if unsupported:
         raise ValueError(
             f"hyperparameters {unsupported} are zoo features this trainer does not implement; "
             "allowed: model constructor arguments and " + ", ".join(ZOO_KEYS)
         )
-    saved = {key: raw[key] for key in sorted(raw)}
     params = dict(raw)
-    count = _positive_int("n_envs", params.pop("n_envs", 1))
+    envs = _positive_int("n_envs", params.pop("n_envs", 1))
     if "n_timesteps" not in params:
         raise ValueError("hyperparameters have no n_timesteps; allowed: an integer >= 1")
     timesteps = _positive_int("n_timesteps", params.pop("n_timesteps"))
@@ -252,7 +232,19 @@ def resolve_hyperparams(
             f"net_arch = {arch!r} has at least {network_parameters(arch):,} weights; allowed: "
             f"networks of at most {MAX_NETWORK_PARAMETERS:,} (MAX_NETWORK_PARAMETERS)"
         )
-    normalize = _normalize_kwargs(params.pop("normalize", False), params.get("gamma"))
+    normalize = params.pop("normalize", None)
+    if isinstance(normalize, str):
+        normalize = eval_policy_kwargs(normalize)
+    if normalize is True or isinstance(normalize, dict):
+        normalize = {} if normalize is True else dict(normalize)
+        # As the zoo: the reward normaliser discounts with the algorithm's gamma.
+        if params.get("gamma") is not None:
+            normalize.setdefault("gamma", params["gamma"])
+    elif normalize is not False and normalize is not None:
+        raise ValueError(
+            f"normalize = {normalize!r}; allowed: false, true, or VecNormalize kwargs as a dict "
+            "or a 'dict(norm_obs=..., norm_reward=...)' string"
+        )
     env_kwargs = params.pop("env_kwargs", None) or {}
     if not isinstance(env_kwargs, dict):
         raise ValueError(f"env_kwargs = {env_kwargs!r}; allowed: a mapping of env options")
@@ -264,21 +256,20 @@ def resolve_hyperparams(
             kind = "an integer" if integer else "a number"
             upper = "" if high == math.inf else f" to {high:g}"
             raise ValueError(f"{key} = {value!r}; allowed: {kind} from {low:g}{upper}")
-    for key in SCHEDULE_KEYS:
-        if key in params:
-            params[key] = _schedule(key, params[key])
+    for key in set(SCHEDULE_KEYS) & set(params):
+        params[key] = _schedule(key, params[key])
     if isinstance(params.get("train_freq"), list):
         params["train_freq"] = tuple(params["train_freq"])
     return Hyperparams(
         algo=algo,
-        n_envs=count,
+        n_envs=envs,
         n_timesteps=timesteps,
         policy=policy,
         policy_kwargs=MappingProxyType(policy_kwargs),
-        normalize=None if normalize is None else MappingProxyType(normalize),
+        normalize=MappingProxyType(normalize) if isinstance(normalize, dict) else None,
         env_kwargs=MappingProxyType(dict(env_kwargs)),
         model_kwargs=MappingProxyType(params),
-        saved=MappingProxyType(saved),
+        saved=MappingProxyType({key: raw[key] for key in sorted(raw)}),
     )
 
 
@@ -314,26 +305,6 @@ def _positive_int(name: str, value: Any) -> int:
     if most is not None and value > most:
         raise ValueError(f"{name} = {value!r}; allowed: an integer from 1 to {most:,}")
     return int(value)
-
-
-def _normalize_kwargs(value: Any, gamma: Any) -> dict[str, Any] | None:
-    if value is False or value is None:
-        return None
-    if value is True:
-        kwargs: dict[str, Any] = {}
-    elif isinstance(value, str):
-        kwargs = eval_policy_kwargs(value)
-    elif isinstance(value, dict):
-        kwargs = dict(value)
-    else:
-        raise ValueError(
-            f"normalize = {value!r}; allowed: false, true, or VecNormalize kwargs as a dict or "
-            "a 'dict(norm_obs=..., norm_reward=...)' string"
-        )
-    # As the zoo: the reward normaliser discounts with the algorithm's gamma.
-    if gamma is not None:
-        kwargs.setdefault("gamma", gamma)
-    return kwargs
 
 
 def _schedule(key: str, value: Any) -> Any:
@@ -391,12 +362,9 @@ def check_seed(value: Any, name: str = "seed") -> int:
 
 @dataclass(frozen=True, kw_only=True)
 class TrainConfig:
-    """Everything one training run is made from (the command line, as data: each field is an
-    option of ``python -m train``, its docstring the option's help).
-
-    ``n_envs``, ``n_timesteps`` None take the hyperparameter file's values; ``hyperparams``
-    and ``env_kwargs`` override the file's entry key by key.
-    """
+    """Everything one training run is made from: each field an option of ``python -m train``,
+    its docstring the help. ``n_envs``, ``n_timesteps`` None take the yml's values;
+    ``hyperparams`` and ``env_kwargs`` override its entry key by key."""
 
     algo: str = option("--algo", choices=TRAINERS, amortised=True)
     """RL algorithm, or amortised (a network from condition to stroke)."""
@@ -414,7 +382,7 @@ class TrainConfig:
         "-params", "--hyperparams", factory=dict, amortised=True
     )
     """Override hyperparameters of the yml entry (amortised: its settings,
-    train.amortised_settings.Settings)."""
+    train.amortised_policy.Settings)."""
     hyperparams_file: Path | None = option(
         "-conf", "--conf-file", default=None, metavar="CONF_FILE"
     )
@@ -495,13 +463,9 @@ class TrainConfig:
             raise ValueError(
                 "give resume=True (the latest run in log_folder) or run_dir (that run), not both"
             )
-        if self.algo == AMORTISED:
-            self._check_amortised()
 
-    def _check_amortised(self) -> None:
-        """An amortised run takes the options marked ``amortised`` only: any other one given
-        (not its default) is refused, naming its flag."""
-
+        # an amortised run takes the options marked amortised only: any other one given (not
+        # its default) is refused, naming its flag
         def flag(spec: Any) -> str:
             return next(f for f in (*spec.metadata["flags"], spec.metadata.get("off")) if "--" in f)
 
@@ -510,7 +474,7 @@ class TrainConfig:
             for f in fields(self)
             if not f.metadata.get("amortised") and getattr(self, f.name) != f.default
         ]
-        if given:
+        if self.algo == AMORTISED and given:
             allowed = [flag(f) for f in fields(self) if f.metadata.get("amortised")]
             raise ValueError(
                 f"{', '.join(given)}: option(s) of ppo and sac, not of --algo amortised; allowed "

@@ -45,19 +45,16 @@ def read_run(run_dir: str | Path) -> Curves:
     """Monitor CSVs (every segment, in order) and evaluations.npz of a run folder."""
     run_dir = Path(run_dir)
     layout = RunLayout(run_dir, read_run_args(run_dir, "a run folder of python -m train")[2])
-    rewards: list[float] = []
-    objective: list[float] = []
-    feasible: list[bool] = []
+    rows = []
     for path in layout.monitor_files():
         with path.open() as stream:
             stream.readline()  # JSON header
-            for row in csv.DictReader(stream):
-                rewards.append(float(row["r"]))
-                objective.append(float(row["objective"]))
-                feasible.append(row["feasible"] == "True")
-    reward = np.asarray(rewards)
-    feasible_objective = np.where(np.asarray(feasible, dtype=bool), np.asarray(objective), -np.inf)
-    best = np.maximum.accumulate(feasible_objective) if len(reward) else np.zeros(0)
+            rows += [
+                (float(r["r"]), float(r["objective"]), r["feasible"] == "True")
+                for r in csv.DictReader(stream)
+            ]
+    reward, objective, feasible = np.array(rows, dtype=np.float64).reshape(-1, 3).T
+    best = np.maximum.accumulate(np.where(feasible == 1.0, objective, -np.inf))
     best = np.where(np.isfinite(best), best, np.nan)
     eval_steps = np.zeros(0)
     eval_reward = np.zeros(0)
@@ -65,9 +62,9 @@ def read_run(run_dir: str | Path) -> Curves:
         with np.load(layout.evaluations) as data:
             eval_steps = data["timesteps"]
             eval_reward = data["results"].mean(axis=1)
-    wall = None
-    if layout.result_file.is_file():
-        wall = read_json(layout.result_file).get("wall_time_s")
+    wall = (
+        read_json(layout.result_file).get("wall_time_s") if layout.result_file.is_file() else None
+    )
     return Curves(
         run_dir.name, np.arange(1, len(reward) + 1), reward, best, eval_steps, eval_reward, wall
     )
@@ -99,21 +96,15 @@ def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60
         if len(c.steps):
             x, y = binned_mean(c.steps, c.reward, bins)
             left.plot(x, y, color=color, lw=1.2, label=label)
-            right.plot(
-                c.steps[:: max(1, len(c.steps) // 400)],
-                c.best_feasible[:: max(1, len(c.steps) // 400)],
-                color=color,
-                lw=1.2,
-            )
+            every = max(1, len(c.steps) // 400)
+            right.plot(c.steps[::every], c.best_feasible[::every], color=color, lw=1.2)
         if len(c.eval_steps):
             right.plot(c.eval_steps, c.eval_reward, ".", color=color, ms=3)
     left.set_yscale("symlog", linthresh=1.0)
     # symlog's default ticks leave this range unlabelled; name the decades.
     left.set_yticks([-100, -30, -10, -3, -1, 0, 0.5])
     left.yaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
-    left.set_xlabel("env steps (strokes evaluated)")
-    left.set_ylabel("mean training reward")
-    left.grid(alpha=0.3)
+    left.set(xlabel="env steps (strokes evaluated)", ylabel="mean training reward")
     left.legend(fontsize=7)
     right.set_xlabel("env steps")
     if any(len(c.eval_steps) for c in curves):
@@ -121,7 +112,8 @@ def plot(runs: Sequence[str | Path], out: str | Path, title: str, bins: int = 60
         right.set_ylim(-0.5, None)  # deterministic rewards far below 0 are off the chart
     else:
         right.set_ylabel("best feasible objective seen", fontsize=8)
-    right.grid(alpha=0.3)
+    for axes in (left, right):
+        axes.grid(alpha=0.3)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     out = Path(out)

@@ -21,6 +21,8 @@ from train.entry import exit_on_bad_environment
 # importing tandem_env checks numba's environment: a bad setting is one line and status 2
 with exit_on_bad_environment("python -m train.envelope"):
     from tandem_env.io.command import command_line
+from agents.tasks import available_tasks, get_task, task_of
+from tandem_env.envs.registration import condition_keywords
 from tandem_env.io.files import output_directory, write_csv_atomic
 from train.cli import command, option
 
@@ -46,29 +48,16 @@ COLUMNS: tuple[str, ...] = (
     "model",
     "run_dir",
 )
+#: The columns that are a record's attributes.
+RECORD_COLUMNS = COLUMNS[3:8]
 
 
 def sweep_conditions(task: str) -> tuple[float, ...]:
     """The task's declared sweep (its env config's ``CONDITION.sweep``)."""
-    from agents.tasks import get_task
-
     declared = get_task(task).declaration.condition
     if declared is None:
         raise ValueError(f"task {task!r} declares no sweep; give the conditions")
     return declared.sweep
-
-
-def _sweeps_text() -> str:
-    """Each declared task's sweep, for ``--help``."""
-    from agents.tasks import available_tasks, get_task
-
-    parts = []
-    for name in available_tasks():
-        declared = get_task(name).declaration.condition
-        if declared is not None:
-            values = ", ".join(f"{v:g}" for v in declared.sweep)
-            parts.append(f"{name}: {declared.keyword} {values} {declared.unit}")
-    return "; ".join(parts)
 
 
 def evaluate_envelope(
@@ -79,15 +68,14 @@ def evaluate_envelope(
     which: str = "best",
     progress: bool = False,
 ) -> list[dict[str, Any]]:
-    """Record the run's policy at each condition (default the sweep); write envelope.csv.
+    """Record the run's policy at each condition (default the sweep, :func:`sweep_conditions`);
+    write envelope.csv.
 
     One job per condition, run and stored by the runner (:func:`agents.runner.run_jobs`, the
     one writer of the records), here, one after another; a rerun replaces the records (the run
     folder may hold a newer model under the same name)."""
     from agents.harness import prepare
     from agents.runner import run_jobs
-    from agents.tasks import task_of
-    from tandem_env.envs.registration import condition_keywords
     from train.trained_policy import TrainingMismatchWarning, load_policy
 
     policy = load_policy(run_dir, which)  # type: ignore[arg-type]
@@ -115,18 +103,14 @@ def evaluate_envelope(
     rows = []
     for value, job in zip(values, jobs, strict=True):
         record = records[job.job.key]
-        metrics = record.metrics
+        condition = record.condition
         rows.append(
             {
-                "condition": record.condition.name,
-                "condition_value": record.condition.value,
-                "condition_unit": record.condition.unit,
-                "objective_name": record.objective_name,
-                "objective": record.objective,
-                "reward": record.reward,
-                "feasible": record.feasible,
-                "score": record.score,
-                **{k: metrics.get(k) for k in COLUMNS if k in metrics},
+                "condition": condition.name,
+                "condition_value": condition.value,
+                "condition_unit": condition.unit,
+                **{k: getattr(record, k) for k in RECORD_COLUMNS},
+                **{k: record.metrics[k] for k in COLUMNS if k in record.metrics},
                 "trained_at": policy.trained_at(float(value)),
                 "trained_over": policy.training_conditions,  # not a column: main's note
                 "evaluations": record.evaluations,
@@ -162,11 +146,17 @@ class EnvelopeOptions:
 @command_line
 def main(argv: Sequence[str] | None = None) -> int:
     script = Path(sys.argv[0]).name == "tandem-envelope"
+    sweeps = []
+    for name in available_tasks():
+        declared = get_task(name).declaration.condition
+        if declared is not None:
+            values = ", ".join(f"{v:g}" for v in declared.sweep)
+            sweeps.append(f"{name}: {declared.keyword} {values} {declared.unit}")
     parser, args = command(
         EnvelopeOptions,
         argv,
         prog="tandem-envelope" if script else "python -m train.envelope",
-        epilog=f"The tasks' sweeps (the default --conditions): {_sweeps_text()}",
+        epilog=f"The tasks' sweeps (the default --conditions): {'; '.join(sweeps)}",
     )
     try:
         rows = evaluate_envelope(args.run, args.out, conditions=args.conditions, which=args.model)
@@ -176,14 +166,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(
             f"{row['condition']} = {row['condition_value']:g} {row['condition_unit']}: "
             f"{row['objective_name']} = {row['objective']:.4g}, feasible {row['feasible']}, "
-            f"score {row['score']:.1f}, "
-            f"{row['evaluations']} evaluation(s)"
+            f"score {row['score']:.1f}, {row['evaluations']} evaluation(s)"
             + ("" if row["trained_at"] else " (outside training)")
         )
     outside = [row for row in rows if not row["trained_at"]]
     if outside:
-        from agents.tasks import get_task
-
         seen = outside[0]["trained_over"]
         declared = get_task(outside[0]["task"]).declaration.condition
         ranged = "a range" if declared is None else declared.range_keyword

@@ -15,13 +15,14 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from tqdm.auto import tqdm
 
-from agents.methods import Method, SearchContext, SearchOutcome
+from agents.methods import Method, SearchContext, SearchOutcome, register_method
 from agents.selection import is_better
+from agents.tasks import TaskSpec
 from tandem_env.envs.registration import condition_keywords
 from tandem_env.io.files import to_jsonable
 from tandem_env.physics.checks import count
@@ -40,29 +41,19 @@ from train.run_folder import resolve_run_dir
 from train.trained_policy import WHICH_MODELS, TrainingMismatchWarning, WhichModel, load_policy
 from train.vec import StrokeRecorder
 
-if TYPE_CHECKING:
-    from agents.tasks import TaskSpec
-
+_SB3 = "Stable-Baselines3 implementation (Raffin et al. 2021, JMLR 22(268))"
 CITATIONS: dict[str, str] = {
-    "ppo": (
-        "PPO (Schulman et al. 2017, arXiv:1707.06347), Stable-Baselines3 implementation "
-        "(Raffin et al. 2021, JMLR 22(268))"
-    ),
-    "sac": (
-        "SAC (Haarnoja et al. 2018, ICML / arXiv:1812.05905), Stable-Baselines3 implementation "
-        "(Raffin et al. 2021, JMLR 22(268))"
-    ),
+    "ppo": f"PPO (Schulman et al. 2017, arXiv:1707.06347), {_SB3}",
+    "sac": f"SAC (Haarnoja et al. 2018, ICML / arXiv:1812.05905), {_SB3}",
     "amortised": AMORTISED_CITATION,
 }
 
-# The budget notices this process has printed (TrainingMethod._announce_budget).
+# The budget notices this process has printed (TrainingMethod.search).
 _ANNOUNCED: set[tuple[Any, ...]] = set()
 # Settings of the training methods that are not hyperparameter overrides.
 _TRAINING_SETTINGS = ("n_envs", "conf_file", "torch_threads", "log_dir")
-
-
-# The suffixes of the files a run's policy is read from (train.run_folder.RunLayout, and an amortised
-# run's weights and policy.json): what PolicyMethod.identity hashes.
+# The suffixes of the files a run's policy is read from (train.run_folder.RunLayout, and an
+# amortised run's weights and policy.json): what PolicyMethod.identity hashes.
 _POLICY_SUFFIXES = (".zip", ".pkl", ".pt", ".json", ".yml")
 
 
@@ -105,7 +96,19 @@ class PolicyMethod:
     def search(self, context: SearchContext) -> SearchOutcome:
         policy = load_policy(self.run_dir, self.which)
         policy.check_env(context.env_id)
-        _warn_on_differences(policy, context)
+        # the condition's keywords may differ between training and evaluation
+        condition = condition_keywords()
+        trained = {k: v for k, v in policy.env_kwargs.items() if k not in condition}
+        asked = {k: v for k, v in context.env_kwargs.items() if k not in condition}
+        if plain(trained) != plain(asked):
+            message = f"was trained with env options {trained}, evaluated with {asked}"
+            warnings.warn(f"{policy.run_dir} {message}", TrainingMismatchWarning, stacklevel=2)
+        if not policy.trained_at(context.condition.value):
+            message = (
+                f"was trained at {policy.training_conditions}, asked at "
+                f"{context.condition.describe()}"
+            )
+            warnings.warn(f"{policy.run_dir} {message}", TrainingMismatchWarning, stacklevel=2)
         action = policy.strokes([context.condition.value])[0]
         reward = float(context.evaluate(action[None, :])[0])
         return SearchOutcome(
@@ -124,26 +127,6 @@ class PolicyMethod:
                 "deterministic": True,
                 "citation": CITATIONS[policy.algo],
             },
-        )
-
-
-def _warn_on_differences(policy: Any, context: SearchContext) -> None:
-    # The condition's keywords may differ between training and evaluation.
-    condition = condition_keywords()
-    trained = {k: v for k, v in policy.env_kwargs.items() if k not in condition}
-    asked = {k: v for k, v in context.env_kwargs.items() if k not in condition}
-    if plain(trained) != plain(asked):
-        warnings.warn(
-            f"{policy.run_dir} was trained with env options {trained}, evaluated with {asked}",
-            TrainingMismatchWarning,
-            stacklevel=3,
-        )
-    if not policy.trained_at(context.condition.value):
-        warnings.warn(
-            f"{policy.run_dir} was trained at {policy.training_conditions}, asked at "
-            f"{context.condition.describe()}",
-            TrainingMismatchWarning,
-            stacklevel=3,
         )
 
 
@@ -192,13 +175,25 @@ class TrainingMethod:
                 f"method {self.algo!r}: budget {context.budget}; allowed: >= 2 (training steps "
                 "plus one evaluation of the final deterministic policy)"
             )
-
         hp = self._hyperparams(context.env_id, context.budget)
-        unused = self._announce_budget(context, hp)
+        steps = hp.n_timesteps
+        unused = context.budget - (steps + 1)
+        # when training cannot use the whole budget (SB3 learns in whole iterations), said on
+        # stderr once per process and setting, not once per seed: the seeds of a run share it
+        said = (self.algo, context.env_id, context.budget, self.n_envs, repr(self.overrides))
+        if unused > 0 and said not in _ANNOUNCED:
+            _ANNOUNCED.add(said)
+            tqdm.write(
+                f"{self.algo}: budget {context.budget} -> {steps} training steps (whole "
+                f"{self.algo.upper()} iterations of {step_granularity(hp)} env steps, n_envs "
+                f"{hp.n_envs}) + 1 final evaluation; {unused} evaluations stay unused (each seed "
+                "alike)",
+                file=sys.stderr,
+            )
         if self.log_dir is None:
             training, final = self._learn(context, hp)
         else:
-            training, final = self._learn_with_files(context, hp.n_timesteps)
+            training, final = self._learn_with_files(context, steps)
         evaluations = training.num_timesteps + 1
         best_feasible = bool((training.best_info or {}).get("feasible", False))
         # the selection rule (agents.selection); on a tie the stroke seen in training stays
@@ -246,24 +241,6 @@ class TrainingMethod:
         entry = load_entry(self.algo, env_id, self.conf_file)
         return budget_hyperparams(self.algo, entry, self.overrides, self.n_envs, budget - 1)
 
-    def _announce_budget(self, context: SearchContext, hp: Hyperparams) -> int:
-        """Say (stderr, one line) when training (``hp``, :meth:`_hyperparams`) cannot use the
-        whole budget; returns the evaluations left unused. SB3 learns in whole iterations."""
-        steps = hp.n_timesteps
-        unused = context.budget - (steps + 1)
-        # Once per process and setting, not once per seed: the seeds of a run share it.
-        said = (self.algo, context.env_id, context.budget, self.n_envs, repr(self.overrides))
-        if unused > 0 and said not in _ANNOUNCED:
-            _ANNOUNCED.add(said)
-            unit = step_granularity(hp)
-            tqdm.write(
-                f"{self.algo}: budget {context.budget} -> {steps} training steps (whole "
-                f"{self.algo.upper()} iterations of {unit} env steps, n_envs {hp.n_envs}) + 1 "
-                f"final evaluation; {unused} evaluations stay unused (each seed alike)",
-                file=sys.stderr,
-            )
-        return unused
-
     def _learn(self, context: SearchContext, hp: Hyperparams) -> tuple[TrainResult, dict[str, Any]]:
         """Training without files (:func:`~train.run.learn_in_memory`, ``hp`` of
         :meth:`_hyperparams`), and its final deterministic stroke evaluated by the harness's
@@ -286,25 +263,13 @@ class TrainingMethod:
         env.close()
         final_action = np.clip(np.asarray(action[0], dtype=np.float64), -1.0, 1.0)
         final = context.evaluate_batch(final_action[None, :])
+        best = (recorder.best_reward, recorder.best_action, recorder.best_info)
+        history = tuple(recorder.history)
         training = TrainResult(
-            self.algo,
-            context.env_id,
-            None,
-            recorder.evaluations,
-            0.0,
-            None,
-            recorder.best_reward,
-            recorder.best_action,
-            recorder.best_info,
-            history=tuple(recorder.history),
-            hp=hp,
+            self.algo, context.env_id, recorder.evaluations, *best, history=history, hp=hp
         )
-        return training, {
-            "reward": float(final.rewards[0]),
-            "objective": float(final.objective[0]),
-            "feasible": bool(final.feasible[0]),
-            "action": final_action,
-        }
+        found = (final.rewards[0], final.objective[0], final.feasible[0])
+        return training, _final(*found, final_action)
 
     def _learn_with_files(
         self, context: SearchContext, steps: int
@@ -330,14 +295,20 @@ class TrainingMethod:
             )
         )
         context.report(len(result.history), result.num_timesteps, result.best_reward)
-        [final] = result.final_evaluation
-        return result, {
-            # float64 as the harness re-evaluates it (the adapter's reward is float32)
-            "reward": float(final["objective"] - final["penalty"]),
-            "objective": float(final["objective"]),
-            "feasible": bool(final["feasible"]),
-            "action": np.clip(np.asarray(final["action"], dtype=np.float64), -1.0, 1.0),
-        }
+        [row] = result.final_evaluation
+        # float64 as the harness re-evaluates it (the adapter's reward is float32)
+        found = (row["objective"] - row["penalty"], row["objective"], row["feasible"])
+        return result, _final(*found, np.asarray(row["action"], dtype=np.float64))
+
+
+def _final(reward: Any, objective: Any, feasible: Any, action: np.ndarray) -> dict[str, Any]:
+    """The final deterministic stroke's row of a search's config."""
+    return {
+        "reward": float(reward),
+        "objective": float(objective),
+        "feasible": bool(feasible),
+        "action": np.clip(action, -1.0, 1.0),
+    }
 
 
 # --- factories for the registry ---------------------------------------------------------------
@@ -376,8 +347,6 @@ def training_factory(algo: str):
 
 def register() -> None:
     """Register ``ppo``, ``sac`` and ``policy`` with the harness (idempotent)."""
-    from agents.methods import register_method
-
     for algo in ALGOS:
         register_method(algo, training_factory(algo), replace=True)
     register_method("policy", policy_factory, replace=True)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import contextlib
 import math
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -23,15 +23,9 @@ from stable_baselines3.common.vec_env import sync_envs_normalization
 
 from agents.selection import best_index
 from tandem_env.io.files import write_json_atomic
-from train.callbacks import (
-    PhysicsLogger,
-    ResumableEvalCallback,
-    RunCheckpoint,
-    SaveVecNormalize,
-    StopOnInterrupt,
-)
+from train import callbacks
 from train.config import Hyperparams, TrainConfig, resolve_hyperparams, step_granularity
-from train.run_folder import Interrupted, RunFolder, RunLayout
+from train.run_folder import Interrupted, RunFolder
 from train.saved import build_model, read_normalizer, save_checkpoint
 from train.vec import StrokeRecorder, evaluate_deterministic, make_evaluation_env, make_training_env
 
@@ -47,16 +41,16 @@ class TrainResult:
 
     algo: str
     env_id: str
-    run_dir: Path | None
     num_timesteps: int
-    wall_time: float
-    """Wall-clock time of this training segment [s]."""
-    resumed_from: int | None
-    """Checkpoint step this segment resumed from, or None for a fresh run."""
     best_reward: float
     """Best raw reward of any stroke the training env evaluated in this segment."""
     best_action: np.ndarray | None
     best_info: dict[str, Any] | None
+    run_dir: Path | None = None
+    wall_time: float = 0.0
+    """Wall-clock time of this training segment [s]."""
+    resumed_from: int | None = None
+    """Checkpoint step this segment resumed from, or None for a fresh run."""
     final_evaluation: list[dict[str, Any]] = field(default_factory=list)
     """The final policy's deterministic stroke at each evaluation condition (metrics)."""
     history: tuple[tuple[int, float], ...] = ()
@@ -80,15 +74,14 @@ def torch_threads(count: int) -> Iterator[None]:
 def default_log_interval(hp: Hyperparams) -> int:
     """PPO: every rollout. SAC counts episodes, and every vector step ends n_envs of them, so
     its default (4) would dump n_envs/4 times per step; dump every ~SAC_LOG_EVERY steps instead."""
-    if hp.algo == "ppo":
-        return 1
-    return hp.n_envs * max(1, round(SAC_LOG_EVERY / hp.n_envs))
+    return 1 if hp.algo == "ppo" else hp.n_envs * max(1, round(SAC_LOG_EVERY / hp.n_envs))
 
 
 # --- the run ---------------------------------------------------------------------------------
 def train(config: TrainConfig) -> TrainResult:
     """Run (or resume) one training run with files (:class:`~train.run_folder.RunFolder`): the
-    envs, the model, learning, then the final model, its evaluation and ``result.json``."""
+    envs, the model, learning, then the final model, its evaluation and ``result.json`` (the
+    previous segments and this run's)."""
     with contextlib.ExitStack() as held:
         # the plan: which folder, from which checkpoint, with which settings
         run = RunFolder.open(config, held)
@@ -118,15 +111,15 @@ def train(config: TrainConfig) -> TrainResult:
         model = run.model(venv)
         start_step = model.num_timesteps
         # learning, with physics logs, checkpoints and evaluations; Ctrl-C saves a checkpoint
-        stop = StopOnInterrupt()
-        callbacks: list[BaseCallback] = [PhysicsLogger(recorder)]
+        stop = callbacks.StopOnInterrupt()
+        hooks: list[BaseCallback] = [callbacks.PhysicsLogger(recorder)]
         if config.save_freq > 0:
-            callbacks.append(
-                RunCheckpoint(layout, config.save_freq, KEEP_CHECKPOINTS, config.verbose)
+            hooks.append(
+                callbacks.RunCheckpoint(layout, config.save_freq, KEEP_CHECKPOINTS, config.verbose)
             )
         if config.eval_freq > 0:
-            callbacks.append(
-                ResumableEvalCallback(
+            hooks.append(
+                callbacks.ResumableEvalCallback(
                     eval_env,
                     n_eval_episodes=eval_env.num_envs,
                     eval_freq=max(config.eval_freq // hp.n_envs, 1),
@@ -136,7 +129,7 @@ def train(config: TrainConfig) -> TrainResult:
                     verbose=config.verbose,
                     callback_on_new_best=None
                     if hp.normalize is None
-                    else SaveVecNormalize(layout.best_vecnormalize),
+                    else callbacks.SaveVecNormalize(layout.best_vecnormalize),
                     resume_from_step=None if checkpoint is None else start_step,
                 )
             )
@@ -144,7 +137,7 @@ def train(config: TrainConfig) -> TrainResult:
         with stop.catching():
             model.learn(
                 run.target - start_step,
-                callback=CallbackList([*callbacks, stop]),
+                callback=CallbackList([*hooks, stop]),
                 log_interval=config.log_interval or default_log_interval(hp),
                 tb_log_name=config.algo.upper(),
                 reset_num_timesteps=checkpoint is None,
@@ -162,55 +155,40 @@ def train(config: TrainConfig) -> TrainResult:
             sync_envs_normalization(venv, eval_env)
         if config.save_freq > 0:
             save_checkpoint(model, layout, KEEP_CHECKPOINTS)
+        resumed_from = None if checkpoint is None else checkpoint.step
+        seen = {k: getattr(recorder, k) for k in ("best_reward", "best_action", "best_info")}
+        steps = int(model.num_timesteps)
         result = TrainResult(
             algo=config.algo,
             env_id=config.env_id,
             run_dir=layout.run_dir,
-            num_timesteps=int(model.num_timesteps),
+            num_timesteps=steps,
             wall_time=wall_time,
-            resumed_from=None if checkpoint is None else checkpoint.step,
-            best_reward=recorder.best_reward,
-            best_action=recorder.best_action,
-            best_info=recorder.best_info,
+            resumed_from=resumed_from,
+            **seen,
             final_evaluation=evaluate_deterministic(model, eval_env),
             history=tuple(recorder.history),
             hp=hp,
         )
-        _write_result(layout, result, run.segments)
-        return result
-
-
-def _write_result(
-    layout: RunLayout, result: TrainResult, previous: Sequence[Mapping[str, Any]]
-) -> None:
-    """Write ``result.json``: the ``previous`` segments and this run's."""
-    segments = list(previous)
-    segments.append(
-        {
-            "resumed_from": result.resumed_from,
-            "end_step": result.num_timesteps,
-            "wall_time_s": result.wall_time,
-            "best_reward": result.best_reward,
-            "best_action": result.best_action,
-            "best_info": result.best_info,
+        segment = {"resumed_from": resumed_from, "end_step": steps, "wall_time_s": wall_time}
+        segments = [*run.segments, {**segment, **seen}]
+        # the segment whose best stroke wins by the selection rule (agents.selection); a segment
+        # without one (reward None) ranks last
+        feasible = [bool((s.get("best_info") or {}).get("feasible", False)) for s in segments]
+        rewards = [-math.inf if s["best_reward"] is None else s["best_reward"] for s in segments]
+        best = segments[best_index(feasible, rewards)]
+        data = {
+            "algo": result.algo,
+            "env_id": result.env_id,
+            "num_timesteps": steps,
+            "n_envs": hp.n_envs,
+            "wall_time_s": sum(float(s["wall_time_s"]) for s in segments),
+            "best_seen": {k: best[k] for k in ("best_reward", "best_action", "best_info")},
+            "final_evaluation": result.final_evaluation,
+            "segments": segments,
         }
-    )
-    # the segment whose best stroke wins by the selection rule (agents.selection); a segment
-    # without one (reward None) ranks last
-    feasible = [bool((s.get("best_info") or {}).get("feasible", False)) for s in segments]
-    rewards = [-math.inf if s["best_reward"] is None else s["best_reward"] for s in segments]
-    best = segments[best_index(feasible, rewards)]
-    data = {
-        "algo": result.algo,
-        "env_id": result.env_id,
-        "num_timesteps": result.num_timesteps,
-        "n_envs": result.hp.n_envs,  # type: ignore[union-attr]
-        "wall_time_s": sum(float(s["wall_time_s"]) for s in segments),
-        "best_seen": {k: best[k] for k in ("best_reward", "best_action", "best_info")},
-        "final_evaluation": result.final_evaluation,
-        "segments": segments,
-    }
-    write_json_atomic(layout.result_file, data, indent=1)
+        write_json_atomic(layout.result_file, data, indent=1)
+        return result
 
 
 # --- the harness's lean variant ----------------------------------------------------------------

@@ -18,7 +18,10 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+import gymnasium as gym
+
 from tandem_env.io.files import FolderLock
+from train import saved
 from train.config import (
     AMORTISED,
     FOLDER_NAME,
@@ -30,16 +33,6 @@ from train.config import (
     resolve_hyperparams,
     step_granularity,
     write_yaml,
-)
-from train.saved import (
-    Incomplete,
-    build_model,
-    load_model,
-    load_on_copy,
-    parse_run_yaml,
-    read_normalizer,
-    read_result_segments,
-    read_run_yaml,
 )
 
 CHECKPOINT_PREFIX = "rl_model"
@@ -55,13 +48,11 @@ POLICY_FILE = "policy.json"
 
 def latest_run_id(algo_folder: Path, name: str) -> int:
     """Greatest ``n`` of the ``<name>_<n>`` folders in ``algo_folder`` (0 if none), as the zoo."""
-    numbers = [0]
-    if algo_folder.is_dir():
-        for path in algo_folder.iterdir():
-            stem, _, number = path.name.rpartition("_")
-            if path.is_dir() and stem == name and number.isdigit():
-                numbers.append(int(number))
-    return max(numbers)
+    paths = algo_folder.iterdir() if algo_folder.is_dir() else ()
+    parts = [(p, *p.name.rpartition("_")) for p in paths]
+    return max(
+        [int(n) for p, stem, _, n in parts if p.is_dir() and stem == name and n.isdigit()] or [0]
+    )
 
 
 def resolve_run_dir(path: str | os.PathLike[str]) -> Path:
@@ -88,8 +79,7 @@ def run_lock(run_dir: Path) -> FolderLock:
 
 
 class RunPolicy:
-    """What every trained policy (:class:`train.trained_policy.TrainedPolicy`,
-    :class:`train.amortised_policy.AmortisedPolicy`) answers about its run."""
+    """What every trained policy (``TrainedPolicy``, ``AmortisedPolicy``) answers about its run."""
 
     run_dir: Path | None
     env_id: str
@@ -149,7 +139,7 @@ class Checkpoint:
     """The pickled buffer of earlier versions: never loaded (a pickle can run code)."""
 
     def loads(self, algo: str) -> dict[str, Any]:
-        """:func:`train.saved.load_model`'s ``step`` and ``replay_buffer`` (SAC's)."""
+        """``saved.load_model``'s ``step`` and ``replay_buffer`` (SAC's)."""
         return {"step": self.step, "replay_buffer": self.replay_buffer if algo == "sac" else None}
 
     def paths(self) -> tuple[Path, ...]:
@@ -186,8 +176,7 @@ class RunLayout:
         return self.run_dir / f"{len(self.monitor_files())}.monitor.csv"
 
     def foreign(self) -> str | None:
-        """None if this folder is a run of ``python -m train`` on this env, or is absent or
-        empty (a new run may start there); otherwise why it is not, in words."""
+        """None if a run may go on here (absent, empty, or ours on this env); else why not."""
         if not self.run_dir.exists():
             return None
         if not self.run_dir.is_dir():
@@ -204,19 +193,16 @@ class RunLayout:
             return f"{self.run_dir} holds files but no {self.name}/args.yml: not a training run"
         try:
             text = self.args_file.read_text(encoding="utf-8")
-            args = parse_run_yaml(text, self.args_file)
+            args = saved.parse_run_yaml(text, self.args_file)
         except UnicodeDecodeError:
             return f"{self.args_file} is not UTF-8 text"
         except (OSError, ValueError) as error:
             return str(error)
         if args.get("made_by") == MADE_BY or (_LEGACY_KEY in args and "!!python" not in text):
             return None
-        looks_like = ""
-        if "!!python/object/apply:collections.OrderedDict" in text or "trained_agent" in args:
-            looks_like = (
-                " (it looks like an rl-baselines3-zoo run: rl_zoo3.train writes the same layout)"
-            )
-        return f"{self.run_dir} was not written by python -m train{looks_like}"
+        zoo = "!!python/object/apply:collections.OrderedDict" in text or "trained_agent" in args
+        looks = " (it looks like an rl-baselines3-zoo run: rl_zoo3.train writes the same layout)"
+        return f"{self.run_dir} was not written by python -m train{looks if zoo else ''}"
 
     def checkpoint(self, step: int) -> Checkpoint:
         base = f"{self.run_dir / CHECKPOINT_PREFIX}"
@@ -323,8 +309,29 @@ class RunFolder:
                     f"{folder} is not writable; a run writes its checkpoints, models and "
                     "settings there. Allowed: a folder you can write (chmod u+w), or a new run"
                 )
-        if config.verbose and not amortised:
-            run._say_plan()
+        if not config.verbose or amortised:
+            return run
+        # what this command is about to do, before any work (stdout)
+        hp = run.hp
+        layout = run.layout
+        checkpoint = run.checkpoint
+        target = run.target
+        assert hp is not None
+        if target != hp.n_timesteps:
+            unit = step_granularity(hp)
+            per_env = f"n_steps {unit // hp.n_envs}" if config.algo == "ppo" else "train_freq"
+            print(
+                f"n_timesteps {hp.n_timesteps} is not a whole number of {config.algo.upper()} "
+                f"iterations ({unit} env steps = {per_env} x n_envs {hp.n_envs}); training runs "
+                f"to {target}"
+            )
+        if checkpoint is not None:
+            print(
+                f"resuming {layout.run_dir} from checkpoint {checkpoint.model.name} "
+                f"(step {checkpoint.step} of {target})"
+            )
+        elif layout.args_file.is_file():
+            print(f"{layout.run_dir} has no complete checkpoint: starting it again from step 0")
         return run
 
     @classmethod
@@ -335,9 +342,11 @@ class RunFolder:
         if layout is not None:
             resume = config.resume  # the merge below turns a resume into a run of a folder
             if layout.args_file.is_file():
-                config = _merge_saved(config, read_run_yaml(layout.args_file), layout)
+                config = _merge_saved(config, saved.read_run_yaml(layout.args_file), layout)
             # config.yml: the hyperparameters the run started with, which a resume keeps
-            entry = read_run_yaml(layout.config_file) if layout.config_file.is_file() else None
+            entry = (
+                saved.read_run_yaml(layout.config_file) if layout.config_file.is_file() else None
+            )
             if layout.checkpoints():
                 if entry is None:  # resuming from the current yml would mix two runs' settings
                     raise ValueError(
@@ -366,11 +375,14 @@ class RunFolder:
                 n_timesteps=config.n_timesteps,
             )
         env_kwargs = {**hp.env_kwargs, **config.env_kwargs}
-        _check_env(config.env_id, env_kwargs)
+        try:  # the env's options, before any work
+            gym.make(config.env_id, disable_env_checker=True, **env_kwargs).close()
+        except TypeError as error:
+            raise ValueError(f"{config.env_id}: {error}") from error
         segments: tuple[Mapping[str, Any], ...] = ()
         if layout is not None and layout.checkpoints():
             checkpoint = _latest_intact(layout, config, hp, env_kwargs)
-            segments = read_result_segments(layout.result_file)
+            segments = saved.read_result_segments(layout.result_file)
         unit = step_granularity(hp)
         target = -(-hp.n_timesteps // unit) * unit  # where SB3's learn stops: whole iterations
         if checkpoint is not None and checkpoint.step >= target:
@@ -400,8 +412,8 @@ class RunFolder:
             "device": config.device,
         }
         if checkpoint is None:
-            return build_model(algo, self.hp, venv, seed=seed, **settings)
-        model = load_model(
+            return saved.build_model(algo, self.hp, venv, seed=seed, **settings)
+        model = saved.load_model(
             algo, checkpoint.model, self.hp, venv, seed=seed, **checkpoint.loads(algo), **settings
         )
         model.set_random_seed(seed + model.num_timesteps)
@@ -414,31 +426,6 @@ class RunFolder:
             write_yaml(self.layout.config_file, settings)
             write_yaml(self.layout.args_file, self.config.to_dict())
             self.layout.evaluations.unlink(missing_ok=True)
-
-    def _say_plan(self) -> None:
-        """What this command is about to do, before any work (stdout)."""
-        hp, algo = self.hp, self.config.algo
-        assert hp is not None
-        unit = step_granularity(hp)
-        if self.target != hp.n_timesteps:
-            what = (
-                f"n_steps {unit // hp.n_envs} x n_envs {hp.n_envs}"  # step_granularity's
-                if algo == "ppo"
-                else f"train_freq x n_envs {hp.n_envs}"
-            )
-            print(
-                f"n_timesteps {hp.n_timesteps} is not a whole number of {algo.upper()} "
-                f"iterations ({unit} env steps = {what}); training runs to {self.target}"
-            )
-        if self.checkpoint is not None:
-            print(
-                f"resuming {self.layout.run_dir} from checkpoint {self.checkpoint.model.name} "
-                f"(step {self.checkpoint.step} of {self.target})"
-            )
-        elif self.layout.args_file.is_file():
-            print(
-                f"{self.layout.run_dir} has no complete checkpoint: starting it again from step 0"
-            )
 
 
 def _check_claimable(layout: RunLayout, amortised: bool) -> None:
@@ -460,31 +447,32 @@ def _check_claimable(layout: RunLayout, amortised: bool) -> None:
         )
 
 
-def _merge_saved(config: TrainConfig, saved: Mapping[str, Any], layout: RunLayout) -> TrainConfig:
+def _merge_saved(config: TrainConfig, args: Mapping[str, Any], layout: RunLayout) -> TrainConfig:
     """The config of a run being continued: its saved settings, this command's target steps."""
     for key, mine in (("algo", config.algo), ("env", config.env_id)):
-        if saved.get(key) != mine:
+        if args.get(key) != mine:
             raise ValueError(
-                f"{layout.run_dir} is a run of {key} = {saved.get(key)!r}, not {mine!r}; "
+                f"{layout.run_dir} is a run of {key} = {args.get(key)!r}, not {mine!r}; "
                 "allowed: the same algo and env, or a new run"
             )
     for key, mine in (("env_kwargs", config.env_kwargs), ("hyperparams", config.hyperparams)):
-        if mine and plain(dict(mine)) != saved.get(key):
+        if mine and plain(dict(mine)) != args.get(key):
             raise ValueError(
-                f"{layout.run_dir} was started with {key} = {saved.get(key)!r}; this command "
+                f"{layout.run_dir} was started with {key} = {args.get(key)!r}; this command "
                 f"gives {plain(dict(mine))!r}. A resumed run keeps its settings; allowed: the "
                 "same values or none, or a new run"
             )
+    kept = {
+        key: int(args.get(key, getattr(config, key))) for key in ("seed", "eval_freq", "save_freq")
+    }
     return replace(
         config,
-        seed=int(saved.get("seed", config.seed)),
-        n_envs=saved.get("n_envs"),
-        n_timesteps=config.n_timesteps or saved.get("n_timesteps"),
-        env_kwargs=saved.get("env_kwargs") or {},
-        hyperparams=saved.get("hyperparams") or {},
-        hyperparams_file=saved.get("conf_file"),
-        eval_freq=int(saved.get("eval_freq", config.eval_freq)),
-        save_freq=int(saved.get("save_freq", config.save_freq)),
+        **kept,
+        n_envs=args.get("n_envs"),
+        n_timesteps=config.n_timesteps or args.get("n_timesteps"),
+        env_kwargs=args.get("env_kwargs") or {},
+        hyperparams=args.get("hyperparams") or {},
+        hyperparams_file=args.get("conf_file"),
         resume=False,
         run_dir=layout.run_dir,
     )
@@ -511,14 +499,14 @@ def _latest_intact(
         try:
             if problem is None:
                 loads = checkpoint.loads(config.algo)
-                model = load_on_copy(
+                model = saved.load_on_copy(
                     config.algo, checkpoint.model, hp, config.env_id, env_kwargs, **loads
                 )
                 model.get_env().close()  # type: ignore[union-attr]
                 if hp.normalize is not None:
-                    read_normalizer(checkpoint.vecnormalize)
+                    saved.read_normalizer(checkpoint.vecnormalize)
                 return checkpoint
-        except Incomplete as error:
+        except saved.Incomplete as error:
             problem = error.damage
         warnings.warn(
             f"skipping checkpoint {checkpoint.model.name} of {layout.run_dir}: {problem} "
@@ -526,21 +514,9 @@ def _latest_intact(
             RuntimeWarning,
             stacklevel=4,
         )
-    damaged = ", ".join(c.model.name for c in layout.checkpoints())
     raise ValueError(
-        f"{layout.run_dir}: no checkpoint is intact ({damaged}: see the warnings above); it is "
+        f"{layout.run_dir}: no checkpoint is intact "
+        f"({', '.join(c.model.name for c in layout.checkpoints())}: see the warnings above); it is "
         "left untouched. Allowed: move the damaged checkpoints away to start this run again "
         "from step 0, or a new run"
     )
-
-
-def _check_env(env_id: str, env_kwargs: Mapping[str, Any]) -> None:
-    """ValueError unless ``env_id`` with ``env_kwargs`` makes an env."""
-    import gymnasium as gym
-
-    import tandem_env  # noqa: F401 - registers the ids
-
-    try:
-        gym.make(env_id, disable_env_checker=True, **env_kwargs).close()
-    except TypeError as error:
-        raise ValueError(f"{env_id}: {error}") from error

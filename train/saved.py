@@ -29,7 +29,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import atomic_path, read_json
-from tandem_env.physics.checks import is_real
+from tandem_env.physics.checks import is_integer, is_real
 from train.config import FOLDER_NAME, MAX_TIMESTEPS, Hyperparams
 from train.vec import make_training_env
 
@@ -44,28 +44,25 @@ class Incomplete(ValueError):
 
 
 # --- the YAML, the normalisation statistics and result.json -----------------------------------
-#: The globals a pickled ``VecNormalize`` (SB3's ``save``) refers to: the wrapper and its running
-#: statistics, the spaces, numpy arrays and random generators. Nothing that runs code.
+#: The globals a pickled ``VecNormalize`` (SB3's ``save``) refers to, by module: the wrapper and
+#: its running statistics, the spaces, numpy arrays and random generators. Nothing that runs code.
 _NORMALIZER_GLOBALS = frozenset(
-    {
-        ("stable_baselines3.common.vec_env.vec_normalize", "VecNormalize"),
-        ("stable_baselines3.common.running_mean_std", "RunningMeanStd"),
-        ("gymnasium.spaces.box", "Box"),
-        ("gymnasium.spaces.dict", "Dict"),
-        ("gymnasium.spaces.discrete", "Discrete"),
-        ("collections", "OrderedDict"),
-        ("numpy", "dtype"),
-        ("numpy", "ndarray"),
-        ("numpy.core.multiarray", "_reconstruct"),
-        ("numpy._core.multiarray", "_reconstruct"),
-        ("numpy.core.multiarray", "scalar"),
-        ("numpy._core.multiarray", "scalar"),
-        ("numpy.random._pickle", "__generator_ctor"),
-        ("numpy.random._pickle", "__bit_generator_ctor"),
-        ("numpy.random._pcg64", "PCG64"),
-        ("numpy.random.bit_generator", "SeedSequence"),
-        ("numpy.random.bit_generator", "__pyx_unpickle_SeedSequence"),
-    }
+    (module, name)
+    for module, names in {
+        "stable_baselines3.common.vec_env.vec_normalize": ("VecNormalize",),
+        "stable_baselines3.common.running_mean_std": ("RunningMeanStd",),
+        "gymnasium.spaces.box": ("Box",),
+        "gymnasium.spaces.dict": ("Dict",),
+        "gymnasium.spaces.discrete": ("Discrete",),
+        "collections": ("OrderedDict",),
+        "numpy": ("dtype", "ndarray"),
+        "numpy.core.multiarray": ("_reconstruct", "scalar"),
+        "numpy._core.multiarray": ("_reconstruct", "scalar"),
+        "numpy.random._pickle": ("__generator_ctor", "__bit_generator_ctor"),
+        "numpy.random._pcg64": ("PCG64",),
+        "numpy.random.bit_generator": ("SeedSequence", "__pyx_unpickle_SeedSequence"),
+    }.items()
+    for name in names
 )
 
 
@@ -102,10 +99,9 @@ def read_normalizer(path: Path) -> Any:
 # --- the YAML of a run folder ---------------------------------------------------------------
 class RunFileLoader(BoundedLoader):
     """YAML's safe loader, bounded in what a document may expand to (:class:`BoundedLoader`),
-    plus the two Python tags rl_zoo3 writes (``yaml.dump`` of its
-    ``OrderedDict`` of arguments and hyperparameters, and of tuples such as ``train_freq``):
-    ``!!python/object/apply:collections.OrderedDict`` becomes a dict and ``!!python/tuple`` a
-    tuple. Every other tag is refused (:class:`ForbiddenTag`) before anything is built."""
+    plus the two Python tags rl_zoo3 writes (``yaml.dump`` of its ``OrderedDict`` of arguments
+    and hyperparameters, and of tuples such as ``train_freq``; :func:`_construct`). Every other
+    tag is refused (:class:`ForbiddenTag`) before anything is built."""
 
 
 class ForbiddenTag(yaml.constructor.ConstructorError):
@@ -116,35 +112,26 @@ class ForbiddenTag(yaml.constructor.ConstructorError):
         super().__init__(None, None, f"the tag {node.tag!r} is not admitted", node.start_mark)
 
 
-def _ordered_dict(loader: RunFileLoader, node: yaml.Node) -> dict[Any, Any]:
-    # PyYAML writes an OrderedDict as a one-item sequence: the list of [key, value] pairs.
-    arguments = (
-        loader.construct_sequence(node, deep=True) if isinstance(node, yaml.SequenceNode) else None
-    )
-    if (
-        not arguments
-        or len(arguments) != 1
-        or not all(isinstance(pair, list) and len(pair) == 2 for pair in arguments[0])
-    ):
-        raise ForbiddenTag(node)  # the tag, but not the zoo's form of it
-    return {key: value for key, value in arguments[0]}
+_TUPLE = "tag:yaml.org,2002:python/tuple"
+_ORDERED_DICT = "tag:yaml.org,2002:python/object/apply:collections.OrderedDict"
 
 
-def _tuple(loader: RunFileLoader, node: yaml.Node) -> tuple[Any, ...]:
-    if not isinstance(node, yaml.SequenceNode):
-        raise ForbiddenTag(node)
-    return tuple(loader.construct_sequence(node, deep=True))
-
-
-def _refuse(loader: RunFileLoader, node: yaml.Node) -> None:
+def _construct(loader: RunFileLoader, node: yaml.Node) -> Any:
+    """A ``!!python/tuple`` sequence as a tuple, a
+    ``!!python/object/apply:collections.OrderedDict`` as a dict (PyYAML writes an OrderedDict
+    as a one-item sequence: the list of [key, value] pairs); any other tag, or the tag in
+    another form than the zoo's, is refused (:class:`ForbiddenTag`)."""
+    if isinstance(node, yaml.SequenceNode) and node.tag in (_TUPLE, _ORDERED_DICT):
+        items = loader.construct_sequence(node, deep=True)
+        if node.tag == _TUPLE:
+            return tuple(items)
+        if len(items) == 1 and all(isinstance(pair, list) and len(pair) == 2 for pair in items[0]):
+            return dict(items[0])
     raise ForbiddenTag(node)
 
 
-RunFileLoader.add_constructor(
-    "tag:yaml.org,2002:python/object/apply:collections.OrderedDict", _ordered_dict
-)
-RunFileLoader.add_constructor("tag:yaml.org,2002:python/tuple", _tuple)
-RunFileLoader.add_constructor(None, _refuse)
+for _tag in (_TUPLE, _ORDERED_DICT, None):
+    RunFileLoader.add_constructor(_tag, _construct)
 
 
 def parse_run_yaml(text: str, path: Path) -> dict[str, Any]:
@@ -187,24 +174,21 @@ def read_run_yaml(path: Path) -> dict[str, Any]:
 def read_result_segments(path: Path) -> tuple[dict[str, Any], ...]:
     """The training segments of a run's ``result.json`` (() where there is none); ValueError
     naming the file for one this project did not write as it is."""
-
-    def readable(segment: Any) -> bool:
-        return (
+    if not path.is_file():
+        return ()
+    try:
+        segments = read_json(path)["segments"]
+        readable = isinstance(segments, list) and all(
             isinstance(segment, dict)
             and is_real(segment.get("wall_time_s"))
             and "best_reward" in segment
             and (segment["best_reward"] is None or is_real(segment["best_reward"]))
             and isinstance(segment.get("best_info") or {}, dict)
+            for segment in segments
         )
-
-    if not path.is_file():
-        return ()
-    try:
-        segments = read_json(path)["segments"]
-        readable_file = isinstance(segments, list) and all(map(readable, segments))
     except (OSError, ValueError, KeyError, TypeError):
-        readable_file = False
-    if not readable_file:
+        readable = False
+    if not readable:
         raise ValueError(
             f"{path}: not the run's result.json as python -m train writes it (its training "
             "segments cannot be read); it is left untouched. Allowed: that file, or none (move "
@@ -247,9 +231,8 @@ def build_model(
     device: str = "cpu",
 ) -> BaseAlgorithm:
     """A new SB3 model of ``algo`` on ``venv`` with the resolved hyperparameters."""
-    cls = ALGORITHMS[algo]
     try:
-        model = cls(
+        model = ALGORITHMS[algo](
             hp.policy,
             venv,
             seed=seed,
@@ -280,16 +263,6 @@ def _model_error(path: Path, what: str, damage: str | None = None) -> ValueError
     return ValueError(message) if damage is None else Incomplete(message, path, damage)
 
 
-def _open_zip(path: Path) -> zipfile.ZipFile:
-    try:
-        return zipfile.ZipFile(path)
-    except (zipfile.BadZipFile, EOFError, ValueError) as error:
-        damage = f"not a complete zip file: {error}"
-        raise _model_error(path, f"not a zip file ({error})", damage) from None
-    except OSError as error:
-        raise ValueError(f"{path} cannot be read ({error.strerror})") from None
-
-
 def _read_member(archive: zipfile.ZipFile, name: str, path: Path) -> bytes:
     """The bytes of the member ``name``; :class:`Incomplete` where they fail their CRC."""
     try:
@@ -304,14 +277,6 @@ def _read_member(archive: zipfile.ZipFile, name: str, path: Path) -> bytes:
 VARIABLES_MEMBER = "pytorch_variables.pth"
 
 
-def _gist(error: Exception) -> str:
-    """The line of a torch error that says what was found (torch's restricted unpickler
-    explains its defaults at length first)."""
-    lines = [line.strip() for line in str(error).splitlines() if line.strip()]
-    found = [line for line in lines if "nsupported" in line]  # "Trying to load unsupported ..."
-    return (found or lines or [""])[0][:300]
-
-
 def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any], dict[str, Any]]:
     """The ``num_timesteps``, state dicts and torch variables of the model zip at ``path``:
     its ``data`` parsed as JSON (nothing decoded), each ``.pth`` read with
@@ -320,7 +285,14 @@ def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any
     file has one), a bad count, or weights that fail the load."""
     params: dict[str, Any] = {}
     variables: dict[str, Any] = {}
-    with _open_zip(path) as archive:
+    try:
+        archive = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, EOFError, ValueError) as error:
+        damage = f"not a complete zip file: {error}"
+        raise _model_error(path, f"not a zip file ({error})", damage) from None
+    except OSError as error:
+        raise ValueError(f"{path} cannot be read ({error.strerror})") from None
+    with archive:
         try:
             info = archive.getinfo("data")
         except KeyError:  # a zip cut short can read as the inner archive of its last member
@@ -347,7 +319,7 @@ def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any
                 + ", ".join(foreign),
             )
         steps = data.get("num_timesteps", 0)
-        if isinstance(steps, bool) or not isinstance(steps, int) or not 0 <= steps <= MAX_TIMESTEPS:
+        if not is_integer(steps) or not 0 <= steps <= MAX_TIMESTEPS:
             raise _model_error(
                 path,
                 f"its num_timesteps = {steps!r}; allowed: an integer from 0 to {MAX_TIMESTEPS:,}",
@@ -365,10 +337,14 @@ def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any
             # An untrusted file: whatever torch's restricted unpickler or its zip reader raise
             # (UnpicklingError, RuntimeError, EOFError, ...) means the same refusal.
             except Exception as error:
+                # the line that says what was found (torch explains its defaults at length first)
+                lines = [line.strip() for line in str(error).splitlines() if line.strip()]
+                found = [line for line in lines if "nsupported" in line]  # "... unsupported ..."
+                gist = (found or lines or [""])[0][:300]
                 raise _model_error(
                     path,
                     f"its {name} fails the weights-only load (tensors only): "
-                    f"{type(error).__name__}: {_gist(error)}",
+                    f"{type(error).__name__}: {gist}",
                 ) from None
             if name == VARIABLES_MEMBER:
                 if not isinstance(content, dict):
@@ -379,20 +355,6 @@ def read_model_zip(path: Path, attributes: set[str]) -> tuple[int, dict[str, Any
     if "policy" not in params:
         raise _model_error(path, "it has no policy.pth (the policy's weights)")
     return steps, params, variables
-
-
-def _set_variables(model: BaseAlgorithm, variables: Mapping[str, Any]) -> None:
-    """Copy the saved torch variables (SAC's entropy coefficient) into the model's own."""
-    for name, value in variables.items():
-        if value is None:
-            continue  # SB3 saves None for a variable the model does not use
-        target = getattr(model, name, None) if name in ("log_ent_coef", "ent_coef_tensor") else None
-        if not isinstance(target, torch.Tensor) or not isinstance(value, torch.Tensor):
-            raise ValueError(f"a torch variable {name!r} this model does not have")
-        if target.shape != value.shape:
-            raise ValueError(f"{name} has shape {tuple(value.shape)}, not {tuple(target.shape)}")
-        with torch.no_grad():
-            target.copy_(value)
 
 
 def load_model(
@@ -419,7 +381,20 @@ def load_model(
         )
     try:
         model.set_parameters(params, exact_match=True)  # a dict: its tensors, no device move
-        _set_variables(model, variables)
+        # the saved torch variables (SAC's entropy coefficient) into the model's own
+        for name, value in variables.items():
+            if value is None:
+                continue  # SB3 saves None for a variable the model does not use
+            known = name in ("log_ent_coef", "ent_coef_tensor")
+            target = getattr(model, name, None) if known else None
+            if not isinstance(target, torch.Tensor) or not isinstance(value, torch.Tensor):
+                raise ValueError(f"a torch variable {name!r} this model does not have")
+            if target.shape != value.shape:
+                raise ValueError(
+                    f"{name} has shape {tuple(value.shape)}, not {tuple(target.shape)}"
+                )
+            with torch.no_grad():
+                target.copy_(value)
     except (RuntimeError, ValueError, KeyError, TypeError, IndexError) as error:
         reason = " ".join(str(error).split())
         raise ValueError(

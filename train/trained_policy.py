@@ -18,6 +18,8 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from tandem_env.envs.registration import check_env_id, config_class
 from tandem_env.envs.sb3 import make_sb3_vec_env
+from train.amortised_policy import is_amortised_run
+from train.amortised_policy import load_policy as load_amortised
 from train.config import check_algo, resolve_hyperparams
 from train.run_folder import RunLayout, RunPolicy, resolve_run_dir
 from train.saved import load_on_copy, read_normalizer, read_run_args, read_run_yaml
@@ -70,13 +72,12 @@ class TrainedPolicy(RunPolicy):
         layout = RunLayout(run_dir, env_id)
         entry = read_run_yaml(layout.config_file) if layout.config_file.is_file() else {}
         env_kwargs = {**(entry.get("env_kwargs") or {}), **(args.get("env_kwargs") or {})}
-        path = layout.best_model if which == "best" else layout.final_model
+        best = which == "best" and layout.best_model.is_file()
+        path = layout.best_model if best else layout.final_model
         normalizer: Path | None = None
         if entry.get("normalize"):
-            best = which == "best" and layout.best_vecnormalize.is_file()
-            normalizer = layout.best_vecnormalize if best else layout.vecnormalize
-        if which == "best" and not path.is_file():
-            path = layout.final_model
+            best_statistics = which == "best" and layout.best_vecnormalize.is_file()
+            normalizer = layout.best_vecnormalize if best_statistics else layout.vecnormalize
         if not path.is_file():
             raise ValueError(f"{run_dir}: no model file {path.name} (did the run finish?)")
         if not layout.config_file.is_file():
@@ -92,36 +93,25 @@ class TrainedPolicy(RunPolicy):
         model = load_on_copy(algo, path, hp, env_id, env_kwargs)
         if normalizer is not None:
             read_normalizer(normalizer)
-        return cls(
-            run_dir,
-            algo,
-            env_id,
-            entry,
-            MappingProxyType(env_kwargs),
-            path,
-            normalizer,
-            model,
-        )
-
-    def _observing_env(self, conditions: Sequence[float]) -> VecEnv:
-        # The training env's own observation path: reset at each condition through the env's
-        # reset option, so the normalisation over the envelope is the one the policy learned.
-        base = make_sb3_vec_env(self.env_id, n_envs=len(conditions), seed=0, **self.env_kwargs)
-        venv: VecEnv = ConditionGrid(base, conditions)
-        if self.normalizer_path is not None:
-            normalizer = read_normalizer(self.normalizer_path)
-            normalizer.set_venv(venv)
-            venv = normalizer
-            venv.training = False
-            venv.norm_reward = False
-        return venv
+        kwargs = MappingProxyType(env_kwargs)
+        return cls(run_dir, algo, env_id, entry, kwargs, path, normalizer, model)
 
     def strokes(self, conditions: Sequence[float]) -> np.ndarray:
         """The deterministic normalised strokes (n, 28) in [-1, 1] at ``conditions``."""
         values = [float(c) for c in conditions]
         if not values:
             raise ValueError("conditions is empty; allowed: one or more conditions")
-        venv = self._observing_env(values)
+        # the training env's own observation path: reset at each condition through the env's
+        # reset option, so the normalisation over the envelope is the one the policy learned
+        venv: VecEnv = ConditionGrid(
+            make_sb3_vec_env(self.env_id, n_envs=len(values), seed=0, **self.env_kwargs), values
+        )
+        if self.normalizer_path is not None:
+            normalizer = read_normalizer(self.normalizer_path)
+            normalizer.set_venv(venv)
+            normalizer.training = False
+            normalizer.norm_reward = False
+            venv = normalizer
         try:
             observations = venv.reset()
         finally:
@@ -134,14 +124,12 @@ class TrainedPolicy(RunPolicy):
     def training_conditions(self) -> tuple[float, float] | float | None:
         """From the env options it was trained with (:class:`~train.run_folder.RunPolicy`)."""
         declared = getattr(config_class(self.env_id), "CONDITION", None)
-        if declared is None:
-            return None
-        if self.env_kwargs.get(declared.range_keyword) is not None:
-            low, high = self.env_kwargs[declared.range_keyword]
+        ranged = None if declared is None else self.env_kwargs.get(declared.range_keyword)
+        fixed = None if declared is None else self.env_kwargs.get(declared.keyword)
+        if ranged is not None:
+            low, high = ranged
             return float(low), float(high)
-        if self.env_kwargs.get(declared.keyword) is not None:
-            return float(self.env_kwargs[declared.keyword])
-        return None
+        return None if fixed is None else float(fixed)
 
     @property
     def num_timesteps(self) -> int:
@@ -152,9 +140,6 @@ def load_policy(run_dir: str | Path, which: WhichModel = "best") -> Any:
     """The policy of a run folder of ``python -m train`` (or of the latest run it names): a
     :class:`TrainedPolicy` for ppo and sac, a :class:`train.amortised_policy.AmortisedPolicy` for an
     amortised run (one weights file: ``which`` best and final are the same)."""
-    from train.amortised_policy import is_amortised_run
-    from train.amortised_policy import load_policy as load_amortised
-
     if which not in WHICH_MODELS:
         raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
     if is_amortised_run(run_dir):

@@ -24,65 +24,57 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
+import yaml
 
 from train.entry import exit_on_bad_environment
 
 # importing tandem_env checks numba's environment: a bad setting is one line and status 2
 with exit_on_bad_environment("python -m train.tune"):
     from tandem_env.io.command import command_line
+from tandem_env.envs.reference import score_strokes, training_conditions
+from tandem_env.envs.registration import check_env_id, condition_keywords
 from tandem_env.io.files import output_directory, write_csv_atomic, write_text_atomic
+from tandem_env.physics.checks import is_integer, is_real
 from train.cli import command, option
+from train.config import TrainConfig, check_seed, load_entry
 
-#: What Optuna proposes per algorithm: name -> (kind, choices or (low, high)). "log" and
-#: "float" are ranges; "choice" a list. Every choice here is a value the shipped entry could
-#: hold (the shipped value is among them: the first trial is the shipped entry).
-SEARCH_SPACES: Mapping[str, Mapping[str, tuple[str, Any]]] = {
+#: Per algorithm and parameter: what Optuna proposes (kind, choices or (low, high): "log" and
+#: "float" are ranges, "choice" a list) and the shipped entry's value (the first trial). Every
+#: choice here is a value the shipped entry could hold (the shipped value is among them).
+_SPACES: Mapping[str, Mapping[str, tuple[str, Any, Any]]] = {
     "ppo": {
-        "learning_rate": ("log", (3e-4, 1e-2)),
-        "lr_schedule": ("choice", ("linear", "constant")),
-        "n_steps": ("choice", (2, 4, 8)),
-        "batch_size": ("choice", (256, 512, 1024)),
-        "n_epochs": ("choice", (5, 10, 20)),
-        "clip_range": ("choice", (0.1, 0.2, 0.3)),
-        "ent_coef": ("choice", (0.0, 1e-3, 1e-2)),
-        "width": ("choice", (64, 128, 256)),
-        "log_std_init": ("float", (-2.0, 0.0)),
+        "learning_rate": ("log", (3e-4, 1e-2), 3e-3),
+        "lr_schedule": ("choice", ("linear", "constant"), "linear"),
+        "n_steps": ("choice", (2, 4, 8), 4),
+        "batch_size": ("choice", (256, 512, 1024), 512),
+        "n_epochs": ("choice", (5, 10, 20), 20),
+        "clip_range": ("choice", (0.1, 0.2, 0.3), 0.2),
+        "ent_coef": ("choice", (0.0, 1e-3, 1e-2), 0.0),
+        "width": ("choice", (64, 128, 256), 64),
+        "log_std_init": ("float", (-2.0, 0.0), -1.0),
     },
     "sac": {
-        "learning_rate": ("log", (1e-4, 3e-3)),
-        "batch_size": ("choice", (128, 256, 512)),
-        "gradient_steps": ("choice", (2, 4, 8)),
-        "tau": ("choice", (0.005, 0.01, 0.02)),
-        "buffer_size": ("choice", (20_000, 50_000, 100_000)),
-        "learning_starts": ("choice", (1024, 4096)),
-        "width": ("choice", (64, 128, 256)),
+        "learning_rate": ("log", (1e-4, 3e-3), 1e-3),
+        "batch_size": ("choice", (128, 256, 512), 256),
+        "gradient_steps": ("choice", (2, 4, 8), 8),
+        "tau": ("choice", (0.005, 0.01, 0.02), 0.005),
+        "buffer_size": ("choice", (20_000, 50_000, 100_000), 50_000),
+        "learning_starts": ("choice", (1024, 4096), 1024),
+        "width": ("choice", (64, 128, 256), 128),
     },
 }
-
+#: What Optuna proposes per algorithm: name -> (kind, choices or (low, high)).
+SEARCH_SPACES: Mapping[str, Mapping[str, tuple[str, Any]]] = {
+    algo: {name: (kind, values) for name, (kind, values, _) in space.items()}
+    for algo, space in _SPACES.items()
+}
 #: The shipped entry (``train/hyperparams/<algo>.yml``, level flight) in the search space's
 #: terms: the first trial (tests check it resolves to the shipped file's hyperparameters).
 SHIPPED: Mapping[str, Mapping[str, Any]] = {
-    "ppo": {
-        "learning_rate": 3e-3,
-        "lr_schedule": "linear",
-        "n_steps": 4,
-        "batch_size": 512,
-        "n_epochs": 20,
-        "clip_range": 0.2,
-        "ent_coef": 0.0,
-        "width": 64,
-        "log_std_init": -1.0,
-    },
-    "sac": {
-        "learning_rate": 1e-3,
-        "batch_size": 256,
-        "gradient_steps": 8,
-        "tau": 0.005,
-        "buffer_size": 50_000,
-        "learning_starts": 1024,
-        "width": 128,
-    },
+    algo: {name: shipped for name, (_, _, shipped) in space.items()}
+    for algo, space in _SPACES.items()
 }
 
 #: Most trials and env steps per trial one command accepts.
@@ -140,16 +132,12 @@ class TuneConfig:
         for spec in fields(self):
             value = getattr(self, spec.name)
             if value != {}:
-                pairs = isinstance(value, Mapping)
                 words.append(spec.metadata["flags"][0])
+                pairs = isinstance(value, Mapping)
                 words += [f"{k}={v!r}" for k, v in value.items()] if pairs else [str(value)]
         return shlex.join(words)
 
     def __post_init__(self) -> None:
-        import gymnasium as gym
-
-        from tandem_env.envs.registration import check_env_id
-        from tandem_env.physics.checks import is_integer
         from train.amortised import table_series
 
         if self.algo not in SEARCH_SPACES:
@@ -164,68 +152,9 @@ class TuneConfig:
         ):
             if not is_integer(value) or not 1 <= value <= high:
                 raise ValueError(f"{flag} {value!r}; allowed: an integer from 1 to {high:,}")
-        from train.config import check_seed
-
         check_seed(self.seed, "--seed")
         object.__setattr__(self, "out", Path(self.out))
         gym.make(self.env_id, disable_env_checker=True, **self.env_kwargs).close()  # its options
-
-
-def _sample(trial: Any, algo: str) -> dict[str, Any]:
-    params: dict[str, Any] = {}
-    for name, (kind, values) in SEARCH_SPACES[algo].items():
-        if kind == "choice":
-            params[name] = trial.suggest_categorical(name, list(values))
-        else:
-            params[name] = trial.suggest_float(name, *values, log=kind == "log")
-    return params
-
-
-def score_policy(policy: Any, conditions: Sequence[float]) -> np.ndarray:
-    """The normalised scores (n,) of a trained policy's deterministic strokes at
-    ``conditions``, flown by its env (the training options but the condition)."""
-    from tandem_env.envs.reference import score_strokes
-    from tandem_env.envs.registration import condition_keywords
-    from train.amortised import make_problem
-
-    env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
-    problem = make_problem(policy.env_id, env_kwargs)
-    values = np.asarray(conditions, dtype=np.float64)
-    return score_strokes(problem, policy.strokes(values), values)
-
-
-def run_trial(config: TuneConfig, params: Mapping[str, Any], folder: Path) -> dict[str, Any]:
-    """Train one policy with ``params`` into ``folder`` and score it at the training
-    conditions: ``{"value": median score, "scores": [...], "seconds": ...}``."""
-    from tandem_env.envs.reference import training_conditions
-    from train.config import TrainConfig
-    from train.run import train
-    from train.trained_policy import TrainedPolicy
-
-    start = time.perf_counter()
-    result = train(
-        TrainConfig(
-            algo=config.algo,  # type: ignore[arg-type]
-            env_id=config.env_id,
-            n_timesteps=config.steps,
-            seed=config.seed,
-            env_kwargs=dict(config.env_kwargs),
-            hyperparams=overrides(config.algo, params),
-            log_folder=folder,
-            progress_bar=False,
-            tensorboard=False,
-            verbose=0,
-        )
-    )
-    assert result.run_dir is not None  # a run with files
-    scores = score_policy(
-        TrainedPolicy.load(result.run_dir, "best"), training_conditions(config.env_id)
-    )
-    return {
-        "value": float(statistics.median(scores.tolist())),
-        "scores": [round(float(s), 2) for s in scores],
-        "seconds": round(time.perf_counter() - start, 1),
-    }
 
 
 def _rows(study: Any) -> list[dict[str, Any]]:
@@ -247,13 +176,9 @@ def best_entry_text(config: TuneConfig, study: Any) -> str:
     """The best trial's zoo-format file: the shipped entry of ``config.env_id`` with the
     trial's overrides, and where it came from in comments."""
     import optuna
-    import yaml
-
-    from train.config import load_entry
 
     best = study.best_trial
-    entry = dict(load_entry(config.algo, config.env_id))
-    entry.update(overrides(config.algo, best.params))
+    entry = {**load_entry(config.algo, config.env_id), **overrides(config.algo, best.params)}
     env_kwargs = ", ".join(f"{k}={v!r}" for k, v in config.env_kwargs.items())
     finished = len(_rows(study))
     head = [
@@ -305,19 +230,13 @@ def _check_journal_lines(path: Path) -> None:
 def foreign_trial(algo: str, n_conditions: int, trial: Any) -> str | None:
     """None if the finished ``trial`` is one this tuner recorded (parameters inside
     :data:`SEARCH_SPACES`, value the median of its ``n_conditions`` scores), else why not."""
-    from tandem_env.physics.checks import is_real
-
     space = SEARCH_SPACES[algo]
     if set(trial.params) != set(space):
         return f"its parameters {sorted(trial.params)} are not the search space's"
     for name, (kind, values) in space.items():
         value = trial.params[name]
-        inside = (
-            value in values
-            if kind == "choice"
-            else is_real(value) and values[0] <= value <= values[1]
-        )
-        if not inside:
+        ranged = is_real(value) and values[0] <= value <= values[1]
+        if not (value in values if kind == "choice" else ranged):
             return f"{name} = {value!r} is outside the search space ({values})"
     scores = trial.user_attrs.get("scores")
     if not (
@@ -339,8 +258,6 @@ def open_study(config: TuneConfig) -> Any:
     """The Optuna study of ``config`` in ``config.out`` (made, or loaded to continue it);
     ValueError naming the folder or journal, before any training, for one it cannot continue."""
     import optuna
-
-    from tandem_env.envs.reference import training_conditions
 
     output_directory(config.out, files=("study.journal", "trials.csv", f"{config.algo}.yml"))
     config.out.mkdir(parents=True, exist_ok=True)  # the journal is opened, not written whole
@@ -366,17 +283,17 @@ def open_study(config: TuneConfig) -> Any:
             "(algo, env, steps, seed or env options); allowed: those settings to continue it, "
             "or another --out"
         )
-    finished = [t for t in trials if t.state == optuna.trial.TrialState.COMPLETE]
-    for trial in finished:
-        why = foreign_trial(config.algo, len(training_conditions(config.env_id)), trial)
+    n_conditions = len(training_conditions(config.env_id))
+    for trial in (t for t in trials if t.state == optuna.trial.TrialState.COMPLETE):
+        why = foreign_trial(config.algo, n_conditions, trial)
         if why is not None:
             raise ValueError(
                 f"{journal}: trial {trial.number} is not one this tuner recorded: {why}; the "
                 "journal is left untouched. Allowed: the journal python -m train.tune wrote, or "
                 "another --out"
             )
-    # Seeded by the trials already run too: a resumed study must not propose its first
-    # random trials again.
+    # seeded by the trials already run too: a resumed study must not propose its first
+    # random trials again
     sampler = optuna.samplers.TPESampler(
         seed=(config.seed + len(trials)) % 2**32, n_startup_trials=5
     )
@@ -388,28 +305,77 @@ def open_study(config: TuneConfig) -> Any:
     return study
 
 
+def score_policy(policy: Any, conditions: Sequence[float]) -> np.ndarray:
+    """The normalised scores (n,) of a trained policy's deterministic strokes at
+    ``conditions``, flown by its env (the training options but the condition)."""
+    from train.amortised import make_problem
+
+    env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
+    problem = make_problem(policy.env_id, env_kwargs)
+    values = np.asarray(conditions, dtype=np.float64)
+    return score_strokes(problem, policy.strokes(values), values)
+
+
+def run_trial(config: TuneConfig, params: Mapping[str, Any], folder: Path) -> dict[str, Any]:
+    """Train one policy with ``params`` into ``folder`` and score it at the training
+    conditions: ``{"value": median score, "scores": [...], "seconds": ...}``."""
+    from train.run import train
+    from train.trained_policy import TrainedPolicy
+
+    start = time.perf_counter()
+    result = train(
+        TrainConfig(
+            algo=config.algo,  # type: ignore[arg-type]
+            env_id=config.env_id,
+            n_timesteps=config.steps,
+            seed=config.seed,
+            env_kwargs=dict(config.env_kwargs),
+            hyperparams=overrides(config.algo, params),
+            log_folder=folder,
+            progress_bar=False,
+            tensorboard=False,
+            verbose=0,
+        )
+    )
+    assert result.run_dir is not None  # a run with files
+    scores = score_policy(
+        TrainedPolicy.load(result.run_dir, "best"), training_conditions(config.env_id)
+    )
+    return {
+        "value": float(statistics.median(scores.tolist())),
+        "scores": [round(float(s), 2) for s in scores],
+        "seconds": round(time.perf_counter() - start, 1),
+    }
+
+
 def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = None) -> Any:
     """Run the study of ``config`` (:func:`open_study`, unless given) up to ``config.trials``
     finished trials (module docstring); returns the Optuna study."""
     study = open_study(config) if study is None else study
 
     def objective(trial: Any) -> float:
-        params = _sample(trial, config.algo)
+        """Train one policy with the trial's parameters into a temporary folder
+        (:func:`run_trial`): the median score (the scores and seconds: user attrs)."""
+        params = {
+            name: trial.suggest_categorical(name, list(values))
+            if kind == "choice"
+            else trial.suggest_float(name, *values, log=kind == "log")
+            for name, (kind, values) in SEARCH_SPACES[config.algo].items()
+        }
         with tempfile.TemporaryDirectory(prefix="tandem-tune-") as folder:
             found = run_trial(config, params, Path(folder))
-        for key in ("scores", "seconds"):
-            trial.set_user_attr(key, found[key])
-        say(
-            f"trial {trial.number}: median score {found['value']:.1f} in {found['seconds']:.0f} s ({params})"
-        )
-        return found["value"]
+        trial.set_user_attr("scores", found["scores"])
+        trial.set_user_attr("seconds", found["seconds"])
+        value = found["value"]
+        seconds = found["seconds"]
+        say(f"trial {trial.number}: median score {value:.1f} in {seconds:.0f} s ({params})")
+        return value
 
     def write(study: Any, _trial: Any) -> None:
         write_csv_atomic(config.out / "trials.csv", _rows(study))
         write_text_atomic(config.out / f"{config.algo}.yml", best_entry_text(config, study))
 
-    done = len(_rows(study))
-    left = config.trials - done
+    left = config.trials - len(_rows(study))
     say(
         f"tune {config.algo} on {config.env_id}: {left} of {config.trials} trials left, "
         f"{config.steps:,} env steps each -> {config.out}"
@@ -431,11 +397,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--env-kwargs 'speed_range=(0.25, 2.0)' --out results/tune-ppo",
     )
     try:
-        import optuna  # noqa: F401
+        study = open_study(config)  # imports Optuna first
     except ImportError:
         parser.error('needs Optuna: pip install -e ".[tune]"')
-    try:
-        study = open_study(config)
     except ValueError as error:
         parser.error(str(error))
     start = time.perf_counter()

@@ -61,7 +61,7 @@ class StrokeRecorder(VecEnvWrapper):
         self.best_info: dict[str, Any] | None = None
         self.max_reward = -np.inf
         self.history: list[tuple[int, float]] = []
-        """(evaluations, best reward so far) after every vector step."""
+        """(evaluations, best reward so far, feasible or not) after every vector step."""
         self._best = BestStroke()
         self._actions: np.ndarray | None = None
         self._on_step = on_step
@@ -75,7 +75,11 @@ class StrokeRecorder(VecEnvWrapper):
 
     def step_wait(self) -> VecEnvStepReturn:
         observations, rewards, dones, infos = self.venv.step_wait()
-        exact = _exact_rewards(rewards, infos)
+        # float64 rewards: a record compares the stroke's reward with its re-evaluation, which
+        # is objective - penalty exactly as the task computes it (SB3 gets float32)
+        exact = np.asarray(rewards, dtype=np.float64)
+        if infos and all("objective" in info and "penalty" in info for info in infos):
+            exact = np.array([i["objective"] - i["penalty"] for i in infos], dtype=np.float64)
         feasible = np.array([bool(info.get("feasible", True)) for info in infos], dtype=bool)
         i = None if self._actions is None else self._best.offer(feasible, exact)
         if i is not None:
@@ -91,14 +95,6 @@ class StrokeRecorder(VecEnvWrapper):
         if self._on_step is not None:
             self._on_step(self)
         return observations, rewards, dones, infos
-
-
-def _exact_rewards(rewards: np.ndarray, infos: Sequence[Mapping[str, Any]]) -> np.ndarray:
-    """The rewards in float64: SB3 gets float32, but a record compares the stroke's reward with
-    its float64 re-evaluation, which is objective - penalty exactly as the task computes it."""
-    if infos and all("objective" in info and "penalty" in info for info in infos):
-        return np.array([info["objective"] - info["penalty"] for info in infos], dtype=np.float64)
-    return np.asarray(rewards, dtype=np.float64)
 
 
 class ConditionGrid(VecEnvWrapper):
@@ -132,11 +128,8 @@ def make_training_env(
     recorder = StrokeRecorder(
         make_sb3_vec_env(env_id, n_envs=n_envs, seed=seed, **env_kwargs), on_step
     )
-    venv: VecEnv = VecMonitor(
-        recorder,
-        filename=None if monitor_file is None else str(monitor_file),
-        info_keywords=MONITOR_KEYWORDS,
-    )
+    filename = None if monitor_file is None else str(monitor_file)
+    venv: VecEnv = VecMonitor(recorder, filename=filename, info_keywords=MONITOR_KEYWORDS)
     if normalize is not None:
         venv = VecNormalize(venv, **normalize)
     return venv, recorder
@@ -179,6 +172,7 @@ def evaluate_deterministic(
     lengths = np.zeros(n_envs, dtype=np.int64)
     first_actions: list[Any] = [None] * n_envs
     rows: list[dict[str, Any] | None] = [None] * n_envs
+    dropped = ("terminal_observation", "episode", "stroke", "TimeLimit.truncated")
     for _ in range(max_steps):
         actions, _ = model.predict(observations, deterministic=True)
         observations, rewards, dones, infos = eval_env.step(actions)
@@ -190,16 +184,12 @@ def evaluate_deterministic(
             returns[k] += float(rewards[k])
             lengths[k] += 1
             if dones[k]:
-                row = {
-                    key: value
-                    for key, value in infos[k].items()
-                    if key
-                    not in ("terminal_observation", "episode", "stroke", "TimeLimit.truncated")
-                }
-                row["reward"] = float(returns[k])
-                row["episode_length"] = int(lengths[k])
-                row["action"] = first_actions[k]
-                rows[k] = row
+                rows[k] = {key: v for key, v in infos[k].items() if key not in dropped}
+                rows[k].update(  # type: ignore[union-attr]
+                    reward=float(returns[k]),
+                    episode_length=int(lengths[k]),
+                    action=first_actions[k],
+                )
         if all(row is not None for row in rows):
-            return [row for row in rows if row is not None]
+            return rows  # type: ignore[return-value]
     raise RuntimeError(f"the evaluation episodes did not end within {max_steps} steps")
