@@ -7,6 +7,7 @@ vortex lattice's."""
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -31,9 +32,8 @@ LAG_STUDY_FILES: dict[str, Path] = {
 
 
 def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """The stored rows with the model's columns (``ours_*``: isolated forces, each slipstream
-    reading's changes) computed afresh by the model as it is (``eval.crosscheck.report.ours``),
-    the solver's columns as stored: a new or changed reading without rerunning the solver."""
+    """The stored rows with the model's columns (``ours_*``) computed afresh, the solver's as
+    stored: a new or changed reading without rerunning the solver."""
     from eval.crosscheck.case import Case, base_stroke
     from eval.crosscheck.report import model_cells, ours
     from tandem_env.physics import DRAGONFLY
@@ -42,18 +42,18 @@ def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     for key in dict.fromkeys(case_of(r) for r in rows):
         mine = [r for r in out if case_of(r) == key]
         lags = tuple(float(r["lag_deg"]) for r in mine)
-        case = Case(tuple(base_stroke()), key[0], 1e-3 * key[1], 1e-3 * key[2], lags)
-        model = ours(case, DRAGONFLY)
+        model = ours(
+            Case(tuple(base_stroke()), key[0], 1e-3 * key[1], 1e-3 * key[2], lags), DRAGONFLY
+        )
         for index, row in enumerate(mine):
             row.update(model_cells(model, index))
     return out
 
 
 def measure() -> dict[str, Any]:
-    """Collect the finished lag study in :data:`LAG_STUDY_OUT` (about an hour on 2 idle cores:
-    run :data:`LAG_STUDY_COMMAND` first) and copy its table and figure into the docs. Without
-    that folder, recompute the model's columns (:func:`model_columns`) on the stored study's
-    rows and write them into the docs' table (the figure keeps its readings)."""
+    """Collect the finished lag study in :data:`LAG_STUDY_OUT` (run :data:`LAG_STUDY_COMMAND`
+    first, about an hour) and copy its table and figure into the docs; without that folder,
+    recompute the model's columns on the stored rows and write them into the docs' table."""
     table = LAG_STUDY_OUT / "crosscheck.csv"
     if not table.is_file() and LAG_STUDY_FILES["crosscheck.csv"].is_file():
         from tandem_env.io.files import write_csv_atomic
@@ -84,12 +84,8 @@ def measure() -> dict[str, Any]:
 
 def readings(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     """The model's slipstream readings the table holds, in its column order."""
-    prefix, suffix = "ours_", "_hind_change_pct"
-    return [
-        c[len(prefix) : -len(suffix)]
-        for c in rows[0]
-        if c.startswith(prefix) and c.endswith(suffix)
-    ]
+    found = (re.fullmatch(r"ours_(.+)_hind_change_pct", c) for c in rows[0])
+    return [m[1] for m in found if m]
 
 
 def largest_loss_lag(lags: Sequence[float], changes: Sequence[float]) -> float | None:
@@ -120,38 +116,34 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
         mine = sorted((r for r in rows if case_of(r) == case), key=lambda r: float(r["lag_deg"]))
         lags = [float(r["lag_deg"]) for r in mine]
         uvlm = [float(r["uvlm_hind_change_pct"]) for r in mine]
+        uvlm_loss, uvlm_phase = largest_loss_lag(lags, uvlm), first_harmonic_phase(lags, uvlm)
         entry: dict[str, Any] = {
             "case": case,
             "lags": lags,
             "uvlm": uvlm,
             "uvlm_fore": [float(r["uvlm_fore_change_pct"]) for r in mine],
-            "uvlm_loss_lag": largest_loss_lag(lags, uvlm),
-            "uvlm_phase": first_harmonic_phase(lags, uvlm),
+            "uvlm_loss_lag": uvlm_loss,
+            "uvlm_phase": uvlm_phase,
             "readings": {},
         }
         for reading in readings(rows):
             ours = [float(r[f"ours_{reading}_hind_change_pct"]) for r in mine]
-            loss = largest_loss_lag(lags, ours)
+            loss, phase = largest_loss_lag(lags, ours), first_harmonic_phase(lags, ours)
             entry["readings"][reading] = {
                 "changes": ours,
                 "same_sign": sum((a < 0) == (b < 0) for a, b in zip(ours, uvlm, strict=True)),
                 "loss_lag": loss,
-                "loss_lag_off": None
-                if loss is None
-                else lag_distance(loss, entry["uvlm_loss_lag"]),
-                "phase_off": None
-                if loss is None
-                else lag_distance(first_harmonic_phase(lags, ours), entry["uvlm_phase"]),
+                "loss_lag_off": None if loss is None else lag_distance(loss, uvlm_loss),
+                "phase_off": None if loss is None else lag_distance(phase, uvlm_phase),
             }
         out.append(entry)
     return out
 
 
 def targets(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
-    """Per reading, the lag study's target quantities: signs of the hind and fore change
-    shared with the UVLM, their RMS differences [points]
-    (:func:`~eval.crosscheck.report.agreement_numbers`), and the cases whose largest hind loss
-    lies within 45° of the UVLM's."""
+    """Per reading, the lag study's targets: the signs of the hind and fore change shared with
+    the UVLM, their RMS differences [points], and the cases whose largest hind loss lies within
+    45° of the UVLM's."""
     from eval.crosscheck.report import agreement_numbers
 
     out = {}
@@ -190,16 +182,12 @@ def render(data: dict[str, Any]) -> str:
         "the mean reading gives one value at every lag:",
         "",
     ]
-    head = ["lag ΔΦ"]
-    for e in entries:
-        head += [f"{case_label(e['case'])}: UVLM", *names]
-    lines += table_head(head)
+    lines += table_head(
+        ["lag ΔΦ", *(x for e in entries for x in (f"{case_label(e['case'])}: UVLM", *names))]
+    )
     for i, lag in enumerate(lags):
-        cells = [f"{lag:g}°"]
-        for e in entries:
-            cells.append(f"{e['uvlm'][i]:+.1f}")
-            cells += [f"{e['readings'][n]['changes'][i]:+.1f}" for n in names]
-        lines.append(table_row(cells))
+        columns = [[e["uvlm"], *(e["readings"][n]["changes"] for n in names)] for e in entries]
+        lines.append(table_row([f"{lag:g}°", *(f"{c[i]:+.1f}" for cs in columns for c in cs)]))
     compared = [f"`{n}`: same sign, largest loss at (off)" for n in names]
     lines += [
         "",
@@ -232,29 +220,14 @@ def render(data: dict[str, Any]) -> str:
         "within 45° of the UVLM's in 4/4 cases, its RMS difference ≤ 6 points; the fore-wing's "
         "RMS ≤ 4 points and sign at ≥ 28/32:",
         "",
-        *table_head(
-            [
-                "reading",
-                "hind: sign",
-                "hind: largest loss within 45°",
-                "hind: RMS [points]",
-                "fore: RMS [points]",
-                "fore: sign",
-            ]
-        ),
+        "| reading | hind: sign | hind: largest loss within 45° | hind: RMS [points] | "
+        "fore: RMS [points] | fore: sign |",
+        "|---|---|---|---|---|---|",
     ]
     for name, t in targets(rows).items():
         lines.append(
-            table_row(
-                [
-                    f"`{name}`",
-                    f"{t['hind_sign']}/{t['points']}",
-                    f"{t['within']}/{t['cases']}",
-                    f"{t['hind_rms']:.1f}",
-                    f"{t['fore_rms']:.1f}",
-                    f"{t['fore_sign']}/{t['points']}",
-                ]
-            )
+            f"| `{name}` | {t['hind_sign']}/{t['points']} | {t['within']}/{t['cases']} | "
+            f"{t['hind_rms']:.1f} | {t['fore_rms']:.1f} | {t['fore_sign']}/{t['points']} |"
         )
     if data.get("model_refreshed"):
         lines += [

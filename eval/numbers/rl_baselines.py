@@ -1,14 +1,11 @@
 """PPO and SAC envelope policies against the reference optima (docs/training.md, "Scores at
-the held-out conditions"): per algorithm, set of hyperparameters (:data:`HYPERPARAMETERS`) and
-seed, a policy trained over level flight's envelope by the documented ``python -m train``
-command, asked through ``python -m train.envelope`` for its stroke at each held-out condition
-and scored against the reference table (100 = the certified optimum).
+the held-out conditions"): per algorithm, :data:`HYPERPARAMETERS` and seed, a policy trained
+over level flight's envelope by ``python -m train``, its stroke at each held-out condition
+(``python -m train.envelope``) scored against the reference table (100 = the optimum).
 
-On request only, each: ``rl-baselines`` (twenty training runs, two at a time, about 45 min on
-2 cores; the figure of score against speed is written beside the table), ``amortised-scores``
-(the documented ``--algo amortised`` command, five seeds scored the same way; it redraws the
-shared figure) and ``envelope-headline`` (README, "One network for the whole envelope": each
-policy's median and worst score and the share that flies, read from the stored runs)."""
+On request only: ``rl-baselines`` (twenty runs, about 45 min on 2 cores, and the figure),
+``amortised-scores`` (``--algo amortised``, five seeds; redraws the figure) and
+``envelope-headline`` (README: each policy's summary, read from the stored runs)."""
 
 from __future__ import annotations
 
@@ -40,17 +37,15 @@ FIGURE = Path("docs") / "figures" / "rl_baselines_scores.png"
 _ONE_CORE = {"OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
-#: The hyperparameters each algorithm is trained with: the shipped file's (None: the default
-#: ``train/hyperparams/<algo>.yml``, tuned at V = 1.5 m/s) and the envelope's, tuned by
-#: ``python -m train.tune`` (each file says how it was made).
+#: The hyperparameters each algorithm is trained with: the shipped file's (None: the default,
+#: tuned at V = 1.5 m/s) and the envelope's, tuned by ``python -m train.tune``.
 HYPERPARAMETERS: dict[str, str | None] = {
     "shipped": None,
     "tuned": "train/hyperparams/envelope/{algo}.yml",
 }
 
-#: Every envelope policy the figure and the README headline (``envelope-headline``) show, in
-#: the figure's drawing and legend order: (the measurement that stores its runs, algo, a key of
-#: :data:`HYPERPARAMETERS`: "" for the amortised policy).
+#: Every envelope policy the figure and the headline show, in drawing order: (the measurement
+#: storing its runs, algo, a key of :data:`HYPERPARAMETERS`: "" for the amortised policy).
 POLICIES: tuple[tuple[str, str, str], ...] = (
     *(("rl-baselines", algo, hp) for algo, _ in ALGOS for hp in ("tuned", "shipped")),
     ("amortised-scores", "amortised", ""),
@@ -71,17 +66,16 @@ def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str
 def score_run(
     command: list[str], algo: str, steps: int, seed: int, folder: Path, variant: str = ""
 ) -> dict[str, Any]:
-    """Train by ``command`` (``-f`` added), then score its stroke at each held-out condition
-    through ``python -m train.envelope``; ``variant``: the hyperparameters."""
+    """Train by ``command`` (``-f`` added), then score its stroke at each held-out condition;
+    ``variant``: the hyperparameters."""
     from tandem_env.envs.reference import held_out_conditions
 
     logs = folder / f"{algo}{variant and '-' + variant}-{seed}"
     seconds = run_command([*command, "-f", str(logs)], _ONE_CORE)
     run = logs / algo / ENV_ID.replace("/", "-")  # the latest run of the env
     out = folder / f"envelope-{logs.name}"
-    conditions = [str(c) for c in held_out_conditions(ENV_ID)]
     envelope = ["python", "-m", "train.envelope", "--run", str(run), "--out", str(out)]
-    run_command([*envelope, "--conditions", *conditions], _ONE_CORE)
+    run_command([*envelope, "--conditions", *map(str, held_out_conditions(ENV_ID))], _ONE_CORE)
     rows = read_rows(out / "envelope.csv")
     return {
         "algo": algo,
@@ -178,12 +172,8 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     from eval.figures import PALETTE, save
 
     colours = dict(zip(dict.fromkeys(algo for _, algo, _ in POLICIES), PALETTE, strict=False))
-    stored = {
-        name: load(name)["runs"]
-        for name in dict.fromkeys(name for name, _, _ in POLICIES)
-        if json_path(name).is_file()
-    }
-    measured = {**stored, **fresh}
+    names = dict.fromkeys(name for name, _, _ in POLICIES)
+    measured = {**{n: load(n)["runs"] for n in names if json_path(n).is_file()}, **fresh}
     fig, ax = plt.subplots(figsize=(6.0, 4.8))
     for name, algo, hp in POLICIES:
         runs = runs_of(measured.get(name, []), algo, hp)
@@ -193,20 +183,12 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
         if not shipped:
             for r in runs:
                 ax.plot(r["conditions"], r["scores"], color=colours[algo], alpha=0.3, lw=0.8)
-        columns = zip(*(r["scores"] for r in runs), strict=True)
-        medians = [statistics.median(col) for col in columns]
+        medians = [statistics.median(col) for col in zip(*(r["scores"] for r in runs), strict=True)]
         label = f"{algo.upper()}, {hp} hyperparameters" if hp else "amortised policy"
+        label += f" (median of {len(runs)} seeds{'' if shipped else '; thin: each'})"
+        style = dict(lw=1.4, ls="--", ms=3) if shipped else dict(lw=2.2, ls="-", ms=5)
         ax.plot(
-            runs[0]["conditions"],
-            medians,
-            color=colours[algo],
-            lw=1.4 if shipped else 2.2,
-            ls="--" if shipped else "-",
-            marker="o",
-            ms=3 if shipped else 5,
-            label=f"{label} (median of {len(runs)} seeds"
-            + ("" if shipped else "; thin: each")
-            + ")",
+            runs[0]["conditions"], medians, color=colours[algo], marker="o", label=label, **style
         )
     ax.axhline(100.0, color="0.3", ls="--", lw=1.0, label="reference optimum (100)")
     ax.axhline(0.0, color="0.6", lw=0.8)
@@ -250,17 +232,17 @@ def measure_headline() -> dict[str, Any]:
         runs = runs_of(stored[name]["runs"], algo, hp)
         numbers = dict(zip(("median", "worst", "flies"), summary(runs), strict=False))
         rows.append({"algo": algo, "hyperparams": hp, "seeds": len(runs), **numbers})
-    dates = {name: data["machine_before"]["date"] for name, data in stored.items()}
-    return {"policies": rows, "measured": dates}
+    return {
+        "policies": rows,
+        "measured": {n: d["machine_before"]["date"] for n, d in stored.items()},
+    }
 
 
 def render_headline(data: dict[str, Any]) -> str:
     def rl(hp: str) -> str:
         rows = [r for r in data["policies"] if r["hyperparams"] == hp]
-        return ", ".join(
-            f"{r['algo'].upper()} {score_text(r['median'])} ({100 * r['flies']:.0f} % fly)"
-            for r in rows
-        )
+        fly = lambda r: f"{100 * r['flies']:.0f} % fly"  # noqa: E731
+        return ", ".join(f"{r['algo'].upper()} {score_text(r['median'])} ({fly(r)})" for r in rows)
 
     (amortised,) = [r for r in data["policies"] if r["algo"] == AMORTISED]
     return (

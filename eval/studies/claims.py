@@ -1,16 +1,12 @@
-"""The paper's claims (docs/model.md §9) as checkable rows, and the rules that decide agreement.
-
-Each study declares its claims once, as data (a ``CLAIMS`` table of :class:`ClaimSpec`); this
-module judges and formats them all (:func:`judged`, :data:`TESTS`). Every claim is judged by its rule (:data:`RULES`) on the seeds' medians and on each condition's
-best seed (what the paper's "best of N runs" gives); a verdict the bootstrap over seeds flips
-is undecided (:data:`CONFIDENCE_RULE`), and a claim about what the model does not depend on is
-not identifiable (:data:`IDENTIFIABILITY_RULE`).
-"""
+"""The paper's claims (docs/model.md §9) as checkable rows (each study's ``CLAIMS`` of
+:class:`ClaimSpec`), judged by :data:`RULES` on the seeds' medians and each condition's best seed;
+a verdict the bootstrap flips is undecided, one about what the model ignores not identifiable."""
 
 from __future__ import annotations
 
 import math
 import operator
+from collections import Counter
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, Literal
@@ -30,9 +26,7 @@ LOCATION_TOLERANCE = 0.25  # m/s, one step of the paper's sweep
 ANGLE_TOLERANCE = 15.0  # deg
 IN_PHASE = 15.0  # deg
 
-#: Bootstrap behind every verdict's confidence: resamples of the seeds, the share of them in
-#: which a verdict may flip before it is undecided, and the fixed RNG seed (same records, same
-#: verdicts).
+#: The bootstrap of :data:`CONFIDENCE_RULE`: resamples, the share that may flip, the RNG seed.
 BOOTSTRAP_RESAMPLES = 200
 FLIP_THRESHOLD = 0.20
 BOOTSTRAP_SEED = 0
@@ -47,8 +41,8 @@ CONFIDENCE_RULE = (
 
 #: The fore/hind phase (Fig. 11): what the paper's phase claims are about.
 PHASE = "fore/hind phase"
-#: What a claim may be about that a reading of the model can lack: the quantity, and whether
-#: the model under the options, at the flight speed [m/s] (None: forward flight), depends on it.
+#: A quantity a claim may be about -> whether the model, under the options at the speed [m/s]
+#: (None: forward flight), depends on it.
 QUANTITIES: dict[str, Callable[[ModelOptions, float | None], bool]] = {
     PHASE: lambda options, speed: options.phase_resolved(speed),
 }
@@ -61,8 +55,7 @@ IDENTIFIABILITY_RULE = (
     "`hover_inflow='none'`; `ModelOptions.phase_resolved`, docs/model.md §5.7)"
 )
 
-#: A stroke parameter that one bound holds at every condition does not move with the
-#: condition; its ρ would be undefined (a constant) or the noise within the bound's tolerance.
+#: A parameter one bound holds at every condition does not move: its ρ would be noise.
 HELD_RULE = (
     "a stroke parameter pinned at the same Table 4 bound at every condition (at least 3; "
     "pinned as in the summary CSVs) does not move: its ρ is 0"
@@ -81,8 +74,7 @@ RULES: dict[str, str] = {
 
 @dataclass(frozen=True)
 class Dependence:
-    """What of the model a claim is about: a quantity of :data:`QUANTITIES`, at the flight
-    speed of the claim's optimisations."""
+    """A quantity of :data:`QUANTITIES` a claim is about, at its optimisations' flight speed."""
 
     quantity: str
     speed: float | None = None
@@ -113,7 +105,7 @@ class Claim:
     """The paper's number or statement."""
     rule: Rule
     median: float = math.nan
-    """Our statistic from the seeds' medians (a value, ρ, a location, a fraction)."""
+    """Our statistic from the seeds' medians."""
     q25: float = math.nan
     q75: float = math.nan
     best: float = math.nan
@@ -127,24 +119,21 @@ class Claim:
     """The median's verdict on the seeds as run (None: the same as ``verdict``)."""
     best_leaning: Verdict | None = None
     flips: float = math.nan
-    """Share of bootstrap resamples in which the median's verdict differs from ``leaning``
-    (NaN: not resampled)."""
+    """Share of resamples whose median verdict differs from ``leaning`` (NaN: not resampled)."""
     best_flips: float = math.nan
     detail: str = ""
-    """Extra numbers behind the verdict (e.g. the monotonic fraction, n feasible)."""
+    """Extra numbers behind the verdict."""
     note: str = ""
     """Why a difference is understood, when it is."""
     depends_on: tuple[Dependence, ...] = ()
     """What of the model the claim is about, where a reading can lack it (:func:`identifiable`)."""
     lacks: tuple[str, ...] = ()
-    """The quantities of ``depends_on`` the model did not depend on in the run: the verdicts
-    are then ``"not identifiable"`` (:func:`identifiable`)."""
+    """The quantities of ``depends_on`` the run's model ignores: verdicts "not identifiable"."""
 
     def __post_init__(self) -> None:
-        if self.leaning is None:
-            object.__setattr__(self, "leaning", self.verdict)
-        if self.best_leaning is None:
-            object.__setattr__(self, "best_leaning", self.best_verdict)
+        for side in ("", "best_"):
+            if getattr(self, f"{side}leaning") is None:
+                object.__setattr__(self, f"{side}leaning", getattr(self, f"{side}verdict"))
 
     def verdict_text(self, best: bool = False) -> str:
         """The verdict with its confidence, e.g. ``undecided (leans differs, flips 35 %)``."""
@@ -172,8 +161,7 @@ class Claim:
 
 
 def decide(leaning: Verdict, flips: float) -> Verdict:
-    """The confidence rule: a decided verdict that flips in more than :data:`FLIP_THRESHOLD`
-    of the resamples is ``"undecided"``; any other stays as it is."""
+    """A decided verdict flipping in more than :data:`FLIP_THRESHOLD` is ``"undecided"``."""
     if leaning in ("agrees", "differs") and flips > FLIP_THRESHOLD:
         return "undecided"
     return leaning
@@ -196,12 +184,9 @@ class VerdictCount:
     @classmethod
     def of(cls, claims: Iterable[Claim], best: bool = False) -> VerdictCount:
         """Counts of the verdicts on the median (on the best seed if ``best``)."""
-        verdicts = [c.best_verdict if best else c.verdict for c in claims]
-        agree, differ = verdicts.count("agrees"), verdicts.count("differs")
-        undecided = verdicts.count("undecided")
-        unknowable = verdicts.count("not identifiable")
-        rest = len(verdicts) - agree - differ - undecided - unknowable
-        return cls(agree, differ, undecided, rest, unknowable)
+        n = Counter(c.best_verdict if best else c.verdict for c in claims)
+        named = [n[v] for v in ("agrees", "differs", "undecided", "not identifiable")]
+        return cls(*named[:3], n.total() - sum(named), named[3])
 
     def text(self) -> str:
         """``3 agree, 2 differ, 4 undecided, 3 not identifiable, 1 no data``."""
@@ -238,8 +223,7 @@ TESTS: dict[str, Callable[[float, Any], bool]] = {
 
 
 def judge(value: float, rule: Rule, target: Any) -> bool | None:
-    """Whether ``value`` agrees with ``target`` under ``rule`` (:data:`TESTS`); None (no data)
-    for NaN."""
+    """Whether ``value`` agrees with ``target`` under ``rule`` (:data:`TESTS`); None for NaN."""
     return None if math.isnan(value) else bool(TESTS[rule](value, target))
 
 
@@ -252,8 +236,8 @@ Measure = Callable[[Any, Any], Stats]
 
 @dataclass(frozen=True)
 class ClaimSpec:
-    """One claim of the paper, declared once: what the report's row says and how it is judged;
-    ``measure(view, target)`` gives its statistic from a study's view of one method's rows."""
+    """One claim of the paper: its row's words, and ``measure(view, target)``, its statistic from
+    a study's view of one method's rows."""
 
     id: str
     figure: str
@@ -262,21 +246,20 @@ class ClaimSpec:
     paper: str
     rule: Rule
     target: Any
-    """What the rule compares with (:data:`TESTS`): the paper's number [its unit], range
-    (low, high), location [m/s] or angle [deg]; a trend's direction (+1 rises, −1 falls);
-    whether in phase; a compare rule's (order, value)."""
+    """What the rule compares with (:data:`TESTS`): a number [its unit], (low, high), a location
+    [m/s] or angle [deg], a direction (±1), whether in phase, or (order, value)."""
     measure: Measure
     note: str = ""
     """Why a difference is understood, when it is."""
 
     def claim(self, study: str, view: Any, method: str, index: int, words: Mapping) -> Claim | None:
-        """The row of ``method`` (ids ``S7`` for the first method, ``S7/random`` for the
-        others), judged on the median and the best seed; None where it is not made."""
+        """The row of ``method`` (id ``S7``, ``S7/random`` for a later method), judged on the
+        median and the best seed; None where it is not made."""
         fields = self.measure(view, self.target)
         if fields is None:
             return None
         row = {"statement": self.statement.format_map(words), "note": self.note, **fields}
-        median, best = (row.get(k, math.nan) for k in ("median", "best"))
+        median, best = row.get("median", math.nan), row.get("best", math.nan)
         return Claim(
             id=self.id if index == 0 else f"{self.id}/{method}",
             study=study,
@@ -290,12 +273,7 @@ class ClaimSpec:
 
 
 def judged(
-    specs: Iterable[ClaimSpec],
-    study: str,
-    view: Any,
-    method: str,
-    index: int,
-    words: Mapping = {},
+    specs: Iterable[ClaimSpec], study: str, view: Any, method: str, index: int, words: Mapping = {}
 ) -> list[Claim]:
     """The claims ``specs`` make of one method's ``view`` (:meth:`ClaimSpec.claim`)."""
     found = (spec.claim(study, view, method, index, words) for spec in specs)
@@ -325,15 +303,13 @@ def rho(x: Sequence[float], y: Sequence[float]) -> float:
 def monotonic_fraction(x: Sequence[float], y: Sequence[float], direction: int) -> float:
     """Share of consecutive steps (in x order) that move in ``direction`` (+1 rise, −1 fall)."""
     xa, ya = _finite(x, y)
-    order = np.argsort(xa)
-    steps = np.diff(ya[order])
+    steps = np.diff(ya[np.argsort(xa)])
     return math.nan if steps.size == 0 else float(np.mean(np.sign(steps) == direction))
 
 
 # --- statistics: what a ClaimSpec's measure gives ----------------------------------------------
 def spread_stats(s: Spread, **fields: Any) -> dict[str, Any]:
-    """One spread over seeds: median, quartiles, best seed and the feasible seeds as the detail
-    (``fields`` override these)."""
+    """One spread's median, quartiles, best seed and feasible seeds (``fields`` override)."""
     stats = {"median": s.median, "q25": s.q25, "q75": s.q75, "best": s.best}
     return {**stats, "detail": seeds_feasible(s), **fields}
 
@@ -349,24 +325,23 @@ def follows_stats(
 
 
 def trend_stats(series: Mapping[float, Spread], direction: int, **fields: Any) -> dict[str, Any]:
-    """ρ between the condition and the medians (and the best seeds), the medians' monotonic
-    fraction as the detail; ``fields`` override these (:func:`held_at_bound`'s)."""
+    """ρ(condition, medians) and of the best seeds, the medians' monotonic fraction as the
+    detail; ``fields`` override these."""
     x, medians = list(series), [s.median for s in series.values()]
     frac = monotonic_fraction(x, medians, direction)
-    row = dict(
-        median=rho(x, medians),
-        best=rho(x, [s.best for s in series.values()]),
-        unit="(ρ)",
-        detail=f"monotonic fraction {frac:.2f}" if not math.isnan(frac) else "",
-    )
-    return {**row, **fields}
+    return {
+        "median": rho(x, medians),
+        "best": rho(x, [s.best for s in series.values()]),
+        "unit": "(ρ)",
+        "detail": f"monotonic fraction {frac:.2f}" if not math.isnan(frac) else "",
+        **fields,
+    }
 
 
 def held_at_bound(rows: Sequence[Mapping[str, Any]], quantity: str) -> dict[str, Any]:
-    """What :data:`HELD_RULE` changes in a ``trend`` or ``follows`` row of ``quantity`` over
-    one series' rows: ρ = 0 for the medians and/or the best seeds that one Table 4 bound holds
-    at every condition (``tables.pinned``), with a ``detail`` and ``note`` naming it; empty
-    where none does or below 3 conditions."""
+    """:data:`HELD_RULE` for ``quantity`` over one series' rows: ρ = 0 for the medians and/or
+    best seeds one Table 4 bound holds at every condition, with a ``detail`` and ``note``; empty
+    where none is held or below 3 conditions."""
     conditions = sorted({float(r["condition"]) for r in rows})
     bounds = table4_bounds(quantity)
     if len(conditions) < 3 or bounds is None:
@@ -402,12 +377,8 @@ def location_stats(
             return math.nan
         return float(xa[np.argmin(ya) if kind == "min" else np.argmax(ya)])
 
-    return dict(
-        median=where([s.median for s in series.values()]),
-        best=where([s.best for s in series.values()]),
-        unit="m/s",
-        **fields,
-    )
+    medians, bests = [s.median for s in series.values()], [s.best for s in series.values()]
+    return {"median": where(medians), "best": where(bests), "unit": "m/s", **fields}
 
 
 # --- confidence: the bootstrap over seeds ------------------------------------------------------
@@ -415,8 +386,8 @@ Rows = list[dict[str, Any]]
 
 
 def _strata(rows: Sequence[Mapping[str, Any]]) -> list[tuple[list[int], dict[int, list[dict]]]]:
-    """(seeds, {seed: rows}) per condition of each series (method, task, planform; objectives
-    together, so a seed's two accelerating optimisations stay paired), in a fixed order."""
+    """(seeds, {seed: rows}) per series and condition (objectives together: a seed's two
+    accelerating optimisations stay paired), in a fixed order."""
     groups: dict[tuple[str, ...], dict[int, list[dict]]] = {}
     for row in rows:
         key = tuple(str(row.get(k)) for k in ("method", "task", "planform", "condition"))
@@ -442,9 +413,8 @@ def with_confidence(
     resamples: int = BOOTSTRAP_RESAMPLES,
     seed: int = BOOTSTRAP_SEED,
 ) -> list[Claim]:
-    """``claims_of(rows)`` (tidy rows) with each verdict's confidence (:data:`CONFIDENCE_RULE`):
-    rerun on ``resamples`` resamples of the seeds (:func:`resample`, RNG seeded by ``seed``); a
-    claim missing from a resample counts as flipped."""
+    """``claims_of(rows)`` with each verdict's confidence (:data:`CONFIDENCE_RULE`) over
+    ``resamples`` resamples (RNG ``seed``); a claim missing from a resample has flipped."""
     claims = claims_of([dict(r) for r in rows])
     if not claims or resamples <= 0:
         return claims
@@ -463,9 +433,8 @@ def with_confidence(
 
 
 def _settled(c: Claim, flips: float, best_flips: float, lacks: tuple[str, ...] = ()) -> Claim:
-    """``c`` with each verdict as run its leaning and the verdict :func:`decide` gives it with
-    its share of flipping resamples (NaN for a verdict without data); ``lacks``: every verdict
-    "not identifiable", without a confidence."""
+    """``c`` with each verdict as run its leaning, :func:`decide`'s verdict and the flipping
+    share (NaN without data); ``lacks``: every verdict "not identifiable", without one."""
     sides = {}
     for side, share in (("", flips), ("best_", best_flips)):
         said: Verdict = "not identifiable" if lacks else getattr(c, f"{side}verdict")
@@ -479,9 +448,8 @@ def _settled(c: Claim, flips: float, best_flips: float, lacks: tuple[str, ...] =
 
 
 def identifiable(claims: Iterable[Claim], options: ModelOptions) -> list[Claim]:
-    """The claims with the verdicts :data:`IDENTIFIABILITY_RULE` gives under the study's model
-    ``options``: ``"not identifiable"``, without a confidence, where the model does not depend
-    on a quantity of :attr:`Claim.depends_on` (the statistics stay)."""
+    """The claims under :data:`IDENTIFIABILITY_RULE` for the model ``options``: "not
+    identifiable" where the model ignores a quantity of :attr:`Claim.depends_on`."""
     out = []
     for c in claims:
         lacks = tuple(dict.fromkeys(d.quantity for d in c.depends_on if not d.resolved(options)))
@@ -496,8 +464,8 @@ def study_claims(
     *,
     options: ModelOptions,
 ) -> list[Claim]:
-    """Every method's claims (``claims_of(rows, method, index)``), each method's bootstrap over
-    its own rows (:func:`with_confidence`), judged identifiable under ``options``."""
+    """Every method's claims (``claims_of(rows, method, index)``), bootstrapped over its own
+    rows and judged identifiable under ``options``."""
     return identifiable(
         [
             c

@@ -1,11 +1,6 @@
-"""Kinematics of the optimised strokes (paper Figs. 9-13).
-
-The strokes of level flight at 1.25 m/s and accelerating flight at 60 W/kg (the paper's choices,
-the sweeps' own jobs), and level flight at 2 m/s for the paper's largest phase difference; every
-seed thin, the best bold: tip paths (Figs. 9-10), φ and η over the cycle (Figs. 11-12), angle of
-attack and relative speed at 0.75 R (Fig. 13). The fore/hind phase difference ΔΦ = Φ_φ,hind −
-Φ_φ,fore is wrapped to (−180°, 180°] (> 0: the hind-wing leads); its statistics are circular.
-"""
+"""Kinematics of the optimised strokes (paper Figs. 9-13): level flight at 1.25 m/s and 2 m/s,
+accelerating flight at 60 W/kg; tip paths, φ and η over the cycle, angle of attack and relative
+speed at 0.75 R. ΔΦ = Φ_φ,hind − Φ_φ,fore in (−180°, 180°] (> 0: hind leads), circular stats."""
 
 from __future__ import annotations
 
@@ -29,14 +24,9 @@ from tandem_env.envs import registration
 
 NAME = "kinematics"
 TITLE = "Kinematics of the optimised strokes (Figs. 9-13)"
-QUANTITIES = (
-    "objective_value",
-    "phase_difference",
-    "phase_difference_abs",
-    "pitch_amplitude",
-    "sweep_amplitude",
-    "frequency",
-    "stroke_plane_angle",
+QUANTITIES = tuple(
+    "objective_value phase_difference phase_difference_abs pitch_amplitude "
+    "sweep_amplitude frequency stroke_plane_angle".split()
 )
 PAPER_PHASE_LEAD = 30.0  # deg: hind-wing leads at 2 m/s (Fig. 11)
 PAPER_IN_PHASE = 0.0  # deg: "the wings flap in-phase" in accelerating flight (Fig. 11b)
@@ -46,9 +36,8 @@ TRACED = ("tip_path", "sweep", "pitch", "angle_of_attack", "relative_speed")
 
 
 def triangle_note(rows: list[dict[str, Any]]) -> str:
-    """Fig. 13's legend line naming the seeds' wings whose weaving is a triangle wave (shape K
-    at its upper bound 1, docs/model.md §3.4): their φ̇ reverses at once, so their relative
-    speed steps at each reversal (the kinematics, not the plot); "" where none is."""
+    """Fig. 13's legend line naming the seeds' wings whose weaving is a triangle wave (K at its
+    bound 1, docs/model.md §3.4: the speed steps at each reversal); "" where none is."""
     shape = {w: PARAMETER_NAMES.index(f"{w}_sweep_shape") for w in ("fore", "hind")}
     found = []
     for row in sorted(rows, key=lambda r: r["seed"]):
@@ -75,11 +64,10 @@ def jobs(plan: StudyPlan) -> list[Job]:
 def flight_of(job: Job) -> tuple[Any, float, float]:
     """The env config of ``job`` and its flight speed [m/s] and available power [W/kg]."""
     task = get_task(job.task)
-    env_id = task.env_id
     kwargs = {**dict(job.env_kwargs), task.declared_condition.keyword: job.condition}
-    cfg = registration.config_class(env_id).from_kwargs(**kwargs)
+    cfg = registration.config_class(task.env_id).from_kwargs(**kwargs)
     # The task's condition sets one model input; its config fixes the other (task core).
-    core = registration.core_class(env_id)(cfg)
+    core = registration.core_class(task.env_id)(cfg)
     speeds, powers = core.flight_conditions(np.array([cfg.fixed_condition]))
     return cfg, float(speeds[0]), float(powers[0])
 
@@ -114,32 +102,27 @@ def draw(
     plan: StudyPlan, rows: list[dict[str, Any]], records: Mapping[Job, Record], study_dir: Path
 ) -> list[tuple[str, Path]]:
     """Figs. 9-13 of the first method's strokes, each seed's."""
-    p = plan.preset
-    method = plan.methods[0]
+    p, method = plan.preset, plan.methods[0]
     level, accel = _series(plan, method)
     lv = traces(records, rows, condition=p.kinematics_speed, **level)
     ac = traces(records, rows, condition=p.kinematics_power, **accel)
     level_name = f"level flight, V = {p.kinematics_speed:g} m/s"
     accel_name = f"accelerating ({p.kinematics_objective}), {p.kinematics_power:g} W/kg"
     judged = view(plan, rows, method)
-    level_at = f"level {p.kinematics_speed:g} m/s"
-    accel_at = f"accel. {p.kinematics_power:g} W/kg"
+    level_at, accel_at = f"level {p.kinematics_speed:g} m/s", f"accel. {p.kinematics_power:g} W/kg"
     lead_at = f"level {p.phase_speed:g} m/s"
 
     def panel(title: str, groups: dict[str, Spread], ylabel: str, **marks: Any) -> kf.GroupPanel:
         """The feasible seeds' values of each group, as the claims take them, and its best."""
-        values = {k: list(s.values) for k, s in groups.items()}
-        return kf.GroupPanel(
-            title, values, ylabel, best={k: s.best for k, s in groups.items()}, **marks
+        values, best = (
+            {k: list(s.values) for k, s in groups.items()},
+            {k: s.best for k, s in groups.items()},
         )
+        return kf.GroupPanel(title, values, ylabel, best=best, **marks)
 
-    # Each panel shows the statistic its claim judges; not judged where K1-K3 are not
-    # identifiable (claims.IDENTIFIABILITY_RULE).
-    said = (
-        "judged"
-        if plan.model_options.phase_resolved()
-        else "not judged: the model does not depend on ΔΦ"
-    )
+    # Each panel shows the statistic its claim judges, not judged where K1-K3 are not identifiable
+    resolved = plan.model_options.phase_resolved()
+    said = "judged" if resolved else "not judged: the model does not depend on ΔΦ"
     phase_panels = (
         panel(
             "(c) |ΔΦ| (K1, K3; feasible seeds)",
@@ -225,8 +208,8 @@ def draw(
 
 @functools.cache
 def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
-    """What K1-K3 are about: the fore/hind phase at their optimisations' flight speeds (once
-    per plan: every bootstrap resample asks)."""
+    """What K1-K3 are about: the fore/hind phase at their optimisations' flight speeds (cached:
+    every bootstrap resample asks)."""
     p = plan.preset
     level = plan.jobs("level", [p.kinematics_speed, p.phase_speed], seeds=p.seeds[:1])
     accel = plan.jobs(
@@ -241,8 +224,7 @@ def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
 
 def view(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> dict[str, Any]:
     """What K1-K4 judge and Figs. 11c-d and 12c show: |ΔΦ| level and accelerating, ΔΦ at
-    ``phase_speed``, η_m level and accelerating (spreads over seeds); and what K1-K3 are about
-    (``phase``: :func:`phase_dependences`)."""
+    ``phase_speed``, η_m level and accelerating; ``phase``: :func:`phase_dependences`."""
     p = plan.preset
     level, accel = _series(plan, method)
     picks = {
@@ -252,10 +234,10 @@ def view(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> dict[str, 
         "level η_m": (level, p.kinematics_speed, "pitch_amplitude"),
         "accel η_m": (accel, p.kinematics_power, "pitch_amplitude"),
     }
-    out: dict[str, Any] = {
-        k: spread(select(rows, condition=c, **where), q) for k, (where, c, q) in picks.items()
+    return {
+        **{k: spread(select(rows, condition=c, **where), q) for k, (where, c, q) in picks.items()},
+        "phase": phase_dependences(plan),
     }
-    return {**out, "phase": phase_dependences(plan)}
 
 
 def _series(plan: StudyPlan, method: str) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -266,8 +248,7 @@ def _series(plan: StudyPlan, method: str) -> tuple[dict[str, Any], dict[str, Any
 
 
 def phase_of(key: str, cid: str) -> C.Measure:
-    """``phase`` or ``angle``: the spread of ``key`` (a :func:`view` key) [deg], about the
-    fore/hind phase of claim ``cid``'s optimisations."""
+    """``phase`` or ``angle``: the spread of ``key`` (a :func:`view` key) [deg] of claim ``cid``."""
     return lambda by, _: C.spread_stats(by[key], unit="deg", depends_on=by["phase"][cid])
 
 
@@ -287,15 +268,11 @@ NOISY = (
     "is noisy."
 )
 PITCH = "pitch amplitude η_m is larger in accelerating than in level flight (ours: accelerating − level)"
+LEVEL = "level flight ({kinematics_speed:g} m/s): fore- and hind-wing flap out of phase (|ΔΦ|)"
+ACCEL = "accelerating flight ({kinematics_power:g} W/kg): the wings flap in phase (|ΔΦ|)"
 CLAIMS: tuple[C.ClaimSpec, ...] = (
     C.ClaimSpec(
-        "K1",
-        "Fig. 11a",
-        "level flight ({kinematics_speed:g} m/s): fore- and hind-wing flap out of phase (|ΔΦ|)",
-        "out of phase",
-        "phase",
-        False,
-        phase_of("level |ΔΦ|", "K1"),
+        "K1", "Fig. 11a", LEVEL, "out of phase", "phase", False, phase_of("level |ΔΦ|", "K1")
     ),
     C.ClaimSpec(
         "K2",
@@ -307,15 +284,7 @@ CLAIMS: tuple[C.ClaimSpec, ...] = (
         phase_of("ΔΦ", "K2"),
         NOISY,
     ),
-    C.ClaimSpec(
-        "K3",
-        "Fig. 11b",
-        "accelerating flight ({kinematics_power:g} W/kg): the wings flap in phase (|ΔΦ|)",
-        "in phase",
-        "phase",
-        True,
-        phase_of("accel |ΔΦ|", "K3"),
-    ),
+    C.ClaimSpec("K3", "Fig. 11b", ACCEL, "in phase", "phase", True, phase_of("accel |ΔΦ|", "K3")),
     C.ClaimSpec(
         "K4", "Fig. 12c", PITCH, "η_m,acc > η_m,level", "compare", (">", 0.0), pitch_larger
     ),

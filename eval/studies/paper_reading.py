@@ -1,12 +1,6 @@
-"""A reading of the paper: one named, documented choice for each decision the paper leaves open.
-
-The paper leaves modelling decisions open (docs/model.md §1.3, §5, §6, §7: thrust and drag,
-power, C_r, spin, hover inflow, C_hf, F̄_h). A :class:`Reading` names one combination of them
-and changes only the env keywords of the studies' jobs (:meth:`eval.studies.base.StudyPlan.jobs`);
-the default reading changes nothing. The paper does not state its search either (PSO, no swarm
-size or stopping rule): a reading may carry a :class:`Search` that replaces the plan's method and
-budgets (:data:`PAPER_SEARCHES`, docs/efficiency.md).
-"""
+"""A reading of the paper: one named choice for each modelling decision it leaves open
+(docs/model.md §1.3, §5, §6, §7), changing only the env keywords of the studies' jobs, and
+perhaps a :class:`Search` replacing the plan's method and budgets (docs/efficiency.md)."""
 
 from __future__ import annotations
 
@@ -29,11 +23,10 @@ DECISION_OPTIONS: tuple[str, ...] = tuple(
     f.name for f in fields(ModelOptions) if f.name not in NUMERICAL_OPTIONS
 )
 #: Accelerating-flight objectives whose optimum can stand for the paper's F̄_h (Fig. 7).
-HORIZONTAL_OBJECTIVES: tuple[str, ...] = tuple(
-    o
-    for o in ACCELERATE.objectives.choices
-    if o.startswith("horizontal")  # type: ignore[union-attr]
-)
+CHOICES: tuple[str, ...] = ACCELERATE.objectives.choices  # type: ignore[assignment]
+HORIZONTAL_OBJECTIVES: tuple[str, ...] = tuple(o for o in CHOICES if o.startswith("horizontal"))
+#: A reading's changes besides its model options (:meth:`Reading.changes`).
+OWN_FIELDS = ("rotational_coefficient", "horizontal_objective", "search")
 #: C_r of the default insect's wings (Table 3: π) [-].
 DEFAULT_ROTATIONAL = Dragonfly().fore.rotational_coefficient
 _KWARG_OF = {option: kwarg for kwarg, option in MODEL_OPTION_KWARGS.items()}
@@ -60,22 +53,19 @@ def _pairs(value: Any, where: str) -> tuple[tuple[str, Any], ...]:
 
 @dataclass(frozen=True)
 class Search:
-    """How every job of a reading searches (method, budget, settings), replacing the plan's
-    method and the preset's budget: ``swarm_size`` × ``iterations`` evaluations for every task,
-    or ``budgets`` per task, or the preset's; a polish takes its share of it."""
+    """How every job of a reading searches, replacing the plan's method and the preset's budget:
+    ``swarm_size`` × ``iterations`` evaluations, or ``budgets`` per task, or the preset's."""
 
     method: str
-    """A harness method name, e.g. ``"pso"`` (:func:`agents.methods.available_methods`)."""
+    """A harness method name, e.g. ``"pso"``."""
     swarm_size: int | None = None
     """Strokes per iteration (the method's batch), >= 2; None: the plan's."""
     iterations: int | None = None
-    """Iterations per run (the initial swarm counts as one), >= 1; with ``swarm_size`` the
-    budget of every task."""
+    """Iterations per run (the initial swarm counts), >= 1; with ``swarm_size``, the budget."""
     budgets: tuple[tuple[str, int], ...] = ()
-    """Model evaluations per run by task name, sorted (a mapping is accepted); a task not named
-    keeps the preset's."""
+    """Model evaluations per run by task, sorted (or a mapping); others keep the preset's."""
     settings: tuple[tuple[str, Any], ...] = ()
-    """Method settings, e.g. ``{"polish": "none"}``, sorted (a mapping is accepted)."""
+    """Method settings, e.g. ``{"polish": "none"}``, sorted (or a mapping)."""
 
     def __post_init__(self) -> None:
         method = self.method
@@ -108,8 +98,7 @@ class Search:
             )
         settings = _pairs(self.settings, "Search.settings")
         given = {k for k, _ in settings}
-        budget_keys = sorted(given & {"iterations", "max_evaluations", "budget"})
-        if budget_keys:
+        if budget_keys := sorted(given & {"iterations", "max_evaluations", "budget"}):
             raise ValueError(
                 f"Search.settings sets {budget_keys}; allowed: the budget as iterations or "
                 "budgets, not a method setting"
@@ -128,8 +117,7 @@ class Search:
             raise ValueError(f"Search of method {method!r}: {error}") from None
 
     def _batch(self, preset_swarm: int | None) -> dict[str, int]:
-        """The batch setting: its ``swarm_size`` (every ask/tell optimiser's alias), else
-        ``preset_swarm`` where a study's preset sets the method's batch."""
+        """The batch: ``swarm_size``, else ``preset_swarm`` where the preset sets the method's."""
         if self.swarm_size is not None:
             return {"swarm_size": self.swarm_size}
         key = preset_batch_setting(self.method)
@@ -145,8 +133,7 @@ class Search:
         return dict(self.budgets).get(task)
 
     def method_config(self, preset_swarm: int) -> tuple[tuple[str, Any], ...]:
-        """A job's method settings: ``settings`` and the batch (``swarm_size``, else the
-        preset's ``preset_swarm``), sorted."""
+        """A job's method settings: ``settings`` and the batch (:meth:`_batch`), sorted."""
         return tuple(sorted({**dict(self.settings), **self._batch(preset_swarm)}.items()))
 
     def to_dict(self) -> dict[str, Any]:
@@ -168,20 +155,19 @@ class Reading:
     """One reading of the paper: the options it changes from the documented defaults."""
 
     name: str
-    """Short identifier, e.g. ``"default"`` or ``"thrust_split=body"``; a column of the matrix."""
+    """Short identifier, e.g. ``"default"`` or ``"body"``; a column of the matrix."""
     description: str
     """One line: what this reading assumes and where the paper leaves it open."""
     options: tuple[tuple[str, Any], ...] = ()
-    """:class:`~tandem_env.ModelOptions` fields (``DECISION_OPTIONS``) and values, sorted (a
-    mapping is accepted)."""
+    """:class:`~tandem_env.ModelOptions` fields (``DECISION_OPTIONS``), sorted (or a mapping)."""
     rotational_coefficient: float | None = None
     """C_r of both wings [-] (Table 3); None keeps the insect's (π)."""
     horizontal_objective: str = "horizontal"
     """The accelerating objective whose optimum gives F̄_h (``HORIZONTAL_OBJECTIVES``)."""
     search: Search | None = None
-    """How every job searches (a :class:`Search` or a mapping of its fields); None: the plan's."""
+    """How every job searches (a :class:`Search` or a mapping); None: the plan's."""
     derived_from: tuple[str, ...] = field(default=(), compare=False)
-    """The single readings a combination was derived from (empty for a single reading)."""
+    """The single readings a combination was derived from."""
 
     def __post_init__(self) -> None:
         if not is_name(self.name):
@@ -191,14 +177,11 @@ class Reading:
         if not isinstance(self.description, str) or not self.description.strip():
             _fail(self.name, "description", self.description, "a one-line description")
         pairs = _pairs(self.options, f"Reading {self.name!r}: options")
-        for key, _ in pairs:
-            if key not in DECISION_OPTIONS:
-                _fail(
-                    self.name,
-                    "options",
-                    key,
-                    f"ModelOptions fields that are modelling decisions: {', '.join(DECISION_OPTIONS)}",
-                )
+        for key in (k for k, _ in pairs if k not in DECISION_OPTIONS):
+            allowed = (
+                f"ModelOptions fields that are modelling decisions: {', '.join(DECISION_OPTIONS)}"
+            )
+            _fail(self.name, "options", key, allowed)
         object.__setattr__(self, "options", pairs)
         try:
             ModelOptions(**dict(pairs))
@@ -207,13 +190,9 @@ class Reading:
         c_r = self.rotational_coefficient
         if c_r is not None and not (is_number(c_r) and c_r >= 0):
             _fail(self.name, "rotational_coefficient", c_r, "None or a finite number >= 0")
-        if self.horizontal_objective not in HORIZONTAL_OBJECTIVES:
-            _fail(
-                self.name,
-                "horizontal_objective",
-                self.horizontal_objective,
-                ", ".join(map(repr, HORIZONTAL_OBJECTIVES)),
-            )
+        if (objective := self.horizontal_objective) not in HORIZONTAL_OBJECTIVES:
+            allowed = ", ".join(map(repr, HORIZONTAL_OBJECTIVES))
+            _fail(self.name, "horizontal_objective", objective, allowed)
         if isinstance(self.search, Mapping):
             try:
                 object.__setattr__(self, "search", Search(**self.search))
@@ -242,35 +221,18 @@ class Reading:
 
     @classmethod
     def from_changes(
-        cls,
-        name: str,
-        description: str,
-        changes: Mapping[str, Any],
-        derived_from: tuple[str, ...] = (),
+        cls, name: str, description: str, changes: Mapping[str, Any], derived_from: tuple = ()
     ) -> Reading:
         """The reading whose :meth:`changes` are ``changes`` (the inverse of that method)."""
         options = dict(changes)
-        c_r = options.pop("rotational_coefficient", None)
-        horizontal = options.pop("horizontal_objective", "horizontal")
-        search = options.pop("search", None)
-        return cls(
-            name,
-            description,
-            options=tuple(options.items()),
-            rotational_coefficient=c_r,
-            horizontal_objective=horizontal,
-            search=search,
-            derived_from=derived_from,
-        )
+        own = {k: options.pop(k) for k in OWN_FIELDS if k in options}
+        return cls(name, description, tuple(options.items()), **own, derived_from=derived_from)
 
     def env_kwargs(self) -> dict[str, Any]:
-        """The env keywords of the options that differ from the defaults (so a reading that
-        restates a default has the default's job keys)."""
-        changed = self.changes()
-        changed.pop("horizontal_objective", None)
-        changed.pop("search", None)
-        # every option has its env keyword (MODEL_OPTION_KWARGS); C_r is one by its own name
-        return {_KWARG_OF.get(key, key): value for key, value in changed.items()}
+        """The env keywords of the options that differ from the defaults (a reading restating a
+        default has the default's job keys); C_r's keyword is its own name."""
+        skip = ("horizontal_objective", "search")
+        return {_KWARG_OF.get(k, k): v for k, v in self.changes().items() if k not in skip}
 
     def objective(self, objective: str) -> str:
         """The accelerating objective a study's ``objective`` becomes under this reading."""
@@ -303,15 +265,13 @@ DEFAULT = Reading(
 def combine(readings: tuple[Reading, ...] | list[Reading], name: str | None = None) -> Reading:
     """One reading with every change of ``readings``; raises ValueError if two conflict."""
     merged: dict[str, Any] = {}
+    names = tuple(r.name for r in readings)
     for reading in readings:
         for key, value in reading.changes().items():
-            if key in merged and merged[key] != value:
+            if merged.setdefault(key, value) != value:
                 raise ValueError(
-                    f"readings {', '.join(r.name for r in readings)} conflict on {key}: "
-                    f"{merged[key]!r} vs {value!r}"
+                    f"readings {', '.join(names)} conflict on {key}: {merged[key]!r} vs {value!r}"
                 )
-            merged[key] = value
-    names = tuple(r.name for r in readings)
     return Reading.from_changes(
         name or " + ".join(names),
         "combination of " + "; ".join(r.description for r in readings),

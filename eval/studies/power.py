@@ -21,14 +21,9 @@ from eval.studies.tables import Spread, by_condition, select, spread
 
 NAME = "power"
 TITLE = "Accelerating flight: power sweep (Figs. 7-8)"
-QUANTITIES = (
-    "objective_value",
-    "excess_vertical",
-    "excess_horizontal",
-    "power_per_mass",
-    "frequency",
-    "pitch_amplitude",
-    "phase_difference",
+QUANTITIES = tuple(
+    "objective_value excess_vertical excess_horizontal power_per_mass frequency "
+    "pitch_amplitude phase_difference".split()
 )
 #: The paper's numbers (Figs. 7, 8): {power [W/kg]: value [-]}.
 PAPER_VERTICAL = {50.0: 2.7, 90.0: 4.4}

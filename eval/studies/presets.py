@@ -1,8 +1,6 @@
-"""Study presets: which conditions, seeds, method and budgets a study run uses (frozen, validated).
-
-``quick`` takes minutes on 2 cores, ``paper`` is the full study, ``tiny`` is for the tests only.
-Method and budgets come from the convergence study (docs/reproduction.md, "Method and budget:
-the convergence study")."""
+"""Study presets: the conditions, seeds, method and budgets of a study run (frozen, validated):
+``quick`` (minutes on 2 cores), ``paper`` (the full study), ``tiny`` (the tests'); method and
+budgets from the convergence study (docs/reproduction.md)."""
 
 from __future__ import annotations
 
@@ -30,19 +28,16 @@ _PER_JOB_KWARGS: frozenset[str] = frozenset(
 )
 
 
-#: Warm starts of a search (``Preset.warm_start``, ``eval optimize --warm-start``): none (a cold
-#: start), or the reference table's optimum at the job's condition and its grid neighbours'.
+#: Warm starts of a search (``Preset.warm_start``, ``eval optimize --warm-start``): cold, or
+#: from the reference table's optima at the job's condition and its grid neighbours.
 WARM_STARTS: tuple[str, ...] = ("none", "table")
-#: The share of a warm-started run's budget its table strokes are polished on (together); the
-#: search and its polish get the rest (docs/reference.md, "Warm starts").
+#: The share of a warm-started run's budget its table strokes are polished on (docs/reference.md).
 WARM_SHARE = 0.25
 
 
 def warm_start(task: str, condition: float, env_kwargs: Mapping[str, Any]) -> dict[str, Any]:
-    """The method settings of a warm start from the reference table: its strokes at
-    ``condition`` (:func:`~tandem_env.envs.reference.table_strokes`) as the polish's
-    ``initial`` strokes on :data:`WARM_SHARE` of the budget; ValueError saying why the table
-    has none for this problem and condition."""
+    """The method settings of a warm start: the table's strokes at ``condition`` as the polish's
+    ``initial`` on :data:`WARM_SHARE` of the budget; ValueError saying why the table has none."""
     strokes = table_strokes(get_task(task).env_id, env_kwargs, condition)
     return {"initial": [list(s) for s in strokes], "initial_share": WARM_SHARE}
 
@@ -68,12 +63,8 @@ def is_name(value: Any) -> bool:
 
 def distinct(values: Any, item: Callable[[Any], bool]) -> bool:
     """Whether ``values`` is a non-empty tuple of distinct items that each pass ``item``."""
-    return (
-        isinstance(values, tuple)
-        and len(values) > 0
-        and all(map(item, values))
-        and len(set(values)) == len(values)
-    )
+    ok = isinstance(values, tuple) and len(values) > 0 and all(map(item, values))
+    return ok and len(set(values)) == len(values)
 
 
 def _fail(name: str, value: Any, allowed: str, owner: str = "Preset") -> None:
@@ -82,25 +73,18 @@ def _fail(name: str, value: Any, allowed: str, owner: str = "Preset") -> None:
 
 def _check_values(name: str, values: Any, condition: TaskCondition) -> None:
     """``values`` must be distinct, increasing and inside the env's default envelope."""
-    limits, unit = condition.envelope, condition.unit
-    inside = lambda v: is_number(v) and limits[0] <= v <= limits[1]  # noqa: E731
+    low, high = condition.envelope
+    inside = lambda v: is_number(v) and low <= v <= high  # noqa: E731
     if not distinct(values, inside) or list(values) != sorted(values):
-        _fail(
-            name,
-            values,
-            f"a non-empty, increasing tuple of distinct numbers from {limits[0]:g} to "
-            f"{limits[1]:g} {unit}",
-        )
+        allowed = "a non-empty, increasing tuple of distinct numbers from"
+        _fail(name, values, f"{allowed} {low:g} to {high:g} {condition.unit}")
 
 
 @dataclass(frozen=True)
 class ConvergenceSpec:
-    """The budget study: each method at one level and one accelerating condition, long runs.
-
-    Every method compared has the prefix property (a run with budget B is the first B
-    evaluations of any longer run with the same seed: agents/cmaes_search.py, agents/pso.py),
-    so one long run per seed gives the best-so-far at every smaller budget.
-    """
+    """The budget study: each method's long runs at one level and one accelerating condition
+    (by the prefix property, agents/cmaes_search.py, agents/pso.py, one long run per seed gives
+    the best-so-far at every smaller budget)."""
 
     budget: int
     """Model evaluations per run [-]."""
@@ -111,11 +95,9 @@ class ConvergenceSpec:
     power: float = 60.0
     """Accelerating condition [W/kg], objective ``vertical``."""
     methods: tuple[str, ...] = ("pso", "cmaes")
-    """Harness methods compared side by side, besides any the study is run with; their long
-    runs have no polish (it would end the prefix property)."""
+    """Methods compared, besides the study's; their long runs have no polish."""
     polish_shares: tuple[float, ...] = (0.0, 0.25, 0.4)
-    """The budget splits compared at the preset's own budgets: the share of the preset's
-    method's budget kept for the local polish (``polish_share``; 0: no polish)."""
+    """The polish shares of the preset's method's budget compared at its budgets (0: none)."""
 
     def __post_init__(self) -> None:
         owner = "ConvergenceSpec"
@@ -125,9 +107,8 @@ class ConvergenceSpec:
             _fail("seeds", self.seeds, "distinct integers >= 0", owner)
         if not distinct(self.methods, is_name):
             _fail("methods", self.methods, "distinct method names such as ('pso', 'cmaes')", owner)
-        if not distinct(
-            self.polish_shares, lambda v: is_number(v) and (v == 0 or 0.01 <= v <= 0.9)
-        ):
+        share = lambda v: is_number(v) and (v == 0 or 0.01 <= v <= 0.9)  # noqa: E731
+        if not distinct(self.polish_shares, share):
             allowed = "distinct numbers, each 0 (no polish) or in [0.01, 0.9]"
             _fail("polish_shares", self.polish_shares, allowed, owner)
         _check_values("convergence speed", (self.speed,), _SPEED)
@@ -151,7 +132,7 @@ class Preset:
     speeds: tuple[float, ...]
     """Speed sweep (Figs. 4-6) [m/s]."""
     powers: tuple[float, ...]
-    """Power sweep (Figs. 7-8) [W/kg]; each power runs a vertical and a horizontal optimisation."""
+    """Power sweep (Figs. 7-8) [W/kg], a vertical and a horizontal optimisation each."""
     shape_speeds: tuple[float, ...]
     """Speeds of the wing-shape study (Fig. 15) [m/s]; the tear-drop side reuses the sweep."""
     shape_powers: tuple[float, ...]
@@ -173,9 +154,8 @@ class Preset:
     env_kwargs: tuple[tuple[str, Any], ...] = field(default=())
     """Extra env keywords for every job, e.g. ``(("n_time", 32),)`` in the test preset."""
     warm_start: str = "table"
-    """How each search at the preset's budgets starts (:data:`WARM_STARTS`): ``table`` polishes
-    the reference table's strokes first where it has the job's problem and condition (the
-    report says where it has not), ``none`` starts cold."""
+    """How each search starts (:data:`WARM_STARTS`): ``table`` polishes the table's strokes
+    first where it has them (the report says where not), ``none`` cold."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.isidentifier():
@@ -188,15 +168,16 @@ class Preset:
             value = getattr(self, name)
             if not is_int(value, self.swarm_size):
                 _fail(name, value, f"an integer >= swarm_size ({self.swarm_size}) evaluations")
-        _check_values("speeds", self.speeds, _SPEED)
-        _check_values("shape_speeds", self.shape_speeds, _SPEED)
-        _check_values("powers", self.powers, _POWER)
-        _check_values("shape_powers", self.shape_powers, _POWER)
-        _check_values(
-            "kinematics_speed/phase_speed",
-            tuple(sorted({self.kinematics_speed, self.phase_speed})),
-            _SPEED,
-        )
+        sweeps = {
+            "speeds": _SPEED,
+            "shape_speeds": _SPEED,
+            "powers": _POWER,
+            "shape_powers": _POWER,
+        }
+        for name, condition in sweeps.items():
+            _check_values(name, getattr(self, name), condition)
+        speeds = tuple(sorted({self.kinematics_speed, self.phase_speed}))
+        _check_values("kinematics_speed/phase_speed", speeds, _SPEED)
         _check_values("kinematics_power", (self.kinematics_power,), _POWER)
         if self.kinematics_objective not in STUDIED_OBJECTIVES:
             allowed = " or ".join(map(repr, STUDIED_OBJECTIVES))
@@ -209,11 +190,8 @@ class Preset:
             _fail("convergence", self.convergence, "a ConvergenceSpec")
         keys = [k for k, _ in self.env_kwargs]
         if len(set(keys)) != len(keys) or any(k in _PER_JOB_KWARGS for k in keys):
-            _fail(
-                "env_kwargs",
-                self.env_kwargs,
-                "distinct (name, value) pairs; the condition and objective are set per job",
-            )
+            allowed = "distinct (name, value) pairs; the condition and objective are set per job"
+            _fail("env_kwargs", self.env_kwargs, allowed)
 
     @property
     def budgets(self) -> dict[str, int]:
@@ -221,8 +199,7 @@ class Preset:
         return {task: getattr(self, name) for task, name in BUDGET_FIELDS.items()}
 
     def budget(self, task: str) -> int:
-        """Evaluations per optimisation of ``task``; ValueError for a task the preset does not
-        budget."""
+        """Evaluations per optimisation of ``task``; ValueError for a task without a budget."""
         if task not in BUDGET_FIELDS:
             raise ValueError(
                 f"Preset {self.name!r} has no budget for task {task!r}; allowed: "
@@ -301,15 +278,14 @@ OVERRIDES: dict[str, tuple[str, ...]] = {
 
 def overridden(preset: Preset, **given: Any) -> Preset:
     """``preset`` with the command line's values ``given`` (keys of :data:`OVERRIDES`; None:
-    the preset's), checked by the preset; ValueError naming the option. Its description says
-    what was changed."""
+    the preset's), its description saying so; ValueError naming the option."""
     changed = []
     for option, value in given.items():
         if value is None:
             continue
-        values = {
-            name: tuple(value) if isinstance(value, list) else value for name in OVERRIDES[option]
-        }
+        values = dict.fromkeys(
+            OVERRIDES[option], tuple(value) if isinstance(value, list) else value
+        )
         try:
             if "convergence.seeds" in values:
                 values["convergence"] = replace(
@@ -322,10 +298,8 @@ def overridden(preset: Preset, **given: Any) -> Preset:
         changed.append(f"--{option} {shown}")
     if not changed:
         return preset
-    return replace(
-        preset,
-        description=f"{preset.description}; changed on the command line: {', '.join(changed)}",
-    )
+    changes = f"; changed on the command line: {', '.join(changed)}"
+    return replace(preset, description=preset.description + changes)
 
 
 def get_preset(name: str) -> Preset:

@@ -1,6 +1,5 @@
-"""The reproduction report: every claim of the paper (docs/model.md §9) beside ours, plus figures;
-no timestamps or timings (those are in ``manifest.json``), so the same command gives the same file.
-"""
+"""The reproduction report: every claim of the paper (docs/model.md §9) beside ours, and figures;
+no timestamps or timings (``manifest.json`` has them): the same command gives the same file."""
 
 from __future__ import annotations
 
@@ -13,13 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from eval.studies.base import StudyOutput, StudyPlan
-from eval.studies.claims import (
-    CONFIDENCE_RULE,
-    IDENTIFIABILITY_RULE,
-    RULES,
-    Claim,
-    VerdictCount,
-)
+from eval.studies.claims import CONFIDENCE_RULE, IDENTIFIABILITY_RULE, RULES, Claim, VerdictCount
 from eval.studies.tables import PINNED_SHARE, pinned_parameters
 from tandem_env import BOUND_TOLERANCE, PARAMETER_NAMES
 from tandem_env.io.files import write_json_atomic, write_text_atomic
@@ -132,13 +125,13 @@ CLAIMS_FILE = "claims.json"
 
 
 def claims_data(claims: Sequence[Claim]) -> dict[str, Any]:
-    """The claims as JSON: each claim's fields (statistics, verdicts before and after the
-    bootstrap, its flips; NaN as null) and its ``cells`` in the paper-vs-ours table, by title."""
+    """The claims as JSON: each claim's fields (NaN as null) and its ``cells`` in the
+    paper-vs-ours table, by title."""
     nan = lambda v: None if isinstance(v, float) and math.isnan(v) else v  # noqa: E731
-    rows = [{k: nan(v) for k, v in asdict(c).items()} for c in claims]
-    for row, c in zip(rows, claims, strict=True):
-        row["cells"] = {title: cell(c) for title, cell in CLAIM_COLUMNS}
-    return {"claims": rows}
+    cells = lambda c: {t: cell(c) for t, cell in CLAIM_COLUMNS}  # noqa: E731
+    return {
+        "claims": [{**{k: nan(v) for k, v in asdict(c).items()}, "cells": cells(c)} for c in claims]
+    }
 
 
 def verdict_summary(claims: Sequence[Claim]) -> list[str]:
@@ -181,7 +174,7 @@ def settings_lines(plan: StudyPlan) -> list[str]:
         batch = f"; PSO swarm {p.swarm_size}" if "pso" in plan.methods else ""
     else:  # the reading's search replaces the preset's method, budgets and batch
         batch = f"; search of the reading: {search.describe()}"
-    lines = [
+    return [
         f"- preset `{p.name}`: {p.description}",
         f"- methods: {', '.join(f'`{m}`' for m in plan.methods)}; seeds {list(p.seeds)}; "
         f"budgets {plan.budget('level')} (level) and {plan.budget('accelerate')} (accelerating) "
@@ -201,17 +194,17 @@ def settings_lines(plan: StudyPlan) -> list[str]:
         "- statistics over the feasible seeds of each condition; *best seed* = the seed with the "
         "best objective",
     ]
-    return lines
 
 
 def write_report(
     path: Path, plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str]
 ) -> Path:
     """Write the report to ``path`` (atomically) and return it: settings, rules, every claim
-    beside ours, the pinned parameters, the studies not run and the figures; and the claims as
-    data beside it (:data:`CLAIMS_FILE`)."""
+    beside ours, the pinned parameters, the studies not run and the figures; and
+    :data:`CLAIMS_FILE` beside it."""
     base = path.parent
     claims = [c for o in outputs for c in o.claims]
+    rows = [r for o in outputs for r in o.rows]
     parts = [
         '# Reproduction report: Faisal & Filippone, "Aerodynamic Model for Tandem Flapping Wings"',
         "",
@@ -228,21 +221,12 @@ def write_report(
         claims_table(claims),
         "",
     ]
-    notes = [c for c in claims if c.detail or c.note]
-    if notes:
-        parts += ["### Notes on the rows", ""]
-        for c in notes:
-            text = "; ".join(t for t in (c.detail, c.note) if t)
-            parts.append(f"- **{c.id}**: {text}")
-        parts.append("")
-    parts += [
-        "## Against the reference table",
-        "",
-        *plan.table_lines([r for o in outputs for r in o.rows]),
-        "",
-    ]
+    notes = [f"- **{c.id}**: {'; '.join(t for t in (c.detail, c.note) if t)}" for c in claims]
+    if notes := [n for n, c in zip(notes, claims, strict=True) if c.detail or c.note]:
+        parts += ["### Notes on the rows", "", *notes, ""]
+    parts += ["## Against the reference table", "", *plan.table_lines(rows), ""]
     parts += ["## Understood differences", "", *[f"- {t}" for t in UNDERSTOOD.values()], ""]
-    parts += pinned_section([r for o in outputs for r in o.rows])
+    parts += pinned_section(rows)
     missing = [n for n in all_studies if n not in {o.name for o in outputs}]
     if missing:
         parts += [
@@ -284,9 +268,7 @@ def pinned_section(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     for (name, bound, value), series in places.items():
         where = "; ".join(f"{s} at {', '.join(c)} {unit}" for (s, unit), c in series.items())
         lines.append(f"- `{name}` at its {bound} bound {value:g}: {where}")
-    if not found:
-        lines.append("- none")
-    return [*lines, ""]
+    return [*lines, *([] if found else ["- none"]), ""]
 
 
 def figure_markdown(caption: str, path: Path, base: Path) -> str:

@@ -17,16 +17,9 @@ from eval.studies.tables import by_condition, select, table4_bounds
 
 NAME = "speed"
 TITLE = "Level flight: speed sweep (Figs. 4-6)"
-QUANTITIES = (
-    "objective_value",
-    "efficiency_pct",
-    "thrust_ratio",
-    "mean_angle_of_attack",
-    "stroke_plane_angle",
-    "power_per_mass",
-    "frequency",
-    "sweep_amplitude",
-    "lift_to_weight",
+QUANTITIES = tuple(
+    "objective_value efficiency_pct thrust_ratio mean_angle_of_attack stroke_plane_angle "
+    "power_per_mass frequency sweep_amplitude lift_to_weight".split()
 )
 PAPER_PEAK_EFFICIENCY = 12.7  # % at 1.5 m/s (Fig. 6)
 PAPER_BEST_SPEED = 1.5  # m/s: minimum power and maximum efficiency (Figs. 5, 6)

@@ -1,7 +1,5 @@
-"""Records -> tidy rows (one per optimisation) -> per-condition statistics over seeds.
-
-Statistics use the feasible seeds only; "best" is the value at the feasible seed with the best
-objective, so every "best" column describes one and the same stroke.
+"""Records -> tidy rows (one per optimisation) -> per-condition statistics over the feasible
+seeds; "best" is the value at the feasible seed with the best objective (one and the same stroke).
 """
 
 from __future__ import annotations
@@ -55,14 +53,12 @@ QUANTITIES: dict[str, str] = {
 }
 
 
-#: Quantities that are angles on a circle: their statistics are circular (see
-#: :func:`circular_median`); +170° and −170° are 20° apart, not 340°.
+#: Angles on a circle, with circular statistics (:func:`circular_median`).
 CIRCULAR: frozenset[str] = frozenset(
     {"phase_difference", *(n for n in PARAMETER_NAMES if n.endswith("_phase"))}
 )
 
-#: The Table 4 parameter(s) behind each stroke quantity of the rows: a mean of both wings, or
-#: one of the 28 parameters itself (the tidy rows carry all 28, in Table 4 units).
+#: The Table 4 parameter(s) behind each stroke quantity: both wings' (a mean) or itself.
 PARAMETERS_OF: dict[str, tuple[str, ...]] = {
     **{
         q: (f"fore_{q}", f"hind_{q}")
@@ -70,8 +66,8 @@ PARAMETERS_OF: dict[str, tuple[str, ...]] = {
     },
     **{name: (name,) for name in PARAMETER_NAMES},
 }
-#: A parameter is *pinned* at a Table 4 bound at one condition when more than this share of the
-#: feasible seeds sit at it (:func:`tandem_env.bound_sides`); a two-wing mean when both wings do.
+#: A parameter is *pinned* at a bound at one condition when more than this share of the feasible
+#: seeds sit at it (:func:`tandem_env.bound_sides`); a two-wing mean when both wings do.
 PINNED_SHARE = 0.5
 
 
@@ -79,7 +75,7 @@ def table4_bounds(
     quantity: str, bounds: StrokeBounds = TABLE_4_BOUNDS
 ) -> tuple[float, float] | None:
     """The (low, high) of a stroke quantity's parameters in ``bounds`` when they share one
-    range and can sit at a bound; else None."""
+    finite range; else None."""
     names = PARAMETERS_OF.get(quantity, ())
     index = [PARAMETER_NAMES.index(n) for n in names]
     ranges = {(bounds.lower[i], bounds.upper[i]) for i in index if not UNBOUNDED[i]}
@@ -87,8 +83,7 @@ def table4_bounds(
 
 
 def row_bounds(row: Mapping[str, Any]) -> StrokeBounds:
-    """The stroke bounds of a row's insect: Table 4's with the row's ``stroke_bounds`` changes
-    (a mapping or its JSON text)."""
+    """Table 4's bounds with the row's ``stroke_bounds`` changes (a mapping or JSON text)."""
     own = row.get("stroke_bounds")
     if not own:
         return TABLE_4_BOUNDS
@@ -96,8 +91,8 @@ def row_bounds(row: Mapping[str, Any]) -> StrokeBounds:
 
 
 def pinned(rows: Sequence[Mapping[str, Any]], quantity: str) -> str:
-    """``"lower"``, ``"upper"`` or ``""``: the bound the stroke quantity is pinned at over the
-    feasible ``rows`` of one condition (:data:`PINNED_SHARE`)."""
+    """``"lower"``, ``"upper"`` or ``""``: the bound ``quantity`` is pinned at over the feasible
+    ``rows`` of one condition (:data:`PINNED_SHARE`)."""
     names = PARAMETERS_OF.get(quantity)
     feasible = [r for r in rows if r["feasible"]]
     if not names or not feasible:
@@ -123,9 +118,9 @@ def _wrap(angles: np.ndarray) -> np.ndarray:
 
 
 def circular_median(angles: Sequence[float]) -> float:
-    """The circular median of angles [deg] in (−180, 180] (NaN for none): the direction of
-    least summed angular distance (Fisher 1993, §2.3.2) among the angles and their neighbours'
-    midpoints, ties averaged on the circle; for +136° and −170° it is 163°, not −17°."""
+    """The circular median of angles [deg] in (−180, 180] (NaN for none): the direction of least
+    summed angular distance (Fisher 1993, §2.3.2) among the angles and their neighbours'
+    midpoints, ties averaged on the circle."""
     values = _wrap(np.asarray(angles, float))
     if values.size == 0:
         return math.nan
@@ -156,8 +151,13 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
     stroke parameters (Table 4 units) and ``at_bounds`` (:func:`tandem_env.describe_bounds`)."""
     m, s, insect = record.metrics, record.stroke, record.config["env"]["insect"]
     phase_difference = float(_wrap(float(s["hind_sweep_phase"]) - float(s["fore_sweep_phase"])))
-    mean = lambda name: 0.5 * (float(s[f"fore_{name}"]) + float(s[f"hind_{name}"]))  # noqa: E731
-    row: dict[str, Any] = {
+    weight = float(insect["body_mass"]) * float(insect["gravity"])
+    stroke = [float(s[name]) for name in PARAMETER_NAMES]  # Table 4 units
+    own = insect.get("stroke_bounds")  # only where not Table 4's: what pinned() measures against
+    bounds = TABLE_4_BOUNDS if own is None else StrokeBounds(**own)
+    metrics = ("lift_to_weight", "power_per_mass", "excess_vertical", "excess_horizontal")
+    means = ("stroke_plane_angle", "frequency", "sweep_amplitude", "pitch_amplitude")
+    return {
         "method": job.method,
         "task": job.task,
         "objective": job.env("objective", "efficiency"),
@@ -173,32 +173,18 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
         "reward": float(record.reward),
         "efficiency": float(m["efficiency"]),
         "efficiency_pct": 100.0 * float(m["efficiency"]),
-        "thrust_ratio": float(m["thrust"])
-        / (float(insect["body_mass"]) * float(insect["gravity"])),
-        "lift_to_weight": float(m["lift_to_weight"]),
-        "power_per_mass": float(m["power_per_mass"]),
-        "excess_vertical": float(m["excess_vertical"]),
-        "excess_horizontal": float(m["excess_horizontal"]),
-        "excess_total": float(m["excess_total"]),
-        "mean_angle_of_attack": float(m["mean_angle_of_attack"]),
-        "stroke_plane_angle": mean("stroke_plane_angle"),
-        "frequency": mean("frequency"),
-        "sweep_amplitude": mean("sweep_amplitude"),
-        "pitch_amplitude": mean("pitch_amplitude"),
+        "thrust_ratio": float(m["thrust"]) / weight,
+        **{k: float(m[k]) for k in (*metrics, "excess_total", "mean_angle_of_attack")},
+        **{q: 0.5 * (float(s[f"fore_{q}"]) + float(s[f"hind_{q}"])) for q in means},
         "phase_difference": phase_difference,
         "phase_difference_abs": abs(phase_difference),
         "induction_converged": bool(m.get("induction_converged", True)),
         "wall_time_s": float(record.wall_time),
         "key": job.key,
+        **dict(zip(PARAMETER_NAMES, stroke, strict=True)),
+        "at_bounds": describe_bounds(stroke, bounds),
+        **({} if own is None else {"stroke_bounds": bounds.changes()}),
     }
-    stroke = [float(s[name]) for name in PARAMETER_NAMES]  # Table 4 units
-    row.update(zip(PARAMETER_NAMES, stroke, strict=True))
-    own = insect.get("stroke_bounds")  # only where not Table 4's
-    bounds = TABLE_4_BOUNDS if own is None else StrokeBounds(**own)
-    row["at_bounds"] = describe_bounds(stroke, bounds)
-    if own is not None:  # the insect's own bounds, what pinned() measures against
-        row["stroke_bounds"] = bounds.changes()
-    return row
 
 
 def tidy_rows(records: Mapping[Job, Record]) -> list[dict[str, Any]]:
@@ -238,25 +224,16 @@ def spread(rows: Sequence[Mapping[str, Any]], quantity: str) -> Spread:
     feasible = [r for r in rows if r["feasible"]]
     values = np.array([float(r[quantity]) for r in feasible])
     if values.size == 0:
-        nan = math.nan
-        return Spread((), (), nan, nan, nan, nan, None, len(rows), 0)
+        return Spread((), (), *(math.nan,) * 4, None, len(rows), 0)
     if quantity in CIRCULAR:
         median = circular_median(values)
         q25, q75 = circular_quartiles(values, median)
     else:
         q25, median, q75 = np.percentile(values, [25.0, 50.0, 75.0])
     top = max(feasible, key=lambda r: (float(r["objective_value"]), -int(r["seed"])))
-    return Spread(
-        values=tuple(float(v) for v in values),
-        seeds=tuple(int(r["seed"]) for r in feasible),
-        median=float(median),
-        q25=float(q25),
-        q75=float(q75),
-        best=float(top[quantity]),
-        best_seed=int(top["seed"]),
-        n=len(rows),
-        n_feasible=len(feasible),
-    )
+    seeds = tuple(int(r["seed"]) for r in feasible)
+    stats = (float(median), float(q25), float(q75), float(top[quantity]), int(top["seed"]))
+    return Spread(tuple(map(float, values)), seeds, *stats, len(rows), len(feasible))
 
 
 def select(rows: Iterable[Mapping[str, Any]], **where: Any) -> list[Mapping[str, Any]]:
@@ -276,8 +253,8 @@ def by_condition(
 def series_conditions(
     rows: Iterable[Mapping[str, Any]],
 ) -> list[tuple[tuple[Any, ...], list[Mapping[str, Any]]]]:
-    """The rows grouped by series (:data:`SERIES_KEYS`, as text) and condition, in that order:
-    ((method, task, objective, planform, condition), rows) each."""
+    """((method, task, objective, planform, condition), rows) of each series (as text) and
+    condition, in that order."""
     groups: dict[tuple[Any, ...], list[Mapping[str, Any]]] = {}
     for r in rows:
         groups.setdefault((*(str(r[k]) for k in SERIES_KEYS), float(r["condition"])), []).append(r)
@@ -310,9 +287,8 @@ def spread_summary_rows(
 
 
 def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Every stroke parameter pinned at a Table 4 bound (:func:`pinned`) per series and
-    condition: its ``bound``, ``value`` and ``share`` of the feasible seeds there; a record in
-    two studies counts once."""
+    """Every parameter pinned at a bound (:func:`pinned`) per series and condition: its
+    ``bound``, ``value`` and ``share`` of the feasible seeds; a record in two studies once."""
     out = []
     for key, members in series_conditions(list({r["key"]: r for r in rows}.values())):
         feasible = [r for r in members if r["feasible"]]

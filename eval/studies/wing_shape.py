@@ -24,12 +24,8 @@ from tandem_env import Dragonfly
 NAME = "wing-shape"
 TITLE = "Wing shape: tear-drop vs real planform (Figs. 14-16)"
 PLANFORMS = ("tear-drop", "real")
-QUANTITIES = (
-    "objective_value",
-    "efficiency_pct",
-    "excess_vertical",
-    "excess_horizontal",
-    "power_per_mass",
+QUANTITIES = tuple(
+    "objective_value efficiency_pct excess_vertical excess_horizontal power_per_mass".split()
 )
 PAPER_GAIN_AT_2 = 12.0  # % efficiency gain of the real wing at 2 m/s (Fig. 15)
 

@@ -74,20 +74,9 @@ def analyse_reading(
 
 
 #: The columns of continuation_check.csv, in order.
-CHECK_COLUMNS: tuple[str, ...] = (
-    "reading",
-    "task",
-    "objective",
-    "condition",
-    "seed",
-    "budget_full",
-    "budget_continued",
-    "objective_full",
-    "objective_continued",
-    "feasible_full",
-    "feasible_continued",
-    "difference",
-    "chosen",
+CHECK_COLUMNS: tuple[str, ...] = tuple(
+    "reading task objective condition seed budget_full budget_continued objective_full "
+    "objective_continued feasible_full feasible_continued difference chosen".split()
 )
 
 
@@ -110,7 +99,7 @@ def check_rows(
 
 def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """Per reading and task, and over all (last): the continuation's bias on the checked pairs
-    (both feasible; :data:`CHECK_COLUMNS` says what each column is)."""
+    (both feasible)."""
     groups: dict[tuple[str, str], list[Mapping[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["reading"], row["task"]), []).append(row)
@@ -118,11 +107,9 @@ def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
         groups[("all", "all")] = list(rows)
     out = []
     for (reading, task), members in groups.items():
-        values = [
-            float(r["difference"])
-            for r in members
-            if r["feasible_full"] and r["feasible_continued"]
-        ]
+        both = [r for r in members if r["feasible_full"] and r["feasible_continued"]]
+        values = [float(r["difference"]) for r in both]
+        lost = sum(bool(r["feasible_full"]) and not r["feasible_continued"] for r in members)
         out.append(
             {
                 "reading": reading,
@@ -133,17 +120,15 @@ def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
                 "highest": max(values, default=math.nan),
                 "within_0.5%": sum(v >= -0.005 for v in values),
                 "infeasible": len(members) - len(values),
-                "infeasible_continued": sum(
-                    bool(r["feasible_full"]) and not r["feasible_continued"] for r in members
-                ),
+                "infeasible_continued": lost,
             }
         )
     return out
 
 
 def _earlier_invocations(out_dir: Path, plan: StudyPlan) -> list[dict[str, Any]]:
-    """The invocations into ``out_dir`` at this preset its manifest records (one written before
-    invocations were recorded gives its one run); says so when it holds another preset's."""
+    """The invocations into ``out_dir`` at this preset its manifest records (an older manifest:
+    its one run); says so when it holds another preset's."""
     try:
         before = read_json(out_dir / MANIFEST)
     except (FileNotFoundError, ValueError):
@@ -197,21 +182,16 @@ class ReadingsPlan:
         title: str = "readings study",
     ) -> None:
         readings = tuple(readings)
+        names = [r.name for r in readings]
         if not readings or readings[0] != DEFAULT:
             raise ValueError(
-                f"readings = {[r.name for r in readings]}; allowed: the default reading first, "
+                f"readings = {names}; allowed: the default reading first, "
                 "then others (their claims are compared with the default's)"
             )
-        names = [r.name for r in readings]
         if len(set(names)) != len(names):
             raise ValueError(f"readings = {names}; allowed: distinct names")
-        self.plan = plan
-        self.store = out
-        self.readings = readings
-        self.title = title
-        self.continuation = continuation
-        self.derive = derive
-        self.progress = progress
+        self.plan, self.store, self.readings, self.title = plan, out, readings, title
+        self.continuation, self.derive, self.progress = continuation, derive, progress
         self.earlier = _earlier_invocations(out.directory, plan)
         self.load_before = _load()
         self.results: list[ReadingResult] = []
@@ -282,31 +262,18 @@ class ReadingsPlan:
     def finish(self, run: PlanRun) -> ReadingsResult:
         """Write the bias check's CSV, readings.csv, the matrix, report.md and the manifest of
         ``run`` (this plan's)."""
-        out = self.store.directory
+        out, plan, results = self.store.directory, self.plan, self.results
         if self.rows:
             write_csv_atomic(out / CHECK_CSV, self.rows)
         summary = check_summary(self.rows)
-        plan, results = self.plan, self.results
-        csv_path = out / "readings.csv"
+        csv_path, report = out / "readings.csv", out / "report.md"
         write_csv_atomic(csv_path, csv_rows(results))
-        claims = results[0].claims
-        methods = ", ".join(plan.methods)
-        figure = matrix_figure(
-            results,
-            plan.figure(out, "readings_matrix"),
-            f"Paper claims under each reading ({plan.preset.name} preset, {methods})",
-        )
-        report = out / "report.md"
+        title = f"Paper claims under each reading ({plan.preset.name} preset, "
+        figure = plan.figure(out, "readings_matrix")
+        matrix_figure(results, figure, title + f"{', '.join(plan.methods)})")
+        words, continuation = self.words, self.continuation
         write_readings_report(
-            report,
-            plan,
-            results,
-            self.words,
-            self.continuation,
-            self.full,
-            csv_path,
-            figure,
-            summary,
+            report, plan, results, words, continuation, self.full, csv_path, figure, summary
         )
         this = {
             "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
@@ -315,14 +282,14 @@ class ReadingsPlan:
             "phases": [{"name": name, **r.to_dict()} for name, r in run.runs.items()],
             "wall_time_s": round(run.wall_time, 1),
         }
-        continuation = self.continuation
         write_json_atomic(
             out / MANIFEST,
             {
                 "preset": plan.preset.name,
                 "methods": list(plan.methods),
                 "claims": [
-                    {"id": c.id, "statement": c.statement, "paper": c.paper} for c in claims
+                    {"id": c.id, "statement": c.statement, "paper": c.paper}
+                    for c in results[0].claims
                 ],
                 "readings": [
                     {
@@ -333,21 +300,16 @@ class ReadingsPlan:
                     }
                     for r in results
                 ],
-                "combination_rule": self.words,
+                "combination_rule": words,
                 "continuation": None if continuation is None else asdict(continuation),
                 "continuation_check": summary,
                 "run_in_full": self.full,
                 "invocations": [*self.earlier, this],
             },
         )
-        return ReadingsResult(
-            tuple(results),
-            tuple(run.runs.values()),
-            self.words,
-            (csv_path, figure, report),
-            run.wall_time,
-            tuple(run.runs),
-        )
+        files = (csv_path, figure, report)
+        runs = tuple(run.runs.values())
+        return ReadingsResult(tuple(results), runs, words, files, run.wall_time, tuple(run.runs))
 
 
 def run_readings(
@@ -377,19 +339,18 @@ def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
     """One row per reading (:data:`CSV_COLUMNS`)."""
     rows = []
     for r in results:
-        options = r.reading.model_options
-        c_r = r.reading.rotational_coefficient
+        reading, c_r = r.reading, r.reading.rotational_coefficient
         row: dict[str, Any] = {
-            "reading": r.reading.name,
-            "kind": "combination" if r.reading.derived_from else "single",
-            "changes": r.reading.describe_changes(),
-            **{name: getattr(options, name) for name in DECISION_OPTIONS},
+            "reading": reading.name,
+            "kind": "combination" if reading.derived_from else "single",
+            "changes": reading.describe_changes(),
+            **{name: getattr(reading.model_options, name) for name in DECISION_OPTIONS},
             "rotational_coefficient": math.pi if c_r is None else float(c_r),
-            "horizontal_objective": r.reading.horizontal_objective,
-            "search": "" if r.reading.search is None else r.reading.search.describe(),
+            "horizontal_objective": reading.horizontal_objective,
+            "search": "" if reading.search is None else reading.search.describe(),
             **asdict(r.counts),
             **{k: v if math.isnan(v) else float(f"{v:.4g}") for k, v in r.headline().items()},
-            "description": r.reading.description,
+            "description": reading.description,
         }
         rows.append({k: row[k] for k in CSV_COLUMNS})
     return rows
@@ -415,9 +376,8 @@ def continuation_option(text: str) -> Continuation | None:
 
 
 def check_continuation(plan: StudyPlan, continuation: Continuation) -> None:
-    """Prepare a continued job of every configuration (method, budget, settings) of the
-    default's jobs as the harness will: ValueError, before any work, naming a share whose
-    continued jobs cannot run (below one population, a part without evaluations)."""
+    """Prepare a continued job of every configuration of the default's jobs as the harness
+    will: ValueError, before any work, naming a share whose continued jobs cannot run."""
     jobs = {(j.method, j.budget, j.method_config): j for j in reading_jobs(plan, DEFAULT)}
     for job in jobs.values():
         continued = continuation.job(job, None)  # the default's optima are not known yet
@@ -476,11 +436,8 @@ class ReadingsCampaign:
     def report(self, args: argparse.Namespace, result: ReadingsResult) -> None:
         """Print what the run did (stderr) and found (stdout)."""
         for phase, run in zip(result.phases, result.runs, strict=True):
-            print(
-                f"{phase}: {run.total} optimisations: {run.describe(args.out)} "
-                f"({run.executor}); {run.wall_time:.1f} s",
-                file=sys.stderr,
-            )
+            done = f"{run.describe(args.out)} ({run.executor}); {run.wall_time:.1f} s"
+            print(f"{phase}: {run.total} optimisations: {done}", file=sys.stderr)
         for r in result.results:
             print(f"{r.reading.name}: {VerdictCount.of(r.claims).text()}")
         print(f"best: {result.best.reading.name} ({result.best.agree} claims agree)")
