@@ -21,11 +21,9 @@ from eval.studies.readings.run import READINGS, ReadingsCampaign
 from eval.studies.suite import SUITE, SuiteCampaign
 from tandem_env.physics.insect import DRAGONFLY, describe_insect
 
-#: What the command runs, in the order of its help: the paper's studies and the readings study.
-#: Each has the study ``names`` that choose it, its help lines (``description``,
-#: ``reading_help``), ``default_out``, its own ``options`` (flag -> ``add_argument`` keywords,
-#: refused for another study), a plan (``plan(args, plan, store)``: ``phases`` for
-#: :func:`agents.runner.run_plan`, a ``title`` and ``finish(run)``) and ``report(args, result)``.
+#: What the command runs, in the order of its help: the paper's studies and the readings study,
+#: each with its ``names``, help lines, ``default_out``, own ``options`` (flag -> keywords), a
+#: ``plan(args, plan, store)`` (``phases``, ``title``, ``finish(run)``) and ``report``.
 CAMPAIGNS = (SUITE, READINGS)
 
 
@@ -96,27 +94,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--preset", choices=tuple(STUDY_PRESETS), default="quick", help="conditions, seeds, budgets"
     )
+    shared = "wing-shape studies, readings"
     helps = {
-        "speeds": (
-            "V",
-            float,
-            "the level-flight sweep [m/s] (speed and wing-shape studies, readings)",
-        ),
-        "powers": (
-            "P",
-            float,
-            "the available-power sweep [W/kg] (power and wing-shape studies, readings)",
-        ),
+        "speeds": ("V", float, f"the level-flight sweep [m/s] (speed and {shared})"),
+        "powers": ("P", float, f"the available-power sweep [W/kg] (power and {shared})"),
         "seeds": ("SEED", int, "the seeds of every optimisation (convergence study: its runs)"),
     }
     for option, (metavar, kind, text) in helps.items():
-        parser.add_argument(
-            f"--{option}",
-            type=kind,
-            nargs="+",
-            metavar=metavar,
-            help=f"{text}; default the preset's",
-        )
+        text += "; default the preset's"
+        parser.add_argument(f"--{option}", type=kind, nargs="+", metavar=metavar, help=text)
     parser.add_argument(
         "--budget",
         type=int,
@@ -192,16 +178,15 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         stored = writable or find_records(store, unique, cache=False) is not None
         if not writable and not (reports_only and stored):
             store.check(jobs=unique)  # raises, naming the folder and why
+        detail = f"preset {study.plan.preset.name}, method {', '.join(study.plan.methods)}"
         # --quiet says no cost line, so none is made
-        command = None
-        if not args.quiet:
-            command = CommandProgress(
-                study.title,
-                store,
-                cache=args.cache,
-                detail=f"preset {study.plan.preset.name}, method {', '.join(study.plan.methods)}",
-                rerun=args.rerun,
+        command = (
+            None
+            if args.quiet
+            else CommandProgress(
+                study.title, store, cache=args.cache, detail=detail, rerun=args.rerun
             )
+        )
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     if not writable:
@@ -219,16 +204,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         print(f"insect: {describe_insect(plan.insect)}", file=sys.stderr)
 
     def run() -> object:
-        done = run_plan(
-            study.phases,
-            store,
-            scheduler,
-            args.cache,
-            progress=not args.quiet,
-            rerun=args.rerun,
-            command=command,
-        )
-        return study.finish(done)
+        progress = {"progress": not args.quiet, "rerun": args.rerun, "command": command}
+        return study.finish(run_plan(study.phases, store, scheduler, args.cache, **progress))
 
     result = run_reporting(parser, run)
     if isinstance(result, int):

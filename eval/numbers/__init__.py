@@ -1,15 +1,11 @@
 """``python -m eval numbers``: measure the numbers README and docs quote, and write them in.
 
-A number a document states is produced here, by the command the document names, and written
-between the markers ``<!-- numbers: NAME -->`` and ``<!-- /numbers -->`` (generated Markdown,
-never edited by hand). Each measurement keeps its raw results in ``docs/numbers/<name>.json``
-(per-seed values, commands, date, machine and load) and its Markdown is rendered from that
-file alone: ``--only NAME ...`` measures those (the ``on_request`` ones, which collect a long
-run's outputs, only when named), ``--render`` rewrites the documents from the stored JSON.
-``tests/test_docs_numbers.py`` checks every region against its rendering and reruns the
-deterministic rows. A new number is a :class:`~eval.numbers.framework.Measurement` in a
-module of this package (its ``MEASUREMENT`` or ``MEASUREMENTS``) and one region in a document.
-"""
+Each number is produced by the command its document names and written between the markers
+``<!-- numbers: NAME -->`` and ``<!-- /numbers -->``, rendered from its raw results in
+``docs/numbers/<name>.json`` alone: ``--only NAME ...`` measures those (``on_request`` ones only
+when named), ``--render`` rewrites the documents from the stored JSON. A new number is a
+:class:`~eval.numbers.framework.Measurement` in a module here (its ``MEASUREMENT`` or
+``MEASUREMENTS``) and one region in a document."""
 
 from __future__ import annotations
 
@@ -21,33 +17,22 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
-from eval.numbers.framework import (
-    DOCUMENTS,
-    REGION,
-    ROOT,
-    Measurement,
-    blas_kernel,
-    json_path,
-    load,
-    machine,
-    measure_other_kernels,
-    save,
-)
+from eval.numbers import framework as fw
 
 NAME = "numbers"
 HELP = "rerun the measurements README and docs quote, and write them into the documents"
 
 
-def _measurement_modules() -> list[ModuleType]:
-    """Every module of this package but the framework: one per measurement (or set of them)."""
-    names = [m.name for m in pkgutil.iter_modules(__path__) if m.name != "framework"]
-    return [importlib.import_module(f"{__name__}.{name}") for name in names]
-
-
+#: Every module of this package but the framework: one per measurement (or set of them).
+_MODULES: list[ModuleType] = [
+    importlib.import_module(f"{__name__}.{m.name}")
+    for m in pkgutil.iter_modules(__path__)
+    if m.name != "framework"
+]
 #: Every measurement by name: each module's ``MEASUREMENT`` (or its ``MEASUREMENTS``).
-MEASUREMENTS: dict[str, Measurement] = {
+MEASUREMENTS: dict[str, fw.Measurement] = {
     m.name: m
-    for module in _measurement_modules()
+    for module in _MODULES
     for m in getattr(module, "MEASUREMENTS", None) or (module.MEASUREMENT,)
 }
 
@@ -64,15 +49,14 @@ def render_document(text: str, rendered: dict[str, str]) -> str:
             raise KeyError(f"unknown numbers region {name!r}; known: {sorted(rendered)}")
         return match.group(1) + rendered[name] + match.group(4)
 
-    return REGION.sub(body, text)
+    return fw.REGION.sub(body, text)
 
 
 def write_documents(rendered: dict[str, str]) -> list[Path]:
     changed = []
-    for path in DOCUMENTS:
+    for path in fw.DOCUMENTS:
         text = path.read_text(encoding="utf-8")
-        new = render_document(text, rendered)
-        if new != text:
+        if (new := render_document(text, rendered)) != text:
             path.write_text(new, encoding="utf-8")
             changed.append(path)
     return changed
@@ -80,9 +64,7 @@ def write_documents(rendered: dict[str, str]) -> list[Path]:
 
 def rendered_all() -> dict[str, str]:
     """Every stored measurement's Markdown (one not measured yet has none)."""
-    return {
-        name: m.render(load(name)) for name, m in MEASUREMENTS.items() if json_path(name).exists()
-    }
+    return {n: m.render(fw.load(n)) for n, m in MEASUREMENTS.items() if fw.json_path(n).exists()}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -105,11 +87,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         every = [name for name, m in sorted(MEASUREMENTS.items()) if not m.on_request]
         for name in args.only or every:
             print(f"measuring {name} ...", file=sys.stderr, flush=True)
-            before = machine()
-            data = MEASUREMENTS[name].measure()
+            before, data = fw.machine(), MEASUREMENTS[name].measure()
             if MEASUREMENTS[name].blas_dependent:  # measured again under the other kernels
-                data |= {"blas_kernel": blas_kernel(), "other_kernels": measure_other_kernels(name)}
-            save(name, {**data, "machine_before": before, "machine_after": machine()})
+                kernels = {"blas_kernel": fw.blas_kernel()}
+                data |= {**kernels, "other_kernels": fw.measure_other_kernels(name)}
+            fw.save(name, {**data, "machine_before": before, "machine_after": fw.machine()})
     for path in write_documents(rendered_all()):
-        print(f"updated {path.relative_to(ROOT)}")
+        print(f"updated {path.relative_to(fw.ROOT)}")
     return 0

@@ -1,7 +1,6 @@
 """What two documented commands cost, each run into an empty folder and timed as a whole
-process: the quick preset (README "Reproduce the paper", docs/reproduction.md "Presets and what
-they cost": the one figure the documents give for its time; every other mention points here)
-and the README's first training command ("Train PPO and SAC stroke policies")."""
+process: the quick preset (the one figure the documents give for its time) and the README's
+first training command."""
 
 from __future__ import annotations
 
@@ -9,11 +8,10 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import Measurement, at_load, machine_line, minutes, run_command, spaced
+from eval.numbers import framework as fw
 
 QUICK_PRESET_COMMAND: tuple[str, ...] = ("python", "-m", "eval", "study", "all")
-"""The documented command (quick preset, CMA-ES, serially); ``--out`` and ``--quiet`` are
-added, and ``--no-cache`` so that no stored job from an earlier run shortens it."""
+"""The documented command; ``--out``, ``--quiet`` and ``--no-cache`` are added."""
 TRAINING_COMMAND: tuple[str, ...] = tuple(
     "python -m train --algo ppo --env TandemWing/LevelFlight-v0 --timesteps 200000 --seed 0 "
     "--env-kwargs speed=1.5".split()
@@ -26,7 +24,7 @@ def measure_quick_preset() -> dict[str, Any]:
     from agents.store import RecordStore
 
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
-        wall = run_command([*QUICK_PRESET_COMMAND, "--out", out, "--quiet", "--no-cache"])
+        wall = fw.run_command([*QUICK_PRESET_COMMAND, "--out", out, "--quiet", "--no-cache"])
         records = RecordStore(Path(out)).records()
     return {
         "command": " ".join(QUICK_PRESET_COMMAND),
@@ -39,36 +37,33 @@ def measure_quick_preset() -> dict[str, Any]:
 def measure_training() -> dict[str, Any]:
     """Run the README's PPO command into an empty log folder: wall time [s]."""
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as logs:
-        wall = run_command([*TRAINING_COMMAND, "-f", logs])
+        wall = fw.run_command([*TRAINING_COMMAND, "-f", logs])
     return {"command": " ".join(TRAINING_COMMAND), "wall_s": round(wall, 1)}
 
 
 def _took(data: dict[str, Any], name: str, what: str, where: str) -> str:
     """The sentence of a timed command: ``what`` it is, then its time and ``where`` it ran."""
     return (
-        f"`{data['command']}` {what}took **{minutes(data['wall_s'])}** wall clock {at_load(data)} "
-        f"{where}. {machine_line(data, name)}\n"
+        f"`{data['command']}` {what}took **{fw.minutes(data['wall_s'])}** wall clock {fw.at_load(data)} "
+        f"{where}. {fw.machine_line(data, name)}\n"
     )
 
 
 def render_quick_preset(data: dict[str, Any]) -> str:
     what = (
         f"(the quick preset: CMA-ES, serially, {data['jobs']} optimisations, "
-        f"{spaced(data['evaluations'])} model evaluations, into an empty folder with the record "
+        f"{fw.spaced(data['evaluations'])} model evaluations, into an empty folder with the record "
         "cache off) "
     )
     return _took(data, "quick-preset", what, "(longer on a busier machine)")
 
 
 def render_training(data: dict[str, Any]) -> str:
-    where = (
-        "into an empty log folder (training, its periodic evaluations and checkpoints; longer on "
-        "a busier machine)"
-    )
-    return _took(data, "training-time", "", where)
+    what = "training, its periodic evaluations and checkpoints; longer on a busier machine"
+    return _took(data, "training-time", "", f"into an empty log folder ({what})")
 
 
 MEASUREMENTS = (
-    Measurement("quick-preset", measure_quick_preset, render_quick_preset),
-    Measurement("training-time", measure_training, render_training),
+    fw.Measurement("quick-preset", measure_quick_preset, render_quick_preset),
+    fw.Measurement("training-time", measure_training, render_training),
 )

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from eval.crosscheck.report import case_of
-from eval.numbers.framework import ROOT, Measurement, copy_outputs, load, read_rows
+from eval.numbers import framework as fw
 from eval.studies.report import table_head, table_row
 
 LAG_STUDY_OUT = Path("results") / "crosscheck-lag-study"
@@ -26,8 +26,8 @@ CONVERGENCE_COMMAND = (
 )
 #: The run's small outputs kept where the docs include them: run's file -> the docs' copy.
 LAG_STUDY_FILES: dict[str, Path] = {
-    "crosscheck.csv": ROOT / "docs" / "crosscheck" / "lag_study.csv",
-    "crosscheck.png": ROOT / "docs" / "figures" / "crosscheck_lag_study.png",
+    "crosscheck.csv": fw.ROOT / "docs" / "crosscheck" / "lag_study.csv",
+    "crosscheck.png": fw.ROOT / "docs" / "figures" / "crosscheck_lag_study.png",
 }
 
 
@@ -58,13 +58,13 @@ def measure() -> dict[str, Any]:
     if not table.is_file() and LAG_STUDY_FILES["crosscheck.csv"].is_file():
         from tandem_env.io.files import write_csv_atomic
 
-        stored = load("crosscheck-lag-study")
-        rows = model_columns(read_rows(LAG_STUDY_FILES["crosscheck.csv"]))
+        stored = fw.load("crosscheck-lag-study")
+        rows = model_columns(fw.read_rows(LAG_STUDY_FILES["crosscheck.csv"]))
         write_csv_atomic(LAG_STUDY_FILES["crosscheck.csv"], rows)
         return {**stored, "rows": rows, "model_refreshed": True}
     if not table.is_file():
         raise SystemExit(f"{LAG_STUDY_OUT} holds no finished lag study; run `{LAG_STUDY_COMMAND}`")
-    rows = read_rows(table)
+    rows = fw.read_rows(table)
     if not (CONVERGENCE_OUT / "crosscheck.csv").is_file():
         raise SystemExit(f"{CONVERGENCE_OUT} holds no convergence run; run `{CONVERGENCE_COMMAND}`")
     cases = {case_of(row) for row in rows}
@@ -73,12 +73,12 @@ def measure() -> dict[str, Any]:
             f"{table} has {len(rows)} rows in {len(cases)} cases, not the lag study's 32 in 4; "
             f"run `{LAG_STUDY_COMMAND}`"
         )
-    copy_outputs(LAG_STUDY_OUT, LAG_STUDY_FILES)
+    fw.copy_outputs(LAG_STUDY_OUT, LAG_STUDY_FILES)
     return {
         "command": LAG_STUDY_COMMAND,
         "rows": rows,
         "convergence_command": CONVERGENCE_COMMAND,
-        "convergence": read_rows(CONVERGENCE_OUT / "crosscheck.csv"),
+        "convergence": fw.read_rows(CONVERGENCE_OUT / "crosscheck.csv"),
     }
 
 
@@ -255,4 +255,4 @@ def render(data: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-MEASUREMENT = Measurement("crosscheck-lag-study", measure, render, on_request=True)
+MEASUREMENT = fw.Measurement("crosscheck-lag-study", measure, render, on_request=True)

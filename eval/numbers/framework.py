@@ -29,10 +29,10 @@ REGION = re.compile(
 
 
 def _run(command: Sequence[str], environment: dict[str, str] | None = None) -> str:
-    """Run ``command`` from the repository root (``environment``: variables set for it); its
-    standard output. A failure raises with the end of its stderr."""
-    environment = {**os.environ, **(environment or {})}
-    done = subprocess.run(command, cwd=ROOT, env=environment, capture_output=True, text=True)
+    """Run ``command`` from the repository root with ``environment`` set; its standard output.
+    A failure raises with the end of its stderr."""
+    env = {**os.environ, **(environment or {})}
+    done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(command)} exited {done.returncode}:\n{done.stderr[-2000:]}")
     return done.stdout
@@ -70,9 +70,9 @@ def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
 
 
 def seed_cells(by_kernel: Sequence[Sequence[dict[str, Any]]]) -> tuple[str, str, str, str]:
-    """The cells of one command's seeds under each BLAS kernel (the machine's own first): each
-    seed's objective and their median (bold) at the digits every kernel gives, whether all are
-    feasible under every kernel, and the range of the own kernel's wall times per seed."""
+    """The cells of one command's seeds under each BLAS kernel (the own first): each seed's
+    objective and their median (bold) at the digits every kernel gives, whether all are feasible,
+    and the range of the own kernel's wall times per seed."""
     seeds = by_kernel[0]
     times = [s["wall_time_s"] for s in seeds]
     objectives = [[s["objective"] for s in kernel] for kernel in by_kernel]
@@ -85,17 +85,15 @@ def seed_cells(by_kernel: Sequence[Sequence[dict[str, Any]]]) -> tuple[str, str,
 
 
 # --- BLAS kernels: the optimisations' last digits are the machine's ---------------------------
-#: OpenBLAS kernels (``OPENBLAS_CORETYPE``) an optimisation's numbers are measured under besides
-#: the machine's own: the generic AVX and AVX2 kernels, which every x86-64 CPU the project runs
-#: on can execute. Another kernel changes the last bits of the linear algebra (CMA-ES's
-#: eigendecomposition, the polish's QP); the searches turn that into other digits, at times
-#: into another local optimum (docs/harness.md, "Machine-dependent digits").
+#: OpenBLAS kernels (``OPENBLAS_CORETYPE``) an optimisation is also measured under: the generic
+#: AVX and AVX2 ones. Another kernel moves the linear algebra's last bits, which the searches
+#: turn into other digits (docs/harness.md, "Machine-dependent digits").
 OTHER_BLAS_KERNELS: tuple[str, ...] = ("Sandybridge", "Haswell")
 
 
 def blas_kernel() -> str:
-    """The kernel numpy's BLAS runs here: OpenBLAS's core type (``SkylakeX``, ``Haswell``, ...,
-    as threadpoolctl reports it; ``OPENBLAS_CORETYPE`` chooses it), else the library's name."""
+    """The kernel numpy's BLAS runs here: OpenBLAS's core type (``SkylakeX``, ``Haswell``, ...),
+    else the library's name."""
     import numpy  # noqa: F401  (threadpoolctl sees the BLAS of the modules already loaded)
     from threadpoolctl import threadpool_info
 
@@ -106,8 +104,7 @@ def blas_kernel() -> str:
 
 
 def other_kernels() -> list[str]:
-    """The kernels of :data:`OTHER_BLAS_KERNELS` but the machine's own (none where numpy's BLAS
-    is not OpenBLAS: its kernel cannot be chosen)."""
+    """:data:`OTHER_BLAS_KERNELS` but the machine's own (none where the BLAS is not OpenBLAS)."""
     from threadpoolctl import threadpool_info
 
     own = blas_kernel()
@@ -117,17 +114,13 @@ def other_kernels() -> list[str]:
 
 
 def measure_other_kernels(name: str) -> dict[str, dict[str, Any]]:
-    """Measurement ``name`` again in a fresh process under each of :func:`other_kernels`, by
-    kernel."""
+    """Measurement ``name`` again in a fresh process under each of :func:`other_kernels`."""
     script = (
         "import json, sys; from eval.numbers import MEASUREMENTS; "
         "json.dump(MEASUREMENTS[sys.argv[1]].measure(), sys.stdout)"
     )
-    environments = {kernel: {"OPENBLAS_CORETYPE": kernel} for kernel in other_kernels()}
-    return {
-        k: json.loads(_run([sys.executable, "-c", script, name], e))
-        for k, e in environments.items()
-    }
+    command = [sys.executable, "-c", script, name]
+    return {k: json.loads(_run(command, {"OPENBLAS_CORETYPE": k})) for k in other_kernels()}
 
 
 def kernel_views(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
@@ -155,16 +148,15 @@ def agreed(values: Sequence[float], form: str) -> str:
     """One number measured under several kernels as shown: ``form`` of it where every kernel
     gives the same text, else their range, ``min–max``."""
     texts = {form.format(v) for v in values}
-    if len(texts) == 1:
-        return texts.pop()
-    return f"{form.format(min(values))}–{form.format(max(values))}"
+    return (
+        texts.pop() if len(texts) == 1 else f"{form.format(min(values))}–{form.format(max(values))}"
+    )
 
 
 def within_shown(value: float, values: Sequence[float], form: str) -> bool:
     """Whether ``value`` (from a kernel not measured) is what :func:`agreed` shows of
     ``values``: the same text, or inside the shown range."""
-    shown = agreed(values, form)
-    low, _, high = shown.partition("–")
+    low, _, high = agreed(values, form).partition("–")
     return float(low) <= float(form.format(value)) <= float(high or low)
 
 
@@ -189,8 +181,13 @@ class Benchmark:
         with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
             path = Path(out) / "numbers.json"
             run_command(["python", *self.arguments, "--json", str(path)], dict(self.environment))
-            data = read_json(path)
-        return {**data, "command": self.command}
+            return {**read_json(path), "command": self.command}
+
+
+def median_range(row: dict[str, Any], kind: str, median: str = "_median") -> str:
+    """A row's ``{kind}{median}`` and ``{kind}_range`` as the tables write them: 1.23 (1.10-1.40)."""
+    low, high = row[kind + "_range"]
+    return f"{row[kind + median]:.2f} ({low:.2f}-{high:.2f})"
 
 
 def spaced(value: float, digits: int = 0) -> str:
@@ -221,8 +218,7 @@ def random_strokes(n: int = RANDOM_STROKES, seed: int = 0) -> Any:
 
 @dataclass(frozen=True)
 class Measurement:
-    """One generated number set: ``measure`` runs it (its JSON), ``render`` turns the stored
-    JSON into the region's Markdown."""
+    """One generated number set: ``measure`` gives its JSON, ``render`` the region's Markdown."""
 
     name: str
     measure: Callable[[], dict[str, Any]]
@@ -230,8 +226,7 @@ class Measurement:
     on_request: bool = False
     """Measured only when named in ``--only``: it collects a long study's outputs (run first)."""
     blas_dependent: bool = False
-    """Its numbers come from optimisations, whose last digits depend on the BLAS kernel: also
-    measured under :data:`OTHER_BLAS_KERNELS`, rendered at the digits all give."""
+    """Also measured under :data:`OTHER_BLAS_KERNELS`, rendered at the digits all give."""
 
 
 def cpu_model() -> str:
@@ -261,7 +256,7 @@ def machine() -> dict[str, Any]:
 def machine_line(data: dict[str, Any], name: str) -> str:
     """When, where and under what load measurement ``name`` ran, and how to rerun it."""
     before, after = data["machine_before"], data["machine_after"]
-    cpu = before.get("cpu_model", before["processor"])
+    cpu = before.get("cpu_model", before["processor"])  # an older measurement has none
     return (
         f"Measured {before['date']} on {before['cpus']} CPUs ({cpu}, Python "
         f"{before['python']}), load average (1 min) {before['load_average_1min']} before and "
@@ -280,7 +275,7 @@ def at_load(data: dict[str, Any]) -> str:
 def footer(data: dict[str, Any], name: str, *commands: str, heading: str = "") -> list[str]:
     """The lines that close a region: :func:`machine_line`, ``heading`` and the commands."""
     headed = [heading, ""] if heading else []
-    return ["", machine_line(data, name), "", *headed, *(f"    {command}" for command in commands)]
+    return ["", machine_line(data, name), "", *headed, *(f"    {c}" for c in commands)]
 
 
 def read_rows(path: Path) -> list[dict[str, str]]:

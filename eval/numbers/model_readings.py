@@ -22,26 +22,23 @@ def measure_rotation() -> dict[str, Any]:
     lift at least half the weight with π."""
     import tandem_env as te
 
-    strokes = random_strokes()
-    insect = te.DRAGONFLY
-    half = replace(
-        insect,
-        fore=replace(insect.fore, rotational_coefficient=math.pi / 2),
-        hind=replace(insect.hind, rotational_coefficient=math.pi / 2),
-    )
+    strokes, insect = random_strokes(), te.DRAGONFLY
+    wings = {
+        w: replace(getattr(insect, w), rotational_coefficient=math.pi / 2) for w in ("fore", "hind")
+    }
+    half = replace(insect, **wings)
     rows = []
     for speed in ROTATION_SPEEDS:
         paper = te.evaluate(strokes, speed, insect=insect).lift_to_weight
         lifting = paper >= 0.5
         ratio = paper[lifting] / te.evaluate(strokes[lifting], speed, insect=half).lift_to_weight
         p5, p95 = np.percentile(ratio, [5, 95])
+        stats = {"median": np.median(ratio), "p5": p5, "p95": p95}
         rows.append(
             {
                 "speed": speed,
                 "strokes": int(lifting.sum()),
-                "median": float(np.median(ratio)),
-                "p5": float(p5),
-                "p95": float(p95),
+                **{k: float(v) for k, v in stats.items()},
             }
         )
     return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}
@@ -73,13 +70,13 @@ def measure_power() -> dict[str, Any]:
             kind: te.evaluate(strokes, speed, options=te.ModelOptions(power=kind)).power
             for kind in ("absolute", "elastic", "aerodynamic")
         }
-        aero = power["aerodynamic"]
+        aero, elastic = power["aerodynamic"], power["elastic"]
         rows.append(
             {
                 "speed": speed,
                 "over_absolute_median": float(np.median(aero / power["absolute"])),
-                "over_elastic_median": float(np.median(aero / power["elastic"])),
-                "above_elastic_share": float(np.mean(aero > power["elastic"])),
+                "over_elastic_median": float(np.median(aero / elastic)),
+                "above_elastic_share": float(np.mean(aero > elastic)),
             }
         )
     return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}

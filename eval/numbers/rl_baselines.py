@@ -16,15 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import (
-    ROOT,
-    Measurement,
-    json_path,
-    load,
-    machine_line,
-    read_rows,
-    run_command,
-)
+from eval.numbers import framework as fw
 from eval.studies.report import table_head, table_row
 
 ENV_ID = "TandemWing/LevelFlight-v0"
@@ -71,12 +63,12 @@ def score_run(
     from tandem_env.envs.reference import held_out_conditions
 
     logs = folder / f"{algo}{variant and '-' + variant}-{seed}"
-    seconds = run_command([*command, "-f", str(logs)], _ONE_CORE)
+    seconds = fw.run_command([*command, "-f", str(logs)], _ONE_CORE)
     run = logs / algo / ENV_ID.replace("/", "-")  # the latest run of the env
     out = folder / f"envelope-{logs.name}"
     envelope = ["python", "-m", "train.envelope", "--run", str(run), "--out", str(out)]
-    run_command([*envelope, "--conditions", *map(str, held_out_conditions(ENV_ID))], _ONE_CORE)
-    rows = read_rows(out / "envelope.csv")
+    fw.run_command([*envelope, "--conditions", *map(str, held_out_conditions(ENV_ID))], _ONE_CORE)
+    rows = fw.read_rows(out / "envelope.csv")
     return {
         "algo": algo,
         **({"hyperparams": variant} if variant else {}),
@@ -106,7 +98,7 @@ def score_runs(name: str, tasks: list[tuple[list[str], str, int, int, str]]) -> 
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as tmp:
         with ThreadPoolExecutor(max_workers=2) as pool:
             runs = list(pool.map(lambda t: score_run(*t[:4], Path(tmp), t[4]), tasks))
-    write_figure(ROOT / FIGURE, {name: runs})
+    write_figure(fw.ROOT / FIGURE, {name: runs})
     return runs
 
 
@@ -160,7 +152,7 @@ def render(data: dict[str, Any]) -> str:
         f"`{shlex.join(train_command('ALGO', 'STEPS', 'SEED', 'shipped'))}` with the steps above "
         f"and seeds {list(SEEDS)} (tuned: `--conf-file "
         f"{HYPERPARAMETERS['tuned'].format(algo='ALGO')}` added), then `python -m train.envelope --conditions ...`. "
-        f"{machine_line(data, 'rl-baselines')}\n"
+        f"{fw.machine_line(data, 'rl-baselines')}\n"
     )
 
 
@@ -173,7 +165,7 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
 
     colours = dict(zip(dict.fromkeys(algo for _, algo, _ in POLICIES), PALETTE, strict=False))
     names = dict.fromkeys(name for name, _, _ in POLICIES)
-    measured = {**{n: load(n)["runs"] for n in names if json_path(n).is_file()}, **fresh}
+    measured = {**{n: fw.load(n)["runs"] for n in names if fw.json_path(n).is_file()}, **fresh}
     fig, ax = plt.subplots(figsize=(6.0, 4.8))
     for name, algo, hp in POLICIES:
         runs = runs_of(measured.get(name, []), algo, hp)
@@ -220,13 +212,13 @@ def render_amortised(data: dict[str, Any]) -> str:
         score_table("training", [(AMORTISED, "regression + 600 gradient steps", data["runs"])])
         + "\n\nThe same held-out speeds and scoring; "
         f"`{shlex.join(amortised_command('SEED'))}` with seeds {list(SEEDS)}, then `python -m "
-        f"train.envelope --conditions ...`. {machine_line(data, 'amortised-scores')}\n"
+        f"train.envelope --conditions ...`. {fw.machine_line(data, 'amortised-scores')}\n"
     )
 
 
 def measure_headline() -> dict[str, Any]:
     """Every policy of :data:`POLICIES` summarised from the stored runs."""
-    stored = {name: load(name) for name in dict.fromkeys(p[0] for p in POLICIES)}
+    stored = {name: fw.load(name) for name in dict.fromkeys(p[0] for p in POLICIES)}
     rows = []
     for name, algo, hp in POLICIES:
         runs = runs_of(stored[name]["runs"], algo, hp)
@@ -258,7 +250,7 @@ def render_headline(data: dict[str, Any]) -> str:
 
 
 MEASUREMENTS = (
-    Measurement("rl-baselines", measure, render, on_request=True),
-    Measurement("amortised-scores", measure_amortised, render_amortised, on_request=True),
-    Measurement("envelope-headline", measure_headline, render_headline, on_request=True),
+    fw.Measurement("rl-baselines", measure, render, on_request=True),
+    fw.Measurement("amortised-scores", measure_amortised, render_amortised, on_request=True),
+    fw.Measurement("envelope-headline", measure_headline, render_headline, on_request=True),
 )

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from eval.numbers.framework import Benchmark, Measurement, footer, spaced
+from eval.numbers.framework import Benchmark, Measurement, footer, median_range, spaced
 from eval.studies.report import table_head, table_row
 
 ROOFLINE = Benchmark(("benchmarks/roofline.py",))
@@ -28,10 +28,7 @@ def render_roofline(data: dict[str, Any]) -> str:
                     r["threads"],
                     f"{r['wall_old_ms']:.0f} / {r['cpu_old_ms']:.0f}",
                     f"{r['wall_new_ms']:.0f} / {r['cpu_new_ms']:.0f}",
-                    *(
-                        f"{r[k + '_ratio']:.2f} ({r[k + '_range'][0]:.2f}-{r[k + '_range'][1]:.2f})"
-                        for k in ("wall", "cpu")
-                    ),
+                    *(median_range(r, k, "_ratio") for k in ("wall", "cpu")),
                 ]
             )
         )

@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
-from eval.numbers.framework import Benchmark, Measurement, footer, spaced
+from eval.numbers.framework import Benchmark, Measurement, footer, median_range, spaced
 from eval.studies.report import table_head, table_row
 
 MODEL_THROUGHPUT = Benchmark(("benchmarks/model_throughput.py",))
@@ -73,12 +73,9 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
             f"{spaced(rates[batch, i]['best_per_s'])} / {spaced(rates[batch, i]['median_per_s'])}"
             for i in INDUCTIONS
         ]
-        r = ratios[batch]
-        cells += [
-            f"{r[kind + '_median']:.2f} ({r[kind + '_range'][0]:.2f}-{r[kind + '_range'][1]:.2f})"
-            for kind in ("wall", "cpu")
-        ]
-        lines.append(table_row([batch, *cells]))
+        lines.append(
+            table_row([batch, *cells, *(median_range(ratios[batch], k) for k in ("wall", "cpu"))])
+        )
     sweeps = "; ".join(
         f"V = {s['speed']:g} m/s: {100 * s['solved_share']:.0f} % of the annuli need a solve, "
         f"{s['mean_sweeps']:.2f} sweeps on average (at most {s['max_sweeps']})"
@@ -86,9 +83,8 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
     )
     for reading, where in (("convected", "§5.7"), ("vortex", "§5.8")):
         slipstream = "; ".join(
-            f"batch {r['batch']}: {r['cpu_median']:.2f}× CPU ({r['cpu_range'][0]:.2f}-"
-            f"{r['cpu_range'][1]:.2f}), {r['wall_median']:.2f}× wall ({r['wall_range'][0]:.2f}-"
-            f"{r['wall_range'][1]:.2f})"
+            f"batch {r['batch']}: {median_range(r, 'cpu').replace(' (', '× CPU (', 1)}, "
+            f"{median_range(r, 'wall').replace(' (', '× wall (', 1)}"
             for r in data.get("slipstream_ratios", [])
             if r.get("reading", "convected") == reading
         )
@@ -141,6 +137,7 @@ def measure_torch_throughput() -> dict[str, Any]:
 
 def render_torch_throughput(data: dict[str, Any]) -> str:
     eager, compiled = by_case(data["eager"]["rates"]), by_case(data["compiled"]["rates"])
+    g, run = data["eager"]["gradient"], data["eager"]
     columns = (
         ("coupled, eager", eager, "coupled"),
         ("coupled, compiled", compiled, "coupled"),
@@ -159,8 +156,6 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
         table_row([batch, *(cell(rates, (batch, i)) for _, rates, i in columns)])
         for batch in batches
     ]
-    g = data["eager"]["gradient"]
-    run = data["eager"]
     lines += [
         "",
         f"torch {run['torch']} on the CPU, {run['dtype']}, {run['torch_threads']} torch thread(s), "

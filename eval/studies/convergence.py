@@ -1,10 +1,6 @@
-"""Budget study: best-so-far against evaluations, PSO and CMA-ES side by side.
-
-Each method of the preset's :class:`~eval.studies.presets.ConvergenceSpec` (and any the study is
-run with) runs long, without a polish, at one level and one accelerating (F̄_v) condition; by
-the prefix property each run's history gives every smaller budget's best (:func:`checkpoint_rows`).
-The budget splits between search and polish run at the preset's own budgets (:func:`split_rows`).
-"""
+"""Budget study: best-so-far against evaluations, PSO and CMA-ES side by side: each method's
+long runs without a polish at one level and one accelerating (F̄_v) condition give every smaller
+budget's best (:func:`checkpoint_rows`); the polish shares run at the preset's budgets."""
 
 from __future__ import annotations
 
@@ -40,14 +36,13 @@ def _with(job: Job, settings: tuple[tuple[str, object], ...]) -> Job:
 
 
 def _spec_jobs(plan: StudyPlan, **given: Any) -> list[Job]:
-    """``plan``'s jobs at the spec's level and accelerating (F̄_v) conditions, the spec's seeds,
-    started cold (the budget study compares the methods' own searches)."""
+    """``plan``'s jobs at the spec's level and accelerating (F̄_v) conditions and seeds, started
+    cold (the study compares the methods' own searches)."""
     spec = plan.preset.convergence
+    given |= {"seeds": spec.seeds, "warm": False}
     return [
-        *plan.jobs("level", [spec.speed], seeds=spec.seeds, warm=False, **given),
-        *plan.jobs(
-            "accelerate", [spec.power], objective="vertical", seeds=spec.seeds, warm=False, **given
-        ),
+        *plan.jobs("level", [spec.speed], **given),
+        *plan.jobs("accelerate", [spec.power], objective="vertical", **given),
     ]
 
 
@@ -87,8 +82,7 @@ def jobs(plan: StudyPlan) -> list[Job]:
 
 
 def curves(runs: Sequence[Record]) -> tuple[np.ndarray, np.ndarray]:
-    """(evaluations (n,), best reward so far (seeds, n)) of one method's and condition's long
-    ``runs`` on a common evaluation grid."""
+    """(evaluations (n,), best reward so far (seeds, n)) of long ``runs`` on a common grid."""
     chosen = sorted(runs, key=lambda r: r.seed)
     grid = np.array(sorted({e for r in chosen for e, _ in r.history}), dtype=float)
     values = np.empty((len(chosen), grid.size))
@@ -106,36 +100,29 @@ def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, An
     runs = sorted(runs, key=lambda r: r.seed)
     values = np.array([r.objective if r.feasible else np.nan for r in runs], dtype=float)
     half = len(runs) // 2
-    first, second = (_best(part) if half else math.nan for part in (values[:half], values[half:]))
+    first, second = (
+        float(np.nanmax(part)) if half and np.isfinite(part).any() else math.nan
+        for part in (values[:half], values[half:])
+    )
     known = [g for g in (r.certificate.get("gain") for r in runs) if g is not None]
     finite = values[np.isfinite(values)]
-    median, low, high = (
-        (float(np.median(finite)), float(finite.min()), float(finite.max()))
-        if finite.size
-        else (math.nan,) * 3
-    )
+    stats = (np.median(finite), finite.min(), finite.max()) if finite.size else (math.nan,) * 3
+    apart = math.nan
+    if np.isfinite(first) and np.isfinite(second) and max(first, second) > 0:
+        apart = abs(first - second) / max(first, second)
     return {
         "condition": label,
         "polish_share": share,
         "budget": runs[0].budget if runs else 0,
         "seeds": len(runs),
         "feasible": int(np.isfinite(values).sum()),
-        "median": median,
-        "min": low,
-        "max": high,
+        **dict(zip(("median", "min", "max"), map(float, stats), strict=True)),
         "best_first_half": first,
         "best_second_half": second,
-        "halves_apart": abs(first - second) / max(first, second)
-        if np.isfinite(first) and np.isfinite(second) and max(first, second) > 0
-        else math.nan,
+        "halves_apart": apart,
         "polish_gain_median": float(np.median(known)) if known else math.nan,
         "polish_converged": sum(bool(r.certificate.get("converged")) for r in runs),
     }
-
-
-def _best(values: np.ndarray) -> float:
-    """The largest finite value (NaN for none)."""
-    return float(np.nanmax(values)) if np.isfinite(values).any() else math.nan
 
 
 def checkpoint_rows(
@@ -149,16 +136,13 @@ def checkpoint_rows(
         k = int(np.searchsorted(grid, budget, side="right") - 1)
         at = values[:, k]
         q25, med, q75 = np.percentile(at, [25.0, 50.0, 75.0])
+        stats = {"median": med, "q25": q25, "q75": q75, "min": at.min(), "max": at.max()}
         out.append(
             {
                 "condition": label,
                 "method": method,
                 "budget": int(budget),
-                "median": float(med),
-                "q25": float(q25),
-                "q75": float(q75),
-                "min": float(at.min()),
-                "max": float(at.max()),
+                **{k: float(v) for k, v in stats.items()},
                 "spread": float((at.max() - at.min()) / med) if med > 0 else float("nan"),
                 "fraction_of_final_median": float(med / final) if final else float("nan"),
                 "seeds": int(values.shape[0]),
@@ -180,11 +164,7 @@ SPLIT_COLUMNS: tuple[Column, ...] = (
     ("apart", lambda row: f"{100 * row['halves_apart']:.2f} %"),
     (
         "median polish gain",
-        lambda row: (
-            "–"
-            if math.isnan(row["polish_gain_median"])
-            else f"{100 * row['polish_gain_median']:+.2f} %"
-        ),
+        lambda row: "–" if math.isnan(g := row["polish_gain_median"]) else f"{100 * g:+.2f} %",
     ),
     ("polish converged", "{polish_converged}".format_map),
 )

@@ -60,14 +60,9 @@ def excess(
 ) -> dict[float, Spread]:
     """F̄_v (axis "vertical") or F̄_h ("horizontal": the reading's objective ``horizontal``) per
     power, the objective value of its own optimisation."""
-    return by_condition(
-        rows,
-        "objective_value",
-        method=method,
-        task="accelerate",
-        objective=horizontal if axis == "horizontal" else axis,
-        planform=planform,
-    )
+    objective = horizontal if axis == "horizontal" else axis
+    where = dict(method=method, task="accelerate", objective=objective, planform=planform)
+    return by_condition(rows, "objective_value", **where)
 
 
 def attainable(
@@ -119,34 +114,28 @@ def draw(
         figures.Series(label(m), attainable(rows, m, "tear-drop", h_obj), method=m)
         for m in plan.methods
     ]
-    return [
+    paper = [
+        (p, v, f"paper {name}")
+        for name, d in (("F̄_v", PAPER_VERTICAL), ("F̄_h", PAPER_HORIZONTAL))
+        for p, v in d.items()
+    ]
+    specs = (
         (
             "Fig. 7: vertical and horizontal specific excess forces against available power",
-            figures.sweep_figure(
-                [
-                    figures.Panel(
-                        excess_label("specific excess force F̄"),
-                        forces,
-                        paper=[
-                            *((p, v, "paper F̄_v") for p, v in PAPER_VERTICAL.items()),
-                            *((p, v, "paper F̄_h") for p, v in PAPER_HORIZONTAL.items()),
-                        ],
-                    )
-                ],
-                xlabel,
-                "Fig. 7: F̄_v (max F̄_v s.t. F̄_h ≥ 0) and F̄_h (max F̄_h s.t. F̄_v ≥ 0), V = 0",
-                plan.figure(study_dir, "fig7_excess_forces"),
-            ),
+            figures.Panel(excess_label("specific excess force F̄"), forces, paper=paper),
+            "Fig. 7: F̄_v (max F̄_v s.t. F̄_h ≥ 0) and F̄_h (max F̄_h s.t. F̄_v ≥ 0), V = 0",
+            "fig7_excess_forces",
         ),
         (
             "Fig. 8: attainable specific excess force against available power",
-            figures.sweep_figure(
-                [figures.Panel(excess_label("attainable F̄_a"), fa, paper=paper_attainable())],
-                xlabel,
-                "Fig. 8: F̄_a = sqrt(F̄_v² + F̄_h²) (Eq. 27), V = 0",
-                plan.figure(study_dir, "fig8_attainable"),
-            ),
+            figures.Panel(excess_label("attainable F̄_a"), fa, paper=paper_attainable()),
+            "Fig. 8: F̄_a = sqrt(F̄_v² + F̄_h²) (Eq. 27), V = 0",
+            "fig8_attainable",
         ),
+    )
+    return [
+        (caption, figures.sweep_figure([panel], xlabel, title, plan.figure(study_dir, stem)))
+        for caption, panel, title, stem in specs
     ]
 
 
@@ -183,8 +172,7 @@ def ratio(series: Mapping[str, Mapping[float, Spread]], _: Any) -> C.Stats:
     common = sorted(set(vertical) & set(horizontal))
     ratios = [100.0 * (vertical[p].median / horizontal[p].median - 1.0) for p in common]
     best_ratios = [100.0 * (vertical[p].best / horizontal[p].best - 1.0) for p in common]
-    ratios = [r for r in ratios if math.isfinite(r)]
-    best_ratios = [r for r in best_ratios if math.isfinite(r)]
+    ratios, best_ratios = ([r for r in x if math.isfinite(r)] for x in (ratios, best_ratios))
     if not ratios:
         return None
     q25, med, q75 = np.percentile(ratios, [25.0, 50.0, 75.0])

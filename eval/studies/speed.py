@@ -43,21 +43,18 @@ def draw(
 
     def panel(ylabel: str, quantity: str, **paper: Any) -> figures.Panel:
         """``quantity`` over speeds, one series per method, within its Table 4 bounds if any."""
+        label, where = figures.method_label, dict(task="level", planform="tear-drop")
         series = [
-            figures.Series(
-                figures.method_label(m),
-                by_condition(rows, quantity, method=m, task="level", planform="tear-drop"),
-                method=m,
-            )
+            figures.Series(label(m), by_condition(rows, quantity, method=m, **where), method=m)
             for m in plan.methods
         ]
-        return figures.Panel(
-            ylabel, series, bounds=table4_bounds(quantity, plan.insect.stroke_bounds), **paper
-        )
+        bounds = table4_bounds(quantity, plan.insect.stroke_bounds)
+        return figures.Panel(ylabel, series, bounds=bounds, **paper)
 
     # The paper states these trends in words only, no numbers.
-    falls, follows = "paper: falls with V", "paper: follows the power"
-    level = "level flight, optimised at each speed"
+    falls, rises, follows = "paper: falls with V", "paper: rises with V", "paper: follows the power"
+    level, pm = "level flight, optimised at each speed", figures.pair_mean
+    least = [(PAPER_BEST_SPEED, "paper: minimum power")]
     specs = (
         (
             "Fig. 4: thrust ratio, mean angle of attack and stroke-plane angle in level flight",
@@ -65,16 +62,8 @@ def draw(
             f"Fig. 4: {level}",
             [
                 panel("thrust ratio T/W [-]", "thrust_ratio", paper_note=falls),
-                panel(
-                    figures.pair_mean("mean angle of attack [deg]"),
-                    "mean_angle_of_attack",
-                    paper_note=falls,
-                ),
-                panel(
-                    figures.pair_mean("stroke-plane angle β [deg]"),
-                    "stroke_plane_angle",
-                    paper_note="paper: rises with V",
-                ),
+                panel(pm("mean angle of attack [deg]"), "mean_angle_of_attack", paper_note=falls),
+                panel(pm("stroke-plane angle β [deg]"), "stroke_plane_angle", paper_note=rises),
             ],
         ),
         (
@@ -82,17 +71,9 @@ def draw(
             "fig5_power_frequency_sweep",
             f"Fig. 5: {level}",
             [
-                panel(
-                    "power P/m [W/kg]",
-                    "power_per_mass",
-                    paper_at=[(PAPER_BEST_SPEED, "paper: minimum power")],
-                ),
-                panel(figures.pair_mean("frequency f [Hz]"), "frequency", paper_note=follows),
-                panel(
-                    figures.pair_mean("weaving amplitude φ_m [deg]"),
-                    "sweep_amplitude",
-                    paper_note=follows,
-                ),
+                panel("power P/m [W/kg]", "power_per_mass", paper_at=least),
+                panel(pm("frequency f [Hz]"), "frequency", paper_note=follows),
+                panel(pm("weaving amplitude φ_m [deg]"), "sweep_amplitude", paper_note=follows),
             ],
         ),
         (
@@ -108,13 +89,9 @@ def draw(
             ],
         ),
     )
+    x = "flight speed V [m/s]"
     return [
-        (
-            caption,
-            figures.sweep_figure(
-                panels, "flight speed V [m/s]", title, plan.figure(study_dir, stem)
-            ),
-        )
+        (caption, figures.sweep_figure(panels, x, title, plan.figure(study_dir, stem)))
         for caption, stem, title, panels in specs
     ]
 
@@ -152,8 +129,11 @@ def peak_efficiency(rows: list[Mapping[str, Any]], _: float) -> C.Stats:
         v: s for v, s in by_condition(rows, "efficiency_pct").items() if not math.isnan(s.median)
     }
     if not finite:
-        statement = "peak level-flight efficiency"
-        return {"statement": statement, "detail": "no feasible seed", "note": ""}
+        return {
+            "statement": "peak level-flight efficiency",
+            "detail": "no feasible seed",
+            "note": "",
+        }
     peak_speed = max(finite, key=lambda v: finite[v].median)
     s = finite[peak_speed]
     return C.spread_stats(

@@ -36,10 +36,9 @@ class SuiteResult:
 
 
 class SuitePlan:
-    """The studies ``names`` (``all``: the paper's) as a plan of one phase, :attr:`phases`:
-    all their jobs in one pool, shared optimisations run once; :meth:`finish` analyses them
-    into ``out`` with every other paper study whose records are all there, so running ``speed``
-    and then ``power`` into one folder gives one report with both."""
+    """The studies ``names`` (``all``: the paper's) as a plan of one phase, shared optimisations
+    run once; :meth:`finish` analyses them into ``out`` with every other paper study whose
+    records are all there (``speed`` then ``power`` into one folder: one report of both)."""
 
     def __init__(self, names: Sequence[str], plan: StudyPlan, out: Path) -> None:
         self.started = time.perf_counter()
@@ -49,8 +48,7 @@ class SuitePlan:
             if name not in STUDIES:
                 raise ValueError(f"unknown study {name!r}; allowed: all, {', '.join(STUDIES)}")
         self.asked = list(dict.fromkeys(chosen))
-        self.plan = plan
-        self.out = out
+        self.plan, self.out = plan, out
         self.title = f"study {self.given} ({', '.join(self.asked)})"
         # each study's jobs, built once: the asked ones first, then the other paper studies
         studies = dict.fromkeys([*self.asked, *PAPER_STUDIES])
@@ -61,8 +59,7 @@ class SuitePlan:
     def finish(self, run: PlanRun) -> SuiteResult:
         """Analyse the studies asked (and every other paper study whose records are all
         present), write the report and the manifest."""
-        out = self.out
-        done = {}
+        out, done = self.out, {}
         for name, own in self.jobs_of.items():
             if name in self.asked:
                 records = {job: run.records[job.key] for job in own}
@@ -70,18 +67,14 @@ class SuitePlan:
                 continue
             done[name] = STUDIES[name].analyse(self.plan, records, out)
         paper = [name for name in PAPER_STUDIES if name in done]
-        summary = run.runs[self.given]
-        report_path = None
+        summary, report_path = run.runs[self.given], None
         if paper:
+            outputs = [done[n] for n in paper]
             report_path = report.write_report(
-                out / "report.md", self.plan, [done[n] for n in paper], list(PAPER_STUDIES)
+                out / "report.md", self.plan, outputs, list(PAPER_STUDIES)
             )
-            last_run = {
-                "studies": self.asked,
-                **summary.to_dict(),
-                # the whole call's, analysis included
-                "wall_time_s": round(time.perf_counter() - self.started, 1),
-            }
+            wall = round(time.perf_counter() - self.started, 1)  # the whole call's, analysis too
+            last_run = {"studies": self.asked, **summary.to_dict(), "wall_time_s": wall}
             write_json_atomic(
                 out / "manifest.json",
                 {
@@ -109,15 +102,13 @@ def run_studies(
     command: CommandProgress | None = None,
 ) -> SuiteResult:
     """Run the studies ``names`` (or ``["all"]``) into ``out_dir`` (:class:`SuitePlan`), reusing
-    the stored records; ``workers=N > 1`` is short for ``scheduler="local:N"``; ``scheduler``,
-    ``cache``, ``rerun`` and ``command`` as for :func:`~agents.runner.run_plan`."""
+    the stored records; ``workers=N > 1`` is short for ``scheduler="local:N"``; the rest as for
+    :func:`~agents.runner.run_plan`."""
     store = RecordStore.at(out_dir)
     suite = SuitePlan(names, plan, store.directory)
     scheduler = executor_spec(scheduler, workers)
-    run = run_plan(
-        suite.phases, store, scheduler, cache, progress=progress, rerun=rerun, command=command
-    )
-    return suite.finish(run)
+    options = {"progress": progress, "rerun": rerun, "command": command}
+    return suite.finish(run_plan(suite.phases, store, scheduler, cache, **options))
 
 
 class SuiteCampaign:
@@ -158,21 +149,14 @@ class SuiteCampaign:
     def report(self, args: argparse.Namespace, result: SuiteResult) -> None:
         """Print what the run did (stderr) and found (stdout)."""
         run = result.run
-        print(
-            f"{run.total} optimisations: {run.describe(args.out)} ({run.executor}); "
-            f"{result.wall_time:.1f} s",
-            file=sys.stderr,
-        )
-        for output in result.outputs:
+        done = f"{run.describe(args.out)} ({run.executor}); {result.wall_time:.1f} s"
+        print(f"{run.total} optimisations: {done}", file=sys.stderr)
+        for o in result.outputs:
+            median, best = (VerdictCount.of(o.claims, best=b).text() for b in (False, True))
             claims = (
-                f"; claims on the median: {VerdictCount.of(output.claims).text()}; on the best "
-                f"seed: {VerdictCount.of(output.claims, best=True).text()}"
-                if output.claims
-                else ""
+                f"; claims on the median: {median}; on the best seed: {best}" if o.claims else ""
             )
-            print(
-                f"{output.name}: {len(output.rows)} records, {len(output.figures)} figures{claims}"
-            )
+            print(f"{o.name}: {len(o.rows)} records, {len(o.figures)} figures{claims}")
         if result.report is not None:
             print(f"report: {result.report}")
 

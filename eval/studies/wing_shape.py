@@ -1,6 +1,5 @@
-"""Wing shape: tear-drop against the real dragonfly planform (paper Figs. 14-16), each optimised
-in level flight (Fig. 15: efficiency) and accelerating flight (Fig. 16: F̄_a); the tear-drop jobs
-are the sweeps' own."""
+"""Wing shape: tear-drop against the real planform (paper Figs. 14-16), each optimised in level
+flight (Fig. 15: η) and accelerating flight (Fig. 16: F̄_a); the tear-drop jobs are the sweeps'."""
 
 from __future__ import annotations
 
@@ -47,15 +46,15 @@ def planform_outlines(n: int = 200) -> list[tuple[str, np.ndarray, np.ndarray, n
     for planform in PLANFORMS:
         insect = Dragonfly().with_planform(planform)
         for wing_name, wing in (("fore", insect.fore), ("hind", insect.hind)):
-            r = 1e3 * wing.length * r_hat
             if planform == "real":
-                upper, lower = (np.asarray(c, float) for c in wing.real_edges)
-                lead = 1e3 * wing.length * np.polynomial.polynomial.polyval(r_hat, upper)
-                trail = 1e3 * wing.length * np.polynomial.polynomial.polyval(r_hat, lower)
+                polyval = np.polynomial.polynomial.polyval
+                lead, trail = (
+                    1e3 * wing.length * polyval(r_hat, np.asarray(c, float))
+                    for c in wing.real_edges
+                )
             else:
-                half = 0.5e3 * wing.chord(r_hat)
-                lead, trail = half, -half
-            out.append((f"{wing_name}, {planform}", r, lead, trail))
+                lead, trail = 0.5e3 * wing.chord(r_hat), -0.5e3 * wing.chord(r_hat)
+            out.append((f"{wing_name}, {planform}", 1e3 * wing.length * r_hat, lead, trail))
     return out
 
 
@@ -69,62 +68,59 @@ def draw(
         """One series per method and planform of ``points(method, planform)``."""
         return [
             figures.Series(
-                _label(m, planform),
-                points(m, planform),
+                f"{figures.method_label(m)}, {pf} wing",
+                points(m, pf),
                 method=m,
-                variant=figures.PLANFORM_VARIANT[planform],
+                variant=figures.PLANFORM_VARIANT[pf],
             )
             for m in plan.methods
-            for planform in PLANFORMS
+            for pf in PLANFORMS
         ]
 
     eff = by_planform(lambda m, planform: _efficiency(rows, m, planform))
     acc = by_planform(lambda m, planform: attainable(rows, m, planform, h_obj))
-    return [
-        (
-            "Fig. 14: tear-drop and real wing planforms",
-            figures.planform_figure(planform_outlines(), plan.figure(study_dir, "fig14_planforms")),
-        ),
+    # The paper's η (Fig. 6) and F̄_a (Fig. 8) are the tear-drop's; the text of Figs. 15-16
+    # gives the real wing only relative to them.
+    gain = f"≈ {PAPER_GAIN_AT_2:g} % more at 2 m/s"
+    fig15 = figures.Panel(
+        "efficiency η [%]",
+        eff,
+        paper=[(PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY, "paper, tear-drop")],
+        derived=_paper_gain(rows, plan.methods[0]),
+        paper_at=[(PAPER_BEST_SPEED, "paper: both peak at 1.5 m/s")],
+        paper_note=f"paper: real wing above tear-drop at every speed, {gain}",
+    )
+    fig16 = figures.Panel(
+        excess_label("attainable F̄_a"),
+        acc,
+        paper=paper_attainable("paper, tear-drop"),
+        paper_note="paper: real wing slightly above tear-drop at every power",
+    )
+    outlines = planform_outlines()
+    sweeps = (
         (
             "Fig. 15: level-flight efficiency with the two wing shapes",
-            figures.sweep_figure(
-                [
-                    figures.Panel(
-                        "efficiency η [%]",
-                        eff,
-                        # Fig. 6's number is the tear-drop's; the text of Fig. 15 names the
-                        # peak and gives the real wing's gain at 2 m/s relative to it.
-                        paper=[(PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY, "paper, tear-drop")],
-                        derived=_paper_gain(rows, plan.methods[0]),
-                        paper_at=[(PAPER_BEST_SPEED, "paper: both peak at 1.5 m/s")],
-                        paper_note=(
-                            "paper: real wing above tear-drop at every speed, "
-                            f"≈ {PAPER_GAIN_AT_2:g} % more at 2 m/s"
-                        ),
-                    )
-                ],
-                "flight speed V [m/s]",
-                "Fig. 15: efficiency, tear-drop vs real wing",
-                plan.figure(study_dir, "fig15_efficiency_shapes"),
-            ),
+            fig15,
+            "flight speed V [m/s]",
+            "Fig. 15: efficiency, tear-drop vs real wing",
+            "fig15_efficiency_shapes",
         ),
         (
             "Fig. 16: attainable acceleration with the two wing shapes",
-            figures.sweep_figure(
-                [
-                    figures.Panel(
-                        excess_label("attainable F̄_a"),
-                        acc,
-                        # The paper's F̄_a (Fig. 8) is the tear-drop's; Fig. 16's text gives
-                        # the real wing only relative to it.
-                        paper=paper_attainable("paper, tear-drop"),
-                        paper_note="paper: real wing slightly above tear-drop at every power",
-                    )
-                ],
-                "available power P/m [W/kg]",
-                "Fig. 16: attainable F̄_a, tear-drop vs real wing",
-                plan.figure(study_dir, "fig16_attainable_shapes"),
-            ),
+            fig16,
+            "available power P/m [W/kg]",
+            "Fig. 16: attainable F̄_a, tear-drop vs real wing",
+            "fig16_attainable_shapes",
+        ),
+    )
+    return [
+        (
+            "Fig. 14: tear-drop and real wing planforms",
+            figures.planform_figure(outlines, plan.figure(study_dir, "fig14_planforms")),
+        ),
+        *(
+            (caption, figures.sweep_figure([panel], x, title, plan.figure(study_dir, stem)))
+            for caption, panel, x, title, stem in sweeps
         ),
     ]
 
@@ -148,15 +144,9 @@ def _efficiency(rows: list[dict[str, Any]], method: str, planform: str) -> dict[
     return by_condition(rows, "efficiency_pct", method=method, task="level", planform=planform)
 
 
-def _label(method: str, planform: str) -> str:
-    """Legend label naming the method readably and the wing, for both planforms."""
-    return f"{figures.method_label(method)}, {planform} wing"
-
-
 def _share_better(real: Mapping[float, Spread], tear: Mapping[float, Spread], stat: str) -> float:
     """Share of the common conditions where the real wing's statistic beats the tear-drop's."""
-    common = [c for c in real if c in tear]
-    pairs = [(getattr(real[c], stat), getattr(tear[c], stat)) for c in common]
+    pairs = [(getattr(real[c], stat), getattr(tear[c], stat)) for c in real if c in tear]
     pairs = [(a, b) for a, b in pairs if math.isfinite(a) and math.isfinite(b)]
     return math.nan if not pairs else float(np.mean([a > b for a, b in pairs]))
 

@@ -16,7 +16,7 @@ from matplotlib.colors import ListedColormap
 from matplotlib.patches import Patch, Rectangle
 
 from eval.figures import PALETTE, legend, save
-from eval.studies.readings.result import ReadingResult
+from eval.studies.readings.plan import ReadingResult
 
 #: Cell colour and glyph of each verdict (any other verdict is drawn as "no data").
 VERDICT_STYLE: dict[str, tuple[str, str, str]] = {

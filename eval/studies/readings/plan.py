@@ -1,6 +1,6 @@
-"""The readings study's plan: the readings (the singles, the named ones, the combinations
-their results point to), the continuation from the default's optima and its bias check, and
-the jobs of each (:mod:`eval.studies.readings`)."""
+"""The readings study's plan: the readings (singles, named ones, combinations), the
+continuation from the default's optima and its bias check, the jobs of each, and one reading's
+analysed studies (:class:`ReadingResult`)."""
 
 from __future__ import annotations
 
@@ -16,18 +16,18 @@ from agents.jobs import Job
 from agents.records import Record
 from agents.runner import RunSummary, job_records
 from eval.studies import PAPER_STUDIES
-from eval.studies.base import StudyPlan
+from eval.studies.base import StudyOutput, StudyPlan
+from eval.studies.claims import Claim, VerdictCount
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading, combine
+from eval.studies.power import EXCESS_UNIT
 from eval.studies.presets import is_int, is_number
-from eval.studies.readings.result import COUNTS, HEADLINES, ReadingResult
 
 NAME = "readings"
 TITLE = "Readings of the paper against its claims"
 DEFAULT_OUT = os.path.join("results", "readings")
 MANIFEST = "readings_manifest.json"
 CHECK_CSV = "continuation_check.csv"
-#: The phases of a run with the continuation: the default in full, the continuation's bias
-#: check, the singles, the combinations; without it, the last two.
+#: The phases of a run with the continuation (without it, the last two).
 PHASES = ("default", "check", "singles", "combinations")
 
 #: The single readings: the default, then each open decision changed alone (docs/model.md).
@@ -97,10 +97,67 @@ SINGLES: tuple[Reading, ...] = (
     ),
 )
 
-#: Named readings. ``paper``: the reading with the most agreeing claims in the paper-preset run
-#: of this study (docs/reproduction.md, "Readings at the paper preset"); its model part is
-#: ``ModelOptions.preset("paper")``.
+#: Named readings. ``paper``: the most agreeing in the paper-preset run (docs/reproduction.md);
+#: its model part is ``ModelOptions.preset("paper")``.
 ALIASES: dict[str, str] = {"paper": "hover-none+Fh-literal"}
+
+#: The verdict counts of readings.csv and the readings tables, in their order
+#: (:class:`~eval.studies.claims.VerdictCount` fields): column -> table title.
+COUNTS = {
+    k: k.replace("_", " ") for k in ("agree", "differ", "undecided", "not_identifiable", "no_data")
+}
+
+#: Headline numbers of readings.csv: column -> (claim id whose median it is, description).
+HEADLINES: dict[str, tuple[str, str]] = {
+    "eta_max_pct": ("S7", "highest median level-flight efficiency over speeds [%]"),
+    "Fv_50": ("P1a", f"median F̄_v at 50 W/kg {EXCESS_UNIT}"),
+    "Fv_90": ("P1b", f"median F̄_v at 90 W/kg {EXCESS_UNIT}"),
+    "Fh_50": ("P2a", f"median F̄_h at 50 W/kg {EXCESS_UNIT}"),
+    "Fh_90": ("P2b", f"median F̄_h at 90 W/kg {EXCESS_UNIT}"),
+    "Fa_50": ("P6a", f"median F̄_a at 50 W/kg {EXCESS_UNIT}"),
+    "Fa_90": ("P6b", f"median F̄_a at 90 W/kg {EXCESS_UNIT}"),
+}
+
+
+@dataclass(frozen=True)
+class ReadingResult:
+    """One reading's studies, analysed."""
+
+    reading: Reading
+    outputs: tuple[StudyOutput, ...]
+
+    @property
+    def claims(self) -> list[Claim]:
+        return [c for o in self.outputs for c in o.claims]
+
+    @property
+    def counts(self) -> VerdictCount:
+        """Its verdict counts on the median."""
+        return VerdictCount.of(self.claims)
+
+    @property
+    def agree(self) -> int:
+        return self.counts.agree
+
+    @property
+    def differ(self) -> int:
+        return self.counts.differ
+
+    def verdicts(self) -> dict[str, str]:
+        return {c.id: c.verdict for c in self.claims}
+
+    def headline(self) -> dict[str, float]:
+        """The :data:`HEADLINES` numbers: the medians of those claims (NaN where absent)."""
+        by_id = {c.id: c for c in self.claims}
+        return {
+            k: by_id[cid].median if cid in by_id else math.nan for k, (cid, _) in HEADLINES.items()
+        }
+
+
+def reading_dir(out_dir: Path, reading: Reading) -> Path:
+    """The folder of one reading's study outputs, ``DIR/<name>``."""
+    return out_dir / reading.name
+
 
 #: The columns of readings.csv, in order.
 CSV_COLUMNS: tuple[str, ...] = (
@@ -120,12 +177,10 @@ CSV_COLUMNS: tuple[str, ...] = (
 @dataclass(frozen=True)
 class Continuation(agents_jobs.Continuation):
     """How a reading's optimisations continue from the default reading's optima: one round of
-    :class:`agents.jobs.Continuation` (``share``, ``initial_share``, ``starts``), with the
-    bias check's settings."""
+    :class:`agents.jobs.Continuation`, with the bias check's settings."""
 
     check_studies: tuple[str, ...] = ("power", "speed")
-    """The paper studies whose jobs also run in full for each single reading, to measure the
-    continuation's bias (``continuation_check.csv``): one per task."""
+    """The paper studies whose jobs also run in full for each single reading (the bias check)."""
     check_seeds: tuple[int, ...] = (0,)
     """The seeds of those full runs."""
     full_median: float = -0.02
@@ -143,19 +198,19 @@ class Continuation(agents_jobs.Continuation):
                     f"continuation {name} = {value!r}; allowed: a relative difference in [-1, 0]"
                 )
             object.__setattr__(self, name, float(value))
-        studies = tuple(self.check_studies)
-        if any(name not in PAPER_STUDIES for name in studies):
-            raise ValueError(
-                f"continuation check_studies = {self.check_studies!r}; allowed: names among "
-                f"{', '.join(PAPER_STUDIES)}"
-            )
-        object.__setattr__(self, "check_studies", studies)
-        seeds = tuple(self.check_seeds)
-        if not all(is_int(seed, 0) for seed in seeds):
-            raise ValueError(
-                f"continuation check_seeds = {self.check_seeds!r}; allowed: integers >= 0"
-            )
-        object.__setattr__(self, "check_seeds", seeds)
+        checks = {
+            "check_studies": (
+                lambda s: s in PAPER_STUDIES,
+                f"names among {', '.join(PAPER_STUDIES)}",
+            ),
+            "check_seeds": (lambda s: is_int(s, 0), "integers >= 0"),
+        }
+        for name, (ok, allowed) in checks.items():
+            if not all(map(ok, values := tuple(getattr(self, name)))):
+                raise ValueError(
+                    f"continuation {name} = {getattr(self, name)!r}; allowed: {allowed}"
+                )
+            object.__setattr__(self, name, values)
 
 
 @dataclass(frozen=True)
@@ -167,7 +222,7 @@ class ReadingsResult:
     runs: tuple[RunSummary, ...]
     """One per phase (:attr:`phases`)."""
     combination_rule: str
-    """The rule's outcome in words (which singles gained, what was combined)."""
+    """The rule's outcome in words."""
     files: tuple[Path, ...]
     """readings.csv, the matrix figure, report.md."""
     wall_time: float
@@ -186,8 +241,7 @@ def single_readings(names: Sequence[str] | None = None) -> tuple[Reading, ...]:
     if names is None:
         return SINGLES
     known = {r.name: r for r in SINGLES}
-    unknown = [n for n in names if n not in known]
-    if unknown:
+    if unknown := [n for n in names if n not in known]:
         raise ValueError(
             f"unknown reading(s) {', '.join(map(repr, unknown))}; allowed: {', '.join(known)}"
         )
@@ -204,8 +258,7 @@ def reading_by_name(name: str) -> Reading:
         raise ValueError(f"reading {given!r}: no name; allowed: {allowed}")
     # Each part is a single or an alias, which stands for its singles.
     parts = [single for part in name.split("+") for single in ALIASES.get(part, part).split("+")]
-    unknown = [part for part in name.split("+") if part not in known and part not in ALIASES]
-    if unknown:
+    if unknown := [part for part in name.split("+") if part not in known and part not in ALIASES]:
         raise ValueError(
             f"reading {given!r}: unknown {', '.join(map(repr, unknown))}; allowed: {allowed}"
         )
@@ -230,8 +283,8 @@ Optima = Mapping[str, Mapping[str, Sequence[Sequence[float]]]]
 
 
 def continued_from(reading: Reading) -> tuple[str, ...]:
-    """The readings whose optima ``reading`` continues from: a combination's parts (each a
-    small change away from it, and run before it), any other reading the default's."""
+    """The readings whose optima ``reading`` continues from: a combination's parts (run before
+    it), any other reading the default's."""
     return reading.derived_from or (DEFAULT.name,)
 
 
@@ -243,30 +296,28 @@ def study_jobs(
     full: Collection[str] = (),
 ) -> dict[str, list[Job]]:
     """Each paper study's jobs under ``reading``, by study name: the studies' own without
-    ``continuation`` (and for the default or a search reading). With it, a job the default
-    shares or of a task in ``full`` stays; any other continues from the optima at its position
-    of the readings :func:`continued_from` names (a stand-in without ``optima``)."""
+    ``continuation`` (or for the default or a search reading); with it, a job the default shares
+    or of a task in ``full`` stays, any other continues from the optima at its position of the
+    readings :func:`continued_from` names (a stand-in without ``optima``)."""
     p = replace(plan, reading=reading)
     if continuation is None or reading == DEFAULT or reading.search is not None:
         return {name: study.jobs(p) for name, study in PAPER_STUDIES.items()}
     sources = continued_from(reading)
-    missing = [name for name in sources if optima is not None and name not in optima]
-    if missing:
+    if missing := [name for name in sources if optima is not None and name not in optima]:
         raise ValueError(f"reading {reading.name!r} continues from {missing}, not run yet")
     base = replace(plan, reading=DEFAULT)
     out: dict[str, list[Job]] = {}
     for name, study in PAPER_STUDIES.items():
-        jobs = []
+        out[name] = []
         pairs = zip(study.jobs(base), study.jobs(p), strict=True)
         for position, (default_job, job) in enumerate(pairs):
             if job.key == default_job.key or job.task in full:
-                jobs.append(job)
+                out[name].append(job)
                 continue
             strokes = None
             if optima is not None:
                 strokes = list({tuple(optima[source][name][position]): None for source in sources})
-            jobs.append(continuation.job(job, strokes))
-        out[name] = jobs
+            out[name].append(continuation.job(job, strokes))
     return out
 
 
@@ -274,7 +325,7 @@ def optima_of(
     records: Mapping[Job, Record] | Path, jobs: Mapping[str, Mapping[str, list[Job]]]
 ) -> dict[str, dict[str, list[list[float]]]]:
     """:data:`Optima` of the readings in ``jobs`` (reading -> study -> jobs) from their
-    ``records`` (job -> record), or from the store at ``records`` (every record present)."""
+    ``records``, or from the store at ``records``."""
     if not isinstance(records, Mapping):
         flat = [job for by_study in jobs.values() for group in by_study.values() for job in group]
         records = job_records(records, flat)
@@ -292,34 +343,34 @@ def check_jobs(
 ) -> list[tuple[Job, Job]]:
     """(continued job, the same job in full) of the check studies' jobs at the check seeds that
     the reading does not share with the default: the continuation's bias check."""
-    continued = study_jobs(plan, reading, continuation, optima)
-    full = study_jobs(plan, reading)
-    pairs = dict.fromkeys(
+    continued, full = study_jobs(plan, reading, continuation, optima), study_jobs(plan, reading)
+    pairs = (
         (c, f)
         for name in continuation.check_studies
         for c, f in zip(continued[name], full[name], strict=True)
         if c != f and f.seed in continuation.check_seeds
     )
-    return list(pairs)
+    return list(dict.fromkeys(pairs))
 
 
 def full_tasks(
     summary: Sequence[Mapping[str, Any]], continuation: Continuation
 ) -> dict[str, dict[str, str]]:
-    """reading -> task -> why its jobs run in full: the bias check (:func:`check_summary`
-    rows) found them short by more than ``full_median`` or ``full_lowest``, or a continued
-    optimum infeasible where the full run's is feasible."""
+    """reading -> task -> why its jobs run in full: the bias check's ``summary`` found them short
+    by more than ``full_median`` or ``full_lowest``, or a continued optimum infeasible."""
     out: dict[str, dict[str, str]] = {}
     for row in summary:
         if row["reading"] == "all" or row["task"] == "all":
             continue
-        why = []
-        if row["pairs"] and row["median"] < continuation.full_median:
-            why.append(f"median {100 * row['median']:+.1f} %")
-        if row["pairs"] and row["lowest"] < continuation.full_lowest:
-            why.append(f"lowest {100 * row['lowest']:+.1f} %")
-        if row["infeasible_continued"]:
-            count = row["infeasible_continued"]
+        why = [
+            f"{key} {100 * row[key]:+.1f} %"
+            for key, limit in (
+                ("median", continuation.full_median),
+                ("lowest", continuation.full_lowest),
+            )
+            if row["pairs"] and row[key] < limit
+        ]
+        if count := row["infeasible_continued"]:
             why.append(f"{count} continued optim{'um' if count == 1 else 'a'} infeasible")
         if why:
             out.setdefault(row["reading"], {})[row["task"]] = ", ".join(why)
@@ -351,9 +402,7 @@ def combinations(
     words = f"singles that raised the agreeing claims over the default ({base}): {gains}"
     if skipped:
         words += f"; left out: {', '.join(skipped)}"
-    groups: list[list[ReadingResult]] = []
-    if len(chosen) >= 2:
-        groups.append(chosen[:2])
+    groups: list[list[ReadingResult]] = [chosen[:2]] if len(chosen) >= 2 else []
     if len(chosen) >= 3:
         groups.append(chosen)
     if gainers:

@@ -1,5 +1,4 @@
-"""The readings study's report (:mod:`eval.studies.readings`), from the generic report's pieces
-(:mod:`eval.studies.report`)."""
+"""The readings study's report, from the generic report's pieces (:mod:`eval.studies.report`)."""
 
 from __future__ import annotations
 
@@ -8,19 +7,9 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from eval.studies import report as R
 from eval.studies.base import StudyPlan
-from eval.studies.readings.plan import Continuation
-from eval.studies.readings.result import COUNTS, HEADLINES, ReadingResult, reading_dir
-from eval.studies.report import (
-    Column,
-    agreement_rules,
-    figure_markdown,
-    file_link,
-    insect_line,
-    markdown_table,
-    relative_path,
-    settings_lines,
-)
+from eval.studies.readings.plan import COUNTS, HEADLINES, Continuation, ReadingResult, reading_dir
 from tandem_env.io.files import write_text_atomic
 
 #: The readings study's goal: a reading under which this many of the paper's claims agree.
@@ -32,7 +21,7 @@ def _num(value: float, fmt: str = ".3g") -> str:
 
 
 #: The readings table's columns, one row per reading.
-READING_COLUMNS: tuple[Column, ...] = (
+READING_COLUMNS: tuple[R.Column, ...] = (
     ("reading", lambda r: f"`{r.reading.name}`"),
     ("changes from the default", lambda r: r.reading.describe_changes()),
     *((title, lambda r, k=k: str(getattr(r.counts, k))) for k, title in COUNTS.items()),
@@ -50,10 +39,10 @@ def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
         if after is None or after.verdict == before.verdict:
             continue
         sign = "+" if after.verdict == "agrees" else ("−" if before.verdict == "agrees" else "·")
-        spread = (
+        inside = (
             before.q25 <= after.median <= before.q75 and after.q25 <= before.median <= after.q75
         )
-        noise = "*" if spread else ""
+        noise = "*" if inside else ""
         lines.append(
             f"{sign}{before.id}{noise} ({before.verdict} → {after.verdict}: "
             f"{_num(before.median)} → {_num(after.median)} {after.unit})".replace(" )", ")")
@@ -72,26 +61,23 @@ def write_readings_report(
     figure: Path,
     check: Sequence[Mapping[str, Any]],
 ) -> Path:
-    """Write the readings study's report to ``path`` (atomically) and return it: the
-    ``results`` of its readings, the best, which decision moves which claim, the matrix; the
-    combination rule in ``words``, its ``continuation`` (or None), the bias ``check``
-    (``check_summary`` rows) and the tasks run in ``full``."""
-    base = path.parent
-    default = results[0]
+    """Write the readings study's report to ``path`` (atomically) and return it: the readings'
+    ``results``, the best, which decision moves which claim, the matrix; the combination rule
+    (``words``), the ``continuation``, its bias ``check`` and the tasks run in ``full``."""
+    base, default = path.parent, results[0]
     best = max(results, key=lambda r: r.agree)
-    n_claims = len(default.claims)
-    base_head = default.headline()
+    n_claims, base_head = len(default.claims), default.headline()
     parts = [
         "# Readings of the paper: which reading reproduces which claim",
         "",
-        *settings_lines(plan)[:3],
-        insect_line(plan),
+        *R.settings_lines(plan)[:3],
+        R.insect_line(plan),
         "- every reading runs the four paper studies (speed, power, kinematics, wing shape) with "
         "these settings; a job two readings share runs once",
         "",
         "## Readings",
         "",
-        *markdown_table(READING_COLUMNS, results),
+        *R.markdown_table(READING_COLUMNS, results),
         "",
         "Headline columns: " + "; ".join(f"{k}: {text}" for k, (_, text) in HEADLINES.items()),
         "",
@@ -125,7 +111,7 @@ def write_readings_report(
         "`*` marks a flip where both medians lie inside the other's inter-quartile range over "
         "seeds: within the seed-to-seed spread, i.e. possibly search noise.",
         "",
-        *markdown_table(
+        *R.markdown_table(
             [
                 READING_COLUMNS[0],
                 ("claims moved", lambda r: "; ".join(reading_moves(default, r)) or "none"),
@@ -140,12 +126,12 @@ def write_readings_report(
         "",
         "## Claims × readings",
         "",
-        figure_markdown("claims × readings matrix", figure, base),
+        R.figure_markdown("claims × readings matrix", figure, base),
         "",
-        f"Data: {file_link(table, base)}. Each reading's full report "
+        f"Data: {R.file_link(table, base)}. Each reading's full report "
         "(paper vs ours, figures): "
         + ", ".join(
-            f"[`{r.reading.name}`]({relative_path(reading_dir(base, r.reading) / 'report.md', base)})"
+            f"[`{r.reading.name}`]({R.relative_path(reading_dir(base, r.reading) / 'report.md', base)})"
             for r in results
         )
         + ".",
@@ -156,7 +142,7 @@ def write_readings_report(
         "",
         "## Agreement rules",
         "",
-        *agreement_rules(),
+        *R.agreement_rules(),
         "",
     ]
     write_text_atomic(path, "\n".join(parts))
@@ -203,10 +189,10 @@ def check_table(
         why = full.get(row["reading"], {}).get(row["task"])
         return "" if row["reading"] == "all" else (f"in full ({why})" if why else "continued")
 
-    def percent(key: str) -> Column:
+    def percent(key: str) -> R.Column:
         return key, lambda row: f"{100 * row[key]:+.2f} %"
 
-    columns: list[Column] = [
+    columns: list[R.Column] = [
         ("reading", lambda row: "**all**" if row["reading"] == "all" else f"`{row['reading']}`"),
         ("task", lambda row: "" if row["reading"] == "all" else row["task"]),
         ("pairs", lambda row: str(row["pairs"])),
@@ -215,4 +201,4 @@ def check_table(
         ("infeasible", lambda row: str(row["infeasible"])),
         ("runs", runs),
     ]
-    return markdown_table(columns, check)
+    return R.markdown_table(columns, check)

@@ -26,38 +26,19 @@ from eval.studies import PAPER_STUDIES, report
 from eval.studies.base import StudyPlan
 from eval.studies.claims import VerdictCount
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading
+from eval.studies.readings import plan as P
 from eval.studies.readings.figure import matrix_figure
-from eval.studies.readings.plan import (
-    CHECK_CSV,
-    CSV_COLUMNS,
-    DEFAULT_OUT,
-    MANIFEST,
-    NAME,
-    PHASES,
-    SINGLES,
-    Continuation,
-    Optima,
-    ReadingsResult,
-    check_jobs,
-    combinations,
-    full_tasks,
-    optima_of,
-    reading_jobs,
-    single_readings,
-    study_jobs,
-)
 from eval.studies.readings.report import write_readings_report
-from eval.studies.readings.result import ReadingResult, reading_dir
 from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
 
 
 def analyse_reading(
     plan: StudyPlan, reading: Reading, out: RecordStore, jobs: Mapping[str, Sequence[Job]]
-) -> ReadingResult:
+) -> P.ReadingResult:
     """Analyse the four studies' ``jobs`` (:func:`study_jobs`) under ``reading`` into its
     folder, with its ``report.md`` and a link ``records -> ../records`` for the indexes."""
     p = replace(plan, reading=reading)
-    where = reading_dir(out.directory, reading)
+    where = P.reading_dir(out.directory, reading)
     where.mkdir(parents=True, exist_ok=True)
     link = where / RECORDS_DIR
     if not link.exists() and not link.is_symlink():
@@ -70,7 +51,7 @@ def analyse_reading(
         for name, study in PAPER_STUDIES.items()
     )
     report.write_report(where / "report.md", p, outputs, list(PAPER_STUDIES))
-    return ReadingResult(reading, outputs)
+    return P.ReadingResult(reading, outputs)
 
 
 #: The columns of continuation_check.csv, in order.
@@ -130,7 +111,7 @@ def _earlier_invocations(out_dir: Path, plan: StudyPlan) -> list[dict[str, Any]]
     """The invocations into ``out_dir`` at this preset its manifest records (an older manifest:
     its one run); says so when it holds another preset's."""
     try:
-        before = read_json(out_dir / MANIFEST)
+        before = read_json(out_dir / P.MANIFEST)
     except (FileNotFoundError, ValueError):
         return []
     if not isinstance(before, Mapping) or before.get("preset") is None:
@@ -146,7 +127,7 @@ def _earlier_invocations(out_dir: Path, plan: StudyPlan) -> list[dict[str, Any]]
     earlier = list(before.get("invocations", ()))
     if earlier or "phases" not in before:
         return earlier
-    names = PHASES[2:] if before.get("continuation") is None else PHASES
+    names = P.PHASES[2:] if before.get("continuation") is None else P.PHASES
     phases = [{"name": name, **phase} for name, phase in zip(names, before["phases"], strict=False)]
     return [{"finished": None, "phases": phases, "wall_time_s": before.get("wall_time_s")}]
 
@@ -175,8 +156,8 @@ class ReadingsPlan:
         self,
         plan: StudyPlan,
         out: RecordStore,
-        readings: Sequence[Reading] = SINGLES,
-        continuation: Continuation | None = Continuation(),
+        readings: Sequence[Reading] = P.SINGLES,
+        continuation: P.Continuation | None = P.Continuation(),
         derive: bool = True,
         progress: bool = True,
         title: str = "readings study",
@@ -194,7 +175,7 @@ class ReadingsPlan:
         self.continuation, self.derive, self.progress = continuation, derive, progress
         self.earlier = _earlier_invocations(out.directory, plan)
         self.load_before = _load()
-        self.results: list[ReadingResult] = []
+        self.results: list[P.ReadingResult] = []
         self.rows: list[dict[str, Any]] = []
         self.full: dict[str, dict[str, str]] = {}
         self.words = "not derived (derive=False)"
@@ -218,53 +199,53 @@ class ReadingsPlan:
         rows: list[dict[str, Any]] = []  # one per checked job
         full: dict[str, dict[str, str]] = {}
         if continuation is None:
-            jobs = {r.name: study_jobs(plan, r) for r in readings}
-            yield Phase(PHASES[2], _flat(jobs.values()), later=later)
+            jobs = {r.name: P.study_jobs(plan, r) for r in readings}
+            yield Phase(P.PHASES[2], _flat(jobs.values()), later=later)
         else:
             # the default first: the others start from its optima
-            jobs = {DEFAULT.name: study_jobs(plan, DEFAULT)}
+            jobs = {DEFAULT.name: P.study_jobs(plan, DEFAULT)}
             default = _flat(jobs.values())
-            yield Phase(PHASES[0], default)
+            yield Phase(P.PHASES[0], default)
             done = found(default)
-            optima: Optima | None = None if done is None else optima_of(done, jobs)
+            optima: P.Optima | None = None if done is None else P.optima_of(done, jobs)
             others = readings[1:]
             checks = [
-                (r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)
+                (r, c, f) for r in others for c, f in P.check_jobs(plan, r, continuation, optima)
             ]
             check = tuple(dict.fromkeys(job for _, c, f in checks for job in (c, f)))
             stand_ins = frozenset(c.key for _, c, _ in checks) if done is None else frozenset()
-            yield Phase(PHASES[1], check, stand_ins)
+            yield Phase(P.PHASES[1], check, stand_ins)
             if done is not None and checks and (checked := found(check)):
                 rows = check_rows(checked, checks)
-            full = full_tasks(check_summary(rows), continuation)
+            full = P.full_tasks(check_summary(rows), continuation)
             jobs |= {
-                r.name: study_jobs(plan, r, continuation, optima, full.get(r.name, {}))
+                r.name: P.study_jobs(plan, r, continuation, optima, full.get(r.name, {}))
                 for r in others
             }
             singles = _flat(jobs[r.name] for r in others)
-            own = {job.key for r in others for job in reading_jobs(plan, r)}
+            own = {job.key for r in others for job in P.reading_jobs(plan, r)}
             stand_ins = frozenset(j.key for j in singles if j.key not in own and done is None)
-            yield Phase(PHASES[2], singles, stand_ins, later)
+            yield Phase(P.PHASES[2], singles, stand_ins, later)
         if not found.running:
             return
         self.rows, self.full = rows, full
         self._analyse(jobs, readings)
         if not self.derive:
             return
-        derived, self.words = combinations(self.results[0], self.results)
+        derived, self.words = P.combinations(self.results[0], self.results)
         derived = [r for r in derived if r.name not in jobs]
         if derived:
-            optima = None if continuation is None else optima_of(self.store, jobs)
-            jobs |= {r.name: study_jobs(plan, r, continuation, optima) for r in derived}
-            yield Phase(PHASES[3], _flat(jobs[r.name] for r in derived))
+            optima = None if continuation is None else P.optima_of(self.store, jobs)
+            jobs |= {r.name: P.study_jobs(plan, r, continuation, optima) for r in derived}
+            yield Phase(P.PHASES[3], _flat(jobs[r.name] for r in derived))
             self._analyse(jobs, derived)
 
-    def finish(self, run: PlanRun) -> ReadingsResult:
+    def finish(self, run: PlanRun) -> P.ReadingsResult:
         """Write the bias check's CSV, readings.csv, the matrix, report.md and the manifest of
         ``run`` (this plan's)."""
         out, plan, results = self.store.directory, self.plan, self.results
         if self.rows:
-            write_csv_atomic(out / CHECK_CSV, self.rows)
+            write_csv_atomic(out / P.CHECK_CSV, self.rows)
         summary = check_summary(self.rows)
         csv_path, report = out / "readings.csv", out / "report.md"
         write_csv_atomic(csv_path, csv_rows(results))
@@ -283,7 +264,7 @@ class ReadingsPlan:
             "wall_time_s": round(run.wall_time, 1),
         }
         write_json_atomic(
-            out / MANIFEST,
+            out / P.MANIFEST,
             {
                 "preset": plan.preset.name,
                 "methods": list(plan.methods),
@@ -309,22 +290,22 @@ class ReadingsPlan:
         )
         files = (csv_path, figure, report)
         runs = tuple(run.runs.values())
-        return ReadingsResult(tuple(results), runs, words, files, run.wall_time, tuple(run.runs))
+        return P.ReadingsResult(tuple(results), runs, words, files, run.wall_time, tuple(run.runs))
 
 
 def run_readings(
     plan: StudyPlan,
     out_dir: str | os.PathLike[str] | RecordStore,
     *,
-    readings: Sequence[Reading] = SINGLES,
+    readings: Sequence[Reading] = P.SINGLES,
     derive: bool = True,
     scheduler: str | None = None,
     progress: bool = True,
-    continuation: Continuation | None = Continuation(),
+    continuation: P.Continuation | None = P.Continuation(),
     cache: CacheOption = True,
     rerun: bool = False,
     command: CommandProgress | None = None,
-) -> ReadingsResult:
+) -> P.ReadingsResult:
     """Run the readings study into ``out_dir`` (:class:`ReadingsPlan`: the ``readings``, the
     default first; the combinations if ``derive``; ``continuation`` None runs all in full) and
     write its outputs; ``plan``'s reading is ignored. ``scheduler``, ``cache``, ``rerun`` and
@@ -335,7 +316,7 @@ def run_readings(
     return study.finish(run)
 
 
-def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
+def csv_rows(results: Sequence[P.ReadingResult]) -> list[dict[str, Any]]:
     """One row per reading (:data:`CSV_COLUMNS`)."""
     rows = []
     for r in results:
@@ -352,11 +333,11 @@ def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
             **{k: v if math.isnan(v) else float(f"{v:.4g}") for k, v in r.headline().items()},
             "description": reading.description,
         }
-        rows.append({k: row[k] for k in CSV_COLUMNS})
+        rows.append({k: row[k] for k in P.CSV_COLUMNS})
     return rows
 
 
-def continuation_option(text: str) -> Continuation | None:
+def continuation_option(text: str) -> P.Continuation | None:
     """``--continuation``: a share in (0, 1], or none."""
     if text.strip().lower() == "none":
         return None
@@ -368,17 +349,17 @@ def continuation_option(text: str) -> Continuation | None:
             "every reading in full"
         ) from None
     try:
-        return Continuation(share=share)
+        return P.Continuation(share=share)
     except ValueError as error:
         raise argparse.ArgumentTypeError(
             f"{error} (got {text!r}; or none to run every reading in full)"
         ) from None
 
 
-def check_continuation(plan: StudyPlan, continuation: Continuation) -> None:
+def check_continuation(plan: StudyPlan, continuation: P.Continuation) -> None:
     """Prepare a continued job of every configuration of the default's jobs as the harness
     will: ValueError, before any work, naming a share whose continued jobs cannot run."""
-    jobs = {(j.method, j.budget, j.method_config): j for j in reading_jobs(plan, DEFAULT)}
+    jobs = {(j.method, j.budget, j.method_config): j for j in P.reading_jobs(plan, DEFAULT)}
     for job in jobs.values():
         continued = continuation.job(job, None)  # the default's optima are not known yet
         try:
@@ -395,24 +376,24 @@ def check_continuation(plan: StudyPlan, continuation: Continuation) -> None:
 class ReadingsCampaign:
     """The readings study on the command line."""
 
-    names = (NAME,)
+    names = (P.NAME,)
     description = """\
   readings     the four paper studies under each reading of the paper's open decisions (the
                default, each decision changed alone, the combinations those results point
                to): readings.csv, a claims × readings matrix, report.md (default out
                results/readings)"""
-    default_out = DEFAULT_OUT
+    default_out = P.DEFAULT_OUT
     reading_help = (
         "readings study: run these single readings (repeat; the default is always "
-        f"run; allowed: {', '.join(r.name for r in SINGLES)})"
+        f"run; allowed: {', '.join(r.name for r in P.SINGLES)})"
     )
     options: Mapping[str, dict[str, Any]] = {
         "--continuation": {
             "type": continuation_option,
-            "default": Continuation(),
+            "default": P.Continuation(),
             "metavar": "SHARE|none",
             "help": "readings study only: the other readings continue from the default's "
-            f"optima on SHARE of the budget (default {Continuation().share:g}; "
+            f"optima on SHARE of the budget (default {P.Continuation().share:g}; "
             "docs/reproduction.md, Readings); none runs every reading in full",
         }
     }
@@ -420,7 +401,7 @@ class ReadingsCampaign:
     def plan(self, args: argparse.Namespace, plan: StudyPlan, out: RecordStore) -> ReadingsPlan:
         """The study of the readings ``--reading`` names (ValueError, before any work, for a
         bad one or a share whose continued jobs cannot run)."""
-        chosen = single_readings(args.reading)
+        chosen = P.single_readings(args.reading)
         singles = f"{len(chosen) - 1} single reading{'s' * (len(chosen) != 2)}"
         title = f"readings study (the default and {singles})"
         if args.continuation is not None:
@@ -433,7 +414,7 @@ class ReadingsCampaign:
             plan, out, chosen, args.continuation, progress=not args.quiet, title=title
         )
 
-    def report(self, args: argparse.Namespace, result: ReadingsResult) -> None:
+    def report(self, args: argparse.Namespace, result: P.ReadingsResult) -> None:
         """Print what the run did (stderr) and found (stdout)."""
         for phase, run in zip(result.phases, result.runs, strict=True):
             done = f"{run.describe(args.out)} ({run.executor}); {run.wall_time:.1f} s"
