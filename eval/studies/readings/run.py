@@ -27,8 +27,7 @@ from eval.studies.base import StudyPlan
 from eval.studies.claims import VerdictCount
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading
 from eval.studies.readings import plan as P
-from eval.studies.readings.figure import matrix_figure
-from eval.studies.readings.report import write_readings_report
+from eval.studies.readings.report import matrix_figure, write_readings_report
 from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
 
 
