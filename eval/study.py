@@ -22,8 +22,7 @@ from eval.studies.suite import SUITE, SuiteCampaign
 from tandem_env.physics.insect import DRAGONFLY, describe_insect
 
 #: What the command runs, in the order of its help: the paper's studies and the readings study,
-#: each with its ``names``, help lines, ``default_out``, own ``options`` (flag -> keywords), a
-#: ``plan(args, plan, store)`` (``phases``, ``title``, ``finish(run)``) and ``report``.
+#: each with its ``names``, help, ``default_out``, ``options``, ``plan(...)`` and ``report``.
 CAMPAIGNS = (SUITE, READINGS)
 
 
@@ -36,14 +35,10 @@ NAME = "study"
 HELP = "reproduce the paper's figures: speed/power sweeps, kinematics, wing shape, report"
 DESCRIPTION = (
     f"""\
-Run the reproduction studies of Faisal & Filippone (2016) on the evaluation harness and
-write, per study, the records (JSON), a tidy CSV, a summary CSV and paper-style figures (PNG;
---format svg or pdf), and DIR/report.md: every claim of the paper beside ours (median [IQR]
-over seeds, best seed) with an explicit agreement rule, judged on the median and on the best
-seed; a verdict that a bootstrap over the seeds flips in more than
-{100 * FLIP_THRESHOLD:.0f} % of resamples is "undecided"; a claim about what the model does
-not depend on under the options run (the fore/hind phase, K1-K3, under the default mean
-slipstream) is "not identifiable".
+Run the reproduction studies of Faisal & Filippone (2016) on the evaluation harness: per
+study the records, tidy and summary CSVs and figures, and DIR/report.md, every claim of the
+paper beside ours judged on the median and the best seed (a verdict a bootstrap over seeds
+flips in more than {100 * FLIP_THRESHOLD:.0f} % of resamples is "undecided"; docs/reproduction.md).
 
 Studies:
 """
@@ -60,17 +55,9 @@ Presets:
     )
     + """
 
-A killed run resumes: finished optimisations are recognised by their configuration hash and
-not run again; a changed configuration never reuses old records. An optimisation another
-output folder has run is copied from the record cache instead of run (--no-cache: not).
-The first line gives the whole command's optimisations, what is stored and what runs, its
-model evaluations and the time left; a command of several phases says it again at each
-phase's start.
-
-The optimisations run here, one after another (default), or on Dask: --scheduler local:N
-starts N worker processes here, --scheduler tcp://HOST:PORT uses a running Dask scheduler
-and its workers, e.g. on a SLURM/PBS cluster (docs/scaling.md). The numbers and the report
-are the same either way."""
+A killed run resumes (finished optimisations are not run again; the record cache copies one
+another folder ran). The optimisations run here one after another, or on Dask with
+--scheduler (docs/scaling.md); the numbers and the report are the same either way."""
 )
 EPILOG = """\
 examples:
@@ -79,14 +66,6 @@ examples:
   python -m eval study speed --method cmaes --method pso --out results/study
   python -m eval study all --preset paper --scheduler tcp://scheduler-host:8786
   python -m eval study readings --preset quick   # into results/readings"""
-
-
-def _default_out() -> str:
-    """The ``--out`` help's default: each campaign's folder and its studies."""
-    first, *rest = CAMPAIGNS
-    return f"default {first.default_out}" + "".join(
-        f"; {c.default_out} for {', '.join(c.names)}" for c in rest
-    )
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -109,9 +88,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="model evaluations per optimisation, every task; default the preset's",
     )
-    parser.add_argument(
-        "--out", default=None, metavar="DIR", help=f"output directory ({_default_out()})"
+    first, *rest = CAMPAIGNS  # the default folder, and each other campaign's
+    out = f"default {first.default_out}" + "".join(
+        f"; {c.default_out} for {', '.join(c.names)}" for c in rest
     )
+    parser.add_argument("--out", default=None, metavar="DIR", help=f"output directory ({out})")
     parser.add_argument(
         "--method",
         action="append",

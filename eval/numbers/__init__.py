@@ -1,11 +1,4 @@
-"""``python -m eval numbers``: measure the numbers README and docs quote, and write them in.
-
-Each number is produced by the command its document names and written between the markers
-``<!-- numbers: NAME -->`` and ``<!-- /numbers -->``, rendered from its raw results in
-``docs/numbers/<name>.json`` alone: ``--only NAME ...`` measures those (``on_request`` ones only
-when named), ``--render`` rewrites the documents from the stored JSON. A new number is a
-:class:`~eval.numbers.framework.Measurement` in a module here (its ``MEASUREMENT`` or
-``MEASUREMENTS``) and one region in a document."""
+"""``python -m eval numbers``: measure the numbers README and docs quote, write them in."""
 
 from __future__ import annotations
 
@@ -38,8 +31,7 @@ MEASUREMENTS: dict[str, fw.Measurement] = {
 
 
 def render_document(text: str, rendered: dict[str, str]) -> str:
-    """``text`` with every marked region replaced by its rendering (a measurement not stored
-    yet: left as it is; a name no measurement has: an error)."""
+    """``text`` with every marked region rendered (KeyError for an unknown name)."""
 
     def body(match: re.Match[str]) -> str:
         name = match["name"]

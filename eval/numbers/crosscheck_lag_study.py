@@ -1,8 +1,4 @@
-"""The cross-check's lag study (docs/crosscheck.md, "Findings"): the stored outputs of the
-documented ``python -m eval crosscheck --grid lag-study`` run and of its convergence run at one
-case, collected after they finished, and what they say about each slipstream reading: the sign
-of the hind-wing's change at every grid point, and the lag of its largest loss against the
-vortex lattice's."""
+"""The cross-check's lag study (docs/crosscheck.md, "Findings"), from its stored outputs."""
 
 from __future__ import annotations
 
@@ -32,8 +28,7 @@ LAG_STUDY_FILES: dict[str, Path] = {
 
 
 def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """The stored rows with the model's columns (``ours_*``) computed afresh, the solver's as
-    stored: a new or changed reading without rerunning the solver."""
+    """The stored rows with the model's columns computed afresh (the solver's as stored)."""
     from eval.crosscheck.case import Case, base_stroke
     from eval.crosscheck.report import model_cells, ours
     from tandem_env.physics import DRAGONFLY
@@ -51,9 +46,7 @@ def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
 
 
 def measure() -> dict[str, Any]:
-    """Collect the finished lag study in :data:`LAG_STUDY_OUT` (run :data:`LAG_STUDY_COMMAND`
-    first, about an hour) and copy its table and figure into the docs; without that folder,
-    recompute the model's columns on the stored rows and write them into the docs' table."""
+    """Collect the finished lag study (else recompute the model's columns) into the docs."""
     table = LAG_STUDY_OUT / "crosscheck.csv"
     if not table.is_file() and LAG_STUDY_FILES["crosscheck.csv"].is_file():
         from tandem_env.io.files import write_csv_atomic
@@ -101,16 +94,14 @@ def lag_distance(a: float, b: float) -> float:
 
 
 def first_harmonic_phase(lags: Sequence[float], changes: Sequence[float]) -> float:
-    """The lag [deg] at which the first harmonic of the change over the lag is lowest (the
-    equally spaced lags' discrete Fourier coefficient), robust to one noisy point."""
+    """The lag [deg] where the change's first harmonic is lowest (robust to one noisy point)."""
     c = sum(v * math.cos(math.radians(g)) for g, v in zip(lags, changes, strict=True))
     s = sum(v * math.sin(math.radians(g)) for g, v in zip(lags, changes, strict=True))
     return (math.degrees(math.atan2(s, c)) + 180.0) % 360.0
 
 
 def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Per case and per reading: the sign agreement with the UVLM, the lag of the largest loss
-    and its first harmonic's phase, against the UVLM's."""
+    """Per case and reading: the sign agreement and the largest loss's lag against the UVLM's."""
     out = []
     for case in dict.fromkeys(case_of(r) for r in rows):
         mine = sorted((r for r in rows if case_of(r) == case), key=lambda r: float(r["lag_deg"]))
@@ -141,9 +132,7 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
 
 
 def targets(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
-    """Per reading, the lag study's targets: the signs of the hind and fore change shared with
-    the UVLM, their RMS differences [points], and the cases whose largest hind loss lies within
-    45° of the UVLM's."""
+    """Per reading, the lag study's targets: signs, RMS differences [points] and loss lags."""
     from eval.crosscheck.report import agreement_numbers
 
     out = {}

@@ -1,5 +1,4 @@
-"""The framework of ``python -m eval numbers``: where numbers live, one :class:`Measurement`,
-the documented commands it runs, the machine a timing is read against, shared helpers."""
+"""The framework of ``python -m eval numbers``: :class:`Measurement` and shared helpers."""
 
 from __future__ import annotations
 
@@ -29,8 +28,7 @@ REGION = re.compile(
 
 
 def _run(command: Sequence[str], environment: dict[str, str] | None = None) -> str:
-    """Run ``command`` from the repository root with ``environment`` set; its standard output.
-    A failure raises with the end of its stderr."""
+    """Run ``command`` from the repository root; its stdout (a failure raises with stderr)."""
     env = {**os.environ, **(environment or {})}
     done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True)
     if done.returncode != 0:
@@ -39,8 +37,7 @@ def _run(command: Sequence[str], environment: dict[str, str] | None = None) -> s
 
 
 def run_command(command: Sequence[str], environment: dict[str, str] | None = None) -> float:
-    """Run a documented ``python ...`` command with this interpreter (:func:`_run`); its wall
-    time [s]."""
+    """Run a documented ``python ...`` command with this interpreter; its wall time [s]."""
     start = time.perf_counter()
     _run([sys.executable, *command[1:]] if command[0] == "python" else command, environment)
     return time.perf_counter() - start
@@ -56,8 +53,7 @@ def optimize_command(arguments: Sequence[str], seeds: Sequence[int]) -> str:
 
 
 def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
-    """Run the documented ``eval optimize`` command into a fresh folder with the record cache
-    off (measured now, wall times too); its records, by seed."""
+    """Run ``eval optimize`` into a fresh folder, no cache; its records, by seed."""
     from agents.store import read_record_files
 
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
@@ -70,9 +66,7 @@ def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
 
 
 def seed_cells(by_kernel: Sequence[Sequence[dict[str, Any]]]) -> tuple[str, str, str, str]:
-    """The cells of one command's seeds under each BLAS kernel (the own first): each seed's
-    objective and their median (bold) at the digits every kernel gives, whether all are feasible,
-    and the range of the own kernel's wall times per seed."""
+    """The cells of one command's seeds under each BLAS kernel (the own first)."""
     seeds = by_kernel[0]
     times = [s["wall_time_s"] for s in seeds]
     objectives = [[s["objective"] for s in kernel] for kernel in by_kernel]
@@ -85,15 +79,13 @@ def seed_cells(by_kernel: Sequence[Sequence[dict[str, Any]]]) -> tuple[str, str,
 
 
 # --- BLAS kernels: the optimisations' last digits are the machine's ---------------------------
-#: OpenBLAS kernels (``OPENBLAS_CORETYPE``) an optimisation is also measured under: the generic
-#: AVX and AVX2 ones. Another kernel moves the linear algebra's last bits, which the searches
-#: turn into other digits (docs/harness.md, "Machine-dependent digits").
+#: OpenBLAS kernels (``OPENBLAS_CORETYPE``) an optimisation is also measured under: generic AVX
+#: and AVX2 (docs/harness.md, "Machine-dependent digits").
 OTHER_BLAS_KERNELS: tuple[str, ...] = ("Sandybridge", "Haswell")
 
 
 def blas_kernel() -> str:
-    """The kernel numpy's BLAS runs here: OpenBLAS's core type (``SkylakeX``, ``Haswell``, ...),
-    else the library's name."""
+    """The kernel numpy's BLAS runs here (OpenBLAS's core type, else the library's name)."""
     import numpy  # noqa: F401  (threadpoolctl sees the BLAS of the modules already loaded)
     from threadpoolctl import threadpool_info
 
@@ -145,8 +137,7 @@ def kernels_line(data: dict[str, Any]) -> str:
 
 
 def agreed(values: Sequence[float], form: str) -> str:
-    """One number measured under several kernels as shown: ``form`` of it where every kernel
-    gives the same text, else their range, ``min–max``."""
+    """A number measured under several kernels: ``form`` of it, or their range ``min–max``."""
     texts = {form.format(v) for v in values}
     return (
         texts.pop() if len(texts) == 1 else f"{form.format(min(values))}–{form.format(max(values))}"
@@ -154,8 +145,7 @@ def agreed(values: Sequence[float], form: str) -> str:
 
 
 def within_shown(value: float, values: Sequence[float], form: str) -> bool:
-    """Whether ``value`` (from a kernel not measured) is what :func:`agreed` shows of
-    ``values``: the same text, or inside the shown range."""
+    """Whether ``value`` is what :func:`agreed` shows of ``values`` (or inside its range)."""
     low, _, high = agreed(values, form).partition("–")
     return float(low) <= float(form.format(value)) <= float(high or low)
 

@@ -1,5 +1,4 @@
-"""The model's readings on random Table 4 strokes (deterministic: the test reruns them): the
-rotational coefficient's (docs/model.md §1.3) and the power conventions' (§6.3)."""
+"""The model's readings on random Table 4 strokes (docs/model.md §1.3, §6.3)."""
 
 from __future__ import annotations
 
@@ -18,8 +17,7 @@ POWER_SPEEDS: tuple[float, ...] = (0.0, 1.0, 2.0)
 
 
 def measure_rotation() -> dict[str, Any]:
-    """L/W with the paper's C_r = π over L/W with π/2 (both wings), for the random strokes that
-    lift at least half the weight with π."""
+    """L/W with C_r = π over L/W with π/2, for the random strokes that lift half the weight."""
     import tandem_env as te
 
     strokes, insect = random_strokes(), te.DRAGONFLY
@@ -59,8 +57,7 @@ def render_rotation(data: dict[str, Any]) -> str:
 
 
 def measure_power() -> dict[str, Any]:
-    """The ``"aerodynamic"`` power over the ``"absolute"`` and ``"elastic"`` ones on the random
-    strokes."""
+    """The aerodynamic power over the absolute and elastic ones on the random strokes."""
     import tandem_env as te
 
     strokes = random_strokes()

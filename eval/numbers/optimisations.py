@@ -1,6 +1,4 @@
-"""The documented ``eval optimize`` commands over seeds: the comparison of methods (README,
-docs/harness.md) and a second species (docs/envs.md: the paper's specimen and
-``--insect examples/orthetrum_cancellatum.yaml`` in level flight, the best seed's stroke)."""
+"""The documented ``eval optimize`` commands over seeds (docs/harness.md, docs/envs.md)."""
 
 from __future__ import annotations
 
@@ -78,8 +76,7 @@ def run_optimize(row: ComparisonRow, method: str, seeds: Sequence[int]) -> list[
 
 
 def run_species(insect: Sequence[str], seeds: Sequence[int]) -> list[dict[str, Any]]:
-    """Run the documented command in a fresh folder; one summary row per seed (the record's
-    objective, metrics, 28 stroke parameters, ``at_bounds`` and ``insect``)."""
+    """Run the documented command in a fresh folder; one summary row per seed."""
     records = fw.run_seeds((*insect, *SPECIES_ARGUMENTS), seeds)
     return [{**r.summary_row(), "feasible": bool(r.feasible)} for r in records]
 
@@ -94,8 +91,7 @@ def _rows(data: dict[str, Any]) -> Iterator[tuple[dict[str, Any], list[dict[str,
 def _table(
     data: dict[str, Any], name: str, head: list[str], cells: Callable[..., str], note: str = ""
 ) -> str:
-    """The region of an optimisation measurement: ``head``, a line per row (``cells(row, the row
-    under every kernel, its seed_cells)``), ``note``, the kernels and the commands."""
+    """An optimisation measurement's region: ``head``, a line per row, ``note``, the commands."""
     lines = [*head, *(cells(r, k, fw.seed_cells([x["seeds"] for x in k])) for r, k in _rows(data))]
     lines += [x for text in (note, fw.kernels_line(data)) if text for x in ("", text)]
     commands = (row["command"] for row in data["rows"])
@@ -133,18 +129,6 @@ def render_comparison(data: dict[str, Any]) -> str:
     return _table(data, "comparison", head, cells)
 
 
-def _species_columns() -> list[tuple[str, str, str]]:
-    """(name, heading, format) of each best-seed column."""
-    from tandem_env.physics.stroke import TABLE_4
-
-    table = {p.name: p for p in TABLE_4}
-    unit = lambda p: "°" if p.unit == "deg" else p.unit  # noqa: E731
-    parameters = [
-        (n, f"{table[n].symbol} [{unit(table[n])}]", "{:.1f}") for n in SPECIES_PARAMETERS
-    ]
-    return [*SPECIES_METRICS, *parameters]
-
-
 def measure_species() -> dict[str, Any]:
     rows = [
         {
@@ -162,8 +146,7 @@ def _best(seeds: Sequence[dict[str, Any]]) -> dict[str, Any]:
 
 
 def _stroke_cell(bests: Sequence[dict[str, Any]], name: str, form: str) -> str:
-    """The best seed's ``name`` (fore / hind for a stroke parameter), at the digits every
-    kernel's best seed gives."""
+    """The best seed's ``name`` (fore / hind for a parameter) at the digits every kernel gives."""
     if name not in SPECIES_PARAMETERS:
         return fw.agreed([best[name] for best in bests], form)
     return " / ".join(
@@ -172,8 +155,7 @@ def _stroke_cell(bests: Sequence[dict[str, Any]], name: str, form: str) -> str:
 
 
 def _bounds_text(rows: Sequence[dict[str, Any]]) -> str:
-    """The best seed's parameters at a bound (``at_bounds``) under every kernel (``rows``: one
-    condition's row per kernel), then those at a bound under some."""
+    """The best seed's parameters at a bound under every kernel, then under some."""
     each = [[item for item in _best(row["seeds"])["at_bounds"].split("; ") if item] for row in rows]
     common = [item for item in each[0] if all(item in other for other in each)]
     some = sorted({item for items in each for item in items} - set(common))
@@ -182,7 +164,14 @@ def _bounds_text(rows: Sequence[dict[str, Any]]) -> str:
 
 
 def render_species(data: dict[str, Any]) -> str:
-    columns = _species_columns()
+    from tandem_env.physics.stroke import TABLE_4
+
+    table = {p.name: p for p in TABLE_4}
+    unit = lambda p: "°" if p.unit == "deg" else p.unit  # noqa: E731
+    parameters = [
+        (n, f"{table[n].symbol} [{unit(table[n])}]", "{:.1f}") for n in SPECIES_PARAMETERS
+    ]
+    columns = [*SPECIES_METRICS, *parameters]  # (name, heading, format) of each best-seed column
 
     def cells(row: dict, by_kernel: list, seed: tuple[str, ...]) -> str:
         objectives, median, feasible, times = seed

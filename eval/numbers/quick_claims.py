@@ -1,6 +1,4 @@
-"""The quick preset's paper-vs-ours table (docs/reproduction.md): ``study all --preset quick``
-under the machine's own BLAS kernel and the other ones, merged into one table whose differing
-cells name each kernel's value; its Figs. 6, 7 and 11 copied."""
+"""The quick preset's paper-vs-ours table under each BLAS kernel (docs/reproduction.md)."""
 
 from __future__ import annotations
 
@@ -37,8 +35,7 @@ def read_claims(path: Path) -> list[dict[str, str]]:
 
 
 def run_study(kernel: str | None) -> dict[str, Any]:
-    """The quick preset's ``study all`` into a fresh folder under results/ under ``kernel``
-    (None: the machine's own, whose figures are copied to docs); its claims and wall time [s]."""
+    """The quick preset's ``study all`` under ``kernel``: its claims and wall time [s]."""
     (fw.ROOT / "results").mkdir(exist_ok=True)
     with tempfile.TemporaryDirectory(dir=fw.ROOT / "results", prefix="numbers-quick-") as out:
         wall = fw.run_command(
@@ -70,22 +67,19 @@ def by_text(texts: Mapping[str, str]) -> dict[str, list[str]]:
 
 
 def merged(texts: Mapping[str, str]) -> str:
-    """One cell under every kernel: its text where all give the same, else each kernel's text
-    named (``a under K1; b under K2 and K3``)."""
+    """One cell under every kernel: one text, else each kernel's (``a under K1; b under K2``)."""
     if len(groups := by_text(texts)) == 1:
         return next(iter(groups))
     return "; ".join(f"{text} under {joined(kernels)}" for text, kernels in groups.items())
 
 
 def verdicts(row: Mapping[str, str], field: bool = False) -> dict[str, str]:
-    """A row's verdicts without their confidence (``undecided (leans ...)``: ``undecided``),
-    by the column's name (``field``: by its Claim field)."""
+    """A row's verdicts without their confidence, by column name (``field``: Claim field)."""
     return {names[field]: row[title].partition(" (")[0] for title, names in VERDICT_COLUMNS.items()}
 
 
 def summary_lines(views: Mapping[str, Mapping[str, Any]]) -> list[str]:
-    """The report's verdict counts of each kernel's run; a line that differs between kernels is
-    given once per kernel group."""
+    """Each kernel's verdict counts; a line that differs given once per kernel group."""
 
     def claims(rows: Sequence[Mapping[str, str]]) -> list[Claim]:
         return [Claim(r["id"], "", "", "", "", r["rule"], **verdicts(r, field=True)) for r in rows]
@@ -124,8 +118,7 @@ def flips_sentence(claims: Sequence[Mapping[str, Mapping[str, str]]]) -> str:
 
 
 def render(data: dict[str, Any]) -> str:
-    """The verdict counts, the merged claims table, the flipping verdicts, the kernels, the
-    runs' times and commands."""
+    """The counts, the merged claims table, the flips, the kernels, the times and commands."""
     claims = by_claim(views := kernel_views(data))
     columns = [
         (title, lambda same, t=title: merged({k: row[t] for k, row in same.items()}))

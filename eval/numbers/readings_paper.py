@@ -1,5 +1,4 @@
-"""The readings study at the paper preset (docs/reproduction.md, "Readings"): its stored
-outputs, collected after the long run."""
+"""The readings study at the paper preset (docs/reproduction.md): its stored outputs."""
 
 from __future__ import annotations
 
@@ -30,9 +29,7 @@ READINGS_COLUMNS: tuple[tuple[str, tuple[str, ...]], ...] = (
 
 
 def measure() -> dict[str, Any]:
-    """Collect the finished paper-preset readings run in :data:`READINGS_PAPER_OUT` (it takes
-    1-2 h on 2 cores: run :data:`READINGS_PAPER_COMMAND` first) and copy its small outputs
-    into the docs (:data:`READINGS_PAPER_FILES`)."""
+    """Collect the finished paper-preset readings run and copy its small outputs into the docs."""
     from eval.studies.readings import MANIFEST
     from tandem_env.io.files import read_json
 
@@ -74,8 +71,7 @@ def _invocation_line(invocation: dict[str, Any]) -> str:
 
 
 def render(data: dict[str, Any]) -> str:
-    """The readings table (the paper's numbers first, the best count in bold), the run's
-    phases, the combination rule and the continuation's bias check with what ran in full."""
+    """The readings table, the run's phases, the combination rule and the bias check."""
     from eval.studies.readings.plan import COUNTS, HEADLINES
     from eval.studies.readings.report import check_table
 

@@ -1,8 +1,4 @@
-"""The reference optima (docs/reference.md): the packaged table
-``tandem_env/data/reference_optima.json`` as the document shows it. The table is made by
-``python -m eval reference`` (an hour of optimisations on 2 cores); this measurement reads it,
-so that the document says what the package holds (tests/envs/test_reference.py checks that the
-stored copy is the package's)."""
+"""The reference optima (docs/reference.md): the packaged table as the document shows it."""
 
 from __future__ import annotations
 

@@ -1,11 +1,4 @@
-"""PPO and SAC envelope policies against the reference optima (docs/training.md, "Scores at
-the held-out conditions"): per algorithm, :data:`HYPERPARAMETERS` and seed, a policy trained
-over level flight's envelope by ``python -m train``, its stroke at each held-out condition
-(``python -m train.envelope``) scored against the reference table (100 = the optimum).
-
-On request only: ``rl-baselines`` (twenty runs, about 45 min on 2 cores, and the figure),
-``amortised-scores`` (``--algo amortised``, five seeds; redraws the figure) and
-``envelope-headline`` (README: each policy's summary, read from the stored runs)."""
+"""Envelope policies scored against the reference optima (docs/training.md); on request."""
 
 from __future__ import annotations
 
@@ -29,15 +22,13 @@ FIGURE = Path("docs") / "figures" / "rl_baselines_scores.png"
 _ONE_CORE = {"OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
-#: The hyperparameters each algorithm is trained with: the shipped file's (None: the default,
-#: tuned at V = 1.5 m/s) and the envelope's, tuned by ``python -m train.tune``.
+#: The hyperparameters trained with: the shipped (None: the default) and the envelope's.
 HYPERPARAMETERS: dict[str, str | None] = {
     "shipped": None,
     "tuned": "train/hyperparams/envelope/{algo}.yml",
 }
 
-#: Every envelope policy the figure and the headline show, in drawing order: (the measurement
-#: storing its runs, algo, a key of :data:`HYPERPARAMETERS`: "" for the amortised policy).
+#: Every policy the figure and headline show: (measurement, algo, hyperparameters or "").
 POLICIES: tuple[tuple[str, str, str], ...] = (
     *(("rl-baselines", algo, hp) for algo, _ in ALGOS for hp in ("tuned", "shipped")),
     ("amortised-scores", "amortised", ""),
@@ -45,8 +36,7 @@ POLICIES: tuple[tuple[str, str, str], ...] = (
 
 
 def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str) -> list[str]:
-    """The documented envelope training command of ``algo`` with the ``hyperparams`` of
-    :data:`HYPERPARAMETERS` (``-f`` is added)."""
+    """The documented envelope training command of ``algo`` (``-f`` is added)."""
     conf = HYPERPARAMETERS[hyperparams]
     return [
         *f"python -m train --algo {algo} --env {ENV_ID} --seed {seed} -n {steps}".split(),
@@ -58,8 +48,7 @@ def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str
 def score_run(
     command: list[str], algo: str, steps: int, seed: int, folder: Path, variant: str = ""
 ) -> dict[str, Any]:
-    """Train by ``command`` (``-f`` added), then score its stroke at each held-out condition;
-    ``variant``: the hyperparameters."""
+    """Train by ``command``, then score its stroke at each held-out condition."""
     from tandem_env.envs.reference import held_out_conditions
 
     logs = folder / f"{algo}{variant and '-' + variant}-{seed}"
@@ -93,8 +82,7 @@ def measure() -> dict[str, Any]:
 
 
 def score_runs(name: str, tasks: list[tuple[list[str], str, int, int, str]]) -> list[Any]:
-    """:func:`score_run` of each (command, algo, steps, seed, variant), two at a time; the
-    figure is redrawn with them as measurement ``name``'s runs."""
+    """:func:`score_run` of each task, two at a time; the figure redrawn with them."""
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as tmp:
         with ThreadPoolExecutor(max_workers=2) as pool:
             runs = list(pool.map(lambda t: score_run(*t[:4], Path(tmp), t[4]), tasks))
@@ -103,8 +91,7 @@ def score_runs(name: str, tasks: list[tuple[list[str], str, int, int, str]]) -> 
 
 
 def summary(runs: list[dict[str, Any]]) -> tuple[float, float, float, float]:
-    """Median and worst score over every (seed, condition), the share feasible, the median
-    training time [s]."""
+    """Median and worst score, the share feasible and the median training time [s]."""
     scores = [s for r in runs for s in r["scores"]]
     feasible = [f for r in runs for f in r["feasible"]]
     return (
@@ -157,8 +144,7 @@ def render(data: dict[str, Any]) -> str:
 
 
 def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
-    """Score against speed per policy of :data:`POLICIES`: each seed thin, the median thick (the
-    shipped hyperparameters' median only, dashed); ``fresh``: runs just measured, by name."""
+    """Score against speed per policy of :data:`POLICIES`; ``fresh``: runs just measured."""
     import matplotlib.pyplot as plt
 
     from eval.figures import PALETTE, save

@@ -20,8 +20,7 @@ OPTIMUM_METRICS: tuple[str, ...] = (
 
 
 def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str, Any]]:
-    """The steady schedule's level-flight optima as ``eval speed-change`` makes them, one
-    ``{speed, objective, feasible, ...}`` per speed, computed now (no cache: another kernel's)."""
+    """The steady schedule's optima as ``eval speed-change`` makes them, computed now."""
     from eval import speed_change
     from tandem_env.envs.speed_change_config import SpeedChangeConfig
 
@@ -34,10 +33,7 @@ def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str,
     return [
         {
             "speed": r.job.condition,
-            "method": r.method,
-            "budget": r.budget,
-            "seed": r.seed,
-            "objective": r.objective,
+            **{k: getattr(r, k) for k in ("method", "budget", "seed", "objective")},
             "feasible": bool(r.feasible),
             **{name: r.metrics[name] for name in OPTIMUM_METRICS},
             "normalised_stroke": list(r.normalised_stroke),

@@ -1,5 +1,4 @@
-"""The reproduction studies of the paper's figures, run on the harness: ``python -m eval study``
-(:mod:`eval.study`), :func:`eval.studies.suite.run_studies` from Python."""
+"""The reproduction studies of the paper's figures (``python -m eval study``)."""
 
 from __future__ import annotations
 

@@ -1,9 +1,8 @@
-"""What every study shares: the plan, its jobs, the tables written and the :class:`Analysis`.
-A study module defines ``NAME``, ``TITLE``, ``jobs(plan) -> list[Job]`` and
-``analyse(plan, records, out_dir) -> StudyOutput``; jobs two studies share run once."""
+"""What every study shares: the plan, its jobs, the tables written and the :class:`Analysis`."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -22,7 +21,7 @@ from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim, ClaimSpec, judged, study_claims
 from eval.studies.paper_reading import DEFAULT, Reading
 from eval.studies.presets import WARM_SHARE, Preset, distinct, is_name, warm_start
-from eval.studies.tables import series_conditions, spread_summary_rows, tidy_rows
+from eval.studies.tables import Rows, series_conditions, spread_summary_rows, tidy_rows
 from tandem_env import PARAMETER_NAMES, ModelOptions
 from tandem_env.envs.config import EXECUTION_KWARGS, MODEL_OPTION_KWARGS
 from tandem_env.envs.reference import ConfigReference
@@ -42,8 +41,7 @@ REPLAY_RTOL = 1e-6
 
 @dataclass(frozen=True)
 class StudyPlan:
-    """A preset and the methods run at every condition (the preset's by default), under a
-    reading of the paper (the documented defaults by default)."""
+    """A preset and the methods run at every condition, under a reading of the paper."""
 
     preset: Preset
     methods: tuple[str, ...] | None = None
@@ -126,8 +124,7 @@ class StudyPlan:
     def env_kwargs(
         self, task: str, objective: str | None = None, planform: str = "tear-drop"
     ) -> dict[str, Any]:
-        """The env keywords of the plan's jobs of one series (the condition aside); ``objective``
-        is the env's (after the reading's), for a task that takes one."""
+        """The env keywords of one series' jobs; ``objective``: the env's, for a task with one."""
         kwargs = {
             **dict(self.preset.env_kwargs),
             **self.reading.env_kwargs(),
@@ -143,8 +140,7 @@ class StudyPlan:
     def warm_start(
         self, method: str, task: str, condition: float, kwargs: Mapping[str, Any]
     ) -> tuple[dict[str, Any], str]:
-        """The method settings of one job's warm start (none: ``{}``) and how it starts, in words:
-        from the table, or cold and why."""
+        """One job's warm-start settings (none: ``{}``) and how it starts, in words."""
         if self.preset.warm_start == "none":
             return {}, "cold (warm start none)"
         if self.reading.search is not None:  # it is how the reading finds its optima
@@ -168,34 +164,20 @@ class StudyPlan:
         seeds: Sequence[int] | None = None,
         warm: bool = True,
     ) -> list[Job]:
-        """Every method × condition × seed of one series under the plan's reading (the plan's
-        :meth:`budget` and the preset's seeds unless given); ``warm``: with :meth:`warm_start`."""
+        """Every method × condition × seed of one series; ``warm``: with :meth:`warm_start`."""
         given = None if objective is None else self.reading.objective(objective)
         kwargs = self.env_kwargs(task, given, planform)
         budget = self.budget(task) if budget is None else budget
-        return [
-            Job(
-                method=method,
-                task=task,
-                condition=float(c),
-                budget=budget,
-                seed=seed,
-                env_kwargs=tuple(kwargs.items()),
-                method_config={
-                    **dict(self.method_config(method)),
-                    **(self.warm_start(method, task, float(c), kwargs)[0] if warm else {}),
-                },
-                preset=self.preset.name,
-            )
-            for method in self.methods
-            for c in conditions
-            for seed in (self.preset.seeds if seeds is None else seeds)
-        ]
+        env, seeds = tuple(kwargs.items()), self.preset.seeds if seeds is None else seeds
+        jobs = []
+        for method, c in itertools.product(self.methods, map(float, conditions)):
+            warmed = self.warm_start(method, task, c, kwargs)[0] if warm else {}
+            config = {**dict(self.method_config(method)), **warmed}
+            jobs += [Job(method, task, c, budget, s, env, config, self.preset.name) for s in seeds]
+        return jobs
 
     def table_lines(self, rows: Sequence[Mapping[str, Any]]) -> list[str]:
-        """The report's check against the reference table (Markdown): per series and condition,
-        how the searches started, the table's optimum, the seeds' median and best with their gap
-        below it [%]; the conditions within :data:`GAP_TARGET` and any best seed below it."""
+        """The report's check of the searches against the reference table (Markdown) [%]."""
         lines = [
             f"Warm start `{self.preset.warm_start}` ({WARM_SHARE:g} of each budget for the "
             "table's strokes, counted in it; docs/reference.md, Warm starts).",
@@ -239,7 +221,7 @@ class StudyOutput:
 
     name: str
     title: str
-    rows: list[dict[str, Any]]
+    rows: Rows
     figures: list[tuple[str, Path]]
     """(caption, path) of each figure."""
     claims: list[Claim]
@@ -252,9 +234,8 @@ def write_tables(
     records: Mapping[Job, Record],
     out_dir: Path,
     quantities: Sequence[str],
-) -> tuple[list[dict[str, Any]], list[Path]]:
-    """Write ``DIR/<name>/records.json`` (the index), ``<name>.csv`` (tidy rows) and
-    ``<name>_summary.csv`` (the ``quantities`` and the 28 stroke parameters)."""
+) -> tuple[Rows, list[Path]]:
+    """Write the study's records index, tidy CSV and summary CSV; its rows and the paths."""
     rows = tidy_rows(records)
     index = [
         {
@@ -275,15 +256,12 @@ def write_tables(
 
 
 #: A study's figures from its plan, tidy rows, records and folder: (caption, path) of each.
-Figures = Callable[
-    [StudyPlan, list[dict[str, Any]], Mapping[Job, Record], Path], list[tuple[str, Path]]
-]
+Figures = Callable[[StudyPlan, Rows, Mapping[Job, Record], Path], list[tuple[str, Path]]]
 
 
 @dataclass(frozen=True)
 class Analysis:
-    """A paper study's ``analyse``: its tables, ``figures`` and ``claims``, each judged on
-    ``view(plan, rows, method)`` of every method's rows."""
+    """A paper study's ``analyse``: tables, ``figures`` and ``claims`` judged on ``view``."""
 
     name: str
     title: str
@@ -291,7 +269,7 @@ class Analysis:
     """The summary CSV's quantities (the 28 stroke parameters follow)."""
     figures: Figures
     claims: tuple[ClaimSpec, ...]
-    view: Callable[[StudyPlan, list[dict[str, Any]], str], Any]
+    view: Callable[[StudyPlan, Rows, str], Any]
 
     def __call__(
         self, plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path
@@ -300,7 +278,7 @@ class Analysis:
         figures = self.figures(plan, rows, records, out_dir / self.name)
         return StudyOutput(self.name, self.title, rows, figures, self.judge(plan, rows), files)
 
-    def judge(self, plan: StudyPlan, rows: list[dict[str, Any]]) -> list[Claim]:
+    def judge(self, plan: StudyPlan, rows: Rows) -> list[Claim]:
         """Every method's claims, with their confidence and identifiability."""
         words = vars(plan.preset)
         judge = lambda r, m, i: judged(self.claims, self.name, self.view(plan, r, m), m, i, words)  # noqa: E731

@@ -1,6 +1,4 @@
-"""The paper's claims (docs/model.md §9) as checkable rows (each study's ``CLAIMS`` of
-:class:`ClaimSpec`), judged by :data:`RULES` on the seeds' medians and each condition's best seed;
-a verdict the bootstrap flips is undecided, one about what the model ignores not identifiable."""
+"""The paper's claims (docs/model.md §9) as checkable rows, and the rules that judge them."""
 
 from __future__ import annotations
 
@@ -14,7 +12,7 @@ from typing import Any, Literal
 import numpy as np
 from scipy.stats import spearmanr
 
-from eval.studies.tables import Spread, pinned, spread, table4_bounds
+from eval.studies.tables import Rows, Spread, pinned, spread, table4_bounds
 from tandem_env import ModelOptions
 
 Verdict = Literal["agrees", "differs", "undecided", "not identifiable", "not run", "no data"]
@@ -41,8 +39,7 @@ CONFIDENCE_RULE = (
 
 #: The fore/hind phase (Fig. 11): what the paper's phase claims are about.
 PHASE = "fore/hind phase"
-#: A quantity a claim may be about -> whether the model, under the options at the speed [m/s]
-#: (None: forward flight), depends on it.
+#: A quantity a claim may be about -> whether the model, under options at a speed [m/s], uses it.
 QUANTITIES: dict[str, Callable[[ModelOptions, float | None], bool]] = {
     PHASE: lambda options, speed: options.phase_resolved(speed),
 }
@@ -227,8 +224,7 @@ def judge(value: float, rule: Rule, target: Any) -> bool | None:
     return None if math.isnan(value) else bool(TESTS[rule](value, target))
 
 
-#: A claim's statistic: :class:`Claim` fields (``median``, ``best``, ``q25``, ``q75``, ``unit``,
-#: ``detail``, ...), or None where the claim is not made (what it compares is not run).
+#: A claim's statistic: :class:`Claim` fields, or None where the claim is not made.
 Stats = dict[str, Any] | None
 #: A claim's statistic from a study's view of one method's rows and the claim's target.
 Measure = Callable[[Any, Any], Stats]
@@ -236,8 +232,7 @@ Measure = Callable[[Any, Any], Stats]
 
 @dataclass(frozen=True)
 class ClaimSpec:
-    """One claim of the paper: its row's words, and ``measure(view, target)``, its statistic from
-    a study's view of one method's rows."""
+    """One claim of the paper: its row's words and ``measure(view, target)``, its statistic."""
 
     id: str
     figure: str
@@ -246,15 +241,13 @@ class ClaimSpec:
     paper: str
     rule: Rule
     target: Any
-    """What the rule compares with (:data:`TESTS`): a number [its unit], (low, high), a location
-    [m/s] or angle [deg], a direction (±1), whether in phase, or (order, value)."""
+    """What the rule compares with (:data:`TESTS`), in the statistic's unit."""
     measure: Measure
     note: str = ""
     """Why a difference is understood, when it is."""
 
     def claim(self, study: str, view: Any, method: str, index: int, words: Mapping) -> Claim | None:
-        """The row of ``method`` (id ``S7``, ``S7/random`` for a later method), judged on the
-        median and the best seed; None where it is not made."""
+        """The row of ``method`` (``S7``, ``S7/random`` for a later one); None if not made."""
         fields = self.measure(view, self.target)
         if fields is None:
             return None
@@ -325,8 +318,7 @@ def follows_stats(
 
 
 def trend_stats(series: Mapping[float, Spread], direction: int, **fields: Any) -> dict[str, Any]:
-    """ρ(condition, medians) and of the best seeds, the medians' monotonic fraction as the
-    detail; ``fields`` override these."""
+    """ρ(condition, medians) and of the best seeds, the monotonic fraction as the detail."""
     x, medians = list(series), [s.median for s in series.values()]
     frac = monotonic_fraction(x, medians, direction)
     return {
@@ -339,9 +331,7 @@ def trend_stats(series: Mapping[float, Spread], direction: int, **fields: Any) -
 
 
 def held_at_bound(rows: Sequence[Mapping[str, Any]], quantity: str) -> dict[str, Any]:
-    """:data:`HELD_RULE` for ``quantity`` over one series' rows: ρ = 0 for the medians and/or
-    best seeds one Table 4 bound holds at every condition, with a ``detail`` and ``note``; empty
-    where none is held or below 3 conditions."""
+    """:data:`HELD_RULE` for ``quantity`` over one series' rows: ρ = 0 where a bound holds it."""
     conditions = sorted({float(r["condition"]) for r in rows})
     bounds = table4_bounds(quantity)
     if len(conditions) < 3 or bounds is None:
@@ -382,12 +372,8 @@ def location_stats(
 
 
 # --- confidence: the bootstrap over seeds ------------------------------------------------------
-Rows = list[dict[str, Any]]
-
-
 def _strata(rows: Sequence[Mapping[str, Any]]) -> list[tuple[list[int], dict[int, list[dict]]]]:
-    """(seeds, {seed: rows}) per series and condition (objectives together: a seed's two
-    accelerating optimisations stay paired), in a fixed order."""
+    """(seeds, {seed: rows}) per series and condition, objectives together, in a fixed order."""
     groups: dict[tuple[str, ...], dict[int, list[dict]]] = {}
     for row in rows:
         key = tuple(str(row.get(k)) for k in ("method", "task", "planform", "condition"))
@@ -398,8 +384,7 @@ def _strata(rows: Sequence[Mapping[str, Any]]) -> list[tuple[list[int], dict[int
 def resample(
     strata: Sequence[tuple[list[int], Mapping[int, list[dict]]]], rng: np.random.Generator
 ) -> Rows:
-    """One bootstrap resample: at every condition as many seeds as it has, drawn with
-    replacement; the k-th draw's rows get seed k (a seed drawn twice counts twice)."""
+    """One bootstrap resample: each condition's seeds drawn with replacement, renumbered."""
     out: Rows = []
     for seeds, by_seed in strata:
         for k, i in enumerate(rng.integers(0, len(seeds), size=len(seeds))):
@@ -413,8 +398,7 @@ def with_confidence(
     resamples: int = BOOTSTRAP_RESAMPLES,
     seed: int = BOOTSTRAP_SEED,
 ) -> list[Claim]:
-    """``claims_of(rows)`` with each verdict's confidence (:data:`CONFIDENCE_RULE`) over
-    ``resamples`` resamples (RNG ``seed``); a claim missing from a resample has flipped."""
+    """``claims_of(rows)`` with each verdict's confidence over ``resamples`` resamples."""
     claims = claims_of([dict(r) for r in rows])
     if not claims or resamples <= 0:
         return claims
@@ -433,8 +417,7 @@ def with_confidence(
 
 
 def _settled(c: Claim, flips: float, best_flips: float, lacks: tuple[str, ...] = ()) -> Claim:
-    """``c`` with each verdict as run its leaning, :func:`decide`'s verdict and the flipping
-    share (NaN without data); ``lacks``: every verdict "not identifiable", without one."""
+    """``c`` with its leanings, :func:`decide`'s verdicts and flips (or not identifiable)."""
     sides = {}
     for side, share in (("", flips), ("best_", best_flips)):
         said: Verdict = "not identifiable" if lacks else getattr(c, f"{side}verdict")
@@ -448,8 +431,7 @@ def _settled(c: Claim, flips: float, best_flips: float, lacks: tuple[str, ...] =
 
 
 def identifiable(claims: Iterable[Claim], options: ModelOptions) -> list[Claim]:
-    """The claims under :data:`IDENTIFIABILITY_RULE` for the model ``options``: "not
-    identifiable" where the model ignores a quantity of :attr:`Claim.depends_on`."""
+    """The claims under :data:`IDENTIFIABILITY_RULE` for the model ``options``."""
     out = []
     for c in claims:
         lacks = tuple(dict.fromkeys(d.quantity for d in c.depends_on if not d.resolved(options)))
@@ -464,15 +446,9 @@ def study_claims(
     *,
     options: ModelOptions,
 ) -> list[Claim]:
-    """Every method's claims (``claims_of(rows, method, index)``), bootstrapped over its own
-    rows and judged identifiable under ``options``."""
-    return identifiable(
-        [
-            c
-            for i, m in enumerate(methods)
-            for c in with_confidence(
-                lambda r, m=m, i=i: claims_of(r, m, i), [r for r in rows if r["method"] == m]
-            )
-        ],
-        options,
-    )
+    """Every method's claims, bootstrapped over its rows, judged identifiable."""
+    found: list[Claim] = []
+    for i, m in enumerate(methods):
+        own = [r for r in rows if r["method"] == m]
+        found += with_confidence(lambda r, m=m, i=i: claims_of(r, m, i), own)
+    return identifiable(found, options)

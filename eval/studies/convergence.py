@@ -1,6 +1,4 @@
-"""Budget study: best-so-far against evaluations, PSO and CMA-ES side by side: each method's
-long runs without a polish at one level and one accelerating (F̄_v) condition give every smaller
-budget's best (:func:`checkpoint_rows`); the polish shares run at the preset's budgets."""
+"""Budget study: best-so-far over evaluations of each method's long runs, and polish shares."""
 
 from __future__ import annotations
 
@@ -19,6 +17,7 @@ from eval import figures
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
 from eval.studies.presets import STUDY_PRESETS
 from eval.studies.report import Column, markdown_table
+from eval.studies.tables import Rows
 from tandem_env.io.files import write_csv_atomic, write_text_atomic
 
 NAME = "convergence"
@@ -36,8 +35,7 @@ def _with(job: Job, settings: tuple[tuple[str, object], ...]) -> Job:
 
 
 def _spec_jobs(plan: StudyPlan, **given: Any) -> list[Job]:
-    """``plan``'s jobs at the spec's level and accelerating (F̄_v) conditions and seeds, started
-    cold (the study compares the methods' own searches)."""
+    """``plan``'s jobs at the spec's conditions and seeds, each search started cold."""
     spec = plan.preset.convergence
     given |= {"seeds": spec.seeds, "warm": False}
     return [
@@ -66,8 +64,7 @@ def split_jobs(plan: StudyPlan) -> dict[float, list[Job]]:
 
 
 def polish_share_settings(method: str, share: float) -> tuple[tuple[str, object], ...]:
-    """The method settings of a polish share: none for the method's default (the other studies'
-    jobs), else the share."""
+    """A polish share's method settings: none for the method's default, else the share."""
     default = polish_settings(method, {})[0]
     if share == 0:
         return (("polish", "none"),) if default.enabled else ()
@@ -95,8 +92,7 @@ def curves(runs: Sequence[Record]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, Any]:
-    """Reproducibility of one budget split from the records' feasible objectives:
-    ``halves_apart`` = |best(first half) − best(second half)| / the larger, over the seeds."""
+    """One budget split's spread over seeds; ``halves_apart``: the halves' best, relative [-]."""
     runs = sorted(runs, key=lambda r: r.seed)
     values = np.array([r.objective if r.feasible else np.nan for r in runs], dtype=float)
     half = len(runs) // 2
@@ -125,11 +121,8 @@ def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, An
     }
 
 
-def checkpoint_rows(
-    label: str, method: str, grid: np.ndarray, values: np.ndarray
-) -> list[dict[str, Any]]:
-    """Median, IQR, min, max, spread ((max − min) / median) and fraction of the longest run's
-    median (of the value, not the gain from a penalised first batch) per checkpoint."""
+def checkpoint_rows(label: str, method: str, grid: np.ndarray, values: np.ndarray) -> Rows:
+    """Median, IQR, min, max, spread and fraction of the final median per checkpoint."""
     final = np.median(values[:, -1])
     out = []
     for budget in [c for c in CHECKPOINTS if c <= grid[-1]] + [int(grid[-1])]:

@@ -1,6 +1,4 @@
-"""Kinematics of the optimised strokes (paper Figs. 9-13): level flight at 1.25 m/s and 2 m/s,
-accelerating flight at 60 W/kg; tip paths, φ and η over the cycle, angle of attack and relative
-speed at 0.75 R. ΔΦ = Φ_φ,hind − Φ_φ,fore in (−180°, 180°] (> 0: hind leads), circular stats."""
+"""Kinematics of the optimised strokes (paper Figs. 9-13); ΔΦ > 0: the hind-wing leads."""
 
 from __future__ import annotations
 
@@ -18,7 +16,7 @@ from eval import figures
 from eval import kinematics_figures as kf
 from eval.studies import claims as C
 from eval.studies.base import Analysis, StudyPlan
-from eval.studies.tables import Spread, circular_median, select, spread, table4_bounds
+from eval.studies.tables import Rows, Spread, circular_median, select, spread, table4_bounds
 from tandem_env import PARAMETER_NAMES, bound_sides, stroke_history
 from tandem_env.envs import registration
 
@@ -35,15 +33,13 @@ HISTORY_SAMPLES = 120
 TRACED = ("tip_path", "sweep", "pitch", "angle_of_attack", "relative_speed")
 
 
-def triangle_note(rows: list[dict[str, Any]]) -> str:
-    """Fig. 13's legend line naming the seeds' wings whose weaving is a triangle wave (K at its
-    bound 1, docs/model.md §3.4: the speed steps at each reversal); "" where none is."""
+def triangle_note(rows: Rows) -> str:
+    """Fig. 13's note on triangle-wave weaving (K at 1, docs/model.md §3.4); "" where none."""
     shape = {w: PARAMETER_NAMES.index(f"{w}_sweep_shape") for w in ("fore", "hind")}
     found = []
     for row in sorted(rows, key=lambda r: r["seed"]):
         sides = bound_sides([float(row[name]) for name in PARAMETER_NAMES])
-        wings = [w for w, k in shape.items() if sides[k] == 1]
-        if wings:
+        if wings := [w for w, k in shape.items() if sides[k] == 1]:
             found.append(f"{' and '.join(wings)}-wing of seed {row['seed']}")
     if not found:
         return ""
@@ -81,9 +77,7 @@ def record_history(record: Record, n_samples: int = HISTORY_SAMPLES):
     )
 
 
-def traces(
-    records: Mapping[Job, Record], rows: list[dict[str, Any]], **where: Any
-) -> list[kf.Trace]:
+def traces(records: Mapping[Job, Record], rows: Rows, **where: Any) -> list[kf.Trace]:
     """One trace per seed of the series ``where`` picks; the best feasible seed is bold."""
     chosen = select(rows, **where)
     best_seed = spread(chosen, "objective_value").best_seed
@@ -99,7 +93,7 @@ def traces(
 
 
 def draw(
-    plan: StudyPlan, rows: list[dict[str, Any]], records: Mapping[Job, Record], study_dir: Path
+    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
 ) -> list[tuple[str, Path]]:
     """Figs. 9-13 of the first method's strokes, each seed's."""
     p, method = plan.preset, plan.methods[0]
@@ -114,11 +108,10 @@ def draw(
 
     def panel(title: str, groups: dict[str, Spread], ylabel: str, **marks: Any) -> kf.GroupPanel:
         """The feasible seeds' values of each group, as the claims take them, and its best."""
-        values, best = (
-            {k: list(s.values) for k, s in groups.items()},
-            {k: s.best for k, s in groups.items()},
+        values = {k: list(s.values) for k, s in groups.items()}
+        return kf.GroupPanel(
+            title, values, ylabel, best={k: s.best for k, s in groups.items()}, **marks
         )
-        return kf.GroupPanel(title, values, ylabel, best=best, **marks)
 
     # Each panel shows the statistic its claim judges, not judged where K1-K3 are not identifiable
     resolved = plan.model_options.phase_resolved()
@@ -208,8 +201,7 @@ def draw(
 
 @functools.cache
 def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
-    """What K1-K3 are about: the fore/hind phase at their optimisations' flight speeds (cached:
-    every bootstrap resample asks)."""
+    """What K1-K3 are about: the phase at their flight speeds (cached for the bootstrap)."""
     p = plan.preset
     level = plan.jobs("level", [p.kinematics_speed, p.phase_speed], seeds=p.seeds[:1])
     accel = plan.jobs(
@@ -222,9 +214,8 @@ def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
     }
 
 
-def view(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> dict[str, Any]:
-    """What K1-K4 judge and Figs. 11c-d and 12c show: |ΔΦ| level and accelerating, ΔΦ at
-    ``phase_speed``, η_m level and accelerating; ``phase``: :func:`phase_dependences`."""
+def view(plan: StudyPlan, rows: Rows, method: str) -> dict[str, Any]:
+    """What K1-K4 judge and Figs. 11c-d and 12c show; ``phase``: what K1-K3 are about."""
     p = plan.preset
     level, accel = _series(plan, method)
     picks = {

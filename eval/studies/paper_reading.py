@@ -1,6 +1,4 @@
-"""A reading of the paper: one named choice for each modelling decision it leaves open
-(docs/model.md §1.3, §5, §6, §7), changing only the env keywords of the studies' jobs, and
-perhaps a :class:`Search` replacing the plan's method and budgets (docs/efficiency.md)."""
+"""A reading of the paper: one named choice for each decision it leaves open (docs/model.md)."""
 
 from __future__ import annotations
 
@@ -53,8 +51,7 @@ def _pairs(value: Any, where: str) -> tuple[tuple[str, Any], ...]:
 
 @dataclass(frozen=True)
 class Search:
-    """How every job of a reading searches, replacing the plan's method and the preset's budget:
-    ``swarm_size`` × ``iterations`` evaluations, or ``budgets`` per task, or the preset's."""
+    """How every job of a reading searches, replacing the plan's method and budget."""
 
     method: str
     """A harness method name, e.g. ``"pso"``."""
@@ -229,8 +226,7 @@ class Reading:
         return cls(name, description, tuple(options.items()), **own, derived_from=derived_from)
 
     def env_kwargs(self) -> dict[str, Any]:
-        """The env keywords of the options that differ from the defaults (a reading restating a
-        default has the default's job keys); C_r's keyword is its own name."""
+        """The env keywords of the changed options (C_r's keyword is its own name)."""
         skip = ("horizontal_objective", "search")
         return {_KWARG_OF.get(k, k): v for k, v in self.changes().items() if k not in skip}
 
@@ -248,11 +244,8 @@ class Reading:
         changes = self.changes()
         if self.search is not None:
             changes["search"] = self.search.describe()
-        return ", ".join(f"{k}={_short(v)}" for k, v in changes.items()) or "-"
-
-
-def _short(value: Any) -> str:
-    return f"{value:.4g}" if isinstance(value, float) else str(value)
+        short = lambda v: f"{v:.4g}" if isinstance(v, float) else str(v)  # noqa: E731
+        return ", ".join(f"{k}={short(v)}" for k, v in changes.items()) or "-"
 
 
 DEFAULT = Reading(
@@ -291,8 +284,7 @@ def _paper_search(swarm: int, iterations: int) -> Reading:
     )
 
 
-#: The paper-era search budgets (an assumption: swarms of 20-40 particles for 50-100 iterations,
-#: the range usual in PSO studies of that time), smallest first; docs/efficiency.md.
+#: The paper-era search budgets (assumed: 20-40 particles, 50-100 iterations; docs/efficiency.md).
 PAPER_SEARCHES: tuple[Reading, ...] = (
     _paper_search(20, 50),
     _paper_search(40, 50),

@@ -1,6 +1,4 @@
-"""Accelerating-flight power sweep (paper Figs. 7-8): per power and seed one optimisation of F̄_v
-(F̄_h ≥ 0) and one of F̄_h (F̄_v ≥ 0), combined as F̄_a = sqrt(F̄_v² + F̄_h²) (Eq. 27) per seed and,
-the paper's reading, over the best seeds."""
+"""Accelerating-flight power sweep (paper Figs. 7-8): F̄_v, F̄_h and F̄_a (Eq. 27) per power."""
 
 from __future__ import annotations
 
@@ -17,7 +15,7 @@ from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import Analysis, StudyPlan
-from eval.studies.tables import Spread, by_condition, select, spread
+from eval.studies.tables import Rows, Spread, by_condition, select, spread
 
 NAME = "power"
 TITLE = "Accelerating flight: power sweep (Figs. 7-8)"
@@ -52,21 +50,20 @@ def series_jobs(plan: StudyPlan, powers: tuple[float, ...], planform: str) -> li
 
 
 def excess(
-    rows: list[dict[str, Any]],
+    rows: Rows,
     method: str,
     planform: str,
     axis: str,
     horizontal: str = "horizontal",
 ) -> dict[float, Spread]:
-    """F̄_v (axis "vertical") or F̄_h ("horizontal": the reading's objective ``horizontal``) per
-    power, the objective value of its own optimisation."""
+    """F̄_v (axis "vertical") or F̄_h (objective ``horizontal``) per power [-]."""
     objective = horizontal if axis == "horizontal" else axis
     where = dict(method=method, task="accelerate", objective=objective, planform=planform)
     return by_condition(rows, "objective_value", **where)
 
 
 def attainable(
-    rows: list[dict[str, Any]], method: str, planform: str, horizontal: str = "horizontal"
+    rows: Rows, method: str, planform: str, horizontal: str = "horizontal"
 ) -> dict[float, Spread]:
     """F̄_a per power from each seed's feasible vertical and horizontal optima."""
     out: dict[float, Spread] = {}
@@ -96,7 +93,7 @@ def paper_attainable(label: str = "") -> list[tuple[float, float] | tuple[float,
 
 
 def draw(
-    plan: StudyPlan, rows: list[dict[str, Any]], records: Mapping[Job, Record], study_dir: Path
+    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
 ) -> list[tuple[str, Path]]:
     """Figs. 7-8: F̄_v and F̄_h, and F̄_a, over powers, one series per method."""
     xlabel = "available power P/m [W/kg]"
@@ -139,9 +136,7 @@ def draw(
     ]
 
 
-def view(
-    plan: StudyPlan, rows: list[dict[str, Any]], method: str
-) -> dict[str, dict[float, Spread]]:
+def view(plan: StudyPlan, rows: Rows, method: str) -> dict[str, dict[float, Spread]]:
     """What the claims judge: ``method``'s F̄_v, F̄_h and F̄_a over powers (tear-drop)."""
     h_obj = plan.reading.horizontal_objective
     return {

@@ -1,6 +1,4 @@
-"""Study presets: the conditions, seeds, method and budgets of a study run (frozen, validated):
-``quick`` (minutes on 2 cores), ``paper`` (the full study), ``tiny`` (the tests'); method and
-budgets from the convergence study (docs/reproduction.md)."""
+"""Study presets: the conditions, seeds, method and budgets of a study run (validated)."""
 
 from __future__ import annotations
 
@@ -28,16 +26,14 @@ _PER_JOB_KWARGS: frozenset[str] = frozenset(
 )
 
 
-#: Warm starts of a search (``Preset.warm_start``, ``eval optimize --warm-start``): cold, or
-#: from the reference table's optima at the job's condition and its grid neighbours.
+#: Warm starts of a search (``Preset.warm_start``): cold, or from the reference table's optima.
 WARM_STARTS: tuple[str, ...] = ("none", "table")
 #: The share of a warm-started run's budget its table strokes are polished on (docs/reference.md).
 WARM_SHARE = 0.25
 
 
 def warm_start(task: str, condition: float, env_kwargs: Mapping[str, Any]) -> dict[str, Any]:
-    """The method settings of a warm start: the table's strokes at ``condition`` as the polish's
-    ``initial`` on :data:`WARM_SHARE` of the budget; ValueError saying why the table has none."""
+    """A warm start's method settings (the table's strokes at ``condition``); ValueError if none."""
     strokes = table_strokes(get_task(task).env_id, env_kwargs, condition)
     return {"initial": [list(s) for s in strokes], "initial_share": WARM_SHARE}
 
@@ -82,9 +78,7 @@ def _check_values(name: str, values: Any, condition: TaskCondition) -> None:
 
 @dataclass(frozen=True)
 class ConvergenceSpec:
-    """The budget study: each method's long runs at one level and one accelerating condition
-    (by the prefix property, agents/cmaes_search.py, agents/pso.py, one long run per seed gives
-    the best-so-far at every smaller budget)."""
+    """The budget study: each method's long runs at one level and one accelerating condition."""
 
     budget: int
     """Model evaluations per run [-]."""
@@ -154,8 +148,7 @@ class Preset:
     env_kwargs: tuple[tuple[str, Any], ...] = field(default=())
     """Extra env keywords for every job, e.g. ``(("n_time", 32),)`` in the test preset."""
     warm_start: str = "table"
-    """How each search starts (:data:`WARM_STARTS`): ``table`` polishes the table's strokes
-    first where it has them (the report says where not), ``none`` cold."""
+    """How each search starts (:data:`WARM_STARTS`): from the table's strokes, or cold."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.isidentifier():
@@ -266,8 +259,7 @@ TINY = Preset(
 )
 
 
-#: The preset fields each ``python -m eval study`` option sets: the sweeps of a condition (the
-#: wing-shape study's too), the seeds (the convergence study's too), every task's budget.
+#: The preset fields each ``python -m eval study`` option sets.
 OVERRIDES: dict[str, tuple[str, ...]] = {
     "speeds": ("speeds", "shape_speeds"),
     "powers": ("powers", "shape_powers"),
@@ -277,8 +269,7 @@ OVERRIDES: dict[str, tuple[str, ...]] = {
 
 
 def overridden(preset: Preset, **given: Any) -> Preset:
-    """``preset`` with the command line's values ``given`` (keys of :data:`OVERRIDES`; None:
-    the preset's), its description saying so; ValueError naming the option."""
+    """``preset`` with the command line's values ``given``; ValueError naming the option."""
     changed = []
     for option, value in given.items():
         if value is None:

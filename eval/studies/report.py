@@ -1,5 +1,4 @@
-"""The reproduction report: every claim of the paper (docs/model.md §9) beside ours, and figures;
-no timestamps or timings (``manifest.json`` has them): the same command gives the same file."""
+"""The reproduction report: every claim of the paper (docs/model.md §9) beside ours, figures."""
 
 from __future__ import annotations
 
@@ -77,13 +76,9 @@ FIGURE_KEY = (
 )
 
 
-def _cell(text: str) -> str:
-    return text.replace("|", "\\|").replace("\n", " ")
-
-
 def table_row(cells: Iterable[object]) -> str:
     """One Markdown table row, each cell as text, escaped."""
-    return "| " + " | ".join(_cell(str(x)) for x in cells) + " |"
+    return "| " + " | ".join(str(x).replace("|", "\\|").replace("\n", " ") for x in cells) + " |"
 
 
 def table_head(titles: Sequence[str]) -> list[str]:
@@ -125,8 +120,7 @@ CLAIMS_FILE = "claims.json"
 
 
 def claims_data(claims: Sequence[Claim]) -> dict[str, Any]:
-    """The claims as JSON: each claim's fields (NaN as null) and its ``cells`` in the
-    paper-vs-ours table, by title."""
+    """The claims as JSON: each one's fields (NaN as null) and its table ``cells``, by title."""
     nan = lambda v: None if isinstance(v, float) and math.isnan(v) else v  # noqa: E731
     cells = lambda c: {t: cell(c) for t, cell in CLAIM_COLUMNS}  # noqa: E731
     return {
@@ -199,9 +193,7 @@ def settings_lines(plan: StudyPlan) -> list[str]:
 def write_report(
     path: Path, plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str]
 ) -> Path:
-    """Write the report to ``path`` (atomically) and return it: settings, rules, every claim
-    beside ours, the pinned parameters, the studies not run and the figures; and
-    :data:`CLAIMS_FILE` beside it."""
+    """Write the report to ``path`` (atomically) and :data:`CLAIMS_FILE` beside it; the path."""
     base = path.parent
     claims = [c for o in outputs for c in o.claims]
     rows = [r for o in outputs for r in o.rows]

@@ -1,5 +1,4 @@
-"""Level-flight speed sweep (paper Figs. 4-6): η optimised at each speed, every seed; T/W, mean
-angle of attack and stroke-plane angle (Fig. 4), P/m, f and φ_m (Fig. 5), η (Fig. 6)."""
+"""Level-flight speed sweep (paper Figs. 4-6): η optimised at each speed, every seed."""
 
 from __future__ import annotations
 
@@ -13,7 +12,7 @@ from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import Analysis, StudyPlan
-from eval.studies.tables import by_condition, select, table4_bounds
+from eval.studies.tables import Rows, by_condition, select, table4_bounds
 
 NAME = "speed"
 TITLE = "Level flight: speed sweep (Figs. 4-6)"
@@ -37,7 +36,7 @@ def jobs(plan: StudyPlan) -> list[Job]:
 
 
 def draw(
-    plan: StudyPlan, rows: list[dict[str, Any]], records: Mapping[Job, Record], study_dir: Path
+    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
 ) -> list[tuple[str, Path]]:
     """Figs. 4-6: each quantity over speeds, one series per method."""
 
@@ -96,7 +95,7 @@ def draw(
     ]
 
 
-def view(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> list[Mapping[str, Any]]:
+def view(plan: StudyPlan, rows: Rows, method: str) -> list[Mapping[str, Any]]:
     """What the claims judge: ``method``'s level-flight rows (tear-drop)."""
     return select(rows, method=method, task="level", planform="tear-drop")
 
@@ -109,8 +108,7 @@ def trend(quantity: str) -> C.Measure:
 
 
 def follows(quantity: str) -> C.Measure:
-    """``follows``: ρ between the power's and ``quantity``'s medians (and best seeds) over
-    speeds; 0 where a Table 4 bound holds ``quantity``."""
+    """``follows``: ρ(power's medians, ``quantity``'s) over speeds; 0 where a bound holds it."""
     return lambda rows, _: C.follows_stats(
         by_condition(rows, "power_per_mass"),
         by_condition(rows, quantity),

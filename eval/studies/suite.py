@@ -1,5 +1,4 @@
-"""Run studies: their jobs once, the analyses and the report; the paper's studies as a campaign of
-the command line (:data:`SUITE`)."""
+"""Run studies: their jobs once, the analyses and the report (:data:`SUITE`)."""
 
 from __future__ import annotations
 
@@ -36,9 +35,7 @@ class SuiteResult:
 
 
 class SuitePlan:
-    """The studies ``names`` (``all``: the paper's) as a plan of one phase, shared optimisations
-    run once; :meth:`finish` analyses them into ``out`` with every other paper study whose
-    records are all there (``speed`` then ``power`` into one folder: one report of both)."""
+    """The studies ``names`` (``all``: the paper's) as a plan of one phase."""
 
     def __init__(self, names: Sequence[str], plan: StudyPlan, out: Path) -> None:
         self.started = time.perf_counter()
@@ -57,8 +54,7 @@ class SuitePlan:
         self.phases = [Phase(self.given, jobs)]
 
     def finish(self, run: PlanRun) -> SuiteResult:
-        """Analyse the studies asked (and every other paper study whose records are all
-        present), write the report and the manifest."""
+        """Analyse the studies (and any other complete paper study), write report and manifest."""
         out, done = self.out, {}
         for name, own in self.jobs_of.items():
             if name in self.asked:
@@ -75,16 +71,10 @@ class SuitePlan:
             )
             wall = round(time.perf_counter() - self.started, 1)  # the whole call's, analysis too
             last_run = {"studies": self.asked, **summary.to_dict(), "wall_time_s": wall}
-            write_json_atomic(
-                out / "manifest.json",
-                {
-                    "preset": self.plan.preset.name,
-                    "methods": list(self.plan.methods),
-                    "studies": paper,
-                    "jobs": sorted({j.key for n in done for j in self.jobs_of[n]}),
-                    "last_run": last_run,
-                },
-            )
+            jobs = sorted({j.key for n in done for j in self.jobs_of[n]})
+            preset, methods = self.plan.preset.name, list(self.plan.methods)
+            manifest = {"preset": preset, "methods": methods, "studies": paper, "jobs": jobs}
+            write_json_atomic(out / "manifest.json", {**manifest, "last_run": last_run})
         wall = time.perf_counter() - self.started
         return SuiteResult([done[n] for n in self.asked], summary, report_path, wall)
 
@@ -101,9 +91,7 @@ def run_studies(
     rerun: bool = False,
     command: CommandProgress | None = None,
 ) -> SuiteResult:
-    """Run the studies ``names`` (or ``["all"]``) into ``out_dir`` (:class:`SuitePlan`), reusing
-    the stored records; ``workers=N > 1`` is short for ``scheduler="local:N"``; the rest as for
-    :func:`~agents.runner.run_plan`."""
+    """Run the studies ``names`` into ``out_dir``; ``workers=N > 1``: ``scheduler="local:N"``."""
     store = RecordStore.at(out_dir)
     suite = SuitePlan(names, plan, store.directory)
     scheduler = executor_spec(scheduler, workers)
@@ -112,8 +100,7 @@ def run_studies(
 
 
 class SuiteCampaign:
-    """The paper's studies on the command line (``all`` or one study; the report covers every
-    paper study whose records are present)."""
+    """The paper's studies on the command line (``all`` or one study)."""
 
     @property
     def names(self) -> tuple[str, ...]:

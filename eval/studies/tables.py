@@ -1,6 +1,4 @@
-"""Records -> tidy rows (one per optimisation) -> per-condition statistics over the feasible
-seeds; "best" is the value at the feasible seed with the best objective (one and the same stroke).
-"""
+"""Records -> tidy rows (one per optimisation) -> statistics over the feasible seeds."""
 
 from __future__ import annotations
 
@@ -24,6 +22,8 @@ from tandem_env import (
 )
 from tandem_env.physics.stroke import UNBOUNDED
 
+#: Tidy rows, one per optimisation (:func:`tidy_rows`).
+Rows = list[dict[str, Any]]
 #: Columns that identify a series (one line in a figure).
 SERIES_KEYS: tuple[str, ...] = ("method", "task", "objective", "planform")
 
@@ -66,16 +66,14 @@ PARAMETERS_OF: dict[str, tuple[str, ...]] = {
     },
     **{name: (name,) for name in PARAMETER_NAMES},
 }
-#: A parameter is *pinned* at a bound at one condition when more than this share of the feasible
-#: seeds sit at it (:func:`tandem_env.bound_sides`); a two-wing mean when both wings do.
+#: A parameter is *pinned* at a bound where more than this share of the feasible seeds sit at it.
 PINNED_SHARE = 0.5
 
 
 def table4_bounds(
     quantity: str, bounds: StrokeBounds = TABLE_4_BOUNDS
 ) -> tuple[float, float] | None:
-    """The (low, high) of a stroke quantity's parameters in ``bounds`` when they share one
-    finite range; else None."""
+    """The (low, high) of ``quantity``'s parameters in ``bounds`` if one finite range; else None."""
     names = PARAMETERS_OF.get(quantity, ())
     index = [PARAMETER_NAMES.index(n) for n in names]
     ranges = {(bounds.lower[i], bounds.upper[i]) for i in index if not UNBOUNDED[i]}
@@ -91,8 +89,7 @@ def row_bounds(row: Mapping[str, Any]) -> StrokeBounds:
 
 
 def pinned(rows: Sequence[Mapping[str, Any]], quantity: str) -> str:
-    """``"lower"``, ``"upper"`` or ``""``: the bound ``quantity`` is pinned at over the feasible
-    ``rows`` of one condition (:data:`PINNED_SHARE`)."""
+    """The bound ``quantity`` is pinned at over one condition's ``rows``: lower, upper or ""."""
     names = PARAMETERS_OF.get(quantity)
     feasible = [r for r in rows if r["feasible"]]
     if not names or not feasible:
@@ -118,9 +115,7 @@ def _wrap(angles: np.ndarray) -> np.ndarray:
 
 
 def circular_median(angles: Sequence[float]) -> float:
-    """The circular median of angles [deg] in (−180, 180] (NaN for none): the direction of least
-    summed angular distance (Fisher 1993, §2.3.2) among the angles and their neighbours'
-    midpoints, ties averaged on the circle."""
+    """The circular median of angles [deg] in (−180, 180] (NaN for none; Fisher 1993, §2.3.2)."""
     values = _wrap(np.asarray(angles, float))
     if values.size == 0:
         return math.nan
@@ -139,16 +134,14 @@ def circular_median(angles: Sequence[float]) -> float:
 
 
 def circular_quartiles(angles: Sequence[float], median: float) -> tuple[float, float]:
-    """The quartiles [deg] of the angles' wrapped deviations from ``median``, added to it
-    (q25 <= median <= q75, possibly beyond ±180°)."""
+    """The quartiles [deg] of the angles' wrapped deviations from ``median``, added to it."""
     deviations = _wrap(np.asarray(angles, float) - median)
     q25, q75 = np.percentile(deviations, [25.0, 75.0])
     return median + float(q25), median + float(q75)
 
 
 def record_row(job: Job, record: Record) -> dict[str, Any]:
-    """The tidy row of one optimisation: identity, feasibility, metrics, stroke summary, the 28
-    stroke parameters (Table 4 units) and ``at_bounds`` (:func:`tandem_env.describe_bounds`)."""
+    """The tidy row of one optimisation: identity, metrics, stroke summary and parameters."""
     m, s, insect = record.metrics, record.stroke, record.config["env"]["insect"]
     phase_difference = float(_wrap(float(s["hind_sweep_phase"]) - float(s["fore_sweep_phase"])))
     weight = float(insect["body_mass"]) * float(insect["gravity"])
@@ -187,7 +180,7 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
     }
 
 
-def tidy_rows(records: Mapping[Job, Record]) -> list[dict[str, Any]]:
+def tidy_rows(records: Mapping[Job, Record]) -> Rows:
     """One row per record, sorted by series, condition and seed."""
     rows = [record_row(job, record) for job, record in records.items()]
     rows.sort(key=lambda r: (*(str(r[k]) for k in SERIES_KEYS), r["condition"], r["seed"]))
@@ -219,8 +212,7 @@ class Spread:
 
 
 def spread(rows: Sequence[Mapping[str, Any]], quantity: str) -> Spread:
-    """Median, IQR and best of ``quantity`` over the feasible rows (one per seed); circular
-    statistics for the angles of :data:`CIRCULAR`."""
+    """Median, IQR and best of ``quantity`` over the feasible rows (circular for angles)."""
     feasible = [r for r in rows if r["feasible"]]
     values = np.array([float(r[quantity]) for r in feasible])
     if values.size == 0:
@@ -253,8 +245,7 @@ def by_condition(
 def series_conditions(
     rows: Iterable[Mapping[str, Any]],
 ) -> list[tuple[tuple[Any, ...], list[Mapping[str, Any]]]]:
-    """((method, task, objective, planform, condition), rows) of each series (as text) and
-    condition, in that order."""
+    """((method, task, objective, planform, condition), rows) of each series and condition."""
     groups: dict[tuple[Any, ...], list[Mapping[str, Any]]] = {}
     for r in rows:
         groups.setdefault((*(str(r[k]) for k in SERIES_KEYS), float(r["condition"])), []).append(r)
@@ -265,30 +256,25 @@ def series_conditions(
 SUMMARY_FIELDS = ("n", "n_feasible", "median", "q25", "q75", "best", "best_seed")
 
 
-def spread_summary_rows(
-    rows: Sequence[Mapping[str, Any]], quantities: Sequence[str]
-) -> list[dict[str, Any]]:
+def spread_summary_rows(rows: Sequence[Mapping[str, Any]], quantities: Sequence[str]) -> Rows:
     """Per series, condition and quantity: its :class:`Spread` and ``pinned`` (:func:`pinned`)."""
-    out = []
-    for key, members in series_conditions(rows):
-        for quantity in quantities:
-            s = spread(members, quantity)
-            out.append(
-                {
-                    **dict(zip(SERIES_KEYS, key[:-1], strict=True)),
-                    "condition": key[-1],
-                    "quantity": quantity,
-                    "meaning": QUANTITIES.get(quantity, ""),
-                    **{k: getattr(s, k) for k in SUMMARY_FIELDS},
-                    "pinned": pinned(members, quantity),
-                }
-            )
-    return out
+    return [
+        {
+            **dict(zip(SERIES_KEYS, key[:-1], strict=True)),
+            "condition": key[-1],
+            "quantity": quantity,
+            "meaning": QUANTITIES.get(quantity, ""),
+            **{k: getattr(s, k) for k in SUMMARY_FIELDS},
+            "pinned": pinned(members, quantity),
+        }
+        for key, members in series_conditions(rows)
+        for quantity in quantities
+        for s in [spread(members, quantity)]
+    ]
 
 
-def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Every parameter pinned at a bound (:func:`pinned`) per series and condition: its
-    ``bound``, ``value`` and ``share`` of the feasible seeds; a record in two studies once."""
+def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> Rows:
+    """Every parameter pinned at a bound per series and condition (a record once)."""
     out = []
     for key, members in series_conditions(list({r["key"]: r for r in rows}.values())):
         feasible = [r for r in members if r["feasible"]]
@@ -296,8 +282,7 @@ def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]
             continue
         at, bounds = _sides(feasible), row_bounds(feasible[0])  # a series flies one insect
         for index, name in enumerate(PARAMETER_NAMES):
-            side = pinned(members, name)
-            if not side:
+            if not (side := pinned(members, name)):
                 continue
             sign = -1 if side == "lower" else 1
             out.append(

@@ -1,5 +1,4 @@
-"""Wing shape: tear-drop against the real planform (paper Figs. 14-16), each optimised in level
-flight (Fig. 15: η) and accelerating flight (Fig. 16: F̄_a); the tear-drop jobs are the sweeps'."""
+"""Wing shape: tear-drop against the real planform (paper Figs. 14-16)."""
 
 from __future__ import annotations
 
@@ -17,7 +16,7 @@ from eval.studies import claims as C
 from eval.studies.base import Analysis, StudyPlan
 from eval.studies.power import attainable, excess_label, paper_attainable, series_jobs
 from eval.studies.speed import PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY
-from eval.studies.tables import Spread, by_condition
+from eval.studies.tables import Rows, Spread, by_condition
 from tandem_env import Dragonfly
 
 NAME = "wing-shape"
@@ -39,8 +38,7 @@ def jobs(plan: StudyPlan) -> list[Job]:
 
 
 def planform_outlines(n: int = 200) -> list[tuple[str, np.ndarray, np.ndarray, np.ndarray]]:
-    """(label, r [mm], leading edge [mm], trailing edge [mm]) of both wings, both planforms:
-    the tear-drop symmetric about mid-chord, the real wing's edges Table 2's polynomials."""
+    """(label, r [mm], leading edge [mm], trailing edge [mm]) of both wings and planforms."""
     out = []
     r_hat = np.linspace(0.0, 1.0, n)
     for planform in PLANFORMS:
@@ -59,7 +57,7 @@ def planform_outlines(n: int = 200) -> list[tuple[str, np.ndarray, np.ndarray, n
 
 
 def draw(
-    plan: StudyPlan, rows: list[dict[str, Any]], records: Mapping[Job, Record], study_dir: Path
+    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
 ) -> list[tuple[str, Path]]:
     """Figs. 14-16: the planforms, and η and F̄_a of each planform, one series per method."""
     h_obj = plan.reading.horizontal_objective
@@ -68,10 +66,7 @@ def draw(
         """One series per method and planform of ``points(method, planform)``."""
         return [
             figures.Series(
-                f"{figures.method_label(m)}, {pf} wing",
-                points(m, pf),
-                method=m,
-                variant=figures.PLANFORM_VARIANT[pf],
+                _label(m, pf), points(m, pf), method=m, variant=figures.PLANFORM_VARIANT[pf]
             )
             for m in plan.methods
             for pf in PLANFORMS
@@ -125,9 +120,8 @@ def draw(
     ]
 
 
-def _paper_gain(rows: list[dict[str, Any]], method: str) -> list[tuple[float, float, str]]:
-    """Fig. 15's stated gain as a derived mark: our tear-drop median η at 2 m/s × (1 + 12 %),
-    where the paper's real wing would sit (W2 judges that ratio); none without it."""
+def _paper_gain(rows: Rows, method: str) -> list[tuple[float, float, str]]:
+    """Fig. 15's gain as a derived mark: our tear-drop median η at 2 m/s × 1.12; or none."""
     at = _efficiency(rows, method, "tear-drop").get(2.0)
     if at is None or not math.isfinite(at.median):
         return []
@@ -139,9 +133,14 @@ def _paper_gain(rows: list[dict[str, Any]], method: str) -> list[tuple[float, fl
     return [(2.0, at.median * factor, label)]
 
 
-def _efficiency(rows: list[dict[str, Any]], method: str, planform: str) -> dict[float, Spread]:
+def _efficiency(rows: Rows, method: str, planform: str) -> dict[float, Spread]:
     """η [%] over speeds of ``method`` with ``planform``."""
     return by_condition(rows, "efficiency_pct", method=method, task="level", planform=planform)
+
+
+def _label(method: str, planform: str) -> str:
+    """Legend label naming the method readably and the wing, for both planforms."""
+    return f"{figures.method_label(method)}, {planform} wing"
 
 
 def _share_better(real: Mapping[float, Spread], tear: Mapping[float, Spread], stat: str) -> float:
@@ -154,9 +153,8 @@ def _share_better(real: Mapping[float, Spread], tear: Mapping[float, Spread], st
 Planforms = Mapping[str, Mapping[str, Mapping[float, Spread]]]
 
 
-def view(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> Planforms:
-    """What the claims judge: ``method``'s η over speeds (``efficiency``) and F̄_a over powers
-    (``attainable``) of each planform."""
+def view(plan: StudyPlan, rows: Rows, method: str) -> Planforms:
+    """What the claims judge: η over speeds and F̄_a over powers of each planform."""
     h_obj = plan.reading.horizontal_objective
     return {
         "efficiency": {pf: _efficiency(rows, method, pf) for pf in PLANFORMS},
@@ -165,8 +163,7 @@ def view(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> Planforms:
 
 
 def real_wins(quantity: str) -> C.Measure:
-    """``compare``: the share of conditions where the real wing's ``quantity`` beats the
-    tear-drop's (the claim: 1)."""
+    """``compare``: the share of conditions where the real wing's ``quantity`` is higher."""
 
     def measure(by: Planforms, _: Any) -> C.Stats:
         real, tear = by[quantity]["real"], by[quantity]["tear-drop"]

@@ -1,6 +1,4 @@
-"""The readings study's plan: the readings (singles, named ones, combinations), the
-continuation from the default's optima and its bias check, the jobs of each, and one reading's
-analysed studies (:class:`ReadingResult`)."""
+"""The readings study's plan: readings, continuation, bias check, jobs and results."""
 
 from __future__ import annotations
 
@@ -97,12 +95,10 @@ SINGLES: tuple[Reading, ...] = (
     ),
 )
 
-#: Named readings. ``paper``: the most agreeing in the paper-preset run (docs/reproduction.md);
-#: its model part is ``ModelOptions.preset("paper")``.
+#: Named readings. ``paper``: the most agreeing in the paper-preset run (docs/reproduction.md).
 ALIASES: dict[str, str] = {"paper": "hover-none+Fh-literal"}
 
-#: The verdict counts of readings.csv and the readings tables, in their order
-#: (:class:`~eval.studies.claims.VerdictCount` fields): column -> table title.
+#: The verdict counts of readings.csv (VerdictCount fields), in order: column -> table title.
 COUNTS = {
     k: k.replace("_", " ") for k in ("agree", "differ", "undecided", "not_identifiable", "no_data")
 }
@@ -176,16 +172,14 @@ CSV_COLUMNS: tuple[str, ...] = (
 
 @dataclass(frozen=True)
 class Continuation(agents_jobs.Continuation):
-    """How a reading's optimisations continue from the default reading's optima: one round of
-    :class:`agents.jobs.Continuation`, with the bias check's settings."""
+    """How a reading continues from the default's optima, with the bias check's settings."""
 
     check_studies: tuple[str, ...] = ("power", "speed")
     """The paper studies whose jobs also run in full for each single reading (the bias check)."""
     check_seeds: tuple[int, ...] = (0,)
     """The seeds of those full runs."""
     full_median: float = -0.02
-    """A single reading's task whose checked continued optima fall short of the full runs' by
-    more than this median relative difference [-] runs in full instead (:func:`full_tasks`)."""
+    """A task whose checked median falls short by more than this [-] runs in full."""
     full_lowest: float = -0.5
     """Likewise for any one checked pair worse than this [-]."""
 
@@ -249,8 +243,7 @@ def single_readings(names: Sequence[str] | None = None) -> tuple[Reading, ...]:
 
 
 def reading_by_name(name: str) -> Reading:
-    """The reading ``name``: a single (:data:`SINGLES`), an alias (:data:`ALIASES`) or these
-    joined by ``+`` (their combination, e.g. ``paper+body``); ValueError naming what is allowed."""
+    """The reading ``name``: a single, an alias or these joined by ``+``; ValueError if unknown."""
     given = name
     known = {r.name: r for r in SINGLES}
     allowed = f"{', '.join([*ALIASES, *known])}, or these joined by '+'"
@@ -283,8 +276,7 @@ Optima = Mapping[str, Mapping[str, Sequence[Sequence[float]]]]
 
 
 def continued_from(reading: Reading) -> tuple[str, ...]:
-    """The readings whose optima ``reading`` continues from: a combination's parts (run before
-    it), any other reading the default's."""
+    """The readings ``reading`` continues from: a combination's parts, else the default."""
     return reading.derived_from or (DEFAULT.name,)
 
 
@@ -295,10 +287,7 @@ def study_jobs(
     optima: Optima | None = None,
     full: Collection[str] = (),
 ) -> dict[str, list[Job]]:
-    """Each paper study's jobs under ``reading``, by study name: the studies' own without
-    ``continuation`` (or for the default or a search reading); with it, a job the default shares
-    or of a task in ``full`` stays, any other continues from the optima at its position of the
-    readings :func:`continued_from` names (a stand-in without ``optima``)."""
+    """Each paper study's jobs under ``reading`` (continued where ``continuation`` says)."""
     p = replace(plan, reading=reading)
     if continuation is None or reading == DEFAULT or reading.search is not None:
         return {name: study.jobs(p) for name, study in PAPER_STUDIES.items()}
@@ -324,8 +313,7 @@ def study_jobs(
 def optima_of(
     records: Mapping[Job, Record] | Path, jobs: Mapping[str, Mapping[str, list[Job]]]
 ) -> dict[str, dict[str, list[list[float]]]]:
-    """:data:`Optima` of the readings in ``jobs`` (reading -> study -> jobs) from their
-    ``records``, or from the store at ``records``."""
+    """:data:`Optima` of the readings in ``jobs`` from their ``records`` (or a store)."""
     if not isinstance(records, Mapping):
         flat = [job for by_study in jobs.values() for group in by_study.values() for job in group]
         records = job_records(records, flat)
@@ -341,8 +329,7 @@ def optima_of(
 def check_jobs(
     plan: StudyPlan, reading: Reading, continuation: Continuation, optima: Optima | None
 ) -> list[tuple[Job, Job]]:
-    """(continued job, the same job in full) of the check studies' jobs at the check seeds that
-    the reading does not share with the default: the continuation's bias check."""
+    """(continued job, the same job in full) of the continuation's bias check."""
     continued, full = study_jobs(plan, reading, continuation, optima), study_jobs(plan, reading)
     pairs = (
         (c, f)
@@ -356,8 +343,7 @@ def check_jobs(
 def full_tasks(
     summary: Sequence[Mapping[str, Any]], continuation: Continuation
 ) -> dict[str, dict[str, str]]:
-    """reading -> task -> why its jobs run in full: the bias check's ``summary`` found them short
-    by more than ``full_median`` or ``full_lowest``, or a continued optimum infeasible."""
+    """reading -> task -> why its jobs run in full (the bias check's ``summary`` fell short)."""
     out: dict[str, dict[str, str]] = {}
     for row in summary:
         if row["reading"] == "all" or row["task"] == "all":
@@ -380,11 +366,7 @@ def full_tasks(
 def combinations(
     default: ReadingResult, singles: Sequence[ReadingResult]
 ) -> tuple[list[Reading], str]:
-    """The combination readings the singles' results point to, and the rule's outcome in words
-    (docs/reproduction.md, "Readings"): the gainers (more agreeing claims than the default, best
-    first), each joining unless it conflicts with one before it, combine as their best two and
-    as all; the best gainer also pairs with every other single it does not conflict with (a
-    change that loses claims alone can win them beside another). Duplicates are dropped."""
+    """The combinations the singles' results point to, and the rule's outcome in words."""
     base = default.agree
     gainers = sorted(
         (r for r in singles if r.reading != default.reading and r.agree > base),

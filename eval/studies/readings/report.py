@@ -1,7 +1,4 @@
-"""The readings study's report, from the generic report's pieces (:mod:`eval.studies.report`),
-and its claims × readings matrix: one row per claim, one column per reading, each cell the
-median's verdict by colour and glyph (readable without colour vision), a black frame where a
-verdict changed from the first (default) reading."""
+"""The readings study's report and its claims × readings matrix of verdicts."""
 
 from __future__ import annotations
 
@@ -41,8 +38,7 @@ READING_COLUMNS: tuple[R.Column, ...] = (
 
 
 def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
-    """One line per claim whose verdict differs from the default's, with the statistic before
-    and after (``*``: each median inside the other's inter-quartile range)."""
+    """One line per claim whose verdict moved from the default's (``*``: within the IQRs)."""
     mine = {c.id: c for c in other.claims}
     lines = []
     for before in default.claims:
@@ -72,9 +68,7 @@ def write_readings_report(
     figure: Path,
     check: Sequence[Mapping[str, Any]],
 ) -> Path:
-    """Write the readings study's report to ``path`` (atomically) and return it: the readings'
-    ``results``, the best, which decision moves which claim, the matrix; the combination rule
-    (``words``), the ``continuation``, its bias ``check`` and the tasks run in ``full``."""
+    """Write the readings study's report to ``path`` (atomically) and return it."""
     base, default = path.parent, results[0]
     best = max(results, key=lambda r: r.agree)
     n_claims, base_head = len(default.claims), default.headline()
@@ -193,8 +187,7 @@ def _continuation_section(
 def check_table(
     check: Sequence[Mapping[str, Any]], full: Mapping[str, Mapping[str, str]]
 ) -> list[str]:
-    """The bias check as a Markdown table, one row per reading and task with whether it ran in
-    full and why, the overall row in bold."""
+    """The bias check as a Markdown table, one row per reading and task, the overall in bold."""
 
     def runs(row: Mapping[str, Any]) -> str:
         why = full.get(row["reading"], {}).get(row["task"])
@@ -228,8 +221,7 @@ _CODE = {verdict: k for k, verdict in enumerate(VERDICT_STYLE)}
 
 
 def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> Path:
-    """Draw the matrix of the readings' verdicts on the first's claims, the first reading the
-    reference, a line before the first combination."""
+    """Draw the readings' verdicts on the first's claims, a line before the combinations."""
     claims = results[0].claims
     columns = [
         (r.reading.name, [r.verdicts().get(c.id, "no data") for c in claims]) for r in results
@@ -258,11 +250,8 @@ def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> P
         for name, verdicts in columns
     ]
     ax.set_xticks(range(n_cols), labels, rotation=60, ha="right", fontsize=7)
-    ax.set_yticks(
-        range(n_rows),
-        [f"{c.id}  {_clip(c.statement)}" for c in claims],
-        fontsize=6.5,
-    )
+    clip = lambda s: s if len(s) <= 38 else s[:37] + "…"  # noqa: E731
+    ax.set_yticks(range(n_rows), [f"{c.id}  {clip(c.statement)}" for c in claims], fontsize=6.5)
     ax.set_xticks([x - 0.5 for x in range(1, n_cols)], minor=True)
     ax.set_yticks([y - 0.5 for y in range(1, n_rows)], minor=True)
     ax.grid(which="minor", color="white", linewidth=0.8)
@@ -275,7 +264,3 @@ def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> P
     legend(ax, [*entries, (changed, f"changed vs {columns[0][0]}")])
     fig.tight_layout()
     return save(fig, path)
-
-
-def _clip(text: str, n: int = 38) -> str:
-    return text if len(text) <= n else text[: n - 1] + "…"

@@ -1,6 +1,4 @@
-"""The readings study's plan run phase by phase, each reading analysed, its outputs
-(readings.csv, the matrix figure, report.md, the manifest) and its campaign of the command line
-(:data:`READINGS`, with its ``--continuation`` option)."""
+"""The readings study run phase by phase, its outputs and its campaign (:data:`READINGS`)."""
 
 from __future__ import annotations
 
@@ -34,8 +32,7 @@ from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
 def analyse_reading(
     plan: StudyPlan, reading: Reading, out: RecordStore, jobs: Mapping[str, Sequence[Job]]
 ) -> P.ReadingResult:
-    """Analyse the four studies' ``jobs`` (:func:`study_jobs`) under ``reading`` into its
-    folder, with its ``report.md`` and a link ``records -> ../records`` for the indexes."""
+    """Analyse the four studies' ``jobs`` under ``reading`` into its folder, with a report."""
     p = replace(plan, reading=reading)
     where = P.reading_dir(out.directory, reading)
     where.mkdir(parents=True, exist_ok=True)
@@ -63,8 +60,7 @@ CHECK_COLUMNS: tuple[str, ...] = tuple(
 def check_rows(
     records: Mapping[Job, Record], checks: Sequence[tuple[Reading, Job, Job]]
 ) -> list[dict[str, Any]]:
-    """One row per checked pair: the continued and the full optimum (``difference`` =
-    (continued − full) / |full| [-]) and which part the continued run reported."""
+    """One row per checked pair: continued and full optimum, ``difference`` relative [-]."""
     rows = []
     for reading, c, f in checks:
         rc, rf = records[c].results, records[f].results
@@ -78,8 +74,7 @@ def check_rows(
 
 
 def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Per reading and task, and over all (last): the continuation's bias on the checked pairs
-    (both feasible)."""
+    """The continuation's bias per reading and task, and over all (last)."""
     groups: dict[tuple[str, str], list[Mapping[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["reading"], row["task"]), []).append(row)
@@ -107,8 +102,7 @@ def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
 
 
 def _earlier_invocations(out_dir: Path, plan: StudyPlan) -> list[dict[str, Any]]:
-    """The invocations into ``out_dir`` at this preset its manifest records (an older manifest:
-    its one run); says so when it holds another preset's."""
+    """The invocations into ``out_dir`` at this preset its manifest records."""
     try:
         before = read_json(out_dir / P.MANIFEST)
     except (FileNotFoundError, ValueError):
@@ -145,11 +139,7 @@ def _flat(jobs: Iterable[Mapping[str, Sequence[Job]]]) -> tuple[Job, ...]:
 
 
 class ReadingsPlan:
-    """The readings study's phases (an :class:`agents.runner.Plan`): with ``continuation`` the
-    default in full, the bias check (:func:`check_jobs`) and the singles continued from the
-    default's optima (:func:`full_tasks` in full), else the readings in full; then the
-    combinations their results point to (if ``derive``). A look-ahead gets stand-ins; a run
-    analyses each reading into ``out`` for :meth:`finish`."""
+    """The readings study's phases (an :class:`agents.runner.Plan`) and outputs."""
 
     def __init__(
         self,
@@ -191,9 +181,7 @@ class ReadingsPlan:
 
     def __call__(self, found: Lookup) -> Iterator[Phase]:
         """The phases, each from the records of those before it."""
-        plan = self.plan
-        continuation = self.continuation
-        readings = self.readings
+        plan, continuation, readings = self.plan, self.continuation, self.readings
         later = COMBINATIONS_LATER if self.derive else ""
         rows: list[dict[str, Any]] = []  # one per checked job
         full: dict[str, dict[str, str]] = {}
@@ -240,8 +228,7 @@ class ReadingsPlan:
             self._analyse(jobs, derived)
 
     def finish(self, run: PlanRun) -> P.ReadingsResult:
-        """Write the bias check's CSV, readings.csv, the matrix, report.md and the manifest of
-        ``run`` (this plan's)."""
+        """Write the bias check, readings.csv, the matrix, report.md and the manifest."""
         out, plan, results = self.store.directory, self.plan, self.results
         if self.rows:
             write_csv_atomic(out / P.CHECK_CSV, self.rows)
@@ -305,14 +292,11 @@ def run_readings(
     rerun: bool = False,
     command: CommandProgress | None = None,
 ) -> P.ReadingsResult:
-    """Run the readings study into ``out_dir`` (:class:`ReadingsPlan`: the ``readings``, the
-    default first; the combinations if ``derive``; ``continuation`` None runs all in full) and
-    write its outputs; ``plan``'s reading is ignored. ``scheduler``, ``cache``, ``rerun`` and
-    ``command`` as for :func:`agents.runner.run_plan`. ValueError for bad ``readings``."""
+    """Run the readings study into ``out_dir`` (:class:`ReadingsPlan`) and write its outputs."""
     store = RecordStore.at(out_dir)
     study = ReadingsPlan(plan, store, readings, continuation, derive, progress)
-    run = run_plan(study, store, scheduler, cache, progress=progress, rerun=rerun, command=command)
-    return study.finish(run)
+    options = {"progress": progress, "rerun": rerun, "command": command}
+    return study.finish(run_plan(study, store, scheduler, cache, **options))
 
 
 def csv_rows(results: Sequence[P.ReadingResult]) -> list[dict[str, Any]]:
@@ -356,8 +340,7 @@ def continuation_option(text: str) -> P.Continuation | None:
 
 
 def check_continuation(plan: StudyPlan, continuation: P.Continuation) -> None:
-    """Prepare a continued job of every configuration of the default's jobs as the harness
-    will: ValueError, before any work, naming a share whose continued jobs cannot run."""
+    """ValueError, before any work, for a share whose continued jobs cannot run."""
     jobs = {(j.method, j.budget, j.method_config): j for j in P.reading_jobs(plan, DEFAULT)}
     for job in jobs.values():
         continued = continuation.job(job, None)  # the default's optima are not known yet
@@ -398,8 +381,7 @@ class ReadingsCampaign:
     }
 
     def plan(self, args: argparse.Namespace, plan: StudyPlan, out: RecordStore) -> ReadingsPlan:
-        """The study of the readings ``--reading`` names (ValueError, before any work, for a
-        bad one or a share whose continued jobs cannot run)."""
+        """The study of the readings ``--reading`` names (ValueError for a bad one)."""
         chosen = P.single_readings(args.reading)
         singles = f"{len(chosen) - 1} single reading{'s' * (len(chosen) != 2)}"
         title = f"readings study (the default and {singles})"

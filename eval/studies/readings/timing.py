@@ -2,10 +2,7 @@
 
     python -m eval.studies.readings.timing [--measured results/readings] [--preset paper]
 
-Per reading and task, the measured run's median seconds per model evaluation times each budget
-of ``--preset``'s jobs under the same readings, in full (shared jobs once): the job-seconds per
-reading, the serial total and the best wall time on W workers (the rates carry the measured
-run's machine and load).
+Per reading and task, the measured seconds per model evaluation times each budget of ``--preset``.
 """
 
 from __future__ import annotations
