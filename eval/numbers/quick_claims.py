@@ -38,9 +38,8 @@ def run_study(kernel: str | None) -> dict[str, Any]:
     """The quick preset's ``study all`` under ``kernel``: its claims and wall time [s]."""
     (fw.ROOT / "results").mkdir(exist_ok=True)
     with tempfile.TemporaryDirectory(dir=fw.ROOT / "results", prefix="numbers-quick-") as out:
-        wall = fw.run_command(
-            [*COMMAND.split(), out], {"OPENBLAS_CORETYPE": kernel} if kernel else {}
-        )
+        environment = {"OPENBLAS_CORETYPE": kernel} if kernel else {}
+        wall = fw.run_command([*COMMAND.split(), out], environment)
         rows = read_claims(Path(out) / CLAIMS_FILE)
         if kernel is None:
             fw.copy_outputs(Path(out), FIGURES)

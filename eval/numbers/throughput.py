@@ -75,11 +75,8 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
             f"{fw.spaced(rates[batch, i]['best_per_s'])} / {fw.spaced(rates[batch, i]['median_per_s'])}"
             for i in INDUCTIONS
         ]
-        lines.append(
-            table_row(
-                [batch, *cells, *(fw.median_range(ratios[batch], k) for k in ("wall", "cpu"))]
-            )
-        )
+        ranges = (fw.median_range(ratios[batch], k) for k in ("wall", "cpu"))
+        lines.append(table_row([batch, *cells, *ranges]))
     sweeps = "; ".join(
         f"V = {s['speed']:g} m/s: {100 * s['solved_share']:.0f} % of the annuli need a solve, "
         f"{s['mean_sweeps']:.2f} sweeps on average (at most {s['max_sweeps']})"

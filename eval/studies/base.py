@@ -230,10 +230,7 @@ class StudyOutput:
 
 
 def write_tables(
-    name: str,
-    records: Mapping[Job, Record],
-    out_dir: Path,
-    quantities: Sequence[str],
+    name: str, records: Mapping[Job, Record], out_dir: Path, quantities: Sequence[str]
 ) -> tuple[Rows, list[Path]]:
     """Write the study's records index, tidy CSV and summary CSV; its rows and the paths."""
     rows = tidy_rows(records)

@@ -41,7 +41,7 @@ CONFIDENCE_RULE = (
 PHASE = "fore/hind phase"
 #: A quantity a claim may be about -> whether the model, under options at a speed [m/s], uses it.
 QUANTITIES: dict[str, Callable[[ModelOptions, float | None], bool]] = {
-    PHASE: lambda options, speed: options.phase_resolved(speed),
+    PHASE: lambda options, speed: options.phase_resolved(speed)
 }
 IDENTIFIABILITY_RULE = (
     "a claim about a quantity the model does not depend on under the options run is **not "
@@ -159,9 +159,7 @@ class Claim:
 
 def decide(leaning: Verdict, flips: float) -> Verdict:
     """A decided verdict flipping in more than :data:`FLIP_THRESHOLD` is ``"undecided"``."""
-    if leaning in ("agrees", "differs") and flips > FLIP_THRESHOLD:
-        return "undecided"
-    return leaning
+    return "undecided" if leaning in ("agrees", "differs") and flips > FLIP_THRESHOLD else leaning
 
 
 @dataclass(frozen=True)
@@ -363,9 +361,7 @@ def location_stats(
 
     def where(values: list[float]) -> float:
         xa, ya = _finite(list(series), values)
-        if ya.size == 0:
-            return math.nan
-        return float(xa[np.argmin(ya) if kind == "min" else np.argmax(ya)])
+        return float(xa[np.argmin(ya) if kind == "min" else np.argmax(ya)]) if ya.size else math.nan
 
     medians, bests = [s.median for s in series.values()], [s.best for s in series.values()]
     return {"median": where(medians), "best": where(bests), "unit": "m/s", **fields}

@@ -260,20 +260,14 @@ NOISY = (
 )
 PITCH = "pitch amplitude η_m is larger in accelerating than in level flight (ours: accelerating − level)"
 LEVEL = "level flight ({kinematics_speed:g} m/s): fore- and hind-wing flap out of phase (|ΔΦ|)"
+LEADS = "at {phase_speed:g} m/s the hind-wing leads by about 30° (ΔΦ)"
 ACCEL = "accelerating flight ({kinematics_power:g} W/kg): the wings flap in phase (|ΔΦ|)"
 CLAIMS: tuple[C.ClaimSpec, ...] = (
     C.ClaimSpec(
         "K1", "Fig. 11a", LEVEL, "out of phase", "phase", False, phase_of("level |ΔΦ|", "K1")
     ),
     C.ClaimSpec(
-        "K2",
-        "Fig. 11",
-        "at {phase_speed:g} m/s the hind-wing leads by about 30° (ΔΦ)",
-        "+30°",
-        "angle",
-        PAPER_PHASE_LEAD,
-        phase_of("ΔΦ", "K2"),
-        NOISY,
+        "K2", "Fig. 11", LEADS, "+30°", "angle", PAPER_PHASE_LEAD, phase_of("ΔΦ", "K2"), NOISY
     ),
     C.ClaimSpec("K3", "Fig. 11b", ACCEL, "in phase", "phase", True, phase_of("accel |ΔΦ|", "K3")),
     C.ClaimSpec(

@@ -50,11 +50,7 @@ def series_jobs(plan: StudyPlan, powers: tuple[float, ...], planform: str) -> li
 
 
 def excess(
-    rows: Rows,
-    method: str,
-    planform: str,
-    axis: str,
-    horizontal: str = "horizontal",
+    rows: Rows, method: str, planform: str, axis: str, horizontal: str = "horizontal"
 ) -> dict[float, Spread]:
     """F̄_v (axis "vertical") or F̄_h (objective ``horizontal``) per power [-]."""
     objective = horizontal if axis == "horizontal" else axis
@@ -196,19 +192,11 @@ GEOMETRY = (
     "Understood differences)"
 )
 UP = "increases"
+EXCEEDS = "F̄_v exceeds F̄_h by 10-20 % (median over powers; IQR over powers)"
 CLAIMS: tuple[C.ClaimSpec, ...] = (
     *_at_powers("P1", "F̄_v", "Fig. 7", "vertical", PAPER_VERTICAL),
     *_at_powers("P2", "F̄_h", "Fig. 7", "horizontal", PAPER_HORIZONTAL),
-    C.ClaimSpec(
-        "P3",
-        "Fig. 7",
-        "F̄_v exceeds F̄_h by 10-20 % (median over powers; IQR over powers)",
-        "10-20 %",
-        "range",
-        PAPER_RATIO,
-        ratio,
-        GEOMETRY,
-    ),
+    C.ClaimSpec("P3", "Fig. 7", EXCEEDS, "10-20 %", "range", PAPER_RATIO, ratio, GEOMETRY),
     *(
         C.ClaimSpec(cid, "Fig. 7", f"{name} {UP} with available power", UP, "trend", +1, rises(f))
         for cid, name, f in (("P4", "F̄_v", "vertical"), ("P5", "F̄_h", "horizontal"))

@@ -287,10 +287,8 @@ def overridden(preset: Preset, **given: Any) -> Preset:
             raise ValueError(f"--{option}: {error}") from None
         shown = " ".join(f"{v:g}" for v in value) if isinstance(value, list) else f"{value}"
         changed.append(f"--{option} {shown}")
-    if not changed:
-        return preset
-    changes = f"; changed on the command line: {', '.join(changed)}"
-    return replace(preset, description=preset.description + changes)
+    changes = f"{preset.description}; changed on the command line: {', '.join(changed)}"
+    return replace(preset, description=changes) if changed else preset
 
 
 def get_preset(name: str) -> Preset:

@@ -142,7 +142,18 @@ def peak_efficiency(rows: list[Mapping[str, Any]], _: float) -> C.Stats:
     )
 
 
+def at_best_speed(
+    cid: str, figure: str, statement: str, measure: C.Measure, note: str = ""
+) -> C.ClaimSpec:
+    """A ``location`` claim: at the paper's best speed, 1.5 m/s."""
+    return C.ClaimSpec(
+        cid, figure, statement, "1.5 m/s", "location", PAPER_BEST_SPEED, measure, note
+    )
+
+
 FOLLOWS = "follows the power trend"
+LOWEST = "power P/m is lowest at V = 1.5 m/s"
+NOT_P = "η, not P, is maximised: P/m at the η-optimum need not be the minimum power."
 CLAIMS: tuple[C.ClaimSpec, ...] = (
     *(
         C.ClaimSpec(cid, "Fig. 4", f"{what} {word} with V", word, "trend", sign, trend(quantity))
@@ -152,16 +163,7 @@ CLAIMS: tuple[C.ClaimSpec, ...] = (
             ("S3", "thrust ratio T/W", "falls", -1, "thrust_ratio"),
         )
     ),
-    C.ClaimSpec(
-        "S4",
-        "Fig. 5",
-        "power P/m is lowest at V = 1.5 m/s",
-        "1.5 m/s",
-        "location",
-        PAPER_BEST_SPEED,
-        extremum("power_per_mass", "min"),
-        "η, not P, is maximised: P/m at the η-optimum need not be the minimum power.",
-    ),
+    at_best_speed("S4", "Fig. 5", LOWEST, extremum("power_per_mass", "min"), NOT_P),
     *(
         C.ClaimSpec(cid, "Fig. 5", f"{what} {FOLLOWS}", "follows P", "follows", +1, follows(q))
         for cid, what, q in (
@@ -179,14 +181,8 @@ CLAIMS: tuple[C.ClaimSpec, ...] = (
         peak_efficiency,
         SIGN_NOTE,
     ),
-    C.ClaimSpec(
-        "S8",
-        "Fig. 6",
-        "efficiency peaks at V = 1.5 m/s",
-        "1.5 m/s",
-        "location",
-        PAPER_BEST_SPEED,
-        extremum("efficiency_pct", "max"),
+    at_best_speed(
+        "S8", "Fig. 6", "efficiency peaks at V = 1.5 m/s", extremum("efficiency_pct", "max")
     ),
 )
 

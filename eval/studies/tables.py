@@ -83,9 +83,8 @@ def table4_bounds(
 def row_bounds(row: Mapping[str, Any]) -> StrokeBounds:
     """Table 4's bounds with the row's ``stroke_bounds`` changes (a mapping or JSON text)."""
     own = row.get("stroke_bounds")
-    if not own:
-        return TABLE_4_BOUNDS
-    return TABLE_4_BOUNDS.with_changes(json.loads(own) if isinstance(own, str) else own)
+    own = json.loads(own) if isinstance(own, str) and own else own
+    return TABLE_4_BOUNDS.with_changes(own) if own else TABLE_4_BOUNDS
 
 
 def pinned(rows: Sequence[Mapping[str, Any]], quantity: str) -> str:

@@ -179,9 +179,8 @@ def _continuation_section(
         "run's is feasible) then ran in full.",
         "",
     ]
-    if not check:
-        return [*lines, "No checked pairs (no single reading besides the default).", ""]
-    return [*lines, *check_table(check, full), ""]
+    none = ["No checked pairs (no single reading besides the default)."]
+    return [*lines, *(check_table(check, full) if check else none), ""]
 
 
 def check_table(
