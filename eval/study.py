@@ -161,13 +161,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             store.check(jobs=unique)  # raises, naming the folder and why
         detail = f"preset {study.plan.preset.name}, method {', '.join(study.plan.methods)}"
         # --quiet says no cost line, so none is made
-        command = (
-            None
-            if args.quiet
-            else CommandProgress(
-                study.title, store, cache=args.cache, detail=detail, rerun=args.rerun
-            )
-        )
+        progress = {"cache": args.cache, "detail": detail, "rerun": args.rerun}
+        command = None if args.quiet else CommandProgress(study.title, store, **progress)
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     if not writable:

@@ -1,7 +1,9 @@
-"""The model's readings on random Table 4 strokes (docs/model.md §1.3, §6.3)."""
+"""The model's readings on random Table 4 strokes (docs/model.md §1.3, §6.3), and the packaged
+reference table as docs/reference.md shows it (made by ``python -m eval reference``)."""
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 from typing import Any
@@ -9,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from eval.numbers.framework import RANDOM_STROKES, Measurement, random_strokes, spaced
+from tandem_env.envs.reference import reference_path
 
 ROTATION_SPEEDS: tuple[float, ...] = (0.0, 1.5)
 """Flight speeds [m/s] of the rotational-coefficient reading (hover and 1.5 m/s)."""
@@ -30,15 +33,9 @@ def measure_rotation() -> dict[str, Any]:
         paper = te.evaluate(strokes, speed, insect=insect).lift_to_weight
         lifting = paper >= 0.5
         ratio = paper[lifting] / te.evaluate(strokes[lifting], speed, insect=half).lift_to_weight
-        p5, p95 = np.percentile(ratio, [5, 95])
-        stats = {"median": np.median(ratio), "p5": p5, "p95": p95}
-        rows.append(
-            {
-                "speed": speed,
-                "strokes": int(lifting.sum()),
-                **{k: float(v) for k, v in stats.items()},
-            }
-        )
+        stats = (np.median(ratio), *np.percentile(ratio, [5, 95]))
+        row = dict(zip(("median", "p5", "p95"), map(float, stats), strict=True))
+        rows.append({"speed": speed, "strokes": int(lifting.sum()), **row})
     return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}
 
 
@@ -94,7 +91,19 @@ def render_power(data: dict[str, Any]) -> str:
     )
 
 
+def measure_reference() -> dict[str, Any]:
+    """The packaged reference table, as it is."""
+    return json.loads(reference_path().read_text(encoding="utf-8"))
+
+
+def render_reference(data: dict[str, Any]) -> str:
+    from eval.reference import reference_markdown
+
+    return reference_markdown(data)
+
+
 MEASUREMENTS = (
     Measurement("rotational-coefficient", measure_rotation, render_rotation),
     Measurement("power-conventions", measure_power, render_power),
+    Measurement("reference-table", measure_reference, render_reference),
 )

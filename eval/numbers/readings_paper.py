@@ -43,13 +43,11 @@ def measure() -> dict[str, Any]:
             f"{manifest.get('preset')!r}); run `{READINGS_PAPER_COMMAND}`"
         )
     fw.copy_outputs(out, READINGS_PAPER_FILES)
-    keep = ("invocations", "continuation", "continuation_check", "run_in_full")
+    keep = "claims combination_rule invocations continuation continuation_check run_in_full"
     return {
         "command": READINGS_PAPER_COMMAND,
         "rows": fw.read_rows(out / "readings.csv"),
-        "claims": manifest["claims"],
-        "combination_rule": manifest["combination_rule"],
-        **{key: manifest[key] for key in keep},
+        **{key: manifest[key] for key in keep.split()},
     }
 
 

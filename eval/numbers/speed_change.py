@@ -48,10 +48,8 @@ def speed_change_rows(optima: Sequence[dict[str, Any]], first_seed: int) -> list
 
     from eval import speed_change
 
-    steady = speed_change.SteadyPolicy(
-        np.array([o["speed"] for o in optima], dtype=np.float64),
-        np.array([o["normalised_stroke"] for o in optima], dtype=np.float64),
-    )
+    column = lambda key: np.array([o[key] for o in optima], dtype=np.float64)  # noqa: E731
+    steady = speed_change.SteadyPolicy(column("speed"), column("normalised_stroke"))
     seeds = range(first_seed, first_seed + SPEED_CHANGE_EPISODES)
     episodes = [
         speed_change.episode_metrics(log)

@@ -20,7 +20,7 @@ from agents.tasks import get_task
 from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim, ClaimSpec, judged, study_claims
 from eval.studies.paper_reading import DEFAULT, Reading
-from eval.studies.presets import WARM_SHARE, Preset, distinct, is_name, warm_start
+from eval.studies.presets import WARM_SHARE, Preset, distinct, fail, is_name, warm_start
 from eval.studies.tables import Rows, series_conditions, spread_summary_rows, tidy_rows
 from tandem_env import PARAMETER_NAMES, ModelOptions
 from tandem_env.envs.config import EXECUTION_KWARGS, MODEL_OPTION_KWARGS
@@ -57,31 +57,25 @@ class StudyPlan:
 
     def __post_init__(self) -> None:
         if not isinstance(self.preset, Preset):
-            raise ValueError(f"StudyPlan.preset = {self.preset!r}; allowed: a Preset")
+            fail("preset", self.preset, "a Preset", "StudyPlan")
         if self.methods is None:
             object.__setattr__(self, "methods", (self.preset.method,))
         if not distinct(self.methods, is_name):
-            raise ValueError(
-                f"StudyPlan.methods = {self.methods!r}; allowed: distinct method specs such as "
-                "('pso',), ('pso', 'random') or ('pso', 'policy:runs/ppo')"
-            )
+            specs = "distinct method specs such as ('pso',), ('pso', 'random') or ('pso', 'policy:runs/ppo')"
+            fail("methods", self.methods, specs, "StudyPlan")
         if self.figure_format not in FORMATS:
-            raise ValueError(
-                f"StudyPlan.figure_format = {self.figure_format!r}; allowed: {', '.join(FORMATS)}"
-            )
+            fail("figure_format", self.figure_format, ", ".join(FORMATS), "StudyPlan")
         if not isinstance(self.insect, Dragonfly):
-            raise ValueError(f"StudyPlan.insect = {self.insect!r}; allowed: a tandem_env.Dragonfly")
+            fail("insect", self.insect, "a tandem_env.Dragonfly", "StudyPlan")
         if not isinstance(self.reading, Reading):
-            raise ValueError(f"StudyPlan.reading = {self.reading!r}; allowed: a Reading")
+            fail("reading", self.reading, "a Reading", "StudyPlan")
         if self.reading.search is not None:
             # the analyses select records by plan.methods, so the search's method goes there
             object.__setattr__(self, "methods", (self.reading.search.method,))
         execution = {k: v for k, v in dict(self.execution).items() if v is not None}
         if not set(execution) <= set(EXECUTION_KWARGS):
-            raise ValueError(
-                f"StudyPlan.execution = {self.execution!r}; allowed: keywords among "
-                f"{', '.join(EXECUTION_KWARGS)}"
-            )
+            allowed = f"keywords among {', '.join(EXECUTION_KWARGS)}"
+            fail("execution", self.execution, allowed, "StudyPlan")
         if execution:  # the backend's rule: a device only with torch, one that is there
             backend, device = check_backend(
                 execution.get("backend", BACKENDS[0]), execution.get("device")
@@ -125,11 +119,8 @@ class StudyPlan:
         self, task: str, objective: str | None = None, planform: str = "tear-drop"
     ) -> dict[str, Any]:
         """The env keywords of one series' jobs; ``objective``: the env's, for a task with one."""
-        kwargs = {
-            **dict(self.preset.env_kwargs),
-            **self.reading.env_kwargs(),
-            **dict(self.execution),
-        }
+        kwargs = {**dict(self.preset.env_kwargs), **self.reading.env_kwargs()}
+        kwargs.update(self.execution)
         if self.insect != DRAGONFLY:
             kwargs["insect"] = self.insect  # the job keeps what differs from the specimen
         kwargs["planform"] = planform

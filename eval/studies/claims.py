@@ -12,6 +12,7 @@ from typing import Any, Literal
 import numpy as np
 from scipy.stats import spearmanr
 
+from eval.studies.presets import fail
 from eval.studies.tables import Rows, Spread, pinned, spread, table4_bounds
 from tandem_env import ModelOptions
 
@@ -79,9 +80,7 @@ class Dependence:
 
     def __post_init__(self) -> None:
         if self.quantity not in QUANTITIES:
-            raise ValueError(
-                f"Dependence.quantity = {self.quantity!r}; allowed: {', '.join(QUANTITIES)}"
-            )
+            fail("quantity", self.quantity, ", ".join(QUANTITIES), "Dependence")
 
     def resolved(self, options: ModelOptions) -> bool:
         """Whether the model under ``options`` depends on the quantity at this speed."""

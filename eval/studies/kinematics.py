@@ -161,30 +161,19 @@ def draw(
         (11, "weaving angle φ", phase, "sweep", "weaving", phase_panels),
         (12, "pitch angle η", "(c) pitch amplitudes", "pitch", "pitch", (pitch_panel,)),
     )
+    out = []
+    for n, flight, t, name, stem in tips:
+        path = plan.figure(study_dir, stem)
+        figure = kf.tip_path_figure(t, f"Fig. {n}: tip paths, {name} ({label})", path)
+        out.append((f"Fig. {n}: wing-tip paths relative to the wing base, {flight}", figure))
+    both = [(f"(a) {level_name}", lv), (f"(b) {accel_name}", ac)]
+    for n, angle, panels, key, stem, extras in cycles:
+        title = f"Fig. {n}: {angle.rsplit(' ', 1)[0]} over the cycle"
+        path = plan.figure(study_dir, f"fig{n}_{stem}")
+        figure = kf.cycle_figure(both, key, f"{angle} [deg]", title, path, extras=extras)
+        out.append((f"Fig. {n}: {angle} of fore- and hind-wing; {panels}", figure))
     return [
-        *(
-            (
-                f"Fig. {n}: wing-tip paths relative to the wing base, {flight}",
-                kf.tip_path_figure(
-                    t, f"Fig. {n}: tip paths, {name} ({label})", plan.figure(study_dir, stem)
-                ),
-            )
-            for n, flight, t, name, stem in tips
-        ),
-        *(
-            (
-                f"Fig. {n}: {angle} of fore- and hind-wing; {panels}",
-                kf.cycle_figure(
-                    [(f"(a) {level_name}", lv), (f"(b) {accel_name}", ac)],
-                    key,
-                    f"{angle} [deg]",
-                    f"Fig. {n}: {angle.rsplit(' ', 1)[0]} over the cycle",
-                    plan.figure(study_dir, f"fig{n}_{stem}"),
-                    extras=extras,
-                ),
-            )
-            for n, angle, panels, key, stem, extras in cycles
-        ),
+        *out,
         (
             "Fig. 13: angle of attack and relative speed over the cycle, level flight (a wing "
             "whose weaving shape K sits at its bound 1 sweeps at a constant rate between "
@@ -202,16 +191,12 @@ def draw(
 @functools.cache
 def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
     """What K1-K3 are about: the phase at their flight speeds (cached for the bootstrap)."""
-    p = plan.preset
-    level = plan.jobs("level", [p.kinematics_speed, p.phase_speed], seeds=p.seeds[:1])
-    accel = plan.jobs(
-        "accelerate", [p.kinematics_power], objective=p.kinematics_objective, seeds=p.seeds[:1]
-    )
+    p, one = plan.preset, {"seeds": plan.preset.seeds[:1]}
+    level = plan.jobs("level", [p.kinematics_speed, p.phase_speed], **one)
+    accel = plan.jobs("accelerate", [p.kinematics_power], objective=p.kinematics_objective, **one)
     speeds = [flight_of(job)[1] for job in (level[0], level[1], accel[0])]
-    return {
-        cid: (C.Dependence(C.PHASE, speed),)
-        for cid, speed in zip(("K1", "K2", "K3"), speeds, strict=True)
-    }
+    ids = ("K1", "K2", "K3")
+    return {cid: (C.Dependence(C.PHASE, speed),) for cid, speed in zip(ids, speeds, strict=True)}
 
 
 def view(plan: StudyPlan, rows: Rows, method: str) -> dict[str, Any]:

@@ -9,7 +9,7 @@ from typing import Any
 from agents.methods import get_method, preset_batch_setting
 from agents.polish import split_settings
 from agents.tasks import available_tasks
-from eval.studies.presets import is_int, is_name, is_number
+from eval.studies.presets import fail, is_int, is_name, is_number
 from tandem_env import Dragonfly, ModelOptions
 from tandem_env.envs import ACCELERATE
 from tandem_env.envs.config import MODEL_OPTION_KWARGS
@@ -20,6 +20,7 @@ NUMERICAL_OPTIONS: frozenset[str] = frozenset({"n_time", "n_blade", "tolerance",
 DECISION_OPTIONS: tuple[str, ...] = tuple(
     f.name for f in fields(ModelOptions) if f.name not in NUMERICAL_OPTIONS
 )
+DECISIONS = f"modelling decisions: {', '.join(DECISION_OPTIONS)}"
 #: Accelerating-flight objectives whose optimum can stand for the paper's F̄_h (Fig. 7).
 CHOICES: tuple[str, ...] = ACCELERATE.objectives.choices  # type: ignore[assignment]
 HORIZONTAL_OBJECTIVES: tuple[str, ...] = tuple(o for o in CHOICES if o.startswith("horizontal"))
@@ -67,14 +68,12 @@ class Search:
     def __post_init__(self) -> None:
         method = self.method
         if not is_name(method) or ":" in method:
-            raise ValueError(
-                f"Search.method = {method!r}; allowed: a harness method name without ':' "
-                "such as 'pso' or 'cmaes'"
-            )
+            allowed = "a harness method name without ':' such as 'pso' or 'cmaes'"
+            fail("method", method, allowed, "Search")
         for name, low in (("swarm_size", 2), ("iterations", 1)):
             value = getattr(self, name)
             if value is not None and not is_int(value, low):
-                raise ValueError(f"Search.{name} = {value!r}; allowed: None or an integer >= {low}")
+                fail(name, value, f"None or an integer >= {low}", "Search")
         if self.iterations is not None and self.swarm_size is None:
             raise ValueError(
                 f"Search.iterations = {self.iterations!r} without swarm_size; allowed: both "
@@ -84,10 +83,8 @@ class Search:
         tasks = available_tasks()
         for task, value in budgets:
             if task not in tasks or not is_int(value, 1):
-                raise ValueError(
-                    f"Search.budgets[{task!r}] = {value!r}; allowed: tasks {', '.join(tasks)} "
-                    "with an integer >= 1 (model evaluations)"
-                )
+                allowed = f"tasks {', '.join(tasks)} with an integer >= 1 (model evaluations)"
+                fail(f"budgets[{task!r}]", value, allowed, "Search")
         if budgets and self.iterations is not None:
             raise ValueError(
                 f"Search.budgets = {dict(budgets)!r} and iterations = {self.iterations!r}; "
@@ -175,10 +172,7 @@ class Reading:
             _fail(self.name, "description", self.description, "a one-line description")
         pairs = _pairs(self.options, f"Reading {self.name!r}: options")
         for key in (k for k, _ in pairs if k not in DECISION_OPTIONS):
-            allowed = (
-                f"ModelOptions fields that are modelling decisions: {', '.join(DECISION_OPTIONS)}"
-            )
-            _fail(self.name, "options", key, allowed)
+            _fail(self.name, "options", key, f"ModelOptions fields that are {DECISIONS}")
         object.__setattr__(self, "options", pairs)
         try:
             ModelOptions(**dict(pairs))

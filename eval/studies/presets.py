@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, NoReturn
 
 from agents.tasks import get_task
 from tandem_env.envs import AccelerateConfig, LevelFlightConfig, TaskCondition
@@ -63,7 +63,8 @@ def distinct(values: Any, item: Callable[[Any], bool]) -> bool:
     return ok and len(set(values)) == len(values)
 
 
-def _fail(name: str, value: Any, allowed: str, owner: str = "Preset") -> None:
+def fail(name: str, value: Any, allowed: str, owner: str = "Preset") -> NoReturn:
+    """Raise the ValueError of a refused field: ``Preset.seeds = (); allowed: ...``."""
     raise ValueError(f"{owner}.{name} = {value!r}; allowed: {allowed}")
 
 
@@ -73,7 +74,7 @@ def _check_values(name: str, values: Any, condition: TaskCondition) -> None:
     inside = lambda v: is_number(v) and low <= v <= high  # noqa: E731
     if not distinct(values, inside) or list(values) != sorted(values):
         allowed = "a non-empty, increasing tuple of distinct numbers from"
-        _fail(name, values, f"{allowed} {low:g} to {high:g} {condition.unit}")
+        fail(name, values, f"{allowed} {low:g} to {high:g} {condition.unit}")
 
 
 @dataclass(frozen=True)
@@ -96,15 +97,15 @@ class ConvergenceSpec:
     def __post_init__(self) -> None:
         owner = "ConvergenceSpec"
         if not is_int(self.budget, 2):
-            _fail("budget", self.budget, "an integer >= 2", owner)
+            fail("budget", self.budget, "an integer >= 2", owner)
         if not distinct(self.seeds, lambda s: is_int(s, 0)):
-            _fail("seeds", self.seeds, "distinct integers >= 0", owner)
+            fail("seeds", self.seeds, "distinct integers >= 0", owner)
         if not distinct(self.methods, is_name):
-            _fail("methods", self.methods, "distinct method names such as ('pso', 'cmaes')", owner)
+            fail("methods", self.methods, "distinct method names such as ('pso', 'cmaes')", owner)
         share = lambda v: is_number(v) and (v == 0 or 0.01 <= v <= 0.9)  # noqa: E731
         if not distinct(self.polish_shares, share):
             allowed = "distinct numbers, each 0 (no polish) or in [0.01, 0.9]"
-            _fail("polish_shares", self.polish_shares, allowed, owner)
+            fail("polish_shares", self.polish_shares, allowed, owner)
         _check_values("convergence speed", (self.speed,), _SPEED)
         _check_values("convergence power", (self.power,), _POWER)
 
@@ -152,39 +153,33 @@ class Preset:
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.isidentifier():
-            _fail("name", self.name, "an identifier such as 'quick'")
+            fail("name", self.name, "an identifier such as 'quick'")
         if not distinct(self.seeds, lambda s: is_int(s, 0)):
-            _fail("seeds", self.seeds, "a non-empty tuple of distinct integers >= 0")
+            fail("seeds", self.seeds, "a non-empty tuple of distinct integers >= 0")
         if not is_int(self.swarm_size, 2):
-            _fail("swarm_size", self.swarm_size, "an integer >= 2")
+            fail("swarm_size", self.swarm_size, "an integer >= 2")
         for name in BUDGET_FIELDS.values():
             value = getattr(self, name)
             if not is_int(value, self.swarm_size):
-                _fail(name, value, f"an integer >= swarm_size ({self.swarm_size}) evaluations")
-        sweeps = {
-            "speeds": _SPEED,
-            "shape_speeds": _SPEED,
-            "powers": _POWER,
-            "shape_powers": _POWER,
-        }
-        for name, condition in sweeps.items():
-            _check_values(name, getattr(self, name), condition)
+                fail(name, value, f"an integer >= swarm_size ({self.swarm_size}) evaluations")
+        for name in ("speeds", "shape_speeds", "powers", "shape_powers"):
+            _check_values(name, getattr(self, name), _SPEED if "speed" in name else _POWER)
         speeds = tuple(sorted({self.kinematics_speed, self.phase_speed}))
         _check_values("kinematics_speed/phase_speed", speeds, _SPEED)
         _check_values("kinematics_power", (self.kinematics_power,), _POWER)
         if self.kinematics_objective not in STUDIED_OBJECTIVES:
             allowed = " or ".join(map(repr, STUDIED_OBJECTIVES))
-            _fail("kinematics_objective", self.kinematics_objective, allowed)
+            fail("kinematics_objective", self.kinematics_objective, allowed)
         if not is_name(self.method):
-            _fail("method", self.method, "a harness method name such as 'cmaes' or 'pso'")
+            fail("method", self.method, "a harness method name such as 'cmaes' or 'pso'")
         if self.warm_start not in WARM_STARTS:
-            _fail("warm_start", self.warm_start, " or ".join(map(repr, WARM_STARTS)))
+            fail("warm_start", self.warm_start, " or ".join(map(repr, WARM_STARTS)))
         if not isinstance(self.convergence, ConvergenceSpec):
-            _fail("convergence", self.convergence, "a ConvergenceSpec")
+            fail("convergence", self.convergence, "a ConvergenceSpec")
         keys = [k for k, _ in self.env_kwargs]
         if len(set(keys)) != len(keys) or any(k in _PER_JOB_KWARGS for k in keys):
             allowed = "distinct (name, value) pairs; the condition and objective are set per job"
-            _fail("env_kwargs", self.env_kwargs, allowed)
+            fail("env_kwargs", self.env_kwargs, allowed)
 
     @property
     def budgets(self) -> dict[str, int]:

@@ -219,14 +219,10 @@ def write_report(
     parts += ["## Against the reference table", "", *plan.table_lines(rows), ""]
     parts += ["## Understood differences", "", *[f"- {t}" for t in UNDERSTOOD.values()], ""]
     parts += pinned_section(rows)
-    missing = [n for n in all_studies if n not in {o.name for o in outputs}]
-    if missing:
-        parts += [
-            "## Not run",
-            "",
-            *[f"- `{n}`: `python -m eval study {n} --preset {plan.preset.name}`" for n in missing],
-            "",
-        ]
+    preset = plan.preset.name
+    if missing := [n for n in all_studies if n not in {o.name for o in outputs}]:
+        rerun = [f"- `{n}`: `python -m eval study {n} --preset {preset}`" for n in missing]
+        parts += ["## Not run", "", *rerun, ""]
     parts += ["## Figures", "", FIGURE_KEY, ""]
     for o in outputs:
         parts += [f"### {o.title}", ""]
@@ -254,9 +250,8 @@ def pinned_section(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     for r in sorted(found, key=lambda r: (PARAMETER_NAMES.index(r["parameter"]), r["bound"])):
         series = f"{r['task']} {r['objective']}, {r['planform']} ({r['method']})"
         at = places.setdefault((r["parameter"], r["bound"], r["value"]), {})
-        at.setdefault((series, r["condition_unit"]), []).append(
-            f"{r['condition']:g} ({r['share']:.0%})"
-        )
+        where = f"{r['condition']:g} ({r['share']:.0%})"
+        at.setdefault((series, r["condition_unit"]), []).append(where)
     for (name, bound, value), series in places.items():
         where = "; ".join(f"{s} at {', '.join(c)} {unit}" for (s, unit), c in series.items())
         lines.append(f"- `{name}` at its {bound} bound {value:g}: {where}")

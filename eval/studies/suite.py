@@ -41,9 +41,8 @@ class SuitePlan:
         self.started = time.perf_counter()
         self.given = ", ".join(names)
         chosen = [n for name in names for n in (PAPER_STUDIES if name == "all" else [name])]
-        for name in chosen:
-            if name not in STUDIES:
-                raise ValueError(f"unknown study {name!r}; allowed: all, {', '.join(STUDIES)}")
+        if unknown := [name for name in chosen if name not in STUDIES]:
+            raise ValueError(f"unknown study {unknown[0]!r}; allowed: all, {', '.join(STUDIES)}")
         self.asked = list(dict.fromkeys(chosen))
         self.plan, self.out = plan, out
         self.title = f"study {self.given} ({', '.join(self.asked)})"
@@ -63,12 +62,10 @@ class SuitePlan:
                 continue
             done[name] = STUDIES[name].analyse(self.plan, records, out)
         paper = [name for name in PAPER_STUDIES if name in done]
-        summary, report_path = run.runs[self.given], None
+        summary, path = run.runs[self.given], None
         if paper:
             outputs = [done[n] for n in paper]
-            report_path = report.write_report(
-                out / "report.md", self.plan, outputs, list(PAPER_STUDIES)
-            )
+            path = report.write_report(out / "report.md", self.plan, outputs, list(PAPER_STUDIES))
             wall = round(time.perf_counter() - self.started, 1)  # the whole call's, analysis too
             last_run = {"studies": self.asked, **summary.to_dict(), "wall_time_s": wall}
             jobs = sorted({j.key for n in done for j in self.jobs_of[n]})
@@ -76,7 +73,7 @@ class SuitePlan:
             manifest = {"preset": preset, "methods": methods, "studies": paper, "jobs": jobs}
             write_json_atomic(out / "manifest.json", {**manifest, "last_run": last_run})
         wall = time.perf_counter() - self.started
-        return SuiteResult([done[n] for n in self.asked], summary, report_path, wall)
+        return SuiteResult([done[n] for n in self.asked], summary, path, wall)
 
 
 def run_studies(

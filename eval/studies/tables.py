@@ -58,12 +58,10 @@ CIRCULAR: frozenset[str] = frozenset(
     {"phase_difference", *(n for n in PARAMETER_NAMES if n.endswith("_phase"))}
 )
 
-#: The Table 4 parameter(s) behind each stroke quantity: both wings' (a mean) or itself.
+#: The stroke quantities that are two-wing means, and the Table 4 parameter(s) behind each.
+WING_MEANS = ("stroke_plane_angle", "frequency", "sweep_amplitude", "pitch_amplitude")
 PARAMETERS_OF: dict[str, tuple[str, ...]] = {
-    **{
-        q: (f"fore_{q}", f"hind_{q}")
-        for q in ("frequency", "sweep_amplitude", "pitch_amplitude", "stroke_plane_angle")
-    },
+    **{q: (f"fore_{q}", f"hind_{q}") for q in WING_MEANS},
     **{name: (name,) for name in PARAMETER_NAMES},
 }
 #: A parameter is *pinned* at a bound where more than this share of the feasible seeds sit at it.
@@ -148,7 +146,6 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
     own = insect.get("stroke_bounds")  # only where not Table 4's: what pinned() measures against
     bounds = TABLE_4_BOUNDS if own is None else StrokeBounds(**own)
     metrics = ("lift_to_weight", "power_per_mass", "excess_vertical", "excess_horizontal")
-    means = ("stroke_plane_angle", "frequency", "sweep_amplitude", "pitch_amplitude")
     return {
         "method": job.method,
         "task": job.task,
@@ -157,9 +154,7 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
         "condition": record.condition.value,
         "condition_name": record.condition.name,
         "condition_unit": record.condition.unit,
-        "seed": record.seed,
-        "budget": record.budget,
-        "evaluations": record.evaluations,
+        **{k: getattr(record, k) for k in ("seed", "budget", "evaluations")},
         "feasible": bool(record.feasible),
         "objective_value": float(record.objective),
         "reward": float(record.reward),
@@ -167,7 +162,7 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
         "efficiency_pct": 100.0 * float(m["efficiency"]),
         "thrust_ratio": float(m["thrust"]) / weight,
         **{k: float(m[k]) for k in (*metrics, "excess_total", "mean_angle_of_attack")},
-        **{q: 0.5 * (float(s[f"fore_{q}"]) + float(s[f"hind_{q}"])) for q in means},
+        **{q: 0.5 * (float(s[f"fore_{q}"]) + float(s[f"hind_{q}"])) for q in WING_MEANS},
         "phase_difference": phase_difference,
         "phase_difference_abs": abs(phase_difference),
         "induction_converged": bool(m.get("induction_converged", True)),

@@ -167,10 +167,7 @@ def real_wins(quantity: str) -> C.Measure:
 
     def measure(by: Planforms, _: Any) -> C.Stats:
         real, tear = by[quantity]["real"], by[quantity]["tear-drop"]
-        return {
-            "median": _share_better(real, tear, "median"),
-            "best": _share_better(real, tear, "best"),
-        }
+        return {k: _share_better(real, tear, k) for k in ("median", "best")}
 
     return measure
 

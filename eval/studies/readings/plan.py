@@ -145,9 +145,7 @@ class ReadingResult:
     def headline(self) -> dict[str, float]:
         """The :data:`HEADLINES` numbers: the medians of those claims (NaN where absent)."""
         by_id = {c.id: c for c in self.claims}
-        return {
-            k: by_id[cid].median if cid in by_id else math.nan for k, (cid, _) in HEADLINES.items()
-        }
+        return {k: getattr(by_id.get(cid), "median", math.nan) for k, (cid, _) in HEADLINES.items()}
 
 
 def reading_dir(out_dir: Path, reading: Reading) -> Path:

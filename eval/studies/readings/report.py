@@ -192,14 +192,11 @@ def check_table(
         why = full.get(row["reading"], {}).get(row["task"])
         return "" if row["reading"] == "all" else (f"in full ({why})" if why else "continued")
 
-    def percent(key: str) -> R.Column:
-        return key, lambda row: f"{100 * row[key]:+.2f} %"
-
     columns: list[R.Column] = [
         ("reading", lambda row: "**all**" if row["reading"] == "all" else f"`{row['reading']}`"),
         ("task", lambda row: "" if row["reading"] == "all" else row["task"]),
         ("pairs", lambda row: str(row["pairs"])),
-        *map(percent, ("median", "lowest", "highest")),
+        *((k, lambda row, k=k: f"{100 * row[k]:+.2f} %") for k in ("median", "lowest", "highest")),
         ("within 0.5 % or above", lambda row: f"{row['within_0.5%']} of {row['pairs']}"),
         ("infeasible", lambda row: str(row["infeasible"])),
         ("runs", runs),
