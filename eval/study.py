@@ -21,8 +21,11 @@ from eval.studies.readings.run import READINGS, ReadingsCampaign
 from eval.studies.suite import SUITE, SuiteCampaign
 from tandem_env.physics.insect import DRAGONFLY, describe_insect
 
-#: What the command runs, in the order of its help: the paper's studies and the readings study,
-#: each with its ``names``, help, ``default_out``, ``options``, ``plan(...)`` and ``report``.
+#: What the command runs, in the order of its help: the paper's studies and the readings study.
+#: Each has the study ``names`` that choose it, its help lines (``description``,
+#: ``reading_help``), ``default_out``, its own ``options`` (flag -> ``add_argument`` keywords,
+#: refused for another study), a plan (``plan(args, plan, store)``: ``phases`` for
+#: :func:`agents.runner.run_plan`, a ``title`` and ``finish(run)``) and ``report(args, result)``.
 CAMPAIGNS = (SUITE, READINGS)
 
 
@@ -35,10 +38,14 @@ NAME = "study"
 HELP = "reproduce the paper's figures: speed/power sweeps, kinematics, wing shape, report"
 DESCRIPTION = (
     f"""\
-Run the reproduction studies of Faisal & Filippone (2016) on the evaluation harness: per
-study the records, tidy and summary CSVs and figures, and DIR/report.md, every claim of the
-paper beside ours judged on the median and the best seed (a verdict a bootstrap over seeds
-flips in more than {100 * FLIP_THRESHOLD:.0f} % of resamples is "undecided"; docs/reproduction.md).
+Run the reproduction studies of Faisal & Filippone (2016) on the evaluation harness and
+write, per study, the records (JSON), a tidy CSV, a summary CSV and paper-style figures (PNG;
+--format svg or pdf), and DIR/report.md: every claim of the paper beside ours (median [IQR]
+over seeds, best seed) with an explicit agreement rule, judged on the median and on the best
+seed; a verdict that a bootstrap over the seeds flips in more than
+{100 * FLIP_THRESHOLD:.0f} % of resamples is "undecided"; a claim about what the model does
+not depend on under the options run (the fore/hind phase, K1-K3, under the default mean
+slipstream) is "not identifiable".
 
 Studies:
 """
@@ -55,9 +62,17 @@ Presets:
     )
     + """
 
-A killed run resumes (finished optimisations are not run again; the record cache copies one
-another folder ran). The optimisations run here one after another, or on Dask with
---scheduler (docs/scaling.md); the numbers and the report are the same either way."""
+A killed run resumes: finished optimisations are recognised by their configuration hash and
+not run again; a changed configuration never reuses old records. An optimisation another
+output folder has run is copied from the record cache instead of run (--no-cache: not).
+The first line gives the whole command's optimisations, what is stored and what runs, its
+model evaluations and the time left; a command of several phases says it again at each
+phase's start.
+
+The optimisations run here, one after another (default), or on Dask: --scheduler local:N
+starts N worker processes here, --scheduler tcp://HOST:PORT uses a running Dask scheduler
+and its workers, e.g. on a SLURM/PBS cluster (docs/scaling.md). The numbers and the report
+are the same either way."""
 )
 EPILOG = """\
 examples:
@@ -161,8 +176,11 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             store.check(jobs=unique)  # raises, naming the folder and why
         detail = f"preset {study.plan.preset.name}, method {', '.join(study.plan.methods)}"
         # --quiet says no cost line, so none is made
-        progress = {"cache": args.cache, "detail": detail, "rerun": args.rerun}
-        command = None if args.quiet else CommandProgress(study.title, store, **progress)
+        command = None
+        if not args.quiet:
+            command = CommandProgress(
+                study.title, store, cache=args.cache, detail=detail, rerun=args.rerun
+            )
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     if not writable:
@@ -180,8 +198,16 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         print(f"insect: {describe_insect(plan.insect)}", file=sys.stderr)
 
     def run() -> object:
-        progress = {"progress": not args.quiet, "rerun": args.rerun, "command": command}
-        return study.finish(run_plan(study.phases, store, scheduler, args.cache, **progress))
+        done = run_plan(
+            study.phases,
+            store,
+            scheduler,
+            args.cache,
+            progress=not args.quiet,
+            rerun=args.rerun,
+            command=command,
+        )
+        return study.finish(done)
 
     result = run_reporting(parser, run)
     if isinstance(result, int):

@@ -1,4 +1,15 @@
-"""``python -m eval numbers``: measure the numbers README and docs quote, write them in."""
+"""``python -m eval numbers``: measure the numbers README and docs quote, and write them in.
+
+A number a document states is produced here, by the command the document names, and written
+between the markers ``<!-- numbers: NAME -->`` and ``<!-- /numbers -->`` (generated Markdown,
+never edited by hand). Each measurement keeps its raw results in ``docs/numbers/<name>.json``
+(per-seed values, commands, date, machine and load) and its Markdown is rendered from that
+file alone: ``--only NAME ...`` measures those (the ``on_request`` ones, which collect a long
+run's outputs, only when named), ``--render`` rewrites the documents from the stored JSON.
+``tests/test_docs_numbers.py`` checks every region against its rendering and reruns the
+deterministic rows. A new number is a :class:`~eval.numbers.framework.Measurement` in a
+module of this package (its ``MEASUREMENT`` or ``MEASUREMENTS``) and one region in a document.
+"""
 
 from __future__ import annotations
 
@@ -10,7 +21,7 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
-from eval.numbers import framework as fw
+from eval.numbers import framework
 
 NAME = "numbers"
 HELP = "rerun the measurements README and docs quote, and write them into the documents"
@@ -23,7 +34,7 @@ _MODULES: list[ModuleType] = [
     if m.name != "framework"
 ]
 #: Every measurement by name: each module's ``MEASUREMENT`` (or its ``MEASUREMENTS``).
-MEASUREMENTS: dict[str, fw.Measurement] = {
+MEASUREMENTS: dict[str, framework.Measurement] = {
     m.name: m
     for module in _MODULES
     for m in getattr(module, "MEASUREMENTS", None) or (module.MEASUREMENT,)
@@ -31,7 +42,8 @@ MEASUREMENTS: dict[str, fw.Measurement] = {
 
 
 def render_document(text: str, rendered: dict[str, str]) -> str:
-    """``text`` with every marked region rendered (KeyError for an unknown name)."""
+    """``text`` with every marked region replaced by its rendering (a measurement not stored
+    yet: left as it is; a name no measurement has: an error)."""
 
     def body(match: re.Match[str]) -> str:
         name = match["name"]
@@ -41,12 +53,12 @@ def render_document(text: str, rendered: dict[str, str]) -> str:
             raise KeyError(f"unknown numbers region {name!r}; known: {sorted(rendered)}")
         return match.group(1) + rendered[name] + match.group(4)
 
-    return fw.REGION.sub(body, text)
+    return framework.REGION.sub(body, text)
 
 
 def write_documents(rendered: dict[str, str]) -> list[Path]:
     changed = []
-    for path in fw.DOCUMENTS:
+    for path in framework.DOCUMENTS:
         text = path.read_text(encoding="utf-8")
         if (new := render_document(text, rendered)) != text:
             path.write_text(new, encoding="utf-8")
@@ -56,7 +68,11 @@ def write_documents(rendered: dict[str, str]) -> list[Path]:
 
 def rendered_all() -> dict[str, str]:
     """Every stored measurement's Markdown (one not measured yet has none)."""
-    return {n: m.render(fw.load(n)) for n, m in MEASUREMENTS.items() if fw.json_path(n).exists()}
+    return {
+        name: m.render(framework.load(name))
+        for name, m in MEASUREMENTS.items()
+        if framework.json_path(name).exists()
+    }
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -79,11 +95,16 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         every = [name for name, m in sorted(MEASUREMENTS.items()) if not m.on_request]
         for name in args.only or every:
             print(f"measuring {name} ...", file=sys.stderr, flush=True)
-            before, data = fw.machine(), MEASUREMENTS[name].measure()
+            before = framework.machine()
+            data = MEASUREMENTS[name].measure()
             if MEASUREMENTS[name].blas_dependent:  # measured again under the other kernels
-                kernels = {"blas_kernel": fw.blas_kernel()}
-                data |= {**kernels, "other_kernels": fw.measure_other_kernels(name)}
-            fw.save(name, {**data, "machine_before": before, "machine_after": fw.machine()})
+                data |= {
+                    "blas_kernel": framework.blas_kernel(),
+                    "other_kernels": framework.measure_other_kernels(name),
+                }
+            framework.save(
+                name, {**data, "machine_before": before, "machine_after": framework.machine()}
+            )
     for path in write_documents(rendered_all()):
-        print(f"updated {path.relative_to(fw.ROOT)}")
+        print(f"updated {path.relative_to(framework.ROOT)}")
     return 0

@@ -1,4 +1,8 @@
-"""The cross-check's lag study (docs/crosscheck.md, "Findings"), from its stored outputs."""
+"""The cross-check's lag study (docs/crosscheck.md, "Findings"): the stored outputs of the
+documented ``python -m eval crosscheck --grid lag-study`` run and of its convergence run at one
+case, collected after they finished, and what they say about each slipstream reading: the sign
+of the hind-wing's change at every grid point, and the lag of its largest loss against the
+vortex lattice's."""
 
 from __future__ import annotations
 
@@ -9,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from eval.crosscheck.report import case_of
-from eval.numbers import framework as fw
+from eval.numbers import framework
 from eval.studies.report import table_head, table_row
 
 LAG_STUDY_OUT = Path("results") / "crosscheck-lag-study"
@@ -22,13 +26,15 @@ CONVERGENCE_COMMAND = (
 )
 #: The run's small outputs kept where the docs include them: run's file -> the docs' copy.
 LAG_STUDY_FILES: dict[str, Path] = {
-    "crosscheck.csv": fw.ROOT / "docs" / "crosscheck" / "lag_study.csv",
-    "crosscheck.png": fw.ROOT / "docs" / "figures" / "crosscheck_lag_study.png",
+    "crosscheck.csv": framework.ROOT / "docs" / "crosscheck" / "lag_study.csv",
+    "crosscheck.png": framework.ROOT / "docs" / "figures" / "crosscheck_lag_study.png",
 }
 
 
 def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """The stored rows with the model's columns computed afresh (the solver's as stored)."""
+    """The stored rows with the model's columns (``ours_*``: isolated forces, each slipstream
+    reading's changes) computed afresh by the model as it is (``eval.crosscheck.report.ours``),
+    the solver's columns as stored: a new or changed reading without rerunning the solver."""
     from eval.crosscheck.case import Case, base_stroke
     from eval.crosscheck.report import model_cells, ours
     from tandem_env.physics import DRAGONFLY
@@ -46,18 +52,21 @@ def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
 
 
 def measure() -> dict[str, Any]:
-    """Collect the finished lag study (else recompute the model's columns) into the docs."""
+    """Collect the finished lag study in :data:`LAG_STUDY_OUT` (about an hour on 2 idle cores:
+    run :data:`LAG_STUDY_COMMAND` first) and copy its table and figure into the docs. Without
+    that folder, recompute the model's columns (:func:`model_columns`) on the stored study's
+    rows and write them into the docs' table (the figure keeps its readings)."""
     table = LAG_STUDY_OUT / "crosscheck.csv"
     if not table.is_file() and LAG_STUDY_FILES["crosscheck.csv"].is_file():
         from tandem_env.io.files import write_csv_atomic
 
-        stored = fw.load("crosscheck-lag-study")
-        rows = model_columns(fw.read_rows(LAG_STUDY_FILES["crosscheck.csv"]))
+        stored = framework.load("crosscheck-lag-study")
+        rows = model_columns(framework.read_rows(LAG_STUDY_FILES["crosscheck.csv"]))
         write_csv_atomic(LAG_STUDY_FILES["crosscheck.csv"], rows)
         return {**stored, "rows": rows, "model_refreshed": True}
     if not table.is_file():
         raise SystemExit(f"{LAG_STUDY_OUT} holds no finished lag study; run `{LAG_STUDY_COMMAND}`")
-    rows = fw.read_rows(table)
+    rows = framework.read_rows(table)
     if not (CONVERGENCE_OUT / "crosscheck.csv").is_file():
         raise SystemExit(f"{CONVERGENCE_OUT} holds no convergence run; run `{CONVERGENCE_COMMAND}`")
     cases = {case_of(row) for row in rows}
@@ -66,12 +75,12 @@ def measure() -> dict[str, Any]:
             f"{table} has {len(rows)} rows in {len(cases)} cases, not the lag study's 32 in 4; "
             f"run `{LAG_STUDY_COMMAND}`"
         )
-    fw.copy_outputs(LAG_STUDY_OUT, LAG_STUDY_FILES)
+    framework.copy_outputs(LAG_STUDY_OUT, LAG_STUDY_FILES)
     return {
         "command": LAG_STUDY_COMMAND,
         "rows": rows,
         "convergence_command": CONVERGENCE_COMMAND,
-        "convergence": fw.read_rows(CONVERGENCE_OUT / "crosscheck.csv"),
+        "convergence": framework.read_rows(CONVERGENCE_OUT / "crosscheck.csv"),
     }
 
 
@@ -94,20 +103,23 @@ def lag_distance(a: float, b: float) -> float:
 
 
 def first_harmonic_phase(lags: Sequence[float], changes: Sequence[float]) -> float:
-    """The lag [deg] where the change's first harmonic is lowest (robust to one noisy point)."""
+    """The lag [deg] at which the first harmonic of the change over the lag is lowest (the
+    equally spaced lags' discrete Fourier coefficient), robust to one noisy point."""
     c = sum(v * math.cos(math.radians(g)) for g, v in zip(lags, changes, strict=True))
     s = sum(v * math.sin(math.radians(g)) for g, v in zip(lags, changes, strict=True))
     return (math.degrees(math.atan2(s, c)) + 180.0) % 360.0
 
 
 def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Per case and reading: the sign agreement and the largest loss's lag against the UVLM's."""
+    """Per case and per reading: the sign agreement with the UVLM, the lag of the largest loss
+    and its first harmonic's phase, against the UVLM's."""
     out = []
     for case in dict.fromkeys(case_of(r) for r in rows):
         mine = sorted((r for r in rows if case_of(r) == case), key=lambda r: float(r["lag_deg"]))
         lags = [float(r["lag_deg"]) for r in mine]
         uvlm = [float(r["uvlm_hind_change_pct"]) for r in mine]
-        uvlm_loss, uvlm_phase = largest_loss_lag(lags, uvlm), first_harmonic_phase(lags, uvlm)
+        uvlm_loss = largest_loss_lag(lags, uvlm)
+        uvlm_phase = first_harmonic_phase(lags, uvlm)
         entry: dict[str, Any] = {
             "case": case,
             "lags": lags,
@@ -119,7 +131,8 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
         }
         for reading in readings(rows):
             ours = [float(r[f"ours_{reading}_hind_change_pct"]) for r in mine]
-            loss, phase = largest_loss_lag(lags, ours), first_harmonic_phase(lags, ours)
+            loss = largest_loss_lag(lags, ours)
+            phase = first_harmonic_phase(lags, ours)
             entry["readings"][reading] = {
                 "changes": ours,
                 "same_sign": sum((a < 0) == (b < 0) for a, b in zip(ours, uvlm, strict=True)),
@@ -132,7 +145,10 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
 
 
 def targets(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
-    """Per reading, the lag study's targets: signs, RMS differences [points] and loss lags."""
+    """Per reading, the lag study's target quantities: signs of the hind and fore change
+    shared with the UVLM, their RMS differences [points]
+    (:func:`~eval.crosscheck.report.agreement_numbers`), and the cases whose largest hind loss
+    lies within 45° of the UVLM's."""
     from eval.crosscheck.report import agreement_numbers
 
     out = {}
@@ -244,4 +260,4 @@ def render(data: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-MEASUREMENT = fw.Measurement("crosscheck-lag-study", measure, render, on_request=True)
+MEASUREMENT = framework.Measurement("crosscheck-lag-study", measure, render, on_request=True)

@@ -1,4 +1,5 @@
-"""The framework of ``python -m eval numbers``: :class:`Measurement` and shared helpers."""
+"""The framework of ``python -m eval numbers``: where numbers live, one :class:`Measurement`,
+the documented commands it runs, the machine a timing is read against, shared helpers."""
 
 from __future__ import annotations
 
@@ -29,7 +30,8 @@ REGION = re.compile(
 
 
 def _run(command: Sequence[str], environment: dict[str, str] | None = None) -> str:
-    """Run ``command`` from the repository root; its stdout (a failure raises with stderr)."""
+    """Run ``command`` from the repository root (``environment``: variables set for it); its
+    standard output. A failure raises with the end of its stderr."""
     env = {**os.environ, **(environment or {})}
     done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True)
     if done.returncode != 0:
@@ -38,7 +40,8 @@ def _run(command: Sequence[str], environment: dict[str, str] | None = None) -> s
 
 
 def run_command(command: Sequence[str], environment: dict[str, str] | None = None) -> float:
-    """Run a documented ``python ...`` command with this interpreter; its wall time [s]."""
+    """Run a documented ``python ...`` command with this interpreter (:func:`_run`); its wall
+    time [s]."""
     start = time.perf_counter()
     _run([sys.executable, *command[1:]] if command[0] == "python" else command, environment)
     return time.perf_counter() - start
@@ -54,7 +57,8 @@ def optimize_command(arguments: Sequence[str], seeds: Sequence[int]) -> str:
 
 
 def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
-    """Run ``eval optimize`` into a fresh folder, no cache; its records, by seed."""
+    """Run the documented ``eval optimize`` command into a fresh folder with the record cache
+    off (measured now, wall times too); its records, by seed."""
     from agents.store import read_record_files
 
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
@@ -67,7 +71,9 @@ def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
 
 
 def seed_cells(by_kernel: Sequence[Sequence[dict[str, Any]]]) -> tuple[str, str, str, str]:
-    """The cells of one command's seeds under each BLAS kernel (the own first)."""
+    """The cells of one command's seeds under each BLAS kernel (the machine's own first): each
+    seed's objective and their median (bold) at the digits every kernel gives, whether all are
+    feasible under every kernel, and the range of the own kernel's wall times per seed."""
     seeds = by_kernel[0]
     times = [s["wall_time_s"] for s in seeds]
     objectives = [[s["objective"] for s in kernel] for kernel in by_kernel]
@@ -80,13 +86,17 @@ def seed_cells(by_kernel: Sequence[Sequence[dict[str, Any]]]) -> tuple[str, str,
 
 
 # --- BLAS kernels: the optimisations' last digits are the machine's ---------------------------
-#: OpenBLAS kernels (``OPENBLAS_CORETYPE``) an optimisation is also measured under: generic AVX
-#: and AVX2 (docs/harness.md, "Machine-dependent digits").
+#: OpenBLAS kernels (``OPENBLAS_CORETYPE``) an optimisation's numbers are measured under besides
+#: the machine's own: the generic AVX and AVX2 kernels, which every x86-64 CPU the project runs
+#: on can execute. Another kernel changes the last bits of the linear algebra (CMA-ES's
+#: eigendecomposition, the polish's QP); the searches turn that into other digits, at times
+#: into another local optimum (docs/harness.md, "Machine-dependent digits").
 OTHER_BLAS_KERNELS: tuple[str, ...] = ("Sandybridge", "Haswell")
 
 
 def blas_kernel() -> str:
-    """The kernel numpy's BLAS runs here (OpenBLAS's core type, else the library's name)."""
+    """The kernel numpy's BLAS runs here: OpenBLAS's core type (``SkylakeX``, ``Haswell``, ...,
+    as threadpoolctl reports it; ``OPENBLAS_CORETYPE`` chooses it), else the library's name."""
     import numpy  # noqa: F401  (threadpoolctl sees the BLAS of the modules already loaded)
     from threadpoolctl import threadpool_info
 
@@ -97,7 +107,8 @@ def blas_kernel() -> str:
 
 
 def other_kernels() -> list[str]:
-    """:data:`OTHER_BLAS_KERNELS` but the machine's own (none where the BLAS is not OpenBLAS)."""
+    """The kernels of :data:`OTHER_BLAS_KERNELS` but the machine's own (none where numpy's BLAS
+    is not OpenBLAS: its kernel cannot be chosen)."""
     from threadpoolctl import threadpool_info
 
     own = blas_kernel()
@@ -107,7 +118,8 @@ def other_kernels() -> list[str]:
 
 
 def measure_other_kernels(name: str) -> dict[str, dict[str, Any]]:
-    """Measurement ``name`` again in a fresh process under each of :func:`other_kernels`."""
+    """Measurement ``name`` again in a fresh process under each of :func:`other_kernels`, by
+    kernel."""
     script = (
         "import json, sys; from eval.numbers import MEASUREMENTS; "
         "json.dump(MEASUREMENTS[sys.argv[1]].measure(), sys.stdout)"
@@ -138,7 +150,8 @@ def kernels_line(data: dict[str, Any]) -> str:
 
 
 def agreed(values: Sequence[float], form: str) -> str:
-    """A number measured under several kernels: ``form`` of it, or their range ``min–max``."""
+    """One number measured under several kernels as shown: ``form`` of it where every kernel
+    gives the same text, else their range, ``min–max``."""
     texts = {form.format(v) for v in values}
     return (
         texts.pop() if len(texts) == 1 else f"{form.format(min(values))}–{form.format(max(values))}"
@@ -146,7 +159,8 @@ def agreed(values: Sequence[float], form: str) -> str:
 
 
 def within_shown(value: float, values: Sequence[float], form: str) -> bool:
-    """Whether ``value`` is what :func:`agreed` shows of ``values`` (or inside its range)."""
+    """Whether ``value`` (from a kernel not measured) is what :func:`agreed` shows of
+    ``values``: the same text, or inside the shown range."""
     low, _, high = agreed(values, form).partition("–")
     return float(low) <= float(form.format(value)) <= float(high or low)
 
@@ -202,14 +216,17 @@ def random_strokes(n: int = RANDOM_STROKES, seed: int = 0) -> Any:
     """(n, 28) physical strokes drawn uniformly in Table 4's box."""
     import numpy as np
 
-    import tandem_env as te
+    import tandem_env
 
-    return te.normalised_to_physical(np.random.default_rng(seed).uniform(-1.0, 1.0, (n, 28)))
+    return tandem_env.normalised_to_physical(
+        np.random.default_rng(seed).uniform(-1.0, 1.0, (n, 28))
+    )
 
 
 @dataclass(frozen=True)
 class Measurement:
-    """One generated number set: ``measure`` gives its JSON, ``render`` the region's Markdown."""
+    """One generated number set: ``measure`` runs it (its JSON), ``render`` turns the stored
+    JSON into the region's Markdown."""
 
     name: str
     measure: Callable[[], dict[str, Any]]
@@ -217,7 +234,8 @@ class Measurement:
     on_request: bool = False
     """Measured only when named in ``--only``: it collects a long study's outputs (run first)."""
     blas_dependent: bool = False
-    """Also measured under :data:`OTHER_BLAS_KERNELS`, rendered at the digits all give."""
+    """Its numbers come from optimisations, whose last digits depend on the BLAS kernel: also
+    measured under :data:`OTHER_BLAS_KERNELS`, rendered at the digits all give."""
 
 
 def cpu_model() -> str:

@@ -1,4 +1,7 @@
-"""The documented ``eval optimize`` commands over seeds (docs/harness.md, docs/envs.md)."""
+"""The documented ``eval optimize`` commands over seeds: the comparison of methods (README
+"Optimise strokes", docs/harness.md) and a second species (docs/envs.md, "A second species":
+the level-flight command for the paper's specimen and for ``--insect
+examples/orthetrum_cancellatum.yaml``, with the best seed's stroke)."""
 
 from __future__ import annotations
 
@@ -7,7 +10,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from eval.compare import relative_spread
-from eval.numbers import framework as fw
+from eval.numbers import framework
 
 
 @dataclass(frozen=True)
@@ -71,19 +74,20 @@ def run_optimize(row: ComparisonRow, method: str, seeds: Sequence[int]) -> list[
             "evaluations": r.evaluations,
             "wall_time_s": r.wall_time,
         }
-        for r in fw.run_seeds(_arguments(row, method), seeds)
+        for r in framework.run_seeds(_arguments(row, method), seeds)
     ]
 
 
 def run_species(insect: Sequence[str], seeds: Sequence[int]) -> list[dict[str, Any]]:
-    """Run the documented command in a fresh folder; one summary row per seed."""
-    records = fw.run_seeds((*insect, *SPECIES_ARGUMENTS), seeds)
+    """Run the documented command in a fresh folder; one summary row per seed (the record's
+    objective, metrics, 28 stroke parameters, ``at_bounds`` and ``insect``)."""
+    records = framework.run_seeds((*insect, *SPECIES_ARGUMENTS), seeds)
     return [{**r.summary_row(), "feasible": bool(r.feasible)} for r in records]
 
 
 def _rows(data: dict[str, Any]) -> Iterator[tuple[dict[str, Any], list[dict[str, Any]]]]:
     """Each stored row with that row under every BLAS kernel (the machine's own first)."""
-    views = list(fw.kernel_views(data).values())
+    views = list(framework.kernel_views(data).values())
     for i, row in enumerate(data["rows"]):
         yield row, [view["rows"][i] for view in views]
 
@@ -91,11 +95,19 @@ def _rows(data: dict[str, Any]) -> Iterator[tuple[dict[str, Any], list[dict[str,
 def _table(
     data: dict[str, Any], name: str, head: list[str], cells: Callable[..., str], note: str = ""
 ) -> str:
-    """An optimisation measurement's region: ``head``, a line per row, ``note``, the commands."""
-    lines = [*head, *(cells(r, k, fw.seed_cells([x["seeds"] for x in k])) for r, k in _rows(data))]
-    lines += [x for text in (note, fw.kernels_line(data)) if text for x in ("", text)]
+    """The region of an optimisation measurement: ``head`` (header and rule), a line per row
+    (``cells(row, the row under every kernel, its seed_cells)``), ``note``, the kernels and
+    the commands."""
+    lines = [
+        *head,
+        *(cells(r, k, framework.seed_cells([x["seeds"] for x in k])) for r, k in _rows(data)),
+    ]
+    lines += [x for text in (note, framework.kernels_line(data)) if text for x in ("", text)]
     commands = (row["command"] for row in data["rows"])
-    return "\n".join(lines + fw.footer(data, name, *commands, heading="Each row's command:")) + "\n"
+    return (
+        "\n".join(lines + framework.footer(data, name, *commands, heading="Each row's command:"))
+        + "\n"
+    )
 
 
 def measure_comparison() -> dict[str, Any]:
@@ -104,7 +116,7 @@ def measure_comparison() -> dict[str, Any]:
             "label": row.label,
             "symbol": row.symbol,
             "method": method,
-            "command": fw.optimize_command(_arguments(row, method), COMPARISON_SEEDS),
+            "command": framework.optimize_command(_arguments(row, method), COMPARISON_SEEDS),
             "seeds": run_optimize(row, method, COMPARISON_SEEDS),
         }
         for row in COMPARISON_ROWS
@@ -119,7 +131,7 @@ def render_comparison(data: dict[str, Any]) -> str:
         spreads = [100 * relative_spread([s["objective"] for s in r["seeds"]]) for r in by_kernel]
         return (
             f"| {row['label']} ({row['symbol']}) | `{row['method']}` | {objectives} | {median} | "
-            f"{fw.agreed(spreads, '{:.1f}')} % | {feasible} | {times} |"
+            f"{framework.agreed(spreads, '{:.1f}')} % | {feasible} | {times} |"
         )
 
     head = [
@@ -133,7 +145,7 @@ def measure_species() -> dict[str, Any]:
     rows = [
         {
             "label": label,
-            "command": fw.optimize_command((*insect, *SPECIES_ARGUMENTS), SPECIES_SEEDS),
+            "command": framework.optimize_command((*insect, *SPECIES_ARGUMENTS), SPECIES_SEEDS),
             "seeds": run_species(insect, SPECIES_SEEDS),
         }
         for label, insect in SPECIES_INSECTS
@@ -146,16 +158,19 @@ def _best(seeds: Sequence[dict[str, Any]]) -> dict[str, Any]:
 
 
 def _stroke_cell(bests: Sequence[dict[str, Any]], name: str, form: str) -> str:
-    """The best seed's ``name`` (fore / hind for a parameter) at the digits every kernel gives."""
+    """The best seed's ``name`` (fore / hind for a stroke parameter), at the digits every BLAS
+    kernel's best seed gives."""
     if name not in SPECIES_PARAMETERS:
-        return fw.agreed([best[name] for best in bests], form)
+        return framework.agreed([best[name] for best in bests], form)
     return " / ".join(
-        fw.agreed([best[f"{wing}_{name}"] for best in bests], form) for wing in ("fore", "hind")
+        framework.agreed([best[f"{wing}_{name}"] for best in bests], form)
+        for wing in ("fore", "hind")
     )
 
 
 def _bounds_text(rows: Sequence[dict[str, Any]]) -> str:
-    """The best seed's parameters at a bound under every kernel, then under some."""
+    """The best seed's parameters at a bound (``at_bounds``, ``name=side; ...``) under every
+    BLAS kernel (``rows``: one condition's row per kernel), then those at a bound under some."""
     each = [[item for item in _best(row["seeds"])["at_bounds"].split("; ") if item] for row in rows]
     common = [item for item in each[0] if all(item in other for other in each)]
     some = sorted({item for items in each for item in items} - set(common))
@@ -195,6 +210,6 @@ def render_species(data: dict[str, Any]) -> str:
 
 
 MEASUREMENTS = (
-    fw.Measurement("comparison", measure_comparison, render_comparison, blas_dependent=True),
-    fw.Measurement("second-species", measure_species, render_species, blas_dependent=True),
+    framework.Measurement("comparison", measure_comparison, render_comparison, blas_dependent=True),
+    framework.Measurement("second-species", measure_species, render_species, blas_dependent=True),
 )

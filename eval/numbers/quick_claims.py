@@ -1,4 +1,7 @@
-"""The quick preset's paper-vs-ours table under each BLAS kernel (docs/reproduction.md)."""
+"""The quick preset's paper-vs-ours table (docs/reproduction.md, "Paper vs ours: quick preset"):
+``python -m eval study all --preset quick`` run under the machine's own OpenBLAS kernel and
+under :data:`~eval.numbers.framework.OTHER_BLAS_KERNELS`, each run's claims merged into one
+table whose differing cells name each kernel's value, and its Figs. 6, 7 and 11 copied."""
 
 from __future__ import annotations
 
@@ -7,49 +10,58 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from eval.numbers import framework as fw
-from eval.numbers.framework import kernel_views
+from eval.numbers import framework
+from eval.numbers.framework import ROOT, kernel_views
 from eval.studies.claims import Claim
 from eval.studies.report import CLAIM_COLUMNS, CLAIMS_FILE, markdown_table, verdict_summary
 from tandem_env.io.files import read_json
 
 NAME = "quick-claims"
 COMMAND = "python -m eval study all --preset quick --no-cache --quiet --out"
-"""The documented study command, before its folder (no cache: an optimum of another kernel)."""
+"""The documented study command, before its folder (the record cache off: a cached optimum may
+come from another kernel)."""
 FIGURES = {
-    "speed/fig6_efficiency.png": fw.ROOT / "docs" / "figures" / "quick_fig6_efficiency.png",
-    "power/fig7_excess_forces.png": fw.ROOT / "docs" / "figures" / "quick_fig7_excess_forces.png",
-    "kinematics/fig11_weaving.png": fw.ROOT / "docs" / "figures" / "quick_fig11_weaving.png",
+    "speed/fig6_efficiency.png": ROOT / "docs" / "figures" / "quick_fig6_efficiency.png",
+    "power/fig7_excess_forces.png": ROOT / "docs" / "figures" / "quick_fig7_excess_forces.png",
+    "kinematics/fig11_weaving.png": ROOT / "docs" / "figures" / "quick_fig11_weaving.png",
 }
 """The own kernel's figures (the run's file -> the docs' copy)."""
 VERDICT_COLUMNS = {
     "verdict: median": ("median", "verdict"),
     "verdict: best seed": ("best seed", "best_verdict"),
 }
-"""The claims table's verdict columns: their name in the flip sentence, their Claim field."""
+"""The verdict columns of the claims table: the name the flip sentence gives each, and its
+:class:`~eval.studies.claims.Claim` field."""
 
 
 def read_claims(path: Path) -> list[dict[str, str]]:
-    """The rows of a run's paper-vs-ours table from its ``claims.json``, as ``{title: cell}``."""
+    """The rows of a run's paper-vs-ours table from its ``claims.json``
+    (``eval.studies.report.CLAIMS_FILE``), each as ``{column title: cell text}``."""
     return [claim["cells"] for claim in read_json(path)["claims"]]
 
 
 def run_study(kernel: str | None) -> dict[str, Any]:
-    """The quick preset's ``study all`` under ``kernel``: its claims and wall time [s]."""
-    (fw.ROOT / "results").mkdir(exist_ok=True)
-    with tempfile.TemporaryDirectory(dir=fw.ROOT / "results", prefix="numbers-quick-") as out:
+    """The quick preset's ``study all`` into a fresh folder under results/ (``kernel``: under
+    ``OPENBLAS_CORETYPE=kernel``; None: the machine's own, whose figures are copied to docs);
+    its claims and wall time [s]."""
+    (ROOT / "results").mkdir(exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=ROOT / "results", prefix="numbers-quick-") as out:
         environment = {"OPENBLAS_CORETYPE": kernel} if kernel else {}
-        wall = fw.run_command([*COMMAND.split(), out], environment)
+        wall = framework.run_command([*COMMAND.split(), out], environment)
         rows = read_claims(Path(out) / CLAIMS_FILE)
         if kernel is None:
-            fw.copy_outputs(Path(out), FIGURES)
+            framework.copy_outputs(Path(out), FIGURES)
     return {"rows": rows, "wall_time_s": round(wall, 1)}
 
 
 def measure() -> dict[str, Any]:
-    """:func:`run_study` under the machine's own kernel and each other OpenBLAS kernel."""
-    data = {"blas_kernel": fw.blas_kernel(), **run_study(None)}
-    return {**data, "other_kernels": {kernel: run_study(kernel) for kernel in fw.other_kernels()}}
+    """:func:`run_study` under the machine's own kernel and under each other OpenBLAS kernel
+    (:func:`~eval.numbers.framework.other_kernels`)."""
+    data = {"blas_kernel": framework.blas_kernel(), **run_study(None)}
+    return {
+        **data,
+        "other_kernels": {kernel: run_study(kernel) for kernel in framework.other_kernels()},
+    }
 
 
 def joined(names: Sequence[str]) -> str:
@@ -66,19 +78,22 @@ def by_text(texts: Mapping[str, str]) -> dict[str, list[str]]:
 
 
 def merged(texts: Mapping[str, str]) -> str:
-    """One cell under every kernel: one text, else each kernel's (``a under K1; b under K2``)."""
+    """One cell under every kernel: its text where all give the same, else each kernel's text
+    named (``a under K1; b under K2 and K3``)."""
     if len(groups := by_text(texts)) == 1:
         return next(iter(groups))
     return "; ".join(f"{text} under {joined(kernels)}" for text, kernels in groups.items())
 
 
 def verdicts(row: Mapping[str, str], field: bool = False) -> dict[str, str]:
-    """A row's verdicts without their confidence, by column name (``field``: Claim field)."""
+    """A row's verdicts without their confidence (``undecided (leans ...)``: ``undecided``),
+    by the column's name (``field``: by its Claim field)."""
     return {names[field]: row[title].partition(" (")[0] for title, names in VERDICT_COLUMNS.items()}
 
 
 def summary_lines(views: Mapping[str, Mapping[str, Any]]) -> list[str]:
-    """Each kernel's verdict counts; a line that differs given once per kernel group."""
+    """The report's verdict counts (``eval.studies.report.verdict_summary``) of each kernel's
+    run; a line that differs between kernels is given once per kernel group."""
 
     def claims(rows: Sequence[Mapping[str, str]]) -> list[Claim]:
         return [Claim(r["id"], "", "", "", "", r["rule"], **verdicts(r, field=True)) for r in rows]
@@ -94,7 +109,8 @@ def summary_lines(views: Mapping[str, Mapping[str, Any]]) -> list[str]:
 
 
 def by_claim(views: Mapping[str, Mapping[str, Any]]) -> list[dict[str, dict[str, str]]]:
-    """Each claim's row under every kernel (``{kernel: row}``); the runs' claims must match."""
+    """Each claim's row under every kernel (``{kernel: row}``), the runs' claims checked to be
+    the same, in the same order."""
     ids = {k: [r["id"] for r in view["rows"]] for k, view in views.items()}
     if len({tuple(v) for v in ids.values()}) != 1:
         raise ValueError(f"the kernels' runs judged other claims: {ids}")
@@ -117,14 +133,15 @@ def flips_sentence(claims: Sequence[Mapping[str, Mapping[str, str]]]) -> str:
 
 
 def render(data: dict[str, Any]) -> str:
-    """The counts, the merged claims table, the flips, the kernels, the times and commands."""
+    """The verdict counts, the merged claims table, the flipping verdicts, the kernels, the
+    runs' times and commands."""
     claims = by_claim(views := kernel_views(data))
     columns = [
         (title, lambda same, t=title: merged({k: row[t] for k, row in same.items()}))
         for title, _ in CLAIM_COLUMNS
     ]
     own, *others = views
-    times = ", ".join(f"{fw.minutes(v['wall_time_s'])} ({k})" for k, v in views.items())
+    times = ", ".join(f"{framework.minutes(v['wall_time_s'])} ({k})" for k, v in views.items())
     named = joined([f"{own} (the measuring machine's own)", *others])
     kernels = (
         f"Run under the BLAS kernels {named}; a cell that differs between them names each kernel's value"
@@ -141,7 +158,7 @@ def render(data: dict[str, Any]) -> str:
     ]
     commands = [f"{COMMAND} DIR", *(f"OPENBLAS_CORETYPE={k} {COMMAND} DIR" for k in others)]
     heading = "Each kernel's command (DIR: a fresh folder under results/):"
-    return "\n".join(lines + fw.footer(data, NAME, *commands, heading=heading)) + "\n"
+    return "\n".join(lines + framework.footer(data, NAME, *commands, heading=heading)) + "\n"
 
 
-MEASUREMENT = fw.Measurement(NAME, measure, render)
+MEASUREMENT = framework.Measurement(NAME, measure, render)

@@ -1,11 +1,12 @@
-"""The readings study at the paper preset (docs/reproduction.md): its stored outputs."""
+"""The readings study at the paper preset (docs/reproduction.md, "Readings"): its stored
+outputs, collected after the long run."""
 
 from __future__ import annotations
 
 from pathlib import Path
 from typing import Any
 
-from eval.numbers import framework as fw
+from eval.numbers import framework
 from eval.studies.report import table_head
 
 READINGS_PAPER_OUT = Path("results") / "readings-paper"
@@ -14,10 +15,10 @@ READINGS_PAPER_COMMAND = (
 )
 #: The run's small outputs kept where the docs include them: run's file -> the docs' copy.
 READINGS_PAPER_FILES: dict[str, Path] = {
-    "readings.csv": fw.ROOT / "docs" / "readings" / "paper_readings.csv",
-    "continuation_check.csv": fw.ROOT / "docs" / "readings" / "paper_continuation_check.csv",
-    "readings_manifest.json": fw.ROOT / "docs" / "readings" / "paper_readings_manifest.json",
-    "readings_matrix.png": fw.ROOT / "docs" / "figures" / "readings_paper_matrix.png",
+    "readings.csv": framework.ROOT / "docs" / "readings" / "paper_readings.csv",
+    "continuation_check.csv": framework.ROOT / "docs" / "readings" / "paper_continuation_check.csv",
+    "readings_manifest.json": framework.ROOT / "docs" / "readings" / "paper_readings_manifest.json",
+    "readings_matrix.png": framework.ROOT / "docs" / "figures" / "readings_paper_matrix.png",
 }
 #: The headline columns of the readings table: (title, readings.csv columns).
 READINGS_COLUMNS: tuple[tuple[str, tuple[str, ...]], ...] = (
@@ -29,7 +30,9 @@ READINGS_COLUMNS: tuple[tuple[str, tuple[str, ...]], ...] = (
 
 
 def measure() -> dict[str, Any]:
-    """Collect the finished paper-preset readings run and copy its small outputs into the docs."""
+    """Collect the finished paper-preset readings run in :data:`READINGS_PAPER_OUT` (it takes
+    1-2 h on 2 cores: run :data:`READINGS_PAPER_COMMAND` first) and copy its small outputs
+    into the docs (:data:`READINGS_PAPER_FILES`)."""
     from eval.studies.readings import MANIFEST
     from tandem_env.io.files import read_json
 
@@ -42,11 +45,11 @@ def measure() -> dict[str, Any]:
             f"{out / MANIFEST} is not a paper-preset readings run of this version (preset "
             f"{manifest.get('preset')!r}); run `{READINGS_PAPER_COMMAND}`"
         )
-    fw.copy_outputs(out, READINGS_PAPER_FILES)
+    framework.copy_outputs(out, READINGS_PAPER_FILES)
     keep = "claims combination_rule invocations continuation continuation_check run_in_full"
     return {
         "command": READINGS_PAPER_COMMAND,
-        "rows": fw.read_rows(out / "readings.csv"),
+        "rows": framework.read_rows(out / "readings.csv"),
         **{key: manifest[key] for key in keep.split()},
     }
 
@@ -61,15 +64,16 @@ def _invocation_line(invocation: dict[str, Any]) -> str:
     )
     phases = "; ".join(
         f"{p['name']} {p['jobs']} optimisations ({p['ran']} run, {p['reused']} reused) in "
-        f"{fw.minutes(p['wall_time_s'], padded=True)}"
+        f"{framework.minutes(p['wall_time_s'], padded=True)}"
         for p in invocation["phases"]
     )
     finished = invocation["finished"] or "finished before invocations were recorded"
-    return f"- {finished}{where}: {phases}; {fw.minutes(invocation['wall_time_s'], padded=True)} in all."
+    return f"- {finished}{where}: {phases}; {framework.minutes(invocation['wall_time_s'], padded=True)} in all."
 
 
 def render(data: dict[str, Any]) -> str:
-    """The readings table, the run's phases, the combination rule and the bias check."""
+    """The readings table (the paper's numbers first, the best count in bold), the run's
+    phases, the combination rule and the continuation's bias check with what ran in full."""
     from eval.studies.readings.plan import COUNTS, HEADLINES
     from eval.studies.readings.report import check_table
 
@@ -122,7 +126,7 @@ def render(data: dict[str, Any]) -> str:
         *[_invocation_line(inv) for inv in worked],
         "",
         f"{len(reused)} more invocation(s) reused every job and only analysed and redrew "
-        f"the outputs ({', '.join(fw.minutes(inv['wall_time_s'], padded=True) for inv in reused) or 'none'}).",
+        f"the outputs ({', '.join(framework.minutes(inv['wall_time_s'], padded=True) for inv in reused) or 'none'}).",
         "",
         "Bias check of the continuation (difference = (continued − full) / |full| of the "
         "reported objective, per job; a single reading's task that falls short ran in full):",
@@ -136,4 +140,4 @@ def render(data: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-MEASUREMENT = fw.Measurement("readings-paper", measure, render, on_request=True)
+MEASUREMENT = framework.Measurement("readings-paper", measure, render, on_request=True)

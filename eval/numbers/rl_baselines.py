@@ -1,4 +1,14 @@
-"""Envelope policies scored against the reference optima (docs/training.md); on request."""
+"""PPO and SAC envelope policies against the reference optima (docs/training.md, "Scores at
+the held-out conditions"): per algorithm, set of hyperparameters (:data:`HYPERPARAMETERS`) and
+seed, a policy trained over level flight's envelope by the documented ``python -m train``
+command, asked through ``python -m train.envelope`` for its stroke at each held-out condition
+and scored against the reference table (100 = the certified optimum).
+
+On request only, each: ``rl-baselines`` (twenty training runs, two at a time, about 45 min on
+2 cores; the figure of score against speed is written beside the table), ``amortised-scores``
+(the documented ``--algo amortised`` command, five seeds scored the same way; it redraws the
+shared figure) and ``envelope-headline`` (README, "One network for the whole envelope": each
+policy's median and worst score and the share that flies, read from the stored runs)."""
 
 from __future__ import annotations
 
@@ -9,7 +19,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from eval.numbers import framework as fw
+from eval.numbers import framework
 from eval.studies.report import table_head, table_row
 
 ENV_ID = "TandemWing/LevelFlight-v0"
@@ -22,13 +32,17 @@ FIGURE = Path("docs") / "figures" / "rl_baselines_scores.png"
 _ONE_CORE = {"OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
-#: The hyperparameters trained with: the shipped (None: the default) and the envelope's.
+#: The hyperparameters each algorithm is trained with: the shipped file's (None: the default
+#: ``train/hyperparams/<algo>.yml``, tuned at V = 1.5 m/s) and the envelope's, tuned by
+#: ``python -m train.tune`` (each file says how it was made).
 HYPERPARAMETERS: dict[str, str | None] = {
     "shipped": None,
     "tuned": "train/hyperparams/envelope/{algo}.yml",
 }
 
-#: Every policy the figure and headline show: (measurement, algo, hyperparameters or "").
+#: Every envelope policy the figure and the README headline (``envelope-headline``) show, in
+#: the figure's drawing and legend order: (the measurement that stores its runs, algo, a key of
+#: :data:`HYPERPARAMETERS`: "" for the amortised policy).
 POLICIES: tuple[tuple[str, str, str], ...] = (
     *(("rl-baselines", algo, hp) for algo, _ in ALGOS for hp in ("tuned", "shipped")),
     ("amortised-scores", "amortised", ""),
@@ -36,7 +50,8 @@ POLICIES: tuple[tuple[str, str, str], ...] = (
 
 
 def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str) -> list[str]:
-    """The documented envelope training command of ``algo`` (``-f`` is added)."""
+    """The documented envelope training command of ``algo`` with the ``hyperparams`` of
+    :data:`HYPERPARAMETERS` (``-f`` is added)."""
     conf = HYPERPARAMETERS[hyperparams]
     return [
         *f"python -m train --algo {algo} --env {ENV_ID} --seed {seed} -n {steps}".split(),
@@ -48,16 +63,19 @@ def train_command(algo: str, steps: int | str, seed: int | str, hyperparams: str
 def score_run(
     command: list[str], algo: str, steps: int, seed: int, folder: Path, variant: str = ""
 ) -> dict[str, Any]:
-    """Train by ``command``, then score its stroke at each held-out condition."""
+    """Train by ``command`` (``-f`` added), then score its stroke at each held-out condition
+    through ``python -m train.envelope``; ``variant``: the hyperparameters."""
     from tandem_env.envs.reference import held_out_conditions
 
     logs = folder / f"{algo}{variant and '-' + variant}-{seed}"
-    seconds = fw.run_command([*command, "-f", str(logs)], _ONE_CORE)
+    seconds = framework.run_command([*command, "-f", str(logs)], _ONE_CORE)
     run = logs / algo / ENV_ID.replace("/", "-")  # the latest run of the env
     out = folder / f"envelope-{logs.name}"
     envelope = ["python", "-m", "train.envelope", "--run", str(run), "--out", str(out)]
-    fw.run_command([*envelope, "--conditions", *map(str, held_out_conditions(ENV_ID))], _ONE_CORE)
-    rows = fw.read_rows(out / "envelope.csv")
+    framework.run_command(
+        [*envelope, "--conditions", *map(str, held_out_conditions(ENV_ID))], _ONE_CORE
+    )
+    rows = framework.read_rows(out / "envelope.csv")
     return {
         "algo": algo,
         **({"hyperparams": variant} if variant else {}),
@@ -82,16 +100,18 @@ def measure() -> dict[str, Any]:
 
 
 def score_runs(name: str, tasks: list[tuple[list[str], str, int, int, str]]) -> list[Any]:
-    """:func:`score_run` of each task, two at a time; the figure redrawn with them."""
+    """:func:`score_run` of each (command, algo, steps, seed, variant), two at a time; the
+    figure is redrawn with them as measurement ``name``'s runs."""
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as tmp:
         with ThreadPoolExecutor(max_workers=2) as pool:
             runs = list(pool.map(lambda t: score_run(*t[:4], Path(tmp), t[4]), tasks))
-    write_figure(fw.ROOT / FIGURE, {name: runs})
+    write_figure(framework.ROOT / FIGURE, {name: runs})
     return runs
 
 
 def summary(runs: list[dict[str, Any]]) -> tuple[float, float, float, float]:
-    """Median and worst score, the share feasible and the median training time [s]."""
+    """Median and worst score over every (seed, condition), the share feasible, the median
+    training time [s]."""
     scores = [s for r in runs for s in r["scores"]]
     feasible = [f for r in runs for f in r["feasible"]]
     return (
@@ -139,19 +159,24 @@ def render(data: dict[str, Any]) -> str:
         f"`{shlex.join(train_command('ALGO', 'STEPS', 'SEED', 'shipped'))}` with the steps above "
         f"and seeds {list(SEEDS)} (tuned: `--conf-file "
         f"{HYPERPARAMETERS['tuned'].format(algo='ALGO')}` added), then `python -m train.envelope --conditions ...`. "
-        f"{fw.machine_line(data, 'rl-baselines')}\n"
+        f"{framework.machine_line(data, 'rl-baselines')}\n"
     )
 
 
 def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
-    """Score against speed per policy of :data:`POLICIES`; ``fresh``: runs just measured."""
+    """Score against speed per policy of :data:`POLICIES`: each seed thin, the median thick (the
+    shipped hyperparameters' median only, dashed); ``fresh``: runs just measured, by name."""
     import matplotlib.pyplot as plt
 
     from eval.figures import PALETTE, save
 
     colours = dict(zip(dict.fromkeys(algo for _, algo, _ in POLICIES), PALETTE, strict=False))
-    names = dict.fromkeys(name for name, _, _ in POLICIES)
-    measured = {**{n: fw.load(n)["runs"] for n in names if fw.json_path(n).is_file()}, **fresh}
+    stored = {
+        name: framework.load(name)["runs"]
+        for name in dict.fromkeys(name for name, _, _ in POLICIES)
+        if framework.json_path(name).is_file()
+    }
+    measured = {**stored, **fresh}
     fig, ax = plt.subplots(figsize=(6.0, 4.8))
     for name, algo, hp in POLICIES:
         runs = runs_of(measured.get(name, []), algo, hp)
@@ -164,9 +189,15 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
         medians = [statistics.median(col) for col in zip(*(r["scores"] for r in runs), strict=True)]
         label = f"{algo.upper()}, {hp} hyperparameters" if hp else "amortised policy"
         label += f" (median of {len(runs)} seeds{'' if shipped else '; thin: each'})"
-        style = dict(lw=1.4, ls="--", ms=3) if shipped else dict(lw=2.2, ls="-", ms=5)
         ax.plot(
-            runs[0]["conditions"], medians, color=colours[algo], marker="o", label=label, **style
+            runs[0]["conditions"],
+            medians,
+            color=colours[algo],
+            lw=1.4 if shipped else 2.2,
+            ls="--" if shipped else "-",
+            marker="o",
+            ms=3 if shipped else 5,
+            label=label,
         )
     ax.axhline(100.0, color="0.3", ls="--", lw=1.0, label="reference optimum (100)")
     ax.axhline(0.0, color="0.6", lw=0.8)
@@ -198,13 +229,13 @@ def render_amortised(data: dict[str, Any]) -> str:
         score_table("training", [(AMORTISED, "regression + 600 gradient steps", data["runs"])])
         + "\n\nThe same held-out speeds and scoring; "
         f"`{shlex.join(amortised_command('SEED'))}` with seeds {list(SEEDS)}, then `python -m "
-        f"train.envelope --conditions ...`. {fw.machine_line(data, 'amortised-scores')}\n"
+        f"train.envelope --conditions ...`. {framework.machine_line(data, 'amortised-scores')}\n"
     )
 
 
 def measure_headline() -> dict[str, Any]:
     """Every policy of :data:`POLICIES` summarised from the stored runs."""
-    stored = {name: fw.load(name) for name in dict.fromkeys(p[0] for p in POLICIES)}
+    stored = {name: framework.load(name) for name in dict.fromkeys(p[0] for p in POLICIES)}
     rows = []
     for name, algo, hp in POLICIES:
         runs = runs_of(stored[name]["runs"], algo, hp)
@@ -236,7 +267,7 @@ def render_headline(data: dict[str, Any]) -> str:
 
 
 MEASUREMENTS = (
-    fw.Measurement("rl-baselines", measure, render, on_request=True),
-    fw.Measurement("amortised-scores", measure_amortised, render_amortised, on_request=True),
-    fw.Measurement("envelope-headline", measure_headline, render_headline, on_request=True),
+    framework.Measurement("rl-baselines", measure, render, on_request=True),
+    framework.Measurement("amortised-scores", measure_amortised, render_amortised, on_request=True),
+    framework.Measurement("envelope-headline", measure_headline, render_headline, on_request=True),
 )

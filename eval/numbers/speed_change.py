@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from eval.numbers import framework as fw
+from eval.numbers import framework
 
 SPEED_CHANGE_EPISODES = 32
 SPEED_CHANGE_COMMAND = f"python -m eval speed-change --episodes {SPEED_CHANGE_EPISODES}"
@@ -20,7 +20,9 @@ OPTIMUM_METRICS: tuple[str, ...] = (
 
 
 def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str, Any]]:
-    """The steady schedule's optima as ``eval speed-change`` makes them, computed now."""
+    """The steady schedule's level-flight optima as ``eval speed-change`` makes them (its
+    defaults: optimiser, budget, seed), one ``{speed, objective, feasible, ...}`` per speed,
+    computed now (the record cache off: a cached optimum may come from another BLAS kernel)."""
     from eval import speed_change
     from tandem_env.envs.speed_change_config import SpeedChangeConfig
 
@@ -43,7 +45,8 @@ def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str,
 
 
 def speed_change_rows(optima: Sequence[dict[str, Any]], first_seed: int) -> list[dict[str, Any]]:
-    """``policy_summary_rows`` of the random and the steady policy (playing ``optima``)."""
+    """``policy_summary_rows`` of the random and steady policies over the evaluation episodes, the
+    steady one playing ``optima``."""
     import numpy as np
 
     from eval import speed_change
@@ -74,31 +77,34 @@ def measure() -> dict[str, Any]:
 def render(data: dict[str, Any]) -> str:
     from eval.speed_change import policy_summary_markdown
 
-    optima, first = data["optima"], data["optima"][0]
+    optima = data["optima"]
+    first = data["optima"][0]
     random = next(r for r in data["rows"] if r["policy"] == "random")
     lines = [
         policy_summary_markdown(data["rows"]).rstrip("\n"),
         "",
         f"Random strokes end their episodes after {random['flight_time_mean_s']:.2f} s on "
         f"average. The steady schedule's level-flight optima ({first['method']}, "
-        f"{fw.spaced(first['budget'])} evaluations, seed {first['seed']}; "
+        f"{framework.spaced(first['budget'])} evaluations, seed {first['seed']}; "
         f"{sum(o['feasible'] for o in optima)} of {len(optima)} level-feasible):",
         "",
         "| V [m/s] | η | P/m [W/kg] | L/W | T − D [mN] | feasible |",
         "|---|---|---|---|---|---|",
         *(
-            f"| {o[0]['speed']:g} | {fw.agreed([k['efficiency'] for k in o], '{:.3f}')} | "
-            f"{fw.agreed([k['power_per_mass'] for k in o], '{:.1f}')} | "
-            f"{fw.agreed([k['lift_to_weight'] for k in o], '{:.3f}')} | "
-            f"{fw.agreed([1e3 * (k['thrust'] - k['drag']) for k in o], '{:+.3f}')} | "
+            f"| {o[0]['speed']:g} | {framework.agreed([k['efficiency'] for k in o], '{:.3f}')} | "
+            f"{framework.agreed([k['power_per_mass'] for k in o], '{:.1f}')} | "
+            f"{framework.agreed([k['lift_to_weight'] for k in o], '{:.3f}')} | "
+            f"{framework.agreed([1e3 * (k['thrust'] - k['drag']) for k in o], '{:+.3f}')} | "
             f"{'yes' if all(k['feasible'] for k in o) else 'no'} |"
-            for o in zip(*(view["optima"] for view in fw.kernel_views(data).values()), strict=True)
+            for o in zip(
+                *(view["optima"] for view in framework.kernel_views(data).values()), strict=True
+            )
         ),
         "",
-        fw.kernels_line(data),
-        *fw.footer(data, "speed-change", data["command"]),
+        framework.kernels_line(data),
+        *framework.footer(data, "speed-change", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
 
-MEASUREMENT = fw.Measurement("speed-change", measure, render, blas_dependent=True)
+MEASUREMENT = framework.Measurement("speed-change", measure, render, blas_dependent=True)

@@ -1,5 +1,11 @@
-"""Timings: benchmarks of the model, its inflow solve, torch port, envs and kernel (the roofline,
-docs/model.md §12), and what two documented commands cost."""
+"""Benchmarks of the model, the inflow solve, the torch port and the envs, and the kernel
+against the CPU's limit and against commit 8e3cf19's kernel (docs/model.md §12): documented
+commands run with ``--json`` (timings: shown, never compared).
+
+Also what two documented commands cost, each run into an empty folder and timed as a whole
+process: the quick preset (README "Reproduce the paper", docs/reproduction.md "Presets and what
+they cost": the one figure the documents give for its time; every other mention points here)
+and the README's first training command ("Train PPO and SAC stroke policies")."""
 
 from __future__ import annotations
 
@@ -8,19 +14,19 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from eval.numbers import framework as fw
+from eval.numbers import framework
 from eval.studies.report import table_head, table_row
 
-MODEL_THROUGHPUT = fw.Benchmark(("benchmarks/model_throughput.py",))
-INFLOW_SOLVE = fw.Benchmark(("benchmarks/inflow_solve.py",))
-ENV_THROUGHPUT = fw.Benchmark(("benchmarks/env_throughput.py",))
+MODEL_THROUGHPUT = framework.Benchmark(("benchmarks/model_throughput.py",))
+INFLOW_SOLVE = framework.Benchmark(("benchmarks/inflow_solve.py",))
+ENV_THROUGHPUT = framework.Benchmark(("benchmarks/env_throughput.py",))
 _TORCH = "benchmarks/model_throughput.py --backend torch --threads 1 --repeats 3".split()
 _ONE_THREAD = (("OMP_NUM_THREADS", "1"),)
-TORCH_EAGER = fw.Benchmark(
+TORCH_EAGER = framework.Benchmark(
     (*_TORCH, "--batches", "1", "64", "1024", "--induction", "coupled", "none", "--gradient"),
     _ONE_THREAD,
 )
-TORCH_COMPILED = fw.Benchmark(
+TORCH_COMPILED = framework.Benchmark(
     (*_TORCH, "--compile", "--batches", "64", "1024", "--induction", "coupled"), _ONE_THREAD
 )
 INDUCTIONS: tuple[str, ...] = ("coupled", "isolated", "none")
@@ -39,7 +45,7 @@ def render_model_throughput(data: dict[str, Any]) -> str:
     )
     for batch in batches:
         cells = [
-            f"{fw.spaced(r['evaluations_per_s'])} ({r['ms_per_call']:.2f} ms, {r['inflow_sweeps']:.1f})"
+            f"{framework.spaced(r['evaluations_per_s'])} ({r['ms_per_call']:.2f} ms, {r['inflow_sweeps']:.1f})"
             for r in (rates[batch, induction] for induction in inductions)
         ]
         lines.append(table_row([batch, *cells]))
@@ -54,7 +60,7 @@ def render_model_throughput(data: dict[str, Any]) -> str:
         "| one coupled `evaluate` at batch 1024 | wall [ms] | CPU, all threads [ms] |",
         "|---|---|---|",
         *(f"| {b['part']} | {b['wall_ms']:.1f} | {b['cpu_ms']:.1f} |" for b in data["breakdown"]),
-        *fw.footer(data, "model-throughput", data["command"]),
+        *framework.footer(data, "model-throughput", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
@@ -72,10 +78,10 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
     )
     for batch in sorted(ratios):
         cells = [
-            f"{fw.spaced(rates[batch, i]['best_per_s'])} / {fw.spaced(rates[batch, i]['median_per_s'])}"
+            f"{framework.spaced(rates[batch, i]['best_per_s'])} / {framework.spaced(rates[batch, i]['median_per_s'])}"
             for i in INDUCTIONS
         ]
-        ranges = (fw.median_range(ratios[batch], k) for k in ("wall", "cpu"))
+        ranges = (framework.median_range(ratios[batch], k) for k in ("wall", "cpu"))
         lines.append(table_row([batch, *cells, *ranges]))
     sweeps = "; ".join(
         f"V = {s['speed']:g} m/s: {100 * s['solved_share']:.0f} % of the annuli need a solve, "
@@ -84,8 +90,9 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
     )
     for reading, where in (("convected", "§5.7"), ("vortex", "§5.8")):
         slipstream = "; ".join(
-            f"batch {r['batch']}: {fw.median_range(r, 'cpu').replace(' (', '× CPU (', 1)}, "
-            f"{fw.median_range(r, 'wall').replace(' (', '× wall (', 1)}"
+            f"batch {r['batch']}: {r['cpu_median']:.2f}× CPU ({r['cpu_range'][0]:.2f}-"
+            f"{r['cpu_range'][1]:.2f}), {r['wall_median']:.2f}× wall ({r['wall_range'][0]:.2f}-"
+            f"{r['wall_range'][1]:.2f})"
             for r in data.get("slipstream_ratios", [])
             if r.get("reading", "convected") == reading
         )
@@ -102,7 +109,7 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
         "medians of the per-round ratios of time per call.",
         "Force sweeps per fore-wing annulus (own inflow, 200 random strokes, the solver called "
         f"directly): {sweeps}.",
-        *fw.footer(data, "inflow-cost", data["command"]),
+        *framework.footer(data, "inflow-cost", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
@@ -111,7 +118,7 @@ def render_env_throughput(data: dict[str, Any]) -> str:
     rows, n = data["rows"], data["num_envs"]
     lines = [f"| | strokes/s | vs `{data['reference']}` |", "|---|---|---|"]
     lines += [
-        f"| {r['case']} | {fw.spaced(r['strokes_per_s'])} | {100 * r['of_reference']:.1f} % |"
+        f"| {r['case']} | {framework.spaced(r['strokes_per_s'])} | {100 * r['of_reference']:.1f} % |"
         for r in rows
     ]
     # The benchmark's order: evaluate at B = 1, at B = n, the single env (one stroke per call,
@@ -127,7 +134,7 @@ def render_env_throughput(data: dict[str, Any]) -> str:
         f"per step of n = {n} strokes or per single-env episode): " + "; ".join(overheads) + ".",
         f"{data['seconds']:g} s per measurement after a warm-up call; the vector envs count the "
         "strokes evaluated, not the reset steps.",
-        *fw.footer(data, "env-throughput", data["command"]),
+        *framework.footer(data, "env-throughput", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
@@ -138,7 +145,8 @@ def measure_torch_throughput() -> dict[str, Any]:
 
 def render_torch_throughput(data: dict[str, Any]) -> str:
     eager, compiled = by_case(data["eager"]["rates"]), by_case(data["compiled"]["rates"])
-    g, run = data["eager"]["gradient"], data["eager"]
+    g = data["eager"]["gradient"]
+    run = data["eager"]
     columns = (
         ("coupled, eager", eager, "coupled"),
         ("coupled, compiled", compiled, "coupled"),
@@ -150,7 +158,9 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
         if key not in rates:
             return ""
         r = rates[key]
-        return f"{fw.spaced(r['evaluations_per_s'])} /s ({r['torch_over_numba']:.2g} × numba)"
+        return (
+            f"{framework.spaced(r['evaluations_per_s'])} /s ({r['torch_over_numba']:.2g} × numba)"
+        )
 
     lines = table_head(["batch", *(title for title, _, _ in columns)])
     lines += [
@@ -172,12 +182,14 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
         f"{g['autograd_ms_per_stroke_batch_64']:.1f} ms per stroke at batch 64 "
         f"({g['central_difference_ms'] / g['autograd_ms_per_stroke_batch_64']:.1f} × the central "
         "difference's rate).",
-        *fw.footer(data, "torch-throughput", data["eager"]["command"], data["compiled"]["command"]),
+        *framework.footer(
+            data, "torch-throughput", data["eager"]["command"], data["compiled"]["command"]
+        ),
     ]
     return "\n".join(lines) + "\n"
 
 
-ROOFLINE = fw.Benchmark(("benchmarks/roofline.py",))
+ROOFLINE = framework.Benchmark(("benchmarks/roofline.py",))
 
 
 def render_roofline(data: dict[str, Any]) -> str:
@@ -197,7 +209,7 @@ def render_roofline(data: dict[str, Any]) -> str:
                     r["threads"],
                     f"{r['wall_old_ms']:.0f} / {r['cpu_old_ms']:.0f}",
                     f"{r['wall_new_ms']:.0f} / {r['cpu_new_ms']:.0f}",
-                    *(fw.median_range(r, k, "_ratio") for k in ("wall", "cpu")),
+                    *(framework.median_range(r, k, "_ratio") for k in ("wall", "cpu")),
                 ]
             )
         )
@@ -209,7 +221,7 @@ def render_roofline(data: dict[str, Any]) -> str:
         "",
         "| per stroke | per element sample | measured | the machine's limit |",
         "|---|---|---|---|",
-        f"| {fw.spaced(s['element_samples'])} element samples, {s['sweeps']:.1f} force sweeps and "
+        f"| {framework.spaced(s['element_samples'])} element samples, {s['sweeps']:.1f} force sweeps and "
         f"{s['slopes']:.1f} slopes of annuli | {e['flop']:.0f} flops, {e['sqrt']:.2f} square "
         f"roots, {e['div']:.2f} divisions | {cycles:.1f} cycles ({data['ns_per_element_sample']:.1f} "
         f"ns) of CPU time per element sample, the whole call; {e['flop'] / cycles:.2f} flops per "
@@ -233,13 +245,14 @@ def render_roofline(data: dict[str, Any]) -> str:
         "numbers (a sweep's, a slope's and the span integration's, weighted by the counts the "
         "kernel reports); flops per cycle and 1/sqrt per cycle measured by vectorised numba loops "
         f"in the same run; cycles at the {ghz:.2f} GHz that /proc/cpuinfo reports.",
-        *fw.footer(data, "roofline", data["command"]),
+        *framework.footer(data, "roofline", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
 
 QUICK_PRESET_COMMAND: tuple[str, ...] = ("python", "-m", "eval", "study", "all")
-"""The documented command; ``--out``, ``--quiet`` and ``--no-cache`` are added."""
+"""The documented command (quick preset, CMA-ES, serially); ``--out`` and ``--quiet`` are
+added, and ``--no-cache`` so that no stored job from an earlier run shortens it."""
 TRAINING_COMMAND: tuple[str, ...] = tuple(
     "python -m train --algo ppo --env TandemWing/LevelFlight-v0 --timesteps 200000 --seed 0 "
     "--env-kwargs speed=1.5".split()
@@ -252,7 +265,7 @@ def measure_quick_preset() -> dict[str, Any]:
     from agents.store import RecordStore
 
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
-        wall = fw.run_command([*QUICK_PRESET_COMMAND, "--out", out, "--quiet", "--no-cache"])
+        wall = framework.run_command([*QUICK_PRESET_COMMAND, "--out", out, "--quiet", "--no-cache"])
         records = RecordStore(Path(out)).records()
     return {
         "command": " ".join(QUICK_PRESET_COMMAND),
@@ -265,22 +278,22 @@ def measure_quick_preset() -> dict[str, Any]:
 def measure_training() -> dict[str, Any]:
     """Run the README's PPO command into an empty log folder: wall time [s]."""
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as logs:
-        wall = fw.run_command([*TRAINING_COMMAND, "-f", logs])
+        wall = framework.run_command([*TRAINING_COMMAND, "-f", logs])
     return {"command": " ".join(TRAINING_COMMAND), "wall_s": round(wall, 1)}
 
 
 def _took(data: dict[str, Any], name: str, what: str, where: str) -> str:
     """The sentence of a timed command: ``what`` it is, then its time and ``where`` it ran."""
     return (
-        f"`{data['command']}` {what}took **{fw.minutes(data['wall_s'])}** wall clock {fw.at_load(data)} "
-        f"{where}. {fw.machine_line(data, name)}\n"
+        f"`{data['command']}` {what}took **{framework.minutes(data['wall_s'])}** wall clock {framework.at_load(data)} "
+        f"{where}. {framework.machine_line(data, name)}\n"
     )
 
 
 def render_quick_preset(data: dict[str, Any]) -> str:
     what = (
         f"(the quick preset: CMA-ES, serially, {data['jobs']} optimisations, "
-        f"{fw.spaced(data['evaluations'])} model evaluations, into an empty folder with the record "
+        f"{framework.spaced(data['evaluations'])} model evaluations, into an empty folder with the record "
         "cache off) "
     )
     return _took(data, "quick-preset", what, "(longer on a busier machine)")
@@ -292,11 +305,11 @@ def render_training(data: dict[str, Any]) -> str:
 
 
 MEASUREMENTS = (
-    fw.Measurement("model-throughput", MODEL_THROUGHPUT.run, render_model_throughput),
-    fw.Measurement("inflow-cost", INFLOW_SOLVE.run, render_inflow_cost),
-    fw.Measurement("torch-throughput", measure_torch_throughput, render_torch_throughput),
-    fw.Measurement("env-throughput", ENV_THROUGHPUT.run, render_env_throughput),
-    fw.Measurement("roofline", ROOFLINE.run, render_roofline),
-    fw.Measurement("quick-preset", measure_quick_preset, render_quick_preset),
-    fw.Measurement("training-time", measure_training, render_training),
+    framework.Measurement("model-throughput", MODEL_THROUGHPUT.run, render_model_throughput),
+    framework.Measurement("inflow-cost", INFLOW_SOLVE.run, render_inflow_cost),
+    framework.Measurement("torch-throughput", measure_torch_throughput, render_torch_throughput),
+    framework.Measurement("env-throughput", ENV_THROUGHPUT.run, render_env_throughput),
+    framework.Measurement("roofline", ROOFLINE.run, render_roofline),
+    framework.Measurement("quick-preset", measure_quick_preset, render_quick_preset),
+    framework.Measurement("training-time", measure_training, render_training),
 )

@@ -1,4 +1,5 @@
-"""The reproduction studies of the paper's figures (``python -m eval study``)."""
+"""The reproduction studies of the paper's figures, run on the harness: ``python -m eval study``
+(:mod:`eval.study`), :func:`eval.studies.suite.run_studies` from Python."""
 
 from __future__ import annotations
 

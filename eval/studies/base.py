@@ -1,4 +1,10 @@
-"""What every study shares: the plan, its jobs, the tables written and the :class:`Analysis`."""
+"""What every study shares: the plan (preset + methods), job construction, output writing and
+the analysis (:class:`Analysis`).
+
+A study module defines ``NAME``, ``TITLE``, ``jobs(plan) -> list[Job]`` and
+``analyse(plan, records, out_dir) -> StudyOutput`` (the paper's studies: an :class:`Analysis`
+of their figures and claims); jobs two studies share run once.
+"""
 
 from __future__ import annotations
 
@@ -35,23 +41,27 @@ from tandem_env.physics.insect import DRAGONFLY, Dragonfly
 INDEX_FILE = "records.json"
 #: The target of the searches against the reference table: the seeds' median within this [%].
 GAP_TARGET = 1.0
-#: A table stroke replays to its objective within this (relative); a best seed lower is below.
+#: A stroke the table holds replays to its objective within this (relative): a best seed lower
+#: by more is below the table (tests/envs/test_reference.py).
 REPLAY_RTOL = 1e-6
 
 
 @dataclass(frozen=True)
 class StudyPlan:
-    """A preset and the methods run at every condition, under a reading of the paper."""
+    """A preset and the methods to run at every condition (the preset's method by default),
+    under a reading of the paper (the documented defaults by default)."""
 
     preset: Preset
     methods: tuple[str, ...] | None = None
     """The methods run at every condition; under a reading with a search, its method alone."""
     reading: Reading = DEFAULT
-    """The model options, F̄_h's objective and search of every job."""
+    """The model options, F̄_h's objective and search of every job
+    (:mod:`eval.studies.paper_reading`); the default adds nothing to the jobs."""
     figure_format: str = FORMATS[0]
     """The figures' file format (:data:`eval.figures.FORMATS`)."""
     execution: tuple[tuple[str, Any], ...] = ()
-    """Env keywords of how the model is computed (``backend``, ``device``); None: not set."""
+    """Env keywords that choose only how the model is computed (``backend``, ``device``); one
+    given as None is not set (``--backend`` / ``--device`` left out)."""
     insect: Dragonfly = DRAGONFLY
     """The insect every job flies (``--insect``; the paper's specimen adds no env keyword)."""
 
@@ -102,7 +112,8 @@ class StudyPlan:
         return figure_path(folder, stem, self.figure_format)
 
     def method_config(self, method: str) -> tuple[tuple[str, Any], ...]:
-        """``method``'s settings: the reading's search's, else the preset's swarm as its batch."""
+        """The settings of ``method`` in every job: the reading's search's, else the preset's
+        swarm size as its batch."""
         search = self.reading.search
         if search is not None and method == search.method:
             return search.method_config(self.preset.swarm_size)
@@ -110,7 +121,8 @@ class StudyPlan:
         return ((key, self.preset.swarm_size),) if key else ()
 
     def budget(self, task: str) -> int:
-        """Model evaluations per optimisation of ``task``: the reading's search's, else the preset's."""
+        """Model evaluations per optimisation of ``task``: the reading's search's budget, else
+        the preset's."""
         search = self.reading.search
         given = None if search is None else search.budget(task)
         return self.preset.budget(task) if given is None else given
@@ -118,7 +130,8 @@ class StudyPlan:
     def env_kwargs(
         self, task: str, objective: str | None = None, planform: str = "tear-drop"
     ) -> dict[str, Any]:
-        """The env keywords of one series' jobs; ``objective``: the env's, for a task with one."""
+        """The env keywords of the plan's jobs of one series (the condition aside); ``objective``
+        is the env's (after the reading's), for a task that takes one."""
         kwargs = {**dict(self.preset.env_kwargs), **self.reading.env_kwargs()}
         kwargs.update(self.execution)
         if self.insect != DRAGONFLY:
@@ -131,7 +144,8 @@ class StudyPlan:
     def warm_start(
         self, method: str, task: str, condition: float, kwargs: Mapping[str, Any]
     ) -> tuple[dict[str, Any], str]:
-        """One job's warm-start settings (none: ``{}``) and how it starts, in words."""
+        """The method settings of the preset's warm start of one job (none: ``{}``) and how it
+        starts, in words: from the table, or cold and why (:func:`~eval.studies.presets.warm_start`)."""
         if self.preset.warm_start == "none":
             return {}, "cold (warm start none)"
         if self.reading.search is not None:  # it is how the reading finds its optima
@@ -155,11 +169,14 @@ class StudyPlan:
         seeds: Sequence[int] | None = None,
         warm: bool = True,
     ) -> list[Job]:
-        """Every method × condition × seed of one series; ``warm``: with :meth:`warm_start`."""
+        """Every method × condition × seed of one series under the plan's reading (the plan's
+        :meth:`budget` and the preset's seeds unless given); ``warm``: with the preset's
+        :meth:`warm_start`."""
         given = None if objective is None else self.reading.objective(objective)
         kwargs = self.env_kwargs(task, given, planform)
         budget = self.budget(task) if budget is None else budget
-        env, seeds = tuple(kwargs.items()), self.preset.seeds if seeds is None else seeds
+        env = tuple(kwargs.items())
+        seeds = self.preset.seeds if seeds is None else seeds
         jobs = []
         for method, c in itertools.product(self.methods, map(float, conditions)):
             warmed = self.warm_start(method, task, c, kwargs)[0] if warm else {}
@@ -168,7 +185,10 @@ class StudyPlan:
         return jobs
 
     def table_lines(self, rows: Sequence[Mapping[str, Any]]) -> list[str]:
-        """The report's check of the searches against the reference table (Markdown) [%]."""
+        """The report's check against the reference table (Markdown): per series and condition,
+        how the searches started, the table's optimum and the seeds' median and best objective
+        with their gap below it [%]; the conditions within :data:`GAP_TARGET` and any best seed
+        below the table (beyond the replay's :data:`REPLAY_RTOL`)."""
         lines = [
             f"Warm start `{self.preset.warm_start}` ({WARM_SHARE:g} of each budget for the "
             "table's strokes, counted in it; docs/reference.md, Warm starts).",
@@ -217,22 +237,23 @@ class StudyOutput:
     """(caption, path) of each figure."""
     claims: list[Claim]
     files: list[Path] = field(default_factory=list)
-    """The CSV and JSON files written."""
+    """CSV and JSON files written (records index, tidy CSV, summary CSV)."""
 
 
 def write_tables(
     name: str, records: Mapping[Job, Record], out_dir: Path, quantities: Sequence[str]
 ) -> tuple[Rows, list[Path]]:
-    """Write the study's records index, tidy CSV and summary CSV; its rows and the paths."""
+    """Write ``DIR/<name>/records.json`` (the index), ``<name>.csv`` (tidy rows) and
+    ``<name>_summary.csv`` (the ``quantities`` and the 28 stroke parameters)."""
     rows = tidy_rows(records)
     index = [
         {
-            "key": j.key,
-            "file": f"../{RECORDS_DIR}/{j.key}.json",
-            "label": j.label(),
-            "job": j.to_dict(),
+            "key": job.key,
+            "file": f"../{RECORDS_DIR}/{job.key}.json",
+            "label": job.label(),
+            "job": job.to_dict(),
         }
-        for j in sorted(records, key=lambda j: j.label())
+        for job in sorted(records, key=lambda j: j.label())
     ]
     paths = [out_dir / name / f for f in (INDEX_FILE, f"{name}.csv", f"{name}_summary.csv")]
     write_json_atomic(paths[0], index)
@@ -249,7 +270,8 @@ Figures = Callable[[StudyPlan, Rows, Mapping[Job, Record], Path], list[tuple[str
 
 @dataclass(frozen=True)
 class Analysis:
-    """A paper study's ``analyse``: tables, ``figures`` and ``claims`` judged on ``view``."""
+    """A paper study's ``analyse``: its tables (:func:`write_tables`), its ``figures`` and its
+    ``claims``, each judged on ``view(plan, rows, method)`` of every method's rows."""
 
     name: str
     title: str
@@ -267,7 +289,8 @@ class Analysis:
         return StudyOutput(self.name, self.title, rows, figures, self.judge(plan, rows), files)
 
     def judge(self, plan: StudyPlan, rows: Rows) -> list[Claim]:
-        """Every method's claims, with their confidence and identifiability."""
+        """Every method's claims, with their confidence and identifiability
+        (:func:`eval.studies.claims.study_claims`)."""
         words = vars(plan.preset)
         judge = lambda r, m, i: judged(self.claims, self.name, self.view(plan, r, m), m, i, words)  # noqa: E731
         return study_claims(rows, plan.methods, judge, options=plan.model_options)

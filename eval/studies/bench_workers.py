@@ -2,7 +2,9 @@
 
     python -m eval.studies.bench_workers [--preset quick] [--scheduler local:2] [--repeat 1]
 
-Prints the wall times, the job lengths and the best speed-up W workers give (docs/scaling.md).
+Runs ``study all``'s optimisations for the preset serially and on ``--scheduler`` (alternating,
+``--repeat`` times) and prints the wall times, the job lengths and the best speed-up W workers
+can give (:func:`makespan`), measured and estimated for every preset (docs/scaling.md).
 """
 
 from __future__ import annotations
@@ -28,7 +30,8 @@ WORKERS: tuple[int, ...] = (1, 2, 4, 8, 16, 32, 64, 128)
 
 
 def makespan(durations: Sequence[float], workers: int) -> float:
-    """Wall time of ``durations`` [s] on ``workers`` by list scheduling in the given order."""
+    """Wall time of ``durations`` [s] on ``workers`` when each job, in the given order, goes
+    to the worker that is free first (list scheduling; no start-up or transfer costs)."""
     free = [0.0] * workers
     for duration in durations:
         heapq.heappush(free, heapq.heappop(free) + duration)

@@ -1,4 +1,11 @@
-"""The paper's claims (docs/model.md §9) as checkable rows, and the rules that judge them."""
+"""The paper's claims (docs/model.md §9) as checkable rows, and the rules that decide agreement.
+
+Each study declares its claims once, as data (a ``CLAIMS`` table of :class:`ClaimSpec`); this
+module judges and formats them all (:func:`judged`, :data:`TESTS`). Every claim is judged by its rule (:data:`RULES`) on the seeds' medians and on each condition's
+best seed (what the paper's "best of N runs" gives); a verdict the bootstrap over seeds flips
+is undecided (:data:`CONFIDENCE_RULE`), and a claim about what the model does not depend on is
+not identifiable (:data:`IDENTIFIABILITY_RULE`).
+"""
 
 from __future__ import annotations
 
@@ -25,7 +32,9 @@ LOCATION_TOLERANCE = 0.25  # m/s, one step of the paper's sweep
 ANGLE_TOLERANCE = 15.0  # deg
 IN_PHASE = 15.0  # deg
 
-#: The bootstrap of :data:`CONFIDENCE_RULE`: resamples, the share that may flip, the RNG seed.
+#: Bootstrap behind every verdict's confidence: resamples of the seeds, the share of them in
+#: which a verdict may flip before it is undecided, and the fixed RNG seed (same records, same
+#: verdicts).
 BOOTSTRAP_RESAMPLES = 200
 FLIP_THRESHOLD = 0.20
 BOOTSTRAP_SEED = 0
@@ -40,7 +49,8 @@ CONFIDENCE_RULE = (
 
 #: The fore/hind phase (Fig. 11): what the paper's phase claims are about.
 PHASE = "fore/hind phase"
-#: A quantity a claim may be about -> whether the model, under options at a speed [m/s], uses it.
+#: What a claim may be about that a reading of the model can lack: the quantity, and whether
+#: the model under the options, at the flight speed [m/s] (None: forward flight), depends on it.
 QUANTITIES: dict[str, Callable[[ModelOptions, float | None], bool]] = {
     PHASE: lambda options, speed: options.phase_resolved(speed)
 }
@@ -53,7 +63,8 @@ IDENTIFIABILITY_RULE = (
     "`hover_inflow='none'`; `ModelOptions.phase_resolved`, docs/model.md §5.7)"
 )
 
-#: A parameter one bound holds at every condition does not move: its ρ would be noise.
+#: A stroke parameter that one bound holds at every condition does not move with the
+#: condition; its ρ would be undefined (a constant) or the noise within the bound's tolerance.
 HELD_RULE = (
     "a stroke parameter pinned at the same Table 4 bound at every condition (at least 3; "
     "pinned as in the summary CSVs) does not move: its ρ is 0"
@@ -72,7 +83,8 @@ RULES: dict[str, str] = {
 
 @dataclass(frozen=True)
 class Dependence:
-    """A quantity of :data:`QUANTITIES` a claim is about, at its optimisations' flight speed."""
+    """What of the model a claim is about: a quantity of :data:`QUANTITIES`, at the flight
+    speed of the claim's optimisations."""
 
     quantity: str
     speed: float | None = None
@@ -101,7 +113,7 @@ class Claim:
     """The paper's number or statement."""
     rule: Rule
     median: float = math.nan
-    """Our statistic from the seeds' medians."""
+    """Our statistic from the seeds' medians (a value, ρ, a location, a fraction)."""
     q25: float = math.nan
     q75: float = math.nan
     best: float = math.nan
@@ -115,16 +127,18 @@ class Claim:
     """The median's verdict on the seeds as run (None: the same as ``verdict``)."""
     best_leaning: Verdict | None = None
     flips: float = math.nan
-    """Share of resamples whose median verdict differs from ``leaning`` (NaN: not resampled)."""
+    """Share of bootstrap resamples in which the median's verdict differs from ``leaning``
+    (NaN: not resampled)."""
     best_flips: float = math.nan
     detail: str = ""
-    """Extra numbers behind the verdict."""
+    """Extra numbers behind the verdict (e.g. the monotonic fraction, n feasible)."""
     note: str = ""
     """Why a difference is understood, when it is."""
     depends_on: tuple[Dependence, ...] = ()
     """What of the model the claim is about, where a reading can lack it (:func:`identifiable`)."""
     lacks: tuple[str, ...] = ()
-    """The quantities of ``depends_on`` the run's model ignores: verdicts "not identifiable"."""
+    """The quantities of ``depends_on`` the model did not depend on in the run: the verdicts
+    are then ``"not identifiable"`` (:func:`identifiable`)."""
 
     def __post_init__(self) -> None:
         for side in ("", "best_"):
@@ -157,7 +171,8 @@ class Claim:
 
 
 def decide(leaning: Verdict, flips: float) -> Verdict:
-    """A decided verdict flipping in more than :data:`FLIP_THRESHOLD` is ``"undecided"``."""
+    """The confidence rule: a decided verdict that flips in more than :data:`FLIP_THRESHOLD`
+    of the resamples is ``"undecided"``; any other stays as it is."""
     return "undecided" if leaning in ("agrees", "differs") and flips > FLIP_THRESHOLD else leaning
 
 
@@ -179,8 +194,9 @@ class VerdictCount:
     def of(cls, claims: Iterable[Claim], best: bool = False) -> VerdictCount:
         """Counts of the verdicts on the median (on the best seed if ``best``)."""
         n = Counter(c.best_verdict if best else c.verdict for c in claims)
-        named = [n[v] for v in ("agrees", "differs", "undecided", "not identifiable")]
-        return cls(*named[:3], n.total() - sum(named), named[3])
+        unknowable = n["not identifiable"]
+        rest = n.total() - n["agrees"] - n["differs"] - n["undecided"] - unknowable
+        return cls(n["agrees"], n["differs"], n["undecided"], rest, unknowable)
 
     def text(self) -> str:
         """``3 agree, 2 differ, 4 undecided, 3 not identifiable, 1 no data``."""
@@ -217,11 +233,13 @@ TESTS: dict[str, Callable[[float, Any], bool]] = {
 
 
 def judge(value: float, rule: Rule, target: Any) -> bool | None:
-    """Whether ``value`` agrees with ``target`` under ``rule`` (:data:`TESTS`); None for NaN."""
+    """Whether ``value`` agrees with ``target`` under ``rule`` (:data:`TESTS`); None (no data)
+    for NaN."""
     return None if math.isnan(value) else bool(TESTS[rule](value, target))
 
 
-#: A claim's statistic: :class:`Claim` fields, or None where the claim is not made.
+#: A claim's statistic: :class:`Claim` fields (``median``, ``best``, ``q25``, ``q75``, ``unit``,
+#: ``detail``, ...), or None where the claim is not made (what it compares is not run).
 Stats = dict[str, Any] | None
 #: A claim's statistic from a study's view of one method's rows and the claim's target.
 Measure = Callable[[Any, Any], Stats]
@@ -229,7 +247,8 @@ Measure = Callable[[Any, Any], Stats]
 
 @dataclass(frozen=True)
 class ClaimSpec:
-    """One claim of the paper: its row's words and ``measure(view, target)``, its statistic."""
+    """One claim of the paper, declared once: what the report's row says and how it is judged;
+    ``measure(view, target)`` gives its statistic from a study's view of one method's rows."""
 
     id: str
     figure: str
@@ -238,18 +257,22 @@ class ClaimSpec:
     paper: str
     rule: Rule
     target: Any
-    """What the rule compares with (:data:`TESTS`), in the statistic's unit."""
+    """What the rule compares with (:data:`TESTS`): the paper's number [its unit], range
+    (low, high), location [m/s] or angle [deg]; a trend's direction (+1 rises, −1 falls);
+    whether in phase; a compare rule's (order, value)."""
     measure: Measure
     note: str = ""
     """Why a difference is understood, when it is."""
 
     def claim(self, study: str, view: Any, method: str, index: int, words: Mapping) -> Claim | None:
-        """The row of ``method`` (``S7``, ``S7/random`` for a later one); None if not made."""
+        """The row of ``method`` (ids ``S7`` for the first method, ``S7/random`` for the
+        others), judged on the median and the best seed; None where it is not made."""
         fields = self.measure(view, self.target)
         if fields is None:
             return None
         row = {"statement": self.statement.format_map(words), "note": self.note, **fields}
-        median, best = row.get("median", math.nan), row.get("best", math.nan)
+        median = row.get("median", math.nan)
+        best = row.get("best", math.nan)
         return Claim(
             id=self.id if index == 0 else f"{self.id}/{method}",
             study=study,
@@ -299,7 +322,8 @@ def monotonic_fraction(x: Sequence[float], y: Sequence[float], direction: int) -
 
 # --- statistics: what a ClaimSpec's measure gives ----------------------------------------------
 def spread_stats(s: Spread, **fields: Any) -> dict[str, Any]:
-    """One spread's median, quartiles, best seed and feasible seeds (``fields`` override)."""
+    """One spread over seeds: median, quartiles, best seed and the feasible seeds as the detail
+    (``fields`` override these)."""
     stats = {"median": s.median, "q25": s.q25, "q75": s.q75, "best": s.best}
     return {**stats, "detail": seeds_feasible(s), **fields}
 
@@ -315,7 +339,8 @@ def follows_stats(
 
 
 def trend_stats(series: Mapping[float, Spread], direction: int, **fields: Any) -> dict[str, Any]:
-    """ρ(condition, medians) and of the best seeds, the monotonic fraction as the detail."""
+    """ρ between the condition and the medians (and the best seeds), the medians' monotonic
+    fraction as the detail; ``fields`` override these (:func:`held_at_bound`'s)."""
     x, medians = list(series), [s.median for s in series.values()]
     frac = monotonic_fraction(x, medians, direction)
     return {
@@ -328,7 +353,10 @@ def trend_stats(series: Mapping[float, Spread], direction: int, **fields: Any) -
 
 
 def held_at_bound(rows: Sequence[Mapping[str, Any]], quantity: str) -> dict[str, Any]:
-    """:data:`HELD_RULE` for ``quantity`` over one series' rows: ρ = 0 where a bound holds it."""
+    """What :data:`HELD_RULE` changes in a ``trend`` or ``follows`` row of ``quantity`` over
+    one series' rows: ρ = 0 for the medians and/or the best seeds that one Table 4 bound holds
+    at every condition (``tables.pinned``), with a ``detail`` and ``note`` naming it; empty
+    where none does or below 3 conditions."""
     conditions = sorted({float(r["condition"]) for r in rows})
     bounds = table4_bounds(quantity)
     if len(conditions) < 3 or bounds is None:
@@ -362,13 +390,15 @@ def location_stats(
         xa, ya = _finite(list(series), values)
         return float(xa[np.argmin(ya) if kind == "min" else np.argmax(ya)]) if ya.size else math.nan
 
-    medians, bests = [s.median for s in series.values()], [s.best for s in series.values()]
+    medians = [s.median for s in series.values()]
+    bests = [s.best for s in series.values()]
     return {"median": where(medians), "best": where(bests), "unit": "m/s", **fields}
 
 
 # --- confidence: the bootstrap over seeds ------------------------------------------------------
 def _strata(rows: Sequence[Mapping[str, Any]]) -> list[tuple[list[int], dict[int, list[dict]]]]:
-    """(seeds, {seed: rows}) per series and condition, objectives together, in a fixed order."""
+    """(seeds, {seed: rows}) per condition of each series (method, task, planform; objectives
+    together, so a seed's two accelerating optimisations stay paired), in a fixed order."""
     groups: dict[tuple[str, ...], dict[int, list[dict]]] = {}
     for row in rows:
         key = tuple(str(row.get(k)) for k in ("method", "task", "planform", "condition"))
@@ -379,7 +409,8 @@ def _strata(rows: Sequence[Mapping[str, Any]]) -> list[tuple[list[int], dict[int
 def resample(
     strata: Sequence[tuple[list[int], Mapping[int, list[dict]]]], rng: np.random.Generator
 ) -> Rows:
-    """One bootstrap resample: each condition's seeds drawn with replacement, renumbered."""
+    """One bootstrap resample: at every condition as many seeds as it has, drawn with
+    replacement; the k-th draw's rows get seed k (a seed drawn twice counts twice)."""
     out: Rows = []
     for seeds, by_seed in strata:
         for k, i in enumerate(rng.integers(0, len(seeds), size=len(seeds))):
@@ -393,7 +424,9 @@ def with_confidence(
     resamples: int = BOOTSTRAP_RESAMPLES,
     seed: int = BOOTSTRAP_SEED,
 ) -> list[Claim]:
-    """``claims_of(rows)`` with each verdict's confidence over ``resamples`` resamples."""
+    """``claims_of(rows)`` (tidy rows) with each verdict's confidence (:data:`CONFIDENCE_RULE`):
+    rerun on ``resamples`` resamples of the seeds (:func:`resample`, RNG seeded by ``seed``); a
+    claim missing from a resample counts as flipped."""
     claims = claims_of([dict(r) for r in rows])
     if not claims or resamples <= 0:
         return claims
@@ -412,7 +445,9 @@ def with_confidence(
 
 
 def _settled(c: Claim, flips: float, best_flips: float, lacks: tuple[str, ...] = ()) -> Claim:
-    """``c`` with its leanings, :func:`decide`'s verdicts and flips (or not identifiable)."""
+    """``c`` with each verdict as run its leaning and the verdict :func:`decide` gives it with
+    its share of flipping resamples (NaN for a verdict without data); ``lacks``: every verdict
+    "not identifiable", without a confidence."""
     sides = {}
     for side, share in (("", flips), ("best_", best_flips)):
         said: Verdict = "not identifiable" if lacks else getattr(c, f"{side}verdict")
@@ -426,7 +461,9 @@ def _settled(c: Claim, flips: float, best_flips: float, lacks: tuple[str, ...] =
 
 
 def identifiable(claims: Iterable[Claim], options: ModelOptions) -> list[Claim]:
-    """The claims under :data:`IDENTIFIABILITY_RULE` for the model ``options``."""
+    """The claims with the verdicts :data:`IDENTIFIABILITY_RULE` gives under the study's model
+    ``options``: ``"not identifiable"``, without a confidence, where the model does not depend
+    on a quantity of :attr:`Claim.depends_on` (the statistics stay)."""
     out = []
     for c in claims:
         lacks = tuple(dict.fromkeys(d.quantity for d in c.depends_on if not d.resolved(options)))
@@ -441,7 +478,8 @@ def study_claims(
     *,
     options: ModelOptions,
 ) -> list[Claim]:
-    """Every method's claims, bootstrapped over its rows, judged identifiable."""
+    """Every method's claims (``claims_of(rows, method, index)``), each method's bootstrap over
+    its own rows (:func:`with_confidence`), judged identifiable under ``options``."""
     found: list[Claim] = []
     for i, m in enumerate(methods):
         own = [r for r in rows if r["method"] == m]

@@ -1,4 +1,10 @@
-"""Budget study: best-so-far over evaluations of each method's long runs, and polish shares."""
+"""Budget study: best-so-far against evaluations, PSO and CMA-ES side by side.
+
+Each method of the preset's :class:`~eval.studies.presets.ConvergenceSpec` (and any the study is
+run with) runs long, without a polish, at one level and one accelerating (F̄_v) condition; by
+the prefix property each run's history gives every smaller budget's best (:func:`checkpoint_rows`).
+The budget splits between search and polish run at the preset's own budgets (:func:`split_rows`).
+"""
 
 from __future__ import annotations
 
@@ -35,12 +41,14 @@ def _with(job: Job, settings: tuple[tuple[str, object], ...]) -> Job:
 
 
 def _spec_jobs(plan: StudyPlan, **given: Any) -> list[Job]:
-    """``plan``'s jobs at the spec's conditions and seeds, each search started cold."""
+    """``plan``'s jobs at the spec's level and accelerating (F̄_v) conditions, the spec's seeds,
+    started cold (the budget study compares the methods' own searches)."""
     spec = plan.preset.convergence
-    given |= {"seeds": spec.seeds, "warm": False}
     return [
-        *plan.jobs("level", [spec.speed], **given),
-        *plan.jobs("accelerate", [spec.power], objective="vertical", **given),
+        *plan.jobs("level", [spec.speed], seeds=spec.seeds, warm=False, **given),
+        *plan.jobs(
+            "accelerate", [spec.power], objective="vertical", seeds=spec.seeds, warm=False, **given
+        ),
     ]
 
 
@@ -64,7 +72,8 @@ def split_jobs(plan: StudyPlan) -> dict[float, list[Job]]:
 
 
 def polish_share_settings(method: str, share: float) -> tuple[tuple[str, object], ...]:
-    """A polish share's method settings: none for the method's default, else the share."""
+    """The method settings of a polish share: none for the method's default (the other studies'
+    jobs), else the share."""
     default = polish_settings(method, {})[0]
     if share == 0:
         return (("polish", "none"),) if default.enabled else ()
@@ -79,7 +88,8 @@ def jobs(plan: StudyPlan) -> list[Job]:
 
 
 def curves(runs: Sequence[Record]) -> tuple[np.ndarray, np.ndarray]:
-    """(evaluations (n,), best reward so far (seeds, n)) of long ``runs`` on a common grid."""
+    """(evaluations (n,), best reward so far (seeds, n)) of one method's and condition's long
+    ``runs`` on a common evaluation grid."""
     chosen = sorted(runs, key=lambda r: r.seed)
     grid = np.array(sorted({e for r in chosen for e, _ in r.history}), dtype=float)
     values = np.empty((len(chosen), grid.size))
@@ -92,7 +102,8 @@ def curves(runs: Sequence[Record]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, Any]:
-    """One budget split's spread over seeds; ``halves_apart``: the halves' best, relative [-]."""
+    """Reproducibility of one budget split from the records' feasible objectives:
+    ``halves_apart`` = |best(first half) − best(second half)| / the larger, over the seeds."""
     runs = sorted(runs, key=lambda r: r.seed)
     values = np.array([r.objective if r.feasible else np.nan for r in runs], dtype=float)
     half = len(runs) // 2
@@ -102,7 +113,11 @@ def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, An
     )
     known = [g for g in (r.certificate.get("gain") for r in runs) if g is not None]
     finite = values[np.isfinite(values)]
-    stats = (np.median(finite), finite.min(), finite.max()) if finite.size else (math.nan,) * 3
+    median, low, high = (
+        (float(np.median(finite)), float(finite.min()), float(finite.max()))
+        if finite.size
+        else (math.nan,) * 3
+    )
     apart = math.nan
     if np.isfinite(first) and np.isfinite(second) and max(first, second) > 0:
         apart = abs(first - second) / max(first, second)
@@ -112,7 +127,9 @@ def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, An
         "budget": runs[0].budget if runs else 0,
         "seeds": len(runs),
         "feasible": int(np.isfinite(values).sum()),
-        **dict(zip(("median", "min", "max"), map(float, stats), strict=True)),
+        "median": median,
+        "min": low,
+        "max": high,
         "best_first_half": first,
         "best_second_half": second,
         "halves_apart": apart,
@@ -122,20 +139,24 @@ def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, An
 
 
 def checkpoint_rows(label: str, method: str, grid: np.ndarray, values: np.ndarray) -> Rows:
-    """Median, IQR, min, max, spread and fraction of the final median per checkpoint."""
+    """Median, IQR, min, max, spread ((max − min) / median) and fraction of the longest run's
+    median (of the value, not the gain from a penalised first batch) per checkpoint."""
     final = np.median(values[:, -1])
     out = []
     for budget in [c for c in CHECKPOINTS if c <= grid[-1]] + [int(grid[-1])]:
         k = int(np.searchsorted(grid, budget, side="right") - 1)
         at = values[:, k]
         q25, med, q75 = np.percentile(at, [25.0, 50.0, 75.0])
-        stats = {"median": med, "q25": q25, "q75": q75, "min": at.min(), "max": at.max()}
         out.append(
             {
                 "condition": label,
                 "method": method,
                 "budget": int(budget),
-                **{k: float(v) for k, v in stats.items()},
+                "median": float(med),
+                "q25": float(q25),
+                "q75": float(q75),
+                "min": float(at.min()),
+                "max": float(at.max()),
                 "spread": float((at.max() - at.min()) / med) if med > 0 else float("nan"),
                 "fraction_of_final_median": float(med / final) if final else float("nan"),
                 "seeds": int(values.shape[0]),

@@ -1,4 +1,11 @@
-"""Kinematics of the optimised strokes (paper Figs. 9-13); ΔΦ > 0: the hind-wing leads."""
+"""Kinematics of the optimised strokes (paper Figs. 9-13).
+
+The strokes of level flight at 1.25 m/s and accelerating flight at 60 W/kg (the paper's choices,
+the sweeps' own jobs), and level flight at 2 m/s for the paper's largest phase difference; every
+seed thin, the best bold: tip paths (Figs. 9-10), φ and η over the cycle (Figs. 11-12), angle of
+attack and relative speed at 0.75 R (Fig. 13). The fore/hind phase difference ΔΦ = Φ_φ,hind −
+Φ_φ,fore is wrapped to (−180°, 180°] (> 0: the hind-wing leads); its statistics are circular.
+"""
 
 from __future__ import annotations
 
@@ -34,7 +41,9 @@ TRACED = ("tip_path", "sweep", "pitch", "angle_of_attack", "relative_speed")
 
 
 def triangle_note(rows: Rows) -> str:
-    """Fig. 13's note on triangle-wave weaving (K at 1, docs/model.md §3.4); "" where none."""
+    """Fig. 13's legend line naming the seeds' wings whose weaving is a triangle wave (shape K
+    at its upper bound 1, docs/model.md §3.4): their φ̇ reverses at once, so their relative
+    speed steps at each reversal (the kinematics, not the plot); "" where none is."""
     shape = {w: PARAMETER_NAMES.index(f"{w}_sweep_shape") for w in ("fore", "hind")}
     found = []
     for row in sorted(rows, key=lambda r: r["seed"]):
@@ -96,14 +105,16 @@ def draw(
     plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
 ) -> list[tuple[str, Path]]:
     """Figs. 9-13 of the first method's strokes, each seed's."""
-    p, method = plan.preset, plan.methods[0]
+    p = plan.preset
+    method = plan.methods[0]
     level, accel = _series(plan, method)
     lv = traces(records, rows, condition=p.kinematics_speed, **level)
     ac = traces(records, rows, condition=p.kinematics_power, **accel)
     level_name = f"level flight, V = {p.kinematics_speed:g} m/s"
     accel_name = f"accelerating ({p.kinematics_objective}), {p.kinematics_power:g} W/kg"
     judged = view(plan, rows, method)
-    level_at, accel_at = f"level {p.kinematics_speed:g} m/s", f"accel. {p.kinematics_power:g} W/kg"
+    level_at = f"level {p.kinematics_speed:g} m/s"
+    accel_at = f"accel. {p.kinematics_power:g} W/kg"
     lead_at = f"level {p.phase_speed:g} m/s"
 
     def panel(title: str, groups: dict[str, Spread], ylabel: str, **marks: Any) -> kf.GroupPanel:
@@ -113,7 +124,8 @@ def draw(
             title, values, ylabel, best={k: s.best for k, s in groups.items()}, **marks
         )
 
-    # Each panel shows the statistic its claim judges, not judged where K1-K3 are not identifiable
+    # Each panel shows the statistic its claim judges; not judged where K1-K3 are not
+    # identifiable (claims.IDENTIFIABILITY_RULE).
     resolved = plan.model_options.phase_resolved()
     said = "judged" if resolved else "not judged: the model does not depend on ΔΦ"
     phase_panels = (
@@ -190,17 +202,22 @@ def draw(
 
 @functools.cache
 def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
-    """What K1-K3 are about: the phase at their flight speeds (cached for the bootstrap)."""
-    p, one = plan.preset, {"seeds": plan.preset.seeds[:1]}
-    level = plan.jobs("level", [p.kinematics_speed, p.phase_speed], **one)
-    accel = plan.jobs("accelerate", [p.kinematics_power], objective=p.kinematics_objective, **one)
+    """What K1-K3 are about: the fore/hind phase at their optimisations' flight speeds (once
+    per plan: every bootstrap resample asks)."""
+    p = plan.preset
+    level = plan.jobs("level", [p.kinematics_speed, p.phase_speed], seeds=p.seeds[:1])
+    accel = plan.jobs(
+        "accelerate", [p.kinematics_power], objective=p.kinematics_objective, seeds=p.seeds[:1]
+    )
     speeds = [flight_of(job)[1] for job in (level[0], level[1], accel[0])]
     ids = ("K1", "K2", "K3")
     return {cid: (C.Dependence(C.PHASE, speed),) for cid, speed in zip(ids, speeds, strict=True)}
 
 
 def view(plan: StudyPlan, rows: Rows, method: str) -> dict[str, Any]:
-    """What K1-K4 judge and Figs. 11c-d and 12c show; ``phase``: what K1-K3 are about."""
+    """What K1-K4 judge and Figs. 11c-d and 12c show: |ΔΦ| level and accelerating, ΔΦ at
+    ``phase_speed``, η_m level and accelerating (spreads over seeds); and what K1-K3 are about
+    (``phase``: :func:`phase_dependences`)."""
     p = plan.preset
     level, accel = _series(plan, method)
     picks = {
@@ -224,7 +241,8 @@ def _series(plan: StudyPlan, method: str) -> tuple[dict[str, Any], dict[str, Any
 
 
 def phase_of(key: str, cid: str) -> C.Measure:
-    """``phase`` or ``angle``: the spread of ``key`` (a :func:`view` key) [deg] of claim ``cid``."""
+    """``phase`` or ``angle``: the spread of ``key`` (a :func:`view` key) [deg], about the
+    fore/hind phase of claim ``cid``'s optimisations."""
     return lambda by, _: C.spread_stats(by[key], unit="deg", depends_on=by["phase"][cid])
 
 

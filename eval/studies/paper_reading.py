@@ -1,4 +1,12 @@
-"""A reading of the paper: one named choice for each decision it leaves open (docs/model.md)."""
+"""A reading of the paper: one named, documented choice for each decision the paper leaves open.
+
+The paper leaves modelling decisions open (docs/model.md §1.3, §5, §6, §7: thrust and drag,
+power, C_r, spin, hover inflow, C_hf, F̄_h). A :class:`Reading` names one combination of them
+and changes only the env keywords of the studies' jobs (:meth:`eval.studies.base.StudyPlan.jobs`);
+the default reading changes nothing. The paper does not state its search either (PSO, no swarm
+size or stopping rule): a reading may carry a :class:`Search` that replaces the plan's method and
+budgets (:data:`PAPER_SEARCHES`, docs/efficiency.md).
+"""
 
 from __future__ import annotations
 
@@ -23,6 +31,7 @@ DECISION_OPTIONS: tuple[str, ...] = tuple(
 DECISIONS = f"modelling decisions: {', '.join(DECISION_OPTIONS)}"
 #: Accelerating-flight objectives whose optimum can stand for the paper's F̄_h (Fig. 7).
 CHOICES: tuple[str, ...] = ACCELERATE.objectives.choices  # type: ignore[assignment]
+#: Accelerating-flight objectives whose optimum can stand for the paper's F̄_h (Fig. 7).
 HORIZONTAL_OBJECTIVES: tuple[str, ...] = tuple(o for o in CHOICES if o.startswith("horizontal"))
 #: A reading's changes besides its model options (:meth:`Reading.changes`).
 OWN_FIELDS = ("rotational_coefficient", "horizontal_objective", "search")
@@ -52,18 +61,22 @@ def _pairs(value: Any, where: str) -> tuple[tuple[str, Any], ...]:
 
 @dataclass(frozen=True)
 class Search:
-    """How every job of a reading searches, replacing the plan's method and budget."""
+    """How every job of a reading searches (method, budget, settings), replacing the plan's
+    method and the preset's budget: ``swarm_size`` × ``iterations`` evaluations for every task,
+    or ``budgets`` per task, or the preset's; a polish takes its share of it."""
 
     method: str
-    """A harness method name, e.g. ``"pso"``."""
+    """A harness method name, e.g. ``"pso"`` (:func:`agents.methods.available_methods`)."""
     swarm_size: int | None = None
     """Strokes per iteration (the method's batch), >= 2; None: the plan's."""
     iterations: int | None = None
-    """Iterations per run (the initial swarm counts), >= 1; with ``swarm_size``, the budget."""
+    """Iterations per run (the initial swarm counts as one), >= 1; with ``swarm_size`` the
+    budget of every task."""
     budgets: tuple[tuple[str, int], ...] = ()
-    """Model evaluations per run by task, sorted (or a mapping); others keep the preset's."""
+    """Model evaluations per run by task name, sorted (a mapping is accepted); a task not named
+    keeps the preset's."""
     settings: tuple[tuple[str, Any], ...] = ()
-    """Method settings, e.g. ``{"polish": "none"}``, sorted (or a mapping)."""
+    """Method settings, e.g. ``{"polish": "none"}``, sorted (a mapping is accepted)."""
 
     def __post_init__(self) -> None:
         method = self.method
@@ -111,7 +124,8 @@ class Search:
             raise ValueError(f"Search of method {method!r}: {error}") from None
 
     def _batch(self, preset_swarm: int | None) -> dict[str, int]:
-        """The batch: ``swarm_size``, else ``preset_swarm`` where the preset sets the method's."""
+        """The batch setting: its ``swarm_size`` (every ask/tell optimiser's alias), else
+        ``preset_swarm`` where a study's preset sets the method's batch."""
         if self.swarm_size is not None:
             return {"swarm_size": self.swarm_size}
         key = preset_batch_setting(self.method)
@@ -127,7 +141,8 @@ class Search:
         return dict(self.budgets).get(task)
 
     def method_config(self, preset_swarm: int) -> tuple[tuple[str, Any], ...]:
-        """A job's method settings: ``settings`` and the batch (:meth:`_batch`), sorted."""
+        """A job's method settings: ``settings`` and the batch (``swarm_size``, else the
+        preset's ``preset_swarm``), sorted."""
         return tuple(sorted({**dict(self.settings), **self._batch(preset_swarm)}.items()))
 
     def to_dict(self) -> dict[str, Any]:
@@ -149,19 +164,20 @@ class Reading:
     """One reading of the paper: the options it changes from the documented defaults."""
 
     name: str
-    """Short identifier, e.g. ``"default"`` or ``"body"``; a column of the matrix."""
+    """Short identifier, e.g. ``"default"`` or ``"thrust_split=body"``; a column of the matrix."""
     description: str
     """One line: what this reading assumes and where the paper leaves it open."""
     options: tuple[tuple[str, Any], ...] = ()
-    """:class:`~tandem_env.ModelOptions` fields (``DECISION_OPTIONS``), sorted (or a mapping)."""
+    """:class:`~tandem_env.ModelOptions` fields (``DECISION_OPTIONS``) and values, sorted (a
+    mapping is accepted)."""
     rotational_coefficient: float | None = None
     """C_r of both wings [-] (Table 3); None keeps the insect's (π)."""
     horizontal_objective: str = "horizontal"
     """The accelerating objective whose optimum gives F̄_h (``HORIZONTAL_OBJECTIVES``)."""
     search: Search | None = None
-    """How every job searches (a :class:`Search` or a mapping); None: the plan's."""
+    """How every job searches (a :class:`Search` or a mapping of its fields); None: the plan's."""
     derived_from: tuple[str, ...] = field(default=(), compare=False)
-    """The single readings a combination was derived from."""
+    """The single readings a combination was derived from (empty for a single reading)."""
 
     def __post_init__(self) -> None:
         if not is_name(self.name):
@@ -220,8 +236,10 @@ class Reading:
         return cls(name, description, tuple(options.items()), **own, derived_from=derived_from)
 
     def env_kwargs(self) -> dict[str, Any]:
-        """The env keywords of the changed options (C_r's keyword is its own name)."""
+        """The env keywords of the options that differ from the defaults (so a reading that
+        restates a default has the default's job keys)."""
         skip = ("horizontal_objective", "search")
+        # every option has its env keyword (MODEL_OPTION_KWARGS); C_r is one by its own name
         return {_KWARG_OF.get(k, k): v for k, v in self.changes().items() if k not in skip}
 
     def objective(self, objective: str) -> str:
@@ -278,7 +296,8 @@ def _paper_search(swarm: int, iterations: int) -> Reading:
     )
 
 
-#: The paper-era search budgets (assumed: 20-40 particles, 50-100 iterations; docs/efficiency.md).
+#: The paper-era search budgets (an assumption: swarms of 20-40 particles for 50-100 iterations,
+#: the range usual in PSO studies of that time), smallest first; docs/efficiency.md.
 PAPER_SEARCHES: tuple[Reading, ...] = (
     _paper_search(20, 50),
     _paper_search(40, 50),

@@ -1,4 +1,6 @@
-"""Accelerating-flight power sweep (paper Figs. 7-8): F̄_v, F̄_h and F̄_a (Eq. 27) per power."""
+"""Accelerating-flight power sweep (paper Figs. 7-8): per power and seed one optimisation of F̄_v
+(F̄_h ≥ 0) and one of F̄_h (F̄_v ≥ 0), combined as F̄_a = sqrt(F̄_v² + F̄_h²) (Eq. 27) per seed and,
+the paper's reading, over the best seeds."""
 
 from __future__ import annotations
 
@@ -52,7 +54,8 @@ def series_jobs(plan: StudyPlan, powers: tuple[float, ...], planform: str) -> li
 def excess(
     rows: Rows, method: str, planform: str, axis: str, horizontal: str = "horizontal"
 ) -> dict[float, Spread]:
-    """F̄_v (axis "vertical") or F̄_h (objective ``horizontal``) per power [-]."""
+    """F̄_v (axis "vertical") or F̄_h ("horizontal": the reading's objective ``horizontal``) per
+    power, the objective value of its own optimisation."""
     objective = horizontal if axis == "horizontal" else axis
     where = dict(method=method, task="accelerate", objective=objective, planform=planform)
     return by_condition(rows, "objective_value", **where)
@@ -163,7 +166,8 @@ def ratio(series: Mapping[str, Mapping[float, Spread]], _: Any) -> C.Stats:
     common = sorted(set(vertical) & set(horizontal))
     ratios = [100.0 * (vertical[p].median / horizontal[p].median - 1.0) for p in common]
     best_ratios = [100.0 * (vertical[p].best / horizontal[p].best - 1.0) for p in common]
-    ratios, best_ratios = ([r for r in x if math.isfinite(r)] for x in (ratios, best_ratios))
+    ratios = [r for r in ratios if math.isfinite(r)]
+    best_ratios = [r for r in best_ratios if math.isfinite(r)]
     if not ratios:
         return None
     q25, med, q75 = np.percentile(ratios, [25.0, 50.0, 75.0])

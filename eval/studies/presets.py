@@ -1,4 +1,8 @@
-"""Study presets: the conditions, seeds, method and budgets of a study run (validated)."""
+"""Study presets: which conditions, seeds, method and budgets a study run uses (frozen, validated).
+
+``quick`` takes minutes on 2 cores, ``paper`` is the full study, ``tiny`` is for the tests only.
+Method and budgets come from the convergence study (docs/reproduction.md, "Method and budget:
+the convergence study")."""
 
 from __future__ import annotations
 
@@ -26,14 +30,19 @@ _PER_JOB_KWARGS: frozenset[str] = frozenset(
 )
 
 
-#: Warm starts of a search (``Preset.warm_start``): cold, or from the reference table's optima.
+#: Warm starts of a search (``Preset.warm_start``, ``eval optimize --warm-start``): none (a cold
+#: start), or the reference table's optimum at the job's condition and its grid neighbours'.
 WARM_STARTS: tuple[str, ...] = ("none", "table")
-#: The share of a warm-started run's budget its table strokes are polished on (docs/reference.md).
+#: The share of a warm-started run's budget its table strokes are polished on (together); the
+#: search and its polish get the rest (docs/reference.md, "Warm starts").
 WARM_SHARE = 0.25
 
 
 def warm_start(task: str, condition: float, env_kwargs: Mapping[str, Any]) -> dict[str, Any]:
-    """A warm start's method settings (the table's strokes at ``condition``); ValueError if none."""
+    """The method settings of a warm start from the reference table: its strokes at
+    ``condition`` (:func:`~tandem_env.envs.reference.table_strokes`) as the polish's
+    ``initial`` strokes on :data:`WARM_SHARE` of the budget; ValueError saying why the table
+    has none for this problem and condition."""
     strokes = table_strokes(get_task(task).env_id, env_kwargs, condition)
     return {"initial": [list(s) for s in strokes], "initial_share": WARM_SHARE}
 
@@ -73,13 +82,18 @@ def _check_values(name: str, values: Any, condition: TaskCondition) -> None:
     low, high = condition.envelope
     inside = lambda v: is_number(v) and low <= v <= high  # noqa: E731
     if not distinct(values, inside) or list(values) != sorted(values):
-        allowed = "a non-empty, increasing tuple of distinct numbers from"
-        fail(name, values, f"{allowed} {low:g} to {high:g} {condition.unit}")
+        allowed = f"a non-empty, increasing tuple of distinct numbers from {low:g} to {high:g}"
+        fail(name, values, f"{allowed} {condition.unit}")
 
 
 @dataclass(frozen=True)
 class ConvergenceSpec:
-    """The budget study: each method's long runs at one level and one accelerating condition."""
+    """The budget study: each method at one level and one accelerating condition, long runs.
+
+    Every method compared has the prefix property (a run with budget B is the first B
+    evaluations of any longer run with the same seed: agents/cmaes_search.py, agents/pso.py),
+    so one long run per seed gives the best-so-far at every smaller budget.
+    """
 
     budget: int
     """Model evaluations per run [-]."""
@@ -90,9 +104,11 @@ class ConvergenceSpec:
     power: float = 60.0
     """Accelerating condition [W/kg], objective ``vertical``."""
     methods: tuple[str, ...] = ("pso", "cmaes")
-    """Methods compared, besides the study's; their long runs have no polish."""
+    """Harness methods compared side by side, besides any the study is run with; their long
+    runs have no polish (it would end the prefix property)."""
     polish_shares: tuple[float, ...] = (0.0, 0.25, 0.4)
-    """The polish shares of the preset's method's budget compared at its budgets (0: none)."""
+    """The budget splits compared at the preset's own budgets: the share of the preset's
+    method's budget kept for the local polish (``polish_share``; 0: no polish)."""
 
     def __post_init__(self) -> None:
         owner = "ConvergenceSpec"
@@ -127,7 +143,7 @@ class Preset:
     speeds: tuple[float, ...]
     """Speed sweep (Figs. 4-6) [m/s]."""
     powers: tuple[float, ...]
-    """Power sweep (Figs. 7-8) [W/kg], a vertical and a horizontal optimisation each."""
+    """Power sweep (Figs. 7-8) [W/kg]; each power runs a vertical and a horizontal optimisation."""
     shape_speeds: tuple[float, ...]
     """Speeds of the wing-shape study (Fig. 15) [m/s]; the tear-drop side reuses the sweep."""
     shape_powers: tuple[float, ...]
@@ -149,7 +165,9 @@ class Preset:
     env_kwargs: tuple[tuple[str, Any], ...] = field(default=())
     """Extra env keywords for every job, e.g. ``(("n_time", 32),)`` in the test preset."""
     warm_start: str = "table"
-    """How each search starts (:data:`WARM_STARTS`): from the table's strokes, or cold."""
+    """How each search at the preset's budgets starts (:data:`WARM_STARTS`): ``table`` polishes
+    the reference table's strokes first where it has the job's problem and condition (the
+    report says where it has not), ``none`` starts cold."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.isidentifier():
@@ -187,7 +205,8 @@ class Preset:
         return {task: getattr(self, name) for task, name in BUDGET_FIELDS.items()}
 
     def budget(self, task: str) -> int:
-        """Evaluations per optimisation of ``task``; ValueError for a task without a budget."""
+        """Evaluations per optimisation of ``task``; ValueError for a task the preset does not
+        budget."""
         if task not in BUDGET_FIELDS:
             raise ValueError(
                 f"Preset {self.name!r} has no budget for task {task!r}; allowed: "
@@ -254,7 +273,8 @@ TINY = Preset(
 )
 
 
-#: The preset fields each ``python -m eval study`` option sets.
+#: The preset fields each ``python -m eval study`` option sets: the sweeps of a condition (the
+#: wing-shape study's too), the seeds (the convergence study's too), every task's budget.
 OVERRIDES: dict[str, tuple[str, ...]] = {
     "speeds": ("speeds", "shape_speeds"),
     "powers": ("powers", "shape_powers"),
@@ -264,7 +284,9 @@ OVERRIDES: dict[str, tuple[str, ...]] = {
 
 
 def overridden(preset: Preset, **given: Any) -> Preset:
-    """``preset`` with the command line's values ``given``; ValueError naming the option."""
+    """``preset`` with the command line's values ``given`` (keys of :data:`OVERRIDES`; None:
+    the preset's), checked by the preset; ValueError naming the option. Its description says
+    what was changed."""
     changed = []
     for option, value in given.items():
         if value is None:

@@ -1,4 +1,6 @@
-"""The reproduction report: every claim of the paper (docs/model.md §9) beside ours, figures."""
+"""The reproduction report: every claim of the paper (docs/model.md §9) beside ours, plus figures;
+no timestamps or timings (those are in ``manifest.json``), so the same command gives the same file.
+"""
 
 from __future__ import annotations
 
@@ -120,7 +122,8 @@ CLAIMS_FILE = "claims.json"
 
 
 def claims_data(claims: Sequence[Claim]) -> dict[str, Any]:
-    """The claims as JSON: each one's fields (NaN as null) and its table ``cells``, by title."""
+    """The claims as JSON: each claim's fields (statistics, verdicts before and after the
+    bootstrap, its flips; NaN as null) and its ``cells`` in the paper-vs-ours table, by title."""
     nan = lambda v: None if isinstance(v, float) and math.isnan(v) else v  # noqa: E731
     cells = lambda c: {t: cell(c) for t, cell in CLAIM_COLUMNS}  # noqa: E731
     return {
@@ -193,7 +196,9 @@ def settings_lines(plan: StudyPlan) -> list[str]:
 def write_report(
     path: Path, plan: StudyPlan, outputs: Sequence[StudyOutput], all_studies: Sequence[str]
 ) -> Path:
-    """Write the report to ``path`` (atomically) and :data:`CLAIMS_FILE` beside it; the path."""
+    """Write the report to ``path`` (atomically) and return it: settings, rules, every claim
+    beside ours, the pinned parameters, the studies not run and the figures; and the claims as
+    data beside it (:data:`CLAIMS_FILE`)."""
     base = path.parent
     claims = [c for o in outputs for c in o.claims]
     rows = [r for o in outputs for r in o.rows]
@@ -213,9 +218,9 @@ def write_report(
         claims_table(claims),
         "",
     ]
-    notes = [f"- **{c.id}**: {'; '.join(t for t in (c.detail, c.note) if t)}" for c in claims]
-    if notes := [n for n, c in zip(notes, claims, strict=True) if c.detail or c.note]:
-        parts += ["### Notes on the rows", "", *notes, ""]
+    if notes := [c for c in claims if c.detail or c.note]:
+        texts = [f"- **{c.id}**: {'; '.join(t for t in (c.detail, c.note) if t)}" for c in notes]
+        parts += ["### Notes on the rows", "", *texts, ""]
     parts += ["## Against the reference table", "", *plan.table_lines(rows), ""]
     parts += ["## Understood differences", "", *[f"- {t}" for t in UNDERSTOOD.values()], ""]
     parts += pinned_section(rows)

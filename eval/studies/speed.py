@@ -1,4 +1,5 @@
-"""Level-flight speed sweep (paper Figs. 4-6): η optimised at each speed, every seed."""
+"""Level-flight speed sweep (paper Figs. 4-6): η optimised at each speed, every seed; T/W, mean
+angle of attack and stroke-plane angle (Fig. 4), P/m, f and φ_m (Fig. 5), η (Fig. 6)."""
 
 from __future__ import annotations
 
@@ -42,7 +43,8 @@ def draw(
 
     def panel(ylabel: str, quantity: str, **paper: Any) -> figures.Panel:
         """``quantity`` over speeds, one series per method, within its Table 4 bounds if any."""
-        label, where = figures.method_label, dict(task="level", planform="tear-drop")
+        label = figures.method_label
+        where = dict(task="level", planform="tear-drop")
         series = [
             figures.Series(label(m), by_condition(rows, quantity, method=m, **where), method=m)
             for m in plan.methods
@@ -51,8 +53,11 @@ def draw(
         return figures.Panel(ylabel, series, bounds=bounds, **paper)
 
     # The paper states these trends in words only, no numbers.
-    falls, rises, follows = "paper: falls with V", "paper: rises with V", "paper: follows the power"
-    level, pm = "level flight, optimised at each speed", figures.pair_mean
+    falls = "paper: falls with V"
+    rises = "paper: rises with V"
+    follows = "paper: follows the power"
+    level = "level flight, optimised at each speed"
+    pair_mean = figures.pair_mean
     least = [(PAPER_BEST_SPEED, "paper: minimum power")]
     specs = (
         (
@@ -61,8 +66,14 @@ def draw(
             f"Fig. 4: {level}",
             [
                 panel("thrust ratio T/W [-]", "thrust_ratio", paper_note=falls),
-                panel(pm("mean angle of attack [deg]"), "mean_angle_of_attack", paper_note=falls),
-                panel(pm("stroke-plane angle β [deg]"), "stroke_plane_angle", paper_note=rises),
+                panel(
+                    pair_mean("mean angle of attack [deg]"),
+                    "mean_angle_of_attack",
+                    paper_note=falls,
+                ),
+                panel(
+                    pair_mean("stroke-plane angle β [deg]"), "stroke_plane_angle", paper_note=rises
+                ),
             ],
         ),
         (
@@ -71,8 +82,10 @@ def draw(
             f"Fig. 5: {level}",
             [
                 panel("power P/m [W/kg]", "power_per_mass", paper_at=least),
-                panel(pm("frequency f [Hz]"), "frequency", paper_note=follows),
-                panel(pm("weaving amplitude φ_m [deg]"), "sweep_amplitude", paper_note=follows),
+                panel(pair_mean("frequency f [Hz]"), "frequency", paper_note=follows),
+                panel(
+                    pair_mean("weaving amplitude φ_m [deg]"), "sweep_amplitude", paper_note=follows
+                ),
             ],
         ),
         (
@@ -88,9 +101,9 @@ def draw(
             ],
         ),
     )
-    x = "flight speed V [m/s]"
+    xlabel = "flight speed V [m/s]"
     return [
-        (caption, figures.sweep_figure(panels, x, title, plan.figure(study_dir, stem)))
+        (caption, figures.sweep_figure(panels, xlabel, title, plan.figure(study_dir, stem)))
         for caption, stem, title, panels in specs
     ]
 
@@ -108,7 +121,8 @@ def trend(quantity: str) -> C.Measure:
 
 
 def follows(quantity: str) -> C.Measure:
-    """``follows``: ρ(power's medians, ``quantity``'s) over speeds; 0 where a bound holds it."""
+    """``follows``: ρ between the power's and ``quantity``'s medians (and best seeds) over
+    speeds; 0 where a Table 4 bound holds ``quantity``."""
     return lambda rows, _: C.follows_stats(
         by_condition(rows, "power_per_mass"),
         by_condition(rows, quantity),

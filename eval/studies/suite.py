@@ -1,4 +1,5 @@
-"""Run studies: their jobs once, the analyses and the report (:data:`SUITE`)."""
+"""Run studies: their jobs once, the analyses and the report; the paper's studies as a campaign of
+the command line (:data:`SUITE`)."""
 
 from __future__ import annotations
 
@@ -35,7 +36,10 @@ class SuiteResult:
 
 
 class SuitePlan:
-    """The studies ``names`` (``all``: the paper's) as a plan of one phase."""
+    """The studies ``names`` (``all``: the paper's) as a plan of one phase, :attr:`phases`:
+    all their jobs in one pool, shared optimisations run once; :meth:`finish` analyses them
+    into ``out`` with every other paper study whose records are all there, so running ``speed``
+    and then ``power`` into one folder gives one report with both."""
 
     def __init__(self, names: Sequence[str], plan: StudyPlan, out: Path) -> None:
         self.started = time.perf_counter()
@@ -44,7 +48,8 @@ class SuitePlan:
         if unknown := [name for name in chosen if name not in STUDIES]:
             raise ValueError(f"unknown study {unknown[0]!r}; allowed: all, {', '.join(STUDIES)}")
         self.asked = list(dict.fromkeys(chosen))
-        self.plan, self.out = plan, out
+        self.plan = plan
+        self.out = out
         self.title = f"study {self.given} ({', '.join(self.asked)})"
         # each study's jobs, built once: the asked ones first, then the other paper studies
         studies = dict.fromkeys([*self.asked, *PAPER_STUDIES])
@@ -53,8 +58,10 @@ class SuitePlan:
         self.phases = [Phase(self.given, jobs)]
 
     def finish(self, run: PlanRun) -> SuiteResult:
-        """Analyse the studies (and any other complete paper study), write report and manifest."""
-        out, done = self.out, {}
+        """Analyse the studies asked (and every other paper study whose records are all
+        present), write the report and the manifest."""
+        out = self.out
+        done = {}
         for name, own in self.jobs_of.items():
             if name in self.asked:
                 records = {job: run.records[job.key] for job in own}
@@ -62,16 +69,22 @@ class SuitePlan:
                 continue
             done[name] = STUDIES[name].analyse(self.plan, records, out)
         paper = [name for name in PAPER_STUDIES if name in done]
-        summary, path = run.runs[self.given], None
+        summary = run.runs[self.given]
+        path = None
         if paper:
             outputs = [done[n] for n in paper]
             path = report.write_report(out / "report.md", self.plan, outputs, list(PAPER_STUDIES))
             wall = round(time.perf_counter() - self.started, 1)  # the whole call's, analysis too
             last_run = {"studies": self.asked, **summary.to_dict(), "wall_time_s": wall}
             jobs = sorted({j.key for n in done for j in self.jobs_of[n]})
-            preset, methods = self.plan.preset.name, list(self.plan.methods)
-            manifest = {"preset": preset, "methods": methods, "studies": paper, "jobs": jobs}
-            write_json_atomic(out / "manifest.json", {**manifest, "last_run": last_run})
+            manifest = {
+                "preset": self.plan.preset.name,
+                "methods": list(self.plan.methods),
+                "studies": paper,
+                "jobs": jobs,
+                "last_run": last_run,
+            }
+            write_json_atomic(out / "manifest.json", manifest)
         wall = time.perf_counter() - self.started
         return SuiteResult([done[n] for n in self.asked], summary, path, wall)
 
@@ -88,16 +101,21 @@ def run_studies(
     rerun: bool = False,
     command: CommandProgress | None = None,
 ) -> SuiteResult:
-    """Run the studies ``names`` into ``out_dir``; ``workers=N > 1``: ``scheduler="local:N"``."""
+    """Run the studies ``names`` (or ``["all"]``) into ``out_dir`` (:class:`SuitePlan`), reusing
+    the stored records; ``workers=N > 1`` is short for ``scheduler="local:N"``; ``scheduler``,
+    ``cache``, ``rerun`` and ``command`` as for :func:`~agents.runner.run_plan`."""
     store = RecordStore.at(out_dir)
     suite = SuitePlan(names, plan, store.directory)
     scheduler = executor_spec(scheduler, workers)
-    options = {"progress": progress, "rerun": rerun, "command": command}
-    return suite.finish(run_plan(suite.phases, store, scheduler, cache, **options))
+    done = run_plan(
+        suite.phases, store, scheduler, cache, progress=progress, rerun=rerun, command=command
+    )
+    return suite.finish(done)
 
 
 class SuiteCampaign:
-    """The paper's studies on the command line (``all`` or one study)."""
+    """The paper's studies on the command line (``all`` or one study; the report covers every
+    paper study whose records are present)."""
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -135,12 +153,16 @@ class SuiteCampaign:
         run = result.run
         done = f"{run.describe(args.out)} ({run.executor}); {result.wall_time:.1f} s"
         print(f"{run.total} optimisations: {done}", file=sys.stderr)
-        for o in result.outputs:
-            median, best = (VerdictCount.of(o.claims, best=b).text() for b in (False, True))
+        for output in result.outputs:
+            median, best = (VerdictCount.of(output.claims, best=b).text() for b in (False, True))
             claims = (
-                f"; claims on the median: {median}; on the best seed: {best}" if o.claims else ""
+                f"; claims on the median: {median}; on the best seed: {best}"
+                if output.claims
+                else ""
             )
-            print(f"{o.name}: {len(o.rows)} records, {len(o.figures)} figures{claims}")
+            print(
+                f"{output.name}: {len(output.rows)} records, {len(output.figures)} figures{claims}"
+            )
         if result.report is not None:
             print(f"report: {result.report}")
 

@@ -1,4 +1,8 @@
-"""Records -> tidy rows (one per optimisation) -> statistics over the feasible seeds."""
+"""Records -> tidy rows (one per optimisation) -> per-condition statistics over seeds.
+
+Statistics use the feasible seeds only; "best" is the value at the feasible seed with the best
+objective, so every "best" column describes one and the same stroke.
+"""
 
 from __future__ import annotations
 
@@ -53,25 +57,30 @@ QUANTITIES: dict[str, str] = {
 }
 
 
-#: Angles on a circle, with circular statistics (:func:`circular_median`).
+#: Quantities that are angles on a circle: their statistics are circular (see
+#: :func:`circular_median`); +170° and −170° are 20° apart, not 340°.
 CIRCULAR: frozenset[str] = frozenset(
     {"phase_difference", *(n for n in PARAMETER_NAMES if n.endswith("_phase"))}
 )
 
-#: The stroke quantities that are two-wing means, and the Table 4 parameter(s) behind each.
+#: The stroke quantities of the rows that are the mean of the fore- and hind-wing's parameter.
 WING_MEANS = ("stroke_plane_angle", "frequency", "sweep_amplitude", "pitch_amplitude")
+#: The Table 4 parameter(s) behind each stroke quantity of the rows: a mean of both wings, or
+#: one of the 28 parameters itself (the tidy rows carry all 28, in Table 4 units).
 PARAMETERS_OF: dict[str, tuple[str, ...]] = {
     **{q: (f"fore_{q}", f"hind_{q}") for q in WING_MEANS},
     **{name: (name,) for name in PARAMETER_NAMES},
 }
-#: A parameter is *pinned* at a bound where more than this share of the feasible seeds sit at it.
+#: A parameter is *pinned* at a Table 4 bound at one condition when more than this share of the
+#: feasible seeds sit at it (:func:`tandem_env.bound_sides`); a two-wing mean when both wings do.
 PINNED_SHARE = 0.5
 
 
 def table4_bounds(
     quantity: str, bounds: StrokeBounds = TABLE_4_BOUNDS
 ) -> tuple[float, float] | None:
-    """The (low, high) of ``quantity``'s parameters in ``bounds`` if one finite range; else None."""
+    """The (low, high) of a stroke quantity's parameters in ``bounds`` when they share one
+    range and can sit at a bound; else None."""
     names = PARAMETERS_OF.get(quantity, ())
     index = [PARAMETER_NAMES.index(n) for n in names]
     ranges = {(bounds.lower[i], bounds.upper[i]) for i in index if not UNBOUNDED[i]}
@@ -79,14 +88,16 @@ def table4_bounds(
 
 
 def row_bounds(row: Mapping[str, Any]) -> StrokeBounds:
-    """Table 4's bounds with the row's ``stroke_bounds`` changes (a mapping or JSON text)."""
+    """The stroke bounds of a row's insect: Table 4's with the row's ``stroke_bounds`` changes
+    (a mapping or its JSON text)."""
     own = row.get("stroke_bounds")
     own = json.loads(own) if isinstance(own, str) and own else own
     return TABLE_4_BOUNDS.with_changes(own) if own else TABLE_4_BOUNDS
 
 
 def pinned(rows: Sequence[Mapping[str, Any]], quantity: str) -> str:
-    """The bound ``quantity`` is pinned at over one condition's ``rows``: lower, upper or ""."""
+    """``"lower"``, ``"upper"`` or ``""``: the bound the stroke quantity is pinned at over the
+    feasible ``rows`` of one condition (:data:`PINNED_SHARE`)."""
     names = PARAMETERS_OF.get(quantity)
     feasible = [r for r in rows if r["feasible"]]
     if not names or not feasible:
@@ -112,7 +123,9 @@ def _wrap(angles: np.ndarray) -> np.ndarray:
 
 
 def circular_median(angles: Sequence[float]) -> float:
-    """The circular median of angles [deg] in (−180, 180] (NaN for none; Fisher 1993, §2.3.2)."""
+    """The circular median of angles [deg] in (−180, 180] (NaN for none): the direction of
+    least summed angular distance (Fisher 1993, §2.3.2) among the angles and their neighbours'
+    midpoints, ties averaged on the circle; for +136° and −170° it is 163°, not −17°."""
     values = _wrap(np.asarray(angles, float))
     if values.size == 0:
         return math.nan
@@ -131,14 +144,16 @@ def circular_median(angles: Sequence[float]) -> float:
 
 
 def circular_quartiles(angles: Sequence[float], median: float) -> tuple[float, float]:
-    """The quartiles [deg] of the angles' wrapped deviations from ``median``, added to it."""
+    """The quartiles [deg] of the angles' wrapped deviations from ``median``, added to it
+    (q25 <= median <= q75, possibly beyond ±180°)."""
     deviations = _wrap(np.asarray(angles, float) - median)
     q25, q75 = np.percentile(deviations, [25.0, 75.0])
     return median + float(q25), median + float(q75)
 
 
 def record_row(job: Job, record: Record) -> dict[str, Any]:
-    """The tidy row of one optimisation: identity, metrics, stroke summary and parameters."""
+    """The tidy row of one optimisation: identity, feasibility, metrics, stroke summary, the 28
+    stroke parameters (Table 4 units) and ``at_bounds`` (:func:`tandem_env.describe_bounds`)."""
     m, s, insect = record.metrics, record.stroke, record.config["env"]["insect"]
     phase_difference = float(_wrap(float(s["hind_sweep_phase"]) - float(s["fore_sweep_phase"])))
     weight = float(insect["body_mass"]) * float(insect["gravity"])
@@ -206,20 +221,30 @@ class Spread:
 
 
 def spread(rows: Sequence[Mapping[str, Any]], quantity: str) -> Spread:
-    """Median, IQR and best of ``quantity`` over the feasible rows (circular for angles)."""
+    """Median, IQR and best of ``quantity`` over the feasible rows (one per seed); circular
+    statistics for the angles of :data:`CIRCULAR`."""
     feasible = [r for r in rows if r["feasible"]]
     values = np.array([float(r[quantity]) for r in feasible])
     if values.size == 0:
-        return Spread((), (), *(math.nan,) * 4, None, len(rows), 0)
+        nan = math.nan
+        return Spread((), (), nan, nan, nan, nan, None, len(rows), 0)
     if quantity in CIRCULAR:
         median = circular_median(values)
         q25, q75 = circular_quartiles(values, median)
     else:
         q25, median, q75 = np.percentile(values, [25.0, 50.0, 75.0])
     top = max(feasible, key=lambda r: (float(r["objective_value"]), -int(r["seed"])))
-    seeds = tuple(int(r["seed"]) for r in feasible)
-    stats = (float(median), float(q25), float(q75), float(top[quantity]), int(top["seed"]))
-    return Spread(tuple(map(float, values)), seeds, *stats, len(rows), len(feasible))
+    return Spread(
+        values=tuple(float(v) for v in values),
+        seeds=tuple(int(r["seed"]) for r in feasible),
+        median=float(median),
+        q25=float(q25),
+        q75=float(q75),
+        best=float(top[quantity]),
+        best_seed=int(top["seed"]),
+        n=len(rows),
+        n_feasible=len(feasible),
+    )
 
 
 def select(rows: Iterable[Mapping[str, Any]], **where: Any) -> list[Mapping[str, Any]]:
@@ -239,7 +264,8 @@ def by_condition(
 def series_conditions(
     rows: Iterable[Mapping[str, Any]],
 ) -> list[tuple[tuple[Any, ...], list[Mapping[str, Any]]]]:
-    """((method, task, objective, planform, condition), rows) of each series and condition."""
+    """The rows grouped by series (:data:`SERIES_KEYS`, as text) and condition, in that order:
+    ((method, task, objective, planform, condition), rows) each."""
     groups: dict[tuple[Any, ...], list[Mapping[str, Any]]] = {}
     for r in rows:
         groups.setdefault((*(str(r[k]) for k in SERIES_KEYS), float(r["condition"])), []).append(r)
@@ -268,7 +294,9 @@ def spread_summary_rows(rows: Sequence[Mapping[str, Any]], quantities: Sequence[
 
 
 def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> Rows:
-    """Every parameter pinned at a bound per series and condition (a record once)."""
+    """Every stroke parameter pinned at a Table 4 bound (:func:`pinned`) per series and
+    condition: its ``bound``, ``value`` and ``share`` of the feasible seeds there; a record in
+    two studies counts once."""
     out = []
     for key, members in series_conditions(list({r["key"]: r for r in rows}.values())):
         feasible = [r for r in members if r["feasible"]]

@@ -1,4 +1,6 @@
-"""Wing shape: tear-drop against the real planform (paper Figs. 14-16)."""
+"""Wing shape: tear-drop against the real dragonfly planform (paper Figs. 14-16), each optimised
+in level flight (Fig. 15: efficiency) and accelerating flight (Fig. 16: F̄_a); the tear-drop jobs
+are the sweeps' own."""
 
 from __future__ import annotations
 
@@ -38,7 +40,8 @@ def jobs(plan: StudyPlan) -> list[Job]:
 
 
 def planform_outlines(n: int = 200) -> list[tuple[str, np.ndarray, np.ndarray, np.ndarray]]:
-    """(label, r [mm], leading edge [mm], trailing edge [mm]) of both wings and planforms."""
+    """(label, r [mm], leading edge [mm], trailing edge [mm]) of both wings, both planforms:
+    the tear-drop symmetric about mid-chord, the real wing's edges Table 2's polynomials."""
     out = []
     r_hat = np.linspace(0.0, 1.0, n)
     for planform in PLANFORMS:
@@ -51,7 +54,8 @@ def planform_outlines(n: int = 200) -> list[tuple[str, np.ndarray, np.ndarray, n
                     for c in wing.real_edges
                 )
             else:
-                lead, trail = 0.5e3 * wing.chord(r_hat), -0.5e3 * wing.chord(r_hat)
+                lead = 0.5e3 * wing.chord(r_hat)
+                trail = -0.5e3 * wing.chord(r_hat)
             out.append((f"{wing_name}, {planform}", 1e3 * wing.length * r_hat, lead, trail))
     return out
 
@@ -66,20 +70,23 @@ def draw(
         """One series per method and planform of ``points(method, planform)``."""
         return [
             figures.Series(
-                _label(m, pf), points(m, pf), method=m, variant=figures.PLANFORM_VARIANT[pf]
+                _label(m, planform),
+                points(m, planform),
+                method=m,
+                variant=figures.PLANFORM_VARIANT[planform],
             )
             for m in plan.methods
-            for pf in PLANFORMS
+            for planform in PLANFORMS
         ]
 
     eff = by_planform(lambda m, planform: _efficiency(rows, m, planform))
     acc = by_planform(lambda m, planform: attainable(rows, m, planform, h_obj))
-    # The paper's η (Fig. 6) and F̄_a (Fig. 8) are the tear-drop's; the text of Figs. 15-16
-    # gives the real wing only relative to them.
     gain = f"≈ {PAPER_GAIN_AT_2:g} % more at 2 m/s"
     fig15 = figures.Panel(
         "efficiency η [%]",
         eff,
+        # Fig. 6's number is the tear-drop's; the text of Fig. 15 names the peak and gives the
+        # real wing's gain at 2 m/s relative to it.
         paper=[(PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY, "paper, tear-drop")],
         derived=_paper_gain(rows, plan.methods[0]),
         paper_at=[(PAPER_BEST_SPEED, "paper: both peak at 1.5 m/s")],
@@ -88,6 +95,8 @@ def draw(
     fig16 = figures.Panel(
         excess_label("attainable F̄_a"),
         acc,
+        # The paper's F̄_a (Fig. 8) is the tear-drop's; Fig. 16's text gives the real wing only
+        # relative to it.
         paper=paper_attainable("paper, tear-drop"),
         paper_note="paper: real wing slightly above tear-drop at every power",
     )
@@ -114,14 +123,15 @@ def draw(
             figures.planform_figure(outlines, plan.figure(study_dir, "fig14_planforms")),
         ),
         *(
-            (caption, figures.sweep_figure([panel], x, title, plan.figure(study_dir, stem)))
-            for caption, panel, x, title, stem in sweeps
+            (caption, figures.sweep_figure([panel], xlabel, title, plan.figure(study_dir, stem)))
+            for caption, panel, xlabel, title, stem in sweeps
         ),
     ]
 
 
 def _paper_gain(rows: Rows, method: str) -> list[tuple[float, float, str]]:
-    """Fig. 15's gain as a derived mark: our tear-drop median η at 2 m/s × 1.12; or none."""
+    """Fig. 15's stated gain as a derived mark: our tear-drop median η at 2 m/s × (1 + 12 %),
+    where the paper's real wing would sit (W2 judges that ratio); none without it."""
     at = _efficiency(rows, method, "tear-drop").get(2.0)
     if at is None or not math.isfinite(at.median):
         return []
@@ -154,7 +164,8 @@ Planforms = Mapping[str, Mapping[str, Mapping[float, Spread]]]
 
 
 def view(plan: StudyPlan, rows: Rows, method: str) -> Planforms:
-    """What the claims judge: η over speeds and F̄_a over powers of each planform."""
+    """What the claims judge: ``method``'s η over speeds (``efficiency``) and F̄_a over powers
+    (``attainable``) of each planform."""
     h_obj = plan.reading.horizontal_objective
     return {
         "efficiency": {pf: _efficiency(rows, method, pf) for pf in PLANFORMS},
@@ -163,7 +174,8 @@ def view(plan: StudyPlan, rows: Rows, method: str) -> Planforms:
 
 
 def real_wins(quantity: str) -> C.Measure:
-    """``compare``: the share of conditions where the real wing's ``quantity`` is higher."""
+    """``compare``: the share of conditions where the real wing's ``quantity`` beats the
+    tear-drop's (the claim: 1)."""
 
     def measure(by: Planforms, _: Any) -> C.Stats:
         real, tear = by[quantity]["real"], by[quantity]["tear-drop"]

@@ -1,4 +1,12 @@
-"""The readings study: which reading of the paper reproduces which of its claims."""
+"""The readings study: which reading of the paper reproduces which of its claims.
+
+``python -m eval study readings [--preset quick|paper]``: the four paper studies under the
+default reading, each single reading (:data:`SINGLES`) and the combinations their results
+point to (:func:`combinations`), a reading continuing from the optima of those nearest it
+(:class:`Continuation`; docs/reproduction.md, "Readings"). The parts: :mod:`.plan` (readings,
+continuation, jobs), :mod:`.run` (the phases, the analysis, the outputs, the command line),
+:mod:`.report`, :mod:`.figure`, :mod:`.result` and :mod:`.timing`.
+"""
 
 from __future__ import annotations
 

@@ -1,4 +1,7 @@
-"""The readings study's plan: readings, continuation, bias check, jobs and results."""
+"""The readings study's plan: the readings (the singles, the named ones, the combinations
+their results point to), the continuation from the default's optima and its bias check, and
+the jobs of each (:mod:`eval.studies.readings`); one reading's analysed studies
+(:class:`ReadingResult`), readings.csv's headline numbers and a reading's output folder."""
 
 from __future__ import annotations
 
@@ -25,7 +28,8 @@ TITLE = "Readings of the paper against its claims"
 DEFAULT_OUT = os.path.join("results", "readings")
 MANIFEST = "readings_manifest.json"
 CHECK_CSV = "continuation_check.csv"
-#: The phases of a run with the continuation (without it, the last two).
+#: The phases of a run with the continuation: the default in full, the continuation's bias
+#: check, the singles, the combinations; without it, the last two.
 PHASES = ("default", "check", "singles", "combinations")
 
 #: The single readings: the default, then each open decision changed alone (docs/model.md).
@@ -95,10 +99,13 @@ SINGLES: tuple[Reading, ...] = (
     ),
 )
 
-#: Named readings. ``paper``: the most agreeing in the paper-preset run (docs/reproduction.md).
+#: Named readings. ``paper``: the reading with the most agreeing claims in the paper-preset run
+#: of this study (docs/reproduction.md, "Readings at the paper preset"); its model part is
+#: ``ModelOptions.preset("paper")``.
 ALIASES: dict[str, str] = {"paper": "hover-none+Fh-literal"}
 
-#: The verdict counts of readings.csv (VerdictCount fields), in order: column -> table title.
+#: The verdict counts of readings.csv and the readings tables, in their order
+#: (:class:`~eval.studies.claims.VerdictCount` fields): column -> table title.
 COUNTS = {
     k: k.replace("_", " ") for k in ("agree", "differ", "undecided", "not_identifiable", "no_data")
 }
@@ -170,14 +177,18 @@ CSV_COLUMNS: tuple[str, ...] = (
 
 @dataclass(frozen=True)
 class Continuation(agents_jobs.Continuation):
-    """How a reading continues from the default's optima, with the bias check's settings."""
+    """How a reading's optimisations continue from the default reading's optima: one round of
+    :class:`agents.jobs.Continuation` (``share``, ``initial_share``, ``starts``), with the
+    bias check's settings."""
 
     check_studies: tuple[str, ...] = ("power", "speed")
-    """The paper studies whose jobs also run in full for each single reading (the bias check)."""
+    """The paper studies whose jobs also run in full for each single reading, to measure the
+    continuation's bias (``continuation_check.csv``): one per task."""
     check_seeds: tuple[int, ...] = (0,)
     """The seeds of those full runs."""
     full_median: float = -0.02
-    """A task whose checked median falls short by more than this [-] runs in full."""
+    """A single reading's task whose checked continued optima fall short of the full runs' by
+    more than this median relative difference [-] runs in full instead (:func:`full_tasks`)."""
     full_lowest: float = -0.5
     """Likewise for any one checked pair worse than this [-]."""
 
@@ -214,7 +225,7 @@ class ReadingsResult:
     runs: tuple[RunSummary, ...]
     """One per phase (:attr:`phases`)."""
     combination_rule: str
-    """The rule's outcome in words."""
+    """The rule's outcome in words (which singles gained, what was combined)."""
     files: tuple[Path, ...]
     """readings.csv, the matrix figure, report.md."""
     wall_time: float
@@ -241,7 +252,8 @@ def single_readings(names: Sequence[str] | None = None) -> tuple[Reading, ...]:
 
 
 def reading_by_name(name: str) -> Reading:
-    """The reading ``name``: a single, an alias or these joined by ``+``; ValueError if unknown."""
+    """The reading ``name``: a single (:data:`SINGLES`), an alias (:data:`ALIASES`) or these
+    joined by ``+`` (their combination, e.g. ``paper+body``); ValueError naming what is allowed."""
     given = name
     known = {r.name: r for r in SINGLES}
     allowed = f"{', '.join([*ALIASES, *known])}, or these joined by '+'"
@@ -274,7 +286,8 @@ Optima = Mapping[str, Mapping[str, Sequence[Sequence[float]]]]
 
 
 def continued_from(reading: Reading) -> tuple[str, ...]:
-    """The readings ``reading`` continues from: a combination's parts, else the default."""
+    """The readings whose optima ``reading`` continues from: a combination's parts (each a
+    small change away from it, and run before it), any other reading the default's."""
     return reading.derived_from or (DEFAULT.name,)
 
 
@@ -285,7 +298,10 @@ def study_jobs(
     optima: Optima | None = None,
     full: Collection[str] = (),
 ) -> dict[str, list[Job]]:
-    """Each paper study's jobs under ``reading`` (continued where ``continuation`` says)."""
+    """Each paper study's jobs under ``reading``, by study name: the studies' own without
+    ``continuation`` (and for the default or a search reading). With it, a job the default
+    shares or of a task in ``full`` stays; any other continues from the optima at its position
+    of the readings :func:`continued_from` names (a stand-in without ``optima``)."""
     p = replace(plan, reading=reading)
     if continuation is None or reading == DEFAULT or reading.search is not None:
         return {name: study.jobs(p) for name, study in PAPER_STUDIES.items()}
@@ -311,7 +327,8 @@ def study_jobs(
 def optima_of(
     records: Mapping[Job, Record] | Path, jobs: Mapping[str, Mapping[str, list[Job]]]
 ) -> dict[str, dict[str, list[list[float]]]]:
-    """:data:`Optima` of the readings in ``jobs`` from their ``records`` (or a store)."""
+    """:data:`Optima` of the readings in ``jobs`` (reading -> study -> jobs) from their
+    ``records`` (job -> record), or from the store at ``records`` (every record present)."""
     if not isinstance(records, Mapping):
         flat = [job for by_study in jobs.values() for group in by_study.values() for job in group]
         records = job_records(records, flat)
@@ -327,8 +344,10 @@ def optima_of(
 def check_jobs(
     plan: StudyPlan, reading: Reading, continuation: Continuation, optima: Optima | None
 ) -> list[tuple[Job, Job]]:
-    """(continued job, the same job in full) of the continuation's bias check."""
-    continued, full = study_jobs(plan, reading, continuation, optima), study_jobs(plan, reading)
+    """(continued job, the same job in full) of the check studies' jobs at the check seeds that
+    the reading does not share with the default: the continuation's bias check."""
+    continued = study_jobs(plan, reading, continuation, optima)
+    full = study_jobs(plan, reading)
     pairs = (
         (c, f)
         for name in continuation.check_studies
@@ -341,7 +360,9 @@ def check_jobs(
 def full_tasks(
     summary: Sequence[Mapping[str, Any]], continuation: Continuation
 ) -> dict[str, dict[str, str]]:
-    """reading -> task -> why its jobs run in full (the bias check's ``summary`` fell short)."""
+    """reading -> task -> why its jobs run in full: the bias check (:func:`check_summary`
+    rows) found them short by more than ``full_median`` or ``full_lowest``, or a continued
+    optimum infeasible where the full run's is feasible."""
     out: dict[str, dict[str, str]] = {}
     for row in summary:
         if row["reading"] == "all" or row["task"] == "all":
@@ -364,7 +385,11 @@ def full_tasks(
 def combinations(
     default: ReadingResult, singles: Sequence[ReadingResult]
 ) -> tuple[list[Reading], str]:
-    """The combinations the singles' results point to, and the rule's outcome in words."""
+    """The combination readings the singles' results point to, and the rule's outcome in words
+    (docs/reproduction.md, "Readings"): the gainers (more agreeing claims than the default, best
+    first), each joining unless it conflicts with one before it, combine as their best two and
+    as all; the best gainer also pairs with every other single it does not conflict with (a
+    change that loses claims alone can win them beside another). Duplicates are dropped."""
     base = default.agree
     gainers = sorted(
         (r for r in singles if r.reading != default.reading and r.agree > base),

@@ -1,4 +1,8 @@
-"""The readings study's report and its claims × readings matrix of verdicts."""
+"""The readings study's report (:mod:`eval.studies.readings`), from the generic report's pieces
+(:mod:`eval.studies.report`), and the claims × readings matrix it shows: one row per claim, one
+column per reading, each cell the median's verdict by colour and glyph (:data:`VERDICT_STYLE`,
+readable without colour vision); a black frame flags a verdict changed from the first (default)
+reading."""
 
 from __future__ import annotations
 
@@ -15,7 +19,7 @@ from matplotlib.colors import ListedColormap
 from matplotlib.patches import Patch, Rectangle
 
 from eval.figures import PALETTE, legend, save
-from eval.studies import report as R
+from eval.studies import report as study_report
 from eval.studies.base import StudyPlan
 from eval.studies.readings.plan import COUNTS, HEADLINES, Continuation, ReadingResult, reading_dir
 from tandem_env.io.files import write_text_atomic
@@ -29,7 +33,7 @@ def _num(value: float, fmt: str = ".3g") -> str:
 
 
 #: The readings table's columns, one row per reading.
-READING_COLUMNS: tuple[R.Column, ...] = (
+READING_COLUMNS: tuple[study_report.Column, ...] = (
     ("reading", lambda r: f"`{r.reading.name}`"),
     ("changes from the default", lambda r: r.reading.describe_changes()),
     *((title, lambda r, k=k: str(getattr(r.counts, k))) for k, title in COUNTS.items()),
@@ -38,7 +42,8 @@ READING_COLUMNS: tuple[R.Column, ...] = (
 
 
 def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
-    """One line per claim whose verdict moved from the default's (``*``: within the IQRs)."""
+    """One line per claim whose verdict differs from the default's, with the statistic before
+    and after (``*``: each median inside the other's inter-quartile range)."""
     mine = {c.id: c for c in other.claims}
     lines = []
     for before in default.claims:
@@ -68,21 +73,26 @@ def write_readings_report(
     figure: Path,
     check: Sequence[Mapping[str, Any]],
 ) -> Path:
-    """Write the readings study's report to ``path`` (atomically) and return it."""
-    base, default = path.parent, results[0]
+    """Write the readings study's report to ``path`` (atomically) and return it: the
+    ``results`` of its readings, the best, which decision moves which claim, the matrix; the
+    combination rule in ``words``, its ``continuation`` (or None), the bias ``check``
+    (``check_summary`` rows) and the tasks run in ``full``."""
+    base = path.parent
+    default = results[0]
     best = max(results, key=lambda r: r.agree)
-    n_claims, base_head = len(default.claims), default.headline()
+    n_claims = len(default.claims)
+    base_head = default.headline()
     parts = [
         "# Readings of the paper: which reading reproduces which claim",
         "",
-        *R.settings_lines(plan)[:3],
-        R.insect_line(plan),
+        *study_report.settings_lines(plan)[:3],
+        study_report.insect_line(plan),
         "- every reading runs the four paper studies (speed, power, kinematics, wing shape) with "
         "these settings; a job two readings share runs once",
         "",
         "## Readings",
         "",
-        *R.markdown_table(READING_COLUMNS, results),
+        *study_report.markdown_table(READING_COLUMNS, results),
         "",
         "Headline columns: " + "; ".join(f"{k}: {text}" for k, (_, text) in HEADLINES.items()),
         "",
@@ -116,7 +126,7 @@ def write_readings_report(
         "`*` marks a flip where both medians lie inside the other's inter-quartile range over "
         "seeds: within the seed-to-seed spread, i.e. possibly search noise.",
         "",
-        *R.markdown_table(
+        *study_report.markdown_table(
             [
                 READING_COLUMNS[0],
                 ("claims moved", lambda r: "; ".join(reading_moves(default, r)) or "none"),
@@ -131,12 +141,12 @@ def write_readings_report(
         "",
         "## Claims × readings",
         "",
-        R.figure_markdown("claims × readings matrix", figure, base),
+        study_report.figure_markdown("claims × readings matrix", figure, base),
         "",
-        f"Data: {R.file_link(table, base)}. Each reading's full report "
+        f"Data: {study_report.file_link(table, base)}. Each reading's full report "
         "(paper vs ours, figures): "
         + ", ".join(
-            f"[`{r.reading.name}`]({R.relative_path(reading_dir(base, r.reading) / 'report.md', base)})"
+            f"[`{r.reading.name}`]({study_report.relative_path(reading_dir(base, r.reading) / 'report.md', base)})"
             for r in results
         )
         + ".",
@@ -147,7 +157,7 @@ def write_readings_report(
         "",
         "## Agreement rules",
         "",
-        *R.agreement_rules(),
+        *study_report.agreement_rules(),
         "",
     ]
     write_text_atomic(path, "\n".join(parts))
@@ -186,13 +196,14 @@ def _continuation_section(
 def check_table(
     check: Sequence[Mapping[str, Any]], full: Mapping[str, Mapping[str, str]]
 ) -> list[str]:
-    """The bias check as a Markdown table, one row per reading and task, the overall in bold."""
+    """The bias check as a Markdown table, one row per reading and task with whether it ran in
+    full and why, the overall row in bold."""
 
     def runs(row: Mapping[str, Any]) -> str:
         why = full.get(row["reading"], {}).get(row["task"])
         return "" if row["reading"] == "all" else (f"in full ({why})" if why else "continued")
 
-    columns: list[R.Column] = [
+    columns: list[study_report.Column] = [
         ("reading", lambda row: "**all**" if row["reading"] == "all" else f"`{row['reading']}`"),
         ("task", lambda row: "" if row["reading"] == "all" else row["task"]),
         ("pairs", lambda row: str(row["pairs"])),
@@ -201,7 +212,7 @@ def check_table(
         ("infeasible", lambda row: str(row["infeasible"])),
         ("runs", runs),
     ]
-    return R.markdown_table(columns, check)
+    return study_report.markdown_table(columns, check)
 
 
 #: Cell colour and glyph of each verdict (any other verdict is drawn as "no data").
@@ -217,7 +228,8 @@ _CODE = {verdict: k for k, verdict in enumerate(VERDICT_STYLE)}
 
 
 def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> Path:
-    """Draw the readings' verdicts on the first's claims, a line before the combinations."""
+    """Draw the matrix of the readings' verdicts on the first's claims, the first reading the
+    reference, a line before the first combination."""
     claims = results[0].claims
     columns = [
         (r.reading.name, [r.verdicts().get(c.id, "no data") for c in claims]) for r in results

@@ -1,4 +1,6 @@
-"""The readings study run phase by phase, its outputs and its campaign (:data:`READINGS`)."""
+"""The readings study's plan run phase by phase, each reading analysed, its outputs
+(readings.csv, the matrix figure, report.md, the manifest) and its campaign of the command line
+(:data:`READINGS`, with its ``--continuation`` option)."""
 
 from __future__ import annotations
 
@@ -24,17 +26,38 @@ from eval.studies import PAPER_STUDIES, report
 from eval.studies.base import StudyPlan
 from eval.studies.claims import VerdictCount
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading
-from eval.studies.readings import plan as P
+from eval.studies.readings.plan import (
+    CHECK_CSV,
+    CSV_COLUMNS,
+    DEFAULT_OUT,
+    MANIFEST,
+    NAME,
+    PHASES,
+    SINGLES,
+    Continuation,
+    Optima,
+    ReadingResult,
+    ReadingsResult,
+    check_jobs,
+    combinations,
+    full_tasks,
+    optima_of,
+    reading_dir,
+    reading_jobs,
+    single_readings,
+    study_jobs,
+)
 from eval.studies.readings.report import matrix_figure, write_readings_report
 from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
 
 
 def analyse_reading(
     plan: StudyPlan, reading: Reading, out: RecordStore, jobs: Mapping[str, Sequence[Job]]
-) -> P.ReadingResult:
-    """Analyse the four studies' ``jobs`` under ``reading`` into its folder, with a report."""
+) -> ReadingResult:
+    """Analyse the four studies' ``jobs`` (:func:`study_jobs`) under ``reading`` into its
+    folder, with its ``report.md`` and a link ``records -> ../records`` for the indexes."""
     p = replace(plan, reading=reading)
-    where = P.reading_dir(out.directory, reading)
+    where = reading_dir(out.directory, reading)
     where.mkdir(parents=True, exist_ok=True)
     link = where / RECORDS_DIR
     if not link.exists() and not link.is_symlink():
@@ -47,7 +70,7 @@ def analyse_reading(
         for name, study in PAPER_STUDIES.items()
     )
     report.write_report(where / "report.md", p, outputs, list(PAPER_STUDIES))
-    return P.ReadingResult(reading, outputs)
+    return ReadingResult(reading, outputs)
 
 
 #: The columns of continuation_check.csv, in order.
@@ -60,7 +83,8 @@ CHECK_COLUMNS: tuple[str, ...] = tuple(
 def check_rows(
     records: Mapping[Job, Record], checks: Sequence[tuple[Reading, Job, Job]]
 ) -> list[dict[str, Any]]:
-    """One row per checked pair: continued and full optimum, ``difference`` relative [-]."""
+    """One row per checked pair: the continued and the full optimum (``difference`` =
+    (continued − full) / |full| [-]) and which part the continued run reported."""
     rows = []
     for reading, c, f in checks:
         rc, rf = records[c].results, records[f].results
@@ -74,7 +98,8 @@ def check_rows(
 
 
 def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """The continuation's bias per reading and task, and over all (last)."""
+    """Per reading and task, and over all (last): the continuation's bias on the checked pairs
+    (both feasible; :data:`CHECK_COLUMNS` says what each column is)."""
     groups: dict[tuple[str, str], list[Mapping[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["reading"], row["task"]), []).append(row)
@@ -102,9 +127,10 @@ def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
 
 
 def _earlier_invocations(out_dir: Path, plan: StudyPlan) -> list[dict[str, Any]]:
-    """The invocations into ``out_dir`` at this preset its manifest records."""
+    """The invocations into ``out_dir`` at this preset its manifest records (one written before
+    invocations were recorded gives its one run); says so when it holds another preset's."""
     try:
-        before = read_json(out_dir / P.MANIFEST)
+        before = read_json(out_dir / MANIFEST)
     except (FileNotFoundError, ValueError):
         return []
     if not isinstance(before, Mapping) or before.get("preset") is None:
@@ -120,7 +146,7 @@ def _earlier_invocations(out_dir: Path, plan: StudyPlan) -> list[dict[str, Any]]
     earlier = list(before.get("invocations", ()))
     if earlier or "phases" not in before:
         return earlier
-    names = P.PHASES[2:] if before.get("continuation") is None else P.PHASES
+    names = PHASES[2:] if before.get("continuation") is None else PHASES
     phases = [{"name": name, **phase} for name, phase in zip(names, before["phases"], strict=False)]
     return [{"finished": None, "phases": phases, "wall_time_s": before.get("wall_time_s")}]
 
@@ -139,14 +165,18 @@ def _flat(jobs: Iterable[Mapping[str, Sequence[Job]]]) -> tuple[Job, ...]:
 
 
 class ReadingsPlan:
-    """The readings study's phases (an :class:`agents.runner.Plan`) and outputs."""
+    """The readings study's phases (an :class:`agents.runner.Plan`): with ``continuation`` the
+    default in full, the bias check (:func:`check_jobs`) and the singles continued from the
+    default's optima (:func:`full_tasks` in full), else the readings in full; then the
+    combinations their results point to (if ``derive``). A look-ahead gets stand-ins; a run
+    analyses each reading into ``out`` for :meth:`finish`."""
 
     def __init__(
         self,
         plan: StudyPlan,
         out: RecordStore,
-        readings: Sequence[Reading] = P.SINGLES,
-        continuation: P.Continuation | None = P.Continuation(),
+        readings: Sequence[Reading] = SINGLES,
+        continuation: Continuation | None = Continuation(),
         derive: bool = True,
         progress: bool = True,
         title: str = "readings study",
@@ -160,11 +190,16 @@ class ReadingsPlan:
             )
         if len(set(names)) != len(names):
             raise ValueError(f"readings = {names}; allowed: distinct names")
-        self.plan, self.store, self.readings, self.title = plan, out, readings, title
-        self.continuation, self.derive, self.progress = continuation, derive, progress
+        self.plan = plan
+        self.store = out
+        self.readings = readings
+        self.title = title
+        self.continuation = continuation
+        self.derive = derive
+        self.progress = progress
         self.earlier = _earlier_invocations(out.directory, plan)
         self.load_before = _load()
-        self.results: list[P.ReadingResult] = []
+        self.results: list[ReadingResult] = []
         self.rows: list[dict[str, Any]] = []
         self.full: dict[str, dict[str, str]] = {}
         self.words = "not derived (derive=False)"
@@ -181,64 +216,71 @@ class ReadingsPlan:
 
     def __call__(self, found: Lookup) -> Iterator[Phase]:
         """The phases, each from the records of those before it."""
-        plan, continuation, readings = self.plan, self.continuation, self.readings
+        plan = self.plan
+        continuation = self.continuation
+        readings = self.readings
         later = COMBINATIONS_LATER if self.derive else ""
         rows: list[dict[str, Any]] = []  # one per checked job
         full: dict[str, dict[str, str]] = {}
         if continuation is None:
-            jobs = {r.name: P.study_jobs(plan, r) for r in readings}
-            yield Phase(P.PHASES[2], _flat(jobs.values()), later=later)
+            jobs = {r.name: study_jobs(plan, r) for r in readings}
+            yield Phase(PHASES[2], _flat(jobs.values()), later=later)
         else:
             # the default first: the others start from its optima
-            jobs = {DEFAULT.name: P.study_jobs(plan, DEFAULT)}
+            jobs = {DEFAULT.name: study_jobs(plan, DEFAULT)}
             default = _flat(jobs.values())
-            yield Phase(P.PHASES[0], default)
+            yield Phase(PHASES[0], default)
             done = found(default)
-            optima: P.Optima | None = None if done is None else P.optima_of(done, jobs)
+            optima: Optima | None = None if done is None else optima_of(done, jobs)
             others = readings[1:]
             checks = [
-                (r, c, f) for r in others for c, f in P.check_jobs(plan, r, continuation, optima)
+                (r, c, f) for r in others for c, f in check_jobs(plan, r, continuation, optima)
             ]
             check = tuple(dict.fromkeys(job for _, c, f in checks for job in (c, f)))
             stand_ins = frozenset(c.key for _, c, _ in checks) if done is None else frozenset()
-            yield Phase(P.PHASES[1], check, stand_ins)
+            yield Phase(PHASES[1], check, stand_ins)
             if done is not None and checks and (checked := found(check)):
                 rows = check_rows(checked, checks)
-            full = P.full_tasks(check_summary(rows), continuation)
+            full = full_tasks(check_summary(rows), continuation)
             jobs |= {
-                r.name: P.study_jobs(plan, r, continuation, optima, full.get(r.name, {}))
+                r.name: study_jobs(plan, r, continuation, optima, full.get(r.name, {}))
                 for r in others
             }
             singles = _flat(jobs[r.name] for r in others)
-            own = {job.key for r in others for job in P.reading_jobs(plan, r)}
+            own = {job.key for r in others for job in reading_jobs(plan, r)}
             stand_ins = frozenset(j.key for j in singles if j.key not in own and done is None)
-            yield Phase(P.PHASES[2], singles, stand_ins, later)
+            yield Phase(PHASES[2], singles, stand_ins, later)
         if not found.running:
             return
         self.rows, self.full = rows, full
         self._analyse(jobs, readings)
         if not self.derive:
             return
-        derived, self.words = P.combinations(self.results[0], self.results)
+        derived, self.words = combinations(self.results[0], self.results)
         derived = [r for r in derived if r.name not in jobs]
         if derived:
-            optima = None if continuation is None else P.optima_of(self.store, jobs)
-            jobs |= {r.name: P.study_jobs(plan, r, continuation, optima) for r in derived}
-            yield Phase(P.PHASES[3], _flat(jobs[r.name] for r in derived))
+            optima = None if continuation is None else optima_of(self.store, jobs)
+            jobs |= {r.name: study_jobs(plan, r, continuation, optima) for r in derived}
+            yield Phase(PHASES[3], _flat(jobs[r.name] for r in derived))
             self._analyse(jobs, derived)
 
-    def finish(self, run: PlanRun) -> P.ReadingsResult:
-        """Write the bias check, readings.csv, the matrix, report.md and the manifest."""
-        out, plan, results = self.store.directory, self.plan, self.results
+    def finish(self, run: PlanRun) -> ReadingsResult:
+        """Write the bias check's CSV, readings.csv, the matrix, report.md and the manifest of
+        ``run`` (this plan's)."""
+        out = self.store.directory
+        plan = self.plan
+        results = self.results
         if self.rows:
-            write_csv_atomic(out / P.CHECK_CSV, self.rows)
+            write_csv_atomic(out / CHECK_CSV, self.rows)
         summary = check_summary(self.rows)
-        csv_path, report = out / "readings.csv", out / "report.md"
+        csv_path = out / "readings.csv"
+        report = out / "report.md"
         write_csv_atomic(csv_path, csv_rows(results))
-        title = f"Paper claims under each reading ({plan.preset.name} preset, "
-        figure = plan.figure(out, "readings_matrix")
-        matrix_figure(results, figure, title + f"{', '.join(plan.methods)})")
-        words, continuation = self.words, self.continuation
+        methods = ", ".join(plan.methods)
+        title = f"Paper claims under each reading ({plan.preset.name} preset, {methods})"
+        figure = matrix_figure(results, plan.figure(out, "readings_matrix"), title)
+        words = self.words
+        continuation = self.continuation
         write_readings_report(
             report, plan, results, words, continuation, self.full, csv_path, figure, summary
         )
@@ -250,7 +292,7 @@ class ReadingsPlan:
             "wall_time_s": round(run.wall_time, 1),
         }
         write_json_atomic(
-            out / P.MANIFEST,
+            out / MANIFEST,
             {
                 "preset": plan.preset.name,
                 "methods": list(plan.methods),
@@ -276,34 +318,38 @@ class ReadingsPlan:
         )
         files = (csv_path, figure, report)
         runs = tuple(run.runs.values())
-        return P.ReadingsResult(tuple(results), runs, words, files, run.wall_time, tuple(run.runs))
+        return ReadingsResult(tuple(results), runs, words, files, run.wall_time, tuple(run.runs))
 
 
 def run_readings(
     plan: StudyPlan,
     out_dir: str | os.PathLike[str] | RecordStore,
     *,
-    readings: Sequence[Reading] = P.SINGLES,
+    readings: Sequence[Reading] = SINGLES,
     derive: bool = True,
     scheduler: str | None = None,
     progress: bool = True,
-    continuation: P.Continuation | None = P.Continuation(),
+    continuation: Continuation | None = Continuation(),
     cache: CacheOption = True,
     rerun: bool = False,
     command: CommandProgress | None = None,
-) -> P.ReadingsResult:
-    """Run the readings study into ``out_dir`` (:class:`ReadingsPlan`) and write its outputs."""
+) -> ReadingsResult:
+    """Run the readings study into ``out_dir`` (:class:`ReadingsPlan`: the ``readings``, the
+    default first; the combinations if ``derive``; ``continuation`` None runs all in full) and
+    write its outputs; ``plan``'s reading is ignored. ``scheduler``, ``cache``, ``rerun`` and
+    ``command`` as for :func:`agents.runner.run_plan`. ValueError for bad ``readings``."""
     store = RecordStore.at(out_dir)
     study = ReadingsPlan(plan, store, readings, continuation, derive, progress)
-    options = {"progress": progress, "rerun": rerun, "command": command}
-    return study.finish(run_plan(study, store, scheduler, cache, **options))
+    done = run_plan(study, store, scheduler, cache, progress=progress, rerun=rerun, command=command)
+    return study.finish(done)
 
 
-def csv_rows(results: Sequence[P.ReadingResult]) -> list[dict[str, Any]]:
+def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
     """One row per reading (:data:`CSV_COLUMNS`)."""
     rows = []
     for r in results:
-        reading, c_r = r.reading, r.reading.rotational_coefficient
+        reading = r.reading
+        c_r = r.reading.rotational_coefficient
         row: dict[str, Any] = {
             "reading": reading.name,
             "kind": "combination" if reading.derived_from else "single",
@@ -316,11 +362,11 @@ def csv_rows(results: Sequence[P.ReadingResult]) -> list[dict[str, Any]]:
             **{k: v if math.isnan(v) else float(f"{v:.4g}") for k, v in r.headline().items()},
             "description": reading.description,
         }
-        rows.append({k: row[k] for k in P.CSV_COLUMNS})
+        rows.append({k: row[k] for k in CSV_COLUMNS})
     return rows
 
 
-def continuation_option(text: str) -> P.Continuation | None:
+def continuation_option(text: str) -> Continuation | None:
     """``--continuation``: a share in (0, 1], or none."""
     if text.strip().lower() == "none":
         return None
@@ -332,16 +378,18 @@ def continuation_option(text: str) -> P.Continuation | None:
             "every reading in full"
         ) from None
     try:
-        return P.Continuation(share=share)
+        return Continuation(share=share)
     except ValueError as error:
         raise argparse.ArgumentTypeError(
             f"{error} (got {text!r}; or none to run every reading in full)"
         ) from None
 
 
-def check_continuation(plan: StudyPlan, continuation: P.Continuation) -> None:
-    """ValueError, before any work, for a share whose continued jobs cannot run."""
-    jobs = {(j.method, j.budget, j.method_config): j for j in P.reading_jobs(plan, DEFAULT)}
+def check_continuation(plan: StudyPlan, continuation: Continuation) -> None:
+    """Prepare a continued job of every configuration (method, budget, settings) of the
+    default's jobs as the harness will: ValueError, before any work, naming a share whose
+    continued jobs cannot run (below one population, a part without evaluations)."""
+    jobs = {(j.method, j.budget, j.method_config): j for j in reading_jobs(plan, DEFAULT)}
     for job in jobs.values():
         continued = continuation.job(job, None)  # the default's optima are not known yet
         try:
@@ -358,31 +406,32 @@ def check_continuation(plan: StudyPlan, continuation: P.Continuation) -> None:
 class ReadingsCampaign:
     """The readings study on the command line."""
 
-    names = (P.NAME,)
+    names = (NAME,)
     description = """\
   readings     the four paper studies under each reading of the paper's open decisions (the
                default, each decision changed alone, the combinations those results point
                to): readings.csv, a claims × readings matrix, report.md (default out
                results/readings)"""
-    default_out = P.DEFAULT_OUT
+    default_out = DEFAULT_OUT
     reading_help = (
         "readings study: run these single readings (repeat; the default is always "
-        f"run; allowed: {', '.join(r.name for r in P.SINGLES)})"
+        f"run; allowed: {', '.join(r.name for r in SINGLES)})"
     )
     options: Mapping[str, dict[str, Any]] = {
         "--continuation": {
             "type": continuation_option,
-            "default": P.Continuation(),
+            "default": Continuation(),
             "metavar": "SHARE|none",
             "help": "readings study only: the other readings continue from the default's "
-            f"optima on SHARE of the budget (default {P.Continuation().share:g}; "
+            f"optima on SHARE of the budget (default {Continuation().share:g}; "
             "docs/reproduction.md, Readings); none runs every reading in full",
         }
     }
 
     def plan(self, args: argparse.Namespace, plan: StudyPlan, out: RecordStore) -> ReadingsPlan:
-        """The study of the readings ``--reading`` names (ValueError for a bad one)."""
-        chosen = P.single_readings(args.reading)
+        """The study of the readings ``--reading`` names (ValueError, before any work, for a
+        bad one or a share whose continued jobs cannot run)."""
+        chosen = single_readings(args.reading)
         singles = f"{len(chosen) - 1} single reading{'s' * (len(chosen) != 2)}"
         title = f"readings study (the default and {singles})"
         if args.continuation is not None:
@@ -395,7 +444,7 @@ class ReadingsCampaign:
             plan, out, chosen, args.continuation, progress=not args.quiet, title=title
         )
 
-    def report(self, args: argparse.Namespace, result: P.ReadingsResult) -> None:
+    def report(self, args: argparse.Namespace, result: ReadingsResult) -> None:
         """Print what the run did (stderr) and found (stdout)."""
         for phase, run in zip(result.phases, result.runs, strict=True):
             done = f"{run.describe(args.out)} ({run.executor}); {run.wall_time:.1f} s"

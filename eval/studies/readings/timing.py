@@ -2,7 +2,12 @@
 
     python -m eval.studies.readings.timing [--measured results/readings] [--preset paper]
 
-Per reading and task, the measured seconds per model evaluation times each budget of ``--preset``.
+Per reading and task, the median seconds per model evaluation of the records a finished run's
+studies analysed (``DIR/readings_manifest.json``, the studies' indexes) times each budget of
+``--preset``'s jobs under the same readings, run in full (shared jobs once): the job-seconds
+per reading, the serial total and the best wall time on W workers
+(:func:`eval.studies.bench_workers.makespan`). An estimate: the rates carry the measured run's
+machine and load.
 """
 
 from __future__ import annotations
