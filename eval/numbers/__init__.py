@@ -43,7 +43,7 @@ MEASUREMENTS: dict[str, framework.Measurement] = {
 
 def render_document(text: str, rendered: dict[str, str]) -> str:
     """``text`` with every marked region replaced by its rendering (a measurement not stored
-    yet: left as it is; a name no measurement has: an error)."""
+    yet: left as it is; a name no measurement has: KeyError)."""
 
     def body(match: re.Match[str]) -> str:
         name = match["name"]

@@ -40,8 +40,7 @@ def _run(command: Sequence[str], environment: dict[str, str] | None = None) -> s
 
 
 def run_command(command: Sequence[str], environment: dict[str, str] | None = None) -> float:
-    """Run a documented ``python ...`` command with this interpreter (:func:`_run`); its wall
-    time [s]."""
+    """Run a documented ``python ...`` command with this interpreter; its wall time [s]."""
     start = time.perf_counter()
     _run([sys.executable, *command[1:]] if command[0] == "python" else command, environment)
     return time.perf_counter() - start
@@ -118,8 +117,7 @@ def other_kernels() -> list[str]:
 
 
 def measure_other_kernels(name: str) -> dict[str, dict[str, Any]]:
-    """Measurement ``name`` again in a fresh process under each of :func:`other_kernels`, by
-    kernel."""
+    """Measurement ``name`` again in a fresh process under each of :func:`other_kernels`."""
     script = (
         "import json, sys; from eval.numbers import MEASUREMENTS; "
         "json.dump(MEASUREMENTS[sys.argv[1]].measure(), sys.stdout)"

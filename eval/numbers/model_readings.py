@@ -1,6 +1,7 @@
 """The model's readings on random Table 4 strokes (deterministic: the test reruns them): the
 rotational coefficient's (docs/model.md §1.3) and the power conventions' (§6.3); and the
-reference optima (docs/reference.md): the packaged table as the document shows it."""
+reference optima (docs/reference.md): the packaged table as the document shows it (made by
+``python -m eval reference``)."""
 
 from __future__ import annotations
 
@@ -68,8 +69,7 @@ def render_rotation(data: dict[str, Any]) -> str:
 
 
 def measure_power() -> dict[str, Any]:
-    """The ``"aerodynamic"`` power over the ``"absolute"`` and ``"elastic"`` ones on the random
-    strokes."""
+    """The aerodynamic power over the absolute and elastic ones on the random strokes."""
     import tandem_env
 
     strokes = random_strokes()

@@ -158,8 +158,7 @@ def _best(seeds: Sequence[dict[str, Any]]) -> dict[str, Any]:
 
 
 def _stroke_cell(bests: Sequence[dict[str, Any]], name: str, form: str) -> str:
-    """The best seed's ``name`` (fore / hind for a stroke parameter), at the digits every BLAS
-    kernel's best seed gives."""
+    """The best seed's ``name`` (fore / hind for a parameter) at the digits every kernel gives."""
     if name not in SPECIES_PARAMETERS:
         return framework.agreed([best[name] for best in bests], form)
     return " / ".join(

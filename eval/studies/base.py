@@ -121,8 +121,7 @@ class StudyPlan:
         return ((key, self.preset.swarm_size),) if key else ()
 
     def budget(self, task: str) -> int:
-        """Model evaluations per optimisation of ``task``: the reading's search's budget, else
-        the preset's."""
+        """Model evaluations per optimisation of ``task``: the reading's search's, else the preset's."""
         search = self.reading.search
         given = None if search is None else search.budget(task)
         return self.preset.budget(task) if given is None else given

@@ -233,8 +233,7 @@ TESTS: dict[str, Callable[[float, Any], bool]] = {
 
 
 def judge(value: float, rule: Rule, target: Any) -> bool | None:
-    """Whether ``value`` agrees with ``target`` under ``rule`` (:data:`TESTS`); None (no data)
-    for NaN."""
+    """Whether ``value`` agrees with ``target`` under ``rule`` (:data:`TESTS`); None for NaN."""
     return None if math.isnan(value) else bool(TESTS[rule](value, target))
 
 

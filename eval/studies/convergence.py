@@ -103,7 +103,7 @@ def curves(runs: Sequence[Record]) -> tuple[np.ndarray, np.ndarray]:
 
 def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, Any]:
     """Reproducibility of one budget split from the records' feasible objectives:
-    ``halves_apart`` = |best(first half) − best(second half)| / the larger, over the seeds."""
+    ``halves_apart`` = |best(first half) − best(second half)| / the larger [-], over the seeds."""
     runs = sorted(runs, key=lambda r: r.seed)
     values = np.array([r.objective if r.feasible else np.nan for r in runs], dtype=float)
     half = len(runs) // 2

@@ -76,7 +76,7 @@ class Search:
     """Model evaluations per run by task name, sorted (a mapping is accepted); a task not named
     keeps the preset's."""
     settings: tuple[tuple[str, Any], ...] = ()
-    """Method settings, e.g. ``{"polish": "none"}``, sorted (a mapping is accepted)."""
+    """Method settings, e.g. ``{"polish": "none"}``, sorted (or a mapping)."""
 
     def __post_init__(self) -> None:
         method = self.method
@@ -164,7 +164,7 @@ class Reading:
     """One reading of the paper: the options it changes from the documented defaults."""
 
     name: str
-    """Short identifier, e.g. ``"default"`` or ``"thrust_split=body"``; a column of the matrix."""
+    """Short identifier, e.g. ``"default"`` or ``"body"``; a column of the matrix."""
     description: str
     """One line: what this reading assumes and where the paper leaves it open."""
     options: tuple[tuple[str, Any], ...] = ()

@@ -55,7 +55,7 @@ def excess(
     rows: Rows, method: str, planform: str, axis: str, horizontal: str = "horizontal"
 ) -> dict[float, Spread]:
     """F̄_v (axis "vertical") or F̄_h ("horizontal": the reading's objective ``horizontal``) per
-    power, the objective value of its own optimisation."""
+    power [-], the objective value of its own optimisation."""
     objective = horizontal if axis == "horizontal" else axis
     where = dict(method=method, task="accelerate", objective=objective, planform=planform)
     return by_condition(rows, "objective_value", **where)

@@ -143,7 +143,7 @@ class Preset:
     speeds: tuple[float, ...]
     """Speed sweep (Figs. 4-6) [m/s]."""
     powers: tuple[float, ...]
-    """Power sweep (Figs. 7-8) [W/kg]; each power runs a vertical and a horizontal optimisation."""
+    """Power sweep (Figs. 7-8) [W/kg], a vertical and a horizontal optimisation each."""
     shape_speeds: tuple[float, ...]
     """Speeds of the wing-shape study (Fig. 15) [m/s]; the tear-drop side reuses the sweep."""
     shape_powers: tuple[float, ...]

@@ -278,19 +278,21 @@ SUMMARY_FIELDS = ("n", "n_feasible", "median", "q25", "q75", "best", "best_seed"
 
 def spread_summary_rows(rows: Sequence[Mapping[str, Any]], quantities: Sequence[str]) -> Rows:
     """Per series, condition and quantity: its :class:`Spread` and ``pinned`` (:func:`pinned`)."""
-    return [
-        {
-            **dict(zip(SERIES_KEYS, key[:-1], strict=True)),
-            "condition": key[-1],
-            "quantity": quantity,
-            "meaning": QUANTITIES.get(quantity, ""),
-            **{k: getattr(s, k) for k in SUMMARY_FIELDS},
-            "pinned": pinned(members, quantity),
-        }
-        for key, members in series_conditions(rows)
-        for quantity in quantities
-        for s in [spread(members, quantity)]
-    ]
+    out = []
+    for key, members in series_conditions(rows):
+        for quantity in quantities:
+            s = spread(members, quantity)
+            out.append(
+                {
+                    **dict(zip(SERIES_KEYS, key[:-1], strict=True)),
+                    "condition": key[-1],
+                    "quantity": quantity,
+                    "meaning": QUANTITIES.get(quantity, ""),
+                    **{k: getattr(s, k) for k in SUMMARY_FIELDS},
+                    "pinned": pinned(members, quantity),
+                }
+            )
+    return out
 
 
 def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> Rows:
