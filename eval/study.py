@@ -83,49 +83,31 @@ examples:
   python -m eval study readings --preset quick   # into results/readings"""
 
 
-def _default_out() -> str:
-    """The ``--out`` help's default: each campaign's folder and its studies."""
-    first, *rest = CAMPAIGNS
-    return f"default {first.default_out}" + "".join(
-        f"; {c.default_out} for {', '.join(c.names)}" for c in rest
-    )
-
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("study", choices=tuple(campaigns()), help="which study to run")
     parser.add_argument(
         "--preset", choices=tuple(STUDY_PRESETS), default="quick", help="conditions, seeds, budgets"
     )
+    shared = "wing-shape studies, readings"
     helps = {
-        "speeds": (
-            "V",
-            float,
-            "the level-flight sweep [m/s] (speed and wing-shape studies, readings)",
-        ),
-        "powers": (
-            "P",
-            float,
-            "the available-power sweep [W/kg] (power and wing-shape studies, readings)",
-        ),
+        "speeds": ("V", float, f"the level-flight sweep [m/s] (speed and {shared})"),
+        "powers": ("P", float, f"the available-power sweep [W/kg] (power and {shared})"),
         "seeds": ("SEED", int, "the seeds of every optimisation (convergence study: its runs)"),
     }
     for option, (metavar, kind, text) in helps.items():
-        parser.add_argument(
-            f"--{option}",
-            type=kind,
-            nargs="+",
-            metavar=metavar,
-            help=f"{text}; default the preset's",
-        )
+        text += "; default the preset's"
+        parser.add_argument(f"--{option}", type=kind, nargs="+", metavar=metavar, help=text)
     parser.add_argument(
         "--budget",
         type=int,
         metavar="N",
         help="model evaluations per optimisation, every task; default the preset's",
     )
-    parser.add_argument(
-        "--out", default=None, metavar="DIR", help=f"output directory ({_default_out()})"
+    first, *rest = CAMPAIGNS  # the default folder, and each other campaign's
+    out = f"default {first.default_out}" + "".join(
+        f"; {c.default_out} for {', '.join(c.names)}" for c in rest
     )
+    parser.add_argument("--out", default=None, metavar="DIR", help=f"output directory ({out})")
     parser.add_argument(
         "--method",
         action="append",
@@ -192,15 +174,12 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         stored = writable or find_records(store, unique, cache=False) is not None
         if not writable and not (reports_only and stored):
             store.check(jobs=unique)  # raises, naming the folder and why
+        detail = f"preset {study.plan.preset.name}, method {', '.join(study.plan.methods)}"
         # --quiet says no cost line, so none is made
         command = None
         if not args.quiet:
             command = CommandProgress(
-                study.title,
-                store,
-                cache=args.cache,
-                detail=f"preset {study.plan.preset.name}, method {', '.join(study.plan.methods)}",
-                rerun=args.rerun,
+                study.title, store, cache=args.cache, detail=detail, rerun=args.rerun
             )
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))

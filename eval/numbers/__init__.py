@@ -21,40 +21,29 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
-from eval.numbers.framework import (
-    DOCUMENTS,
-    REGION,
-    ROOT,
-    Measurement,
-    blas_kernel,
-    json_path,
-    load,
-    machine,
-    measure_other_kernels,
-    save,
-)
+from eval.numbers import framework
 
 NAME = "numbers"
 HELP = "rerun the measurements README and docs quote, and write them into the documents"
 
 
-def _measurement_modules() -> list[ModuleType]:
-    """Every module of this package but the framework: one per measurement (or set of them)."""
-    names = [m.name for m in pkgutil.iter_modules(__path__) if m.name != "framework"]
-    return [importlib.import_module(f"{__name__}.{name}") for name in names]
-
-
+#: Every module of this package but the framework: one per measurement (or set of them).
+_MODULES: list[ModuleType] = [
+    importlib.import_module(f"{__name__}.{m.name}")
+    for m in pkgutil.iter_modules(__path__)
+    if m.name != "framework"
+]
 #: Every measurement by name: each module's ``MEASUREMENT`` (or its ``MEASUREMENTS``).
-MEASUREMENTS: dict[str, Measurement] = {
+MEASUREMENTS: dict[str, framework.Measurement] = {
     m.name: m
-    for module in _measurement_modules()
+    for module in _MODULES
     for m in getattr(module, "MEASUREMENTS", None) or (module.MEASUREMENT,)
 }
 
 
 def render_document(text: str, rendered: dict[str, str]) -> str:
     """``text`` with every marked region replaced by its rendering (a measurement not stored
-    yet: left as it is; a name no measurement has: an error)."""
+    yet: left as it is; a name no measurement has: KeyError)."""
 
     def body(match: re.Match[str]) -> str:
         name = match["name"]
@@ -64,15 +53,14 @@ def render_document(text: str, rendered: dict[str, str]) -> str:
             raise KeyError(f"unknown numbers region {name!r}; known: {sorted(rendered)}")
         return match.group(1) + rendered[name] + match.group(4)
 
-    return REGION.sub(body, text)
+    return framework.REGION.sub(body, text)
 
 
 def write_documents(rendered: dict[str, str]) -> list[Path]:
     changed = []
-    for path in DOCUMENTS:
+    for path in framework.DOCUMENTS:
         text = path.read_text(encoding="utf-8")
-        new = render_document(text, rendered)
-        if new != text:
+        if (new := render_document(text, rendered)) != text:
             path.write_text(new, encoding="utf-8")
             changed.append(path)
     return changed
@@ -81,7 +69,9 @@ def write_documents(rendered: dict[str, str]) -> list[Path]:
 def rendered_all() -> dict[str, str]:
     """Every stored measurement's Markdown (one not measured yet has none)."""
     return {
-        name: m.render(load(name)) for name, m in MEASUREMENTS.items() if json_path(name).exists()
+        name: m.render(framework.load(name))
+        for name, m in MEASUREMENTS.items()
+        if framework.json_path(name).exists()
     }
 
 
@@ -105,11 +95,16 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         every = [name for name, m in sorted(MEASUREMENTS.items()) if not m.on_request]
         for name in args.only or every:
             print(f"measuring {name} ...", file=sys.stderr, flush=True)
-            before = machine()
+            before = framework.machine()
             data = MEASUREMENTS[name].measure()
             if MEASUREMENTS[name].blas_dependent:  # measured again under the other kernels
-                data |= {"blas_kernel": blas_kernel(), "other_kernels": measure_other_kernels(name)}
-            save(name, {**data, "machine_before": before, "machine_after": machine()})
+                data |= {
+                    "blas_kernel": framework.blas_kernel(),
+                    "other_kernels": framework.measure_other_kernels(name),
+                }
+            framework.save(
+                name, {**data, "machine_before": before, "machine_after": framework.machine()}
+            )
     for path in write_documents(rendered_all()):
-        print(f"updated {path.relative_to(ROOT)}")
+        print(f"updated {path.relative_to(framework.ROOT)}")
     return 0

@@ -7,12 +7,13 @@ vortex lattice's."""
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from eval.crosscheck.report import case_of
-from eval.numbers.framework import ROOT, Measurement, copy_outputs, load, read_rows
+from eval.numbers import framework
 from eval.studies.report import table_head, table_row
 
 LAG_STUDY_OUT = Path("results") / "crosscheck-lag-study"
@@ -25,8 +26,8 @@ CONVERGENCE_COMMAND = (
 )
 #: The run's small outputs kept where the docs include them: run's file -> the docs' copy.
 LAG_STUDY_FILES: dict[str, Path] = {
-    "crosscheck.csv": ROOT / "docs" / "crosscheck" / "lag_study.csv",
-    "crosscheck.png": ROOT / "docs" / "figures" / "crosscheck_lag_study.png",
+    "crosscheck.csv": framework.ROOT / "docs" / "crosscheck" / "lag_study.csv",
+    "crosscheck.png": framework.ROOT / "docs" / "figures" / "crosscheck_lag_study.png",
 }
 
 
@@ -42,8 +43,9 @@ def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     for key in dict.fromkeys(case_of(r) for r in rows):
         mine = [r for r in out if case_of(r) == key]
         lags = tuple(float(r["lag_deg"]) for r in mine)
-        case = Case(tuple(base_stroke()), key[0], 1e-3 * key[1], 1e-3 * key[2], lags)
-        model = ours(case, DRAGONFLY)
+        model = ours(
+            Case(tuple(base_stroke()), key[0], 1e-3 * key[1], 1e-3 * key[2], lags), DRAGONFLY
+        )
         for index, row in enumerate(mine):
             row.update(model_cells(model, index))
     return out
@@ -81,14 +83,14 @@ def measure() -> dict[str, Any]:
     if not table.is_file() and LAG_STUDY_FILES["crosscheck.csv"].is_file():
         from tandem_env.io.files import write_csv_atomic
 
-        stored = load("crosscheck-lag-study")
-        rows = model_columns(read_rows(LAG_STUDY_FILES["crosscheck.csv"]))
+        stored = framework.load("crosscheck-lag-study")
+        rows = model_columns(framework.read_rows(LAG_STUDY_FILES["crosscheck.csv"]))
         write_csv_atomic(LAG_STUDY_FILES["crosscheck.csv"], rows)
         redraw_figure(rows)
         return {**stored, "rows": rows, "model_refreshed": True}
     if not table.is_file():
         raise SystemExit(f"{LAG_STUDY_OUT} holds no finished lag study; run `{LAG_STUDY_COMMAND}`")
-    rows = read_rows(table)
+    rows = framework.read_rows(table)
     if not (CONVERGENCE_OUT / "crosscheck.csv").is_file():
         raise SystemExit(f"{CONVERGENCE_OUT} holds no convergence run; run `{CONVERGENCE_COMMAND}`")
     cases = {case_of(row) for row in rows}
@@ -97,23 +99,19 @@ def measure() -> dict[str, Any]:
             f"{table} has {len(rows)} rows in {len(cases)} cases, not the lag study's 32 in 4; "
             f"run `{LAG_STUDY_COMMAND}`"
         )
-    copy_outputs(LAG_STUDY_OUT, LAG_STUDY_FILES)
+    framework.copy_outputs(LAG_STUDY_OUT, LAG_STUDY_FILES)
     return {
         "command": LAG_STUDY_COMMAND,
         "rows": rows,
         "convergence_command": CONVERGENCE_COMMAND,
-        "convergence": read_rows(CONVERGENCE_OUT / "crosscheck.csv"),
+        "convergence": framework.read_rows(CONVERGENCE_OUT / "crosscheck.csv"),
     }
 
 
 def readings(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     """The model's slipstream readings the table holds, in its column order."""
-    prefix, suffix = "ours_", "_hind_change_pct"
-    return [
-        c[len(prefix) : -len(suffix)]
-        for c in rows[0]
-        if c.startswith(prefix) and c.endswith(suffix)
-    ]
+    found = (re.fullmatch(r"ours_(.+)_hind_change_pct", c) for c in rows[0])
+    return [m[1] for m in found if m]
 
 
 def largest_loss_lag(lags: Sequence[float], changes: Sequence[float]) -> float | None:
@@ -144,28 +142,27 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
         mine = sorted((r for r in rows if case_of(r) == case), key=lambda r: float(r["lag_deg"]))
         lags = [float(r["lag_deg"]) for r in mine]
         uvlm = [float(r["uvlm_hind_change_pct"]) for r in mine]
+        uvlm_loss = largest_loss_lag(lags, uvlm)
+        uvlm_phase = first_harmonic_phase(lags, uvlm)
         entry: dict[str, Any] = {
             "case": case,
             "lags": lags,
             "uvlm": uvlm,
             "uvlm_fore": [float(r["uvlm_fore_change_pct"]) for r in mine],
-            "uvlm_loss_lag": largest_loss_lag(lags, uvlm),
-            "uvlm_phase": first_harmonic_phase(lags, uvlm),
+            "uvlm_loss_lag": uvlm_loss,
+            "uvlm_phase": uvlm_phase,
             "readings": {},
         }
         for reading in readings(rows):
             ours = [float(r[f"ours_{reading}_hind_change_pct"]) for r in mine]
             loss = largest_loss_lag(lags, ours)
+            phase = first_harmonic_phase(lags, ours)
             entry["readings"][reading] = {
                 "changes": ours,
                 "same_sign": sum((a < 0) == (b < 0) for a, b in zip(ours, uvlm, strict=True)),
                 "loss_lag": loss,
-                "loss_lag_off": None
-                if loss is None
-                else lag_distance(loss, entry["uvlm_loss_lag"]),
-                "phase_off": None
-                if loss is None
-                else lag_distance(first_harmonic_phase(lags, ours), entry["uvlm_phase"]),
+                "loss_lag_off": None if loss is None else lag_distance(loss, uvlm_loss),
+                "phase_off": None if loss is None else lag_distance(phase, uvlm_phase),
             }
         out.append(entry)
     return out
@@ -214,16 +211,12 @@ def render(data: dict[str, Any]) -> str:
         "the mean reading gives one value at every lag:",
         "",
     ]
-    head = ["lag ΔΦ"]
-    for e in entries:
-        head += [f"{case_label(e['case'])}: UVLM", *names]
-    lines += table_head(head)
+    lines += table_head(
+        ["lag ΔΦ", *(x for e in entries for x in (f"{case_label(e['case'])}: UVLM", *names))]
+    )
     for i, lag in enumerate(lags):
-        cells = [f"{lag:g}°"]
-        for e in entries:
-            cells.append(f"{e['uvlm'][i]:+.1f}")
-            cells += [f"{e['readings'][n]['changes'][i]:+.1f}" for n in names]
-        lines.append(table_row(cells))
+        columns = [[e["uvlm"], *(e["readings"][n]["changes"] for n in names)] for e in entries]
+        lines.append(table_row([f"{lag:g}°", *(f"{c[i]:+.1f}" for cs in columns for c in cs)]))
     compared = [f"`{n}`: same sign, largest loss at (off)" for n in names]
     lines += [
         "",
@@ -256,29 +249,14 @@ def render(data: dict[str, Any]) -> str:
         "within 45° of the UVLM's in 4/4 cases, its RMS difference ≤ 6 points; the fore-wing's "
         "RMS ≤ 4 points and sign at ≥ 28/32:",
         "",
-        *table_head(
-            [
-                "reading",
-                "hind: sign",
-                "hind: largest loss within 45°",
-                "hind: RMS [points]",
-                "fore: RMS [points]",
-                "fore: sign",
-            ]
-        ),
+        "| reading | hind: sign | hind: largest loss within 45° | hind: RMS [points] | "
+        "fore: RMS [points] | fore: sign |",
+        "|---|---|---|---|---|---|",
     ]
     for name, t in targets(rows).items():
         lines.append(
-            table_row(
-                [
-                    f"`{name}`",
-                    f"{t['hind_sign']}/{t['points']}",
-                    f"{t['within']}/{t['cases']}",
-                    f"{t['hind_rms']:.1f}",
-                    f"{t['fore_rms']:.1f}",
-                    f"{t['fore_sign']}/{t['points']}",
-                ]
-            )
+            f"| `{name}` | {t['hind_sign']}/{t['points']} | {t['within']}/{t['cases']} | "
+            f"{t['hind_rms']:.1f} | {t['fore_rms']:.1f} | {t['fore_sign']}/{t['points']} |"
         )
     if data.get("model_refreshed"):
         lines += [
@@ -306,4 +284,4 @@ def render(data: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-MEASUREMENT = Measurement("crosscheck-lag-study", measure, render, on_request=True)
+MEASUREMENT = framework.Measurement("crosscheck-lag-study", measure, render, on_request=True)

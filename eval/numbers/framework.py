@@ -3,6 +3,7 @@ the documented commands it runs, the machine a timing is read against, shared he
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import datetime as dt
 import json
@@ -31,16 +32,15 @@ REGION = re.compile(
 def _run(command: Sequence[str], environment: dict[str, str] | None = None) -> str:
     """Run ``command`` from the repository root (``environment``: variables set for it); its
     standard output. A failure raises with the end of its stderr."""
-    environment = {**os.environ, **(environment or {})}
-    done = subprocess.run(command, cwd=ROOT, env=environment, capture_output=True, text=True)
+    env = {**os.environ, **(environment or {})}
+    done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(command)} exited {done.returncode}:\n{done.stderr[-2000:]}")
     return done.stdout
 
 
 def run_command(command: Sequence[str], environment: dict[str, str] | None = None) -> float:
-    """Run a documented ``python ...`` command with this interpreter (:func:`_run`); its wall
-    time [s]."""
+    """Run a documented ``python ...`` command with this interpreter; its wall time [s]."""
     start = time.perf_counter()
     _run([sys.executable, *command[1:]] if command[0] == "python" else command, environment)
     return time.perf_counter() - start
@@ -117,17 +117,13 @@ def other_kernels() -> list[str]:
 
 
 def measure_other_kernels(name: str) -> dict[str, dict[str, Any]]:
-    """Measurement ``name`` again in a fresh process under each of :func:`other_kernels`, by
-    kernel."""
+    """Measurement ``name`` again in a fresh process under each of :func:`other_kernels`."""
     script = (
         "import json, sys; from eval.numbers import MEASUREMENTS; "
         "json.dump(MEASUREMENTS[sys.argv[1]].measure(), sys.stdout)"
     )
-    environments = {kernel: {"OPENBLAS_CORETYPE": kernel} for kernel in other_kernels()}
-    return {
-        k: json.loads(_run([sys.executable, "-c", script, name], e))
-        for k, e in environments.items()
-    }
+    command = [sys.executable, "-c", script, name]
+    return {k: json.loads(_run(command, {"OPENBLAS_CORETYPE": k})) for k in other_kernels()}
 
 
 def kernel_views(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
@@ -155,16 +151,15 @@ def agreed(values: Sequence[float], form: str) -> str:
     """One number measured under several kernels as shown: ``form`` of it where every kernel
     gives the same text, else their range, ``min–max``."""
     texts = {form.format(v) for v in values}
-    if len(texts) == 1:
-        return texts.pop()
-    return f"{form.format(min(values))}–{form.format(max(values))}"
+    return (
+        texts.pop() if len(texts) == 1 else f"{form.format(min(values))}–{form.format(max(values))}"
+    )
 
 
 def within_shown(value: float, values: Sequence[float], form: str) -> bool:
     """Whether ``value`` (from a kernel not measured) is what :func:`agreed` shows of
     ``values``: the same text, or inside the shown range."""
-    shown = agreed(values, form)
-    low, _, high = shown.partition("–")
+    low, _, high = agreed(values, form).partition("–")
     return float(low) <= float(form.format(value)) <= float(high or low)
 
 
@@ -189,8 +184,13 @@ class Benchmark:
         with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
             path = Path(out) / "numbers.json"
             run_command(["python", *self.arguments, "--json", str(path)], dict(self.environment))
-            data = read_json(path)
-        return {**data, "command": self.command}
+            return {**read_json(path), "command": self.command}
+
+
+def median_range(row: dict[str, Any], kind: str, median: str = "_median") -> str:
+    """A row's ``{kind}{median}`` and ``{kind}_range`` as the tables write them: 1.23 (1.10-1.40)."""
+    low, high = row[kind + "_range"]
+    return f"{row[kind + median]:.2f} ({low:.2f}-{high:.2f})"
 
 
 def spaced(value: float, digits: int = 0) -> str:
@@ -214,9 +214,11 @@ def random_strokes(n: int = RANDOM_STROKES, seed: int = 0) -> Any:
     """(n, 28) physical strokes drawn uniformly in Table 4's box."""
     import numpy as np
 
-    import tandem_env as te
+    import tandem_env
 
-    return te.normalised_to_physical(np.random.default_rng(seed).uniform(-1.0, 1.0, (n, 28)))
+    return tandem_env.normalised_to_physical(
+        np.random.default_rng(seed).uniform(-1.0, 1.0, (n, 28))
+    )
 
 
 @dataclass(frozen=True)
@@ -236,12 +238,10 @@ class Measurement:
 
 def cpu_model() -> str:
     """The CPU's model name where the system tells it (Linux), else the architecture."""
-    try:
+    with contextlib.suppress(OSError):
         for line in Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines():
             if line.startswith("model name"):
                 return line.partition(":")[2].strip()
-    except OSError:
-        pass
     return platform.processor() or platform.machine()
 
 
@@ -261,7 +261,7 @@ def machine() -> dict[str, Any]:
 def machine_line(data: dict[str, Any], name: str) -> str:
     """When, where and under what load measurement ``name`` ran, and how to rerun it."""
     before, after = data["machine_before"], data["machine_after"]
-    cpu = before.get("cpu_model", before["processor"])
+    cpu = before.get("cpu_model", before["processor"])  # an older measurement has none
     return (
         f"Measured {before['date']} on {before['cpus']} CPUs ({cpu}, Python "
         f"{before['python']}), load average (1 min) {before['load_average_1min']} before and "
@@ -280,7 +280,7 @@ def at_load(data: dict[str, Any]) -> str:
 def footer(data: dict[str, Any], name: str, *commands: str, heading: str = "") -> list[str]:
     """The lines that close a region: :func:`machine_line`, ``heading`` and the commands."""
     headed = [heading, ""] if heading else []
-    return ["", machine_line(data, name), "", *headed, *(f"    {command}" for command in commands)]
+    return ["", machine_line(data, name), "", *headed, *(f"    {c}" for c in commands)]
 
 
 def read_rows(path: Path) -> list[dict[str, str]]:

@@ -1,8 +1,11 @@
 """The model's readings on random Table 4 strokes (deterministic: the test reruns them): the
-rotational coefficient's (docs/model.md §1.3) and the power conventions' (§6.3)."""
+rotational coefficient's (docs/model.md §1.3) and the power conventions' (§6.3); and the
+reference optima (docs/reference.md): the packaged table as the document shows it (made by
+``python -m eval reference``)."""
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 from typing import Any
@@ -10,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from eval.numbers.framework import RANDOM_STROKES, Measurement, random_strokes, spaced
+from tandem_env.envs.reference import reference_path
 
 ROTATION_SPEEDS: tuple[float, ...] = (0.0, 1.5)
 """Flight speeds [m/s] of the rotational-coefficient reading (hover and 1.5 m/s)."""
@@ -20,10 +24,10 @@ POWER_SPEEDS: tuple[float, ...] = (0.0, 1.0, 2.0)
 def measure_rotation() -> dict[str, Any]:
     """L/W with the paper's C_r = π over L/W with π/2 (both wings), for the random strokes that
     lift at least half the weight with π."""
-    import tandem_env as te
+    import tandem_env
 
     strokes = random_strokes()
-    insect = te.DRAGONFLY
+    insect = tandem_env.DRAGONFLY
     half = replace(
         insect,
         fore=replace(insect.fore, rotational_coefficient=math.pi / 2),
@@ -31,9 +35,12 @@ def measure_rotation() -> dict[str, Any]:
     )
     rows = []
     for speed in ROTATION_SPEEDS:
-        paper = te.evaluate(strokes, speed, insect=insect).lift_to_weight
+        paper = tandem_env.evaluate(strokes, speed, insect=insect).lift_to_weight
         lifting = paper >= 0.5
-        ratio = paper[lifting] / te.evaluate(strokes[lifting], speed, insect=half).lift_to_weight
+        ratio = (
+            paper[lifting]
+            / tandem_env.evaluate(strokes[lifting], speed, insect=half).lift_to_weight
+        )
         p5, p95 = np.percentile(ratio, [5, 95])
         rows.append(
             {
@@ -62,24 +69,26 @@ def render_rotation(data: dict[str, Any]) -> str:
 
 
 def measure_power() -> dict[str, Any]:
-    """The ``"aerodynamic"`` power over the ``"absolute"`` and ``"elastic"`` ones on the random
-    strokes."""
-    import tandem_env as te
+    """The aerodynamic power over the absolute and elastic ones on the random strokes."""
+    import tandem_env
 
     strokes = random_strokes()
     rows = []
     for speed in POWER_SPEEDS:
         power = {
-            kind: te.evaluate(strokes, speed, options=te.ModelOptions(power=kind)).power
+            kind: tandem_env.evaluate(
+                strokes, speed, options=tandem_env.ModelOptions(power=kind)
+            ).power
             for kind in ("absolute", "elastic", "aerodynamic")
         }
         aero = power["aerodynamic"]
+        elastic = power["elastic"]
         rows.append(
             {
                 "speed": speed,
                 "over_absolute_median": float(np.median(aero / power["absolute"])),
-                "over_elastic_median": float(np.median(aero / power["elastic"])),
-                "above_elastic_share": float(np.mean(aero > power["elastic"])),
+                "over_elastic_median": float(np.median(aero / elastic)),
+                "above_elastic_share": float(np.mean(aero > elastic)),
             }
         )
     return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}
@@ -100,7 +109,19 @@ def render_power(data: dict[str, Any]) -> str:
     )
 
 
+def measure_reference() -> dict[str, Any]:
+    """The packaged reference table, as it is."""
+    return json.loads(reference_path().read_text(encoding="utf-8"))
+
+
+def render_reference(data: dict[str, Any]) -> str:
+    from eval.reference import reference_markdown
+
+    return reference_markdown(data)
+
+
 MEASUREMENTS = (
     Measurement("rotational-coefficient", measure_rotation, render_rotation),
     Measurement("power-conventions", measure_power, render_power),
+    Measurement("reference-table", measure_reference, render_reference),
 )

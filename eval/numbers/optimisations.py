@@ -10,16 +10,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from eval.compare import relative_spread
-from eval.numbers.framework import (
-    Measurement,
-    agreed,
-    footer,
-    kernel_views,
-    kernels_line,
-    optimize_command,
-    run_seeds,
-    seed_cells,
-)
+from eval.numbers import framework
 
 
 @dataclass(frozen=True)
@@ -63,12 +54,8 @@ SPECIES_METRICS: tuple[tuple[str, str, str], ...] = (
     ("lift_to_weight", "L/W", "{:.3f}"),
     ("power_per_mass", "P/m [W/kg]", "{:.1f}"),
 )
-SPECIES_PARAMETERS: tuple[str, ...] = (
-    "frequency",
-    "sweep_amplitude",
-    "elevation_amplitude",
-    "pitch_amplitude",
-    "stroke_plane_angle",
+SPECIES_PARAMETERS: tuple[str, ...] = tuple(
+    "frequency sweep_amplitude elevation_amplitude pitch_amplitude stroke_plane_angle".split()
 )
 """Table 4 parameters shown per wing (fore / hind), with the paper's symbols."""
 
@@ -87,20 +74,20 @@ def run_optimize(row: ComparisonRow, method: str, seeds: Sequence[int]) -> list[
             "evaluations": r.evaluations,
             "wall_time_s": r.wall_time,
         }
-        for r in run_seeds(_arguments(row, method), seeds)
+        for r in framework.run_seeds(_arguments(row, method), seeds)
     ]
 
 
 def run_species(insect: Sequence[str], seeds: Sequence[int]) -> list[dict[str, Any]]:
     """Run the documented command in a fresh folder; one summary row per seed (the record's
     objective, metrics, 28 stroke parameters, ``at_bounds`` and ``insect``)."""
-    records = run_seeds((*insect, *SPECIES_ARGUMENTS), seeds)
+    records = framework.run_seeds((*insect, *SPECIES_ARGUMENTS), seeds)
     return [{**r.summary_row(), "feasible": bool(r.feasible)} for r in records]
 
 
 def _rows(data: dict[str, Any]) -> Iterator[tuple[dict[str, Any], list[dict[str, Any]]]]:
     """Each stored row with that row under every BLAS kernel (the machine's own first)."""
-    views = list(kernel_views(data).values())
+    views = list(framework.kernel_views(data).values())
     for i, row in enumerate(data["rows"]):
         yield row, [view["rows"][i] for view in views]
 
@@ -111,12 +98,16 @@ def _table(
     """The region of an optimisation measurement: ``head`` (header and rule), a line per row
     (``cells(row, the row under every kernel, its seed_cells)``), ``note``, the kernels and
     the commands."""
-    lines = list(head)
-    for row, by_kernel in _rows(data):
-        lines.append(cells(row, by_kernel, seed_cells([r["seeds"] for r in by_kernel])))
-    lines += [x for text in (note, kernels_line(data)) if text for x in ("", text)]
+    lines = [
+        *head,
+        *(cells(r, k, framework.seed_cells([x["seeds"] for x in k])) for r, k in _rows(data)),
+    ]
+    lines += [x for text in (note, framework.kernels_line(data)) if text for x in ("", text)]
     commands = (row["command"] for row in data["rows"])
-    return "\n".join(lines + footer(data, name, *commands, heading="Each row's command:")) + "\n"
+    return (
+        "\n".join(lines + framework.footer(data, name, *commands, heading="Each row's command:"))
+        + "\n"
+    )
 
 
 def measure_comparison() -> dict[str, Any]:
@@ -125,7 +116,7 @@ def measure_comparison() -> dict[str, Any]:
             "label": row.label,
             "symbol": row.symbol,
             "method": method,
-            "command": optimize_command(_arguments(row, method), COMPARISON_SEEDS),
+            "command": framework.optimize_command(_arguments(row, method), COMPARISON_SEEDS),
             "seeds": run_optimize(row, method, COMPARISON_SEEDS),
         }
         for row in COMPARISON_ROWS
@@ -140,7 +131,7 @@ def render_comparison(data: dict[str, Any]) -> str:
         spreads = [100 * relative_spread([s["objective"] for s in r["seeds"]]) for r in by_kernel]
         return (
             f"| {row['label']} ({row['symbol']}) | `{row['method']}` | {objectives} | {median} | "
-            f"{agreed(spreads, '{:.1f}')} % | {feasible} | {times} |"
+            f"{framework.agreed(spreads, '{:.1f}')} % | {feasible} | {times} |"
         )
 
     head = [
@@ -150,24 +141,11 @@ def render_comparison(data: dict[str, Any]) -> str:
     return _table(data, "comparison", head, cells)
 
 
-def _species_columns() -> list[tuple[str, str, str]]:
-    """(name, heading, format) of each best-seed column."""
-    from tandem_env.physics.stroke import TABLE_4
-
-    table = {p.name: p for p in TABLE_4}
-    units = {"deg": "°"}
-    parameters = [
-        (name, f"{table[name].symbol} [{units.get(table[name].unit, table[name].unit)}]", "{:.1f}")
-        for name in SPECIES_PARAMETERS
-    ]
-    return [*SPECIES_METRICS, *parameters]
-
-
 def measure_species() -> dict[str, Any]:
     rows = [
         {
             "label": label,
-            "command": optimize_command((*insect, *SPECIES_ARGUMENTS), SPECIES_SEEDS),
+            "command": framework.optimize_command((*insect, *SPECIES_ARGUMENTS), SPECIES_SEEDS),
             "seeds": run_species(insect, SPECIES_SEEDS),
         }
         for label, insect in SPECIES_INSECTS
@@ -180,12 +158,12 @@ def _best(seeds: Sequence[dict[str, Any]]) -> dict[str, Any]:
 
 
 def _stroke_cell(bests: Sequence[dict[str, Any]], name: str, form: str) -> str:
-    """The best seed's ``name`` (fore / hind for a stroke parameter), at the digits every BLAS
-    kernel's best seed gives."""
+    """The best seed's ``name`` (fore / hind for a parameter) at the digits every kernel gives."""
     if name not in SPECIES_PARAMETERS:
-        return agreed([best[name] for best in bests], form)
+        return framework.agreed([best[name] for best in bests], form)
     return " / ".join(
-        agreed([best[f"{wing}_{name}"] for best in bests], form) for wing in ("fore", "hind")
+        framework.agreed([best[f"{wing}_{name}"] for best in bests], form)
+        for wing in ("fore", "hind")
     )
 
 
@@ -200,7 +178,14 @@ def _bounds_text(rows: Sequence[dict[str, Any]]) -> str:
 
 
 def render_species(data: dict[str, Any]) -> str:
-    columns = _species_columns()
+    from tandem_env.physics.stroke import TABLE_4
+
+    table = {p.name: p for p in TABLE_4}
+    unit = lambda p: "°" if p.unit == "deg" else p.unit  # noqa: E731
+    parameters = [
+        (n, f"{table[n].symbol} [{unit(table[n])}]", "{:.1f}") for n in SPECIES_PARAMETERS
+    ]
+    columns = [*SPECIES_METRICS, *parameters]  # (name, heading, format) of each best-seed column
 
     def cells(row: dict, by_kernel: list, seed: tuple[str, ...]) -> str:
         objectives, median, feasible, times = seed
@@ -224,6 +209,6 @@ def render_species(data: dict[str, Any]) -> str:
 
 
 MEASUREMENTS = (
-    Measurement("comparison", measure_comparison, render_comparison, blas_dependent=True),
-    Measurement("second-species", measure_species, render_species, blas_dependent=True),
+    framework.Measurement("comparison", measure_comparison, render_comparison, blas_dependent=True),
+    framework.Measurement("second-species", measure_species, render_species, blas_dependent=True),
 )

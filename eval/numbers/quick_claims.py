@@ -10,17 +10,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import (
-    ROOT,
-    Measurement,
-    blas_kernel,
-    copy_outputs,
-    footer,
-    kernel_views,
-    minutes,
-    other_kernels,
-    run_command,
-)
+from eval.numbers import framework
+from eval.numbers.framework import ROOT, kernel_views
 from eval.studies.claims import Claim
 from eval.studies.report import CLAIM_COLUMNS, CLAIMS_FILE, markdown_table, verdict_summary
 from tandem_env.io.files import read_json
@@ -56,18 +47,21 @@ def run_study(kernel: str | None) -> dict[str, Any]:
     (ROOT / "results").mkdir(exist_ok=True)
     with tempfile.TemporaryDirectory(dir=ROOT / "results", prefix="numbers-quick-") as out:
         environment = {"OPENBLAS_CORETYPE": kernel} if kernel else {}
-        wall = run_command([*COMMAND.split(), out], environment)
+        wall = framework.run_command([*COMMAND.split(), out], environment)
         rows = read_claims(Path(out) / CLAIMS_FILE)
         if kernel is None:
-            copy_outputs(Path(out), FIGURES)
+            framework.copy_outputs(Path(out), FIGURES)
     return {"rows": rows, "wall_time_s": round(wall, 1)}
 
 
 def measure() -> dict[str, Any]:
     """:func:`run_study` under the machine's own kernel and under each other OpenBLAS kernel
     (:func:`~eval.numbers.framework.other_kernels`)."""
-    data = {"blas_kernel": blas_kernel(), **run_study(None)}
-    return {**data, "other_kernels": {kernel: run_study(kernel) for kernel in other_kernels()}}
+    data = {"blas_kernel": framework.blas_kernel(), **run_study(None)}
+    return {
+        **data,
+        "other_kernels": {kernel: run_study(kernel) for kernel in framework.other_kernels()},
+    }
 
 
 def joined(names: Sequence[str]) -> str:
@@ -86,8 +80,7 @@ def by_text(texts: Mapping[str, str]) -> dict[str, list[str]]:
 def merged(texts: Mapping[str, str]) -> str:
     """One cell under every kernel: its text where all give the same, else each kernel's text
     named (``a under K1; b under K2 and K3``)."""
-    groups = by_text(texts)
-    if len(groups) == 1:
+    if len(groups := by_text(texts)) == 1:
         return next(iter(groups))
     return "; ".join(f"{text} under {joined(kernels)}" for text, kernels in groups.items())
 
@@ -142,14 +135,13 @@ def flips_sentence(claims: Sequence[Mapping[str, Mapping[str, str]]]) -> str:
 def render(data: dict[str, Any]) -> str:
     """The verdict counts, the merged claims table, the flipping verdicts, the kernels, the
     runs' times and commands."""
-    views = kernel_views(data)
-    claims = by_claim(views)
+    claims = by_claim(views := kernel_views(data))
     columns = [
         (title, lambda same, t=title: merged({k: row[t] for k, row in same.items()}))
         for title, _ in CLAIM_COLUMNS
     ]
     own, *others = views
-    times = ", ".join(f"{minutes(v['wall_time_s'])} ({k})" for k, v in views.items())
+    times = ", ".join(f"{framework.minutes(v['wall_time_s'])} ({k})" for k, v in views.items())
     named = joined([f"{own} (the measuring machine's own)", *others])
     kernels = (
         f"Run under the BLAS kernels {named}; a cell that differs between them names each kernel's value"
@@ -166,7 +158,7 @@ def render(data: dict[str, Any]) -> str:
     ]
     commands = [f"{COMMAND} DIR", *(f"OPENBLAS_CORETYPE={k} {COMMAND} DIR" for k in others)]
     heading = "Each kernel's command (DIR: a fresh folder under results/):"
-    return "\n".join(lines + footer(data, NAME, *commands, heading=heading)) + "\n"
+    return "\n".join(lines + framework.footer(data, NAME, *commands, heading=heading)) + "\n"
 
 
-MEASUREMENT = Measurement(NAME, measure, render)
+MEASUREMENT = framework.Measurement(NAME, measure, render)

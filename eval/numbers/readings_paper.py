@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import ROOT, Measurement, copy_outputs, minutes, read_rows
+from eval.numbers import framework
 from eval.studies.report import table_head
 
 READINGS_PAPER_OUT = Path("results") / "readings-paper"
@@ -15,10 +15,10 @@ READINGS_PAPER_COMMAND = (
 )
 #: The run's small outputs kept where the docs include them: run's file -> the docs' copy.
 READINGS_PAPER_FILES: dict[str, Path] = {
-    "readings.csv": ROOT / "docs" / "readings" / "paper_readings.csv",
-    "continuation_check.csv": ROOT / "docs" / "readings" / "paper_continuation_check.csv",
-    "readings_manifest.json": ROOT / "docs" / "readings" / "paper_readings_manifest.json",
-    "readings_matrix.png": ROOT / "docs" / "figures" / "readings_paper_matrix.png",
+    "readings.csv": framework.ROOT / "docs" / "readings" / "paper_readings.csv",
+    "continuation_check.csv": framework.ROOT / "docs" / "readings" / "paper_continuation_check.csv",
+    "readings_manifest.json": framework.ROOT / "docs" / "readings" / "paper_readings_manifest.json",
+    "readings_matrix.png": framework.ROOT / "docs" / "figures" / "readings_paper_matrix.png",
 }
 #: The headline columns of the readings table: (title, readings.csv columns).
 READINGS_COLUMNS: tuple[tuple[str, tuple[str, ...]], ...] = (
@@ -45,14 +45,12 @@ def measure() -> dict[str, Any]:
             f"{out / MANIFEST} is not a paper-preset readings run of this version (preset "
             f"{manifest.get('preset')!r}); run `{READINGS_PAPER_COMMAND}`"
         )
-    copy_outputs(out, READINGS_PAPER_FILES)
-    keep = ("invocations", "continuation", "continuation_check", "run_in_full")
+    framework.copy_outputs(out, READINGS_PAPER_FILES)
+    keep = "claims combination_rule invocations continuation continuation_check run_in_full"
     return {
         "command": READINGS_PAPER_COMMAND,
-        "rows": read_rows(out / "readings.csv"),
-        "claims": manifest["claims"],
-        "combination_rule": manifest["combination_rule"],
-        **{key: manifest[key] for key in keep},
+        "rows": framework.read_rows(out / "readings.csv"),
+        **{key: manifest[key] for key in keep.split()},
     }
 
 
@@ -66,20 +64,18 @@ def _invocation_line(invocation: dict[str, Any]) -> str:
     )
     phases = "; ".join(
         f"{p['name']} {p['jobs']} optimisations ({p['ran']} run, {p['reused']} reused) in "
-        f"{minutes(p['wall_time_s'], padded=True)}"
+        f"{framework.minutes(p['wall_time_s'], padded=True)}"
         for p in invocation["phases"]
     )
     finished = invocation["finished"] or "finished before invocations were recorded"
-    return (
-        f"- {finished}{where}: {phases}; {minutes(invocation['wall_time_s'], padded=True)} in all."
-    )
+    return f"- {finished}{where}: {phases}; {framework.minutes(invocation['wall_time_s'], padded=True)} in all."
 
 
 def render(data: dict[str, Any]) -> str:
     """The readings table (the paper's numbers first, the best count in bold), the run's
     phases, the combination rule and the continuation's bias check with what ran in full."""
+    from eval.studies.readings.plan import COUNTS, HEADLINES
     from eval.studies.readings.report import check_table
-    from eval.studies.readings.result import COUNTS, HEADLINES
 
     paper = {c["id"]: c["paper"] for c in data["claims"]}
     rows = data["rows"]
@@ -130,7 +126,7 @@ def render(data: dict[str, Any]) -> str:
         *[_invocation_line(inv) for inv in worked],
         "",
         f"{len(reused)} more invocation(s) reused every job and only analysed and redrew "
-        f"the outputs ({', '.join(minutes(inv['wall_time_s'], padded=True) for inv in reused) or 'none'}).",
+        f"the outputs ({', '.join(framework.minutes(inv['wall_time_s'], padded=True) for inv in reused) or 'none'}).",
         "",
         "Bias check of the continuation (difference = (continued − full) / |full| of the "
         "reported objective, per job; a single reading's task that falls short ran in full):",
@@ -144,4 +140,4 @@ def render(data: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-MEASUREMENT = Measurement("readings-paper", measure, render, on_request=True)
+MEASUREMENT = framework.Measurement("readings-paper", measure, render, on_request=True)

@@ -19,15 +19,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import (
-    ROOT,
-    Measurement,
-    json_path,
-    load,
-    machine_line,
-    read_rows,
-    run_command,
-)
+from eval.numbers import framework
 from eval.studies.report import table_head, table_row
 
 ENV_ID = "TandemWing/LevelFlight-v0"
@@ -76,13 +68,14 @@ def score_run(
     from tandem_env.envs.reference import held_out_conditions
 
     logs = folder / f"{algo}{variant and '-' + variant}-{seed}"
-    seconds = run_command([*command, "-f", str(logs)], _ONE_CORE)
+    seconds = framework.run_command([*command, "-f", str(logs)], _ONE_CORE)
     run = logs / algo / ENV_ID.replace("/", "-")  # the latest run of the env
     out = folder / f"envelope-{logs.name}"
-    conditions = [str(c) for c in held_out_conditions(ENV_ID)]
     envelope = ["python", "-m", "train.envelope", "--run", str(run), "--out", str(out)]
-    run_command([*envelope, "--conditions", *conditions], _ONE_CORE)
-    rows = read_rows(out / "envelope.csv")
+    framework.run_command(
+        [*envelope, "--conditions", *map(str, held_out_conditions(ENV_ID))], _ONE_CORE
+    )
+    rows = framework.read_rows(out / "envelope.csv")
     return {
         "algo": algo,
         **({"hyperparams": variant} if variant else {}),
@@ -112,7 +105,7 @@ def score_runs(name: str, tasks: list[tuple[list[str], str, int, int, str]]) -> 
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as tmp:
         with ThreadPoolExecutor(max_workers=2) as pool:
             runs = list(pool.map(lambda t: score_run(*t[:4], Path(tmp), t[4]), tasks))
-    write_figure(ROOT / FIGURE, {name: runs})
+    write_figure(framework.ROOT / FIGURE, {name: runs})
     return runs
 
 
@@ -166,7 +159,7 @@ def render(data: dict[str, Any]) -> str:
         f"`{shlex.join(train_command('ALGO', 'STEPS', 'SEED', 'shipped'))}` with the steps above "
         f"and seeds {list(SEEDS)} (tuned: `--conf-file "
         f"{HYPERPARAMETERS['tuned'].format(algo='ALGO')}` added), then `python -m train.envelope --conditions ...`. "
-        f"{machine_line(data, 'rl-baselines')}\n"
+        f"{framework.machine_line(data, 'rl-baselines')}\n"
     )
 
 
@@ -179,9 +172,9 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
 
     colours = dict(zip(dict.fromkeys(algo for _, algo, _ in POLICIES), PALETTE, strict=False))
     stored = {
-        name: load(name)["runs"]
+        name: framework.load(name)["runs"]
         for name in dict.fromkeys(name for name, _, _ in POLICIES)
-        if json_path(name).is_file()
+        if framework.json_path(name).is_file()
     }
     measured = {**stored, **fresh}
     fig, ax = plt.subplots(figsize=(6.0, 4.8))
@@ -193,9 +186,9 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
         if not shipped:
             for r in runs:
                 ax.plot(r["conditions"], r["scores"], color=colours[algo], alpha=0.3, lw=0.8)
-        columns = zip(*(r["scores"] for r in runs), strict=True)
-        medians = [statistics.median(col) for col in columns]
+        medians = [statistics.median(col) for col in zip(*(r["scores"] for r in runs), strict=True)]
         label = f"{algo.upper()}, {hp} hyperparameters" if hp else "amortised policy"
+        label += f" (median of {len(runs)} seeds{'' if shipped else '; thin: each'})"
         ax.plot(
             runs[0]["conditions"],
             medians,
@@ -204,9 +197,7 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
             ls="--" if shipped else "-",
             marker="o",
             ms=3 if shipped else 5,
-            label=f"{label} (median of {len(runs)} seeds"
-            + ("" if shipped else "; thin: each")
-            + ")",
+            label=label,
         )
     ax.axhline(100.0, color="0.3", ls="--", lw=1.0, label="reference optimum (100)")
     ax.axhline(0.0, color="0.6", lw=0.8)
@@ -238,29 +229,29 @@ def render_amortised(data: dict[str, Any]) -> str:
         score_table("training", [(AMORTISED, "regression + 600 gradient steps", data["runs"])])
         + "\n\nThe same held-out speeds and scoring; "
         f"`{shlex.join(amortised_command('SEED'))}` with seeds {list(SEEDS)}, then `python -m "
-        f"train.envelope --conditions ...`. {machine_line(data, 'amortised-scores')}\n"
+        f"train.envelope --conditions ...`. {framework.machine_line(data, 'amortised-scores')}\n"
     )
 
 
 def measure_headline() -> dict[str, Any]:
     """Every policy of :data:`POLICIES` summarised from the stored runs."""
-    stored = {name: load(name) for name in dict.fromkeys(p[0] for p in POLICIES)}
+    stored = {name: framework.load(name) for name in dict.fromkeys(p[0] for p in POLICIES)}
     rows = []
     for name, algo, hp in POLICIES:
         runs = runs_of(stored[name]["runs"], algo, hp)
         numbers = dict(zip(("median", "worst", "flies"), summary(runs), strict=False))
         rows.append({"algo": algo, "hyperparams": hp, "seeds": len(runs), **numbers})
-    dates = {name: data["machine_before"]["date"] for name, data in stored.items()}
-    return {"policies": rows, "measured": dates}
+    return {
+        "policies": rows,
+        "measured": {n: d["machine_before"]["date"] for n, d in stored.items()},
+    }
 
 
 def render_headline(data: dict[str, Any]) -> str:
     def rl(hp: str) -> str:
         rows = [r for r in data["policies"] if r["hyperparams"] == hp]
-        return ", ".join(
-            f"{r['algo'].upper()} {score_text(r['median'])} ({100 * r['flies']:.0f} % fly)"
-            for r in rows
-        )
+        fly = lambda r: f"{100 * r['flies']:.0f} % fly"  # noqa: E731
+        return ", ".join(f"{r['algo'].upper()} {score_text(r['median'])} ({fly(r)})" for r in rows)
 
     (amortised,) = [r for r in data["policies"] if r["algo"] == AMORTISED]
     return (
@@ -276,7 +267,7 @@ def render_headline(data: dict[str, Any]) -> str:
 
 
 MEASUREMENTS = (
-    Measurement("rl-baselines", measure, render, on_request=True),
-    Measurement("amortised-scores", measure_amortised, render_amortised, on_request=True),
-    Measurement("envelope-headline", measure_headline, render_headline, on_request=True),
+    framework.Measurement("rl-baselines", measure, render, on_request=True),
+    framework.Measurement("amortised-scores", measure_amortised, render_amortised, on_request=True),
+    framework.Measurement("envelope-headline", measure_headline, render_headline, on_request=True),
 )

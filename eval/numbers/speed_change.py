@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from eval.numbers.framework import Measurement, agreed, footer, kernel_views, kernels_line, spaced
+from eval.numbers import framework
 
 SPEED_CHANGE_EPISODES = 32
 SPEED_CHANGE_COMMAND = f"python -m eval speed-change --episodes {SPEED_CHANGE_EPISODES}"
@@ -35,10 +35,7 @@ def speed_change_optima(speeds: Sequence[float] | None = None) -> list[dict[str,
     return [
         {
             "speed": r.job.condition,
-            "method": r.method,
-            "budget": r.budget,
-            "seed": r.seed,
-            "objective": r.objective,
+            **{k: getattr(r, k) for k in ("method", "budget", "seed", "objective")},
             "feasible": bool(r.feasible),
             **{name: r.metrics[name] for name in OPTIMUM_METRICS},
             "normalised_stroke": list(r.normalised_stroke),
@@ -54,10 +51,8 @@ def speed_change_rows(optima: Sequence[dict[str, Any]], first_seed: int) -> list
 
     from eval import speed_change
 
-    steady = speed_change.SteadyPolicy(
-        np.array([o["speed"] for o in optima], dtype=np.float64),
-        np.array([o["normalised_stroke"] for o in optima], dtype=np.float64),
-    )
+    column = lambda key: np.array([o[key] for o in optima], dtype=np.float64)  # noqa: E731
+    steady = speed_change.SteadyPolicy(column("speed"), column("normalised_stroke"))
     seeds = range(first_seed, first_seed + SPEED_CHANGE_EPISODES)
     episodes = [
         speed_change.episode_metrics(log)
@@ -83,31 +78,33 @@ def render(data: dict[str, Any]) -> str:
     from eval.speed_change import policy_summary_markdown
 
     optima = data["optima"]
-    first = optima[0]
+    first = data["optima"][0]
     random = next(r for r in data["rows"] if r["policy"] == "random")
     lines = [
         policy_summary_markdown(data["rows"]).rstrip("\n"),
         "",
         f"Random strokes end their episodes after {random['flight_time_mean_s']:.2f} s on "
         f"average. The steady schedule's level-flight optima ({first['method']}, "
-        f"{spaced(first['budget'])} evaluations, seed {first['seed']}; "
+        f"{framework.spaced(first['budget'])} evaluations, seed {first['seed']}; "
         f"{sum(o['feasible'] for o in optima)} of {len(optima)} level-feasible):",
         "",
         "| V [m/s] | η | P/m [W/kg] | L/W | T − D [mN] | feasible |",
         "|---|---|---|---|---|---|",
         *(
-            f"| {o[0]['speed']:g} | {agreed([k['efficiency'] for k in o], '{:.3f}')} | "
-            f"{agreed([k['power_per_mass'] for k in o], '{:.1f}')} | "
-            f"{agreed([k['lift_to_weight'] for k in o], '{:.3f}')} | "
-            f"{agreed([1e3 * (k['thrust'] - k['drag']) for k in o], '{:+.3f}')} | "
+            f"| {o[0]['speed']:g} | {framework.agreed([k['efficiency'] for k in o], '{:.3f}')} | "
+            f"{framework.agreed([k['power_per_mass'] for k in o], '{:.1f}')} | "
+            f"{framework.agreed([k['lift_to_weight'] for k in o], '{:.3f}')} | "
+            f"{framework.agreed([1e3 * (k['thrust'] - k['drag']) for k in o], '{:+.3f}')} | "
             f"{'yes' if all(k['feasible'] for k in o) else 'no'} |"
-            for o in zip(*(view["optima"] for view in kernel_views(data).values()), strict=True)
+            for o in zip(
+                *(view["optima"] for view in framework.kernel_views(data).values()), strict=True
+            )
         ),
         "",
-        kernels_line(data),
-        *footer(data, "speed-change", data["command"]),
+        framework.kernels_line(data),
+        *framework.footer(data, "speed-change", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
 
-MEASUREMENT = Measurement("speed-change", measure, render, blas_dependent=True)
+MEASUREMENT = framework.Measurement("speed-change", measure, render, blas_dependent=True)

@@ -1,24 +1,32 @@
-"""Benchmarks of the model, the inflow solve, the torch port and the envs: documented commands
-run with ``--json`` (timings: shown, never compared)."""
+"""Benchmarks of the model, the inflow solve, the torch port and the envs, and the kernel
+against the CPU's limit and against commit 8e3cf19's kernel (docs/model.md §12): documented
+commands run with ``--json`` (timings: shown, never compared).
+
+Also what two documented commands cost, each run into an empty folder and timed as a whole
+process: the quick preset (README "Reproduce the paper", docs/reproduction.md "Presets and what
+they cost": the one figure the documents give for its time; every other mention points here)
+and the README's first training command ("Train PPO and SAC stroke policies")."""
 
 from __future__ import annotations
 
+import tempfile
 from collections.abc import Iterable
+from pathlib import Path
 from typing import Any
 
-from eval.numbers.framework import Benchmark, Measurement, footer, spaced
+from eval.numbers import framework
 from eval.studies.report import table_head, table_row
 
-MODEL_THROUGHPUT = Benchmark(("benchmarks/model_throughput.py",))
-INFLOW_SOLVE = Benchmark(("benchmarks/inflow_solve.py",))
-ENV_THROUGHPUT = Benchmark(("benchmarks/env_throughput.py",))
+MODEL_THROUGHPUT = framework.Benchmark(("benchmarks/model_throughput.py",))
+INFLOW_SOLVE = framework.Benchmark(("benchmarks/inflow_solve.py",))
+ENV_THROUGHPUT = framework.Benchmark(("benchmarks/env_throughput.py",))
 _TORCH = "benchmarks/model_throughput.py --backend torch --threads 1 --repeats 3".split()
 _ONE_THREAD = (("OMP_NUM_THREADS", "1"),)
-TORCH_EAGER = Benchmark(
+TORCH_EAGER = framework.Benchmark(
     (*_TORCH, "--batches", "1", "64", "1024", "--induction", "coupled", "none", "--gradient"),
     _ONE_THREAD,
 )
-TORCH_COMPILED = Benchmark(
+TORCH_COMPILED = framework.Benchmark(
     (*_TORCH, "--compile", "--batches", "64", "1024", "--induction", "coupled"), _ONE_THREAD
 )
 INDUCTIONS: tuple[str, ...] = ("coupled", "isolated", "none")
@@ -37,7 +45,7 @@ def render_model_throughput(data: dict[str, Any]) -> str:
     )
     for batch in batches:
         cells = [
-            f"{spaced(r['evaluations_per_s'])} ({r['ms_per_call']:.2f} ms, {r['inflow_sweeps']:.1f})"
+            f"{framework.spaced(r['evaluations_per_s'])} ({r['ms_per_call']:.2f} ms, {r['inflow_sweeps']:.1f})"
             for r in (rates[batch, induction] for induction in inductions)
         ]
         lines.append(table_row([batch, *cells]))
@@ -52,7 +60,7 @@ def render_model_throughput(data: dict[str, Any]) -> str:
         "| one coupled `evaluate` at batch 1024 | wall [ms] | CPU, all threads [ms] |",
         "|---|---|---|",
         *(f"| {b['part']} | {b['wall_ms']:.1f} | {b['cpu_ms']:.1f} |" for b in data["breakdown"]),
-        *footer(data, "model-throughput", data["command"]),
+        *framework.footer(data, "model-throughput", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
@@ -70,15 +78,11 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
     )
     for batch in sorted(ratios):
         cells = [
-            f"{spaced(rates[batch, i]['best_per_s'])} / {spaced(rates[batch, i]['median_per_s'])}"
+            f"{framework.spaced(rates[batch, i]['best_per_s'])} / {framework.spaced(rates[batch, i]['median_per_s'])}"
             for i in INDUCTIONS
         ]
-        r = ratios[batch]
-        cells += [
-            f"{r[kind + '_median']:.2f} ({r[kind + '_range'][0]:.2f}-{r[kind + '_range'][1]:.2f})"
-            for kind in ("wall", "cpu")
-        ]
-        lines.append(table_row([batch, *cells]))
+        ranges = (framework.median_range(ratios[batch], k) for k in ("wall", "cpu"))
+        lines.append(table_row([batch, *cells, *ranges]))
     sweeps = "; ".join(
         f"V = {s['speed']:g} m/s: {100 * s['solved_share']:.0f} % of the annuli need a solve, "
         f"{s['mean_sweeps']:.2f} sweeps on average (at most {s['max_sweeps']})"
@@ -105,7 +109,7 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
         "medians of the per-round ratios of time per call.",
         "Force sweeps per fore-wing annulus (own inflow, 200 random strokes, the solver called "
         f"directly): {sweeps}.",
-        *footer(data, "inflow-cost", data["command"]),
+        *framework.footer(data, "inflow-cost", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
@@ -114,7 +118,7 @@ def render_env_throughput(data: dict[str, Any]) -> str:
     rows, n = data["rows"], data["num_envs"]
     lines = [f"| | strokes/s | vs `{data['reference']}` |", "|---|---|---|"]
     lines += [
-        f"| {r['case']} | {spaced(r['strokes_per_s'])} | {100 * r['of_reference']:.1f} % |"
+        f"| {r['case']} | {framework.spaced(r['strokes_per_s'])} | {100 * r['of_reference']:.1f} % |"
         for r in rows
     ]
     # The benchmark's order: evaluate at B = 1, at B = n, the single env (one stroke per call,
@@ -130,7 +134,7 @@ def render_env_throughput(data: dict[str, Any]) -> str:
         f"per step of n = {n} strokes or per single-env episode): " + "; ".join(overheads) + ".",
         f"{data['seconds']:g} s per measurement after a warm-up call; the vector envs count the "
         "strokes evaluated, not the reset steps.",
-        *footer(data, "env-throughput", data["command"]),
+        *framework.footer(data, "env-throughput", data["command"]),
     ]
     return "\n".join(lines) + "\n"
 
@@ -141,6 +145,8 @@ def measure_torch_throughput() -> dict[str, Any]:
 
 def render_torch_throughput(data: dict[str, Any]) -> str:
     eager, compiled = by_case(data["eager"]["rates"]), by_case(data["compiled"]["rates"])
+    g = data["eager"]["gradient"]
+    run = data["eager"]
     columns = (
         ("coupled, eager", eager, "coupled"),
         ("coupled, compiled", compiled, "coupled"),
@@ -152,15 +158,15 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
         if key not in rates:
             return ""
         r = rates[key]
-        return f"{spaced(r['evaluations_per_s'])} /s ({r['torch_over_numba']:.2g} × numba)"
+        return (
+            f"{framework.spaced(r['evaluations_per_s'])} /s ({r['torch_over_numba']:.2g} × numba)"
+        )
 
     lines = table_head(["batch", *(title for title, _, _ in columns)])
     lines += [
         table_row([batch, *(cell(rates, (batch, i)) for _, rates, i in columns)])
         for batch in batches
     ]
-    g = data["eager"]["gradient"]
-    run = data["eager"]
     lines += [
         "",
         f"torch {run['torch']} on the CPU, {run['dtype']}, {run['torch_threads']} torch thread(s), "
@@ -176,14 +182,134 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
         f"{g['autograd_ms_per_stroke_batch_64']:.1f} ms per stroke at batch 64 "
         f"({g['central_difference_ms'] / g['autograd_ms_per_stroke_batch_64']:.1f} × the central "
         "difference's rate).",
-        *footer(data, "torch-throughput", data["eager"]["command"], data["compiled"]["command"]),
+        *framework.footer(
+            data, "torch-throughput", data["eager"]["command"], data["compiled"]["command"]
+        ),
     ]
     return "\n".join(lines) + "\n"
 
 
+ROOFLINE = framework.Benchmark(("benchmarks/roofline.py",))
+
+
+def render_roofline(data: dict[str, Any]) -> str:
+    lines = table_head(
+        [
+            "numba threads",
+            f"{data['commit']}: ms per call, wall / CPU",
+            "now: ms per call, wall / CPU",
+            "speed-up, wall: median (range)",
+            "speed-up, CPU: median (range)",
+        ]
+    )
+    for r in data["speed"]:
+        lines.append(
+            table_row(
+                [
+                    r["threads"],
+                    f"{r['wall_old_ms']:.0f} / {r['cpu_old_ms']:.0f}",
+                    f"{r['wall_new_ms']:.0f} / {r['cpu_new_ms']:.0f}",
+                    *(framework.median_range(r, k, "_ratio") for k in ("wall", "cpu")),
+                ]
+            )
+        )
+    s, e, ghz = data["per_stroke"], data["per_element_sample"], data["ghz"]
+    cycles = data["ns_per_element_sample"] * ghz
+    fma, rsqrt = data["fma_flops_per_ns"] / ghz, data["rsqrt_per_ns"] / ghz
+    divider = (e["sqrt"] + e["div"]) / (2.0 * rsqrt)
+    lines += [
+        "",
+        "| per stroke | per element sample | measured | the machine's limit |",
+        "|---|---|---|---|",
+        f"| {framework.spaced(s['element_samples'])} element samples, {s['sweeps']:.1f} force sweeps and "
+        f"{s['slopes']:.1f} slopes of annuli | {e['flop']:.0f} flops, {e['sqrt']:.2f} square "
+        f"roots, {e['div']:.2f} divisions | {cycles:.1f} cycles ({data['ns_per_element_sample']:.1f} "
+        f"ns) of CPU time per element sample, the whole call; {e['flop'] / cycles:.2f} flops per "
+        f"cycle | {fma:.1f} FMA flops per cycle, {rsqrt:.3f} of 1/sqrt(x) per cycle: at least "
+        f"{e['flop'] / fma:.1f} cycles (flops) and {divider:.1f} cycles (square roots and "
+        "divisions) per element sample |",
+        "",
+        "| where the time goes, 1 thread | " + " | ".join(data["stages_ms"]) + " |",
+        "|---" * (len(data["stages_ms"]) + 1) + "|",
+        "| CPU ms per call (share) | "
+        + " | ".join(
+            f"{v:.1f} ({100 * v / data['stages_ms']['whole call']:.0f} %)"
+            for v in data["stages_ms"].values()
+        )
+        + " |",
+        "",
+        f'`evaluate` at B = {data["batch"]}, V = 1 m/s, `ModelOptions(slipstream="mean")`: '
+        f"{data['rounds']} interleaved rounds of {data['calls']} calls per thread count, commit "
+        f"{data['commit']}'s kernel in a second process; speed-up = its median time per call over "
+        "today's. Operations counted by running the kernel's pointwise formulae once on counting "
+        "numbers (a sweep's, a slope's and the span integration's, weighted by the counts the "
+        "kernel reports); flops per cycle and 1/sqrt per cycle measured by vectorised numba loops "
+        f"in the same run; cycles at the {ghz:.2f} GHz that /proc/cpuinfo reports.",
+        *framework.footer(data, "roofline", data["command"]),
+    ]
+    return "\n".join(lines) + "\n"
+
+
+QUICK_PRESET_COMMAND: tuple[str, ...] = ("python", "-m", "eval", "study", "all")
+"""The documented command (quick preset, CMA-ES, serially); ``--out`` and ``--quiet`` are
+added, and ``--no-cache`` so that no stored job from an earlier run shortens it."""
+TRAINING_COMMAND: tuple[str, ...] = tuple(
+    "python -m train --algo ppo --env TandemWing/LevelFlight-v0 --timesteps 200000 --seed 0 "
+    "--env-kwargs speed=1.5".split()
+)
+"""The README's command; ``-f`` (an empty log folder) is added."""
+
+
+def measure_quick_preset() -> dict[str, Any]:
+    """Run the quick preset into an empty folder: wall time [s], jobs, model evaluations."""
+    from agents.store import RecordStore
+
+    with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
+        wall = framework.run_command([*QUICK_PRESET_COMMAND, "--out", out, "--quiet", "--no-cache"])
+        records = RecordStore(Path(out)).records()
+    return {
+        "command": " ".join(QUICK_PRESET_COMMAND),
+        "wall_s": round(wall, 1),
+        "jobs": len(records),
+        "evaluations": int(sum(r.evaluations for r in records)),
+    }
+
+
+def measure_training() -> dict[str, Any]:
+    """Run the README's PPO command into an empty log folder: wall time [s]."""
+    with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as logs:
+        wall = framework.run_command([*TRAINING_COMMAND, "-f", logs])
+    return {"command": " ".join(TRAINING_COMMAND), "wall_s": round(wall, 1)}
+
+
+def _took(data: dict[str, Any], name: str, what: str, where: str) -> str:
+    """The sentence of a timed command: ``what`` it is, then its time and ``where`` it ran."""
+    return (
+        f"`{data['command']}` {what}took **{framework.minutes(data['wall_s'])}** wall clock {framework.at_load(data)} "
+        f"{where}. {framework.machine_line(data, name)}\n"
+    )
+
+
+def render_quick_preset(data: dict[str, Any]) -> str:
+    what = (
+        f"(the quick preset: CMA-ES, serially, {data['jobs']} optimisations, "
+        f"{framework.spaced(data['evaluations'])} model evaluations, into an empty folder with the record "
+        "cache off) "
+    )
+    return _took(data, "quick-preset", what, "(longer on a busier machine)")
+
+
+def render_training(data: dict[str, Any]) -> str:
+    what = "training, its periodic evaluations and checkpoints; longer on a busier machine"
+    return _took(data, "training-time", "", f"into an empty log folder ({what})")
+
+
 MEASUREMENTS = (
-    Measurement("model-throughput", MODEL_THROUGHPUT.run, render_model_throughput),
-    Measurement("inflow-cost", INFLOW_SOLVE.run, render_inflow_cost),
-    Measurement("torch-throughput", measure_torch_throughput, render_torch_throughput),
-    Measurement("env-throughput", ENV_THROUGHPUT.run, render_env_throughput),
+    framework.Measurement("model-throughput", MODEL_THROUGHPUT.run, render_model_throughput),
+    framework.Measurement("inflow-cost", INFLOW_SOLVE.run, render_inflow_cost),
+    framework.Measurement("torch-throughput", measure_torch_throughput, render_torch_throughput),
+    framework.Measurement("env-throughput", ENV_THROUGHPUT.run, render_env_throughput),
+    framework.Measurement("roofline", ROOFLINE.run, render_roofline),
+    framework.Measurement("quick-preset", measure_quick_preset, render_quick_preset),
+    framework.Measurement("training-time", measure_training, render_training),
 )

@@ -8,12 +8,7 @@ from types import ModuleType
 from eval.studies import convergence, kinematics, power, speed, wing_shape
 
 #: The studies of ``study all`` (the paper's figures), in report order.
-PAPER_STUDIES: dict[str, ModuleType] = {
-    speed.NAME: speed,
-    power.NAME: power,
-    kinematics.NAME: kinematics,
-    wing_shape.NAME: wing_shape,
-}
+PAPER_STUDIES: dict[str, ModuleType] = {m.NAME: m for m in (speed, power, kinematics, wing_shape)}
 #: Every study the command line offers.
 STUDIES: dict[str, ModuleType] = {**PAPER_STUDIES, convergence.NAME: convergence}
 

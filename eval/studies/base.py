@@ -8,6 +8,7 @@ of their figures and claims); jobs two studies share run once.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -25,8 +26,8 @@ from agents.tasks import get_task
 from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim, ClaimSpec, judged, study_claims
 from eval.studies.paper_reading import DEFAULT, Reading
-from eval.studies.presets import WARM_SHARE, Preset, distinct, is_name, warm_start
-from eval.studies.tables import series_conditions, spread_summary_rows, tidy_rows
+from eval.studies.presets import WARM_SHARE, Preset, distinct, fail, is_name, warm_start
+from eval.studies.tables import Rows, series_conditions, spread_summary_rows, tidy_rows
 from tandem_env import PARAMETER_NAMES, ModelOptions
 from tandem_env.envs.config import EXECUTION_KWARGS, MODEL_OPTION_KWARGS
 from tandem_env.envs.reference import ConfigReference
@@ -66,31 +67,25 @@ class StudyPlan:
 
     def __post_init__(self) -> None:
         if not isinstance(self.preset, Preset):
-            raise ValueError(f"StudyPlan.preset = {self.preset!r}; allowed: a Preset")
+            fail("preset", self.preset, "a Preset", "StudyPlan")
         if self.methods is None:
             object.__setattr__(self, "methods", (self.preset.method,))
         if not distinct(self.methods, is_name):
-            raise ValueError(
-                f"StudyPlan.methods = {self.methods!r}; allowed: distinct method specs such as "
-                "('pso',), ('pso', 'random') or ('pso', 'policy:runs/ppo')"
-            )
+            specs = "distinct method specs such as ('pso',), ('pso', 'random') or ('pso', 'policy:runs/ppo')"
+            fail("methods", self.methods, specs, "StudyPlan")
         if self.figure_format not in FORMATS:
-            raise ValueError(
-                f"StudyPlan.figure_format = {self.figure_format!r}; allowed: {', '.join(FORMATS)}"
-            )
+            fail("figure_format", self.figure_format, ", ".join(FORMATS), "StudyPlan")
         if not isinstance(self.insect, Dragonfly):
-            raise ValueError(f"StudyPlan.insect = {self.insect!r}; allowed: a tandem_env.Dragonfly")
+            fail("insect", self.insect, "a tandem_env.Dragonfly", "StudyPlan")
         if not isinstance(self.reading, Reading):
-            raise ValueError(f"StudyPlan.reading = {self.reading!r}; allowed: a Reading")
+            fail("reading", self.reading, "a Reading", "StudyPlan")
         if self.reading.search is not None:
             # the analyses select records by plan.methods, so the search's method goes there
             object.__setattr__(self, "methods", (self.reading.search.method,))
         execution = {k: v for k, v in dict(self.execution).items() if v is not None}
         if not set(execution) <= set(EXECUTION_KWARGS):
-            raise ValueError(
-                f"StudyPlan.execution = {self.execution!r}; allowed: keywords among "
-                f"{', '.join(EXECUTION_KWARGS)}"
-            )
+            allowed = f"keywords among {', '.join(EXECUTION_KWARGS)}"
+            fail("execution", self.execution, allowed, "StudyPlan")
         if execution:  # the backend's rule: a device only with torch, one that is there
             backend, device = check_backend(
                 execution.get("backend", BACKENDS[0]), execution.get("device")
@@ -126,8 +121,7 @@ class StudyPlan:
         return ((key, self.preset.swarm_size),) if key else ()
 
     def budget(self, task: str) -> int:
-        """Model evaluations per optimisation of ``task``: the reading's search's budget, else
-        the preset's."""
+        """Model evaluations per optimisation of ``task``: the reading's search's, else the preset's."""
         search = self.reading.search
         given = None if search is None else search.budget(task)
         return self.preset.budget(task) if given is None else given
@@ -137,8 +131,7 @@ class StudyPlan:
     ) -> dict[str, Any]:
         """The env keywords of the plan's jobs of one series (the condition aside); ``objective``
         is the env's (after the reading's), for a task that takes one."""
-        kwargs: dict[str, Any] = dict(self.preset.env_kwargs)
-        kwargs.update(self.reading.env_kwargs())
+        kwargs = {**dict(self.preset.env_kwargs), **self.reading.env_kwargs()}
         kwargs.update(self.execution)
         if self.insect != DRAGONFLY:
             kwargs["insect"] = self.insect  # the job keeps what differs from the specimen
@@ -180,24 +173,15 @@ class StudyPlan:
         :meth:`warm_start`."""
         given = None if objective is None else self.reading.objective(objective)
         kwargs = self.env_kwargs(task, given, planform)
-        return [
-            Job(
-                method=method,
-                task=task,
-                condition=float(c),
-                budget=self.budget(task) if budget is None else budget,
-                seed=seed,
-                env_kwargs=tuple(kwargs.items()),
-                method_config={
-                    **dict(self.method_config(method)),
-                    **(self.warm_start(method, task, float(c), kwargs)[0] if warm else {}),
-                },
-                preset=self.preset.name,
-            )
-            for method in self.methods
-            for c in conditions
-            for seed in (self.preset.seeds if seeds is None else seeds)
-        ]
+        budget = self.budget(task) if budget is None else budget
+        env = tuple(kwargs.items())
+        seeds = self.preset.seeds if seeds is None else seeds
+        jobs = []
+        for method, c in itertools.product(self.methods, map(float, conditions)):
+            warmed = self.warm_start(method, task, c, kwargs)[0] if warm else {}
+            config = {**dict(self.method_config(method)), **warmed}
+            jobs += [Job(method, task, c, budget, s, env, config, self.preset.name) for s in seeds]
+        return jobs
 
     def table_lines(self, rows: Sequence[Mapping[str, Any]]) -> list[str]:
         """The report's check against the reference table (Markdown): per series and condition,
@@ -247,7 +231,7 @@ class StudyOutput:
 
     name: str
     title: str
-    rows: list[dict[str, Any]]
+    rows: Rows
     figures: list[tuple[str, Path]]
     """(caption, path) of each figure."""
     claims: list[Claim]
@@ -256,14 +240,10 @@ class StudyOutput:
 
 
 def write_tables(
-    name: str,
-    records: Mapping[Job, Record],
-    out_dir: Path,
-    quantities: Sequence[str],
-) -> tuple[list[dict[str, Any]], list[Path]]:
+    name: str, records: Mapping[Job, Record], out_dir: Path, quantities: Sequence[str]
+) -> tuple[Rows, list[Path]]:
     """Write ``DIR/<name>/records.json`` (the index), ``<name>.csv`` (tidy rows) and
     ``<name>_summary.csv`` (the ``quantities`` and the 28 stroke parameters)."""
-    study_dir = out_dir / name
     rows = tidy_rows(records)
     index = [
         {
@@ -274,11 +254,7 @@ def write_tables(
         }
         for job in sorted(records, key=lambda j: j.label())
     ]
-    paths = [
-        study_dir / INDEX_FILE,
-        study_dir / f"{name}.csv",
-        study_dir / f"{name}_summary.csv",
-    ]
+    paths = [out_dir / name / f for f in (INDEX_FILE, f"{name}.csv", f"{name}_summary.csv")]
     write_json_atomic(paths[0], index)
     write_csv_atomic(paths[1], rows)
     # the study's quantities, then the 28 stroke parameters (each with its ``pinned`` flag)
@@ -288,9 +264,7 @@ def write_tables(
 
 
 #: A study's figures from its plan, tidy rows, records and folder: (caption, path) of each.
-Figures = Callable[
-    [StudyPlan, list[dict[str, Any]], Mapping[Job, Record], Path], list[tuple[str, Path]]
-]
+Figures = Callable[[StudyPlan, Rows, Mapping[Job, Record], Path], list[tuple[str, Path]]]
 
 
 @dataclass(frozen=True)
@@ -304,7 +278,7 @@ class Analysis:
     """The summary CSV's quantities (the 28 stroke parameters follow)."""
     figures: Figures
     claims: tuple[ClaimSpec, ...]
-    view: Callable[[StudyPlan, list[dict[str, Any]], str], Any]
+    view: Callable[[StudyPlan, Rows, str], Any]
 
     def __call__(
         self, plan: StudyPlan, records: Mapping[Job, Record], out_dir: Path
@@ -313,13 +287,9 @@ class Analysis:
         figures = self.figures(plan, rows, records, out_dir / self.name)
         return StudyOutput(self.name, self.title, rows, figures, self.judge(plan, rows), files)
 
-    def judge(self, plan: StudyPlan, rows: list[dict[str, Any]]) -> list[Claim]:
+    def judge(self, plan: StudyPlan, rows: Rows) -> list[Claim]:
         """Every method's claims, with their confidence and identifiability
         (:func:`eval.studies.claims.study_claims`)."""
         words = vars(plan.preset)
-        return study_claims(
-            rows,
-            plan.methods,
-            lambda r, m, i: judged(self.claims, self.name, self.view(plan, r, m), m, i, words),
-            options=plan.model_options,
-        )
+        judge = lambda r, m, i: judged(self.claims, self.name, self.view(plan, r, m), m, i, words)  # noqa: E731
+        return study_claims(rows, plan.methods, judge, options=plan.model_options)

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import heapq
-import shutil
 import tempfile
 import time
 from collections.abc import Mapping, Sequence
@@ -41,12 +40,8 @@ def makespan(durations: Sequence[float], workers: int) -> float:
 
 def seconds_per_evaluation(records: Mapping[Job, Record]) -> dict[str, float]:
     """Per task (sorted): the median seconds per model evaluation of the jobs' records [s]."""
-    return {
-        task: float(
-            np.median([r.wall_time / j.budget for j, r in records.items() if j.task == task])
-        )
-        for task in sorted({j.task for j in records})
-    }
+    rates = lambda task: [r.wall_time / j.budget for j, r in records.items() if j.task == task]  # noqa: E731
+    return {task: float(np.median(rates(task))) for task in sorted({j.task for j in records})}
 
 
 def _suite_jobs(plan: StudyPlan) -> list[Job]:
@@ -56,11 +51,9 @@ def _suite_jobs(plan: StudyPlan) -> list[Job]:
 
 def _speedups(name: str, durations: Sequence[float]) -> None:
     total = sum(durations)
-    cells = []
-    for workers in WORKERS:
-        best = total / makespan(durations, workers)
-        cells.append(f"{workers}: {best:.1f}x ({best / workers:.0%})")
-    print(f"{name}, {len(durations)} jobs, {total:.0f} s serial; at most " + ", ".join(cells))
+    best = {w: total / makespan(durations, w) for w in WORKERS}
+    cells = ", ".join(f"{w}: {b:.1f}x ({b / w:.0%})" for w, b in best.items())
+    print(f"{name}, {len(durations)} jobs, {total:.0f} s serial; at most {cells}")
 
 
 def main(argv: Sequence[str] | None = None) -> None:
@@ -73,41 +66,34 @@ def main(argv: Sequence[str] | None = None) -> None:
     jobs = _suite_jobs(plan)
     evaluations = sum(j.budget for j in jobs)
     print(f"preset {args.preset}: {len(jobs)} optimisations, {evaluations} evaluations")
-    root = Path(tempfile.mkdtemp(prefix="bench_workers_"))
     serial = None
-    try:
+    with tempfile.TemporaryDirectory(prefix="bench_workers_", ignore_cleanup_errors=True) as root:
         for attempt in range(args.repeat):
             for scheduler in (None, args.scheduler):
-                out = root / f"{scheduler or 'serial'}-{attempt}".replace(":", "_").replace("/", "")
+                name = f"{scheduler or 'serial'}-{attempt}".replace(":", "_").replace("/", "")
+                out = Path(root) / name
                 start = time.perf_counter()
                 summary = run_jobs(jobs, out, scheduler=scheduler, progress=False, cache=False)
                 seconds = time.perf_counter() - start
-                print(
-                    f"{scheduler or 'serial'}: {seconds:.1f} s = {evaluations / seconds:.0f} "
-                    "evaluations/s",
-                    flush=True,
-                )
+                rate = f"{evaluations / seconds:.0f} evaluations/s"
+                print(f"{scheduler or 'serial'}: {seconds:.1f} s = {rate}", flush=True)
                 serial = serial or summary
-        assert serial is not None
-        ordered = sorted(jobs, key=lambda j: -j.budget)  # the runner's order
-        times = {j: serial.records[j.key] for j in ordered}
-        durations = [times[j].wall_time for j in ordered]
-        for task in sorted({j.task for j in jobs}):
-            own = [times[j].wall_time for j in jobs if j.task == task]
-            budget = {j.budget for j in jobs if j.task == task}
-            q = np.percentile(own, [0, 25, 50, 75, 100])
-            print(
-                f"{task} ({len(own)} jobs, budget {sorted(budget)}): job length [s] min "
-                f"{q[0]:.2f}, quartiles {q[1]:.2f} / {q[2]:.2f} / {q[3]:.2f}, max {q[4]:.2f}"
-            )
-        per_eval = seconds_per_evaluation(times)
-        print(f"measured: {durations and sum(durations):.1f} s of jobs (serial)")
-        _speedups(f"{args.preset} (measured)", durations)
-        for name, preset in STUDY_PRESETS.items():
-            others = sorted(_suite_jobs(StudyPlan(preset)), key=lambda j: -j.budget)
-            _speedups(f"{name} (estimated)", [per_eval[j.task] * j.budget for j in others])
-    finally:
-        shutil.rmtree(root, ignore_errors=True)
+    assert serial is not None
+    ordered = sorted(jobs, key=lambda j: -j.budget)  # the runner's order
+    times = {j: serial.records[j.key] for j in ordered}
+    durations = [times[j].wall_time for j in ordered]
+    for task in sorted({j.task for j in jobs}):
+        own = [times[j].wall_time for j in jobs if j.task == task]
+        budget = sorted({j.budget for j in jobs if j.task == task})
+        q = np.percentile(own, [0, 25, 50, 75, 100])
+        lengths = f"min {q[0]:.2f}, quartiles {q[1]:.2f} / {q[2]:.2f} / {q[3]:.2f}, max {q[4]:.2f}"
+        print(f"{task} ({len(own)} jobs, budget {budget}): job length [s] {lengths}")
+    per_eval = seconds_per_evaluation(times)
+    print(f"measured: {durations and sum(durations):.1f} s of jobs (serial)")
+    _speedups(f"{args.preset} (measured)", durations)
+    for name, preset in STUDY_PRESETS.items():
+        others = sorted(_suite_jobs(StudyPlan(preset)), key=lambda j: -j.budget)
+        _speedups(f"{name} (estimated)", [per_eval[j.task] * j.budget for j in others])
 
 
 if __name__ == "__main__":

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import operator
+from collections import Counter
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, Literal
@@ -18,7 +19,8 @@ from typing import Any, Literal
 import numpy as np
 from scipy.stats import spearmanr
 
-from eval.studies.tables import Spread, pinned, spread, table4_bounds
+from eval.studies.presets import fail
+from eval.studies.tables import Rows, Spread, pinned, spread, table4_bounds
 from tandem_env import ModelOptions
 
 Verdict = Literal["agrees", "differs", "undecided", "not identifiable", "not run", "no data"]
@@ -50,7 +52,7 @@ PHASE = "fore/hind phase"
 #: What a claim may be about that a reading of the model can lack: the quantity, and whether
 #: the model under the options, at the flight speed [m/s] (None: forward flight), depends on it.
 QUANTITIES: dict[str, Callable[[ModelOptions, float | None], bool]] = {
-    PHASE: lambda options, speed: options.phase_resolved(speed),
+    PHASE: lambda options, speed: options.phase_resolved(speed)
 }
 IDENTIFIABILITY_RULE = (
     "a claim about a quantity the model does not depend on under the options run is **not "
@@ -90,9 +92,7 @@ class Dependence:
 
     def __post_init__(self) -> None:
         if self.quantity not in QUANTITIES:
-            raise ValueError(
-                f"Dependence.quantity = {self.quantity!r}; allowed: {', '.join(QUANTITIES)}"
-            )
+            fail("quantity", self.quantity, ", ".join(QUANTITIES), "Dependence")
 
     def resolved(self, options: ModelOptions) -> bool:
         """Whether the model under ``options`` depends on the quantity at this speed."""
@@ -141,10 +141,9 @@ class Claim:
     are then ``"not identifiable"`` (:func:`identifiable`)."""
 
     def __post_init__(self) -> None:
-        if self.leaning is None:
-            object.__setattr__(self, "leaning", self.verdict)
-        if self.best_leaning is None:
-            object.__setattr__(self, "best_leaning", self.best_verdict)
+        for side in ("", "best_"):
+            if getattr(self, f"{side}leaning") is None:
+                object.__setattr__(self, f"{side}leaning", getattr(self, f"{side}verdict"))
 
     def verdict_text(self, best: bool = False) -> str:
         """The verdict with its confidence, e.g. ``undecided (leans differs, flips 35 %)``."""
@@ -174,9 +173,7 @@ class Claim:
 def decide(leaning: Verdict, flips: float) -> Verdict:
     """The confidence rule: a decided verdict that flips in more than :data:`FLIP_THRESHOLD`
     of the resamples is ``"undecided"``; any other stays as it is."""
-    if leaning in ("agrees", "differs") and flips > FLIP_THRESHOLD:
-        return "undecided"
-    return leaning
+    return "undecided" if leaning in ("agrees", "differs") and flips > FLIP_THRESHOLD else leaning
 
 
 @dataclass(frozen=True)
@@ -196,12 +193,10 @@ class VerdictCount:
     @classmethod
     def of(cls, claims: Iterable[Claim], best: bool = False) -> VerdictCount:
         """Counts of the verdicts on the median (on the best seed if ``best``)."""
-        verdicts = [c.best_verdict if best else c.verdict for c in claims]
-        agree, differ = verdicts.count("agrees"), verdicts.count("differs")
-        undecided = verdicts.count("undecided")
-        unknowable = verdicts.count("not identifiable")
-        rest = len(verdicts) - agree - differ - undecided - unknowable
-        return cls(agree, differ, undecided, rest, unknowable)
+        n = Counter(c.best_verdict if best else c.verdict for c in claims)
+        unknowable = n["not identifiable"]
+        rest = n.total() - n["agrees"] - n["differs"] - n["undecided"] - unknowable
+        return cls(n["agrees"], n["differs"], n["undecided"], rest, unknowable)
 
     def text(self) -> str:
         """``3 agree, 2 differ, 4 undecided, 3 not identifiable, 1 no data``."""
@@ -238,8 +233,7 @@ TESTS: dict[str, Callable[[float, Any], bool]] = {
 
 
 def judge(value: float, rule: Rule, target: Any) -> bool | None:
-    """Whether ``value`` agrees with ``target`` under ``rule`` (:data:`TESTS`); None (no data)
-    for NaN."""
+    """Whether ``value`` agrees with ``target`` under ``rule`` (:data:`TESTS`); None for NaN."""
     return None if math.isnan(value) else bool(TESTS[rule](value, target))
 
 
@@ -276,7 +270,8 @@ class ClaimSpec:
         if fields is None:
             return None
         row = {"statement": self.statement.format_map(words), "note": self.note, **fields}
-        median, best = (row.get(k, math.nan) for k in ("median", "best"))
+        median = row.get("median", math.nan)
+        best = row.get("best", math.nan)
         return Claim(
             id=self.id if index == 0 else f"{self.id}/{method}",
             study=study,
@@ -290,12 +285,7 @@ class ClaimSpec:
 
 
 def judged(
-    specs: Iterable[ClaimSpec],
-    study: str,
-    view: Any,
-    method: str,
-    index: int,
-    words: Mapping = {},
+    specs: Iterable[ClaimSpec], study: str, view: Any, method: str, index: int, words: Mapping = {}
 ) -> list[Claim]:
     """The claims ``specs`` make of one method's ``view`` (:meth:`ClaimSpec.claim`)."""
     found = (spec.claim(study, view, method, index, words) for spec in specs)
@@ -325,8 +315,7 @@ def rho(x: Sequence[float], y: Sequence[float]) -> float:
 def monotonic_fraction(x: Sequence[float], y: Sequence[float], direction: int) -> float:
     """Share of consecutive steps (in x order) that move in ``direction`` (+1 rise, −1 fall)."""
     xa, ya = _finite(x, y)
-    order = np.argsort(xa)
-    steps = np.diff(ya[order])
+    steps = np.diff(ya[np.argsort(xa)])
     return math.nan if steps.size == 0 else float(np.mean(np.sign(steps) == direction))
 
 
@@ -353,13 +342,13 @@ def trend_stats(series: Mapping[float, Spread], direction: int, **fields: Any) -
     fraction as the detail; ``fields`` override these (:func:`held_at_bound`'s)."""
     x, medians = list(series), [s.median for s in series.values()]
     frac = monotonic_fraction(x, medians, direction)
-    row = dict(
-        median=rho(x, medians),
-        best=rho(x, [s.best for s in series.values()]),
-        unit="(ρ)",
-        detail=f"monotonic fraction {frac:.2f}" if not math.isnan(frac) else "",
-    )
-    return {**row, **fields}
+    return {
+        "median": rho(x, medians),
+        "best": rho(x, [s.best for s in series.values()]),
+        "unit": "(ρ)",
+        "detail": f"monotonic fraction {frac:.2f}" if not math.isnan(frac) else "",
+        **fields,
+    }
 
 
 def held_at_bound(rows: Sequence[Mapping[str, Any]], quantity: str) -> dict[str, Any]:
@@ -398,22 +387,14 @@ def location_stats(
 
     def where(values: list[float]) -> float:
         xa, ya = _finite(list(series), values)
-        if ya.size == 0:
-            return math.nan
-        return float(xa[np.argmin(ya) if kind == "min" else np.argmax(ya)])
+        return float(xa[np.argmin(ya) if kind == "min" else np.argmax(ya)]) if ya.size else math.nan
 
-    return dict(
-        median=where([s.median for s in series.values()]),
-        best=where([s.best for s in series.values()]),
-        unit="m/s",
-        **fields,
-    )
+    medians = [s.median for s in series.values()]
+    bests = [s.best for s in series.values()]
+    return {"median": where(medians), "best": where(bests), "unit": "m/s", **fields}
 
 
 # --- confidence: the bootstrap over seeds ------------------------------------------------------
-Rows = list[dict[str, Any]]
-
-
 def _strata(rows: Sequence[Mapping[str, Any]]) -> list[tuple[list[int], dict[int, list[dict]]]]:
     """(seeds, {seed: rows}) per condition of each series (method, task, planform; objectives
     together, so a seed's two accelerating optimisations stay paired), in a fixed order."""
@@ -498,13 +479,8 @@ def study_claims(
 ) -> list[Claim]:
     """Every method's claims (``claims_of(rows, method, index)``), each method's bootstrap over
     its own rows (:func:`with_confidence`), judged identifiable under ``options``."""
-    return identifiable(
-        [
-            c
-            for i, m in enumerate(methods)
-            for c in with_confidence(
-                lambda r, m=m, i=i: claims_of(r, m, i), [r for r in rows if r["method"] == m]
-            )
-        ],
-        options,
-    )
+    found: list[Claim] = []
+    for i, m in enumerate(methods):
+        own = [r for r in rows if r["method"] == m]
+        found += with_confidence(lambda r, m=m, i=i: claims_of(r, m, i), own)
+    return identifiable(found, options)

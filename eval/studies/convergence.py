@@ -23,6 +23,7 @@ from eval import figures
 from eval.studies.base import StudyOutput, StudyPlan, write_tables
 from eval.studies.presets import STUDY_PRESETS
 from eval.studies.report import Column, markdown_table
+from eval.studies.tables import Rows
 from tandem_env.io.files import write_csv_atomic, write_text_atomic
 
 NAME = "convergence"
@@ -102,11 +103,14 @@ def curves(runs: Sequence[Record]) -> tuple[np.ndarray, np.ndarray]:
 
 def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, Any]:
     """Reproducibility of one budget split from the records' feasible objectives:
-    ``halves_apart`` = |best(first half) − best(second half)| / the larger, over the seeds."""
+    ``halves_apart`` = |best(first half) − best(second half)| / the larger [-], over the seeds."""
     runs = sorted(runs, key=lambda r: r.seed)
     values = np.array([r.objective if r.feasible else np.nan for r in runs], dtype=float)
     half = len(runs) // 2
-    first, second = (_best(part) if half else math.nan for part in (values[:half], values[half:]))
+    first, second = (
+        float(np.nanmax(part)) if half and np.isfinite(part).any() else math.nan
+        for part in (values[:half], values[half:])
+    )
     known = [g for g in (r.certificate.get("gain") for r in runs) if g is not None]
     finite = values[np.isfinite(values)]
     median, low, high = (
@@ -114,6 +118,9 @@ def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, An
         if finite.size
         else (math.nan,) * 3
     )
+    apart = math.nan
+    if np.isfinite(first) and np.isfinite(second) and max(first, second) > 0:
+        apart = abs(first - second) / max(first, second)
     return {
         "condition": label,
         "polish_share": share,
@@ -125,22 +132,13 @@ def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, An
         "max": high,
         "best_first_half": first,
         "best_second_half": second,
-        "halves_apart": abs(first - second) / max(first, second)
-        if np.isfinite(first) and np.isfinite(second) and max(first, second) > 0
-        else math.nan,
+        "halves_apart": apart,
         "polish_gain_median": float(np.median(known)) if known else math.nan,
         "polish_converged": sum(bool(r.certificate.get("converged")) for r in runs),
     }
 
 
-def _best(values: np.ndarray) -> float:
-    """The largest finite value (NaN for none)."""
-    return float(np.nanmax(values)) if np.isfinite(values).any() else math.nan
-
-
-def checkpoint_rows(
-    label: str, method: str, grid: np.ndarray, values: np.ndarray
-) -> list[dict[str, Any]]:
+def checkpoint_rows(label: str, method: str, grid: np.ndarray, values: np.ndarray) -> Rows:
     """Median, IQR, min, max, spread ((max − min) / median) and fraction of the longest run's
     median (of the value, not the gain from a penalised first batch) per checkpoint."""
     final = np.median(values[:, -1])
@@ -180,11 +178,7 @@ SPLIT_COLUMNS: tuple[Column, ...] = (
     ("apart", lambda row: f"{100 * row['halves_apart']:.2f} %"),
     (
         "median polish gain",
-        lambda row: (
-            "–"
-            if math.isnan(row["polish_gain_median"])
-            else f"{100 * row['polish_gain_median']:+.2f} %"
-        ),
+        lambda row: "–" if math.isnan(g := row["polish_gain_median"]) else f"{100 * g:+.2f} %",
     ),
     ("polish converged", "{polish_converged}".format_map),
 )

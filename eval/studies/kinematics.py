@@ -23,20 +23,15 @@ from eval import figures
 from eval import kinematics_figures as kf
 from eval.studies import claims as C
 from eval.studies.base import Analysis, StudyPlan
-from eval.studies.tables import Spread, circular_median, select, spread, table4_bounds
+from eval.studies.tables import Rows, Spread, circular_median, select, spread, table4_bounds
 from tandem_env import PARAMETER_NAMES, bound_sides, stroke_history
 from tandem_env.envs import registration
 
 NAME = "kinematics"
 TITLE = "Kinematics of the optimised strokes (Figs. 9-13)"
-QUANTITIES = (
-    "objective_value",
-    "phase_difference",
-    "phase_difference_abs",
-    "pitch_amplitude",
-    "sweep_amplitude",
-    "frequency",
-    "stroke_plane_angle",
+QUANTITIES = tuple(
+    "objective_value phase_difference phase_difference_abs pitch_amplitude "
+    "sweep_amplitude frequency stroke_plane_angle".split()
 )
 PAPER_PHASE_LEAD = 30.0  # deg: hind-wing leads at 2 m/s (Fig. 11)
 PAPER_IN_PHASE = 0.0  # deg: "the wings flap in-phase" in accelerating flight (Fig. 11b)
@@ -45,7 +40,7 @@ HISTORY_SAMPLES = 120
 TRACED = ("tip_path", "sweep", "pitch", "angle_of_attack", "relative_speed")
 
 
-def triangle_note(rows: list[dict[str, Any]]) -> str:
+def triangle_note(rows: Rows) -> str:
     """Fig. 13's legend line naming the seeds' wings whose weaving is a triangle wave (shape K
     at its upper bound 1, docs/model.md §3.4): their φ̇ reverses at once, so their relative
     speed steps at each reversal (the kinematics, not the plot); "" where none is."""
@@ -53,8 +48,7 @@ def triangle_note(rows: list[dict[str, Any]]) -> str:
     found = []
     for row in sorted(rows, key=lambda r: r["seed"]):
         sides = bound_sides([float(row[name]) for name in PARAMETER_NAMES])
-        wings = [w for w, k in shape.items() if sides[k] == 1]
-        if wings:
+        if wings := [w for w, k in shape.items() if sides[k] == 1]:
             found.append(f"{' and '.join(wings)}-wing of seed {row['seed']}")
     if not found:
         return ""
@@ -75,11 +69,10 @@ def jobs(plan: StudyPlan) -> list[Job]:
 def flight_of(job: Job) -> tuple[Any, float, float]:
     """The env config of ``job`` and its flight speed [m/s] and available power [W/kg]."""
     task = get_task(job.task)
-    env_id = task.env_id
     kwargs = {**dict(job.env_kwargs), task.declared_condition.keyword: job.condition}
-    cfg = registration.config_class(env_id).from_kwargs(**kwargs)
+    cfg = registration.config_class(task.env_id).from_kwargs(**kwargs)
     # The task's condition sets one model input; its config fixes the other (task core).
-    core = registration.core_class(env_id)(cfg)
+    core = registration.core_class(task.env_id)(cfg)
     speeds, powers = core.flight_conditions(np.array([cfg.fixed_condition]))
     return cfg, float(speeds[0]), float(powers[0])
 
@@ -93,9 +86,7 @@ def record_history(record: Record, n_samples: int = HISTORY_SAMPLES):
     )
 
 
-def traces(
-    records: Mapping[Job, Record], rows: list[dict[str, Any]], **where: Any
-) -> list[kf.Trace]:
+def traces(records: Mapping[Job, Record], rows: Rows, **where: Any) -> list[kf.Trace]:
     """One trace per seed of the series ``where`` picks; the best feasible seed is bold."""
     chosen = select(rows, **where)
     best_seed = spread(chosen, "objective_value").best_seed
@@ -111,7 +102,7 @@ def traces(
 
 
 def draw(
-    plan: StudyPlan, rows: list[dict[str, Any]], records: Mapping[Job, Record], study_dir: Path
+    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
 ) -> list[tuple[str, Path]]:
     """Figs. 9-13 of the first method's strokes, each seed's."""
     p = plan.preset
@@ -135,11 +126,8 @@ def draw(
 
     # Each panel shows the statistic its claim judges; not judged where K1-K3 are not
     # identifiable (claims.IDENTIFIABILITY_RULE).
-    said = (
-        "judged"
-        if plan.model_options.phase_resolved()
-        else "not judged: the model does not depend on ΔΦ"
-    )
+    resolved = plan.model_options.phase_resolved()
+    said = "judged" if resolved else "not judged: the model does not depend on ΔΦ"
     phase_panels = (
         panel(
             "(c) |ΔΦ| (K1, K3; feasible seeds)",
@@ -185,30 +173,19 @@ def draw(
         (11, "weaving angle φ", phase, "sweep", "weaving", phase_panels),
         (12, "pitch angle η", "(c) pitch amplitudes", "pitch", "pitch", (pitch_panel,)),
     )
+    out = []
+    for n, flight, t, name, stem in tips:
+        path = plan.figure(study_dir, stem)
+        figure = kf.tip_path_figure(t, f"Fig. {n}: tip paths, {name} ({label})", path)
+        out.append((f"Fig. {n}: wing-tip paths relative to the wing base, {flight}", figure))
+    both = [(f"(a) {level_name}", lv), (f"(b) {accel_name}", ac)]
+    for n, angle, panels, key, stem, extras in cycles:
+        title = f"Fig. {n}: {angle.rsplit(' ', 1)[0]} over the cycle"
+        path = plan.figure(study_dir, f"fig{n}_{stem}")
+        figure = kf.cycle_figure(both, key, f"{angle} [deg]", title, path, extras=extras)
+        out.append((f"Fig. {n}: {angle} of fore- and hind-wing; {panels}", figure))
     return [
-        *(
-            (
-                f"Fig. {n}: wing-tip paths relative to the wing base, {flight}",
-                kf.tip_path_figure(
-                    t, f"Fig. {n}: tip paths, {name} ({label})", plan.figure(study_dir, stem)
-                ),
-            )
-            for n, flight, t, name, stem in tips
-        ),
-        *(
-            (
-                f"Fig. {n}: {angle} of fore- and hind-wing; {panels}",
-                kf.cycle_figure(
-                    [(f"(a) {level_name}", lv), (f"(b) {accel_name}", ac)],
-                    key,
-                    f"{angle} [deg]",
-                    f"Fig. {n}: {angle.rsplit(' ', 1)[0]} over the cycle",
-                    plan.figure(study_dir, f"fig{n}_{stem}"),
-                    extras=extras,
-                ),
-            )
-            for n, angle, panels, key, stem, extras in cycles
-        ),
+        *out,
         (
             "Fig. 13: angle of attack and relative speed over the cycle, level flight (a wing "
             "whose weaving shape K sits at its bound 1 sweeps at a constant rate between "
@@ -233,13 +210,11 @@ def phase_dependences(plan: StudyPlan) -> dict[str, tuple[C.Dependence, ...]]:
         "accelerate", [p.kinematics_power], objective=p.kinematics_objective, seeds=p.seeds[:1]
     )
     speeds = [flight_of(job)[1] for job in (level[0], level[1], accel[0])]
-    return {
-        cid: (C.Dependence(C.PHASE, speed),)
-        for cid, speed in zip(("K1", "K2", "K3"), speeds, strict=True)
-    }
+    ids = ("K1", "K2", "K3")
+    return {cid: (C.Dependence(C.PHASE, speed),) for cid, speed in zip(ids, speeds, strict=True)}
 
 
-def view(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> dict[str, Any]:
+def view(plan: StudyPlan, rows: Rows, method: str) -> dict[str, Any]:
     """What K1-K4 judge and Figs. 11c-d and 12c show: |ΔΦ| level and accelerating, ΔΦ at
     ``phase_speed``, η_m level and accelerating (spreads over seeds); and what K1-K3 are about
     (``phase``: :func:`phase_dependences`)."""
@@ -252,10 +227,10 @@ def view(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> dict[str, 
         "level η_m": (level, p.kinematics_speed, "pitch_amplitude"),
         "accel η_m": (accel, p.kinematics_power, "pitch_amplitude"),
     }
-    out: dict[str, Any] = {
-        k: spread(select(rows, condition=c, **where), q) for k, (where, c, q) in picks.items()
+    return {
+        **{k: spread(select(rows, condition=c, **where), q) for k, (where, c, q) in picks.items()},
+        "phase": phase_dependences(plan),
     }
-    return {**out, "phase": phase_dependences(plan)}
 
 
 def _series(plan: StudyPlan, method: str) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -287,35 +262,17 @@ NOISY = (
     "is noisy."
 )
 PITCH = "pitch amplitude η_m is larger in accelerating than in level flight (ours: accelerating − level)"
+LEVEL = "level flight ({kinematics_speed:g} m/s): fore- and hind-wing flap out of phase (|ΔΦ|)"
+LEADS = "at {phase_speed:g} m/s the hind-wing leads by about 30° (ΔΦ)"
+ACCEL = "accelerating flight ({kinematics_power:g} W/kg): the wings flap in phase (|ΔΦ|)"
 CLAIMS: tuple[C.ClaimSpec, ...] = (
     C.ClaimSpec(
-        "K1",
-        "Fig. 11a",
-        "level flight ({kinematics_speed:g} m/s): fore- and hind-wing flap out of phase (|ΔΦ|)",
-        "out of phase",
-        "phase",
-        False,
-        phase_of("level |ΔΦ|", "K1"),
+        "K1", "Fig. 11a", LEVEL, "out of phase", "phase", False, phase_of("level |ΔΦ|", "K1")
     ),
     C.ClaimSpec(
-        "K2",
-        "Fig. 11",
-        "at {phase_speed:g} m/s the hind-wing leads by about 30° (ΔΦ)",
-        "+30°",
-        "angle",
-        PAPER_PHASE_LEAD,
-        phase_of("ΔΦ", "K2"),
-        NOISY,
+        "K2", "Fig. 11", LEADS, "+30°", "angle", PAPER_PHASE_LEAD, phase_of("ΔΦ", "K2"), NOISY
     ),
-    C.ClaimSpec(
-        "K3",
-        "Fig. 11b",
-        "accelerating flight ({kinematics_power:g} W/kg): the wings flap in phase (|ΔΦ|)",
-        "in phase",
-        "phase",
-        True,
-        phase_of("accel |ΔΦ|", "K3"),
-    ),
+    C.ClaimSpec("K3", "Fig. 11b", ACCEL, "in phase", "phase", True, phase_of("accel |ΔΦ|", "K3")),
     C.ClaimSpec(
         "K4", "Fig. 12c", PITCH, "η_m,acc > η_m,level", "compare", (">", 0.0), pitch_larger
     ),

@@ -17,7 +17,7 @@ from typing import Any
 from agents.methods import get_method, preset_batch_setting
 from agents.polish import split_settings
 from agents.tasks import available_tasks
-from eval.studies.presets import is_int, is_name, is_number
+from eval.studies.presets import fail, is_int, is_name, is_number
 from tandem_env import Dragonfly, ModelOptions
 from tandem_env.envs import ACCELERATE
 from tandem_env.envs.config import MODEL_OPTION_KWARGS
@@ -28,12 +28,13 @@ NUMERICAL_OPTIONS: frozenset[str] = frozenset({"n_time", "n_blade", "tolerance",
 DECISION_OPTIONS: tuple[str, ...] = tuple(
     f.name for f in fields(ModelOptions) if f.name not in NUMERICAL_OPTIONS
 )
+DECISIONS = f"modelling decisions: {', '.join(DECISION_OPTIONS)}"
 #: Accelerating-flight objectives whose optimum can stand for the paper's F̄_h (Fig. 7).
-HORIZONTAL_OBJECTIVES: tuple[str, ...] = tuple(
-    o
-    for o in ACCELERATE.objectives.choices
-    if o.startswith("horizontal")  # type: ignore[union-attr]
-)
+CHOICES: tuple[str, ...] = ACCELERATE.objectives.choices  # type: ignore[assignment]
+#: Accelerating-flight objectives whose optimum can stand for the paper's F̄_h (Fig. 7).
+HORIZONTAL_OBJECTIVES: tuple[str, ...] = tuple(o for o in CHOICES if o.startswith("horizontal"))
+#: A reading's changes besides its model options (:meth:`Reading.changes`).
+OWN_FIELDS = ("rotational_coefficient", "horizontal_objective", "search")
 #: C_r of the default insect's wings (Table 3: π) [-].
 DEFAULT_ROTATIONAL = Dragonfly().fore.rotational_coefficient
 _KWARG_OF = {option: kwarg for kwarg, option in MODEL_OPTION_KWARGS.items()}
@@ -75,19 +76,17 @@ class Search:
     """Model evaluations per run by task name, sorted (a mapping is accepted); a task not named
     keeps the preset's."""
     settings: tuple[tuple[str, Any], ...] = ()
-    """Method settings, e.g. ``{"polish": "none"}``, sorted (a mapping is accepted)."""
+    """Method settings, e.g. ``{"polish": "none"}``, sorted (or a mapping)."""
 
     def __post_init__(self) -> None:
         method = self.method
         if not is_name(method) or ":" in method:
-            raise ValueError(
-                f"Search.method = {method!r}; allowed: a harness method name without ':' "
-                "such as 'pso' or 'cmaes'"
-            )
+            allowed = "a harness method name without ':' such as 'pso' or 'cmaes'"
+            fail("method", method, allowed, "Search")
         for name, low in (("swarm_size", 2), ("iterations", 1)):
             value = getattr(self, name)
             if value is not None and not is_int(value, low):
-                raise ValueError(f"Search.{name} = {value!r}; allowed: None or an integer >= {low}")
+                fail(name, value, f"None or an integer >= {low}", "Search")
         if self.iterations is not None and self.swarm_size is None:
             raise ValueError(
                 f"Search.iterations = {self.iterations!r} without swarm_size; allowed: both "
@@ -97,10 +96,8 @@ class Search:
         tasks = available_tasks()
         for task, value in budgets:
             if task not in tasks or not is_int(value, 1):
-                raise ValueError(
-                    f"Search.budgets[{task!r}] = {value!r}; allowed: tasks {', '.join(tasks)} "
-                    "with an integer >= 1 (model evaluations)"
-                )
+                allowed = f"tasks {', '.join(tasks)} with an integer >= 1 (model evaluations)"
+                fail(f"budgets[{task!r}]", value, allowed, "Search")
         if budgets and self.iterations is not None:
             raise ValueError(
                 f"Search.budgets = {dict(budgets)!r} and iterations = {self.iterations!r}; "
@@ -108,8 +105,7 @@ class Search:
             )
         settings = _pairs(self.settings, "Search.settings")
         given = {k for k, _ in settings}
-        budget_keys = sorted(given & {"iterations", "max_evaluations", "budget"})
-        if budget_keys:
+        if budget_keys := sorted(given & {"iterations", "max_evaluations", "budget"}):
             raise ValueError(
                 f"Search.settings sets {budget_keys}; allowed: the budget as iterations or "
                 "budgets, not a method setting"
@@ -168,7 +164,7 @@ class Reading:
     """One reading of the paper: the options it changes from the documented defaults."""
 
     name: str
-    """Short identifier, e.g. ``"default"`` or ``"thrust_split=body"``; a column of the matrix."""
+    """Short identifier, e.g. ``"default"`` or ``"body"``; a column of the matrix."""
     description: str
     """One line: what this reading assumes and where the paper leaves it open."""
     options: tuple[tuple[str, Any], ...] = ()
@@ -191,14 +187,8 @@ class Reading:
         if not isinstance(self.description, str) or not self.description.strip():
             _fail(self.name, "description", self.description, "a one-line description")
         pairs = _pairs(self.options, f"Reading {self.name!r}: options")
-        for key, _ in pairs:
-            if key not in DECISION_OPTIONS:
-                _fail(
-                    self.name,
-                    "options",
-                    key,
-                    f"ModelOptions fields that are modelling decisions: {', '.join(DECISION_OPTIONS)}",
-                )
+        for key in (k for k, _ in pairs if k not in DECISION_OPTIONS):
+            _fail(self.name, "options", key, f"ModelOptions fields that are {DECISIONS}")
         object.__setattr__(self, "options", pairs)
         try:
             ModelOptions(**dict(pairs))
@@ -207,13 +197,9 @@ class Reading:
         c_r = self.rotational_coefficient
         if c_r is not None and not (is_number(c_r) and c_r >= 0):
             _fail(self.name, "rotational_coefficient", c_r, "None or a finite number >= 0")
-        if self.horizontal_objective not in HORIZONTAL_OBJECTIVES:
-            _fail(
-                self.name,
-                "horizontal_objective",
-                self.horizontal_objective,
-                ", ".join(map(repr, HORIZONTAL_OBJECTIVES)),
-            )
+        if (objective := self.horizontal_objective) not in HORIZONTAL_OBJECTIVES:
+            allowed = ", ".join(map(repr, HORIZONTAL_OBJECTIVES))
+            _fail(self.name, "horizontal_objective", objective, allowed)
         if isinstance(self.search, Mapping):
             try:
                 object.__setattr__(self, "search", Search(**self.search))
@@ -242,35 +228,19 @@ class Reading:
 
     @classmethod
     def from_changes(
-        cls,
-        name: str,
-        description: str,
-        changes: Mapping[str, Any],
-        derived_from: tuple[str, ...] = (),
+        cls, name: str, description: str, changes: Mapping[str, Any], derived_from: tuple = ()
     ) -> Reading:
         """The reading whose :meth:`changes` are ``changes`` (the inverse of that method)."""
         options = dict(changes)
-        c_r = options.pop("rotational_coefficient", None)
-        horizontal = options.pop("horizontal_objective", "horizontal")
-        search = options.pop("search", None)
-        return cls(
-            name,
-            description,
-            options=tuple(options.items()),
-            rotational_coefficient=c_r,
-            horizontal_objective=horizontal,
-            search=search,
-            derived_from=derived_from,
-        )
+        own = {k: options.pop(k) for k in OWN_FIELDS if k in options}
+        return cls(name, description, tuple(options.items()), **own, derived_from=derived_from)
 
     def env_kwargs(self) -> dict[str, Any]:
         """The env keywords of the options that differ from the defaults (so a reading that
         restates a default has the default's job keys)."""
-        changed = self.changes()
-        changed.pop("horizontal_objective", None)
-        changed.pop("search", None)
+        skip = ("horizontal_objective", "search")
         # every option has its env keyword (MODEL_OPTION_KWARGS); C_r is one by its own name
-        return {_KWARG_OF.get(key, key): value for key, value in changed.items()}
+        return {_KWARG_OF.get(k, k): v for k, v in self.changes().items() if k not in skip}
 
     def objective(self, objective: str) -> str:
         """The accelerating objective a study's ``objective`` becomes under this reading."""
@@ -286,11 +256,8 @@ class Reading:
         changes = self.changes()
         if self.search is not None:
             changes["search"] = self.search.describe()
-        return ", ".join(f"{k}={_short(v)}" for k, v in changes.items()) or "-"
-
-
-def _short(value: Any) -> str:
-    return f"{value:.4g}" if isinstance(value, float) else str(value)
+        short = lambda v: f"{v:.4g}" if isinstance(v, float) else str(v)  # noqa: E731
+        return ", ".join(f"{k}={short(v)}" for k, v in changes.items()) or "-"
 
 
 DEFAULT = Reading(
@@ -303,15 +270,13 @@ DEFAULT = Reading(
 def combine(readings: tuple[Reading, ...] | list[Reading], name: str | None = None) -> Reading:
     """One reading with every change of ``readings``; raises ValueError if two conflict."""
     merged: dict[str, Any] = {}
+    names = tuple(r.name for r in readings)
     for reading in readings:
         for key, value in reading.changes().items():
-            if key in merged and merged[key] != value:
+            if merged.setdefault(key, value) != value:
                 raise ValueError(
-                    f"readings {', '.join(r.name for r in readings)} conflict on {key}: "
-                    f"{merged[key]!r} vs {value!r}"
+                    f"readings {', '.join(names)} conflict on {key}: {merged[key]!r} vs {value!r}"
                 )
-            merged[key] = value
-    names = tuple(r.name for r in readings)
     return Reading.from_changes(
         name or " + ".join(names),
         "combination of " + "; ".join(r.description for r in readings),

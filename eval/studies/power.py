@@ -17,18 +17,13 @@ from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import Analysis, StudyPlan
-from eval.studies.tables import Spread, by_condition, select, spread
+from eval.studies.tables import Rows, Spread, by_condition, select, spread
 
 NAME = "power"
 TITLE = "Accelerating flight: power sweep (Figs. 7-8)"
-QUANTITIES = (
-    "objective_value",
-    "excess_vertical",
-    "excess_horizontal",
-    "power_per_mass",
-    "frequency",
-    "pitch_amplitude",
-    "phase_difference",
+QUANTITIES = tuple(
+    "objective_value excess_vertical excess_horizontal power_per_mass frequency "
+    "pitch_amplitude phase_difference".split()
 )
 #: The paper's numbers (Figs. 7, 8): {power [W/kg]: value [-]}.
 PAPER_VERTICAL = {50.0: 2.7, 90.0: 4.4}
@@ -57,26 +52,17 @@ def series_jobs(plan: StudyPlan, powers: tuple[float, ...], planform: str) -> li
 
 
 def excess(
-    rows: list[dict[str, Any]],
-    method: str,
-    planform: str,
-    axis: str,
-    horizontal: str = "horizontal",
+    rows: Rows, method: str, planform: str, axis: str, horizontal: str = "horizontal"
 ) -> dict[float, Spread]:
     """F̄_v (axis "vertical") or F̄_h ("horizontal": the reading's objective ``horizontal``) per
-    power, the objective value of its own optimisation."""
-    return by_condition(
-        rows,
-        "objective_value",
-        method=method,
-        task="accelerate",
-        objective=horizontal if axis == "horizontal" else axis,
-        planform=planform,
-    )
+    power [-], the objective value of its own optimisation."""
+    objective = horizontal if axis == "horizontal" else axis
+    where = dict(method=method, task="accelerate", objective=objective, planform=planform)
+    return by_condition(rows, "objective_value", **where)
 
 
 def attainable(
-    rows: list[dict[str, Any]], method: str, planform: str, horizontal: str = "horizontal"
+    rows: Rows, method: str, planform: str, horizontal: str = "horizontal"
 ) -> dict[float, Spread]:
     """F̄_a per power from each seed's feasible vertical and horizontal optima."""
     out: dict[float, Spread] = {}
@@ -106,7 +92,7 @@ def paper_attainable(label: str = "") -> list[tuple[float, float] | tuple[float,
 
 
 def draw(
-    plan: StudyPlan, rows: list[dict[str, Any]], records: Mapping[Job, Record], study_dir: Path
+    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
 ) -> list[tuple[str, Path]]:
     """Figs. 7-8: F̄_v and F̄_h, and F̄_a, over powers, one series per method."""
     xlabel = "available power P/m [W/kg]"
@@ -124,40 +110,32 @@ def draw(
         figures.Series(label(m), attainable(rows, m, "tear-drop", h_obj), method=m)
         for m in plan.methods
     ]
-    return [
+    paper = [
+        (p, v, f"paper {name}")
+        for name, d in (("F̄_v", PAPER_VERTICAL), ("F̄_h", PAPER_HORIZONTAL))
+        for p, v in d.items()
+    ]
+    specs = (
         (
             "Fig. 7: vertical and horizontal specific excess forces against available power",
-            figures.sweep_figure(
-                [
-                    figures.Panel(
-                        excess_label("specific excess force F̄"),
-                        forces,
-                        paper=[
-                            *((p, v, "paper F̄_v") for p, v in PAPER_VERTICAL.items()),
-                            *((p, v, "paper F̄_h") for p, v in PAPER_HORIZONTAL.items()),
-                        ],
-                    )
-                ],
-                xlabel,
-                "Fig. 7: F̄_v (max F̄_v s.t. F̄_h ≥ 0) and F̄_h (max F̄_h s.t. F̄_v ≥ 0), V = 0",
-                plan.figure(study_dir, "fig7_excess_forces"),
-            ),
+            figures.Panel(excess_label("specific excess force F̄"), forces, paper=paper),
+            "Fig. 7: F̄_v (max F̄_v s.t. F̄_h ≥ 0) and F̄_h (max F̄_h s.t. F̄_v ≥ 0), V = 0",
+            "fig7_excess_forces",
         ),
         (
             "Fig. 8: attainable specific excess force against available power",
-            figures.sweep_figure(
-                [figures.Panel(excess_label("attainable F̄_a"), fa, paper=paper_attainable())],
-                xlabel,
-                "Fig. 8: F̄_a = sqrt(F̄_v² + F̄_h²) (Eq. 27), V = 0",
-                plan.figure(study_dir, "fig8_attainable"),
-            ),
+            figures.Panel(excess_label("attainable F̄_a"), fa, paper=paper_attainable()),
+            "Fig. 8: F̄_a = sqrt(F̄_v² + F̄_h²) (Eq. 27), V = 0",
+            "fig8_attainable",
         ),
+    )
+    return [
+        (caption, figures.sweep_figure([panel], xlabel, title, plan.figure(study_dir, stem)))
+        for caption, panel, title, stem in specs
     ]
 
 
-def view(
-    plan: StudyPlan, rows: list[dict[str, Any]], method: str
-) -> dict[str, dict[float, Spread]]:
+def view(plan: StudyPlan, rows: Rows, method: str) -> dict[str, dict[float, Spread]]:
     """What the claims judge: ``method``'s F̄_v, F̄_h and F̄_a over powers (tear-drop)."""
     h_obj = plan.reading.horizontal_objective
     return {
@@ -218,19 +196,11 @@ GEOMETRY = (
     "Understood differences)"
 )
 UP = "increases"
+EXCEEDS = "F̄_v exceeds F̄_h by 10-20 % (median over powers; IQR over powers)"
 CLAIMS: tuple[C.ClaimSpec, ...] = (
     *_at_powers("P1", "F̄_v", "Fig. 7", "vertical", PAPER_VERTICAL),
     *_at_powers("P2", "F̄_h", "Fig. 7", "horizontal", PAPER_HORIZONTAL),
-    C.ClaimSpec(
-        "P3",
-        "Fig. 7",
-        "F̄_v exceeds F̄_h by 10-20 % (median over powers; IQR over powers)",
-        "10-20 %",
-        "range",
-        PAPER_RATIO,
-        ratio,
-        GEOMETRY,
-    ),
+    C.ClaimSpec("P3", "Fig. 7", EXCEEDS, "10-20 %", "range", PAPER_RATIO, ratio, GEOMETRY),
     *(
         C.ClaimSpec(cid, "Fig. 7", f"{name} {UP} with available power", UP, "trend", +1, rises(f))
         for cid, name, f in (("P4", "F̄_v", "vertical"), ("P5", "F̄_h", "horizontal"))

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, NoReturn
 
 from agents.tasks import get_task
 from tandem_env.envs import AccelerateConfig, LevelFlightConfig, TaskCondition
@@ -68,29 +68,22 @@ def is_name(value: Any) -> bool:
 
 def distinct(values: Any, item: Callable[[Any], bool]) -> bool:
     """Whether ``values`` is a non-empty tuple of distinct items that each pass ``item``."""
-    return (
-        isinstance(values, tuple)
-        and len(values) > 0
-        and all(map(item, values))
-        and len(set(values)) == len(values)
-    )
+    ok = isinstance(values, tuple) and len(values) > 0 and all(map(item, values))
+    return ok and len(set(values)) == len(values)
 
 
-def _fail(name: str, value: Any, allowed: str, owner: str = "Preset") -> None:
+def fail(name: str, value: Any, allowed: str, owner: str = "Preset") -> NoReturn:
+    """Raise the ValueError of a refused field: ``Preset.seeds = (); allowed: ...``."""
     raise ValueError(f"{owner}.{name} = {value!r}; allowed: {allowed}")
 
 
 def _check_values(name: str, values: Any, condition: TaskCondition) -> None:
     """``values`` must be distinct, increasing and inside the env's default envelope."""
-    limits, unit = condition.envelope, condition.unit
-    inside = lambda v: is_number(v) and limits[0] <= v <= limits[1]  # noqa: E731
+    low, high = condition.envelope
+    inside = lambda v: is_number(v) and low <= v <= high  # noqa: E731
     if not distinct(values, inside) or list(values) != sorted(values):
-        _fail(
-            name,
-            values,
-            f"a non-empty, increasing tuple of distinct numbers from {limits[0]:g} to "
-            f"{limits[1]:g} {unit}",
-        )
+        allowed = f"a non-empty, increasing tuple of distinct numbers from {low:g} to {high:g}"
+        fail(name, values, f"{allowed} {condition.unit}")
 
 
 @dataclass(frozen=True)
@@ -120,16 +113,15 @@ class ConvergenceSpec:
     def __post_init__(self) -> None:
         owner = "ConvergenceSpec"
         if not is_int(self.budget, 2):
-            _fail("budget", self.budget, "an integer >= 2", owner)
+            fail("budget", self.budget, "an integer >= 2", owner)
         if not distinct(self.seeds, lambda s: is_int(s, 0)):
-            _fail("seeds", self.seeds, "distinct integers >= 0", owner)
+            fail("seeds", self.seeds, "distinct integers >= 0", owner)
         if not distinct(self.methods, is_name):
-            _fail("methods", self.methods, "distinct method names such as ('pso', 'cmaes')", owner)
-        if not distinct(
-            self.polish_shares, lambda v: is_number(v) and (v == 0 or 0.01 <= v <= 0.9)
-        ):
+            fail("methods", self.methods, "distinct method names such as ('pso', 'cmaes')", owner)
+        share = lambda v: is_number(v) and (v == 0 or 0.01 <= v <= 0.9)  # noqa: E731
+        if not distinct(self.polish_shares, share):
             allowed = "distinct numbers, each 0 (no polish) or in [0.01, 0.9]"
-            _fail("polish_shares", self.polish_shares, allowed, owner)
+            fail("polish_shares", self.polish_shares, allowed, owner)
         _check_values("convergence speed", (self.speed,), _SPEED)
         _check_values("convergence power", (self.power,), _POWER)
 
@@ -151,7 +143,7 @@ class Preset:
     speeds: tuple[float, ...]
     """Speed sweep (Figs. 4-6) [m/s]."""
     powers: tuple[float, ...]
-    """Power sweep (Figs. 7-8) [W/kg]; each power runs a vertical and a horizontal optimisation."""
+    """Power sweep (Figs. 7-8) [W/kg], a vertical and a horizontal optimisation each."""
     shape_speeds: tuple[float, ...]
     """Speeds of the wing-shape study (Fig. 15) [m/s]; the tear-drop side reuses the sweep."""
     shape_powers: tuple[float, ...]
@@ -179,41 +171,33 @@ class Preset:
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.isidentifier():
-            _fail("name", self.name, "an identifier such as 'quick'")
+            fail("name", self.name, "an identifier such as 'quick'")
         if not distinct(self.seeds, lambda s: is_int(s, 0)):
-            _fail("seeds", self.seeds, "a non-empty tuple of distinct integers >= 0")
+            fail("seeds", self.seeds, "a non-empty tuple of distinct integers >= 0")
         if not is_int(self.swarm_size, 2):
-            _fail("swarm_size", self.swarm_size, "an integer >= 2")
+            fail("swarm_size", self.swarm_size, "an integer >= 2")
         for name in BUDGET_FIELDS.values():
             value = getattr(self, name)
             if not is_int(value, self.swarm_size):
-                _fail(name, value, f"an integer >= swarm_size ({self.swarm_size}) evaluations")
-        _check_values("speeds", self.speeds, _SPEED)
-        _check_values("shape_speeds", self.shape_speeds, _SPEED)
-        _check_values("powers", self.powers, _POWER)
-        _check_values("shape_powers", self.shape_powers, _POWER)
-        _check_values(
-            "kinematics_speed/phase_speed",
-            tuple(sorted({self.kinematics_speed, self.phase_speed})),
-            _SPEED,
-        )
+                fail(name, value, f"an integer >= swarm_size ({self.swarm_size}) evaluations")
+        for name in ("speeds", "shape_speeds", "powers", "shape_powers"):
+            _check_values(name, getattr(self, name), _SPEED if "speed" in name else _POWER)
+        speeds = tuple(sorted({self.kinematics_speed, self.phase_speed}))
+        _check_values("kinematics_speed/phase_speed", speeds, _SPEED)
         _check_values("kinematics_power", (self.kinematics_power,), _POWER)
         if self.kinematics_objective not in STUDIED_OBJECTIVES:
             allowed = " or ".join(map(repr, STUDIED_OBJECTIVES))
-            _fail("kinematics_objective", self.kinematics_objective, allowed)
+            fail("kinematics_objective", self.kinematics_objective, allowed)
         if not is_name(self.method):
-            _fail("method", self.method, "a harness method name such as 'cmaes' or 'pso'")
+            fail("method", self.method, "a harness method name such as 'cmaes' or 'pso'")
         if self.warm_start not in WARM_STARTS:
-            _fail("warm_start", self.warm_start, " or ".join(map(repr, WARM_STARTS)))
+            fail("warm_start", self.warm_start, " or ".join(map(repr, WARM_STARTS)))
         if not isinstance(self.convergence, ConvergenceSpec):
-            _fail("convergence", self.convergence, "a ConvergenceSpec")
+            fail("convergence", self.convergence, "a ConvergenceSpec")
         keys = [k for k, _ in self.env_kwargs]
         if len(set(keys)) != len(keys) or any(k in _PER_JOB_KWARGS for k in keys):
-            _fail(
-                "env_kwargs",
-                self.env_kwargs,
-                "distinct (name, value) pairs; the condition and objective are set per job",
-            )
+            allowed = "distinct (name, value) pairs; the condition and objective are set per job"
+            fail("env_kwargs", self.env_kwargs, allowed)
 
     @property
     def budgets(self) -> dict[str, int]:
@@ -307,9 +291,9 @@ def overridden(preset: Preset, **given: Any) -> Preset:
     for option, value in given.items():
         if value is None:
             continue
-        values = {
-            name: tuple(value) if isinstance(value, list) else value for name in OVERRIDES[option]
-        }
+        values = dict.fromkeys(
+            OVERRIDES[option], tuple(value) if isinstance(value, list) else value
+        )
         try:
             if "convergence.seeds" in values:
                 values["convergence"] = replace(
@@ -320,12 +304,8 @@ def overridden(preset: Preset, **given: Any) -> Preset:
             raise ValueError(f"--{option}: {error}") from None
         shown = " ".join(f"{v:g}" for v in value) if isinstance(value, list) else f"{value}"
         changed.append(f"--{option} {shown}")
-    if not changed:
-        return preset
-    return replace(
-        preset,
-        description=f"{preset.description}; changed on the command line: {', '.join(changed)}",
-    )
+    changes = f"{preset.description}; changed on the command line: {', '.join(changed)}"
+    return replace(preset, description=changes) if changed else preset
 
 
 def get_preset(name: str) -> Preset:

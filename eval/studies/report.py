@@ -13,13 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from eval.studies.base import StudyOutput, StudyPlan
-from eval.studies.claims import (
-    CONFIDENCE_RULE,
-    IDENTIFIABILITY_RULE,
-    RULES,
-    Claim,
-    VerdictCount,
-)
+from eval.studies.claims import CONFIDENCE_RULE, IDENTIFIABILITY_RULE, RULES, Claim, VerdictCount
 from eval.studies.tables import PINNED_SHARE, pinned_parameters
 from tandem_env import BOUND_TOLERANCE, PARAMETER_NAMES
 from tandem_env.io.files import write_json_atomic, write_text_atomic
@@ -84,13 +78,9 @@ FIGURE_KEY = (
 )
 
 
-def _cell(text: str) -> str:
-    return text.replace("|", "\\|").replace("\n", " ")
-
-
 def table_row(cells: Iterable[object]) -> str:
     """One Markdown table row, each cell as text, escaped."""
-    return "| " + " | ".join(_cell(str(x)) for x in cells) + " |"
+    return "| " + " | ".join(str(x).replace("|", "\\|").replace("\n", " ") for x in cells) + " |"
 
 
 def table_head(titles: Sequence[str]) -> list[str]:
@@ -135,10 +125,10 @@ def claims_data(claims: Sequence[Claim]) -> dict[str, Any]:
     """The claims as JSON: each claim's fields (statistics, verdicts before and after the
     bootstrap, its flips; NaN as null) and its ``cells`` in the paper-vs-ours table, by title."""
     nan = lambda v: None if isinstance(v, float) and math.isnan(v) else v  # noqa: E731
-    rows = [{k: nan(v) for k, v in asdict(c).items()} for c in claims]
-    for row, c in zip(rows, claims, strict=True):
-        row["cells"] = {title: cell(c) for title, cell in CLAIM_COLUMNS}
-    return {"claims": rows}
+    cells = lambda c: {t: cell(c) for t, cell in CLAIM_COLUMNS}  # noqa: E731
+    return {
+        "claims": [{**{k: nan(v) for k, v in asdict(c).items()}, "cells": cells(c)} for c in claims]
+    }
 
 
 def verdict_summary(claims: Sequence[Claim]) -> list[str]:
@@ -181,7 +171,7 @@ def settings_lines(plan: StudyPlan) -> list[str]:
         batch = f"; PSO swarm {p.swarm_size}" if "pso" in plan.methods else ""
     else:  # the reading's search replaces the preset's method, budgets and batch
         batch = f"; search of the reading: {search.describe()}"
-    lines = [
+    return [
         f"- preset `{p.name}`: {p.description}",
         f"- methods: {', '.join(f'`{m}`' for m in plan.methods)}; seeds {list(p.seeds)}; "
         f"budgets {plan.budget('level')} (level) and {plan.budget('accelerate')} (accelerating) "
@@ -201,7 +191,6 @@ def settings_lines(plan: StudyPlan) -> list[str]:
         "- statistics over the feasible seeds of each condition; *best seed* = the seed with the "
         "best objective",
     ]
-    return lines
 
 
 def write_report(
@@ -212,6 +201,7 @@ def write_report(
     data beside it (:data:`CLAIMS_FILE`)."""
     base = path.parent
     claims = [c for o in outputs for c in o.claims]
+    rows = [r for o in outputs for r in o.rows]
     parts = [
         '# Reproduction report: Faisal & Filippone, "Aerodynamic Model for Tandem Flapping Wings"',
         "",
@@ -228,29 +218,16 @@ def write_report(
         claims_table(claims),
         "",
     ]
-    notes = [c for c in claims if c.detail or c.note]
-    if notes:
-        parts += ["### Notes on the rows", ""]
-        for c in notes:
-            text = "; ".join(t for t in (c.detail, c.note) if t)
-            parts.append(f"- **{c.id}**: {text}")
-        parts.append("")
-    parts += [
-        "## Against the reference table",
-        "",
-        *plan.table_lines([r for o in outputs for r in o.rows]),
-        "",
-    ]
+    if notes := [c for c in claims if c.detail or c.note]:
+        texts = [f"- **{c.id}**: {'; '.join(t for t in (c.detail, c.note) if t)}" for c in notes]
+        parts += ["### Notes on the rows", "", *texts, ""]
+    parts += ["## Against the reference table", "", *plan.table_lines(rows), ""]
     parts += ["## Understood differences", "", *[f"- {t}" for t in UNDERSTOOD.values()], ""]
-    parts += pinned_section([r for o in outputs for r in o.rows])
-    missing = [n for n in all_studies if n not in {o.name for o in outputs}]
-    if missing:
-        parts += [
-            "## Not run",
-            "",
-            *[f"- `{n}`: `python -m eval study {n} --preset {plan.preset.name}`" for n in missing],
-            "",
-        ]
+    parts += pinned_section(rows)
+    preset = plan.preset.name
+    if missing := [n for n in all_studies if n not in {o.name for o in outputs}]:
+        rerun = [f"- `{n}`: `python -m eval study {n} --preset {preset}`" for n in missing]
+        parts += ["## Not run", "", *rerun, ""]
     parts += ["## Figures", "", FIGURE_KEY, ""]
     for o in outputs:
         parts += [f"### {o.title}", ""]
@@ -278,15 +255,12 @@ def pinned_section(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     for r in sorted(found, key=lambda r: (PARAMETER_NAMES.index(r["parameter"]), r["bound"])):
         series = f"{r['task']} {r['objective']}, {r['planform']} ({r['method']})"
         at = places.setdefault((r["parameter"], r["bound"], r["value"]), {})
-        at.setdefault((series, r["condition_unit"]), []).append(
-            f"{r['condition']:g} ({r['share']:.0%})"
-        )
+        where = f"{r['condition']:g} ({r['share']:.0%})"
+        at.setdefault((series, r["condition_unit"]), []).append(where)
     for (name, bound, value), series in places.items():
         where = "; ".join(f"{s} at {', '.join(c)} {unit}" for (s, unit), c in series.items())
         lines.append(f"- `{name}` at its {bound} bound {value:g}: {where}")
-    if not found:
-        lines.append("- none")
-    return [*lines, ""]
+    return [*lines, *([] if found else ["- none"]), ""]
 
 
 def figure_markdown(caption: str, path: Path, base: Path) -> str:

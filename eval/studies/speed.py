@@ -13,20 +13,13 @@ from agents.records import Record
 from eval import figures
 from eval.studies import claims as C
 from eval.studies.base import Analysis, StudyPlan
-from eval.studies.tables import by_condition, select, table4_bounds
+from eval.studies.tables import Rows, by_condition, select, table4_bounds
 
 NAME = "speed"
 TITLE = "Level flight: speed sweep (Figs. 4-6)"
-QUANTITIES = (
-    "objective_value",
-    "efficiency_pct",
-    "thrust_ratio",
-    "mean_angle_of_attack",
-    "stroke_plane_angle",
-    "power_per_mass",
-    "frequency",
-    "sweep_amplitude",
-    "lift_to_weight",
+QUANTITIES = tuple(
+    "objective_value efficiency_pct thrust_ratio mean_angle_of_attack stroke_plane_angle "
+    "power_per_mass frequency sweep_amplitude lift_to_weight".split()
 )
 PAPER_PEAK_EFFICIENCY = 12.7  # % at 1.5 m/s (Fig. 6)
 PAPER_BEST_SPEED = 1.5  # m/s: minimum power and maximum efficiency (Figs. 5, 6)
@@ -44,27 +37,28 @@ def jobs(plan: StudyPlan) -> list[Job]:
 
 
 def draw(
-    plan: StudyPlan, rows: list[dict[str, Any]], records: Mapping[Job, Record], study_dir: Path
+    plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
 ) -> list[tuple[str, Path]]:
     """Figs. 4-6: each quantity over speeds, one series per method."""
 
     def panel(ylabel: str, quantity: str, **paper: Any) -> figures.Panel:
         """``quantity`` over speeds, one series per method, within its Table 4 bounds if any."""
+        label = figures.method_label
+        where = dict(task="level", planform="tear-drop")
         series = [
-            figures.Series(
-                figures.method_label(m),
-                by_condition(rows, quantity, method=m, task="level", planform="tear-drop"),
-                method=m,
-            )
+            figures.Series(label(m), by_condition(rows, quantity, method=m, **where), method=m)
             for m in plan.methods
         ]
-        return figures.Panel(
-            ylabel, series, bounds=table4_bounds(quantity, plan.insect.stroke_bounds), **paper
-        )
+        bounds = table4_bounds(quantity, plan.insect.stroke_bounds)
+        return figures.Panel(ylabel, series, bounds=bounds, **paper)
 
     # The paper states these trends in words only, no numbers.
-    falls, follows = "paper: falls with V", "paper: follows the power"
+    falls = "paper: falls with V"
+    rises = "paper: rises with V"
+    follows = "paper: follows the power"
     level = "level flight, optimised at each speed"
+    pair_mean = figures.pair_mean
+    least = [(PAPER_BEST_SPEED, "paper: minimum power")]
     specs = (
         (
             "Fig. 4: thrust ratio, mean angle of attack and stroke-plane angle in level flight",
@@ -73,14 +67,12 @@ def draw(
             [
                 panel("thrust ratio T/W [-]", "thrust_ratio", paper_note=falls),
                 panel(
-                    figures.pair_mean("mean angle of attack [deg]"),
+                    pair_mean("mean angle of attack [deg]"),
                     "mean_angle_of_attack",
                     paper_note=falls,
                 ),
                 panel(
-                    figures.pair_mean("stroke-plane angle β [deg]"),
-                    "stroke_plane_angle",
-                    paper_note="paper: rises with V",
+                    pair_mean("stroke-plane angle β [deg]"), "stroke_plane_angle", paper_note=rises
                 ),
             ],
         ),
@@ -89,16 +81,10 @@ def draw(
             "fig5_power_frequency_sweep",
             f"Fig. 5: {level}",
             [
+                panel("power P/m [W/kg]", "power_per_mass", paper_at=least),
+                panel(pair_mean("frequency f [Hz]"), "frequency", paper_note=follows),
                 panel(
-                    "power P/m [W/kg]",
-                    "power_per_mass",
-                    paper_at=[(PAPER_BEST_SPEED, "paper: minimum power")],
-                ),
-                panel(figures.pair_mean("frequency f [Hz]"), "frequency", paper_note=follows),
-                panel(
-                    figures.pair_mean("weaving amplitude φ_m [deg]"),
-                    "sweep_amplitude",
-                    paper_note=follows,
+                    pair_mean("weaving amplitude φ_m [deg]"), "sweep_amplitude", paper_note=follows
                 ),
             ],
         ),
@@ -115,18 +101,14 @@ def draw(
             ],
         ),
     )
+    xlabel = "flight speed V [m/s]"
     return [
-        (
-            caption,
-            figures.sweep_figure(
-                panels, "flight speed V [m/s]", title, plan.figure(study_dir, stem)
-            ),
-        )
+        (caption, figures.sweep_figure(panels, xlabel, title, plan.figure(study_dir, stem)))
         for caption, stem, title, panels in specs
     ]
 
 
-def view(plan: StudyPlan, rows: list[dict[str, Any]], method: str) -> list[Mapping[str, Any]]:
+def view(plan: StudyPlan, rows: Rows, method: str) -> list[Mapping[str, Any]]:
     """What the claims judge: ``method``'s level-flight rows (tear-drop)."""
     return select(rows, method=method, task="level", planform="tear-drop")
 
@@ -159,8 +141,11 @@ def peak_efficiency(rows: list[Mapping[str, Any]], _: float) -> C.Stats:
         v: s for v, s in by_condition(rows, "efficiency_pct").items() if not math.isnan(s.median)
     }
     if not finite:
-        statement = "peak level-flight efficiency"
-        return {"statement": statement, "detail": "no feasible seed", "note": ""}
+        return {
+            "statement": "peak level-flight efficiency",
+            "detail": "no feasible seed",
+            "note": "",
+        }
     peak_speed = max(finite, key=lambda v: finite[v].median)
     s = finite[peak_speed]
     return C.spread_stats(
@@ -171,7 +156,18 @@ def peak_efficiency(rows: list[Mapping[str, Any]], _: float) -> C.Stats:
     )
 
 
+def at_best_speed(
+    cid: str, figure: str, statement: str, measure: C.Measure, note: str = ""
+) -> C.ClaimSpec:
+    """A ``location`` claim: at the paper's best speed, 1.5 m/s."""
+    return C.ClaimSpec(
+        cid, figure, statement, "1.5 m/s", "location", PAPER_BEST_SPEED, measure, note
+    )
+
+
 FOLLOWS = "follows the power trend"
+LOWEST = "power P/m is lowest at V = 1.5 m/s"
+NOT_P = "η, not P, is maximised: P/m at the η-optimum need not be the minimum power."
 CLAIMS: tuple[C.ClaimSpec, ...] = (
     *(
         C.ClaimSpec(cid, "Fig. 4", f"{what} {word} with V", word, "trend", sign, trend(quantity))
@@ -181,16 +177,7 @@ CLAIMS: tuple[C.ClaimSpec, ...] = (
             ("S3", "thrust ratio T/W", "falls", -1, "thrust_ratio"),
         )
     ),
-    C.ClaimSpec(
-        "S4",
-        "Fig. 5",
-        "power P/m is lowest at V = 1.5 m/s",
-        "1.5 m/s",
-        "location",
-        PAPER_BEST_SPEED,
-        extremum("power_per_mass", "min"),
-        "η, not P, is maximised: P/m at the η-optimum need not be the minimum power.",
-    ),
+    at_best_speed("S4", "Fig. 5", LOWEST, extremum("power_per_mass", "min"), NOT_P),
     *(
         C.ClaimSpec(cid, "Fig. 5", f"{what} {FOLLOWS}", "follows P", "follows", +1, follows(q))
         for cid, what, q in (
@@ -208,14 +195,8 @@ CLAIMS: tuple[C.ClaimSpec, ...] = (
         peak_efficiency,
         SIGN_NOTE,
     ),
-    C.ClaimSpec(
-        "S8",
-        "Fig. 6",
-        "efficiency peaks at V = 1.5 m/s",
-        "1.5 m/s",
-        "location",
-        PAPER_BEST_SPEED,
-        extremum("efficiency_pct", "max"),
+    at_best_speed(
+        "S8", "Fig. 6", "efficiency peaks at V = 1.5 m/s", extremum("efficiency_pct", "max")
     ),
 )
 

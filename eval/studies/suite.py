@@ -45,9 +45,8 @@ class SuitePlan:
         self.started = time.perf_counter()
         self.given = ", ".join(names)
         chosen = [n for name in names for n in (PAPER_STUDIES if name == "all" else [name])]
-        for name in chosen:
-            if name not in STUDIES:
-                raise ValueError(f"unknown study {name!r}; allowed: all, {', '.join(STUDIES)}")
+        if unknown := [name for name in chosen if name not in STUDIES]:
+            raise ValueError(f"unknown study {unknown[0]!r}; allowed: all, {', '.join(STUDIES)}")
         self.asked = list(dict.fromkeys(chosen))
         self.plan = plan
         self.out = out
@@ -71,29 +70,23 @@ class SuitePlan:
             done[name] = STUDIES[name].analyse(self.plan, records, out)
         paper = [name for name in PAPER_STUDIES if name in done]
         summary = run.runs[self.given]
-        report_path = None
+        path = None
         if paper:
-            report_path = report.write_report(
-                out / "report.md", self.plan, [done[n] for n in paper], list(PAPER_STUDIES)
-            )
-            last_run = {
-                "studies": self.asked,
-                **summary.to_dict(),
-                # the whole call's, analysis included
-                "wall_time_s": round(time.perf_counter() - self.started, 1),
+            outputs = [done[n] for n in paper]
+            path = report.write_report(out / "report.md", self.plan, outputs, list(PAPER_STUDIES))
+            wall = round(time.perf_counter() - self.started, 1)  # the whole call's, analysis too
+            last_run = {"studies": self.asked, **summary.to_dict(), "wall_time_s": wall}
+            jobs = sorted({j.key for n in done for j in self.jobs_of[n]})
+            manifest = {
+                "preset": self.plan.preset.name,
+                "methods": list(self.plan.methods),
+                "studies": paper,
+                "jobs": jobs,
+                "last_run": last_run,
             }
-            write_json_atomic(
-                out / "manifest.json",
-                {
-                    "preset": self.plan.preset.name,
-                    "methods": list(self.plan.methods),
-                    "studies": paper,
-                    "jobs": sorted({j.key for n in done for j in self.jobs_of[n]}),
-                    "last_run": last_run,
-                },
-            )
+            write_json_atomic(out / "manifest.json", manifest)
         wall = time.perf_counter() - self.started
-        return SuiteResult([done[n] for n in self.asked], summary, report_path, wall)
+        return SuiteResult([done[n] for n in self.asked], summary, path, wall)
 
 
 def run_studies(
@@ -114,10 +107,10 @@ def run_studies(
     store = RecordStore.at(out_dir)
     suite = SuitePlan(names, plan, store.directory)
     scheduler = executor_spec(scheduler, workers)
-    run = run_plan(
+    done = run_plan(
         suite.phases, store, scheduler, cache, progress=progress, rerun=rerun, command=command
     )
-    return suite.finish(run)
+    return suite.finish(done)
 
 
 class SuiteCampaign:
@@ -158,15 +151,12 @@ class SuiteCampaign:
     def report(self, args: argparse.Namespace, result: SuiteResult) -> None:
         """Print what the run did (stderr) and found (stdout)."""
         run = result.run
-        print(
-            f"{run.total} optimisations: {run.describe(args.out)} ({run.executor}); "
-            f"{result.wall_time:.1f} s",
-            file=sys.stderr,
-        )
+        done = f"{run.describe(args.out)} ({run.executor}); {result.wall_time:.1f} s"
+        print(f"{run.total} optimisations: {done}", file=sys.stderr)
         for output in result.outputs:
+            median, best = (VerdictCount.of(output.claims, best=b).text() for b in (False, True))
             claims = (
-                f"; claims on the median: {VerdictCount.of(output.claims).text()}; on the best "
-                f"seed: {VerdictCount.of(output.claims, best=True).text()}"
+                f"; claims on the median: {median}; on the best seed: {best}"
                 if output.claims
                 else ""
             )

@@ -26,6 +26,8 @@ from tandem_env import (
 )
 from tandem_env.physics.stroke import UNBOUNDED
 
+#: Tidy rows, one per optimisation (:func:`tidy_rows`).
+Rows = list[dict[str, Any]]
 #: Columns that identify a series (one line in a figure).
 SERIES_KEYS: tuple[str, ...] = ("method", "task", "objective", "planform")
 
@@ -61,13 +63,12 @@ CIRCULAR: frozenset[str] = frozenset(
     {"phase_difference", *(n for n in PARAMETER_NAMES if n.endswith("_phase"))}
 )
 
+#: The stroke quantities of the rows that are the mean of the fore- and hind-wing's parameter.
+WING_MEANS = ("stroke_plane_angle", "frequency", "sweep_amplitude", "pitch_amplitude")
 #: The Table 4 parameter(s) behind each stroke quantity of the rows: a mean of both wings, or
 #: one of the 28 parameters itself (the tidy rows carry all 28, in Table 4 units).
 PARAMETERS_OF: dict[str, tuple[str, ...]] = {
-    **{
-        q: (f"fore_{q}", f"hind_{q}")
-        for q in ("frequency", "sweep_amplitude", "pitch_amplitude", "stroke_plane_angle")
-    },
+    **{q: (f"fore_{q}", f"hind_{q}") for q in WING_MEANS},
     **{name: (name,) for name in PARAMETER_NAMES},
 }
 #: A parameter is *pinned* at a Table 4 bound at one condition when more than this share of the
@@ -90,9 +91,8 @@ def row_bounds(row: Mapping[str, Any]) -> StrokeBounds:
     """The stroke bounds of a row's insect: Table 4's with the row's ``stroke_bounds`` changes
     (a mapping or its JSON text)."""
     own = row.get("stroke_bounds")
-    if not own:
-        return TABLE_4_BOUNDS
-    return TABLE_4_BOUNDS.with_changes(json.loads(own) if isinstance(own, str) else own)
+    own = json.loads(own) if isinstance(own, str) and own else own
+    return TABLE_4_BOUNDS.with_changes(own) if own else TABLE_4_BOUNDS
 
 
 def pinned(rows: Sequence[Mapping[str, Any]], quantity: str) -> str:
@@ -156,8 +156,12 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
     stroke parameters (Table 4 units) and ``at_bounds`` (:func:`tandem_env.describe_bounds`)."""
     m, s, insect = record.metrics, record.stroke, record.config["env"]["insect"]
     phase_difference = float(_wrap(float(s["hind_sweep_phase"]) - float(s["fore_sweep_phase"])))
-    mean = lambda name: 0.5 * (float(s[f"fore_{name}"]) + float(s[f"hind_{name}"]))  # noqa: E731
-    row: dict[str, Any] = {
+    weight = float(insect["body_mass"]) * float(insect["gravity"])
+    stroke = [float(s[name]) for name in PARAMETER_NAMES]  # Table 4 units
+    own = insect.get("stroke_bounds")  # only where not Table 4's: what pinned() measures against
+    bounds = TABLE_4_BOUNDS if own is None else StrokeBounds(**own)
+    metrics = ("lift_to_weight", "power_per_mass", "excess_vertical", "excess_horizontal")
+    return {
         "method": job.method,
         "task": job.task,
         "objective": job.env("objective", "efficiency"),
@@ -165,43 +169,27 @@ def record_row(job: Job, record: Record) -> dict[str, Any]:
         "condition": record.condition.value,
         "condition_name": record.condition.name,
         "condition_unit": record.condition.unit,
-        "seed": record.seed,
-        "budget": record.budget,
-        "evaluations": record.evaluations,
+        **{k: getattr(record, k) for k in ("seed", "budget", "evaluations")},
         "feasible": bool(record.feasible),
         "objective_value": float(record.objective),
         "reward": float(record.reward),
         "efficiency": float(m["efficiency"]),
         "efficiency_pct": 100.0 * float(m["efficiency"]),
-        "thrust_ratio": float(m["thrust"])
-        / (float(insect["body_mass"]) * float(insect["gravity"])),
-        "lift_to_weight": float(m["lift_to_weight"]),
-        "power_per_mass": float(m["power_per_mass"]),
-        "excess_vertical": float(m["excess_vertical"]),
-        "excess_horizontal": float(m["excess_horizontal"]),
-        "excess_total": float(m["excess_total"]),
-        "mean_angle_of_attack": float(m["mean_angle_of_attack"]),
-        "stroke_plane_angle": mean("stroke_plane_angle"),
-        "frequency": mean("frequency"),
-        "sweep_amplitude": mean("sweep_amplitude"),
-        "pitch_amplitude": mean("pitch_amplitude"),
+        "thrust_ratio": float(m["thrust"]) / weight,
+        **{k: float(m[k]) for k in (*metrics, "excess_total", "mean_angle_of_attack")},
+        **{q: 0.5 * (float(s[f"fore_{q}"]) + float(s[f"hind_{q}"])) for q in WING_MEANS},
         "phase_difference": phase_difference,
         "phase_difference_abs": abs(phase_difference),
         "induction_converged": bool(m.get("induction_converged", True)),
         "wall_time_s": float(record.wall_time),
         "key": job.key,
+        **dict(zip(PARAMETER_NAMES, stroke, strict=True)),
+        "at_bounds": describe_bounds(stroke, bounds),
+        **({} if own is None else {"stroke_bounds": bounds.changes()}),
     }
-    stroke = [float(s[name]) for name in PARAMETER_NAMES]  # Table 4 units
-    row.update(zip(PARAMETER_NAMES, stroke, strict=True))
-    own = insect.get("stroke_bounds")  # only where not Table 4's
-    bounds = TABLE_4_BOUNDS if own is None else StrokeBounds(**own)
-    row["at_bounds"] = describe_bounds(stroke, bounds)
-    if own is not None:  # the insect's own bounds, what pinned() measures against
-        row["stroke_bounds"] = bounds.changes()
-    return row
 
 
-def tidy_rows(records: Mapping[Job, Record]) -> list[dict[str, Any]]:
+def tidy_rows(records: Mapping[Job, Record]) -> Rows:
     """One row per record, sorted by series, condition and seed."""
     rows = [record_row(job, record) for job, record in records.items()]
     rows.sort(key=lambda r: (*(str(r[k]) for k in SERIES_KEYS), r["condition"], r["seed"]))
@@ -288,9 +276,7 @@ def series_conditions(
 SUMMARY_FIELDS = ("n", "n_feasible", "median", "q25", "q75", "best", "best_seed")
 
 
-def spread_summary_rows(
-    rows: Sequence[Mapping[str, Any]], quantities: Sequence[str]
-) -> list[dict[str, Any]]:
+def spread_summary_rows(rows: Sequence[Mapping[str, Any]], quantities: Sequence[str]) -> Rows:
     """Per series, condition and quantity: its :class:`Spread` and ``pinned`` (:func:`pinned`)."""
     out = []
     for key, members in series_conditions(rows):
@@ -309,7 +295,7 @@ def spread_summary_rows(
     return out
 
 
-def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> Rows:
     """Every stroke parameter pinned at a Table 4 bound (:func:`pinned`) per series and
     condition: its ``bound``, ``value`` and ``share`` of the feasible seeds there; a record in
     two studies counts once."""
@@ -320,8 +306,7 @@ def pinned_parameters(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]
             continue
         at, bounds = _sides(feasible), row_bounds(feasible[0])  # a series flies one insect
         for index, name in enumerate(PARAMETER_NAMES):
-            side = pinned(members, name)
-            if not side:
+            if not (side := pinned(members, name)):
                 continue
             sign = -1 if side == "lower" else 1
             out.append(

@@ -15,13 +15,13 @@ from eval.studies.readings.plan import (
     MANIFEST,
     SINGLES,
     Continuation,
+    ReadingResult,
     check_jobs,
     combinations,
     full_tasks,
     reading_by_name,
     reading_jobs,
 )
-from eval.studies.readings.result import ReadingResult
 from eval.studies.readings.run import ReadingsPlan, run_readings
 
 __all__ = [

@@ -1,6 +1,7 @@
 """The readings study's plan: the readings (the singles, the named ones, the combinations
 their results point to), the continuation from the default's optima and its bias check, and
-the jobs of each (:mod:`eval.studies.readings`)."""
+the jobs of each (:mod:`eval.studies.readings`); one reading's analysed studies
+(:class:`ReadingResult`), readings.csv's headline numbers and a reading's output folder."""
 
 from __future__ import annotations
 
@@ -16,10 +17,11 @@ from agents.jobs import Job
 from agents.records import Record
 from agents.runner import RunSummary, job_records
 from eval.studies import PAPER_STUDIES
-from eval.studies.base import StudyPlan
+from eval.studies.base import StudyOutput, StudyPlan
+from eval.studies.claims import Claim, VerdictCount
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading, combine
+from eval.studies.power import EXCESS_UNIT
 from eval.studies.presets import is_int, is_number
-from eval.studies.readings.result import COUNTS, HEADLINES, ReadingResult
 
 NAME = "readings"
 TITLE = "Readings of the paper against its claims"
@@ -102,6 +104,62 @@ SINGLES: tuple[Reading, ...] = (
 #: ``ModelOptions.preset("paper")``.
 ALIASES: dict[str, str] = {"paper": "hover-none+Fh-literal"}
 
+#: The verdict counts of readings.csv and the readings tables, in their order
+#: (:class:`~eval.studies.claims.VerdictCount` fields): column -> table title.
+COUNTS = {
+    k: k.replace("_", " ") for k in ("agree", "differ", "undecided", "not_identifiable", "no_data")
+}
+
+#: Headline numbers of readings.csv: column -> (claim id whose median it is, description).
+HEADLINES: dict[str, tuple[str, str]] = {
+    "eta_max_pct": ("S7", "highest median level-flight efficiency over speeds [%]"),
+    "Fv_50": ("P1a", f"median F̄_v at 50 W/kg {EXCESS_UNIT}"),
+    "Fv_90": ("P1b", f"median F̄_v at 90 W/kg {EXCESS_UNIT}"),
+    "Fh_50": ("P2a", f"median F̄_h at 50 W/kg {EXCESS_UNIT}"),
+    "Fh_90": ("P2b", f"median F̄_h at 90 W/kg {EXCESS_UNIT}"),
+    "Fa_50": ("P6a", f"median F̄_a at 50 W/kg {EXCESS_UNIT}"),
+    "Fa_90": ("P6b", f"median F̄_a at 90 W/kg {EXCESS_UNIT}"),
+}
+
+
+@dataclass(frozen=True)
+class ReadingResult:
+    """One reading's studies, analysed."""
+
+    reading: Reading
+    outputs: tuple[StudyOutput, ...]
+
+    @property
+    def claims(self) -> list[Claim]:
+        return [c for o in self.outputs for c in o.claims]
+
+    @property
+    def counts(self) -> VerdictCount:
+        """Its verdict counts on the median."""
+        return VerdictCount.of(self.claims)
+
+    @property
+    def agree(self) -> int:
+        return self.counts.agree
+
+    @property
+    def differ(self) -> int:
+        return self.counts.differ
+
+    def verdicts(self) -> dict[str, str]:
+        return {c.id: c.verdict for c in self.claims}
+
+    def headline(self) -> dict[str, float]:
+        """The :data:`HEADLINES` numbers: the medians of those claims (NaN where absent)."""
+        by_id = {c.id: c for c in self.claims}
+        return {k: getattr(by_id.get(cid), "median", math.nan) for k, (cid, _) in HEADLINES.items()}
+
+
+def reading_dir(out_dir: Path, reading: Reading) -> Path:
+    """The folder of one reading's study outputs, ``DIR/<name>``."""
+    return out_dir / reading.name
+
+
 #: The columns of readings.csv, in order.
 CSV_COLUMNS: tuple[str, ...] = (
     "reading",
@@ -143,19 +201,19 @@ class Continuation(agents_jobs.Continuation):
                     f"continuation {name} = {value!r}; allowed: a relative difference in [-1, 0]"
                 )
             object.__setattr__(self, name, float(value))
-        studies = tuple(self.check_studies)
-        if any(name not in PAPER_STUDIES for name in studies):
-            raise ValueError(
-                f"continuation check_studies = {self.check_studies!r}; allowed: names among "
-                f"{', '.join(PAPER_STUDIES)}"
-            )
-        object.__setattr__(self, "check_studies", studies)
-        seeds = tuple(self.check_seeds)
-        if not all(is_int(seed, 0) for seed in seeds):
-            raise ValueError(
-                f"continuation check_seeds = {self.check_seeds!r}; allowed: integers >= 0"
-            )
-        object.__setattr__(self, "check_seeds", seeds)
+        checks = {
+            "check_studies": (
+                lambda s: s in PAPER_STUDIES,
+                f"names among {', '.join(PAPER_STUDIES)}",
+            ),
+            "check_seeds": (lambda s: is_int(s, 0), "integers >= 0"),
+        }
+        for name, (ok, allowed) in checks.items():
+            if not all(map(ok, values := tuple(getattr(self, name)))):
+                raise ValueError(
+                    f"continuation {name} = {getattr(self, name)!r}; allowed: {allowed}"
+                )
+            object.__setattr__(self, name, values)
 
 
 @dataclass(frozen=True)
@@ -186,8 +244,7 @@ def single_readings(names: Sequence[str] | None = None) -> tuple[Reading, ...]:
     if names is None:
         return SINGLES
     known = {r.name: r for r in SINGLES}
-    unknown = [n for n in names if n not in known]
-    if unknown:
+    if unknown := [n for n in names if n not in known]:
         raise ValueError(
             f"unknown reading(s) {', '.join(map(repr, unknown))}; allowed: {', '.join(known)}"
         )
@@ -204,8 +261,7 @@ def reading_by_name(name: str) -> Reading:
         raise ValueError(f"reading {given!r}: no name; allowed: {allowed}")
     # Each part is a single or an alias, which stands for its singles.
     parts = [single for part in name.split("+") for single in ALIASES.get(part, part).split("+")]
-    unknown = [part for part in name.split("+") if part not in known and part not in ALIASES]
-    if unknown:
+    if unknown := [part for part in name.split("+") if part not in known and part not in ALIASES]:
         raise ValueError(
             f"reading {given!r}: unknown {', '.join(map(repr, unknown))}; allowed: {allowed}"
         )
@@ -250,23 +306,21 @@ def study_jobs(
     if continuation is None or reading == DEFAULT or reading.search is not None:
         return {name: study.jobs(p) for name, study in PAPER_STUDIES.items()}
     sources = continued_from(reading)
-    missing = [name for name in sources if optima is not None and name not in optima]
-    if missing:
+    if missing := [name for name in sources if optima is not None and name not in optima]:
         raise ValueError(f"reading {reading.name!r} continues from {missing}, not run yet")
     base = replace(plan, reading=DEFAULT)
     out: dict[str, list[Job]] = {}
     for name, study in PAPER_STUDIES.items():
-        jobs = []
+        out[name] = []
         pairs = zip(study.jobs(base), study.jobs(p), strict=True)
         for position, (default_job, job) in enumerate(pairs):
             if job.key == default_job.key or job.task in full:
-                jobs.append(job)
+                out[name].append(job)
                 continue
             strokes = None
             if optima is not None:
                 strokes = list({tuple(optima[source][name][position]): None for source in sources})
-            jobs.append(continuation.job(job, strokes))
-        out[name] = jobs
+            out[name].append(continuation.job(job, strokes))
     return out
 
 
@@ -294,13 +348,13 @@ def check_jobs(
     the reading does not share with the default: the continuation's bias check."""
     continued = study_jobs(plan, reading, continuation, optima)
     full = study_jobs(plan, reading)
-    pairs = dict.fromkeys(
+    pairs = (
         (c, f)
         for name in continuation.check_studies
         for c, f in zip(continued[name], full[name], strict=True)
         if c != f and f.seed in continuation.check_seeds
     )
-    return list(pairs)
+    return list(dict.fromkeys(pairs))
 
 
 def full_tasks(
@@ -313,13 +367,15 @@ def full_tasks(
     for row in summary:
         if row["reading"] == "all" or row["task"] == "all":
             continue
-        why = []
-        if row["pairs"] and row["median"] < continuation.full_median:
-            why.append(f"median {100 * row['median']:+.1f} %")
-        if row["pairs"] and row["lowest"] < continuation.full_lowest:
-            why.append(f"lowest {100 * row['lowest']:+.1f} %")
-        if row["infeasible_continued"]:
-            count = row["infeasible_continued"]
+        why = [
+            f"{key} {100 * row[key]:+.1f} %"
+            for key, limit in (
+                ("median", continuation.full_median),
+                ("lowest", continuation.full_lowest),
+            )
+            if row["pairs"] and row[key] < limit
+        ]
+        if count := row["infeasible_continued"]:
             why.append(f"{count} continued optim{'um' if count == 1 else 'a'} infeasible")
         if why:
             out.setdefault(row["reading"], {})[row["task"]] = ", ".join(why)
@@ -351,9 +407,7 @@ def combinations(
     words = f"singles that raised the agreeing claims over the default ({base}): {gains}"
     if skipped:
         words += f"; left out: {', '.join(skipped)}"
-    groups: list[list[ReadingResult]] = []
-    if len(chosen) >= 2:
-        groups.append(chosen[:2])
+    groups: list[list[ReadingResult]] = [chosen[:2]] if len(chosen) >= 2 else []
     if len(chosen) >= 3:
         groups.append(chosen)
     if gainers:

@@ -1,5 +1,8 @@
 """The readings study's report (:mod:`eval.studies.readings`), from the generic report's pieces
-(:mod:`eval.studies.report`)."""
+(:mod:`eval.studies.report`), and the claims × readings matrix it shows: one row per claim, one
+column per reading, each cell the median's verdict by colour and glyph (:data:`VERDICT_STYLE`,
+readable without colour vision); a black frame flags a verdict changed from the first (default)
+reading."""
 
 from __future__ import annotations
 
@@ -8,19 +11,17 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+from matplotlib.colors import ListedColormap
+from matplotlib.patches import Patch, Rectangle
+
+from eval.figures import PALETTE, legend, save
+from eval.studies import report as study_report
 from eval.studies.base import StudyPlan
-from eval.studies.readings.plan import Continuation
-from eval.studies.readings.result import COUNTS, HEADLINES, ReadingResult, reading_dir
-from eval.studies.report import (
-    Column,
-    agreement_rules,
-    figure_markdown,
-    file_link,
-    insect_line,
-    markdown_table,
-    relative_path,
-    settings_lines,
-)
+from eval.studies.readings.plan import COUNTS, HEADLINES, Continuation, ReadingResult, reading_dir
 from tandem_env.io.files import write_text_atomic
 
 #: The readings study's goal: a reading under which this many of the paper's claims agree.
@@ -32,7 +33,7 @@ def _num(value: float, fmt: str = ".3g") -> str:
 
 
 #: The readings table's columns, one row per reading.
-READING_COLUMNS: tuple[Column, ...] = (
+READING_COLUMNS: tuple[study_report.Column, ...] = (
     ("reading", lambda r: f"`{r.reading.name}`"),
     ("changes from the default", lambda r: r.reading.describe_changes()),
     *((title, lambda r, k=k: str(getattr(r.counts, k))) for k, title in COUNTS.items()),
@@ -50,10 +51,10 @@ def reading_moves(default: ReadingResult, other: ReadingResult) -> list[str]:
         if after is None or after.verdict == before.verdict:
             continue
         sign = "+" if after.verdict == "agrees" else ("−" if before.verdict == "agrees" else "·")
-        spread = (
+        inside = (
             before.q25 <= after.median <= before.q75 and after.q25 <= before.median <= after.q75
         )
-        noise = "*" if spread else ""
+        noise = "*" if inside else ""
         lines.append(
             f"{sign}{before.id}{noise} ({before.verdict} → {after.verdict}: "
             f"{_num(before.median)} → {_num(after.median)} {after.unit})".replace(" )", ")")
@@ -84,14 +85,14 @@ def write_readings_report(
     parts = [
         "# Readings of the paper: which reading reproduces which claim",
         "",
-        *settings_lines(plan)[:3],
-        insect_line(plan),
+        *study_report.settings_lines(plan)[:3],
+        study_report.insect_line(plan),
         "- every reading runs the four paper studies (speed, power, kinematics, wing shape) with "
         "these settings; a job two readings share runs once",
         "",
         "## Readings",
         "",
-        *markdown_table(READING_COLUMNS, results),
+        *study_report.markdown_table(READING_COLUMNS, results),
         "",
         "Headline columns: " + "; ".join(f"{k}: {text}" for k, (_, text) in HEADLINES.items()),
         "",
@@ -125,7 +126,7 @@ def write_readings_report(
         "`*` marks a flip where both medians lie inside the other's inter-quartile range over "
         "seeds: within the seed-to-seed spread, i.e. possibly search noise.",
         "",
-        *markdown_table(
+        *study_report.markdown_table(
             [
                 READING_COLUMNS[0],
                 ("claims moved", lambda r: "; ".join(reading_moves(default, r)) or "none"),
@@ -140,12 +141,12 @@ def write_readings_report(
         "",
         "## Claims × readings",
         "",
-        figure_markdown("claims × readings matrix", figure, base),
+        study_report.figure_markdown("claims × readings matrix", figure, base),
         "",
-        f"Data: {file_link(table, base)}. Each reading's full report "
+        f"Data: {study_report.file_link(table, base)}. Each reading's full report "
         "(paper vs ours, figures): "
         + ", ".join(
-            f"[`{r.reading.name}`]({relative_path(reading_dir(base, r.reading) / 'report.md', base)})"
+            f"[`{r.reading.name}`]({study_report.relative_path(reading_dir(base, r.reading) / 'report.md', base)})"
             for r in results
         )
         + ".",
@@ -156,7 +157,7 @@ def write_readings_report(
         "",
         "## Agreement rules",
         "",
-        *agreement_rules(),
+        *study_report.agreement_rules(),
         "",
     ]
     write_text_atomic(path, "\n".join(parts))
@@ -188,9 +189,8 @@ def _continuation_section(
         "run's is feasible) then ran in full.",
         "",
     ]
-    if not check:
-        return [*lines, "No checked pairs (no single reading besides the default).", ""]
-    return [*lines, *check_table(check, full), ""]
+    none = ["No checked pairs (no single reading besides the default)."]
+    return [*lines, *(check_table(check, full) if check else none), ""]
 
 
 def check_table(
@@ -203,16 +203,72 @@ def check_table(
         why = full.get(row["reading"], {}).get(row["task"])
         return "" if row["reading"] == "all" else (f"in full ({why})" if why else "continued")
 
-    def percent(key: str) -> Column:
-        return key, lambda row: f"{100 * row[key]:+.2f} %"
-
-    columns: list[Column] = [
+    columns: list[study_report.Column] = [
         ("reading", lambda row: "**all**" if row["reading"] == "all" else f"`{row['reading']}`"),
         ("task", lambda row: "" if row["reading"] == "all" else row["task"]),
         ("pairs", lambda row: str(row["pairs"])),
-        *map(percent, ("median", "lowest", "highest")),
+        *((k, lambda row, k=k: f"{100 * row[k]:+.2f} %") for k in ("median", "lowest", "highest")),
         ("within 0.5 % or above", lambda row: f"{row['within_0.5%']} of {row['pairs']}"),
         ("infeasible", lambda row: str(row["infeasible"])),
         ("runs", runs),
     ]
-    return markdown_table(columns, check)
+    return study_report.markdown_table(columns, check)
+
+
+#: Cell colour and glyph of each verdict (any other verdict is drawn as "no data").
+VERDICT_STYLE: dict[str, tuple[str, str, str]] = {
+    # verdict: (cell colour, glyph, glyph colour)
+    "agrees": (PALETTE[0], "✓", "white"),
+    "differs": (PALETTE[1], "✗", "white"),
+    "undecided": (PALETTE[6], "?", "black"),
+    "not identifiable": ("#e6e6e6", "∅", "black"),
+    "no data": ("#bbbbbb", "–", "black"),
+}
+_CODE = {verdict: k for k, verdict in enumerate(VERDICT_STYLE)}
+
+
+def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> Path:
+    """Draw the matrix of the readings' verdicts on the first's claims, the first reading the
+    reference, a line before the first combination."""
+    claims = results[0].claims
+    columns = [
+        (r.reading.name, [r.verdicts().get(c.id, "no data") for c in claims]) for r in results
+    ]
+    split = next((k for k, r in enumerate(results) if r.reading.derived_from), None)
+    n_rows, n_cols = len(claims), len(columns)
+    no_data = _CODE["no data"]
+    grid = [[_CODE.get(verdicts[i], no_data) for _, verdicts in columns] for i in range(n_rows)]
+    width = 3.6 + 0.42 * n_cols
+    height = 1.6 + 0.24 * n_rows
+    fig, ax = plt.subplots(figsize=(width, height))
+    cmap = ListedColormap([color for color, _, _ in VERDICT_STYLE.values()])
+    ax.imshow(grid, cmap=cmap, vmin=0, vmax=len(_CODE) - 1, aspect="auto", interpolation="nearest")
+    styles = list(VERDICT_STYLE.values())
+    reference = columns[0][1]
+    for j, (_, verdicts) in enumerate(columns):
+        for i in range(n_rows):
+            _, glyph, ink = styles[grid[i][j]]
+            ax.text(j, i, glyph, ha="center", va="center", fontsize=6.5, color=ink)
+            if j and verdicts[i] != reference[i]:
+                ax.add_patch(
+                    Rectangle((j - 0.45, i - 0.42), 0.9, 0.84, fill=False, ec="black", lw=1.3)
+                )
+    labels = [
+        f"{name} ({verdicts.count('agrees')} ✓, {verdicts.count('undecided')} ?)"
+        for name, verdicts in columns
+    ]
+    ax.set_xticks(range(n_cols), labels, rotation=60, ha="right", fontsize=7)
+    clip = lambda s: s if len(s) <= 38 else s[:37] + "…"  # noqa: E731
+    ax.set_yticks(range(n_rows), [f"{c.id}  {clip(c.statement)}" for c in claims], fontsize=6.5)
+    ax.set_xticks([x - 0.5 for x in range(1, n_cols)], minor=True)
+    ax.set_yticks([y - 0.5 for y in range(1, n_rows)], minor=True)
+    ax.grid(which="minor", color="white", linewidth=0.8)
+    ax.tick_params(which="minor", length=0)
+    if split is not None and 0 < split < n_cols:
+        ax.axvline(split - 0.5, color="black", linewidth=1.5)
+    ax.set_title(title, fontsize=9)
+    entries = [(Patch(color=color), f"{g} {v}") for v, (color, g, _) in VERDICT_STYLE.items()]
+    changed = Patch(fill=False, ec="black", lw=1.3)
+    legend(ax, [*entries, (changed, f"changed vs {columns[0][0]}")])
+    fig.tight_layout()
+    return save(fig, path)

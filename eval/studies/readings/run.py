@@ -26,7 +26,6 @@ from eval.studies import PAPER_STUDIES, report
 from eval.studies.base import StudyPlan
 from eval.studies.claims import VerdictCount
 from eval.studies.paper_reading import DECISION_OPTIONS, DEFAULT, Reading
-from eval.studies.readings.figure import matrix_figure
 from eval.studies.readings.plan import (
     CHECK_CSV,
     CSV_COLUMNS,
@@ -37,17 +36,18 @@ from eval.studies.readings.plan import (
     SINGLES,
     Continuation,
     Optima,
+    ReadingResult,
     ReadingsResult,
     check_jobs,
     combinations,
     full_tasks,
     optima_of,
+    reading_dir,
     reading_jobs,
     single_readings,
     study_jobs,
 )
-from eval.studies.readings.report import write_readings_report
-from eval.studies.readings.result import ReadingResult, reading_dir
+from eval.studies.readings.report import matrix_figure, write_readings_report
 from tandem_env.io.files import read_json, write_csv_atomic, write_json_atomic
 
 
@@ -74,20 +74,9 @@ def analyse_reading(
 
 
 #: The columns of continuation_check.csv, in order.
-CHECK_COLUMNS: tuple[str, ...] = (
-    "reading",
-    "task",
-    "objective",
-    "condition",
-    "seed",
-    "budget_full",
-    "budget_continued",
-    "objective_full",
-    "objective_continued",
-    "feasible_full",
-    "feasible_continued",
-    "difference",
-    "chosen",
+CHECK_COLUMNS: tuple[str, ...] = tuple(
+    "reading task objective condition seed budget_full budget_continued objective_full "
+    "objective_continued feasible_full feasible_continued difference chosen".split()
 )
 
 
@@ -118,11 +107,9 @@ def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
         groups[("all", "all")] = list(rows)
     out = []
     for (reading, task), members in groups.items():
-        values = [
-            float(r["difference"])
-            for r in members
-            if r["feasible_full"] and r["feasible_continued"]
-        ]
+        both = [r for r in members if r["feasible_full"] and r["feasible_continued"]]
+        values = [float(r["difference"]) for r in both]
+        lost = sum(bool(r["feasible_full"]) and not r["feasible_continued"] for r in members)
         out.append(
             {
                 "reading": reading,
@@ -133,9 +120,7 @@ def check_summary(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
                 "highest": max(values, default=math.nan),
                 "within_0.5%": sum(v >= -0.005 for v in values),
                 "infeasible": len(members) - len(values),
-                "infeasible_continued": sum(
-                    bool(r["feasible_full"]) and not r["feasible_continued"] for r in members
-                ),
+                "infeasible_continued": lost,
             }
         )
     return out
@@ -197,12 +182,12 @@ class ReadingsPlan:
         title: str = "readings study",
     ) -> None:
         readings = tuple(readings)
+        names = [r.name for r in readings]
         if not readings or readings[0] != DEFAULT:
             raise ValueError(
-                f"readings = {[r.name for r in readings]}; allowed: the default reading first, "
+                f"readings = {names}; allowed: the default reading first, "
                 "then others (their claims are compared with the default's)"
             )
-        names = [r.name for r in readings]
         if len(set(names)) != len(names):
             raise ValueError(f"readings = {names}; allowed: distinct names")
         self.plan = plan
@@ -283,30 +268,21 @@ class ReadingsPlan:
         """Write the bias check's CSV, readings.csv, the matrix, report.md and the manifest of
         ``run`` (this plan's)."""
         out = self.store.directory
+        plan = self.plan
+        results = self.results
         if self.rows:
             write_csv_atomic(out / CHECK_CSV, self.rows)
         summary = check_summary(self.rows)
-        plan, results = self.plan, self.results
         csv_path = out / "readings.csv"
-        write_csv_atomic(csv_path, csv_rows(results))
-        claims = results[0].claims
-        methods = ", ".join(plan.methods)
-        figure = matrix_figure(
-            results,
-            plan.figure(out, "readings_matrix"),
-            f"Paper claims under each reading ({plan.preset.name} preset, {methods})",
-        )
         report = out / "report.md"
+        write_csv_atomic(csv_path, csv_rows(results))
+        methods = ", ".join(plan.methods)
+        title = f"Paper claims under each reading ({plan.preset.name} preset, {methods})"
+        figure = matrix_figure(results, plan.figure(out, "readings_matrix"), title)
+        words = self.words
+        continuation = self.continuation
         write_readings_report(
-            report,
-            plan,
-            results,
-            self.words,
-            self.continuation,
-            self.full,
-            csv_path,
-            figure,
-            summary,
+            report, plan, results, words, continuation, self.full, csv_path, figure, summary
         )
         this = {
             "finished": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
@@ -315,14 +291,14 @@ class ReadingsPlan:
             "phases": [{"name": name, **r.to_dict()} for name, r in run.runs.items()],
             "wall_time_s": round(run.wall_time, 1),
         }
-        continuation = self.continuation
         write_json_atomic(
             out / MANIFEST,
             {
                 "preset": plan.preset.name,
                 "methods": list(plan.methods),
                 "claims": [
-                    {"id": c.id, "statement": c.statement, "paper": c.paper} for c in claims
+                    {"id": c.id, "statement": c.statement, "paper": c.paper}
+                    for c in results[0].claims
                 ],
                 "readings": [
                     {
@@ -333,21 +309,16 @@ class ReadingsPlan:
                     }
                     for r in results
                 ],
-                "combination_rule": self.words,
+                "combination_rule": words,
                 "continuation": None if continuation is None else asdict(continuation),
                 "continuation_check": summary,
                 "run_in_full": self.full,
                 "invocations": [*self.earlier, this],
             },
         )
-        return ReadingsResult(
-            tuple(results),
-            tuple(run.runs.values()),
-            self.words,
-            (csv_path, figure, report),
-            run.wall_time,
-            tuple(run.runs),
-        )
+        files = (csv_path, figure, report)
+        runs = tuple(run.runs.values())
+        return ReadingsResult(tuple(results), runs, words, files, run.wall_time, tuple(run.runs))
 
 
 def run_readings(
@@ -369,27 +340,27 @@ def run_readings(
     ``command`` as for :func:`agents.runner.run_plan`. ValueError for bad ``readings``."""
     store = RecordStore.at(out_dir)
     study = ReadingsPlan(plan, store, readings, continuation, derive, progress)
-    run = run_plan(study, store, scheduler, cache, progress=progress, rerun=rerun, command=command)
-    return study.finish(run)
+    done = run_plan(study, store, scheduler, cache, progress=progress, rerun=rerun, command=command)
+    return study.finish(done)
 
 
 def csv_rows(results: Sequence[ReadingResult]) -> list[dict[str, Any]]:
     """One row per reading (:data:`CSV_COLUMNS`)."""
     rows = []
     for r in results:
-        options = r.reading.model_options
+        reading = r.reading
         c_r = r.reading.rotational_coefficient
         row: dict[str, Any] = {
-            "reading": r.reading.name,
-            "kind": "combination" if r.reading.derived_from else "single",
-            "changes": r.reading.describe_changes(),
-            **{name: getattr(options, name) for name in DECISION_OPTIONS},
+            "reading": reading.name,
+            "kind": "combination" if reading.derived_from else "single",
+            "changes": reading.describe_changes(),
+            **{name: getattr(reading.model_options, name) for name in DECISION_OPTIONS},
             "rotational_coefficient": math.pi if c_r is None else float(c_r),
-            "horizontal_objective": r.reading.horizontal_objective,
-            "search": "" if r.reading.search is None else r.reading.search.describe(),
+            "horizontal_objective": reading.horizontal_objective,
+            "search": "" if reading.search is None else reading.search.describe(),
             **asdict(r.counts),
             **{k: v if math.isnan(v) else float(f"{v:.4g}") for k, v in r.headline().items()},
-            "description": r.reading.description,
+            "description": reading.description,
         }
         rows.append({k: row[k] for k in CSV_COLUMNS})
     return rows
@@ -476,11 +447,8 @@ class ReadingsCampaign:
     def report(self, args: argparse.Namespace, result: ReadingsResult) -> None:
         """Print what the run did (stderr) and found (stdout)."""
         for phase, run in zip(result.phases, result.runs, strict=True):
-            print(
-                f"{phase}: {run.total} optimisations: {run.describe(args.out)} "
-                f"({run.executor}); {run.wall_time:.1f} s",
-                file=sys.stderr,
-            )
+            done = f"{run.describe(args.out)} ({run.executor}); {run.wall_time:.1f} s"
+            print(f"{phase}: {run.total} optimisations: {done}", file=sys.stderr)
         for r in result.results:
             print(f"{r.reading.name}: {VerdictCount.of(r.claims).text()}")
         print(f"best: {result.best.reading.name} ({result.best.agree} claims agree)")

@@ -25,7 +25,7 @@ from eval.studies.bench_workers import makespan, seconds_per_evaluation
 from eval.studies.paper_reading import Reading
 from eval.studies.presets import STUDY_PRESETS, TINY, get_preset
 from eval.studies.readings import MANIFEST, reading_jobs
-from eval.studies.readings.result import reading_dir
+from eval.studies.readings.plan import reading_dir
 from tandem_env.io.files import read_json
 
 WORKERS: tuple[int, ...] = (1, 2, 8, 32)
@@ -33,12 +33,11 @@ WORKERS: tuple[int, ...] = (1, 2, 8, 32)
 
 def analysed_records(out_dir: Path, reading: Reading) -> dict[Job, Record]:
     """The records that ``reading``'s studies analysed in the readings run ``out_dir``."""
-    keys = [
-        entry["key"]
-        for name in PAPER_STUDIES
-        for entry in read_json(reading_dir(out_dir, reading) / name / INDEX_FILE)
-    ]
-    paths = [out_dir / RECORDS_DIR / f"{key}.json" for key in dict.fromkeys(keys)]
+    indexes = (
+        read_json(reading_dir(out_dir, reading) / name / INDEX_FILE) for name in PAPER_STUDIES
+    )
+    keys = dict.fromkeys(entry["key"] for index in indexes for entry in index)
+    paths = [out_dir / RECORDS_DIR / f"{key}.json" for key in keys]
     return {record.job: record for record in read_record_files(paths)}
 
 
@@ -48,12 +47,11 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--preset", choices=tuple(STUDY_PRESETS), default="paper")
     args = parser.parse_args(argv)
     manifest = read_json(Path(args.measured) / MANIFEST)
-    presets = {**STUDY_PRESETS, TINY.name: TINY}
-    measured = StudyPlan(presets[manifest["preset"]], tuple(manifest["methods"]))
+    measured = {**STUDY_PRESETS, TINY.name: TINY}[manifest["preset"]]
     target = StudyPlan(get_preset(args.preset), tuple(manifest["methods"]))
     seen: set[str] = set()
     durations: list[tuple[int, float]] = []
-    print(f"measured: {args.measured} ({measured.preset.name}); estimated: {args.preset}")
+    print(f"measured: {args.measured} ({measured.name}); estimated: {args.preset}")
     for entry in manifest["readings"]:  # each reading rebuilt from its changes
         reading = Reading.from_changes(entry["name"], "as measured", entry["changes"])
         records = analysed_records(Path(args.measured), reading)
@@ -69,9 +67,10 @@ def main(argv: Sequence[str] | None = None) -> None:
             f"{args.preset}: {len(new)} new jobs, {sum(d for _, d in estimate) / 60:6.1f} min"
         )
     ordered = [d for _, d in sorted(durations, key=lambda x: -x[0])]
-    total = sum(ordered)
     cells = ", ".join(f"{w} workers {makespan(ordered, w) / 3600:.1f} h" for w in WORKERS)
-    print(f"{args.preset}: {len(ordered)} jobs, {total / 3600:.1f} h serial; at best {cells}")
+    print(
+        f"{args.preset}: {len(ordered)} jobs, {sum(ordered) / 3600:.1f} h serial; at best {cells}"
+    )
 
 
 if __name__ == "__main__":
