@@ -71,7 +71,7 @@ def redraw_figure(rows: Sequence[Mapping[str, Any]]) -> None:
     table = [{"wake": "free", **{k: typed(v) for k, v in row.items()}} for row in rows]
     with tempfile.TemporaryDirectory() as folder:
         write_figure(Path(folder), table, Resolution())
-        copy_outputs(Path(folder), {"crosscheck.png": LAG_STUDY_FILES["crosscheck.png"]})
+        framework.copy_outputs(Path(folder), {"crosscheck.png": LAG_STUDY_FILES["crosscheck.png"]})
 
 
 def measure() -> dict[str, Any]:
