@@ -25,19 +25,13 @@ from tandem_env.io.files import output_directory, write_csv_atomic, write_text_a
 NAME = "compare"
 HELP = "compare records: median/IQR/spread table (CSV, Markdown) and convergence plot (PNG)"
 DESCRIPTION = """\
-Compare harness records (the records/<key>.json files of `optimize` and `study`) found
-recursively in the given directories, grouped by their full job configuration (only seeds
-differ within a row; the settings that tell the rows of one condition apart are shown beside
-the method). A record failing its checksum or of an earlier format is left out with a warning.
-Writes into --out (default: the first DIR's compare/ sub-folder; docs/harness.md, "compare"):
-  comparison.csv, comparison.md  per task/objective/condition and configuration: median, IQR
-                                 and spread of the objective over the seeds, best, feasible
-                                 share, evaluations, wall time, polish gain, KKT residual and
-                                 score ("n/a (none feasible)" where no seed flies);
-  convergence.png                best-so-far reward against evaluations (median over seeds,
-                                 IQR band), one panel per task/objective/condition; a marker
-                                 is the median reported objective, a dotted segment the local
-                                 polish (--format svg or pdf: convergence.svg, .pdf)."""
+Compare harness records (records/<key>.json of `optimize` and `study`) found recursively in
+the given directories, a row per job configuration (only seeds differ within a row). A record
+failing its checksum or of an earlier format is left out with a warning. Writes into --out
+(docs/harness.md, "compare"): comparison.csv and comparison.md (per task, objective, condition
+and configuration: the objective's median, IQR and spread over the seeds, best, feasible share,
+evaluations, wall time, polish gain, KKT residual, score) and convergence.png (best-so-far
+reward against evaluations, a panel per condition; --format svg or pdf)."""
 EPILOG = """\
 example:
   python -m eval compare results/v1.5                 # writes results/v1.5/compare/
@@ -66,32 +60,23 @@ class Row:
     condition_unit: str
     method: str
     budget: int
-    settings: str
-    """The configuration besides method and budget (env keywords, method settings, preset,
-    version), ``name=value`` joined by ``; `` (empty if none)."""
-    distinct: str
-    """The part of ``settings`` that tells this row from the others of its condition."""
+    settings: str  # the rest of the configuration (env, method, preset, version): "a=1; b=2"
+    distinct: str  # The part of ``settings`` that tells this row from the others of its condition.
     seeds: int
     objective_median: float
     objective_q25: float
     objective_q75: float
     objective_iqr: float
-    objective_spread: float
-    """(max - min) / |median| of the objective over the seeds [-] (NaN if none feasible)."""
+    objective_spread: float  # (max - min) / |median| over the seeds [-] (NaN: none feasible)
     objective_best: float
-    objective_median_feasible: float
-    """Median objective over the feasible seeds (NaN if none)."""
+    objective_median_feasible: float  # Median objective over the feasible seeds (NaN if none).
     reward_median: float
     feasible_share: float
     evaluations_median: float
     wall_time_median_s: float
-    polish_gain_median: float = math.nan
-    """Median local polish gain over the seeds (records' ``certificate``) [-]; NaN: none."""
-    kkt_residual_median: float = math.nan
-    """Median first-order optimality residual of the reported strokes [-] (NaN: none known)."""
-    score_median: float = math.nan
-    """Median normalised score over the seeds (:attr:`agents.records.Record.score`) [-]; NaN
-    where the reference table does not apply."""
+    polish_gain_median: float = math.nan  # of the records' ``certificate`` [-]; NaN: none
+    kkt_residual_median: float = math.nan  # first-order optimality residual [-]; NaN: none known
+    score_median: float = math.nan  # :attr:`agents.records.Record.score` [-]; NaN: no reference
 
     def to_dict(self) -> dict[str, Any]:
         """The row's ``comparison.csv`` columns."""
@@ -100,8 +85,7 @@ class Row:
         return columns
 
 
-PanelKey = tuple[str, str, str, float, str]
-"""(task, objective_name, condition name, value, unit)."""
+PanelKey = tuple[str, str, str, float, str]  # (task, objective_name, condition name, value, unit).
 SeriesKey = tuple[str, int, tuple[tuple[str, str], ...]]
 """(method, budget, the rest of the job's configuration as sorted (name, value text) pairs)."""
 
@@ -150,17 +134,14 @@ def group(
     """Records by panel, then by configuration; a record seen twice (same key: the same job)
     counts once, said on stderr unless ``quiet``."""
     out: dict[PanelKey, dict[SeriesKey, list[Record]]] = defaultdict(lambda: defaultdict(list))
-    seen: dict[str, Record] = {}
+    seen: set[str] = set()
     for record in records:
         if record.key in seen:  # one configuration and seed: the same run, found twice
             if not quiet:
-                print(
-                    f"compare: {record.label()} (key {record.key}) found twice; the first "
-                    "found is counted",
-                    file=sys.stderr,
-                )
+                twice = f"compare: {record.label()} (key {record.key}) found twice"
+                print(f"{twice}; the first found is counted", file=sys.stderr)
             continue
-        seen[record.key] = record
+        seen.add(record.key)
         c = record.condition
         panel = (record.task, record.objective_name, c.name, c.value, c.unit)
         out[panel][series_key(record)].append(record)
@@ -193,34 +174,25 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
                 q25, median, q75 = map(float, np.percentile(objective, [25, 50, 75]))
                 best, spread = float(objective.max()), relative_spread(objective)
                 median_feasible = float(np.median(objective[feasible]))
+            settings = "; ".join(f"{k}={v}" for k, v in pairs)
+            reward, evaluations, wall_time = (
+                float(np.median([getattr(r, k) for r in runs]))
+                for k in ("reward", "evaluations", "wall_time")
+            )
+            gain, kkt, score = map(
+                _median_known,
+                (
+                    [r.certificate.get("gain") for r in runs],
+                    [r.certificate.get("kkt_residual") for r in runs],
+                    [r.score for r in runs],
+                ),
+            )
             rows.append(
                 Row(
-                    task=task,
-                    objective_name=objective_name,
-                    condition=condition,
-                    condition_value=value,
-                    condition_unit=unit,
-                    method=method,
-                    budget=budget,
-                    settings="; ".join(f"{k}={v}" for k, v in pairs),
-                    distinct=distinct[skey],
-                    seeds=len(runs),
-                    objective_median=median,
-                    objective_q25=q25,
-                    objective_q75=q75,
-                    objective_iqr=q75 - q25,
-                    objective_spread=spread,
-                    objective_best=best,
-                    objective_median_feasible=median_feasible,
-                    reward_median=float(np.median([r.reward for r in runs])),
-                    feasible_share=float(np.mean(feasible)),
-                    evaluations_median=float(np.median([r.evaluations for r in runs])),
-                    wall_time_median_s=float(np.median([r.wall_time for r in runs])),
-                    polish_gain_median=_median_known([r.certificate.get("gain") for r in runs]),
-                    kkt_residual_median=_median_known(
-                        [r.certificate.get("kkt_residual") for r in runs]
-                    ),
-                    score_median=_median_known([r.score for r in runs]),
+                    *(task, objective_name, condition, value, unit, method, budget, settings),
+                    *(distinct[skey], len(runs), median, q25, q75, q75 - q25, spread, best),
+                    *(median_feasible, reward, float(np.mean(feasible)), evaluations, wall_time),
+                    *(gain, kkt, score),
                 )
             )
     return rows
@@ -296,8 +268,7 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
     reported objective over the feasible seeds."""
     panels = group(records, quiet=True)  # duplicates are reported by table_rows
     n = len(panels)
-    cols = min(n, 3)
-    rows = math.ceil(n / cols)
+    cols, rows = min(n, 3), math.ceil(n / min(n, 3))
     fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.3 * rows), squeeze=False)
     for ax, (key, series) in zip(axes.flat, panels.items(), strict=False):
         task, objective_name, condition, value, unit = key
@@ -308,8 +279,7 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
         for skey, runs in series.items():
             method = skey[0]
             style = series_style(method, variant[method])
-            colour = style["color"]
-            variant[method] += 1
+            colour, variant[method] = style["color"], variant[method] + 1
             x, q25, median, q75 = convergence_curve(runs)
             label = ", ".join(p for p in (method_label(method), distinct[skey]) if p)
             label += f" ({len(runs)} seed{'s' * (len(runs) != 1)})"
@@ -330,18 +300,14 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
             finals.extend(v for v in (q25[-1], median[-1], q75[-1]) if np.isfinite(v))
             tail = median[x >= 0.1 * x[-1]]
             finals.extend(v for v in tail[:1] if np.isfinite(v))
-        ax.plot(
-            [],
-            [],
-            marker="D",
-            color="0.5",
-            mec="k",
-            ls="none",
-            label=f"reported {objective_name} (median of feasible seeds)",
-        )
+        reported = f"reported {objective_name} (median of feasible seeds)"
+        ax.plot([], [], marker="D", color="0.5", mec="k", ls="none", label=reported)
         if polished:
             ax.plot([], [], ":", color="0.5", lw=1.4, label=POLISH_LABEL)
-        _focus(ax, finals)
+        if finals:  # from a tenth of the run on: early infeasible rewards are far below
+            low, high = min(finals), max(finals)
+            pad = 0.08 * (high - low) if high > low else 0.05 * max(abs(high), 1e-3)
+            ax.set_ylim(low - pad, high + pad)
         ax.set_title(f"{task}, {objective_name}, {condition} = {value:g} {unit}", fontsize=10)
         ax.set_xlabel("model evaluations")
         ax.set_ylabel("best reward so far (penalised objective)")
@@ -357,16 +323,6 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
     fig.suptitle(textwrap.fill(caption, 62 * cols), fontsize=9)
     fig.tight_layout()
     return fig
-
-
-def _focus(ax: Any, values: list[float]) -> None:
-    # Early rewards of infeasible strokes are far below the feasible objectives at the end:
-    # show the range from a tenth of the run on, so the end is readable.
-    if not values:
-        return
-    low, high = min(values), max(values)
-    pad = 0.08 * (high - low) if high > low else 0.05 * max(abs(high), 1e-3)
-    ax.set_ylim(low - pad, high + pad)
 
 
 def compare(
@@ -396,18 +352,10 @@ def default_out(directories: Sequence[str | Path]) -> Path:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("dirs", nargs="+", metavar="DIR", help="directories (or files) of records")
-    parser.add_argument(
-        "--out",
-        default=None,
-        metavar="OUT",
-        help=f"directory for the outputs (default: the first DIR's {DEFAULT_OUT}/ sub-folder)",
-    )
-    parser.add_argument(
-        "--format",
-        choices=FORMATS,
-        default=FORMATS[0],
-        help=f"file format of the convergence figure (default {FORMATS[0]})",
-    )
+    text = f"directory for the outputs (default: the first DIR's {DEFAULT_OUT}/ sub-folder)"
+    parser.add_argument("--out", default=None, metavar="OUT", help=text)
+    text = f"file format of the convergence figure (default {FORMATS[0]})"
+    parser.add_argument("--format", choices=FORMATS, default=FORMATS[0], help=text)
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

@@ -23,13 +23,10 @@ from eval.figures import PALETTE, WING_COLORS, draw_bounds, legend, plt, text_en
 class Trace:
     """One stroke's time history for the kinematics figures."""
 
-    label: str
-    """E.g. ``"seed 3 (best)"``."""
+    label: str  # E.g. ``"seed 3 (best)"``.
     best: bool
-    cycle: np.ndarray
-    """t/T [-]."""
-    fore: Mapping[str, np.ndarray]
-    """Quantity name -> (n,) or (n, 3) array of the fore-wing."""
+    cycle: np.ndarray  # t/T [-].
+    fore: Mapping[str, np.ndarray]  # Quantity name -> (n,) or (n, 3) array of the fore-wing.
     hind: Mapping[str, np.ndarray]
 
 
@@ -49,29 +46,20 @@ def _seed_color(trace: Trace, i: int) -> str:
 #: figure-of-eight shows its direction on both loops.
 ARROW_PHASES: tuple[float, ...] = (0.125, 0.375, 0.625, 0.875)
 #: The arrowheads: filled black with a white rim, above every path, 16 pt long.
-ARROW_STYLE: dict = {
-    "arrowstyle": "-|>",
-    "mutation_scale": 16,
-    "fc": "k",
-    "ec": "white",
-    "lw": 0.8,
-    "shrinkA": 0,
-    "shrinkB": 0,
-    "zorder": 6,
-}
+ARROW_STYLE: dict = {"arrowstyle": "-|>", "mutation_scale": 16, "fc": "k", "ec": "white", "lw": 0.8}
+ARROW_STYLE |= {"shrinkA": 0, "shrinkB": 0, "zorder": 6}
 START_LABEL = "best seed at t = 0 (arrows: direction of travel)"
 
 
 def draw_direction(ax: Axes, path: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """Arrowheads along a closed path (n, 2) at :data:`ARROW_PHASES`, the way it is travelled;
     each arrow's (from, to): a sample of the path and the next one."""
-    n = len(path)
-    segments = []
-    for phase in ARROW_PHASES:
-        k = min(int(phase * n), n - 2)
-        start, end = path[k], path[k + 1]
+    segments = [
+        (path[k], path[k + 1])
+        for k in (min(int(p * len(path)), len(path) - 2) for p in ARROW_PHASES)
+    ]
+    for start, end in segments:
         ax.add_patch(FancyArrowPatch(tuple(start), tuple(end), **ARROW_STYLE))
-        segments.append((start, end))
     return segments
 
 
@@ -84,9 +72,8 @@ def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
             tip = getattr(trace, wing)["tip_path"]
             color = _seed_color(trace, i)
             loop = np.vstack([tip, tip[:1]])  # one period: the path closes on itself
-            ax.plot(
-                loop[:, 0], loop[:, 2], "-", color=color, label=trace.label, **_trace_style(trace)
-            )
+            style = {"color": color, "label": trace.label, **_trace_style(trace)}
+            ax.plot(loop[:, 0], loop[:, 2], "-", **style)
             if trace.best:
                 # Start of the cycle, and the direction of travel above every path.
                 ax.plot(tip[0, 0], tip[0, 2], "o", color="k", ms=5, zorder=5)
@@ -113,8 +100,7 @@ class GroupPanel:
     statistic judged as a bar, the best seed a star, the paper's values crosses, a band."""
 
     title: str
-    groups: Mapping[str, Sequence[float]]
-    """Group label -> the feasible seeds' values."""
+    groups: Mapping[str, Sequence[float]]  # Group label -> the feasible seeds' values.
     ylabel: str
     statistic: Callable[[Sequence[float]], float] = np.median
     statistic_label: str = "median"
@@ -122,15 +108,13 @@ class GroupPanel:
     """Group -> the best seed's value (a star)."""
     paper: Mapping[str, float] = field(default_factory=dict)
     """Group -> the paper's value (a cross)."""
-    paper_label: str = "paper"
-    """The crosses' legend entry: what the paper states there."""
+    paper_label: str = "paper"  # The crosses' legend entry: what the paper states there.
     band: tuple[float, float, str] | None = None
     """(low, high, label): a range the rule names, e.g. (0, 15, "in phase: |ΔΦ| < 15°")."""
     ylim: tuple[float, float] | None = None
     bounds: tuple[float, float] | None = None
     """The insect's (low, high) bounds of the stroke parameter drawn (``tables.table4_bounds``)."""
-    paper_note: str = ""
-    """What the paper states in words only (a legend line)."""
+    paper_note: str = ""  # What the paper states in words only (a legend line).
 
 
 def draw_groups(ax: Axes, panel: GroupPanel, wrap: int = 0) -> None:
@@ -186,13 +170,8 @@ def _cycle_panel(
         ax.plot(trace.cycle, trace.hind[quantity], "--", color=WING_COLORS["hind"], **style)
     ax.plot([], [], "-", color=WING_COLORS["fore"], label="fore-wing")
     ax.plot([], [], "--", color=WING_COLORS["hind"], label="hind-wing")
-    ax.axvline(
-        PAPER_DOWNSTROKE_END,
-        color="k",
-        ls=":",
-        lw=1.0,
-        label="paper: down-stroke ends (t/T = 0.5)" if first else None,
-    )
+    label = "paper: down-stroke ends (t/T = 0.5)" if first else None
+    ax.axvline(PAPER_DOWNSTROKE_END, color="k", ls=":", lw=1.0, label=label)
     ax.set_ylabel(ylabel)
     ax.grid(alpha=0.3)
 
@@ -204,17 +183,8 @@ COLUMN_FONT_PT = 7.0
 #: The text sizes of a single-column figure: every text at :data:`COLUMN_FONT_PT`, the title
 #: a point larger.
 COLUMN_RC: dict[str, Any] = {
-    **{
-        key: COLUMN_FONT_PT
-        for key in (
-            "font.size",
-            "axes.titlesize",
-            "axes.labelsize",
-            "xtick.labelsize",
-            "ytick.labelsize",
-            "legend.fontsize",
-        )
-    },
+    **dict.fromkeys(("font.size", "axes.titlesize", "axes.labelsize"), COLUMN_FONT_PT),
+    **dict.fromkeys(("xtick.labelsize", "ytick.labelsize", "legend.fontsize"), COLUMN_FONT_PT),
     "figure.titlesize": COLUMN_FONT_PT + 1,
 }
 #: Characters per line of a single-column figure's panel titles and legends (two panels

@@ -33,21 +33,13 @@ from tandem_env.physics.measured import FOURIER_SAMPLES, MAX_SAMPLES
 NAME = "measured"
 HELP = "forces and power of measured wing kinematics (YAML: insect, kinematics, flight)"
 DESCRIPTION = """\
-Evaluate measured wing kinematics with the tandem-wing model. KINEMATICS.yaml gives
-  insect:      optional; fields of the insect and of each wing (SI units), e.g. body_mass,
-               fore: {length, mean_chord, mass, planform, coefficients}, hind: {...};
-  flight:      speed [m/s], flight_path_angle [deg, + climbing], available_power [W/kg];
-  options:     optional ModelOptions fields (n_blade, induction, ...);
-  kinematics:  degrees (default true), n_samples (Fourier sampling, default 256), and for
-               each of fore and hind: frequency [Hz], stroke_plane_angle (from the horizontal),
-               then either Fourier series sweep/elevation/pitch: {mean: .., harmonics:
-               [[amplitude, phase], ...]} (X = mean + sum a_k cos(2 pi k f t + phase_k)), or
-               csv: FILE with columns: {time: .., sweep: .., elevation: .., pitch: ..};
-               span-wise pitch: pitch_stations: [r/R, ...] with one pitch per station.
-Angle conventions (sweep + forward, elevation + up, pitch 0 = chord normal to the stroke
-plane, + leading edge forward) are in docs/measured.md. Writes into --out:
-  NAME.json   inputs, cycle means (earth axes), per-wing histories over the cycle;
-  NAME.png    vertical and horizontal force and power of each wing pair over the cycle."""
+Evaluate measured wing kinematics with the tandem-wing model. KINEMATICS.yaml gives flight
+(speed [m/s], flight_path_angle [deg], available_power [W/kg]), kinematics (degrees,
+n_samples, and per wing pair frequency [Hz], stroke_plane_angle, then Fourier series
+sweep/elevation/pitch: {mean, harmonics: [[amplitude, phase], ...]} or csv: FILE with
+columns:), optionally insect and options (ModelOptions fields). The format and the angle
+conventions: docs/measured.md. Writes into --out NAME.json (inputs, cycle means in earth axes,
+per-wing histories) and NAME.png (forces and power of each wing pair over the cycle)."""
 EPILOG = """\
 example:
   python -m eval measured examples/forward_flight.yaml --out results/measured"""
@@ -74,12 +66,9 @@ class MeasuredCase:
     description: str
     fore: MeasuredWing
     hind: MeasuredWing
-    speed: float
-    """V [m/s]."""
-    flight_path_angle: float
-    """γ [rad], + climbing."""
-    available_power: float | None
-    """[W/kg]; None: the insect's."""
+    speed: float  # V [m/s].
+    flight_path_angle: float  # γ [rad], + climbing.
+    available_power: float | None  # [W/kg]; None: the insect's.
     insect: Dragonfly
     options: ModelOptions
 
@@ -93,8 +82,7 @@ def _mapping(value: Any, where: str) -> dict[str, Any]:
 
 
 def _take(spec: dict[str, Any], allowed: tuple[str, ...], where: str) -> None:
-    unknown = sorted(set(spec) - set(allowed))
-    if unknown:
+    if unknown := sorted(set(spec) - set(allowed)):
         raise SpecError(f"{where}.{unknown[0]}: unknown field; allowed: {', '.join(allowed)}")
 
 
@@ -102,15 +90,6 @@ def _number(value: Any, where: str, unit: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise SpecError(f"{where} = {value!r}; allowed: a finite number [{unit}]")
     return float(value)
-
-
-def _options(spec: Any) -> ModelOptions:
-    spec = _mapping(spec, "options")
-    _take(spec, tuple(f.name for f in fields(ModelOptions)), "options")
-    try:
-        return ModelOptions(**spec)
-    except (TypeError, ValueError) as exc:
-        raise SpecError(f"options: {exc}") from None
 
 
 def _series(value: Any, where: str) -> tuple[float, list[tuple[float, float]]]:
@@ -142,14 +121,12 @@ def _series(value: Any, where: str) -> tuple[float, list[tuple[float, float]]]:
 def _read_csv(path: Path, where: str) -> dict[str, np.ndarray]:
     if not path.is_file():
         raise SpecError(f"{where}.csv = {str(path)!r}: no such file")
+    table = f"{where}.csv {str(path)!r}"  # how every message names the file
     try:
-        text = read_text(path, f"{where}.csv")
+        reader = csv.reader(io.StringIO(read_text(path, f"{where}.csv"), newline=""))
+        rows = [row for row in reader if row and not row[0].lstrip().startswith("#")]
     except DataFileError as error:
         raise SpecError(str(error)) from None
-    table = f"{where}.csv {str(path)!r}"  # how every message names the file
-    reader = csv.reader(io.StringIO(text, newline=""))
-    try:
-        rows = [row for row in reader if row and not row[0].lstrip().startswith("#")]
     except csv.Error as exc:
         raise SpecError(f"{table}: not CSV ({exc})") from None
     if len(rows) < 2:
@@ -160,8 +137,7 @@ def _read_csv(path: Path, where: str) -> dict[str, np.ndarray]:
             "(resample it)"
         )
     header = [h.strip() for h in rows[0]]
-    repeated = sorted({h for h in header if header.count(h) > 1})
-    if repeated:
+    if repeated := sorted({h for h in header if header.count(h) > 1}):
         raise SpecError(
             f"{table}: column {repeated[0]!r} appears {header.count(repeated[0])} times in the "
             "header; allowed: distinct column names"
@@ -196,8 +172,7 @@ def _measured_wing(
     spec: Any, where: str, degrees: bool, n_samples: int, folder: Path
 ) -> MeasuredWing:
     spec = _mapping(spec, where)
-    is_csv = "csv" in spec
-    extra = ("csv", "columns") if is_csv else ANGLES
+    extra = ("csv", "columns") if (is_csv := "csv" in spec) else ANGLES
     _take(spec, ("frequency", "stroke_plane_angle", "pitch_stations", *extra), where)
     for key in ("frequency", "stroke_plane_angle"):
         if key not in spec:
@@ -207,19 +182,18 @@ def _measured_wing(
     stations = spec.get("pitch_stations")
     try:
         if not is_csv:
-            missing = [a for a in ANGLES if a not in spec]
-            if missing:
+            if missing := [a for a in ANGLES if a not in spec]:
                 raise SpecError(
                     f"{where}.{missing[0]}: missing; allowed: a Fourier series, or give csv: "
                     "and columns: instead"
                 )
             if stations is None:
                 pitch = _series(spec["pitch"], f"{where}.pitch")
+            elif not isinstance(spec["pitch"], (list, tuple)):
+                raise SpecError(
+                    f"{where}.pitch: with pitch_stations, a list of series, one per station"
+                )
             else:
-                if not isinstance(spec["pitch"], (list, tuple)):
-                    raise SpecError(
-                        f"{where}.pitch: with pitch_stations, a list of series, one per station"
-                    )
                 pitch = [_series(p, f"{where}.pitch[{i}]") for i, p in enumerate(spec["pitch"])]
             return MeasuredWing.from_fourier(
                 frequency,
@@ -238,9 +212,8 @@ def _measured_wing(
         if "time" in columns or "time" in data:
             time = _column(data, columns.get("time", "time"), f"{where}.columns.time")
         else:
-            # No time column: the samples are one open cycle, t_i = i/(n f). One constructor for
-            # both, so a table without times gets the same checks and warnings (radians given as
-            # degrees) as one with them.
+            # No time column: the samples are one open cycle, t_i = i/(n f) (the same checks and
+            # warnings as a table with times).
             n = len(angles[0])
             time = np.arange(n) / (n * frequency) if frequency > 0 else np.arange(n, dtype=float)
         return MeasuredWing.from_samples(
@@ -285,17 +258,25 @@ def load_case(path: str | Path) -> MeasuredCase:
         insect = load_insect(_mapping(spec.get("insect"), "insect"))
     except ValueError as exc:
         raise SpecError(str(exc)) from None
-    power = flight.get("available_power")
+    speed = _number(flight.get("speed", 0.0), "flight.speed", "m/s")
+    if (power := flight.get("available_power")) is not None:
+        power = _number(power, "flight.available_power", "W/kg")
+    options = _mapping(spec.get("options"), "options")  # checked last, as it always was
+    _take(options, tuple(f.name for f in fields(ModelOptions)), "options")
+    try:
+        model_options = ModelOptions(**options)
+    except (TypeError, ValueError) as exc:
+        raise SpecError(f"options: {exc}") from None
     return MeasuredCase(
         name=path.stem,
         description=str(spec.get("description", "")),
         fore=wings[0],
         hind=wings[1],
-        speed=_number(flight.get("speed", 0.0), "flight.speed", "m/s"),
+        speed=speed,
         flight_path_angle=math.radians(gamma) if degrees else gamma,
-        available_power=None if power is None else _number(power, "flight.available_power", "W/kg"),
+        available_power=power,
         insect=insect,
-        options=_options(spec.get("options")),
+        options=model_options,
     )
 
 
@@ -304,14 +285,14 @@ def summary(history: StrokeHistory, insect: Dragonfly) -> dict[str, dict[str, fl
     r: Result = history.result
     out = {}
     for name in WINGS:
-        wing = getattr(history, name)
-        thrust, drag = wing.thrust_and_drag()
+        thrust, drag = getattr(history, name).thrust_and_drag()
+        power = float(getattr(r, f"{name}_power")[0])
         out[name] = {
             "lift_to_weight": float(getattr(r, f"{name}_lift_to_weight")[0]),
             "thrust": thrust,
             "drag": drag,
-            "power": float(getattr(r, f"{name}_power")[0]),
-            "power_per_mass": float(getattr(r, f"{name}_power")[0]) / insect.body_mass,
+            "power": power,
+            "power_per_mass": power / insect.body_mass,
         }
     out["total"] = {
         key: float(getattr(r, key)[0])
@@ -337,15 +318,14 @@ def format_summary(case: MeasuredCase, history: StrokeHistory) -> str:
             f"{label:10} {row['lift_to_weight']:7.3f} {1e3 * row['thrust']:8.3f} "
             f"{1e3 * row['drag']:8.3f} {1e3 * row['power']:8.3f} {row['power_per_mass']:11.1f}"
         )
-    notes = []
     if case.options.thrust_split == "body":
-        notes.append(
+        lines.append(
             "total T is the net horizontal wing force and D the body drag (thrust_split=body)"
         )
     if not r.induction_converged[0]:
-        notes.append("WARNING: the inflow solve did not converge on every annulus")
-    notes.append(f"mean angle of attack {r.mean_angle_of_attack[0]:.1f}°")
-    return "\n".join([*lines, *notes])
+        lines.append("WARNING: the inflow solve did not converge on every annulus")
+    lines.append(f"mean angle of attack {r.mean_angle_of_attack[0]:.1f}°")
+    return "\n".join(lines)
 
 
 def record(case: MeasuredCase, history: StrokeHistory, source: Path) -> dict[str, Any]:
@@ -387,10 +367,12 @@ def plot(case: MeasuredCase, history: StrokeHistory, path: Path) -> Path:
     weight = case.insect.weight
     for name, color in WING_COLORS.items():
         w = getattr(history, name)
-        x = w.cycle_fraction
-        axes[0].plot(x, 1e3 * w.vertical_force, color=color, label=f"{name} pair")
-        axes[1].plot(x, 1e3 * w.horizontal_force, color=color, label=f"{name} pair")
-        axes[2].plot(x, 1e3 * (w.aero_power + w.inertial_power), color=color, label=f"{name} pair")
+        for ax, y in zip(
+            axes,
+            (w.vertical_force, w.horizontal_force, w.aero_power + w.inertial_power),
+            strict=True,
+        ):
+            ax.plot(w.cycle_fraction, 1e3 * y, color=color, label=f"{name} pair")
     if case.fore.frequency == case.hind.frequency and case.fore.n_samples == case.hind.n_samples:
         x = history.fore.cycle_fraction
         for ax, key in zip(axes, ("vertical_force", "horizontal_force"), strict=False):
@@ -416,16 +398,12 @@ def plot(case: MeasuredCase, history: StrokeHistory, path: Path) -> Path:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("kinematics", metavar="KINEMATICS.yaml", help="the kinematics file")
-    parser.add_argument(
-        "--out",
-        default=str(DEFAULT_OUT),
-        help=f"folder for NAME.json and NAME.png (default {DEFAULT_OUT})",
-    )
+    text = f"folder for NAME.json and NAME.png (default {DEFAULT_OUT})"
+    parser.add_argument("--out", default=str(DEFAULT_OUT), help=text)
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    source = Path(args.kinematics)
-    out = Path(args.out)
+    source, out = Path(args.kinematics), Path(args.out)
     try:
         output_directory(args.out)  # before any work: a file or a read-only folder is refused now
     except ValueError as exc:
@@ -450,8 +428,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     for warning in caught:
         print(f"{parser.prog}: warning: {source}: {warning.message}", file=sys.stderr)
     print(format_summary(case, history))
-    json_path = out / f"{case.name}.json"
-    png_path = out / f"{case.name}.png"
+    json_path, png_path = (out / f"{case.name}.{suffix}" for suffix in ("json", "png"))
     for path in (json_path, png_path):
         if path.exists():
             print(f"replacing {path}", file=sys.stderr)

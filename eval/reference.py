@@ -1,12 +1,7 @@
-"""``python -m eval reference``: make the reference table of certified optima.
-
-A plan of the resumable runner (:class:`ReferencePlan`, :func:`agents.runner.run_plan`: records
-in ``--out``, here or on Dask, a killed run resumes): the *search* (:func:`plan`: per point of
-:data:`tandem_env.envs.reference.REFERENCE_GRID`, objective, planform and seed), then the rounds
-of :data:`CONTINUATION`. Per point, the best stroke competing for it (:func:`_pool`) is written
-with its provenance to the packaged table (or ``--table``, :func:`build_table`), a figure and a
-Markdown table to ``--out``. The method and the table: docs/reference.md.
-"""
+"""``python -m eval reference``: the reference table of certified optima (docs/reference.md):
+a plan of the resumable runner (:class:`ReferencePlan`), the search (:func:`plan`) then the rounds
+of :data:`CONTINUATION`; per point the best stroke competing for it (:func:`_pool`) goes with its
+provenance to the packaged table (or ``--table``), a figure and a Markdown table to ``--out``."""
 
 from __future__ import annotations
 
@@ -84,8 +79,7 @@ def plan(
     return jobs
 
 
-PointKey = tuple[str, str, str, float]
-"""(env id, objective, planform, condition) of a grid point."""
+PointKey = tuple[str, str, str, float]  # (env id, objective, planform, condition) of a grid point.
 
 #: Tasks whose feasible set grows with the condition: the available power only caps P/m, so a
 #: stroke that flies at P_avail flies, with the same forces, at every higher P_avail, and a
@@ -205,11 +199,8 @@ def _pool(found: Mapping[PointKey, Sequence[Record]], key: PointKey) -> list[Rec
 
 def best_objectives(found: Mapping[PointKey, Sequence[Record]]) -> dict[PointKey, float]:
     """Each point's best feasible objective among what competes for it (NaN: none flies)."""
-    values = {}
-    for key in found:
-        best = _best(_pool(found, key), key[0], key[1])
-        values[key] = _value(best, key[0], key[1]) if best.feasible else float("nan")
-    return values
+    best = {key: _best(_pool(found, key), key[0], key[1]) for key in found}
+    return {k: _value(b, k[0], k[1]) if b.feasible else float("nan") for k, b in best.items()}
 
 
 def round_gains(
@@ -226,6 +217,10 @@ def round_gains(
     }
 
 
+#: What the table keeps of each best stroke's certificate.
+CERTIFICATE_KEYS = ("method", "status", "gain", "objective_before")
+
+
 def _point(
     key: PointKey,
     search: Sequence[Record],
@@ -236,7 +231,6 @@ def _point(
     """One grid point: the best stroke competing for it (:func:`_pool`)."""
     env_id, objective, _, condition = key
     best = _best(_pool(found, key), env_id, objective)
-    certificate = best.certificate
     if best in search:
         source = f"seed {best.seed}"
     elif best in rounds:
@@ -260,9 +254,7 @@ def _point(
             for r in found[key][len(search) + len(rounds) :]
         ],
         "normalised_stroke": list(best.normalised_stroke),
-        "certificate": {
-            k: certificate.get(k) for k in ("method", "status", "gain", "objective_before")
-        },
+        "certificate": {k: best.certificate.get(k) for k in CERTIFICATE_KEYS},
         "record_key": best.key,
     }
 
@@ -323,27 +315,15 @@ def build_table(
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--out",
-        type=Path,
-        default=DEFAULT_OUT,
-        help=f"the optimisations' records, figure and table (default {DEFAULT_OUT})",
+    text = f"the optimisations' records, figure and table (default {DEFAULT_OUT})"
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=text)
+    text = "where the table goes (default: the packaged tandem_env/data/reference_optima.json)"
+    parser.add_argument("--table", type=Path, default=None, help=text)
+    text = (
+        "record files or folders of other runs (e.g. eval optimize --out) whose strokes "
+        "compete for the table's points, with their provenance (docs/reference.md)"
     )
-    parser.add_argument(
-        "--table",
-        type=Path,
-        default=None,
-        help="where the table goes (default: the packaged tandem_env/data/reference_optima.json)",
-    )
-    parser.add_argument(
-        "--candidates",
-        type=Path,
-        nargs="+",
-        default=[],
-        metavar="PATH",
-        help="record files or folders of other runs (e.g. eval optimize --out) whose strokes "
-        "compete for the table's points, with their provenance (docs/reference.md)",
-    )
+    parser.add_argument("--candidates", type=Path, nargs="+", default=[], metavar="PATH", help=text)
     add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -435,23 +415,15 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         jobs, rounds, run.records, provenance(every, run.records, table_plan.convergence), extra
     )
     write_json_atomic(table_path, table)
-    _report(table, Path(args.out))
+    # the table as people read it: OUT/reference.md and OUT/reference.png
+    write_text_atomic(Path(args.out) / "reference.md", reference_markdown(table))
+    write_reference_figure(table, Path(args.out) / "reference.png")
+    for series in table["series"]:
+        if weak := [p["condition"] for p in series["points"] if not p["feasible"]]:
+            what = f"{series['env_id']} {series['objective']} {series['planform']}"
+            print(f"warning: {what}: no feasible optimum at {weak}", file=sys.stderr)
     print(f"reference: {len(every)} optimisations; table written to {table_path}", file=sys.stderr)
     return 0
-
-
-def _report(table: Mapping[str, Any], out: Path) -> None:
-    """The table as Markdown (``OUT/reference.md``) and a figure (``OUT/reference.png``)."""
-    write_text_atomic(out / "reference.md", reference_markdown(table))
-    write_reference_figure(table, out / "reference.png")
-    for series in table["series"]:
-        weak = [p for p in series["points"] if not p["feasible"]]
-        if weak:
-            print(
-                f"warning: {series['env_id']} {series['objective']} {series['planform']}: no "
-                f"feasible optimum at {[p['condition'] for p in weak]}",
-                file=sys.stderr,
-            )
 
 
 # --- the table as people read it: a Markdown table, and a figure of the optima against the
@@ -472,13 +444,6 @@ def _condition_header(env_id: str) -> str:
     return f"{condition.symbol} [{condition.unit}]"
 
 
-def _spread(point: Mapping[str, Any]) -> str:
-    values = [v for v in point["seed_objectives"] if v is not None]
-    if not values:
-        return "none feasible"
-    return f"{min(values):.4g}-{max(values):.4g} ({len(values)}/{len(point['seed_objectives'])})"
-
-
 def reference_markdown(table: Mapping[str, Any]) -> str:
     """One table per task: the optimum of each objective and planform at each condition, with
     the range of the search's seeds' feasible optima (how many seeds found a feasible stroke)."""
@@ -495,7 +460,10 @@ def reference_markdown(table: Mapping[str, Any]) -> str:
             cells = [f"{point['condition']:g}"]
             for s in series_list:
                 p = s["points"][i]
-                cells += [f"{p['objective']:.4g}" if p["feasible"] else "-", _spread(p)]
+                values = [v for v in p["seed_objectives"] if v is not None]
+                spread = f"{min(values):.4g}-{max(values):.4g}" if values else "none feasible"
+                spread += f" ({len(values)}/{len(p['seed_objectives'])})" if values else ""
+                cells += [f"{p['objective']:.4g}" if p["feasible"] else "-", spread]
             rows.append("| " + " | ".join(cells) + " |")
         parts.append(f"**{env_id}**\n\n{head} |\n{rule}\n" + "\n".join(rows) + "\n")
     provenance = table["provenance"]
@@ -552,21 +520,17 @@ def write_reference_figure(table: Mapping[str, Any], path: Path) -> None:
         assert objectives is not None
         for series in (s for s in table["series"] if s["env_id"] == env_id):
             colour = _COLOURS.get(series["objective"], "#000000")
-            points = [p for p in series["points"] if p["feasible"]]
-            ax.plot(
-                [p["condition"] for p in points],
-                [p["objective"] for p in points],
-                _LINES.get(series["planform"], ":"),
-                color=colour,
-                marker="o",
-                markersize=3,
-                label=f"{series['objective']}, {series['planform']}",
+            x, y = (
+                [p[k] for p in series["points"] if p["feasible"]]
+                for k in ("condition", "objective")
             )
+            style = {"color": colour, "marker": "o", "markersize": 3}
+            label = f"{series['objective']}, {series['planform']}"
+            ax.plot(x, y, _LINES.get(series["planform"], ":"), **style, label=label)
             for p in series["points"]:
                 seeds = [v for v in p["seed_objectives"] if v is not None]
                 ax.plot([p["condition"]] * len(seeds), seeds, ".", color=colour, alpha=0.25)
-        ax.set_xlabel(_condition_header(env_id))
-        ax.set_ylabel(f"reference objective [{objectives.unit}]")
+        ax.set(xlabel=_condition_header(env_id), ylabel=f"reference objective [{objectives.unit}]")
         ax.set_title(env_id.split("/")[-1])
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
