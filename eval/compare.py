@@ -234,15 +234,15 @@ def comparison_markdown(rows: Sequence[Row]) -> str:
             f"{r.wall_time_median_s:.3g} | {_fmt(r.polish_gain_median, '+.2f', 100, ' %')} | "
             f"{_fmt(r.kkt_residual_median, '.2g')} | {_fmt(r.score_median)} |"
         )
-    notes = [
-        "spread = (max - min) / |median| of the objective over the seeds.",
+    lines += ["", "spread = (max - min) / |median| of the objective over the seeds."]
+    lines.append(
         "score = 100 · objective / the reference optimum at the condition for a stroke that "
         "flies, -100 · min(1, violation) for one that does not (docs/reference.md); n/a where "
-        "the reference does not apply.",
-    ]
+        "the reference does not apply."
+    )
     if any(r.distinct for r in rows):
-        notes.append("In brackets: the settings that tell a row from the others of its condition.")
-    return "\n".join(lines) + "\n\n" + "\n".join(notes) + "\n"
+        lines.append("In brackets: the settings that tell a row from the others of its condition.")
+    return "\n".join(lines) + "\n"
 
 
 def convergence_curve(

@@ -218,10 +218,9 @@ def cycle_figure(
                 ax.set_xlabel("cycle t/T [-]")
                 ax.set_xticks([0.0, 0.5, 1.0])
             handles, labels = axes[0].get_legend_handles_labels()
-            entries = [*zip(handles, labels, strict=True), text_entry("bold: best seed")]
-            subfigs[0].legend(
-                *zip(*entries, strict=True), loc="outside lower center", ncols=2, frameon=False
-            )
+            key, text = text_entry("bold: best seed")
+            where = {"loc": "outside lower center", "ncols": 2, "frameon": False}
+            subfigs[0].legend([*handles, key], [*labels, text], **where)
         if extras:
             axes = np.atleast_1d(subfigs[-1].subplots(1, len(extras)))
             for ax, extra in zip(axes, extras, strict=True):
@@ -243,9 +242,8 @@ def flow_figure(traces: Sequence[Trace], title: str, path: Path, note: str = "")
     fig, axes = plt.subplots(2, 1, figsize=(8.4, 5.2), sharex=True)
     for k, (ax, (quantity, ylabel)) in enumerate(zip(axes, FLOW_PANELS, strict=True)):
         _cycle_panel(ax, traces, quantity, ylabel, first=k == 0)
-    handles, labels = axes[0].get_legend_handles_labels()
-    notes = [text_entry(note)] if note else []
-    entries = [*zip(handles, labels, strict=True), *notes]
+    entries = list(zip(*axes[0].get_legend_handles_labels(), strict=True))
+    entries += [text_entry(note)] if note else []
     legend(axes[0], entries, title="bold: best seed", title_fontsize=6)
     axes[-1].set_xlabel("cycle t/T [-]")
     fig.suptitle(title, fontsize=10)

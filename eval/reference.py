@@ -384,13 +384,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         store = RecordStore(args.out)
     except ValueError as error:
         parser.error(str(error))
+    what = f"{NAME} (the reference table -> {table_path})"
+    detail = f"{METHOD}, {len(jobs)} grid points"
     command = CommandProgress(
-        f"{NAME} (the reference table -> {table_path})",
-        store,
-        cache=args.cache,
-        enabled=not args.quiet,
-        detail=f"{METHOD}, {len(jobs)} grid points",
-        rerun=args.rerun,
+        what, store, cache=args.cache, enabled=not args.quiet, detail=detail, rerun=args.rerun
     )
     command.announce(look_ahead(table_plan, store, args.cache))
     run = run_reporting(
