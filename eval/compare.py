@@ -309,8 +309,7 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
             pad = 0.08 * (high - low) if high > low else 0.05 * max(abs(high), 1e-3)
             ax.set_ylim(low - pad, high + pad)
         ax.set_title(f"{task}, {objective_name}, {condition} = {value:g} {unit}", fontsize=10)
-        ax.set_xlabel("model evaluations")
-        ax.set_ylabel("best reward so far (penalised objective)")
+        ax.set(xlabel="model evaluations", ylabel="best reward so far (penalised objective)")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="lower right")
     for ax in list(axes.flat)[n:]:

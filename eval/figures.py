@@ -136,8 +136,7 @@ class Panel:
     """(condition, value) or (condition, value, label) values the paper states; one black
     marker per label, named in the legend (no label: "paper")."""
     title: str = ""
-    paper_at: Sequence[tuple[float, str]] = field(default=())
-    """(condition, label): conditions the paper names, e.g. (1.5, "paper: peak")."""
+    paper_at: Sequence[tuple[float, str]] = field(default=())  # (condition, label) the paper names
     paper_note: str = ""  # A trend the paper states in words only, e.g. "paper: falls with V".
     derived: Sequence[tuple[float, float, str]] = field(default=())
     """(condition, value, label): values derived from a paper's statement and our data; the
@@ -354,9 +353,8 @@ def convergence_figure(
             pad = 0.05 * max(high - low, 1e-9)
             ax.set_ylim(low - pad, high + pad)
         ax.set_title(label, fontsize=9)
-        ax.set_xlabel("model evaluations [-]")
         # The search's penalised reward, not a record's objective (the best feasible stroke's).
-        ax.set_ylabel("best reward so far (penalised) [-]")
+        ax.set(xlabel="model evaluations [-]", ylabel="best reward so far (penalised) [-]")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="lower right")
     fig.suptitle("Budget study: best-so-far over seeds (dotted: preset budgets)", fontsize=10)

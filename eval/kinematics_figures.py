@@ -104,16 +104,12 @@ class GroupPanel:
     ylabel: str
     statistic: Callable[[Sequence[float]], float] = np.median
     statistic_label: str = "median"
-    best: Mapping[str, float] = field(default_factory=dict)
-    """Group -> the best seed's value (a star)."""
-    paper: Mapping[str, float] = field(default_factory=dict)
-    """Group -> the paper's value (a cross)."""
+    best: Mapping[str, float] = field(default_factory=dict)  # group -> best seed's value (star)
+    paper: Mapping[str, float] = field(default_factory=dict)  # group -> paper's value (cross)
     paper_label: str = "paper"  # The crosses' legend entry: what the paper states there.
-    band: tuple[float, float, str] | None = None
-    """(low, high, label): a range the rule names, e.g. (0, 15, "in phase: |ΔΦ| < 15°")."""
+    band: tuple[float, float, str] | None = None  # (low, high, label): a range the rule names
     ylim: tuple[float, float] | None = None
-    bounds: tuple[float, float] | None = None
-    """The insect's (low, high) bounds of the stroke parameter drawn (``tables.table4_bounds``)."""
+    bounds: tuple[float, float] | None = None  # the insect's (low, high) of the parameter drawn
     paper_note: str = ""  # What the paper states in words only (a legend line).
 
 

@@ -65,22 +65,17 @@ HELP = (
 def description() -> str:
     """The ``--help`` description, built when the parser is (tasks registered later show up)."""
     return f"""\
-Run one search method on one flight condition for a list of seeds. Every iteration's batch
-of strokes is evaluated through the task's batched vector env (fitness = the env's reward,
-the penalised objective); the best stroke of each seed is re-evaluated and stored as a JSON
-record in --out, DIR/records/<key>.json with <key> the hash of the run's configuration (method,
-task, condition, budget, seed, env and method settings, package version), plus
-DIR/summary.csv over every record in DIR. A seed whose record is already there with the same
-configuration is not run again (a killed run resumes); another budget or setting is another
-record, beside it.
+Run one search method on one flight condition for a list of seeds, each iteration's strokes
+evaluated through the task's batched vector env (fitness: the env's reward). Each seed's best
+stroke is stored as a record, --out DIR/records/<key>.json (<key>: the hash of the run's
+configuration), with DIR/summary.csv; a seed whose record is there is not run again.
 
 Tasks and conditions (from each env config's declaration; the condition may be widened
 up to the model's limits with --env-kwargs, e.g. speed_envelope=(0.1,3)):
 {_tasks_text()}
 
-The budget counts model evaluations (= env steps = strokes evaluated). The seeds run here,
-one after another (default), or on Dask: --scheduler local:N starts N worker processes here,
---scheduler tcp://HOST:PORT uses a running Dask scheduler (docs/scaling.md)."""
+The budget counts model evaluations (= env steps). The seeds run one after another here, or
+on Dask with --scheduler (docs/scaling.md)."""
 
 
 EPILOG = """\

@@ -64,13 +64,10 @@ def _wrap(angle: float) -> float:
 class Resolution:
     """The solver's resolution: time steps per beat, panels per wing and beats run."""
 
-    steps_per_beat: int = 48
-    """Time steps per wing beat [-] (the issue's exploratory runs moved 5 % from 32 to 48)."""
+    steps_per_beat: int = 48  # time steps per wing beat [-] (loads moved 5 % from 32 to 48)
     chordwise: int = 4  # Chordwise panels per wing [-] (uniform).
-    spanwise: int = 8
-    """Spanwise panels per wing [-], shared among the segments between :data:`STATIONS`."""
-    beats: int = 3
-    """Beats run [-]; the loads are the mean over the last one (the wake of the first two)."""
+    spanwise: int = 8  # spanwise panels per wing [-], shared by the segments between STATIONS
+    beats: int = 3  # beats run [-]; the loads are the mean over the last one
 
     def __post_init__(self) -> None:
         for name, option, low, high in (
