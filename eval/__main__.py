@@ -1,6 +1,9 @@
-"""``python -m eval SUBCOMMAND ...``: the evaluation command line. A subcommand is a module of
-:data:`SUBCOMMANDS` defining ``NAME``, ``HELP``, ``add_arguments(parser)`` and ``main(args,
-parser) -> int`` (``parser.error`` for bad input, exit status 2)."""
+"""``python -m eval SUBCOMMAND ...``: the evaluation command line.
+
+A subcommand is a module listed in :data:`SUBCOMMANDS` that defines ``NAME``, ``HELP`` (one
+line for the overview), ``add_arguments(parser)`` and ``main(args, parser) -> int``
+(``parser.error`` for bad input, exit status 2).
+"""
 
 from __future__ import annotations
 

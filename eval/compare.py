@@ -25,13 +25,19 @@ from tandem_env.io.files import output_directory, write_csv_atomic, write_text_a
 NAME = "compare"
 HELP = "compare records: median/IQR/spread table (CSV, Markdown) and convergence plot (PNG)"
 DESCRIPTION = """\
-Compare harness records (records/<key>.json of `optimize` and `study`) found recursively in
-the given directories, a row per job configuration (only seeds differ within a row). A record
-failing its checksum or of an earlier format is left out with a warning. Writes into --out
-(docs/harness.md, "compare"): comparison.csv and comparison.md (per task, objective, condition
-and configuration: the objective's median, IQR and spread over the seeds, best, feasible share,
-evaluations, wall time, polish gain, KKT residual, score) and convergence.png (best-so-far
-reward against evaluations, a panel per condition; --format svg or pdf)."""
+Compare harness records (the records/<key>.json files of `optimize` and `study`) found
+recursively in the given directories, grouped by their full job configuration (only seeds
+differ within a row; the settings that tell the rows of one condition apart are shown beside
+the method). A record failing its checksum or of an earlier format is left out with a warning.
+Writes into --out (default: the first DIR's compare/ sub-folder; docs/harness.md, "compare"):
+  comparison.csv, comparison.md  per task/objective/condition and configuration: median, IQR
+                                 and spread of the objective over the seeds, best, feasible
+                                 share, evaluations, wall time, polish gain, KKT residual and
+                                 score ("n/a (none feasible)" where no seed flies);
+  convergence.png                best-so-far reward against evaluations (median over seeds,
+                                 IQR band), one panel per task/objective/condition; a marker
+                                 is the median reported objective, a dotted segment the local
+                                 polish (--format svg or pdf: convergence.svg, .pdf)."""
 EPILOG = """\
 example:
   python -m eval compare results/v1.5                 # writes results/v1.5/compare/
@@ -60,23 +66,32 @@ class Row:
     condition_unit: str
     method: str
     budget: int
-    settings: str  # the rest of the configuration (env, method, preset, version): "a=1; b=2"
-    distinct: str  # The part of ``settings`` that tells this row from the others of its condition.
+    settings: str
+    """The configuration besides method and budget (env keywords, method settings, preset,
+    version), ``name=value`` joined by ``; `` (empty if none)."""
+    distinct: str
+    """The part of ``settings`` that tells this row from the others of its condition."""
     seeds: int
     objective_median: float
     objective_q25: float
     objective_q75: float
     objective_iqr: float
-    objective_spread: float  # (max - min) / |median| over the seeds [-] (NaN: none feasible)
+    objective_spread: float
+    """(max - min) / |median| of the objective over the seeds [-] (NaN if none feasible)."""
     objective_best: float
-    objective_median_feasible: float  # Median objective over the feasible seeds (NaN if none).
+    objective_median_feasible: float
+    """Median objective over the feasible seeds (NaN if none)."""
     reward_median: float
     feasible_share: float
     evaluations_median: float
     wall_time_median_s: float
-    polish_gain_median: float = math.nan  # of the records' ``certificate`` [-]; NaN: none
-    kkt_residual_median: float = math.nan  # first-order optimality residual [-]; NaN: none known
-    score_median: float = math.nan  # :attr:`agents.records.Record.score` [-]; NaN: no reference
+    polish_gain_median: float = math.nan
+    """Median local polish gain over the seeds (records' ``certificate``) [-]; NaN: none."""
+    kkt_residual_median: float = math.nan
+    """Median first-order optimality residual of the reported strokes [-] (NaN: none known)."""
+    score_median: float = math.nan
+    """Median normalised score over the seeds (:attr:`agents.records.Record.score`) [-]; NaN
+    where the reference table does not apply."""
 
     def to_dict(self) -> dict[str, Any]:
         """The row's ``comparison.csv`` columns."""
@@ -85,7 +100,8 @@ class Row:
         return columns
 
 
-PanelKey = tuple[str, str, str, float, str]  # (task, objective_name, condition name, value, unit).
+PanelKey = tuple[str, str, str, float, str]
+"""(task, objective_name, condition name, value, unit)."""
 SeriesKey = tuple[str, int, tuple[tuple[str, str], ...]]
 """(method, budget, the rest of the job's configuration as sorted (name, value text) pairs)."""
 
@@ -138,8 +154,11 @@ def group(
     for record in records:
         if record.key in seen:  # one configuration and seed: the same run, found twice
             if not quiet:
-                twice = f"compare: {record.label()} (key {record.key}) found twice"
-                print(f"{twice}; the first found is counted", file=sys.stderr)
+                print(
+                    f"compare: {record.label()} (key {record.key}) found twice; the first "
+                    "found is counted",
+                    file=sys.stderr,
+                )
             continue
         seen.add(record.key)
         c = record.condition
@@ -174,25 +193,34 @@ def table_rows(records: Sequence[Record]) -> list[Row]:
                 q25, median, q75 = map(float, np.percentile(objective, [25, 50, 75]))
                 best, spread = float(objective.max()), relative_spread(objective)
                 median_feasible = float(np.median(objective[feasible]))
-            settings = "; ".join(f"{k}={v}" for k, v in pairs)
-            reward, evaluations, wall_time = (
-                float(np.median([getattr(r, k) for r in runs]))
-                for k in ("reward", "evaluations", "wall_time")
-            )
-            gain, kkt, score = map(
-                _median_known,
-                (
-                    [r.certificate.get("gain") for r in runs],
-                    [r.certificate.get("kkt_residual") for r in runs],
-                    [r.score for r in runs],
-                ),
-            )
             rows.append(
                 Row(
-                    *(task, objective_name, condition, value, unit, method, budget, settings),
-                    *(distinct[skey], len(runs), median, q25, q75, q75 - q25, spread, best),
-                    *(median_feasible, reward, float(np.mean(feasible)), evaluations, wall_time),
-                    *(gain, kkt, score),
+                    task=task,
+                    objective_name=objective_name,
+                    condition=condition,
+                    condition_value=value,
+                    condition_unit=unit,
+                    method=method,
+                    budget=budget,
+                    settings="; ".join(f"{k}={v}" for k, v in pairs),
+                    distinct=distinct[skey],
+                    seeds=len(runs),
+                    objective_median=median,
+                    objective_q25=q25,
+                    objective_q75=q75,
+                    objective_iqr=q75 - q25,
+                    objective_spread=spread,
+                    objective_best=best,
+                    objective_median_feasible=median_feasible,
+                    reward_median=float(np.median([r.reward for r in runs])),
+                    feasible_share=float(np.mean(feasible)),
+                    evaluations_median=float(np.median([r.evaluations for r in runs])),
+                    wall_time_median_s=float(np.median([r.wall_time for r in runs])),
+                    polish_gain_median=_median_known([r.certificate.get("gain") for r in runs]),
+                    kkt_residual_median=_median_known(
+                        [r.certificate.get("kkt_residual") for r in runs]
+                    ),
+                    score_median=_median_known([r.score for r in runs]),
                 )
             )
     return rows
@@ -234,15 +262,15 @@ def comparison_markdown(rows: Sequence[Row]) -> str:
             f"{r.wall_time_median_s:.3g} | {_fmt(r.polish_gain_median, '+.2f', 100, ' %')} | "
             f"{_fmt(r.kkt_residual_median, '.2g')} | {_fmt(r.score_median)} |"
         )
-    lines += ["", "spread = (max - min) / |median| of the objective over the seeds."]
-    lines.append(
+    notes = [
+        "spread = (max - min) / |median| of the objective over the seeds.",
         "score = 100 · objective / the reference optimum at the condition for a stroke that "
         "flies, -100 · min(1, violation) for one that does not (docs/reference.md); n/a where "
-        "the reference does not apply."
-    )
+        "the reference does not apply.",
+    ]
     if any(r.distinct for r in rows):
-        lines.append("In brackets: the settings that tell a row from the others of its condition.")
-    return "\n".join(lines) + "\n"
+        notes.append("In brackets: the settings that tell a row from the others of its condition.")
+    return "\n".join(lines) + "\n\n" + "\n".join(notes) + "\n"
 
 
 def convergence_curve(
@@ -268,7 +296,8 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
     reported objective over the feasible seeds."""
     panels = group(records, quiet=True)  # duplicates are reported by table_rows
     n = len(panels)
-    cols, rows = min(n, 3), math.ceil(n / min(n, 3))
+    cols = min(n, 3)
+    rows = math.ceil(n / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.3 * rows), squeeze=False)
     for ax, (key, series) in zip(axes.flat, panels.items(), strict=False):
         task, objective_name, condition, value, unit = key
@@ -279,7 +308,8 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
         for skey, runs in series.items():
             method = skey[0]
             style = series_style(method, variant[method])
-            colour, variant[method] = style["color"], variant[method] + 1
+            colour = style["color"]
+            variant[method] += 1
             x, q25, median, q75 = convergence_curve(runs)
             label = ", ".join(p for p in (method_label(method), distinct[skey]) if p)
             label += f" ({len(runs)} seed{'s' * (len(runs) != 1)})"
@@ -304,7 +334,9 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
         ax.plot([], [], marker="D", color="0.5", mec="k", ls="none", label=reported)
         if polished:
             ax.plot([], [], ":", color="0.5", lw=1.4, label=POLISH_LABEL)
-        if finals:  # from a tenth of the run on: early infeasible rewards are far below
+        if finals:
+            # Early rewards of infeasible strokes are far below the feasible objectives at the
+            # end: show the range from a tenth of the run on, so the end is readable.
             low, high = min(finals), max(finals)
             pad = 0.08 * (high - low) if high > low else 0.05 * max(abs(high), 1e-3)
             ax.set_ylim(low - pad, high + pad)
@@ -351,10 +383,18 @@ def default_out(directories: Sequence[str | Path]) -> Path:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("dirs", nargs="+", metavar="DIR", help="directories (or files) of records")
-    text = f"directory for the outputs (default: the first DIR's {DEFAULT_OUT}/ sub-folder)"
-    parser.add_argument("--out", default=None, metavar="OUT", help=text)
-    text = f"file format of the convergence figure (default {FORMATS[0]})"
-    parser.add_argument("--format", choices=FORMATS, default=FORMATS[0], help=text)
+    parser.add_argument(
+        "--out",
+        default=None,
+        metavar="OUT",
+        help=f"directory for the outputs (default: the first DIR's {DEFAULT_OUT}/ sub-folder)",
+    )
+    parser.add_argument(
+        "--format",
+        choices=FORMATS,
+        default=FORMATS[0],
+        help=f"file format of the convergence figure (default {FORMATS[0]})",
+    )
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

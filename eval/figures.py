@@ -1,6 +1,10 @@
-"""Paper-style figures of the studies (matplotlib, Agg; :data:`FORMATS`): the spread over seeds,
-the paper's statements and values derived from them drawn alike (docs/reproduction.md), legends
-outside the axes, colours fixed per method and variant (:func:`series_style`)."""
+"""Paper-style figures of the studies (matplotlib, Agg; PNG, SVG or PDF: :data:`FORMATS`).
+
+Every sweep figure draws the spread over seeds, the paper's statements and the values derived
+from them the same way (docs/reproduction.md, "Every figure shows ..."), legends outside the
+axes, in Okabe & Ito's colour-blind-safe palette fixed per method and variant
+(:func:`series_style`). The kinematics figures (Figs. 9-13): :mod:`eval.kinematics_figures`.
+"""
 
 from __future__ import annotations
 
@@ -27,9 +31,16 @@ DPI = 200
 #: The figure formats the studies write (``--format``); the first is the default.
 FORMATS: tuple[str, ...] = ("png", "svg", "pdf")
 
-#: Okabe & Ito's colour-blind-safe palette, black left out (it marks the paper's statements):
-#: blue, vermillion, bluish green, reddish purple, orange, sky blue, yellow.
-PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442")
+#: Okabe & Ito's colour-blind-safe palette, black left out (it marks the paper's statements).
+PALETTE: tuple[str, ...] = (
+    "#0072B2",  # blue
+    "#D55E00",  # vermillion
+    "#009E73",  # bluish green
+    "#CC79A7",  # reddish purple
+    "#E69F00",  # orange
+    "#56B4E9",  # sky blue
+    "#F0E442",  # yellow
+)
 #: The palette's hues that read as lines on white (yellow left out), a variant's hue.
 LINE_HUES: tuple[str, ...] = PALETTE[:6]
 #: Steps along :data:`LINE_HUES` from a method's hue to its variant 1's (2 for variant 2, ...):
@@ -121,9 +132,13 @@ class Series:
     points: Mapping[float, Any]
     """Each condition's ``eval.studies.tables.Spread``: its ``values`` (one per seed),
     ``median``, ``q25``, ``q75`` and ``best``."""
-    scale: float = 1.0  # Multiplies every value (e.g. 100 for a percentage).
-    method: str = ""  # whose fixed colour it has (:func:`series_style`); empty: the label's
-    variant: int = 0  # Which of a method's series this is (line style, hue): 0, 1, ...
+    scale: float = 1.0
+    """Multiplies every value (e.g. 100 for a percentage)."""
+    method: str = ""
+    """The method spec whose fixed colour the series has (:func:`series_style`); empty: the
+    label's."""
+    variant: int = 0
+    """Which of a method's series this is (line style, hue): 0, 1, ..."""
 
 
 @dataclass(frozen=True)
@@ -136,13 +151,16 @@ class Panel:
     """(condition, value) or (condition, value, label) values the paper states; one black
     marker per label, named in the legend (no label: "paper")."""
     title: str = ""
-    paper_at: Sequence[tuple[float, str]] = field(default=())  # (condition, label) the paper names
-    paper_note: str = ""  # A trend the paper states in words only, e.g. "paper: falls with V".
+    paper_at: Sequence[tuple[float, str]] = field(default=())
+    """(condition, label): conditions the paper names, e.g. (1.5, "paper: peak")."""
+    paper_note: str = ""
+    """A trend the paper states in words only, e.g. "paper: falls with V"."""
     derived: Sequence[tuple[float, float, str]] = field(default=())
     """(condition, value, label): values derived from a paper's statement and our data; the
     label says how (e.g. "our tear-drop median × 1.12: the paper's gain"), drawn apart from
     :attr:`paper`."""
-    bounds: tuple[float, float] | None = None  # Table 4's (low, high) of the parameter drawn
+    bounds: tuple[float, float] | None = None
+    """The Table 4 (low, high) of the stroke parameter drawn (``tables.table4_bounds``)."""
 
 
 #: Legend entry explaining how every sweep series is drawn.
@@ -153,14 +171,15 @@ def draw_series(ax: Axes, series: Series) -> tuple | None:
     """Median line, IQR band, seeds as dots, best as a star (conditions with data only); the
     legend handle (band, line and star), or None where no seed is feasible (no entry)."""
     style = series_style(series.method or series.label, series.variant)
-    color, k = style["color"], series.scale
+    color = style["color"]
     x = np.array(sorted(series.points))
+    k = series.scale
     stats = [series.points[c] for c in x]
-    lo, med, hi = (
-        np.array([k * getattr(s, q) for s in stats], float) for q in ("q25", "median", "q75")
-    )
+    med = np.array([k * s.median for s in stats], float)
     if not np.isfinite(med).any():
         return None
+    lo = np.array([k * s.q25 for s in stats])
+    hi = np.array([k * s.q75 for s in stats])
     band = ax.fill_between(x, lo, hi, color=color, alpha=0.2, linewidth=0)
     (line,) = ax.plot(x, med, color=color, ls=style["ls"], lw=1.6)
     for c, s in zip(x, stats, strict=True):
@@ -190,12 +209,20 @@ def legend(
     handles, labels = zip(*entries, strict=True)
     if wrap:
         labels = tuple(textwrap.fill(label, wrap) for label in labels)
-    if below:
-        kwargs |= {"loc": "upper center", "bbox_to_anchor": (0.5, 0.0), "borderaxespad": gap}
-    else:
-        kwargs |= {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
-    kwargs |= {"fontsize": 7, "frameon": False, "handler_map": {tuple: HandlerTuple(ndivide=1)}}
-    ax.legend(handles, labels, **kwargs)
+    where = (
+        {"loc": "upper center", "bbox_to_anchor": (0.5, 0.0), "borderaxespad": gap}
+        if below
+        else {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
+    )
+    ax.legend(
+        handles,
+        labels,
+        **where,
+        fontsize=7,
+        frameon=False,
+        handler_map={tuple: HandlerTuple(ndivide=1)},
+        **kwargs,
+    )
 
 
 def text_entry(text: str) -> tuple[Any, str]:
@@ -217,9 +244,10 @@ def sweep_figure(
 ) -> Path:
     """Stacked panels over one condition axis (the paper's Figs. 4-8 and 15-16), each legend
     its drawn series (the first panel's only, when all have the same), the paper and bounds."""
-    size = (width + 2.6, 2.4 * len(panels) + 0.8)
-    fig, axes = plt.subplots(len(panels), 1, figsize=size, sharex=True, squeeze=False)
-    axes = axes[:, 0]
+    fig, axes = plt.subplots(
+        len(panels), 1, figsize=(width + 2.6, 2.4 * len(panels) + 0.8), sharex=True
+    )
+    axes = np.atleast_1d(axes)
     shown: list[list[tuple[Any, str]]] = []
     for ax, panel in zip(axes, panels, strict=True):
         drawn = [(h, s.label) for s in panel.series if (h := draw_series(ax, s)) is not None]
@@ -326,8 +354,8 @@ def convergence_figure(
     """Best-so-far over evaluations per condition (label, [(method, evaluations (n,), values
     (seeds, n))], [(preset name, budget)]): per method the median, IQR band and each seed thin,
     the presets' budgets dotted; the y-axis from the worst seed after 5 % of the run."""
-    fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 3.8), squeeze=False)
-    axes = axes[0]
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 3.8))
+    axes = np.atleast_1d(axes)
     for ax, (label, methods, budgets) in zip(axes, panels, strict=True):
         lows, highs = [], []
         for method, evaluations, values in methods:
@@ -346,8 +374,9 @@ def convergence_figure(
                 highs.append(np.nanmax(later))
         for name, budget in budgets:
             ax.axvline(budget, color="grey", ls=":", lw=1)
-            where = {"xycoords": ("data", "axes fraction"), "fontsize": 7, "rotation": 90}
-            ax.annotate(name, (budget, 0.02), **where)
+            ax.annotate(
+                name, (budget, 0.02), xycoords=("data", "axes fraction"), fontsize=7, rotation=90
+            )
         if lows:
             low, high = min(lows), max(highs)
             pad = 0.05 * max(high - low, 1e-9)

@@ -23,10 +23,13 @@ from eval.figures import PALETTE, WING_COLORS, draw_bounds, legend, plt, text_en
 class Trace:
     """One stroke's time history for the kinematics figures."""
 
-    label: str  # E.g. ``"seed 3 (best)"``.
+    label: str
+    """E.g. ``"seed 3 (best)"``."""
     best: bool
-    cycle: np.ndarray  # t/T [-].
-    fore: Mapping[str, np.ndarray]  # Quantity name -> (n,) or (n, 3) array of the fore-wing.
+    cycle: np.ndarray
+    """t/T [-]."""
+    fore: Mapping[str, np.ndarray]
+    """Quantity name -> (n,) or (n, 3) array of the fore-wing."""
     hind: Mapping[str, np.ndarray]
 
 
@@ -46,20 +49,29 @@ def _seed_color(trace: Trace, i: int) -> str:
 #: figure-of-eight shows its direction on both loops.
 ARROW_PHASES: tuple[float, ...] = (0.125, 0.375, 0.625, 0.875)
 #: The arrowheads: filled black with a white rim, above every path, 16 pt long.
-ARROW_STYLE: dict = {"arrowstyle": "-|>", "mutation_scale": 16, "fc": "k", "ec": "white", "lw": 0.8}
-ARROW_STYLE |= {"shrinkA": 0, "shrinkB": 0, "zorder": 6}
+ARROW_STYLE: dict = {
+    "arrowstyle": "-|>",
+    "mutation_scale": 16,
+    "fc": "k",
+    "ec": "white",
+    "lw": 0.8,
+    "shrinkA": 0,
+    "shrinkB": 0,
+    "zorder": 6,
+}
 START_LABEL = "best seed at t = 0 (arrows: direction of travel)"
 
 
 def draw_direction(ax: Axes, path: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """Arrowheads along a closed path (n, 2) at :data:`ARROW_PHASES`, the way it is travelled;
     each arrow's (from, to): a sample of the path and the next one."""
-    segments = [
-        (path[k], path[k + 1])
-        for k in (min(int(p * len(path)), len(path) - 2) for p in ARROW_PHASES)
-    ]
-    for start, end in segments:
+    n = len(path)
+    segments = []
+    for phase in ARROW_PHASES:
+        k = min(int(phase * n), n - 2)
+        start, end = path[k], path[k + 1]
         ax.add_patch(FancyArrowPatch(tuple(start), tuple(end), **ARROW_STYLE))
+        segments.append((start, end))
     return segments
 
 
@@ -100,17 +112,24 @@ class GroupPanel:
     statistic judged as a bar, the best seed a star, the paper's values crosses, a band."""
 
     title: str
-    groups: Mapping[str, Sequence[float]]  # Group label -> the feasible seeds' values.
+    groups: Mapping[str, Sequence[float]]
+    """Group label -> the feasible seeds' values."""
     ylabel: str
     statistic: Callable[[Sequence[float]], float] = np.median
     statistic_label: str = "median"
-    best: Mapping[str, float] = field(default_factory=dict)  # group -> best seed's value (star)
-    paper: Mapping[str, float] = field(default_factory=dict)  # group -> paper's value (cross)
-    paper_label: str = "paper"  # The crosses' legend entry: what the paper states there.
-    band: tuple[float, float, str] | None = None  # (low, high, label): a range the rule names
+    best: Mapping[str, float] = field(default_factory=dict)
+    """Group -> the best seed's value (a star)."""
+    paper: Mapping[str, float] = field(default_factory=dict)
+    """Group -> the paper's value (a cross)."""
+    paper_label: str = "paper"
+    """The crosses' legend entry: what the paper states there."""
+    band: tuple[float, float, str] | None = None
+    """(low, high, label): a range the rule names, e.g. (0, 15, "in phase: |ΔΦ| < 15°")."""
     ylim: tuple[float, float] | None = None
-    bounds: tuple[float, float] | None = None  # the insect's (low, high) of the parameter drawn
-    paper_note: str = ""  # What the paper states in words only (a legend line).
+    bounds: tuple[float, float] | None = None
+    """The insect's (low, high) bounds of the stroke parameter drawn (``tables.table4_bounds``)."""
+    paper_note: str = ""
+    """What the paper states in words only (a legend line)."""
 
 
 def draw_groups(ax: Axes, panel: GroupPanel, wrap: int = 0) -> None:
@@ -179,8 +198,17 @@ COLUMN_FONT_PT = 7.0
 #: The text sizes of a single-column figure: every text at :data:`COLUMN_FONT_PT`, the title
 #: a point larger.
 COLUMN_RC: dict[str, Any] = {
-    **dict.fromkeys(("font.size", "axes.titlesize", "axes.labelsize"), COLUMN_FONT_PT),
-    **dict.fromkeys(("xtick.labelsize", "ytick.labelsize", "legend.fontsize"), COLUMN_FONT_PT),
+    **{
+        key: COLUMN_FONT_PT
+        for key in (
+            "font.size",
+            "axes.titlesize",
+            "axes.labelsize",
+            "xtick.labelsize",
+            "ytick.labelsize",
+            "legend.fontsize",
+        )
+    },
     "figure.titlesize": COLUMN_FONT_PT + 1,
 }
 #: Characters per line of a single-column figure's panel titles and legends (two panels
@@ -214,9 +242,10 @@ def cycle_figure(
                 ax.set_xlabel("cycle t/T [-]")
                 ax.set_xticks([0.0, 0.5, 1.0])
             handles, labels = axes[0].get_legend_handles_labels()
-            key, text = text_entry("bold: best seed")
-            where = {"loc": "outside lower center", "ncols": 2, "frameon": False}
-            subfigs[0].legend([*handles, key], [*labels, text], **where)
+            entries = [*zip(handles, labels, strict=True), text_entry("bold: best seed")]
+            subfigs[0].legend(
+                *zip(*entries, strict=True), loc="outside lower center", ncols=2, frameon=False
+            )
         if extras:
             axes = np.atleast_1d(subfigs[-1].subplots(1, len(extras)))
             for ax, extra in zip(axes, extras, strict=True):
@@ -238,8 +267,9 @@ def flow_figure(traces: Sequence[Trace], title: str, path: Path, note: str = "")
     fig, axes = plt.subplots(2, 1, figsize=(8.4, 5.2), sharex=True)
     for k, (ax, (quantity, ylabel)) in enumerate(zip(axes, FLOW_PANELS, strict=True)):
         _cycle_panel(ax, traces, quantity, ylabel, first=k == 0)
-    entries = list(zip(*axes[0].get_legend_handles_labels(), strict=True))
-    entries += [text_entry(note)] if note else []
+    handles, labels = axes[0].get_legend_handles_labels()
+    notes = [text_entry(note)] if note else []
+    entries = [*zip(handles, labels, strict=True), *notes]
     legend(axes[0], entries, title="bold: best seed", title_fontsize=6)
     axes[-1].set_xlabel("cycle t/T [-]")
     fig.suptitle(title, fontsize=10)

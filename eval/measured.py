@@ -33,13 +33,21 @@ from tandem_env.physics.measured import FOURIER_SAMPLES, MAX_SAMPLES
 NAME = "measured"
 HELP = "forces and power of measured wing kinematics (YAML: insect, kinematics, flight)"
 DESCRIPTION = """\
-Evaluate measured wing kinematics with the tandem-wing model. KINEMATICS.yaml gives flight
-(speed [m/s], flight_path_angle [deg], available_power [W/kg]), kinematics (degrees,
-n_samples, and per wing pair frequency [Hz], stroke_plane_angle, then Fourier series
-sweep/elevation/pitch: {mean, harmonics: [[amplitude, phase], ...]} or csv: FILE with
-columns:), optionally insect and options (ModelOptions fields). The format and the angle
-conventions: docs/measured.md. Writes into --out NAME.json (inputs, cycle means in earth axes,
-per-wing histories) and NAME.png (forces and power of each wing pair over the cycle)."""
+Evaluate measured wing kinematics with the tandem-wing model. KINEMATICS.yaml gives
+  insect:      optional; fields of the insect and of each wing (SI units), e.g. body_mass,
+               fore: {length, mean_chord, mass, planform, coefficients}, hind: {...};
+  flight:      speed [m/s], flight_path_angle [deg, + climbing], available_power [W/kg];
+  options:     optional ModelOptions fields (n_blade, induction, ...);
+  kinematics:  degrees (default true), n_samples (Fourier sampling, default 256), and for
+               each of fore and hind: frequency [Hz], stroke_plane_angle (from the horizontal),
+               then either Fourier series sweep/elevation/pitch: {mean: .., harmonics:
+               [[amplitude, phase], ...]} (X = mean + sum a_k cos(2 pi k f t + phase_k)), or
+               csv: FILE with columns: {time: .., sweep: .., elevation: .., pitch: ..};
+               span-wise pitch: pitch_stations: [r/R, ...] with one pitch per station.
+Angle conventions (sweep + forward, elevation + up, pitch 0 = chord normal to the stroke
+plane, + leading edge forward) are in docs/measured.md. Writes into --out:
+  NAME.json   inputs, cycle means (earth axes), per-wing histories over the cycle;
+  NAME.png    vertical and horizontal force and power of each wing pair over the cycle."""
 EPILOG = """\
 example:
   python -m eval measured examples/forward_flight.yaml --out results/measured"""
@@ -66,9 +74,12 @@ class MeasuredCase:
     description: str
     fore: MeasuredWing
     hind: MeasuredWing
-    speed: float  # V [m/s].
-    flight_path_angle: float  # γ [rad], + climbing.
-    available_power: float | None  # [W/kg]; None: the insect's.
+    speed: float
+    """V [m/s]."""
+    flight_path_angle: float
+    """γ [rad], + climbing."""
+    available_power: float | None
+    """[W/kg]; None: the insect's."""
     insect: Dragonfly
     options: ModelOptions
 
@@ -121,12 +132,14 @@ def _series(value: Any, where: str) -> tuple[float, list[tuple[float, float]]]:
 def _read_csv(path: Path, where: str) -> dict[str, np.ndarray]:
     if not path.is_file():
         raise SpecError(f"{where}.csv = {str(path)!r}: no such file")
-    table = f"{where}.csv {str(path)!r}"  # how every message names the file
     try:
-        reader = csv.reader(io.StringIO(read_text(path, f"{where}.csv"), newline=""))
-        rows = [row for row in reader if row and not row[0].lstrip().startswith("#")]
+        text = read_text(path, f"{where}.csv")
     except DataFileError as error:
         raise SpecError(str(error)) from None
+    table = f"{where}.csv {str(path)!r}"  # how every message names the file
+    reader = csv.reader(io.StringIO(text, newline=""))
+    try:
+        rows = [row for row in reader if row and not row[0].lstrip().startswith("#")]
     except csv.Error as exc:
         raise SpecError(f"{table}: not CSV ({exc})") from None
     if len(rows) < 2:
@@ -172,7 +185,8 @@ def _measured_wing(
     spec: Any, where: str, degrees: bool, n_samples: int, folder: Path
 ) -> MeasuredWing:
     spec = _mapping(spec, where)
-    extra = ("csv", "columns") if (is_csv := "csv" in spec) else ANGLES
+    is_csv = "csv" in spec
+    extra = ("csv", "columns") if is_csv else ANGLES
     _take(spec, ("frequency", "stroke_plane_angle", "pitch_stations", *extra), where)
     for key in ("frequency", "stroke_plane_angle"):
         if key not in spec:
@@ -212,8 +226,9 @@ def _measured_wing(
         if "time" in columns or "time" in data:
             time = _column(data, columns.get("time", "time"), f"{where}.columns.time")
         else:
-            # No time column: the samples are one open cycle, t_i = i/(n f) (the same checks and
-            # warnings as a table with times).
+            # No time column: the samples are one open cycle, t_i = i/(n f). One constructor for
+            # both, so a table without times gets the same checks and warnings (radians given as
+            # degrees) as one with them.
             n = len(angles[0])
             time = np.arange(n) / (n * frequency) if frequency > 0 else np.arange(n, dtype=float)
         return MeasuredWing.from_samples(
@@ -259,9 +274,11 @@ def load_case(path: str | Path) -> MeasuredCase:
     except ValueError as exc:
         raise SpecError(str(exc)) from None
     speed = _number(flight.get("speed", 0.0), "flight.speed", "m/s")
-    if (power := flight.get("available_power")) is not None:
+    power = flight.get("available_power")
+    if power is not None:
         power = _number(power, "flight.available_power", "W/kg")
-    options = _mapping(spec.get("options"), "options")  # checked last, as it always was
+    # The model options are checked last (after the flight's numbers), as they always were.
+    options = _mapping(spec.get("options"), "options")
     _take(options, tuple(f.name for f in fields(ModelOptions)), "options")
     try:
         model_options = ModelOptions(**options)
@@ -367,12 +384,10 @@ def plot(case: MeasuredCase, history: StrokeHistory, path: Path) -> Path:
     weight = case.insect.weight
     for name, color in WING_COLORS.items():
         w = getattr(history, name)
-        for ax, y in zip(
-            axes,
-            (w.vertical_force, w.horizontal_force, w.aero_power + w.inertial_power),
-            strict=True,
-        ):
-            ax.plot(w.cycle_fraction, 1e3 * y, color=color, label=f"{name} pair")
+        x = w.cycle_fraction
+        axes[0].plot(x, 1e3 * w.vertical_force, color=color, label=f"{name} pair")
+        axes[1].plot(x, 1e3 * w.horizontal_force, color=color, label=f"{name} pair")
+        axes[2].plot(x, 1e3 * (w.aero_power + w.inertial_power), color=color, label=f"{name} pair")
     if case.fore.frequency == case.hind.frequency and case.fore.n_samples == case.hind.n_samples:
         x = history.fore.cycle_fraction
         for ax, key in zip(axes, ("vertical_force", "horizontal_force"), strict=False):
@@ -398,12 +413,16 @@ def plot(case: MeasuredCase, history: StrokeHistory, path: Path) -> Path:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("kinematics", metavar="KINEMATICS.yaml", help="the kinematics file")
-    text = f"folder for NAME.json and NAME.png (default {DEFAULT_OUT})"
-    parser.add_argument("--out", default=str(DEFAULT_OUT), help=text)
+    parser.add_argument(
+        "--out",
+        default=str(DEFAULT_OUT),
+        help=f"folder for NAME.json and NAME.png (default {DEFAULT_OUT})",
+    )
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    source, out = Path(args.kinematics), Path(args.out)
+    source = Path(args.kinematics)
+    out = Path(args.out)
     try:
         output_directory(args.out)  # before any work: a file or a read-only folder is refused now
     except ValueError as exc:
@@ -428,7 +447,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     for warning in caught:
         print(f"{parser.prog}: warning: {source}: {warning.message}", file=sys.stderr)
     print(format_summary(case, history))
-    json_path, png_path = (out / f"{case.name}.{suffix}" for suffix in ("json", "png"))
+    json_path = out / f"{case.name}.json"
+    png_path = out / f"{case.name}.png"
     for path in (json_path, png_path):
         if path.exists():
             print(f"replacing {path}", file=sys.stderr)

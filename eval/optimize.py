@@ -65,17 +65,22 @@ HELP = (
 def description() -> str:
     """The ``--help`` description, built when the parser is (tasks registered later show up)."""
     return f"""\
-Run one search method on one flight condition for a list of seeds, each iteration's strokes
-evaluated through the task's batched vector env (fitness: the env's reward). Each seed's best
-stroke is stored as a record, --out DIR/records/<key>.json (<key>: the hash of the run's
-configuration), with DIR/summary.csv; a seed whose record is there is not run again.
+Run one search method on one flight condition for a list of seeds. Every iteration's batch
+of strokes is evaluated through the task's batched vector env (fitness = the env's reward,
+the penalised objective); the best stroke of each seed is re-evaluated and stored as a JSON
+record in --out, DIR/records/<key>.json with <key> the hash of the run's configuration (method,
+task, condition, budget, seed, env and method settings, package version), plus
+DIR/summary.csv over every record in DIR. A seed whose record is already there with the same
+configuration is not run again (a killed run resumes); another budget or setting is another
+record, beside it.
 
 Tasks and conditions (from each env config's declaration; the condition may be widened
 up to the model's limits with --env-kwargs, e.g. speed_envelope=(0.1,3)):
 {_tasks_text()}
 
-The budget counts model evaluations (= env steps). The seeds run one after another here, or
-on Dask with --scheduler (docs/scaling.md)."""
+The budget counts model evaluations (= env steps = strokes evaluated). The seeds run here,
+one after another (default), or on Dask: --scheduler local:N starts N worker processes here,
+--scheduler tcp://HOST:PORT uses a running Dask scheduler (docs/scaling.md)."""
 
 
 EPILOG = """\
@@ -141,8 +146,9 @@ def _check_reading_applies(
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     tasks = _tasks()
-    text = "the flight task"
-    parser.add_argument("--task", required=True, choices=tuple(t.name for t in tasks), help=text)
+    parser.add_argument(
+        "--task", required=True, choices=tuple(t.name for t in tasks), help="the flight task"
+    )
     condition = parser.add_mutually_exclusive_group(required=True)
     for flag in dict.fromkeys(t.condition_flag for t in tasks):
         declared = {t.name: t.declared_condition for t in tasks if t.condition_flag == flag}
@@ -163,61 +169,82 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             for t in choosers
         ),
     )
-    text = (
-        f"search method: {', '.join(available_methods())} (policy as policy:RUN_DIR; "
-        "ppo, sac and policy come from train/)"
+    parser.add_argument(
+        "--method",
+        required=True,
+        metavar="METHOD",
+        help=(
+            f"search method: {', '.join(available_methods())} (policy as policy:RUN_DIR; "
+            "ppo, sac and policy come from train/)"
+        ),
     )
-    parser.add_argument("--method", required=True, metavar="METHOD", help=text)
-    text = f"model evaluations per seed (1 to {MAX_BUDGET:,})"
-    parser.add_argument("--budget", required=True, type=int, metavar="N", help=text)
-    seeds = {"type": int, "nargs": "+", "metavar": "SEED", "help": "one run per seed"}
-    parser.add_argument("--seeds", required=True, **seeds)
+    parser.add_argument(
+        "--budget",
+        required=True,
+        type=int,
+        metavar="N",
+        help=f"model evaluations per seed (1 to {MAX_BUDGET:,})",
+    )
+    parser.add_argument(
+        "--seeds", required=True, type=int, nargs="+", metavar="SEED", help="one run per seed"
+    )
     parser.add_argument("--out", required=True, metavar="DIR", help="directory for the records")
-    text = (
-        f"strokes per iteration: PSO particles / random-search batch (default 40, at most "
-        f"{MAX_BATCH:,})"
+    parser.add_argument(
+        "--swarm-size",
+        type=int,
+        metavar="N",
+        help=f"strokes per iteration: PSO particles / random-search batch (default 40, at most "
+        f"{MAX_BATCH:,})",
     )
-    parser.add_argument("--swarm-size", type=int, metavar="N", help=text)
     values = "(values: Python literals, e.g. 1.5 or (0.25,2.0), else YAML, else text)"
-    for option, what in (
-        ("--method-config", "method settings, e.g. velocity_clamp=0.2 boundary=reflect"),
-        ("--env-kwargs", "env options, e.g. thrust_split=body penalty_weight=20 planform=real"),
-    ):
+    pairs = {
+        "--method-config": "method settings, e.g. velocity_clamp=0.2 boundary=reflect inertia=linear-decreasing",
+        "--env-kwargs": "env options, e.g. thrust_split=body penalty_weight=20 planform=real n_time=256",
+    }
+    for option, what in pairs.items():
         add_pairs_argument(parser, option, f"{what} {values}")
     add_insect_argument(parser)
     add_run_arguments(parser, "--backend", "--device")
-    text = (
-        "local polish of each seed's best feasible stroke (agents/polish.py): "
+    parser.add_argument(
+        "--polish",
+        choices=POLISH_METHODS,
+        help="local polish of each seed's best feasible stroke (agents/polish.py): "
         f"default {', '.join(f'{k} for {m}' for m, k in POLISH_DEFAULTS.items())}, none for "
         "the other methods; its evaluations count in --budget (the method setting "
-        "polish_share sets its part)"
+        "polish_share sets its part)",
     )
-    parser.add_argument("--polish", choices=POLISH_METHODS, help=text)
-    text = (
-        "table: polish the reference table's optimum at this condition and its grid "
+    parser.add_argument(
+        "--warm-start",
+        choices=WARM_STARTS,
+        default="none",
+        help="table: polish the reference table's optimum at this condition and its grid "
         f"neighbours' first, on {WARM_SHARE:g} of --budget (counted in it; the job's "
         "initial strokes, docs/reference.md); an error where the table has no such point. "
-        "Default none: a cold start"
+        "Default none: a cold start",
     )
-    parser.add_argument("--warm-start", choices=WARM_STARTS, default="none", help=text)
-    text = (
-        "run under a reading of the paper's open decisions (docs/reproduction.md): paper, a "
-        "single such as hover-none, or singles joined by '+'; its model options as env keywords "
-        "and, for --objective horizontal, its F̄_h objective"
+    parser.add_argument(
+        "--reading",
+        metavar="NAME",
+        help="run under a reading of the paper's open decisions (eval/studies/readings/): "
+        "paper (the reading that reproduces the most claims, docs/reproduction.md), a single "
+        "such as hover-none, or singles joined by '+'; sets its model options as env "
+        "keywords and, for --objective horizontal, its F̄_h objective (a reading that changes only that objective is refused for any other "
+        "objective; one that also changes the model runs with a warning)",
     )
-    parser.add_argument("--reading", metavar="NAME", help=text)
     add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
     parser.add_argument("--quiet", action="store_true", help="no progress display")
 
 
 def add_insect_argument(parser: argparse.ArgumentParser) -> None:
     """``--insect FILE`` (shared with ``study``), read when the command line is parsed."""
-    text = (
-        "YAML file of the insect: the fields that differ from the paper's specimen "
+    parser.add_argument(
+        "--insect",
+        metavar="FILE",
+        action=checked_by(load_insect),
+        help="YAML file of the insect: the fields that differ from the paper's specimen "
         "(body_mass, fore: {length, mean_chord, mass, planform, coefficients}, hind: {...}; "
-        "docs/envs.md, e.g. examples/orthetrum_cancellatum.yaml); part of each record's key"
+        "docs/envs.md, e.g. examples/orthetrum_cancellatum.yaml); part of each record's key",
     )
-    parser.add_argument("--insect", metavar="FILE", action=checked_by(load_insect), help=text)
 
 
 #: The options of every command that runs jobs (optimize, study, reference, speed-change): the
@@ -235,20 +262,23 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
     "--scheduler": {
         "metavar": "WHERE",
         "action": checked_by(parse_scheduler),
-        "help": "run the optimisations on Dask: local:N (N worker processes started here, one "
-        "numba thread each) or the address of a running scheduler, e.g. tcp://HOST:8786 "
-        "(docs/scaling.md); default: one after another in this process",
+        "help": "run the jobs (the optimisations, the solver runs) on Dask: local:N (N worker "
+        "processes started here, one numba thread each) or the address of a running scheduler, "
+        "e.g. tcp://HOST:8786 (docs/scaling.md); default: one after another in this process",
     },
     "--no-cache": {
         "dest": "cache",
         "action": "store_false",
-        "help": "do not use the record cache shared by every output folder (docs/harness.md, The "
-        "record cache); a record already in --out is still reused (--rerun computes it again)",
+        "help": "do not use the record cache shared by every output folder (by default a job "
+        "whose record is there is copied into --out, not run, and every record computed is "
+        "added to it; where it is and how to clear it: docs/harness.md, The record cache); a "
+        "record already in --out is still reused (--rerun computes it again)",
     },
     "--rerun": {
         "action": "store_true",
-        "help": "run every job again even where --out or the record cache holds its record; the "
-        "new records replace the old ones",
+        "help": "run every job again even where --out or the record cache holds its record; "
+        "the new records replace the old ones (each file written atomically), said in the "
+        "last line",
     },
 }
 
@@ -272,9 +302,13 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> l
     tasks = _tasks()
     task = next(t for t in tasks if t.name == args.task)  # one of them: argparse's choices
     declared = task.declared_condition
-    if (condition := getattr(args, declared.keyword)) is None:
-        keyword = lambda t: t.declared_condition.keyword  # noqa: E731
-        given = [t.condition_flag for t in tasks if getattr(args, keyword(t), None) is not None]
+    condition = getattr(args, declared.keyword)
+    if condition is None:
+        given = [
+            t.condition_flag
+            for t in tasks
+            if getattr(args, t.declared_condition.keyword, None) is not None
+        ]
         parser.error(
             f"--task {task.name} takes {task.condition_flag} {declared.metavar} "
             f"[{declared.unit}], not {' '.join(dict.fromkeys(given))}"
@@ -287,7 +321,8 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> l
         )
     try:
         # The env options and method settings, the reading's, then the jobs (the harness's
-        # checks); the output folder is the runner's to check (it knows what is stored there).
+        # checks). The output folder is the runner's to check: it alone knows, once it has
+        # read the stored records, whether a folder that cannot be written holds everything.
         given = backend_kwargs(args)
         env_kwargs, method_config = dict(args.env_kwargs), dict(args.method_config)
         if given and set(EXECUTION_KWARGS) & set(env_kwargs):
@@ -306,18 +341,20 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> l
             if "polish" in method_config and method_config["polish"] != args.polish:
                 raise ValueError("give --polish or --method-config polish=..., not both")
             method_config["polish"] = args.polish
-        objective = args.objective
+        objective, reading_kwargs = args.objective, {}
         if args.reading is not None:
             reading = reading_by_name(args.reading)
+            reading_kwargs = reading.env_kwargs()
             _check_reading_applies(args.reading, reading, task, objective)
             if objective is not None:
                 objective = reading.objective(objective)
-            if clash := sorted(set(env_kwargs) & set(reading.env_kwargs())):
-                raise ValueError(
-                    f"--reading {args.reading} sets {clash}; give them there or in "
-                    "--env-kwargs, not both"
-                )
-            env_kwargs.update(reading.env_kwargs())
+        clash = sorted(set(env_kwargs) & set(reading_kwargs))
+        if clash:
+            raise ValueError(
+                f"--reading {args.reading} sets {clash}; give them there or in "
+                "--env-kwargs, not both"
+            )
+        env_kwargs.update(reading_kwargs)
         if args.warm_start == "table":
             if {"initial", "initial_share"} & set(method_config):
                 raise ValueError("give --warm-start table or --method-config initial=..., not both")
@@ -326,9 +363,15 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> l
                 method_config.update(warm_start(task.name, condition, with_objective))
             except ValueError as error:
                 raise ValueError(f"--warm-start table: {error}") from None
-        jobs = (args.method, task, condition, args.budget, args.seeds)
         return prepare(
-            *jobs, objective=objective, env_kwargs=env_kwargs, method_config=method_config
+            args.method,
+            task,
+            condition,
+            args.budget,
+            args.seeds,
+            objective=objective,
+            env_kwargs=env_kwargs,
+            method_config=method_config,
         )
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
@@ -356,16 +399,19 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     )
     if isinstance(summary, int):
         return summary
-    for r in (summary.records[p.job.key] for p in jobs):
-        power = r.metrics.get("power_per_mass")
+    for record in (summary.records[p.job.key] for p in jobs):
+        power = record.metrics.get("power_per_mass")
         print(
-            f"{r.method} seed {r.seed}: {r.objective_name} = {r.objective:.5g}, reward = "
-            f"{r.reward:.5g}, feasible = {r.feasible}"
+            f"{record.method} seed {record.seed}: {record.objective_name} = "
+            f"{record.objective:.5g}, reward = {record.reward:.5g}, feasible = {record.feasible}"
             + (f", P/m = {power:.4g} W/kg" if power is not None else "")
-            + f", {r.evaluations} evaluations, {r.wall_time:.1f} s\n  "
-            + describe_certificate(r.certificate)
+            + f", {record.evaluations} evaluations, {record.wall_time:.1f} s"
         )
+        print(f"  {describe_certificate(record.certificate)}")
     hint = " (--rerun runs them again)" if summary.reused else ""
-    seeds = f"{summary.total} seed{'s' * (summary.total != 1)}"
-    print(f"{seeds}: {summary.describe(Path(args.out))}{hint}", file=sys.stderr)
+    print(
+        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.describe(Path(args.out))}"
+        + hint,
+        file=sys.stderr,
+    )
     return 0

@@ -1,7 +1,12 @@
-"""``python -m eval reference``: the reference table of certified optima (docs/reference.md):
-a plan of the resumable runner (:class:`ReferencePlan`), the search (:func:`plan`) then the rounds
-of :data:`CONTINUATION`; per point the best stroke competing for it (:func:`_pool`) goes with its
-provenance to the packaged table (or ``--table``), a figure and a Markdown table to ``--out``."""
+"""``python -m eval reference``: make the reference table of certified optima.
+
+A plan of the resumable runner (:class:`ReferencePlan`, :func:`agents.runner.run_plan`: records
+in ``--out``, here or on Dask, a killed run resumes): the *search* (:func:`plan`: per point of
+:data:`tandem_env.envs.reference.REFERENCE_GRID`, objective, planform and seed), then the rounds
+of :data:`CONTINUATION`. Per point, the best stroke competing for it (:func:`_pool`) is written
+with its provenance to the packaged table (or ``--table``, :func:`build_table`), a figure and a
+Markdown table to ``--out``. The method and the table: docs/reference.md.
+"""
 
 from __future__ import annotations
 
@@ -79,7 +84,8 @@ def plan(
     return jobs
 
 
-PointKey = tuple[str, str, str, float]  # (env id, objective, planform, condition) of a grid point.
+PointKey = tuple[str, str, str, float]
+"""(env id, objective, planform, condition) of a grid point."""
 
 #: Tasks whose feasible set grows with the condition: the available power only caps P/m, so a
 #: stroke that flies at P_avail flies, with the same forces, at every higher P_avail, and a
@@ -315,15 +321,27 @@ def build_table(
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    text = f"the optimisations' records, figure and table (default {DEFAULT_OUT})"
-    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=text)
-    text = "where the table goes (default: the packaged tandem_env/data/reference_optima.json)"
-    parser.add_argument("--table", type=Path, default=None, help=text)
-    text = (
-        "record files or folders of other runs (e.g. eval optimize --out) whose strokes "
-        "compete for the table's points, with their provenance (docs/reference.md)"
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=DEFAULT_OUT,
+        help=f"the optimisations' records, figure and table (default {DEFAULT_OUT})",
     )
-    parser.add_argument("--candidates", type=Path, nargs="+", default=[], metavar="PATH", help=text)
+    parser.add_argument(
+        "--table",
+        type=Path,
+        default=None,
+        help="where the table goes (default: the packaged tandem_env/data/reference_optima.json)",
+    )
+    parser.add_argument(
+        "--candidates",
+        type=Path,
+        nargs="+",
+        default=[],
+        metavar="PATH",
+        help="record files or folders of other runs (e.g. eval optimize --out) whose strokes "
+        "compete for the table's points, with their provenance (docs/reference.md)",
+    )
     add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -384,10 +402,13 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         store = RecordStore(args.out)
     except ValueError as error:
         parser.error(str(error))
-    what = f"{NAME} (the reference table -> {table_path})"
-    detail = f"{METHOD}, {len(jobs)} grid points"
     command = CommandProgress(
-        what, store, cache=args.cache, enabled=not args.quiet, detail=detail, rerun=args.rerun
+        f"{NAME} (the reference table -> {table_path})",
+        store,
+        cache=args.cache,
+        enabled=not args.quiet,
+        detail=f"{METHOD}, {len(jobs)} grid points",
+        rerun=args.rerun,
     )
     command.announce(look_ahead(table_plan, store, args.cache))
     run = run_reporting(
@@ -412,13 +433,17 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         jobs, rounds, run.records, provenance(every, run.records, table_plan.convergence), extra
     )
     write_json_atomic(table_path, table)
-    # the table as people read it: OUT/reference.md and OUT/reference.png
+    # The table as people read it: Markdown (OUT/reference.md) and a figure (OUT/reference.png).
     write_text_atomic(Path(args.out) / "reference.md", reference_markdown(table))
     write_reference_figure(table, Path(args.out) / "reference.png")
     for series in table["series"]:
-        if weak := [p["condition"] for p in series["points"] if not p["feasible"]]:
-            what = f"{series['env_id']} {series['objective']} {series['planform']}"
-            print(f"warning: {what}: no feasible optimum at {weak}", file=sys.stderr)
+        weak = [p for p in series["points"] if not p["feasible"]]
+        if weak:
+            print(
+                f"warning: {series['env_id']} {series['objective']} {series['planform']}: no "
+                f"feasible optimum at {[p['condition'] for p in weak]}",
+                file=sys.stderr,
+            )
     print(f"reference: {len(every)} optimisations; table written to {table_path}", file=sys.stderr)
     return 0
 
@@ -441,6 +466,13 @@ def _condition_header(env_id: str) -> str:
     return f"{condition.symbol} [{condition.unit}]"
 
 
+def _spread(point: Mapping[str, Any]) -> str:
+    values = [v for v in point["seed_objectives"] if v is not None]
+    if not values:
+        return "none feasible"
+    return f"{min(values):.4g}-{max(values):.4g} ({len(values)}/{len(point['seed_objectives'])})"
+
+
 def reference_markdown(table: Mapping[str, Any]) -> str:
     """One table per task: the optimum of each objective and planform at each condition, with
     the range of the search's seeds' feasible optima (how many seeds found a feasible stroke)."""
@@ -457,10 +489,7 @@ def reference_markdown(table: Mapping[str, Any]) -> str:
             cells = [f"{point['condition']:g}"]
             for s in series_list:
                 p = s["points"][i]
-                values = [v for v in p["seed_objectives"] if v is not None]
-                spread = f"{min(values):.4g}-{max(values):.4g}" if values else "none feasible"
-                spread += f" ({len(values)}/{len(p['seed_objectives'])})" if values else ""
-                cells += [f"{p['objective']:.4g}" if p["feasible"] else "-", spread]
+                cells += [f"{p['objective']:.4g}" if p["feasible"] else "-", _spread(p)]
             rows.append("| " + " | ".join(cells) + " |")
         parts.append(f"**{env_id}**\n\n{head} |\n{rule}\n" + "\n".join(rows) + "\n")
     provenance = table["provenance"]
@@ -517,13 +546,16 @@ def write_reference_figure(table: Mapping[str, Any], path: Path) -> None:
         assert objectives is not None
         for series in (s for s in table["series"] if s["env_id"] == env_id):
             colour = _COLOURS.get(series["objective"], "#000000")
-            x, y = (
-                [p[k] for p in series["points"] if p["feasible"]]
-                for k in ("condition", "objective")
+            points = [p for p in series["points"] if p["feasible"]]
+            ax.plot(
+                [p["condition"] for p in points],
+                [p["objective"] for p in points],
+                _LINES.get(series["planform"], ":"),
+                color=colour,
+                marker="o",
+                markersize=3,
+                label=f"{series['objective']}, {series['planform']}",
             )
-            style = {"color": colour, "marker": "o", "markersize": 3}
-            label = f"{series['objective']}, {series['planform']}"
-            ax.plot(x, y, _LINES.get(series["planform"], ":"), **style, label=label)
             for p in series["points"]:
                 seeds = [v for v in p["seed_objectives"] if v is not None]
                 ax.plot([p["condition"]] * len(seeds), seeds, ".", color=colour, alpha=0.25)

@@ -17,10 +17,13 @@ from tandem_env.io.files import atomic_path, output_directory
 NAME = "show"
 HELP = "draw and animate a record's stroke (PNG and GIF; MP4 where ffmpeg is installed)"
 DESCRIPTION = """\
-Draw the stroke of one harness record (records/<key>.json of `optimize` or `study`) as the
-envs render it (tip paths in side view, φ, θ and η over the cycle) and animate it over one
-cycle. Writes into --out (default: show/ beside the record's records/ folder) <key>.png and
-<key>.gif (or <key>.mp4 with --format mp4, which needs the ffmpeg program)."""
+Draw the stroke of one harness record (a records/<key>.json file of `optimize` or `study`) as
+the envs render it (wing-tip paths in side view, φ, θ and η of both wings over the cycle), and
+animate it: each wing, its tip and a cursor on the histories move over one cycle. Writes into
+--out (default: the show/ folder beside the record's records/ folder):
+  <key>.png   the picture (200 dpi)
+  <key>.gif   the animation (matplotlib's PillowWriter), or <key>.mp4 with --format mp4
+              (matplotlib's FFMpegWriter; needs the ffmpeg program)"""
 EPILOG = """\
 example:
   python -m eval optimize --task level --speed 1.5 --budget 2000 --seeds 0 --out results/v1.5
@@ -81,7 +84,8 @@ def show(
 
     subtitle = metrics_line(record.reward, record.metrics, record.objective_name)
     frame = Frame(title=record.label(), subtitle=subtitle, history=history)
-    figure = Figure(figsize=tuple(size / FRAME_DPI for size in FRAME_SIZE), dpi=FRAME_DPI)
+    width, height = FRAME_SIZE
+    figure = Figure(figsize=(width / FRAME_DPI, height / FRAME_DPI), dpi=FRAME_DPI)
     FigureCanvasAgg(figure)
     side, angle_axes = draw(figure, frame)
     moving = []  # per wing: its span line, its tip and a cursor per history panel
@@ -100,7 +104,8 @@ def show(
             for cursor in cursors:
                 cursor.set_xdata([cycle[k], cycle[k]])
 
-    picture, movie = out / f"{record.key}.png", out / f"{record.key}.{fmt}"
+    picture = out / f"{record.key}.png"
+    movie = out / f"{record.key}.{fmt}"
     place(0)
     with atomic_path(picture) as tmp:
         figure.savefig(tmp, dpi=DPI)
@@ -114,15 +119,25 @@ def show(
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("record", metavar="RECORD", help="a record file (records/<key>.json)")
-    text = "output folder (default: show/ beside records/)"
-    parser.add_argument("--out", default=None, metavar="DIR", help=text)
-    formats = tuple(ANIMATION_FORMATS)
-    text = "animation format (default gif; mp4 needs ffmpeg)"
-    parser.add_argument("--format", choices=formats, default="gif", help=text)
-    text = f"frames per cycle, 8 to 720 (default {DEFAULT_FRAMES})"
-    parser.add_argument("--frames", type=int, default=DEFAULT_FRAMES, metavar="N", help=text)
-    text = f"frames per second (default {DEFAULT_FPS})"
-    parser.add_argument("--fps", type=int, default=DEFAULT_FPS, help=text)
+    parser.add_argument(
+        "--out", default=None, metavar="DIR", help="output folder (default: show/ beside records/)"
+    )
+    parser.add_argument(
+        "--format",
+        choices=tuple(ANIMATION_FORMATS),
+        default="gif",
+        help="animation format (default gif; mp4 needs ffmpeg)",
+    )
+    parser.add_argument(
+        "--frames",
+        type=int,
+        default=DEFAULT_FRAMES,
+        metavar="N",
+        help=f"frames per cycle, 8 to 720 (default {DEFAULT_FRAMES})",
+    )
+    parser.add_argument(
+        "--fps", type=int, default=DEFAULT_FPS, help=f"frames per second (default {DEFAULT_FPS})"
+    )
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

@@ -29,12 +29,17 @@ from tandem_env.physics.model import MAX_BATCH_STROKES
 NAME = "speed-change"
 HELP = "fly random, steady-optimum, PPO and SAC policies through SpeedChange-v0 episodes"
 DESCRIPTION = """\
-Fly every policy through the same TandemWing/SpeedChange-v0 episodes (sub-env i reset with
-seed --first-seed + i) and compare them. Policies: random strokes; the steady-optimum schedule
-(the level-flight optimum at the grid speed nearest the target, every cycle); PPO / SAC runs of
-`python -m train` (--ppo / --sac). Writes into --out: episodes.csv (one row per policy and
-episode), summary.csv and summary.md (means over the episodes per policy) and optima/ (the
-record store of the level-flight optima); --figure: one episode for every policy."""
+Fly every policy through the same TandemWing/SpeedChange-v0 episodes (fixed evaluation seeds:
+sub-env i is reset with seed FIRST_SEED + i, so every policy gets the same start and target
+speeds) and compare them. Policies: random strokes; the steady-optimum schedule (the
+level-flight optimum at the grid speed nearest the target, from the harness, played every
+cycle); and PPO / SAC runs of `python -m train` given by --ppo / --sac. Writes into --out:
+  episodes.csv             one row per policy and episode (return, time to reach the target
+                           within 5 %, energy per metre, mean |altitude error|, ...);
+  summary.csv, summary.md  one row per policy: means over the episodes;
+  optima/                  the record store of the level-flight optima (records/<key>.json,
+                           reused when method, budget, seed and model options match).
+--figure draws speed, altitude and power against time of one episode for every policy."""
 EPILOG = """\
 examples:
   python -m train --algo ppo --env TandemWing/SpeedChange-v0 -f logs --seed 0 -n 100000
@@ -51,10 +56,18 @@ STEADY_GRID: tuple[float, ...] = tuple(
     float(v) for v in np.arange(LEVEL_FLIGHT_ENVELOPE[0], LEVEL_FLIGHT_ENVELOPE[1] + 1e-9, 0.25)
 )
 #: The reward's parts, summed per episode: the ``info["reward_<term>"]`` terms and the penalty.
-REWARD_PARTS = ("progress", "speed", "altitude", "energy", "termination", "penalty")
+REWARD_PARTS: tuple[str, ...] = (
+    "progress",
+    "speed",
+    "altitude",
+    "energy",
+    "termination",
+    "penalty",
+)
 #: Relative speed error counted as "at the target" [-].
 TARGET_WITHIN = 0.05
-FIRST_SEED = 1000  # Default first evaluation seed (training runs use small seeds).
+FIRST_SEED = 1000
+"""Default first evaluation seed (training runs use small seeds)."""
 
 
 # --- the policies: each chooses the next stroke of B episodes from their observations and states
@@ -84,8 +97,10 @@ class RandomPolicy:
 class SteadyPolicy:
     """The level-flight optimum at the grid speed nearest each episode's target, every cycle."""
 
-    speeds: np.ndarray  # (G,) grid speeds [m/s].
-    actions: np.ndarray  # (G, 28) normalised level-flight optimum at each grid speed.
+    speeds: np.ndarray
+    """(G,) grid speeds [m/s]."""
+    actions: np.ndarray
+    """(G, 28) normalised level-flight optimum at each grid speed."""
     name: str = "steady"
 
     def act(self, observations: np.ndarray, flight: Flight) -> np.ndarray:
@@ -219,15 +234,23 @@ class EpisodeLog:
     policy: str
     seed: int
     target_speed: float
-    time: np.ndarray  # (K + 1,) [s], 0 first.
-    forward_speed: np.ndarray  # (K + 1,) u [m/s].
-    altitude: np.ndarray  # (K + 1,) h [m].
-    distance: np.ndarray  # (K + 1,) [m].
-    power_per_mass: np.ndarray  # (K,) P/m of each cycle [W/kg].
-    energy: np.ndarray  # (K,) [J].
-    reward: np.ndarray  # (K,) [-].
+    time: np.ndarray
+    """(K + 1,) [s], 0 first."""
+    forward_speed: np.ndarray
+    """(K + 1,) u [m/s]."""
+    altitude: np.ndarray
+    """(K + 1,) h [m]."""
+    distance: np.ndarray
+    """(K + 1,) [m]."""
+    power_per_mass: np.ndarray
+    """(K,) P/m of each cycle [W/kg]."""
+    energy: np.ndarray
+    """(K,) [J]."""
+    reward: np.ndarray
+    """(K,) [-]."""
     terminated: bool
-    terms: Mapping[str, float] = field(default_factory=dict)  # each reward term's sum [-]
+    terms: Mapping[str, float] = field(default_factory=dict)
+    """Each reward term summed over the episode (``progress``, ..., ``penalty``) [-]."""
 
 
 def run_episodes(
@@ -243,9 +266,8 @@ def run_episodes(
     per_cycle = ("power_per_mass", "energy", "reward")
     try:
         observations, info = envs.reset(seed=[int(s) for s in seeds])
-        # the states after each cycle, the start state first; then what each cycle cost
-        logged = {key: [np.asarray(info[key], np.float64)] for key in columns}
-        logged |= {key: [] for key in per_cycle}
+        states = {key: [np.asarray(info[key], np.float64)] for key in columns}
+        cycles: dict[str, list[np.ndarray]] = {key: [] for key in per_cycle}
         parts = {key: np.zeros(n) for key in REWARD_PARTS}
         targets = np.asarray(info["target_speed"], dtype=np.float64)
         running = np.ones(n, dtype=bool)
@@ -256,8 +278,10 @@ def run_episodes(
             observations, rewards, term, trunc, info = envs.step(actions.astype(np.float32))
             info = {**info, "reward": rewards}
             cycles_run += running
-            for key, values in logged.items():
-                values.append(np.asarray(info[key], np.float64))
+            for key in columns:
+                states[key].append(np.asarray(info[key], np.float64))
+            for key in per_cycle:
+                cycles[key].append(np.asarray(info[key], np.float64))
             for key in REWARD_PARTS:  # the penalty is subtracted from the reward
                 value = -info[key] if key == "penalty" else info[f"reward_{key}"]
                 parts[key] += np.where(running, np.asarray(value, np.float64), 0.0)
@@ -270,7 +294,8 @@ def run_episodes(
             policy=policy.name,
             seed=int(seeds[i]),
             target_speed=float(targets[i]),
-            **{k: np.array(v)[: cycles_run[i] + (k in columns), i] for k, v in logged.items()},
+            **{key: np.array(states[key])[: cycles_run[i] + 1, i] for key in columns},
+            **{key: np.array(cycles[key])[: cycles_run[i], i] for key in per_cycle},
             terminated=bool(terminated[i]),
             terms={key: float(parts[key][i]) for key in REWARD_PARTS},
         )
@@ -310,10 +335,11 @@ def policy_summary_rows(episodes: Sequence[Mapping[str, Any]]) -> list[dict[str,
     out = []
     for policy in dict.fromkeys(e["policy"] for e in episodes):
         rows = [e for e in episodes if e["policy"] == policy]
-        values = {k: np.array([r[k] for r in rows], np.float64) for k in rows[0] if k != "policy"}
-        reached, per_metre = (
-            v[np.isfinite(v)] for v in (values["time_to_target_s"], values["energy_per_metre_mJ_m"])
-        )
+        numbers = [key for key in rows[0] if key != "policy"]
+        values = {key: np.array([r[key] for r in rows], np.float64) for key in numbers}
+        reached = values["time_to_target_s"][np.isfinite(values["time_to_target_s"])]
+        per_metre = values["energy_per_metre_mJ_m"]
+        per_metre = per_metre[np.isfinite(per_metre)]
         mean = {key: float(v.mean()) for key, v in values.items()}
         out.append(
             {
@@ -332,9 +358,9 @@ def policy_summary_rows(episodes: Sequence[Mapping[str, Any]]) -> list[dict[str,
                 "flight_time_mean_s": mean["flight_time_s"],
                 "mean_power_W_kg": mean["mean_power_W_kg"],
                 **{
-                    f"return_{k}_mean": mean[f"return_{k}"]
-                    for k in REWARD_PARTS
-                    if f"return_{k}" in mean
+                    f"return_{key}_mean": mean[f"return_{key}"]
+                    for key in REWARD_PARTS
+                    if f"return_{key}" in mean
                 },
             }
         )
@@ -361,8 +387,11 @@ def policy_summary_markdown(rows: Sequence[Mapping[str, Any]]) -> str:
     lines = ["| " + " | ".join(heads) + " |", "|---" * len(heads) + "|"]
     lines += ["| " + " | ".join(c.format(**r) for c in cells) + " |" for r in rows]
     if all(f"return_{key}_mean" in r for r in rows for key in REWARD_PARTS):
-        lines += ["", "| policy | " + " | ".join(REWARD_PARTS) + " |"]
-        lines.append("|---|" + "---|" * len(REWARD_PARTS))
+        lines += [
+            "",
+            "| policy | " + " | ".join(REWARD_PARTS) + " |",
+            "|---|" + "---|" * len(REWARD_PARTS),
+        ]
         for r in rows:
             parts = " | ".join(f"{r[f'return_{key}_mean']:+.2f}" for key in REWARD_PARTS)
             lines.append(f"| {r['policy']} | {parts} |")
@@ -379,10 +408,13 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
     figure = Figure(figsize=(7.5, 6.5), dpi=DPI)
     FigureCanvasAgg(figure)
     axes = figure.subplots(3, 1, sharex=True)
-    first, target = logs[0], logs[0].target_speed
-    axes[0].axhline(target, color="0.3", ls="--", lw=1.0, label="target u*")
+    first = logs[0]
+    axes[0].axhline(first.target_speed, color="0.3", ls="--", lw=1.0, label="target u*")
     axes[0].axhspan(
-        (1 - TARGET_WITHIN) * target, (1 + TARGET_WITHIN) * target, color="0.9", zorder=0
+        (1 - TARGET_WITHIN) * first.target_speed,
+        (1 + TARGET_WITHIN) * first.target_speed,
+        color="0.9",
+        zorder=0,
     )
     axes[0].set_prop_cycle(color=LINE_HUES)  # Okabe-Ito, one hue per policy
     for log in logs:
@@ -400,8 +432,11 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
     axes[2].set_xlabel("time [s]")
     axes[0].legend(fontsize=8, ncol=3, loc="best")
     axes[2].legend(fontsize=8, loc="upper right")
-    start = f"u0 = {first.forward_speed[0]:.2f} m/s -> u* = {target:.2f} m/s (x: ended early)"
-    figure.suptitle(f"SpeedChange-v0, seed {first.seed}: {start}", fontsize=10)
+    figure.suptitle(
+        f"SpeedChange-v0, seed {first.seed}: u0 = {first.forward_speed[0]:.2f} m/s -> "
+        f"u* = {first.target_speed:.2f} m/s (x: ended early)",
+        fontsize=10,
+    )
     figure.tight_layout()
     with atomic_path(path) as tmp:  # a killed run never leaves half a figure
         figure.savefig(tmp)
@@ -409,18 +444,23 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
 
 # --- the command -------------------------------------------------------------------------------
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from eval.optimize import add_run_arguments  # eval.optimize imports the studies: not here
-
-    for flag, default, text in (
-        ("--episodes", 32, f"evaluation episodes (32; 1 to {MAX_EPISODES:,})"),
-        ("--first-seed", FIRST_SEED, f"first evaluation seed ({FIRST_SEED})"),
-        ("--optima-budget", 12000, "model evaluations per level-flight optimum (12000)"),
-        ("--figure-episode", 0, "which evaluation episode the figure shows (index, default 0)"),
-    ):
-        parser.add_argument(flag, type=int, default=default, help=text)
-    what = "harness method for the level-flight optima"
-    text = f"{what} (default {DEFAULT_OPTIMISER})"
-    parser.add_argument("--optimiser", default=DEFAULT_OPTIMISER, help=text)
+    parser.add_argument(
+        "--episodes", type=int, default=32, help=f"evaluation episodes (32; 1 to {MAX_EPISODES:,})"
+    )
+    parser.add_argument(
+        "--first-seed", type=int, default=FIRST_SEED, help=f"first evaluation seed ({FIRST_SEED})"
+    )
+    parser.add_argument(
+        "--optimiser",
+        default=DEFAULT_OPTIMISER,
+        help=f"harness method for the level-flight optima (default {DEFAULT_OPTIMISER})",
+    )
+    parser.add_argument(
+        "--optima-budget",
+        type=int,
+        default=12000,
+        help="model evaluations per level-flight optimum (12000)",
+    )
     parser.add_argument(
         "--grid",
         type=float,
@@ -432,11 +472,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     for algo in ("ppo", "sac"):
         text = f"python -m train {algo.upper()} run folders"
         parser.add_argument(f"--{algo}", nargs="+", default=[], metavar="RUN_DIR", help=text)
-    text = "which saved model (final)"
-    parser.add_argument("--model", choices=("final", "best"), default="final", help=text)
-    text = "output folder"
-    parser.add_argument("--out", type=Path, default=Path("results/speed-change"), help=text)
+    parser.add_argument(
+        "--model", choices=("final", "best"), default="final", help="which saved model (final)"
+    )
+    parser.add_argument(
+        "--out", type=Path, default=Path("results/speed-change"), help="output folder"
+    )
     parser.add_argument("--figure", type=Path, help="PNG of one episode for every policy")
+    parser.add_argument(
+        "--figure-episode",
+        type=int,
+        default=0,
+        help="which evaluation episode the figure shows (index, default 0)",
+    )
+    from eval.optimize import add_run_arguments  # eval.optimize imports the studies: not here
+
     add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
@@ -471,12 +521,13 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         parser.error(f"--figure-episode {args.figure_episode}; allowed: 0 to {args.episodes - 1}")
     try:
         output_directory(args.out, folders=("optima", "optima/records"))
-        if (figure := args.figure) is not None:
+        if args.figure is not None:
+            figure = Path(args.figure)
+            if figure.is_dir():
+                raise ValueError(f"--figure {str(figure)!r} is a folder; allowed: a file name")
             from matplotlib.backend_bases import FigureCanvasBase
 
             formats = FigureCanvasBase.get_supported_filetypes()
-            if figure.is_dir():
-                raise ValueError(f"--figure {str(figure)!r} is a folder; allowed: a file name")
             if figure.suffix[1:].lower() not in formats:
                 raise ValueError(
                     f"--figure {str(figure)!r}: the format {figure.suffix or '(none)'!r} is not "

@@ -1,6 +1,8 @@
 """The cross-check's cases: which strokes the vortex-lattice mapping supports, the wings'
-clearance, the resolution and the runs a case needs (docs/crosscheck.md); plain numpy, so bad
-input is refused before any solver is imported.
+clearance, the resolution, and the runs a case needs (docs/crosscheck.md).
+
+Everything here is plain numpy: it validates a case before any solver is imported, so bad
+input is refused at once, with or without the ``uvlm`` extra.
 
 Frames (docs/crosscheck.md, "The mapping"). The solver's geometry axes G are X aft, Y right,
 Z up; its Y-Z plane is the stroke plane, whose upper normal z_s (docs/model.md §4.1) is −X_G
@@ -28,25 +30,35 @@ from tandem_env.physics import PARAMETER_NAMES, TABLE_4_BOUNDS, Dragonfly, Wing,
 RUN_FORMAT = "tandem_env.crosscheck-run/1"
 
 #: Largest sweep shape K and pitch shape C_η the mapping takes [-]: the solver moves each angle
-#: as a sine, from which Eqs. 3, 5 differ by under 0.15 % of their amplitude at 0.1.
+#: as a pure sine, and at 0.1 the project's waveforms (Eqs. 3, 5) differ from a sine by under
+#: 0.15 % of their amplitude (tests/eval/test_crosscheck.py checks it).
 MAX_SHAPE = 0.1
-#: Largest elevation |θ| over the cycle, θ_m + |θ_0| [deg]: the solver has none, so only strokes
-#: with Table 4's least elevation are compared (fore-wing θ_m = 1° about θ_0 = 5°).
+#: Largest elevation |θ| over the cycle, θ_m + |θ_0| [deg]: the solver has no elevation (it is
+#: zero there), so only strokes whose elevation is as small as Table 4 allows are compared:
+#: its least fore-wing elevation is θ_m = 1° about θ_0 = 5°.
 MAX_ELEVATION = 6.0
-#: Largest |base| + amplitude of the sweep and the pitch [deg] (the solver's range).
+#: Largest |base| + amplitude of the sweep and the pitch [deg]: the solver keeps each of a
+#: wing's angles within ±90°.
 MAX_ANGLE = 90.0
-#: Smallest distance between the fore and hind wings over the cycle [m]: closer, one's bound
-#: rings pass within a panel's chord (c̄/4 ≈ 1.5 mm) of the other's, which is not resolved.
+#: Smallest distance between the fore and hind wings over the cycle [m]: closer than this the
+#: bound vortex rings of one pass within a panel's chord (c̄/4 ≈ 1.5 mm at the default 4
+#: chordwise panels) of the other's, where the lattice's induced velocities are not resolved;
+#: wings that intersect (a distance of 0) cannot be solved at all.
 MIN_CLEARANCE = 1.0e-3
-#: Span stations of the solver's wing [r/R]: to 0.98 R (the solver refuses the tip's zero chord).
+#: Span stations of the solver's wing [r/R]: the chord at the tip of the tear-drop is zero,
+#: which the solver refuses, so the outermost station is 0.98 R.
 STATIONS = (0.0, 0.3, 0.55, 0.75, 0.9, 0.98)
-#: Distance of each wing root from the body's mid-plane [m]: half the thorax's width (docs/model.md
-#: §1.5); at 1 mm the base case's hind root chords would swing across the plane into each other.
+#: Distance of each wing root from the body's mid-plane [m]: half the thorax's width (4 mm
+#: across, docs/model.md §1.5). The solver splits a symmetric wing whose root lies off the
+#: plane into a right and a left wing, each with its own motion; at 1 mm the root chords of the
+#: base case's hind pair (9.8 mm long, pitching ±50° while sweeping ±35°) would swing across
+#: the plane into each other.
 ROOT_OFFSET = 2.0e-3
 #: The two pairs' keys, fore first.
 PAIRS = ("fore", "hind")
-#: The solver's wakes (``--wake``), the default first: ``"free"`` moved by the local flow,
-#: ``"prescribed"`` by the free stream alone (``run(prescribed_wake=True)``, 5-10x cheaper).
+#: The solver's wakes (``--wake``), the default first: ``"free"`` moves each wake panel with
+#: the local flow (wake on wake); ``"prescribed"`` carries it by the free stream alone
+#: (Ptera Software's ``run(prescribed_wake=True)``: no self-induction, about 5-10x cheaper).
 WAKES = ("free", "prescribed")
 
 #: Samples of the clearance check: instants per beat, points along the span and the chord.
@@ -64,10 +76,14 @@ def _wrap(angle: float) -> float:
 class Resolution:
     """The solver's resolution: time steps per beat, panels per wing and beats run."""
 
-    steps_per_beat: int = 48  # time steps per wing beat [-] (loads moved 5 % from 32 to 48)
-    chordwise: int = 4  # Chordwise panels per wing [-] (uniform).
-    spanwise: int = 8  # spanwise panels per wing [-], shared by the segments between STATIONS
-    beats: int = 3  # beats run [-]; the loads are the mean over the last one
+    steps_per_beat: int = 48
+    """Time steps per wing beat [-] (the issue's exploratory runs moved 5 % from 32 to 48)."""
+    chordwise: int = 4
+    """Chordwise panels per wing [-] (uniform)."""
+    spanwise: int = 8
+    """Spanwise panels per wing [-], shared among the segments between :data:`STATIONS`."""
+    beats: int = 3
+    """Beats run [-]; the loads are the mean over the last one (the wake of the first two)."""
 
     def __post_init__(self) -> None:
         for name, option, low, high in (
@@ -103,11 +119,12 @@ class Resolution:
         """This resolution and the ones that check its convergence: 2/3 and 4/3 of its time
         steps, and 1.5x chordwise by 2x spanwise panels (48 steps, 4x8: 32, 64 and 6x16)."""
         steps = [max(4, round(self.steps_per_beat * k)) for k in (2 / 3, 4 / 3)]
-        finer = {
-            "chordwise": min(16, math.ceil(1.5 * self.chordwise)),
-            "spanwise": min(64, 2 * self.spanwise),
-        }
-        return (self, *(replace(self, steps_per_beat=s) for s in steps), replace(self, **finer))
+        finer = replace(
+            self,
+            chordwise=min(16, math.ceil(1.5 * self.chordwise)),
+            spanwise=min(64, 2 * self.spanwise),
+        )
+        return (self, *(replace(self, steps_per_beat=s) for s in steps), finer)
 
 
 def parse_panels(text: str) -> dict[str, int]:
@@ -123,19 +140,25 @@ def parse_panels(text: str) -> dict[str, int]:
 class WingMotion:
     """One wing pair as the solver sees it: its planform at :data:`STATIONS` and its motion."""
 
-    length: float  # Wing length R [m].
-    chords: tuple[float, ...]  # Chord c(r) at each station [m] (docs/model.md §2).
-    frequency: float  # f [Hz].
-    sweep: tuple[float, float, float]  # (φ_m, φ_0, Φ_φ) [deg]: φ = φ_0 + φ_m·sin(2πft + Φ_φ).
-    pitch: tuple[float, float, float]  # (η_m, η_0, Φ_η) [deg]: η = η_0 + η_m·sin(2πft + Φ_η).
+    length: float
+    """Wing length R [m]."""
+    chords: tuple[float, ...]
+    """Chord c(r) at each station [m] (docs/model.md §2)."""
+    frequency: float
+    """f [Hz]."""
+    sweep: tuple[float, float, float]
+    """(φ_m, φ_0, Φ_φ) [deg]: φ = φ_0 + φ_m·sin(2πft + Φ_φ)."""
+    pitch: tuple[float, float, float]
+    """(η_m, η_0, Φ_η) [deg]: η = η_0 + η_m·sin(2πft + Φ_η)."""
 
     def angles(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(φ, η) [rad] at times ``t`` [s]."""
         beat = 2 * np.pi * self.frequency * t
-        return tuple(  # type: ignore[return-value]
+        sweep, pitch = (
             np.radians(base + amplitude * np.sin(beat + np.radians(phase)))
             for amplitude, base, phase in (self.sweep, self.pitch)
         )
+        return sweep, pitch
 
 
 def wing_motion(wing: Wing, stroke: np.ndarray, pair: str, lag: float = 0.0) -> WingMotion:
@@ -191,15 +214,15 @@ def check_family(stroke: np.ndarray) -> np.ndarray:
                 "least: 1 about 5)"
             )
         for name in ("sweep", "pitch"):
-            if (
-                reach := p[f"{pair}_{name}_amplitude"] + abs(p[f"{pair}_{name}_offset"])
-            ) > MAX_ANGLE:
+            reach = p[f"{pair}_{name}_amplitude"] + abs(p[f"{pair}_{name}_offset"])
+            if reach > MAX_ANGLE:
                 raise ValueError(
                     f"{pair} {name} reaches {reach:g} deg ({name}_amplitude + |{name}_offset|); "
                     f"allowed: at most {MAX_ANGLE:g} deg (the solver's range of an angle)"
                 )
     for name, unit in (("frequency", "Hz"), ("stroke_plane_angle", "deg")):
-        if (fore := p[f"fore_{name}"]) != (hind := p[f"hind_{name}"]):
+        fore, hind = p[f"fore_{name}"], p[f"hind_{name}"]
+        if fore != hind:
             raise ValueError(
                 f"fore_{name} = {fore:g} {unit} and hind_{name} = {hind:g} {unit}; allowed: equal "
                 "values (the vortex-lattice mapping has one beat and one free stream for both)"
@@ -209,14 +232,22 @@ def check_family(stroke: np.ndarray) -> np.ndarray:
 
 #: The issue's exploratory case: Table 1 wings, f = 37 Hz, sweep ±35°, pitch ±50° leading the
 #: sweep by 90°, β = 15°, sinusoidal waveforms, the least elevation Table 4 allows.
-BASE_WING = dict(
-    frequency=37.0,
-    **dict(sweep_amplitude=35.0, elevation_amplitude=1.0, pitch_amplitude=50.0),
-    **dict(sweep_offset=0.0, elevation_offset=0.0, pitch_offset=0.0),
-    **dict(sweep_phase=0.0, elevation_phase=0.0, pitch_phase=90.0),
-    **dict(sweep_shape=0.01, elevation_harmonic=1.0, pitch_shape=0.01),
-    stroke_plane_angle=15.0,
-)
+BASE_WING = {
+    "frequency": 37.0,
+    "sweep_amplitude": 35.0,
+    "elevation_amplitude": 1.0,
+    "pitch_amplitude": 50.0,
+    "sweep_offset": 0.0,
+    "elevation_offset": 0.0,
+    "pitch_offset": 0.0,
+    "sweep_phase": 0.0,
+    "elevation_phase": 0.0,
+    "pitch_phase": 90.0,
+    "sweep_shape": 0.01,
+    "elevation_harmonic": 1.0,
+    "pitch_shape": 0.01,
+    "stroke_plane_angle": 15.0,
+}
 #: Elevation offsets of the base case [deg]: the fore-wing's least in Table 4, none on the
 #: hind-wing (its range holds 0).
 BASE_ELEVATION_OFFSET = {"fore": 5.0, "hind": 0.0}
@@ -241,10 +272,14 @@ def base_stroke(**overrides: float) -> np.ndarray:
 class Case:
     """One flight condition and geometry of the tandem, at one or more fore/hind lags."""
 
-    stroke: tuple[float, ...]  # The (28,) stroke, Table 4 units; lag 0 is this stroke as it is.
-    speed: float  # Flight speed V [m/s], level flight.
-    spacing: float  # Fore root to hind root along the body axis, + aft [m].
-    drop: float  # Hind root below the fore root [m].
+    stroke: tuple[float, ...]
+    """The (28,) stroke, Table 4 units; lag 0 is this stroke as it is."""
+    speed: float
+    """Flight speed V [m/s], level flight."""
+    spacing: float
+    """Fore root to hind root along the body axis, + aft [m]."""
+    drop: float
+    """Hind root below the fore root [m]."""
     lags: tuple[float, ...]
     """Shifts of the hind-wing's phases [deg] (:func:`shifted_stroke`); with equal fore and
     hind phases, the project's ΔΦ = Φ_φ,hind − Φ_φ,fore (> 0: the hind-wing leads)."""
@@ -262,22 +297,32 @@ class Run:
     Plain numbers only: the key hashes them (with the format and the solver's version), and a
     worker needs nothing else."""
 
-    kind: str  # ``"fore"``, ``"hind"`` (alone) or ``"tandem"``.
-    speed: float  # V [m/s].
-    stroke_plane_angle: float  # β [deg], both pairs.
-    air_density: float  # ρ [kg/m³].
+    kind: str
+    """``"fore"``, ``"hind"`` (alone) or ``"tandem"``."""
+    speed: float
+    """V [m/s]."""
+    stroke_plane_angle: float
+    """β [deg], both pairs."""
+    air_density: float
+    """ρ [kg/m³]."""
     fore: WingMotion | None
     hind: WingMotion | None
-    spacing: float  # d [m] (tandem only; 0 alone).
-    drop: float  # h [m] (tandem only; 0 alone).
-    lag: float  # Hind phase shift [deg] (tandem only; 0 alone).
+    spacing: float
+    """d [m] (tandem only; 0 alone)."""
+    drop: float
+    """h [m] (tandem only; 0 alone)."""
+    lag: float
+    """Hind phase shift [deg] (tandem only; 0 alone)."""
     resolution: Resolution
     root_offset: float = ROOT_OFFSET
-    wake: str = WAKES[0]  # The solver's wake, one of :data:`WAKES`.
+    wake: str = WAKES[0]
+    """The solver's wake, one of :data:`WAKES`."""
 
     def key(self, solver_version: str) -> str:
         fields = asdict(self)
-        if self.wake == WAKES[0]:  # left out: runs stored before the choice keep their keys
+        if self.wake == WAKES[0]:
+            # The default wake is left out, so runs stored before the choice existed keep
+            # their keys (and are reused); any other wake is another record.
             del fields["wake"]
         text = json.dumps(
             {"format": RUN_FORMAT, "solver": solver_version, "run": fields}, sort_keys=True
@@ -289,9 +334,12 @@ class Run:
         """Inverse of ``dataclasses.asdict`` after JSON (lists for tuples); TypeError or
         ValueError for anything else."""
         fields = dict(data)
-        for pair in (p for p in PAIRS if fields[p] is not None):
-            as_tuples = {k: tuple(v) if isinstance(v, list) else v for k, v in fields[pair].items()}
-            fields[pair] = WingMotion(**as_tuples)
+        for pair in PAIRS:
+            if fields[pair] is not None:
+                motion = {
+                    k: tuple(v) if isinstance(v, list) else v for k, v in fields[pair].items()
+                }
+                fields[pair] = WingMotion(**motion)
         fields["resolution"] = Resolution(**fields["resolution"])
         return cls(**fields)
 
@@ -317,11 +365,13 @@ def case_runs(
         "resolution": resolution,
         "wake": wake,
     }
-    fore, hind = (wing_motion(getattr(insect, p), stroke, p) for p in PAIRS)
-    alone = {"spacing": 0.0, "drop": 0.0, "lag": 0.0, **common}
+    fore = wing_motion(insect.fore, stroke, "fore")
+    alone = {"spacing": 0.0, "drop": 0.0, "lag": 0.0}
     runs = {
-        p: Run(p, fore=fore if p == "fore" else None, hind=hind if p == "hind" else None, **alone)
-        for p in PAIRS
+        "fore": Run("fore", fore=fore, hind=None, **alone, **common),
+        "hind": Run(
+            "hind", fore=None, hind=wing_motion(insect.hind, stroke, "hind"), **alone, **common
+        ),
     }
     for lag in case.lags:
         runs[f"tandem {lag:g}"] = Run(
@@ -369,9 +419,11 @@ def wing_surface(
     phi, eta = motion.angles(np.asarray(t, dtype=float))
     ce, se = np.cos(eta)[:, None], np.sin(eta)[:, None]
     cp, sp = np.cos(phi)[:, None], np.sin(phi)[:, None]
-    points = np.stack(
-        [ce * x, cp * y + sp * se * x, sp * y - cp * se * x], axis=-1
-    )  # R_X(φ)·R_Y(η)
+    # R_X(φ)·R_Y(η)·(x, y, 0)
+    px = ce * x
+    py = cp * y + sp * se * x
+    pz = sp * y - cp * se * x
+    points = np.stack([px, py, pz], axis=-1)
     return points + (np.asarray(origin) + np.array([0.0, root_offset, 0.0]))
 
 

@@ -8,6 +8,7 @@ import sys
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 from agents.store import RECORDS_DIR
 from eval.optimize import add_run_arguments
@@ -126,19 +127,23 @@ GRIDS: dict[str, Grid] = {
 DESCRIPTION = (
     f"""\
 Cross-check the model's fore/hind interaction against Ptera Software's free-wake unsteady
-vortex-lattice solver (UVLM; {INSTALL}, Python >= 3.11; docs/crosscheck.md): per case the
-fore pair alone, the hind pair alone and the tandem at each lag, each pair's cycle-mean
-vertical force change due to the other (UVLM tandem - alone; the model's each slipstream
-reading - isolated). Strokes: the base case with --stroke changes. Refused before any work:
-strokes outside the mapped family, wings within {1e3 * MIN_CLEARANCE:g} mm of each other.
+vortex-lattice solver (the uvlm extra: {INSTALL}, Python >= 3.11;
+docs/crosscheck.md). Per case it runs the fore pair alone, the hind pair alone and the tandem
+at each lag, and compares each pair's cycle-mean vertical force change due to the other pair:
+UVLM tandem - alone, and the model's each slipstream reading - isolated. Strokes: the base
+case (Table 1 wings, f = 37 Hz, sweep +-35 deg, pitch +-50 deg leading by 90 deg, beta = 15
+deg) with --stroke changes. Refused before any work (exit status 2): strokes outside the
+family the mapping supports, wings within {1e3 * MIN_CLEARANCE:g} mm of each other at any lag,
+and a missing extra.
 
 Grids (--grid):
 """
     + "\n".join(f"  {name:14s} {grid.description}" for name, grid in GRIDS.items())
     + """
 
-Writes into --out records/<key>.json (one per solver run, reused on a rerun; those of an
-older runs/ folder are moved there), crosscheck.csv, crosscheck.md and crosscheck.png."""
+Writes into --out: records/<key>.json (one record per solver run, reused on a rerun and
+from the record cache; those of an older runs/ folder are moved there once),
+crosscheck.csv and crosscheck.md (the table) and crosscheck.png (the figure)."""
 )
 
 EPILOG = """\
@@ -150,35 +155,58 @@ examples:
   python -m eval crosscheck --grid lag-study --scheduler local:2 --out results/crosscheck"""
 
 
+#: The command's options (argparse keywords); ``--scheduler``, ``--no-cache`` and ``--rerun``
+#: besides (:data:`RUN_OPTIONS <eval.optimize.RUN_OPTIONS>`).
+OPTIONS: dict[str, dict[str, Any]] = {
+    "--grid": {"choices": list(GRIDS), "default": "single", "help": "the cases (above)"},
+    "--lags": {
+        "type": float,
+        "nargs": "+",
+        "metavar": "DEG",
+        "help": "hind-wing phase shifts [deg], -360 to 360 (default: the grid's)",
+    },
+    "--speed": {"type": float, "metavar": "V", "help": "flight speed [m/s] (--grid single)"},
+    "--spacing": {
+        "type": float,
+        "metavar": "MM",
+        "help": "fore root to hind root along the body, + aft [mm] (--grid single; default the "
+        "insect's Dragonfly.root_spacing)",
+    },
+    "--drop": {
+        "type": float,
+        "metavar": "MM",
+        "help": "hind root below the fore root [mm] (--grid single; default Dragonfly.root_drop)",
+    },
+    "--stroke": {
+        "nargs": "+",
+        "default": [],
+        "metavar": "NAME=VALUE",
+        "help": "change base-case stroke parameters, e.g. fore_sweep_amplitude=40 (Table 4 units)",
+    },
+    "--planform": {"choices": PLANFORMS, "default": "tear-drop", "help": "both wings' planform"},
+    "--steps-per-beat": {
+        "type": int,
+        "metavar": "N",
+        "help": "solver time steps per beat (default 48)",
+    },
+    "--panels": {"metavar": "CxS", "help": "chordwise x spanwise panels per wing (default 4x8)"},
+    "--beats": {"type": int, "metavar": "N", "help": "beats run; loads from the last (default 3)"},
+    "--wake": {
+        "choices": WAKES,
+        "default": WAKES[0],
+        "help": "the solver's wake: free (moved by the local flow) or prescribed (carried by the "
+        "free stream alone, about 5-10x cheaper); default free",
+    },
+    "--convergence": {
+        "action": "store_true",
+        "help": "also run the first case at 2/3 and 4/3 of the time steps and at 1.5x2 the panels",
+    },
+}
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--grid", choices=list(GRIDS), default="single", help="the cases (above)")
-    text = "hind-wing phase shifts [deg], -360 to 360 (default: the grid's)"
-    parser.add_argument("--lags", type=float, nargs="+", metavar="DEG", help=text)
-    text = "flight speed [m/s] (--grid single)"
-    parser.add_argument("--speed", type=float, metavar="V", help=text)
-    text = "fore root to hind root along the body, + aft [mm] (--grid single; default the insect's "
-    parser.add_argument(
-        "--spacing", type=float, metavar="MM", help=text + "Dragonfly.root_spacing)"
-    )
-    text = "hind root below the fore root [mm] (--grid single; default Dragonfly.root_drop)"
-    parser.add_argument("--drop", type=float, metavar="MM", help=text)
-    text = "change base-case stroke parameters, e.g. fore_sweep_amplitude=40 (Table 4 units)"
-    parser.add_argument("--stroke", nargs="+", default=[], metavar="NAME=VALUE", help=text)
-    text = "both wings' planform"
-    parser.add_argument("--planform", choices=PLANFORMS, default="tear-drop", help=text)
-    text = "solver time steps per beat (default 48)"
-    parser.add_argument("--steps-per-beat", type=int, metavar="N", help=text)
-    text = "chordwise x spanwise panels per wing (default 4x8)"
-    parser.add_argument("--panels", metavar="CxS", help=text)
-    text = "beats run; loads from the last (default 3)"
-    parser.add_argument("--beats", type=int, metavar="N", help=text)
-    text = (
-        "the solver's wake: free (moved by the local flow) or prescribed (carried by the free "
-        "stream alone, about 5-10x cheaper); default free"
-    )
-    parser.add_argument("--wake", choices=WAKES, default=WAKES[0], help=text)
-    text = "also run the first case at 2/3 and 4/3 of the time steps and at 1.5x2 the panels"
-    parser.add_argument("--convergence", action="store_true", help=text)
+    for flag, keywords in OPTIONS.items():
+        parser.add_argument(flag, **keywords)
     add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
     parser.add_argument("--out", default=str(DEFAULT_OUT), help=f"output folder ({DEFAULT_OUT})")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
@@ -205,7 +233,7 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resoluti
     given |= {} if args.panels is None else parse_panels(args.panels)
     resolution = replace(grid.resolution, **{k: v for k, v in given.items() if v is not None})
     insect = DRAGONFLY.with_planform(args.planform)  # type: ignore[arg-type]
-    stroke = {}  # the --stroke NAME=VALUE changes
+    stroke: dict[str, float] = {}  # the --stroke NAME=VALUE changes
     for item in args.stroke:
         name, sep, value = item.partition("=")
         try:

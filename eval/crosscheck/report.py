@@ -1,6 +1,10 @@
-"""The cross-check's comparison (docs/crosscheck.md): each pair's cycle-mean vertical force change
-due to the other pair [% of its force without it], the UVLM's (tandem − alone) and ours (each
-slipstream reading − ``induction="isolated"``); the table (CSV, Markdown) and the figure."""
+"""The cross-check's comparison: the model's side, the table (CSV and Markdown) and the figure.
+
+Each pair's cycle-mean vertical force changes because the other pair is there, in percent of
+its force without it: the vortex-lattice solver's (UVLM) tandem − that pair alone, and the
+model's ("ours") coupled − ``induction="isolated"`` for each slipstream reading, the hind-wing's
+phases shifted by the lag (docs/crosscheck.md).
+"""
 
 from __future__ import annotations
 
@@ -107,11 +111,13 @@ def rows(
                 "wake": plan.runs["fore"].wake,
                 "clearance_mm": round(1e3 * plan.clearance[lag]["pairs"], 2),
             }
-            lift = {p: (alone[p]["vertical"], tandem[p]["vertical"]) for p in PAIRS}
-            for pair, (by_itself, beside) in lift.items():
-                row[f"uvlm_{pair}_alone_mN"] = 1e3 * by_itself
-                row[f"uvlm_{pair}_tandem_mN"] = 1e3 * beside
-            row |= {f"uvlm_{p}_change_pct": _percent(b, a) for p, (a, b) in lift.items()}
+            for pair in PAIRS:
+                row[f"uvlm_{pair}_alone_mN"] = 1e3 * alone[pair]["vertical"]
+                row[f"uvlm_{pair}_tandem_mN"] = 1e3 * tandem[pair]["vertical"]
+            for pair in PAIRS:
+                row[f"uvlm_{pair}_change_pct"] = _percent(
+                    tandem[pair]["vertical"], alone[pair]["vertical"]
+                )
             row |= model_cells(mine, index)
             row["uvlm_tandem_wall_s"] = round(tandem["wall_time"], 1)
             out.append(row)
@@ -218,40 +224,54 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
             r for r in mine if (r["steps_per_beat"], r["panels"], r["beats"]) == at_base
         ] or mine
         lags = [r["lag_deg"] for r in main]
-        for pair, style, face, mark in (
-            ("hind", "-", UVLM_COLOUR, "x"),
-            ("fore", "--", "white", "+"),
-        ):
-            uvlm = [r[f"uvlm_{pair}_change_pct"] for r in main]
-            left.plot(lags, uvlm, "o" + style, color=UVLM_COLOUR, mfc=face, label=f"UVLM {pair}")
+        for pair, style, filled in (("hind", "-", True), ("fore", "--", False)):
+            left.plot(
+                lags,
+                [r[f"uvlm_{pair}_change_pct"] for r in main],
+                "o" + style,
+                color=UVLM_COLOUR,
+                markerfacecolor=UVLM_COLOUR if filled else "white",
+                label=f"UVLM {pair}",
+            )
             for i, reading in enumerate(READINGS):
-                change = [r[f"ours_{reading}_{pair}_change_pct"] for r in main]
                 left.plot(
-                    lags, change, mark + style, color=PALETTE[i], label=f"ours ({reading}) {pair}"
+                    lags,
+                    [r[f"ours_{reading}_{pair}_change_pct"] for r in main],
+                    ("x" if pair == "hind" else "+") + style,
+                    color=PALETTE[i],
+                    label=f"ours ({reading}) {pair}",
                 )
         left.axhline(0.0, color="0.7", lw=0.8)
         left.set_xticks(lags)
         left.set(
             xlabel="lag ΔΦ: the hind-wing's phase lead [deg]", ylabel="vertical force change [%]"
         )
-        run = "{steps_per_beat} steps/beat, {panels} panels, {beats} beats, {wake} wake"
-        where = f"V = {key[0]:g} m/s, d = {key[1]:g} mm, h = {key[2]:g} mm"
-        left.set_title(f"{where} ({run.format(**main[0])})", fontsize=9)
-        at = lambda r: (r["steps_per_beat"], r["panels"])  # noqa: E731
+        first = main[0]
+        left.set_title(
+            f"V = {key[0]:g} m/s, d = {key[1]:g} mm, h = {key[2]:g} mm "
+            f"({first['steps_per_beat']} steps/beat, {first['panels']} panels, "
+            f"{first['beats']} beats, {first['wake']} wake)",
+            fontsize=9,
+        )
         resolutions = sorted(
-            dict.fromkeys(map(at, mine)),
+            dict.fromkeys((r["steps_per_beat"], r["panels"]) for r in mine),
             key=lambda sp: (math.prod(int(n) for n in sp[1].split("x")), sp[0]),
         )
         if len(resolutions) > 1:
             for j, lag in enumerate(dict.fromkeys(r["lag_deg"] for r in mine)):
                 series = sorted(
-                    (r for r in mine if r["lag_deg"] == lag), key=lambda r: resolutions.index(at(r))
+                    (r for r in mine if r["lag_deg"] == lag),
+                    key=lambda r: resolutions.index((r["steps_per_beat"], r["panels"])),
                 )
-                x = [resolutions.index(at(r)) for r in series]
+                x = [resolutions.index((r["steps_per_beat"], r["panels"])) for r in series]
                 for pair, marker in (("hind", "o-"), ("fore", "s--")):
-                    change = [r[f"uvlm_{pair}_change_pct"] for r in series]
-                    colour = PALETTE[j % len(PALETTE)]
-                    right.plot(x, change, marker, color=colour, label=f"{pair}, lag {lag:g}")
+                    right.plot(
+                        x,
+                        [r[f"uvlm_{pair}_change_pct"] for r in series],
+                        marker,
+                        color=PALETTE[j % len(PALETTE)],
+                        label=f"{pair}, lag {lag:g}",
+                    )
             right.set_xticks(range(len(resolutions)))
             right.set_xticklabels([f"{s}/beat\n{p}" for s, p in resolutions], fontsize=7)
             right.set_ylabel("UVLM change [%]")
@@ -259,8 +279,9 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
             right.set_title("UVLM convergence (steps per beat, panels)", fontsize=9)
         else:  # one resolution, said in the title (--convergence runs 3 more)
             right.axis("off")
-    # One legend above the panels (0.5 inch high), off the data: every panel has the same series.
+    # One legend above the panels, off the data (every panel has the same series).
     handles, labels = axes[0][0].get_legend_handles_labels()
+    legend_height = 0.5  # [inch]
     fig.legend(handles, labels, loc="upper center", ncol=3, fontsize=8, frameon=False)
-    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.5 / fig.get_figheight()))
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - legend_height / fig.get_figheight()))
     return save(fig, out_dir / FIGURE, crop=False)

@@ -1,6 +1,11 @@
-"""One vortex-lattice run of a wing pair or the tandem with Ptera Software (the ``uvlm`` extra,
-imported only when a run starts), as a job of the runner (:class:`SolverJob`). The mapping:
-docs/crosscheck.md ("The mapping"); each pair is its own Airplane, its loads reported apart."""
+"""One vortex-lattice run (free or prescribed wake) of a wing pair or the tandem, with Ptera
+Software, as a job of the runner (:class:`SolverJob`, :func:`agents.runner.run_jobs`).
+
+Ptera Software (the ``uvlm`` extra, ``pip install -e ".[uvlm]"``) is imported here only, when a
+run starts; :func:`solver_version` says whether it is installed. The mapping of the project's
+stroke onto its wings and movements is docs/crosscheck.md's ("The mapping"): each pair is its
+own Airplane, so the solver reports each pair's loads apart.
+"""
 
 from __future__ import annotations
 
@@ -40,25 +45,29 @@ def solver_version() -> str | None:
 
 def _pair(ps: Any, motion: WingMotion, name: str, run: Run, origin: np.ndarray) -> tuple[Any, Any]:
     """One wing pair as an Airplane and its AirplaneMovement."""
-    panels = (*run.resolution.segment_panels(), None)  # None: the tip, the last station
+    section = ps.geometry.wing_cross_section.WingCrossSection
+    panels = run.resolution.segment_panels()
     chords = motion.chords
-    # Leading points offset by half the change of chord: a straight mid-chord line, the
-    # blade-element model's pitch axis (docs/model.md §2.4).
-    offsets = [(0.0, 0.0, 0.0)] + [
-        (-(chords[i] - chords[i - 1]) / 2, (STATIONS[i] - STATIONS[i - 1]) * motion.length, 0.0)
-        for i in range(1, len(STATIONS))
-    ]
-    sections = [
-        ps.geometry.wing_cross_section.WingCrossSection(
-            airfoil=ps.geometry.airfoil.Airfoil(AIRFOIL),
-            num_spanwise_panels=n,
-            chord=chord,
-            Lp_Wcsp_Lpp=offset,
-            control_surface_symmetry_type="symmetric",
-            spanwise_spacing=None if n is None else "uniform",
+    sections = []
+    for i, (station, chord) in enumerate(zip(STATIONS, chords, strict=True)):
+        last = i == len(STATIONS) - 1
+        # Leading points offset by half the change of chord: a straight mid-chord line, the
+        # blade-element model's pitch axis (docs/model.md §2.4).
+        offset = (
+            (0.0, 0.0, 0.0)
+            if i == 0
+            else (-(chord - chords[i - 1]) / 2, (station - STATIONS[i - 1]) * motion.length, 0.0)
         )
-        for n, chord, offset in zip(panels, chords, offsets, strict=True)
-    ]
+        sections.append(
+            section(
+                airfoil=ps.geometry.airfoil.Airfoil(AIRFOIL),
+                num_spanwise_panels=None if last else panels[i],
+                chord=chord,
+                Lp_Wcsp_Lpp=offset,
+                control_surface_symmetry_type="symmetric",
+                spanwise_spacing=None if last else "uniform",
+            )
+        )
     wing = ps.geometry.wing.Wing(
         wing_cross_sections=sections,
         name=name,
@@ -101,11 +110,12 @@ def build(run: Run) -> tuple[Any, Any, list[str]]:
     import pterasoftware as ps
 
     # The first Airplane's origin is the problem's origin: the hind pair alone sits there.
-    behind = hind_position(run.spacing, run.drop, run.stroke_plane_angle)
-    candidates = (
-        ("fore", run.fore, np.zeros(3)),
-        ("hind", run.hind, behind if run.fore else np.zeros(3)),
+    hind_origin = (
+        np.zeros(3)
+        if run.fore is None
+        else hind_position(run.spacing, run.drop, run.stroke_plane_angle)
     )
+    candidates = (("fore", run.fore, np.zeros(3)), ("hind", run.hind, hind_origin))
     pairs = [(name, motion, origin) for name, motion, origin in candidates if motion is not None]
     built = [_pair(ps, motion, name, run, origin) for name, motion, origin in pairs]
     operating_point = ps.operating_point.OperatingPoint(
@@ -134,7 +144,9 @@ def solve(run: Run) -> dict[str, Any]:
     forward, up = earth_axes(run.stroke_plane_angle)
     problem, operating_point, names = build(run)
     solver = ps.unsteady_ring_vortex_lattice_method.UnsteadyRingVortexLatticeMethodSolver(problem)
-    with warnings.catch_warnings():  # the project's numba layer is on purpose (tandem_env.physics)
+    with warnings.catch_warnings():
+        # The project runs numba on its work-queue threading layer on purpose
+        # (tandem_env/physics/__init__.py); the solver's advice to change it is not for here.
         warnings.filterwarnings("ignore", message=".*workqueue threading layer.*")
         solver.run(
             prescribed_wake=run.wake == "prescribed",
@@ -142,17 +154,20 @@ def solve(run: Run) -> dict[str, Any]:
             show_progress=False,
         )
     to_geometry = np.asarray(operating_point.T_pas_W_CgP1_to_GP1_CgP1)[:3, :3]
+    lateral = np.array([0.0, 1.0, 0.0])
     out: dict[str, Any] = {}
     for index, name in enumerate(names):
         mean = to_geometry @ np.asarray(problem.finalMeanForces_W[index], dtype=float)
-        last_beat = problem.steady_problems[problem.first_averaging_step :]
         history = np.array(
-            [to_geometry @ np.asarray(s.airplanes[index].forces_W, float) for s in last_beat]
+            [
+                to_geometry @ np.asarray(step.airplanes[index].forces_W, dtype=float)
+                for step in problem.steady_problems[problem.first_averaging_step :]
+            ]
         )
         out[name] = {
             "vertical": float(mean @ up),
             "forward": float(mean @ forward),
-            "lateral": float(mean @ [0.0, 1.0, 0.0]),
+            "lateral": float(mean @ lateral),
             "vertical_history": (history @ up).tolist(),
             "forward_history": (history @ forward).tolist(),
         }
@@ -211,7 +226,8 @@ class SolverJob:
     <eval.crosscheck.case.Run.key>`)."""
 
     run: Run
-    solver: str  # Ptera Software's version (:func:`solver_version`), part of the key.
+    solver: str
+    """Ptera Software's version (:func:`solver_version`), part of the key."""
 
     noun: ClassVar[str] = "solver run"
     record_type: ClassVar[type[SolverRecord]] = SolverRecord
