@@ -154,11 +154,8 @@ def group(
     for record in records:
         if record.key in seen:  # one configuration and seed: the same run, found twice
             if not quiet:
-                print(
-                    f"compare: {record.label()} (key {record.key}) found twice; the first "
-                    "found is counted",
-                    file=sys.stderr,
-                )
+                twice = f"compare: {record.label()} (key {record.key}) found twice"
+                print(f"{twice}; the first found is counted", file=sys.stderr)
             continue
         seen.add(record.key)
         c = record.condition

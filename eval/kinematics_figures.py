@@ -242,9 +242,9 @@ def cycle_figure(
                 ax.set_xlabel("cycle t/T [-]")
                 ax.set_xticks([0.0, 0.5, 1.0])
             handles, labels = axes[0].get_legend_handles_labels()
-            entries = [*zip(handles, labels, strict=True), text_entry("bold: best seed")]
+            key, text = text_entry("bold: best seed")
             subfigs[0].legend(
-                *zip(*entries, strict=True), loc="outside lower center", ncols=2, frameon=False
+                [*handles, key], [*labels, text], loc="outside lower center", ncols=2, frameon=False
             )
         if extras:
             axes = np.atleast_1d(subfigs[-1].subplots(1, len(extras)))

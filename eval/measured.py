@@ -132,14 +132,13 @@ def _series(value: Any, where: str) -> tuple[float, list[tuple[float, float]]]:
 def _read_csv(path: Path, where: str) -> dict[str, np.ndarray]:
     if not path.is_file():
         raise SpecError(f"{where}.csv = {str(path)!r}: no such file")
+    table = f"{where}.csv {str(path)!r}"  # how every message names the file
     try:
         text = read_text(path, f"{where}.csv")
+        reader = csv.reader(io.StringIO(text, newline=""))
+        rows = [row for row in reader if row and not row[0].lstrip().startswith("#")]
     except DataFileError as error:
         raise SpecError(str(error)) from None
-    table = f"{where}.csv {str(path)!r}"  # how every message names the file
-    reader = csv.reader(io.StringIO(text, newline=""))
-    try:
-        rows = [row for row in reader if row and not row[0].lstrip().startswith("#")]
     except csv.Error as exc:
         raise SpecError(f"{table}: not CSV ({exc})") from None
     if len(rows) < 2:

@@ -409,9 +409,6 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         )
         print(f"  {describe_certificate(record.certificate)}")
     hint = " (--rerun runs them again)" if summary.reused else ""
-    print(
-        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.describe(Path(args.out))}"
-        + hint,
-        file=sys.stderr,
-    )
+    seeds = f"{summary.total} seed{'s' * (summary.total != 1)}"
+    print(f"{seeds}: {summary.describe(Path(args.out))}{hint}", file=sys.stderr)
     return 0

@@ -409,12 +409,10 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
     FigureCanvasAgg(figure)
     axes = figure.subplots(3, 1, sharex=True)
     first = logs[0]
-    axes[0].axhline(first.target_speed, color="0.3", ls="--", lw=1.0, label="target u*")
+    target = first.target_speed
+    axes[0].axhline(target, color="0.3", ls="--", lw=1.0, label="target u*")
     axes[0].axhspan(
-        (1 - TARGET_WITHIN) * first.target_speed,
-        (1 + TARGET_WITHIN) * first.target_speed,
-        color="0.9",
-        zorder=0,
+        (1 - TARGET_WITHIN) * target, (1 + TARGET_WITHIN) * target, color="0.9", zorder=0
     )
     axes[0].set_prop_cycle(color=LINE_HUES)  # Okabe-Ito, one hue per policy
     for log in logs:
@@ -432,11 +430,8 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
     axes[2].set_xlabel("time [s]")
     axes[0].legend(fontsize=8, ncol=3, loc="best")
     axes[2].legend(fontsize=8, loc="upper right")
-    figure.suptitle(
-        f"SpeedChange-v0, seed {first.seed}: u0 = {first.forward_speed[0]:.2f} m/s -> "
-        f"u* = {first.target_speed:.2f} m/s (x: ended early)",
-        fontsize=10,
-    )
+    start = f"u0 = {first.forward_speed[0]:.2f} m/s -> u* = {target:.2f} m/s (x: ended early)"
+    figure.suptitle(f"SpeedChange-v0, seed {first.seed}: {start}", fontsize=10)
     figure.tight_layout()
     with atomic_path(path) as tmp:  # a killed run never leaves half a figure
         figure.savefig(tmp)

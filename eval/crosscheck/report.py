@@ -224,22 +224,17 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
             r for r in mine if (r["steps_per_beat"], r["panels"], r["beats"]) == at_base
         ] or mine
         lags = [r["lag_deg"] for r in main]
-        for pair, style, filled in (("hind", "-", True), ("fore", "--", False)):
-            left.plot(
-                lags,
-                [r[f"uvlm_{pair}_change_pct"] for r in main],
-                "o" + style,
-                color=UVLM_COLOUR,
-                markerfacecolor=UVLM_COLOUR if filled else "white",
-                label=f"UVLM {pair}",
-            )
+        # hind-wing: solid lines, filled circles and x; fore-wing: dashed, open circles and +
+        for pair, style, face, mark in (
+            ("hind", "-", UVLM_COLOUR, "x"),
+            ("fore", "--", "white", "+"),
+        ):
+            uvlm = [r[f"uvlm_{pair}_change_pct"] for r in main]
+            left.plot(lags, uvlm, "o" + style, color=UVLM_COLOUR, mfc=face, label=f"UVLM {pair}")
             for i, reading in enumerate(READINGS):
+                change = [r[f"ours_{reading}_{pair}_change_pct"] for r in main]
                 left.plot(
-                    lags,
-                    [r[f"ours_{reading}_{pair}_change_pct"] for r in main],
-                    ("x" if pair == "hind" else "+") + style,
-                    color=PALETTE[i],
-                    label=f"ours ({reading}) {pair}",
+                    lags, change, mark + style, color=PALETTE[i], label=f"ours ({reading}) {pair}"
                 )
         left.axhline(0.0, color="0.7", lw=0.8)
         left.set_xticks(lags)
@@ -265,13 +260,9 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
                 )
                 x = [resolutions.index((r["steps_per_beat"], r["panels"])) for r in series]
                 for pair, marker in (("hind", "o-"), ("fore", "s--")):
-                    right.plot(
-                        x,
-                        [r[f"uvlm_{pair}_change_pct"] for r in series],
-                        marker,
-                        color=PALETTE[j % len(PALETTE)],
-                        label=f"{pair}, lag {lag:g}",
-                    )
+                    change = [r[f"uvlm_{pair}_change_pct"] for r in series]
+                    colour = PALETTE[j % len(PALETTE)]
+                    right.plot(x, change, marker, color=colour, label=f"{pair}, lag {lag:g}")
             right.set_xticks(range(len(resolutions)))
             right.set_xticklabels([f"{s}/beat\n{p}" for s, p in resolutions], fontsize=7)
             right.set_ylabel("UVLM change [%]")
