@@ -1,5 +1,3 @@
 """Evaluation: run methods on tasks (``optimize``), compare their records (``compare``), studies.
-
-Command line: ``python -m eval --help``. Each subcommand lives in its own module, registered in
-:data:`eval.__main__.SUBCOMMANDS`.
+Command line: ``python -m eval --help``; each subcommand a module of :data:`eval.__main__.SUBCOMMANDS`.
 """

@@ -150,17 +150,14 @@ def group(
     """Records by panel, then by configuration; a record seen twice (same key: the same job)
     counts once, said on stderr unless ``quiet``."""
     out: dict[PanelKey, dict[SeriesKey, list[Record]]] = defaultdict(lambda: defaultdict(list))
-    seen: dict[str, Record] = {}
+    seen: set[str] = set()
     for record in records:
         if record.key in seen:  # one configuration and seed: the same run, found twice
             if not quiet:
-                print(
-                    f"compare: {record.label()} (key {record.key}) found twice; the first "
-                    "found is counted",
-                    file=sys.stderr,
-                )
+                twice = f"compare: {record.label()} (key {record.key}) found twice"
+                print(f"{twice}; the first found is counted", file=sys.stderr)
             continue
-        seen[record.key] = record
+        seen.add(record.key)
         c = record.condition
         panel = (record.task, record.objective_name, c.name, c.value, c.unit)
         out[panel][series_key(record)].append(record)
@@ -330,21 +327,18 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
             finals.extend(v for v in (q25[-1], median[-1], q75[-1]) if np.isfinite(v))
             tail = median[x >= 0.1 * x[-1]]
             finals.extend(v for v in tail[:1] if np.isfinite(v))
-        ax.plot(
-            [],
-            [],
-            marker="D",
-            color="0.5",
-            mec="k",
-            ls="none",
-            label=f"reported {objective_name} (median of feasible seeds)",
-        )
+        reported = f"reported {objective_name} (median of feasible seeds)"
+        ax.plot([], [], marker="D", color="0.5", mec="k", ls="none", label=reported)
         if polished:
             ax.plot([], [], ":", color="0.5", lw=1.4, label=POLISH_LABEL)
-        _focus(ax, finals)
+        if finals:
+            # Early rewards of infeasible strokes are far below the feasible objectives at the
+            # end: show the range from a tenth of the run on, so the end is readable.
+            low, high = min(finals), max(finals)
+            pad = 0.08 * (high - low) if high > low else 0.05 * max(abs(high), 1e-3)
+            ax.set_ylim(low - pad, high + pad)
         ax.set_title(f"{task}, {objective_name}, {condition} = {value:g} {unit}", fontsize=10)
-        ax.set_xlabel("model evaluations")
-        ax.set_ylabel("best reward so far (penalised objective)")
+        ax.set(xlabel="model evaluations", ylabel="best reward so far (penalised objective)")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="lower right")
     for ax in list(axes.flat)[n:]:
@@ -357,16 +351,6 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
     fig.suptitle(textwrap.fill(caption, 62 * cols), fontsize=9)
     fig.tight_layout()
     return fig
-
-
-def _focus(ax: Any, values: list[float]) -> None:
-    # Early rewards of infeasible strokes are far below the feasible objectives at the end:
-    # show the range from a tenth of the run on, so the end is readable.
-    if not values:
-        return
-    low, high = min(values), max(values)
-    pad = 0.08 * (high - low) if high > low else 0.05 * max(abs(high), 1e-3)
-    ax.set_ylim(low - pad, high + pad)
 
 
 def compare(

@@ -382,9 +382,8 @@ def convergence_figure(
             pad = 0.05 * max(high - low, 1e-9)
             ax.set_ylim(low - pad, high + pad)
         ax.set_title(label, fontsize=9)
-        ax.set_xlabel("model evaluations [-]")
         # The search's penalised reward, not a record's objective (the best feasible stroke's).
-        ax.set_ylabel("best reward so far (penalised) [-]")
+        ax.set(xlabel="model evaluations [-]", ylabel="best reward so far (penalised) [-]")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="lower right")
     fig.suptitle("Budget study: best-so-far over seeds (dotted: preset budgets)", fontsize=10)

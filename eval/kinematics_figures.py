@@ -84,9 +84,8 @@ def tip_path_figure(traces: Sequence[Trace], title: str, path: Path) -> Path:
             tip = getattr(trace, wing)["tip_path"]
             color = _seed_color(trace, i)
             loop = np.vstack([tip, tip[:1]])  # one period: the path closes on itself
-            ax.plot(
-                loop[:, 0], loop[:, 2], "-", color=color, label=trace.label, **_trace_style(trace)
-            )
+            style = {"color": color, "label": trace.label, **_trace_style(trace)}
+            ax.plot(loop[:, 0], loop[:, 2], "-", **style)
             if trace.best:
                 # Start of the cycle, and the direction of travel above every path.
                 ax.plot(tip[0, 0], tip[0, 2], "o", color="k", ms=5, zorder=5)
@@ -186,13 +185,8 @@ def _cycle_panel(
         ax.plot(trace.cycle, trace.hind[quantity], "--", color=WING_COLORS["hind"], **style)
     ax.plot([], [], "-", color=WING_COLORS["fore"], label="fore-wing")
     ax.plot([], [], "--", color=WING_COLORS["hind"], label="hind-wing")
-    ax.axvline(
-        PAPER_DOWNSTROKE_END,
-        color="k",
-        ls=":",
-        lw=1.0,
-        label="paper: down-stroke ends (t/T = 0.5)" if first else None,
-    )
+    label = "paper: down-stroke ends (t/T = 0.5)" if first else None
+    ax.axvline(PAPER_DOWNSTROKE_END, color="k", ls=":", lw=1.0, label=label)
     ax.set_ylabel(ylabel)
     ax.grid(alpha=0.3)
 
@@ -248,9 +242,9 @@ def cycle_figure(
                 ax.set_xlabel("cycle t/T [-]")
                 ax.set_xticks([0.0, 0.5, 1.0])
             handles, labels = axes[0].get_legend_handles_labels()
-            entries = [*zip(handles, labels, strict=True), text_entry("bold: best seed")]
+            key, text = text_entry("bold: best seed")
             subfigs[0].legend(
-                *zip(*entries, strict=True), loc="outside lower center", ncols=2, frameon=False
+                [*handles, key], [*labels, text], loc="outside lower center", ncols=2, frameon=False
             )
         if extras:
             axes = np.atleast_1d(subfigs[-1].subplots(1, len(extras)))

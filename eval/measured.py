@@ -93,8 +93,7 @@ def _mapping(value: Any, where: str) -> dict[str, Any]:
 
 
 def _take(spec: dict[str, Any], allowed: tuple[str, ...], where: str) -> None:
-    unknown = sorted(set(spec) - set(allowed))
-    if unknown:
+    if unknown := sorted(set(spec) - set(allowed)):
         raise SpecError(f"{where}.{unknown[0]}: unknown field; allowed: {', '.join(allowed)}")
 
 
@@ -102,15 +101,6 @@ def _number(value: Any, where: str, unit: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise SpecError(f"{where} = {value!r}; allowed: a finite number [{unit}]")
     return float(value)
-
-
-def _options(spec: Any) -> ModelOptions:
-    spec = _mapping(spec, "options")
-    _take(spec, tuple(f.name for f in fields(ModelOptions)), "options")
-    try:
-        return ModelOptions(**spec)
-    except (TypeError, ValueError) as exc:
-        raise SpecError(f"options: {exc}") from None
 
 
 def _series(value: Any, where: str) -> tuple[float, list[tuple[float, float]]]:
@@ -142,14 +132,13 @@ def _series(value: Any, where: str) -> tuple[float, list[tuple[float, float]]]:
 def _read_csv(path: Path, where: str) -> dict[str, np.ndarray]:
     if not path.is_file():
         raise SpecError(f"{where}.csv = {str(path)!r}: no such file")
+    table = f"{where}.csv {str(path)!r}"  # how every message names the file
     try:
         text = read_text(path, f"{where}.csv")
+        reader = csv.reader(io.StringIO(text, newline=""))
+        rows = [row for row in reader if row and not row[0].lstrip().startswith("#")]
     except DataFileError as error:
         raise SpecError(str(error)) from None
-    table = f"{where}.csv {str(path)!r}"  # how every message names the file
-    reader = csv.reader(io.StringIO(text, newline=""))
-    try:
-        rows = [row for row in reader if row and not row[0].lstrip().startswith("#")]
     except csv.Error as exc:
         raise SpecError(f"{table}: not CSV ({exc})") from None
     if len(rows) < 2:
@@ -160,8 +149,7 @@ def _read_csv(path: Path, where: str) -> dict[str, np.ndarray]:
             "(resample it)"
         )
     header = [h.strip() for h in rows[0]]
-    repeated = sorted({h for h in header if header.count(h) > 1})
-    if repeated:
+    if repeated := sorted({h for h in header if header.count(h) > 1}):
         raise SpecError(
             f"{table}: column {repeated[0]!r} appears {header.count(repeated[0])} times in the "
             "header; allowed: distinct column names"
@@ -207,19 +195,18 @@ def _measured_wing(
     stations = spec.get("pitch_stations")
     try:
         if not is_csv:
-            missing = [a for a in ANGLES if a not in spec]
-            if missing:
+            if missing := [a for a in ANGLES if a not in spec]:
                 raise SpecError(
                     f"{where}.{missing[0]}: missing; allowed: a Fourier series, or give csv: "
                     "and columns: instead"
                 )
             if stations is None:
                 pitch = _series(spec["pitch"], f"{where}.pitch")
+            elif not isinstance(spec["pitch"], (list, tuple)):
+                raise SpecError(
+                    f"{where}.pitch: with pitch_stations, a list of series, one per station"
+                )
             else:
-                if not isinstance(spec["pitch"], (list, tuple)):
-                    raise SpecError(
-                        f"{where}.pitch: with pitch_stations, a list of series, one per station"
-                    )
                 pitch = [_series(p, f"{where}.pitch[{i}]") for i, p in enumerate(spec["pitch"])]
             return MeasuredWing.from_fourier(
                 frequency,
@@ -285,17 +272,27 @@ def load_case(path: str | Path) -> MeasuredCase:
         insect = load_insect(_mapping(spec.get("insect"), "insect"))
     except ValueError as exc:
         raise SpecError(str(exc)) from None
+    speed = _number(flight.get("speed", 0.0), "flight.speed", "m/s")
     power = flight.get("available_power")
+    if power is not None:
+        power = _number(power, "flight.available_power", "W/kg")
+    # The model options are checked last (after the flight's numbers), as they always were.
+    options = _mapping(spec.get("options"), "options")
+    _take(options, tuple(f.name for f in fields(ModelOptions)), "options")
+    try:
+        model_options = ModelOptions(**options)
+    except (TypeError, ValueError) as exc:
+        raise SpecError(f"options: {exc}") from None
     return MeasuredCase(
         name=path.stem,
         description=str(spec.get("description", "")),
         fore=wings[0],
         hind=wings[1],
-        speed=_number(flight.get("speed", 0.0), "flight.speed", "m/s"),
+        speed=speed,
         flight_path_angle=math.radians(gamma) if degrees else gamma,
-        available_power=None if power is None else _number(power, "flight.available_power", "W/kg"),
+        available_power=power,
         insect=insect,
-        options=_options(spec.get("options")),
+        options=model_options,
     )
 
 
@@ -304,14 +301,14 @@ def summary(history: StrokeHistory, insect: Dragonfly) -> dict[str, dict[str, fl
     r: Result = history.result
     out = {}
     for name in WINGS:
-        wing = getattr(history, name)
-        thrust, drag = wing.thrust_and_drag()
+        thrust, drag = getattr(history, name).thrust_and_drag()
+        power = float(getattr(r, f"{name}_power")[0])
         out[name] = {
             "lift_to_weight": float(getattr(r, f"{name}_lift_to_weight")[0]),
             "thrust": thrust,
             "drag": drag,
-            "power": float(getattr(r, f"{name}_power")[0]),
-            "power_per_mass": float(getattr(r, f"{name}_power")[0]) / insect.body_mass,
+            "power": power,
+            "power_per_mass": power / insect.body_mass,
         }
     out["total"] = {
         key: float(getattr(r, key)[0])
@@ -337,15 +334,14 @@ def format_summary(case: MeasuredCase, history: StrokeHistory) -> str:
             f"{label:10} {row['lift_to_weight']:7.3f} {1e3 * row['thrust']:8.3f} "
             f"{1e3 * row['drag']:8.3f} {1e3 * row['power']:8.3f} {row['power_per_mass']:11.1f}"
         )
-    notes = []
     if case.options.thrust_split == "body":
-        notes.append(
+        lines.append(
             "total T is the net horizontal wing force and D the body drag (thrust_split=body)"
         )
     if not r.induction_converged[0]:
-        notes.append("WARNING: the inflow solve did not converge on every annulus")
-    notes.append(f"mean angle of attack {r.mean_angle_of_attack[0]:.1f}°")
-    return "\n".join([*lines, *notes])
+        lines.append("WARNING: the inflow solve did not converge on every annulus")
+    lines.append(f"mean angle of attack {r.mean_angle_of_attack[0]:.1f}°")
+    return "\n".join(lines)
 
 
 def record(case: MeasuredCase, history: StrokeHistory, source: Path) -> dict[str, Any]:

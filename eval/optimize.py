@@ -262,9 +262,9 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
     "--scheduler": {
         "metavar": "WHERE",
         "action": checked_by(parse_scheduler),
-        "help": "run the optimisations on Dask: local:N (N worker processes started here, one "
-        "numba thread each) or the address of a running scheduler, e.g. tcp://HOST:8786 "
-        "(docs/scaling.md); default: one after another in this process",
+        "help": "run the jobs (the optimisations, the solver runs) on Dask: local:N (N worker "
+        "processes started here, one numba thread each) or the address of a running scheduler, "
+        "e.g. tcp://HOST:8786 (docs/scaling.md); default: one after another in this process",
     },
     "--no-cache": {
         "dest": "cache",
@@ -409,9 +409,6 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         )
         print(f"  {describe_certificate(record.certificate)}")
     hint = " (--rerun runs them again)" if summary.reused else ""
-    print(
-        f"{summary.total} seed{'s' * (summary.total != 1)}: {summary.describe(Path(args.out))}"
-        + hint,
-        file=sys.stderr,
-    )
+    seeds = f"{summary.total} seed{'s' * (summary.total != 1)}"
+    print(f"{seeds}: {summary.describe(Path(args.out))}{hint}", file=sys.stderr)
     return 0

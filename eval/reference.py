@@ -205,11 +205,8 @@ def _pool(found: Mapping[PointKey, Sequence[Record]], key: PointKey) -> list[Rec
 
 def best_objectives(found: Mapping[PointKey, Sequence[Record]]) -> dict[PointKey, float]:
     """Each point's best feasible objective among what competes for it (NaN: none flies)."""
-    values = {}
-    for key in found:
-        best = _best(_pool(found, key), key[0], key[1])
-        values[key] = _value(best, key[0], key[1]) if best.feasible else float("nan")
-    return values
+    best = {key: _best(_pool(found, key), key[0], key[1]) for key in found}
+    return {k: _value(b, k[0], k[1]) if b.feasible else float("nan") for k, b in best.items()}
 
 
 def round_gains(
@@ -226,6 +223,10 @@ def round_gains(
     }
 
 
+#: What the table keeps of each best stroke's certificate.
+CERTIFICATE_KEYS = ("method", "status", "gain", "objective_before")
+
+
 def _point(
     key: PointKey,
     search: Sequence[Record],
@@ -236,7 +237,6 @@ def _point(
     """One grid point: the best stroke competing for it (:func:`_pool`)."""
     env_id, objective, _, condition = key
     best = _best(_pool(found, key), env_id, objective)
-    certificate = best.certificate
     if best in search:
         source = f"seed {best.seed}"
     elif best in rounds:
@@ -260,9 +260,7 @@ def _point(
             for r in found[key][len(search) + len(rounds) :]
         ],
         "normalised_stroke": list(best.normalised_stroke),
-        "certificate": {
-            k: certificate.get(k) for k in ("method", "status", "gain", "objective_before")
-        },
+        "certificate": {k: best.certificate.get(k) for k in CERTIFICATE_KEYS},
         "record_key": best.key,
     }
 
@@ -435,15 +433,9 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         jobs, rounds, run.records, provenance(every, run.records, table_plan.convergence), extra
     )
     write_json_atomic(table_path, table)
-    _report(table, Path(args.out))
-    print(f"reference: {len(every)} optimisations; table written to {table_path}", file=sys.stderr)
-    return 0
-
-
-def _report(table: Mapping[str, Any], out: Path) -> None:
-    """The table as Markdown (``OUT/reference.md``) and a figure (``OUT/reference.png``)."""
-    write_text_atomic(out / "reference.md", reference_markdown(table))
-    write_reference_figure(table, out / "reference.png")
+    # The table as people read it: Markdown (OUT/reference.md) and a figure (OUT/reference.png).
+    write_text_atomic(Path(args.out) / "reference.md", reference_markdown(table))
+    write_reference_figure(table, Path(args.out) / "reference.png")
     for series in table["series"]:
         weak = [p for p in series["points"] if not p["feasible"]]
         if weak:
@@ -452,6 +444,8 @@ def _report(table: Mapping[str, Any], out: Path) -> None:
                 f"feasible optimum at {[p['condition'] for p in weak]}",
                 file=sys.stderr,
             )
+    print(f"reference: {len(every)} optimisations; table written to {table_path}", file=sys.stderr)
+    return 0
 
 
 # --- the table as people read it: a Markdown table, and a figure of the optima against the
@@ -565,8 +559,7 @@ def write_reference_figure(table: Mapping[str, Any], path: Path) -> None:
             for p in series["points"]:
                 seeds = [v for v in p["seed_objectives"] if v is not None]
                 ax.plot([p["condition"]] * len(seeds), seeds, ".", color=colour, alpha=0.25)
-        ax.set_xlabel(_condition_header(env_id))
-        ax.set_ylabel(f"reference objective [{objectives.unit}]")
+        ax.set(xlabel=_condition_header(env_id), ylabel=f"reference objective [{objectives.unit}]")
         ax.set_title(env_id.split("/")[-1])
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)

@@ -82,11 +82,8 @@ def show(
     from eval.figures import DPI
     from tandem_env.envs.render import FRAME_DPI, FRAME_SIZE, WING_STYLE, Frame, draw, metrics_line
 
-    frame = Frame(
-        title=record.label(),
-        subtitle=metrics_line(record.reward, record.metrics, record.objective_name),
-        history=history,
-    )
+    subtitle = metrics_line(record.reward, record.metrics, record.objective_name)
+    frame = Frame(title=record.label(), subtitle=subtitle, history=history)
     width, height = FRAME_SIZE
     figure = Figure(figsize=(width / FRAME_DPI, height / FRAME_DPI), dpi=FRAME_DPI)
     FigureCanvasAgg(figure)

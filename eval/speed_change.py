@@ -367,21 +367,25 @@ def policy_summary_rows(episodes: Sequence[Mapping[str, Any]]) -> list[dict[str,
     return out
 
 
+#: The docs table's columns: heading and the cell of a row of :func:`policy_summary_rows`.
+SUMMARY_COLUMNS: tuple[tuple[str, str], ...] = (
+    ("policy", "{policy}"),
+    ("mean return (± std)", "{return_mean:.2f} (± {return_std:.2f})"),
+    ("ended early", "{terminated_share:.0%}"),
+    ("reached u* ± 5 %", "{reached_share:.0%}"),
+    ("median time to reach [s]", "{time_to_target_median_s:.3f}"),
+    ("final \\|u − u*\\| [m/s]", "{final_speed_error_mean_m_s:.3f}"),
+    ("energy per metre [mJ/m]", "{energy_per_metre_mean_mJ_m:.2f}"),
+    ("mean \\|h\\| [mm]", "{mean_abs_altitude_mean_mm:.1f}"),
+    ("mean P/m [W/kg]", "{mean_power_W_kg:.1f}"),
+)
+
+
 def policy_summary_markdown(rows: Sequence[Mapping[str, Any]]) -> str:
     """The docs table of :func:`policy_summary_rows`."""
-    lines = [
-        "| policy | mean return (± std) | ended early | reached u* ± 5 % | median time to reach [s] "
-        "| final \\|u − u*\\| [m/s] | energy per metre [mJ/m] | mean \\|h\\| [mm] | mean P/m [W/kg] |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for r in rows:
-        lines.append(
-            f"| {r['policy']} | {r['return_mean']:.2f} (± {r['return_std']:.2f}) "
-            f"| {r['terminated_share']:.0%} | {r['reached_share']:.0%} "
-            f"| {r['time_to_target_median_s']:.3f} | {r['final_speed_error_mean_m_s']:.3f} "
-            f"| {r['energy_per_metre_mean_mJ_m']:.2f} | {r['mean_abs_altitude_mean_mm']:.1f} "
-            f"| {r['mean_power_W_kg']:.1f} |"
-        )
+    heads, cells = zip(*SUMMARY_COLUMNS, strict=True)
+    lines = ["| " + " | ".join(heads) + " |", "|---" * len(heads) + "|"]
+    lines += ["| " + " | ".join(c.format(**r) for c in cells) + " |" for r in rows]
     if all(f"return_{key}_mean" in r for r in rows for key in REWARD_PARTS):
         lines += [
             "",
@@ -405,12 +409,10 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
     FigureCanvasAgg(figure)
     axes = figure.subplots(3, 1, sharex=True)
     first = logs[0]
-    axes[0].axhline(first.target_speed, color="0.3", ls="--", lw=1.0, label="target u*")
+    target = first.target_speed
+    axes[0].axhline(target, color="0.3", ls="--", lw=1.0, label="target u*")
     axes[0].axhspan(
-        (1 - TARGET_WITHIN) * first.target_speed,
-        (1 + TARGET_WITHIN) * first.target_speed,
-        color="0.9",
-        zorder=0,
+        (1 - TARGET_WITHIN) * target, (1 + TARGET_WITHIN) * target, color="0.9", zorder=0
     )
     axes[0].set_prop_cycle(color=LINE_HUES)  # Okabe-Ito, one hue per policy
     for log in logs:
@@ -421,19 +423,15 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
             axes[0].plot(log.time[-1], log.forward_speed[-1], "x", color=line.get_color())
             axes[1].plot(log.time[-1], 1e3 * log.altitude[-1], "x", color=line.get_color())
     axes[2].axhline(90.0, color="0.3", ls=":", lw=1.0, label="power cap 90 W/kg")
-    axes[0].set_ylabel("forward speed u [m/s]")
-    axes[1].set_ylabel("altitude error h [mm]")
-    axes[2].set_ylabel("P/m [W/kg]")
+    labels = ("forward speed u [m/s]", "altitude error h [mm]", "P/m [W/kg]")
+    for axis, label in zip(axes, labels, strict=True):
+        axis.set_ylabel(label)
+        axis.grid(True, color="0.92")
     axes[2].set_xlabel("time [s]")
     axes[0].legend(fontsize=8, ncol=3, loc="best")
     axes[2].legend(fontsize=8, loc="upper right")
-    for axis in axes:
-        axis.grid(True, color="0.92")
-    figure.suptitle(
-        f"SpeedChange-v0, seed {first.seed}: u0 = {first.forward_speed[0]:.2f} m/s -> "
-        f"u* = {first.target_speed:.2f} m/s (x: ended early)",
-        fontsize=10,
-    )
+    start = f"u0 = {first.forward_speed[0]:.2f} m/s -> u* = {target:.2f} m/s (x: ended early)"
+    figure.suptitle(f"SpeedChange-v0, seed {first.seed}: {start}", fontsize=10)
     figure.tight_layout()
     with atomic_path(path) as tmp:  # a killed run never leaves half a figure
         figure.savefig(tmp)

@@ -86,13 +86,12 @@ class Resolution:
     """Beats run [-]; the loads are the mean over the last one (the wake of the first two)."""
 
     def __post_init__(self) -> None:
-        limits = {
-            "steps_per_beat": ("--steps-per-beat", 4, 256),
-            "chordwise": ("--panels (chordwise)", 1, 16),
-            "spanwise": ("--panels (spanwise)", len(STATIONS) - 1, 64),
-            "beats": ("--beats", 2, 8),
-        }
-        for name, (option, low, high) in limits.items():
+        for name, option, low, high in (
+            ("steps_per_beat", "--steps-per-beat", 4, 256),
+            ("chordwise", "--panels (chordwise)", 1, 16),
+            ("spanwise", "--panels (spanwise)", len(STATIONS) - 1, 64),
+            ("beats", "--beats", 2, 8),
+        ):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
                 raise ValueError(f"{option} {value!r}; allowed: a whole number {low} to {high}")
@@ -200,8 +199,7 @@ def check_family(stroke: np.ndarray) -> np.ndarray:
     p = dict(zip(PARAMETER_NAMES, arr[0], strict=True))
     for pair in PAIRS:
         for name, symbol in (("sweep_shape", "K"), ("pitch_shape", "C_η")):
-            value = p[f"{pair}_{name}"]
-            if value > MAX_SHAPE:
+            if (value := p[f"{pair}_{name}"]) > MAX_SHAPE:
                 raise ValueError(
                     f"{pair}_{name} ({symbol}) = {value:g}: the vortex-lattice mapping moves each "
                     f"angle as a sine; allowed: {symbol} <= {MAX_SHAPE:g} (a sinusoidal waveform)"
@@ -262,8 +260,7 @@ def base_stroke(**overrides: float) -> np.ndarray:
         for pair in PAIRS
         for name, value in BASE_WING.items()
     }
-    unknown = sorted(set(overrides) - set(values))
-    if unknown:
+    if unknown := sorted(set(overrides) - set(values)):
         raise ValueError(
             f"--stroke: unknown parameter(s) {unknown}; allowed: {', '.join(PARAMETER_NAMES)}"
         )
@@ -289,9 +286,8 @@ class Case:
 
     @property
     def label(self) -> str:
-        return (
-            f"V = {self.speed:g} m/s, d = {1e3 * self.spacing:.1f} mm, h = {1e3 * self.drop:.1f} mm"
-        )
+        where = f"d = {1e3 * self.spacing:.1f} mm, h = {1e3 * self.drop:.1f} mm"
+        return f"V = {self.speed:g} m/s, {where}"
 
 
 @dataclass(frozen=True)
@@ -444,12 +440,11 @@ def clearances(
     fore = wing_motion(insect.fore, stroke, "fore")
     t = np.arange(n_time) / (n_time * fore.frequency)
     fore_points = wing_surface(fore, np.zeros(3), t, root_offset, (n_span, n_chord))
+    behind = hind_position(case.spacing, case.drop, beta)
     out = {}
     for lag in case.lags:
         hind = wing_motion(insect.hind, stroke, "hind", lag)
-        hind_points = wing_surface(
-            hind, hind_position(case.spacing, case.drop, beta), t, root_offset, (n_span, n_chord)
-        )
+        hind_points = wing_surface(hind, behind, t, root_offset, (n_span, n_chord))
         least = min(
             float(cKDTree(hind_points[k]).query(fore_points[k])[0].min()) for k in range(n_time)
         )

@@ -155,8 +155,8 @@ examples:
   python -m eval crosscheck --grid lag-study --scheduler local:2 --out results/crosscheck"""
 
 
-#: The command's options (argparse keywords), ``--no-cache`` besides (:data:`RUN_OPTIONS
-#: <eval.optimize.RUN_OPTIONS>`).
+#: The command's options (argparse keywords); ``--scheduler``, ``--no-cache`` and ``--rerun``
+#: besides (:data:`RUN_OPTIONS <eval.optimize.RUN_OPTIONS>`).
 OPTIONS: dict[str, dict[str, Any]] = {
     "--grid": {"choices": list(GRIDS), "default": "single", "help": "the cases (above)"},
     "--lags": {
@@ -201,37 +201,15 @@ OPTIONS: dict[str, dict[str, Any]] = {
         "action": "store_true",
         "help": "also run the first case at 2/3 and 4/3 of the time steps and at 1.5x2 the panels",
     },
-    "--scheduler": {
-        "metavar": "WHERE",
-        "help": "run the solver runs on Dask: local:N (N worker processes here, one numba thread "
-        "each) or a running scheduler, tcp://HOST:PORT (docs/scaling.md); default: one after "
-        "another in this process",
-    },
 }
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     for flag, keywords in OPTIONS.items():
         parser.add_argument(flag, **keywords)
-    add_run_arguments(parser, "--no-cache", "--rerun")
+    add_run_arguments(parser, "--scheduler", "--no-cache", "--rerun")
     parser.add_argument("--out", default=str(DEFAULT_OUT), help=f"output folder ({DEFAULT_OUT})")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
-
-
-def _stroke(items: list[str]) -> dict[str, float]:
-    """The ``--stroke NAME=VALUE`` changes; ValueError for an item that is not one."""
-    changes = {}
-    for item in items:
-        name, sep, value = item.partition("=")
-        try:
-            changes[name.strip()] = float(value)
-        except ValueError:
-            sep = ""
-        if not sep:
-            raise ValueError(
-                f"--stroke {item!r}; allowed: NAME=NUMBER, e.g. fore_sweep_amplitude=40"
-            )
-    return changes
 
 
 def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resolution]]:
@@ -249,15 +227,23 @@ def plan(args: argparse.Namespace) -> tuple[Dragonfly, list[Case], list[Resoluti
             f"{' and '.join(f'--{n}' for n in where)} apply to --grid single; --grid {args.grid} "
             "sets its own"
         )
-    if args.lags is not None:
-        bad = [a for a in args.lags if not -360.0 <= a <= 360.0]
-        if bad:
-            raise ValueError(f"--lags {bad[0]:g}; allowed: -360 to 360 deg")
+    if bad := [a for a in args.lags or () if not -360.0 <= a <= 360.0]:
+        raise ValueError(f"--lags {bad[0]:g}; allowed: -360 to 360 deg")
     given = {"steps_per_beat": args.steps_per_beat, "beats": args.beats}
     given |= {} if args.panels is None else parse_panels(args.panels)
     resolution = replace(grid.resolution, **{k: v for k, v in given.items() if v is not None})
     insect = DRAGONFLY.with_planform(args.planform)  # type: ignore[arg-type]
-    stroke = _stroke(args.stroke)
+    stroke: dict[str, float] = {}  # the --stroke NAME=VALUE changes
+    for item in args.stroke:
+        name, sep, value = item.partition("=")
+        try:
+            stroke[name.strip()] = float(value)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise ValueError(
+                f"--stroke {item!r}; allowed: NAME=NUMBER, e.g. fore_sweep_amplitude=40"
+            )
     lags = None if args.lags is None else tuple(dict.fromkeys(float(a) for a in args.lags))
     cases = [point.case(insect, stroke, lags) for point in grid.points]
     if where:
@@ -304,7 +290,7 @@ def adopt_old_runs(out_dir: Path) -> None:
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from agents.dask_cluster import SchedulerUnreachable, parse_scheduler
+    from agents.dask_cluster import SchedulerUnreachable
     from agents.runner import JobsFailed, run_jobs
 
     from . import report
@@ -312,14 +298,12 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
     try:
         insect, cases, resolutions = plan(args)
-        scheduler = None if args.scheduler is None else parse_scheduler(args.scheduler)
         output_directory(args.out)  # the text given: Path('') would be the current folder
         args.out = Path(args.out)
         clearance = {case: check_geometry(case, insect) for case in cases}
     except ValueError as error:
         parser.error(str(error))
-    version = solver_version()
-    if version is None:
+    if (version := solver_version()) is None:
         print(f"{parser.prog}: error: {MISSING_EXTRA}", file=sys.stderr)
         return 2
     start = time.perf_counter()
@@ -335,7 +319,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             summary = run_jobs(
                 jobs,
                 args.out,
-                scheduler=scheduler,
+                scheduler=args.scheduler,
                 progress=not args.quiet,
                 cache=args.cache,
                 rerun=args.rerun,

@@ -204,8 +204,7 @@ def write_scatter(out_dir: Path, table: Sequence[Mapping[str, Any]]) -> Path:
         ax.plot([low, high], [low, high], color="0.6", lw=0.8, label="agreement")
         ax.axhline(0.0, color="0.85", lw=0.8)
         ax.axvline(0.0, color="0.85", lw=0.8)
-        ax.set_xlabel(f"UVLM {pair}-wing change [%]")
-        ax.set_ylabel(f"ours {pair}-wing change [%]")
+        ax.set(xlabel=f"UVLM {pair}-wing change [%]", ylabel=f"ours {pair}-wing change [%]")
         ax.set_title(f"{pair}-wing vertical force change, {len(table)} points", fontsize=9)
         ax.legend(fontsize=7)
     fig.tight_layout()
@@ -216,39 +215,32 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
     """Per case, the changes against the lag at ``base`` resolution (left) and the solver's
     hind- and fore-wing change at each resolution run (right: its convergence)."""
     cases = list(dict.fromkeys(case_of(r) for r in table))
-    fig, axes = plt.subplots(
-        len(cases), 2, figsize=(11, 3.6 * len(cases)), squeeze=False, width_ratios=(2, 1)
-    )
+    size = (11, 3.6 * len(cases))
+    fig, axes = plt.subplots(len(cases), 2, figsize=size, squeeze=False, width_ratios=(2, 1))
     for (left, right), key in zip(axes, cases, strict=True):
         mine = [r for r in table if case_of(r) == key]
+        at_base = (base.steps_per_beat, base.panels, base.beats)
         main = [
-            r
-            for r in mine
-            if (r["steps_per_beat"], r["panels"], r["beats"])
-            == (base.steps_per_beat, base.panels, base.beats)
+            r for r in mine if (r["steps_per_beat"], r["panels"], r["beats"]) == at_base
         ] or mine
         lags = [r["lag_deg"] for r in main]
-        for pair, style, filled in (("hind", "-", True), ("fore", "--", False)):
-            left.plot(
-                lags,
-                [r[f"uvlm_{pair}_change_pct"] for r in main],
-                "o" + style,
-                color=UVLM_COLOUR,
-                markerfacecolor=UVLM_COLOUR if filled else "white",
-                label=f"UVLM {pair}",
-            )
+        # hind-wing: solid lines, filled circles and x; fore-wing: dashed, open circles and +
+        for pair, style, face, mark in (
+            ("hind", "-", UVLM_COLOUR, "x"),
+            ("fore", "--", "white", "+"),
+        ):
+            uvlm = [r[f"uvlm_{pair}_change_pct"] for r in main]
+            left.plot(lags, uvlm, "o" + style, color=UVLM_COLOUR, mfc=face, label=f"UVLM {pair}")
             for i, reading in enumerate(READINGS):
+                change = [r[f"ours_{reading}_{pair}_change_pct"] for r in main]
                 left.plot(
-                    lags,
-                    [r[f"ours_{reading}_{pair}_change_pct"] for r in main],
-                    ("x" if pair == "hind" else "+") + style,
-                    color=PALETTE[i],
-                    label=f"ours ({reading}) {pair}",
+                    lags, change, mark + style, color=PALETTE[i], label=f"ours ({reading}) {pair}"
                 )
         left.axhline(0.0, color="0.7", lw=0.8)
         left.set_xticks(lags)
-        left.set_xlabel("lag ΔΦ: the hind-wing's phase lead [deg]")
-        left.set_ylabel("vertical force change [%]")
+        left.set(
+            xlabel="lag ΔΦ: the hind-wing's phase lead [deg]", ylabel="vertical force change [%]"
+        )
         first = main[0]
         left.set_title(
             f"V = {key[0]:g} m/s, d = {key[1]:g} mm, h = {key[2]:g} mm "
@@ -268,13 +260,9 @@ def write_figure(out_dir: Path, table: Sequence[Mapping[str, Any]], base: Resolu
                 )
                 x = [resolutions.index((r["steps_per_beat"], r["panels"])) for r in series]
                 for pair, marker in (("hind", "o-"), ("fore", "s--")):
-                    right.plot(
-                        x,
-                        [r[f"uvlm_{pair}_change_pct"] for r in series],
-                        marker,
-                        color=PALETTE[j % len(PALETTE)],
-                        label=f"{pair}, lag {lag:g}",
-                    )
+                    change = [r[f"uvlm_{pair}_change_pct"] for r in series]
+                    colour = PALETTE[j % len(PALETTE)]
+                    right.plot(x, change, marker, color=colour, label=f"{pair}, lag {lag:g}")
             right.set_xticks(range(len(resolutions)))
             right.set_xticklabels([f"{s}/beat\n{p}" for s, p in resolutions], fontsize=7)
             right.set_ylabel("UVLM change [%]")

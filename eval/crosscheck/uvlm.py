@@ -158,11 +158,9 @@ def solve(run: Run) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for index, name in enumerate(names):
         mean = to_geometry @ np.asarray(problem.finalMeanForces_W[index], dtype=float)
+        last_beat = problem.steady_problems[problem.first_averaging_step :]
         history = np.array(
-            [
-                to_geometry @ np.asarray(step.airplanes[index].forces_W, dtype=float)
-                for step in problem.steady_problems[problem.first_averaging_step :]
-            ]
+            [to_geometry @ np.asarray(s.airplanes[index].forces_W, dtype=float) for s in last_beat]
         )
         out[name] = {
             "vertical": float(mean @ up),
