@@ -334,9 +334,12 @@ def run_jobs(
         # their keys hash the earlier format, so no job finds them: said once (one at a job's
         # own key was reported by store.load)
         if todo and (old := store.outdated(skip=given)):
-            where = f"{len(old)} record file(s) of an earlier format in {old[0].parent}"
-            message = f"{where} (e.g. {old[0].name}) are not used: the jobs they held run again"
-            warnings.warn(f"{message} in this format", RecordWarning, stacklevel=2)
+            warnings.warn(
+                f"{len(old)} record file(s) of an earlier format in {old[0].parent} (e.g. "
+                f"{old[0].name}) are not used: the jobs they held run again in this format",
+                RecordWarning,
+                stacklevel=2,
+            )
         # Records of an earlier model sit under the keys it gave them (Job.key_at; None: before
         # keys held the revision): no job finds them; said once per store.
         revisions = (None, *range(1, tandem_env.physics.MODEL_REVISION))
