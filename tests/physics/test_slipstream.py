@@ -19,7 +19,7 @@ from tandem_env.physics.bundle import WingStroke
 from tandem_env.physics.kinematics import motion_grid
 from tandem_env.physics.options import ModelOptions
 
-MEAN = ModelOptions()
+MEAN = ModelOptions(slipstream="mean")
 CONVECTED = ModelOptions(slipstream="convected")
 HIND = 14
 #: the hind-wing's sweep, elevation and pitch phases and its elevation harmonic N
