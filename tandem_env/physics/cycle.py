@@ -744,7 +744,7 @@ def convected_wake(load, fore, phase_hind, delay, inflow_fore, settings, out):
         out[k] = total
 
 
-@njit(parallel=True, cache=True)
+@stroke_loop()
 def fill_angle_batch(params, n_time, angles, weight):
     """Angle histories of a (B, 14) batch of one wing's parameters (Hz, rad, -)."""
     for b in prange(params.shape[0]):
@@ -859,7 +859,7 @@ def tandem_stroke(b, fore, hind, settings, outputs):
         outputs.history[b, 1] = hist
 
 
-@njit(parallel=True, cache=True)
+@stroke_loop()
 def tandem_cycle(fore, hind, settings, outputs):
     """Cycle means of a batch of tandem strokes, in parallel over the batch.
 

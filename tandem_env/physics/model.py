@@ -23,10 +23,10 @@ from .checks import real_array, shown
 from .coefficients import PaperCoefficients
 from .first_use import compile_notice
 from .insect import DRAGONFLY, Dragonfly, Wing
-from .kinematics import fill_angle_history, motion_grid, wing_params_radians
+from .kinematics import motion_grid, wing_params_radians
 from .options import HOVER_NORMAL_SPEED, ModelOptions
 from .stroke import N_PER_WING, validate_physical
-from .xp import NUMPY, SERIAL_BELOW, ArrayNamespace
+from .xp import NUMPY, ArrayNamespace
 
 DEFAULT_OPTIONS = ModelOptions()
 
@@ -448,11 +448,7 @@ def run_kernel(
         if vortex:  # each pass keeps its history, whose means are taken once at the end
             out = Outputs(*(np.empty((n, *a.shape[1:])) for a in outputs))
         with compile_notice():  # the first call compiles the kernels: say so once
-            if n >= SERIAL_BELOW:
-                cycle.tandem_cycle(*wings, settings, out)
-            else:
-                for b in range(n):
-                    cycle.tandem_stroke(b, *wings, settings, out)
+            cycle.tandem_cycle(n, *wings, settings, out)
         return out
 
     if not vortex:
@@ -611,11 +607,7 @@ def parametric_kernel_inputs(
         wings.append(params)
         a = np.empty((batch, n_time, 9))
         wt = np.empty((batch, n_time))
-        if batch >= SERIAL_BELOW:
-            cycle.fill_angle_batch(params, n_time, a, wt)
-        else:
-            for b in range(batch):
-                fill_angle_history(params[b], n_time, a[b], wt[b])
+        cycle.fill_angle_batch(batch, params, n_time, a, wt)
         angles.append(a)
         weights.append(wt)
         frequency[:, w] = params[:, 0]

@@ -151,7 +151,7 @@ def test_motion_following_grid_integrates_exactly(sweep_shape: float) -> None:
     physical[10] = sweep_shape
     angles = np.empty((1, 64, 9))
     weight = np.empty((1, 64))
-    fill_angle_batch(wing_params_radians(physical[None, :]), 64, angles, weight)
+    fill_angle_batch(1, wing_params_radians(physical[None, :]), 64, angles, weight)
     tau = motion_grid(wing_params_radians(physical[None, :]), 64)[0]
     assert weight.mean() == pytest.approx(1.0, rel=1e-12)
     assert np.all(np.diff(tau[0]) > 0) and np.all(weight > 0)
@@ -175,7 +175,9 @@ def test_batched_angle_history_is_the_compiled_one_on_whole_arrays(n_time: int) 
     params = wing_params_radians(physical)
     angles = np.empty((physical.shape[0], n_time, 9))
     weight = np.empty((physical.shape[0], n_time))
-    fill_angle_batch(params, n_time, angles, weight)  # the compiled kernel's, per sample
+    fill_angle_batch(
+        len(params), params, n_time, angles, weight
+    )  # the compiled kernel's, per sample
     got, got_weight, tau = batched_angle_history(params, n_time)
     np.testing.assert_array_equal(got_weight, weight)
     want_tau = np.empty(n_time)
