@@ -10,6 +10,7 @@ for a 28-parameter stroke, :func:`measured_history` for a pair of
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -103,6 +104,17 @@ def _tip_path(angles: np.ndarray, beta: float, side: int = 1) -> np.ndarray:
     return np.stack([x_e, side * span[:, 1], z_e], axis=1)
 
 
+def _check_reading(options: Any) -> None:
+    """Refuse the vortex reading (docs/model.md §5.8) before any computation: the angle of
+    attack, speed and inflow the histories report are computed from each pair's own inflow and
+    would leave out the other pair's field."""
+    if getattr(options, "slipstream", None) == "vortex" and options.phase_resolved():
+        raise ValueError(
+            'histories with ModelOptions.slipstream = "vortex"; allowed: slipstream = "mean" or '
+            '"convected" (evaluate and evaluate_measured take "vortex" for the cycle means)'
+        )
+
+
 def _check_side(n_samples: int, side: int) -> None:
     if not is_integer(n_samples) or n_samples < 8:
         raise ValueError(f"n_samples = {n_samples!r}; allowed: an integer >= 8")
@@ -133,6 +145,7 @@ def stroke_history(
     if physical.shape[0] != 1:
         raise ValueError(f"stroke_history takes one stroke of shape (28,); got {np.shape(stroke)}")
     _check_side(n_samples, side)
+    _check_reading(options)
     n_samples = int(n_samples)
     v, p_avail, gamma = validate_conditions(speed, available_power, flight_path_angle, 1, insect)
     angles, weights, frequency, beta, sweep = (
@@ -179,6 +192,7 @@ def measured_history(
     pair. Each wing's history has its samples t = i/(n·f); ``pitch`` of a twisted wing is
     reported at r/R = 0.75. ``side = -1`` evaluates the mirror image (the left wings).
     """
+    _check_reading(options)
     result = evaluate_measured(
         fore,
         hind,

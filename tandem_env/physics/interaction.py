@@ -32,6 +32,7 @@ from .vortex import (
     TRAILING_EDGE,
     lattice_geometry,
     segment_influence,
+    stroke_angles,
     wake_influence,
     wake_nodes,
     wing_lines,
@@ -113,10 +114,18 @@ WAKE = VortexWake()
 
 
 class Pair(NamedTuple):
-    """One wing pair of a batch as the reading sees it (the right wing; the left mirrors it)."""
+    """One wing pair of a batch as the reading sees it (the right wing; the left mirrors it).
+    Its motion is either parametric (``params``) or measured (``samples``; the other None)."""
 
     params: Any
-    """(B, 14) the wing's parameters in Hz/rad/- (``kinematics.wing_params_radians``)."""
+    """(B, 14) the wing's parameters in Hz/rad/- (``kinematics.wing_params_radians``), or
+    None."""
+    samples: Any
+    """(B, n, 3) measured φ, θ, η at the uniform phases 2πk/n [rad], or None."""
+    frequency: Any
+    """(B,) f [Hz]."""
+    beta: Any
+    """(B,) the stroke-plane angle β [rad]."""
     coef: Any
     """(B, 1, n_time, ``blade.N_COEF``) frame coefficients on the kernel's grid."""
     phase: Any
@@ -137,9 +146,28 @@ class Pair(NamedTuple):
     def take(self, keep: Any) -> Pair:
         """The pair on the strokes ``keep`` (a boolean mask or indices of the batch)."""
         return self._replace(
-            params=self.params[keep], coef=self.coef[keep], phase=self.phase[keep],
-            v_tangential=self.v_tangential[keep], v_normal=self.v_normal[keep],
+            params=None if self.params is None else self.params[keep],
+            samples=None if self.samples is None else self.samples[keep],
+            frequency=self.frequency[keep], beta=self.beta[keep], coef=self.coef[keep],
+            phase=self.phase[keep], v_tangential=self.v_tangential[keep],
+            v_normal=self.v_normal[keep],
         )  # fmt: skip
+
+
+def grid_angles(pair: Pair, tau: Any, xp: ArrayNamespace) -> tuple[Any, Any, Any]:
+    """The pair's φ, θ, η at the phases ``tau`` (1, n) [rad], each (B, n) [rad]: Eqs. 3-5 of
+    its parameters (``vortex.stroke_angles``), or the trigonometric interpolant of its
+    measured samples (exact at the samples; measured kinematics run on numpy only)."""
+    if pair.params is not None:
+        return stroke_angles(pair.params, tau, xp)
+    n = pair.samples.shape[1]
+    spectrum = np.fft.rfft(pair.samples, axis=1) / n  # (B, n // 2 + 1, 3)
+    k = np.arange(spectrum.shape[1])
+    # each harmonic twice (e^{ikt} and its conjugate) but the mean and, n even, the Nyquist one
+    spectrum[:, (k > 0) & (2 * k != n)] *= 2.0
+    basis = np.exp(1j * k[:, None] * np.asarray(tau)[0][None, :])  # (n // 2 + 1, n_t)
+    values = np.einsum("bkc,kt->bct", spectrum, basis).real
+    return values[:, 0], values[:, 1], values[:, 2]
 
 
 @njit(cache=True, error_model=BRANCH_FREE)
@@ -312,12 +340,13 @@ def lattice(
     chord = xp.constant_like(pair.wing.chord(frac), like)
     frac_x = xp.constant_like(frac, like)
     root = xp.constant_like(pair.root, like)
-    bound = wing_lines(pair.params, tau, frac_x, pair.wing.length, chord, BOUND_VORTEX, root, xp)
-    edge = wing_lines(pair.params, tau, frac_x, pair.wing.length, chord, TRAILING_EDGE, root, xp)
+    angles = grid_angles(pair, tau, xp)
+    bound = wing_lines(angles, pair.beta, frac_x, pair.wing.length, chord, BOUND_VORTEX, root, xp)
+    edge = wing_lines(angles, pair.beta, frac_x, pair.wing.length, chord, TRAILING_EDGE, root, xp)
     rows = round(beats * n_w)
-    dt = 1.0 / (pair.params[:, 0] * n_w)  # (B,) [s]
+    dt = 1.0 / (pair.frequency * n_w)  # (B,) [s]
     age = dt[:, None] * xp.constant_like(np.arange(rows + 1.0), like)[None]  # (B, K + 1)
-    beta = pair.params[:, 13]
+    beta = pair.beta
     descent = wake.descent * v_bar
     carry = [
         -speed * xp.cos(path_angle) - descent * xp.sin(beta),
@@ -375,7 +404,7 @@ def influence(source: Lattice, target: Pair, wake: VortexWake, xp) -> Any:
     like = target.phase
     tau = xp.constant_like(2.0 * np.pi * np.arange(n_w)[None] / n_w, like)
     points = wing_lines(
-        target.params, tau, xp.constant_like(frac, like), target.wing.length,
+        grid_angles(target, tau, xp), target.beta, xp.constant_like(frac, like), target.wing.length,
         xp.constant_like(target.wing.chord(frac), like), COLLOCATION,
         xp.constant_like(target.root, like), xp,
     )  # fmt: skip
@@ -528,7 +557,7 @@ def element_field(
         _fill_element_field(
             n_b,
             np.ascontiguousarray(flat), np.ascontiguousarray(index), np.ascontiguousarray(weight),
-            coef, np.ascontiguousarray(target.params[:, 13]), out, mean,
+            coef, np.ascontiguousarray(target.beta), out, mean,
         )  # fmt: skip
         return out, -(mean @ to_elements.T)
     stroke = xp.as_int64(xp.arange_like(n_b, flat))[:, None]
@@ -537,7 +566,7 @@ def element_field(
         + flat[stroke, index[..., 1]] * weight[..., 1:]
     )
     w = w.reshape(*w.shape[:2], -1, 3)  # (B, n_time, M, 3)
-    beta = target.params[:, 13][:, None]
+    beta = target.beta[:, None]
     cb, sb = xp.cos(beta), xp.sin(beta)
     coef = target.coef[:, 0]  # (B, n_time, N_COEF)
     # w in stroke-plane axes is (w_x·cos β − w_z·sin β, w_y, w_x·sin β + w_z·cos β)
@@ -708,7 +737,7 @@ def _fill_frames(angles, weight, beta, spin_total, out):
 
 def kernel_reading(
     wings: tuple[Any, Any],
-    params: tuple[np.ndarray, np.ndarray],
+    params: tuple[np.ndarray, np.ndarray] | None,
     phases: np.ndarray,
     run_pass: Callable[[tuple[Any, Any]], Any],
     speed: np.ndarray,
@@ -718,8 +747,9 @@ def kernel_reading(
     spin_total: bool,
 ) -> Any:
     """The vortex reading on the numba kernel: ``wings`` the fore and hind
-    ``bundle.WingBatch``, ``params`` their (B, 14) parameters [Hz, rad, -], ``phases`` (B, 2,
-    n_time) [rad]; ``run_pass(wings)`` runs the kernel on them (the whole batch or some of its
+    ``bundle.WingBatch``, ``params`` their (B, 14) parameters [Hz, rad, -] or None (measured
+    kinematics: the wings' angles on uniform phases, read from their histories), ``phases``
+    (B, 2, n_time) [rad]; ``run_pass(wings)`` runs the kernel on them (the whole batch or some of its
     strokes, as many as the wings hold) and returns its ``bundle.Outputs``, with each sample's
     frame coefficients computed once here (``WingBatch.frames``). Returns each stroke's
     outputs of the pass at which it stopped, with the fixed point's convergence folded into
@@ -738,10 +768,33 @@ def kernel_reading(
         frames.append(coef)  # the kernel's own, computed once for all passes
         coef = coef[:, None]
         root = np.array([-insect.root_spacing * w, ROOT_HALF_WIDTH, -insect.root_drop * w])
+        if params is not None:
+            motion = {
+                "params": params[w],
+                "samples": None,
+                "frequency": params[w][:, 0],
+                "beta": params[w][:, 13],
+            }
+        else:  # measured: the angle history's φ, θ, η columns (kinematics.ANGLE_COLUMNS)
+            motion = {
+                "params": None,
+                "samples": np.ascontiguousarray(batch.angles[:, :, ::3]),
+                "frequency": batch.frequency,
+                "beta": batch.beta,
+            }
         pairs.append(
-            Pair(params[w], coef, phases[:, w], batch.v_tangential, batch.v_normal, wing,
-                 np.array(batch.nodes[:, cycle.N_R]), np.array(batch.nodes[:, cycle.N_WIDTH]), root)
-        )  # fmt: skip
+            Pair(
+                **motion,
+                coef=coef,
+                phase=phases[:, w],
+                v_tangential=batch.v_tangential,
+                v_normal=batch.v_normal,
+                wing=wing,
+                r=np.array(batch.nodes[:, cycle.N_R]),
+                width=np.array(batch.nodes[:, cycle.N_WIDTH]),
+                root=root,
+            )
+        )
 
     wings = tuple(b._replace(frames=f) for b, f in zip(wings, frames, strict=True))
     result = run_pass(wings)  # pass 0, the isolated pairs, on the whole batch

@@ -387,18 +387,22 @@ def run_kernel(
     uniform samples 2πk/n_time (measured kinematics). The convected slipstream follows
     the whole fore-wing's loading, so it refuses ``tables`` (wings evaluated element by element).
     ``params``: each wing's (B, 14) parameters [Hz, rad, -], which the vortex reading
-    (``options.slipstream="vortex"``, docs/model.md §5.8; ``interaction``) needs to place the
-    wings; it refuses ``tables`` and runs without ``params`` only where it is off.
+    (``options.slipstream="vortex"``, docs/model.md §5.8; ``interaction``) reads to place the
+    wings; without them (measured kinematics, uniform samples) it places them by their angle
+    histories. It refuses ``tables`` (a wing evaluated element by element has no one lifting
+    line).
     """
     phases, params = (None, None) if motion is None else motion
     convected = options.slipstream == "convected"
     vortex = options.slipstream == "vortex" and options.phase_resolved()
-    if vortex and (tables is not None or params is None):
+    if vortex and tables is not None:
         raise ValueError(
-            'ModelOptions.slipstream = "vortex" needs whole wings moved by Table 4\'s '
-            "parametric kinematics (it places both pairs' lifting lines and wakes); measured "
-            'or twisted wings allow: slipstream = "mean" or "convected"'
+            'ModelOptions.slipstream = "vortex" needs whole wings (it places each pair\'s '
+            "lifting line and wake); wings evaluated element by element (span-wise twist) "
+            'allow: slipstream = "mean"'
         )
+    if vortex and params is None and phases is not None:
+        raise ValueError("the vortex reading of a non-uniform grid needs the strokes' params")
     if convected and tables is not None:
         raise ValueError(
             'ModelOptions.slipstream = "convected" needs whole wings (it follows the fore-wing\'s '

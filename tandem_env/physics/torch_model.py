@@ -735,9 +735,21 @@ def _vortex_chunk(strokes, speed, gamma, available_power, insect, options, compi
         root = np.array([-insect.root_spacing, 0.0, -insect.root_drop]) * index
         root[1] = interaction.ROOT_HALF_WIDTH
         pairs.append(
-            interaction.Pair(params, wing.frame[:, :, 0].movedim(0, -1)[:, None], phase, vt, vn,
-                             geometry, np.array(nodes[:, cycle.N_R]), np.array(nodes[:, cycle.N_WIDTH]), root)
-        )  # fmt: skip
+            interaction.Pair(
+                params=params,
+                samples=None,
+                frequency=params[:, 0],
+                beta=params[:, 13],
+                coef=wing.frame[:, :, 0].movedim(0, -1)[:, None],
+                phase=phase,
+                v_tangential=vt,
+                v_normal=vn,
+                wing=geometry,
+                r=np.array(nodes[:, cycle.N_R]),
+                width=np.array(nodes[:, cycle.N_WIDTH]),
+                root=root,
+            )
+        )
         wings.append((wing, params, vt, vn, inflow_switched_off(vn, options, TORCH)))
     scale = options.interference * (~(wings[0][4] | wings[1][4])).to(strokes.dtype)
 

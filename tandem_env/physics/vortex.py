@@ -3,7 +3,8 @@
 The induced velocity of straight vortex segments with a viscous core (:func:`segment_velocity`,
 the Biot-Savart law), the ring lattice a lifting line and its wake form
 (:func:`lattice_segments`), and the geometry the reading needs from the existing kinematics:
-where a wing's span stations are at each instant (:func:`wing_lines`) and where the wake it
+where a wing's span stations are at each instant (:func:`wing_lines`, of the angles
+:func:`stroke_angles` gives or a measured motion's) and where the wake it
 released sits (:func:`prescribed_wake`). Everything is written once over an array namespace
 (``xp``, :mod:`~tandem_env.physics.xp`): numpy by default, torch (``torch_model.TORCH``) with
 autograd, batched over any leading axes, with no branches on values.
@@ -253,9 +254,21 @@ def lattice_geometry(nodes: Any, xp: ArrayNamespace = NUMPY) -> Any:
     )
 
 
+def stroke_angles(params: Any, tau: Any, xp: ArrayNamespace = NUMPY) -> tuple[Any, Any, Any]:
+    """φ, θ, η [rad] (Eqs. 3-5) of a wing's parameters ``params`` (B, 14) in Hz/rad/-
+    (``kinematics.wing_params_radians``) at phases ``tau`` (B, n) or (1, n) 2πft [rad]: each
+    (B, n), as :func:`wing_lines` takes them."""
+    col = [params[:, i : i + 1] for i in range(13)]
+    omega = 2.0 * math.pi * col[0]
+    phi = on_namespace(weaving, xp)(tau, omega, col[1], col[4], col[7], col[10])[0]
+    theta = on_namespace(flapping, xp)(tau, omega, col[2], col[5], col[8], col[11])[0]
+    eta = on_namespace(pitching, xp)(tau, omega, col[3], col[6], col[9], col[12])[0]
+    return phi, theta, eta
+
+
 def wing_lines(
-    params: Any,
-    tau: Any,
+    angles: tuple[Any, Any, Any],
+    beta: Any,
     span_fraction: Any,
     length: float,
     chord: Any,
@@ -263,22 +276,20 @@ def wing_lines(
     root: Any,
     xp: ArrayNamespace = NUMPY,
 ) -> Any:
-    """Points of a right wing along its span at phases ``tau``, in earth axes [m].
+    """Points of a right wing along its span at n instants, in earth axes [m].
 
-    ``params`` (B, 14) one wing's parameters in Hz/rad/- (``kinematics.wing_params_radians``);
-    ``tau`` (B, n) phases 2πft [rad]; ``span_fraction`` (N,) r/R; ``length`` R [m]; ``chord``
-    (N,) c(r) [m]; ``span_fraction``, ``chord`` and ``root`` are arrays of ``xp`` (torch:
-    tensors, ``xp.constant_like``); ``chord_position`` the points' place along the chord from the mid-chord
-    pitch axis (§2.4) towards the leading edge, in chords (:data:`BOUND_VORTEX`,
-    :data:`COLLOCATION`, :data:`TRAILING_EDGE`); ``root`` (3,) the wing root [m]. Returns
-    (B, n, N, 3). The frame is docs/model.md §4.2's, R_z(−φ)·R_x(θ)·R_y(η), the leading edge
-    on +e_c; the left wing is the mirror image (Y → −Y).
+    ``angles`` the wing's sweep φ, elevation θ and pitch η at those instants, each (B, n)
+    [rad] (:func:`stroke_angles` of a parametric stroke, or a measured motion's);
+    ``beta`` (B,) its stroke-plane angle β [rad]; ``span_fraction`` (N,) r/R; ``length`` R
+    [m]; ``chord`` (N,) c(r) [m]; ``span_fraction``, ``chord`` and ``root`` are arrays of
+    ``xp`` (torch: tensors, ``xp.constant_like``); ``chord_position`` the points' place along
+    the chord from the mid-chord pitch axis (§2.4) towards the leading edge, in chords
+    (:data:`BOUND_VORTEX`, :data:`COLLOCATION`, :data:`TRAILING_EDGE`); ``root`` (3,) the
+    wing root [m]. Returns (B, n, N, 3). The frame is docs/model.md §4.2's,
+    R_z(−φ)·R_x(θ)·R_y(η), the leading edge on +e_c; the left wing is the mirror image
+    (Y → −Y).
     """
-    col = [params[:, i : i + 1] for i in range(14)]
-    omega = 2.0 * math.pi * col[0]
-    phi = on_namespace(weaving, xp)(tau, omega, col[1], col[4], col[7], col[10])[0]
-    theta = on_namespace(flapping, xp)(tau, omega, col[2], col[5], col[8], col[11])[0]
-    eta = on_namespace(pitching, xp)(tau, omega, col[3], col[6], col[9], col[12])[0]
+    phi, theta, eta = angles
     cf, sf, ct, st = xp.cos(phi), xp.sin(phi), xp.cos(theta), xp.sin(theta)
     ce, se = xp.cos(eta), xp.sin(eta)
     # span e_s and chord e_c in stroke-plane axes (blade.fill_frame_coefficients)
@@ -288,7 +299,7 @@ def wing_lines(
     offset = (chord_position * chord)[None, None, :]
     local = [s[..., None] * r + c[..., None] * offset for s, c in zip(span, chord_dir, strict=True)]
     # stroke-plane axes to earth axes: x_s = (cos β, 0, −sin β), z_s = (sin β, 0, cos β)
-    cb, sb = xp.cos(col[13])[..., None], xp.sin(col[13])[..., None]
+    cb, sb = xp.cos(beta)[:, None, None], xp.sin(beta)[:, None, None]
     earth = [cb * local[0] + sb * local[2], local[1], -sb * local[0] + cb * local[2]]
     return xp.stack([earth[i] + root[i] for i in range(3)], -1)
 

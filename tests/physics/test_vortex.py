@@ -16,6 +16,7 @@ from tandem_env.physics.vortex import (
     lattice_segments,
     prescribed_wake,
     segment_velocity,
+    stroke_angles,
     wing_lines,
 )
 
@@ -190,8 +191,9 @@ def test_the_wing_lines_follow_the_models_frame() -> None:
     fraction = np.array([0.0, 0.5, 1.0])
     chord = DRAGONFLY.fore.chord(fraction) + 1e-3
     root = np.array([1e-3, 2e-3, -3e-3])
-    lead = wing_lines(params, tau, fraction, 0.03, chord, 0.5, root)
-    edge = wing_lines(params, tau, fraction, 0.03, chord, TRAILING_EDGE, root)
+    angles = stroke_angles(params, tau)
+    lead = wing_lines(angles, params[:, 13], fraction, 0.03, chord, 0.5, root)
+    edge = wing_lines(angles, params[:, 13], fraction, 0.03, chord, TRAILING_EDGE, root)
     angles = np.empty((7, 9))
     fill_angles(params[0], tau[0], angles)
     coef = np.empty((7, blade.N_COEF))
@@ -240,7 +242,10 @@ def test_torch_matches_numpy_and_has_gradients() -> None:
     params = wing_params_radians(wing)[None]
     tau = np.linspace(0.0, 2 * np.pi, 5, endpoint=False)[None]
     fraction, chord, root = np.array([0.2, 0.9]), np.array([5e-3, 4e-3]), np.zeros(3)
-    lines = wing_lines(params, tau, fraction, 0.03, chord, 0.25, root)
-    lines_t = wing_lines(*(torch.tensor(a) for a in (params, tau, fraction)), 0.03,
-                         torch.tensor(chord), 0.25, torch.tensor(root), TORCH)  # fmt: skip
+    lines = wing_lines(stroke_angles(params, tau), params[:, 13], fraction, 0.03, chord, 0.25, root)
+    params_t, tau_t = torch.tensor(params), torch.tensor(tau)
+    lines_t = wing_lines(
+        stroke_angles(params_t, tau_t, TORCH), params_t[:, 13], torch.tensor(fraction), 0.03,
+        torch.tensor(chord), 0.25, torch.tensor(root), TORCH,
+    )  # fmt: skip
     assert lines_t.numpy() == pytest.approx(lines, rel=1e-13, abs=1e-18)
