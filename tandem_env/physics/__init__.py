@@ -31,8 +31,9 @@ MODEL_REVISION = 4
 #: constants, its reduced wake; docs/model.md §5.8), so that the other readings' records (the
 #: reference table's among them) stay served; the canary checks both. 2: the factor on the
 #: shed circulation refitted to 1.7 and the hind pair's wake 2 beats long; 3: the fixed point's
-#: Anderson step of depth two (2026-12-07).
-VORTEX_REVISION = 3
+#: Anderson step of depth two (2026-12-07); 4: the upstream mean summed in one order whatever
+#: the batch, so that a stroke's result is bit for bit its result alone (moves ~1e-10).
+VORTEX_REVISION = 4
 from .coefficients import (
     COEFFICIENT_MODELS,
     PaperCoefficients,

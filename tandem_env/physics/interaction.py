@@ -559,7 +559,9 @@ def element_field(
             np.ascontiguousarray(flat), np.ascontiguousarray(index), np.ascontiguousarray(weight),
             coef, np.ascontiguousarray(target.beta), out, mean,
         )  # fmt: skip
-        return out, -(mean @ to_elements.T)
+        # a stroke's sum in one order whatever the batch (a BLAS product's order depends on
+        # the number of rows), so that a stroke's result does not depend on its batch
+        return out, -np.einsum("bm,em->be", mean, to_elements)
     stroke = xp.as_int64(xp.arange_like(n_b, flat))[:, None]
     w = (
         flat[stroke, index[..., 0]] * weight[..., :1]
