@@ -104,14 +104,15 @@ def _tip_path(angles: np.ndarray, beta: float, side: int = 1) -> np.ndarray:
     return np.stack([x_e, side * span[:, 1], z_e], axis=1)
 
 
-def _check_reading(options: Any) -> None:
-    """Refuse the vortex reading (docs/model.md §5.8) before any computation: the angle of
-    attack, speed and inflow the histories report are computed from each pair's own inflow and
-    would leave out the other pair's field."""
-    if getattr(options, "slipstream", None) == "vortex" and options.phase_resolved():
+def _check_reading(options: Any, side: int) -> None:
+    """Refuse the mirror image under a phase-resolved reading (docs/model.md §5.7-5.8) before
+    any computation: it imposes the right wings' inflow on the left ones, without the other
+    pair's field of that instant."""
+    slipstream = getattr(options, "slipstream", None)
+    if side == -1 and slipstream in ("convected", "vortex"):
         raise ValueError(
-            'histories with ModelOptions.slipstream = "vortex"; allowed: slipstream = "mean" or '
-            '"convected" (evaluate and evaluate_measured take "vortex" for the cycle means)'
+            f'side = -1 with ModelOptions.slipstream = "{slipstream}"; allowed: side = 1 (the '
+            'left wings mirror the right ones), or slipstream = "mean"'
         )
 
 
@@ -145,7 +146,7 @@ def stroke_history(
     if physical.shape[0] != 1:
         raise ValueError(f"stroke_history takes one stroke of shape (28,); got {np.shape(stroke)}")
     _check_side(n_samples, side)
-    _check_reading(options)
+    _check_reading(options, side)
     n_samples = int(n_samples)
     v, p_avail, gamma = validate_conditions(speed, available_power, flight_path_angle, 1, insect)
     angles, weights, frequency, beta, sweep = (
@@ -192,7 +193,7 @@ def measured_history(
     pair. Each wing's history has its samples t = i/(n·f); ``pitch`` of a twisted wing is
     reported at r/R = 0.75. ``side = -1`` evaluates the mirror image (the left wings).
     """
-    _check_reading(options)
+    _check_reading(options, side)
     result = evaluate_measured(
         fore,
         hind,
@@ -228,16 +229,15 @@ def _histories(
     """The histories of both wing pairs from their angles on a uniform grid (B = 1); ``angles``
     per wing (1, n, 9), or (n_blade, n, 9) per blade element of a twisted wing. Under the
     convected slipstream (docs/model.md §5.7) the forces and powers follow it; the reported
-    ``inflow`` and angle of attack use its cycle mean, and the mirror image is refused."""
-    if side == -1 and options.slipstream == "convected":
-        raise ValueError(
-            'side = -1 with ModelOptions.slipstream = "convected"; allowed: side = 1 (the left '
-            'wings mirror the right ones), or slipstream = "mean"'
-        )
+    ``inflow`` and angle of attack use its cycle mean; under the vortex reading (§5.8) they
+    take the other pair's field of each instant, as the kernel's element velocities do. The
+    mirror image is refused under both (:func:`_check_reading`)."""
     freestream = freestream_components(v, beta, gamma)
+    fields: list = []  # the vortex reading's field of the other pair, per wing
     _, inflow, hist = run_measured(
-        angles, weights, frequency, beta, sweep, v, gamma, insect, options, keep_history=True
-    )
+        angles, weights, frequency, beta, sweep, v, gamma, insect, options, keep_history=True,
+        fields_out=fields,
+    )  # fmt: skip
     if side == -1:
         hist = _mirror_run(angles, weights, frequency, beta, freestream, inflow, insect, options)
     n_w = insect.wings_per_pair
@@ -246,16 +246,19 @@ def _histories(
         a = angles[w][0]
         n_samples = a.shape[0]
         fraction = np.arange(n_samples) / n_samples
+        offsets, upstream = (fields[w][0][0], fields[w][1][0]) if fields else (None, None)
+        total_inflow = _total_inflow(inflow, w, freestream, options, upstream)
         aoa, rel_speed = _flow_angles(
             angles[w],
             weights[w][0],
             beta[0, w],
             freestream[0, w],
-            _total_inflow(inflow, w, freestream, options),
+            total_inflow,
             wing,
             insect,
             options,
             side,
+            offsets,
         )
         wings.append(
             WingHistory(
@@ -272,17 +275,24 @@ def _histories(
                 lateral_force=hist[0, w, :, 2],
                 aero_power=n_w * hist[0, w, :, 3],
                 inertial_power=n_w * hist[0, w, :, 4],
-                inflow=_total_inflow(inflow, w, freestream, options),
+                inflow=total_inflow,
             )
         )
     return StrokeHistory(fore=wings[0], hind=wings[1], result=result)
 
 
 def _total_inflow(
-    inflow: np.ndarray, w: int, freestream: np.ndarray, options: ModelOptions
+    inflow: np.ndarray,
+    w: int,
+    freestream: np.ndarray,
+    options: ModelOptions,
+    upstream: np.ndarray | None = None,
 ) -> np.ndarray:
     """A wing's own induced velocity per annulus plus the upstream share [m/s] (none upstream
-    where ``hover_inflow`` switches the wing's induced velocity off; ``freestream`` (1, 2, 2))."""
+    where ``hover_inflow`` switches the wing's induced velocity off; ``freestream`` (1, 2, 2));
+    ``upstream`` (n_blade,) the vortex reading's, which replaces the momentum readings' share."""
+    if upstream is not None:
+        return inflow[0, w] + upstream
     if (
         w == 1
         and options.induction == "coupled"
@@ -334,10 +344,10 @@ def _mirror_run(angles, weights, frequency, beta, freestream, inflow, insect, op
     return hist
 
 
-def _flow_angles(angles, weights, beta, freestream, inflow, wing, insect, options, side):
+def _flow_angles(angles, weights, beta, freestream, inflow, wing, insect, options, side, offsets):
     """Area-weighted angle of attack [deg] and relative speed at r/R = 0.75 [m/s] over time;
     ``angles`` (1, n, 9) or (n_blade, n, 9) per element; ``freestream`` the wing's (V_t, V_n)
-    [m/s]."""
+    [m/s]; ``offsets`` (n_blade, 2, n) the vortex reading's (u, v) offsets [m/s] or None."""
     n_time = angles.shape[1]
     frames = _element_frames(angles, weights, beta, options.spin == "total", side)
     nodes, _ = wing_tables(wing, options.n_blade, insect.air_density)
@@ -354,6 +364,9 @@ def _flow_angles(angles, weights, beta, freestream, inflow, wing, insect, option
         for j, coef in enumerate(frames):
             uj, vj, _, _ = blade.relative_velocity.py_func(coef, index, r[:, j], vt, vn[:, j])
             u[:, j], v[:, j] = uj[:, 0], vj[:, 0]
+    if offsets is not None:  # the other pair's field, as the kernel adds it (§5.8 item 5)
+        u = u + offsets[:, 0].T
+        v = v + offsets[:, 1].T
     area = nodes[:, cycle.N_CHORD] * nodes[:, cycle.N_WIDTH]
     aoa = np.rad2deg(np.arctan2(np.abs(v), np.abs(u)) @ area / area.sum())
     speed_nodes = np.hypot(u, v)

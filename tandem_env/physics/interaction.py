@@ -747,6 +747,7 @@ def kernel_reading(
     scale: np.ndarray,
     insect: Any,
     spin_total: bool,
+    fields_out: list | None = None,
 ) -> Any:
     """The vortex reading on the numba kernel: ``wings`` the fore and hind
     ``bundle.WingBatch``, ``params`` their (B, 14) parameters [Hz, rad, -] or None (measured
@@ -756,7 +757,10 @@ def kernel_reading(
     frame coefficients computed once here (``WingBatch.frames``). Returns each stroke's
     outputs of the pass at which it stopped, with the fixed point's convergence folded into
     each wing's ``W_CONVERGED`` (``cycle``); the caller takes the cycle means from their
-    history where its passes leave them out (``Settings.means``)."""
+    history where its passes leave them out (``Settings.means``). ``fields_out``: a list that
+    receives, per wing, the other pair's field in that pass (:func:`element_field`, times
+    C_hf): its (u, v) offsets on the elements (B, n_blade, 2, n_time) and the upstream inflow
+    (B, n_blade) [m/s] (zero where the reading is off)."""
 
     pairs = []
     frames = []
@@ -802,6 +806,11 @@ def kernel_reading(
     result = run_pass(wings)  # pass 0, the isolated pairs, on the whole batch
     to_elements = [np.ascontiguousarray(station_weights(p, WAKE)) for p in pairs]
     converged = np.zeros(len(speed), dtype=bool)
+    n_time = phases.shape[-1]
+    kept = [  # each stroke's fields of its latest pass, at the read stations
+        (np.zeros((len(speed), 2, WAKE.read_points, n_time)), np.zeros((len(speed), len(p.r))))
+        for p in pairs
+    ]
     # the fixed point, stroke by stroke, on WAKE.chunk strokes at a time: the same results
     # (item 6), and arrays small enough to be reused rather than mapped afresh at each pass
     for start in range(0, len(speed), WAKE.chunk):
@@ -824,6 +833,9 @@ def kernel_reading(
             for whole, piece in zip(result, outputs, strict=True):
                 if len(whole):  # the history is (0, …) unless kept
                     whole[index] = piece
+            if fields_out is not None:
+                for (offsets, upstream), f in zip(kept, fields, strict=True):
+                    offsets[index], upstream[index] = f
             return (outputs.inflow[:, 0], outputs.inflow[:, 1]), result
 
         chunk = tuple(p.take(part) for p in pairs)
@@ -832,4 +844,9 @@ def kernel_reading(
         )
     outputs = result
     outputs.means[:, :, cycle.W_CONVERGED] *= converged[:, None]
+    if fields_out is not None:
+        fields_out.extend(
+            (np.einsum("em,bkmt->bekt", elements, offsets), upstream)
+            for (offsets, upstream), elements in zip(kept, to_elements, strict=True)
+        )
     return outputs

@@ -42,6 +42,7 @@ from .insect import DRAGONFLY, Dragonfly, Wing
 from .kinematics import spectral_derivatives
 from .model import (
     DEFAULT_OPTIONS,
+    Kept,
     Result,
     _performance,
     node_inertia,
@@ -699,8 +700,10 @@ def run_measured(
     insect: Dragonfly,
     options: ModelOptions,
     keep_history: bool = False,
+    fields_out: list | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`model.run_kernel` for a measured pair, twisted wings included (same outputs).
+    """:func:`model.run_kernel` for a measured pair, twisted wings included (same outputs;
+    ``fields_out`` as it takes it, for untwisted wings).
 
     Untwisted wings run the kernel as they are. With a twisted wing, each blade element j of
     both wings runs alone (the fore- and hind-wing's element j together, so the slipstream
@@ -711,7 +714,7 @@ def run_measured(
     if all(a.shape[0] == 1 for a in angles):
         return run_kernel(
             angles, weights, frequency, beta, sweep, speed, flight_path_angle, insect, options,
-            keep_history=True if keep_history else False,
+            keep=Kept(history=bool(keep_history), fields=fields_out),
         )  # fmt: skip
     n_blade = options.n_blade
     n_time = weights[0].shape[1]
@@ -731,7 +734,7 @@ def run_measured(
         tables = (*fore_tables[j], *hind_tables[j])
         out_j, inflow_j, history_j = run_kernel(
             element, weights, frequency, beta, sweep, speed, flight_path_angle, insect, options,
-            keep_history=True, tables=tables,
+            keep=Kept(history=True), tables=tables,
         )  # fmt: skip
         history += history_j
         inflow[0, :, j] = inflow_j[0, :, 0]

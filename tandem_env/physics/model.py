@@ -359,6 +359,16 @@ class StrokeMotion(NamedTuple):
     """Each wing's (B, 14) parameters [Hz, rad, -] (the vortex reading), or None."""
 
 
+class Kept(NamedTuple):
+    """What :func:`run_kernel` keeps besides the cycle means and the inflow."""
+
+    history: bool = False
+    """The per-sample histories of each wing (``Outputs.history``)."""
+    fields: list | None = None
+    """A list that receives, under the vortex reading, each wing's field of the other pair
+    (``interaction.kernel_reading``'s ``fields_out``), or None."""
+
+
 def run_kernel(
     angles,
     weights,
@@ -369,7 +379,7 @@ def run_kernel(
     flight_path_angle,
     insect: Dragonfly,
     options: ModelOptions,
-    keep_history: bool = False,
+    keep: Kept | None = None,
     tables: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
     motion: StrokeMotion | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -378,7 +388,7 @@ def run_kernel(
     ``angles``/``weights``: per wing, (B, n_time, 9) angle histories and (B, n_time) quadrature
     weights; ``frequency``, ``beta``, ``sweep``: (B, 2) [Hz, rad, rad]; ``speed`` (B,) [m/s];
     ``flight_path_angle`` (B,) [rad]. Returns the per-wing cycle means (B, 2, N_WING_OUT), the
-    inflow per annulus (B, 2, n_blade) [m/s] and, with ``keep_history``, the per-sample earth-axis
+    inflow per annulus (B, 2, n_blade) [m/s] and, with ``keep.history``, the per-sample earth-axis
     F_x, F_z, F_y [N] and P_aero, P_iner [W] of one wing (B, 2, n_time, 5). ``tables``
     replaces the insect's (nodes, constants) of the fore- and hind-wing (:func:`wing_tables`),
     e.g. by single blade elements. ``motion`` (:class:`StrokeMotion`; None: neither part):
@@ -390,8 +400,10 @@ def run_kernel(
     (``options.slipstream="vortex"``, docs/model.md §5.8; ``interaction``) reads to place the
     wings; without them (measured kinematics, uniform samples) it places them by their angle
     histories. It refuses ``tables`` (a wing evaluated element by element has no one lifting
-    line).
+    line); ``keep.fields`` receives its field of each pair on the other (:class:`Kept`; None:
+    the cycle means and the inflow only).
     """
+    keep = Kept() if keep is None else keep
     phases, params = (None, None) if motion is None else motion
     convected = options.slipstream == "convected"
     vortex = options.slipstream == "vortex" and options.phase_resolved()
@@ -418,7 +430,7 @@ def run_kernel(
     outputs = Outputs(
         np.empty((batch, 2, cycle.N_WING_OUT)),
         np.empty((batch, 2, tables[0].shape[0])),
-        np.empty((batch if keep_history else 0, 2, n_time, 5)),
+        np.empty((batch if keep.history else 0, 2, n_time, 5)),
     )
     freestream = freestream_components(speed, beta, flight_path_angle)
     off = inflow_switched_off(freestream[:, :, 1], options)
@@ -464,13 +476,13 @@ def run_kernel(
     scale = np.where(off.any(1), 0.0, options.interference)
     result = interaction.kernel_reading(
         (fore, hind), params, phases, run, speed, flight_path_angle, scale, insect,
-        options.spin == "total",
+        options.spin == "total", keep.fields,
     )  # fmt: skip
     cycle.history_means(
         len(result.history), result.history, fore.weight, hind.weight, settings.cos_table,
         settings.sin_table, result.means,
     )  # fmt: skip
-    return result if keep_history else result._replace(history=outputs.history)
+    return result if keep.history else result._replace(history=outputs.history)
 
 
 def _performance(
