@@ -291,9 +291,7 @@ def run_jobs(
     given = {_job_of(job).key: job for job in jobs}
     records: dict[str, Record] = {}  # those in out_dir, then those copied from the cache
     cached: dict[str, Record] = {}
-    for key, job in given.items():
-        if rerun:
-            break
+    for key, job in ({} if rerun else given).items():
         if (record := store.load(_job_of(job))) is not None:
             records[key] = record
         elif (record := shared.load(_job_of(job))) is not None:
