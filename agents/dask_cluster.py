@@ -17,6 +17,8 @@ import time
 from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
+from tandem_env.physics.checks import is_integer
+
 if TYPE_CHECKING:
     from distributed import Client
 
@@ -89,11 +91,7 @@ def parse_scheduler(text: str) -> str:
 def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
     """The executor from ``scheduler`` and the shorthand ``workers=N`` (N > 1 means ``local:N``;
     1, the default, leaves ``scheduler`` as given)."""
-    if (
-        isinstance(workers, bool)
-        or not isinstance(workers, int)
-        or not 1 <= workers <= MAX_LOCAL_WORKERS
-    ):
+    if not is_integer(workers) or not 1 <= workers <= MAX_LOCAL_WORKERS:
         raise ValueError(
             f"workers = {workers!r}; allowed: an integer from 1 to {MAX_LOCAL_WORKERS} (N > 1 "
             "means local:N)"
@@ -104,7 +102,7 @@ def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
         raise ValueError(
             f"workers = {workers} and scheduler = {scheduler!r}; give one (workers N is local:N)"
         )
-    return f"local:{workers}"
+    return f"local:{int(workers)}"
 
 
 def set_worker_numba_threads() -> None:
