@@ -209,14 +209,8 @@ def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
             where = f"Dask scheduler {client.scheduler.address}, {workers} workers"
             if workers == 0:
                 where += " (jobs wait until workers connect)"
-            if dashboard_link := _dashboard(client):
-                where += f", dashboard {dashboard_link}"
+            with contextlib.suppress(Exception):  # no dashboard service (bokeh missing)
+                if client.scheduler_info().get("services") and client.dashboard_link:
+                    where += f", dashboard {client.dashboard_link}"
             print(where, file=sys.stderr)
         yield client
-
-
-def _dashboard(client: Client) -> str | None:
-    try:
-        return client.dashboard_link if client.scheduler_info().get("services") else None
-    except Exception:  # no dashboard service (bokeh missing)
-        return None

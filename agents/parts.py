@@ -105,12 +105,6 @@ def plan_parts(config: PolishConfig, budget: int) -> list[tuple[str, int, np.nda
     return plan
 
 
-def _part_seed(seed: int, index: int) -> int:
-    """Part ``index``'s seed: the job's for part 0 (one start is the plain run), else a
-    stream spawned from it."""
-    return seed if index == 0 else int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
-
-
 def search_part(
     prepared: PreparedJob,
     index: int,
@@ -120,7 +114,9 @@ def search_part(
     problem: Callable[[], Problem],
 ) -> Part:
     """One search on ``budget`` evaluations (less the polish's share), then its polish."""
-    seed = _part_seed(prepared.job.seed, index)
+    seed = prepared.job.seed  # part 0's (one start is the plain run); the others spawn from it
+    if index > 0:
+        seed = int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
     reserve = prepared.polish.reserve(budget, gradient_cost(prepared.dim, prepared.task))
 
     def shifted(iteration: int, evaluations: int, best: float) -> None:

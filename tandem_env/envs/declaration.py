@@ -336,13 +336,9 @@ def check_declarations(cls: type) -> None:
             f"declared condition needs the fields {', '.join(condition.keywords)}"
             + (f" and {objectives.keyword}" if objectives.keyword else "")
         )
-    if objectives.keyword is not None:
-        _check_literal(cls, objectives)
-
-
-def _check_literal(cls: type, objectives: TaskObjectives) -> None:
-    """An objective field typed ``Literal`` must offer exactly the declared choices."""
-    try:
+    if objectives.keyword is None:
+        return
+    try:  # an objective field typed ``Literal`` must offer exactly the declared choices
         hint = get_type_hints(cls).get(objectives.keyword)
     except NameError:  # an annotation not resolvable yet: nothing to compare
         return
