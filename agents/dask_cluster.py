@@ -17,6 +17,8 @@ import time
 from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
+from tandem_env.physics.checks import is_integer
+
 if TYPE_CHECKING:
     from distributed import Client
 
@@ -89,11 +91,7 @@ def parse_scheduler(text: str) -> str:
 def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
     """The executor from ``scheduler`` and the shorthand ``workers=N`` (N > 1 means ``local:N``;
     1, the default, leaves ``scheduler`` as given)."""
-    if (
-        isinstance(workers, bool)
-        or not isinstance(workers, int)
-        or not 1 <= workers <= MAX_LOCAL_WORKERS
-    ):
+    if not is_integer(workers) or not 1 <= workers <= MAX_LOCAL_WORKERS:
         raise ValueError(
             f"workers = {workers!r}; allowed: an integer from 1 to {MAX_LOCAL_WORKERS} (N > 1 "
             "means local:N)"
@@ -104,7 +102,7 @@ def executor_spec(scheduler: str | None, workers: int = 1) -> str | None:
         raise ValueError(
             f"workers = {workers} and scheduler = {scheduler!r}; give one (workers N is local:N)"
         )
-    return f"local:{workers}"
+    return f"local:{int(workers)}"
 
 
 def set_worker_numba_threads() -> None:
@@ -211,14 +209,8 @@ def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
             where = f"Dask scheduler {client.scheduler.address}, {workers} workers"
             if workers == 0:
                 where += " (jobs wait until workers connect)"
-            if dashboard_link := _dashboard(client):
-                where += f", dashboard {dashboard_link}"
+            with contextlib.suppress(Exception):  # no dashboard service (bokeh missing)
+                if client.scheduler_info().get("services") and client.dashboard_link:
+                    where += f", dashboard {client.dashboard_link}"
             print(where, file=sys.stderr)
         yield client
-
-
-def _dashboard(client: Client) -> str | None:
-    try:
-        return client.dashboard_link if client.scheduler_info().get("services") else None
-    except Exception:  # no dashboard service (bokeh missing)
-        return None

@@ -110,7 +110,13 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
         env.reset(options=self._options)
         _, rewards, _, _, infos = env.step(actions)
         self.step_time += time.perf_counter() - start
-        self._check_condition(infos, n)
+        # the env reports the condition it used: a wrong one would optimise the wrong problem
+        seen = np.asarray(infos.get(self.condition.name, self.condition.value), dtype=np.float64)
+        if seen.shape == (n,) and not np.all(seen == self.condition.value):
+            raise RuntimeError(
+                f"the env evaluated {self.condition.name} = {np.unique(seen)} but the harness "
+                f"asked for {self.condition.describe()}"
+            )
         rewards = np.asarray(rewards, dtype=np.float64).copy()
         objective = np.asarray(infos.get("objective", rewards), dtype=np.float64)
         feasible = np.asarray(infos.get("feasible", np.ones(n, dtype=bool)), dtype=bool)
@@ -128,18 +134,6 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
     def __call__(self, actions: np.ndarray) -> np.ndarray:
         """Rewards (n,) of a batch of actions (n, dim): the fitness a method maximises."""
         return self.evaluate_batch(actions).rewards
-
-    def _check_condition(self, infos: Mapping[str, Any], n: int) -> None:
-        # the env reports the condition it used: a wrong one would optimise the wrong problem
-        seen = infos.get(self.condition.name)
-        if seen is None:
-            return
-        seen = np.asarray(seen, dtype=np.float64)
-        if seen.shape == (n,) and not np.all(seen == self.condition.value):
-            raise RuntimeError(
-                f"the env evaluated {self.condition.name} = {np.unique(seen)} but the harness "
-                f"asked for {self.condition.describe()}"
-            )
 
     # --- what was found ----------------------------------------------------------------------
     @property
@@ -168,16 +162,10 @@ def reevaluate(
     the same reward as in the search (one shared core), independent of the search's state."""
     env.reset(seed=seed, options={task.declared_condition.keyword: condition.value})
     _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
-    return Reevaluation(float(reward), dict(info), env_config_dict(env))
-
-
-def env_config_dict(env: gym.Env) -> dict[str, Any] | None:
-    """The env's ``config`` dataclass as plain JSON (:func:`to_jsonable`), or None."""
-    config = getattr(env.unwrapped, "config", None)
-    if config is None or not dataclasses.is_dataclass(config):
-        return None
-    out = to_jsonable(config)
-    describe = getattr(config, "describe", None)
-    if callable(describe):
-        out["description"] = describe()
-    return out
+    config = getattr(env.unwrapped, "config", None)  # a dataclass, as plain JSON, if it has one
+    env_config = None
+    if config is not None and dataclasses.is_dataclass(config):
+        env_config = to_jsonable(config)
+        if callable(describe := getattr(config, "describe", None)):
+            env_config["description"] = describe()
+    return Reevaluation(float(reward), dict(info), env_config)

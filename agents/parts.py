@@ -1,6 +1,7 @@
 """A harness run's budget in parts (:func:`plan_parts`: per search and per initial stroke):
 :func:`search_part` searches, selects and polishes; :func:`initial_part` polishes an initial
-stroke; :class:`PreparedJob` is the validated job.
+stroke; :func:`finish_part` finishes the chosen part's polish by autograd (:func:`finish`);
+:class:`PreparedJob` is the validated job.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from agents.evaluator import VectorEnvEvaluator
 from agents.jobs import Job
@@ -22,9 +24,9 @@ from agents.polish import (
     PolishResult,
     Problem,
     certified,
+    finishable,
     polish,
 )
-from agents.polish_finish import finish
 from agents.records import (
     SELECTION_BEST_FEASIBLE,
     SELECTION_BEST_REWARD,
@@ -103,12 +105,6 @@ def plan_parts(config: PolishConfig, budget: int) -> list[tuple[str, int, np.nda
     return plan
 
 
-def _part_seed(seed: int, index: int) -> int:
-    """Part ``index``'s seed: the job's for part 0 (one start is the plain run), else a
-    stream spawned from it."""
-    return seed if index == 0 else int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
-
-
 def search_part(
     prepared: PreparedJob,
     index: int,
@@ -118,7 +114,9 @@ def search_part(
     problem: Callable[[], Problem],
 ) -> Part:
     """One search on ``budget`` evaluations (less the polish's share), then its polish."""
-    seed = _part_seed(prepared.job.seed, index)
+    seed = prepared.job.seed  # part 0's (one start is the plain run); the others spawn from it
+    if index > 0:
+        seed = int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
     reserve = prepared.polish.reserve(budget, gradient_cost(prepared.dim, prepared.task))
 
     def shifted(iteration: int, evaluations: int, best: float) -> None:
@@ -163,11 +161,10 @@ def finish_part(
     prepared: PreparedJob, part: Part, allowance: int, problem: Callable[[], Problem]
 ) -> Part:
     """The run's chosen part with its polish finished by autograd where it ended short of the
-    KKT stop (:func:`agents.polish_finish.finish`), on the ``allowance`` the parts left of the
+    KKT stop (:func:`finish`), on the ``allowance`` the parts left of the
     budget (each kept ``polish_finish`` of its polish's back for it): the reported stroke is
     the one certified, so one finish serves the run, however many parts it has."""
-    ran = part.certificate.method != "none" and part.certificate.iterations > 0
-    if not prepared.polish.enabled or not part.feasible or not ran or certified(part.certificate):
+    if not part.feasible or part.certificate.iterations == 0:  # finish() says the rest
         return part
     started = PolishResult(part.action, part.reward, part.certificate, feasible=True)
     done = finish(problem(), started, allowance, prepared.polish)
@@ -179,6 +176,59 @@ def finish_part(
         selection = SELECTION_INITIAL_POLISHED if part.kind == "initial" else SELECTION_POLISHED
     found = {"action": done.stroke, "reward": done.objective, "certificate": done.certificate}
     return replace(part, evaluations=evaluations, selection=selection, **found)
+
+
+def finish(
+    problem: Problem, result: PolishResult, budget: int, config: PolishConfig
+) -> PolishResult:
+    """``result``, a polish by central differences that ended short of the KKT stop (where the
+    model's second derivative jumps within a step), polished on with autograd gradients (one
+    evaluation each) on ``budget`` more evaluations; ``result`` itself where it is certified,
+    infeasible, not :func:`finishable` or ``budget`` is below two gradients. The certificate
+    covers both: evaluations, allowance and iterations summed, the stop and the KKT check the
+    finish's, ``gradient`` ``"central differences, then autograd"``."""
+    first = result.certificate
+    if (
+        certified(first)
+        or not result.feasible
+        or first.method == "none"
+        or first.status.startswith("not applicable")
+        or not finishable(problem, first.gradient, config)
+        or budget < 2
+    ):
+        return result
+    try:
+        # one stroke is too small a tensor for threads to gain (and waiting threads cost):
+        # torch's OpenMP pool on one thread, restored afterwards
+        gradient = AutogradGradient(problem)
+        with threadpool_limits(limits=1, user_api="openmp"):
+            more = polish(problem, result.stroke, budget, config, gradient, keep_certified=True)
+        failed = more.certificate.status
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
+        failed = f"failed: {type(error).__name__}: {error}"
+    if failed.startswith("failed"):
+        message = f"{first.message}; the finish {failed}"
+        return replace(result, certificate=replace(first, message=message))
+    last = more.certificate
+    before = first.objective_before
+    improved = more.improved or result.improved
+    gain = first.gain
+    if more.improved and before is not None and first.gain is not None and before != 0.0:
+        gain = (more.objective - before) / abs(before)
+    certificate = replace(
+        last,
+        status="improved" if improved else first.status,
+        gain=gain,
+        objective_before=before,
+        objective_after=more.objective if more.improved else first.objective_after,
+        evaluations=first.evaluations + last.evaluations,
+        allowance=first.allowance + last.allowance,
+        iterations=first.iterations + last.iterations,
+        gradient=f"{first.gradient}, then {last.gradient}",
+    )
+    stroke = more.stroke if more.improved else result.stroke
+    objective = more.objective if more.improved else result.objective
+    return PolishResult(stroke, objective, certificate, feasible=True)
 
 
 def gradient_cost(dim: int, task: TaskSpec) -> int:

@@ -284,7 +284,7 @@ def polish(
     # with the problem's own value there, below)
     check = grad_fn.cost + isinstance(grad_fn, AutogradGradient)
     run = _Run(problem, x0, int(budget) - check, grad_fn, config)
-    if finishable(problem, grad_fn.name, config):  # kept for agents.polish_finish.finish
+    if finishable(problem, grad_fn.name, config):  # kept for agents.parts.finish
         run.allowance -= round(config.finish * run.allowance)
     z0 = x0[run.free]
     first = run.gradient(z0)
@@ -303,7 +303,7 @@ def polish(
     optimal = f"KKT residual <= {config.optimality:g} at a feasible iterate"
     message = optimal if climb.optimal else climb.message
     template = replace(template, iterations=iterations, converged=converged, message=message)
-    # a start already polished (:func:`agents.polish_finish.finish`'s) gives way to the iterate
+    # a start already polished (:func:`agents.parts.finish`'s) gives way to the iterate
     # that passed the KKT stop beside it, within the 1e-6 of the stop's rule, to certify it
     settled = keep_certified and climb.optimal and run.best is not None
     settled = settled and not np.array_equal(run.best[1], x0)
@@ -358,7 +358,8 @@ def _climb(run: _Run, z0: np.ndarray, margin: np.ndarray) -> _Climb:
         # passes the KKT test (its own test watches the objective's change, which can stall
         # long before it passes near active constraints, at 53 strokes a step).
         grad = run.gradient(z)
-        if config.optimality > 0.0 and _optimal(run, z, grad):
+        stop = config.optimality
+        if stop > 0.0 and grad.feasible and _kkt(run, z, grad)[0] <= stop:
             raise _Optimal(run.full(z), grad.objective)
         return -grad.objective_gradient
 
@@ -431,12 +432,6 @@ def _kkt(run: _Run, z: np.ndarray, grad: Gradient) -> tuple[float, np.ndarray, n
     return kkt_residual(grad.objective_gradient, margins, grad.jacobian, z, run.active)
 
 
-def _optimal(run: _Run, z: np.ndarray, grad: Gradient) -> bool:
-    """The iterate z (free coordinates) is feasible and passes the KKT test
-    (``config.optimality``)."""
-    return grad.feasible and _kkt(run, z, grad)[0] <= run.config.optimality
-
-
 def _check(run: _Run, x: np.ndarray) -> tuple[float | None, tuple[str, ...]]:
     """KKT residual and active constraints at x (one more gradient unless cached)."""
     try:
@@ -453,7 +448,7 @@ def _keep(
     run: _Run, x0: np.ndarray, before: float, template: Certificate, feasible: bool
 ) -> PolishResult:
     """The start stays (no gain, a failure, an infeasible start), checked with the held margins
-    if it lies inside them (a polished stroke, e.g. one :func:`agents.polish_finish.finish`
+    if it lies inside them (a polished stroke, e.g. one :func:`agents.parts.finish`
     starts from), else (a search's stroke) with the plain margin and activity."""
     found = run.values.get(x0.tobytes())
     if found is None or np.any(found[1] - run.margin < -run.active):

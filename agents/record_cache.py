@@ -72,9 +72,7 @@ class CacheWriter:
         self.store = store
 
     def load(self, job: Job | Work) -> Record | None:
-        if self.store is None or not cacheable(job):
-            return None
-        return self.store.load(job)
+        return None if self.store is None or not cacheable(job) else self.store.load(job)
 
     def save(self, record: Record, *, unless_present: bool = False) -> None:
         store = self.store

@@ -38,20 +38,6 @@ from tandem_env.io.progress_bar import ProgressBar, Reporter
 if TYPE_CHECKING:
     from distributed import Client
 
-__all__ = [
-    "JobFailure",
-    "JobsFailed",
-    "Lookup",
-    "OutputNotWritable",
-    "Plan",
-    "PlanRun",
-    "RunSummary",
-    "find_records",
-    "job_records",
-    "look_ahead",
-    "run_jobs",
-    "run_plan",
-]
 
 #: Prefix of the Dask task keys (``harness-<job key>``; the dashboard groups tasks by it).
 TASK_PREFIX = "harness"
@@ -291,9 +277,7 @@ def run_jobs(
     given = {_job_of(job).key: job for job in jobs}
     records: dict[str, Record] = {}  # those in out_dir, then those copied from the cache
     cached: dict[str, Record] = {}
-    for key, job in given.items():
-        if rerun:
-            break
+    for key, job in ({} if rerun else given).items():
         if (record := store.load(_job_of(job))) is not None:
             records[key] = record
         elif (record := shared.load(_job_of(job))) is not None:

@@ -29,18 +29,6 @@ from agents.records import (
 )
 from tandem_env.io.files import output_directory, write_csv_atomic, write_json_atomic
 
-__all__ = [
-    "CACHE_ENV",
-    "RECORDS_DIR",
-    "SUMMARY_NAME",
-    "RecordStore",
-    "StoreWriteError",
-    "cache_directory",
-    "read_record",
-    "read_record_files",
-    "write_summary",
-]
-
 #: A store's records folder, ``DIR/records``.
 RECORDS_DIR = "records"
 #: A store's CSV summary over its records, ``DIR/summary.csv``.
@@ -287,20 +275,12 @@ def read_record_files(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
                 data = _read_json(path)
             except OSError as error:
                 raise RecordError(f"{path}: cannot read JSON: {error}") from None
-            schema = data.get("schema") if isinstance(data, dict) else None
-            if schema in OLD_SCHEMAS:
-                _warn(
-                    f"{path}: a record of the earlier format {schema!r}; left out (rerun "
-                    "the command that wrote it to recompute it)"
-                )
-                continue
-            if schema != SCHEMA:
-                continue
+            if not isinstance(data, dict) or data.get("schema") not in (SCHEMA, *OLD_SCHEMAS):
+                continue  # another JSON file
             try:
                 records.append(_check_name(path, Record.from_dict(data)))
-            except (RecordChecksumError, RecordMismatchError) as error:
+            except (OutdatedRecordError, RecordChecksumError, RecordMismatchError) as error:
                 _warn(f"{path}: {str(error).removeprefix(f'{path}: ')}; left out")
-                continue
             except RecordError as error:
                 raise RecordError(f"{path}: malformed record: {error}") from None
     return records

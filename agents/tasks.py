@@ -126,9 +126,8 @@ class TaskSpec:
     def objective_metric(self, env_kwargs: Mapping[str, Any]) -> str:
         """The ``info`` metric the env maximises with ``env_kwargs``, e.g. ``"efficiency"``."""
         declared = self.declared_objectives
-        if declared.keyword is None:
-            return declared.metrics[declared.default]
-        choice = env_kwargs.get(declared.keyword, declared.default)
+        keyword = declared.keyword
+        choice = env_kwargs.get(keyword, declared.default) if keyword else declared.default
         if choice not in declared.metrics:
             raise ValueError(
                 f"{self.name}: {declared.keyword} = {choice!r}; allowed: "

@@ -92,7 +92,6 @@ class FlightCore:
         self.config = config
         self._low, self._high = config.envelope
         condition = config.declared_condition
-        self._options = (condition.keyword,)
         self._renamed = condition.renamed()
         self.reference = ConfigReference(config)
         """The reference optima this config's strokes are scored against (or none)."""
@@ -114,7 +113,7 @@ class FlightCore:
         where = (self._low, self._high, cfg.declared_condition.unit, "the observation envelope")
         values = np.empty(count)
         for k in range(count):
-            given = reset_options(cfg.name, options[k], self._options, self._renamed)
+            given = reset_options(cfg.name, options[k], (key,), self._renamed)
             if given:
                 values[k] = option_value(cfg.name, key, given[key], *where)
             elif cfg.condition_range is None:
@@ -201,7 +200,6 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         self._started = np.zeros(n, dtype=np.bool_)
         self._ended = np.zeros(n, dtype=np.bool_)
         self._last: list[LastStep | None] = [None] * n
-        self._window: Any = None
         self._init_episodes(n)
 
     # --- per-env random generators (one per sub-env, as SyncVectorEnv's envs have) -------------
@@ -474,7 +472,6 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
         self.core = self.vector_env.core
         self.action_space = action_space()
         self.observation_space = self.vector_env.single_observation_space
-        self._window: Any = None
 
     def problem(self) -> FlightProblem:
         """The task as an optimisation problem, its vector env's (:meth:`FlightVectorEnv.problem`)."""
@@ -499,12 +496,10 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
         batch, observations = self.vector_env.step_checked(_FIRST, arr[None, :])
         if self.render_mode == "human":
             self.render()
-        reward = float(batch.reward[0])
-        ended = bool(batch.terminated[0])
         return (
             observations[0].copy(),
-            reward,
-            ended,
+            float(batch.reward[0]),
+            bool(batch.terminated[0]),
             bool(batch.truncated[0]),
             row(batch.info_columns(), 0),
         )

@@ -181,14 +181,13 @@ class TaskObjectives:
                 f"{owner}.default = {self.default!r}; allowed: one of "
                 f"{', '.join(map(repr, self.metrics))}"
             )
-        if self.keyword is None:
-            if len(self.metrics) > 1:
-                raise ValueError(
-                    f"{owner}: {len(self.metrics)} objectives ({', '.join(self.metrics)}) but no "
-                    "keyword to choose between them; allowed: a keyword, or one objective"
-                )
-        else:
+        if self.keyword is not None:
             _identifier(owner, "keyword", self.keyword)
+        elif len(self.metrics) > 1:
+            raise ValueError(
+                f"{owner}: {len(self.metrics)} objectives ({', '.join(self.metrics)}) but no "
+                "keyword to choose between them; allowed: a keyword, or one objective"
+            )
         _text(owner, "unit", self.unit)
         object.__setattr__(self, "metrics", MappingProxyType(dict(self.metrics)))
         object.__setattr__(self, "choices", tuple(self.metrics))
@@ -313,10 +312,6 @@ class TaskDeclaration:
         return Scores(violations, total, feasible)
 
 
-def _annotated(cls: type) -> set[str]:
-    return {name for klass in cls.__mro__ for name in getattr(klass, "__annotations__", {})}
-
-
 def check_declarations(cls: type) -> None:
     """Check a config class's ``DECLARATION`` against its own fields, when the class is
     defined (a declaration naming a missing field fails at import, naming both)."""
@@ -331,7 +326,7 @@ def check_declarations(cls: type) -> None:
     condition, objectives = declaration.condition, declaration.objectives
     if condition is None or objectives is None:
         return
-    fields = _annotated(cls)
+    fields = {name for klass in cls.__mro__ for name in getattr(klass, "__annotations__", {})}
     needed = [*condition.keywords, *([objectives.keyword] if objectives.keyword else [])]
     missing = [name for name in needed if name not in fields]
     if missing:
@@ -341,13 +336,9 @@ def check_declarations(cls: type) -> None:
             f"declared condition needs the fields {', '.join(condition.keywords)}"
             + (f" and {objectives.keyword}" if objectives.keyword else "")
         )
-    if objectives.keyword is not None:
-        _check_literal(cls, objectives)
-
-
-def _check_literal(cls: type, objectives: TaskObjectives) -> None:
-    """An objective field typed ``Literal`` must offer exactly the declared choices."""
-    try:
+    if objectives.keyword is None:
+        return
+    try:  # an objective field typed ``Literal`` must offer exactly the declared choices
         hint = get_type_hints(cls).get(objectives.keyword)
     except NameError:  # an annotation not resolvable yet: nothing to compare
         return

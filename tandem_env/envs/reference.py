@@ -372,9 +372,7 @@ def record_score(
     """The normalised score of a stroke flown by the env of ``env_id`` configured as ``env``
     (``to_jsonable(config)``, a harness record's ``env``) at ``condition``; NaN where the
     table does not apply."""
-    if env_id not in REFERENCE_GRID:
-        return float("nan")
-    series = _applicable(config_class(env_id), env)
+    series = _applicable(config_class(env_id), env) if env_id in REFERENCE_GRID else None
     if series is None:
         return float("nan")
     return float(normalised_score(series.at(condition), objective, feasible, violation))

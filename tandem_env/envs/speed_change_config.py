@@ -100,15 +100,15 @@ class SpeedChangeReward:
         )
 
 
-def _body_split_options() -> ModelOptions:
-    return ModelOptions(thrust_split="body")
+#: SpeedChange's default model options: the body's drag in the thrust split (see ``options``).
+BODY_SPLIT = ModelOptions(thrust_split="body")
 
 
 @dataclass(frozen=True, kw_only=True)
 class SpeedChangeConfig(FlightConfig):
     """Change speed and hold altitude over many wing-beats (see ``SpeedChangeEnv``)."""
 
-    options: ModelOptions = field(default_factory=_body_split_options)
+    options: ModelOptions = BODY_SPLIT
     """Model options; default ``thrust_split="body"``, so that the reported T − D and L − W
     are exactly the net forces of the dynamics (wings + body drag + weight)."""
     start_speed: float | None = None
@@ -175,9 +175,7 @@ class SpeedChangeConfig(FlightConfig):
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> FlightConfig:
         """As :meth:`FlightConfig.from_kwargs`, with ``thrust_split="body"`` unless given."""
-        if "options" not in kwargs:
-            kwargs["options"] = _body_split_options()
-        return super().from_kwargs(**kwargs)
+        return super().from_kwargs(**{"options": BODY_SPLIT, **kwargs})
 
     # --- the condition the training tools vary: the target speed -----------------------------
     @property

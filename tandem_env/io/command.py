@@ -51,15 +51,6 @@ def check_numba_environment(environ: Mapping[str, str] | None = None) -> None:
         )
 
 
-def _writable_streams() -> None:
-    for name in ("stdout", "stderr"):
-        stream = getattr(sys, name)
-        if stream is None:  # closed when Python started (2>&-)
-            setattr(sys, name, open(os.devnull, "w", encoding="utf-8"))
-        elif isinstance(stream, io.TextIOWrapper):
-            stream.reconfigure(errors="backslashreplace")
-
-
 def _program() -> str:
     """The command as typed: ``tandem-study``, ``python -m eval``, ``python -m train.envelope``."""
     path = sys.argv[0] if sys.argv and sys.argv[0] else ""
@@ -76,7 +67,12 @@ def _program() -> str:
 def run_command(main: Callable[[], int | None], program: str | None = None) -> int:
     """Run a command line's ``main()`` with the shared handling of the module docstring; its
     exit status. ``program`` names the command in an error line (default the script's name)."""
-    _writable_streams()
+    for name in ("stdout", "stderr"):  # streams that carry any character
+        stream = getattr(sys, name)
+        if stream is None:  # closed when Python started (2>&-)
+            setattr(sys, name, open(os.devnull, "w", encoding="utf-8"))
+        elif isinstance(stream, io.TextIOWrapper):
+            stream.reconfigure(errors="backslashreplace")
     stderr = sys.stderr
     sys.stderr = QuietStream(stderr)  # type: ignore[assignment]
     try:

@@ -142,20 +142,16 @@ def _check_folder(folder: Path, option: str, path: Path, write: bool) -> bool:
 
 def new_file_mode() -> int:
     """The mode a newly created file gets under the process's umask (``0o666 & ~umask``)."""
-    return 0o666 & ~_umask()
-
-
-def _umask() -> int:
-    # Read without changing it where the platform says it (Linux >= 4.7); otherwise set and
-    # restore it under a lock, the one way the os module offers.
+    # The umask read without changing it where the platform says it (Linux >= 4.7); otherwise
+    # set and restored under a lock, the one way the os module offers.
     with contextlib.suppress(OSError, ValueError), open("/proc/self/status", encoding="ascii") as f:
         for line in f:
             if line.startswith("Umask:"):
-                return int(line.split()[1], 8)
+                return 0o666 & ~int(line.split()[1], 8)
     with _UMASK_LOCK:
         mask = os.umask(0o022)
         os.umask(mask)
-    return mask
+    return 0o666 & ~mask
 
 
 _UMASK_LOCK = threading.Lock()
@@ -182,7 +178,14 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
-    _fsync_directory(path.parent)
+    # The rename itself made durable on POSIX; directories cannot be opened this way on
+    # Windows, where the rename is as durable as the platform makes it.
+    with contextlib.suppress(OSError):
+        fd = os.open(path.parent, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
 
 
 class FolderInUse(ValueError):
@@ -282,14 +285,3 @@ def _csv_cell(value: Any) -> Any:
     if isinstance(value, list | dict):
         return json.dumps(value)
     return value
-
-
-def _fsync_directory(directory: Path) -> None:
-    # Makes the rename itself durable on POSIX; directories cannot be opened this way on
-    # Windows, where the rename is as durable as the platform makes it.
-    with contextlib.suppress(OSError):
-        fd = os.open(directory, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from agents.harness import prepare, run
+from agents.parts import finish
 from agents.polish import (
     UNCERTIFIED,
     BatchEvaluation,
@@ -29,7 +30,6 @@ from agents.polish import (
     polish,
     split_settings,
 )
-from agents.polish_finish import finish
 from agents.records import SELECTION_POLISHED, SELECTION_REWARD_POLISHED, Record
 
 DIM = 28
