@@ -104,7 +104,7 @@ class Settings:
     branch_tolerance: float = field(default=0.1, metadata=_allowed(0.0, 1.0))
     """Two neighbouring training optima share a branch when the stroke midway between them
     loses at most this fraction of their mean objective and violates no margin by more
-    (:func:`~train.amortised_branches.branch_segments`) [-]."""
+    (:func:`~train.amortised.branch_segments`) [-]."""
     features: int = field(default=0, metadata=_allowed(0, 1024))
     """Gaussian radial features of the observation before the MLP (0: the observation
     itself) [-] (:func:`radial_features`)."""
