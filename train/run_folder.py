@@ -65,6 +65,16 @@ def resolve_run_dir(path: str | os.PathLike[str]) -> Path:
     return path.parent / f"{path.name}_{n}" if n else path
 
 
+def read_run_folder(
+    run_dir: str | os.PathLike[str], allowed: str
+) -> tuple[RunLayout, Path, dict[str, Any]]:
+    """The layout of a run folder (or of the latest run it names, :func:`resolve_run_dir`), its
+    ``<env>/args.yml`` and the settings there (:func:`train.saved.read_run_args`, ``allowed``)."""
+    folder = resolve_run_dir(run_dir)
+    args_file, args, env_id = saved.read_run_args(folder, allowed)
+    return RunLayout(folder, env_id), args_file, args
+
+
 def run_lock(run_dir: Path) -> FolderLock:
     """The exclusive lock of a run folder (``<run>/.train.lock``, a ``FolderLock``)."""
     return FolderLock(
@@ -119,7 +129,6 @@ class Interrupted(Exception):
     """Training stopped by Ctrl-C with a checkpoint saved (``python -m train`` exits 130)."""
 
     def __init__(self, checkpoint: Checkpoint, resume: str) -> None:
-        self.checkpoint = checkpoint
         super().__init__(
             f"interrupted: checkpoint at step {checkpoint.step} saved as {checkpoint.model}; "
             f"continue with: {resume}"
@@ -312,10 +321,7 @@ class RunFolder:
         if not config.verbose or amortised:
             return run
         # what this command is about to do, before any work (stdout)
-        hp = run.hp
-        layout = run.layout
-        checkpoint = run.checkpoint
-        target = run.target
+        hp, layout, checkpoint, target = run.hp, run.layout, run.checkpoint, run.target
         assert hp is not None
         if target != hp.n_timesteps:
             unit = step_granularity(hp)
