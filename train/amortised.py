@@ -13,7 +13,7 @@ import itertools
 import math
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -405,9 +405,7 @@ def train_run(config: TrainConfig) -> RunResult:
             "env_id": env_id,
             "seed": seed,
             "wall_time": wall,
-            "regression_loss": training.regression_loss,
-            "regression_seconds": training.regression_seconds,
-            "finetune_seconds": training.finetune_seconds,
+            **asdict(training),  # the losses, seconds, branches and fine-tuning history
             "num_timesteps": policy.num_timesteps,
             "series": {
                 key: getattr(series, key) for key in ("objective", "planform", "fingerprint")
@@ -424,8 +422,6 @@ def train_run(config: TrainConfig) -> RunResult:
                     conditions, found.objective, found.feasible, targets.objectives, strict=True
                 )
             ],
-            "branches": training.branches,
-            "history": training.history,
             "versions": package_versions(),
         }
         run.start(settings.to_dict())

@@ -35,7 +35,13 @@ from tandem_env.io.files import write_json_atomic
 from train.config import Hyperparams, TrainConfig, resolve_hyperparams, step_granularity
 from train.run_folder import Checkpoint, Interrupted, RunFolder, RunLayout
 from train.saved import build_model, read_normalizer, save_checkpoint
-from train.vec import StrokeRecorder, evaluate_deterministic, make_evaluation_env, make_training_env
+from train.vec import (
+    STROKE_METRICS,
+    StrokeRecorder,
+    evaluate_deterministic,
+    make_evaluation_env,
+    make_training_env,
+)
 
 #: Checkpoints kept in a run folder (older ones are deleted: a SAC replay buffer is ~40 MB).
 KEEP_CHECKPOINTS = 2
@@ -87,15 +93,7 @@ def default_log_interval(hp: Hyperparams) -> int:
 
 # --- callbacks -----------------------------------------------------------------------------
 #: ``info`` entries averaged over each vector step into ``physics/<name>``.
-LOGGED_METRICS: tuple[str, ...] = (
-    "objective",
-    "efficiency",
-    "lift_to_weight",
-    "power_per_mass",
-    "constraint_violation",
-    "feasible",
-    "score",
-)
+LOGGED_METRICS: tuple[str, ...] = (*STROKE_METRICS, "constraint_violation", "score")
 
 
 class PhysicsLogger(BaseCallback):
@@ -146,9 +144,7 @@ class ResumableEvalCallback(EvalCallback):
             return
         try:
             with np.load(path, allow_pickle=False) as data:
-                steps = data["timesteps"]
-                results = data["results"]
-                lengths = data["ep_lengths"]
+                steps, results, lengths = (data[k] for k in ("timesteps", "results", "ep_lengths"))
                 successes = data["successes"] if "successes" in data.files else None
         except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
             warnings.warn(

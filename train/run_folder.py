@@ -69,10 +69,23 @@ def read_run_folder(
     run_dir: str | os.PathLike[str], allowed: str
 ) -> tuple[RunLayout, Path, dict[str, Any]]:
     """The layout of a run folder (or of the latest run it names, :func:`resolve_run_dir`), its
-    ``<env>/args.yml`` and the settings there (:func:`train.saved.read_run_args`, ``allowed``)."""
+    one ``<env>/args.yml`` and the settings there; ValueError naming the folder and ``allowed``
+    otherwise."""
     folder = resolve_run_dir(run_dir)
-    args_file, args, env_id = saved.read_run_args(folder, allowed)
-    return RunLayout(folder, env_id), args_file, args
+    found = sorted(folder.glob("*/args.yml")) if folder.is_dir() else []
+    if len(found) != 1:
+        raise ValueError(
+            f"{folder} is not a training run folder (expected one <env>/args.yml, found "
+            f"{len(found)}); allowed: {allowed}"
+        )
+    args = saved.read_run_yaml(found[0])
+    env_id = args.get("env")
+    if not isinstance(env_id, str) or env_id.translate(FOLDER_NAME) != found[0].parent.name:
+        raise ValueError(
+            f"{found[0]}: env = {env_id!r}, but the file sits in the settings folder of "
+            f"{found[0].parent.name}; allowed: the env the run was trained on"
+        )
+    return RunLayout(folder, env_id), found[0], args
 
 
 def run_lock(run_dir: Path) -> FolderLock:

@@ -27,16 +27,10 @@ from agents.selection import BestStroke
 from tandem_env.envs.registration import config_class
 from tandem_env.envs.sb3 import TandemVecEnv, make_sb3_vec_env
 
+#: The ``info`` entries of an evaluated stroke that both the Monitor CSV and the logs keep.
+STROKE_METRICS = ("objective", "efficiency", "lift_to_weight", "power_per_mass", "feasible")
 #: ``info`` entries written to the Monitor CSV next to each episode's reward and length.
-MONITOR_KEYWORDS: tuple[str, ...] = (
-    "objective",
-    "efficiency",
-    "lift_to_weight",
-    "power_per_mass",
-    "feasible",
-    "speed",
-    "available_power",
-)
+MONITOR_KEYWORDS: tuple[str, ...] = (*STROKE_METRICS, "speed", "available_power")
 
 
 class StrokeRecorder(VecEnvWrapper):
@@ -56,6 +50,7 @@ class StrokeRecorder(VecEnvWrapper):
         self.evaluations = 0
         self.steps = 0
         self.best_reward = -np.inf
+        self.best_feasible = False
         self.best_action: np.ndarray | None = None
         self.best_info: dict[str, Any] | None = None
         self.max_reward = -np.inf
@@ -83,6 +78,7 @@ class StrokeRecorder(VecEnvWrapper):
         i = None if self._actions is None else self._best.offer(feasible, exact)
         if i is not None:
             self.best_reward = self._best.reward
+            self.best_feasible = self._best.feasible
             self.best_action = self._actions[i].copy()
             self.best_info = {k: v for k, v in infos[i].items() if k != "terminal_observation"}
         clean = np.where(np.isnan(exact), -np.inf, exact)
