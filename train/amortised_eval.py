@@ -127,6 +127,15 @@ def evaluate_held_out(
         "count": len(rows),
         "median_gap": statistics.median(gaps),
         "worst_gap": max(gaps),
+        "run_dir": str(policy.run_dir),
+        "env_id": env_id,
+        "env_kwargs": env_kwargs,
+        "objective": series.objective,
+        "planform": series.planform,
+        "conditions": "held-out" if conditions is None else "given",
+        "stroke_seconds": statistics.median(single),
+        "batch_seconds": statistics.median(batched),
+        "batch": int(values.size),
     }
     if polish_budget:
         from agents.polish import AutogradGradient, PolishConfig, polish, task_problem
@@ -146,38 +155,21 @@ def evaluate_held_out(
             seconds = time.perf_counter() - began
             after, _, _, polished = scored(result.stroke[None, :], row["condition"])
             row.update(
-                {
-                    "polished_objective": float(after.objective[0]),
-                    "polished_feasible": bool(after.feasible[0]),
-                    "polished_score": float(polished[0]),
-                    "polished_gap": 100.0 - float(polished[0]),
-                    "polish_evaluations": int(result.certificate.evaluations or 0),
-                    "polish_seconds": seconds,
-                }
+                polished_objective=float(after.objective[0]),
+                polished_feasible=bool(after.feasible[0]),
+                polished_score=float(polished[0]),
+                polished_gap=100.0 - float(polished[0]),
+                polish_evaluations=int(result.certificate.evaluations or 0),
+                polish_seconds=seconds,
             )
         polished_gaps = [r["polished_gap"] for r in rows]
         summary.update(
-            {
-                "polish_budget": polish_budget,
-                "polished_feasible": sum(r["polished_feasible"] for r in rows),
-                "polished_median_gap": statistics.median(polished_gaps),
-                "polished_worst_gap": max(polished_gaps),
-                "polish_seconds_median": statistics.median(r["polish_seconds"] for r in rows),
-            }
+            polish_budget=polish_budget,
+            polished_feasible=sum(r["polished_feasible"] for r in rows),
+            polished_median_gap=statistics.median(polished_gaps),
+            polished_worst_gap=max(polished_gaps),
+            polish_seconds_median=statistics.median(r["polish_seconds"] for r in rows),
         )
-    summary.update(
-        {
-            "run_dir": str(policy.run_dir),
-            "env_id": env_id,
-            "env_kwargs": env_kwargs,
-            "objective": series.objective,
-            "planform": series.planform,
-            "conditions": "held-out" if conditions is None else "given",
-            "stroke_seconds": statistics.median(single),
-            "batch_seconds": statistics.median(batched),
-            "batch": int(values.size),
-        }
-    )
     timed = [r for r in rows if "optimiser_wall_time" in r]
     if timed:
         summary["optimiser_seconds_median"] = statistics.median(
@@ -203,13 +195,11 @@ def evaluate_held_out(
         )
         gap = 100.0 - 100.0 * float(record.objective) / float(series.at(condition))
         summary.update(
-            {
-                "cmaes_condition": condition,
-                "cmaes_budget": cmaes_budget,
-                "cmaes_seconds": time.perf_counter() - start,
-                "cmaes_feasible": bool(record.feasible),
-                "cmaes_gap": gap if record.feasible else None,
-            }
+            cmaes_condition=condition,
+            cmaes_budget=cmaes_budget,
+            cmaes_seconds=time.perf_counter() - start,
+            cmaes_feasible=bool(record.feasible),
+            cmaes_gap=gap if record.feasible else None,
         )
     return {"rows": rows, "summary": summary}
 

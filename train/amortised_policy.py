@@ -1,11 +1,9 @@
 """The amortised stroke policy (trained by :mod:`train.amortised`): its map from the condition
 c [the condition's unit] to a normalised stroke (28,) in [-1, 1], its training settings
 (:class:`Settings`, the one home of their limits), its canonical targets (:func:`canonicalise`)
-and its run folder (``logs/amortised/<env>_<n>/``: ``<env>.pt``, the weights, read with
-``torch.load(weights_only=True)``; ``policy.json``; ``result.json``; ``<env>/args.yml`` and
-``<env>/config.yml``). What the map is and why (one MLP per branch, a tanh output, each phase
-wrapped around a fixed centre, N the branch's), the canonical targets and the folder's files:
-docs/training.md, "Amortised policy".
+and its run folder (``<env>.pt``, the weights, read with ``torch.load(weights_only=True)``, and
+``policy.json`` beside :class:`~train.run_folder.RunLayout`'s files). What the map is and why,
+the canonical targets and the folder's files: docs/training.md, "Amortised policy".
 """
 
 from __future__ import annotations
@@ -33,8 +31,7 @@ from tandem_env.physics.stroke import (
     physical_to_normalised,
 )
 from train.config import AMORTISED
-from train.run_folder import POLICY_FILE, RunLayout, RunPolicy, resolve_run_dir
-from train.saved import read_run_args
+from train.run_folder import POLICY_FILE, RunLayout, RunPolicy, read_run_folder
 
 #: Where the canonical targets put each canonicalised sweep phase [deg] (within half a time-grid
 #: step, :func:`canonicalise`).
@@ -104,7 +101,7 @@ class Settings:
     branch_tolerance: float = field(default=0.1, metadata=_allowed(0.0, 1.0))
     """Two neighbouring training optima share a branch when the stroke midway between them
     loses at most this fraction of their mean objective and violates no margin by more
-    (:func:`~train.amortised_branches.branch_segments`) [-]."""
+    (:func:`~train.amortised.branch_segments`) [-]."""
     features: int = field(default=0, metadata=_allowed(0, 1024))
     """Gaussian radial features of the observation before the MLP (0: the observation
     itself) [-] (:func:`radial_features`)."""
@@ -126,23 +123,21 @@ class Settings:
                 "1 to 4096, e.g. [64, 64]"
             )
         object.__setattr__(self, "hidden", tuple(int(h) for h in hidden))
-        for spec in fields(self)[1:]:
+        for spec in fields(self)[1:]:  # the numbers, each in its range (_allowed)
             name, value, (low, high) = spec.name, getattr(self, spec.name), spec.metadata["range"]
-            if spec.type == "float":
-                ok = is_real(value) and math.isfinite(value) and low <= value <= high
-                if not ok or (spec.metadata["above"] and value == low):
-                    bound = f"above {low:g}" if spec.metadata["above"] else f"from {low:g}"
-                    raise ValueError(f"{name} = {value!r}; allowed: a number {bound} to {high:g}")
-                object.__setattr__(self, name, float(value))
-            elif value is not None or spec.type == "int":
-                if not is_integer(value) or not low <= value <= high:
-                    allowed = (
-                        f"an integer from {low} to {high:,}"
-                        if spec.type == "int"
-                        else f"None (the env's) or an integer from {low} to {high}"
-                    )
-                    raise ValueError(f"{name} = {value!r}; allowed: {allowed}")
-                object.__setattr__(self, name, int(value))
+            if value is None and spec.type == "int | None":
+                continue
+            real, above = spec.type == "float", spec.metadata["above"]
+            if (
+                not (is_real(value) if real else is_integer(value))
+                or not (low < value if above else low <= value)
+                or value > high
+            ):
+                optional = "None (the env's) or " if "None" in spec.type else ""
+                kind = f"a number {'above' if above else 'from'} {low:g} to {high:g}"
+                kind = kind if real else f"an integer from {low} to {high:,}"
+                raise ValueError(f"{name} = {value!r}; allowed: {optional}{kind}")
+            object.__setattr__(self, name, float(value) if real else int(value))
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any]) -> Settings:
@@ -426,17 +421,6 @@ def regression_outputs(strokes: np.ndarray, centres: np.ndarray) -> np.ndarray:
     return np.clip(u, -TARGET_LIMIT, TARGET_LIMIT)
 
 
-def is_amortised_run(run_dir: str | Path) -> bool:
-    """Whether ``run_dir`` (or the latest run it names) holds an amortised run (its args.yml
-    says so, or it holds a ``policy.json``)."""
-    folder = resolve_run_dir(run_dir)
-    try:
-        _, args, _ = read_run_args(folder, "")
-    except ValueError:
-        return False
-    return args.get("algo") == AMORTISED or (folder / POLICY_FILE).is_file()
-
-
 def _refuse(path: Path, what: str) -> ValueError:
     return ValueError(
         f"{path}: {what}; it is not loaded (not as python -m train --algo amortised wrote it: "
@@ -508,10 +492,10 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     checked before the network is built (the weights: a state_dict that
     ``torch.load(weights_only=True)`` reads, with the network's names and shapes and finite
     values); ValueError naming the file at fault."""
-    folder = resolve_run_dir(run_dir)
-    args_file, args, env_id = read_run_args(
-        folder, "a folder written by python -m train --algo amortised"
+    layout, args_file, args = read_run_folder(
+        run_dir, "a folder written by python -m train --algo amortised"
     )
+    folder, env_id = layout.run_dir, layout.env_id
     if args.get("algo") != AMORTISED:
         raise ValueError(
             f"{args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}, the run of "
@@ -522,7 +506,6 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
             f"{args_file}: env = {env_id!r}; allowed: an env an amortised policy is trained for, "
             f"{', '.join(REFERENCE_GRID)}"
         )
-    layout = RunLayout(folder, env_id)
     path = layout.policy_file
     if not path.is_file():
         raise ValueError(f"{folder}: no {POLICY_FILE} (did the run finish?)")

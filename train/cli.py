@@ -19,14 +19,15 @@ from tandem_env.io.keyvalue import KeyValuePairs
 
 T = TypeVar("T")
 #: Metadata of :func:`option` that is not an argparse setting.
-_OWN = ("flags", "off", "amortised", "cli_default")
+_OWN = ("flags", "off", "amortised", "cli_default", "check")
 
 
 def option(*flags: str, default: Any = MISSING, factory: Any = MISSING, **settings: Any) -> Any:
     """A field and its option: ``flags`` (none: only ``off``, the flag that turns a True default
     off), argparse ``settings`` (``cli_default``: the command line's default of a field without
-    one), ``amortised=True`` where ``python -m train --algo amortised`` takes it too; its help
-    is the field's docstring."""
+    one), ``amortised=True`` where ``python -m train --algo amortised`` takes it too, ``check``
+    the function ``check(value, name)`` that checks a value given (not None) and returns it as
+    the field holds it; its help is the field's docstring."""
     return field(default=default, default_factory=factory, metadata={"flags": flags, **settings})
 
 

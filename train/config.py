@@ -26,7 +26,7 @@ from tandem_env.envs.config import insect_keyword
 from tandem_env.envs.registration import check_env_id
 from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import output_directory, to_jsonable, write_text_atomic
-from tandem_env.physics.checks import count, is_integer, is_real
+from tandem_env.physics.checks import count, flag, is_integer, is_real
 from tandem_env.physics.model import MAX_BATCH_STROKES
 from train.cli import option
 
@@ -207,10 +207,10 @@ def resolve_hyperparams(
             "allowed: model constructor arguments and " + ", ".join(ZOO_KEYS)
         )
     params = dict(raw)
-    envs = _positive_int("n_envs", params.pop("n_envs", 1))
+    envs = _positive_int(params.pop("n_envs", 1), "n_envs")
     if "n_timesteps" not in params:
         raise ValueError("hyperparameters have no n_timesteps; allowed: an integer >= 1")
-    timesteps = _positive_int("n_timesteps", params.pop("n_timesteps"))
+    timesteps = _positive_int(params.pop("n_timesteps"), "n_timesteps")
     policy = params.pop("policy", "MlpPolicy")
     if not isinstance(policy, str):
         raise ValueError(f"policy = {policy!r}; allowed: a policy name such as 'MlpPolicy'")
@@ -297,7 +297,7 @@ def _layer_sizes(arch: Any) -> bool:
     return isinstance(arch, list | tuple) and all(is_integer(n) and n >= 1 for n in arch)
 
 
-def _positive_int(name: str, value: Any) -> int:
+def _positive_int(value: Any, name: str) -> int:
     # YAML reads 1e5 as a float (the zoo writes !!float 1e5); accept integral floats.
     if not is_real(value) or not math.isfinite(value) or int(value) != value or value < 1:
         raise ValueError(f"{name} = {value!r}; allowed: an integer >= 1")
@@ -352,6 +352,18 @@ MAX_TIMESTEPS = 10**12
 MAX_SEED = 2**32 - 1
 
 
+def _frequency(value: Any, name: str) -> int:
+    if not is_integer(value):
+        raise ValueError(f"{name} = {value!r}; allowed: an integer (<= 0 disables)")
+    return int(value)
+
+
+def _verbosity(value: Any, name: str) -> int:
+    if count(value, name, 0) > 2:
+        raise ValueError(f"{name} = {int(value)}; allowed: 0 quiet, 1 info, 2 debug")
+    return int(value)
+
+
 def check_seed(value: Any, name: str = "seed") -> int:
     """``value`` as a training seed [-]; ValueError naming ``name`` unless it is an integer from 0
     to :data:`MAX_SEED`."""
@@ -370,11 +382,13 @@ class TrainConfig:
     """RL algorithm, or amortised (a network from condition to stroke)."""
     env_id: str = option("--env", metavar="ENV", amortised=True)
     """Env id, e.g. TandemWing/LevelFlight-v0."""
-    n_timesteps: int | None = option("-n", "--n-timesteps", "--timesteps", default=None)
+    n_timesteps: int | None = option(
+        "-n", "--n-timesteps", "--timesteps", default=None, check=_positive_int
+    )
     """Total env steps (strokes evaluated); default the yml's n_timesteps."""
-    seed: int = option("--seed", default=0, amortised=True)
+    seed: int = option("--seed", default=0, amortised=True, check=check_seed)
     """Seed of the model and envs."""
-    n_envs: int | None = option("--n-envs", default=None)
+    n_envs: int | None = option("--n-envs", default=None, check=_positive_int)
     """Parallel envs; default the yml's."""
     env_kwargs: Mapping[str, Any] = option("--env-kwargs", factory=dict, amortised=True)
     """Env options."""
@@ -395,14 +409,14 @@ class TrainConfig:
     """Continue the latest run of this algo and env from its last checkpoint."""
     run_dir: Path | None = option("--run-dir", default=None, amortised=True)
     """Use this run folder; a checkpoint there is resumed automatically."""
-    eval_freq: int = option("--eval-freq", default=10_000)
+    eval_freq: int = option("--eval-freq", default=10_000, check=_frequency)
     """Env steps between deterministic evaluations (<= 0: none)."""
-    save_freq: int = option("--save-freq", default=20_000)
+    save_freq: int = option("--save-freq", default=20_000, check=_frequency)
     """Env steps between checkpoints (<= 0: none, and no resume)."""
-    log_interval: int | None = option("--log-interval", default=None)
+    log_interval: int | None = option("--log-interval", default=None, check=count)
     """SB3's log_interval; default one that dumps every few thousand steps (SAC counts it in
     episodes, and every env step ends n_envs of them)."""
-    log_table: bool = option("--log-table", default=False)
+    log_table: bool = option("--log-table", default=False, check=flag)
     """Print SB3's statistics table at every log dump (default: off, the progress bar and the
     final lines only; TensorBoard gets the same numbers)."""
     progress_bar: bool = option(
@@ -411,38 +425,23 @@ class TrainConfig:
     """A progress bar (on by default)."""
     tensorboard: bool = option(default=True, off="--no-tensorboard")
     """TensorBoard logs in <run>/tb/ (on by default)."""
-    verbose: int = option("--verbose", default=1, amortised=True)
+    verbose: int = option("--verbose", default=1, amortised=True, check=_verbosity)
     """0 quiet, 1 info, 2 debug."""
-    torch_threads: int = option("--torch-threads", default=1)
+    torch_threads: int = option("--torch-threads", default=1, check=count)
     """Torch threads: faster on 2 cores, where torch's second thread fights the model's numba
     threads and small-MLP updates get up to 10x slower (docs/training.md)."""
     device: str = option("--device", default="cpu", choices=DEVICES)
     """Torch device of the model."""
 
     def __post_init__(self) -> None:
-        for spec in fields(self):  # the fields with choices: algo, device
+        check_env_id(self.env_id, "env")
+        for spec in fields(self):  # the fields' choices, and their checks (given, not None)
             value, allowed = getattr(self, spec.name), spec.metadata.get("choices")
             if allowed and value not in allowed:
                 raise ValueError(f"{spec.name} = {value!r}; allowed: {', '.join(allowed)}")
-        check_env_id(self.env_id, "env")
-        for name in ("n_timesteps", "n_envs"):
-            value = getattr(self, name)
-            if value is not None:
-                object.__setattr__(self, name, _positive_int(name, value))
-        object.__setattr__(self, "seed", check_seed(self.seed))
-        for name, low in (("verbose", 0), ("torch_threads", 1)):
-            object.__setattr__(self, name, count(getattr(self, name), name, low))
-        if self.verbose > 2:
-            raise ValueError(f"verbose = {self.verbose!r}; allowed: 0 quiet, 1 info, 2 debug")
-        for name in ("eval_freq", "save_freq"):
-            value = getattr(self, name)
-            if not is_integer(value):
-                raise ValueError(f"{name} = {value!r}; allowed: an integer (<= 0 disables)")
-            object.__setattr__(self, name, int(value))
-        if not isinstance(self.log_table, bool):
-            raise ValueError(f"log_table = {self.log_table!r}; allowed: True or False")
-        if self.log_interval is not None:
-            object.__setattr__(self, "log_interval", count(self.log_interval, "log_interval"))
+            check = spec.metadata.get("check")
+            if check is not None and value is not None:
+                object.__setattr__(self, spec.name, check(value, spec.name))
         for name in ("env_kwargs", "hyperparams"):
             value = getattr(self, name)
             if not isinstance(value, Mapping):

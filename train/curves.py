@@ -20,8 +20,7 @@ import numpy as np
 
 from tandem_env.io.files import atomic_path, read_json
 from train.cli import command, option
-from train.run_folder import RunLayout
-from train.saved import read_run_args
+from train.run_folder import read_run_folder
 
 
 @dataclass(frozen=True)
@@ -43,8 +42,7 @@ class Curves:
 
 def read_run(run_dir: str | Path) -> Curves:
     """Monitor CSVs (every segment, in order) and evaluations.npz of a run folder."""
-    run_dir = Path(run_dir)
-    layout = RunLayout(run_dir, read_run_args(run_dir, "a run folder of python -m train")[2])
+    layout = read_run_folder(run_dir, "a run folder of python -m train")[0]
     rows = []
     for path in layout.monitor_files():
         with path.open() as stream:
@@ -66,7 +64,13 @@ def read_run(run_dir: str | Path) -> Curves:
         read_json(layout.result_file).get("wall_time_s") if layout.result_file.is_file() else None
     )
     return Curves(
-        run_dir.name, np.arange(1, len(reward) + 1), reward, best, eval_steps, eval_reward, wall
+        layout.run_dir.name,
+        np.arange(1, len(reward) + 1),
+        reward,
+        best,
+        eval_steps,
+        eval_reward,
+        wall,
     )
 
 

@@ -2,14 +2,23 @@
 learn with evaluation, checkpoints, Monitor and TensorBoard logs, and resume a killed run.
 
 :func:`train` is what ``python -m train`` calls; :func:`learn_in_memory` is the lean variant
-the harness's ``ppo`` / ``sac`` methods use (no files, a budget of env steps).
+the harness's ``ppo`` / ``sac`` methods use (no files, a budget of env steps). The run's
+callbacks: physical metrics to TensorBoard (SB3's own logger only knows rewards: every vector
+step's ``info`` dicts, the model's metrics of each evaluated stroke with its normalised score
+against the reference optimum, docs/reference.md, are averaged into ``physics/*`` scalars, the
+best stroke seen so far logged beside them), an EvalCallback that resumes, checkpoints
+and Ctrl-C (:class:`RunCheckpoint`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import math
+import signal
+import threading
 import time
+import warnings
+import zipfile
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,16 +27,21 @@ from typing import Any
 import numpy as np
 import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
-from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList, EvalCallback
 from stable_baselines3.common.vec_env import sync_envs_normalization
 
 from agents.selection import best_index
 from tandem_env.io.files import write_json_atomic
-from train import callbacks
 from train.config import Hyperparams, TrainConfig, resolve_hyperparams, step_granularity
-from train.run_folder import Interrupted, RunFolder
+from train.run_folder import Checkpoint, Interrupted, RunFolder, RunLayout
 from train.saved import build_model, read_normalizer, save_checkpoint
-from train.vec import StrokeRecorder, evaluate_deterministic, make_evaluation_env, make_training_env
+from train.vec import (
+    STROKE_METRICS,
+    StrokeRecorder,
+    evaluate_deterministic,
+    make_evaluation_env,
+    make_training_env,
+)
 
 #: Checkpoints kept in a run folder (older ones are deleted: a SAC replay buffer is ~40 MB).
 KEEP_CHECKPOINTS = 2
@@ -77,6 +91,151 @@ def default_log_interval(hp: Hyperparams) -> int:
     return 1 if hp.algo == "ppo" else hp.n_envs * max(1, round(SAC_LOG_EVERY / hp.n_envs))
 
 
+# --- callbacks -----------------------------------------------------------------------------
+#: ``info`` entries averaged over each vector step into ``physics/<name>``.
+LOGGED_METRICS: tuple[str, ...] = (*STROKE_METRICS, "constraint_violation", "score")
+
+
+class PhysicsLogger(BaseCallback):
+    """Logs batch means of the physical metrics and the best stroke seen so far."""
+
+    def __init__(self, recorder: StrokeRecorder, verbose: int = 0) -> None:
+        super().__init__(verbose)
+        self.recorder = recorder
+
+    def _on_step(self) -> bool:
+        infos = self.locals.get("infos") or ()
+        for name in LOGGED_METRICS:
+            # NaN: a metric the step does not define (the score where no reference applies)
+            values = [info[name] for info in infos if name in info and info[name] == info[name]]
+            if values:
+                self.logger.record_mean(f"physics/{name}", float(np.mean(values)))
+        recorder = self.recorder
+        best = recorder.best_info
+        scalars = {"evaluations": recorder.evaluations}
+        if best is not None:
+            scalars = {
+                "best_reward": recorder.max_reward,
+                "best_feasible": float(best["feasible"]),
+                "best_objective": float(best["objective"]),
+                "best_score": float(best.get("score", np.nan)),
+                **scalars,
+            }
+        for name, value in scalars.items():
+            if name != "best_score" or not np.isnan(value):  # NaN: no reference score
+                self.logger.record(f"physics/{name}", value)
+        return True
+
+
+class ResumableEvalCallback(EvalCallback):
+    """``EvalCallback`` that, on a resumed run, starts from ``evaluations.npz``'s rows up to the
+    checkpoint and their best mean reward (SB3's rewrites the file from memory)."""
+
+    def __init__(self, *args: Any, resume_from_step: int | None = None, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._resume_from_step = resume_from_step
+
+    def _init_callback(self) -> None:
+        super()._init_callback()
+        if self._resume_from_step is None or self.log_path is None:
+            return
+        path = Path(self.log_path if self.log_path.endswith(".npz") else f"{self.log_path}.npz")
+        if not path.is_file():
+            return
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                steps, results, lengths = (data[k] for k in ("timesteps", "results", "ep_lengths"))
+                successes = data["successes"] if "successes" in data.files else None
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
+            warnings.warn(
+                f"{path} cannot be read ({type(error).__name__}: {error}); the evaluation "
+                "history starts again from this segment",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+            return
+        if len(steps):
+            self.best_mean_reward = float(np.max(np.mean(results, axis=1)))
+        keep = steps <= self._resume_from_step
+        self.evaluations_timesteps = [int(s) for s in steps[keep]]
+        self.evaluations_results = [list(map(float, r)) for r in results[keep]]
+        self.evaluations_length = [list(map(int, n)) for n in lengths[keep]]
+        if successes is not None and len(successes) == len(steps):
+            self.evaluations_successes = [list(map(bool, s)) for s in successes[keep]]
+
+
+class SaveVecNormalize(BaseCallback):
+    """Saves the training VecNormalize statistics (called by EvalCallback on a new best model,
+    so ``best_model.zip`` is loaded with the statistics it was evaluated with)."""
+
+    def __init__(self, path: Path, verbose: int = 0) -> None:
+        super().__init__(verbose)
+        self.path = Path(path)
+
+    def _on_step(self) -> bool:
+        normalizer = self.model.get_vec_normalize_env()
+        if normalizer is not None:
+            normalizer.save(str(self.path))
+        return True
+
+
+class RunCheckpoint(BaseCallback):
+    """Checkpoints every ``save_freq`` env steps (<= 0: none), keeping the newest ``keep``; and
+    Ctrl-C (SIGINT) while :meth:`catching` stops ``learn`` at the next env step (not a
+    KeyboardInterrupt wherever it lands), for :meth:`save` to checkpoint the last rollout's end
+    (:attr:`boundary`: the unfinished rollout's steps are collected again on resume). A second
+    Ctrl-C raises KeyboardInterrupt at once.
+
+    Unlike SB3's CheckpointCallback (which saves inside ``on_step``, before an off-policy
+    algorithm stores that step's transitions, so a resumed SAC would miss one vector step of
+    its replay buffer), this saves at the end of a rollout: the buffer holds every transition
+    up to the checkpoint's step. Files are named as CheckpointCallback names them.
+    """
+
+    def __init__(self, layout: RunLayout, save_freq: int, keep: int, verbose: int = 0) -> None:
+        super().__init__(verbose)
+        self.layout, self.save_freq, self.keep = layout, save_freq, keep
+        self.requested = False
+        self.boundary = 0
+
+    def _init_callback(self) -> None:
+        self.boundary = self.model.num_timesteps
+
+    def _on_step(self) -> bool:
+        return not self.requested
+
+    def _on_rollout_end(self) -> None:
+        previous, self.boundary = self.boundary, self.model.num_timesteps
+        # a multiple of save_freq passed in this rollout
+        if self.save_freq > 0 and self.boundary // self.save_freq > previous // self.save_freq:
+            checkpoint = self.save()
+            if self.verbose >= 2:
+                print(f"Saved checkpoint {checkpoint.model}")
+
+    def _request(self, *_: object) -> None:  # a signal handler's (signum, frame)
+        self.requested = True
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    @contextlib.contextmanager
+    def catching(self) -> Iterator[None]:
+        """Catch SIGINT within the block (in the main thread, unless SIGINT is ignored: a
+        background job's), restoring the previous handler afterwards."""
+        previous = signal.getsignal(signal.SIGINT)
+        if threading.current_thread() is not threading.main_thread() or previous == signal.SIG_IGN:
+            yield
+            return
+        signal.signal(signal.SIGINT, self._request)
+        try:
+            yield
+        finally:
+            signal.signal(signal.SIGINT, previous)
+
+    def save(self) -> Checkpoint:
+        """The checkpoint of the last whole iteration, the ``keep`` newest kept."""
+        self.model.num_timesteps = self.boundary
+        return save_checkpoint(self.model, self.layout, self.keep)
+
+
 # --- the run ---------------------------------------------------------------------------------
 def train(config: TrainConfig) -> TrainResult:
     """Run (or resume) one training run with files (:class:`~train.run_folder.RunFolder`): the
@@ -111,15 +270,11 @@ def train(config: TrainConfig) -> TrainResult:
         model = run.model(venv)
         start_step = model.num_timesteps
         # learning, with physics logs, checkpoints and evaluations; Ctrl-C saves a checkpoint
-        stop = callbacks.StopOnInterrupt()
-        hooks: list[BaseCallback] = [callbacks.PhysicsLogger(recorder)]
-        if config.save_freq > 0:
-            hooks.append(
-                callbacks.RunCheckpoint(layout, config.save_freq, KEEP_CHECKPOINTS, config.verbose)
-            )
+        checkpoints = RunCheckpoint(layout, config.save_freq, KEEP_CHECKPOINTS, config.verbose)
+        hooks: list[BaseCallback] = [PhysicsLogger(recorder), checkpoints]
         if config.eval_freq > 0:
             hooks.append(
-                callbacks.ResumableEvalCallback(
+                ResumableEvalCallback(
                     eval_env,
                     n_eval_episodes=eval_env.num_envs,
                     eval_freq=max(config.eval_freq // hp.n_envs, 1),
@@ -129,23 +284,23 @@ def train(config: TrainConfig) -> TrainResult:
                     verbose=config.verbose,
                     callback_on_new_best=None
                     if hp.normalize is None
-                    else callbacks.SaveVecNormalize(layout.best_vecnormalize),
+                    else SaveVecNormalize(layout.best_vecnormalize),
                     resume_from_step=None if checkpoint is None else start_step,
                 )
             )
         started = time.perf_counter()
-        with stop.catching():
+        with checkpoints.catching():
             model.learn(
                 run.target - start_step,
-                callback=CallbackList([*hooks, stop]),
+                callback=CallbackList(hooks),
                 log_interval=config.log_interval or default_log_interval(hp),
                 tb_log_name=config.algo.upper(),
                 reset_num_timesteps=checkpoint is None,
                 progress_bar=config.progress_bar,
             )
         wall_time = time.perf_counter() - started
-        if stop.requested:
-            saved = stop.save(layout, KEEP_CHECKPOINTS)
+        if checkpoints.requested:
+            saved = checkpoints.save()
             resume = f"python -m train --algo {config.algo} --env {config.env_id} --run-dir"
             raise Interrupted(saved, f"{resume} {layout.run_dir}")
         # the final model (normalisation statistics, a last checkpoint) and its evaluation

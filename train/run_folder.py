@@ -65,6 +65,29 @@ def resolve_run_dir(path: str | os.PathLike[str]) -> Path:
     return path.parent / f"{path.name}_{n}" if n else path
 
 
+def read_run_folder(
+    run_dir: str | os.PathLike[str], allowed: str
+) -> tuple[RunLayout, Path, dict[str, Any]]:
+    """The layout of a run folder (or of the latest run it names, :func:`resolve_run_dir`), its
+    one ``<env>/args.yml`` and the settings there; ValueError naming the folder and ``allowed``
+    otherwise."""
+    folder = resolve_run_dir(run_dir)
+    found = sorted(folder.glob("*/args.yml")) if folder.is_dir() else []
+    if len(found) != 1:
+        raise ValueError(
+            f"{folder} is not a training run folder (expected one <env>/args.yml, found "
+            f"{len(found)}); allowed: {allowed}"
+        )
+    args = saved.read_run_yaml(found[0])
+    env_id = args.get("env")
+    if not isinstance(env_id, str) or env_id.translate(FOLDER_NAME) != found[0].parent.name:
+        raise ValueError(
+            f"{found[0]}: env = {env_id!r}, but the file sits in the settings folder of "
+            f"{found[0].parent.name}; allowed: the env the run was trained on"
+        )
+    return RunLayout(folder, env_id), found[0], args
+
+
 def run_lock(run_dir: Path) -> FolderLock:
     """The exclusive lock of a run folder (``<run>/.train.lock``, a ``FolderLock``)."""
     return FolderLock(
@@ -119,7 +142,6 @@ class Interrupted(Exception):
     """Training stopped by Ctrl-C with a checkpoint saved (``python -m train`` exits 130)."""
 
     def __init__(self, checkpoint: Checkpoint, resume: str) -> None:
-        self.checkpoint = checkpoint
         super().__init__(
             f"interrupted: checkpoint at step {checkpoint.step} saved as {checkpoint.model}; "
             f"continue with: {resume}"
@@ -312,10 +334,7 @@ class RunFolder:
         if not config.verbose or amortised:
             return run
         # what this command is about to do, before any work (stdout)
-        hp = run.hp
-        layout = run.layout
-        checkpoint = run.checkpoint
-        target = run.target
+        hp, layout, checkpoint, target = run.hp, run.layout, run.checkpoint, run.target
         assert hp is not None
         if target != hp.n_timesteps:
             unit = step_granularity(hp)

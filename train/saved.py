@@ -30,7 +30,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from tandem_env.io.datafile import BoundedLoader, parse_yaml
 from tandem_env.io.files import atomic_path, read_json
 from tandem_env.physics.checks import is_integer, is_real
-from train.config import FOLDER_NAME, MAX_TIMESTEPS, Hyperparams
+from train.config import MAX_TIMESTEPS, Hyperparams
 from train.vec import make_training_env
 
 
@@ -195,25 +195,6 @@ def read_result_segments(path: Path) -> tuple[dict[str, Any], ...]:
             "it away: the resumed run's summary then starts from its own segment)"
         )
     return tuple(segments)
-
-
-def read_run_args(run_dir: Path, allowed: str) -> tuple[Path, dict[str, Any], Any]:
-    """The one ``<env>/args.yml`` of ``run_dir``, its settings and its ``env``; ValueError
-    naming the folder and ``allowed`` otherwise."""
-    found = sorted(run_dir.glob("*/args.yml")) if run_dir.is_dir() else []
-    if len(found) != 1:
-        raise ValueError(
-            f"{run_dir} is not a training run folder (expected one <env>/args.yml, found "
-            f"{len(found)}); allowed: {allowed}"
-        )
-    args = read_run_yaml(found[0])
-    env_id = args.get("env")
-    if not isinstance(env_id, str) or env_id.translate(FOLDER_NAME) != found[0].parent.name:
-        raise ValueError(
-            f"{found[0]}: env = {env_id!r}, but the file sits in the settings folder of "
-            f"{found[0].parent.name}; allowed: the env the run was trained on"
-        )
-    return found[0], args, env_id
 
 
 # --- the model ------------------------------------------------------------------------------

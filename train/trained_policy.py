@@ -18,15 +18,19 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from tandem_env.envs.registration import check_env_id, config_class
 from tandem_env.envs.sb3 import make_sb3_vec_env
-from train.amortised_policy import is_amortised_run
 from train.amortised_policy import load_policy as load_amortised
-from train.config import check_algo, resolve_hyperparams
-from train.run_folder import RunLayout, RunPolicy, resolve_run_dir
-from train.saved import load_on_copy, read_normalizer, read_run_args, read_run_yaml
+from train.config import AMORTISED, check_algo, resolve_hyperparams
+from train.run_folder import RunPolicy, read_run_folder
+from train.saved import load_on_copy, read_normalizer, read_run_yaml
 from train.vec import ConditionGrid
 
 WhichModel = Literal["best", "final"]
 WHICH_MODELS: tuple[str, ...] = get_args(WhichModel)
+#: What ``python -m train`` writes, and so what a policy is loaded from.
+RUN_FOLDER = (
+    "a folder written by python -m train, e.g. logs/sac/TandemWing-LevelFlight-v0_1, or "
+    "logs/sac/TandemWing-LevelFlight-v0 for the latest run there"
+)
 
 
 class TrainingMismatchWarning(RuntimeWarning):
@@ -58,18 +62,13 @@ class TrainedPolicy(RunPolicy):
         the folder or file and what is wrong."""
         if which not in WHICH_MODELS:
             raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
-        run_dir = resolve_run_dir(run_dir)
-        args_file, args, env_id = read_run_args(
-            run_dir,
-            "a folder written by python -m train, e.g. logs/sac/TandemWing-LevelFlight-v0_1, or "
-            "logs/sac/TandemWing-LevelFlight-v0 for the latest run there",
-        )
+        layout, args_file, args = read_run_folder(run_dir, RUN_FOLDER)
+        run_dir, env_id = layout.run_dir, layout.env_id
         try:
             algo = check_algo(str(args.get("algo")))
         except ValueError as error:
             raise ValueError(f"{args_file}: {error}") from None
         check_env_id(env_id, f"{args_file}: env")
-        layout = RunLayout(run_dir, env_id)
         entry = read_run_yaml(layout.config_file) if layout.config_file.is_file() else {}
         env_kwargs = {**(entry.get("env_kwargs") or {}), **(args.get("env_kwargs") or {})}
         best = which == "best" and layout.best_model.is_file()
@@ -142,6 +141,7 @@ def load_policy(run_dir: str | Path, which: WhichModel = "best") -> Any:
     amortised run (one weights file: ``which`` best and final are the same)."""
     if which not in WHICH_MODELS:
         raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
-    if is_amortised_run(run_dir):
-        return load_amortised(run_dir)
-    return TrainedPolicy.load(run_dir, which)
+    layout, _, args = read_run_folder(run_dir, RUN_FOLDER)
+    if args.get("algo") == AMORTISED or layout.policy_file.is_file():
+        return load_amortised(layout.run_dir)
+    return TrainedPolicy.load(layout.run_dir, which)

@@ -364,10 +364,9 @@ def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = No
         }
         with tempfile.TemporaryDirectory(prefix="tandem-tune-") as folder:
             found = run_trial(config, params, Path(folder))
-        trial.set_user_attr("scores", found["scores"])
-        trial.set_user_attr("seconds", found["seconds"])
-        value = found["value"]
-        seconds = found["seconds"]
+        for key in ("scores", "seconds"):
+            trial.set_user_attr(key, found[key])
+        value, seconds = found["value"], found["seconds"]
         say(f"trial {trial.number}: median score {value:.1f} in {seconds:.0f} s ({params})")
         return value
 

@@ -27,16 +27,10 @@ from agents.selection import BestStroke
 from tandem_env.envs.registration import config_class
 from tandem_env.envs.sb3 import TandemVecEnv, make_sb3_vec_env
 
+#: The ``info`` entries of an evaluated stroke that both the Monitor CSV and the logs keep.
+STROKE_METRICS = ("objective", "efficiency", "lift_to_weight", "power_per_mass", "feasible")
 #: ``info`` entries written to the Monitor CSV next to each episode's reward and length.
-MONITOR_KEYWORDS: tuple[str, ...] = (
-    "objective",
-    "efficiency",
-    "lift_to_weight",
-    "power_per_mass",
-    "feasible",
-    "speed",
-    "available_power",
-)
+MONITOR_KEYWORDS: tuple[str, ...] = (*STROKE_METRICS, "speed", "available_power")
 
 
 class StrokeRecorder(VecEnvWrapper):

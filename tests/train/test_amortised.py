@@ -31,8 +31,14 @@ from tandem_env.envs.registration import ACCELERATE_ID, LEVEL_FLIGHT_ID
 from tandem_env.physics.stroke import normalised_to_physical, physical_to_normalised
 from train import amortised_policy
 from train.__main__ import main
-from train.amortised import Settings, check_env_kwargs, make_problem, train_policy
-from train.amortised_branches import between, branch_segments
+from train.amortised import (
+    Settings,
+    between,
+    branch_segments,
+    check_env_kwargs,
+    make_problem,
+    train_policy,
+)
 from train.amortised_policy import (
     CANONICAL_SWEEP_PHASE,
     CONTINUOUS,
