@@ -374,27 +374,25 @@ SUMMARY_COLUMNS: tuple[tuple[str, str], ...] = (
     ("ended early", "{terminated_share:.0%}"),
     ("reached u* ± 5 %", "{reached_share:.0%}"),
     ("median time to reach [s]", "{time_to_target_median_s:.3f}"),
-    ("final \\|u − u*\\| [m/s]", "{final_speed_error_mean_m_s:.3f}"),
+    ("final |u − u*| [m/s]", "{final_speed_error_mean_m_s:.3f}"),
     ("energy per metre [mJ/m]", "{energy_per_metre_mean_mJ_m:.2f}"),
-    ("mean \\|h\\| [mm]", "{mean_abs_altitude_mean_mm:.1f}"),
+    ("mean |h| [mm]", "{mean_abs_altitude_mean_mm:.1f}"),
     ("mean P/m [W/kg]", "{mean_power_W_kg:.1f}"),
 )
 
 
 def policy_summary_markdown(rows: Sequence[Mapping[str, Any]]) -> str:
     """The docs table of :func:`policy_summary_rows`."""
+    from eval.studies.report import table_head, table_row
+
     heads, cells = zip(*SUMMARY_COLUMNS, strict=True)
-    lines = ["| " + " | ".join(heads) + " |", "|---" * len(heads) + "|"]
-    lines += ["| " + " | ".join(c.format(**r) for c in cells) + " |" for r in rows]
+    lines = [*table_head(heads), *(table_row(c.format(**r) for c in cells) for r in rows)]
     if all(f"return_{key}_mean" in r for r in rows for key in REWARD_PARTS):
+        lines += ["", *table_head(("policy", *REWARD_PARTS))]
         lines += [
-            "",
-            "| policy | " + " | ".join(REWARD_PARTS) + " |",
-            "|---|" + "---|" * len(REWARD_PARTS),
+            table_row([r["policy"], *(f"{r[f'return_{key}_mean']:+.2f}" for key in REWARD_PARTS)])
+            for r in rows
         ]
-        for r in rows:
-            parts = " | ".join(f"{r[f'return_{key}_mean']:+.2f}" for key in REWARD_PARTS)
-            lines.append(f"| {r['policy']} | {parts} |")
     return "\n".join(lines) + "\n"
 
 
