@@ -289,10 +289,15 @@ def add_run_arguments(parser: argparse.ArgumentParser, *flags: str) -> None:
         parser.add_argument(flag, **RUN_OPTIONS[flag])
 
 
-def backend_kwargs(args: argparse.Namespace) -> dict[str, str]:
-    """The env keywords of ``--backend`` / ``--device`` as given (checked with the env's)."""
-    given = {"backend": args.backend, "device": args.device}
-    return {key: value for key, value in given.items() if value is not None}
+def run_options(args: argparse.Namespace, scheduler: str | None = None) -> dict[str, Any]:
+    """The runner's keywords (``run_jobs``, ``run_plan``) of ``--scheduler`` (or ``scheduler``),
+    ``--no-cache``, ``--rerun`` and ``--quiet`` as given."""
+    return {
+        "scheduler": scheduler or args.scheduler,
+        "cache": args.cache,
+        "rerun": args.rerun,
+        "progress": not args.quiet,
+    }
 
 
 def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> list[PreparedJob]:
@@ -323,7 +328,8 @@ def plan_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> l
         # The env options and method settings, the reading's, then the jobs (the harness's
         # checks). The output folder is the runner's to check: it alone knows, once it has
         # read the stored records, whether a folder that cannot be written holds everything.
-        given = backend_kwargs(args)
+        # --backend / --device as given, checked with the env's keywords
+        given = {k: getattr(args, k) for k in ("backend", "device") if getattr(args, k) is not None}
         env_kwargs, method_config = dict(args.env_kwargs), dict(args.method_config)
         if given and set(EXECUTION_KWARGS) & set(env_kwargs):
             raise ValueError("give --backend/--device or --env-kwargs backend=/device=, not both")
@@ -387,15 +393,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     # --out as given: an empty one is the runner's to refuse, not the current folder
     summary = run_reporting(
         parser,
-        lambda: run_jobs(
-            jobs,
-            args.out,
-            scheduler=args.scheduler,
-            progress=not args.quiet,
-            cache=args.cache,
-            rerun=args.rerun,
-            summary_csv=True,
-        ),
+        lambda: run_jobs(jobs, args.out, **run_options(args), summary_csv=True),
     )
     if isinstance(summary, int):
         return summary

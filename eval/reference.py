@@ -30,8 +30,9 @@ from agents.runner import Lookup, look_ahead, run_plan
 from agents.selection import best_index
 from agents.store import RecordStore, read_record_files
 from agents.tasks import get_task, task_of
-from eval.optimize import add_run_arguments, run_reporting
+from eval.optimize import add_run_arguments, run_options, run_reporting
 from eval.reference_candidates import candidates
+from eval.studies.report import table_head, table_row
 from tandem_env.envs.reference import (
     REFERENCE_FORMAT,
     REFERENCE_GRID,
@@ -413,16 +414,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     command.announce(look_ahead(table_plan, store, args.cache))
     run = run_reporting(
         parser,
-        lambda: run_plan(
-            table_plan,
-            store,
-            args.scheduler,
-            args.cache,
-            progress=not args.quiet,
-            rerun=args.rerun,
-            command=command,
-            summary_csv=True,
-        ),
+        lambda: run_plan(table_plan, store, **run_options(args), command=command, summary_csv=True),
     )
     if isinstance(run, int):
         return run
@@ -482,16 +474,14 @@ def reference_markdown(table: Mapping[str, Any]) -> str:
     parts = []
     for env_id, series_list in by_env.items():
         columns = [f"{s['objective']}, {s['planform']}" for s in series_list]
-        head = f"| {_condition_header(env_id)} | " + " | ".join(f"{c} | seeds" for c in columns)
-        rule = "|---" * (1 + 2 * len(columns)) + "|"
-        rows = []
+        lines = table_head([_condition_header(env_id), *(t for c in columns for t in (c, "seeds"))])
         for i, point in enumerate(series_list[0]["points"]):
             cells = [f"{point['condition']:g}"]
             for s in series_list:
                 p = s["points"][i]
                 cells += [f"{p['objective']:.4g}" if p["feasible"] else "-", _spread(p)]
-            rows.append("| " + " | ".join(cells) + " |")
-        parts.append(f"**{env_id}**\n\n{head} |\n{rule}\n" + "\n".join(rows) + "\n")
+            lines.append(table_row(cells))
+        parts.append(f"**{env_id}**\n\n" + "\n".join(lines) + "\n")
     provenance = table["provenance"]
     budgets = ", ".join(
         f"{env_id.split('/')[-1]} {budget:,}" for env_id, budget in provenance["budgets"].items()

@@ -262,12 +262,11 @@ def run_episodes(
     envs = gym.make_vec(
         SPEED_CHANGE_ID, num_envs=n, vectorization_mode="vector_entry_point", **(env_kwargs or {})
     )
-    columns = ("time", "forward_speed", "altitude", "distance")
-    per_cycle = ("power_per_mass", "energy", "reward")
+    states = ("time", "forward_speed", "altitude", "distance")  # the start state, then each cycle's
     try:
         observations, info = envs.reset(seed=[int(s) for s in seeds])
-        states = {key: [np.asarray(info[key], np.float64)] for key in columns}
-        cycles: dict[str, list[np.ndarray]] = {key: [] for key in per_cycle}
+        history = {key: [np.asarray(info[key], np.float64)] for key in states}
+        history |= {key: [] for key in ("power_per_mass", "energy", "reward")}  # each cycle's
         parts = {key: np.zeros(n) for key in REWARD_PARTS}
         targets = np.asarray(info["target_speed"], dtype=np.float64)
         running = np.ones(n, dtype=bool)
@@ -278,10 +277,8 @@ def run_episodes(
             observations, rewards, term, trunc, info = envs.step(actions.astype(np.float32))
             info = {**info, "reward": rewards}
             cycles_run += running
-            for key in columns:
-                states[key].append(np.asarray(info[key], np.float64))
-            for key in per_cycle:
-                cycles[key].append(np.asarray(info[key], np.float64))
+            for key, values in history.items():
+                values.append(np.asarray(info[key], np.float64))
             for key in REWARD_PARTS:  # the penalty is subtracted from the reward
                 value = -info[key] if key == "penalty" else info[f"reward_{key}"]
                 parts[key] += np.where(running, np.asarray(value, np.float64), 0.0)
@@ -294,8 +291,7 @@ def run_episodes(
             policy=policy.name,
             seed=int(seeds[i]),
             target_speed=float(targets[i]),
-            **{key: np.array(states[key])[: cycles_run[i] + 1, i] for key in columns},
-            **{key: np.array(cycles[key])[: cycles_run[i], i] for key in per_cycle},
+            **{k: np.array(v)[: cycles_run[i] + (k in states), i] for k, v in history.items()},
             terminated=bool(terminated[i]),
             terms={key: float(parts[key][i]) for key in REWARD_PARTS},
         )
@@ -374,27 +370,25 @@ SUMMARY_COLUMNS: tuple[tuple[str, str], ...] = (
     ("ended early", "{terminated_share:.0%}"),
     ("reached u* ± 5 %", "{reached_share:.0%}"),
     ("median time to reach [s]", "{time_to_target_median_s:.3f}"),
-    ("final \\|u − u*\\| [m/s]", "{final_speed_error_mean_m_s:.3f}"),
+    ("final |u − u*| [m/s]", "{final_speed_error_mean_m_s:.3f}"),
     ("energy per metre [mJ/m]", "{energy_per_metre_mean_mJ_m:.2f}"),
-    ("mean \\|h\\| [mm]", "{mean_abs_altitude_mean_mm:.1f}"),
+    ("mean |h| [mm]", "{mean_abs_altitude_mean_mm:.1f}"),
     ("mean P/m [W/kg]", "{mean_power_W_kg:.1f}"),
 )
 
 
 def policy_summary_markdown(rows: Sequence[Mapping[str, Any]]) -> str:
     """The docs table of :func:`policy_summary_rows`."""
+    from eval.studies.report import table_head, table_row
+
     heads, cells = zip(*SUMMARY_COLUMNS, strict=True)
-    lines = ["| " + " | ".join(heads) + " |", "|---" * len(heads) + "|"]
-    lines += ["| " + " | ".join(c.format(**r) for c in cells) + " |" for r in rows]
+    lines = [*table_head(heads), *(table_row(c.format(**r) for c in cells) for r in rows)]
     if all(f"return_{key}_mean" in r for r in rows for key in REWARD_PARTS):
+        lines += ["", *table_head(("policy", *REWARD_PARTS))]
         lines += [
-            "",
-            "| policy | " + " | ".join(REWARD_PARTS) + " |",
-            "|---|" + "---|" * len(REWARD_PARTS),
+            table_row([r["policy"], *(f"{r[f'return_{key}_mean']:+.2f}" for key in REWARD_PARTS)])
+            for r in rows
         ]
-        for r in rows:
-            parts = " | ".join(f"{r[f'return_{key}_mean']:+.2f}" for key in REWARD_PARTS)
-            lines.append(f"| {r['policy']} | {parts} |")
     return "\n".join(lines) + "\n"
 
 
@@ -532,10 +526,9 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             output_directory(figure.parent, "--figure")
         config = SpeedChangeConfig.from_kwargs()
         _check_optima(args, config)
+        trained = [(run_dir, name) for name in ("ppo", "sac") for run_dir in getattr(args, name)]
         policies: list[Any] = [RandomPolicy(seed=0)]
-        for name in ("ppo", "sac"):
-            for run_dir in getattr(args, name):
-                policies.append(SB3Policy.load(run_dir, name, args.model))
+        policies += [SB3Policy.load(run_dir, name, args.model) for run_dir, name in trained]
     except (ValueError, NotImplementedError) as error:
         parser.error(str(error))
     steady = run_reporting(

@@ -365,18 +365,16 @@ def case_runs(
         "resolution": resolution,
         "wake": wake,
     }
-    fore = wing_motion(insect.fore, stroke, "fore")
-    alone = {"spacing": 0.0, "drop": 0.0, "lag": 0.0}
-    runs = {
-        "fore": Run("fore", fore=fore, hind=None, **alone, **common),
-        "hind": Run(
-            "hind", fore=None, hind=wing_motion(insect.hind, stroke, "hind"), **alone, **common
-        ),
+    motions = {pair: wing_motion(getattr(insect, pair), stroke, pair) for pair in PAIRS}
+    alone = {"spacing": 0.0, "drop": 0.0, "lag": 0.0, **common}
+    runs = {  # each pair alone: the other is None
+        pair: Run(pair, **{p: motions[p] if p == pair else None for p in PAIRS}, **alone)
+        for pair in PAIRS
     }
     for lag in case.lags:
         runs[f"tandem {lag:g}"] = Run(
             "tandem",
-            fore=fore,
+            fore=motions["fore"],
             hind=wing_motion(insect.hind, stroke, "hind", lag),
             spacing=case.spacing,
             drop=case.drop,

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.store import RECORDS_DIR
-from eval.optimize import add_run_arguments
+from eval.optimize import add_run_arguments, run_options
 from tandem_env.io.files import FolderLock, output_directory
 from tandem_env.physics import DRAGONFLY, PLANFORMS, Dragonfly
 
@@ -316,14 +316,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         with locked(args.out):
             adopt_old_runs(args.out)
             jobs = [SolverJob(run, version) for p in planned for run in p.runs.values()]
-            summary = run_jobs(
-                jobs,
-                args.out,
-                scheduler=args.scheduler,
-                progress=not args.quiet,
-                cache=args.cache,
-                rerun=args.rerun,
-            )
+            summary = run_jobs(jobs, args.out, **run_options(args))
             if not args.quiet:
                 print(f"{summary.total} solver runs: {summary.describe(args.out)}", file=sys.stderr)
             results = {job.run: summary.records[job.key].result for job in jobs}

@@ -162,15 +162,14 @@ def agreement_numbers(
 
 def agreement(table: Sequence[Mapping[str, Any]]) -> str:
     """Per reading, over the rows: :func:`agreement_numbers` of each pair, a Markdown table."""
-    lines = [
-        "| reading | RMS hind − UVLM | RMS fore − UVLM | hind sign agrees | fore sign agrees |",
-        "|---|---|---|---|---|",
-    ]
+    pairs = ("hind", "fore")
+    lines = table_head(
+        ["reading", *(f"RMS {p} − UVLM" for p in pairs), *(f"{p} sign agrees" for p in pairs)]
+    )
     for reading in READINGS:
-        numbers = [agreement_numbers(table, reading, pair) for pair in ("hind", "fore")]
+        numbers = [agreement_numbers(table, reading, pair) for pair in pairs]
         cells = [reading, *(f"{rms:.1f} pp" for rms, _ in numbers)]
-        cells += [f"{same}/{len(table)}" for _, same in numbers]
-        lines.append("| " + " | ".join(cells) + " |")
+        lines.append(table_row([*cells, *(f"{same}/{len(table)}" for _, same in numbers)]))
     return "\n".join(lines) + "\n"
 
 
