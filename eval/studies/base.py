@@ -23,6 +23,7 @@ from agents.polish_config import split_settings
 from agents.records import Record
 from agents.store import RECORDS_DIR
 from agents.tasks import get_task
+from eval import figures
 from eval.figures import FORMATS, figure_path
 from eval.studies.claims import Claim, ClaimSpec, judged, study_claims
 from eval.studies.paper_reading import DEFAULT, Reading
@@ -110,6 +111,23 @@ class StudyPlan:
     def figure(self, folder: Path, stem: str) -> Path:
         """The path of the figure ``stem`` in ``folder``, in the plan's format."""
         return figure_path(folder, stem, self.figure_format)
+
+    def sweep_figures(
+        self, folder: Path, xlabel: str, specs: Sequence[tuple[str, str, str, list[figures.Panel]]]
+    ) -> list[tuple[str, Path]]:
+        """(caption, path) of each sweep figure ``(caption, stem, title, panels)`` of ``specs``
+        over the condition axis ``xlabel``, drawn into ``folder`` in the plan's format."""
+        return [
+            (caption, figures.sweep_figure(panels, xlabel, title, self.figure(folder, stem)))
+            for caption, stem, title, panels in specs
+        ]
+
+    def series(
+        self, points: Callable[[str], Mapping[float, Any]], **style: Any
+    ) -> list[figures.Series]:
+        """One figure series per method of ``points(method)``, named by the method."""
+        label = figures.method_label
+        return [figures.Series(label(m), points(m), method=m, **style) for m in self.methods]
 
     def method_config(self, method: str) -> tuple[tuple[str, Any], ...]:
         """The settings of ``method`` in every job: the reading's search's, else the preset's

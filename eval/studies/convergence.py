@@ -107,29 +107,26 @@ def split_rows(label: str, share: float, runs: Sequence[Record]) -> dict[str, An
     runs = sorted(runs, key=lambda r: r.seed)
     values = np.array([r.objective if r.feasible else np.nan for r in runs], dtype=float)
     half = len(runs) // 2
+
+    def stat(reduce: Any, part: np.ndarray) -> float:
+        """``reduce`` of the finite values of ``part`` (NaN for none)."""
+        finite = part[np.isfinite(part)]
+        return float(reduce(finite)) if finite.size else math.nan
+
     first, second = (
-        float(np.nanmax(part)) if half and np.isfinite(part).any() else math.nan
-        for part in (values[:half], values[half:])
+        (stat(np.max, values[:half]), stat(np.max, values[half:])) if half else (math.nan,) * 2
     )
     known = [g for g in (r.certificate.get("gain") for r in runs) if g is not None]
-    finite = values[np.isfinite(values)]
-    median, low, high = (
-        (float(np.median(finite)), float(finite.min()), float(finite.max()))
-        if finite.size
-        else (math.nan,) * 3
-    )
-    apart = math.nan
-    if np.isfinite(first) and np.isfinite(second) and max(first, second) > 0:
-        apart = abs(first - second) / max(first, second)
+    apart = abs(first - second) / max(first, second) if max(first, second) > 0 else math.nan
     return {
         "condition": label,
         "polish_share": share,
         "budget": runs[0].budget if runs else 0,
         "seeds": len(runs),
         "feasible": int(np.isfinite(values).sum()),
-        "median": median,
-        "min": low,
-        "max": high,
+        "median": stat(np.median, values),
+        "min": stat(np.min, values),
+        "max": stat(np.max, values),
         "best_first_half": first,
         "best_second_half": second,
         "halves_apart": apart,

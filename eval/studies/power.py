@@ -70,19 +70,18 @@ def attainable(
     horizontal_series = excess(rows, method, planform, "horizontal", horizontal)
     for power in sorted(set(vertical) & set(horizontal_series)):
         pick = dict(method=method, task="accelerate", planform=planform, condition=power)
-        v = {r["seed"]: r for r in select(rows, objective="vertical", **pick) if r["feasible"]}
-        h = {r["seed"]: r for r in select(rows, objective=horizontal, **pick) if r["feasible"]}
-        fa = {
-            s: math.hypot(v[s]["objective_value"], h[s]["objective_value"])
-            for s in v.keys() & h.keys()
-        }
+        v, h = (
+            {r["seed"]: r for r in select(rows, objective=o, **pick)}
+            for o in ("vertical", horizontal)
+        )
+        both = sorted(s for s in v.keys() & h.keys() if v[s]["feasible"] and h[s]["feasible"])
+        fa = [math.hypot(v[s]["objective_value"], h[s]["objective_value"]) for s in both]
         pairs = [
-            {"seed": s, "feasible": True, "objective_value": fa[s], "F_a": fa[s]}
-            for s in sorted(fa)
+            {"seed": s, "feasible": True, "objective_value": f, "F_a": f}
+            for s, f in zip(both, fa, strict=True)
         ]
-        n = len(select(rows, objective="vertical", **pick))
         best = math.hypot(vertical[power].best, horizontal_series[power].best)
-        out[power] = replace(spread(pairs, "F_a"), best=best, best_seed=None, n=n)
+        out[power] = replace(spread(pairs, "F_a"), best=best, best_seed=None, n=len(v))
     return out
 
 
@@ -95,21 +94,19 @@ def draw(
     plan: StudyPlan, rows: Rows, records: Mapping[Job, Record], study_dir: Path
 ) -> list[tuple[str, Path]]:
     """Figs. 7-8: F̄_v and F̄_h, and F̄_a, over powers, one series per method."""
-    xlabel = "available power P/m [W/kg]"
     h_obj = plan.reading.horizontal_objective
-    label = figures.method_label
     # F̄_v and F̄_h of each method side by side (F̄_h its variant 1: figures.series_style)
     forces = [
         figures.Series(
-            f"{name}, {label(m)}", excess(rows, m, "tear-drop", axis, h_obj), method=m, variant=k
+            f"{name}, {figures.method_label(m)}",
+            excess(rows, m, "tear-drop", axis, h_obj),
+            method=m,
+            variant=k,
         )
         for m in plan.methods
         for k, (name, axis) in enumerate((("F̄_v", "vertical"), ("F̄_h", "horizontal")))
     ]
-    fa = [
-        figures.Series(label(m), attainable(rows, m, "tear-drop", h_obj), method=m)
-        for m in plan.methods
-    ]
+    fa = plan.series(lambda m: attainable(rows, m, "tear-drop", h_obj))
     paper = [
         (p, v, f"paper {name}")
         for name, d in (("F̄_v", PAPER_VERTICAL), ("F̄_h", PAPER_HORIZONTAL))
@@ -118,21 +115,18 @@ def draw(
     specs = (
         (
             "Fig. 7: vertical and horizontal specific excess forces against available power",
-            figures.Panel(excess_label("specific excess force F̄"), forces, paper=paper),
-            "Fig. 7: F̄_v (max F̄_v s.t. F̄_h ≥ 0) and F̄_h (max F̄_h s.t. F̄_v ≥ 0), V = 0",
             "fig7_excess_forces",
+            "Fig. 7: F̄_v (max F̄_v s.t. F̄_h ≥ 0) and F̄_h (max F̄_h s.t. F̄_v ≥ 0), V = 0",
+            [figures.Panel(excess_label("specific excess force F̄"), forces, paper=paper)],
         ),
         (
             "Fig. 8: attainable specific excess force against available power",
-            figures.Panel(excess_label("attainable F̄_a"), fa, paper=paper_attainable()),
-            "Fig. 8: F̄_a = sqrt(F̄_v² + F̄_h²) (Eq. 27), V = 0",
             "fig8_attainable",
+            "Fig. 8: F̄_a = sqrt(F̄_v² + F̄_h²) (Eq. 27), V = 0",
+            [figures.Panel(excess_label("attainable F̄_a"), fa, paper=paper_attainable())],
         ),
     )
-    return [
-        (caption, figures.sweep_figure([panel], xlabel, title, plan.figure(study_dir, stem)))
-        for caption, panel, title, stem in specs
-    ]
+    return plan.sweep_figures(study_dir, "available power P/m [W/kg]", specs)
 
 
 def view(plan: StudyPlan, rows: Rows, method: str) -> dict[str, dict[float, Spread]]:

@@ -43,12 +43,8 @@ def draw(
 
     def panel(ylabel: str, quantity: str, **paper: Any) -> figures.Panel:
         """``quantity`` over speeds, one series per method, within its Table 4 bounds if any."""
-        label = figures.method_label
         where = dict(task="level", planform="tear-drop")
-        series = [
-            figures.Series(label(m), by_condition(rows, quantity, method=m, **where), method=m)
-            for m in plan.methods
-        ]
+        series = plan.series(lambda m: by_condition(rows, quantity, method=m, **where))
         bounds = table4_bounds(quantity, plan.insect.stroke_bounds)
         return figures.Panel(ylabel, series, bounds=bounds, **paper)
 
@@ -101,11 +97,7 @@ def draw(
             ],
         ),
     )
-    xlabel = "flight speed V [m/s]"
-    return [
-        (caption, figures.sweep_figure(panels, xlabel, title, plan.figure(study_dir, stem)))
-        for caption, stem, title, panels in specs
-    ]
+    return plan.sweep_figures(study_dir, "flight speed V [m/s]", specs)
 
 
 def view(plan: StudyPlan, rows: Rows, method: str) -> list[Mapping[str, Any]]:

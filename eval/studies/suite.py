@@ -77,14 +77,11 @@ class SuitePlan:
             wall = round(time.perf_counter() - self.started, 1)  # the whole call's, analysis too
             last_run = {"studies": self.asked, **summary.to_dict(), "wall_time_s": wall}
             jobs = sorted({j.key for n in done for j in self.jobs_of[n]})
-            manifest = {
-                "preset": self.plan.preset.name,
-                "methods": list(self.plan.methods),
-                "studies": paper,
-                "jobs": jobs,
-                "last_run": last_run,
-            }
-            write_json_atomic(out / "manifest.json", manifest)
+            plan = self.plan
+            manifest = {"preset": plan.preset.name, "methods": list(plan.methods), "studies": paper}
+            write_json_atomic(
+                out / "manifest.json", {**manifest, "jobs": jobs, "last_run": last_run}
+            )
         wall = time.perf_counter() - self.started
         return SuiteResult([done[n] for n in self.asked], summary, path, wall)
 

@@ -68,23 +68,17 @@ def draw(
 
     def by_planform(points: Callable[[str, str], Mapping[float, Spread]]) -> list[figures.Series]:
         """One series per method and planform of ``points(method, planform)``."""
+        variant = figures.PLANFORM_VARIANT
         return [
-            figures.Series(
-                _label(m, planform),
-                points(m, planform),
-                method=m,
-                variant=figures.PLANFORM_VARIANT[planform],
-            )
+            figures.Series(_label(m, pf), points(m, pf), method=m, variant=variant[pf])
             for m in plan.methods
-            for planform in PLANFORMS
+            for pf in PLANFORMS
         ]
 
-    eff = by_planform(lambda m, planform: _efficiency(rows, m, planform))
-    acc = by_planform(lambda m, planform: attainable(rows, m, planform, h_obj))
     gain = f"≈ {PAPER_GAIN_AT_2:g} % more at 2 m/s"
     fig15 = figures.Panel(
         "efficiency η [%]",
-        eff,
+        by_planform(lambda m, planform: _efficiency(rows, m, planform)),
         # Fig. 6's number is the tear-drop's; the text of Fig. 15 names the peak and gives the
         # real wing's gain at 2 m/s relative to it.
         paper=[(PAPER_BEST_SPEED, PAPER_PEAK_EFFICIENCY, "paper, tear-drop")],
@@ -94,37 +88,38 @@ def draw(
     )
     fig16 = figures.Panel(
         excess_label("attainable F̄_a"),
-        acc,
+        by_planform(lambda m, planform: attainable(rows, m, planform, h_obj)),
         # The paper's F̄_a (Fig. 8) is the tear-drop's; Fig. 16's text gives the real wing only
         # relative to it.
         paper=paper_attainable("paper, tear-drop"),
         paper_note="paper: real wing slightly above tear-drop at every power",
     )
-    outlines = planform_outlines()
-    sweeps = (
-        (
-            "Fig. 15: level-flight efficiency with the two wing shapes",
-            fig15,
-            "flight speed V [m/s]",
-            "Fig. 15: efficiency, tear-drop vs real wing",
-            "fig15_efficiency_shapes",
-        ),
-        (
-            "Fig. 16: attainable acceleration with the two wing shapes",
-            fig16,
-            "available power P/m [W/kg]",
-            "Fig. 16: attainable F̄_a, tear-drop vs real wing",
-            "fig16_attainable_shapes",
-        ),
-    )
+    fig14 = figures.planform_figure(planform_outlines(), plan.figure(study_dir, "fig14_planforms"))
     return [
-        (
-            "Fig. 14: tear-drop and real wing planforms",
-            figures.planform_figure(outlines, plan.figure(study_dir, "fig14_planforms")),
+        ("Fig. 14: tear-drop and real wing planforms", fig14),
+        *plan.sweep_figures(
+            study_dir,
+            "flight speed V [m/s]",
+            [
+                (
+                    "Fig. 15: level-flight efficiency with the two wing shapes",
+                    "fig15_efficiency_shapes",
+                    "Fig. 15: efficiency, tear-drop vs real wing",
+                    [fig15],
+                )
+            ],
         ),
-        *(
-            (caption, figures.sweep_figure([panel], xlabel, title, plan.figure(study_dir, stem)))
-            for caption, panel, xlabel, title, stem in sweeps
+        *plan.sweep_figures(
+            study_dir,
+            "available power P/m [W/kg]",
+            [
+                (
+                    "Fig. 16: attainable acceleration with the two wing shapes",
+                    "fig16_attainable_shapes",
+                    "Fig. 16: attainable F̄_a, tear-drop vs real wing",
+                    [fig16],
+                )
+            ],
         ),
     ]
 

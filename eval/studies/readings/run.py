@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import statistics
@@ -60,11 +61,10 @@ def analyse_reading(
     where = reading_dir(out.directory, reading)
     where.mkdir(parents=True, exist_ok=True)
     link = where / RECORDS_DIR
-    if not link.exists() and not link.is_symlink():
-        try:
+    # no symlinks here (e.g. some Windows setups): the index paths dangle
+    with contextlib.suppress(OSError):
+        if not link.exists() and not link.is_symlink():
             link.symlink_to(Path("..") / RECORDS_DIR, target_is_directory=True)
-        except OSError:  # no symlinks here (e.g. some Windows setups): the index paths dangle
-            pass
     outputs = tuple(
         study.analyse(p, job_records(out, jobs[name]), where)
         for name, study in PAPER_STUDIES.items()
@@ -267,20 +267,16 @@ class ReadingsPlan:
     def finish(self, run: PlanRun) -> ReadingsResult:
         """Write the bias check's CSV, readings.csv, the matrix, report.md and the manifest of
         ``run`` (this plan's)."""
-        out = self.store.directory
-        plan = self.plan
-        results = self.results
+        out, plan, results = self.store.directory, self.plan, self.results
         if self.rows:
             write_csv_atomic(out / CHECK_CSV, self.rows)
         summary = check_summary(self.rows)
-        csv_path = out / "readings.csv"
-        report = out / "report.md"
+        csv_path, report = out / "readings.csv", out / "report.md"
         write_csv_atomic(csv_path, csv_rows(results))
         methods = ", ".join(plan.methods)
         title = f"Paper claims under each reading ({plan.preset.name} preset, {methods})"
         figure = matrix_figure(results, plan.figure(out, "readings_matrix"), title)
-        words = self.words
-        continuation = self.continuation
+        words, continuation = self.words, self.continuation
         write_readings_report(
             report, plan, results, words, continuation, self.full, csv_path, figure, summary
         )
