@@ -21,6 +21,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from eval.studies.report import table_head, table_row
+
 ROOT = Path(__file__).resolve().parents[2]
 NUMBERS_DIR = ROOT / "docs" / "numbers"
 DOCUMENTS: tuple[Path, ...] = (ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")))
@@ -185,6 +187,11 @@ class Benchmark:
             path = Path(out) / "numbers.json"
             run_command(["python", *self.arguments, "--json", str(path)], dict(self.environment))
             return {**read_json(path), "command": self.command}
+
+
+def table(titles: Sequence[str], rows: Iterable[Iterable[object]]) -> list[str]:
+    """A Markdown table's lines: its heading, the rule under it and a line per row of cells."""
+    return [*table_head(titles), *map(table_row, rows)]
 
 
 def median_range(row: dict[str, Any], kind: str, median: str = "_median") -> str:
