@@ -277,13 +277,6 @@ def machine_line(data: dict[str, Any], name: str) -> str:
     )
 
 
-def at_load(data: dict[str, Any]) -> str:
-    """Where a bold wall time holds: ``at a load average of 1.25-1.54 on 2 CPUs``."""
-    before, after = data["machine_before"], data["machine_after"]
-    low, high = sorted((before["load_average_1min"], after["load_average_1min"]))
-    return f"at a load average of {low:g}-{high:g} on {before['cpus']} CPUs"
-
-
 def footer(data: dict[str, Any], name: str, *commands: str, heading: str = "") -> list[str]:
     """The lines that close a region: :func:`machine_line`, ``heading`` and the commands."""
     headed = [heading, ""] if heading else []

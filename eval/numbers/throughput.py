@@ -280,10 +280,14 @@ def measure_training() -> dict[str, Any]:
 
 
 def _took(data: dict[str, Any], name: str, what: str, where: str) -> str:
-    """The sentence of a timed command: ``what`` it is, then its time and ``where`` it ran."""
+    """The sentence of a timed command: ``what`` it is, then its time and ``where`` it ran
+    (the load average before and after)."""
+    before, after = data["machine_before"], data["machine_after"]
+    low, high = sorted((before["load_average_1min"], after["load_average_1min"]))
     return (
-        f"`{data['command']}` {what}took **{framework.minutes(data['wall_s'])}** wall clock {framework.at_load(data)} "
-        f"{where}. {framework.machine_line(data, name)}\n"
+        f"`{data['command']}` {what}took **{framework.minutes(data['wall_s'])}** wall clock at a "
+        f"load average of {low:g}-{high:g} on {before['cpus']} CPUs {where}. "
+        f"{framework.machine_line(data, name)}\n"
     )
 
 
