@@ -56,12 +56,9 @@ def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> dict[str
     }
     for call in calls.values():
         call()  # compile or load the cache
-    wall: dict[tuple, list[float]] = {case: [] for case in cases}
-    cpu: dict[tuple, list[float]] = {case: [] for case in cases}
-    for case in [case for _ in range(rounds) for case in cases]:
-        seconds = seconds_per_call(calls[case], min_seconds=0.3)
-        for times, value in zip((wall, cpu), seconds, strict=True):
-            times[case].append(value)
+    # every case once per round: (wall, CPU) seconds per call, by round and case
+    timed = [[seconds_per_call(calls[c], min_seconds=0.3) for c in cases] for _ in range(rounds)]
+    wall, cpu = ({c: [r[i][k] for r in timed] for i, c in enumerate(cases)} for k in (0, 1))
     print(
         f"{'batch':>6} {'induction':>10} {'evals/s best':>13} {'evals/s median':>15} "
         f"{'CPU ms/call best':>17}"
