@@ -211,9 +211,9 @@ def claims(preset: str, out: Path, scheduler: str | None) -> int:
             c = {x.id: x for x in r.claims}.get(claim.id)
             cells.append("no data" if c is None else f"{c.verdict} ({c.median:.3g}{c.unit})")
             base = by_model[json.dumps(r.reading.env_kwargs(), sort_keys=True)]
-            if r.reading.search is not None and base.reading.search is None:
-                if r.verdicts().get(claim.id) != base.verdicts().get(claim.id):
-                    moved.append(r.reading.name)
+            searched = r.reading.search is not None and base.reading.search is None
+            if searched and r.verdicts().get(claim.id) != base.verdicts().get(claim.id):
+                moved.append(r.reading.name)
         rows.append({"claim": claim.id, "paper": claim.paper, "cells": cells, "moved_by": moved})
         print(table_row([claim.id, claim.paper, *cells]))
     counts = {r.reading.name: {"agree": r.agree, "differ": r.differ} for r in result.results}
