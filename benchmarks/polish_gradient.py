@@ -32,7 +32,8 @@ def main() -> None:
     import torch
 
     print(
-        f"{machine()}; torch {torch.__version__} ({torch.get_num_threads()} threads), {args.device}"
+        f"{machine()}; torch {torch.__version__} ({torch.get_num_threads()} threads), "
+        f"device {args.device}"
     )
     rng = np.random.default_rng(0)
     cases = ((LEVEL_TASK, 1.5, {}), (ACCELERATE_TASK, 60.0, {"objective": "vertical"}))
