@@ -59,8 +59,7 @@ def main(argv: list[str] | None = None) -> int:
                 case = {"method": args.method, "setting": setting, "task": task}
                 rows += [
                     case
-                    | {"budget": checkpoint, "seed": r.seed, "best_reward": float(v)}
-                    | {"restarts": k}
+                    | {"budget": checkpoint, "seed": r.seed, "best_reward": float(v), "restarts": k}
                     for r, v, k in zip(records, values, restarts, strict=True)
                 ]
                 print(

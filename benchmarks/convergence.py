@@ -13,11 +13,10 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-from shared import write_numbers
+from shared import parser_with_json, write_numbers
 
 import tandem_env as te
 
@@ -50,7 +49,7 @@ def errors(strokes, speed, options, refined):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = parser_with_json(__doc__)
     parser.add_argument("--strokes", type=int, default=100)
     parser.add_argument("--seed", type=int, default=2024)
     parser.add_argument(
@@ -61,7 +60,6 @@ def main() -> None:
         metavar="N_TIMExN_BLADE",
         help="resolutions to study (default: all seven)",
     )
-    parser.add_argument("--json", type=Path, default=None, help="also write the numbers here")
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     strokes = te.normalised_to_physical(rng.uniform(-1, 1, (args.strokes, 28)))

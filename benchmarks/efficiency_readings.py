@@ -32,6 +32,7 @@ from eval.studies.base import StudyPlan
 from eval.studies.paper_reading import DEFAULT, PAPER_SEARCHES, Reading, Search, combine
 from eval.studies.presets import get_preset
 from eval.studies.readings import SINGLES, run_readings
+from eval.studies.report import table_head, table_row
 from tandem_env import DRAGONFLY
 from tandem_env.io.files import read_json, write_json_atomic
 
@@ -202,8 +203,7 @@ def claims(preset: str, out: Path, scheduler: str | None) -> int:
     wall = time.perf_counter() - start
     by_model = {json.dumps(r.reading.env_kwargs(), sort_keys=True): r for r in result.results}
     names = [r.reading.name for r in result.results]
-    print("| claim | paper | " + " | ".join(names) + " |")
-    print("|---|---|" + "---|" * len(names))
+    print(*table_head(["claim", "paper", *names]), sep="\n")
     rows = []
     for claim in result.results[0].claims:
         cells, moved = [], []
@@ -211,11 +211,11 @@ def claims(preset: str, out: Path, scheduler: str | None) -> int:
             c = {x.id: x for x in r.claims}.get(claim.id)
             cells.append("no data" if c is None else f"{c.verdict} ({c.median:.3g}{c.unit})")
             base = by_model[json.dumps(r.reading.env_kwargs(), sort_keys=True)]
-            if r.reading.search is not None and base.reading.search is None:
-                if r.verdicts().get(claim.id) != base.verdicts().get(claim.id):
-                    moved.append(r.reading.name)
+            searched = r.reading.search is not None and base.reading.search is None
+            if searched and r.verdicts().get(claim.id) != base.verdicts().get(claim.id):
+                moved.append(r.reading.name)
         rows.append({"claim": claim.id, "paper": claim.paper, "cells": cells, "moved_by": moved})
-        print(f"| {claim.id} | {claim.paper} | " + " | ".join(cells) + " |")
+        print(table_row([claim.id, claim.paper, *cells]))
     counts = {r.reading.name: {"agree": r.agree, "differ": r.differ} for r in result.results}
     print("agree: " + ", ".join(f"{n} {c['agree']}" for n, c in counts.items()))
     print("differ: " + ", ".join(f"{n} {c['differ']}" for n, c in counts.items()))

@@ -8,14 +8,12 @@ the numbers (``python -m eval numbers`` renders docs/envs.md from them).
 
 from __future__ import annotations
 
-import argparse
 import time
 from collections.abc import Callable
-from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from shared import write_numbers
+from shared import parser_with_json, write_numbers
 
 import tandem_env as te
 
@@ -32,10 +30,9 @@ def rate(run: Callable[[], int], seconds: float) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = parser_with_json(__doc__)
     parser.add_argument("--num-envs", type=int, default=1024, help="vector width n (default 1024)")
     parser.add_argument("--seconds", type=float, default=4.0, help="time per measurement [s]")
-    parser.add_argument("--json", type=Path, default=None, help="also write the numbers here")
     args = parser.parse_args()
     n, seconds = args.num_envs, args.seconds
     rng = np.random.default_rng(0)

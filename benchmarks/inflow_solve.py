@@ -18,15 +18,12 @@ from them).
 
 from __future__ import annotations
 
-import argparse
-import time
 from dataclasses import replace
 from functools import partial
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-from shared import PAPER, machine, write_numbers
+from shared import PAPER, machine, parser_with_json, seconds_per_call, write_numbers
 
 import tandem_env as te
 from tandem_env.physics import blade, cycle, induction, model
@@ -49,20 +46,6 @@ SWEEP_SPEEDS = (0.0, 1.0, 2.0)
 """Flight speeds [m/s] of that count."""
 
 
-def timed(call, min_seconds: float) -> tuple[float, float]:
-    """Wall and CPU (all threads) seconds per call, over back-to-back calls lasting
-    ``min_seconds``."""
-    calls = 0
-    cpu = time.process_time()
-    start = time.perf_counter()
-    while True:
-        call()
-        calls += 1
-        elapsed = time.perf_counter() - start
-        if elapsed >= min_seconds:
-            return elapsed / calls, (time.process_time() - cpu) / calls
-
-
 def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> dict[str, Any]:
     """Seconds per call of every case in ``rounds`` interleaved rounds (printed, and returned
     as per-case best and median rates and the per-round coupled / none ratios)."""
@@ -73,12 +56,9 @@ def throughput(strokes: np.ndarray, speeds: np.ndarray, rounds: int) -> dict[str
     }
     for call in calls.values():
         call()  # compile or load the cache
-    wall: dict[tuple, list[float]] = {case: [] for case in cases}
-    cpu: dict[tuple, list[float]] = {case: [] for case in cases}
-    for case in [case for _ in range(rounds) for case in cases]:
-        seconds, cpu_seconds = timed(calls[case], 0.3)
-        wall[case].append(seconds)
-        cpu[case].append(cpu_seconds)
+    # every case once per round: (wall, CPU) seconds per call, by round and case
+    timed = [[seconds_per_call(calls[c], min_seconds=0.3) for c in cases] for _ in range(rounds)]
+    wall, cpu = ({c: [r[i][k] for r in timed] for i, c in enumerate(cases)} for k in (0, 1))
     print(
         f"{'batch':>6} {'induction':>10} {'evals/s best':>13} {'evals/s median':>15} "
         f"{'CPU ms/call best':>17}"
@@ -146,10 +126,9 @@ def sweeps_per_annulus(strokes: np.ndarray, speed: float) -> tuple[np.ndarray, n
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = parser_with_json(__doc__)
     parser.add_argument("--rounds", type=int, default=7, help="interleaved timing rounds")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--json", type=Path, default=None, help="also write the numbers here")
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     strokes = te.normalised_to_physical(rng.uniform(-1, 1, (1024, 28)))

@@ -16,23 +16,22 @@ numbers (``python -m eval numbers`` renders docs/model.md §12 from them).
 from __future__ import annotations
 
 import argparse
-import os
 import platform
 from dataclasses import replace
 from functools import partial
-from pathlib import Path
+from itertools import product
 from typing import Any
 
 import numba
 import numpy as np
-from shared import PAPER, best_time, call_times, machine, write_numbers
+from shared import PAPER, best_time, call_times, machine, parser_with_json, write_numbers
 
 import tandem_env as te
 from tandem_env.physics import model
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = parser_with_json(__doc__)
     parser.add_argument("--repeats", type=int, default=5, help="timed calls per case (best kept)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--backend", choices=("numba", "torch"), default="numba")
@@ -45,7 +44,6 @@ def main() -> None:
     parser.add_argument(
         "--induction", nargs="+", default=["coupled", "isolated", "none"], help="inflow models"
     )
-    parser.add_argument("--json", type=Path, default=None, help="also write the numbers here")
     args = parser.parse_args()
     throughput = torch_throughput if args.backend == "torch" else numba_throughput
     write_numbers(args.json, throughput(args))
@@ -75,17 +73,14 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
         "breakdown": [],
     }
     print(f"{'batch':>6} {'induction':>10} {'evals/s':>10} {'ms/call':>9} {'inflow sweeps*':>15}")
-    for induction in args.induction:
-        opts = replace(PAPER, induction=induction)
-        for batch in args.batches or (1, 64, 1024):
-            x, v = strokes[:batch], speeds[:batch]
-            seconds = best_time(lambda x=x, v=v, o=opts: te.evaluate(x, v, options=o), args.repeats)
-            sweeps = float(te.evaluate(x, v, options=opts).induction_evaluations.mean())
-            rate = batch / seconds
-            ms = 1e3 * seconds
-            print(f"{batch:>6} {induction:>10} {rate:>10.0f} {ms:>9.2f} {sweeps:>15.1f}")
-            row = {"batch": batch, "induction": induction, "evaluations_per_s": rate}
-            numbers["rates"].append(row | {"ms_per_call": ms, "inflow_sweeps": sweeps})
+    for induction, batch in product(args.induction, args.batches or (1, 64, 1024)):
+        x, v, opts = strokes[:batch], speeds[:batch], replace(PAPER, induction=induction)
+        seconds = best_time(partial(te.evaluate, x, v, options=opts), args.repeats)
+        sweeps = float(te.evaluate(x, v, options=opts).induction_evaluations.mean())
+        rate, ms = batch / seconds, 1e3 * seconds
+        print(f"{batch:>6} {induction:>10} {rate:>10.0f} {ms:>9.2f} {sweeps:>15.1f}")
+        row = {"batch": batch, "induction": induction, "evaluations_per_s": rate}
+        numbers["rates"].append(row | {"ms_per_call": ms, "inflow_sweeps": sweeps})
     print("* force sweeps over the cycle needed by a stroke's slowest annulus, mean over the batch")
     print()
     print("where the time goes at batch 1024 (coupled), ms per call (best wall, best CPU):")
@@ -129,10 +124,8 @@ def torch_throughput(args: argparse.Namespace) -> dict[str, Any]:
     name = torch.cuda.get_device_name(device) if device.type == "cuda" else platform.processor()
     print(
         f"torch {torch.__version__} on {device} ({name or platform.machine()}), {args.dtype}, "
-        f"{'compiled' if args.compile else 'eager'}, "
-        f"{torch.get_num_threads()} CPU threads; numba {numba.__version__} with "
-        f"{numba.get_num_threads()} threads; {os.cpu_count()} cores, load average "
-        f"{', '.join(f'{x:.1f}' for x in os.getloadavg())}"
+        f"{'compiled' if args.compile else 'eager'}, {torch.get_num_threads()} CPU threads; "
+        + machine()
     )
     x_all = torch.tensor(strokes, dtype=dtype, device=device)
     v_all = torch.tensor(speeds, dtype=dtype, device=device)
@@ -158,24 +151,21 @@ def torch_throughput(args: argparse.Namespace) -> dict[str, Any]:
 
     header = f"{'batch':>7} {'induction':>10} {'torch evals/s':>14} {'ms/call':>9}"
     print(header + (f" {'numba evals/s':>14} {'torch/numba':>12}" if on_cpu else ""))
-    for induction in args.induction:
+    for induction, batch in product(args.induction, batches):
         opts = replace(PAPER, induction=induction)
-        for batch in batches:
-            seconds = best_time(lambda b=batch, o=opts: run_torch(b, o), args.repeats)
-            line = f"{batch:>7} {induction:>10} {batch / seconds:>14.0f} {1e3 * seconds:>9.2f}"
-            row = {"batch": batch, "induction": induction, "evaluations_per_s": batch / seconds}
-            if on_cpu:
-                x, v = strokes[:batch], speeds[:batch]
-                numba_s = best_time(
-                    lambda x=x, v=v, o=opts: te.evaluate(x, v, options=o), args.repeats
-                )
-                line += f" {batch / numba_s:>14.0f} {numba_s / seconds:>12.3f}"
-                row |= {
-                    "numba_evaluations_per_s": batch / numba_s,
-                    "torch_over_numba": numba_s / seconds,
-                }
-            print(line)
-            numbers["rates"].append(row)
+        seconds = best_time(partial(run_torch, batch, opts), args.repeats)
+        line = f"{batch:>7} {induction:>10} {batch / seconds:>14.0f} {1e3 * seconds:>9.2f}"
+        row = {"batch": batch, "induction": induction, "evaluations_per_s": batch / seconds}
+        if on_cpu:
+            evaluate = partial(te.evaluate, strokes[:batch], speeds[:batch], options=opts)
+            numba_s = best_time(evaluate, args.repeats)
+            line += f" {batch / numba_s:>14.0f} {numba_s / seconds:>12.3f}"
+            row |= {
+                "numba_evaluations_per_s": batch / numba_s,
+                "torch_over_numba": numba_s / seconds,
+            }
+        print(line)
+        numbers["rates"].append(row)
     numbers["accuracy"] = accuracy(args, torch_model, x_all, v_all, strokes, speeds)
     if args.gradient:
         numbers["gradient"] = gradient_cost(args, torch_model, x_all, strokes, speeds)
@@ -193,12 +183,12 @@ def accuracy(
     want = te.evaluate(strokes[:n], speeds[:n])
     with torch.no_grad():
         got = torch_model.evaluate_torch(x_all[:n], v_all[:n], compiled=args.compile).to_numpy()
-    worst, worst_name = 0.0, ""
+    relative = {}
     for name, value in want.as_dict().items():
         a, b = value.astype(float), getattr(got, name).astype(float)
-        error = float(np.max(np.abs(b - a) / np.maximum(np.abs(a), 1e-6)))
-        if error > worst:
-            worst, worst_name = error, name
+        relative[name] = float(np.max(np.abs(b - a) / np.maximum(np.abs(a), 1e-6)))
+    worst_name = max(relative, key=relative.__getitem__)
+    worst = relative[worst_name]
     print()
     print(
         f"against numba on {n} strokes (coupled): largest relative difference {worst:.2g} ({worst_name})"

@@ -28,7 +28,7 @@ from agents.evaluator import VectorEnvEvaluator
 from agents.methods import AskTellMethod, get_method
 from agents.tasks import get_task
 from tandem_env.envs import base
-from tandem_env.io.keyvalue import parse_pairs
+from tandem_env.io.keyvalue import add_pairs_argument
 
 CONDITIONS = {"level": ({"speed": 1.5}, 1.5), "accelerate": ({"available_power": 60.0}, 60.0)}
 #: The package's public calls our CMA-ES makes (agents/cmaes_search.py): its whole work.
@@ -118,13 +118,12 @@ def time_run(
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--method", default="pso", help="pso (default), cmaes or random")
-    settings_help = {"nargs": "+", "default": [], "metavar": "KEY=VALUE", "help": "method settings"}
-    parser.add_argument("--method-config", **settings_help)
+    add_pairs_argument(parser, "--method-config", "method settings")
     parser.add_argument("--task", choices=tuple(CONDITIONS), default="level")
     parser.add_argument("--evaluations", type=int, default=12_000, help="budget per run")
     parser.add_argument("--repeats", type=int, default=3, help="runs (seeds 0..repeats-1)")
     args = parser.parse_args(argv)
-    settings = parse_pairs(args.method_config, "--method-config")
+    settings = args.method_config
     time_run(args.method, settings, args.task, 200, 0)  # warm-up: numba cache, env construction
     timings = [
         time_run(args.method, settings, args.task, args.evaluations, seed)

@@ -11,11 +11,10 @@ warm-up: the median and fastest call [ms], their ratio, and the torch forward pa
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
 
 import numpy as np
-from shared import call_times
+from shared import call_times, machine
 
 from agents.polish import AutogradGradient, CentralDifferences, task_problem
 from agents.tasks import ACCELERATE_TASK, LEVEL_TASK
@@ -32,10 +31,9 @@ def main() -> None:
     args = parser.parse_args()
     import torch
 
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(
-        f"{os.cpu_count()} CPUs, load {load:.1f}, torch {torch.__version__} "
-        f"({torch.get_num_threads()} threads), device {args.device}"
+        f"{machine()}; torch {torch.__version__} ({torch.get_num_threads()} threads), "
+        f"device {args.device}"
     )
     rng = np.random.default_rng(0)
     cases = ((LEVEL_TASK, 1.5, {}), (ACCELERATE_TASK, 60.0, {"objective": "vertical"}))

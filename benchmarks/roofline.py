@@ -34,9 +34,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def workload(te, batch: int = 1024):
+    """The call timed, with its strokes and options."""
     strokes = te.normalised_to_physical(np.random.default_rng(0).uniform(-1, 1, (batch, 28)))
     options = te.ModelOptions(slipstream="mean")
-    return lambda: te.evaluate(strokes, 1.0, options=options)
+    return lambda: te.evaluate(strokes, 1.0, options=options), strokes, options
 
 
 def seconds_per_call(call, calls: int) -> tuple[float, float]:
@@ -53,7 +54,7 @@ def worker() -> None:
 
     import tandem_env as te
 
-    call = workload(te)
+    call = workload(te)[0]
     call()
     for line in sys.stdin:
         threads, calls = map(int, line.split())
@@ -76,10 +77,9 @@ def _op(kind: str, fn):
     return apply
 
 
-for _name in ("add", "radd", "sub", "rsub", "mul", "rmul"):
-    setattr(Counted, f"__{_name}__", _op("flop", getattr(float, f"__{_name}__")))
-Counted.__truediv__ = _op("div", float.__truediv__)
-Counted.__rtruediv__ = _op("div", float.__rtruediv__)
+for _kind, _names in (("flop", "add radd sub rsub mul rmul"), ("div", "truediv rtruediv")):
+    for _name in _names.split():
+        setattr(Counted, f"__{_name}__", _op(_kind, getattr(float, f"__{_name}__")))
 Counted.__neg__ = lambda x: Counted(-float(x))
 Counted.__abs__ = lambda x: Counted(abs(float(x)))
 
@@ -225,6 +225,7 @@ def main() -> None:
     args = parser.parse_args()
     os.environ["NUMBA_NUM_THREADS"] = str(max(args.threads))
     import numba
+    from shared import write_numbers  # it loads numba: after NUMBA_NUM_THREADS
 
     import tandem_env as te
     from tandem_env.physics import cycle, model
@@ -238,8 +239,7 @@ def main() -> None:
         "ghz": clock_ghz(),
         **machine_limits(),
     }
-    options = te.ModelOptions(slipstream="mean")
-    strokes = te.normalised_to_physical(np.random.default_rng(0).uniform(-1, 1, (1024, 28)))
+    call, strokes, options = workload(te)
     inputs = model.parametric_kernel_inputs(strokes, options.n_time)
     out = model.run_kernel(*inputs[:5], np.ones(1024), np.zeros(1024), te.DRAGONFLY, options).means
     annuli = 2 * options.n_blade
@@ -274,7 +274,6 @@ def main() -> None:
     env = {**os.environ, "PYTHONPATH": str(tree)}
     pipes = {"stdin": subprocess.PIPE, "stdout": subprocess.PIPE, "text": True}
     old = subprocess.Popen([sys.executable, __file__, "--worker"], env=env, cwd=tree, **pipes)
-    call = workload(te)
     call()
     times = {t: {"old": [], "new": []} for t in args.threads}  # (wall, CPU) s per call
     for _ in range(args.rounds):
@@ -316,10 +315,7 @@ def main() -> None:
         f"CPU time); machine: {numbers['fma_flops_per_ns'] / numbers['ghz']:.1f} FMA flops/cycle, "
         f"{numbers['rsqrt_per_ns'] / numbers['ghz']:.2f} 1/sqrt per cycle at {numbers['ghz']:.2f} GHz"
     )
-    if args.json:
-        from tandem_env.io.files import write_json_atomic
-
-        write_json_atomic(args.json, numbers | {"command": "python benchmarks/roofline.py"})
+    write_numbers(args.json, numbers)
 
 
 if __name__ == "__main__":

@@ -18,7 +18,6 @@ import importlib
 import pkgutil
 import re
 import sys
-from pathlib import Path
 from types import ModuleType
 
 from eval.numbers import framework
@@ -54,16 +53,6 @@ def render_document(text: str, rendered: dict[str, str]) -> str:
         return match.group(1) + rendered[name] + match.group(4)
 
     return framework.REGION.sub(body, text)
-
-
-def write_documents(rendered: dict[str, str]) -> list[Path]:
-    changed = []
-    for path in framework.DOCUMENTS:
-        text = path.read_text(encoding="utf-8")
-        if (new := render_document(text, rendered)) != text:
-            path.write_text(new, encoding="utf-8")
-            changed.append(path)
-    return changed
 
 
 def rendered_all() -> dict[str, str]:
@@ -105,6 +94,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             framework.save(
                 name, {**data, "machine_before": before, "machine_after": framework.machine()}
             )
-    for path in write_documents(rendered_all()):
-        print(f"updated {path.relative_to(framework.ROOT)}")
+    rendered = rendered_all()
+    for path in framework.DOCUMENTS:
+        text = path.read_text(encoding="utf-8")
+        if (new := render_document(text, rendered)) != text:
+            path.write_text(new, encoding="utf-8")
+            print(f"updated {path.relative_to(framework.ROOT)}")
     return 0

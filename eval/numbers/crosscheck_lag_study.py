@@ -253,11 +253,11 @@ def render(data: dict[str, Any]) -> str:
         "fore: RMS [points] | fore: sign |",
         "|---|---|---|---|---|---|",
     ]
-    for name, t in targets(rows).items():
-        lines.append(
-            f"| `{name}` | {t['hind_sign']}/{t['points']} | {t['within']}/{t['cases']} | "
-            f"{t['hind_rms']:.1f} | {t['fore_rms']:.1f} | {t['fore_sign']}/{t['points']} |"
-        )
+    lines += [
+        f"| `{name}` | {t['hind_sign']}/{t['points']} | {t['within']}/{t['cases']} | "
+        f"{t['hind_rms']:.1f} | {t['fore_rms']:.1f} | {t['fore_sign']}/{t['points']} |"
+        for name, t in targets(rows).items()
+    ]
     if data.get("model_refreshed"):
         lines += [
             "",
@@ -274,13 +274,12 @@ def render(data: dict[str, Any]) -> str:
         "| steps per beat | panels (chordwise x spanwise) | UVLM hind | UVLM fore | tandem run [s] |",
         "|---|---|---|---|---|",
     ]
-    for row in data["convergence"]:
-        lines.append(
-            f"| {row['steps_per_beat']} | {row['panels']} | "
-            f"{float(row['uvlm_hind_change_pct']):+.1f} % | "
-            f"{float(row['uvlm_fore_change_pct']):+.1f} % | "
-            f"{float(row['uvlm_tandem_wall_s']):.0f} |"
-        )
+    lines += [
+        f"| {row['steps_per_beat']} | {row['panels']} | "
+        f"{float(row['uvlm_hind_change_pct']):+.1f} % | {float(row['uvlm_fore_change_pct']):+.1f} % | "
+        f"{float(row['uvlm_tandem_wall_s']):.0f} |"
+        for row in data["convergence"]
+    ]
     return "\n".join(lines) + "\n"
 
 

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from eval.studies.report import table_head, table_row
+
 ROOT = Path(__file__).resolve().parents[2]
 NUMBERS_DIR = ROOT / "docs" / "numbers"
 DOCUMENTS: tuple[Path, ...] = (ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")))
@@ -187,6 +189,11 @@ class Benchmark:
             return {**read_json(path), "command": self.command}
 
 
+def table(titles: Sequence[str], rows: Iterable[Iterable[object]]) -> list[str]:
+    """A Markdown table's lines: its heading, the rule under it and a line per row of cells."""
+    return [*table_head(titles), *map(table_row, rows)]
+
+
 def median_range(row: dict[str, Any], kind: str, median: str = "_median") -> str:
     """A row's ``{kind}{median}`` and ``{kind}_range`` as the tables write them: 1.23 (1.10-1.40)."""
     low, high = row[kind + "_range"]
@@ -268,13 +275,6 @@ def machine_line(data: dict[str, Any], name: str) -> str:
         f"{after['load_average_1min']} after; regenerate with `python -m eval numbers --only "
         f"{name}`."
     )
-
-
-def at_load(data: dict[str, Any]) -> str:
-    """Where a bold wall time holds: ``at a load average of 1.25-1.54 on 2 CPUs``."""
-    before, after = data["machine_before"], data["machine_after"]
-    low, high = sorted((before["load_average_1min"], after["load_average_1min"]))
-    return f"at a load average of {low:g}-{high:g} on {before['cpus']} CPUs"
 
 
 def footer(data: dict[str, Any], name: str, *commands: str, heading: str = "") -> list[str]:

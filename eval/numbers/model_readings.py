@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -21,37 +22,37 @@ POWER_SPEEDS: tuple[float, ...] = (0.0, 1.0, 2.0)
 """Flight speeds [m/s] of the power-conventions reading."""
 
 
+def on_random_strokes(
+    speeds: tuple[float, ...], row: Callable[[np.ndarray, float], dict[str, Any]]
+) -> dict[str, Any]:
+    """A reading's data: ``row(strokes, speed)`` of the random strokes at each of ``speeds``."""
+    strokes = random_strokes()
+    rows = [{"speed": speed, **row(strokes, speed)} for speed in speeds]
+    return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}
+
+
 def measure_rotation() -> dict[str, Any]:
     """L/W with the paper's C_r = π over L/W with π/2 (both wings), for the random strokes that
     lift at least half the weight with π."""
     import tandem_env
 
-    strokes = random_strokes()
     insect = tandem_env.DRAGONFLY
     half = replace(
         insect,
         fore=replace(insect.fore, rotational_coefficient=math.pi / 2),
         hind=replace(insect.hind, rotational_coefficient=math.pi / 2),
     )
-    rows = []
-    for speed in ROTATION_SPEEDS:
+
+    def row(strokes: np.ndarray, speed: float) -> dict[str, Any]:
         paper = tandem_env.evaluate(strokes, speed, insect=insect).lift_to_weight
         lifting = paper >= 0.5
-        ratio = (
-            paper[lifting]
-            / tandem_env.evaluate(strokes[lifting], speed, insect=half).lift_to_weight
-        )
+        halved = tandem_env.evaluate(strokes[lifting], speed, insect=half).lift_to_weight
+        ratio = paper[lifting] / halved
         p5, p95 = np.percentile(ratio, [5, 95])
-        rows.append(
-            {
-                "speed": speed,
-                "strokes": int(lifting.sum()),
-                "median": float(np.median(ratio)),
-                "p5": float(p5),
-                "p95": float(p95),
-            }
-        )
-    return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}
+        median = float(np.median(ratio))
+        return {"strokes": int(lifting.sum()), "median": median, "p5": float(p5), "p95": float(p95)}
+
+    return on_random_strokes(ROTATION_SPEEDS, row)
 
 
 def render_rotation(data: dict[str, Any]) -> str:
@@ -72,26 +73,18 @@ def measure_power() -> dict[str, Any]:
     """The aerodynamic power over the absolute and elastic ones on the random strokes."""
     import tandem_env
 
-    strokes = random_strokes()
-    rows = []
-    for speed in POWER_SPEEDS:
-        power = {
-            kind: tandem_env.evaluate(
-                strokes, speed, options=tandem_env.ModelOptions(power=kind)
-            ).power
+    def row(strokes: np.ndarray, speed: float) -> dict[str, Any]:
+        absolute, elastic, aero = (
+            tandem_env.evaluate(strokes, speed, options=tandem_env.ModelOptions(power=kind)).power
             for kind in ("absolute", "elastic", "aerodynamic")
-        }
-        aero = power["aerodynamic"]
-        elastic = power["elastic"]
-        rows.append(
-            {
-                "speed": speed,
-                "over_absolute_median": float(np.median(aero / power["absolute"])),
-                "over_elastic_median": float(np.median(aero / elastic)),
-                "above_elastic_share": float(np.mean(aero > elastic)),
-            }
         )
-    return {"random_strokes": RANDOM_STROKES, "seed": 0, "rows": rows}
+        return {
+            "over_absolute_median": float(np.median(aero / absolute)),
+            "over_elastic_median": float(np.median(aero / elastic)),
+            "above_elastic_share": float(np.mean(aero > elastic)),
+        }
+
+    return on_random_strokes(POWER_SPEEDS, row)
 
 
 def render_power(data: dict[str, Any]) -> str:

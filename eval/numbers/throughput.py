@@ -15,7 +15,6 @@ from pathlib import Path
 from typing import Any
 
 from eval.numbers import framework
-from eval.studies.report import table_head, table_row
 
 MODEL_THROUGHPUT = framework.Benchmark(("benchmarks/model_throughput.py",))
 INFLOW_SOLVE = framework.Benchmark(("benchmarks/inflow_solve.py",))
@@ -40,15 +39,14 @@ def render_model_throughput(data: dict[str, Any]) -> str:
     rates = by_case(data["rates"])
     batches = sorted({batch for batch, _ in rates})
     inductions = [i for i in INDUCTIONS if any((b, i) in rates for b in batches)]
-    lines = table_head(
-        ["batch", *(f"`{i}`: evaluations/s (ms per call, sweeps)" for i in inductions)]
+
+    def cell(r: dict[str, Any]) -> str:
+        return f"{framework.spaced(r['evaluations_per_s'])} ({r['ms_per_call']:.2f} ms, {r['inflow_sweeps']:.1f})"
+
+    lines = framework.table(
+        ["batch", *(f"`{i}`: evaluations/s (ms per call, sweeps)" for i in inductions)],
+        ([batch, *(cell(rates[batch, i]) for i in inductions)] for batch in batches),
     )
-    for batch in batches:
-        cells = [
-            f"{framework.spaced(r['evaluations_per_s'])} ({r['ms_per_call']:.2f} ms, {r['inflow_sweeps']:.1f})"
-            for r in (rates[batch, induction] for induction in inductions)
-        ]
-        lines.append(table_row([batch, *cells]))
     lines += [
         "",
         "Best of "
@@ -57,9 +55,10 @@ def render_model_throughput(data: dict[str, Any]) -> str:
         "sweeps: force sweeps over the cycle needed by a stroke's slowest annulus, mean over the "
         "batch.",
         "",
-        "| one coupled `evaluate` at batch 1024 | wall [ms] | CPU, all threads [ms] |",
-        "|---|---|---|",
-        *(f"| {b['part']} | {b['wall_ms']:.1f} | {b['cpu_ms']:.1f} |" for b in data["breakdown"]),
+        *framework.table(
+            ["one coupled `evaluate` at batch 1024", "wall [ms]", "CPU, all threads [ms]"],
+            ([b["part"], f"{b['wall_ms']:.1f}", f"{b['cpu_ms']:.1f}"] for b in data["breakdown"]),
+        ),
         *framework.footer(data, "model-throughput", data["command"]),
     ]
     return "\n".join(lines) + "\n"
@@ -68,21 +67,26 @@ def render_model_throughput(data: dict[str, Any]) -> str:
 def render_inflow_cost(data: dict[str, Any]) -> str:
     rates = by_case(data["rates"])
     ratios = {r["batch"]: r for r in data["ratios"]}
-    lines = table_head(
+
+    def cells(batch: int) -> list[Any]:
+        per_s = (rates[batch, i] for i in INDUCTIONS)
+        ranges = (framework.median_range(ratios[batch], k) for k in ("wall", "cpu"))
+        spaced = framework.spaced
+        return [
+            batch,
+            *(f"{spaced(r['best_per_s'])} / {spaced(r['median_per_s'])}" for r in per_s),
+            *ranges,
+        ]
+
+    lines = framework.table(
         [
             "batch",
             *(f"`{i}`: evaluations/s, best / median round" for i in INDUCTIONS),
             "coupled / none, wall: median (range)",
             "coupled / none, CPU: median (range)",
-        ]
+        ],
+        map(cells, sorted(ratios)),
     )
-    for batch in sorted(ratios):
-        cells = [
-            f"{framework.spaced(rates[batch, i]['best_per_s'])} / {framework.spaced(rates[batch, i]['median_per_s'])}"
-            for i in INDUCTIONS
-        ]
-        ranges = (framework.median_range(ratios[batch], k) for k in ("wall", "cpu"))
-        lines.append(table_row([batch, *cells, *ranges]))
     sweeps = "; ".join(
         f"V = {s['speed']:g} m/s: {100 * s['solved_share']:.0f} % of the annuli need a solve, "
         f"{s['mean_sweeps']:.2f} sweeps on average (at most {s['max_sweeps']})"
@@ -162,11 +166,10 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
             f"{framework.spaced(r['evaluations_per_s'])} /s ({r['torch_over_numba']:.2g} × numba)"
         )
 
-    lines = table_head(["batch", *(title for title, _, _ in columns)])
-    lines += [
-        table_row([batch, *(cell(rates, (batch, i)) for _, rates, i in columns)])
-        for batch in batches
-    ]
+    lines = framework.table(
+        ["batch", *(title for title, _, _ in columns)],
+        ([batch, *(cell(rates, (batch, i)) for _, rates, i in columns)] for batch in batches),
+    )
     lines += [
         "",
         f"torch {run['torch']} on the CPU, {run['dtype']}, {run['torch_threads']} torch thread(s), "
@@ -193,30 +196,29 @@ ROOFLINE = framework.Benchmark(("benchmarks/roofline.py",))
 
 
 def render_roofline(data: dict[str, Any]) -> str:
-    lines = table_head(
+    lines = framework.table(
         [
             "numba threads",
             f"{data['commit']}: ms per call, wall / CPU",
             "now: ms per call, wall / CPU",
             "speed-up, wall: median (range)",
             "speed-up, CPU: median (range)",
-        ]
+        ],
+        (
+            [
+                r["threads"],
+                *(f"{r[f'wall_{t}_ms']:.0f} / {r[f'cpu_{t}_ms']:.0f}" for t in ("old", "new")),
+                *(framework.median_range(r, k, "_ratio") for k in ("wall", "cpu")),
+            ]
+            for r in data["speed"]
+        ),
     )
-    for r in data["speed"]:
-        lines.append(
-            table_row(
-                [
-                    r["threads"],
-                    f"{r['wall_old_ms']:.0f} / {r['cpu_old_ms']:.0f}",
-                    f"{r['wall_new_ms']:.0f} / {r['cpu_new_ms']:.0f}",
-                    *(framework.median_range(r, k, "_ratio") for k in ("wall", "cpu")),
-                ]
-            )
-        )
     s, e, ghz = data["per_stroke"], data["per_element_sample"], data["ghz"]
     cycles = data["ns_per_element_sample"] * ghz
     fma, rsqrt = data["fma_flops_per_ns"] / ghz, data["rsqrt_per_ns"] / ghz
     divider = (e["sqrt"] + e["div"]) / (2.0 * rsqrt)
+    stages = data["stages_ms"]
+    shares = (f"{v:.1f} ({100 * v / stages['whole call']:.0f} %)" for v in stages.values())
     lines += [
         "",
         "| per stroke | per element sample | measured | the machine's limit |",
@@ -229,14 +231,9 @@ def render_roofline(data: dict[str, Any]) -> str:
         f"{e['flop'] / fma:.1f} cycles (flops) and {divider:.1f} cycles (square roots and "
         "divisions) per element sample |",
         "",
-        "| where the time goes, 1 thread | " + " | ".join(data["stages_ms"]) + " |",
-        "|---" * (len(data["stages_ms"]) + 1) + "|",
-        "| CPU ms per call (share) | "
-        + " | ".join(
-            f"{v:.1f} ({100 * v / data['stages_ms']['whole call']:.0f} %)"
-            for v in data["stages_ms"].values()
-        )
-        + " |",
+        *framework.table(
+            ["where the time goes, 1 thread", *stages], [["CPU ms per call (share)", *shares]]
+        ),
         "",
         f'`evaluate` at B = {data["batch"]}, V = 1 m/s, `ModelOptions(slipstream="mean")`: '
         f"{data['rounds']} interleaved rounds of {data['calls']} calls per thread count, commit "
@@ -283,10 +280,14 @@ def measure_training() -> dict[str, Any]:
 
 
 def _took(data: dict[str, Any], name: str, what: str, where: str) -> str:
-    """The sentence of a timed command: ``what`` it is, then its time and ``where`` it ran."""
+    """The sentence of a timed command: ``what`` it is, then its time and ``where`` it ran
+    (the load average before and after)."""
+    before, after = data["machine_before"], data["machine_after"]
+    low, high = sorted((before["load_average_1min"], after["load_average_1min"]))
     return (
-        f"`{data['command']}` {what}took **{framework.minutes(data['wall_s'])}** wall clock {framework.at_load(data)} "
-        f"{where}. {framework.machine_line(data, name)}\n"
+        f"`{data['command']}` {what}took **{framework.minutes(data['wall_s'])}** wall clock at a "
+        f"load average of {low:g}-{high:g} on {before['cpus']} CPUs {where}. "
+        f"{framework.machine_line(data, name)}\n"
     )
 
 
