@@ -38,6 +38,20 @@ from tandem_env.io.progress_bar import ProgressBar, Reporter
 if TYPE_CHECKING:
     from distributed import Client
 
+__all__ = [
+    "JobFailure",
+    "JobsFailed",
+    "Lookup",
+    "OutputNotWritable",
+    "Plan",
+    "PlanRun",
+    "RunSummary",
+    "find_records",
+    "job_records",
+    "look_ahead",
+    "run_jobs",
+    "run_plan",
+]
 
 #: Prefix of the Dask task keys (``harness-<job key>``; the dashboard groups tasks by it).
 TASK_PREFIX = "harness"

@@ -29,6 +29,18 @@ from agents.records import (
 )
 from tandem_env.io.files import output_directory, write_csv_atomic, write_json_atomic
 
+__all__ = [
+    "CACHE_ENV",
+    "RECORDS_DIR",
+    "SUMMARY_NAME",
+    "RecordStore",
+    "StoreWriteError",
+    "cache_directory",
+    "read_record",
+    "read_record_files",
+    "write_summary",
+]
+
 #: A store's records folder, ``DIR/records``.
 RECORDS_DIR = "records"
 #: A store's CSV summary over its records, ``DIR/summary.csv``.
