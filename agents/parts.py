@@ -164,8 +164,9 @@ def finish_part(
     KKT stop (:func:`finish`), on the ``allowance`` the parts left of the
     budget (each kept ``polish_finish`` of its polish's back for it): the reported stroke is
     the one certified, so one finish serves the run, however many parts it has."""
-    if not part.feasible or part.certificate.iterations == 0:  # finish() says the rest
-        return part
+    ran = part.certificate.method != "none" and part.certificate.iterations > 0
+    if not prepared.polish.enabled or not part.feasible or not ran or certified(part.certificate):
+        return part  # nothing to finish: the problem is not built
     started = PolishResult(part.action, part.reward, part.certificate, feasible=True)
     done = finish(problem(), started, allowance, prepared.polish)
     if done is started:
