@@ -758,9 +758,9 @@ def kernel_reading(
     outputs of the pass at which it stopped, with the fixed point's convergence folded into
     each wing's ``W_CONVERGED`` (``cycle``); the caller takes the cycle means from their
     history where its passes leave them out (``Settings.means``). ``fields_out``: a list that
-    receives, per wing, the other pair's field in that pass (:func:`element_field`, times
-    C_hf): its (u, v) offsets on the elements (B, n_blade, 2, n_time) and the upstream inflow
-    (B, n_blade) [m/s] (zero where the reading is off)."""
+    receives, per wing, the other pair's field in the pass at which each stroke stopped
+    (:func:`element_field`, times C_hf): its (u, v) offsets on the elements (B, n_blade, 2,
+    n_time) and the upstream inflow (B, n_blade) [m/s] (zero where the reading is off)."""
 
     pairs = []
     frames = []
@@ -807,9 +807,9 @@ def kernel_reading(
     to_elements = [np.ascontiguousarray(station_weights(p, WAKE)) for p in pairs]
     converged = np.zeros(len(speed), dtype=bool)
     n_time = phases.shape[-1]
-    kept = [  # each stroke's fields of its latest pass, at the read stations
+    kept = [  # each stroke's fields of its latest pass, at the read stations, where asked
         (np.zeros((len(speed), 2, WAKE.read_points, n_time)), np.zeros((len(speed), len(p.r))))
-        for p in pairs
+        for p in (pairs if fields_out is not None else ())
     ]
     # the fixed point, stroke by stroke, on WAKE.chunk strokes at a time: the same results
     # (item 6), and arrays small enough to be reused rather than mapped afresh at each pass
