@@ -74,10 +74,13 @@ def numba_throughput(args: argparse.Namespace) -> dict[str, Any]:
     }
     print(f"{'batch':>6} {'induction':>10} {'evals/s':>10} {'ms/call':>9} {'inflow sweeps*':>15}")
     for induction, batch in product(args.induction, args.batches or (1, 64, 1024)):
-        x, v, opts = strokes[:batch], speeds[:batch], replace(PAPER, induction=induction)
+        x = strokes[:batch]
+        v = speeds[:batch]
+        opts = replace(PAPER, induction=induction)
         seconds = best_time(partial(te.evaluate, x, v, options=opts), args.repeats)
         sweeps = float(te.evaluate(x, v, options=opts).induction_evaluations.mean())
-        rate, ms = batch / seconds, 1e3 * seconds
+        rate = batch / seconds
+        ms = 1e3 * seconds
         print(f"{batch:>6} {induction:>10} {rate:>10.0f} {ms:>9.2f} {sweeps:>15.1f}")
         row = {"batch": batch, "induction": induction, "evaluations_per_s": rate}
         numbers["rates"].append(row | {"ms_per_call": ms, "inflow_sweeps": sweeps})

@@ -77,9 +77,10 @@ def _op(kind: str, fn):
     return apply
 
 
-for _kind, _names in (("flop", "add radd sub rsub mul rmul"), ("div", "truediv rtruediv")):
-    for _name in _names.split():
-        setattr(Counted, f"__{_name}__", _op(_kind, getattr(float, f"__{_name}__")))
+for _name in ("add", "radd", "sub", "rsub", "mul", "rmul"):
+    setattr(Counted, f"__{_name}__", _op("flop", getattr(float, f"__{_name}__")))
+Counted.__truediv__ = _op("div", float.__truediv__)
+Counted.__rtruediv__ = _op("div", float.__rtruediv__)
 Counted.__neg__ = lambda x: Counted(-float(x))
 Counted.__abs__ = lambda x: Counted(abs(float(x)))
 

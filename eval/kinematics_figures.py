@@ -198,11 +198,17 @@ COLUMN_FONT_PT = 7.0
 #: The text sizes of a single-column figure: every text at :data:`COLUMN_FONT_PT`, the title
 #: a point larger.
 COLUMN_RC: dict[str, Any] = {
-    **dict.fromkeys(
-        "font.size axes.titlesize axes.labelsize xtick.labelsize ytick.labelsize "
-        "legend.fontsize".split(),
-        COLUMN_FONT_PT,
-    ),
+    **{
+        key: COLUMN_FONT_PT
+        for key in (
+            "font.size",
+            "axes.titlesize",
+            "axes.labelsize",
+            "xtick.labelsize",
+            "ytick.labelsize",
+            "legend.fontsize",
+        )
+    },
     "figure.titlesize": COLUMN_FONT_PT + 1,
 }
 #: Characters per line of a single-column figure's panel titles and legends (two panels

@@ -495,7 +495,8 @@ def load_policy(run_dir: str | Path) -> AmortisedPolicy:
     layout, args_file, args = read_run_folder(
         run_dir, "a folder written by python -m train --algo amortised"
     )
-    folder, env_id = layout.run_dir, layout.env_id
+    folder = layout.run_dir
+    env_id = layout.env_id
     if args.get("algo") != AMORTISED:
         raise ValueError(
             f"{args_file}: algo = {args.get('algo')!r}; allowed: {AMORTISED!r}, the run of "

@@ -63,7 +63,8 @@ class TrainedPolicy(RunPolicy):
         if which not in WHICH_MODELS:
             raise ValueError(f"model = {which!r}; allowed: {', '.join(WHICH_MODELS)}")
         layout, args_file, args = read_run_folder(run_dir, RUN_FOLDER)
-        run_dir, env_id = layout.run_dir, layout.env_id
+        run_dir = layout.run_dir
+        env_id = layout.env_id
         try:
             algo = check_algo(str(args.get("algo")))
         except ValueError as error:

@@ -267,16 +267,20 @@ class ReadingsPlan:
     def finish(self, run: PlanRun) -> ReadingsResult:
         """Write the bias check's CSV, readings.csv, the matrix, report.md and the manifest of
         ``run`` (this plan's)."""
-        out, plan, results = self.store.directory, self.plan, self.results
+        out = self.store.directory
+        plan = self.plan
+        results = self.results
         if self.rows:
             write_csv_atomic(out / CHECK_CSV, self.rows)
         summary = check_summary(self.rows)
-        csv_path, report = out / "readings.csv", out / "report.md"
+        csv_path = out / "readings.csv"
+        report = out / "report.md"
         write_csv_atomic(csv_path, csv_rows(results))
         methods = ", ".join(plan.methods)
         title = f"Paper claims under each reading ({plan.preset.name} preset, {methods})"
         figure = matrix_figure(results, plan.figure(out, "readings_matrix"), title)
-        words, continuation = self.words, self.continuation
+        words = self.words
+        continuation = self.continuation
         write_readings_report(
             report, plan, results, words, continuation, self.full, csv_path, figure, summary
         )
