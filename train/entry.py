@@ -1,9 +1,13 @@
 """What an entry point (``python -m train``, ``python -m train.envelope``, ``python -m eval`` and
-their console scripts) does around its first import of ``tandem_env``, which imports numba, which
-reads its environment as it is imported: the package checks those variables first and raises a
-ValueError naming the bad one before ``tandem_env.io.command.command_line`` (the shared wrapper
-that would catch it) can be imported. It lives here, not in ``tandem_env.io``, because importing
-anything of ``tandem_env`` is the import it guards; this module imports nothing of the project.
+their console scripts) does around its first import of ``tandem_env``.
+
+Importing ``tandem_env`` imports numba, which reads its environment as it is imported; the
+package checks those variables first (``tandem_env.io.command.check_numba_environment``) and
+raises a ValueError naming the bad one, before the shared wrapper of the command lines
+(``tandem_env.io.command.command_line``) can be imported to catch it:
+:func:`exit_on_bad_environment` does, around that import. It lives here, not in
+``tandem_env.io``, because importing anything of ``tandem_env`` is the import it guards; this
+module imports nothing of the project.
 """
 
 from __future__ import annotations

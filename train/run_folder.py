@@ -334,7 +334,10 @@ class RunFolder:
         if not config.verbose or amortised:
             return run
         # what this command is about to do, before any work (stdout)
-        hp, layout, checkpoint, target = run.hp, run.layout, run.checkpoint, run.target
+        hp = run.hp
+        layout = run.layout
+        checkpoint = run.checkpoint
+        target = run.target
         assert hp is not None
         if target != hp.n_timesteps:
             unit = step_granularity(hp)
