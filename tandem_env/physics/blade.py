@@ -190,6 +190,30 @@ def element_speed(u, v):
 
 
 @njit(cache=True, error_model=BRANCH_FREE)
+def translational_terms(u, v, speed, chord, ct, cd0, cd90, rho, table=None):
+    """The translational bound circulation Γ_t [m²/s] (Eq. 14) and the viscous force's factor
+    [N·s/m²] (Eq. 13: F_V = −factor·(u, v)) of an element of chord ``chord`` [m] moving at
+    (u, v) [m/s], |U| = ``speed`` > 0. ``table``: the wing's force-coefficient model
+    (``coefficients``; omitted or ``[PAPER]``: the paper's, Γ_t = −C_t·c·u·v/|U| and the factor
+    ½ρc·(C_d(0)·u² + C_d(π/2)·v²)/|U| from ``ct``, ``cd0``, ``cd90``); any other model's C_L(α),
+    C_D(α): Γ_t = −½·c·|U|·C_L·sign(v), the factor ½ρc·C_D·|U|. The kernel's forces
+    (:func:`element_force_at`) and the vortex reading's shed circulation
+    (``interaction.circulation``) both take Γ_t from here."""
+    paper = True
+    if table is not None:
+        paper = table[0] == PAPER
+    if paper:
+        gamma = -(ct * chord * u * v / speed)
+        drag = 0.5 * rho * chord * (cd0 * u * u + cd90 * v * v) / speed
+    else:  # numba only: the torch backend takes the paper's coefficients
+        lift_coefficient, drag_coefficient = force_coefficients(u, v, table)
+        side = 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0)
+        gamma = -(0.5 * chord * speed * lift_coefficient * side)
+        drag = 0.5 * rho * chord * drag_coefficient * speed
+    return gamma, drag
+
+
+@njit(cache=True, error_model=BRANCH_FREE)
 def element_force(u, v, du, dv, spin, section, table=None):
     """Aerodynamic force per unit span (F_c, F_n) [N/m] on one blade element (Eqs. 11-14):
     :func:`element_force_at` at its :func:`element_speed`."""
@@ -206,29 +230,21 @@ def element_force_at(u, v, du, dv, spin, section, speed, table=None):
     (:class:`~tandem_env.physics.bundle.Section`). ``table``: the wing's force-coefficient model
     (``coefficients``; omitted or ``[PAPER]``: the paper's C_t·sin 2α and
     C_d(0)cos²α + C_d(π/2)sin²α from ``section``'s ``ct``, ``cd0``, ``cd90``); any other model
-    replaces them by its C_L(α), C_D(α): Γ_t = −½·c·|U|·C_L·sign(v), F_V = −½ρc·C_D·|U|·(u, v).
+    replaces them by its C_L(α), C_D(α) (:func:`translational_terms`).
     """
     chord = section.chord
     m11 = section.m11
     m22 = section.m22
     rho = section.rho
-    cd0 = section.cd0
-    cd90 = section.cd90
     moving = u * u + v * v > 0.0  # a still element has no translational circulation and no drag
     gamma = 0.5 * section.cr * spin * chord * chord
     fc = m22 * v * spin - m11 * du
     fn = -m11 * u * spin - m22 * dv
-    paper = True
-    if table is not None:
-        paper = table[0] == PAPER
-    if paper:
-        gamma -= select(moving, section.ct * chord * u * v / speed, 0.0)
-        drag = select(moving, 0.5 * rho * chord * (cd0 * u * u + cd90 * v * v) / speed, 0.0)
-    else:  # numba only: the torch backend takes the paper's coefficients
-        lift_coefficient, drag_coefficient = force_coefficients(u, v, table)
-        side = 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0)
-        gamma -= select(moving, 0.5 * chord * speed * lift_coefficient * side, 0.0)
-        drag = select(moving, 0.5 * rho * chord * drag_coefficient * speed, 0.0)
+    translational, factor = translational_terms(
+        u, v, speed, chord, section.ct, section.cd0, section.cd90, rho, table
+    )
+    gamma += select(moving, translational, 0.0)
+    drag = select(moving, factor, 0.0)
     fc -= drag * u
     fn -= drag * v
     fc -= rho * gamma * v

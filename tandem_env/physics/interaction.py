@@ -239,12 +239,13 @@ def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
 
 
 @stroke_loop(error_model=BRANCH_FREE)
-def _fill_circulation(coef, samples, r, v_t, vn, offsets, chord, c_t, out):
+def _fill_circulation(coef, samples, r, v_t, vn, offsets, chord, c_t, table, out):
     """:func:`circulation` on numpy, compiled and parallel over strokes b: ``coef`` (B, n_time,
     N_COEF), ``samples`` (B, n), ``r``, ``chord`` (n_blade,), ``v_t`` (B,), ``vn`` (B,
     n_blade) the total normal inflow, ``offsets`` the field's (u, v) offsets at the M stations
     and their weights onto the elements (:func:`element_field`, ``cycle.station_offsets``) or
-    ``None``; writes Γ into ``out`` (B, n_blade, n)."""
+    ``None``, ``c_t`` and ``table`` the wing's force-coefficient model
+    (``blade.translational_terms``); writes Γ into ``out`` (B, n_blade, n)."""
     for b in prange(coef.shape[0]):
         for s in range(samples.shape[1]):
             k = samples[b, s]
@@ -260,8 +261,11 @@ def _fill_circulation(coef, samples, r, v_t, vn, offsets, chord, c_t, out):
                     u += du
                     v += dv
                 speed2 = u * u + v * v
-                gamma = -c_t * chord[e] * u * v
-                out[b, e, s] = gamma / np.sqrt(speed2) if speed2 > 0.0 else 0.0
+                out[b, e, s] = 0.0  # a still element sheds nothing
+                if speed2 > 0.0:
+                    out[b, e, s] = blade.translational_terms(
+                        u, v, np.sqrt(speed2), chord[e], c_t, 0.0, 0.0, 0.0, table
+                    )[0]
 
 
 def circulation(
@@ -272,8 +276,10 @@ def circulation(
     xp,
     to_elements: Any = None,
 ) -> Any:
-    """The translational bound circulation −C_t·c·u·v/|U| (Eq. 14) of every element at the
-    kernel's samples ``samples`` (B, n) (indices into each stroke's n_time; the wake grid
+    """The translational bound circulation Γ_t (Eq. 14: −C_t·c·u·v/|U| with the paper's
+    coefficients, −½·c·|U|·C_L(α)·sign(v) with the wing's other model, as the kernel's forces
+    take it, ``blade.translational_terms``) of every element at the kernel's samples ``samples``
+    (B, n) (indices into each stroke's n_time; the wake grid
     reads only those), (B, n_blade, n) [m²/s], at the pair's solved ``inflow`` (B, n_blade)
     [m/s] with the other pair's field ``external`` (:func:`element_field`: its (u, v) offsets
     and its mean upstream inflow (B, n_blade)) or ``None``; ``to_elements`` (n_blade, M): the
@@ -288,7 +294,8 @@ def circulation(
             np.ascontiguousarray(pair.coef[:, 0]), np.ascontiguousarray(samples), pair.r,
             np.ascontiguousarray(pair.v_tangential), np.ascontiguousarray(vn),
             None if external is None else (external[0], np.ascontiguousarray(to_elements)),
-            pair.wing.chord(pair.r / pair.wing.length), pair.wing.translational_coefficient, out,
+            pair.wing.chord(pair.r / pair.wing.length), pair.wing.translational_coefficient,
+            pair.wing.coefficients.table(), out,
         )  # fmt: skip
         return out
     stroke = xp.as_int64(xp.arange_like(samples.shape[0], vn))[:, None]
@@ -304,8 +311,11 @@ def circulation(
     chord = xp.constant_like(pair.wing.chord(pair.r / pair.wing.length), vn)[None, :, None]
     speed2 = u * u + v * v
     moving = speed2 > 0.0
-    gamma = -pair.wing.translational_coefficient * chord * u * v
-    return xp.where(moving, gamma / xp.sqrt(xp.where(moving, speed2, 1.0)), 0.0)
+    # the paper's coefficients (no table): the torch backend takes no other model
+    speed = xp.sqrt(xp.where(moving, speed2, 1.0))
+    c_t = pair.wing.translational_coefficient
+    gamma, _ = on_namespace(blade.translational_terms, xp)(u, v, speed, chord, c_t, 0.0, 0.0, 0.0)
+    return xp.where(moving, gamma, 0.0)
 
 
 def disc_mean(pair: Pair, inflow: Any, xp) -> Any:

@@ -123,12 +123,14 @@ def test_plate_symmetries(model: str, alpha: float) -> None:
 def test_paper_form_as_a_fit_is_the_paper_model() -> None:
     """C_L = C_t·sin 2α, C_D = C_d(0)cos²α + C_d(π/2)sin²α written as a sinusoidal fit
     (a = 0, b = C_t, c = 2, e = (C_d0 + C_d90)/2, f = (C_d90 − C_d0)/2, g = 2) gives the paper's
-    results through the other code path, over random strokes (every α in 0-180°)."""
+    results through the other code path, over random strokes (every α in 0-180°), the vortex
+    reading's shed circulation included (``blade.translational_terms``)."""
     geometry = {"drag_coefficient_0": 0.4, "drag_coefficient_90": 2.4}
     paper = with_model(PaperCoefficients(translational=1.2), **geometry)
     fit = with_model(SinusoidalFit(0.0, 1.2, 2.0, 0.0, 1.4, 1.0, 2.0, 0.0), **geometry)
     strokes, speeds = random_strokes(24, 1), np.linspace(0.0, 2.0, 24)
-    for options, rtol in ((NO_INFLOW, 1e-12), (ModelOptions(), 1e-9)):
+    vortex = ModelOptions(slipstream="vortex")
+    for options, rtol in ((NO_INFLOW, 1e-12), (ModelOptions(), 1e-9), (vortex, 1e-9)):
         a = evaluate(strokes, speeds, insect=paper, options=options)
         b = evaluate(strokes, speeds, insect=fit, options=options)
         for name in ("lift_to_weight", "thrust", "drag", "power", "fore_inflow", "hind_inflow"):
