@@ -74,7 +74,9 @@ def test_turning_path_and_stroke_plane_together_rotates_the_forces_rigidly(
     strokes = random_strokes(24, 2)
     strokes[:, BETA] = 25.0
     delta = np.deg2rad(15.0)
-    options = ModelOptions(induction=induction)
+    # the paper's (mean) reading: the vortex reading's wakes also see the roots' spacing and
+    # drop, fixed to the body, which turning the stroke plane against the path moves
+    options = ModelOptions(induction=induction, slipstream="mean")
     level = evaluate(strokes, speed, options=options)
     turned = strokes.copy()
     turned[:, BETA] = 25.0 - np.rad2deg(delta)

@@ -120,8 +120,8 @@ def test_massless_wings_have_no_inertial_power() -> None:
 @pytest.mark.parametrize("seed", [0, 1])
 def test_left_and_right_wings_mirror(seed: int) -> None:
     stroke = random_strokes(1, seed)[0]
-    right = stroke_history(stroke, 1.0, n_samples=96)
-    left = stroke_history(stroke, 1.0, n_samples=96, side=-1)
+    right = stroke_history(stroke, 1.0, n_samples=96, options=PAPER)
+    left = stroke_history(stroke, 1.0, n_samples=96, side=-1, options=PAPER)
     for r_wing, l_wing in ((right.fore, left.fore), (right.hind, left.hind)):
         np.testing.assert_allclose(
             l_wing.vertical_force, r_wing.vertical_force, rtol=1e-10, atol=1e-12

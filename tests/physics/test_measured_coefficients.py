@@ -202,14 +202,21 @@ def test_default_model_and_a_ct_override() -> None:
 
 
 def test_each_wing_has_its_own_model() -> None:
-    """The fore-wing flies ahead of the hind-wing's slipstream: changing only the hind-wing's
-    model leaves the fore-wing's results as they were."""
+    """Under the momentum readings the fore-wing flies ahead of the hind-wing's slipstream:
+    changing only the hind-wing's model leaves the fore-wing's results as they were. Under the
+    vortex reading the hind pair acts on the fore pair too, so its model reaches the fore's."""
     strokes = random_strokes(8, 4)
-    base = evaluate(strokes, 1.0)
-    mixed = evaluate(strokes, 1.0, insect=te.DRAGONFLY.with_coefficients(hind="dickinson1999"))
+    mixed_insect = te.DRAGONFLY.with_coefficients(hind="dickinson1999")
+    mean = ModelOptions(slipstream="mean")
+    base = evaluate(strokes, 1.0, options=mean)
+    mixed = evaluate(strokes, 1.0, insect=mixed_insect, options=mean)
     for name in ("fore_lift_to_weight", "fore_horizontal_force", "fore_power", "fore_inflow"):
         np.testing.assert_allclose(getattr(mixed, name), getattr(base, name), rtol=1e-13)
     assert not np.allclose(mixed.hind_lift_to_weight, base.hind_lift_to_weight)
+    vortex = ModelOptions(slipstream="vortex")
+    base = evaluate(strokes, 1.0, options=vortex)
+    mixed = evaluate(strokes, 1.0, insect=mixed_insect, options=vortex)
+    assert not np.allclose(mixed.fore_lift_to_weight, base.fore_lift_to_weight, rtol=1e-6)
 
 
 # --- validation -----------------------------------------------------------------------------------
