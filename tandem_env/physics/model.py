@@ -413,8 +413,6 @@ def run_kernel(
             "lifting line and wake); wings evaluated element by element (span-wise twist) "
             'allow: slipstream = "mean"'
         )
-    if vortex and params is None and phases is not None:
-        raise ValueError("the vortex reading of a non-uniform grid needs the strokes' params")
     if convected and tables is not None:
         raise ValueError(
             'ModelOptions.slipstream = "convected" needs whole wings (it follows the fore-wing\'s '
