@@ -775,6 +775,8 @@ def station_offsets(stations, to_elements):
         for k in range(2):
             for m in range(to_elements.shape[1]):
                 weight = to_elements[j, m]
+                if weight == 0.0:  # all but two stations: exact zeros, skipped
+                    continue
                 for t in range(n_time):
                     out[j, k, t] += weight * stations[k, m, t]
     return out

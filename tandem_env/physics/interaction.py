@@ -16,10 +16,12 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from functools import cache
+from functools import cache, partial
 from typing import Any, NamedTuple
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -37,7 +39,7 @@ from .vortex import (
     wake_nodes,
     wing_lines,
 )
-from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace, stroke_loop
+from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace, on_one_thread, stroke_loop
 
 #: The ``bundle.WingBatch`` fields with one row per stroke (a pass on some strokes takes theirs).
 BATCH_FIELDS = (
@@ -239,29 +241,34 @@ def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
 
 
 @stroke_loop(error_model=BRANCH_FREE)
-def _fill_circulation(coef, samples, r, v_t, vn, offsets, chord, c_t, table, out):
+def _fill_circulation(coef, samples, r, v_t, vn, offsets, chord, c_t, table, read, out):
     """:func:`circulation` on numpy, compiled and parallel over strokes b: ``coef`` (B, n_time,
     N_COEF), ``samples`` (B, n), ``r``, ``chord`` (n_blade,), ``v_t`` (B,), ``vn`` (B,
     n_blade) the total normal inflow, ``offsets`` the field's (u, v) offsets at the M stations
     and their weights onto the elements (:func:`element_field`, ``cycle.station_offsets``) or
     ``None``, ``c_t`` and ``table`` the wing's force-coefficient model
-    (``blade.translational_terms``); writes Γ into ``out`` (B, n_blade, n)."""
+    (``blade.translational_terms``), ``read`` (n_blade,) the elements to compute (the others'
+    Γ is left 0); writes Γ into ``out`` (B, n_blade, n)."""
     for b in prange(coef.shape[0]):
         for s in range(samples.shape[1]):
             k = samples[b, s]
             for e in range(r.shape[0]):
+                out[b, e, s] = 0.0  # a still element sheds nothing
+                if not read[e]:
+                    continue
                 u, v, _, _ = blade.relative_velocity(coef[b], k, r[e], v_t[b], vn[b, e])
                 if offsets is not None:
                     stations, to_elements = offsets
                     du = 0.0
                     dv = 0.0
                     for m in range(to_elements.shape[1]):
-                        du += to_elements[e, m] * stations[b, 0, m, k]
-                        dv += to_elements[e, m] * stations[b, 1, m, k]
+                        # the weights' zeros (all but two stations) add exact zeros: skipped
+                        if to_elements[e, m] != 0.0:
+                            du += to_elements[e, m] * stations[b, 0, m, k]
+                            dv += to_elements[e, m] * stations[b, 1, m, k]
                     u += du
                     v += dv
                 speed2 = u * u + v * v
-                out[b, e, s] = 0.0  # a still element sheds nothing
                 if speed2 > 0.0:
                     out[b, e, s] = blade.translational_terms(
                         u, v, np.sqrt(speed2), chord[e], c_t, 0.0, 0.0, 0.0, table
@@ -275,6 +282,7 @@ def circulation(
     samples: Any,
     xp,
     to_elements: Any = None,
+    read: np.ndarray | None = None,
 ) -> Any:
     """The translational bound circulation Γ_t (Eq. 14: −C_t·c·u·v/|U| with the paper's
     coefficients, −½·c·|U|·C_L(α)·sign(v) with the wing's other model, as the kernel's forces
@@ -283,7 +291,9 @@ def circulation(
     reads only those), (B, n_blade, n) [m²/s], at the pair's solved ``inflow`` (B, n_blade)
     [m/s] with the other pair's field ``external`` (:func:`element_field`: its (u, v) offsets
     and its mean upstream inflow (B, n_blade)) or ``None``; ``to_elements`` (n_blade, M): the
-    offsets' weights onto the elements on numpy, where they stay at the M stations."""
+    offsets' weights onto the elements on numpy, where they stay at the M stations; ``read``
+    (n_blade,) on numpy: the elements whose Γ is used (the strips read two per strip,
+    :func:`strip_circulation`), the others left 0 (None: all)."""
     vn = pair.v_normal[:, None] + inflow
     if external is not None:
         vn = vn + external[1]
@@ -295,7 +305,8 @@ def circulation(
             np.ascontiguousarray(pair.v_tangential), np.ascontiguousarray(vn),
             None if external is None else (external[0], np.ascontiguousarray(to_elements)),
             pair.wing.chord(pair.r / pair.wing.length), pair.wing.translational_coefficient,
-            pair.wing.coefficients.table(), out,
+            pair.wing.coefficients.table(),
+            np.ones(len(pair.r), dtype=bool) if read is None else read, out,
         )  # fmt: skip
         return out
     stroke = xp.as_int64(xp.arange_like(samples.shape[0], vn))[:, None]
@@ -393,7 +404,9 @@ def strip_circulation(to_strips: Any, weights: Any, gamma: Any, wake: VortexWake
     ``gamma`` (B, n_blade, 2·n_w) [m²/s] at ``Lattice.samples`` (item 1), interpolated with
     ``Lattice.sample_weights`` (B, n_w, 2) and reduced to the strips by ``Lattice.to_strips``,
     times ``wake.gamma_scale``."""
-    on_grid = (gamma.reshape(*gamma.shape[:2], -1, 2) * weights[:, None]).sum(-1)
+    pairs = gamma.reshape(*gamma.shape[:2], -1, 2) * weights[:, None]
+    # the two samples' sum written out: a reduction over an axis of 2 costs numpy more
+    on_grid = pairs[..., 0] + pairs[..., 1]
     return wake.gamma_scale * xp.einsum("sj,bjw->bws", to_strips, on_grid)
 
 
@@ -656,6 +669,8 @@ def vortex_reading(
     to_grid = [periodic_brackets(uniform[None], p.phase, xp) for p in pairs]
     matrices = [influence(lattices[1 - w], pairs[w], wake, xp) for w in (0, 1)]
     samples = [(lat.samples, lat.sample_weights) for lat in lattices]
+    # the strips read two elements each: on numpy only theirs are computed
+    read = [(lat.to_strips != 0.0).any(0) if xp is NUMPY else None for lat in lattices]
     rows = xp.as_int64(xp.arange_like(fore.phase.shape[0], fore.phase))  # the strokes solved
     converged = xp.zeros_bool(rows)
     fields = given = None
@@ -673,6 +688,7 @@ def vortex_reading(
                         samples[w][0],
                         xp,
                         to_elements[w],
+                        read[w],
                     ),
                     wake,
                     xp,
@@ -821,14 +837,11 @@ def kernel_reading(
         (np.zeros((len(speed), 2, WAKE.read_points, n_time)), np.zeros((len(speed), len(p.r))))
         for p in (pairs if fields_out is not None else ())
     ]
-    # the fixed point, stroke by stroke, on WAKE.chunk strokes at a time: the same results
-    # (item 6), and arrays small enough to be reused rather than mapped afresh at each pass
-    for start in range(0, len(speed), WAKE.chunk):
-        part = np.arange(start, min(start + WAKE.chunk, len(speed)))
 
-        def run(
-            fields: tuple[Any, Any] | None, rows: Any, part=part
-        ) -> tuple[tuple[Any, Any], Any]:
+    def fixed_point(part: np.ndarray) -> None:
+        """The fixed point of the strokes ``part``, into ``result``, ``converged``, ``kept``."""
+
+        def run(fields: tuple[Any, Any] | None, rows: Any) -> tuple[tuple[Any, Any], Any]:
             if fields is None:
                 return (result.inflow[part, 0], result.inflow[part, 1]), result
             index = part[rows]
@@ -852,6 +865,21 @@ def kernel_reading(
         _, converged[part] = vortex_reading(
             *chunk, run, speed[part], path_angle[part], scale[part], NUMPY, WAKE
         )
+
+    # the fixed point, stroke by stroke, on at most WAKE.chunk strokes at a time: the same
+    # results (item 6), and arrays small enough to be reused rather than mapped afresh at
+    # each pass. On several numba threads the chunks run side by side, each on one thread
+    # (its compiled loops serial and without the GIL): a pass's loops over a few dozen
+    # strokes gain less from a parallel launch than whole chunks do from a thread each
+    threads = numba.get_num_threads()
+    size = min(WAKE.chunk, -(-len(speed) // threads))
+    parts = [np.arange(at, min(at + size, len(speed))) for at in range(0, len(speed), size)]
+    if threads > 1 and len(parts) > 1:
+        with ThreadPoolExecutor(min(threads, len(parts))) as pool:
+            list(pool.map(partial(on_one_thread, fixed_point), parts))
+    else:
+        for part in parts:
+            fixed_point(part)
     outputs = result
     outputs.means[:, :, cycle.W_CONVERGED] *= converged[:, None]
     if fields_out is not None:

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from functools import cache
 from typing import Any
 
+import numba
 import numpy as np
 from numba import njit
 
@@ -29,7 +30,7 @@ SERIAL_BELOW = 4
 class StrokeLoop:
     """A compiled loop over a batch's strokes (``prange``), compiled twice: in parallel, and
     on the calling thread for batches of fewer than :data:`SERIAL_BELOW` strokes, where waking
-    the threads costs more than the loop (without ``parallel``, ``prange`` is ``range``: the
+    the threads costs more than the loop, and wherever numba has one thread (without ``parallel``, ``prange`` is ``range``: the
     same arithmetic, the same bits). Call ``loop(strokes, *args)``, ``strokes`` the batch's
     size; ``options`` are numba's (``error_model``, ``fastmath``)."""
 
@@ -42,11 +43,22 @@ class StrokeLoop:
         )
         twin.__qualname__ = f"{function.__qualname__}_serial"
         twin.__module__ = function.__module__
-        self.serial = njit(cache=True, **options)(twin)
+        # without the GIL: the vortex reading runs chunks of strokes side by side in threads
+        self.serial = njit(cache=True, nogil=True, **options)(twin)
         self.__doc__ = function.__doc__
 
     def __call__(self, strokes: int, *args: Any) -> Any:
-        return (self.parallel if strokes >= SERIAL_BELOW else self.serial)(*args)
+        # one thread gains nothing from the parallel launch, which costs ~0.07 ms a call
+        parallel = strokes >= SERIAL_BELOW and numba.get_num_threads() > 1
+        return (self.parallel if parallel else self.serial)(*args)
+
+
+def on_one_thread(function: Callable[..., Any], *args: Any) -> Any:
+    """``function(*args)`` with numba's thread count set to one on the calling thread (numba
+    keeps it per thread), so that its :class:`StrokeLoop` calls run serial: for work that
+    runs side by side in threads of its own."""
+    numba.set_num_threads(1)
+    return function(*args)
 
 
 def stroke_loop(**options: Any) -> Callable[[Callable], StrokeLoop]:

@@ -10,6 +10,7 @@ from dataclasses import replace
 from functools import cache
 from itertools import pairwise
 
+import numba
 import numpy as np
 import pytest
 
@@ -374,3 +375,23 @@ def test_a_strokes_result_does_not_depend_on_the_chunk(monkeypatch):
     chunked = te.evaluate(strokes, speeds, options=VORTEX).as_dict()
     for name, value in whole.items():
         np.testing.assert_array_equal(chunked[name], value, err_msg=name)
+
+
+def test_a_strokes_result_does_not_depend_on_the_threads(monkeypatch):
+    """On several numba threads the chunks' fixed points run side by side, each on one thread
+    with serial loops; on one thread they run in turn: the same results, bit for bit."""
+    if numba.get_num_threads() < 2:
+        pytest.skip("numba has one thread here: no chunks run side by side")
+    rng = np.random.default_rng(6)
+    strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (9, 28)))
+    speeds = rng.uniform(0.0, 2.0, 9)
+    monkeypatch.setattr(interaction, "WAKE", replace(interaction.WAKE, chunk=2))
+    side_by_side = te.evaluate(strokes, speeds, options=VORTEX).as_dict()
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        in_turn = te.evaluate(strokes, speeds, options=VORTEX).as_dict()
+    finally:
+        numba.set_num_threads(threads)
+    for name, value in side_by_side.items():
+        np.testing.assert_array_equal(in_turn[name], value, err_msg=name)
