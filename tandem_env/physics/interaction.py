@@ -18,7 +18,7 @@ import math
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from functools import cache, partial
+from functools import cache, lru_cache, partial
 from typing import Any, NamedTuple
 
 import numba
@@ -236,8 +236,19 @@ def station_weights(pair: Pair, wake: VortexWake) -> np.ndarray:
 
 def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     """(n_t, n_s) weights of linear interpolation in r from ``source`` to ``target`` radii
-    (held constant beyond the ends)."""
-    return np.stack([np.interp(target, source, column) for column in np.eye(source.size)], -1)
+    (held constant beyond the ends); read-only (one array per pair of radii: every pass of
+    every call of a wing asks for the same)."""
+    return _span_weights(
+        tuple(np.asarray(source, float).tolist()), tuple(np.asarray(target, float).tolist())
+    )
+
+
+@lru_cache(maxsize=64)
+def _span_weights(source: tuple[float, ...], target: tuple[float, ...]) -> np.ndarray:
+    columns = np.eye(len(source))
+    weights = np.stack([np.interp(target, source, column) for column in columns], -1)
+    weights.flags.writeable = False
+    return weights
 
 
 @stroke_loop(error_model=BRANCH_FREE)
