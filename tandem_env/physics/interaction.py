@@ -236,11 +236,11 @@ def station_weights(pair: Pair, wake: VortexWake) -> np.ndarray:
 
 def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     """(n_t, n_s) weights of linear interpolation in r from ``source`` to ``target`` radii
-    (held constant beyond the ends); read-only (one array per pair of radii: every pass of
-    every call of a wing asks for the same)."""
+    (held constant beyond the ends): a copy of the weights kept per pair of radii (every pass
+    of every call of a wing asks for the same)."""
     return _span_weights(
         tuple(np.asarray(source, float).tolist()), tuple(np.asarray(target, float).tolist())
-    )
+    ).copy()
 
 
 @lru_cache(maxsize=64)
