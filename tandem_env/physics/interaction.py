@@ -89,7 +89,8 @@ class VortexWake:
     secant step; 2 converges hover strokes that 1 leaves cycling, docs/model.md §5.8 item 6)."""
     chunk: int = 64
     """Strokes per Biot-Savart evaluation (memory ∝ chunk·n_w·M·segments) and, on the numba
-    backend, per fixed point (the batch's strokes are iterated this many at a time) [-]."""
+    backend, most strokes per fixed point (the batch's strokes are iterated at most this many
+    at a time, fewer where the batch is shared among numba's threads) [-]."""
 
     def __post_init__(self) -> None:
         for name in ("n_wake", "strips", "read_points", "max_passes", "chunk", "depth"):

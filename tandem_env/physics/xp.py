@@ -29,10 +29,11 @@ SERIAL_BELOW = 4
 
 class StrokeLoop:
     """A compiled loop over a batch's strokes (``prange``), compiled twice: in parallel, and
-    on the calling thread for batches of fewer than :data:`SERIAL_BELOW` strokes, where waking
-    the threads costs more than the loop, and wherever numba has one thread (without ``parallel``, ``prange`` is ``range``: the
-    same arithmetic, the same bits). Call ``loop(strokes, *args)``, ``strokes`` the batch's
-    size; ``options`` are numba's (``error_model``, ``fastmath``)."""
+    on the calling thread (without the GIL) for batches of fewer than :data:`SERIAL_BELOW`
+    strokes, where waking the threads costs more than the loop, and wherever numba has one
+    thread (without ``parallel``, ``prange`` is ``range``: the same arithmetic, the same
+    bits). Call ``loop(strokes, *args)``, ``strokes`` the batch's size; ``options`` are
+    numba's (``error_model``, ``fastmath``)."""
 
     def __init__(self, function: Callable, **options: Any) -> None:
         self.parallel = njit(cache=True, parallel=True, **options)(function)
