@@ -198,6 +198,26 @@ def test_the_wake_grid_converges_on_random_strokes(monkeypatch):
     assert error[32] < 0.05
 
 
+def test_an_error_in_one_chunk_stops_the_others(monkeypatch):
+    """On several threads, an error in one chunk's fixed point (or Ctrl-C) reaches the caller
+    without the chunks not yet started running first (``Executor.map`` cancels them)."""
+    if numba.get_num_threads() < 2:
+        pytest.skip("numba has one thread here: the chunks run in turn")
+    monkeypatch.setattr(interaction, "WAKE", replace(interaction.WAKE, chunk=1))
+    started = []
+
+    def failing(*args, **kwargs):
+        started.append(1)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(interaction, "vortex_reading", failing)
+    rng = np.random.default_rng(7)
+    strokes = te.normalised_to_physical(rng.uniform(-1.0, 1.0, (40, 28)))
+    with pytest.raises(KeyboardInterrupt):
+        te.evaluate(strokes, 1.0, options=VORTEX)
+    assert len(started) < 40
+
+
 @cache
 def _random(flight_path_angle: float) -> tuple[te.Result, te.Result]:
     """The vortex reading and the isolated pairs on the 1 024 random Table 4 strokes asked of
