@@ -812,23 +812,13 @@ def kernel_reading(
         frames.append(coef)  # the kernel's own, computed once for all passes
         coef = coef[:, None]
         root = np.array([-insect.root_spacing * w, ROOT_HALF_WIDTH, -insect.root_drop * w])
-        if params is not None:
-            motion = {
-                "params": params[w],
-                "samples": None,
-                "frequency": params[w][:, 0],
-                "beta": params[w][:, 13],
-            }
-        else:  # measured: the angle history's φ, θ, η columns (kinematics.ANGLE_COLUMNS)
-            motion = {
-                "params": None,
-                "samples": np.ascontiguousarray(batch.angles[:, :, ::3]),
-                "frequency": batch.frequency,
-                "beta": batch.beta,
-            }
         pairs.append(
             Pair(
-                **motion,
+                params=None if params is None else params[w],
+                # measured: the angle history's φ, θ, η columns (kinematics.ANGLE_COLUMNS)
+                samples=np.ascontiguousarray(batch.angles[:, :, ::3]) if params is None else None,
+                frequency=batch.frequency,  # the parameters' f and β where there are some
+                beta=batch.beta,
                 coef=coef,
                 phase=phases[:, w],
                 v_tangential=batch.v_tangential,
