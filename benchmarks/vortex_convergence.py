@@ -14,8 +14,6 @@ the weight): median, 90th percentile, largest. Each setting is ``interaction.WAK
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import replace
 from typing import Any
 
@@ -45,17 +43,6 @@ STRONG = 0.05
 """The strokes counted: the interaction moves L/W by more than this share of it [-]."""
 
 
-@contextmanager
-def wake_replaced(**fields: Any) -> Iterator[None]:
-    """``interaction.WAKE`` with ``fields`` replaced while the block runs."""
-    kept = interaction.WAKE
-    interaction.WAKE = replace(kept, **fields)
-    try:
-        yield
-    finally:
-        interaction.WAKE = kept
-
-
 def main() -> None:
     parser = parser_with_json(__doc__)
     parser.add_argument("--strokes", type=int, default=128)
@@ -66,12 +53,11 @@ def main() -> None:
     speeds = rng.uniform(0.0, 2.0, args.strokes)
     print(machine())
     alone = te.evaluate(strokes, speeds, options=te.ModelOptions(induction="isolated"))
-    results = {}
-    for name, fields in SETTINGS.items():
-        with wake_replaced(**fields):
-            results[name] = te.evaluate(
-                strokes, speeds, options=te.ModelOptions(slipstream="vortex")
-            )
+    default, results = interaction.WAKE, {}
+    for name, fields in SETTINGS.items():  # the reading takes its wake from interaction.WAKE
+        interaction.WAKE = replace(default, **fields)
+        results[name] = te.evaluate(strokes, speeds, options=te.ModelOptions(slipstream="vortex"))
+    interaction.WAKE = default
     print(
         "|dL/W| over the interaction's change of L/W [%], and in % of the weight: median / p90 / max"
     )
