@@ -33,8 +33,11 @@ MODEL_REVISION = 4
 #: shed circulation refitted to 1.7 and the hind pair's wake 2 beats long; 3: the fixed point's
 #: Anderson step of depth two (2026-12-07); 4: the upstream mean summed in one order whatever
 #: the batch, so that a stroke's result is bit for bit its result alone (moves ~1e-10); 5: a
-#: wing with another force-coefficient model sheds its own C_L's circulation, not Eq. 14's.
-VORTEX_REVISION = 5
+#: wing with another force-coefficient model sheds its own C_L's circulation, not Eq. 14's; 6:
+#: the fixed point's passes Gauss-Seidel (the hind pair in the fore pair's field of the same
+#: pass), stopping after either pair's solve (moves the results within the fixed point's
+#: tolerance).
+VORTEX_REVISION = 6
 from .coefficients import (
     COEFFICIENT_MODELS,
     PaperCoefficients,

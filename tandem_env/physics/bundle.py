@@ -74,6 +74,9 @@ class Settings(NamedTuple):
     means: bool
     """Each wing's cycle means are computed (False: only the per-sample history is written,
     whose means ``cycle.history_means`` takes later: the vortex reading's passes)."""
+    pairs: int
+    """The pairs a call solves: 1 the fore pair, 2 the hind pair, 3 both (the vortex reading's
+    passes solve one pair at a time, docs/model.md §5.8 item 6)."""
     rho: float
     """Air density ρ [kg/m³]."""
     root_spacing: float

@@ -799,7 +799,8 @@ def plain_cycle(batch, b, wing, settings, v_ext, solve, out_inflow, out, hist):
 @njit(cache=True)
 def tandem_stroke(b, fore, hind, settings, outputs):
     """Cycle means of stroke ``b`` of a batch: the fore-wing first, then the hind-wing in its
-    slipstream (see :func:`tandem_cycle` for the arguments)."""
+    slipstream, each where ``settings.pairs`` asks (see :func:`tandem_cycle` for the
+    arguments)."""
     n_time = fore.angles.shape[1]
     n_r = fore.nodes.shape[0]
     mode = settings.mode
@@ -818,47 +819,56 @@ def tandem_stroke(b, fore, hind, settings, outputs):
     load = np.empty(n_time if convect else 0)
     wake = np.empty(n_time if convect else 0)
     spin_total = settings.spin_total
+    # each wing's frame coefficients: the vortex reading's passes give them (``frames``)
     if fore.frames.shape[0] > b:
         coef_fore = fore.frames[b]
     else:
         fill_frame_coefficients(
             fore.angles[b], fore.weight[b], fore.beta[b], spin_total, 1, coef_fore
         )
-    fore_wing = stroke_wing(fore, b, coef_fore)
-    # a wing with its induced velocity switched off (``ModelOptions.hover_inflow``) neither
-    # solves its own inflow nor sees the fore-wing's slipstream
-    solve = mode != MODE_NONE and not fore.inflow_off[b]
-    if convect:
-        wing_cycle(fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist, None, load)
-    else:
-        plain_cycle(fore, b, fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist)
-    if outputs.history.shape[0] > b:
-        outputs.history[b, 0] = hist
     if hind.frames.shape[0] > b:
         coef_hind = hind.frames[b]
     else:
         fill_frame_coefficients(
             hind.angles[b], hind.weight[b], hind.beta[b], spin_total, 1, coef_hind
         )
+    fore_wing = stroke_wing(fore, b, coef_fore)
     hind_wing = stroke_wing(hind, b, coef_hind)
-    if mode == MODE_COUPLED and not hind.inflow_off[b]:
-        for j in range(n_r):
-            v_ext[j] = settings.interference * out_inflow[b, 0, j]
-    solve = mode != MODE_NONE and not hind.inflow_off[b]
-    if convect:
-        delay = slipstream_delay(
-            disc_inflow(out_inflow[b, 0], fore.nodes), hind_wing.v_normal, fore.beta[b],
-            hind.beta[b], settings,
-        )  # fmt: skip
-        convected_wake(
-            load, fore_wing, hind_wing.phase, 2.0 * np.pi * hind_wing.frequency * delay,
-            out_inflow[b, 0], settings, wake,
-        )  # fmt: skip
-        wing_cycle(hind_wing, settings, v_ext, solve, out_inflow[b, 1], out[b, 1], hist, wake)
-    else:
-        plain_cycle(hind, b, hind_wing, settings, v_ext, solve, out_inflow[b, 1], out[b, 1], hist)
-    if outputs.history.shape[0] > b:
-        outputs.history[b, 1] = hist
+    if settings.pairs & 1:
+        # a wing with its induced velocity switched off (``ModelOptions.hover_inflow``) neither
+        # solves its own inflow nor sees the fore-wing's slipstream
+        solve = mode != MODE_NONE and not fore.inflow_off[b]
+        if convect:
+            wing_cycle(
+                fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist, None, load
+            )
+        else:
+            plain_cycle(
+                fore, b, fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist
+            )
+        if outputs.history.shape[0] > b:
+            outputs.history[b, 0] = hist
+    if settings.pairs & 2:
+        if mode == MODE_COUPLED and not hind.inflow_off[b]:
+            for j in range(n_r):
+                v_ext[j] = settings.interference * out_inflow[b, 0, j]
+        solve = mode != MODE_NONE and not hind.inflow_off[b]
+        if convect:
+            delay = slipstream_delay(
+                disc_inflow(out_inflow[b, 0], fore.nodes), hind_wing.v_normal, fore.beta[b],
+                hind.beta[b], settings,
+            )  # fmt: skip
+            convected_wake(
+                load, fore_wing, hind_wing.phase, 2.0 * np.pi * hind_wing.frequency * delay,
+                out_inflow[b, 0], settings, wake,
+            )  # fmt: skip
+            wing_cycle(hind_wing, settings, v_ext, solve, out_inflow[b, 1], out[b, 1], hist, wake)
+        else:
+            plain_cycle(
+                hind, b, hind_wing, settings, v_ext, solve, out_inflow[b, 1], out[b, 1], hist
+            )
+        if outputs.history.shape[0] > b:
+            outputs.history[b, 1] = hist
 
 
 @stroke_loop()

@@ -635,12 +635,12 @@ def element_field(
     return xp.moveaxis(xp.moveaxis(offsets, -1, 1), -1, -2), -(mean @ to_elements.T)
 
 
-#: A backend's pass: ``run(fields, rows)`` solves the strokes ``rows`` (integer indices into
-#: the batch; ``None``: all) with the pairs' fields on those rows (fore, hind; each
-#: ``element_field``'s pair) or ``None`` (isolated), and returns their inflow (fore, hind;
-#: (n, n_blade) [m/s]) and the backend's result of the whole batch, those rows this pass's and
-#: the others' as the pass that last solved them left them.
-Run = Callable[[tuple[Any, Any] | None, Any], tuple[tuple[Any, Any], Any]]
+#: A backend's solve of one pair: ``run(w, field, rows)`` solves pair ``w`` (0 fore, 1 hind) on
+#: the strokes ``rows`` (integer indices into the batch; ``None``: all) with the other pair's
+#: field on those rows (``element_field``'s pair) or ``None`` (isolated, the whole batch), and
+#: returns its inflow ((n, n_blade) [m/s]) and the backend's result of the whole batch: that
+#: pair's rows this solve's, the rest as the solve that last wrote them left them.
+Run = Callable[[int, Any, Any], tuple[Any, Any]]
 
 
 def vortex_reading(
@@ -654,22 +654,25 @@ def vortex_reading(
     wake: VortexWake = WAKE,
 ) -> tuple[Any, Any]:
     """The two pairs iterated to the fixed point of the vortex reading (docs/model.md §5.8
-    item 6); returns the result (each stroke's from the pass at which it stopped) and the
-    strokes (B,) whose fixed point converged.
+    item 6); returns the result (each pair's from the solve at which its stroke stopped) and
+    the strokes (B,) whose fixed point converged.
 
-    Pass 0 is each pair isolated; its v̄ fixes both wakes' descent (so the geometry) and its
-    strip circulations start the iteration. Pass m gives each pair the other's field of the
-    strips x_m, and its solution gives the strips g_m = F(x_m). A stroke's fixed point is
-    reached where the residual g_m − x_m of neither pair has an RMS above ``wake.tolerance``
-    times the sum of both pairs' RMS strips: pass m's input reproduces itself, pass m is that
-    stroke's result, and the later passes run the other strokes only (every step below is
-    stroke by stroke, so a stroke's result does not depend on the others). Otherwise x_{m+1} =
-    g_m (Jacobi), or with ``wake.accelerate`` Anderson's step of depth k = ``wake.depth``,
+    Pass 0 solves each pair isolated; its v̄ fixes both wakes' descent (so the geometry), and
+    the hind pair's strip circulations start the iteration. Pass m (Gauss-Seidel) gives the fore
+    pair the field of hind strips x_m and solves it (its strips f_m), then gives the hind pair
+    the field of f_m and solves it: its strips g_m = G(x_m). A stroke's fixed point is reached
+    where each pair was last given strips within ``wake.tolerance`` of what the other pair's
+    latest solve gives (RMS, relative to the sum of both pairs' RMS strips): after the hind
+    pair's solve, |g_m − x_m|; after the fore pair's solve of pass m + 1, |x_{m+1} − g_m| and
+    |f_{m+1} − f_m| both (the hind pair's solve of that pass is then not needed). The strokes
+    that stop there keep those solves, and the later ones run the other strokes only (every step
+    below is stroke by stroke, so a stroke's result does not depend on the others). Otherwise
+    x_{m+1} = g_m, or with ``wake.accelerate`` Anderson's step of depth k = ``wake.depth``,
     x_{m+1} = g_m − Σ_i β_i·(g_{m−i+1} − g_{m−i}), the β minimising |r_m − Σ_i β_i·(r_{m−i+1} −
     r_{m−i})| (r = g − x; i = 1 … k, as many as the passes so far give). ``speed`` V [m/s],
     ``path_angle`` γ [rad] and ``scale`` (C_hf, 0 where the reading is off) are (B,).
     """
-    inflow, result = run(None, None)
+    inflow = [run(w, None, None)[0] for w in (0, 1)]
     pairs = (fore, hind)
     beats = (wake.fore_beats, wake.hind_beats)
     lattices = [
@@ -685,66 +688,62 @@ def vortex_reading(
     read = [(lat.to_strips != 0.0).any(0) if xp is NUMPY else None for lat in lattices]
     rows = xp.as_int64(xp.arange_like(fore.phase.shape[0], fore.phase))  # the strokes solved
     converged = xp.zeros_bool(rows)
-    fields = given = None
-    history: list[tuple[Any, Any]] = []  # the last passes' (strips g, residual r), oldest first
-    for passes in range(wake.max_passes + 1):
-        strips = xp.stack(
-            [
-                strip_circulation(
-                    lattices[w].to_strips,
-                    samples[w][1],
-                    circulation(
-                        p,
-                        v,
-                        None if fields is None else fields[w],
-                        samples[w][0],
-                        xp,
-                        to_elements[w],
-                        read[w],
-                    ),
-                    wake,
-                    xp,
-                )
-                for w, (p, v) in enumerate(zip(pairs, inflow, strict=True))
-            ],
-            1,
-        )  # fmt: skip  (n, 2, n_w, N_s): the map's value at what the pass was given
-        if given is not None:
-            residual = strips - given
-            size = xp.sqrt((strips * strips).mean((2, 3))).sum(1)
-            change = xp.max_along(xp.sqrt((residual * residual).mean((2, 3))), 1)
-            done = change <= wake.tolerance * size
-            converged[rows[done]] = True
-            if bool(done.all()) or passes == wake.max_passes:
-                break
-            if bool(done.any()):  # the converged strokes stop here
-                keep = ~done
-                rows, scale, strips, residual = (
-                    rows[keep],
-                    scale[keep],
-                    strips[keep],
-                    residual[keep],
-                )
-                pairs = tuple(p.take(keep) for p in pairs)
-                samples = [(i[keep], s[keep]) for i, s in samples]
-                to_grid = [(i[keep], g[keep]) for i, g in to_grid]
-                history = [(g[keep], r[keep]) for g, r in history]
-            history = [*history, (strips, residual)][-(wake.depth + 1) :]
-            if wake.accelerate and len(history) > 1:
-                strips = anderson_step(history, xp)
-        given = strips
-        fields = tuple(
-            element_field(
-                field_on_grid(matrices[w], strips[:, 1 - w], xp, rows),
-                pairs[w],
-                to_grid[w],
-                to_elements[w],
-                scale,
-                xp,
+
+    def solve(w: int, strips: Any) -> tuple[Any, Any]:
+        """Pair w solved in the other pair's field of its ``strips`` (n, n_w, N_s): its own
+        strip circulations (n, n_w, N_s) [m²/s] and the backend's result."""
+        on_grid = field_on_grid(matrices[w], strips, xp, rows)
+        field = element_field(on_grid, pairs[w], to_grid[w], to_elements[w], scale, xp)
+        inflow, result = run(w, field, rows)
+        gamma = circulation(pairs[w], inflow, field, samples[w][0], xp, to_elements[w], read[w])
+        return strip_circulation(lattices[w].to_strips, samples[w][1], gamma, wake, xp), result
+
+    def rms(strips: Any) -> Any:
+        return xp.sqrt((strips * strips).mean((1, 2)))
+
+    def stop(done: Any) -> bool:
+        """Mark the strokes ``done`` converged and iterate the others only; True where none
+        is left."""
+        nonlocal rows, scale, pairs, samples, to_grid, history
+        nonlocal given, fore_strips, hind_strips, fore_given
+        converged[rows[done]] = True
+        if bool(done.all()):
+            return True
+        if bool(done.any()):
+            keep = ~done
+            rows, scale, given = rows[keep], scale[keep], given[keep]
+            fore_strips, hind_strips, fore_given = (
+                fore_strips[keep],
+                hind_strips[keep],
+                fore_given[keep],
             )
-            for w in (0, 1)
-        )
-        inflow, result = run(fields, rows)
+            pairs = tuple(p.take(keep) for p in pairs)
+            samples = [(i[keep], s[keep]) for i, s in samples]
+            to_grid = [(i[keep], g[keep]) for i, g in to_grid]
+            history = [(g[keep], r[keep]) for g, r in history]
+        return False
+
+    gamma = circulation(hind, inflow[1], None, samples[1][0], xp, to_elements[1], read[1])
+    # x_1: the isolated hind pair's strips (n, n_w, N_s); each pair's latest solve's strips,
+    # and the fore strips the hind pair was last given
+    given = hind_strips = strip_circulation(lattices[1].to_strips, samples[1][1], gamma, wake, xp)
+    fore_strips = fore_given = None
+    history: list[tuple[Any, Any]] = []  # the last passes' (strips g, residual r), oldest first
+    for passes in range(1, wake.max_passes + 1):
+        fore_strips, result = solve(0, given)
+        if fore_given is not None:  # each pair given what the other's latest solve gives?
+            bound = wake.tolerance * (rms(fore_strips) + rms(hind_strips))
+            fore_held = rms(fore_strips - fore_given) <= bound  # the hind pair's input
+            hind_held = rms(given - hind_strips) <= bound  # the fore pair's
+            if stop(fore_held & hind_held):
+                break
+        hind_strips, result = solve(1, fore_strips)
+        fore_given = fore_strips
+        bound = wake.tolerance * (rms(fore_strips) + rms(hind_strips))
+        if stop(rms(hind_strips - given) <= bound) or passes == wake.max_passes:
+            break
+        history = [*history, (hind_strips, hind_strips - given)][-(wake.depth + 1) :]
+        given = anderson_step(history, xp) if wake.accelerate and len(history) > 1 else hind_strips
     return result, converged
 
 
@@ -779,7 +778,7 @@ def kernel_reading(
     wings: tuple[Any, Any],
     params: tuple[np.ndarray, np.ndarray] | None,
     phases: np.ndarray,
-    run_pass: Callable[[tuple[Any, Any]], Any],
+    run_pass: Callable[[tuple[Any, Any], int], Any],
     speed: np.ndarray,
     path_angle: np.ndarray,
     scale: np.ndarray,
@@ -790,8 +789,9 @@ def kernel_reading(
     """The vortex reading on the numba kernel: ``wings`` the fore and hind
     ``bundle.WingBatch``, ``params`` their (B, 14) parameters [Hz, rad, -] or None (measured
     kinematics: the wings' angles on uniform phases, read from their histories), ``phases``
-    (B, 2, n_time) [rad]; ``run_pass(wings)`` runs the kernel on them (the whole batch or some of its
-    strokes, as many as the wings hold) and returns its ``bundle.Outputs``, with each sample's
+    (B, 2, n_time) [rad]; ``run_pass(wings, pairs)`` runs the kernel on them (the whole batch or
+    some of its strokes, as many as the wings hold), solving the pairs ``pairs`` names
+    (``bundle.Settings.pairs``), and returns its ``bundle.Outputs``, with each sample's
     frame coefficients computed once here (``WingBatch.frames``). Returns each stroke's
     outputs of the pass at which it stopped, with the fixed point's convergence folded into
     each wing's ``W_CONVERGED`` (``cycle``); the caller takes the cycle means from their
@@ -831,7 +831,7 @@ def kernel_reading(
         )
 
     wings = tuple(b._replace(frames=f) for b, f in zip(wings, frames, strict=True))
-    result = run_pass(wings)  # pass 0, the isolated pairs, on the whole batch
+    result = run_pass(wings, 3)  # pass 0, the isolated pairs, on the whole batch
     to_elements = [np.ascontiguousarray(station_weights(p, WAKE)) for p in pairs]
     converged = np.zeros(len(speed), dtype=bool)
     n_time = phases.shape[-1]
@@ -843,25 +843,22 @@ def kernel_reading(
     def fixed_point(part: np.ndarray) -> None:
         """The fixed point of the strokes ``part``, into ``result``, ``converged``, ``kept``."""
 
-        def run(fields: tuple[Any, Any] | None, rows: Any) -> tuple[tuple[Any, Any], Any]:
-            if fields is None:
-                return (result.inflow[part, 0], result.inflow[part, 1]), result
+        def run(w: int, field: Any, rows: Any) -> tuple[Any, Any]:
+            if field is None:
+                return result.inflow[part, w], result
             index = part[rows]
-            outputs = run_pass(
-                tuple(
-                    b._replace(**{name: getattr(b, name)[index] for name in BATCH_FIELDS},
-                               external=f[0], external_inflow=np.ascontiguousarray(f[1]),
-                               to_elements=elements)
-                    for b, f, elements in zip(wings, fields, to_elements, strict=True)
-                )
+            batch = wings[w]._replace(
+                **{name: getattr(wings[w], name)[index] for name in BATCH_FIELDS},
+                external=field[0], external_inflow=np.ascontiguousarray(field[1]),
+                to_elements=to_elements[w],
             )  # fmt: skip
+            outputs = run_pass((batch, batch), 1 << w)  # the other place is not read
             for whole, piece in zip(result, outputs, strict=True):
                 if len(whole):  # the history is (0, …) unless kept
-                    whole[index] = piece
+                    whole[index, w] = piece[:, w]
             if fields_out is not None:
-                for (offsets, upstream), f in zip(kept, fields, strict=True):
-                    offsets[index], upstream[index] = f
-            return (outputs.inflow[:, 0], outputs.inflow[:, 1]), result
+                kept[w][0][index], kept[w][1][index] = field
+            return outputs.inflow[:, w], result
 
         chunk = tuple(p.take(part) for p in pairs)
         _, converged[part] = vortex_reading(

@@ -345,7 +345,7 @@ def kernel_settings(insect: Dragonfly, options: ModelOptions, n_time: int) -> Se
     mode = {"none": cycle.MODE_NONE, "isolated": cycle.MODE_ISOLATED, "coupled": cycle.MODE_COUPLED}
     return Settings(
         mode[options.induction], options.interference, options.spin == "total", options.tolerance,
-        options.max_evaluations, options.slipstream == "convected", True, insect.air_density,
+        options.max_evaluations, options.slipstream == "convected", True, 3, insect.air_density,
         insect.root_spacing, insect.root_drop, *cycle.fourier_tables(n_time),
     )  # fmt: skip
 
@@ -455,14 +455,15 @@ def run_kernel(
     )
     settings = kernel_settings(insect, options, n_time)
 
-    def run(wings: tuple[WingBatch, WingBatch]) -> Outputs:
-        # the vortex reading's passes run some of the strokes, each into outputs of its own
+    def run(wings: tuple[WingBatch, WingBatch], pairs: int = 3) -> Outputs:
+        # the vortex reading's passes run some of the strokes and one pair, each into outputs
+        # of its own
         n = wings[0].weight.shape[0]
         out = outputs
         if vortex:  # each pass keeps its history, whose means are taken once at the end
             out = Outputs(*(np.empty((n, *a.shape[1:])) for a in outputs))
         with compile_notice():  # the first call compiles the kernels: say so once
-            cycle.tandem_cycle(n, *wings, settings, out)
+            cycle.tandem_cycle(n, *wings, settings._replace(pairs=pairs), out)
         return out
 
     if not vortex:

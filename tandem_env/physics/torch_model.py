@@ -753,31 +753,24 @@ def _vortex_chunk(strokes, speed, gamma, available_power, insect, options, compi
         wings.append((wing, params, vt, vn, inflow_switched_off(vn, options, TORCH)))
     scale = options.interference * (~(wings[0][4] | wings[1][4])).to(strokes.dtype)
 
-    result = None
+    result: list[Any] = [None, None]  # each wing's outputs of the whole batch
 
-    def run(fields, rows):
-        nonlocal result
-        outs, inflows = [], []
-        for w, (wing, params, vt, vn, off) in enumerate(wings):
-            if rows is not None:  # a pass on some of the strokes: their rows of everything
-                wing = copy.copy(wing)
-                wing.frame = wing.frame[:, rows]
-                params, vt, vn, off = params[rows], vt[rows], vn[rows], off[rows]
-            vn0 = vn[:, None].expand(-1, wing.section.r.shape[0])
-            wing.external = None if fields is None else fields[w][0]
-            if fields is not None:
-                vn0 = vn0 + fields[w][1]
-            out, inflow = _wing_cycle(wing, params[:, 0], params[:, 1], vt, vn0, ~off, options)
-            outs.append(out)
-            inflows.append(inflow)
+    def run(w, field, rows):
+        wing, params, vt, vn, off = wings[w]
+        if rows is not None:  # a pass on some of the strokes: their rows of everything
+            wing = copy.copy(wing)
+            wing.frame = wing.frame[:, rows]
+            params, vt, vn, off = params[rows], vt[rows], vn[rows], off[rows]
+        vn0 = vn[:, None].expand(-1, wing.section.r.shape[0])
+        wing.external = None if field is None else field[0]
+        if field is not None:
+            vn0 = vn0 + field[1]
+        out, inflow = _wing_cycle(wing, params[:, 0], params[:, 1], vt, vn0, ~off, options)
         if rows is None:
-            result = outs
+            result[w] = out
         else:
-            result = [
-                {key: whole[key].index_copy(0, rows, part[key]) for key in whole}
-                for whole, part in zip(result, outs, strict=True)
-            ]
-        return tuple(inflows), result
+            result[w] = {key: result[w][key].index_copy(0, rows, out[key]) for key in result[w]}
+        return inflow, result
 
     outs, converged = interaction.vortex_reading(
         *pairs, run, speed, gamma, scale, TORCH, interaction.WAKE
