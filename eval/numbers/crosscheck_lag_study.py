@@ -30,6 +30,22 @@ LAG_STUDY_FILES: dict[str, Path] = {
     "crosscheck.png": framework.ROOT / "docs" / "figures" / "crosscheck_lag_study.png",
 }
 
+#: The generalisation grid's stored table (both wakes' rows) and its figure (the free wake's).
+GENERALISATION_FILES: dict[str, Path] = {
+    "crosscheck.csv": framework.ROOT / "docs" / "crosscheck" / "generalisation.csv",
+    "crosscheck.png": framework.ROOT / "docs" / "figures" / "crosscheck_generalisation.png",
+}
+
+
+def typed(text: Any) -> Any:
+    """A CSV cell's text as the run's value (``4x8`` and ``free`` stay text)."""
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except (TypeError, ValueError):
+            pass
+    return text
+
 
 def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """The stored rows with the model's columns (``ours_*``: isolated forces, each slipstream
@@ -51,6 +67,55 @@ def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
+def generalisation_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """:func:`model_columns` for the generalisation grid's stored rows: each wake's rows are
+    the grid's cases at their lags in the grid's order (``eval.crosscheck.cli.GRIDS``), checked
+    against each row's stroke, speed and lag; SystemExit where they are not."""
+    from eval.crosscheck.cli import GRIDS
+    from eval.crosscheck.report import model_cells, ours, stroke_changes
+    from tandem_env.physics import DRAGONFLY
+
+    cases = [point.case(DRAGONFLY, {}, None) for point in GRIDS["generalisation"].points]
+    model = {case: ours(case, DRAGONFLY) for case in cases}
+    planned = [(case, index) for case in cases for index in range(len(case.lags))]
+    out = [dict(row) for row in rows]
+    for wake in dict.fromkeys(row["wake"] for row in out):
+        mine = [row for row in out if row["wake"] == wake]
+        for row, (case, index) in zip(mine, planned, strict=False):
+            stored = (row["stroke_changes"], float(row["speed_m_s"]), float(row["lag_deg"]))
+            if len(mine) != len(planned) or stored != (
+                stroke_changes(case),
+                case.speed,
+                case.lags[index],
+            ):
+                raise SystemExit(
+                    f"{GENERALISATION_FILES['crosscheck.csv']}: the {wake} wake's rows are not "
+                    "the generalisation grid's; rerun `python -m eval crosscheck --grid "
+                    "generalisation` (docs/crosscheck.md)"
+                )
+            row.update(model_cells(model[case], index))
+    return out
+
+
+def refresh_generalisation() -> None:
+    """Rewrite the generalisation grid's stored table with the model's columns afresh
+    (:func:`generalisation_columns`) and redraw its figure from the free wake's rows, as
+    ``python -m eval crosscheck --grid generalisation`` draws it."""
+    import tempfile
+
+    from eval.crosscheck.report import write_scatter
+    from tandem_env.io.files import write_csv_atomic
+
+    rows = generalisation_columns(framework.read_rows(GENERALISATION_FILES["crosscheck.csv"]))
+    write_csv_atomic(GENERALISATION_FILES["crosscheck.csv"], rows)
+    free = [{k: typed(v) for k, v in row.items()} for row in rows if row["wake"] == "free"]
+    with tempfile.TemporaryDirectory() as folder:
+        write_scatter(Path(folder), free)
+        framework.copy_outputs(
+            Path(folder), {"crosscheck.png": GENERALISATION_FILES["crosscheck.png"]}
+        )
+
+
 def redraw_figure(rows: Sequence[Mapping[str, Any]]) -> None:
     """Draw the docs' figure afresh from the table's rows (the solver's columns as stored, the
     model's as they are now), as ``python -m eval crosscheck`` draws it."""
@@ -58,14 +123,6 @@ def redraw_figure(rows: Sequence[Mapping[str, Any]]) -> None:
 
     from eval.crosscheck.case import Resolution
     from eval.crosscheck.report import write_figure
-
-    def typed(text: Any) -> Any:  # the CSV's text as the run's values (4x8 stays text)
-        for kind in (int, float):
-            try:
-                return kind(text)
-            except (TypeError, ValueError):
-                pass
-        return text
 
     # the stored study ran before --wake existed, on the free wake
     table = [{"wake": "free", **{k: typed(v) for k, v in row.items()}} for row in rows]
@@ -78,7 +135,8 @@ def measure() -> dict[str, Any]:
     """Collect the finished lag study in :data:`LAG_STUDY_OUT` (about an hour on 2 idle cores:
     run :data:`LAG_STUDY_COMMAND` first) and copy its table and figure into the docs. Without
     that folder, recompute the model's columns (:func:`model_columns`) on the stored study's
-    rows and write them into the docs' table and figure."""
+    rows and write them into the docs' table and figure, and the generalisation grid's
+    likewise (:func:`refresh_generalisation`)."""
     table = LAG_STUDY_OUT / "crosscheck.csv"
     if not table.is_file() and LAG_STUDY_FILES["crosscheck.csv"].is_file():
         from tandem_env.io.files import write_csv_atomic
@@ -87,6 +145,7 @@ def measure() -> dict[str, Any]:
         rows = model_columns(framework.read_rows(LAG_STUDY_FILES["crosscheck.csv"]))
         write_csv_atomic(LAG_STUDY_FILES["crosscheck.csv"], rows)
         redraw_figure(rows)
+        refresh_generalisation()
         return {**stored, "rows": rows, "model_refreshed": True}
     if not table.is_file():
         raise SystemExit(f"{LAG_STUDY_OUT} holds no finished lag study; run `{LAG_STUDY_COMMAND}`")
