@@ -374,3 +374,31 @@ def test_the_generalisation_table_has_every_reading_and_the_agreement(
     out = capsys.readouterr().out
     assert all(f"| {reading} |" in out for reading in get_args(Slipstream))
     assert (tmp_path / "crosscheck.png").stat().st_size > 10_000
+
+
+def test_the_stored_tables_model_columns_are_todays_model() -> None:
+    """docs/crosscheck's stored tables hold the model as it is: their ``ours_*`` columns
+    recomputed on their rows (``python -m eval numbers --only crosscheck-lag-study``, which
+    rewrites them after a change of the model) equal the stored ones; rows that are not the
+    generalisation grid's are refused."""
+    from eval.numbers import framework
+    from eval.numbers.crosscheck_lag_study import (
+        GENERALISATION_FILES,
+        LAG_STUDY_FILES,
+        generalisation_columns,
+        model_columns,
+    )
+
+    for files, refresh in (
+        (LAG_STUDY_FILES, model_columns),
+        (GENERALISATION_FILES, generalisation_columns),
+    ):
+        stored = framework.read_rows(files["crosscheck.csv"])
+        for old, new in zip(stored, refresh(stored), strict=True):
+            for key, value in new.items():
+                if key.startswith("ours_"):
+                    assert float(value) == pytest.approx(float(old[key]), rel=1e-9, abs=1e-9), key
+    rows = framework.read_rows(GENERALISATION_FILES["crosscheck.csv"])
+    rows[3]["lag_deg"] = "45.0"
+    with pytest.raises(SystemExit, match="not the generalisation grid's"):
+        generalisation_columns(rows)
