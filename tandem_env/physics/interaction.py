@@ -78,12 +78,14 @@ class VortexWake:
     """Factor on the shed circulation [-]: the lag study's hind-wing RMS is least near it
     (docs/model.md §5.8, "What it gives on the lag study")."""
     tolerance: float = 1e-3
-    """The fixed point's tolerance: the RMS of either pair's residual (the strips its pass
-    gives less those it was given), relative to the sum of both pairs' RMS strips [-]."""
+    """The fixed point's tolerance: the RMS of the difference between the strips each pair was
+    last given and those the other pair's latest solve gives, relative to the sum of both
+    pairs' RMS strips [-]."""
     max_passes: int = 20
-    """Most passes of the fixed point (kernel calls after the isolated one) [-]."""
+    """Most passes of the fixed point (each solves the fore pair, then the hind pair, after
+    the isolated pass) [-]."""
     accelerate: bool = True
-    """Anderson's step on the passes (False: plain Jacobi passes)."""
+    """Anderson's step on the passes (False: plain Gauss-Seidel passes)."""
     depth: int = 2
     """Anderson's depth: the differences of the last ``depth`` passes it mixes [-] (1: a
     secant step; 2 converges hover strokes that 1 leaves cycling, docs/model.md §5.8 item 6)."""
