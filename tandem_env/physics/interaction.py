@@ -854,7 +854,8 @@ def kernel_reading(
                 external=field[0], external_inflow=np.ascontiguousarray(field[1]),
                 to_elements=to_elements[w],
             )  # fmt: skip
-            outputs = run_pass((batch, batch), 1 << w)  # the other place is not read
+            # the pair not solved is not read (``Settings.pairs``): this batch stands in its place
+            outputs = run_pass((batch, batch), 1 << w)
             for whole, piece in zip(result, outputs, strict=True):
                 if len(whole):  # the history is (0, …) unless kept
                     whole[index, w] = piece[:, w]
