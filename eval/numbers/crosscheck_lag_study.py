@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -81,18 +82,14 @@ def generalisation_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, 
     out = [dict(row) for row in rows]
     for wake in dict.fromkeys(row["wake"] for row in out):
         mine = [row for row in out if row["wake"] == wake]
-        for row, (case, index) in zip(mine, planned, strict=False):
-            stored = (row["stroke_changes"], float(row["speed_m_s"]), float(row["lag_deg"]))
-            if len(mine) != len(planned) or stored != (
-                stroke_changes(case),
-                case.speed,
-                case.lags[index],
-            ):
-                raise SystemExit(
-                    f"{GENERALISATION_FILES['crosscheck.csv']}: the {wake} wake's rows are not "
-                    "the generalisation grid's; rerun `python -m eval crosscheck --grid "
-                    "generalisation` (docs/crosscheck.md)"
-                )
+        stored = [(r["stroke_changes"], float(r["speed_m_s"]), float(r["lag_deg"])) for r in mine]
+        if stored != [(stroke_changes(c), c.speed, c.lags[i]) for c, i in planned]:
+            raise SystemExit(
+                f"{GENERALISATION_FILES['crosscheck.csv']}: the {wake} wake's rows are not the "
+                "generalisation grid's; rerun `python -m eval crosscheck --grid generalisation` "
+                "(docs/crosscheck.md)"
+            )
+        for row, (case, index) in zip(mine, planned, strict=True):
             row.update(model_cells(model[case], index))
     return out
 
@@ -101,34 +98,35 @@ def refresh_generalisation() -> None:
     """Rewrite the generalisation grid's stored table with the model's columns afresh
     (:func:`generalisation_columns`) and redraw its figure from the free wake's rows, as
     ``python -m eval crosscheck --grid generalisation`` draws it."""
-    import tempfile
-
     from eval.crosscheck.report import write_scatter
     from tandem_env.io.files import write_csv_atomic
 
     rows = generalisation_columns(framework.read_rows(GENERALISATION_FILES["crosscheck.csv"]))
     write_csv_atomic(GENERALISATION_FILES["crosscheck.csv"], rows)
     free = [{k: typed(v) for k, v in row.items()} for row in rows if row["wake"] == "free"]
+    draw_into_docs(partial(write_scatter, table=free), GENERALISATION_FILES["crosscheck.png"])
+
+
+def draw_into_docs(draw: Callable[[Path], Any], figure: Path) -> None:
+    """``draw(folder)`` writes the cross-check's figure into a scratch folder, as the command
+    does into its ``--out``; copied from there to the docs' ``figure``."""
+    import tempfile
+
     with tempfile.TemporaryDirectory() as folder:
-        write_scatter(Path(folder), free)
-        framework.copy_outputs(
-            Path(folder), {"crosscheck.png": GENERALISATION_FILES["crosscheck.png"]}
-        )
+        draw(Path(folder))
+        framework.copy_outputs(Path(folder), {"crosscheck.png": figure})
 
 
 def redraw_figure(rows: Sequence[Mapping[str, Any]]) -> None:
     """Draw the docs' figure afresh from the table's rows (the solver's columns as stored, the
     model's as they are now), as ``python -m eval crosscheck`` draws it."""
-    import tempfile
-
     from eval.crosscheck.case import Resolution
     from eval.crosscheck.report import write_figure
 
     # the stored study ran before --wake existed, on the free wake
     table = [{"wake": "free", **{k: typed(v) for k, v in row.items()}} for row in rows]
-    with tempfile.TemporaryDirectory() as folder:
-        write_figure(Path(folder), table, Resolution())
-        framework.copy_outputs(Path(folder), {"crosscheck.png": LAG_STUDY_FILES["crosscheck.png"]})
+    draw = partial(write_figure, table=table, base=Resolution())
+    draw_into_docs(draw, LAG_STUDY_FILES["crosscheck.png"])
 
 
 def measure() -> dict[str, Any]:

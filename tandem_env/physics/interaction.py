@@ -691,14 +691,19 @@ def vortex_reading(
     rows = xp.as_int64(xp.arange_like(fore.phase.shape[0], fore.phase))  # the strokes solved
     converged = xp.zeros_bool(rows)
 
+    def strips_of(w: int, inflow: Any, field: Any) -> Any:
+        """Pair w's strip circulations (n, n_w, N_s) [m²/s] at its solved ``inflow`` in the
+        other pair's ``field`` (None: isolated)."""
+        gamma = circulation(pairs[w], inflow, field, samples[w][0], xp, to_elements[w], read[w])
+        return strip_circulation(lattices[w].to_strips, samples[w][1], gamma, wake, xp)
+
     def solve(w: int, strips: Any) -> tuple[Any, Any]:
         """Pair w solved in the other pair's field of its ``strips`` (n, n_w, N_s): its own
-        strip circulations (n, n_w, N_s) [m²/s] and the backend's result."""
+        strips and the backend's result."""
         on_grid = field_on_grid(matrices[w], strips, xp, rows)
         field = element_field(on_grid, pairs[w], to_grid[w], to_elements[w], scale, xp)
         inflow, result = run(w, field, rows)
-        gamma = circulation(pairs[w], inflow, field, samples[w][0], xp, to_elements[w], read[w])
-        return strip_circulation(lattices[w].to_strips, samples[w][1], gamma, wake, xp), result
+        return strips_of(w, inflow, field), result
 
     def rms(strips: Any) -> Any:
         return xp.sqrt((strips * strips).mean((1, 2)))
@@ -725,10 +730,9 @@ def vortex_reading(
             history = [(g[keep], r[keep]) for g, r in history]
         return False
 
-    gamma = circulation(hind, inflow[1], None, samples[1][0], xp, to_elements[1], read[1])
-    # x_1: the isolated hind pair's strips (n, n_w, N_s); each pair's latest solve's strips,
-    # and the fore strips the hind pair was last given
-    given = hind_strips = strip_circulation(lattices[1].to_strips, samples[1][1], gamma, wake, xp)
+    # x_1: the isolated hind pair's strips; each pair's latest solve's strips, and the fore
+    # strips the hind pair was last given
+    given = hind_strips = strips_of(1, inflow[1], None)
     fore_strips = fore_given = None
     history: list[tuple[Any, Any]] = []  # the last passes' (strips g, residual r), oldest first
     for passes in range(1, wake.max_passes + 1):
