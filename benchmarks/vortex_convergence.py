@@ -29,6 +29,8 @@ SETTINGS: dict[str, dict[str, Any]] = {
     "n_w = 64": {"n_wake": 64},
     "wakes 4/3 beats": {"fore_beats": 4.0, "hind_beats": 3.0},
     "wakes 6/5 beats": {"fore_beats": 6.0, "hind_beats": 5.0},
+    "M = 8": {"read_points": 8},
+    "M = 24": {"read_points": 24},
 }
 #: (coarser, finer) settings compared.
 COMPARISONS = (
@@ -36,6 +38,8 @@ COMPARISONS = (
     ("n_w = 32", "n_w = 64"),
     ("defaults", "wakes 4/3 beats"),
     ("defaults", "wakes 6/5 beats"),
+    ("defaults", "M = 24"),
+    ("M = 8", "M = 24"),
 )
 BANDS = ((0.0, 0.5), (0.5, 2.0))
 """Speed bands [m/s]: below 0.5 m/s the wakes linger under the wings."""

@@ -77,6 +77,10 @@ class Settings(NamedTuple):
     pairs: int
     """The pairs a call solves: 1 the fore pair, 2 the hind pair, 3 both (the vortex reading's
     passes solve one pair at a time, docs/model.md §5.8 item 6)."""
+    rows: Any
+    """(n,) int64: the strokes of the batch a call solves, each writing its outputs at its own
+    row and reading ``WingBatch.external`` at its place in ``rows`` (the vortex reading's
+    passes, on the strokes not yet converged); (0,): every stroke, in order."""
     rho: float
     """Air density ρ [kg/m³]."""
     root_spacing: float

@@ -775,32 +775,30 @@ def station_offsets(stations, to_elements):
         for k in range(2):
             for m in range(to_elements.shape[1]):
                 weight = to_elements[j, m]
-                if weight == 0.0:  # all but two stations: exact zeros, skipped
-                    continue
                 for t in range(n_time):
                     out[j, k, t] += weight * stations[k, m, t]
     return out
 
 
 @njit(cache=True)
-def plain_cycle(batch, b, wing, settings, v_ext, solve, out_inflow, out, hist):
-    """:func:`wing_cycle` of stroke ``b`` without the convected slipstream: with the other
-    pair's field and upstream inflow where the vortex reading's pass gives them
-    (``batch.external``, docs/model.md §5.8), else with ``v_ext``."""
-    if batch.external.shape[0] > b:
+def plain_cycle(batch, e, wing, settings, v_ext, solve, out_inflow, out, hist):
+    """:func:`wing_cycle` of a stroke without the convected slipstream: with the other pair's
+    field and upstream inflow at row ``e`` of ``batch.external`` where the vortex reading's
+    pass gives them (docs/model.md §5.8), else with ``v_ext``."""
+    if batch.external.shape[0] > e:
         wing_cycle(
-            wing, settings, batch.external_inflow[b], solve, out_inflow, out, hist, None, None,
-            station_offsets(batch.external[b], batch.to_elements),
+            wing, settings, batch.external_inflow[e], solve, out_inflow, out, hist, None, None,
+            station_offsets(batch.external[e], batch.to_elements),
         )  # fmt: skip
     else:
         wing_cycle(wing, settings, v_ext, solve, out_inflow, out, hist)
 
 
 @njit(cache=True)
-def tandem_stroke(b, fore, hind, settings, outputs):
+def tandem_stroke(b, e, fore, hind, settings, outputs):
     """Cycle means of stroke ``b`` of a batch: the fore-wing first, then the hind-wing in its
-    slipstream, each where ``settings.pairs`` asks (see :func:`tandem_cycle` for the
-    arguments)."""
+    slipstream, each where ``settings.pairs`` asks; ``e`` the stroke's row of the wings'
+    ``external`` fields (see :func:`tandem_cycle` for the other arguments)."""
     n_time = fore.angles.shape[1]
     n_r = fore.nodes.shape[0]
     mode = settings.mode
@@ -844,7 +842,7 @@ def tandem_stroke(b, fore, hind, settings, outputs):
             )
         else:
             plain_cycle(
-                fore, b, fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist
+                fore, e, fore_wing, settings, v_ext, solve, out_inflow[b, 0], out[b, 0], hist
             )
         if outputs.history.shape[0] > b:
             outputs.history[b, 0] = hist
@@ -865,7 +863,7 @@ def tandem_stroke(b, fore, hind, settings, outputs):
             wing_cycle(hind_wing, settings, v_ext, solve, out_inflow[b, 1], out[b, 1], hist, wake)
         else:
             plain_cycle(
-                hind, b, hind_wing, settings, v_ext, solve, out_inflow[b, 1], out[b, 1], hist
+                hind, e, hind_wing, settings, v_ext, solve, out_inflow[b, 1], out[b, 1], hist
             )
         if outputs.history.shape[0] > b:
             outputs.history[b, 1] = hist
@@ -888,10 +886,16 @@ def tandem_cycle(fore, hind, settings, outputs):
     (``ModelOptions.slipstream="convected"``, docs/model.md §5.7).
     Writes ``outputs`` (:class:`~tandem_env.physics.bundle.Outputs`): the means (B, 2,
     N_WING_OUT) and the inflow (B, 2, n_r) [m/s]; if its history has B rows, also the per-sample
-    F_x, F_z, F_y, P_aero, P_iner of each wing (B, 2, n_time, 5).
+    F_x, F_z, F_y, P_aero, P_iner of each wing (B, 2, n_time, 5). Where ``settings.rows``
+    names some strokes, only those run, each into its own row.
     """
-    for b in prange(fore.angles.shape[0]):
-        tandem_stroke(b, fore, hind, settings, outputs)
+    rows = settings.rows
+    if rows.shape[0] == 0:
+        for b in prange(fore.angles.shape[0]):
+            tandem_stroke(b, b, fore, hind, settings, outputs)
+    else:
+        for i in prange(rows.shape[0]):
+            tandem_stroke(rows[i], i, fore, hind, settings, outputs)
 
 
 @stroke_loop()

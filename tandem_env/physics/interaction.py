@@ -41,12 +41,6 @@ from .vortex import (
 )
 from .xp import BRANCH_FREE, NUMPY, ArrayNamespace, on_namespace, on_one_thread, stroke_loop
 
-#: The ``bundle.WingBatch`` fields with one row per stroke (a pass on some strokes takes theirs).
-BATCH_FIELDS = (
-    "angles", "weight", "frequency", "beta", "sweep", "v_tangential", "v_normal", "inflow_off",
-    "phases", "frames",
-)  # fmt: skip
-
 
 @dataclass(frozen=True)
 class VortexWake:
@@ -60,8 +54,9 @@ class VortexWake:
     """n_w: wake samples per beat [-]."""
     strips: int = 4
     """N_s: circulation strips per wing [-]."""
-    read_points: int = 6
-    """M: span stations reading the other pair's velocity [-]."""
+    read_points: int = 4
+    """M: span stations reading the other pair's velocity [-] (:func:`read_stations`; a
+    natural cubic spline through them onto the elements, docs/model.md §5.8 item 9)."""
     fore_beats: float = 3.0
     """The fore pair's wake length [beats] (it passes the hind pair; 4 beats, with the hind
     pair's 3, move the lag study's changes by at most 0.8 points)."""
@@ -81,7 +76,7 @@ class VortexWake:
     """The fixed point's tolerance: the RMS of the difference between the strips each pair was
     last given and those the other pair's latest solve gives, relative to the sum of both
     pairs' RMS strips [-]."""
-    max_passes: int = 20
+    max_passes: int = 30
     """Most passes of the fixed point (each solves the fore pair, then the hind pair, after
     the isolated pass) [-]."""
     accelerate: bool = True
@@ -89,7 +84,7 @@ class VortexWake:
     depth: int = 2
     """Anderson's depth: the differences of the last ``depth`` passes it mixes [-] (1: a
     secant step; 2 converges hover strokes that 1 leaves cycling, docs/model.md §5.8 item 6)."""
-    chunk: int = 64
+    chunk: int = 128
     """Strokes per Biot-Savart evaluation (memory ∝ chunk·n_w·M·segments) and, on the numba
     backend, most strokes per fixed point (the batch's strokes are iterated at most this many
     at a time, fewer where the batch is shared among numba's threads) [-]."""
@@ -231,10 +226,36 @@ def periodic_brackets(source: Any, target: Any, xp: ArrayNamespace) -> tuple[Any
     return xp.stack([count - 1, count % n], -1), xp.stack([1.0 - t, t], -1)
 
 
+def read_stations(wake: VortexWake) -> np.ndarray:
+    """The M read stations' span fractions r/R [-] over 2-98 % of the span, halfway between
+    even spacing and the Chebyshev-Lobatto points (closer at the ends, where the other pair's
+    tip vortices bend the field most): r/R = 0.02 + 0.96·(u + (1 − cos πu)/2)/2, u = m/(M − 1)
+    (docs/model.md §5.8 item 9)."""
+    u = np.arange(wake.read_points) / (wake.read_points - 1)
+    return 0.02 + 0.96 * 0.5 * (u + 0.5 * (1.0 - np.cos(np.pi * u)))
+
+
 def station_weights(pair: Pair, wake: VortexWake) -> np.ndarray:
-    """(n_blade, M) weights of linear interpolation in r from the M read stations, evenly
-    spaced over 2-98 % of the span, onto the pair's elements (docs/model.md §5.8 item 5)."""
-    return span_interpolation(np.linspace(0.02, 0.98, wake.read_points), pair.r / pair.wing.length)
+    """(n_blade, M) weights of the natural cubic spline in r through the M
+    :func:`read_stations` onto the pair's elements, held constant beyond the end stations
+    (docs/model.md §5.8 item 5)."""
+    return _spline_weights(
+        tuple(read_stations(wake).tolist()), tuple((pair.r / pair.wing.length).tolist())
+    ).copy()
+
+
+@lru_cache(maxsize=64)
+def _spline_weights(source: tuple[float, ...], target: tuple[float, ...]) -> np.ndarray:
+    # imported here: only the vortex reading needs it, and importing the package should not
+    from scipy.interpolate import CubicSpline
+
+    # the spline through each unit vector of station values: its value at the targets is
+    # that station's weight (the spline is linear in the values)
+    stations = np.asarray(source)
+    spline = CubicSpline(stations, np.eye(len(source)), bc_type="natural")
+    weights = spline(np.clip(target, stations[0], stations[-1]))
+    weights.flags.writeable = False
+    return weights
 
 
 def span_interpolation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -276,10 +297,8 @@ def _fill_circulation(coef, samples, r, v_t, vn, offsets, chord, c_t, table, rea
                     du = 0.0
                     dv = 0.0
                     for m in range(to_elements.shape[1]):
-                        # the weights' zeros (all but two stations) add exact zeros: skipped
-                        if to_elements[e, m] != 0.0:
-                            du += to_elements[e, m] * stations[b, 0, m, k]
-                            dv += to_elements[e, m] * stations[b, 1, m, k]
+                        du += to_elements[e, m] * stations[b, 0, m, k]
+                        dv += to_elements[e, m] * stations[b, 1, m, k]
                     u += du
                     v += dv
                 speed2 = u * u + v * v
@@ -437,7 +456,7 @@ def influence(source: Lattice, target: Pair, wake: VortexWake, xp) -> Any:
     (ring 0: Γ(t_i); ring k ≥ 1: ½·(Γ(t_{i−k+1}) + Γ(t_{i−k}))) folded onto the release ages
     modulo the period."""
     n_w, n_s, m = wake.n_wake, wake.strips, wake.read_points
-    frac = np.linspace(0.02, 0.98, m)
+    frac = read_stations(wake)
     like = target.phase
     tau = xp.constant_like(2.0 * np.pi * np.arange(n_w)[None] / n_w, like)
     points = wing_lines(
@@ -784,7 +803,7 @@ def kernel_reading(
     wings: tuple[Any, Any],
     params: tuple[np.ndarray, np.ndarray] | None,
     phases: np.ndarray,
-    run_pass: Callable[[tuple[Any, Any], int], Any],
+    run_pass: Callable[..., Any],
     speed: np.ndarray,
     path_angle: np.ndarray,
     scale: np.ndarray,
@@ -795,10 +814,11 @@ def kernel_reading(
     """The vortex reading on the numba kernel: ``wings`` the fore and hind
     ``bundle.WingBatch``, ``params`` their (B, 14) parameters [Hz, rad, -] or None (measured
     kinematics: the wings' angles on uniform phases, read from their histories), ``phases``
-    (B, 2, n_time) [rad]; ``run_pass(wings, pairs)`` runs the kernel on them (the whole batch or
-    some of its strokes, as many as the wings hold), solving the pairs ``pairs`` names
-    (``bundle.Settings.pairs``), and returns its ``bundle.Outputs``, with each sample's
-    frame coefficients computed once here (``WingBatch.frames``). Returns each stroke's
+    (B, 2, n_time) [rad]; ``run_pass(wings, pairs)`` runs the kernel on the whole batch,
+    solving the pairs ``pairs`` names (``bundle.Settings.pairs``), and returns its
+    ``bundle.Outputs``; ``run_pass(wings, pairs, rows, into)`` solves the strokes ``rows``
+    (``bundle.Settings.rows``) into their rows of ``into``; each sample's frame coefficients
+    are computed once here (``WingBatch.frames``). Returns each stroke's
     outputs of the pass at which it stopped, with the fixed point's convergence folded into
     each wing's ``W_CONVERGED`` (``cycle``); the caller takes the cycle means from their
     history where its passes leave them out (``Settings.means``). ``fields_out``: a list that
@@ -854,18 +874,15 @@ def kernel_reading(
                 return result.inflow[part, w], result
             index = part[rows]
             batch = wings[w]._replace(
-                **{name: getattr(wings[w], name)[index] for name in BATCH_FIELDS},
                 external=field[0], external_inflow=np.ascontiguousarray(field[1]),
                 to_elements=to_elements[w],
             )  # fmt: skip
-            # the pair not solved is not read (``Settings.pairs``): this batch stands in its place
-            outputs = run_pass((batch, batch), 1 << w)
-            for whole, piece in zip(result, outputs, strict=True):
-                if len(whole):  # the history is (0, …) unless kept
-                    whole[index, w] = piece[:, w]
+            # the kernel solves the strokes ``index`` into their rows of ``result``; the pair
+            # not solved is not read (``Settings.pairs``): this batch stands in its place
+            run_pass((batch, batch), 1 << w, index, result)
             if fields_out is not None:
                 kept[w][0][index], kept[w][1][index] = field
-            return outputs.inflow[:, w], result
+            return result.inflow[index, w], result
 
         chunk = tuple(p.take(part) for p in pairs)
         _, converged[part] = vortex_reading(

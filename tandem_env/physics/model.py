@@ -345,8 +345,9 @@ def kernel_settings(insect: Dragonfly, options: ModelOptions, n_time: int) -> Se
     mode = {"none": cycle.MODE_NONE, "isolated": cycle.MODE_ISOLATED, "coupled": cycle.MODE_COUPLED}
     return Settings(
         mode[options.induction], options.interference, options.spin == "total", options.tolerance,
-        options.max_evaluations, options.slipstream == "convected", True, 3, insect.air_density,
-        insect.root_spacing, insect.root_drop, *cycle.fourier_tables(n_time),
+        options.max_evaluations, options.slipstream == "convected", True, 3,
+        np.empty(0, np.int64), insect.air_density, insect.root_spacing, insect.root_drop,
+        *cycle.fourier_tables(n_time),
     )  # fmt: skip
 
 
@@ -455,15 +456,21 @@ def run_kernel(
     )
     settings = kernel_settings(insect, options, n_time)
 
-    def run(wings: tuple[WingBatch, WingBatch], pairs: int = 3) -> Outputs:
-        # the vortex reading's passes run some of the strokes and one pair, each into outputs
-        # of its own
-        n = wings[0].weight.shape[0]
-        out = outputs
-        if vortex:  # each pass keeps its history, whose means are taken once at the end
-            out = Outputs(*(np.empty((n, *a.shape[1:])) for a in outputs))
+    def run(
+        wings: tuple[WingBatch, WingBatch],
+        pairs: int = 3,
+        rows: np.ndarray | None = None,
+        into: Outputs | None = None,
+    ) -> Outputs:
+        # the vortex reading's passes solve one pair on some of the strokes (``rows``), into
+        # the rows of its first pass's outputs (``into``)
+        out = outputs if into is None else into
+        if vortex and into is None:  # each pass keeps its history, whose means come at the end
+            out = Outputs(*(np.empty((len(wings[0].weight), *a.shape[1:])) for a in outputs))
+        count = len(wings[0].weight) if rows is None else len(rows)
+        chosen = settings._replace(pairs=pairs, rows=settings.rows if rows is None else rows)
         with compile_notice():  # the first call compiles the kernels: say so once
-            cycle.tandem_cycle(n, *wings, settings._replace(pairs=pairs), out)
+            cycle.tandem_cycle(count, *wings, chosen, out)
         return out
 
     if not vortex:
