@@ -93,16 +93,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "speeds": ("V", float, f"the level-flight sweep [m/s] (speed and {shared})"),
         "powers": ("P", float, f"the available-power sweep [W/kg] (power and {shared})"),
         "seeds": ("SEED", int, "the seeds of every optimisation (convergence study: its runs)"),
+        "budget": ("N", int, "model evaluations per optimisation, every task"),
     }
-    for option, (metavar, kind, text) in helps.items():
+    for option, (metavar, kind, text) in helps.items():  # the preset's fields (OVERRIDES)
         text += "; default the preset's"
-        parser.add_argument(f"--{option}", type=kind, nargs="+", metavar=metavar, help=text)
-    parser.add_argument(
-        "--budget",
-        type=int,
-        metavar="N",
-        help="model evaluations per optimisation, every task; default the preset's",
-    )
+        nargs = None if option == "budget" else "+"  # one budget; a list of the others
+        parser.add_argument(f"--{option}", type=kind, nargs=nargs, metavar=metavar, help=text)
     first, *rest = CAMPAIGNS  # the default folder, and each other campaign's
     out = f"default {first.default_out}" + "".join(
         f"; {c.default_out} for {', '.join(c.names)}" for c in rest

@@ -275,7 +275,6 @@ def write_tables(
     paths = [out_dir / name / f for f in (INDEX_FILE, f"{name}.csv", f"{name}_summary.csv")]
     write_json_atomic(paths[0], index)
     write_csv_atomic(paths[1], rows)
-    # the study's quantities, then the 28 stroke parameters (each with its ``pinned`` flag)
     extra = [n for n in PARAMETER_NAMES if n not in quantities]
     write_csv_atomic(paths[2], spread_summary_rows(rows, [*quantities, *extra]))
     return rows, paths

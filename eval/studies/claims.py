@@ -270,16 +270,14 @@ class ClaimSpec:
         if fields is None:
             return None
         row = {"statement": self.statement.format_map(words), "note": self.note, **fields}
-        median = row.get("median", math.nan)
-        best = row.get("best", math.nan)
         return Claim(
             id=self.id if index == 0 else f"{self.id}/{method}",
             study=study,
             figure=self.figure,
             paper=self.paper,
             rule=self.rule,
-            verdict=verdict(judge(median, self.rule, self.target)),
-            best_verdict=verdict(judge(best, self.rule, self.target)),
+            verdict=verdict(judge(row.get("median", math.nan), self.rule, self.target)),
+            best_verdict=verdict(judge(row.get("best", math.nan), self.rule, self.target)),
             **row,
         )
 
@@ -389,9 +387,8 @@ def location_stats(
         xa, ya = _finite(list(series), values)
         return float(xa[np.argmin(ya) if kind == "min" else np.argmax(ya)]) if ya.size else math.nan
 
-    medians = [s.median for s in series.values()]
-    bests = [s.best for s in series.values()]
-    return {"median": where(medians), "best": where(bests), "unit": "m/s", **fields}
+    at = {k: where([getattr(s, k) for s in series.values()]) for k in ("median", "best")}
+    return {**at, "unit": "m/s", **fields}
 
 
 # --- confidence: the bootstrap over seeds ------------------------------------------------------

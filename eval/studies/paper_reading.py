@@ -31,7 +31,6 @@ DECISION_OPTIONS: tuple[str, ...] = tuple(
 DECISIONS = f"modelling decisions: {', '.join(DECISION_OPTIONS)}"
 #: Accelerating-flight objectives whose optimum can stand for the paper's F̄_h (Fig. 7).
 CHOICES: tuple[str, ...] = ACCELERATE.objectives.choices  # type: ignore[assignment]
-#: Accelerating-flight objectives whose optimum can stand for the paper's F̄_h (Fig. 7).
 HORIZONTAL_OBJECTIVES: tuple[str, ...] = tuple(o for o in CHOICES if o.startswith("horizontal"))
 #: A reading's changes besides its model options (:meth:`Reading.changes`).
 OWN_FIELDS = ("rotational_coefficient", "horizontal_objective", "search")
@@ -190,22 +189,19 @@ class Reading:
         for key in (k for k, _ in pairs if k not in DECISION_OPTIONS):
             _fail(self.name, "options", key, f"ModelOptions fields that are {DECISIONS}")
         object.__setattr__(self, "options", pairs)
-        try:
-            ModelOptions(**dict(pairs))
-        except (TypeError, ValueError) as error:
-            raise ValueError(f"Reading {self.name!r}: {error}") from None
         c_r = self.rotational_coefficient
         if c_r is not None and not (is_number(c_r) and c_r >= 0):
             _fail(self.name, "rotational_coefficient", c_r, "None or a finite number >= 0")
         if (objective := self.horizontal_objective) not in HORIZONTAL_OBJECTIVES:
             allowed = ", ".join(map(repr, HORIZONTAL_OBJECTIVES))
             _fail(self.name, "horizontal_objective", objective, allowed)
-        if isinstance(self.search, Mapping):
-            try:
+        try:  # the options and the search are checked by their own classes
+            ModelOptions(**dict(pairs))
+            if isinstance(self.search, Mapping):
                 object.__setattr__(self, "search", Search(**self.search))
-            except (TypeError, ValueError) as error:
-                raise ValueError(f"Reading {self.name!r}: {error}") from None
-        elif self.search is not None and not isinstance(self.search, Search):
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"Reading {self.name!r}: {error}") from None
+        if self.search is not None and not isinstance(self.search, Search):
             _fail(self.name, "search", self.search, "None, a Search or a mapping of its fields")
 
     @property

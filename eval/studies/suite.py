@@ -77,11 +77,9 @@ class SuitePlan:
             wall = round(time.perf_counter() - self.started, 1)  # the whole call's, analysis too
             last_run = {"studies": self.asked, **summary.to_dict(), "wall_time_s": wall}
             jobs = sorted({j.key for n in done for j in self.jobs_of[n]})
-            plan = self.plan
-            manifest = {"preset": plan.preset.name, "methods": list(plan.methods), "studies": paper}
-            write_json_atomic(
-                out / "manifest.json", {**manifest, "jobs": jobs, "last_run": last_run}
-            )
+            manifest = {"preset": self.plan.preset.name, "methods": list(self.plan.methods)}
+            manifest |= {"studies": paper, "jobs": jobs, "last_run": last_run}
+            write_json_atomic(out / "manifest.json", manifest)
         wall = time.perf_counter() - self.started
         return SuiteResult([done[n] for n in self.asked], summary, path, wall)
 
@@ -152,14 +150,9 @@ class SuiteCampaign:
         print(f"{run.total} optimisations: {done}", file=sys.stderr)
         for output in result.outputs:
             median, best = (VerdictCount.of(output.claims, best=b).text() for b in (False, True))
-            claims = (
-                f"; claims on the median: {median}; on the best seed: {best}"
-                if output.claims
-                else ""
-            )
-            print(
-                f"{output.name}: {len(output.rows)} records, {len(output.figures)} figures{claims}"
-            )
+            claims = f"; claims on the median: {median}; on the best seed: {best}"
+            counts = f"{len(output.rows)} records, {len(output.figures)} figures"
+            print(f"{output.name}: {counts}{claims if output.claims else ''}")
         if result.report is not None:
             print(f"report: {result.report}")
 

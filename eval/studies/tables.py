@@ -226,8 +226,7 @@ def spread(rows: Sequence[Mapping[str, Any]], quantity: str) -> Spread:
     feasible = [r for r in rows if r["feasible"]]
     values = np.array([float(r[quantity]) for r in feasible])
     if values.size == 0:
-        nan = math.nan
-        return Spread((), (), nan, nan, nan, nan, None, len(rows), 0)
+        return Spread((), (), *(math.nan,) * 4, None, len(rows), 0)
     if quantity in CIRCULAR:
         median = circular_median(values)
         q25, q75 = circular_quartiles(values, median)

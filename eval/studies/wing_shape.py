@@ -95,32 +95,24 @@ def draw(
         paper_note="paper: real wing slightly above tear-drop at every power",
     )
     fig14 = figures.planform_figure(planform_outlines(), plan.figure(study_dir, "fig14_planforms"))
+    # the two sweep figures, by the condition on their x axis
+    sweeps = {
+        "flight speed V [m/s]": (
+            "Fig. 15: level-flight efficiency with the two wing shapes",
+            "fig15_efficiency_shapes",
+            "Fig. 15: efficiency, tear-drop vs real wing",
+            [fig15],
+        ),
+        "available power P/m [W/kg]": (
+            "Fig. 16: attainable acceleration with the two wing shapes",
+            "fig16_attainable_shapes",
+            "Fig. 16: attainable F̄_a, tear-drop vs real wing",
+            [fig16],
+        ),
+    }
     return [
         ("Fig. 14: tear-drop and real wing planforms", fig14),
-        *plan.sweep_figures(
-            study_dir,
-            "flight speed V [m/s]",
-            [
-                (
-                    "Fig. 15: level-flight efficiency with the two wing shapes",
-                    "fig15_efficiency_shapes",
-                    "Fig. 15: efficiency, tear-drop vs real wing",
-                    [fig15],
-                )
-            ],
-        ),
-        *plan.sweep_figures(
-            study_dir,
-            "available power P/m [W/kg]",
-            [
-                (
-                    "Fig. 16: attainable acceleration with the two wing shapes",
-                    "fig16_attainable_shapes",
-                    "Fig. 16: attainable F̄_a, tear-drop vs real wing",
-                    [fig16],
-                )
-            ],
-        ),
+        *(pair for x, spec in sweeps.items() for pair in plan.sweep_figures(study_dir, x, [spec])),
     ]
 
 

@@ -155,11 +155,6 @@ class ReadingResult:
         return {k: getattr(by_id.get(cid), "median", math.nan) for k, (cid, _) in HEADLINES.items()}
 
 
-def reading_dir(out_dir: Path, reading: Reading) -> Path:
-    """The folder of one reading's study outputs, ``DIR/<name>``."""
-    return out_dir / reading.name
-
-
 #: The columns of readings.csv, in order.
 CSV_COLUMNS: tuple[str, ...] = (
     "reading",
@@ -197,22 +192,17 @@ class Continuation(agents_jobs.Continuation):
         for name in ("full_median", "full_lowest"):
             value = getattr(self, name)
             if not is_number(value) or not -1.0 <= value <= 0.0:
-                raise ValueError(
-                    f"continuation {name} = {value!r}; allowed: a relative difference in [-1, 0]"
-                )
+                allowed = "a relative difference in [-1, 0]"
+                raise ValueError(f"continuation {name} = {value!r}; allowed: {allowed}")
             object.__setattr__(self, name, float(value))
-        checks = {
-            "check_studies": (
-                lambda s: s in PAPER_STUDIES,
-                f"names among {', '.join(PAPER_STUDIES)}",
-            ),
-            "check_seeds": (lambda s: is_int(s, 0), "integers >= 0"),
-        }
-        for name, (ok, allowed) in checks.items():
-            if not all(map(ok, values := tuple(getattr(self, name)))):
-                raise ValueError(
-                    f"continuation {name} = {getattr(self, name)!r}; allowed: {allowed}"
-                )
+        studies = f"names among {', '.join(PAPER_STUDIES)}"
+        for name, ok, allowed in (
+            ("check_studies", lambda s: s in PAPER_STUDIES, studies),
+            ("check_seeds", lambda s: is_int(s, 0), "integers >= 0"),
+        ):
+            given = getattr(self, name)
+            if not all(map(ok, values := tuple(given))):
+                raise ValueError(f"continuation {name} = {given!r}; allowed: {allowed}")
             object.__setattr__(self, name, values)
 
 

@@ -21,7 +21,7 @@ from matplotlib.patches import Patch, Rectangle
 from eval.figures import PALETTE, legend, save
 from eval.studies import report as study_report
 from eval.studies.base import StudyPlan
-from eval.studies.readings.plan import COUNTS, HEADLINES, Continuation, ReadingResult, reading_dir
+from eval.studies.readings.plan import COUNTS, HEADLINES, Continuation, ReadingResult
 from tandem_env.io.files import write_text_atomic
 
 #: The readings study's goal: a reading under which this many of the paper's claims agree.
@@ -121,10 +121,9 @@ def write_readings_report(
         "",
         "Claims whose verdict (on the median) differs from the default's (+ now agrees, − no "
         "longer agrees, · between differs, undecided, not identifiable and no data), with our "
-        "statistic under the "
-        "default → under the reading. "
-        "`*` marks a flip where both medians lie inside the other's inter-quartile range over "
-        "seeds: within the seed-to-seed spread, i.e. possibly search noise.",
+        "statistic under the default → under the reading. `*` marks a flip where both medians "
+        "lie inside the other's inter-quartile range over seeds: within the seed-to-seed "
+        "spread, i.e. possibly search noise.",
         "",
         *study_report.markdown_table(
             [
@@ -145,10 +144,7 @@ def write_readings_report(
         "",
         f"Data: {study_report.file_link(table, base)}. Each reading's full report "
         "(paper vs ours, figures): "
-        + ", ".join(
-            f"[`{r.reading.name}`]({study_report.relative_path(reading_dir(base, r.reading) / 'report.md', base)})"
-            for r in results
-        )
+        + ", ".join(f"[`{r.reading.name}`]({r.reading.name}/report.md)" for r in results)
         + ".",
         "",
         "## Readings in full",
@@ -238,9 +234,7 @@ def matrix_figure(results: Sequence[ReadingResult], path: Path, title: str) -> P
     n_rows, n_cols = len(claims), len(columns)
     no_data = _CODE["no data"]
     grid = [[_CODE.get(verdicts[i], no_data) for _, verdicts in columns] for i in range(n_rows)]
-    width = 3.6 + 0.42 * n_cols
-    height = 1.6 + 0.24 * n_rows
-    fig, ax = plt.subplots(figsize=(width, height))
+    fig, ax = plt.subplots(figsize=(3.6 + 0.42 * n_cols, 1.6 + 0.24 * n_rows))
     cmap = ListedColormap([color for color, _, _ in VERDICT_STYLE.values()])
     ax.imshow(grid, cmap=cmap, vmin=0, vmax=len(_CODE) - 1, aspect="auto", interpolation="nearest")
     styles = list(VERDICT_STYLE.values())

@@ -11,7 +11,7 @@ import os
 import statistics
 import sys
 from collections.abc import Iterable, Iterator, Mapping, Sequence
-from dataclasses import asdict, replace
+from dataclasses import asdict, dataclass, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -43,7 +43,6 @@ from eval.studies.readings.plan import (
     combinations,
     full_tasks,
     optima_of,
-    reading_dir,
     reading_jobs,
     single_readings,
     study_jobs,
@@ -58,7 +57,7 @@ def analyse_reading(
     """Analyse the four studies' ``jobs`` (:func:`study_jobs`) under ``reading`` into its
     folder, with its ``report.md`` and a link ``records -> ../records`` for the indexes."""
     p = replace(plan, reading=reading)
-    where = reading_dir(out.directory, reading)
+    where = out.directory / reading.name
     where.mkdir(parents=True, exist_ok=True)
     link = where / RECORDS_DIR
     # no symlinks here (e.g. some Windows setups): the index paths dangle
@@ -164,24 +163,24 @@ def _flat(jobs: Iterable[Mapping[str, Sequence[Job]]]) -> tuple[Job, ...]:
     return tuple(job for by_study in jobs for group in by_study.values() for job in group)
 
 
+@dataclass(eq=False)
 class ReadingsPlan:
     """The readings study's phases (an :class:`agents.runner.Plan`): with ``continuation`` the
     default in full, the bias check (:func:`check_jobs`) and the singles continued from the
     default's optima (:func:`full_tasks` in full), else the readings in full; then the
     combinations their results point to (if ``derive``). A look-ahead gets stand-ins; a run
-    analyses each reading into ``out`` for :meth:`finish`."""
+    analyses each reading into ``store`` for :meth:`finish`."""
 
-    def __init__(
-        self,
-        plan: StudyPlan,
-        out: RecordStore,
-        readings: Sequence[Reading] = SINGLES,
-        continuation: Continuation | None = Continuation(),
-        derive: bool = True,
-        progress: bool = True,
-        title: str = "readings study",
-    ) -> None:
-        readings = tuple(readings)
+    plan: StudyPlan
+    store: RecordStore
+    readings: Sequence[Reading] = SINGLES
+    continuation: Continuation | None = Continuation()
+    derive: bool = True
+    progress: bool = True
+    title: str = "readings study"
+
+    def __post_init__(self) -> None:
+        self.readings = readings = tuple(self.readings)
         names = [r.name for r in readings]
         if not readings or readings[0] != DEFAULT:
             raise ValueError(
@@ -190,14 +189,7 @@ class ReadingsPlan:
             )
         if len(set(names)) != len(names):
             raise ValueError(f"readings = {names}; allowed: distinct names")
-        self.plan = plan
-        self.store = out
-        self.readings = readings
-        self.title = title
-        self.continuation = continuation
-        self.derive = derive
-        self.progress = progress
-        self.earlier = _earlier_invocations(out.directory, plan)
+        self.earlier = _earlier_invocations(self.store.directory, self.plan)
         self.load_before = _load()
         self.results: list[ReadingResult] = []
         self.rows: list[dict[str, Any]] = []

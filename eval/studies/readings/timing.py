@@ -25,7 +25,6 @@ from eval.studies.bench_workers import makespan, seconds_per_evaluation
 from eval.studies.paper_reading import Reading
 from eval.studies.presets import STUDY_PRESETS, TINY, get_preset
 from eval.studies.readings import MANIFEST, reading_jobs
-from eval.studies.readings.plan import reading_dir
 from tandem_env.io.files import read_json
 
 WORKERS: tuple[int, ...] = (1, 2, 8, 32)
@@ -33,9 +32,7 @@ WORKERS: tuple[int, ...] = (1, 2, 8, 32)
 
 def analysed_records(out_dir: Path, reading: Reading) -> dict[Job, Record]:
     """The records that ``reading``'s studies analysed in the readings run ``out_dir``."""
-    indexes = (
-        read_json(reading_dir(out_dir, reading) / name / INDEX_FILE) for name in PAPER_STUDIES
-    )
+    indexes = (read_json(out_dir / reading.name / name / INDEX_FILE) for name in PAPER_STUDIES)
     keys = dict.fromkeys(entry["key"] for index in indexes for entry in index)
     paths = [out_dir / RECORDS_DIR / f"{key}.json" for key in keys]
     return {record.job: record for record in read_record_files(paths)}
