@@ -315,7 +315,6 @@ def save(fig: plt.Figure, path: Path, crop: bool = True) -> Path:
     return path
 
 
-# --- wing shape (Fig. 14) ----------------------------------------------------------------------
 #: Line style of each planform (Fig. 14) and its series' variant in Figs. 15-16.
 PLANFORM_VARIANT: dict[str, int] = {"tear-drop": 0, "real": 1}
 
@@ -344,7 +343,6 @@ def planform_figure(
     return save(fig, path)
 
 
-# --- convergence -------------------------------------------------------------------------------
 def convergence_figure(
     panels: Sequence[
         tuple[str, Sequence[tuple[str, np.ndarray, np.ndarray]], Sequence[tuple[str, int]]]

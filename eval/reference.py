@@ -440,8 +440,6 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     return 0
 
 
-# --- the table as people read it: a Markdown table, and a figure of the optima against the
-# condition with every seed's optimum beside the best
 # Okabe-Ito colours, one per objective (readable in colour-blind vision and in grey).
 _COLOURS = {
     "efficiency": "#0072B2",

@@ -179,10 +179,9 @@ def shifted_stroke(stroke: np.ndarray, lag: float) -> np.ndarray:
     """``stroke`` with the hind-wing's sweep and pitch phases shifted by ``lag`` [deg] and its
     elevation phase by N·lag: the hind-wing's motion delayed by −lag/360 of a beat."""
     out = np.array(stroke, dtype=float)
-    hind = dict(zip(PARAMETER_NAMES, range(len(PARAMETER_NAMES)), strict=True))
-    harmonic = out[hind["hind_elevation_harmonic"]]
+    harmonic = out[PARAMETER_NAMES.index("hind_elevation_harmonic")]
     for name, factor in (("sweep_phase", 1.0), ("pitch_phase", 1.0), ("elevation_phase", harmonic)):
-        index = hind[f"hind_{name}"]
+        index = PARAMETER_NAMES.index(f"hind_{name}")
         out[index] = _wrap(out[index] + factor * lag)
     return out
 
