@@ -500,8 +500,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         parser.error(f"--figure-episode {args.figure_episode}; allowed: 0 to {args.episodes - 1}")
     try:
         output_directory(args.out, folders=("optima", "optima/records"))
-        if args.figure is not None:
-            figure = Path(args.figure)
+        if (figure := args.figure) is not None:  # a Path (argparse's type)
             if figure.is_dir():
                 raise ValueError(f"--figure {str(figure)!r} is a folder; allowed: a file name")
             from matplotlib.backend_bases import FigureCanvasBase
