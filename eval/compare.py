@@ -324,9 +324,8 @@ def best_so_far_figure(records: Sequence[Record]) -> Any:
                     polished = True
                 ax.plot([end], [reported], marker="D", color=colour, ms=6, mec="k", ls="none")
                 finals.append(reported)
-            finals.extend(v for v in (q25[-1], median[-1], q75[-1]) if np.isfinite(v))
-            tail = median[x >= 0.1 * x[-1]]
-            finals.extend(v for v in tail[:1] if np.isfinite(v))
+            ends = (q25[-1], median[-1], q75[-1], *median[x >= 0.1 * x[-1]][:1])
+            finals.extend(v for v in ends if np.isfinite(v))
         reported = f"reported {objective_name} (median of feasible seeds)"
         ax.plot([], [], marker="D", color="0.5", mec="k", ls="none", label=reported)
         if polished:

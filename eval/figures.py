@@ -239,14 +239,10 @@ def draw_bounds(ax: Axes, bounds: tuple[float, float] | None) -> list[tuple[Any,
     return [(line, BOUND_LABEL)]
 
 
-def sweep_figure(
-    panels: Sequence[Panel], xlabel: str, title: str, path: Path, width: float = 6.0
-) -> Path:
+def sweep_figure(panels: Sequence[Panel], xlabel: str, title: str, path: Path) -> Path:
     """Stacked panels over one condition axis (the paper's Figs. 4-8 and 15-16), each legend
     its drawn series (the first panel's only, when all have the same), the paper and bounds."""
-    fig, axes = plt.subplots(
-        len(panels), 1, figsize=(width + 2.6, 2.4 * len(panels) + 0.8), sharex=True
-    )
+    fig, axes = plt.subplots(len(panels), 1, figsize=(8.6, 2.4 * len(panels) + 0.8), sharex=True)
     axes = np.atleast_1d(axes)
     shown: list[list[tuple[Any, str]]] = []
     for ax, panel in zip(axes, panels, strict=True):
@@ -315,7 +311,6 @@ def save(fig: plt.Figure, path: Path, crop: bool = True) -> Path:
     return path
 
 
-# --- wing shape (Fig. 14) ----------------------------------------------------------------------
 #: Line style of each planform (Fig. 14) and its series' variant in Figs. 15-16.
 PLANFORM_VARIANT: dict[str, int] = {"tear-drop": 0, "real": 1}
 
@@ -344,7 +339,6 @@ def planform_figure(
     return save(fig, path)
 
 
-# --- convergence -------------------------------------------------------------------------------
 def convergence_figure(
     panels: Sequence[
         tuple[str, Sequence[tuple[str, np.ndarray, np.ndarray]], Sequence[tuple[str, int]]]

@@ -84,15 +84,17 @@ class MeasuredCase:
     options: ModelOptions
 
 
-def _mapping(value: Any, where: str) -> dict[str, Any]:
+def _mapping(value: Any, where: str, allowed: tuple[str, ...] = ()) -> dict[str, Any]:
     if value is None:
         return {}
     if not isinstance(value, Mapping):
         raise SpecError(f"{where} = {value!r}; allowed: a mapping of fields")
+    if allowed:
+        _take(value, allowed, where)
     return dict(value)
 
 
-def _take(spec: dict[str, Any], allowed: tuple[str, ...], where: str) -> None:
+def _take(spec: Mapping[str, Any], allowed: tuple[str, ...], where: str) -> None:
     if unknown := sorted(set(spec) - set(allowed)):
         raise SpecError(f"{where}.{unknown[0]}: unknown field; allowed: {', '.join(allowed)}")
 
@@ -106,8 +108,7 @@ def _number(value: Any, where: str, unit: str) -> float:
 def _series(value: Any, where: str) -> tuple[float, list[tuple[float, float]]]:
     """A Fourier series as {mean, harmonics} or [mean, [[a, phase], ...]]."""
     if isinstance(value, Mapping):
-        series = dict(value)
-        _take(series, ("mean", "harmonics"), where)
+        series = _mapping(value, where, ("mean", "harmonics"))
         mean, harmonics = series.get("mean", 0.0), series.get("harmonics", [])
     elif isinstance(value, (list, tuple)) and len(value) == 2:
         mean, harmonics = value
@@ -219,8 +220,7 @@ def _measured_wing(
                 pitch_stations=stations,
             )
         data = _read_csv(folder / str(spec["csv"]), where)
-        columns = _mapping(spec.get("columns"), f"{where}.columns")
-        _take(columns, ("time", *ANGLES), f"{where}.columns")
+        columns = _mapping(spec.get("columns"), f"{where}.columns", ("time", *ANGLES))
         angles = [_column(data, columns.get(a, a), f"{where}.columns.{a}") for a in ANGLES]
         if "time" in columns or "time" in data:
             time = _column(data, columns.get("time", "time"), f"{where}.columns.time")
@@ -255,10 +255,10 @@ def load_case(path: str | Path) -> MeasuredCase:
         raise SpecError(str(error)) from None
     spec = _mapping(spec, str(path))
     _take(spec, ("description", "insect", "flight", "options", "kinematics"), "file")
-    flight = _mapping(spec.get("flight"), "flight")
-    _take(flight, ("speed", "flight_path_angle", "available_power"), "flight")
-    kinematics = _mapping(spec.get("kinematics"), "kinematics")
-    _take(kinematics, ("degrees", "n_samples", "fore", "hind"), "kinematics")
+    flight = _mapping(
+        spec.get("flight"), "flight", ("speed", "flight_path_angle", "available_power")
+    )
+    kinematics = _mapping(spec.get("kinematics"), "kinematics", ("degrees", "n_samples", *WINGS))
     degrees = kinematics.get("degrees", True)
     if not isinstance(degrees, bool):
         raise SpecError(f"kinematics.degrees = {degrees!r}; allowed: true or false")
@@ -277,8 +277,7 @@ def load_case(path: str | Path) -> MeasuredCase:
     if power is not None:
         power = _number(power, "flight.available_power", "W/kg")
     # The model options are checked last (after the flight's numbers), as they always were.
-    options = _mapping(spec.get("options"), "options")
-    _take(options, tuple(f.name for f in fields(ModelOptions)), "options")
+    options = _mapping(spec.get("options"), "options", tuple(f.name for f in fields(ModelOptions)))
     try:
         model_options = ModelOptions(**options)
     except (TypeError, ValueError) as exc:
@@ -383,10 +382,9 @@ def plot(case: MeasuredCase, history: StrokeHistory, path: Path) -> Path:
     weight = case.insect.weight
     for name, color in WING_COLORS.items():
         w = getattr(history, name)
-        x = w.cycle_fraction
-        axes[0].plot(x, 1e3 * w.vertical_force, color=color, label=f"{name} pair")
-        axes[1].plot(x, 1e3 * w.horizontal_force, color=color, label=f"{name} pair")
-        axes[2].plot(x, 1e3 * (w.aero_power + w.inertial_power), color=color, label=f"{name} pair")
+        power = w.aero_power + w.inertial_power
+        for ax, y in zip(axes, (w.vertical_force, w.horizontal_force, power), strict=True):
+            ax.plot(w.cycle_fraction, 1e3 * y, color=color, label=f"{name} pair")
     if case.fore.frequency == case.hind.frequency and case.fore.n_samples == case.hind.n_samples:
         x = history.fore.cycle_fraction
         for ax, key in zip(axes, ("vertical_force", "horizontal_force"), strict=False):

@@ -289,11 +289,11 @@ def add_run_arguments(parser: argparse.ArgumentParser, *flags: str) -> None:
         parser.add_argument(flag, **RUN_OPTIONS[flag])
 
 
-def run_options(args: argparse.Namespace, scheduler: str | None = None) -> dict[str, Any]:
-    """The runner's keywords (``run_jobs``, ``run_plan``) of ``--scheduler`` (or ``scheduler``),
-    ``--no-cache``, ``--rerun`` and ``--quiet`` as given."""
+def run_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The runner's keywords (``run_jobs``, ``run_plan``) of ``--scheduler``, ``--no-cache``,
+    ``--rerun`` and ``--quiet`` as given."""
     return {
-        "scheduler": scheduler or args.scheduler,
+        "scheduler": args.scheduler,
         "cache": args.cache,
         "rerun": args.rerun,
         "progress": not args.quiet,

@@ -95,10 +95,8 @@ NESTED_TASKS: frozenset[str] = frozenset({"TandemWing/Accelerate-v0"})
 #: A round "raises" a point when it gains more than this [%] (smaller gains are the polish's
 #: last digits, not a better optimum).
 RAISED_PERCENT = 0.1
-#: The continuation: per point and round, one run on half its budget, three quarters of that
-#: for the warm starts, until a round raises no point by more than :data:`RAISED_PERCENT`
-#: (0.1 %), at most 15 rounds (:class:`agents.jobs.Continuation`; the table says whether the
-#: last round still moved a point).
+#: The continuation (:class:`agents.jobs.Continuation`; the table says whether the last round
+#: still moved a point).
 CONTINUATION = Continuation(
     share=0.5, initial_share=0.75, starts=None, rounds=15, until=RAISED_PERCENT
 )
@@ -440,8 +438,6 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     return 0
 
 
-# --- the table as people read it: a Markdown table, and a figure of the optima against the
-# condition with every seed's optimum beside the best
 # Okabe-Ito colours, one per objective (readable in colour-blind vision and in grey).
 _COLOURS = {
     "efficiency": "#0072B2",

@@ -70,7 +70,6 @@ FIRST_SEED = 1000
 """Default first evaluation seed (training runs use small seeds)."""
 
 
-# --- the policies: each chooses the next stroke of B episodes from their observations and states
 class Policy(Protocol):
     """Chooses the next stroke of B episodes from their observations and states."""
 
@@ -143,7 +142,6 @@ class SB3Policy:
         return np.clip(actions, -1.0, 1.0)
 
 
-# --- the level-flight optima, through the harness ---------------------------------------------
 #: The harness method of the level-flight optima (registered with the harness, as pso is).
 DEFAULT_OPTIMISER = "cmaes"
 
@@ -156,14 +154,9 @@ def level_kwargs(config: SpeedChangeConfig) -> dict[str, Any]:
 
     kwargs: dict[str, Any] = {}
     insect = config.insect
-    if insect != Dragonfly():
-        planform = (
-            Dragonfly().with_planform(insect.planform) if insect.planform != "mixed" else None
-        )
-        if insect == planform:
-            kwargs["planform"] = insect.planform
-        else:
-            kwargs["insect"] = insect
+    if insect != Dragonfly():  # a planform's specimen as the planform, any other insect whole
+        plain = insect.planform != "mixed" and insect == Dragonfly().with_planform(insect.planform)
+        kwargs = {"planform": insect.planform} if plain else {"insect": insect}
     default = ModelOptions()
     for kwarg, name in MODEL_OPTION_KWARGS.items():
         if getattr(config.options, name) != getattr(default, name):
@@ -175,7 +168,7 @@ def optima_records(
     config: SpeedChangeConfig,
     *,
     speeds: Sequence[float] = STEADY_GRID,
-    method: str | None = None,
+    method: str = DEFAULT_OPTIMISER,
     budget: int = 12000,
     seed: int = 0,
     cache_dir: str | os.PathLike[str] | None = None,
@@ -193,7 +186,6 @@ def optima_records(
     from agents.jobs import Job
     from agents.runner import run_jobs
 
-    method = DEFAULT_OPTIMISER if method is None else method
     kwargs = level_kwargs(config)
     jobs = [Job(method, "level", float(v), budget, seed, env_kwargs=kwargs) for v in speeds]
     with tempfile.TemporaryDirectory() as scratch:
@@ -226,7 +218,6 @@ def steady_optima(config: SpeedChangeConfig, **run: Any) -> SteadyPolicy:
 MAX_EPISODES = MAX_BATCH_STROKES
 
 
-# --- episodes ----------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class EpisodeLog:
     """One episode: the state after each cycle (the start state first) and what each cost."""
@@ -431,7 +422,6 @@ def plot_episode(logs: Sequence[EpisodeLog], path: str | os.PathLike[str]) -> No
         figure.savefig(tmp)
 
 
-# --- the command -------------------------------------------------------------------------------
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--episodes", type=int, default=32, help=f"evaluation episodes (32; 1 to {MAX_EPISODES:,})"
@@ -510,8 +500,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         parser.error(f"--figure-episode {args.figure_episode}; allowed: 0 to {args.episodes - 1}")
     try:
         output_directory(args.out, folders=("optima", "optima/records"))
-        if args.figure is not None:
-            figure = Path(args.figure)
+        if (figure := args.figure) is not None:  # a Path (argparse's type)
             if figure.is_dir():
                 raise ValueError(f"--figure {str(figure)!r} is a folder; allowed: a file name")
             from matplotlib.backend_bases import FigureCanvasBase

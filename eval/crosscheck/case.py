@@ -179,10 +179,9 @@ def shifted_stroke(stroke: np.ndarray, lag: float) -> np.ndarray:
     """``stroke`` with the hind-wing's sweep and pitch phases shifted by ``lag`` [deg] and its
     elevation phase by N·lag: the hind-wing's motion delayed by −lag/360 of a beat."""
     out = np.array(stroke, dtype=float)
-    hind = dict(zip(PARAMETER_NAMES, range(len(PARAMETER_NAMES)), strict=True))
-    harmonic = out[hind["hind_elevation_harmonic"]]
+    harmonic = out[PARAMETER_NAMES.index("hind_elevation_harmonic")]
     for name, factor in (("sweep_phase", 1.0), ("pitch_phase", 1.0), ("elevation_phase", harmonic)):
-        index = hind[f"hind_{name}"]
+        index = PARAMETER_NAMES.index(f"hind_{name}")
         out[index] = _wrap(out[index] + factor * lag)
     return out
 
@@ -425,9 +424,7 @@ def wing_surface(
     return points + (np.asarray(origin) + np.array([0.0, root_offset, 0.0]))
 
 
-def clearances(
-    case: Case, insect: Dragonfly, root_offset: float = ROOT_OFFSET
-) -> dict[float, dict[str, float]]:
+def clearances(case: Case, insect: Dragonfly) -> dict[float, dict[str, float]]:
     """Per lag, the least distance over the beat [m] between the fore and hind wings on each
     side (``"pairs"``) and between the left and right wings of a pair, twice the least distance
     of a wing from the mid-plane (``"left_right"``; negative where they cross), of the solver's
@@ -437,12 +434,12 @@ def clearances(
     beta = float(stroke[PARAMETER_NAMES.index("fore_stroke_plane_angle")])
     fore = wing_motion(insect.fore, stroke, "fore")
     t = np.arange(n_time) / (n_time * fore.frequency)
-    fore_points = wing_surface(fore, np.zeros(3), t, root_offset, (n_span, n_chord))
+    fore_points = wing_surface(fore, np.zeros(3), t, ROOT_OFFSET, (n_span, n_chord))
     behind = hind_position(case.spacing, case.drop, beta)
     out = {}
     for lag in case.lags:
         hind = wing_motion(insect.hind, stroke, "hind", lag)
-        hind_points = wing_surface(hind, behind, t, root_offset, (n_span, n_chord))
+        hind_points = wing_surface(hind, behind, t, ROOT_OFFSET, (n_span, n_chord))
         least = min(
             float(cKDTree(hind_points[k]).query(fore_points[k])[0].min()) for k in range(n_time)
         )
