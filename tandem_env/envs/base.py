@@ -35,11 +35,12 @@ from .validate import (
     build_config,
     check_actions,
     check_render_mode,
-    option_value,
     reset_options,
 )
 
 RENDER_FPS = 4
+#: The ``metadata`` of every flight env; a vector env's adds its autoreset mode.
+_METADATA: dict[str, Any] = {"render_modes": list(RENDER_MODES), "render_fps": RENDER_FPS}
 
 EnvGenerators = Callable[[int], np.random.Generator]
 """``rng(k)``: the generator of the k-th sub-env being reset."""
@@ -91,8 +92,7 @@ class FlightCore:
     def __init__(self, config: FlightConfig) -> None:
         self.config = config
         self._low, self._high = config.envelope
-        condition = config.declared_condition
-        self._renamed = condition.renamed()
+        self._renamed = config.declared_condition.renamed()
         self.reference = ConfigReference(config)
         """The reference optima this config's strokes are scored against (or none)."""
 
@@ -113,9 +113,9 @@ class FlightCore:
         where = (self._low, self._high, cfg.declared_condition.unit, "the observation envelope")
         values = np.empty(count)
         for k in range(count):
-            given = reset_options(cfg.name, options[k], (key,), self._renamed)
+            given = reset_options(cfg.name, options[k], {key: where}, self._renamed)
             if given:
-                values[k] = option_value(cfg.name, key, given[key], *where)
+                values[k] = given[key]
             elif cfg.condition_range is None:
                 values[k] = cfg.fixed_condition
             else:
@@ -158,11 +158,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
     ``render_mode`` "rgb_array" renders a frame per sub-env, "human" sub-env 0; ``config`` a
     ready config, else the single env's keyword options."""
 
-    metadata: ClassVar[dict[str, Any]] = {
-        "render_modes": list(RENDER_MODES),
-        "render_fps": RENDER_FPS,
-        "autoreset_mode": AutoresetMode.NEXT_STEP,
-    }
+    metadata: ClassVar[dict[str, Any]] = {**_METADATA, "autoreset_mode": AutoresetMode.NEXT_STEP}
     config_class: ClassVar[type[FlightConfig]] = FlightConfig
     core_class: ClassVar[type[Any]] = FlightCore
 
@@ -324,8 +320,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
 
     def _fly(self, index: np.ndarray, physical: np.ndarray) -> tuple[Any, np.ndarray]:
         """Evaluate the strokes of started sub-envs ``index``; (batch, observations after)."""
-        values = self._values[index]
-        return self.core.step(physical, values), self._observations[index]
+        return self.core.step(physical, self._values[index]), self._observations[index]
 
     def frame(self, i: int, title: str) -> Frame:
         """The render frame of sub-env ``i`` under ``title`` (drawn by ``render``)."""
@@ -445,10 +440,7 @@ class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
     """One env of a task: its vector env at B = 1 (``vector_class``), seeded through
     Gymnasium's ``Env.np_random``."""
 
-    metadata: ClassVar[dict[str, Any]] = {
-        "render_modes": list(RENDER_MODES),
-        "render_fps": RENDER_FPS,
-    }
+    metadata: ClassVar[dict[str, Any]] = dict(_METADATA)
     vector_class: ClassVar[type[FlightVectorEnv]] = FlightVectorEnv
     #: The task's config class (``vector_class.config_class``), for the registry's look-ups.
     config_class: ClassVar[type[FlightConfig]] = FlightConfig

@@ -21,7 +21,7 @@ from .dynamics import advance, cycle_time, flight_path, net_force
 from .render import Frame, LastStep, history_of
 from .speed_change_config import MAX_BAND_SPEED, SPEED_CHANGE, SpeedChangeConfig
 from .step_batch import StepBatch
-from .validate import option_value, reset_options
+from .validate import reset_options
 
 #: What each observation entry is, in order (each mapped to [-1, 1], see ``observe``).
 OBSERVATION_NAMES: tuple[str, ...] = (
@@ -136,8 +136,7 @@ class SpeedChangeCore:
             "target_speed": (low, high, "m/s", "the speed envelope"),
             "vertical_speed": (-MAX_BAND_SPEED, MAX_BAND_SPEED, "m/s", "the range"),
         }
-        given = reset_options(cfg.name, options, tuple(ranges), {})
-        return {key: option_value(cfg.name, key, v, *ranges[key]) for key, v in given.items()}
+        return reset_options(cfg.name, options, ranges, {})
 
     def observe(self, flight: Flight) -> np.ndarray:
         """(B, 5) float32 observations (:data:`OBSERVATION_NAMES`), clipped to [-1, 1]: u over
@@ -236,8 +235,7 @@ def frame_for(
         f"mN | F_z {motion['force_vertical'] * 1e3:+.3f} mN | "
         f"P/m {float(result.power_per_mass[k]):.1f} W/kg | Δt {motion['cycle_time'] * 1e3:.1f} ms"
     )
-    history = history_of(batch.strokes, k, cfg.insect, cfg.options)
-    return Frame(title=heading, subtitle=subtitle, history=history)
+    return Frame(heading, subtitle, history_of(batch.strokes, k, cfg.insect, cfg.options))
 
 
 # VectorEnv among the direct bases too: skrl tells a vector env by its class's direct bases.
