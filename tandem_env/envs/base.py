@@ -81,7 +81,6 @@ def fly(
     return evaluate(physical, speed, power, flight_path_angle=flight_path_angle, **model)
 
 
-# --- the batched core ----------------------------------------------------------------------------
 class FlightCore:
     """The batched core of a one-cycle task: draw conditions, observe them, score strokes; a
     task's core defines only how its declared condition enters the model
@@ -106,7 +105,7 @@ class FlightCore:
         """The ``reset(options=...)`` key that sets the condition for one episode."""
         return self.config.declared_condition.keyword
 
-    def draw_conditions(self, count: int, rngs: EnvGenerators, options: EnvOptions) -> np.ndarray:
+    def draw(self, count: int, rngs: EnvGenerators, options: EnvOptions) -> np.ndarray:
         """Conditions (count,) of new episodes: ``options[k]``'s, the fixed one, or one
         ``uniform`` draw from ``rngs(k)`` (so every front end consumes the streams alike)."""
         cfg, key = self.config, self.option_key
@@ -152,7 +151,6 @@ class FlightCore:
         return FlightProblem(self, ACTION_LOW, ACTION_HIGH)
 
 
-# --- the vector env --------------------------------------------------------------------------------
 class FlightVectorEnv(RenderWindow, VectorEnv):
     """n sub-envs (1 to ``MAX_BATCH_STROKES``) of a task in ONE batched model call per step;
     ``render_mode`` "rgb_array" renders a frame per sub-env, "human" sub-env 0; ``config`` a
@@ -219,7 +217,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
     @property
     def conditions(self) -> np.ndarray:
         """(n,) current condition of each sub-env (its declared condition's unit)."""
-        return self._values.copy()
+        return self._state.copy()
 
     @property
     def observations(self) -> np.ndarray:
@@ -307,24 +305,25 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         return spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
 
     def _init_episodes(self, n: int) -> None:
-        """The episode state of n sub-envs before their first reset."""
-        self._values = np.full(n, np.nan)
+        """The episode state of n sub-envs before their first reset, ``_state``: the core's
+        ``draw`` and ``step`` take it, read (``_state[index]``) and set by sub-env."""
+        self._state = np.full(n, np.nan)
 
     def _start(self, index: np.ndarray, rng: EnvGenerators, options: EnvOptions) -> Columns:
         """Draw new episodes for sub-envs ``index``, set their state and observations; their
         reset info columns."""
-        values = self.core.draw_conditions(index.size, rng, options)
-        self._values[index] = values
-        self._observations[index] = self.core.observe(values)
-        return self.core.reset_columns(values)
+        state = self.core.draw(index.size, rng, options)
+        self._state[index] = state
+        self._observations[index] = self.core.observe(state)
+        return self.core.reset_columns(state)
 
     def _fly(self, index: np.ndarray, physical: np.ndarray) -> tuple[Any, np.ndarray]:
         """Evaluate the strokes of started sub-envs ``index``; (batch, observations after)."""
-        return self.core.step(physical, self._values[index]), self._observations[index]
+        return self.core.step(physical, self._state[index]), self._observations[index]
 
     def frame(self, i: int, title: str) -> Frame:
         """The render frame of sub-env ``i`` under ``title`` (drawn by ``render``)."""
-        value = None if not self._started[i] else float(self._values[i])
+        value = None if not self._started[i] else float(self._state[i])
         return frame_for(self.core, title, value, self._last[i])
 
     # --- Gymnasium VectorEnv API ------------------------------------------------------------------
@@ -435,7 +434,6 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         return f"{type(self).__name__}({name}, num_envs={self.num_envs})"
 
 
-# --- the single env: the vector env at B = 1 ------------------------------------------------------
 class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
     """One env of a task: its vector env at B = 1 (``vector_class``), seeded through
     Gymnasium's ``Env.np_random``."""
