@@ -172,14 +172,13 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         # one batch of strokes per step: the model's batch limit is every vector env's
         count(num_envs, "num_envs", 1, MAX_BATCH_STROKES, "sub-envs: one model batch per step")
         try:
-            mode = AutoresetMode(autoreset_mode)
+            self.autoreset_mode = AutoresetMode(autoreset_mode)
         except ValueError as error:
             allowed = ", ".join(repr(m.value) for m in AutoresetMode)
             raise ValueError(f"autoreset_mode = {autoreset_mode!r}; allowed: {allowed}") from error
         self.num_envs = int(num_envs)
         self.render_mode = check_render_mode(render_mode)
-        self.autoreset_mode = mode
-        self.metadata = {**type(self).metadata, "autoreset_mode": mode}
+        self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode}
         self.config = build_config(self.config_class, config, kwargs)
         self.core = self.core_class(self.config)
         self.single_action_space = action_space()
