@@ -15,7 +15,7 @@ from ..physics import AVAILABLE_POWER_LIMITS, DRAGONFLY, SPEED_LIMITS, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
 from .config import FlightConfig, normalise_condition
 from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
-from .validate import check_real
+from .validate import check_real, store_checked
 
 #: The specimen's available power per body mass [W/kg], 90 W/kg: the top of the paper's sweep.
 SPECIMEN_POWER: float = DRAGONFLY.max_power_per_mass
@@ -98,13 +98,11 @@ class AccelerateConfig(FlightConfig):
             raise ValueError(
                 f"{owner}.objective = {self.objective!r}; allowed: {', '.join(map(repr, choices))}"
             )
-        speed = check_real(owner, "speed", self.speed, "m/s", *SPEED_LIMITS)
-        object.__setattr__(self, "speed", speed)
+        store_checked(self, "speed", check_real, "m/s", *SPEED_LIMITS)
         normalise_condition(self)
 
     def describe(self) -> str:
-        power = _CONDITION.describe(self.available_power, self.available_power_range)
-        return f"{power}, V = {self.speed:g} m/s, objective {self.objective}"
+        return f"{super().describe()}, V = {self.speed:g} m/s, objective {self.objective}"
 
 
 class AccelerateCore(FlightCore):

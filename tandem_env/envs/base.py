@@ -35,11 +35,12 @@ from .validate import (
     build_config,
     check_actions,
     check_render_mode,
-    option_value,
     reset_options,
 )
 
 RENDER_FPS = 4
+#: The ``metadata`` of every flight env; a vector env's adds its autoreset mode.
+_METADATA: dict[str, Any] = {"render_modes": list(RENDER_MODES), "render_fps": RENDER_FPS}
 
 EnvGenerators = Callable[[int], np.random.Generator]
 """``rng(k)``: the generator of the k-th sub-env being reset."""
@@ -80,7 +81,6 @@ def fly(
     return evaluate(physical, speed, power, flight_path_angle=flight_path_angle, **model)
 
 
-# --- the batched core ----------------------------------------------------------------------------
 class FlightCore:
     """The batched core of a one-cycle task: draw conditions, observe them, score strokes; a
     task's core defines only how its declared condition enters the model
@@ -91,8 +91,7 @@ class FlightCore:
     def __init__(self, config: FlightConfig) -> None:
         self.config = config
         self._low, self._high = config.envelope
-        condition = config.declared_condition
-        self._renamed = condition.renamed()
+        self._renamed = config.declared_condition.renamed()
         self.reference = ConfigReference(config)
         """The reference optima this config's strokes are scored against (or none)."""
 
@@ -106,16 +105,16 @@ class FlightCore:
         """The ``reset(options=...)`` key that sets the condition for one episode."""
         return self.config.declared_condition.keyword
 
-    def draw_conditions(self, count: int, rngs: EnvGenerators, options: EnvOptions) -> np.ndarray:
+    def draw(self, count: int, rngs: EnvGenerators, options: EnvOptions) -> np.ndarray:
         """Conditions (count,) of new episodes: ``options[k]``'s, the fixed one, or one
         ``uniform`` draw from ``rngs(k)`` (so every front end consumes the streams alike)."""
         cfg, key = self.config, self.option_key
         where = (self._low, self._high, cfg.declared_condition.unit, "the observation envelope")
         values = np.empty(count)
         for k in range(count):
-            given = reset_options(cfg.name, options[k], (key,), self._renamed)
+            given = reset_options(cfg.name, options[k], {key: where}, self._renamed)
             if given:
-                values[k] = option_value(cfg.name, key, given[key], *where)
+                values[k] = given[key]
             elif cfg.condition_range is None:
                 values[k] = cfg.fixed_condition
             else:
@@ -152,17 +151,12 @@ class FlightCore:
         return FlightProblem(self, ACTION_LOW, ACTION_HIGH)
 
 
-# --- the vector env --------------------------------------------------------------------------------
 class FlightVectorEnv(RenderWindow, VectorEnv):
     """n sub-envs (1 to ``MAX_BATCH_STROKES``) of a task in ONE batched model call per step;
     ``render_mode`` "rgb_array" renders a frame per sub-env, "human" sub-env 0; ``config`` a
     ready config, else the single env's keyword options."""
 
-    metadata: ClassVar[dict[str, Any]] = {
-        "render_modes": list(RENDER_MODES),
-        "render_fps": RENDER_FPS,
-        "autoreset_mode": AutoresetMode.NEXT_STEP,
-    }
+    metadata: ClassVar[dict[str, Any]] = {**_METADATA, "autoreset_mode": AutoresetMode.NEXT_STEP}
     config_class: ClassVar[type[FlightConfig]] = FlightConfig
     core_class: ClassVar[type[Any]] = FlightCore
 
@@ -178,14 +172,13 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         # one batch of strokes per step: the model's batch limit is every vector env's
         count(num_envs, "num_envs", 1, MAX_BATCH_STROKES, "sub-envs: one model batch per step")
         try:
-            mode = AutoresetMode(autoreset_mode)
+            self.autoreset_mode = AutoresetMode(autoreset_mode)
         except ValueError as error:
             allowed = ", ".join(repr(m.value) for m in AutoresetMode)
             raise ValueError(f"autoreset_mode = {autoreset_mode!r}; allowed: {allowed}") from error
         self.num_envs = int(num_envs)
         self.render_mode = check_render_mode(render_mode)
-        self.autoreset_mode = mode
-        self.metadata = {**type(self).metadata, "autoreset_mode": mode}
+        self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode}
         self.config = build_config(self.config_class, config, kwargs)
         self.core = self.core_class(self.config)
         self.single_action_space = action_space()
@@ -223,7 +216,7 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
     @property
     def conditions(self) -> np.ndarray:
         """(n,) current condition of each sub-env (its declared condition's unit)."""
-        return self._values.copy()
+        return self._state.copy()
 
     @property
     def observations(self) -> np.ndarray:
@@ -311,25 +304,25 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         return spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
 
     def _init_episodes(self, n: int) -> None:
-        """The episode state of n sub-envs before their first reset."""
-        self._values = np.full(n, np.nan)
+        """The episode state of n sub-envs before their first reset, ``_state``: the core's
+        ``draw`` and ``step`` take it, read (``_state[index]``) and set by sub-env."""
+        self._state = np.full(n, np.nan)
 
     def _start(self, index: np.ndarray, rng: EnvGenerators, options: EnvOptions) -> Columns:
         """Draw new episodes for sub-envs ``index``, set their state and observations; their
         reset info columns."""
-        values = self.core.draw_conditions(index.size, rng, options)
-        self._values[index] = values
-        self._observations[index] = self.core.observe(values)
-        return self.core.reset_columns(values)
+        state = self.core.draw(index.size, rng, options)
+        self._state[index] = state
+        self._observations[index] = self.core.observe(state)
+        return self.core.reset_columns(state)
 
     def _fly(self, index: np.ndarray, physical: np.ndarray) -> tuple[Any, np.ndarray]:
         """Evaluate the strokes of started sub-envs ``index``; (batch, observations after)."""
-        values = self._values[index]
-        return self.core.step(physical, values), self._observations[index]
+        return self.core.step(physical, self._state[index]), self._observations[index]
 
     def frame(self, i: int, title: str) -> Frame:
         """The render frame of sub-env ``i`` under ``title`` (drawn by ``render``)."""
-        value = None if not self._started[i] else float(self._values[i])
+        value = None if not self._started[i] else float(self._state[i])
         return frame_for(self.core, title, value, self._last[i])
 
     # --- Gymnasium VectorEnv API ------------------------------------------------------------------
@@ -440,15 +433,11 @@ class FlightVectorEnv(RenderWindow, VectorEnv):
         return f"{type(self).__name__}({name}, num_envs={self.num_envs})"
 
 
-# --- the single env: the vector env at B = 1 ------------------------------------------------------
 class FlightEnv(RenderWindow, gym.Env[np.ndarray, np.ndarray]):
     """One env of a task: its vector env at B = 1 (``vector_class``), seeded through
     Gymnasium's ``Env.np_random``."""
 
-    metadata: ClassVar[dict[str, Any]] = {
-        "render_modes": list(RENDER_MODES),
-        "render_fps": RENDER_FPS,
-    }
+    metadata: ClassVar[dict[str, Any]] = dict(_METADATA)
     vector_class: ClassVar[type[FlightVectorEnv]] = FlightVectorEnv
     #: The task's config class (``vector_class.config_class``), for the registry's look-ups.
     config_class: ClassVar[type[FlightConfig]] = FlightConfig

@@ -18,7 +18,7 @@ from ..physics.backends import check_backend
 from ..physics.checks import is_real as _is_real
 from ..physics.insect import insect_mapping, load_insect
 from .declaration import TaskCondition, TaskDeclaration, TaskObjectives, check_declarations
-from .validate import check_interval, check_real
+from .validate import check_interval, check_real, store_checked
 
 #: ``ModelOptions`` fields whose ``gym.make`` keyword differs from the field's name: ``power``
 #: was Accelerate's old condition name, so the power accounting is ``power_convention`` there.
@@ -40,8 +40,7 @@ _REAL_MODEL_OPTIONS = ("interference", "tolerance")
 def insect_keyword(value: Any) -> dict[str, Any] | None:
     """The ``insect`` env keyword in its canonical form, one per insect however given: the
     mapping of what differs from the paper's specimen, or None for the specimen itself."""
-    changes = insect_mapping(load_insect(value))
-    return changes or None
+    return insect_mapping(load_insect(value)) or None
 
 
 def _overridden(
@@ -76,11 +75,7 @@ def normalise_condition(config: FlightConfig) -> None:
     if declared is None:
         raise TypeError(f"{type(config).__name__} declares no condition")
     name, _, envelope_name = declared.keywords
-    given = getattr(config, envelope_name)
-    envelope = check_interval(
-        type(config).__name__, envelope_name, given, declared.unit, declared.limits
-    )
-    object.__setattr__(config, envelope_name, envelope)
+    store_checked(config, envelope_name, check_interval, declared.unit, declared.limits)
     fixed_or_sampled(config, name, envelope_name, declared.unit, declared.default)
 
 
@@ -141,8 +136,7 @@ class PenaltyConfig:
 
     def __post_init__(self) -> None:
         for name in ("weight", "offset"):
-            value = check_real("PenaltyConfig", name, getattr(self, name), "", 0.0, 1e6)
-            object.__setattr__(self, name, value)
+            store_checked(self, name, check_real, "", 0.0, 1e6)
         if self.weight == 0.0 and self.offset == 0.0:
             raise ValueError(
                 "PenaltyConfig.weight and PenaltyConfig.offset are both 0, so infeasible strokes "
@@ -322,5 +316,5 @@ class FlightConfig:
         return cls(insect=insect, options=options, penalty=penalty, **kwargs)
 
     def describe(self) -> str:
-        """One line naming the condition, for titles and reprs."""
-        raise NotImplementedError
+        """One line naming the condition, for titles and reprs (the declared condition's)."""
+        return self.declared_condition.describe(self.fixed_condition, self.condition_range)

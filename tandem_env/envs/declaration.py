@@ -34,13 +34,12 @@ def _text(owner: str, name: str, value: Any) -> None:
 
 
 def _pair(owner: str, name: str, value: Any, unit: str) -> tuple[float, float]:
-    ok = (
+    if not (
         isinstance(value, tuple)
         and len(value) == 2
         and all(is_real(v) and math.isfinite(v) for v in value)
         and value[0] < value[1]
-    )
-    if not ok:
+    ):
         raise ValueError(
             f"{owner}.{name} = {value!r}; allowed: a tuple (low, high) of finite numbers with "
             f"low < high [{unit}]"
@@ -164,11 +163,10 @@ class TaskObjectives:
 
     def __post_init__(self) -> None:
         owner = "TaskObjectives"
-        metrics = self.metrics
         if not (
-            isinstance(metrics, Mapping)
-            and metrics
-            and all(isinstance(k, str) and k for k in metrics)
+            isinstance(self.metrics, Mapping)
+            and self.metrics
+            and all(isinstance(k, str) and k for k in self.metrics)
         ):
             raise ValueError(
                 f"{owner}.metrics = {self.metrics!r}; allowed: a non-empty mapping of objective "
@@ -286,12 +284,11 @@ class TaskDeclaration:
                 f"TaskDeclaration {self.name!r}: condition = {self.condition!r}, objectives = "
                 f"{self.objectives!r}; allowed: a TaskCondition and a TaskObjectives, or neither"
             )
-        constraints = self.constraints
-        if not isinstance(constraints, tuple) or not all(
-            isinstance(c, Constraint) for c in constraints
+        if not isinstance(self.constraints, tuple) or not all(
+            isinstance(c, Constraint) for c in self.constraints
         ):
             raise TypeError(
-                f"TaskDeclaration {self.name!r}: constraints = {constraints!r}; allowed: a "
+                f"TaskDeclaration {self.name!r}: constraints = {self.constraints!r}; allowed: a "
                 "tuple of Constraint (empty for an unconstrained task)"
             )
 

@@ -45,8 +45,7 @@ def cycle_time(physical: np.ndarray) -> np.ndarray:
     complete at least one whole beat within it: the slower pair's mean is then never applied
     over a fraction of its beat, where its forces would be far from their mean.
     """
-    slowest = np.minimum(physical[:, _FORE_FREQUENCY], physical[:, _HIND_FREQUENCY])
-    return 1.0 / slowest
+    return 1.0 / np.minimum(physical[:, _FORE_FREQUENCY], physical[:, _HIND_FREQUENCY])
 
 
 def body_drag(speed: np.ndarray, insect: Dragonfly) -> np.ndarray:

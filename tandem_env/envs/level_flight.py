@@ -15,7 +15,7 @@ from ..physics import SPEED_LIMITS, ModelOptions, Result
 from .base import FlightCore, FlightEnv, FlightVectorEnv
 from .config import MODEL_OPTION_KWARGS, FlightConfig, normalise_condition
 from .declaration import POWER_CAP, Constraint, TaskCondition, TaskDeclaration, TaskObjectives
-from .validate import check_real
+from .validate import check_real, store_checked
 
 
 # Each violation is max(0, −margin). The margins are array-agnostic (builtin abs, arithmetic):
@@ -73,18 +73,12 @@ class LevelFlightConfig(FlightConfig):
     def __post_init__(self) -> None:
         super().__post_init__()
         normalise_condition(self)
-        tol = check_real(
-            type(self).__name__, "constraint_tolerance", self.constraint_tolerance, "", 0.0, 0.999
-        )
-        object.__setattr__(self, "constraint_tolerance", tol)
+        store_checked(self, "constraint_tolerance", check_real, "", 0.0, 0.999)
 
     @property
     def available_power(self) -> float:
         """Power cap of level flight [W/kg]: the insect's maximum (90 W/kg, docs/model.md §7)."""
         return self.insect.max_power_per_mass
-
-    def describe(self) -> str:
-        return self.CONDITION.describe(self.speed, self.speed_range)  # type: ignore[union-attr]
 
 
 class LevelFlightCore(FlightCore):

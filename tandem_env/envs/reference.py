@@ -355,10 +355,8 @@ def table_strokes(
             f"{list(series.conditions)}"
         )
     near = [j for j in (i, i - 1, i + 1) if 0 <= j < len(series.points)]
-    strokes = (tuple(map(float, series.points[j]["normalised_stroke"])) for j in near)
-    return tuple(
-        dict.fromkeys(s for j, s in zip(near, strokes, strict=True) if series.points[j]["feasible"])
-    )
+    points = [series.points[j] for j in near if series.points[j]["feasible"]]
+    return tuple(dict.fromkeys(tuple(map(float, p["normalised_stroke"])) for p in points))
 
 
 def record_score(

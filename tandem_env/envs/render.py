@@ -23,6 +23,7 @@ if TYPE_CHECKING:
 #: Frame size [px] of ``rgb_array`` renders (width, height) and its resolution [dpi].
 FRAME_SIZE: tuple[int, int] = (720, 400)
 FRAME_DPI = 80
+_FIGURE_SIZE = (FRAME_SIZE[0] / FRAME_DPI, FRAME_SIZE[1] / FRAME_DPI)  # [in]
 #: Uniform samples per cycle of the plotted histories (plotting only; metrics come from evaluate).
 HISTORY_SAMPLES = 120
 
@@ -106,8 +107,7 @@ def to_rgb_array(frame: Frame) -> np.ndarray:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    width, height = FRAME_SIZE
-    figure = Figure(figsize=(width / FRAME_DPI, height / FRAME_DPI), dpi=FRAME_DPI)
+    figure = Figure(figsize=_FIGURE_SIZE, dpi=FRAME_DPI)
     canvas = FigureCanvasAgg(figure)
     draw(figure, frame)
     canvas.draw()
@@ -173,8 +173,7 @@ class RenderWindow:
         import matplotlib.pyplot as plt
 
         if self._window is None or not plt.fignum_exists(self._window.number):
-            size = (FRAME_SIZE[0] / FRAME_DPI, FRAME_SIZE[1] / FRAME_DPI)
-            self._window = plt.figure(figsize=size, dpi=FRAME_DPI)
+            self._window = plt.figure(figsize=_FIGURE_SIZE, dpi=FRAME_DPI)
         draw(self._window, frame)
         if matplotlib.get_backend().lower() in _NON_INTERACTIVE:
             self._window.canvas.draw()

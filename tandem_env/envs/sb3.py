@@ -83,8 +83,7 @@ class TandemVecEnv(VecEnv):
             columns = self.vector_env.autoreset(ended)  # frames still show the strokes flown
             for i, info in zip(ended, rows(columns, ended.size), strict=True):
                 self.reset_infos[i] = info
-        observations = self.vector_env.observations  # a copy
-        return observations, batch.reward.astype(np.float32), dones, infos
+        return self.vector_env.observations, batch.reward.astype(np.float32), dones, infos
 
     def close(self) -> None:
         self.vector_env.close()

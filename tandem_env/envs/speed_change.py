@@ -21,7 +21,7 @@ from .dynamics import advance, cycle_time, flight_path, net_force
 from .render import Frame, LastStep, history_of
 from .speed_change_config import MAX_BAND_SPEED, SPEED_CHANGE, SpeedChangeConfig
 from .step_batch import StepBatch
-from .validate import option_value, reset_options
+from .validate import reset_options
 
 #: What each observation entry is, in order (each mapped to [-1, 1], see ``observe``).
 OBSERVATION_NAMES: tuple[str, ...] = (
@@ -58,11 +58,11 @@ class Flight:
         arrays["cycle"] = np.zeros(count, dtype=np.int64)
         return cls(**arrays)
 
-    def take(self, index: np.ndarray) -> Flight:
+    def __getitem__(self, index: np.ndarray) -> Flight:
         """The episodes ``index`` (copies)."""
         return Flight(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
 
-    def put(self, index: np.ndarray, other: Flight) -> None:
+    def __setitem__(self, index: np.ndarray, other: Flight) -> None:
         """Overwrite episodes ``index`` with ``other`` (in place)."""
         for f in fields(self):
             getattr(self, f.name)[index] = getattr(other, f.name)
@@ -136,8 +136,7 @@ class SpeedChangeCore:
             "target_speed": (low, high, "m/s", "the speed envelope"),
             "vertical_speed": (-MAX_BAND_SPEED, MAX_BAND_SPEED, "m/s", "the range"),
         }
-        given = reset_options(cfg.name, options, tuple(ranges), {})
-        return {key: option_value(cfg.name, key, v, *ranges[key]) for key, v in given.items()}
+        return reset_options(cfg.name, options, ranges, {})
 
     def observe(self, flight: Flight) -> np.ndarray:
         """(B, 5) float32 observations (:data:`OBSERVATION_NAMES`), clipped to [-1, 1]: u over
@@ -171,9 +170,8 @@ class SpeedChangeCore:
         """Fly one cycle of each episode from its (validated, physical) stroke: ONE batched
         model call, then Eqs. (1)-(3) of :mod:`tandem_env.envs.dynamics` and the reward terms."""
         cfg = self.config
-        count = len(flight.cycle)
         speed, gamma = flight_path(flight.forward_speed, flight.vertical_speed)
-        result = fly(cfg, physical, speed, np.full(count, cfg.available_power), gamma)
+        result = fly(cfg, physical, speed, np.full(len(flight.cycle), cfg.available_power), gamma)
         dt = cycle_time(physical)
         fx, fz = net_force(result, cfg.insect)
         before = (flight.forward_speed, flight.vertical_speed, flight.distance, flight.altitude)
@@ -236,8 +234,7 @@ def frame_for(
         f"mN | F_z {motion['force_vertical'] * 1e3:+.3f} mN | "
         f"P/m {float(result.power_per_mass[k]):.1f} W/kg | Δt {motion['cycle_time'] * 1e3:.1f} ms"
     )
-    history = history_of(batch.strokes, k, cfg.insect, cfg.options)
-    return Frame(title=heading, subtitle=subtitle, history=history)
+    return Frame(heading, subtitle, history_of(batch.strokes, k, cfg.insect, cfg.options))
 
 
 # VectorEnv among the direct bases too: skrl tells a vector env by its class's direct bases.
@@ -252,36 +249,30 @@ class SpeedChangeVectorEnv(FlightVectorEnv, VectorEnv):
     @property
     def conditions(self) -> np.ndarray:
         """(n,) target speed of each sub-env's episode [m/s]."""
-        return self._flight.target_speed.copy()
+        return self._state.target_speed.copy()
 
     @property
     def flight(self) -> Flight:
         """The state of every sub-env's episode (a copy)."""
-        return self._flight.take(np.arange(self.num_envs))
+        return self._state[np.arange(self.num_envs)]
 
     def _observation_space(self) -> spaces.Box:
         """Box(-1, 1, (5,), float32): u, w, h, u*, cycles left, each normalised (see the env)."""
         return spaces.Box(-1.0, 1.0, (len(OBSERVATION_NAMES),), dtype=np.float32)
 
     def _init_episodes(self, n: int) -> None:
-        self._flight = Flight.empty(n)
-
-    def _start(self, index: np.ndarray, rng: EnvGenerators, options: EnvOptions) -> Columns:
-        flight = self.core.draw(index.size, rng, options)
-        self._flight.put(index, flight)
-        self._observations[index] = self.core.observe(flight)
-        return self.core.reset_columns(flight)
+        self._state = Flight.empty(n)
 
     def _fly(self, index: np.ndarray, physical: np.ndarray) -> tuple[CycleBatch, np.ndarray]:
         """Fly one cycle of sub-envs ``index`` in one model call; (batch, observations)."""
-        batch = self.core.step(physical, self._flight.take(index))
-        self._flight.put(index, batch.after)
+        batch = self.core.step(physical, self._state[index])
+        self._state[index] = batch.after
         observations = self.core.observe(batch.after)
         self._observations[index] = observations
         return batch, observations
 
     def frame(self, i: int, title: str) -> Frame:
-        flight = self._flight if self._started[i] else None
+        flight = self._state if self._started[i] else None
         return frame_for(self.core, title, flight, i, self._last[i])
 
 

@@ -11,7 +11,7 @@ from ..physics.stroke import WING_NAMES
 from .config import FlightConfig, fixed_or_sampled
 from .declaration import POWER_CAP, TaskDeclaration
 from .level_flight import LEVEL_FLIGHT
-from .validate import check_count, check_interval, check_real
+from .validate import check_count, check_interval, check_real, store_checked
 
 #: Speeds the episode's start and target are drawn from by default [m/s]: the level-flight
 #: envelope (``LEVEL_FLIGHT.condition.envelope``), where a steady level stroke exists.
@@ -74,10 +74,7 @@ class SpeedChangeReward:
 
     def __post_init__(self) -> None:
         for name in self.TERMS:
-            value = check_real(
-                "SpeedChangeReward", name, getattr(self, name), f"[{self.UNITS[name]}]", 0.0, 1e9
-            )
-            object.__setattr__(self, name, value)
+            store_checked(self, name, check_real, f"[{self.UNITS[name]}]", 0.0, 1e9)
 
     @classmethod
     def build(cls, value: Any) -> SpeedChangeReward:
@@ -142,14 +139,12 @@ class SpeedChangeConfig(FlightConfig):
     def __post_init__(self) -> None:
         super().__post_init__()
         owner = type(self).__name__
-        envelope = check_interval(owner, "speed_envelope", self.speed_envelope, "m/s", SPEED_LIMITS)
-        object.__setattr__(self, "speed_envelope", envelope)
+        envelope = store_checked(self, "speed_envelope", check_interval, "m/s", SPEED_LIMITS)
         fixed_or_sampled(self, "start_speed", "speed_envelope", "m/s", None)
         fixed_or_sampled(self, "target_speed", "speed_envelope", "m/s", None)
-        cycles = check_count(
-            owner, "max_cycles", self.max_cycles, 1, MAX_CYCLES, "wing-beat cycles per episode"
+        store_checked(
+            self, "max_cycles", check_count, 1, MAX_CYCLES, "wing-beat cycles per episode"
         )
-        object.__setattr__(self, "max_cycles", cycles)
         band = check_interval(
             owner, "forward_speed_band", self.forward_speed_band, "m/s", SPEED_LIMITS
         )
@@ -168,8 +163,7 @@ class SpeedChangeConfig(FlightConfig):
                 )
         object.__setattr__(self, "forward_speed_band", band)
         for name, unit in (("altitude_band", "m"), ("vertical_speed_scale", "m/s")):
-            value = check_real(owner, name, getattr(self, name), unit, 1e-6, 1e3)
-            object.__setattr__(self, name, value)
+            store_checked(self, name, check_real, unit, 1e-6, 1e3)
         object.__setattr__(self, "reward", SpeedChangeReward.build(self.reward))
 
     @classmethod

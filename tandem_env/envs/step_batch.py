@@ -76,10 +76,9 @@ class StepBatch:
         columns |= {"penalty": self.penalty, "feasible": self.scores.feasible}
         if self.score is not None:
             columns["score"] = self.score
-        stroke: Columns = {}
-        for j, name in enumerate(PARAMETER_NAMES):
-            column = self.physical[:, j]
-            # N is an integer parameter; strokes_to_dicts reports it as int, and so do we.
-            stroke[name] = column.astype(int) if name in _HARMONIC else column.copy()
-        columns["stroke"] = stroke
+        # N is an integer parameter; strokes_to_dicts reports it as int, and so do we.
+        columns["stroke"] = {
+            name: column.astype(int) if name in _HARMONIC else column.copy()
+            for name, column in zip(PARAMETER_NAMES, self.physical.T, strict=True)
+        }
         return columns

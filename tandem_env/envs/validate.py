@@ -5,7 +5,7 @@ naming it, its value and what is allowed."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
 import numpy as np
@@ -51,6 +51,14 @@ def check_interval(
             f"with {limits[0]:g} <= low < high <= {limits[1]:g} {unit}"
         )
     return float(pair[0]), float(pair[1])
+
+
+def store_checked(config: Any, name: str, check: Callable[..., Any], *limits: Any) -> Any:
+    """Check the field ``name`` of the frozen dataclass ``config`` with ``check(owner, name,
+    value, *limits)`` (a validator above) and store what it returns; that value."""
+    value = check(type(config).__name__, name, getattr(config, name), *limits)
+    object.__setattr__(config, name, value)
+    return value
 
 
 def check_render_mode(render_mode: Any) -> str | None:
@@ -110,10 +118,14 @@ def action_values(arr: np.ndarray, clip: bool) -> np.ndarray:
 
 
 def reset_options(
-    owner: str, options: Any, allowed: tuple[str, ...], renamed: Mapping[str, str]
-) -> Mapping[str, Any]:
-    """``options`` of ``reset`` as a mapping (empty for None) whose keys are all ``allowed``;
-    an old key of ``renamed`` is refused naming its new one."""
+    owner: str,
+    options: Any,
+    ranges: Mapping[str, tuple[float, float, str, str]],
+    renamed: Mapping[str, str],
+) -> dict[str, float]:
+    """The numbers ``options`` of ``reset`` set (empty for None): its keys all of ``ranges``
+    (key -> (low, high, unit, what that range is)), each value finite and in its range; an
+    old key of ``renamed`` is refused naming its new one."""
     if not options:
         return {}
     if not isinstance(options, Mapping):
@@ -121,24 +133,21 @@ def reset_options(
     for key in options:
         if key in renamed:
             raise ValueError(f"{owner}: reset option {key!r} was renamed; use {renamed[key]!r}")
-    unknown = sorted(set(options) - set(allowed))
+    unknown = sorted(set(options) - set(ranges))
     if unknown:
         raise ValueError(
-            f"{owner}: unknown reset option(s) {unknown}; allowed: {', '.join(map(repr, allowed))}"
+            f"{owner}: unknown reset option(s) {unknown}; allowed: {', '.join(map(repr, ranges))}"
         )
-    return options
-
-
-def option_value(
-    owner: str, key: str, value: Any, low: float, high: float, unit: str, where: str
-) -> float:
-    """A reset option's number: finite and in [low, high] (``where`` names that range)."""
-    if not is_real(value) or not math.isfinite(value) or not low <= value <= high:
-        raise ValueError(
-            f"{owner}: reset option {key} = {value!r}; allowed: a number in {where} {low:g} to "
-            f"{high:g} {unit}"
-        )
-    return float(value)
+    values = {}
+    for key, value in options.items():
+        low, high, unit, where = ranges[key]
+        if not is_real(value) or not math.isfinite(value) or not low <= value <= high:
+            raise ValueError(
+                f"{owner}: reset option {key} = {value!r}; allowed: a number in {where} {low:g} "
+                f"to {high:g} {unit}"
+            )
+        values[key] = float(value)
+    return values
 
 
 def build_config(

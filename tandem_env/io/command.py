@@ -116,9 +116,10 @@ def command_line(main: Callable[P, int | None]) -> Callable[P, int]:
     return wrapped
 
 
-def checked_by(convert: Callable[[Any], Any]) -> type[argparse.Action]:
-    """An argparse action converting the option's value with ``convert``; its ValueError is
-    the usage error (status 2), prefixed with the option where it does not name it."""
+def checked_by(convert: Callable[..., Any], *, with_option: bool = False) -> type[argparse.Action]:
+    """An argparse action converting the option's value with ``convert`` (``convert(value,
+    option)`` where ``with_option``); its ValueError is the usage error (status 2), prefixed
+    with the option where it does not name it."""
 
     class Checked(argparse.Action):
         def __call__(
@@ -128,10 +129,12 @@ def checked_by(convert: Callable[[Any], Any]) -> type[argparse.Action]:
             values: Any,
             option_string: str | None = None,
         ) -> None:
+            option = option_string or self.dest
             try:
-                setattr(namespace, self.dest, convert(values))
+                given = (values, option) if with_option else (values,)
+                setattr(namespace, self.dest, convert(*given))
             except ValueError as error:
-                text, option = str(error), option_string or self.dest
+                text = str(error)
                 parser.error(text if option in text else f"{option}: {text}")
 
     Checked.__name__ = f"checked_by_{getattr(convert, '__name__', 'convert')}"

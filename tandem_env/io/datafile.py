@@ -130,21 +130,20 @@ DataLoader.add_implicit_resolver(
 def read_text(path: str | os.PathLike[str], where: str) -> str:
     """A file's text: UTF-8 (a BOM allowed), no NUL bytes; errors say what the file is
     (``where``, e.g. ``"kinematics file"``)."""
-    path = Path(path)
+    name = f"{where} {str(path)!r}"
     try:
-        data = path.read_bytes()
+        data = Path(path).read_bytes()
     except OSError as exc:
-        raise DataFileError(
-            f"{where} {str(path)!r} cannot be read ({exc.strerror or exc})"
-        ) from None
-    if data.startswith((b"\xff\xfe", b"\xfe\xff")) or b"\x00" in data[:4096]:
-        kind = "UTF-16 text" if data.startswith((b"\xff\xfe", b"\xfe\xff")) else "binary data"
-        raise DataFileError(f"{where} {str(path)!r} holds {kind}; allowed: UTF-8 text")
+        raise DataFileError(f"{name} cannot be read ({exc.strerror or exc})") from None
+    utf16 = data.startswith((b"\xff\xfe", b"\xfe\xff"))
+    if utf16 or b"\x00" in data[:4096]:
+        kind = "UTF-16 text" if utf16 else "binary data"
+        raise DataFileError(f"{name} holds {kind}; allowed: UTF-8 text")
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise DataFileError(
-            f"{where} {str(path)!r} is not UTF-8 text (byte {exc.start}: "
+            f"{name} is not UTF-8 text (byte {exc.start}: "
             f"{data[exc.start : exc.start + 1]!r}); allowed: UTF-8 text (save it as UTF-8)"
         ) from None
 

@@ -29,9 +29,7 @@ def to_jsonable(obj: Any, default: Callable[[Any], Any] | None = None) -> Any:
     (as in :func:`json.dumps`), else TypeError."""
     if obj is None or isinstance(obj, str | bool | int | float):
         return obj
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
+    if isinstance(obj, np.generic | np.ndarray):  # a numpy scalar's tolist is its item
         return obj.tolist()
     if isinstance(obj, Path):
         return str(obj)

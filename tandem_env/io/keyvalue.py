@@ -9,6 +9,7 @@ from typing import Any
 
 import yaml
 
+from .command import checked_by
 from .datafile import BoundedLoader, parse_yaml
 
 
@@ -56,22 +57,14 @@ def parse_pairs(items: Iterable[str] | None, option: str) -> dict[str, Any]:
     return out
 
 
-class KeyValuePairs(argparse.Action):
-    """``--option KEY=VALUE ...`` parsed when the command line is (:func:`parse_pairs`): the
-    option's value is the dict, or the usage error (exit status 2) naming the bad pair."""
+def _pairs(values: str | Sequence[str], option: str) -> dict[str, Any]:
+    return parse_pairs([values] if isinstance(values, str) else values, option)
 
-    def __call__(
-        self,
-        parser: argparse.ArgumentParser,
-        namespace: argparse.Namespace,
-        values: str | Sequence[Any] | None,
-        option_string: str | None = None,
-    ) -> None:
-        items = [values] if isinstance(values, str) else list(values or ())
-        try:
-            setattr(namespace, self.dest, parse_pairs(items, option_string or self.dest))
-        except ValueError as error:
-            parser.error(str(error))  # the message names the option and the pair
+
+class KeyValuePairs(checked_by(_pairs, with_option=True)):  # type: ignore[misc]
+    """``--option KEY=VALUE ...`` parsed when the command line is (:func:`parse_pairs`): the
+    option's value is the dict, or the usage error (exit status 2) naming the bad pair (each
+    message of :func:`parse_pairs` names the option)."""
 
 
 def add_pairs_argument(parser: argparse.ArgumentParser, option: str, help: str) -> None:

@@ -76,19 +76,12 @@ class ProgressBar:
         self, total: int, description: str, enabled: bool = True, waiting: str | None = None
     ) -> None:
         self._waiting = True
-        postfix = waiting or (STARTING if _reported else COMPILING)
-        settings = {"unit": "eval", "unit_scale": True, "dynamic_ncols": True, "leave": True}
         self._bar: Any = None
         if enabled:
-            self._bar = tqdm(
-                total=total,
-                desc=description,
-                file=QuietStream(),
-                mininterval=0.5,
-                bar_format=_WAITING_FORMAT,
-                postfix=postfix,
-                **settings,
-            )
+            settings = {"unit": "eval", "unit_scale": True, "dynamic_ncols": True, "leave": True}
+            settings |= {"file": QuietStream(), "mininterval": 0.5, "bar_format": _WAITING_FORMAT}
+            postfix = waiting or (STARTING if _reported else COMPILING)
+            self._bar = tqdm(total=total, desc=description, postfix=postfix, **settings)
 
     def move_to(self, evaluations: int, status: str | None = None) -> None:
         """Move the bar to ``evaluations`` (absolute, so irregular reports still work)."""
