@@ -194,8 +194,7 @@ class Job:
             payload["model"] = model
             if self.slipstream() == "vortex":  # that reading's own revision besides
                 payload["vortex"] = tandem_env.physics.VORTEX_REVISION
-        text = json.dumps(payload, sort_keys=True)
-        return hashlib.sha256(text.encode()).hexdigest()[:20]
+        return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:20]
 
     def slipstream(self) -> str:
         """The slipstream reading the job's model runs: its ``slipstream`` keyword, else its

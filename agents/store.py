@@ -268,8 +268,7 @@ def read_record_files(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
     for base in map(Path, paths):
         if not base.exists():
             raise ValueError(f"{base}: no such file or directory")
-        files = sorted(base.rglob("*.json")) if base.is_dir() else [base]
-        for path in files:
+        for path in sorted(base.rglob("*.json")) if base.is_dir() else [base]:
             try:
                 data = _read_json(path)
             except OSError as error:

@@ -83,8 +83,7 @@ def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) 
 def _decided(results: Mapping[str, Any]) -> dict[str, Any]:
     """The results of :data:`CHECKED`, their metrics without :data:`TABLE_RELATIVE`."""
     decided = {name: results[name] for name in CHECKED}
-    metrics = decided["metrics"]
-    decided["metrics"] = {k: v for k, v in metrics.items() if k not in TABLE_RELATIVE}
+    decided["metrics"] = {k: v for k, v in decided["metrics"].items() if k not in TABLE_RELATIVE}
     return decided
 
 
