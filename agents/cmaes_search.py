@@ -163,12 +163,9 @@ class CMAES(AskTellOptimiser, settings=CMAESConfig):
                 f"population ({popsize} points); allowed: a budget >= {popsize}, or a smaller "
                 f"popsize (>= {MIN_POPSIZE})"
             )
-        bad = [i for i, _ in config.discrete if i >= dim]
-        if bad:
-            allowed = f"allowed: 0 to {dim - 1}"
-            raise ValueError(
-                f"discrete index {bad[0]} is outside the box of dimension {dim}; {allowed}"
-            )
+        if bad := [i for i, _ in config.discrete if i >= dim]:
+            box = f"the box of dimension {dim}; allowed: 0 to {dim - 1}"
+            raise ValueError(f"discrete index {bad[0]} is outside {box}")
         super().__init__(dim, popsize, config, seed)
         self._popsize0 = popsize
         self._bounds = np.tile([ACTION_LOW, ACTION_HIGH], (dim, 1)).astype(float)

@@ -7,6 +7,7 @@ client is made (:func:`dask_client`).
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import re
 import signal
@@ -54,37 +55,32 @@ def parse_scheduler(text: str) -> str:
     if not isinstance(text, str):
         raise ValueError(f"scheduler = {text!r}; allowed: a string, {_ALLOWED}")
     text = text.strip()
+
+    def refused(why: str = "") -> ValueError:
+        return ValueError(f"--scheduler {text!r}{why}; allowed: {_ALLOWED}")
+
     if text.startswith("local:"):
         n = text.partition(":")[2]
         if not n.isdigit() or not 1 <= int(n) <= MAX_LOCAL_WORKERS:
-            raise ValueError(
-                f"--scheduler {text!r}: local:N needs a whole number N of worker processes from "
-                f"1 to {MAX_LOCAL_WORKERS}; allowed: {_ALLOWED}"
-            )
+            workers = f"a whole number N of worker processes from 1 to {MAX_LOCAL_WORKERS}"
+            raise refused(f": local:N needs {workers}")
         return f"local:{int(n)}"
     scheme, _, rest = text.rpartition("://")
     if scheme and scheme != SCHEME:
-        raise ValueError(
-            f"--scheduler {text!r}: the scheme {scheme + '://'!r} is not supported; allowed: "
-            f"{_ALLOWED}"
-        )
+        raise refused(f": the scheme {scheme + '://'!r} is not supported")
     match = re.fullmatch(r"(\[[0-9a-fA-F:]+\]|[^\s/:\[\]]+):(\d{1,6})", rest)
     if match is None:
-        raise ValueError(f"--scheduler {text!r}; allowed: {_ALLOWED}")
+        raise refused()
     host, port = match.groups()
     if not host.startswith("[") and not _HOST.fullmatch(host):
         # The resolver refuses other names with a codec error ("label too long") or a NUL.
         short = host if len(host) <= 40 else f"{host[:40]}…"
-        raise ValueError(
-            f"--scheduler {text!r}: {short!r} is not a host name (letters, digits, '-', "
-            f"'.', '_'; labels of 1 to 63, at most 253 in all) nor an IP address; allowed: "
-            f"{_ALLOWED}"
+        raise refused(
+            f": {short!r} is not a host name (letters, digits, '-', '.', '_'; labels of 1 to 63, "
+            "at most 253 in all) nor an IP address"
         )
     if not PORTS[0] <= int(port) <= PORTS[1]:
-        raise ValueError(
-            f"--scheduler {text!r}: port {int(port)} is outside {PORTS[0]} to {PORTS[1]}; "
-            f"allowed: {_ALLOWED}"
-        )
+        raise refused(f": port {int(port)} is outside {PORTS[0]} to {PORTS[1]}")
     return f"{SCHEME}://{host}:{int(port)}"
 
 
@@ -175,8 +171,6 @@ def _workers_ignore_interrupts() -> Iterator[None]:
 def dask_client(scheduler: str, *, quiet: bool = False) -> Iterator[Client]:
     """A client of ``scheduler`` (``local:N`` or an address), closed (with its cluster) at exit;
     :class:`SchedulerUnreachable` if none answers within :data:`CONNECT_TIMEOUT` seconds."""
-    import logging
-
     from distributed import Client, LocalCluster
 
     spec = parse_scheduler(scheduler)

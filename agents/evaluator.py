@@ -74,7 +74,6 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
         self.step_time = 0.0
         """Wall time spent in the vector envs' reset and step [s] (for overhead accounting)."""
 
-    # --- the vector envs ---------------------------------------------------------------------
     def _env(self, n: int) -> gym.vector.VectorEnv:
         env = self._envs.get(n)
         if env is None:
@@ -94,7 +93,6 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    # --- evaluation ----------------------------------------------------------------------------
     def evaluate_batch(self, actions: np.ndarray) -> EvaluatedBatch:
         """Evaluate a batch (n, dim) in one vector-env step, as the action type carries it
         (:func:`~tandem_env.envs.base.as_action_type`); rewards, objectives, feasibility."""
@@ -124,8 +122,7 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
         self.add(actions, rewards)
         # the best stroke by the selection rule (feasible first) too, so the harness can
         # return a stroke that flies (a penalised reward can rank an infeasible one above)
-        j = self._best.offer(feasible, rewards)
-        if j is not None:
+        if (j := self._best.offer(feasible, rewards)) is not None:
             self._best_stroke_action = actions[j].copy()
         if self._on_batch is not None:
             self._on_batch(self.iterations, self.evaluations, self.best_value)
@@ -135,7 +132,6 @@ class VectorEnvEvaluator(Tally, contextlib.AbstractContextManager):
         """Rewards (n,) of a batch of actions (n, dim): the fitness a method maximises."""
         return self.evaluate_batch(actions).rewards
 
-    # --- what was found ----------------------------------------------------------------------
     @property
     def best_feasible(self) -> tuple[np.ndarray, float] | None:
         """(action, reward) of the best feasible stroke so far (a copy), or None if none was

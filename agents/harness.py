@@ -58,8 +58,7 @@ def prepare_job(
         raise ValueError(f"task {spec.name!r} given for a job of task {job.task!r}")
     cond = spec.condition(job.condition)
     kwargs = dict(job.env_kwargs)
-    clash = sorted(set(kwargs) & set(spec.forbidden_kwargs))
-    if clash:
+    if clash := sorted(set(kwargs) & set(spec.forbidden_kwargs)):
         raise ValueError(
             f"env_kwargs {clash} are set by the harness for task {spec.name!r}; give the "
             f"condition ({cond.name} [{cond.unit}]) as the condition argument"
@@ -88,8 +87,7 @@ def prepare_job(
             )
         # the default polish needs a flight task
         polish_config = replace(polish_config, method="none")
-    wrong = [len(stroke) for stroke in polish_config.initial if len(stroke) != dim]
-    if wrong:
+    if wrong := [len(stroke) for stroke in polish_config.initial if len(stroke) != dim]:
         raise ValueError(
             f"initial stroke of length {wrong[0]}; allowed: {dim} values (the action box)"
         )
@@ -226,10 +224,9 @@ def run_job(
         index = max(range(len(parts)), key=lambda k: (parts[k].feasible, parts[k].reward))
         left = budget - sum(part.evaluations for part in parts)
         parts[index] = finish_part(prepared, parts[index], left, problem)
-        chosen = parts[index]
         # as the action type carries it, so the record's stroke stepped as a float32 action is
         # this stroke (a no-op for the evaluator's and the polish's strokes)
-        chosen = replace(chosen, action=as_action_type(chosen.action))
+        chosen = replace(parts[index], action=as_action_type(parts[index].action))
         evaluations = sum(part.evaluations for part in parts)
         if evaluations > budget:  # every part counts its own; never over its share
             raise RuntimeError(f"search and polish used {evaluations} > budget {budget}")
@@ -237,17 +234,13 @@ def run_job(
         if not chosen.feasible and chosen.kind == "initial":
             # an infeasible initial stroke has no search reward: the re-evaluation's is its own
             chosen = replace(chosen, reward=again.reward)
-        results = _results(prepared, chosen, search_history(parts), again)
-        results["evaluations"] = int(evaluations)
-        results[CERTIFICATE] = chosen.certificate.to_dict()
-        if len(parts) > 1:
-            results[STARTS] = [part.summary() for part in parts]
+        results = _results(prepared, chosen, parts, again, evaluations)
         results["wall_time"] = time.perf_counter() - start
         return Record(job=prepared.job, key=prepared.job.key, results=results)
 
 
 def _results(
-    prepared: PreparedJob, chosen: Part, history: list[tuple[int, float]], again: Reevaluation
+    prepared: PreparedJob, chosen: Part, parts: list[Part], again: Reevaluation, evaluations: int
 ) -> dict[str, Any]:
     """The record's results (:data:`agents.records.RESULTS`) from the re-evaluation."""
     action, search_reward, selection = chosen.action, chosen.reward, chosen.selection
@@ -263,12 +256,12 @@ def _results(
         "objective_name": prepared.objective_name,
         "condition_name": prepared.condition.name,
         "condition_unit": prepared.condition.unit,
-        "evaluations": chosen.evaluations,
+        "evaluations": int(evaluations),
         **stepped_results(again.reward, again.info, action),  # what a reuse checks again
         "search_reward": search_reward,
         "selection": selection,
         "normalised_stroke": action.tolist(),
-        "history": [[int(e), float(b)] for e, b in history],
+        "history": [[int(e), float(b)] for e, b in search_history(parts)],
         "wall_time": 0.0,
         # a polished initial stroke: the method did not run there, so its name only
         "method_settings": to_jsonable(
@@ -278,4 +271,6 @@ def _results(
         ),
         "env": to_jsonable(again.env_config),
         "versions": package_versions(),
+        CERTIFICATE: chosen.certificate.to_dict(),
+        **({STARTS: [part.summary() for part in parts]} if len(parts) > 1 else {}),
     }

@@ -16,7 +16,7 @@ from dataclasses import dataclass, fields, replace
 from typing import Any, ClassVar, Protocol
 
 import tandem_env
-from agents.polish_config import INITIAL_SHARE_RANGE
+from agents.polish_config import INITIAL_SHARE_RANGE, split_settings
 from agents.tasks import available_tasks, get_task
 from tandem_env.envs.config import EXECUTION_KWARGS, insect_keyword
 from tandem_env.io.files import to_jsonable
@@ -91,7 +91,6 @@ def method_identity(spec: str, config: Mapping[str, Any]) -> str:
     if ":" not in spec:
         return ""
     from agents.methods import get_method
-    from agents.polish_config import split_settings
 
     try:
         method = get_method(spec, split_settings(spec, dict(config))[1])
@@ -155,8 +154,7 @@ class Job:
         if not isinstance(data, Mapping):
             raise ValueError(f"job = {data!r}; allowed: a JSON object (Job.to_dict)")
         allowed = set(cls.__dataclass_fields__)
-        unknown = sorted(set(data) - allowed)
-        if unknown:
+        if unknown := sorted(set(data) - allowed):
             raise ValueError(f"job has unknown field(s) {unknown}; allowed: {sorted(allowed)}")
         try:  # a record's job holds the identity its method had (none: none)
             return cls(**{"method_identity": "", **data})
@@ -196,8 +194,7 @@ class Job:
             payload["model"] = model
             if self.slipstream() == "vortex":  # that reading's own revision besides
                 payload["vortex"] = tandem_env.physics.VORTEX_REVISION
-        text = json.dumps(payload, sort_keys=True)
-        return hashlib.sha256(text.encode()).hexdigest()[:20]
+        return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:20]
 
     def slipstream(self) -> str:
         """The slipstream reading the job's model runs: its ``slipstream`` keyword, else its

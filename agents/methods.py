@@ -14,6 +14,7 @@ import contextlib
 import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
+from importlib.metadata import entry_points
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -105,7 +106,6 @@ MethodFactory = Callable[[str | None, Mapping[str, Any]], Method]
 """``factory(argument, config) -> Method``; should validate ``config`` and raise ValueError."""
 
 
-# --- ask/tell optimisers ---------------------------------------------------------------------
 @dataclass(frozen=True)
 class AskTellMethod:
     """An ask/tell optimiser run on the vector-env fitness; its config is built once at
@@ -134,8 +134,7 @@ class AskTellMethod:
         while not optimiser.done:
             X = optimiser.ask()
             optimiser.tell(X, context.evaluate(X))
-        best = optimiser.best_position
-        if best is None:
+        if (best := optimiser.best_position) is None:
             raise RuntimeError(f"{self.name}: every evaluation returned NaN or -inf")
         return SearchOutcome(
             best_action=best,
@@ -175,8 +174,7 @@ def register_optimiser(
         if argument is not None:
             raise ValueError(f"method {name!r} takes no ':' argument; got {name}:{argument}")
         settings = dict(config)
-        budget = sorted({"iterations", "max_evaluations"} & set(settings))
-        if budget:
+        if budget := sorted({"iterations", "max_evaluations"} & set(settings)):
             raise ValueError(
                 f"method {name!r}: {budget} cannot be set here; the harness budget (model "
                 "evaluations) is the only budget"
@@ -185,8 +183,7 @@ def register_optimiser(
             alias = settings.pop("swarm_size")
             if settings.setdefault(batch, alias) != alias:
                 raise ValueError(f"method {name!r}: give {batch} or its alias swarm_size, not both")
-        unknown = sorted(set(settings) - set(allowed))
-        if unknown:
+        if unknown := sorted(set(settings) - set(allowed)):
             raise ValueError(
                 f"method {name!r}: unknown setting(s) {unknown}; allowed: {', '.join(allowed)}"
                 + ("" if batch == "swarm_size" else f", swarm_size (alias of {batch})")
@@ -206,7 +203,6 @@ def preset_batch_setting(method: str) -> str | None:
     return _PRESET_BATCH.get(name)
 
 
-# --- the registry ------------------------------------------------------------------------------
 _REGISTRY: dict[str, MethodFactory] = {}
 
 
@@ -230,8 +226,6 @@ OPTIMISER_ENTRY_POINTS = "tandem_env.optimisers"
 def providers() -> dict[str, str]:
     """Method name -> the module that registers it on first use: the installed
     ``tandem_env.optimisers`` entry points (read now)."""
-    from importlib.metadata import entry_points
-
     return {p.name: p.module for p in entry_points(group=OPTIMISER_ENTRY_POINTS)}
 
 

@@ -74,8 +74,7 @@ class Tally:
     def add(self, points: FloatArray, values: ArrayLike) -> None:
         """Count a round of points (n, dim) with their values (n,) and keep the best."""
         values = np.asarray(values, dtype=np.float64)
-        i = self._top.offer(np.zeros(values.shape, dtype=bool), values)
-        if i is not None:
+        if (i := self._top.offer(np.zeros(values.shape, dtype=bool), values)) is not None:
             self._top_point = np.array(points[i], dtype=np.float64)
         self.evaluations += values.shape[0]
         self.iterations += 1

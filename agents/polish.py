@@ -28,10 +28,10 @@ from typing import Any
 import numpy as np
 from scipy.optimize import BFGS, Bounds, NonlinearConstraint, OptimizeResult, minimize, nnls
 
-from agents.polish_config import *  # noqa: F403  (the polish's settings, see __all__)
+# The public names of the settings and gradient modules (their __all__) are this module's too.
+from agents.polish_config import *  # noqa: F403
 from agents.polish_config import PolishConfig
-from agents.polish_config import __all__ as _config_names
-from agents.polish_gradients import *  # noqa: F403  (its problem and gradients, see __all__)
+from agents.polish_gradients import *  # noqa: F403
 from agents.polish_gradients import (
     AutogradGradient,
     CentralDifferences,
@@ -40,27 +40,10 @@ from agents.polish_gradients import (
     Problem,
     finishable,
 )
-from agents.polish_gradients import __all__ as _gradient_names
 from tandem_env.envs.base import ACTION_DTYPE, as_action_type
 from tandem_env.physics.checks import is_integer
 
-# The public names of the settings and gradient modules are this module's too.
-__all__ = [
-    "CERTIFIED_KKT",
-    "UNCERTIFIED",
-    "Certificate",
-    "PolishResult",
-    "certified",
-    "describe",
-    "float32_margin",
-    "kkt_residual",
-    "polish",
-    *_config_names,
-    *_gradient_names,
-]
 
-
-# --- first-order optimality ----------------------------------------------------------------------
 def kkt_residual(
     objective_gradient: np.ndarray,
     margins: np.ndarray,
@@ -95,7 +78,6 @@ def kkt_residual(
     return float(rnorm), on_constraint, upper | lower
 
 
-# --- the polish -------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Certificate:
     """What a record says about the local optimality of its stroke (JSON: :meth:`to_dict`)."""

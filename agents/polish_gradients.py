@@ -15,7 +15,7 @@ import numpy as np
 
 from agents.polish_config import PolishConfig
 from agents.tasks import Condition, TaskSpec
-from tandem_env.envs.problem import FlightProblem
+from tandem_env.envs.problem import FlightProblem, ProblemEvaluation
 
 __all__ = [
     "AutogradGradient",
@@ -100,24 +100,22 @@ def task_problem(
         raise ValueError(f"{task.env_id}: its task declares no constraint margins; cannot polish")
     names = view.constraint_names
 
-    def evaluate(actions: np.ndarray) -> BatchEvaluation:
-        found = view.evaluate(actions, condition.value)
+    def batch(found: ProblemEvaluation) -> BatchEvaluation:
         assert found.margins is not None  # polishable: every constraint has a margin
         return BatchEvaluation(found.objective, found.margins, found.feasible, names)
 
+    def evaluate(actions: np.ndarray) -> BatchEvaluation:
+        return batch(view.evaluate(actions, condition.value))
+
     def differentiate(actions: np.ndarray) -> tuple[BatchEvaluation, np.ndarray, np.ndarray]:
         found = view.differentiate(actions, condition.value)
-        value = found.evaluation
-        assert value.margins is not None
-        batch = BatchEvaluation(value.objective, value.margins, value.feasible, names)
-        return batch, found.objective_gradient, found.margin_jacobian
+        return batch(found.evaluation), found.objective_gradient, found.margin_jacobian
 
     discrete = {i for i, _ in task.discrete_actions}
     free = tuple(j for j in range(view.dim) if j not in discrete)
     return Problem(evaluate, view.dim, free, view.parameter_names, differentiate)
 
 
-# --- gradients ----------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Gradient:
     """Value and first derivatives at one point, w.r.t. the free coordinates."""

@@ -19,6 +19,7 @@ from agents.jobs import OLD_SCHEMAS, SCHEMA, Job
 from agents.tasks import Condition
 from tandem_env.envs.reference import record_score
 from tandem_env.io.files import to_jsonable
+from tandem_env.physics.checks import _short
 
 #: The record's ``selection``: which of the strokes a search evaluated it reports.
 SELECTION_BEST_FEASIBLE = "best feasible stroke seen"
@@ -165,8 +166,7 @@ class Record:
             raise RecordError(f"key = {self.key!r}; allowed: the job's key (Job.key)")
         if not isinstance(self.results, Mapping):
             raise RecordError(f"results = {self.results!r}; allowed: a mapping")
-        missing = [name for name in RESULTS if name not in self.results]
-        if missing:
+        if missing := [name for name in RESULTS if name not in self.results]:
             raise RecordError(f"record results are missing {missing}")
         try:
             results = to_jsonable(self.results)
@@ -187,7 +187,6 @@ class Record:
                     "infeasible reward)"
                 )
 
-    # --- the job's fields -----------------------------------------------------------------------
     method = _job_field("method", 'Method spec, e.g. ``"pso"``, ``"policy:runs/ppo"``.')
     task = _job_field("task", 'Task name, e.g. ``"level"`` or ``"accelerate"``.')
     seed = _job_field("seed", "Seed of the method (and of the envs' first reset).")
@@ -236,7 +235,6 @@ class Record:
         env's full configuration: insect, model options incl. ``thrust_split``, penalty)."""
         return {"method": self.results["method_settings"], "env": self.results["env"]}
 
-    # --- JSON ------------------------------------------------------------------------------------
     def _payload(self) -> dict[str, Any]:
         return {
             "schema": self.schema,
@@ -306,7 +304,6 @@ class Record:
             f"seed {self.seed}, budget {self.budget}"
         )
 
-    # --- tables ------------------------------------------------------------------------------------
     def summary_row(self) -> dict[str, Any]:
         """One flat CSV row: identity, result, headline metrics, the 28 stroke parameters and
         ``at_bounds`` (those at a Table 4 bound, :func:`tandem_env.describe_bounds`)."""
@@ -337,8 +334,3 @@ class Record:
 for _name in RESULTS:
     if not hasattr(Record, _name):
         setattr(Record, _name, _result(_name))
-
-
-def _short(value: Any, limit: int = 60) -> str:
-    text = repr(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."

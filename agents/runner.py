@@ -38,20 +38,6 @@ from tandem_env.io.progress_bar import ProgressBar, Reporter
 if TYPE_CHECKING:
     from distributed import Client
 
-__all__ = [
-    "JobFailure",
-    "JobsFailed",
-    "Lookup",
-    "OutputNotWritable",
-    "Plan",
-    "PlanRun",
-    "RunSummary",
-    "find_records",
-    "job_records",
-    "look_ahead",
-    "run_jobs",
-    "run_plan",
-]
 
 #: Prefix of the Dask task keys (``harness-<job key>``; the dashboard groups tasks by it).
 TASK_PREFIX = "harness"
@@ -247,9 +233,6 @@ class _Display:
         best = f"; best feasible: {bests or '-'}" if isinstance(job, Job) else ""
         self.bar.move_to(self.evaluations, f"{self.done}/{len(self.jobs)} jobs{best}")
 
-    def close(self) -> None:
-        self.bar.close()
-
 
 def run_jobs(
     jobs: Iterable[Given],
@@ -361,7 +344,7 @@ def run_jobs(
             if todo and executor != "serial":
                 client = stack.enter_context(dask_client(executor, quiet=not progress))
             display = _Display([_job_of(p) for p in todo], progress and bool(todo))
-            stack.callback(display.close)
+            stack.callback(display.bar.close)
             outcomes = (
                 _run_serially(todo, display) if client is None else _run_on_dask(client, todo)
             )

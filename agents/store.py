@@ -29,18 +29,6 @@ from agents.records import (
 )
 from tandem_env.io.files import output_directory, write_csv_atomic, write_json_atomic
 
-__all__ = [
-    "CACHE_ENV",
-    "RECORDS_DIR",
-    "SUMMARY_NAME",
-    "RecordStore",
-    "StoreWriteError",
-    "cache_directory",
-    "read_record",
-    "read_record_files",
-    "write_summary",
-]
-
 #: A store's records folder, ``DIR/records``.
 RECORDS_DIR = "records"
 #: A store's CSV summary over its records, ``DIR/summary.csv``.
@@ -53,8 +41,7 @@ def cache_directory() -> Path:
     """The record cache's folder, a store shared by every output folder (read at each call):
     ``$TANDEM_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/tandem_env``, else
     ``~/.cache/tandem_env``; its records are ``<folder>/records/<key>.json``."""
-    given = os.environ.get(CACHE_ENV)
-    if given:
+    if given := os.environ.get(CACHE_ENV):
         return Path(given).expanduser()
     base = os.environ.get("XDG_CACHE_HOME", "")
     if not os.path.isabs(base):  # unset, empty or relative: the XDG spec says ignore it
@@ -281,8 +268,7 @@ def read_record_files(paths: Iterable[str | os.PathLike[str]]) -> list[Record]:
     for base in map(Path, paths):
         if not base.exists():
             raise ValueError(f"{base}: no such file or directory")
-        files = sorted(base.rglob("*.json")) if base.is_dir() else [base]
-        for path in files:
+        for path in sorted(base.rglob("*.json")) if base.is_dir() else [base]:
             try:
                 data = _read_json(path)
             except OSError as error:

@@ -92,7 +92,6 @@ class TaskSpec:
                 "TaskDeclaration with a condition and objectives"
             )
 
-    # --- views of the declaration ---------------------------------------------------------------
     @property
     def declared_condition(self) -> TaskCondition:
         """The declared condition (keyword, unit, label, envelope, sweep)."""

@@ -75,8 +75,7 @@ def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) 
                     why.update(refuted({key: found[key]}, {key: jobs[key]}))
             continue
         for key, record, step in zip(keys, records, steps, strict=True):
-            difference = _difference(_decided(record.results), _decided(step))
-            if difference is not None:
+            if (difference := _difference(_decided(record.results), _decided(step))) is not None:
                 why[key] = f"its results are not what its stroke gives: {difference}"
     return why
 
@@ -84,8 +83,7 @@ def refuted(found: Mapping[str, Record], jobs: Mapping[str, Job | PreparedJob]) 
 def _decided(results: Mapping[str, Any]) -> dict[str, Any]:
     """The results of :data:`CHECKED`, their metrics without :data:`TABLE_RELATIVE`."""
     decided = {name: results[name] for name in CHECKED}
-    metrics = decided["metrics"]
-    decided["metrics"] = {k: v for k, v in metrics.items() if k not in TABLE_RELATIVE}
+    decided["metrics"] = {k: v for k, v in decided["metrics"].items() if k not in TABLE_RELATIVE}
     return decided
 
 
@@ -126,20 +124,16 @@ def _row(infos: Mapping[str, Any], i: int) -> dict[str, Any]:
 def _difference(stored: Any, recomputed: Any, where: str = "") -> str | None:
     """The first value of ``stored`` that ``recomputed`` does not match (:data:`RTOL`,
     :data:`ATOL`), in words; None if all do."""
+    pairs = None  # the entries of two mappings, or of two lists of one length, in turn
     if isinstance(stored, Mapping) and isinstance(recomputed, Mapping):
         if set(stored) != set(recomputed):
             extra = sorted(set(stored) ^ set(recomputed))
             return f"{where or 'results'} differ in their entries {extra}"
-        for name in stored:
-            found = _difference(stored[name], recomputed[name], f"{where}.{name}".lstrip("."))
-            if found is not None:
-                return found
-        return None
+        pairs = [(stored[k], recomputed[k], f"{where}.{k}".lstrip(".")) for k in stored]
     if isinstance(stored, list) and isinstance(recomputed, list) and len(stored) == len(recomputed):
-        for j, (a, b) in enumerate(zip(stored, recomputed, strict=True)):
-            if (found := _difference(a, b, f"{where}[{j}]")) is not None:
-                return found
-        return None
+        pairs = [(a, recomputed[j], f"{where}[{j}]") for j, a in enumerate(stored)]
+    if pairs is not None:
+        return next((d for d in (_difference(*pair) for pair in pairs) if d is not None), None)
     if all(isinstance(x, int | float) and not isinstance(x, bool) for x in (stored, recomputed)):
         close = np.isclose(stored, recomputed, rtol=RTOL, atol=ATOL, equal_nan=True)
     else:
