@@ -19,7 +19,7 @@ from agents.jobs import OLD_SCHEMAS, SCHEMA, Job
 from agents.tasks import Condition
 from tandem_env.envs.reference import record_score
 from tandem_env.io.files import to_jsonable
-from tandem_env.physics.checks import _short
+from tandem_env.physics.checks import short_repr
 
 #: The record's ``selection``: which of the strokes a search evaluated it reports.
 SELECTION_BEST_FEASIBLE = "best feasible stroke seen"
@@ -259,7 +259,7 @@ class Record:
         format, :class:`RecordError` for anything else that is not a valid record."""
         if not isinstance(data, Mapping):
             raise RecordError(
-                f"record data is {type(data).__name__} {_short(data)}; allowed: a JSON object "
+                f"record data is {type(data).__name__} {short_repr(data)}; allowed: a JSON object "
                 f"with schema {SCHEMA!r}"
             )
         schema = data.get("schema")
@@ -269,7 +269,9 @@ class Record:
                 "as a result: rerun the command that wrote it to recompute it"
             )
         if schema != SCHEMA:
-            raise RecordError(f"not a harness record (schema {_short(schema)}, want {SCHEMA!r})")
+            raise RecordError(
+                f"not a harness record (schema {short_repr(schema)}, want {SCHEMA!r})"
+            )
         expected = {"schema", "key", "checksum", "job", "results"}
         if set(data) != expected:
             raise RecordError(f"record fields {sorted(data)}; allowed: exactly {sorted(expected)}")
@@ -280,7 +282,7 @@ class Record:
         record = cls(job=job, key=data["key"], results=data["results"], schema=schema)
         if record.checksum != data["checksum"]:
             raise RecordChecksumError(
-                f"checksum {_short(data['checksum'])} does not match the record's contents: "
+                f"checksum {short_repr(data['checksum'])} does not match the record's contents: "
                 "edited by hand or damaged; it is not used"
             )
         # the key is the hash of the job it holds, as the version and model that wrote it
@@ -290,7 +292,7 @@ class Record:
         written = isinstance(version, str) and record.key == job.key_at(version, record.model)
         if record.key != job.key and not written:
             raise RecordMismatchError(
-                f"key {_short(record.key)} is not the hash of the job it holds "
+                f"key {short_repr(record.key)} is not the hash of the job it holds "
                 f"({record.job.label()}: key {record.job.key}); the key or the job was edited, "
                 "it is not used"
             )

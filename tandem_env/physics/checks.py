@@ -37,7 +37,7 @@ def flag(value: Any, name: str) -> bool:
     if isinstance(value, bool | np.bool_):
         return bool(value)
     what = "a string" if isinstance(value, str | bytes) else f"a {type(value).__name__}"
-    raise ValueError(f"{name} = {_short(value)} is {what}; allowed: True or False")
+    raise ValueError(f"{name} = {short_repr(value)} is {what}; allowed: True or False")
 
 
 def count(value: Any, name: str, low: int = 1, high: int | None = None, what: str = "") -> int:
@@ -46,7 +46,9 @@ def count(value: Any, name: str, low: int = 1, high: int | None = None, what: st
     if not is_integer(value) or value < low or (high is not None and value > high):
         upper = f" and <= {high:,}" if high is not None else ""
         meaning = f" ({what})" if what else ""
-        raise ValueError(f"{name} = {_short(value)}; allowed: an integer >= {low}{upper}{meaning}")
+        raise ValueError(
+            f"{name} = {short_repr(value)}; allowed: an integer >= {low}{upper}{meaning}"
+        )
     return int(value)
 
 
@@ -59,7 +61,7 @@ def shown(value: Any, *bounds: float) -> str:
     (``repr``), which tells any two different floats apart.
     """
     if not is_real(value):
-        return _short(value)
+        return short_repr(value)
     number = float(value)
     others = [float(b) for b in bounds if float(b) != number]
     for digits in range(6, 17):
@@ -87,7 +89,8 @@ def _at(name: str, index: tuple[int, ...]) -> str:
     return f"{name}[{', '.join(map(str, index))}]" if index else name
 
 
-def _short(value: Any) -> str:
+def short_repr(value: Any) -> str:
+    """``repr(value)``, cut to 60 characters (an error message quotes what it was given)."""
     text = repr(value)
     return text if len(text) <= 60 else f"{text[:57]}..."
 
@@ -101,7 +104,7 @@ def real_array(value: Any, name: str, allowed: str) -> np.ndarray:
     index. Shape and range are the caller's to check.
     """
     if isinstance(value, str | bytes):
-        raise ValueError(f"{name} = {_short(value)} is a string; allowed: {allowed}")
+        raise ValueError(f"{name} = {short_repr(value)} is a string; allowed: {allowed}")
     try:
         arr = np.asarray(value)
     except ValueError as error:  # NumPy >= 1.24 refuses ragged nesting
@@ -121,7 +124,7 @@ def real_array(value: Any, name: str, allowed: str) -> np.ndarray:
                 index = np.unravel_index(k, arr.shape) if arr.ndim else ()
                 index = tuple(int(i) for i in index)
                 raise ValueError(
-                    f"{_at(name, index)} = {_short(element)} is {_describe(element)}; "
+                    f"{_at(name, index)} = {short_repr(element)} is {_describe(element)}; "
                     f"allowed: {allowed}"
                 )
         return arr.astype(np.float64)
@@ -135,9 +138,9 @@ def real_array(value: Any, name: str, allowed: str) -> np.ndarray:
         "S": "a string",
     }.get(kind, f"of dtype {arr.dtype}, not a real number")
     if arr.ndim and arr.size:
-        detail = f"{_at(name, index)} = {_short(element.item())} is {what}"
+        detail = f"{_at(name, index)} = {short_repr(element.item())} is {what}"
     else:
-        detail = f"{name} = {_short(value)} is {what}"
+        detail = f"{name} = {short_repr(value)} is {what}"
     raise ValueError(f"{detail}; allowed: {allowed}")
 
 
