@@ -201,7 +201,7 @@ class StrokeBounds:
         allowed."""
         if not isinstance(spec, Mapping):
             raise ValueError(
-                f"{where} = {short_repr(spec)}; allowed: a mapping of stroke parameter names "
+                f"{where} = {_short(spec)}; allowed: a mapping of stroke parameter names "
                 "(fore_frequency, ...) to [low, high] in Table 4's units"
             )
         lower, upper = list(self.lower), list(self.upper)
@@ -218,7 +218,7 @@ class StrokeBounds:
                 and all(is_real(v) for v in pair)
             ):
                 raise ValueError(
-                    f"{where}.{key} = {short_repr(pair)}; allowed: [low, high], two numbers in "
+                    f"{where}.{key} = {_short(pair)}; allowed: [low, high], two numbers in "
                     f"{PARAMETER_UNITS[i]}"
                 )
             lower[i], upper[i] = float(pair[0]), float(pair[1])
@@ -238,7 +238,7 @@ class StrokeBounds:
         }
 
 
-def short_repr(value: Any) -> str:
+def _short(value: Any) -> str:
     text = " ".join(repr(value).split())
     return text if len(text) <= 80 else text[:77] + "..."
 
@@ -339,7 +339,7 @@ def validate_physical(
     """
     bounds = MODEL_LIMITS if bounds is None else bounds
     if not isinstance(bounds, StrokeBounds):
-        raise ValueError(f"bounds = {short_repr(bounds)}; allowed: a StrokeBounds or None")
+        raise ValueError(f"bounds = {_short(bounds)}; allowed: a StrokeBounds or None")
     lower, upper = bounds.lower_array, bounds.upper_array
     if not is_real(atol) or not 0.0 <= atol <= ATOL_MAX:
         raise ValueError(
