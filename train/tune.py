@@ -366,8 +366,7 @@ def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = No
             found = run_trial(config, params, Path(folder))
         for key in ("scores", "seconds"):
             trial.set_user_attr(key, found[key])
-        value = found["value"]
-        seconds = found["seconds"]
+        value, seconds = found["value"], found["seconds"]
         say(f"trial {trial.number}: median score {value:.1f} in {seconds:.0f} s ({params})")
         return value
 
