@@ -10,6 +10,7 @@ from __future__ import annotations
 import statistics
 import sys
 import time
+import timeit
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -94,12 +95,10 @@ def evaluate_held_out(
     strokes = policy.strokes(values)
     found, violation, reference, score = scored(strokes, values)
     # the time to a stroke: one forward pass (observation, network, assembly) per condition
-    single, batched = [], []
-    for times, batch in ((single, values[:1]), (batched, values)):
-        for _ in range(repeats):
-            start = time.perf_counter()
-            policy.strokes(batch)
-            times.append(time.perf_counter() - start)
+    single, batched = (
+        timeit.repeat(lambda batch=batch: policy.strokes(batch), number=1, repeat=repeats)
+        for batch in (values[:1], values)
+    )
     rows = [
         {
             "condition": float(value),
@@ -172,12 +171,9 @@ def evaluate_held_out(
         )
     timed = [r for r in rows if "optimiser_wall_time" in r]
     if timed:
-        summary["optimiser_seconds_median"] = statistics.median(
-            r["optimiser_wall_time"] for r in timed
-        )
-        summary["optimiser_seconds_seeds_median"] = statistics.median(
-            r["optimiser_wall_time_seeds"] for r in timed
-        )
+        for seeds in ("", "_seeds"):
+            recorded = [r[f"optimiser_wall_time{seeds}"] for r in timed]
+            summary[f"optimiser_seconds{seeds}_median"] = statistics.median(recorded)
     if cmaes_budget:
         # a CMA-ES run (the harness's, its default polish included) at the first condition
         from agents.harness import run

@@ -11,6 +11,7 @@ to the SB3 constructor, exactly as the zoo preprocesses them.
 from __future__ import annotations
 
 import ast
+import contextlib
 import importlib
 import math
 from collections.abc import Mapping
@@ -310,19 +311,14 @@ def _positive_int(value: Any, name: str) -> int:
 def _schedule(key: str, value: Any) -> Any:
     from stable_baselines3.common.utils import LinearSchedule
 
-    if isinstance(value, str):
-        kind, _, number = value.partition("_")
-        try:
-            initial = float(number)
-        except ValueError:
-            initial = math.nan
-        if kind != "lin" or not math.isfinite(initial):
-            raise ValueError(f"{key} = {value!r}; allowed: a number or 'lin_<initial value>'")
-        # The zoo's linear schedule: from `initial` at the start to 0 at the end.
-        return LinearSchedule(initial, 0.0, 1.0)
-    if not is_real(value):
-        raise ValueError(f"{key} = {value!r}; allowed: a number or 'lin_<initial value>'")
-    return float(value)
+    if is_real(value):
+        return float(value)
+    kind, _, number = value.partition("_") if isinstance(value, str) else ("", "", "")
+    with contextlib.suppress(ValueError):
+        if kind == "lin" and math.isfinite(initial := float(number)):
+            # The zoo's linear schedule: from `initial` at the start to 0 at the end.
+            return LinearSchedule(initial, 0.0, 1.0)
+    raise ValueError(f"{key} = {value!r}; allowed: a number or 'lin_<initial value>'")
 
 
 def step_granularity(hp: Hyperparams) -> int:

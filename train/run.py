@@ -110,20 +110,14 @@ class PhysicsLogger(BaseCallback):
             values = [info[name] for info in infos if name in info and info[name] == info[name]]
             if values:
                 self.logger.record_mean(f"physics/{name}", float(np.mean(values)))
-        recorder = self.recorder
-        best = recorder.best_info
-        scalars = {"evaluations": recorder.evaluations}
+        best = self.recorder.best_info
         if best is not None:
-            scalars = {
-                "best_reward": recorder.max_reward,
-                "best_feasible": float(best["feasible"]),
-                "best_objective": float(best["objective"]),
-                "best_score": float(best.get("score", np.nan)),
-                **scalars,
-            }
-        for name, value in scalars.items():
-            if name != "best_score" or not np.isnan(value):  # NaN: no reference score
-                self.logger.record(f"physics/{name}", value)
+            self.logger.record("physics/best_reward", self.recorder.max_reward)
+            for name in ("feasible", "objective", "score"):
+                value = float(best.get(name, np.nan))
+                if name != "score" or not np.isnan(value):  # NaN: no reference score
+                    self.logger.record(f"physics/best_{name}", value)
+        self.logger.record("physics/evaluations", self.recorder.evaluations)
         return True
 
 

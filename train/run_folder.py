@@ -334,10 +334,7 @@ class RunFolder:
         if not config.verbose or amortised:
             return run
         # what this command is about to do, before any work (stdout)
-        hp = run.hp
-        layout = run.layout
-        checkpoint = run.checkpoint
-        target = run.target
+        hp, checkpoint, target = run.hp, run.checkpoint, run.target
         assert hp is not None
         if target != hp.n_timesteps:
             unit = step_granularity(hp)
@@ -349,11 +346,11 @@ class RunFolder:
             )
         if checkpoint is not None:
             print(
-                f"resuming {layout.run_dir} from checkpoint {checkpoint.model.name} "
+                f"resuming {run.layout.run_dir} from checkpoint {checkpoint.model.name} "
                 f"(step {checkpoint.step} of {target})"
             )
-        elif layout.args_file.is_file():
-            print(f"{layout.run_dir} has no complete checkpoint: starting it again from step 0")
+        elif run.layout.args_file.is_file():
+            print(f"{run.layout.run_dir} has no complete checkpoint: starting it again from step 0")
         return run
 
     @classmethod

@@ -305,20 +305,10 @@ def open_study(config: TuneConfig) -> Any:
     return study
 
 
-def score_policy(policy: Any, conditions: Sequence[float]) -> np.ndarray:
-    """The normalised scores (n,) of a trained policy's deterministic strokes at
-    ``conditions``, flown by its env (the training options but the condition)."""
-    from train.amortised import make_problem
-
-    env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
-    problem = make_problem(policy.env_id, env_kwargs)
-    values = np.asarray(conditions, dtype=np.float64)
-    return score_strokes(problem, policy.strokes(values), values)
-
-
 def run_trial(config: TuneConfig, params: Mapping[str, Any], folder: Path) -> dict[str, Any]:
     """Train one policy with ``params`` into ``folder`` and score it at the training
     conditions: ``{"value": median score, "scores": [...], "seconds": ...}``."""
+    from train.amortised import make_problem
     from train.run import train
     from train.trained_policy import TrainedPolicy
 
@@ -338,9 +328,13 @@ def run_trial(config: TuneConfig, params: Mapping[str, Any], folder: Path) -> di
         )
     )
     assert result.run_dir is not None  # a run with files
-    scores = score_policy(
-        TrainedPolicy.load(result.run_dir, "best"), training_conditions(config.env_id)
-    )
+    # the normalised scores of its deterministic strokes, flown by its env (the training
+    # options but the condition)
+    policy = TrainedPolicy.load(result.run_dir, "best")
+    env_kwargs = {k: v for k, v in policy.env_kwargs.items() if k not in condition_keywords()}
+    conditions = np.asarray(training_conditions(config.env_id), dtype=np.float64)
+    problem = make_problem(policy.env_id, env_kwargs)
+    scores = score_strokes(problem, policy.strokes(conditions), conditions)
     return {
         "value": float(statistics.median(scores.tolist())),
         "scores": [round(float(s), 2) for s in scores],
@@ -366,8 +360,7 @@ def tune(config: TuneConfig, say: Callable[[str], None] = print, study: Any = No
             found = run_trial(config, params, Path(folder))
         for key in ("scores", "seconds"):
             trial.set_user_attr(key, found[key])
-        value = found["value"]
-        seconds = found["seconds"]
+        value, seconds = found["value"], found["seconds"]
         say(f"trial {trial.number}: median score {value:.1f} in {seconds:.0f} s ({params})")
         return value
 

@@ -161,29 +161,26 @@ def evaluate_deterministic(
     one row per env, the info of its last step with ``reward`` (the return),
     ``episode_length`` and ``action`` (its first)."""
     observations = eval_env.reset()
-    n_envs = eval_env.num_envs
-    returns = np.zeros(n_envs)
-    lengths = np.zeros(n_envs, dtype=np.int64)
-    first_actions: list[Any] = [None] * n_envs
-    rows: list[dict[str, Any] | None] = [None] * n_envs
+    returns = np.zeros(eval_env.num_envs)
+    lengths = np.zeros(eval_env.num_envs, dtype=np.int64)
+    first_actions: Any = None
+    rows: list[dict[str, Any] | None] = [None] * eval_env.num_envs
     dropped = ("terminal_observation", "episode", "stroke", "TimeLimit.truncated")
     for _ in range(max_steps):
         actions, _ = model.predict(observations, deterministic=True)
+        first_actions = actions if first_actions is None else first_actions
         observations, rewards, dones, infos = eval_env.step(actions)
-        for k in range(n_envs):
-            if rows[k] is not None:
-                continue  # this env's episode is over; later steps belong to the next one
-            if first_actions[k] is None:
-                first_actions[k] = [float(a) for a in actions[k]]
-            returns[k] += float(rewards[k])
-            lengths[k] += 1
-            if dones[k]:
-                rows[k] = {key: v for key, v in infos[k].items() if key not in dropped}
-                rows[k].update(  # type: ignore[union-attr]
-                    reward=float(returns[k]),
-                    episode_length=int(lengths[k]),
-                    action=first_actions[k],
-                )
+        # an env whose episode is over keeps its row: later steps belong to the next one
+        playing = np.array([row is None for row in rows])
+        returns[playing] += np.asarray(rewards, dtype=np.float64)[playing]
+        lengths[playing] += 1
+        for k in np.flatnonzero(playing & np.asarray(dones, dtype=bool)):
+            rows[k] = {key: v for key, v in infos[k].items() if key not in dropped}
+            rows[k].update(  # type: ignore[union-attr]
+                reward=float(returns[k]),
+                episode_length=int(lengths[k]),
+                action=[float(a) for a in first_actions[k]],
+            )
         if all(row is not None for row in rows):
             return rows  # type: ignore[return-value]
     raise RuntimeError(f"the evaluation episodes did not end within {max_steps} steps")
