@@ -48,13 +48,9 @@ def run_command(command: Sequence[str], environment: dict[str, str] | None = Non
     return time.perf_counter() - start
 
 
-OPTIMIZE: tuple[str, ...] = ("python", "-m", "eval", "optimize")
-"""The documented optimisation command, before its options."""
-
-
 def optimize_command(arguments: Sequence[str], seeds: Sequence[int]) -> str:
     """The documented ``eval optimize`` command of ``arguments`` over ``seeds`` (no ``--out``)."""
-    return " ".join([*OPTIMIZE, *arguments, "--seeds", *map(str, seeds)])
+    return " ".join(["python -m eval optimize", *arguments, "--seeds", *map(str, seeds)])
 
 
 def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
@@ -75,8 +71,7 @@ def seed_cells(by_kernel: Sequence[Sequence[dict[str, Any]]]) -> tuple[str, str,
     """The cells of one command's seeds under each BLAS kernel (the machine's own first): each
     seed's objective and their median (bold) at the digits every kernel gives, whether all are
     feasible under every kernel, and the range of the own kernel's wall times per seed."""
-    seeds = by_kernel[0]
-    times = [s["wall_time_s"] for s in seeds]
+    times = [s["wall_time_s"] for s in by_kernel[0]]
     objectives = [[s["objective"] for s in kernel] for kernel in by_kernel]
     return (
         ", ".join(agreed(values, "{:.4f}") for values in zip(*objectives, strict=True)),
@@ -194,10 +189,11 @@ def table(titles: Sequence[str], rows: Iterable[Iterable[object]]) -> list[str]:
     return [*table_head(titles), *map(table_row, rows)]
 
 
-def median_range(row: dict[str, Any], kind: str, median: str = "_median") -> str:
-    """A row's ``{kind}{median}`` and ``{kind}_range`` as the tables write them: 1.23 (1.10-1.40)."""
+def median_range(row: dict[str, Any], kind: str, median: str = "_median", unit: str = "") -> str:
+    """A row's ``{kind}{median}`` and ``{kind}_range`` as the tables write them: 1.23 (1.10-1.40)
+    (``unit`` after the median)."""
     low, high = row[kind + "_range"]
-    return f"{row[kind + median]:.2f} ({low:.2f}-{high:.2f})"
+    return f"{row[kind + median]:.2f}{unit} ({low:.2f}-{high:.2f})"
 
 
 def spaced(value: float, digits: int = 0) -> str:
@@ -211,21 +207,6 @@ def minutes(seconds: float, padded: bool = False) -> str:
     if not whole:
         return f"{rest} s"
     return f"{whole} min {rest:02d} s" if padded else f"{whole} min {rest} s"
-
-
-RANDOM_STROKES = 1000
-"""Random Table 4 strokes (uniform in the normalised box, seed 0) of the model's readings."""
-
-
-def random_strokes(n: int = RANDOM_STROKES, seed: int = 0) -> Any:
-    """(n, 28) physical strokes drawn uniformly in Table 4's box."""
-    import numpy as np
-
-    import tandem_env
-
-    return tandem_env.normalised_to_physical(
-        np.random.default_rng(seed).uniform(-1.0, 1.0, (n, 28))
-    )
 
 
 @dataclass(frozen=True)

@@ -189,16 +189,9 @@ def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
         medians = [statistics.median(col) for col in zip(*(r["scores"] for r in runs), strict=True)]
         label = f"{algo.upper()}, {hp} hyperparameters" if hp else "amortised policy"
         label += f" (median of {len(runs)} seeds{'' if shipped else '; thin: each'})"
-        ax.plot(
-            runs[0]["conditions"],
-            medians,
-            color=colours[algo],
-            lw=1.4 if shipped else 2.2,
-            ls="--" if shipped else "-",
-            marker="o",
-            ms=3 if shipped else 5,
-            label=label,
-        )
+        style = {"lw": 1.4, "ls": "--", "ms": 3} if shipped else {"lw": 2.2, "ls": "-", "ms": 5}
+        conditions = runs[0]["conditions"]
+        ax.plot(conditions, medians, color=colours[algo], marker="o", label=label, **style)
     ax.axhline(100.0, color="0.3", ls="--", lw=1.0, label="reference optimum (100)")
     ax.axhline(0.0, color="0.6", lw=0.8)
     ax.set_xlabel("flight speed V [m/s] (held-out conditions)")

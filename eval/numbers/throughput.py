@@ -94,9 +94,8 @@ def render_inflow_cost(data: dict[str, Any]) -> str:
     )
     for reading, where in (("convected", "§5.7"), ("vortex", "§5.8")):
         slipstream = "; ".join(
-            f"batch {r['batch']}: {r['cpu_median']:.2f}× CPU ({r['cpu_range'][0]:.2f}-"
-            f"{r['cpu_range'][1]:.2f}), {r['wall_median']:.2f}× wall ({r['wall_range'][0]:.2f}-"
-            f"{r['wall_range'][1]:.2f})"
+            f"batch {r['batch']}: {framework.median_range(r, 'cpu', unit='× CPU')}, "
+            f"{framework.median_range(r, 'wall', unit='× wall')}"
             for r in data.get("slipstream_ratios", [])
             if r.get("reading", "convected") == reading
         )
