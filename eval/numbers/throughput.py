@@ -157,17 +157,16 @@ def render_torch_throughput(data: dict[str, Any]) -> str:
     )
     batches = sorted({batch for batch, _ in eager} | {batch for batch, _ in compiled})
 
-    def cell(rates: dict[tuple[int, str], dict[str, Any]], key: tuple[int, str]) -> str:
-        if key not in rates:
+    def cell(r: dict[str, Any] | None) -> str:
+        if r is None:
             return ""
-        r = rates[key]
         return (
             f"{framework.spaced(r['evaluations_per_s'])} /s ({r['torch_over_numba']:.2g} × numba)"
         )
 
     lines = framework.table(
         ["batch", *(title for title, _, _ in columns)],
-        ([batch, *(cell(rates, (batch, i)) for _, rates, i in columns)] for batch in batches),
+        ([batch, *(cell(rates.get((batch, i))) for _, rates, i in columns)] for batch in batches),
     )
     lines += [
         "",
