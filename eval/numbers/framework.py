@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from eval.studies.report import table_head, table_row
+from tandem_env.io.files import atomic_path, read_json, write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[2]
 NUMBERS_DIR = ROOT / "docs" / "numbers"
@@ -176,8 +177,6 @@ class Benchmark:
         return " ".join([*(f"{k}={v}" for k, v in self.environment), "python", *self.arguments])
 
     def run(self) -> dict[str, Any]:
-        from tandem_env.io.files import read_json
-
         with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
             path = Path(out) / "numbers.json"
             run_command(["python", *self.arguments, "--json", str(path)], dict(self.environment))
@@ -272,8 +271,6 @@ def read_rows(path: Path) -> list[dict[str, str]]:
 
 def copy_outputs(run: Path, copies: dict[str, Path]) -> None:
     """Copy a finished run's small outputs (its file name -> the docs' copy), atomically."""
-    from tandem_env.io.files import atomic_path
-
     for name, copy in copies.items():
         with atomic_path(copy) as tmp:
             shutil.copyfile(run / name, tmp)
@@ -288,8 +285,6 @@ def load(name: str) -> dict[str, Any]:
 
 
 def save(name: str, data: dict[str, Any]) -> None:
-    from tandem_env.io.files import write_text_atomic
-
     write_text_atomic(json_path(name), json.dumps(data, indent=1, ensure_ascii=False) + "\n")
 
 

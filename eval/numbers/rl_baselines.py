@@ -21,6 +21,7 @@ from typing import Any
 
 from eval.numbers import framework
 from eval.studies.report import table_head, table_row
+from tandem_env.envs.reference import held_out_conditions
 
 ENV_ID = "TandemWing/LevelFlight-v0"
 #: (algo, training steps): the documented envelope run's 300 k for PPO; SAC's tuned 100 k.
@@ -65,8 +66,6 @@ def score_run(
 ) -> dict[str, Any]:
     """Train by ``command`` (``-f`` added), then score its stroke at each held-out condition
     through ``python -m train.envelope``; ``variant``: the hyperparameters."""
-    from tandem_env.envs.reference import held_out_conditions
-
     logs = folder / f"{algo}{variant and '-' + variant}-{seed}"
     seconds = framework.run_command([*command, "-f", str(logs)], _ONE_CORE)
     run = logs / algo / ENV_ID.replace("/", "-")  # the latest run of the env
