@@ -8,13 +8,25 @@ from __future__ import annotations
 
 import math
 import re
+import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from eval.crosscheck.report import case_of
+from eval.crosscheck.case import Case, Resolution, base_stroke
+from eval.crosscheck.report import (
+    agreement_numbers,
+    case_of,
+    model_cells,
+    ours,
+    stroke_changes,
+    write_figure,
+    write_scatter,
+)
 from eval.numbers import framework
 from eval.studies.report import table_head, table_row
+from tandem_env.io.files import write_csv_atomic
+from tandem_env.physics import DRAGONFLY
 
 LAG_STUDY_OUT = Path("results") / "crosscheck-lag-study"
 LAG_STUDY_COMMAND = (
@@ -51,10 +63,6 @@ def model_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """The stored rows with the model's columns (``ours_*``: isolated forces, each slipstream
     reading's changes) computed afresh by the model as it is (``eval.crosscheck.report.ours``),
     the solver's columns as stored: a new or changed reading without rerunning the solver."""
-    from eval.crosscheck.case import Case, base_stroke
-    from eval.crosscheck.report import model_cells, ours
-    from tandem_env.physics import DRAGONFLY
-
     out = [dict(row) for row in rows]
     for key in dict.fromkeys(case_of(r) for r in rows):
         mine = [r for r in out if case_of(r) == key]
@@ -72,8 +80,6 @@ def generalisation_columns(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, 
     the grid's cases at their lags in the grid's order (``eval.crosscheck.cli.GRIDS``), checked
     against each row's stroke, speed and lag; SystemExit where they are not."""
     from eval.crosscheck.cli import GRIDS
-    from eval.crosscheck.report import model_cells, ours, stroke_changes
-    from tandem_env.physics import DRAGONFLY
 
     cases = [point.case(DRAGONFLY, {}, None) for point in GRIDS["generalisation"].points]
     model = {case: ours(case, DRAGONFLY) for case in cases}
@@ -101,10 +107,6 @@ def refresh(
     """Rewrite a stored table (``files``: the docs' copies) with the model's columns afresh
     (``columns`` of its rows) and redraw its figure: ``draw(folder, typed rows)`` writes it into
     a scratch folder, as ``python -m eval crosscheck`` does into its ``--out``; the rows."""
-    import tempfile
-
-    from tandem_env.io.files import write_csv_atomic
-
     rows = columns(framework.read_rows(files["crosscheck.csv"]))
     write_csv_atomic(files["crosscheck.csv"], rows)
     with tempfile.TemporaryDirectory() as folder:
@@ -120,9 +122,6 @@ def measure() -> dict[str, Any]:
     rows and write them into the docs' table and figure (the solver not rerun), and the
     generalisation grid's likewise (:func:`generalisation_columns`; its figure the free
     wake's)."""
-    from eval.crosscheck.case import Resolution
-    from eval.crosscheck.report import write_figure, write_scatter
-
     table = LAG_STUDY_OUT / "crosscheck.csv"
     if not table.is_file() and LAG_STUDY_FILES["crosscheck.csv"].is_file():
         stored = framework.load("crosscheck-lag-study")
@@ -222,8 +221,6 @@ def targets(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
     shared with the UVLM, their RMS differences [points]
     (:func:`~eval.crosscheck.report.agreement_numbers`), and the cases whose largest hind loss
     lies within 45° of the UVLM's."""
-    from eval.crosscheck.report import agreement_numbers
-
     out = {}
     entries = summary(rows)
     for reading in readings(rows):

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from agents.store import read_record_files
 from eval.studies.report import table_head, table_row
 from tandem_env.io.files import atomic_path, read_json, write_text_atomic
 
@@ -57,8 +58,6 @@ def optimize_command(arguments: Sequence[str], seeds: Sequence[int]) -> str:
 def run_seeds(arguments: Sequence[str], seeds: Sequence[int]) -> list[Any]:
     """Run the documented ``eval optimize`` command into a fresh folder with the record cache
     off (measured now, wall times too); its records, by seed."""
-    from agents.store import read_record_files
-
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
         command = optimize_command(arguments, seeds).split()
         run_command([*command, "--out", out, "--no-cache"])

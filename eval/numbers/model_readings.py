@@ -15,6 +15,7 @@ import numpy as np
 
 import tandem_env
 from eval.numbers.framework import Measurement, spaced
+from eval.reference import reference_markdown
 from tandem_env.envs.reference import reference_path
 
 ROTATION_SPEEDS: tuple[float, ...] = (0.0, 1.5)
@@ -109,8 +110,6 @@ def measure_reference() -> dict[str, Any]:
 
 
 def render_reference(data: dict[str, Any]) -> str:
-    from eval.reference import reference_markdown
-
     return reference_markdown(data)
 
 

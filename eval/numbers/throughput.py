@@ -14,6 +14,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from agents.store import RecordStore
 from eval.numbers import framework
 
 MODEL_THROUGHPUT = framework.Benchmark(("benchmarks/model_throughput.py",))
@@ -257,8 +258,6 @@ TRAINING_COMMAND: tuple[str, ...] = tuple(
 
 def measure_quick_preset() -> dict[str, Any]:
     """Run the quick preset into an empty folder: wall time [s], jobs, model evaluations."""
-    from agents.store import RecordStore
-
     with tempfile.TemporaryDirectory(prefix="tandem-numbers-") as out:
         wall = framework.run_command([*QUICK_PRESET_COMMAND, "--out", out, "--quiet", "--no-cache"])
         records = RecordStore(Path(out)).records()
