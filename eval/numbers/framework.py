@@ -21,6 +21,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from threadpoolctl import threadpool_info
+
 from agents.store import read_record_files
 from eval.studies.report import table_head, table_row
 from tandem_env.io.files import atomic_path, read_json, write_text_atomic
@@ -94,7 +96,6 @@ def blas_kernel() -> str:
     """The kernel numpy's BLAS runs here: OpenBLAS's core type (``SkylakeX``, ``Haswell``, ...,
     as threadpoolctl reports it; ``OPENBLAS_CORETYPE`` chooses it), else the library's name."""
     import numpy  # noqa: F401  (threadpoolctl sees the BLAS of the modules already loaded)
-    from threadpoolctl import threadpool_info
 
     for library in threadpool_info():
         if library["user_api"] == "blas":
@@ -105,8 +106,6 @@ def blas_kernel() -> str:
 def other_kernels() -> list[str]:
     """The kernels of :data:`OTHER_BLAS_KERNELS` but the machine's own (none where numpy's BLAS
     is not OpenBLAS: its kernel cannot be chosen)."""
-    from threadpoolctl import threadpool_info
-
     own = blas_kernel()
     if not any(lib["internal_api"] == "openblas" for lib in threadpool_info()):
         return []

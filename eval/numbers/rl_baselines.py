@@ -19,6 +19,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
+from eval.figures import PALETTE, plt, save
 from eval.numbers import framework
 from eval.studies.report import table_head, table_row
 from tandem_env.envs.reference import held_out_conditions
@@ -165,10 +166,6 @@ def render(data: dict[str, Any]) -> str:
 def write_figure(path: Path, fresh: dict[str, list[dict[str, Any]]]) -> None:
     """Score against speed per policy of :data:`POLICIES`: each seed thin, the median thick (the
     shipped hyperparameters' median only, dashed); ``fresh``: runs just measured, by name."""
-    import matplotlib.pyplot as plt
-
-    from eval.figures import PALETTE, save
-
     colours = dict(zip(dict.fromkeys(algo for _, algo, _ in POLICIES), PALETTE, strict=False))
     stored = {
         name: framework.load(name)["runs"]
