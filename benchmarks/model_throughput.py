@@ -28,6 +28,7 @@ from shared import PAPER, best_time, call_times, machine, parser_with_json, writ
 
 import tandem_env as te
 from tandem_env.physics import model
+from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
 
 
 def main() -> None:
@@ -205,8 +206,6 @@ def gradient_cost(
     args, torch_model, x_all, strokes: np.ndarray, speeds: np.ndarray
 ) -> dict[str, Any]:
     """One autograd gradient against one batched central difference of the numba model."""
-    from tandem_env.physics.stroke import DISCRETE, LOWER, UPPER
-
     columns = np.flatnonzero(~DISCRETE)
     step = 1e-6 * (UPPER - LOWER)[columns]
     probes = np.repeat(strokes[:1], 1 + 2 * columns.size, axis=0)
